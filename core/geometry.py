@@ -1,0 +1,177 @@
+"""World geometry: every instance's triangles placed in the world, ready to trace.
+
+Camera-relative rendering: all world points are stored relative to `origin`
+(the camera position), subtracted in float64 *before* the float32 conversion
+for Embree. Float32 has 24 bits of mantissa; near the camera, where the image
+is made, coordinates are then small and precise, so a scene 100 km from the
+world origin renders like one at the origin.
+
+Bad input never reaches Embree: triangles with NaN or infinite vertices,
+out-of-range indices and zero area are dropped here, each kind counted in
+`warnings`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import normals as normals_
+from .intersect import Tracer
+from .scene import DEFAULT_BASE_COLOR, Scene
+
+
+@dataclass
+class WorldGeometry:
+    """The traced scene.
+
+    origin:         (3,) float64 world point subtracted from every coordinate below
+    vertices:       (v, 3) float32 camera-relative points (what Embree sees)
+    triangles:      (t, 3) int32 indices into vertices
+    face_normals:   (t, 3) float64 unit normals on each triangle's front side
+    material:       (t,) int32 row of `albedo` per triangle
+    albedo:         (m + 1, 3) float64 base colours; the last row is the default for missing materials
+    smooth_index:   (t,) int32 row of `corner_normals` per smooth triangle, -1 for flat ones
+    corner_normals: (s, 3, 3) float32 world-space unit normals of the smooth triangles' corners
+    tracer:         the Embree BVH over vertices and triangles
+    warnings:       human-readable notes about input that was dropped or replaced
+    """
+
+    origin: np.ndarray
+    vertices: np.ndarray
+    triangles: np.ndarray
+    face_normals: np.ndarray
+    material: np.ndarray
+    albedo: np.ndarray
+    smooth_index: np.ndarray
+    corner_normals: np.ndarray
+    tracer: Tracer
+    warnings: list = field(default_factory=list)
+
+    @property
+    def has_smooth(self) -> bool:
+        """Whether any triangle needs interpolated normals."""
+        return len(self.corner_normals) > 0
+
+
+def _object_corner_normals(mesh) -> np.ndarray:
+    """Return the mesh's corner normals in object space, deriving vertex normals if none were given.
+
+    -> (t, 3, 3) float64
+    """
+    if mesh.corner_normals is not None:
+        return mesh.corner_normals
+    per_vertex = normals_.vertex_normals(mesh.vertices, mesh.triangles, weighting="angle")
+    return per_vertex[mesh.triangles]
+
+
+def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
+    """Place every instance in the world relative to `origin` and build the BVH.
+
+    origin: (3,) float64 world point (the camera position for camera-relative rendering).
+    """
+    origin = np.asarray(origin, dtype=np.float64)
+    warnings: list[str] = []
+    parts_v, parts_t, parts_n, parts_m, parts_cn, parts_smooth = [], [], [], [], [], []
+    vertex_offset = 0
+    n_materials = len(scene.materials)
+    missing_materials = dropped_nonfinite = dropped_degenerate = dropped_index = 0
+
+    # Group instances by mesh: one batched transform per mesh, whatever the instance count.
+    by_mesh: dict[int, list] = {}
+    for instance in scene.instances:
+        by_mesh.setdefault(instance.mesh, []).append(instance)
+
+    for mesh_index, instances in by_mesh.items():
+        mesh = scene.meshes[mesh_index]
+        if len(mesh.triangles) == 0 or len(mesh.vertices) == 0:
+            continue
+        # Triangles whose indices point outside the vertex array are dropped.
+        in_range = ((mesh.triangles >= 0) & (mesh.triangles < len(mesh.vertices))).all(axis=1)
+        dropped_index += int((~in_range).sum()) * len(instances)
+        triangles = mesh.triangles[in_range]
+        smooth = mesh.smooth[in_range]
+        slots = mesh.material_indices[in_range]
+        corners = _object_corner_normals(mesh)[in_range][smooth] if smooth.any() else None
+
+        matrices = np.stack([inst.matrix for inst in instances])            # (k, 4, 4)
+        linear = matrices[:, :3, :3]
+        det = np.linalg.det(linear)                                          # (k,)
+        singular = ~(np.isfinite(det) & (det != 0.0))
+        if singular.any():
+            warnings.append(f"{int(singular.sum())} object(s) of mesh '{mesh.name}' have zero or invalid scale and were skipped")
+        with np.errstate(invalid="ignore", over="ignore"):
+            # World point = M p + t, minus the origin, in float64.
+            world = (np.einsum("kij,vj->kvi", linear, mesh.vertices)
+                     + (matrices[:, :3, 3] - origin)[:, None, :])           # (k, v, 3)
+
+        for k, inst in enumerate(instances):
+            if singular[k]:
+                continue
+            points = world[k]
+            # Materials: slot -> scene material; missing ones fall back to the default grey.
+            if inst.materials is None:
+                material = slots.copy()
+            else:
+                material = np.full(len(slots), -1, np.int64)
+                filled = (slots >= 0) & (slots < len(inst.materials))
+                material[filled] = inst.materials[slots[filled]]
+            missing = (material < 0) | (material >= n_materials)
+            missing_materials += int(missing.sum())
+            material = np.where(missing, n_materials, material)
+
+            # Face normals from the world points; a mirror (det < 0) flips the winding back.
+            faces = normals_.face_normals(points, triangles)
+            face_n = faces.normals * np.sign(det[k])
+            points32 = points.astype(np.float32)
+            finite = np.isfinite(points32).all(axis=1)[triangles].all(axis=1)
+            nondegenerate = face_n.any(axis=1) & (faces.area > 0)
+            keep = finite & nondegenerate
+            dropped_nonfinite += int((~finite).sum())
+            dropped_degenerate += int((finite & ~nondegenerate).sum())
+
+            # Smooth corners transform with the inverse transpose: N' = M^-T N.
+            if corners is not None:
+                inverse = np.linalg.inv(linear[k])
+                world_corners = normals_.safe_normalize(corners @ inverse)    # row vectors: n @ M^-1 == (M^-T n)^T
+                smooth_keep = smooth & keep
+                parts_cn.append(world_corners[keep[smooth]].astype(np.float32))
+            else:
+                smooth_keep = np.zeros(len(triangles), bool)
+            parts_smooth.append(smooth_keep[keep])
+
+            parts_v.append(points32)
+            parts_t.append(triangles[keep] + vertex_offset)
+            parts_n.append(face_n[keep])
+            parts_m.append(material[keep])
+            vertex_offset += len(points32)
+
+    if dropped_index:
+        warnings.append(f"{dropped_index} triangle(s) with out-of-range vertex indices were skipped")
+    if dropped_nonfinite:
+        warnings.append(f"{dropped_nonfinite} triangle(s) with NaN or infinite vertices were skipped")
+    if dropped_degenerate:
+        warnings.append(f"{dropped_degenerate} zero-area triangle(s) were skipped")
+    if missing_materials:
+        warnings.append(f"{missing_materials} triangle(s) have no material and render in the default grey")
+
+    vertices = np.concatenate(parts_v) if parts_v else np.zeros((0, 3), np.float32)
+    # Non-finite vertices that no kept triangle uses must not reach Embree either.
+    vertices = np.where(np.isfinite(vertices), vertices, np.float32(0.0))
+    triangles = (np.concatenate(parts_t) if parts_t else np.zeros((0, 3), np.int64)).astype(np.int32)
+    smooth_mask = np.concatenate(parts_smooth) if parts_smooth else np.zeros(0, bool)
+    smooth_index = np.full(len(triangles), -1, np.int32)
+    smooth_index[smooth_mask] = np.arange(int(smooth_mask.sum()), dtype=np.int32)
+    albedo = np.array([np.asarray(m.base_color, np.float64)[:3] for m in scene.materials] + [DEFAULT_BASE_COLOR])
+    return WorldGeometry(
+        origin=origin,
+        vertices=vertices,
+        triangles=triangles,
+        face_normals=np.concatenate(parts_n) if parts_n else np.zeros((0, 3)),
+        material=(np.concatenate(parts_m) if parts_m else np.zeros(0, np.int64)).astype(np.int32),
+        albedo=np.clip(np.nan_to_num(albedo), 0.0, 1.0),
+        smooth_index=smooth_index,
+        corner_normals=np.concatenate(parts_cn) if parts_cn else np.zeros((0, 3, 3), np.float32),
+        tracer=Tracer(vertices, triangles),
+        warnings=warnings,
+    )

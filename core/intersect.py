@@ -1,0 +1,96 @@
+"""Ray queries: the one place where Primer talks to Embree (through embreex).
+
+Two questions can be asked of the scene:
+- `intersect`: where does each ray first hit a triangle (primary rays)?
+- `occluded`: is there *any* hit before t_max (shadow rays)? Embree may stop at
+  the first hit it finds, so this is cheaper: "the shadow ray is used to
+  determine *if* there is an occluder, not *where*" (the lecture).
+
+Everything above this module is float64; Embree works in float32. The
+conversion happens here and only here. Callers pass camera-relative
+coordinates (see `core/geometry.py`), so float32 keeps its precision where
+the camera looks.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+# Embree's "infinite" t_far: the largest distance embreex uses itself.
+T_INFINITY = 1e37
+
+
+class Hits(NamedTuple):
+    """Nearest hits of a batch of rays.
+
+    hit:  (n,) bool, True where the ray hit a triangle before t_max
+    t:    (n,) float64 distance along the (unit) direction, inf where missed
+    prim: (n,) int64 triangle index, -1 where missed
+    u, v: (n,) float64 barycentric coordinates of the hit: I = (1-u-v) V0 + u V1 + v V2
+    """
+
+    hit: np.ndarray
+    t: np.ndarray
+    prim: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+
+
+def _f32_rays(origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray):
+    """Convert a ray batch to the contiguous float32 arrays embreex expects."""
+    o = np.ascontiguousarray(origins, dtype=np.float32)
+    d = np.ascontiguousarray(directions, dtype=np.float32)
+    t = np.ascontiguousarray(np.minimum(t_max, T_INFINITY), dtype=np.float32)
+    return o, d, t
+
+
+class Tracer:
+    """An Embree BVH over one triangle soup, answering nearest-hit and occlusion queries.
+
+    vertices:  (v, 3) float32 camera-relative points
+    triangles: (t, 3) int32 vertex indices
+    The queries release the GIL, so several threads may query one Tracer at once.
+    """
+
+    def __init__(self, vertices: np.ndarray, triangles: np.ndarray):
+        self.triangle_count = int(len(triangles))
+        self._scene = None
+        if self.triangle_count == 0:
+            return
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+        self._scene = rtcore_scene.EmbreeScene(robust=True)
+        self._mesh = TriangleMesh(self._scene,
+                                  np.ascontiguousarray(vertices, dtype=np.float32),
+                                  np.ascontiguousarray(triangles, dtype=np.int32))
+        # Build the BVH now (Embree commits on the first query), not inside a worker thread.
+        self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
+
+    def intersect(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> Hits:
+        """Return the nearest hit in (0, t_max) of each ray.
+
+        origins: (n, 3) float64 points; directions: (n, 3) float64 unit vectors; t_max: (n,) float64.
+        """
+        n = len(origins)
+        if self._scene is None or n == 0:
+            return Hits(np.zeros(n, bool), np.full(n, np.inf), np.full(n, -1, np.int64),
+                        np.zeros(n), np.zeros(n))
+        o, d, t = _f32_rays(origins, directions, t_max)
+        out = self._scene.run(o, d, dists=t, output=1)
+        prim = out["primID"].astype(np.int64)
+        hit = out["geomID"] >= 0
+        prim[~hit] = -1
+        return Hits(hit, np.where(hit, out["tfar"].astype(np.float64), np.inf), prim,
+                    out["u"].astype(np.float64), out["v"].astype(np.float64))
+
+    def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+        """Return whether anything lies on each ray within (0, t_max): (n,) bool.
+
+        origins: (n, 3) float64 points; directions: (n, 3) float64 unit vectors; t_max: (n,) float64.
+        """
+        n = len(origins)
+        if self._scene is None or n == 0:
+            return np.zeros(n, bool)
+        o, d, t = _f32_rays(origins, directions, t_max)
+        return self._scene.run(o, d, dists=t, query="OCCLUDED") >= 0

@@ -1,0 +1,199 @@
+"""Lights in Cycles' units, and how much light each one sends to a point.
+
+The lecture's transport: emitted energy, distance attenuation 1/r^2,
+absorption by the material colour, and N.L. For a diffuse surface of albedo
+rho lit by irradiance E, the reflected radiance is (rho / pi) E.
+
+Every light answers one question for a batch of shading points: "from which
+direction L, over which distance, and with what irradiance at normal incidence
+does light arrive?" The caller multiplies by max(N.L, 0) and by the shadow
+ray's verdict. So for a point light of power P at distance r:
+
+    E_normal = P / (4 pi) / r^2      (intensity I = P / (4 pi) W/sr, then 1/r^2)
+
+Lights without extent (point and spot of radius 0, sun of angle 0) are exact:
+one direction, no noise. Lights with extent (sphere, sun disk, area) are
+sampled: each sample returns an unbiased estimate E_normal = L_e G / pdf whose
+average over samples converges to the true irradiance.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from .scene import AreaLight, PointLight, SpotLight, SunLight
+
+INV_4PI = 1.0 / (4.0 * math.pi)
+
+
+class LightSample(NamedTuple):
+    """Light arriving at a batch of points.
+
+    L:          (n, 3) float64 unit direction from the point towards the light
+    distance:   (n,) float64 distance to the sampled light point (inf for the sun)
+    irradiance: (n, 3) float64 irradiance at normal incidence carried by this sample
+                (W/m^2, RGB); zero where the light sends nothing
+    position:   (n, 3) float64 the sampled light point (undefined for the sun)
+    """
+
+    L: np.ndarray
+    distance: np.ndarray
+    irradiance: np.ndarray
+    position: np.ndarray
+
+
+def is_delta(light) -> bool:
+    """Whether the light has no extent, so one exact evaluation replaces sampling."""
+    if isinstance(light, (PointLight, SpotLight)):
+        return light.radius <= 0.0
+    if isinstance(light, SunLight):
+        return light.angle <= 0.0
+    return False
+
+
+def _direction_to(points: np.ndarray, targets: np.ndarray):
+    """Return (unit direction, distance) from each point to its target. points, targets: (n, 3) float64."""
+    w = targets - points
+    distance = np.sqrt(np.einsum("ij,ij->i", w, w))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        L = w / distance[:, None]
+    return np.nan_to_num(L), distance
+
+
+def _sample_cone(axis: np.ndarray, cos_max: np.ndarray, u: np.ndarray):
+    """Return unit directions uniform in solid angle within a cone around each axis.
+
+    axis: (n, 3) float64 unit; cos_max: (n,) float64; u: (n, 2) float64 in [0, 1).
+    """
+    cos_theta = 1.0 - u[:, 0] * (1.0 - cos_max)
+    sin_theta = np.sqrt(np.maximum(0.0, 1.0 - cos_theta * cos_theta))
+    phi = 2.0 * math.pi * u[:, 1]
+    helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t = np.cross(axis, helper)
+    t /= np.linalg.norm(t, axis=1)[:, None]
+    b = np.cross(axis, t)
+    return (t * (sin_theta * np.cos(phi))[:, None] + b * (sin_theta * np.sin(phi))[:, None]
+            + axis * cos_theta[:, None])
+
+
+def spot_attenuation(light: SpotLight, directions: np.ndarray) -> np.ndarray:
+    """Return Blender's spot cone factor for light leaving along each direction.
+
+    1 inside the cone, 0 outside, and a smoothstep over the outer `spot_blend`
+    part of the cone in cos(angle to the axis).
+    directions: (n, 3) float64 unit, from the light towards the point -> (n,) float64
+    """
+    cos_angle = directions @ np.asarray(light.direction, np.float64)
+    cos_half = math.cos(0.5 * light.spot_size)
+    blend_width = (1.0 - cos_half) * light.spot_blend
+    if blend_width <= 0.0:
+        return (cos_angle > cos_half).astype(np.float64)
+    x = np.clip((cos_angle - cos_half) / blend_width, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def _sample_sphere(center: np.ndarray, radius: float, power: float, color: np.ndarray,
+                   points: np.ndarray, u: np.ndarray) -> LightSample:
+    """Sample the cone of directions a sphere light subtends, uniformly in solid angle.
+
+    The sphere has radiance L_e = P / (4 pi^2 r^2), so that far away it looks
+    like a point light of intensity P / (4 pi). pdf = 1 / (2 pi (1 - cos_max)).
+    """
+    to_center, d = _direction_to(points, np.broadcast_to(center, points.shape))
+    d = np.maximum(d, radius * (1.0 + 1e-9))            # a point inside the sphere sees it from its surface
+    sin2_max = np.minimum(1.0, (radius / d) ** 2)
+    cos_max = np.sqrt(1.0 - sin2_max)
+    L = _sample_cone(to_center, cos_max, u)
+    # Distance to the near side of the sphere along L (ray-sphere intersection).
+    b = d * np.einsum("ij,ij->i", L, to_center)
+    distance = b - np.sqrt(np.maximum(0.0, b * b - (d * d - radius * radius)))
+    radiance = power / (4.0 * math.pi * math.pi * radius * radius)
+    solid_angle = 2.0 * math.pi * (1.0 - cos_max)
+    irradiance = (radiance * solid_angle)[:, None] * color
+    return LightSample(L, distance, irradiance, points + L * distance[:, None])
+
+
+def _area_points(light: AreaLight, u: np.ndarray) -> tuple[np.ndarray, float]:
+    """Map unit-square samples to points on the area light, uniform in area; return (points, area)."""
+    axis_u = np.asarray(light.axis_u, np.float64)
+    axis_v = np.asarray(light.axis_v, np.float64)
+    parallelogram = float(np.linalg.norm(np.cross(axis_u, axis_v)))
+    if light.shape in ("DISK", "ELLIPSE"):
+        # Concentric map of the square onto the unit disk (Shirley-Chiu), then scale to the ellipse.
+        a = 2.0 * u[:, 0] - 1.0
+        b = 2.0 * u[:, 1] - 1.0
+        use_a = np.abs(a) > np.abs(b)
+        r = np.where(use_a, a, b)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            phi = np.where(use_a, (math.pi / 4) * (b / a), (math.pi / 2) - (math.pi / 4) * (a / b))
+        phi = np.nan_to_num(phi)
+        x, y = 0.5 * r * np.cos(phi), 0.5 * r * np.sin(phi)
+        area = 0.25 * math.pi * parallelogram
+    else:
+        x, y = u[:, 0] - 0.5, u[:, 1] - 0.5
+        area = parallelogram
+    points = np.asarray(light.center, np.float64) + x[:, None] * axis_u + y[:, None] * axis_v
+    return points, area
+
+
+def area_light_area(light: AreaLight) -> float:
+    """Return the emitting area of an area light in m^2."""
+    return _area_points(light, np.zeros((1, 2)))[1]
+
+
+def sample_light(light, points: np.ndarray, u: np.ndarray) -> LightSample:
+    """Return the light arriving at each point from `light`, one sample per point.
+
+    points: (n, 3) float64 shading points in the same space as the light;
+    u: (n, 2) float64 uniform numbers in [0, 1) (ignored by lights without extent).
+    """
+    n = len(points)
+    color = np.asarray(light.color, np.float64)[:3]
+
+    if isinstance(light, SunLight):
+        travel = np.asarray(light.direction, np.float64)
+        travel = travel / np.linalg.norm(travel)
+        if light.angle <= 0.0:
+            # A distant light: one direction, irradiance = strength, no distance attenuation.
+            L = np.broadcast_to(-travel, (n, 3)).copy()
+            irradiance = np.broadcast_to(light.strength * color, (n, 3)).copy()
+        else:
+            # A disk of directions of angular radius a with uniform radiance S / (pi sin^2 a).
+            half = 0.5 * light.angle
+            cos_max = math.cos(half)
+            L = _sample_cone(np.broadcast_to(-travel, (n, 3)), np.full(n, cos_max), u)
+            radiance = light.strength / (math.pi * math.sin(half) ** 2)
+            irradiance = np.broadcast_to(radiance * 2.0 * math.pi * (1.0 - cos_max) * color, (n, 3)).copy()
+        return LightSample(L, np.full(n, np.inf), irradiance, np.zeros((n, 3)))
+
+    if isinstance(light, (PointLight, SpotLight)):
+        center = np.asarray(light.position, np.float64)
+        if light.radius <= 0.0:
+            # The lecture's point light: I = P / (4 pi), attenuated by 1 / r^2.
+            L, distance = _direction_to(points, np.broadcast_to(center, points.shape))
+            with np.errstate(divide="ignore"):
+                falloff = np.where(distance > 0, 1.0 / (distance * distance), 0.0)
+            irradiance = (light.power * INV_4PI * falloff)[:, None] * color
+            sample = LightSample(L, distance, irradiance, np.broadcast_to(center, points.shape).copy())
+        else:
+            sample = _sample_sphere(center, light.radius, light.power, color, points, u)
+        if isinstance(light, SpotLight):
+            to_points, _ = _direction_to(np.broadcast_to(center, points.shape), points)
+            sample = sample._replace(irradiance=sample.irradiance * spot_attenuation(light, to_points)[:, None])
+        return sample
+
+    if isinstance(light, AreaLight):
+        # A one-sided emitter of radiance P / (pi A), sampled uniformly in area:
+        # E_normal = L_e cos(theta_light) A / d^2.
+        targets, area = _area_points(light, u)
+        L, distance = _direction_to(points, targets)
+        normal = np.asarray(light.direction, np.float64)
+        cos_light = -(L @ normal)
+        radiance = light.power / (math.pi * area) if area > 0 else 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            geometry = np.where((cos_light > 0) & (distance > 0), cos_light * area / (distance * distance), 0.0)
+        return LightSample(L, distance, (radiance * geometry)[:, None] * color, targets)
+
+    raise TypeError(f"unknown light type {type(light).__name__}")

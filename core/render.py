@@ -1,0 +1,286 @@
+"""Render: a wavefront of camera rays, traced chunk by chunk on a thread pool.
+
+There is no Python loop per pixel or per ray. A chunk holds every sample of a
+run of pixels; for the whole chunk at once we
+1. place the samples inside their pixels (stratified, jittered),
+2. generate the camera rays (core/camera.py),
+3. find the nearest hits (core/intersect.py),
+4. shade the hits with every light and its shadow rays (core/shading.py),
+5. average each pixel's samples (a 1-pixel box filter, like Cycles' "Box").
+Chunks write to disjoint pixels, so threads need no locks; Embree releases
+the GIL, so two cores trace at once. Memory stays bounded by the chunk size,
+whatever the image size.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from . import camera as camera_
+from . import sampling
+from .geometry import WorldGeometry, build_geometry
+from .scene import RenderSettings, Scene
+from .shading import direct_light, surface_at_hits, translate_light
+
+# Auxiliary buffers a render can return, with their channel counts ("lights": one per light).
+AUX_BUFFERS = {
+    "depth": 1,         # distance along the camera's view axis (Blender's Z); 1e10 where nothing was hit
+    "normal": 3,        # shading normal N, world space, facing the camera
+    "face_normal": 3,   # face normal, world space, facing the camera
+    "n_dot_l": "lights",     # max(N.L, 0) per light
+    "visibility": "lights",  # fraction of shadow rays per light that reached it
+}
+MISS_DEPTH = 1e10
+
+
+@dataclass
+class RenderStats:
+    """What a render did: ray counts, time, and notes about the input."""
+
+    primary_rays: int = 0
+    shadow_rays: int = 0
+    seconds: float = 0.0
+    geometry_seconds: float = 0.0
+    triangles: int = 0
+    warnings: list = field(default_factory=list)
+
+    @property
+    def rays(self) -> int:
+        """All rays traced."""
+        return self.primary_rays + self.shadow_rays
+
+
+@dataclass
+class RenderResult:
+    """A rendered image.
+
+    image: (H, W, 4) float32 scene-linear RGBA, row 0 at the top
+    aux:   name -> (H, W, c) float32 auxiliary buffer
+    """
+
+    image: np.ndarray
+    aux: dict
+    stats: RenderStats
+    cancelled: bool = False
+
+
+def validate(scene: Scene, settings: RenderSettings) -> None:
+    """Raise ValueError with a clear message when the scene or settings cannot be rendered."""
+    if scene.camera is None:
+        raise ValueError("the scene has no camera")
+    if settings.width < 1 or settings.height < 1:
+        raise ValueError(f"resolution must be at least 1x1 pixels, got {settings.width}x{settings.height}")
+    if settings.samples < 1:
+        raise ValueError(f"samples must be at least 1, got {settings.samples}")
+    if settings.shadow_method not in ("robust", "epsilon"):
+        raise ValueError(f"shadow method must be 'robust' or 'epsilon', got {settings.shadow_method!r}")
+    if settings.shadow_method == "epsilon" and not (settings.epsilon >= 0 and math.isfinite(settings.epsilon)):
+        raise ValueError(f"epsilon must be a finite length >= 0, got {settings.epsilon}")
+    if not np.isfinite(np.asarray(scene.camera.matrix_world)).all():
+        raise ValueError("the camera's transform has NaN or infinite values")
+    unknown = set(settings.aux) - set(AUX_BUFFERS)
+    if unknown:
+        raise ValueError(f"unknown auxiliary buffers {sorted(unknown)}; choose from {list(AUX_BUFFERS)}")
+
+
+def _usable_lights(scene: Scene, warnings: list) -> list:
+    """Return the lights with finite parameters and some power; note the rest in warnings."""
+    usable = []
+    for light in scene.lights:
+        values = [np.asarray(getattr(light, f), np.float64) for f in light.__dataclass_fields__ if f not in ("name", "shape")]
+        if not all(np.isfinite(x).all() for x in values):
+            warnings.append(f"light '{light.name}' has NaN or infinite parameters and was skipped")
+            continue
+        if np.max(np.asarray(light.color, np.float64)) <= 0 or getattr(light, "power", getattr(light, "strength", 0.0)) <= 0:
+            continue    # sends no light: nothing to trace
+        usable.append(light)
+    return usable
+
+
+def region_pixels(settings: RenderSettings) -> np.ndarray:
+    """Return the flat indices (row-major, row 0 at the top) of the pixels to render: (p,) int64."""
+    W, H = settings.width, settings.height
+    x0, y0, x1, y1 = settings.region if settings.region is not None else (0, 0, W, H)
+    x0, x1 = max(0, int(x0)), min(W, int(x1))
+    y0, y1 = max(0, int(y0)), min(H, int(y1))
+    if x1 <= x0 or y1 <= y0:
+        return np.zeros(0, np.int64)
+    ys, xs = np.mgrid[y0:y1, x0:x1]
+    return (ys * W + xs).reshape(-1).astype(np.int64)
+
+
+class _Context:
+    """What every chunk reads: scene, settings, geometry and camera-relative lights."""
+
+    def __init__(self, scene: Scene, settings: RenderSettings, geometry: WorldGeometry, lights: list):
+        self.scene = scene
+        self.settings = settings
+        self.geometry = geometry
+        self.lights = lights
+        self.world_color = np.asarray(scene.world_color, np.float64)[:3]
+        self.want_aux = bool(settings.aux)
+        cam = scene.camera
+        self.forward = -np.asarray(cam.matrix_world, np.float64)[:3, 2]
+        self.forward = self.forward / np.linalg.norm(self.forward)
+        self.camera_offset = geometry.origin - np.asarray(cam.matrix_world, np.float64)[:3, 3]
+
+
+def _render_chunk(ctx: _Context, pixels: np.ndarray):
+    """Render all samples of `pixels`: return (rgba (p, 4), aux dict of (p, c), primary, shadow ray counts)."""
+    s = ctx.settings
+    spp = s.samples
+    W, H = s.width, s.height
+    # 1. Sample positions inside each pixel.
+    pixel = np.repeat(pixels, spp)
+    sample = np.tile(np.arange(spp, dtype=np.int64), len(pixels))
+    offset = sampling.stratified_2d(s.seed, pixel, sample, spp, dimension=0, jitter=s.jitter)
+    raster_x = (pixel % W) + offset[:, 0]
+    raster_y = (pixel // W) + offset[:, 1]
+    # 2. Camera rays, moved into the camera-relative frame.
+    rays = camera_.generate_rays(ctx.scene.camera, W, H, raster_x, raster_y, tuple(s.pixel_aspect))
+    n = len(pixel)
+    rgba = np.zeros((n, 4))
+    rgba[rays.valid, :3] = ctx.world_color
+    rgba[rays.valid, 3] = 0.0 if s.transparent_background else 1.0
+    traced = np.flatnonzero(rays.valid)
+    origins = rays.origins[traced] - ctx.geometry.origin
+    directions = rays.directions[traced]
+    # 3. Nearest hits.
+    hits = ctx.geometry.tracer.intersect(origins, directions, rays.t_max[traced])
+    h = traced[hits.hit]
+    aux = {}
+    shadow_rays = 0
+    if len(h):
+        # 4. Shade the hits.
+        surface = surface_at_hits(ctx.geometry, hits.prim[hits.hit], hits.u[hits.hit], hits.v[hits.hit],
+                                  directions[hits.hit])
+        shading = direct_light(ctx.geometry, surface, ctx.lights, s, pixel[h], sample[h], ctx.want_aux)
+        rgba[h, :3] = shading.radiance
+        rgba[h, 3] = 1.0
+        shadow_rays = shading.shadow_rays
+    # 5. Box filter: the mean of each pixel's samples.
+    rgba = rgba.reshape(len(pixels), spp, 4).mean(axis=1)
+    if ctx.want_aux:
+        aux = _reduce_aux(ctx, len(pixels), spp, h, surface if len(h) else None,
+                          shading if len(h) else None)
+    return rgba, aux, n, shadow_rays
+
+
+def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, shading) -> dict:
+    """Average the auxiliary values of each pixel's hit samples: name -> (p, c) float64."""
+    k = len(ctx.lights)
+    owner = h // spp
+    hits_per_pixel = np.bincount(owner, minlength=n_pixels).astype(np.float64)
+    covered = hits_per_pixel > 0
+
+    def mean(values: np.ndarray, empty: float = 0.0) -> np.ndarray:
+        values = values.reshape(len(h), -1)
+        out = np.full((n_pixels, values.shape[1]), empty)
+        for c in range(values.shape[1]):
+            total = np.bincount(owner, weights=values[:, c], minlength=n_pixels)
+            out[covered, c] = total[covered] / hits_per_pixel[covered]
+        return out
+
+    aux = {}
+    for name in ctx.settings.aux:
+        if surface is None:
+            channels = k if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]
+            aux[name] = np.full((n_pixels, channels), MISS_DEPTH if name == "depth" else 0.0)
+        elif name == "depth":
+            aux[name] = mean((surface.I + ctx.camera_offset) @ ctx.forward, MISS_DEPTH)
+        elif name == "normal":
+            aux[name] = mean(surface.N)
+        elif name == "face_normal":
+            aux[name] = mean(surface.Ng)
+        elif name == "n_dot_l":
+            aux[name] = mean(shading.n_dot_l) if k else np.zeros((n_pixels, 0))
+        elif name == "visibility":
+            aux[name] = mean(shading.visibility) if k else np.zeros((n_pixels, 0))
+    return aux
+
+
+def render(scene: Scene, settings: RenderSettings,
+           progress: Optional[Callable[[float, RenderStats], None]] = None,
+           cancel: Optional[Callable[[], bool]] = None,
+           geometry: Optional[WorldGeometry] = None) -> RenderResult:
+    """Render `scene` and return a float32 (H, W, 4) scene-linear RGBA image.
+
+    progress(fraction, stats) is called after each chunk; cancel() is polled
+    between chunks, and a True answer stops the render promptly (the result then
+    holds the chunks finished so far and cancelled=True). Both are called from
+    the calling thread. A prebuilt `geometry` (same camera origin) skips the BVH build.
+    """
+    start = time.perf_counter()
+    validate(scene, settings)
+    stats = RenderStats()
+    W, H = settings.width, settings.height
+    # Camera-relative rendering: subtract the camera position in float64 before float32.
+    origin = (np.asarray(scene.camera.matrix_world, np.float64)[:3, 3] if settings.camera_relative
+              else np.zeros(3))
+    if geometry is None:
+        geometry = build_geometry(scene, origin)
+    stats.geometry_seconds = time.perf_counter() - start
+    stats.triangles = len(geometry.triangles)
+    stats.warnings.extend(geometry.warnings)
+    lights = [translate_light(light, geometry.origin) for light in _usable_lights(scene, stats.warnings)]
+    ctx = _Context(scene, settings, geometry, lights)
+
+    image = np.zeros((H * W, 4), np.float32)
+    aux = {}
+    for name in settings.aux:
+        channels = len(lights) if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]
+        aux[name] = np.zeros((H * W, channels), np.float32)
+        if name == "depth":
+            aux[name][:] = MISS_DEPTH
+
+    pixels = region_pixels(settings)
+    per_chunk = max(1, settings.chunk_size // settings.samples)
+    chunks = [pixels[i:i + per_chunk] for i in range(0, len(pixels), per_chunk)]
+    threads = settings.threads if settings.threads > 0 else (os.cpu_count() or 1)
+    cancelled = False
+    done = 0
+
+    def store(chunk_pixels, result):
+        rgba, chunk_aux, primary, shadow = result
+        image[chunk_pixels] = rgba
+        for name, values in chunk_aux.items():
+            aux[name][chunk_pixels] = values
+        stats.primary_rays += primary
+        stats.shadow_rays += shadow
+
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        # Keep a few chunks in flight per thread, so cancelling never waits for a long queue.
+        queue = iter(chunks)
+        running = {}
+        for chunk in queue:
+            running[pool.submit(_render_chunk, ctx, chunk)] = chunk
+            if len(running) >= 2 * threads:
+                break
+        while running:
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in finished:
+                store(running.pop(future), future.result())
+                done += 1
+            if cancel is not None and cancel():
+                cancelled = True
+                for future in running:
+                    future.cancel()
+                break
+            for chunk in queue:
+                running[pool.submit(_render_chunk, ctx, chunk)] = chunk
+                if len(running) >= 2 * threads:
+                    break
+            stats.seconds = time.perf_counter() - start
+            if progress is not None:
+                progress(done / max(1, len(chunks)), stats)
+
+    stats.seconds = time.perf_counter() - start
+    return RenderResult(image.reshape(H, W, 4),
+                        {name: values.reshape(H, W, -1) for name, values in aux.items()},
+                        stats, cancelled)

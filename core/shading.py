@@ -1,0 +1,172 @@
+"""Shading: what a camera ray sees where it hits a diffuse surface.
+
+For each hit: find the point I, the face normal and the shading normal N
+(flipped towards the viewer), then sum the lights: for every light,
+
+    E += E_normal * max(N.L, 0) * visibility          (core/lights.py, core/shadows.py)
+
+and reflect L_out = (albedo / pi) * E. Work is done only where it matters:
+interpolated normals only for smooth triangles, shadow rays only for lights
+in front of both N and the face, and only where the light sends something.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import NamedTuple, Optional
+
+import numpy as np
+
+from . import lights as lights_
+from . import normals as normals_
+from . import sampling, shadows
+from .scene import AreaLight, PointLight, SpotLight, SunLight
+
+
+class Surface(NamedTuple):
+    """Surface records of the hit samples, camera-relative.
+
+    I:        (n, 3) float64 hit points
+    N:        (n, 3) float64 unit shading normals, facing the viewer
+    Ng:       (n, 3) float64 unit face normals, facing the viewer
+    albedo:   (n, 3) float64 material base colour
+    vertices: (n, 3, 3) float64 the hit triangles' corners
+    corners:  (n, 3, 3) float64 corner normals, facing the viewer (zeros on flat triangles)
+    smooth:   (n,) bool where N was interpolated
+    u, v:     (n,) float64 barycentric coordinates
+    """
+
+    I: np.ndarray
+    N: np.ndarray
+    Ng: np.ndarray
+    albedo: np.ndarray
+    vertices: np.ndarray
+    corners: np.ndarray
+    smooth: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+
+
+class Shading(NamedTuple):
+    """Light at the hit samples.
+
+    radiance:   (n, 3) float64 outgoing radiance towards the camera
+    n_dot_l:    (n, k) float64 max(N.L, 0) per light (averaged over light samples)
+    visibility: (n, k) float64 fraction of shadow rays that reached each light (0 if none was cast)
+    shadow_rays: int number of shadow rays traced
+    """
+
+    radiance: np.ndarray
+    n_dot_l: np.ndarray
+    visibility: np.ndarray
+    shadow_rays: int
+
+
+def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
+                    D: np.ndarray, flat_only: bool = False) -> Surface:
+    """Return the surface records of hits on `geometry`.
+
+    prim: (n,) int64 triangle index; u, v: (n,) float64 barycentrics; D: (n, 3) float64 ray directions.
+    flat_only: ignore smooth shading (the lecture's "flat normals" switch).
+    """
+    # I from the barycentric coordinates of the float32 triangle Embree hit.
+    vertices = geometry.vertices[geometry.triangles[prim]].astype(np.float64)     # (n, 3, 3)
+    w = 1.0 - u - v
+    I = w[:, None] * vertices[:, 0] + u[:, None] * vertices[:, 1] + v[:, None] * vertices[:, 2]
+    # Face normal, flipped when the triangle was hit from behind (N.D > 0).
+    Ng = geometry.face_normals[prim]
+    side = normals_.face_forward(Ng, D)
+    Ng = Ng * side[:, None]
+    N = Ng.copy()
+    corners = np.zeros_like(vertices)
+    smooth = np.zeros(len(prim), bool)
+    if geometry.has_smooth and not flat_only:
+        # Interpolated normals only where the triangle is smooth.
+        row = geometry.smooth_index[prim]
+        smooth = row >= 0
+        corners[smooth] = geometry.corner_normals[row[smooth]] * side[smooth, None, None]
+        N[smooth] = normals_.interpolate(corners[smooth], u[smooth], v[smooth], Ng[smooth])
+    albedo = geometry.albedo[geometry.material[prim]]
+    return Surface(I, N, Ng, albedo, vertices, corners, smooth, u, v)
+
+
+def translate_light(light, origin: np.ndarray):
+    """Return the light moved into the camera-relative frame (points minus origin)."""
+    if isinstance(light, (PointLight, SpotLight)):
+        return dataclasses.replace(light, position=np.asarray(light.position, np.float64) - origin)
+    if isinstance(light, AreaLight):
+        return dataclasses.replace(light, center=np.asarray(light.center, np.float64) - origin)
+    return light
+
+
+def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.ndarray,
+                 sample: np.ndarray, want_aux: bool = False) -> Shading:
+    """Return the radiance reflected towards the camera by direct light from every light.
+
+    lights: already camera-relative (`translate_light`); pixel, sample: (n,) int64 keys
+    of each hit for the random numbers.
+    """
+    n = len(surface.I)
+    k = len(lights)
+    E = np.zeros((n, 3))
+    n_dot_l = np.zeros((n, k)) if want_aux else None
+    visibility = np.zeros((n, k)) if want_aux else None
+    shadow_ray_count = 0
+    robust = settings.shadow_method == "robust"
+    offsets = shadows.error_bound(surface.I, surface.vertices) if robust else None
+
+    for index, light in enumerate(lights):
+        delta = lights_.is_delta(light)
+        count = 1 if delta else max(1, int(settings.light_samples))
+        for j in range(count):
+            # 1. Where does the light come from? (one stratified sample for extended lights)
+            if delta:
+                u2 = np.zeros((n, 2))
+            else:
+                u2 = sampling.stratified_2d(settings.seed, pixel, sample * count + j,
+                                            max(1, settings.samples) * count, dimension=16 + 4 * index)
+            ls = lights_.sample_light(light, surface.I, u2)
+            # 2. The lecture's two tests: N.L > 0 (shading normal) and Ng.L > 0 (face normal).
+            #    The terminator fix lifts smooth points onto the curved surface, where the
+            #    face normal no longer decides; its shadow ray does.
+            NL = np.einsum("ij,ij->i", surface.N, ls.L)
+            NgL = np.einsum("ij,ij->i", surface.Ng, ls.L)
+            face_allows = (NgL > 0.0) | surface.smooth if settings.terminator_fix else NgL > 0.0
+            lit = (NL > 0.0) & face_allows & (ls.irradiance.max(axis=1) > 0.0)
+            idx = np.flatnonzero(lit)
+            if want_aux:
+                n_dot_l[:, index] += np.maximum(NL, 0.0) / count
+            if len(idx) == 0:
+                continue
+            # 3. One shadow ray per lit sample, from a point safely off the surface.
+            I = surface.I[idx]
+            if settings.terminator_fix:
+                I = _lift_terminator(surface, idx, NL[idx], NgL[idx], settings.terminator_offset)
+            if robust:
+                rays = shadows.robust_rays(I, surface.Ng[idx], offsets[idx], ls.position[idx],
+                                           ls.L[idx], ls.distance[idx])
+            else:
+                rays = shadows.epsilon_rays(I, ls.L[idx], ls.distance[idx], settings.epsilon)
+            seen = shadows.visible(geometry.tracer, rays)
+            shadow_ray_count += len(idx)
+            # 4. Scatter the unoccluded light back: E += E_normal (N.L) V.
+            E[idx] += ls.irradiance[idx] * (NL[idx] * seen / count)[:, None]
+            if want_aux:
+                visibility[idx, index] += seen / count
+    radiance = surface.albedo * (1.0 / math.pi) * E
+    return Shading(radiance, n_dot_l, visibility, shadow_ray_count)
+
+
+def _lift_terminator(surface: Surface, idx: np.ndarray, NL: np.ndarray, NgL: np.ndarray,
+                     cutoff: float) -> np.ndarray:
+    """Return shadow origins for the hits `idx`, lifted by the terminator fix on smooth triangles."""
+    I = surface.I[idx].copy()
+    smooth = surface.smooth[idx]
+    if not smooth.any() or cutoff <= 0.0:
+        return I
+    amount = shadows.terminator_amount(NL[smooth], NgL[smooth], cutoff)
+    sel = idx[smooth]
+    lifted = shadows.terminator_points(surface.I[sel], surface.vertices[sel], surface.corners[sel],
+                                       surface.u[sel], surface.v[sel])
+    I[smooth] += amount[:, None] * (lifted - I[smooth])
+    return I
