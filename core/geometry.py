@@ -54,15 +54,17 @@ class WorldGeometry:
         return len(self.corner_normals) > 0
 
 
-def _object_corner_normals(mesh) -> np.ndarray:
-    """Return the mesh's corner normals in object space, deriving vertex normals if none were given.
+def _object_corner_normals(mesh, keep: np.ndarray) -> np.ndarray:
+    """Return the corner normals of the triangles `keep` in object space, deriving vertex normals if none were given.
 
-    -> (t, 3, 3) float64
+    keep: (t,) bool -> (kept, 3, 3) float64
     """
     if mesh.corner_normals is not None:
-        return mesh.corner_normals
-    per_vertex = normals_.vertex_normals(mesh.vertices, mesh.triangles, weighting="angle")
-    return per_vertex[mesh.triangles]
+        return mesh.corner_normals[keep]
+    triangles = mesh.triangles[keep]
+    with np.errstate(invalid="ignore", over="ignore"):
+        per_vertex = normals_.vertex_normals(mesh.vertices, triangles, weighting="angle")
+    return per_vertex[triangles]
 
 
 def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
@@ -92,7 +94,7 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
         triangles = mesh.triangles[in_range]
         smooth = mesh.smooth[in_range]
         slots = mesh.material_indices[in_range]
-        corners = _object_corner_normals(mesh)[in_range][smooth] if smooth.any() else None
+        corners = _object_corner_normals(mesh, in_range)[smooth] if smooth.any() else None
 
         matrices = np.stack([inst.matrix for inst in instances])            # (k, 4, 4)
         linear = matrices[:, :3, :3]

@@ -158,8 +158,9 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray):
     shadow_rays = 0
     if len(h):
         # 4. Shade the hits.
-        surface = surface_at_hits(ctx.geometry, hits.prim[hits.hit], hits.u[hits.hit], hits.v[hits.hit],
-                                  directions[hits.hit])
+        hit = hits.hit
+        surface = surface_at_hits(ctx.geometry, hits.prim[hit], hits.u[hit], hits.v[hit],
+                                  origins[hit], directions[hit], hits.t[hit])
         shading = direct_light(ctx.geometry, surface, ctx.lights, s, pixel[h], sample[h], ctx.want_aux)
         rgba[h, :3] = shading.radiance
         rgba[h, 3] = 1.0

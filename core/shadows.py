@@ -39,9 +39,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-# float32 unit roundoff, and how many of them the robust offset spans.
+# float32 unit roundoff, and how many of them the robust offset spans. Measured
+# (tests/test_shadows.py scenes, grazing suns down to 0.01 degrees, 1e5 from the
+# origin): acne vanishes from 0.5 units of roundoff on; 8 leaves a 16x margin while
+# keeping the offset ~1e-6 of the coordinates, far below any modelled thickness.
 FLOAT32_EPSILON = 2.0 ** -24
-ROBUST_ULPS = 64.0
+ROBUST_ULPS = 8.0
 
 
 class ShadowRays(NamedTuple):

@@ -1,0 +1,420 @@
+"""Primary-ray generation: from the lecture's pinhole camera to Blender's camera.
+
+The lecture describes a camera by four things:
+
+* a *position* (the eye),
+* a *target* it looks at and an *up* vector, which together fix its orientation,
+* a horizontal *field of view* (FOV) and the image's *aspect ratio*.
+
+From these it builds an image plane at distance 1 in front of the eye and three
+screen corners ``p1`` (top-left), ``p2`` (top-right) and ``p3`` (bottom-left).
+The ray through raster point (x, y) of a W x H image passes through::
+
+    p1 + (x / W) * (p2 - p1) + (y / H) * (p3 - p1)
+
+Blender describes the same pinhole camera differently, and this module
+translates between the two:
+
+* Orientation and position come from the object's ``matrix_world``.  The
+  camera looks along its local -Z axis, local +Y is up and +X is right.  Object
+  scale is ignored (Cycles normalises the axes away).
+* The FOV comes from a focal length ``lens`` and a ``sensor_width`` (mm): on
+  the plane at distance 1 the sensor spans ``sensor / lens`` units.
+* ``sensor_fit`` says which image dimension the sensor spans: AUTO (the larger
+  one, always measured with ``sensor_width``), HORIZONTAL (the width, with
+  ``sensor_width``) or VERTICAL (the height, with ``sensor_height``).  The other
+  dimension follows from the aspect ratio, which includes the pixel aspect.
+* ``shift_x`` / ``shift_y`` slide the image plane sideways, in units of the
+  fitted dimension (a shift of 1 moves the picture by one full image width for
+  a horizontal fit).
+* Clipping is planar: ``clip_start`` and ``clip_end`` are distances along the
+  view axis, so a ray at angle a to the axis starts ``clip_start / cos(a)``
+  from the eye and ends ``clip_end / cos(a)`` from it.  (Cycles' panoramic
+  cameras measure both distances along the ray instead.)
+* Orthographic cameras send parallel rays; ``ortho_scale`` is the size of the
+  fitted image dimension in scene units.
+* Panoramic fisheye cameras (equidistant and equisolid) map the image to
+  directions the way Cycles does; pixels outside the lens' image circle are
+  black.
+
+Conventions used below: *points* are positions (names ending in ``_point(s)``
+or ``origins``), *directions* are vectors (``_direction(s)``, ``forward``,
+``right``, ``up``).  Raster coordinates have x growing to the right and y
+growing **downwards** from the top row; pixel centres sit at +0.5.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = [
+    "Camera",
+    "CameraRays",
+    "generate_rays",
+    "viewplane",
+    "lens_from_fov",
+    "fov_from_lens",
+]
+
+CAMERA_TYPES = ("PERSP", "ORTHO", "PANO")
+SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
+PANORAMA_TYPES = ("FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID")
+
+
+# ---------------------------------------------------------------------------
+# Small helpers
+# ---------------------------------------------------------------------------
+
+def _normalize_rows(vectors: np.ndarray) -> np.ndarray:
+    """Return `vectors` ((n, 3) float64) scaled to unit length row by row."""
+    return vectors / np.linalg.norm(vectors, axis=-1, keepdims=True)
+
+
+def _clear_scale(matrix: np.ndarray) -> np.ndarray:
+    """Return a copy of a (4, 4) float64 transform with its three axis columns normalised.
+
+    This is what Cycles does to the camera's object matrix (transform_clear_scale):
+    the object's scale must not change the picture.
+    """
+    result = np.array(matrix, dtype=np.float64, copy=True)
+    lengths = np.linalg.norm(result[:3, :3], axis=0)
+    if np.any(lengths == 0.0):
+        raise ValueError("matrix_world has a zero-length axis (zero scale)")
+    result[:3, :3] /= lengths
+    return result
+
+
+def lens_from_fov(fov: float, sensor_size: float = 36.0) -> float:
+    """Return the focal length (mm) whose sensor of `sensor_size` mm spans the angle `fov` (radians)."""
+    return 0.5 * sensor_size / math.tan(0.5 * fov)
+
+
+def fov_from_lens(lens: float, sensor_size: float = 36.0) -> float:
+    """Return the angle (radians) spanned by a sensor of `sensor_size` mm behind a `lens` mm lens."""
+    return 2.0 * math.atan(0.5 * sensor_size / lens)
+
+
+# ---------------------------------------------------------------------------
+# The camera
+# ---------------------------------------------------------------------------
+
+# eq=False: a generated __eq__ would compare the ndarray field element-wise and fail.
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """A Blender camera: where it is (matrix_world) and how it projects (the remaining fields)."""
+
+    matrix_world: np.ndarray = field(default_factory=lambda: np.eye(4))  # (4, 4) float64 camera-to-world
+    type: str = "PERSP"                          # "PERSP" | "ORTHO" | "PANO"
+    lens: float = 50.0                           # focal length, mm (PERSP)
+    sensor_width: float = 36.0                   # mm
+    sensor_height: float = 24.0                  # mm
+    sensor_fit: str = "AUTO"                     # "AUTO" | "HORIZONTAL" | "VERTICAL"
+    shift_x: float = 0.0                         # in units of the fitted image dimension
+    shift_y: float = 0.0
+    clip_start: float = 0.1                      # planar, along the view axis
+    clip_end: float = 100.0
+    ortho_scale: float = 7.0                     # fitted image dimension in scene units (ORTHO)
+    panorama_type: str = "FISHEYE_EQUIDISTANT"   # | "FISHEYE_EQUISOLID" (PANO)
+    fisheye_fov: float = math.pi                 # radians: full angle of the image circle
+    fisheye_lens: float = 10.5                   # mm (equisolid)
+
+    def __post_init__(self) -> None:
+        """Check the enums and store matrix_world as a read-only, scale-free (4, 4) float64 array."""
+        matrix = np.asarray(self.matrix_world, dtype=np.float64)
+        if matrix.shape != (4, 4):
+            raise ValueError(f"matrix_world must be (4, 4), got {matrix.shape}")
+        matrix = _clear_scale(matrix)
+        matrix.setflags(write=False)
+        object.__setattr__(self, "matrix_world", matrix)
+        if self.type not in CAMERA_TYPES:
+            raise ValueError(f"type must be one of {CAMERA_TYPES}, got {self.type!r}")
+        if self.sensor_fit not in SENSOR_FITS:
+            raise ValueError(f"sensor_fit must be one of {SENSOR_FITS}, got {self.sensor_fit!r}")
+        if self.panorama_type not in PANORAMA_TYPES:
+            raise ValueError(f"panorama_type must be one of {PANORAMA_TYPES}, got {self.panorama_type!r}")
+
+    # --- where the camera is and where it looks ----------------------------
+
+    @property
+    def position(self) -> np.ndarray:
+        """The eye point: (3,) float64 world position (translation column of matrix_world)."""
+        return self.matrix_world[:3, 3].copy()
+
+    @property
+    def right(self) -> np.ndarray:
+        """Unit (3,) float64 world direction of the image's +x (local +X)."""
+        return self.matrix_world[:3, 0].copy()
+
+    @property
+    def up(self) -> np.ndarray:
+        """Unit (3,) float64 world direction of the image's up (local +Y)."""
+        return self.matrix_world[:3, 1].copy()
+
+    @property
+    def forward(self) -> np.ndarray:
+        """Unit (3,) float64 world viewing direction (local -Z)."""
+        return -self.matrix_world[:3, 2]
+
+    # --- the lecture's camera model ---------------------------------------
+
+    @classmethod
+    def look_at(cls, position, target, up=(0.0, 0.0, 1.0), fov: float = math.radians(39.6), **kw) -> "Camera":
+        """Build a PERSP camera from the lecture's (position, target, up, horizontal fov in radians).
+
+        The lecture's construction, with V the viewing direction::
+
+            V     = normalize(target - position)
+            right = normalize(V x up)          (perpendicular to V and up)
+            up'   = right x V                  (the true up, perpendicular to V)
+
+        The camera's local axes are X = right, Y = up', Z = -V.  The FOV becomes a
+        focal length for `sensor_width` (default 36 mm): lens = (sensor_width / 2) / tan(fov / 2).
+        With Blender's AUTO sensor fit the angle spans the *larger* image dimension,
+        i.e. it is the horizontal FOV of landscape images.  The default, 39.6 deg,
+        is Blender's default 50 mm lens.  Other Camera fields may be passed in `kw`.
+        """
+        for name in ("matrix_world", "type", "lens"):
+            if name in kw:
+                raise TypeError(f"look_at() computes {name!r} itself")
+        eye_point = np.asarray(position, dtype=np.float64).reshape(3)
+        target_point = np.asarray(target, dtype=np.float64).reshape(3)
+        up_direction = np.asarray(up, dtype=np.float64).reshape(3)
+
+        view_direction = target_point - eye_point
+        if np.linalg.norm(view_direction) == 0.0:
+            raise ValueError("position and target coincide")
+        view_direction /= np.linalg.norm(view_direction)
+        right_direction = np.cross(view_direction, up_direction)
+        if np.linalg.norm(right_direction) < 1e-12:
+            raise ValueError("up is parallel to the viewing direction")
+        right_direction /= np.linalg.norm(right_direction)
+        true_up_direction = np.cross(right_direction, view_direction)
+
+        matrix = np.eye(4)
+        matrix[:3, 0] = right_direction
+        matrix[:3, 1] = true_up_direction
+        matrix[:3, 2] = -view_direction
+        matrix[:3, 3] = eye_point
+        sensor_width = kw.get("sensor_width", 36.0)
+        return cls(matrix_world=matrix, type="PERSP", lens=lens_from_fov(fov, sensor_width), **kw)
+
+    def screen_corners(self, width: int, height: int,
+                       pixel_aspect: tuple[float, float] = (1.0, 1.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Return the lecture's corners p1 (top-left), p2 (top-right), p3 (bottom-left): (3,) float64 world points.
+
+        They lie on the image plane at distance 1 in front of the eye (PERSP only) and
+        include sensor fit, pixel aspect and shift, so that the ray through raster point
+        (x, y) passes through p1 + (x/W)(p2 - p1) + (y/H)(p3 - p1).
+        """
+        if self.type != "PERSP":
+            raise ValueError("screen_corners() is defined for PERSP cameras only")
+        left, right, bottom, top = viewplane(self, width, height, pixel_aspect)
+        corners_local = np.array([[left, top, -1.0],      # p1, top-left
+                                  [right, top, -1.0],     # p2, top-right
+                                  [left, bottom, -1.0]])  # p3, bottom-left
+        corners_world = corners_local @ self.matrix_world[:3, :3].T + self.matrix_world[:3, 3]
+        return corners_world[0], corners_world[1], corners_world[2]
+
+
+class CameraRays(NamedTuple):
+    """Primary rays for n raster samples, in world space."""
+
+    origins: np.ndarray     # (n, 3) float64 points, already moved to the near clip plane
+    directions: np.ndarray  # (n, 3) float64 unit directions
+    t_max: np.ndarray       # (n,) float64 distance from origin to the far clip plane along the ray
+    valid: np.ndarray       # (n,) bool, False outside a fisheye's image circle (black pixels)
+
+
+# ---------------------------------------------------------------------------
+# Blender's image plane (perspective and orthographic)
+# ---------------------------------------------------------------------------
+
+def _is_horizontal_fit(sensor_fit: str, x_ratio: float, y_ratio: float) -> bool:
+    """Return True when the sensor spans the image width (x_ratio, y_ratio: width, height times pixel aspect)."""
+    if sensor_fit == "HORIZONTAL":
+        return True
+    if sensor_fit == "VERTICAL":
+        return False
+    return x_ratio >= y_ratio  # AUTO: the larger dimension
+
+
+def _fit_sensor_size(camera: Camera) -> float:
+    """Return the sensor size (mm) that spans the fitted dimension: sensor_height for VERTICAL, else sensor_width."""
+    return camera.sensor_height if camera.sensor_fit == "VERTICAL" else camera.sensor_width
+
+
+def _image_ratios(width: int, height: int, pixel_aspect: tuple[float, float]) -> tuple[float, float]:
+    """Return the displayed image width and height (pixels times pixel aspect), as floats."""
+    if width <= 0 or height <= 0:
+        raise ValueError("width and height must be positive")
+    aspect_x, aspect_y = pixel_aspect
+    return float(width) * float(aspect_x), float(height) * float(aspect_y)
+
+
+def viewplane(camera: Camera, width: int, height: int,
+              pixel_aspect: tuple[float, float] = (1.0, 1.0)) -> tuple[float, float, float, float]:
+    """Return the image rectangle (left, right, bottom, top) in camera-local x/y (PERSP, ORTHO).
+
+    PERSP: on the plane at distance 1 (local z = -1), so the values are tangents of angles.
+    ORTHO: in scene units.  Follows Blender's viewplane: the fitted dimension spans
+    `sensor / lens` (PERSP) or `ortho_scale` (ORTHO); the other one follows from the
+    aspect ratio; both shifts are in units of the fitted dimension.
+    """
+    x_ratio, y_ratio = _image_ratios(width, height, pixel_aspect)
+    if camera.type == "PERSP":
+        fitted_size = _fit_sensor_size(camera) / camera.lens
+    elif camera.type == "ORTHO":
+        fitted_size = camera.ortho_scale
+    else:
+        raise ValueError("viewplane() is defined for PERSP and ORTHO cameras only")
+
+    if _is_horizontal_fit(camera.sensor_fit, x_ratio, y_ratio):
+        half_width = 0.5 * fitted_size
+        half_height = half_width * y_ratio / x_ratio
+    else:
+        half_height = 0.5 * fitted_size
+        half_width = half_height * x_ratio / y_ratio
+
+    center_x = camera.shift_x * fitted_size
+    center_y = camera.shift_y * fitted_size
+    return (center_x - half_width, center_x + half_width,
+            center_y - half_height, center_y + half_height)
+
+
+def _raster_to_plane(camera: Camera, width: int, height: int, raster_x: np.ndarray, raster_y: np.ndarray,
+                     pixel_aspect: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Map raster positions ((n,) float64, y from the top) to camera-local plane x, y ((n,) float64 each)."""
+    left, right, bottom, top = viewplane(camera, width, height, pixel_aspect)
+    plane_x = left + (raster_x / width) * (right - left)
+    plane_y = top - (raster_y / height) * (top - bottom)   # row 0 is the top of the image
+    return plane_x, plane_y
+
+
+# ---------------------------------------------------------------------------
+# Ray generation, one function per camera type (all in camera-local space)
+# ---------------------------------------------------------------------------
+
+def _perspective_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
+    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for a pinhole camera."""
+    plane_x, plane_y = _raster_to_plane(camera, width, height, raster_x, raster_y, pixel_aspect)
+    # The point on the image plane at distance 1 is also the (unnormalised) direction.
+    directions = np.stack([plane_x, plane_y, -np.ones_like(plane_x)], axis=-1)
+    directions = _normalize_rows(directions)
+    # Planar clipping: a ray at angle a to the axis reaches depth d after d / cos(a).
+    cos_to_axis = -directions[:, 2]
+    origins = directions * (camera.clip_start / cos_to_axis)[:, None]
+    t_max = (camera.clip_end - camera.clip_start) / cos_to_axis
+    valid = np.ones(len(plane_x), dtype=bool)
+    return origins, directions, t_max, valid
+
+
+def _orthographic_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
+    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for parallel rays along -Z."""
+    plane_x, plane_y = _raster_to_plane(camera, width, height, raster_x, raster_y, pixel_aspect)
+    n = len(plane_x)
+    origins = np.stack([plane_x, plane_y, np.full(n, -camera.clip_start)], axis=-1)
+    directions = np.tile(np.array([0.0, 0.0, -1.0]), (n, 1))
+    t_max = np.full(n, camera.clip_end - camera.clip_start)
+    valid = np.ones(n, dtype=bool)
+    return origins, directions, t_max, valid
+
+
+def _panorama_uv(camera: Camera, width, height, raster_x, raster_y) -> tuple[np.ndarray, np.ndarray]:
+    """Map raster positions to Cycles' panorama (u, v) in [0, 1]^2 ((n,) float64 each), v growing upwards.
+
+    For panoramic cameras Cycles uses the unit square as the viewplane and adds the
+    shift directly (as a fraction of the image width / height).
+    """
+    u = raster_x / width + camera.shift_x
+    v = (height - raster_y) / height + camera.shift_y   # Cycles counts rows from the bottom
+    return u, v
+
+
+def _panorama_sensor(camera: Camera, width, height, pixel_aspect) -> tuple[float, float]:
+    """Return the (sensor width, sensor height) in mm that Cycles gives an equisolid fisheye.
+
+    The sensor size (sensor_width, or sensor_height for VERTICAL) spans the fitted
+    dimension; the other side follows the image's aspect ratio.
+    """
+    x_ratio, y_ratio = _image_ratios(width, height, pixel_aspect)
+    sensor_size = _fit_sensor_size(camera)
+    if _is_horizontal_fit(camera.sensor_fit, x_ratio, y_ratio):
+        return sensor_size, sensor_size * y_ratio / x_ratio
+    return sensor_size * x_ratio / y_ratio, sensor_size
+
+
+def _fisheye_directions(theta: np.ndarray, plane_x: np.ndarray, plane_y: np.ndarray) -> np.ndarray:
+    """Return local unit directions (n, 3) at angle `theta` ((n,) radians) from -Z, azimuth of (plane_x, plane_y)."""
+    radius = np.hypot(plane_x, plane_y)
+    safe_radius = np.where(radius > 0.0, radius, 1.0)
+    sin_theta = np.sin(theta)
+    return np.stack([sin_theta * plane_x / safe_radius,
+                     sin_theta * plane_y / safe_radius,
+                     -np.cos(theta)], axis=-1)
+
+
+def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
+    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for a fisheye camera.
+
+    Equidistant: u, v are stretched to [-1, 1] each (so the image circle becomes an
+    ellipse touching the frame edges on non-square images) and the angle from the
+    axis grows linearly, theta = r * fisheye_fov / 2, up to r = 1.
+    Equisolid: u, v are scaled to millimetres on the sensor, r = 2 * lens * sin(theta / 2),
+    and the image circle ends at theta = fisheye_fov / 2.
+    Clipping is spherical here, as in Cycles: clip distances are measured along the ray.
+    """
+    u, v = _panorama_uv(camera, width, height, raster_x, raster_y)
+    if camera.panorama_type == "FISHEYE_EQUIDISTANT":
+        plane_x = (u - 0.5) * 2.0
+        plane_y = (v - 0.5) * 2.0
+        radius = np.hypot(plane_x, plane_y)
+        valid = radius <= 1.0
+        theta = radius * (0.5 * camera.fisheye_fov)
+    else:  # FISHEYE_EQUISOLID
+        sensor_width, sensor_height = _panorama_sensor(camera, width, height, pixel_aspect)
+        plane_x = (u - 0.5) * sensor_width
+        plane_y = (v - 0.5) * sensor_height
+        radius = np.hypot(plane_x, plane_y)
+        max_radius = 2.0 * camera.fisheye_lens * math.sin(0.25 * camera.fisheye_fov)
+        valid = radius <= max_radius
+        sin_half_theta = np.clip(radius / (2.0 * camera.fisheye_lens), 0.0, 1.0)
+        theta = 2.0 * np.arcsin(sin_half_theta)
+    # Outside the image circle Cycles renders black; give those rays the forward direction.
+    theta = np.where(valid, theta, 0.0)
+    directions = _fisheye_directions(theta, plane_x, plane_y)
+    origins = directions * camera.clip_start
+    t_max = np.full(len(u), camera.clip_end - camera.clip_start)
+    return origins, directions, t_max, valid
+
+
+def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray, raster_y: np.ndarray,
+                  pixel_aspect: tuple[float, float] = (1.0, 1.0)) -> CameraRays:
+    """Return the world-space primary rays (CameraRays of n rays) through the given raster positions.
+
+    raster_x, raster_y: (n,) float64 raster positions, x in [0, width) from the left,
+    y in [0, height) from the TOP row (row 0 is the top of the image); pixel centres at +0.5.
+    pixel_aspect: (x, y) as Blender's render pixel aspect; it changes the image's shape.
+    """
+    raster_x = np.atleast_1d(np.asarray(raster_x, dtype=np.float64))
+    raster_y = np.atleast_1d(np.asarray(raster_y, dtype=np.float64))
+    raster_x, raster_y = np.broadcast_arrays(raster_x, raster_y)
+    raster_x, raster_y = raster_x.ravel(), raster_y.ravel()
+
+    if camera.type == "PERSP":
+        local = _perspective_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
+    elif camera.type == "ORTHO":
+        local = _orthographic_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
+    else:
+        local = _fisheye_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
+    local_origins, local_directions, t_max, valid = local
+
+    # Camera-local to world: points get rotation and translation, directions rotation only.
+    rotation = camera.matrix_world[:3, :3]
+    eye_point = camera.matrix_world[:3, 3]
+    origins = local_origins @ rotation.T + eye_point
+    directions = _normalize_rows(local_directions @ rotation.T)
+    return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid)

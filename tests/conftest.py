@@ -1,0 +1,40 @@
+"""Shared builders for the tests: small scenes whose every pixel has a closed form."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core import camera as camera_
+from core.camera import Camera
+
+
+def ortho_down(center=(0.0, 0.0, 0.0), height: float = 1.0, scale: float = 2.0, **kw) -> Camera:
+    """Return an orthographic camera `height` above `center`, looking straight down (-Z), image +x = world +x."""
+    matrix = np.eye(4)
+    matrix[:3, 3] = np.asarray(center, np.float64) + [0.0, 0.0, height]
+    kw.setdefault("clip_start", height * 1e-3)
+    kw.setdefault("clip_end", height * 10.0)
+    return Camera(matrix_world=matrix, type="ORTHO", ortho_scale=scale, **kw)
+
+
+def pixel_points_on_plane(camera: Camera, width: int, height: int, plane_z: float) -> np.ndarray:
+    """Return where each pixel centre's camera ray meets the plane z = plane_z: (H, W, 3) float64."""
+    ys, xs = np.mgrid[0:height, 0:width]
+    rays = camera_.generate_rays(camera, width, height, xs.ravel() + 0.5, ys.ravel() + 0.5)
+    t = (plane_z - rays.origins[:, 2]) / rays.directions[:, 2]
+    return (rays.origins + t[:, None] * rays.directions).reshape(height, width, 3)
+
+
+def sun_direction(elevation_deg: float, azimuth_deg: float = 0.0) -> np.ndarray:
+    """Return the direction in which sunlight travels for a sun at the given elevation above the xy plane."""
+    e, a = math.radians(elevation_deg), math.radians(azimuth_deg)
+    towards_sun = np.array([math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)])
+    return -towards_sun
+
+
+@pytest.fixture
+def rng():
+    """A fixed-seed random generator."""
+    return np.random.default_rng(12345)

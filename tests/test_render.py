@@ -1,0 +1,156 @@
+"""The render loop: regions, auxiliary buffers, determinism, cancelling, progress, image files."""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from conftest import ortho_down, pixel_points_on_plane, sun_direction
+from core import image_io, primitives, render
+from core.camera import Camera
+from core.scene import AreaLight, PointLight, RenderSettings, Scene, SpotLight, SunLight
+
+
+def showcase_scene() -> Scene:
+    """A ground plane, a smooth sphere and a box under a point, a spot, an area and a sun light."""
+    scene = Scene(camera=Camera.look_at((0.0, -7.0, 3.5), (0.0, 0.0, 0.6), fov=math.radians(45)),
+                  world_color=np.array([0.05, 0.06, 0.08]))
+    scene.add_material((0.8, 0.8, 0.8))
+    scene.add_material((0.8, 0.25, 0.2))
+    scene.add_mesh(primitives.plane(20.0))
+    scene.add_mesh(primitives.uv_sphere(0.8, 24, 12, center=(0.8, 0.0, 0.8)), materials=[1])
+    scene.add_mesh(primitives.box((1.0, 1.0, 1.0), center=(-1.2, 0.6, 0.5)))
+    scene.lights += [
+        PointLight(np.array([2.0, -2.0, 3.0]), power=300.0),
+        SpotLight(np.array([-2.0, -2.0, 4.0]), np.array([0.4, 0.4, -1.0]) / math.sqrt(1.32), power=500.0,
+                  spot_size=math.radians(50)),
+        AreaLight(np.array([0.0, 2.0, 3.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]),
+                  np.array([0.0, 0.0, -1.0]), power=200.0, shape="DISK"),
+        SunLight(sun_direction(30.0, 120.0), strength=0.3, angle=math.radians(5)),
+    ]
+    return scene
+
+
+def test_same_seed_gives_the_same_image_whatever_the_threads_and_chunks():
+    """Random numbers hash (seed, pixel, sample): thread count and chunk size cannot change the image."""
+    scene = showcase_scene()
+    base = RenderSettings(width=64, height=48, samples=4, light_samples=2, seed=7)
+    a = render.render(scene, base).image
+    b = render.render(scene, RenderSettings(**{**base.__dict__, "threads": 1, "chunk_size": 999})).image
+    c = render.render(scene, RenderSettings(**{**base.__dict__, "seed": 8})).image
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+    assert a[..., :3].mean() > 0.01
+
+
+def test_region_renders_only_its_pixels():
+    """A region (render border) fills exactly its rectangle with the same values as a full render."""
+    scene = showcase_scene()
+    full = render.render(scene, RenderSettings(width=40, height=30, samples=2)).image
+    part = render.render(scene, RenderSettings(width=40, height=30, samples=2, region=(10, 5, 30, 20))).image
+    inside = np.zeros((30, 40), bool)
+    inside[5:20, 10:30] = True
+    assert np.array_equal(part[inside], full[inside])
+    assert np.count_nonzero(part[~inside]) == 0
+
+
+def test_depth_buffer_is_distance_along_the_view_axis():
+    """The depth buffer of a perspective view of a plane equals the hit point's distance along the camera axis."""
+    camera = Camera.look_at((0.0, -4.0, 3.0), (0.0, 0.0, 0.0), fov=math.radians(50))
+    scene = Scene(camera=camera)
+    scene.add_mesh(primitives.plane(100.0))
+    result = render.render(scene, RenderSettings(width=32, height=24, samples=1, jitter=False,
+                                                 aux=("depth", "normal", "face_normal")))
+    points = pixel_points_on_plane(camera, 32, 24, 0.0)
+    expected = (points - camera.position) @ camera.forward
+    np.testing.assert_allclose(result.aux["depth"][..., 0], expected, rtol=1e-6)
+    np.testing.assert_allclose(result.aux["normal"], np.broadcast_to([0.0, 0.0, 1.0], (24, 32, 3)), atol=1e-12)
+
+
+def test_background_shows_world_colour_and_alpha():
+    """Pixels that hit nothing show the world colour with alpha 1, or alpha 0 with a transparent film."""
+    scene = Scene(camera=ortho_down(scale=4.0), world_color=np.array([0.1, 0.2, 0.3]))
+    scene.add_mesh(primitives.plane(2.0))
+    opaque = render.render(scene, RenderSettings(width=8, height=8, samples=1, jitter=False)).image
+    np.testing.assert_allclose(opaque[0, 0], [0.1, 0.2, 0.3, 1.0], rtol=1e-6)
+    clear = render.render(scene, RenderSettings(width=8, height=8, samples=1, jitter=False,
+                                                transparent_background=True)).image
+    assert clear[0, 0, 3] == 0.0 and clear[4, 4, 3] == 1.0
+
+
+def test_visibility_and_n_dot_l_buffers_per_light():
+    """Per-light buffers: N.L is the cosine law, visibility 0 inside the shadow of a box and 1 outside."""
+    scene = Scene(camera=ortho_down(height=5.0, scale=10.0))
+    scene.add_mesh(primitives.plane(10.0))
+    scene.add_mesh(primitives.box((1.0, 1.0, 1.0), center=(0.0, 0.0, 2.0)))
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=1.0))
+    scene.lights.append(SunLight(sun_direction(30.0), strength=1.0))      # comes from +x, 30 degrees up
+    result = render.render(scene, RenderSettings(width=60, height=60, samples=1, jitter=False,
+                                                 aux=("n_dot_l", "visibility")))
+    n_dot_l, visible = result.aux["n_dot_l"], result.aux["visibility"]
+    assert n_dot_l.shape == (60, 60, 2)
+    np.testing.assert_allclose(n_dot_l[5, 5], [1.0, 0.5], rtol=1e-6)
+    assert visible[5, 5].tolist() == [1.0, 1.0]
+    # Ground at x = -3.5, y = 0: the low sun's ray towards +x passes through the box (z 1.5..2.5 at x -0.9..0.5).
+    assert visible[30, 9].tolist() == [1.0, 0.0]
+    # The camera sees the top of the box in the middle, lit by both suns.
+    assert visible[30, 30].tolist() == [1.0, 1.0]
+
+
+def test_cancel_returns_promptly():
+    """A render whose cancel callback answers True stops within a fraction of a second and says so."""
+    scene = showcase_scene()
+    settings = RenderSettings(width=640, height=480, samples=64, chunk_size=1 << 14)
+    start = time.perf_counter()
+    result = render.render(scene, settings, cancel=lambda: time.perf_counter() - start > 0.2)
+    elapsed = time.perf_counter() - start
+    assert result.cancelled
+    assert elapsed < 2.0
+    assert result.image.shape == (480, 640, 4)
+
+
+def test_progress_is_reported_up_to_completion():
+    """Progress goes from above 0 to exactly 1, monotonically, with growing ray counts."""
+    reports = []
+    render.render(showcase_scene(), RenderSettings(width=64, height=64, samples=2, chunk_size=1024),
+                  progress=lambda fraction, stats: reports.append((fraction, stats.rays)))
+    fractions = [f for f, _ in reports]
+    assert len(reports) > 4 and fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert reports[-1][1] > reports[0][1] > 0
+
+
+def test_invalid_settings_and_missing_camera_are_clear_errors():
+    """Rendering without a camera, or with nonsense settings, raises ValueError with a readable message."""
+    with pytest.raises(ValueError, match="no camera"):
+        render.render(Scene(camera=None), RenderSettings())
+    with pytest.raises(ValueError, match="samples"):
+        render.render(showcase_scene(), RenderSettings(samples=0))
+    with pytest.raises(ValueError, match="shadow method"):
+        render.render(showcase_scene(), RenderSettings(shadow_method="guess"))
+
+
+def test_empty_scene_and_no_lights_render_the_world():
+    """No meshes or no lights: the image is the world colour (and black surfaces), never an error."""
+    empty = Scene(camera=ortho_down(), world_color=np.array([0.2, 0.2, 0.2]))
+    image = render.render(empty, RenderSettings(width=8, height=8, samples=1)).image
+    np.testing.assert_allclose(image[..., :3], 0.2, rtol=1e-6)
+    dark = Scene(camera=ortho_down())
+    dark.add_mesh(primitives.plane(10.0))
+    image = render.render(dark, RenderSettings(width=8, height=8, samples=1)).image
+    assert np.count_nonzero(image[..., :3]) == 0 and (image[..., 3] == 1).all()
+
+
+def test_exr_is_linear_and_png_is_srgb(tmp_path):
+    """EXR keeps scene-linear floats exactly; PNG stores the sRGB encoding (0.5 linear -> 188/255)."""
+    rgba = np.zeros((4, 6, 4), np.float32)
+    rgba[..., 0] = 0.5
+    rgba[..., 1] = 2.5
+    rgba[..., 3] = 1.0
+    image_io.write_image(str(tmp_path / "a.exr"), rgba)
+    np.testing.assert_array_equal(image_io.read_image(str(tmp_path / "a.exr")), rgba)
+    image_io.write_image(str(tmp_path / "a.png"), rgba)
+    import OpenImageIO as oiio
+    raw = oiio.ImageBuf(str(tmp_path / "a.png")).get_pixels(oiio.UINT8)
+    assert raw[0, 0].tolist() == [188, 255, 0, 255]
