@@ -90,16 +90,19 @@ class Instance:
 
 @dataclass
 class PointLight:
-    """A point light of `power` watts; with radius > 0 a sphere light (soft shadows).
+    """A point light of `power` watts; with radius > 0 it has extent and casts soft shadows.
 
     position: (3,) float64 world point; color: (3,) float64 linear RGB.
     Radiant intensity of the radius-0 light: I = power / (4 pi) W/sr.
+    soft_falloff (Blender's default): the radius-R light is a disk of radiance
+    P / (4 pi^2 R^2) that always faces the shading point; without it, a sphere.
     """
 
     position: np.ndarray
     power: float = 1000.0
     color: np.ndarray = field(default_factory=lambda: np.ones(3))
     radius: float = 0.0
+    soft_falloff: bool = True
     name: str = "Point"
 
 
@@ -107,8 +110,11 @@ class PointLight:
 class SpotLight:
     """A point light masked by Blender's spot cone.
 
-    position: (3,) float64 world point; direction: (3,) float64 unit spot axis (where it shines).
+    position:  (3,) float64 world point; direction: (3,) float64 unit spot axis (where it shines).
     spot_size: full cone angle in radians; spot_blend: 0..1 softness of the cone edge.
+    frame:     (3, 3) float64 object-to-world linear map of the light (rotation times scale),
+               whose -Z column is the axis, or None for an unscaled frame around `direction`.
+               A non-uniform scale makes the cone elliptical, as in Blender.
     """
 
     position: np.ndarray
@@ -116,8 +122,10 @@ class SpotLight:
     power: float = 1000.0
     color: np.ndarray = field(default_factory=lambda: np.ones(3))
     radius: float = 0.0
+    soft_falloff: bool = True
     spot_size: float = math.radians(45.0)
     spot_blend: float = 0.15
+    frame: Optional[np.ndarray] = None
     name: str = "Spot"
 
 
@@ -145,6 +153,7 @@ class AreaLight:
     axis_v:    (3,) float64 world vector spanning the full size along the light's local Y
     direction: (3,) float64 unit normal on the emitting side (Blender's local -Z)
     shape:     "SQUARE" | "RECTANGLE" (a parallelogram from the two axes) or "DISK" | "ELLIPSE"
+    spread:    radians; below pi, Blender narrows the emission towards the normal (power kept)
     """
 
     center: np.ndarray
@@ -154,6 +163,7 @@ class AreaLight:
     power: float = 100.0
     color: np.ndarray = field(default_factory=lambda: np.ones(3))
     shape: str = "SQUARE"
+    spread: float = math.pi
     name: str = "Area"
 
 

@@ -143,8 +143,11 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             if delta:
                 u2 = np.zeros((n, 2))
             else:
-                u2 = sampling.stratified_2d(settings.seed, pixel, sample * count + j,
-                                            max(1, settings.samples) * count, dimension=16 + 4 * index)
+                # Each camera sample gets its own stratified pattern of `count` light points,
+                # keyed by (pixel, sample): pairing light strata with the camera's sub-pixel
+                # strata would correlate them and bias the pixel.
+                u2 = sampling.stratified_2d(settings.seed, pixel * max(1, settings.samples) + sample,
+                                            np.full(n, j), count, dimension=16 + 4 * index)
             ls = lights_.sample_light(light, surface.I, u2)
             # 2. The lecture's two tests: N.L > 0 (shading normal) and Ng.L > 0 (face normal).
             #    The terminator fix lifts smooth points onto the curved surface, where the
