@@ -1,0 +1,24 @@
+"""The Blender layer of Primer: engine, scene export, settings and panels (Cycles' add-on layout)."""
+from __future__ import annotations
+
+
+def register():
+    """Register settings first (panels and the engine read them), then the engine, then the panels."""
+    import bpy
+    from . import engine, properties, ui
+
+    properties.register()
+    for cls in engine.classes:
+        bpy.utils.register_class(cls)
+    ui.register()
+
+
+def unregister():
+    """Unregister in the reverse order."""
+    import bpy
+    from . import engine, properties, ui
+
+    ui.unregister()
+    for cls in reversed(engine.classes):
+        bpy.utils.unregister_class(cls)
+    properties.unregister()

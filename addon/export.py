@@ -1,0 +1,318 @@
+"""Scene export: Blender's evaluated depsgraph to Primer's plain scene model.
+
+Everything is read from the *evaluated* depsgraph, so modifiers, geometry
+nodes, curves, text, metaballs and every kind of instance arrive as Blender
+would render them. Mesh data is read in bulk with `foreach_get`, never with a
+Python loop per vertex, and a mesh shared by many instances is exported once.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+
+from ..core import scene as core_scene
+from ..core.camera import Camera
+
+MESH_LIKE = {"MESH", "CURVE", "SURFACE", "FONT", "META", "CURVES_LEGACY"}
+
+
+class ExportError(Exception):
+    """The scene cannot be rendered; the message says why, for Blender's report."""
+
+
+@dataclass
+class Export:
+    """A Blender scene in Primer's terms, with the notes made on the way."""
+
+    scene: core_scene.Scene
+    settings: core_scene.RenderSettings
+    full_size: tuple            # (width, height) of the whole frame in pixels
+    border: tuple               # (x, y, width, height) of the rendered rectangle, y from the bottom (Blender)
+    warnings: list = field(default_factory=list)
+
+
+# ----------------------------------------------------------------------------
+# Meshes
+# ----------------------------------------------------------------------------
+
+def _mesh_arrays(mesh) -> core_scene.Mesh:
+    """Return a core Mesh from a Blender mesh's loop triangles, read in bulk.
+
+    Corner normals (Blender's own: smooth, flat, sharp edges, smooth by angle,
+    custom normals) are read only when some face is smooth.
+    """
+    n_vertices = len(mesh.vertices)
+    n_triangles = len(mesh.loop_triangles)
+    co = np.empty(n_vertices * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    triangles = np.empty(n_triangles * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", triangles)
+    material_indices = np.empty(n_triangles, np.int32)
+    mesh.loop_triangles.foreach_get("material_index", material_indices)
+    polygon = np.empty(n_triangles, np.int32)
+    mesh.loop_triangles.foreach_get("polygon_index", polygon)
+    smooth_faces = np.empty(len(mesh.polygons), bool)
+    mesh.polygons.foreach_get("use_smooth", smooth_faces)
+    smooth = smooth_faces[polygon] if len(smooth_faces) else np.zeros(n_triangles, bool)
+    if mesh.has_custom_normals:
+        smooth[:] = True
+    corner_normals = None
+    if smooth.any():
+        loops = np.empty(n_triangles * 3, np.int32)
+        mesh.loop_triangles.foreach_get("loops", loops)
+        normals = np.empty(len(mesh.loops) * 3, np.float32)
+        mesh.corner_normals.foreach_get("vector", normals)
+        corner_normals = normals.reshape(-1, 3)[loops].reshape(n_triangles, 3, 3)
+    return core_scene.Mesh(co.reshape(-1, 3), triangles.reshape(-1, 3), smooth=smooth,
+                           corner_normals=corner_normals, material_indices=material_indices, name=mesh.name)
+
+
+def _material_color(material) -> np.ndarray:
+    """Return a material's diffuse colour: the surface BSDF's base colour, else its viewport colour."""
+    if material is None:
+        return np.array(core_scene.DEFAULT_BASE_COLOR)
+    tree = material.node_tree
+    if tree is not None:
+        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
+                   and n.target in {"ALL", "CYCLES"}]
+        output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+        if output is not None and output.inputs["Surface"].is_linked:
+            node = output.inputs["Surface"].links[0].from_node
+            socket_name = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}.get(node.bl_idname)
+            if socket_name is not None and not node.inputs[socket_name].is_linked:
+                return np.array(node.inputs[socket_name].default_value[:3], np.float64)
+    return np.array(material.diffuse_color[:3], np.float64)
+
+
+class _Materials:
+    """Scene materials, each exported once, indexed by the material datablock."""
+
+    def __init__(self, scene: core_scene.Scene):
+        self.scene = scene
+        self.index = {}
+
+    def slot_map(self, obj) -> np.ndarray:
+        """Return the scene material index of each of the object's material slots (-1 for empty)."""
+        slots = []
+        for slot in obj.material_slots:
+            material = slot.material
+            if material is None:
+                slots.append(-1)
+                continue
+            key = material.original.as_pointer() if hasattr(material, "original") else material.as_pointer()
+            if key not in self.index:
+                self.index[key] = self.scene.add_material(_material_color(material), material.name)
+            slots.append(self.index[key])
+        return np.array(slots, np.int64)
+
+
+# ----------------------------------------------------------------------------
+# Lights, in Cycles' units
+# ----------------------------------------------------------------------------
+
+def _light_color(light) -> np.ndarray:
+    """Return colour x 2^exposure (x blackbody colour when temperature is used), linear RGB."""
+    color = np.array(light.color[:3], np.float64) * 2.0 ** getattr(light, "exposure", 0.0)
+    if getattr(light, "use_temperature", False):
+        color = color * np.array(light.temperature_color[:3], np.float64)
+    return color
+
+
+def export_light(obj, matrix: np.ndarray, warnings: list):
+    """Return the core light of a Blender light object placed by `matrix` (4, 4), or None if it sends no diffuse light."""
+    light = obj.data
+    if not getattr(obj, "visible_diffuse", True):
+        return None
+    if light.type == "AREA" and getattr(getattr(light, "cycles", None), "is_portal", False):
+        return None
+    color = _light_color(light)
+    normalize = getattr(light, "normalize", True)
+    position = matrix[:3, 3].copy()
+    axes = matrix[:3, :3]
+    minus_z = -axes[:, 2] / max(np.linalg.norm(axes[:, 2]), 1e-300)
+    if light.type in {"POINT", "SPOT"}:
+        radius = float(light.shadow_soft_size)
+        power = float(light.energy)
+        if not normalize:
+            # Unnormalised: radiance P / pi instead of P / (4 pi^2 R^2) (radius 0: intensity P / pi).
+            power *= 4.0 * math.pi * radius * radius if radius > 0 else 4.0
+        soft = bool(getattr(light, "use_soft_falloff", True))
+        if light.type == "POINT":
+            return core_scene.PointLight(position, power, color, radius, soft, name=obj.name)
+        return core_scene.SpotLight(position, minus_z, power, color, radius, soft,
+                                    spot_size=float(light.spot_size), spot_blend=float(light.spot_blend),
+                                    frame=axes.copy(), name=obj.name)
+    if light.type == "SUN":
+        angle = float(light.angle)
+        strength = float(light.energy)
+        if not normalize and angle > 0:
+            strength *= math.pi * math.sin(0.5 * angle) ** 2
+        return core_scene.SunLight(minus_z, strength, color, angle, name=obj.name)
+    if light.type == "AREA":
+        size_x = float(light.size)
+        size_y = float(light.size_y) if light.shape in {"RECTANGLE", "ELLIPSE"} else size_x
+        axis_u = axes[:, 0] * size_x
+        axis_v = axes[:, 1] * size_y
+        emitting = -np.cross(axis_u, axis_v)
+        if not np.linalg.norm(emitting) > 0:
+            warnings.append(f"area light '{obj.name}' has zero size and was skipped")
+            return None
+        power = float(light.energy)
+        area = core_scene.AreaLight(position, axis_u, axis_v, emitting / np.linalg.norm(emitting), power, color,
+                                    light.shape, float(getattr(light, "spread", math.pi)), name=obj.name)
+        if not normalize:
+            from ..core.lights import area_light_area
+            area.power = power * area_light_area(area)
+        return area
+    warnings.append(f"light '{obj.name}' of type {light.type} is not supported and was skipped")
+    return None
+
+
+# ----------------------------------------------------------------------------
+# Camera, world, settings
+# ----------------------------------------------------------------------------
+
+def export_camera(camera_object) -> Camera:
+    """Return the core camera of a Blender camera object (scale is ignored, as in Cycles)."""
+    data = camera_object.data
+    kind = data.type if data.type in {"PERSP", "ORTHO", "PANO"} else "PERSP"
+    panorama = getattr(data, "panorama_type", "FISHEYE_EQUIDISTANT")
+    if kind == "PANO" and panorama not in {"FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"}:
+        raise ExportError(f"Primer renders fisheye panoramas only; camera '{camera_object.name}' is {panorama}")
+    return Camera(
+        matrix_world=np.array(camera_object.matrix_world, np.float64),
+        type=kind, lens=float(data.lens), sensor_width=float(data.sensor_width),
+        sensor_height=float(data.sensor_height), sensor_fit=data.sensor_fit,
+        shift_x=float(data.shift_x), shift_y=float(data.shift_y),
+        clip_start=float(data.clip_start), clip_end=float(data.clip_end),
+        ortho_scale=float(data.ortho_scale),
+        panorama_type=panorama if kind == "PANO" else "FISHEYE_EQUIDISTANT",
+        fisheye_fov=float(getattr(data, "fisheye_fov", math.pi)),
+        fisheye_lens=float(getattr(data, "fisheye_lens", 10.5)),
+    )
+
+
+def export_world(world, warnings: list) -> np.ndarray:
+    """Return the world's background colour (colour x strength of its Background node), linear RGB."""
+    if world is None:
+        return np.zeros(3)
+    tree = world.node_tree
+    if tree is not None:
+        output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output), None)
+        if output is None or not output.inputs["Surface"].is_linked:
+            return np.zeros(3)
+        node = output.inputs["Surface"].links[0].from_node
+        if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
+                and not node.inputs["Strength"].is_linked:
+            return np.array(node.inputs["Color"].default_value[:3], np.float64) * float(node.inputs["Strength"].default_value)
+        warnings.append("the world shader is not a plain Background colour; Primer uses the world's viewport colour")
+    return np.array(world.color[:3], np.float64)
+
+
+def frame_size(render) -> tuple:
+    """Return the (width, height) in pixels after the resolution percentage, as Blender computes it."""
+    scale = render.resolution_percentage / 100.0
+    return max(1, int(render.resolution_x * scale)), max(1, int(render.resolution_y * scale))
+
+
+def border_rectangle(render, width: int, height: int) -> tuple:
+    """Return the rendered rectangle (x, y, w, h) in pixels, y from the bottom, honouring the render border."""
+    if not render.use_border:
+        return 0, 0, width, height
+    x0 = int(round(render.border_min_x * width))
+    x1 = int(round(render.border_max_x * width))
+    y0 = int(round(render.border_min_y * height))
+    y1 = int(round(render.border_max_y * height))
+    x0, x1 = max(0, min(x0, width)), max(0, min(x1, width))
+    y0, y1 = max(0, min(y0, height)), max(0, min(y1, height))
+    if x1 <= x0 or y1 <= y0:
+        return 0, 0, width, height
+    return x0, y0, x1 - x0, y1 - y0
+
+
+def render_settings(scene, width: int, height: int, border: tuple) -> core_scene.RenderSettings:
+    """Return core render settings from the scene's Primer settings and Blender's render settings."""
+    props = scene.primer
+    render = scene.render
+    x, y, w, h = border
+    return core_scene.RenderSettings(
+        width=width, height=height,
+        samples=int(props.samples), seed=int(props.seed) + (scene.frame_current if props.animate_seed else 0),
+        region=(x, height - (y + h), x + w, height - y),       # core counts rows from the top
+        pixel_aspect=(float(render.pixel_aspect_x), float(render.pixel_aspect_y)),
+        light_samples=int(props.light_samples),
+        shadow_method=props.shadow_method.lower(), epsilon=float(props.epsilon),
+        terminator_fix=bool(props.terminator_fix),
+        transparent_background=bool(render.film_transparent),
+        threads=int(props.threads),
+        aux=("depth", "normal", "face_normal", "n_dot_l", "visibility"),
+    )
+
+
+# ----------------------------------------------------------------------------
+# The whole scene
+# ----------------------------------------------------------------------------
+
+def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) -> Export:
+    """Return the evaluated depsgraph as a core scene plus render settings.
+
+    Raises ExportError with a readable message when the scene cannot be rendered.
+    """
+    scene = depsgraph.scene_eval
+    warnings: list[str] = []
+    camera_object = camera_override or scene.camera
+    if camera_object is None:
+        raise ExportError("the scene has no camera: add one, or set Scene > Camera")
+    camera_eval = camera_object.evaluated_get(depsgraph)
+    camera = export_camera(camera_eval)
+    if not np.isfinite(np.asarray(camera.matrix_world)).all():
+        raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
+    core = core_scene.Scene(camera=camera, world_color=export_world(scene.world, warnings))
+    materials = _Materials(core)
+    mesh_index: dict = {}
+    ray_visibility_noted: set = set()
+
+    for instance in depsgraph.object_instances:
+        if is_cancelled():
+            break
+        obj = instance.object
+        matrix = np.array(instance.matrix_world, np.float64)
+        if obj.type == "LIGHT":
+            light = export_light(obj, matrix, warnings)
+            if light is not None:
+                core.lights.append(light)
+            continue
+        if obj.type not in MESH_LIKE:
+            continue
+        if not (obj.visible_camera and obj.visible_shadow) and obj.name not in ray_visibility_noted:
+            ray_visibility_noted.add(obj.name)
+            warnings.append(f"object '{obj.name}' hides itself from some rays; Primer renders it fully visible")
+        # A mesh shared by several instances is exported once (keyed by its evaluated data).
+        key = obj.data.as_pointer() if obj.type == "MESH" and obj.data is not None else ("object", obj.name)
+        if key not in mesh_index:
+            if obj.type == "MESH":
+                mesh = _mesh_arrays(obj.data)
+            else:
+                temporary = obj.to_mesh()
+                try:
+                    mesh = _mesh_arrays(temporary) if temporary is not None else None
+                finally:
+                    obj.to_mesh_clear()
+            if mesh is None or len(mesh.triangles) == 0:
+                mesh_index[key] = None
+                continue
+            core.meshes.append(mesh)
+            mesh_index[key] = len(core.meshes) - 1
+        if mesh_index[key] is None:
+            continue
+        core.instances.append(core_scene.Instance(mesh_index[key], matrix, materials.slot_map(obj), obj.name))
+
+    if not core.lights:
+        warnings.append("the scene has no lights: only the world colour will be visible")
+    width, height = frame_size(scene.render)
+    border = border_rectangle(scene.render, width, height)
+    settings = render_settings(scene, width, height, border)
+    return Export(core, settings, (width, height), border, warnings)

@@ -1,0 +1,130 @@
+"""Render a .blend file headlessly with the bpy module, with Primer loaded from this checkout.
+
+Usage:
+    .venv/bin/python tools/render.py SCENE.blend -o OUT.exr [--samples N] [--engine PRIMER|CYCLES]
+                                     [--percentage P] [--frame F]
+
+Writes a linear float EXR (or an 8-bit sRGB PNG when OUT ends in .png), prints the
+render's wall time, and exits non-zero with a clear message on failure. With
+--engine CYCLES it renders the same scene as Primer's reference: direct light
+only (max_bounces = 0), a 1-pixel box filter, no denoising.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def load_primer(name: str = "primer"):
+    """Import this checkout as the package `name` and register it with Blender; return the module."""
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "__init__.py"),
+                                                  submodule_search_locations=[ROOT])
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    module.register()
+    return module
+
+
+def configure_cycles_reference(scene, samples: int) -> None:
+    """Set Cycles up as Primer's reference: direct light only, 1-pixel box filter, no denoising, CPU."""
+    scene.render.engine = "CYCLES"
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples = samples
+    cycles.use_adaptive_sampling = False
+    cycles.use_denoising = False
+    cycles.max_bounces = 0
+    for bounce in ("diffuse_bounces", "glossy_bounces", "transmission_bounces", "volume_bounces",
+                   "transparent_max_bounces"):
+        setattr(cycles, bounce, 0)
+    cycles.pixel_filter_type = "BOX"
+    cycles.filter_width = 1.0
+    cycles.seed = 0
+
+
+def configure_output(scene, path: str) -> None:
+    """Write `path` as a 32-bit float EXR, or an 8-bit PNG when it ends in .png."""
+    settings = scene.render.image_settings
+    if path.lower().endswith(".png"):
+        settings.file_format = "PNG"
+        settings.color_mode = "RGBA"
+        settings.color_depth = "8"
+    else:
+        settings.file_format = "OPEN_EXR"
+        settings.color_mode = "RGBA"
+        settings.color_depth = "32"
+        settings.exr_codec = "ZIP"
+    scene.render.filepath = os.path.abspath(path)
+    scene.render.use_file_extension = False
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+
+
+def render_file(blend: str, out: str, engine: str = "PRIMER", samples: int | None = None,
+                percentage: int | None = None, frame: int | None = None) -> float:
+    """Render `blend` to `out` and return the wall time of the render in seconds; raise RuntimeError on failure."""
+    import bpy
+
+    if not os.path.isfile(blend):
+        raise RuntimeError(f"no such .blend file: {blend}")
+    bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend))
+    primer = load_primer()
+    scene = bpy.context.scene
+    if frame is not None:
+        scene.frame_set(frame)
+    if percentage is not None:
+        scene.render.resolution_percentage = percentage
+    if engine == "CYCLES":
+        configure_cycles_reference(scene, samples or 256)
+    else:
+        scene.render.engine = "PRIMER"
+        if samples is not None:
+            scene.primer.samples = samples
+    if scene.camera is None:
+        raise RuntimeError(f"{blend} has no camera")
+    configure_output(scene, out)
+    start = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    seconds = time.perf_counter() - start
+    if engine == "PRIMER":
+        record = sys.modules[primer.__name__ + ".addon.engine"].last_render
+        for warning in record.warnings:
+            print(f"warning: {warning}", file=sys.stderr)
+        if record.error:
+            raise RuntimeError(record.error)
+    if not os.path.isfile(out):
+        raise RuntimeError(f"Blender wrote no image to {out}")
+    return seconds
+
+
+def main(argv=None) -> int:
+    """Parse the command line, render, and return the exit code."""
+    parser = argparse.ArgumentParser(description="Render a .blend file with Primer (or Cycles) through bpy.")
+    parser.add_argument("blend")
+    parser.add_argument("-o", "--output", required=True, help="output image (.exr linear float, or .png)")
+    parser.add_argument("--samples", type=int, default=None)
+    parser.add_argument("--engine", choices=("PRIMER", "CYCLES"), default="PRIMER")
+    parser.add_argument("--percentage", type=int, default=None, help="resolution percentage")
+    parser.add_argument("--frame", type=int, default=None)
+    args = parser.parse_args(argv)
+    try:
+        seconds = render_file(args.blend, args.output, args.engine, args.samples, args.percentage, args.frame)
+    except Exception as error:          # a clear message and a non-zero exit, never a traceback dump
+        print(f"render failed: {error}", file=sys.stderr)
+        return 1
+    print(f"{os.path.basename(args.blend)}: {args.engine} rendered {args.output} in {seconds:.2f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
