@@ -26,7 +26,7 @@ STANDARD_PASSES = {
 }
 DEBUG_PASSES = {
     "Primer Face Normal": ("face_normal", 3, "XYZ", "VECTOR"),
-    "Primer N.L": ("n_dot_l", 1, "X", "VALUE"),
+    "Primer NdotL": ("n_dot_l", 1, "X", "VALUE"),
     "Primer Shadow": ("visibility", 1, "X", "VALUE"),
 }
 
@@ -129,8 +129,10 @@ def render_frame(engine, depsgraph) -> RenderRecord:
         record.warnings += [w for w in result.stats.warnings if w not in record.warnings]
         record.rays = result.stats.rays
         record.cancelled = result.cancelled
-        write_result(engine, exported, result.image, result.aux, len(result.aux.get("n_dot_l", np.zeros((1, 1, 0)))[0, 0]),
+        write_result(engine, exported, result.image, result.aux, result.aux["n_dot_l"].shape[2],
                      scene.primer.debug_view)
+    except KeyboardInterrupt:            # Ctrl+C in a terminal: stop like Esc
+        record.cancelled = True
     except export.ExportError as error:
         record.error = str(error)
     except ImportError as error:

@@ -1,0 +1,186 @@
+"""Primer inside real Blender (the bpy module): passes, debug views, reports, cancelling.
+
+No mocks: each test builds a scene with bpy, renders it with bpy.ops.render.render()
+through Primer's RenderEngine, and reads the written image back.
+"""
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
+from render import load_primer  # noqa: E402
+
+from core import image_io  # noqa: E402
+
+pytestmark = pytest.mark.blender
+
+
+@pytest.fixture(scope="module")
+def primer():
+    """Primer registered from this checkout, as tools/render.py does."""
+    return load_primer()
+
+
+def engine_module(primer):
+    """Return the add-on's engine module."""
+    return sys.modules[primer.__name__ + ".addon.engine"]
+
+
+def new_scene(width=48, height=36, light=True, camera=True):
+    """Start from an empty file: a plane under a sun, seen from above, rendered by Primer."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "PRIMER"
+    scene.render.resolution_x, scene.render.resolution_y = width, height
+    scene.render.resolution_percentage = 100
+    scene.primer.samples = 1
+    mesh = bpy.data.meshes.new("Plane")
+    mesh.from_pydata([(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [], [(0, 1, 2, 3)])
+    plane = bpy.data.objects.new("Plane", mesh)
+    scene.collection.objects.link(plane)
+    if light:
+        sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+        sun.data.energy = 2.0
+        sun.data.angle = 0.0                   # a point-like sun: exact N.L, no sampling
+        scene.collection.objects.link(sun)
+    if camera:
+        cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+        cam.location = (0.0, 0.0, 5.0)
+        scene.collection.objects.link(cam)
+        scene.camera = cam
+    return scene
+
+
+def render_to(scene, path):
+    """Render the scene with write_still into a float EXR and return it (H, W, C) top-down."""
+    settings = scene.render.image_settings
+    settings.file_format = "OPEN_EXR"
+    settings.color_depth = "32"
+    settings.exr_codec = "ZIP"
+    scene.render.filepath = path
+    scene.render.use_file_extension = False
+    scene.view_settings.view_transform = "Standard"
+    bpy.ops.render.render(write_still=True)
+    return image_io.read_image(path)
+
+
+def test_sun_on_a_plane_renders_albedo_over_pi_times_strength(primer, tmp_path):
+    """A default-grey plane under a 2 W/m^2 overhead sun shows 0.8/pi * 2 in every pixel."""
+    scene = new_scene()
+    image = render_to(scene, str(tmp_path / "sun.exr"))
+    np.testing.assert_allclose(image[..., :3], 0.8 / math.pi * 2.0, rtol=1e-5)
+    assert engine_module(primer).last_render.error == ""
+
+
+def test_debug_view_shows_the_normal_as_colour(primer, tmp_path):
+    """The 'Shading Normal' debug view paints the upward plane normal (0, 0, 1) as (0.5, 0.5, 1)."""
+    scene = new_scene()
+    scene.primer.debug_view = "NORMAL"
+    image = render_to(scene, str(tmp_path / "normal.exr"))
+    np.testing.assert_allclose(image[..., :3], np.broadcast_to([0.5, 0.5, 1.0], image[..., :3].shape), atol=1e-6)
+
+
+def test_depth_normal_and_debug_passes_are_written(primer, tmp_path):
+    """With Z and Normal enabled, the multilayer EXR holds Depth, Normal and Primer's debug passes with exact values."""
+    import OpenImageIO as oiio
+    scene = new_scene()
+    layer = scene.view_layers[0]
+    layer.use_pass_z = layer.use_pass_normal = True
+    scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.image_settings.exr_codec = "ZIP"
+    path = str(tmp_path / "passes.exr")
+    scene.render.filepath = path
+    scene.render.use_file_extension = False
+    bpy.ops.render.render(write_still=True)
+    parts = {}
+    inp = oiio.ImageInput.open(path)
+    index = 0
+    while inp.seek_subimage(index, 0):
+        spec = inp.spec()
+        parts[spec.channelnames[0].split(".")[1]] = inp.read_image(index, 0, 0, spec.nchannels, oiio.FLOAT)
+        index += 1
+    inp.close()
+    assert {"Combined", "Depth", "Normal", "Primer Face Normal", "Primer NdotL", "Primer Shadow"} <= set(parts)
+    np.testing.assert_allclose(parts["Depth"], 5.0, rtol=1e-6)            # camera 5 above, looking down
+    np.testing.assert_allclose(parts["Normal"][..., 2], 1.0, rtol=1e-6)
+    np.testing.assert_allclose(parts["Primer NdotL"], 1.0, rtol=1e-6)
+    np.testing.assert_allclose(parts["Primer Shadow"], 1.0, rtol=1e-6)
+
+
+def test_scene_without_lights_is_reported_and_renders_black(primer, tmp_path):
+    """No lights: a warning in the report, and black surfaces (the world is black)."""
+    scene = new_scene(light=False)
+    image = render_to(scene, str(tmp_path / "dark.exr"))
+    record = engine_module(primer).last_render
+    assert any("no lights" in w for w in record.warnings)
+    assert np.count_nonzero(image[..., :3]) == 0
+
+
+def test_scene_without_camera_is_a_clear_error(primer):
+    """No camera: rendering stops with an error that names the camera."""
+    new_scene(camera=False)
+    with pytest.raises(RuntimeError, match="(?i)camera"):
+        bpy.ops.render.render()
+
+
+def test_nan_vertices_and_empty_meshes_are_reported_not_fatal(primer, tmp_path):
+    """A mesh with a NaN vertex and an empty mesh render without NaN pixels; the NaN triangle is reported."""
+    scene = new_scene()
+    bad = bpy.data.meshes.new("Bad")
+    bad.from_pydata([(0, 0, 1), (1, 0, 1), (0, 1, 1), (2, 2, 1)], [], [(0, 1, 2), (1, 3, 2)])
+    coords = np.array([0, 0, 1, 1, 0, 1, 0, 1, 1, np.nan, 2, 1], np.float32)
+    bad.vertices.foreach_set("co", coords)
+    scene.collection.objects.link(bpy.data.objects.new("Bad", bad))
+    scene.collection.objects.link(bpy.data.objects.new("Empty", bpy.data.meshes.new("Empty")))
+    image = render_to(scene, str(tmp_path / "nan.exr"))
+    record = engine_module(primer).last_render
+    assert np.isfinite(image).all()
+    assert any("NaN or infinite" in w for w in record.warnings)
+    assert record.error == ""
+
+
+CTRL_C_SCRIPT = """
+import os, signal, sys, threading, time
+sys.path.insert(0, {tools!r})
+import bpy
+from render import load_primer
+primer = load_primer()
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+scene.render.engine = "PRIMER"
+scene.render.resolution_x, scene.render.resolution_y = 1280, 960
+scene.primer.samples = 64
+bpy.ops.mesh.primitive_uv_sphere_add()
+bpy.ops.object.light_add(type="POINT", location=(2, -2, 3))
+bpy.ops.object.camera_add(location=(0, -6, 0), rotation=(1.5708, 0, 0))
+scene.camera = bpy.context.object
+threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+start = time.perf_counter()
+bpy.ops.render.render()
+record = sys.modules[primer.__name__ + ".addon.engine"].last_render
+print("RESULT", record.cancelled, round(time.perf_counter() - start, 2), repr(record.error))
+"""
+
+
+def test_ctrl_c_stops_a_headless_render_promptly(tmp_path):
+    """Ctrl+C (SIGINT) during a long headless render ends it within seconds, marked cancelled, without an error."""
+    import subprocess
+    tools = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools")
+    script = tmp_path / "ctrl_c.py"
+    script.write_text(CTRL_C_SCRIPT.format(tools=tools))
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    elapsed = time.perf_counter() - start
+    line = next((l for l in done.stdout.splitlines() if l.startswith("RESULT")), "")
+    assert line.split()[1:2] == ["True"], done.stdout[-2000:] + done.stderr[-2000:]
+    assert float(line.split()[2]) < 3.0          # the render itself stopped promptly
+    assert line.split()[3] == "''"
+    assert elapsed < 60.0
