@@ -135,19 +135,25 @@ classes = (
     DATA_PT_primer_spot,
 )
 
-# Blender's own panels that also describe what Primer renders (camera, output, objects, materials...).
-_EXCLUDED_PANELS = {"DATA_PT_light", "DATA_PT_EEVEE_light", "DATA_PT_spot", "DATA_PT_EEVEE_light_distance"}
+# Blender's own panels that also describe what Primer renders: every panel Workbench uses
+# ("BLENDER_RENDER": camera, output, object, mesh data...), minus those Primer replaces or has
+# no use for, plus the material slot and surface panels of EEVEE.
+_EXCLUDED_PANELS = {
+    "DATA_PT_light", "DATA_PT_spot", "DATA_PT_preview", "DATA_PT_camera_dof",
+    "RENDER_PT_freestyle", "RENDER_PT_simplify", "RENDER_PT_simplify_viewport", "RENDER_PT_simplify_render",
+}
+_MATERIAL_PANELS = {"EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface"}
 
 
 def _compatible_panels():
-    """Return Blender's panels that list Workbench/EEVEE engines and are not light- or EEVEE-specific."""
+    """Return Blender's panels that Primer shows too."""
     panels = []
     for panel in bpy.types.Panel.__subclasses__():
         engines = getattr(panel, "COMPAT_ENGINES", None)
-        if not engines or panel.__name__ in _EXCLUDED_PANELS or "EEVEE" in panel.__name__.upper() \
-                and not panel.__name__.startswith("EEVEE_MATERIAL_PT_"):
+        name = panel.__name__
+        if engines is None or name in _EXCLUDED_PANELS or name.startswith("DATA_PT_lightprobe"):
             continue
-        if "BLENDER_RENDER" in engines or panel.__name__.startswith("EEVEE_MATERIAL_PT_"):
+        if "BLENDER_RENDER" in engines or name in _MATERIAL_PANELS:
             panels.append(panel)
     return panels
 
@@ -157,12 +163,14 @@ def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     for panel in _compatible_panels():
-        panel.COMPAT_ENGINES.add(ENGINE)
+        # A new set per panel: many panels share one set object through their base class,
+        # and adding to it in place would also show Primer in the panels excluded above.
+        panel.COMPAT_ENGINES = set(panel.COMPAT_ENGINES) | {ENGINE}
 
 
 def unregister():
     """Undo `register`."""
     for panel in _compatible_panels():
-        panel.COMPAT_ENGINES.discard(ENGINE)
+        panel.COMPAT_ENGINES = set(panel.COMPAT_ENGINES) - {ENGINE}
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -184,3 +184,15 @@ def test_ctrl_c_stops_a_headless_render_promptly(tmp_path):
     assert float(line.split()[2]) < 3.0          # the render itself stopped promptly
     assert line.split()[3] == "''"
     assert elapsed < 60.0
+
+
+def test_blender_panels_are_shown_for_primer(primer):
+    """Camera, output and material panels list Primer; the light panels Primer replaces do not."""
+    panels = {p.__name__: p for p in bpy.types.Panel.__subclasses__()}
+    for name in ("DATA_PT_lens", "RENDER_PT_format", "EEVEE_MATERIAL_PT_surface",
+                 "EEVEE_MATERIAL_PT_context_material", "OBJECT_PT_visibility"):
+        assert "PRIMER" in panels[name].COMPAT_ENGINES, name
+    for name in ("DATA_PT_light", "DATA_PT_spot", "EEVEE_MATERIAL_PT_thickness"):
+        assert "PRIMER" not in panels[name].COMPAT_ENGINES, name
+    for name in ("RENDER_PT_primer_sampling", "RENDER_PT_primer_shadows", "DATA_PT_primer_light"):
+        assert hasattr(bpy.types, name), name
