@@ -34,6 +34,19 @@ def sun_direction(elevation_deg: float, azimuth_deg: float = 0.0) -> np.ndarray:
     return -towards_sun
 
 
+def unit(vector):
+    """Return `vector` ((3,) or (n, 3)) normalised along its last axis."""
+    vector = np.asarray(vector, dtype=np.float64)
+    return vector / np.linalg.norm(vector, axis=-1, keepdims=True)
+
+
+def rotation(axis, angle):
+    """Return the (3, 3) rotation by `angle` radians about `axis` (Rodrigues)."""
+    x, y, z = unit(axis)
+    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * k @ k
+
+
 @pytest.fixture
 def rng():
     """A fixed-seed random generator."""

@@ -25,6 +25,8 @@ import math
 import numpy as np
 import pytest
 
+from conftest import rotation, unit
+
 from core.camera import Camera, generate_rays
 from core.lights import area_light_area, is_delta, sample_light, spot_attenuation
 from core.render import render
@@ -37,19 +39,6 @@ SAMPLING_RTOL = 1e-3               # see the module docstring for why this is ho
 # ----------------------------------------------------------------------------
 # Helpers: geometry, closed forms, sampling
 # ----------------------------------------------------------------------------
-
-def unit(vector):
-    """Return `vector` ((3,) or (n, 3)) normalised along its last axis."""
-    vector = np.asarray(vector, dtype=np.float64)
-    return vector / np.linalg.norm(vector, axis=-1, keepdims=True)
-
-
-def rotation(axis, angle):
-    """Return the (3, 3) rotation by `angle` radians about `axis` (Rodrigues)."""
-    x, y, z = unit(axis)
-    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * k @ k
-
 
 def perpendicular(axis):
     """Return a unit vector perpendicular to the unit `axis`."""

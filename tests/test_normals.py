@@ -11,6 +11,8 @@ import math
 import numpy as np
 import pytest
 
+from conftest import rotation, unit
+
 from core import primitives
 from core.camera import Camera, generate_rays
 from core.geometry import build_geometry
@@ -20,19 +22,6 @@ from core.scene import Instance, RenderSettings, Scene
 from core.shading import surface_at_hits
 
 FLOAT32_NORMAL_ATOL = 2e-6      # a few float32 ulps of a unit vector
-
-
-def unit(vector):
-    """Return `vector` ((3,) or (n, 3)) normalised along its last axis."""
-    vector = np.asarray(vector, dtype=np.float64)
-    return vector / np.linalg.norm(vector, axis=-1, keepdims=True)
-
-
-def rotation(axis, angle):
-    """Return the (3, 3) rotation by `angle` radians about `axis` (Rodrigues)."""
-    x, y, z = unit(axis)
-    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * k @ k
 
 
 def affine(linear=np.eye(3), translation=(0.0, 0.0, 0.0)):

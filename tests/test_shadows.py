@@ -11,20 +11,13 @@ import math
 import numpy as np
 import pytest
 
-from conftest import ortho_down, pixel_points_on_plane, sun_direction
+from conftest import ortho_down, pixel_points_on_plane, rotation, sun_direction
 from core import primitives, render, shadows
 from core.camera import Camera
 from core.intersect import Tracer
 from core.scene import AreaLight, PointLight, RenderSettings, Scene, SunLight
 
 ALBEDO = 0.5
-
-
-def rotation(axis, angle: float) -> np.ndarray:
-    """Return the (3, 3) rotation by `angle` radians about `axis` (Rodrigues)."""
-    k = np.asarray(axis, np.float64) / np.linalg.norm(axis)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
 def grazing_sun_image(elevation_deg: float, offset: float, method: str = "robust",
