@@ -122,6 +122,10 @@ def main(argv=None) -> int:
     except Exception as error:          # a clear message and a non-zero exit, never a traceback dump
         print(f"render failed: {error}", file=sys.stderr)
         return 1
+    finally:
+        # bpy 4.2 crashes at exit while a Python RenderEngine or Panel is still registered.
+        if "primer" in sys.modules:
+            sys.modules["primer"].unregister()
     print(f"{os.path.basename(args.blend)}: {args.engine} rendered {args.output} in {seconds:.2f} s")
     return 0
 
