@@ -145,9 +145,14 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray):
     # 2. Camera rays, moved into the camera-relative frame.
     rays = camera_.generate_rays(ctx.scene.camera, W, H, raster_x, raster_y, tuple(s.pixel_aspect))
     n = len(pixel)
+    # As in Cycles: outside a fisheye's image circle the film is opaque black; camera rays that
+    # miss show the world, or leave the film clear (alpha 0, and premultiplied RGB 0) when transparent.
     rgba = np.zeros((n, 4))
-    rgba[rays.valid, :3] = ctx.world_color
-    rgba[rays.valid, 3] = 0.0 if s.transparent_background else 1.0
+    rgba[:, 3] = 1.0
+    if s.transparent_background:
+        rgba[rays.valid, 3] = 0.0
+    else:
+        rgba[rays.valid, :3] = ctx.world_color
     traced = np.flatnonzero(rays.valid)
     origins = rays.origins[traced] - ctx.geometry.origin
     directions = rays.directions[traced]
