@@ -16,7 +16,11 @@ import numpy as np
 from ..core import scene as core_scene
 from ..core.camera import Camera
 
-MESH_LIKE = {"MESH", "CURVE", "SURFACE", "FONT", "META", "CURVES_LEGACY"}
+# Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
+# Blender sync). Curves, text, surfaces and metaballs are skipped themselves: the depsgraph hands
+# their evaluated meshes to render engines as separate instances of type MESH (Blender 4.2 and 5.0).
+# Types Cycles renders that Primer does not (it traces triangles only):
+UNSUPPORTED_GEOMETRY = {"CURVES", "POINTCLOUD", "VOLUME"}
 
 
 class ExportError(Exception):
@@ -30,7 +34,9 @@ class Export:
     scene: core_scene.Scene
     settings: core_scene.RenderSettings
     full_size: tuple            # (width, height) of the whole frame in pixels
-    border: tuple               # (x, y, width, height) of the rendered rectangle, y from the bottom (Blender)
+    border: tuple               # (x, y, width, height) of the rendered rectangle in the whole frame, y from
+                                # the bottom; Blender's render result is exactly this rectangle, so write it
+                                # with engine.begin_result(0, 0, width, height)
     warnings: list = field(default_factory=list)
 
 
@@ -70,29 +76,78 @@ def _mesh_arrays(mesh) -> core_scene.Mesh:
                            corner_normals=corner_normals, material_indices=material_indices, name=mesh.name)
 
 
-def _material_color(material) -> np.ndarray:
-    """Return a material's diffuse colour: the surface BSDF's base colour, else its viewport colour."""
+def _node_tree(datablock):
+    """Return the node tree Cycles uses for a material or world, or None (Blender 4.x: use_nodes off)."""
+    if bpy.app.version < (5, 0, 0) and not datablock.use_nodes:
+        return None
+    return datablock.node_tree
+
+
+def _surface_node(material):
+    """Return the node linked to the active Cycles material output's Surface socket, or None."""
+    tree = _node_tree(material)
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in {"ALL", "CYCLES"}]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return None
+    return output.inputs["Surface"].links[0].from_node
+
+
+def _input_value(node, name: str, default: float = 0.0) -> float:
+    """Return the unlinked float value of input `name` of `node`, or `default` if it is absent or linked."""
+    socket = node.inputs.get(name)
+    if socket is None or socket.is_linked:
+        return default
+    return float(socket.default_value)
+
+
+# Principled BSDF inputs that, when non-zero, add light that a Lambert surface does not reflect.
+_NOT_LAMBERT = ("Metallic", "Specular IOR Level", "Transmission Weight", "Coat Weight", "Sheen Weight",
+                "Emission Strength", "Subsurface Weight", "Diffuse Roughness")
+
+
+def _material_notes(material, node) -> list:
+    """Return why Cycles will not render `material` as Primer's Lambert surface (empty when it does)."""
+    if node is None:
+        return ["it has no surface shader node"]
+    if node.bl_idname == "ShaderNodeBsdfDiffuse":
+        return ["its Diffuse BSDF has Roughness > 0 (Oren-Nayar)"] if _input_value(node, "Roughness") > 0 else []
+    if node.bl_idname == "ShaderNodeBsdfPrincipled":
+        notes = [name for name in _NOT_LAMBERT if _input_value(node, name) > 0]
+        if _input_value(node, "Alpha", 1.0) < 1.0:
+            notes.append("Alpha")
+        return [f"its Principled BSDF has {', '.join(notes)} above 0 (set them to 0 for pure diffuse)"] if notes else []
+    return [f"its surface is a {node.bl_label} node, not a Diffuse or Principled BSDF"]
+
+
+def _material_color(material, warnings: list | None = None) -> np.ndarray:
+    """Return a material's diffuse colour: the surface BSDF's base colour, else its viewport colour.
+
+    Notes in `warnings` when Cycles will shade the material differently from Primer's Lambert surface.
+    """
     if material is None:
         return np.array(core_scene.DEFAULT_BASE_COLOR)
-    tree = material.node_tree
-    if tree is not None:
-        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
-                   and n.target in {"ALL", "CYCLES"}]
-        output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-        if output is not None and output.inputs["Surface"].is_linked:
-            node = output.inputs["Surface"].links[0].from_node
-            socket_name = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}.get(node.bl_idname)
-            if socket_name is not None and not node.inputs[socket_name].is_linked:
-                return np.array(node.inputs[socket_name].default_value[:3], np.float64)
+    node = _surface_node(material)
+    if warnings is not None and _node_tree(material) is not None:    # without nodes Cycles is Lambert too
+        for note in _material_notes(material, node):
+            warnings.append(f"material '{material.name}' is not pure diffuse in Cycles: {note}; "
+                            "Primer renders its base colour as a Lambert surface")
+    if node is not None:
+        socket_name = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}.get(node.bl_idname)
+        if socket_name is not None and not node.inputs[socket_name].is_linked:
+            return np.array(node.inputs[socket_name].default_value[:3], np.float64)
     return np.array(material.diffuse_color[:3], np.float64)
 
 
 class _Materials:
     """Scene materials, each exported once, indexed by the material datablock."""
 
-    def __init__(self, scene: core_scene.Scene):
+    def __init__(self, scene: core_scene.Scene, warnings: list | None = None):
         self.scene = scene
         self.index = {}
+        self.warnings = warnings
 
     def slot_map(self, obj) -> np.ndarray:
         """Return the scene material index of each of the object's material slots (-1 for empty)."""
@@ -104,7 +159,7 @@ class _Materials:
                 continue
             key = material.original.as_pointer() if hasattr(material, "original") else material.as_pointer()
             if key not in self.index:
-                self.index[key] = self.scene.add_material(_material_color(material), material.name)
+                self.index[key] = self.scene.add_material(_material_color(material, self.warnings), material.name)
             slots.append(self.index[key])
         return np.array(slots, np.int64)
 
@@ -128,6 +183,10 @@ def export_light(obj, matrix: np.ndarray, warnings: list):
         return None
     if light.type == "AREA" and getattr(getattr(light, "cycles", None), "is_portal", False):
         return None
+    if not getattr(light, "use_shadow", True):
+        warnings.append(f"light '{obj.name}' casts no shadows in Cycles; Primer always traces its shadow rays")
+    if getattr(light, "use_nodes", False):
+        warnings.append(f"light '{obj.name}' uses shader nodes, which Primer ignores (it uses colour and power)")
     color = _light_color(light)
     normalize = getattr(light, "normalize", True)
     position = matrix[:3, 3].copy()
@@ -156,12 +215,13 @@ def export_light(obj, matrix: np.ndarray, warnings: list):
         size_y = float(light.size_y) if light.shape in {"RECTANGLE", "ELLIPSE"} else size_x
         axis_u = axes[:, 0] * size_x
         axis_v = axes[:, 1] * size_y
-        emitting = -np.cross(axis_u, axis_v)
-        if not np.linalg.norm(emitting) > 0:
+        # Cycles emits along the object's -Z axis, whatever the handedness of X and Y (a light with
+        # negative X scale still faces -Z), and ignores the Z scale.
+        if not (np.linalg.norm(np.cross(axis_u, axis_v)) > 0 and np.linalg.norm(axes[:, 2]) > 0):
             warnings.append(f"area light '{obj.name}' has zero size and was skipped")
             return None
         power = float(light.energy)
-        area = core_scene.AreaLight(position, axis_u, axis_v, emitting / np.linalg.norm(emitting), power, color,
+        area = core_scene.AreaLight(position, axis_u, axis_v, minus_z, power, color,
                                     light.shape, float(getattr(light, "spread", math.pi)), name=obj.name)
         if not normalize:
             from ..core.lights import area_light_area
@@ -196,36 +256,59 @@ def export_camera(camera_object) -> Camera:
 
 
 def export_world(world, warnings: list) -> np.ndarray:
-    """Return the world's background colour (colour x strength of its Background node), linear RGB."""
+    """Return the world colour that camera rays see (colour x strength of its Background node), linear RGB.
+
+    Primer's world is only a background: it lights no surface. In Cycles it also lights the scene
+    unless its diffuse ray visibility is off, which the warnings say.
+    """
     if world is None:
         return np.zeros(3)
-    tree = world.node_tree
+    visibility = getattr(world, "cycles_visibility", None)
+    color = np.array(world.color[:3], np.float64)
+    tree = _node_tree(world)
     if tree is not None:
-        output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output), None)
+        output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output
+                       and n.target in {"ALL", "CYCLES"}), None)
         if output is None or not output.inputs["Surface"].is_linked:
             return np.zeros(3)
         node = output.inputs["Surface"].links[0].from_node
         if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
                 and not node.inputs["Strength"].is_linked:
-            return np.array(node.inputs["Color"].default_value[:3], np.float64) * float(node.inputs["Strength"].default_value)
-        warnings.append("the world shader is not a plain Background colour; Primer uses the world's viewport colour")
-    return np.array(world.color[:3], np.float64)
+            color = np.array(node.inputs["Color"].default_value[:3], np.float64) * float(node.inputs["Strength"].default_value)
+        else:
+            warnings.append("the world shader is not a plain Background colour; Primer uses the world's viewport colour")
+    if visibility is not None and not visibility.camera:
+        return np.zeros(3)
+    if color.max() > 0 and (visibility is None or visibility.diffuse):
+        warnings.append("the world lights surfaces in Cycles but not in Primer, which shows it only behind the "
+                        "scene (World > Settings > Ray Visibility: turn Diffuse off to compare like with like)")
+    return color
 
 
 def frame_size(render) -> tuple:
-    """Return the (width, height) in pixels after the resolution percentage, as Blender computes it."""
-    scale = render.resolution_percentage / 100.0
-    return max(1, int(render.resolution_x * scale)), max(1, int(render.resolution_y * scale))
+    """Return the (width, height) in pixels after the resolution percentage, as Blender computes it.
+
+    Blender divides in integers: (resolution * percentage) // 100 (BKE_render_resolution).
+    """
+    percentage = int(render.resolution_percentage)
+    return (max(1, int(render.resolution_x) * percentage // 100),
+            max(1, int(render.resolution_y) * percentage // 100))
 
 
 def border_rectangle(render, width: int, height: int) -> tuple:
-    """Return the rendered rectangle (x, y, w, h) in pixels, y from the bottom, honouring the render border."""
+    """Return the rendered rectangle (x, y, w, h) in pixels of the whole frame, y from the bottom.
+
+    Blender truncates border * size, computed in float32, to whole pixels (render_init_from_main),
+    with or without "crop to border". Its render result then covers exactly this rectangle, so an
+    engine writes it with begin_result(0, 0, w, h): begin_result counts from the border's corner.
+    """
     if not render.use_border:
         return 0, 0, width, height
-    x0 = int(round(render.border_min_x * width))
-    x1 = int(round(render.border_max_x * width))
-    y0 = int(round(render.border_min_y * height))
-    y1 = int(round(render.border_max_y * height))
+    f = np.float32
+    x0 = int(f(render.border_min_x) * f(width))
+    x1 = int(f(render.border_max_x) * f(width))
+    y0 = int(f(render.border_min_y) * f(height))
+    y1 = int(f(render.border_max_y) * f(height))
     x0, x1 = max(0, min(x0, width)), max(0, min(x1, width))
     y0, y1 = max(0, min(y0, height)), max(0, min(y1, height))
     if x1 <= x0 or y1 <= y0:
@@ -256,6 +339,38 @@ def render_settings(scene, width: int, height: int, border: tuple) -> core_scene
 # The whole scene
 # ----------------------------------------------------------------------------
 
+def _terminator_offsets(obj) -> tuple:
+    """Return Cycles' (geometry, shading) shadow-terminator offsets of an object (on obj.cycles before 4.3)."""
+    for owner in (obj, getattr(obj, "cycles", None)):
+        if owner is not None and hasattr(owner, "shadow_terminator_geometry_offset"):
+            return (float(owner.shadow_terminator_geometry_offset),
+                    float(getattr(owner, "shadow_terminator_shading_offset", 0.0)))
+    return 0.1, 0.0
+
+
+def _terminator_notes(offsets: dict, fix: bool, cutoff: float) -> list:
+    """Return warnings where Cycles' terminator offsets of smooth objects differ from Primer's setting.
+
+    offsets: object name -> (geometry, shading) offsets of objects with smooth triangles.
+    """
+    notes = []
+    if fix:
+        differ = sorted(name for name, (geometry, _) in offsets.items() if abs(geometry - cutoff) > 1e-6)
+        wanted = f"{cutoff:g}, as Primer's Shadow Terminator Fix uses"
+    else:
+        differ = sorted(name for name, (geometry, _) in offsets.items() if geometry > 0.0)
+        wanted = "0, as Primer's Shadow Terminator Fix is off"
+    if differ:
+        shown = ", ".join(f"'{name}'" for name in differ[:3]) + (" and others" if len(differ) > 3 else "")
+        notes.append(f"Cycles lifts shadow rays on smooth {shown} by a different Shadow Terminator Geometry "
+                     f"Offset; set it to {wanted}, to compare like with like")
+    shading = sorted(name for name, (_, offset) in offsets.items() if offset > 0.0)
+    if shading:
+        notes.append(f"Primer ignores Cycles' Shadow Terminator Shading Offset of '{shading[0]}'"
+                     + (" and others" if len(shading) > 1 else ""))
+    return notes
+
+
 def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) -> Export:
     """Return the evaluated depsgraph as a core scene plus render settings.
 
@@ -271,9 +386,11 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) ->
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
     core = core_scene.Scene(camera=camera, world_color=export_world(scene.world, warnings))
-    materials = _Materials(core)
+    materials = _Materials(core, warnings)
     mesh_index: dict = {}
     ray_visibility_noted: set = set()
+    unsupported_noted: set = set()
+    terminator_offsets: dict = {}
 
     for instance in depsgraph.object_instances:
         if is_cancelled():
@@ -285,29 +402,32 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) ->
             if light is not None:
                 core.lights.append(light)
             continue
-        if obj.type not in MESH_LIKE:
+        if not instance.show_self:
+            continue                    # e.g. a particle emitter that is not rendered itself
+        if obj.type in UNSUPPORTED_GEOMETRY:
+            if obj.name not in unsupported_noted:
+                unsupported_noted.add(obj.name)
+                warnings.append(f"object '{obj.name}' is of type {obj.type}, which Primer does not render")
+            continue
+        if obj.type != "MESH" or obj.data is None:
             continue
         if not (obj.visible_camera and obj.visible_shadow) and obj.name not in ray_visibility_noted:
             ray_visibility_noted.add(obj.name)
             warnings.append(f"object '{obj.name}' hides itself from some rays; Primer renders it fully visible")
-        # A mesh shared by several instances is exported once (keyed by its evaluated data).
-        key = obj.data.as_pointer() if obj.type == "MESH" and obj.data is not None else ("object", obj.name)
+        # A mesh shared by several instances is exported once (keyed by its evaluated data): linked
+        # duplicates, collection and geometry-nodes instances share it; modifiers make a mesh of its own.
+        key = obj.data.as_pointer()
         if key not in mesh_index:
-            if obj.type == "MESH":
-                mesh = _mesh_arrays(obj.data)
-            else:
-                temporary = obj.to_mesh()
-                try:
-                    mesh = _mesh_arrays(temporary) if temporary is not None else None
-                finally:
-                    obj.to_mesh_clear()
-            if mesh is None or len(mesh.triangles) == 0:
+            mesh = _mesh_arrays(obj.data)
+            if len(mesh.triangles) == 0:
                 mesh_index[key] = None
                 continue
             core.meshes.append(mesh)
             mesh_index[key] = len(core.meshes) - 1
         if mesh_index[key] is None:
             continue
+        if obj.name not in terminator_offsets and core.meshes[mesh_index[key]].smooth.any():
+            terminator_offsets[obj.name] = _terminator_offsets(obj)
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, materials.slot_map(obj), obj.name))
 
     if not core.lights:
@@ -315,4 +435,5 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) ->
     width, height = frame_size(scene.render)
     border = border_rectangle(scene.render, width, height)
     settings = render_settings(scene, width, height, border)
+    warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
     return Export(core, settings, (width, height), border, warnings)
