@@ -1,0 +1,557 @@
+"""Build the sample .blend files that a student opens first, from scratch, with bpy.
+
+Usage (any Python with Blender's `bpy` module, or Blender itself):
+    python sample_scenes/make_scenes.py                 # writes sample_scenes/<name>.blend, all scenes
+    python sample_scenes/make_scenes.py --only light_spot camera_ortho --out /tmp/scenes
+    blender -b --python sample_scenes/make_scenes.py -- --only light_spot
+
+The committed files were written with Blender 4.2 LTS (`.venv42/bin/python`), the oldest Blender
+Primer supports, so that every supported Blender opens them (Blender 5 files do not open in 4.x).
+Settings that 4.2 lacks (light exposure, temperature) are skipped there.
+
+The scenes, one idea each:
+    light_point, light_point_soft, light_spot, light_sun     one light of each type, Cycles' units
+    light_area, light_area_spread                             area lights: rectangle (mirrored), ellipse
+    shading_flat_smooth                                       the shadow terminator of a 12-segment sphere
+    modifiers_instances                                       modifiers, instancing, negative scale, curves
+    camera_ortho, camera_persp_shift,                         every camera type, with shift and sensor fit
+    camera_fisheye_equidistant, camera_fisheye_equisolid      (disk, square and sphere lights light them)
+
+Each renders the same in Primer and in Cycles set up as Primer's reference (direct light only:
+max_bounces 0, a 1-pixel box filter, no denoising; tests/test_blender_scenes.py checks it), because:
+- materials are pure Lambert: a Diffuse BSDF with roughness 0, or a Principled BSDF with
+  Specular IOR Level 0 (Cycles then adds no specular lobe);
+- the world is a plain Background colour seen by camera rays only (its diffuse, glossy,
+  transmission and scatter ray visibility are off), which is how Primer treats the world;
+- lights stay invisible to the camera (Blender's default for light objects);
+- Cycles' per-object shadow-terminator geometry offset is 0, matching Primer's default
+  (terminator fix off); see `shading_flat_smooth`;
+- each scene has one light: Cycles samples one light per path, so several lights would need many
+  more samples for a clean reference.
+The images are small (160x120 or less) and the files saved compressed.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+# Sampling stored in each file: enough for a clean look when a student presses F12.
+DEFAULT_PRIMER_SAMPLES = 64
+DEFAULT_CYCLES_SAMPLES = 256
+
+
+# ----------------------------------------------------------------------------
+# Building blocks
+# ----------------------------------------------------------------------------
+
+def _bpy():
+    import bpy
+    return bpy
+
+
+def new_file(name: str, width: int = 160, height: int = 120, light_samples: int = 4,
+             world=(0.03, 0.035, 0.045)):
+    """Start an empty file and give its scene Primer's and Cycles' reference settings."""
+    bpy = _bpy()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.name = name
+    render = scene.render
+    render.resolution_x, render.resolution_y = width, height
+    render.resolution_percentage = 100
+    render.pixel_aspect_x = render.pixel_aspect_y = 1.0
+    render.film_transparent = False
+    render.use_border = False
+    # Cycles as Primer's reference, so that switching the engine compares like with like.
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples = DEFAULT_CYCLES_SAMPLES
+    cycles.use_adaptive_sampling = False
+    cycles.use_denoising = False
+    cycles.max_bounces = 0
+    for bounce in ("diffuse_bounces", "glossy_bounces", "transmission_bounces", "volume_bounces",
+                   "transparent_max_bounces"):
+        setattr(cycles, bounce, 0)
+    cycles.pixel_filter_type = "BOX"
+    cycles.filter_width = 1.0
+    view = scene.view_settings
+    view.view_transform = "Standard"
+    view.look = "None"
+    view.exposure = 0.0
+    view.gamma = 1.0
+    # Primer, when it is installed (tools/render.py's load_primer registers it from this checkout).
+    if hasattr(scene, "primer"):
+        scene.primer.samples = DEFAULT_PRIMER_SAMPLES
+        scene.primer.light_samples = light_samples
+        render.engine = "PRIMER"
+    else:
+        render.engine = "CYCLES"
+    set_world(scene, world)
+    return scene
+
+
+def set_world(scene, color, strength: float = 1.0):
+    """A plain Background colour that only camera rays see: Primer's world (it lights nothing)."""
+    bpy = _bpy()
+    world = bpy.data.worlds.new("World")
+    scene.world = world
+    if world.node_tree is None:             # Blender 4.x: node trees are opt-in
+        world.use_nodes = True
+    background = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
+    background.inputs["Color"].default_value = (*color, 1.0)
+    background.inputs["Strength"].default_value = strength
+    world.color = color
+    visibility = world.cycles_visibility
+    visibility.camera = True
+    visibility.diffuse = visibility.glossy = visibility.transmission = visibility.scatter = False
+    return world
+
+
+def diffuse(name: str, color, principled: bool = False):
+    """A pure Lambert material: Diffuse BSDF (roughness 0), or Principled BSDF with Specular IOR Level 0."""
+    bpy = _bpy()
+    material = bpy.data.materials.new(name)
+    material.diffuse_color = (*color, 1.0)          # the viewport colour, too
+    if material.node_tree is None:          # Blender 4.x: node trees are opt-in
+        material.use_nodes = True
+    tree = material.node_tree
+    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    for node in list(tree.nodes):
+        if node.name != output.name:
+            tree.nodes.remove(node)
+    if principled:
+        bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+        bsdf.inputs["Base Color"].default_value = (*color, 1.0)
+        bsdf.inputs["Specular IOR Level"].default_value = 0.0
+        bsdf.inputs["Roughness"].default_value = 0.5
+    else:
+        bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
+        bsdf.inputs["Color"].default_value = (*color, 1.0)
+        bsdf.inputs["Roughness"].default_value = 0.0
+    bsdf.location = (-300, 0)
+    tree.links.new(bsdf.outputs["BSDF"], output.inputs["Surface"])
+    return material
+
+
+def link(obj, collection=None):
+    """Put `obj` in `collection` (default: the scene's collection) and return it."""
+    bpy = _bpy()
+    (collection or bpy.context.scene.collection).objects.link(obj)
+    return obj
+
+
+def _active():
+    return _bpy().context.view_layer.objects.active
+
+
+def finish_object(obj, material=None, smooth=None, name=None, terminator_offset: float = 0.0):
+    """Name, material, shading and Cycles' terminator offset of a freshly added object."""
+    if name:
+        obj.name = name
+        if obj.data is not None and obj.data.users == 1:
+            obj.data.name = name
+    if material is not None:
+        obj.data.materials.clear()
+        obj.data.materials.append(material)
+    if smooth is not None and obj.type == "MESH":
+        obj.data.shade_smooth() if smooth else obj.data.shade_flat()
+    # Cycles' shadow-terminator geometry offset: on the object since Blender 4.3, in obj.cycles before.
+    for owner in (obj, getattr(obj, "cycles", None)):
+        if owner is not None and hasattr(owner, "shadow_terminator_geometry_offset"):
+            owner.shadow_terminator_geometry_offset = terminator_offset
+    return obj
+
+
+def add_primitive(kind: str, material=None, smooth=None, name=None, location=(0, 0, 0),
+                  rotation=(0, 0, 0), scale=(1, 1, 1), **kw):
+    """Add a mesh primitive with bpy.ops (kind: 'plane', 'cube', 'uv_sphere', 'cylinder', 'cone', 'monkey', ...)."""
+    bpy = _bpy()
+    getattr(bpy.ops.mesh, f"primitive_{kind}_add")(location=location, rotation=rotation, **kw)
+    obj = _active()
+    obj.scale = scale
+    return finish_object(obj, material, smooth, name)
+
+
+def ground(material, size: float = 20.0):
+    """A large flat floor at z = 0."""
+    return add_primitive("plane", material, False, "Floor", size=size)
+
+
+def add_camera(location, target, lens: float = 35.0, name: str = "Camera", **data):
+    """A camera at `location` looking at `target` (up = +Z); extra keyword arguments set camera data."""
+    bpy = _bpy()
+    from mathutils import Vector
+
+    camera = bpy.data.objects.new(name, bpy.data.cameras.new(name))
+    camera.location = location
+    camera.rotation_euler = (Vector(target) - Vector(location)).to_track_quat("-Z", "Y").to_euler()
+    camera.data.lens = lens
+    camera.data.clip_start = 0.05
+    camera.data.clip_end = 200.0
+    for key, value in data.items():
+        setattr(camera.data, key, value)
+    link(camera)
+    bpy.context.scene.camera = camera
+    return camera
+
+
+def add_light(kind: str, name: str, location=(0, 0, 0), target=None, rotation=None, scale=(1, 1, 1), **data):
+    """A light object of `kind` ('POINT', 'SPOT', 'SUN', 'AREA'); aim it at `target` or give `rotation`."""
+    bpy = _bpy()
+    from mathutils import Vector
+
+    light = bpy.data.objects.new(name, bpy.data.lights.new(name, kind))
+    light.location = location
+    if target is not None:
+        light.rotation_euler = (Vector(target) - Vector(location)).to_track_quat("-Z", "Y").to_euler()
+    elif rotation is not None:
+        light.rotation_euler = rotation
+    light.scale = scale
+    for key, value in data.items():
+        if hasattr(light.data, key):        # exposure and temperature exist from Blender 4.3 / 4.4 on
+            setattr(light.data, key, value)
+    return link(light)
+
+
+def sun_rotation(elevation_deg: float, azimuth_deg: float):
+    """Euler rotation of a sun shining from this elevation and azimuth (its -Z travels towards the ground)."""
+    from mathutils import Vector
+
+    e, a = math.radians(elevation_deg), math.radians(azimuth_deg)
+    towards_sun = Vector((math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e)))
+    return towards_sun.to_track_quat("Z", "Y").to_euler()
+
+
+def stage(principled_sphere: bool = False):
+    """The common set: a grey floor, a smooth red sphere, a flat blue box and a green cylinder."""
+    grey = diffuse("Grey", (0.8, 0.8, 0.8))
+    red = diffuse("Red", (0.8, 0.15, 0.1), principled=principled_sphere)
+    blue = diffuse("Blue", (0.15, 0.3, 0.8))
+    green = diffuse("Green", (0.2, 0.7, 0.25), principled=True)
+    ground(grey)
+    add_primitive("uv_sphere", red, True, "Sphere", location=(0.9, 0.3, 0.8), radius=0.8, segments=32,
+                  ring_count=16)
+    add_primitive("cube", blue, False, "Box", location=(-1.1, 0.6, 0.5), rotation=(0, 0, math.radians(25)),
+                  size=1.0)
+    add_primitive("cylinder", green, None, "Cylinder", location=(-0.2, -1.0, 0.35), radius=0.35, depth=0.7,
+                  vertices=24)
+    return grey
+
+
+def stage_camera(**data):
+    """The camera that looks at the stage from the front and a little above."""
+    return add_camera((0.0, -6.5, 3.6), (0.0, 0.2, 0.55), lens=32.0, **data)
+
+
+# ----------------------------------------------------------------------------
+# The scenes
+# ----------------------------------------------------------------------------
+
+def light_point():
+    """A point light of radius 0: hard shadows, 1/r^2 falloff, colour and exposure in Cycles' units."""
+    new_file("light_point")
+    stage(principled_sphere=True)
+    stage_camera()
+    add_light("POINT", "Point", (2.2, -1.6, 3.2), energy=250.0, exposure=0.5, color=(1.0, 0.85, 0.7),
+              shadow_soft_size=0.0)
+
+
+def light_point_soft():
+    """A point light of radius 0.5 with Blender's soft falloff: soft shadows, 1/(d^2 + R^2)."""
+    new_file("light_point_soft")
+    stage()
+    stage_camera()
+    add_light("POINT", "Soft Point", (2.0, -1.4, 2.6), energy=280.0, shadow_soft_size=0.5,
+              use_soft_falloff=True, color=(1.0, 0.9, 0.8))
+
+
+def light_spot():
+    """A spot light: cone size and blend, an elliptical cone from non-uniform scale, a radius."""
+    new_file("light_spot")
+    stage()
+    stage_camera()
+    add_light("SPOT", "Spot", (1.8, -2.4, 3.6), target=(0.0, 0.4, 0.4), scale=(1.6, 1.0, 1.0), energy=700.0,
+              spot_size=math.radians(40.0), spot_blend=0.5, shadow_soft_size=0.1)
+
+
+def light_sun():
+    """A sun with a 6-degree disk: parallel light of `strength` W/m^2 and soft shadows."""
+    new_file("light_sun")
+    stage()
+    stage_camera()
+    add_light("SUN", "Sun", rotation=sun_rotation(40.0, -30.0), energy=3.0, angle=math.radians(6.0),
+              color=(1.0, 0.95, 0.85))
+
+
+def light_area():
+    """A rectangular area light, stretched and mirrored by its object scale: one-sided, radiance P / (pi A)."""
+    new_file("light_area", light_samples=8)
+    stage()
+    stage_camera()
+    add_light("AREA", "Rectangle", (1.8, -2.0, 2.6), target=(0.0, 0.3, 0.5), scale=(-1.5, 0.8, 1.0),
+              energy=60.0, shape="RECTANGLE", size=1.0, size_y=0.4, color=(1.0, 0.9, 0.75))
+
+
+def light_area_spread():
+    """An elliptical area light with a 90-degree spread: a soft-edged pool of light."""
+    new_file("light_area_spread", light_samples=8)
+    stage()
+    stage_camera()
+    add_light("AREA", "Ellipse", (-0.6, -1.5, 3.0), target=(-0.2, 0.3, 0.3), energy=60.0, shape="ELLIPSE",
+              size=1.2, size_y=0.6, spread=math.radians(90.0), color=(0.8, 0.9, 1.0))
+
+
+def shading_flat_smooth():
+    """The shadow terminator: a 12-segment sphere flat and smooth, sharp edges, custom normals.
+
+    Every object here has Cycles' Shadow Terminator > Geometry Offset at 0, like Primer with its
+    terminator fix off (the default), so the faceted terminator shows in both. To compare the two
+    fixes, set the offset to 0.1 (Cycles' default) and turn on Primer's Shadow Terminator Fix.
+    """
+    new_file("shading_flat_smooth")
+    grey = diffuse("Grey", (0.8, 0.8, 0.8))
+    white = diffuse("White", (0.75, 0.75, 0.7))
+    orange = diffuse("Orange", (0.85, 0.4, 0.1), principled=True)
+    ground(grey)
+    add_primitive("uv_sphere", white, False, "Flat Sphere", location=(-1.3, 0.0, 1.0), radius=1.0, segments=12,
+                  ring_count=6)
+    add_primitive("uv_sphere", white, True, "Smooth Sphere", location=(1.3, 0.0, 1.0), radius=1.0, segments=12,
+                  ring_count=6)
+    # Smooth by angle: faces are smooth, but edges sharper than 30 degrees stay sharp (split normals).
+    bpy = _bpy()
+    cylinder = add_primitive("cylinder", orange, True, "Smooth By Angle", location=(-0.6, -1.9, 0.4),
+                             radius=0.4, depth=0.8, vertices=10)
+    bpy.ops.object.select_all(action="DESELECT")
+    cylinder.select_set(True)
+    bpy.context.view_layer.objects.active = cylinder
+    bpy.ops.object.shade_smooth_by_angle(angle=math.radians(30.0))
+    # Custom normals: a flat box whose normals point away from its centre, like a sphere's.
+    box = add_primitive("cube", orange, True, "Custom Normals", location=(0.9, -1.9, 0.25), size=0.5)
+    normals = [tuple(c / vertex.co.length for c in vertex.co) for vertex in box.data.vertices]
+    box.data.normals_split_custom_set_from_vertices(normals)
+    add_camera((0.0, -7.5, 3.2), (0.0, 0.2, 0.55), lens=32.0)
+    add_light("SUN", "Low Sun", rotation=sun_rotation(20.0, -25.0), energy=3.0, angle=0.0)
+
+
+def modifiers_instances():
+    """Modifiers (subdivision, array, mirror), linked duplicates, a collection instance, geometry-nodes
+    instances, a negatively scaled object, a text, a bevelled curve and a metaball."""
+    bpy = _bpy()
+    new_file("modifiers_instances")
+    grey = diffuse("Grey", (0.8, 0.8, 0.8))
+    red = diffuse("Red", (0.8, 0.15, 0.1))
+    blue = diffuse("Blue", (0.15, 0.3, 0.8), principled=True)
+    yellow = diffuse("Yellow", (0.85, 0.7, 0.15))
+    ground(grey)
+    # Back row. Subdivision surface on a cube: a smooth blob from 6 faces.
+    blob = add_primitive("cube", red, True, "Subdivided Cube", location=(-2.1, 1.6, 0.5), size=0.9)
+    subsurf = blob.modifiers.new("Subdivision", "SUBSURF")
+    subsurf.levels = subsurf.render_levels = 2
+    # An array of 4 small boxes along X, doubled by a mirror modifier across an empty's XZ plane.
+    bar = add_primitive("cube", blue, False, "Array Mirror", location=(0.1, 2.7, 0.12), size=0.24)
+    array = bar.modifiers.new("Array", "ARRAY")
+    array.count = 4
+    array.relative_offset_displace = (1.7, 0.0, 0.0)
+    mirror_centre = link(bpy.data.objects.new("Mirror Centre", None))
+    mirror_centre.location = (0.0, 2.35, 0.0)
+    mirror = bar.modifiers.new("Mirror", "MIRROR")
+    mirror.use_axis = (False, True, False)
+    mirror.mirror_object = mirror_centre
+    # Linked duplicates: three objects share one smooth cone mesh.
+    cone = add_primitive("cone", yellow, True, "Cone", location=(1.5, 1.5, 0.4), radius1=0.3, depth=0.8,
+                         vertices=16)
+    for i, (x, y) in enumerate(((2.2, 1.2), (1.9, 0.6))):
+        twin = cone.copy()                      # shares cone.data
+        twin.name = f"Cone Twin {i + 1}"
+        twin.location = (x, y, 0.4)
+        twin.rotation_euler = (0.0, 0.0, 0.7 * (i + 1))
+        link(twin)
+    # Middle row. A collection instance: two empties instance one hidden collection (sphere and box).
+    group = bpy.data.collections.new("Props")
+    bpy.context.scene.collection.children.link(group)
+    prop_sphere = add_primitive("uv_sphere", red, True, "Prop Sphere", location=(0, 0, 0.22), radius=0.22,
+                                segments=16, ring_count=8)
+    prop_box = add_primitive("cube", blue, False, "Prop Box", location=(0.4, 0, 0.13), size=0.26)
+    for obj in (prop_sphere, prop_box):
+        bpy.context.scene.collection.objects.unlink(obj)
+        group.objects.link(obj)
+    bpy.context.view_layer.layer_collection.children[group.name].exclude = True
+    for i, (x, y, angle) in enumerate(((-2.6, 0.1, 0.3), (-2.0, -0.6, 1.4))):
+        empty = link(bpy.data.objects.new(f"Props Instance {i + 1}", None))
+        empty.instance_type = "COLLECTION"
+        empty.instance_collection = group
+        empty.location = (x, y, 0.0)
+        empty.rotation_euler = (0.0, 0.0, angle)
+    # Negative scale: a smooth monkey mirrored in X (its normals and winding must stay outward).
+    add_primitive("monkey", blue, True, "Mirrored Monkey", location=(-0.2, 0.3, 0.55),
+                  rotation=(0.0, 0.0, math.radians(-25.0)), scale=(-0.55, 0.55, 0.55))
+    # Geometry-nodes instances: icospheres on the vertices of a grid, randomly turned and scaled.
+    grid = add_primitive("grid", grey, False, "GN Instances", location=(1.5, -0.4, 0.1), x_subdivisions=3,
+                         y_subdivisions=3, size=1.1)
+    _instance_on_points(grid, yellow)
+    # Front row. A text and a bevelled Bezier circle: curves reach renderers as meshes.
+    text_data = bpy.data.curves.new("Text", "FONT")
+    text_data.body = "Primer"
+    text_data.size = 0.5
+    text_data.extrude = 0.05
+    text_data.align_x = "CENTER"
+    text_data.materials.append(red)
+    text = finish_object(link(bpy.data.objects.new("Text", text_data)))
+    text.location = (-0.6, -1.5, 0.0)
+    text.rotation_euler = (math.radians(60.0), 0.0, 0.0)
+    bpy.ops.curve.primitive_bezier_circle_add(radius=0.3, location=(1.0, -1.6, 0.4),
+                                              rotation=(math.radians(75.0), 0.0, math.radians(20.0)))
+    ring = finish_object(_active(), yellow, None, "Bevelled Curve")
+    ring.data.bevel_depth = 0.07
+    ring.data.bevel_resolution = 3
+    # A metaball of two balls: Blender meshes it for rendering.
+    meta_data = bpy.data.metaballs.new("Metaball")
+    meta_data.render_resolution = 0.05
+    meta_data.resolution = 0.1
+    for x in (-0.2, 0.2):
+        element = meta_data.elements.new()
+        element.co = (x, 0.0, 0.0)
+        element.radius = 0.35
+    meta_data.materials.append(grey)
+    meta = finish_object(link(bpy.data.objects.new("Metaball", meta_data)))
+    meta.location = (2.3, -1.2, 0.35)
+    add_camera((0.0, -5.8, 2.6), (0.0, 0.3, 0.4), lens=30.0)
+    add_light("SUN", "Sun", rotation=sun_rotation(50.0, -125.0), energy=2.5, angle=0.0)
+
+
+def _instance_on_points(obj, material):
+    """Give `obj` a geometry-nodes modifier: an icosphere instanced on each of its vertices, randomly turned."""
+    bpy = _bpy()
+    tree = bpy.data.node_groups.new("Instance On Points", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = tree.nodes, tree.links
+    group_in = nodes.new("NodeGroupInput")
+    group_out = nodes.new("NodeGroupOutput")
+    ico = nodes.new("GeometryNodeMeshIcoSphere")
+    ico.inputs["Radius"].default_value = 0.13
+    ico.inputs["Subdivisions"].default_value = 1
+    set_material = nodes.new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = material
+    instance = nodes.new("GeometryNodeInstanceOnPoints")
+    rotation = nodes.new("FunctionNodeRandomValue")
+    rotation.data_type = "FLOAT_VECTOR"
+    rotation.inputs["Max"].default_value = (3.0, 3.0, 3.0)
+    scale = nodes.new("FunctionNodeRandomValue")
+    scale.data_type = "FLOAT"
+    scale.inputs[2].default_value = 0.7        # Min (float)
+    scale.inputs[3].default_value = 1.3        # Max (float)
+    links.new(group_in.outputs["Geometry"], instance.inputs["Points"])
+    links.new(ico.outputs["Mesh"], set_material.inputs["Geometry"])
+    links.new(set_material.outputs["Geometry"], instance.inputs["Instance"])
+    links.new(rotation.outputs["Value"], instance.inputs["Rotation"])
+    links.new(scale.outputs[1], instance.inputs["Scale"])
+    links.new(instance.outputs["Instances"], group_out.inputs["Geometry"])
+    modifier = obj.modifiers.new("Instances", "NODES")
+    modifier.node_group = tree
+    return modifier
+
+
+def camera_ortho():
+    """An orthographic camera with shift and a vertical sensor fit on a wide image, under a disk light."""
+    new_file("camera_ortho", 160, 96, light_samples=8)
+    stage()
+    add_camera((4.5, -6.0, 5.0), (0.0, 0.2, 0.4), type="ORTHO", ortho_scale=3.6, sensor_fit="VERTICAL",
+               shift_x=0.12, shift_y=-0.06)
+    add_light("AREA", "Disk", (-1.5, -2.0, 3.0), target=(0.0, 0.2, 0.3), energy=80.0, shape="DISK", size=1.2,
+              size_y=0.1)      # size_y is ignored by disks
+
+
+def camera_persp_shift():
+    """A perspective camera with lens shift and a vertical sensor fit on a portrait image, under a square light."""
+    new_file("camera_persp_shift", 96, 128, light_samples=8)
+    stage()
+    add_camera((0.5, -6.0, 2.2), (0.0, 0.2, 0.9), lens=40.0, sensor_fit="VERTICAL", sensor_height=30.0,
+               shift_x=-0.08, shift_y=0.15)
+    add_light("AREA", "Square", (2.0, -2.5, 2.5), target=(0.3, 0.2, 0.5), energy=70.0, shape="SQUARE", size=0.8,
+              size_y=3.0)      # size_y is ignored by squares
+
+
+def camera_fisheye_equidistant():
+    """A 180-degree equidistant fisheye (the lens circle touches the frame), slightly shifted."""
+    new_file("camera_fisheye_equidistant", 128, 96)
+    stage()
+    add_camera((0.0, -3.2, 1.4), (0.0, 0.2, 0.6), type="PANO", panorama_type="FISHEYE_EQUIDISTANT",
+               fisheye_fov=math.radians(180.0), shift_x=0.05)
+    add_light("SUN", "Sun", rotation=sun_rotation(45.0, -60.0), energy=2.5, angle=0.0)
+
+
+def camera_fisheye_equisolid():
+    """An equisolid fisheye (8 mm lens, 24 mm-high sensor, vertical fit, shifted) on a wide image, under a sphere light."""
+    new_file("camera_fisheye_equisolid", 128, 96)
+    stage()
+    add_camera((0.0, -3.2, 1.4), (0.0, 0.2, 0.6), type="PANO", panorama_type="FISHEYE_EQUISOLID",
+               fisheye_lens=8.0, fisheye_fov=math.radians(170.0), sensor_fit="VERTICAL", sensor_height=24.0,
+               shift_y=0.04)
+    add_light("POINT", "Sphere Light", (-1.8, -2.0, 2.4), energy=250.0, shadow_soft_size=0.3,
+              use_soft_falloff=False, use_temperature=True, temperature=4500.0)
+
+
+SCENES = {
+    "light_point": light_point,
+    "light_point_soft": light_point_soft,
+    "light_spot": light_spot,
+    "light_sun": light_sun,
+    "light_area": light_area,
+    "light_area_spread": light_area_spread,
+    "shading_flat_smooth": shading_flat_smooth,
+    "modifiers_instances": modifiers_instances,
+    "camera_ortho": camera_ortho,
+    "camera_persp_shift": camera_persp_shift,
+    "camera_fisheye_equidistant": camera_fisheye_equidistant,
+    "camera_fisheye_equisolid": camera_fisheye_equisolid,
+}
+
+
+def build(name: str, out_dir: str = HERE) -> str:
+    """Build scene `name` from scratch and save it compressed; return the .blend path."""
+    bpy = _bpy()
+    SCENES[name]()
+    path = os.path.join(out_dir, f"{name}.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path, compress=True, check_existing=False)
+    return path
+
+
+def main(argv=None) -> int:
+    """Build the requested scenes; return a process exit code."""
+    parser = argparse.ArgumentParser(description="Build Primer's sample .blend files with bpy.")
+    parser.add_argument("--only", nargs="*", default=None, help="build only these scenes")
+    parser.add_argument("--out", default=HERE, help="folder for the .blend files (default: beside this script)")
+    if argv is None:
+        # Inside Blender (`blender -b --python make_scenes.py -- --only NAME`) the script's own
+        # arguments follow "--"; with the bpy module they are the whole command line.
+        argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+    args = parser.parse_args(argv)
+    names = args.only or list(SCENES)
+    unknown = [n for n in names if n not in SCENES]
+    if unknown:
+        print(f"unknown scene(s) {unknown}; choose from {list(SCENES)}", file=sys.stderr)
+        return 2
+    try:
+        import bpy  # noqa: F401
+    except ImportError:
+        print("make_scenes.py needs the bpy module (Blender as a Python module)", file=sys.stderr)
+        return 1
+    sys.path.insert(0, os.path.join(ROOT, "tools"))
+    from render import load_primer      # registers Primer, so the files can select it as their engine
+
+    load_primer()
+    os.makedirs(args.out, exist_ok=True)
+    for name in names:
+        path = build(name, args.out)
+        print(f"{name:28s} -> {os.path.relpath(path)} ({os.path.getsize(path) / 1024:.0f} KiB)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
