@@ -1,0 +1,314 @@
+"""Every sample scene renders through Primer as Cycles renders it, within 1% relative RMSE.
+
+Cycles is set up as Primer's reference by tools/render.py: direct light only (max_bounces 0), a
+1-pixel box filter, no denoising, Standard view transform, linear float EXR. Both renderers run
+through tools/render.py in their own processes (bpy keeps global state), on the committed
+sample_scenes/*.blend files and on variants of them that change one render setting.
+
+    relative RMSE = sqrt(mean((P - C)^2)) / sqrt(mean(C^2))      over the RGB of all pixels
+
+Alpha is compared too (its RMSE, absolute). The sample counts below keep each renderer's own noise
+near 0.2-0.3% relative RMSE (measured by rendering twice with different seeds), so a failure means
+a real difference of ~0.9% or more. Cycles' images are cached, keyed by the .blend file, the
+setting changes, the sample count, tools/render.py and the bpy version, in pytest's cache folder
+(.pytest_cache/d/primer-cycles-references); with a cold cache the test renders them itself.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import json
+import os
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+from blender_env import ROOT, isolated_env, run_bpy
+
+from core import image_io
+
+SCENES_DIR = os.path.join(ROOT, "sample_scenes")
+RENDER_TOOL = os.path.join(ROOT, "tools", "render.py")
+TOLERANCE = 0.01            # relative RMSE of RGB
+ALPHA_TOLERANCE = 0.005     # RMSE of alpha
+TIMEOUT = 900               # seconds per render
+
+pytestmark = pytest.mark.blender
+
+# Scene -> (Primer samples, Cycles samples). Measured noise of one render at these counts (relative
+# RMSE between two seeds / sqrt 2) is 0.05-0.3% for either renderer; see the module docstring.
+SCENES = {
+    "light_point": (64, 256),
+    "light_point_soft": (256, 512),
+    "light_spot": (512, 1024),
+    "light_sun": (256, 512),
+    "light_area": (128, 512),
+    "light_area_spread": (512, 2048),
+    "shading_flat_smooth": (256, 256),
+    "modifiers_instances": (256, 256),
+    "camera_ortho": (256, 1024),
+    "camera_persp_shift": (128, 1024),
+    "camera_fisheye_equidistant": (256, 256),
+    "camera_fisheye_equisolid": (256, 512),
+}
+
+
+@dataclass(frozen=True)
+class Variant:
+    """A sample scene with some settings changed ("render.x", "camera.x", "lights.x", "objects.x", "primer.x")."""
+
+    id: str
+    scene: str
+    settings: dict = field(hash=False)
+    primer_samples: int = 64
+    cycles_samples: int = 256
+
+
+BORDER = {"render.use_border": True, "render.border_min_x": 0.21, "render.border_max_x": 0.68,
+          "render.border_min_y": 0.33, "render.border_max_y": 0.8}
+
+VARIANTS = [
+    Variant("percentage_50", "light_point", {"render.resolution_percentage": 50}),
+    Variant("percentage_37_odd_size", "camera_persp_shift", {"render.resolution_percentage": 37}, 128, 1024),
+    Variant("border", "light_point", {**BORDER, "render.use_crop_to_border": False}),
+    Variant("border_crop", "camera_persp_shift", {**BORDER, "render.use_crop_to_border": True}, 128, 1024),
+    Variant("pixel_aspect", "light_point", {"render.pixel_aspect_x": 1.5}),
+    Variant("sensor_fit_horizontal_portrait", "camera_persp_shift", {"camera.sensor_fit": "HORIZONTAL"}, 128, 1024),
+    Variant("film_transparent_fisheye", "camera_fisheye_equidistant", {"render.film_transparent": True}, 256, 256),
+    Variant("light_exposure_temperature_unnormalized", "light_point",
+            {"lights.exposure": -1.5, "lights.use_temperature": True, "lights.temperature": 3500.0,
+             "lights.normalize": False}),
+    # Cycles' default terminator offset (0.1) against Primer's terminator fix, which follows it.
+    Variant("terminator_fix", "shading_flat_smooth",
+            {"objects.shadow_terminator_geometry_offset": 0.1, "primer.terminator_fix": True}, 256, 256),
+]
+
+# Makes a variant .blend: open the sample scene, change the settings, save. Run in bpy's Python.
+MAKE_VARIANTS = """
+import json
+import sys
+import bpy
+from blender_env import report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+
+load_primer()       # registers scene.primer, so its settings can be changed
+for source, target, settings in json.loads({jobs!r}):
+    bpy.ops.wm.open_mainfile(filepath=source)
+    scene = bpy.context.scene
+    for key, value in settings.items():
+        owner, name = key.split(".")
+        if owner in ("lights", "objects"):
+            kind = "LIGHT" if owner == "lights" else "MESH"
+            changed = [o.data if kind == "LIGHT" else o for o in scene.objects if o.type == kind]
+        else:
+            changed = [{{"render": scene.render, "camera": scene.camera.data, "primer": scene.primer}}[owner]]
+        for thing in changed:
+            setattr(thing, name, value)
+    bpy.ops.wm.save_as_mainfile(filepath=target, compress=True)
+report(done=True)
+"""
+
+
+def relative_rmse(image: np.ndarray, reference: np.ndarray) -> float:
+    """Return sqrt(mean((image - reference)^2)) / sqrt(mean(reference^2)) over RGB."""
+    difference = image[..., :3].astype(np.float64) - reference[..., :3]
+    return float(np.sqrt(np.mean(difference ** 2)) / np.sqrt(np.mean(reference[..., :3].astype(np.float64) ** 2)))
+
+
+def render(blend: str, out: str, engine: str, samples: int, folder: str) -> None:
+    """Render `blend` into the EXR `out` with tools/render.py in a fresh, isolated bpy process."""
+    command = [sys.executable, RENDER_TOOL, blend, "-o", out, "--engine", engine, "--samples", str(samples)]
+    completed = subprocess.run(command, cwd=ROOT, env=isolated_env(folder), capture_output=True, text=True,
+                               timeout=TIMEOUT)
+    output = completed.stdout + completed.stderr
+    if completed.returncode != 0 or not os.path.isfile(out):
+        tail = "\n".join(output.splitlines()[-40:])
+        pytest.fail(f"{engine} render of {os.path.basename(blend)} failed ({completed.returncode}):\n{tail}",
+                    pytrace=False)
+
+
+def _digest(*parts) -> str:
+    """Return a short hex digest of files (paths) and values."""
+    sha = hashlib.sha256()
+    for part in parts:
+        if isinstance(part, str) and os.path.isfile(part):
+            with open(part, "rb") as fh:
+                sha.update(fh.read())
+        else:
+            sha.update(json.dumps(part, sort_keys=True).encode())
+        sha.update(b"\0")
+    return sha.hexdigest()[:24]
+
+
+@pytest.fixture(scope="session")
+def reference_cache(request) -> str:
+    """The folder of cached Cycles references (inside .pytest_cache, which git ignores)."""
+    cache = getattr(request.config, "cache", None)       # None with -p no:cacheprovider
+    if cache is not None:
+        return str(cache.mkdir("primer-cycles-references"))
+    folder = os.path.join(ROOT, ".pytest_cache", "d", "primer-cycles-references")
+    os.makedirs(folder, exist_ok=True)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def variant_blends(tmp_path_factory) -> dict:
+    """Write every variant's .blend (one bpy process for all); return variant id -> path."""
+    folder = tmp_path_factory.mktemp("variants")
+    paths = {v.id: str(folder / f"{v.id}.blend") for v in VARIANTS}
+    jobs = [(os.path.join(SCENES_DIR, f"{v.scene}.blend"), paths[v.id], v.settings) for v in VARIANTS]
+    run_bpy(MAKE_VARIANTS.format(tools=os.path.join(ROOT, "tools"), jobs=json.dumps(jobs)), str(folder))
+    return paths
+
+
+def cycles_reference(blend: str, key_parts: tuple, samples: int, cache: str, folder: str) -> np.ndarray:
+    """Return Cycles' image of `blend`, from the cache or rendered now (and cached)."""
+    key = _digest(*key_parts, samples, RENDER_TOOL, importlib.metadata.version("bpy"))
+    cached = os.path.join(cache, f"{key}.exr")
+    if not os.path.isfile(cached):
+        fresh = os.path.join(folder, "cycles.exr")
+        render(blend, fresh, "CYCLES", samples, folder)
+        shutil.copyfile(fresh, cached + ".part")
+        os.replace(cached + ".part", cached)     # never leave a half-written reference behind
+    return image_io.read_image(cached)
+
+
+def compare(blend: str, key_parts: tuple, primer_samples: int, cycles_samples: int, cache: str, folder: str):
+    """Render `blend` with Primer, fetch Cycles' reference, and assert they agree."""
+    reference = cycles_reference(blend, key_parts, cycles_samples, cache, folder)
+    primer_path = os.path.join(folder, "primer.exr")
+    render(blend, primer_path, "PRIMER", primer_samples, folder)
+    image = image_io.read_image(primer_path)
+    assert image.shape == reference.shape, f"Primer wrote {image.shape}, Cycles {reference.shape}"
+    error = relative_rmse(image, reference)
+    alpha_error = float(np.sqrt(np.mean((image[..., 3].astype(np.float64) - reference[..., 3]) ** 2)))
+    print(f"{os.path.basename(blend)}: relative RMSE {100 * error:.3f}%, alpha RMSE {alpha_error:.4f}")
+    assert error < TOLERANCE, f"relative RMSE {100 * error:.2f}% against Cycles"
+    assert alpha_error < ALPHA_TOLERANCE, f"alpha RMSE {alpha_error:.4f} against Cycles"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_sample_scene_matches_cycles(name, reference_cache, tmp_path):
+    """Each committed sample scene: Primer against Cycles with direct light only."""
+    blend = os.path.join(SCENES_DIR, f"{name}.blend")
+    primer_samples, cycles_samples = SCENES[name]
+    compare(blend, (blend,), primer_samples, cycles_samples, reference_cache, str(tmp_path))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("variant", VARIANTS, ids=[v.id for v in VARIANTS])
+def test_render_setting_matches_cycles(variant, variant_blends, reference_cache, tmp_path):
+    """Resolution percentage, render border with and without crop, pixel aspect, sensor fit,
+    transparent film, light exposure / temperature / normalize, and the terminator fix."""
+    base = os.path.join(SCENES_DIR, f"{variant.scene}.blend")
+    compare(variant_blends[variant.id], (base, variant.settings), variant.primer_samples, variant.cycles_samples,
+            reference_cache, str(tmp_path))
+
+
+def test_every_sample_scene_is_built_by_the_script_and_tested():
+    """sample_scenes/*.blend, make_scenes.SCENES and this file's SCENES name the same scenes."""
+    sys.path.insert(0, SCENES_DIR)
+    try:
+        import make_scenes
+    finally:
+        sys.path.remove(SCENES_DIR)
+    committed = {f[:-len(".blend")] for f in os.listdir(SCENES_DIR) if f.endswith(".blend")}
+    assert committed == set(make_scenes.SCENES) == set(SCENES)
+    for name in committed:
+        assert os.path.getsize(os.path.join(SCENES_DIR, f"{name}.blend")) < 256 * 1024, f"{name}.blend is large"
+
+
+EXPORT_INSTANCES = """
+import sys
+import bpy
+import numpy as np
+from blender_env import report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+
+primer = load_primer()
+export = sys.modules[primer.__name__ + ".addon.export"]
+bpy.ops.wm.open_mainfile(filepath={blend!r})
+exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+scene = exported.scene
+placements = {{}}
+for instance in scene.instances:
+    entry = placements.setdefault(instance.name, {{"meshes": set(), "det": []}})
+    entry["meshes"].add(instance.mesh)
+    entry["det"].append(float(np.linalg.det(instance.matrix[:3, :3])))
+users = {{}}
+for instance in scene.instances:
+    users.setdefault(instance.mesh, set()).add(instance.name)
+report(meshes=len(scene.meshes), instances=len(scene.instances), warnings=exported.warnings,
+       placements={{k: {{"meshes": sorted(v["meshes"]), "det": v["det"]}} for k, v in placements.items()}},
+       users={{str(k): sorted(v) for k, v in users.items()}})
+"""
+
+
+def test_instances_share_mesh_data_and_modified_objects_do_not(tmp_path):
+    """Linked duplicates, collection and geometry-nodes instances share one core mesh; an object with
+    modifiers has its own; a text, a curve and a metaball are exported once; negative scale is kept."""
+    result = run_bpy(EXPORT_INSTANCES.format(tools=os.path.join(ROOT, "tools"),
+                                             blend=os.path.join(SCENES_DIR, "modifiers_instances.blend")),
+                     str(tmp_path))
+    placements, users = result["placements"], result["users"]
+    cones = [placements[name]["meshes"] for name in ("Cone", "Cone Twin 1", "Cone Twin 2")]
+    assert cones[0] == cones[1] == cones[2] and len(cones[0]) == 1
+    assert len(placements["Prop Sphere"]["det"]) == 2 and len(placements["Prop Sphere"]["meshes"]) == 1
+    assert len(placements["GN Instances"]["det"]) == 16 and len(placements["GN Instances"]["meshes"]) == 1
+    for name in ("Subdivided Cube", "Array Mirror", "Text", "Bevelled Curve", "Metaball"):
+        assert len(placements[name]["det"]) == 1, f"{name} exported {len(placements[name]['det'])} times"
+        assert users[str(placements[name]["meshes"][0])] == [name], f"{name} shares its mesh"
+    assert placements["Mirrored Monkey"]["det"][0] < 0
+    assert result["warnings"] == []
+
+
+EXPORT_NOTES = """
+import sys
+import bpy
+import numpy as np
+from blender_env import report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+
+primer = load_primer()
+export = sys.modules[primer.__name__ + ".addon.export"]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 100, 77, 29
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+scene.camera = camera
+bpy.ops.mesh.primitive_uv_sphere_add()                  # smooth below; Cycles' default terminator offset 0.1
+bpy.ops.object.shade_smooth()
+sphere = bpy.context.view_layer.objects.active
+sphere.data.materials.append(bpy.data.materials.new("Default Principled"))   # Specular IOR Level 0.5
+if sphere.data.materials[0].node_tree is None:
+    sphere.data.materials[0].use_nodes = True
+world = bpy.data.worlds.new("World")
+scene.world = world
+world.color = (0.05, 0.05, 0.05)                         # lights surfaces in Cycles (Blender 4.x: no nodes)
+light = bpy.data.objects.new("Mirrored Area", bpy.data.lights.new("Mirrored Area", "AREA"))
+light.scale = (-1.0, 1.0, 1.0)                           # Cycles still emits along -Z
+scene.collection.objects.link(light)
+exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+report(size=list(exported.full_size), warnings=exported.warnings,
+       direction=exported.scene.lights[0].direction.tolist())
+"""
+
+
+def test_export_notes_what_cycles_renders_differently(tmp_path):
+    """Integer resolution percentage; a mirrored area light faces -Z; warnings for specular, world, terminator."""
+    result = run_bpy(EXPORT_NOTES.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    assert result["size"] == [29, 22]               # 100 * 29 // 100 (float maths gives 28), 77 * 29 // 100
+    np.testing.assert_allclose(result["direction"], [0.0, 0.0, -1.0], atol=1e-12)
+    warnings = "\n".join(result["warnings"])
+    assert "'Default Principled' is not pure diffuse" in warnings and "Specular IOR Level" in warnings
+    assert "the world lights surfaces in Cycles" in warnings
+    assert "Shadow Terminator Geometry Offset" in warnings
