@@ -40,6 +40,9 @@ class RenderRecord:
     seconds: float = 0.0
     rays: int = 0
     cancelled: bool = False
+    export_seconds: float = 0.0     # reading the depsgraph (addon/export.py)
+    write_seconds: float = 0.0      # writing the passes into Blender's render result
+    stats: object = None            # core.render.RenderStats of the render (BVH, Embree and shading times)
 
 
 last_render = RenderRecord()
@@ -114,6 +117,7 @@ def render_frame(engine, depsgraph) -> RenderRecord:
     try:
         engine.update_stats("", "Primer | exporting scene")
         exported = export.export_scene(depsgraph, engine.camera_override, engine.test_break)
+        record.export_seconds = time.perf_counter() - start
         record.warnings = list(exported.warnings)
         if engine.test_break():
             record.cancelled = True
@@ -129,8 +133,11 @@ def render_frame(engine, depsgraph) -> RenderRecord:
         record.warnings += [w for w in result.stats.warnings if w not in record.warnings]
         record.rays = result.stats.rays
         record.cancelled = result.cancelled
+        record.stats = result.stats
+        written = time.perf_counter()
         write_result(engine, exported, result.image, result.aux, result.aux["n_dot_l"].shape[2],
                      scene.primer.debug_view)
+        record.write_seconds = time.perf_counter() - written
     except KeyboardInterrupt:            # Ctrl+C in a terminal: stop like Esc
         record.cancelled = True
     except export.ExportError as error:

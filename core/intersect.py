@@ -13,6 +13,8 @@ the camera looks.
 """
 from __future__ import annotations
 
+import threading
+import time
 from typing import NamedTuple
 
 import numpy as np
@@ -51,11 +53,15 @@ class Tracer:
     vertices:  (v, 3) float32 camera-relative points
     triangles: (t, 3) int32 vertex indices
     The queries release the GIL, so several threads may query one Tracer at once.
+    intersect_seconds, occluded_seconds: time spent inside Embree's queries, summed over threads.
     """
 
     def __init__(self, vertices: np.ndarray, triangles: np.ndarray):
         self.triangle_count = int(len(triangles))
         self._scene = None
+        self.intersect_seconds = 0.0
+        self.occluded_seconds = 0.0
+        self._clock = threading.Lock()
         if self.triangle_count == 0:
             return
         from embreex import rtcore_scene
@@ -77,7 +83,9 @@ class Tracer:
             return Hits(np.zeros(n, bool), np.full(n, np.inf), np.full(n, -1, np.int64),
                         np.zeros(n), np.zeros(n))
         o, d, t = _f32_rays(origins, directions, t_max)
+        start = time.perf_counter()
         out = self._scene.run(o, d, dists=t, output=1)
+        self._count("intersect_seconds", time.perf_counter() - start)
         prim = out["primID"].astype(np.int64)
         hit = out["geomID"] >= 0
         prim[~hit] = -1
@@ -93,4 +101,12 @@ class Tracer:
         if self._scene is None or n == 0:
             return np.zeros(n, bool)
         o, d, t = _f32_rays(origins, directions, t_max)
-        return self._scene.run(o, d, dists=t, query="OCCLUDED") >= 0
+        start = time.perf_counter()
+        blocked = self._scene.run(o, d, dists=t, query="OCCLUDED") >= 0
+        self._count("occluded_seconds", time.perf_counter() - start)
+        return blocked
+
+    def _count(self, name: str, seconds: float) -> None:
+        """Add `seconds` to the query timer `name` (threads share it, hence the lock)."""
+        with self._clock:
+            setattr(self, name, getattr(self, name) + seconds)

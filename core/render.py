@@ -47,6 +47,8 @@ class RenderStats:
     shadow_rays: int = 0
     seconds: float = 0.0
     geometry_seconds: float = 0.0
+    trace_seconds: float = 0.0      # inside Embree (nearest hits and shadow rays), summed over threads
+    shading_seconds: float = 0.0    # shading the hits, less its shadow rays' Embree time, summed over threads
     triangles: int = 0
     warnings: list = field(default_factory=list)
 
@@ -132,7 +134,8 @@ class _Context:
 
 
 def _render_chunk(ctx: _Context, pixels: np.ndarray):
-    """Render all samples of `pixels`: return (rgba (p, 4), aux dict of (p, c), primary, shadow ray counts)."""
+    """Render all samples of `pixels`: return (rgba (p, 4), aux dict of (p, c), primary, shadow ray counts,
+    seconds spent shading)."""
     s = ctx.settings
     spp = s.samples
     W, H = s.width, s.height
@@ -161,6 +164,7 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray):
     h = traced[hits.hit]
     aux = {}
     shadow_rays = 0
+    shading_start = time.perf_counter()
     if len(h):
         # 4. Shade the hits.
         hit = hits.hit
@@ -170,12 +174,13 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray):
         rgba[h, :3] = shading.radiance
         rgba[h, 3] = 1.0
         shadow_rays = shading.shadow_rays
+    shading_seconds = time.perf_counter() - shading_start
     # 5. Box filter: the mean of each pixel's samples.
     rgba = rgba.reshape(len(pixels), spp, 4).mean(axis=1)
     if ctx.want_aux:
         aux = _reduce_aux(ctx, len(pixels), spp, h, surface if len(h) else None,
                           shading if len(h) else None)
-    return rgba, aux, n, shadow_rays
+    return rgba, aux, n, shadow_rays, shading_seconds
 
 
 def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, shading) -> dict:
@@ -252,13 +257,17 @@ def render(scene: Scene, settings: RenderSettings,
     cancelled = False
     done = 0
 
+    tracer = geometry.tracer
+    queried = (tracer.intersect_seconds, tracer.occluded_seconds)
+
     def store(chunk_pixels, result):
-        rgba, chunk_aux, primary, shadow = result
+        rgba, chunk_aux, primary, shadow, shading_seconds = result
         image[chunk_pixels] = rgba
         for name, values in chunk_aux.items():
             aux[name][chunk_pixels] = values
         stats.primary_rays += primary
         stats.shadow_rays += shadow
+        stats.shading_seconds += shading_seconds
 
     with ThreadPoolExecutor(max_workers=threads) as pool:
         # Keep a few chunks in flight per thread, so cancelling never waits for a long queue.
@@ -287,6 +296,10 @@ def render(scene: Scene, settings: RenderSettings,
                 progress(done / max(1, len(chunks)), stats)
 
     stats.seconds = time.perf_counter() - start
+    # Embree's share: the shadow rays' queries ran inside shading, so they move from there to trace.
+    shadow_query = tracer.occluded_seconds - queried[1]
+    stats.trace_seconds = tracer.intersect_seconds - queried[0] + shadow_query
+    stats.shading_seconds -= shadow_query
     return RenderResult(image.reshape(H, W, 4),
                         {name: values.reshape(H, W, -1) for name, values in aux.items()},
                         stats, cancelled)
