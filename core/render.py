@@ -95,7 +95,8 @@ def _usable_lights(scene: Scene, warnings: list) -> list:
     """Return the lights with finite parameters and some power; note the rest in warnings."""
     usable = []
     for light in scene.lights:
-        values = [np.asarray(getattr(light, f), np.float64) for f in light.__dataclass_fields__ if f not in ("name", "shape")]
+        values = [np.asarray(getattr(light, f), np.float64) for f in light.__dataclass_fields__
+                  if f not in ("name", "shape") and getattr(light, f) is not None]     # a spot's frame may be None
         if not all(np.isfinite(x).all() for x in values):
             warnings.append(f"light '{light.name}' has NaN or infinite parameters and was skipped")
             continue

@@ -154,3 +154,15 @@ def test_exr_is_linear_and_png_is_srgb(tmp_path):
     import OpenImageIO as oiio
     raw = oiio.ImageBuf(str(tmp_path / "a.png")).get_pixels(oiio.UINT8)
     assert raw[0, 0].tolist() == [188, 255, 0, 255]
+
+
+def test_spot_light_without_a_frame_lights_the_scene():
+    """A SpotLight whose optional frame is None (an unscaled cone) is a valid light, not a NaN one."""
+    scene = Scene(camera=ortho_down(scale=1.0))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(primitives.plane(2.0))
+    scene.lights.append(SpotLight(np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0]), power=100.0,
+                                  spot_size=math.radians(120.0), spot_blend=0.0))
+    result = render.render(scene, RenderSettings(width=4, height=4, samples=1, jitter=False))
+    assert result.stats.warnings == []
+    assert (result.image[..., 0] > 0).all()
