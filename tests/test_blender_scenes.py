@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.metadata
+import importlib.util
 import json
 import os
 import shutil
@@ -38,6 +39,12 @@ ALPHA_TOLERANCE = 0.005     # RMSE of alpha
 TIMEOUT = 900               # seconds per render
 
 pytestmark = pytest.mark.blender
+
+# Like the other Blender tests: bpy must be there, unless PRIMER_ALLOW_NO_BPY says to skip without it.
+if importlib.util.find_spec("bpy") is None:
+    if os.environ.get("PRIMER_ALLOW_NO_BPY"):
+        pytest.skip("bpy (Blender as a Python module) is not installed", allow_module_level=True)
+    raise ImportError("tests/test_blender_scenes.py needs bpy (Blender as a Python module): pip install bpy")
 
 # Scene -> (Primer samples, Cycles samples). Measured noise of one render at these counts (relative
 # RMSE between two seeds / sqrt 2) is 0.05-0.3% for either renderer; see the module docstring.
