@@ -71,7 +71,7 @@ class Variant:
     id: str
     scene: str
     settings: dict = field(hash=False)
-    primer_samples: int = 64
+    primer_samples: int = 256       # light_point's edges need more than its full-frame 64 in a border
     cycles_samples: int = 256
 
 
