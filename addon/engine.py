@@ -89,7 +89,8 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
     def block(values: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(values[rows, cols][::-1], dtype=np.float32).reshape(w * h, -1)
 
-    result = engine.begin_result(x, y, w, h)
+    # Blender's render result is the border rectangle itself: its coordinates start at the border's corner.
+    result = engine.begin_result(0, 0, w, h)
     try:
         layer = result.layers[0]
         written = set()

@@ -2,7 +2,7 @@
 
 Usage:
     .venv/bin/python tools/render.py SCENE.blend -o OUT.exr [--samples N] [--engine PRIMER|CYCLES]
-                                     [--percentage P] [--frame F]
+                                     [--percentage P] [--frame F] [--seed S]
 
 Writes a linear float EXR (or an 8-bit sRGB PNG when OUT ends in .png), prints the
 render's wall time, and exits non-zero with a clear message on failure. With
@@ -47,7 +47,6 @@ def configure_cycles_reference(scene, samples: int) -> None:
         setattr(cycles, bounce, 0)
     cycles.pixel_filter_type = "BOX"
     cycles.filter_width = 1.0
-    cycles.seed = 0
 
 
 def configure_output(scene, path: str) -> None:
@@ -71,15 +70,18 @@ def configure_output(scene, path: str) -> None:
 
 
 def render_file(blend: str, out: str, engine: str = "PRIMER", samples: int | None = None,
-                percentage: int | None = None, frame: int | None = None) -> float:
+                percentage: int | None = None, frame: int | None = None, seed: int | None = None) -> float:
     """Render `blend` to `out` and return the wall time of the render in seconds; raise RuntimeError on failure."""
     import bpy
 
     if not os.path.isfile(blend):
         raise RuntimeError(f"no such .blend file: {blend}")
+    primer = load_primer()              # before loading, so the file's engine 'PRIMER' is known
     bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend))
-    primer = load_primer()
     scene = bpy.context.scene
+    if seed is not None:
+        scene.primer.seed = seed
+        scene.cycles.seed = seed
     if frame is not None:
         scene.frame_set(frame)
     if percentage is not None:
@@ -116,9 +118,11 @@ def main(argv=None) -> int:
     parser.add_argument("--engine", choices=("PRIMER", "CYCLES"), default="PRIMER")
     parser.add_argument("--percentage", type=int, default=None, help="resolution percentage")
     parser.add_argument("--frame", type=int, default=None)
+    parser.add_argument("--seed", type=int, default=None, help="sampling seed (Primer and Cycles)")
     args = parser.parse_args(argv)
     try:
-        seconds = render_file(args.blend, args.output, args.engine, args.samples, args.percentage, args.frame)
+        seconds = render_file(args.blend, args.output, args.engine, args.samples, args.percentage, args.frame,
+                              args.seed)
     except Exception as error:          # a clear message and a non-zero exit, never a traceback dump
         print(f"render failed: {error}", file=sys.stderr)
         return 1
