@@ -13,7 +13,7 @@ PYTEST_ARGS ?=
 # of the two runs below, so it passes; without a filter it means tests went missing, so it fails.
 EMPTY_OK := $(if $(strip $(PYTEST_ARGS)),|| [ $$? -eq 5 ])
 
-.PHONY: demo test venv venv42 extension clean
+.PHONY: demo test venv venv42 extension scenes clean
 
 # Create a virtual environment and install pinned dependencies (once, or when they change).
 define make_venv
@@ -38,6 +38,10 @@ venv42: $(VENV42)/.installed
 # Render the sample scenes into out/, printing the time per image.
 demo: venv
 	$(PY) tools/demo.py --out out
+
+# Regenerate sample_scenes/*.blend with Blender 4.2 LTS, so that every supported Blender opens them.
+scenes: venv42
+	$(PY42) sample_scenes/make_scenes.py
 
 # Build dist/primer-<version>.zip, the Blender extension, with embreex wheels for every platform.
 extension: venv
