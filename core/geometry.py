@@ -123,9 +123,10 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
             material = np.where(missing, n_materials, material)
 
             # Face normals from the world points; a mirror (det < 0) flips the winding back.
-            faces = normals_.face_normals(points, triangles)
+            with np.errstate(invalid="ignore", over="ignore"):         # NaN and huge vertices are dropped below
+                faces = normals_.face_normals(points, triangles)
+                points32 = points.astype(np.float32)
             face_n = faces.normals * np.sign(det[k])
-            points32 = points.astype(np.float32)
             finite = np.isfinite(points32).all(axis=1)[triangles].all(axis=1)
             nondegenerate = face_n.any(axis=1) & (faces.area > 0)
             keep = finite & nondegenerate
