@@ -55,5 +55,16 @@ test: venv venv42
 	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q $(PYTEST_ARGS) $(EMPTY_OK)
 	$(PY42) -m pytest -q tests/smoke_bpy42.py $(PYTEST_ARGS) $(EMPTY_OK)
 
+# The benchmark's extra tools (FLIP, matplotlib), installed into .venv beside the pinned dependencies.
+$(VENV)/.bench-installed: $(VENV)/.installed requirements-bench.txt
+	$(PY) -m pip install --quiet -r requirements-bench.txt -c requirements.txt
+	touch $@
+
+# Primer against Cycles: speed against error, profile, scaling and the hard cases, written to
+# bench/REPORT.md and README's Benchmark section (about half an hour; BENCH_ARGS=--quick: a few minutes).
+BENCH_ARGS ?=
+bench: venv $(VENV)/.bench-installed
+	$(PY) bench/run.py $(BENCH_ARGS)
+
 clean:
 	rm -rf $(VENV) $(VENV42) out dist .pytest_cache

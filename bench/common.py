@@ -1,0 +1,129 @@
+"""What every part of the benchmark shares: paths, ladders, the error metrics, and JSON files.
+
+The error metrics compare an image with the converged reference, over RGB:
+
+    RMSE   = sqrt(mean((x - r)^2))
+    relMSE = mean((x - r)^2 / (r^2 + 1e-2))       (the 1e-2 keeps dark pixels from dominating)
+    FLIP   = mean of NVIDIA's FLIP error map (flip-evaluator, LDR), on both images as Blender shows
+             them with the Standard view transform: sRGB-encoded and clipped to 0..1
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+
+import numpy as np
+
+BENCH = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(BENCH)
+SCENES_DIR = os.path.join(ROOT, "sample_scenes")
+REFS = os.path.join(BENCH, "refs")              # cached Cycles references (gitignored)
+OUT = os.path.join(BENCH, "out")                # images and raw measurements of the last run (gitignored)
+RESULTS = os.path.join(BENCH, "results")        # the measurements behind REPORT.md (committed)
+PLOTS = os.path.join(ROOT, "docs", "images", "bench")
+REPORT = os.path.join(BENCH, "REPORT.md")
+README = os.path.join(ROOT, "README.md")
+
+for path in (ROOT, os.path.join(ROOT, "tools"), os.path.join(ROOT, "tests")):
+    if path not in sys.path:
+        sys.path.insert(0, path)
+
+# The relMSE guard: mean((x - r)^2 / (r^2 + GUARD)).
+REL_MSE_GUARD = 1e-2
+# The headline compares Primer with Cycles at this many samples.
+HEADLINE_SAMPLES = 64
+
+
+class Plan:
+    """How much `make bench` measures: the full run, or --quick for development."""
+
+    def __init__(self, quick: bool):
+        self.quick = quick
+        self.reference_samples = 256 if quick else 1024       # Cycles, as two halves with different seeds
+        self.primer_ladder = [1, 4, 16] if quick else [1, 2, 4, 8, 16, 32, 64, 128]
+        self.cycles_ladder = [4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128]
+        self.repeats = 1 if quick else 3
+        self.scenes = (["light_point", "light_area", "modifiers_instances"] if quick
+                       else sorted(f[:-6] for f in os.listdir(SCENES_DIR) if f.endswith(".blend")))
+
+    def as_dict(self) -> dict:
+        """Return the plan as plain values, for the results file."""
+        return {"quick": self.quick, "reference_samples": self.reference_samples,
+                "primer_ladder": self.primer_ladder, "cycles_ladder": self.cycles_ladder,
+                "repeats": self.repeats, "scenes": self.scenes}
+
+
+def digest(*parts) -> str:
+    """Return a short hex digest of files (given as paths) and JSON-able values, as the Blender tests key their cache."""
+    sha = hashlib.sha256()
+    for part in parts:
+        if isinstance(part, str) and os.path.isfile(part):
+            with open(part, "rb") as fh:
+                sha.update(fh.read())
+        else:
+            sha.update(json.dumps(part, sort_keys=True).encode())
+        sha.update(b"\0")
+    return sha.hexdigest()[:20]
+
+
+def read_json(path: str, default=None):
+    """Return the JSON value stored at `path`, or `default` when there is no such file."""
+    if not os.path.isfile(path):
+        return default
+    with open(path, encoding="utf-8") as fh:
+        return json.load(fh)
+
+
+def write_json(path: str, value) -> None:
+    """Write `value` as indented JSON, atomically (a half-written file never replaces a good one)."""
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path + ".part", "w", encoding="utf-8") as fh:
+        json.dump(value, fh, indent=1, sort_keys=True)
+    os.replace(path + ".part", path)
+
+
+# ----------------------------------------------------------------------------
+# Error metrics
+# ----------------------------------------------------------------------------
+
+def rmse(image: np.ndarray, reference: np.ndarray) -> float:
+    """Return sqrt(mean((x - r)^2)) over RGB. image, reference: (H, W, >=3) float."""
+    d = image[..., :3].astype(np.float64) - reference[..., :3]
+    return float(np.sqrt(np.mean(d * d)))
+
+
+def rel_mse(image: np.ndarray, reference: np.ndarray) -> float:
+    """Return mean((x - r)^2 / (r^2 + 1e-2)) over RGB. image, reference: (H, W, >=3) float."""
+    r = reference[..., :3].astype(np.float64)
+    d = image[..., :3].astype(np.float64) - r
+    return float(np.mean(d * d / (r * r + REL_MSE_GUARD)))
+
+
+def display(image: np.ndarray) -> np.ndarray:
+    """Return RGB as Blender's Standard view shows it: sRGB-encoded, clipped to 0..1: (H, W, 3) float32."""
+    from core.image_io import linear_to_srgb
+
+    return linear_to_srgb(image[..., :3].astype(np.float64)).astype(np.float32)
+
+
+def flip(image: np.ndarray, reference: np.ndarray) -> float:
+    """Return the mean LDR-FLIP error of the displayed images (0 = identical, 1 = maximal)."""
+    import flip_evaluator
+
+    _, mean, _ = flip_evaluator.evaluate(display(reference), display(image), "LDR", inputsRGB=True,
+                                         applyMagma=False)
+    return float(mean)
+
+
+def errors(image: np.ndarray, reference: np.ndarray) -> dict:
+    """Return every metric of `image` against `reference`: {"rmse", "relmse", "flip"}."""
+    return {"rmse": rmse(image, reference), "relmse": rel_mse(image, reference), "flip": flip(image, reference)}
+
+
+def read_exr(path: str) -> np.ndarray:
+    """Read an image with OpenImageIO: (H, W, C) float32, row 0 at the top."""
+    from core.image_io import read_image
+
+    return read_image(path)

@@ -1,0 +1,197 @@
+"""`make bench`: Primer against Cycles, speed against error, on this machine; then the report.
+
+    .venv/bin/python bench/run.py [--quick] [--skip PHASE ...]
+
+Phases, in order (each Blender job in its own process, with empty Blender user folders):
+  scenes     the Cycles references (cached in bench/refs/) and both engines' sample ladders
+  profile    Primer's time per phase on every scene
+  rays       Primer's rays per second against embreex's on the same rays
+  scaling    time and peak memory against triangles, pixels, lights and instances (core alone)
+  stability  the hard cases of tests/hard_cases.py with both shadow offsets
+Then bench/report.py writes bench/REPORT.md, the plots in docs/images/bench/ and README's
+"## Benchmark" section. --quick measures a little of everything in a few minutes and writes its
+report to bench/out/quick/ instead, leaving the committed report alone. Skipped phases keep their
+measurements from bench/results/results.json (the last full run).
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import importlib.metadata
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402
+
+PHASES = ("scenes", "profile", "rays", "scaling", "stability")
+RAYS_SCENES = ("modifiers_instances", "light_area")
+SCALING = {"triangles": [1e3, 1e4, 1e5, 1e6, 1e7], "pixels": [160 * 90, 320 * 180, 640 * 360, 1280 * 720,
+                                                           1920 * 1080, 3840 * 2160],
+           "lights": [1, 2, 4, 8, 16, 32, 64], "instances": [1, 10, 100, 1e3, 1e4, 1e5]}
+SCALING_QUICK = {"triangles": [1e3, 1e5], "pixels": [160 * 90, 640 * 360], "lights": [1, 8], "instances": [1, 100]}
+SCALING_TIMEOUT = 240           # seconds per scaling point; a point past it is reported as skipped
+
+
+def machine() -> dict:
+    """Return what this machine and software are: CPU model, cores, memory, versions, date, commit."""
+    cpu = platform.processor() or "unknown CPU"
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            names = [line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")]
+        cpu = names[0] if names else cpu
+    except OSError:
+        pass
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2 ** 30
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=common.ROOT, capture_output=True,
+                            text=True).stdout.strip() or "unknown"
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=common.ROOT,
+                           capture_output=True, text=True).stdout.strip()
+
+    def version(package: str) -> str:
+        try:
+            return importlib.metadata.version(package)
+        except importlib.metadata.PackageNotFoundError:
+            return "not installed"
+
+    return {"cpu": cpu, "cores": os.cpu_count(), "memory_gb": memory, "python": platform.python_version(),
+            "bpy": version("bpy"), "embreex": version("embreex"), "numpy": version("numpy"),
+            "openimageio": version("OpenImageIO"), "flip": version("flip-evaluator"),
+            "matplotlib": version("matplotlib"), "system": platform.platform(),
+            "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+            "commit": commit + (" (with uncommitted changes)" if dirty else "")}
+
+
+def blender_job(*args: str, quick: bool) -> None:
+    """Run bench/scenes.py with `args` in a fresh Blender process with empty user folders; raise on failure."""
+    from blender_env import isolated_env          # tests/blender_env.py: empty HOME and Blender user folders
+
+    folder = os.path.join(common.OUT, "blender-home")
+    command = [sys.executable, os.path.join(common.BENCH, "scenes.py"), *args] + (["--quick"] if quick else [])
+    done = subprocess.run(command, cwd=common.ROOT, env=isolated_env(folder), capture_output=True, text=True)
+    for line in done.stdout.splitlines():
+        if line.startswith(("profile ", "reference ")) or ": repeat " in line:
+            print("   ", line, flush=True)
+    if done.returncode != 0:
+        tail = "\n".join((done.stdout + done.stderr).splitlines()[-30:])
+        raise RuntimeError(f"bench/scenes.py {' '.join(args)} failed ({done.returncode}):\n{tail}")
+
+
+def run_scenes(plan: common.Plan) -> dict:
+    """Render the references and ladders of every scene; return {"rows": [...], "references": {...}}."""
+    rows, references = [], {}
+    for name in plan.scenes:
+        start = time.perf_counter()
+        blender_job("ladder", name, quick=plan.quick)
+        result = common.read_json(os.path.join(common.OUT, "scenes", f"{name}.json"))
+        rows += result["rows"]
+        references[name] = result["reference"]
+        print(f"  {name}: {time.perf_counter() - start:.0f} s", flush=True)
+    return {"rows": rows, "references": references}
+
+
+def run_scaling(quick: bool) -> dict:
+    """Measure every scaling point in its own process; points past the timeout are noted as skipped."""
+    points, notes = [], []
+    for kind, values in (SCALING_QUICK if quick else SCALING).items():
+        for value in values:
+            command = [sys.executable, os.path.join(common.BENCH, "scaling.py"), kind, str(int(value))]
+            try:
+                done = subprocess.run(command, cwd=common.ROOT, capture_output=True, text=True,
+                                      timeout=SCALING_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                points.append({"kind": kind, "value": value, "skipped": f"over {SCALING_TIMEOUT} s"})
+                notes.append(f"{kind} = {value:g} was skipped: it took longer than {SCALING_TIMEOUT} s.")
+                print(f"  {kind} {value:g}: skipped (timeout)", flush=True)
+                continue
+            if done.returncode != 0:
+                reason = (done.stderr.strip().splitlines() or ["failed"])[-1]
+                points.append({"kind": kind, "value": value, "skipped": reason})
+                notes.append(f"{kind} = {value:g} failed: {reason}")
+                print(f"  {kind} {value:g}: failed: {reason}", flush=True)
+                continue
+            point = json.loads(done.stdout.strip().splitlines()[-1])
+            points.append(point)
+            print(f"  {kind} {value:g}: {point['seconds']:.2f} s, {point['peak_mb'] / 1024:.2f} GB", flush=True)
+    from scaling import DEFAULTS
+
+    baseline = min((p["baseline_mb"] for p in points if "baseline_mb" in p), default=0.0)
+    return {"points": points, "notes": notes, "defaults": DEFAULTS, "baseline_mb": baseline}
+
+
+def run_stability() -> list:
+    """Run every hard case with both shadow offsets; return the table rows."""
+    import hard_cases            # tests/hard_cases.py, shared with tests/test_hard_cases.py
+
+    return hard_cases.table()
+
+
+def print_summary(results: dict) -> None:
+    """Print the headline and the stability table to the terminal."""
+    import report
+
+    lines, mean, _ = report.headline_table(results)
+    print("\nHeadline (Primer's time to Cycles' 64-sample relMSE / Cycles' time):")
+    print("\n".join(lines))
+    print(f"geometric mean of the interpolated ratios: {report.fmt(mean)}")
+    print("\nStability (fraction of wrong pixels):")
+    print("\n".join(report.stability_table(results)))
+
+
+def main(argv=None) -> int:
+    """Run the benchmark phases, save the measurements and write the report."""
+    parser = argparse.ArgumentParser(description="Primer's benchmark against Cycles.")
+    parser.add_argument("--quick", action="store_true", help="a few minutes: three scenes, short ladders")
+    parser.add_argument("--skip", nargs="*", default=[], choices=PHASES, help="phases to take from the last results")
+    args = parser.parse_args(argv)
+    plan = common.Plan(args.quick)
+    started = time.perf_counter()
+    results_path = (os.path.join(common.OUT, "quick", "results.json") if args.quick
+                    else os.path.join(common.RESULTS, "results.json"))
+    previous = common.read_json(os.path.join(common.RESULTS, "results.json"), {}) or {}
+    results = {"machine": machine(), "plan": plan.as_dict()}
+    for phase in PHASES:
+        if phase in args.skip:
+            results[phase] = previous.get(phase, [] if phase in ("rays", "stability") else {})
+            print(f"{phase}: taken from the last results", flush=True)
+            continue
+        print(f"{phase}:", flush=True)
+        start = time.perf_counter()
+        if phase == "scenes":
+            results[phase] = run_scenes(plan)
+        elif phase == "profile":
+            blender_job("profile", quick=plan.quick)
+            results[phase] = common.read_json(os.path.join(common.OUT, "profile.json"))
+        elif phase == "rays":
+            results[phase] = []
+            for name in RAYS_SCENES[:1] if plan.quick else RAYS_SCENES:
+                blender_job("rays", name, quick=plan.quick)
+                results[phase].append(common.read_json(os.path.join(common.OUT, f"rays_{name}.json")))
+        elif phase == "scaling":
+            results[phase] = run_scaling(plan.quick)
+        else:
+            results[phase] = run_stability()
+        results.setdefault("phase_seconds", {})[phase] = time.perf_counter() - start
+        print(f"  ({time.perf_counter() - start:.0f} s)", flush=True)
+    results["machine"]["total_minutes"] = (time.perf_counter() - started) / 60.0
+    references = results["scenes"].get("references", {}).values()
+    fresh = [r for r in references if r.get("rendered_now")]
+    results["machine"]["reference_note"] = (
+        f"{len(fresh)} Cycles reference(s) rendered in this run, {sum(r['seconds'] for r in fresh) / 60:.1f} "
+        f"minutes of it" if fresh else "the Cycles references came from the bench/refs/ cache")
+    common.write_json(results_path, results)
+    import report
+
+    folder = os.path.join(common.OUT, "quick") if args.quick else common.BENCH
+    path = report.build(results, folder, folder if args.quick else common.PLOTS, readme=not args.quick)
+    print_summary(results)
+    print(f"\nreport: {os.path.relpath(path, common.ROOT)}  ({results['machine']['total_minutes']:.1f} minutes)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

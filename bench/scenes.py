@@ -1,0 +1,320 @@
+"""The sample scenes inside Blender (bpy): Cycles references, the speed-against-error ladders, Primer's
+profile, and Primer's rays per second against embreex's on the same rays.
+
+Run by bench/run.py, one process per job (bpy keeps global state):
+
+    .venv/bin/python bench/scenes.py ladder NAME [--quick]     -> bench/out/scenes/NAME.json
+    .venv/bin/python bench/scenes.py profile [--quick]         -> bench/out/profile.json
+    .venv/bin/python bench/scenes.py rays NAME [--quick]       -> bench/out/rays_NAME.json
+
+Timing: each measurement is the wall time of one `bpy.ops.render.render()` call, so Primer's export
+from the depsgraph, BVH build, tracing and writing the passes are all included, as are Cycles' scene
+sync, BVH build and kernel. The image is saved afterwards, outside the timed call. Both engines run in
+the same process, alternating, after one untimed warm-up render each; the median of the repeats is
+quoted.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import statistics
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import common  # noqa: E402  (puts the checkout, tools/ and tests/ on sys.path)
+
+from render import configure_cycles_reference, configure_output, load_primer  # noqa: E402  tools/render.py
+
+REFERENCE_SEEDS = (1001, 1002)      # never 0: the ladder's Cycles renders use seed 0 and must not share samples
+
+
+# ----------------------------------------------------------------------------
+# Rendering inside Blender
+# ----------------------------------------------------------------------------
+
+def open_scene(name: str):
+    """Open sample_scenes/NAME.blend with Primer registered; return the scene, set to write float EXR."""
+    import bpy
+
+    load_primer()                   # first, so that the file's engine PRIMER exists when it opens
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(common.SCENES_DIR, f"{name}.blend"))
+    scene = bpy.context.scene
+    configure_output(scene, os.path.join(common.OUT, "unused.exr"))
+    return scene
+
+
+def use_primer(scene, samples: int, threads: int = 0) -> None:
+    """Switch the scene to Primer with `samples` camera samples per pixel (light samples as the file has them)."""
+    scene.render.engine = "PRIMER"
+    scene.primer.samples = samples
+    scene.primer.threads = threads
+
+
+def use_cycles(scene, samples: int, seed: int = 0) -> None:
+    """Switch the scene to Cycles as Primer's reference (tools/render.py) with `samples` and `seed`."""
+    configure_cycles_reference(scene, samples)
+    scene.cycles.seed = seed
+
+
+def render_timed() -> float:
+    """Render the current scene with its engine and return the wall time of bpy.ops.render.render()."""
+    import bpy
+
+    start = time.perf_counter()
+    bpy.ops.render.render()
+    return time.perf_counter() - start
+
+
+def save_render(scene, path: str):
+    """Save the last render result as a linear float EXR at `path` and return it read back: (H, W, 4) float32."""
+    import bpy
+
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    bpy.data.images["Render Result"].save_render(filepath=path, scene=scene)
+    return common.read_exr(path)
+
+
+def primer_record():
+    """Return Primer's RenderRecord of the last render (addon/engine.py), failing loudly on a render error."""
+    record = sys.modules["primer.addon.engine"].last_render
+    if record.error:
+        raise RuntimeError(f"Primer failed: {record.error}")
+    return record
+
+
+# ----------------------------------------------------------------------------
+# The converged reference
+# ----------------------------------------------------------------------------
+
+def reference(name: str, plan: common.Plan) -> tuple:
+    """Return (image (H, W, 4) float32, metadata dict, rendered now?) of the scene's Cycles reference, cached
+    in bench/refs/.
+
+    Cycles renders the scene twice at half the samples with different seeds; the reference is their mean,
+    and half their squared difference estimates the reference's own noise (its error floor).
+    """
+    import bpy
+
+    import numpy as np
+
+    blend = os.path.join(common.SCENES_DIR, f"{name}.blend")
+    settings = {"engine": "CYCLES", "samples": plan.reference_samples, "seeds": list(REFERENCE_SEEDS),
+                "max_bounces": 0, "filter": "BOX 1 px", "denoising": False, "adaptive_sampling": False,
+                "view_transform": "Standard", "file": "OpenEXR float32 (linear)",
+                "configured_by": "tools/render.py configure_cycles_reference"}
+    key = common.digest(blend, settings, bpy.app.version_string, os.path.join(common.ROOT, "tools", "render.py"))
+    path = os.path.join(common.REFS, f"{name}-{key}.exr")
+    meta_path = path[:-4] + ".json"
+    meta = common.read_json(meta_path)
+    if meta is not None and os.path.isfile(path):
+        return common.read_exr(path), meta, False
+    scene = open_scene(name)
+    halves, seconds = [], 0.0
+    for seed in REFERENCE_SEEDS:
+        use_cycles(scene, plan.reference_samples // len(REFERENCE_SEEDS), seed)
+        seconds += render_timed()
+        halves.append(save_render(scene, os.path.join(common.OUT, "scenes", name, f"reference_seed{seed}.exr")))
+    image = (0.5 * (halves[0].astype(np.float64) + halves[1])).astype(np.float32)
+    # Var(mean of two) = E[(h1 - h2)^2] / 4 per pixel: the reference's expected squared error.
+    noise = (halves[0][..., :3].astype(np.float64) - halves[1][..., :3]) ** 2 / 4.0
+    r = image[..., :3].astype(np.float64)
+    meta = {"settings": settings, "bpy": bpy.app.version_string, "blend": f"sample_scenes/{name}.blend",
+            "seconds": seconds, "size": list(image.shape[:2]),
+            "noise_rmse": float(np.sqrt(noise.mean())),
+            "noise_relmse": float(np.mean(noise / (r * r + common.REL_MSE_GUARD)))}
+    from core.image_io import write_image
+
+    os.makedirs(common.REFS, exist_ok=True)
+    write_image(path + ".part.exr", image)
+    os.replace(path + ".part.exr", path)
+    common.write_json(meta_path, meta)
+    return image, meta, True
+
+
+# ----------------------------------------------------------------------------
+# Jobs
+# ----------------------------------------------------------------------------
+
+def ladder(name: str, plan: common.Plan) -> dict:
+    """Time Primer and Cycles at every sample count of the plan and measure each image's error."""
+    ref, ref_meta, fresh = reference(name, plan)
+    scene = open_scene(name)
+    folder = os.path.join(common.OUT, "scenes", name)
+    # Warm-up: the first render of each engine in a process loads kernels and modules.
+    use_primer(scene, 1)
+    render_timed()
+    use_cycles(scene, 1)
+    render_timed()
+    runs = [("PRIMER", n) for n in plan.primer_ladder] + [("CYCLES", n) for n in plan.cycles_ladder]
+    times = {run: [] for run in runs}
+    images = {}
+    for repeat in range(plan.repeats):
+        # Alternate the engines: Primer first on even steps, Cycles first on odd ones.
+        pairs = [(("PRIMER", p), ("CYCLES", c)) for p, c in zip(plan.primer_ladder, plan.cycles_ladder)]
+        extra = runs[len(pairs):len(plan.primer_ladder)] + runs[len(plan.primer_ladder) + len(pairs):]
+        order = []
+        for step, (a, b) in enumerate(pairs):
+            order += [a, b] if (step + repeat) % 2 == 0 else [b, a]
+        order += extra
+        for engine, samples in order:
+            if engine == "PRIMER":
+                use_primer(scene, samples)
+            else:
+                use_cycles(scene, samples)
+            seconds = render_timed()
+            if engine == "PRIMER":
+                primer_record()
+            times[(engine, samples)].append(seconds)
+            if repeat == 0:
+                images[(engine, samples)] = save_render(scene, os.path.join(folder, f"{engine.lower()}_{samples}.exr"))
+        print(f"{name}: repeat {repeat + 1}/{plan.repeats} done", flush=True)
+    rows = []
+    for engine, samples in runs:
+        image = images[(engine, samples)]
+        if image.shape != ref.shape:
+            raise RuntimeError(f"{name}: {engine} wrote {image.shape}, the reference is {ref.shape}")
+        rows.append({"scene": name, "engine": engine, "samples": samples,
+                     "seconds": statistics.median(times[(engine, samples)]), "all_seconds": times[(engine, samples)],
+                     **common.errors(image, ref)})
+    return {"scene": name, "reference": {**ref_meta, "rendered_now": fresh}, "rows": rows}
+
+
+def profile(plan: common.Plan, samples: int = 16) -> dict:
+    """Return Primer's time per phase for every scene at `samples`, on one thread and on all cores."""
+    out = {}
+    for name in plan.scenes:
+        scene = open_scene(name)
+        use_primer(scene, 1)
+        render_timed()                  # warm-up
+        entry = {}
+        for threads in (1, 0):
+            use_primer(scene, samples, threads)
+            runs = []
+            for _ in range(plan.repeats):
+                wall = render_timed()
+                record = primer_record()
+                stats = record.stats
+                runs.append({"wall": wall, "primer": record.seconds, "export": record.export_seconds,
+                             "bvh": stats.geometry_seconds, "embree": stats.trace_seconds,
+                             "shading": stats.shading_seconds, "write": record.write_seconds,
+                             "render": stats.seconds, "rays": stats.rays, "triangles": stats.triangles})
+            runs.sort(key=lambda r: r["wall"])
+            entry["one_thread" if threads == 1 else "all_cores"] = runs[len(runs) // 2]    # the median run
+        out[name] = entry
+        print(f"profile {name}: {entry['one_thread']['wall']:.2f} s on one thread", flush=True)
+    return {"samples": samples, "scenes": out}
+
+
+def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16) -> dict:
+    """Primer's end-to-end rays per second on one scene, against embreex's on the very same rays.
+
+    Primer renders the scene through bpy (timed end to end). Then the exported scene is rendered again
+    with core alone while every ray batch that reaches Embree is recorded (the float32 arrays Embree
+    gets), and the batches are replayed through embreex directly, timing only embreex's calls: first
+    one batch after another on one thread, then on a pool of one thread per core.
+    """
+    import numpy as np
+
+    scene = open_scene(name)
+    scene.render.resolution_percentage = percentage
+    use_primer(scene, 1)
+    render_timed()
+    use_primer(scene, samples)
+    walls = []
+    for _ in range(plan.repeats):
+        walls.append(render_timed())
+        record = primer_record()
+    wall = statistics.median(walls)
+
+    # Render once more, untimed, recording every ray batch that reaches Embree (the float32 arrays
+    # Embree gets) and the triangles of the BVH.
+    Tracer = importlib.import_module("primer.core.intersect").Tracer
+    to_f32 = importlib.import_module("primer.core.intersect")._f32_rays
+    batches, meshes = [], []
+    original = {name: getattr(Tracer, name) for name in ("__init__", "intersect", "occluded")}
+
+    def init(self, vertices, triangles):
+        meshes.append((np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(triangles, np.int32)))
+        original["__init__"](self, vertices, triangles)
+
+    def recording(query):
+        def traced(self, origins, directions, t_max):
+            batches.append((query, *to_f32(origins, directions, t_max)))
+            return original[query](self, origins, directions, t_max)
+        return traced
+
+    Tracer.__init__, Tracer.intersect, Tracer.occluded = init, recording("intersect"), recording("occluded")
+    try:
+        render_timed()
+    finally:
+        for method_name, method in original.items():
+            setattr(Tracer, method_name, method)
+    n_rays = sum(len(b[1]) for b in batches)
+    if n_rays != record.rays or len(meshes) != 1:
+        raise RuntimeError(f"recorded {n_rays} rays in {len(meshes)} BVH(s); the render traced {record.rays}")
+    vertices, triangles = meshes[0]
+
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    raw = rtcore_scene.EmbreeScene(robust=True)
+    mesh = TriangleMesh(raw, vertices, triangles)    # noqa: F841  (keeps the mesh alive)
+    raw.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")    # build the BVH
+
+    def run(batch) -> float:
+        query, o, d, t = batch          # t: a fresh copy, since embreex writes the hit distances into it
+        start = time.perf_counter()
+        if query == "intersect":
+            raw.run(o, d, dists=t, output=1)
+        else:
+            raw.run(o, d, dists=t, query="OCCLUDED")
+        return time.perf_counter() - start
+
+    def fresh():
+        return [(query, o, d, t.copy()) for query, o, d, t in batches]
+
+    one_thread, all_cores = [], []
+    cores = os.cpu_count() or 1
+    for _ in range(plan.repeats):
+        one_thread.append(sum(run(b) for b in fresh()))
+        copies = fresh()
+        with ThreadPoolExecutor(max_workers=cores) as pool:
+            start = time.perf_counter()
+            list(pool.map(run, copies))
+            all_cores.append(time.perf_counter() - start)
+    stats = record.stats
+    return {"scene": name, "percentage": percentage, "size": [scene.render.resolution_x * percentage // 100,
+                                                              scene.render.resolution_y * percentage // 100],
+            "samples": samples, "triangles": int(len(triangles)),
+            "rays": record.rays, "primary_rays": stats.primary_rays, "shadow_rays": stats.shadow_rays,
+            "batches": len(batches), "cores": cores, "primer_wall": wall, "primer_render": stats.seconds,
+            "primer_embree_thread_seconds": stats.trace_seconds,
+            "embreex_one_thread": statistics.median(one_thread), "embreex_all_cores": statistics.median(all_cores)}
+
+
+def main(argv=None) -> int:
+    """Run one job and write its JSON into bench/out/."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("job", choices=("ladder", "profile", "rays"))
+    parser.add_argument("name", nargs="?")
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args(argv)
+    plan = common.Plan(args.quick)
+    try:
+        if args.job == "ladder":
+            common.write_json(os.path.join(common.OUT, "scenes", f"{args.name}.json"), ladder(args.name, plan))
+        elif args.job == "profile":
+            common.write_json(os.path.join(common.OUT, "profile.json"), profile(plan))
+        else:
+            common.write_json(os.path.join(common.OUT, f"rays_{args.name}.json"), rays(args.name, plan))
+    finally:
+        if "primer" in sys.modules:         # bpy 4.2 crashes at exit while Primer is registered
+            sys.modules["primer"].unregister()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
