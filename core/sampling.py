@@ -63,3 +63,33 @@ def stratified_2d(seed: int, pixel: np.ndarray, index: np.ndarray, count: int, d
         x = (index + u) / count
         y = (row + v) / count
     return np.stack([x, y], axis=-1)
+
+
+def permute(index: np.ndarray, count: int, key: np.ndarray) -> np.ndarray:
+    """Return index mapped through a pseudo-random permutation of [0, count), a different one per key.
+
+    An invertible mix of w-bit integers (xor with the key, odd multiplications and
+    xor-shifts, each a bijection modulo 2^w), applied again while the result is
+    still >= count ("cycle walking"), so that [0, count) maps onto itself.
+    index: (n,) int64 in [0, count); key: (n,) integer -> (n,) int64
+    """
+    bits = max(1, int(count - 1).bit_length())
+    mask = _U32((1 << bits) - 1)
+    shift = _U32(max(1, bits // 2))
+    key = hash_u32(np.asarray(key).astype(_U32))
+
+    def mix(x: np.ndarray, k: np.ndarray) -> np.ndarray:
+        with np.errstate(over="ignore"):
+            x = (x ^ k) & mask
+            x = (x * _U32(0x2C1B3C6D)) & mask
+            x ^= x >> shift
+            x = (x * _U32(0x297A2D39)) & mask
+            x ^= x >> shift
+            return (x + (k >> _U32(16))) & mask
+
+    x = mix(np.asarray(index).astype(_U32), key)
+    outside = np.flatnonzero(x >= count)
+    while len(outside):
+        x[outside] = mix(x[outside], key[outside])
+        outside = outside[x[outside] >= count]
+    return x.astype(np.int64)

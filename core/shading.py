@@ -143,11 +143,14 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             if delta:
                 u2 = np.zeros((n, 2))
             else:
-                # Each camera sample gets its own stratified pattern of `count` light points,
-                # keyed by (pixel, sample): pairing light strata with the camera's sub-pixel
-                # strata would correlate them and bias the pixel.
-                u2 = sampling.stratified_2d(settings.seed, pixel * max(1, settings.samples) + sample,
-                                            np.full(n, j), count, dimension=16 + 4 * index)
+                # The pixel's samples x count light points share one stratified pattern over
+                # the light, so together they cover it evenly. A permutation per pixel (and
+                # light) deals the strata out to the camera samples: handing them out in order
+                # would pair light strata with the camera's sub-pixel strata and bias the pixel.
+                total = max(1, settings.samples) * count
+                key = pixel * 0x9E3779B9 + (index + 1) * 0x85EBCA6B + settings.seed
+                stratum = sampling.permute(sample * count + j, total, key & 0xFFFFFFFF)
+                u2 = sampling.stratified_2d(settings.seed, pixel, stratum, total, dimension=16 + 4 * index)
             ls = lights_.sample_light(light, surface.I, u2)
             # 2. The lecture's two tests: N.L > 0 (shading normal) and Ng.L > 0 (face normal).
             #    The terminator fix lifts smooth points onto the curved surface, where the
