@@ -68,17 +68,8 @@ def new_file(name: str, width: int = 160, height: int = 120, light_samples: int 
     render.film_transparent = False
     render.use_border = False
     # Cycles as Primer's reference, so that switching the engine compares like with like.
-    cycles = scene.cycles
-    cycles.device = "CPU"
-    cycles.samples = DEFAULT_CYCLES_SAMPLES
-    cycles.use_adaptive_sampling = False
-    cycles.use_denoising = False
-    cycles.max_bounces = 0
-    for bounce in ("diffuse_bounces", "glossy_bounces", "transmission_bounces", "volume_bounces",
-                   "transparent_max_bounces"):
-        setattr(cycles, bounce, 0)
-    cycles.pixel_filter_type = "BOX"
-    cycles.filter_width = 1.0
+    from render import configure_cycles_reference      # tools/render.py (on sys.path, see main)
+    configure_cycles_reference(scene, DEFAULT_CYCLES_SAMPLES)
     view = scene.view_settings
     view.view_transform = "Standard"
     view.look = "None"
