@@ -383,10 +383,16 @@ def report_markdown(results: dict, plots: dict) -> str:
 def findings(results: dict, heads: list) -> list:
     """Return the plain-language conclusions drawn from the numbers."""
     out = []
-    faster = [h["scene"] for h in heads if h["relmse"]["ratio"] < 1 and h["relmse"]["how"] != ">"]
-    out.append(f"At Cycles' {common.HEADLINE_SAMPLES}-sample error (relMSE), Primer gets there sooner than Cycles on "
-               f"{len(faster)} of {len(heads)} scenes" + (f" ({', '.join(faster)})" if faster else "")
-               + "; on the others it needs longer, by the ratios in the headline table.")
+    def named(group: list) -> str:
+        return f" ({', '.join(group)})" if group else ""
+
+    ratio = {h["scene"]: (h["relmse"]["ratio"], h["relmse"]["how"]) for h in heads}
+    faster = [n for n, (r, how) in ratio.items() if r < 0.95 and how != ">"]
+    par = [n for n, (r, how) in ratio.items() if 0.95 <= r <= 1.05 and how == "="]
+    slower = [n for n in ratio if n not in faster and n not in par]
+    out.append(f"At Cycles' {common.HEADLINE_SAMPLES}-sample error (relMSE), Primer gets there sooner on "
+               f"{len(faster)} of {len(heads)} scenes{named(faster)}, on par (within 5%) on {len(par)}{named(par)}, "
+               f"and later on {len(slower)}, by the ratios in the headline table.")
     rows = results["scenes"]["rows"]
     for h in heads:
         if h["relmse"]["how"] != ">":
