@@ -153,7 +153,7 @@ def main(argv=None) -> int:
     results_path = (os.path.join(common.OUT, "quick", "results.json") if args.quick
                     else os.path.join(common.RESULTS, "results.json"))
     previous = common.read_json(os.path.join(common.RESULTS, "results.json"), {}) or {}
-    results = {"machine": machine(), "plan": plan.as_dict()}
+    results = {"machine": machine(), "plan": plan.as_dict(), "load": {"start": os.getloadavg()[0]}}
     for phase in PHASES:
         if phase in args.skip:
             results[phase] = previous.get(phase, [] if phase in ("rays", "stability") else {})
@@ -176,6 +176,7 @@ def main(argv=None) -> int:
         else:
             results[phase] = run_stability()
         results.setdefault("phase_seconds", {})[phase] = time.perf_counter() - start
+        results.setdefault("load", {})[phase] = os.getloadavg()[0]
         print(f"  ({time.perf_counter() - start:.0f} s)", flush=True)
     results["machine"]["total_minutes"] = (time.perf_counter() - started) / 60.0
     references = results["scenes"].get("references", {}).values()
