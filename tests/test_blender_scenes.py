@@ -15,7 +15,6 @@ setting changes, the sample count, tools/render.py and the bpy version, in pytes
 """
 from __future__ import annotations
 
-import hashlib
 import importlib.metadata
 import importlib.util
 import json
@@ -31,6 +30,7 @@ import pytest
 from blender_env import ROOT, isolated_env, run_bpy
 
 from core import image_io
+from bench.common import digest  # one cache-key function for the tests and the benchmark
 
 SCENES_DIR = os.path.join(ROOT, "sample_scenes")
 RENDER_TOOL = os.path.join(ROOT, "tools", "render.py")
@@ -139,19 +139,6 @@ def render(blend: str, out: str, engine: str, samples: int, folder: str) -> None
                     pytrace=False)
 
 
-def _digest(*parts) -> str:
-    """Return a short hex digest of files (paths) and values."""
-    sha = hashlib.sha256()
-    for part in parts:
-        if isinstance(part, str) and os.path.isfile(part):
-            with open(part, "rb") as fh:
-                sha.update(fh.read())
-        else:
-            sha.update(json.dumps(part, sort_keys=True).encode())
-        sha.update(b"\0")
-    return sha.hexdigest()[:24]
-
-
 @pytest.fixture(scope="session")
 def reference_cache(request) -> str:
     """The folder of cached Cycles references (inside .pytest_cache, which git ignores)."""
@@ -175,7 +162,7 @@ def variant_blends(tmp_path_factory) -> dict:
 
 def cycles_reference(blend: str, key_parts: tuple, samples: int, cache: str, folder: str) -> np.ndarray:
     """Return Cycles' image of `blend`, from the cache or rendered now (and cached)."""
-    key = _digest(*key_parts, samples, RENDER_TOOL, importlib.metadata.version("bpy"))
+    key = digest(*key_parts, samples, RENDER_TOOL, importlib.metadata.version("bpy"))
     cached = os.path.join(cache, f"{key}.exr")
     if not os.path.isfile(cached):
         fresh = os.path.join(folder, "cycles.exr")
