@@ -48,9 +48,15 @@ class RenderRecord:
 last_render = RenderRecord()
 
 
-def _pass_values(buffers: dict, name: str, lights: int) -> np.ndarray:
-    """Return the core buffer behind a pass, per-light buffers averaged over the lights: (H, W, c) float32."""
-    values = buffers[name]
+def _pass_values(buffers: dict, name: str, lights: int, size: tuple = (1, 1)) -> np.ndarray:
+    """Return the core buffer behind a pass, per-light buffers averaged over the lights: (H, W, c) float32.
+
+    A buffer that was not computed (its pass was switched on after the export) reads as empty: size (H, W).
+    """
+    values = buffers.get(name)
+    if values is None:
+        return np.full(tuple(size) + (1 if name in ("depth", "n_dot_l", "visibility") else 3,),
+                       1e10 if name == "depth" else 0.0, np.float32)
     if name in ("n_dot_l", "visibility"):
         if lights == 0:
             return np.zeros(values.shape[:2] + (1,), np.float32)
@@ -73,7 +79,8 @@ def debug_image(view: str, image: np.ndarray, buffers: dict, lights: int) -> np.
             shade = np.where(hit, 1.0 - (depth - near) / max(far - near, 1e-30), 0.0)
             out[..., :3] = shade[..., None]
     else:
-        out[..., :3] = _pass_values(buffers, "n_dot_l" if view == "N_DOT_L" else "visibility", lights)
+        out[..., :3] = _pass_values(buffers, "n_dot_l" if view == "N_DOT_L" else "visibility", lights,
+                                    image.shape[:2])
     return out
 
 
@@ -102,7 +109,7 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
                 render_pass.rect = block(image)
             elif name in STANDARD_PASSES or name in DEBUG_PASSES:
                 buffer = (STANDARD_PASSES.get(name) or DEBUG_PASSES[name])[0]
-                render_pass.rect = block(_pass_values(buffers, buffer, lights))
+                render_pass.rect = block(_pass_values(buffers, buffer, lights, image.shape[:2]))
             written.add(name)
     finally:
         engine.end_result(result)
@@ -136,8 +143,7 @@ def render_frame(engine, depsgraph) -> RenderRecord:
         record.cancelled = result.cancelled
         record.stats = result.stats
         written = time.perf_counter()
-        write_result(engine, exported, result.image, result.aux, result.aux["n_dot_l"].shape[2],
-                     scene.primer.debug_view)
+        write_result(engine, exported, result.image, result.aux, result.lights, scene.primer.debug_view)
         record.write_seconds = time.perf_counter() - written
     except KeyboardInterrupt:            # Ctrl+C in a terminal: stop like Esc
         record.cancelled = True

@@ -316,7 +316,30 @@ def border_rectangle(render, width: int, height: int) -> tuple:
     return x0, y0, x1 - x0, y1 - y0
 
 
-def render_settings(scene, width: int, height: int, border: tuple) -> core_scene.RenderSettings:
+# The core buffer behind each debug view (properties.DEBUG_VIEWS) and each pass Primer can write.
+VIEW_BUFFERS = {"NORMAL": "normal", "FACE_NORMAL": "face_normal", "DEPTH": "depth",
+                "N_DOT_L": "n_dot_l", "VISIBILITY": "visibility"}
+DEBUG_PASS_BUFFERS = ("face_normal", "n_dot_l", "visibility")
+
+
+def needed_buffers(scene, view_layer=None) -> tuple:
+    """Return the auxiliary buffers this render writes: only the enabled passes and the debug view's.
+
+    Model only what the scene needs: a render with Combined alone computes none of them.
+    """
+    wanted = []
+    if view_layer is not None and view_layer.use_pass_z:
+        wanted.append("depth")
+    if view_layer is not None and view_layer.use_pass_normal:
+        wanted.append("normal")
+    if scene.primer.debug_passes:
+        wanted += DEBUG_PASS_BUFFERS
+    if scene.primer.debug_view in VIEW_BUFFERS:
+        wanted.append(VIEW_BUFFERS[scene.primer.debug_view])
+    return tuple(dict.fromkeys(wanted))
+
+
+def render_settings(scene, width: int, height: int, border: tuple, view_layer=None) -> core_scene.RenderSettings:
     """Return core render settings from the scene's Primer settings and Blender's render settings."""
     props = scene.primer
     render = scene.render
@@ -331,7 +354,10 @@ def render_settings(scene, width: int, height: int, border: tuple) -> core_scene
         terminator_fix=bool(props.terminator_fix),
         transparent_background=bool(render.film_transparent),
         threads=int(props.threads),
-        aux=("depth", "normal", "face_normal", "n_dot_l", "visibility"),
+        aux=needed_buffers(scene, view_layer),
+        adaptive=bool(props.use_adaptive_sampling),
+        adaptive_threshold=float(props.adaptive_threshold),
+        adaptive_min_samples=int(props.adaptive_min_samples),
     )
 
 
@@ -434,6 +460,6 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) ->
         warnings.append("the scene has no lights: only the world colour will be visible")
     width, height = frame_size(scene.render)
     border = border_rectangle(scene.render, width, height)
-    settings = render_settings(scene, width, height, border)
+    settings = render_settings(scene, width, height, border, depsgraph.view_layer)
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
     return Export(core, settings, (width, height), border, warnings)

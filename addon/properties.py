@@ -22,6 +22,17 @@ class PrimerSettings(bpy.types.PropertyGroup):
     light_samples: IntProperty(name="Light Samples", default=4, min=1, max=1024, soft_max=64,
                                description="Shadow rays per camera ray for lights with extent (radius, angle, area); "
                                            "lights without extent are exact and need one")
+    use_adaptive_sampling: BoolProperty(
+        name="Adaptive Sampling", default=True,
+        description="Spend samples where pixels need them: after a first pass, only pixels whose noise is "
+                    "above the threshold (edges, shadow boundaries, lights with extent) get more")
+    adaptive_threshold: FloatProperty(
+        name="Noise Threshold", default=0.0, min=0.0, max=1.0, soft_max=0.1, precision=4,
+        description="Relative noise at which a pixel stops getting samples; 0 chooses it from Samples "
+                    "(0.25 / sqrt(samples)), so more samples always mean less noise")
+    adaptive_min_samples: IntProperty(
+        name="Min Samples", default=0, min=0, max=4096,
+        description="Samples every pixel gets before its noise is judged; 0 chooses max(4, samples / 16)")
     seed: IntProperty(name="Seed", default=0, min=0, description="Seed of the sampling pattern: same seed, same image")
     animate_seed: BoolProperty(name="Animate Seed", default=False,
                                description="Add the frame number to the seed, so noise changes between frames")

@@ -31,8 +31,13 @@ class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
         layout.use_property_split = True
         props = context.scene.primer
         col = layout.column()
-        col.prop(props, "samples")
+        col.prop(props, "samples", text="Max Samples" if props.use_adaptive_sampling else "Samples")
         col.prop(props, "light_samples")
+        col.prop(props, "use_adaptive_sampling")
+        sub = col.column(align=True)
+        sub.active = props.use_adaptive_sampling
+        sub.prop(props, "adaptive_threshold", text="Noise Threshold")
+        sub.prop(props, "adaptive_min_samples", text="Min Samples")
         col.prop(props, "seed")
         col.prop(props, "animate_seed")
         col.prop(props, "threads")

@@ -13,15 +13,17 @@ whatever the image size.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
-from typing import Callable, Optional
+from typing import Callable, NamedTuple, Optional
 
 import numpy as np
 
+from . import adaptive
 from . import camera as camera_
 from . import sampling
 from .geometry import WorldGeometry, build_geometry
@@ -50,6 +52,8 @@ class RenderStats:
     trace_seconds: float = 0.0      # inside Embree (nearest hits and shadow rays), summed over threads
     shading_seconds: float = 0.0    # shading the hits, less its shadow rays' Embree time, summed over threads
     triangles: int = 0
+    passes: int = 0                 # sampling passes run (1 without adaptive sampling)
+    samples_per_pixel: Optional[np.ndarray] = None   # (H, W) int32 camera samples each pixel received
     warnings: list = field(default_factory=list)
 
     @property
@@ -64,12 +68,14 @@ class RenderResult:
 
     image: (H, W, 4) float32 scene-linear RGBA, row 0 at the top
     aux:   name -> (H, W, c) float32 auxiliary buffer
+    lights: how many lights were rendered (the channels of the per-light buffers)
     """
 
     image: np.ndarray
     aux: dict
     stats: RenderStats
     cancelled: bool = False
+    lights: int = 0
 
 
 def validate(scene: Scene, settings: RenderSettings) -> None:
@@ -134,11 +140,32 @@ class _Context:
         self.camera_offset = geometry.origin - np.asarray(cam.matrix_world, np.float64)[:3, 3]
 
 
-def _render_chunk(ctx: _Context, pixels: np.ndarray):
-    """Render all samples of `pixels`: return (rgba (p, 4), aux dict of (p, c), primary, shadow ray counts,
-    seconds spent shading)."""
-    s = ctx.settings
-    spp = s.samples
+class ChunkResult(NamedTuple):
+    """Per-pixel sums of one chunk's samples (sums, not means, so passes add up).
+
+    rgba:      (p, 4) float64 sum of the samples' RGBA
+    squares:   (p,) float64 sum of the samples' squared luminance (for the noise estimate)
+    aux:       name -> (p, c) float64 sum of the auxiliary values over the samples that hit
+    hits:      (p,) int64 samples that hit a surface
+    primary:   camera rays traced
+    shadow:    shadow rays traced
+    shading_seconds: time spent shading (Embree's shadow queries included)
+    samples:   camera samples per pixel in this chunk
+    """
+
+    rgba: np.ndarray
+    squares: np.ndarray
+    aux: dict
+    hits: np.ndarray
+    primary: int
+    shadow: int
+    shading_seconds: float
+    samples: int
+
+
+def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> ChunkResult:
+    """Render `spp` samples in each of `pixels` (one stratified pass, random numbers from `seed`)."""
+    s = dataclasses.replace(ctx.settings, samples=spp, seed=seed)
     W, H = s.width, s.height
     # 1. Sample positions inside each pixel.
     pixel = np.repeat(pixels, spp)
@@ -163,9 +190,9 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray):
     # 3. Nearest hits.
     hits = ctx.geometry.tracer.intersect(origins, directions, rays.t_max[traced])
     h = traced[hits.hit]
-    aux = {}
     shadow_rays = 0
     shading_start = time.perf_counter()
+    surface = shading = None
     if len(h):
         # 4. Shade the hits.
         hit = hits.hit
@@ -176,45 +203,76 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray):
         rgba[h, 3] = 1.0
         shadow_rays = shading.shadow_rays
     shading_seconds = time.perf_counter() - shading_start
-    # 5. Box filter: the mean of each pixel's samples.
-    rgba = rgba.reshape(len(pixels), spp, 4).mean(axis=1)
-    if ctx.want_aux:
-        aux = _reduce_aux(ctx, len(pixels), spp, h, surface if len(h) else None,
-                          shading if len(h) else None)
-    return rgba, aux, n, shadow_rays, shading_seconds
+    # 5. Box filter: sum each pixel's samples (the caller divides by the count).
+    luminance = rgba[:, :3] @ adaptive.LUMINANCE
+    per_pixel = rgba.reshape(len(pixels), spp, 4).sum(axis=1)
+    squares = (luminance * luminance).reshape(len(pixels), spp).sum(axis=1)
+    hits_per_pixel = np.bincount(h // spp, minlength=len(pixels))
+    aux = _sum_aux(ctx, len(pixels), spp, h, surface, shading) if ctx.want_aux else {}
+    return ChunkResult(per_pixel, squares, aux, hits_per_pixel, n, shadow_rays, shading_seconds, spp)
 
 
-def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, shading) -> dict:
-    """Average the auxiliary values of each pixel's hit samples: name -> (p, c) float64."""
+def _sum_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, shading) -> dict:
+    """Sum the auxiliary values of each pixel's hit samples: name -> (p, c) float64."""
     k = len(ctx.lights)
     owner = h // spp
-    hits_per_pixel = np.bincount(owner, minlength=n_pixels).astype(np.float64)
-    covered = hits_per_pixel > 0
 
-    def mean(values: np.ndarray, empty: float = 0.0) -> np.ndarray:
+    def total(values: np.ndarray) -> np.ndarray:
         values = values.reshape(len(h), -1)
-        out = np.full((n_pixels, values.shape[1]), empty)
+        out = np.zeros((n_pixels, values.shape[1]))
         for c in range(values.shape[1]):
-            total = np.bincount(owner, weights=values[:, c], minlength=n_pixels)
-            out[covered, c] = total[covered] / hits_per_pixel[covered]
+            out[:, c] = np.bincount(owner, weights=values[:, c], minlength=n_pixels)
         return out
 
     aux = {}
     for name in ctx.settings.aux:
         if surface is None:
-            channels = k if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]
-            aux[name] = np.full((n_pixels, channels), MISS_DEPTH if name == "depth" else 0.0)
+            aux[name] = np.zeros((n_pixels, k if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]))
         elif name == "depth":
-            aux[name] = mean((surface.I + ctx.camera_offset) @ ctx.forward, MISS_DEPTH)
+            aux[name] = total((surface.I + ctx.camera_offset) @ ctx.forward)
         elif name == "normal":
-            aux[name] = mean(surface.N)
+            aux[name] = total(surface.N)
         elif name == "face_normal":
-            aux[name] = mean(surface.Ng)
+            aux[name] = total(surface.Ng)
         elif name == "n_dot_l":
-            aux[name] = mean(shading.n_dot_l) if k else np.zeros((n_pixels, 0))
+            aux[name] = total(shading.n_dot_l) if k else np.zeros((n_pixels, 0))
         elif name == "visibility":
-            aux[name] = mean(shading.visibility) if k else np.zeros((n_pixels, 0))
+            aux[name] = total(shading.visibility) if k else np.zeros((n_pixels, 0))
     return aux
+
+
+def _run_chunks(pool, threads: int, chunks: list, work: Callable, store: Callable,
+                cancel: Optional[Callable[[], bool]], progress: Callable[[float], None],
+                stats: RenderStats, start: float) -> bool:
+    """Run work(chunk) for every chunk on the pool and store(chunk, result) each; return whether cancelled.
+
+    A few chunks stay in flight per thread, so cancelling never waits for a long queue;
+    store, progress and cancel are called from this (the calling) thread only.
+    """
+    queue = iter(chunks)
+    running = {}
+
+    def refill():
+        for chunk in queue:
+            running[pool.submit(work, chunk)] = chunk
+            if len(running) >= 2 * threads:
+                break
+
+    refill()
+    done = 0
+    while running:
+        finished, _ = wait(running, return_when=FIRST_COMPLETED)
+        for future in finished:
+            store(running.pop(future), future.result())
+            done += 1
+        if cancel is not None and cancel():
+            for future in running:
+                future.cancel()
+            return True
+        refill()
+        stats.seconds = time.perf_counter() - start
+        progress(done / max(1, len(chunks)))
+    return False
 
 
 def render(scene: Scene, settings: RenderSettings,
@@ -243,58 +301,65 @@ def render(scene: Scene, settings: RenderSettings,
     lights = [translate_light(light, geometry.origin) for light in _usable_lights(scene, stats.warnings)]
     ctx = _Context(scene, settings, geometry, lights)
 
-    image = np.zeros((H * W, 4), np.float32)
-    aux = {}
+    # Running sums per pixel over all passes (core/adaptive.py): colour, noise, aux values, hits.
+    noise = adaptive.PixelNoise(np.zeros((H * W, 4)), np.zeros(H * W), np.zeros(H * W, np.int64))
+    aux_total = {}
     for name in settings.aux:
         channels = len(lights) if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]
-        aux[name] = np.zeros((H * W, channels), np.float32)
-        if name == "depth":
-            aux[name][:] = MISS_DEPTH
+        aux_total[name] = np.zeros((H * W, channels))
+    aux_hits = np.zeros(H * W, np.int64)
 
-    pixels = region_pixels(settings)
-    per_chunk = max(1, settings.chunk_size // settings.samples)
-    chunks = [pixels[i:i + per_chunk] for i in range(0, len(pixels), per_chunk)]
+    region = region_pixels(settings)
+    if settings.adaptive:
+        passes = adaptive.pass_sizes(settings.samples, settings.adaptive_min_samples)
+        threshold = settings.adaptive_threshold or adaptive.automatic_threshold(settings.samples)
+    else:
+        passes = [settings.samples]
     threads = settings.threads if settings.threads > 0 else (os.cpu_count() or 1)
     cancelled = False
-    done = 0
-
     tracer = geometry.tracer
     queried = (tracer.intersect_seconds, tracer.occluded_seconds)
 
-    def store(chunk_pixels, result):
-        rgba, chunk_aux, primary, shadow, shading_seconds = result
-        image[chunk_pixels] = rgba
-        for name, values in chunk_aux.items():
-            aux[name][chunk_pixels] = values
-        stats.primary_rays += primary
-        stats.shadow_rays += shadow
-        stats.shading_seconds += shading_seconds
+    def store(chunk_pixels: np.ndarray, result: ChunkResult) -> None:
+        noise.total[chunk_pixels] += result.rgba
+        noise.squares[chunk_pixels] += result.squares
+        noise.count[chunk_pixels] += result.samples
+        aux_hits[chunk_pixels] += result.hits
+        for name, values in result.aux.items():
+            aux_total[name][chunk_pixels] += values
+        stats.primary_rays += result.primary
+        stats.shadow_rays += result.shadow
+        stats.shading_seconds += result.shading_seconds
 
     with ThreadPoolExecutor(max_workers=threads) as pool:
-        # Keep a few chunks in flight per thread, so cancelling never waits for a long queue.
-        queue = iter(chunks)
-        running = {}
-        for chunk in queue:
-            running[pool.submit(_render_chunk, ctx, chunk)] = chunk
-            if len(running) >= 2 * threads:
-                break
-        while running:
-            finished, _ = wait(running, return_when=FIRST_COMPLETED)
-            for future in finished:
-                store(running.pop(future), future.result())
-                done += 1
-            if cancel is not None and cancel():
-                cancelled = True
-                for future in running:
-                    future.cancel()
-                break
-            for chunk in queue:
-                running[pool.submit(_render_chunk, ctx, chunk)] = chunk
-                if len(running) >= 2 * threads:
+        pixels = region
+        for index, spp in enumerate(passes):
+            # 1. Which pixels still need samples: all of them at first, then the noisy ones.
+            if index > 0:
+                pixels = adaptive.unconverged(region, noise, threshold, W, H)
+                if len(pixels) == 0:
                     break
-            stats.seconds = time.perf_counter() - start
-            if progress is not None:
-                progress(done / max(1, len(chunks)), stats)
+            # 2. One stratified pass of `spp` samples over them, chunk by chunk, its own random numbers.
+            seed = (settings.seed + index * 0x2545F491) & 0xFFFFFFFF
+            per_chunk = max(1, settings.chunk_size // spp)
+            chunks = [pixels[i:i + per_chunk] for i in range(0, len(pixels), per_chunk)]
+            cancelled = _run_chunks(pool, threads, chunks, lambda c: _render_chunk(ctx, c, spp, seed), store,
+                                    cancel, lambda f: progress((index + f) / len(passes), stats) if progress else None,
+                                    stats, start)
+            stats.passes += 1
+            if cancelled:
+                break
+
+    # 3. Box filter: each pixel's mean over all its samples; aux values over the samples that hit.
+    count = np.maximum(noise.count, 1)[:, None]
+    image = (noise.total / count).astype(np.float32)
+    aux = {}
+    for name, values in aux_total.items():
+        covered = aux_hits > 0
+        out = np.full(values.shape, MISS_DEPTH if name == "depth" else 0.0, np.float32)
+        out[covered] = values[covered] / aux_hits[covered, None]
+        aux[name] = out
+    stats.samples_per_pixel = noise.count.reshape(H, W).astype(np.int32)
 
     stats.seconds = time.perf_counter() - start
     # Embree's share: the shadow rays' queries ran inside shading, so they move from there to trace.
@@ -303,4 +368,4 @@ def render(scene: Scene, settings: RenderSettings,
     stats.shading_seconds -= shadow_query
     return RenderResult(image.reshape(H, W, 4),
                         {name: values.reshape(H, W, -1) for name, values in aux.items()},
-                        stats, cancelled)
+                        stats, cancelled, len(lights))

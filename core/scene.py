@@ -177,6 +177,9 @@ class RenderSettings:
     region: (x0, y0, x1, y1) pixel rectangle to render, y from the top row, or None for all.
     shadow_method: "robust" (error-bound offset, no user epsilon) or "epsilon" (the lecture's).
     aux: names of auxiliary buffers to return, from core.render.AUX_BUFFERS.
+    adaptive: render in passes and stop pixels whose noise is below adaptive_threshold
+        (core/adaptive.py); samples is then the most a pixel gets. adaptive_threshold 0 and
+        adaptive_min_samples 0 choose automatic values from samples.
     """
 
     width: int = 640
@@ -196,6 +199,9 @@ class RenderSettings:
     threads: int = 0
     chunk_size: int = 1 << 16
     aux: Sequence[str] = ()
+    adaptive: bool = False
+    adaptive_threshold: float = 0.0
+    adaptive_min_samples: int = 0
 
 
 @dataclass
