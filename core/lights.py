@@ -35,15 +35,22 @@ class LightSample(NamedTuple):
 
     L:          (n, 3) float64 unit direction from the point towards the light
     distance:   (n,) float64 distance to the sampled light point (inf for the sun)
-    irradiance: (n, 3) float64 irradiance at normal incidence carried by this sample
-                (W/m^2, RGB); zero where the light sends nothing
+    strength:   (n,) float64 irradiance at normal incidence carried by this sample per unit of
+                the light's colour (W/m^2); zero where the light sends nothing
+    color:      (3,) float64 the light's RGB colour
     position:   (n, 3) float64 the sampled light point (undefined for the sun)
     """
 
     L: np.ndarray
     distance: np.ndarray
-    irradiance: np.ndarray
+    strength: np.ndarray
+    color: np.ndarray
     position: np.ndarray
+
+    @property
+    def irradiance(self) -> np.ndarray:
+        """The RGB irradiance at normal incidence: (n, 3) float64 W/m^2."""
+        return self.strength[:, None] * self.color
 
 
 def is_delta(light) -> bool:
@@ -72,12 +79,24 @@ def _sample_cone(axis: np.ndarray, cos_max: np.ndarray, u: np.ndarray):
     cos_theta = 1.0 - u[:, 0] * (1.0 - cos_max)
     sin_theta = np.sqrt(np.maximum(0.0, 1.0 - cos_theta * cos_theta))
     phi = 2.0 * math.pi * u[:, 1]
-    helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    t = np.cross(axis, helper)
-    t /= np.linalg.norm(t, axis=1)[:, None]
-    b = np.cross(axis, t)
+    t, b = orthonormal_frame(axis)
     return (t * (sin_theta * np.cos(phi))[:, None] + b * (sin_theta * np.sin(phi))[:, None]
             + axis * cos_theta[:, None])
+
+
+def orthonormal_frame(axis: np.ndarray):
+    """Return two unit vectors (t, b) that complete each unit axis to a right-handed orthonormal frame.
+
+    Duff et al., "Building an Orthonormal Basis, Revisited" (2017): no branches, no cross products.
+    axis: (n, 3) float64 unit -> t, b: (n, 3) float64
+    """
+    x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
+    sign = np.where(z >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + z)
+    c = x * y * a
+    t = np.stack([1.0 + sign * x * x * a, sign * c, -sign * x], axis=1)
+    b = np.stack([c, sign + y * y * a, -y], axis=1)
+    return t, b
 
 
 def spot_attenuation(light: SpotLight, directions: np.ndarray) -> np.ndarray:
@@ -130,8 +149,8 @@ def _sample_round_light(center: np.ndarray, radius: float, soft_falloff: bool, p
         b = d * cos_to_center                              # to the near side of the sphere
         distance = b - np.sqrt(np.maximum(0.0, b * b - (d * d - radius * radius)))
     radiance = power / (4.0 * math.pi * math.pi * radius * radius)
-    irradiance = (radiance * 2.0 * math.pi * (1.0 - cos_max))[:, None] * color
-    return LightSample(L, distance, irradiance, points + L * distance[:, None])
+    strength = radiance * 2.0 * math.pi * (1.0 - cos_max)
+    return LightSample(L, distance, strength, color, points + L * distance[:, None])
 
 
 def spread_attenuation(spread: float, cos_light: np.ndarray) -> np.ndarray:
@@ -193,15 +212,15 @@ def sample_light(light, points: np.ndarray, u: np.ndarray) -> LightSample:
         if light.angle <= 0.0:
             # A distant light: one direction, irradiance = strength, no distance attenuation.
             L = np.broadcast_to(-travel, (n, 3)).copy()
-            irradiance = np.broadcast_to(light.strength * color, (n, 3)).copy()
+            strength = np.full(n, float(light.strength))
         else:
             # A disk of directions of angular radius a with uniform radiance S / (pi sin^2 a).
             half = 0.5 * light.angle
             cos_max = math.cos(half)
             L = _sample_cone(np.broadcast_to(-travel, (n, 3)), np.full(n, cos_max), u)
             radiance = light.strength / (math.pi * math.sin(half) ** 2)
-            irradiance = np.broadcast_to(radiance * 2.0 * math.pi * (1.0 - cos_max) * color, (n, 3)).copy()
-        return LightSample(L, np.full(n, np.inf), irradiance, np.zeros((n, 3)))
+            strength = np.full(n, radiance * 2.0 * math.pi * (1.0 - cos_max))
+        return LightSample(L, np.full(n, np.inf), strength, color, np.zeros((n, 3)))
 
     if isinstance(light, (PointLight, SpotLight)):
         center = np.asarray(light.position, np.float64)
@@ -210,13 +229,13 @@ def sample_light(light, points: np.ndarray, u: np.ndarray) -> LightSample:
             L, distance = _direction_to(points, np.broadcast_to(center, points.shape))
             with np.errstate(divide="ignore"):
                 falloff = np.where(distance > 0, 1.0 / (distance * distance), 0.0)
-            irradiance = (light.power * INV_4PI * falloff)[:, None] * color
-            sample = LightSample(L, distance, irradiance, np.broadcast_to(center, points.shape).copy())
+            sample = LightSample(L, distance, light.power * INV_4PI * falloff, color,
+                                 np.broadcast_to(center, points.shape))
         else:
             sample = _sample_round_light(center, light.radius, light.soft_falloff, light.power, color, points, u)
         if isinstance(light, SpotLight):
             # The cone is evaluated for the direction from the (sampled) light point to the surface.
-            sample = sample._replace(irradiance=sample.irradiance * spot_attenuation(light, -sample.L)[:, None])
+            sample = sample._replace(strength=sample.strength * spot_attenuation(light, -sample.L))
         return sample
 
     if isinstance(light, AreaLight):
@@ -230,6 +249,6 @@ def sample_light(light, points: np.ndarray, u: np.ndarray) -> LightSample:
         with np.errstate(divide="ignore", invalid="ignore"):
             geometry = np.where((cos_light > 0) & (distance > 0), cos_light * area / (distance * distance), 0.0)
         geometry *= spread_attenuation(light.spread, cos_light)
-        return LightSample(L, distance, (radiance * geometry)[:, None] * color, targets)
+        return LightSample(L, distance, radiance * geometry, color, targets)
 
     raise TypeError(f"unknown light type {type(light).__name__}")

@@ -136,6 +136,8 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
     offsets = shadows.error_bound(surface.I, surface.vertices) if robust else None
 
     for index, light in enumerate(lights):
+        # The light's colour is the same for all its samples: sum the scalar irradiance, colour it once.
+        E_light = np.zeros(n)
         delta = lights_.is_delta(light)
         count = 1 if delta else max(1, int(settings.light_samples))
         for j in range(count):
@@ -158,7 +160,7 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             NL = np.einsum("ij,ij->i", surface.N, ls.L)
             NgL = np.einsum("ij,ij->i", surface.Ng, ls.L)
             face_allows = (NgL > 0.0) | surface.smooth if settings.terminator_fix else NgL > 0.0
-            lit = (NL > 0.0) & face_allows & (ls.irradiance.max(axis=1) > 0.0)
+            lit = (NL > 0.0) & face_allows & (ls.strength > 0.0)
             idx = np.flatnonzero(lit)
             if want_aux:
                 n_dot_l[:, index] += np.maximum(NL, 0.0) / count
@@ -176,9 +178,10 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             seen = shadows.visible(geometry.tracer, rays)
             shadow_ray_count += len(idx)
             # 4. Scatter the unoccluded light back: E += E_normal (N.L) V.
-            E[idx] += ls.irradiance[idx] * (NL[idx] * seen / count)[:, None]
+            E_light[idx] += ls.strength[idx] * NL[idx] * seen * (1.0 / count)
             if want_aux:
                 visibility[idx, index] += seen / count
+        E += E_light[:, None] * np.asarray(light.color, np.float64)[:3]
     radiance = surface.albedo * (1.0 / math.pi) * E
     return Shading(radiance, n_dot_l, visibility, shadow_ray_count)
 

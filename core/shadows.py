@@ -58,12 +58,24 @@ class ShadowRays(NamedTuple):
     t_max: np.ndarray
 
 
+def largest_coordinate(values: np.ndarray) -> np.ndarray:
+    """Return the largest |coordinate| of each row: (n, ...) float64 -> (n,) float64.
+
+    Column by column: a reduction along a short last axis is several times slower in numpy.
+    """
+    columns = np.abs(values.reshape(len(values), -1))
+    largest = columns[:, 0].copy()
+    for c in range(1, columns.shape[1]):
+        np.maximum(largest, columns[:, c], out=largest)
+    return largest
+
+
 def error_bound(points: np.ndarray, triangle_vertices: np.ndarray) -> np.ndarray:
     """Return the robust offset distance for each hit: ROBUST_ULPS float32 ulps of its largest coordinate.
 
     points: (n, 3) float64 hit points; triangle_vertices: (n, 3, 3) float64 -> (n,) float64
     """
-    magnitude = np.maximum(np.abs(points).max(axis=1), np.abs(triangle_vertices).max(axis=(1, 2)))
+    magnitude = np.maximum(largest_coordinate(points), largest_coordinate(triangle_vertices))
     return ROBUST_ULPS * FLOAT32_EPSILON * magnitude
 
 
@@ -82,7 +94,7 @@ def robust_rays(points: np.ndarray, face_normals: np.ndarray, offsets: np.ndarra
         length = np.sqrt(np.einsum("ij,ij->i", w, w))
         directions = w / np.maximum(length, 1e-300)[:, None]
         # Stop short of the light point by the rounding error at its own coordinates.
-        end_offset = ROBUST_ULPS * FLOAT32_EPSILON * np.abs(light_points).max(axis=1)
+        end_offset = ROBUST_ULPS * FLOAT32_EPSILON * largest_coordinate(light_points)
         return ShadowRays(origins, directions, np.maximum(length - end_offset, 0.0))
     return ShadowRays(origins, L, distance)
 
