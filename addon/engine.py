@@ -96,6 +96,13 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
     def block(values: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(values[rows, cols][::-1], dtype=np.float32).reshape(w * h, -1)
 
+    def fill(render_pass, values: np.ndarray) -> None:
+        # foreach_set copies the buffer in one go; assigning an array converts it value by value.
+        try:
+            render_pass.rect.foreach_set(values.ravel())
+        except (AttributeError, TypeError, RuntimeError):
+            render_pass.rect = values
+
     # Blender's render result is the border rectangle itself: its coordinates start at the border's corner.
     result = engine.begin_result(0, 0, w, h)
     try:
@@ -106,10 +113,10 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
             if name in written:
                 continue
             if name == "Combined":
-                render_pass.rect = block(image)
+                fill(render_pass, block(image))
             elif name in STANDARD_PASSES or name in DEBUG_PASSES:
                 buffer = (STANDARD_PASSES.get(name) or DEBUG_PASSES[name])[0]
-                render_pass.rect = block(_pass_values(buffers, buffer, lights, image.shape[:2]))
+                fill(render_pass, block(_pass_values(buffers, buffer, lights, image.shape[:2])))
             written.add(name)
     finally:
         engine.end_result(result)

@@ -42,7 +42,7 @@ class Plan:
     def __init__(self, quick: bool):
         self.quick = quick
         self.reference_samples = 256 if quick else 1024       # Cycles, as two halves with different seeds
-        self.primer_ladder = [1, 4, 16] if quick else [1, 2, 4, 8, 16, 32, 64, 128]
+        self.primer_ladder = [1, 4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128, 256, 512]
         self.cycles_ladder = [4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128]
         self.repeats = 1 if quick else 3
         self.scenes = (["light_point", "light_area", "modifiers_instances"] if quick

@@ -345,8 +345,9 @@ def report_markdown(results: dict, plots: dict) -> str:
              "(tools/render.py `configure_cycles_reference`), cached in `bench/refs/` with the settings that made it. "
              "Half the squared difference of the two halves estimates the reference's own noise "
              "(the dotted line in the plots).",
-             f"- Ladders: Primer at {plan['primer_ladder']} samples per pixel, Cycles (seed 0) at "
-             f"{plan['cycles_ladder']}. Each time is the wall time of one whole `bpy.ops.render.render()` call, "
+             f"- Ladders: Primer at {plan['primer_ladder']} samples per pixel, with adaptive sampling as the "
+             "files have it (on by default: the number is the most samples any pixel gets, core/adaptive.py), "
+             f"Cycles (seed 0, adaptive sampling off) at {plan['cycles_ladder']}. Each time is the wall time of one whole `bpy.ops.render.render()` call, "
              "export and BVH build included, in one Blender process per scene with the engines alternating, "
              f"after an untimed warm-up render of each; the median of {plan['repeats']} repeats.",
              "- Errors over RGB against the reference: RMSE; relMSE = mean((x − r)² / (r² + 10⁻²)); FLIP = mean LDR "

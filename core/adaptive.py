@@ -58,8 +58,9 @@ def automatic_threshold(samples: int) -> float:
 def first_pass_size(samples: int, min_samples: int = 0) -> int:
     """Return the number of samples every pixel gets in the first pass (min_samples 0: automatic)."""
     if min_samples <= 0:
-        # Enough for a 2x2 stratified pattern at least, and a sixteenth of the budget for large ones.
-        min_samples = max(4, samples // 16)
+        # Enough for a 2x2 stratified pattern at least, a sixteenth of the budget for larger ones, and
+        # never more than 16: the first pass is most of the cost when most pixels stop after it.
+        min_samples = max(4, min(16, samples // 16))
     return max(1, min(samples, int(min_samples)))
 
 

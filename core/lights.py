@@ -63,12 +63,15 @@ def is_delta(light) -> bool:
 
 
 def _direction_to(points: np.ndarray, targets: np.ndarray):
-    """Return (unit direction, distance) from each point to its target. points, targets: (n, 3) float64."""
+    """Return (unit direction, distance) from each point to its target (a zero vector where they coincide).
+
+    points, targets: (n, 3) float64 -> (n, 3) float64, (n,) float64
+    """
     w = targets - points
     distance = np.sqrt(np.einsum("ij,ij->i", w, w))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        L = w / distance[:, None]
-    return np.nan_to_num(L), distance
+    inverse = np.divide(1.0, distance, out=np.zeros_like(distance), where=distance > 0.0)
+    w *= inverse[:, None]
+    return w, distance
 
 
 def _sample_cone(axis: np.ndarray, cos_max: np.ndarray, u: np.ndarray):

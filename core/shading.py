@@ -22,6 +22,10 @@ from . import normals as normals_
 from . import sampling, shadows
 from .scene import AreaLight, PointLight, SpotLight, SunLight
 
+# Below this fraction of lit samples, shadow rays are built for the lit samples only (gathered);
+# above it, for all samples, which skips the gather and the scatter.
+GATHER_BELOW = 0.75
+
 
 class Surface(NamedTuple):
     """Surface records of the hit samples, camera-relative.
@@ -161,12 +165,17 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             NgL = np.einsum("ij,ij->i", surface.Ng, ls.L)
             face_allows = (NgL > 0.0) | surface.smooth if settings.terminator_fix else NgL > 0.0
             lit = (NL > 0.0) & face_allows & (ls.strength > 0.0)
-            idx = np.flatnonzero(lit)
+            lit_count = int(np.count_nonzero(lit))
             if want_aux:
                 n_dot_l[:, index] += np.maximum(NL, 0.0) / count
-            if len(idx) == 0:
+            if lit_count == 0:
                 continue
-            # 3. One shadow ray per lit sample, from a point safely off the surface.
+            # 3. One shadow ray per lit sample, from a point safely off the surface. Compact, compute,
+            #    scatter: gather the lit samples first, unless nearly all are lit; gathering would
+            #    then cost more than it saves, so every sample gets a ray and the unlit ones an
+            #    empty interval (t_max < 0) that Embree does not trace.
+            gather = settings.terminator_fix or lit_count < GATHER_BELOW * n
+            idx = np.flatnonzero(lit) if gather else slice(None)
             I = surface.I[idx]
             if settings.terminator_fix:
                 I = _lift_terminator(surface, idx, NL[idx], NgL[idx], settings.terminator_offset)
@@ -175,8 +184,10 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
                                            ls.L[idx], ls.distance[idx])
             else:
                 rays = shadows.epsilon_rays(I, ls.L[idx], ls.distance[idx], settings.epsilon)
-            seen = shadows.visible(geometry.tracer, rays)
-            shadow_ray_count += len(idx)
+            if not gather:
+                rays.t_max[~lit] = -1.0
+            seen = shadows.visible(geometry.tracer, rays) & lit[idx]
+            shadow_ray_count += lit_count
             # 4. Scatter the unoccluded light back: E += E_normal (N.L) V.
             E_light[idx] += ls.strength[idx] * NL[idx] * seen * (1.0 / count)
             if want_aux:
