@@ -224,15 +224,16 @@ def draw_overlay():
         segments = inspector_view.overlay_segments(record, settings.normal_length, 0.0, settings.show_primary,
                                                    settings.show_normals, settings.show_shadow_rays)
         markers = inspector_view.overlay_markers(record, settings.show_shadow_rays)
-        _draw(segments, markers, settings.line_width)
+        size = 0.04 * inspector_view.scale_of(record)
+        _draw(segments + inspector_view.marker_segments(markers, size), settings.line_width)
     except Exception:                   # never let a drawing error repeat on every redraw
         if not _draw_failed:
             log.exception("ray inspector: drawing failed")
         _draw_failed = True
 
 
-def _draw(segments: list, markers: list, line_width: float) -> None:
-    """Draw Segments as wide lines and Markers as points, on top of the scene, grouped by colour."""
+def _draw(segments: list, line_width: float) -> None:
+    """Draw Segments as wide lines on top of the scene, one batch per colour."""
     import gpu
     from gpu_extras.batch import batch_for_shader
 
@@ -241,22 +242,14 @@ def _draw(segments: list, markers: list, line_width: float) -> None:
         by_color.setdefault(segment.color, []).extend([tuple(segment.start), tuple(segment.end)])
     gpu.state.blend_set("ALPHA")
     gpu.state.depth_test_set("NONE")
-    lines = gpu.shader.from_builtin("POLYLINE_UNIFORM_COLOR")
-    lines.bind()
-    lines.uniform_float("viewportSize", gpu.state.viewport_get()[2:])
-    lines.uniform_float("lineWidth", line_width)
+    shader = gpu.shader.from_builtin("POLYLINE_UNIFORM_COLOR")
+    shader.bind()
+    shader.uniform_float("viewportSize", gpu.state.viewport_get()[2:])
+    shader.uniform_float("lineWidth", line_width)
     for color, coords in by_color.items():
-        lines.uniform_float("color", color)
-        batch_for_shader(lines, "LINES", {"pos": coords}).draw(lines)
-    points = gpu.shader.from_builtin("UNIFORM_COLOR")
-    points.bind()
-    gpu.state.point_size_set(3.0 * line_width + 2.0)
-    for marker in markers:
-        points.uniform_float("color", marker.color)
-        batch_for_shader(points, "POINTS", {"pos": [tuple(marker.point)]}).draw(points)
-    gpu.state.point_size_set(1.0)
+        shader.uniform_float("color", color)
+        batch_for_shader(shader, "LINES", {"pos": coords}).draw(shader)
     gpu.state.blend_set("NONE")
-    gpu.state.depth_test_set("NONE")
 
 
 # ----------------------------------------------------------------------------

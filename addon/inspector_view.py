@@ -115,6 +115,16 @@ def overlay_markers(record, shadow_rays: bool = True) -> list:
     return markers
 
 
+def marker_segments(markers: list, size: float) -> list:
+    """Return each Marker as a small 3D cross of three Segments of length `size` (points need no point size)."""
+    segments = []
+    for marker in markers:
+        for axis in np.eye(3):
+            segments.append(Segment(marker.point - 0.5 * size * axis, marker.point + 0.5 * size * axis,
+                                    marker.color, marker.part))
+    return segments
+
+
 # ----------------------------------------------------------------------------
 # The panel's numbers
 # ----------------------------------------------------------------------------

@@ -197,6 +197,14 @@ def test_overlay_colours_tell_unoccluded_occluded_and_not_cast_shadow_rays_apart
     assert {s.part for s in view.overlay_segments(record, shadow_rays=False)} == {"primary", "N", "Ng"}
     markers = view.overlay_markers(record)
     assert [m.color for m in markers] == [view.HIT_POINT, view.UNOCCLUDED, view.OCCLUDED, view.NOT_CAST]
+    # Markers are drawn as 3D crosses centred on their point, in their colour.
+    crosses = view.marker_segments(markers, 0.1)
+    assert len(crosses) == 3 * len(markers)
+    for k, marker in enumerate(markers):
+        for segment in crosses[3 * k:3 * k + 3]:
+            np.testing.assert_allclose(0.5 * (segment.start + segment.end), marker.point, atol=1e-12)
+            assert np.linalg.norm(segment.end - segment.start) == pytest.approx(0.1)
+            assert segment.color == marker.color
 
 
 def test_pixel_outside_the_image_is_reported_not_raised_inside_blender(primer):
