@@ -114,6 +114,11 @@ def run_inspection(operator, context, x: int, y: int) -> set:
         state.error = f"a library Primer needs is missing ({error})"
         operator.report({"ERROR"}, f"Primer: {state.error}")
         return {"CANCELLED"}
+    except Exception as error:          # a clear report, never a traceback in Blender's face
+        log.exception("ray inspector failed")
+        state.error = f"inspection failed: {error}"
+        operator.report({"ERROR"}, f"Primer: {state.error}")
+        return {"CANCELLED"}
     operator.report({"INFO"}, summary(record))
     redraw(context)
     return {"FINISHED"}
@@ -164,16 +169,16 @@ class PRIMER_OT_pick_pixel(bpy.types.Operator):
                 and _window_region(area) is not None)
 
     def invoke(self, context, event):
-        self.area = context.area
+        self._area = context.area
         context.window_manager.modal_handler_add(self)
         context.window.cursor_modal_set("EYEDROPPER")
-        self.area.header_text_set("Primer ray inspector: click a pixel of the render | Esc / right-click: done")
+        self._area.header_text_set("Primer ray inspector: click a pixel of the render | Esc / right-click: done")
         return {"RUNNING_MODAL"}
 
     def finish(self, context):
         """Restore the cursor and header."""
         context.window.cursor_modal_restore()
-        self.area.header_text_set(None)
+        self._area.header_text_set(None)
 
     def modal(self, context, event):
         if event.type in {"ESC", "RIGHTMOUSE"} and event.value == "PRESS":
@@ -181,7 +186,7 @@ class PRIMER_OT_pick_pixel(bpy.types.Operator):
             return {"FINISHED"}
         if event.type != "LEFTMOUSE" or event.value != "PRESS":
             return {"PASS_THROUGH"}         # panning and zooming keep working
-        region = _window_region(self.area)
+        region = _window_region(self._area)
         mx, my = event.mouse_x - region.x, event.mouse_y - region.y
         if not (0 <= mx < region.width and 0 <= my < region.height):
             return {"PASS_THROUGH"}         # a click elsewhere (a button, another editor)
@@ -190,10 +195,14 @@ class PRIMER_OT_pick_pixel(bpy.types.Operator):
         # 2. Image coordinates -> render pixel, row 0 at the top.
         scene = context.scene
         full = export.frame_size(scene.render)
-        image = self.area.spaces.active.image
+        image = self._area.spaces.active.image
+        border = export.border_rectangle(scene.render, *full)
         size = tuple(image.size) if image is not None else (0, 0)
+        if min(size) <= 0:              # size unknown: the image Blender would render now
+            cropped = scene.render.use_border and scene.render.use_crop_to_border
+            size = tuple(border[2:]) if cropped else full
         try:
-            x, y = inspector_view.image_uv_to_pixel(u, v, size, full, export.border_rectangle(scene.render, *full))
+            x, y = inspector_view.image_uv_to_pixel(u, v, size, full, border)
         except ValueError as error:
             self.report({"WARNING"}, f"Primer: {error}")
             return {"RUNNING_MODAL"}

@@ -192,6 +192,8 @@ def panel_sections(record, height: Optional[int] = None) -> list:
         sections.append((f"{light.kind.title()} '{light.name}'", rows))
     sections.append(("Pixel", [("Sum", colour(record.radiance)),
                                ("Formula", "Σ albedo/π · E · max(N·L, 0) · V")]))
+    if record.warnings:
+        sections.append(("Notes", [("", note) for note in record.warnings]))
     return sections
 
 

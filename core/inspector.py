@@ -227,7 +227,9 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     """
     validate(scene, settings)
     W, H = settings.width, settings.height
-    if not (0 <= int(x) < W and 0 <= int(y) < H) or int(x) != x or int(y) != y:
+    if int(x) != x or int(y) != y:
+        raise ValueError(f"pixel coordinates must be whole numbers, got ({x}, {y})")
+    if not (0 <= x < W and 0 <= y < H):
         raise ValueError(f"pixel ({x}, {y}) is outside the {W}x{H} image (x in 0..{W - 1}, y in 0..{H - 1}, "
                          f"row 0 at the top)")
     x, y = int(x), int(y)

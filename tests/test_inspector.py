@@ -281,6 +281,8 @@ def test_pixel_outside_the_image_is_a_clear_error():
         inspector.inspect_pixel(scene, settings(), 16, 0)
     with pytest.raises(ValueError, match="outside"):
         inspector.inspect_pixel(scene, settings(), 0, -1)
+    with pytest.raises(ValueError, match="whole numbers"):
+        inspector.inspect_pixel(scene, settings(), 2.5, 1)
 
 
 def test_triangles_know_their_object():
