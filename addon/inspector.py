@@ -155,6 +155,12 @@ def _window_region(area):
     return None
 
 
+def _inside(region, event) -> bool:
+    """Whether the mouse is over `region` (regions may overlap: the sidebar floats over the image)."""
+    mx, my = event.mouse_x - region.x, event.mouse_y - region.y
+    return region.width > 1 and region.height > 1 and 0 <= mx < region.width and 0 <= my < region.height
+
+
 class PRIMER_OT_pick_pixel(bpy.types.Operator):
     """Click pixels of the render in the Image Editor to inspect their rays; Esc or right-click ends"""
 
@@ -188,8 +194,9 @@ class PRIMER_OT_pick_pixel(bpy.types.Operator):
             return {"PASS_THROUGH"}         # panning and zooming keep working
         region = _window_region(self._area)
         mx, my = event.mouse_x - region.x, event.mouse_y - region.y
-        if not (0 <= mx < region.width and 0 <= my < region.height):
-            return {"PASS_THROUGH"}         # a click elsewhere (a button, another editor)
+        if not _inside(region, event) or any(_inside(other, event) for other in self._area.regions
+                                             if other.type != "WINDOW"):
+            return {"PASS_THROUGH"}         # a click elsewhere: another editor, the header, the sidebar
         # 1. Region pixel -> image coordinates (0..1 across the image, v upwards).
         u, v = region.view2d.region_to_view(mx, my)
         # 2. Image coordinates -> render pixel, row 0 at the top.
