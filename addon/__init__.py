@@ -5,19 +5,21 @@ from __future__ import annotations
 def register():
     """Register settings first (panels and the engine read them), then the engine, then the panels."""
     import bpy
-    from . import engine, properties, ui
+    from . import engine, inspector, properties, ui
 
     properties.register()
     for cls in engine.classes:
         bpy.utils.register_class(cls)
     ui.register()
+    inspector.register()
 
 
 def unregister():
     """Unregister in the reverse order."""
     import bpy
-    from . import engine, properties, ui
+    from . import engine, inspector, properties, ui
 
+    inspector.unregister()
     ui.unregister()
     for cls in reversed(engine.classes):
         bpy.utils.unregister_class(cls)

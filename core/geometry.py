@@ -35,6 +35,7 @@ class WorldGeometry:
     corner_normals: (s, 3, 3) float32 world-space unit normals of the smooth triangles' corners
     tracer:         the Embree BVH over vertices and triangles
     warnings:       human-readable notes about input that was dropped or replaced
+    instance:       (t,) int32 index into Scene.instances per triangle (which object it belongs to)
     """
 
     origin: np.ndarray
@@ -47,6 +48,7 @@ class WorldGeometry:
     corner_normals: np.ndarray
     tracer: Tracer
     warnings: list = field(default_factory=list)
+    instance: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
 
     @property
     def has_smooth(self) -> bool:
@@ -75,6 +77,8 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
     origin = np.asarray(origin, dtype=np.float64)
     warnings: list[str] = []
     parts_v, parts_t, parts_n, parts_m, parts_cn, parts_smooth = [], [], [], [], [], []
+    parts_i = []
+    instance_index = {id(instance): i for i, instance in enumerate(scene.instances)}
     vertex_offset = 0
     n_materials = len(scene.materials)
     missing_materials = dropped_nonfinite = dropped_degenerate = dropped_index = 0
@@ -147,6 +151,7 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
             parts_t.append(triangles[keep] + vertex_offset)
             parts_n.append(face_n[keep])
             parts_m.append(material[keep])
+            parts_i.append(np.full(int(keep.sum()), instance_index[id(inst)], np.int32))
             vertex_offset += len(points32)
 
     if dropped_index:
@@ -177,4 +182,5 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
         corner_normals=np.concatenate(parts_cn) if parts_cn else np.zeros((0, 3, 3), np.float32),
         tracer=Tracer(vertices, triangles),
         warnings=warnings,
+        instance=np.concatenate(parts_i) if parts_i else np.zeros(0, np.int32),
     )

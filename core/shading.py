@@ -124,11 +124,13 @@ def translate_light(light, origin: np.ndarray):
 
 
 def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.ndarray,
-                 sample: np.ndarray, want_aux: bool = False) -> Shading:
+                 sample: np.ndarray, want_aux: bool = False, light_numbers=None) -> Shading:
     """Return the radiance reflected towards the camera by direct light from every light.
 
     lights: already camera-relative (`translate_light`); pixel, sample: (n,) int64 keys
-    of each hit for the random numbers.
+    of each hit for the random numbers. light_numbers: None, or (k, 2) float64 one fixed
+    unit-square point per light used for every hit instead of the stratified samples
+    (the ray inspector's single sample, core/inspector.py).
     """
     n = len(surface.I)
     k = len(lights)
@@ -143,11 +145,13 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
         # The light's colour is the same for all its samples: sum the scalar irradiance, colour it once.
         E_light = np.zeros(n)
         delta = lights_.is_delta(light)
-        count = 1 if delta else max(1, int(settings.light_samples))
+        count = 1 if delta or light_numbers is not None else max(1, int(settings.light_samples))
         for j in range(count):
             # 1. Where does the light come from? (one stratified sample for extended lights)
             if delta:
                 u2 = np.zeros((n, 2))
+            elif light_numbers is not None:
+                u2 = np.broadcast_to(np.asarray(light_numbers[index], np.float64), (n, 2))
             else:
                 # The pixel's samples x count light points share one stratified pattern over
                 # the light, so together they cover it evenly. A permutation per pixel (and

@@ -42,6 +42,36 @@ def test_checkout_registers_and_renders_in_blender_4_2(tmp_path):
     assert result["nonzero_fraction"] > 0.5
 
 
+def test_ray_inspector_runs_in_blender_4_2(tmp_path):
+    """The ray inspector's operator and panel rows work in bpy 4.2: the default cube's centre pixel is lit."""
+    result = run_bpy(f"""
+    import sys
+    sys.path.append({ROOT!r})
+    import bpy
+    from blender_env import report
+    from tools.render import load_primer
+
+    primer = load_primer()
+    scene = bpy.context.scene
+    scene.render.engine = "PRIMER"
+    scene.render.resolution_x, scene.render.resolution_y = 32, 24
+    status = bpy.ops.primer.inspect_pixel(x=16, y=12)
+    record = sys.modules["primer.addon.inspector"].state.record
+    view = sys.modules["primer.addon.inspector_view"]
+    rows = dict(view.panel_sections(record, 24)[0][1])
+    values = dict(status=sorted(status), object=record.object_name, t=record.t,
+                  lights=[view.shadow_state(light) for light in record.lights],
+                  radiance=float(record.radiance.sum()), t_row=rows["t"],
+                  segments=len(view.overlay_segments(record)))
+    primer.unregister()
+    report(version=list(bpy.app.version), **values)
+    """, str(tmp_path))
+    assert result["version"][:2] == [4, 2]
+    assert result["status"] == ["FINISHED"] and result["object"] == "Cube"
+    assert result["lights"] == ["unoccluded"] and result["radiance"] > 0
+    assert result["t_row"] == f"{result['t']:.5g}" and result["segments"] == 4
+
+
 def test_extension_zip_installs_and_renders_in_blender_4_2(tmp_path):
     """The zip, built and validated with Blender 4.2's own extension tool, installs and renders in bpy 4.2."""
     completed = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "build_extension.py")],
