@@ -5,8 +5,10 @@ Each point runs in its own process, so its peak resident memory (ru_maxrss) is i
     .venv/bin/python bench/scaling.py KIND VALUE        prints one JSON line
 
 KIND is "triangles" (a heightfield of VALUE triangles), "pixels" (VALUE pixels at 16:9), "lights"
-(VALUE point lights) or "instances" (VALUE copies of a 48-triangle sphere). Every point renders
-with the robust shadow offset on all cores; see DEFAULTS for the fixed parameters.
+(VALUE point lights), "instances" (VALUE copies of a 48-triangle sphere) or "samples_4k" (a
+3840 x 2160 render at VALUE samples, with adaptive sampling as Blender's default has it). Every
+point renders with the robust shadow offset on all cores; see DEFAULTS for the fixed parameters.
+All but samples_4k sample uniformly, so their times measure the cost per sample.
 """
 from __future__ import annotations
 
@@ -29,7 +31,7 @@ from core.scene import Mesh, PointLight, RenderSettings, Scene, SunLight  # noqa
 
 # What stays fixed while one quantity varies.
 DEFAULTS = {"triangles": 10_000, "width": 320, "height": 180, "samples": 4, "lights": 2, "instances": 1}
-KINDS = ("triangles", "pixels", "lights", "instances")
+KINDS = ("triangles", "pixels", "lights", "instances", "samples_4k")
 
 
 def heightfield(triangles: int, size: float = 10.0) -> Mesh:
@@ -58,6 +60,8 @@ def build(kind: str, value: int) -> tuple:
         p["height"] = max(1, int(round(math.sqrt(value * 9.0 / 16.0))))
         p["width"] = max(1, int(round(value / p["height"])))
         p["samples"] = 1
+    elif kind == "samples_4k":
+        p["width"], p["height"], p["samples"] = 3840, 2160, int(value)
     elif kind in p:
         p[kind] = int(value)
     scene = Scene(camera=Camera.look_at((0.0, -9.0, 5.0), (0.0, 0.0, 0.0), fov=math.radians(55)),
@@ -84,7 +88,8 @@ def build(kind: str, value: int) -> tuple:
     for index in range(p["lights"] - 1):
         position = np.array([rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(1.0, 4.0)])
         scene.lights.append(PointLight(position, power=300.0 / max(1, p["lights"] - 1), name=f"Point {index}"))
-    settings = RenderSettings(width=p["width"], height=p["height"], samples=p["samples"], jitter=True)
+    settings = RenderSettings(width=p["width"], height=p["height"], samples=p["samples"], jitter=True,
+                              adaptive=kind == "samples_4k")
     return scene, settings, p
 
 
