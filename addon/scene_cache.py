@@ -12,6 +12,8 @@ first sync                                 everything                           
 an object's geometry (edit, modifier)      that object's mesh and placement                   yes
 an object's transform                      that object's placement (matrix, material slots);  yes
                                            instances it makes move with it
+an object's shading (materials edited or   that object's material slots                       if they
+linked, objects added)                                                                        changed
 a light, or a light object                 the lights                                         no
 a material                                 the material colours                               no
 the world                                  the world colour                                   no
@@ -47,6 +49,7 @@ class SyncReport:
 
     meshes: list = field(default_factory=list)     # names of meshes whose arrays were read
     objects: list = field(default_factory=list)    # names of objects whose placement was read
+    relinked: list = field(default_factory=list)   # names of objects whose material slots now differ
     lights: int = 0                                # lights exported
     materials: int = 0                             # material colours read
     world: bool = False                            # world colour read
@@ -58,7 +61,7 @@ class SyncReport:
     @property
     def changed(self) -> bool:
         """Whether the rendered image may differ: the viewport then restarts its samples."""
-        return bool(self.meshes or self.objects or self.lights or self.materials or self.world
+        return bool(self.meshes or self.objects or self.relinked or self.lights or self.materials or self.world
                     or self.bvh or self.scene_changed or self.camera_changed)
 
 
@@ -238,7 +241,7 @@ class SceneCache:
             del self.meshes[key]
         relight = first or changes.lights or changes.scene
         lights, placements = [], {}
-        touched = changes.objects
+        moved = changes.geometry | changes.transform
         unsupported_noted: set = set()
         for instance in depsgraph.object_instances:
             obj = instance.object
@@ -263,9 +266,12 @@ class SceneCache:
             parent = instance.parent.original.session_uid if instance.is_instance and instance.parent else 0
             key = (owner, parent, tuple(instance.persistent_id) if instance.is_instance else ())
             old = self.placements.get(key)
-            if old is not None and not first and owner not in touched and parent not in touched \
+            if old is not None and not first and owner not in moved and parent not in moved \
                     and old.mesh_key in self.meshes:
                 placements[key] = old
+                if owner in changes.shading:
+                    # Shading updates (materials edited, objects added) may re-link material slots.
+                    placements[key] = self._relink(old, obj, report)
                 continue
             # 4. Read the placement, and the mesh when it is not cached.
             placements[key] = self._read_placement(obj, instance, key, owner, report)
@@ -296,6 +302,14 @@ class SceneCache:
         report.objects.append(obj.name)
         return _Placement(mesh_key, np.array(instance.matrix_world, np.float64),
                           self.material_table.slot_map(obj, self.warnings), obj.name, owner, key[1] or owner)
+
+    def _relink(self, old: "_Placement", obj, report: SyncReport) -> "_Placement":
+        """Return `old` with the object's material slots read again (a new placement only if they changed)."""
+        materials = self.material_table.slot_map(obj, self.warnings)
+        if np.array_equal(materials, old.materials):
+            return old
+        report.relinked.append(obj.name)
+        return dataclasses.replace(old, materials=materials)
 
     def _core_scene(self) -> core_scene.Scene:
         """Return a new core Scene from the cache (meshes shared, lists fresh, so running renders keep theirs)."""
