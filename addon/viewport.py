@@ -283,8 +283,8 @@ def view_draw(engine, context, depsgraph) -> None:
     region = context.region
     session.set_view(view_from_region(context.region_data, region.width, region.height, depsgraph))
     frame = session.latest()
-    if frame is not None and frame.image.shape[:2] == (region.height, region.width):
-        _draw_image(engine, depsgraph.scene, frame)
+    if frame is not None:
+        _draw_image(engine, depsgraph.scene, frame, region.width, region.height)
     engine.update_stats("", session.status_text())
     if session.refining:
         engine.tag_redraw()             # come back for the next pass
@@ -297,20 +297,23 @@ def free(engine) -> None:
         session.stop()
 
 
-def _draw_image(engine, scene, frame: Frame) -> None:
-    """Draw a frame over the region through Blender's view transform (display space shader)."""
+def _draw_image(engine, scene, frame: Frame, width: int, height: int) -> None:
+    """Draw a frame stretched over the width x height region through Blender's view transform.
+
+    Right after a resize the previous frame is stretched until the new coarse pass arrives.
+    """
     if bpy.app.background:
         return
     import gpu
     from gpu_extras.presets import draw_texture_2d
 
-    height, width = frame.image.shape[:2]
+    rows, columns = frame.image.shape[:2]
     cached = getattr(engine, "_primer_texture", None)
     if cached is None or cached[0] != frame.version:
         # Texture rows run bottom-up, like Blender's images.
         pixels = np.ascontiguousarray(frame.image[::-1], np.float32).ravel()
         buffer = gpu.types.Buffer("FLOAT", pixels.size, pixels)
-        cached = (frame.version, gpu.types.GPUTexture((width, height), format="RGBA16F", data=buffer))
+        cached = (frame.version, gpu.types.GPUTexture((columns, rows), format="RGBA16F", data=buffer))
         engine._primer_texture = cached
     gpu.state.blend_set("ALPHA_PREMULT")
     engine.bind_display_space_shader(scene)
