@@ -172,3 +172,29 @@ def test_coarse_pass_shows_the_closed_form_radiance_in_its_blocks():
                     np.testing.assert_allclose(block_coarse, np.broadcast_to(value, block_coarse.shape), rtol=1e-5)
             assert (np.allclose(block_coarse, lit, rtol=1e-5) or np.allclose(block_coarse, scene.world_color))
     assert np.isclose(full[..., 0], lit, rtol=1e-5).mean() > 0.3      # the plane fills much of the view
+
+
+def test_fisheye_film_sits_inside_its_frame_and_the_rest_is_black():
+    """A fisheye's image fills its film rectangle of the region exactly as its own render; outside is black."""
+    from core.geometry import build_geometry
+    from core.render import render
+
+    scene = plane_under_sun(60.0)
+    matrix = np.eye(4)
+    matrix[:3, 3] = (0.0, 0.0, 5.0)                 # looking straight down at the plane
+    fisheye = camera_.Camera(matrix_world=matrix, type="PANO", panorama_type="FISHEYE_EQUIDISTANT",
+                             fisheye_fov=math.radians(120.0))
+    width, height, film = 50, 40, (-3, 6, 30, 24)     # the film sticks out of the region on the left
+    view = progressive.View(fisheye, (1.0, 1.0), width, height, film)
+    geometry = build_geometry(scene, fisheye.position)
+    settings = RenderSettings(samples=1, light_samples=1, jitter=False)
+    image = progressive.render_pass(scene, settings, geometry, view, progressive.Pass(1, 1, None, 0))
+    scene.camera = fisheye
+    own = render(scene, RenderSettings(width=30, height=24, samples=1, light_samples=1, jitter=False)).image
+    np.testing.assert_allclose(image[6:30, 0:27], own[:, 3:30], rtol=1e-6)
+    outside = np.ones((height, width), bool)
+    outside[6:30, 0:27] = False
+    assert np.all(image[outside][:, :3] == 0.0) and np.all(image[outside][:, 3] == 1.0)
+    coarse = progressive.render_pass(scene, settings, geometry, view, progressive.Pass(4, 1, 1, 0))
+    assert np.all(coarse[outside][:, :3] == 0.0)
+    assert np.isclose(coarse[6:30, 0:27, 0], 0.8 / math.pi * 3.0 * math.sin(math.radians(60.0)), rtol=1e-5).mean() > 0.5
