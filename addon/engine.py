@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from . import export
+from . import export, viewport
 
 log = logging.getLogger("primer")
 
@@ -187,10 +187,28 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
 
+    def __del__(self):
+        """Stop the viewport's worker thread, if this engine drew a viewport."""
+        try:
+            viewport.free(self)
+        except ReferenceError:          # the Blender side is already gone
+            pass
+        parent = getattr(super(), "__del__", None)
+        if parent is not None:
+            parent()
+
     def render(self, depsgraph):
         """Render the frame (F12, animation, or `blender -b -f`)."""
         global last_render
         last_render = render_frame(self, depsgraph)
+
+    def view_update(self, context, depsgraph):
+        """Viewport: re-export only what the depsgraph's updates name (addon/viewport.py)."""
+        viewport.view_update(self, context, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        """Viewport: follow the view, draw the newest progressive pass, show the frame time."""
+        viewport.view_draw(self, context, depsgraph)
 
     def update_render_passes(self, scene=None, renderlayer=None):
         """Declare the passes Primer writes, so the compositor and the image editor list them."""

@@ -19,6 +19,9 @@ class PrimerSettings(bpy.types.PropertyGroup):
 
     samples: IntProperty(name="Samples", default=16, min=1, max=1 << 16, soft_max=1024,
                          description="Camera rays per pixel, on a jittered stratified pattern (anti-aliasing)")
+    viewport_samples: IntProperty(name="Viewport Samples", default=16, min=1, max=1 << 16, soft_max=1024,
+                                  description="Camera rays per pixel the viewport accumulates after its coarse "
+                                              "first pass, in passes of 1, 1, 2, 4, ... samples")
     light_samples: IntProperty(name="Light Samples", default=4, min=1, max=1024, soft_max=64,
                                description="Shadow rays per camera ray for lights with extent (radius, angle, area); "
                                            "lights without extent are exact and need one")

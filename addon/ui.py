@@ -32,6 +32,7 @@ class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
         props = context.scene.primer
         col = layout.column()
         col.prop(props, "samples", text="Max Samples" if props.use_adaptive_sampling else "Samples")
+        col.prop(props, "viewport_samples")
         col.prop(props, "light_samples")
         col.prop(props, "use_adaptive_sampling")
         sub = col.column(align=True)

@@ -1,0 +1,338 @@
+"""Scene reuse: keep the exported scene and its BVH, and re-export only what the depsgraph says changed.
+
+Blender tells a render engine what changed since its last look through `depsgraph.updates`: one
+record per changed datablock (`id`), with `is_updated_geometry`, `is_updated_transform` and
+`is_updated_shading`. `SceneCache.sync` reads them and does the least work that keeps the scene
+correct:
+
+=========================================  =================================================  ===========
+change                                     re-exported                                        BVH rebuilt
+=========================================  =================================================  ===========
+first sync                                 everything                                         yes
+an object's geometry (edit, modifier)      that object's mesh and placement                   yes
+an object's transform                      that object's placement (matrix, material slots);  yes
+                                           instances it makes move with it
+an object's shading (materials edited or   that object's material slots                       if they
+linked, objects added)                                                                        changed
+a light, or a light object                 the lights                                         no
+a material                                 the material colours                               no
+the world                                  the world colour                                   no
+objects added, removed, hidden (scene or   the new placements; gone ones are dropped          if any
+collection updates)                                                                           changed
+the camera or the view                     nothing (the viewport restarts its samples)        no
+=========================================  =================================================  ===========
+
+Meshes are cached by the `session_uid` of their evaluated mesh, which Blender renews whenever it
+evaluates the geometry again (and never reuses within a session), so a mesh shared by linked
+duplicates or instances is read once. Placements (one per object instance) are cached by the
+original object, the instancer and the instance's persistent id. The BVH is rebuilt from the cached
+meshes; its origin (camera-relative rendering) stays where it was built, since core.render works
+with any origin.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Optional
+
+import bpy
+import numpy as np
+
+from . import export
+from ..core import scene as core_scene
+from ..core.geometry import WorldGeometry, build_geometry
+
+
+@dataclass
+class SyncReport:
+    """What one sync read from Blender and rebuilt: tests assert "only what changed" on it."""
+
+    meshes: list = field(default_factory=list)     # names of meshes whose arrays were read
+    objects: list = field(default_factory=list)    # names of objects whose placement was read
+    relinked: list = field(default_factory=list)   # names of objects whose material slots now differ
+    lights: int = 0                                # lights exported
+    materials: int = 0                             # material colours read
+    world: bool = False                            # world colour read
+    walked: bool = False                           # the instance list was walked
+    bvh: bool = False                              # the BVH was rebuilt
+    scene_changed: bool = False                    # the scene's own settings changed (Scene update)
+    camera_changed: bool = False                   # a camera object or camera data changed
+
+    @property
+    def changed(self) -> bool:
+        """Whether the rendered image may differ: the viewport then restarts its samples."""
+        return bool(self.meshes or self.objects or self.relinked or self.lights or self.materials or self.world
+                    or self.bvh or self.scene_changed or self.camera_changed)
+
+
+@dataclass
+class Changes:
+    """depsgraph.updates sorted by what they mean for Primer (objects as original session uids)."""
+
+    geometry: set = field(default_factory=set)     # objects whose evaluated geometry changed
+    transform: set = field(default_factory=set)    # objects that moved
+    shading: set = field(default_factory=set)      # objects whose materials may have changed
+    lights: bool = False
+    materials: bool = False
+    world: bool = False
+    scene: bool = False                            # scene settings, visibility, objects added or removed
+    camera: bool = False
+
+    @property
+    def objects(self) -> set:
+        """Every object whose placement must be read again."""
+        return self.geometry | self.transform | self.shading
+
+
+def classify(updates) -> Changes:
+    """Return the Changes that a depsgraph's update records describe."""
+    changes = Changes()
+    for update in updates:
+        datablock = update.id
+        if isinstance(datablock, bpy.types.Object):
+            if datablock.type == "LIGHT":
+                changes.lights = True
+            elif datablock.type == "CAMERA":
+                changes.camera = True
+            else:
+                uid = datablock.original.session_uid
+                if update.is_updated_geometry:
+                    changes.geometry.add(uid)
+                if update.is_updated_transform:
+                    changes.transform.add(uid)
+                if update.is_updated_shading:
+                    changes.shading.add(uid)
+        elif isinstance(datablock, bpy.types.Light):
+            changes.lights = True
+        elif isinstance(datablock, (bpy.types.Material, bpy.types.ShaderNodeTree)):
+            changes.materials = True
+        elif isinstance(datablock, bpy.types.World):
+            changes.world = True
+        elif isinstance(datablock, bpy.types.Camera):
+            changes.camera = True
+        elif isinstance(datablock, (bpy.types.Scene, bpy.types.Collection)):
+            changes.scene = True
+    return changes
+
+
+@dataclass
+class _MeshEntry:
+    """A cached mesh: the core Mesh (None when it has no triangles) and the objects that use it."""
+
+    mesh: Optional[core_scene.Mesh]
+    owners: set
+
+
+@dataclass(eq=False)
+class _Placement:
+    """One object instance: which cached mesh, where (matrix (4, 4) float64), with which scene materials."""
+
+    mesh_key: object
+    matrix: np.ndarray
+    materials: np.ndarray
+    name: str
+    owner: int          # original object's session uid
+    parent: int         # the instancer's session uid (the owner itself when not instanced)
+
+    def same_as(self, other: "_Placement") -> bool:
+        """Whether `other` places the same mesh at the same spot with the same materials."""
+        return (other is not None and self.mesh_key == other.mesh_key and np.array_equal(self.matrix, other.matrix)
+                and np.array_equal(self.materials, other.materials))
+
+
+class _MaterialTable:
+    """Scene materials by original session uid, with stable indices (the BVH stores them per triangle)."""
+
+    def __init__(self):
+        self.index: dict = {}
+        self.materials: list = []          # core_scene.Material, in index order
+        self.sources: list = []            # the datablock name per index, to find it again
+
+    def slot_map(self, obj, warnings: list) -> np.ndarray:
+        """Return the scene material index of each of the object's material slots (-1 for empty): (k,) int64."""
+        slots = []
+        for slot in obj.material_slots:
+            material = slot.material
+            if material is None:
+                slots.append(-1)
+                continue
+            uid = material.original.session_uid
+            if uid not in self.index:
+                self.index[uid] = len(self.materials)
+                self.materials.append(core_scene.Material(export._material_color(material, warnings), material.name))
+            slots.append(self.index[uid])
+        return np.array(slots, np.int64)
+
+    def refresh(self, depsgraph, warnings: list) -> int:
+        """Read every known material's colour again from the evaluated depsgraph; return how many were read."""
+        by_uid = {m.original.session_uid: m for m in depsgraph.ids if isinstance(m, bpy.types.Material)}
+        for uid, index in self.index.items():
+            material = by_uid.get(uid)
+            if material is not None:
+                self.materials[index] = core_scene.Material(export._material_color(material, warnings), material.name)
+        return len(self.index)
+
+    def albedo(self) -> np.ndarray:
+        """Return the base colours as WorldGeometry stores them (default grey last): (m + 1, 3) float64."""
+        colors = [np.asarray(m.base_color, np.float64)[:3] for m in self.materials] + [core_scene.DEFAULT_BASE_COLOR]
+        return np.clip(np.nan_to_num(np.array(colors, np.float64)), 0.0, 1.0)
+
+
+class SceneCache:
+    """The exported scene of one depsgraph, kept up to date from its updates.
+
+    scene:    core Scene (its camera is a placeholder: the viewport supplies the view's camera)
+    geometry: WorldGeometry with the BVH of `scene`
+    warnings: notes made while exporting, as in addon/export.py
+    """
+
+    def __init__(self):
+        self.scene: Optional[core_scene.Scene] = None
+        self.geometry: Optional[WorldGeometry] = None
+        self.warnings: list = []
+        self.meshes: dict = {}
+        self.placements: dict = {}
+        self.material_table = _MaterialTable()
+        self.lights: list = []
+        self.world_color = np.zeros(3)
+        self.totals = SyncReport()         # summed over all syncs
+
+    def sync(self, depsgraph, origin=None, updates=None) -> SyncReport:
+        """Bring the cached scene up to date with `depsgraph`; return what was read and rebuilt.
+
+        updates: the depsgraph's update records (default: depsgraph.updates); ignored on the first
+        sync, which exports everything. origin: (3,) world point for a new BVH (the view's eye).
+        """
+        # 1. Sort the updates; the first sync counts as every kind of change.
+        first = self.scene is None
+        changes = classify(depsgraph.updates if updates is None else updates)
+        report = SyncReport(scene_changed=changes.scene, camera_changed=changes.camera)
+        walk = first or changes.scene or changes.lights or bool(changes.objects)
+        # 2. World and materials: colours only, no BVH.
+        if first or changes.world:
+            self.world_color = export.export_world(depsgraph.scene_eval.world, self.warnings)
+            report.world = True
+        if changes.materials and not first:
+            report.materials = self.material_table.refresh(depsgraph, self.warnings)
+        # 3. Walk the instances when objects changed: read only the touched ones.
+        placements_changed = False
+        if walk:
+            report.walked = True
+            placements_changed = self._walk(depsgraph, changes, first, report)
+        # 4. Rebuild the scene (cheap lists) and, when placements changed, the BVH.
+        if first or placements_changed or report.lights or report.materials or report.world:
+            self.scene = self._core_scene()
+        if first or placements_changed:
+            if origin is None:
+                camera = depsgraph.scene_eval.camera
+                origin = np.array(camera.matrix_world.translation) if camera is not None else np.zeros(3)
+            self.geometry = build_geometry(self.scene, np.asarray(origin, np.float64))
+            report.bvh = True
+        elif report.materials:
+            self.geometry = dataclasses.replace(self.geometry, albedo=self.material_table.albedo())
+        self.warnings = list(dict.fromkeys(self.warnings))       # each note once
+        self._add_to_totals(report)
+        return report
+
+    def _walk(self, depsgraph, changes: Changes, first: bool, report: SyncReport) -> bool:
+        """Walk depsgraph.object_instances, reading what changed; return whether any placement changed."""
+        # 1. Meshes of objects whose geometry changed are stale, whatever their uid says.
+        for key in [k for k, entry in self.meshes.items() if entry.owners & changes.geometry]:
+            del self.meshes[key]
+        relight = first or changes.lights or changes.scene
+        lights, placements = [], {}
+        moved = changes.geometry | changes.transform
+        unsupported_noted: set = set()
+        for instance in depsgraph.object_instances:
+            obj = instance.object
+            # 2. Lights are few: export them all again when any changed.
+            if obj.type == "LIGHT":
+                if relight:
+                    light = export.export_light(obj, np.array(instance.matrix_world, np.float64), self.warnings)
+                    if light is not None:
+                        lights.append(light)
+                continue
+            if not instance.show_self:
+                continue
+            if obj.type in export.UNSUPPORTED_GEOMETRY:
+                if obj.name not in unsupported_noted and first:
+                    unsupported_noted.add(obj.name)
+                    self.warnings.append(f"object '{obj.name}' is of type {obj.type}, which Primer does not render")
+                continue
+            if obj.type != "MESH" or obj.data is None:
+                continue
+            # 3. Reuse the placement of an untouched instance (neither it nor its instancer changed).
+            owner = obj.original.session_uid
+            parent = instance.parent.original.session_uid if instance.is_instance and instance.parent else 0
+            key = (owner, parent, tuple(instance.persistent_id) if instance.is_instance else ())
+            old = self.placements.get(key)
+            if old is not None and not first and owner not in moved and parent not in moved \
+                    and old.mesh_key in self.meshes:
+                placements[key] = old
+                if owner in changes.shading:
+                    # Shading updates (materials edited, objects added) may re-link material slots.
+                    placements[key] = self._relink(old, obj, report)
+                continue
+            # 4. Read the placement, and the mesh when it is not cached.
+            placements[key] = self._read_placement(obj, instance, key, owner, report)
+        # 5. Forget meshes no placement uses; note which objects use the rest.
+        used: dict = {}
+        for placement in placements.values():
+            used.setdefault(placement.mesh_key, set()).update((placement.owner, placement.parent))
+        self.meshes = {k: dataclasses.replace(e, owners=used[k]) for k, e in self.meshes.items() if k in used}
+        if relight:
+            self.lights = lights
+            report.lights = len(lights)
+        changed = placements.keys() != self.placements.keys() or any(
+            not p.same_as(self.placements.get(k)) for k, p in placements.items())
+        self.placements = placements
+        return changed
+
+    def _read_placement(self, obj, instance, key: tuple, owner: int, report: SyncReport) -> "_Placement":
+        """Return the placement of one object instance, reading its mesh into the cache if needed."""
+        data = obj.data
+        uid = data.session_uid
+        mesh_key = uid if uid else ("unshared", key)
+        if mesh_key not in self.meshes:
+            mesh = export._mesh_arrays(data)
+            self.meshes[mesh_key] = _MeshEntry(mesh if len(mesh.triangles) else None, {owner})
+            report.meshes.append(data.name)
+        if not (obj.visible_camera and obj.visible_shadow):
+            self.warnings.append(f"object '{obj.name}' hides itself from some rays; Primer renders it fully visible")
+        report.objects.append(obj.name)
+        return _Placement(mesh_key, np.array(instance.matrix_world, np.float64),
+                          self.material_table.slot_map(obj, self.warnings), obj.name, owner, key[1] or owner)
+
+    def _relink(self, old: "_Placement", obj, report: SyncReport) -> "_Placement":
+        """Return `old` with the object's material slots read again (a new placement only if they changed)."""
+        materials = self.material_table.slot_map(obj, self.warnings)
+        if np.array_equal(materials, old.materials):
+            return old
+        report.relinked.append(obj.name)
+        return dataclasses.replace(old, materials=materials)
+
+    def _core_scene(self) -> core_scene.Scene:
+        """Return a new core Scene from the cache (meshes shared, lists fresh, so running renders keep theirs)."""
+        scene = core_scene.Scene(camera=core_scene.Camera(), world_color=np.array(self.world_color),
+                                 lights=list(self.lights), materials=list(self.material_table.materials))
+        mesh_index: dict = {}
+        for placement in self.placements.values():
+            entry = self.meshes[placement.mesh_key]
+            if entry.mesh is None:
+                continue
+            if placement.mesh_key not in mesh_index:
+                scene.meshes.append(entry.mesh)
+                mesh_index[placement.mesh_key] = len(scene.meshes) - 1
+            scene.instances.append(core_scene.Instance(mesh_index[placement.mesh_key], placement.matrix,
+                                                       placement.materials, placement.name))
+        return scene
+
+    def _add_to_totals(self, report: SyncReport) -> None:
+        """Add one sync's counts to `totals`."""
+        t = self.totals
+        t.meshes += report.meshes
+        t.objects += report.objects
+        t.lights += report.lights
+        t.materials += report.materials
+        t.world = t.world or report.world
+        t.bvh = t.bvh or report.bvh
