@@ -23,7 +23,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from . import camera as camera_
-from . import sampling
+from . import debug, sampling
 from .geometry import WorldGeometry, build_geometry
 from .scene import RenderSettings, Scene
 from .shading import direct_light, surface_at_hits, translate_light
@@ -33,10 +33,21 @@ AUX_BUFFERS = {
     "depth": 1,         # distance along the camera's view axis (Blender's Z); 1e10 where nothing was hit
     "normal": 3,        # shading normal N, world space, facing the camera
     "face_normal": 3,   # face normal, world space, facing the camera
-    "n_dot_l": "lights",     # max(N.L, 0) per light
+    "n_dot_l": "lights",     # max(N.L, 0) per light (N.L itself with the clamp switched off)
     "visibility": "lights",  # fraction of shadow rays per light that reached it
+    # Debug buffers (core/debug.py), computed only when asked for:
+    "normal_angle": 1,  # angle between N and the face normal, degrees
+    "barycentric": 3,   # (1 - u - v, u, v) of the hit
+    "hit_distance": 1,  # t along the camera ray from the camera; 1e10 where nothing was hit
+    "acne": 1,          # fraction of the pixel's shadow rays that hit the surface they left
+    "rays": 1,          # camera rays plus shadow rays cast for the pixel
+    "time": 1,          # seconds spent on the pixel (an estimate: debug.share_time)
 }
 MISS_DEPTH = 1e10
+# Buffers that only this module's readable path computes; see `uses_reference_path`.
+REFERENCE_ONLY_BUFFERS = ("normal_angle", "barycentric", "hit_distance", "acne", "rays", "time")
+# With the "time" buffer, each chunk is rendered and timed in runs of this many pixels.
+TIME_TILE = 64
 
 
 @dataclass
@@ -82,6 +93,8 @@ def validate(scene: Scene, settings: RenderSettings) -> None:
         raise ValueError(f"samples must be at least 1, got {settings.samples}")
     if settings.shadow_method not in ("robust", "epsilon"):
         raise ValueError(f"shadow method must be 'robust' or 'epsilon', got {settings.shadow_method!r}")
+    if settings.visibility_normal not in ("face", "shading"):
+        raise ValueError(f"visibility normal must be 'face' or 'shading', got {settings.visibility_normal!r}")
     if settings.shadow_method == "epsilon" and not (settings.epsilon >= 0 and math.isfinite(settings.epsilon)):
         raise ValueError(f"epsilon must be a finite length >= 0, got {settings.epsilon}")
     if not np.isfinite(np.asarray(scene.camera.matrix_world)).all():
@@ -89,6 +102,11 @@ def validate(scene: Scene, settings: RenderSettings) -> None:
     unknown = set(settings.aux) - set(AUX_BUFFERS)
     if unknown:
         raise ValueError(f"unknown auxiliary buffers {sorted(unknown)}; choose from {list(AUX_BUFFERS)}")
+
+
+def uses_reference_path(settings: RenderSettings) -> bool:
+    """Whether a render needs this readable path: a lecture switch off its default, or a debug buffer."""
+    return not settings.is_lecture_default() or bool(set(settings.aux) & set(REFERENCE_ONLY_BUFFERS))
 
 
 def _usable_lights(scene: Scene, warnings: list) -> list:
@@ -132,6 +150,9 @@ class _Context:
         self.forward = -np.asarray(cam.matrix_world, np.float64)[:3, 2]
         self.forward = self.forward / np.linalg.norm(self.forward)
         self.camera_offset = geometry.origin - np.asarray(cam.matrix_world, np.float64)[:3, 3]
+        # Acne debug view: a blocked shadow ray this close to its start counts as a self-hit.
+        self.self_hit_distance = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry.vertices)
+                                  if "acne" in settings.aux else 0.0)
 
 
 def _render_chunk(ctx: _Context, pixels: np.ndarray):
@@ -170,8 +191,9 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray):
         # 4. Shade the hits.
         hit = hits.hit
         surface = surface_at_hits(ctx.geometry, hits.prim[hit], hits.u[hit], hits.v[hit],
-                                  origins[hit], directions[hit], hits.t[hit])
-        shading = direct_light(ctx.geometry, surface, ctx.lights, s, pixel[h], sample[h], ctx.want_aux)
+                                  origins[hit], directions[hit], hits.t[hit], flat_only=not s.smooth_normals)
+        shading = direct_light(ctx.geometry, surface, ctx.lights, s, pixel[h], sample[h], ctx.want_aux,
+                               hits.prim[hit], ctx.self_hit_distance)
         rgba[h, :3] = shading.radiance
         rgba[h, 3] = 1.0
         shadow_rays = shading.shadow_rays
@@ -180,16 +202,41 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray):
     rgba = rgba.reshape(len(pixels), spp, 4).mean(axis=1)
     if ctx.want_aux:
         aux = _reduce_aux(ctx, len(pixels), spp, h, surface if len(h) else None,
-                          shading if len(h) else None)
+                          shading if len(h) else None, rays.valid, directions[hits.hit])
     return rgba, aux, n, shadow_rays, shading_seconds
 
 
-def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, shading) -> dict:
-    """Average the auxiliary values of each pixel's hit samples: name -> (p, c) float64."""
+def _render_chunk_timed(ctx: _Context, pixels: np.ndarray):
+    """Render `pixels` in runs of TIME_TILE pixels, timing each run: `_render_chunk`'s result plus the
+    "time" buffer, each run's wall time shared out to its pixels by their rays (debug.share_time)."""
+    parts = []
+    for i in range(0, len(pixels), TIME_TILE):
+        start = time.perf_counter()
+        part = _render_chunk(ctx, pixels[i:i + TIME_TILE])
+        seconds = time.perf_counter() - start
+        part[1]["time"] = debug.share_time(seconds, part[1]["rays"][:, 0])[:, None]
+        if "rays" not in ctx.settings.aux:
+            del part[1]["rays"]
+        parts.append(part)
+    aux = {name: np.concatenate([part[1][name] for part in parts]) for name in parts[0][1]}
+    return (np.concatenate([part[0] for part in parts]), aux, sum(part[2] for part in parts),
+            sum(part[3] for part in parts), sum(part[4] for part in parts))
+
+
+def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, shading,
+                valid: np.ndarray, D: np.ndarray) -> dict:
+    """Average the auxiliary values of each pixel's hit samples: name -> (p, c) float64.
+
+    h: (m,) int64 indices of the hit samples; valid: (n,) bool camera rays traced (n = p * spp);
+    D: (m, 3) float64 the hit samples' camera-ray directions.
+    """
     k = len(ctx.lights)
     owner = h // spp
     hits_per_pixel = np.bincount(owner, minlength=n_pixels).astype(np.float64)
     covered = hits_per_pixel > 0
+
+    def total(values: np.ndarray) -> np.ndarray:
+        return np.bincount(owner, weights=values, minlength=n_pixels).astype(np.float64)
 
     def mean(values: np.ndarray, empty: float = 0.0) -> np.ndarray:
         values = values.reshape(len(h), -1)
@@ -200,10 +247,16 @@ def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, 
         return out
 
     aux = {}
-    for name in ctx.settings.aux:
-        if surface is None:
+    wanted = set(ctx.settings.aux) | ({"rays"} if "time" in ctx.settings.aux else set())
+    for name in wanted - {"time"}:          # "time" is measured around the chunk (_render_chunk_timed)
+        if name == "rays":
+            # Every valid camera ray, plus the shadow rays of the hit samples.
+            camera_rays = valid.reshape(n_pixels, spp).sum(axis=1).astype(np.float64)
+            shadow = total(shading.rays_per_hit) if surface is not None else 0.0
+            aux[name] = (camera_rays + shadow)[:, None]
+        elif surface is None:
             channels = k if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]
-            aux[name] = np.full((n_pixels, channels), MISS_DEPTH if name == "depth" else 0.0)
+            aux[name] = np.full((n_pixels, channels), MISS_DEPTH if name in ("depth", "hit_distance") else 0.0)
         elif name == "depth":
             aux[name] = mean((surface.I + ctx.camera_offset) @ ctx.forward, MISS_DEPTH)
         elif name == "normal":
@@ -214,6 +267,16 @@ def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, 
             aux[name] = mean(shading.n_dot_l) if k else np.zeros((n_pixels, 0))
         elif name == "visibility":
             aux[name] = mean(shading.visibility) if k else np.zeros((n_pixels, 0))
+        elif name == "normal_angle":
+            aux[name] = mean(debug.normal_angle(surface.N, surface.Ng))
+        elif name == "barycentric":
+            aux[name] = mean(debug.barycentrics(surface.u, surface.v))
+        elif name == "hit_distance":
+            aux[name] = mean(debug.hit_distance(surface.I, -ctx.camera_offset, D), MISS_DEPTH)
+        elif name == "acne":
+            cast = total(shading.rays_per_hit if shading.rays_per_hit is not None else np.zeros(len(h)))
+            acne = total(shading.acne_per_hit)
+            aux[name] = np.where(cast > 0, acne / np.maximum(cast, 1.0), 0.0)[:, None]
     return aux
 
 
@@ -248,7 +311,7 @@ def render(scene: Scene, settings: RenderSettings,
     for name in settings.aux:
         channels = len(lights) if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]
         aux[name] = np.zeros((H * W, channels), np.float32)
-        if name == "depth":
+        if name in ("depth", "hit_distance"):
             aux[name][:] = MISS_DEPTH
 
     pixels = region_pixels(settings)
@@ -270,12 +333,13 @@ def render(scene: Scene, settings: RenderSettings,
         stats.shadow_rays += shadow
         stats.shading_seconds += shading_seconds
 
+    render_chunk = _render_chunk_timed if "time" in settings.aux else _render_chunk
     with ThreadPoolExecutor(max_workers=threads) as pool:
         # Keep a few chunks in flight per thread, so cancelling never waits for a long queue.
         queue = iter(chunks)
         running = {}
         for chunk in queue:
-            running[pool.submit(_render_chunk, ctx, chunk)] = chunk
+            running[pool.submit(render_chunk, ctx, chunk)] = chunk
             if len(running) >= 2 * threads:
                 break
         while running:
@@ -289,7 +353,7 @@ def render(scene: Scene, settings: RenderSettings,
                     future.cancel()
                 break
             for chunk in queue:
-                running[pool.submit(_render_chunk, ctx, chunk)] = chunk
+                running[pool.submit(render_chunk, ctx, chunk)] = chunk
                 if len(running) >= 2 * threads:
                     break
             stats.seconds = time.perf_counter() - start
