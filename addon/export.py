@@ -316,8 +316,11 @@ def border_rectangle(render, width: int, height: int) -> tuple:
     return x0, y0, x1 - x0, y1 - y0
 
 
-def render_settings(scene, width: int, height: int, border: tuple) -> core_scene.RenderSettings:
-    """Return core render settings from the scene's Primer settings and Blender's render settings."""
+def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = ()) -> core_scene.RenderSettings:
+    """Return core render settings from the scene's Primer settings and Blender's render settings.
+
+    aux: the core buffers to compute (core.render.AUX_BUFFERS), only those the passes and debug view need.
+    """
     props = scene.primer
     render = scene.render
     x, y, w, h = border
@@ -331,7 +334,13 @@ def render_settings(scene, width: int, height: int, border: tuple) -> core_scene
         terminator_fix=bool(props.terminator_fix),
         transparent_background=bool(render.film_transparent),
         threads=int(props.threads),
-        aux=("depth", "normal", "face_normal", "n_dot_l", "visibility"),
+        aux=tuple(aux),
+        smooth_normals=bool(props.smooth_normals),
+        visibility_normal=props.visibility_normal.lower(),
+        reduce_t_max=bool(props.reduce_t_max),
+        distance_attenuation=bool(props.distance_attenuation),
+        clamp_n_dot_l=bool(props.clamp_n_dot_l),
+        shadow_rays_for_backfacing=bool(props.shadow_rays_for_backfacing),
     )
 
 
@@ -371,8 +380,8 @@ def _terminator_notes(offsets: dict, fix: bool, cutoff: float) -> list:
     return notes
 
 
-def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) -> Export:
-    """Return the evaluated depsgraph as a core scene plus render settings.
+def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, aux: tuple = ()) -> Export:
+    """Return the evaluated depsgraph as a core scene plus render settings (computing the buffers `aux`).
 
     Raises ExportError with a readable message when the scene cannot be rendered.
     """
@@ -434,6 +443,6 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) ->
         warnings.append("the scene has no lights: only the world colour will be visible")
     width, height = frame_size(scene.render)
     border = border_rectangle(scene.render, width, height)
-    settings = render_settings(scene, width, height, border)
+    settings = render_settings(scene, width, height, border, aux)
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
     return Export(core, settings, (width, height), border, warnings)

@@ -75,12 +75,14 @@ class RenderResult:
 
     image: (H, W, 4) float32 scene-linear RGBA, row 0 at the top
     aux:   name -> (H, W, c) float32 auxiliary buffer
+    light_names: the name of the light behind each channel of the per-light buffers
     """
 
     image: np.ndarray
     aux: dict
     stats: RenderStats
     cancelled: bool = False
+    light_names: list = field(default_factory=list)
 
 
 def validate(scene: Scene, settings: RenderSettings) -> None:
@@ -367,4 +369,4 @@ def render(scene: Scene, settings: RenderSettings,
     stats.shading_seconds -= shadow_query
     return RenderResult(image.reshape(H, W, 4),
                         {name: values.reshape(H, W, -1) for name, values in aux.items()},
-                        stats, cancelled)
+                        stats, cancelled, [light.name for light in lights])
