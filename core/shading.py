@@ -8,6 +8,8 @@ For each hit: find the point I, the face normal and the shading normal N
 and reflect L_out = (albedo / pi) * E. Work is done only where it matters:
 interpolated normals only for smooth triangles, shadow rays only for lights
 in front of both N and the face, and only where the light sends something.
+The lecture switches of RenderSettings (README, "Lecture switches") undo these
+choices one at a time, to show why the lecture makes them.
 """
 from __future__ import annotations
 
@@ -176,7 +178,7 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             cosine = np.maximum(NL, 0.0) if settings.clamp_n_dot_l else NL
             lit = (cosine != 0.0) & face_allows
             if settings.shadow_rays_for_backfacing:
-                lit[:] = True                     # cast them anyway: their visibility is 0 or cosine 0
+                lit[:] = True                     # cast them anyway, to count what the lecture saves
             lit &= ls.irradiance.max(axis=1) > 0.0
             idx = np.flatnonzero(lit)
             if want_aux:
@@ -188,8 +190,9 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             Ng = surface.Ng[idx]
             if settings.terminator_fix:
                 I = _lift_terminator(surface, idx, NL[idx], NgL[idx], settings.terminator_offset)
-            else:
-                Ng = Ng * np.where(NgL[idx] < 0.0, -1.0, 1.0)[:, None]    # the light's side (switches only)
+            elif settings.shadow_rays_for_backfacing or settings.visibility_normal != "face":
+                # Switches that cast rays towards lights behind the face: offset to the light's side.
+                Ng = Ng * np.where(NgL[idx] < 0.0, -1.0, 1.0)[:, None]
             if robust:
                 rays = shadows.robust_rays(I, Ng, offsets[idx], ls.position[idx],
                                            ls.L[idx], ls.distance[idx], settings.reduce_t_max)
