@@ -237,7 +237,7 @@ def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, 
     hits_per_pixel = np.bincount(owner, minlength=n_pixels).astype(np.float64)
     covered = hits_per_pixel > 0
 
-    def total(values: np.ndarray) -> np.ndarray:
+    def summed(values: np.ndarray) -> np.ndarray:
         return np.bincount(owner, weights=values, minlength=n_pixels).astype(np.float64)
 
     def mean(values: np.ndarray, empty: float = 0.0) -> np.ndarray:
@@ -254,7 +254,7 @@ def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, 
         if name == "rays":
             # Every valid camera ray, plus the shadow rays of the hit samples.
             camera_rays = valid.reshape(n_pixels, spp).sum(axis=1).astype(np.float64)
-            shadow = total(shading.rays_per_hit) if surface is not None else 0.0
+            shadow = summed(shading.rays_per_hit) if surface is not None else 0.0
             aux[name] = (camera_rays + shadow)[:, None]
         elif surface is None:
             channels = k if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]
@@ -276,8 +276,7 @@ def _reduce_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, 
         elif name == "hit_distance":
             aux[name] = mean(debug.hit_distance(surface.I, -ctx.camera_offset, D), MISS_DEPTH)
         elif name == "acne":
-            cast = total(shading.rays_per_hit if shading.rays_per_hit is not None else np.zeros(len(h)))
-            acne = total(shading.acne_per_hit)
+            cast, acne = summed(shading.rays_per_hit), summed(shading.acne_per_hit)
             aux[name] = np.where(cast > 0, acne / np.maximum(cast, 1.0), 0.0)[:, None]
     return aux
 
