@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
+from ..core import debug
 from . import export, viewport
 
 log = logging.getLogger("primer")
@@ -24,11 +25,40 @@ STANDARD_PASSES = {
     "Depth": ("depth", 1, "Z", "VALUE"),
     "Normal": ("normal", 3, "XYZ", "VECTOR"),
 }
+# One pass per debug view (README, "Debug views"); the shading normal and depth views match Normal and Depth.
 DEBUG_PASSES = {
     "Primer Face Normal": ("face_normal", 3, "XYZ", "VECTOR"),
+    "Primer Normal Angle": ("normal_angle", 1, "X", "VALUE"),        # degrees
+    "Primer Barycentric": ("barycentric", 3, "RGB", "COLOR"),
+    "Primer Hit Distance": ("hit_distance", 1, "X", "VALUE"),
     "Primer NdotL": ("n_dot_l", 1, "X", "VALUE"),
     "Primer Shadow": ("visibility", 1, "X", "VALUE"),
+    "Primer Acne": ("acne", 1, "X", "VALUE"),                        # fraction of shadow rays
+    "Primer Rays": ("rays", 1, "X", "VALUE"),                        # rays per pixel
+    "Primer Time": ("time", 1, "X", "VALUE"),                        # seconds per pixel
 }
+# The core buffer each debug view shows (properties.DEBUG_VIEWS).
+VIEW_BUFFERS = {
+    "NORMAL": "normal", "FACE_NORMAL": "face_normal", "NORMAL_ANGLE": "normal_angle", "BARYCENTRIC": "barycentric",
+    "HIT_DISTANCE": "hit_distance", "DEPTH": "depth", "N_DOT_L": "n_dot_l", "VISIBILITY": "visibility",
+    "ACNE": "acne", "RAYS": "rays", "TIME": "time",
+}
+# Buffers with one channel per light; their passes show the chosen light, or the mean over all lights.
+PER_LIGHT = ("n_dot_l", "visibility")
+
+
+def requested_buffers(props, view_layer) -> tuple:
+    """Return the core buffers that the enabled passes and the debug view need, and no more."""
+    wanted = set()
+    if view_layer is not None and view_layer.use_pass_z:
+        wanted.add("depth")
+    if view_layer is not None and view_layer.use_pass_normal:
+        wanted.add("normal")
+    if props.debug_passes:
+        wanted.update(buffer for buffer, *_ in DEBUG_PASSES.values())
+    if props.debug_view != "NONE":
+        wanted.add(VIEW_BUFFERS[props.debug_view])
+    return tuple(sorted(wanted))
 
 
 @dataclass
@@ -48,50 +78,77 @@ class RenderRecord:
 last_render = RenderRecord()
 
 
-def _pass_values(buffers: dict, name: str, lights: int, size: tuple = (1, 1)) -> np.ndarray:
-    """Return the core buffer behind a pass, per-light buffers averaged over the lights: (H, W, c) float32.
+def light_channels(light_names: list, chosen: str) -> list:
+    """Return the per-light channels to show: those of the light named `chosen`, or all when it is ""."""
+    if not chosen:
+        return list(range(len(light_names)))
+    return [i for i, name in enumerate(light_names) if name == chosen]
 
-    A buffer that was not computed (its pass was switched on after the export) reads as empty: size (H, W).
-    """
-    values = buffers.get(name)
-    if values is None:
-        return np.full(tuple(size) + (1 if name in ("depth", "n_dot_l", "visibility") else 3,),
-                       1e10 if name == "depth" else 0.0, np.float32)
-    if name in ("n_dot_l", "visibility"):
-        if lights == 0:
+
+def _pass_values(buffers: dict, name: str, channels: list) -> np.ndarray:
+    """Return the core buffer behind a pass, per-light buffers averaged over `channels`: (H, W, c) float32."""
+    values = buffers[name]
+    if name in PER_LIGHT:
+        if not channels:
             return np.zeros(values.shape[:2] + (1,), np.float32)
-        return values.mean(axis=2, keepdims=True)
+        return values[..., channels].mean(axis=2, keepdims=True)
     return values
 
 
-def debug_image(view: str, image: np.ndarray, buffers: dict, lights: int) -> np.ndarray:
-    """Return the RGBA picture of a debug view (see properties.DEBUG_VIEWS): (H, W, 4) float32."""
+def _heat_of_maximum(values: np.ndarray) -> np.ndarray:
+    """Return heat colours of values scaled by their maximum (0 stays black): (H, W) -> (H, W, 3)."""
+    top = float(values.max()) if values.size else 0.0
+    return debug.heat(values / top if top > 0 else np.zeros_like(values))
+
+
+def _near_to_far(distance: np.ndarray) -> np.ndarray:
+    """Return grey levels 1 at the nearest hit to 0 at the farthest, 0 where nothing was hit: (H, W)."""
+    hit = distance < 1e9
+    if not hit.any():
+        return np.zeros_like(distance)
+    near, far = distance[hit].min(), distance[hit].max()
+    if far - near <= 1e-6 * far:                    # all hits equally near (to float precision): white
+        return hit.astype(distance.dtype)
+    return np.where(hit, 1.0 - (distance - near) / (far - near), 0.0)
+
+
+def debug_image(view: str, image: np.ndarray, buffers: dict, channels: list) -> np.ndarray:
+    """Return the RGBA picture of a debug view (see properties.DEBUG_VIEWS): (H, W, 4) float32.
+
+    channels: the lights (channels of the per-light buffers) whose N.L and shadow rays are shown.
+    """
     out = np.zeros_like(image)
     out[..., 3] = 1.0
+    values = _pass_values(buffers, VIEW_BUFFERS[view], channels)
     if view in ("NORMAL", "FACE_NORMAL"):
-        normals = buffers["normal" if view == "NORMAL" else "face_normal"]
-        out[..., :3] = np.where(np.any(normals != 0, axis=2, keepdims=True), 0.5 * (normals + 1.0), 0.0)
-    elif view == "DEPTH":
-        depth = buffers["depth"][..., 0]
-        hit = depth < 1e9
-        if hit.any():
-            near, far = depth[hit].min(), depth[hit].max()
-            shade = np.where(hit, 1.0 - (depth - near) / max(far - near, 1e-30), 0.0)
-            out[..., :3] = shade[..., None]
-    else:
-        out[..., :3] = _pass_values(buffers, "n_dot_l" if view == "N_DOT_L" else "visibility", lights,
-                                    image.shape[:2])
+        out[..., :3] = np.where(np.any(values != 0, axis=2, keepdims=True), 0.5 * (values + 1.0), 0.0)
+    elif view == "BARYCENTRIC":
+        out[..., :3] = values
+    elif view in ("DEPTH", "HIT_DISTANCE"):
+        out[..., :3] = _near_to_far(values[..., 0])[..., None]
+    elif view == "NORMAL_ANGLE":
+        out[..., :3] = debug.heat(values[..., 0] / debug.NORMAL_ANGLE_FULL_SCALE)
+    elif view == "ACNE":
+        out[..., :3] = debug.heat(values[..., 0])
+    elif view in ("RAYS", "TIME"):
+        out[..., :3] = _heat_of_maximum(values[..., 0])
+    else:                               # N_DOT_L, VISIBILITY: grey levels
+        out[..., :3] = values
     return out
 
 
-def write_result(engine, exported: export.Export, image: np.ndarray, buffers: dict, lights: int, debug_view: str):
-    """Write Combined and the enabled passes for the rendered rectangle, rows flipped to bottom-up."""
+def write_result(engine, exported: export.Export, image: np.ndarray, buffers: dict, channels: list,
+                 debug_view: str):
+    """Write Combined and the enabled passes for the rendered rectangle, rows flipped to bottom-up.
+
+    channels: the lights whose per-light buffers (N.L, shadow rays) the passes and debug view show.
+    """
     width, height = exported.full_size
     x, y, w, h = exported.border
     rows = slice(height - (y + h), height - y)
     cols = slice(x, x + w)
     if debug_view != "NONE":
-        image = debug_image(debug_view, image, buffers, lights)
+        image = debug_image(debug_view, image, buffers, channels)
 
     def block(values: np.ndarray) -> np.ndarray:
         return np.ascontiguousarray(values[rows, cols][::-1], dtype=np.float32).reshape(w * h, -1)
@@ -116,7 +173,8 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
                 fill(render_pass, block(image))
             elif name in STANDARD_PASSES or name in DEBUG_PASSES:
                 buffer = (STANDARD_PASSES.get(name) or DEBUG_PASSES[name])[0]
-                fill(render_pass, block(_pass_values(buffers, buffer, lights, image.shape[:2])))
+                if buffer in buffers:
+                    fill(render_pass, block(_pass_values(buffers, buffer, channels)))
             written.add(name)
     finally:
         engine.end_result(result)
@@ -131,7 +189,8 @@ def render_frame(engine, depsgraph) -> RenderRecord:
     scene = depsgraph.scene
     try:
         engine.update_stats("", "Primer | exporting scene")
-        exported = export.export_scene(depsgraph, engine.camera_override, engine.test_break)
+        exported = export.export_scene(depsgraph, engine.camera_override, engine.test_break,
+                                       requested_buffers(scene.primer, depsgraph.view_layer))
         record.export_seconds = time.perf_counter() - start
         record.warnings = list(exported.warnings)
         if engine.test_break():
@@ -150,7 +209,9 @@ def render_frame(engine, depsgraph) -> RenderRecord:
         record.cancelled = result.cancelled
         record.stats = result.stats
         written = time.perf_counter()
-        write_result(engine, exported, result.image, result.aux, result.lights, scene.primer.debug_view)
+        chosen = scene.primer.debug_light
+        channels = light_channels(result.light_names, chosen.name if chosen is not None else "")
+        write_result(engine, exported, result.image, result.aux, channels, scene.primer.debug_view)
         record.write_seconds = time.perf_counter() - written
     except KeyboardInterrupt:            # Ctrl+C in a terminal: stop like Esc
         record.cancelled = True

@@ -316,31 +316,11 @@ def border_rectangle(render, width: int, height: int) -> tuple:
     return x0, y0, x1 - x0, y1 - y0
 
 
-# The core buffer behind each debug view (properties.DEBUG_VIEWS) and each pass Primer can write.
-VIEW_BUFFERS = {"NORMAL": "normal", "FACE_NORMAL": "face_normal", "DEPTH": "depth",
-                "N_DOT_L": "n_dot_l", "VISIBILITY": "visibility"}
-DEBUG_PASS_BUFFERS = ("face_normal", "n_dot_l", "visibility")
+def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = ()) -> core_scene.RenderSettings:
+    """Return core render settings from the scene's Primer settings and Blender's render settings.
 
-
-def needed_buffers(scene, view_layer=None) -> tuple:
-    """Return the auxiliary buffers this render writes: only the enabled passes and the debug view's.
-
-    Model only what the scene needs: a render with Combined alone computes none of them.
+    aux: the core buffers to compute (core.render.AUX_BUFFERS), only those the passes and debug view need.
     """
-    wanted = []
-    if view_layer is not None and view_layer.use_pass_z:
-        wanted.append("depth")
-    if view_layer is not None and view_layer.use_pass_normal:
-        wanted.append("normal")
-    if scene.primer.debug_passes:
-        wanted += DEBUG_PASS_BUFFERS
-    if scene.primer.debug_view in VIEW_BUFFERS:
-        wanted.append(VIEW_BUFFERS[scene.primer.debug_view])
-    return tuple(dict.fromkeys(wanted))
-
-
-def render_settings(scene, width: int, height: int, border: tuple, view_layer=None) -> core_scene.RenderSettings:
-    """Return core render settings from the scene's Primer settings and Blender's render settings."""
     props = scene.primer
     render = scene.render
     x, y, w, h = border
@@ -354,7 +334,13 @@ def render_settings(scene, width: int, height: int, border: tuple, view_layer=No
         terminator_fix=bool(props.terminator_fix),
         transparent_background=bool(render.film_transparent),
         threads=int(props.threads),
-        aux=needed_buffers(scene, view_layer),
+        aux=tuple(aux),
+        smooth_normals=bool(props.smooth_normals),
+        visibility_normal=props.visibility_normal.lower(),
+        reduce_t_max=bool(props.reduce_t_max),
+        distance_attenuation=bool(props.distance_attenuation),
+        clamp_n_dot_l=bool(props.clamp_n_dot_l),
+        shadow_rays_for_backfacing=bool(props.shadow_rays_for_backfacing),
         adaptive=bool(props.use_adaptive_sampling),
         adaptive_threshold=float(props.adaptive_threshold),
         adaptive_min_samples=int(props.adaptive_min_samples),
@@ -397,8 +383,8 @@ def _terminator_notes(offsets: dict, fix: bool, cutoff: float) -> list:
     return notes
 
 
-def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) -> Export:
-    """Return the evaluated depsgraph as a core scene plus render settings.
+def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, aux: tuple = ()) -> Export:
+    """Return the evaluated depsgraph as a core scene plus render settings (computing the buffers `aux`).
 
     Raises ExportError with a readable message when the scene cannot be rendered.
     """
@@ -460,6 +446,6 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False) ->
         warnings.append("the scene has no lights: only the world colour will be visible")
     width, height = frame_size(scene.render)
     border = border_rectangle(scene.render, width, height)
-    settings = render_settings(scene, width, height, border, depsgraph.view_layer)
+    settings = render_settings(scene, width, height, border, aux)
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
     return Export(core, settings, (width, height), border, warnings)

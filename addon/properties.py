@@ -8,10 +8,24 @@ DEBUG_VIEWS = (
     ("NONE", "Combined", "The rendered image"),
     ("NORMAL", "Shading Normal", "The interpolated normal N used for N.L, as colour (N + 1) / 2"),
     ("FACE_NORMAL", "Face Normal", "The triangle's own normal, used to decide whether a light can be visible"),
+    ("NORMAL_ANGLE", "Normal Disagreement", "Angle between shading and face normal, heat map from 0 to 30 degrees: "
+                                            "where smooth shading bends the normal"),
+    ("BARYCENTRIC", "Barycentrics", "The hit's barycentric coordinates (1-u-v, u, v) as red, green, blue"),
+    ("HIT_DISTANCE", "Hit Distance t", "t of I = O + tD along the camera ray, from white (nearest) to black (farthest)"),
     ("DEPTH", "Depth", "Distance along the camera's view axis, normalised to the nearest and farthest hit"),
-    ("N_DOT_L", "N.L", "max(N.L, 0) averaged over the lights: the cosine law alone"),
-    ("VISIBILITY", "Shadow Rays", "Fraction of shadow rays that reached their light: white lit, black shadowed"),
+    ("N_DOT_L", "N.L", "max(N.L, 0) averaged over the lights (or the chosen light): the cosine law alone"),
+    ("VISIBILITY", "Shadow Rays", "Fraction of shadow rays that reached their light (all lights, or the chosen "
+                                  "one): white lit, black shadowed"),
+    ("ACNE", "Shadow Acne", "Fraction of shadow rays blocked by the surface they started from, heat map 0 to 1"),
+    ("RAYS", "Rays per Pixel", "Camera and shadow rays cast per pixel, heat map up to the image's maximum"),
+    ("TIME", "Time per Pixel", "Seconds per pixel (each run of 64 pixels timed, shared by rays), heat map up to "
+                               "the image's maximum"),
 )
+
+
+def _is_light(_settings, obj) -> bool:
+    """Only lights can be chosen for the per-light debug views."""
+    return obj.type == "LIGHT"
 
 
 class PrimerSettings(bpy.types.PropertyGroup):
@@ -47,7 +61,8 @@ class PrimerSettings(bpy.types.PropertyGroup):
                                                 "shorten t_max by 2 epsilon, as in the lecture")),
         default="ROBUST", description="How shadow rays avoid hitting the surface they start from (shadow acne)")
     epsilon: FloatProperty(name="Epsilon", default=1e-3, min=0.0, soft_max=1.0, precision=6, unit="LENGTH",
-                           description="The lecture's shadow-ray offset, in scene units")
+                           description="The lecture's shadow-ray offset in scene units: too small leaves acne, "
+                                       "too large loses contact shadows")
     terminator_fix: BoolProperty(name="Shadow Terminator Fix", default=False,
                                  description="Lift shadow rays on smooth low-poly meshes onto the surface the "
                                              "normals describe (Hanika 2021), hiding faceted terminators")
@@ -55,8 +70,36 @@ class PrimerSettings(bpy.types.PropertyGroup):
                          description="Threads tracing rays; 0 uses every core")
     debug_view: EnumProperty(name="Debug View", items=DEBUG_VIEWS, default="NONE",
                              description="Show one of the tracer's intermediate quantities instead of the image")
-    debug_passes: BoolProperty(name="Debug Passes", default=True,
-                               description="Also write Primer's face normal, N.L and shadow-ray passes")
+    debug_passes: BoolProperty(name="Debug Passes", default=False,
+                               description="Also write every debug view as a 'Primer ...' render pass "
+                                           "(costs time: acne and time per pixel are the slowest)")
+    debug_light: PointerProperty(name="Light", type=bpy.types.Object, poll=_is_light,
+                                 description="The light whose N.L and shadow rays the debug views and passes show; "
+                                             "empty: the mean over all lights")
+
+    # The lecture switches: each defaults to the lecture's choice (core.scene.LECTURE_SWITCHES).
+    smooth_normals: BoolProperty(name="Smooth Normals", default=True,
+                                 description="Interpolate vertex normals with the barycentrics; off, every "
+                                             "triangle shades with its face normal and the facets show")
+    visibility_normal: EnumProperty(
+        name="Visibility Normal",
+        items=(("FACE", "Face Normal (lecture)", "A light behind the triangle's plane cannot be visible"),
+               ("SHADING", "Shading Normal", "Trust the interpolated normal: light leaks through smooth surfaces")),
+        default="FACE",
+        description="Decide whether a light can be visible with the face normal, not the interpolated one, "
+                    "which may face a light behind the triangle")
+    reduce_t_max: BoolProperty(name="Reduce t_max", default=True,
+                               description="End shadow rays short of the light, so a surface the light sits on "
+                                           "does not shadow it")
+    distance_attenuation: BoolProperty(name="Distance Attenuation", default=True,
+                                       description="Light spreads over a sphere of area 4 pi r^2, so irradiance "
+                                                   "falls off as 1/r^2")
+    clamp_n_dot_l: BoolProperty(name="Clamp N.L", default=True,
+                                description="Below the horizon N.L turns negative; clamp it at 0, or lights "
+                                            "behind the normal subtract light")
+    shadow_rays_for_backfacing: BoolProperty(name="Shadow Rays for Back-Facing Lights", default=False,
+                                             description="A light behind the surface is invisible anyway: casting "
+                                                         "its shadow ray costs rays and changes nothing")
 
 
 classes = (PrimerSettings,)

@@ -74,7 +74,34 @@ class RENDER_PT_primer_debug(PrimerPanel, bpy.types.Panel):
         layout.use_property_split = True
         props = context.scene.primer
         layout.prop(props, "debug_view")
+        layout.prop(props, "debug_light")
         layout.prop(props, "debug_passes")
+
+
+class RENDER_PT_primer_lecture(PrimerPanel, bpy.types.Panel):
+    """The lecture's choices as switches: flip one and see why the lecture makes it."""
+
+    bl_label = "Lecture"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_primer_debug"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        props = context.scene.primer
+        col = layout.column(heading="Normals")
+        col.prop(props, "smooth_normals")
+        col.prop(props, "visibility_normal")
+        col = layout.column(heading="Shadow Rays")
+        col.prop(props, "shadow_method")
+        sub = col.column()
+        sub.active = props.shadow_method == "EPSILON"
+        sub.prop(props, "epsilon")
+        col.prop(props, "reduce_t_max")
+        col.prop(props, "shadow_rays_for_backfacing", text="Back-Facing Lights")
+        col = layout.column(heading="Transport")
+        col.prop(props, "distance_attenuation")
+        col.prop(props, "clamp_n_dot_l")
 
 
 class DATA_PT_primer_light(PrimerPanel, bpy.types.Panel):
@@ -137,6 +164,7 @@ classes = (
     RENDER_PT_primer_sampling,
     RENDER_PT_primer_shadows,
     RENDER_PT_primer_debug,
+    RENDER_PT_primer_lecture,
     DATA_PT_primer_light,
     DATA_PT_primer_spot,
 )

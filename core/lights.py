@@ -255,3 +255,20 @@ def sample_light(light, points: np.ndarray, u: np.ndarray) -> LightSample:
         return LightSample(L, distance, radiance * geometry, color, targets)
 
     raise TypeError(f"unknown light type {type(light).__name__}")
+
+
+def without_distance_attenuation(light, sample: LightSample, points: np.ndarray) -> LightSample:
+    """Return the sample with its 1/r^2 falloff undone (the lecture switch "distance attenuation" off).
+
+    A point or spot light then gives E_normal = P / (4 pi) at any distance (r: to its centre); an
+    area light sample is multiplied by r^2 to its sampled point; a sun has no falloff to undo.
+    points: (n, 3) float64 shading points in the light's space.
+    """
+    if isinstance(light, SunLight):
+        return sample
+    if isinstance(light, (PointLight, SpotLight)):
+        w = points - np.asarray(light.position, np.float64)
+        r2 = np.einsum("ij,ij->i", w, w)
+    else:
+        r2 = sample.distance * sample.distance
+    return sample._replace(strength=sample.strength * r2)

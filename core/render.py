@@ -25,7 +25,7 @@ import numpy as np
 
 from . import adaptive
 from . import camera as camera_
-from . import sampling
+from . import debug, sampling
 from .geometry import WorldGeometry, build_geometry
 from .scene import RenderSettings, Scene
 from .shading import direct_light, surface_at_hits, translate_light
@@ -35,10 +35,21 @@ AUX_BUFFERS = {
     "depth": 1,         # distance along the camera's view axis (Blender's Z); 1e10 where nothing was hit
     "normal": 3,        # shading normal N, world space, facing the camera
     "face_normal": 3,   # face normal, world space, facing the camera
-    "n_dot_l": "lights",     # max(N.L, 0) per light
+    "n_dot_l": "lights",     # max(N.L, 0) per light (N.L itself with the clamp switched off)
     "visibility": "lights",  # fraction of shadow rays per light that reached it
+    # Debug buffers (core/debug.py), computed only when asked for:
+    "normal_angle": 1,  # angle between N and the face normal, degrees
+    "barycentric": 3,   # (1 - u - v, u, v) of the hit
+    "hit_distance": 1,  # t along the camera ray from the camera; 1e10 where nothing was hit
+    "acne": 1,          # fraction of the pixel's shadow rays that hit the surface they left
+    "rays": 1,          # camera rays plus shadow rays cast for the pixel
+    "time": 1,          # seconds spent on the pixel (an estimate: debug.share_time)
 }
 MISS_DEPTH = 1e10
+# Buffers that only this module's readable path computes; see `uses_reference_path`.
+REFERENCE_ONLY_BUFFERS = ("normal_angle", "barycentric", "hit_distance", "acne", "rays", "time")
+# With the "time" buffer, each chunk is rendered and timed in runs of this many pixels.
+TIME_TILE = 64
 
 
 @dataclass
@@ -68,14 +79,14 @@ class RenderResult:
 
     image: (H, W, 4) float32 scene-linear RGBA, row 0 at the top
     aux:   name -> (H, W, c) float32 auxiliary buffer
-    lights: how many lights were rendered (the channels of the per-light buffers)
+    light_names: the name of the light behind each channel of the per-light buffers
     """
 
     image: np.ndarray
     aux: dict
     stats: RenderStats
     cancelled: bool = False
-    lights: int = 0
+    light_names: list = field(default_factory=list)
 
 
 def validate(scene: Scene, settings: RenderSettings) -> None:
@@ -88,6 +99,8 @@ def validate(scene: Scene, settings: RenderSettings) -> None:
         raise ValueError(f"samples must be at least 1, got {settings.samples}")
     if settings.shadow_method not in ("robust", "epsilon"):
         raise ValueError(f"shadow method must be 'robust' or 'epsilon', got {settings.shadow_method!r}")
+    if settings.visibility_normal not in ("face", "shading"):
+        raise ValueError(f"visibility normal must be 'face' or 'shading', got {settings.visibility_normal!r}")
     if settings.shadow_method == "epsilon" and not (settings.epsilon >= 0 and math.isfinite(settings.epsilon)):
         raise ValueError(f"epsilon must be a finite length >= 0, got {settings.epsilon}")
     if not np.isfinite(np.asarray(scene.camera.matrix_world)).all():
@@ -95,6 +108,11 @@ def validate(scene: Scene, settings: RenderSettings) -> None:
     unknown = set(settings.aux) - set(AUX_BUFFERS)
     if unknown:
         raise ValueError(f"unknown auxiliary buffers {sorted(unknown)}; choose from {list(AUX_BUFFERS)}")
+
+
+def uses_reference_path(settings: RenderSettings) -> bool:
+    """Whether a render needs this readable path: a lecture switch off its default, or a debug buffer."""
+    return not settings.is_lecture_default() or bool(set(settings.aux) & set(REFERENCE_ONLY_BUFFERS))
 
 
 def _usable_lights(scene: Scene, warnings: list) -> list:
@@ -138,6 +156,9 @@ class _Context:
         self.forward = -np.asarray(cam.matrix_world, np.float64)[:3, 2]
         self.forward = self.forward / np.linalg.norm(self.forward)
         self.camera_offset = geometry.origin - np.asarray(cam.matrix_world, np.float64)[:3, 3]
+        # Acne debug view: a blocked shadow ray this close to its start counts as a self-hit.
+        self.self_hit_distance = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry.vertices)
+                                  if "acne" in settings.aux else 0.0)
 
 
 class ChunkResult(NamedTuple):
@@ -197,8 +218,9 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> Chu
         # 4. Shade the hits.
         hit = hits.hit
         surface = surface_at_hits(ctx.geometry, hits.prim[hit], hits.u[hit], hits.v[hit],
-                                  origins[hit], directions[hit], hits.t[hit])
-        shading = direct_light(ctx.geometry, surface, ctx.lights, s, pixel[h], sample[h], ctx.want_aux)
+                                  origins[hit], directions[hit], hits.t[hit], flat_only=not s.smooth_normals)
+        shading = direct_light(ctx.geometry, surface, ctx.lights, s, pixel[h], sample[h], ctx.want_aux,
+                               prim=hits.prim[hit], self_hit_distance=ctx.self_hit_distance)
         rgba[h, :3] = shading.radiance
         rgba[h, 3] = 1.0
         shadow_rays = shading.shadow_rays
@@ -208,14 +230,49 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> Chu
     per_pixel = rgba.reshape(len(pixels), spp, 4).sum(axis=1)
     squares = (luminance * luminance).reshape(len(pixels), spp).sum(axis=1)
     hits_per_pixel = np.bincount(h // spp, minlength=len(pixels))
-    aux = _sum_aux(ctx, len(pixels), spp, h, surface, shading) if ctx.want_aux else {}
+    aux = (_sum_aux(ctx, len(pixels), spp, h, surface, shading, rays.valid, directions[hits.hit])
+           if ctx.want_aux else {})
     return ChunkResult(per_pixel, squares, aux, hits_per_pixel, n, shadow_rays, shading_seconds, spp)
 
 
-def _sum_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, shading) -> dict:
-    """Sum the auxiliary values of each pixel's hit samples: name -> (p, c) float64."""
+def _render_chunk_timed(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> ChunkResult:
+    """Render `pixels` in runs of TIME_TILE pixels, timing each run: `_render_chunk`'s result plus the
+    "time" buffer, each run's wall time shared out to its pixels by their rays (debug.share_time)."""
+    parts = []
+    for i in range(0, len(pixels), TIME_TILE):
+        start = time.perf_counter()
+        part = _render_chunk(ctx, pixels[i:i + TIME_TILE], spp, seed)
+        seconds = time.perf_counter() - start
+        part.aux["time"] = debug.share_time(seconds, part.aux["rays"][:, 0])[:, None]
+        if "rays" not in ctx.settings.aux:
+            del part.aux["rays"]
+        parts.append(part)
+    aux = {name: np.concatenate([part.aux[name] for part in parts]) for name in parts[0].aux}
+    return ChunkResult(np.concatenate([part.rgba for part in parts]),
+                       np.concatenate([part.squares for part in parts]), aux,
+                       np.concatenate([part.hits for part in parts]), sum(part.primary for part in parts),
+                       sum(part.shadow for part in parts), sum(part.shading_seconds for part in parts), spp)
+
+
+# Buffers that are per-pixel totals, not means over the hit samples; and the hidden denominator of "acne".
+TOTAL_BUFFERS = ("rays", "time")
+ACNE_CAST = "acne cast"
+
+
+def _sum_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, shading,
+             valid: np.ndarray, D: np.ndarray) -> dict:
+    """Sum the auxiliary values of each pixel's hit samples: name -> (p, c) float64.
+
+    Sums, so that passes add up: render() divides by the hit count, except for the per-pixel
+    totals (TOTAL_BUFFERS) and "acne", a ratio of two sums (ACNE_CAST holds its denominator).
+    h: (m,) int64 indices of the hit samples; valid: (n,) bool camera rays traced (n = p * spp);
+    D: (m, 3) float64 the hit samples' camera-ray directions.
+    """
     k = len(ctx.lights)
     owner = h // spp
+
+    def summed(values: np.ndarray) -> np.ndarray:
+        return np.bincount(owner, weights=values, minlength=n_pixels).astype(np.float64)
 
     def total(values: np.ndarray) -> np.ndarray:
         values = values.reshape(len(h), -1)
@@ -225,8 +282,18 @@ def _sum_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, sha
         return out
 
     aux = {}
-    for name in ctx.settings.aux:
-        if surface is None:
+    wanted = set(ctx.settings.aux) | ({"rays"} if "time" in ctx.settings.aux else set())
+    for name in wanted - {"time"}:          # "time" is measured around the chunk (_render_chunk_timed)
+        if name == "rays":
+            # Every valid camera ray, plus the shadow rays of the hit samples.
+            camera_rays = valid.reshape(n_pixels, spp).sum(axis=1).astype(np.float64)
+            shadow = summed(shading.rays_per_hit) if surface is not None else 0.0
+            aux[name] = (camera_rays + shadow)[:, None]
+        elif name == "acne":
+            cast = summed(shading.rays_per_hit) if surface is not None else np.zeros(n_pixels)
+            acne = summed(shading.acne_per_hit) if surface is not None else np.zeros(n_pixels)
+            aux[name], aux[ACNE_CAST] = acne[:, None], cast[:, None]
+        elif surface is None:
             aux[name] = np.zeros((n_pixels, k if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]))
         elif name == "depth":
             aux[name] = total((surface.I + ctx.camera_offset) @ ctx.forward)
@@ -238,6 +305,12 @@ def _sum_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, sha
             aux[name] = total(shading.n_dot_l) if k else np.zeros((n_pixels, 0))
         elif name == "visibility":
             aux[name] = total(shading.visibility) if k else np.zeros((n_pixels, 0))
+        elif name == "normal_angle":
+            aux[name] = total(debug.normal_angle(surface.N, surface.Ng))
+        elif name == "barycentric":
+            aux[name] = total(debug.barycentrics(surface.u, surface.v))
+        elif name == "hit_distance":
+            aux[name] = total(debug.hit_distance(surface.I, -ctx.camera_offset, D))
     return aux
 
 
@@ -307,6 +380,8 @@ def render(scene: Scene, settings: RenderSettings,
     for name in settings.aux:
         channels = len(lights) if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]
         aux_total[name] = np.zeros((H * W, channels))
+    if "acne" in settings.aux:
+        aux_total[ACNE_CAST] = np.zeros((H * W, 1))
     aux_hits = np.zeros(H * W, np.int64)
 
     region = region_pixels(settings)
@@ -331,6 +406,7 @@ def render(scene: Scene, settings: RenderSettings,
         stats.shadow_rays += result.shadow
         stats.shading_seconds += result.shading_seconds
 
+    render_chunk = _render_chunk_timed if "time" in settings.aux else _render_chunk
     with ThreadPoolExecutor(max_workers=threads) as pool:
         pixels = region
         for index, spp in enumerate(passes):
@@ -343,22 +419,30 @@ def render(scene: Scene, settings: RenderSettings,
             seed = (settings.seed + index * 0x2545F491) & 0xFFFFFFFF
             per_chunk = max(1, settings.chunk_size // spp)
             chunks = [pixels[i:i + per_chunk] for i in range(0, len(pixels), per_chunk)]
-            cancelled = _run_chunks(pool, threads, chunks, lambda c: _render_chunk(ctx, c, spp, seed), store,
+            cancelled = _run_chunks(pool, threads, chunks, lambda c: render_chunk(ctx, c, spp, seed), store,
                                     cancel, lambda f: progress((index + f) / len(passes), stats) if progress else None,
                                     stats, start)
             stats.passes += 1
             if cancelled:
                 break
 
-    # 3. Box filter: each pixel's mean over all its samples; aux values over the samples that hit.
+    # 3. Box filter: each pixel's mean over all its samples; aux values over the samples that hit,
+    #    except per-pixel totals, and acne: shadow rays that hit their own surface per ray cast.
     count = np.maximum(noise.count, 1)[:, None]
     image = (noise.total / count).astype(np.float32)
     aux = {}
-    for name, values in aux_total.items():
-        covered = aux_hits > 0
-        out = np.full(values.shape, MISS_DEPTH if name == "depth" else 0.0, np.float32)
-        out[covered] = values[covered] / aux_hits[covered, None]
-        aux[name] = out
+    covered = aux_hits > 0
+    for name in settings.aux:
+        values = aux_total[name]
+        if name in TOTAL_BUFFERS:
+            aux[name] = values.astype(np.float32)
+        elif name == "acne":
+            cast = aux_total[ACNE_CAST]
+            aux[name] = np.where(cast > 0, values / np.maximum(cast, 1.0), 0.0).astype(np.float32)
+        else:
+            out = np.full(values.shape, MISS_DEPTH if name in ("depth", "hit_distance") else 0.0, np.float32)
+            out[covered] = values[covered] / aux_hits[covered, None]
+            aux[name] = out
     stats.samples_per_pixel = noise.count.reshape(H, W).astype(np.int32)
 
     stats.seconds = time.perf_counter() - start
@@ -368,4 +452,4 @@ def render(scene: Scene, settings: RenderSettings,
     stats.shading_seconds -= shadow_query
     return RenderResult(image.reshape(H, W, 4),
                         {name: values.reshape(H, W, -1) for name, values in aux.items()},
-                        stats, cancelled, len(lights))
+                        stats, cancelled, [light.name for light in lights])

@@ -8,6 +8,8 @@ For each hit: find the point I, the face normal and the shading normal N
 and reflect L_out = (albedo / pi) * E. Work is done only where it matters:
 interpolated normals only for smooth triangles, shadow rays only for lights
 in front of both N and the face, and only where the light sends something.
+The lecture switches of RenderSettings (README, "Lecture switches") undo these
+choices one at a time, to show why the lecture makes them.
 """
 from __future__ import annotations
 
@@ -19,7 +21,7 @@ import numpy as np
 
 from . import lights as lights_
 from . import normals as normals_
-from . import sampling, shadows
+from . import debug, sampling, shadows
 from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 # Below this fraction of lit samples, shadow rays are built for the lit samples only (gathered);
@@ -58,12 +60,16 @@ class Shading(NamedTuple):
     n_dot_l:    (n, k) float64 max(N.L, 0) per light (averaged over light samples)
     visibility: (n, k) float64 fraction of shadow rays that reached each light (0 if none was cast)
     shadow_rays: int number of shadow rays traced
+    rays_per_hit: (n,) float64 shadow rays traced for each hit, or None when not asked for
+    acne_per_hit: (n,) float64 of those, how many hit the surface they left, or None when not asked for
     """
 
     radiance: np.ndarray
     n_dot_l: np.ndarray
     visibility: np.ndarray
     shadow_rays: int
+    rays_per_hit: Optional[np.ndarray] = None
+    acne_per_hit: Optional[np.ndarray] = None
 
 
 def hit_points(vertices: np.ndarray, Ng: np.ndarray, u: np.ndarray, v: np.ndarray,
@@ -124,19 +130,26 @@ def translate_light(light, origin: np.ndarray):
 
 
 def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.ndarray,
-                 sample: np.ndarray, want_aux: bool = False, light_numbers=None) -> Shading:
+                 sample: np.ndarray, want_aux: bool = False, light_numbers=None,
+                 prim: Optional[np.ndarray] = None, self_hit_distance: float = 0.0) -> Shading:
     """Return the radiance reflected towards the camera by direct light from every light.
 
     lights: already camera-relative (`translate_light`); pixel, sample: (n,) int64 keys
-    of each hit for the random numbers. light_numbers: None, or (k, 2) float64 one fixed
-    unit-square point per light used for every hit instead of the stratified samples
-    (the ray inspector's single sample, core/inspector.py).
+    of each hit for the random numbers. The lecture switches of `settings` apply here.
+    light_numbers: None, or (k, 2) float64 one fixed unit-square point per light used for
+    every hit instead of the stratified samples (the ray inspector's single sample,
+    core/inspector.py). Debug counts (Shading.rays_per_hit, acne_per_hit) are kept only when
+    settings.aux asks for "rays", "time" or "acne"; the acne check needs prim: (n,) int64
+    triangle of each hit and self_hit_distance (core/debug.py).
     """
     n = len(surface.I)
     k = len(lights)
     E = np.zeros((n, 3))
     n_dot_l = np.zeros((n, k)) if want_aux else None
     visibility = np.zeros((n, k)) if want_aux else None
+    aux = set(getattr(settings, "aux", ()))
+    rays_per_hit = np.zeros(n) if aux & {"rays", "time", "acne"} else None
+    acne_per_hit = np.zeros(n) if "acne" in aux and prim is not None else None
     shadow_ray_count = 0
     robust = settings.shadow_method == "robust"
     offsets = shadows.error_bound(surface.I, surface.vertices) if robust else None
@@ -162,43 +175,63 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
                 stratum = sampling.permute(sample * count + j, total, key & 0xFFFFFFFF)
                 u2 = sampling.stratified_2d(settings.seed, pixel, stratum, total, dimension=16 + 4 * index)
             ls = lights_.sample_light(light, surface.I, u2)
-            # 2. The lecture's two tests: N.L > 0 (shading normal) and Ng.L > 0 (face normal).
+            if not settings.distance_attenuation:
+                ls = lights_.without_distance_attenuation(light, ls, surface.I)
+            # 2. The lecture's two tests: N.L > 0 (shading normal, the clamp) and Ng.L > 0 (the face
+            #    normal decides whether the light can be visible; `visibility_normal` switches it).
             #    The terminator fix lifts smooth points onto the curved surface, where the
             #    face normal no longer decides; its shadow ray does.
             NL = np.einsum("ij,ij->i", surface.N, ls.L)
             NgL = np.einsum("ij,ij->i", surface.Ng, ls.L)
-            face_allows = (NgL > 0.0) | surface.smooth if settings.terminator_fix else NgL > 0.0
-            lit = (NL > 0.0) & face_allows & (ls.strength > 0.0)
+            facing = NgL > 0.0 if settings.visibility_normal == "face" else NL > 0.0
+            face_allows = facing | surface.smooth if settings.terminator_fix else facing
+            cosine = np.maximum(NL, 0.0) if settings.clamp_n_dot_l else NL
+            lit = (cosine != 0.0) & face_allows
+            if settings.shadow_rays_for_backfacing:
+                lit[:] = True                     # cast them anyway, to count what the lecture saves
+            lit &= ls.strength > 0.0
             lit_count = int(np.count_nonzero(lit))
             if want_aux:
-                n_dot_l[:, index] += np.maximum(NL, 0.0) / count
+                n_dot_l[:, index] += cosine / count
             if lit_count == 0:
                 continue
             # 3. One shadow ray per lit sample, from a point safely off the surface. Compact, compute,
             #    scatter: gather the lit samples first, unless nearly all are lit; gathering would
             #    then cost more than it saves, so every sample gets a ray and the unlit ones an
             #    empty interval (t_max < 0) that Embree does not trace.
-            gather = settings.terminator_fix or lit_count < GATHER_BELOW * n
+            gather = settings.terminator_fix or acne_per_hit is not None or lit_count < GATHER_BELOW * n
             idx = np.flatnonzero(lit) if gather else slice(None)
             I = surface.I[idx]
+            Ng = surface.Ng[idx]
             if settings.terminator_fix:
                 I = _lift_terminator(surface, idx, NL[idx], NgL[idx], settings.terminator_offset)
+            elif settings.shadow_rays_for_backfacing or settings.visibility_normal != "face":
+                # Switches that cast rays towards lights behind the face: offset to the light's side.
+                Ng = Ng * np.where(NgL[idx] < 0.0, -1.0, 1.0)[:, None]
             if robust:
-                rays = shadows.robust_rays(I, surface.Ng[idx], offsets[idx], ls.position[idx],
-                                           ls.L[idx], ls.distance[idx])
+                rays = shadows.robust_rays(I, Ng, offsets[idx], ls.position[idx],
+                                           ls.L[idx], ls.distance[idx], settings.reduce_t_max)
             else:
-                rays = shadows.epsilon_rays(I, ls.L[idx], ls.distance[idx], settings.epsilon)
+                rays = shadows.epsilon_rays(I, ls.L[idx], ls.distance[idx], settings.epsilon,
+                                            settings.reduce_t_max)
             if not gather:
-                rays.t_max[~lit] = -1.0
+                rays = rays._replace(t_max=np.where(lit, rays.t_max, -1.0))
             seen = shadows.visible(geometry.tracer, rays) & lit[idx]
             shadow_ray_count += lit_count
             # 4. Scatter the unoccluded light back: E += E_normal (N.L) V.
-            E_light[idx] += ls.strength[idx] * NL[idx] * seen * (1.0 / count)
+            E_light[idx] += ls.strength[idx] * cosine[idx] * seen * (1.0 / count)
             if want_aux:
                 visibility[idx, index] += seen / count
+            if rays_per_hit is not None:
+                rays_per_hit[idx] += lit[idx]
+            if acne_per_hit is not None:
+                blocked = np.flatnonzero(~seen)
+                acne_per_hit[idx[blocked]] += debug.self_intersections(
+                    geometry.tracer, rays.origins[blocked], rays.directions[blocked], rays.t_max[blocked],
+                    prim[idx[blocked]], self_hit_distance)
         E += E_light[:, None] * np.asarray(light.color, np.float64)[:3]
     radiance = surface.albedo * (1.0 / math.pi) * E
-    return Shading(radiance, n_dot_l, visibility, shadow_ray_count)
+    return Shading(radiance, n_dot_l, visibility, shadow_ray_count, rays_per_hit, acne_per_hit)
 
 
 def _lift_terminator(surface: Surface, idx: np.ndarray, NL: np.ndarray, NgL: np.ndarray,

@@ -80,12 +80,14 @@ def error_bound(points: np.ndarray, triangle_vertices: np.ndarray) -> np.ndarray
 
 
 def robust_rays(points: np.ndarray, face_normals: np.ndarray, offsets: np.ndarray,
-                light_points: np.ndarray, L: np.ndarray, distance: np.ndarray) -> ShadowRays:
+                light_points: np.ndarray, L: np.ndarray, distance: np.ndarray,
+                reduce_t_max: bool = True) -> ShadowRays:
     """Build shadow rays with the origin pushed off the surface by its error bound.
 
     points: (n, 3) float64 hit points; face_normals: (n, 3) float64 unit, on the light's side;
     offsets: (n,) float64 from `error_bound`; light_points: (n, 3) float64; L: (n, 3) unit
     direction to the light; distance: (n,) float64, inf for a distant light.
+    reduce_t_max=False (a lecture switch) keeps the unreduced t_max = ||P_light - I||.
     """
     origins = points + offsets[:, None] * face_normals
     finite = np.isfinite(distance)
@@ -93,18 +95,24 @@ def robust_rays(points: np.ndarray, face_normals: np.ndarray, offsets: np.ndarra
         w = light_points - origins
         length = np.sqrt(np.einsum("ij,ij->i", w, w))
         directions = w / np.maximum(length, 1e-300)[:, None]
+        if not reduce_t_max:
+            return ShadowRays(origins, directions, distance)
         # Stop short of the light point by the rounding error at its own coordinates.
         end_offset = ROBUST_ULPS * FLOAT32_EPSILON * largest_coordinate(light_points)
         return ShadowRays(origins, directions, np.maximum(length - end_offset, 0.0))
     return ShadowRays(origins, L, distance)
 
 
-def epsilon_rays(points: np.ndarray, L: np.ndarray, distance: np.ndarray, epsilon: float) -> ShadowRays:
+def epsilon_rays(points: np.ndarray, L: np.ndarray, distance: np.ndarray, epsilon: float,
+                 reduce_t_max: bool = True) -> ShadowRays:
     """Build the lecture's shadow rays: origin I + epsilon L, t_max = distance - 2 epsilon.
 
     points: (n, 3) float64; L: (n, 3) float64 unit; distance: (n,) float64 (inf for the sun).
+    reduce_t_max=False (a lecture switch) keeps t_max = distance: the ray then ends epsilon
+    beyond the light, and a surface the light sits on blocks it.
     """
-    return ShadowRays(points + epsilon * L, L, np.maximum(distance - 2.0 * epsilon, 0.0))
+    t_max = np.maximum(distance - 2.0 * epsilon, 0.0) if reduce_t_max else distance
+    return ShadowRays(points + epsilon * L, L, t_max)
 
 
 def terminator_points(points: np.ndarray, triangle_vertices: np.ndarray, corner_normals: np.ndarray,

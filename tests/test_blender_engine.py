@@ -91,6 +91,7 @@ def test_depth_normal_and_debug_passes_are_written(primer, tmp_path):
     """With Z and Normal enabled, the multilayer EXR holds Depth, Normal and Primer's debug passes with exact values."""
     import OpenImageIO as oiio
     scene = new_scene()
+    scene.primer.debug_passes = True
     layer = scene.view_layers[0]
     layer.use_pass_z = layer.use_pass_normal = True
     scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"

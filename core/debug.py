@@ -1,0 +1,103 @@
+"""Debug output: the tracer's intermediate quantities, one number (or colour) per sample.
+
+"Use that debug output" (the lecture). Each function here turns what the
+tracer already knows about a batch of samples into a quantity a student can
+look at; core/render.py averages them per pixel (`AUX_BUFFERS`) and the
+add-on shows them as debug views and passes. Nothing here runs unless a
+debug buffer was asked for.
+
+Closed forms (tests/test_debug_views.py):
+- normal angle: the angle between the shading normal N and the face normal Ng,
+  acos(N.Ng) in degrees; 0 on flat faces.
+- barycentrics: (1 - u - v, u, v), the weights of the triangle's corners at I;
+  they sum to 1 and I = (1-u-v) V0 + u V1 + v V2.
+- hit distance: t in I = O + t D for the camera ray that starts at the camera
+  (O = its position, or its point on the image plane for an orthographic camera).
+- self-intersection (acne): a blocked shadow ray whose nearest hit is the
+  triangle it started from, or closer than SELF_HIT_FRACTION of the scene's size.
+- rays per pixel: camera rays plus shadow rays cast for the pixel.
+- time per pixel: see `share_time`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# A blocked shadow ray whose nearest hit is closer than this fraction of the scene's bounding-box
+# diagonal counts as a self-intersection even on another triangle (a coplanar neighbour).
+SELF_HIT_FRACTION = 1e-5
+
+# Fixed full scale of the normal-angle heat map, in degrees (a 12-segment sphere peaks near 20).
+NORMAL_ANGLE_FULL_SCALE = 30.0
+
+
+def normal_angle(N: np.ndarray, Ng: np.ndarray) -> np.ndarray:
+    """Return the angle between shading and face normals in degrees.
+
+    N, Ng: (n, 3) float64 unit -> (n,) float64 in [0, 180]
+    """
+    cos = np.clip(np.einsum("ij,ij->i", N, Ng), -1.0, 1.0)
+    return np.degrees(np.arccos(cos))
+
+
+def barycentrics(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Return the barycentric weights (1 - u - v, u, v) of each hit: u, v (n,) float64 -> (n, 3) float64."""
+    return np.stack([1.0 - u - v, u, v], axis=1)
+
+
+def hit_distance(I: np.ndarray, camera_point: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """Return t of I = O + t D, with O the camera's point the ray starts from (not the clip start).
+
+    I: (n, 3) float64 hit points; camera_point: (3,) float64 camera position in the same frame;
+    D: (n, 3) float64 unit ray directions -> (n,) float64. For an orthographic camera, whose
+    rays start on its image plane, (I - camera position).D is the distance from that plane.
+    """
+    return np.einsum("ij,ij->i", I - camera_point, D)
+
+
+def scene_scale(vertices: np.ndarray) -> float:
+    """Return the diagonal of the vertices' bounding box (0 for no vertices): vertices (v, 3) float."""
+    if len(vertices) == 0:
+        return 0.0
+    return float(np.linalg.norm(vertices.max(axis=0).astype(np.float64) - vertices.min(axis=0)))
+
+
+def self_intersections(tracer, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray,
+                       own_prim: np.ndarray, min_distance: float) -> np.ndarray:
+    """Return which of these blocked shadow rays were blocked by the surface they left (acne).
+
+    One extra nearest-hit query, run only for the acne debug view: the ray is a
+    self-intersection when its nearest hit is its own triangle (a ray leaving a
+    plane cannot meet that plane again, so only rounding can make it), or closer
+    than `min_distance`. origins, directions: (n, 3) float64; t_max: (n,) float64;
+    own_prim: (n,) int64 triangle the ray started on -> (n,) bool
+    """
+    hits = tracer.intersect(origins, directions, t_max)
+    return hits.hit & ((hits.prim == own_prim) | (hits.t < min_distance))
+
+
+def share_time(seconds: float, rays: np.ndarray) -> np.ndarray:
+    """Return each pixel's share of a batch's wall time, in proportion to the rays it cast.
+
+    The time is measured per batch of pixels (core/render.py: TIME_TILE pixels), not per
+    pixel: numpy works on whole batches. So this is an estimate: within a batch it follows
+    the rays per pixel, between batches it follows the clock.
+    seconds: wall time of the batch; rays: (p,) float64 rays per pixel -> (p,) float64 seconds
+    """
+    total = rays.sum()
+    if total <= 0:
+        return np.full(len(rays), seconds / max(1, len(rays)))
+    return seconds * rays / total
+
+
+# The heat map: black -> blue -> red -> yellow -> white at x = 0, 0.25, 0.5, 0.75, 1.
+HEAT_STOPS = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+HEAT_COLOURS = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [1.0, 1.0, 1.0]])
+
+
+def heat(x: np.ndarray) -> np.ndarray:
+    """Return heat-map colours for values in 0..1 (clipped): x (...) float -> (..., 3) float32.
+
+    Black (0), blue (0.25), red (0.5), yellow (0.75), white (1), linear in between.
+    """
+    x = np.clip(np.nan_to_num(np.asarray(x, np.float64)), 0.0, 1.0)
+    return np.stack([np.interp(x, HEAT_STOPS, HEAT_COLOURS[:, c]) for c in range(3)], axis=-1).astype(np.float32)

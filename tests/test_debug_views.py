@@ -1,0 +1,229 @@
+"""Debug buffers ("use that debug output"): each one against its closed form on a scene built by hand."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import ortho_down, pixel_points_on_plane, rotation, sun_direction
+from core import debug, primitives, render
+from core.camera import Camera
+from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SunLight
+
+
+def exact(width, height, aux, **kw) -> RenderSettings:
+    """Settings for one unjittered sample per pixel at the pixel centre."""
+    return RenderSettings(width=width, height=height, samples=1, jitter=False, aux=aux, **kw)
+
+
+def tilted_quad(tilt_deg: float) -> Mesh:
+    """The square [-1, 1]^2 at z = 0, two triangles, smooth, with corner normals leaning by -tilt at
+    x = -1 and +tilt at x = +1 (about the y axis): the interpolated normal is normalize(x sin b, 0, cos b)."""
+    b = math.radians(tilt_deg)
+    vertices = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]])
+    triangles = np.array([[0, 1, 2], [0, 2, 3]])
+    lean = {-1.0: [-math.sin(b), 0.0, math.cos(b)], 1.0: [math.sin(b), 0.0, math.cos(b)]}
+    corners = np.array([[lean[vertices[i, 0]] for i in tri] for tri in triangles])
+    return Mesh(vertices, triangles, smooth=True, corner_normals=corners)
+
+
+def test_hit_distance_of_an_orthographic_view_is_the_camera_height():
+    """Looking straight down from height 3 at the plane z = 0, every camera ray hits at t = 3."""
+    scene = Scene(camera=ortho_down(height=3.0, scale=2.0))
+    scene.add_mesh(primitives.plane(10.0))
+    result = render.render(scene, exact(16, 12, ("hit_distance",)))
+    np.testing.assert_allclose(result.aux["hit_distance"], 3.0, rtol=1e-9)
+
+
+def test_hit_distance_of_a_perspective_view_is_the_distance_from_the_eye():
+    """A pinhole camera's t is |I - camera position|, not the depth along the view axis nor from the clip start."""
+    camera = Camera.look_at((0.0, -4.0, 3.0), (0.0, 0.0, 0.0), fov=math.radians(50), clip_start=0.5)
+    scene = Scene(camera=camera)
+    scene.add_mesh(primitives.plane(100.0))
+    result = render.render(scene, exact(24, 18, ("hit_distance", "depth")))
+    points = pixel_points_on_plane(camera, 24, 18, 0.0)
+    expected = np.linalg.norm(points - camera.position, axis=2)
+    np.testing.assert_allclose(result.aux["hit_distance"][..., 0], expected, rtol=1e-6)
+    assert np.all(result.aux["hit_distance"][..., 0] > result.aux["depth"][..., 0])   # off-axis rays are longer
+
+
+def test_hit_distance_is_the_miss_value_where_nothing_is_hit():
+    """Pixels that see only the world keep the documented miss value."""
+    scene = Scene(camera=ortho_down(height=1.0, scale=4.0))
+    scene.add_mesh(primitives.plane(1.0))
+    result = render.render(scene, exact(8, 8, ("hit_distance", "barycentric", "normal_angle")))
+    assert result.aux["hit_distance"][0, 0, 0] == render.MISS_DEPTH
+    assert result.aux["hit_distance"][4, 4, 0] == pytest.approx(1.0)
+    assert not result.aux["barycentric"][0, 0].any()
+
+
+def test_barycentrics_sum_to_one_and_locate_the_hit_point():
+    """On one triangle seen from above, (1-u-v, u, v) sum to 1 and rebuild the pixel centre's point."""
+    V = np.array([[-0.9, -0.8, 0.0], [0.95, -0.6, 0.0], [-0.2, 0.9, 0.0]])
+    camera = ortho_down(height=1.0, scale=2.0)
+    scene = Scene(camera=camera)
+    scene.add_mesh(Mesh(V, np.array([[0, 1, 2]])))
+    W = H = 20
+    result = render.render(scene, exact(W, H, ("barycentric", "hit_distance")))
+    hit = result.aux["hit_distance"][..., 0] < render.MISS_DEPTH
+    weights = result.aux["barycentric"][hit].astype(np.float64)
+    assert hit.sum() > 100
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0, atol=1e-6)
+    # By hand: solve P = w0 V0 + w1 V1 + w2 V2 with w0 + w1 + w2 = 1 for every pixel centre P.
+    P = pixel_points_on_plane(camera, W, H, 0.0)[hit][:, :2]
+    A = np.vstack([V[:, :2].T, np.ones(3)])                                   # (3, 3)
+    by_hand = np.linalg.solve(A, np.vstack([P.T, np.ones(len(P))])).T
+    np.testing.assert_allclose(weights, by_hand, atol=1e-6)
+    assert np.all(by_hand > -1e-9)                                             # hits lie inside the triangle
+
+
+@pytest.mark.parametrize("elevation", [90.0, 60.0, 20.0])
+def test_n_dot_l_is_the_cosine_of_the_sun_angle(elevation):
+    """A sun `elevation` degrees above a plane gives N.L = cos(90 - elevation) = sin(elevation) everywhere."""
+    scene = Scene(camera=ortho_down(height=1.0, scale=2.0))
+    scene.add_mesh(primitives.plane(10.0))
+    scene.lights.append(SunLight(sun_direction(elevation, 40.0), strength=1.0))
+    result = render.render(scene, exact(8, 8, ("n_dot_l",)))
+    np.testing.assert_allclose(result.aux["n_dot_l"], math.sin(math.radians(elevation)), rtol=1e-9)
+
+
+def test_normal_angle_is_zero_on_flat_faces():
+    """Where N is the face normal (flat shading), shading and face normals agree: angle 0."""
+    scene = Scene(camera=ortho_down(height=1.0, scale=2.0))
+    scene.add_mesh(primitives.plane(10.0))
+    scene.add_mesh(primitives.uv_sphere(0.5, 8, 4, center=(0.0, 0.0, 0.2), smooth=False))
+    result = render.render(scene, exact(16, 16, ("normal_angle",)))
+    assert np.abs(result.aux["normal_angle"]).max() < 1e-4
+
+
+@pytest.mark.parametrize("tilt", [10.0, 40.0])
+def test_normal_angle_on_a_smooth_quad_is_atan_of_x_tan_tilt(tilt):
+    """Corner normals leaning +-tilt across a flat quad interpolate to (x sin b, 0, cos b): angle atan(|x| tan b)."""
+    camera = ortho_down(height=1.0, scale=2.0)
+    scene = Scene(camera=camera)
+    scene.add_mesh(tilted_quad(tilt))
+    W = H = 16
+    result = render.render(scene, exact(W, H, ("normal_angle",)))
+    x = pixel_points_on_plane(camera, W, H, 0.0)[..., 0]
+    expected = np.degrees(np.arctan(np.abs(x) * math.tan(math.radians(tilt))))
+    np.testing.assert_allclose(result.aux["normal_angle"][..., 0], expected, atol=1e-4)
+    # With smooth normals switched off, the disagreement is gone.
+    flat = render.render(scene, exact(W, H, ("normal_angle",), smooth_normals=False))
+    assert np.abs(flat.aux["normal_angle"]).max() < 1e-4
+
+
+def test_rays_per_pixel_are_samples_times_one_plus_the_lit_lights():
+    """Each camera sample casts one camera ray and one shadow ray per light in front (light_samples for
+    a light with extent); a light below the plane costs nothing; pixels that miss cost their camera rays."""
+    spp, light_samples = 4, 3
+    scene = Scene(camera=ortho_down(height=1.0, scale=4.0))
+    scene.add_mesh(primitives.plane(2.0))                                       # covers the middle half
+    scene.lights += [
+        PointLight(np.array([0.3, 0.2, 2.0]), power=100.0),
+        SunLight(sun_direction(50.0), strength=1.0),
+        PointLight(np.array([0.0, 0.0, -2.0]), power=100.0),                    # behind the plane: no rays
+        AreaLight(np.array([0.0, 0.0, 3.0]), np.array([0.5, 0.0, 0.0]), np.array([0.0, 0.5, 0.0]),
+                  np.array([0.0, 0.0, -1.0]), power=50.0),
+    ]
+    settings = RenderSettings(width=8, height=8, samples=spp, light_samples=light_samples, aux=("rays",))
+    result = render.render(scene, settings)
+    rays = result.aux["rays"][..., 0]
+    np.testing.assert_array_equal(rays[2:6, 2:6], spp * (1 + 2 + light_samples))
+    assert rays[0, 0] == spp and rays[7, 7] == spp
+    assert rays.sum() == result.stats.rays
+    # Back-facing shadow rays switched on: the light below the plane now costs one ray per sample too.
+    more = render.render(scene, RenderSettings(**{**settings.__dict__, "shadow_rays_for_backfacing": True}))
+    np.testing.assert_array_equal(more.aux["rays"][2:6, 2:6, 0], spp * (1 + 3 + light_samples))
+
+
+def grazing_plane(occluder: bool = False, offset: float = 0.0) -> Scene:
+    """A tilted plane (float32 cannot store it exactly) `offset` from the origin under a sun 10 degrees
+    above it; maybe a box on it."""
+    R = rotation((0.3, 0.5, 0.8), 0.7)
+    origin = np.array([offset, 0.5 * offset, 0.3 * offset])
+    M = np.eye(4)
+    M[:3, :3], M[:3, 3] = R, origin
+    scene = Scene(camera=Camera.look_at(origin + R @ [0.0, -4.0, 2.5], origin, R @ [0.0, 0.0, 1.0],
+                                        fov=math.radians(60), clip_start=0.01, clip_end=1e3))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(primitives.plane(100.0), matrix=M)
+    if occluder:
+        scene.add_mesh(primitives.box((0.6, 0.6, 0.6), center=(0.0, 0.0, 0.3)), matrix=M)
+    scene.lights.append(SunLight(R @ sun_direction(10.0, 30.0), strength=3.0))
+    return scene
+
+
+def test_acne_map_marks_exactly_the_self_shadowed_pixels_with_zero_epsilon():
+    """epsilon = 0 starts shadow rays on the surface (here in world coordinates): rounding puts many
+    below it, and the acne map marks exactly the pixels that came out shadowed on a plane with nothing
+    above it, where the closed form says every pixel is lit."""
+    result = render.render(grazing_plane(), exact(48, 48, ("acne", "visibility", "depth"), shadow_method="epsilon",
+                                                  epsilon=0.0, camera_relative=False))
+    hit = result.aux["depth"][..., 0] < render.MISS_DEPTH
+    acne = result.aux["acne"][..., 0]
+    shadowed = result.aux["visibility"][..., 0] == 0.0
+    assert acne[hit].mean() > 0.3
+    np.testing.assert_array_equal(acne[hit] == 1.0, shadowed[hit])
+
+
+def test_acne_map_is_empty_with_the_robust_offset_even_beside_real_shadows():
+    """The robust offset leaves no self-intersection; the box's real shadow is not counted as acne."""
+    result = render.render(grazing_plane(occluder=True), exact(48, 48, ("acne", "visibility", "depth")))
+    hit = result.aux["depth"][..., 0] < render.MISS_DEPTH
+    assert (result.aux["visibility"][..., 0][hit] == 0.0).sum() > 20      # the box casts a shadow
+    assert not result.aux["acne"].any()
+
+
+def test_time_per_pixel_adds_up_to_the_tracing_time_and_follows_the_rays():
+    """The time buffer shares each timed run's clock time by rays: it sums to (nearly) the render's
+    time outside the BVH build, and within a run, time per ray is the same for every pixel."""
+    scene = grazing_plane(occluder=True)
+    settings = RenderSettings(width=32, height=32, samples=2, threads=1, aux=("time", "rays"))
+    result = render.render(scene, settings)
+    seconds = result.aux["time"][..., 0].astype(np.float64)
+    rays = result.aux["rays"][..., 0].astype(np.float64)
+    assert seconds.min() > 0.0
+    tracing = result.stats.seconds - result.stats.geometry_seconds
+    assert 0.5 * tracing < seconds.sum() <= tracing
+    first_run = (seconds / rays).reshape(-1)[:render.TIME_TILE]
+    np.testing.assert_allclose(first_run, first_run[0], rtol=1e-5)
+
+
+def test_debug_buffers_and_switches_ask_for_the_reference_path():
+    """Default settings (and the buffers every path writes) may use a fast path; any debug buffer or
+    lecture switch off its default needs the readable one."""
+    assert RenderSettings().is_lecture_default()
+    assert not render.uses_reference_path(RenderSettings(aux=("depth", "normal", "n_dot_l", "visibility")))
+    for name in render.REFERENCE_ONLY_BUFFERS:
+        assert render.uses_reference_path(RenderSettings(aux=(name,)))
+    for change in ({"smooth_normals": False}, {"visibility_normal": "shading"}, {"reduce_t_max": False},
+                   {"distance_attenuation": False}, {"clamp_n_dot_l": False},
+                   {"shadow_rays_for_backfacing": True}):
+        settings = RenderSettings(**change)
+        assert not settings.is_lecture_default() and render.uses_reference_path(settings)
+
+
+def test_no_debug_counts_are_kept_unless_asked_for():
+    """Without debug buffers the shading keeps no per-hit ray or acne counts (no extra work)."""
+    from core import shading
+    from core.geometry import build_geometry
+    scene = grazing_plane()
+    geometry = build_geometry(scene, np.zeros(3))
+    O = rotation((0.3, 0.5, 0.8), 0.7) @ np.array([0.0, 0.0, 1.0])     # 1 above the plane's centre
+    O, D = O[None, :], -O[None, :]
+    hits = geometry.tracer.intersect(O, D, np.array([10.0]))
+    surface = shading.surface_at_hits(geometry, hits.prim, hits.u, hits.v, O, D, hits.t)
+    plain = shading.direct_light(geometry, surface, scene.lights, RenderSettings(), np.zeros(1, np.int64),
+                                 np.zeros(1, np.int64))
+    assert plain.rays_per_hit is None and plain.acne_per_hit is None
+    counted = shading.direct_light(geometry, surface, scene.lights, RenderSettings(aux=("acne",)),
+                                   np.zeros(1, np.int64), np.zeros(1, np.int64), prim=hits.prim)
+    assert counted.rays_per_hit[0] == 1.0 and counted.acne_per_hit[0] == 0.0
+
+
+def test_heat_map_runs_black_blue_red_yellow_white():
+    """The documented colour scale, clipped outside 0..1."""
+    np.testing.assert_array_equal(debug.heat(np.array([-1.0, 0.0, 0.25, 0.5, 0.75, 1.0, 2.0])),
+                                  [[0, 0, 0], [0, 0, 0], [0, 0, 1], [1, 0, 0], [1, 1, 0], [1, 1, 1], [1, 1, 1]])
+    np.testing.assert_allclose(debug.heat(np.array([0.125])), [[0.0, 0.0, 0.5]])
