@@ -328,6 +328,83 @@ there have converged as far as this reference can tell. A curve that flattens *a
 systematic difference from Cycles (a bias), not noise."""
 
 
+def _slope(points: list, kind: str, seconds=lambda p: p["seconds"]) -> float:
+    """Return the log-log slope of time against the varied value over a scaling series' upper half."""
+    series = sorted((p["value"], seconds(p)) for p in points if p.get("kind") == kind and "seconds" in p)
+    series = series[len(series) // 2 - (1 if len(series) % 2 == 0 else 0):] if len(series) > 2 else series
+    if len(series) < 2:
+        return math.nan
+    x = [math.log(v) for v, _ in series]
+    y = [math.log(max(t, 1e-9)) for _, t in series]
+    mx, my = sum(x) / len(x), sum(y) / len(y)
+    return sum((a - mx) * (b - my) for a, b in zip(x, y)) / sum((a - mx) ** 2 for a in x)
+
+
+def _point(points: list, kind: str, value: float):
+    """Return the scaling point of `kind` at `value`, or None."""
+    for p in points:
+        if p.get("kind") == kind and p.get("value") == value and "seconds" in p:
+            return p
+    return None
+
+
+def targets_table(results: dict) -> list:
+    """Return issue 5's targets, each with what this run measured and whether it is met."""
+    heads = headline(results)
+    rows = []
+
+    def row(target: str, measured: str, met) -> None:
+        verdict = "–" if met is None else ("**met**" if met else "not met")
+        rows.append(f"| {target} | {measured} | {verdict} |")
+
+    # 1. Time to Cycles' 64-sample error, every scene.
+    ratios = [(h["scene"], h["relmse"]["ratio"], h["relmse"]["how"]) for h in heads]
+    if ratios:
+        worst = max(ratios, key=lambda r: r[1] if r[2] != "<=" else 0.0)
+        mean = geometric_mean([r[1] for r in ratios if r[2] == "="])
+        met = all(r[1] <= 0.5 and r[2] != ">" for r in ratios)
+        within = sum(1 for r in ratios if r[1] <= 0.5 and r[2] != ">")
+        row("Cycles' 64-sample relMSE in ≤ 0.5× Cycles' time on every sample scene (stretch 0.25×)",
+            f"geometric mean {fmt(mean)}; worst {worst[0]} {worst[1]:.2f}; {within} of {len(ratios)} scenes ≤ 0.5", met)
+    # 2. Rays per second against embreex.
+    if results.get("rays"):
+        shares = [(r["scene"], (r["rays"] / r["primer_wall"]) / (r["rays"] / r["embreex_all_cores"]))
+                  for r in results["rays"]]
+        row("End-to-end rays per second ≥ 50% of embreex's on the same rays, all cores",
+            ", ".join(f"{name} {100 * share:.0f}%" for name, share in shares), all(s >= 0.5 for _, s in shares))
+    points = results.get("scaling", {}).get("points", [])
+    # 3. One million triangles: scene placement + BVH.
+    million = _point(points, "triangles", 1e6)
+    if million:
+        seconds = million["scene_seconds"] + million["bvh_seconds"]
+        row("Export + BVH build of a 1-million-triangle mesh < 1.5 s",
+            f"{seconds:.2f} s (core scene {million['scene_seconds']:.2f} s, placement + BVH "
+            f"{million['bvh_seconds']:.2f} s, of which Embree's build {million['embree_build_seconds']:.2f} s)",
+            seconds < 1.5)
+    # 4. Instancing memory.
+    one, many = _point(points, "instances", 1), _point(points, "instances", 1e5)
+    if one and many:
+        row("A mesh instanced 100,000 times costs the memory of one mesh",
+            f"peak {many['peak_mb'] / 1024:.2f} GB at 10⁵ instances against {one['peak_mb'] / 1024:.2f} GB at 1 "
+            f"({many['triangles']:,} triangles in the BVH)", many["peak_mb"] < 2.0 * one["peak_mb"])
+    # 5. 4K at 16 samples.
+    film = _point(points, "samples_4k", 16)
+    if film:
+        row("Peak memory of a 3840×2160 render at 16 samples < 2 GB",
+            f"{film['peak_mb'] / 1024:.2f} GB ({film['seconds']:.0f} s, adaptive sampling)", film["peak_mb"] < 2048)
+    # 6. Growth.
+    pixels, lights = _slope(points, "pixels"), _slope(points, "lights")
+    triangles = _slope(points, "triangles", lambda p: p["seconds"] - p["bvh_seconds"])
+    if all(math.isfinite(v) for v in (pixels, lights, triangles)):
+        row("Render time linear in pixels and lights, sub-linear in triangles (log-log slopes over the upper "
+            "half of each series; triangles without the BVH build)",
+            f"pixels {pixels:.2f}, lights {lights:.2f}, triangles {triangles:.2f}",
+            pixels <= 1.1 and lights <= 1.1 and triangles < 1.0)
+    if not rows:
+        return []
+    return ["| target (issue 5) | measured in this run | |", "|---|---|---|"] + rows
+
+
 def report_markdown(results: dict, plots: dict) -> str:
     """Return bench/REPORT.md."""
     machine = results["machine"]
@@ -359,6 +436,7 @@ def report_markdown(results: dict, plots: dict) -> str:
              "", "## Headline", ""]
     text += head_lines
     text += ["", f"Geometric mean of the interpolated relMSE ratios: **{fmt(mean_ratio)}**.", ""]
+    text += ["## Targets", ""] + targets_table(results) + [""]
     text += [HOW_TO_READ, "", f"![relMSE against time]({plots['relmse']})", "",
              f"![FLIP against time]({plots['flip']})", "", "## All renders", ""]
     text += ladder_table(results)
@@ -490,6 +568,7 @@ def readme_section(results: dict, plots: dict) -> str:
                        f"“≤”: already beaten by Primer's cheapest render). Geometric mean over the scenes where the "
                        f"crossing was interpolated: **{fmt(mean_ratio)}**."), ""]
     lines += head_lines
+    lines += ["", "Issue 5's targets, as this run measured them:", ""] + targets_table(results)
     lines += ["", f"![Error against time, Primer and Cycles]({plots['relmse']})", "", HOW_TO_READ, "",
               "<details><summary>Every render: scene, engine, samples, seconds, RMSE, relMSE, FLIP</summary>", ""]
     lines += ladder_table(results)
