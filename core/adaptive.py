@@ -85,7 +85,7 @@ def relative_noise(noise: PixelNoise) -> np.ndarray:
     """
     n = noise.count.astype(np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
-        mean = (noise.total[:, :3] @ LUMINANCE) / n
+        mean = np.einsum("ij,j->i", noise.total[:, :3], LUMINANCE) / n
         variance = np.maximum(noise.squares / n - mean * mean, 0.0) * n / (n - 1.0)
         error = np.sqrt(variance / n) / np.sqrt(mean * mean + DARK * DARK)
     return np.where(n >= 2, error, np.inf)

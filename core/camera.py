@@ -415,6 +415,7 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
     # Camera-local to world: points get rotation and translation, directions rotation only.
     rotation = camera.matrix_world[:3, :3]
     eye_point = camera.matrix_world[:3, 3]
-    origins = local_origins @ rotation.T + eye_point
-    directions = _normalize_rows(local_directions @ rotation.T)
+    # einsum, not @: a matrix product of this size would start BLAS threads that fight the render's own.
+    origins = np.einsum("ij,kj->ik", local_origins, rotation) + eye_point
+    directions = _normalize_rows(np.einsum("ij,kj->ik", local_directions, rotation))
     return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid)

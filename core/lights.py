@@ -113,9 +113,9 @@ def spot_attenuation(light: SpotLight, directions: np.ndarray) -> np.ndarray:
     directions: (n, 3) float64 unit, from the light towards the point -> (n,) float64
     """
     if light.frame is None:
-        cos_angle = directions @ np.asarray(light.direction, np.float64)
+        cos_angle = np.einsum("ij,j->i", directions, np.asarray(light.direction, np.float64))
     else:
-        local = directions @ np.linalg.inv(np.asarray(light.frame, np.float64)).T
+        local = np.einsum("ij,kj->ik", directions, np.linalg.inv(np.asarray(light.frame, np.float64)))
         length = np.linalg.norm(local, axis=1)
         cos_angle = -local[:, 2] / np.where(length > 0, length, 1.0)
     cos_half = math.cos(0.5 * light.spot_size)
@@ -247,7 +247,7 @@ def sample_light(light, points: np.ndarray, u: np.ndarray) -> LightSample:
         targets, area = _area_points(light, u)
         L, distance = _direction_to(points, targets)
         normal = np.asarray(light.direction, np.float64)
-        cos_light = -(L @ normal)
+        cos_light = -np.einsum("ij,j->i", L, normal)
         radiance = light.power / (math.pi * area) if area > 0 else 0.0
         with np.errstate(divide="ignore", invalid="ignore"):
             geometry = np.where((cos_light > 0) & (distance > 0), cos_light * area / (distance * distance), 0.0)

@@ -226,7 +226,7 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> Chu
         shadow_rays = shading.shadow_rays
     shading_seconds = time.perf_counter() - shading_start
     # 5. Box filter: sum each pixel's samples (the caller divides by the count).
-    luminance = rgba[:, :3] @ adaptive.LUMINANCE
+    luminance = np.einsum("ij,j->i", rgba[:, :3], adaptive.LUMINANCE)
     per_pixel = rgba.reshape(len(pixels), spp, 4).sum(axis=1)
     squares = (luminance * luminance).reshape(len(pixels), spp).sum(axis=1)
     hits_per_pixel = np.bincount(h // spp, minlength=len(pixels))
@@ -296,7 +296,7 @@ def _sum_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, sha
         elif surface is None:
             aux[name] = np.zeros((n_pixels, k if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]))
         elif name == "depth":
-            aux[name] = total((surface.I + ctx.camera_offset) @ ctx.forward)
+            aux[name] = total(np.einsum("ij,j->i", surface.I + ctx.camera_offset, ctx.forward))
         elif name == "normal":
             aux[name] = total(surface.N)
         elif name == "face_normal":
