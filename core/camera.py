@@ -71,7 +71,7 @@ PANORAMA_TYPES = ("FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID")
 
 def _normalize_rows(vectors: np.ndarray) -> np.ndarray:
     """Return `vectors` ((n, 3) float64) scaled to unit length row by row."""
-    return vectors / np.linalg.norm(vectors, axis=-1, keepdims=True)
+    return vectors / np.sqrt(np.einsum("ij,ij->i", vectors, vectors))[:, None]
 
 
 def _clear_scale(matrix: np.ndarray) -> np.ndarray:

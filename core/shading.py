@@ -82,13 +82,18 @@ def hit_points(vertices: np.ndarray, Ng: np.ndarray, u: np.ndarray, v: np.ndarra
     (it does not at grazing angles, where the barycentric point is the better one).
     vertices: (n, 3, 3) float64; Ng: (n, 3) unit; u, v, t: (n,) float64; O, D: (n, 3) float64.
     """
-    w = 1.0 - u - v
-    I = w[:, None] * vertices[:, 0] + u[:, None] * vertices[:, 1] + v[:, None] * vertices[:, 2]
+    # 1. The float64 ray meets the triangle's plane at t_plane.
     DNg = np.einsum("ij,ij->i", D, Ng)
     with np.errstate(divide="ignore", invalid="ignore"):
         t_plane = np.einsum("ij,ij->i", vertices[:, 0] - O, Ng) / DNg
-    agrees = np.abs(t_plane - t) <= 1e-5 * np.abs(t) + 1e-30
-    I[agrees] = O[agrees] + t_plane[agrees, None] * D[agrees]
+    I = O + t_plane[:, None] * D
+    # 2. Where that disagrees with Embree's t (grazing rays), the barycentric point instead.
+    disagrees = np.flatnonzero(~(np.abs(t_plane - t) <= 1e-5 * np.abs(t) + 1e-30))
+    if len(disagrees):
+        w = 1.0 - u[disagrees] - v[disagrees]
+        corners = vertices[disagrees]
+        I[disagrees] = (w[:, None] * corners[:, 0] + u[disagrees, None] * corners[:, 1]
+                        + v[disagrees, None] * corners[:, 2])
     return I
 
 
