@@ -13,6 +13,7 @@ the module runs in well under a minute and regenerates the same pictures every t
 """
 from __future__ import annotations
 
+import importlib
 import math
 import os
 import re
@@ -578,7 +579,7 @@ def test_viewport_coarse_pass_is_one_ray_per_block(primer):
     the block, so it is ready at once; the following passes refine it to the full image."""
     scene = open_scene("light_point")
     viewport = addon_module(primer, "viewport")
-    from primer.core import progressive
+    progressive = importlib.import_module(f"{primer.__name__}.core.progressive")
     cache = addon_module(primer, "scene_cache").SceneCache()
     cache.sync(bpy.context.evaluated_depsgraph_get())
     settings = viewport.viewport_settings(scene)
