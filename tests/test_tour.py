@@ -1,0 +1,603 @@
+"""The pictures of the guided tour (docs/tour.md), rendered through real Blender, each with the property
+the tour claims for it.
+
+Every test opens one of the sample scenes (sample_scenes/*.blend), changes what the tour tells the
+student to change, renders it with Primer inside Blender (the bpy module, Primer registered from this
+checkout by tools/render.py's load_primer), writes the picture as an sRGB PNG into docs/images/tour/,
+and checks the picture against a closed form: the lecture's camera construction, the inverse-square
+law, absorption by the material colour, the cosine law, and so on. The closed forms are computed here
+from the scene's inputs (camera, lights, materials), never from Primer's earlier output.
+
+The images are small (the scenes' own 160 x 120 or less) and sampled lightly with a fixed seed, so
+the module runs in well under a minute and regenerates the same pictures every time.
+"""
+from __future__ import annotations
+
+import importlib
+import math
+import os
+import re
+import sys
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+from render import load_primer  # noqa: E402
+
+from core import debug, image_io  # noqa: E402
+
+pytestmark = [pytest.mark.slow, pytest.mark.blender]
+
+SCENES = os.path.join(ROOT, "sample_scenes")
+PICTURES = os.path.join(ROOT, "docs", "images", "tour")
+TOUR = os.path.join(ROOT, "docs", "tour.md")
+MAX_PNG_BYTES = 60_000
+SEED = 0
+SAMPLES = 16                    # the tour's renders: adaptive sampling (the default) up to 16 samples
+UP = np.array([0.0, 0.0, 1.0])  # Blender's world up; make_scenes.add_camera aims cameras with it
+NO_HIT = 1e9                    # Depth and Hit Distance passes hold more than this where no surface was hit
+# Where make_scenes.py aims each camera (its target; the position is read from the scene).
+TARGETS = {
+    "light_point": (0.0, 0.2, 0.55), "light_sun": (0.0, 0.2, 0.55),                 # stage_camera
+    "shading_flat_smooth": (0.0, 0.2, 0.55), "camera_persp_shift": (0.0, 0.2, 0.9),
+}
+FLOOR_HALF_SIZE = 10.0          # make_scenes.ground: a 20 m plane at z = 0
+
+
+@pytest.fixture(scope="module")
+def primer():
+    """Primer registered from this checkout, as tools/render.py does."""
+    return load_primer()
+
+
+def addon_module(primer, name):
+    """Return one of the add-on's modules (primer.addon.<name>)."""
+    return sys.modules[f"{primer.__name__}.addon.{name}"]
+
+
+# ---------------------------------------------------------------------------
+# Opening, rendering, saving
+# ---------------------------------------------------------------------------
+
+def open_scene(name: str, samples: int = SAMPLES):
+    """Open sample_scenes/<name>.blend with the tour's sampling (fixed seed) and return its scene."""
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(SCENES, f"{name}.blend"))
+    scene = bpy.context.scene
+    assert scene.render.engine == "PRIMER"
+    scene.primer.samples = samples
+    scene.primer.seed = SEED
+    scene.primer.animate_seed = False
+    return scene
+
+
+def render(primer, scene, path: str, view: str = "NONE", passes: tuple = ()) -> dict:
+    """Render through Blender into a multilayer float EXR; return pass name -> (H, W, c) float32, rows top-down.
+
+    view: the Debug View (Combined then holds its picture); passes: "Depth", "Normal" and/or "Primer"
+    (all debug passes).
+    """
+    import OpenImageIO as oiio
+    layer = scene.view_layers[0]
+    layer.use_pass_z = "Depth" in passes
+    layer.use_pass_normal = "Normal" in passes
+    scene.primer.debug_passes = "Primer" in passes
+    scene.primer.debug_view = view
+    settings = scene.render.image_settings
+    settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.color_depth = "32"
+    settings.exr_codec = "ZIP"
+    scene.render.filepath = path
+    scene.render.use_file_extension = False
+    bpy.ops.render.render(write_still=True)
+    record = addon_module(primer, "engine").last_render
+    assert record.error == "" and not record.cancelled
+    # Channels are named ViewLayer.<pass>.<channel>; Blender may put several passes in one part.
+    channels: dict = {}
+    inp = oiio.ImageInput.open(path)
+    part = 0
+    while inp.seek_subimage(part, 0):
+        spec = inp.spec()
+        pixels = inp.read_image(part, 0, 0, spec.nchannels, oiio.FLOAT).reshape(spec.height, spec.width, -1)
+        for c, name in enumerate(spec.channelnames):
+            channels.setdefault(name.split(".")[-2], []).append(pixels[..., c])
+        part += 1
+    inp.close()
+    return {name: np.stack(planes, axis=-1) for name, planes in channels.items()}
+
+
+def save(name: str, rgba: np.ndarray, exposure: float = 0.0) -> np.ndarray:
+    """Write docs/images/tour/<name>.png (sRGB, like Blender's Standard view at this exposure); return it."""
+    picture = np.array(rgba, np.float32)
+    picture[..., :3] *= 2.0 ** exposure
+    path = os.path.join(PICTURES, f"{name}.png")
+    image_io.write_image(path, picture)
+    assert os.path.getsize(path) < MAX_PNG_BYTES
+    return picture
+
+
+# ---------------------------------------------------------------------------
+# Closed forms: the lecture's camera, the floor, a sphere
+# ---------------------------------------------------------------------------
+
+def lecture_camera(scene, target, sensor_fit="AUTO", raster_offset=(0.5, 0.5)):
+    """The lecture's camera for each pixel: (position (3,), V (3,), D (H, W, 3), |P - position| (H, W)).
+
+    V = normalize(target - position), right = normalize(V x up), up' = right x V, C = position + V; the
+    screen corners p1 (top left), p2 (top right), p3 (bottom left) lie around C, half a tangent of the
+    field of view wide, the other side scaled by the aspect ratio and moved by the lens shift. The pixel
+    centre's point P = p1 + (x + 0.5)/W (p2 - p1) + (y + 0.5)/H (p3 - p1), and D = normalize(P - position).
+    raster_offset: where in the pixel the ray passes, (0.5, 0.5) for its centre; y counts down.
+    """
+    cam = scene.camera
+    position = np.array(cam.matrix_world.translation, np.float64)
+    V = np.asarray(target, np.float64) - position
+    V /= np.linalg.norm(V)
+    np.testing.assert_allclose(-np.array(cam.matrix_world.col[2][:3]), V, atol=1e-6)   # the file aims at target
+    right = np.cross(V, UP)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, V)
+    width, height = scene.render.resolution_x, scene.render.resolution_y
+    data = cam.data
+    if sensor_fit == "VERTICAL":
+        half_h = 0.5 * data.sensor_height / data.lens                 # tan(vertical FOV / 2)
+        half_w = half_h * width / height
+        fitted = 2 * half_h
+    else:                                                               # AUTO on a landscape image
+        half_w = 0.5 * data.sensor_width / data.lens                  # tan(horizontal FOV / 2)
+        half_h = half_w * height / width                              # the lecture's aspectRatio = height / width
+        fitted = 2 * half_w
+    cx, cy = data.shift_x * fitted, data.shift_y * fitted
+    C = position + V
+    p1 = C + (cx - half_w) * right + (cy + half_h) * up
+    p2 = C + (cx + half_w) * right + (cy + half_h) * up
+    p3 = C + (cx - half_w) * right + (cy - half_h) * up
+    ys, xs = np.mgrid[0:height, 0:width]
+    ox, oy = raster_offset
+    P = (p1 + ((xs + ox) / width)[..., None] * (p2 - p1) + ((ys + oy) / height)[..., None] * (p3 - p1))
+    to_P = P - position
+    length = np.linalg.norm(to_P, axis=-1)
+    return position, V, to_P / length[..., None], length
+
+
+def floor_distance(position, D):
+    """Closed-form t where each ray from `position` along D (H, W, 3) meets the 20 m floor (inf: misses it)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(D[..., 2] < 0.0, -position[2] / D[..., 2], np.inf)
+    point = position + np.where(np.isfinite(t), t, 0.0)[..., None] * D
+    inside = (np.abs(point[..., 0]) <= FLOOR_HALF_SIZE) & (np.abs(point[..., 1]) <= FLOOR_HALF_SIZE)
+    return np.where(inside, t, np.inf)
+
+
+def sphere_core(position, D, centre, radius, fraction=0.85):
+    """Rays (H, W) that pass within `fraction` x radius of the sphere's centre: their whole pixel sees the sphere."""
+    to_centre = np.asarray(centre, np.float64) - position
+    along = D @ to_centre
+    miss_distance = np.linalg.norm(to_centre - along[..., None] * D, axis=-1)
+    return (along > 0) & (miss_distance < fraction * radius)
+
+
+def floor_pixels(depth, scene, target, sensor_fit="AUTO", rtol=1e-3):
+    """Pixels whose rendered depth is the floor's closed-form depth and whose whole pixel lies on the floor
+    (its top edge too, where the floor ends towards the horizon): only the floor is seen there. (H, W) bool."""
+    position, V, D, _ = lecture_camera(scene, target, sensor_fit)
+    _, _, D_top, _ = lecture_camera(scene, target, sensor_fit, raster_offset=(0.5, 0.0))
+    expected = floor_distance(position, D) * (D @ V)
+    inside = np.isfinite(expected) & np.isfinite(floor_distance(position, D_top))
+    return inside & (np.abs(depth - expected) <= rtol * expected)
+
+
+def invert_heat(rgb: np.ndarray) -> np.ndarray:
+    """Return x in 0..1 from heat-map colours (H, W, 3) (black, blue, red, yellow, white at 0, 1/4, ... 1)."""
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    return np.select([(r == 0) & (g == 0), g == 0, b == 0], [b / 4, 0.25 + r / 4, 0.5 + g / 4], 0.75 + b / 4)
+
+
+def light_object(scene):
+    """The scene's one light object."""
+    (light,) = [obj for obj in scene.objects if obj.type == "LIGHT"]
+    return light
+
+
+# ---------------------------------------------------------------------------
+# 1. Primary rays from a camera
+# ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name, fit, floor_share", [("light_point", "AUTO", 0.4),
+                                                     ("camera_persp_shift", "VERTICAL", 0.1)])
+def test_primary_rays_follow_the_lectures_screen_corners(primer, tmp_path, name, fit, floor_share):
+    """The floor's depth in every pixel is the one the lecture's rays (position, target, up, FOV, aspect
+    ratio, three screen corners; plus sensor fit and shift) predict: nothing is ever behind the floor, and
+    most pixels see the floor itself."""
+    scene = open_scene(name)
+    passes = render(primer, scene, str(tmp_path / f"{name}.exr"), passes=("Depth",))
+    save(name, passes["Combined"])
+    position, V, D, _ = lecture_camera(scene, TARGETS[name], fit)
+    depth = passes["Depth"][..., 0]
+    # The samples of a pixel spread over it: none can be farther than the floor at the pixel's top edge.
+    _, _, D_top, _ = lecture_camera(scene, TARGETS[name], fit, raster_offset=(0.5, 0.0))
+    farthest = floor_distance(position, D_top) * (D_top @ V)
+    hit = depth < NO_HIT
+    assert (depth[hit] <= farthest[hit] * (1 + 1e-5)).all()            # nothing lies behind the floor
+    assert floor_pixels(depth, scene, TARGETS[name], fit).mean() > floor_share     # and the floor is where the rays say
+
+
+# ---------------------------------------------------------------------------
+# 2. The intersection: t
+# ---------------------------------------------------------------------------
+
+def test_hit_distance_is_t_along_the_unit_ray(primer, tmp_path):
+    """I = O + tD: t over the depth along the view axis is |P - O| for the screen point P at distance 1,
+    in every pixel that hits; the Hit Distance view shows t from white (nearest) to black (farthest)."""
+    scene = open_scene("light_point")
+    passes = render(primer, scene, str(tmp_path / "t.exr"), view="HIT_DISTANCE", passes=("Depth", "Primer"))
+    save("hit_distance", passes["Combined"])
+    position, V, D, length = lecture_camera(scene, TARGETS["light_point"])
+    t, depth = passes["Primer Hit Distance"][..., 0], passes["Depth"][..., 0]
+    hit = depth < NO_HIT
+    assert hit.mean() > 0.7
+    np.testing.assert_allclose(t[hit] / depth[hit], length[hit], rtol=1e-3)
+    near, far = t[hit].min(), t[hit].max()
+    np.testing.assert_allclose(passes["Combined"][..., 0][hit], 1.0 - (t[hit] - near) / (far - near), atol=1e-5)
+    assert not passes["Combined"][..., :3][~hit].any()
+
+
+# ---------------------------------------------------------------------------
+# 3. Fisheye lenses
+# ---------------------------------------------------------------------------
+
+def test_fisheye_images_are_black_outside_their_circle(primer, tmp_path):
+    """Equidistant: theta = r * fov/2 up to r = 1, where u, v in [-1, 1] span the frame (an ellipse touching
+    its edges, moved by the shift). Equisolid: r = 2 f sin(theta/2) on the sensor, a circle of radius
+    2 f sin(fov/4). Outside: no ray, black; inside: the scene (black only in shadows)."""
+    for name in ("camera_fisheye_equidistant", "camera_fisheye_equisolid"):
+        scene = open_scene(name)
+        image = render(primer, scene, str(tmp_path / f"{name}.exr"))["Combined"][..., :3]
+        save(name.replace("camera_", ""), np.dstack([image, np.ones(image.shape[:2])]))
+        cam = scene.camera.data
+        height, width = image.shape[:2]
+        ys, xs = np.mgrid[0:height, 0:width]
+        u = (xs + 0.5) / width + cam.shift_x - 0.5
+        v = (height - ys - 0.5) / height + cam.shift_y - 0.5
+        if cam.panorama_type == "FISHEYE_EQUIDISTANT":
+            r = np.hypot(2 * u, 2 * v)                          # 1 on the ellipse
+            pixel = 2.0 / min(width, height)                    # one pixel in these units (at most)
+        else:
+            sensor_h = cam.sensor_height                        # vertical fit: the sensor height spans the image
+            r = np.hypot(u * sensor_h * width / height, v * sensor_h) / (2 * cam.fisheye_lens *
+                                                                         math.sin(0.25 * cam.fisheye_fov))
+            pixel = sensor_h / height / (2 * cam.fisheye_lens * math.sin(0.25 * cam.fisheye_fov))
+        outside, inside = r > 1 + pixel, r < 1 - pixel
+        assert outside.sum() > 0.1 * r.size and inside.sum() > 0.4 * r.size
+        assert not image[outside].any()
+        assert (image[inside].max(axis=-1) > 0).mean() > 0.9
+
+
+# ---------------------------------------------------------------------------
+# 4. Shadow rays
+# ---------------------------------------------------------------------------
+
+def test_shadow_rays_decide_lit_or_dark(primer, tmp_path):
+    """One point light: where every shadow ray was blocked, the floor is black (direct light only); where
+    none was, it is lit. The Shadow Rays view is 1 or 0 except at the shadows' edges."""
+    scene = open_scene("light_point")
+    shadow = render(primer, scene, str(tmp_path / "shadow.exr"), view="VISIBILITY", passes=("Depth",))
+    save("shadow_rays", shadow["Combined"])
+    combined = render(primer, scene, str(tmp_path / "lit.exr"), passes=("Depth",))["Combined"][..., :3]
+    visibility = shadow["Combined"][..., 0]
+    position, V, D, _ = lecture_camera(scene, TARGETS["light_point"])
+    floor = floor_pixels(shadow["Depth"][..., 0], scene, TARGETS["light_point"])
+    dark, lit = floor & (visibility == 0.0), floor & (visibility == 1.0)
+    assert dark.sum() > 200 and lit.sum() > 5000
+    assert not combined[dark].any()
+    assert (combined[lit].min(axis=-1) > 0.0).all()
+    assert np.isin(visibility[floor], (0.0, 1.0)).mean() > 0.95
+
+
+# ---------------------------------------------------------------------------
+# 5. Shadow acne, epsilon, t_max
+# ---------------------------------------------------------------------------
+
+def test_epsilon_zero_makes_acne_and_the_robust_offset_removes_it(primer, tmp_path):
+    """The lecture's epsilon offset at epsilon = 0: most shadow rays hit the surface they leave, the acne view
+    marks most of the image and the picture goes dark; the robust offset: (almost) no acne, light back."""
+    scene = open_scene("light_point")
+    scene.primer.shadow_method = "EPSILON"
+    scene.primer.epsilon = 0.0
+    acne = render(primer, scene, str(tmp_path / "acne.exr"), view="ACNE")["Combined"][..., :3]
+    save("acne_epsilon_0_view", np.dstack([acne, np.ones(acne.shape[:2])]))
+    speckled = save("acne_epsilon_0", render(primer, scene, str(tmp_path / "speckled.exr"))["Combined"])
+    scene.primer.shadow_method = "ROBUST"
+    clean = save("light_point", render(primer, scene, str(tmp_path / "clean.exr"))["Combined"])
+    clean_acne = render(primer, scene, str(tmp_path / "clean_acne.exr"), view="ACNE")["Combined"][..., :3]
+    assert (acne.max(axis=-1) > 0).mean() > 0.5
+    # The acne counter also counts a real shadow closer than 1e-5 of the scene's size (where an object stands
+    # on the floor), so a stray pixel may light up; acne itself is gone.
+    assert (clean_acne.max(axis=-1) > 0).mean() < 1e-3
+    assert speckled[..., :3].mean() < 0.5 * clean[..., :3].mean()
+
+
+def test_reduced_t_max_lets_a_lamp_on_the_floor_light_the_scene(primer, tmp_path):
+    """A point light lying on the floor, the lecture's epsilon offset: with t_max reduced by 2 epsilon the
+    objects are lit from below; with t_max = |P_light - I| every shadow ray ends epsilon beyond the light,
+    inside the floor, and the whole image goes black."""
+    scene = open_scene("light_point")
+    scene.primer.shadow_method = "EPSILON"
+    light_object(scene).location = (0.4, -1.8, 0.0)
+    reduced = save("t_max_reduced", render(primer, scene, str(tmp_path / "reduced.exr"))["Combined"])
+    scene.primer.reduce_t_max = False
+    full = save("t_max_not_reduced", render(primer, scene, str(tmp_path / "full.exr"))["Combined"])
+    world = np.array(scene.world.color)
+    assert (reduced[..., :3].max(axis=-1) > 0.2).sum() > 300
+    assert (full[..., :3] <= world + 1e-6).all()              # nothing but the world colour (and black)
+
+
+# ---------------------------------------------------------------------------
+# 6. Distance attenuation 1/r^2
+# ---------------------------------------------------------------------------
+
+ATTENUATION_OFF_EXPOSURE = -3.5         # Color Management > Exposure for the picture without 1/r^2
+
+
+def test_distance_attenuation_is_inverse_square(primer, tmp_path):
+    """Switching Distance Attenuation off multiplies each lit floor pixel by exactly r^2, its squared
+    distance to the light: far from the light the floor gets much brighter than near it."""
+    scene = open_scene("light_point")
+    on = render(primer, scene, str(tmp_path / "on.exr"), passes=("Depth", "Primer"))
+    save("light_point", on["Combined"])
+    scene.primer.distance_attenuation = False
+    off = render(primer, scene, str(tmp_path / "off.exr"))["Combined"]
+    save("attenuation_off", off, exposure=ATTENUATION_OFF_EXPOSURE)
+    position, V, D, _ = lecture_camera(scene, TARGETS["light_point"])
+    floor = floor_pixels(on["Depth"][..., 0], scene, TARGETS["light_point"])
+    floor &= on["Primer Shadow"][..., 0] == 1.0                    # fully lit: every shadow ray got through
+    P_light = np.array(light_object(scene).location)
+
+    def squared_distance(D):
+        t = floor_distance(position, D)
+        I = position + np.where(np.isfinite(t), t, 0.0)[..., None] * D
+        return ((I - P_light) ** 2).sum(axis=-1)
+
+    r2 = squared_distance(D)
+    # Towards the horizon one pixel spans metres of floor: keep pixels whose r^2 is nearly the same all over.
+    floor &= np.abs(squared_distance(lecture_camera(scene, TARGETS["light_point"], raster_offset=(0.5, 0.0))[2])
+                    / r2 - 1.0) < 0.01
+    assert floor.sum() > 5000 and r2[floor].max() > 4 * r2[floor].min()
+    np.testing.assert_allclose(off[..., 0][floor] / on["Combined"][..., 0][floor], r2[floor], rtol=0.01)
+
+
+# ---------------------------------------------------------------------------
+# 7. Absorption by the material colour
+# ---------------------------------------------------------------------------
+
+def test_material_colour_scales_the_light_channel_by_channel(primer, tmp_path):
+    """Reflected = incoming x C_material: on the red sphere every pixel's RGB is proportional to
+    albedo x light colour; on the unshadowed floor it is (0.8 / pi) S sin(40 deg) x light colour."""
+    scene = open_scene("light_sun")
+    passes = render(primer, scene, str(tmp_path / "sun.exr"), passes=("Depth",))
+    image = save("absorption", passes["Combined"])[..., :3]
+    light = light_object(scene).data
+    colour = np.array(light.color)
+    red = np.array(bpy.data.materials["Red"].diffuse_color[:3])
+    grey = np.array(bpy.data.materials["Grey"].diffuse_color[:3])
+    position, V, D, _ = lecture_camera(scene, TARGETS["light_sun"])
+    sphere = sphere_core(position, D, bpy.data.objects["Sphere"].location, 0.8)
+    lit_sphere = sphere & (image[..., 0] > 0.01)
+    assert lit_sphere.sum() > 200
+    expected = red * colour / (red * colour)[0]
+    np.testing.assert_allclose(image[lit_sphere] / image[lit_sphere][:, :1], np.broadcast_to(expected, (
+        lit_sphere.sum(), 3)), rtol=1e-4)
+    floor = floor_pixels(passes["Depth"][..., 0], scene, TARGETS["light_sun"])
+    sun_floor = grey / math.pi * light.energy * math.sin(math.radians(40.0)) * colour
+    lit_floor = floor & (np.abs(image - sun_floor).max(axis=-1) < 0.01 * sun_floor.max())
+    assert lit_floor.mean() > 0.3                       # most of the floor, all but the shadows
+    np.testing.assert_allclose(np.median(image[lit_floor], axis=0), sun_floor, rtol=2e-3)
+
+
+# ---------------------------------------------------------------------------
+# 8. N.L, clamped; no shadow rays for lights behind the surface
+# ---------------------------------------------------------------------------
+
+def test_n_dot_l_view_is_the_cosine_law(primer, tmp_path):
+    """Under the low sun (20 deg, no disk) the N.L view is sin(20 deg) = 0.342 on the whole floor, shadows
+    included (N.L is not visibility), and clamped to 0 on the far sides of the spheres. Without the clamp
+    the image has negative pixels."""
+    scene = open_scene("shading_flat_smooth")
+    passes = render(primer, scene, str(tmp_path / "ndotl.exr"), view="N_DOT_L", passes=("Depth",))
+    n_dot_l = save("n_dot_l", passes["Combined"])[..., 0]
+    position, V, D, _ = lecture_camera(scene, TARGETS["shading_flat_smooth"])
+    floor = floor_pixels(passes["Depth"][..., 0], scene, TARGETS["shading_flat_smooth"])
+    assert floor.mean() > 0.3
+    # (A pixel half on an object and half on the floor can match the floor's depth by chance: allow a few.)
+    assert np.isclose(n_dot_l[floor], math.sin(math.radians(20.0)), rtol=1e-5).mean() > 0.995
+    hit = passes["Depth"][..., 0] < NO_HIT
+    assert n_dot_l.min() >= 0.0 and (hit & (n_dot_l == 0.0)).sum() > 100
+    # Without the clamp, smooth normals that lean away from the sun while the face still faces it give
+    # negative light, which the Combined pass keeps (a PNG shows it as black).
+    assert render(primer, scene, str(tmp_path / "clamped.exr"))["Combined"][..., :3].min() >= 0.0
+    scene.primer.clamp_n_dot_l = False
+    assert render(primer, scene, str(tmp_path / "unclamped.exr"))["Combined"][..., :3].min() < 0.0
+
+
+def test_no_shadow_rays_for_lights_behind_the_surface(primer, tmp_path):
+    """Rays per Pixel, 4 samples everywhere: camera ray plus shadow ray (8 per pixel) where the sun is in front
+    of the surface, the camera ray alone (4, red at half the scale) where it is behind. Casting the shadow
+    rays there too (Back-Facing Lights) turns those pixels white and leaves the image unchanged."""
+    scene = open_scene("shading_flat_smooth", samples=4)
+    scene.primer.use_adaptive_sampling = False
+    engine = addon_module(primer, "engine")
+    skipped = save("rays_skip_backfacing", render(primer, scene, str(tmp_path / "skip.exr"), view="RAYS")["Combined"])
+    image_skipped = render(primer, scene, str(tmp_path / "skip_image.exr"))["Combined"]
+    rays_skipped = engine.last_render.rays
+    scene.primer.shadow_rays_for_backfacing = True
+    cast = save("rays_cast_backfacing", render(primer, scene, str(tmp_path / "cast.exr"), view="RAYS")["Combined"])
+    image_cast = render(primer, scene, str(tmp_path / "cast_image.exr"))["Combined"]
+    np.testing.assert_array_equal(image_cast, image_skipped)
+    assert engine.last_render.rays > rays_skipped
+    x_skipped, x_cast = invert_heat(skipped[..., :3]), invert_heat(cast[..., :3])
+    np.testing.assert_allclose(x_skipped.max(), 1.0)            # 8 rays: the most any pixel casts
+    backfacing = np.isclose(x_skipped, 0.5) & np.isclose(x_cast, 1.0)
+    assert backfacing.sum() > 300                               # the spheres' far sides and the boxes' shaded faces
+    assert (x_cast >= x_skipped - 1e-6).all()
+
+
+# ---------------------------------------------------------------------------
+# 9. Normals flipped when a triangle is hit from behind
+# ---------------------------------------------------------------------------
+
+INSIDE_EXPOSURE = -2.0
+
+
+def test_inside_the_sphere_normals_face_the_ray(primer, tmp_path):
+    """The camera at the sphere's centre sees the inside of every triangle: N is turned to face the ray
+    (N.D < 0), here N = -D up to the facets, and a light inside the sphere lights every pixel."""
+    scene = open_scene("light_point")
+    sphere = bpy.data.objects["Sphere"]
+    centre = np.array(sphere.location)
+    scene.camera.location = sphere.location
+    light_object(scene).location = centre + (0.0, 0.0, 0.4)
+    passes = render(primer, scene, str(tmp_path / "inside.exr"), passes=("Normal",))
+    save("inside_sphere", passes["Combined"], exposure=INSIDE_EXPOSURE)
+    normal_view = render(primer, scene, str(tmp_path / "inside_normal.exr"), view="NORMAL")["Combined"]
+    save("inside_sphere_normal", normal_view)
+    target = centre + (np.array(TARGETS["light_point"]) - np.array((0.0, -6.5, 3.6)))   # the stage camera's aim
+    _, _, D, _ = lecture_camera(scene, target)
+    N = passes["Normal"]
+    assert ((N * D).sum(axis=-1) < -0.98).all()
+    np.testing.assert_allclose(N, -D, atol=0.1)
+    assert (passes["Combined"][..., 0] > 0.05).all()
+
+
+# ---------------------------------------------------------------------------
+# 10. Smooth shading: interpolated vertex normals; the face normal for visibility
+# ---------------------------------------------------------------------------
+
+def test_smooth_normals_change_only_smooth_meshes(primer, tmp_path):
+    """Smooth Normals off gives every triangle its face normal: the image changes only where the Normal
+    Disagreement view shows an angle between N and the face normal (the smooth sphere, the smooth-by-angle
+    cylinder, the box with custom normals); the flat sphere and the floor stay the same to the bit."""
+    scene = open_scene("shading_flat_smooth", samples=4)
+    scene.primer.use_adaptive_sampling = False                  # the same samples in both pictures
+    smooth = save("smooth_on", render(primer, scene, str(tmp_path / "smooth.exr"))["Combined"])
+    angle = render(primer, scene, str(tmp_path / "angle.exr"), view="NORMAL_ANGLE", passes=("Primer",))
+    save("normal_disagreement", angle["Combined"])
+    scene.primer.smooth_normals = False
+    flat = save("smooth_off", render(primer, scene, str(tmp_path / "flat.exr"))["Combined"])
+    changed = np.abs(smooth - flat).max(axis=-1) > 0
+    bent = angle["Primer Normal Angle"][..., 0] > 0
+    assert changed.sum() > 300
+    assert not (changed & ~bent).any()
+    np.testing.assert_allclose(angle["Combined"][..., :3], debug.heat(angle["Primer Normal Angle"][..., 0] / 30.0),
+                               atol=1e-6)
+
+
+# ---------------------------------------------------------------------------
+# 11. "Use that debug output": debug views and the ray inspector
+# ---------------------------------------------------------------------------
+
+def test_barycentrics_sum_to_one(primer, tmp_path):
+    """The Barycentrics view paints (1 - u - v, u, v) as RGB: the channels sum to 1 wherever a surface was
+    hit, so each triangle shows red, green and blue corners; the world stays black."""
+    scene = open_scene("shading_flat_smooth")
+    passes = render(primer, scene, str(tmp_path / "bary.exr"), view="BARYCENTRIC", passes=("Depth",))
+    bary = save("barycentrics", passes["Combined"])[..., :3]
+    hit = passes["Depth"][..., 0] < NO_HIT
+    np.testing.assert_allclose(bary[hit].sum(axis=-1), 1.0, atol=1e-5)
+    assert not bary[~hit].any() and (~hit).sum() > 100
+
+
+INSPECTED_PIXEL = (120, 100)        # x from the left, y from the top: on the floor, lit by the point light
+
+
+def inspector_quotes() -> dict:
+    """The inspector's numbers that docs/tour.md quotes, by name (its '| name | value |' rows)."""
+    with open(TOUR, encoding="utf-8") as handle:
+        text = handle.read()
+    section = text.split("<!-- inspector:start -->")[1].split("<!-- inspector:end -->")[0]
+    return dict(re.findall(r"^\| (.+?) \| `(.+?)` \|", section, re.M))
+
+
+def test_ray_inspector_numbers_match_the_closed_form_and_the_tour(primer):
+    """Inspect a floor pixel of light_point: t, I, N, N.L, 1/r^2 and the contribution are the closed forms of
+    a lit floor point, and docs/tour.md quotes them as the inspector shows them."""
+    scene = open_scene("light_point")
+    x, y = INSPECTED_PIXEL
+    assert bpy.ops.primer.inspect_pixel(x=x, y=y) == {"FINISHED"}
+    record = addon_module(primer, "inspector").state.record
+    position, V, D, _ = lecture_camera(scene, TARGETS["light_point"])
+    t_floor = floor_distance(position, D)[y, x]
+    I = position + t_floor * D[y, x]
+    light = light_object(scene)
+    L = np.array(light.location) - I
+    r = np.linalg.norm(L)
+    n_dot_l = L[2] / r
+    power = light.data.energy * 2.0 ** light.data.exposure
+    albedo = np.array(bpy.data.materials["Grey"].diffuse_color[:3])
+    contribution = albedo / math.pi * power / (4 * math.pi * r * r) * np.array(light.data.color) * n_dot_l
+    assert record.object_name == "Floor"
+    clip = scene.camera.data.clip_start / (D[y, x] @ V)          # the ray starts on the near clip plane
+    assert record.t == pytest.approx(t_floor - clip, rel=1e-5)
+    np.testing.assert_allclose(record.I, I, atol=1e-4)
+    np.testing.assert_allclose(record.N, UP, atol=1e-6)
+    (numbers,) = record.lights
+    assert numbers.occluded is False
+    assert numbers.n_dot_l == pytest.approx(n_dot_l, rel=1e-5)
+    assert numbers.inverse_square == pytest.approx(1.0 / r ** 2, rel=1e-5)
+    np.testing.assert_allclose(numbers.contribution, contribution, rtol=1e-5)
+    quotes = inspector_quotes()
+    assert quotes["t"] == f"{record.t:.3f}"
+    assert quotes["I"] == "({:.3f}, {:.3f}, {:.3f})".format(*record.I)
+    assert quotes["N"] == "({:.0f}, {:.0f}, {:.0f})".format(*np.abs(record.N))
+    assert quotes["r"] == f"{r:.3f}"
+    assert quotes["N·L"] == f"{numbers.n_dot_l:.4f}"
+    assert quotes["1/r²"] == f"{numbers.inverse_square:.4f}"
+    assert quotes["Contribution"] == "({:.4f}, {:.4f}, {:.4f})".format(*numbers.contribution)
+
+
+# ---------------------------------------------------------------------------
+# 12. Framerate: adaptive sampling and the viewport's coarse first pass
+# ---------------------------------------------------------------------------
+
+def test_adaptive_sampling_spends_rays_on_edges(primer, tmp_path):
+    """64 samples at most, adaptive: the first pass gives every pixel 4 samples, and only edges and shadow
+    boundaries get more. Most of the picture stays at the first pass (1/8 or less of the brightest
+    pixel's rays); the brightest pixels reach all 64 samples."""
+    scene = open_scene("light_point", samples=64)
+    rays = save("adaptive_rays", render(primer, scene, str(tmp_path / "rays.exr"), view="RAYS")["Combined"])
+    x = invert_heat(rays[..., :3])
+    most = 64 * 2                                                # 64 samples x (camera + shadow ray)
+    assert np.isclose(x.max(), 1.0)
+    assert (x <= 4 * 2 / most + 1e-6).mean() > 0.6
+    total = addon_module(primer, "engine").last_render.rays
+    assert total < 0.25 * most * x.size
+
+
+def test_viewport_coarse_pass_is_one_ray_per_block(primer):
+    """The viewport's first pass traces one ray per 8 x 8 block (1/64 of the pixels) and repeats it over
+    the block, so it is ready at once; the following passes refine it to the full image."""
+    scene = open_scene("light_point")
+    viewport = addon_module(primer, "viewport")
+    progressive = importlib.import_module(f"{primer.__name__}.core.progressive")
+    cache = addon_module(primer, "scene_cache").SceneCache()
+    cache.sync(bpy.context.evaluated_depsgraph_get())
+    settings = viewport.viewport_settings(scene)
+    width, height = scene.render.resolution_x, scene.render.resolution_y
+    camera = addon_module(primer, "export").export_camera(scene.camera)      # camera view: the scene's camera
+    view = progressive.View(camera, (1.0, 1.0), width, height, (0, 0, width, height))
+    passes = list(progressive.schedule(settings.samples, block=8, seed=SEED))
+    assert passes[0].block == 8
+    coarse = progressive.render_pass(cache.scene, settings, cache.geometry, view, passes[0])
+    save("viewport_coarse", coarse)
+    accumulator = progressive.Accumulator()
+    for p in passes[1:]:
+        refined = accumulator.add(progressive.render_pass(cache.scene, settings, cache.geometry, view, p), p.samples)
+    save("viewport_refined", refined)
+    assert accumulator.samples == settings.samples
+    blocks = coarse.reshape(height // 8, 8, width // 8, 8, 4)
+    np.testing.assert_array_equal(blocks, np.broadcast_to(blocks[:, :1, :, :1], blocks.shape))
+    assert len(np.unique(blocks[:, 0, :, 0].reshape(-1, 4), axis=0)) > 20
+    refined_blocks = refined.reshape(height // 8, 8, width // 8, 8, 4)
+    flat_blocks = (refined_blocks == refined_blocks[:, :1, :, :1]).all(axis=(1, 3, 4))
+    assert flat_blocks.mean() < 0.5                     # the refined image has detail inside the blocks
