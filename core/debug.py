@@ -61,18 +61,30 @@ def scene_scale(vertices: np.ndarray) -> float:
     return float(np.linalg.norm(vertices.max(axis=0).astype(np.float64) - vertices.min(axis=0)))
 
 
-def self_intersections(tracer, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray,
+def self_intersections(geometry, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray,
                        own_prim: np.ndarray, min_distance: float) -> np.ndarray:
     """Return which of these blocked shadow rays were blocked by the surface they left (acne).
 
-    One extra nearest-hit query, run only for the acne debug view: the ray is a
-    self-intersection when its nearest hit is its own triangle (a ray leaving a
-    plane cannot meet that plane again, so only rounding can make it), or closer
-    than `min_distance`. origins, directions: (n, 3) float64; t_max: (n,) float64;
-    own_prim: (n,) int64 triangle the ray started on -> (n,) bool
+    One extra nearest-hit query, run only for the acne debug view. A ray that leaves a
+    triangle's plane on one side cannot meet anything that lies entirely on the other side
+    of that plane, or in it: its own triangle, the other half of a quad, the neighbour over
+    a convex edge. So a hit on such a blocker can only come from rounding: acne. Whatever
+    rises above the plane (a wall standing on the floor, the neighbour in a concave crease)
+    can cast a real shadow, however close, and does not count. "In the plane" allows
+    `min_distance` for the blocker's own rounding.
+    origins, directions: (n, 3) float64; t_max: (n,) float64; own_prim: (n,) int64 triangle the
+    ray started on -> (n,) bool
     """
-    hits = tracer.intersect(origins, directions, t_max)
-    return hits.hit & ((hits.prim == own_prim) | (hits.t < min_distance))
+    hits = geometry.tracer.intersect(origins, directions, t_max)
+    other = np.where(hits.hit, hits.prim, own_prim)
+    # 1. The own triangle's plane, its normal turned to the side the ray leaves to.
+    N_own = geometry.face_normals[own_prim]
+    N_own = N_own * np.where(np.einsum("ij,ij->i", N_own, directions) < 0.0, -1.0, 1.0)[:, None]
+    V_own = geometry.vertices[geometry.triangles[own_prim, 0]].astype(np.float64)
+    # 2. How far the blocker's corners rise above that plane.
+    corners = geometry.vertices[geometry.triangles[other]].astype(np.float64)      # (n, 3, 3)
+    heights = np.einsum("ncj,nj->nc", corners - V_own[:, None, :], N_own)
+    return hits.hit & (heights.max(axis=1) <= min_distance)
 
 
 def share_time(seconds: float, rays: np.ndarray) -> np.ndarray:

@@ -232,7 +232,7 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             if acne_per_hit is not None:
                 blocked = np.flatnonzero(~seen)
                 acne_per_hit[idx[blocked]] += debug.self_intersections(
-                    geometry.tracer, rays.origins[blocked], rays.directions[blocked], rays.t_max[blocked],
+                    geometry, rays.origins[blocked], rays.directions[blocked], rays.t_max[blocked],
                     prim[idx[blocked]], self_hit_distance)
         E += E_light[:, None] * np.asarray(light.color, np.float64)[:3]
     radiance = surface.albedo * (1.0 / math.pi) * E

@@ -227,3 +227,24 @@ def test_heat_map_runs_black_blue_red_yellow_white():
     np.testing.assert_array_equal(debug.heat(np.array([-1.0, 0.0, 0.25, 0.5, 0.75, 1.0, 2.0])),
                                   [[0, 0, 0], [0, 0, 0], [0, 0, 1], [1, 0, 0], [1, 1, 0], [1, 1, 1], [1, 1, 1]])
     np.testing.assert_allclose(debug.heat(np.array([0.125])), [[0.0, 0.0, 0.5]])
+
+
+def test_a_real_shadow_in_a_concave_crease_is_not_acne_however_close():
+    """A floor and a wall of one mesh meet in a concave crease; a low sun behind the wall shadows the floor.
+    A floor point 1e-5 from the wall is really shadowed, its blocker only ~1e-5 away, yet the wall rises
+    above the floor's plane, so no rounding is needed to hit it: the acne map stays empty."""
+    gap = 1e-5                                   # the first pixel column's centre, this far from the wall
+    c = 0.025 - gap                              # pixel centres sit at x = +-0.025, +-0.075, ... (40 px, 2 wide)
+    vertices = np.array([[c, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [c, 1.0, 0.0],     # floor, x >= c
+                         [c, -1.0, 1.0], [c, 1.0, 1.0]])                                       # wall, x = c
+    triangles = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 5], [0, 5, 4]])
+    scene = Scene(camera=ortho_down(height=2.0, scale=2.0))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(Mesh(vertices, triangles, name="Crease"))
+    scene.lights.append(SunLight(sun_direction(20.0, 180.0), strength=3.0))     # low, from -x: behind the wall
+    result = render.render(scene, exact(40, 8, ("acne", "visibility", "depth", "n_dot_l"), camera_relative=False))
+    column = result.aux["visibility"][:, 20, 0]
+    assert (result.aux["depth"][:, 20, 0] < render.MISS_DEPTH).all()
+    np.testing.assert_allclose(result.aux["n_dot_l"][:, 20, 0], math.sin(math.radians(20.0)))   # rays were cast
+    assert (column == 0.0).all()                 # the sun sets behind the wall: really shadowed
+    assert not result.aux["acne"].any()
