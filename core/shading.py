@@ -112,15 +112,17 @@ def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
     # Face normal, flipped when the triangle was hit from behind (N.D > 0).
     side = normals_.face_forward(Ng, D)
     Ng = Ng * side[:, None]
-    N = Ng.copy()
-    corners = np.zeros_like(vertices)
+    N = Ng
+    corners = np.broadcast_to(np.zeros((1, 3, 3)), vertices.shape)     # read-only zeros: no smooth work
     smooth = np.zeros(len(prim), bool)
     if geometry.has_smooth and not flat_only:
         # Interpolated normals only where the triangle is smooth.
         row = geometry.smooth_index[prim]
         smooth = row >= 0
-        corners[smooth] = geometry.corner_normals[row[smooth]] * side[smooth, None, None]
-        N[smooth] = normals_.interpolate(corners[smooth], u[smooth], v[smooth], Ng[smooth])
+        if smooth.any():
+            N, corners = Ng.copy(), np.zeros_like(vertices)
+            corners[smooth] = geometry.corner_normals[row[smooth]] * side[smooth, None, None]
+            N[smooth] = normals_.interpolate(corners[smooth], u[smooth], v[smooth], Ng[smooth])
     albedo = geometry.albedo[geometry.material[prim]]
     return Surface(I, N, Ng, albedo, vertices, corners, smooth, u, v)
 

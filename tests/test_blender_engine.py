@@ -158,12 +158,22 @@ bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 scene.render.engine = "PRIMER"
 scene.render.resolution_x, scene.render.resolution_y = 1280, 960
-scene.primer.samples = 64
+scene.primer.samples = 1024
+scene.primer.use_adaptive_sampling = False
 bpy.ops.mesh.primitive_uv_sphere_add()
 bpy.ops.object.light_add(type="POINT", location=(2, -2, 3))
 bpy.ops.object.camera_add(location=(0, -6, 0), rotation=(1.5708, 0, 0))
 scene.camera = bpy.context.object
-threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+# Press Ctrl+C 0.3 s after the render loop has started (not earlier, while Blender itself is busy).
+core_render = sys.modules[primer.__name__ + ".core.render"]
+started = threading.Event()
+original = core_render.render
+def render_and_signal(*args, **kwargs):
+    started.set()
+    return original(*args, **kwargs)
+core_render.render = render_and_signal
+threading.Thread(target=lambda: started.wait(60) and (time.sleep(0.3), os.kill(os.getpid(), signal.SIGINT)),
+                 daemon=True).start()
 start = time.perf_counter()
 bpy.ops.render.render()
 record = sys.modules[primer.__name__ + ".addon.engine"].last_render
