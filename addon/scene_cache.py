@@ -239,13 +239,15 @@ class SceneCache:
         # 1. Meshes of objects whose geometry changed are stale, whatever their uid says.
         for key in [k for k, entry in self.meshes.items() if entry.owners & changes.geometry]:
             del self.meshes[key]
-        relight = first or changes.lights or changes.scene
+        # Lights are few: read them all again when any changed, and when anything moved (a light in an
+        # instanced collection moves with its instancer, and only the instancer is tagged).
+        relight = first or changes.lights or changes.scene or bool(changes.transform)
         lights, placements = [], {}
         moved = changes.geometry | changes.transform
         unsupported_noted: set = set()
         for instance in depsgraph.object_instances:
             obj = instance.object
-            # 2. Lights are few: export them all again when any changed.
+            # 2. Lights: export them all again when any may have changed.
             if obj.type == "LIGHT":
                 if relight:
                     light = export.export_light(obj, np.array(instance.matrix_world, np.float64), self.warnings)

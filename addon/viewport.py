@@ -38,10 +38,14 @@ COARSE_SECONDS = 0.05       # the coarse pass's time budget: well inside the 100
 
 
 def viewport_settings(scene) -> RenderSettings:
-    """Return the render settings the viewport uses: the scene's, with no border and no auxiliary buffers."""
+    """Return the render settings the viewport uses: the scene's, with no border and no auxiliary buffers.
+
+    No adaptive sampling: progressive refinement is the viewport's own schedule (core/progressive.py),
+    and it weighs every pass by its sample count, which holds only if every pixel got them all.
+    """
     settings = export.render_settings(scene, 1, 1, (0, 0, 1, 1))
     return dataclasses.replace(settings, samples=int(scene.primer.viewport_samples), region=None,
-                               pixel_aspect=(1.0, 1.0), aux=())
+                               pixel_aspect=(1.0, 1.0), aux=(), adaptive=False)
 
 
 def view_from_region(region_data, width: int, height: int, depsgraph=None) -> progressive.View:
@@ -124,6 +128,11 @@ class ViewportSession:
         except export.ExportError as error:
             self.error = str(error)
             log.error("Primer viewport: %s", error)
+            return SyncReport()
+        except Exception as error:          # a half-updated cache cannot be trusted: export afresh next time
+            log.exception("Primer viewport: the scene update failed")
+            self.error = f"scene update failed: {error}"
+            self.cache = SceneCache()
             return SyncReport()
         self.last_sync = report
         if report.changed or settings != self.settings:
@@ -267,6 +276,30 @@ def session_of(engine) -> ViewportSession:
 
 def view_update(engine, context, depsgraph) -> None:
     """RenderEngine.view_update: re-export what changed, then make sure the viewport redraws."""
+    try:
+        _view_update(engine, depsgraph)
+    except Exception as error:          # never let an exception escape into Blender's drawing code
+        _report_once(engine, f"viewport update failed: {error}")
+
+
+def view_draw(engine, context, depsgraph) -> None:
+    """RenderEngine.view_draw: follow the view, draw the newest image, show the frame time."""
+    try:
+        _view_draw(engine, context, depsgraph)
+    except Exception as error:          # e.g. a camera type the viewport cannot show
+        _report_once(engine, f"viewport drawing failed: {error}")
+
+
+def _report_once(engine, message: str) -> None:
+    """Log `message` with its traceback the first time, and show it in the viewport's status line."""
+    if getattr(engine, "_primer_failed", None) != message:
+        log.exception("Primer viewport: %s", message)
+        engine._primer_failed = message
+    engine.update_stats("", f"Primer | {message}")
+
+
+def _view_update(engine, depsgraph) -> None:
+    """view_update's work: sync the session with the depsgraph and pass its warnings on."""
     session = session_of(engine)
     session.update(depsgraph)
     for warning in session.cache.warnings:
@@ -277,8 +310,8 @@ def view_update(engine, context, depsgraph) -> None:
         engine.update_stats("", session.status_text())
 
 
-def view_draw(engine, context, depsgraph) -> None:
-    """RenderEngine.view_draw: follow the view, draw the newest image, show the frame time."""
+def _view_draw(engine, context, depsgraph) -> None:
+    """view_draw's work: follow the view, draw the newest image, show the frame time."""
     session = session_of(engine)
     region = context.region
     session.set_view(view_from_region(context.region_data, region.width, region.height, depsgraph))

@@ -15,7 +15,13 @@ So instead of `samples` rays in every pixel, Primer renders in passes:
    the threshold or reach `samples`.
 
 Each pass is a complete stratified pattern over the pixel, so every pass alone is
-an unbiased estimate of the pixel's average and so is their sample-weighted mean.
+an unbiased estimate of the pixel's average. Their mean is not quite: whether a pixel
+goes on is decided from the very samples that enter its mean. A feature smaller than
+one stratum of the first pass (a thin wire, a far speck of light) is missed by all its
+samples with some probability; the pixel then looks noiseless, stops, and lacks that
+feature. The first pass grows with `samples` (a sixteenth of it), so such features
+shrink with the budget and the image converges as samples grow; to be safe for tiny
+features at any budget, raise the minimum samples or turn adaptive sampling off.
 The threshold is in the units of the benchmark's error, the relative error
 |x - r| / sqrt(r^2 + 0.01) per pixel; 0 chooses it from `samples`, so that more
 samples still mean less noise.
@@ -58,9 +64,9 @@ def automatic_threshold(samples: int) -> float:
 def first_pass_size(samples: int, min_samples: int = 0) -> int:
     """Return the number of samples every pixel gets in the first pass (min_samples 0: automatic)."""
     if min_samples <= 0:
-        # Enough for a 2x2 stratified pattern at least, a sixteenth of the budget for larger ones, and
-        # never more than 16: the first pass is most of the cost when most pixels stop after it.
-        min_samples = max(4, min(16, samples // 16))
+        # Enough for a 2x2 stratified pattern at least, and a sixteenth of the budget for larger ones:
+        # growing with the budget, so that no feature, however small, is missed for ever.
+        min_samples = max(4, samples // 16)
     return max(1, min(samples, int(min_samples)))
 
 

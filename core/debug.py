@@ -13,8 +13,8 @@ Closed forms (tests/test_debug_views.py):
   they sum to 1 and I = (1-u-v) V0 + u V1 + v V2.
 - hit distance: t in I = O + t D for the camera ray that starts at the camera
   (O = its position, or its point on the image plane for an orthographic camera).
-- self-intersection (acne): a blocked shadow ray whose nearest hit is the
-  triangle it started from, or closer than SELF_HIT_FRACTION of the scene's size.
+- self-intersection (acne): a blocked shadow ray whose nearest hit lies in or below
+  the plane of the triangle it left, which only rounding can reach (`self_intersections`).
 - rays per pixel: camera rays plus shadow rays cast for the pixel.
 - time per pixel: see `share_time`.
 """
@@ -22,8 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
-# A blocked shadow ray whose nearest hit is closer than this fraction of the scene's bounding-box
-# diagonal counts as a self-intersection even on another triangle (a coplanar neighbour).
+# How far above the plane a shadow ray leaves a blocker may rise and still count as lying in it
+# (so that hitting it needs rounding: acne), as a fraction of the scene's bounding-box diagonal.
 SELF_HIT_FRACTION = 1e-5
 
 # Fixed full scale of the normal-angle heat map, in degrees (a 12-segment sphere peaks near 20).

@@ -140,7 +140,7 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
             # Smooth corners transform with the inverse transpose: N' = M^-T N.
             if corners is not None:
                 inverse = np.linalg.inv(linear[k])
-                world_corners = normals_.safe_normalize(corners @ inverse)    # row vectors: n @ M^-1 == (M^-T n)^T
+                world_corners = normals_.safe_normalize(np.einsum("nij,jk->nik", corners, inverse))   # n @ M^-1 == (M^-T n)^T
                 smooth_keep = smooth & keep
                 parts_cn.append(world_corners[keep[smooth]].astype(np.float32))
             else:

@@ -46,8 +46,6 @@ AUX_BUFFERS = {
     "time": 1,          # seconds spent on the pixel (an estimate: debug.share_time)
 }
 MISS_DEPTH = 1e10
-# Buffers that only this module's readable path computes; see `uses_reference_path`.
-REFERENCE_ONLY_BUFFERS = ("normal_angle", "barycentric", "hit_distance", "acne", "rays", "time")
 # With the "time" buffer, each chunk is rendered and timed in runs of this many pixels.
 TIME_TILE = 64
 
@@ -97,6 +95,14 @@ def validate(scene: Scene, settings: RenderSettings) -> None:
         raise ValueError(f"resolution must be at least 1x1 pixels, got {settings.width}x{settings.height}")
     if settings.samples < 1:
         raise ValueError(f"samples must be at least 1, got {settings.samples}")
+    if settings.chunk_size < 1:
+        raise ValueError(f"chunk size must be at least 1 sample, got {settings.chunk_size}")
+    if not (math.isfinite(settings.adaptive_threshold) and settings.adaptive_threshold >= 0):
+        raise ValueError(f"the adaptive noise threshold must be a finite number >= 0, got {settings.adaptive_threshold}")
+    if settings.adaptive_min_samples < 0:
+        raise ValueError(f"adaptive min samples must be >= 0, got {settings.adaptive_min_samples}")
+    if not all(math.isfinite(a) and a > 0 for a in settings.pixel_aspect):
+        raise ValueError(f"pixel aspect must be two finite numbers > 0, got {settings.pixel_aspect}")
     if settings.shadow_method not in ("robust", "epsilon"):
         raise ValueError(f"shadow method must be 'robust' or 'epsilon', got {settings.shadow_method!r}")
     if settings.visibility_normal not in ("face", "shading"):
@@ -108,11 +114,6 @@ def validate(scene: Scene, settings: RenderSettings) -> None:
     unknown = set(settings.aux) - set(AUX_BUFFERS)
     if unknown:
         raise ValueError(f"unknown auxiliary buffers {sorted(unknown)}; choose from {list(AUX_BUFFERS)}")
-
-
-def uses_reference_path(settings: RenderSettings) -> bool:
-    """Whether a render needs this readable path: a lecture switch off its default, or a debug buffer."""
-    return not settings.is_lecture_default() or bool(set(settings.aux) & set(REFERENCE_ONLY_BUFFERS))
 
 
 def _usable_lights(scene: Scene, warnings: list) -> list:
@@ -156,7 +157,8 @@ class _Context:
         self.forward = -np.asarray(cam.matrix_world, np.float64)[:3, 2]
         self.forward = self.forward / np.linalg.norm(self.forward)
         self.camera_offset = geometry.origin - np.asarray(cam.matrix_world, np.float64)[:3, 3]
-        # Acne debug view: a blocked shadow ray this close to its start counts as a self-hit.
+        # Acne debug view: how far a blocker may rise above the plane a shadow ray leaves and still
+        # count as lying in it (core/debug.py, self_intersections).
         self.self_hit_distance = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry.vertices)
                                   if "acne" in settings.aux else 0.0)
 
@@ -168,7 +170,7 @@ class ChunkResult(NamedTuple):
     squares:   (p,) float64 sum of the samples' squared luminance (for the noise estimate)
     aux:       name -> (p, c) float64 sum of the auxiliary values over the samples that hit
     hits:      (p,) int64 samples that hit a surface
-    primary:   camera rays traced
+    primary:   camera rays traced (a fisheye's samples outside its image circle trace none)
     shadow:    shadow rays traced
     shading_seconds: time spent shading (Embree's shadow queries included)
     samples:   camera samples per pixel in this chunk
@@ -232,7 +234,7 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> Chu
     hits_per_pixel = np.bincount(h // spp, minlength=len(pixels))
     aux = (_sum_aux(ctx, len(pixels), spp, h, surface, shading, rays.valid, directions[hits.hit])
            if ctx.want_aux else {})
-    return ChunkResult(per_pixel, squares, aux, hits_per_pixel, n, shadow_rays, shading_seconds, spp)
+    return ChunkResult(per_pixel, squares, aux, hits_per_pixel, len(traced), shadow_rays, shading_seconds, spp)
 
 
 def _render_chunk_timed(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> ChunkResult:
@@ -271,15 +273,15 @@ def _sum_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, sha
     k = len(ctx.lights)
     owner = h // spp
 
-    def summed(values: np.ndarray) -> np.ndarray:
-        return np.bincount(owner, weights=values, minlength=n_pixels).astype(np.float64)
-
     def total(values: np.ndarray) -> np.ndarray:
         values = values.reshape(len(h), -1)
         out = np.zeros((n_pixels, values.shape[1]))
         for c in range(values.shape[1]):
             out[:, c] = np.bincount(owner, weights=values[:, c], minlength=n_pixels)
         return out
+
+    def summed(values: np.ndarray) -> np.ndarray:
+        return total(values)[:, 0]
 
     aux = {}
     wanted = set(ctx.settings.aux) | ({"rays"} if "time" in ctx.settings.aux else set())
@@ -348,6 +350,14 @@ def _run_chunks(pool, threads: int, chunks: list, work: Callable, store: Callabl
     return False
 
 
+def _usable_cores() -> int:
+    """Return the number of cores this process may run on (its CPU affinity, where the OS tells)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:              # macOS and Windows have no sched_getaffinity
+        return os.cpu_count() or 1
+
+
 def render(scene: Scene, settings: RenderSettings,
            progress: Optional[Callable[[float, RenderStats], None]] = None,
            cancel: Optional[Callable[[], bool]] = None,
@@ -390,7 +400,7 @@ def render(scene: Scene, settings: RenderSettings,
         threshold = settings.adaptive_threshold or adaptive.automatic_threshold(settings.samples)
     else:
         passes = [settings.samples]
-    threads = settings.threads if settings.threads > 0 else (os.cpu_count() or 1)
+    threads = settings.threads if settings.threads > 0 else _usable_cores()
     cancelled = False
     tracer = geometry.tracer
     queried = (tracer.intersect_seconds, tracer.occluded_seconds)
@@ -425,6 +435,9 @@ def render(scene: Scene, settings: RenderSettings,
             stats.passes += 1
             if cancelled:
                 break
+
+    if progress is not None and not cancelled:
+        progress(1.0, stats)
 
     # 3. Box filter: each pixel's mean over all its samples; aux values over the samples that hit,
     #    except per-pixel totals, and acne: shadow rays that hit their own surface per ray cast.

@@ -40,6 +40,7 @@ class Surface(NamedTuple):
     corners:  (n, 3, 3) float64 corner normals, facing the viewer (zeros on flat triangles)
     smooth:   (n,) bool where N was interpolated
     u, v:     (n,) float64 barycentric coordinates
+    Read-only: N may be the very array Ng is (no hit smooth), and corners a broadcast view of zeros.
     """
 
     I: np.ndarray
@@ -57,7 +58,7 @@ class Shading(NamedTuple):
     """Light at the hit samples.
 
     radiance:   (n, 3) float64 outgoing radiance towards the camera
-    n_dot_l:    (n, k) float64 max(N.L, 0) per light (averaged over light samples)
+    n_dot_l:    (n, k) float64 max(N.L, 0) per light (N.L with the clamp off), averaged over light samples
     visibility: (n, k) float64 fraction of shadow rays that reached each light (0 if none was cast)
     shadow_rays: int number of shadow rays traced
     rays_per_hit: (n,) float64 shadow rays traced for each hit, or None when not asked for

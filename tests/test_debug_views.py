@@ -190,18 +190,13 @@ def test_time_per_pixel_adds_up_to_the_tracing_time_and_follows_the_rays():
     np.testing.assert_allclose(first_run, first_run[0], rtol=1e-5)
 
 
-def test_debug_buffers_and_switches_ask_for_the_reference_path():
-    """Default settings (and the buffers every path writes) may use a fast path; any debug buffer or
-    lecture switch off its default needs the readable one."""
+def test_every_lecture_switch_defaults_to_the_lecture_choice():
+    """Default settings are the lecture's; any switch off its default is not."""
     assert RenderSettings().is_lecture_default()
-    assert not render.uses_reference_path(RenderSettings(aux=("depth", "normal", "n_dot_l", "visibility")))
-    for name in render.REFERENCE_ONLY_BUFFERS:
-        assert render.uses_reference_path(RenderSettings(aux=(name,)))
     for change in ({"smooth_normals": False}, {"visibility_normal": "shading"}, {"reduce_t_max": False},
                    {"distance_attenuation": False}, {"clamp_n_dot_l": False},
                    {"shadow_rays_for_backfacing": True}):
-        settings = RenderSettings(**change)
-        assert not settings.is_lecture_default() and render.uses_reference_path(settings)
+        assert not RenderSettings(**change).is_lecture_default()
 
 
 def test_no_debug_counts_are_kept_unless_asked_for():
