@@ -170,16 +170,23 @@ def _inspect_light(geometry: WorldGeometry, surface, light, settings: RenderSett
     N, Ng = surface.N[0], surface.Ng[0]
     # 1. Where does the light come from? One sample, at the centre for lights with extent.
     ls = lights_.sample_light(light, I, centre_numbers(light)[None, :])
+    if not settings.distance_attenuation:
+        ls = lights_.without_distance_attenuation(light, ls, I)
     L = ls.L[0]
     r = float(ls.distance[0])
     E_normal = ls.irradiance[0]
     is_sun = isinstance(light, SunLight)
-    # 2. The lecture's two tests: N.L > 0 (shading normal) and Ng.L > 0 (face normal);
-    #    with the terminator fix, smooth triangles leave the second test to the shadow ray.
+    # 2. The lecture's two tests, as core/shading.py's direct_light makes them (lecture switches
+    #    included): N.L > 0 (the clamp) and Ng.L > 0 (the face normal decides whether the light can
+    #    be visible); with the terminator fix, smooth triangles leave the second test to the shadow ray.
     NL = float(N @ L)
     NgL = float(Ng @ L)
-    face_allows = NgL > 0.0 or (settings.terminator_fix and bool(surface.smooth[0]))
-    if NL <= 0.0:
+    facing = NgL > 0.0 if settings.visibility_normal == "face" else NL > 0.0
+    face_allows = facing or (settings.terminator_fix and bool(surface.smooth[0]))
+    cosine = max(NL, 0.0) if settings.clamp_n_dot_l else NL
+    if settings.shadow_rays_for_backfacing and E_normal.max() > 0.0:
+        reason = CAST
+    elif cosine == 0.0:
         reason = BEHIND_N
     elif not face_allows:
         reason = BEHIND_FACE
@@ -192,14 +199,18 @@ def _inspect_light(geometry: WorldGeometry, surface, light, settings: RenderSett
     if reason == CAST:
         # 3. One shadow ray, from a point safely off the surface (terminator fix first, if on).
         start = I
+        face_normal = surface.Ng
         if settings.terminator_fix and surface.smooth[0] and settings.terminator_offset > 0.0:
             amount = shadows.terminator_amount(np.array([NL]), np.array([NgL]), settings.terminator_offset)
             lifted = shadows.terminator_points(I, surface.vertices, surface.corners, surface.u, surface.v)
             start = I + amount[:, None] * (lifted - I)
+        elif settings.shadow_rays_for_backfacing or settings.visibility_normal != "face":
+            face_normal = face_normal * (-1.0 if NgL < 0.0 else 1.0)     # offset to the light's side
         if settings.shadow_method == "robust":
-            rays = shadows.robust_rays(start, surface.Ng, np.array([offset]), ls.position, ls.L, ls.distance)
+            rays = shadows.robust_rays(start, face_normal, np.array([offset]), ls.position, ls.L, ls.distance,
+                                       settings.reduce_t_max)
         else:
-            rays = shadows.epsilon_rays(start, ls.L, ls.distance, settings.epsilon)
+            rays = shadows.epsilon_rays(start, ls.L, ls.distance, settings.epsilon, settings.reduce_t_max)
         seen = bool(shadows.visible(geometry.tracer, rays)[0])
         occluded = not seen
         visibility = 1.0 if seen else 0.0
@@ -207,8 +218,8 @@ def _inspect_light(geometry: WorldGeometry, surface, light, settings: RenderSett
         shadow_t_max = float(rays.t_max[0])
         with np.errstate(invalid="ignore"):
             shadow_end = shadow_origin + shadow_t_max * rays.directions[0]
-    # 4. The light's share of the pixel: albedo / pi * E_normal * max(N.L, 0) * V.
-    contribution = surface.albedo[0] * (1.0 / math.pi) * E_normal * max(NL, 0.0) * visibility
+    # 4. The light's share of the pixel: albedo / pi * E_normal * max(N.L, 0) * V (N.L with the clamp off).
+    contribution = surface.albedo[0] * (1.0 / math.pi) * E_normal * cosine * visibility
     return LightRecord(
         name=light.name, kind=light_kind(light), sampled=not lights_.is_delta(light),
         L=L.copy(), distance=r, light_point=None if is_sun else ls.position[0] + origin,
@@ -257,7 +268,8 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     if not hits.hit[0]:
         return PixelRecord(radiance=np.zeros(3) if settings.transparent_background else world.copy(), **miss)
     # 4. The surface: I, Ng and N facing the viewer, barycentrics, material.
-    surface = surface_at_hits(geometry, hits.prim, hits.u, hits.v, O, rays.directions, hits.t)
+    surface = surface_at_hits(geometry, hits.prim, hits.u, hits.v, O, rays.directions, hits.t,
+                              flat_only=not settings.smooth_normals)
     triangle = int(hits.prim[0])
     object_name = ""
     if len(geometry.instance) > triangle:

@@ -297,3 +297,20 @@ def test_triangles_know_their_object():
     assert names.count("Floor") == 2 and names.count("BoxA") == 12 and names.count("BoxB") == 12
     centres = geometry.vertices[geometry.triangles].mean(axis=1)
     assert np.all(centres[np.array(names) == "BoxB", 0] > 2.0)
+
+
+@pytest.mark.parametrize("switch", [{"smooth_normals": False}, {"visibility_normal": "shading"},
+                                    {"reduce_t_max": False, "shadow_method": "epsilon"},
+                                    {"distance_attenuation": False}, {"clamp_n_dot_l": False},
+                                    {"shadow_rays_for_backfacing": True}],
+                         ids=lambda change: ",".join(change))
+def test_inspector_follows_every_lecture_switch_as_the_render_does(switch):
+    """With a lecture switch flipped, the inspector's sum is still the 1-spp unjittered render's pixel."""
+    scene = mixed_scene()
+    s = settings(width=40, height=30, **switch)
+    image = render.render(scene, s).image
+    geometry = build_geometry(scene, scene.camera.position)
+    for y in range(0, 30, 3):
+        for x in range(0, 40, 3):
+            record = inspector.inspect_pixel(scene, s, x, y, geometry=geometry)
+            np.testing.assert_allclose(record.radiance, image[y, x, :3], rtol=1e-5, atol=1e-7)
