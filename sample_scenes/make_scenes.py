@@ -19,7 +19,9 @@ The scenes, one idea each:
     camera_fisheye_equidistant, camera_fisheye_equisolid      (disk, square and sphere lights light them)
 
 Each renders the same in Primer and in Cycles set up as Primer's reference (direct light only:
-max_bounces 0, a 1-pixel box filter, no denoising; tests/test_blender_scenes.py checks it), because:
+max_bounces 0, a 1-pixel box filter, no denoising; tests/test_blender_scenes.py checks it), except
+where the lecture chooses differently from Cycles on purpose (shading_visibility: Cycles lets light
+leak through the open sheet, like Primer's Visibility Normal: Shading), because:
 - materials are pure Lambert: a Diffuse BSDF with roughness 0, or a Principled BSDF with
   Specular IOR Level 0 (Cycles then adds no specular lobe);
 - the world is a plain Background colour seen by camera rays only (its diffuse, glossy,
