@@ -132,7 +132,9 @@ def debug_image(view: str, image: np.ndarray, buffers: dict, channels: list) -> 
         out[..., :3] = debug.heat(values[..., 0])
     elif view in ("RAYS", "TIME"):
         out[..., :3] = _heat_of_maximum(values[..., 0])
-    else:                               # N_DOT_L, VISIBILITY: grey levels
+    elif view == "N_DOT_L":             # grey levels; blue where N.L < 0 (Clamp N.L off)
+        out[..., :3] = debug.signed_grey(values[..., 0])
+    else:                               # VISIBILITY: grey levels
         out[..., :3] = values
     return out
 

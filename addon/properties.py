@@ -13,7 +13,7 @@ DEBUG_VIEWS = (
     ("BARYCENTRIC", "Barycentrics", "The hit's barycentric coordinates (1-u-v, u, v) as red, green, blue"),
     ("HIT_DISTANCE", "Hit Distance t", "t of I = O + tD along the camera ray, from white (nearest) to black (farthest)"),
     ("DEPTH", "Depth", "Distance along the camera's view axis, normalised to the nearest and farthest hit"),
-    ("N_DOT_L", "N.L", "max(N.L, 0) averaged over the lights (or the chosen light): the cosine law alone"),
+    ("N_DOT_L", "N.L", "max(N.L, 0) averaged over the lights (or the chosen light): the cosine law alone. With Clamp N.L off, N.L itself, negative in blue"),
     ("VISIBILITY", "Shadow Rays", "Fraction of shadow rays that reached their light (all lights, or the chosen "
                                   "one): white lit, black shadowed"),
     ("ACNE", "Shadow Acne", "Fraction of shadow rays blocked by the surface they started from, heat map 0 to 1"),

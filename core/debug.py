@@ -106,6 +106,19 @@ HEAT_STOPS = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
 HEAT_COLOURS = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [1.0, 1.0, 1.0]])
 
 
+NEGATIVE_COLOUR = np.array([0.0, 0.0, 1.0], np.float32)     # signed_grey: the colour of -1
+
+
+def signed_grey(x: np.ndarray) -> np.ndarray:
+    """Return grey levels x for x >= 0 and blue levels -x (NEGATIVE_COLOUR scaled) for x < 0: x (...) float -> (..., 3) float32.
+
+    The N.L view uses it: with Clamp N.L off, N.L < 0 must not look like the 0 of a clamped value.
+    """
+    x = np.nan_to_num(np.asarray(x, np.float64))
+    grey = np.repeat(np.maximum(x, 0.0)[..., None], 3, axis=-1)
+    return (grey + np.maximum(-x, 0.0)[..., None] * NEGATIVE_COLOUR).astype(np.float32)
+
+
 def heat(x: np.ndarray) -> np.ndarray:
     """Return heat-map colours for values in 0..1 (clipped): x (...) float -> (..., 3) float32.
 

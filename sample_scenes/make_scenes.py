@@ -13,12 +13,15 @@ The scenes, one idea each:
     light_point, light_point_soft, light_spot, light_sun     one light of each type, Cycles' units
     light_area, light_area_spread                             area lights: rectangle (mirrored), ellipse
     shading_flat_smooth                                       the shadow terminator of a 12-segment sphere
+    shading_visibility                                        an open smooth sheet: light leaks, negative N.L
     modifiers_instances                                       modifiers, instancing, negative scale, curves
     camera_ortho, camera_persp_shift,                         every camera type, with shift and sensor fit
     camera_fisheye_equidistant, camera_fisheye_equisolid      (disk, square and sphere lights light them)
 
 Each renders the same in Primer and in Cycles set up as Primer's reference (direct light only:
-max_bounces 0, a 1-pixel box filter, no denoising; tests/test_blender_scenes.py checks it), because:
+max_bounces 0, a 1-pixel box filter, no denoising; tests/test_blender_scenes.py checks it), except
+where the lecture chooses differently from Cycles on purpose (shading_visibility: Cycles lets light
+leak through the open sheet, like Primer's Visibility Normal: Shading), because:
 - materials are pure Lambert: a Diffuse BSDF with roughness 0, or a Principled BSDF with
   Specular IOR Level 0 (Cycles then adds no specular lobe);
 - the world is a plain Background colour seen by camera rays only (its diffuse, glossy,
@@ -329,6 +332,58 @@ def shading_flat_smooth():
     add_light("SUN", "Low Sun", rotation=sun_rotation(20.0, -25.0), energy=3.0, angle=0.0)
 
 
+# The sheet of `shading_visibility`: its profile in the XZ plane, one (slope, length) per face from
+# left to right (slope in degrees, rising to the right > 0), extruded along Y.
+SHEET_START = (-1.1, 0.0)          # the profile's first point (x, z): on the floor
+SHEET_FACES = ((85.0, 0.55), (30.0, 1.0), (-30.0, 0.8), (50.0, 1.0))
+SHEET_DEPTH = 2.0                  # along Y, centred on y = 0
+SHEET_SUN_ELEVATION = 40.0         # the sun shines from +X (azimuth 0), across the profile
+
+
+def sheet_profile(start=SHEET_START, faces=SHEET_FACES):
+    """The points (x, z) of a polyline that starts at `start` and follows (slope in degrees, length) per face."""
+    x, z = start
+    points = [(x, z)]
+    for slope, length in faces:
+        x += length * math.cos(math.radians(slope))
+        z += length * math.sin(math.radians(slope))
+        points.append((x, z))
+    return points
+
+
+def add_profile_sheet(name: str, points, depth: float, material):
+    """An open smooth sheet: the polyline `points` (x, z) extruded from y = -depth/2 to +depth/2, one quad per segment."""
+    bpy = _bpy()
+    vertices = [(x, y, z) for y in (-0.5 * depth, 0.5 * depth) for x, z in points]
+    n = len(points)
+    quads = [(i, i + 1, n + i + 1, n + i) for i in range(n - 1)]      # counter-clockwise seen from above: Ng up
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices, [], quads)
+    mesh.update()
+    return finish_object(link(bpy.data.objects.new(name, mesh)), material, True, name)
+
+
+def shading_visibility():
+    """An open, smooth, low-poly sheet under a sun: where the interpolated normal N and the face normal Ng disagree.
+
+    Each interior vertex normal is the mean of its two faces' normals, so N turns across a face from
+    one vertex normal to the next. The sun (40 degrees high, from +X) meets the sheet's faces thus:
+    - the 30-degree face still faces it (Ng.L > 0), but N leans away from it near the steep 85-degree
+      face: N.L < 0 there. Clamp N.L off, and that light turns negative;
+    - the last, 50-degree face turns away from it (Ng.L < 0), but N leans towards it near the valley:
+      N.L > 0 there. Visibility Normal: Shading, and light leaks onto it through the sheet, because
+      the sheet is open: nothing lies on its underside to block the shadow ray.
+    With the lecture's defaults both show what Cycles shows: black.
+    """
+    new_file("shading_visibility")
+    grey = diffuse("Grey", (0.8, 0.8, 0.8))
+    sheet = diffuse("Sheet", (0.85, 0.6, 0.3))
+    ground(grey)
+    add_profile_sheet("Sheet", sheet_profile(), SHEET_DEPTH, sheet)
+    add_camera((-2.0, -4.2, 3.0), (0.0, 0.0, 0.6), lens=32.0)
+    add_light("SUN", "Sun", rotation=sun_rotation(SHEET_SUN_ELEVATION, 0.0), energy=3.0, angle=0.0)
+
+
 def modifiers_instances():
     """Modifiers (subdivision, array, mirror), linked duplicates, a collection instance, geometry-nodes
     instances, a negatively scaled object, a text, a bevelled curve and a metaball."""
@@ -496,6 +551,7 @@ SCENES = {
     "light_area": light_area,
     "light_area_spread": light_area_spread,
     "shading_flat_smooth": shading_flat_smooth,
+    "shading_visibility": shading_visibility,
     "modifiers_instances": modifiers_instances,
     "camera_ortho": camera_ortho,
     "camera_persp_shift": camera_persp_shift,

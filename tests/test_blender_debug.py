@@ -158,6 +158,38 @@ def test_light_chooser_shows_one_lights_n_dot_l(primer, tmp_path):
         np.testing.assert_allclose(passes["Primer NdotL"], expected, rtol=1e-6)
 
 
+def test_n_dot_l_view_shows_negative_cosines_in_blue(primer, tmp_path):
+    """On the smooth quad under a sun 20 degrees high from -x, N.L = (-x sin b cos e + cos b sin e) /
+    sqrt(x^2 sin^2 b + cos^2 b), negative for x > tan(e)/tan(b) = 0.43. With Clamp N.L off the N.L view
+    keeps the sign: grey N.L where it is positive, blue (0, 0, -N.L) where it is negative; with the clamp
+    those pixels are 0, black."""
+    scene = ortho_scene(16, 16)
+    smooth_quad(scene)
+    e, b = math.radians(20.0), math.radians(40.0)
+    aim(scene.objects["Sun"], (math.cos(e), 0.0, -math.sin(e)))
+    scene.primer.debug_passes = True
+    scene.primer.debug_view = "N_DOT_L"
+    scene.primer.clamp_n_dot_l = False
+    scene.primer.samples = 64                                    # the pixel's mean N.L close to its centre's
+    scene.primer.use_adaptive_sampling = False
+    passes = render_passes(scene, str(tmp_path / "signed.exr"))
+    n_dot_l, picture = passes["Primer NdotL"][..., 0], passes["Combined"][..., :3]
+    x = (np.arange(16) + 0.5) / 8.0 - 1.0                        # pixel centres across the quad
+    expected = (-x * math.sin(b) * math.cos(e) + math.cos(b) * math.sin(e)) / np.sqrt(
+        (x * math.sin(b)) ** 2 + math.cos(b) ** 2)
+    np.testing.assert_allclose(n_dot_l, np.broadcast_to(expected, n_dot_l.shape), atol=0.02)
+    negative = n_dot_l < 0.0
+    assert negative[:, 12:].all() and not negative[:, :6].any()
+    np.testing.assert_allclose(picture[negative], np.stack([0 * n_dot_l, 0 * n_dot_l, -n_dot_l], -1)[negative],
+                               atol=1e-6)
+    np.testing.assert_allclose(picture[~negative], np.repeat(n_dot_l[~negative][:, None], 3, axis=1), atol=1e-6)
+    scene.primer.clamp_n_dot_l = True
+    clamped = render_passes(scene, str(tmp_path / "clamped.exr"))["Combined"][..., :3]
+    below, above = n_dot_l < -0.05, n_dot_l > 0.05                # whole pixels on one side of N.L = 0
+    assert not clamped[below].any()
+    np.testing.assert_allclose(clamped[above], picture[above], atol=1e-6)
+
+
 def test_smooth_normals_off_renders_like_flat_shading(primer, tmp_path):
     """Switching smooth normals off gives the image Blender's own flat shading gives."""
     scene = new_scene(24, 24)

@@ -43,6 +43,7 @@ NO_HIT = 1e9                    # Depth and Hit Distance passes hold more than t
 TARGETS = {
     "light_point": (0.0, 0.2, 0.55), "light_sun": (0.0, 0.2, 0.55),                 # stage_camera
     "shading_flat_smooth": (0.0, 0.2, 0.55), "camera_persp_shift": (0.0, 0.2, 0.9),
+    "shading_visibility": (0.0, 0.0, 0.6),
 }
 FLOOR_HALF_SIZE = 10.0          # make_scenes.ground: a 20 m plane at z = 0
 
@@ -419,6 +420,32 @@ def test_n_dot_l_view_is_the_cosine_law(primer, tmp_path):
     assert render(primer, scene, str(tmp_path / "unclamped.exr"))["Combined"][..., :3].min() < 0.0
 
 
+def test_negative_light_only_without_the_clamp(primer, tmp_path):
+    """shading_visibility: on the 30-degree face the face still faces the sun, but near the steep face N
+    turns away from it. With the clamp those pixels are 0; without it they hold (rho/pi) E N.L < 0, the
+    closed-form interpolated N.L, and nowhere else is the image negative. The N.L view shows them blue."""
+    scene = open_scene("shading_visibility")
+    sheet = Sheet(scene)
+    clamped = render(primer, scene, str(tmp_path / "clamped.exr"), passes=("Depth", "Primer"))
+    scene.primer.clamp_n_dot_l = False
+    unclamped = render(primer, scene, str(tmp_path / "unclamped.exr"), passes=("Depth", "Primer"))
+    view = render(primer, scene, str(tmp_path / "view.exr"), view="N_DOT_L", passes=("Primer",))
+    save("n_dot_l_signed", view["Combined"])
+    on_face, I = sheet_pixels(scene, unclamped, sheet, NEGATIVE_FACE)
+    n_dot_l = sheet.n_dot_l(NEGATIVE_FACE, I)
+    lit = on_face & (unclamped["Primer Shadow"][..., 0] == 1.0)
+    away = lit & (n_dot_l < -0.02)                              # whole pixels where N turns away from the sun
+    assert away.sum() > 100
+    expected = sheet.albedo / math.pi * sheet.E * n_dot_l[away][:, None]
+    np.testing.assert_allclose(unclamped["Combined"][..., :3][away], expected, atol=0.01 * sheet.E / math.pi)
+    assert not clamped["Combined"][..., :3][away].any()
+    negative = (unclamped["Combined"][..., :3] < 0).any(axis=-1)
+    assert clamped["Combined"][..., :3].min() >= 0.0 and negative.sum() >= away.sum()
+    assert near_face(on_face, 2)[negative].all()                # negative light only on that face (and its edges)
+    blue = view["Combined"][..., :3]
+    assert (blue[away][:, 2] > 0).all() and not blue[away][:, :2].any()
+
+
 def test_no_shadow_rays_for_lights_behind_the_surface(primer, tmp_path):
     """Rays per Pixel, 4 samples everywhere: camera ray plus shadow ray (8 per pixel) where the sun is in front
     of the surface, the camera ray alone (4, red at half the scale) where it is behind. Casting the shadow
@@ -439,6 +466,62 @@ def test_no_shadow_rays_for_lights_behind_the_surface(primer, tmp_path):
     backfacing = np.isclose(x_skipped, 0.5) & np.isclose(x_cast, 1.0)
     assert backfacing.sum() > 300                               # the spheres' far sides and the boxes' shaded faces
     assert (x_cast >= x_skipped - 1e-6).all()
+
+
+# The open sheet of shading_visibility: face 1 (30 degrees) faces the sun but N turns away from it near the
+# steep face 0; face 3 (50 degrees) faces away from the sun but N turns towards it near the valley.
+NEGATIVE_FACE, LEAK_FACE = 1, 3
+
+
+class Sheet:
+    """shading_visibility's sheet in closed form, from its mesh: a polyline profile (x, z) extruded along y."""
+
+    def __init__(self, scene):
+        sheet = bpy.data.objects["Sheet"]
+        assert np.allclose(np.array(sheet.matrix_world), np.eye(4))
+        vertices = np.array([v.co[:] for v in sheet.data.vertices])
+        self.profile = vertices[: len(vertices) // 2][:, [0, 2]]          # (n, 2) x, z at the front edge
+        edges = np.diff(self.profile, axis=0)
+        lengths = np.linalg.norm(edges, axis=1)
+        self.face_normals = np.stack([-edges[:, 1], edges[:, 0]], axis=1) / lengths[:, None]   # (n - 1, 2), up
+        # Vertex normals: the mean of the adjacent faces' normals (each quad corner is 90 degrees), normalized.
+        sums = np.zeros_like(self.profile)
+        sums[:-1] += self.face_normals
+        sums[1:] += self.face_normals
+        self.vertex_normals = sums / np.linalg.norm(sums, axis=1, keepdims=True)
+        sun = light_object(scene)
+        self.L = np.array(sun.matrix_world.col[2][:3])[[0, 2]]             # towards the sun, in the XZ plane
+        assert abs(sun.matrix_world.col[2][1]) < 1e-6                      # the sun shines across the profile
+        self.E = sun.data.energy
+        self.albedo = np.array(bpy.data.materials["Sheet"].diffuse_color[:3])
+
+    def face_normal_3d(self, face: int) -> np.ndarray:
+        """Ng of a face, (3,)."""
+        nx, nz = self.face_normals[face]
+        return np.array([nx, 0.0, nz])
+
+    def n_dot_l(self, face: int, I: np.ndarray) -> np.ndarray:
+        """Interpolated N.L at hit points I (..., 3) on `face`: N = normalize((1 - s) N_a + s N_b) along the profile."""
+        a, b = self.profile[face], self.profile[face + 1]
+        s = np.clip(((I[..., [0, 2]] - a) @ (b - a)) / ((b - a) @ (b - a)), 0.0, 1.0)
+        N = (1 - s)[..., None] * self.vertex_normals[face] + s[..., None] * self.vertex_normals[face + 1]
+        return (N @ self.L) / np.linalg.norm(N, axis=-1)
+
+
+def near_face(mask: np.ndarray, reach: int) -> np.ndarray:
+    """The pixels within `reach` pixels (in x and y) of `mask` (H, W) bool."""
+    grown = np.pad(mask, reach)
+    height, width = mask.shape
+    return np.logical_or.reduce([grown[reach + dy:reach + dy + height, reach + dx:reach + dx + width]
+                                 for dy in range(-reach, reach + 1) for dx in range(-reach, reach + 1)])
+
+
+def sheet_pixels(scene, passes, sheet: Sheet, face: int):
+    """Pixels wholly on one face of the sheet (every sample's face normal is its Ng) and their hit points (H, W, 3)."""
+    position, V, D, _ = lecture_camera(scene, TARGETS["shading_visibility"])
+    I = position + (passes["Depth"][..., 0] / (D @ V))[..., None] * D
+    on_face = np.abs(passes["Primer Face Normal"] - sheet.face_normal_3d(face)).max(axis=-1) < 1e-5
+    return on_face, I
 
 
 # ---------------------------------------------------------------------------
@@ -489,6 +572,28 @@ def test_smooth_normals_change_only_smooth_meshes(primer, tmp_path):
     assert not (changed & ~bent).any()
     np.testing.assert_allclose(angle["Combined"][..., :3], debug.heat(angle["Primer Normal Angle"][..., 0] / 30.0),
                                atol=1e-6)
+
+
+def test_face_normal_decides_visibility_on_an_open_sheet(primer, tmp_path):
+    """shading_visibility: the 50-degree face turns away from the sun (Ng.L < 0), but near the valley its
+    interpolated N faces it. The lecture's face rule leaves every pixel of that face exactly 0; the shading
+    rule lets light through the open sheet: (rho/pi) E N.L with the closed-form interpolated N.L."""
+    scene = open_scene("shading_visibility")
+    sheet = Sheet(scene)
+    assert sheet.face_normals[LEAK_FACE] @ sheet.L < 0 < sheet.vertex_normals[LEAK_FACE] @ sheet.L
+    face = render(primer, scene, str(tmp_path / "face.exr"), passes=("Depth", "Primer"))
+    save("visibility_face", face["Combined"])
+    scene.primer.visibility_normal = "SHADING"
+    shading = render(primer, scene, str(tmp_path / "shading.exr"), passes=("Depth", "Primer"))
+    save("visibility_shading", shading["Combined"])
+    on_face, I = sheet_pixels(scene, shading, sheet, LEAK_FACE)
+    assert on_face.sum() > 500
+    assert not face["Combined"][..., :3][on_face].any()
+    n_dot_l = sheet.n_dot_l(LEAK_FACE, I)
+    leak = on_face & (n_dot_l > 0.02)
+    assert leak.sum() > 300 and (shading["Primer Shadow"][..., 0][leak] == 1.0).all()   # nothing blocks it
+    expected = sheet.albedo / math.pi * sheet.E * n_dot_l[leak][:, None]
+    np.testing.assert_allclose(shading["Combined"][..., :3][leak], expected, atol=0.01 * sheet.E / math.pi)
 
 
 # ---------------------------------------------------------------------------
