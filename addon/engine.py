@@ -8,7 +8,10 @@ chunks of rays, so the render stops within a fraction of a second.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
+import signal
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -182,8 +185,34 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
         engine.end_result(result)
 
 
+@contextlib.contextmanager
+def _ctrl_c_cancels():
+    """Within the block, Ctrl+C (SIGINT) sets the yielded event instead of raising KeyboardInterrupt.
+
+    The render polls the event between chunks, as it polls Esc. A KeyboardInterrupt raised at an
+    arbitrary point could leave a lock of the thread pool taken and hang the render. Only the main
+    thread may set signal handlers; elsewhere (Blender's UI renders on a thread) nothing changes.
+    """
+    interrupted = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield interrupted
+        return
+    previous = signal.getsignal(signal.SIGINT)
+    signal.signal(signal.SIGINT, lambda number, frame: interrupted.set())
+    try:
+        yield interrupted
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def render_frame(engine, depsgraph) -> RenderRecord:
     """Export, render and write one frame; report problems in Blender instead of raising."""
+    with _ctrl_c_cancels() as interrupted:
+        return _render_frame(engine, depsgraph, lambda: interrupted.is_set() or engine.test_break())
+
+
+def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
+    """render_frame's work; cancelled() says whether Esc or Ctrl+C asked to stop."""
     from ..core import render as core_render
 
     record = RenderRecord()
@@ -191,11 +220,11 @@ def render_frame(engine, depsgraph) -> RenderRecord:
     scene = depsgraph.scene
     try:
         engine.update_stats("", "Primer | exporting scene")
-        exported = export.export_scene(depsgraph, engine.camera_override, engine.test_break,
+        exported = export.export_scene(depsgraph, engine.camera_override, cancelled,
                                        requested_buffers(scene.primer, depsgraph.view_layer))
         record.export_seconds = time.perf_counter() - start
         record.warnings = list(exported.warnings)
-        if engine.test_break():
+        if cancelled():
             record.cancelled = True
             return record
 
@@ -205,7 +234,7 @@ def render_frame(engine, depsgraph) -> RenderRecord:
                                     f"| {100 * fraction:.0f}%")
 
         engine.update_stats("", "Primer | building BVH")
-        result = core_render.render(exported.scene, exported.settings, progress=progress, cancel=engine.test_break)
+        result = core_render.render(exported.scene, exported.settings, progress=progress, cancel=cancelled)
         record.warnings += [w for w in result.stats.warnings if w not in record.warnings]
         record.rays = result.stats.rays
         record.cancelled = result.cancelled
@@ -215,7 +244,7 @@ def render_frame(engine, depsgraph) -> RenderRecord:
         channels = light_channels(result.light_names, chosen.name if chosen is not None else "")
         write_result(engine, exported, result.image, result.aux, channels, scene.primer.debug_view)
         record.write_seconds = time.perf_counter() - written
-    except KeyboardInterrupt:            # Ctrl+C in a terminal: stop like Esc
+    except KeyboardInterrupt:            # Ctrl+C before the handler was set: stop like Esc
         record.cancelled = True
     except export.ExportError as error:
         record.error = str(error)

@@ -47,7 +47,7 @@ class PixelNoise(NamedTuple):
     """Running per-pixel sums over all passes, from which mean and noise follow.
 
     total:   (p, 4) float64 sum of the samples' RGBA
-    squares: (p,) float64 sum of the samples' squared luminance
+    squares: (p, 2) float64 sums of the samples' squared luminance and squared alpha
     count:   (p,) int64 samples taken
     """
 
@@ -87,13 +87,20 @@ def pass_sizes(samples: int, min_samples: int = 0) -> list[int]:
 def relative_noise(noise: PixelNoise) -> np.ndarray:
     """Return each pixel's estimated relative error of its mean: (p,) float64, inf with < 2 samples.
 
-    The standard error sqrt(var / n) of the luminance, divided by sqrt(mean^2 + DARK^2).
+    The standard error sqrt(var / n) of the luminance, divided by sqrt(mean^2 + DARK^2); or of the
+    alpha, where that is larger (the edge of an object over a transparent film), alpha's scale being 1.
     """
     n = noise.count.astype(np.float64)
+
+    def standard_error(mean: np.ndarray, squares: np.ndarray) -> np.ndarray:
+        variance = np.maximum(squares / n - mean * mean, 0.0) * n / (n - 1.0)
+        return np.sqrt(variance / n)
+
     with np.errstate(divide="ignore", invalid="ignore"):
-        mean = np.einsum("ij,j->i", noise.total[:, :3], LUMINANCE) / n
-        variance = np.maximum(noise.squares / n - mean * mean, 0.0) * n / (n - 1.0)
-        error = np.sqrt(variance / n) / np.sqrt(mean * mean + DARK * DARK)
+        luminance = np.einsum("ij,j->i", noise.total[:, :3], LUMINANCE) / n
+        alpha = noise.total[:, 3] / n
+        error = np.maximum(standard_error(luminance, noise.squares[:, 0]) / np.sqrt(luminance ** 2 + DARK ** 2),
+                           standard_error(alpha, noise.squares[:, 1]))
     return np.where(n >= 2, error, np.inf)
 
 

@@ -167,7 +167,7 @@ class ChunkResult(NamedTuple):
     """Per-pixel sums of one chunk's samples (sums, not means, so passes add up).
 
     rgba:      (p, 4) float64 sum of the samples' RGBA
-    squares:   (p,) float64 sum of the samples' squared luminance (for the noise estimate)
+    squares:   (p, 2) float64 sums of the samples' squared luminance and alpha (for the noise estimate)
     aux:       name -> (p, c) float64 sum of the auxiliary values over the samples that hit
     hits:      (p,) int64 samples that hit a surface
     primary:   camera rays traced (a fisheye's samples outside its image circle trace none)
@@ -230,7 +230,7 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> Chu
     # 5. Box filter: sum each pixel's samples (the caller divides by the count).
     luminance = np.einsum("ij,j->i", rgba[:, :3], adaptive.LUMINANCE)
     per_pixel = rgba.reshape(len(pixels), spp, 4).sum(axis=1)
-    squares = (luminance * luminance).reshape(len(pixels), spp).sum(axis=1)
+    squares = np.stack([luminance * luminance, rgba[:, 3] * rgba[:, 3]], axis=1).reshape(len(pixels), spp, 2).sum(axis=1)
     hits_per_pixel = np.bincount(h // spp, minlength=len(pixels))
     aux = (_sum_aux(ctx, len(pixels), spp, h, surface, shading, rays.valid, directions[hits.hit])
            if ctx.want_aux else {})
@@ -385,7 +385,7 @@ def render(scene: Scene, settings: RenderSettings,
     ctx = _Context(scene, settings, geometry, lights)
 
     # Running sums per pixel over all passes (core/adaptive.py): colour, noise, aux values, hits.
-    noise = adaptive.PixelNoise(np.zeros((H * W, 4)), np.zeros(H * W), np.zeros(H * W, np.int64))
+    noise = adaptive.PixelNoise(np.zeros((H * W, 4)), np.zeros((H * W, 2)), np.zeros(H * W, np.int64))
     aux_total = {}
     for name in settings.aux:
         channels = len(lights) if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]

@@ -49,7 +49,8 @@ def test_relative_noise_is_the_standard_error_of_the_mean():
     luminance = np.array([0.0, 1.0] * (n // 2))
     rgba = np.zeros((n, 4))
     rgba[:, :3] = luminance[:, None]            # grey: luminance equals each channel
-    noise = adaptive.PixelNoise(rgba.sum(axis=0)[None], np.array([(luminance ** 2).sum()]), np.array([n]))
+    rgba[:, 3] = 1.0                            # opaque: alpha adds no noise
+    noise = adaptive.PixelNoise(rgba.sum(axis=0)[None], np.array([[(luminance ** 2).sum(), float(n)]]), np.array([n]))
     variance = n / (4.0 * (n - 1))
     expected = math.sqrt(variance / n) / math.sqrt(0.25 + adaptive.DARK ** 2)
     assert math.isclose(adaptive.relative_noise(noise)[0], expected, rel_tol=1e-12)
@@ -122,3 +123,15 @@ def test_a_speck_smaller_than_a_first_pass_stratum_is_found_as_samples_grow():
               for seed in range(8)]
     assert all(v > 0 for v in values)            # found every time
     assert abs(np.mean(values) - fraction * LIT) < 0.05 * fraction * LIT
+
+
+def test_a_black_edge_over_a_transparent_film_is_refined_by_its_alpha():
+    """A black plane's edge over a transparent film: no brightness varies, only coverage (alpha), and
+    that alone sends the edge pixels to the full budget, where alpha converges to the covered fraction."""
+    W, fraction = 32, 0.3
+    scene = lit_plane_scene(fraction * (2.0 / W))
+    scene.materials[0].base_color = np.zeros(3)
+    settings = RenderSettings(width=W, height=8, samples=256, adaptive=True, transparent_background=True, seed=5)
+    result = render.render(scene, settings)
+    assert (result.stats.samples_per_pixel[:, W // 2] == 256).all()
+    assert abs(result.image[:, W // 2, 3].mean() - fraction) < 0.01
