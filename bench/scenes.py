@@ -242,7 +242,10 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
 
     def recording(query):
         def traced(self, origins, directions, t_max):
-            batches.append((query, *to_f32(origins, directions, t_max)))
+            o, d, t = to_f32(origins, directions, t_max)
+            active = t >= 0.0           # t_max < 0 marks a sample with no ray (core/shading.py): Embree skips it
+            batches.append((query, np.ascontiguousarray(o[active]), np.ascontiguousarray(d[active]),
+                            np.ascontiguousarray(t[active])))
             return original[query](self, origins, directions, t_max)
         return traced
 
