@@ -350,6 +350,22 @@ def _run_chunks(pool, threads: int, chunks: list, work: Callable, store: Callabl
     return False
 
 
+# The fewest samples worth a chunk: below this, numpy's per-call overhead outweighs the work.
+MIN_CHUNK_SAMPLES = 4096
+
+
+def _chunk_pixels(pixels: int, spp: int, chunk_size: int, threads: int) -> int:
+    """Return how many pixels of `spp` samples one chunk holds.
+
+    At most chunk_size samples (memory stays bounded); but small passes (adaptive sampling's)
+    are cut into two chunks per thread at least, so that every core works, unless that would
+    leave chunks of fewer than MIN_CHUNK_SAMPLES samples.
+    """
+    by_memory = max(1, chunk_size // spp)
+    by_threads = max(-(-pixels // (2 * threads)), MIN_CHUNK_SAMPLES // spp, 1)
+    return min(by_memory, by_threads)
+
+
 def _usable_cores() -> int:
     """Return the number of cores this process may run on (its CPU affinity, where the OS tells)."""
     try:
@@ -427,7 +443,7 @@ def render(scene: Scene, settings: RenderSettings,
                     break
             # 2. One stratified pass of `spp` samples over them, chunk by chunk, its own random numbers.
             seed = (settings.seed + index * 0x2545F491) & 0xFFFFFFFF
-            per_chunk = max(1, settings.chunk_size // spp)
+            per_chunk = _chunk_pixels(len(pixels), spp, settings.chunk_size, threads)
             chunks = [pixels[i:i + per_chunk] for i in range(0, len(pixels), per_chunk)]
             cancelled = _run_chunks(pool, threads, chunks, lambda c: render_chunk(ctx, c, spp, seed), store,
                                     cancel, lambda f: progress((index + f) / len(passes), stats) if progress else None,
