@@ -21,6 +21,7 @@ from bpy.props import BoolProperty, FloatProperty, IntProperty, PointerProperty
 
 from . import export, inspector_view
 from .engine import PrimerRenderEngine
+from .ui import PrimerOnly
 
 log = logging.getLogger("primer")
 ENGINE = PrimerRenderEngine.bl_idname
@@ -306,15 +307,10 @@ def draw_inspector(layout, context, pick: bool = False) -> None:
             grid.label(text=text)
 
 
-class PrimerInspectorPanel:
-    """Shown only when Primer is the render engine."""
+class PrimerInspectorPanel(PrimerOnly):
+    """The ray inspector's panels, shown only when Primer is the render engine."""
 
     bl_label = "Ray Inspector"
-    COMPAT_ENGINES = {ENGINE}
-
-    @classmethod
-    def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES
 
 
 class VIEW3D_PT_primer_inspector(PrimerInspectorPanel, bpy.types.Panel):

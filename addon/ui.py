@@ -8,16 +8,21 @@ from .engine import PrimerRenderEngine
 ENGINE = PrimerRenderEngine.bl_idname
 
 
-class PrimerPanel:
-    """Base of Primer's panels: shown only when Primer is the render engine."""
+class PrimerOnly:
+    """Mixin of every Primer panel, wherever it sits: shown only when Primer is the render engine."""
 
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
     COMPAT_ENGINES = {ENGINE}
 
     @classmethod
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
+
+
+class PrimerPanel(PrimerOnly):
+    """Base of Primer's panels in the Properties editor."""
+
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
 
 
 class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
