@@ -20,11 +20,9 @@ import bpy
 from bpy.props import BoolProperty, FloatProperty, IntProperty, PointerProperty
 
 from . import export, inspector_view
-from .engine import PrimerRenderEngine
 from .ui import PrimerOnly
 
 log = logging.getLogger("primer")
-ENGINE = PrimerRenderEngine.bl_idname
 
 
 @dataclass
