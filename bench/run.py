@@ -154,6 +154,10 @@ def main(argv=None) -> int:
                     else os.path.join(common.RESULTS, "results.json"))
     previous = common.read_json(os.path.join(common.RESULTS, "results.json"), {}) or {}
     results = {"machine": machine(), "plan": plan.as_dict(), "load": {"start": os.getloadavg()[0]}}
+    if args.skip:
+        results["machine"]["skipped"] = [phase for phase in PHASES if phase in args.skip]
+        results["machine"]["skipped_from"] = previous.get("machine", {}).get(
+            "skipped_from" if set(args.skip) <= set(previous.get("machine", {}).get("skipped", [])) else "commit", "?")
     for phase in PHASES:
         if phase in args.skip:
             results[phase] = previous.get(phase, [] if phase in ("rays", "stability") else {})
