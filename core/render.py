@@ -6,10 +6,12 @@ run of pixels; for the whole chunk at once we
 2. generate the camera rays (core/camera.py),
 3. find the nearest hits (core/intersect.py),
 4. shade the hits with every light and its shadow rays (core/shading.py),
-5. average each pixel's samples (a 1-pixel box filter, like Cycles' "Box").
+5. sum each pixel's samples; the image is their mean (a 1-pixel box filter, like Cycles' "Box").
 Chunks write to disjoint pixels, so threads need no locks; Embree releases
 the GIL, so two cores trace at once. Memory stays bounded by the chunk size,
-whatever the image size.
+whatever the image size. With adaptive sampling (core/adaptive.py) this runs in
+passes: all pixels first, then only the noisy ones, each pass a new stratified
+pattern whose samples add to the pixel's sums.
 """
 from __future__ import annotations
 
