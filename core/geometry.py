@@ -69,6 +69,28 @@ def _object_corner_normals(mesh, keep: np.ndarray) -> np.ndarray:
     return per_vertex[triangles]
 
 
+# Instances are placed in batches of about this many triangles (bounds the temporary arrays).
+BATCH_TRIANGLES = 1 << 20
+
+
+def _slot_materials(slots: np.ndarray, table, rows: dict) -> np.ndarray:
+    """Return the scene material of each triangle for one instance: (t,) int64, -1 where it has none.
+
+    slots: (t,) int64 material slot per triangle; table: the instance's slot -> material array, or None
+    for the mesh's own indices. rows caches the answer per distinct table (instances share tables).
+    """
+    key = None if table is None else tuple(np.asarray(table).tolist())
+    if key not in rows:
+        if table is None:
+            rows[key] = slots
+        else:
+            table = np.asarray(table, np.int64)
+            filled = (slots >= 0) & (slots < len(table))
+            rows[key] = (np.where(filled, table[np.where(filled, slots, 0)], -1) if len(table)
+                         else np.full(len(slots), -1, np.int64))
+    return rows[key]
+
+
 def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
     """Place every instance in the world relative to `origin` and build the BVH.
 
@@ -99,6 +121,7 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
         smooth = mesh.smooth[in_range]
         slots = mesh.material_indices[in_range]
         corners = _object_corner_normals(mesh, in_range)[smooth] if smooth.any() else None
+        table_rows: dict = {}
 
         matrices = np.stack([inst.matrix for inst in instances])            # (k, 4, 4)
         linear = matrices[:, :3, :3]
@@ -111,47 +134,47 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
             world = (np.einsum("kij,vj->kvi", linear, mesh.vertices)
                      + (matrices[:, :3, 3] - origin)[:, None, :])           # (k, v, 3)
 
-        for k, inst in enumerate(instances):
-            if singular[k]:
-                continue
-            points = world[k]
-            # Materials: slot -> scene material; missing ones fall back to the default grey.
-            if inst.materials is None:
-                material = slots.copy()
-            else:
-                material = np.full(len(slots), -1, np.int64)
-                filled = (slots >= 0) & (slots < len(inst.materials))
-                material[filled] = inst.materials[slots[filled]]
+        # Instances in batches of about BATCH_TRIANGLES triangles: (k instances) x (t triangles) arrays,
+        # no Python loop per triangle, and temporaries bounded whatever the instance count.
+        placed_all = np.flatnonzero(~singular)
+        t, v = len(triangles), len(mesh.vertices)
+        per_batch = max(1, BATCH_TRIANGLES // t)
+        for first in range(0, len(placed_all), per_batch):
+            placed = placed_all[first:first + per_batch]
+            k = len(placed)
+            sign = np.sign(det[placed])
+            # 1. Materials: slot -> scene material; missing ones fall back to the default grey.
+            material = np.stack([_slot_materials(slots, instances[index].materials, table_rows)
+                                 for index in placed])                          # (k, t)
             missing = (material < 0) | (material >= n_materials)
             missing_materials += int(missing.sum())
             material = np.where(missing, n_materials, material)
-
-            # Face normals from the world points; a mirror (det < 0) flips the winding back.
-            with np.errstate(invalid="ignore", over="ignore"):         # NaN and huge vertices are dropped below
-                faces = normals_.face_normals(points, triangles)
+            # 2. Face normals from the world points; a mirror (det < 0) flips the winding back.
+            all_triangles = (triangles[None, :, :] + (np.arange(k) * v)[:, None, None]).reshape(-1, 3)
+            points = world[placed].reshape(-1, 3)
+            with np.errstate(invalid="ignore", over="ignore"):     # NaN and huge vertices are dropped below
+                faces = normals_.face_normals(points, all_triangles)
                 points32 = points.astype(np.float32)
-            face_n = faces.normals * np.sign(det[k])
-            finite = np.isfinite(points32).all(axis=1)[triangles].all(axis=1)
+            face_n = faces.normals * np.repeat(sign, t)[:, None]
+            finite = np.isfinite(points32).all(axis=1)[all_triangles].all(axis=1)
             nondegenerate = face_n.any(axis=1) & (faces.area > 0)
-            keep = finite & nondegenerate
+            keep = finite & nondegenerate                                   # (k t,)
             dropped_nonfinite += int((~finite).sum())
             dropped_degenerate += int((finite & ~nondegenerate).sum())
-
-            # Smooth corners transform with the inverse transpose: N' = M^-T N.
+            # 3. Smooth corners transform with the inverse transpose: N' = M^-T N (row vectors: n @ M^-1).
+            smooth_all = np.tile(smooth, k)
             if corners is not None:
-                inverse = np.linalg.inv(linear[k])
-                world_corners = normals_.safe_normalize(np.einsum("nij,jk->nik", corners, inverse))   # n @ M^-1 == (M^-T n)^T
-                smooth_keep = smooth & keep
-                parts_cn.append(world_corners[keep[smooth]].astype(np.float32))
-            else:
-                smooth_keep = np.zeros(len(triangles), bool)
-            parts_smooth.append(smooth_keep[keep])
-
+                inverse = np.linalg.inv(linear[placed])                     # (k, 3, 3)
+                world_corners = normals_.safe_normalize(np.einsum("sij,kjl->ksil", corners, inverse))
+                parts_cn.append(world_corners.reshape(-1, 3, 3)[keep[smooth_all]].astype(np.float32))
+            parts_smooth.append(smooth_all[keep])
+            # 4. Keep the good triangles, their vertices offset past those placed so far.
             parts_v.append(points32)
-            parts_t.append(triangles[keep] + vertex_offset)
+            parts_t.append(all_triangles[keep] + vertex_offset)
             parts_n.append(face_n[keep])
-            parts_m.append(material[keep])
-            parts_i.append(np.full(int(keep.sum()), instance_index[id(inst)], np.int32))
+            parts_m.append(material.reshape(-1)[keep])
+            owners = np.array([instance_index[id(instances[index])] for index in placed], np.int32)
+            parts_i.append(np.repeat(owners, t)[keep])
             vertex_offset += len(points32)
 
     if dropped_index:

@@ -166,3 +166,21 @@ def test_spot_light_without_a_frame_lights_the_scene():
     result = render.render(scene, RenderSettings(width=4, height=4, samples=1, jitter=False))
     assert result.stats.warnings == []
     assert (result.image[..., 0] > 0).all()
+
+
+def test_objects_without_material_slots_and_with_their_own_render_in_their_colours():
+    """Instances of one mesh with an empty slot table (default grey), their own table, or the mesh's indices."""
+    scene = Scene(camera=ortho_down(scale=3.0, height=2.0), world_color=np.zeros(3))
+    red = scene.add_material((1.0, 0.0, 0.0))
+    green = scene.add_material((0.0, 1.0, 0.0))
+    index = scene.add_mesh(primitives.plane(1.0, center=(-1.0, 0.0, 0.0)))          # mesh slot 0 -> red
+    from core.scene import DEFAULT_BASE_COLOR, Instance
+    for x, table in ((0.0, np.array([green])), (1.0, np.array([], np.int64))):
+        matrix = np.eye(4)
+        matrix[0, 3] = x + 1.0
+        scene.instances.append(Instance(index, matrix, table, f"Plane {x}"))
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=math.pi))     # radiance = albedo
+    image = render.render(scene, RenderSettings(width=3, height=1, samples=1, jitter=False)).image
+    np.testing.assert_allclose(image[0, 0, :3], [1.0, 0.0, 0.0], rtol=1e-6)
+    np.testing.assert_allclose(image[0, 1, :3], [0.0, 1.0, 0.0], rtol=1e-6)
+    np.testing.assert_allclose(image[0, 2, :3], DEFAULT_BASE_COLOR[:3], rtol=1e-6)
