@@ -17,7 +17,7 @@ bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else _
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
 from render import load_primer  # noqa: E402
 
-from test_blender_engine import engine_module, new_scene, render_to  # noqa: E402
+from test_blender_engine import engine_module, new_scene, render_passes, render_to  # noqa: E402
 
 pytestmark = pytest.mark.blender
 ALBEDO = 0.8                     # Blender's default material grey
@@ -27,27 +27,6 @@ ALBEDO = 0.8                     # Blender's default material grey
 def primer():
     """Primer registered from this checkout, as tools/render.py does."""
     return load_primer()
-
-
-def render_passes(scene, path: str) -> dict:
-    """Render into a multilayer float EXR and return pass name -> (H, W, c) float32, rows top-down."""
-    import OpenImageIO as oiio
-    settings = scene.render.image_settings
-    settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.color_depth = "32"
-    settings.exr_codec = "ZIP"
-    scene.render.filepath = path
-    scene.render.use_file_extension = False
-    bpy.ops.render.render(write_still=True)
-    parts = {}
-    inp = oiio.ImageInput.open(path)
-    index = 0
-    while inp.seek_subimage(index, 0):
-        spec = inp.spec()
-        parts[spec.channelnames[0].split(".")[1]] = inp.read_image(index, 0, 0, spec.nchannels, oiio.FLOAT)
-        index += 1
-    inp.close()
-    return parts
 
 
 def aim(obj, travel) -> None:

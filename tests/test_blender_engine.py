@@ -71,6 +71,32 @@ def render_to(scene, path):
     return image_io.read_image(path)
 
 
+def render_passes(scene, path: str) -> dict:
+    """Render into a multilayer float EXR and return pass name -> (H, W, c) float32, rows top-down.
+
+    Channels are named ViewLayer.<pass>.<channel>; Blender may put several passes in one part.
+    """
+    import OpenImageIO as oiio
+    settings = scene.render.image_settings
+    settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.color_depth = "32"
+    settings.exr_codec = "ZIP"
+    scene.render.filepath = path
+    scene.render.use_file_extension = False
+    bpy.ops.render.render(write_still=True)
+    channels: dict = {}
+    inp = oiio.ImageInput.open(path)
+    part = 0
+    while inp.seek_subimage(part, 0):
+        spec = inp.spec()
+        pixels = inp.read_image(part, 0, 0, spec.nchannels, oiio.FLOAT).reshape(spec.height, spec.width, -1)
+        for c, name in enumerate(spec.channelnames):
+            channels.setdefault(name.split(".")[-2], []).append(pixels[..., c])
+        part += 1
+    inp.close()
+    return {name: np.stack(planes, axis=-1) for name, planes in channels.items()}
+
+
 def test_sun_on_a_plane_renders_albedo_over_pi_times_strength(primer, tmp_path):
     """A default-grey plane under a 2 W/m^2 overhead sun shows 0.8/pi * 2 in every pixel."""
     scene = new_scene()
@@ -89,26 +115,11 @@ def test_debug_view_shows_the_normal_as_colour(primer, tmp_path):
 
 def test_depth_normal_and_debug_passes_are_written(primer, tmp_path):
     """With Z and Normal enabled, the multilayer EXR holds Depth, Normal and Primer's debug passes with exact values."""
-    import OpenImageIO as oiio
     scene = new_scene()
     scene.primer.debug_passes = True
     layer = scene.view_layers[0]
     layer.use_pass_z = layer.use_pass_normal = True
-    scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
-    scene.render.image_settings.color_depth = "32"
-    scene.render.image_settings.exr_codec = "ZIP"
-    path = str(tmp_path / "passes.exr")
-    scene.render.filepath = path
-    scene.render.use_file_extension = False
-    bpy.ops.render.render(write_still=True)
-    parts = {}
-    inp = oiio.ImageInput.open(path)
-    index = 0
-    while inp.seek_subimage(index, 0):
-        spec = inp.spec()
-        parts[spec.channelnames[0].split(".")[1]] = inp.read_image(index, 0, 0, spec.nchannels, oiio.FLOAT)
-        index += 1
-    inp.close()
+    parts = render_passes(scene, str(tmp_path / "passes.exr"))
     assert {"Combined", "Depth", "Normal", "Primer Face Normal", "Primer NdotL", "Primer Shadow"} <= set(parts)
     np.testing.assert_allclose(parts["Depth"], 5.0, rtol=1e-6)            # camera 5 above, looking down
     np.testing.assert_allclose(parts["Normal"][..., 2], 1.0, rtol=1e-6)

@@ -26,6 +26,7 @@ bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else _
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 from render import load_primer  # noqa: E402
+from test_blender_engine import render_passes  # noqa: E402
 
 from core import debug, image_io  # noqa: E402
 
@@ -80,33 +81,15 @@ def render(primer, scene, path: str, view: str = "NONE", passes: tuple = ()) -> 
     view: the Debug View (Combined then holds its picture); passes: "Depth", "Normal" and/or "Primer"
     (all debug passes).
     """
-    import OpenImageIO as oiio
     layer = scene.view_layers[0]
     layer.use_pass_z = "Depth" in passes
     layer.use_pass_normal = "Normal" in passes
     scene.primer.debug_passes = "Primer" in passes
     scene.primer.debug_view = view
-    settings = scene.render.image_settings
-    settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.color_depth = "32"
-    settings.exr_codec = "ZIP"
-    scene.render.filepath = path
-    scene.render.use_file_extension = False
-    bpy.ops.render.render(write_still=True)
+    result = render_passes(scene, path)
     record = addon_module(primer, "engine").last_render
     assert record.error == "" and not record.cancelled
-    # Channels are named ViewLayer.<pass>.<channel>; Blender may put several passes in one part.
-    channels: dict = {}
-    inp = oiio.ImageInput.open(path)
-    part = 0
-    while inp.seek_subimage(part, 0):
-        spec = inp.spec()
-        pixels = inp.read_image(part, 0, 0, spec.nchannels, oiio.FLOAT).reshape(spec.height, spec.width, -1)
-        for c, name in enumerate(spec.channelnames):
-            channels.setdefault(name.split(".")[-2], []).append(pixels[..., c])
-        part += 1
-    inp.close()
-    return {name: np.stack(planes, axis=-1) for name, planes in channels.items()}
+    return result
 
 
 def save(name: str, rgba: np.ndarray, exposure: float = 0.0) -> np.ndarray:
