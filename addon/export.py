@@ -141,26 +141,30 @@ def _material_color(material, warnings: list | None = None) -> np.ndarray:
     return np.array(material.diffuse_color[:3], np.float64)
 
 
-class _Materials:
-    """Scene materials, each exported once, indexed by the material datablock."""
+class MaterialTable:
+    """Scene materials, each exported once, with stable indices (the BVH stores them per triangle).
 
-    def __init__(self, scene: core_scene.Scene, warnings: list | None = None):
-        self.scene = scene
-        self.index = {}
-        self.warnings = warnings
+    Keyed by the original datablock's session uid: a pointer may be reused when Blender evaluates
+    the scene again, which matters to the viewport's cache (addon/scene_cache.py), kept between updates.
+    """
 
-    def slot_map(self, obj) -> np.ndarray:
-        """Return the scene material index of each of the object's material slots (-1 for empty)."""
+    def __init__(self):
+        self.index: dict = {}
+        self.materials: list = []          # core_scene.Material, in index order
+
+    def slot_map(self, obj, warnings: list) -> np.ndarray:
+        """Return the scene material index of each of the object's material slots (-1 for empty): (k,) int64."""
         slots = []
         for slot in obj.material_slots:
             material = slot.material
             if material is None:
                 slots.append(-1)
                 continue
-            key = material.original.as_pointer() if hasattr(material, "original") else material.as_pointer()
-            if key not in self.index:
-                self.index[key] = self.scene.add_material(_material_color(material, self.warnings), material.name)
-            slots.append(self.index[key])
+            uid = material.original.session_uid
+            if uid not in self.index:
+                self.index[uid] = len(self.materials)
+                self.materials.append(core_scene.Material(_material_color(material, warnings), material.name))
+            slots.append(self.index[uid])
         return np.array(slots, np.int64)
 
 
@@ -398,7 +402,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
     core = core_scene.Scene(camera=camera, world_color=export_world(scene.world, warnings))
-    materials = _Materials(core, warnings)
+    materials = MaterialTable()
     mesh_index: dict = {}
     ray_visibility_noted: set = set()
     unsupported_noted: set = set()
@@ -440,8 +444,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             continue
         if obj.name not in terminator_offsets and core.meshes[mesh_index[key]].smooth.any():
             terminator_offsets[obj.name] = _terminator_offsets(obj)
-        core.instances.append(core_scene.Instance(mesh_index[key], matrix, materials.slot_map(obj), obj.name))
+        core.instances.append(core_scene.Instance(mesh_index[key], matrix, materials.slot_map(obj, warnings), obj.name))
 
+    core.materials = materials.materials
     if not core.lights:
         warnings.append("the scene has no lights: only the world colour will be visible")
     width, height = frame_size(scene.render)

@@ -40,7 +40,7 @@ import numpy as np
 
 from . import export
 from ..core import scene as core_scene
-from ..core.geometry import WorldGeometry, build_geometry
+from ..core.geometry import WorldGeometry, build_geometry, material_albedo
 
 
 @dataclass
@@ -140,28 +140,8 @@ class _Placement:
                 and np.array_equal(self.materials, other.materials))
 
 
-class _MaterialTable:
-    """Scene materials by original session uid, with stable indices (the BVH stores them per triangle)."""
-
-    def __init__(self):
-        self.index: dict = {}
-        self.materials: list = []          # core_scene.Material, in index order
-        self.sources: list = []            # the datablock name per index, to find it again
-
-    def slot_map(self, obj, warnings: list) -> np.ndarray:
-        """Return the scene material index of each of the object's material slots (-1 for empty): (k,) int64."""
-        slots = []
-        for slot in obj.material_slots:
-            material = slot.material
-            if material is None:
-                slots.append(-1)
-                continue
-            uid = material.original.session_uid
-            if uid not in self.index:
-                self.index[uid] = len(self.materials)
-                self.materials.append(core_scene.Material(export._material_color(material, warnings), material.name))
-            slots.append(self.index[uid])
-        return np.array(slots, np.int64)
+class _MaterialTable(export.MaterialTable):
+    """The export's material table, kept between updates: colours are read again when materials change."""
 
     def refresh(self, depsgraph, warnings: list) -> int:
         """Read every known material's colour again from the evaluated depsgraph; return how many were read."""
@@ -171,11 +151,6 @@ class _MaterialTable:
             if material is not None:
                 self.materials[index] = core_scene.Material(export._material_color(material, warnings), material.name)
         return len(self.index)
-
-    def albedo(self) -> np.ndarray:
-        """Return the base colours as WorldGeometry stores them (default grey last): (m + 1, 3) float64."""
-        colors = [np.asarray(m.base_color, np.float64)[:3] for m in self.materials] + [core_scene.DEFAULT_BASE_COLOR]
-        return np.clip(np.nan_to_num(np.array(colors, np.float64)), 0.0, 1.0)
 
 
 class SceneCache:
@@ -229,7 +204,7 @@ class SceneCache:
             self.geometry = build_geometry(self.scene, np.asarray(origin, np.float64))
             report.bvh = True
         elif report.materials:
-            self.geometry = dataclasses.replace(self.geometry, albedo=self.material_table.albedo())
+            self.geometry = dataclasses.replace(self.geometry, albedo=material_albedo(self.material_table.materials))
         self.warnings = list(dict.fromkeys(self.warnings))       # each note once
         self._add_to_totals(report)
         return report

@@ -69,6 +69,12 @@ def _object_corner_normals(mesh, keep: np.ndarray) -> np.ndarray:
     return per_vertex[triangles]
 
 
+def material_albedo(materials: list) -> np.ndarray:
+    """Return the base colours as WorldGeometry stores them, the default grey last: (m + 1, 3) float64 in [0, 1]."""
+    colors = [np.asarray(m.base_color, np.float64)[:3] for m in materials] + [DEFAULT_BASE_COLOR]
+    return np.clip(np.nan_to_num(np.array(colors, np.float64)), 0.0, 1.0)
+
+
 # Instances are placed in batches of about this many triangles (bounds the temporary arrays).
 BATCH_TRIANGLES = 1 << 20
 
@@ -193,14 +199,13 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
     smooth_mask = np.concatenate(parts_smooth) if parts_smooth else np.zeros(0, bool)
     smooth_index = np.full(len(triangles), -1, np.int32)
     smooth_index[smooth_mask] = np.arange(int(smooth_mask.sum()), dtype=np.int32)
-    albedo = np.array([np.asarray(m.base_color, np.float64)[:3] for m in scene.materials] + [DEFAULT_BASE_COLOR])
     return WorldGeometry(
         origin=origin,
         vertices=vertices,
         triangles=triangles,
         face_normals=np.concatenate(parts_n) if parts_n else np.zeros((0, 3)),
         material=(np.concatenate(parts_m) if parts_m else np.zeros(0, np.int64)).astype(np.int32),
-        albedo=np.clip(np.nan_to_num(albedo), 0.0, 1.0),
+        albedo=material_albedo(scene.materials),
         smooth_index=smooth_index,
         corner_normals=np.concatenate(parts_cn) if parts_cn else np.zeros((0, 3, 3), np.float32),
         tracer=Tracer(vertices, triangles),
