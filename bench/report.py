@@ -230,9 +230,9 @@ def machine_lines(machine: dict) -> list:
             f"numpy {machine['numpy']}, OpenImageIO {machine['openimageio']}, flip-evaluator {machine['flip']}",
             f"- Run on {machine['date']} at commit {machine['commit']}; `make bench` took "
             f"{machine.get('total_minutes', float('nan')):.1f} minutes"
-            + (f" ({machine['reference_note']})" if machine.get("reference_note") else "")] + (
-        [f"- Phases {', '.join(machine['skipped'])} were skipped in this run; their numbers come from the run "
-         f"at commit {machine.get('skipped_from', '?')}"] if machine.get("skipped") else [])
+            + (f" ({machine['reference_note']})" if machine.get("reference_note") else "")] + [
+        f"- Phase {phase} was skipped in this run; its numbers come from the run at commit {commit}"
+        for phase, commit in machine.get("phase_commits", {}).items() if commit != machine["commit"]]
 
 
 def ladder_table(results: dict) -> list:

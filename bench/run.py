@@ -154,10 +154,11 @@ def main(argv=None) -> int:
                     else os.path.join(common.RESULTS, "results.json"))
     previous = common.read_json(os.path.join(common.RESULTS, "results.json"), {}) or {}
     results = {"machine": machine(), "plan": plan.as_dict(), "load": {"start": os.getloadavg()[0]}}
-    if args.skip:
-        results["machine"]["skipped"] = [phase for phase in PHASES if phase in args.skip]
-        results["machine"]["skipped_from"] = previous.get("machine", {}).get(
-            "skipped_from" if set(args.skip) <= set(previous.get("machine", {}).get("skipped", [])) else "commit", "?")
+    # The commit whose run measured each phase: this one, or for a skipped phase the one its numbers come from.
+    measured_at = previous.get("machine", {}).get("phase_commits", {})
+    results["machine"]["phase_commits"] = {
+        phase: measured_at.get(phase, previous.get("machine", {}).get("commit", "?")) if phase in args.skip
+        else results["machine"]["commit"] for phase in PHASES}
     for phase in PHASES:
         if phase in args.skip:
             results[phase] = previous.get(phase, [] if phase in ("rays", "stability") else {})
