@@ -169,7 +169,8 @@ class ChunkResult(NamedTuple):
     """Per-pixel sums of one chunk's samples (sums, not means, so passes add up).
 
     rgba:      (p, 4) float64 sum of the samples' RGBA
-    squares:   (p, 2) float64 sums of the samples' squared luminance and alpha (for the noise estimate)
+    squares:   (p, 2) float64 sums of the samples' squared luminance and alpha (adaptive sampling's
+               noise estimate; zeros without adaptive sampling)
     aux:       name -> (p, c) float64 sum of the auxiliary values over the samples that hit
     hits:      (p,) int64 samples that hit a surface
     primary:   camera rays traced (a fisheye's samples outside its image circle trace none)
@@ -230,13 +231,21 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> Chu
         shadow_rays = shading.shadow_rays
     shading_seconds = time.perf_counter() - shading_start
     # 5. Box filter: sum each pixel's samples (the caller divides by the count).
-    luminance = np.einsum("ij,j->i", rgba[:, :3], adaptive.LUMINANCE)
     per_pixel = rgba.reshape(len(pixels), spp, 4).sum(axis=1)
-    squares = np.stack([luminance * luminance, rgba[:, 3] * rgba[:, 3]], axis=1).reshape(len(pixels), spp, 2).sum(axis=1)
+    squares = _squares(rgba, len(pixels), spp) if s.adaptive else np.zeros((len(pixels), 2))
     hits_per_pixel = np.bincount(h // spp, minlength=len(pixels))
     aux = (_sum_aux(ctx, len(pixels), spp, h, surface, shading, rays.valid, directions[hits.hit])
            if ctx.want_aux else {})
     return ChunkResult(per_pixel, squares, aux, hits_per_pixel, len(traced), shadow_rays, shading_seconds, spp)
+
+
+def _squares(rgba: np.ndarray, n_pixels: int, spp: int) -> np.ndarray:
+    """Return each pixel's sums of squared luminance and squared alpha, for adaptive sampling's noise estimate.
+
+    rgba: (n_pixels * spp, 4) float64 samples, pixel by pixel -> (n_pixels, 2) float64
+    """
+    luminance = np.einsum("ij,j->i", rgba[:, :3], adaptive.LUMINANCE)
+    return np.stack([luminance * luminance, rgba[:, 3] * rgba[:, 3]], axis=1).reshape(n_pixels, spp, 2).sum(axis=1)
 
 
 def _render_chunk_timed(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> ChunkResult:
