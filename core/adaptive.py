@@ -14,9 +14,11 @@ So instead of `samples` rays in every pixel, Primer renders in passes:
    another pass, twice as large as the one before, until they either fall below
    the threshold or reach `samples`.
 
-Each pass is a complete stratified pattern over the pixel, so every pass alone is
-an unbiased estimate of the pixel's average. Their mean is not quite: whether a pixel
-goes on is decided from the very samples that enter its mean. A feature smaller than
+The passes continue one progressive sample pattern per pixel (core/sampling.py):
+a pixel that takes every pass gets exactly the samples a uniform render of `samples`
+gets, stratified as well, and its passes so far always form a well-spread pattern.
+The mean is not quite unbiased: whether a pixel goes on is decided from the very
+samples that enter its mean. A feature smaller than
 one stratum of the first pass (a thin wire, a far speck of light) is missed by all its
 samples with some probability; the pixel then looks noiseless, stops, and lacks that
 feature. The first pass grows with `samples` (a sixteenth of it), so such features

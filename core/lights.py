@@ -74,17 +74,31 @@ def _direction_to(points: np.ndarray, targets: np.ndarray):
     return w, distance
 
 
-def _sample_cone(axis: np.ndarray, cos_max: np.ndarray, u: np.ndarray):
-    """Return unit directions uniform in solid angle within a cone around each axis.
+class Cone(NamedTuple):
+    """The cone of directions a light with extent covers from each shading point.
 
-    axis: (n, 3) float64 unit; cos_max: (n,) float64; u: (n, 2) float64 in [0, 1).
+    It depends on the points only, not on the sample, so it is built once per light and
+    shared by all that light's samples (`light_cone`).
+    axis:    (n, 3) float64 unit direction to the light's centre (may be a broadcast row)
+    t, b:    (n, 3) float64 unit vectors completing axis to an orthonormal frame
+    cos_max: (n,) float64 cosine of the cone's half-angle
+    d:       (n,) float64 distance to the light's centre (inf for the sun)
     """
-    cos_theta = 1.0 - u[:, 0] * (1.0 - cos_max)
+
+    axis: np.ndarray
+    t: np.ndarray
+    b: np.ndarray
+    cos_max: np.ndarray
+    d: np.ndarray
+
+
+def _sample_cone(cone: Cone, u: np.ndarray):
+    """Return unit directions uniform in solid angle within each cone: u (n, 2) float64 -> (n, 3) float64."""
+    cos_theta = 1.0 - u[:, 0] * (1.0 - cone.cos_max)
     sin_theta = np.sqrt(np.maximum(0.0, 1.0 - cos_theta * cos_theta))
     phi = 2.0 * math.pi * u[:, 1]
-    t, b = orthonormal_frame(axis)
-    return (t * (sin_theta * np.cos(phi))[:, None] + b * (sin_theta * np.sin(phi))[:, None]
-            + axis * cos_theta[:, None])
+    return (cone.t * (sin_theta * np.cos(phi))[:, None] + cone.b * (sin_theta * np.sin(phi))[:, None]
+            + cone.axis * cos_theta[:, None])
 
 
 def orthonormal_frame(axis: np.ndarray):
@@ -126,16 +140,13 @@ def spot_attenuation(light: SpotLight, directions: np.ndarray) -> np.ndarray:
     return x * x * (3.0 - 2.0 * x)
 
 
-def _sample_round_light(center: np.ndarray, radius: float, soft_falloff: bool, power: float,
-                        color: np.ndarray, points: np.ndarray, u: np.ndarray) -> LightSample:
-    """Sample a point light of radius R > 0, uniformly over the cone of directions it covers.
+def _round_light_cone(center: np.ndarray, radius: float, soft_falloff: bool, points: np.ndarray) -> Cone:
+    """Return the cone a point light of radius R > 0 covers from each point.
 
-    Its radiance is L_e = P / (4 pi^2 R^2), so that from afar it is a point light
-    of intensity P / (4 pi). As in Cycles, with soft falloff (Blender's default)
-    the light is a disk of radius R facing the shading point: a cone with
-    sin^2 a = R^2 / (R^2 + d^2). Without it, it is a sphere: sin^2 a = R^2 / d^2,
-    which gives exactly the point light's irradiance while above the horizon.
-    pdf = 1 / (2 pi (1 - cos a)), so each sample carries E_normal = L_e 2 pi (1 - cos a).
+    As in Cycles, with soft falloff (Blender's default) the light is a disk of radius R facing
+    the shading point: sin^2 a = R^2 / (R^2 + d^2). Without it, it is a sphere:
+    sin^2 a = R^2 / d^2, which gives exactly the point light's irradiance while above the horizon.
+    points: (n, 3) float64
     """
     to_center, d = _direction_to(points, np.broadcast_to(center, points.shape))
     if soft_falloff:
@@ -143,16 +154,28 @@ def _sample_round_light(center: np.ndarray, radius: float, soft_falloff: bool, p
     else:
         d = np.maximum(d, radius * (1.0 + 1e-9))        # a point inside the sphere sees it from its surface
         sin2_max = np.minimum(1.0, (radius / d) ** 2)
-    cos_max = np.sqrt(1.0 - sin2_max)
-    L = _sample_cone(to_center, cos_max, u)
-    cos_to_center = np.einsum("ij,ij->i", L, to_center)
+    t, b = orthonormal_frame(to_center)
+    return Cone(to_center, t, b, np.sqrt(1.0 - sin2_max), d)
+
+
+def _sample_round_light(cone: Cone, radius: float, soft_falloff: bool, power: float,
+                        color: np.ndarray, points: np.ndarray, u: np.ndarray) -> LightSample:
+    """Sample a point light of radius R > 0, uniformly over the cone of directions it covers.
+
+    Its radiance is L_e = P / (4 pi^2 R^2), so that from afar it is a point light
+    of intensity P / (4 pi). pdf = 1 / (2 pi (1 - cos a)), so each sample carries
+    E_normal = L_e 2 pi (1 - cos a). cone: from `_round_light_cone` for these points.
+    """
+    L = _sample_cone(cone, u)
+    cos_to_center = np.einsum("ij,ij->i", L, cone.axis)
+    d = cone.d
     if soft_falloff:
         distance = d / np.maximum(cos_to_center, 1e-300)  # to the disk through the centre, facing the point
     else:
         b = d * cos_to_center                              # to the near side of the sphere
         distance = b - np.sqrt(np.maximum(0.0, b * b - (d * d - radius * radius)))
     radiance = power / (4.0 * math.pi * math.pi * radius * radius)
-    strength = radiance * 2.0 * math.pi * (1.0 - cos_max)
+    strength = radiance * 2.0 * math.pi * (1.0 - cone.cos_max)
     return LightSample(L, distance, strength, color, points + L * distance[:, None])
 
 
@@ -200,29 +223,49 @@ def area_light_area(light: AreaLight) -> float:
     return _area_points(light, np.zeros((1, 2)))[1]
 
 
-def sample_light(light, points: np.ndarray, u: np.ndarray) -> LightSample:
+def light_cone(light, points: np.ndarray):
+    """Return the Cone a sphere light or sun disk covers from each point, or None for other lights.
+
+    It is the part of sampling that depends on the points only: compute it once per light and
+    pass it to every `sample_light` call for the same points. points: (n, 3) float64
+    """
+    if isinstance(light, SunLight) and light.angle > 0.0:
+        # The same cone everywhere: one frame, broadcast to all points.
+        travel = np.asarray(light.direction, np.float64)
+        axis = -travel / np.linalg.norm(travel)
+        t, b = orthonormal_frame(axis[None, :])
+        n = len(points)
+        return Cone(np.broadcast_to(axis, (n, 3)), np.broadcast_to(t, (n, 3)), np.broadcast_to(b, (n, 3)),
+                    np.full(n, math.cos(0.5 * light.angle)), np.full(n, np.inf))
+    if isinstance(light, (PointLight, SpotLight)) and light.radius > 0.0:
+        return _round_light_cone(np.asarray(light.position, np.float64), light.radius, light.soft_falloff, points)
+    return None
+
+
+def sample_light(light, points: np.ndarray, u: np.ndarray, cone=None) -> LightSample:
     """Return the light arriving at each point from `light`, one sample per point.
 
     points: (n, 3) float64 shading points in the same space as the light;
-    u: (n, 2) float64 uniform numbers in [0, 1) (ignored by lights without extent).
+    u: (n, 2) float64 uniform numbers in [0, 1) (ignored by lights without extent);
+    cone: `light_cone(light, points)`, if the caller already has it.
     """
     n = len(points)
     color = np.asarray(light.color, np.float64)[:3]
+    if cone is None:
+        cone = light_cone(light, points)
 
     if isinstance(light, SunLight):
-        travel = np.asarray(light.direction, np.float64)
-        travel = travel / np.linalg.norm(travel)
         if light.angle <= 0.0:
             # A distant light: one direction, irradiance = strength, no distance attenuation.
-            L = np.broadcast_to(-travel, (n, 3)).copy()
+            travel = np.asarray(light.direction, np.float64)
+            L = np.broadcast_to(-travel / np.linalg.norm(travel), (n, 3)).copy()
             strength = np.full(n, float(light.strength))
         else:
             # A disk of directions of angular radius a with uniform radiance S / (pi sin^2 a).
             half = 0.5 * light.angle
-            cos_max = math.cos(half)
-            L = _sample_cone(np.broadcast_to(-travel, (n, 3)), np.full(n, cos_max), u)
+            L = _sample_cone(cone, u)
             radiance = light.strength / (math.pi * math.sin(half) ** 2)
-            strength = np.full(n, radiance * 2.0 * math.pi * (1.0 - cos_max))
+            strength = np.full(n, radiance * 2.0 * math.pi * (1.0 - math.cos(half)))
         return LightSample(L, np.full(n, np.inf), strength, color, np.zeros((n, 3)))
 
     if isinstance(light, (PointLight, SpotLight)):
@@ -235,7 +278,7 @@ def sample_light(light, points: np.ndarray, u: np.ndarray) -> LightSample:
             sample = LightSample(L, distance, light.power * INV_4PI * falloff, color,
                                  np.broadcast_to(center, points.shape))
         else:
-            sample = _sample_round_light(center, light.radius, light.soft_falloff, light.power, color, points, u)
+            sample = _sample_round_light(cone, light.radius, light.soft_falloff, light.power, color, points, u)
         if isinstance(light, SpotLight):
             # The cone is evaluated for the direction from the (sampled) light point to the surface.
             sample = sample._replace(strength=sample.strength * spot_attenuation(light, -sample.L))

@@ -189,14 +189,24 @@ class ChunkResult(NamedTuple):
     samples: int
 
 
-def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> ChunkResult:
-    """Render `spp` samples in each of `pixels` (one stratified pass, random numbers from `seed`)."""
+def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
+                  first: Optional[np.ndarray] = None) -> ChunkResult:
+    """Render `spp` samples in each of `pixels`: samples first .. first + spp - 1 of each pixel's pattern.
+
+    pixels: (p,) int64 flat pixel indices; first: (p,) int64 samples each pixel already has (None: 0).
+    """
     s = dataclasses.replace(ctx.settings, samples=spp, seed=seed)
     W, H = s.width, s.height
-    # 1. Sample positions inside each pixel.
+    # 1. Sample positions inside each pixel: the next spp points of its progressive pattern
+    #    (core/sampling.py), or without jitter the centres of a grid of spp cells.
     pixel = np.repeat(pixels, spp)
     sample = np.tile(np.arange(spp, dtype=np.int64), len(pixels))
-    offset = sampling.stratified_2d(s.seed, pixel, sample, spp, dimension=0, jitter=s.jitter)
+    if first is not None:
+        sample += np.repeat(first, spp)
+    if s.jitter:
+        offset = sampling.sample_2d(s.seed, pixel, sample, dimension=0)
+    else:
+        offset = sampling.stratum_centres(sample, spp)
     raster_x = (pixel % W) + offset[:, 0]
     raster_y = (pixel // W) + offset[:, 1]
     # 2. Camera rays, moved into the camera-relative frame.
@@ -248,13 +258,15 @@ def _squares(rgba: np.ndarray, n_pixels: int, spp: int) -> np.ndarray:
     return np.stack([luminance * luminance, rgba[:, 3] * rgba[:, 3]], axis=1).reshape(n_pixels, spp, 2).sum(axis=1)
 
 
-def _render_chunk_timed(ctx: _Context, pixels: np.ndarray, spp: int, seed: int) -> ChunkResult:
+def _render_chunk_timed(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
+                        first: Optional[np.ndarray] = None) -> ChunkResult:
     """Render `pixels` in runs of TIME_TILE pixels, timing each run: `_render_chunk`'s result plus the
     "time" buffer, each run's wall time shared out to its pixels by their rays (debug.share_time)."""
     parts = []
     for i in range(0, len(pixels), TIME_TILE):
         start = time.perf_counter()
-        part = _render_chunk(ctx, pixels[i:i + TIME_TILE], spp, seed)
+        part = _render_chunk(ctx, pixels[i:i + TIME_TILE], spp, seed,
+                             None if first is None else first[i:i + TIME_TILE])
         seconds = time.perf_counter() - start
         part.aux["time"] = debug.share_time(seconds, part.aux["rays"][:, 0])[:, None]
         if "rays" not in ctx.settings.aux:
@@ -452,11 +464,13 @@ def render(scene: Scene, settings: RenderSettings,
                 pixels = adaptive.unconverged(region, noise, threshold, W, H)
                 if len(pixels) == 0:
                     break
-            # 2. One stratified pass of `spp` samples over them, chunk by chunk, its own random numbers.
-            seed = (settings.seed + index * 0x2545F491) & 0xFFFFFFFF
+            # 2. A pass of `spp` more samples over them, chunk by chunk: each pixel continues its own
+            #    progressive pattern where it left off, so all its passes together stay stratified.
+            done_before = noise.count.copy()
             per_chunk = _chunk_pixels(len(pixels), spp, settings.chunk_size, threads)
             chunks = [pixels[i:i + per_chunk] for i in range(0, len(pixels), per_chunk)]
-            cancelled = _run_chunks(pool, threads, chunks, lambda c: render_chunk(ctx, c, spp, seed), store,
+            cancelled = _run_chunks(pool, threads, chunks,
+                                    lambda c: render_chunk(ctx, c, spp, settings.seed, done_before[c]), store,
                                     cancel, lambda f: progress((index + f) / len(passes), stats) if progress else None,
                                     stats, start)
             stats.passes += 1

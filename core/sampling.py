@@ -1,9 +1,17 @@
-"""Deterministic random numbers and stratified sample patterns.
+"""Deterministic random numbers and sample patterns.
 
 Every random number is a hash of (seed, pixel, sample, dimension), so an image
 depends only on the seed: not on the chunk size, the thread count or the
 order in which chunks finish. That makes renders reproducible and lets tests
 compare images exactly.
+
+Camera and light samples come from one progressive pattern per pixel (`sample_2d`):
+a scrambled Sobol (0,2)-sequence. Its first 2^m points are stratified in every
+way a set of 2^m points can be (one point in each of the 2^m cells of any grid
+of 2^a x 2^b cells with a + b = m), and every later block of 2^m points is too. So
+adaptive sampling (core/adaptive.py), which adds samples pass by pass, gets the
+same well-spread pattern a uniform render of the same count gets: its passes
+continue one sequence instead of starting new ones.
 """
 from __future__ import annotations
 
@@ -25,71 +33,115 @@ def hash_u32(x: np.ndarray) -> np.ndarray:
         return (word >> _U32(22)) ^ word
 
 
-def uniform(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -> np.ndarray:
-    """Return one uniform number in [0, 1) per element, fixed by (seed, pixel, index, dimension).
+def stratum_centres(index: np.ndarray, count: int) -> np.ndarray:
+    """Return the centre of the index-th of `count` strata of the unit square (the unjittered pattern).
 
-    pixel, index: (n,) integer arrays (broadcastable); returns (n,) float64.
+    A perfect-square count is an m x m grid, stratum (index mod m, index div m); any other
+    count has one stratum per row and per column (a Latin square), paired by a golden-ratio lattice.
+    index: (n,) int64 with 0 <= index < count -> (n, 2) float64 in (0, 1)
+    """
+    index = np.asarray(index, dtype=np.int64)
+    m = math.isqrt(count)
+    if m * m == count:
+        x, y = index % m, index // m
+        return np.stack([(x + 0.5) / m, (y + 0.5) / m], axis=-1)
+    step = max(1, round(count * 0.6180339887498949))
+    while math.gcd(step, count) != 1:
+        step += 1
+    row = (index * step) % count
+    return np.stack([(index + 0.5) / count, (row + 0.5) / count], axis=-1)
+
+
+# ---------------------------------------------------------------------------
+# Progressive pattern: Owen-scrambled, shuffled Sobol (0,2)-sequence
+# (Burley, "Practical Hash-based Owen Scrambling", JCGT 2020).
+# ---------------------------------------------------------------------------
+
+def reverse_bits(x: np.ndarray) -> np.ndarray:
+    """Return each uint32 with its 32 bits in reverse order: (n,) uint32 -> (n,) uint32."""
+    x = np.asarray(x, dtype=_U32)
+    for shift, mask in ((1, 0x55555555), (2, 0x33333333), (4, 0x0F0F0F0F), (8, 0x00FF00FF)):
+        s, m = _U32(shift), _U32(mask)
+        x = ((x >> s) & m) | ((x & m) << s)       # swap neighbouring groups of `shift` bits
+    return (x >> _U32(16)) | (x << _U32(16))
+
+
+def _laine_karras(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
+    """Return a permutation of uint32s in which each output bit depends only on the seed and the lower input bits."""
+    with np.errstate(over="ignore"):
+        x = x + np.asarray(seed, dtype=_U32)
+        for constant in (0x6C50B47C, 0xB82F1E52, 0xC7AFE638, 0x8D22F6E6):
+            x ^= x * _U32(constant)
+    return x
+
+
+def owen_scramble(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
+    """Return x with each bit flipped pseudo-randomly, depending only on the seed and the bits above it.
+
+    Read as a binary fraction, that is Owen's nested scrambling: each half of [0, 1) is
+    mirrored or not, then each quarter within it, and so on, so that points that were
+    stratified stay stratified. The flips come from the Laine-Karras hash on the reversed
+    bits (Burley's constants). x, seed: (n,) uint32 (broadcastable) -> (n,) uint32
+    """
+    return reverse_bits(_laine_karras(reverse_bits(x), seed))
+
+
+def _sobol_tables() -> np.ndarray:
+    """Return (4, 256) uint32: the XOR of Sobol's second-dimension direction numbers for each byte of an index."""
+    directions = [0x80000000]
+    for _ in range(31):
+        directions.append(directions[-1] ^ (directions[-1] >> 1))
+    tables = np.zeros((4, 256), dtype=_U32)
+    for byte in range(4):
+        for value in range(256):
+            word = 0
+            for bit in range(8):
+                if value >> bit & 1:
+                    word ^= directions[8 * byte + bit]
+            tables[byte, value] = word
+    return tables
+
+
+_SOBOL_Y = _sobol_tables()
+
+
+def sobol_y(index: np.ndarray) -> np.ndarray:
+    """Return Sobol's second dimension of each index, a 32-bit binary fraction: (n,) uint32 -> (n,) uint32.
+
+    It XORs together one direction number per set bit of the index (a byte at a time, from tables).
+    """
+    index = np.asarray(index, dtype=_U32)
+    y = _SOBOL_Y[0][index & _U32(0xFF)]
+    for byte in range(1, 4):
+        y ^= _SOBOL_Y[byte][(index >> _U32(8 * byte)) & _U32(0xFF)]
+    return y
+
+
+def sobol_2d(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the first two Sobol dimensions of each index, as 32-bit binary fractions.
+
+    x is the van der Corput sequence (the index's bits mirrored behind the binary point), y is `sobol_y`.
+    index: (n,) uint32 -> x, y: (n,) uint32
+    """
+    return reverse_bits(index), sobol_y(index)
+
+
+def sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -> np.ndarray:
+    """Return the index-th point of the pixel's own progressive pattern in the unit square.
+
+    Each (seed, pixel, dimension) has its own scrambling of one Sobol (0,2)-sequence: the
+    order of its points is shuffled (by an Owen scramble of the index, which keeps each
+    aligned block of 2^m indices together, so every such block is still stratified) and
+    each coordinate is Owen-scrambled. Points 0..2^m-1, and each aligned block after them,
+    put one point in each of 2^m equal cells of any power-of-two grid.
+    pixel, index: (n,) int64 (index >= 0) -> (n, 2) float64 in [0, 1)
     """
     stream = hash_u32(np.array([(seed * 0x9E3779B9 + dimension * 0x85EBCA6B) & 0xFFFFFFFF], dtype=_U32))
     key = hash_u32(np.asarray(pixel).astype(_U32) ^ stream)
-    key = hash_u32(key ^ np.asarray(index).astype(_U32))
-    return (key >> _U32(8)).astype(np.float64) * (1.0 / (1 << 24))
-
-
-def stratified_2d(seed: int, pixel: np.ndarray, index: np.ndarray, count: int, dimension: int,
-                  jitter: bool = True) -> np.ndarray:
-    """Return the index-th of `count` stratified points in the unit square, per pixel.
-
-    A perfect-square count uses a jittered m x m grid; any other count uses
-    Latin-hypercube strata (one per row and one per column, paired by a golden-ratio
-    lattice with a random offset per pixel). Without jitter, points sit at stratum centres.
-    pixel, index: (n,) int64 with 0 <= index < count; returns (n, 2) float64 in [0, 1).
-    """
-    index = np.asarray(index, dtype=np.int64)
-    u = uniform(seed, pixel, index, dimension) if jitter else np.full(index.shape, 0.5)
-    v = uniform(seed, pixel, index, dimension + 1) if jitter else np.full(index.shape, 0.5)
-    m = math.isqrt(count)
-    if m * m == count:
-        # Jittered grid: stratum (index mod m, index div m).
-        x = (index % m + u) / m
-        y = (index // m + v) / m
-    else:
-        # Latin hypercube: column `index`, row from a shifted rank-1 lattice.
-        step = max(1, round(count * 0.6180339887498949))
-        while math.gcd(step, count) != 1:
-            step += 1
-        shift = (uniform(seed, pixel, np.zeros_like(index), dimension + 2) * count).astype(np.int64) if jitter else 0
-        row = (index * step + shift) % count
-        x = (index + u) / count
-        y = (row + v) / count
-    return np.stack([x, y], axis=-1)
-
-
-def permute(index: np.ndarray, count: int, key: np.ndarray) -> np.ndarray:
-    """Return index mapped through a pseudo-random permutation of [0, count), a different one per key.
-
-    An invertible mix of w-bit integers (xor with the key, odd multiplications and
-    xor-shifts, each a bijection modulo 2^w), applied again while the result is
-    still >= count ("cycle walking"), so that [0, count) maps onto itself.
-    index: (n,) int64 in [0, count); key: (n,) integer -> (n,) int64
-    """
-    bits = max(1, int(count - 1).bit_length())
-    mask = _U32((1 << bits) - 1)
-    shift = _U32(max(1, bits // 2))
-    key = hash_u32(np.asarray(key).astype(_U32))
-
-    def mix(x: np.ndarray, k: np.ndarray) -> np.ndarray:
-        with np.errstate(over="ignore"):
-            x = (x ^ k) & mask
-            x = (x * _U32(0x2C1B3C6D)) & mask
-            x ^= x >> shift
-            x = (x * _U32(0x297A2D39)) & mask
-            x ^= x >> shift
-            return (x + (k >> _U32(16))) & mask
-
-    x = mix(np.asarray(index).astype(_U32), key)
-    outside = np.flatnonzero(x >= count)
-    while len(outside):
-        x[outside] = mix(x[outside], key[outside])
-        outside = outside[x[outside] >= count]
-    return x.astype(np.int64)
+    shuffled = owen_scramble(np.asarray(index).astype(_U32), key)
+    # x = owen_scramble(van der Corput(shuffled)); van der Corput is itself a bit reversal,
+    # so the two reversals cancel.
+    x = reverse_bits(_laine_karras(shuffled, hash_u32(key ^ _U32(0x68E31DA4))))
+    y = owen_scramble(sobol_y(shuffled), hash_u32(key ^ _U32(0xB5297A4D)))
+    scale = 1.0 / 2.0 ** 32
+    return np.stack([x * scale, y * scale], axis=-1)

@@ -167,6 +167,7 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
         E_light = np.zeros(n)
         delta = lights_.is_delta(light)
         count = 1 if delta or light_numbers is not None else max(1, int(settings.light_samples))
+        cone = lights_.light_cone(light, surface.I)        # shared by all the light's samples
         for j in range(count):
             # 1. Where does the light come from? (one stratified sample for extended lights)
             if delta:
@@ -174,15 +175,11 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             elif light_numbers is not None:
                 u2 = np.broadcast_to(np.asarray(light_numbers[index], np.float64), (n, 2))
             else:
-                # The pixel's samples x count light points share one stratified pattern over
-                # the light, so together they cover it evenly. A permutation per pixel (and
-                # light) deals the strata out to the camera samples: handing them out in order
-                # would pair light strata with the camera's sub-pixel strata and bias the pixel.
-                total = max(1, settings.samples) * count
-                key = pixel * 0x9E3779B9 + (index + 1) * 0x85EBCA6B + settings.seed
-                stratum = sampling.permute(sample * count + j, total, key & 0xFFFFFFFF)
-                u2 = sampling.stratified_2d(settings.seed, pixel, stratum, total, dimension=16 + 4 * index)
-            ls = lights_.sample_light(light, surface.I, u2)
+                # The pixel's light points for this light are one progressive pattern over the light
+                # (core/sampling.py): camera sample s takes its points s*count .. s*count+count-1,
+                # so the points of any number of camera samples together cover the light evenly.
+                u2 = sampling.sample_2d(settings.seed, pixel, sample * count + j, dimension=16 + 4 * index)
+            ls = lights_.sample_light(light, surface.I, u2, cone)
             if not settings.distance_attenuation:
                 ls = lights_.without_distance_attenuation(light, ls, surface.I)
             # 2. The lecture's two tests: N.L > 0 (shading normal, the clamp) and Ng.L > 0 (the face

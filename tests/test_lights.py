@@ -616,7 +616,7 @@ def test_area_light_render_one_camera_sample_matches_closed_form():
 def test_area_light_render_many_camera_samples_matches_pixel_average():
     """With samples > 1 each pixel is the box-filtered (rho/pi) E over its camera samples: light sampling stays unbiased."""
     # Without jitter the 16 camera samples sit at the centres of a 4 x 4 grid of sub-pixels
-    # (documented in core.sampling.stratified_2d), so the exact pixel value is the mean of the
+    # (core.sampling.stratum_centres), so the exact pixel value is the mean of the
     # closed form over those 16 points. 16 x 256 = 4096 stratified light samples per pixel give a
     # sampling error ~1e-4; the 1e-2 tolerance leaves room for that, not for a biased estimate.
     camera = ortho_camera_looking_down(5.0, 2.0)
