@@ -25,6 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import vectors
 from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 INV_4PI = 1.0 / (4.0 * math.pi)
@@ -96,8 +97,8 @@ def _sample_cone(cone: Cone, u: np.ndarray):
     """Return unit directions uniform in solid angle within each cone: u (n, 2) float64 -> (n, 3) float64."""
     cos_theta = 1.0 - u[:, 0] * (1.0 - cone.cos_max)
     sin_theta = np.sqrt(np.maximum(0.0, 1.0 - cos_theta * cos_theta))
-    phi = 2.0 * math.pi * u[:, 1]
-    return (cone.t * (sin_theta * np.cos(phi))[:, None] + cone.b * (sin_theta * np.sin(phi))[:, None]
+    cos_phi, sin_phi = vectors.cos_sin(2.0 * math.pi * u[:, 1])
+    return (cone.t * (sin_theta * cos_phi)[:, None] + cone.b * (sin_theta * sin_phi)[:, None]
             + cone.axis * cos_theta[:, None])
 
 
@@ -207,14 +208,16 @@ def _area_points(light: AreaLight, u: np.ndarray) -> tuple[np.ndarray, float]:
         use_a = np.abs(a) > np.abs(b)
         r = np.where(use_a, a, b)
         with np.errstate(divide="ignore", invalid="ignore"):
-            phi = np.where(use_a, (math.pi / 4) * (b / a), (math.pi / 2) - (math.pi / 4) * (a / b))
-        phi = np.nan_to_num(phi)
-        x, y = 0.5 * r * np.cos(phi), 0.5 * r * np.sin(phi)
+            ratio = np.where(use_a, b, a) / r
+        ratio[r == 0.0] = 0.0
+        phi = np.where(use_a, (math.pi / 4) * ratio, (math.pi / 2) - (math.pi / 4) * ratio)
+        cos_phi, sin_phi = vectors.cos_sin(np.where(phi < 0.0, phi + 2.0 * math.pi, phi))
+        x, y = 0.5 * r * cos_phi, 0.5 * r * sin_phi
         area = 0.25 * math.pi * parallelogram
     else:
         x, y = u[:, 0] - 0.5, u[:, 1] - 0.5
         area = parallelogram
-    points = np.asarray(light.center, np.float64) + x[:, None] * axis_u + y[:, None] * axis_v
+    points = vectors.combine(np.asarray(light.center, np.float64), [x, y], [axis_u, axis_v])
     return points, area
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import lights as lights_
 from . import normals as normals_
-from . import debug, sampling, shadows
+from . import debug, sampling, shadows, vectors
 from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 # Below this fraction of lit samples, shadow rays are built for the lit samples only (gathered);
@@ -234,7 +234,7 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
                 acne_per_hit[idx[blocked]] += debug.self_intersections(
                     geometry, rays.origins[blocked], rays.directions[blocked], rays.t_max[blocked],
                     prim[idx[blocked]], self_hit_distance)
-        E += E_light[:, None] * np.asarray(light.color, np.float64)[:3]
+        E += vectors.combine(np.zeros(3), [E_light], [np.asarray(light.color, np.float64)[:3]])
     radiance = surface.albedo * (1.0 / math.pi) * E
     return Shading(radiance, n_dot_l, visibility, shadow_ray_count, rays_per_hit, acne_per_hit)
 
