@@ -51,6 +51,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import vectors
+
 __all__ = [
     "Camera",
     "CameraRays",
@@ -302,8 +304,7 @@ def _perspective_rays(camera: Camera, width, height, raster_x, raster_y, pixel_a
     """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for a pinhole camera."""
     plane_x, plane_y = _raster_to_plane(camera, width, height, raster_x, raster_y, pixel_aspect)
     # The point on the image plane at distance 1 is also the (unnormalised) direction.
-    directions = np.stack([plane_x, plane_y, -np.ones_like(plane_x)], axis=-1)
-    directions = _normalize_rows(directions)
+    directions = _normalize_rows(vectors.rows(plane_x, plane_y, -np.ones_like(plane_x)))
     # Planar clipping: a ray at angle a to the axis reaches depth d after d / cos(a).
     cos_to_axis = -directions[:, 2]
     origins = directions * (camera.clip_start / cos_to_axis)[:, None]
@@ -316,8 +317,8 @@ def _orthographic_rays(camera: Camera, width, height, raster_x, raster_y, pixel_
     """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for parallel rays along -Z."""
     plane_x, plane_y = _raster_to_plane(camera, width, height, raster_x, raster_y, pixel_aspect)
     n = len(plane_x)
-    origins = np.stack([plane_x, plane_y, np.full(n, -camera.clip_start)], axis=-1)
-    directions = np.tile(np.array([0.0, 0.0, -1.0]), (n, 1))
+    origins = vectors.rows(plane_x, plane_y, np.full(n, -camera.clip_start))
+    directions = vectors.rows(np.zeros(n), np.zeros(n), np.full(n, -1.0))
     t_max = np.full(n, camera.clip_end - camera.clip_start)
     valid = np.ones(n, dtype=bool)
     return origins, directions, t_max, valid
@@ -347,14 +348,13 @@ def _panorama_sensor(camera: Camera, width, height, pixel_aspect) -> tuple[float
     return sensor_size * x_ratio / y_ratio, sensor_size
 
 
-def _fisheye_directions(theta: np.ndarray, plane_x: np.ndarray, plane_y: np.ndarray) -> np.ndarray:
-    """Return local unit directions (n, 3) at angle `theta` ((n,) radians) from -Z, azimuth of (plane_x, plane_y)."""
+def _fisheye_directions(sin_theta: np.ndarray, cos_theta: np.ndarray, plane_x: np.ndarray,
+                        plane_y: np.ndarray) -> np.ndarray:
+    """Return local unit directions (n, 3) at angle theta from -Z (given by its sine and cosine,
+    (n,) each), with the azimuth of (plane_x, plane_y)."""
     radius = np.hypot(plane_x, plane_y)
-    safe_radius = np.where(radius > 0.0, radius, 1.0)
-    sin_theta = np.sin(theta)
-    return np.stack([sin_theta * plane_x / safe_radius,
-                     sin_theta * plane_y / safe_radius,
-                     -np.cos(theta)], axis=-1)
+    scale = sin_theta / np.where(radius > 0.0, radius, 1.0)
+    return vectors.rows(scale * plane_x, scale * plane_y, -cos_theta)
 
 
 def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
@@ -373,7 +373,8 @@ def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspec
         plane_y = (v - 0.5) * 2.0
         radius = np.hypot(plane_x, plane_y)
         valid = radius <= 1.0
-        theta = radius * (0.5 * camera.fisheye_fov)
+        theta = np.where(valid, radius * (0.5 * camera.fisheye_fov), 0.0)
+        sin_theta, cos_theta = np.sin(theta), np.cos(theta)
     else:  # FISHEYE_EQUISOLID
         sensor_width, sensor_height = _panorama_sensor(camera, width, height, pixel_aspect)
         plane_x = (u - 0.5) * sensor_width
@@ -381,11 +382,11 @@ def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspec
         radius = np.hypot(plane_x, plane_y)
         max_radius = 2.0 * camera.fisheye_lens * math.sin(0.25 * camera.fisheye_fov)
         valid = radius <= max_radius
-        sin_half_theta = np.clip(radius / (2.0 * camera.fisheye_lens), 0.0, 1.0)
-        theta = 2.0 * np.arcsin(sin_half_theta)
-    # Outside the image circle Cycles renders black; give those rays the forward direction.
-    theta = np.where(valid, theta, 0.0)
-    directions = _fisheye_directions(theta, plane_x, plane_y)
+        # r = 2 lens sin(theta / 2); with s = sin(theta / 2): sin theta = 2 s sqrt(1 - s^2), cos theta = 1 - 2 s^2.
+        s = np.where(valid, np.clip(radius / (2.0 * camera.fisheye_lens), 0.0, 1.0), 0.0)
+        sin_theta, cos_theta = 2.0 * s * np.sqrt(1.0 - s * s), 1.0 - 2.0 * s * s
+    # Outside the image circle Cycles renders black; those rays get the forward direction (theta = 0).
+    directions = _fisheye_directions(sin_theta, cos_theta, plane_x, plane_y)
     origins = directions * camera.clip_start
     t_max = np.full(len(u), camera.clip_end - camera.clip_start)
     return origins, directions, t_max, valid
@@ -415,7 +416,8 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
     # Camera-local to world: points get rotation and translation, directions rotation only.
     rotation = camera.matrix_world[:3, :3]
     eye_point = camera.matrix_world[:3, 3]
-    # einsum, not @: a matrix product of this size would start BLAS threads that fight the render's own.
-    origins = np.einsum("ij,kj->ik", local_origins, rotation) + eye_point
-    directions = _normalize_rows(np.einsum("ij,kj->ik", local_directions, rotation))
+    # Column by column (core/vectors.py), not @: a matrix product of this size would start BLAS
+    # threads that fight the render's own.
+    origins = vectors.transform(local_origins, rotation, eye_point)
+    directions = _normalize_rows(vectors.transform(local_directions, rotation, np.zeros(3)))
     return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid)

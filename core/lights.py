@@ -112,8 +112,8 @@ def orthonormal_frame(axis: np.ndarray):
     sign = np.where(z >= 0.0, 1.0, -1.0)
     a = -1.0 / (sign + z)
     c = x * y * a
-    t = np.stack([1.0 + sign * x * x * a, sign * c, -sign * x], axis=1)
-    b = np.stack([c, sign + y * y * a, -y], axis=1)
+    t = vectors.rows(1.0 + sign * x * x * a, sign * c, -sign * x)
+    b = vectors.rows(c, sign + y * y * a, -y)
     return t, b
 
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from . import adaptive
 from . import camera as camera_
-from . import debug, sampling
+from . import debug, sampling, vectors
 from .geometry import WorldGeometry, build_geometry
 from .scene import RenderSettings, Scene
 from .shading import direct_light, surface_at_hits, translate_light
@@ -221,19 +221,23 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
     else:
         rgba[rays.valid, :3] = ctx.world_color
     traced = np.flatnonzero(rays.valid)
-    origins = rays.origins[traced] - ctx.geometry.origin
-    directions = rays.directions[traced]
+    if len(traced) == n:
+        origins, directions, t_max = rays.origins - ctx.geometry.origin, rays.directions, rays.t_max
+    else:
+        origins = vectors.gather(rays.origins, traced) - ctx.geometry.origin
+        directions, t_max = vectors.gather(rays.directions, traced), rays.t_max[traced]
     # 3. Nearest hits.
-    hits = ctx.geometry.tracer.intersect(origins, directions, rays.t_max[traced])
-    h = traced[hits.hit]
+    hits = ctx.geometry.tracer.intersect(origins, directions, t_max)
+    hit = np.flatnonzero(hits.hit)            # (m,) into the traced rays
+    h = traced[hit]                            # (m,) into the chunk's samples
     shadow_rays = 0
     shading_start = time.perf_counter()
     surface = shading = None
     if len(h):
         # 4. Shade the hits.
-        hit = hits.hit
         surface = surface_at_hits(ctx.geometry, hits.prim[hit], hits.u[hit], hits.v[hit],
-                                  origins[hit], directions[hit], hits.t[hit], flat_only=not s.smooth_normals)
+                                  vectors.gather(origins, hit), vectors.gather(directions, hit), hits.t[hit],
+                                  flat_only=not s.smooth_normals)
         shading = direct_light(ctx.geometry, surface, ctx.lights, s, pixel[h], sample[h], ctx.want_aux,
                                prim=hits.prim[hit], self_hit_distance=ctx.self_hit_distance)
         rgba[h, :3] = shading.radiance
@@ -244,7 +248,7 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
     per_pixel = rgba.reshape(len(pixels), spp, 4).sum(axis=1)
     squares = _squares(rgba, len(pixels), spp) if s.adaptive else np.zeros((len(pixels), 2))
     hits_per_pixel = np.bincount(h // spp, minlength=len(pixels))
-    aux = (_sum_aux(ctx, len(pixels), spp, h, surface, shading, rays.valid, directions[hits.hit])
+    aux = (_sum_aux(ctx, len(pixels), spp, h, surface, shading, rays.valid, vectors.gather(directions, hit))
            if ctx.want_aux else {})
     return ChunkResult(per_pixel, squares, aux, hits_per_pixel, len(traced), shadow_rays, shading_seconds, spp)
 

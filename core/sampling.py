@@ -87,34 +87,42 @@ def owen_scramble(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
 
 
 def _sobol_tables() -> np.ndarray:
-    """Return (4, 256) uint32: the XOR of Sobol's second-dimension direction numbers for each byte of an index."""
+    """Return (4, 256) uint32: for each byte of an index, the XOR of Sobol's second-dimension
+    direction numbers of its set bits, bit-mirrored (the form `sample_2d` scrambles in)."""
     directions = [0x80000000]
     for _ in range(31):
         directions.append(directions[-1] ^ (directions[-1] >> 1))
+    mirrored = [int(f"{d:032b}"[::-1], 2) for d in directions]
     tables = np.zeros((4, 256), dtype=_U32)
     for byte in range(4):
         for value in range(256):
             word = 0
             for bit in range(8):
                 if value >> bit & 1:
-                    word ^= directions[8 * byte + bit]
+                    word ^= mirrored[8 * byte + bit]
             tables[byte, value] = word
     return tables
 
 
-_SOBOL_Y = _sobol_tables()
+_SOBOL_Y_MIRRORED = _sobol_tables()
+
+
+def _sobol_y_mirrored(index: np.ndarray) -> np.ndarray:
+    """Return reverse_bits(sobol_y(index)) by table lookup, a byte of the index at a time: (n,) uint32."""
+    index = np.asarray(index, dtype=_U32)
+    y = _SOBOL_Y_MIRRORED[0][index & _U32(0xFF)]
+    for byte in range(1, 4):
+        y ^= _SOBOL_Y_MIRRORED[byte][(index >> _U32(8 * byte)) & _U32(0xFF)]
+    return y
 
 
 def sobol_y(index: np.ndarray) -> np.ndarray:
     """Return Sobol's second dimension of each index, a 32-bit binary fraction: (n,) uint32 -> (n,) uint32.
 
-    It XORs together one direction number per set bit of the index (a byte at a time, from tables).
+    It XORs together one direction number per set bit of the index; the direction numbers
+    start at 1/2 and each is the one before XOR itself shifted right by one digit.
     """
-    index = np.asarray(index, dtype=_U32)
-    y = _SOBOL_Y[0][index & _U32(0xFF)]
-    for byte in range(1, 4):
-        y ^= _SOBOL_Y[byte][(index >> _U32(8 * byte)) & _U32(0xFF)]
-    return y
+    return reverse_bits(_sobol_y_mirrored(index))
 
 
 def sobol_2d(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -124,6 +132,12 @@ def sobol_2d(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     index: (n,) uint32 -> x, y: (n,) uint32
     """
     return reverse_bits(index), sobol_y(index)
+
+
+def _combine(seed: np.ndarray, value: int) -> np.ndarray:
+    """Return a seed derived from `seed` and a small constant (cheap, for seeds that are hashes already)."""
+    with np.errstate(over="ignore"):
+        return seed ^ (_U32(value) + (seed << _U32(6)) + (seed >> _U32(2)))
 
 
 def sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -> np.ndarray:
@@ -139,9 +153,12 @@ def sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -
     stream = hash_u32(np.array([(seed * 0x9E3779B9 + dimension * 0x85EBCA6B) & 0xFFFFFFFF], dtype=_U32))
     key = hash_u32(np.asarray(pixel).astype(_U32) ^ stream)
     shuffled = owen_scramble(np.asarray(index).astype(_U32), key)
-    # x = owen_scramble(van der Corput(shuffled)); van der Corput is itself a bit reversal,
-    # so the two reversals cancel.
-    x = reverse_bits(_laine_karras(shuffled, hash_u32(key ^ _U32(0x68E31DA4))))
-    y = owen_scramble(sobol_y(shuffled), hash_u32(key ^ _U32(0xB5297A4D)))
-    scale = 1.0 / 2.0 ** 32
-    return np.stack([x * scale, y * scale], axis=-1)
+    # Each coordinate c is owen_scramble(c) = reverse(laine_karras(reverse(c))). For x, the van der
+    # Corput reversal cancels the first reverse; for y, the tables hold reverse(sobol_y) already.
+    x = reverse_bits(_laine_karras(shuffled, _combine(key, 1)))
+    y = reverse_bits(_laine_karras(_sobol_y_mirrored(shuffled), _combine(key, 2)))
+    # Column-major (n, 2), each coordinate a contiguous column (core/vectors.py).
+    out = np.empty((2, len(x)))
+    np.multiply(x, 1.0 / 2.0 ** 32, out=out[0])
+    np.multiply(y, 1.0 / 2.0 ** 32, out=out[1])
+    return out.T

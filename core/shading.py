@@ -108,7 +108,7 @@ def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
     """
     # I on the float32 triangle Embree hit.
     vertices = geometry.vertices[geometry.triangles[prim]].astype(np.float64)     # (n, 3, 3)
-    Ng = geometry.face_normals[prim]
+    Ng = vectors.gather(geometry.face_normals, prim)
     I = hit_points(vertices, Ng, u, v, O, D, t)
     # Face normal, flipped when the triangle was hit from behind (N.D > 0).
     side = normals_.face_forward(Ng, D)
@@ -206,18 +206,19 @@ def direct_light(geometry, surface: Surface, lights: list, settings, pixel: np.n
             #    empty interval (t_max < 0) that Embree does not trace.
             gather = settings.terminator_fix or acne_per_hit is not None or lit_count < GATHER_BELOW * n
             idx = np.flatnonzero(lit) if gather else slice(None)
-            I = surface.I[idx]
-            Ng = surface.Ng[idx]
+            rows = (lambda values: vectors.gather(values, idx)) if gather else (lambda values: values)
+            I = rows(surface.I)
+            Ng = rows(surface.Ng)
             if settings.terminator_fix:
                 I = _lift_terminator(surface, idx, NL[idx], NgL[idx], settings.terminator_offset)
             elif settings.shadow_rays_for_backfacing or settings.visibility_normal != "face":
                 # Switches that cast rays towards lights behind the face: offset to the light's side.
                 Ng = Ng * np.where(NgL[idx] < 0.0, -1.0, 1.0)[:, None]
             if robust:
-                rays = shadows.robust_rays(I, Ng, offsets[idx], ls.position[idx],
-                                           ls.L[idx], ls.distance[idx], settings.reduce_t_max)
+                rays = shadows.robust_rays(I, Ng, offsets[idx], rows(ls.position),
+                                           rows(ls.L), ls.distance[idx], settings.reduce_t_max)
             else:
-                rays = shadows.epsilon_rays(I, ls.L[idx], ls.distance[idx], settings.epsilon,
+                rays = shadows.epsilon_rays(I, rows(ls.L), ls.distance[idx], settings.epsilon,
                                             settings.reduce_t_max)
             if not gather:
                 rays = rays._replace(t_max=np.where(lit, rays.t_max, -1.0))

@@ -22,7 +22,7 @@ def combine(origin: np.ndarray, weights: list, vectors: list) -> np.ndarray:
     origin: (3,) float64 point or direction; weights: list of (n,) float64; vectors: list of (3,) float64
     -> (n, 3) float64
     """
-    out = np.empty((len(weights[0]), 3))
+    out = np.empty((len(weights[0]), 3), order="F")
     for c in range(3):
         column = out[:, c]
         np.multiply(weights[0], vectors[0][c], out=column)
@@ -43,3 +43,35 @@ def cos_sin(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s = np.sqrt(1.0 - c * c)
     s[phi > math.pi] *= -1.0
     return c, s
+
+
+# Column-major (n, 3) arrays: numpy runs element-wise work in memory order, so with the three
+# coordinates stored as three contiguous columns, row-wise expressions such as P - c, P * s[:, None]
+# and einsum("ij,ij->i") run over long contiguous loops: 3-4 times faster than on row-major
+# (n, 3) arrays, whose inner loops have length 3 (measured on 60,000 rows). Results of
+# element-wise work keep the layout of their operands, so it is set once, where arrays are made.
+
+def rows(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Return the (n, 3) float64 array of rows (x, y, z), column-major. x, y, z: (n,) float64."""
+    return np.stack([x, y, z]).T
+
+
+def gather(values: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """Return values[index] as a column-major array: (t, 3) values, (n,) int index -> (n, 3)."""
+    out = np.empty((len(index), values.shape[1]), values.dtype, order="F")
+    for c in range(values.shape[1]):
+        np.take(values[:, c], index, out=out[:, c])
+    return out
+
+
+def transform(points: np.ndarray, linear: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Return linear @ p + offset for every row p, column-major: (n, 3), (3, 3), (3,) float64 -> (n, 3)."""
+    x, y, z = points[:, 0], points[:, 1], points[:, 2]
+    out = np.empty((len(points), 3), order="F")
+    for c in range(3):
+        column = out[:, c]
+        np.multiply(x, linear[c, 0], out=column)
+        column += linear[c, 1] * y
+        column += linear[c, 2] * z
+        column += offset[c]
+    return out

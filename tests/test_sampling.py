@@ -25,6 +25,22 @@ def test_reverse_bits_mirrors_all_32_bits():
     assert sampling.reverse_bits(x).tolist() == expected
 
 
+def test_sobol_y_xors_one_direction_number_per_set_bit():
+    """Sobol's second dimension: v_0 = 1/2, v_(k+1) = v_k XOR (v_k >> 1), y(i) = XOR of v_k over i's set bits."""
+    directions = [0x80000000]
+    for _ in range(31):
+        directions.append(directions[-1] ^ (directions[-1] >> 1))
+    index = [1, 2, 3, 7, 255, 256, 1000, 65537, 2 ** 31 + 5, 2 ** 32 - 1]
+    expected = []
+    for i in index:
+        word = 0
+        for bit in range(32):
+            if i >> bit & 1:
+                word ^= directions[bit]
+        expected.append(word)
+    assert sampling.sobol_y(np.array(index, np.uint32)).tolist() == expected
+
+
 @pytest.mark.parametrize("seed", [0, 1, 0xDEADBEEF])
 def test_owen_scramble_is_a_bijection_that_keeps_dyadic_intervals_together(seed):
     """Owen scrambling permutes the 2^k aligned intervals of [0, 1) among themselves, at every k."""
