@@ -343,13 +343,14 @@ def _sum_aux(ctx: _Context, n_pixels: int, spp: int, h: np.ndarray, surface, sha
     return aux
 
 
-def _run_chunks(pool, threads: int, chunks: list, work: Callable, store: Callable,
+def _run_chunks(pool, in_flight: int, chunks: list, work: Callable, store: Callable,
                 cancel: Optional[Callable[[], bool]], progress: Callable[[float], None],
                 stats: RenderStats, start: float) -> bool:
     """Run work(chunk) for every chunk on the pool and store(chunk, result) each; return whether cancelled.
 
-    A few chunks stay in flight per thread, so cancelling never waits for a long queue;
-    store, progress and cancel are called from this (the calling) thread only.
+    At most `in_flight` chunks are submitted at once: more than the pool's workers keeps them busy
+    while results are stored, fewer runs a pass on fewer threads; and cancelling never waits for a
+    long queue. store, progress and cancel are called from this (the calling) thread only.
     """
     queue = iter(chunks)
     running = {}
@@ -357,7 +358,7 @@ def _run_chunks(pool, threads: int, chunks: list, work: Callable, store: Callabl
     def refill():
         for chunk in queue:
             running[pool.submit(work, chunk)] = chunk
-            if len(running) >= 2 * threads:
+            if len(running) >= in_flight:
                 break
 
     refill()
@@ -377,20 +378,25 @@ def _run_chunks(pool, threads: int, chunks: list, work: Callable, store: Callabl
     return False
 
 
-# The fewest samples worth a chunk: below this, numpy's per-call overhead outweighs the work.
-MIN_CHUNK_SAMPLES = 4096
+# Below this many samples per thread, a second thread does not help: numpy releases the GIL inside
+# each operation, but on arrays shorter than ~1e5 elements the Python between operations, which holds
+# it, dominates (measured on this 2-core machine: two threads on 20,000-element arrays ran no faster
+# than one, and spent half again as much CPU; on 200,000-element arrays, 1.7 times faster).
+PARALLEL_MIN_SAMPLES = 1 << 17
 
 
-def _chunk_pixels(pixels: int, spp: int, chunk_size: int, threads: int) -> int:
-    """Return how many pixels of `spp` samples one chunk holds.
+def _plan_chunks(pixels: int, spp: int, chunk_size: int, threads: int) -> tuple[int, int]:
+    """Return (pixels per chunk, threads to use) for a pass over `pixels` pixels of `spp` samples.
 
-    At most chunk_size samples (memory stays bounded); but small passes (adaptive sampling's)
-    are cut into two chunks per thread at least, so that every core works, unless that would
-    leave chunks of fewer than MIN_CHUNK_SAMPLES samples.
+    A chunk holds at most chunk_size samples (memory stays bounded). A pass too small to give every
+    thread PARALLEL_MIN_SAMPLES runs on fewer threads (adaptive sampling's later passes often on one);
+    otherwise it is cut into one chunk per thread at least, so that every core works.
     """
-    by_memory = max(1, chunk_size // spp)
-    by_threads = max(-(-pixels // (2 * threads)), MIN_CHUNK_SAMPLES // spp, 1)
-    return min(by_memory, by_threads)
+    per_chunk = max(1, chunk_size // spp)
+    workers = max(1, min(threads, (pixels * spp) // PARALLEL_MIN_SAMPLES))
+    if workers > 1:
+        per_chunk = min(per_chunk, -(-pixels // workers))
+    return per_chunk, workers
 
 
 def _usable_cores() -> int:
@@ -471,9 +477,10 @@ def render(scene: Scene, settings: RenderSettings,
             # 2. A pass of `spp` more samples over them, chunk by chunk: each pixel continues its own
             #    progressive pattern where it left off, so all its passes together stay stratified.
             done_before = noise.count.copy()
-            per_chunk = _chunk_pixels(len(pixels), spp, settings.chunk_size, threads)
+            per_chunk, workers = _plan_chunks(len(pixels), spp, settings.chunk_size, threads)
             chunks = [pixels[i:i + per_chunk] for i in range(0, len(pixels), per_chunk)]
-            cancelled = _run_chunks(pool, threads, chunks,
+            in_flight = 2 * threads if workers == threads else workers
+            cancelled = _run_chunks(pool, in_flight, chunks,
                                     lambda c: render_chunk(ctx, c, spp, settings.seed, done_before[c]), store,
                                     cancel, lambda f: progress((index + f) / len(passes), stats) if progress else None,
                                     stats, start)

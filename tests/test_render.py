@@ -45,6 +45,16 @@ def test_same_seed_gives_the_same_image_whatever_the_threads_and_chunks():
     assert a[..., :3].mean() > 0.01
 
 
+def test_small_passes_run_on_one_thread_and_large_ones_on_every_thread_within_the_chunk_size():
+    """Threads only help on long arrays (render.PARALLEL_MIN_SAMPLES); a chunk never exceeds chunk_size samples."""
+    small = render._plan_chunks(pixels=2000, spp=16, chunk_size=1 << 16, threads=2)
+    assert small[1] == 1 and small[0] * 16 <= 1 << 16
+    large = render._plan_chunks(pixels=320 * 240, spp=16, chunk_size=1 << 16, threads=2)
+    assert large[1] == 2 and large[0] * 16 <= 1 << 16
+    few = render._plan_chunks(pixels=20000, spp=16, chunk_size=1 << 20, threads=4)
+    assert few[1] == 2 and -(-20000 // few[0]) >= 2          # 320,000 samples: two threads, a chunk each
+
+
 def test_region_renders_only_its_pixels():
     """A region (render border) fills exactly its rectangle with the same values as a full render."""
     scene = showcase_scene()
