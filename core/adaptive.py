@@ -12,7 +12,10 @@ So instead of `samples` rays in every pixel, Primer renders in passes:
 3. pixels whose noise is above the threshold, and their neighbours (an edge that
    a pixel's few samples all missed usually shows in the pixel next to it), get
    another pass, twice as large as the one before, until they either fall below
-   the threshold or reach `samples`.
+   the threshold or reach `samples`. After the first pass, a pixel that differs
+   from a neighbour by more than threshold x (first pass size) also goes on: an
+   edge runs there, and a sliver of it narrower than one first-pass stratum, which
+   all its samples may have missed, could hide an error above the threshold.
 
 The passes continue one progressive sample pattern per pixel (core/sampling.py):
 a pixel that takes every pass gets exactly the samples a uniform render of `samples`
@@ -117,14 +120,45 @@ def grow(mask: np.ndarray) -> np.ndarray:
     return grown
 
 
-def unconverged(pixels: np.ndarray, noise: PixelNoise, threshold: float, width: int, height: int) -> np.ndarray:
+def edge_contrast(noise: PixelNoise, width: int, height: int) -> np.ndarray:
+    """Return each pixel's largest relative luminance difference to its 4 neighbours: (H * W,) float64.
+
+    |m_p - m_q| / sqrt(((m_p + m_q) / 2)^2 + DARK^2), in the units of `relative_noise`; pixels
+    without samples count as equal to their neighbours.
+    """
+    n = np.maximum(noise.count, 1).astype(np.float64)
+    mean = (np.einsum("ij,j->i", noise.total[:, :3], LUMINANCE) / n).reshape(height, width)
+    sampled = (noise.count > 0).reshape(height, width)
+    contrast = np.zeros((height, width))
+    for a, b, sa, sb in ((mean[1:, :], mean[:-1, :], sampled[1:, :], sampled[:-1, :]),
+                         (mean[:, 1:], mean[:, :-1], sampled[:, 1:], sampled[:, :-1])):
+        both = sa & sb
+        difference = np.where(both, np.abs(a - b) / np.sqrt((0.5 * (a + b)) ** 2 + DARK ** 2), 0.0)
+        # Each difference counts for both pixels of the pair.
+        if a.shape[0] < height:
+            contrast[1:, :] = np.maximum(contrast[1:, :], difference)
+            contrast[:-1, :] = np.maximum(contrast[:-1, :], difference)
+        else:
+            contrast[:, 1:] = np.maximum(contrast[:, 1:], difference)
+            contrast[:, :-1] = np.maximum(contrast[:, :-1], difference)
+    return contrast.reshape(-1)
+
+
+def unconverged(pixels: np.ndarray, noise: PixelNoise, threshold: float, width: int, height: int,
+                first: int = 0) -> np.ndarray:
     """Return the pixels (flat indices, a subset of `pixels`) that need another pass.
 
     pixels: (p,) int64 flat indices of the rendered region; noise: PixelNoise over the whole
     image (H * W rows); a pixel needs more when its noise, or a neighbour's, exceeds threshold.
+    first: the first pass's size. A pixel that has only those samples also goes on when it
+    differs from a neighbour by more than threshold * first: an edge runs nearby, and a sliver of
+    it narrower than one of its first strata may be missed by all of them and look noiseless.
     """
     noisy = np.zeros(height * width, bool)
     noisy[pixels] = relative_noise(PixelNoise(noise.total[pixels], noise.squares[pixels],
                                               noise.count[pixels])) > threshold
+    if first > 0:
+        near_edge = edge_contrast(noise, width, height) > threshold * first
+        noisy[pixels] |= near_edge[pixels] & (noise.count[pixels] <= first)
     wanted = grow(noisy.reshape(height, width)).reshape(-1)
     return pixels[wanted[pixels]]

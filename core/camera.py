@@ -349,10 +349,9 @@ def _panorama_sensor(camera: Camera, width, height, pixel_aspect) -> tuple[float
 
 
 def _fisheye_directions(sin_theta: np.ndarray, cos_theta: np.ndarray, plane_x: np.ndarray,
-                        plane_y: np.ndarray) -> np.ndarray:
+                        plane_y: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """Return local unit directions (n, 3) at angle theta from -Z (given by its sine and cosine,
-    (n,) each), with the azimuth of (plane_x, plane_y)."""
-    radius = np.hypot(plane_x, plane_y)
+    (n,) each), with the azimuth of (plane_x, plane_y) at distance `radius` from the centre."""
     scale = sin_theta / np.where(radius > 0.0, radius, 1.0)
     return vectors.rows(scale * plane_x, scale * plane_y, -cos_theta)
 
@@ -371,7 +370,7 @@ def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspec
     if camera.panorama_type == "FISHEYE_EQUIDISTANT":
         plane_x = (u - 0.5) * 2.0
         plane_y = (v - 0.5) * 2.0
-        radius = np.hypot(plane_x, plane_y)
+        radius = np.sqrt(plane_x * plane_x + plane_y * plane_y)
         valid = radius <= 1.0
         theta = np.where(valid, radius * (0.5 * camera.fisheye_fov), 0.0)
         sin_theta, cos_theta = np.sin(theta), np.cos(theta)
@@ -379,14 +378,14 @@ def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspec
         sensor_width, sensor_height = _panorama_sensor(camera, width, height, pixel_aspect)
         plane_x = (u - 0.5) * sensor_width
         plane_y = (v - 0.5) * sensor_height
-        radius = np.hypot(plane_x, plane_y)
+        radius = np.sqrt(plane_x * plane_x + plane_y * plane_y)
         max_radius = 2.0 * camera.fisheye_lens * math.sin(0.25 * camera.fisheye_fov)
         valid = radius <= max_radius
         # r = 2 lens sin(theta / 2); with s = sin(theta / 2): sin theta = 2 s sqrt(1 - s^2), cos theta = 1 - 2 s^2.
         s = np.where(valid, np.clip(radius / (2.0 * camera.fisheye_lens), 0.0, 1.0), 0.0)
         sin_theta, cos_theta = 2.0 * s * np.sqrt(1.0 - s * s), 1.0 - 2.0 * s * s
     # Outside the image circle Cycles renders black; those rays get the forward direction (theta = 0).
-    directions = _fisheye_directions(sin_theta, cos_theta, plane_x, plane_y)
+    directions = _fisheye_directions(sin_theta, cos_theta, plane_x, plane_y, radius)
     origins = directions * camera.clip_start
     t_max = np.full(len(u), camera.clip_end - camera.clip_start)
     return origins, directions, t_max, valid

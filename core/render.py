@@ -471,7 +471,7 @@ def render(scene: Scene, settings: RenderSettings,
         for index, spp in enumerate(passes):
             # 1. Which pixels still need samples: all of them at first, then the noisy ones.
             if index > 0:
-                pixels = adaptive.unconverged(region, noise, threshold, W, H)
+                pixels = adaptive.unconverged(region, noise, threshold, W, H, passes[0])
                 if len(pixels) == 0:
                     break
             # 2. A pass of `spp` more samples over them, chunk by chunk: each pixel continues its own

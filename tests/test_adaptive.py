@@ -74,8 +74,33 @@ def test_edge_pixels_get_all_samples_and_flat_ones_few():
     counts = result.stats.samples_per_pixel
     edge_column = W // 2
     assert (counts[:, edge_column] == 64).all()
-    assert (counts[:, :edge_column - 2] == adaptive.first_pass_size(64)).all()
-    assert (counts[:, edge_column + 2:] == adaptive.first_pass_size(64)).all()
+    # The edge column's neighbours contrast with it, so they go on, and so do theirs (grow): 3 columns each side.
+    assert (counts[:, :edge_column - 3] == adaptive.first_pass_size(64)).all()
+    assert (counts[:, edge_column + 4:] == adaptive.first_pass_size(64)).all()
+
+
+def test_a_noiseless_pixel_beside_a_contrasting_one_gets_a_second_pass_only_after_the_first():
+    """Two 4-sample pixels, black and lit, each with zero spread: by its noise neither needs more, but their
+    contrast could hide a missed sliver of the edge, so after the first pass both go on (with their
+    neighbours); once they have more than the first pass, only their noise decides."""
+    W, H, first = 6, 1, 4
+    noise = adaptive.PixelNoise(np.zeros((W * H, 4)), np.zeros((W * H, 2)), np.full(W * H, first))
+    lit = np.arange(W) >= 3                                  # pixels 0-2 black, 3-5 lit
+    noise.total[lit, :3] = first * LIT
+    noise.total[:, 3] = first
+    noise.squares[lit, 0] = first * LIT ** 2                 # luminance of a grey pixel = its value
+    noise.squares[:, 1] = first
+    pixels = np.arange(W)
+    threshold = adaptive.automatic_threshold(64)
+    assert len(adaptive.unconverged(pixels, noise, threshold, W, H)) == 0
+    assert adaptive.unconverged(pixels, noise, threshold, W, H, first=first).tolist() == [1, 2, 3, 4]
+    later = adaptive.PixelNoise(noise.total * 2, noise.squares * 2, noise.count * 2)
+    assert len(adaptive.unconverged(pixels, later, threshold, W, H, first=first)) == 0
+    # A small contrast, such as shading across a smooth surface, is no edge.
+    smooth = adaptive.PixelNoise(noise.total.copy(), noise.squares.copy(), noise.count)
+    smooth.total[~lit, :3] = first * LIT * 0.99
+    smooth.squares[~lit, 0] = first * (LIT * 0.99) ** 2
+    assert len(adaptive.unconverged(pixels, smooth, threshold, W, H, first=first)) == 0
 
 
 def test_adaptive_edge_pixels_converge_to_the_covered_fraction():
