@@ -111,12 +111,13 @@ def measure(kind: str, value: int) -> dict:
     # that it cannot change the render's time or peak memory).
     geometry = build_geometry(scene, np.asarray(scene.camera.matrix_world)[:3, 3])
     start = time.perf_counter()
-    Tracer(geometry.vertices, geometry.triangles)
+    tracer = Tracer(geometry.vertices, geometry.triangles)
     embree_build = time.perf_counter() - start
     return {"kind": kind, "value": value, "triangles": stats.triangles, "pixels": settings.width * settings.height,
             "width": settings.width, "height": settings.height, "samples": settings.samples,
             "lights": len(scene.lights), "instances": len(scene.instances), "scene_seconds": built,
             "seconds": stats.seconds, "bvh_seconds": stats.geometry_seconds, "embree_build_seconds": embree_build,
+            "embreex_upload_seconds": tracer.upload_seconds, "embree_commit_seconds": tracer.build_seconds,
             "trace_seconds": stats.trace_seconds, "shading_seconds": stats.shading_seconds,
             "rays": stats.rays, "peak_mb": peak, "baseline_mb": baseline}
 
