@@ -140,6 +140,22 @@ def _combine(seed: np.ndarray, value: int) -> np.ndarray:
         return seed ^ (_U32(value) + (seed << _U32(6)) + (seed >> _U32(2)))
 
 
+def _pixel_key(seed: int, pixel: np.ndarray, dimension: int) -> np.ndarray:
+    """Return the scrambling key of each pixel's pattern for (seed, dimension): (n,) uint32."""
+    stream = hash_u32(np.array([(seed * 0x9E3779B9 + dimension * 0x85EBCA6B) & 0xFFFFFFFF], dtype=_U32))
+    return hash_u32(np.asarray(pixel).astype(_U32) ^ stream)
+
+
+def sample_2d_reference(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -> np.ndarray:
+    """The readable form of `sample_2d`, step by step (the tests check that both agree bit for bit)."""
+    key = _pixel_key(seed, pixel, dimension)
+    shuffled = owen_scramble(np.asarray(index).astype(_U32), key)       # 1. shuffle the order
+    x, y = sobol_2d(shuffled)                                           # 2. the Sobol point
+    x = owen_scramble(x, _combine(key, 1))                              # 3. scramble each coordinate
+    y = owen_scramble(y, _combine(key, 2))
+    return np.stack([x, y], axis=-1) / 2.0 ** 32
+
+
 def sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -> np.ndarray:
     """Return the index-th point of the pixel's own progressive pattern in the unit square.
 
@@ -150,8 +166,7 @@ def sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -
     put one point in each of 2^m equal cells of any power-of-two grid.
     pixel, index: (n,) int64 (index >= 0) -> (n, 2) float64 in [0, 1)
     """
-    stream = hash_u32(np.array([(seed * 0x9E3779B9 + dimension * 0x85EBCA6B) & 0xFFFFFFFF], dtype=_U32))
-    key = hash_u32(np.asarray(pixel).astype(_U32) ^ stream)
+    key = _pixel_key(seed, pixel, dimension)
     shuffled = owen_scramble(np.asarray(index).astype(_U32), key)
     # Each coordinate c is owen_scramble(c) = reverse(laine_karras(reverse(c))). For x, the van der
     # Corput reversal cancels the first reverse; for y, the tables hold reverse(sobol_y) already.
