@@ -2,16 +2,17 @@
 
 There is no Python loop per pixel or per ray. A chunk holds every sample of a
 run of pixels; for the whole chunk at once we
-1. place the samples inside their pixels (stratified, jittered),
+1. place the samples inside their pixels (core/sampling.py),
 2. generate the camera rays (core/camera.py),
 3. find the nearest hits (core/intersect.py),
 4. shade the hits with every light and its shadow rays (core/shading.py),
 5. sum each pixel's samples; the image is their mean (a 1-pixel box filter, like Cycles' "Box").
-Chunks write to disjoint pixels, so threads need no locks; Embree releases
-the GIL, so two cores trace at once. Memory stays bounded by the chunk size,
-whatever the image size. With adaptive sampling (core/adaptive.py) this runs in
-passes: all pixels first, then only the noisy ones, each pass a new stratified
-pattern whose samples add to the pixel's sums.
+Chunks write to disjoint pixels, so threads need no locks; Embree and numpy
+release the GIL, so large passes run on every core (small ones on fewer).
+Memory stays bounded by the chunk size, whatever the image size, and the
+temporaries come from the heap (core/memory.py).
+With adaptive sampling (core/adaptive.py) this runs in passes: all pixels first,
+then only the noisy ones, each pass continuing every pixel's sample pattern.
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ import numpy as np
 
 from . import adaptive
 from . import camera as camera_
-from . import debug, sampling, vectors
+from . import debug, memory, sampling, vectors
 from .geometry import WorldGeometry, build_geometry
 from .scene import RenderSettings, Scene
 from .shading import direct_light, surface_at_hits, translate_light
@@ -466,7 +467,7 @@ def render(scene: Scene, settings: RenderSettings,
         stats.shading_seconds += result.shading_seconds
 
     render_chunk = _render_chunk_timed if "time" in settings.aux else _render_chunk
-    with ThreadPoolExecutor(max_workers=threads) as pool:
+    with memory.temporaries_from_the_heap(), ThreadPoolExecutor(max_workers=threads) as pool:
         pixels = region
         for index, spp in enumerate(passes):
             # 1. Which pixels still need samples: all of them at first, then the noisy ones.
