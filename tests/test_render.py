@@ -46,13 +46,14 @@ def test_same_seed_gives_the_same_image_whatever_the_threads_and_chunks():
 
 
 def test_small_passes_run_on_one_thread_and_large_ones_on_every_thread_within_the_chunk_size():
-    """Threads only help on long arrays (render.PARALLEL_MIN_SAMPLES); a chunk never exceeds chunk_size samples."""
-    small = render._plan_chunks(pixels=2000, spp=16, chunk_size=1 << 16, threads=2)
-    assert small[1] == 1 and small[0] * 16 <= 1 << 16
+    """Threads only pay on enough samples each (render.PARALLEL_MIN_SAMPLES); a chunk never exceeds chunk_size samples."""
+    least = render.PARALLEL_MIN_SAMPLES
+    small = render._plan_chunks(pixels=least // 16, spp=16, chunk_size=1 << 16, threads=2)
+    assert small[1] == 1
     large = render._plan_chunks(pixels=320 * 240, spp=16, chunk_size=1 << 16, threads=2)
     assert large[1] == 2 and large[0] * 16 <= 1 << 16
-    few = render._plan_chunks(pixels=20000, spp=16, chunk_size=1 << 20, threads=4)
-    assert few[1] == 2 and -(-20000 // few[0]) >= 2          # 320,000 samples: two threads, a chunk each
+    some = render._plan_chunks(pixels=3 * least // 16, spp=16, chunk_size=1 << 20, threads=4)
+    assert some[1] == 3 and -(-(3 * least // 16) // some[0]) >= 3     # three threads, a chunk each
 
 
 def test_region_renders_only_its_pixels():
