@@ -1,0 +1,51 @@
+"""Render temporaries from the heap (core/memory.py): overlapping renders, and the host process left as found."""
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+from core import memory
+
+
+def test_overlapping_renders_restore_the_thresholds_only_when_the_last_one_ends(monkeypatch):
+    """The viewport's render and an F12 render may overlap: the first to end must not undo the other's setting."""
+    calls = []
+
+    class FakeLibc:
+        def mallopt(self, parameter, value):
+            calls.append((parameter, value))
+            return 1
+
+        def malloc_trim(self, pad):
+            calls.append(("trim", pad))
+            return 1
+
+    monkeypatch.setattr(memory, "_glibc", lambda: FakeLibc())
+    with memory.temporaries_from_the_heap():
+        with memory.temporaries_from_the_heap():
+            pass
+        assert (memory.M_MMAP_THRESHOLD, memory.GLIBC_DEFAULT) not in calls     # one render still runs
+    assert calls[-3:] == [(memory.M_MMAP_THRESHOLD, memory.GLIBC_DEFAULT),
+                          (memory.M_TRIM_THRESHOLD, memory.GLIBC_DEFAULT), ("trim", 0)]
+    assert memory._renders == 0
+
+
+def test_an_exception_inside_a_render_still_restores_the_thresholds(monkeypatch):
+    """A cancelled or failed render leaves the allocator as it found it."""
+    calls = []
+    fake = type("FakeLibc", (), {"mallopt": lambda self, p, v: calls.append((p, v)),
+                                 "malloc_trim": lambda self, pad: calls.append(("trim", pad))})()
+    monkeypatch.setattr(memory, "_glibc", lambda: fake)
+    with pytest.raises(RuntimeError):
+        with memory.temporaries_from_the_heap():
+            raise RuntimeError("cancelled")
+    assert calls[-1] == ("trim", 0) and memory._renders == 0
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc only")
+def test_glibc_is_found_on_linux():
+    """On Linux the real C library answers mallopt (so the speed-up is not silently lost)."""
+    libc = memory._glibc()
+    assert libc is not None
+    assert libc.mallopt(memory.M_TRIM_THRESHOLD, memory.GLIBC_DEFAULT) == 1
