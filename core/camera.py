@@ -57,6 +57,7 @@ __all__ = [
     "Camera",
     "CameraRays",
     "generate_rays",
+    "outside_image_circle",
     "viewplane",
     "lens_from_fov",
     "fov_from_lens",
@@ -389,6 +390,33 @@ def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspec
     origins = directions * camera.clip_start
     t_max = np.full(len(u), camera.clip_end - camera.clip_start)
     return origins, directions, t_max, valid
+
+
+def outside_image_circle(camera: Camera, width: int, height: int, pixels: np.ndarray,
+                         pixel_aspect: tuple[float, float] = (1.0, 1.0)) -> np.ndarray:
+    """Return which pixels lie wholly outside a fisheye's image circle: (p,) bool, all False for other cameras.
+
+    Such pixels are opaque black whatever is sampled in them, so a render need not sample them.
+    A pixel is an axis-aligned rectangle on the fisheye's image plane (u and v are affine in the
+    raster position, see _fisheye_rays); it lies outside when the rectangle's point nearest the
+    circle's centre does. pixels: (p,) int64 flat indices, row 0 at the top.
+    """
+    pixels = np.asarray(pixels, dtype=np.int64)
+    if camera.type != "PANO" or len(pixels) == 0:
+        return np.zeros(len(pixels), bool)
+    x, y = pixels % width, pixels // width
+    u0, v0 = _panorama_uv(camera, width, height, x.astype(np.float64), (y + 1).astype(np.float64))
+    u1, v1 = _panorama_uv(camera, width, height, (x + 1).astype(np.float64), y.astype(np.float64))
+    if camera.panorama_type == "FISHEYE_EQUIDISTANT":
+        scale_x, scale_y, limit = 2.0, 2.0, 1.0
+    else:
+        scale_x, scale_y = _panorama_sensor(camera, width, height, pixel_aspect)
+        limit = 2.0 * camera.fisheye_lens * math.sin(0.25 * camera.fisheye_fov)
+    # The rectangle's point nearest the centre (0, 0) of the image plane.
+    nearest_x = np.clip(0.0, (u0 - 0.5) * scale_x, (u1 - 0.5) * scale_x)
+    nearest_y = np.clip(0.0, (v0 - 0.5) * scale_y, (v1 - 0.5) * scale_y)
+    # A relative margin: a pixel whose nearest point lies on the circle up to rounding is still sampled.
+    return nearest_x * nearest_x + nearest_y * nearest_y > (limit * (1.0 + 1e-9)) ** 2
 
 
 def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray, raster_y: np.ndarray,

@@ -446,6 +446,11 @@ def render(scene: Scene, settings: RenderSettings,
     aux_hits = np.zeros(H * W, np.int64)
 
     region = region_pixels(settings)
+    # Pixels wholly outside a fisheye's image circle are opaque black film: no samples needed.
+    outside = camera_.outside_image_circle(scene.camera, W, H, region, tuple(settings.pixel_aspect))
+    if outside.any():
+        noise.total[region[outside], 3] = 1.0
+        region = region[~outside]
     if settings.adaptive:
         passes = adaptive.pass_sizes(settings.samples, settings.adaptive_min_samples)
         threshold = settings.adaptive_threshold or adaptive.automatic_threshold(settings.samples)

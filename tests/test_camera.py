@@ -12,6 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from core import camera as camera_module
 from core.camera import Camera, CameraRays, fov_from_lens, generate_rays, lens_from_fov
 
 
@@ -314,6 +315,57 @@ def test_fisheye_equidistant_invalid_outside_image_circle():
                          np.array([0.5, 40 * inside, 40 * outside]))
     assert rays.valid.tolist() == [False, True, False]
     np.testing.assert_allclose(np.linalg.norm(rays.directions, axis=1), 1.0)
+
+
+@pytest.mark.parametrize("panorama_type, kw", [
+    ("FISHEYE_EQUIDISTANT", {}),
+    ("FISHEYE_EQUISOLID", {"fisheye_lens": 8.0, "fisheye_fov": math.radians(170.0), "sensor_fit": "VERTICAL"}),
+    ("FISHEYE_EQUISOLID", {"fisheye_lens": 10.0, "fisheye_fov": math.radians(180.0), "shift_x": 0.1, "shift_y": -0.05}),
+])
+def test_pixels_outside_the_image_circle_are_exactly_those_no_ray_of_reaches(panorama_type, kw):
+    """Every pixel called outside has no valid ray at any of 32 x 32 points across it, and every pixel
+    with no valid ray among them, except those the circle only grazes, is called outside."""
+    camera = fisheye(panorama_type, **kw)
+    W, H, k = 48, 36, 32
+    pixels = np.arange(W * H)
+    outside = camera_module.outside_image_circle(camera, W, H, pixels)
+    offsets = (np.arange(k) + 0.5) / k
+    ox, oy = np.meshgrid(np.append(offsets, [0.0, 1.0 - 1e-9]), np.append(offsets, [0.0, 1.0 - 1e-9]))
+    raster_x = (pixels % W)[:, None] + ox.reshape(-1)[None, :]
+    raster_y = (pixels // W)[:, None] + oy.reshape(-1)[None, :]
+    valid = generate_rays(camera, W, H, raster_x.reshape(-1), raster_y.reshape(-1)).valid.reshape(len(pixels), -1)
+    assert not valid[outside].any()                       # never skips a pixel the circle reaches
+    unreached = ~valid.any(axis=1)
+    assert outside.sum() > 0.1 * W * H                    # the corners of the frame are skipped
+    assert (unreached & ~outside).sum() <= 0.01 * W * H   # and almost nothing else that could be
+    inside = camera_module.outside_image_circle(Camera(matrix_world=np.eye(4)), W, H, pixels)
+    assert not inside.any()                               # a perspective camera has no circle
+
+
+def test_fisheye_render_skips_pixels_outside_the_circle_and_keeps_them_opaque_black():
+    """The film outside a fisheye's image circle is opaque black without a single sample; inside, the image
+    is what sampling every pixel gives."""
+    from core import render as render_module
+    from core.scene import RenderSettings, Scene, SunLight
+    scene = Scene(camera=fisheye("FISHEYE_EQUISOLID", fisheye_lens=8.0, fisheye_fov=math.radians(170.0),
+                                 sensor_fit="VERTICAL"))
+    scene.world_color = np.array([0.2, 0.3, 0.4])
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=1.0))
+    settings = RenderSettings(width=32, height=24, samples=4, seed=2)
+    result = render_module.render(scene, settings)
+    outside = camera_module.outside_image_circle(scene.camera, 32, 24, np.arange(32 * 24)).reshape(24, 32)
+    assert outside.any() and not outside.all()
+    assert (result.stats.samples_per_pixel[outside] == 0).all()
+    assert (result.image[outside] == [0.0, 0.0, 0.0, 1.0]).all()
+    # Inside, sampling every pixel as before gives the same values.
+    original = camera_module.outside_image_circle
+    try:
+        camera_module.outside_image_circle = lambda *a, **k: np.zeros(len(a[3]), bool)
+        full = render_module.render(scene, settings)
+    finally:
+        camera_module.outside_image_circle = original
+    np.testing.assert_array_equal(full.image[~outside], result.image[~outside])
+    assert (full.image[outside] == [0.0, 0.0, 0.0, 1.0]).all()
 
 
 def test_fisheye_equisolid_angle_follows_equisolid_law():
