@@ -461,7 +461,8 @@ def render(scene: Scene, settings: RenderSettings,
     tracer = geometry.tracer
     queried = (tracer.intersect_seconds, tracer.occluded_seconds)
 
-    def store(chunk_pixels: np.ndarray, result: ChunkResult) -> None:
+    def store(chunk: tuple, result: ChunkResult) -> None:
+        chunk_pixels = chunk[0]
         noise.total[chunk_pixels] += result.rgba
         noise.squares[chunk_pixels] += result.squares
         noise.count[chunk_pixels] += result.samples
@@ -483,12 +484,13 @@ def render(scene: Scene, settings: RenderSettings,
                     break
             # 2. A pass of `spp` more samples over them, chunk by chunk: each pixel continues its own
             #    progressive pattern where it left off, so all its passes together stay stratified.
-            done_before = noise.count.copy()
             per_chunk, workers = _plan_chunks(len(pixels), spp, settings.chunk_size, threads)
-            chunks = [pixels[i:i + per_chunk] for i in range(0, len(pixels), per_chunk)]
+            done_before = noise.count[pixels]                   # samples each pixel has, before this pass
+            chunks = [(pixels[i:i + per_chunk], done_before[i:i + per_chunk])
+                      for i in range(0, len(pixels), per_chunk)]
             in_flight = 2 * threads if workers == threads else workers
             cancelled = _run_chunks(pool, in_flight, chunks,
-                                    lambda c: render_chunk(ctx, c, spp, settings.seed, done_before[c]), store,
+                                    lambda c: render_chunk(ctx, c[0], spp, settings.seed, c[1]), store,
                                     cancel, lambda f: progress((index + f) / len(passes), stats) if progress else None,
                                     stats, start)
             stats.passes += 1
