@@ -357,6 +357,15 @@ def _fisheye_directions(sin_theta: np.ndarray, cos_theta: np.ndarray, plane_x: n
     return vectors.rows(scale * plane_x, scale * plane_y, -cos_theta)
 
 
+def _fisheye_plane(camera: Camera, width, height, pixel_aspect) -> tuple[float, float, float]:
+    """Return (scale_x, scale_y, limit): the image plane is ((u - 0.5) scale_x, (v - 0.5) scale_y), and
+    the image circle is where its distance from the centre is at most `limit` (see _fisheye_rays)."""
+    if camera.panorama_type == "FISHEYE_EQUIDISTANT":
+        return 2.0, 2.0, 1.0
+    sensor_width, sensor_height = _panorama_sensor(camera, width, height, pixel_aspect)
+    return sensor_width, sensor_height, 2.0 * camera.fisheye_lens * math.sin(0.25 * camera.fisheye_fov)
+
+
 def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
     """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for a fisheye camera.
 
@@ -368,20 +377,15 @@ def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspec
     Clipping is spherical here, as in Cycles: clip distances are measured along the ray.
     """
     u, v = _panorama_uv(camera, width, height, raster_x, raster_y)
+    scale_x, scale_y, limit = _fisheye_plane(camera, width, height, pixel_aspect)
+    plane_x = (u - 0.5) * scale_x
+    plane_y = (v - 0.5) * scale_y
+    radius = np.sqrt(plane_x * plane_x + plane_y * plane_y)
+    valid = radius <= limit
     if camera.panorama_type == "FISHEYE_EQUIDISTANT":
-        plane_x = (u - 0.5) * 2.0
-        plane_y = (v - 0.5) * 2.0
-        radius = np.sqrt(plane_x * plane_x + plane_y * plane_y)
-        valid = radius <= 1.0
         theta = np.where(valid, radius * (0.5 * camera.fisheye_fov), 0.0)
         sin_theta, cos_theta = np.sin(theta), np.cos(theta)
     else:  # FISHEYE_EQUISOLID
-        sensor_width, sensor_height = _panorama_sensor(camera, width, height, pixel_aspect)
-        plane_x = (u - 0.5) * sensor_width
-        plane_y = (v - 0.5) * sensor_height
-        radius = np.sqrt(plane_x * plane_x + plane_y * plane_y)
-        max_radius = 2.0 * camera.fisheye_lens * math.sin(0.25 * camera.fisheye_fov)
-        valid = radius <= max_radius
         # r = 2 lens sin(theta / 2); with s = sin(theta / 2): sin theta = 2 s sqrt(1 - s^2), cos theta = 1 - 2 s^2.
         s = np.where(valid, np.clip(radius / (2.0 * camera.fisheye_lens), 0.0, 1.0), 0.0)
         sin_theta, cos_theta = 2.0 * s * np.sqrt(1.0 - s * s), 1.0 - 2.0 * s * s
@@ -407,11 +411,7 @@ def outside_image_circle(camera: Camera, width: int, height: int, pixels: np.nda
     x, y = pixels % width, pixels // width
     u0, v0 = _panorama_uv(camera, width, height, x.astype(np.float64), (y + 1).astype(np.float64))
     u1, v1 = _panorama_uv(camera, width, height, (x + 1).astype(np.float64), y.astype(np.float64))
-    if camera.panorama_type == "FISHEYE_EQUIDISTANT":
-        scale_x, scale_y, limit = 2.0, 2.0, 1.0
-    else:
-        scale_x, scale_y = _panorama_sensor(camera, width, height, pixel_aspect)
-        limit = 2.0 * camera.fisheye_lens * math.sin(0.25 * camera.fisheye_fov)
+    scale_x, scale_y, limit = _fisheye_plane(camera, width, height, pixel_aspect)
     # The rectangle's point nearest the centre (0, 0) of the image plane.
     nearest_x = np.clip(0.0, (u0 - 0.5) * scale_x, (u1 - 0.5) * scale_x)
     nearest_y = np.clip(0.0, (v0 - 0.5) * scale_y, (v1 - 0.5) * scale_y)
