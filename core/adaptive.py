@@ -129,18 +129,18 @@ def edge_contrast(noise: PixelNoise, width: int, height: int) -> np.ndarray:
     n = np.maximum(noise.count, 1).astype(np.float64)
     mean = (np.einsum("ij,j->i", noise.total[:, :3], LUMINANCE) / n).reshape(height, width)
     sampled = (noise.count > 0).reshape(height, width)
+
+    def difference(a, b, both):
+        return np.where(both, np.abs(a - b) / np.sqrt((0.5 * (a + b)) ** 2 + DARK ** 2), 0.0)
+
+    down = difference(mean[1:, :], mean[:-1, :], sampled[1:, :] & sampled[:-1, :])      # (H - 1, W)
+    across = difference(mean[:, 1:], mean[:, :-1], sampled[:, 1:] & sampled[:, :-1])    # (H, W - 1)
+    # Each difference counts for both pixels of its pair.
     contrast = np.zeros((height, width))
-    for a, b, sa, sb in ((mean[1:, :], mean[:-1, :], sampled[1:, :], sampled[:-1, :]),
-                         (mean[:, 1:], mean[:, :-1], sampled[:, 1:], sampled[:, :-1])):
-        both = sa & sb
-        difference = np.where(both, np.abs(a - b) / np.sqrt((0.5 * (a + b)) ** 2 + DARK ** 2), 0.0)
-        # Each difference counts for both pixels of the pair.
-        if a.shape[0] < height:
-            contrast[1:, :] = np.maximum(contrast[1:, :], difference)
-            contrast[:-1, :] = np.maximum(contrast[:-1, :], difference)
-        else:
-            contrast[:, 1:] = np.maximum(contrast[:, 1:], difference)
-            contrast[:, :-1] = np.maximum(contrast[:, :-1], difference)
+    np.maximum(contrast[1:, :], down, out=contrast[1:, :])
+    np.maximum(contrast[:-1, :], down, out=contrast[:-1, :])
+    np.maximum(contrast[:, 1:], across, out=contrast[:, 1:])
+    np.maximum(contrast[:, :-1], across, out=contrast[:, :-1])
     return contrast.reshape(-1)
 
 
