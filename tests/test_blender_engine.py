@@ -15,7 +15,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
-from render import load_primer  # noqa: E402
+from render import configure_output, load_primer  # noqa: E402
 
 from core import image_io  # noqa: E402
 
@@ -58,16 +58,19 @@ def new_scene(width=48, height=36, light=True, camera=True):
     return scene
 
 
+def write_float_exr(scene, path: str, multilayer: bool = False) -> None:
+    """Render the scene with write_still into a 32-bit float EXR at `path` (tools/render.py's output
+    settings), with every pass when multilayer."""
+    scene.render.image_settings.media_type = "IMAGE"          # a scene rendered multilayer before stays so
+    configure_output(scene, path)
+    if multilayer:
+        scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
+    bpy.ops.render.render(write_still=True)
+
+
 def render_to(scene, path):
     """Render the scene with write_still into a float EXR and return it (H, W, C) top-down."""
-    settings = scene.render.image_settings
-    settings.file_format = "OPEN_EXR"
-    settings.color_depth = "32"
-    settings.exr_codec = "ZIP"
-    scene.render.filepath = path
-    scene.render.use_file_extension = False
-    scene.view_settings.view_transform = "Standard"
-    bpy.ops.render.render(write_still=True)
+    write_float_exr(scene, path)
     return image_io.read_image(path)
 
 
@@ -77,13 +80,7 @@ def render_passes(scene, path: str) -> dict:
     Channels are named ViewLayer.<pass>.<channel>; Blender may put several passes in one part.
     """
     import OpenImageIO as oiio
-    settings = scene.render.image_settings
-    settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.color_depth = "32"
-    settings.exr_codec = "ZIP"
-    scene.render.filepath = path
-    scene.render.use_file_extension = False
-    bpy.ops.render.render(write_still=True)
+    write_float_exr(scene, path, multilayer=True)
     channels: dict = {}
     inp = oiio.ImageInput.open(path)
     part = 0
