@@ -296,17 +296,22 @@ def rays_table(results: dict) -> list:
 
 
 def _embree_split(p: dict) -> str:
-    """Return a scaling point's Embree time as "total (copy + build)", or the total alone for older runs."""
+    """Return a scaling point's Embree time as "total (upload + build)", or the total alone for older runs."""
     total = p.get("embree_build_seconds", math.nan)
     if "embreex_upload_seconds" not in p:
         return f"{total:.2f}"
     return f"{total:.2f} ({p['embreex_upload_seconds']:.2f} + {p['embree_commit_seconds']:.2f})"
 
 
+def _upload_kind(p: dict) -> str:
+    """Return how a scaling point's arrays reached Embree: shared in place, or copied by embreex."""
+    return "shared in place" if p.get("embree_shared") else "embreex's element-by-element copy"
+
+
 def scaling_table(results: dict) -> list:
     """Return the scaling runs as a markdown table."""
     lines = ["| varied | value | triangles | pixels × spp | lights | seconds | of which placement + BVH | "
-             "Embree alone: embreex's copy + BVH build | rays | peak memory |",
+             "Embree alone: upload + BVH build | rays | peak memory |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for p in results["scaling"]["points"]:
         if "seconds" not in p:
@@ -390,8 +395,8 @@ def targets_table(results: dict) -> list:
         seconds = million["scene_seconds"] + million["bvh_seconds"]
         row("Export + BVH build of a 1-million-triangle mesh < 1.5 s",
             f"{seconds:.2f} s (core scene {million['scene_seconds']:.2f} s, placement + BVH "
-            f"{million['bvh_seconds']:.2f} s, of which Embree {_embree_split(million)} s: embreex's "
-            "element-by-element copy into Embree, then Embree's BVH build)",
+            f"{million['bvh_seconds']:.2f} s, of which Embree {_embree_split(million)} s: handing the "
+            f"arrays to Embree ({_upload_kind(million)}), then Embree's BVH build)",
             seconds < 1.5)
     # 4. Instancing memory.
     one, many = _point(points, "instances", 1), _point(points, "instances", 1e5)
@@ -536,14 +541,14 @@ def findings(results: dict, heads: list) -> list:
     if big:
         out.append(f"{big['triangles']:,} triangles render in {big['seconds']:.1f} s with {big['peak_mb'] / 1024:.1f} GB "
                    f"at peak; {big['bvh_seconds']:.1f} s of it is placing the triangles and building the BVH "
-                   f"(Embree alone: {_embree_split(big)} s, embreex's copy + the BVH build), so tracing is "
-                   "cheap next to scene set-up at that size. embreex copies the vertices and indices into Embree "
-                   "one number at a time through Python indexing (about 0.35 µs each); Embree's own build is the "
-                   "smaller part.")
+                   f"(Embree alone: {_embree_split(big)} s, upload + BVH build; the arrays were "
+                   f"{_upload_kind(big)}), so tracing is cheap next to scene set-up at that size. Shared in place "
+                   "(core/embree_buffers.py), the arrays cost Embree one padded numpy copy; embreex's own path copies "
+                   "the vertices and indices one number at a time through Python indexing (about 0.35 µs each).")
     many = max((p for p in points.values() if p["kind"] == "instances"), key=lambda p: p["value"], default=None)
     if many:
         out.append(f"{many['instances'] - 1:,} instances take {many['bvh_seconds']:.1f} s to place and build "
-                   f"(Embree alone: {_embree_split(many)} s, embreex's copy + the BVH build), "
+                   f"(Embree alone: {_embree_split(many)} s, upload + BVH build), "
                    f"{1e6 * many['bvh_seconds'] / max(1, many['instances']):.0f} µs per instance: embreex has no "
                    "instancing, so Primer copies every instance into one triangle soup (in batched arrays) and "
                    "the BVH holds them all.")

@@ -117,7 +117,7 @@ def measure(kind: str, value: int) -> dict:
             "width": settings.width, "height": settings.height, "samples": settings.samples,
             "lights": len(scene.lights), "instances": len(scene.instances), "scene_seconds": built,
             "seconds": stats.seconds, "bvh_seconds": stats.geometry_seconds, "embree_build_seconds": embree_build,
-            "embreex_upload_seconds": tracer.upload_seconds, "embree_commit_seconds": tracer.build_seconds,
+            "embreex_upload_seconds": tracer.upload_seconds, "embree_shared": tracer.shared, "embree_commit_seconds": tracer.build_seconds,
             "trace_seconds": stats.trace_seconds, "shading_seconds": stats.shading_seconds,
             "rays": stats.rays, "peak_mb": peak, "baseline_mb": baseline}
 

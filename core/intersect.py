@@ -1,4 +1,4 @@
-"""Ray queries: the one place where Primer talks to Embree (through embreex).
+"""Ray queries: the one place where Primer asks Embree (through embreex) about rays.
 
 Two questions can be asked of the scene:
 - `intersect`: where does each ray first hit a triangle (primary rays)?
@@ -18,6 +18,8 @@ import time
 from typing import NamedTuple
 
 import numpy as np
+
+from . import embree_buffers
 
 # Embree's "infinite" t_far: the largest distance embreex uses itself.
 T_INFINITY = 1e37
@@ -53,16 +55,21 @@ class Tracer:
     vertices:  (v, 3) float32 camera-relative points
     triangles: (t, 3) int32 vertex indices
     The queries release the GIL, so several threads may query one Tracer at once.
+    share: True lets Embree read the arrays in place (`core/embree_buffers.py`); False, or a share
+    that fails its checks, copies them through embreex's `TriangleMesh`, the reference path.
+    Both give the same BVH and the same hits.
+    shared: whether the arrays were shared.
     intersect_seconds, occluded_seconds: time spent inside Embree's queries, summed over threads.
-    upload_seconds: time embreex took to copy the arrays into Embree's buffers. It copies them one
-    element at a time through Python indexing (about 0.35 us per number, so 1.6 s for a mesh of 10^6
-    triangles and 5 x 10^5 vertices), which no argument of ours can avoid.
+    upload_seconds: time taken to hand the arrays to Embree. Sharing costs one numpy copy (to add
+    a padding row); embreex's copy goes one element at a time through Python indexing (about
+    0.35 us per number, so 1.6 s for a mesh of 10^6 triangles and 5 x 10^5 vertices).
     build_seconds: time Embree took to build the BVH itself.
     """
 
-    def __init__(self, vertices: np.ndarray, triangles: np.ndarray):
+    def __init__(self, vertices: np.ndarray, triangles: np.ndarray, share: bool = True):
         self.triangle_count = int(len(triangles))
         self._scene = None
+        self.shared = False
         self.intersect_seconds = 0.0
         self.occluded_seconds = 0.0
         self.upload_seconds = 0.0
@@ -70,18 +77,31 @@ class Tracer:
         self._clock = threading.Lock()
         if self.triangle_count == 0:
             return
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
+        from embreex import rtcore, rtcore_scene
         start = time.perf_counter()
-        self._scene = rtcore_scene.EmbreeScene(robust=True)
-        self._mesh = TriangleMesh(self._scene,
-                                  np.ascontiguousarray(vertices, dtype=np.float32),
-                                  np.ascontiguousarray(triangles, dtype=np.int32))
+        self._device = rtcore.EmbreeDevice()
+        self._scene = rtcore_scene.EmbreeScene(self._device, robust=True)
+        if share:
+            self.shared = self._share(vertices, triangles)
+        if not self.shared:
+            from embreex.mesh_construction import TriangleMesh
+            self._mesh = TriangleMesh(self._scene,
+                                      np.ascontiguousarray(vertices, dtype=np.float32),
+                                      np.ascontiguousarray(triangles, dtype=np.int32))
         uploaded = time.perf_counter()
         # Build the BVH now (Embree commits on the first query), not inside a worker thread.
         self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
         self.upload_seconds = uploaded - start
         self.build_seconds = time.perf_counter() - uploaded
+
+    def _share(self, vertices: np.ndarray, triangles: np.ndarray) -> bool:
+        """Attach the mesh as buffers Embree reads in place; return False (nothing attached) if it cannot be done."""
+        points = embree_buffers.padded(vertices, np.float32)
+        corners = embree_buffers.padded(triangles, np.uint32)
+        if embree_buffers.attach_triangles(self._scene, self._device, points, corners) is None:
+            return False
+        self._buffers = (points, corners)  # Embree reads these until the scene is freed
+        return True
 
     def intersect(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> Hits:
         """Return the nearest hit in (0, t_max) of each ray.

@@ -1,0 +1,194 @@
+"""Shared buffers: hand the triangle arrays to Embree without copying them.
+
+embreex builds a mesh by copying each vertex coordinate and each index into Embree's own buffers
+one number at a time through Python indexing (`TriangleMesh` in its `mesh_construction.pyx`):
+about 0.35 us per number, 1.6 s for a mesh of 10^6 triangles. Embree itself can read the
+application's arrays in place (`rtcSetSharedGeometryBuffer`), so this module does that: it
+creates the triangle geometry through Embree's C API (ctypes, against the very library embreex
+loaded) and attaches it to an embreex scene, whose queries then run as before.
+
+embreex keeps its scene handle in a C field that Python cannot read, so `scene_handles` reads it
+from the object's memory, and only after checking the object's layout three ways (its size, a
+value we write through a public field, and the device pointer beside it) and asking Embree
+whether the scene belongs to the device. If anything is unexpected (another embreex, another
+platform, a missing library), `attach_triangles` returns None and the caller copies the
+arrays the ordinary way (`core/intersect.py` keeps that path and tests both against each other).
+
+Embree reads shared arrays until the scene is freed, so the caller must keep them alive.
+"""
+from __future__ import annotations
+
+import ctypes
+import glob
+import logging
+import os
+from typing import NamedTuple, Optional
+
+import numpy as np
+
+log = logging.getLogger(__name__)
+
+# Embree 4's C constants (rtcore_common.h, rtcore_buffer.h, rtcore_geometry.h).
+RTC_GEOMETRY_TYPE_TRIANGLE = 0
+RTC_BUFFER_TYPE_INDEX = 0
+RTC_BUFFER_TYPE_VERTEX = 1
+RTC_FORMAT_UINT3 = 0x5003
+RTC_FORMAT_FLOAT3 = 0x9003
+RTC_ERROR_NONE = 0
+
+# The C layout of embreex 4's extension types (see rtcore_scene.pxd and rtcore.pxd): after
+# CPython's 16-byte object header, EmbreeScene holds {RTCScene scene_i; int is_committed;
+# EmbreeDevice device} and EmbreeDevice holds {RTCDevice device}.
+_HEADER = 16
+_SCENE_SIZE = _HEADER + 8 + 8 + 8
+_DEVICE_SIZE = _HEADER + 8
+_SCENE_HANDLE = _HEADER
+_SCENE_COMMITTED = _HEADER + 8
+_SCENE_DEVICE_OBJECT = _HEADER + 16
+_DEVICE_HANDLE = _HEADER
+
+
+class Handles(NamedTuple):
+    """Embree's C handles behind an embreex scene: RTCScene and RTCDevice, as integers."""
+
+    scene: int
+    device: int
+
+
+_library_cache: list = []
+
+
+def embree_library() -> Optional[ctypes.CDLL]:
+    """Return the Embree 4 library that embreex loaded, with the few signatures used here, or None."""
+    if _library_cache:
+        return _library_cache[0]
+    library = None
+    path = _loaded_embree_path()
+    if path is not None:
+        try:
+            library = _declare(ctypes.CDLL(path))
+        except (OSError, AttributeError) as error:
+            log.info("Embree's library at %s cannot be used directly (%s); arrays will be copied", path, error)
+            library = None
+    _library_cache.append(library)
+    return library
+
+
+def _loaded_embree_path() -> Optional[str]:
+    """Return the file of the Embree library embreex uses: the one mapped in this process, else the one it ships."""
+    import embreex.rtcore_scene  # noqa: F401  (loads Embree)
+    try:
+        with open("/proc/self/maps") as maps:
+            for line in maps:
+                path = line.split()[-1] if len(line.split()) >= 6 else ""
+                if os.path.basename(path).startswith(("libembree4", "embree4")):
+                    return path
+    except OSError:
+        pass
+    import embreex
+    package = os.path.dirname(embreex.__file__)
+    for pattern in ("../embreex.libs/*embree4*", ".dylibs/*embree4*", "*embree4*.dll", "../embreex.libs/*embree4*.dll"):
+        found = sorted(glob.glob(os.path.join(package, pattern)))
+        if found:
+            return os.path.normpath(found[0])
+    return None
+
+
+def _declare(library: ctypes.CDLL) -> ctypes.CDLL:
+    """Give the Embree functions used here their C signatures (ctypes would guess int otherwise)."""
+    handle, uint, size = ctypes.c_void_p, ctypes.c_uint, ctypes.c_size_t
+    signatures = {
+        "rtcGetSceneDevice": (handle, [handle]),
+        "rtcReleaseDevice": (None, [handle]),
+        "rtcGetDeviceError": (ctypes.c_int, [handle]),
+        "rtcNewGeometry": (handle, [handle, ctypes.c_int]),
+        "rtcSetSharedGeometryBuffer": (None, [handle, ctypes.c_int, uint, ctypes.c_int, handle, size, size, size]),
+        "rtcCommitGeometry": (None, [handle]),
+        "rtcAttachGeometry": (uint, [handle, handle]),
+        "rtcReleaseGeometry": (None, [handle]),
+        "rtcCommitScene": (None, [handle]),
+    }
+    for name, (result, arguments) in signatures.items():
+        function = getattr(library, name)
+        function.restype, function.argtypes = result, arguments
+    return library
+
+
+def scene_handles(scene, device) -> Optional[Handles]:
+    """Return the C handles of an embreex scene created on `device`, or None if its layout is not the one known.
+
+    scene: embreex.rtcore_scene.EmbreeScene built as EmbreeScene(device); device: embreex.rtcore.EmbreeDevice.
+    """
+    library = embree_library()
+    if library is None or ctypes.sizeof(ctypes.c_void_p) != 8:
+        return None
+    # 1. Both objects have the size the known layout gives.
+    if type(scene).__basicsize__ != _SCENE_SIZE or type(device).__basicsize__ != _DEVICE_SIZE:
+        return None
+    base = id(scene)
+    # 2. The public `is_committed` field sits where the layout says: write two values and read them back.
+    committed = scene.is_committed
+    try:
+        for sentinel in (0x5EED1234, 0x0BADF00D):
+            scene.is_committed = sentinel
+            if ctypes.c_int.from_address(base + _SCENE_COMMITTED).value != sentinel:
+                return None
+    finally:
+        scene.is_committed = committed
+    # 3. The scene's device field points at the device object we gave it.
+    if ctypes.c_void_p.from_address(base + _SCENE_DEVICE_OBJECT).value != id(device):
+        return None
+    handles = Handles(scene=ctypes.c_void_p.from_address(base + _SCENE_HANDLE).value or 0,
+                      device=ctypes.c_void_p.from_address(id(device) + _DEVICE_HANDLE).value or 0)
+    if not handles.scene or not handles.device:
+        return None
+    # 4. Embree agrees that this scene was made on this device (rtcGetSceneDevice adds a reference).
+    owner = library.rtcGetSceneDevice(handles.scene)
+    if owner:
+        library.rtcReleaseDevice(owner)
+    return handles if owner == handles.device else None
+
+
+def padded(array: np.ndarray, dtype) -> np.ndarray:
+    """Return a C-contiguous copy of (n, 3) `array` with one spare row, so Embree may read 16 bytes at the last element.
+
+    array: (n, 3); returns (n + 1, 3) of dtype, the last row zero.
+    """
+    out = np.zeros((len(array) + 1, 3), dtype)
+    out[:-1] = array
+    return out
+
+
+def attach_triangles(scene, device, vertices: np.ndarray, triangles: np.ndarray) -> Optional[int]:
+    """Attach a triangle mesh that reads `vertices` and `triangles` in place; return its geometry ID, or None.
+
+    vertices: (v + 1, 3) float32 C-contiguous, from `padded` (the last row is padding);
+    triangles: (t + 1, 3) uint32 C-contiguous, from `padded`.
+    Both arrays must outlive the scene. None means nothing was attached: copy the arrays instead.
+    """
+    handles = scene_handles(scene, device)
+    if handles is None:
+        return None
+    library = embree_library()
+    for array, dtype in ((vertices, np.float32), (triangles, np.uint32)):
+        if array.dtype != dtype or not array.flags.c_contiguous or array.ndim != 2 or array.shape[1] != 3:
+            raise ValueError(f"shared buffers must be C-contiguous (n + 1, 3) {np.dtype(dtype).name} arrays")
+    # 1. A triangle geometry whose vertex and index buffers are our arrays (12-byte rows, padding row excluded).
+    library.rtcGetDeviceError(handles.device)  # clears any earlier error
+    geometry = library.rtcNewGeometry(handles.device, RTC_GEOMETRY_TYPE_TRIANGLE)
+    if not geometry:
+        return None
+    library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                       vertices.ctypes.data, 0, 12, len(vertices) - 1)
+    library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                       triangles.ctypes.data, 0, 12, len(triangles) - 1)
+    library.rtcCommitGeometry(geometry)
+    # 2. Attach it to the scene only if Embree accepted the buffers.
+    if library.rtcGetDeviceError(handles.device) != RTC_ERROR_NONE:
+        library.rtcReleaseGeometry(geometry)
+        return None
+    geometry_id = library.rtcAttachGeometry(handles.scene, geometry)
+    library.rtcReleaseGeometry(geometry)
+    scene.is_committed = 0
+    return int(geometry_id)
+
