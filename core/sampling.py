@@ -58,12 +58,18 @@ def stratum_centres(index: np.ndarray, count: int) -> np.ndarray:
 # ---------------------------------------------------------------------------
 
 def reverse_bits(x: np.ndarray) -> np.ndarray:
-    """Return each uint32 with its 32 bits in reverse order: (n,) uint32 -> (n,) uint32."""
-    x = np.asarray(x, dtype=_U32)
-    for shift, mask in ((1, 0x55555555), (2, 0x33333333), (4, 0x0F0F0F0F), (8, 0x00FF00FF)):
+    """Return each uint32 with its 32 bits in reverse order: (n,) uint32 -> (n,) uint32 (a new array)."""
+    x = np.array(x, dtype=_U32)
+    low = np.empty_like(x)
+    for shift, mask in ((1, 0x55555555), (2, 0x33333333), (4, 0x0F0F0F0F), (8, 0x00FF00FF), (16, 0x0000FFFF)):
         s, m = _U32(shift), _U32(mask)
-        x = ((x >> s) & m) | ((x & m) << s)       # swap neighbouring groups of `shift` bits
-    return (x >> _U32(16)) | (x << _U32(16))
+        # Swap neighbouring groups of `shift` bits: x = ((x >> s) & m) | ((x & m) << s), in place.
+        np.right_shift(x, s, out=low)
+        low &= m
+        x &= m
+        x <<= s
+        x |= low
+    return x
 
 
 def _laine_karras(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
@@ -86,33 +92,24 @@ def owen_scramble(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
     return reverse_bits(_laine_karras(reverse_bits(x), seed))
 
 
-def _sobol_tables() -> np.ndarray:
-    """Return (4, 256) uint32: for each byte of an index, the XOR of Sobol's second-dimension
-    direction numbers of its set bits, bit-mirrored (the form `sample_2d` scrambles in)."""
-    directions = [0x80000000]
-    for _ in range(31):
-        directions.append(directions[-1] ^ (directions[-1] >> 1))
-    mirrored = [int(f"{d:032b}"[::-1], 2) for d in directions]
-    tables = np.zeros((4, 256), dtype=_U32)
-    for byte in range(4):
-        for value in range(256):
-            word = 0
-            for bit in range(8):
-                if value >> bit & 1:
-                    word ^= mirrored[8 * byte + bit]
-            tables[byte, value] = word
-    return tables
-
-
-_SOBOL_Y_MIRRORED = _sobol_tables()
+_SUPERSET_STEPS = tuple((_U32(1 << k), _U32(mask)) for k, mask in
+                        enumerate((0x55555555, 0x33333333, 0x0F0F0F0F, 0x00FF00FF, 0x0000FFFF)))
 
 
 def _sobol_y_mirrored(index: np.ndarray) -> np.ndarray:
-    """Return reverse_bits(sobol_y(index)) by table lookup, a byte of the index at a time: (n,) uint32."""
-    index = np.asarray(index, dtype=_U32)
-    y = _SOBOL_Y_MIRRORED[0][index & _U32(0xFF)]
-    for byte in range(1, 4):
-        y ^= _SOBOL_Y_MIRRORED[byte][(index >> _U32(8 * byte)) & _U32(0xFF)]
+    """Return reverse_bits(sobol_y(index)) in five shift-and-XOR steps: (n,) uint32 -> (n,) uint32.
+
+    Sobol's second direction numbers are the rows of Pascal's triangle mod 2, and C(m, j) is odd
+    exactly when the bits of j are a subset of the bits of m (Lucas' theorem). So bit j of the
+    mirrored y is the XOR of the index's bits m over all m that contain j: a "superset sum",
+    computed one bit of j at a time (step k adds bit m = j | 2^k into every j without bit k).
+    """
+    y = np.array(index, dtype=_U32)
+    higher = np.empty_like(y)
+    for shift, without_bit in _SUPERSET_STEPS:
+        np.right_shift(y, shift, out=higher)
+        higher &= without_bit
+        y ^= higher
     return y
 
 
@@ -169,7 +166,7 @@ def sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -
     key = _pixel_key(seed, pixel, dimension)
     shuffled = owen_scramble(np.asarray(index).astype(_U32), key)
     # Each coordinate c is owen_scramble(c) = reverse(laine_karras(reverse(c))). For x, the van der
-    # Corput reversal cancels the first reverse; for y, the tables hold reverse(sobol_y) already.
+    # Corput reversal cancels the first reverse; for y, _sobol_y_mirrored gives reverse(sobol_y) directly.
     x = reverse_bits(_laine_karras(shuffled, _combine(key, 1)))
     y = reverse_bits(_laine_karras(_sobol_y_mirrored(shuffled), _combine(key, 2)))
     # Column-major (n, 2), each coordinate a contiguous column (core/vectors.py).

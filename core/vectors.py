@@ -40,8 +40,9 @@ def cos_sin(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     c = np.cos(phi.astype(np.float32)).astype(np.float64)
     np.clip(c, -1.0, 1.0, out=c)
-    s = np.sqrt(1.0 - c * c)
-    s[phi > math.pi] *= -1.0
+    s = 1.0 - c * c
+    np.sqrt(s, out=s)
+    np.copysign(s, math.pi - phi, out=s)       # negative for phi in (pi, 2 pi)
     return c, s
 
 

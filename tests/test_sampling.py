@@ -30,7 +30,8 @@ def test_sobol_y_xors_one_direction_number_per_set_bit():
     directions = [0x80000000]
     for _ in range(31):
         directions.append(directions[-1] ^ (directions[-1] >> 1))
-    index = [1, 2, 3, 7, 255, 256, 1000, 65537, 2 ** 31 + 5, 2 ** 32 - 1]
+    random = np.random.default_rng(5).integers(0, 2 ** 32, 2000, dtype=np.uint64)
+    index = [1, 2, 3, 7, 255, 256, 1000, 65537, 2 ** 31 + 5, 2 ** 32 - 1] + [int(i) for i in random]
     expected = []
     for i in index:
         word = 0
@@ -101,7 +102,7 @@ def test_camera_and_light_patterns_are_uncorrelated():
 
 
 def test_fast_pattern_equals_the_readable_one_bit_for_bit():
-    """sample_2d (mirrored tables, cancelled reversals) computes exactly what sample_2d_reference spells out."""
+    """sample_2d (mirrored Sobol y, cancelled reversals) computes exactly what sample_2d_reference spells out."""
     pixel = np.repeat(np.arange(300), 40)
     index = np.tile(np.arange(40), 300) * 7 + 3
     for seed, dimension in ((0, 0), (5, 16), (123456, 21)):
