@@ -353,8 +353,12 @@ def _fisheye_directions(sin_theta: np.ndarray, cos_theta: np.ndarray, plane_x: n
                         plane_y: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """Return local unit directions (n, 3) at angle theta from -Z (given by its sine and cosine,
     (n,) each), with the azimuth of (plane_x, plane_y) at distance `radius` from the centre."""
-    scale = sin_theta / np.where(radius > 0.0, radius, 1.0)
-    return vectors.rows(scale * plane_x, scale * plane_y, -cos_theta)
+    scale = np.divide(sin_theta, radius, out=np.zeros_like(radius), where=radius > 0.0)
+    out = np.empty((len(radius), 3), order="F")        # column-major (core/vectors.py)
+    np.multiply(scale, plane_x, out=out[:, 0])
+    np.multiply(scale, plane_y, out=out[:, 1])
+    np.negative(cos_theta, out=out[:, 2])
+    return out
 
 
 def _fisheye_plane(camera: Camera, width, height, pixel_aspect) -> tuple[float, float, float]:
@@ -446,5 +450,13 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
     # Column by column (core/vectors.py), not @: a matrix product of this size would start BLAS
     # threads that fight the render's own.
     origins = vectors.transform(local_origins, rotation, eye_point)
-    directions = _normalize_rows(vectors.transform(local_directions, rotation, np.zeros(3)))
+    directions = vectors.transform(local_directions, rotation, np.zeros(3))
+    if not _is_rotation(rotation):
+        # A sheared parent leaves the axes unit but not orthogonal: directions lose unit length.
+        directions = _normalize_rows(directions)
     return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid)
+
+
+def _is_rotation(matrix: np.ndarray) -> bool:
+    """Return whether a (3, 3) float64 matrix is orthonormal (it then keeps unit vectors unit)."""
+    return bool(np.allclose(matrix.T @ matrix, np.eye(3), rtol=0.0, atol=1e-12))

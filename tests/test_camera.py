@@ -473,6 +473,27 @@ def test_object_scale_is_ignored():
     np.testing.assert_allclose(Camera(matrix_world=scaled).forward, -rotation[:, 2], atol=1e-15)
 
 
+@pytest.mark.parametrize("kw", [
+    dict(type="PERSP", lens=18.0),
+    dict(type="PANO", panorama_type="FISHEYE_EQUISOLID"),
+])
+def test_sheared_camera_still_gives_unit_directions(kw):
+    """A parent's non-uniform scale can shear the camera: its axes stay unit, not orthogonal; rays stay unit."""
+    sheared = np.eye(4)
+    sheared[:3, :3] = rotation_matrix([0.0, 0.0, 1.0], 0.4) @ np.diag([1.0, 3.0, 1.0]) @ rotation_matrix(
+        [1.0, 1.0, 0.0], 0.9)
+    camera = Camera(matrix_world=sheared, **kw)
+    axes = camera.matrix_world[:3, :3]
+    assert abs(np.dot(axes[:, 0], axes[:, 1])) > 0.1              # really sheared
+    ys, xs = np.mgrid[0:12, 0:16]
+    rays = generate_rays(camera, 16, 12, xs.ravel() + 0.5, ys.ravel() + 0.5)
+    np.testing.assert_allclose(np.linalg.norm(rays.directions, axis=1), 1.0, atol=1e-14)
+    # Each direction is the sheared image of the local one, rescaled.
+    local = generate_rays(Camera(matrix_world=np.eye(4), **kw), 16, 12, xs.ravel() + 0.5, ys.ravel() + 0.5)
+    mapped = local.directions @ axes.T
+    np.testing.assert_allclose(rays.directions, mapped / np.linalg.norm(mapped, axis=1)[:, None], atol=1e-14)
+
+
 def test_perspective_and_ortho_rays_are_always_valid():
     """Only fisheye rays can be invalid."""
     for kw in (dict(type="PERSP"), dict(type="ORTHO")):
