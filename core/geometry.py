@@ -12,6 +12,7 @@ out-of-range indices and zero area are dropped here, each kind counted in
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,6 +55,23 @@ class WorldGeometry:
     def has_smooth(self) -> bool:
         """Whether any triangle needs interpolated normals."""
         return len(self.corner_normals) > 0
+
+    @functools.cached_property
+    def _corner_columns(self) -> np.ndarray:
+        """(9, t) float32: coordinate c of corner k of every triangle in row 3 k + c (built on first use)."""
+        return np.ascontiguousarray(self.vertices[self.triangles].reshape(-1, 9).T)
+
+    def corner_points(self, prim: np.ndarray) -> np.ndarray:
+        """Return the corners of the triangles `prim` in float64: (n,) int64 -> (n, 3, 3), [i, k] = corner k.
+
+        The same numbers as vertices[triangles[prim]], gathered a coordinate at a time from one
+        per-triangle table (several times faster than the nested fancy index), and column-major:
+        corner k of all triangles, points[:, k], is an (n, 3) array with contiguous columns.
+        """
+        out = np.empty((9, len(prim)))
+        for row in range(9):
+            out[row] = self._corner_columns[row].take(prim)
+        return out.T.reshape(len(prim), 3, 3)
 
 
 def _object_corner_normals(mesh, keep: np.ndarray) -> np.ndarray:

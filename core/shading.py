@@ -107,7 +107,7 @@ def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
     flat_only: ignore smooth shading (the lecture's "flat normals" switch).
     """
     # I on the float32 triangle Embree hit.
-    vertices = geometry.vertices[geometry.triangles[prim]].astype(np.float64)     # (n, 3, 3)
+    vertices = geometry.corner_points(prim)                                     # (n, 3, 3)
     Ng = vectors.gather(geometry.face_normals, prim)
     I = hit_points(vertices, Ng, u, v, O, D, t)
     # Face normal, flipped when the triangle was hit from behind (N.D > 0).

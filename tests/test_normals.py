@@ -251,6 +251,19 @@ def trace_surface(scene, origin, origins, directions, flat_only=False):
     return geometry, hits.hit, surface
 
 
+def test_surface_corners_are_the_hit_triangles_vertices():
+    """Surface.vertices, gathered from the per-triangle corner table, are exactly vertices[triangles[prim]];
+    and the hit point lies in the plane of those corners."""
+    scene = Scene(camera=Camera())
+    scene.add_mesh(primitives.uv_sphere(1.0, 12, 8))
+    origins, directions = rays_from_inside()
+    geometry, hit, surface = trace_surface(scene, np.zeros(3), origins, directions)
+    prim = geometry.tracer.intersect(origins, directions, np.full(len(origins), 1e30)).prim[hit]
+    np.testing.assert_array_equal(surface.vertices, geometry.vertices[geometry.triangles[prim]].astype(np.float64))
+    in_plane = np.einsum("ij,ij->i", surface.I - surface.vertices[:, 0], surface.Ng)
+    np.testing.assert_allclose(in_plane, 0.0, atol=1e-7)
+
+
 def test_box_seen_from_inside_has_face_normals_turned_towards_the_viewer():
     """Hitting a closed box from inside flips its outward face normals: Ng = -outward, so Ng . D < 0."""
     scene = Scene(camera=Camera())
