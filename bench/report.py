@@ -549,9 +549,9 @@ def findings(results: dict, heads: list) -> list:
     if many:
         out.append(f"{many['instances'] - 1:,} instances take {many['bvh_seconds']:.1f} s to place and build "
                    f"(Embree alone: {_embree_split(many)} s, upload + BVH build), "
-                   f"{1e6 * many['bvh_seconds'] / max(1, many['instances']):.0f} µs per instance: embreex has no "
-                   "instancing, so Primer copies every instance into one triangle soup (in batched arrays) and "
-                   "the BVH holds them all.")
+                   f"{1e6 * many['bvh_seconds'] / max(1, many['instances']):.0f} µs per instance: embreex's hit "
+                   "record has no instance ID, so Primer places every instance into one triangle soup (in "
+                   "batched arrays) and the BVH holds them all.")
     stability = results.get("stability") or []
     if stability:
         failing = [r for r in stability if r["epsilon"] > 0]

@@ -75,22 +75,23 @@ def embree_library() -> Optional[ctypes.CDLL]:
 
 
 def _loaded_embree_path() -> Optional[str]:
-    """Return the file of the Embree library embreex uses: the one mapped in this process, else the one it ships."""
-    import embreex.rtcore_scene  # noqa: F401  (loads Embree)
+    """Return the file of the Embree library embreex's own modules link to, or None.
+
+    Only a library shipped inside the embreex wheel counts, and only if embreex's compiled scene
+    module names it: Blender ships an Embree of its own (for Cycles), and a call into that copy
+    with embreex's scene would mix two libraries' objects.
+    """
+    import embreex.rtcore_scene as scene_module
+    package = os.path.dirname(scene_module.__file__)
     try:
-        with open("/proc/self/maps") as maps:
-            for line in maps:
-                path = line.split()[-1] if len(line.split()) >= 6 else ""
-                if os.path.basename(path).startswith(("libembree4", "embree4")):
-                    return path
+        with open(scene_module.__file__, "rb") as module:
+            linked = module.read()
     except OSError:
-        pass
-    import embreex
-    package = os.path.dirname(embreex.__file__)
-    for pattern in ("../embreex.libs/*embree4*", ".dylibs/*embree4*", "*embree4*.dll", "../embreex.libs/*embree4*.dll"):
-        found = sorted(glob.glob(os.path.join(package, pattern)))
-        if found:
-            return os.path.normpath(found[0])
+        return None
+    for pattern in ("../embreex.libs/*embree4*", ".dylibs/*embree4*", "*embree4*"):
+        for path in sorted(glob.glob(os.path.join(package, pattern))):
+            if os.path.basename(path).encode() in linked:
+                return os.path.normpath(path)
     return None
 
 

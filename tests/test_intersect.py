@@ -1,5 +1,6 @@
 """Ray queries against closed forms, and the shared-buffer upload against embreex's copying one."""
 import gc
+import os
 
 import numpy as np
 import pytest
@@ -57,6 +58,17 @@ def test_shared_buffers_are_used_here():
     """On this platform (Linux, the embreex wheel) the arrays go to Embree without embreex's copy."""
     assert Tracer(*_unit_square()).shared
     assert not Tracer(*_unit_square(), share=False).shared
+
+
+def test_shared_buffers_call_the_embree_inside_embreex_not_blenders():
+    """Blender ships its own libembree4 for Cycles; the shared path must use the copy embreex links to."""
+    import embreex.rtcore_scene
+    path = embree_buffers._loaded_embree_path()
+    wheel = os.path.dirname(os.path.dirname(embreex.rtcore_scene.__file__))
+    assert path is not None and os.path.commonpath([path, wheel]) == wheel
+    assert os.path.basename(os.path.dirname(path)) in ("embreex.libs", ".dylibs", "embreex")
+    with open(embreex.rtcore_scene.__file__, "rb") as module:
+        assert os.path.basename(path).encode() in module.read()
 
 
 def test_shared_and_copied_meshes_give_identical_hits():
