@@ -22,6 +22,10 @@ from .intersect import Tracer
 from .scene import DEFAULT_BASE_COLOR, Scene
 
 
+# Scenes up to this many triangles keep a per-triangle table of corner coordinates (WorldGeometry.corner_points).
+CORNER_TABLE_TRIANGLES = 1 << 21
+
+
 @dataclass
 class WorldGeometry:
     """The traced scene.
@@ -64,10 +68,14 @@ class WorldGeometry:
     def corner_points(self, prim: np.ndarray) -> np.ndarray:
         """Return the corners of the triangles `prim` in float64: (n,) int64 -> (n, 3, 3), [i, k] = corner k.
 
-        The same numbers as vertices[triangles[prim]], gathered a coordinate at a time from one
-        per-triangle table (several times faster than the nested fancy index), and column-major:
-        corner k of all triangles, points[:, k], is an (n, 3) array with contiguous columns.
+        The same numbers as vertices[triangles[prim]]. Up to CORNER_TABLE_TRIANGLES triangles they
+        are gathered a coordinate at a time from one per-triangle table (36 bytes per triangle,
+        several times faster than the nested fancy index) and come column-major: corner k of all
+        triangles, points[:, k], is an (n, 3) array with contiguous columns. Larger scenes spend
+        their time elsewhere and keep the memory.
         """
+        if len(self.triangles) > CORNER_TABLE_TRIANGLES:
+            return self.vertices[self.triangles[prim]].astype(np.float64)
         out = np.empty((9, len(prim)))
         for row in range(9):
             out[row] = self._corner_columns[row].take(prim)

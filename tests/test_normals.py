@@ -15,6 +15,7 @@ from conftest import rotation, unit
 
 from core import primitives
 from core.camera import Camera, generate_rays
+from core import geometry as geometry_module
 from core.geometry import build_geometry
 from core.normals import face_forward, face_normals, interpolate, safe_normalize, vertex_normals
 from core.render import render
@@ -251,9 +252,12 @@ def trace_surface(scene, origin, origins, directions, flat_only=False):
     return geometry, hits.hit, surface
 
 
-def test_surface_corners_are_the_hit_triangles_vertices():
-    """Surface.vertices, gathered from the per-triangle corner table, are exactly vertices[triangles[prim]];
-    and the hit point lies in the plane of those corners."""
+@pytest.mark.parametrize("table", [True, False])
+def test_surface_corners_are_the_hit_triangles_vertices(table, monkeypatch):
+    """Surface.vertices, from the per-triangle corner table or without it (large scenes), are exactly
+    vertices[triangles[prim]]; and the hit point lies in the plane of those corners."""
+    if not table:
+        monkeypatch.setattr(geometry_module, "CORNER_TABLE_TRIANGLES", 0)
     scene = Scene(camera=Camera())
     scene.add_mesh(primitives.uv_sphere(1.0, 12, 8))
     origins, directions = rays_from_inside()
