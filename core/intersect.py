@@ -97,10 +97,10 @@ class Tracer:
     def _share(self, vertices: np.ndarray, triangles: np.ndarray) -> bool:
         """Attach the mesh as buffers Embree reads in place; return False (nothing attached) if it cannot be done."""
         points = embree_buffers.padded(vertices, np.float32)
-        corners = embree_buffers.padded(triangles, np.uint32)
-        if embree_buffers.attach_triangles(self._scene, self._device, points, corners) is None:
+        indices = embree_buffers.padded(triangles, np.uint32)
+        if embree_buffers.attach_triangles(self._scene, self._device, points, indices) is None:
             return False
-        self._buffers = (points, corners)  # Embree reads these until the scene is freed
+        self._buffers = (points, indices)  # Embree reads these until the scene is freed
         return True
 
     def intersect(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> Hits:
