@@ -82,7 +82,7 @@ def self_intersections(geometry, origins: np.ndarray, directions: np.ndarray, t_
     N_own = N_own * np.where(np.einsum("ij,ij->i", N_own, directions) < 0.0, -1.0, 1.0)[:, None]
     V_own = geometry.vertices[geometry.triangles[own_prim, 0]].astype(np.float64)
     # 2. How far the blocker's corners rise above that plane.
-    corners = geometry.vertices[geometry.triangles[other]].astype(np.float64)      # (n, 3, 3)
+    corners = geometry.corner_points(other)                                         # (n, 3, 3)
     heights = np.einsum("ncj,nj->nc", corners - V_own[:, None, :], N_own)
     return hits.hit & (heights.max(axis=1) <= min_distance)
 
