@@ -107,7 +107,6 @@ def _declare(library: ctypes.CDLL) -> ctypes.CDLL:
         "rtcCommitGeometry": (None, [handle]),
         "rtcAttachGeometry": (uint, [handle, handle]),
         "rtcReleaseGeometry": (None, [handle]),
-        "rtcCommitScene": (None, [handle]),
     }
     for name, (result, arguments) in signatures.items():
         function = getattr(library, name)
