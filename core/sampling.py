@@ -57,13 +57,18 @@ def stratum_centres(index: np.ndarray, count: int) -> np.ndarray:
 # (Burley, "Practical Hash-based Owen Scrambling", JCGT 2020).
 # ---------------------------------------------------------------------------
 
+# The five ways to cut a 32-bit word into groups of 2^k bits: (group width 2^k, mask of the
+# groups in even position, i.e. of the bit positions whose bit k is 0).
+_BIT_GROUPS = tuple((_U32(1 << k), _U32(mask)) for k, mask in
+                    enumerate((0x55555555, 0x33333333, 0x0F0F0F0F, 0x00FF00FF, 0x0000FFFF)))
+
+
 def reverse_bits(x: np.ndarray) -> np.ndarray:
     """Return each uint32 with its 32 bits in reverse order: (n,) uint32 -> (n,) uint32 (a new array)."""
     x = np.array(x, dtype=_U32)
     low = np.empty_like(x)
-    for shift, mask in ((1, 0x55555555), (2, 0x33333333), (4, 0x0F0F0F0F), (8, 0x00FF00FF), (16, 0x0000FFFF)):
-        s, m = _U32(shift), _U32(mask)
-        # Swap neighbouring groups of `shift` bits: x = ((x >> s) & m) | ((x & m) << s), in place.
+    for s, m in _BIT_GROUPS:
+        # Swap neighbouring groups of s bits: x = ((x >> s) & m) | ((x & m) << s), in place.
         np.right_shift(x, s, out=low)
         low &= m
         x &= m
@@ -92,10 +97,6 @@ def owen_scramble(x: np.ndarray, seed: np.ndarray) -> np.ndarray:
     return reverse_bits(_laine_karras(reverse_bits(x), seed))
 
 
-_SUPERSET_STEPS = tuple((_U32(1 << k), _U32(mask)) for k, mask in
-                        enumerate((0x55555555, 0x33333333, 0x0F0F0F0F, 0x00FF00FF, 0x0000FFFF)))
-
-
 def _sobol_y_mirrored(index: np.ndarray) -> np.ndarray:
     """Return reverse_bits(sobol_y(index)) in five shift-and-XOR steps: (n,) uint32 -> (n,) uint32.
 
@@ -106,7 +107,7 @@ def _sobol_y_mirrored(index: np.ndarray) -> np.ndarray:
     """
     y = np.array(index, dtype=_U32)
     higher = np.empty_like(y)
-    for shift, without_bit in _SUPERSET_STEPS:
+    for shift, without_bit in _BIT_GROUPS:
         np.right_shift(y, shift, out=higher)
         higher &= without_bit
         y ^= higher
