@@ -354,11 +354,7 @@ def _fisheye_directions(sin_theta: np.ndarray, cos_theta: np.ndarray, plane_x: n
     """Return local unit directions (n, 3) at angle theta from -Z (given by its sine and cosine,
     (n,) each), with the azimuth of (plane_x, plane_y) at distance `radius` from the centre."""
     scale = np.divide(sin_theta, radius, out=np.zeros_like(radius), where=radius > 0.0)
-    out = np.empty((len(radius), 3), order="F")        # column-major (core/vectors.py)
-    np.multiply(scale, plane_x, out=out[:, 0])
-    np.multiply(scale, plane_y, out=out[:, 1])
-    np.negative(cos_theta, out=out[:, 2])
-    return out
+    return vectors.rows(scale * plane_x, scale * plane_y, -cos_theta)
 
 
 def _fisheye_plane(camera: Camera, width, height, pixel_aspect) -> tuple[float, float, float]:
