@@ -231,13 +231,14 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
     hits = ctx.geometry.tracer.intersect(origins, directions, t_max)
     hit = np.flatnonzero(hits.hit)            # (m,) into the traced rays
     h = traced[hit]                            # (m,) into the chunk's samples
+    D_hit = vectors.gather(directions, hit)    # (m, 3) the hit samples' camera-ray directions
     shadow_rays = 0
     shading_start = time.perf_counter()
     surface = shading = None
     if len(h):
         # 4. Shade the hits.
         surface = surface_at_hits(ctx.geometry, hits.prim[hit], hits.u[hit], hits.v[hit],
-                                  vectors.gather(origins, hit), vectors.gather(directions, hit), hits.t[hit],
+                                  vectors.gather(origins, hit), D_hit, hits.t[hit],
                                   flat_only=not s.smooth_normals)
         shading = direct_light(ctx.geometry, surface, ctx.lights, s, pixel[h], sample[h], ctx.want_aux,
                                prim=hits.prim[hit], self_hit_distance=ctx.self_hit_distance)
@@ -249,7 +250,7 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
     per_pixel = rgba.reshape(len(pixels), spp, 4).sum(axis=1)
     squares = _squares(rgba, len(pixels), spp) if s.adaptive else np.zeros((len(pixels), 2))
     hits_per_pixel = np.bincount(h // spp, minlength=len(pixels))
-    aux = (_sum_aux(ctx, len(pixels), spp, h, surface, shading, rays.valid, vectors.gather(directions, hit))
+    aux = (_sum_aux(ctx, len(pixels), spp, h, surface, shading, rays.valid, D_hit)
            if ctx.want_aux else {})
     return ChunkResult(per_pixel, squares, aux, hits_per_pixel, len(traced), shadow_rays, shading_seconds, spp)
 
