@@ -36,7 +36,9 @@ def cos_sin(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Return (cos phi, sin phi) of angles phi in [0, 2 pi): (n,) float64 -> two (n,) float64.
 
     cos is taken in float32 (fast); sin follows from it as +-sqrt(1 - cos^2) in float64, so
-    cos^2 + sin^2 = 1 holds to float64 precision while the angle itself is good to ~1e-7.
+    cos^2 + sin^2 = 1 holds to float64 precision. The angle these represent is off by at most
+    about 5e-7 radians where |sin phi| > 0.1 (measured on 400,000 angles); near 0 and pi, where
+    cos is flat, float32's rounding of cos (~3e-8) moves it by up to sqrt(2 * 3e-8), about 2.4e-4.
     """
     c = np.cos(phi.astype(np.float32)).astype(np.float64)
     np.clip(c, -1.0, 1.0, out=c)
