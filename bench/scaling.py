@@ -111,7 +111,7 @@ def measure(kind: str, value: int) -> dict:
     # that it cannot change the render's time or peak memory).
     geometry = build_geometry(scene, np.asarray(scene.camera.matrix_world)[:3, 3])
     start = time.perf_counter()
-    tracer = Tracer(geometry.vertices, geometry.triangles)
+    tracer = Tracer(geometry.vertices, geometry.triangles, instanced=geometry.instanced)
     embree_build = time.perf_counter() - start
     return {"kind": kind, "value": value, "triangles": stats.triangles, "pixels": settings.width * settings.height,
             "width": settings.width, "height": settings.height, "samples": settings.samples,

@@ -54,11 +54,10 @@ def hit_distance(I: np.ndarray, camera_point: np.ndarray, D: np.ndarray) -> np.n
     return np.einsum("ij,ij->i", I - camera_point, D)
 
 
-def scene_scale(vertices: np.ndarray) -> float:
-    """Return the diagonal of the vertices' bounding box (0 for no vertices): vertices (v, 3) float."""
-    if len(vertices) == 0:
-        return 0.0
-    return float(np.linalg.norm(vertices.max(axis=0).astype(np.float64) - vertices.min(axis=0)))
+def scene_scale(geometry) -> float:
+    """Return the diagonal of the bounding box of all of a WorldGeometry's triangles, copied and instanced (0 when empty)."""
+    lo, hi = geometry.bounds()
+    return float(np.linalg.norm(hi - lo))
 
 
 def self_intersections(geometry, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray,
@@ -78,11 +77,11 @@ def self_intersections(geometry, origins: np.ndarray, directions: np.ndarray, t_
     hits = geometry.tracer.intersect(origins, directions, t_max)
     other = np.where(hits.hit, hits.prim, own_prim)
     # 1. The own triangle's plane, its normal turned to the side the ray leaves to.
-    N_own = geometry.face_normals[own_prim]
-    N_own = N_own * np.where(np.einsum("ij,ij->i", N_own, directions) < 0.0, -1.0, 1.0)[:, None]
-    V_own = geometry.vertices[geometry.triangles[own_prim, 0]].astype(np.float64)
+    own = geometry.triangle_data(own_prim, smooth=False)
+    N_own = own.Ng * np.where(np.einsum("ij,ij->i", own.Ng, directions) < 0.0, -1.0, 1.0)[:, None]
+    V_own = own.corners[:, 0]
     # 2. How far the blocker's corners rise above that plane.
-    corners = geometry.corner_points(other)                                         # (n, 3, 3)
+    corners = geometry.triangle_data(other, smooth=False).corners                  # (n, 3, 3)
     heights = np.einsum("ncj,nj->nc", corners - V_own[:, None, :], N_own)
     return hits.hit & (heights.max(axis=1) <= min_distance)
 

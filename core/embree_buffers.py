@@ -30,10 +30,14 @@ log = logging.getLogger(__name__)
 
 # Embree 4's C constants (rtcore_common.h, rtcore_buffer.h, rtcore_geometry.h).
 RTC_GEOMETRY_TYPE_TRIANGLE = 0
+RTC_GEOMETRY_TYPE_INSTANCE_ARRAY = 122
 RTC_BUFFER_TYPE_INDEX = 0
 RTC_BUFFER_TYPE_VERTEX = 1
+RTC_BUFFER_TYPE_TRANSFORM = 23
 RTC_FORMAT_UINT3 = 0x5003
 RTC_FORMAT_FLOAT3 = 0x9003
+RTC_FORMAT_FLOAT3X4_ROW_MAJOR = 0x9134
+RTC_SCENE_FLAG_ROBUST = 1 << 2
 RTC_ERROR_NONE = 0
 
 # The C layout of embreex 4's extension types (see rtcore_scene.pxd and rtcore.pxd): after
@@ -106,7 +110,13 @@ def _declare(library: ctypes.CDLL) -> ctypes.CDLL:
         "rtcSetSharedGeometryBuffer": (None, [handle, ctypes.c_int, uint, ctypes.c_int, handle, size, size, size]),
         "rtcCommitGeometry": (None, [handle]),
         "rtcAttachGeometry": (uint, [handle, handle]),
+        "rtcAttachGeometryByID": (None, [handle, handle, uint]),
         "rtcReleaseGeometry": (None, [handle]),
+        "rtcNewScene": (handle, [handle]),
+        "rtcSetSceneFlags": (None, [handle, ctypes.c_int]),
+        "rtcCommitScene": (None, [handle]),
+        "rtcReleaseScene": (None, [handle]),
+        "rtcSetGeometryInstancedScene": (None, [handle, handle]),
     }
     for name, (result, arguments) in signatures.items():
         function = getattr(library, name)
@@ -159,6 +169,35 @@ def padded(array: np.ndarray, dtype) -> np.ndarray:
     return out
 
 
+def _check_buffer(array: np.ndarray, dtype, columns: int) -> None:
+    """Refuse an array Embree could not read in place: it must be C-contiguous (n, columns) of `dtype`."""
+    if array.dtype != dtype or not array.flags.c_contiguous or array.ndim != 2 or array.shape[1] != columns:
+        raise ValueError(f"shared buffers must be C-contiguous (n, {columns}) {np.dtype(dtype).name} arrays")
+
+
+def _triangle_geometry(library, device: int, vertices: np.ndarray, triangles: np.ndarray) -> int:
+    """Return a committed triangle geometry reading `vertices` and `triangles` in place (0 if Embree refused them).
+
+    vertices: (v + 1, 3) float32 and triangles: (t + 1, 3) uint32, both from `padded`.
+    """
+    _check_buffer(vertices, np.float32, 3)
+    _check_buffer(triangles, np.uint32, 3)
+    library.rtcGetDeviceError(device)  # clears any earlier error
+    geometry = library.rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE)
+    if not geometry:
+        return 0
+    # 12-byte rows; the padding row is not an item.
+    library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                       vertices.ctypes.data, 0, 12, len(vertices) - 1)
+    library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                       triangles.ctypes.data, 0, 12, len(triangles) - 1)
+    library.rtcCommitGeometry(geometry)
+    if library.rtcGetDeviceError(device) != RTC_ERROR_NONE:
+        library.rtcReleaseGeometry(geometry)
+        return 0
+    return geometry
+
+
 def attach_triangles(scene, device, vertices: np.ndarray, triangles: np.ndarray) -> Optional[int]:
     """Attach a triangle mesh that reads `vertices` and `triangles` in place; return its geometry ID, or None.
 
@@ -170,25 +209,71 @@ def attach_triangles(scene, device, vertices: np.ndarray, triangles: np.ndarray)
     if handles is None:
         return None
     library = embree_library()
-    for array, dtype in ((vertices, np.float32), (triangles, np.uint32)):
-        if array.dtype != dtype or not array.flags.c_contiguous or array.ndim != 2 or array.shape[1] != 3:
-            raise ValueError(f"shared buffers must be C-contiguous (n + 1, 3) {np.dtype(dtype).name} arrays")
-    # 1. A triangle geometry whose vertex and index buffers are our arrays (12-byte rows, padding row excluded).
-    library.rtcGetDeviceError(handles.device)  # clears any earlier error
-    geometry = library.rtcNewGeometry(handles.device, RTC_GEOMETRY_TYPE_TRIANGLE)
+    geometry = _triangle_geometry(library, handles.device, vertices, triangles)
     if not geometry:
-        return None
-    library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                       vertices.ctypes.data, 0, 12, len(vertices) - 1)
-    library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                       triangles.ctypes.data, 0, 12, len(triangles) - 1)
-    library.rtcCommitGeometry(geometry)
-    # 2. Attach it to the scene only if Embree accepted the buffers.
-    if library.rtcGetDeviceError(handles.device) != RTC_ERROR_NONE:
-        library.rtcReleaseGeometry(geometry)
         return None
     geometry_id = library.rtcAttachGeometry(handles.scene, geometry)
     library.rtcReleaseGeometry(geometry)
     scene.is_committed = 0
     return int(geometry_id)
 
+
+def attach_instances(scene, device, vertices: np.ndarray, triangles: np.ndarray, transforms: np.ndarray,
+                     geometry_id: int) -> bool:
+    """Place one triangle mesh len(transforms) times in an embreex scene, storing the mesh once; return success.
+
+    The mesh goes into a scene of its own (the prototype) as geometry `geometry_id`, which is what
+    a hit on any of its instances reports as geomID; one instance array holds all the placements.
+    vertices: (v + 1, 3) float32 and triangles: (t + 1, 3) uint32 object-space arrays from `padded`;
+    transforms: (k, 12) float32 C-contiguous object-to-world matrices, rows of the 3 x 4 matrix
+    [L | t] one after another. All three arrays must outlive the scene. False: nothing was attached.
+    """
+    handles = scene_handles(scene, device)
+    if handles is None:
+        return False
+    library = embree_library()
+    _check_buffer(transforms, np.float32, 12)
+    # 1. The prototype: a scene holding the mesh once, built now (Embree wants it committed first).
+    geometry = _triangle_geometry(library, handles.device, vertices, triangles)
+    if not geometry:
+        return False
+    prototype = library.rtcNewScene(handles.device)
+    library.rtcSetSceneFlags(prototype, RTC_SCENE_FLAG_ROBUST)
+    library.rtcAttachGeometryByID(prototype, geometry, geometry_id)
+    library.rtcReleaseGeometry(geometry)
+    library.rtcCommitScene(prototype)
+    # 2. One instance array over the shared transforms, attached to the top-level scene.
+    placements = library.rtcNewGeometry(handles.device, RTC_GEOMETRY_TYPE_INSTANCE_ARRAY)
+    if placements:
+        library.rtcSetGeometryInstancedScene(placements, prototype)
+        library.rtcSetSharedGeometryBuffer(placements, RTC_BUFFER_TYPE_TRANSFORM, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR,
+                                           transforms.ctypes.data, 0, 48, len(transforms))
+        library.rtcCommitGeometry(placements)
+    # The instance array holds its own reference to the prototype (Embree counts references).
+    library.rtcReleaseScene(prototype)
+    if not placements or library.rtcGetDeviceError(handles.device) != RTC_ERROR_NONE:
+        if placements:
+            library.rtcReleaseGeometry(placements)
+        return False
+    library.rtcAttachGeometry(handles.scene, placements)
+    library.rtcReleaseGeometry(placements)
+    scene.is_committed = 0
+    return True
+
+
+_instancing_cache: list = []
+
+
+def instancing_supported() -> bool:
+    """Whether `attach_instances` can work here: embreex's library is usable and its scene layout the known one."""
+    if not _instancing_cache:
+        supported = False
+        if embree_library() is not None:
+            try:
+                from embreex import rtcore, rtcore_scene
+                device = rtcore.EmbreeDevice()
+                supported = scene_handles(rtcore_scene.EmbreeScene(device), device) is not None
+            except Exception as error:  # an embreex we do not know: trace copies instead
+                log.info("Embree instancing unavailable (%s); instanced meshes will be copied", error)
+        _instancing_cache.append(supported)
+    return _instancing_cache[0]

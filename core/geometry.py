@@ -1,5 +1,10 @@
 """World geometry: every instance's triangles placed in the world, ready to trace.
 
+Most meshes are copied into the world, one triangle soup for all of them. A mesh whose copies
+would hold more than `instancing.INSTANCE_TRIANGLES` triangles is stored once and traced as
+Embree instances instead (`core/instancing.py`); `WorldGeometry.triangle_data` answers for both
+kinds, by one flat triangle index.
+
 Camera-relative rendering: all world points are stored relative to `origin`
 (the camera position), subtracted in float64 *before* the float32 conversion
 for Embree. Float32 has 24 bits of mantissa; near the camera, where the image
@@ -14,10 +19,14 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
+from typing import NamedTuple, Optional
 
 import numpy as np
 
+from . import embree_buffers
+from . import instancing
 from . import normals as normals_
+from . import vectors
 from .intersect import Tracer
 from .scene import DEFAULT_BASE_COLOR, Scene
 
@@ -41,6 +50,9 @@ class WorldGeometry:
     tracer:         the Embree BVH over vertices and triangles
     warnings:       human-readable notes about input that was dropped or replaced
     instance:       (t,) int32 index into Scene.instances per triangle (which object it belongs to)
+    instanced:      InstancedMesh records (core/instancing.py) of the meshes stored once; their
+                    triangles have the flat indices len(triangles) and up
+    The arrays above hold the copied triangles only; ask `triangle_data` for any triangle.
     """
 
     origin: np.ndarray
@@ -54,11 +66,86 @@ class WorldGeometry:
     tracer: Tracer
     warnings: list = field(default_factory=list)
     instance: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    instanced: list = field(default_factory=list)
 
     @property
     def has_smooth(self) -> bool:
         """Whether any triangle needs interpolated normals."""
-        return len(self.corner_normals) > 0
+        return len(self.corner_normals) > 0 or any(len(m.corner_normals) for m in self.instanced)
+
+    @property
+    def triangle_count(self) -> int:
+        """Triangles in the scene, copied and instanced."""
+        return len(self.triangles) + sum(m.triangle_count for m in self.instanced)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Return the camera-relative box around all the geometry: two (3,) float64, or zeros when empty."""
+        lows = [m.locator.bounds[0] for m in self.instanced]
+        highs = [m.locator.bounds[1] for m in self.instanced]
+        if len(self.vertices):
+            lows.append(self.vertices.min(axis=0).astype(np.float64))
+            highs.append(self.vertices.max(axis=0).astype(np.float64))
+        if not lows:
+            return np.zeros(3), np.zeros(3)
+        return np.min(lows, axis=0), np.max(highs, axis=0)
+
+    def triangle_data(self, prim: np.ndarray, smooth: bool = True) -> "TriangleData":
+        """Return what shading needs of the triangles `prim` (flat indices, copied or instanced): (n,) int64.
+
+        smooth: False skips the interpolated normals (all triangles then count as flat).
+        """
+        if not self.instanced:
+            return self._copied_data(prim, smooth)
+        # Compact each kind of triangle, compute, scatter back.
+        n = len(prim)
+        corners, Ng = np.empty((n, 3, 3)), np.empty((n, 3))
+        material, is_smooth = np.empty(n, np.int32), np.zeros(n, bool)
+        normals = np.zeros((n, 3, 3)) if smooth else None
+        part = np.searchsorted([m.first_prim for m in self.instanced], prim, side="right")
+        for index in np.unique(part):
+            rows = np.flatnonzero(part == index)
+            if index == 0:
+                data = self._copied_data(prim[rows], smooth)
+            else:
+                data = self._instanced_data(self.instanced[index - 1], prim[rows], smooth)
+            corners[rows], Ng[rows], material[rows] = data.corners, data.Ng, data.material
+            if smooth and data.smooth.any():
+                is_smooth[rows] = data.smooth
+                normals[rows[data.smooth]] = data.corner_normals
+        corner_normals = normals[is_smooth] if smooth else np.zeros((0, 3, 3))
+        return TriangleData(corners, Ng, material, is_smooth, corner_normals)
+
+    def _copied_data(self, prim: np.ndarray, smooth: bool) -> "TriangleData":
+        """triangle_data for copied triangles (indices below len(triangles))."""
+        corners = self.corner_points(prim)
+        Ng = vectors.gather(self.face_normals, prim)
+        is_smooth, normals = np.zeros(len(prim), bool), np.zeros((0, 3, 3))
+        if smooth and len(self.corner_normals):
+            row = self.smooth_index[prim]
+            is_smooth = row >= 0
+            normals = self.corner_normals[row[is_smooth]].astype(np.float64)
+        return TriangleData(corners, Ng, self.material[prim], is_smooth, normals)
+
+    @staticmethod
+    def _instanced_data(mesh, prim: np.ndarray, smooth: bool) -> "TriangleData":
+        """triangle_data for the triangles of one instanced mesh."""
+        j, local = mesh.split(prim)
+        corners = mesh.corner_points(j, local)
+        Ng = mesh.face_normals(j, corners)
+        is_smooth, normals = np.zeros(len(prim), bool), np.zeros((0, 3, 3))
+        if smooth and len(mesh.corner_normals):
+            is_smooth, normals = mesh.smooth_normals(j, local)
+        return TriangleData(corners, Ng, mesh.materials(j, local), is_smooth, normals)
+
+    def instance_of(self, prim: int) -> int:
+        """Return the index into Scene.instances of the object triangle `prim` belongs to, or -1."""
+        if 0 <= prim < len(self.instance):
+            return int(self.instance[prim])
+        for mesh in self.instanced:
+            if mesh.first_prim <= prim < mesh.first_prim + mesh.triangle_count:
+                j, _ = mesh.split(np.array([prim]))
+                return int(mesh.owner[j[0]])
+        return -1
 
     @functools.cached_property
     def _corner_columns(self) -> np.ndarray:
@@ -66,7 +153,7 @@ class WorldGeometry:
         return np.ascontiguousarray(self.vertices[self.triangles].reshape(-1, 9).T)
 
     def corner_points(self, prim: np.ndarray) -> np.ndarray:
-        """Return the corners of the triangles `prim` in float64: (n,) int64 -> (n, 3, 3), [i, k] = corner k.
+        """Return the corners of the copied triangles `prim` in float64: (n,) int64 -> (n, 3, 3), [i, k] = corner k.
 
         The same numbers as vertices[triangles[prim]]. Up to CORNER_TABLE_TRIANGLES triangles they
         are gathered a coordinate at a time from one per-triangle table (36 bytes per triangle,
@@ -80,6 +167,23 @@ class WorldGeometry:
         for row in range(9):
             out[row] = self._corner_columns[row].take(prim)
         return out.T.reshape(len(prim), 3, 3)
+
+
+class TriangleData(NamedTuple):
+    """What shading needs of n hit triangles.
+
+    corners:        (n, 3, 3) float64 camera-relative corner points, [i, k] = corner k
+    Ng:             (n, 3) float64 unit normals on the triangles' front sides
+    material:       (n,) int32 row of WorldGeometry.albedo
+    smooth:         (n,) bool which triangles are shaded with interpolated normals
+    corner_normals: (s, 3, 3) float64 world unit corner normals of the smooth ones, in order
+    """
+
+    corners: np.ndarray
+    Ng: np.ndarray
+    material: np.ndarray
+    smooth: np.ndarray
+    corner_normals: np.ndarray
 
 
 def _object_corner_normals(mesh, keep: np.ndarray) -> np.ndarray:
@@ -123,36 +227,45 @@ def _slot_materials(slots: np.ndarray, table, rows: dict) -> np.ndarray:
     return rows[key]
 
 
-def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
+def build_geometry(scene: Scene, origin: np.ndarray,
+                   instance_triangles: Optional[int] = None) -> WorldGeometry:
     """Place every instance in the world relative to `origin` and build the BVH.
 
     origin: (3,) float64 world point (the camera position for camera-relative rendering).
+    instance_triangles: a mesh placed more than once is stored once and instanced when its copies
+    would hold more than this many triangles (None: instancing.INSTANCE_TRIANGLES; tests pass 0
+    to instance every mesh placed twice or more). Without Embree instancing every mesh is copied.
     """
     origin = np.asarray(origin, dtype=np.float64)
+    if instance_triangles is None:
+        instance_triangles = instancing.INSTANCE_TRIANGLES
+    may_instance = embree_buffers.instancing_supported()
     warnings: list[str] = []
     parts_v, parts_t, parts_n, parts_m, parts_cn, parts_smooth = [], [], [], [], [], []
     parts_i = []
-    instance_index = {id(instance): i for i, instance in enumerate(scene.instances)}
+    instanced: list = []
     vertex_offset = 0
     n_materials = len(scene.materials)
-    missing_materials = dropped_nonfinite = dropped_degenerate = dropped_index = 0
+    counts = {"missing": 0, "nonfinite": 0, "degenerate": 0, "index": 0}
 
-    # Group instances by mesh: one batched transform per mesh, whatever the instance count.
+    # Group instances by mesh (their indices into scene.instances): one batched transform per
+    # mesh, whatever the instance count.
     by_mesh: dict[int, list] = {}
-    for instance in scene.instances:
-        by_mesh.setdefault(instance.mesh, []).append(instance)
+    for index, instance in enumerate(scene.instances):
+        by_mesh.setdefault(instance.mesh, []).append(index)
 
-    for mesh_index, instances in by_mesh.items():
+    for mesh_index, owners in by_mesh.items():
         mesh = scene.meshes[mesh_index]
+        instances = [scene.instances[index] for index in owners]
         if len(mesh.triangles) == 0 or len(mesh.vertices) == 0:
             continue
         # Triangles whose indices point outside the vertex array are dropped.
         in_range = ((mesh.triangles >= 0) & (mesh.triangles < len(mesh.vertices))).all(axis=1)
-        dropped_index += int((~in_range).sum()) * len(instances)
+        counts["index"] += int((~in_range).sum()) * len(instances)
         triangles = mesh.triangles[in_range]
         smooth = mesh.smooth[in_range]
         slots = mesh.material_indices[in_range]
-        corners = _object_corner_normals(mesh, in_range)[smooth] if smooth.any() else None
+        corners = _object_corner_normals(mesh, in_range) if smooth.any() else None
         table_rows: dict = {}
 
         matrices = np.stack([inst.matrix for inst in instances])            # (k, 4, 4)
@@ -161,6 +274,18 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
         singular = ~(np.isfinite(det) & (det != 0.0))
         if singular.any():
             warnings.append(f"{int(singular.sum())} object(s) of mesh '{mesh.name}' have zero or invalid scale and were skipped")
+        placed_all = np.flatnonzero(~singular)
+        owners_all = np.array(owners, np.int32)
+        if may_instance and len(placed_all) >= 2 and len(placed_all) * len(triangles) > instance_triangles:
+            # Stored once, traced as Embree instances (core/instancing.py).
+            record = _instanced_mesh(mesh, triangles, smooth, slots, corners, matrices[placed_all],
+                                     [instances[index].materials for index in placed_all], owners_all[placed_all],
+                                     origin, n_materials, counts)
+            if record is not None:
+                instanced.append(record)
+            continue
+        if corners is not None:
+            corners = corners[smooth]
         with np.errstate(invalid="ignore", over="ignore"):
             # World point = M p + t, minus the origin, in float64.
             world = (np.einsum("kij,vj->kvi", linear, mesh.vertices)
@@ -168,7 +293,6 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
 
         # Instances in batches of about BATCH_TRIANGLES triangles: (k instances) x (t triangles) arrays,
         # no Python loop per triangle, and temporaries bounded whatever the instance count.
-        placed_all = np.flatnonzero(~singular)
         t, v = len(triangles), len(mesh.vertices)
         per_batch = max(1, BATCH_TRIANGLES // t)
         for first in range(0, len(placed_all), per_batch):
@@ -179,7 +303,7 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
             material = np.stack([_slot_materials(slots, instances[index].materials, table_rows)
                                  for index in placed])                          # (k, t)
             missing = (material < 0) | (material >= n_materials)
-            missing_materials += int(missing.sum())
+            counts["missing"] += int(missing.sum())
             material = np.where(missing, n_materials, material)
             # 2. Face normals from the world points; a mirror (det < 0) flips the winding back.
             all_triangles = (triangles[None, :, :] + (np.arange(k) * v)[:, None, None]).reshape(-1, 3)
@@ -191,8 +315,8 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
             finite = np.isfinite(points32).all(axis=1)[all_triangles].all(axis=1)
             nondegenerate = face_n.any(axis=1) & (faces.area > 0)
             keep = finite & nondegenerate                                   # (k t,)
-            dropped_nonfinite += int((~finite).sum())
-            dropped_degenerate += int((finite & ~nondegenerate).sum())
+            counts["nonfinite"] += int((~finite).sum())
+            counts["degenerate"] += int((finite & ~nondegenerate).sum())
             # 3. Smooth corners transform with the inverse transpose: N' = M^-T N (row vectors: n @ M^-1).
             smooth_all = np.tile(smooth, k)
             if corners is not None:
@@ -205,18 +329,17 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
             parts_t.append(all_triangles[keep] + vertex_offset)
             parts_n.append(face_n[keep])
             parts_m.append(material.reshape(-1)[keep])
-            owners = np.array([instance_index[id(instances[index])] for index in placed], np.int32)
-            parts_i.append(np.repeat(owners, t)[keep])
+            parts_i.append(np.repeat(owners_all[placed], t)[keep])
             vertex_offset += len(points32)
 
-    if dropped_index:
-        warnings.append(f"{dropped_index} triangle(s) with out-of-range vertex indices were skipped")
-    if dropped_nonfinite:
-        warnings.append(f"{dropped_nonfinite} triangle(s) with NaN or infinite vertices were skipped")
-    if dropped_degenerate:
-        warnings.append(f"{dropped_degenerate} zero-area triangle(s) were skipped")
-    if missing_materials:
-        warnings.append(f"{missing_materials} triangle(s) have no material and render in the default grey")
+    if counts["index"]:
+        warnings.append(f"{counts['index']} triangle(s) with out-of-range vertex indices were skipped")
+    if counts["nonfinite"]:
+        warnings.append(f"{counts['nonfinite']} triangle(s) with NaN or infinite vertices were skipped")
+    if counts["degenerate"]:
+        warnings.append(f"{counts['degenerate']} zero-area triangle(s) were skipped")
+    if counts["missing"]:
+        warnings.append(f"{counts['missing']} triangle(s) have no material and render in the default grey")
 
     vertices = np.concatenate(parts_v) if parts_v else np.zeros((0, 3), np.float32)
     # Non-finite vertices that no kept triangle uses must not reach Embree either.
@@ -225,6 +348,11 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
     smooth_mask = np.concatenate(parts_smooth) if parts_smooth else np.zeros(0, bool)
     smooth_index = np.full(len(triangles), -1, np.int32)
     smooth_index[smooth_mask] = np.arange(int(smooth_mask.sum()), dtype=np.int32)
+    # Instanced triangles are numbered after the copied ones.
+    first_prim = len(triangles)
+    for record in instanced:
+        record.first_prim = first_prim
+        first_prim += record.triangle_count
     return WorldGeometry(
         origin=origin,
         vertices=vertices,
@@ -234,7 +362,81 @@ def build_geometry(scene: Scene, origin: np.ndarray) -> WorldGeometry:
         albedo=material_albedo(scene.materials),
         smooth_index=smooth_index,
         corner_normals=np.concatenate(parts_cn) if parts_cn else np.zeros((0, 3, 3), np.float32),
-        tracer=Tracer(vertices, triangles),
+        tracer=Tracer(vertices, triangles, instanced=instanced),
         warnings=warnings,
         instance=np.concatenate(parts_i) if parts_i else np.zeros(0, np.int32),
+        instanced=instanced,
     )
+
+
+def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.ndarray,
+                    corners: Optional[np.ndarray], matrices: np.ndarray, tables: list, owners: np.ndarray,
+                    origin: np.ndarray, n_materials: int, counts: dict):
+    """Return the InstancedMesh of one mesh placed k times, or None when nothing of it can be traced.
+
+    triangles: (t, 3) int64 in-range vertex indices; smooth: (t,) bool; slots: (t,) int64 material
+    slots; corners: (t, 3, 3) float64 object-space corner normals or None; matrices: (k, 4, 4)
+    float64 non-singular object-to-world matrices; tables: each instance's slot -> material table;
+    owners: (k,) int32 Scene.instances indices. Dropped and defaulted triangles are added to `counts`.
+    """
+    # 1. The prototype: finite, non-degenerate triangles in object space (what Embree stores once).
+    with np.errstate(invalid="ignore", over="ignore"):
+        vertices32 = mesh.vertices.astype(np.float32)
+        faces = normals_.face_normals(mesh.vertices, triangles)
+    finite = np.isfinite(vertices32).all(axis=1)[triangles].all(axis=1)
+    nondegenerate = faces.normals.any(axis=1) & (faces.area > 0)
+    keep = finite & nondegenerate
+    # 2. Camera-relative transforms, rounded once to the float32 numbers Embree traces with;
+    #    instances that overflow float32 or reach infinity are dropped.
+    relative = matrices[:, :3, :4].copy()
+    relative[:, :, 3] -= origin
+    with np.errstate(invalid="ignore", over="ignore"):
+        transforms = relative.astype(np.float32)                                    # (k, 3, 4)
+    del relative
+    prototype = np.where(np.isfinite(vertices32), vertices32, np.float32(0.0))
+    used = np.unique(triangles[keep]) if keep.any() else np.zeros(0, np.int64)
+    if len(used) == 0:
+        counts["nonfinite"] += int((~finite).sum()) * len(matrices)
+        counts["degenerate"] += int((finite & ~nondegenerate).sum()) * len(matrices)
+        return None
+    with np.errstate(invalid="ignore", over="ignore"):
+        lo, hi = instancing.world_boxes(prototype[used], transforms)
+        det = np.linalg.det(np.nan_to_num(transforms[:, :, :3].astype(np.float64)))
+        placeable = (np.isfinite(transforms).all(axis=(1, 2)) & (det != 0.0) & np.isfinite(lo).all(axis=1)
+                     & np.isfinite(hi).all(axis=1) & (np.abs(np.concatenate([lo, hi], axis=1)).max(axis=1)
+                                                      < np.finfo(np.float32).max))
+    counts["nonfinite"] += int((~finite).sum()) * len(matrices) + int(keep.sum()) * int((~placeable).sum())
+    counts["degenerate"] += int((finite & ~nondegenerate).sum()) * len(matrices)
+    if not placeable.any():
+        return None
+    if not placeable.all():
+        transforms, lo, hi, owners = transforms[placeable], lo[placeable], hi[placeable], owners[placeable]
+        tables = [table for table, ok in zip(tables, placeable) if ok]
+        det = det[placeable]
+    # 3. Materials: one row per distinct slot table, shared by the instances that use it.
+    slots_kept, table_rows = slots[keep], {}
+    distinct: list = []
+    row_of: dict = {}
+    material_row = np.empty(len(transforms), np.int32)
+    for index, table in enumerate(tables):
+        row = _slot_materials(slots_kept, table, table_rows)
+        if id(row) not in row_of:
+            row_of[id(row)] = len(distinct)
+            distinct.append(row)
+        material_row[index] = row_of[id(row)]
+    material = np.stack(distinct)                                                  # (r, t)
+    missing = (material < 0) | (material >= n_materials)
+    counts["missing"] += int((missing.sum(axis=1) * np.bincount(material_row, minlength=len(distinct))).sum())
+    material = np.where(missing, n_materials, material).astype(np.int32)
+    # 4. Smooth triangles keep their object-space corner normals; shading turns them per hit.
+    smooth_kept = smooth[keep]
+    smooth_index = np.full(int(keep.sum()), -1, np.int32)
+    smooth_index[smooth_kept] = np.arange(int(smooth_kept.sum()), dtype=np.int32)
+    corner_normals = (corners[keep][smooth_kept] if corners is not None and smooth_kept.any()
+                      else np.zeros((0, 3, 3)))
+    return instancing.InstancedMesh(
+        name=mesh.name, vertices=prototype, triangles=triangles[keep].astype(np.int32),
+        smooth_index=smooth_index, corner_normals=corner_normals, transforms=transforms,
+        flip=np.sign(det).astype(np.float32),
+        material=material, material_row=material_row, owner=owners.astype(np.int32), first_prim=0,
+        locator=instancing.InstanceLocator(lo, hi))

@@ -272,8 +272,9 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
                               flat_only=not settings.smooth_normals)
     triangle = int(hits.prim[0])
     object_name = ""
-    if len(geometry.instance) > triangle:
-        object_name = scene.instances[int(geometry.instance[triangle])].name
+    owner = geometry.instance_of(triangle)
+    if owner >= 0:
+        object_name = scene.instances[owner].name
     # 5. Every light, with its shadow ray (the robust offset is computed once, as in direct_light).
     offset = (float(shadows.error_bound(surface.I, surface.vertices)[0])
               if settings.shadow_method == "robust" else None)

@@ -66,8 +66,9 @@ class Tracer:
     build_seconds: time Embree took to build the BVH itself.
     """
 
-    def __init__(self, vertices: np.ndarray, triangles: np.ndarray, share: bool = True):
-        self.triangle_count = int(len(triangles))
+    def __init__(self, vertices: np.ndarray, triangles: np.ndarray, share: bool = True, instanced=()):
+        self.instanced = list(instanced)
+        self.triangle_count = int(len(triangles)) + sum(m.triangle_count for m in self.instanced)
         self._scene = None
         self.shared = False
         self.intersect_seconds = 0.0
@@ -81,13 +82,17 @@ class Tracer:
         start = time.perf_counter()
         self._device = rtcore.EmbreeDevice()
         self._scene = rtcore_scene.EmbreeScene(self._device, robust=True)
-        if share:
+        self._buffers = []  # arrays Embree reads in place, kept alive as long as the scene
+        if share and len(triangles):
             self.shared = self._share(vertices, triangles)
-        if not self.shared:
+        if len(triangles) and not self.shared:
             from embreex.mesh_construction import TriangleMesh
             self._mesh = TriangleMesh(self._scene,
                                       np.ascontiguousarray(vertices, dtype=np.float32),
                                       np.ascontiguousarray(triangles, dtype=np.int32))
+        # The copied triangles are geometry 0 of the top-level scene; instanced mesh m reports m + 1.
+        for geometry_id, mesh in enumerate(self.instanced, start=1):
+            self._instance(mesh, geometry_id)
         uploaded = time.perf_counter()
         # Build the BVH now (Embree commits on the first query), not inside a worker thread.
         self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
@@ -100,8 +105,17 @@ class Tracer:
         indices = embree_buffers.padded(triangles, np.uint32)
         if embree_buffers.attach_triangles(self._scene, self._device, points, indices) is None:
             return False
-        self._buffers = (points, indices)  # Embree reads these until the scene is freed
+        self._buffers += [points, indices]
         return True
+
+    def _instance(self, mesh, geometry_id: int) -> None:
+        """Attach an instanced mesh (core/instancing.py): its prototype once, reported as geomID `geometry_id`."""
+        points = embree_buffers.padded(mesh.vertices, np.float32)
+        indices = embree_buffers.padded(mesh.triangles, np.uint32)
+        transforms = mesh.embree_transforms()
+        if not embree_buffers.attach_instances(self._scene, self._device, points, indices, transforms, geometry_id):
+            raise RuntimeError(f"Embree refused the instances of mesh '{mesh.name}'")
+        self._buffers += [points, indices, transforms]
 
     def intersect(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> Hits:
         """Return the nearest hit in (0, t_max) of each ray.
@@ -117,10 +131,30 @@ class Tracer:
         out = self._scene.run(o, d, dists=t, output=1)
         self._count("intersect_seconds", time.perf_counter() - start)
         prim = out["primID"].astype(np.int64)
-        hit = out["geomID"] >= 0
+        geometry_id = out["geomID"]
+        hit = geometry_id >= 0
         prim[~hit] = -1
-        return Hits(hit, np.where(hit, out["tfar"].astype(np.float64), np.inf), prim,
-                    out["u"].astype(np.float64), out["v"].astype(np.float64))
+        t_hit = np.where(hit, out["tfar"].astype(np.float64), np.inf)
+        u, v = out["u"].astype(np.float64), out["v"].astype(np.float64)
+        if self.instanced:
+            self._flat_indices(geometry_id, prim, u, v, origins, directions, t_hit)
+        return Hits(hit, t_hit, prim, u, v)
+
+    def _flat_indices(self, geometry_id: np.ndarray, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
+                      origins: np.ndarray, directions: np.ndarray, t: np.ndarray) -> None:
+        """Turn hits on instances into flat triangle indices, in place in `prim` (core/instancing.py).
+
+        geometry_id: (n,) int32 Embree's geomID (0 copied triangles, m + 1 instanced mesh m);
+        prim: (n,) int64 Embree's primID; the rest as `intersect` has them.
+        """
+        for geometry, mesh in enumerate(self.instanced, start=1):
+            on = np.flatnonzero(geometry_id == geometry)
+            if len(on) == 0:
+                continue
+            local = prim[on]
+            X = origins[on] + t[on, None] * directions[on]
+            j = mesh.identify(local, u[on], v[on], X)
+            prim[on] = mesh.first_prim + j * len(mesh.triangles) + local
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
         """Return whether anything lies on each ray within (0, t_max): (n,) bool.

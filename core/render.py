@@ -162,7 +162,7 @@ class _Context:
         self.camera_offset = geometry.origin - np.asarray(cam.matrix_world, np.float64)[:3, 3]
         # Acne debug view: how far a blocker may rise above the plane a shadow ray leaves and still
         # count as lying in it (core/debug.py, self_intersections).
-        self.self_hit_distance = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry.vertices)
+        self.self_hit_distance = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry)
                                   if "acne" in settings.aux else 0.0)
 
 
@@ -431,7 +431,7 @@ def render(scene: Scene, settings: RenderSettings,
     if geometry is None:
         geometry = build_geometry(scene, origin)
     stats.geometry_seconds = time.perf_counter() - start
-    stats.triangles = len(geometry.triangles)
+    stats.triangles = geometry.triangle_count
     stats.warnings.extend(geometry.warnings)
     lights = [translate_light(light, geometry.origin) for light in _usable_lights(scene, stats.warnings)]
     ctx = _Context(scene, settings, geometry, lights)

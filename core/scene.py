@@ -63,7 +63,7 @@ class Mesh:
             self.corner_normals = np.asarray(self.corner_normals, dtype=np.float64).reshape(t, 3, 3)
 
 
-@dataclass
+@dataclass(slots=True)
 class Instance:
     """One placement of a mesh: object-to-world matrix and the materials of its slots.
 
@@ -79,9 +79,14 @@ class Instance:
     name: str = "Object"
 
     def __post_init__(self):
-        self.matrix = np.asarray(self.matrix, dtype=np.float64).reshape(4, 4)
+        # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
+        self.matrix = np.asarray(self.matrix, dtype=np.float64)
+        if self.matrix.shape != (4, 4):
+            self.matrix = self.matrix.reshape(4, 4)
         if self.materials is not None:
-            self.materials = np.asarray(self.materials, dtype=np.int64).reshape(-1)
+            self.materials = np.asarray(self.materials, dtype=np.int64)
+            if self.materials.ndim != 1:
+                self.materials = self.materials.reshape(-1)
 
 
 # ----------------------------------------------------------------------------

@@ -107,24 +107,21 @@ def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
     flat_only: ignore smooth shading (the lecture's "flat normals" switch).
     """
     # I on the float32 triangle Embree hit.
-    vertices = geometry.corner_points(prim)                                     # (n, 3, 3)
-    Ng = vectors.gather(geometry.face_normals, prim)
+    triangle = geometry.triangle_data(prim, smooth=geometry.has_smooth and not flat_only)
+    vertices, Ng = triangle.corners, triangle.Ng                                # (n, 3, 3), (n, 3)
     I = hit_points(vertices, Ng, u, v, O, D, t)
     # Face normal, flipped when the triangle was hit from behind (N.D > 0).
     side = normals_.face_forward(Ng, D)
     Ng = Ng * side[:, None]
     N = Ng
     corners = np.broadcast_to(np.zeros((1, 3, 3)), vertices.shape)     # read-only zeros: no smooth work
-    smooth = np.zeros(len(prim), bool)
-    if geometry.has_smooth and not flat_only:
+    smooth = triangle.smooth
+    if smooth.any():
         # Interpolated normals only where the triangle is smooth.
-        row = geometry.smooth_index[prim]
-        smooth = row >= 0
-        if smooth.any():
-            N, corners = Ng.copy(), np.zeros_like(vertices)
-            corners[smooth] = geometry.corner_normals[row[smooth]] * side[smooth, None, None]
-            N[smooth] = normals_.interpolate(corners[smooth], u[smooth], v[smooth], Ng[smooth])
-    albedo = geometry.albedo[geometry.material[prim]]
+        N, corners = Ng.copy(), np.zeros_like(vertices)
+        corners[smooth] = triangle.corner_normals * side[smooth, None, None]
+        N[smooth] = normals_.interpolate(corners[smooth], u[smooth], v[smooth], Ng[smooth])
+    albedo = geometry.albedo[triangle.material]
     return Surface(I, N, Ng, albedo, vertices, corners, smooth, u, v)
 
 
