@@ -1,0 +1,242 @@
+"""Instancing: a mesh stored once and traced through its placements gives what its copies give.
+
+core/instancing.py stores a mesh placed many times once and finds, for every hit, the
+instance it was on (embreex reports no instance ID). Each test compares the instanced scene
+with the same scene copied triangle by triangle (the reference path), or with a closed form.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import sun_direction
+from core import debug, instancing, primitives, render
+from core.camera import Camera
+from core.geometry import build_geometry
+from core.scene import Instance, PointLight, RenderSettings, Scene, SunLight
+from hard_cases import ALBEDO, rotation, wrong_fraction
+
+COPY = 1 << 62      # instance_triangles that copies every mesh
+INSTANCE = 0        # instance_triangles that instances every mesh placed twice or more
+
+
+def random_rotation(rng) -> np.ndarray:
+    """Return a random proper rotation: (3, 3) float64."""
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    return q * np.sign(np.linalg.det(q))
+
+
+def scattered_scene(count: int = 60, seed: int = 3) -> Scene:
+    """Return spheres (smooth) and cubes placed `count` times each, rotated, unevenly scaled, some mirrored,
+    with per-object materials, over a copied ground plane and lit by a sun and a point light."""
+    rng = np.random.default_rng(seed)
+    scene = Scene(camera=Camera.look_at((0.0, -9.0, 5.0), (0.0, 0.0, 0.0), fov=math.radians(55)),
+                  world_color=np.array([0.02, 0.02, 0.03]))
+    for colour in ((0.7, 0.7, 0.7), (0.8, 0.3, 0.2), (0.2, 0.3, 0.8)):
+        scene.add_material(colour)
+    scene.add_mesh(primitives.plane(12.0))
+    sphere = len(scene.meshes)
+    scene.meshes.append(primitives.uv_sphere(1.0, 12, 6, smooth=True))
+    cube = len(scene.meshes)
+    scene.meshes.append(primitives.box((1.0, 1.0, 1.0)) if hasattr(primitives, "box")
+                        else primitives.uv_sphere(1.0, 4, 2, smooth=False))
+    for index in range(2 * count):
+        M = np.eye(4)
+        scale = np.diag(rng.uniform(0.2, 0.6, 3))
+        if index % 7 == 0:
+            scale[0, 0] *= -1.0                       # a mirror: det < 0
+        M[:3, :3] = random_rotation(rng) @ scale
+        M[:3, 3] = (rng.uniform(-4, 4), rng.uniform(-4, 4), rng.uniform(0.2, 1.0))
+        scene.instances.append(Instance(sphere if index % 2 else cube, M, np.array([1 + index % 2]), f"Object {index}"))
+    scene.lights.append(SunLight(np.array([-0.4, 0.5, -0.77]) / np.linalg.norm([-0.4, 0.5, -0.77]), strength=1.0))
+    scene.lights.append(PointLight(np.array([1.0, -2.0, 3.0]), power=300.0))
+    return scene
+
+
+def both_geometries(scene: Scene):
+    """Return the scene's geometry copied and instanced (the same triangles, the same flat indices)."""
+    origin = np.asarray(scene.camera.matrix_world, np.float64)[:3, 3]
+    copied = build_geometry(scene, origin, instance_triangles=COPY)
+    instanced = build_geometry(scene, origin, instance_triangles=INSTANCE)
+    assert not copied.instanced and len(instanced.instanced) == 2
+    return copied, instanced
+
+
+def random_rays(n: int, seed: int = 5):
+    """Return n rays from around the camera towards the scene: origins, unit directions (n, 3) float64, t_max (n,)."""
+    rng = np.random.default_rng(seed)
+    O = rng.uniform(-1.0, 1.0, (n, 3)) + [0.0, 0.0, 0.0]
+    target = rng.uniform([-5, -5, -0.2], [5, 5, 1.5], (n, 3)) - [0.0, -9.0, 5.0]   # camera-relative
+    D = target - O
+    D /= np.linalg.norm(D, axis=1, keepdims=True)
+    return O, D, np.full(n, np.inf)
+
+
+def test_instances_store_the_mesh_once():
+    """The instanced mesh keeps one copy of its vertices and a few dozen bytes per placement."""
+    scene = scattered_scene()
+    _, geometry = both_geometries(scene)
+    sphere = geometry.instanced[1]
+    assert len(sphere.vertices) == len(scene.meshes[1].vertices)
+    assert len(sphere.transforms) == 60
+    per_instance = (sphere.transforms.nbytes + sphere.flip.nbytes + sphere.material_row.nbytes + sphere.owner.nbytes
+                    + (sphere.locator.boxes.nbytes + sphere.locator.keys.nbytes) / 60.0 * 60)
+    assert per_instance / 60 < 256
+    assert geometry.triangle_count == len(geometry.triangles) + sum(m.triangle_count for m in geometry.instanced)
+
+
+def test_instanced_hits_are_the_copied_hits():
+    """20,000 random rays hit the same triangles at the same distances, copied or instanced."""
+    copied, instanced = both_geometries(scattered_scene())
+    O, D, t_max = random_rays(20_000)
+    a = copied.tracer.intersect(O, D, t_max)
+    b = instanced.tracer.intersect(O, D, t_max)
+    assert a.hit.mean() > 0.5
+    # Rays may part ways only where they graze an edge (float32 transforms differ in the last bit).
+    assert (a.hit != b.hit).mean() < 1e-3
+    both = a.hit & b.hit
+    assert (a.prim[both] == b.prim[both]).mean() > 0.999
+    np.testing.assert_allclose(b.t[both], a.t[both], rtol=1e-5, atol=1e-6)
+    # The barycentric points agree too (in world units: Embree solves instances in object space).
+    same = np.flatnonzero(both & (a.prim == b.prim))
+    corners = copied.triangle_data(a.prim[same], smooth=False).corners
+    def point(h):
+        return ((1.0 - h.u[same] - h.v[same])[:, None] * corners[:, 0] + h.u[same, None] * corners[:, 1]
+                + h.v[same, None] * corners[:, 2])
+    assert np.linalg.norm(point(b) - point(a), axis=1).max() < 1e-5 * 20.0     # 20: the scene's size
+
+
+def test_instanced_triangle_data_is_the_copied_data():
+    """Corners, face normals (mirrors included), smooth corner normals and materials agree for every triangle."""
+    copied, instanced = both_geometries(scattered_scene())
+    prim = np.arange(copied.triangle_count)
+    a, b = copied.triangle_data(prim), instanced.triangle_data(prim)
+    np.testing.assert_allclose(b.corners, a.corners, atol=1e-6)
+    np.testing.assert_allclose(b.Ng, a.Ng, atol=1e-5)
+    np.testing.assert_array_equal(b.material, a.material)
+    np.testing.assert_array_equal(b.smooth, a.smooth)
+    np.testing.assert_allclose(b.corner_normals, a.corner_normals, atol=1e-5)
+    # Every face normal is the front side of its corners' winding, mirrored objects too.
+    assert b.smooth.sum() > 1000
+    owners = [instanced.instance_of(int(p)) for p in prim[::97]]
+    assert owners == [int(copied.instance[p]) for p in prim[::97]]
+
+
+def test_instanced_render_is_the_copied_render(monkeypatch):
+    """The whole render (shading, shadow rays, smooth normals, mirrored objects) agrees to float32 rounding."""
+    scene = scattered_scene()
+    settings = RenderSettings(width=96, height=54, samples=4, jitter=True)
+    copied = render.render(scene, settings)
+    monkeypatch.setattr(instancing, "INSTANCE_TRIANGLES", INSTANCE)
+    instanced = render.render(scene, settings)
+    assert instanced.stats.triangles == copied.stats.triangles
+    # A sample may part ways where a ray grazes an edge (a silhouette, a shadow's edge): the
+    # float32 transform and the float32 copy round differently. Anything more would show up here.
+    differs = np.abs(instanced.image - copied.image).max(axis=-1) > 1e-4
+    assert differs.mean() < 2e-3
+    assert np.abs(instanced.image - copied.image).mean() < 1e-5
+    assert copied.image[..., :3].mean() > 0.05
+
+
+def test_identification_picks_the_stacked_instance_the_ray_met():
+    """Two copies of a quad stacked 1 apart: a ray from above meets the upper at t = 2, from below the lower at t = 1."""
+    scene = Scene(camera=Camera.look_at((0.0, 0.0, 10.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0)))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.meshes.append(primitives.plane(2.0))
+    for z in (0.0, 1.0):
+        M = np.eye(4)
+        M[2, 3] = z
+        scene.instances.append(Instance(0, M, None, f"Quad {z}"))
+    geometry = build_geometry(scene, np.zeros(3), instance_triangles=INSTANCE)
+    O = np.array([[0.3, 0.2, 3.0], [0.3, 0.2, -1.0], [-0.4, -0.6, 3.0]])
+    D = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    hits = geometry.tracer.intersect(O, D, np.full(3, np.inf))
+    np.testing.assert_allclose(hits.t, [2.0, 1.0, 2.0], rtol=1e-6)
+    names = [scene.instances[geometry.instance_of(int(p))].name for p in hits.prim]
+    assert names == ["Quad 1.0", "Quad 0.0", "Quad 1.0"]
+
+
+def test_locator_finds_every_box_that_holds_a_point():
+    """The grid's candidates include every box containing the point, with boxes of very different sizes."""
+    rng = np.random.default_rng(11)
+    centre = rng.uniform(-10, 10, (500, 3))
+    half = rng.uniform(0.05, 0.5, (500, 3))
+    half[:5] *= 80.0                                  # a few huge boxes: tried for every point
+    lo, hi = centre - half, centre + half
+    locator = instancing.InstanceLocator(lo, hi)
+    assert len(locator.everywhere) >= 1
+    points = rng.uniform(-12, 12, (3000, 3))
+    rows, boxes = locator.candidates(points)
+    found = set(zip(rows.tolist(), boxes.tolist()))
+    inside = np.flatnonzero(((points[:, None] >= lo) & (points[:, None] <= hi)).all(axis=2).ravel())
+    expected = set(zip((inside // 500).tolist(), (inside % 500).tolist()))
+    assert expected and expected <= found
+    assert len(found) < 0.05 * len(points) * len(lo)     # and far fewer pairs than trying every box
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e5])
+@pytest.mark.parametrize("elevation", [1.0, 0.05])
+def test_no_shadow_acne_on_instanced_tiles_at_grazing_sun(elevation, offset, monkeypatch):
+    """A floor of 100 instanced tiles, tilted off the axes, lit by a grazing sun: every pixel takes the closed form."""
+    R = rotation((0.3, 0.5, 0.8), 0.7)
+    origin = R @ np.array([offset, 0.5 * offset, 0.3 * offset])
+    scene = Scene(camera=Camera.look_at(origin + R @ [0.0, -4.0, 2.5], origin, R @ [0.0, 0.0, 1.0],
+                                        fov=math.radians(60), clip_start=0.01, clip_end=1e3))
+    scene.add_material((ALBEDO,) * 3)
+    scene.meshes.append(primitives.plane(10.0))
+    for i in range(10):
+        for j in range(10):
+            M = np.eye(4)
+            M[:3, :3], M[:3, 3] = R, origin + R @ [10.0 * i - 45.0, 10.0 * j - 45.0, 0.0]
+            scene.instances.append(Instance(0, M, None, f"Tile {i} {j}"))
+    scene.lights.append(SunLight(R @ sun_direction(elevation, 30.0), strength=3.0))
+    settings = RenderSettings(width=64, height=64, samples=1, jitter=False, aux=("depth",))
+    geometry = build_geometry(scene, np.asarray(scene.camera.matrix_world)[:3, 3], instance_triangles=INSTANCE)
+    assert len(geometry.instanced) == 1
+    monkeypatch.setattr(instancing, "INSTANCE_TRIANGLES", INSTANCE)
+    result = render.render(scene, settings)
+    hit = result.aux["depth"][..., 0] < render.MISS_DEPTH
+    exact = ALBEDO / math.pi * 3.0 * math.sin(math.radians(elevation))
+    assert hit.mean() > 0.5
+    assert wrong_fraction(result.image, hit, exact) == 0.0
+
+
+def test_bad_instances_are_reported_like_bad_copies():
+    """NaN vertices, zero-area triangles, missing materials and an unplaceable object give the copies' warnings."""
+    scene = Scene(camera=Camera.look_at((0.0, -6.0, 3.0), (0.0, 0.0, 0.0)))
+    scene.add_material((0.5, 0.5, 0.5))
+    mesh = primitives.uv_sphere(1.0, 8, 4, smooth=True)
+    mesh.vertices = np.vstack([mesh.vertices, [[np.nan, 0.0, 0.0], [1.0, 1.0, 1.0]]])
+    mesh.corner_normals = None                        # derived from the vertices
+    v = len(mesh.vertices)
+    mesh.triangles = np.vstack([mesh.triangles, [[0, 1, v - 2], [v - 1, v - 1, 0]]])
+    mesh.smooth = np.append(mesh.smooth, [True, True])
+    mesh.material_indices = np.append(mesh.material_indices, [0, 0])
+    mesh.material_indices[:3] = 5                    # no such slot: default grey
+    scene.meshes.append(mesh)
+    for index in range(6):
+        M = np.eye(4)
+        M[:3, 3] = (index - 2.5, 0.0, 0.0)
+        scene.instances.append(Instance(0, M, np.array([0]), f"Ball {index}"))
+    M = np.eye(4)
+    M[0, 0] = 0.0
+    scene.instances.append(Instance(0, M, np.array([0]), "Flat"))
+    copied = build_geometry(scene, np.zeros(3), instance_triangles=COPY)
+    instanced = build_geometry(scene, np.zeros(3), instance_triangles=INSTANCE)
+    assert instanced.instanced and sorted(instanced.warnings) == sorted(copied.warnings)
+    assert any("NaN" in w for w in copied.warnings) and any("zero-area" in w for w in copied.warnings)
+    assert instanced.triangle_count == copied.triangle_count
+
+
+def test_acne_debug_view_reads_instanced_triangles(monkeypatch):
+    """The acne debug view (an extra nearest-hit query per blocked shadow ray) works on instances as on copies."""
+    scene = scattered_scene(count=20)
+    settings = RenderSettings(width=48, height=27, samples=2, jitter=True, aux=("acne",))
+    copied = render.render(scene, settings).aux["acne"]
+    monkeypatch.setattr(instancing, "INSTANCE_TRIANGLES", INSTANCE)
+    instanced = render.render(scene, settings).aux["acne"]
+    np.testing.assert_allclose(instanced, copied, atol=1e-6)
+    assert debug.scene_scale(build_geometry(scene, np.zeros(3), instance_triangles=INSTANCE)) > 5.0
