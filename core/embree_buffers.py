@@ -14,6 +14,10 @@ whether the scene belongs to the device. If anything is unexpected (another embr
 platform, a missing library), `attach_triangles` returns None and the caller copies the
 arrays the ordinary way (`core/intersect.py` keeps that path and tests both against each other).
 
+The same C API places a mesh many times while storing it once (`attach_instances`): the mesh
+goes into a scene of its own, and one instance array reads every placement's 3 x 4 transform in
+place (core/instancing.py explains how a hit's instance is found, since embreex drops instID).
+
 Embree reads shared arrays until the scene is freed, so the caller must keep them alive.
 """
 from __future__ import annotations

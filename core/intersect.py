@@ -50,7 +50,7 @@ def _f32_rays(origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray):
 
 
 class Tracer:
-    """An Embree BVH over one triangle soup, answering nearest-hit and occlusion queries.
+    """An Embree BVH over one triangle soup and any instanced meshes, answering nearest-hit and occlusion queries.
 
     vertices:  (v, 3) float32 camera-relative points
     triangles: (t, 3) int32 vertex indices
@@ -64,6 +64,8 @@ class Tracer:
     a padding row); embreex's copy goes one element at a time through Python indexing (about
     0.35 us per number, so 1.6 s for a mesh of 10^6 triangles and 5 x 10^5 vertices).
     build_seconds: time Embree took to build the BVH itself.
+    instanced: InstancedMesh records (core/instancing.py), each traced as an Embree instance array
+    of one prototype; `intersect` reports their hits by flat triangle index like the copied ones.
     """
 
     def __init__(self, vertices: np.ndarray, triangles: np.ndarray, share: bool = True, instanced=()):
