@@ -68,6 +68,16 @@ class PrimerSettings(bpy.types.PropertyGroup):
                                              "normals describe (Hanika 2021), hiding faceted terminators")
     threads: IntProperty(name="Threads", default=0, min=0, max=1024,
                          description="Threads tracing rays; 0 uses every core")
+    instancing: EnumProperty(
+        name="Instancing",
+        items=(("AUTO", "Automatic", "Store a mesh once and trace it as instances when its copies would exceed "
+                                     "262,144 triangles; copy smaller ones, which trace faster"),
+               ("ALWAYS", "Always", "Store every mesh placed twice or more once, and trace its placements as "
+                                    "instances (least memory)"),
+               ("NEVER", "Never", "Copy every placement into one triangle soup (memory grows with the copies)")),
+        default="AUTO",
+        description="How meshes placed many times (linked duplicates, collection and geometry-node instances) "
+                    "are traced; the image is the same")
     debug_view: EnumProperty(name="Debug View", items=DEBUG_VIEWS, default="NONE",
                              description="Show one of the tracer's intermediate quantities instead of the image")
     debug_passes: BoolProperty(name="Debug Passes", default=False,

@@ -40,6 +40,7 @@ import numpy as np
 
 from . import export
 from ..core import scene as core_scene
+from ..core import instancing
 from ..core.geometry import WorldGeometry, build_geometry, material_albedo
 
 
@@ -153,6 +154,13 @@ class _MaterialTable(export.MaterialTable):
         return len(self.index)
 
 
+def _instancing_mode(depsgraph) -> str:
+    """Return the scene's Instancing setting as RenderSettings.instancing has it ("auto" without Primer's settings)."""
+    props = getattr(depsgraph.scene_eval, "primer", None)
+    mode = str(getattr(props, "instancing", "AUTO")).lower()
+    return mode if mode in instancing.INSTANCING_MODES else "auto"
+
+
 class SceneCache:
     """The exported scene of one depsgraph, kept up to date from its updates.
 
@@ -171,6 +179,7 @@ class SceneCache:
         self.lights: list = []
         self.world_color = np.zeros(3)
         self.totals = SyncReport()         # summed over all syncs
+        self.instancing = "auto"           # RenderSettings.instancing the BVH was built with
 
     def sync(self, depsgraph, origin=None, updates=None) -> SyncReport:
         """Bring the cached scene up to date with `depsgraph`; return what was read and rebuilt.
@@ -197,11 +206,14 @@ class SceneCache:
         # 4. Rebuild the scene (cheap lists) and, when placements changed, the BVH.
         if first or placements_changed or report.lights or report.materials or report.world:
             self.scene = self._core_scene()
-        if first or placements_changed:
+        mode = _instancing_mode(depsgraph)
+        if first or placements_changed or mode != self.instancing:
+            self.instancing = mode
             if origin is None:
                 camera = depsgraph.scene_eval.camera
                 origin = np.array(camera.matrix_world.translation) if camera is not None else np.zeros(3)
-            self.geometry = build_geometry(self.scene, np.asarray(origin, np.float64))
+            self.geometry = build_geometry(self.scene, np.asarray(origin, np.float64),
+                                           instancing.instance_triangles(mode))
             report.bvh = True
         elif report.materials:
             self.geometry = dataclasses.replace(self.geometry, albedo=material_albedo(self.material_table.materials))

@@ -47,6 +47,7 @@ class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
         col.prop(props, "seed")
         col.prop(props, "animate_seed")
         col.prop(props, "threads")
+        col.prop(props, "instancing")
 
 
 class RENDER_PT_primer_shadows(PrimerPanel, bpy.types.Panel):

@@ -236,9 +236,11 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     batches, meshes = [], []
     original = {name: getattr(Tracer, name) for name in ("__init__", "intersect", "occluded")}
 
-    def init(self, vertices, triangles):
+    def init(self, vertices, triangles, *args, **kwargs):
+        if kwargs.get("instanced"):
+            raise RuntimeError("the rays phase replays one triangle soup; this scene has instanced meshes")
         meshes.append((np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(triangles, np.int32)))
-        original["__init__"](self, vertices, triangles)
+        original["__init__"](self, vertices, triangles, *args, **kwargs)
 
     def recording(query):
         def traced(self, origins, directions, t_max):

@@ -414,12 +414,12 @@ def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.n
         tables = [table for table, ok in zip(tables, placeable) if ok]
         det = det[placeable]
     # 3. Materials: one row per distinct slot table, shared by the instances that use it.
-    slots_kept, table_rows = slots[keep], {}
+    table_rows: dict = {}
     distinct: list = []
     row_of: dict = {}
     material_row = np.empty(len(transforms), np.int32)
     for index, table in enumerate(tables):
-        row = _slot_materials(slots_kept, table, table_rows)
+        row = _slot_materials(slots, table, table_rows)
         if id(row) not in row_of:
             row_of[id(row)] = len(distinct)
             distinct.append(row)
@@ -427,7 +427,7 @@ def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.n
     material = np.stack(distinct)                                                  # (r, t)
     missing = (material < 0) | (material >= n_materials)
     counts["missing"] += int((missing.sum(axis=1) * np.bincount(material_row, minlength=len(distinct))).sum())
-    material = np.where(missing, n_materials, material).astype(np.int32)
+    material = np.where(missing, n_materials, material)[:, keep].astype(np.int32)
     # 4. Smooth triangles keep their object-space corner normals; shading turns them per hit.
     smooth_kept = smooth[keep]
     smooth_index = np.full(int(keep.sum()), -1, np.int32)

@@ -34,7 +34,7 @@ import numpy as np
 
 from . import camera as camera_
 from . import lights as lights_
-from . import shadows
+from . import instancing, shadows
 from .geometry import WorldGeometry, build_geometry
 from .render import _usable_lights, validate
 from .scene import AreaLight, PointLight, RenderSettings, Scene, SpotLight, SunLight
@@ -248,7 +248,7 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     cam = scene.camera
     origin = (np.asarray(cam.matrix_world, np.float64)[:3, 3] if settings.camera_relative else np.zeros(3))
     if geometry is None:
-        geometry = build_geometry(scene, origin)
+        geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing))
     warnings = list(geometry.warnings)
     lights = [translate_light(light, geometry.origin) for light in _usable_lights(scene, warnings)]
     world = np.asarray(scene.world_color, np.float64)[:3]

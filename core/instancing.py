@@ -31,6 +31,10 @@ from . import normals as normals_
 # A mesh is instanced, not copied, when its copies would hold more than this many triangles.
 INSTANCE_TRIANGLES = 1 << 18
 
+# RenderSettings.instancing: "auto" instances a mesh when its copies would exceed INSTANCE_TRIANGLES,
+# "always" every mesh placed twice or more, "never" none (every placement copied).
+INSTANCING_MODES = ("auto", "always", "never")
+
 # The locator's grid: cells per axis at most (so a cell's key fits in an int64), and boxes
 # spanning more cells than this are tried for every point instead of being filed in each cell.
 MAX_CELLS_PER_AXIS = 1 << 20
@@ -38,6 +42,17 @@ MAX_CELLS_PER_BOX = 64
 
 # Pairs (point, candidate instance) tried at once when a point falls outside every box.
 BRUTE_FORCE_PAIRS = 1 << 22
+
+
+def instance_triangles(mode: str) -> int:
+    """Return build_geometry's `instance_triangles` for a RenderSettings.instancing mode."""
+    if mode == "auto":
+        return INSTANCE_TRIANGLES
+    if mode == "always":
+        return 0
+    if mode == "never":
+        return 1 << 62
+    raise ValueError(f"instancing must be one of {INSTANCING_MODES}, got {mode!r}")
 
 
 class InstanceLocator:

@@ -28,7 +28,7 @@ import numpy as np
 
 from . import adaptive
 from . import camera as camera_
-from . import debug, memory, sampling, vectors
+from . import debug, instancing, memory, sampling, vectors
 from .geometry import WorldGeometry, build_geometry
 from .scene import RenderSettings, Scene
 from .shading import direct_light, surface_at_hits, translate_light
@@ -110,6 +110,8 @@ def validate(scene: Scene, settings: RenderSettings) -> None:
         raise ValueError(f"shadow method must be 'robust' or 'epsilon', got {settings.shadow_method!r}")
     if settings.visibility_normal not in ("face", "shading"):
         raise ValueError(f"visibility normal must be 'face' or 'shading', got {settings.visibility_normal!r}")
+    if settings.instancing not in instancing.INSTANCING_MODES:
+        raise ValueError(f"instancing must be one of {instancing.INSTANCING_MODES}, got {settings.instancing!r}")
     if settings.shadow_method == "epsilon" and not (settings.epsilon >= 0 and math.isfinite(settings.epsilon)):
         raise ValueError(f"epsilon must be a finite length >= 0, got {settings.epsilon}")
     if not np.isfinite(np.asarray(scene.camera.matrix_world)).all():
@@ -429,7 +431,7 @@ def render(scene: Scene, settings: RenderSettings,
     origin = (np.asarray(scene.camera.matrix_world, np.float64)[:3, 3] if settings.camera_relative
               else np.zeros(3))
     if geometry is None:
-        geometry = build_geometry(scene, origin)
+        geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing))
     stats.geometry_seconds = time.perf_counter() - start
     stats.triangles = geometry.triangle_count
     stats.warnings.extend(geometry.warnings)

@@ -182,6 +182,9 @@ class RenderSettings:
     region: (x0, y0, x1, y1) pixel rectangle to render, y from the top row, or None for all.
     shadow_method: "robust" (error-bound offset, no user epsilon) or "epsilon" (the lecture's).
     aux: names of auxiliary buffers to return, from core.render.AUX_BUFFERS.
+    instancing: "auto" stores a mesh once and traces it as Embree instances when its copies would
+        exceed core.instancing.INSTANCE_TRIANGLES triangles, "always" does so for every mesh placed
+        twice or more, "never" copies every placement (core/instancing.py). The image is the same.
     adaptive: render in passes and stop pixels whose noise is below adaptive_threshold
         (core/adaptive.py); samples is then the most a pixel gets. adaptive_threshold 0 and
         adaptive_min_samples 0 choose automatic values from samples.
@@ -215,6 +218,7 @@ class RenderSettings:
     transparent_background: bool = False
     threads: int = 0
     chunk_size: int = 1 << 16
+    instancing: str = "auto"
     aux: Sequence[str] = ()
     adaptive: bool = False
     adaptive_threshold: float = 0.0

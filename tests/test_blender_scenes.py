@@ -98,6 +98,9 @@ VARIANTS = [
     Variant("light_exposure_temperature_unnormalized", "light_point",
             {"lights.exposure": -1.5, "lights.use_temperature": True, "lights.temperature": 3500.0,
              "lights.normalize": False}),
+    # Every repeated mesh (linked duplicates, collection and geometry-node instances, a mirrored one)
+    # stored once and traced as Embree instances: the image Cycles makes of the copies.
+    Variant("instancing_always", "modifiers_instances", {"primer.instancing": "ALWAYS"}, 256, 256),
     # Cycles' default terminator offset (0.1) against Primer's terminator fix, which follows it.
     Variant("terminator_fix", "shading_flat_smooth",
             {"objects.shadow_terminator_geometry_offset": 0.1, "primer.terminator_fix": True}, 256, 256),

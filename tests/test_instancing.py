@@ -6,6 +6,7 @@ with the same scene copied triangle by triangle (the reference path), or with a 
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -125,13 +126,12 @@ def test_instanced_triangle_data_is_the_copied_data():
     assert owners == [int(copied.instance[p]) for p in prim[::97]]
 
 
-def test_instanced_render_is_the_copied_render(monkeypatch):
+def test_instanced_render_is_the_copied_render():
     """The whole render (shading, shadow rays, smooth normals, mirrored objects) agrees to float32 rounding."""
     scene = scattered_scene()
-    settings = RenderSettings(width=96, height=54, samples=4, jitter=True)
+    settings = RenderSettings(width=96, height=54, samples=4, jitter=True, instancing="never")
     copied = render.render(scene, settings)
-    monkeypatch.setattr(instancing, "INSTANCE_TRIANGLES", INSTANCE)
-    instanced = render.render(scene, settings)
+    instanced = render.render(scene, dataclasses.replace(settings, instancing="always"))
     assert instanced.stats.triangles == copied.stats.triangles
     # A sample may part ways where a ray grazes an edge (a silhouette, a shadow's edge): the
     # float32 transform and the float32 copy round differently. Anything more would show up here.
@@ -179,7 +179,7 @@ def test_locator_finds_every_box_that_holds_a_point():
 
 @pytest.mark.parametrize("offset", [0.0, 1e5])
 @pytest.mark.parametrize("elevation", [1.0, 0.05])
-def test_no_shadow_acne_on_instanced_tiles_at_grazing_sun(elevation, offset, monkeypatch):
+def test_no_shadow_acne_on_instanced_tiles_at_grazing_sun(elevation, offset):
     """A floor of 100 instanced tiles, tilted off the axes, lit by a grazing sun: every pixel takes the closed form."""
     R = rotation((0.3, 0.5, 0.8), 0.7)
     origin = R @ np.array([offset, 0.5 * offset, 0.3 * offset])
@@ -193,10 +193,9 @@ def test_no_shadow_acne_on_instanced_tiles_at_grazing_sun(elevation, offset, mon
             M[:3, :3], M[:3, 3] = R, origin + R @ [10.0 * i - 45.0, 10.0 * j - 45.0, 0.0]
             scene.instances.append(Instance(0, M, None, f"Tile {i} {j}"))
     scene.lights.append(SunLight(R @ sun_direction(elevation, 30.0), strength=3.0))
-    settings = RenderSettings(width=64, height=64, samples=1, jitter=False, aux=("depth",))
+    settings = RenderSettings(width=64, height=64, samples=1, jitter=False, aux=("depth",), instancing="always")
     geometry = build_geometry(scene, np.asarray(scene.camera.matrix_world)[:3, 3], instance_triangles=INSTANCE)
     assert len(geometry.instanced) == 1
-    monkeypatch.setattr(instancing, "INSTANCE_TRIANGLES", INSTANCE)
     result = render.render(scene, settings)
     hit = result.aux["depth"][..., 0] < render.MISS_DEPTH
     exact = ALBEDO / math.pi * 3.0 * math.sin(math.radians(elevation))
@@ -231,12 +230,22 @@ def test_bad_instances_are_reported_like_bad_copies():
     assert instanced.triangle_count == copied.triangle_count
 
 
-def test_acne_debug_view_reads_instanced_triangles(monkeypatch):
+def test_acne_debug_view_reads_instanced_triangles():
     """The acne debug view (an extra nearest-hit query per blocked shadow ray) works on instances as on copies."""
     scene = scattered_scene(count=20)
-    settings = RenderSettings(width=48, height=27, samples=2, jitter=True, aux=("acne",))
+    settings = RenderSettings(width=48, height=27, samples=2, jitter=True, aux=("acne",), instancing="never")
     copied = render.render(scene, settings).aux["acne"]
-    monkeypatch.setattr(instancing, "INSTANCE_TRIANGLES", INSTANCE)
-    instanced = render.render(scene, settings).aux["acne"]
+    instanced = render.render(scene, dataclasses.replace(settings, instancing="always")).aux["acne"]
     np.testing.assert_allclose(instanced, copied, atol=1e-6)
     assert debug.scene_scale(build_geometry(scene, np.zeros(3), instance_triangles=INSTANCE)) > 5.0
+
+
+def test_instancing_setting_chooses_what_is_stored_once():
+    """"auto" instances only above INSTANCE_TRIANGLES, "always" every repeated mesh, "never" none; others are refused."""
+    scene = scattered_scene(count=10)
+    origin = np.zeros(3)
+    counts = {mode: len(build_geometry(scene, origin, instancing.instance_triangles(mode)).instanced)
+              for mode in instancing.INSTANCING_MODES}
+    assert counts == {"auto": 0, "always": 2, "never": 0}      # 10 x 72 triangles is far below 2^18
+    with pytest.raises(ValueError, match="instancing"):
+        render.render(scene, RenderSettings(width=8, height=8, samples=1, instancing="sometimes"))
