@@ -555,13 +555,15 @@ def findings(results: dict, heads: list) -> list:
                    "(core/embree_buffers.py), the arrays cost Embree one padded numpy copy; embreex's own path copies "
                    "the vertices and indices one number at a time through Python indexing (about 0.35 µs each).")
     many = max((p for p in points.values() if p["kind"] == "instances"), key=lambda p: p["value"], default=None)
+    one_instance = min((p for p in points.values() if p["kind"] == "instances"), key=lambda p: p["value"], default=None)
     if many:
         out.append(f"{many['instances'] - 1:,} instances take {many['bvh_seconds']:.1f} s to place and build "
                    f"(Embree alone: {_embree_split(many)} s, upload + BVH build), "
                    f"{1e6 * many['bvh_seconds'] / max(1, many['instances']):.0f} µs per instance. The mesh is "
                    "stored once and traced as an Embree instance array (core/instancing.py); embreex's hit "
                    "record has no instance ID, so each hit's instance is found from its point (a grid over the "
-                   "instances' boxes), and the peak memory left is mostly the scene's own 10⁵ instance records.")
+                   f"instances' boxes). Peak memory: {many['peak_mb'] / 1024:.2f} GB"
+                   f"{_scene_share(many, one_instance) if one_instance else ''}.")
     stability = results.get("stability") or []
     if stability:
         failing = [r for r in stability if r["epsilon"] > 0]
