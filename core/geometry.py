@@ -234,7 +234,9 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     origin: (3,) float64 world point (the camera position for camera-relative rendering).
     instance_triangles: a mesh placed more than once is stored once and instanced when its copies
     would hold more than this many triangles (None: instancing.INSTANCE_TRIANGLES; tests pass 0
-    to instance every mesh placed twice or more). Without Embree instancing every mesh is copied.
+    to instance every mesh placed twice or more). Without Embree instancing every mesh is copied,
+    and so, unless instance_triangles is 0, is a mesh whose instances crowd one place
+    (instancing.CROWDED): identifying a hit there would mean trying each of them.
     """
     origin = np.asarray(origin, dtype=np.float64)
     if instance_triangles is None:
@@ -278,12 +280,20 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         owners_all = np.array(owners, np.int32)
         if may_instance and len(placed_all) >= 2 and len(placed_all) * len(triangles) > instance_triangles:
             # Stored once, traced as Embree instances (core/instancing.py).
+            found = dict.fromkeys(counts, 0)
             record = _instanced_mesh(mesh, triangles, smooth, slots, corners, matrices[placed_all],
                                      [instances[index].materials for index in placed_all], owners_all[placed_all],
-                                     origin, n_materials, counts)
-            if record is not None:
-                instanced.append(record)
-            continue
+                                     origin, n_materials, found)
+            # Unless asked to always instance, instances piled up in one place are copied instead:
+            # every hit there would have to try each of them (instancing.CROWDED).
+            crowded = (record is not None and instance_triangles > 0
+                       and record.locator.crowding > instancing.CROWDED)
+            if not crowded:
+                for key, value in found.items():
+                    counts[key] += value
+                if record is not None:
+                    instanced.append(record)
+                continue
         if corners is not None:
             corners = corners[smooth]
         with np.errstate(invalid="ignore", over="ignore"):

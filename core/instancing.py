@@ -40,8 +40,12 @@ INSTANCING_MODES = ("auto", "always", "never")
 MAX_CELLS_PER_AXIS = 1 << 20
 MAX_CELLS_PER_BOX = 64
 
-# Pairs (point, candidate instance) tried at once when a point falls outside every box.
-BRUTE_FORCE_PAIRS = 1 << 22
+# Pairs (point, candidate instance) tried at once: bounds identification's memory however crowded.
+MAX_PAIRS = 1 << 22
+
+# In "auto" mode a mesh whose instances pile up deeper than this in one grid cell (thousands of
+# copies in one place) is copied instead: each hit would have to try that many instances.
+CROWDED = 256
 
 
 def instance_triangles(mode: str) -> int:
@@ -87,6 +91,8 @@ class InstanceLocator:
         starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]]) if len(keys) else np.zeros(0, np.int64)
         self.keys = keys[starts]
         self.starts = np.append(starts, len(keys)).astype(np.int32 if len(keys) < 2**31 else np.int64)
+        # The most boxes a point can be tested against.
+        self.crowding = int(np.diff(self.starts).max(initial=0)) + len(self.everywhere)
 
     def _file(self, ids: np.ndarray, first: np.ndarray, size: np.ndarray, count: np.ndarray):
         """Return (cell key, box) for every cell of the boxes `ids`: (m,) int64 and (m,) int32.
@@ -233,14 +239,18 @@ class InstancedMesh:
         """
         p = self.object_points(local, u, v)
         j = np.full(len(X), -1, np.int64)
-        # 1. The instances whose boxes hold X; the nearest image of p wins.
-        rows, boxes = self.locator.candidates(X)
-        if len(rows):
-            self._pick_nearest(p, X, rows, boxes, j)
+        # 1. The instances whose boxes hold X; the nearest image of p wins. A batch of points at a
+        #    time, so that even crowded cells keep the pairs within MAX_PAIRS.
+        step = max(1, MAX_PAIRS // max(self.locator.crowding, 1))
+        for first in range(0, len(X), step):
+            rows, boxes = self.locator.candidates(X[first:first + step])
+            if len(rows):
+                rows += first
+                self._pick_nearest(p, X, rows, boxes, j)
         # 2. A point outside every box (it cannot be, but rounding is rounding): try them all.
         lost = np.flatnonzero(j < 0)
         k = len(self.transforms)
-        step = max(1, BRUTE_FORCE_PAIRS // max(k, 1))
+        step = max(1, MAX_PAIRS // max(k, 1))
         for first in range(0, len(lost), step):
             chunk = lost[first:first + step]
             rows = np.repeat(chunk, k)

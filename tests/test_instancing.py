@@ -249,3 +249,29 @@ def test_instancing_setting_chooses_what_is_stored_once():
     assert counts == {"auto": 0, "always": 2, "never": 0}      # 10 x 72 triangles is far below 2^18
     with pytest.raises(ValueError, match="instancing"):
         render.render(scene, RenderSettings(width=8, height=8, samples=1, instancing="sometimes"))
+
+
+def test_crowded_instances_are_copied_unless_always(monkeypatch):
+    """600 spheres piled up in one place: copied in "auto"; with "always" still identified, a bounded batch at a time."""
+    rng = np.random.default_rng(17)
+    scene = Scene(camera=Camera.look_at((0.0, -6.0, 2.0), (0.0, 0.0, 0.0)))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.meshes.append(primitives.uv_sphere(1.0, 8, 4, smooth=False))
+    for index in range(600):
+        M = np.eye(4)
+        M[:3, 3] = rng.uniform(-0.05, 0.05, 3)
+        scene.instances.append(Instance(0, M, None, f"Ball {index}"))
+    assert build_geometry(scene, np.zeros(3), instance_triangles=1).instanced == []
+    crowded = build_geometry(scene, np.zeros(3), instance_triangles=INSTANCE)
+    assert crowded.instanced[0].locator.crowding > instancing.CROWDED
+    copied = build_geometry(scene, np.zeros(3), instance_triangles=COPY)
+    monkeypatch.setattr(instancing, "MAX_PAIRS", 5000)          # many small batches
+    O = np.tile([0.0, -6.0, 2.0], (3000, 1))
+    target = np.random.default_rng(2).uniform(-1.0, 1.0, (3000, 3))
+    D = (target - O) / np.linalg.norm(target - O, axis=1, keepdims=True)
+    a = copied.tracer.intersect(O, D, np.full(3000, np.inf))
+    b = crowded.tracer.intersect(O, D, np.full(3000, np.inf))
+    both = a.hit & b.hit
+    assert both.sum() > 1000 and (a.hit != b.hit).mean() < 1e-3
+    np.testing.assert_allclose(b.t[both], a.t[both], rtol=1e-5)
+    assert (a.prim[both] == b.prim[both]).mean() > 0.99
