@@ -241,7 +241,6 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     origin = np.asarray(origin, dtype=np.float64)
     if instance_triangles is None:
         instance_triangles = instancing.INSTANCE_TRIANGLES
-    may_instance = embree_buffers.instancing_supported()
     warnings: list[str] = []
     parts_v, parts_t, parts_n, parts_m, parts_cn, parts_smooth = [], [], [], [], [], []
     parts_i = []
@@ -278,7 +277,8 @@ def build_geometry(scene: Scene, origin: np.ndarray,
             warnings.append(f"{int(singular.sum())} object(s) of mesh '{mesh.name}' have zero or invalid scale and were skipped")
         placed_all = np.flatnonzero(~singular)
         owners_all = np.array(owners, np.int32)
-        if may_instance and len(placed_all) >= 2 and len(placed_all) * len(triangles) > instance_triangles:
+        if (len(placed_all) >= 2 and len(placed_all) * len(triangles) > instance_triangles
+                and embree_buffers.instancing_supported()):
             # Stored once, traced as Embree instances (core/instancing.py).
             found = dict.fromkeys(counts, 0)
             record = _instanced_mesh(mesh, triangles, smooth, slots, corners, matrices[placed_all],
