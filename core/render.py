@@ -28,7 +28,7 @@ import numpy as np
 
 from . import adaptive
 from . import camera as camera_
-from . import debug, instancing, memory, sampling, vectors
+from . import debug, instancing, kernels, memory, sampling, vectors
 from .geometry import WorldGeometry, build_geometry
 from .scene import RenderSettings, Scene
 from .shading import direct_light, surface_at_hits, translate_light
@@ -67,6 +67,7 @@ class RenderStats:
     passes: int = 0                 # sampling passes run (1 without adaptive sampling)
     samples_per_pixel: Optional[np.ndarray] = None   # (H, W) int32 camera samples each pixel received
     warnings: list = field(default_factory=list)
+    kernels: str = ""               # "compiled", or "numpy" and why (core/kernels.py)
 
     @property
     def rays(self) -> int:
@@ -110,6 +111,8 @@ def validate(scene: Scene, settings: RenderSettings) -> None:
         raise ValueError(f"shadow method must be 'robust' or 'epsilon', got {settings.shadow_method!r}")
     if settings.visibility_normal not in ("face", "shading"):
         raise ValueError(f"visibility normal must be 'face' or 'shading', got {settings.visibility_normal!r}")
+    if settings.kernels not in kernels.KERNELS:
+        raise ValueError(f"kernels must be one of {kernels.KERNELS}, got {settings.kernels!r}")
     if settings.instancing not in instancing.INSTANCING_MODES:
         raise ValueError(f"instancing must be one of {instancing.INSTANCING_MODES}, got {settings.instancing!r}")
     if settings.shadow_method == "epsilon" and not (settings.epsilon >= 0 and math.isfinite(settings.epsilon)):
@@ -166,6 +169,18 @@ class _Context:
         # count as lying in it (core/debug.py, self_intersections).
         self.self_hit_distance = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry)
                                   if "acne" in settings.aux else 0.0)
+        # The compiled kernels' records of the scene (core/kernels.py), when they apply.
+        self.numpy_because = kernels.why_not(settings)
+        if not self.numpy_because:
+            self.camera_record = kernels.camera_record(cam, settings.width, settings.height,
+                                                       tuple(settings.pixel_aspect), geometry.origin)
+            self.light_records = (kernels.LightRecord * max(1, len(lights)))(
+                *[kernels.light_record(light, i, settings.light_samples) for i, light in enumerate(lights)])
+            self.shadow_settings = kernels.shadow_settings(settings)
+            self.copied = kernels.copied_arrays(geometry) if not geometry.instanced else None
+            self.smooth = geometry.has_smooth
+            background = [0.0, 0.0, 0.0, 0.0] if settings.transparent_background else [*self.world_color, 1.0]
+            self.background = np.array(background)
 
 
 class ChunkResult(NamedTuple):
@@ -264,6 +279,67 @@ def _squares(rgba: np.ndarray, n_pixels: int, spp: int) -> np.ndarray:
     """
     luminance = np.einsum("ij,j->i", rgba[:, :3], adaptive.LUMINANCE)
     return np.stack([luminance * luminance, rgba[:, 3] * rgba[:, 3]], axis=1).reshape(n_pixels, spp, 2).sum(axis=1)
+
+
+def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
+                           first: Optional[np.ndarray] = None) -> ChunkResult:
+    """`_render_chunk` with its arithmetic in the compiled kernels (core/kernels.py): the same steps,
+    the same numbers, and the same Embree queries, through the same Tracer."""
+    s = ctx.settings
+    W, H = s.width, s.height
+    p = len(pixels)
+    first = np.zeros(p, np.int64) if first is None else np.ascontiguousarray(first, np.int64)
+    pixels = np.ascontiguousarray(pixels, np.int64)
+    # 1-2. Sample positions and camera rays, camera-relative (a fisheye's rays come from numpy).
+    valid = None
+    if ctx.camera_record is not None:
+        origins, directions, t_max = kernels.camera_rays(ctx.camera_record, seed, W, H, pixels, first, spp)
+        traced = None
+    else:
+        pixel = np.repeat(pixels, spp)
+        sample = np.tile(np.arange(spp, dtype=np.int64), p) + np.repeat(first, spp)
+        offset = kernels.sample_2d(seed, pixel, sample, dimension=0)
+        rays = camera_.generate_rays(ctx.scene.camera, W, H, (pixel % W) + offset[:, 0],
+                                     (pixel // W) + offset[:, 1], tuple(s.pixel_aspect))
+        valid = rays.valid
+        traced = np.flatnonzero(valid)
+        origins = np.ascontiguousarray(vectors.gather(rays.origins, traced) - ctx.geometry.origin)
+        directions = np.ascontiguousarray(vectors.gather(rays.directions, traced))
+        t_max = rays.t_max[traced]
+    # 3. Nearest hits.
+    hits = ctx.geometry.tracer.intersect(origins, directions, t_max)
+    hit = np.flatnonzero(hits.hit)                     # (m,) into the traced rays
+    h = hit if traced is None else traced[hit]         # (m,) into the chunk's samples
+    shading_start = time.perf_counter()
+    m = len(h)
+    E = np.zeros((m, 3))
+    shadow_rays = 0
+    albedo = np.zeros((m, 3))
+    if m:
+        # 4. The surface at each hit, then the lights in groups: shadow rays, Embree's answers, the light.
+        prim = hits.prim[hit]
+        if ctx.copied is not None:
+            triangles = kernels.copied_triangles(ctx.copied, prim)
+        else:
+            triangles = kernels.any_triangles(ctx.geometry, prim, ctx.smooth)
+        albedo = triangles.albedo
+        surface = kernels.surfaces(triangles, hit, origins, directions, hits.t[hit], hits.u[hit], hits.v[hit],
+                                   lift=bool(s.terminator_fix and ctx.smooth))
+        pixel_of_hit = pixels[h // spp]
+        sample_of_hit = first[h // spp] + h % spp
+        for l0, l1 in kernels.light_groups(ctx.light_records[:len(ctx.lights)], m):
+            batch = kernels.shadow_rays(ctx.shadow_settings, ctx.light_records, l0, l1, surface,
+                                        triangles.smooth, pixel_of_hit, sample_of_hit)
+            if len(batch.weight):
+                blocked = ctx.geometry.tracer.occluded(batch.origins, batch.directions, batch.t_max)
+                kernels.add_light(ctx.light_records, batch, blocked, E)
+            shadow_rays += len(batch.weight)
+    shading_seconds = time.perf_counter() - shading_start
+    # 5. Box filter: sum each pixel's samples (the caller divides by the count).
+    per_pixel, squares, hits_per_pixel = kernels.film(p, spp, valid, ctx.background, h, albedo, E,
+                                                      adaptive.LUMINANCE, s.adaptive)
+    primary = p * spp if traced is None else len(traced)
+    return ChunkResult(per_pixel, squares, {}, hits_per_pixel, primary, shadow_rays, shading_seconds, spp)
 
 
 def _render_chunk_timed(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
@@ -476,7 +552,12 @@ def render(scene: Scene, settings: RenderSettings,
         stats.shadow_rays += result.shadow
         stats.shading_seconds += result.shading_seconds
 
-    render_chunk = _render_chunk_timed if "time" in settings.aux else _render_chunk
+    if not ctx.numpy_because:
+        render_chunk = _render_chunk_compiled
+        stats.kernels = "compiled"
+    else:
+        render_chunk = _render_chunk_timed if "time" in settings.aux else _render_chunk
+        stats.kernels = f"numpy ({ctx.numpy_because})"
     with memory.temporaries_from_the_heap(), ThreadPoolExecutor(max_workers=threads) as pool:
         pixels = region
         for index, spp in enumerate(passes):

@@ -1,0 +1,596 @@
+/* Primer's compiled kernels: the render loop's arithmetic, one sample at a time.
+ *
+ * Every function here is the twin of numpy code in core/ (named beside each one) and computes the
+ * same numbers, in the same float64, in the same order of steps. The numpy code is the readable
+ * reference; this file exists only because numpy makes a pass over memory per operation, so a
+ * shading point costs a few hundred numpy passes, while here it is one pass with the values in
+ * registers. tests/test_kernels.py checks each kernel against its twin, and whole renders against
+ * the numpy path.
+ *
+ * Conventions. Arrays arrive from numpy as contiguous row-major buffers: an (n, 3) float64 array is
+ * `double *` with row i at [3 i]. Ray queries stay in Python (Embree, through embreex): these
+ * kernels only prepare rays and use their answers. No function keeps state or allocates, so any
+ * number of threads may call them at once; ctypes releases Python's GIL around each call.
+ *
+ * Built by tools/build_kernels.py (`make kernels`), loaded by core/kernels.py.
+ */
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define PRIMER_KERNELS_ABI 1
+
+#define PI 3.14159265358979323846
+#define FLOAT32_EPSILON (1.0 / 16777216.0)   /* 2^-24, core/shadows.py */
+#define ROBUST_ULPS 8.0
+#define T_INFINITY 1e37f                    /* core/intersect.py: Embree's "infinite" t_far */
+
+#if defined(_WIN32)
+#define EXPORT __declspec(dllexport)
+#else
+#define EXPORT __attribute__((visibility("default")))
+#endif
+
+/* ------------------------------------------------------------------------------------------------
+ * Small vector helpers
+ * --------------------------------------------------------------------------------------------- */
+
+static inline double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+static inline double largest3(const double *a)
+{
+    double m = fabs(a[0]);
+    if (fabs(a[1]) > m) m = fabs(a[1]);
+    if (fabs(a[2]) > m) m = fabs(a[2]);
+    return m;
+}
+
+/* Unit direction and distance from p to q (a zero vector where they coincide): lights._direction_to. */
+static inline double direction_to(const double *p, const double *q, double *L)
+{
+    double w[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+    double d = sqrt(dot3(w, w));
+    double inverse = d > 0.0 ? 1.0 / d : 0.0;
+    L[0] = w[0] * inverse; L[1] = w[1] * inverse; L[2] = w[2] * inverse;
+    return d;
+}
+
+/* cos and sin of phi in [0, 2 pi), the way vectors.cos_sin takes them (cos in float32, sin from it). */
+static inline void cos_sin(double phi, double *c, double *s)
+{
+    double cosine = (double)cosf((float)phi);
+    if (cosine > 1.0) cosine = 1.0;
+    if (cosine < -1.0) cosine = -1.0;
+    *c = cosine;
+    *s = copysign(sqrt(1.0 - cosine * cosine), PI - phi);
+}
+
+/* Two unit vectors completing a unit axis to an orthonormal frame: lights.orthonormal_frame. */
+static inline void orthonormal_frame(const double *axis, double *t, double *b)
+{
+    double x = axis[0], y = axis[1], z = axis[2];
+    double sign = z >= 0.0 ? 1.0 : -1.0;
+    double a = -1.0 / (sign + z);
+    double c = x * y * a;
+    t[0] = 1.0 + sign * x * x * a; t[1] = sign * c; t[2] = -sign * x;
+    b[0] = c; b[1] = sign + y * y * a; b[2] = -y;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Sampling: core/sampling.py, bit for bit
+ * --------------------------------------------------------------------------------------------- */
+
+static inline uint32_t hash_u32(uint32_t x)
+{
+    uint32_t state = x * 747796405u + 2891336453u;
+    uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+static inline uint32_t reverse_bits(uint32_t x)
+{
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
+    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
+    return (x >> 16) | (x << 16);
+}
+
+static inline uint32_t laine_karras(uint32_t x, uint32_t seed)
+{
+    x += seed;
+    x ^= x * 0x6C50B47Cu;
+    x ^= x * 0xB82F1E52u;
+    x ^= x * 0xC7AFE638u;
+    x ^= x * 0x8D22F6E6u;
+    return x;
+}
+
+static inline uint32_t sobol_y_mirrored(uint32_t y)
+{
+    y ^= (y >> 1) & 0x55555555u;
+    y ^= (y >> 2) & 0x33333333u;
+    y ^= (y >> 4) & 0x0F0F0F0Fu;
+    y ^= (y >> 8) & 0x00FF00FFu;
+    y ^= (y >> 16) & 0x0000FFFFu;
+    return y;
+}
+
+static inline uint32_t combine_seed(uint32_t seed, uint32_t value)
+{
+    return seed ^ (value + (seed << 6) + (seed >> 2));
+}
+
+/* The stream of (seed, dimension): sampling._pixel_key before the pixel is mixed in. */
+static inline uint32_t stream_of(int64_t seed, int64_t dimension)
+{
+    return hash_u32((uint32_t)((uint64_t)seed * 0x9E3779B9ull + (uint64_t)dimension * 0x85EBCA6Bull));
+}
+
+/* The index-th point of a pixel's progressive pattern: sampling.sample_2d for one sample. */
+static inline void sample_2d(uint32_t stream, int64_t pixel, int64_t index, double *u)
+{
+    uint32_t key = hash_u32((uint32_t)pixel ^ stream);
+    uint32_t shuffled = reverse_bits(laine_karras(reverse_bits((uint32_t)index), key));
+    uint32_t x = reverse_bits(laine_karras(shuffled, combine_seed(key, 1)));
+    uint32_t y = reverse_bits(laine_karras(sobol_y_mirrored(shuffled), combine_seed(key, 2)));
+    u[0] = x * (1.0 / 4294967296.0);
+    u[1] = y * (1.0 / 4294967296.0);
+}
+
+/* sampling.sample_2d over arrays: pixel, index (n,) int64 -> out (n, 2) float64. */
+EXPORT void primer_sample_2d(int64_t seed, const int64_t *pixel, const int64_t *index, int64_t dimension,
+                             int64_t n, double *out)
+{
+    uint32_t stream = stream_of(seed, dimension);
+    for (int64_t i = 0; i < n; i++)
+        sample_2d(stream, pixel[i], index[i], out + 2 * i);
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Camera rays: render._render_chunk steps 1-2 and camera.generate_rays, for PERSP and ORTHO
+ * --------------------------------------------------------------------------------------------- */
+
+typedef struct {
+    double orthographic;        /* 0: pinhole (PERSP), 1: parallel rays (ORTHO) */
+    double left, right, bottom, top;   /* camera.viewplane */
+    double clip_start, clip_end;
+    double rotation[9];         /* camera-to-world rotation, row-major */
+    double eye[3];              /* the camera's position minus the geometry's origin */
+    double renormalize;         /* 1 when the rotation is not orthonormal (a sheared parent) */
+} CameraRecord;
+
+/* The camera rays of `spp` samples in each of `p` pixels, camera-relative.
+ * pixels, first: (p,) int64 (first: samples each pixel already has); width, height: the image.
+ * Out: origins, directions (p spp, 3) float64; t_max (p spp,) float64. */
+EXPORT void primer_camera_rays(const CameraRecord *camera, int64_t seed, int64_t width, int64_t height,
+                               const int64_t *pixels, const int64_t *first, int64_t p, int64_t spp,
+                               double *origins, double *directions, double *t_max)
+{
+    uint32_t stream = stream_of(seed, 0);
+    const double *R = camera->rotation;
+    for (int64_t k = 0; k < p; k++) {
+        int64_t pixel = pixels[k];
+        for (int64_t j = 0; j < spp; j++) {
+            int64_t i = k * spp + j;
+            /* 1. The sample's position inside its pixel, then on the image plane. */
+            double u[2];
+            sample_2d(stream, pixel, first[k] + j, u);
+            double raster_x = (double)(pixel % width) + u[0];
+            double raster_y = (double)(pixel / width) + u[1];
+            double plane_x = camera->left + (raster_x / (double)width) * (camera->right - camera->left);
+            double plane_y = camera->top - (raster_y / (double)height) * (camera->top - camera->bottom);
+            /* 2. The ray in the camera's frame, starting on the near clip plane. */
+            double o[3], d[3], t;
+            if (camera->orthographic == 0.0) {
+                double length = sqrt(plane_x * plane_x + plane_y * plane_y + 1.0);
+                d[0] = plane_x / length; d[1] = plane_y / length; d[2] = -1.0 / length;
+                double cos_to_axis = -d[2];
+                double start = camera->clip_start / cos_to_axis;
+                o[0] = d[0] * start; o[1] = d[1] * start; o[2] = d[2] * start;
+                t = (camera->clip_end - camera->clip_start) / cos_to_axis;
+            } else {
+                o[0] = plane_x; o[1] = plane_y; o[2] = -camera->clip_start;
+                d[0] = 0.0; d[1] = 0.0; d[2] = -1.0;
+                t = camera->clip_end - camera->clip_start;
+            }
+            /* 3. Into the camera-relative world frame. */
+            double *O = origins + 3 * i, *D = directions + 3 * i;
+            for (int c = 0; c < 3; c++) {
+                O[c] = R[3 * c] * o[0] + R[3 * c + 1] * o[1] + R[3 * c + 2] * o[2] + camera->eye[c];
+                D[c] = R[3 * c] * d[0] + R[3 * c + 1] * d[1] + R[3 * c + 2] * d[2];
+            }
+            if (camera->renormalize != 0.0) {
+                double length = sqrt(dot3(D, D));
+                D[0] /= length; D[1] /= length; D[2] /= length;
+            }
+            t_max[i] = t;
+        }
+    }
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Hit surfaces: WorldGeometry.triangle_data and shading.surface_at_hits
+ * --------------------------------------------------------------------------------------------- */
+
+/* What shading needs of the copied triangles `prim`: WorldGeometry._copied_data plus the albedo.
+ * vertices (v, 3) float32; triangles (t, 3) int32; face_normals (t, 3) float64; material (t,) int32;
+ * albedo (a, 3) float64; smooth_index (t,) int32 (-1 flat) or NULL; corner_normals (s, 3, 3) float32.
+ * Out per hit: corners (m, 3, 3), Ng (m, 3), albedo_out (m, 3) float64; smooth (m,) uint8;
+ * normals (m, 3, 3) float64 (written for smooth hits only). */
+EXPORT void primer_copied_triangles(const int64_t *prim, int64_t m, const float *vertices, const int32_t *triangles,
+                                    const double *face_normals, const int32_t *material, const double *albedo,
+                                    const int32_t *smooth_index, const float *corner_normals,
+                                    double *corners, double *Ng, double *albedo_out, uint8_t *smooth, double *normals)
+{
+    for (int64_t i = 0; i < m; i++) {
+        int64_t f = prim[i];
+        for (int k = 0; k < 3; k++) {
+            const float *V = vertices + 3 * (int64_t)triangles[3 * f + k];
+            for (int c = 0; c < 3; c++) corners[9 * i + 3 * k + c] = (double)V[c];
+        }
+        for (int c = 0; c < 3; c++) {
+            Ng[3 * i + c] = face_normals[3 * f + c];
+            albedo_out[3 * i + c] = albedo[3 * (int64_t)material[f] + c];
+        }
+        int32_t row = smooth_index ? smooth_index[f] : -1;
+        smooth[i] = row >= 0;
+        if (row >= 0)
+            for (int c = 0; c < 9; c++) normals[9 * i + c] = (double)corner_normals[9 * (int64_t)row + c];
+    }
+}
+
+/* The surface at each hit: shading.hit_points, surface_at_hits, shadows.error_bound and, for the
+ * terminator fix, shadows.terminator_points.
+ * In: ray (m,) int64 row of each hit's ray in origins / directions (n, 3) float64; t, u, v (m,) float64;
+ * corners (m, 3, 3), Ng (m, 3) float64; smooth (m,) uint8; normals (m, 3, 3) float64 (smooth hits).
+ * Out: I, N (m, 3) float64; Ng turned to face the viewer, in place; offset (m,) float64;
+ * lifted (m, 3) float64 or NULL: the terminator fix's points, for smooth hits. */
+EXPORT void primer_surfaces(const int64_t *ray, int64_t m, const double *origins, const double *directions,
+                            const double *t, const double *u, const double *v, const double *corners,
+                            double *Ng, const uint8_t *smooth, const double *normals,
+                            double *I, double *N, double *offset, double *lifted)
+{
+    for (int64_t i = 0; i < m; i++) {
+        const double *O = origins + 3 * ray[i], *D = directions + 3 * ray[i];
+        const double *V = corners + 9 * i;
+        double *ng = Ng + 3 * i, *P = I + 3 * i, *n = N + 3 * i;
+        double w = 1.0 - u[i] - v[i];
+        /* 1. I: the float64 ray meets the triangle's plane, unless that disagrees with Embree's t. */
+        double to_corner[3] = {V[0] - O[0], V[1] - O[1], V[2] - O[2]};
+        double t_plane = dot3(to_corner, ng) / dot3(D, ng);
+        if (fabs(t_plane - t[i]) <= 1e-5 * fabs(t[i]) + 1e-30) {
+            for (int c = 0; c < 3; c++) P[c] = O[c] + t_plane * D[c];
+        } else {
+            for (int c = 0; c < 3; c++) P[c] = w * V[c] + u[i] * V[3 + c] + v[i] * V[6 + c];
+        }
+        /* 2. The face normal, flipped when the triangle was hit from behind (N.D > 0). */
+        double side = dot3(ng, D) > 0.0 ? -1.0 : 1.0;
+        for (int c = 0; c < 3; c++) { ng[c] *= side; n[c] = ng[c]; }
+        /* 3. The robust offset: ROBUST_ULPS float32 ulps of the largest coordinate involved. */
+        double magnitude = largest3(P);
+        for (int k = 0; k < 3; k++) if (largest3(V + 3 * k) > magnitude) magnitude = largest3(V + 3 * k);
+        offset[i] = ROBUST_ULPS * FLOAT32_EPSILON * magnitude;
+        if (!smooth[i]) continue;
+        /* 4. Smooth triangles: the corner normals (turned with the face) interpolated and renormalised. */
+        double cn[9];
+        for (int c = 0; c < 9; c++) cn[c] = normals[9 * i + c] * side;
+        double s[3];
+        for (int c = 0; c < 3; c++) s[c] = w * cn[c] + u[i] * cn[3 + c] + v[i] * cn[6 + c];
+        double length = sqrt(dot3(s, s));
+        if (isfinite(length) && length > 0.0)
+            for (int c = 0; c < 3; c++) n[c] = s[c] / length;
+        /* 5. The terminator fix's point: I projected onto each corner's tangent plane where it lies
+         *    below it, the projections interpolated with the barycentrics. */
+        if (lifted != NULL) {
+            double weight[3] = {w, u[i], v[i]};
+            double *Q = lifted + 3 * i;
+            Q[0] = Q[1] = Q[2] = 0.0;
+            for (int k = 0; k < 3; k++) {
+                const double *corner = V + 3 * k, *normal = cn + 3 * k;
+                double to_point[3] = {P[0] - corner[0], P[1] - corner[1], P[2] - corner[2]};
+                double below = dot3(to_point, normal);
+                if (below > 0.0) below = 0.0;
+                for (int c = 0; c < 3; c++)
+                    Q[c] += weight[k] * (corner[c] + (to_point[c] - below * normal[c]));
+            }
+        }
+    }
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Lights: core/lights.py's sample_light for one point and one sample
+ * --------------------------------------------------------------------------------------------- */
+
+enum { LIGHT_POINT = 0, LIGHT_SPOT = 1, LIGHT_SUN = 2, LIGHT_AREA = 3 };
+
+/* One light, prepared by core/kernels.py (`light_record`): everything that does not depend on the
+ * shading point. Only doubles, so that its layout is the same on every compiler. */
+typedef struct {
+    double kind;            /* LIGHT_* */
+    double samples;         /* light samples per camera sample (1 for lights without extent) */
+    double dimension;       /* the sampling dimension of its pattern: 16 + 4 * index */
+    double delta;           /* 1: no extent (exact, one direction) */
+    double color[3];
+    double position[3];     /* point and spot: the centre; area: the centre */
+    double direction[3];    /* spot: unit axis; sun: unit direction towards the sun; area: unit normal */
+    double axis_u[3], axis_v[3];      /* area: the two edge vectors */
+    double ellipse;         /* area: 1 for DISK and ELLIPSE */
+    double area;            /* area: emitting area */
+    double radiance;        /* area: P / (pi A); sphere: P / (4 pi^2 R^2) */
+    double power, radius, soft_falloff;
+    double strength;        /* sun: irradiance at normal incidence (delta) or carried by each sample (disk) */
+    double sun_t[3], sun_b[3], sun_cos_max;      /* sun disk: the cone's frame and half-angle */
+    double spot_frame;      /* 1: the spot has a (scaled) frame: use spot_inverse */
+    double spot_inverse[9]; /* world to spot-local, row-major */
+    double spot_cos_half, spot_blend_width;
+    double spread_narrow;   /* area: 1 when spread < pi */
+    double spread_tan_half, spread_norm;
+} LightRecord;
+
+typedef struct {
+    double L[3];
+    double distance;
+    double strength;
+    double position[3];
+} LightSample;
+
+/* A direction uniform in solid angle within the cone (axis, t, b, cos_max): lights._sample_cone. */
+static inline void sample_cone(const double *axis, const double *t, const double *b, double cos_max,
+                               const double *u, double *L)
+{
+    double cos_theta = 1.0 - u[0] * (1.0 - cos_max);
+    double sin_theta = sqrt(fmax(0.0, 1.0 - cos_theta * cos_theta));
+    double cos_phi, sin_phi;
+    cos_sin(2.0 * PI * u[1], &cos_phi, &sin_phi);
+    for (int c = 0; c < 3; c++)
+        L[c] = t[c] * (sin_theta * cos_phi) + b[c] * (sin_theta * sin_phi) + axis[c] * cos_theta;
+}
+
+/* Blender's spot cone factor for light leaving along -L: lights.spot_attenuation. */
+static inline double spot_factor(const LightRecord *light, const double *L)
+{
+    double cos_angle;
+    if (light->spot_frame == 0.0) {
+        cos_angle = -dot3(L, light->direction);
+    } else {
+        const double *M = light->spot_inverse;
+        double local[3];
+        for (int c = 0; c < 3; c++) local[c] = -(M[3 * c] * L[0] + M[3 * c + 1] * L[1] + M[3 * c + 2] * L[2]);
+        double length = sqrt(dot3(local, local));
+        cos_angle = -local[2] / (length > 0.0 ? length : 1.0);
+    }
+    if (light->spot_blend_width <= 0.0) return cos_angle > light->spot_cos_half ? 1.0 : 0.0;
+    double x = (cos_angle - light->spot_cos_half) / light->spot_blend_width;
+    x = x < 0.0 ? 0.0 : (x > 1.0 ? 1.0 : x);
+    return x * x * (3.0 - 2.0 * x);
+}
+
+/* Light from `light` arriving at point P for the unit-square sample u: lights.sample_light. */
+static void sample_light(const LightRecord *light, const double *P, const double *u, LightSample *out)
+{
+    int kind = (int)light->kind;
+    if (kind == LIGHT_SUN) {
+        if (light->delta != 0.0) {
+            for (int c = 0; c < 3; c++) out->L[c] = light->direction[c];
+        } else {
+            sample_cone(light->direction, light->sun_t, light->sun_b, light->sun_cos_max, u, out->L);
+        }
+        out->distance = INFINITY;
+        out->strength = light->strength;
+        out->position[0] = out->position[1] = out->position[2] = 0.0;
+        return;
+    }
+    if (kind == LIGHT_POINT || kind == LIGHT_SPOT) {
+        if (light->delta != 0.0) {
+            /* The lecture's point light: I = P / (4 pi), attenuated by 1 / r^2. */
+            double d = direction_to(P, light->position, out->L);
+            out->distance = d;
+            out->strength = d > 0.0 ? light->power * (1.0 / (4.0 * PI)) * (1.0 / (d * d)) : 0.0;
+            for (int c = 0; c < 3; c++) out->position[c] = light->position[c];
+        } else {
+            /* A sphere (or, with soft falloff, a disk facing P): the cone it covers, sampled uniformly. */
+            double axis[3], t[3], b[3];
+            double d = direction_to(P, light->position, axis);
+            double R = light->radius, sin2_max;
+            if (light->soft_falloff != 0.0) {
+                sin2_max = R * R / (R * R + d * d);
+            } else {
+                d = fmax(d, R * (1.0 + 1e-9));
+                sin2_max = fmin(1.0, (R / d) * (R / d));
+            }
+            double cos_max = sqrt(1.0 - sin2_max);
+            orthonormal_frame(axis, t, b);
+            sample_cone(axis, t, b, cos_max, u, out->L);
+            double cos_to_center = dot3(out->L, axis);
+            if (light->soft_falloff != 0.0) {
+                out->distance = d / fmax(cos_to_center, 1e-300);
+            } else {
+                double h = d * cos_to_center;
+                out->distance = h - sqrt(fmax(0.0, h * h - (d * d - R * R)));
+            }
+            out->strength = light->radiance * 2.0 * PI * (1.0 - cos_max);
+            for (int c = 0; c < 3; c++) out->position[c] = P[c] + out->L[c] * out->distance;
+        }
+        if (kind == LIGHT_SPOT) out->strength *= spot_factor(light, out->L);
+        return;
+    }
+    /* LIGHT_AREA: a one-sided emitter sampled uniformly in area, E_normal = L_e cos(theta_light) A / d^2. */
+    double x, y;
+    if (light->ellipse != 0.0) {
+        /* Concentric map of the square onto the unit disk (Shirley-Chiu). */
+        double a = 2.0 * u[0] - 1.0, bb = 2.0 * u[1] - 1.0;
+        int use_a = fabs(a) > fabs(bb);
+        double r = use_a ? a : bb;
+        double ratio = r == 0.0 ? 0.0 : (use_a ? bb : a) / r;
+        double phi = use_a ? (PI / 4) * ratio : (PI / 2) - (PI / 4) * ratio;
+        double cos_phi, sin_phi;
+        cos_sin(phi < 0.0 ? phi + 2.0 * PI : phi, &cos_phi, &sin_phi);
+        x = 0.5 * r * cos_phi;
+        y = 0.5 * r * sin_phi;
+    } else {
+        x = u[0] - 0.5;
+        y = u[1] - 0.5;
+    }
+    for (int c = 0; c < 3; c++)
+        out->position[c] = x * light->axis_u[c] + y * light->axis_v[c] + light->position[c];
+    double d = direction_to(P, out->position, out->L);
+    double cos_light = -dot3(out->L, light->direction);
+    double geometry = (cos_light > 0.0 && d > 0.0) ? cos_light * light->area / (d * d) : 0.0;
+    if (light->spread_narrow != 0.0) {
+        double tan_theta = sqrt(fmax(0.0, 1.0 - cos_light * cos_light)) / cos_light;
+        geometry *= cos_light > 0.0 ? fmax(0.0, light->spread_tan_half - tan_theta) / light->spread_norm : 0.0;
+    }
+    out->distance = d;
+    out->strength = light->radiance * geometry;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Shadow rays: shading.direct_light's steps 1-3 with core/shadows.py, for lights l0 .. l1 - 1
+ * --------------------------------------------------------------------------------------------- */
+
+typedef struct {
+    double robust;            /* 1: robust offsets (shadows.robust_rays); 0: the lecture's epsilon */
+    double epsilon;
+    double terminator_fix;    /* 1: lift smooth points (lifted != NULL) */
+    double terminator_offset;
+    double seed;
+} ShadowSettings;
+
+/* Build one shadow ray per (hit, light, light sample) that can carry light, compacted.
+ * In: I, N, Ng (m, 3) float64 (Ng facing the viewer); offset (m,) float64; smooth (m,) uint8;
+ * lifted (m, 3) float64 or NULL; pixel, sample (m,) int64 the keys of each hit's random numbers.
+ * Out, for ray r < the returned count (at most capacity): origins, directions (r, 3) float32,
+ * t_max (r,) float32, owner (r,) int32 hit, light_of (r,) int32 light, weight (r,) float64: what the
+ * ray adds to E when unoccluded, strength * max(N.L, 0) / samples. Returns -1 if capacity is short. */
+EXPORT int64_t primer_shadow_rays(const ShadowSettings *settings, const LightRecord *lights, int64_t l0, int64_t l1,
+                                  const double *I, const double *N, const double *Ng, const double *offset,
+                                  const uint8_t *smooth, const double *lifted,
+                                  const int64_t *pixel, const int64_t *sample, int64_t m, int64_t capacity,
+                                  float *origins, float *directions, float *t_max,
+                                  int32_t *owner, int32_t *light_of, double *weight)
+{
+    int64_t r = 0;
+    for (int64_t l = l0; l < l1; l++) {
+        const LightRecord *light = lights + l;
+        int64_t count = (int64_t)light->samples;
+        uint32_t stream = stream_of((int64_t)settings->seed, (int64_t)light->dimension);
+        for (int64_t i = 0; i < m; i++) {
+            const double *P = I + 3 * i, *n = N + 3 * i, *ng = Ng + 3 * i;
+            for (int64_t j = 0; j < count; j++) {
+                /* 1. Where does the light come from? */
+                double u[2] = {0.0, 0.0};
+                if (light->delta == 0.0) sample_2d(stream, pixel[i], sample[i] * count + j, u);
+                LightSample ls;
+                sample_light(light, P, u, &ls);
+                /* 2. The lecture's two tests: N.L > 0 and Ng.L > 0 (smooth points lifted by the
+                 *    terminator fix leave that to their shadow ray). */
+                double NL = dot3(n, ls.L), NgL = dot3(ng, ls.L);
+                int face_allows = NgL > 0.0 || (settings->terminator_fix != 0.0 && smooth[i]);
+                double cosine = fmax(NL, 0.0);
+                if (!(cosine != 0.0 && face_allows && ls.strength > 0.0)) continue;
+                if (r >= capacity) return -1;
+                /* 3. The ray's origin: I, or the terminator fix's blend towards the lifted point. */
+                double origin[3] = {P[0], P[1], P[2]};
+                if (lifted != NULL && smooth[i] && settings->terminator_offset > 0.0) {
+                    double cutoff = settings->terminator_offset, amount;
+                    if (NL < cutoff) amount = 2.0 - (NgL + NL) / cutoff;
+                    else amount = 1.0 - NgL / cutoff;
+                    amount = amount < 0.0 ? 0.0 : (amount > 1.0 ? 1.0 : amount);
+                    for (int c = 0; c < 3; c++) origin[c] += amount * (lifted[3 * i + c] - P[c]);
+                }
+                double D[3], t;
+                if (settings->robust != 0.0) {
+                    /* shadows.robust_rays: off the surface along Ng by the error bound, towards the
+                     * light point, stopping short of it by the rounding at its own coordinates. */
+                    for (int c = 0; c < 3; c++) origin[c] += offset[i] * ng[c];
+                    if (isfinite(ls.distance)) {
+                        double w[3] = {ls.position[0] - origin[0], ls.position[1] - origin[1],
+                                       ls.position[2] - origin[2]};
+                        double length = sqrt(dot3(w, w));
+                        double inverse = 1.0 / fmax(length, 1e-300);
+                        for (int c = 0; c < 3; c++) D[c] = w[c] * inverse;
+                        t = fmax(length - ROBUST_ULPS * FLOAT32_EPSILON * largest3(ls.position), 0.0);
+                    } else {
+                        for (int c = 0; c < 3; c++) D[c] = ls.L[c];
+                        t = ls.distance;
+                    }
+                } else {
+                    /* shadows.epsilon_rays: origin I + epsilon L, t_max = distance - 2 epsilon. */
+                    for (int c = 0; c < 3; c++) { origin[c] += settings->epsilon * ls.L[c]; D[c] = ls.L[c]; }
+                    t = fmax(ls.distance - 2.0 * settings->epsilon, 0.0);
+                }
+                for (int c = 0; c < 3; c++) { origins[3 * r + c] = (float)origin[c]; directions[3 * r + c] = (float)D[c]; }
+                t_max[r] = t < (double)T_INFINITY ? (float)t : T_INFINITY;
+                owner[r] = (int32_t)i;
+                light_of[r] = (int32_t)l;
+                weight[r] = ls.strength * cosine * (1.0 / (double)count);
+                r++;
+            }
+        }
+    }
+    return r;
+}
+
+/* Add the unoccluded shadow rays' light: E[owner] += weight * colour (shading.direct_light, step 4).
+ * blocked: (r,) uint8 Embree's answers; E: (m, 3) float64, added to. */
+EXPORT void primer_add_light(const LightRecord *lights, int64_t r, const int32_t *owner, const int32_t *light_of,
+                             const double *weight, const uint8_t *blocked, double *E)
+{
+    for (int64_t k = 0; k < r; k++) {
+        if (blocked[k]) continue;
+        const double *color = lights[light_of[k]].color;
+        double *e = E + 3 * (int64_t)owner[k];
+        for (int c = 0; c < 3; c++) e[c] += weight[k] * color[c];
+    }
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Film: render._render_chunk step 5, the box filter's per-pixel sums
+ * --------------------------------------------------------------------------------------------- */
+
+/* Sum each pixel's samples. n = p spp samples, pixel by pixel.
+ * valid: (n,) uint8 camera rays traced, or NULL (all); background: RGBA of a traced ray that misses;
+ * hit_sample (m,) int64 the hits' sample rows; albedo, E (m, 3) float64: radiance = albedo / pi * E.
+ * Out: rgba (p, 4), squares (p, 2) (luminance^2 and alpha^2, when squares != NULL) float64,
+ * hits (p,) int64 hit samples per pixel; scratch (n, 4) float64. */
+EXPORT void primer_film(int64_t p, int64_t spp, const uint8_t *valid, const double *background,
+                        const int64_t *hit_sample, int64_t m, const double *albedo, const double *E,
+                        const double *luminance, double *scratch, double *rgba, double *squares, int64_t *hits)
+{
+    int64_t n = p * spp;
+    for (int64_t i = 0; i < n; i++) {
+        double *s = scratch + 4 * i;
+        if (valid == NULL || valid[i]) {
+            for (int c = 0; c < 4; c++) s[c] = background[c];
+        } else {
+            s[0] = s[1] = s[2] = 0.0;   /* outside a fisheye's image circle: opaque black */
+            s[3] = 1.0;
+        }
+    }
+    for (int64_t k = 0; k < p; k++) hits[k] = 0;
+    for (int64_t h = 0; h < m; h++) {
+        double *s = scratch + 4 * hit_sample[h];
+        for (int c = 0; c < 3; c++) s[c] = albedo[3 * h + c] * (1.0 / PI) * E[3 * h + c];
+        s[3] = 1.0;
+        hits[hit_sample[h] / spp]++;
+    }
+    for (int64_t k = 0; k < p; k++) {
+        double sum[4] = {0.0, 0.0, 0.0, 0.0}, y2 = 0.0, a2 = 0.0;
+        for (int64_t j = 0; j < spp; j++) {
+            const double *s = scratch + 4 * (k * spp + j);
+            for (int c = 0; c < 4; c++) sum[c] += s[c];
+            double y = luminance[0] * s[0] + luminance[1] * s[1] + luminance[2] * s[2];
+            y2 += y * y;
+            a2 += s[3] * s[3];
+        }
+        for (int c = 0; c < 4; c++) rgba[4 * k + c] = sum[c];
+        if (squares != NULL) { squares[2 * k] = y2; squares[2 * k + 1] = a2; }
+    }
+}
+
+/* For core/kernels.py's checks: this file's interface version and its records' sizes. */
+EXPORT int64_t primer_kernels_abi(void) { return PRIMER_KERNELS_ABI; }
+EXPORT int64_t primer_light_record_size(void) { return (int64_t)sizeof(LightRecord); }
+EXPORT int64_t primer_camera_record_size(void) { return (int64_t)sizeof(CameraRecord); }
+EXPORT int64_t primer_shadow_settings_size(void) { return (int64_t)sizeof(ShadowSettings); }

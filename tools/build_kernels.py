@@ -1,0 +1,53 @@
+"""Compile core/kernels.c into the shared library core/kernels.py loads (`make kernels`).
+
+Usage:
+    python tools/build_kernels.py [--cc CC] [--force]
+
+The library is named after the platform it runs on (core/kernels.py `library_path`), so an extension
+built on one machine carries the kernels for that machine only; elsewhere Primer uses its numpy path.
+Rebuilt only when kernels.c is newer than the library (or with --force).
+
+Flags: -O2 and no fused multiply-add (-ffp-contract=off), so that the kernels round exactly as the
+numpy code they mirror does, step by step; -fno-math-errno lets sqrt compile to one instruction.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shlex
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+FLAGS = ["-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", "-fPIC", "-shared", "-ffp-contract=off",
+         "-fno-math-errno", "-fvisibility=hidden"]
+
+
+def build(cc: str, force: bool = False) -> str:
+    """Compile core/kernels.c if needed; return the library's path."""
+    from core import kernels
+    source = os.path.join(ROOT, "core", "kernels.c")
+    target = kernels.library_path()
+    if not force and os.path.exists(target) and os.path.getmtime(target) >= os.path.getmtime(source):
+        return target
+    command = shlex.split(cc) + FLAGS + [source, "-o", target + ".tmp", "-lm"]
+    print(" ".join(command), flush=True)
+    subprocess.run(command, check=True)
+    os.replace(target + ".tmp", target)
+    return target
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cc", default=os.environ.get("CC", "cc"), help="C compiler (default: $CC or cc)")
+    parser.add_argument("--force", action="store_true", help="rebuild even if the library is up to date")
+    args = parser.parse_args()
+    path = build(args.cc, args.force)
+    print(f"kernels: {os.path.relpath(path, ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
