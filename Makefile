@@ -13,7 +13,7 @@ PYTEST_ARGS ?=
 # of the two runs below, so it passes; without a filter it means tests went missing, so it fails.
 EMPTY_OK := $(if $(strip $(PYTEST_ARGS)),|| [ $$? -eq 5 ])
 
-.PHONY: demo test venv venv42 extension scenes clean
+.PHONY: demo test venv venv42 kernels extension scenes clean
 
 # Create a virtual environment and install pinned dependencies (once, or when they change).
 define make_venv
@@ -35,8 +35,12 @@ $(VENV42)/.installed: requirements-bpy42.txt
 venv: $(VENV)/.installed
 venv42: $(VENV42)/.installed
 
+# Compile core/kernels.c for this machine (core/kernels.py loads it; without it Primer renders on numpy).
+kernels: venv
+	$(PY) tools/build_kernels.py
+
 # Render the sample scenes into out/, printing the time per image.
-demo: venv
+demo: venv kernels
 	$(PY) tools/demo.py --out out
 
 # Regenerate sample_scenes/*.blend with Blender 4.2 LTS, so that every supported Blender opens them.
@@ -44,13 +48,13 @@ scenes: venv42
 	$(PY42) sample_scenes/make_scenes.py
 
 # Build dist/primer-<version>.zip, the Blender extension, with embreex wheels for every platform.
-extension: venv
+extension: venv kernels
 	$(PY) tools/build_extension.py
 
 # Run the whole test suite: the tracer and Blender 5.0 tests, then the Blender 4.2 LTS smoke test.
 # Blender inside the test process gets an empty user folder, so a personal Blender setup (preferences,
 # installed extensions) cannot change the results; tests that install Primer use their own (tests/blender_env.py).
-test: venv venv42
+test: venv venv42 kernels
 	rm -rf $(BLENDER_USER) && mkdir -p $(BLENDER_USER)
 	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q $(PYTEST_ARGS) $(EMPTY_OK)
 	$(PY42) -m pytest -q tests/smoke_bpy42.py $(PYTEST_ARGS) $(EMPTY_OK)
@@ -63,8 +67,8 @@ $(VENV)/.bench-installed: $(VENV)/.installed requirements-bench.txt
 # Primer against Cycles: speed against error, profile, scaling and the hard cases, written to
 # bench/REPORT.md and README's Benchmark section (about half an hour; BENCH_ARGS=--quick: a few minutes).
 BENCH_ARGS ?=
-bench: venv $(VENV)/.bench-installed
+bench: venv kernels $(VENV)/.bench-installed
 	$(PY) bench/run.py $(BENCH_ARGS)
 
 clean:
-	rm -rf $(VENV) $(VENV42) out dist .pytest_cache
+	rm -rf $(VENV) $(VENV42) out dist .pytest_cache core/_kernels-*

@@ -237,6 +237,8 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
         result = core_render.render(exported.scene, exported.settings, progress=progress, cancel=cancelled)
         record.warnings += [w for w in result.stats.warnings if w not in record.warnings]
         record.rays = result.stats.rays
+        log.info("Primer rendered %.2f M rays in %.2f s, %s kernels", result.stats.rays / 1e6,
+                 result.stats.seconds, result.stats.kernels)
         record.cancelled = result.cancelled
         record.stats = result.stats
         written = time.perf_counter()

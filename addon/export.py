@@ -339,6 +339,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         transparent_background=bool(render.film_transparent),
         threads=int(props.threads),
         instancing=props.instancing.lower(),
+        kernels=props.kernels.lower(),
         aux=tuple(aux),
         smooth_normals=bool(props.smooth_normals),
         visibility_normal=props.visibility_normal.lower(),

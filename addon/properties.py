@@ -78,6 +78,14 @@ class PrimerSettings(bpy.types.PropertyGroup):
         default="AUTO",
         description="How meshes placed many times (linked duplicates, collection and geometry-node instances) "
                     "are traced; the image is the same")
+    kernels: EnumProperty(
+        name="Kernels",
+        items=(("COMPILED", "Compiled", "Run the render loop's arithmetic in C (core/kernels.c) where it applies: "
+                                        "the same image, several times faster"),
+               ("NUMPY", "NumPy", "Run every render on the readable numpy path (core/shading.py and friends), "
+                                  "to compare or to step through")),
+        default="COMPILED",
+        description="Which twin of the render loop runs; lecture switches and debug views always use numpy")
     debug_view: EnumProperty(name="Debug View", items=DEBUG_VIEWS, default="NONE",
                              description="Show one of the tracer's intermediate quantities instead of the image")
     debug_passes: BoolProperty(name="Debug Passes", default=False,

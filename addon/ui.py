@@ -48,6 +48,7 @@ class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
         col.prop(props, "animate_seed")
         col.prop(props, "threads")
         col.prop(props, "instancing")
+        col.prop(props, "kernels")
 
 
 class RENDER_PT_primer_shadows(PrimerPanel, bpy.types.Panel):

@@ -1,0 +1,273 @@
+"""Compiled kernels: each C kernel computes what its numpy twin computes (core/kernels.py).
+
+The numpy code in core/ is the reference. Every kernel is checked against it on its own (random
+inputs, every light and camera type), and whole renders on both paths are compared. The sampling
+kernel must agree bit for bit; float64 arithmetic to rounding; images to float32 rounding, with
+the same rays traced. Closed forms are checked on both paths by the other test files (which run
+compiled by default) and by test_point_light_inverse_square_on_both_paths here.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from core import camera as camera_
+from core import kernels, primitives, render, sampling, shadows
+from core.camera import Camera
+from core.geometry import build_geometry
+from core.scene import AreaLight, Instance, PointLight, RenderSettings, Scene, SpotLight, SunLight
+from core.shading import direct_light, surface_at_hits, translate_light
+
+
+def test_the_library_is_built_for_this_machine():
+    """`make kernels` ran: without the library every other test here would measure nothing."""
+    assert kernels.available(), kernels.unavailable_reason()
+
+
+def test_sample_2d_agrees_bit_for_bit(rng):
+    n = 20000
+    pixel = rng.integers(0, 1 << 40, n)
+    index = rng.integers(0, 1 << 31, n)
+    for seed, dimension in ((0, 0), (7, 16), (123456789, 20), (2 ** 40 + 3, 44)):
+        expected = sampling.sample_2d(seed, pixel, index, dimension)
+        assert np.array_equal(kernels.sample_2d(seed, pixel, index, dimension), expected)
+
+
+CAMERAS = [
+    Camera.look_at((1.0, -6.0, 2.5), (0.0, 0.0, 0.5), fov=math.radians(50)),
+    dataclasses.replace(Camera.look_at((3.0, 2.0, 1.0), (0.0, 0.0, 0.0)), shift_x=0.3, shift_y=-0.2,
+                        sensor_fit="VERTICAL", clip_start=0.5, clip_end=40.0),
+    dataclasses.replace(Camera.look_at((0.0, 0.0, 9.0), (0.0, 0.1, 0.0)), type="ORTHO", ortho_scale=4.0,
+                        shift_x=-0.1),
+]
+
+
+@pytest.mark.parametrize("camera", CAMERAS, ids=["persp", "persp_shift_vertical", "ortho_shift"])
+def test_camera_rays_agree(camera):
+    W, H, spp, seed = 37, 23, 5, 11
+    pixels = np.arange(0, W * H, 3, dtype=np.int64)
+    first = (pixels % 4).astype(np.int64)
+    origin = np.array([0.5, -0.25, 2.0])
+    record = kernels.camera_record(camera, W, H, (1.0, 1.2), origin)
+    O, D, t = kernels.camera_rays(record, seed, W, H, pixels, first, spp)
+    # The numpy steps of render._render_chunk.
+    pixel = np.repeat(pixels, spp)
+    sample = np.tile(np.arange(spp), len(pixels)) + np.repeat(first, spp)
+    offset = sampling.sample_2d(seed, pixel, sample, 0)
+    rays = camera_.generate_rays(camera, W, H, pixel % W + offset[:, 0], pixel // W + offset[:, 1], (1.0, 1.2))
+    assert np.allclose(O, rays.origins - origin, rtol=0, atol=1e-13)
+    assert np.allclose(D, rays.directions, rtol=0, atol=1e-15)
+    assert np.allclose(t, rays.t_max, rtol=1e-15, atol=0)
+
+
+def lit_scene(lights: list) -> Scene:
+    """A smooth low-poly sphere on a flat floor with a box beside it, seen from above, under `lights`."""
+    scene = Scene(camera=Camera.look_at((0.5, -5.0, 3.0), (0.0, 0.0, 0.4), fov=math.radians(45)),
+                  world_color=np.array([0.05, 0.06, 0.07]))
+    scene.add_material((0.8, 0.7, 0.6))
+    scene.add_material((0.3, 0.5, 0.9))
+    scene.add_mesh(primitives.plane(8.0), materials=np.array([0]))
+    scene.add_mesh(primitives.uv_sphere(0.8, 12, 6, center=(0.0, 0.0, 0.8), smooth=True), materials=np.array([1]))
+    scene.add_mesh(primitives.box((0.6, 0.6, 1.2), center=(1.3, 0.6, 0.6)), materials=np.array([0]))
+    scene.lights = lights
+    return scene
+
+
+LIGHTS = {
+    "point": [PointLight(np.array([1.0, -1.5, 3.0]), power=400.0, color=np.array([1.0, 0.9, 0.8]))],
+    "point_sphere": [PointLight(np.array([-1.0, -1.0, 2.5]), power=300.0, radius=0.4, soft_falloff=False)],
+    "point_soft": [PointLight(np.array([-1.0, -1.0, 2.5]), power=300.0, radius=0.4)],
+    "spot": [SpotLight(np.array([0.0, -2.0, 3.0]), np.array([0.0, 0.55, -0.835]), power=800.0, radius=0.1,
+                       spot_size=math.radians(50), spot_blend=0.3)],
+    "spot_scaled": [SpotLight(np.array([0.0, -2.0, 3.0]), np.array([0.0, 0.55, -0.835]), power=800.0,
+                              spot_size=math.radians(60), spot_blend=0.0,
+                              frame=np.array([[1.0, 0.0, 0.0], [0.0, 0.835, -0.55], [0.0, 0.55, 0.835]])
+                              @ np.diag([1.0, 0.5, 1.0]))],
+    "sun": [SunLight(np.array([0.3, 0.4, -0.866]), strength=2.0)],
+    "sun_disk": [SunLight(np.array([0.3, 0.4, -0.866]), strength=2.0, angle=math.radians(10))],
+    "area_rect": [AreaLight(np.array([0.5, -1.0, 2.5]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.6, 0.3]),
+                            np.array([0.0, 0.2, -0.98]), power=200.0, shape="RECTANGLE")],
+    "area_ellipse_spread": [AreaLight(np.array([0.5, -1.0, 2.5]), np.array([1.0, 0.0, 0.0]),
+                                      np.array([0.0, 0.6, 0.3]), np.array([0.0, 0.2, -0.98]), power=200.0,
+                                      shape="ELLIPSE", spread=math.radians(60))],
+    "several": [PointLight(np.array([1.0, -1.5, 3.0]), power=200.0),
+                SunLight(np.array([-0.3, 0.2, -0.93]), strength=1.0, angle=math.radians(3)),
+                AreaLight(np.array([-1.0, 1.0, 2.0]), np.array([0.5, 0.0, 0.0]), np.array([0.0, 0.5, 0.0]),
+                          np.array([0.0, 0.0, -1.0]), power=100.0, shape="DISK")],
+}
+
+
+def hits_of(scene: Scene, settings: RenderSettings, geometry):
+    """Return the camera rays (camera-relative) of a small render and the nearest hits of those that hit."""
+    W, H, spp = settings.width, settings.height, settings.samples
+    pixels = np.arange(W * H, dtype=np.int64)
+    first = np.zeros(len(pixels), np.int64)
+    record = kernels.camera_record(scene.camera, W, H, (1.0, 1.0), geometry.origin)
+    O, D, t = kernels.camera_rays(record, settings.seed, W, H, pixels, first, spp)
+    hits = geometry.tracer.intersect(O, D, t)
+    hit = np.flatnonzero(hits.hit)
+    return pixels, first, O, D, hits, hit
+
+
+@pytest.mark.parametrize("terminator_fix", [False, True], ids=["plain", "terminator_fix"])
+def test_surfaces_agree(terminator_fix):
+    scene = lit_scene(LIGHTS["point"])
+    settings = RenderSettings(width=48, height=36, samples=2, terminator_fix=terminator_fix)
+    geometry = build_geometry(scene, scene.camera.position)
+    _, _, O, D, hits, hit = hits_of(scene, settings, geometry)
+    prim = hits.prim[hit]
+    triangles = kernels.copied_triangles(kernels.copied_arrays(geometry), prim)
+    surface = kernels.surfaces(triangles, hit, O, D, hits.t[hit], hits.u[hit], hits.v[hit], lift=terminator_fix)
+    reference = surface_at_hits(geometry, prim, hits.u[hit], hits.v[hit], O[hit], D[hit], hits.t[hit])
+    assert np.allclose(surface.I, reference.I, rtol=0, atol=1e-12)
+    assert np.array_equal(surface.Ng, reference.Ng)
+    assert np.allclose(surface.N, reference.N, rtol=0, atol=1e-14)
+    assert np.array_equal(triangles.smooth.astype(bool), reference.smooth) and reference.smooth.any()
+    assert np.array_equal(triangles.albedo, reference.albedo)
+    assert np.allclose(surface.offset, shadows.error_bound(reference.I, reference.vertices), rtol=1e-15, atol=0)
+    if terminator_fix:
+        s = reference.smooth
+        lifted = shadows.terminator_points(reference.I[s], reference.vertices[s], reference.corners[s],
+                                           reference.u[s], reference.v[s])
+        assert np.allclose(surface.lifted[s], lifted, rtol=0, atol=1e-12)
+
+
+def compiled_radiance(scene, settings, geometry, lights, O, D, hits, hit, pixel, sample):
+    """The radiance of each hit from the kernels alone (render._render_chunk_compiled, steps 4)."""
+    prim = hits.prim[hit]
+    triangles = kernels.copied_triangles(kernels.copied_arrays(geometry), prim)
+    lift = settings.terminator_fix and geometry.has_smooth
+    surface = kernels.surfaces(triangles, hit, O, D, hits.t[hit], hits.u[hit], hits.v[hit], lift=lift)
+    records = (kernels.LightRecord * len(lights))(*[kernels.light_record(light, i, settings.light_samples)
+                                                    for i, light in enumerate(lights)])
+    E = np.zeros((len(hit), 3))
+    rays = 0
+    for l0, l1 in kernels.light_groups(records, len(hit)):
+        batch = kernels.shadow_rays(kernels.shadow_settings(settings), records, l0, l1, surface,
+                                    triangles.smooth, pixel, sample)
+        kernels.add_light(records, batch, geometry.tracer.occluded(batch.origins, batch.directions, batch.t_max), E)
+        rays += len(batch.weight)
+    return triangles.albedo / math.pi * E, rays
+
+
+@pytest.mark.parametrize("method", ["robust", "epsilon"])
+@pytest.mark.parametrize("name", list(LIGHTS))
+def test_shading_agrees_for_every_light(name, method):
+    scene = lit_scene(LIGHTS[name])
+    settings = RenderSettings(width=40, height=30, samples=2, light_samples=3, shadow_method=method,
+                              terminator_fix=name in ("point_soft", "sun"), seed=5)
+    geometry = build_geometry(scene, scene.camera.position)
+    lights = [translate_light(light, geometry.origin) for light in scene.lights]
+    pixels, first, O, D, hits, hit = hits_of(scene, settings, geometry)
+    pixel, sample = np.repeat(pixels, settings.samples)[hit], np.tile(np.arange(settings.samples), len(pixels))[hit]
+    radiance, rays = compiled_radiance(scene, settings, geometry, lights, O, D, hits, hit, pixel, sample)
+    surface = surface_at_hits(geometry, hits.prim[hit], hits.u[hit], hits.v[hit], O[hit], D[hit], hits.t[hit])
+    reference = direct_light(geometry, surface, lights, settings, pixel, sample)
+    assert rays == reference.shadow_rays > 0
+    assert reference.radiance.max() > 0.01
+    # Equal to rounding (sampled lights take cos in float32 from two libraries, ~1 ulp apart), up to
+    # a shadow ray that float32 rounding sends past an edge the other way.
+    wrong = np.abs(radiance - reference.radiance).max(axis=1) > 1e-6 * (1.0 + reference.radiance.max())
+    assert wrong.mean() < 0.002, f"{wrong.sum()} of {len(wrong)} hits differ"
+
+
+def compare_paths(scene: Scene, settings: RenderSettings):
+    """Render on both paths; return (compiled, numpy) results after checking which path each took."""
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    numpy_ = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled"
+    assert numpy_.stats.kernels.startswith("numpy")
+    return compiled, numpy_
+
+
+@pytest.mark.parametrize("transparent", [False, True])
+@pytest.mark.parametrize("adaptive", [False, True])
+def test_renders_agree(adaptive, transparent):
+    scene = lit_scene(LIGHTS["several"])
+    settings = RenderSettings(width=64, height=48, samples=8, light_samples=2, adaptive=adaptive,
+                              transparent_background=transparent, terminator_fix=True, chunk_size=4096)
+    compiled, numpy_ = compare_paths(scene, settings)
+    assert compiled.stats.primary_rays == numpy_.stats.primary_rays
+    assert abs(compiled.stats.shadow_rays - numpy_.stats.shadow_rays) <= 1e-4 * numpy_.stats.shadow_rays
+    assert np.array_equal(compiled.stats.samples_per_pixel, numpy_.stats.samples_per_pixel)
+    difference = np.abs(compiled.image - numpy_.image)
+    assert difference.max() < 1e-5 and difference.mean() < 1e-8
+    assert (compiled.image[..., 3] < 1).any() == transparent
+
+
+def test_fisheye_and_instanced_renders_agree():
+    """The two cases whose rays or triangles come from numpy into the kernels."""
+    scene = lit_scene(LIGHTS["point_soft"])
+    sphere = scene.instances[1]
+    for k in range(6):
+        matrix = np.eye(4)
+        matrix[:3, 3] = (-2.5 + k, 1.8, 0.0)
+        scene.instances.append(Instance(sphere.mesh, matrix, sphere.materials, f"Sphere {k}"))
+    scene.camera = dataclasses.replace(scene.camera, type="PANO", panorama_type="FISHEYE_EQUISOLID",
+                                       fisheye_fov=math.radians(170), fisheye_lens=8.0)
+    settings = RenderSettings(width=48, height=32, samples=4, light_samples=2, instancing="always")
+    compiled, numpy_ = compare_paths(scene, settings)
+    assert compiled.stats.rays == numpy_.stats.rays
+    assert np.abs(compiled.image - numpy_.image).max() < 1e-5
+
+
+def test_point_light_inverse_square_on_both_paths():
+    """E = P / (4 pi r^2) cos(theta) on a floor of albedo rho: L = rho / pi E, at every pixel centre."""
+    scene = Scene(camera=Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.001, 0.0), fov=math.radians(30)))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    light = np.array([0.7, -0.4, 2.0])
+    scene.lights = [PointLight(light, power=500.0)]
+    settings = RenderSettings(width=24, height=24, samples=1, jitter=True)
+    for path in ("compiled", "numpy"):
+        result = render.render(scene, dataclasses.replace(settings, kernels=path, samples=16))
+        # Closed form at each sample, averaged over the pixel: compare against the pixel-centre value
+        # within the variation of E across one pixel.
+        W = H = 24
+        ys, xs = np.mgrid[0:H, 0:W] + 0.5
+        rays = camera_.generate_rays(scene.camera, W, H, xs.ravel(), ys.ravel())
+        t = -rays.origins[:, 2] / rays.directions[:, 2]
+        points = rays.origins + t[:, None] * rays.directions
+        to_light = light - points
+        r2 = np.einsum("ij,ij->i", to_light, to_light)
+        E = 500.0 / (4 * math.pi * r2) * to_light[:, 2] / np.sqrt(r2)
+        expected = (0.5 / math.pi * E).reshape(H, W)
+        assert np.allclose(result.image[..., 0], expected, rtol=0.02), path
+        assert result.stats.kernels.startswith(path)
+
+
+def test_lecture_switches_and_debug_views_take_the_numpy_path():
+    scene = lit_scene(LIGHTS["point"])
+    base = RenderSettings(width=16, height=12, samples=2)
+    assert render.render(scene, base).stats.kernels == "compiled"
+    for change in ({"clamp_n_dot_l": False}, {"aux": ("normal",)}, {"jitter": False}, {"kernels": "numpy"}):
+        stats = render.render(scene, dataclasses.replace(base, **change)).stats
+        assert stats.kernels.startswith("numpy ("), change
+
+
+def test_missing_library_falls_back_to_numpy(monkeypatch, tmp_path):
+    """Without the library (another platform, no compiler) the render says so and runs on numpy."""
+    monkeypatch.setattr(kernels, "_cache", {})
+    monkeypatch.setattr(kernels, "library_path", lambda: str(tmp_path / "_kernels-elsewhere.so"))
+    scene = lit_scene(LIGHTS["point"])
+    result = render.render(scene, RenderSettings(width=16, height=12, samples=2))
+    assert result.stats.kernels.startswith("numpy (_kernels-elsewhere.so is not built")
+    assert result.image[..., :3].max() > 0
+
+
+def test_unknown_kernels_setting_is_refused():
+    scene = lit_scene(LIGHTS["point"])
+    with pytest.raises(ValueError, match="kernels must be one of"):
+        render.render(scene, RenderSettings(width=8, height=8, kernels="fortran"))
+
+
+def test_many_lights_are_split_into_bounded_groups():
+    records = (kernels.LightRecord * 5)(*[kernels.light_record(
+        AreaLight(np.zeros(3), np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, -1.0])), i, 16)
+        for i in range(5)])
+    groups = kernels.light_groups(records, kernels.RAY_BUDGET // 32)
+    assert groups == [(0, 2), (2, 4), (4, 5)]
+    assert kernels.light_groups(records, 10 * kernels.RAY_BUDGET) == [(i, i + 1) for i in range(5)]
