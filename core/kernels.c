@@ -27,17 +27,21 @@
 
 #if defined(_WIN32)
 #define EXPORT __declspec(dllexport)
+#define INLINE static __forceinline
+#define BYTE_SWAP(x) _byteswap_ulong(x)
 #else
 #define EXPORT __attribute__((visibility("default")))
+#define INLINE static inline __attribute__((always_inline))
+#define BYTE_SWAP(x) __builtin_bswap32(x)
 #endif
 
 /* ------------------------------------------------------------------------------------------------
  * Small vector helpers
  * --------------------------------------------------------------------------------------------- */
 
-static inline double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+INLINE double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
-static inline double largest3(const double *a)
+INLINE double largest3(const double *a)
 {
     double m = fabs(a[0]);
     if (fabs(a[1]) > m) m = fabs(a[1]);
@@ -46,7 +50,7 @@ static inline double largest3(const double *a)
 }
 
 /* Unit direction and distance from p to q (a zero vector where they coincide): lights._direction_to. */
-static inline double direction_to(const double *p, const double *q, double *L)
+INLINE double direction_to(const double *p, const double *q, double *L)
 {
     double w[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
     double d = sqrt(dot3(w, w));
@@ -56,7 +60,7 @@ static inline double direction_to(const double *p, const double *q, double *L)
 }
 
 /* cos and sin of phi in [0, 2 pi), the way vectors.cos_sin takes them (cos in float32, sin from it). */
-static inline void cos_sin(double phi, double *c, double *s)
+INLINE void cos_sin(double phi, double *c, double *s)
 {
     double cosine = (double)cosf((float)phi);
     if (cosine > 1.0) cosine = 1.0;
@@ -66,7 +70,7 @@ static inline void cos_sin(double phi, double *c, double *s)
 }
 
 /* Two unit vectors completing a unit axis to an orthonormal frame: lights.orthonormal_frame. */
-static inline void orthonormal_frame(const double *axis, double *t, double *b)
+INLINE void orthonormal_frame(const double *axis, double *t, double *b)
 {
     double x = axis[0], y = axis[1], z = axis[2];
     double sign = z >= 0.0 ? 1.0 : -1.0;
@@ -80,23 +84,23 @@ static inline void orthonormal_frame(const double *axis, double *t, double *b)
  * Sampling: core/sampling.py, bit for bit
  * --------------------------------------------------------------------------------------------- */
 
-static inline uint32_t hash_u32(uint32_t x)
+INLINE uint32_t hash_u32(uint32_t x)
 {
     uint32_t state = x * 747796405u + 2891336453u;
     uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
     return (word >> 22u) ^ word;
 }
 
-static inline uint32_t reverse_bits(uint32_t x)
+INLINE uint32_t reverse_bits(uint32_t x)
 {
+    /* Swap neighbouring bits, pairs and nibbles, then the four bytes in one instruction. */
     x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
     x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
     x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
-    x = ((x >> 8) & 0x00FF00FFu) | ((x & 0x00FF00FFu) << 8);
-    return (x >> 16) | (x << 16);
+    return BYTE_SWAP(x);
 }
 
-static inline uint32_t laine_karras(uint32_t x, uint32_t seed)
+INLINE uint32_t laine_karras(uint32_t x, uint32_t seed)
 {
     x += seed;
     x ^= x * 0x6C50B47Cu;
@@ -106,7 +110,7 @@ static inline uint32_t laine_karras(uint32_t x, uint32_t seed)
     return x;
 }
 
-static inline uint32_t sobol_y_mirrored(uint32_t y)
+INLINE uint32_t sobol_y_mirrored(uint32_t y)
 {
     y ^= (y >> 1) & 0x55555555u;
     y ^= (y >> 2) & 0x33333333u;
@@ -116,19 +120,19 @@ static inline uint32_t sobol_y_mirrored(uint32_t y)
     return y;
 }
 
-static inline uint32_t combine_seed(uint32_t seed, uint32_t value)
+INLINE uint32_t combine_seed(uint32_t seed, uint32_t value)
 {
     return seed ^ (value + (seed << 6) + (seed >> 2));
 }
 
 /* The stream of (seed, dimension): sampling._pixel_key before the pixel is mixed in. */
-static inline uint32_t stream_of(int64_t seed, int64_t dimension)
+INLINE uint32_t stream_of(int64_t seed, int64_t dimension)
 {
     return hash_u32((uint32_t)((uint64_t)seed * 0x9E3779B9ull + (uint64_t)dimension * 0x85EBCA6Bull));
 }
 
 /* The index-th point of a pixel's progressive pattern: sampling.sample_2d for one sample. */
-static inline void sample_2d(uint32_t stream, int64_t pixel, int64_t index, double *u)
+INLINE void sample_2d(uint32_t stream, int64_t pixel, int64_t index, double *u)
 {
     uint32_t key = hash_u32((uint32_t)pixel ^ stream);
     uint32_t shuffled = reverse_bits(laine_karras(reverse_bits((uint32_t)index), key));
@@ -336,7 +340,7 @@ typedef struct {
 } LightSample;
 
 /* A direction uniform in solid angle within the cone (axis, t, b, cos_max): lights._sample_cone. */
-static inline void sample_cone(const double *axis, const double *t, const double *b, double cos_max,
+INLINE void sample_cone(const double *axis, const double *t, const double *b, double cos_max,
                                const double *u, double *L)
 {
     double cos_theta = 1.0 - u[0] * (1.0 - cos_max);
@@ -348,7 +352,7 @@ static inline void sample_cone(const double *axis, const double *t, const double
 }
 
 /* Blender's spot cone factor for light leaving along -L: lights.spot_attenuation. */
-static inline double spot_factor(const LightRecord *light, const double *L)
+INLINE double spot_factor(const LightRecord *light, const double *L)
 {
     double cos_angle;
     if (light->spot_frame == 0.0) {
@@ -367,7 +371,7 @@ static inline double spot_factor(const LightRecord *light, const double *L)
 }
 
 /* Light from `light` arriving at point P for the unit-square sample u: lights.sample_light. */
-static void sample_light(const LightRecord *light, const double *P, const double *u, LightSample *out)
+INLINE void sample_light(const LightRecord *light, const double *P, const double *u, LightSample *out)
 {
     int kind = (int)light->kind;
     if (kind == LIGHT_SUN) {
