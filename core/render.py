@@ -13,6 +13,8 @@ Memory stays bounded by the chunk size, whatever the image size, and the
 temporaries come from the heap (core/memory.py).
 With adaptive sampling (core/adaptive.py) this runs in passes: all pixels first,
 then only the noisy ones, each pass continuing every pixel's sample pattern.
+`_render_chunk` is the readable chunk; `_render_chunk_compiled` takes the same steps with their
+arithmetic in C (core/kernels.py) and stands in for it wherever the kernels apply.
 """
 from __future__ import annotations
 
