@@ -132,6 +132,7 @@ def render_default_scene(out_path: str, package: str, width: int = 32, height: i
         "status": sorted(status),
         "error": record.error,
         "rays": record.rays,
+        "kernels": record.stats.kernels if record.stats is not None else "",
         "shape": list(pixels.shape),
         "finite": bool(np.isfinite(pixels).all()),
         "max": float(np.nan_to_num(rgb).max()),

@@ -105,6 +105,7 @@ def test_installed_extension_renders_with_its_bundled_embree(extension_zip, tmp_
     assert result["shape"] == [24, 32, 4]
     assert result["finite"]
     assert result["rays"] > 0
+    assert result["kernels"] == "compiled"          # the zip carries this machine's compiled kernels
     assert 0.1 < result["max"] < 1e3               # the lit cube, brighter than the grey world
     assert result["nonzero_fraction"] > 0.5
 
