@@ -21,7 +21,7 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-FLAGS = ["-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", "-fPIC", "-shared", "-ffp-contract=off",
+FLAGS = ["-O2", "-std=c99", "-Wall", "-Wextra", "-fPIC", "-shared", "-ffp-contract=off",
          "-fno-math-errno", "-fvisibility=hidden"]
 
 
