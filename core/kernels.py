@@ -194,27 +194,24 @@ def light_record(light, index: int, light_samples: int) -> LightRecord:
         if delta:
             record.strength = float(light.strength)
         else:
-            half = 0.5 * light.angle
-            radiance = light.strength / (math.pi * math.sin(half) ** 2)
-            record.strength = radiance * 2.0 * math.pi * (1.0 - math.cos(half))
+            record.strength = lights_.sun_disk_strength(light)
             t, b = lights_.orthonormal_frame(axis[None, :])
             record.sun_t[:], record.sun_b[:] = t[0].tolist(), b[0].tolist()
-            record.sun_cos_max = math.cos(half)
+            record.sun_cos_max = math.cos(0.5 * light.angle)
     elif isinstance(light, (PointLight, SpotLight)):
         record.kind = LIGHT_SPOT if isinstance(light, SpotLight) else LIGHT_POINT
         record.position[:] = np.asarray(light.position, np.float64).tolist()
         record.power, record.radius = float(light.power), float(light.radius)
         record.soft_falloff = 1.0 if light.soft_falloff else 0.0
         if light.radius > 0.0:
-            record.radiance = light.power / (4.0 * math.pi * math.pi * light.radius * light.radius)
+            record.radiance = lights_.sphere_radiance(light.power, light.radius)
         if isinstance(light, SpotLight):
             if light.frame is None:
                 record.direction[:] = np.asarray(light.direction, np.float64).tolist()
             else:
                 record.spot_frame = 1.0
                 record.spot_inverse[:] = np.linalg.inv(np.asarray(light.frame, np.float64)).ravel().tolist()
-            record.spot_cos_half = math.cos(0.5 * light.spot_size)
-            record.spot_blend_width = (1.0 - record.spot_cos_half) * light.spot_blend
+            record.spot_cos_half, record.spot_blend_width = lights_.spot_cone(light)
     elif isinstance(light, AreaLight):
         record.kind = LIGHT_AREA
         record.position[:] = np.asarray(light.center, np.float64).tolist()
@@ -223,12 +220,10 @@ def light_record(light, index: int, light_samples: int) -> LightRecord:
         record.axis_v[:] = np.asarray(light.axis_v, np.float64).tolist()
         record.ellipse = 1.0 if light.shape in ("DISK", "ELLIPSE") else 0.0
         record.area = lights_.area_light_area(light)
-        record.radiance = light.power / (math.pi * record.area) if record.area > 0 else 0.0
+        record.radiance = lights_.area_radiance(light, record.area)
         if light.spread < math.pi:
-            half = 0.5 * max(light.spread, 1e-6)
             record.spread_narrow = 1.0
-            record.spread_tan_half = math.tan(half)
-            record.spread_norm = math.tan(half) - half if half > 0.05 else half ** 3 / 3.0
+            record.spread_tan_half, record.spread_norm = lights_.spread_constants(light.spread)
     else:
         raise TypeError(f"unknown light type {type(light).__name__}")
     return record

@@ -117,6 +117,39 @@ def orthonormal_frame(axis: np.ndarray):
     return t, b
 
 
+# ---------------------------------------------------------------------------
+# Per-light constants: what does not depend on the shading point (core/kernels.py reads them too)
+# ---------------------------------------------------------------------------
+
+def spot_cone(light: SpotLight) -> tuple[float, float]:
+    """Return (c0, blend width): the cosine of the spot cone's half-angle and its soft edge's width in cosine."""
+    cos_half = math.cos(0.5 * light.spot_size)
+    return cos_half, (1.0 - cos_half) * light.spot_blend
+
+
+def sphere_radiance(power: float, radius: float) -> float:
+    """Return the radiance P / (4 pi^2 R^2) of a point light of radius R > 0 (from afar: intensity P / (4 pi))."""
+    return power / (4.0 * math.pi * math.pi * radius * radius)
+
+
+def sun_disk_strength(light: SunLight) -> float:
+    """Return the irradiance each sample of a sun disk of angle > 0 carries: radiance S / (pi sin^2 a), times 2 pi (1 - cos a)."""
+    half = 0.5 * light.angle
+    radiance = light.strength / (math.pi * math.sin(half) ** 2)
+    return radiance * 2.0 * math.pi * (1.0 - math.cos(half))
+
+
+def area_radiance(light: AreaLight, area: float) -> float:
+    """Return the radiance P / (pi A) of a one-sided area light of area A (0 for a degenerate light)."""
+    return light.power / (math.pi * area) if area > 0 else 0.0
+
+
+def spread_constants(spread: float) -> tuple[float, float]:
+    """Return (tan h, norm) of `spread_attenuation` for a spread below pi, h = spread / 2; norm = tan h - h."""
+    half = 0.5 * max(spread, 1e-6)
+    return math.tan(half), (math.tan(half) - half if half > 0.05 else half ** 3 / 3.0)
+
+
 def spot_attenuation(light: SpotLight, directions: np.ndarray) -> np.ndarray:
     """Return Blender's spot cone factor for light leaving along each direction.
 
@@ -133,8 +166,7 @@ def spot_attenuation(light: SpotLight, directions: np.ndarray) -> np.ndarray:
         local = np.einsum("ij,kj->ik", directions, np.linalg.inv(np.asarray(light.frame, np.float64)))
         length = np.linalg.norm(local, axis=1)
         cos_angle = -local[:, 2] / np.where(length > 0, length, 1.0)
-    cos_half = math.cos(0.5 * light.spot_size)
-    blend_width = (1.0 - cos_half) * light.spot_blend
+    cos_half, blend_width = spot_cone(light)
     if blend_width <= 0.0:
         return (cos_angle > cos_half).astype(np.float64)
     x = np.clip((cos_angle - cos_half) / blend_width, 0.0, 1.0)
@@ -175,8 +207,7 @@ def _sample_round_light(cone: Cone, radius: float, soft_falloff: bool, power: fl
     else:
         b = d * cos_to_center                              # to the near side of the sphere
         distance = b - np.sqrt(np.maximum(0.0, b * b - (d * d - radius * radius)))
-    radiance = power / (4.0 * math.pi * math.pi * radius * radius)
-    strength = radiance * 2.0 * math.pi * (1.0 - cone.cos_max)
+    strength = sphere_radiance(power, radius) * 2.0 * math.pi * (1.0 - cone.cos_max)
     return LightSample(L, distance, strength, color, points + L * distance[:, None])
 
 
@@ -189,11 +220,10 @@ def spread_attenuation(spread: float, cos_light: np.ndarray) -> np.ndarray:
     """
     if spread >= math.pi:
         return np.ones_like(cos_light)
-    half = 0.5 * max(spread, 1e-6)
-    norm = math.tan(half) - half if half > 0.05 else half ** 3 / 3.0
+    tan_half, norm = spread_constants(spread)
     with np.errstate(divide="ignore", invalid="ignore"):
         tan_theta = np.sqrt(np.maximum(0.0, 1.0 - cos_light * cos_light)) / cos_light
-    return np.where(cos_light > 0, np.maximum(0.0, math.tan(half) - tan_theta), 0.0) / norm
+    return np.where(cos_light > 0, np.maximum(0.0, tan_half - tan_theta), 0.0) / norm
 
 
 def _area_points(light: AreaLight, u: np.ndarray) -> tuple[np.ndarray, float]:
@@ -265,10 +295,8 @@ def sample_light(light, points: np.ndarray, u: np.ndarray, cone=None) -> LightSa
             strength = np.full(n, float(light.strength))
         else:
             # A disk of directions of angular radius a with uniform radiance S / (pi sin^2 a).
-            half = 0.5 * light.angle
             L = _sample_cone(cone, u)
-            radiance = light.strength / (math.pi * math.sin(half) ** 2)
-            strength = np.full(n, radiance * 2.0 * math.pi * (1.0 - math.cos(half)))
+            strength = np.full(n, sun_disk_strength(light))
         return LightSample(L, np.full(n, np.inf), strength, color, np.zeros((n, 3)))
 
     if isinstance(light, (PointLight, SpotLight)):
@@ -294,7 +322,7 @@ def sample_light(light, points: np.ndarray, u: np.ndarray, cone=None) -> LightSa
         L, distance = _direction_to(points, targets)
         normal = np.asarray(light.direction, np.float64)
         cos_light = -np.einsum("ij,j->i", L, normal)
-        radiance = light.power / (math.pi * area) if area > 0 else 0.0
+        radiance = area_radiance(light, area)
         with np.errstate(divide="ignore", invalid="ignore"):
             geometry = np.where((cos_light > 0) & (distance > 0), cos_light * area / (distance * distance), 0.0)
         geometry *= spread_attenuation(light.spread, cos_light)
