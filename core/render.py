@@ -176,7 +176,7 @@ class _Context:
         if not self.numpy_because:
             self.camera_record = kernels.camera_record(cam, settings.width, settings.height,
                                                        tuple(settings.pixel_aspect), geometry.origin)
-            self.light_records = (kernels.LightRecord * max(1, len(lights)))(
+            self.light_records = (kernels.LightRecord * len(lights))(
                 *[kernels.light_record(light, i, settings.light_samples) for i, light in enumerate(lights)])
             self.shadow_settings = kernels.shadow_settings(settings)
             self.copied = kernels.copied_arrays(geometry) if not geometry.instanced else None
@@ -219,10 +219,7 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
     W, H = s.width, s.height
     # 1. Sample positions inside each pixel: the next spp points of its progressive pattern
     #    (core/sampling.py), or without jitter the centres of a grid of spp cells.
-    pixel = np.repeat(pixels, spp)
-    sample = np.tile(np.arange(spp, dtype=np.int64), len(pixels))
-    if first is not None:
-        sample += np.repeat(first, spp)
+    pixel, sample = _sample_keys(pixels, spp, first)
     if s.jitter:
         offset = sampling.sample_2d(s.seed, pixel, sample, dimension=0)
     else:
@@ -274,6 +271,18 @@ def _render_chunk(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,
     return ChunkResult(per_pixel, squares, aux, hits_per_pixel, len(traced), shadow_rays, shading_seconds, spp)
 
 
+def _sample_keys(pixels: np.ndarray, spp: int, first: Optional[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Return (pixel, sample) of a chunk's spp samples per pixel, pixel by pixel: two (p spp,) int64.
+
+    Sample j of pixel k is number first[k] + j of that pixel's pattern (first None: 0).
+    """
+    pixel = np.repeat(pixels, spp)
+    sample = np.tile(np.arange(spp, dtype=np.int64), len(pixels))
+    if first is not None:
+        sample += np.repeat(first, spp)
+    return pixel, sample
+
+
 def _squares(rgba: np.ndarray, n_pixels: int, spp: int) -> np.ndarray:
     """Return each pixel's sums of squared luminance and squared alpha, for adaptive sampling's noise estimate.
 
@@ -298,8 +307,7 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
         origins, directions, t_max = kernels.camera_rays(ctx.camera_record, seed, W, H, pixels, first, spp)
         traced = None
     else:
-        pixel = np.repeat(pixels, spp)
-        sample = np.tile(np.arange(spp, dtype=np.int64), p) + np.repeat(first, spp)
+        pixel, sample = _sample_keys(pixels, spp, first)
         offset = kernels.sample_2d(seed, pixel, sample, dimension=0)
         rays = camera_.generate_rays(ctx.scene.camera, W, H, (pixel % W) + offset[:, 0],
                                      (pixel // W) + offset[:, 1], tuple(s.pixel_aspect))
@@ -329,7 +337,7 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
                                    lift=bool(s.terminator_fix and ctx.smooth))
         pixel_of_hit = pixels[h // spp]
         sample_of_hit = first[h // spp] + h % spp
-        for l0, l1 in kernels.light_groups(ctx.light_records[:len(ctx.lights)], m):
+        for l0, l1 in kernels.light_groups(ctx.light_records, m):
             batch = kernels.shadow_rays(ctx.shadow_settings, ctx.light_records, l0, l1, surface,
                                         triangles.smooth, pixel_of_hit, sample_of_hit)
             if len(batch.weight):

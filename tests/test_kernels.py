@@ -135,7 +135,7 @@ def test_surfaces_agree(terminator_fix):
         assert np.allclose(surface.lifted[s], lifted, rtol=0, atol=1e-12)
 
 
-def compiled_radiance(scene, settings, geometry, lights, O, D, hits, hit, pixel, sample):
+def compiled_radiance(settings, geometry, lights, O, D, hits, hit, pixel, sample):
     """The radiance of each hit from the kernels alone (render._render_chunk_compiled, steps 4)."""
     prim = hits.prim[hit]
     triangles = kernels.copied_triangles(kernels.copied_arrays(geometry), prim)
@@ -163,7 +163,7 @@ def test_shading_agrees_for_every_light(name, method):
     lights = [translate_light(light, geometry.origin) for light in scene.lights]
     pixels, first, O, D, hits, hit = hits_of(scene, settings, geometry)
     pixel, sample = np.repeat(pixels, settings.samples)[hit], np.tile(np.arange(settings.samples), len(pixels))[hit]
-    radiance, rays = compiled_radiance(scene, settings, geometry, lights, O, D, hits, hit, pixel, sample)
+    radiance, rays = compiled_radiance(settings, geometry, lights, O, D, hits, hit, pixel, sample)
     surface = surface_at_hits(geometry, hits.prim[hit], hits.u[hit], hits.v[hit], O[hit], D[hit], hits.t[hit])
     reference = direct_light(geometry, surface, lights, settings, pixel, sample)
     assert rays == reference.shadow_rays > 0
