@@ -132,6 +132,8 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_shadow_rays": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, i64, p, p, p, p, p, p]),
         "primer_add_light": (None, [p, i64, p, p, p, p, p]),
         "primer_film": (None, [i64, i64, p, p, p, i64, p, p, p, p, p, p, p]),
+        "primer_occluded": (None, [p, p, i64, p, p, p, p]),
+        "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p]),
     }
     for name, (restype, argtypes) in signatures.items():
         function = getattr(lib, name)
@@ -455,3 +457,64 @@ def film(p: int, spp: int, valid: Optional[np.ndarray], background: np.ndarray, 
                           _ptr(rgba, np.float64), _ptr(squares if want_squares else None, np.float64),
                           _ptr(hits, np.int64))
     return rgba, squares, hits
+
+
+# ---------------------------------------------------------------------------
+# Embree's queries in packets of 16 rays (core/intersect.py's Tracer)
+# ---------------------------------------------------------------------------
+
+class EmbreePackets(NamedTuple):
+    """What core/kernels.c needs to ask one Embree scene about rays 16 at a time: addresses.
+
+    scene: the RTCScene; occluded16, intersect16: Embree's rtcOccluded16 and rtcIntersect16.
+    """
+
+    scene: int
+    occluded16: int
+    intersect16: int
+
+
+def embree_packets(scene, device) -> Optional[EmbreePackets]:
+    """Return the packet queries of an embreex scene made on `device`, or None where they cannot be had.
+
+    They need the kernels and the very Embree library embreex loaded (core/embree_buffers.py finds it
+    and reads the scene's handle); otherwise the Tracer asks embreex one ray at a time.
+    """
+    from . import embree_buffers
+    if not available():
+        return None
+    embree = embree_buffers.embree_library()
+    handles = embree_buffers.scene_handles(scene, device) if embree is not None else None
+    if handles is None:
+        return None
+    address = lambda function: ctypes.cast(function, ctypes.c_void_p).value
+    return EmbreePackets(handles.scene, address(embree.rtcOccluded16), address(embree.rtcIntersect16))
+
+
+def occluded(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+    """Whether anything lies on each ray within (0, t_max), asked 16 rays at a time: (n,) bool.
+
+    origins, directions: (n, 3) float32; t_max: (n,) float32.
+    """
+    n = len(origins)
+    blocked = np.empty(n, np.bool_)
+    library().primer_occluded(packets.occluded16, packets.scene, n, _ptr(origins, np.float32),
+                              _ptr(directions, np.float32), _ptr(t_max, np.float32), blocked.ctypes.data)
+    return blocked
+
+
+def intersect(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray):
+    """The nearest hit in (0, t_max) of each ray, asked 16 rays at a time.
+
+    origins, directions: (n, 3) float32; t_max: (n,) float32 -> t (n,) float64 (inf where missed),
+    prim (n,) int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed),
+    u, v (n,) float64 (0 where missed)
+    """
+    n = len(origins)
+    t, prim, geometry, u, v = (np.empty(n), np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n),
+                               np.empty(n))
+    library().primer_intersect(packets.intersect16, packets.scene, n, _ptr(origins, np.float32),
+                               _ptr(directions, np.float32), _ptr(t_max, np.float32), _ptr(t, np.float64),
+                               _ptr(prim, np.int64), _ptr(geometry, np.int32), _ptr(u, np.float64),
+                               _ptr(v, np.float64))
+    return t, prim, geometry, u, v

@@ -274,3 +274,23 @@ def test_crowded_instances_are_copied_unless_always(monkeypatch):
     assert both.sum() > 1000 and (a.hit != b.hit).mean() < 1e-3
     np.testing.assert_allclose(b.t[both], a.t[both], rtol=1e-5)
     assert (a.prim[both] == b.prim[both]).mean() > 0.99
+
+
+def test_packets_find_the_instanced_triangles_single_rays_find():
+    """Embree's packet queries walk instance arrays as its single-ray ones do: the same flat triangle,
+    distance and barycentrics for every ray, and the same occlusion answers."""
+    from core.intersect import Tracer
+    _, instanced = both_geometries(scattered_scene())
+    packed = instanced.tracer
+    single = Tracer(instanced.vertices, instanced.triangles, instanced=instanced.instanced, packets=False)
+    assert packed.packed and not single.packed
+    O, D, t_max = random_rays(20_003, seed=9)
+    a, b = packed.intersect(O, D, t_max), single.intersect(O, D, t_max)
+    assert a.hit.mean() > 0.5
+    for field in ("hit", "t", "prim"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
+    np.testing.assert_array_equal(a.u[a.hit], b.u[b.hit])
+    np.testing.assert_array_equal(a.v[a.hit], b.v[b.hit])
+    short = np.where(a.hit, a.t * 0.5, 3.0)
+    np.testing.assert_array_equal(packed.occluded(O, D, short), single.occluded(O, D, short))
+    np.testing.assert_array_equal(packed.occluded(O, D, t_max), a.hit)

@@ -124,3 +124,35 @@ def test_empty_mesh_hits_nothing():
     hits = tracer.intersect(np.zeros((3, 3)), np.tile([0.0, 0.0, 1.0], (3, 1)), np.full(3, np.inf))
     assert not hits.hit.any() and np.isinf(hits.t).all()
     assert not tracer.occluded(np.zeros((3, 3)), np.tile([0.0, 0.0, 1.0], (3, 1)), np.ones(3)).any()
+
+
+def _packed_and_single(vertices, triangles, **kwargs):
+    """The same mesh asked in packets of 16 and one ray at a time through embreex (the reference)."""
+    packed, single = Tracer(vertices, triangles, **kwargs), Tracer(vertices, triangles, packets=False, **kwargs)
+    assert packed.packed and not single.packed
+    return packed, single
+
+
+@pytest.mark.parametrize("count", [1, 15, 16, 17, 20003])
+def test_packets_give_the_single_ray_answers(count):
+    """rtcIntersect16 / rtcOccluded16 give every ray the answer rtcIntersect1 / rtcOccluded1 gives:
+    whatever the batch's length (a last, partial packet included), hit, triangle, t and (u, v) agree
+    bit for bit, and so do the occlusion answers; rays with t_max 0 or below find nothing."""
+    rng = np.random.default_rng(17)
+    packed, single = _packed_and_single(*_random_mesh(rng))
+    origins, D = _rays_at_origin(rng, count)
+    t_max = rng.uniform(-0.5, 6.0, count)
+    t_max[::5] = np.inf
+    a, b = packed.intersect(origins, D, t_max), single.intersect(origins, D, t_max)
+    if count > 1000:
+        assert 1000 < a.hit.sum() < count - 1000
+    for field in ("hit", "t", "prim"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
+    np.testing.assert_array_equal(a.u[a.hit], b.u[b.hit])
+    np.testing.assert_array_equal(a.v[a.hit], b.v[b.hit])
+    assert not a.hit[t_max <= 0].any()
+    blocked = packed.occluded(origins, D, t_max)
+    np.testing.assert_array_equal(blocked, single.occluded(origins, D, t_max))
+    if count > 1000:
+        assert 1000 < blocked.sum() < count - 1000
+
