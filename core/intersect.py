@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import embree_buffers
+from . import embree_buffers, kernels
 
 # Embree's "infinite" t_far: the largest distance embreex uses itself.
 T_INFINITY = 1e37
@@ -66,7 +66,7 @@ class Tracer:
     build_seconds: time Embree took to build the BVH itself.
     instanced: InstancedMesh records (core/instancing.py), each traced as an Embree instance array
     of one prototype; `intersect` reports their hits by flat triangle index like the copied ones.
-    packets: True asks Embree 16 rays at a time (rtcIntersect16 / rtcOccluded16, through the compiled
+    packets: True asks Embree 8 rays at a time (rtcIntersect8 / rtcOccluded8, through the compiled
     kernels in core/kernels.c) where it can; False, or without the kernels, asks through embreex's
     `run`, one ray at a time: the reference path. Both give the same answers. Neighbouring rays of
     a batch (a pixel's samples, a hit's light samples) travel close together, so a packet shares
@@ -109,12 +109,11 @@ class Tracer:
         self.upload_seconds = uploaded - start
         self.build_seconds = time.perf_counter() - uploaded
         if packets:
-            from . import kernels
             self._packets = kernels.embree_packets(self._scene, self._device)
 
     @property
     def packed(self) -> bool:
-        """Whether the queries go to Embree in packets of 16 rays."""
+        """Whether the queries go to Embree in packets of 8 rays."""
         return self._packets is not None
 
     def _share(self, vertices: np.ndarray, triangles: np.ndarray) -> bool:
@@ -144,14 +143,16 @@ class Tracer:
         if self._scene is None or n == 0:
             return Hits(np.zeros(n, bool), np.full(n, np.inf), np.full(n, -1, np.int64),
                         np.zeros(n), np.zeros(n))
-        o, d, t = _f32_rays(origins, directions, t_max)
-        start = time.perf_counter()
         if self._packets is not None:
-            from . import kernels
+            # The packets take the float64 rays and round them to float32 as they are filled.
+            o, d, t = (np.ascontiguousarray(a, np.float64) for a in (origins, directions, t_max))
+            start = time.perf_counter()
             t_hit, prim, geometry_id, u, v = kernels.intersect(self._packets, o, d, t)
             self._count("intersect_seconds", time.perf_counter() - start)
             hit = geometry_id >= 0
         else:
+            o, d, t = _f32_rays(origins, directions, t_max)
+            start = time.perf_counter()
             out = self._scene.run(o, d, dists=t, output=1)
             self._count("intersect_seconds", time.perf_counter() - start)
             prim = out["primID"].astype(np.int64)
@@ -191,7 +192,6 @@ class Tracer:
         o, d, t = _f32_rays(origins, directions, t_max)
         start = time.perf_counter()
         if self._packets is not None:
-            from . import kernels
             blocked = kernels.occluded(self._packets, o, d, t)
         else:
             blocked = self._scene.run(o, d, dists=t, query="OCCLUDED") >= 0

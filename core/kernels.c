@@ -594,19 +594,19 @@ EXPORT void primer_film(int64_t p, int64_t spp, const uint8_t *valid, const doub
 }
 
 /* ------------------------------------------------------------------------------------------------
- * Ray queries in packets: core/intersect.py's Tracer, through Embree's rtcIntersect16 / rtcOccluded16
+ * Ray queries in packets: core/intersect.py's Tracer, through Embree's rtcIntersect8 / rtcOccluded8
  * --------------------------------------------------------------------------------------------- */
 
-/* Embree 4's packet records (rtcore_ray.h), 16 rays wide, structure of arrays. Embree reads the
+/* Embree 4's packet records (rtcore_ray.h), 8 rays wide, structure of arrays. Embree reads the
  * fields in this order; the hit's instance fields are sized for one instance level with instance
  * arrays (RTC_MAX_INSTANCE_LEVEL_COUNT 1), which is how embreex's Embree is built. */
-#define PACKET 16
+#define PACKET 8
 typedef struct {
     float org_x[PACKET], org_y[PACKET], org_z[PACKET], tnear[PACKET];
     float dir_x[PACKET], dir_y[PACKET], dir_z[PACKET], time[PACKET];
     float tfar[PACKET];
     uint32_t mask[PACKET], id[PACKET], flags[PACKET];
-} __attribute__((aligned(64))) RayPacket;
+} __attribute__((aligned(32))) RayPacket;
 
 typedef struct {
     float Ng_x[PACKET], Ng_y[PACKET], Ng_z[PACKET];
@@ -614,33 +614,42 @@ typedef struct {
     uint32_t primID[PACKET], geomID[PACKET];
     uint32_t instID[1][PACKET];
     uint32_t instPrimID[1][PACKET];
-} __attribute__((aligned(64))) HitPacket;
+} __attribute__((aligned(32))) HitPacket;
 
 typedef struct { RayPacket ray; HitPacket hit; } RayHitPacket;
 
 /* Embree's functions, passed in as addresses by core/intersect.py (the library embreex loaded). */
-typedef void (*Occluded16)(const int *valid, void *scene, RayPacket *ray, void *arguments);
-typedef void (*Intersect16)(const int *valid, void *scene, RayHitPacket *rayhit, void *arguments);
+typedef void (*Occluded8)(const int *valid, void *scene, RayPacket *ray, void *arguments);
+typedef void (*Intersect8)(const int *valid, void *scene, RayHitPacket *rayhit, void *arguments);
 
 #define INVALID_ID 0xFFFFFFFFu
 
-/* Rays first .. first + PACKET - 1 of a batch of n into a packet: valid[k] -1 for a ray, 0 past n. */
-INLINE void fill_packet(RayPacket *ray, int *valid, int64_t first, int64_t n,
-                        const float *origins, const float *directions, const float *t_max)
-{
-    for (int k = 0; k < PACKET; k++) {
-        int64_t i = first + k < n ? first + k : n - 1;
-        valid[k] = first + k < n ? -1 : 0;
-        ray->org_x[k] = origins[3 * i]; ray->org_y[k] = origins[3 * i + 1]; ray->org_z[k] = origins[3 * i + 2];
-        ray->dir_x[k] = directions[3 * i]; ray->dir_y[k] = directions[3 * i + 1]; ray->dir_z[k] = directions[3 * i + 2];
-        ray->tnear[k] = 0.0f;
-        ray->time[k] = 0.0f;
-        ray->tfar[k] = t_max[i];
-        ray->mask[k] = INVALID_ID;
-        ray->id[k] = 0;
-        ray->flags[k] = 0;
+/* Rays first .. first + PACKET - 1 of a batch of n into a packet: valid[k] -1 for a ray, 0 past n.
+ * REAL is the batch's type: float rays go in as they are; double rays are rounded to float here,
+ * t_max clamped to Embree's "infinite" first (core/intersect.py's _f32_rays, one value at a time). */
+#define FILL_PACKET(name, REAL)                                                                        \
+    INLINE void name(RayPacket *ray, int *valid, int64_t first, int64_t n,                             \
+                     const REAL *origins, const REAL *directions, const REAL *t_max)                   \
+    {                                                                                                  \
+        for (int k = 0; k < PACKET; k++) {                                                             \
+            int64_t i = first + k < n ? first + k : n - 1;                                             \
+            valid[k] = first + k < n ? -1 : 0;                                                         \
+            ray->org_x[k] = (float)origins[3 * i];                                                     \
+            ray->org_y[k] = (float)origins[3 * i + 1];                                                 \
+            ray->org_z[k] = (float)origins[3 * i + 2];                                                 \
+            ray->dir_x[k] = (float)directions[3 * i];                                                  \
+            ray->dir_y[k] = (float)directions[3 * i + 1];                                              \
+            ray->dir_z[k] = (float)directions[3 * i + 2];                                              \
+            ray->tnear[k] = 0.0f;                                                                      \
+            ray->time[k] = 0.0f;                                                                       \
+            ray->tfar[k] = t_max[i] > (REAL)T_INFINITY ? T_INFINITY : (float)t_max[i];                 \
+            ray->mask[k] = INVALID_ID;                                                                 \
+            ray->id[k] = 0;                                                                            \
+            ray->flags[k] = 0;                                                                         \
+        }                                                                                              \
     }
-}
+FILL_PACKET(fill_packet, float)
+FILL_PACKET(fill_packet_double, double)
 
 /* Whether anything lies on each ray within (0, t_max): Tracer.occluded.
  * origins, directions (n, 3), t_max (n,) float32 -> blocked (n,) uint8. Embree marks an occluded
@@ -648,34 +657,34 @@ INLINE void fill_packet(RayPacket *ray, int *valid, int64_t first, int64_t n,
 EXPORT void primer_occluded(void *function, void *scene, int64_t n, const float *origins, const float *directions,
                             const float *t_max, uint8_t *blocked)
 {
-    Occluded16 occluded16 = (Occluded16)function;
+    Occluded8 occluded8 = (Occluded8)function;
     RayPacket ray;
-    int valid[PACKET] __attribute__((aligned(64)));
+    int valid[PACKET] __attribute__((aligned(32)));
     for (int64_t first = 0; first < n; first += PACKET) {
         fill_packet(&ray, valid, first, n, origins, directions, t_max);
-        occluded16(valid, scene, &ray, NULL);
+        occluded8(valid, scene, &ray, NULL);
         for (int k = 0; k < PACKET && first + k < n; k++) blocked[first + k] = ray.tfar[k] < 0.0f;
     }
 }
 
 /* The nearest hit in (0, t_max) of each ray: Tracer.intersect.
- * origins, directions (n, 3), t_max (n,) float32 -> t (n,) float64 (inf where missed), prim (n,)
+ * origins, directions (n, 3), t_max (n,) float64 (rounded to float32 here) -> t (n,) float64 (inf where missed), prim (n,)
  * int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed), u, v (n,) float64. */
-EXPORT void primer_intersect(void *function, void *scene, int64_t n, const float *origins, const float *directions,
-                             const float *t_max, double *t, int64_t *prim, int32_t *geometry, double *u, double *v)
+EXPORT void primer_intersect(void *function, void *scene, int64_t n, const double *origins, const double *directions,
+                             const double *t_max, double *t, int64_t *prim, int32_t *geometry, double *u, double *v)
 {
-    Intersect16 intersect16 = (Intersect16)function;
+    Intersect8 intersect8 = (Intersect8)function;
     RayHitPacket packet;
-    int valid[PACKET] __attribute__((aligned(64)));
+    int valid[PACKET] __attribute__((aligned(32)));
     for (int64_t first = 0; first < n; first += PACKET) {
-        fill_packet(&packet.ray, valid, first, n, origins, directions, t_max);
+        fill_packet_double(&packet.ray, valid, first, n, origins, directions, t_max);
         for (int k = 0; k < PACKET; k++) {
             packet.hit.geomID[k] = INVALID_ID;
             packet.hit.primID[k] = INVALID_ID;
             packet.hit.instID[0][k] = INVALID_ID;
             packet.hit.instPrimID[0][k] = INVALID_ID;
         }
-        intersect16(valid, scene, &packet, NULL);
+        intersect8(valid, scene, &packet, NULL);
         for (int k = 0; k < PACKET && first + k < n; k++) {
             int64_t i = first + k;
             int hit = packet.hit.geomID[k] != INVALID_ID;

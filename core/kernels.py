@@ -460,18 +460,18 @@ def film(p: int, spp: int, valid: Optional[np.ndarray], background: np.ndarray, 
 
 
 # ---------------------------------------------------------------------------
-# Embree's queries in packets of 16 rays (core/intersect.py's Tracer)
+# Embree's queries in packets of 8 rays (core/intersect.py's Tracer)
 # ---------------------------------------------------------------------------
 
 class EmbreePackets(NamedTuple):
     """What core/kernels.c needs to ask one Embree scene about rays 16 at a time: addresses.
 
-    scene: the RTCScene; occluded16, intersect16: Embree's rtcOccluded16 and rtcIntersect16.
+    scene: the RTCScene; occluded8, intersect8: Embree's rtcOccluded8 and rtcIntersect8.
     """
 
     scene: int
-    occluded16: int
-    intersect16: int
+    occluded8: int
+    intersect8: int
 
 
 def embree_packets(scene, device) -> Optional[EmbreePackets]:
@@ -488,33 +488,34 @@ def embree_packets(scene, device) -> Optional[EmbreePackets]:
     if handles is None:
         return None
     address = lambda function: ctypes.cast(function, ctypes.c_void_p).value
-    return EmbreePackets(handles.scene, address(embree.rtcOccluded16), address(embree.rtcIntersect16))
+    return EmbreePackets(handles.scene, address(embree.rtcOccluded8), address(embree.rtcIntersect8))
 
 
 def occluded(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
-    """Whether anything lies on each ray within (0, t_max), asked 16 rays at a time: (n,) bool.
+    """Whether anything lies on each ray within (0, t_max), asked 8 rays at a time: (n,) bool.
 
     origins, directions: (n, 3) float32; t_max: (n,) float32.
     """
     n = len(origins)
     blocked = np.empty(n, np.bool_)
-    library().primer_occluded(packets.occluded16, packets.scene, n, _ptr(origins, np.float32),
+    library().primer_occluded(packets.occluded8, packets.scene, n, _ptr(origins, np.float32),
                               _ptr(directions, np.float32), _ptr(t_max, np.float32), blocked.ctypes.data)
     return blocked
 
 
 def intersect(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray):
-    """The nearest hit in (0, t_max) of each ray, asked 16 rays at a time.
+    """The nearest hit in (0, t_max) of each ray, asked 8 rays at a time.
 
-    origins, directions: (n, 3) float32; t_max: (n,) float32 -> t (n,) float64 (inf where missed),
+    origins, directions: (n, 3) float64; t_max: (n,) float64, rounded to Embree's float32 as the
+    packets are filled (as intersect._f32_rays would) -> t (n,) float64 (inf where missed),
     prim (n,) int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed),
     u, v (n,) float64 (0 where missed)
     """
     n = len(origins)
     t, prim, geometry, u, v = (np.empty(n), np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n),
                                np.empty(n))
-    library().primer_intersect(packets.intersect16, packets.scene, n, _ptr(origins, np.float32),
-                               _ptr(directions, np.float32), _ptr(t_max, np.float32), _ptr(t, np.float64),
+    library().primer_intersect(packets.intersect8, packets.scene, n, _ptr(origins, np.float64),
+                               _ptr(directions, np.float64), _ptr(t_max, np.float64), _ptr(t, np.float64),
                                _ptr(prim, np.int64), _ptr(geometry, np.int32), _ptr(u, np.float64),
                                _ptr(v, np.float64))
     return t, prim, geometry, u, v

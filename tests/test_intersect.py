@@ -127,7 +127,7 @@ def test_empty_mesh_hits_nothing():
 
 
 def _packed_and_single(vertices, triangles, **kwargs):
-    """The same mesh asked in packets of 16 and one ray at a time through embreex (the reference)."""
+    """The same mesh asked in packets of 8 and one ray at a time through embreex (the reference)."""
     packed, single = Tracer(vertices, triangles, **kwargs), Tracer(vertices, triangles, packets=False, **kwargs)
     assert packed.packed and not single.packed
     return packed, single
@@ -135,7 +135,7 @@ def _packed_and_single(vertices, triangles, **kwargs):
 
 @pytest.mark.parametrize("count", [1, 15, 16, 17, 20003])
 def test_packets_give_the_single_ray_answers(count):
-    """rtcIntersect16 / rtcOccluded16 give every ray the answer rtcIntersect1 / rtcOccluded1 gives:
+    """rtcIntersect8 / rtcOccluded8 give every ray the answer rtcIntersect1 / rtcOccluded1 gives:
     whatever the batch's length (a last, partial packet included), hit, triangle, t and (u, v) agree
     bit for bit, and so do the occlusion answers; rays with t_max 0 or below find nothing."""
     rng = np.random.default_rng(17)
