@@ -35,11 +35,26 @@
 #define BYTE_SWAP(x) __builtin_bswap32(x)
 #endif
 
+/* The kernels whose loops run over blocks of samples are compiled twice on x86-64 Linux with GCC:
+ * for any x86-64 (SSE2, 2 doubles per instruction) and for x86-64-v3 (AVX2, 4 doubles), and the
+ * loader picks the one the processor runs (an ifunc). Both compute the same numbers: no fused
+ * multiply-add either way. Elsewhere they are compiled once, for the compiler's default target. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define SIMD_CLONES
+#endif
+
 /* ------------------------------------------------------------------------------------------------
  * Small vector helpers
  * --------------------------------------------------------------------------------------------- */
 
 INLINE double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+/* max(x, floor) and min(x, ceiling) for a number floor / ceiling: as fmax / fmin (a NaN x gives the
+ * bound), but in a form the compiler can vectorize. */
+INLINE double at_least(double x, double floor) { return x > floor ? x : floor; }
+INLINE double at_most(double x, double ceiling) { return x < ceiling ? x : ceiling; }
 
 INLINE double largest3(const double *a)
 {
@@ -344,7 +359,7 @@ INLINE void sample_cone(const double *axis, const double *t, const double *b, do
                                const double *u, double *L)
 {
     double cos_theta = 1.0 - u[0] * (1.0 - cos_max);
-    double sin_theta = sqrt(fmax(0.0, 1.0 - cos_theta * cos_theta));
+    double sin_theta = sqrt(at_least(1.0 - cos_theta * cos_theta, 0.0));
     double cos_phi, sin_phi;
     cos_sin(2.0 * PI * u[1], &cos_phi, &sin_phi);
     for (int c = 0; c < 3; c++)
@@ -354,20 +369,105 @@ INLINE void sample_cone(const double *axis, const double *t, const double *b, do
 /* Blender's spot cone factor for light leaving along -L: lights.spot_attenuation. */
 INLINE double spot_factor(const LightRecord *light, const double *L)
 {
-    double cos_angle;
-    if (light->spot_frame == 0.0) {
-        cos_angle = -dot3(L, light->direction);
-    } else {
-        const double *M = light->spot_inverse;
-        double local[3];
-        for (int c = 0; c < 3; c++) local[c] = -(M[3 * c] * L[0] + M[3 * c + 1] * L[1] + M[3 * c + 2] * L[2]);
-        double length = sqrt(dot3(local, local));
-        cos_angle = -local[2] / (length > 0.0 ? length : 1.0);
-    }
-    if (light->spot_blend_width <= 0.0) return cos_angle > light->spot_cos_half ? 1.0 : 0.0;
+    /* The angle to the axis, in a spot's (scaled) frame when it has one; both computed, one chosen. */
+    double plain = -dot3(L, light->direction);
+    const double *M = light->spot_inverse;
+    double local[3];
+    for (int c = 0; c < 3; c++) local[c] = -(M[3 * c] * L[0] + M[3 * c + 1] * L[1] + M[3 * c + 2] * L[2]);
+    double length = sqrt(dot3(local, local));
+    double framed = -local[2] / (length > 0.0 ? length : 1.0);
+    double cos_angle = light->spot_frame == 0.0 ? plain : framed;
+    /* A hard edge without blend; else smoothstep across the blend. */
+    double hard = cos_angle > light->spot_cos_half ? 1.0 : 0.0;
     double x = (cos_angle - light->spot_cos_half) / light->spot_blend_width;
     x = x < 0.0 ? 0.0 : (x > 1.0 ? 1.0 : x);
-    return x * x * (3.0 - 2.0 * x);
+    double smooth = x * x * (3.0 - 2.0 * x);
+    return light->spot_blend_width <= 0.0 ? hard : smooth;
+}
+
+/* The sun: one direction (no extent), or a direction in its disk's cone. */
+INLINE void sample_sun(const LightRecord *light, const double *u, LightSample *out)
+{
+    if (light->delta != 0.0) {
+        for (int c = 0; c < 3; c++) out->L[c] = light->direction[c];
+    } else {
+        sample_cone(light->direction, light->sun_t, light->sun_b, light->sun_cos_max, u, out->L);
+    }
+    out->distance = INFINITY;
+    out->strength = light->strength;
+    out->position[0] = out->position[1] = out->position[2] = 0.0;
+}
+
+/* The lecture's point light: I = P / (4 pi), attenuated by 1 / r^2 (and a spot's cone, after). */
+INLINE void sample_point(const LightRecord *light, const double *P, LightSample *out)
+{
+    double d = direction_to(P, light->position, out->L);
+    out->distance = d;
+    double strength = light->power * (1.0 / (4.0 * PI)) * (1.0 / (d * d));
+    out->strength = d > 0.0 ? strength : 0.0;
+    for (int c = 0; c < 3; c++) out->position[c] = light->position[c];
+}
+
+/* A sphere (or, with soft falloff, a disk facing P): the cone it covers, sampled uniformly. */
+INLINE void sample_sphere(const LightRecord *light, const double *P, const double *u, LightSample *out)
+{
+    double axis[3], t[3], b[3];
+    double d = direction_to(P, light->position, axis);
+    double R = light->radius, sin2_max;
+    if (light->soft_falloff != 0.0) {
+        sin2_max = R * R / (R * R + d * d);
+    } else {
+        d = at_least(d, R * (1.0 + 1e-9));
+        sin2_max = at_most((R / d) * (R / d), 1.0);
+    }
+    double cos_max = sqrt(1.0 - sin2_max);
+    orthonormal_frame(axis, t, b);
+    sample_cone(axis, t, b, cos_max, u, out->L);
+    double cos_to_center = dot3(out->L, axis);
+    if (light->soft_falloff != 0.0) {
+        out->distance = d / at_least(cos_to_center, 1e-300);
+    } else {
+        double h = d * cos_to_center;
+        out->distance = h - sqrt(at_least(h * h - (d * d - R * R), 0.0));
+    }
+    out->strength = light->radiance * 2.0 * PI * (1.0 - cos_max);
+    for (int c = 0; c < 3; c++) out->position[c] = P[c] + out->L[c] * out->distance;
+}
+
+/* Where on a DISK or ELLIPSE area light the sample u falls, in its unit square's frame: the
+ * concentric map of the square onto the unit disk (Shirley-Chiu), halved. */
+INLINE void area_disk_point(const double *u, double *x, double *y)
+{
+    double a = 2.0 * u[0] - 1.0, bb = 2.0 * u[1] - 1.0;
+    int use_a = fabs(a) > fabs(bb);
+    double r = use_a ? a : bb;
+    double ratio = r == 0.0 ? 0.0 : (use_a ? bb : a) / r;
+    double phi = use_a ? (PI / 4) * ratio : (PI / 2) - (PI / 4) * ratio;
+    double cos_phi, sin_phi;
+    cos_sin(phi < 0.0 ? phi + 2.0 * PI : phi, &cos_phi, &sin_phi);
+    *x = 0.5 * r * cos_phi;
+    *y = 0.5 * r * sin_phi;
+}
+
+/* A one-sided area light's point (x, y) (in [-1/2, 1/2]^2 of its edges), seen from P:
+ * E_normal = L_e cos(theta_light) A / d^2, narrowed by the spread. */
+INLINE void sample_area(const LightRecord *light, const double *P, double x, double y, LightSample *out)
+{
+    for (int c = 0; c < 3; c++)
+        out->position[c] = x * light->axis_u[c] + y * light->axis_v[c] + light->position[c];
+    double d = direction_to(P, out->position, out->L);
+    double cos_light = -dot3(out->L, light->direction);
+    /* (Each value is computed whatever the tests say, then chosen: loops over many samples need
+     * no branches then. Values thrown away may be inf or NaN.) */
+    double geometry = cos_light * light->area / (d * d);
+    geometry = (cos_light > 0.0) & (d > 0.0) ? geometry : 0.0;
+    if (light->spread_narrow != 0.0) {
+        double tan_theta = sqrt(at_least(1.0 - cos_light * cos_light, 0.0)) / cos_light;
+        double narrowed = at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
+        geometry *= cos_light > 0.0 ? narrowed : 0.0;
+    }
+    out->distance = d;
+    out->strength = light->radiance * geometry;
 }
 
 /* Light from `light` arriving at point P for the unit-square sample u: lights.sample_light. */
@@ -375,78 +475,16 @@ INLINE void sample_light(const LightRecord *light, const double *P, const double
 {
     int kind = (int)light->kind;
     if (kind == LIGHT_SUN) {
-        if (light->delta != 0.0) {
-            for (int c = 0; c < 3; c++) out->L[c] = light->direction[c];
-        } else {
-            sample_cone(light->direction, light->sun_t, light->sun_b, light->sun_cos_max, u, out->L);
-        }
-        out->distance = INFINITY;
-        out->strength = light->strength;
-        out->position[0] = out->position[1] = out->position[2] = 0.0;
-        return;
-    }
-    if (kind == LIGHT_POINT || kind == LIGHT_SPOT) {
-        if (light->delta != 0.0) {
-            /* The lecture's point light: I = P / (4 pi), attenuated by 1 / r^2. */
-            double d = direction_to(P, light->position, out->L);
-            out->distance = d;
-            out->strength = d > 0.0 ? light->power * (1.0 / (4.0 * PI)) * (1.0 / (d * d)) : 0.0;
-            for (int c = 0; c < 3; c++) out->position[c] = light->position[c];
-        } else {
-            /* A sphere (or, with soft falloff, a disk facing P): the cone it covers, sampled uniformly. */
-            double axis[3], t[3], b[3];
-            double d = direction_to(P, light->position, axis);
-            double R = light->radius, sin2_max;
-            if (light->soft_falloff != 0.0) {
-                sin2_max = R * R / (R * R + d * d);
-            } else {
-                d = fmax(d, R * (1.0 + 1e-9));
-                sin2_max = fmin(1.0, (R / d) * (R / d));
-            }
-            double cos_max = sqrt(1.0 - sin2_max);
-            orthonormal_frame(axis, t, b);
-            sample_cone(axis, t, b, cos_max, u, out->L);
-            double cos_to_center = dot3(out->L, axis);
-            if (light->soft_falloff != 0.0) {
-                out->distance = d / fmax(cos_to_center, 1e-300);
-            } else {
-                double h = d * cos_to_center;
-                out->distance = h - sqrt(fmax(0.0, h * h - (d * d - R * R)));
-            }
-            out->strength = light->radiance * 2.0 * PI * (1.0 - cos_max);
-            for (int c = 0; c < 3; c++) out->position[c] = P[c] + out->L[c] * out->distance;
-        }
+        sample_sun(light, u, out);
+    } else if (kind == LIGHT_POINT || kind == LIGHT_SPOT) {
+        if (light->delta != 0.0) sample_point(light, P, out);
+        else sample_sphere(light, P, u, out);
         if (kind == LIGHT_SPOT) out->strength *= spot_factor(light, out->L);
-        return;
-    }
-    /* LIGHT_AREA: a one-sided emitter sampled uniformly in area, E_normal = L_e cos(theta_light) A / d^2. */
-    double x, y;
-    if (light->ellipse != 0.0) {
-        /* Concentric map of the square onto the unit disk (Shirley-Chiu). */
-        double a = 2.0 * u[0] - 1.0, bb = 2.0 * u[1] - 1.0;
-        int use_a = fabs(a) > fabs(bb);
-        double r = use_a ? a : bb;
-        double ratio = r == 0.0 ? 0.0 : (use_a ? bb : a) / r;
-        double phi = use_a ? (PI / 4) * ratio : (PI / 2) - (PI / 4) * ratio;
-        double cos_phi, sin_phi;
-        cos_sin(phi < 0.0 ? phi + 2.0 * PI : phi, &cos_phi, &sin_phi);
-        x = 0.5 * r * cos_phi;
-        y = 0.5 * r * sin_phi;
     } else {
-        x = u[0] - 0.5;
-        y = u[1] - 0.5;
+        double x = u[0] - 0.5, y = u[1] - 0.5;
+        if (light->ellipse != 0.0) area_disk_point(u, &x, &y);
+        sample_area(light, P, x, y, out);
     }
-    for (int c = 0; c < 3; c++)
-        out->position[c] = x * light->axis_u[c] + y * light->axis_v[c] + light->position[c];
-    double d = direction_to(P, out->position, out->L);
-    double cos_light = -dot3(out->L, light->direction);
-    double geometry = (cos_light > 0.0 && d > 0.0) ? cos_light * light->area / (d * d) : 0.0;
-    if (light->spread_narrow != 0.0) {
-        double tan_theta = sqrt(fmax(0.0, 1.0 - cos_light * cos_light)) / cos_light;
-        geometry *= cos_light > 0.0 ? fmax(0.0, light->spread_tan_half - tan_theta) / light->spread_norm : 0.0;
-    }
-    out->distance = d;
-    out->strength = light->radiance * geometry;
 }
 
 /* ------------------------------------------------------------------------------------------------
@@ -461,6 +499,151 @@ typedef struct {
     double seed;
 } ShadowSettings;
 
+/* Light samples are handled BLOCK at a time, one quantity per column (structure of arrays): each
+ * step below is then one loop over the block's lanes with no branches, which the compiler turns
+ * into SIMD instructions (4 doubles or 8 integers at once with AVX2). The arithmetic of each lane
+ * is exactly the one-sample arithmetic above. */
+#define BLOCK 64
+
+typedef struct {
+    int64_t n;                                   /* lanes in use */
+    int64_t hit[BLOCK];                          /* the hit each light sample belongs to */
+    uint32_t pixel[BLOCK], index[BLOCK];         /* its random-number keys */
+    double u[2][BLOCK];                          /* its point in the unit square */
+    double P[3][BLOCK], N[3][BLOCK], Ng[3][BLOCK], lifted[3][BLOCK];
+    double offset[BLOCK], smooth[BLOCK];
+    double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK];
+    double origin[3][BLOCK], D[3][BLOCK], t[BLOCK], weight[BLOCK];
+    double keep[BLOCK];                          /* 1: the ray can carry light */
+} SampleBlock;
+
+/* Step 0: samples first .. first + n - 1 of a light with `count` samples per hit (sample s is
+ * sample s % count of hit s / count): their hits' data, gathered into columns. */
+SIMD_CLONES __attribute__((noinline)) static void gather_block(SampleBlock *b, int64_t first, int64_t n, int64_t count,
+                         const double *I, const double *N, const double *Ng, const double *offset,
+                         const uint8_t *smooth, const double *lifted, const int64_t *pixel, const int64_t *sample)
+{
+    int64_t i = first / count, j = first % count;
+    b->n = n;
+    for (int64_t k = 0; k < n; k++) {
+        b->hit[k] = i;
+        b->pixel[k] = (uint32_t)pixel[i];
+        b->index[k] = (uint32_t)(sample[i] * count + j);
+        for (int c = 0; c < 3; c++) {
+            b->P[c][k] = I[3 * i + c];
+            b->N[c][k] = N[3 * i + c];
+            b->Ng[c][k] = Ng[3 * i + c];
+            b->lifted[c][k] = lifted != NULL ? lifted[3 * i + c] : 0.0;
+        }
+        b->offset[k] = offset[i];
+        b->smooth[k] = smooth[i] ? 1.0 : 0.0;
+        if (++j == count) { j = 0; i++; }
+    }
+}
+
+/* Step 1: each sample's point in the unit square (sampling.sample_2d, bit for bit). */
+SIMD_CLONES __attribute__((noinline)) static void sample_block(SampleBlock *b, uint32_t stream)
+{
+    for (int64_t k = 0; k < b->n; k++) {
+        uint32_t key = hash_u32(b->pixel[k] ^ stream);
+        uint32_t shuffled = reverse_bits(laine_karras(reverse_bits(b->index[k]), key));
+        uint32_t x = reverse_bits(laine_karras(shuffled, combine_seed(key, 1)));
+        uint32_t y = reverse_bits(laine_karras(sobol_y_mirrored(shuffled), combine_seed(key, 2)));
+        b->u[0][k] = x * (1.0 / 4294967296.0);
+        b->u[1][k] = y * (1.0 / 4294967296.0);
+    }
+}
+
+/* Step 2: where the light comes from (lights.sample_light). The common kinds have loops of their
+ * own with no branches; the rest (which need cos) go one sample at a time. */
+INLINE void store_sample(SampleBlock *b, int64_t k, const LightSample *ls)
+{
+    for (int c = 0; c < 3; c++) { b->L[c][k] = ls->L[c]; b->position[c][k] = ls->position[c]; }
+    b->distance[k] = ls->distance;
+    b->strength[k] = ls->strength;
+}
+
+SIMD_CLONES __attribute__((noinline)) static void light_block(SampleBlock *restrict b, const LightRecord *restrict record)
+{
+    /* A local copy: the compiler may then read its fields in every lane, whichever value is chosen. */
+    const LightRecord copy = *record, *light = &copy;
+    int kind = (int)light->kind;
+    if (kind == LIGHT_AREA && light->ellipse == 0.0) {
+        for (int64_t k = 0; k < b->n; k++) {
+            double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
+            LightSample ls;
+            sample_area(light, P, b->u[0][k] - 0.5, b->u[1][k] - 0.5, &ls);
+            store_sample(b, k, &ls);
+        }
+    } else if (kind == LIGHT_POINT && light->delta != 0.0) {
+        for (int64_t k = 0; k < b->n; k++) {
+            double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
+            LightSample ls;
+            sample_point(light, P, &ls);
+            store_sample(b, k, &ls);
+        }
+    } else {
+        for (int64_t k = 0; k < b->n; k++) {
+            double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[2] = {b->u[0][k], b->u[1][k]};
+            LightSample ls;
+            sample_light(light, P, u, &ls);
+            store_sample(b, k, &ls);
+        }
+    }
+}
+
+/* Step 3: the lecture's two tests, then the shadow ray: shadows.robust_rays when `robust`, else
+ * shadows.epsilon_rays. (Inlined once for each method, so that the loop has no branch.) */
+INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict settings, int lifted, double samples,
+                      int robust)
+{
+    double lift = lifted && settings->terminator_offset > 0.0 ? 1.0 : 0.0;
+    double fix = settings->terminator_fix != 0.0 ? 1.0 : 0.0;
+    double cutoff = settings->terminator_offset, epsilon = settings->epsilon;
+    for (int64_t k = 0; k < b->n; k++) {
+        double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
+        double n[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, ng[3] = {b->Ng[0][k], b->Ng[1][k], b->Ng[2][k]};
+        /* a. N.L > 0 and Ng.L > 0 (smooth points lifted by the terminator fix leave that to their ray). */
+        double NL = dot3(n, L), NgL = dot3(ng, L);
+        double cosine = at_least(NL, 0.0);
+        int face_allows = (NgL > 0.0) | ((fix * b->smooth[k]) != 0.0);
+        b->keep[k] = (cosine != 0.0) & face_allows & (b->strength[k] > 0.0) ? 1.0 : 0.0;
+        /* b. The origin: I, or the terminator fix's blend towards the lifted point (amount 0 elsewhere). */
+        double amount = NL < cutoff ? 2.0 - (NgL + NL) / cutoff : 1.0 - NgL / cutoff;
+        amount = amount < 0.0 ? 0.0 : (amount > 1.0 ? 1.0 : amount);
+        amount = (lift * b->smooth[k]) != 0.0 ? amount : 0.0;
+        double origin[3], D[3], t;
+        for (int c = 0; c < 3; c++) origin[c] = P[c] + amount * (b->lifted[c][k] - P[c]);
+        if (robust) {
+            /* c. Off the surface along Ng by the error bound, towards the light point, stopping short
+             *    of it by the rounding at its own coordinates; a sun's ray keeps its direction. */
+            for (int c = 0; c < 3; c++) origin[c] += b->offset[k] * ng[c];
+            double Q[3] = {b->position[0][k], b->position[1][k], b->position[2][k]};
+            double w[3] = {Q[0] - origin[0], Q[1] - origin[1], Q[2] - origin[2]};
+            double length = sqrt(dot3(w, w));
+            double inverse = 1.0 / at_least(length, 1e-300);
+            double stop = length - ROBUST_ULPS * FLOAT32_EPSILON * largest3(Q);
+            int finite = b->distance[k] < INFINITY;
+            for (int c = 0; c < 3; c++) D[c] = finite ? w[c] * inverse : L[c];
+            t = finite ? at_least(stop, 0.0) : b->distance[k];
+        } else {
+            /* c'. The lecture's epsilon: origin I + epsilon L, t_max = distance - 2 epsilon. */
+            for (int c = 0; c < 3; c++) { origin[c] += epsilon * L[c]; D[c] = L[c]; }
+            t = at_least(b->distance[k] - 2.0 * epsilon, 0.0);
+        }
+        for (int c = 0; c < 3; c++) { b->origin[c][k] = origin[c]; b->D[c][k] = D[c]; }
+        b->t[k] = t;
+        b->weight[k] = b->strength[k] * cosine * (1.0 / samples);
+    }
+}
+
+SIMD_CLONES __attribute__((noinline)) static void ray_block(SampleBlock *restrict b, const ShadowSettings *restrict settings,
+                                                int lifted, double samples)
+{
+    if (settings->robust != 0.0) ray_lanes(b, settings, lifted, samples, 1);
+    else ray_lanes(b, settings, lifted, samples, 0);
+}
+
 /* Build one shadow ray per (hit, light, light sample) that can carry light, compacted.
  * In: I, N, Ng (m, 3) float64 (Ng facing the viewer); offset (m,) float64; smooth (m,) uint8;
  * lifted (m, 3) float64 or NULL; pixel, sample (m,) int64 the keys of each hit's random numbers.
@@ -474,61 +657,33 @@ EXPORT int64_t primer_shadow_rays(const ShadowSettings *settings, const LightRec
                                   float *origins, float *directions, float *t_max,
                                   int32_t *owner, int32_t *light_of, double *weight)
 {
+    SampleBlock b;
     int64_t r = 0;
+    const double *lift_from = settings->terminator_fix != 0.0 ? lifted : NULL;
     for (int64_t l = l0; l < l1; l++) {
         const LightRecord *light = lights + l;
-        int64_t count = (int64_t)light->samples;
+        int64_t count = (int64_t)light->samples, total = m * count;
         uint32_t stream = stream_of((int64_t)settings->seed, (int64_t)light->dimension);
-        for (int64_t i = 0; i < m; i++) {
-            const double *P = I + 3 * i, *n = N + 3 * i, *ng = Ng + 3 * i;
-            for (int64_t j = 0; j < count; j++) {
-                /* 1. Where does the light come from? */
-                double u[2] = {0.0, 0.0};
-                if (light->delta == 0.0) sample_2d(stream, pixel[i], sample[i] * count + j, u);
-                LightSample ls;
-                sample_light(light, P, u, &ls);
-                /* 2. The lecture's two tests: N.L > 0 and Ng.L > 0 (smooth points lifted by the
-                 *    terminator fix leave that to their shadow ray). */
-                double NL = dot3(n, ls.L), NgL = dot3(ng, ls.L);
-                int face_allows = NgL > 0.0 || (settings->terminator_fix != 0.0 && smooth[i]);
-                double cosine = fmax(NL, 0.0);
-                if (!(cosine != 0.0 && face_allows && ls.strength > 0.0)) continue;
+        for (int64_t first = 0; first < total; first += BLOCK) {
+            /* 0-3. The block's hits, sample points, light samples and rays. */
+            gather_block(&b, first, total - first < BLOCK ? total - first : BLOCK, count,
+                         I, N, Ng, offset, smooth, lift_from, pixel, sample);
+            if (light->delta == 0.0) sample_block(&b, stream);
+            else for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = 0.0;
+            light_block(&b, light);
+            ray_block(&b, settings, lift_from != NULL, (double)count);
+            /* 4. Keep the rays that can carry light. */
+            for (int64_t k = 0; k < b.n; k++) {
+                if (b.keep[k] == 0.0) continue;
                 if (r >= capacity) return -1;
-                /* 3. The ray's origin: I, or the terminator fix's blend towards the lifted point. */
-                double origin[3] = {P[0], P[1], P[2]};
-                if (lifted != NULL && smooth[i] && settings->terminator_offset > 0.0) {
-                    double cutoff = settings->terminator_offset, amount;
-                    if (NL < cutoff) amount = 2.0 - (NgL + NL) / cutoff;
-                    else amount = 1.0 - NgL / cutoff;
-                    amount = amount < 0.0 ? 0.0 : (amount > 1.0 ? 1.0 : amount);
-                    for (int c = 0; c < 3; c++) origin[c] += amount * (lifted[3 * i + c] - P[c]);
+                for (int c = 0; c < 3; c++) {
+                    origins[3 * r + c] = (float)b.origin[c][k];
+                    directions[3 * r + c] = (float)b.D[c][k];
                 }
-                double D[3], t;
-                if (settings->robust != 0.0) {
-                    /* shadows.robust_rays: off the surface along Ng by the error bound, towards the
-                     * light point, stopping short of it by the rounding at its own coordinates. */
-                    for (int c = 0; c < 3; c++) origin[c] += offset[i] * ng[c];
-                    if (isfinite(ls.distance)) {
-                        double w[3] = {ls.position[0] - origin[0], ls.position[1] - origin[1],
-                                       ls.position[2] - origin[2]};
-                        double length = sqrt(dot3(w, w));
-                        double inverse = 1.0 / fmax(length, 1e-300);
-                        for (int c = 0; c < 3; c++) D[c] = w[c] * inverse;
-                        t = fmax(length - ROBUST_ULPS * FLOAT32_EPSILON * largest3(ls.position), 0.0);
-                    } else {
-                        for (int c = 0; c < 3; c++) D[c] = ls.L[c];
-                        t = ls.distance;
-                    }
-                } else {
-                    /* shadows.epsilon_rays: origin I + epsilon L, t_max = distance - 2 epsilon. */
-                    for (int c = 0; c < 3; c++) { origin[c] += settings->epsilon * ls.L[c]; D[c] = ls.L[c]; }
-                    t = fmax(ls.distance - 2.0 * settings->epsilon, 0.0);
-                }
-                for (int c = 0; c < 3; c++) { origins[3 * r + c] = (float)origin[c]; directions[3 * r + c] = (float)D[c]; }
-                t_max[r] = t < (double)T_INFINITY ? (float)t : T_INFINITY;
-                owner[r] = (int32_t)i;
+                t_max[r] = b.t[k] < (double)T_INFINITY ? (float)b.t[k] : T_INFINITY;
+                owner[r] = (int32_t)b.hit[k];
                 light_of[r] = (int32_t)l;
-                weight[r] = ls.strength * cosine * (1.0 / (double)count);
+                weight[r] = b.weight[k];
                 r++;
             }
         }
