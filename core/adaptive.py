@@ -38,6 +38,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import vectors
+
 # Brightness below which absolute rather than relative noise counts (as in the benchmark's relMSE,
 # whose denominator is r^2 + 0.01): noise of 0.01 in a black pixel is as visible as 1% of a white one.
 DARK = 0.1
@@ -148,17 +150,18 @@ def unconverged(pixels: np.ndarray, noise: PixelNoise, threshold: float, width: 
                 first: int = 0) -> np.ndarray:
     """Return the pixels (flat indices, a subset of `pixels`) that need another pass.
 
-    pixels: (p,) int64 flat indices of the rendered region; noise: PixelNoise over the whole
+    pixels: (p,) int64 sorted flat indices of the rendered region; noise: PixelNoise over the whole
     image (H * W rows); a pixel needs more when its noise, or a neighbour's, exceeds threshold.
     first: the first pass's size. A pixel that has only those samples also goes on when it
     differs from a neighbour by more than threshold * first: an edge runs nearby, and a sliver of
     it narrower than one of its first strata may be missed by all of them and look noiseless.
     """
+    region = vectors.selector(pixels)       # the whole image, or rows of it, without a gather
     noisy = np.zeros(height * width, bool)
-    noisy[pixels] = relative_noise(PixelNoise(noise.total[pixels], noise.squares[pixels],
-                                              noise.count[pixels])) > threshold
+    noisy[region] = relative_noise(PixelNoise(noise.total[region], noise.squares[region],
+                                              noise.count[region])) > threshold
     if first > 0:
         near_edge = edge_contrast(noise, width, height) > threshold * first
-        noisy[pixels] |= near_edge[pixels] & (noise.count[pixels] <= first)
+        noisy[region] |= near_edge[region] & (noise.count[region] <= first)
     wanted = grow(noisy.reshape(height, width)).reshape(-1)
-    return pixels[wanted[pixels]]
+    return pixels[wanted[region]]

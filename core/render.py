@@ -149,8 +149,7 @@ def region_pixels(settings: RenderSettings) -> np.ndarray:
     y0, y1 = max(0, int(y0)), min(H, int(y1))
     if x1 <= x0 or y1 <= y0:
         return np.zeros(0, np.int64)
-    ys, xs = np.mgrid[y0:y1, x0:x1]
-    return (ys * W + xs).reshape(-1).astype(np.int64)
+    return (np.arange(y0, y1, dtype=np.int64)[:, None] * W + np.arange(x0, x1, dtype=np.int64)).reshape(-1)
 
 
 class _Context:
@@ -551,7 +550,7 @@ def render(scene: Scene, settings: RenderSettings,
     queried = (tracer.intersect_seconds, tracer.occluded_seconds)
 
     def store(chunk: tuple, result: ChunkResult) -> None:
-        chunk_pixels = chunk[0]
+        chunk_pixels = vectors.selector(chunk[0])     # a chunk of the first pass: a run of rows
         noise.total[chunk_pixels] += result.rgba
         noise.squares[chunk_pixels] += result.squares
         noise.count[chunk_pixels] += result.samples

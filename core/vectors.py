@@ -67,6 +67,15 @@ def gather(values: np.ndarray, index: np.ndarray) -> np.ndarray:
     return out
 
 
+def selector(index: np.ndarray):
+    """Return what selects rows `index` (sorted, distinct) of an array: a slice where they form one
+    run, so that reading them is a view and adding to them is in place (no gather, no scatter);
+    else `index` itself. index: (n,) int64."""
+    if len(index) and index[-1] - index[0] + 1 == len(index):
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return index
+
+
 def transform(points: np.ndarray, linear: np.ndarray, offset: np.ndarray) -> np.ndarray:
     """Return linear @ p + offset for every row p, column-major: (n, 3), (3, 3), (3,) float64 -> (n, 3)."""
     x, y, z = points[:, 0], points[:, 1], points[:, 2]
