@@ -166,6 +166,26 @@ EXPORT void primer_sample_2d(int64_t seed, const int64_t *pixel, const int64_t *
         sample_2d(stream, pixel[i], index[i], out + 2 * i);
 }
 
+/* Samples are handled BLOCK at a time, one quantity per column (structure of arrays): each step is
+ * then one loop over the block's lanes with no branches, which the compiler turns into SIMD
+ * instructions (4 doubles or 8 integers at once with AVX2). The arithmetic of each lane is
+ * exactly the one-sample arithmetic beside it. */
+#define BLOCK 64
+
+/* sample_2d for n <= BLOCK samples: pixel, index (n,) their keys -> x, y (n,) the point. */
+SIMD_CLONES __attribute__((noinline)) static void sample_lanes(int64_t n, uint32_t stream,
+                                                               const uint32_t *restrict pixel,
+                                                               const uint32_t *restrict index,
+                                                               double *restrict x, double *restrict y)
+{
+    for (int64_t k = 0; k < n; k++) {
+        uint32_t key = hash_u32(pixel[k] ^ stream);
+        uint32_t shuffled = reverse_bits(laine_karras(reverse_bits(index[k]), key));
+        x[k] = reverse_bits(laine_karras(shuffled, combine_seed(key, 1))) * (1.0 / 4294967296.0);
+        y[k] = reverse_bits(laine_karras(sobol_y_mirrored(shuffled), combine_seed(key, 2))) * (1.0 / 4294967296.0);
+    }
+}
+
 /* ------------------------------------------------------------------------------------------------
  * Camera rays: render._render_chunk steps 1-2 and camera.generate_rays, for PERSP and ORTHO
  * --------------------------------------------------------------------------------------------- */
@@ -179,7 +199,72 @@ typedef struct {
     double renormalize;         /* 1 when the rotation is not orthonormal (a sheared parent) */
 } CameraRecord;
 
-/* The camera rays of `spp` samples in each of `p` pixels, camera-relative.
+/* A block of camera samples: their pixels' keys and positions, their points, their rays. */
+typedef struct {
+    int64_t n;
+    uint32_t pixel[BLOCK], index[BLOCK];
+    double column[BLOCK], row[BLOCK];            /* the pixel's x and y on the image */
+    double u[2][BLOCK];                          /* the sample's point inside its pixel */
+    double O[3][BLOCK], D[3][BLOCK], t[BLOCK];
+} CameraBlock;
+
+/* One camera ray per lane (inlined once per camera kind, so that the loop has no branch). */
+INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict record, int64_t width,
+                         int64_t height, int orthographic, int renormalize)
+{
+    const CameraRecord camera = *record;   /* a local copy: every lane may read every field */
+    const double *R = camera.rotation;
+    for (int64_t k = 0; k < b->n; k++) {
+        /* 1. The sample's position on the image plane. */
+        double raster_x = b->column[k] + b->u[0][k];
+        double raster_y = b->row[k] + b->u[1][k];
+        double plane_x = camera.left + (raster_x / (double)width) * (camera.right - camera.left);
+        double plane_y = camera.top - (raster_y / (double)height) * (camera.top - camera.bottom);
+        /* 2. The ray in the camera's frame, starting on the near clip plane. */
+        double o[3], d[3], t;
+        if (!orthographic) {
+            double length = sqrt(plane_x * plane_x + plane_y * plane_y + 1.0);
+            d[0] = plane_x / length; d[1] = plane_y / length; d[2] = -1.0 / length;
+            double cos_to_axis = -d[2];
+            double start = camera.clip_start / cos_to_axis;
+            o[0] = d[0] * start; o[1] = d[1] * start; o[2] = d[2] * start;
+            t = (camera.clip_end - camera.clip_start) / cos_to_axis;
+        } else {
+            o[0] = plane_x; o[1] = plane_y; o[2] = -camera.clip_start;
+            d[0] = 0.0; d[1] = 0.0; d[2] = -1.0;
+            t = camera.clip_end - camera.clip_start;
+        }
+        /* 3. Into the camera-relative world frame. */
+        double O[3], D[3];
+        for (int c = 0; c < 3; c++) {
+            O[c] = R[3 * c] * o[0] + R[3 * c + 1] * o[1] + R[3 * c + 2] * o[2] + camera.eye[c];
+            D[c] = R[3 * c] * d[0] + R[3 * c + 1] * d[1] + R[3 * c + 2] * d[2];
+        }
+        if (renormalize) {
+            double length = sqrt(dot3(D, D));
+            D[0] /= length; D[1] /= length; D[2] /= length;
+        }
+        for (int c = 0; c < 3; c++) { b->O[c][k] = O[c]; b->D[c][k] = D[c]; }
+        b->t[k] = t;
+    }
+}
+
+SIMD_CLONES __attribute__((noinline)) static void camera_block(CameraBlock *restrict b,
+                                                               const CameraRecord *restrict camera,
+                                                               int64_t width, int64_t height)
+{
+    int orthographic = camera->orthographic != 0.0, renormalize = camera->renormalize != 0.0;
+    if (orthographic) {
+        if (renormalize) camera_lanes(b, camera, width, height, 1, 1);
+        else camera_lanes(b, camera, width, height, 1, 0);
+    } else {
+        if (renormalize) camera_lanes(b, camera, width, height, 0, 1);
+        else camera_lanes(b, camera, width, height, 0, 0);
+    }
+}
+
+/* The camera rays of `spp` samples in each of `p` pixels, camera-relative: render._render_chunk
+ * steps 1-2 and camera.generate_rays, for PERSP and ORTHO.
  * pixels, first: (p,) int64 (first: samples each pixel already has); width, height: the image.
  * Out: origins, directions (p spp, 3) float64; t_max (p spp,) float64. */
 EXPORT void primer_camera_rays(const CameraRecord *camera, int64_t seed, int64_t width, int64_t height,
@@ -187,43 +272,27 @@ EXPORT void primer_camera_rays(const CameraRecord *camera, int64_t seed, int64_t
                                double *origins, double *directions, double *t_max)
 {
     uint32_t stream = stream_of(seed, 0);
-    const double *R = camera->rotation;
-    for (int64_t k = 0; k < p; k++) {
-        int64_t pixel = pixels[k];
-        for (int64_t j = 0; j < spp; j++) {
-            int64_t i = k * spp + j;
-            /* 1. The sample's position inside its pixel, then on the image plane. */
-            double u[2];
-            sample_2d(stream, pixel, first[k] + j, u);
-            double raster_x = (double)(pixel % width) + u[0];
-            double raster_y = (double)(pixel / width) + u[1];
-            double plane_x = camera->left + (raster_x / (double)width) * (camera->right - camera->left);
-            double plane_y = camera->top - (raster_y / (double)height) * (camera->top - camera->bottom);
-            /* 2. The ray in the camera's frame, starting on the near clip plane. */
-            double o[3], d[3], t;
-            if (camera->orthographic == 0.0) {
-                double length = sqrt(plane_x * plane_x + plane_y * plane_y + 1.0);
-                d[0] = plane_x / length; d[1] = plane_y / length; d[2] = -1.0 / length;
-                double cos_to_axis = -d[2];
-                double start = camera->clip_start / cos_to_axis;
-                o[0] = d[0] * start; o[1] = d[1] * start; o[2] = d[2] * start;
-                t = (camera->clip_end - camera->clip_start) / cos_to_axis;
-            } else {
-                o[0] = plane_x; o[1] = plane_y; o[2] = -camera->clip_start;
-                d[0] = 0.0; d[1] = 0.0; d[2] = -1.0;
-                t = camera->clip_end - camera->clip_start;
-            }
-            /* 3. Into the camera-relative world frame. */
-            double *O = origins + 3 * i, *D = directions + 3 * i;
-            for (int c = 0; c < 3; c++) {
-                O[c] = R[3 * c] * o[0] + R[3 * c + 1] * o[1] + R[3 * c + 2] * o[2] + camera->eye[c];
-                D[c] = R[3 * c] * d[0] + R[3 * c + 1] * d[1] + R[3 * c + 2] * d[2];
-            }
-            if (camera->renormalize != 0.0) {
-                double length = sqrt(dot3(D, D));
-                D[0] /= length; D[1] /= length; D[2] /= length;
-            }
-            t_max[i] = t;
+    int64_t total = p * spp;
+    CameraBlock b;
+    for (int64_t start = 0; start < total; start += BLOCK) {
+        /* 1. The block's samples: sample j of pixel k is sample first[k] + j of its pattern. */
+        b.n = total - start < BLOCK ? total - start : BLOCK;
+        int64_t k = start / spp, j = start % spp;
+        for (int64_t lane = 0; lane < b.n; lane++) {
+            int64_t pixel = pixels[k];
+            b.pixel[lane] = (uint32_t)pixel;
+            b.index[lane] = (uint32_t)(first[k] + j);
+            b.column[lane] = (double)(pixel % width);
+            b.row[lane] = (double)(pixel / width);
+            if (++j == spp) { j = 0; k++; }
+        }
+        /* 2. Their points in the pixels, then their rays. */
+        sample_lanes(b.n, stream, b.pixel, b.index, b.u[0], b.u[1]);
+        camera_block(&b, camera, width, height);
+        for (int64_t lane = 0; lane < b.n; lane++) {
+            int64_t i = start + lane;
+            for (int c = 0; c < 3; c++) { origins[3 * i + c] = b.O[c][lane]; directions[3 * i + c] = b.D[c][lane]; }
+            t_max[i] = b.t[lane];
         }
     }
 }
@@ -499,12 +568,7 @@ typedef struct {
     double seed;
 } ShadowSettings;
 
-/* Light samples are handled BLOCK at a time, one quantity per column (structure of arrays): each
- * step below is then one loop over the block's lanes with no branches, which the compiler turns
- * into SIMD instructions (4 doubles or 8 integers at once with AVX2). The arithmetic of each lane
- * is exactly the one-sample arithmetic above. */
-#define BLOCK 64
-
+/* Light samples, BLOCK at a time (see sample_lanes). */
 typedef struct {
     int64_t n;                                   /* lanes in use */
     int64_t hit[BLOCK];                          /* the hit each light sample belongs to */
@@ -533,24 +597,11 @@ SIMD_CLONES __attribute__((noinline)) static void gather_block(SampleBlock *b, i
             b->P[c][k] = I[3 * i + c];
             b->N[c][k] = N[3 * i + c];
             b->Ng[c][k] = Ng[3 * i + c];
-            b->lifted[c][k] = lifted != NULL ? lifted[3 * i + c] : 0.0;
+            b->lifted[c][k] = lifted != NULL && smooth[i] ? lifted[3 * i + c] : I[3 * i + c];   /* (unset for flat hits) */
         }
         b->offset[k] = offset[i];
         b->smooth[k] = smooth[i] ? 1.0 : 0.0;
         if (++j == count) { j = 0; i++; }
-    }
-}
-
-/* Step 1: each sample's point in the unit square (sampling.sample_2d, bit for bit). */
-SIMD_CLONES __attribute__((noinline)) static void sample_block(SampleBlock *b, uint32_t stream)
-{
-    for (int64_t k = 0; k < b->n; k++) {
-        uint32_t key = hash_u32(b->pixel[k] ^ stream);
-        uint32_t shuffled = reverse_bits(laine_karras(reverse_bits(b->index[k]), key));
-        uint32_t x = reverse_bits(laine_karras(shuffled, combine_seed(key, 1)));
-        uint32_t y = reverse_bits(laine_karras(sobol_y_mirrored(shuffled), combine_seed(key, 2)));
-        b->u[0][k] = x * (1.0 / 4294967296.0);
-        b->u[1][k] = y * (1.0 / 4294967296.0);
     }
 }
 
@@ -668,7 +719,7 @@ EXPORT int64_t primer_shadow_rays(const ShadowSettings *settings, const LightRec
             /* 0-3. The block's hits, sample points, light samples and rays. */
             gather_block(&b, first, total - first < BLOCK ? total - first : BLOCK, count,
                          I, N, Ng, offset, smooth, lift_from, pixel, sample);
-            if (light->delta == 0.0) sample_block(&b, stream);
+            if (light->delta == 0.0) sample_lanes(b.n, stream, b.pixel, b.index, b.u[0], b.u[1]);
             else for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = 0.0;
             light_block(&b, light);
             ray_block(&b, settings, lift_from != NULL, (double)count);
