@@ -482,11 +482,13 @@ def _plan_chunks(pixels: int, spp: int, chunk_size: int, threads: int) -> tuple[
     thread PARALLEL_MIN_SAMPLES runs on fewer threads (adaptive sampling's later passes often on one);
     otherwise it is cut into one chunk per thread at least, so that every core works.
     """
-    per_chunk = max(1, chunk_size // spp)
     workers = max(1, min(threads, (pixels * spp) // PARALLEL_MIN_SAMPLES))
-    if workers > 1:
-        per_chunk = min(per_chunk, -(-pixels // workers))
-    return per_chunk, workers
+    # As few chunks as chunk_size allows, rounded up to a multiple of the workers, all of one size:
+    # so that every worker gets the same share (5 chunks on 2 threads would leave one idle a fifth
+    # of the pass).
+    chunks = -(-pixels * spp // max(1, chunk_size))
+    chunks = workers * -(-chunks // workers)
+    return max(1, -(-pixels // chunks)), workers
 
 
 def _usable_cores() -> int:

@@ -56,6 +56,18 @@ def test_small_passes_run_on_one_thread_and_large_ones_on_every_thread_within_th
     assert some[1] == 3 and -(-(3 * least // 16) // some[0]) >= 3     # three threads, a chunk each
 
 
+def test_a_pass_is_cut_into_equal_chunks_every_thread_gets_as_many_of():
+    """76,800 pixels of 4 samples in chunks of at most 65,536 samples on 2 threads: not 4 full chunks
+    and a small fifth (one thread idle for a fifth of the pass) but 6 of 12,800 pixels."""
+    per_chunk, workers = render._plan_chunks(pixels=76_800, spp=4, chunk_size=1 << 16, threads=2)
+    assert (per_chunk, workers) == (12_800, 2)
+    for pixels, spp, threads in [(76_800, 16, 2), (100_003, 8, 3), (5_000, 64, 4)]:
+        per_chunk, workers = render._plan_chunks(pixels, spp, 1 << 16, threads)
+        chunks = -(-pixels // per_chunk)
+        assert per_chunk * spp <= 1 << 16 and chunks % workers == 0
+        assert pixels - (chunks - 1) * per_chunk >= per_chunk - chunks     # the last chunk is nearly full
+
+
 def test_region_renders_only_its_pixels():
     """A region (render border) fills exactly its rectangle with the same values as a full render."""
     scene = showcase_scene()
