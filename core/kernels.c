@@ -908,3 +908,85 @@ EXPORT int64_t primer_kernels_abi(void) { return PRIMER_KERNELS_ABI; }
 EXPORT int64_t primer_light_record_size(void) { return (int64_t)sizeof(LightRecord); }
 EXPORT int64_t primer_camera_record_size(void) { return (int64_t)sizeof(CameraRecord); }
 EXPORT int64_t primer_shadow_settings_size(void) { return (int64_t)sizeof(ShadowSettings); }
+
+/* ------------------------------------------------------------------------------------------------
+ * Adaptive sampling: adaptive.unconverged, one pass over the image instead of numpy's twenty
+ * --------------------------------------------------------------------------------------------- */
+
+#define DARK 0.1                /* core/adaptive.py */
+
+/* Luminance of an RGBA sum (adaptive.LUMINANCE), summed in numpy's einsum order. */
+INLINE double luminance_of(const double *rgba, const double *weights)
+{
+    return rgba[0] * weights[0] + rgba[1] * weights[1] + rgba[2] * weights[2];
+}
+
+/* The larger of two errors, NaN if either is (np.maximum). */
+INLINE double larger_or_nan(double a, double b) { return isnan(a) || isnan(b) ? NAN : (a > b ? a : b); }
+
+/* adaptive.relative_noise of one pixel: the standard error of its mean luminance relative to
+ * sqrt(mean^2 + DARK^2), or of its alpha where larger; inf with fewer than 2 samples. */
+INLINE double relative_noise(const double *total, const double *squares, int64_t count, const double *weights)
+{
+    if (count < 2) return INFINITY;
+    double n = (double)count;
+    double luminance = luminance_of(total, weights) / n, alpha = total[3] / n;
+    double variance_y = at_least(squares[0] / n - luminance * luminance, 0.0) * n / (n - 1.0);
+    double variance_a = at_least(squares[1] / n - alpha * alpha, 0.0) * n / (n - 1.0);
+    double error_y = sqrt(variance_y / n) / sqrt(luminance * luminance + DARK * DARK);
+    return larger_or_nan(error_y, sqrt(variance_a / n));
+}
+
+/* adaptive.edge_contrast's relative difference of two neighbours' mean luminances. */
+INLINE double contrast(double a, double b)
+{
+    return fabs(a - b) / sqrt((0.5 * (a + b)) * (0.5 * (a + b)) + DARK * DARK);
+}
+
+/* The pixels that need another pass (adaptive.unconverged): a subset of `pixels`, in their order.
+ * total (H W, 4), squares (H W, 2) float64 and count (H W,) int64 are the running sums; pixels
+ * (p,) int64 the region's pixels; first the first pass's size (0: no edge test).
+ * Scratch: mean (H W,) float64, noisy and grown (H W,) uint8. Out: wanted (at most p) int64;
+ * returns how many. */
+EXPORT int64_t primer_unconverged(int64_t width, int64_t height, const double *total, const double *squares,
+                                  const int64_t *count, const double *weights, const int64_t *pixels, int64_t p,
+                                  double threshold, int64_t first, double *mean, uint8_t *noisy, uint8_t *grown,
+                                  int64_t *wanted)
+{
+    int64_t size = width * height;
+    /* 1. Noisy pixels of the region. */
+    for (int64_t i = 0; i < size; i++) noisy[i] = 0;
+    for (int64_t k = 0; k < p; k++) {
+        int64_t i = pixels[k];
+        noisy[i] = relative_noise(total + 4 * i, squares + 2 * i, count[i], weights) > threshold;
+    }
+    /* 2. Pixels with only the first pass's samples beside an edge (a contrast to a neighbour, both
+     *    sampled, above threshold * first). */
+    if (first > 0) {
+        for (int64_t i = 0; i < size; i++)
+            mean[i] = luminance_of(total + 4 * i, weights) / (double)(count[i] > 1 ? count[i] : 1);
+        double limit = threshold * (double)first;
+        for (int64_t k = 0; k < p; k++) {
+            int64_t i = pixels[k], x = i % width, y = i / width;
+            if (count[i] > first || count[i] == 0) continue;
+            double edge = 0.0;
+            if (x > 0 && count[i - 1] > 0) edge = at_least(contrast(mean[i], mean[i - 1]), edge);
+            if (x + 1 < width && count[i + 1] > 0) edge = at_least(contrast(mean[i + 1], mean[i]), edge);
+            if (y > 0 && count[i - width] > 0) edge = at_least(contrast(mean[i], mean[i - width]), edge);
+            if (y + 1 < height && count[i + width] > 0) edge = at_least(contrast(mean[i + width], mean[i]), edge);
+            if (edge > limit) noisy[i] = 1;
+        }
+    }
+    /* 3. Grow by one pixel in each of the 8 directions (rows, then columns), keep the region's. */
+    for (int64_t y = 0; y < height; y++)
+        for (int64_t x = 0; x < width; x++) {
+            int64_t i = y * width + x;
+            grown[i] = noisy[i] | (y > 0 ? noisy[i - width] : 0) | (y + 1 < height ? noisy[i + width] : 0);
+        }
+    int64_t r = 0;
+    for (int64_t k = 0; k < p; k++) {
+        int64_t i = pixels[k], x = i % width;
+        if (grown[i] | (x > 0 ? grown[i - 1] : 0) | (x + 1 < width ? grown[i + 1] : 0)) wanted[r++] = i;
+    }
+    return r;
+}

@@ -563,8 +563,9 @@ def render(scene: Scene, settings: RenderSettings,
         stats.shadow_rays += result.shadow
         stats.shading_seconds += result.shading_seconds
 
+    unconverged = adaptive.unconverged
     if not ctx.numpy_because:
-        render_chunk = _render_chunk_compiled
+        render_chunk, unconverged = _render_chunk_compiled, kernels.unconverged
         stats.kernels = "compiled"
     else:
         render_chunk = _render_chunk_timed if "time" in settings.aux else _render_chunk
@@ -574,7 +575,7 @@ def render(scene: Scene, settings: RenderSettings,
         for index, spp in enumerate(passes):
             # 1. Which pixels still need samples: all of them at first, then the noisy ones.
             if index > 0:
-                pixels = adaptive.unconverged(region, noise, threshold, W, H, passes[0])
+                pixels = unconverged(region, noise, threshold, W, H, passes[0])
                 if len(pixels) == 0:
                     break
             # 2. A pass of `spp` more samples over them, chunk by chunk: each pixel continues its own

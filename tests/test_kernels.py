@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from core import camera as camera_
-from core import intersect, kernels, primitives, render, sampling, shadows
+from core import adaptive, intersect, kernels, primitives, render, sampling, shadows
 from core.camera import Camera
 from core.geometry import build_geometry
 from core.scene import AreaLight, Instance, PointLight, RenderSettings, Scene, SpotLight, SunLight
@@ -307,3 +307,29 @@ def test_many_lights_are_split_into_bounded_groups():
     groups = kernels.light_groups(records, kernels.RAY_BUDGET // 32)
     assert groups == [(0, 2), (2, 4), (4, 5)]
     assert kernels.light_groups(records, 10 * kernels.RAY_BUDGET) == [(i, i + 1) for i in range(5)]
+
+
+@pytest.mark.parametrize("first", [0, 4])
+def test_unconverged_pixels_agree(first):
+    """The noise test between passes picks exactly adaptive.unconverged's pixels: random sums with
+    unsampled pixels, pixels of one sample, dark and bright ones, over the whole image and a region."""
+    rng = np.random.default_rng(first)
+    H, W = 37, 53
+    count = rng.choice([0, 1, 4, 8, 16], H * W, p=[0.01, 0.01, 0.5, 0.3, 0.18]).astype(np.int64)
+    mean = np.repeat(rng.choice([0.0, 0.02, 0.5, 3.0], (H, 1, 4)), W, axis=1).reshape(H * W, 4)   # bands
+    mean *= rng.uniform(0.95, 1.05, (H * W, 4))
+    mean[:, 3] = rng.choice([1.0, 0.7], H * W, p=[0.95, 0.05])
+    spread = rng.choice([0.0, 1e-4, 0.3], (H * W, 2), p=[0.9, 0.07, 0.03])
+    total = mean * count[:, None]
+    luminance = mean[:, :3] @ adaptive.LUMINANCE
+    squares = np.stack([luminance ** 2, mean[:, 3] ** 2], axis=1) * (1.0 + spread) * count[:, None]
+    noise = adaptive.PixelNoise(total, squares, count)
+    everything = np.arange(H * W, dtype=np.int64)
+    region = (np.arange(5, 30)[:, None] * W + np.arange(10, 41)).reshape(-1)
+    partial = []
+    for pixels in (everything, region):
+        for threshold in (0.02, 0.1, 0.3):
+            expected = adaptive.unconverged(pixels, noise, threshold, W, H, first)
+            np.testing.assert_array_equal(kernels.unconverged(pixels, noise, threshold, W, H, first), expected)
+            partial.append(0 < len(expected) < len(pixels))
+    assert sum(partial) >= 4           # most cases keep some pixels and drop others
