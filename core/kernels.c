@@ -921,50 +921,62 @@ INLINE double luminance_of(const double *rgba, const double *weights)
     return rgba[0] * weights[0] + rgba[1] * weights[1] + rgba[2] * weights[2];
 }
 
-/* The larger of two errors, NaN if either is (np.maximum). */
-INLINE double larger_or_nan(double a, double b) { return isnan(a) || isnan(b) ? NAN : (a > b ? a : b); }
-
-/* adaptive.relative_noise of one pixel: the standard error of its mean luminance relative to
- * sqrt(mean^2 + DARK^2), or of its alpha where larger; inf with fewer than 2 samples. */
-INLINE double relative_noise(const double *total, const double *squares, int64_t count, const double *weights)
-{
-    if (count < 2) return INFINITY;
-    double n = (double)count;
-    double luminance = luminance_of(total, weights) / n, alpha = total[3] / n;
-    double variance_y = at_least(squares[0] / n - luminance * luminance, 0.0) * n / (n - 1.0);
-    double variance_a = at_least(squares[1] / n - alpha * alpha, 0.0) * n / (n - 1.0);
-    double error_y = sqrt(variance_y / n) / sqrt(luminance * luminance + DARK * DARK);
-    return larger_or_nan(error_y, sqrt(variance_a / n));
-}
-
 /* adaptive.edge_contrast's relative difference of two neighbours' mean luminances. */
 INLINE double contrast(double a, double b)
 {
     return fabs(a - b) / sqrt((0.5 * (a + b)) * (0.5 * (a + b)) + DARK * DARK);
 }
 
+/* adaptive.relative_noise of pixels lo .. hi - 1 into error[i], in a loop without branches. */
+SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_t hi, const double *restrict total,
+                                                              const double *restrict squares,
+                                                              const int64_t *restrict count,
+                                                              const double *restrict weights,
+                                                              double *restrict error)
+{
+    double w[3] = {weights[0], weights[1], weights[2]};
+    for (int64_t i = lo; i < hi; i++) {
+        double n = (double)count[i];
+        double luminance = luminance_of(total + 4 * i, w) / n, alpha = total[4 * i + 3] / n;
+        double variance_y = at_least(squares[2 * i] / n - luminance * luminance, 0.0) * n / (n - 1.0);
+        double variance_a = at_least(squares[2 * i + 1] / n - alpha * alpha, 0.0) * n / (n - 1.0);
+        double error_y = sqrt(variance_y / n) / sqrt(luminance * luminance + DARK * DARK);
+        double error_a = sqrt(variance_a / n);
+        double larger = error_y > error_a ? error_y : error_a;
+        larger = (error_y != error_y) | (error_a != error_a) ? NAN : larger;     /* np.maximum keeps NaN */
+        error[i] = count[i] >= 2 ? larger : INFINITY;
+    }
+}
+
+/* Each pixel's mean luminance over max(count, 1) samples (adaptive.edge_contrast's). */
+SIMD_CLONES __attribute__((noinline)) static void mean_lanes(int64_t size, const double *restrict total,
+                                                             const int64_t *restrict count,
+                                                             const double *restrict weights, double *restrict mean)
+{
+    double w[3] = {weights[0], weights[1], weights[2]};
+    for (int64_t i = 0; i < size; i++) mean[i] = luminance_of(total + 4 * i, w) / (double)(count[i] > 1 ? count[i] : 1);
+}
+
 /* The pixels that need another pass (adaptive.unconverged): a subset of `pixels`, in their order.
  * total (H W, 4), squares (H W, 2) float64 and count (H W,) int64 are the running sums; pixels
  * (p,) int64 the region's pixels; first the first pass's size (0: no edge test).
- * Scratch: mean (H W,) float64, noisy and grown (H W,) uint8. Out: wanted (at most p) int64;
+ * Scratch: error and mean (H W,) float64, noisy and grown (H W,) uint8. Out: wanted (at most p) int64;
  * returns how many. */
 EXPORT int64_t primer_unconverged(int64_t width, int64_t height, const double *total, const double *squares,
                                   const int64_t *count, const double *weights, const int64_t *pixels, int64_t p,
-                                  double threshold, int64_t first, double *mean, uint8_t *noisy, uint8_t *grown,
-                                  int64_t *wanted)
+                                  double threshold, int64_t first, double *error, double *mean, uint8_t *noisy,
+                                  uint8_t *grown, int64_t *wanted)
 {
     int64_t size = width * height;
-    /* 1. Noisy pixels of the region. */
+    if (p == 0) return 0;
+    /* 1. Noisy pixels of the region (the noise of every pixel from its first to its last, at once). */
+    noise_lanes(pixels[0], pixels[p - 1] + 1, total, squares, count, weights, error);
+    if (first > 0) mean_lanes(size, total, count, weights, mean);
     for (int64_t i = 0; i < size; i++) noisy[i] = 0;
-    for (int64_t k = 0; k < p; k++) {
-        int64_t i = pixels[k];
-        noisy[i] = relative_noise(total + 4 * i, squares + 2 * i, count[i], weights) > threshold;
-    }
+    for (int64_t k = 0; k < p; k++) noisy[pixels[k]] = error[pixels[k]] > threshold;
     /* 2. Pixels with only the first pass's samples beside an edge (a contrast to a neighbour, both
      *    sampled, above threshold * first). */
     if (first > 0) {
-        for (int64_t i = 0; i < size; i++)
-            mean[i] = luminance_of(total + 4 * i, weights) / (double)(count[i] > 1 ? count[i] : 1);
         double limit = threshold * (double)first;
         for (int64_t k = 0; k < p; k++) {
             int64_t i = pixels[k], x = i % width, y = i / width;

@@ -133,7 +133,7 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_add_light": (None, [p, i64, p, p, p, p, p]),
         "primer_film": (None, [i64, i64, p, p, p, i64, p, p, p, p, p, p, p]),
         "primer_occluded": (None, [p, p, i64, p, p, p, p]),
-        "primer_unconverged": (i64, [i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64, p, p, p, p]),
+        "primer_unconverged": (i64, [i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64, p, p, p, p, p]),
         "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p]),
     }
     for name, (restype, argtypes) in signatures.items():
@@ -471,11 +471,13 @@ def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height:
     pixels = _c(pixels, np.int64)
     wanted = np.empty(len(pixels), np.int64)
     weights = _c(adaptive.LUMINANCE, np.float64)
-    mean, noisy, grown = np.empty(size), np.empty(size, np.uint8), np.empty(size, np.uint8)     # scratch
+    error, mean = np.empty(size), np.empty(size)                                 # scratch
+    noisy, grown = np.empty(size, np.uint8), np.empty(size, np.uint8)
     count = library().primer_unconverged(
         width, height, _ptr(noise.total, np.float64), _ptr(noise.squares, np.float64), _ptr(noise.count, np.int64),
         _ptr(weights, np.float64), _ptr(pixels, np.int64), len(pixels), float(threshold), int(first),
-        _ptr(mean, np.float64), _ptr(noisy, np.uint8), _ptr(grown, np.uint8), _ptr(wanted, np.int64))
+        _ptr(error, np.float64), _ptr(mean, np.float64), _ptr(noisy, np.uint8), _ptr(grown, np.uint8),
+        _ptr(wanted, np.int64))
     return wanted[:count]
 
 
