@@ -903,6 +903,23 @@ EXPORT void primer_intersect(void *function, void *scene, int64_t n, const doubl
     }
 }
 
+/* Add a chunk's per-pixel sums into the render's running sums, in place (render.render's store):
+ * rgba (p, 4), squares (p, 2) float64 and hits (p,) int64 of pixels (p,) int64, spp samples each,
+ * into total (H W, 4), squares_sum (H W, 2) float64, count and hits_sum (H W,) int64. The chunks of
+ * a pass have pixels of their own, so the threads rendering them may add at the same time. */
+EXPORT void primer_add_pixels(int64_t p, const int64_t *pixels, int64_t spp, const double *rgba, const double *squares,
+                              const int64_t *hits, double *total, double *squares_sum, int64_t *count, int64_t *hits_sum)
+{
+    for (int64_t k = 0; k < p; k++) {
+        int64_t i = pixels[k];
+        for (int c = 0; c < 4; c++) total[4 * i + c] += rgba[4 * k + c];
+        squares_sum[2 * i] += squares[2 * k];
+        squares_sum[2 * i + 1] += squares[2 * k + 1];
+        count[i] += spp;
+        hits_sum[i] += hits[k];
+    }
+}
+
 /* For core/kernels.py's checks: this file's interface version and its records' sizes. */
 EXPORT int64_t primer_kernels_abi(void) { return PRIMER_KERNELS_ABI; }
 EXPORT int64_t primer_light_record_size(void) { return (int64_t)sizeof(LightRecord); }

@@ -133,6 +133,7 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_add_light": (None, [p, i64, p, p, p, p, p]),
         "primer_film": (None, [i64, i64, p, p, p, i64, p, p, p, p, p, p, p]),
         "primer_occluded": (None, [p, p, i64, p, p, p, p]),
+        "primer_add_pixels": (None, [i64, p, i64, p, p, p, p, p, p, p]),
         "primer_unconverged": (i64, [i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64, p, p, p, p, p]),
         "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p]),
     }
@@ -458,6 +459,18 @@ def film(p: int, spp: int, valid: Optional[np.ndarray], background: np.ndarray, 
                           _ptr(rgba, np.float64), _ptr(squares if want_squares else None, np.float64),
                           _ptr(hits, np.int64))
     return rgba, squares, hits
+
+
+def add_pixels(pixels: np.ndarray, spp: int, rgba: np.ndarray, squares: np.ndarray, hits: np.ndarray, noise,
+               hits_sum: np.ndarray) -> None:
+    """Add a chunk's per-pixel sums to the render's, in place: noise (adaptive.PixelNoise over the
+    image) and hits_sum (H W,) int64. pixels (p,) int64 distinct; rgba (p, 4), squares (p, 2)
+    float64; hits (p,) int64. Called by the thread that rendered the chunk (render.render's store)."""
+    pixels = _c(pixels, np.int64)
+    library().primer_add_pixels(len(pixels), _ptr(pixels, np.int64), int(spp), _ptr(rgba, np.float64),
+                                _ptr(squares, np.float64), _ptr(hits, np.int64), _ptr(noise.total, np.float64),
+                                _ptr(noise.squares, np.float64), _ptr(noise.count, np.int64),
+                                _ptr(hits_sum, np.int64))
 
 
 def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height: int, first: int = 0) -> np.ndarray:

@@ -170,6 +170,8 @@ class _Context:
         # count as lying in it (core/debug.py, self_intersections).
         self.self_hit_distance = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry)
                                   if "acne" in settings.aux else 0.0)
+        # The render's running sums (PixelNoise, hits per pixel) when chunks add to them themselves.
+        self.sums = None
         # The compiled kernels' records of the scene (core/kernels.py), when they apply.
         self.numpy_because = kernels.why_not(settings)
         if not self.numpy_because:
@@ -192,6 +194,8 @@ class ChunkResult(NamedTuple):
                noise estimate; zeros without adaptive sampling)
     aux:       name -> (p, c) float64 sum of the auxiliary values over the samples that hit
     hits:      (p,) int64 samples that hit a surface
+               (rgba, squares and hits are None where the chunk added them to the render's sums
+               itself: the compiled path, render._Context.sums)
     primary:   camera rays traced (a fisheye's samples outside its image circle trace none)
     shadow:    shadow rays traced
     shading_seconds: time spent shading (Embree's shadow queries included)
@@ -348,6 +352,10 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
     per_pixel, squares, hits_per_pixel = kernels.film(p, spp, valid, ctx.background, h, albedo, E,
                                                       adaptive.LUMINANCE, s.adaptive)
     primary = p * spp if traced is None else len(traced)
+    if ctx.sums is not None:
+        # 6. Into the render's running sums, here in the worker rather than in the waiting thread.
+        kernels.add_pixels(pixels, spp, per_pixel, squares, hits_per_pixel, *ctx.sums)
+        return ChunkResult(None, None, {}, None, primary, shadow_rays, shading_seconds, spp)
     return ChunkResult(per_pixel, squares, {}, hits_per_pixel, primary, shadow_rays, shading_seconds, spp)
 
 
@@ -552,11 +560,12 @@ def render(scene: Scene, settings: RenderSettings,
     queried = (tracer.intersect_seconds, tracer.occluded_seconds)
 
     def store(chunk: tuple, result: ChunkResult) -> None:
-        chunk_pixels = vectors.selector(chunk[0])     # a chunk of the first pass: a run of rows
-        noise.total[chunk_pixels] += result.rgba
-        noise.squares[chunk_pixels] += result.squares
-        noise.count[chunk_pixels] += result.samples
-        aux_hits[chunk_pixels] += result.hits
+        if result.rgba is not None:                       # (else the chunk added its sums itself)
+            chunk_pixels = vectors.selector(chunk[0])     # a chunk of the first pass: a run of rows
+            noise.total[chunk_pixels] += result.rgba
+            noise.squares[chunk_pixels] += result.squares
+            noise.count[chunk_pixels] += result.samples
+            aux_hits[chunk_pixels] += result.hits
         for name, values in result.aux.items():
             aux_total[name][chunk_pixels] += values
         stats.primary_rays += result.primary
@@ -564,6 +573,7 @@ def render(scene: Scene, settings: RenderSettings,
         stats.shading_seconds += result.shading_seconds
 
     unconverged = adaptive.unconverged
+    ctx.sums = None if ctx.numpy_because else (noise, aux_hits)
     if not ctx.numpy_because:
         render_chunk, unconverged = _render_chunk_compiled, kernels.unconverged
         stats.kernels = "compiled"
