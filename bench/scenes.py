@@ -251,12 +251,16 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
             return original[query](self, origins, directions, t_max)
         return traced
 
+    # The compiled render traces its shadow rays inside its shading kernel; for the recording, it asks
+    # Tracer.occluded instead, with the very same rays (tests/test_kernels.py checks they are the same).
     Tracer.__init__, Tracer.intersect, Tracer.occluded = init, recording("intersect"), recording("occluded")
+    Tracer.stream_shadow_rays = False
     try:
         render_timed()
     finally:
         for method_name, method in original.items():
             setattr(Tracer, method_name, method)
+        Tracer.stream_shadow_rays = True
     n_rays = sum(len(b[1]) for b in batches)
     if n_rays != record.rays or len(meshes) != 1:
         raise RuntimeError(f"recorded {n_rays} rays in {len(meshes)} BVH(s); the render traced {record.rays}")

@@ -111,10 +111,24 @@ class Tracer:
         if packets:
             self._packets = kernels.embree_packets(self._scene, self._device)
 
+    # Whether a compiled render may trace its shadow rays inside its shading kernel (kernels.shade),
+    # through `packets`, rather than asking `occluded`: the same rays and answers, with no arrays of
+    # rays in between. The benchmark switches it off to record every ray that reaches Embree.
+    stream_shadow_rays = True
+
     @property
     def packed(self) -> bool:
         """Whether the queries go to Embree in packets of 8 rays."""
         return self._packets is not None
+
+    @property
+    def packets(self):
+        """The packet queries' addresses (kernels.EmbreePackets), or None."""
+        return self._packets
+
+    def count_occluded(self, seconds: float) -> None:
+        """Count `seconds` that a compiled kernel spent in Embree's occlusion queries (as `occluded` would)."""
+        self._count("occluded_seconds", seconds)
 
     def _share(self, vertices: np.ndarray, triangles: np.ndarray) -> bool:
         """Attach the mesh as buffers Embree reads in place; return False (nothing attached) if it cannot be done."""

@@ -14,9 +14,11 @@
  *
  * Built by tools/build_kernels.py (`make kernels`), loaded by core/kernels.py.
  */
+#define _POSIX_C_SOURCE 199309L   /* clock_gettime */
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <time.h>
 
 #define PRIMER_KERNELS_ABI 1
 
@@ -925,6 +927,88 @@ EXPORT int64_t primer_kernels_abi(void) { return PRIMER_KERNELS_ABI; }
 EXPORT int64_t primer_light_record_size(void) { return (int64_t)sizeof(LightRecord); }
 EXPORT int64_t primer_camera_record_size(void) { return (int64_t)sizeof(CameraRecord); }
 EXPORT int64_t primer_shadow_settings_size(void) { return (int64_t)sizeof(ShadowSettings); }
+
+/* ------------------------------------------------------------------------------------------------
+ * Shading in one stream: shadow rays made, traced and added up block by block
+ * --------------------------------------------------------------------------------------------- */
+
+/* Seconds on a monotonic clock (0 where there is none: Embree's share then goes uncounted). */
+static double now(void)
+{
+#if defined(CLOCK_MONOTONIC)
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+#else
+    return 0.0;
+#endif
+}
+
+/* primer_shadow_rays, Tracer.occluded and primer_add_light in one pass: each block of light samples
+ * becomes its shadow rays, Embree answers them 8 at a time, and the light of those that get through
+ * goes into E, while all of it is still in the cache; no array of rays is ever made. The rays, the
+ * answers and the order of the sums are those of the three steps (tests/test_kernels.py compares).
+ * In: as primer_shadow_rays; occluded8, scene: Embree's rtcOccluded8 and the RTCScene.
+ * Out: E (m, 3) float64, added to; embree_seconds[0] += the time inside Embree. Returns the rays. */
+EXPORT int64_t primer_shade(const ShadowSettings *settings, const LightRecord *lights, int64_t l0, int64_t l1,
+                            const double *I, const double *N, const double *Ng, const double *offset,
+                            const uint8_t *smooth, const double *lifted, const int64_t *pixel, const int64_t *sample,
+                            int64_t m, void *occluded8, void *scene, double *E, double *embree_seconds)
+{
+    Occluded8 occluded = (Occluded8)occluded8;
+    SampleBlock b;
+    RayPacket packet;
+    int valid[PACKET] __attribute__((aligned(32)));
+    float origins[3 * BLOCK], directions[3 * BLOCK], t_max[BLOCK];
+    int64_t owner[BLOCK];
+    double weight[BLOCK];
+    int64_t rays = 0;
+    double embree = 0.0;
+    const double *lift_from = settings->terminator_fix != 0.0 ? lifted : NULL;
+    for (int64_t l = l0; l < l1; l++) {
+        const LightRecord *light = lights + l;
+        int64_t count = (int64_t)light->samples, total = m * count;
+        uint32_t stream = stream_of((int64_t)settings->seed, (int64_t)light->dimension);
+        for (int64_t first = 0; first < total; first += BLOCK) {
+            /* 1. The block's rays, as primer_shadow_rays makes them. */
+            gather_block(&b, first, total - first < BLOCK ? total - first : BLOCK, count,
+                         I, N, Ng, offset, smooth, lift_from, pixel, sample);
+            if (light->delta == 0.0) sample_lanes(b.n, stream, b.pixel, b.index, b.u[0], b.u[1]);
+            else for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = 0.0;
+            light_block(&b, light);
+            ray_block(&b, settings, lift_from != NULL, (double)count);
+            int64_t r = 0;
+            for (int64_t k = 0; k < b.n; k++) {
+                if (b.keep[k] == 0.0) continue;
+                for (int c = 0; c < 3; c++) {
+                    origins[3 * r + c] = (float)b.origin[c][k];
+                    directions[3 * r + c] = (float)b.D[c][k];
+                }
+                t_max[r] = b.t[k] < (double)T_INFINITY ? (float)b.t[k] : T_INFINITY;
+                owner[r] = b.hit[k];
+                weight[r] = b.weight[k];
+                r++;
+            }
+            /* 2. Embree's answers, 8 rays at a time; 3. the light of the rays that get through. */
+            double start = now();
+            uint8_t blocked[BLOCK];
+            for (int64_t at = 0; at < r; at += PACKET) {
+                fill_packet(&packet, valid, at, r, origins, directions, t_max);
+                occluded(valid, scene, &packet, NULL);
+                for (int k = 0; k < PACKET && at + k < r; k++) blocked[at + k] = packet.tfar[k] < 0.0f;
+            }
+            embree += now() - start;
+            for (int64_t k = 0; k < r; k++) {
+                if (blocked[k]) continue;
+                double *e = E + 3 * owner[k];
+                for (int c = 0; c < 3; c++) e[c] += weight[k] * light->color[c];
+            }
+            rays += r;
+        }
+    }
+    embree_seconds[0] += embree;
+    return rays;
+}
 
 /* ------------------------------------------------------------------------------------------------
  * Adaptive sampling: adaptive.unconverged, one pass over the image instead of numpy's twenty

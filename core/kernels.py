@@ -134,6 +134,7 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_film": (None, [i64, i64, p, p, p, i64, p, p, p, p, p, p, p]),
         "primer_occluded": (None, [p, p, i64, p, p, p, p]),
         "primer_add_pixels": (None, [i64, p, i64, p, p, p, p, p, p, p]),
+        "primer_shade": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, p, p, p, p]),
         "primer_unconverged": (i64, [i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64, p, p, p, p, p]),
         "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p]),
     }
@@ -429,6 +430,24 @@ def shadow_rays(settings_record, records, l0: int, l1: int, surface: Surfaces, s
     if count < 0:
         raise RuntimeError("shadow-ray buffer too small")     # cannot happen: capacity is the most rays possible
     return ShadowBatch(*(array[:count] for array in out))
+
+
+def shade(settings_record, records, l0: int, l1: int, surface: Surfaces, smooth: np.ndarray, pixel: np.ndarray,
+          sample: np.ndarray, packets: "EmbreePackets", E: np.ndarray) -> tuple[int, float]:
+    """shadow_rays, Tracer.occluded and add_light in one C pass, block by block (no ray arrays):
+    E (m, 3) float64 is added to; returns (shadow rays traced, seconds inside Embree).
+
+    smooth: (m,) uint8; pixel, sample: (m,) int64 each hit's random-number keys.
+    """
+    m = len(surface.I)
+    pixel, sample = _c(pixel, np.int64), _c(sample, np.int64)
+    seconds = np.zeros(1)
+    rays = library().primer_shade(
+        ctypes.byref(settings_record), records, l0, l1, _ptr(surface.I, np.float64), _ptr(surface.N, np.float64),
+        _ptr(surface.Ng, np.float64), _ptr(surface.offset, np.float64), _ptr(smooth, np.uint8),
+        _ptr(surface.lifted, np.float64), _ptr(pixel, np.int64), _ptr(sample, np.int64), m,
+        packets.occluded8, packets.scene, _ptr(E, np.float64), _ptr(seconds, np.float64))
+    return int(rays), float(seconds[0])
 
 
 def add_light(records, batch: ShadowBatch, blocked: np.ndarray, E: np.ndarray) -> None:

@@ -340,13 +340,21 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
                                    lift=bool(s.terminator_fix and ctx.smooth))
         pixel_of_hit = pixels[h // spp]
         sample_of_hit = first[h // spp] + h % spp
-        for l0, l1 in kernels.light_groups(ctx.light_records, m):
-            batch = kernels.shadow_rays(ctx.shadow_settings, ctx.light_records, l0, l1, surface,
-                                        triangles.smooth, pixel_of_hit, sample_of_hit)
-            if len(batch.weight):
-                blocked = ctx.geometry.tracer.occluded(batch.origins, batch.directions, batch.t_max)
-                kernels.add_light(ctx.light_records, batch, blocked, E)
-            shadow_rays += len(batch.weight)
+        tracer = ctx.geometry.tracer
+        if tracer.packed and tracer.stream_shadow_rays:
+            # Made, traced and added up in one pass (kernels.shade): the steps below, fused.
+            shadow_rays, seconds = kernels.shade(ctx.shadow_settings, ctx.light_records, 0, len(ctx.light_records),
+                                                 surface, triangles.smooth, pixel_of_hit, sample_of_hit,
+                                                 tracer.packets, E)
+            tracer.count_occluded(seconds)
+        else:
+            for l0, l1 in kernels.light_groups(ctx.light_records, m):
+                batch = kernels.shadow_rays(ctx.shadow_settings, ctx.light_records, l0, l1, surface,
+                                            triangles.smooth, pixel_of_hit, sample_of_hit)
+                if len(batch.weight):
+                    blocked = tracer.occluded(batch.origins, batch.directions, batch.t_max)
+                    kernels.add_light(ctx.light_records, batch, blocked, E)
+                shadow_rays += len(batch.weight)
     shading_seconds = time.perf_counter() - shading_start
     # 5. Box filter: sum each pixel's samples (the caller divides by the count).
     per_pixel, squares, hits_per_pixel = kernels.film(p, spp, valid, ctx.background, h, albedo, E,

@@ -333,3 +333,30 @@ def test_unconverged_pixels_agree(first):
             np.testing.assert_array_equal(kernels.unconverged(pixels, noise, threshold, W, H, first), expected)
             partial.append(0 < len(expected) < len(pixels))
     assert sum(partial) >= 4           # most cases keep some pixels and drop others
+
+
+@pytest.mark.parametrize("method", ["robust", "epsilon"])
+@pytest.mark.parametrize("name", ["point", "spot", "sun_disk", "area_rect", "area_ellipse_spread", "several"])
+def test_streamed_shading_adds_the_light_of_the_three_steps(name, method):
+    """kernels.shade (rays made, traced 8 at a time and added up in one pass) casts the very rays of
+    shadow_rays -> Tracer.occluded -> add_light and sums their light in the same order: E is equal."""
+    scene = lit_scene(LIGHTS[name])
+    settings = RenderSettings(width=40, height=30, samples=2, light_samples=3, shadow_method=method,
+                              terminator_fix=True, seed=3)
+    geometry = build_geometry(scene, scene.camera.position)
+    lights = [translate_light(light, geometry.origin) for light in scene.lights]
+    pixels, first, O, D, hits, hit = hits_of(scene, settings, geometry)
+    pixel, sample = np.repeat(pixels, settings.samples)[hit], np.tile(np.arange(settings.samples), len(pixels))[hit]
+    triangles = kernels.copied_triangles(kernels.copied_arrays(geometry), hits.prim[hit])
+    surface = kernels.surfaces(triangles, hit, O, D, hits.t[hit], hits.u[hit], hits.v[hit], lift=True)
+    records = (kernels.LightRecord * len(lights))(*[kernels.light_record(light, i, settings.light_samples)
+                                                    for i, light in enumerate(lights)])
+    shadow = kernels.shadow_settings(settings)
+    steps, streamed = np.zeros((len(hit), 3)), np.zeros((len(hit), 3))
+    batch = kernels.shadow_rays(shadow, records, 0, len(lights), surface, triangles.smooth, pixel, sample)
+    kernels.add_light(records, batch, geometry.tracer.occluded(batch.origins, batch.directions, batch.t_max), steps)
+    rays, seconds = kernels.shade(shadow, records, 0, len(lights), surface, triangles.smooth, pixel, sample,
+                                  geometry.tracer.packets, streamed)
+    assert rays == len(batch.weight) > 0 and seconds > 0.0
+    assert steps.max() > 0.0 and (steps == 0.0).any()        # some light, some shadow
+    np.testing.assert_array_equal(streamed, steps)
