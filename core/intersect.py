@@ -111,10 +111,11 @@ class Tracer:
         if packets:
             self._packets = kernels.embree_packets(self._scene, self._device)
 
-    # Whether a compiled render may trace its shadow rays inside its shading kernel (kernels.shade),
-    # through `packets`, rather than asking `occluded`: the same rays and answers, with no arrays of
-    # rays in between. The benchmark switches it off to record every ray that reaches Embree.
-    stream_shadow_rays = True
+    # Whether a compiled render may trace its rays inside its kernels (kernels.primary for camera
+    # rays, kernels.shade for shadow rays) through `packets`, rather than asking `intersect` and
+    # `occluded`: the same rays and answers, with no arrays of rays in between. The benchmark
+    # switches it off to record every ray that reaches Embree.
+    stream_queries = True
 
     @property
     def packed(self) -> bool:
@@ -129,6 +130,16 @@ class Tracer:
     def count_occluded(self, seconds: float) -> None:
         """Count `seconds` that a compiled kernel spent in Embree's occlusion queries (as `occluded` would)."""
         self._count("occluded_seconds", seconds)
+
+    def count_intersect(self, seconds: float) -> None:
+        """Count `seconds` that a compiled kernel spent in Embree's nearest-hit queries (as `intersect` would)."""
+        self._count("intersect_seconds", seconds)
+
+    def flatten_prims(self, geometry_id: np.ndarray, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
+                      origins: np.ndarray, directions: np.ndarray, t: np.ndarray) -> None:
+        """Turn hits that a compiled kernel found on instances into flat triangle indices, in place
+        in `prim`, as `intersect` does (all rays here hit). Arguments as `_flat_indices` takes them."""
+        self._flat_indices(geometry_id, prim, u, v, origins, directions, t)
 
     def _share(self, vertices: np.ndarray, triangles: np.ndarray) -> bool:
         """Attach the mesh as buffers Embree reads in place; return False (nothing attached) if it cannot be done."""

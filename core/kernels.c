@@ -58,6 +58,18 @@ INLINE double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1]
 INLINE double at_least(double x, double floor) { return x > floor ? x : floor; }
 INLINE double at_most(double x, double ceiling) { return x < ceiling ? x : ceiling; }
 
+/* Seconds on a monotonic clock (0 where there is none: Embree's share then goes uncounted). */
+static double now(void)
+{
+#if defined(CLOCK_MONOTONIC)
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+#else
+    return 0.0;
+#endif
+}
+
 INLINE double largest3(const double *a)
 {
     double m = fabs(a[0]);
@@ -905,6 +917,77 @@ EXPORT void primer_intersect(void *function, void *scene, int64_t n, const doubl
     }
 }
 
+/* Camera rays made and traced in one pass, 8 at a time, keeping only those that hit: primer_camera_rays,
+ * then Tracer.intersect, then the gather of the hits, with no array of rays in between.
+ * In: as primer_camera_rays; intersect8, scene: Embree's rtcIntersect8 and the RTCScene.
+ * Out, for hit h < the returned count (at most p spp): sample (h,) int64 the hit's row among the
+ * chunk's p spp samples; origins, directions (h, 3), t (h,) float64 its ray and distance; prim (h,)
+ * int64, geometry (h,) int32, u, v (h,) float64 Embree's answer. embree_seconds[0] += time in Embree. */
+EXPORT int64_t primer_primary(const CameraRecord *camera, int64_t seed, int64_t width, int64_t height,
+                              const int64_t *pixels, const int64_t *first, int64_t p, int64_t spp,
+                              void *intersect8, void *scene, int64_t *sample, double *origins, double *directions,
+                              double *t, int64_t *prim, int32_t *geometry, double *u, double *v,
+                              double *embree_seconds)
+{
+    Intersect8 intersect = (Intersect8)intersect8;
+    uint32_t stream = stream_of(seed, 0);
+    int64_t total = p * spp, m = 0;
+    double embree = 0.0;
+    CameraBlock b;
+    RayHitPacket packet;
+    int valid[PACKET] __attribute__((aligned(32)));
+    double O[3 * BLOCK], D[3 * BLOCK], t_max[BLOCK];
+    for (int64_t start = 0; start < total; start += BLOCK) {
+        /* 1. The block's camera rays, as primer_camera_rays makes them. */
+        b.n = total - start < BLOCK ? total - start : BLOCK;
+        int64_t k = start / spp, j = start % spp;
+        for (int64_t lane = 0; lane < b.n; lane++) {
+            int64_t pixel = pixels[k];
+            b.pixel[lane] = (uint32_t)pixel;
+            b.index[lane] = (uint32_t)(first[k] + j);
+            b.column[lane] = (double)(pixel % width);
+            b.row[lane] = (double)(pixel / width);
+            if (++j == spp) { j = 0; k++; }
+        }
+        sample_lanes(b.n, stream, b.pixel, b.index, b.u[0], b.u[1]);
+        camera_block(&b, camera, width, height);
+        for (int64_t lane = 0; lane < b.n; lane++) {
+            for (int c = 0; c < 3; c++) { O[3 * lane + c] = b.O[c][lane]; D[3 * lane + c] = b.D[c][lane]; }
+            t_max[lane] = b.t[lane];
+        }
+        /* 2. Embree's nearest hits, 8 rays at a time; 3. the rays that hit, kept. */
+        double begin = now();
+        for (int64_t at = 0; at < b.n; at += PACKET) {
+            fill_packet_double(&packet.ray, valid, at, b.n, O, D, t_max);
+            for (int lane = 0; lane < PACKET; lane++) {
+                packet.hit.geomID[lane] = INVALID_ID;
+                packet.hit.primID[lane] = INVALID_ID;
+                packet.hit.instID[0][lane] = INVALID_ID;
+                packet.hit.instPrimID[0][lane] = INVALID_ID;
+            }
+            intersect(valid, scene, &packet, NULL);
+            for (int lane = 0; lane < PACKET && at + lane < b.n; lane++) {
+                if (packet.hit.geomID[lane] == INVALID_ID) continue;
+                int64_t row = at + lane;
+                sample[m] = start + row;
+                for (int c = 0; c < 3; c++) {
+                    origins[3 * m + c] = O[3 * row + c];
+                    directions[3 * m + c] = D[3 * row + c];
+                }
+                t[m] = (double)packet.ray.tfar[lane];
+                prim[m] = (int64_t)packet.hit.primID[lane];
+                geometry[m] = (int32_t)packet.hit.geomID[lane];
+                u[m] = (double)packet.hit.u[lane];
+                v[m] = (double)packet.hit.v[lane];
+                m++;
+            }
+        }
+        embree += now() - begin;
+    }
+    embree_seconds[0] += embree;
+    return m;
+}
+
 /* Add a chunk's per-pixel sums into the render's running sums, in place (render.render's store):
  * rgba (p, 4), squares (p, 2) float64 and hits (p,) int64 of pixels (p,) int64, spp samples each,
  * into total (H W, 4), squares_sum (H W, 2) float64, count and hits_sum (H W,) int64. The chunks of
@@ -931,18 +1014,6 @@ EXPORT int64_t primer_shadow_settings_size(void) { return (int64_t)sizeof(Shadow
 /* ------------------------------------------------------------------------------------------------
  * Shading in one stream: shadow rays made, traced and added up block by block
  * --------------------------------------------------------------------------------------------- */
-
-/* Seconds on a monotonic clock (0 where there is none: Embree's share then goes uncounted). */
-static double now(void)
-{
-#if defined(CLOCK_MONOTONIC)
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-#else
-    return 0.0;
-#endif
-}
 
 /* primer_shadow_rays, Tracer.occluded and primer_add_light in one pass: each block of light samples
  * becomes its shadow rays, Embree answers them 8 at a time, and the light of those that get through

@@ -135,6 +135,7 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_occluded": (None, [p, p, i64, p, p, p, p]),
         "primer_add_pixels": (None, [i64, p, i64, p, p, p, p, p, p, p]),
         "primer_shade": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, p, p, p, p]),
+        "primer_primary": (i64, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, p, p, p, p, p]),
         "primer_unconverged": (i64, [i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64, p, p, p, p, p]),
         "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p]),
     }
@@ -286,6 +287,44 @@ def camera_rays(record, seed: int, width: int, height: int, pixels: np.ndarray, 
                                  _ptr(pixels, np.int64), _ptr(first, np.int64), len(pixels), int(spp),
                                  _ptr(origins, np.float64), _ptr(directions, np.float64), _ptr(t_max, np.float64))
     return origins, directions, t_max
+
+
+class PrimaryHits(NamedTuple):
+    """The camera rays of a chunk that hit, with Embree's answers (kernels.primary).
+
+    sample: (h,) int64 the hit's row among the chunk's samples; origins, directions (h, 3) float64
+    its camera-relative ray; t (h,) float64; prim (h,) int64; geometry (h,) int32 Embree's geomID;
+    u, v (h,) float64; embree_seconds: the time inside Embree.
+    """
+
+    sample: np.ndarray
+    origins: np.ndarray
+    directions: np.ndarray
+    t: np.ndarray
+    prim: np.ndarray
+    geometry: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    embree_seconds: float
+
+
+def primary(record, seed: int, width: int, height: int, pixels: np.ndarray, first: np.ndarray, spp: int,
+            packets: "EmbreePackets") -> PrimaryHits:
+    """camera_rays, Tracer.intersect and the gather of the hits in one C pass (no arrays of rays).
+
+    pixels, first: (p,) int64, as camera_rays takes them.
+    """
+    n = len(pixels) * spp
+    sample, origins, directions = np.empty(n, np.int64), np.empty((n, 3)), np.empty((n, 3))
+    t, prim, geometry, u, v = np.empty(n), np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n), np.empty(n)
+    seconds = np.zeros(1)
+    m = library().primer_primary(ctypes.byref(record), int(seed), int(width), int(height), _ptr(pixels, np.int64),
+                                 _ptr(first, np.int64), len(pixels), int(spp), packets.intersect8, packets.scene,
+                                 _ptr(sample, np.int64), _ptr(origins, np.float64), _ptr(directions, np.float64),
+                                 _ptr(t, np.float64), _ptr(prim, np.int64), _ptr(geometry, np.int32),
+                                 _ptr(u, np.float64), _ptr(v, np.float64), _ptr(seconds, np.float64))
+    return PrimaryHits(sample[:m], origins[:m], directions[:m], t[:m], prim[:m], geometry[:m], u[:m], v[:m],
+                       float(seconds[0]))
 
 
 class HitTriangles(NamedTuple):

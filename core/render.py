@@ -304,25 +304,39 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
     p = len(pixels)
     first = np.zeros(p, np.int64) if first is None else np.ascontiguousarray(first, np.int64)
     pixels = np.ascontiguousarray(pixels, np.int64)
-    # 1-2. Sample positions and camera rays, camera-relative (a fisheye's rays come from numpy).
+    # 1-3. Sample positions, camera rays (camera-relative) and their nearest hits.
     valid = None
-    if ctx.camera_record is not None:
-        origins, directions, t_max = kernels.camera_rays(ctx.camera_record, seed, W, H, pixels, first, spp)
+    tracer = ctx.geometry.tracer
+    if ctx.camera_record is not None and tracer.packed and tracer.stream_queries:
+        # Made, traced and gathered in one pass (kernels.primary): the steps below, fused.
+        found = kernels.primary(ctx.camera_record, seed, W, H, pixels, first, spp, tracer.packets)
+        tracer.count_intersect(found.embree_seconds)
+        if tracer.instanced:
+            tracer.flatten_prims(found.geometry, found.prim, found.u, found.v, found.origins, found.directions, found.t)
+        h = found.sample                                   # (m,) into the chunk's samples
+        origins, directions = found.origins, found.directions
+        hit = np.arange(len(h))                            # (m,) into origins / directions
+        prim, t_hit, u_hit, v_hit = found.prim, found.t, found.u, found.v
         traced = None
     else:
-        pixel, sample = _sample_keys(pixels, spp, first)
-        offset = kernels.sample_2d(seed, pixel, sample, dimension=0)
-        rays = camera_.generate_rays(ctx.scene.camera, W, H, (pixel % W) + offset[:, 0],
-                                     (pixel // W) + offset[:, 1], tuple(s.pixel_aspect))
-        valid = rays.valid
-        traced = np.flatnonzero(valid)
-        origins = np.ascontiguousarray(vectors.gather(rays.origins, traced) - ctx.geometry.origin)
-        directions = np.ascontiguousarray(vectors.gather(rays.directions, traced))
-        t_max = rays.t_max[traced]
-    # 3. Nearest hits.
-    hits = ctx.geometry.tracer.intersect(origins, directions, t_max)
-    hit = np.flatnonzero(hits.hit)                     # (m,) into the traced rays
-    h = hit if traced is None else traced[hit]         # (m,) into the chunk's samples
+        if ctx.camera_record is not None:
+            origins, directions, t_max = kernels.camera_rays(ctx.camera_record, seed, W, H, pixels, first, spp)
+            traced = None
+        else:
+            # A fisheye's rays come from numpy.
+            pixel, sample = _sample_keys(pixels, spp, first)
+            offset = kernels.sample_2d(seed, pixel, sample, dimension=0)
+            rays = camera_.generate_rays(ctx.scene.camera, W, H, (pixel % W) + offset[:, 0],
+                                         (pixel // W) + offset[:, 1], tuple(s.pixel_aspect))
+            valid = rays.valid
+            traced = np.flatnonzero(valid)
+            origins = np.ascontiguousarray(vectors.gather(rays.origins, traced) - ctx.geometry.origin)
+            directions = np.ascontiguousarray(vectors.gather(rays.directions, traced))
+            t_max = rays.t_max[traced]
+        hits = tracer.intersect(origins, directions, t_max)
+        hit = np.flatnonzero(hits.hit)                     # (m,) into the traced rays
+        h = hit if traced is None else traced[hit]         # (m,) into the chunk's samples
+        prim, t_hit, u_hit, v_hit = hits.prim[hit], hits.t[hit], hits.u[hit], hits.v[hit]
     shading_start = time.perf_counter()
     m = len(h)
     E = np.zeros((m, 3))
@@ -330,18 +344,16 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
     albedo = np.zeros((m, 3))
     if m:
         # 4. The surface at each hit, then the lights in groups: shadow rays, Embree's answers, the light.
-        prim = hits.prim[hit]
         if ctx.copied is not None:
             triangles = kernels.copied_triangles(ctx.copied, prim)
         else:
             triangles = kernels.any_triangles(ctx.geometry, prim, ctx.smooth)
         albedo = triangles.albedo
-        surface = kernels.surfaces(triangles, hit, origins, directions, hits.t[hit], hits.u[hit], hits.v[hit],
+        surface = kernels.surfaces(triangles, hit, origins, directions, t_hit, u_hit, v_hit,
                                    lift=bool(s.terminator_fix and ctx.smooth))
         pixel_of_hit = pixels[h // spp]
         sample_of_hit = first[h // spp] + h % spp
-        tracer = ctx.geometry.tracer
-        if tracer.packed and tracer.stream_shadow_rays:
+        if tracer.packed and tracer.stream_queries:
             # Made, traced and added up in one pass (kernels.shade): the steps below, fused.
             shadow_rays, seconds = kernels.shade(ctx.shadow_settings, ctx.light_records, 0, len(ctx.light_records),
                                                  surface, triangles.smooth, pixel_of_hit, sample_of_hit,

@@ -360,3 +360,28 @@ def test_streamed_shading_adds_the_light_of_the_three_steps(name, method):
     assert rays == len(batch.weight) > 0 and seconds > 0.0
     assert steps.max() > 0.0 and (steps == 0.0).any()        # some light, some shadow
     np.testing.assert_array_equal(streamed, steps)
+
+
+@pytest.mark.parametrize("instancing", ["auto", "always"])
+def test_streamed_queries_render_the_very_image_of_the_separate_steps(instancing, monkeypatch):
+    """Camera rays made, traced and gathered in one pass (kernels.primary) and shadow rays traced
+    inside shading (kernels.shade) give the image of camera_rays -> Tracer.intersect and shadow_rays
+    -> Tracer.occluded -> add_light, bit for bit, with the same rays; instanced spheres included."""
+    scene = lit_scene(LIGHTS["several"])
+    sphere = scene.instances[1]
+    for k in range(6):
+        matrix = np.eye(4)
+        matrix[:3, 3] = (-2.5 + k, 1.8, 0.0)
+        scene.instances.append(Instance(sphere.mesh, matrix, sphere.materials, f"Sphere {k}"))
+    settings = RenderSettings(width=48, height=36, samples=8, light_samples=2, instancing=instancing,
+                              terminator_fix=True, chunk_size=2048)
+    streamed = render.render(scene, settings)
+    monkeypatch.setattr(intersect.Tracer, "stream_queries", False)
+    steps = render.render(scene, settings)
+    assert streamed.stats.kernels == steps.stats.kernels == "compiled"
+    assert (streamed.stats.primary_rays, streamed.stats.shadow_rays) == (steps.stats.primary_rays,
+                                                                         steps.stats.shadow_rays)
+    assert streamed.stats.trace_seconds > 0.0
+    np.testing.assert_array_equal(streamed.stats.samples_per_pixel, steps.stats.samples_per_pixel)
+    np.testing.assert_array_equal(streamed.image, steps.image)
+    assert streamed.image[..., :3].max() > 0.05
