@@ -24,3 +24,7 @@ def unregister():
     for cls in reversed(engine.classes):
         bpy.utils.unregister_class(cls)
     properties.unregister()
+    # Any memory the last renders kept goes back now.
+    if bpy.app.timers.is_registered(engine._release_memory):
+        bpy.app.timers.unregister(engine._release_memory)
+    engine._release_memory()

@@ -207,8 +207,34 @@ def _ctrl_c_cancels():
 
 def render_frame(engine, depsgraph) -> RenderRecord:
     """Export, render and write one frame; report problems in Blender instead of raising."""
-    with _ctrl_c_cancels() as interrupted:
-        return _render_frame(engine, depsgraph, lambda: interrupted.is_set() or engine.test_break())
+    try:
+        with _ctrl_c_cancels() as interrupted:
+            return _render_frame(engine, depsgraph, lambda: interrupted.is_set() or engine.test_break())
+    finally:
+        release_memory_soon()
+
+
+# Seconds after the last render before its memory goes back to the system (core/memory.py).
+RELEASE_AFTER = 5.0
+
+
+def release_memory_soon() -> None:
+    """Return the renders' warm heap to the system RELEASE_AFTER seconds from now, unless another
+    render comes first (each render moves the moment on). Blender runs timers only while its event
+    loop runs; in background mode the process ends instead."""
+    import bpy
+
+    if bpy.app.timers.is_registered(_release_memory):
+        bpy.app.timers.unregister(_release_memory)
+    bpy.app.timers.register(_release_memory, first_interval=RELEASE_AFTER)
+
+
+def _release_memory():
+    """bpy timer: release the warm heap (nothing to do while a render runs); run once."""
+    from ..core import memory
+
+    memory.release()
+    return None
 
 
 def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
@@ -234,7 +260,10 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
                                     f"| {100 * fraction:.0f}%")
 
         engine.update_stats("", "Primer | building BVH")
-        result = core_render.render(exported.scene, exported.settings, progress=progress, cancel=cancelled)
+        # The heap stays warm for a render that follows (an animation's next frame, F12 again), and
+        # goes back to the system a few seconds after the last one (release_memory_soon).
+        result = core_render.render(exported.scene, exported.settings, progress=progress, cancel=cancelled,
+                                    keep_memory=True)
         record.warnings += [w for w in result.stats.warnings if w not in record.warnings]
         record.rays = result.stats.rays
         log.info("Primer rendered %.2f M rays in %.2f s, %s kernels", result.stats.rays / 1e6,

@@ -530,13 +530,15 @@ def _usable_cores() -> int:
 def render(scene: Scene, settings: RenderSettings,
            progress: Optional[Callable[[float, RenderStats], None]] = None,
            cancel: Optional[Callable[[], bool]] = None,
-           geometry: Optional[WorldGeometry] = None) -> RenderResult:
+           geometry: Optional[WorldGeometry] = None, keep_memory: bool = False) -> RenderResult:
     """Render `scene` and return a float32 (H, W, 4) scene-linear RGBA image.
 
     progress(fraction, stats) is called after each chunk; cancel() is polled
     between chunks, and a True answer stops the render promptly (the result then
     holds the chunks finished so far and cancelled=True). Both are called from
     the calling thread. A prebuilt `geometry` (same camera origin) skips the BVH build.
+    keep_memory: leave the freed buffers with the process for the next render (core/memory.py);
+    the caller then calls memory.release() when no render follows.
     """
     start = time.perf_counter()
     validate(scene, settings)
@@ -600,7 +602,7 @@ def render(scene: Scene, settings: RenderSettings,
     else:
         render_chunk = _render_chunk_timed if "time" in settings.aux else _render_chunk
         stats.kernels = f"numpy ({ctx.numpy_because})"
-    with memory.temporaries_from_the_heap(), ThreadPoolExecutor(max_workers=threads) as pool:
+    with memory.temporaries_from_the_heap(keep_memory), ThreadPoolExecutor(max_workers=threads) as pool:
         pixels = region
         for index, spp in enumerate(passes):
             # 1. Which pixels still need samples: all of them at first, then the noisy ones.

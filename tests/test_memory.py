@@ -49,3 +49,47 @@ def test_glibc_is_found_on_linux():
     libc = memory._glibc()
     assert libc is not None
     assert libc.mallopt(memory.M_TRIM_THRESHOLD, memory.GLIBC_DEFAULT) == 1
+
+
+def test_a_warm_heap_stays_until_released_and_never_under_a_running_render(monkeypatch):
+    """keep=True leaves the raised thresholds (the next render finds its pages mapped); release()
+    then restores glibc's values and trims, but not while a render runs, and only once."""
+    calls = []
+    fake = type("FakeLibc", (), {"mallopt": lambda self, p, v: calls.append((p, v)),
+                                 "malloc_trim": lambda self, pad: calls.append(("trim", pad))})()
+    monkeypatch.setattr(memory, "_glibc", lambda: fake)
+    with memory.temporaries_from_the_heap(keep=True):
+        pass
+    assert ("trim", 0) not in calls and calls[-1] == (memory.M_TRIM_THRESHOLD, memory.TRIM_THRESHOLD)
+    with memory.temporaries_from_the_heap(keep=True):
+        assert not memory.release()                    # a render runs: nothing is taken from under it
+    assert ("trim", 0) not in calls
+    assert memory.release()
+    assert calls[-3:] == [(memory.M_MMAP_THRESHOLD, memory.GLIBC_DEFAULT),
+                          (memory.M_TRIM_THRESHOLD, memory.GLIBC_DEFAULT), ("trim", 0)]
+    assert not memory.release()                        # already released
+    assert memory._renders == 0
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc only")
+def test_warm_heap_saves_the_page_faults_of_the_next_render():
+    """A render after a warm one maps almost no new pages; after a released one, thousands."""
+    import resource
+
+    from core import render
+    from core.scene import RenderSettings
+    from test_render import showcase_scene
+
+    scene = showcase_scene()
+    settings = RenderSettings(width=160, height=120, samples=8)
+
+    def faults(keep):
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+        render.render(scene, settings, keep_memory=keep)
+        return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+
+    faults(False)
+    cold = faults(True)                 # the heap was trimmed before it
+    warm = faults(True)
+    memory.release()
+    assert warm < 0.25 * cold, (warm, cold)
