@@ -1108,7 +1108,7 @@ SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_
 {
     double w[3] = {weights[0], weights[1], weights[2]};
     for (int64_t i = lo; i < hi; i++) {
-        double n = (double)count[i];
+        double n = (double)(int32_t)count[i];     /* (through int32, which SIMD converts: counts are small) */
         double luminance = luminance_of(total + 4 * i, w) / n, alpha = total[4 * i + 3] / n;
         double variance_y = at_least(squares[2 * i] / n - luminance * luminance, 0.0) * n / (n - 1.0);
         double variance_a = at_least(squares[2 * i + 1] / n - alpha * alpha, 0.0) * n / (n - 1.0);
@@ -1116,7 +1116,7 @@ SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_
         double error_a = sqrt(variance_a / n);
         double larger = error_y > error_a ? error_y : error_a;
         larger = (error_y != error_y) | (error_a != error_a) ? NAN : larger;     /* np.maximum keeps NaN */
-        error[i] = count[i] >= 2 ? larger : INFINITY;
+        error[i] = n >= 2.0 ? larger : INFINITY;
     }
 }
 
@@ -1126,7 +1126,10 @@ SIMD_CLONES __attribute__((noinline)) static void mean_lanes(int64_t size, const
                                                              const double *restrict weights, double *restrict mean)
 {
     double w[3] = {weights[0], weights[1], weights[2]};
-    for (int64_t i = 0; i < size; i++) mean[i] = luminance_of(total + 4 * i, w) / (double)(count[i] > 1 ? count[i] : 1);
+    for (int64_t i = 0; i < size; i++) {
+        double n = (double)(int32_t)count[i];
+        mean[i] = luminance_of(total + 4 * i, w) / (n > 1.0 ? n : 1.0);
+    }
 }
 
 /* The pixels that need another pass (adaptive.unconverged): a subset of `pixels`, in their order.
@@ -1134,7 +1137,7 @@ SIMD_CLONES __attribute__((noinline)) static void mean_lanes(int64_t size, const
  * (p,) int64 the region's pixels; first the first pass's size (0: no edge test).
  * Scratch: error and mean (H W,) float64, noisy and grown (H W,) uint8. Out: wanted (at most p) int64;
  * returns how many. */
-EXPORT int64_t primer_unconverged(int64_t width, int64_t height, const double *total, const double *squares,
+EXPORT SIMD_CLONES int64_t primer_unconverged(int64_t width, int64_t height, const double *total, const double *squares,
                                   const int64_t *count, const double *weights, const int64_t *pixels, int64_t p,
                                   double threshold, int64_t first, double *error, double *mean, uint8_t *noisy,
                                   uint8_t *grown, int64_t *wanted)
@@ -1147,30 +1150,49 @@ EXPORT int64_t primer_unconverged(int64_t width, int64_t height, const double *t
     for (int64_t i = 0; i < size; i++) noisy[i] = 0;
     for (int64_t k = 0; k < p; k++) noisy[pixels[k]] = error[pixels[k]] > threshold;
     /* 2. Pixels with only the first pass's samples beside an edge (a contrast to a neighbour, both
-     *    sampled, above threshold * first). */
+     *    sampled, above threshold * first): each pair's contrast once, then each pixel's largest. */
     if (first > 0) {
+        double *edge = error;                  /* (the noise is used up) */
+        for (int64_t i = 0; i < size; i++) edge[i] = 0.0;
+        for (int64_t y = 0; y < height; y++) {
+            const double *m = mean + y * width;
+            const int64_t *n = count + y * width;
+            double *e = edge + y * width;
+            for (int64_t x = 1; x < width; x++) {              /* across: (x - 1, x) */
+                double c = (n[x] > 0) & (n[x - 1] > 0) ? contrast(m[x], m[x - 1]) : 0.0;
+                e[x] = at_least(c, e[x]);
+                e[x - 1] = at_least(c, e[x - 1]);
+            }
+            if (y == 0) continue;
+            const double *m_up = m - width;
+            const int64_t *n_up = n - width;
+            double *e_up = e - width;
+            for (int64_t x = 0; x < width; x++) {              /* down: (y - 1, y) */
+                double c = (n[x] > 0) & (n_up[x] > 0) ? contrast(m[x], m_up[x]) : 0.0;
+                e[x] = at_least(c, e[x]);
+                e_up[x] = at_least(c, e_up[x]);
+            }
+        }
         double limit = threshold * (double)first;
         for (int64_t k = 0; k < p; k++) {
-            int64_t i = pixels[k], x = i % width, y = i / width;
-            if (count[i] > first || count[i] == 0) continue;
-            double edge = 0.0;
-            if (x > 0 && count[i - 1] > 0) edge = at_least(contrast(mean[i], mean[i - 1]), edge);
-            if (x + 1 < width && count[i + 1] > 0) edge = at_least(contrast(mean[i + 1], mean[i]), edge);
-            if (y > 0 && count[i - width] > 0) edge = at_least(contrast(mean[i], mean[i - width]), edge);
-            if (y + 1 < height && count[i + width] > 0) edge = at_least(contrast(mean[i + width], mean[i]), edge);
-            if (edge > limit) noisy[i] = 1;
+            int64_t i = pixels[k];
+            if (count[i] <= first && edge[i] > limit) noisy[i] = 1;
         }
     }
-    /* 3. Grow by one pixel in each of the 8 directions (rows, then columns), keep the region's. */
+    /* 3. Grow by one pixel in each of the 8 directions (columns, then rows), keep the region's. */
     for (int64_t y = 0; y < height; y++)
         for (int64_t x = 0; x < width; x++) {
             int64_t i = y * width + x;
             grown[i] = noisy[i] | (y > 0 ? noisy[i - width] : 0) | (y + 1 < height ? noisy[i + width] : 0);
         }
-    int64_t r = 0;
-    for (int64_t k = 0; k < p; k++) {
-        int64_t i = pixels[k], x = i % width;
-        if (grown[i] | (x > 0 ? grown[i - 1] : 0) | (x + 1 < width ? grown[i + 1] : 0)) wanted[r++] = i;
+    for (int64_t y = 0; y < height; y++) {
+        const uint8_t *g = grown + y * width;
+        uint8_t *out = noisy + y * width;      /* (reused) */
+        for (int64_t x = 0; x < width; x++)
+            out[x] = g[x] | (x > 0 ? g[x - 1] : 0) | (x + 1 < width ? g[x + 1] : 0);
     }
+    int64_t r = 0;
+    for (int64_t k = 0; k < p; k++)
+        if (noisy[pixels[k]]) wanted[r++] = pixels[k];
     return r;
 }
