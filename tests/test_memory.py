@@ -81,7 +81,7 @@ def test_warm_heap_saves_the_page_faults_of_the_next_render():
     from test_render import showcase_scene
 
     scene = showcase_scene()
-    settings = RenderSettings(width=160, height=120, samples=8)
+    settings = RenderSettings(width=320, height=240, samples=8, threads=1)
 
     def faults(keep):
         before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
@@ -92,4 +92,4 @@ def test_warm_heap_saves_the_page_faults_of_the_next_render():
     cold = faults(True)                 # the heap was trimmed before it
     warm = faults(True)
     memory.release()
-    assert warm < 0.25 * cold, (warm, cold)
+    assert warm < 0.5 * cold and cold > 1000, (warm, cold)
