@@ -227,6 +227,57 @@ def _slot_materials(slots: np.ndarray, table, rows: dict) -> np.ndarray:
     return rows[key]
 
 
+class _Batch(NamedTuple):
+    """Triangles of one mesh placed k times, before the bad ones are dropped (build_geometry).
+
+    points: (k v, 3) float64 world points minus the origin; triangles: (k t, 3) int64 into points;
+    sign: (k t,) float64 the sign of each placement's determinant; material: (k t,) int64;
+    owner: (k t,) int32 Scene.instances index; smooth: (k t,) bool; corner_normals: (k s, 3, 3)
+    float64 world corner normals of the smooth triangles, or None.
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    sign: np.ndarray
+    material: np.ndarray
+    owner: np.ndarray
+    smooth: np.ndarray
+    corner_normals: Optional[np.ndarray]
+
+
+def _finish_batches(batches: list, vertex_offset: int, counts: dict, parts: dict) -> int:
+    """Drop the batches' non-finite and zero-area triangles, append the rest to `parts` (as float32
+    points and triangles offset past those placed so far) and return the new vertex offset."""
+    if not batches:
+        return vertex_offset
+    # 1. All batches as one: their triangles index one array of points.
+    starts = np.cumsum([0] + [len(b.points) for b in batches])[:-1]
+    points = np.concatenate([b.points for b in batches])
+    triangles = np.concatenate([b.triangles + start for b, start in zip(batches, starts)])
+    # 2. Face normals from the world points, flipped back for mirrors; bad triangles found.
+    with np.errstate(invalid="ignore", over="ignore"):       # NaN and huge vertices are dropped below
+        faces = normals_.face_normals(points, triangles)
+        points32 = points.astype(np.float32)
+    face_n = faces.normals * np.concatenate([b.sign for b in batches])[:, None]
+    finite = np.isfinite(points32).all(axis=1)[triangles].all(axis=1)
+    nondegenerate = face_n.any(axis=1) & (faces.area > 0)
+    keep = finite & nondegenerate
+    counts["nonfinite"] += int((~finite).sum())
+    counts["degenerate"] += int((finite & ~nondegenerate).sum())
+    # 3. Keep the good triangles, and the smooth ones' corner normals.
+    smooth = np.concatenate([b.smooth for b in batches])
+    corner_normals = [b.corner_normals for b in batches if b.corner_normals is not None]
+    if corner_normals:
+        parts["cn"].append(np.concatenate(corner_normals)[keep[smooth]].astype(np.float32))
+    parts["smooth"].append(smooth[keep])
+    parts["v"].append(points32)
+    parts["t"].append(triangles[keep] + vertex_offset)
+    parts["n"].append(face_n[keep])
+    parts["m"].append(np.concatenate([b.material for b in batches])[keep])
+    parts["i"].append(np.concatenate([b.owner for b in batches])[keep])
+    return vertex_offset + len(points32)
+
+
 def build_geometry(scene: Scene, origin: np.ndarray,
                    instance_triangles: Optional[int] = None) -> WorldGeometry:
     """Place every instance in the world relative to `origin` and build the BVH.
@@ -242,8 +293,8 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     if instance_triangles is None:
         instance_triangles = instancing.INSTANCE_TRIANGLES
     warnings: list[str] = []
-    parts_v, parts_t, parts_n, parts_m, parts_cn, parts_smooth = [], [], [], [], [], []
-    parts_i = []
+    parts = {"v": [], "t": [], "n": [], "m": [], "cn": [], "smooth": [], "i": []}
+    pending, pending_triangles = [], 0          # placed batches not yet finished (_finish_batches)
     instanced: list = []
     vertex_offset = 0
     n_materials = len(scene.materials)
@@ -271,7 +322,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
 
         matrices = np.stack([inst.matrix for inst in instances])            # (k, 4, 4)
         linear = matrices[:, :3, :3]
-        det = np.linalg.det(linear)                                          # (k,)
+        det, inverse_all = vectors.determinant_and_inverse(linear)                  # (k,), (k, 3, 3)
         singular = ~(np.isfinite(det) & (det != 0.0))
         if singular.any():
             warnings.append(f"{int(singular.sum())} object(s) of mesh '{mesh.name}' have zero or invalid scale and were skipped")
@@ -302,45 +353,39 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                      + (matrices[:, :3, 3] - origin)[:, None, :])           # (k, v, 3)
 
         # Instances in batches of about BATCH_TRIANGLES triangles: (k instances) x (t triangles) arrays,
-        # no Python loop per triangle, and temporaries bounded whatever the instance count.
+        # no Python loop per triangle, and temporaries bounded whatever the instance count. Batches
+        # of small meshes wait in `pending` and are finished together (_finish_batches): numpy's cost
+        # per call, not per triangle, is what a scene of many small meshes pays.
         t, v = len(triangles), len(mesh.vertices)
         per_batch = max(1, BATCH_TRIANGLES // t)
         for first in range(0, len(placed_all), per_batch):
             placed = placed_all[first:first + per_batch]
             k = len(placed)
-            sign = np.sign(det[placed])
             # 1. Materials: slot -> scene material; missing ones fall back to the default grey.
             material = np.stack([_slot_materials(slots, instances[index].materials, table_rows)
                                  for index in placed])                          # (k, t)
             missing = (material < 0) | (material >= n_materials)
             counts["missing"] += int(missing.sum())
-            material = np.where(missing, n_materials, material)
-            # 2. Face normals from the world points; a mirror (det < 0) flips the winding back.
-            all_triangles = (triangles[None, :, :] + (np.arange(k) * v)[:, None, None]).reshape(-1, 3)
-            points = world[placed].reshape(-1, 3)
-            with np.errstate(invalid="ignore", over="ignore"):     # NaN and huge vertices are dropped below
-                faces = normals_.face_normals(points, all_triangles)
-                points32 = points.astype(np.float32)
-            face_n = faces.normals * np.repeat(sign, t)[:, None]
-            finite = np.isfinite(points32).all(axis=1)[all_triangles].all(axis=1)
-            nondegenerate = face_n.any(axis=1) & (faces.area > 0)
-            keep = finite & nondegenerate                                   # (k t,)
-            counts["nonfinite"] += int((~finite).sum())
-            counts["degenerate"] += int((finite & ~nondegenerate).sum())
+            # 2. The world points and triangles; a mirror (det < 0) will flip the face normal back.
+            batch = _Batch(points=world[placed].reshape(-1, 3),
+                           triangles=(triangles[None, :, :] + (np.arange(k) * v)[:, None, None]).reshape(-1, 3),
+                           sign=np.repeat(np.sign(det[placed]), t),
+                           material=np.where(missing, n_materials, material).reshape(-1),
+                           owner=np.repeat(owners_all[placed], t),
+                           smooth=np.tile(smooth, k), corner_normals=None)
             # 3. Smooth corners transform with the inverse transpose: N' = M^-T N (row vectors: n @ M^-1).
-            smooth_all = np.tile(smooth, k)
             if corners is not None:
-                inverse = np.linalg.inv(linear[placed])                     # (k, 3, 3)
-                world_corners = normals_.safe_normalize(np.einsum("sij,kjl->ksil", corners, inverse))
-                parts_cn.append(world_corners.reshape(-1, 3, 3)[keep[smooth_all]].astype(np.float32))
-            parts_smooth.append(smooth_all[keep])
-            # 4. Keep the good triangles, their vertices offset past those placed so far.
-            parts_v.append(points32)
-            parts_t.append(all_triangles[keep] + vertex_offset)
-            parts_n.append(face_n[keep])
-            parts_m.append(material.reshape(-1)[keep])
-            parts_i.append(np.repeat(owners_all[placed], t)[keep])
-            vertex_offset += len(points32)
+                inverse = inverse_all[placed]                               # (k, 3, 3)
+                batch = batch._replace(corner_normals=normals_.safe_normalize(
+                    np.einsum("sij,kjl->ksil", corners, inverse)).reshape(-1, 3, 3))
+            pending.append(batch)
+            pending_triangles += len(batch.triangles)
+            if pending_triangles >= BATCH_TRIANGLES:
+                vertex_offset = _finish_batches(pending, vertex_offset, counts, parts)
+                pending, pending_triangles = [], 0
+    vertex_offset = _finish_batches(pending, vertex_offset, counts, parts)
+    parts_v, parts_t, parts_n, parts_m, parts_cn, parts_smooth, parts_i = (
+        parts["v"], parts["t"], parts["n"], parts["m"], parts["cn"], parts["smooth"], parts["i"])
 
     if counts["index"]:
         warnings.append(f"{counts['index']} triangle(s) with out-of-range vertex indices were skipped")
@@ -411,7 +456,7 @@ def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.n
         return None
     with np.errstate(invalid="ignore", over="ignore"):
         lo, hi = instancing.world_boxes(prototype[used], transforms)
-        det = np.linalg.det(np.nan_to_num(transforms[:, :, :3].astype(np.float64)))
+        det, _ = vectors.determinant_and_inverse(np.nan_to_num(transforms[:, :, :3].astype(np.float64)))
         placeable = (np.isfinite(transforms).all(axis=(1, 2)) & (det != 0.0) & np.isfinite(lo).all(axis=1)
                      & np.isfinite(hi).all(axis=1) & (np.abs(np.concatenate([lo, hi], axis=1)).max(axis=1)
                                                       < np.finfo(np.float32).max))

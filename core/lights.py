@@ -163,7 +163,7 @@ def spot_attenuation(light: SpotLight, directions: np.ndarray) -> np.ndarray:
     if light.frame is None:
         cos_angle = np.einsum("ij,j->i", directions, np.asarray(light.direction, np.float64))
     else:
-        local = np.einsum("ij,kj->ik", directions, np.linalg.inv(np.asarray(light.frame, np.float64)))
+        local = np.einsum("ij,kj->ik", directions, vectors.determinant_and_inverse(np.asarray(light.frame, np.float64)[None])[1][0])
         length = np.linalg.norm(local, axis=1)
         cos_angle = -local[:, 2] / np.where(length > 0, length, 1.0)
     cos_half, blend_width = spot_cone(light)
