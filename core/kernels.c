@@ -640,6 +640,13 @@ SIMD_CLONES __attribute__((noinline)) static void light_block(SampleBlock *restr
             sample_area(light, P, b->u[0][k] - 0.5, b->u[1][k] - 0.5, &ls);
             store_sample(b, k, &ls);
         }
+    } else if (kind == LIGHT_SUN && light->delta != 0.0) {
+        double zero[2] = {0.0, 0.0};
+        for (int64_t k = 0; k < b->n; k++) {
+            LightSample ls;
+            sample_sun(light, zero, &ls);
+            store_sample(b, k, &ls);
+        }
     } else if (kind == LIGHT_POINT && light->delta != 0.0) {
         for (int64_t k = 0; k < b->n; k++) {
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
@@ -775,34 +782,33 @@ EXPORT void primer_add_light(const LightRecord *lights, int64_t r, const int32_t
 
 /* Sum each pixel's samples. n = p spp samples, pixel by pixel.
  * valid: (n,) uint8 camera rays traced, or NULL (all); background: RGBA of a traced ray that misses;
- * hit_sample (m,) int64 the hits' sample rows; albedo, E (m, 3) float64: radiance = albedo / pi * E.
- * Out: rgba (p, 4), squares (p, 2) (luminance^2 and alpha^2, when squares != NULL) float64,
- * hits (p,) int64 hit samples per pixel; scratch (n, 4) float64. */
-EXPORT void primer_film(int64_t p, int64_t spp, const uint8_t *valid, const double *background,
-                        const int64_t *hit_sample, int64_t m, const double *albedo, const double *E,
-                        const double *luminance, double *scratch, double *rgba, double *squares, int64_t *hits)
+ * hit_sample (m,) int64 the hits' sample rows, ascending; albedo, E (m, 3) float64: radiance =
+ * albedo / pi * E. Out: rgba (p, 4), squares (p, 2) (luminance^2 and alpha^2, when squares != NULL)
+ * float64, hits (p,) int64 hit samples per pixel. Each sample's value is made as it is summed (no
+ * image of samples in between). Returns 0, or -1 if hit_sample is not ascending. */
+EXPORT int64_t primer_film(int64_t p, int64_t spp, const uint8_t *valid, const double *background,
+                           const int64_t *hit_sample, int64_t m, const double *albedo, const double *E,
+                           const double *luminance, double *rgba, double *squares, int64_t *hits)
 {
-    int64_t n = p * spp;
-    for (int64_t i = 0; i < n; i++) {
-        double *s = scratch + 4 * i;
-        if (valid == NULL || valid[i]) {
-            for (int c = 0; c < 4; c++) s[c] = background[c];
-        } else {
-            s[0] = s[1] = s[2] = 0.0;   /* outside a fisheye's image circle: opaque black */
-            s[3] = 1.0;
-        }
-    }
-    for (int64_t k = 0; k < p; k++) hits[k] = 0;
-    for (int64_t h = 0; h < m; h++) {
-        double *s = scratch + 4 * hit_sample[h];
-        for (int c = 0; c < 3; c++) s[c] = albedo[3 * h + c] * (1.0 / PI) * E[3 * h + c];
-        s[3] = 1.0;
-        hits[hit_sample[h] / spp]++;
-    }
+    int64_t h = 0;             /* the next hit, in sample order */
     for (int64_t k = 0; k < p; k++) {
         double sum[4] = {0.0, 0.0, 0.0, 0.0}, y2 = 0.0, a2 = 0.0;
+        int64_t hit_count = 0;
         for (int64_t j = 0; j < spp; j++) {
-            const double *s = scratch + 4 * (k * spp + j);
+            int64_t i = k * spp + j;
+            double s[4];
+            if (h < m && hit_sample[h] < i) return -1;
+            if (h < m && hit_sample[h] == i) {
+                for (int c = 0; c < 3; c++) s[c] = albedo[3 * h + c] * (1.0 / PI) * E[3 * h + c];
+                s[3] = 1.0;
+                h++;
+                hit_count++;
+            } else if (valid == NULL || valid[i]) {
+                for (int c = 0; c < 4; c++) s[c] = background[c];
+            } else {
+                s[0] = s[1] = s[2] = 0.0;   /* outside a fisheye's image circle: opaque black */
+                s[3] = 1.0;
+            }
             for (int c = 0; c < 4; c++) sum[c] += s[c];
             double y = luminance[0] * s[0] + luminance[1] * s[1] + luminance[2] * s[2];
             y2 += y * y;
@@ -810,7 +816,9 @@ EXPORT void primer_film(int64_t p, int64_t spp, const uint8_t *valid, const doub
         }
         for (int c = 0; c < 4; c++) rgba[4 * k + c] = sum[c];
         if (squares != NULL) { squares[2 * k] = y2; squares[2 * k + 1] = a2; }
+        hits[k] = hit_count;
     }
+    return h == m ? 0 : -1;
 }
 
 /* ------------------------------------------------------------------------------------------------

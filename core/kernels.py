@@ -132,7 +132,7 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_surfaces": (None, [p, i64, p, p, p, p, p, p, p, p, p, p, p, p, p]),
         "primer_shadow_rays": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, i64, p, p, p, p, p, p]),
         "primer_add_light": (None, [p, i64, p, p, p, p, p]),
-        "primer_film": (None, [i64, i64, p, p, p, i64, p, p, p, p, p, p, p]),
+        "primer_film": (i64, [i64, i64, p, p, p, i64, p, p, p, p, p, p]),
         "primer_occluded": (None, [p, p, i64, p, p, p, p]),
         "primer_add_pixels": (None, [i64, p, i64, p, p, p, p, p, p, p]),
         "primer_shade": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, p, p, p, p]),
@@ -506,18 +506,19 @@ def film(p: int, spp: int, valid: Optional[np.ndarray], background: np.ndarray, 
     """The box filter's per-pixel sums of p pixels' spp samples (render._render_chunk step 5) in C.
 
     valid: (p spp,) bool camera rays traced, or None; background: (4,) RGBA of a traced miss;
-    hit_sample: (m,) int64 the hits' sample rows; albedo, E: (m, 3) float64.
+    hit_sample: (m,) int64 the hits' sample rows, ascending; albedo, E: (m, 3) float64.
     -> rgba (p, 4) float64, squares (p, 2) float64 (zeros unless want_squares), hits (p,) int64
     """
     rgba, squares, hits = np.empty((p, 4)), np.zeros((p, 2)), np.empty(p, np.int64)
-    scratch = np.empty((p * spp, 4))
     valid_bytes = None if valid is None else _c(valid, np.bool_).view(np.uint8)
     hit_sample = _c(hit_sample, np.int64)
-    library().primer_film(p, spp, _ptr(valid_bytes, np.uint8), _ptr(_c(background, np.float64), np.float64),
-                          _ptr(hit_sample, np.int64), len(hit_sample), _ptr(albedo, np.float64), _ptr(E, np.float64),
-                          _ptr(_c(luminance, np.float64), np.float64), _ptr(scratch, np.float64),
-                          _ptr(rgba, np.float64), _ptr(squares if want_squares else None, np.float64),
-                          _ptr(hits, np.int64))
+    status = library().primer_film(p, spp, _ptr(valid_bytes, np.uint8), _ptr(_c(background, np.float64), np.float64),
+                                   _ptr(hit_sample, np.int64), len(hit_sample), _ptr(albedo, np.float64),
+                                   _ptr(E, np.float64), _ptr(_c(luminance, np.float64), np.float64),
+                                   _ptr(rgba, np.float64), _ptr(squares if want_squares else None, np.float64),
+                                   _ptr(hits, np.int64))
+    if status != 0:
+        raise ValueError("film: the hits' sample rows must be ascending and within the chunk")
     return rgba, squares, hits
 
 
