@@ -322,7 +322,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
 
         matrices = np.stack([inst.matrix for inst in instances])            # (k, 4, 4)
         linear = matrices[:, :3, :3]
-        det, inverse_all = vectors.determinant_and_inverse(linear)                  # (k,), (k, 3, 3)
+        det = vectors.determinant(linear)                                    # (k,)
         singular = ~(np.isfinite(det) & (det != 0.0))
         if singular.any():
             warnings.append(f"{int(singular.sum())} object(s) of mesh '{mesh.name}' have zero or invalid scale and were skipped")
@@ -375,7 +375,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                            smooth=np.tile(smooth, k), corner_normals=None)
             # 3. Smooth corners transform with the inverse transpose: N' = M^-T N (row vectors: n @ M^-1).
             if corners is not None:
-                inverse = inverse_all[placed]                               # (k, 3, 3)
+                inverse = vectors.determinant_and_inverse(linear[placed])[1]  # (k, 3, 3)
                 batch = batch._replace(corner_normals=normals_.safe_normalize(
                     np.einsum("sij,kjl->ksil", corners, inverse)).reshape(-1, 3, 3))
             pending.append(batch)
@@ -456,7 +456,7 @@ def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.n
         return None
     with np.errstate(invalid="ignore", over="ignore"):
         lo, hi = instancing.world_boxes(prototype[used], transforms)
-        det, _ = vectors.determinant_and_inverse(np.nan_to_num(transforms[:, :, :3].astype(np.float64)))
+        det = vectors.determinant(np.nan_to_num(transforms[:, :, :3].astype(np.float64)))
         placeable = (np.isfinite(transforms).all(axis=(1, 2)) & (det != 0.0) & np.isfinite(lo).all(axis=1)
                      & np.isfinite(hi).all(axis=1) & (np.abs(np.concatenate([lo, hi], axis=1)).max(axis=1)
                                                       < np.finfo(np.float32).max))

@@ -89,6 +89,14 @@ def transform(points: np.ndarray, linear: np.ndarray, offset: np.ndarray) -> np.
     return out
 
 
+def determinant(L: np.ndarray) -> np.ndarray:
+    """Return det L of (k, 3, 3) float64 matrices, a . (b x c) with a, b, c the columns: (k,).
+
+    Elementwise numpy: np.linalg.det runs through LAPACK (see determinant_and_inverse).
+    """
+    return np.einsum("ki,ki->k", L[:, :, 0], np.cross(L[:, :, 1], L[:, :, 2]))
+
+
 def determinant_and_inverse(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Return det L and L^-1 of (k, 3, 3) float64 matrices by their cofactors: (k,) and (k, 3, 3).
 
@@ -101,4 +109,5 @@ def determinant_and_inverse(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rows = np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=1)     # (k, 3, 3)
     det = np.einsum("ki,ki->k", a, rows[:, 0])
     with np.errstate(divide="ignore", invalid="ignore"):
-        return det, rows / det[:, None, None]
+        rows /= det[:, None, None]
+    return det, rows
