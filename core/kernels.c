@@ -277,6 +277,26 @@ SIMD_CLONES __attribute__((noinline)) static void camera_block(CameraBlock *rest
     }
 }
 
+/* The camera rays of samples start .. start + BLOCK - 1 of p pixels' spp samples each (sample j
+ * of pixel k is sample first[k] + j of its pattern): their keys, points and rays, into b. */
+INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t stream, int64_t width,
+                           int64_t height, const int64_t *pixels, const int64_t *first, int64_t spp, int64_t start,
+                           int64_t total)
+{
+    b->n = total - start < BLOCK ? total - start : BLOCK;
+    int64_t k = start / spp, j = start % spp;
+    for (int64_t lane = 0; lane < b->n; lane++) {
+        int64_t pixel = pixels[k];
+        b->pixel[lane] = (uint32_t)pixel;
+        b->index[lane] = (uint32_t)(first[k] + j);
+        b->column[lane] = (double)(pixel % width);
+        b->row[lane] = (double)(pixel / width);
+        if (++j == spp) { j = 0; k++; }
+    }
+    sample_lanes(b->n, stream, b->pixel, b->index, b->u[0], b->u[1]);
+    camera_block(b, camera, width, height);
+}
+
 /* The camera rays of `spp` samples in each of `p` pixels, camera-relative: render._render_chunk
  * steps 1-2 and camera.generate_rays, for PERSP and ORTHO.
  * pixels, first: (p,) int64 (first: samples each pixel already has); width, height: the image.
@@ -289,20 +309,7 @@ EXPORT void primer_camera_rays(const CameraRecord *camera, int64_t seed, int64_t
     int64_t total = p * spp;
     CameraBlock b;
     for (int64_t start = 0; start < total; start += BLOCK) {
-        /* 1. The block's samples: sample j of pixel k is sample first[k] + j of its pattern. */
-        b.n = total - start < BLOCK ? total - start : BLOCK;
-        int64_t k = start / spp, j = start % spp;
-        for (int64_t lane = 0; lane < b.n; lane++) {
-            int64_t pixel = pixels[k];
-            b.pixel[lane] = (uint32_t)pixel;
-            b.index[lane] = (uint32_t)(first[k] + j);
-            b.column[lane] = (double)(pixel % width);
-            b.row[lane] = (double)(pixel / width);
-            if (++j == spp) { j = 0; k++; }
-        }
-        /* 2. Their points in the pixels, then their rays. */
-        sample_lanes(b.n, stream, b.pixel, b.index, b.u[0], b.u[1]);
-        camera_block(&b, camera, width, height);
+        camera_samples(&b, camera, stream, width, height, pixels, first, spp, start, total);
         for (int64_t lane = 0; lane < b.n; lane++) {
             int64_t i = start + lane;
             for (int c = 0; c < 3; c++) { origins[3 * i + c] = b.O[c][lane]; directions[3 * i + c] = b.D[c][lane]; }
@@ -716,6 +723,45 @@ SIMD_CLONES __attribute__((noinline)) static void ray_block(SampleBlock *restric
     else ray_lanes(b, settings, lifted, samples, 0);
 }
 
+/* Steps 0-3 for samples first .. of one light: the block's hits, sample points, light samples and
+ * rays (b.keep marks the rays that can carry light). In: as primer_shadow_rays; lifted already
+ * NULL unless the terminator fix is on. */
+INLINE void shadow_block(SampleBlock *b, const ShadowSettings *settings, const LightRecord *light, int64_t first,
+                         int64_t m, const double *I, const double *N, const double *Ng, const double *offset,
+                         const uint8_t *smooth, const double *lifted, const int64_t *pixel, const int64_t *sample)
+{
+    int64_t count = (int64_t)light->samples, total = m * count;
+    gather_block(b, first, total - first < BLOCK ? total - first : BLOCK, count,
+                 I, N, Ng, offset, smooth, lifted, pixel, sample);
+    if (light->delta == 0.0)
+        sample_lanes(b->n, stream_of((int64_t)settings->seed, (int64_t)light->dimension), b->pixel, b->index,
+                     b->u[0], b->u[1]);
+    else
+        for (int64_t k = 0; k < b->n; k++) b->u[0][k] = b->u[1][k] = 0.0;
+    light_block(b, light);
+    ray_block(b, settings, lifted != NULL, (double)count);
+}
+
+/* Step 4: the block's rays that can carry light, written from row r on as Embree takes them
+ * (float32, t_max clamped to its "infinite"); returns the next free row, or -1 past capacity. */
+INLINE int64_t keep_rays(const SampleBlock *b, int64_t r, int64_t capacity, float *origins, float *directions,
+                         float *t_max, int32_t *owner, double *weight)
+{
+    for (int64_t k = 0; k < b->n; k++) {
+        if (b->keep[k] == 0.0) continue;
+        if (r >= capacity) return -1;
+        for (int c = 0; c < 3; c++) {
+            origins[3 * r + c] = (float)b->origin[c][k];
+            directions[3 * r + c] = (float)b->D[c][k];
+        }
+        t_max[r] = b->t[k] < (double)T_INFINITY ? (float)b->t[k] : T_INFINITY;
+        owner[r] = (int32_t)b->hit[k];
+        weight[r] = b->weight[k];
+        r++;
+    }
+    return r;
+}
+
 /* Build one shadow ray per (hit, light, light sample) that can carry light, compacted.
  * In: I, N, Ng (m, 3) float64 (Ng facing the viewer); offset (m,) float64; smooth (m,) uint8;
  * lifted (m, 3) float64 or NULL; pixel, sample (m,) int64 the keys of each hit's random numbers.
@@ -733,31 +779,12 @@ EXPORT int64_t primer_shadow_rays(const ShadowSettings *settings, const LightRec
     int64_t r = 0;
     const double *lift_from = settings->terminator_fix != 0.0 ? lifted : NULL;
     for (int64_t l = l0; l < l1; l++) {
-        const LightRecord *light = lights + l;
-        int64_t count = (int64_t)light->samples, total = m * count;
-        uint32_t stream = stream_of((int64_t)settings->seed, (int64_t)light->dimension);
+        int64_t total = m * (int64_t)lights[l].samples;
         for (int64_t first = 0; first < total; first += BLOCK) {
-            /* 0-3. The block's hits, sample points, light samples and rays. */
-            gather_block(&b, first, total - first < BLOCK ? total - first : BLOCK, count,
-                         I, N, Ng, offset, smooth, lift_from, pixel, sample);
-            if (light->delta == 0.0) sample_lanes(b.n, stream, b.pixel, b.index, b.u[0], b.u[1]);
-            else for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = 0.0;
-            light_block(&b, light);
-            ray_block(&b, settings, lift_from != NULL, (double)count);
-            /* 4. Keep the rays that can carry light. */
-            for (int64_t k = 0; k < b.n; k++) {
-                if (b.keep[k] == 0.0) continue;
-                if (r >= capacity) return -1;
-                for (int c = 0; c < 3; c++) {
-                    origins[3 * r + c] = (float)b.origin[c][k];
-                    directions[3 * r + c] = (float)b.D[c][k];
-                }
-                t_max[r] = b.t[k] < (double)T_INFINITY ? (float)b.t[k] : T_INFINITY;
-                owner[r] = (int32_t)b.hit[k];
-                light_of[r] = (int32_t)l;
-                weight[r] = b.weight[k];
-                r++;
-            }
+            shadow_block(&b, settings, lights + l, first, m, I, N, Ng, offset, smooth, lift_from, pixel, sample);
+            int64_t next = keep_rays(&b, r, capacity, origins, directions, t_max, owner, weight);
+            if (next < 0) return -1;
+            for (; r < next; r++) light_of[r] = (int32_t)l;
         }
     }
     return r;
@@ -879,13 +906,25 @@ typedef void (*Intersect8)(const int *valid, void *scene, RayHitPacket *rayhit, 
 FILL_PACKET(fill_packet, float)
 FILL_PACKET(fill_packet_double, double)
 
+/* A nearest-hit packet of double rays first .. (see fill_packet), its hit fields set to "none". */
+INLINE void fill_hit_packet(RayHitPacket *packet, int *valid, int64_t first, int64_t n, const double *origins,
+                            const double *directions, const double *t_max)
+{
+    fill_packet_double(&packet->ray, valid, first, n, origins, directions, t_max);
+    for (int k = 0; k < PACKET; k++) {
+        packet->hit.geomID[k] = INVALID_ID;
+        packet->hit.primID[k] = INVALID_ID;
+        packet->hit.instID[0][k] = INVALID_ID;
+        packet->hit.instPrimID[0][k] = INVALID_ID;
+    }
+}
+
 /* Whether anything lies on each ray within (0, t_max): Tracer.occluded.
  * origins, directions (n, 3), t_max (n,) float32 -> blocked (n,) uint8. Embree marks an occluded
  * ray by setting its tfar to -inf, as embreex reads it. */
-EXPORT void primer_occluded(void *function, void *scene, int64_t n, const float *origins, const float *directions,
-                            const float *t_max, uint8_t *blocked)
+INLINE void occlude(Occluded8 occluded8, void *scene, int64_t n, const float *origins, const float *directions,
+                    const float *t_max, uint8_t *blocked)
 {
-    Occluded8 occluded8 = (Occluded8)function;
     RayPacket ray;
     int valid[PACKET] __attribute__((aligned(32)));
     for (int64_t first = 0; first < n; first += PACKET) {
@@ -893,6 +932,12 @@ EXPORT void primer_occluded(void *function, void *scene, int64_t n, const float 
         occluded8(valid, scene, &ray, NULL);
         for (int k = 0; k < PACKET && first + k < n; k++) blocked[first + k] = ray.tfar[k] < 0.0f;
     }
+}
+
+EXPORT void primer_occluded(void *function, void *scene, int64_t n, const float *origins, const float *directions,
+                            const float *t_max, uint8_t *blocked)
+{
+    occlude((Occluded8)function, scene, n, origins, directions, t_max, blocked);
 }
 
 /* The nearest hit in (0, t_max) of each ray: Tracer.intersect.
@@ -905,13 +950,7 @@ EXPORT void primer_intersect(void *function, void *scene, int64_t n, const doubl
     RayHitPacket packet;
     int valid[PACKET] __attribute__((aligned(32)));
     for (int64_t first = 0; first < n; first += PACKET) {
-        fill_packet_double(&packet.ray, valid, first, n, origins, directions, t_max);
-        for (int k = 0; k < PACKET; k++) {
-            packet.hit.geomID[k] = INVALID_ID;
-            packet.hit.primID[k] = INVALID_ID;
-            packet.hit.instID[0][k] = INVALID_ID;
-            packet.hit.instPrimID[0][k] = INVALID_ID;
-        }
+        fill_hit_packet(&packet, valid, first, n, origins, directions, t_max);
         intersect8(valid, scene, &packet, NULL);
         for (int k = 0; k < PACKET && first + k < n; k++) {
             int64_t i = first + k;
@@ -947,18 +986,7 @@ EXPORT int64_t primer_primary(const CameraRecord *camera, int64_t seed, int64_t 
     double O[3 * BLOCK], D[3 * BLOCK], t_max[BLOCK];
     for (int64_t start = 0; start < total; start += BLOCK) {
         /* 1. The block's camera rays, as primer_camera_rays makes them. */
-        b.n = total - start < BLOCK ? total - start : BLOCK;
-        int64_t k = start / spp, j = start % spp;
-        for (int64_t lane = 0; lane < b.n; lane++) {
-            int64_t pixel = pixels[k];
-            b.pixel[lane] = (uint32_t)pixel;
-            b.index[lane] = (uint32_t)(first[k] + j);
-            b.column[lane] = (double)(pixel % width);
-            b.row[lane] = (double)(pixel / width);
-            if (++j == spp) { j = 0; k++; }
-        }
-        sample_lanes(b.n, stream, b.pixel, b.index, b.u[0], b.u[1]);
-        camera_block(&b, camera, width, height);
+        camera_samples(&b, camera, stream, width, height, pixels, first, spp, start, total);
         for (int64_t lane = 0; lane < b.n; lane++) {
             for (int c = 0; c < 3; c++) { O[3 * lane + c] = b.O[c][lane]; D[3 * lane + c] = b.D[c][lane]; }
             t_max[lane] = b.t[lane];
@@ -966,13 +994,7 @@ EXPORT int64_t primer_primary(const CameraRecord *camera, int64_t seed, int64_t 
         /* 2. Embree's nearest hits, 8 rays at a time; 3. the rays that hit, kept. */
         double begin = now();
         for (int64_t at = 0; at < b.n; at += PACKET) {
-            fill_packet_double(&packet.ray, valid, at, b.n, O, D, t_max);
-            for (int lane = 0; lane < PACKET; lane++) {
-                packet.hit.geomID[lane] = INVALID_ID;
-                packet.hit.primID[lane] = INVALID_ID;
-                packet.hit.instID[0][lane] = INVALID_ID;
-                packet.hit.instPrimID[0][lane] = INVALID_ID;
-            }
+            fill_hit_packet(&packet, valid, at, b.n, O, D, t_max);
             intersect(valid, scene, &packet, NULL);
             for (int lane = 0; lane < PACKET && at + lane < b.n; lane++) {
                 if (packet.hit.geomID[lane] == INVALID_ID) continue;
@@ -1036,50 +1058,27 @@ EXPORT int64_t primer_shade(const ShadowSettings *settings, const LightRecord *l
 {
     Occluded8 occluded = (Occluded8)occluded8;
     SampleBlock b;
-    RayPacket packet;
-    int valid[PACKET] __attribute__((aligned(32)));
     float origins[3 * BLOCK], directions[3 * BLOCK], t_max[BLOCK];
-    int64_t owner[BLOCK];
+    int32_t owner[BLOCK];
     double weight[BLOCK];
+    uint8_t blocked[BLOCK];
     int64_t rays = 0;
     double embree = 0.0;
     const double *lift_from = settings->terminator_fix != 0.0 ? lifted : NULL;
     for (int64_t l = l0; l < l1; l++) {
         const LightRecord *light = lights + l;
-        int64_t count = (int64_t)light->samples, total = m * count;
-        uint32_t stream = stream_of((int64_t)settings->seed, (int64_t)light->dimension);
+        int64_t total = m * (int64_t)light->samples;
         for (int64_t first = 0; first < total; first += BLOCK) {
             /* 1. The block's rays, as primer_shadow_rays makes them. */
-            gather_block(&b, first, total - first < BLOCK ? total - first : BLOCK, count,
-                         I, N, Ng, offset, smooth, lift_from, pixel, sample);
-            if (light->delta == 0.0) sample_lanes(b.n, stream, b.pixel, b.index, b.u[0], b.u[1]);
-            else for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = 0.0;
-            light_block(&b, light);
-            ray_block(&b, settings, lift_from != NULL, (double)count);
-            int64_t r = 0;
-            for (int64_t k = 0; k < b.n; k++) {
-                if (b.keep[k] == 0.0) continue;
-                for (int c = 0; c < 3; c++) {
-                    origins[3 * r + c] = (float)b.origin[c][k];
-                    directions[3 * r + c] = (float)b.D[c][k];
-                }
-                t_max[r] = b.t[k] < (double)T_INFINITY ? (float)b.t[k] : T_INFINITY;
-                owner[r] = b.hit[k];
-                weight[r] = b.weight[k];
-                r++;
-            }
+            shadow_block(&b, settings, light, first, m, I, N, Ng, offset, smooth, lift_from, pixel, sample);
+            int64_t r = keep_rays(&b, 0, BLOCK, origins, directions, t_max, owner, weight);
             /* 2. Embree's answers, 8 rays at a time; 3. the light of the rays that get through. */
             double start = now();
-            uint8_t blocked[BLOCK];
-            for (int64_t at = 0; at < r; at += PACKET) {
-                fill_packet(&packet, valid, at, r, origins, directions, t_max);
-                occluded(valid, scene, &packet, NULL);
-                for (int k = 0; k < PACKET && at + k < r; k++) blocked[at + k] = packet.tfar[k] < 0.0f;
-            }
+            occlude(occluded, scene, r, origins, directions, t_max, blocked);
             embree += now() - start;
             for (int64_t k = 0; k < r; k++) {
                 if (blocked[k]) continue;
-                double *e = E + 3 * owner[k];
+                double *e = E + 3 * (int64_t)owner[k];
                 for (int c = 0; c < 3; c++) e[c] += weight[k] * light->color[c];
             }
             rays += r;

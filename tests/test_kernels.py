@@ -234,14 +234,19 @@ def test_renders_agree(adaptive, transparent):
     assert (compiled.image[..., 3] < 1).any() == transparent
 
 
-def test_fisheye_and_instanced_renders_agree():
-    """The two cases whose rays or triangles come from numpy into the kernels."""
-    scene = lit_scene(LIGHTS["point_soft"])
+def with_a_row_of_spheres(scene: Scene) -> Scene:
+    """Place lit_scene's sphere six more times in a row behind it (instancing="always" instances them)."""
     sphere = scene.instances[1]
     for k in range(6):
         matrix = np.eye(4)
         matrix[:3, 3] = (-2.5 + k, 1.8, 0.0)
         scene.instances.append(Instance(sphere.mesh, matrix, sphere.materials, f"Sphere {k}"))
+    return scene
+
+
+def test_fisheye_and_instanced_renders_agree():
+    """The two cases whose rays or triangles come from numpy into the kernels."""
+    scene = with_a_row_of_spheres(lit_scene(LIGHTS["point_soft"]))
     scene.camera = dataclasses.replace(scene.camera, type="PANO", panorama_type="FISHEYE_EQUISOLID",
                                        fisheye_fov=math.radians(170), fisheye_lens=8.0)
     settings = RenderSettings(width=48, height=32, samples=4, light_samples=2, instancing="always")
@@ -367,12 +372,7 @@ def test_streamed_queries_render_the_very_image_of_the_separate_steps(instancing
     """Camera rays made, traced and gathered in one pass (kernels.primary) and shadow rays traced
     inside shading (kernels.shade) give the image of camera_rays -> Tracer.intersect and shadow_rays
     -> Tracer.occluded -> add_light, bit for bit, with the same rays; instanced spheres included."""
-    scene = lit_scene(LIGHTS["several"])
-    sphere = scene.instances[1]
-    for k in range(6):
-        matrix = np.eye(4)
-        matrix[:3, 3] = (-2.5 + k, 1.8, 0.0)
-        scene.instances.append(Instance(sphere.mesh, matrix, sphere.materials, f"Sphere {k}"))
+    scene = with_a_row_of_spheres(lit_scene(LIGHTS["several"]))
     settings = RenderSettings(width=48, height=36, samples=8, light_samples=2, instancing=instancing,
                               terminator_fix=True, chunk_size=2048)
     streamed = render.render(scene, settings)
