@@ -12,6 +12,9 @@ def register():
         bpy.utils.register_class(cls)
     ui.register()
     inspector.register()
+    # The warm heap renders leave goes back to the system once Blender is idle (addon/engine.py).
+    if not bpy.app.timers.is_registered(engine.release_memory_when_idle):
+        bpy.app.timers.register(engine.release_memory_when_idle, first_interval=engine.RELEASE_CHECK, persistent=True)
 
 
 def unregister():
@@ -25,6 +28,7 @@ def unregister():
         bpy.utils.unregister_class(cls)
     properties.unregister()
     # Any memory the last renders kept goes back now.
-    if bpy.app.timers.is_registered(engine._release_memory):
-        bpy.app.timers.unregister(engine._release_memory)
-    engine._release_memory()
+    from ..core import memory
+    if bpy.app.timers.is_registered(engine.release_memory_when_idle):
+        bpy.app.timers.unregister(engine.release_memory_when_idle)
+    memory.release()

@@ -207,34 +207,36 @@ def _ctrl_c_cancels():
 
 def render_frame(engine, depsgraph) -> RenderRecord:
     """Export, render and write one frame; report problems in Blender instead of raising."""
+    global _last_render_ended
     try:
         with _ctrl_c_cancels() as interrupted:
             return _render_frame(engine, depsgraph, lambda: interrupted.is_set() or engine.test_break())
     finally:
-        release_memory_soon()
+        _last_render_ended = time.monotonic()
 
 
-# Seconds after the last render before its memory goes back to the system (core/memory.py).
+# Seconds after the last render before its warm heap goes back to the system (core/memory.py), and
+# how often the timer looks. Renders run on Blender's render thread, where bpy.app.timers must not
+# be touched, so each render only notes when it ended, and one timer, registered with the engine
+# on the main thread, does the rest. Blender runs timers only while its event loop runs; in
+# background mode the process ends instead.
 RELEASE_AFTER = 5.0
+RELEASE_CHECK = 2.0
+_last_render_ended = None
 
 
-def release_memory_soon() -> None:
-    """Return the renders' warm heap to the system RELEASE_AFTER seconds from now, unless another
-    render comes first (each render moves the moment on). Blender runs timers only while its event
-    loop runs; in background mode the process ends instead."""
-    import bpy
-
-    if bpy.app.timers.is_registered(_release_memory):
-        bpy.app.timers.unregister(_release_memory)
-    bpy.app.timers.register(_release_memory, first_interval=RELEASE_AFTER)
-
-
-def _release_memory():
-    """bpy timer: release the warm heap (nothing to do while a render runs); run once."""
+def release_memory_when_idle():
+    """bpy timer (persistent): release the renders' warm heap RELEASE_AFTER seconds after the last
+    render ended (memory.release does nothing while a render runs); look again in RELEASE_CHECK s."""
+    global _last_render_ended
     from ..core import memory
 
-    memory.release()
-    return None
+    ended = _last_render_ended
+    if ended is not None and time.monotonic() - ended >= RELEASE_AFTER:
+        memory.release()
+        if not memory.is_warm():
+            _last_render_ended = None
+    return RELEASE_CHECK
 
 
 def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
@@ -261,7 +263,7 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
 
         engine.update_stats("", "Primer | building BVH")
         # The heap stays warm for a render that follows (an animation's next frame, F12 again), and
-        # goes back to the system a few seconds after the last one (release_memory_soon).
+        # goes back to the system a few seconds after the last one (release_memory_when_idle).
         result = core_render.render(exported.scene, exported.settings, progress=progress, cancel=cancelled,
                                     keep_memory=True)
         record.warnings += [w for w in result.stats.warnings if w not in record.warnings]

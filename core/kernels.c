@@ -854,7 +854,9 @@ EXPORT int64_t primer_film(int64_t p, int64_t spp, const uint8_t *valid, const d
 
 /* Embree 4's packet records (rtcore_ray.h), 8 rays wide, structure of arrays. Embree reads the
  * fields in this order; the hit's instance fields are sized for one instance level with instance
- * arrays (RTC_MAX_INSTANCE_LEVEL_COUNT 1), which is how embreex's Embree is built. */
+ * arrays (RTC_MAX_INSTANCE_LEVEL_COUNT 1), which is how embreex's Embree is built
+ * (tests/test_intersect.py compares every answer with embreex's own queries). The spare rows keep
+ * an Embree built for more levels from writing past the record; the kernels never read them. */
 #define PACKET 8
 typedef struct {
     float org_x[PACKET], org_y[PACKET], org_z[PACKET], tnear[PACKET];
@@ -869,6 +871,7 @@ typedef struct {
     uint32_t primID[PACKET], geomID[PACKET];
     uint32_t instID[1][PACKET];
     uint32_t instPrimID[1][PACKET];
+    uint32_t spare[14][PACKET];
 } __attribute__((aligned(32))) HitPacket;
 
 typedef struct { RayPacket ray; HitPacket hit; } RayHitPacket;

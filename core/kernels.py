@@ -316,6 +316,8 @@ def primary(record, seed: int, width: int, height: int, pixels: np.ndarray, firs
 
     pixels, first: (p,) int64, as camera_rays takes them.
     """
+    if len(first) != len(pixels):
+        raise ValueError("primary: one first-sample count per pixel")
     n = len(pixels) * spp
     sample, origins, directions = np.empty(n, np.int64), np.empty((n, 3)), np.empty((n, 3))
     t, prim, geometry, u, v = np.empty(n), np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n), np.empty(n)
@@ -511,10 +513,13 @@ def film(p: int, spp: int, valid: Optional[np.ndarray], background: np.ndarray, 
     """
     rgba, squares, hits = np.empty((p, 4)), np.zeros((p, 2)), np.empty(p, np.int64)
     valid_bytes = None if valid is None else _c(valid, np.bool_).view(np.uint8)
-    hit_sample = _c(hit_sample, np.int64)
-    status = library().primer_film(p, spp, _ptr(valid_bytes, np.uint8), _ptr(_c(background, np.float64), np.float64),
+    if valid_bytes is not None and len(valid_bytes) != p * spp:
+        raise ValueError("film: valid must have one entry per sample")
+    # (Arrays the C code reads are held in names for the whole call: a converted copy must live.)
+    hit_sample, background, luminance = _c(hit_sample, np.int64), _c(background, np.float64), _c(luminance, np.float64)
+    status = library().primer_film(p, spp, _ptr(valid_bytes, np.uint8), _ptr(background, np.float64),
                                    _ptr(hit_sample, np.int64), len(hit_sample), _ptr(albedo, np.float64),
-                                   _ptr(E, np.float64), _ptr(_c(luminance, np.float64), np.float64),
+                                   _ptr(E, np.float64), _ptr(luminance, np.float64),
                                    _ptr(rgba, np.float64), _ptr(squares if want_squares else None, np.float64),
                                    _ptr(hits, np.int64))
     if status != 0:
@@ -543,6 +548,8 @@ def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height:
     from . import adaptive
     size = width * height
     pixels = _c(pixels, np.int64)
+    if len(pixels) and (pixels[0] < 0 or pixels[-1] >= size or np.any(pixels[1:] <= pixels[:-1])):
+        raise ValueError("unconverged: pixels must be distinct flat indices of the image, ascending")
     wanted = np.empty(len(pixels), np.int64)
     weights = _c(adaptive.LUMINANCE, np.float64)
     error, mean = np.empty(size), np.empty(size)                                 # scratch
@@ -587,12 +594,20 @@ def embree_packets(scene, device) -> Optional[EmbreePackets]:
     return EmbreePackets(handles.scene, address(embree.rtcOccluded8), address(embree.rtcIntersect8))
 
 
+def _check_rays(origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> None:
+    """Refuse a ray batch whose arrays disagree in length (the C code would read past one of them)."""
+    n = len(origins)
+    if origins.shape != (n, 3) or directions.shape != (n, 3) or t_max.shape != (n,):
+        raise ValueError(f"rays: origins {origins.shape}, directions {directions.shape}, t_max {t_max.shape}")
+
+
 def occluded(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
     """Whether anything lies on each ray within (0, t_max), asked 8 rays at a time: (n,) bool.
 
     origins, directions: (n, 3) float32; t_max: (n,) float32.
     """
     n = len(origins)
+    _check_rays(origins, directions, t_max)
     blocked = np.empty(n, np.bool_)
     library().primer_occluded(packets.occluded8, packets.scene, n, _ptr(origins, np.float32),
                               _ptr(directions, np.float32), _ptr(t_max, np.float32), blocked.ctypes.data)
@@ -608,6 +623,7 @@ def intersect(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarra
     u, v (n,) float64 (0 where missed)
     """
     n = len(origins)
+    _check_rays(origins, directions, t_max)
     t, prim, geometry, u, v = (np.empty(n), np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n),
                                np.empty(n))
     library().primer_intersect(packets.intersect8, packets.scene, n, _ptr(origins, np.float64),

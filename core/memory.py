@@ -20,8 +20,8 @@ process, so that the next render finds its buffers' pages already mapped. Every 
 the kernel has to map anew costs about 2.5 us on the machine the benchmark runs on,
 and a render of 320 x 240 pixels at 16 samples maps 6,000-7,500 of them: 7-8% of its
 time. The Blender add-on keeps the heap warm between renders in a row and calls
-`release()` a few seconds after the last one (a bpy timer), so Blender still ends
-up keeping nothing once it is idle.
+`release()` a few seconds after the last one (a persistent bpy timer that looks every
+two seconds), so Blender still ends up keeping nothing once it is idle.
 """
 from __future__ import annotations
 
@@ -83,6 +83,11 @@ def temporaries_from_the_heap(keep: bool = False):
                     _warm = True
                 else:
                     _restore(libc)
+
+
+def is_warm() -> bool:
+    """Whether a render left the heap warm and nobody has released it yet."""
+    return _warm
 
 
 def release() -> bool:

@@ -510,6 +510,8 @@ def _plan_chunks(pixels: int, spp: int, chunk_size: int, threads: int) -> tuple[
     thread PARALLEL_MIN_SAMPLES runs on fewer threads (adaptive sampling's later passes often on one);
     otherwise it is cut into one chunk per thread at least, so that every core works.
     """
+    if pixels <= 0:
+        return 1, 1                       # nothing to render (an empty region): no chunks at all
     workers = max(1, min(threads, (pixels * spp) // PARALLEL_MIN_SAMPLES))
     # As few chunks as chunk_size allows, rounded up to a multiple of the workers, all of one size:
     # so that every worker gets the same share (5 chunks on 2 threads would leave one idle a fifth

@@ -56,6 +56,13 @@ def test_small_passes_run_on_one_thread_and_large_ones_on_every_thread_within_th
     assert some[1] == 3 and -(-(3 * least // 16) // some[0]) >= 3     # three threads, a chunk each
 
 
+def test_an_empty_region_renders_nothing_without_failing():
+    """A render border of zero width leaves no pixel to sample: the image stays clear, no rays."""
+    result = render.render(showcase_scene(), RenderSettings(width=16, height=12, samples=4, region=(3, 3, 3, 6)))
+    assert result.stats.rays == 0 and not result.image.any()
+    assert render._plan_chunks(pixels=0, spp=4, chunk_size=1 << 16, threads=2) == (1, 1)
+
+
 def test_a_pass_is_cut_into_equal_chunks_every_thread_gets_as_many_of():
     """76,800 pixels of 4 samples in chunks of at most 65,536 samples on 2 threads: not 4 full chunks
     and a small fifth (one thread idle for a fifth of the pass) but 6 of 12,800 pixels."""
