@@ -207,35 +207,25 @@ def _ctrl_c_cancels():
 
 def render_frame(engine, depsgraph) -> RenderRecord:
     """Export, render and write one frame; report problems in Blender instead of raising."""
-    global _last_render_ended
-    try:
-        with _ctrl_c_cancels() as interrupted:
-            return _render_frame(engine, depsgraph, lambda: interrupted.is_set() or engine.test_break())
-    finally:
-        _last_render_ended = time.monotonic()
+    with _ctrl_c_cancels() as interrupted:
+        return _render_frame(engine, depsgraph, lambda: interrupted.is_set() or engine.test_break())
 
 
-# Seconds after the last render before its warm heap goes back to the system (core/memory.py), and
-# how often the timer looks. Renders run on Blender's render thread, where bpy.app.timers must not
-# be touched, so each render only notes when it ended, and one timer, registered with the engine
-# on the main thread, does the rest. Blender runs timers only while its event loop runs; in
-# background mode the process ends instead.
+# Seconds without a render before the renders' warm heap goes back to the system (core/memory.py),
+# and how often the timer looks. Renders run on Blender's render thread and the viewport's worker,
+# where bpy.app.timers must not be touched; one timer, registered with the engine on the main
+# thread, does it. Blender runs timers only while its event loop runs; in background mode the
+# process ends instead.
 RELEASE_AFTER = 5.0
 RELEASE_CHECK = 2.0
-_last_render_ended = None
 
 
 def release_memory_when_idle():
-    """bpy timer (persistent): release the renders' warm heap RELEASE_AFTER seconds after the last
-    render ended (memory.release does nothing while a render runs); look again in RELEASE_CHECK s."""
-    global _last_render_ended
+    """bpy timer (persistent): release the warm heap once no render has run for RELEASE_AFTER
+    seconds (core/memory.py; never while a render runs); look again in RELEASE_CHECK seconds."""
     from ..core import memory
 
-    ended = _last_render_ended
-    if ended is not None and time.monotonic() - ended >= RELEASE_AFTER:
-        memory.release()
-        if not memory.is_warm():
-            _last_render_ended = None
+    memory.release_if_idle(RELEASE_AFTER)
     return RELEASE_CHECK
 
 

@@ -218,7 +218,9 @@ class ViewportSession:
 
         for p in progressive.schedule(settings.samples, block, settings.seed):
             start = time.perf_counter()
-            image = progressive.render_pass(job.scene, settings, job.geometry, job.view, p, cancel=cancelled)
+            # The heap stays warm between passes; the engine's idle timer gives it back.
+            image = progressive.render_pass(job.scene, settings, job.geometry, job.view, p, cancel=cancelled,
+                                            keep_memory=True)
             seconds = time.perf_counter() - start
             if image is None or cancelled():
                 return

@@ -19,9 +19,10 @@ A render may instead leave the heap warm (keep=True): its free memory stays with
 process, so that the next render finds its buffers' pages already mapped. Every page
 the kernel has to map anew costs about 2.5 us on the machine the benchmark runs on,
 and a render of 320 x 240 pixels at 16 samples maps 6,000-7,500 of them: 7-8% of its
-time. The Blender add-on keeps the heap warm between renders in a row and calls
-`release()` a few seconds after the last one (a persistent bpy timer that looks every
-two seconds), so Blender still ends up keeping nothing once it is idle.
+time. The Blender add-on keeps the heap warm between renders in a row (F12 and the
+viewport's passes) and calls `release_if_idle()` from a persistent bpy timer that looks
+every two seconds, so Blender still ends up keeping nothing once it has been idle a few
+seconds.
 """
 from __future__ import annotations
 
@@ -30,6 +31,7 @@ import ctypes
 import ctypes.util
 import sys
 import threading
+import time
 
 # glibc's mallopt parameters (malloc.h), and their starting values.
 M_TRIM_THRESHOLD = -1
@@ -42,6 +44,7 @@ _libc = None
 _lock = threading.Lock()
 _renders = 0          # renders inside temporaries_from_the_heap right now (the viewport's and F12's may overlap)
 _warm = False         # the thresholds are raised with no render running (a render kept the heap warm)
+_idle_since = None    # time.monotonic() when the last render that kept the heap warm ended
 
 
 def _glibc():
@@ -64,7 +67,7 @@ def temporaries_from_the_heap(keep: bool = False):
     """During the block, serve large temporary arrays from the heap; when the last such block ends,
     restore glibc's starting thresholds and return free memory to the system, unless `keep`: then
     the heap stays warm for the next render until `release()`."""
-    global _renders, _warm
+    global _renders, _warm, _idle_since
     libc = _glibc()
     if libc is None:
         yield
@@ -80,7 +83,7 @@ def temporaries_from_the_heap(keep: bool = False):
             _renders -= 1
             if _renders == 0:
                 if keep:
-                    _warm = True
+                    _warm, _idle_since = True, time.monotonic()
                 else:
                     _restore(libc)
 
@@ -101,10 +104,17 @@ def release() -> bool:
         return True
 
 
+def release_if_idle(seconds: float) -> bool:
+    """release() once no render has run for `seconds`; return whether the heap was released."""
+    with _lock:
+        idle = _idle_since is not None and time.monotonic() - _idle_since >= seconds
+    return release() if idle else False
+
+
 def _restore(libc) -> None:
     """Put glibc's thresholds back to their starting values and trim the heap (the lock is held)."""
-    global _warm
+    global _warm, _idle_since
     libc.mallopt(M_MMAP_THRESHOLD, GLIBC_DEFAULT)
     libc.mallopt(M_TRIM_THRESHOLD, GLIBC_DEFAULT)
     libc.malloc_trim(0)
-    _warm = False
+    _warm, _idle_since = False, None

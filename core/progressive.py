@@ -104,11 +104,12 @@ def _upsample(image: np.ndarray, block: int, width: int, height: int) -> np.ndar
 
 
 def render_pass(scene: Scene, settings: RenderSettings, geometry: WorldGeometry, view: View, p: Pass,
-                cancel: Optional[Callable[[], bool]] = None) -> Optional[np.ndarray]:
+                cancel: Optional[Callable[[], bool]] = None, keep_memory: bool = False) -> Optional[np.ndarray]:
     """Render one pass of `view`: return its (height, width, 4) float32 region image, or None if cancelled.
 
     settings: the scene's render settings; size, samples, seed and pixel aspect come from the view
     and the pass. The coarse pass renders one ray per block and repeats it over the block.
+    keep_memory: leave the heap warm for the next pass (core/memory.py, render.render).
     """
     fx, fy, fw, fh = view.film
     camera, aspect = view.camera, tuple(view.pixel_aspect)
@@ -132,7 +133,8 @@ def render_pass(scene: Scene, settings: RenderSettings, geometry: WorldGeometry,
     pass_settings = dataclasses.replace(settings, width=w, height=h, samples=p.samples, seed=p.seed,
                                         light_samples=light_samples, region=region, pixel_aspect=aspect,
                                         aux=(), chunk_size=min(settings.chunk_size, 1 << 14))
-    result = render(dataclasses.replace(scene, camera=camera), pass_settings, cancel=cancel, geometry=geometry)
+    result = render(dataclasses.replace(scene, camera=camera), pass_settings, cancel=cancel, geometry=geometry,
+                    keep_memory=keep_memory)
     if result.cancelled:
         return None
     # 3. Back to film pixels: repeat blocks (exact for block cameras, nearest pixel for fisheyes).

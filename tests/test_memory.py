@@ -95,3 +95,17 @@ def test_warm_heap_saves_the_page_faults_of_the_next_render():
     # (How many pages a trimmed heap needs again depends on what ran before in this process: from a
     # few hundred inside the whole suite to thousands alone. A warm heap needs a fraction of them.)
     assert warm <= 0.5 * cold, (warm, cold)
+
+
+def test_a_warm_heap_is_released_only_after_the_idle_time(monkeypatch):
+    """release_if_idle waits until no render has run for the given seconds, then releases once."""
+    calls = []
+    fake = type("FakeLibc", (), {"mallopt": lambda self, p, v: calls.append((p, v)),
+                                 "malloc_trim": lambda self, pad: calls.append(("trim", pad))})()
+    monkeypatch.setattr(memory, "_glibc", lambda: fake)
+    with memory.temporaries_from_the_heap(keep=True):
+        pass
+    assert not memory.release_if_idle(60.0) and memory.is_warm()
+    monkeypatch.setattr(memory, "_idle_since", memory._idle_since - 61.0)
+    assert memory.release_if_idle(60.0) and not memory.is_warm()
+    assert calls[-1] == ("trim", 0)
