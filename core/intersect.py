@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -136,10 +136,10 @@ class Tracer:
         self._count("intersect_seconds", seconds)
 
     def flatten_prims(self, geometry_id: np.ndarray, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
-                      origins: np.ndarray, directions: np.ndarray, t: np.ndarray) -> None:
+                      origins: np.ndarray, directions: np.ndarray, t: np.ndarray, instance: np.ndarray) -> None:
         """Turn hits that a compiled kernel found on instances into flat triangle indices, in place
         in `prim`, as `intersect` does (all rays here hit). Arguments as `_flat_indices` takes them."""
-        self._flat_indices(geometry_id, prim, u, v, origins, directions, t)
+        self._flat_indices(geometry_id, prim, u, v, origins, directions, t, instance)
 
     def _share(self, vertices: np.ndarray, triangles: np.ndarray) -> bool:
         """Attach the mesh as buffers Embree reads in place; return False (nothing attached) if it cannot be done."""
@@ -172,7 +172,7 @@ class Tracer:
             # The packets take the float64 rays and round them to float32 as they are filled.
             o, d, t = (np.ascontiguousarray(a, np.float64) for a in (origins, directions, t_max))
             start = time.perf_counter()
-            t_hit, prim, geometry_id, u, v = kernels.intersect(self._packets, o, d, t)
+            t_hit, prim, geometry_id, u, v, instance = kernels.intersect(self._packets, o, d, t)
             self._count("intersect_seconds", time.perf_counter() - start)
             hit = geometry_id >= 0
         else:
@@ -186,24 +186,32 @@ class Tracer:
             prim[~hit] = -1
             t_hit = np.where(hit, out["tfar"].astype(np.float64), np.inf)
             u, v = out["u"].astype(np.float64), out["v"].astype(np.float64)
+            instance = None                      # embreex's record drops Embree's instance IDs
         if self.instanced:
-            self._flat_indices(geometry_id, prim, u, v, origins, directions, t_hit)
+            self._flat_indices(geometry_id, prim, u, v, origins, directions, t_hit, instance)
         return Hits(hit, t_hit, prim, u, v)
 
     def _flat_indices(self, geometry_id: np.ndarray, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
-                      origins: np.ndarray, directions: np.ndarray, t: np.ndarray) -> None:
+                      origins: np.ndarray, directions: np.ndarray, t: np.ndarray,
+                      instance: Optional[np.ndarray] = None) -> None:
         """Turn hits on instances into flat triangle indices, in place in `prim` (core/instancing.py).
 
         geometry_id: (n,) int32 Embree's geomID (0 copied triangles, m + 1 instanced mesh m);
-        prim: (n,) int64 Embree's primID; the rest as `intersect` has them.
+        prim: (n,) int64 Embree's primID; instance: (n,) int64 Embree's instPrimID, the placement
+        each hit was on (the packet queries have it; -1 or None where not known: the hit's point
+        then finds it, mesh.identify); the rest as `intersect` has them.
         """
         for geometry, mesh in enumerate(self.instanced, start=1):
             on = np.flatnonzero(geometry_id == geometry)
             if len(on) == 0:
                 continue
             local = prim[on]
-            X = origins[on] + t[on, None] * directions[on]
-            j = mesh.identify(local, u[on], v[on], X)
+            j = np.full(len(on), -1, np.int64) if instance is None else instance[on].copy()
+            unknown = np.flatnonzero((j < 0) | (j >= len(mesh.transforms)))
+            if len(unknown):
+                rows = on[unknown]
+                X = origins[rows] + t[rows, None] * directions[rows]
+                j[unknown] = mesh.identify(local[unknown], u[rows], v[rows], X)
             prim[on] = mesh.first_prim + j * len(mesh.triangles) + local
 
     def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:

@@ -909,6 +909,12 @@ typedef void (*Intersect8)(const int *valid, void *scene, RayHitPacket *rayhit, 
 FILL_PACKET(fill_packet, float)
 FILL_PACKET(fill_packet_double, double)
 
+/* Which placement of an instance array lane k hit (Embree's instPrimID), or -1 off any instance. */
+INLINE int64_t instance_of(const HitPacket *hit, int k)
+{
+    return hit->instID[0][k] != INVALID_ID && hit->instPrimID[0][k] != INVALID_ID ? (int64_t)hit->instPrimID[0][k] : -1;
+}
+
 /* A nearest-hit packet of double rays first .. (see fill_packet), its hit fields set to "none". */
 INLINE void fill_hit_packet(RayHitPacket *packet, int *valid, int64_t first, int64_t n, const double *origins,
                             const double *directions, const double *t_max)
@@ -945,9 +951,11 @@ EXPORT void primer_occluded(void *function, void *scene, int64_t n, const float 
 
 /* The nearest hit in (0, t_max) of each ray: Tracer.intersect.
  * origins, directions (n, 3), t_max (n,) float64 (rounded to float32 here) -> t (n,) float64 (inf where missed), prim (n,)
- * int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed), u, v (n,) float64. */
+ * int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed), u, v (n,) float64,
+ * instance (n,) int64 the placement hit in an instance array (-1: a copied triangle, or missed). */
 EXPORT void primer_intersect(void *function, void *scene, int64_t n, const double *origins, const double *directions,
-                             const double *t_max, double *t, int64_t *prim, int32_t *geometry, double *u, double *v)
+                             const double *t_max, double *t, int64_t *prim, int32_t *geometry, double *u, double *v,
+                             int64_t *instance)
 {
     Intersect8 intersect8 = (Intersect8)function;
     RayHitPacket packet;
@@ -963,6 +971,7 @@ EXPORT void primer_intersect(void *function, void *scene, int64_t n, const doubl
             geometry[i] = hit ? (int32_t)packet.hit.geomID[k] : -1;
             u[i] = hit ? (double)packet.hit.u[k] : 0.0;
             v[i] = hit ? (double)packet.hit.v[k] : 0.0;
+            instance[i] = hit ? instance_of(&packet.hit, k) : -1;
         }
     }
 }
@@ -972,11 +981,12 @@ EXPORT void primer_intersect(void *function, void *scene, int64_t n, const doubl
  * In: as primer_camera_rays; intersect8, scene: Embree's rtcIntersect8 and the RTCScene.
  * Out, for hit h < the returned count (at most p spp): sample (h,) int64 the hit's row among the
  * chunk's p spp samples; origins, directions (h, 3), t (h,) float64 its ray and distance; prim (h,)
- * int64, geometry (h,) int32, u, v (h,) float64 Embree's answer. embree_seconds[0] += time in Embree. */
+ * int64, geometry (h,) int32, u, v (h,) float64 Embree's answer, instance (h,) int64 the placement
+ * of an instance array it hit (-1: a copied triangle). embree_seconds[0] += time in Embree. */
 EXPORT int64_t primer_primary(const CameraRecord *camera, int64_t seed, int64_t width, int64_t height,
                               const int64_t *pixels, const int64_t *first, int64_t p, int64_t spp,
                               void *intersect8, void *scene, int64_t *sample, double *origins, double *directions,
-                              double *t, int64_t *prim, int32_t *geometry, double *u, double *v,
+                              double *t, int64_t *prim, int32_t *geometry, double *u, double *v, int64_t *instance,
                               double *embree_seconds)
 {
     Intersect8 intersect = (Intersect8)intersect8;
@@ -1012,6 +1022,7 @@ EXPORT int64_t primer_primary(const CameraRecord *camera, int64_t seed, int64_t 
                 geometry[m] = (int32_t)packet.hit.geomID[lane];
                 u[m] = (double)packet.hit.u[lane];
                 v[m] = (double)packet.hit.v[lane];
+                instance[m] = instance_of(&packet.hit, lane);
                 m++;
             }
         }

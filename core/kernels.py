@@ -136,9 +136,9 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_occluded": (None, [p, p, i64, p, p, p, p]),
         "primer_add_pixels": (None, [i64, p, i64, p, p, p, p, p, p, p]),
         "primer_shade": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, p, p, p, p]),
-        "primer_primary": (i64, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, p, p, p, p, p]),
+        "primer_primary": (i64, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, p, p, p, p, p, p]),
         "primer_unconverged": (i64, [i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64, p, p, p, p, p]),
-        "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p]),
+        "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p, p]),
     }
     for name, (restype, argtypes) in signatures.items():
         function = getattr(lib, name)
@@ -296,7 +296,8 @@ class PrimaryHits(NamedTuple):
 
     sample: (h,) int64 the hit's row among the chunk's samples; origins, directions (h, 3) float64
     its camera-relative ray; t (h,) float64; prim (h,) int64; geometry (h,) int32 Embree's geomID;
-    u, v (h,) float64; embree_seconds: the time inside Embree.
+    u, v (h,) float64; instance (h,) int64 the placement of an instanced mesh hit (Embree's
+    instPrimID; -1 on copied triangles); embree_seconds: the time inside Embree.
     """
 
     sample: np.ndarray
@@ -307,6 +308,7 @@ class PrimaryHits(NamedTuple):
     geometry: np.ndarray
     u: np.ndarray
     v: np.ndarray
+    instance: np.ndarray
     embree_seconds: float
 
 
@@ -321,14 +323,16 @@ def primary(record, seed: int, width: int, height: int, pixels: np.ndarray, firs
     n = len(pixels) * spp
     sample, origins, directions = np.empty(n, np.int64), np.empty((n, 3)), np.empty((n, 3))
     t, prim, geometry, u, v = np.empty(n), np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n), np.empty(n)
+    instance = np.empty(n, np.int64)
     seconds = np.zeros(1)
     m = library().primer_primary(ctypes.byref(record), int(seed), int(width), int(height), _ptr(pixels, np.int64),
                                  _ptr(first, np.int64), len(pixels), int(spp), packets.intersect8, packets.scene,
                                  _ptr(sample, np.int64), _ptr(origins, np.float64), _ptr(directions, np.float64),
                                  _ptr(t, np.float64), _ptr(prim, np.int64), _ptr(geometry, np.int32),
-                                 _ptr(u, np.float64), _ptr(v, np.float64), _ptr(seconds, np.float64))
+                                 _ptr(u, np.float64), _ptr(v, np.float64), _ptr(instance, np.int64),
+                                 _ptr(seconds, np.float64))
     return PrimaryHits(sample[:m], origins[:m], directions[:m], t[:m], prim[:m], geometry[:m], u[:m], v[:m],
-                       float(seconds[0]))
+                       instance[:m], float(seconds[0]))
 
 
 class HitTriangles(NamedTuple):
@@ -620,14 +624,16 @@ def intersect(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarra
     origins, directions: (n, 3) float64; t_max: (n,) float64, rounded to Embree's float32 as the
     packets are filled (as intersect._f32_rays would) -> t (n,) float64 (inf where missed),
     prim (n,) int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed),
-    u, v (n,) float64 (0 where missed)
+    u, v (n,) float64 (0 where missed), instance (n,) int64 the placement of an instanced mesh hit
+    (Embree's instPrimID; -1 on copied triangles and misses)
     """
     n = len(origins)
     _check_rays(origins, directions, t_max)
     t, prim, geometry, u, v = (np.empty(n), np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n),
                                np.empty(n))
+    instance = np.empty(n, np.int64)
     library().primer_intersect(packets.intersect8, packets.scene, n, _ptr(origins, np.float64),
                                _ptr(directions, np.float64), _ptr(t_max, np.float64), _ptr(t, np.float64),
                                _ptr(prim, np.int64), _ptr(geometry, np.int32), _ptr(u, np.float64),
-                               _ptr(v, np.float64))
-    return t, prim, geometry, u, v
+                               _ptr(v, np.float64), _ptr(instance, np.int64))
+    return t, prim, geometry, u, v, instance

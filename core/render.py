@@ -312,7 +312,8 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
         found = kernels.primary(ctx.camera_record, seed, W, H, pixels, first, spp, tracer.packets)
         tracer.count_intersect(found.embree_seconds)
         if tracer.instanced:
-            tracer.flatten_prims(found.geometry, found.prim, found.u, found.v, found.origins, found.directions, found.t)
+            tracer.flatten_prims(found.geometry, found.prim, found.u, found.v, found.origins, found.directions,
+                                 found.t, found.instance)
         h = found.sample                                   # (m,) into the chunk's samples
         origins, directions = found.origins, found.directions
         hit = np.arange(len(h))                            # (m,) into origins / directions
