@@ -31,12 +31,18 @@ def test_overlapping_renders_restore_the_thresholds_only_when_the_last_one_ends(
     assert memory._renders == 0
 
 
-def test_an_exception_inside_a_render_still_restores_the_thresholds(monkeypatch):
-    """A cancelled or failed render leaves the allocator as it found it."""
+def fake_libc(monkeypatch) -> list:
+    """Put a C library that only records its calls in place of glibc; return the record."""
     calls = []
     fake = type("FakeLibc", (), {"mallopt": lambda self, p, v: calls.append((p, v)),
                                  "malloc_trim": lambda self, pad: calls.append(("trim", pad))})()
     monkeypatch.setattr(memory, "_glibc", lambda: fake)
+    return calls
+
+
+def test_an_exception_inside_a_render_still_restores_the_thresholds(monkeypatch):
+    """A cancelled or failed render leaves the allocator as it found it."""
+    calls = fake_libc(monkeypatch)
     with pytest.raises(RuntimeError):
         with memory.temporaries_from_the_heap():
             raise RuntimeError("cancelled")
@@ -54,10 +60,7 @@ def test_glibc_is_found_on_linux():
 def test_a_warm_heap_stays_until_released_and_never_under_a_running_render(monkeypatch):
     """keep=True leaves the raised thresholds (the next render finds its pages mapped); release()
     then restores glibc's values and trims, but not while a render runs, and only once."""
-    calls = []
-    fake = type("FakeLibc", (), {"mallopt": lambda self, p, v: calls.append((p, v)),
-                                 "malloc_trim": lambda self, pad: calls.append(("trim", pad))})()
-    monkeypatch.setattr(memory, "_glibc", lambda: fake)
+    calls = fake_libc(monkeypatch)
     with memory.temporaries_from_the_heap(keep=True):
         pass
     assert ("trim", 0) not in calls and calls[-1] == (memory.M_TRIM_THRESHOLD, memory.TRIM_THRESHOLD)
@@ -99,10 +102,7 @@ def test_warm_heap_saves_the_page_faults_of_the_next_render():
 
 def test_a_warm_heap_is_released_only_after_the_idle_time(monkeypatch):
     """release_if_idle waits until no render has run for the given seconds, then releases once."""
-    calls = []
-    fake = type("FakeLibc", (), {"mallopt": lambda self, p, v: calls.append((p, v)),
-                                 "malloc_trim": lambda self, pad: calls.append(("trim", pad))})()
-    monkeypatch.setattr(memory, "_glibc", lambda: fake)
+    calls = fake_libc(monkeypatch)
     with memory.temporaries_from_the_heap(keep=True):
         pass
     assert not memory.release_if_idle(60.0) and memory.is_warm()
