@@ -384,8 +384,6 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                 vertex_offset = _finish_batches(pending, vertex_offset, counts, parts)
                 pending, pending_triangles = [], 0
     vertex_offset = _finish_batches(pending, vertex_offset, counts, parts)
-    parts_v, parts_t, parts_n, parts_m, parts_cn, parts_smooth, parts_i = (
-        parts["v"], parts["t"], parts["n"], parts["m"], parts["cn"], parts["smooth"], parts["i"])
 
     if counts["index"]:
         warnings.append(f"{counts['index']} triangle(s) with out-of-range vertex indices were skipped")
@@ -396,11 +394,11 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     if counts["missing"]:
         warnings.append(f"{counts['missing']} triangle(s) have no material and render in the default grey")
 
-    vertices = np.concatenate(parts_v) if parts_v else np.zeros((0, 3), np.float32)
+    vertices = np.concatenate(parts["v"]) if parts["v"] else np.zeros((0, 3), np.float32)
     # Non-finite vertices that no kept triangle uses must not reach Embree either.
     vertices = np.where(np.isfinite(vertices), vertices, np.float32(0.0))
-    triangles = (np.concatenate(parts_t) if parts_t else np.zeros((0, 3), np.int64)).astype(np.int32)
-    smooth_mask = np.concatenate(parts_smooth) if parts_smooth else np.zeros(0, bool)
+    triangles = (np.concatenate(parts["t"]) if parts["t"] else np.zeros((0, 3), np.int64)).astype(np.int32)
+    smooth_mask = np.concatenate(parts["smooth"]) if parts["smooth"] else np.zeros(0, bool)
     smooth_index = np.full(len(triangles), -1, np.int32)
     smooth_index[smooth_mask] = np.arange(int(smooth_mask.sum()), dtype=np.int32)
     # Instanced triangles are numbered after the copied ones.
@@ -412,14 +410,14 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         origin=origin,
         vertices=vertices,
         triangles=triangles,
-        face_normals=np.concatenate(parts_n) if parts_n else np.zeros((0, 3)),
-        material=(np.concatenate(parts_m) if parts_m else np.zeros(0, np.int64)).astype(np.int32),
+        face_normals=np.concatenate(parts["n"]) if parts["n"] else np.zeros((0, 3)),
+        material=(np.concatenate(parts["m"]) if parts["m"] else np.zeros(0, np.int64)).astype(np.int32),
         albedo=material_albedo(scene.materials),
         smooth_index=smooth_index,
-        corner_normals=np.concatenate(parts_cn) if parts_cn else np.zeros((0, 3, 3), np.float32),
+        corner_normals=np.concatenate(parts["cn"]) if parts["cn"] else np.zeros((0, 3, 3), np.float32),
         tracer=Tracer(vertices, triangles, instanced=instanced),
         warnings=warnings,
-        instance=np.concatenate(parts_i) if parts_i else np.zeros(0, np.int32),
+        instance=np.concatenate(parts["i"]) if parts["i"] else np.zeros(0, np.int32),
         instanced=instanced,
     )
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import normals as normals_
+from . import vectors
 
 # A mesh is instanced, not copied, when its copies would hold more than this many triangles.
 INSTANCE_TRIANGLES = 1 << 18
@@ -221,8 +222,7 @@ class InstancedMesh:
         row = self.smooth_index[local]
         smooth = row >= 0
         L = self.transforms[j[smooth], :, :3].astype(np.float64)                    # (s, 3, 3)
-        a, b, c = L[:, :, 0], L[:, :, 1], L[:, :, 2]
-        cofactor = np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=2)  # (s, 3, 3) columns
+        cofactor = np.ascontiguousarray(np.swapaxes(vectors.adjugate(L), 1, 2))      # (s, 3, 3) columns
         world = np.einsum("sij,skj->ski", cofactor, self.corner_normals[row[smooth]])
         world *= self.flip[j[smooth]][:, None, None]
         return smooth, normals_.safe_normalize(world)

@@ -31,7 +31,6 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from . import vectors
 from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 log = logging.getLogger(__name__)
@@ -217,8 +216,7 @@ def light_record(light, index: int, light_samples: int) -> LightRecord:
                 record.direction[:] = np.asarray(light.direction, np.float64).tolist()
             else:
                 record.spot_frame = 1.0
-                record.spot_inverse[:] = vectors.determinant_and_inverse(
-                    np.asarray(light.frame, np.float64)[None])[1][0].ravel().tolist()
+                record.spot_inverse[:] = lights_.spot_inverse_frame(light).ravel().tolist()
             record.spot_cos_half, record.spot_blend_width = lights_.spot_cone(light)
     elif isinstance(light, AreaLight):
         record.kind = LIGHT_AREA

@@ -150,6 +150,11 @@ def spread_constants(spread: float) -> tuple[float, float]:
     return math.tan(half), (math.tan(half) - half if half > 0.05 else half ** 3 / 3.0)
 
 
+def spot_inverse_frame(light: SpotLight) -> np.ndarray:
+    """Return the world-to-spot-local matrix of a spot with a (scaled) frame: (3, 3) float64."""
+    return vectors.determinant_and_inverse(np.asarray(light.frame, np.float64)[None])[1][0]
+
+
 def spot_attenuation(light: SpotLight, directions: np.ndarray) -> np.ndarray:
     """Return Blender's spot cone factor for light leaving along each direction.
 
@@ -163,7 +168,7 @@ def spot_attenuation(light: SpotLight, directions: np.ndarray) -> np.ndarray:
     if light.frame is None:
         cos_angle = np.einsum("ij,j->i", directions, np.asarray(light.direction, np.float64))
     else:
-        local = np.einsum("ij,kj->ik", directions, vectors.determinant_and_inverse(np.asarray(light.frame, np.float64)[None])[1][0])
+        local = np.einsum("ij,kj->ik", directions, spot_inverse_frame(light))
         length = np.linalg.norm(local, axis=1)
         cos_angle = -local[:, 2] / np.where(length > 0, length, 1.0)
     cos_half, blend_width = spot_cone(light)

@@ -307,7 +307,8 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
     # 1-3. Sample positions, camera rays (camera-relative) and their nearest hits.
     valid = None
     tracer = ctx.geometry.tracer
-    if ctx.camera_record is not None and tracer.packed and tracer.stream_queries:
+    streamed = tracer.packed and tracer.stream_queries     # rays traced inside the kernels
+    if ctx.camera_record is not None and streamed:
         # Made, traced and gathered in one pass (kernels.primary): the steps below, fused.
         found = kernels.primary(ctx.camera_record, seed, W, H, pixels, first, spp, tracer.packets)
         tracer.count_intersect(found.embree_seconds)
@@ -352,9 +353,10 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
         albedo = triangles.albedo
         surface = kernels.surfaces(triangles, hit, origins, directions, t_hit, u_hit, v_hit,
                                    lift=bool(s.terminator_fix and ctx.smooth))
-        pixel_of_hit = pixels[h // spp]
-        sample_of_hit = first[h // spp] + h % spp
-        if tracer.packed and tracer.stream_queries:
+        row = h // spp                                     # (m,) each hit's pixel in the chunk
+        pixel_of_hit = pixels[row]
+        sample_of_hit = first[row] + h % spp
+        if streamed:
             # Made, traced and added up in one pass (kernels.shade): the steps below, fused.
             shadow_rays, seconds = kernels.shade(ctx.shadow_settings, ctx.light_records, 0, len(ctx.light_records),
                                                  surface, triangles.smooth, pixel_of_hit, sample_of_hit,
@@ -585,8 +587,8 @@ def render(scene: Scene, settings: RenderSettings,
     queried = (tracer.intersect_seconds, tracer.occluded_seconds)
 
     def store(chunk: tuple, result: ChunkResult) -> None:
+        chunk_pixels = vectors.selector(chunk[0])         # a chunk of the first pass: a run of rows
         if result.rgba is not None:                       # (else the chunk added its sums itself)
-            chunk_pixels = vectors.selector(chunk[0])     # a chunk of the first pass: a run of rows
             noise.total[chunk_pixels] += result.rgba
             noise.squares[chunk_pixels] += result.squares
             noise.count[chunk_pixels] += result.samples
@@ -597,13 +599,13 @@ def render(scene: Scene, settings: RenderSettings,
         stats.shadow_rays += result.shadow
         stats.shading_seconds += result.shading_seconds
 
-    unconverged = adaptive.unconverged
-    ctx.sums = None if ctx.numpy_because else (noise, aux_hits)
     if not ctx.numpy_because:
         render_chunk, unconverged = _render_chunk_compiled, kernels.unconverged
+        ctx.sums = (noise, aux_hits)
         stats.kernels = "compiled"
     else:
         render_chunk = _render_chunk_timed if "time" in settings.aux else _render_chunk
+        unconverged = adaptive.unconverged
         stats.kernels = f"numpy ({ctx.numpy_because})"
     with memory.temporaries_from_the_heap(keep_memory), ThreadPoolExecutor(max_workers=threads) as pool:
         pixels = region

@@ -97,17 +97,24 @@ def determinant(L: np.ndarray) -> np.ndarray:
     return np.einsum("ki,ki->k", L[:, :, 0], np.cross(L[:, :, 1], L[:, :, 2]))
 
 
+def adjugate(L: np.ndarray) -> np.ndarray:
+    """Return the adjugate of (k, 3, 3) float64 matrices: (k, 3, 3) with the rows b x c, c x a, a x b,
+    a, b, c the columns of L. L^-1 = adj L / det L, and normals turn with its transpose, the
+    cofactor matrix (core/instancing.py)."""
+    a, b, c = L[:, :, 0], L[:, :, 1], L[:, :, 2]
+    return np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=1)
+
+
 def determinant_and_inverse(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Return det L and L^-1 of (k, 3, 3) float64 matrices by their cofactors: (k,) and (k, 3, 3).
 
-    With a, b, c the columns of L, det L = a . (b x c) and L^-1 has the rows b x c, c x a, a x b
-    over det L. Elementwise numpy: LAPACK's inverse (np.linalg) runs through OpenBLAS, whose threads
-    fought Embree's right after a BVH build (3 ms a call instead of 20 us). Singular matrices give
-    det 0 and an infinite or NaN inverse, which callers skip.
+    With a, b, c the columns of L, det L = a . (b x c) and L^-1 = adj L / det L. Elementwise numpy:
+    LAPACK's inverse (np.linalg) runs through OpenBLAS, whose threads fought Embree's right after a
+    BVH build (3 ms a call instead of 20 us). Singular matrices give det 0 and an infinite or NaN
+    inverse, which callers skip.
     """
-    a, b, c = L[:, :, 0], L[:, :, 1], L[:, :, 2]
-    rows = np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=1)     # (k, 3, 3)
-    det = np.einsum("ki,ki->k", a, rows[:, 0])
+    rows = adjugate(L)                                                             # (k, 3, 3)
+    det = np.einsum("ki,ki->k", L[:, :, 0], rows[:, 0])
     with np.errstate(divide="ignore", invalid="ignore"):
         rows /= det[:, None, None]
     return det, rows
