@@ -32,8 +32,10 @@ PHASES = ("scenes", "profile", "rays", "scaling", "stability")
 RAYS_SCENES = ("modifiers_instances", "light_area")
 SCALING = {"triangles": [1e3, 1e4, 1e5, 1e6, 1e7], "pixels": [160 * 90, 320 * 180, 640 * 360, 1280 * 720,
                                                            1920 * 1080, 3840 * 2160],
-           "lights": [1, 2, 4, 8, 16, 32, 64], "instances": [1, 10, 100, 1e3, 1e4, 1e5], "samples_4k": [16]}
-SCALING_QUICK = {"triangles": [1e3, 1e5], "pixels": [160 * 90, 640 * 360], "lights": [1, 8], "instances": [1, 100]}
+           "lights": [1, 2, 4, 8, 16, 32, 64], "instances": [1, 10, 100, 1e3, 1e4, 1e5], "instances_fine": [1, 1e5],
+           "samples_4k": [16]}
+SCALING_QUICK = {"triangles": [1e3, 1e5], "pixels": [160 * 90, 640 * 360], "lights": [1, 8], "instances": [1, 100],
+                 "instances_fine": [1, 100]}
 SCALING_TIMEOUT = 240           # seconds per scaling point; a point past it is reported as skipped
 
 

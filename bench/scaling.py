@@ -5,7 +5,8 @@ Each point runs in its own process, so its peak resident memory (ru_maxrss) is i
     .venv/bin/python bench/scaling.py KIND VALUE        prints one JSON line
 
 KIND is "triangles" (a heightfield of VALUE triangles), "pixels" (VALUE pixels at 16:9), "lights"
-(VALUE point lights), "instances" (VALUE copies of a 48-triangle sphere) or "samples_4k" (a
+(VALUE point lights), "instances" (VALUE copies of a 48-triangle sphere), "instances_fine" (VALUE
+copies of a 4,800-triangle sphere: 100 times the triangles, in the same places) or "samples_4k" (a
 3840 x 2160 render at VALUE samples, with adaptive sampling as Blender's default has it). Every
 point renders with the robust shadow offset on all cores; see DEFAULTS for the fixed parameters.
 All but samples_4k sample uniformly, so their times measure the cost per sample.
@@ -31,7 +32,9 @@ from core.scene import Mesh, PointLight, RenderSettings, Scene, SunLight  # noqa
 
 # What stays fixed while one quantity varies.
 DEFAULTS = {"triangles": 10_000, "width": 320, "height": 180, "samples": 4, "lights": 2, "instances": 1}
-KINDS = ("triangles", "pixels", "lights", "instances", "samples_4k")
+KINDS = ("triangles", "pixels", "lights", "instances", "instances_fine", "samples_4k")
+# The spheres of the two instance series: (segments, rings) of 48 and 4,800 triangles.
+SPHERES = {"instances": (8, 4), "instances_fine": (80, 31)}
 
 
 def heightfield(triangles: int, size: float = 10.0) -> Mesh:
@@ -62,15 +65,17 @@ def build(kind: str, value: int) -> tuple:
         p["samples"] = 1
     elif kind == "samples_4k":
         p["width"], p["height"], p["samples"] = 3840, 2160, int(value)
+    elif kind in SPHERES:
+        p["instances"] = int(value)
     elif kind in p:
         p[kind] = int(value)
     scene = Scene(camera=Camera.look_at((0.0, -9.0, 5.0), (0.0, 0.0, 0.0), fov=math.radians(55)),
                   world_color=np.array([0.02, 0.02, 0.03]))
     scene.add_material((0.7, 0.7, 0.7))
     scene.add_material((0.8, 0.3, 0.2))
-    if kind == "instances":
+    if kind in SPHERES:
         scene.add_mesh(primitives.plane(12.0))
-        sphere = primitives.uv_sphere(1.0, 8, 4, smooth=False)
+        sphere = primitives.uv_sphere(1.0, *SPHERES[kind], smooth=False)
         scene.meshes.append(sphere)
         n = p["instances"]
         side = int(math.ceil(math.sqrt(n)))

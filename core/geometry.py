@@ -332,9 +332,11 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                 and embree_buffers.instancing_supported()):
             # Stored once, traced as Embree instances (core/instancing.py).
             found = dict.fromkeys(counts, 0)
-            record = _instanced_mesh(mesh, triangles, smooth, slots, corners, matrices[placed_all],
-                                     [instances[index].materials for index in placed_all], owners_all[placed_all],
-                                     origin, n_materials, found)
+            every = len(placed_all) == len(instances)      # (then no copy of 10^5 matrices is made)
+            record = _instanced_mesh(mesh, triangles, smooth, slots, corners,
+                                     matrices if every else matrices[placed_all],
+                                     [instances[index].materials for index in placed_all],
+                                     owners_all if every else owners_all[placed_all], origin, n_materials, found)
             # Unless asked to always instance, instances piled up in one place are copied instead:
             # every hit there would have to try each of them (instancing.CROWDED).
             crowded = (record is not None and instance_triangles > 0
@@ -441,11 +443,10 @@ def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.n
     keep = finite & nondegenerate
     # 2. Camera-relative transforms, rounded once to the float32 numbers Embree traces with;
     #    instances that overflow float32 or reach infinity are dropped.
-    relative = matrices[:, :3, :4].copy()
-    relative[:, :, 3] -= origin
+    transforms = np.empty((len(matrices), 3, 4), np.float32)                        # (k, 3, 4)
     with np.errstate(invalid="ignore", over="ignore"):
-        transforms = relative.astype(np.float32)                                    # (k, 3, 4)
-    del relative
+        transforms[:, :, :3] = matrices[:, :3, :3]
+        transforms[:, :, 3] = matrices[:, :3, 3] - origin
     prototype = np.where(np.isfinite(vertices32), vertices32, np.float32(0.0))
     used = np.unique(triangles[keep]) if keep.any() else np.zeros(0, np.int64)
     if len(used) == 0:
