@@ -300,15 +300,24 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     n_materials = len(scene.materials)
     counts = {"missing": 0, "nonfinite": 0, "degenerate": 0, "index": 0}
 
-    # Group instances by mesh (their indices into scene.instances): one batched transform per
-    # mesh, whatever the instance count.
-    by_mesh: dict[int, list] = {}
-    for index, instance in enumerate(scene.instances):
-        by_mesh.setdefault(instance.mesh, []).append(index)
+    # Every placement's matrix and determinant at once (numpy's cost is per call: one call, not one
+    # per mesh), and the inverses on first need.
+    n_instances = len(scene.instances)
+    all_matrices = (np.stack([instance.matrix for instance in scene.instances]) if n_instances
+                    else np.zeros((0, 4, 4)))                                              # (n, 4, 4)
+    all_det = vectors.determinant(all_matrices[:, :3, :3])                                 # (n,)
+    all_inverse = None
 
-    for mesh_index, owners in by_mesh.items():
-        mesh = scene.meshes[mesh_index]
-        instances = [scene.instances[index] for index in owners]
+    # Group instances by mesh (their indices into scene.instances), meshes in order of first use:
+    # one batched transform per mesh, whatever the instance count.
+    mesh_of = np.fromiter((instance.mesh for instance in scene.instances), np.int64, n_instances)
+    by_mesh = np.split(np.argsort(mesh_of, kind="stable"),
+                       np.flatnonzero(np.diff(np.sort(mesh_of))) + 1) if n_instances else []
+    by_mesh.sort(key=lambda owners: owners[0])
+
+    for owners in by_mesh:
+        mesh = scene.meshes[int(mesh_of[owners[0]])]
+        instances = [scene.instances[index] for index in owners.tolist()]
         if len(mesh.triangles) == 0 or len(mesh.vertices) == 0:
             continue
         # Triangles whose indices point outside the vertex array are dropped.
@@ -320,14 +329,15 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         corners = _object_corner_normals(mesh, in_range) if smooth.any() else None
         table_rows: dict = {}
 
-        matrices = np.stack([inst.matrix for inst in instances])            # (k, 4, 4)
+        every_instance = len(owners) == n_instances                          # (then owners is 0 .. n - 1)
+        matrices = all_matrices if every_instance else all_matrices[owners]  # (k, 4, 4)
         linear = matrices[:, :3, :3]
-        det = vectors.determinant(linear)                                    # (k,)
+        det = all_det if every_instance else all_det[owners]                 # (k,)
         singular = ~(np.isfinite(det) & (det != 0.0))
         if singular.any():
             warnings.append(f"{int(singular.sum())} object(s) of mesh '{mesh.name}' have zero or invalid scale and were skipped")
         placed_all = np.flatnonzero(~singular)
-        owners_all = np.array(owners, np.int32)
+        owners_all = owners.astype(np.int32)
         if (len(placed_all) >= 2 and len(placed_all) * len(triangles) > instance_triangles
                 and embree_buffers.instancing_supported()):
             # Stored once, traced as Embree instances (core/instancing.py).
@@ -377,7 +387,9 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                            smooth=np.tile(smooth, k), corner_normals=None)
             # 3. Smooth corners transform with the inverse transpose: N' = M^-T N (row vectors: n @ M^-1).
             if corners is not None:
-                inverse = vectors.determinant_and_inverse(linear[placed])[1]  # (k, 3, 3)
+                if all_inverse is None:
+                    all_inverse = vectors.determinant_and_inverse(all_matrices[:, :3, :3])[1]  # (n, 3, 3)
+                inverse = all_inverse[owners[placed]]                         # (k, 3, 3)
                 batch = batch._replace(corner_normals=normals_.safe_normalize(
                     np.einsum("sij,kjl->ksil", corners, inverse)).reshape(-1, 3, 3))
             pending.append(batch)

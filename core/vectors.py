@@ -12,6 +12,7 @@ are random anyway, and the resulting directions stay unit length to float64 prec
 from __future__ import annotations
 
 import math
+from typing import Optional
 
 import numpy as np
 
@@ -89,12 +90,28 @@ def transform(points: np.ndarray, linear: np.ndarray, offset: np.ndarray) -> np.
     return out
 
 
+def cross(a: np.ndarray, b: np.ndarray, out: Optional[np.ndarray] = None) -> np.ndarray:
+    """Return a x b of (n, 3) float64 vectors: (n, 3), into `out` when given.
+
+    The same products and differences as np.cross, in the same order (so the same bits), without
+    its axis juggling, which costs more than the arithmetic on the few vectors of a scene's
+    placements (about 40 against 15 us on three vectors here).
+    """
+    if out is None:
+        out = np.empty((len(a), 3), np.result_type(a, b))
+    a0, a1, a2, b0, b1, b2 = a[:, 0], a[:, 1], a[:, 2], b[:, 0], b[:, 1], b[:, 2]
+    np.subtract(a1 * b2, a2 * b1, out=out[:, 0])
+    np.subtract(a2 * b0, a0 * b2, out=out[:, 1])
+    np.subtract(a0 * b1, a1 * b0, out=out[:, 2])
+    return out
+
+
 def determinant(L: np.ndarray) -> np.ndarray:
     """Return det L of (k, 3, 3) float64 matrices, a . (b x c) with a, b, c the columns: (k,).
 
     Elementwise numpy: np.linalg.det runs through LAPACK (see determinant_and_inverse).
     """
-    return np.einsum("ki,ki->k", L[:, :, 0], np.cross(L[:, :, 1], L[:, :, 2]))
+    return np.einsum("ki,ki->k", L[:, :, 0], cross(L[:, :, 1], L[:, :, 2]))
 
 
 def adjugate(L: np.ndarray) -> np.ndarray:
@@ -102,7 +119,11 @@ def adjugate(L: np.ndarray) -> np.ndarray:
     a, b, c the columns of L. L^-1 = adj L / det L, and normals turn with its transpose, the
     cofactor matrix (core/instancing.py)."""
     a, b, c = L[:, :, 0], L[:, :, 1], L[:, :, 2]
-    return np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=1)
+    rows = np.empty((len(L), 3, 3), np.result_type(L))
+    cross(b, c, rows[:, 0])
+    cross(c, a, rows[:, 1])
+    cross(a, b, rows[:, 2])
+    return rows
 
 
 def determinant_and_inverse(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
