@@ -138,3 +138,87 @@ def render_default_scene(out_path: str, package: str, width: int = 32, height: i
         "max": float(np.nan_to_num(rgb).max()),
         "nonzero_fraction": float((rgb.sum(axis=2) > 1e-4).mean()),
     }
+
+
+# A script for run_bpy (format it with tools= and scenes=): every mesh of the sample scenes and a
+# few edge cases read by the export's fast path and by its RNA reference; check_mesh_reads judges it.
+MESH_READS = """
+import glob, os, sys
+import bpy
+import bmesh
+import numpy as np
+from blender_env import report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+
+primer = load_primer()
+export = sys.modules[primer.__name__ + ".addon.export"]
+
+
+def edge_case_meshes():
+    # Meshes the sample scenes may lack: ngons, mixed smooth and flat faces, material indices, no
+    # sharp_face attribute at all (every face smooth), custom normals, and an empty mesh.
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    made = []
+    mesh = bpy.data.meshes.new("Ngons")
+    bm = bmesh.new()
+    bmesh.ops.create_circle(bm, cap_ends=True, segments=7, radius=1.0)
+    bmesh.ops.create_cube(bm, size=0.5)
+    bm.to_mesh(mesh)
+    bm.free()
+    mesh.polygons.foreach_set("use_smooth", [i % 2 == 0 for i in range(len(mesh.polygons))])
+    mesh.polygons.foreach_set("material_index", [i % 3 for i in range(len(mesh.polygons))])
+    made.append(mesh)
+    smooth = bpy.data.meshes.new("All smooth")
+    smooth.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0.3)], [], [(0, 1, 2, 3)])
+    if smooth.attributes.get("sharp_face") is not None:
+        smooth.attributes.remove(smooth.attributes["sharp_face"])      # no attribute: every face smooth
+    made.append(smooth)
+    custom = bpy.data.meshes.new("Custom normals")
+    custom.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    custom.shade_flat()
+    custom.normals_split_custom_set_from_vertices([(0.0, 0.6, 0.8)] * 3)
+    made.append(custom)
+    made.append(bpy.data.meshes.new("Empty"))
+    for m in made:
+        m.calc_loop_triangles()
+    return [(m.name, m) for m in made]
+
+
+def compare(label, mesh, results):
+    fast, slow = export._mesh_arrays(mesh), export._mesh_arrays_by_rna(mesh)
+    same = {{name: bool(np.array_equal(getattr(fast, name), getattr(slow, name)))
+             for name in ("vertices", "triangles", "smooth", "material_indices")}}
+    same["corner_normals"] = ((fast.corner_normals is None and slow.corner_normals is None)
+                              or bool(np.array_equal(fast.corner_normals, slow.corner_normals)))
+    results.append({{"mesh": label, "n_triangles": int(len(fast.triangles)), "n_smooth": int(fast.smooth.sum()),
+                     "n_materials": int(len(np.unique(fast.material_indices))), **same}})
+
+
+results = []
+for blend in sorted(glob.glob(os.path.join({scenes!r}, "*.blend"))):
+    bpy.ops.wm.open_mainfile(filepath=blend)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for instance in depsgraph.object_instances:
+        if instance.object.type == "MESH" and instance.object.data is not None:
+            compare(os.path.basename(blend) + ": " + instance.object.data.name, instance.object.data, results)
+for label, mesh in edge_case_meshes():
+    compare(label, mesh, results)
+primer.unregister()             # bpy 4.2 crashes at exit while a Python RenderEngine is registered
+report(version=list(bpy.app.version), results=results)
+"""
+
+
+def check_mesh_reads(result) -> None:
+    """Every mesh read through the attributes equals the same mesh read through RNA's per-item properties."""
+    results = result["results"]
+    differ = [r for r in results if not all(r[k] for k in ("vertices", "triangles", "smooth", "material_indices",
+                                                              "corner_normals"))]
+    assert differ == [], differ
+    # The comparison covered what can differ: flat and smooth faces, several materials, an empty mesh.
+    assert any(0 < r["n_smooth"] < r["n_triangles"] for r in results)
+    assert any(r["n_materials"] >= 3 for r in results)
+    assert any(r["mesh"] == "All smooth" and r["n_smooth"] == r["n_triangles"] == 2 for r in results)
+    assert any(r["mesh"] == "Empty" and r["n_triangles"] == 0 for r in results)
+    assert len(results) > 20
+

@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import MESH_READS, ROOT, check_mesh_reads, run_bpy
 
 pytestmark = pytest.mark.smoke42
 
@@ -95,3 +95,11 @@ def test_extension_zip_installs_and_renders_in_blender_4_2(tmp_path):
     assert result["installed"] == ["FINISHED"] and "PRIMER" in result["engines"]
     assert result["status"] == ["FINISHED"] and result["error"] == "" and result["finite"]
     assert 0.1 < result["max"] < 1e3 and result["nonzero_fraction"] > 0.5
+
+
+def test_mesh_read_by_attributes_equals_rna_reading_in_blender_4_2(tmp_path):
+    """Blender 4.2 has the attribute arrays the export reads meshes from, and they give RNA's numbers."""
+    result = run_bpy(MESH_READS.format(tools=os.path.join(ROOT, "tools"), scenes=os.path.join(ROOT, "sample_scenes")),
+                     str(tmp_path))
+    assert result["version"][:2] == [4, 2]
+    check_mesh_reads(result)

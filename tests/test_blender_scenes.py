@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from blender_env import ROOT, isolated_env, run_bpy
+from blender_env import MESH_READS, ROOT, check_mesh_reads, isolated_env, run_bpy
 
 from core import image_io
 from bench.common import digest  # one cache-key function for the tests and the benchmark
@@ -353,3 +353,9 @@ def test_export_notes_what_cycles_renders_differently(tmp_path):
     assert "'Default Principled' is not pure diffuse" in warnings and "Specular IOR Level" in warnings
     assert "the world lights surfaces in Cycles" in warnings
     assert "Shadow Terminator Geometry Offset" in warnings
+
+
+
+def test_mesh_read_by_attributes_equals_rna_reading(tmp_path):
+    """The export's fast mesh read (Blender's attribute arrays) gives the same arrays as RNA's per-triangle one."""
+    check_mesh_reads(run_bpy(MESH_READS.format(tools=os.path.join(ROOT, "tools"), scenes=SCENES_DIR), str(tmp_path)))
