@@ -20,7 +20,7 @@
 #include <stdint.h>
 #include <time.h>
 
-#define PRIMER_KERNELS_ABI 1
+#define PRIMER_KERNELS_ABI 2
 
 #define PI 3.14159265358979323846
 #define FLOAT32_EPSILON (1.0 / 16777216.0)   /* 2^-24, core/shadows.py */
@@ -327,30 +327,89 @@ EXPORT void primer_camera_rays(const CameraRecord *camera, int64_t seed, int64_t
  * albedo (a, 3) float64; smooth_index (t,) int32 (-1 flat) or NULL; corner_normals (s, 3, 3) float32.
  * Out per hit: corners (m, 3, 3), Ng (m, 3), albedo_out (m, 3) float64; smooth (m,) uint8;
  * normals (m, 3, 3) float64 (written for smooth hits only). */
+/* One hit's copied triangle f: its corners (3, 3) and corner normals (3, 3) widened to double, its
+ * face normal and albedo; returns whether it is smooth (normals written only then). */
+INLINE int copied_triangle(int64_t f, const float *vertices, const int32_t *triangles, const double *face_normals,
+                           const int32_t *material, const double *albedo, const int32_t *smooth_index,
+                           const float *corner_normals, double *corners, double *Ng, double *albedo_out,
+                           double *normals)
+{
+    for (int k = 0; k < 3; k++) {
+        const float *V = vertices + 3 * (int64_t)triangles[3 * f + k];
+        for (int c = 0; c < 3; c++) corners[3 * k + c] = (double)V[c];
+    }
+    for (int c = 0; c < 3; c++) {
+        Ng[c] = face_normals[3 * f + c];
+        albedo_out[c] = albedo[3 * (int64_t)material[f] + c];
+    }
+    int32_t row = smooth_index ? smooth_index[f] : -1;
+    if (row >= 0)
+        for (int c = 0; c < 9; c++) normals[c] = (double)corner_normals[9 * (int64_t)row + c];
+    return row >= 0;
+}
+
 EXPORT void primer_copied_triangles(const int64_t *prim, int64_t m, const float *vertices, const int32_t *triangles,
                                     const double *face_normals, const int32_t *material, const double *albedo,
                                     const int32_t *smooth_index, const float *corner_normals,
                                     double *corners, double *Ng, double *albedo_out, uint8_t *smooth, double *normals)
 {
-    for (int64_t i = 0; i < m; i++) {
-        int64_t f = prim[i];
+    for (int64_t i = 0; i < m; i++)
+        smooth[i] = (uint8_t)copied_triangle(prim[i], vertices, triangles, face_normals, material, albedo,
+                                             smooth_index, corner_normals, corners + 9 * i, Ng + 3 * i,
+                                             albedo_out + 3 * i, normals + 9 * i);
+}
+
+/* The surface of one hit: shading.hit_points, surface_at_hits, shadows.error_bound and, for the
+ * terminator fix, shadows.terminator_points. O, D: its ray; t, u, v: Embree's answer; V: the
+ * corners (3, 3); ng: the face normal, turned to face the viewer in place; normals: the corner
+ * normals (3, 3) when smooth. Out: P (3) the point I, n (3) the shading normal, *offset, and Q (3),
+ * the terminator fix's point, when Q is not NULL and the hit is smooth. */
+INLINE void surface_at(const double *O, const double *D, double t, double u, double v, const double *V,
+                       double *ng, int smooth, const double *normals, double *P, double *n, double *offset,
+                       double *Q)
+{
+    double w = 1.0 - u - v;
+    /* 1. I: the float64 ray meets the triangle's plane, unless that disagrees with Embree's t. */
+    double to_corner[3] = {V[0] - O[0], V[1] - O[1], V[2] - O[2]};
+    double t_plane = dot3(to_corner, ng) / dot3(D, ng);
+    if (fabs(t_plane - t) <= 1e-5 * fabs(t) + 1e-30) {
+        for (int c = 0; c < 3; c++) P[c] = O[c] + t_plane * D[c];
+    } else {
+        for (int c = 0; c < 3; c++) P[c] = w * V[c] + u * V[3 + c] + v * V[6 + c];
+    }
+    /* 2. The face normal, flipped when the triangle was hit from behind (N.D > 0). */
+    double side = dot3(ng, D) > 0.0 ? -1.0 : 1.0;
+    for (int c = 0; c < 3; c++) { ng[c] *= side; n[c] = ng[c]; }
+    /* 3. The robust offset: ROBUST_ULPS float32 ulps of the largest coordinate involved. */
+    double magnitude = largest3(P);
+    for (int k = 0; k < 3; k++) if (largest3(V + 3 * k) > magnitude) magnitude = largest3(V + 3 * k);
+    *offset = ROBUST_ULPS * FLOAT32_EPSILON * magnitude;
+    if (!smooth) return;
+    /* 4. Smooth triangles: the corner normals (turned with the face) interpolated and renormalised. */
+    double cn[9];
+    for (int c = 0; c < 9; c++) cn[c] = normals[c] * side;
+    double s[3];
+    for (int c = 0; c < 3; c++) s[c] = w * cn[c] + u * cn[3 + c] + v * cn[6 + c];
+    double length = sqrt(dot3(s, s));
+    if (isfinite(length) && length > 0.0)
+        for (int c = 0; c < 3; c++) n[c] = s[c] / length;
+    /* 5. The terminator fix's point: I projected onto each corner's tangent plane where it lies
+     *    below it, the projections interpolated with the barycentrics. */
+    if (Q != NULL) {
+        double weight[3] = {w, u, v};
+        Q[0] = Q[1] = Q[2] = 0.0;
         for (int k = 0; k < 3; k++) {
-            const float *V = vertices + 3 * (int64_t)triangles[3 * f + k];
-            for (int c = 0; c < 3; c++) corners[9 * i + 3 * k + c] = (double)V[c];
+            const double *corner = V + 3 * k, *normal = cn + 3 * k;
+            double to_point[3] = {P[0] - corner[0], P[1] - corner[1], P[2] - corner[2]};
+            double below = dot3(to_point, normal);
+            if (below > 0.0) below = 0.0;
+            for (int c = 0; c < 3; c++)
+                Q[c] += weight[k] * (corner[c] + (to_point[c] - below * normal[c]));
         }
-        for (int c = 0; c < 3; c++) {
-            Ng[3 * i + c] = face_normals[3 * f + c];
-            albedo_out[3 * i + c] = albedo[3 * (int64_t)material[f] + c];
-        }
-        int32_t row = smooth_index ? smooth_index[f] : -1;
-        smooth[i] = row >= 0;
-        if (row >= 0)
-            for (int c = 0; c < 9; c++) normals[9 * i + c] = (double)corner_normals[9 * (int64_t)row + c];
     }
 }
 
-/* The surface at each hit: shading.hit_points, surface_at_hits, shadows.error_bound and, for the
- * terminator fix, shadows.terminator_points.
+/* surface_at for m hits.
  * In: ray (m,) int64 row of each hit's ray in origins / directions (n, 3) float64; t, u, v (m,) float64;
  * corners (m, 3, 3), Ng (m, 3) float64; smooth (m,) uint8; normals (m, 3, 3) float64 (smooth hits).
  * Out: I, N (m, 3) float64; Ng turned to face the viewer, in place; offset (m,) float64;
@@ -360,50 +419,31 @@ EXPORT void primer_surfaces(const int64_t *ray, int64_t m, const double *origins
                             double *Ng, const uint8_t *smooth, const double *normals,
                             double *I, double *N, double *offset, double *lifted)
 {
+    for (int64_t i = 0; i < m; i++)
+        surface_at(origins + 3 * ray[i], directions + 3 * ray[i], t[i], u[i], v[i], corners + 9 * i, Ng + 3 * i,
+                   smooth[i], normals + 9 * i, I + 3 * i, N + 3 * i, offset + i, lifted ? lifted + 3 * i : NULL);
+}
+
+/* primer_copied_triangles and primer_surfaces in one pass over the hits of a chunk's camera rays
+ * (ray h is hit h): the corners and corner normals stay in registers instead of going through
+ * (m, 3, 3) arrays. The same numbers (tests/test_kernels.py).
+ * In: prim (m,) int64; origins, directions (m, 3), t, u, v (m,) float64; the copied triangles' tables as
+ * primer_copied_triangles takes them. Out: Ng, albedo_out, I, N (m, 3), offset (m,) float64,
+ * smooth (m,) uint8, lifted (m, 3) float64 or NULL, as the two kernels write them. */
+EXPORT void primer_copied_surfaces(const int64_t *prim, int64_t m, const double *origins, const double *directions,
+                                   const double *t, const double *u, const double *v, const float *vertices,
+                                   const int32_t *triangles, const double *face_normals, const int32_t *material,
+                                   const double *albedo, const int32_t *smooth_index, const float *corner_normals,
+                                   double *Ng, double *albedo_out, uint8_t *smooth, double *I, double *N,
+                                   double *offset, double *lifted)
+{
     for (int64_t i = 0; i < m; i++) {
-        const double *O = origins + 3 * ray[i], *D = directions + 3 * ray[i];
-        const double *V = corners + 9 * i;
-        double *ng = Ng + 3 * i, *P = I + 3 * i, *n = N + 3 * i;
-        double w = 1.0 - u[i] - v[i];
-        /* 1. I: the float64 ray meets the triangle's plane, unless that disagrees with Embree's t. */
-        double to_corner[3] = {V[0] - O[0], V[1] - O[1], V[2] - O[2]};
-        double t_plane = dot3(to_corner, ng) / dot3(D, ng);
-        if (fabs(t_plane - t[i]) <= 1e-5 * fabs(t[i]) + 1e-30) {
-            for (int c = 0; c < 3; c++) P[c] = O[c] + t_plane * D[c];
-        } else {
-            for (int c = 0; c < 3; c++) P[c] = w * V[c] + u[i] * V[3 + c] + v[i] * V[6 + c];
-        }
-        /* 2. The face normal, flipped when the triangle was hit from behind (N.D > 0). */
-        double side = dot3(ng, D) > 0.0 ? -1.0 : 1.0;
-        for (int c = 0; c < 3; c++) { ng[c] *= side; n[c] = ng[c]; }
-        /* 3. The robust offset: ROBUST_ULPS float32 ulps of the largest coordinate involved. */
-        double magnitude = largest3(P);
-        for (int k = 0; k < 3; k++) if (largest3(V + 3 * k) > magnitude) magnitude = largest3(V + 3 * k);
-        offset[i] = ROBUST_ULPS * FLOAT32_EPSILON * magnitude;
-        if (!smooth[i]) continue;
-        /* 4. Smooth triangles: the corner normals (turned with the face) interpolated and renormalised. */
-        double cn[9];
-        for (int c = 0; c < 9; c++) cn[c] = normals[9 * i + c] * side;
-        double s[3];
-        for (int c = 0; c < 3; c++) s[c] = w * cn[c] + u[i] * cn[3 + c] + v[i] * cn[6 + c];
-        double length = sqrt(dot3(s, s));
-        if (isfinite(length) && length > 0.0)
-            for (int c = 0; c < 3; c++) n[c] = s[c] / length;
-        /* 5. The terminator fix's point: I projected onto each corner's tangent plane where it lies
-         *    below it, the projections interpolated with the barycentrics. */
-        if (lifted != NULL) {
-            double weight[3] = {w, u[i], v[i]};
-            double *Q = lifted + 3 * i;
-            Q[0] = Q[1] = Q[2] = 0.0;
-            for (int k = 0; k < 3; k++) {
-                const double *corner = V + 3 * k, *normal = cn + 3 * k;
-                double to_point[3] = {P[0] - corner[0], P[1] - corner[1], P[2] - corner[2]};
-                double below = dot3(to_point, normal);
-                if (below > 0.0) below = 0.0;
-                for (int c = 0; c < 3; c++)
-                    Q[c] += weight[k] * (corner[c] + (to_point[c] - below * normal[c]));
-            }
-        }
+        double corners[9], normals[9] = {0.0};      /* (normals: read only when smooth) */
+        int is_smooth = copied_triangle(prim[i], vertices, triangles, face_normals, material, albedo, smooth_index,
+                                        corner_normals, corners, Ng + 3 * i, albedo_out + 3 * i, normals);
+        smooth[i] = (uint8_t)is_smooth;
+        surface_at(origins + 3 * i, directions + 3 * i, t[i], u[i], v[i], corners, Ng + 3 * i, is_smooth, normals,
+                   I + 3 * i, N + 3 * i, offset + i, lifted ? lifted + 3 * i : NULL);
     }
 }
 

@@ -346,26 +346,31 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
     albedo = np.zeros((m, 3))
     if m:
         # 4. The surface at each hit, then the lights in groups: shadow rays, Embree's answers, the light.
-        if ctx.copied is not None:
-            triangles = kernels.copied_triangles(ctx.copied, prim)
+        lift = bool(s.terminator_fix and ctx.smooth)
+        if ctx.copied is not None and streamed:
+            # The hits' rays are the hits' own rows (kernels.primary): triangles and surfaces in one pass.
+            albedo, smooth, surface = kernels.copied_surfaces(ctx.copied, prim, origins, directions, t_hit, u_hit,
+                                                              v_hit, lift)
         else:
-            triangles = kernels.any_triangles(ctx.geometry, prim, ctx.smooth)
-        albedo = triangles.albedo
-        surface = kernels.surfaces(triangles, hit, origins, directions, t_hit, u_hit, v_hit,
-                                   lift=bool(s.terminator_fix and ctx.smooth))
+            if ctx.copied is not None:
+                triangles = kernels.copied_triangles(ctx.copied, prim)
+            else:
+                triangles = kernels.any_triangles(ctx.geometry, prim, ctx.smooth)
+            albedo, smooth = triangles.albedo, triangles.smooth
+            surface = kernels.surfaces(triangles, hit, origins, directions, t_hit, u_hit, v_hit, lift)
         row = h // spp                                     # (m,) each hit's pixel in the chunk
         pixel_of_hit = pixels[row]
         sample_of_hit = first[row] + h % spp
         if streamed:
             # Made, traced and added up in one pass (kernels.shade): the steps below, fused.
             shadow_rays, seconds = kernels.shade(ctx.shadow_settings, ctx.light_records, 0, len(ctx.light_records),
-                                                 surface, triangles.smooth, pixel_of_hit, sample_of_hit,
+                                                 surface, smooth, pixel_of_hit, sample_of_hit,
                                                  tracer.packets, E)
             tracer.count_occluded(seconds)
         else:
             for l0, l1 in kernels.light_groups(ctx.light_records, m):
                 batch = kernels.shadow_rays(ctx.shadow_settings, ctx.light_records, l0, l1, surface,
-                                            triangles.smooth, pixel_of_hit, sample_of_hit)
+                                            smooth, pixel_of_hit, sample_of_hit)
                 if len(batch.weight):
                     blocked = tracer.occluded(batch.origins, batch.directions, batch.t_max)
                     kernels.add_light(ctx.light_records, batch, blocked, E)
