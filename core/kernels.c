@@ -20,7 +20,7 @@
 #include <stdint.h>
 #include <time.h>
 
-#define PRIMER_KERNELS_ABI 2
+#define PRIMER_KERNELS_ABI 3
 
 #define PI 3.14159265358979323846
 #define FLOAT32_EPSILON (1.0 / 16777216.0)   /* 2^-24, core/shadows.py */
@@ -1140,6 +1140,151 @@ EXPORT int64_t primer_shade(const ShadowSettings *settings, const LightRecord *l
     }
     embree_seconds[0] += embree;
     return rays;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * A chunk in one stream: camera rays, hits, surfaces, shadow rays and film, block by block
+ * --------------------------------------------------------------------------------------------- */
+
+/* The copied triangles' tables (core/kernels.py CopiedArrays), as primer_copied_triangles takes them. */
+typedef struct {
+    const float *vertices;
+    const int32_t *triangles;
+    const double *face_normals;
+    const int32_t *material;
+    const double *albedo;
+    const int32_t *smooth_index;
+    const float *corner_normals;
+} CopiedTables;
+
+/* The hits of one block of camera samples, one row per hit (at most BLOCK). */
+typedef struct {
+    int64_t m;
+    int64_t lane[BLOCK];                         /* the camera sample (lane of the block) it belongs to */
+    int64_t pixel[BLOCK], sample[BLOCK];         /* its random-number keys */
+    double I[3 * BLOCK], N[3 * BLOCK], Ng[3 * BLOCK], lifted[3 * BLOCK], offset[BLOCK];
+    double albedo[3 * BLOCK], E[3 * BLOCK];
+    uint8_t smooth[BLOCK];
+} BlockHits;
+
+/* primer_primary, primer_copied_surfaces, primer_shade and primer_film for a chunk of p pixels of spp
+ * samples (render._render_chunk steps 1-5), BLOCK camera samples at a time: each block's rays, hits,
+ * surfaces and shadow rays live in the cache and on the stack, and its samples go straight into
+ * their pixels' sums. The rays, the answers and every sum are those of the separate kernels, in the
+ * same order (tests/test_kernels.py renders both ways).
+ * In: as primer_primary and primer_shade (all of the lights), the copied triangles' tables; background,
+ * luminance as primer_film takes them. Out: rgba (p, 4), squares (p, 2) or NULL, hits (p,) as
+ * primer_film writes them; counts[0] += shadow rays; seconds[0] += time in Embree's nearest-hit
+ * queries, seconds[1] in its occlusion queries, seconds[2] shading (surfaces and shadow rays). */
+EXPORT void primer_samples(const CameraRecord *camera, int64_t seed, int64_t width, int64_t height,
+                           const int64_t *pixels, const int64_t *first, int64_t p, int64_t spp, void *intersect8,
+                           void *occluded8, void *scene, const CopiedTables *tables, const ShadowSettings *settings,
+                           const LightRecord *lights, int64_t n_lights, const double *background,
+                           const double *luminance, double *rgba, double *squares, int64_t *hits, int64_t *counts,
+                           double *seconds)
+{
+    Intersect8 intersect = (Intersect8)intersect8;
+    Occluded8 occluded = (Occluded8)occluded8;
+    uint32_t stream = stream_of(seed, 0);
+    int64_t total = p * spp, shadow_rays = 0;
+    int fix = settings->terminator_fix != 0.0;
+    CameraBlock b;
+    RayHitPacket packet;
+    int valid[PACKET] __attribute__((aligned(32)));
+    double O[3 * BLOCK], D[3 * BLOCK], t_max[BLOCK], t[BLOCK], u[BLOCK], v[BLOCK];
+    int64_t prim[BLOCK];
+    BlockHits H;
+    SampleBlock sb;
+    float ray_origins[3 * BLOCK], ray_directions[3 * BLOCK], ray_t[BLOCK];
+    int32_t owner[BLOCK];
+    double weight[BLOCK];
+    uint8_t blocked[BLOCK];
+    for (int64_t k = 0; k < p; k++) {
+        for (int c = 0; c < 4; c++) rgba[4 * k + c] = 0.0;
+        if (squares != NULL) squares[2 * k] = squares[2 * k + 1] = 0.0;
+        hits[k] = 0;
+    }
+    for (int64_t start = 0; start < total; start += BLOCK) {
+        /* 1. The block's camera rays (primer_camera_rays). */
+        camera_samples(&b, camera, stream, width, height, pixels, first, spp, start, total);
+        for (int64_t lane = 0; lane < b.n; lane++) {
+            for (int c = 0; c < 3; c++) { O[3 * lane + c] = b.O[c][lane]; D[3 * lane + c] = b.D[c][lane]; }
+            t_max[lane] = b.t[lane];
+        }
+        /* 2. Their nearest hits, 8 at a time; the rays that hit kept (primer_primary). */
+        double begin = now();
+        H.m = 0;
+        for (int64_t at = 0; at < b.n; at += PACKET) {
+            fill_hit_packet(&packet, valid, at, b.n, O, D, t_max);
+            intersect(valid, scene, &packet, NULL);
+            for (int lane = 0; lane < PACKET && at + lane < b.n; lane++) {
+                if (packet.hit.geomID[lane] == INVALID_ID) continue;
+                H.lane[H.m] = at + lane;
+                t[H.m] = (double)packet.ray.tfar[lane];
+                prim[H.m] = (int64_t)packet.hit.primID[lane];
+                u[H.m] = (double)packet.hit.u[lane];
+                v[H.m] = (double)packet.hit.v[lane];
+                H.m++;
+            }
+        }
+        double traced = now();
+        seconds[0] += traced - begin;
+        /* 3. The surface at each hit (primer_copied_surfaces). */
+        for (int64_t h = 0; h < H.m; h++) {
+            int64_t lane = H.lane[h];
+            double corners[9], normals[9] = {0.0};     /* (normals: read only when smooth) */
+            int is_smooth = copied_triangle(prim[h], tables->vertices, tables->triangles, tables->face_normals,
+                                            tables->material, tables->albedo, tables->smooth_index,
+                                            tables->corner_normals, corners, H.Ng + 3 * h, H.albedo + 3 * h, normals);
+            H.smooth[h] = (uint8_t)is_smooth;
+            surface_at(O + 3 * lane, D + 3 * lane, t[h], u[h], v[h], corners, H.Ng + 3 * h, is_smooth, normals,
+                       H.I + 3 * h, H.N + 3 * h, H.offset + h, fix ? H.lifted + 3 * h : NULL);
+            H.pixel[h] = (int64_t)b.pixel[lane];
+            H.sample[h] = (int64_t)b.index[lane];
+            H.E[3 * h] = H.E[3 * h + 1] = H.E[3 * h + 2] = 0.0;
+        }
+        /* 4. Each light's shadow rays, Embree's answers and the light that gets through (primer_shade). */
+        for (int64_t l = 0; l < n_lights; l++) {
+            const LightRecord *light = lights + l;
+            int64_t samples = H.m * (int64_t)light->samples;
+            for (int64_t at = 0; at < samples; at += BLOCK) {
+                shadow_block(&sb, settings, light, at, H.m, H.I, H.N, H.Ng, H.offset, H.smooth,
+                             fix ? H.lifted : NULL, H.pixel, H.sample);
+                int64_t r = keep_rays(&sb, 0, BLOCK, ray_origins, ray_directions, ray_t, owner, weight);
+                double asked = now();
+                occlude(occluded, scene, r, ray_origins, ray_directions, ray_t, blocked);
+                seconds[1] += now() - asked;
+                for (int64_t k = 0; k < r; k++) {
+                    if (blocked[k]) continue;
+                    double *e = H.E + 3 * (int64_t)owner[k];
+                    for (int c = 0; c < 3; c++) e[c] += weight[k] * light->color[c];
+                }
+                shadow_rays += r;
+            }
+        }
+        seconds[2] += now() - traced;
+        /* 5. Every sample of the block into its pixel's sums (primer_film), in sample order. */
+        int64_t h = 0;
+        for (int64_t lane = 0; lane < b.n; lane++) {
+            int64_t i = start + lane, k = i / spp;
+            double s[4];
+            if (h < H.m && H.lane[h] == lane) {
+                for (int c = 0; c < 3; c++) s[c] = H.albedo[3 * h + c] * (1.0 / PI) * H.E[3 * h + c];
+                s[3] = 1.0;
+                h++;
+                hits[k]++;
+            } else {
+                for (int c = 0; c < 4; c++) s[c] = background[c];
+            }
+            for (int c = 0; c < 4; c++) rgba[4 * k + c] += s[c];
+            if (squares != NULL) {
+                double y = luminance[0] * s[0] + luminance[1] * s[1] + luminance[2] * s[2];
+                squares[2 * k] += y * y;
+                squares[2 * k + 1] += s[3] * s[3];
+            }
+        }
+    }
+    counts[0] += shadow_rays;
 }
 
 /* ------------------------------------------------------------------------------------------------

@@ -35,7 +35,7 @@ from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 log = logging.getLogger(__name__)
 
-ABI = 2
+ABI = 3
 KERNELS = ("compiled", "numpy")
 
 # Shadow rays prepared per Embree query: lights are taken in groups of at most this many rays
@@ -130,6 +130,7 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_copied_triangles": (None, [p, i64, p, p, p, p, p, p, p, p, p, p, p, p]),
         "primer_surfaces": (None, [p, i64, p, p, p, p, p, p, p, p, p, p, p, p, p]),
         "primer_copied_surfaces": (None, [p, i64] + [p] * 19),
+        "primer_samples": (None, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, i64] + [p] * 7),
         "primer_shadow_rays": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, i64, p, p, p, p, p, p]),
         "primer_add_light": (None, [p, i64, p, p, p, p, p]),
         "primer_film": (i64, [i64, i64, p, p, p, i64, p, p, p, p, p, p]),
@@ -460,6 +461,60 @@ def copied_surfaces(arrays: CopiedArrays, prim: np.ndarray, origins: np.ndarray,
         _ptr(Ng, np.float64), _ptr(albedo, np.float64), _ptr(smooth, np.uint8), _ptr(I, np.float64),
         _ptr(N, np.float64), _ptr(offset, np.float64), _ptr(lifted, np.float64))
     return CopiedSurfaces(albedo, smooth, Surfaces(I, N, Ng, offset, lifted))
+
+
+class CopiedTables(ctypes.Structure):
+    """The addresses of CopiedArrays' tables, as core/kernels.c's CopiedTables reads them."""
+
+    _fields_ = [(name, ctypes.c_void_p) for name in CopiedArrays._fields]
+
+
+def copied_tables(arrays: CopiedArrays) -> CopiedTables:
+    """Return the addresses of `arrays` (which must outlive every kernel call that reads them)."""
+    dtypes = (np.float32, np.int32, np.float64, np.int32, np.float64, np.int32, np.float32)
+    return CopiedTables(*[_ptr(array, dtype) for array, dtype in zip(arrays, dtypes)])
+
+
+class ChunkSums(NamedTuple):
+    """samples' answer: a chunk's per-pixel sums (as film makes them) and what it cost.
+
+    rgba (p, 4), squares (p, 2) float64 (zeros unless asked for); hits (p,) int64; shadow_rays: traced;
+    intersect_seconds, occluded_seconds: inside Embree's queries; shading_seconds: surfaces and shadow
+    rays, the occlusion queries included
+    """
+
+    rgba: np.ndarray
+    squares: np.ndarray
+    hits: np.ndarray
+    shadow_rays: int
+    intersect_seconds: float
+    occluded_seconds: float
+    shading_seconds: float
+
+
+def samples(camera, seed: int, width: int, height: int, pixels: np.ndarray, first: np.ndarray, spp: int,
+            packets: "EmbreePackets", tables: CopiedTables, settings_record, records, background: np.ndarray,
+            luminance: np.ndarray, want_squares: bool) -> ChunkSums:
+    """primary, copied_surfaces, shade and film in one C pass, a block of camera samples at a time:
+    a chunk's samples become its pixels' sums with no per-sample or per-hit arrays in between.
+
+    pixels, first: (p,) int64 as primary takes them; tables: copied_tables of the scene's copied
+    triangles; records: every light's LightRecord; background (4,), luminance (3,) float64 as film.
+    """
+    if len(first) != len(pixels):
+        raise ValueError("samples: one first-sample count per pixel")
+    p = len(pixels)
+    pixels, first = _c(pixels, np.int64), _c(first, np.int64)
+    background, luminance = _c(background, np.float64), _c(luminance, np.float64)
+    rgba, squares, hits = np.empty((p, 4)), np.zeros((p, 2)), np.empty(p, np.int64)
+    counts, seconds = np.zeros(1, np.int64), np.zeros(3)
+    library().primer_samples(
+        ctypes.byref(camera), int(seed), int(width), int(height), _ptr(pixels, np.int64), _ptr(first, np.int64), p,
+        int(spp), packets.intersect8, packets.occluded8, packets.scene, ctypes.byref(tables),
+        ctypes.byref(settings_record), records, len(records), _ptr(background, np.float64),
+        _ptr(luminance, np.float64), _ptr(rgba, np.float64), _ptr(squares if want_squares else None, np.float64),
+        _ptr(hits, np.int64), _ptr(counts, np.int64), _ptr(seconds, np.float64))
+    return ChunkSums(rgba, squares, hits, int(counts[0]), float(seconds[0]), float(seconds[1]), float(seconds[2]))
 
 
 class ShadowBatch(NamedTuple):

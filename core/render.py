@@ -181,6 +181,7 @@ class _Context:
                 *[kernels.light_record(light, i, settings.light_samples) for i, light in enumerate(lights)])
             self.shadow_settings = kernels.shadow_settings(settings)
             self.copied = kernels.copied_arrays(geometry) if not geometry.instanced else None
+            self.copied_tables = kernels.copied_tables(self.copied) if self.copied is not None else None
             self.smooth = geometry.has_smooth
             background = [0.0, 0.0, 0.0, 0.0] if settings.transparent_background else [*self.world_color, 1.0]
             self.background = np.array(background)
@@ -304,10 +305,19 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
     p = len(pixels)
     first = np.zeros(p, np.int64) if first is None else np.ascontiguousarray(first, np.int64)
     pixels = np.ascontiguousarray(pixels, np.int64)
-    # 1-3. Sample positions, camera rays (camera-relative) and their nearest hits.
     valid = None
     tracer = ctx.geometry.tracer
     streamed = tracer.packed and tracer.stream_queries     # rays traced inside the kernels
+    if ctx.camera_record is not None and streamed and ctx.copied is not None:
+        # 1-5 in one pass (kernels.samples): the steps below, fused, a block of samples at a time.
+        sums = kernels.samples(ctx.camera_record, seed, W, H, pixels, first, spp, tracer.packets,
+                               ctx.copied_tables, ctx.shadow_settings, ctx.light_records, ctx.background,
+                               adaptive.LUMINANCE, s.adaptive)
+        tracer.count_intersect(sums.intersect_seconds)
+        tracer.count_occluded(sums.occluded_seconds)
+        return _chunk_sums(ctx, pixels, spp, sums.rgba, sums.squares, sums.hits, p * spp, sums.shadow_rays,
+                           sums.shading_seconds)
+    # 1-3. Sample positions, camera rays (camera-relative) and their nearest hits.
     if ctx.camera_record is not None and streamed:
         # Made, traced and gathered in one pass (kernels.primary): the steps below, fused.
         found = kernels.primary(ctx.camera_record, seed, W, H, pixels, first, spp, tracer.packets)
@@ -382,11 +392,17 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
     per_pixel, squares, hits_per_pixel = kernels.film(p, spp, valid, ctx.background, h, albedo, E,
                                                       adaptive.LUMINANCE, s.adaptive)
     primary = p * spp if traced is None else len(traced)
+    return _chunk_sums(ctx, pixels, spp, per_pixel, squares, hits_per_pixel, primary, shadow_rays, shading_seconds)
+
+
+def _chunk_sums(ctx: _Context, pixels: np.ndarray, spp: int, rgba: np.ndarray, squares: np.ndarray,
+                hits: np.ndarray, primary: int, shadow: int, shading_seconds: float) -> ChunkResult:
+    """A compiled chunk's result, its sums added to the render's here, in the worker (step 6), when
+    the render asked for that (ctx.sums) rather than in the waiting thread."""
     if ctx.sums is not None:
-        # 6. Into the render's running sums, here in the worker rather than in the waiting thread.
-        kernels.add_pixels(pixels, spp, per_pixel, squares, hits_per_pixel, *ctx.sums)
-        return ChunkResult(None, None, {}, None, primary, shadow_rays, shading_seconds, spp)
-    return ChunkResult(per_pixel, squares, {}, hits_per_pixel, primary, shadow_rays, shading_seconds, spp)
+        kernels.add_pixels(pixels, spp, rgba, squares, hits, *ctx.sums)
+        return ChunkResult(None, None, {}, None, primary, shadow, shading_seconds, spp)
+    return ChunkResult(rgba, squares, {}, hits, primary, shadow, shading_seconds, spp)
 
 
 def _render_chunk_timed(ctx: _Context, pixels: np.ndarray, spp: int, seed: int,

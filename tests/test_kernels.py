@@ -397,13 +397,20 @@ def test_streamed_shading_adds_the_light_of_the_three_steps(name, method):
 
 @pytest.mark.parametrize("instancing", ["auto", "always"])
 def test_streamed_queries_render_the_very_image_of_the_separate_steps(instancing, monkeypatch):
-    """Camera rays made, traced and gathered in one pass (kernels.primary) and shadow rays traced
-    inside shading (kernels.shade) give the image of camera_rays -> Tracer.intersect and shadow_rays
-    -> Tracer.occluded -> add_light, bit for bit, with the same rays; instanced spheres included."""
+    """A chunk's samples made, traced, shaded and summed in one pass (kernels.samples), and camera rays
+    and shadow rays traced inside their kernels (kernels.primary, kernels.shade) for instanced
+    spheres, give the image of camera_rays -> Tracer.intersect and shadow_rays -> Tracer.occluded
+    -> add_light -> film, bit for bit, with the same rays."""
     scene = with_a_row_of_spheres(lit_scene(LIGHTS["several"]))
     settings = RenderSettings(width=48, height=36, samples=8, light_samples=2, instancing=instancing,
                               terminator_fix=True, chunk_size=2048)
+    fused_chunks = []
+    fused = kernels.samples
+    monkeypatch.setattr(kernels, "samples", lambda *args: fused_chunks.append(1) or fused(*args))
     streamed = render.render(scene, settings)
+    # Copied triangles take the whole chunk in one pass (kernels.samples); instances need the
+    # placements named between the passes, so they stream camera rays and shadow rays apart.
+    assert bool(fused_chunks) == (instancing == "auto")
     monkeypatch.setattr(intersect.Tracer, "stream_queries", False)
     steps = render.render(scene, settings)
     assert streamed.stats.kernels == steps.stats.kernels == "compiled"
@@ -413,3 +420,33 @@ def test_streamed_queries_render_the_very_image_of_the_separate_steps(instancing
     np.testing.assert_array_equal(streamed.stats.samples_per_pixel, steps.stats.samples_per_pixel)
     np.testing.assert_array_equal(streamed.image, steps.image)
     assert streamed.image[..., :3].max() > 0.05
+
+
+@pytest.mark.parametrize("lights, camera_type, samples, adaptive, transparent, fix", [
+    ("several", "PERSP", 6, True, False, True),         # pixels split across blocks of 64 samples
+    ("area_ellipse_spread", "ORTHO", 5, False, True, False),
+    ("sun_disk", "PERSP", 16, True, True, True),
+    ("spot_scaled", "ORTHO", 3, True, False, False),
+])
+def test_one_pass_chunks_render_the_image_of_the_separate_steps(lights, camera_type, samples, adaptive,
+                                                                transparent, fix, monkeypatch):
+    """kernels.samples gives the separate kernels' image, sample counts and ray counts bit for bit:
+    both cameras it makes rays for, pixels whose samples straddle two blocks, adaptive sampling's
+    sums of squares, a transparent film, the terminator fix on and off, a cropped region."""
+    scene = lit_scene(LIGHTS[lights])
+    scene.camera = dataclasses.replace(scene.camera, type=camera_type, ortho_scale=6.0)
+    settings = RenderSettings(width=40, height=30, samples=samples, light_samples=3, adaptive=adaptive,
+                              transparent_background=transparent, terminator_fix=fix, chunk_size=1500,
+                              region=(2, 3, 37, 28))
+    fused_chunks = []
+    fused = kernels.samples
+    monkeypatch.setattr(kernels, "samples", lambda *args: fused_chunks.append(1) or fused(*args))
+    one_pass = render.render(scene, settings)
+    assert fused_chunks
+    monkeypatch.setattr(intersect.Tracer, "stream_queries", False)
+    steps = render.render(scene, settings)
+    assert (one_pass.stats.primary_rays, one_pass.stats.shadow_rays) == (steps.stats.primary_rays,
+                                                                         steps.stats.shadow_rays)
+    np.testing.assert_array_equal(one_pass.stats.samples_per_pixel, steps.stats.samples_per_pixel)
+    np.testing.assert_array_equal(one_pass.image, steps.image)
+    assert one_pass.image[..., :3].max() > 0.02 and one_pass.stats.shadow_rays > 0
