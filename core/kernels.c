@@ -983,6 +983,57 @@ INLINE void occlude(Occluded8 occluded8, void *scene, int64_t n, const float *or
     }
 }
 
+/* Steps 4-6 of a block of light samples (see primer_shade): the rays that can carry light go into
+ * packets as keep_rays and fill_packet would write them, Embree answers each packet of 8, and the
+ * light of those that get through is added to E (m, 3) in ray order. Returns the rays traced. */
+INLINE int64_t occlude_block(const SampleBlock *b, const LightRecord *light, Occluded8 occluded8, void *scene,
+                             double *E)
+{
+    RayPacket ray;
+    int valid[PACKET] __attribute__((aligned(32)));
+    int64_t owner[PACKET], rays = 0;
+    double weight[PACKET];
+    int lanes = 0;
+    for (int64_t k = 0; k <= b->n; k++) {
+        if (k < b->n) {
+            if (b->keep[k] == 0.0) continue;
+            ray.org_x[lanes] = (float)b->origin[0][k];
+            ray.org_y[lanes] = (float)b->origin[1][k];
+            ray.org_z[lanes] = (float)b->origin[2][k];
+            ray.dir_x[lanes] = (float)b->D[0][k];
+            ray.dir_y[lanes] = (float)b->D[1][k];
+            ray.dir_z[lanes] = (float)b->D[2][k];
+            ray.tnear[lanes] = 0.0f;
+            ray.time[lanes] = 0.0f;
+            ray.tfar[lanes] = b->t[k] < (double)T_INFINITY ? (float)b->t[k] : T_INFINITY;
+            ray.mask[lanes] = INVALID_ID;
+            ray.id[lanes] = 0;
+            ray.flags[lanes] = 0;
+            owner[lanes] = b->hit[k];
+            weight[lanes] = b->weight[k];
+            valid[lanes] = -1;
+            if (++lanes < PACKET) continue;
+        }
+        if (lanes == 0) continue;
+        for (int lane = lanes; lane < PACKET; lane++) {        /* an unused lane: a copy, switched off */
+            ray.org_x[lane] = ray.org_x[0]; ray.org_y[lane] = ray.org_y[0]; ray.org_z[lane] = ray.org_z[0];
+            ray.dir_x[lane] = ray.dir_x[0]; ray.dir_y[lane] = ray.dir_y[0]; ray.dir_z[lane] = ray.dir_z[0];
+            ray.tnear[lane] = 0.0f; ray.time[lane] = 0.0f; ray.tfar[lane] = ray.tfar[0];
+            ray.mask[lane] = INVALID_ID; ray.id[lane] = 0; ray.flags[lane] = 0;
+            valid[lane] = 0;
+        }
+        occluded8(valid, scene, &ray, NULL);
+        for (int lane = 0; lane < lanes; lane++) {
+            if (ray.tfar[lane] < 0.0f) continue;               /* blocked */
+            double *e = E + 3 * owner[lane];
+            for (int c = 0; c < 3; c++) e[c] += weight[lane] * light->color[c];
+        }
+        rays += lanes;
+        lanes = 0;
+    }
+    return rays;
+}
+
 EXPORT void primer_occluded(void *function, void *scene, int64_t n, const float *origins, const float *directions,
                             const float *t_max, uint8_t *blocked)
 {
@@ -1112,10 +1163,6 @@ EXPORT int64_t primer_shade(const ShadowSettings *settings, const LightRecord *l
 {
     Occluded8 occluded = (Occluded8)occluded8;
     SampleBlock b;
-    float origins[3 * BLOCK], directions[3 * BLOCK], t_max[BLOCK];
-    int32_t owner[BLOCK];
-    double weight[BLOCK];
-    uint8_t blocked[BLOCK];
     int64_t rays = 0;
     double embree = 0.0;
     const double *lift_from = settings->terminator_fix != 0.0 ? lifted : NULL;
@@ -1125,17 +1172,10 @@ EXPORT int64_t primer_shade(const ShadowSettings *settings, const LightRecord *l
         for (int64_t first = 0; first < total; first += BLOCK) {
             /* 1. The block's rays, as primer_shadow_rays makes them. */
             shadow_block(&b, settings, light, first, m, I, N, Ng, offset, smooth, lift_from, pixel, sample);
-            int64_t r = keep_rays(&b, 0, BLOCK, origins, directions, t_max, owner, weight);
             /* 2. Embree's answers, 8 rays at a time; 3. the light of the rays that get through. */
             double start = now();
-            occlude(occluded, scene, r, origins, directions, t_max, blocked);
+            rays += occlude_block(&b, light, occluded, scene, E);
             embree += now() - start;
-            for (int64_t k = 0; k < r; k++) {
-                if (blocked[k]) continue;
-                double *e = E + 3 * (int64_t)owner[k];
-                for (int c = 0; c < 3; c++) e[c] += weight[k] * light->color[c];
-            }
-            rays += r;
         }
     }
     embree_seconds[0] += embree;
@@ -1195,10 +1235,6 @@ EXPORT void primer_samples(const CameraRecord *camera, int64_t seed, int64_t wid
     int64_t prim[BLOCK];
     BlockHits H;
     SampleBlock sb;
-    float ray_origins[3 * BLOCK], ray_directions[3 * BLOCK], ray_t[BLOCK];
-    int32_t owner[BLOCK];
-    double weight[BLOCK];
-    uint8_t blocked[BLOCK];
     for (int64_t k = 0; k < p; k++) {
         for (int c = 0; c < 4; c++) rgba[4 * k + c] = 0.0;
         if (squares != NULL) squares[2 * k] = squares[2 * k + 1] = 0.0;
@@ -1250,16 +1286,9 @@ EXPORT void primer_samples(const CameraRecord *camera, int64_t seed, int64_t wid
             for (int64_t at = 0; at < samples; at += BLOCK) {
                 shadow_block(&sb, settings, light, at, H.m, H.I, H.N, H.Ng, H.offset, H.smooth,
                              fix ? H.lifted : NULL, H.pixel, H.sample);
-                int64_t r = keep_rays(&sb, 0, BLOCK, ray_origins, ray_directions, ray_t, owner, weight);
                 double asked = now();
-                occlude(occluded, scene, r, ray_origins, ray_directions, ray_t, blocked);
+                shadow_rays += occlude_block(&sb, light, occluded, scene, H.E);
                 seconds[1] += now() - asked;
-                for (int64_t k = 0; k < r; k++) {
-                    if (blocked[k]) continue;
-                    double *e = H.E + 3 * (int64_t)owner[k];
-                    for (int c = 0; c < 3; c++) e[c] += weight[k] * light->color[c];
-                }
-                shadow_rays += r;
             }
         }
         seconds[2] += now() - traced;
