@@ -52,6 +52,9 @@ class Plan:
         self.primer_ladder = [1, 4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128, 256, 512]
         self.cycles_ladder = [4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128]
         self.repeats = 1 if quick else 3
+        # Rounds of the rays phase (one Primer render, then embreex on the same rays): this shared
+        # machine's steal time moves single rounds by ±30%, so the median needs many.
+        self.rays_rounds = 5 if quick else 21
         self.scenes = (["light_point", "light_area", "modifiers_instances"] if quick
                        else sorted(f[:-6] for f in os.listdir(SCENES_DIR)
                                    if f.endswith(".blend") and f[:-6] not in NOT_LIKE_CYCLES))
@@ -60,7 +63,7 @@ class Plan:
         """Return the plan as plain values, for the results file."""
         return {"quick": self.quick, "reference_samples": self.reference_samples,
                 "primer_ladder": self.primer_ladder, "cycles_ladder": self.cycles_ladder,
-                "repeats": self.repeats, "scenes": self.scenes}
+                "repeats": self.repeats, "rays_rounds": self.rays_rounds, "scenes": self.scenes}
 
 
 def digest(*parts) -> str:

@@ -533,10 +533,12 @@ def report_markdown(results: dict, plots: dict) -> str:
              "Primer's rays (camera and shadow rays) per second of the whole render, against embreex tracing the "
              "very same ray batches (recorded from the same render, replayed with the same BVH settings, timing only "
              "embreex's calls), on one thread and on a pool of one thread per core. Primer asks Embree 8 rays at a "
-             "time (rtcIntersect8 / rtcOccluded8) and traces its shadow rays inside its shading kernel; embreex's "
+             "time (rtcIntersect8 / rtcOccluded8), inside one kernel that makes, traces, shades and sums each block "
+             "of 64 camera samples (kernels.samples); embreex's "
              "`run` asks one ray at a time: the same rays, the same BVH, the same answers. The measurement goes in "
-             "rounds (one Primer render, then both replays), since this shared machine has slow and fast spells; "
-             "the rates are medians over the rounds, and the share is the median of the rounds' own ratios.", ""]
+             "rounds (one Primer render, then both replays), since this shared machine has slow and fast spells "
+             "(its hypervisor takes 5-30% of the time); the rates are medians over the rounds, and the share is the "
+             "median of the rounds' own ratios.", ""]
     text += rays_table(results)
     text += ["", "## Scaling", "",
              "Core alone (no Blender), robust offset, all cores. Each point runs in a fresh process; peak memory "

@@ -287,7 +287,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     # ratio of each round is the fair one, and the report gives the median of those ratios.
     walls, renders, one_thread, all_cores, seconds_in_embree = [], [], [], [], []
     cores = os.cpu_count() or 1
-    for _ in range(2 * plan.repeats + 1):
+    for _ in range(plan.rays_rounds):
         walls.append(render_timed())
         record = primer_record()
         renders.append(record.stats.seconds)

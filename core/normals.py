@@ -14,6 +14,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import vectors
+
 
 class FaceNormals(NamedTuple):
     """Per-triangle geometry. normals: (t, 3) float64 unit (zero where degenerate); area: (t,) float64."""
@@ -40,7 +42,7 @@ def face_normals(vertices: np.ndarray, triangles: np.ndarray) -> FaceNormals:
     vertices: (v, 3) float; triangles: (t, 3) int.
     """
     p0, p1, p2 = (vertices[triangles[:, k]].astype(np.float64) for k in range(3))
-    cross = np.cross(p1 - p0, p2 - p0)
+    cross = vectors.cross(p1 - p0, p2 - p0)
     area = 0.5 * np.linalg.norm(cross, axis=1)
     return FaceNormals(safe_normalize(cross), np.where(np.isfinite(area), area, 0.0))
 
