@@ -294,19 +294,17 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_triangles = instancing.INSTANCE_TRIANGLES
     warnings: list[str] = []
     parts = {"v": [], "t": [], "n": [], "m": [], "cn": [], "smooth": [], "i": []}
-    pending, pending_triangles = [], 0          # placed batches not yet finished (_finish_batches)
     instanced: list = []
     vertex_offset = 0
     n_materials = len(scene.materials)
     counts = {"missing": 0, "nonfinite": 0, "degenerate": 0, "index": 0}
 
     # Every placement's matrix and determinant at once (numpy's cost is per call: one call, not one
-    # per mesh), and the inverses on first need.
+    # per mesh).
     n_instances = len(scene.instances)
     all_matrices = (np.stack([instance.matrix for instance in scene.instances]) if n_instances
                     else np.zeros((0, 4, 4)))                                              # (n, 4, 4)
     all_det = vectors.determinant(all_matrices[:, :3, :3])                                 # (n,)
-    all_inverse = None
 
     # Group instances by mesh (their indices into scene.instances), meshes in order of first use:
     # one batched transform per mesh, whatever the instance count.
@@ -315,38 +313,21 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                        np.flatnonzero(np.diff(np.sort(mesh_of))) + 1) if n_instances else []
     by_mesh.sort(key=lambda owners: owners[0])
 
+    singular_all = ~(np.isfinite(all_det) & (all_det != 0.0))                              # (n,)
+    copies: list = []           # (mesh, its placements' indices into scene.instances): placed as copies
     for owners in by_mesh:
         mesh = scene.meshes[int(mesh_of[owners[0]])]
-        instances = [scene.instances[index] for index in owners.tolist()]
         if len(mesh.triangles) == 0 or len(mesh.vertices) == 0:
             continue
-        # Triangles whose indices point outside the vertex array are dropped.
-        in_range = ((mesh.triangles >= 0) & (mesh.triangles < len(mesh.vertices))).all(axis=1)
-        counts["index"] += int((~in_range).sum()) * len(instances)
-        triangles = mesh.triangles[in_range]
-        smooth = mesh.smooth[in_range]
-        slots = mesh.material_indices[in_range]
-        corners = _object_corner_normals(mesh, in_range) if smooth.any() else None
-        table_rows: dict = {}
-
-        every_instance = len(owners) == n_instances                          # (then owners is 0 .. n - 1)
-        matrices = all_matrices if every_instance else all_matrices[owners]  # (k, 4, 4)
-        linear = matrices[:, :3, :3]
-        det = all_det if every_instance else all_det[owners]                 # (k,)
-        singular = ~(np.isfinite(det) & (det != 0.0))
-        if singular.any():
-            warnings.append(f"{int(singular.sum())} object(s) of mesh '{mesh.name}' have zero or invalid scale and were skipped")
-        placed_all = np.flatnonzero(~singular)
-        owners_all = owners.astype(np.int32)
-        if (len(placed_all) >= 2 and len(placed_all) * len(triangles) > instance_triangles
+        placed = owners[~singular_all[owners]]
+        if len(placed) < len(owners):
+            warnings.append(f"{len(owners) - len(placed)} object(s) of mesh '{mesh.name}' have zero or invalid scale "
+                            "and were skipped")
+        if (len(placed) >= 2 and len(placed) * len(mesh.triangles) > instance_triangles
                 and embree_buffers.instancing_supported()):
             # Stored once, traced as Embree instances (core/instancing.py).
-            found = dict.fromkeys(counts, 0)
-            every = len(placed_all) == len(instances)      # (then no copy of 10^5 matrices is made)
-            record = _instanced_mesh(mesh, triangles, smooth, slots, corners,
-                                     matrices if every else matrices[placed_all],
-                                     [instances[index].materials for index in placed_all],
-                                     owners_all if every else owners_all[placed_all], origin, n_materials, found)
+            record, found = _instanced_placements(scene, mesh, placed, all_matrices, origin, n_materials,
+                                                  len(placed) == n_instances)
             # Unless asked to always instance, instances piled up in one place are copied instead:
             # every hit there would have to try each of them (instancing.CROWDED).
             crowded = (record is not None and instance_triangles > 0
@@ -357,47 +338,27 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                 if record is not None:
                     instanced.append(record)
                 continue
-        if corners is not None:
-            corners = corners[smooth]
-        with np.errstate(invalid="ignore", over="ignore"):
-            # World point = M p + t, minus the origin, in float64.
-            world = (np.einsum("kij,vj->kvi", linear, mesh.vertices)
-                     + (matrices[:, :3, 3] - origin)[:, None, :])           # (k, v, 3)
+        copies.append((mesh, placed))
 
-        # Instances in batches of about BATCH_TRIANGLES triangles: (k instances) x (t triangles) arrays,
-        # no Python loop per triangle, and temporaries bounded whatever the instance count. Batches
-        # of small meshes wait in `pending` and are finished together (_finish_batches): numpy's cost
-        # per call, not per triangle, is what a scene of many small meshes pays.
-        t, v = len(triangles), len(mesh.vertices)
-        per_batch = max(1, BATCH_TRIANGLES // t)
-        for first in range(0, len(placed_all), per_batch):
-            placed = placed_all[first:first + per_batch]
-            k = len(placed)
-            # 1. Materials: slot -> scene material; missing ones fall back to the default grey.
-            material = np.stack([_slot_materials(slots, instances[index].materials, table_rows)
-                                 for index in placed])                          # (k, t)
-            missing = (material < 0) | (material >= n_materials)
-            counts["missing"] += int(missing.sum())
-            # 2. The world points and triangles; a mirror (det < 0) will flip the face normal back.
-            batch = _Batch(points=world[placed].reshape(-1, 3),
-                           triangles=(triangles[None, :, :] + (np.arange(k) * v)[:, None, None]).reshape(-1, 3),
-                           sign=np.repeat(np.sign(det[placed]), t),
-                           material=np.where(missing, n_materials, material).reshape(-1),
-                           owner=np.repeat(owners_all[placed], t),
-                           smooth=np.tile(smooth, k), corner_normals=None)
-            # 3. Smooth corners transform with the inverse transpose: N' = M^-T N (row vectors: n @ M^-1).
-            if corners is not None:
-                if all_inverse is None:
-                    all_inverse = vectors.determinant_and_inverse(all_matrices[:, :3, :3])[1]  # (n, 3, 3)
-                inverse = all_inverse[owners[placed]]                         # (k, 3, 3)
-                batch = batch._replace(corner_normals=normals_.safe_normalize(
-                    np.einsum("sij,kjl->ksil", corners, inverse)).reshape(-1, 3, 3))
-            pending.append(batch)
-            pending_triangles += len(batch.triangles)
-            if pending_triangles >= BATCH_TRIANGLES:
-                vertex_offset = _finish_batches(pending, vertex_offset, counts, parts)
-                pending, pending_triangles = [], 0
-    vertex_offset = _finish_batches(pending, vertex_offset, counts, parts)
+    # The copies, in batches of about BATCH_TRIANGLES triangles: a batch places all of its meshes
+    # at once (numpy's cost is per call, so many small meshes cost what one large one does), and a
+    # mesh whose copies exceed a batch is split between its placements (the temporaries stay bounded
+    # whatever the instance count).
+    batch: list = []
+    batch_triangles = 0
+    for mesh, placed in copies:
+        per_batch = max(1, BATCH_TRIANGLES // len(mesh.triangles))
+        for first in range(0, len(placed), per_batch):
+            some = placed[first:first + per_batch]
+            batch.append((mesh, some))
+            batch_triangles += len(some) * len(mesh.triangles)
+            if batch_triangles >= BATCH_TRIANGLES:
+                vertex_offset = _finish_batches([_place_copies(batch, scene, all_matrices, all_det, origin,
+                                                               n_materials, counts)], vertex_offset, counts, parts)
+                batch, batch_triangles = [], 0
+    if batch:
+        vertex_offset = _finish_batches([_place_copies(batch, scene, all_matrices, all_det, origin, n_materials,
+                                                       counts)], vertex_offset, counts, parts)
 
     if counts["index"]:
         warnings.append(f"{counts['index']} triangle(s) with out-of-range vertex indices were skipped")
@@ -434,6 +395,106 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance=np.concatenate(parts["i"]) if parts["i"] else np.zeros(0, np.int32),
         instanced=instanced,
     )
+
+
+def _in_range(mesh) -> np.ndarray:
+    """Return which of the mesh's triangles index only its own vertices: (t,) bool."""
+    return ((mesh.triangles >= 0) & (mesh.triangles < len(mesh.vertices))).all(axis=1)
+
+
+def _instanced_placements(scene: Scene, mesh, placed: np.ndarray, all_matrices: np.ndarray, origin: np.ndarray,
+                          n_materials: int, every: bool):
+    """Return (the InstancedMesh of `mesh` at the placements `placed`, or None; its counts of dropped
+    and defaulted triangles). placed: (k,) int64 indices into scene.instances of non-singular
+    placements; every: whether they are all of scene.instances, in order (then no matrix is copied)."""
+    found = {"missing": 0, "nonfinite": 0, "degenerate": 0, "index": 0}
+    in_range = _in_range(mesh)
+    found["index"] += int((~in_range).sum()) * len(placed)
+    triangles, smooth = mesh.triangles[in_range], mesh.smooth[in_range]
+    corners = _object_corner_normals(mesh, in_range) if smooth.any() else None
+    record = _instanced_mesh(mesh, triangles, smooth, mesh.material_indices[in_range], corners,
+                             all_matrices if every else all_matrices[placed],
+                             [scene.instances[index].materials for index in placed.tolist()],
+                             placed.astype(np.int32), origin, n_materials, found)
+    return record, found
+
+
+def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: np.ndarray, origin: np.ndarray,
+                  n_materials: int, counts: dict) -> _Batch:
+    """Place meshes as copies, all at once: batch is a list of (mesh, placements (k,) int64 indices into
+    scene.instances), each mesh once. Returns the _Batch of their triangles in that order (a
+    placement's triangles together, in the mesh's order); triangles with out-of-range vertex indices
+    are dropped and counted, and triangles without a material get the default grey (counted)."""
+    meshes = [mesh for mesh, _ in batch]
+    # 1. Every mesh once, one after the other: its points, triangles (in its own numbering), smooth
+    #    flags, material slots and object-space corner normals.
+    V = np.array([len(mesh.vertices) for mesh in meshes], np.int64)                  # (d,)
+    T = np.array([len(mesh.triangles) for mesh in meshes], np.int64)
+    points = np.concatenate([mesh.vertices for mesh in meshes])                      # (sum V, 3)
+    local = np.concatenate([mesh.triangles for mesh in meshes])                      # (sum T, 3)
+    in_range = ((local >= 0) & (local < np.repeat(V, T)[:, None])).all(axis=1)
+    smooth = np.concatenate([mesh.smooth for mesh in meshes]) & in_range
+    slots = np.concatenate([mesh.material_indices for mesh in meshes])
+    corners = None
+    if smooth.any():
+        has_smooth = np.array([mesh.smooth.any() for mesh in meshes])
+        corners = np.zeros((len(local), 3, 3))
+        corners[np.repeat(has_smooth, T) & in_range] = np.concatenate(
+            [_object_corner_normals(mesh, ok) for mesh, ok, wanted
+             in zip(meshes, np.split(in_range, np.cumsum(T)[:-1]), has_smooth) if wanted])
+    # 2. The placements: which mesh, which instance, and where each one's rows start.
+    k = np.array([len(placed) for _, placed in batch], np.int64)
+    mesh_of = np.repeat(np.arange(len(meshes)), k)                                   # (p,)
+    owner = np.concatenate([placed for _, placed in batch])                          # (p,) scene.instances
+    Vp, Tp = V[mesh_of], T[mesh_of]
+
+    def rows(counts_p: np.ndarray, starts_p: np.ndarray) -> np.ndarray:
+        """Row starts_p[i] + j for j < counts_p[i], placement after placement: (sum counts_p,) int64."""
+        ends = np.cumsum(counts_p)
+        return np.arange(ends[-1]) - np.repeat(ends - counts_p - starts_p, counts_p)
+
+    # 3. World point = M p + t, minus the origin, in float64, for every placement's points.
+    point_row = rows(Vp, (np.cumsum(V) - V)[mesh_of])                                # into `points`
+    instance_of_point = np.repeat(owner, Vp)
+    with np.errstate(invalid="ignore", over="ignore"):
+        world = vectors.apply_each(all_matrices[instance_of_point, :3, :3], points[point_row],
+                                   all_matrices[instance_of_point, :3, 3] - origin)
+    # 4. Every placement's triangles, numbered into `world`; out-of-range ones dropped.
+    triangle_row = rows(Tp, (np.cumsum(T) - T)[mesh_of])                             # into `local`
+    keep = in_range[triangle_row]
+    counts["index"] += int((~keep).sum())
+    triangle_row = triangle_row[keep]
+    placement_of_triangle = np.repeat(np.arange(len(owner)), Tp)[keep]
+    triangles = local[triangle_row] + (np.cumsum(Vp) - Vp)[placement_of_triangle][:, None]
+    instance = owner[placement_of_triangle]
+    # 5. Materials: each instance's slot -> scene material (its own table, or the mesh's indices as
+    #    they are); missing ones fall back to the default grey.
+    slot = slots[triangle_row]
+    tables = [scene.instances[index].materials for index in owner.tolist()]
+    width = max([len(table) for table in tables if table is not None], default=0)
+    table = np.full((len(owner), max(width, 1)), -1, np.int64)
+    own = np.zeros(len(owner), bool)                   # the mesh's own indices are the materials
+    for row, entries in enumerate(tables):
+        if entries is None:
+            own[row] = True
+        else:
+            table[row, :len(entries)] = entries
+    filled = (slot >= 0) & (slot < table.shape[1])
+    material = np.where(own[placement_of_triangle], slot,
+                        table[placement_of_triangle, np.where(filled, slot, 0)])
+    material = np.where(own[placement_of_triangle] | filled, material, -1)
+    missing = (material < 0) | (material >= n_materials)
+    counts["missing"] += int(missing.sum())
+    # 6. Smooth corners turn with the inverse transpose: N' = M^-T N (row vectors: n @ M^-1).
+    smooth = smooth[triangle_row]
+    corner_normals = None
+    if corners is not None and smooth.any():
+        inverse = vectors.determinant_and_inverse(all_matrices[owner, :3, :3])[1]          # (p, 3, 3)
+        corner_normals = normals_.safe_normalize(vectors.rows_times_each(corners[triangle_row[smooth]],
+                                                                         inverse[placement_of_triangle[smooth]]))
+    return _Batch(points=world, triangles=triangles, sign=np.sign(all_det[instance]),
+                  material=np.where(missing, n_materials, material), owner=instance.astype(np.int32),
+                  smooth=smooth, corner_normals=corner_normals)
 
 
 def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.ndarray,

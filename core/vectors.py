@@ -90,6 +90,21 @@ def transform(points: np.ndarray, linear: np.ndarray, offset: np.ndarray) -> np.
     return out
 
 
+def apply_each(L: np.ndarray, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Return L_i p_i + t_i for every row i: L (n, 3, 3), p (n, 3), t (n, 3) float64 -> (n, 3).
+
+    Written out (L[:, :, 0] p_x + L[:, :, 1] p_y + L[:, :, 2] p_z): numpy's einsum runs a generic
+    loop for a small matrix per row, several times slower.
+    """
+    return L[:, :, 0] * p[:, 0, None] + L[:, :, 1] * p[:, 1, None] + L[:, :, 2] * p[:, 2, None] + t
+
+
+def rows_times_each(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Return A_i B_i for every i: A (n, r, 3), B (n, 3, 3) float64 -> (n, r, 3), written out as apply_each is."""
+    return (A[:, :, 0, None] * B[:, None, 0, :] + A[:, :, 1, None] * B[:, None, 1, :]
+            + A[:, :, 2, None] * B[:, None, 2, :])
+
+
 def cross(a: np.ndarray, b: np.ndarray, out: Optional[np.ndarray] = None) -> np.ndarray:
     """Return a x b of (n, 3) float64 vectors: (n, 3), into `out` when given.
 

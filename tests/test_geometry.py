@@ -1,0 +1,107 @@
+"""Placing copies: every copied triangle lands where its own object's matrix puts it.
+
+core/geometry.py places the copies of many meshes in one batch (_place_copies). Each test builds
+a scene of many different small meshes and checks the placed triangles against the closed forms:
+world point = M p + t, face normal along (b - a) x (c - a), corner normals turned by M^-T, the
+instance's material table, and the bad triangles dropped and counted.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from core import primitives
+from core.camera import Camera
+from core.geometry import build_geometry
+from core.scene import Instance, Mesh, Scene
+
+COPY = 1 << 62      # instance_triangles that copies every mesh
+
+
+def many_meshes(count: int = 40, seed: int = 11):
+    """Return (scene, matrices): `count` different meshes, each placed once by a random matrix (some
+    mirrored, unevenly scaled), half of them smooth, each with two material slots."""
+    rng = np.random.default_rng(seed)
+    scene = Scene(camera=Camera.look_at((0.0, -9.0, 5.0), (0.0, 0.0, 0.0), fov=math.radians(55)))
+    for colour in ((0.7, 0.7, 0.7), (0.8, 0.3, 0.2), (0.2, 0.3, 0.8)):
+        scene.add_material(colour)
+    matrices = []
+    for index in range(count):
+        mesh = primitives.uv_sphere(0.5, 4 + index % 5, 3 + index % 4, smooth=index % 2 == 0)
+        mesh.material_indices[::2] = 1                                  # slot 1 on every other triangle
+        scene.meshes.append(mesh)
+        M = np.eye(4)
+        M[:3, :3] = rng.normal(size=(3, 3)) + 2.0 * np.eye(3)
+        if index % 3 == 0:
+            M[:3, 0] *= -1.0                                           # a mirror
+        M[:3, 3] = rng.uniform(-5.0, 5.0, 3)
+        matrices.append(M)
+        scene.instances.append(Instance(index, M, np.array([index % 3, (index + 1) % 3]), f"Object {index}"))
+    return scene, matrices
+
+
+def test_copies_land_where_their_own_matrices_put_them():
+    scene, matrices = many_meshes()
+    origin = np.array([0.5, -2.0, 1.0])
+    geometry = build_geometry(scene, origin, COPY)
+    assert not geometry.instanced and geometry.warnings == []
+    assert len(geometry.triangles) == sum(len(mesh.triangles) for mesh in scene.meshes)
+    start = 0
+    for index, (mesh, M) in enumerate(zip(scene.meshes, matrices)):
+        rows = slice(start, start + len(mesh.triangles))
+        start += len(mesh.triangles)
+        assert (geometry.instance[rows] == index).all()
+        # World points: M p + t - origin (rounded to float32 once).
+        expected = (mesh.vertices[mesh.triangles] @ M[:3, :3].T + M[:3, 3] - origin).astype(np.float32)
+        np.testing.assert_array_equal(geometry.vertices[geometry.triangles[rows]], expected)
+        # Face normals along (b - a) x (c - a) of the placed triangle: a mirror turns the winding, and
+        # the normal is turned back, so it still points out of the sphere.
+        placed = mesh.vertices[mesh.triangles] @ M[:3, :3].T
+        n = np.cross(placed[:, 1] - placed[:, 0], placed[:, 2] - placed[:, 0]) * np.sign(np.linalg.det(M[:3, :3]))
+        n /= np.linalg.norm(n, axis=1)[:, None]
+        np.testing.assert_allclose(geometry.face_normals[rows], n, atol=1e-12)
+        outward = placed.mean(axis=1)                                   # (placed about the origin, before t)
+        assert (np.einsum("ij,ij->i", geometry.face_normals[rows], outward) > 0).all()
+        # Materials: slot 0 -> table[0], slot 1 -> table[1].
+        table = np.array([index % 3, (index + 1) % 3])
+        np.testing.assert_array_equal(geometry.material[rows], table[mesh.material_indices])
+        # Smooth corners: N' = normalize(M^-T n).
+        smooth = geometry.smooth_index[rows]
+        assert (smooth >= 0).all() == (index % 2 == 0) and ((smooth >= 0).any() == (index % 2 == 0))
+        if index % 2 == 0:
+            turned = mesh.corner_normals @ np.linalg.inv(M[:3, :3])
+            turned /= np.linalg.norm(turned, axis=2)[..., None]
+            np.testing.assert_allclose(geometry.corner_normals[smooth], turned, atol=1e-6)   # stored float32
+
+
+def test_bad_triangles_and_placements_among_many_meshes_are_dropped_and_counted():
+    scene, matrices = many_meshes(count=12)
+    scene.meshes[3].triangles[0] = (0, 1, 10_000)                      # an index out of range
+    scene.meshes[5].vertices[0] = np.nan                               # NaN corners
+    scene.meshes[7].material_indices[:] = 5                            # a slot the table lacks
+    scene.instances[8].matrix[:3, :3] = 0.0                            # zero scale
+    nan_triangles = int((scene.meshes[5].triangles == 0).any(axis=1).sum())
+    geometry = build_geometry(scene, np.zeros(3), COPY)
+    text = " ".join(geometry.warnings)
+    assert "1 triangle(s) with out-of-range vertex indices" in text
+    assert f"{nan_triangles} triangle(s) with NaN or infinite vertices" in text
+    assert f"{len(scene.meshes[7].triangles)} triangle(s) have no material" in text
+    assert "1 object(s) of mesh" in text and 8 not in set(geometry.instance.tolist())
+    expected = (sum(len(m.triangles) for m in scene.meshes) - 1 - nan_triangles - len(scene.meshes[8].triangles))
+    assert len(geometry.triangles) == expected
+    assert (geometry.material[geometry.instance == 7] == len(scene.materials)).all()    # the default grey
+    assert np.isfinite(geometry.vertices).all()
+
+
+def test_a_mesh_of_its_own_material_indices_uses_them_as_scene_materials():
+    scene = Scene(camera=Camera.look_at((0.0, -5.0, 2.0), (0.0, 0.0, 0.0)))
+    scene.add_material((0.1, 0.2, 0.3))
+    scene.add_material((0.4, 0.5, 0.6))
+    mesh = Mesh(primitives.plane(2.0).vertices, primitives.plane(2.0).triangles, material_indices=[1, 0])
+    scene.meshes.append(mesh)
+    scene.meshes.append(primitives.box((1.0, 1.0, 1.0)))
+    scene.instances += [Instance(0, np.eye(4), None, "Plane"), Instance(1, np.eye(4), np.array([1]), "Box")]
+    geometry = build_geometry(scene, np.zeros(3), COPY)
+    np.testing.assert_array_equal(geometry.material[geometry.instance == 0], [1, 0])
+    assert (geometry.material[geometry.instance == 1] == 1).all()
