@@ -285,13 +285,19 @@ INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t 
 {
     b->n = total - start < BLOCK ? total - start : BLOCK;
     int64_t k = start / spp, j = start % spp;
+    int64_t pixel = pixels[k];
+    double column = (double)(pixel % width), row = (double)(pixel / width);   /* (one division per pixel) */
     for (int64_t lane = 0; lane < b->n; lane++) {
-        int64_t pixel = pixels[k];
         b->pixel[lane] = (uint32_t)pixel;
         b->index[lane] = (uint32_t)(first[k] + j);
-        b->column[lane] = (double)(pixel % width);
-        b->row[lane] = (double)(pixel / width);
-        if (++j == spp) { j = 0; k++; }
+        b->column[lane] = column;
+        b->row[lane] = row;
+        if (++j == spp && lane + 1 < b->n) {
+            j = 0;
+            pixel = pixels[++k];
+            column = (double)(pixel % width);
+            row = (double)(pixel / width);
+        }
     }
     sample_lanes(b->n, stream, b->pixel, b->index, b->u[0], b->u[1]);
     camera_block(b, camera, width, height);
@@ -1293,9 +1299,9 @@ EXPORT void primer_samples(const CameraRecord *camera, int64_t seed, int64_t wid
         }
         seconds[2] += now() - traced;
         /* 5. Every sample of the block into its pixel's sums (primer_film), in sample order. */
-        int64_t h = 0;
-        for (int64_t lane = 0; lane < b.n; lane++) {
-            int64_t i = start + lane, k = i / spp;
+        int64_t h = 0, k = start / spp, j = start % spp;
+        for (int64_t lane = 0; lane < b.n; lane++, j++) {
+            if (j == spp) { j = 0; k++; }
             double s[4];
             if (h < H.m && H.lane[h] == lane) {
                 for (int c = 0; c < 3; c++) s[c] = H.albedo[3 * h + c] * (1.0 / PI) * H.E[3 * h + c];
