@@ -1073,6 +1073,19 @@ EXPORT void primer_intersect(void *function, void *scene, int64_t n, const doubl
     }
 }
 
+/* camera_samples, then the block's rays row by row as the packets take them: O, D (BLOCK, 3) and
+ * t_max (BLOCK,) float64 (rows b.n and up unused). */
+INLINE void block_rays(CameraBlock *b, const CameraRecord *camera, uint32_t stream, int64_t width, int64_t height,
+                       const int64_t *pixels, const int64_t *first, int64_t spp, int64_t start, int64_t total,
+                       double *O, double *D, double *t_max)
+{
+    camera_samples(b, camera, stream, width, height, pixels, first, spp, start, total);
+    for (int64_t lane = 0; lane < b->n; lane++) {
+        for (int c = 0; c < 3; c++) { O[3 * lane + c] = b->O[c][lane]; D[3 * lane + c] = b->D[c][lane]; }
+        t_max[lane] = b->t[lane];
+    }
+}
+
 /* Camera rays made and traced in one pass, 8 at a time, keeping only those that hit: primer_camera_rays,
  * then Tracer.intersect, then the gather of the hits, with no array of rays in between.
  * In: as primer_camera_rays; intersect8, scene: Embree's rtcIntersect8 and the RTCScene.
@@ -1096,11 +1109,7 @@ EXPORT int64_t primer_primary(const CameraRecord *camera, int64_t seed, int64_t 
     double O[3 * BLOCK], D[3 * BLOCK], t_max[BLOCK];
     for (int64_t start = 0; start < total; start += BLOCK) {
         /* 1. The block's camera rays, as primer_camera_rays makes them. */
-        camera_samples(&b, camera, stream, width, height, pixels, first, spp, start, total);
-        for (int64_t lane = 0; lane < b.n; lane++) {
-            for (int c = 0; c < 3; c++) { O[3 * lane + c] = b.O[c][lane]; D[3 * lane + c] = b.D[c][lane]; }
-            t_max[lane] = b.t[lane];
-        }
+        block_rays(&b, camera, stream, width, height, pixels, first, spp, start, total, O, D, t_max);
         /* 2. Embree's nearest hits, 8 rays at a time; 3. the rays that hit, kept. */
         double begin = now();
         for (int64_t at = 0; at < b.n; at += PACKET) {
@@ -1248,11 +1257,7 @@ EXPORT void primer_samples(const CameraRecord *camera, int64_t seed, int64_t wid
     }
     for (int64_t start = 0; start < total; start += BLOCK) {
         /* 1. The block's camera rays (primer_camera_rays). */
-        camera_samples(&b, camera, stream, width, height, pixels, first, spp, start, total);
-        for (int64_t lane = 0; lane < b.n; lane++) {
-            for (int c = 0; c < 3; c++) { O[3 * lane + c] = b.O[c][lane]; D[3 * lane + c] = b.D[c][lane]; }
-            t_max[lane] = b.t[lane];
-        }
+        block_rays(&b, camera, stream, width, height, pixels, first, spp, start, total, O, D, t_max);
         /* 2. Their nearest hits, 8 at a time; the rays that hit kept (primer_primary). */
         double begin = now();
         H.m = 0;
