@@ -430,11 +430,12 @@ def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: 
     #    flags, material slots and object-space corner normals.
     V = np.array([len(mesh.vertices) for mesh in meshes], np.int64)                  # (d,)
     T = np.array([len(mesh.triangles) for mesh in meshes], np.int64)
-    points = np.concatenate([mesh.vertices for mesh in meshes])                      # (sum V, 3)
-    local = np.concatenate([mesh.triangles for mesh in meshes])                      # (sum T, 3)
+    joined = lambda arrays: arrays[0] if len(arrays) == 1 else np.concatenate(arrays)    # (no copy of one)
+    points = joined([mesh.vertices for mesh in meshes])                              # (sum V, 3)
+    local = joined([mesh.triangles for mesh in meshes])                              # (sum T, 3)
     in_range = ((local >= 0) & (local < np.repeat(V, T)[:, None])).all(axis=1)
-    smooth = np.concatenate([mesh.smooth for mesh in meshes]) & in_range
-    slots = np.concatenate([mesh.material_indices for mesh in meshes])
+    smooth = joined([mesh.smooth for mesh in meshes]) & in_range
+    slots = joined([mesh.material_indices for mesh in meshes])
     corners = None
     if smooth.any():
         has_smooth = np.array([mesh.smooth.any() for mesh in meshes])
@@ -453,19 +454,31 @@ def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: 
         ends = np.cumsum(counts_p)
         return np.arange(ends[-1]) - np.repeat(ends - counts_p - starts_p, counts_p)
 
-    # 3. World point = M p + t, minus the origin, in float64, for every placement's points.
-    point_row = rows(Vp, (np.cumsum(V) - V)[mesh_of])                                # into `points`
-    instance_of_point = np.repeat(owner, Vp)
+    # 3. World point = M p + t, minus the origin, in float64, for every placement's points (one
+    #    placement, such as a large mesh's, needs no gathered copies: the same numbers).
     with np.errstate(invalid="ignore", over="ignore"):
-        world = vectors.apply_each(all_matrices[instance_of_point, :3, :3], points[point_row],
-                                   all_matrices[instance_of_point, :3, 3] - origin)
+        if len(owner) == 1:
+            M = all_matrices[owner[0]]
+            world = vectors.transform(points, M[:3, :3], M[:3, 3] - origin)
+        else:
+            point_row = rows(Vp, (np.cumsum(V) - V)[mesh_of])                        # into `points`
+            instance_of_point = np.repeat(owner, Vp)
+            world = vectors.apply_each(all_matrices[instance_of_point, :3, :3], points[point_row],
+                                       all_matrices[instance_of_point, :3, 3] - origin)
     # 4. Every placement's triangles, numbered into `world`; out-of-range ones dropped.
-    triangle_row = rows(Tp, (np.cumsum(T) - T)[mesh_of])                             # into `local`
-    keep = in_range[triangle_row]
-    counts["index"] += int((~keep).sum())
-    triangle_row = triangle_row[keep]
-    placement_of_triangle = np.repeat(np.arange(len(owner)), Tp)[keep]
-    triangles = local[triangle_row] + (np.cumsum(Vp) - Vp)[placement_of_triangle][:, None]
+    if len(owner) == 1:
+        counts["index"] += int((~in_range).sum())
+        every = bool(in_range.all())
+        triangle_row = np.arange(len(local)) if every else np.flatnonzero(in_range)      # into `local`
+        placement_of_triangle = np.zeros(len(triangle_row), np.int64)
+        triangles = local if every else local[triangle_row]
+    else:
+        triangle_row = rows(Tp, (np.cumsum(T) - T)[mesh_of])                         # into `local`
+        keep = in_range[triangle_row]
+        counts["index"] += int((~keep).sum())
+        triangle_row = triangle_row[keep]
+        placement_of_triangle = np.repeat(np.arange(len(owner)), Tp)[keep]
+        triangles = local[triangle_row] + (np.cumsum(Vp) - Vp)[placement_of_triangle][:, None]
     instance = owner[placement_of_triangle]
     # 5. Materials: each instance's slot -> scene material (its own table, or the mesh's indices as
     #    they are); missing ones fall back to the default grey.

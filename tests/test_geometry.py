@@ -105,3 +105,20 @@ def test_a_mesh_of_its_own_material_indices_uses_them_as_scene_materials():
     geometry = build_geometry(scene, np.zeros(3), COPY)
     np.testing.assert_array_equal(geometry.material[geometry.instance == 0], [1, 0])
     assert (geometry.material[geometry.instance == 1] == 1).all()
+
+
+def test_a_lone_placement_is_placed_as_it_is_in_a_batch():
+    """One mesh placed once takes a path with no gathered copies; it gives the batch's numbers."""
+    scene, matrices = many_meshes(count=2)
+    scene.meshes[0].triangles[1] = (0, 2, 99_999)                     # out of range: dropped
+    alone = Scene(camera=scene.camera, materials=scene.materials, meshes=[scene.meshes[0]],
+                  instances=[scene.instances[0]])
+    origin = np.array([0.25, 1.0, -0.5])
+    one, both = build_geometry(alone, origin, COPY), build_geometry(scene, origin, COPY)
+    rows = both.instance == 0
+    assert len(one.triangles) == rows.sum() == len(scene.meshes[0].triangles) - 1
+    np.testing.assert_array_equal(one.vertices[one.triangles], both.vertices[both.triangles[rows]])
+    for name in ("face_normals", "material"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(both, name)[rows])
+    np.testing.assert_array_equal(one.corner_normals, both.corner_normals[both.smooth_index[rows]])
+    assert "1 triangle(s) with out-of-range vertex indices" in " ".join(one.warnings)
