@@ -20,7 +20,7 @@
 #include <stdint.h>
 #include <time.h>
 
-#define PRIMER_KERNELS_ABI 3
+#define PRIMER_KERNELS_ABI 4
 
 #define PI 3.14159265358979323846
 #define FLOAT32_EPSILON (1.0 / 16777216.0)   /* 2^-24, core/shadows.py */
@@ -1345,7 +1345,7 @@ INLINE double contrast(double a, double b)
     return fabs(a - b) / sqrt((0.5 * (a + b)) * (0.5 * (a + b)) + DARK * DARK);
 }
 
-/* adaptive.relative_noise of pixels lo .. hi - 1 into error[i], in a loop without branches. */
+/* adaptive.relative_noise of pixels lo .. hi - 1 into error[i - lo], in a loop without branches. */
 SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_t hi, const double *restrict total,
                                                               const double *restrict squares,
                                                               const int64_t *restrict count,
@@ -1353,6 +1353,7 @@ SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_
                                                               double *restrict error)
 {
     double w[3] = {weights[0], weights[1], weights[2]};
+    error -= lo;
     for (int64_t i = lo; i < hi; i++) {
         double n = (double)(int32_t)count[i];     /* (through int32, which SIMD converts: counts are small) */
         double luminance = luminance_of(total + 4 * i, w) / n, alpha = total[4 * i + 3] / n;
@@ -1366,50 +1367,71 @@ SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_
     }
 }
 
-/* Each pixel's mean luminance over max(count, 1) samples (adaptive.edge_contrast's). */
-SIMD_CLONES __attribute__((noinline)) static void mean_lanes(int64_t size, const double *restrict total,
+/* Each pixel's mean luminance over max(count, 1) samples (adaptive.edge_contrast's), pixels lo .. hi - 1
+ * into mean[i - lo]. */
+SIMD_CLONES __attribute__((noinline)) static void mean_lanes(int64_t lo, int64_t hi, const double *restrict total,
                                                              const int64_t *restrict count,
                                                              const double *restrict weights, double *restrict mean)
 {
     double w[3] = {weights[0], weights[1], weights[2]};
-    for (int64_t i = 0; i < size; i++) {
+    mean -= lo;
+    for (int64_t i = lo; i < hi; i++) {
         double n = (double)(int32_t)count[i];
         mean[i] = luminance_of(total + 4 * i, w) / (n > 1.0 ? n : 1.0);
     }
 }
 
-/* The pixels that need another pass (adaptive.unconverged): a subset of `pixels`, in their order.
- * total (H W, 4), squares (H W, 2) float64 and count (H W,) int64 are the running sums; pixels
- * (p,) int64 the region's pixels; first the first pass's size (0: no edge test).
- * Scratch: error and mean (H W,) float64, noisy and grown (H W,) uint8. Out: wanted (at most p) int64;
- * returns how many. */
-EXPORT SIMD_CLONES int64_t primer_unconverged(int64_t width, int64_t height, const double *total, const double *squares,
-                                  const int64_t *count, const double *weights, const int64_t *pixels, int64_t p,
-                                  double threshold, int64_t first, double *error, double *mean, uint8_t *noisy,
-                                  uint8_t *grown, int64_t *wanted)
+/* The first k in 0 .. p with pixels[k] >= i (pixels ascending). */
+INLINE int64_t first_at_least(const int64_t *pixels, int64_t p, int64_t i)
 {
-    int64_t size = width * height;
-    if (p == 0) return 0;
+    int64_t lo = 0, hi = p;
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (pixels[mid] < i) lo = mid + 1; else hi = mid;
+    }
+    return lo;
+}
+
+/* The pixels of rows y0 .. y1 - 1 that need another pass (adaptive.unconverged): a subset of
+ * `pixels`, in their order. Rows can be decided apart (the threads of a render take a band each):
+ * a pixel's answer reads its neighbours' noise flags, and their edges read the means one row further,
+ * so the work covers the rows y0 - 2 .. y1 + 1, the window, and decides only y0 .. y1 - 1.
+ * total (H W, 4), squares (H W, 2) float64 and count (H W,) int64 are the running sums; pixels
+ * (p,) int64 the region's pixels, ascending; first the first pass's size (0: no edge test).
+ * Scratch, one value per pixel of the window (at most (y1 - y0 + 4) W): error and mean float64,
+ * noisy and grown uint8. Out: wanted (at most p) int64; returns how many. */
+EXPORT SIMD_CLONES int64_t primer_unconverged(int64_t width, int64_t height, int64_t y0, int64_t y1,
+                                              const double *total, const double *squares, const int64_t *count,
+                                              const double *weights, const int64_t *pixels, int64_t p,
+                                              double threshold, int64_t first, double *error, double *mean,
+                                              uint8_t *noisy, uint8_t *grown, int64_t *wanted)
+{
+    /* 0. The window (rows a .. b - 1, pixels base .. base + size - 1) and the region's pixels in it;
+     *    scratch is indexed from base. */
+    int64_t a = y0 - 2 > 0 ? y0 - 2 : 0, b = y1 + 2 < height ? y1 + 2 : height;
+    int64_t base = a * width, size = (b - a) * width;
+    int64_t k0 = first_at_least(pixels, p, base), k1 = first_at_least(pixels, p, base + size);
+    if (k0 == k1 || y0 >= y1) return 0;
     /* 1. Noisy pixels of the region (the noise of every pixel from its first to its last, at once). */
-    noise_lanes(pixels[0], pixels[p - 1] + 1, total, squares, count, weights, error);
-    if (first > 0) mean_lanes(size, total, count, weights, mean);
+    noise_lanes(pixels[k0], pixels[k1 - 1] + 1, total, squares, count, weights, error + (pixels[k0] - base));
+    if (first > 0) mean_lanes(base, base + size, total, count, weights, mean);
     for (int64_t i = 0; i < size; i++) noisy[i] = 0;
-    for (int64_t k = 0; k < p; k++) noisy[pixels[k]] = error[pixels[k]] > threshold;
+    for (int64_t k = k0; k < k1; k++) noisy[pixels[k] - base] = error[pixels[k] - base] > threshold;
     /* 2. Pixels with only the first pass's samples beside an edge (a contrast to a neighbour, both
      *    sampled, above threshold * first): each pair's contrast once, then each pixel's largest. */
     if (first > 0) {
         double *edge = error;                  /* (the noise is used up) */
         for (int64_t i = 0; i < size; i++) edge[i] = 0.0;
-        for (int64_t y = 0; y < height; y++) {
-            const double *m = mean + y * width;
+        for (int64_t y = a; y < b; y++) {
+            const double *m = mean + (y - a) * width;
             const int64_t *n = count + y * width;
-            double *e = edge + y * width;
+            double *e = edge + (y - a) * width;
             for (int64_t x = 1; x < width; x++) {              /* across: (x - 1, x) */
                 double c = (n[x] > 0) & (n[x - 1] > 0) ? contrast(m[x], m[x - 1]) : 0.0;
                 e[x] = at_least(c, e[x]);
                 e[x - 1] = at_least(c, e[x - 1]);
             }
-            if (y == 0) continue;
+            if (y == a) continue;
             const double *m_up = m - width;
             const int64_t *n_up = n - width;
             double *e_up = e - width;
@@ -1420,25 +1442,26 @@ EXPORT SIMD_CLONES int64_t primer_unconverged(int64_t width, int64_t height, con
             }
         }
         double limit = threshold * (double)first;
-        for (int64_t k = 0; k < p; k++) {
+        for (int64_t k = k0; k < k1; k++) {
             int64_t i = pixels[k];
-            if (count[i] <= first && edge[i] > limit) noisy[i] = 1;
+            if (count[i] <= first && edge[i - base] > limit) noisy[i - base] = 1;
         }
     }
-    /* 3. Grow by one pixel in each of the 8 directions (columns, then rows), keep the region's. */
-    for (int64_t y = 0; y < height; y++)
+    /* 3. Grow by one pixel in each of the 8 directions (columns, then rows), for rows y0 .. y1 - 1;
+     *    keep the region's. */
+    for (int64_t y = y0; y < y1; y++)
         for (int64_t x = 0; x < width; x++) {
-            int64_t i = y * width + x;
+            int64_t i = (y - a) * width + x;
             grown[i] = noisy[i] | (y > 0 ? noisy[i - width] : 0) | (y + 1 < height ? noisy[i + width] : 0);
         }
-    for (int64_t y = 0; y < height; y++) {
-        const uint8_t *g = grown + y * width;
-        uint8_t *out = noisy + y * width;      /* (reused) */
+    for (int64_t y = y0; y < y1; y++) {
+        const uint8_t *g = grown + (y - a) * width;
+        uint8_t *out = noisy + (y - a) * width;      /* (reused: rows y0 - 1 and y1 are read no more) */
         for (int64_t x = 0; x < width; x++)
             out[x] = g[x] | (x > 0 ? g[x - 1] : 0) | (x + 1 < width ? g[x + 1] : 0);
     }
     int64_t r = 0;
-    for (int64_t k = 0; k < p; k++)
-        if (noisy[pixels[k]]) wanted[r++] = pixels[k];
+    for (int64_t k = first_at_least(pixels, p, y0 * width); k < p && pixels[k] < y1 * width; k++)
+        if (noisy[pixels[k] - base]) wanted[r++] = pixels[k];
     return r;
 }

@@ -35,7 +35,7 @@ from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 log = logging.getLogger(__name__)
 
-ABI = 3
+ABI = 4
 KERNELS = ("compiled", "numpy")
 
 # Shadow rays prepared per Embree query: lights are taken in groups of at most this many rays
@@ -138,7 +138,7 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_add_pixels": (None, [i64, p, i64, p, p, p, p, p, p, p]),
         "primer_shade": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, p, p, p, p]),
         "primer_primary": (i64, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, p, p, p, p, p, p]),
-        "primer_unconverged": (i64, [i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64, p, p, p, p, p]),
+        "primer_unconverged": (i64, [i64, i64, i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64, p, p, p, p, p]),
         "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p, p]),
     }
     for name, (restype, argtypes) in signatures.items():
@@ -633,27 +633,42 @@ def add_pixels(pixels: np.ndarray, spp: int, rgba: np.ndarray, squares: np.ndarr
                                 _ptr(hits_sum, np.int64))
 
 
-def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height: int, first: int = 0) -> np.ndarray:
+def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height: int, first: int = 0,
+                pool=None, bands: int = 1) -> np.ndarray:
     """adaptive.unconverged in C: the pixels of `pixels` (sorted, (p,) int64) that need another pass.
 
     noise: adaptive.PixelNoise over the whole image. One pass over the image instead of numpy's
-    twenty or so: it runs between passes, while every other thread waits.
+    twenty or so. It runs between passes, while the render's threads wait, so with a `pool` (a
+    concurrent.futures executor) it is cut into `bands` bands of rows decided at once: the same
+    answer, band after band.
     """
     from . import adaptive
     size = width * height
     pixels = _c(pixels, np.int64)
     if len(pixels) and (pixels[0] < 0 or pixels[-1] >= size or np.any(pixels[1:] <= pixels[:-1])):
         raise ValueError("unconverged: pixels must be distinct flat indices of the image, ascending")
-    wanted = np.empty(len(pixels), np.int64)
     weights = _c(adaptive.LUMINANCE, np.float64)
-    error, mean = np.empty(size), np.empty(size)                                 # scratch
-    noisy, grown = np.empty(size, np.uint8), np.empty(size, np.uint8)
-    count = library().primer_unconverged(
-        width, height, _ptr(noise.total, np.float64), _ptr(noise.squares, np.float64), _ptr(noise.count, np.int64),
-        _ptr(weights, np.float64), _ptr(pixels, np.int64), len(pixels), float(threshold), int(first),
-        _ptr(error, np.float64), _ptr(mean, np.float64), _ptr(noisy, np.uint8), _ptr(grown, np.uint8),
-        _ptr(wanted, np.int64))
-    return wanted[:count]
+    bands = max(1, min(int(bands), height)) if pool is not None else 1
+    edges = [height * b // bands for b in range(bands + 1)]
+
+    def band(rows: tuple) -> np.ndarray:
+        """The wanted pixels of rows y0 .. y1 - 1, with scratch for their window (y1 - y0 + 4 rows)."""
+        y0, y1 = rows
+        window = (min(height, y1 + 2) - max(0, y0 - 2)) * width
+        error, mean = np.empty(window), np.empty(window)
+        noisy, grown = np.empty(window, np.uint8), np.empty(window, np.uint8)
+        wanted = np.empty(len(pixels), np.int64)
+        count = library().primer_unconverged(
+            width, height, y0, y1, _ptr(noise.total, np.float64), _ptr(noise.squares, np.float64),
+            _ptr(noise.count, np.int64), _ptr(weights, np.float64), _ptr(pixels, np.int64), len(pixels),
+            float(threshold), int(first), _ptr(error, np.float64), _ptr(mean, np.float64), _ptr(noisy, np.uint8),
+            _ptr(grown, np.uint8), _ptr(wanted, np.int64))
+        return wanted[:count]
+
+    rows = list(zip(edges[:-1], edges[1:]))
+    if len(rows) == 1:
+        return band(rows[0])
+    return np.concatenate(list(pool.map(band, rows)))
 
 
 # ---------------------------------------------------------------------------

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+from concurrent.futures import ThreadPoolExecutor
 import math
 
 import numpy as np
@@ -359,13 +360,20 @@ def test_unconverged_pixels_agree(first):
     noise = adaptive.PixelNoise(total, squares, count)
     everything = np.arange(H * W, dtype=np.int64)
     region = (np.arange(5, 30)[:, None] * W + np.arange(10, 41)).reshape(-1)
+    scattered = np.flatnonzero(rng.random(H * W) < 0.3)            # a later pass: pixels here and there
     partial = []
-    for pixels in (everything, region):
-        for threshold in (0.02, 0.1, 0.3):
-            expected = adaptive.unconverged(pixels, noise, threshold, W, H, first)
-            np.testing.assert_array_equal(kernels.unconverged(pixels, noise, threshold, W, H, first), expected)
-            partial.append(0 < len(expected) < len(pixels))
-    assert sum(partial) >= 4           # most cases keep some pixels and drop others
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        for pixels in (everything, region, scattered):
+            for threshold in (0.02, 0.1, 0.3):
+                expected = adaptive.unconverged(pixels, noise, threshold, W, H, first)
+                np.testing.assert_array_equal(kernels.unconverged(pixels, noise, threshold, W, H, first), expected)
+                partial.append(0 < len(expected) < len(pixels))
+                # Bands of rows decided apart (one per thread) give the same pixels: 1-row bands,
+                # bands of uneven height, more bands than rows.
+                for bands in (2, 3, 7, H, H + 5):
+                    np.testing.assert_array_equal(
+                        kernels.unconverged(pixels, noise, threshold, W, H, first, pool=pool, bands=bands), expected)
+    assert sum(partial) >= 6           # most cases keep some pixels and drop others
 
 
 @pytest.mark.parametrize("method", ["robust", "epsilon"])
