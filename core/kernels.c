@@ -20,7 +20,7 @@
 #include <stdint.h>
 #include <time.h>
 
-#define PRIMER_KERNELS_ABI 4
+#define PRIMER_KERNELS_ABI 5
 
 #define PI 3.14159265358979323846
 #define FLOAT32_EPSILON (1.0 / 16777216.0)   /* 2^-24, core/shadows.py */
@@ -428,29 +428,6 @@ EXPORT void primer_surfaces(const int64_t *ray, int64_t m, const double *origins
     for (int64_t i = 0; i < m; i++)
         surface_at(origins + 3 * ray[i], directions + 3 * ray[i], t[i], u[i], v[i], corners + 9 * i, Ng + 3 * i,
                    smooth[i], normals + 9 * i, I + 3 * i, N + 3 * i, offset + i, lifted ? lifted + 3 * i : NULL);
-}
-
-/* primer_copied_triangles and primer_surfaces in one pass over the hits of a chunk's camera rays
- * (ray h is hit h): the corners and corner normals stay in registers instead of going through
- * (m, 3, 3) arrays. The same numbers (tests/test_kernels.py).
- * In: prim (m,) int64; origins, directions (m, 3), t, u, v (m,) float64; the copied triangles' tables as
- * primer_copied_triangles takes them. Out: Ng, albedo_out, I, N (m, 3), offset (m,) float64,
- * smooth (m,) uint8, lifted (m, 3) float64 or NULL, as the two kernels write them. */
-EXPORT void primer_copied_surfaces(const int64_t *prim, int64_t m, const double *origins, const double *directions,
-                                   const double *t, const double *u, const double *v, const float *vertices,
-                                   const int32_t *triangles, const double *face_normals, const int32_t *material,
-                                   const double *albedo, const int32_t *smooth_index, const float *corner_normals,
-                                   double *Ng, double *albedo_out, uint8_t *smooth, double *I, double *N,
-                                   double *offset, double *lifted)
-{
-    for (int64_t i = 0; i < m; i++) {
-        double corners[9], normals[9] = {0.0};      /* (normals: read only when smooth) */
-        int is_smooth = copied_triangle(prim[i], vertices, triangles, face_normals, material, albedo, smooth_index,
-                                        corner_normals, corners, Ng + 3 * i, albedo_out + 3 * i, normals);
-        smooth[i] = (uint8_t)is_smooth;
-        surface_at(origins + 3 * i, directions + 3 * i, t[i], u[i], v[i], corners, Ng + 3 * i, is_smooth, normals,
-                   I + 3 * i, N + 3 * i, offset + i, lifted ? lifted + 3 * i : NULL);
-    }
 }
 
 /* ------------------------------------------------------------------------------------------------
@@ -1222,8 +1199,9 @@ typedef struct {
     uint8_t smooth[BLOCK];
 } BlockHits;
 
-/* primer_primary, primer_copied_surfaces, primer_shade and primer_film for a chunk of p pixels of spp
- * samples (render._render_chunk steps 1-5), BLOCK camera samples at a time: each block's rays, hits,
+/* primer_primary, primer_copied_triangles and primer_surfaces, primer_shade and primer_film for a
+ * chunk of p pixels of spp samples (render._render_chunk steps 1-5), BLOCK camera samples at a time:
+ * each block's rays, hits,
  * surfaces and shadow rays live in the cache and on the stack, and its samples go straight into
  * their pixels' sums. The rays, the answers and every sum are those of the separate kernels, in the
  * same order (tests/test_kernels.py renders both ways).
@@ -1276,7 +1254,7 @@ EXPORT void primer_samples(const CameraRecord *camera, int64_t seed, int64_t wid
         }
         double traced = now();
         seconds[0] += traced - begin;
-        /* 3. The surface at each hit (primer_copied_surfaces). */
+        /* 3. The surface at each hit (primer_copied_triangles, primer_surfaces). */
         for (int64_t h = 0; h < H.m; h++) {
             int64_t lane = H.lane[h];
             double corners[9], normals[9] = {0.0};     /* (normals: read only when smooth) */

@@ -35,7 +35,7 @@ from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 log = logging.getLogger(__name__)
 
-ABI = 4
+ABI = 5
 KERNELS = ("compiled", "numpy")
 
 # Shadow rays prepared per Embree query: lights are taken in groups of at most this many rays
@@ -129,7 +129,6 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_camera_rays": (None, [p, i64, i64, i64, p, p, i64, i64, p, p, p]),
         "primer_copied_triangles": (None, [p, i64, p, p, p, p, p, p, p, p, p, p, p, p]),
         "primer_surfaces": (None, [p, i64, p, p, p, p, p, p, p, p, p, p, p, p, p]),
-        "primer_copied_surfaces": (None, [p, i64] + [p] * 19),
         "primer_samples": (None, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, i64] + [p] * 7),
         "primer_shadow_rays": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, i64, p, p, p, p, p, p]),
         "primer_add_light": (None, [p, i64, p, p, p, p, p]),
@@ -427,42 +426,6 @@ def surfaces(triangles: HitTriangles, ray: np.ndarray, origins: np.ndarray, dire
     return Surfaces(I, N, triangles.Ng, offset, lifted)
 
 
-class CopiedSurfaces(NamedTuple):
-    """copied_surfaces' answer: what shading and the film need of m hits on copied triangles.
-
-    albedo: (m, 3) float64; smooth: (m,) uint8; surface: Surfaces
-    """
-
-    albedo: np.ndarray
-    smooth: np.ndarray
-    surface: Surfaces
-
-
-def copied_surfaces(arrays: CopiedArrays, prim: np.ndarray, origins: np.ndarray, directions: np.ndarray,
-                    t: np.ndarray, u: np.ndarray, v: np.ndarray, lift: bool) -> CopiedSurfaces:
-    """copied_triangles, then surfaces, in one C pass with no (m, 3, 3) arrays in between: the same numbers.
-
-    prim (m,) int64 copied triangles hit; origins, directions (m, 3) float64 the rays that hit them (ray
-    h hit h); t, u, v (m,) float64 Embree's answers.
-    """
-    m = len(prim)
-    prim, t, u, v = _c(prim, np.int64), _c(t, np.float64), _c(u, np.float64), _c(v, np.float64)
-    origins, directions = _c(origins, np.float64), _c(directions, np.float64)
-    if len(origins) != m or len(directions) != m or len(t) != m or len(u) != m or len(v) != m:
-        raise ValueError("copied_surfaces: one ray and one answer per hit")
-    Ng, albedo, smooth = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, np.uint8)
-    I, N, offset = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
-    lifted = np.empty((m, 3)) if lift else None
-    library().primer_copied_surfaces(
-        _ptr(prim, np.int64), m, _ptr(origins, np.float64), _ptr(directions, np.float64), _ptr(t, np.float64),
-        _ptr(u, np.float64), _ptr(v, np.float64), _ptr(arrays.vertices, np.float32),
-        _ptr(arrays.triangles, np.int32), _ptr(arrays.face_normals, np.float64), _ptr(arrays.material, np.int32),
-        _ptr(arrays.albedo, np.float64), _ptr(arrays.smooth_index, np.int32), _ptr(arrays.corner_normals, np.float32),
-        _ptr(Ng, np.float64), _ptr(albedo, np.float64), _ptr(smooth, np.uint8), _ptr(I, np.float64),
-        _ptr(N, np.float64), _ptr(offset, np.float64), _ptr(lifted, np.float64))
-    return CopiedSurfaces(albedo, smooth, Surfaces(I, N, Ng, offset, lifted))
-
-
 class CopiedTables(ctypes.Structure):
     """The addresses of CopiedArrays' tables, as core/kernels.c's CopiedTables reads them."""
 
@@ -495,7 +458,7 @@ class ChunkSums(NamedTuple):
 def samples(camera, seed: int, width: int, height: int, pixels: np.ndarray, first: np.ndarray, spp: int,
             packets: "EmbreePackets", tables: CopiedTables, settings_record, records, background: np.ndarray,
             luminance: np.ndarray, want_squares: bool) -> ChunkSums:
-    """primary, copied_surfaces, shade and film in one C pass, a block of camera samples at a time:
+    """primary, copied_triangles, surfaces, shade and film in one C pass, a block of camera samples at a time:
     a chunk's samples become its pixels' sums with no per-sample or per-hit arrays in between.
 
     pixels, first: (p,) int64 as primary takes them; tables: copied_tables of the scene's copied

@@ -330,9 +330,7 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
         hit = np.arange(len(h))                            # (m,) into origins / directions
         prim, t_hit, u_hit, v_hit = found.prim, found.t, found.u, found.v
         traced = None
-        rays_of_hits = True                                # origins[h], directions[h]: hit h's ray
     else:
-        rays_of_hits = False
         if ctx.camera_record is not None:
             origins, directions, t_max = kernels.camera_rays(ctx.camera_record, seed, W, H, pixels, first, spp)
             traced = None
@@ -359,17 +357,12 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
     if m:
         # 4. The surface at each hit, then the lights in groups: shadow rays, Embree's answers, the light.
         lift = bool(s.terminator_fix and ctx.smooth)
-        if ctx.copied is not None and rays_of_hits:
-            # Triangles and surfaces in one pass.
-            albedo, smooth, surface = kernels.copied_surfaces(ctx.copied, prim, origins, directions, t_hit, u_hit,
-                                                              v_hit, lift)
+        if ctx.copied is not None:
+            triangles = kernels.copied_triangles(ctx.copied, prim)
         else:
-            if ctx.copied is not None:
-                triangles = kernels.copied_triangles(ctx.copied, prim)
-            else:
-                triangles = kernels.any_triangles(ctx.geometry, prim, ctx.smooth)
-            albedo, smooth = triangles.albedo, triangles.smooth
-            surface = kernels.surfaces(triangles, hit, origins, directions, t_hit, u_hit, v_hit, lift)
+            triangles = kernels.any_triangles(ctx.geometry, prim, ctx.smooth)
+        albedo, smooth = triangles.albedo, triangles.smooth
+        surface = kernels.surfaces(triangles, hit, origins, directions, t_hit, u_hit, v_hit, lift)
         row = h // spp                                     # (m,) each hit's pixel in the chunk
         pixel_of_hit = pixels[row]
         sample_of_hit = first[row] + h % spp

@@ -137,34 +137,6 @@ def test_surfaces_agree(terminator_fix):
         assert np.allclose(surface.lifted[s], lifted, rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("terminator_fix", [False, True], ids=["plain", "terminator_fix"])
-def test_fused_surfaces_equal_the_two_steps(terminator_fix):
-    """kernels.copied_surfaces (what the streamed render runs) gives copied_triangles + surfaces' numbers, bit for bit."""
-    scene = lit_scene(LIGHTS["point"])
-    scene.meshes[0].triangles = scene.meshes[0].triangles[:, ::-1].copy()     # the floor seen from behind
-    settings = RenderSettings(width=48, height=36, samples=2, terminator_fix=terminator_fix)
-    geometry = build_geometry(scene, scene.camera.position)
-    _, _, O, D, hits, hit = hits_of(scene, settings, geometry)
-    prim, t, u, v = hits.prim[hit], hits.t[hit], hits.u[hit], hits.v[hit]
-    arrays = kernels.copied_arrays(geometry)
-    triangles = kernels.copied_triangles(arrays, prim)
-    two_steps = kernels.surfaces(triangles, hit, O, D, t, u, v, lift=terminator_fix)
-    fused = kernels.copied_surfaces(arrays, prim, O[hit], D[hit], t, u, v, lift=terminator_fix)
-    assert np.array_equal(fused.albedo, triangles.albedo) and np.array_equal(fused.smooth, triangles.smooth)
-    smooth = triangles.smooth.astype(bool)
-    assert smooth.any() and not smooth.all()
-    facing_away = (np.einsum("ij,ij->i", geometry.face_normals[prim], D[hit]) > 0)
-    assert facing_away.any(), "some hits see a triangle's back, whose normal turns"
-    for name in ("I", "N", "Ng", "offset"):
-        assert np.array_equal(getattr(fused.surface, name), getattr(two_steps, name)), name
-    if terminator_fix:
-        assert np.array_equal(fused.surface.lifted[smooth], two_steps.lifted[smooth])
-    else:
-        assert fused.surface.lifted is None
-    with pytest.raises(ValueError):
-        kernels.copied_surfaces(arrays, prim, O[hit][:-1], D[hit], t, u, v, lift=False)
-
-
 def compiled_radiance(settings, geometry, lights, O, D, hits, hit, pixel, sample):
     """The radiance of each hit from the kernels alone (render._render_chunk_compiled, steps 4)."""
     prim = hits.prim[hit]
