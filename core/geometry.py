@@ -422,7 +422,8 @@ def _instanced_placements(scene: Scene, mesh, placed: np.ndarray, all_matrices: 
 def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: np.ndarray, origin: np.ndarray,
                   n_materials: int, counts: dict) -> _Batch:
     """Place meshes as copies, all at once: batch is a list of (mesh, placements (k,) int64 indices into
-    scene.instances), each mesh once. Returns the _Batch of their triangles in that order (a
+    scene.instances); a mesh with many placements may come more than once, a part of its placements
+    each time. Returns the _Batch of their triangles in that order (a
     placement's triangles together, in the mesh's order); triangles with out-of-range vertex indices
     are dropped and counted, and triangles without a material get the default grey (counted)."""
     meshes = [mesh for mesh, _ in batch]

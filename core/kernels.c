@@ -1331,7 +1331,6 @@ SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_
                                                               double *restrict error)
 {
     double w[3] = {weights[0], weights[1], weights[2]};
-    error -= lo;
     for (int64_t i = lo; i < hi; i++) {
         double n = (double)(int32_t)count[i];     /* (through int32, which SIMD converts: counts are small) */
         double luminance = luminance_of(total + 4 * i, w) / n, alpha = total[4 * i + 3] / n;
@@ -1341,7 +1340,7 @@ SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_
         double error_a = sqrt(variance_a / n);
         double larger = error_y > error_a ? error_y : error_a;
         larger = (error_y != error_y) | (error_a != error_a) ? NAN : larger;     /* np.maximum keeps NaN */
-        error[i] = n >= 2.0 ? larger : INFINITY;
+        error[i - lo] = n >= 2.0 ? larger : INFINITY;
     }
 }
 
@@ -1352,10 +1351,9 @@ SIMD_CLONES __attribute__((noinline)) static void mean_lanes(int64_t lo, int64_t
                                                              const double *restrict weights, double *restrict mean)
 {
     double w[3] = {weights[0], weights[1], weights[2]};
-    mean -= lo;
     for (int64_t i = lo; i < hi; i++) {
         double n = (double)(int32_t)count[i];
-        mean[i] = luminance_of(total + 4 * i, w) / (n > 1.0 ? n : 1.0);
+        mean[i - lo] = luminance_of(total + 4 * i, w) / (n > 1.0 ? n : 1.0);
     }
 }
 
@@ -1386,6 +1384,8 @@ EXPORT SIMD_CLONES int64_t primer_unconverged(int64_t width, int64_t height, int
 {
     /* 0. The window (rows a .. b - 1, pixels base .. base + size - 1) and the region's pixels in it;
      *    scratch is indexed from base. */
+    y0 = y0 > 0 ? y0 : 0;
+    y1 = y1 < height ? y1 : height;
     int64_t a = y0 - 2 > 0 ? y0 - 2 : 0, b = y1 + 2 < height ? y1 + 2 : height;
     int64_t base = a * width, size = (b - a) * width;
     int64_t k0 = first_at_least(pixels, p, base), k1 = first_at_least(pixels, p, base + size);

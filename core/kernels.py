@@ -613,20 +613,22 @@ def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height:
     weights = _c(adaptive.LUMINANCE, np.float64)
     bands = max(1, min(int(bands), height)) if pool is not None else 1
     edges = [height * b // bands for b in range(bands + 1)]
+    wanted = np.empty(len(pixels), np.int64)      # each band writes into its own pixels' rows
 
     def band(rows: tuple) -> np.ndarray:
         """The wanted pixels of rows y0 .. y1 - 1, with scratch for their window (y1 - y0 + 4 rows)."""
         y0, y1 = rows
+        k0, k1 = np.searchsorted(pixels, (y0 * width, y1 * width))
         window = (min(height, y1 + 2) - max(0, y0 - 2)) * width
         error, mean = np.empty(window), np.empty(window)
         noisy, grown = np.empty(window, np.uint8), np.empty(window, np.uint8)
-        wanted = np.empty(len(pixels), np.int64)
+        mine = wanted[k0:k1]
         count = library().primer_unconverged(
             width, height, y0, y1, _ptr(noise.total, np.float64), _ptr(noise.squares, np.float64),
             _ptr(noise.count, np.int64), _ptr(weights, np.float64), _ptr(pixels, np.int64), len(pixels),
             float(threshold), int(first), _ptr(error, np.float64), _ptr(mean, np.float64), _ptr(noisy, np.uint8),
-            _ptr(grown, np.uint8), _ptr(wanted, np.int64))
-        return wanted[:count]
+            _ptr(grown, np.uint8), _ptr(mine, np.int64))
+        return mine[:count]
 
     rows = list(zip(edges[:-1], edges[1:]))
     if len(rows) == 1:

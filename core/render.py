@@ -522,8 +522,8 @@ def _run_chunks(pool, in_flight: int, chunks: list, work: Callable, store: Calla
 PARALLEL_MIN_SAMPLES = 1 << 14
 
 # From this many pixels on, the noise test between adaptive passes is shared out between the threads
-# (kernels.unconverged's bands). Measured on this 2-core machine: 3840 x 2160 took 250 ms a pass
-# instead of 330-345, 1920 x 1080 58-71 ms instead of 70-75; at 320 x 240 the bands cost more than
+# (kernels.unconverged's bands). Measured on this 2-core machine: 3840 x 2160 took 250-310 ms a pass
+# instead of 330-360, 1920 x 1080 58-71 ms instead of 70-75; at 320 x 240 the bands cost more than
 # they bring (4.5 ms against 3), as waking a worker thread takes up to a few ms here.
 BANDED_PIXELS = 1 << 21
 
