@@ -228,12 +228,12 @@ def _slot_materials(slots: np.ndarray, table, rows: dict) -> np.ndarray:
 
 
 class _Batch(NamedTuple):
-    """Triangles of one mesh placed k times, before the bad ones are dropped (build_geometry).
+    """Placed copies of meshes, before the bad triangles are dropped (_place_copies, build_geometry).
 
-    points: (k v, 3) float64 world points minus the origin; triangles: (k t, 3) int64 into points;
-    sign: (k t,) float64 the sign of each placement's determinant; material: (k t,) int64;
-    owner: (k t,) int32 Scene.instances index; smooth: (k t,) bool; corner_normals: (k s, 3, 3)
-    float64 world corner normals of the smooth triangles, or None.
+    points: (v, 3) float64 world points minus the origin; triangles: (t, 3) int64 into points;
+    sign: (t,) float64 the sign of each triangle's placement's determinant; material: (t,) int64;
+    owner: (t,) int32 Scene.instances index; smooth: (t,) bool; corner_normals: (s, 3, 3) float64
+    world corner normals of the smooth triangles, or None.
     """
 
     points: np.ndarray
@@ -245,36 +245,28 @@ class _Batch(NamedTuple):
     corner_normals: Optional[np.ndarray]
 
 
-def _finish_batches(batches: list, vertex_offset: int, counts: dict, parts: dict) -> int:
-    """Drop the batches' non-finite and zero-area triangles, append the rest to `parts` (as float32
+def _finish_batch(batch: _Batch, vertex_offset: int, counts: dict, parts: dict) -> int:
+    """Drop the batch's non-finite and zero-area triangles, append the rest to `parts` (as float32
     points and triangles offset past those placed so far) and return the new vertex offset."""
-    if not batches:
-        return vertex_offset
-    # 1. All batches as one: their triangles index one array of points.
-    starts = np.cumsum([0] + [len(b.points) for b in batches])[:-1]
-    points = np.concatenate([b.points for b in batches])
-    triangles = np.concatenate([b.triangles + start for b, start in zip(batches, starts)])
-    # 2. Face normals from the world points, flipped back for mirrors; bad triangles found.
+    # 1. Face normals from the world points, flipped back for mirrors; bad triangles found.
     with np.errstate(invalid="ignore", over="ignore"):       # NaN and huge vertices are dropped below
-        faces = normals_.face_normals(points, triangles)
-        points32 = points.astype(np.float32)
-    face_n = faces.normals * np.concatenate([b.sign for b in batches])[:, None]
-    finite = np.isfinite(points32).all(axis=1)[triangles].all(axis=1)
+        faces = normals_.face_normals(batch.points, batch.triangles)
+        points32 = batch.points.astype(np.float32)
+    face_n = faces.normals * batch.sign[:, None]
+    finite = np.isfinite(points32).all(axis=1)[batch.triangles].all(axis=1)
     nondegenerate = face_n.any(axis=1) & (faces.area > 0)
     keep = finite & nondegenerate
     counts["nonfinite"] += int((~finite).sum())
     counts["degenerate"] += int((finite & ~nondegenerate).sum())
-    # 3. Keep the good triangles, and the smooth ones' corner normals.
-    smooth = np.concatenate([b.smooth for b in batches])
-    corner_normals = [b.corner_normals for b in batches if b.corner_normals is not None]
-    if corner_normals:
-        parts["cn"].append(np.concatenate(corner_normals)[keep[smooth]].astype(np.float32))
-    parts["smooth"].append(smooth[keep])
+    # 2. Keep the good triangles, and the smooth ones' corner normals.
+    if batch.corner_normals is not None:
+        parts["cn"].append(batch.corner_normals[keep[batch.smooth]].astype(np.float32))
+    parts["smooth"].append(batch.smooth[keep])
     parts["v"].append(points32)
-    parts["t"].append(triangles[keep] + vertex_offset)
+    parts["t"].append(batch.triangles[keep] + vertex_offset)
     parts["n"].append(face_n[keep])
-    parts["m"].append(np.concatenate([b.material for b in batches])[keep])
-    parts["i"].append(np.concatenate([b.owner for b in batches])[keep])
+    parts["m"].append(batch.material[keep])
+    parts["i"].append(batch.owner[keep])
     return vertex_offset + len(points32)
 
 
@@ -309,8 +301,8 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     # Group instances by mesh (their indices into scene.instances), meshes in order of first use:
     # one batched transform per mesh, whatever the instance count.
     mesh_of = np.fromiter((instance.mesh for instance in scene.instances), np.int64, n_instances)
-    by_mesh = np.split(np.argsort(mesh_of, kind="stable"),
-                       np.flatnonzero(np.diff(np.sort(mesh_of))) + 1) if n_instances else []
+    order = np.argsort(mesh_of, kind="stable")
+    by_mesh = np.split(order, np.flatnonzero(np.diff(mesh_of[order])) + 1) if n_instances else []
     by_mesh.sort(key=lambda owners: owners[0])
 
     singular_all = ~(np.isfinite(all_det) & (all_det != 0.0))                              # (n,)
@@ -326,8 +318,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         if (len(placed) >= 2 and len(placed) * len(mesh.triangles) > instance_triangles
                 and embree_buffers.instancing_supported()):
             # Stored once, traced as Embree instances (core/instancing.py).
-            record, found = _instanced_placements(scene, mesh, placed, all_matrices, origin, n_materials,
-                                                  len(placed) == n_instances)
+            record, found = _instanced_placements(scene, mesh, placed, all_matrices, origin, n_materials)
             # Unless asked to always instance, instances piled up in one place are copied instead:
             # every hit there would have to try each of them (instancing.CROWDED).
             crowded = (record is not None and instance_triangles > 0
@@ -353,12 +344,12 @@ def build_geometry(scene: Scene, origin: np.ndarray,
             batch.append((mesh, some))
             batch_triangles += len(some) * len(mesh.triangles)
             if batch_triangles >= BATCH_TRIANGLES:
-                vertex_offset = _finish_batches([_place_copies(batch, scene, all_matrices, all_det, origin,
-                                                               n_materials, counts)], vertex_offset, counts, parts)
+                vertex_offset = _finish_batch(_place_copies(batch, scene, all_matrices, all_det, origin,
+                                                            n_materials, counts), vertex_offset, counts, parts)
                 batch, batch_triangles = [], 0
     if batch:
-        vertex_offset = _finish_batches([_place_copies(batch, scene, all_matrices, all_det, origin, n_materials,
-                                                       counts)], vertex_offset, counts, parts)
+        vertex_offset = _finish_batch(_place_copies(batch, scene, all_matrices, all_det, origin, n_materials,
+                                                    counts), vertex_offset, counts, parts)
 
     if counts["index"]:
         warnings.append(f"{counts['index']} triangle(s) with out-of-range vertex indices were skipped")
@@ -403,11 +394,12 @@ def _in_range(mesh) -> np.ndarray:
 
 
 def _instanced_placements(scene: Scene, mesh, placed: np.ndarray, all_matrices: np.ndarray, origin: np.ndarray,
-                          n_materials: int, every: bool):
+                          n_materials: int):
     """Return (the InstancedMesh of `mesh` at the placements `placed`, or None; its counts of dropped
     and defaulted triangles). placed: (k,) int64 indices into scene.instances of non-singular
-    placements; every: whether they are all of scene.instances, in order (then no matrix is copied)."""
+    placements, ascending (so when they are all of scene.instances, all_matrices is used uncopied)."""
     found = {"missing": 0, "nonfinite": 0, "degenerate": 0, "index": 0}
+    every = len(placed) == len(scene.instances)
     in_range = _in_range(mesh)
     found["index"] += int((~in_range).sum()) * len(placed)
     triangles, smooth = mesh.triangles[in_range], mesh.smooth[in_range]

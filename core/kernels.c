@@ -830,6 +830,25 @@ EXPORT void primer_add_light(const LightRecord *lights, int64_t r, const int32_t
  * Film: render._render_chunk step 5, the box filter's per-pixel sums
  * --------------------------------------------------------------------------------------------- */
 
+/* A hit sample's value: RGBA (albedo / pi * E, 1). albedo, E: (3,). */
+INLINE void hit_value(const double *albedo, const double *E, double *s)
+{
+    for (int c = 0; c < 3; c++) s[c] = albedo[c] * (1.0 / PI) * E[c];
+    s[3] = 1.0;
+}
+
+/* Add a sample's RGBA s to its pixel's sums: sum (4,), and its squared luminance and alpha to
+ * squares (2,) unless squares is NULL. */
+INLINE void add_sample(const double *s, const double *luminance, double *sum, double *squares)
+{
+    for (int c = 0; c < 4; c++) sum[c] += s[c];
+    if (squares != NULL) {
+        double y = luminance[0] * s[0] + luminance[1] * s[1] + luminance[2] * s[2];
+        squares[0] += y * y;
+        squares[1] += s[3] * s[3];
+    }
+}
+
 /* Sum each pixel's samples. n = p spp samples, pixel by pixel.
  * valid: (n,) uint8 camera rays traced, or NULL (all); background: RGBA of a traced ray that misses;
  * hit_sample (m,) int64 the hits' sample rows, ascending; albedo, E (m, 3) float64: radiance =
@@ -842,15 +861,14 @@ EXPORT int64_t primer_film(int64_t p, int64_t spp, const uint8_t *valid, const d
 {
     int64_t h = 0;             /* the next hit, in sample order */
     for (int64_t k = 0; k < p; k++) {
-        double sum[4] = {0.0, 0.0, 0.0, 0.0}, y2 = 0.0, a2 = 0.0;
+        double sum[4] = {0.0, 0.0, 0.0, 0.0}, square[2] = {0.0, 0.0};
         int64_t hit_count = 0;
         for (int64_t j = 0; j < spp; j++) {
             int64_t i = k * spp + j;
             double s[4];
             if (h < m && hit_sample[h] < i) return -1;
             if (h < m && hit_sample[h] == i) {
-                for (int c = 0; c < 3; c++) s[c] = albedo[3 * h + c] * (1.0 / PI) * E[3 * h + c];
-                s[3] = 1.0;
+                hit_value(albedo + 3 * h, E + 3 * h, s);
                 h++;
                 hit_count++;
             } else if (valid == NULL || valid[i]) {
@@ -859,13 +877,10 @@ EXPORT int64_t primer_film(int64_t p, int64_t spp, const uint8_t *valid, const d
                 s[0] = s[1] = s[2] = 0.0;   /* outside a fisheye's image circle: opaque black */
                 s[3] = 1.0;
             }
-            for (int c = 0; c < 4; c++) sum[c] += s[c];
-            double y = luminance[0] * s[0] + luminance[1] * s[1] + luminance[2] * s[2];
-            y2 += y * y;
-            a2 += s[3] * s[3];
+            add_sample(s, luminance, sum, square);
         }
         for (int c = 0; c < 4; c++) rgba[4 * k + c] = sum[c];
-        if (squares != NULL) { squares[2 * k] = y2; squares[2 * k + 1] = a2; }
+        if (squares != NULL) { squares[2 * k] = square[0]; squares[2 * k + 1] = square[1]; }
         hits[k] = hit_count;
     }
     return h == m ? 0 : -1;
@@ -1148,12 +1163,11 @@ EXPORT int64_t primer_shadow_settings_size(void) { return (int64_t)sizeof(Shadow
  * answers and the order of the sums are those of the three steps (tests/test_kernels.py compares).
  * In: as primer_shadow_rays; occluded8, scene: Embree's rtcOccluded8 and the RTCScene.
  * Out: E (m, 3) float64, added to; embree_seconds[0] += the time inside Embree. Returns the rays. */
-EXPORT int64_t primer_shade(const ShadowSettings *settings, const LightRecord *lights, int64_t l0, int64_t l1,
+INLINE int64_t shade_lights(const ShadowSettings *settings, const LightRecord *lights, int64_t l0, int64_t l1,
                             const double *I, const double *N, const double *Ng, const double *offset,
                             const uint8_t *smooth, const double *lifted, const int64_t *pixel, const int64_t *sample,
-                            int64_t m, void *occluded8, void *scene, double *E, double *embree_seconds)
+                            int64_t m, Occluded8 occluded, void *scene, double *E, double *embree_seconds)
 {
-    Occluded8 occluded = (Occluded8)occluded8;
     SampleBlock b;
     int64_t rays = 0;
     double embree = 0.0;
@@ -1172,6 +1186,15 @@ EXPORT int64_t primer_shade(const ShadowSettings *settings, const LightRecord *l
     }
     embree_seconds[0] += embree;
     return rays;
+}
+
+EXPORT int64_t primer_shade(const ShadowSettings *settings, const LightRecord *lights, int64_t l0, int64_t l1,
+                            const double *I, const double *N, const double *Ng, const double *offset,
+                            const uint8_t *smooth, const double *lifted, const int64_t *pixel, const int64_t *sample,
+                            int64_t m, void *occluded8, void *scene, double *E, double *embree_seconds)
+{
+    return shade_lights(settings, lights, l0, l1, I, N, Ng, offset, smooth, lifted, pixel, sample, m,
+                        (Occluded8)occluded8, scene, E, embree_seconds);
 }
 
 /* ------------------------------------------------------------------------------------------------
@@ -1227,7 +1250,6 @@ EXPORT void primer_samples(const CameraRecord *camera, int64_t seed, int64_t wid
     double O[3 * BLOCK], D[3 * BLOCK], t_max[BLOCK], t[BLOCK], u[BLOCK], v[BLOCK];
     int64_t prim[BLOCK];
     BlockHits H;
-    SampleBlock sb;
     for (int64_t k = 0; k < p; k++) {
         for (int c = 0; c < 4; c++) rgba[4 * k + c] = 0.0;
         if (squares != NULL) squares[2 * k] = squares[2 * k + 1] = 0.0;
@@ -1269,17 +1291,8 @@ EXPORT void primer_samples(const CameraRecord *camera, int64_t seed, int64_t wid
             H.E[3 * h] = H.E[3 * h + 1] = H.E[3 * h + 2] = 0.0;
         }
         /* 4. Each light's shadow rays, Embree's answers and the light that gets through (primer_shade). */
-        for (int64_t l = 0; l < n_lights; l++) {
-            const LightRecord *light = lights + l;
-            int64_t samples = H.m * (int64_t)light->samples;
-            for (int64_t at = 0; at < samples; at += BLOCK) {
-                shadow_block(&sb, settings, light, at, H.m, H.I, H.N, H.Ng, H.offset, H.smooth,
-                             fix ? H.lifted : NULL, H.pixel, H.sample);
-                double asked = now();
-                shadow_rays += occlude_block(&sb, light, occluded, scene, H.E);
-                seconds[1] += now() - asked;
-            }
-        }
+        shadow_rays += shade_lights(settings, lights, 0, n_lights, H.I, H.N, H.Ng, H.offset, H.smooth, H.lifted,
+                                    H.pixel, H.sample, H.m, occluded, scene, H.E, seconds + 1);
         seconds[2] += now() - traced;
         /* 5. Every sample of the block into its pixel's sums (primer_film), in sample order. */
         int64_t h = 0, k = start / spp, j = start % spp;
@@ -1287,19 +1300,13 @@ EXPORT void primer_samples(const CameraRecord *camera, int64_t seed, int64_t wid
             if (j == spp) { j = 0; k++; }
             double s[4];
             if (h < H.m && H.lane[h] == lane) {
-                for (int c = 0; c < 3; c++) s[c] = H.albedo[3 * h + c] * (1.0 / PI) * H.E[3 * h + c];
-                s[3] = 1.0;
+                hit_value(H.albedo + 3 * h, H.E + 3 * h, s);
                 h++;
                 hits[k]++;
             } else {
                 for (int c = 0; c < 4; c++) s[c] = background[c];
             }
-            for (int c = 0; c < 4; c++) rgba[4 * k + c] += s[c];
-            if (squares != NULL) {
-                double y = luminance[0] * s[0] + luminance[1] * s[1] + luminance[2] * s[2];
-                squares[2 * k] += y * y;
-                squares[2 * k + 1] += s[3] * s[3];
-            }
+            add_sample(s, luminance, rgba + 4 * k, squares != NULL ? squares + 2 * k : NULL);
         }
     }
     counts[0] += shadow_rays;

@@ -319,12 +319,12 @@ def _render_chunk_compiled(ctx: _Context, pixels: np.ndarray, spp: int, seed: in
                            sums.shading_seconds)
     # 1-3. Sample positions, camera rays (camera-relative) and their nearest hits.
     if ctx.camera_record is not None and streamed:
-        # Made, traced and gathered in one pass (kernels.primary): the steps below, fused.
+        # Made, traced and gathered in one pass (kernels.primary): the steps below, fused. (Only
+        # scenes with instances come here: the placement Embree hit becomes a triangle in between.)
         found = kernels.primary(ctx.camera_record, seed, W, H, pixels, first, spp, tracer.packets)
         tracer.count_intersect(found.embree_seconds)
-        if tracer.instanced:
-            tracer.flatten_prims(found.geometry, found.prim, found.u, found.v, found.origins, found.directions,
-                                 found.t, found.instance)
+        tracer.flatten_prims(found.geometry, found.prim, found.u, found.v, found.origins, found.directions,
+                             found.t, found.instance)
         h = found.sample                                   # (m,) into the chunk's samples
         origins, directions = found.origins, found.directions
         hit = np.arange(len(h))                            # (m,) into origins / directions
