@@ -20,7 +20,7 @@
 #include <stdint.h>
 #include <time.h>
 
-#define PRIMER_KERNELS_ABI 5
+#define PRIMER_KERNELS_ABI 6
 
 #define PI 3.14159265358979323846
 #define FLOAT32_EPSILON (1.0 / 16777216.0)   /* 2^-24, core/shadows.py */
@@ -1130,23 +1130,6 @@ EXPORT int64_t primer_primary(const CameraRecord *camera, int64_t seed, int64_t 
     return m;
 }
 
-/* Add a chunk's per-pixel sums into the render's running sums, in place (render.render's store):
- * rgba (p, 4), squares (p, 2) float64 and hits (p,) int64 of pixels (p,) int64, spp samples each,
- * into total (H W, 4), squares_sum (H W, 2) float64, count and hits_sum (H W,) int64. The chunks of
- * a pass have pixels of their own, so the threads rendering them may add at the same time. */
-EXPORT void primer_add_pixels(int64_t p, const int64_t *pixels, int64_t spp, const double *rgba, const double *squares,
-                              const int64_t *hits, double *total, double *squares_sum, int64_t *count, int64_t *hits_sum)
-{
-    for (int64_t k = 0; k < p; k++) {
-        int64_t i = pixels[k];
-        for (int c = 0; c < 4; c++) total[4 * i + c] += rgba[4 * k + c];
-        squares_sum[2 * i] += squares[2 * k];
-        squares_sum[2 * i + 1] += squares[2 * k + 1];
-        count[i] += spp;
-        hits_sum[i] += hits[k];
-    }
-}
-
 /* For core/kernels.py's checks: this file's interface version and its records' sizes. */
 EXPORT int64_t primer_kernels_abi(void) { return PRIMER_KERNELS_ABI; }
 EXPORT int64_t primer_light_record_size(void) { return (int64_t)sizeof(LightRecord); }
@@ -1330,7 +1313,29 @@ INLINE double contrast(double a, double b)
     return fabs(a - b) / sqrt((0.5 * (a + b)) * (0.5 * (a + b)) + DARK * DARK);
 }
 
-/* adaptive.relative_noise of pixels lo .. hi - 1 into error[i - lo], in a loop without branches. */
+/* adaptive.relative_noise of pixel i, without branches (so that loops over pixels vectorise). */
+INLINE double pixel_error(int64_t i, const double *restrict total, const double *restrict squares,
+                          const int64_t *restrict count, const double *w)
+{
+    double n = (double)(int32_t)count[i];     /* (through int32, which SIMD converts: counts are small) */
+    double luminance = luminance_of(total + 4 * i, w) / n, alpha = total[4 * i + 3] / n;
+    double variance_y = at_least(squares[2 * i] / n - luminance * luminance, 0.0) * n / (n - 1.0);
+    double variance_a = at_least(squares[2 * i + 1] / n - alpha * alpha, 0.0) * n / (n - 1.0);
+    double error_y = sqrt(variance_y / n) / sqrt(luminance * luminance + DARK * DARK);
+    double error_a = sqrt(variance_a / n);
+    double larger = error_y > error_a ? error_y : error_a;
+    larger = (error_y != error_y) | (error_a != error_a) ? NAN : larger;     /* np.maximum keeps NaN */
+    return n >= 2.0 ? larger : INFINITY;
+}
+
+/* Pixel i's mean luminance over max(count, 1) samples (adaptive.edge_contrast's). */
+INLINE double pixel_mean(int64_t i, const double *restrict total, const int64_t *restrict count, const double *w)
+{
+    double n = (double)(int32_t)count[i];
+    return luminance_of(total + 4 * i, w) / (n > 1.0 ? n : 1.0);
+}
+
+/* pixel_error of pixels lo .. hi - 1 into error[i - lo]. */
 SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_t hi, const double *restrict total,
                                                               const double *restrict squares,
                                                               const int64_t *restrict count,
@@ -1338,29 +1343,51 @@ SIMD_CLONES __attribute__((noinline)) static void noise_lanes(int64_t lo, int64_
                                                               double *restrict error)
 {
     double w[3] = {weights[0], weights[1], weights[2]};
-    for (int64_t i = lo; i < hi; i++) {
-        double n = (double)(int32_t)count[i];     /* (through int32, which SIMD converts: counts are small) */
-        double luminance = luminance_of(total + 4 * i, w) / n, alpha = total[4 * i + 3] / n;
-        double variance_y = at_least(squares[2 * i] / n - luminance * luminance, 0.0) * n / (n - 1.0);
-        double variance_a = at_least(squares[2 * i + 1] / n - alpha * alpha, 0.0) * n / (n - 1.0);
-        double error_y = sqrt(variance_y / n) / sqrt(luminance * luminance + DARK * DARK);
-        double error_a = sqrt(variance_a / n);
-        double larger = error_y > error_a ? error_y : error_a;
-        larger = (error_y != error_y) | (error_a != error_a) ? NAN : larger;     /* np.maximum keeps NaN */
-        error[i - lo] = n >= 2.0 ? larger : INFINITY;
-    }
+    for (int64_t i = lo; i < hi; i++) error[i - lo] = pixel_error(i, total, squares, count, w);
 }
 
-/* Each pixel's mean luminance over max(count, 1) samples (adaptive.edge_contrast's), pixels lo .. hi - 1
- * into mean[i - lo]. */
+/* pixel_mean of pixels lo .. hi - 1 into mean[i - lo]. */
 SIMD_CLONES __attribute__((noinline)) static void mean_lanes(int64_t lo, int64_t hi, const double *restrict total,
                                                              const int64_t *restrict count,
                                                              const double *restrict weights, double *restrict mean)
 {
     double w[3] = {weights[0], weights[1], weights[2]};
-    for (int64_t i = lo; i < hi; i++) {
-        double n = (double)(int32_t)count[i];
-        mean[i - lo] = luminance_of(total + 4 * i, w) / (n > 1.0 ? n : 1.0);
+    for (int64_t i = lo; i < hi; i++) mean[i - lo] = pixel_mean(i, total, count, w);
+}
+
+/* Add a chunk's per-pixel sums into the render's running sums, in place (render.render's store):
+ * rgba (p, 4), squares (p, 2) float64 and hits (p,) int64 of pixels (p,) int64, spp samples each,
+ * into total (H W, 4), squares_sum (H W, 2) float64, count and hits_sum (H W,) int64. With error
+ * and mean (H W,) float64 (else NULL), also the pixels' new pixel_error and pixel_mean, which the
+ * noise test between passes then reads instead of working them out for every pixel itself. The
+ * chunks of a pass have pixels of their own, so the threads rendering them may add at the same time. */
+EXPORT void primer_add_pixels(int64_t p, const int64_t *pixels, int64_t spp, const double *rgba, const double *squares,
+                              const int64_t *hits, double *total, double *squares_sum, int64_t *count, int64_t *hits_sum,
+                              const double *weights, double *error, double *mean)
+{
+    for (int64_t k = 0; k < p; k++) {
+        int64_t i = pixels[k];
+        for (int c = 0; c < 4; c++) total[4 * i + c] += rgba[4 * k + c];
+        squares_sum[2 * i] += squares[2 * k];
+        squares_sum[2 * i + 1] += squares[2 * k + 1];
+        count[i] += spp;
+        hits_sum[i] += hits[k];
+    }
+    if (error == NULL || mean == NULL) return;
+    double w[3] = {weights[0], weights[1], weights[2]};
+    for (int64_t k = 0; k < p; k++) {
+        error[pixels[k]] = pixel_error(pixels[k], total, squares_sum, count, w);
+        mean[pixels[k]] = pixel_mean(pixels[k], total, count, w);
+    }
+}
+
+/* The image from the running sums: each pixel's mean over max(count, 1) samples (render.render's
+ * box filter). total (n, 4) float64, count (n,) int64 -> out (n, 4) float32. */
+EXPORT void primer_resolve(int64_t n, const double *total, const int64_t *count, float *out)
+{
+    for (int64_t i = 0; i < n; i++) {
+        double samples = (double)(count[i] > 1 ? count[i] : 1);
+        for (int c = 0; c < 4; c++) out[4 * i + c] = (float)(total[4 * i + c] / samples);
     }
 }
 
@@ -1381,12 +1408,15 @@ INLINE int64_t first_at_least(const int64_t *pixels, int64_t p, int64_t i)
  * so the work covers the rows y0 - 2 .. y1 + 1, the window, and decides only y0 .. y1 - 1.
  * total (H W, 4), squares (H W, 2) float64 and count (H W,) int64 are the running sums; pixels
  * (p,) int64 the region's pixels, ascending; first the first pass's size (0: no edge test).
+ * known_error, known_mean (H W,) float64: every sampled pixel's pixel_error and pixel_mean, as
+ * primer_add_pixels keeps them (else NULL: worked out here, for the window).
  * Scratch, one value per pixel of the window (at most (y1 - y0 + 4) W): error and mean float64,
  * noisy and grown uint8. Out: wanted (at most p) int64; returns how many. */
 EXPORT SIMD_CLONES int64_t primer_unconverged(int64_t width, int64_t height, int64_t y0, int64_t y1,
                                               const double *total, const double *squares, const int64_t *count,
                                               const double *weights, const int64_t *pixels, int64_t p,
-                                              double threshold, int64_t first, double *error, double *mean,
+                                              double threshold, int64_t first, const double *known_error,
+                                              const double *known_mean, double *error, double *mean,
                                               uint8_t *noisy, uint8_t *grown, int64_t *wanted)
 {
     /* 0. The window (rows a .. b - 1, pixels base .. base + size - 1) and the region's pixels in it;
@@ -1397,18 +1427,22 @@ EXPORT SIMD_CLONES int64_t primer_unconverged(int64_t width, int64_t height, int
     int64_t base = a * width, size = (b - a) * width;
     int64_t k0 = first_at_least(pixels, p, base), k1 = first_at_least(pixels, p, base + size);
     if (k0 == k1 || y0 >= y1) return 0;
-    /* 1. Noisy pixels of the region (the noise of every pixel from its first to its last, at once). */
-    noise_lanes(pixels[k0], pixels[k1 - 1] + 1, total, squares, count, weights, error + (pixels[k0] - base));
-    if (first > 0) mean_lanes(base, base + size, total, count, weights, mean);
+    /* 1. Noisy pixels of the region: their noise as kept, or worked out (every pixel from the first
+     *    to the last at once); the same for the window's means. noise_of and mean_of start at base. */
+    const double *noise_of = known_error != NULL ? known_error + base : error;
+    const double *mean_of = known_mean != NULL ? known_mean + base : mean;
+    if (known_error == NULL)
+        noise_lanes(pixels[k0], pixels[k1 - 1] + 1, total, squares, count, weights, error + (pixels[k0] - base));
+    if (first > 0 && known_mean == NULL) mean_lanes(base, base + size, total, count, weights, mean);
     for (int64_t i = 0; i < size; i++) noisy[i] = 0;
-    for (int64_t k = k0; k < k1; k++) noisy[pixels[k] - base] = error[pixels[k] - base] > threshold;
+    for (int64_t k = k0; k < k1; k++) noisy[pixels[k] - base] = noise_of[pixels[k] - base] > threshold;
     /* 2. Pixels with only the first pass's samples beside an edge (a contrast to a neighbour, both
      *    sampled, above threshold * first): each pair's contrast once, then each pixel's largest. */
     if (first > 0) {
         double *edge = error;                  /* (the noise is used up) */
         for (int64_t i = 0; i < size; i++) edge[i] = 0.0;
         for (int64_t y = a; y < b; y++) {
-            const double *m = mean + (y - a) * width;
+            const double *m = mean_of + (y - a) * width;
             const int64_t *n = count + y * width;
             double *e = edge + (y - a) * width;
             for (int64_t x = 1; x < width; x++) {              /* across: (x - 1, x) */

@@ -35,7 +35,7 @@ from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 log = logging.getLogger(__name__)
 
-ABI = 5
+ABI = 6
 KERNELS = ("compiled", "numpy")
 
 # Shadow rays prepared per Embree query: lights are taken in groups of at most this many rays
@@ -134,10 +134,11 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_add_light": (None, [p, i64, p, p, p, p, p]),
         "primer_film": (i64, [i64, i64, p, p, p, i64, p, p, p, p, p, p]),
         "primer_occluded": (None, [p, p, i64, p, p, p, p]),
-        "primer_add_pixels": (None, [i64, p, i64, p, p, p, p, p, p, p]),
+        "primer_add_pixels": (None, [i64, p, i64, p, p, p, p, p, p, p, p, p, p]),
+        "primer_resolve": (None, [i64, p, p, p]),
         "primer_shade": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, p, p, p, p]),
         "primer_primary": (i64, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, p, p, p, p, p, p]),
-        "primer_unconverged": (i64, [i64, i64, i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64, p, p, p, p, p]),
+        "primer_unconverged": (i64, [i64, i64, i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64] + [p] * 7),
         "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p, p]),
     }
     for name, (restype, argtypes) in signatures.items():
@@ -584,26 +585,57 @@ def film(p: int, spp: int, valid: Optional[np.ndarray], background: np.ndarray, 
     return rgba, squares, hits
 
 
+class NoiseEstimates(NamedTuple):
+    """What the noise test between passes reads of each pixel, kept up to date as chunks add their
+    samples (add_pixels), so that the test need not work it out for every pixel, alone, between passes.
+
+    error: (H W,) float64 adaptive.relative_noise of each pixel (inf before it has 2 samples)
+    mean:  (H W,) float64 its mean luminance (adaptive.edge_contrast's; 0 before its first sample)
+    """
+
+    error: np.ndarray
+    mean: np.ndarray
+
+    @classmethod
+    def empty(cls, size: int) -> "NoiseEstimates":
+        """The estimates of `size` pixels without samples."""
+        return cls(np.full(size, np.inf), np.zeros(size))
+
+
 def add_pixels(pixels: np.ndarray, spp: int, rgba: np.ndarray, squares: np.ndarray, hits: np.ndarray, noise,
-               hits_sum: np.ndarray) -> None:
+               hits_sum: np.ndarray, estimates: Optional[NoiseEstimates] = None) -> None:
     """Add a chunk's per-pixel sums to the render's, in place: noise (adaptive.PixelNoise over the
-    image) and hits_sum (H W,) int64. pixels (p,) int64 distinct; rgba (p, 4), squares (p, 2)
-    float64; hits (p,) int64. Called by the thread that rendered the chunk (render.render's store)."""
+    image) and hits_sum (H W,) int64, and renew the pixels' `estimates` where given. pixels (p,)
+    int64 distinct; rgba (p, 4), squares (p, 2) float64; hits (p,) int64. Called by the thread that
+    rendered the chunk (render.render's store)."""
+    from . import adaptive
     pixels = _c(pixels, np.int64)
+    weights = _c(adaptive.LUMINANCE, np.float64)
     library().primer_add_pixels(len(pixels), _ptr(pixels, np.int64), int(spp), _ptr(rgba, np.float64),
                                 _ptr(squares, np.float64), _ptr(hits, np.int64), _ptr(noise.total, np.float64),
                                 _ptr(noise.squares, np.float64), _ptr(noise.count, np.int64),
-                                _ptr(hits_sum, np.int64))
+                                _ptr(hits_sum, np.int64), _ptr(weights, np.float64),
+                                *(_ptr(kept, np.float64) for kept in (estimates or (None, None))))
+
+
+def resolve(total: np.ndarray, count: np.ndarray, out: Optional[np.ndarray] = None) -> np.ndarray:
+    """Each pixel's mean over max(count, 1) samples, as render.render's numpy box filter divides:
+    total (n, 4) float64, count (n,) int64 -> (n, 4) float32 (into `out` when given), in one pass."""
+    total, count = _c(total, np.float64), _c(count, np.int64)
+    out = np.empty((len(count), 4), np.float32) if out is None else out
+    library().primer_resolve(len(count), _ptr(total, np.float64), _ptr(count, np.int64), _ptr(out, np.float32))
+    return out
 
 
 def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height: int, first: int = 0,
-                pool=None, bands: int = 1) -> np.ndarray:
+                pool=None, bands: int = 1, estimates: Optional[NoiseEstimates] = None) -> np.ndarray:
     """adaptive.unconverged in C: the pixels of `pixels` (sorted, (p,) int64) that need another pass.
 
     noise: adaptive.PixelNoise over the whole image. One pass over the image instead of numpy's
     twenty or so. It runs between passes, while the render's threads wait, so with a `pool` (a
     concurrent.futures executor) it is cut into `bands` bands of rows decided at once: the same
-    answer, band after band.
+    answer, band after band. With `estimates` kept by add_pixels, it reads each pixel's noise and
+    mean from them instead of working them out again.
     """
     from . import adaptive
     size = width * height
@@ -611,6 +643,7 @@ def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height:
     if len(pixels) and (pixels[0] < 0 or pixels[-1] >= size or np.any(pixels[1:] <= pixels[:-1])):
         raise ValueError("unconverged: pixels must be distinct flat indices of the image, ascending")
     weights = _c(adaptive.LUMINANCE, np.float64)
+    known = estimates if estimates is not None else NoiseEstimates(None, None)
     bands = max(1, min(int(bands), height)) if pool is not None else 1
     edges = [height * b // bands for b in range(bands + 1)]
     wanted = np.empty(len(pixels), np.int64)      # each band writes into its own pixels' rows
@@ -626,8 +659,9 @@ def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height:
         count = library().primer_unconverged(
             width, height, y0, y1, _ptr(noise.total, np.float64), _ptr(noise.squares, np.float64),
             _ptr(noise.count, np.int64), _ptr(weights, np.float64), _ptr(pixels, np.int64), len(pixels),
-            float(threshold), int(first), _ptr(error, np.float64), _ptr(mean, np.float64), _ptr(noisy, np.uint8),
-            _ptr(grown, np.uint8), _ptr(mine, np.int64))
+            float(threshold), int(first), _ptr(known.error, np.float64), _ptr(known.mean, np.float64),
+            _ptr(error, np.float64), _ptr(mean, np.float64), _ptr(noisy, np.uint8), _ptr(grown, np.uint8),
+            _ptr(mine, np.int64))
         return mine[:count]
 
     rows = list(zip(edges[:-1], edges[1:]))

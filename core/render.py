@@ -170,7 +170,8 @@ class _Context:
         # count as lying in it (core/debug.py, self_intersections).
         self.self_hit_distance = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry)
                                   if "acne" in settings.aux else 0.0)
-        # The render's running sums (PixelNoise, hits per pixel) when chunks add to them themselves.
+        # The render's running sums (PixelNoise, hits per pixel, and kernels.NoiseEstimates or None)
+        # when chunks add to them themselves.
         self.sums = None
         # The compiled kernels' records of the scene (core/kernels.py), when they apply.
         self.numpy_because = kernels.why_not(settings)
@@ -625,8 +626,11 @@ def render(scene: Scene, settings: RenderSettings,
         # (The noise test between passes runs in bands of rows, one per thread, on large images.)
         bands = threads if W * H >= BANDED_PIXELS else 1
         render_chunk = _render_chunk_compiled
-        unconverged = lambda *args: kernels.unconverged(*args, pool=pool, bands=bands)
-        ctx.sums = (noise, aux_hits)
+        # Each pixel's noise and mean are renewed by the chunk that adds its samples, on the render's
+        # threads; the noise test between passes then reads them.
+        estimates = kernels.NoiseEstimates.empty(H * W) if len(passes) > 1 else None
+        unconverged = lambda *args: kernels.unconverged(*args, pool=pool, bands=bands, estimates=estimates)
+        ctx.sums = (noise, aux_hits, estimates)
         stats.kernels = "compiled"
     else:
         render_chunk = _render_chunk_timed if "time" in settings.aux else _render_chunk
@@ -660,8 +664,10 @@ def render(scene: Scene, settings: RenderSettings,
 
     # 3. Box filter: each pixel's mean over all its samples; aux values over the samples that hit,
     #    except per-pixel totals, and acne: shadow rays that hit their own surface per ray cast.
-    count = np.maximum(noise.count, 1)[:, None]
-    image = (noise.total / count).astype(np.float32)
+    if ctx.numpy_because:
+        image = (noise.total / np.maximum(noise.count, 1)[:, None]).astype(np.float32)
+    else:
+        image = kernels.resolve(noise.total, noise.count)       # the same quotients, in one pass
     aux = {}
     covered = aux_hits > 0
     for name in settings.aux:

@@ -348,6 +348,56 @@ def test_unconverged_pixels_agree(first):
     assert sum(partial) >= 6           # most cases keep some pixels and drop others
 
 
+@pytest.mark.parametrize("first", [0, 4])
+def test_noise_kept_by_the_chunks_decides_as_the_sums_do(first):
+    """Each pixel's noise and mean, renewed by the chunk that adds its samples (kernels.add_pixels),
+    give the noise test exactly adaptive.unconverged's pixels: passes of random chunk sums over
+    every pixel, then over scattered ones, with a test after each."""
+    rng = np.random.default_rng(7 + first)
+    H, W = 29, 41
+    noise = adaptive.PixelNoise(np.zeros((H * W, 4)), np.zeros((H * W, 2)), np.zeros(H * W, np.int64))
+    hits = np.zeros(H * W, np.int64)
+    kept = kernels.NoiseEstimates.empty(H * W)
+    region = (np.arange(2, 27)[:, None] * W + np.arange(3, 40)).reshape(-1)
+    rows = rng.choice([0.0, 0.03, 0.6, 4.0], H)                       # bands of one brightness each
+    pixels, decided = region, []
+    for spp in (4, 4, 8, 8):
+        for chunk in np.array_split(pixels, 5):                      # the chunks of one pass
+            level = rows[chunk // W, None] * rng.uniform(0.97, 1.03, (len(chunk), 4))
+            level *= rng.choice([1.0, 0.5], (len(chunk), 1), p=[0.9, 0.1])   # a pass unlike the last
+            rgba = level * spp
+            rgba[:, 3] = spp * rng.choice([1.0, 0.75], len(chunk), p=[0.9, 0.1])
+            luminance = level[:, :3] @ adaptive.LUMINANCE
+            squares = np.stack([luminance ** 2, (rgba[:, 3] / spp) ** 2], axis=1) * spp
+            squares *= 1.0 + rng.choice([0.0, 1e-3, 0.5], (len(chunk), 1), p=[0.9, 0.07, 0.03])
+            kernels.add_pixels(chunk, spp, rgba, squares, np.full(len(chunk), spp), noise, hits, kept)
+        # What the chunks kept is what adaptive.py works out from the sums now (to rounding: a
+        # variance near 0 is a difference of nearly equal sums).
+        sampled = noise.count > 0
+        np.testing.assert_allclose(kept.error[sampled], adaptive.relative_noise(adaptive.PixelNoise(
+            noise.total[sampled], noise.squares[sampled], noise.count[sampled])), rtol=1e-9, atol=1e-6)
+        mean = np.einsum("ij,j->i", noise.total[:, :3], adaptive.LUMINANCE) / np.maximum(noise.count, 1)
+        np.testing.assert_allclose(kept.mean[sampled], mean[sampled], rtol=1e-12, atol=0)
+        expected = adaptive.unconverged(region, noise, 0.05, W, H, first)
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            for bands in (1, 3):
+                np.testing.assert_array_equal(
+                    kernels.unconverged(region, noise, 0.05, W, H, first, pool=pool, bands=bands, estimates=kept),
+                    expected)
+        decided.append(0 < len(expected) < len(region))
+        pixels = expected if len(expected) else region
+    assert sum(decided) >= 2            # the tests keep some pixels and drop others
+
+
+def test_compiled_box_filter_divides_as_numpy_does():
+    """kernels.resolve gives numpy's float32 quotients bit for bit, a pixel without samples its sums."""
+    rng = np.random.default_rng(3)
+    total = rng.uniform(-1.0, 50.0, (1000, 4)) * rng.choice([1e-30, 1.0, 1e30], (1000, 1))
+    count = rng.integers(0, 200, 1000).astype(np.int64)
+    expected = (total / np.maximum(count, 1)[:, None]).astype(np.float32)
+    np.testing.assert_array_equal(kernels.resolve(total, count), expected)
+
+
 @pytest.mark.parametrize("method", ["robust", "epsilon"])
 @pytest.mark.parametrize("name", ["point", "spot", "sun_disk", "area_rect", "area_ellipse_spread", "several"])
 def test_streamed_shading_adds_the_light_of_the_three_steps(name, method):

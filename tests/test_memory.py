@@ -76,7 +76,7 @@ def test_a_warm_heap_stays_until_released_and_never_under_a_running_render(monke
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc only")
 def test_warm_heap_saves_the_page_faults_of_the_next_render():
-    """A render after a warm one maps almost no new pages; after a released one, thousands."""
+    """Renders in a row on a warm heap map almost no new pages; a render after a release, thousands."""
     import resource
 
     from core import render
@@ -93,11 +93,13 @@ def test_warm_heap_saves_the_page_faults_of_the_next_render():
 
     faults(False)
     cold = faults(True)                 # the heap was trimmed before it
+    faults(True)                        # (the heap may still grow to its high-water mark here)
     warm = faults(True)
     memory.release()
     # (How many pages a trimmed heap needs again depends on what ran before in this process: from a
-    # few hundred inside the whole suite to thousands alone. A warm heap needs a fraction of them.)
-    assert warm <= 0.5 * cold, (warm, cold)
+    # few hundred inside the whole suite to thousands alone. Renders in a row on a warm heap need
+    # next to none: about 20 here, against 3,000 for a render after a release.)
+    assert warm <= 0.25 * cold, (warm, cold)
 
 
 def test_a_warm_heap_is_released_only_after_the_idle_time(monkeypatch):
