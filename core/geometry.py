@@ -25,6 +25,7 @@ import numpy as np
 
 from . import embree_buffers
 from . import instancing
+from . import kernels
 from . import normals as normals_
 from . import vectors
 from .intersect import Tracer
@@ -250,7 +251,8 @@ def _finish_batch(batch: _Batch, vertex_offset: int, counts: dict, parts: dict) 
     points and triangles offset past those placed so far) and return the new vertex offset."""
     # 1. Face normals from the world points, flipped back for mirrors; bad triangles found.
     with np.errstate(invalid="ignore", over="ignore"):       # NaN and huge vertices are dropped below
-        faces = normals_.face_normals(batch.points, batch.triangles)
+        faces = (kernels.face_normals(batch.points, batch.triangles) if kernels.library() is not None
+                 else normals_.face_normals(batch.points, batch.triangles))     # (the same numbers)
         points32 = batch.points.astype(np.float32)
     face_n = faces.normals * batch.sign[:, None]
     finite = np.isfinite(points32).all(axis=1)[batch.triangles].all(axis=1)
@@ -496,8 +498,12 @@ def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: 
     corner_normals = None
     if corners is not None and smooth.any():
         inverse = vectors.determinant_and_inverse(all_matrices[owner, :3, :3])[1]          # (p, 3, 3)
-        corner_normals = normals_.safe_normalize(vectors.rows_times_each(corners[triangle_row[smooth]],
-                                                                         inverse[placement_of_triangle[smooth]]))
+        if kernels.library() is not None:           # the same numbers in one pass
+            corner_normals = kernels.turn_normals(corners, triangle_row[smooth], inverse,
+                                                  placement_of_triangle[smooth])
+        else:
+            corner_normals = normals_.safe_normalize(vectors.rows_times_each(corners[triangle_row[smooth]],
+                                                                             inverse[placement_of_triangle[smooth]]))
     return _Batch(points=world, triangles=triangles, sign=np.sign(all_det[instance]),
                   material=np.where(missing, n_materials, material), owner=instance.astype(np.int32),
                   smooth=smooth, corner_normals=corner_normals)

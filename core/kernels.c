@@ -20,7 +20,7 @@
 #include <stdint.h>
 #include <time.h>
 
-#define PRIMER_KERNELS_ABI 6
+#define PRIMER_KERNELS_ABI 7
 
 #define PI 3.14159265358979323846
 #define FLOAT32_EPSILON (1.0 / 16777216.0)   /* 2^-24, core/shadows.py */
@@ -1483,4 +1483,52 @@ EXPORT SIMD_CLONES int64_t primer_unconverged(int64_t width, int64_t height, int
     for (int64_t k = first_at_least(pixels, p, y0 * width); k < p && pixels[k] < y1 * width; k++)
         if (noisy[pixels[k] - base]) wanted[r++] = pixels[k];
     return r;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Placing copies (core/geometry.py): face normals and turned corner normals, in one pass each
+ * --------------------------------------------------------------------------------------------- */
+
+/* normals.safe_normalize of one vector v (3,) into out: v / |v|, or 0 where |v| is 0, infinite or NaN.
+ * (|v|^2 summed as numpy's einsum sums three products: the first and last, then the middle.) */
+INLINE void unit_or_zero(const double *v, double *out)
+{
+    double length = sqrt((v[0] * v[0] + v[2] * v[2]) + v[1] * v[1]);
+    int ok = isfinite(length) && length > 0.0;
+    for (int c = 0; c < 3; c++) out[c] = ok ? v[c] / length : 0.0;
+}
+
+/* normals.face_normals: each triangle's unit normal (e1 x e2 normalised, zero where degenerate) and
+ * area (0.5 |e1 x e2|, 0 where not finite), the same steps in the same order. vertices (v, 3)
+ * float64, triangles (t, 3) int64 -> normals (t, 3), area (t,) float64. */
+EXPORT void primer_face_normals(int64_t t, const double *vertices, const int64_t *triangles, double *normals,
+                                double *area)
+{
+    for (int64_t i = 0; i < t; i++) {
+        const double *p0 = vertices + 3 * triangles[3 * i], *p1 = vertices + 3 * triangles[3 * i + 1];
+        const double *p2 = vertices + 3 * triangles[3 * i + 2];
+        double a[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+        double b[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+        double n[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+        double half = 0.5 * sqrt((n[0] * n[0] + n[1] * n[1]) + n[2] * n[2]);      /* (np.linalg.norm's order) */
+        area[i] = isfinite(half) ? half : 0.0;
+        unit_or_zero(n, normals + 3 * i);
+    }
+}
+
+/* geometry._place_copies' step 6: corner normals turned by the inverse transpose, N' = N M^-1 (row
+ * vectors), normalised. corners (., 3, 3) float64 object-space corner normals, rows (n,) int64 the
+ * triangles' rows in it; inverse (p, 3, 3) float64 M^-1 of each placement, placement (n,) int64 each
+ * triangle's -> out (n, 3, 3) float64; vectors.rows_times_each and normals.safe_normalize's order. */
+EXPORT void primer_turn_normals(int64_t n, const double *corners, const int64_t *rows, const double *inverse,
+                                const int64_t *placement, double *out)
+{
+    for (int64_t i = 0; i < n; i++) {
+        const double *A = corners + 9 * rows[i], *B = inverse + 9 * placement[i];
+        for (int r = 0; r < 3; r++) {
+            double v[3];
+            for (int c = 0; c < 3; c++) v[c] = A[3 * r] * B[c] + A[3 * r + 1] * B[3 + c] + A[3 * r + 2] * B[6 + c];
+            unit_or_zero(v, out + 9 * i + 3 * r);
+        }
+    }
 }

@@ -35,7 +35,7 @@ from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 log = logging.getLogger(__name__)
 
-ABI = 6
+ABI = 7
 KERNELS = ("compiled", "numpy")
 
 # Shadow rays prepared per Embree query: lights are taken in groups of at most this many rays
@@ -136,6 +136,8 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_occluded": (None, [p, p, i64, p, p, p, p]),
         "primer_add_pixels": (None, [i64, p, i64, p, p, p, p, p, p, p, p, p, p]),
         "primer_resolve": (None, [i64, p, p, p]),
+        "primer_face_normals": (None, [i64, p, p, p, p]),
+        "primer_turn_normals": (None, [i64, p, p, p, p, p]),
         "primer_shade": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, p, p, p, p]),
         "primer_primary": (i64, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, p, p, p, p, p, p]),
         "primer_unconverged": (i64, [i64, i64, i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64] + [p] * 7),
@@ -741,3 +743,29 @@ def intersect(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarra
                                _ptr(prim, np.int64), _ptr(geometry, np.int32), _ptr(u, np.float64),
                                _ptr(v, np.float64), _ptr(instance, np.int64))
     return t, prim, geometry, u, v, instance
+
+
+# ---------------------------------------------------------------------------
+# Placing copies (core/geometry.py)
+# ---------------------------------------------------------------------------
+
+def face_normals(vertices: np.ndarray, triangles: np.ndarray):
+    """normals.face_normals in one pass: vertices (v, 3) float64, triangles (t, 3) int64 (in range)
+    -> normals.FaceNormals of (t, 3) unit normals and (t,) areas, the same numbers."""
+    from .normals import FaceNormals
+    vertices, triangles = _c(vertices, np.float64), _c(triangles, np.int64)
+    normals, area = np.empty((len(triangles), 3)), np.empty(len(triangles))
+    library().primer_face_normals(len(triangles), _ptr(vertices, np.float64), _ptr(triangles, np.int64),
+                                  _ptr(normals, np.float64), _ptr(area, np.float64))
+    return FaceNormals(normals, area)
+
+
+def turn_normals(corners: np.ndarray, rows: np.ndarray, inverse: np.ndarray, placement: np.ndarray) -> np.ndarray:
+    """normals.safe_normalize(vectors.rows_times_each(corners[rows], inverse[placement])) in one pass:
+    corners (c, 3, 3), inverse (p, 3, 3) float64; rows (n,) and placement (n,) int64 -> (n, 3, 3)."""
+    corners, inverse = _c(corners, np.float64), _c(inverse, np.float64)
+    rows, placement = _c(rows, np.int64), _c(placement, np.int64)
+    out = np.empty((len(rows), 3, 3))
+    library().primer_turn_normals(len(rows), _ptr(corners, np.float64), _ptr(rows, np.int64),
+                                  _ptr(inverse, np.float64), _ptr(placement, np.int64), _ptr(out, np.float64))
+    return out

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from core import primitives
 from core.camera import Camera
@@ -122,3 +123,30 @@ def test_a_lone_placement_is_placed_as_it_is_in_a_batch():
         np.testing.assert_array_equal(getattr(one, name), getattr(both, name)[rows])
     np.testing.assert_array_equal(one.corner_normals, both.corner_normals[both.smooth_index[rows]])
     assert "1 triangle(s) with out-of-range vertex indices" in " ".join(one.warnings)
+
+
+def test_compiled_face_and_corner_normals_are_numpys_bit_for_bit():
+    """kernels.face_normals and kernels.turn_normals (the placement's C passes) give the numbers of
+    normals.face_normals and of safe_normalize(rows_times_each(...)): random, degenerate, tiny, huge
+    and NaN triangles; mirrored and scaled placements."""
+    from core import kernels, normals, vectors
+    if kernels.library() is None:
+        pytest.skip(kernels.unavailable_reason)
+    rng = np.random.default_rng(5)
+    vertices = rng.normal(size=(400, 3)) * rng.choice([1e-20, 1.0, 1e3, 1e160], (400, 1))
+    vertices[7] = np.nan
+    vertices[9] = vertices[8]                                           # a zero-length edge
+    triangles = rng.integers(0, 400, (1000, 3))
+    triangles[:5] = [7, 1, 2]                                          # NaN corners
+    triangles[5:10] = [8, 9, 3]                                        # degenerate
+    with np.errstate(invalid="ignore", over="ignore"):
+        expected = normals.face_normals(vertices, triangles)
+        found = kernels.face_normals(vertices, triangles)
+    np.testing.assert_array_equal(found.normals, expected.normals)
+    np.testing.assert_array_equal(found.area, expected.area)
+    corners = rng.normal(size=(300, 3, 3))
+    corners[3] = 0.0                                                   # zero normals stay zero
+    inverse = rng.normal(size=(6, 3, 3)) * rng.choice([-1.0, 1e-3, 1e3], (6, 1, 1))
+    rows, placement = rng.integers(0, 300, 700), rng.integers(0, 6, 700)
+    np.testing.assert_array_equal(kernels.turn_normals(corners, rows, inverse, placement),
+                                  normals.safe_normalize(vectors.rows_times_each(corners[rows], inverse[placement])))
