@@ -613,18 +613,19 @@ def add_pixels(pixels: np.ndarray, spp: int, rgba: np.ndarray, squares: np.ndarr
     from . import adaptive
     pixels = _c(pixels, np.int64)
     weights = _c(adaptive.LUMINANCE, np.float64)
+    kept = estimates if estimates is not None else NoiseEstimates(None, None)
     library().primer_add_pixels(len(pixels), _ptr(pixels, np.int64), int(spp), _ptr(rgba, np.float64),
                                 _ptr(squares, np.float64), _ptr(hits, np.int64), _ptr(noise.total, np.float64),
                                 _ptr(noise.squares, np.float64), _ptr(noise.count, np.int64),
-                                _ptr(hits_sum, np.int64), _ptr(weights, np.float64),
-                                *(_ptr(kept, np.float64) for kept in (estimates or (None, None))))
+                                _ptr(hits_sum, np.int64), _ptr(weights, np.float64), _ptr(kept.error, np.float64),
+                                _ptr(kept.mean, np.float64))
 
 
-def resolve(total: np.ndarray, count: np.ndarray, out: Optional[np.ndarray] = None) -> np.ndarray:
+def resolve(total: np.ndarray, count: np.ndarray) -> np.ndarray:
     """Each pixel's mean over max(count, 1) samples, as render.render's numpy box filter divides:
-    total (n, 4) float64, count (n,) int64 -> (n, 4) float32 (into `out` when given), in one pass."""
+    total (n, 4) float64, count (n,) int64 -> (n, 4) float32, in one pass."""
     total, count = _c(total, np.float64), _c(count, np.int64)
-    out = np.empty((len(count), 4), np.float32) if out is None else out
+    out = np.empty((len(count), 4), np.float32)
     library().primer_resolve(len(count), _ptr(total, np.float64), _ptr(count, np.int64), _ptr(out, np.float32))
     return out
 
