@@ -452,6 +452,22 @@ def test_streamed_queries_render_the_very_image_of_the_separate_steps(instancing
     assert streamed.image[..., :3].max() > 0.05
 
 
+@pytest.mark.parametrize("instancing", ["auto", "always"])
+def test_time_in_embree_counted_in_ticks_is_a_share_of_the_render_seconds(instancing):
+    """The kernels count Embree's time in time-stamp ticks and turn them into seconds with the clock
+    read at both ends of each call: on one thread, the queries' seconds are a real part of the
+    render's, neither zero nor more than the whole (a tick taken for a nanosecond would be 2-4 times
+    too much on a 2-4 GHz processor, a nanosecond for a tick as much too little)."""
+    scene = with_a_row_of_spheres(lit_scene(LIGHTS["several"]))
+    settings = RenderSettings(width=64, height=48, samples=16, light_samples=2, instancing=instancing,
+                              threads=1, adaptive=False)
+    result = render.render(scene, settings)
+    stats = result.stats
+    assert stats.kernels == "compiled"
+    assert 0.05 * stats.seconds < stats.trace_seconds < stats.seconds
+    assert 0.0 < stats.trace_seconds + stats.shading_seconds < stats.seconds
+
+
 @pytest.mark.parametrize("lights, camera_type, samples, adaptive, transparent, fix", [
     ("several", "PERSP", 6, True, False, True),         # pixels split across blocks of 64 samples
     ("area_ellipse_spread", "ORTHO", 5, False, True, False),
