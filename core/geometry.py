@@ -193,8 +193,8 @@ def _object_corner_normals(mesh, keep: np.ndarray) -> np.ndarray:
     keep: (t,) bool -> (kept, 3, 3) float64
     """
     if mesh.corner_normals is not None:
-        return mesh.corner_normals[keep]
-    triangles = mesh.triangles[keep]
+        return vectors.keep_rows(mesh.corner_normals, keep)
+    triangles = vectors.keep_rows(mesh.triangles, keep)
     with np.errstate(invalid="ignore", over="ignore"):
         per_vertex = normals_.vertex_normals(mesh.vertices, triangles, weighting="angle")
     return per_vertex[triangles]
@@ -255,18 +255,18 @@ def _finish_batch(batch: _Batch, vertex_offset: int, counts: dict, parts: dict) 
                  else normals_.face_normals(batch.points, batch.triangles))     # (the same numbers)
         points32 = batch.points.astype(np.float32)
     face_n = faces.normals * batch.sign[:, None]
-    finite = np.isfinite(points32).all(axis=1)[batch.triangles].all(axis=1)
-    nondegenerate = face_n.any(axis=1) & (faces.area > 0)
+    finite = vectors.all_columns(np.take(vectors.all_columns(np.isfinite(points32)), batch.triangles))
+    nondegenerate = vectors.any_nonzero(face_n) & (faces.area > 0)
     keep = finite & nondegenerate
     counts["nonfinite"] += int((~finite).sum())
     counts["degenerate"] += int((finite & ~nondegenerate).sum())
     # 2. Keep the good triangles, and the smooth ones' corner normals.
     if batch.corner_normals is not None:
-        parts["cn"].append(batch.corner_normals[keep[batch.smooth]].astype(np.float32))
+        parts["cn"].append(vectors.keep_rows(batch.corner_normals, keep[batch.smooth]).astype(np.float32))
     parts["smooth"].append(batch.smooth[keep])
     parts["v"].append(points32)
-    parts["t"].append(batch.triangles[keep] + vertex_offset)
-    parts["n"].append(face_n[keep])
+    parts["t"].append(vectors.keep_rows(batch.triangles, keep) + vertex_offset)
+    parts["n"].append(vectors.keep_rows(face_n, keep))
     parts["m"].append(batch.material[keep])
     parts["i"].append(batch.owner[keep])
     return vertex_offset + len(points32)
@@ -392,7 +392,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
 
 def _in_range(mesh) -> np.ndarray:
     """Return which of the mesh's triangles index only its own vertices: (t,) bool."""
-    return ((mesh.triangles >= 0) & (mesh.triangles < len(mesh.vertices))).all(axis=1)
+    return vectors.all_columns((mesh.triangles >= 0) & (mesh.triangles < len(mesh.vertices)))
 
 
 def _instanced_placements(scene: Scene, mesh, placed: np.ndarray, all_matrices: np.ndarray, origin: np.ndarray,
@@ -428,16 +428,20 @@ def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: 
     joined = lambda arrays: arrays[0] if len(arrays) == 1 else np.concatenate(arrays)    # (no copy of one)
     points = joined([mesh.vertices for mesh in meshes])                              # (sum V, 3)
     local = joined([mesh.triangles for mesh in meshes])                              # (sum T, 3)
-    in_range = ((local >= 0) & (local < np.repeat(V, T)[:, None])).all(axis=1)
+    in_range = vectors.all_columns((local >= 0) & (local < np.repeat(V, T)[:, None]))
     smooth = joined([mesh.smooth for mesh in meshes]) & in_range
     slots = joined([mesh.material_indices for mesh in meshes])
     corners = None
     if smooth.any():
         has_smooth = np.array([mesh.smooth.any() for mesh in meshes])
-        corners = np.zeros((len(local), 3, 3))
-        corners[np.repeat(has_smooth, T) & in_range] = np.concatenate(
-            [_object_corner_normals(mesh, ok) for mesh, ok, wanted
-             in zip(meshes, np.split(in_range, np.cumsum(T)[:-1]), has_smooth) if wanted])
+        wanted_rows = np.repeat(has_smooth, T) & in_range
+        values = np.concatenate([_object_corner_normals(mesh, ok) for mesh, ok, wanted
+                                 in zip(meshes, np.split(in_range, np.cumsum(T)[:-1]), has_smooth) if wanted])
+        if len(values) == len(local):               # every row (numpy's scatter costs 0.1 us a row)
+            corners = values
+        else:
+            corners = np.zeros((len(local), 3, 3))
+            corners[wanted_rows] = values
     # 2. The placements: which mesh, which instance, and where each one's rows start.
     k = np.array([len(placed) for _, placed in batch], np.int64)
     mesh_of = np.repeat(np.arange(len(meshes)), k)                                   # (p,)
@@ -458,22 +462,23 @@ def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: 
         else:
             point_row = rows(Vp, (np.cumsum(V) - V)[mesh_of])                        # into `points`
             instance_of_point = np.repeat(owner, Vp)
-            world = vectors.apply_each(all_matrices[instance_of_point, :3, :3], points[point_row],
-                                       all_matrices[instance_of_point, :3, 3] - origin)
+            world = vectors.apply_each(vectors.pick_rows(all_matrices[:, :3, :3], instance_of_point),
+                                       vectors.pick_rows(points, point_row),
+                                       vectors.pick_rows(all_matrices[:, :3, 3] - origin, instance_of_point))
     # 4. Every placement's triangles, numbered into `world`; out-of-range ones dropped.
     if len(owner) == 1:
         counts["index"] += int((~in_range).sum())
         every = bool(in_range.all())
         triangle_row = np.arange(len(local)) if every else np.flatnonzero(in_range)      # into `local`
         placement_of_triangle = np.zeros(len(triangle_row), np.int64)
-        triangles = local if every else local[triangle_row]
+        triangles = local if every else vectors.pick_rows(local, triangle_row)
     else:
         triangle_row = rows(Tp, (np.cumsum(T) - T)[mesh_of])                         # into `local`
         keep = in_range[triangle_row]
         counts["index"] += int((~keep).sum())
         triangle_row = triangle_row[keep]
         placement_of_triangle = np.repeat(np.arange(len(owner)), Tp)[keep]
-        triangles = local[triangle_row] + (np.cumsum(Vp) - Vp)[placement_of_triangle][:, None]
+        triangles = vectors.pick_rows(local, triangle_row) + (np.cumsum(Vp) - Vp)[placement_of_triangle][:, None]
     instance = owner[placement_of_triangle]
     # 5. Materials: each instance's slot -> scene material (its own table, or the mesh's indices as
     #    they are); missing ones fall back to the default grey.
@@ -497,7 +502,7 @@ def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: 
     smooth = smooth[triangle_row]
     corner_normals = None
     if corners is not None and smooth.any():
-        inverse = vectors.determinant_and_inverse(all_matrices[owner, :3, :3])[1]          # (p, 3, 3)
+        inverse = vectors.determinant_and_inverse(vectors.pick_rows(all_matrices[:, :3, :3], owner))[1]   # (p, 3, 3)
         if kernels.library() is not None:           # the same numbers in one pass
             corner_normals = kernels.turn_normals(corners, triangle_row[smooth], inverse,
                                                   placement_of_triangle[smooth])

@@ -68,6 +68,38 @@ def gather(values: np.ndarray, index: np.ndarray) -> np.ndarray:
     return out
 
 
+# Rows picked out of (n, 3) and (n, 3, 3) arrays: numpy 1.x's fancy and boolean indexing on
+# several axes runs a generic loop per row, 3 to 9 times slower here than np.take and np.compress
+# (measured on 6,000 rows: a[i] 86-124 us against 36 us, a[mask] 97 against 26 us, M[i, :3, :3]
+# of 30 matrices 292 against 33 us). Reductions over a short last axis are as slow
+# (mask.all(axis=1) of (6000, 3): 113 us, against 13 us for the columns and-ed). The same values.
+
+def pick_rows(values: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """Return values[index] along the first axis: (n, ...) values, (m,) int index -> (m, ...)."""
+    return np.take(values, index, axis=0)
+
+
+def keep_rows(values: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """Return values[keep] along the first axis: (n, ...) values, (n,) bool keep -> (kept, ...)."""
+    return np.compress(keep, values, axis=0)
+
+
+def all_columns(mask: np.ndarray) -> np.ndarray:
+    """Return mask.all(axis=1): whether every column of each row is True. (n, k) bool -> (n,) bool."""
+    out = mask[:, 0].copy()
+    for c in range(1, mask.shape[1]):
+        out &= mask[:, c]
+    return out
+
+
+def any_nonzero(values: np.ndarray) -> np.ndarray:
+    """Return values.any(axis=1): whether some column of each row is nonzero (NaN is). (n, k) -> (n,) bool."""
+    out = values[:, 0] != 0
+    for c in range(1, values.shape[1]):
+        out |= values[:, c] != 0
+    return out
+
+
 def selector(index: np.ndarray):
     """Return what selects rows `index` (sorted, distinct) of an array: a slice where they form one
     run, so that reading them is a view and adding to them is in place (no gather, no scatter);
