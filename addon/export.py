@@ -128,7 +128,7 @@ def _core_mesh(mesh, co: np.ndarray, triangles: np.ndarray, loops: np.ndarray, s
     if smooth.any():
         normals = np.empty(len(mesh.loops) * 3, np.float32)
         mesh.corner_normals.foreach_get("vector", normals)
-        corner_normals = normals.reshape(-1, 3)[loops].reshape(n_triangles, 3, 3)
+        corner_normals = np.take(normals.reshape(-1, 3), loops, axis=0).reshape(n_triangles, 3, 3)
     return core_scene.Mesh(co.reshape(-1, 3), triangles.reshape(-1, 3), smooth=smooth,
                            corner_normals=corner_normals, material_indices=material_indices, name=mesh.name)
 
