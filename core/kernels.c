@@ -1409,7 +1409,15 @@ EXPORT void primer_add_pixels(int64_t p, const int64_t *pixels, int64_t spp, con
         count[i] += spp;
         hits_sum[i] += hits[k];
     }
-    if (error == NULL || mean == NULL) return;
+    if (error == NULL || mean == NULL || p == 0) return;
+    /* A run of neighbouring pixels (a first pass's chunk) in SIMD lanes; any others one by one. */
+    int64_t run = 1;
+    while (run < p && pixels[run] == pixels[0] + run) run++;
+    if (run == p) {
+        noise_lanes(pixels[0], pixels[0] + p, total, squares_sum, count, weights, error + pixels[0]);
+        mean_lanes(pixels[0], pixels[0] + p, total, count, weights, mean + pixels[0]);
+        return;
+    }
     double w[3] = {weights[0], weights[1], weights[2]};
     for (int64_t k = 0; k < p; k++) {
         error[pixels[k]] = pixel_error(pixels[k], total, squares_sum, count, w);

@@ -646,6 +646,8 @@ def render(scene: Scene, settings: RenderSettings,
                     break
             # 2. A pass of `spp` more samples over them, chunk by chunk: each pixel continues its own
             #    progressive pattern where it left off, so all its passes together stay stratified.
+            if ctx.sums is not None and index == len(passes) - 1:
+                ctx.sums = ctx.sums[:2] + (None,)         # no noise test follows the last pass
             per_chunk, workers = _plan_chunks(len(pixels), spp, settings.chunk_size, threads)
             done_before = noise.count[pixels]                   # samples each pixel has, before this pass
             chunks = [(pixels[i:i + per_chunk], done_before[i:i + per_chunk])

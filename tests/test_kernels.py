@@ -389,6 +389,30 @@ def test_noise_kept_by_the_chunks_decides_as_the_sums_do(first):
     assert sum(decided) >= 2            # the tests keep some pixels and drop others
 
 
+def test_noise_kept_for_a_run_of_pixels_is_the_noise_kept_pixel_by_pixel():
+    """add_pixels works a run of neighbouring pixels' noise and mean out in SIMD lanes, and
+    scattered pixels one by one: the same numbers, bit for bit (a chunk of a first pass against the
+    same chunk in another order), with pixels of 0, 1 and many samples, dark and bright."""
+    rng = np.random.default_rng(11)
+    size, spp = 500, 4
+    run = np.arange(37, 437)
+    shuffled = rng.permutation(run)
+    rgba = rng.uniform(0.0, 3.0, (len(run), 4)) * spp * rng.choice([0.0, 1e-4, 1.0], (len(run), 1))
+    squares = rng.uniform(0.0, 9.0, (len(run), 2)) * spp
+    kept = []
+    for pixels in (run, shuffled):
+        order = np.argsort(np.argsort(pixels))                  # row of each pixel in `run` order
+        noise = adaptive.PixelNoise(np.zeros((size, 4)), np.zeros((size, 2)), np.zeros(size, np.int64))
+        noise.count[::7] = 1                                    # some pixels had a sample before
+        estimates = kernels.NoiseEstimates.empty(size)
+        kernels.add_pixels(pixels, spp, rgba[order], squares[order], np.zeros(len(run), np.int64), noise,
+                           np.zeros(size, np.int64), estimates)
+        kept.append(estimates)
+    assert np.isfinite(kept[0].error[run]).any() and np.isinf(kept[0].error[:37]).all()
+    np.testing.assert_array_equal(kept[0].error, kept[1].error)
+    np.testing.assert_array_equal(kept[0].mean, kept[1].mean)
+
+
 def test_compiled_box_filter_divides_as_numpy_does():
     """kernels.resolve gives numpy's float32 quotients bit for bit, a pixel without samples its sums."""
     rng = np.random.default_rng(3)
