@@ -20,7 +20,7 @@
 #include <stdint.h>
 #include <time.h>
 
-#define PRIMER_KERNELS_ABI 7
+#define PRIMER_KERNELS_ABI 8
 
 #define PI 3.14159265358979323846
 #define FLOAT32_EPSILON (1.0 / 16777216.0)   /* 2^-24, core/shadows.py */
@@ -1444,6 +1444,15 @@ INLINE int64_t first_at_least(const int64_t *pixels, int64_t p, int64_t i)
         if (pixels[mid] < i) lo = mid + 1; else hi = mid;
     }
     return lo;
+}
+
+/* Whether pixels (p,) int64 are distinct flat indices of an image of `size` pixels, ascending. */
+EXPORT SIMD_CLONES int64_t primer_ascending(const int64_t *pixels, int64_t p, int64_t size)
+{
+    if (p == 0) return 1;
+    int64_t ascending = pixels[0] >= 0 && pixels[p - 1] < size;
+    for (int64_t k = 1; k < p; k++) ascending &= pixels[k] > pixels[k - 1];
+    return ascending;
 }
 
 /* The pixels of rows y0 .. y1 - 1 that need another pass (adaptive.unconverged): a subset of

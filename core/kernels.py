@@ -35,7 +35,7 @@ from .scene import AreaLight, PointLight, SpotLight, SunLight
 
 log = logging.getLogger(__name__)
 
-ABI = 7
+ABI = 8
 KERNELS = ("compiled", "numpy")
 
 # Shadow rays prepared per Embree query: lights are taken in groups of at most this many rays
@@ -141,6 +141,7 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_shade": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, p, p, p, p]),
         "primer_primary": (i64, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, p, p, p, p, p, p]),
         "primer_unconverged": (i64, [i64, i64, i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64] + [p] * 7),
+        "primer_ascending": (i64, [p, i64, i64]),
         "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p, p]),
     }
     for name, (restype, argtypes) in signatures.items():
@@ -643,7 +644,7 @@ def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height:
     from . import adaptive
     size = width * height
     pixels = _c(pixels, np.int64)
-    if len(pixels) and (pixels[0] < 0 or pixels[-1] >= size or np.any(pixels[1:] <= pixels[:-1])):
+    if not library().primer_ascending(_ptr(pixels, np.int64), len(pixels), size):
         raise ValueError("unconverged: pixels must be distinct flat indices of the image, ascending")
     weights = _c(adaptive.LUMINANCE, np.float64)
     known = estimates if estimates is not None else NoiseEstimates(None, None)

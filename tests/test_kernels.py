@@ -413,6 +413,18 @@ def test_noise_kept_for_a_run_of_pixels_is_the_noise_kept_pixel_by_pixel():
     np.testing.assert_array_equal(kept[0].mean, kept[1].mean)
 
 
+def test_noise_test_refuses_pixels_that_are_not_ascending_indices_of_the_image():
+    """kernels.unconverged reads each pixel's neighbours by its flat index: pixels out of order,
+    repeated, negative or past the image are refused (the C would read outside the sums)."""
+    W, H = 8, 6
+    noise = adaptive.PixelNoise(np.ones((W * H, 4)), np.ones((W * H, 2)), np.full(W * H, 4, np.int64))
+    assert len(kernels.unconverged(np.arange(W * H), noise, 0.05, W, H)) == W * H    # (no noise estimate yet)
+    assert len(kernels.unconverged(np.zeros(0, np.int64), noise, 0.05, W, H)) == 0
+    for bad in ([3, 2, 5], [1, 4, 4], [-1, 2, 3], [0, 1, W * H]):
+        with pytest.raises(ValueError, match="ascending"):
+            kernels.unconverged(np.array(bad, np.int64), noise, 0.05, W, H)
+
+
 def test_compiled_box_filter_divides_as_numpy_does():
     """kernels.resolve gives numpy's float32 quotients bit for bit, a pixel without samples its sums."""
     rng = np.random.default_rng(3)
