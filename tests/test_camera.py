@@ -511,3 +511,21 @@ def test_unknown_settings_are_rejected():
         Camera(matrix_world=np.eye(4), type="PANO", panorama_type="EQUIRECTANGULAR")
     with pytest.raises(ValueError):
         Camera(matrix_world=np.eye(4), type="ORTHO").screen_corners(10, 10)
+
+
+def test_only_an_orthonormal_camera_frame_keeps_ray_directions_unit():
+    """camera_module._is_rotation decides whether camera rays need renormalising: a rotation (mirrored or
+    not) keeps unit vectors unit; a scale, a shear, a drift past 1e-12 or a NaN do not."""
+    angle = 0.7
+    rotation = np.array([[np.cos(angle), -np.sin(angle), 0.0], [np.sin(angle), np.cos(angle), 0.0], [0.0, 0.0, 1.0]])
+    assert camera_module._is_rotation(rotation)
+    assert camera_module._is_rotation(rotation @ np.diag([1.0, 1.0, -1.0]))
+    assert camera_module._is_rotation(rotation * (1.0 + 1e-14))
+    assert not camera_module._is_rotation(rotation * (1.0 + 1e-10))
+    assert not camera_module._is_rotation(rotation @ np.diag([1.0, 2.0, 1.0]))
+    sheared = rotation.copy()
+    sheared[0, 1] += 1e-3
+    assert not camera_module._is_rotation(sheared)
+    broken = rotation.copy()
+    broken[2, 2] = np.nan
+    assert not camera_module._is_rotation(broken)
