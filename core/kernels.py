@@ -140,7 +140,7 @@ def _declare(lib: ctypes.CDLL) -> ctypes.CDLL:
         "primer_turn_normals": (None, [i64, p, p, p, p, p]),
         "primer_shade": (i64, [p, p, i64, i64, p, p, p, p, p, p, p, p, i64, p, p, p, p]),
         "primer_primary": (i64, [p, i64, i64, i64, p, p, i64, i64, p, p, p, p, p, p, p, p, p, p, p, p]),
-        "primer_unconverged": (i64, [i64, i64, i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64] + [p] * 7),
+        "primer_unconverged": (i64, [i64, i64, i64, i64, p, p, p, p, p, i64, ctypes.c_double, i64] + [p] * 8),
         "primer_ascending": (i64, [p, i64, i64]),
         "primer_intersect": (None, [p, p, i64, p, p, p, p, p, p, p, p, p]),
     }
@@ -658,14 +658,14 @@ def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height:
         k0, k1 = np.searchsorted(pixels, (y0 * width, y1 * width))
         window = (min(height, y1 + 2) - max(0, y0 - 2)) * width
         error, mean = np.empty(window), np.empty(window)
-        noisy, grown = np.empty(window, np.uint8), np.empty(window, np.uint8)
+        noisy, grown, row = np.empty(window, np.uint8), np.empty(window, np.uint8), np.empty(width)
         mine = wanted[k0:k1]
         count = library().primer_unconverged(
             width, height, y0, y1, _ptr(noise.total, np.float64), _ptr(noise.squares, np.float64),
             _ptr(noise.count, np.int64), _ptr(weights, np.float64), _ptr(pixels, np.int64), len(pixels),
             float(threshold), int(first), _ptr(known.error, np.float64), _ptr(known.mean, np.float64),
             _ptr(error, np.float64), _ptr(mean, np.float64), _ptr(noisy, np.uint8), _ptr(grown, np.uint8),
-            _ptr(mine, np.int64))
+            _ptr(row, np.float64), _ptr(mine, np.int64))
         return mine[:count]
 
     rows = list(zip(edges[:-1], edges[1:]))

@@ -323,6 +323,7 @@ def test_unconverged_pixels_agree(first):
     H, W = 37, 53
     count = rng.choice([0, 1, 4, 8, 16], H * W, p=[0.01, 0.01, 0.5, 0.3, 0.18]).astype(np.int64)
     mean = np.repeat(rng.choice([0.0, 0.02, 0.5, 3.0], (H, 1, 4)), W, axis=1).reshape(H * W, 4)   # bands
+    mean *= np.tile(rng.choice([1.0, 1.0, 1.0, 20.0], W), H)[:, None]      # and columns: edges both ways
     mean *= rng.uniform(0.95, 1.05, (H * W, 4))
     mean[:, 3] = rng.choice([1.0, 0.7], H * W, p=[0.95, 0.05])
     spread = rng.choice([0.0, 1e-4, 0.3], (H * W, 2), p=[0.9, 0.07, 0.03])
@@ -348,17 +349,19 @@ def test_unconverged_pixels_agree(first):
     assert sum(partial) >= 6           # most cases keep some pixels and drop others
 
 
+@pytest.mark.parametrize("whole", [False, True])
 @pytest.mark.parametrize("first", [0, 4])
-def test_noise_kept_by_the_chunks_decides_as_the_sums_do(first):
+def test_noise_kept_by_the_chunks_decides_as_the_sums_do(first, whole):
     """Each pixel's noise and mean, renewed by the chunk that adds its samples (kernels.add_pixels),
     give the noise test exactly adaptive.unconverged's pixels: passes of random chunk sums over
-    every pixel, then over scattered ones, with a test after each."""
+    the region (a rectangle inside the image, or the whole image: one run of pixels, which the C
+    takes by its own path), then over scattered ones, with a test after each."""
     rng = np.random.default_rng(7 + first)
     H, W = 29, 41
     noise = adaptive.PixelNoise(np.zeros((H * W, 4)), np.zeros((H * W, 2)), np.zeros(H * W, np.int64))
     hits = np.zeros(H * W, np.int64)
     kept = kernels.NoiseEstimates.empty(H * W)
-    region = (np.arange(2, 27)[:, None] * W + np.arange(3, 40)).reshape(-1)
+    region = np.arange(H * W) if whole else (np.arange(2, 27)[:, None] * W + np.arange(3, 40)).reshape(-1)
     rows = rng.choice([0.0, 0.03, 0.6, 4.0], H)                       # bands of one brightness each
     pixels, decided = region, []
     for spp in (4, 4, 8, 8):
