@@ -71,7 +71,7 @@ static double now(void)
 }
 
 /* The kernels time Embree's queries block by block, thousands of times a chunk. Reading the clock
- * costs about 100 ns here (a system call's worth under a hypervisor: 2.6% of a render's CPU), so
+ * costs about 100 ns under this hypervisor (perf put the reads at 2.6% of a render's samples), so
  * they count the processor's time-stamp counter instead (a few ns, and steady on any x86-64 of the
  * last 15 years), and a Stopwatch turns the ticks into seconds with the clock read at both ends of
  * the kernel call. Elsewhere a tick is a nanosecond of the clock. */

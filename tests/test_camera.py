@@ -514,7 +514,7 @@ def test_unknown_settings_are_rejected():
 
 
 def test_only_an_orthonormal_camera_frame_keeps_ray_directions_unit():
-    """camera_module._is_rotation decides whether camera rays need renormalising: a rotation (mirrored or
+    """camera._is_rotation decides whether camera rays need renormalising: a rotation (mirrored or
     not) keeps unit vectors unit; a scale, a shear, a drift past 1e-12 or a NaN do not."""
     angle = 0.7
     rotation = np.array([[np.cos(angle), -np.sin(angle), 0.0], [np.sin(angle), np.cos(angle), 0.0], [0.0, 0.0, 1.0]])

@@ -421,7 +421,7 @@ def test_noise_test_refuses_pixels_that_are_not_ascending_indices_of_the_image()
     repeated, negative or past the image are refused (the C would read outside the sums)."""
     W, H = 8, 6
     noise = adaptive.PixelNoise(np.ones((W * H, 4)), np.ones((W * H, 2)), np.full(W * H, 4, np.int64))
-    assert len(kernels.unconverged(np.arange(W * H), noise, 0.05, W, H)) == W * H    # (no noise estimate yet)
+    assert len(kernels.unconverged(np.arange(W * H), noise, 0.05, W, H)) == W * H    # (every pixel is noisy)
     assert len(kernels.unconverged(np.zeros(0, np.int64), noise, 0.05, W, H)) == 0
     for bad in ([3, 2, 5], [1, 4, 4], [-1, 2, 3], [0, 1, W * H]):
         with pytest.raises(ValueError, match="ascending"):
