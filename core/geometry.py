@@ -246,17 +246,32 @@ class _Batch(NamedTuple):
     corner_normals: Optional[np.ndarray]
 
 
+def _face_normals(points: np.ndarray, triangles: np.ndarray):
+    """normals.face_normals, in one compiled pass where the kernels are loaded (the same numbers)."""
+    if kernels.library() is not None:
+        return kernels.face_normals(points, triangles)
+    return normals_.face_normals(points, triangles)
+
+
+def _triangle_checks(points32: np.ndarray, triangles: np.ndarray, face_normals: np.ndarray,
+                     area: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return (finite, nondegenerate): which triangles have only finite float32 corners, and which
+    a nonzero face normal and area. points32 (v, 3) float32; triangles (t, 3) int64; face_normals
+    (t, 3), area (t,) float64 -> two (t,) bool."""
+    finite = vectors.all_columns(np.take(vectors.all_columns(np.isfinite(points32)), triangles))
+    nondegenerate = vectors.any_nonzero(face_normals) & (area > 0)
+    return finite, nondegenerate
+
+
 def _finish_batch(batch: _Batch, vertex_offset: int, counts: dict, parts: dict) -> int:
     """Drop the batch's non-finite and zero-area triangles, append the rest to `parts` (as float32
     points and triangles offset past those placed so far) and return the new vertex offset."""
     # 1. Face normals from the world points, flipped back for mirrors; bad triangles found.
     with np.errstate(invalid="ignore", over="ignore"):       # NaN and huge vertices are dropped below
-        faces = (kernels.face_normals(batch.points, batch.triangles) if kernels.library() is not None
-                 else normals_.face_normals(batch.points, batch.triangles))     # (the same numbers)
+        faces = _face_normals(batch.points, batch.triangles)
         points32 = batch.points.astype(np.float32)
     face_n = faces.normals * batch.sign[:, None]
-    finite = vectors.all_columns(np.take(vectors.all_columns(np.isfinite(points32)), batch.triangles))
-    nondegenerate = vectors.any_nonzero(face_n) & (faces.area > 0)
+    finite, nondegenerate = _triangle_checks(points32, batch.triangles, face_n, faces.area)
     keep = finite & nondegenerate
     counts["nonfinite"] += int((~finite).sum())
     counts["degenerate"] += int((finite & ~nondegenerate).sum())
@@ -527,9 +542,8 @@ def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.n
     # 1. The prototype: finite, non-degenerate triangles in object space (what Embree stores once).
     with np.errstate(invalid="ignore", over="ignore"):
         vertices32 = mesh.vertices.astype(np.float32)
-        faces = normals_.face_normals(mesh.vertices, triangles)
-    finite = np.isfinite(vertices32).all(axis=1)[triangles].all(axis=1)
-    nondegenerate = faces.normals.any(axis=1) & (faces.area > 0)
+        faces = _face_normals(mesh.vertices, triangles)
+    finite, nondegenerate = _triangle_checks(vertices32, triangles, faces.normals, faces.area)
     keep = finite & nondegenerate
     # 2. Camera-relative transforms, rounded once to the float32 numbers Embree traces with;
     #    instances that overflow float32 or reach infinity are dropped.
