@@ -21,15 +21,25 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def load_primer(name: str = "primer"):
-    """Import this checkout as the package `name` and register it with Blender; return the module."""
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "__init__.py"),
-                                                  submodule_search_locations=[ROOT])
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
+    """Import this checkout as the package `name` and register it with Blender; return the module.
+
+    The package may already be imported without being registered: pytest imports a checkout
+    folder named `primer` (it holds an `__init__.py`) as the package `primer` before any test
+    runs. That module is this checkout, so it is registered here rather than replaced.
+    """
+    init = os.path.join(ROOT, "__init__.py")
+    module = sys.modules.get(name)
+    if module is not None and getattr(module, "_registered_by_load_primer", False):
+        return module
+    if module is not None and not os.path.samefile(getattr(module, "__file__", None) or init, init):
+        raise RuntimeError(f"a different package named {name!r} is already imported from {module.__file__}")
+    if module is None:
+        spec = importlib.util.spec_from_file_location(name, init, submodule_search_locations=[ROOT])
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
     module.register()
+    module._registered_by_load_primer = True
     return module
 
 
