@@ -35,7 +35,7 @@ $(VENV42)/.installed: requirements-bpy42.txt
 venv: $(VENV)/.installed
 venv42: $(VENV42)/.installed
 
-# Compile core/kernels.c for this machine (core/kernels.py loads it; without it Primer renders on numpy).
+# Compile core/native/kernels.c for this machine (core/native/kernels.py loads it; without it Primer renders on numpy).
 kernels: venv
 	$(PY) tools/build_kernels.py
 
@@ -71,4 +71,4 @@ bench: venv kernels $(VENV)/.bench-installed
 	$(PY) bench/run.py $(BENCH_ARGS)
 
 clean:
-	rm -rf $(VENV) $(VENV42) out dist .pytest_cache core/_kernels-*
+	rm -rf $(VENV) $(VENV42) out dist .pytest_cache core/native/_kernels-*

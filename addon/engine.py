@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..core import debug
+from ..core.teaching import debug
 from . import export, viewport
 
 log = logging.getLogger("primer")

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..core import scene as core_scene
-from ..core.camera import Camera
+from ..core.scene import scene as core_scene
+from ..core.camera.camera import Camera
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
 # Blender sync). Curves, text, surfaces and metaballs are skipped themselves: the depsgraph hands
@@ -285,7 +285,7 @@ def export_light(obj, matrix: np.ndarray, warnings: list):
         area = core_scene.AreaLight(position, axis_u, axis_v, minus_z, power, color,
                                     light.shape, float(getattr(light, "spread", math.pi)), name=obj.name)
         if not normalize:
-            from ..core.lights import area_light_area
+            from ..core.lights.lights import area_light_area
             area.power = power * area_light_area(area)
         return area
     warnings.append(f"light '{obj.name}' of type {light.type} is not supported and was skipped")

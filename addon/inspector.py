@@ -1,7 +1,7 @@
 """The ray inspector in Blender: pick a pixel, see its rays in the 3D viewport and its numbers in a panel.
 
 - `PRIMER_OT_inspect_pixel` (primer.inspect_pixel) exports the evaluated scene and runs
-  core.inspector.inspect_pixel for the pixel typed in `scene.primer_inspector`.
+  core.teaching.inspector.inspect_pixel for the pixel typed in `scene.primer_inspector`.
 - `PRIMER_OT_pick_pixel` (primer.pick_pixel), started from the Image Editor's sidebar, inspects
   every pixel clicked on a render until Esc or a right-click.
 - A SpaceView3D draw handler draws the last record with the `gpu` module (not in background mode).
@@ -27,7 +27,7 @@ log = logging.getLogger("primer")
 
 @dataclass
 class InspectorState:
-    """The last inspection: its record (core.inspector.PixelRecord), the scene it belongs to, the frame height."""
+    """The last inspection: its record (core.teaching.inspector.PixelRecord), the scene it belongs to, the frame height."""
 
     record: object = None
     scene_name: str = ""
@@ -68,7 +68,7 @@ def inspect(context, x: int, y: int):
 
     Raises export.ExportError or ValueError with a message for Blender's report.
     """
-    from ..core import inspector as core_inspector
+    from ..core.teaching import inspector as core_inspector
 
     depsgraph = context.evaluated_depsgraph_get()
     exported = export.export_scene(depsgraph)

@@ -95,7 +95,7 @@ class PrimerSettings(bpy.types.PropertyGroup):
                                  description="The light whose N.L and shadow rays the debug views and passes show; "
                                              "empty: the mean over all lights")
 
-    # The lecture switches: each defaults to the lecture's choice (core.scene.LECTURE_SWITCHES).
+    # The lecture switches: each defaults to the lecture's choice (core.scene.scene.LECTURE_SWITCHES).
     smooth_normals: BoolProperty(name="Smooth Normals", default=True,
                                  description="Interpolate vertex normals with the barycentrics; off, every "
                                              "triangle shades with its face normal and the facets show")

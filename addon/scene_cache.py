@@ -39,9 +39,9 @@ import bpy
 import numpy as np
 
 from . import export
-from ..core import scene as core_scene
-from ..core import instancing
-from ..core.geometry import WorldGeometry, build_geometry, material_albedo
+from ..core.scene import scene as core_scene
+from ..core.geometry import instancing
+from ..core.geometry.geometry import WorldGeometry, build_geometry, material_albedo
 
 
 @dataclass

@@ -29,8 +29,9 @@ import numpy as np
 
 from . import export
 from .scene_cache import SceneCache, SyncReport
-from ..core import progressive, view as view_
-from ..core.scene import RenderSettings
+from ..core.film import progressive
+from ..core.camera import view as view_
+from ..core.scene.scene import RenderSettings
 
 log = logging.getLogger("primer")
 

@@ -114,7 +114,7 @@ def rel_mse(image: np.ndarray, reference: np.ndarray) -> float:
 
 def display(image: np.ndarray) -> np.ndarray:
     """Return RGB as Blender's Standard view shows it: sRGB-encoded, clipped to 0..1: (H, W, 3) float32."""
-    from core.image_io import linear_to_srgb
+    from core.film.image_io import linear_to_srgb
 
     return linear_to_srgb(image[..., :3].astype(np.float64)).astype(np.float32)
 
@@ -135,6 +135,6 @@ def errors(image: np.ndarray, reference: np.ndarray) -> dict:
 
 def read_exr(path: str) -> np.ndarray:
     """Read an image with OpenImageIO: (H, W, C) float32, row 0 at the top."""
-    from core.image_io import read_image
+    from core.film.image_io import read_image
 
     return read_image(path)

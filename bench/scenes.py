@@ -125,7 +125,7 @@ def reference(name: str, plan: common.Plan) -> tuple:
             "seconds": seconds, "size": list(image.shape[:2]),
             "noise_rmse": float(np.sqrt(noise.mean())),
             "noise_relmse": float(np.mean(noise / (r * r + common.REL_MSE_GUARD)))}
-    from core.image_io import write_image
+    from core.film.image_io import write_image
 
     os.makedirs(common.REFS, exist_ok=True)
     write_image(path + ".part.exr", image)
@@ -228,8 +228,8 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
 
     # Render once more, untimed, recording every ray batch that reaches Embree (the float32 arrays
     # Embree gets) and the triangles of the BVH.
-    Tracer = importlib.import_module("primer.core.intersect").Tracer
-    to_f32 = importlib.import_module("primer.core.intersect")._f32_rays
+    Tracer = importlib.import_module("primer.core.geometry.intersect").Tracer
+    to_f32 = importlib.import_module("primer.core.geometry.intersect")._f32_rays
     batches, meshes = [], []
     original = {name: getattr(Tracer, name) for name in ("__init__", "intersect", "occluded")}
 

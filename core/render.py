@@ -28,12 +28,17 @@ from typing import Callable, NamedTuple, Optional
 
 import numpy as np
 
-from . import adaptive
-from . import camera as camera_
-from . import debug, instancing, kernels, memory, sampling, vectors
-from .geometry import WorldGeometry, build_geometry
-from .scene import RenderSettings, Scene
-from .shading import direct_light, surface_at_hits, translate_light
+from .film import adaptive
+from .camera import camera as camera_
+from .teaching import debug
+from .geometry import instancing
+from .native import kernels
+from . import memory
+from .sampling import sobol as sampling
+from . import vectors
+from .geometry.geometry import WorldGeometry, build_geometry
+from .scene.scene import RenderSettings, Scene
+from .integrators.direct import direct_light, surface_at_hits, translate_light
 
 # Auxiliary buffers a render can return, with their channel counts ("lights": one per light).
 AUX_BUFFERS = {

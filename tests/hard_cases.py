@@ -9,7 +9,7 @@ expectation computed here, independently of Primer's tracer:
 - an analytic classification: the pixel's camera ray and its shadow rays are traced in float64
   against the exact shapes (axis-aligned boxes and rectangles in a local frame, which the scene
   then rotates, scales and moves), giving which surface is seen and which lights reach it.
-Only the camera's pixel-to-ray mapping is taken from core.camera (tested against Blender in
+Only the camera's pixel-to-ray mapping is taken from core.camera.camera (tested against Blender in
 tests/test_camera.py). A pixel is *judged* unless the answer there is ambiguous at the scale of
 the case's margin: a camera ray or shadow ray passing within the margin of an edge, where shrinking
 or growing the shapes by the margin changes what is seen or whether the light is blocked.
@@ -27,11 +27,13 @@ from typing import Callable, Optional
 import numpy as np
 
 from conftest import ortho_down, rotation, sun_direction
-from core import camera as camera_
-from core import primitives, render, shadows
-from core.camera import Camera
-from core.geometry import build_geometry
-from core.scene import Instance, Mesh, PointLight, RenderSettings, Scene, SunLight
+from core.camera import camera as camera_
+from core.geometry import primitives
+from core import render
+from core.integrators import shadows
+from core.camera.camera import Camera
+from core.geometry.geometry import build_geometry
+from core.scene.scene import Instance, Mesh, PointLight, RenderSettings, Scene, SunLight
 
 ALBEDO = 0.5
 EPSILON = 1e-3          # the lecture's epsilon, RenderSettings' default
@@ -425,7 +427,7 @@ def thin_plate(gap: float, distance: float, method: str, offset: float = 0.0, be
 
 
 def robust_offset_at(distance: float) -> float:
-    """Return the robust offset (core.shadows.error_bound) of a point `distance` from the camera."""
+    """Return the robust offset (core.integrators.shadows.error_bound) of a point `distance` from the camera."""
     return float(shadows.error_bound(np.array([[distance, 0.0, 0.0]]), np.full((1, 3, 3), distance))[0])
 
 
@@ -463,7 +465,7 @@ def rays_through_edges(method: str, tilted: bool) -> Outcome:
     aimed exactly at the box's vertices, edge midpoints and face-diagonal midpoints: all must be blocked.
 
     Each ray starts where the line from the light through the target meets the room's wall, and is
-    built with the method's own construction (core.shadows) in camera-relative coordinates, then traced
+    built with the method's own construction (core.integrators.shadows) in camera-relative coordinates, then traced
     through the render's own BVH. Three light positions: the centre and two off-centre points.
     """
     R = TILT if tilted else np.eye(3)

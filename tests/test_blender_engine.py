@@ -17,7 +17,7 @@ bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else _
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
 from render import configure_output, load_primer  # noqa: E402
 
-from core import image_io  # noqa: E402
+from core.film import image_io  # noqa: E402
 
 pytestmark = pytest.mark.blender
 

@@ -18,7 +18,7 @@ bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else _
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
 from render import load_primer  # noqa: E402
 
-from core import image_io  # noqa: E402
+from core.film import image_io  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -123,7 +123,7 @@ def test_operator_without_coordinates_uses_the_scene_pixel_and_equals_core(prime
     assert bpy.ops.primer.inspect_pixel() == {"FINISHED"}
     record = module(primer, "inspector").state.record
     export = module(primer, "export")
-    core_inspector = sys.modules[f"{primer.__name__}.core.inspector"]
+    core_inspector = sys.modules[f"{primer.__name__}.core.teaching.inspector"]
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
     expected = core_inspector.inspect_pixel(exported.scene, exported.settings, 11, 7)
     assert (record.x, record.y) == (11, 7)

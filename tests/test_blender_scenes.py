@@ -29,7 +29,7 @@ import pytest
 
 from blender_env import MESH_READS, ROOT, check_mesh_reads, isolated_env, run_bpy
 
-from core import image_io
+from core.film import image_io
 from bench.common import digest  # one cache-key function for the tests and the benchmark
 
 SCENES_DIR = os.path.join(ROOT, "sample_scenes")

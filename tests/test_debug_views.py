@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 
 from conftest import ortho_down, pixel_points_on_plane, rotation, sun_direction
-from core import debug, primitives, render
-from core.camera import Camera
-from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SunLight
+from core.teaching import debug
+from core.geometry import primitives
+from core import render
+from core.camera.camera import Camera
+from core.scene.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SunLight
 
 
 def exact(width, height, aux, **kw) -> RenderSettings:
@@ -201,8 +203,8 @@ def test_every_lecture_switch_defaults_to_the_lecture_choice():
 
 def test_no_debug_counts_are_kept_unless_asked_for():
     """Without debug buffers the shading keeps no per-hit ray or acne counts (no extra work)."""
-    from core import shading
-    from core.geometry import build_geometry
+    from core.integrators import direct as shading
+    from core.geometry.geometry import build_geometry
     scene = grazing_plane()
     geometry = build_geometry(scene, np.zeros(3))
     O = rotation((0.3, 0.5, 0.8), 0.7) @ np.array([0.0, 0.0, 1.0])     # 1 above the plane's centre

@@ -3,9 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from core import primitives, render
-from core.camera import Camera
-from core.scene import RenderSettings, Scene, SunLight
+from core.geometry import primitives
+from core import render
+from core.camera.camera import Camera
+from core.scene.scene import RenderSettings, Scene, SunLight
 
 
 def fisheye_scene() -> Scene:

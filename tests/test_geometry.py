@@ -12,10 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from core import primitives
-from core.camera import Camera
-from core.geometry import build_geometry
-from core.scene import Instance, Mesh, Scene
+from core.geometry import primitives
+from core.camera.camera import Camera
+from core.geometry.geometry import build_geometry
+from core.scene.scene import Instance, Mesh, Scene
 
 COPY = 1 << 62      # instance_triangles that copies every mesh
 
@@ -129,7 +129,9 @@ def test_compiled_face_and_corner_normals_are_numpys_bit_for_bit():
     """kernels.face_normals and kernels.turn_normals (the placement's C passes) give the numbers of
     normals.face_normals and of safe_normalize(rows_times_each(...)): random, degenerate, tiny, huge
     and NaN triangles; mirrored and scaled placements."""
-    from core import kernels, normals, vectors
+    from core.native import kernels
+    from core.geometry import normals
+    from core import vectors
     if kernels.library() is None:
         pytest.skip(kernels.unavailable_reason)
     rng = np.random.default_rng(5)

@@ -7,11 +7,14 @@ import numpy as np
 import pytest
 
 from conftest import ortho_down, pixel_points_on_plane, sun_direction, unit
-from core import inspector, primitives, render, shadows
-from core.camera import Camera
-from core.geometry import build_geometry
-from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
-from core.shading import direct_light, surface_at_hits, translate_light
+from core.teaching import inspector
+from core.geometry import primitives
+from core import render
+from core.integrators import shadows
+from core.camera.camera import Camera
+from core.geometry.geometry import build_geometry
+from core.scene.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
+from core.integrators.direct import direct_light, surface_at_hits, translate_light
 
 W, H = 16, 12
 CAMERA_HEIGHT = 3.0

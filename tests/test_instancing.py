@@ -13,10 +13,13 @@ import numpy as np
 import pytest
 
 from conftest import sun_direction
-from core import debug, instancing, primitives, render
-from core.camera import Camera
-from core.geometry import build_geometry
-from core.scene import Instance, PointLight, RenderSettings, Scene, SunLight
+from core.teaching import debug
+from core.geometry import instancing
+from core.geometry import primitives
+from core import render
+from core.camera.camera import Camera
+from core.geometry.geometry import build_geometry
+from core.scene.scene import Instance, PointLight, RenderSettings, Scene, SunLight
 from hard_cases import ALBEDO, rotation, wrong_fraction
 
 COPY = 1 << 62      # instance_triangles that copies every mesh
@@ -279,7 +282,7 @@ def test_crowded_instances_are_copied_unless_always(monkeypatch):
 def test_packets_find_the_instanced_triangles_single_rays_find():
     """Embree's packet queries walk instance arrays as its single-ray ones do: the same flat triangle,
     distance and barycentrics for every ray, and the same occlusion answers."""
-    from core.intersect import Tracer
+    from core.geometry.intersect import Tracer
     _, instanced = both_geometries(scattered_scene())
     packed = instanced.tracer
     single = Tracer(instanced.vertices, instanced.triangles, instanced=instanced.instanced, packets=False)
@@ -299,7 +302,7 @@ def test_packets_find_the_instanced_triangles_single_rays_find():
 def test_embree_names_the_placement_the_point_search_finds():
     """Embree's packet queries report each instanced hit's placement (instPrimID); it is the one
     the hit's own point finds among the boxes (mesh.identify), for every hit but edge grazes."""
-    from core import kernels
+    from core.native import kernels
     _, instanced = both_geometries(scattered_scene())
     tracer = instanced.tracer
     O, D, t_max = random_rays(20_000, seed=13)

@@ -5,8 +5,8 @@ import os
 import numpy as np
 import pytest
 
-from core import embree_buffers
-from core.intersect import Tracer
+from core.geometry import embree_buffers
+from core.geometry.intersect import Tracer
 
 
 def _unit_square(z: float = 0.0):

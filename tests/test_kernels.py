@@ -16,12 +16,18 @@ import math
 import numpy as np
 import pytest
 
-from core import camera as camera_
-from core import adaptive, intersect, kernels, primitives, render, sampling, shadows
-from core.camera import Camera
-from core.geometry import build_geometry
-from core.scene import AreaLight, Instance, PointLight, RenderSettings, Scene, SpotLight, SunLight
-from core.shading import direct_light, surface_at_hits, translate_light
+from core.camera import camera as camera_
+from core.film import adaptive
+from core.geometry import intersect
+from core.native import kernels
+from core.geometry import primitives
+from core import render
+from core.sampling import sobol as sampling
+from core.integrators import shadows
+from core.camera.camera import Camera
+from core.geometry.geometry import build_geometry
+from core.scene.scene import AreaLight, Instance, PointLight, RenderSettings, Scene, SpotLight, SunLight
+from core.integrators.direct import direct_light, surface_at_hits, translate_light
 
 
 def test_the_library_is_built_for_this_machine():

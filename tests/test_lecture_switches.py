@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from conftest import ortho_down, pixel_points_on_plane
-from core import primitives, render
-from core.scene import Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
+from core.geometry import primitives
+from core import render
+from core.scene.scene import Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
 from test_debug_views import tilted_quad
 
 ALBEDO = 0.5

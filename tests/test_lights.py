@@ -27,10 +27,10 @@ import pytest
 
 from conftest import rotation, unit
 
-from core.camera import Camera, generate_rays
-from core.lights import area_light_area, is_delta, sample_light, spot_attenuation
+from core.camera.camera import Camera, generate_rays
+from core.lights.lights import area_light_area, is_delta, sample_light, spot_attenuation
 from core.render import render
-from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
+from core.scene.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
 
 GRID_SIDE = 384                    # jittered grid of 384 x 384 = 147456 light samples
 SAMPLING_RTOL = 1e-3               # see the module docstring for why this is honest
@@ -263,7 +263,7 @@ def test_point_light_below_the_plane_adds_exactly_zero():
 
 
 # ----------------------------------------------------------------------------
-# Light sampling: core.lights.sample_light against closed-form irradiance
+# Light sampling: core.lights.lights.sample_light against closed-form irradiance
 # ----------------------------------------------------------------------------
 
 def test_only_lights_without_extent_are_delta():
@@ -616,7 +616,7 @@ def test_area_light_render_one_camera_sample_matches_closed_form():
 def test_area_light_render_many_camera_samples_matches_pixel_average():
     """With samples > 1 each pixel is the box-filtered (rho/pi) E over its camera samples: light sampling stays unbiased."""
     # Without jitter the 16 camera samples sit at the centres of a 4 x 4 grid of sub-pixels
-    # (core.sampling.stratum_centres), so the exact pixel value is the mean of the
+    # (core.sampling.sobol.stratum_centres), so the exact pixel value is the mean of the
     # closed form over those 16 points. 16 x 256 = 4096 stratified light samples per pixel give a
     # sampling error ~1e-4; the 1e-2 tolerance leaves room for that, not for a biased estimate.
     camera = ortho_camera_looking_down(5.0, 2.0)
@@ -727,7 +727,7 @@ def test_spot_with_radius_applies_the_cone_per_light_sample():
 @pytest.mark.parametrize("spread_deg", [60.0, 120.0])
 def test_area_light_spread_keeps_its_power(spread_deg):
     """A narrower spread redistributes the emission: the cosine-weighted average over the hemisphere stays 1."""
-    from core.lights import spread_attenuation
+    from core.lights.lights import spread_attenuation
     theta = (np.arange(200000) + 0.5) / 200000 * (math.pi / 2)
     weight = np.cos(theta) * np.sin(theta) * 2.0          # cos-weighted hemisphere density in theta, integrates to 1
     factor = spread_attenuation(math.radians(spread_deg), np.cos(theta))

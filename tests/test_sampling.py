@@ -6,9 +6,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from core import sampling
+from core.sampling import sobol as sampling
 from core.render import render
-from core.scene import PointLight, RenderSettings
+from core.scene.scene import PointLight, RenderSettings
 
 
 def cells_hit(points: np.ndarray, columns_log2: int, rows_log2: int) -> np.ndarray:

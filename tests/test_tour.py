@@ -28,7 +28,8 @@ sys.path.insert(0, os.path.join(ROOT, "tools"))
 from render import load_primer  # noqa: E402
 from test_blender_engine import render_passes  # noqa: E402
 
-from core import debug, image_io  # noqa: E402
+from core.teaching import debug
+from core.film import image_io  # noqa: E402
 
 pytestmark = [pytest.mark.slow, pytest.mark.blender]
 
@@ -665,7 +666,7 @@ def test_viewport_coarse_pass_is_one_ray_per_block(primer):
     the block, so it is ready at once; the following passes refine it to the full image."""
     scene = open_scene("light_point")
     viewport = addon_module(primer, "viewport")
-    progressive = importlib.import_module(f"{primer.__name__}.core.progressive")
+    progressive = importlib.import_module(f"{primer.__name__}.core.film.progressive")
     cache = addon_module(primer, "scene_cache").SceneCache()
     cache.sync(bpy.context.evaluated_depsgraph_get())
     settings = viewport.viewport_settings(scene)

@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from core import camera as camera_
-from core import progressive
-from core import view as view_
-from core.scene import Mesh, RenderSettings, Scene, SunLight
+from core.camera import camera as camera_
+from core.film import progressive
+from core.camera import view as view_
+from core.scene.scene import Mesh, RenderSettings, Scene, SunLight
 
 
 def frustum(left, right, bottom, top, near, far) -> np.ndarray:
@@ -148,7 +148,7 @@ def plane_under_sun(elevation_deg: float = 60.0) -> Scene:
 
 def test_coarse_pass_shows_the_closed_form_radiance_in_its_blocks():
     """Seen from above, every block on the plane shows albedo / pi * E * sin(elevation), the sky the world colour."""
-    from core.geometry import build_geometry
+    from core.geometry.geometry import build_geometry
 
     scene = plane_under_sun(60.0)
     width, height = 101, 67                 # not multiples of the block: the last blocks are cut
@@ -176,7 +176,7 @@ def test_coarse_pass_shows_the_closed_form_radiance_in_its_blocks():
 
 def test_fisheye_film_sits_inside_its_frame_and_the_rest_is_black():
     """A fisheye's image fills its film rectangle of the region exactly as its own render; outside is black."""
-    from core.geometry import build_geometry
+    from core.geometry.geometry import build_geometry
     from core.render import render
 
     scene = plane_under_sun(60.0)

@@ -21,9 +21,9 @@ bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else _
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
 from render import load_primer  # noqa: E402
 
-from core import camera as camera_  # noqa: E402
-from core import progressive  # noqa: E402
-from core import view as view_  # noqa: E402
+from core.camera import camera as camera_  # noqa: E402
+from core.film import progressive  # noqa: E402
+from core.camera import view as view_  # noqa: E402
 
 pytestmark = pytest.mark.blender
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -30,8 +30,8 @@ FLAGS = ["-O3", "-std=c99", "-Wall", "-Wextra", "-fPIC", "-shared", "-ffp-contra
 
 def build(cc: str, force: bool = False) -> str:
     """Compile core/kernels.c if needed; return the library's path."""
-    from core import kernels
-    source = os.path.join(ROOT, "core", "kernels.c")
+    from core.native import kernels
+    source = os.path.join(ROOT, "core", "native", "kernels.c")
     target = kernels.library_path()
     if not force and os.path.exists(target) and os.path.getmtime(target) >= os.path.getmtime(source):
         return target

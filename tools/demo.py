@@ -46,7 +46,8 @@ def render_blend_scenes(out: str, names, samples) -> int:
 
 def render_core_scenes(out: str, names) -> None:
     """Render the scenes of sample_scenes/scenes.py with core alone into out/core/."""
-    from core import image_io, render
+    from core.film import image_io
+    from core import render
     from sample_scenes.scenes import SCENES
 
     folder = os.path.join(out, "core")

@@ -25,8 +25,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import vectors
-from .scene import AreaLight, PointLight, SpotLight, SunLight
+from .. import vectors
+from ..scene.scene import AreaLight, PointLight, SpotLight, SunLight
 
 INV_4PI = 1.0 / (4.0 * math.pi)
 

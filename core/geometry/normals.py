@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import vectors
+from .. import vectors
 
 
 class FaceNormals(NamedTuple):

@@ -31,7 +31,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from .scene import AreaLight, PointLight, SpotLight, SunLight
+from ..scene.scene import AreaLight, PointLight, SpotLight, SunLight
 
 log = logging.getLogger(__name__)
 
@@ -174,7 +174,7 @@ def camera_record(camera, width: int, height: int, pixel_aspect: tuple, origin: 
 
     origin: (3,) float64 the geometry's origin, subtracted from the camera's position.
     """
-    from . import camera as camera_
+    from ..camera import camera as camera_
     if camera.type not in ("PERSP", "ORTHO"):
         return None
     record = CameraRecord()
@@ -190,7 +190,7 @@ def camera_record(camera, width: int, height: int, pixel_aspect: tuple, origin: 
 
 def light_record(light, index: int, light_samples: int) -> LightRecord:
     """Return the LightRecord of a camera-relative light: all of core/lights.py's per-light constants."""
-    from . import lights as lights_
+    from ..lights import lights as lights_
     record = LightRecord()
     delta = lights_.is_delta(light)
     record.delta = 1.0 if delta else 0.0
@@ -611,7 +611,7 @@ def add_pixels(pixels: np.ndarray, spp: int, rgba: np.ndarray, squares: np.ndarr
     image) and hits_sum (H W,) int64, and renew the pixels' `estimates` where given. pixels (p,)
     int64 distinct; rgba (p, 4), squares (p, 2) float64; hits (p,) int64. Called by the thread that
     rendered the chunk (render.render's store)."""
-    from . import adaptive
+    from ..film import adaptive
     pixels = _c(pixels, np.int64)
     weights = _c(adaptive.LUMINANCE, np.float64)
     kept = estimates if estimates is not None else NoiseEstimates(None, None)
@@ -641,7 +641,7 @@ def unconverged(pixels: np.ndarray, noise, threshold: float, width: int, height:
     answer, band after band. With `estimates` kept by add_pixels, it reads each pixel's noise and
     mean from them instead of working them out again.
     """
-    from . import adaptive
+    from ..film import adaptive
     size = width * height
     pixels = _c(pixels, np.int64)
     if not library().primer_ascending(_ptr(pixels, np.int64), len(pixels), size):
@@ -695,7 +695,7 @@ def embree_packets(scene, device) -> Optional[EmbreePackets]:
     They need the kernels and the very Embree library embreex loaded (core/embree_buffers.py finds it
     and reads the scene's handle); otherwise the Tracer asks embreex one ray at a time.
     """
-    from . import embree_buffers
+    from ..geometry import embree_buffers
     if not available():
         return None
     embree = embree_buffers.embree_library()
@@ -754,7 +754,7 @@ def intersect(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarra
 def face_normals(vertices: np.ndarray, triangles: np.ndarray):
     """normals.face_normals in one pass: vertices (v, 3) float64, triangles (t, 3) int64 (in range)
     -> normals.FaceNormals of (t, 3) unit normals and (t,) areas, the same numbers."""
-    from .normals import FaceNormals
+    from ..geometry.normals import FaceNormals
     vertices, triangles = _c(vertices, np.float64), _c(triangles, np.int64)
     normals, area = np.empty((len(triangles), 3)), np.empty(len(triangles))
     library().primer_face_normals(len(triangles), _ptr(vertices, np.float64), _ptr(triangles, np.int64),

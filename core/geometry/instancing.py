@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import normals as normals_
-from . import vectors
+from .. import vectors
 
 # A mesh is instanced, not copied, when its copies would hold more than this many triangles.
 INSTANCE_TRIANGLES = 1 << 18

@@ -38,7 +38,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import vectors
+from .. import vectors
 
 # Brightness below which absolute rather than relative noise counts (as in the benchmark's relMSE,
 # whose denominator is r^2 + 0.01): noise of 0.01 in a black pixel is as visible as 1% of a white one.

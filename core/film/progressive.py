@@ -22,11 +22,11 @@ from typing import Callable, Iterator, NamedTuple, Optional
 
 import numpy as np
 
-from . import view as view_
-from .camera import Camera
-from .geometry import WorldGeometry
-from .render import render
-from .scene import RenderSettings, Scene
+from ..camera import view as view_
+from ..camera.camera import Camera
+from ..geometry.geometry import WorldGeometry
+from ..render import render
+from ..scene.scene import RenderSettings, Scene
 
 BLOCK_SIZES = (1, 2, 4, 8, 16, 32)
 SEED_STRIDE = 7919      # seeds of successive passes, far apart so their patterns are unrelated

@@ -19,10 +19,13 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from . import lights as lights_
-from . import normals as normals_
-from . import debug, sampling, shadows, vectors
-from .scene import AreaLight, PointLight, SpotLight, SunLight
+from ..lights import lights as lights_
+from ..geometry import normals as normals_
+from ..teaching import debug
+from ..sampling import sobol as sampling
+from . import shadows
+from .. import vectors
+from ..scene.scene import AreaLight, PointLight, SpotLight, SunLight
 
 # Below this fraction of lit samples, shadow rays are built for the lit samples only (gathered);
 # above it, for all samples, which skips the gather and the scatter.

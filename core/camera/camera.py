@@ -51,7 +51,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import vectors
+from .. import vectors
 
 __all__ = [
     "Camera",

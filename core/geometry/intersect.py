@@ -19,7 +19,8 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from . import embree_buffers, kernels
+from . import embree_buffers
+from ..native import kernels
 
 # Embree's "infinite" t_far: the largest distance embreex uses itself.
 T_INFINITY = 1e37

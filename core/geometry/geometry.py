@@ -25,11 +25,11 @@ import numpy as np
 
 from . import embree_buffers
 from . import instancing
-from . import kernels
+from ..native import kernels
 from . import normals as normals_
-from . import vectors
+from .. import vectors
 from .intersect import Tracer
-from .scene import DEFAULT_BASE_COLOR, Scene
+from ..scene.scene import DEFAULT_BASE_COLOR, Scene
 
 
 # Scenes up to this many triangles keep a per-triangle table of corner coordinates (WorldGeometry.corner_points).

@@ -18,7 +18,7 @@ from typing import Optional, Sequence, Union
 
 import numpy as np
 
-from .camera import Camera
+from ..camera.camera import Camera
 
 # The colour used when a triangle's material is missing (Blender's default grey).
 DEFAULT_BASE_COLOR = (0.8, 0.8, 0.8)

@@ -32,13 +32,14 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from . import camera as camera_
-from . import lights as lights_
-from . import instancing, shadows
-from .geometry import WorldGeometry, build_geometry
-from .render import _usable_lights, validate
-from .scene import AreaLight, PointLight, RenderSettings, Scene, SpotLight, SunLight
-from .shading import surface_at_hits, translate_light
+from ..camera import camera as camera_
+from ..lights import lights as lights_
+from ..geometry import instancing
+from ..integrators import shadows
+from ..geometry.geometry import WorldGeometry, build_geometry
+from ..render import _usable_lights, validate
+from ..scene.scene import AreaLight, PointLight, RenderSettings, Scene, SpotLight, SunLight
+from ..integrators.direct import surface_at_hits, translate_light
 
 # Why a shadow ray was or was not cast (LightRecord.reason).
 CAST = "cast"
