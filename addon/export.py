@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..core.scene import scene as core_scene
-from ..core.camera.camera import Camera
+from ..core import scene as core_scene
+from ..core.camera import Camera
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
 # Blender sync). Curves, text, surfaces and metaballs are skipped themselves: the depsgraph hands
@@ -285,8 +285,7 @@ def export_light(obj, matrix: np.ndarray, warnings: list):
         area = core_scene.AreaLight(position, axis_u, axis_v, minus_z, power, color,
                                     light.shape, float(getattr(light, "spread", math.pi)), name=obj.name)
         if not normalize:
-            from ..core.lights.lights import area_light_area
-            area.power = power * area_light_area(area)
+            area.power = power * area.area()
         return area
     warnings.append(f"light '{obj.name}' of type {light.type} is not supported and was skipped")
     return None
@@ -380,7 +379,7 @@ def border_rectangle(render, width: int, height: int) -> tuple:
 def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = ()) -> core_scene.RenderSettings:
     """Return core render settings from the scene's Primer settings and Blender's render settings.
 
-    aux: the core buffers to compute (core.render.AUX_BUFFERS), only those the passes and debug view need.
+    aux: the core buffers to compute (core.debug.AUX_BUFFERS), only those the passes and debug view need.
     """
     props = scene.primer
     render = scene.render

@@ -80,9 +80,9 @@ class PrimerSettings(bpy.types.PropertyGroup):
                     "are traced; the image is the same")
     kernels: EnumProperty(
         name="Kernels",
-        items=(("COMPILED", "Compiled", "Run the render loop's arithmetic in C (core/kernels.c) where it applies: "
+        items=(("COMPILED", "Compiled", "Render in C (the integrator's compiled twin) where it applies: "
                                         "the same image, several times faster"),
-               ("NUMPY", "NumPy", "Run every render on the readable numpy path (core/shading.py and friends), "
+               ("NUMPY", "NumPy", "Run every render on the readable Python reference (core/integrators/direct.py), "
                                   "to compare or to step through")),
         default="COMPILED",
         description="Which twin of the render loop runs; lecture switches and debug views always use numpy")
@@ -95,7 +95,7 @@ class PrimerSettings(bpy.types.PropertyGroup):
                                  description="The light whose N.L and shadow rays the debug views and passes show; "
                                              "empty: the mean over all lights")
 
-    # The lecture switches: each defaults to the lecture's choice (core.scene.scene.LECTURE_SWITCHES).
+    # The lecture switches: each defaults to the lecture's choice (core.scene.LECTURE_SWITCHES).
     smooth_normals: BoolProperty(name="Smooth Normals", default=True,
                                  description="Interpolate vertex normals with the barycentrics; off, every "
                                              "triangle shades with its face normal and the facets show")

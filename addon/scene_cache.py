@@ -39,9 +39,9 @@ import bpy
 import numpy as np
 
 from . import export
-from ..core.scene import scene as core_scene
+from ..core import scene as core_scene
 from ..core.geometry import instancing
-from ..core.geometry.geometry import WorldGeometry, build_geometry, material_albedo
+from ..core.geometry.geometry import WorldGeometry, build_geometry
 
 
 @dataclass
@@ -215,8 +215,6 @@ class SceneCache:
             self.geometry = build_geometry(self.scene, np.asarray(origin, np.float64),
                                            instancing.instance_triangles(mode))
             report.bvh = True
-        elif report.materials:
-            self.geometry = dataclasses.replace(self.geometry, albedo=material_albedo(self.material_table.materials))
         self.warnings = list(dict.fromkeys(self.warnings))       # each note once
         self._add_to_totals(report)
         return report

@@ -31,7 +31,7 @@ from . import export
 from .scene_cache import SceneCache, SyncReport
 from ..core.film import progressive
 from ..core.camera import view as view_
-from ..core.scene.scene import RenderSettings
+from ..core.scene import RenderSettings
 
 log = logging.getLogger("primer")
 

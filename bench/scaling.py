@@ -26,10 +26,10 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from core.geometry import primitives
 from core import render  # noqa: E402
-from core.camera.camera import Camera  # noqa: E402
+from core.camera import Camera  # noqa: E402
 from core.geometry.geometry import build_geometry  # noqa: E402
 from core.geometry.intersect import Tracer  # noqa: E402
-from core.scene.scene import Mesh, PointLight, RenderSettings, Scene, SunLight  # noqa: E402
+from core.scene import Mesh, PointLight, RenderSettings, Scene, SunLight  # noqa: E402
 
 # What stays fixed while one quantity varies.
 DEFAULTS = {"triangles": 10_000, "width": 320, "height": 180, "samples": 4, "lights": 2, "instances": 1}
@@ -81,7 +81,7 @@ def build(kind: str, value: int) -> tuple:
         n = p["instances"]
         side = int(math.ceil(math.sqrt(n)))
         spacing = 10.0 / side
-        from core.scene.scene import Instance
+        from core.scene import Instance
         for index in range(n):
             M = np.eye(4)
             M[:3, :3] *= 0.35 * spacing

@@ -186,3 +186,18 @@ def determinant_and_inverse(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     with np.errstate(divide="ignore", invalid="ignore"):
         rows /= det[:, None, None]
     return det, rows
+
+
+def orthonormal_frame(axis: np.ndarray):
+    """Return two unit vectors (t, b) that complete each unit axis to a right-handed orthonormal frame.
+
+    Duff et al., "Building an Orthonormal Basis, Revisited" (2017): no branches, no cross products.
+    axis: (n, 3) float64 unit -> t, b: (n, 3) float64
+    """
+    x, y, z = axis[:, 0], axis[:, 1], axis[:, 2]
+    sign = np.where(z >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + z)
+    c = x * y * a
+    t = rows(1.0 + sign * x * x * a, sign * c, -sign * x)
+    b = rows(c, sign + y * y * a, -y)
+    return t, b

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from core import primitives
+from core.geometry import primitives
 from core.camera import Camera
 from core.scene import AreaLight, PointLight, RenderSettings, Scene, SpotLight, SunLight
 

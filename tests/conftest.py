@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from core.camera import camera as camera_
-from core.camera.camera import Camera
+from core.camera import Camera
 
 
 def ortho_down(center=(0.0, 0.0, 0.0), height: float = 1.0, scale: float = 2.0, **kw) -> Camera:

@@ -30,10 +30,11 @@ from conftest import ortho_down, rotation, sun_direction
 from core.camera import camera as camera_
 from core.geometry import primitives
 from core import render
+from core.teaching import debug
 from core.integrators import shadows
-from core.camera.camera import Camera
+from core.camera import Camera
 from core.geometry.geometry import build_geometry
-from core.scene.scene import Instance, Mesh, PointLight, RenderSettings, Scene, SunLight
+from core.scene import Instance, Mesh, PointLight, RenderSettings, Scene, SunLight
 
 ALBEDO = 0.5
 EPSILON = 1e-3          # the lecture's epsilon, RenderSettings' default
@@ -331,7 +332,7 @@ def grazing_sun_image(elevation_deg: float, offset: float, method: str = "robust
     settings = RenderSettings(width=size, height=size, samples=1, jitter=False, shadow_method=method,
                               epsilon=epsilon, camera_relative=camera_relative, aux=("depth",))
     result = render.render(scene, settings)
-    hit = result.aux["depth"][..., 0] < render.MISS_DEPTH
+    hit = result.aux["depth"][..., 0] < debug.MISS_DEPTH
     exact = ALBEDO / math.pi * 3.0 * math.sin(math.radians(elevation_deg))
     return result.image, hit, exact
 

@@ -9,7 +9,7 @@ from conftest import ortho_down, sun_direction
 from core.film import adaptive
 from core.geometry import primitives
 from core import render
-from core.scene.scene import RenderSettings, Scene, SunLight
+from core.scene import RenderSettings, Scene, SunLight
 
 ALBEDO = 0.8
 SUN = 3.0

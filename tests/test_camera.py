@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from core.camera import camera as camera_module
-from core.camera.camera import Camera, CameraRays, fov_from_lens, generate_rays, lens_from_fov
+from core.camera import Camera, CameraRays, fov_from_lens, generate_rays, lens_from_fov
 
 
 def unit(vector):
@@ -346,7 +346,7 @@ def test_fisheye_render_skips_pixels_outside_the_circle_and_keeps_them_opaque_bl
     """The film outside a fisheye's image circle is opaque black without a single sample; inside, the image
     is what sampling every pixel gives."""
     from core import render as render_module
-    from core.scene.scene import RenderSettings, Scene, SunLight
+    from core.scene import RenderSettings, Scene, SunLight
     scene = Scene(camera=fisheye("FISHEYE_EQUISOLID", fisheye_lens=8.0, fisheye_fov=math.radians(170.0),
                                  sensor_fit="VERTICAL"))
     scene.world_color = np.array([0.2, 0.3, 0.4])

@@ -10,8 +10,8 @@ from conftest import ortho_down, pixel_points_on_plane, rotation, sun_direction
 from core.teaching import debug
 from core.geometry import primitives
 from core import render
-from core.camera.camera import Camera
-from core.scene.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SunLight
+from core.camera import Camera
+from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SunLight
 
 
 def exact(width, height, aux, **kw) -> RenderSettings:
@@ -55,7 +55,7 @@ def test_hit_distance_is_the_miss_value_where_nothing_is_hit():
     scene = Scene(camera=ortho_down(height=1.0, scale=4.0))
     scene.add_mesh(primitives.plane(1.0))
     result = render.render(scene, exact(8, 8, ("hit_distance", "barycentric", "normal_angle")))
-    assert result.aux["hit_distance"][0, 0, 0] == render.MISS_DEPTH
+    assert result.aux["hit_distance"][0, 0, 0] == debug.MISS_DEPTH
     assert result.aux["hit_distance"][4, 4, 0] == pytest.approx(1.0)
     assert not result.aux["barycentric"][0, 0].any()
 
@@ -68,7 +68,7 @@ def test_barycentrics_sum_to_one_and_locate_the_hit_point():
     scene.add_mesh(Mesh(V, np.array([[0, 1, 2]])))
     W = H = 20
     result = render.render(scene, exact(W, H, ("barycentric", "hit_distance")))
-    hit = result.aux["hit_distance"][..., 0] < render.MISS_DEPTH
+    hit = result.aux["hit_distance"][..., 0] < debug.MISS_DEPTH
     weights = result.aux["barycentric"][hit].astype(np.float64)
     assert hit.sum() > 100
     np.testing.assert_allclose(weights.sum(axis=1), 1.0, atol=1e-6)
@@ -162,7 +162,7 @@ def test_acne_map_marks_exactly_the_self_shadowed_pixels_with_zero_epsilon():
     above it, where the closed form says every pixel is lit."""
     result = render.render(grazing_plane(), exact(48, 48, ("acne", "visibility", "depth"), shadow_method="epsilon",
                                                   epsilon=0.0, camera_relative=False))
-    hit = result.aux["depth"][..., 0] < render.MISS_DEPTH
+    hit = result.aux["depth"][..., 0] < debug.MISS_DEPTH
     acne = result.aux["acne"][..., 0]
     shadowed = result.aux["visibility"][..., 0] == 0.0
     assert acne[hit].mean() > 0.3
@@ -172,7 +172,7 @@ def test_acne_map_marks_exactly_the_self_shadowed_pixels_with_zero_epsilon():
 def test_acne_map_is_empty_with_the_robust_offset_even_beside_real_shadows():
     """The robust offset leaves no self-intersection; the box's real shadow is not counted as acne."""
     result = render.render(grazing_plane(occluder=True), exact(48, 48, ("acne", "visibility", "depth")))
-    hit = result.aux["depth"][..., 0] < render.MISS_DEPTH
+    hit = result.aux["depth"][..., 0] < debug.MISS_DEPTH
     assert (result.aux["visibility"][..., 0][hit] == 0.0).sum() > 20      # the box casts a shadow
     assert not result.aux["acne"].any()
 
@@ -201,22 +201,16 @@ def test_every_lecture_switch_defaults_to_the_lecture_choice():
         assert not RenderSettings(**change).is_lecture_default()
 
 
-def test_no_debug_counts_are_kept_unless_asked_for():
-    """Without debug buffers the shading keeps no per-hit ray or acne counts (no extra work)."""
-    from core.integrators import direct as shading
-    from core.geometry.geometry import build_geometry
+def test_debug_counts_are_kept_by_a_recorder_only_when_asked_for():
+    """The integrator carries no debug code: without debug buffers a chunk keeps no counts; with them a
+    recorder counts the centre pixel's camera ray and its one shadow ray (the plane is lit, no acne)."""
     scene = grazing_plane()
-    geometry = build_geometry(scene, np.zeros(3))
-    O = rotation((0.3, 0.5, 0.8), 0.7) @ np.array([0.0, 0.0, 1.0])     # 1 above the plane's centre
-    O, D = O[None, :], -O[None, :]
-    hits = geometry.tracer.intersect(O, D, np.array([10.0]))
-    surface = shading.surface_at_hits(geometry, hits.prim, hits.u, hits.v, O, D, hits.t)
-    plain = shading.direct_light(geometry, surface, scene.lights, RenderSettings(), np.zeros(1, np.int64),
-                                 np.zeros(1, np.int64))
-    assert plain.rays_per_hit is None and plain.acne_per_hit is None
-    counted = shading.direct_light(geometry, surface, scene.lights, RenderSettings(aux=("acne",)),
-                                   np.zeros(1, np.int64), np.zeros(1, np.int64), prim=hits.prim)
-    assert counted.rays_per_hit[0] == 1.0 and counted.acne_per_hit[0] == 0.0
+    centre = np.array([2 * 5 + 2])                       # pixel (2, 2) of a 5 x 5 image looks at the plane
+    plain = render.prepare(scene, RenderSettings(width=5, height=5, samples=1, jitter=False))
+    assert render.reference_chunk(plain, centre, 1, 0).aux == {}
+    asked = render.prepare(scene, RenderSettings(width=5, height=5, samples=1, jitter=False, aux=("acne", "rays")))
+    sums = render.reference_chunk(asked, centre, 1, 0).aux
+    assert sums["rays"][0, 0] == 2.0 and sums["acne"][0, 0] == 0.0 and sums[debug.ACNE_CAST][0, 0] == 1.0
 
 
 def test_heat_map_runs_black_blue_red_yellow_white():
@@ -241,7 +235,7 @@ def test_a_real_shadow_in_a_concave_crease_is_not_acne_however_close():
     scene.lights.append(SunLight(sun_direction(20.0, 180.0), strength=3.0))     # low, from -x: behind the wall
     result = render.render(scene, exact(40, 8, ("acne", "visibility", "depth", "n_dot_l"), camera_relative=False))
     column = result.aux["visibility"][:, 20, 0]
-    assert (result.aux["depth"][:, 20, 0] < render.MISS_DEPTH).all()
+    assert (result.aux["depth"][:, 20, 0] < debug.MISS_DEPTH).all()
     np.testing.assert_allclose(result.aux["n_dot_l"][:, 20, 0], math.sin(math.radians(20.0)))   # rays were cast
     assert (column == 0.0).all()                 # the sun sets behind the wall: really shadowed
     assert not result.aux["acne"].any()

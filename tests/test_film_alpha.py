@@ -5,8 +5,8 @@ import numpy as np
 
 from core.geometry import primitives
 from core import render
-from core.camera.camera import Camera
-from core.scene.scene import RenderSettings, Scene, SunLight
+from core.camera import Camera
+from core.scene import RenderSettings, Scene, SunLight
 
 
 def fisheye_scene() -> Scene:

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from core.geometry import primitives
-from core.camera.camera import Camera
+from core.camera import Camera
 from core.geometry.geometry import build_geometry
-from core.scene.scene import Instance, Mesh, Scene
+from core.scene import Instance, Mesh, Scene
 
 COPY = 1 << 62      # instance_triangles that copies every mesh
 
@@ -126,14 +126,14 @@ def test_a_lone_placement_is_placed_as_it_is_in_a_batch():
 
 
 def test_compiled_face_and_corner_normals_are_numpys_bit_for_bit():
-    """kernels.face_normals and kernels.turn_normals (the placement's C passes) give the numbers of
-    normals.face_normals and of safe_normalize(rows_times_each(...)): random, degenerate, tiny, huge
+    """normals.compiled_face_normals and compiled_turn_normals (the placement's C passes) give the numbers
+    of normals.face_normals and of safe_normalize(rows_times_each(...)): random, degenerate, tiny, huge
     and NaN triangles; mirrored and scaled placements."""
-    from core.native import kernels
+    from core.native import library
     from core.geometry import normals
     from core import vectors
-    if kernels.library() is None:
-        pytest.skip(kernels.unavailable_reason)
+    if not library.available():
+        pytest.skip(library.unavailable_reason())
     rng = np.random.default_rng(5)
     vertices = rng.normal(size=(400, 3)) * rng.choice([1e-20, 1.0, 1e3, 1e160], (400, 1))
     vertices[7] = np.nan
@@ -143,12 +143,12 @@ def test_compiled_face_and_corner_normals_are_numpys_bit_for_bit():
     triangles[5:10] = [8, 9, 3]                                        # degenerate
     with np.errstate(invalid="ignore", over="ignore"):
         expected = normals.face_normals(vertices, triangles)
-        found = kernels.face_normals(vertices, triangles)
+        found = normals.compiled_face_normals(vertices, triangles)
     np.testing.assert_array_equal(found.normals, expected.normals)
     np.testing.assert_array_equal(found.area, expected.area)
     corners = rng.normal(size=(300, 3, 3))
     corners[3] = 0.0                                                   # zero normals stay zero
     inverse = rng.normal(size=(6, 3, 3)) * rng.choice([-1.0, 1e-3, 1e3], (6, 1, 1))
     rows, placement = rng.integers(0, 300, 700), rng.integers(0, 6, 700)
-    np.testing.assert_array_equal(kernels.turn_normals(corners, rows, inverse, placement),
+    np.testing.assert_array_equal(normals.compiled_turn_normals(corners, rows, inverse, placement),
                                   normals.safe_normalize(vectors.rows_times_each(corners[rows], inverse[placement])))

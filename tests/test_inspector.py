@@ -1,4 +1,4 @@
-"""The ray inspector (core/inspector.py): one pixel's numbers against closed forms and against the renderer."""
+"""The ray inspector (core/teaching/inspector.py): one pixel's numbers against closed forms and against the renderer."""
 from __future__ import annotations
 
 import math
@@ -11,10 +11,9 @@ from core.teaching import inspector
 from core.geometry import primitives
 from core import render
 from core.integrators import shadows
-from core.camera.camera import Camera
+from core.camera import Camera
 from core.geometry.geometry import build_geometry
-from core.scene.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
-from core.integrators.direct import direct_light, surface_at_hits, translate_light
+from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
 
 W, H = 16, 12
 CAMERA_HEIGHT = 3.0
@@ -225,26 +224,24 @@ def extended_scene() -> Scene:
 
 
 @pytest.mark.parametrize("terminator_fix", [False, True])
-def test_contributions_sum_to_direct_light_for_the_same_light_samples(terminator_fix):
-    """With the inspector's one centre sample per light, core's direct_light gives the same pixel value."""
+def test_each_lights_share_is_albedo_over_pi_irradiance_cosine_visibility_and_they_sum_to_the_pixel(terminator_fix):
+    """With one centre sample per light, each light's contribution is albedo / pi * E_normal * max(N.L, 0) * V
+    from the record's own numbers, and the contributions sum to the ray's radiance."""
     scene = extended_scene()
     s = settings(width=40, height=30, terminator_fix=terminator_fix)
     geometry = build_geometry(scene, scene.camera.position)
-    lights = [translate_light(light, geometry.origin) for light in scene.lights]
-    numbers = inspector.light_numbers(scene)
     checked = 0
     for y in range(0, 30, 3):
         for x in range(0, 40, 3):
             record = inspector.inspect_pixel(scene, s, x, y, geometry=geometry)
             if not record.hit:
                 continue
-            O = (record.origin - geometry.origin)[None, :]
-            D = record.direction[None, :]
-            surface = surface_at_hits(geometry, np.array([record.triangle]), np.array([record.u]),
-                                      np.array([record.v]), O, D, np.array([record.t]))
-            shading = direct_light(geometry, surface, lights, s, np.array([y * 40 + x]), np.zeros(1, np.int64),
-                                   light_numbers=numbers)
-            np.testing.assert_allclose(record.radiance, shading.radiance[0], rtol=1e-12, atol=1e-15)
+            for light in record.lights:
+                visibility = 1.0 if light.cast and not light.occluded else 0.0
+                expected = record.albedo / math.pi * light.irradiance * max(light.n_dot_l, 0.0) * visibility
+                np.testing.assert_allclose(light.contribution, expected, rtol=1e-12, atol=1e-15)
+            np.testing.assert_allclose(record.radiance, sum(light.contribution for light in record.lights),
+                                       rtol=1e-12, atol=1e-15)
             checked += 1
     assert checked > 50
 

@@ -17,9 +17,9 @@ from core.teaching import debug
 from core.geometry import instancing
 from core.geometry import primitives
 from core import render
-from core.camera.camera import Camera
+from core.camera import Camera
 from core.geometry.geometry import build_geometry
-from core.scene.scene import Instance, PointLight, RenderSettings, Scene, SunLight
+from core.scene import Instance, PointLight, RenderSettings, Scene, SunLight
 from hard_cases import ALBEDO, rotation, wrong_fraction
 
 COPY = 1 << 62      # instance_triangles that copies every mesh
@@ -199,7 +199,7 @@ def test_no_shadow_acne_on_instanced_tiles_at_grazing_sun(elevation, offset):
     geometry = build_geometry(scene, np.asarray(scene.camera.matrix_world)[:3, 3], instance_triangles=INSTANCE)
     assert len(geometry.instanced) == 1
     result = render.render(scene, settings)
-    hit = result.aux["depth"][..., 0] < render.MISS_DEPTH
+    hit = result.aux["depth"][..., 0] < debug.MISS_DEPTH
     exact = ALBEDO / math.pi * 3.0 * math.sin(math.radians(elevation))
     assert hit.mean() > 0.5
     assert wrong_fraction(result.image, hit, exact) == 0.0
@@ -302,11 +302,11 @@ def test_packets_find_the_instanced_triangles_single_rays_find():
 def test_embree_names_the_placement_the_point_search_finds():
     """Embree's packet queries report each instanced hit's placement (instPrimID); it is the one
     the hit's own point finds among the boxes (mesh.identify), for every hit but edge grazes."""
-    from core.native import kernels
+    from core.geometry.intersect import packet_intersect
     _, instanced = both_geometries(scattered_scene())
     tracer = instanced.tracer
     O, D, t_max = random_rays(20_000, seed=13)
-    t, prim, geometry, u, v, instance = kernels.intersect(tracer.packets, O, D, t_max)
+    t, prim, geometry, u, v, instance = packet_intersect(tracer.packets, O, D, t_max)
     checked = 0
     for number, mesh in enumerate(instanced.instanced, start=1):
         on = np.flatnonzero(geometry == number)

@@ -13,7 +13,8 @@ import pytest
 from conftest import ortho_down, pixel_points_on_plane
 from core.geometry import primitives
 from core import render
-from core.scene.scene import Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
+from core.teaching import debug
+from core.scene import Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
 from test_debug_views import tilted_quad
 
 ALBEDO = 0.5
@@ -124,7 +125,7 @@ def test_flat_normals_show_the_facets_of_a_sphere():
     settings = RenderSettings(width=48, height=48, samples=1, jitter=False, aux=("normal", "face_normal", "depth"))
     smooth = render.render(scene, settings)
     flat = render.render(scene, RenderSettings(**{**settings.__dict__, "smooth_normals": False}))
-    hit = smooth.aux["depth"][..., 0] < render.MISS_DEPTH
+    hit = smooth.aux["depth"][..., 0] < debug.MISS_DEPTH
     lit = flat.image[..., 0][hit] > 0
     assert len(np.unique(flat.image[..., 0][hit][lit])) <= len(sphere.triangles)
     assert len(np.unique(smooth.image[..., 0][hit][lit])) > 4 * len(sphere.triangles)

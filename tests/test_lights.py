@@ -1,4 +1,4 @@
-"""Tests for core/lights.py (and the shading path that uses it) against closed-form radiometry.
+"""Tests for core/lights (and the integrator that uses it) against closed-form radiometry.
 
 Units follow Cycles: a diffuse surface of albedo rho reflects radiance (rho / pi) E for
 an irradiance E.
@@ -27,10 +27,9 @@ import pytest
 
 from conftest import rotation, unit
 
-from core.camera.camera import Camera, generate_rays
-from core.lights.lights import area_light_area, is_delta, sample_light, spot_attenuation
+from core.camera import Camera, generate_rays
 from core.render import render
-from core.scene.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
+from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
 
 GRID_SIDE = 384                    # jittered grid of 384 x 384 = 147456 light samples
 SAMPLING_RTOL = 1e-3               # see the module docstring for why this is honest
@@ -46,6 +45,11 @@ def perpendicular(axis):
     return unit(np.cross(axis, helper))
 
 
+def light_sample(light, points, u, cone=None):
+    """The light's sample at each point (Light.sample)."""
+    return light.sample(points, u, cone)
+
+
 def jittered_grid(side=GRID_SIDE, seed=1234):
     """Return (side^2, 2) jittered-grid points in [0, 1)^2: one uniform point per square stratum."""
     rng = np.random.default_rng(seed)
@@ -58,7 +62,7 @@ def sampled_irradiance(light, point, normal, u=None):
     """Return the (3,) average of irradiance * max(N.L, 0) over stratified light samples at one point."""
     u = jittered_grid() if u is None else u
     points = np.broadcast_to(np.asarray(point, np.float64), (len(u), 3)).copy()
-    sample = sample_light(light, points, u)
+    sample = light_sample(light, points, u)
     cosine = np.maximum(sample.L @ np.asarray(normal, np.float64), 0.0)
     return (sample.irradiance * cosine[:, None]).mean(axis=0)
 
@@ -263,25 +267,25 @@ def test_point_light_below_the_plane_adds_exactly_zero():
 
 
 # ----------------------------------------------------------------------------
-# Light sampling: core.lights.lights.sample_light against closed-form irradiance
+# Light sampling: Light.sample (core/lights) against closed-form irradiance
 # ----------------------------------------------------------------------------
 
 def test_only_lights_without_extent_are_delta():
     """Lights without extent (point, spot of radius 0, sun of angle 0) are evaluated exactly, the rest sampled."""
-    assert is_delta(PointLight(position=np.zeros(3)))
-    assert is_delta(SpotLight(position=np.zeros(3), direction=np.array([0.0, 0.0, -1.0])))
-    assert is_delta(SunLight(direction=np.array([0.0, 0.0, -1.0])))
-    assert not is_delta(PointLight(position=np.zeros(3), radius=0.1))
-    assert not is_delta(SunLight(direction=np.array([0.0, 0.0, -1.0]), angle=0.01))
-    assert not is_delta(AreaLight(center=np.zeros(3), axis_u=np.array([1.0, 0, 0]),
-                                  axis_v=np.array([0, 1.0, 0]), direction=np.array([0, 0, -1.0])))
+    assert PointLight(position=np.zeros(3)).delta
+    assert SpotLight(position=np.zeros(3), direction=np.array([0.0, 0.0, -1.0])).delta
+    assert SunLight(direction=np.array([0.0, 0.0, -1.0])).delta
+    assert not PointLight(position=np.zeros(3), radius=0.1).delta
+    assert not SunLight(direction=np.array([0.0, 0.0, -1.0]), angle=0.01).delta
+    assert not AreaLight(center=np.zeros(3), axis_u=np.array([1.0, 0, 0]),
+                         axis_v=np.array([0, 1.0, 0]), direction=np.array([0, 0, -1.0])).delta
 
 
 def test_point_light_sample_is_intensity_over_distance_squared():
     """A point light's single exact sample carries E_normal = P/(4 pi r^2) along the unit direction to the light."""
     position = np.array([1.0, -2.0, 3.0])
     points = np.array([[0.0, 0.0, 0.0], [1.0, -2.0, 0.0], [4.0, 2.0, 3.0]])
-    sample = sample_light(PointLight(position=position, power=250.0, color=np.array([1.0, 0.5, 0.0])),
+    sample = light_sample(PointLight(position=position, power=250.0, color=np.array([1.0, 0.5, 0.0])),
                           points, np.zeros((3, 2)))
     r = np.linalg.norm(position - points, axis=1)
     np.testing.assert_allclose(sample.distance, r, rtol=1e-15)
@@ -359,7 +363,7 @@ def test_parallelogram_area_light_matches_lambert_polygon_formula():
     light = AreaLight(center=np.array([0.0, 0.0, 1.5]), axis_u=axis_u, axis_v=axis_v,
                       direction=np.array([0.0, 0.0, -1.0]), power=25.0, shape="RECTANGLE")
     area = 1.2 * 0.9
-    assert area_light_area(light) == pytest.approx(area, rel=1e-14)
+    assert light.area() == pytest.approx(area, rel=1e-14)
     point, normal = np.array([0.7, -0.4, 0.0]), np.array([0.0, 0.0, 1.0])
     corners = parallelogram_corners(light.center, axis_u, axis_v)
     expected = polygon_irradiance(25.0 / (math.pi * area), corners, point, normal)
@@ -375,7 +379,7 @@ def test_area_light_areas_of_all_shapes():
                         ("ELLIPSE", math.pi * a * b / 4.0)):
         light = AreaLight(center=np.array([5.0, 6.0, 7.0]), axis_u=frame @ [a, 0, 0], axis_v=frame @ [0, b, 0],
                           direction=frame @ [0, 0, -1.0], shape=shape)
-        assert area_light_area(light) == pytest.approx(area, rel=1e-13), shape
+        assert light.area() == pytest.approx(area, rel=1e-13), shape
 
 
 @pytest.mark.parametrize("height", [0.3, 1.0, 3.0])
@@ -403,7 +407,7 @@ def test_area_light_is_one_sided(shape):
                       axis_v=np.array([0.0, 1.0, 0.0]), direction=np.array([0.0, 0.0, -1.0]),
                       power=50.0, shape=shape)
     u = jittered_grid(64)
-    behind = sample_light(light, np.broadcast_to([0.1, 0.2, 2.0], (len(u), 3)).copy(), u)
+    behind = light_sample(light, np.broadcast_to([0.1, 0.2, 2.0], (len(u), 3)).copy(), u)
     assert np.all(behind.irradiance == 0.0)
     # The mirror image point in front, facing the light, receives light (so the zero is not trivial).
     front = sampled_irradiance(light, np.array([0.1, 0.2, 0.0]), np.array([0.0, 0.0, 1.0]), u)
@@ -423,7 +427,7 @@ def test_sun_with_angle_gives_strength_times_cosine(theta_deg):
     estimate = sampled_irradiance(sun, np.zeros(3), normal, u)
     np.testing.assert_allclose(estimate, expected, rtol=SAMPLING_RTOL)
     # Every sampled direction lies inside the sun's disk.
-    sample = sample_light(sun, np.zeros((len(u), 3)), u)
+    sample = light_sample(sun, np.zeros((len(u), 3)), u)
     assert np.all(sample.L @ towards_sun >= math.cos(0.5 * angle) - 1e-12)
     assert np.all(np.isinf(sample.distance))
 
@@ -461,7 +465,7 @@ def test_sphere_light_fully_above_horizon_gives_point_light_irradiance(theta_deg
     u = jittered_grid()
     np.testing.assert_allclose(sampled_irradiance(light, point, normal, u), expected, rtol=SAMPLING_RTOL)
     # The sampled points lie on the sphere, at the reported distance along L.
-    sample = sample_light(light, np.broadcast_to(point, (len(u), 3)).copy(), u)
+    sample = light_sample(light, np.broadcast_to(point, (len(u), 3)).copy(), u)
     np.testing.assert_allclose(np.linalg.norm(sample.position - center, axis=1), radius, rtol=1e-9)
     np.testing.assert_allclose(point + sample.L * sample.distance[:, None], sample.position, atol=1e-12)
     # The near side of the sphere is between d - R (straight at it) and sqrt(d^2 - R^2) (tangent) away.
@@ -479,8 +483,8 @@ def test_sphere_light_converges_to_point_light_far_away():
     for ratio in (10.0, 100.0, 1000.0):
         d = ratio * radius
         center = d * towards
-        sphere = sample_light(sphere_light(position=center, power=power, radius=radius), np.zeros((len(u), 3)), u)
-        point = sample_light(PointLight(position=center, power=power), np.zeros((1, 3)), u[:1])
+        sphere = light_sample(sphere_light(position=center, power=power, radius=radius), np.zeros((len(u), 3)), u)
+        point = light_sample(PointLight(position=center, power=power), np.zeros((1, 3)), u[:1])
         exact = power / (4.0 * math.pi * d * d) * (towards @ normal)
         assert float(point.irradiance[0, 0] * (point.L[0] @ normal)) == pytest.approx(exact, rel=1e-13)
         per_sample = sphere.irradiance[:, 0] * np.maximum(sphere.L @ normal, 0.0)
@@ -526,8 +530,8 @@ def test_spot_attenuation_is_one_inside_inner_cone_and_zero_outside_cone():
     inner_angle, outer_angle = math.acos(cos_inner), math.acos(cos_outer)
     inside = np.linspace(0.0, inner_angle * (1 - 1e-6), 50)
     outside = np.linspace(outer_angle * (1 + 1e-6), math.pi, 50)
-    np.testing.assert_array_equal(spot_attenuation(light, directions_at_angles(SPOT_AXIS, inside)), 1.0)
-    np.testing.assert_array_equal(spot_attenuation(light, directions_at_angles(SPOT_AXIS, outside)), 0.0)
+    np.testing.assert_array_equal(light.attenuation(directions_at_angles(SPOT_AXIS, inside)), 1.0)
+    np.testing.assert_array_equal(light.attenuation(directions_at_angles(SPOT_AXIS, outside)), 0.0)
 
 
 def test_spot_attenuation_blend_band_is_monotonic_smooth_and_half_at_middle():
@@ -535,20 +539,20 @@ def test_spot_attenuation_blend_band_is_monotonic_smooth_and_half_at_middle():
     light = spot(60.0, 0.4)
     cos_outer, cos_inner = blend_band(60.0, 0.4)
     cosines = np.linspace(cos_inner, cos_outer, 201)                  # from the inner edge outwards
-    factor = spot_attenuation(light, directions_at_angles(SPOT_AXIS, np.arccos(cosines)))
+    factor = light.attenuation(directions_at_angles(SPOT_AXIS, np.arccos(cosines)))
     assert np.all((factor >= 0.0) & (factor <= 1.0))
     assert np.all(np.diff(factor) <= 1e-15)                            # non-increasing outwards
     assert np.all((factor[1:-1] > 0.0) & (factor[1:-1] < 1.0))         # strictly inside the band: partial
     assert factor[0] == pytest.approx(1.0, abs=1e-9) and factor[-1] == pytest.approx(0.0, abs=1e-9)
     middle = directions_at_angles(SPOT_AXIS, np.array([math.acos(0.5 * (cos_inner + cos_outer))]))
-    assert spot_attenuation(light, middle)[0] == pytest.approx(0.5, abs=1e-9)
+    assert light.attenuation(middle)[0] == pytest.approx(0.5, abs=1e-9)
 
 
 def test_spot_without_blend_has_a_hard_edge():
     """With spot_blend = 0 the cone edge is sharp: 1 just inside spot_size/2, 0 just outside."""
     light = spot(40.0, 0.0)
     half = math.radians(20.0)
-    factor = spot_attenuation(light, directions_at_angles(SPOT_AXIS, np.array([0.0, half - 1e-4, half + 1e-4])))
+    factor = light.attenuation(directions_at_angles(SPOT_AXIS, np.array([0.0, half - 1e-4, half + 1e-4])))
     np.testing.assert_array_equal(factor, [1.0, 1.0, 0.0])
 
 
@@ -560,14 +564,14 @@ def test_spot_inside_cone_equals_point_light_and_is_dark_outside():
                        math.acos(cos_outer) + 0.05, 2.5])
     distances = np.array([1.0, 2.0, 1.5, 3.0, 1.0])
     points = directions_at_angles(SPOT_AXIS, angles) * distances[:, None]
-    sample = sample_light(light, points, np.zeros((5, 2)))
+    sample = light_sample(light, points, np.zeros((5, 2)))
     point_light = 200.0 / (4.0 * math.pi * distances ** 2)
     np.testing.assert_allclose(sample.irradiance[:2], point_light[:2, None] * light.color, rtol=1e-14)
     assert 0.0 < sample.irradiance[2, 0] < point_light[2]
     assert sample.irradiance[2, 0] == pytest.approx(0.5 * point_light[2], rel=1e-9)
     np.testing.assert_array_equal(sample.irradiance[3:], 0.0)
     # The spot shines along `direction`: the point straight behind it is dark, the one ahead is lit.
-    ahead_behind = sample_light(light, np.array([SPOT_AXIS, -SPOT_AXIS]), np.zeros((2, 2)))
+    ahead_behind = light_sample(light, np.array([SPOT_AXIS, -SPOT_AXIS]), np.zeros((2, 2)))
     assert ahead_behind.irradiance[0, 0] > 0.0 and np.all(ahead_behind.irradiance[1] == 0.0)
 
 
@@ -682,7 +686,7 @@ def test_spot_blend_is_a_smoothstep_in_cosine():
     outer, inner = blend_band(70.0, 0.5)
     cosines = np.linspace(outer, inner, 9)[1:-1]
     t = (cosines - outer) / (inner - outer)
-    got = spot_attenuation(light, directions_at_angles(SPOT_AXIS, np.arccos(cosines)))
+    got = light.attenuation(directions_at_angles(SPOT_AXIS, np.arccos(cosines)))
     np.testing.assert_allclose(got, t * t * (3 - 2 * t), rtol=1e-9)
 
 
@@ -694,7 +698,7 @@ def test_non_uniformly_scaled_spot_has_an_elliptical_cone():
                       spot_blend=0.0, frame=frame)
     def lit(angle, along_x):
         d = np.array([[math.sin(angle), 0.0, -math.cos(angle)] if along_x else [0.0, math.sin(angle), -math.cos(angle)]])
-        return spot_attenuation(light, d)[0]
+        return light.attenuation(d)[0]
     edge_x = math.atan(2.0 * math.tan(half))
     assert lit(edge_x - 1e-3, True) == 1.0 and lit(edge_x + 1e-3, True) == 0.0
     assert lit(half - 1e-3, False) == 1.0 and lit(half + 1e-3, False) == 0.0
@@ -718,7 +722,7 @@ def test_spot_with_radius_applies_the_cone_per_light_sample():
     inside = (-L) @ light.direction > math.cos(math.radians(20.0))
     radiance = power / (4 * math.pi ** 2 * radius ** 2)
     expected = radiance * 2 * math.pi * (1 - math.sqrt(1 - sin2)) * np.mean(inside * L[:, 2])
-    centre_factor = spot_attenuation(light, np.array([[0.0, 0.0, -1.0]]))[0]
+    centre_factor = light.attenuation(np.array([[0.0, 0.0, -1.0]]))[0]
     assert 0.05 < np.mean(inside) < 0.95                     # the receiver sits on the cone's edge
     np.testing.assert_allclose(got, expected, rtol=5e-3)
     assert abs(got - centre_factor * radiance * cone_illuminance(1.0, sin2)) > 0.05 * got
@@ -727,7 +731,7 @@ def test_spot_with_radius_applies_the_cone_per_light_sample():
 @pytest.mark.parametrize("spread_deg", [60.0, 120.0])
 def test_area_light_spread_keeps_its_power(spread_deg):
     """A narrower spread redistributes the emission: the cosine-weighted average over the hemisphere stays 1."""
-    from core.lights.lights import spread_attenuation
+    from core.lights.area import spread_attenuation
     theta = (np.arange(200000) + 0.5) / 200000 * (math.pi / 2)
     weight = np.cos(theta) * np.sin(theta) * 2.0          # cos-weighted hemisphere density in theta, integrates to 1
     factor = spread_attenuation(math.radians(spread_deg), np.cos(theta))

@@ -80,7 +80,7 @@ def test_warm_heap_saves_the_page_faults_of_the_next_render():
     import resource
 
     from core import render
-    from core.scene.scene import RenderSettings
+    from core.scene import RenderSettings
     from test_render import showcase_scene
 
     scene = showcase_scene()

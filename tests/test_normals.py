@@ -14,13 +14,13 @@ import pytest
 from conftest import rotation, unit
 
 from core.geometry import primitives
-from core.camera.camera import Camera, generate_rays
+from core.camera import Camera, generate_rays
 from core.geometry import geometry as geometry_module
 from core.geometry.geometry import build_geometry
 from core.geometry.normals import face_forward, face_normals, interpolate, safe_normalize, vertex_normals
 from core.render import render
-from core.scene.scene import Instance, RenderSettings, Scene
-from core.integrators.direct import surface_at_hits
+from core.scene import Instance, RenderSettings, Scene
+from core.geometry.surface import surface_at_hits
 
 FLOAT32_NORMAL_ATOL = 2e-6      # a few float32 ulps of a unit vector
 

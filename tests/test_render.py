@@ -11,8 +11,8 @@ from conftest import ortho_down, pixel_points_on_plane, sun_direction
 from core.film import image_io
 from core.geometry import primitives
 from core import render
-from core.camera.camera import Camera
-from core.scene.scene import AreaLight, PointLight, RenderSettings, Scene, SpotLight, SunLight
+from core.camera import Camera
+from core.scene import AreaLight, PointLight, RenderSettings, Scene, SpotLight, SunLight
 
 
 def showcase_scene() -> Scene:
@@ -206,7 +206,7 @@ def test_objects_without_material_slots_and_with_their_own_render_in_their_colou
     red = scene.add_material((1.0, 0.0, 0.0))
     green = scene.add_material((0.0, 1.0, 0.0))
     index = scene.add_mesh(primitives.plane(1.0, center=(-1.0, 0.0, 0.0)))          # mesh slot 0 -> red
-    from core.scene.scene import DEFAULT_BASE_COLOR, Instance
+    from core.scene import DEFAULT_BASE_COLOR, Instance
     for x, table in ((0.0, np.array([green])), (1.0, np.array([], np.int64))):
         matrix = np.eye(4)
         matrix[0, 3] = x + 1.0

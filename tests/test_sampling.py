@@ -8,7 +8,7 @@ import pytest
 
 from core.sampling import sobol as sampling
 from core.render import render
-from core.scene.scene import PointLight, RenderSettings
+from core.scene import PointLight, RenderSettings
 
 
 def cells_hit(points: np.ndarray, columns_log2: int, rows_log2: int) -> np.ndarray:

@@ -18,8 +18,8 @@ from conftest import ortho_down, pixel_points_on_plane, sun_direction
 from core.geometry import primitives
 from core import render
 from core.integrators import shadows
-from core.camera.camera import Camera
-from core.scene.scene import AreaLight, PointLight, RenderSettings, Scene, SunLight
+from core.camera import Camera
+from core.scene import AreaLight, PointLight, RenderSettings, Scene, SunLight
 from hard_cases import ALBEDO, grazing_sun_image, wrong_fraction
 
 

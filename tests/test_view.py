@@ -13,7 +13,7 @@ import pytest
 from core.camera import camera as camera_
 from core.film import progressive
 from core.camera import view as view_
-from core.scene.scene import Mesh, RenderSettings, Scene, SunLight
+from core.scene import Mesh, RenderSettings, Scene, SunLight
 
 
 def frustum(left, right, bottom, top, near, far) -> np.ndarray:

@@ -45,6 +45,8 @@ growing **downwards** from the top row; pixel centres sit at +0.5.
 
 from __future__ import annotations
 
+import ctypes
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -161,6 +163,12 @@ class Camera:
     def forward(self) -> np.ndarray:
         """Unit (3,) float64 world viewing direction (local -Z)."""
         return -self.matrix_world[:3, 2]
+
+    def moved(self, origin: np.ndarray) -> "Camera":
+        """Return the camera with `origin` subtracted from its position (camera-relative rendering)."""
+        matrix = np.array(self.matrix_world)
+        matrix[:3, 3] = matrix[:3, 3] - np.asarray(origin, np.float64)
+        return dataclasses.replace(self, matrix_world=matrix)
 
     # --- the lecture's camera model ---------------------------------------
 
@@ -461,3 +469,63 @@ def _is_rotation(matrix: np.ndarray) -> bool:
     """
     gram = np.einsum("ki,kj->ij", matrix, matrix)
     return bool(np.abs(gram - np.eye(3)).max() <= 1e-12)            # (False for NaN, as allclose)
+
+
+# ---------------------------------------------------------------------------
+# The compiled twin (core/camera/camera.c)
+# ---------------------------------------------------------------------------
+
+def _camera_record_type():
+    """The C record of the camera (camera.c CameraRecord), made on first use."""
+    from ..native import library
+    if "record" not in _RECORD:
+        _RECORD["record"] = library.record("CameraRecord", [
+            "kind", "left", "right", "bottom", "top", "clip_start", "clip_end", ("rotation", 9), ("eye", 3),
+            "renormalize", "shift_x", "shift_y", "scale_x", "scale_y", "limit", "fisheye_fov", "fisheye_lens"],
+            size_function="primer_camera_record_size")
+    return _RECORD["record"]
+
+
+_RECORD: dict = {}
+_KINDS = {"PERSP": 0, "ORTHO": 1, "FISHEYE_EQUIDISTANT": 2, "FISHEYE_EQUISOLID": 3}
+
+
+def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, origin: np.ndarray):
+    """Return the camera's C record: everything generate_rays needs that does not depend on the sample.
+
+    origin: (3,) float64 the geometry's origin, subtracted from the camera's position (camera-relative).
+    """
+    from ..native import library
+    Record = _camera_record_type()
+    library.check_size(Record)
+    record = Record()
+    record.kind = _KINDS[camera.type if camera.type != "PANO" else camera.panorama_type]
+    if camera.type in ("PERSP", "ORTHO"):
+        record.left, record.right, record.bottom, record.top = viewplane(camera, width, height, pixel_aspect)
+    else:
+        record.shift_x, record.shift_y = camera.shift_x, camera.shift_y
+        record.scale_x, record.scale_y, record.limit = _fisheye_plane(camera, width, height, pixel_aspect)
+        record.fisheye_fov, record.fisheye_lens = camera.fisheye_fov, camera.fisheye_lens
+    record.clip_start, record.clip_end = camera.clip_start, camera.clip_end
+    rotation = np.asarray(camera.matrix_world, np.float64)[:3, :3]
+    record.rotation[:] = rotation.ravel().tolist()
+    record.eye[:] = (np.asarray(camera.matrix_world, np.float64)[:3, 3] - origin).tolist()
+    record.renormalize = 0.0 if _is_rotation(rotation) else 1.0
+    return record
+
+
+def compiled_rays(record, seed: int, width: int, height: int, pixels: np.ndarray, first: np.ndarray, spp: int):
+    """The camera rays of spp samples in each pixel, camera-relative, from camera.c (for the tests).
+
+    pixels, first: (p,) int64 -> origins, directions (p spp, 3) float64, t_max (p spp,) float64, valid (p spp,) bool
+    """
+    from ..native import library
+    P, I64, ptr = library.P, library.I64, library.pointer
+    pixels, first = library.contiguous(pixels, np.int64), library.contiguous(first, np.int64)
+    n = len(pixels) * spp
+    origins, directions, t_max, valid = np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n, np.uint8)
+    library.function("primer_camera_rays", None, [P, I64, I64, I64, P, P, I64, I64, P, P, P, P])(
+        ctypes.byref(record), int(seed), int(width), int(height), ptr(pixels, np.int64), ptr(first, np.int64),
+        len(pixels), int(spp), ptr(origins, np.float64), ptr(directions, np.float64), ptr(t_max, np.float64),
+        ptr(valid, np.uint8))
+    return origins, directions, t_max, valid.astype(bool)

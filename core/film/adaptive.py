@@ -39,6 +39,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import vectors
+from ..native import library
 
 # Brightness below which absolute rather than relative noise counts (as in the benchmark's relMSE,
 # whose denominator is r^2 + 0.01): noise of 0.01 in a black pixel is as visible as 1% of a white one.
@@ -165,3 +166,50 @@ def unconverged(pixels: np.ndarray, noise: PixelNoise, threshold: float, width: 
         noisy[region] |= near_edge[region] & (noise.count[region] <= first)
     wanted = grow(noisy.reshape(height, width)).reshape(-1)
     return pixels[wanted[region]]
+
+
+def unconverged_compiled(pixels: np.ndarray, noise: PixelNoise, threshold: float, width: int, height: int,
+                         first: int = 0, pool=None, bands: int = 1, estimates=None) -> np.ndarray:
+    """`unconverged` in C (core/film/adaptive.c): the pixels of `pixels` (sorted, (p,) int64) that need another pass.
+
+    noise: adaptive.PixelNoise over the whole image. One pass over the image instead of numpy's
+    twenty or so. It runs between passes, while the render's threads wait, so with a `pool` (a
+    concurrent.futures executor) it is cut into `bands` bands of rows decided at once: the same
+    answer, band after band. With `estimates` kept by add_pixels, it reads each pixel's noise and
+    mean from them instead of working them out again.
+    """
+    size = width * height
+    ptr, P, I64 = library.pointer, library.P, library.I64
+    ascending = library.function("primer_ascending", I64, [P, I64, I64])
+    kernel = library.function("primer_unconverged", I64, [I64, I64, I64, I64, P, P, P, P, P, I64, library.F64, I64]
+                              + [P] * 8)
+    pixels = library.contiguous(pixels, np.int64)
+    if not ascending(ptr(pixels, np.int64), len(pixels), size):
+        raise ValueError("unconverged: pixels must be distinct flat indices of the image, ascending")
+    weights = library.contiguous(LUMINANCE, np.float64)
+    known_error = estimates.error if estimates is not None else None
+    known_mean = estimates.mean if estimates is not None else None
+    bands = max(1, min(int(bands), height)) if pool is not None else 1
+    edges = [height * b // bands for b in range(bands + 1)]
+    wanted = np.empty(len(pixels), np.int64)      # each band writes into its own pixels' rows
+
+    def band(rows: tuple) -> np.ndarray:
+        """The wanted pixels of rows y0 .. y1 - 1, with scratch for their window (y1 - y0 + 4 rows)."""
+        y0, y1 = rows
+        k0, k1 = np.searchsorted(pixels, (y0 * width, y1 * width))
+        window = (min(height, y1 + 2) - max(0, y0 - 2)) * width
+        error, mean = np.empty(window), np.empty(window)
+        noisy, grown, row = np.empty(window, np.uint8), np.empty(window, np.uint8), np.empty(width)
+        mine = wanted[k0:k1]
+        count = kernel(
+            width, height, y0, y1, ptr(noise.total, np.float64), ptr(noise.squares, np.float64),
+            ptr(noise.count, np.int64), ptr(weights, np.float64), ptr(pixels, np.int64), len(pixels),
+            float(threshold), int(first), ptr(known_error, np.float64), ptr(known_mean, np.float64),
+            ptr(error, np.float64), ptr(mean, np.float64), ptr(noisy, np.uint8), ptr(grown, np.uint8),
+            ptr(row, np.float64), ptr(mine, np.int64))
+        return mine[:count]
+
+    rows = list(zip(edges[:-1], edges[1:]))
+    if len(rows) == 1:
+        return band(rows[0])
+    return np.concatenate(list(pool.map(band, rows)))

@@ -26,7 +26,7 @@ from ..camera import view as view_
 from ..camera.camera import Camera
 from ..geometry.geometry import WorldGeometry
 from ..render import render
-from ..scene.scene import RenderSettings, Scene
+from ..scene import RenderSettings, Scene
 
 BLOCK_SIZES = (1, 2, 4, 8, 16, 32)
 SEED_STRIDE = 7919      # seeds of successive passes, far apart so their patterns are unrelated

@@ -25,11 +25,11 @@ import numpy as np
 
 from . import embree_buffers
 from . import instancing
-from ..native import kernels
+from ..native import library
 from . import normals as normals_
 from .. import vectors
 from .intersect import Tracer
-from ..scene.scene import DEFAULT_BASE_COLOR, Scene
+from ..scene import Scene
 
 
 # Scenes up to this many triangles keep a per-triangle table of corner coordinates (WorldGeometry.corner_points).
@@ -44,8 +44,8 @@ class WorldGeometry:
     vertices:       (v, 3) float32 camera-relative points (what Embree sees)
     triangles:      (t, 3) int32 indices into vertices
     face_normals:   (t, 3) float64 unit normals on each triangle's front side
-    material:       (t,) int32 row of `albedo` per triangle
-    albedo:         (m + 1, 3) float64 base colours; the last row is the default for missing materials
+    material:       (t,) int32 row of the scene's material table per triangle (core/materials
+                    MaterialTable; its last row, m, is the default for triangles without a material)
     smooth_index:   (t,) int32 row of `corner_normals` per smooth triangle, -1 for flat ones
     corner_normals: (s, 3, 3) float32 world-space unit normals of the smooth triangles' corners
     tracer:         the Embree BVH over vertices and triangles
@@ -61,7 +61,6 @@ class WorldGeometry:
     triangles: np.ndarray
     face_normals: np.ndarray
     material: np.ndarray
-    albedo: np.ndarray
     smooth_index: np.ndarray
     corner_normals: np.ndarray
     tracer: Tracer
@@ -175,7 +174,7 @@ class TriangleData(NamedTuple):
 
     corners:        (n, 3, 3) float64 camera-relative corner points, [i, k] = corner k
     Ng:             (n, 3) float64 unit normals on the triangles' front sides
-    material:       (n,) int32 row of WorldGeometry.albedo
+    material:       (n,) int32 row of the scene's material table
     smooth:         (n,) bool which triangles are shaded with interpolated normals
     corner_normals: (s, 3, 3) float64 world unit corner normals of the smooth ones, in order
     """
@@ -198,12 +197,6 @@ def _object_corner_normals(mesh, keep: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", over="ignore"):
         per_vertex = normals_.vertex_normals(mesh.vertices, triangles, weighting="angle")
     return per_vertex[triangles]
-
-
-def material_albedo(materials: list) -> np.ndarray:
-    """Return the base colours as WorldGeometry stores them, the default grey last: (m + 1, 3) float64 in [0, 1]."""
-    colors = [np.asarray(m.base_color, np.float64)[:3] for m in materials] + [DEFAULT_BASE_COLOR]
-    return np.clip(np.nan_to_num(np.array(colors, np.float64)), 0.0, 1.0)
 
 
 # Instances are placed in batches of about this many triangles (bounds the temporary arrays).
@@ -248,8 +241,8 @@ class _Batch(NamedTuple):
 
 def _face_normals(points: np.ndarray, triangles: np.ndarray):
     """normals.face_normals, in one compiled pass where the kernels are loaded (the same numbers)."""
-    if kernels.library() is not None:
-        return kernels.face_normals(points, triangles)
+    if library.available():
+        return normals_.compiled_face_normals(points, triangles)
     return normals_.face_normals(points, triangles)
 
 
@@ -395,7 +388,6 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         triangles=triangles,
         face_normals=np.concatenate(parts["n"]) if parts["n"] else np.zeros((0, 3)),
         material=(np.concatenate(parts["m"]) if parts["m"] else np.zeros(0, np.int64)).astype(np.int32),
-        albedo=material_albedo(scene.materials),
         smooth_index=smooth_index,
         corner_normals=np.concatenate(parts["cn"]) if parts["cn"] else np.zeros((0, 3, 3), np.float32),
         tracer=Tracer(vertices, triangles, instanced=instanced),
@@ -518,8 +510,8 @@ def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: 
     corner_normals = None
     if corners is not None and smooth.any():
         inverse = vectors.determinant_and_inverse(vectors.pick_rows(all_matrices[:, :3, :3], owner))[1]   # (p, 3, 3)
-        if kernels.library() is not None:           # the same numbers in one pass
-            corner_normals = kernels.turn_normals(corners, triangle_row[smooth], inverse,
+        if library.available():                     # the same numbers in one pass
+            corner_normals = normals_.compiled_turn_normals(corners, triangle_row[smooth], inverse,
                                                   placement_of_triangle[smooth])
         else:
             corner_normals = normals_.safe_normalize(vectors.rows_times_each(corners[triangle_row[smooth]],

@@ -166,7 +166,7 @@ class InstancedMesh:
     transforms:     (k, 3, 4) float32 camera-relative object-to-world matrices [L | T], the very
                     numbers Embree traces with (it reads this array in place)
     flip:           (k,) float32 sign of det L: a mirror turns the winding, and the face normal with it
-    material:       (r, t) int32 row of WorldGeometry.albedo per triangle, one row per distinct slot table
+    material:       (r, t) int32 row of the scene's material table per triangle, one row per distinct slot table
     material_row:   (k,) int32 the row of `material` each instance uses
     owner:          (k,) int32 index into Scene.instances
     first_prim:     flat index of instance 0's triangle 0
@@ -228,7 +228,7 @@ class InstancedMesh:
         return smooth, normals_.safe_normalize(world)
 
     def materials(self, j: np.ndarray, local: np.ndarray) -> np.ndarray:
-        """Return the albedo row of triangle `local` of instance `j`: (n,), (n,) -> (n,) int32."""
+        """Return the material row of triangle `local` of instance `j`: (n,), (n,) -> (n,) int32."""
         return self.material[self.material_row[j], local]
 
     def identify(self, local: np.ndarray, u: np.ndarray, v: np.ndarray, X: np.ndarray) -> np.ndarray:

@@ -13,6 +13,7 @@ the camera looks.
 """
 from __future__ import annotations
 
+import ctypes
 import threading
 import time
 from typing import NamedTuple, Optional
@@ -20,7 +21,7 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from . import embree_buffers
-from ..native import kernels
+from ..native import library
 
 # Embree's "infinite" t_far: the largest distance embreex uses itself.
 T_INFINITY = 1e37
@@ -68,7 +69,7 @@ class Tracer:
     instanced: InstancedMesh records (core/instancing.py), each traced as an Embree instance array
     of one prototype; `intersect` reports their hits by flat triangle index like the copied ones.
     packets: True asks Embree 8 rays at a time (rtcIntersect8 / rtcOccluded8, through the compiled
-    kernels in core/kernels.c) where it can; False, or without the kernels, asks through embreex's
+    compiled code in core/geometry/embree.c) where it can; False, or without the library, asks through embreex's
     `run`, one ray at a time: the reference path. Both give the same answers. Neighbouring rays of
     a batch (a pixel's samples, a hit's light samples) travel close together, so a packet shares
     much of its way down the BVH: on the sample scenes a shadow ray costs 2.4 times less.
@@ -110,10 +111,10 @@ class Tracer:
         self.upload_seconds = uploaded - start
         self.build_seconds = time.perf_counter() - uploaded
         if packets:
-            self._packets = kernels.embree_packets(self._scene, self._device)
+            self._packets = embree_packets(self._scene, self._device)
 
-    # Whether a compiled render may trace its rays inside its kernels (kernels.primary for camera
-    # rays, kernels.shade for shadow rays) through `packets`, rather than asking `intersect` and
+    # Whether a compiled render may trace its rays inside its C chunk (core/integrators/chunk.c)
+    # through `packets`, rather than asking `intersect` and
     # `occluded`: the same rays and answers, with no arrays of rays in between. The benchmark
     # switches it off to record every ray that reaches Embree.
     stream_queries = True
@@ -125,7 +126,7 @@ class Tracer:
 
     @property
     def packets(self):
-        """The packet queries' addresses (kernels.EmbreePackets), or None."""
+        """The packet queries' addresses (EmbreePackets), or None."""
         return self._packets
 
     def count_occluded(self, seconds: float) -> None:
@@ -173,7 +174,7 @@ class Tracer:
             # The packets take the float64 rays and round them to float32 as they are filled.
             o, d, t = (np.ascontiguousarray(a, np.float64) for a in (origins, directions, t_max))
             start = time.perf_counter()
-            t_hit, prim, geometry_id, u, v, instance = kernels.intersect(self._packets, o, d, t)
+            t_hit, prim, geometry_id, u, v, instance = packet_intersect(self._packets, o, d, t)
             self._count("intersect_seconds", time.perf_counter() - start)
             hit = geometry_id >= 0
         else:
@@ -226,7 +227,7 @@ class Tracer:
         o, d, t = _f32_rays(origins, directions, t_max)
         start = time.perf_counter()
         if self._packets is not None:
-            blocked = kernels.occluded(self._packets, o, d, t)
+            blocked = packet_occluded(self._packets, o, d, t)
         else:
             blocked = self._scene.run(o, d, dists=t, query="OCCLUDED") >= 0
         self._count("occluded_seconds", time.perf_counter() - start)
@@ -236,3 +237,81 @@ class Tracer:
         """Add `seconds` to the query timer `name` (threads share it, hence the lock)."""
         with self._clock:
             setattr(self, name, getattr(self, name) + seconds)
+
+
+# ---------------------------------------------------------------------------
+# Embree's queries in packets of 8 rays (core/geometry/embree.c)
+# ---------------------------------------------------------------------------
+
+P, I64 = library.P, library.I64
+
+
+class EmbreePackets(NamedTuple):
+    """What the compiled code needs to ask one Embree scene about rays 8 at a time: addresses.
+
+    scene: the RTCScene; occluded8, intersect8: Embree's rtcOccluded8 and rtcIntersect8.
+    """
+
+    scene: int
+    occluded8: int
+    intersect8: int
+
+
+def embree_packets(scene, device) -> Optional[EmbreePackets]:
+    """Return the packet queries of an embreex scene made on `device`, or None where they cannot be had.
+
+    They need the compiled library and the very Embree library embreex loaded (embree_buffers.py finds
+    it and reads the scene's handle); otherwise the Tracer asks embreex one ray at a time.
+    """
+    if not library.available():
+        return None
+    embree = embree_buffers.embree_library()
+    handles = embree_buffers.scene_handles(scene, device) if embree is not None else None
+    if handles is None:
+        return None
+    address = lambda function: ctypes.cast(function, ctypes.c_void_p).value
+    return EmbreePackets(handles.scene, address(embree.rtcOccluded8), address(embree.rtcIntersect8))
+
+
+def _check_rays(origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> None:
+    """Refuse a ray batch whose arrays disagree in length (the C code would read past one of them)."""
+    n = len(origins)
+    if origins.shape != (n, 3) or directions.shape != (n, 3) or t_max.shape != (n,):
+        raise ValueError(f"rays: origins {origins.shape}, directions {directions.shape}, t_max {t_max.shape}")
+
+
+def packet_occluded(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+    """Whether anything lies on each ray within (0, t_max), asked 8 rays at a time: (n,) bool.
+
+    origins, directions: (n, 3) float32; t_max: (n,) float32.
+    """
+    n = len(origins)
+    _check_rays(origins, directions, t_max)
+    blocked = np.empty(n, np.bool_)
+    ptr = library.pointer
+    library.function("primer_occluded", None, [P, P, I64, P, P, P, P])(
+        packets.occluded8, packets.scene, n, ptr(origins, np.float32), ptr(directions, np.float32),
+        ptr(t_max, np.float32), blocked.ctypes.data)
+    return blocked
+
+
+def packet_intersect(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray):
+    """The nearest hit in (0, t_max) of each ray, asked 8 rays at a time.
+
+    origins, directions: (n, 3) float64; t_max: (n,) float64, rounded to Embree's float32 as the
+    packets are filled (as _f32_rays would) -> t (n,) float64 (inf where missed),
+    prim (n,) int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed),
+    u, v (n,) float64 (0 where missed), instance (n,) int64 the placement of an instanced mesh hit
+    (Embree's instPrimID; -1 on copied triangles and misses)
+    """
+    n = len(origins)
+    _check_rays(origins, directions, t_max)
+    t, prim, geometry, u, v = (np.empty(n), np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n),
+                               np.empty(n))
+    instance = np.empty(n, np.int64)
+    ptr = library.pointer
+    library.function("primer_intersect", None, [P, P, I64, P, P, P, P, P, P, P, P, P])(
+        packets.intersect8, packets.scene, n, ptr(origins, np.float64), ptr(directions, np.float64),
+        ptr(t_max, np.float64), ptr(t, np.float64), ptr(prim, np.int64), ptr(geometry, np.int32), ptr(u, np.float64),
+        ptr(v, np.float64), ptr(instance, np.int64))
+    return t, prim, geometry, u, v, instance

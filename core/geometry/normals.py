@@ -14,6 +14,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..native import library
+
 from .. import vectors
 
 
@@ -102,3 +104,35 @@ def face_forward(normals: np.ndarray, directions: np.ndarray) -> np.ndarray:
     normals, directions: (n, 3) float64 -> (n,) float64
     """
     return np.where(np.einsum("ij,ij->i", normals, directions) > 0.0, -1.0, 1.0)
+
+
+# ---------------------------------------------------------------------------
+# The compiled twins (core/geometry/triangles.c)
+# ---------------------------------------------------------------------------
+
+P, I64 = library.P, library.I64
+
+
+def compiled_face_normals(vertices: np.ndarray, triangles: np.ndarray) -> FaceNormals:
+    """face_normals in one compiled pass: vertices (v, 3) float64, triangles (t, 3) int64 (in range)
+    -> FaceNormals of (t, 3) unit normals and (t,) areas, the same numbers."""
+    vertices, triangles = library.contiguous(vertices, np.float64), library.contiguous(triangles, np.int64)
+    normals, area = np.empty((len(triangles), 3)), np.empty(len(triangles))
+    ptr = library.pointer
+    library.function("primer_face_normals", None, [I64, P, P, P, P])(
+        len(triangles), ptr(vertices, np.float64), ptr(triangles, np.int64), ptr(normals, np.float64),
+        ptr(area, np.float64))
+    return FaceNormals(normals, area)
+
+
+def compiled_turn_normals(corners: np.ndarray, rows: np.ndarray, inverse: np.ndarray, placement: np.ndarray) -> np.ndarray:
+    """safe_normalize(vectors.rows_times_each(corners[rows], inverse[placement])) in one compiled pass:
+    corners (c, 3, 3), inverse (p, 3, 3) float64; rows (n,) and placement (n,) int64 -> (n, 3, 3)."""
+    corners, inverse = library.contiguous(corners, np.float64), library.contiguous(inverse, np.float64)
+    rows, placement = library.contiguous(rows, np.int64), library.contiguous(placement, np.int64)
+    out = np.empty((len(rows), 3, 3))
+    ptr = library.pointer
+    library.function("primer_turn_normals", None, [I64, P, P, P, P, P])(
+        len(rows), ptr(corners, np.float64), ptr(rows, np.int64), ptr(inverse, np.float64),
+        ptr(placement, np.int64), ptr(out, np.float64))
+    return out

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from ..scene.scene import Mesh
+from ..scene import Mesh
 
 
 def plane(size_x: float = 2.0, size_y: float | None = None, center=(0.0, 0.0, 0.0),

@@ -148,3 +148,20 @@ def terminator_amount(NL: np.ndarray, NgL: np.ndarray, cutoff: float) -> np.ndar
 def visible(tracer, rays: ShadowRays) -> np.ndarray:
     """Return True where nothing blocks the shadow ray: (n,) bool."""
     return ~tracer.occluded(rays.origins, rays.directions, rays.t_max)
+
+
+def lift_terminator(surface, rows: np.ndarray, NL: np.ndarray, NgL: np.ndarray, cutoff: float) -> np.ndarray:
+    """Return shadow-ray origins for the hits `rows`, lifted by the terminator fix on smooth triangles.
+
+    surface: core/geometry/surface.py Surface; NL, NgL: (r,) float64 N.L and Ng.L of those hits.
+    """
+    I = surface.I[rows].copy()
+    smooth = surface.smooth[rows]
+    if not smooth.any() or cutoff <= 0.0:
+        return I
+    amount = terminator_amount(NL[smooth], NgL[smooth], cutoff)
+    chosen = rows[smooth]
+    lifted = terminator_points(surface.I[chosen], surface.vertices[chosen], surface.corners[chosen],
+                               surface.u[chosen], surface.v[chosen])
+    I[smooth] += amount[:, None] * (lifted - I[smooth])
+    return I

@@ -175,3 +175,14 @@ def sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -
     np.multiply(x, 1.0 / 2.0 ** 32, out=out[0])
     np.multiply(y, 1.0 / 2.0 ** 32, out=out[1])
     return out.T
+
+
+def compiled_sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -> np.ndarray:
+    """sample_2d in C (core/sampling/sobol.c): pixel, index (n,) int64 -> (n, 2) float64, bit for bit the same."""
+    from ..native import library
+    P, I64, ptr = library.P, library.I64, library.pointer
+    pixel, index = library.contiguous(pixel, np.int64), library.contiguous(index, np.int64)
+    out = np.empty((len(pixel), 2))
+    library.function("primer_sample_2d", None, [I64, P, P, I64, I64, P])(
+        int(seed), ptr(pixel, np.int64), ptr(index, np.int64), int(dimension), len(pixel), ptr(out, np.float64))
+    return out

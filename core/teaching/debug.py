@@ -125,3 +125,145 @@ def heat(x: np.ndarray) -> np.ndarray:
     """
     x = np.clip(np.nan_to_num(np.asarray(x, np.float64)), 0.0, 1.0)
     return np.stack([np.interp(x, HEAT_STOPS, HEAT_COLOURS[:, c]) for c in range(3)], axis=-1).astype(np.float32)
+
+
+# ---------------------------------------------------------------------------
+# Debug buffers: what the integrator decided, summed per pixel (a Recorder)
+# ---------------------------------------------------------------------------
+
+# Auxiliary buffers a render can return, with their channel counts ("lights": one per light).
+AUX_BUFFERS = {
+    "depth": 1,         # distance along the camera's view axis (Blender's Z); 1e10 where nothing was hit
+    "normal": 3,        # shading normal N, world space, facing the camera
+    "face_normal": 3,   # face normal, world space, facing the camera
+    "n_dot_l": "lights",     # max(N.L, 0) per light (N.L itself with the clamp switched off)
+    "visibility": "lights",  # fraction of shadow rays per light that reached it
+    "normal_angle": 1,  # angle between N and the face normal, degrees
+    "barycentric": 3,   # (1 - u - v, u, v) of the hit
+    "hit_distance": 1,  # t along the camera ray from the camera; 1e10 where nothing was hit
+    "acne": 1,          # fraction of the pixel's shadow rays that hit the surface they left
+    "rays": 1,          # camera rays plus shadow rays cast for the pixel
+    "time": 1,          # seconds spent on the pixel (an estimate: share_time)
+}
+MISS_DEPTH = 1e10
+# Buffers that are per-pixel totals, not means over the hit samples; and the hidden denominator of "acne".
+TOTAL_BUFFERS = ("rays", "time")
+ACNE_CAST = "acne cast"
+
+
+def aux_channels(names, lights: int) -> dict:
+    """Return the film's sums for the debug buffers `names`: name -> channels (with acne's denominator)."""
+    channels = {name: (lights if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]) for name in names}
+    if "acne" in channels:
+        channels[ACNE_CAST] = 1
+    return channels
+
+
+class DebugRecorder:
+    """Keeps, for a batch of camera rays, the values the debug buffers show (core/integrators/base.py Recorder).
+
+    Made per chunk by core/render.py; `pixel_sums` then sums them per pixel, over the samples that hit
+    (except the per-pixel totals "rays" and "time", and "acne", a ratio of two sums).
+    geometry: the WorldGeometry (acne asks it once more about blocked shadow rays).
+    """
+
+    def __init__(self, wanted, lights: int, geometry, camera_offset: np.ndarray, forward: np.ndarray,
+                 self_hit_distance: float):
+        self.wanted = set(wanted) | ({"rays"} if "time" in wanted else set())
+        self.k = lights
+        self.geometry = geometry
+        self.camera_offset, self.forward = camera_offset, forward
+        self.self_hit_distance = self_hit_distance
+        self.surface = None
+
+    def hits(self, O, D, surface, hit) -> None:
+        self.surface, self.hit = surface, hit
+        m = 0 if surface is None else len(surface.I)
+        self.D_hit = D[hit]
+        self.n_dot_l, self.visibility = np.zeros((m, self.k)), np.zeros((m, self.k))
+        self.rays, self.acne = np.zeros(m), np.zeros(m)
+
+    def light_sample(self, light, count, sample, NL, NgL, cosine, face_allows, lit) -> None:
+        self.n_dot_l[:, light] += cosine / count
+
+    def shadow_rays(self, light, count, rows, rays, seen) -> None:
+        self.visibility[rows, light] += seen / count
+        self.rays[rows] += 1.0
+        if "acne" in self.wanted:
+            blocked = np.flatnonzero(~seen)
+            self.acne[rows[blocked]] += self_intersections(
+                self.geometry, rays.origins[blocked], rays.directions[blocked], rays.t_max[blocked],
+                self.surface.prim[rows[blocked]], self.self_hit_distance)
+
+    def contribution(self, light, rows, value) -> None:
+        pass
+
+    def per_hit(self, name: str) -> np.ndarray:
+        """Return one debug buffer's value at each hit: (m, c) float64."""
+        s = self.surface
+        if name == "depth":
+            return np.einsum("ij,j->i", s.I + self.camera_offset, self.forward)[:, None]
+        if name == "normal":
+            return s.N
+        if name == "face_normal":
+            return s.Ng
+        if name == "n_dot_l":
+            return self.n_dot_l
+        if name == "visibility":
+            return self.visibility
+        if name == "normal_angle":
+            return normal_angle(s.N, s.Ng)[:, None]
+        if name == "barycentric":
+            return barycentrics(s.u, s.v)
+        if name == "hit_distance":
+            return hit_distance(s.I, -self.camera_offset, self.D_hit)[:, None]
+        raise KeyError(name)
+
+    def pixel_sums(self, owner: np.ndarray, traced_per_pixel: np.ndarray) -> dict:
+        """Sum the values per pixel: owner (m,) int64 each hit's pixel in the chunk; traced_per_pixel (p,)
+        float64 camera rays traced per pixel -> name -> (p, c) float64 (sums, so that passes add up)."""
+        p = len(traced_per_pixel)
+
+        def total(values: np.ndarray) -> np.ndarray:
+            values = values.reshape(len(owner), -1)
+            out = np.zeros((p, values.shape[1]))
+            for c in range(values.shape[1]):
+                out[:, c] = np.bincount(owner, weights=values[:, c], minlength=p)
+            return out
+
+        hit = self.surface is not None
+        sums = {}
+        for name in self.wanted - {"time"}:              # "time" is measured around the chunk
+            if name == "rays":
+                sums[name] = (traced_per_pixel + (total(self.rays)[:, 0] if hit else 0.0))[:, None]
+            elif name == "acne":
+                sums[name] = total(self.acne) if hit else np.zeros((p, 1))
+                sums[ACNE_CAST] = total(self.rays) if hit else np.zeros((p, 1))
+            elif not hit:
+                sums[name] = np.zeros((p, self.k if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]))
+            else:
+                sums[name] = total(self.per_hit(name))
+        return sums
+
+
+def aux_images(sums: dict, hits: np.ndarray, names, height: int, width: int) -> dict:
+    """Turn the film's debug sums into images: name -> (H, W, c) float32.
+
+    Means over each pixel's samples that hit, except per-pixel totals (TOTAL_BUFFERS), and acne: shadow
+    rays that hit their own surface per shadow ray cast. Pixels no sample hit: 0, or MISS_DEPTH for
+    the distance buffers.
+    """
+    images = {}
+    covered = hits > 0
+    for name in names:
+        values = sums[name]
+        if name in TOTAL_BUFFERS:
+            image = values.astype(np.float32)
+        elif name == "acne":
+            cast = sums[ACNE_CAST]
+            image = np.where(cast > 0, values / np.maximum(cast, 1.0), 0.0).astype(np.float32)
+        else:
+            image = np.full(values.shape, MISS_DEPTH if name in ("depth", "hit_distance") else 0.0, np.float32)
+            image[covered] = values[covered] / hits[covered, None]
+        images[name] = image.reshape(height, width, -1)
+    return images

@@ -1,18 +1,17 @@
 """The ray inspector: every number the renderer computes for one pixel ("use that debug output").
 
-`inspect_pixel` follows the ray through a pixel's centre exactly as core/render.py
-and core/shading.py do, with the same functions, but for one ray, and keeps
-every intermediate value:
+`inspect_pixel` runs the renderer's own integrator (core/integrators, the Python reference) on the
+ray through a pixel's centre, with a Recorder that keeps every value it decides on the way. The
+inspector computes nothing of its own:
 
-1. the primary ray (core/camera.py) and its nearest hit (t, the point I,
-   triangle, barycentrics u, v, object);
+1. the primary ray (core/camera) and its nearest hit (t, the point I, triangle, barycentrics u, v,
+   object);
 2. the face normal Ng and the shading normal N, both turned towards the viewer
-   (core/shading.py `surface_at_hits`);
-3. per light: the direction L and distance r to the light (core/lights.py),
-   N.L and Ng.L, the distance attenuation 1/r^2, whether a shadow ray was cast
-   (not when the light is behind N or behind the face), whether it was
-   occluded (core/shadows.py, `Tracer.occluded`), and the light's share of the
-   pixel: albedo / pi * E_normal * max(N.L, 0) * visibility.
+   (core/geometry/surface.py);
+3. per light: the direction L and distance r to the light (core/lights), N.L and Ng.L, the
+   distance attenuation 1/r^2, whether a shadow ray was cast (not when the light is behind N or
+   behind the face), whether it was occluded (core/integrators/shadows.py), and the light's share
+   of the pixel: f * E_normal * max(N.L, 0) * visibility (f = albedo / pi for a diffuse surface).
 
 Lights with extent (a point or spot with a radius, a sun with an angle, an
 area light) are sampled by the renderer at many random points; the inspector
@@ -32,14 +31,11 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
+from .. import render as render_
 from ..camera import camera as camera_
-from ..lights import lights as lights_
-from ..geometry import instancing
-from ..integrators import shadows
-from ..geometry.geometry import WorldGeometry, build_geometry
-from ..render import _usable_lights, validate
-from ..scene.scene import AreaLight, PointLight, RenderSettings, Scene, SpotLight, SunLight
-from ..integrators.direct import surface_at_hits, translate_light
+from ..geometry.geometry import WorldGeometry
+from ..integrators import INTEGRATORS, Recorder
+from ..scene import RenderSettings, Scene
 
 # Why a shadow ray was or was not cast (LightRecord.reason).
 CAST = "cast"
@@ -68,7 +64,7 @@ class LightRecord(NamedTuple):
     shadow_end:      (3,) float64 where the shadow ray stops (origin + t_max D); None when not cast
                      (for the sun it is the origin + t_max D with t_max = inf, so it is not finite)
     shadow_t_max:    the shadow ray's t_max; None when not cast
-    contribution:    (3,) float64 albedo / pi * E_normal * max(N.L, 0) * visibility (radiance, RGB)
+    contribution:    (3,) float64 f * E_normal * max(N.L, 0) * visibility (radiance, RGB)
     """
 
     name: str
@@ -138,96 +134,59 @@ class PixelRecord(NamedTuple):
     warnings: tuple
 
 
-def light_kind(light) -> str:
-    """Return Blender's name for the light's type: "POINT", "SPOT", "SUN" or "AREA"."""
-    if isinstance(light, SpotLight):
-        return "SPOT"
-    if isinstance(light, PointLight):
-        return "POINT"
-    if isinstance(light, SunLight):
-        return "SUN"
-    if isinstance(light, AreaLight):
-        return "AREA"
-    raise TypeError(f"unknown light type {type(light).__name__}")
+class InspectorRecorder(Recorder):
+    """Keeps every value the integrator decides for the one inspected ray (core/integrators/base.py)."""
 
+    def __init__(self, settings: RenderSettings, origin: np.ndarray):
+        self.settings, self.origin = settings, origin
+        self.surface = None
+        self.lights = {}
 
-def centre_numbers(light) -> np.ndarray:
-    """Return the unit-square point (2,) float64 that `lights.sample_light` maps to the light's centre.
+    def hits(self, O, D, surface, hit) -> None:
+        self.surface = surface
 
-    Round lights and sun disks are sampled over a cone of directions: u = (0, 0) is the cone's
-    axis, the direction to the centre. Area lights are sampled over their surface: u = (0.5, 0.5)
-    is the middle of the square, and the middle of the disk. Lights without extent ignore u.
-    """
-    if isinstance(light, AreaLight):
-        return np.array([0.5, 0.5])
-    return np.zeros(2)
-
-
-def _inspect_light(geometry: WorldGeometry, surface, light, settings: RenderSettings,
-                   offset: Optional[float]) -> LightRecord:
-    """Return what one camera-relative light does at the one-hit `surface` (camera-relative values in, world out)."""
-    origin = geometry.origin
-    I = surface.I                                   # (1, 3)
-    N, Ng = surface.N[0], surface.Ng[0]
-    # 1. Where does the light come from? One sample, at the centre for lights with extent.
-    ls = lights_.sample_light(light, I, centre_numbers(light)[None, :])
-    if not settings.distance_attenuation:
-        ls = lights_.without_distance_attenuation(light, ls, I)
-    L = ls.L[0]
-    r = float(ls.distance[0])
-    E_normal = ls.irradiance[0]
-    is_sun = isinstance(light, SunLight)
-    # 2. The lecture's two tests, as core/shading.py's direct_light makes them (lecture switches
-    #    included): N.L > 0 (the clamp) and Ng.L > 0 (the face normal decides whether the light can
-    #    be visible); with the terminator fix, smooth triangles leave the second test to the shadow ray.
-    NL = float(N @ L)
-    NgL = float(Ng @ L)
-    facing = NgL > 0.0 if settings.visibility_normal == "face" else NL > 0.0
-    face_allows = facing or (settings.terminator_fix and bool(surface.smooth[0]))
-    cosine = max(NL, 0.0) if settings.clamp_n_dot_l else NL
-    if settings.shadow_rays_for_backfacing and E_normal.max() > 0.0:
-        reason = CAST
-    elif cosine == 0.0:
-        reason = BEHIND_N
-    elif not face_allows:
-        reason = BEHIND_FACE
-    elif E_normal.max() <= 0.0:
-        reason = NO_LIGHT
-    else:
-        reason = CAST
-    occluded = shadow_origin = shadow_end = shadow_t_max = None
-    visibility = 0.0
-    if reason == CAST:
-        # 3. One shadow ray, from a point safely off the surface (terminator fix first, if on).
-        start = I
-        face_normal = surface.Ng
-        if settings.terminator_fix and surface.smooth[0] and settings.terminator_offset > 0.0:
-            amount = shadows.terminator_amount(np.array([NL]), np.array([NgL]), settings.terminator_offset)
-            lifted = shadows.terminator_points(I, surface.vertices, surface.corners, surface.u, surface.v)
-            start = I + amount[:, None] * (lifted - I)
-        elif settings.shadow_rays_for_backfacing or settings.visibility_normal != "face":
-            face_normal = face_normal * (-1.0 if NgL < 0.0 else 1.0)     # offset to the light's side
-        if settings.shadow_method == "robust":
-            rays = shadows.robust_rays(start, face_normal, np.array([offset]), ls.position, ls.L, ls.distance,
-                                       settings.reduce_t_max)
+    def light_sample(self, light, count, sample, NL, NgL, cosine, face_allows, lit) -> None:
+        s = self.settings
+        E_normal = sample.irradiance[0]
+        if s.shadow_rays_for_backfacing and E_normal.max() > 0.0:
+            reason = CAST
+        elif cosine[0] == 0.0:
+            reason = BEHIND_N
+        elif not face_allows[0]:
+            reason = BEHIND_FACE
+        elif E_normal.max() <= 0.0:
+            reason = NO_LIGHT
         else:
-            rays = shadows.epsilon_rays(start, ls.L, ls.distance, settings.epsilon, settings.reduce_t_max)
-        seen = bool(shadows.visible(geometry.tracer, rays)[0])
-        occluded = not seen
-        visibility = 1.0 if seen else 0.0
-        shadow_origin = rays.origins[0] + origin
-        shadow_t_max = float(rays.t_max[0])
-        with np.errstate(invalid="ignore"):
-            shadow_end = shadow_origin + shadow_t_max * rays.directions[0]
-    # 4. The light's share of the pixel: albedo / pi * E_normal * max(N.L, 0) * V (N.L with the clamp off).
-    contribution = surface.albedo[0] * (1.0 / math.pi) * E_normal * cosine * visibility
-    return LightRecord(
-        name=light.name, kind=light_kind(light), sampled=not lights_.is_delta(light),
-        L=L.copy(), distance=r, light_point=None if is_sun else ls.position[0] + origin,
-        n_dot_l=NL, ng_dot_l=NgL, inverse_square=None if is_sun else (1.0 / (r * r) if r > 0 else math.inf),
-        irradiance=E_normal.copy(), cast=reason == CAST, reason=reason, occluded=occluded,
-        shadow_origin=shadow_origin, shadow_end=shadow_end, shadow_t_max=shadow_t_max,
-        contribution=contribution)
+            reason = CAST
+        self.lights[light] = dict(sample=sample, NL=float(NL[0]), NgL=float(NgL[0]), reason=reason,
+                                  E_normal=E_normal.copy(), rays=None, seen=None, value=np.zeros(3))
+
+    def shadow_rays(self, light, count, rows, rays, seen) -> None:
+        self.lights[light].update(rays=rays, seen=bool(seen[0]))
+
+    def contribution(self, light, rows, value) -> None:
+        self.lights[light]["value"] = value[0].copy()
+
+    def light_record(self, index: int, light) -> LightRecord:
+        """The LightRecord of light `index` (camera-relative values in, world out)."""
+        kept = self.lights[index]
+        sample, origin = kept["sample"], self.origin
+        r = float(sample.distance[0])
+        occluded = shadow_origin = shadow_end = shadow_t_max = None
+        if kept["rays"] is not None:
+            rays = kept["rays"]
+            occluded = not kept["seen"]
+            shadow_origin = rays.origins[0] + origin
+            shadow_t_max = float(rays.t_max[0])
+            with np.errstate(invalid="ignore"):
+                shadow_end = shadow_origin + shadow_t_max * rays.directions[0]
+        is_sun = not np.isfinite(r)
+        return LightRecord(
+            name=light.name, kind=light.blender_type, sampled=not light.delta, L=sample.L[0].copy(), distance=r,
+            light_point=None if is_sun else sample.position[0] + origin, n_dot_l=kept["NL"], ng_dot_l=kept["NgL"],
+            inverse_square=None if is_sun else (1.0 / (r * r) if r > 0 else math.inf), irradiance=kept["E_normal"],
+            cast=kept["reason"] == CAST, reason=kept["reason"], occluded=occluded, shadow_origin=shadow_origin,
+            shadow_end=shadow_end, shadow_t_max=shadow_t_max, contribution=kept["value"])
 
 
 def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
@@ -237,7 +196,6 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     Raises ValueError for a scene that cannot be rendered or a pixel outside the image.
     A prebuilt `geometry` (same origin as the renderer's) skips the BVH build.
     """
-    validate(scene, settings)
     W, H = settings.width, settings.height
     if int(x) != x or int(y) != y:
         raise ValueError(f"pixel coordinates must be whole numbers, got ({x}, {y})")
@@ -245,52 +203,50 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
         raise ValueError(f"pixel ({x}, {y}) is outside the {W}x{H} image (x in 0..{W - 1}, y in 0..{H - 1}, "
                          f"row 0 at the top)")
     x, y = int(x), int(y)
-    # 1. The scene as the renderer traces it: camera-relative geometry and lights.
+    # 1. The scene as the renderer traces it, each light with extent sampled once at its centre.
+    warnings = []
+    ctx = render_.prepare(scene, settings, geometry, warnings)
+    ctx.light_numbers = light_numbers_of(ctx.lights)
     cam = scene.camera
-    origin = (np.asarray(cam.matrix_world, np.float64)[:3, 3] if settings.camera_relative else np.zeros(3))
-    if geometry is None:
-        geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing))
-    warnings = list(geometry.warnings)
-    lights = [translate_light(light, geometry.origin) for light in _usable_lights(scene, warnings)]
-    world = np.asarray(scene.world_color, np.float64)[:3]
     camera_point = np.asarray(cam.matrix_world, np.float64)[:3, 3].copy()
     # 2. The primary ray through the pixel centre.
-    rays = camera_.generate_rays(cam, W, H, np.array([x + 0.5]), np.array([y + 0.5]), tuple(settings.pixel_aspect))
-    O_world, D = rays.origins[0], rays.directions[0]
+    origin = ctx.geometry.origin
+    rays = camera_.generate_rays(ctx.extra["camera"], W, H, np.array([x + 0.5]), np.array([y + 0.5]),
+                                 tuple(settings.pixel_aspect))
+    O_world, D = rays.origins[0] + origin, rays.directions[0]
     miss = dict(x=x, y=y, camera_point=camera_point, origin=O_world.copy(), direction=D.copy(),
                 valid=bool(rays.valid[0]), hit=False, t=math.inf, I=None, Ng=None, N=None, smooth=False,
                 u=0.0, v=0.0, triangle=-1, object_name="", albedo=None, shadow_method=settings.shadow_method,
                 lights=(), warnings=tuple(warnings))
     if not rays.valid[0]:
         return PixelRecord(radiance=np.zeros(3), **miss)
-    # 3. The nearest hit, in the camera-relative frame.
-    O = rays.origins - geometry.origin
-    hits = geometry.tracer.intersect(O, rays.directions, rays.t_max)
-    if not hits.hit[0]:
-        return PixelRecord(radiance=np.zeros(3) if settings.transparent_background else world.copy(), **miss)
-    # 4. The surface: I, Ng and N facing the viewer, barycentrics, material.
-    surface = surface_at_hits(geometry, hits.prim, hits.u, hits.v, O, rays.directions, hits.t,
-                              flat_only=not settings.smooth_normals)
-    triangle = int(hits.prim[0])
-    object_name = ""
-    owner = geometry.instance_of(triangle)
-    if owner >= 0:
-        object_name = scene.instances[owner].name
-    # 5. Every light, with its shadow ray (the robust offset is computed once, as in direct_light).
-    offset = (float(shadows.error_bound(surface.I, surface.vertices)[0])
-              if settings.shadow_method == "robust" else None)
-    records = tuple(_inspect_light(geometry, surface, light, settings, offset) for light in lights)
-    radiance = np.sum([r.contribution for r in records], axis=0) if records else np.zeros(3)
-    miss.update(hit=True, t=float(hits.t[0]), I=surface.I[0] + geometry.origin, Ng=surface.Ng[0].copy(),
-                N=surface.N[0].copy(), smooth=bool(surface.smooth[0]), u=float(hits.u[0]), v=float(hits.v[0]),
-                triangle=triangle, object_name=object_name, albedo=surface.albedo[0].copy(), lights=records)
-    return PixelRecord(radiance=radiance, **miss)
+    # 3. The integrator on that one ray, with a recorder listening.
+    recorder = InspectorRecorder(settings, origin)
+    found = INTEGRATORS[settings.integrator]().radiance(ctx, rays.origins, rays.directions, rays.t_max,
+                                                        np.array([y * W + x]), np.zeros(1, np.int64), recorder)
+    if not found.hit[0]:
+        return PixelRecord(radiance=np.zeros(3) if settings.transparent_background else ctx.extra["world"].copy(),
+                           **miss)
+    surface = recorder.surface
+    triangle = int(surface.prim[0])
+    owner = ctx.geometry.instance_of(triangle)
+    object_name = scene.instances[owner].name if owner >= 0 else ""
+    records = tuple(recorder.light_record(index, light) for index, light in enumerate(ctx.lights))
+    miss.update(hit=True, t=float(surface.t[0]), I=surface.I[0] + origin, Ng=surface.Ng[0].copy(), N=surface.N[0].copy(),
+                smooth=bool(surface.smooth[0]), u=float(surface.u[0]), v=float(surface.v[0]), triangle=triangle,
+                object_name=object_name, albedo=ctx.materials.color[surface.material[0]].copy(), lights=records)
+    return PixelRecord(radiance=found.L[0].copy(), **miss)
+
+
+def light_numbers_of(lights: list) -> np.ndarray:
+    """Return the unit-square point at the centre of each light (Light.centre_numbers): (k, 2) float64."""
+    return np.array([light.centre_numbers() for light in lights]).reshape(len(lights), 2)
 
 
 def light_numbers(scene: Scene) -> np.ndarray:
-    """Return the inspector's unit-square sample per usable light, for `shading.direct_light`: (k, 2) float64.
+    """Return the inspector's unit-square sample per usable light: (k, 2) float64.
 
-    With these, direct_light evaluates exactly the samples the inspector shows.
+    With these as a Context's light_numbers, the integrator evaluates exactly the samples the inspector shows.
     """
-    usable = _usable_lights(scene, [])
-    return np.array([centre_numbers(light) for light in usable]).reshape(len(usable), 2)
+    from .. import lights as lights_
+    return light_numbers_of(lights_.usable(scene.lights, []))

@@ -1,0 +1,94 @@
+"""The surface where a ray hits: the point I, the face normal, the shading normal N, the material.
+
+The lecture's normals: the face normal Ng decides which side of the triangle a point is on (and so
+whether a light can be seen from it), the interpolated normal N shades smooth triangles; both are
+turned to face the viewer when a triangle is hit from behind.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from . import normals as normals_
+
+
+class Surface(NamedTuple):
+    """Surface records of n hits, camera-relative.
+
+    I:        (n, 3) float64 hit points
+    N:        (n, 3) float64 unit shading normals, facing the viewer
+    Ng:       (n, 3) float64 unit face normals, facing the viewer
+    material: (n,) int32 row of the scene's material table (core/materials)
+    vertices: (n, 3, 3) float64 the hit triangles' corners
+    corners:  (n, 3, 3) float64 corner normals, facing the viewer (zeros on flat triangles)
+    smooth:   (n,) bool where N was interpolated
+    u, v:     (n,) float64 barycentric coordinates
+    prim:     (n,) int64 the hit triangle (WorldGeometry's flat index)
+    t:        (n,) float64 Embree's distance along the ray
+    Read-only: N may be the very array Ng is (no hit smooth), and corners a broadcast view of zeros.
+    """
+
+    I: np.ndarray
+    N: np.ndarray
+    Ng: np.ndarray
+    material: np.ndarray
+    vertices: np.ndarray
+    corners: np.ndarray
+    smooth: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    prim: np.ndarray
+    t: np.ndarray
+
+
+def hit_points(vertices: np.ndarray, Ng: np.ndarray, u: np.ndarray, v: np.ndarray,
+               O: np.ndarray, D: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Return the hit points I, as precise as float64 allows.
+
+    Embree's t and (u, v) are float32: good to ~1e-7 of the triangle's size. We intersect the
+    float64 ray with the triangle's plane again, t = (V0 - O).Ng / D.Ng, and keep that refinement
+    wherever it agrees with Embree's t to float32 precision (it does not at grazing angles, where
+    the barycentric point is the better one).
+    vertices: (n, 3, 3) float64; Ng: (n, 3) unit; u, v, t: (n,) float64; O, D: (n, 3) float64.
+    """
+    # 1. The float64 ray meets the triangle's plane at t_plane.
+    DNg = np.einsum("ij,ij->i", D, Ng)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_plane = np.einsum("ij,ij->i", vertices[:, 0] - O, Ng) / DNg
+    I = O + t_plane[:, None] * D
+    # 2. Where that disagrees with Embree's t (grazing rays), the barycentric point instead.
+    disagrees = np.flatnonzero(~(np.abs(t_plane - t) <= 1e-5 * np.abs(t) + 1e-30))
+    if len(disagrees):
+        w = 1.0 - u[disagrees] - v[disagrees]
+        corners = vertices[disagrees]
+        I[disagrees] = (w[:, None] * corners[:, 0] + u[disagrees, None] * corners[:, 1]
+                        + v[disagrees, None] * corners[:, 2])
+    return I
+
+
+def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
+                    O: np.ndarray, D: np.ndarray, t: np.ndarray, flat_only: bool = False) -> Surface:
+    """Return the surface records of hits on `geometry` (core/geometry/geometry.py WorldGeometry).
+
+    prim: (n,) int64 triangle index; u, v, t: (n,) float64 barycentrics and distance;
+    O, D: (n, 3) float64 camera-relative ray origins and directions.
+    flat_only: ignore smooth shading (the lecture's "flat normals" switch).
+    """
+    # 1. I on the float32 triangle Embree hit.
+    triangle = geometry.triangle_data(prim, smooth=geometry.has_smooth and not flat_only)
+    vertices, Ng = triangle.corners, triangle.Ng                                # (n, 3, 3), (n, 3)
+    I = hit_points(vertices, Ng, u, v, O, D, t)
+    # 2. The face normal, flipped when the triangle was hit from behind (N.D > 0).
+    side = normals_.face_forward(Ng, D)
+    Ng = Ng * side[:, None]
+    N = Ng
+    corners = np.broadcast_to(np.zeros((1, 3, 3)), vertices.shape)     # read-only zeros: no smooth work
+    smooth = triangle.smooth
+    if smooth.any():
+        # 3. Interpolated normals only where the triangle is smooth.
+        N, corners = Ng.copy(), np.zeros_like(vertices)
+        corners[smooth] = triangle.corner_normals * side[smooth, None, None]
+        N[smooth] = normals_.interpolate(corners[smooth], u[smooth], v[smooth], Ng[smooth])
+    return Surface(I, N, Ng, triangle.material, vertices, corners, smooth, u, v, np.asarray(prim, np.int64),
+                   np.asarray(t, np.float64))

@@ -1,0 +1,53 @@
+"""The scene's triangles as the compiled code reads them (core/geometry/triangles.c GeometryTables).
+
+Made once per render from a WorldGeometry: the copied triangles' arrays and, for each instanced mesh,
+its prototype, placements and material rows, in the dtypes C reads (no copy where they already are).
+The arrays must outlive every C call that reads them: GeometryTables keeps them.
+"""
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from ..native import library
+
+
+class InstancedRecord(ctypes.Structure):
+    """One instanced mesh (triangles.c InstancedTables)."""
+
+    _fields_ = [(name, ctypes.c_void_p) for name in ("vertices", "triangles", "smooth_index", "corner_normals",
+                                                    "transforms", "flip", "material", "material_row")] + \
+               [("triangle_count", ctypes.c_double), ("placements", ctypes.c_double)]
+
+
+class GeometryRecord(ctypes.Structure):
+    """Every triangle of the scene (triangles.c GeometryTables)."""
+
+    _fields_ = [(name, ctypes.c_void_p) for name in ("vertices", "triangles", "face_normals", "material",
+                                                    "smooth_index", "corner_normals", "meshes")] + \
+               [("instanced", ctypes.c_double)]
+
+
+class GeometryTables:
+    """A WorldGeometry's arrays in C's dtypes, and the record that points at them (`record`)."""
+
+    def __init__(self, geometry):
+        c = library.contiguous
+        smooth = len(geometry.corner_normals) > 0
+        self.arrays = [c(geometry.vertices, np.float32), c(geometry.triangles, np.int32),
+                       c(geometry.face_normals, np.float64), c(geometry.material, np.int32),
+                       c(geometry.smooth_index, np.int32) if smooth else None,
+                       c(geometry.corner_normals, np.float32) if smooth else None]
+        self.meshes = (InstancedRecord * max(1, len(geometry.instanced)))()
+        for index, mesh in enumerate(geometry.instanced):
+            arrays = [c(mesh.vertices, np.float32), c(mesh.triangles, np.int32), c(mesh.smooth_index, np.int32),
+                      c(mesh.corner_normals, np.float64).reshape(-1, 3, 3), c(mesh.transforms, np.float32),
+                      c(mesh.flip, np.float32), c(mesh.material, np.int32), c(mesh.material_row, np.int32)]
+            self.arrays += arrays
+            record = self.meshes[index]
+            for (name, _), array in zip(InstancedRecord._fields_, arrays):
+                setattr(record, name, array.ctypes.data)
+            record.triangle_count, record.placements = float(len(mesh.triangles)), float(len(mesh.transforms))
+        self.record = GeometryRecord(*[None if a is None else a.ctypes.data for a in self.arrays[:6]],
+                                     ctypes.addressof(self.meshes), float(len(geometry.instanced)))

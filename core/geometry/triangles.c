@@ -1,0 +1,214 @@
+/* Hit triangles and their surfaces: WorldGeometry.triangle_data and core/geometry/surface.py.
+ *
+ * A hit is on a copied triangle (Embree's geometry 0: every placement's triangles copied into one
+ * soup) or on a placement of an instanced mesh (geometry m + 1: one prototype, many transforms,
+ * core/geometry/instancing.py). Either way, shading gets the triangle's camera-relative corners,
+ * its face normal, its material row and, on smooth triangles, its corner normals. */
+
+/* One instanced mesh (core/geometry/instancing.py InstancedMesh), as core/geometry/tables.py lays it out. */
+typedef struct {
+    const float *vertices;          /* (v, 3) object-space points */
+    const int32_t *triangles;       /* (t, 3) */
+    const int32_t *smooth_index;    /* (t,) row of corner_normals, -1 on flat triangles */
+    const double *corner_normals;   /* (s, 3, 3) object-space unit corner normals */
+    const float *transforms;        /* (k, 3, 4) camera-relative [L | T] per placement */
+    const float *flip;              /* (k,) sign of det L */
+    const int32_t *material;        /* (r, t) material row per triangle, one row per slot table */
+    const int32_t *material_row;    /* (k,) the row of `material` each placement uses */
+    double triangle_count;          /* t */
+    double placements;              /* k */
+} InstancedTables;
+
+/* Every triangle of the scene (core/geometry/tables.py `geometry_tables`). */
+typedef struct {
+    const float *vertices;          /* (v, 3) camera-relative points of the copied triangles */
+    const int32_t *triangles;       /* (t, 3) */
+    const double *face_normals;     /* (t, 3) unit front-side normals */
+    const int32_t *material;        /* (t,) material row */
+    const int32_t *smooth_index;    /* (t,) row of corner_normals, -1 flat; NULL when nothing is smooth */
+    const float *corner_normals;    /* (s, 3, 3) world unit corner normals */
+    const InstancedTables *meshes;  /* the instanced meshes, Embree geometry 1 .. instanced */
+    double instanced;
+} GeometryTables;
+
+/* What shading needs of one hit triangle. */
+typedef struct {
+    double V[9];        /* corners, camera-relative: corner k at [3 k] */
+    double Ng[3];       /* unit front-side normal */
+    double normals[9];  /* corner normals (smooth triangles only) */
+    int smooth;
+    int32_t material;
+} Triangle;
+
+/* v / |v|, or 0 where |v| is 0, infinite or NaN: normals.safe_normalize (|v|^2 summed as numpy's
+ * einsum sums three products: the first and last, then the middle). */
+INLINE void unit_or_zero(const double *v, double *out)
+{
+    double length = sqrt((v[0] * v[0] + v[2] * v[2]) + v[1] * v[1]);
+    int ok = isfinite(length) && length > 0.0;
+    for (int c = 0; c < 3; c++) out[c] = ok ? v[c] / length : 0.0;
+}
+
+INLINE void cross3(const double *a, const double *b, double *out)
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Copied triangle f (WorldGeometry._copied_data): its corners widened to double, face normal and material. */
+INLINE void copied_triangle(const GeometryTables *g, int64_t f, int want_smooth, Triangle *out)
+{
+    for (int k = 0; k < 3; k++) {
+        const float *V = g->vertices + 3 * (int64_t)g->triangles[3 * f + k];
+        for (int c = 0; c < 3; c++) out->V[3 * k + c] = (double)V[c];
+    }
+    for (int c = 0; c < 3; c++) out->Ng[c] = g->face_normals[3 * f + c];
+    out->material = g->material[f];
+    int32_t row = want_smooth && g->smooth_index ? g->smooth_index[f] : -1;
+    out->smooth = row >= 0;
+    if (out->smooth)
+        for (int c = 0; c < 9; c++) out->normals[c] = (double)g->corner_normals[9 * (int64_t)row + c];
+}
+
+/* Triangle `local` of placement j of an instanced mesh (WorldGeometry._instanced_data): the corners
+ * placed by [L | T], the normal of the placed corners (turned back for a mirroring placement), the
+ * corner normals turned by L's cofactor matrix (N' = cof(L) N, the sign of det L kept). */
+INLINE void instanced_triangle(const InstancedTables *mesh, int64_t j, int64_t local, int want_smooth, Triangle *out)
+{
+    const float *A = mesh->transforms + 12 * j;
+    double M[12];
+    for (int c = 0; c < 12; c++) M[c] = (double)A[c];
+    for (int k = 0; k < 3; k++) {
+        const float *P = mesh->vertices + 3 * (int64_t)mesh->triangles[3 * local + k];
+        double p[3] = {(double)P[0], (double)P[1], (double)P[2]};
+        for (int i = 0; i < 3; i++) out->V[3 * k + i] = (M[4 * i] * p[0] + M[4 * i + 1] * p[1] + M[4 * i + 2] * p[2]) + M[4 * i + 3];
+    }
+    double e1[3], e2[3], n[3];
+    for (int c = 0; c < 3; c++) { e1[c] = out->V[3 + c] - out->V[c]; e2[c] = out->V[6 + c] - out->V[c]; }
+    cross3(e1, e2, n);
+    unit_or_zero(n, out->Ng);
+    double flip = (double)mesh->flip[j];
+    for (int c = 0; c < 3; c++) out->Ng[c] *= flip;
+    out->material = mesh->material[(int64_t)mesh->material_row[j] * (int64_t)mesh->triangle_count + local];
+    int32_t row = want_smooth ? mesh->smooth_index[local] : -1;
+    out->smooth = row >= 0;
+    if (!out->smooth) return;
+    /* The cofactor matrix: its columns b x c, c x a, a x b for the columns a, b, c of L. */
+    double a[3] = {M[0], M[4], M[8]}, b[3] = {M[1], M[5], M[9]}, cc[3] = {M[2], M[6], M[10]};
+    double bc[3], ca[3], ab[3];
+    cross3(b, cc, bc); cross3(cc, a, ca); cross3(a, b, ab);
+    for (int k = 0; k < 3; k++) {
+        const double *N = mesh->corner_normals + 9 * (int64_t)row + 3 * k;
+        double w[3];
+        for (int i = 0; i < 3; i++) w[i] = ((bc[i] * N[0] + ca[i] * N[1]) + ab[i] * N[2]) * flip;
+        unit_or_zero(w, out->normals + 3 * k);
+    }
+}
+
+/* The hit triangle of Embree's answer (geometry id, primitive, placement), copied or instanced. */
+INLINE void hit_triangle(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance, int want_smooth,
+                         Triangle *out)
+{
+    if (geometry <= 0) copied_triangle(g, prim, want_smooth, out);
+    else instanced_triangle(g->meshes + (geometry - 1), instance, prim, want_smooth, out);
+}
+
+/* A hit's surface (core/geometry/surface.py), with what its shadow rays need. */
+typedef struct {
+    double I[3];        /* the hit point */
+    double N[3];        /* shading normal, facing the viewer */
+    double Ng[3];       /* face normal, facing the viewer */
+    double offset;      /* the robust shadow-ray offset (shadows.error_bound) */
+    double lifted[3];   /* the terminator fix's point (smooth hits, when asked for) */
+    int smooth;
+    int32_t material;
+} Surface;
+
+/* The surface of one hit: surface.hit_points, surface_at_hits, shadows.error_bound and, for the
+ * terminator fix, shadows.terminator_points. O, D: its ray; t, u, v: Embree's answer. */
+INLINE void surface_at(const double *O, const double *D, double t, double u, double v, const Triangle *tri,
+                       int want_lift, Surface *s)
+{
+    const double *V = tri->V;
+    double w = 1.0 - u - v;
+    s->smooth = tri->smooth;
+    s->material = tri->material;
+    /* 1. I: the float64 ray meets the triangle's plane, unless that disagrees with Embree's t. */
+    double to_corner[3] = {V[0] - O[0], V[1] - O[1], V[2] - O[2]};
+    double t_plane = dot3(to_corner, tri->Ng) / dot3(D, tri->Ng);
+    if (fabs(t_plane - t) <= 1e-5 * fabs(t) + 1e-30) {
+        for (int c = 0; c < 3; c++) s->I[c] = O[c] + t_plane * D[c];
+    } else {
+        for (int c = 0; c < 3; c++) s->I[c] = w * V[c] + u * V[3 + c] + v * V[6 + c];
+    }
+    /* 2. The face normal, flipped when the triangle was hit from behind (N.D > 0). */
+    double side = dot3(tri->Ng, D) > 0.0 ? -1.0 : 1.0;
+    for (int c = 0; c < 3; c++) { s->Ng[c] = tri->Ng[c] * side; s->N[c] = s->Ng[c]; }
+    /* 3. The robust offset: ROBUST_ULPS float32 ulps of the largest coordinate involved. */
+    double magnitude = largest3(s->I);
+    for (int k = 0; k < 3; k++) if (largest3(V + 3 * k) > magnitude) magnitude = largest3(V + 3 * k);
+    s->offset = ROBUST_ULPS * FLOAT32_EPSILON * magnitude;
+    if (!tri->smooth) return;
+    /* 4. Smooth triangles: the corner normals (turned with the face) interpolated and renormalised. */
+    double cn[9];
+    for (int c = 0; c < 9; c++) cn[c] = tri->normals[c] * side;
+    double n[3];
+    for (int c = 0; c < 3; c++) n[c] = w * cn[c] + u * cn[3 + c] + v * cn[6 + c];
+    double length = sqrt(dot3(n, n));
+    if (isfinite(length) && length > 0.0)
+        for (int c = 0; c < 3; c++) s->N[c] = n[c] / length;
+    /* 5. The terminator fix's point: I projected onto each corner's tangent plane where it lies
+     *    below it, the projections interpolated with the barycentrics. */
+    if (want_lift) {
+        double weight[3] = {w, u, v};
+        s->lifted[0] = s->lifted[1] = s->lifted[2] = 0.0;
+        for (int k = 0; k < 3; k++) {
+            const double *corner = V + 3 * k, *normal = cn + 3 * k;
+            double to_point[3] = {s->I[0] - corner[0], s->I[1] - corner[1], s->I[2] - corner[2]};
+            double below = dot3(to_point, normal);
+            if (below > 0.0) below = 0.0;
+            for (int c = 0; c < 3; c++)
+                s->lifted[c] += weight[k] * (corner[c] + (to_point[c] - below * normal[c]));
+        }
+    }
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Placing copies (core/geometry/geometry.py): face normals and turned corner normals, in one pass each
+ * --------------------------------------------------------------------------------------------- */
+
+/* normals.face_normals: each triangle's unit normal (e1 x e2 normalised, zero where degenerate) and
+ * area (0.5 |e1 x e2|, 0 where not finite). vertices (v, 3) float64, triangles (t, 3) int64 ->
+ * normals (t, 3), area (t,) float64. */
+EXPORT void primer_face_normals(int64_t t, const double *vertices, const int64_t *triangles, double *normals,
+                                double *area)
+{
+    for (int64_t i = 0; i < t; i++) {
+        const double *p0 = vertices + 3 * triangles[3 * i], *p1 = vertices + 3 * triangles[3 * i + 1];
+        const double *p2 = vertices + 3 * triangles[3 * i + 2];
+        double a[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+        double b[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+        double n[3];
+        cross3(a, b, n);
+        double half = 0.5 * sqrt((n[0] * n[0] + n[1] * n[1]) + n[2] * n[2]);      /* (np.linalg.norm's order) */
+        area[i] = isfinite(half) ? half : 0.0;
+        unit_or_zero(n, normals + 3 * i);
+    }
+}
+
+/* geometry._place_copies' corner normals turned by the inverse transpose, N' = N M^-1 (row vectors),
+ * normalised. corners (., 3, 3) float64, rows (n,) int64 the triangles' rows in it; inverse (p, 3, 3)
+ * float64, placement (n,) int64 -> out (n, 3, 3) float64. */
+EXPORT void primer_turn_normals(int64_t n, const double *corners, const int64_t *rows, const double *inverse,
+                                const int64_t *placement, double *out)
+{
+    for (int64_t i = 0; i < n; i++) {
+        const double *A = corners + 9 * rows[i], *B = inverse + 9 * placement[i];
+        for (int r = 0; r < 3; r++) {
+            double v[3];
+            for (int c = 0; c < 3; c++) v[c] = A[3 * r] * B[c] + A[3 * r + 1] * B[3 + c] + A[3 * r + 2] * B[6 + c];
+            unit_or_zero(v, out + 9 * i + 3 * r);
+        }
+    }
+}

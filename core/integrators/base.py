@@ -1,0 +1,98 @@
+"""What every integrator does, and what it tells the one who listens (a Recorder).
+
+An integrator turns camera rays into radiance: where does each ray hit, and how much light leaves
+that point towards the camera? It combines the parts: the geometry answers where rays hit
+(core/geometry), the lights give samples with their pdfs (core/lights), the materials evaluate and
+sample BSDFs (core/materials). Each integrator has two implementations: a readable Python reference
+here (vectorized over a batch of rays with numpy, in the lecture's symbols I, N, L, D, t) and its
+compiled twin in C beside it, which the tests hold to the same numbers.
+
+A Recorder listens to the reference as it decides: the ray inspector keeps every value for one
+pixel, the debug views sum some of them per pixel. The integrator itself carries no debug code.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar, NamedTuple, Optional
+
+import numpy as np
+
+from ..geometry.surface import Surface
+from ..lights import LightSample
+from ..materials import MaterialTable
+from .shadows import ShadowRays
+
+
+@dataclass
+class Context:
+    """What an integrator reads for every chunk of a render (made once per render).
+
+    scene:     the Scene (its lights already moved into `lights`)
+    settings:  the RenderSettings
+    geometry:  the WorldGeometry, camera-relative
+    lights:    the usable lights, camera-relative
+    materials: the MaterialTable of the scene's materials
+    light_numbers: None, or (k, 2) float64 one fixed unit-square point per light, used for every hit
+               instead of the light's sample pattern (the ray inspector's sample at each light's centre)
+    """
+
+    scene: object
+    settings: object
+    geometry: object
+    lights: list
+    materials: MaterialTable
+    light_numbers: Optional[np.ndarray] = None
+    extra: dict = field(default_factory=dict)
+
+
+class Radiance(NamedTuple):
+    """What a batch of camera rays found.
+
+    L:       (n, 3) float64 radiance towards the camera (0 where the ray missed)
+    hit:     (n,) bool which rays hit a surface
+    shadow_rays: int shadow rays traced
+    """
+
+    L: np.ndarray
+    hit: np.ndarray
+    shadow_rays: int
+
+
+class Recorder:
+    """Receives the integrator's decisions as they are made; every method here ignores them.
+
+    Subclasses keep what they need (core/teaching). Arrays are for the batch the integrator works
+    on: n rays, and per light the hits `rows` it cast shadow rays for.
+    """
+
+    def hits(self, O: np.ndarray, D: np.ndarray, surface: Optional[Surface], hit: np.ndarray) -> None:
+        """The camera rays O, D (n, 3) float64, which hit (n,) bool, and the hits' Surface (or None)."""
+
+    def light_sample(self, light: int, count: int, sample: LightSample, NL: np.ndarray, NgL: np.ndarray,
+                     cosine: np.ndarray, face_allows: np.ndarray, lit: np.ndarray) -> None:
+        """One sample (of `count`) of light `light` at every hit: N.L, Ng.L, the cosine used, whether
+        the face lets the light be seen, and `lit`: whether a shadow ray is cast. All (m,) over the hits."""
+
+    def shadow_rays(self, light: int, count: int, rows: np.ndarray, rays: ShadowRays, seen: np.ndarray) -> None:
+        """The shadow rays cast for the hits `rows` (r,) int64 and whether each reached the light (r,) bool."""
+
+    def contribution(self, light: int, rows: np.ndarray, value: np.ndarray) -> None:
+        """The radiance (r, 3) float64 that light `light`'s sample adds at the hits `rows`."""
+
+
+class Integrator:
+    """The interface every integrator implements.
+
+    name: the name RenderSettings.integrator chooses it by (core/integrators/__init__.py's table)
+    """
+
+    name: ClassVar[str] = ""
+
+    def radiance(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, pixel: np.ndarray,
+                 sample: np.ndarray, recorder: Recorder) -> Radiance:
+        """Return the radiance each camera ray brings back.
+
+        O, D: (n, 3) float64 camera-relative ray origins and unit directions; t_max: (n,) float64;
+        pixel, sample: (n,) int64 each ray's keys for its random numbers (core/sampling).
+        """
+        raise NotImplementedError

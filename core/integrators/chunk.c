@@ -1,0 +1,147 @@
+/* A chunk of a render in one call: camera rays, their hits, the integrator, the film's sums.
+ *
+ * The compiled twin of core/render.py's reference chunk (camera -> integrator -> film) for p pixels
+ * of spp samples each, BLOCK camera samples at a time: each block's rays, hits, surfaces and shadow
+ * rays live in the cache and on the stack, and its samples go straight into their pixels' sums. */
+
+enum { INTEGRATOR_DIRECT = 0 };
+
+/* Everything a chunk reads, made once per render by core/integrators/compiled.py (`chunk_params`). */
+typedef struct {
+    const CameraRecord *camera;
+    const GeometryTables *geometry;
+    const LightRecord *lights;
+    const MaterialRecord *materials;
+    const ShadowSettings *shadows;
+    void *intersect8, *occluded8, *scene;        /* Embree's packet queries and the RTCScene */
+    double light_count;
+    double integrator;                           /* INTEGRATOR_* */
+    double width, height, seed;
+    double background[4];                        /* RGBA of a camera ray that misses */
+    double luminance[3];                         /* adaptive sampling's luminance weights */
+    double want_squares;                         /* 1: sum squared luminance and alpha (adaptive sampling) */
+} ChunkParams;
+
+/* What a chunk adds up: per pixel, and for the render's statistics. */
+typedef struct {
+    double *rgba;               /* (p, 4) sums of the samples' RGBA */
+    double *squares;            /* (p, 2) sums of squared luminance and alpha, or NULL */
+    int64_t *hits;              /* (p,) samples that hit a surface */
+    int64_t counts[2];          /* camera rays traced, shadow rays traced */
+    double seconds[3];          /* inside Embree's nearest-hit queries, its occlusion queries, shading */
+} ChunkOut;
+
+/* Step 2: the block's nearest hits, 8 rays at a time; the rays that hit kept, with their surfaces. */
+INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHits *H, int64_t *traced,
+                       uint64_t *embree)
+{
+    Intersect8 intersect = (Intersect8)params->intersect8;
+    int lift = params->shadows->terminator_fix != 0.0;
+    RayHitPacket packet;
+    int valid[PACKET] ALIGNED(32);
+    int64_t lane_of[PACKET];
+    H->m = 0;
+    for (int64_t at = 0; at < b->n; at += PACKET) {
+        /* a. The next 8 camera rays that have a ray (a fisheye's samples outside its circle have none). */
+        int lanes = 0;
+        int64_t next = at;
+        for (; next < b->n && next < at + PACKET; next++) {
+            if (!b->valid[next]) continue;
+            double o[3] = {b->O[0][next], b->O[1][next], b->O[2][next]};
+            double d[3] = {b->D[0][next], b->D[1][next], b->D[2][next]};
+            set_lane(&packet.ray, lanes, o, d, b->t[next]);
+            lane_of[lanes++] = next;
+        }
+        if (lanes == 0) continue;
+        close_packet(&packet.ray, valid, lanes);
+        clear_hits(&packet);
+        uint64_t start = ticks();
+        intersect(valid, params->scene, &packet, NULL);
+        *embree += ticks() - start;
+        *traced += lanes;
+        /* b. The surface at each hit (core/geometry/surface.py) and its BSDF (a constant material). */
+        for (int k = 0; k < lanes; k++) {
+            if (packet.hit.geomID[k] == INVALID_ID) continue;
+            int64_t lane = lane_of[k], h = H->m++;
+            double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]};
+            double D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
+            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+            hit_triangle(params->geometry, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
+                         instance_of(&packet.hit, k), 1, &tri);
+            surface_at(O, D, (double)packet.ray.tfar[k], (double)packet.hit.u[k], (double)packet.hit.v[k], &tri,
+                       lift, H->s + h);
+            closure_of(params->materials, H->s[h].material, H->bsdf + h);
+            H->lane[h] = lane;
+            H->pixel[h] = (int64_t)b->pixel[lane];
+            H->sample[h] = (int64_t)b->index[lane];
+            for (int c = 0; c < 3; c++) { H->wo[3 * h + c] = -D[c]; H->L[3 * h + c] = 0.0; }
+        }
+    }
+}
+
+/* The integrator at the block's hits: the radiance each sends towards the camera, into H->L. */
+INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, uint64_t *embree)
+{
+    switch ((int)params->integrator) {
+    default:
+        return direct_light(H, params->shadows, params->lights, (int64_t)params->light_count,
+                            (Occluded8)params->occluded8, params->scene, embree);
+    }
+}
+
+/* Render spp samples in each of p pixels: samples first[k] .. first[k] + spp - 1 of pixel k's pattern.
+ * pixels, first: (p,) int64. Out: the pixels' sums (out->rgba, squares, hits, zeroed here first) and
+ * the chunk's counts and seconds (added to). */
+EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels, const int64_t *first, int64_t p,
+                                int64_t spp, ChunkOut *out)
+{
+    int64_t width = (int64_t)params->width, height = (int64_t)params->height, total = p * spp;
+    uint32_t stream = stream_of((int64_t)params->seed, 0);
+    Stopwatch started = stopwatch();
+    uint64_t spent[3] = {0, 0, 0};        /* ticks: nearest hits, occlusion, shading (as out->seconds) */
+    int64_t traced = 0, shadow_rays = 0;
+    CameraBlock b;
+    BlockHits H;
+    for (int64_t k = 0; k < p; k++) {
+        for (int c = 0; c < 4; c++) out->rgba[4 * k + c] = 0.0;
+        if (out->squares != NULL) out->squares[2 * k] = out->squares[2 * k + 1] = 0.0;
+        out->hits[k] = 0;
+    }
+    for (int64_t start = 0; start < total; start += BLOCK) {
+        /* 1. The block's camera rays (camera.c). */
+        camera_samples(&b, params->camera, stream, width, height, pixels, first, spp, start, total);
+        /* 2. Their nearest hits and the surfaces there. */
+        uint64_t begin = ticks();
+        uint64_t before = spent[0];
+        block_hits(params, &b, &H, &traced, spent);
+        uint64_t shading = ticks();
+        /* 3. The light each hit sends towards the camera. */
+        shadow_rays += integrate(params, &H, spent + 1);
+        spent[2] += (ticks() - shading) + ((shading - begin) - (spent[0] - before));
+        /* 4. Every sample of the block into its pixel's sums (film.c), in sample order. */
+        int64_t h = 0, k = start / spp, j = start % spp;
+        for (int64_t lane = 0; lane < b.n; lane++, j++) {
+            if (j == spp) { j = 0; k++; }
+            double s[4];
+            if (h < H.m && H.lane[h] == lane) {
+                for (int c = 0; c < 3; c++) s[c] = H.L[3 * h + c];
+                s[3] = 1.0;
+                h++;
+                out->hits[k]++;
+            } else if (b.valid[lane]) {
+                for (int c = 0; c < 4; c++) s[c] = params->background[c];
+            } else {
+                s[0] = s[1] = s[2] = 0.0;   /* outside a fisheye's image circle: opaque black */
+                s[3] = 1.0;
+            }
+            add_sample(s, params->luminance, out->rgba + 4 * k, out->squares != NULL ? out->squares + 2 * k : NULL);
+        }
+    }
+    out->counts[0] += traced;
+    out->counts[1] += shadow_rays;
+    double scale = seconds_per_tick(started);
+    for (int i = 0; i < 3; i++) out->seconds[i] += (double)spent[i] * scale;
+}
+
+EXPORT int64_t primer_chunk_params_size(void) { return (int64_t)sizeof(ChunkParams); }
+EXPORT int64_t primer_chunk_out_size(void) { return (int64_t)sizeof(ChunkOut); }

@@ -1,0 +1,127 @@
+"""The integrators' compiled twin: a whole chunk of pixels x samples in one C call (chunk.c).
+
+core/render.py renders every chunk through `Compiled.chunk` where it applies (`why_not`), else through
+the Python reference (camera -> integrator -> film). Both give the same numbers, within the
+tolerance tests/test_compiled.py states. This module packs what the C code reads, once per render:
+the camera (core/camera), the triangles (core/geometry/tables.py), the lights (each light's `pack`),
+the materials, the shadow settings, Embree's packet queries, and the film's background.
+"""
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from ..camera import camera as camera_
+from ..film import adaptive
+from ..film.film import ChunkSums
+from ..geometry.tables import GeometryTables
+from ..lights import LightRecord
+from ..native import library
+from .base import Context
+
+# The integrators the C code knows (chunk.c INTEGRATOR_*).
+COMPILED_INTEGRATORS = {"direct": 0}
+
+ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "terminator_fix", "terminator_offset", "seed"],
+                                size_function="primer_shadow_settings_size")
+MaterialRecord = library.record("MaterialRecord", ["kind", ("color", 3)], size_function="primer_material_record_size")
+
+
+class ChunkParams(ctypes.Structure):
+    """Everything a chunk reads (chunk.c ChunkParams)."""
+
+    _fields_ = ([(name, ctypes.c_void_p) for name in ("camera", "geometry", "lights", "materials", "shadows",
+                                                      "intersect8", "occluded8", "scene")]
+                + [(name, ctypes.c_double) for name in ("light_count", "integrator", "width", "height", "seed")]
+                + [("background", ctypes.c_double * 4), ("luminance", ctypes.c_double * 3),
+                   ("want_squares", ctypes.c_double)])
+    _size_function = "primer_chunk_params_size"
+
+
+class ChunkOut(ctypes.Structure):
+    """What a chunk adds up (chunk.c ChunkOut)."""
+
+    _fields_ = [("rgba", ctypes.c_void_p), ("squares", ctypes.c_void_p), ("hits", ctypes.c_void_p),
+                ("counts", ctypes.c_int64 * 2), ("seconds", ctypes.c_double * 3)]
+    _size_function = "primer_chunk_out_size"
+
+
+def why_not(settings) -> str:
+    """Return why a render with `settings` takes the Python reference path ('' when the C chunk applies)."""
+    if settings.kernels != "compiled":
+        return "kernels set to numpy"
+    if not library.available():
+        return library.unavailable_reason()
+    if settings.integrator not in COMPILED_INTEGRATORS:
+        return f"the {settings.integrator} integrator has no compiled twin yet"
+    if not settings.is_lecture_default():
+        return "a lecture switch is off its default"
+    if settings.aux:
+        return "debug buffers are requested"
+    if not settings.jitter:
+        return "jitter is off"
+    if abs(settings.seed) >= 2 ** 53:
+        return "the seed does not fit a double"
+    return ""
+
+
+class Compiled:
+    """A render's records for the C chunk, made once; `chunk` renders one chunk with them.
+
+    Returns None from `prepare` when the geometry's queries cannot go in packets (then the reference path renders).
+    """
+
+    def __init__(self, ctx: Context, background: np.ndarray):
+        s = ctx.settings
+        for struct in (LightRecord, ShadowSettings, MaterialRecord, ChunkParams, ChunkOut):
+            library.check_size(struct)
+        geometry = ctx.geometry
+        self.tracer = geometry.tracer
+        packets = self.tracer.packets
+        self.camera = camera_.camera_record(ctx.scene.camera, s.width, s.height, tuple(s.pixel_aspect), geometry.origin)
+        self.tables = GeometryTables(geometry)
+        self.lights = (LightRecord * max(1, len(ctx.lights)))(
+            *[light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)])
+        self.materials = (MaterialRecord * len(ctx.materials.kind))()
+        for row, (kind, color) in enumerate(zip(ctx.materials.kind, ctx.materials.color)):
+            self.materials[row].kind = float(kind)
+            self.materials[row].color[:] = color.tolist()
+        self.shadows = ShadowSettings(1.0 if s.shadow_method == "robust" else 0.0, float(s.epsilon),
+                                      1.0 if s.terminator_fix else 0.0, float(s.terminator_offset), float(s.seed))
+        params = ChunkParams()
+        params.camera, params.geometry = ctypes.addressof(self.camera), ctypes.addressof(self.tables.record)
+        params.lights, params.materials = ctypes.addressof(self.lights), ctypes.addressof(self.materials)
+        params.shadows = ctypes.addressof(self.shadows)
+        params.intersect8, params.occluded8, params.scene = packets.intersect8, packets.occluded8, packets.scene
+        params.light_count = float(len(ctx.lights))
+        params.integrator = float(COMPILED_INTEGRATORS[s.integrator])
+        params.width, params.height = float(s.width), float(s.height)
+        params.background[:] = [float(x) for x in background]
+        params.luminance[:] = adaptive.LUMINANCE.tolist()
+        params.want_squares = 1.0 if s.adaptive else 0.0
+        self.params = params
+        self.want_squares = bool(s.adaptive)
+        self._render = library.function("primer_render_chunk", None,
+                                        [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64,
+                                         ctypes.c_int64, ctypes.c_void_p])
+
+    @staticmethod
+    def applies(ctx: Context) -> bool:
+        """Whether the scene's queries can be asked in packets from C (a Tracer with packets, or no geometry)."""
+        return ctx.geometry.tracer.packets is not None
+
+    def chunk(self, pixels: np.ndarray, spp: int, seed: int, first: np.ndarray) -> ChunkSums:
+        """Render spp samples in each of `pixels` (samples first .. first + spp - 1 of each pixel's pattern)."""
+        p = len(pixels)
+        pixels = library.contiguous(pixels, np.int64)
+        first = library.contiguous(first, np.int64)
+        rgba, squares, hits = np.empty((p, 4)), (np.empty((p, 2)) if self.want_squares else None), np.empty(p, np.int64)
+        params = ChunkParams.from_buffer_copy(self.params)
+        params.seed = float(seed)
+        out = ChunkOut(rgba.ctypes.data, None if squares is None else squares.ctypes.data, hits.ctypes.data)
+        self._render(ctypes.addressof(params), pixels.ctypes.data, first.ctypes.data, p, int(spp), ctypes.addressof(out))
+        self.tracer.count_intersect(out.seconds[0])
+        self.tracer.count_occluded(out.seconds[1])
+        return ChunkSums(rgba, squares if squares is not None else np.zeros((p, 2)), hits, {}, int(out.counts[0]),
+                         int(out.counts[1]), spp, out.seconds[0], out.seconds[1], out.seconds[2])

@@ -1,0 +1,188 @@
+/* Direct lighting: core/integrators/direct.py, the lecture's ray tracer, for a block of hits.
+ *
+ * For every light, every sample of it at every hit: where the light comes from (core/lights), the
+ * lecture's two tests (N.L > 0 and Ng.L > 0), one shadow ray from a point safely off the surface
+ * (shadows.c), and what gets through, f(wo, L) E_normal max(N.L, 0) / samples times the light's
+ * colour, added to the hit's radiance. The samples go BLOCK at a time through SIMD lanes, their
+ * shadow rays 8 at a time through Embree's packets, while all of it is still in the cache. */
+
+/* The hits of one block of camera samples, one row per hit (at most BLOCK). */
+typedef struct {
+    int64_t m;
+    int64_t lane[BLOCK];                         /* the camera sample (lane of the block) it belongs to */
+    int64_t pixel[BLOCK], sample[BLOCK];         /* its random-number keys */
+    Surface s[BLOCK];
+    Closure bsdf[BLOCK];
+    double wo[3 * BLOCK];                        /* towards the viewer */
+    double L[3 * BLOCK];                         /* the radiance it sends towards the viewer */
+} BlockHits;
+
+/* Light samples of one light, BLOCK at a time (structure of arrays, see sample_lanes). */
+typedef struct {
+    int64_t n;                                   /* lanes in use */
+    int64_t hit[BLOCK];                          /* the hit each light sample belongs to */
+    uint32_t pixel[BLOCK], index[BLOCK];         /* its random-number keys */
+    double u[2][BLOCK];                          /* its point in the unit square */
+    double P[3][BLOCK], N[3][BLOCK], Ng[3][BLOCK], lifted[3][BLOCK];
+    double offset[BLOCK], smooth[BLOCK];
+    double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK];
+    double origin[3][BLOCK], D[3][BLOCK], t[BLOCK], weight[BLOCK];
+    double keep[BLOCK];                          /* 1: the ray can carry light */
+    double f[3][BLOCK];                          /* the BSDF of the lane's hit, for its light direction */
+} SampleBlock;
+
+/* Step 0: samples first .. first + n - 1 of a light with `count` samples per hit (sample s is sample
+ * s % count of hit s / count): their hits' data, gathered into columns. */
+SIMD_CLONES NOINLINE static void gather_block(SampleBlock *b, const BlockHits *H, int64_t first, int64_t n,
+                                              int64_t count, int lift)
+{
+    int64_t i = first / count, j = first % count;
+    b->n = n;
+    for (int64_t k = 0; k < n; k++) {
+        const Surface *s = H->s + i;
+        b->hit[k] = i;
+        b->pixel[k] = (uint32_t)H->pixel[i];
+        b->index[k] = (uint32_t)(H->sample[i] * count + j);
+        for (int c = 0; c < 3; c++) {
+            b->P[c][k] = s->I[c];
+            b->N[c][k] = s->N[c];
+            b->Ng[c][k] = s->Ng[c];
+            b->lifted[c][k] = lift && s->smooth ? s->lifted[c] : s->I[c];
+        }
+        b->offset[k] = s->offset;
+        b->smooth[k] = s->smooth ? 1.0 : 0.0;
+        if (++j == count) { j = 0; i++; }
+    }
+}
+
+/* Step 1: where the light comes from (Light.sample), one lane at a time through the lights' table. */
+SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const LightRecord *restrict record)
+{
+    const LightRecord copy = *record, *light = &copy;   /* a local copy: every lane may read every field */
+    for (int64_t k = 0; k < b->n; k++) {
+        double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[2] = {b->u[0][k], b->u[1][k]};
+        LightSample ls;
+        sample_light(light, P, u, &ls);
+        for (int c = 0; c < 3; c++) { b->L[c][k] = ls.L[c]; b->position[c][k] = ls.position[c]; }
+        b->distance[k] = ls.distance;
+        b->strength[k] = ls.strength;
+    }
+}
+
+/* Step 2: the lecture's two tests, then the shadow ray (shadows.c) and the sample's scalar weight
+ * E_normal max(N.L, 0) / samples. (Inlined once for each offset method, so that the loop has no branch.) */
+INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict settings, int lift, double samples,
+                      int robust)
+{
+    double lifting = lift && settings->terminator_offset > 0.0 ? 1.0 : 0.0;
+    double fix = settings->terminator_fix != 0.0 ? 1.0 : 0.0;
+    double cutoff = settings->terminator_offset, epsilon = settings->epsilon;
+    for (int64_t k = 0; k < b->n; k++) {
+        double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
+        double n[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, ng[3] = {b->Ng[0][k], b->Ng[1][k], b->Ng[2][k]};
+        double lifted[3] = {b->lifted[0][k], b->lifted[1][k], b->lifted[2][k]};
+        double position[3] = {b->position[0][k], b->position[1][k], b->position[2][k]};
+        /* a. N.L > 0 and Ng.L > 0 (smooth points lifted by the terminator fix leave that to their ray). */
+        double NL = dot3(n, L), NgL = dot3(ng, L);
+        double cosine = at_least(NL, 0.0);
+        int face_allows = (NgL > 0.0) | ((fix * b->smooth[k]) != 0.0);
+        b->keep[k] = (cosine != 0.0) & face_allows & (b->strength[k] > 0.0) ? 1.0 : 0.0;
+        /* b. The ray, from I or the terminator fix's blend towards the lifted point (amount 0 elsewhere). */
+        double amount = (lifting * b->smooth[k]) != 0.0 ? terminator_amount(NL, NgL, cutoff) : 0.0;
+        double origin[3], D[3], t;
+        shadow_ray(P, ng, lifted, b->offset[k], amount, L, b->distance[k], position, robust, epsilon, origin, D, &t);
+        for (int c = 0; c < 3; c++) { b->origin[c][k] = origin[c]; b->D[c][k] = D[c]; }
+        b->t[k] = t;
+        b->weight[k] = b->strength[k] * cosine * (1.0 / samples);
+    }
+}
+
+SIMD_CLONES NOINLINE static void ray_block(SampleBlock *restrict b, const ShadowSettings *restrict settings,
+                                           int lift, double samples)
+{
+    if (settings->robust != 0.0) ray_lanes(b, settings, lift, samples, 1);
+    else ray_lanes(b, settings, lift, samples, 0);
+}
+
+/* Step 3: f(wo, L) of each lane's hit (the BSDFs' table); all-Lambert blocks in SIMD lanes. */
+static void bsdf_block(SampleBlock *restrict b, const BlockHits *restrict H)
+{
+    int lambert = 1;
+    for (int64_t k = 0; k < b->n; k++) lambert &= H->bsdf[b->hit[k]].kind == BSDF_LAMBERT;
+    if (lambert) {
+        for (int64_t k = 0; k < b->n; k++)
+            for (int c = 0; c < 3; c++) b->f[c][k] = H->bsdf[b->hit[k]].color[c] * (1.0 / PI);
+        return;
+    }
+    for (int64_t k = 0; k < b->n; k++) {
+        int64_t h = b->hit[k];
+        double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, f[3];
+        bsdf_f(H->bsdf + h, H->s[h].N, H->wo + 3 * h, L, f);
+        for (int c = 0; c < 3; c++) b->f[c][k] = f[c];
+    }
+}
+
+/* Step 4: the rays that can carry light go into packets, Embree answers each packet of 8, and what
+ * gets through, (weight colour) f, is added to its hit's radiance in ray order. Returns the rays traced. */
+INLINE int64_t occlude_block(const SampleBlock *b, const LightRecord *light, Occluded8 occluded8, void *scene,
+                             double *L_out)
+{
+    RayPacket ray;
+    int valid[PACKET] ALIGNED(32);
+    int64_t owner[PACKET], rays = 0;
+    double value[PACKET][3];
+    int lanes = 0;
+    for (int64_t k = 0; k <= b->n; k++) {
+        if (k < b->n) {
+            if (b->keep[k] == 0.0) continue;
+            double o[3] = {b->origin[0][k], b->origin[1][k], b->origin[2][k]};
+            double d[3] = {b->D[0][k], b->D[1][k], b->D[2][k]};
+            set_lane(&ray, lanes, o, d, b->t[k]);
+            owner[lanes] = b->hit[k];
+            for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * light->color[c]) * b->f[c][k];
+            if (++lanes < PACKET) continue;
+        }
+        if (lanes == 0) continue;
+        close_packet(&ray, valid, lanes);
+        occluded8(valid, scene, &ray, NULL);
+        for (int lane = 0; lane < lanes; lane++) {
+            if (ray.tfar[lane] < 0.0f) continue;               /* blocked */
+            double *e = L_out + 3 * owner[lane];
+            for (int c = 0; c < 3; c++) e[c] += value[lane][c];
+        }
+        rays += lanes;
+        lanes = 0;
+    }
+    return rays;
+}
+
+/* Direct light at the block's hits, added to H->L: every light's samples, BLOCK at a time. Returns the
+ * shadow rays traced; embree_ticks[0] += the time inside Embree's occlusion queries. */
+INLINE int64_t direct_light(BlockHits *H, const ShadowSettings *settings, const LightRecord *lights,
+                            int64_t n_lights, Occluded8 occluded, void *scene, uint64_t *embree_ticks)
+{
+    SampleBlock b;
+    int64_t rays = 0;
+    uint64_t embree = 0;
+    int lift = settings->terminator_fix != 0.0;
+    for (int64_t l = 0; l < n_lights; l++) {
+        const LightRecord *light = lights + l;
+        int64_t count = (int64_t)light->samples, total = H->m * count;
+        for (int64_t first = 0; first < total; first += BLOCK) {
+            gather_block(&b, H, first, total - first < BLOCK ? total - first : BLOCK, count, lift);
+            if (light->delta == 0.0)
+                sample_lanes(b.n, stream_of((int64_t)settings->seed, (int64_t)light->dimension), b.pixel, b.index,
+                             b.u[0], b.u[1]);
+            else
+                for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = 0.0;
+            light_block(&b, light);
+            ray_block(&b, settings, lift, (double)count);
+            bsdf_block(&b, H);
+            uint64_t start = ticks();
+            rays += occlude_block(&b, light, occluded, scene, H->L);
+            embree += ticks() - start;
+        }
+    }
+    embree_ticks[0] += embree;
+    return rays;
+}

@@ -1,0 +1,45 @@
+/* Shadow rays: core/integrators/shadows.py. From a point safely off the surface towards a light sample. */
+
+/* How shadow rays leave the surface (RenderSettings' shadow settings). */
+typedef struct {
+    double robust;            /* 1: robust offsets (shadows.robust_rays); 0: the lecture's epsilon */
+    double epsilon;
+    double terminator_fix;    /* 1: lift smooth points (Surface.lifted) */
+    double terminator_offset;
+    double seed;
+} ShadowSettings;
+
+/* The shadow ray of one light sample: shadows.robust_rays when `robust`, else shadows.epsilon_rays,
+ * from I (or the terminator fix's blend towards the lifted point) towards the sampled light point.
+ * P, ng, lifted: the hit's point, face normal (facing the viewer) and terminator point; offset: its
+ * robust offset; amount: how far towards `lifted` to move (0 off smooth hits or without the fix);
+ * L, distance, position: the light sample. Out: origin, D, *t. */
+INLINE void shadow_ray(const double *P, const double *ng, const double *lifted, double offset, double amount,
+                       const double *L, double distance, const double *position, int robust, double epsilon,
+                       double *origin, double *D, double *t)
+{
+    for (int c = 0; c < 3; c++) origin[c] = P[c] + amount * (lifted[c] - P[c]);
+    if (robust) {
+        /* Off the surface along Ng by the error bound, towards the light point, stopping short of it by
+         * the rounding at its own coordinates; a sun's ray keeps its direction. */
+        for (int c = 0; c < 3; c++) origin[c] += offset * ng[c];
+        double w[3] = {position[0] - origin[0], position[1] - origin[1], position[2] - origin[2]};
+        double length = sqrt(dot3(w, w));
+        double inverse = 1.0 / at_least(length, 1e-300);
+        double stop = length - ROBUST_ULPS * FLOAT32_EPSILON * largest3(position);
+        int finite = distance < INFINITY;
+        for (int c = 0; c < 3; c++) D[c] = finite ? w[c] * inverse : L[c];
+        *t = finite ? at_least(stop, 0.0) : distance;
+    } else {
+        /* The lecture's epsilon: origin I + epsilon L, t_max = distance - 2 epsilon. */
+        for (int c = 0; c < 3; c++) { origin[c] += epsilon * L[c]; D[c] = L[c]; }
+        *t = at_least(distance - 2.0 * epsilon, 0.0);
+    }
+}
+
+/* shadows.terminator_amount: how much of the terminator lift to apply, 0..1, as Cycles blends it. */
+INLINE double terminator_amount(double NL, double NgL, double cutoff)
+{
+    double amount = NL < cutoff ? 2.0 - (NgL + NL) / cutoff : 1.0 - NgL / cutoff;
+    return amount < 0.0 ? 0.0 : (amount > 1.0 ? 1.0 : amount);
+}

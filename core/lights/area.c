@@ -1,0 +1,48 @@
+/* Area lights: core/lights/area.py, a one-sided planar emitter sampled uniformly over its area. */
+
+/* Where on a DISK or ELLIPSE light the sample u falls, in its unit square's frame: the concentric
+ * map of the square onto the unit disk (Shirley-Chiu), halved (area.concentric_disk). */
+INLINE void area_disk_point(const double *u, double *x, double *y)
+{
+    double a = 2.0 * u[0] - 1.0, bb = 2.0 * u[1] - 1.0;
+    int use_a = fabs(a) > fabs(bb);
+    double r = use_a ? a : bb;
+    double ratio = r == 0.0 ? 0.0 : (use_a ? bb : a) / r;
+    double phi = use_a ? (PI / 4) * ratio : (PI / 2) - (PI / 4) * ratio;
+    double cos_phi, sin_phi;
+    cos_sin(phi < 0.0 ? phi + 2.0 * PI : phi, &cos_phi, &sin_phi);
+    *x = 0.5 * r * cos_phi;
+    *y = 0.5 * r * sin_phi;
+}
+
+/* The light's point (x, y) (in [-1/2, 1/2]^2 of its edges), seen from P: E_normal = L_e cos(theta_light)
+ * A / d^2, narrowed by the spread; pdf = d^2 / (cos(theta_light) A). (Each value is computed whatever
+ * the tests say, then chosen: loops over many samples need no branches. Values thrown away may be
+ * inf or NaN.) */
+INLINE void sample_area(const LightRecord *light, const double *P, double x, double y, LightSample *out)
+{
+    for (int c = 0; c < 3; c++)
+        out->position[c] = x * light->axis_u[c] + y * light->axis_v[c] + light->position[c];
+    double d = direction_to(P, out->position, out->L);
+    double cos_light = -dot3(out->L, light->direction);
+    int facing = (cos_light > 0.0) & (d > 0.0);
+    double geometry = cos_light * light->area / (d * d);
+    double pdf = d * d / (cos_light * light->area);
+    geometry = facing ? geometry : 0.0;
+    if (light->spread_narrow != 0.0) {
+        double tan_theta = sqrt(at_least(1.0 - cos_light * cos_light, 0.0)) / cos_light;
+        double narrowed = at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
+        geometry *= cos_light > 0.0 ? narrowed : 0.0;
+    }
+    out->distance = d;
+    out->strength = light->radiance * geometry;
+    out->pdf = facing ? pdf : 0.0;
+}
+
+/* AreaLight.sample for the unit-square sample u. */
+INLINE void sample_area_light(const LightRecord *light, const double *P, const double *u, LightSample *out)
+{
+    double x = u[0] - 0.5, y = u[1] - 0.5;
+    if (light->ellipse != 0.0) area_disk_point(u, &x, &y);
+    sample_area(light, P, x, y, out);
+}

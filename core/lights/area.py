@@ -1,0 +1,149 @@
+"""Area lights: a one-sided planar emitter (square, rectangle, disk or ellipse), sampled over its area."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar, Optional
+
+import numpy as np
+
+from .. import vectors
+from .base import Cone, Light, LightHit, LightSample, direction_to
+
+
+def spread_constants(spread: float) -> tuple[float, float]:
+    """Return (tan h, norm) of `spread_attenuation` for a spread below pi, h = spread / 2; norm = tan h - h."""
+    half = 0.5 * max(spread, 1e-6)
+    return math.tan(half), (math.tan(half) - half if half > 0.05 else half ** 3 / 3.0)
+
+
+def spread_attenuation(spread: float, cos_light: np.ndarray) -> np.ndarray:
+    """Return Blender's area-light spread factor for emission at angle theta to the light's normal.
+
+    spread = pi (the default) is a Lambertian emitter: factor 1. A narrower spread, with
+    h = spread / 2, weighs the radiance by max(0, tan h - tan theta) / (tan h - h), which keeps
+    the emitted power unchanged. cos_light: (n,) float64 -> (n,) float64
+    """
+    if spread >= math.pi:
+        return np.ones_like(cos_light)
+    tan_half, norm = spread_constants(spread)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tan_theta = np.sqrt(np.maximum(0.0, 1.0 - cos_light * cos_light)) / cos_light
+    return np.where(cos_light > 0, np.maximum(0.0, tan_half - tan_theta), 0.0) / norm
+
+
+def concentric_disk(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Map unit-square points onto the disk of radius 1/2 (Shirley-Chiu's concentric map): (n, 2) -> x, y (n,)."""
+    a = 2.0 * u[:, 0] - 1.0
+    b = 2.0 * u[:, 1] - 1.0
+    use_a = np.abs(a) > np.abs(b)
+    r = np.where(use_a, a, b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(use_a, b, a) / r
+    ratio[r == 0.0] = 0.0
+    phi = np.where(use_a, (math.pi / 4) * ratio, (math.pi / 2) - (math.pi / 4) * ratio)
+    cos_phi, sin_phi = vectors.cos_sin(np.where(phi < 0.0, phi + 2.0 * math.pi, phi))
+    return 0.5 * r * cos_phi, 0.5 * r * sin_phi
+
+
+@dataclass
+class AreaLight(Light):
+    """A one-sided planar emitter of `power` watts with radiance P / (pi A).
+
+    center:    (3,) float64 world point
+    axis_u:    (3,) float64 world vector spanning the full size along the light's local X
+    axis_v:    (3,) float64 world vector spanning the full size along the light's local Y
+    direction: (3,) float64 unit normal on the emitting side (Blender's local -Z)
+    shape:     "SQUARE" | "RECTANGLE" (a parallelogram from the two axes) or "DISK" | "ELLIPSE"
+    spread:    radians; below pi, Blender narrows the emission towards the normal (power kept)
+    """
+
+    center: np.ndarray
+    axis_u: np.ndarray
+    axis_v: np.ndarray
+    direction: np.ndarray
+    power: float = 100.0
+    color: np.ndarray = field(default_factory=lambda: np.ones(3))
+    shape: str = "SQUARE"
+    spread: float = math.pi
+    name: str = "Area"
+
+    kind: ClassVar[int] = 3
+    blender_type: ClassVar[str] = "AREA"
+    point_fields: ClassVar[tuple] = ("center",)
+
+    @property
+    def round(self) -> bool:
+        """Whether the light is a disk or an ellipse (else a parallelogram)."""
+        return self.shape in ("DISK", "ELLIPSE")
+
+    def area(self) -> float:
+        """Return the emitting area in m^2."""
+        parallelogram = float(np.linalg.norm(np.cross(np.asarray(self.axis_u, np.float64),
+                                                      np.asarray(self.axis_v, np.float64))))
+        return 0.25 * math.pi * parallelogram if self.round else parallelogram
+
+    def radiance(self) -> float:
+        """Return the radiance P / (pi A) (0 for a degenerate light)."""
+        area = self.area()
+        return self.power / (math.pi * area) if area > 0 else 0.0
+
+    def points(self, u: np.ndarray) -> np.ndarray:
+        """Map unit-square samples to points on the light, uniform in area: (n, 2) -> (n, 3) float64."""
+        if self.round:
+            x, y = concentric_disk(u)
+        else:
+            x, y = u[:, 0] - 0.5, u[:, 1] - 0.5
+        return vectors.combine(np.asarray(self.center, np.float64), [x, y],
+                               [np.asarray(self.axis_u, np.float64), np.asarray(self.axis_v, np.float64)])
+
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
+        """A point uniform in area: E_normal = L_e cos(theta_light) A / d^2, pdf = d^2 / (cos(theta_light) A)."""
+        targets = self.points(u)
+        area = self.area()
+        L, distance = direction_to(points, targets)
+        normal = np.asarray(self.direction, np.float64)
+        cos_light = -np.einsum("ij,j->i", L, normal)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            facing = (cos_light > 0) & (distance > 0)
+            geometry = np.where(facing, cos_light * area / (distance * distance), 0.0)
+            pdf = np.where(facing, distance * distance / (cos_light * area), 0.0)
+        geometry *= spread_attenuation(self.spread, cos_light)
+        color = np.asarray(self.color, np.float64)[:3]
+        return LightSample(L, distance, self.radiance() * geometry, pdf, color, targets)
+
+    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
+        """Rays meet the light's plane from its emitting side, inside its shape: radiance L_e (spread
+        applied) and the pdf `sample` gives that direction, d^2 / (cos(theta_light) A)."""
+        normal = np.asarray(self.direction, np.float64)
+        center = np.asarray(self.center, np.float64)
+        axis_u, axis_v = np.asarray(self.axis_u, np.float64), np.asarray(self.axis_v, np.float64)
+        cos_light = -np.einsum("ij,j->i", directions, normal)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.einsum("ij,j->i", center - origins, normal) / -cos_light
+            X = origins + t[:, None] * directions - center
+            # The hit point in the light's own coordinates (x, y in [-1/2, 1/2] on the square).
+            gram = np.array([[axis_u @ axis_u, axis_u @ axis_v], [axis_u @ axis_v, axis_v @ axis_v]])
+            x, y = np.linalg.solve(gram, np.stack([X @ axis_u, X @ axis_v])) if len(X) else (np.zeros(0),) * 2
+            inside = (x * x + y * y <= 0.25) if self.round else ((np.abs(x) <= 0.5) & (np.abs(y) <= 0.5))
+            hit = (cos_light > 0) & (t > 0) & (t < t_max) & inside
+            area = self.area()
+            pdf = np.where(hit, t * t / (cos_light * area), 0.0)
+            radiance = np.where(hit, self.radiance() * spread_attenuation(self.spread, cos_light), 0.0)
+        return LightHit(hit, np.where(hit, t, np.inf), radiance, pdf)
+
+    def centre_numbers(self) -> np.ndarray:
+        """u = (0.5, 0.5) is the middle of the square, and the middle of the disk."""
+        return np.array([0.5, 0.5])
+
+    def pack_fields(self, record) -> None:
+        record.position[:] = np.asarray(self.center, np.float64).tolist()
+        record.direction[:] = np.asarray(self.direction, np.float64).tolist()
+        record.axis_u[:] = np.asarray(self.axis_u, np.float64).tolist()
+        record.axis_v[:] = np.asarray(self.axis_v, np.float64).tolist()
+        record.ellipse = 1.0 if self.round else 0.0
+        record.area = self.area()
+        record.radiance = self.radiance()
+        if self.spread < math.pi:
+            record.spread_narrow = 1.0
+            record.spread_tan_half, record.spread_norm = spread_constants(self.spread)

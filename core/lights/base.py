@@ -1,0 +1,237 @@
+"""What every light does: give a sample of the light arriving at a point, with its pdf.
+
+The lecture's transport: emitted energy, distance attenuation 1/r^2, absorption by the material,
+and N.L. Every light answers one question for a batch of shading points: "from which direction L,
+over which distance, with what irradiance at normal incidence, and with which probability density
+does light arrive?" The integrator multiplies by the BSDF, by max(N.L, 0) and by the shadow ray's
+verdict. For a point light of power P at distance r:
+
+    E_normal = P / (4 pi) / r^2      (intensity I = P / (4 pi) W/sr, then 1/r^2)
+
+Lights without extent (point and spot of radius 0, sun of angle 0) are exact: one direction, no
+noise, and a pdf of infinity (a delta: no BSDF-sampled direction can find them). Lights with extent
+(sphere, sun disk, area) are sampled: each sample returns an unbiased estimate E_normal = L_e / pdf,
+with the solid-angle pdf of its direction, so that an integrator can weigh light sampling against
+BSDF sampling (multiple importance sampling). Every formula was checked against Cycles 4.x/5.0.
+
+A light type is one class (core/lights/<kind>.py), one C file (core/lights/<kind>.c) and one entry
+in the table of core/lights/__init__.py, whose position is the light's `kind` tag in C.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import ClassVar, NamedTuple, Optional
+
+import numpy as np
+
+from .. import vectors
+from ..native import library
+
+INV_4PI = 1.0 / (4.0 * math.pi)
+
+
+class LightSample(NamedTuple):
+    """Light arriving at a batch of points, one sample per point.
+
+    L:          (n, 3) float64 unit direction from the point towards the light
+    distance:   (n,) float64 distance to the sampled light point (inf for the sun)
+    strength:   (n,) float64 irradiance at normal incidence carried by this sample per unit of the
+                light's colour (W/m^2), L_e / pdf; zero where the light sends nothing
+    pdf:        (n,) float64 solid-angle density of having sampled L (inf for lights without extent)
+    color:      (3,) float64 the light's RGB colour
+    position:   (n, 3) float64 the sampled light point (undefined for the sun)
+    """
+
+    L: np.ndarray
+    distance: np.ndarray
+    strength: np.ndarray
+    pdf: np.ndarray
+    color: np.ndarray
+    position: np.ndarray
+
+    @property
+    def irradiance(self) -> np.ndarray:
+        """The RGB irradiance at normal incidence: (n, 3) float64 W/m^2."""
+        return self.strength[:, None] * self.color
+
+
+class LightHit(NamedTuple):
+    """Where rays meet a light they were not aimed at (a BSDF-sampled direction), for MIS.
+
+    hit:      (n,) bool the ray meets the light's emitting side before t_max
+    t:        (n,) float64 distance to it (inf where not hit)
+    radiance: (n,) float64 emitted radiance per unit of the light's colour towards the ray's origin
+    pdf:      (n,) float64 the solid-angle pdf with which `sample` would have chosen that direction
+    """
+
+    hit: np.ndarray
+    t: np.ndarray
+    radiance: np.ndarray
+    pdf: np.ndarray
+
+
+class Cone(NamedTuple):
+    """The cone of directions a light with extent covers from each shading point.
+
+    It depends on the points only, not on the sample, so it is built once per light and shared
+    by all that light's samples (`Light.cone`).
+    axis:    (n, 3) float64 unit direction to the light's centre (may be a broadcast row)
+    t, b:    (n, 3) float64 unit vectors completing axis to an orthonormal frame
+    cos_max: (n,) float64 cosine of the cone's half-angle
+    d:       (n,) float64 distance to the light's centre (inf for the sun)
+    """
+
+    axis: np.ndarray
+    t: np.ndarray
+    b: np.ndarray
+    cos_max: np.ndarray
+    d: np.ndarray
+
+
+# The C record of one light (core/lights/lights.h LightRecord): everything that does not depend on
+# the shading point, filled by each light's `pack`. Only doubles, so the layout is the same everywhere.
+LightRecord = library.record("LightRecord", [
+    "kind", "samples", "dimension", "delta", ("color", 3), ("position", 3), ("direction", 3),
+    ("axis_u", 3), ("axis_v", 3), "ellipse", "area", "radiance", "power", "radius", "soft_falloff",
+    "strength", ("sun_t", 3), ("sun_b", 3), "sun_cos_max", "spot_frame", ("spot_inverse", 9),
+    "spot_cos_half", "spot_blend_width", "spread_narrow", "spread_tan_half", "spread_norm"],
+    size_function="primer_light_record_size")
+
+
+class Light:
+    """The interface every light implements (a dataclass of its parameters, in Cycles' units).
+
+    kind:          its tag: the position of its class in core/lights/__init__.py's LIGHT_TYPES,
+                   and the `kind` field of its C record
+    blender_type:  Blender's name of the light type ("POINT", "SPOT", "SUN", "AREA")
+    """
+
+    kind: ClassVar[int] = -1
+    blender_type: ClassVar[str] = ""
+    # Fields holding points (moved with the camera-relative origin) and the light's output.
+    point_fields: ClassVar[tuple] = ()
+    output_field: ClassVar[str] = "power"
+
+    @property
+    def delta(self) -> bool:
+        """Whether the light has no extent, so one exact evaluation replaces sampling."""
+        return False
+
+    def emits(self) -> bool:
+        """Whether the light sends any light (positive colour and output)."""
+        return float(np.max(np.asarray(self.color, np.float64))) > 0 and float(getattr(self, self.output_field)) > 0
+
+    def finite(self) -> bool:
+        """Whether every parameter is a finite number."""
+        values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
+                  if f.name not in ("name", "shape") and getattr(self, f.name) is not None]
+        return all(np.isfinite(x).all() for x in values)
+
+    def moved(self, origin: np.ndarray) -> "Light":
+        """Return the light in the camera-relative frame: its points minus `origin`."""
+        return dataclasses.replace(self, **{name: np.asarray(getattr(self, name), np.float64) - origin
+                                            for name in self.point_fields})
+
+    def cone(self, points: np.ndarray) -> Optional[Cone]:
+        """Return the cone of directions the light covers from each point, or None (no cone)."""
+        return None
+
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
+        """Return the light arriving at each point, one sample per point.
+
+        points: (n, 3) float64 shading points in the light's frame; u: (n, 2) float64 uniform numbers
+        in [0, 1) (ignored by lights without extent); cone: `self.cone(points)`, if already made.
+        """
+        raise NotImplementedError
+
+    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
+        """Return where rays meet the light's emitting surface (lights without one are never hit).
+
+        origins, directions: (n, 3) float64; t_max: (n,) float64.
+        """
+        n = len(origins)
+        return LightHit(np.zeros(n, bool), np.full(n, np.inf), np.zeros(n), np.zeros(n))
+
+    def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
+        """Return the sample with its 1/r^2 falloff undone (the lecture switch "distance attenuation" off).
+
+        The default: multiply by r^2 to the sampled point. points: (n, 3) float64 in the light's frame.
+        """
+        return sample._replace(strength=sample.strength * sample.distance * sample.distance)
+
+    def centre_numbers(self) -> np.ndarray:
+        """Return the unit-square point (2,) float64 that `sample` maps to the light's centre (the inspector's sample)."""
+        return np.zeros(2)
+
+    def pack(self, index: int, light_samples: int) -> LightRecord:
+        """Return the light's C record: the fields every light has, then its own (`pack_fields`)."""
+        library.check_size(LightRecord)
+        record = LightRecord()
+        record.kind = float(self.kind)
+        record.delta = 1.0 if self.delta else 0.0
+        record.samples = 1 if self.delta else max(1, int(light_samples))
+        record.dimension = light_dimension(index)
+        record.color[:] = np.asarray(self.color, np.float64)[:3].tolist()
+        self.pack_fields(record)
+        return record
+
+    def pack_fields(self, record: LightRecord) -> None:
+        """Write the light's own constants into its C record."""
+        raise NotImplementedError
+
+
+def light_dimension(index: int) -> int:
+    """Return the sampling dimension of light `index`'s pattern (core/sampling): 16 + 4 index."""
+    return 16 + 4 * index
+
+
+# ---------------------------------------------------------------------------
+# Geometry that several lights share
+# ---------------------------------------------------------------------------
+
+def direction_to(points: np.ndarray, targets: np.ndarray):
+    """Return (unit direction, distance) from each point to its target (a zero vector where they coincide).
+
+    points, targets: (n, 3) float64 -> (n, 3) float64, (n,) float64
+    """
+    w = targets - points
+    distance = np.sqrt(np.einsum("ij,ij->i", w, w))
+    inverse = np.divide(1.0, distance, out=np.zeros_like(distance), where=distance > 0.0)
+    w *= inverse[:, None]
+    return w, distance
+
+
+def sample_cone(cone: Cone, u: np.ndarray) -> np.ndarray:
+    """Return unit directions uniform in solid angle within each cone: u (n, 2) float64 -> (n, 3) float64."""
+    cos_theta = 1.0 - u[:, 0] * (1.0 - cone.cos_max)
+    sin_theta = np.sqrt(np.maximum(0.0, 1.0 - cos_theta * cos_theta))
+    cos_phi, sin_phi = vectors.cos_sin(2.0 * math.pi * u[:, 1])
+    return (cone.t * (sin_theta * cos_phi)[:, None] + cone.b * (sin_theta * sin_phi)[:, None]
+            + cone.axis * cos_theta[:, None])
+
+
+def cone_pdf(cos_max: np.ndarray) -> np.ndarray:
+    """Return the solid-angle pdf 1 / (2 pi (1 - cos a)) of a direction uniform in a cone of half-angle a."""
+    with np.errstate(divide="ignore"):
+        return 1.0 / (2.0 * math.pi * (1.0 - cos_max))
+
+
+def delta_pdf(n: int) -> np.ndarray:
+    """The pdf of a light without extent: infinite (a delta), for n points."""
+    return np.full(n, np.inf)
+
+
+def compiled_sample(light: Light, points: np.ndarray, u: np.ndarray) -> LightSample:
+    """Light.sample in C (the light's C file, through core/lights/lights.c's table), for the tests."""
+    import ctypes
+    P, I64, ptr = library.P, library.I64, library.pointer
+    n = len(points)
+    points, u = library.contiguous(points, np.float64), library.contiguous(u, np.float64)
+    L, position = np.empty((n, 3)), np.empty((n, 3))
+    distance, strength, pdf = np.empty(n), np.empty(n), np.empty(n)
+    record = light.pack(0, 1)
+    library.function("primer_sample_light", None, [P, I64, P, P, P, P, P, P, P])(
+        ctypes.byref(record), n, ptr(points, np.float64), ptr(u, np.float64), ptr(L, np.float64),
+        ptr(distance, np.float64), ptr(strength, np.float64), ptr(pdf, np.float64), ptr(position, np.float64))
+    return LightSample(L, distance, strength, pdf, np.asarray(light.color, np.float64)[:3], position)

@@ -1,0 +1,46 @@
+/* Point lights: core/lights/point.py. */
+
+/* The lecture's point light: I = P / (4 pi), attenuated by 1 / r^2. */
+INLINE void sample_point(const LightRecord *light, const double *P, LightSample *out)
+{
+    double d = direction_to(P, light->position, out->L);
+    out->distance = d;
+    double strength = light->power * (1.0 / (4.0 * PI)) * (1.0 / (d * d));
+    out->strength = d > 0.0 ? strength : 0.0;
+    out->pdf = INFINITY;
+    for (int c = 0; c < 3; c++) out->position[c] = light->position[c];
+}
+
+/* A sphere (or, with soft falloff, a disk facing P): the cone it covers, sampled uniformly. */
+INLINE void sample_sphere(const LightRecord *light, const double *P, const double *u, LightSample *out)
+{
+    double axis[3], t[3], b[3];
+    double d = direction_to(P, light->position, axis);
+    double R = light->radius, sin2_max;
+    if (light->soft_falloff != 0.0) {
+        sin2_max = R * R / (R * R + d * d);
+    } else {
+        d = at_least(d, R * (1.0 + 1e-9));
+        sin2_max = at_most((R / d) * (R / d), 1.0);
+    }
+    double cos_max = sqrt(1.0 - sin2_max);
+    orthonormal_frame(axis, t, b);
+    sample_cone(axis, t, b, cos_max, u, out->L);
+    double cos_to_center = dot3(out->L, axis);
+    if (light->soft_falloff != 0.0) {
+        out->distance = d / at_least(cos_to_center, 1e-300);
+    } else {
+        double h = d * cos_to_center;
+        out->distance = h - sqrt(at_least(h * h - (d * d - R * R), 0.0));
+    }
+    out->strength = light->radiance * 2.0 * PI * (1.0 - cos_max);
+    out->pdf = cone_pdf(cos_max);
+    for (int c = 0; c < 3; c++) out->position[c] = P[c] + out->L[c] * out->distance;
+}
+
+/* PointLight.sample: exact without a radius, else a direction in the cone the light covers. */
+INLINE void sample_point_light(const LightRecord *light, const double *P, const double *u, LightSample *out)
+{
+    if (light->delta != 0.0) sample_point(light, P, out);
+    else sample_sphere(light, P, u, out);
+}

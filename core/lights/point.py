@@ -1,0 +1,105 @@
+"""Point lights: the lecture's light, and with a radius a round light that casts soft shadows."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar, Optional
+
+import numpy as np
+
+from ..vectors import orthonormal_frame
+from .base import INV_4PI, Cone, Light, LightSample, cone_pdf, delta_pdf, direction_to, sample_cone
+
+
+def sphere_radiance(power: float, radius: float) -> float:
+    """Return the radiance P / (4 pi^2 R^2) of a point light of radius R > 0 (from afar: intensity P / (4 pi))."""
+    return power / (4.0 * math.pi * math.pi * radius * radius)
+
+
+class RoundLight(Light):
+    """What point and spot lights share: a point of `power` watts, or with radius > 0 a round light.
+
+    Radiant intensity of the radius-0 light: I = power / (4 pi) W/sr. soft_falloff (Blender's
+    default): the radius-R light is a disk of radiance P / (4 pi^2 R^2) that always faces the
+    shading point; without it, a sphere.
+    """
+
+    point_fields: ClassVar[tuple] = ("position",)
+
+    @property
+    def delta(self) -> bool:
+        return self.radius <= 0.0
+
+    def cone(self, points: np.ndarray) -> Optional[Cone]:
+        """Return the cone the light of radius R > 0 covers from each point (None at radius 0).
+
+        As in Cycles, with soft falloff (Blender's default) the light is a disk of radius R facing
+        the shading point: sin^2 a = R^2 / (R^2 + d^2). Without it, it is a sphere:
+        sin^2 a = R^2 / d^2, which gives exactly the point light's irradiance while above the horizon.
+        """
+        if self.delta:
+            return None
+        radius = self.radius
+        to_center, d = direction_to(points, np.broadcast_to(np.asarray(self.position, np.float64), points.shape))
+        if self.soft_falloff:
+            sin2_max = radius * radius / (radius * radius + d * d)
+        else:
+            d = np.maximum(d, radius * (1.0 + 1e-9))        # a point inside the sphere sees it from its surface
+            sin2_max = np.minimum(1.0, (radius / d) ** 2)
+        t, b = orthonormal_frame(to_center)
+        return Cone(to_center, t, b, np.sqrt(1.0 - sin2_max), d)
+
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
+        """The lecture's point light I / r^2; with a radius, a direction uniform in the cone it covers."""
+        color = np.asarray(self.color, np.float64)[:3]
+        center = np.asarray(self.position, np.float64)
+        if self.delta:
+            # I = P / (4 pi), attenuated by 1 / r^2.
+            L, distance = direction_to(points, np.broadcast_to(center, points.shape))
+            with np.errstate(divide="ignore"):
+                falloff = np.where(distance > 0, 1.0 / (distance * distance), 0.0)
+            return LightSample(L, distance, self.power * INV_4PI * falloff, delta_pdf(len(points)), color,
+                               np.broadcast_to(center, points.shape))
+        # Radiance L_e = P / (4 pi^2 R^2) over the cone, pdf = 1 / (2 pi (1 - cos a)): each sample
+        # carries E_normal = L_e 2 pi (1 - cos a).
+        cone = self.cone(points) if cone is None else cone
+        L = sample_cone(cone, u)
+        cos_to_center = np.einsum("ij,ij->i", L, cone.axis)
+        d = cone.d
+        if self.soft_falloff:
+            distance = d / np.maximum(cos_to_center, 1e-300)  # to the disk through the centre, facing the point
+        else:
+            b = d * cos_to_center                              # to the near side of the sphere
+            distance = b - np.sqrt(np.maximum(0.0, b * b - (d * d - self.radius * self.radius)))
+        strength = sphere_radiance(self.power, self.radius) * 2.0 * math.pi * (1.0 - cone.cos_max)
+        return LightSample(L, distance, strength, cone_pdf(cone.cos_max), color, points + L * distance[:, None])
+
+    def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
+        """Undo 1/r^2 with r measured to the light's centre: E_normal = P / (4 pi) at any distance."""
+        w = points - np.asarray(self.position, np.float64)
+        return sample._replace(strength=sample.strength * np.einsum("ij,ij->i", w, w))
+
+    def pack_fields(self, record) -> None:
+        record.position[:] = np.asarray(self.position, np.float64).tolist()
+        record.power, record.radius = float(self.power), float(self.radius)
+        record.soft_falloff = 1.0 if self.soft_falloff else 0.0
+        if not self.delta:
+            record.radiance = sphere_radiance(self.power, self.radius)
+
+
+@dataclass
+class PointLight(RoundLight):
+    """A point light of `power` watts; with radius > 0 it has extent and casts soft shadows.
+
+    position: (3,) float64 world point; color: (3,) float64 linear RGB.
+    """
+
+    position: np.ndarray
+    power: float = 1000.0
+    color: np.ndarray = field(default_factory=lambda: np.ones(3))
+    radius: float = 0.0
+    soft_falloff: bool = True
+    name: str = "Point"
+
+    kind: ClassVar[int] = 0
+    blender_type: ClassVar[str] = "POINT"

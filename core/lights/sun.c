@@ -1,0 +1,15 @@
+/* Sun lights: core/lights/sun.py. One direction (no extent), or a direction in its disk's cone. */
+
+INLINE void sample_sun_light(const LightRecord *light, const double *u, LightSample *out)
+{
+    if (light->delta != 0.0) {
+        for (int c = 0; c < 3; c++) out->L[c] = light->direction[c];
+        out->pdf = INFINITY;
+    } else {
+        sample_cone(light->direction, light->sun_t, light->sun_b, light->sun_cos_max, u, out->L);
+        out->pdf = cone_pdf(light->sun_cos_max);
+    }
+    out->distance = INFINITY;
+    out->strength = light->strength;
+    out->position[0] = out->position[1] = out->position[2] = 0.0;
+}

@@ -1,0 +1,83 @@
+"""Sun lights: a distant light, and with an angle a disk of directions that casts soft shadows."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar, Optional
+
+import numpy as np
+
+from ..vectors import orthonormal_frame
+from .base import Cone, Light, LightSample, cone_pdf, delta_pdf, sample_cone
+
+
+@dataclass
+class SunLight(Light):
+    """A distant light: `strength` W/m^2 of irradiance on a surface facing it.
+
+    direction: (3,) float64 unit direction in which the light travels (Blender's -Z of the sun object).
+    angle: angular diameter of the sun disk in radians (0: hard shadows).
+    """
+
+    direction: np.ndarray
+    strength: float = 1.0
+    color: np.ndarray = field(default_factory=lambda: np.ones(3))
+    angle: float = 0.0
+    name: str = "Sun"
+
+    kind: ClassVar[int] = 2
+    blender_type: ClassVar[str] = "SUN"
+    output_field: ClassVar[str] = "strength"
+
+    @property
+    def delta(self) -> bool:
+        return self.angle <= 0.0
+
+    def towards(self) -> np.ndarray:
+        """Return the unit direction (3,) float64 from any point towards the sun."""
+        travel = np.asarray(self.direction, np.float64)
+        return -travel / np.linalg.norm(travel)
+
+    def disk_strength(self) -> float:
+        """Return the irradiance each sample of a disk of angle > 0 carries: radiance S / (pi sin^2 a), times 2 pi (1 - cos a)."""
+        half = 0.5 * self.angle
+        radiance = self.strength / (math.pi * math.sin(half) ** 2)
+        return radiance * 2.0 * math.pi * (1.0 - math.cos(half))
+
+    def cone(self, points: np.ndarray) -> Optional[Cone]:
+        """The same cone everywhere (one frame, broadcast to all points), or None without an angle."""
+        if self.delta:
+            return None
+        axis = self.towards()
+        t, b = orthonormal_frame(axis[None, :])
+        n = len(points)
+        return Cone(np.broadcast_to(axis, (n, 3)), np.broadcast_to(t, (n, 3)), np.broadcast_to(b, (n, 3)),
+                    np.full(n, math.cos(0.5 * self.angle)), np.full(n, np.inf))
+
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
+        """One direction with irradiance = strength, no distance attenuation; or a direction in the disk."""
+        n = len(points)
+        color = np.asarray(self.color, np.float64)[:3]
+        if self.delta:
+            L = np.broadcast_to(self.towards(), (n, 3)).copy()
+            return LightSample(L, np.full(n, np.inf), np.full(n, float(self.strength)), delta_pdf(n), color,
+                               np.zeros((n, 3)))
+        cone = self.cone(points) if cone is None else cone
+        L = sample_cone(cone, u)
+        return LightSample(L, np.full(n, np.inf), np.full(n, self.disk_strength()), cone_pdf(cone.cos_max), color,
+                           np.zeros((n, 3)))
+
+    def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
+        """A sun has no falloff to undo."""
+        return sample
+
+    def pack_fields(self, record) -> None:
+        axis = self.towards()
+        record.direction[:] = axis.tolist()
+        if self.delta:
+            record.strength = float(self.strength)
+        else:
+            record.strength = self.disk_strength()
+            t, b = orthonormal_frame(axis[None, :])
+            record.sun_t[:], record.sun_b[:] = t[0].tolist(), b[0].tolist()
+            record.sun_cos_max = math.cos(0.5 * self.angle)

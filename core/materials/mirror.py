@@ -1,0 +1,40 @@
+"""A perfect mirror: all light leaves in the one reflected direction, tinted by the colour."""
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from .base import BSDF, BsdfSample
+
+
+def reflect(wo: np.ndarray, N: np.ndarray) -> np.ndarray:
+    """Return the mirror direction of wo about N: 2 (N.wo) N - wo, (n, 3) float64."""
+    return 2.0 * np.einsum("ij,ij->i", N, wo)[:, None] * N - wo
+
+
+class Mirror(BSDF):
+    """A delta BSDF: f and pdf are 0 for any pair of directions a light sample could find; `sample`
+    returns the reflection R = 2 (N.wo) N - wo with weight colour (f cos / pdf of the delta) and pdf inf.
+
+    Under direct light alone a mirror is black, as in Cycles with max_bounces = 0: only a ray that
+    follows R (an integrator that recurses, the lecture's next part) sees what it reflects.
+    """
+
+    kind: ClassVar[int] = 1
+    name: ClassVar[str] = "MIRROR"
+    delta: ClassVar[bool] = True
+
+    @staticmethod
+    def f(color, N, wo, wi):
+        return np.zeros_like(color)
+
+    @staticmethod
+    def pdf(color, N, wo, wi):
+        return np.zeros(len(wi))
+
+    @staticmethod
+    def sample(color, N, wo, u):
+        wi = reflect(wo, N)
+        above = np.einsum("ij,ij->i", N, wi) > 0.0
+        return BsdfSample(wi, np.where(above[:, None], color, 0.0), np.where(above, np.inf, 0.0))

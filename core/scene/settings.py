@@ -1,0 +1,85 @@
+"""How to render: image size, sampling, the integrator and the lecture's switches."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+
+@dataclass
+class RenderSettings:
+    """How to render: image size, sampling, the integrator and the lecture's switches.
+
+    integrator: the name of the light-transport algorithm in core/integrators ("direct": the
+        lecture's direct lighting, each light sampled with shadow rays).
+
+    region: (x0, y0, x1, y1) pixel rectangle to render, y from the top row, or None for all.
+    shadow_method: "robust" (error-bound offset, no user epsilon) or "epsilon" (the lecture's).
+    aux: names of auxiliary buffers to return, from core.teaching.debug.AUX_BUFFERS.
+    instancing: "auto" stores a mesh once and traces it as Embree instances when its copies would
+        exceed core.geometry.instancing.INSTANCE_TRIANGLES triangles, "always" does so for every mesh placed
+        twice or more, "never" copies every placement (core/geometry/instancing.py). The image is the same.
+    kernels: "compiled" renders in C (the integrator's compiled twin, core/integrators/*.c) where it
+        applies (the same numbers, several times faster); "numpy" keeps every render on the readable
+        Python reference path.
+    adaptive: render in passes and stop pixels whose noise is below adaptive_threshold
+        (core/film/adaptive.py); samples is then the most a pixel gets. adaptive_threshold 0 and
+        adaptive_min_samples 0 choose automatic values from samples.
+
+    The lecture switches (LECTURE_SWITCHES) default to the lecture's choice; turning one
+    off shows what goes wrong without it (README, "Lecture switches"):
+    smooth_normals:   interpolate vertex normals with the barycentrics (False: the face normal everywhere)
+    visibility_normal: "face" decides whether a light can be seen with the face normal Ng.L > 0,
+                      "shading" with the interpolated N.L > 0 (light leaks through smooth low-poly meshes)
+    reduce_t_max:     stop shadow rays short of the light point (False: t_max = ||P_light - I||, so a
+                      surface the light sits on shadows it)
+    distance_attenuation: irradiance falls off as 1/r^2 (False: point, spot and area lights do not)
+    clamp_n_dot_l:    the cosine factor is max(N.L, 0) (False: N.L, negative light from behind)
+    shadow_rays_for_backfacing: also trace shadow rays for lights behind the surface (True: the same
+                      image, more rays; the lecture skips them, since their visibility is 0)
+    """
+
+    integrator: str = "direct"
+    width: int = 640
+    height: int = 480
+    samples: int = 16
+    seed: int = 0
+    region: Optional[tuple] = None
+    pixel_aspect: tuple = (1.0, 1.0)
+    jitter: bool = True
+    light_samples: int = 4
+    shadow_method: str = "robust"
+    epsilon: float = 1e-3
+    terminator_fix: bool = False
+    terminator_offset: float = 0.1
+    camera_relative: bool = True
+    transparent_background: bool = False
+    threads: int = 0
+    chunk_size: int = 1 << 16
+    instancing: str = "auto"
+    kernels: str = "compiled"
+    aux: Sequence[str] = ()
+    adaptive: bool = False
+    adaptive_threshold: float = 0.0
+    adaptive_min_samples: int = 0
+    smooth_normals: bool = True
+    visibility_normal: str = "face"
+    reduce_t_max: bool = True
+    distance_attenuation: bool = True
+    clamp_n_dot_l: bool = True
+    shadow_rays_for_backfacing: bool = False
+
+    def is_lecture_default(self) -> bool:
+        """Whether every lecture switch is at the lecture's choice (a fast path may then stand in)."""
+        return all(getattr(self, name) == default for name, default in LECTURE_SWITCHES.items())
+
+
+# The lecture switches of RenderSettings and their defaults (the lecture's choices). shadow_method and
+# epsilon are lecture settings too, but every render path supports both, so they are not listed here.
+LECTURE_SWITCHES = {
+    "smooth_normals": True,
+    "visibility_normal": "face",
+    "reduce_t_max": True,
+    "distance_attenuation": True,
+    "clamp_n_dot_l": True,
+    "shadow_rays_for_backfacing": False,
+}

@@ -1,0 +1,45 @@
+"""Refuse a scene or settings that cannot be rendered, with a message that says why."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def validate(scene, settings) -> None:
+    """Raise ValueError with a clear message when the scene or settings cannot be rendered."""
+    from ..geometry import instancing
+    from ..integrators import INTEGRATORS
+    from ..native.library import KERNELS
+    from ..teaching.debug import AUX_BUFFERS
+    if scene.camera is None:
+        raise ValueError("the scene has no camera")
+    if settings.width < 1 or settings.height < 1:
+        raise ValueError(f"resolution must be at least 1x1 pixels, got {settings.width}x{settings.height}")
+    if settings.samples < 1:
+        raise ValueError(f"samples must be at least 1, got {settings.samples}")
+    if settings.chunk_size < 1:
+        raise ValueError(f"chunk size must be at least 1 sample, got {settings.chunk_size}")
+    if not (math.isfinite(settings.adaptive_threshold) and settings.adaptive_threshold >= 0):
+        raise ValueError(f"the adaptive noise threshold must be a finite number >= 0, got {settings.adaptive_threshold}")
+    if settings.adaptive_min_samples < 0:
+        raise ValueError(f"adaptive min samples must be >= 0, got {settings.adaptive_min_samples}")
+    if not all(math.isfinite(a) and a > 0 for a in settings.pixel_aspect):
+        raise ValueError(f"pixel aspect must be two finite numbers > 0, got {settings.pixel_aspect}")
+    if settings.integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {settings.integrator!r}")
+    if settings.shadow_method not in ("robust", "epsilon"):
+        raise ValueError(f"shadow method must be 'robust' or 'epsilon', got {settings.shadow_method!r}")
+    if settings.visibility_normal not in ("face", "shading"):
+        raise ValueError(f"visibility normal must be 'face' or 'shading', got {settings.visibility_normal!r}")
+    if settings.kernels not in KERNELS:
+        raise ValueError(f"kernels must be one of {KERNELS}, got {settings.kernels!r}")
+    if settings.instancing not in instancing.INSTANCING_MODES:
+        raise ValueError(f"instancing must be one of {instancing.INSTANCING_MODES}, got {settings.instancing!r}")
+    if settings.shadow_method == "epsilon" and not (settings.epsilon >= 0 and math.isfinite(settings.epsilon)):
+        raise ValueError(f"epsilon must be a finite length >= 0, got {settings.epsilon}")
+    if not np.isfinite(np.asarray(scene.camera.matrix_world)).all():
+        raise ValueError("the camera's transform has NaN or infinite values")
+    unknown = set(settings.aux) - set(AUX_BUFFERS)
+    if unknown:
+        raise ValueError(f"unknown auxiliary buffers {sorted(unknown)}; choose from {list(AUX_BUFFERS)}")

@@ -1,0 +1,406 @@
+"""The compiled twin: the C code computes what the Python reference computes.
+
+The Python in core/ is the reference. Each part's C file is checked against its Python on its own
+(the sample pattern bit for bit; camera rays, light samples and BSDFs to float64 rounding), and
+whole renders on both paths are compared: the same rays traced, the same samples per pixel, and
+images that agree to float32 rounding. Stated tolerance: every pixel within 4e-7 absolute and
+1e-6 relative (a few float32 ulps). The two are not bit-identical in general because numpy's float32
+cosine (a sampled light's azimuth, vectors.cos_sin) may round one ulp away from the C library's;
+lights without extent, whose samples take no cosine, render bit for bit the same. Closed forms are
+checked on both paths by the other test files (which run compiled by default) and by
+test_point_light_inverse_square_on_both_paths here.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from core import materials, render
+from core.camera import Camera
+from core.camera import camera as camera_
+from core.film import adaptive
+from core.film.film import NoiseEstimates, add_pixels, resolve
+from core.geometry import primitives
+from core.lights.base import compiled_sample
+from core.native import library
+from core.sampling import sobol as sampling
+from core.scene import AreaLight, Instance, PointLight, RenderSettings, Scene, SpotLight, SunLight
+
+IMAGE_ATOL, IMAGE_RTOL = 4e-7, 1e-6
+
+
+def test_the_library_is_built_for_this_machine():
+    """`make kernels` ran: without the library every other test here would measure nothing."""
+    assert library.available(), library.unavailable_reason()
+
+
+def test_sample_2d_agrees_bit_for_bit(rng):
+    n = 20000
+    pixel = rng.integers(0, 1 << 40, n)
+    index = rng.integers(0, 1 << 31, n)
+    for seed, dimension in ((0, 0), (7, 16), (123456789, 20), (2 ** 40 + 3, 44)):
+        expected = sampling.sample_2d(seed, pixel, index, dimension)
+        assert np.array_equal(sampling.compiled_sample_2d(seed, pixel, index, dimension), expected)
+
+
+CAMERAS = [
+    Camera.look_at((1.0, -6.0, 2.5), (0.0, 0.0, 0.5), fov=math.radians(50)),
+    dataclasses.replace(Camera.look_at((3.0, 2.0, 1.0), (0.0, 0.0, 0.0)), shift_x=0.3, shift_y=-0.2,
+                        sensor_fit="VERTICAL", clip_start=0.5, clip_end=40.0),
+    dataclasses.replace(Camera.look_at((0.0, 0.0, 9.0), (0.0, 0.1, 0.0)), type="ORTHO", ortho_scale=4.0,
+                        shift_x=-0.1),
+    dataclasses.replace(Camera.look_at((0.3, -4.0, 2.0), (0.0, 0.0, 0.5)), type="PANO",
+                        panorama_type="FISHEYE_EQUIDISTANT", fisheye_fov=math.radians(160)),
+    dataclasses.replace(Camera.look_at((0.3, -4.0, 2.0), (0.0, 0.0, 0.5)), type="PANO",
+                        panorama_type="FISHEYE_EQUISOLID", fisheye_fov=math.radians(170), fisheye_lens=8.0,
+                        shift_x=0.05),
+]
+
+
+@pytest.mark.parametrize("camera", CAMERAS, ids=["persp", "persp_shift_vertical", "ortho_shift", "equidistant",
+                                                 "equisolid"])
+def test_camera_rays_agree(camera):
+    """camera.c's rays are generate_rays' for every camera type, camera-relative, the image circle included."""
+    W, H, spp, seed = 37, 23, 5, 11
+    pixels = np.arange(0, W * H, 3, dtype=np.int64)
+    first = (pixels % 4).astype(np.int64)
+    origin = np.array([0.5, -0.25, 2.0])
+    record = camera_.camera_record(camera, W, H, (1.0, 1.2), origin)
+    O, D, t, valid = camera_.compiled_rays(record, seed, W, H, pixels, first, spp)
+    pixel, sample = render.sample_keys(pixels, spp, first)
+    offset = sampling.sample_2d(seed, pixel, sample, 0)
+    rays = camera_.generate_rays(camera.moved(origin), W, H, pixel % W + offset[:, 0], pixel // W + offset[:, 1],
+                                 (1.0, 1.2))
+    np.testing.assert_array_equal(valid, rays.valid)
+    np.testing.assert_allclose(O[valid], rays.origins[valid], rtol=0, atol=1e-13)
+    np.testing.assert_allclose(D[valid], rays.directions[valid], rtol=0, atol=1e-14)
+    np.testing.assert_allclose(t, rays.t_max, rtol=1e-15, atol=0)
+
+
+def lit_scene(lights: list) -> Scene:
+    """A smooth low-poly sphere on a flat floor with a box beside it, seen from above, under `lights`."""
+    scene = Scene(camera=Camera.look_at((0.5, -5.0, 3.0), (0.0, 0.0, 0.4), fov=math.radians(45)),
+                  world_color=np.array([0.05, 0.06, 0.07]))
+    scene.add_material((0.8, 0.7, 0.6))
+    scene.add_material((0.3, 0.5, 0.9))
+    scene.add_mesh(primitives.plane(8.0), materials=np.array([0]))
+    scene.add_mesh(primitives.uv_sphere(0.8, 12, 6, center=(0.0, 0.0, 0.8), smooth=True), materials=np.array([1]))
+    scene.add_mesh(primitives.box((0.6, 0.6, 1.2), center=(1.3, 0.6, 0.6)), materials=np.array([0]))
+    scene.lights = lights
+    return scene
+
+
+LIGHTS = {
+    "point": [PointLight(np.array([1.0, -1.5, 3.0]), power=400.0, color=np.array([1.0, 0.9, 0.8]))],
+    "point_sphere": [PointLight(np.array([-1.0, -1.0, 2.5]), power=300.0, radius=0.4, soft_falloff=False)],
+    "point_soft": [PointLight(np.array([-1.0, -1.0, 2.5]), power=300.0, radius=0.4)],
+    "spot": [SpotLight(np.array([0.0, -2.0, 3.0]), np.array([0.0, 0.55, -0.835]), power=800.0, radius=0.1,
+                       spot_size=math.radians(50), spot_blend=0.3)],
+    "spot_scaled": [SpotLight(np.array([0.0, -2.0, 3.0]), np.array([0.0, 0.55, -0.835]), power=800.0,
+                              spot_size=math.radians(60), spot_blend=0.0,
+                              frame=np.array([[1.0, 0.0, 0.0], [0.0, 0.835, -0.55], [0.0, 0.55, 0.835]])
+                              @ np.diag([1.0, 0.5, 1.0]))],
+    "sun": [SunLight(np.array([0.3, 0.4, -0.866]), strength=2.0)],
+    "sun_disk": [SunLight(np.array([0.3, 0.4, -0.866]), strength=2.0, angle=math.radians(10))],
+    "area_rect": [AreaLight(np.array([0.5, -1.0, 2.5]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.6, 0.3]),
+                            np.array([0.0, 0.2, -0.98]), power=200.0, shape="RECTANGLE")],
+    "area_ellipse_spread": [AreaLight(np.array([0.5, -1.0, 2.5]), np.array([1.0, 0.0, 0.0]),
+                                      np.array([0.0, 0.6, 0.3]), np.array([0.0, 0.2, -0.98]), power=200.0,
+                                      shape="ELLIPSE", spread=math.radians(60))],
+    "several": [PointLight(np.array([1.0, -1.5, 3.0]), power=200.0),
+                SunLight(np.array([-0.3, 0.2, -0.93]), strength=1.0, angle=math.radians(3)),
+                AreaLight(np.array([-1.0, 1.0, 2.0]), np.array([0.5, 0.0, 0.0]), np.array([0.0, 0.5, 0.0]),
+                          np.array([0.0, 0.0, -1.0]), power=100.0, shape="DISK")],
+}
+
+
+@pytest.mark.parametrize("name", [name for name in LIGHTS if name != "several"])
+def test_each_lights_c_file_samples_what_its_class_samples(name):
+    """Every light type's C sample (direction, distance, E_normal, pdf, point) is its Python class's: to
+    float64 rounding, except where a sampled azimuth's float32 cosine rounds one ulp apart (vectors.cos_sin:
+    the direction may then move by up to ~3e-7 near the cone's axis)."""
+    (light,) = LIGHTS[name]
+    rng = np.random.default_rng(3)
+    points = rng.uniform(-2.0, 2.0, (4000, 3)) * [1.0, 1.0, 0.5]
+    u = rng.random((4000, 2))
+    expected = light.sample(points, u)
+    found = compiled_sample(light, points, u)
+    np.testing.assert_allclose(found.L, expected.L, rtol=0, atol=1e-6)
+    for field in ("distance", "strength", "pdf"):
+        # (A spot's cone edge: a direction one rounding apart may fall a hair inside or outside.)
+        close = np.isclose(getattr(found, field), getattr(expected, field), rtol=1e-5, atol=0)
+        assert close.mean() > 0.999, field
+    if np.isfinite(expected.distance).all():
+        np.testing.assert_allclose(found.position, expected.position, rtol=0, atol=1e-6)
+
+
+def test_each_bsdfs_c_file_evaluates_and_samples_what_its_class_does():
+    """f, pdf and a sampled direction of every BSDF in C, against its Python class, on random directions."""
+    rng = np.random.default_rng(4)
+    n = 3000
+    kind = rng.integers(0, len(materials.BSDF_TYPES), n).astype(np.int32)
+    color = rng.random((n, 3))
+    N = rng.normal(size=(n, 3))
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    wo, wi = (rng.normal(size=(n, 3)) for _ in range(2))
+    wo, wi = wo / np.linalg.norm(wo, axis=1, keepdims=True), wi / np.linalg.norm(wi, axis=1, keepdims=True)
+    wo *= np.where(np.einsum("ij,ij->i", wo, N) < 0, -1.0, 1.0)[:, None]          # the viewer's side
+    u = rng.random((n, 2))
+    f, pdf, sampled = materials.compiled_bsdf(kind, color, N, wo, wi, u)
+    expected = materials.sample(kind, color, N, wo, u)
+    np.testing.assert_allclose(f, materials.f(kind, color, N, wo, wi), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(pdf, materials.pdf(kind, color, N, wo, wi), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(sampled.wi, expected.wi, rtol=0, atol=1e-6)     # (a float32 cosine, as for lights)
+    np.testing.assert_allclose(sampled.weight, expected.weight, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(sampled.pdf, expected.pdf, rtol=1e-6, atol=1e-9)
+
+
+def compare_paths(scene: Scene, settings: RenderSettings):
+    """Render on both paths; return (compiled, reference) results."""
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled"
+    assert reference.stats.kernels.startswith("numpy")
+    return compiled, reference
+
+
+def assert_same_render(compiled, reference, exact: bool = False):
+    """The same rays and samples per pixel; the images within the stated tolerance (or bit for bit)."""
+    assert compiled.stats.primary_rays == reference.stats.primary_rays
+    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    np.testing.assert_array_equal(compiled.stats.samples_per_pixel, reference.stats.samples_per_pixel)
+    if exact:
+        np.testing.assert_array_equal(compiled.image, reference.image)
+    else:
+        np.testing.assert_allclose(compiled.image, reference.image, rtol=IMAGE_RTOL, atol=IMAGE_ATOL)
+
+
+@pytest.mark.parametrize("method", ["robust", "epsilon"])
+@pytest.mark.parametrize("name", list(LIGHTS))
+def test_renders_agree_for_every_light(name, method):
+    scene = lit_scene(LIGHTS[name])
+    settings = RenderSettings(width=40, height=30, samples=4, light_samples=3, shadow_method=method, epsilon=1e-3)
+    compiled, reference = compare_paths(scene, settings)
+    assert_same_render(compiled, reference, exact=all(light.delta for light in scene.lights))
+
+
+@pytest.mark.parametrize("transparent", [False, True])
+@pytest.mark.parametrize("adaptive_sampling", [False, True])
+def test_renders_agree(adaptive_sampling, transparent):
+    scene = lit_scene(LIGHTS["several"])
+    settings = RenderSettings(width=64, height=48, samples=8, light_samples=2, adaptive=adaptive_sampling,
+                              transparent_background=transparent, terminator_fix=True, chunk_size=4096)
+    compiled, reference = compare_paths(scene, settings)
+    assert_same_render(compiled, reference)
+    assert (compiled.image[..., 3] < 1).any() == transparent
+
+
+def with_a_row_of_spheres(scene: Scene) -> Scene:
+    """Place lit_scene's sphere six more times in a row behind it (instancing="always" instances them)."""
+    sphere = scene.instances[1]
+    for k in range(6):
+        matrix = np.eye(4)
+        matrix[:3, 3] = (-2.5 + k, 1.8, 0.0)
+        scene.instances.append(Instance(sphere.mesh, matrix, sphere.materials, f"Sphere {k}"))
+    return scene
+
+
+@pytest.mark.parametrize("instancing", ["never", "always"])
+@pytest.mark.parametrize("camera_type", ["PERSP", "FISHEYE_EQUISOLID"])
+def test_fisheye_and_instanced_renders_agree(camera_type, instancing):
+    """Every camera and both kinds of triangles (copied, and placements of an instanced mesh) in C."""
+    scene = with_a_row_of_spheres(lit_scene(LIGHTS["point"] + LIGHTS["spot"]))
+    if camera_type != "PERSP":
+        scene.camera = dataclasses.replace(scene.camera, type="PANO", panorama_type=camera_type,
+                                           fisheye_fov=math.radians(170), fisheye_lens=8.0)
+    settings = RenderSettings(width=48, height=32, samples=4, light_samples=2, instancing=instancing,
+                              terminator_fix=True)
+    compiled, reference = compare_paths(scene, settings)
+    assert_same_render(compiled, reference)
+
+
+def test_point_light_inverse_square_on_both_paths():
+    """E = P / (4 pi r^2) cos(theta) on a floor of albedo rho: L = rho / pi E, at every pixel centre."""
+    scene = Scene(camera=Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.001, 0.0), fov=math.radians(30)))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    light = np.array([0.7, -0.4, 2.0])
+    scene.lights = [PointLight(light, power=500.0)]
+    settings = RenderSettings(width=24, height=24, samples=1, jitter=True)
+    for path in ("compiled", "numpy"):
+        result = render.render(scene, dataclasses.replace(settings, kernels=path, samples=16))
+        # Closed form at each sample, averaged over the pixel: compare against the pixel-centre value
+        # within the variation of E across one pixel.
+        W = H = 24
+        ys, xs = np.mgrid[0:H, 0:W] + 0.5
+        rays = camera_.generate_rays(scene.camera, W, H, xs.ravel(), ys.ravel())
+        t = -rays.origins[:, 2] / rays.directions[:, 2]
+        points = rays.origins + t[:, None] * rays.directions
+        to_light = light - points
+        r2 = np.einsum("ij,ij->i", to_light, to_light)
+        E = 500.0 / (4 * math.pi * r2) * to_light[:, 2] / np.sqrt(r2)
+        expected = (0.5 / math.pi * E).reshape(H, W)
+        assert np.allclose(result.image[..., 0], expected, rtol=0.02), path
+        assert result.stats.kernels.startswith(path)
+
+
+def test_lecture_switches_and_debug_views_take_the_reference_path():
+    scene = lit_scene(LIGHTS["point"])
+    base = RenderSettings(width=16, height=12, samples=2)
+    assert render.render(scene, base).stats.kernels == "compiled"
+    for change in ({"clamp_n_dot_l": False}, {"aux": ("normal",)}, {"jitter": False}, {"kernels": "numpy"}):
+        stats = render.render(scene, dataclasses.replace(base, **change)).stats
+        assert stats.kernels.startswith("numpy ("), change
+
+
+def test_missing_library_falls_back_to_the_reference(monkeypatch, tmp_path):
+    """Without the library (another platform, no compiler) the render says so and runs the reference."""
+    monkeypatch.setattr(library, "_cache", {})
+    monkeypatch.setattr(library, "library_path", lambda: str(tmp_path / "_kernels-elsewhere.so"))
+    scene = lit_scene(LIGHTS["point"])
+    result = render.render(scene, RenderSettings(width=16, height=12, samples=2))
+    assert result.stats.kernels.startswith("numpy (_kernels-elsewhere.so is not built")
+    assert result.image[..., :3].max() > 0
+
+
+def test_unknown_kernels_setting_is_refused():
+    scene = lit_scene(LIGHTS["point"])
+    with pytest.raises(ValueError, match="kernels must be one of"):
+        render.render(scene, RenderSettings(width=8, height=8, kernels="fortran"))
+
+
+@pytest.mark.parametrize("instancing", ["auto", "always"])
+def test_time_in_embree_is_a_share_of_the_render_seconds(instancing):
+    """On one thread, the seconds the C chunk counts inside Embree are a real part of the render's."""
+    scene = with_a_row_of_spheres(lit_scene(LIGHTS["several"]))
+    result = render.render(scene, RenderSettings(width=96, height=72, samples=16, threads=1, instancing=instancing))
+    assert result.stats.kernels == "compiled"
+    assert 0.05 * result.stats.seconds < result.stats.trace_seconds < result.stats.seconds
+
+
+@pytest.mark.parametrize("first", [0, 4])
+def test_unconverged_pixels_agree(first):
+    """The noise test between passes picks exactly adaptive.unconverged's pixels: random sums with
+    unsampled pixels, pixels of one sample, dark and bright ones, over the whole image and a region."""
+    rng = np.random.default_rng(first)
+    H, W = 37, 53
+    count = rng.choice([0, 1, 4, 8, 16], H * W, p=[0.01, 0.01, 0.5, 0.3, 0.18]).astype(np.int64)
+    mean = np.repeat(rng.choice([0.0, 0.02, 0.5, 3.0], (H, 1, 4)), W, axis=1).reshape(H * W, 4)   # bands
+    mean *= np.tile(rng.choice([1.0, 1.0, 1.0, 20.0], W), H)[:, None]      # and columns: edges both ways
+    mean *= rng.uniform(0.95, 1.05, (H * W, 4))
+    mean[:, 3] = rng.choice([1.0, 0.7], H * W, p=[0.95, 0.05])
+    spread = rng.choice([0.0, 1e-4, 0.3], (H * W, 2), p=[0.9, 0.07, 0.03])
+    total = mean * count[:, None]
+    luminance = mean[:, :3] @ adaptive.LUMINANCE
+    squares = np.stack([luminance ** 2, mean[:, 3] ** 2], axis=1) * (1.0 + spread) * count[:, None]
+    noise = adaptive.PixelNoise(total, squares, count)
+    everything = np.arange(H * W, dtype=np.int64)
+    region = (np.arange(5, 30)[:, None] * W + np.arange(10, 41)).reshape(-1)
+    scattered = np.flatnonzero(rng.random(H * W) < 0.3)            # a later pass: pixels here and there
+    partial = []
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        for pixels in (everything, region, scattered):
+            for threshold in (0.02, 0.1, 0.3):
+                expected = adaptive.unconverged(pixels, noise, threshold, W, H, first)
+                np.testing.assert_array_equal(adaptive.unconverged_compiled(pixels, noise, threshold, W, H, first), expected)
+                partial.append(0 < len(expected) < len(pixels))
+                # Bands of rows decided apart (one per thread) give the same pixels: 1-row bands,
+                # bands of uneven height, more bands than rows.
+                for bands in (2, 3, 7, H, H + 5):
+                    np.testing.assert_array_equal(
+                        adaptive.unconverged_compiled(pixels, noise, threshold, W, H, first, pool=pool, bands=bands), expected)
+    assert sum(partial) >= 6           # most cases keep some pixels and drop others
+
+
+@pytest.mark.parametrize("whole", [False, True])
+@pytest.mark.parametrize("first", [0, 4])
+def test_noise_kept_by_the_chunks_decides_as_the_sums_do(first, whole):
+    """Each pixel's noise and mean, renewed by the chunk that adds its samples (film.add_pixels),
+    give the noise test exactly adaptive.unconverged's pixels: passes of random chunk sums over
+    the region (a rectangle inside the image, or the whole image: one run of pixels, which the C
+    takes by its own path), then over scattered ones, with a test after each."""
+    rng = np.random.default_rng(7 + first)
+    H, W = 29, 41
+    noise = adaptive.PixelNoise(np.zeros((H * W, 4)), np.zeros((H * W, 2)), np.zeros(H * W, np.int64))
+    hits = np.zeros(H * W, np.int64)
+    kept = NoiseEstimates.empty(H * W)
+    region = np.arange(H * W) if whole else (np.arange(2, 27)[:, None] * W + np.arange(3, 40)).reshape(-1)
+    rows = rng.choice([0.0, 0.03, 0.6, 4.0], H)                       # bands of one brightness each
+    pixels, decided = region, []
+    for spp in (4, 4, 8, 8):
+        for chunk in np.array_split(pixels, 5):                      # the chunks of one pass
+            level = rows[chunk // W, None] * rng.uniform(0.97, 1.03, (len(chunk), 4))
+            level *= rng.choice([1.0, 0.5], (len(chunk), 1), p=[0.9, 0.1])   # a pass unlike the last
+            rgba = level * spp
+            rgba[:, 3] = spp * rng.choice([1.0, 0.75], len(chunk), p=[0.9, 0.1])
+            luminance = level[:, :3] @ adaptive.LUMINANCE
+            squares = np.stack([luminance ** 2, (rgba[:, 3] / spp) ** 2], axis=1) * spp
+            squares *= 1.0 + rng.choice([0.0, 1e-3, 0.5], (len(chunk), 1), p=[0.9, 0.07, 0.03])
+            add_pixels(chunk, spp, rgba, squares, np.full(len(chunk), spp), noise, hits, kept)
+        # What the chunks kept is what adaptive.py works out from the sums now (to rounding: a
+        # variance near 0 is a difference of nearly equal sums).
+        sampled = noise.count > 0
+        np.testing.assert_allclose(kept.error[sampled], adaptive.relative_noise(adaptive.PixelNoise(
+            noise.total[sampled], noise.squares[sampled], noise.count[sampled])), rtol=1e-9, atol=1e-6)
+        mean = np.einsum("ij,j->i", noise.total[:, :3], adaptive.LUMINANCE) / np.maximum(noise.count, 1)
+        np.testing.assert_allclose(kept.mean[sampled], mean[sampled], rtol=1e-12, atol=0)
+        expected = adaptive.unconverged(region, noise, 0.05, W, H, first)
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            for bands in (1, 3):
+                np.testing.assert_array_equal(
+                    adaptive.unconverged_compiled(region, noise, 0.05, W, H, first, pool=pool, bands=bands, estimates=kept),
+                    expected)
+        decided.append(0 < len(expected) < len(region))
+        pixels = expected if len(expected) else region
+    assert sum(decided) >= 2            # the tests keep some pixels and drop others
+
+
+def test_noise_kept_for_a_run_of_pixels_is_the_noise_kept_pixel_by_pixel():
+    """add_pixels works a run of neighbouring pixels' noise and mean out in SIMD lanes, and
+    scattered pixels one by one: the same numbers, bit for bit (a chunk of a first pass against the
+    same chunk in another order), with pixels of 0, 1 and many samples, dark and bright."""
+    rng = np.random.default_rng(11)
+    size, spp = 500, 4
+    run = np.arange(37, 437)
+    shuffled = rng.permutation(run)
+    rgba = rng.uniform(0.0, 3.0, (len(run), 4)) * spp * rng.choice([0.0, 1e-4, 1.0], (len(run), 1))
+    squares = rng.uniform(0.0, 9.0, (len(run), 2)) * spp
+    kept = []
+    for pixels in (run, shuffled):
+        order = np.argsort(np.argsort(pixels))                  # row of each pixel in `run` order
+        noise = adaptive.PixelNoise(np.zeros((size, 4)), np.zeros((size, 2)), np.zeros(size, np.int64))
+        noise.count[::7] = 1                                    # some pixels had a sample before
+        estimates = NoiseEstimates.empty(size)
+        add_pixels(pixels, spp, rgba[order], squares[order], np.zeros(len(run), np.int64), noise,
+                           np.zeros(size, np.int64), estimates)
+        kept.append(estimates)
+    assert np.isfinite(kept[0].error[run]).any() and np.isinf(kept[0].error[:37]).all()
+    np.testing.assert_array_equal(kept[0].error, kept[1].error)
+    np.testing.assert_array_equal(kept[0].mean, kept[1].mean)
+
+
+def test_noise_test_refuses_pixels_that_are_not_ascending_indices_of_the_image():
+    """adaptive.unconverged_compiled reads each pixel's neighbours by its flat index: pixels out of order,
+    repeated, negative or past the image are refused (the C would read outside the sums)."""
+    W, H = 8, 6
+    noise = adaptive.PixelNoise(np.ones((W * H, 4)), np.ones((W * H, 2)), np.full(W * H, 4, np.int64))
+    assert len(adaptive.unconverged_compiled(np.arange(W * H), noise, 0.05, W, H)) == W * H    # (every pixel is noisy)
+    assert len(adaptive.unconverged_compiled(np.zeros(0, np.int64), noise, 0.05, W, H)) == 0
+    for bad in ([3, 2, 5], [1, 4, 4], [-1, 2, 3], [0, 1, W * H]):
+        with pytest.raises(ValueError, match="ascending"):
+            adaptive.unconverged_compiled(np.array(bad, np.int64), noise, 0.05, W, H)
+
+
+def test_compiled_box_filter_divides_as_numpy_does():
+    """film.resolve gives numpy's float32 quotients bit for bit, a pixel without samples its sums."""
+    rng = np.random.default_rng(3)
+    total = rng.uniform(-1.0, 50.0, (1000, 4)) * rng.choice([1e-30, 1.0, 1e30], (1000, 1))
+    count = rng.integers(0, 200, 1000).astype(np.int64)
+    expected = (total / np.maximum(count, 1)[:, None]).astype(np.float32)
+    np.testing.assert_array_equal(resolve(total, count), expected)
+
+
