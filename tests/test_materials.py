@@ -1,0 +1,141 @@
+"""BSDFs (core/materials) against closed forms: each one's f, pdf and sampling, and their table."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import ortho_down
+from core import materials, render
+from core.geometry import primitives
+from core.lights import AreaLight, SunLight
+from core.materials import Lambert, MaterialTable, Mirror
+from core.scene import RenderSettings, Scene
+
+
+def random_frames(n: int, seed: int = 0):
+    """n random unit normals and viewer directions on the normal's side: N, wo (n, 3) float64."""
+    rng = np.random.default_rng(seed)
+    N = rng.normal(size=(n, 3))
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    wo = rng.normal(size=(n, 3))
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+    wo *= np.where(np.einsum("ij,ij->i", wo, N) < 0, -1.0, 1.0)[:, None]
+    return N, wo
+
+
+def test_lambert_is_colour_over_pi_and_reflects_its_albedo():
+    """f = rho / pi for every pair of directions, so the directional albedo, the integral of f cos over
+    the hemisphere, is rho: estimated with cosine-weighted samples, each sample's weight f cos / pdf is rho."""
+    n = 20000
+    N, wo = random_frames(n)
+    color = np.tile([0.2, 0.5, 0.9], (n, 1))
+    wi = np.random.default_rng(1).normal(size=(n, 3))
+    np.testing.assert_allclose(Lambert.f(color, N, wo, wi), color / math.pi, rtol=0, atol=0)
+    sample = Lambert.sample(color, N, wo, np.random.default_rng(2).random((n, 2)))
+    np.testing.assert_allclose(np.linalg.norm(sample.wi, axis=1), 1.0, rtol=1e-12)
+    cos = np.einsum("ij,ij->i", N, sample.wi)
+    assert (cos >= 0).all()
+    np.testing.assert_allclose(sample.pdf, cos / math.pi, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(sample.pdf, Lambert.pdf(color, N, wo, sample.wi), rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(sample.weight, color, rtol=0, atol=0)
+    # Cosine-weighted: E[cos] = 2/3 and E[cos^2] = 1/2 (their closed forms under pdf = cos / pi).
+    assert cos.mean() == pytest.approx(2.0 / 3.0, abs=5e-3)
+    assert (cos ** 2).mean() == pytest.approx(0.5, abs=5e-3)
+
+
+def test_lambert_pdf_is_zero_below_the_surface():
+    N = np.array([[0.0, 0.0, 1.0]])
+    assert Lambert.pdf(np.ones((1, 3)), N, N, np.array([[0.0, 0.6, -0.8]]))[0] == 0.0
+
+
+def test_mirror_reflects_about_the_normal_with_its_colour_and_is_a_delta():
+    """R = 2 (N.wo) N - wo: the angle of incidence equals the angle of reflection, in the plane of N and
+    wo; weight = colour; pdf = inf; f = pdf = 0 for any pair of directions (light samples find nothing)."""
+    n = 1000
+    N, wo = random_frames(n, 3)
+    color = np.random.default_rng(4).random((n, 3))
+    sample = Mirror.sample(color, N, wo, np.zeros((n, 2)))
+    np.testing.assert_allclose(np.einsum("ij,ij->i", N, sample.wi), np.einsum("ij,ij->i", N, wo), atol=1e-12)
+    np.testing.assert_allclose(sample.wi + wo, 2.0 * np.einsum("ij,ij->i", N, wo)[:, None] * N, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(sample.wi, axis=1), 1.0, rtol=1e-12)
+    np.testing.assert_array_equal(sample.weight, color)
+    assert np.isinf(sample.pdf).all()
+    assert (Mirror.f(color, N, wo, sample.wi) == 0).all() and (Mirror.pdf(color, N, wo, sample.wi) == 0).all()
+    assert Mirror.delta and not Lambert.delta
+
+
+def test_the_table_dispatches_each_hit_to_its_own_bsdf():
+    """A batch of mixed BSDFs: each hit gets its own BSDF's f, pdf and sample (one call per kind present)."""
+    n = 200
+    N, wo = random_frames(n, 5)
+    kind = (np.arange(n) % 2).astype(np.int32)
+    color = np.random.default_rng(6).random((n, 3))
+    u = np.random.default_rng(7).random((n, 2))
+    f = materials.f(kind, color, N, wo, wo)
+    np.testing.assert_array_equal(f[kind == 0], color[kind == 0] * (1.0 / math.pi))
+    np.testing.assert_array_equal(f[kind == 1], 0.0)
+    sample = materials.sample(kind, color, N, wo, u)
+    assert np.isinf(sample.pdf[kind == 1]).all() and np.isfinite(sample.pdf[kind == 0]).all()
+    assert [cls.kind for cls in materials.BSDF_TYPES] == list(range(len(materials.BSDF_TYPES)))
+
+
+def test_material_table_has_a_default_grey_diffuse_row_and_refuses_unknown_bsdfs():
+    table = MaterialTable.of([materials.Material((0.1, 0.2, 0.3), "Red", "DIFFUSE"),
+                              materials.Material((1.5, -1.0, np.nan), "Odd", "MIRROR")])
+    np.testing.assert_array_equal(table.kind, [Lambert.kind, Mirror.kind, Lambert.kind])
+    np.testing.assert_allclose(table.color, [[0.1, 0.2, 0.3], [1.0, 0.0, 0.0], [0.8, 0.8, 0.8]])
+    with pytest.raises(ValueError, match="asks for BSDF 'VELVET'"):
+        MaterialTable.of([materials.Material((0.5, 0.5, 0.5), "Cloth", "VELVET")])
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_a_mirror_floor_is_black_in_direct_light_beside_a_diffuse_one(kernels):
+    """Direct light only (Cycles' max_bounces = 0): a diffuse floor shows rho / pi S cos, a mirror floor
+    nothing, since no light sample can find a delta direction."""
+    scene = Scene(camera=ortho_down(height=2.0, scale=4.0))
+    diffuse = scene.add_material((0.5, 0.5, 0.5))
+    mirror = scene.add_material((0.9, 0.9, 0.9), bsdf="MIRROR")
+    scene.add_mesh(primitives.plane(2.0, center=(-1.0, 0.0, 0.0)), materials=np.array([diffuse]))
+    scene.add_mesh(primitives.plane(2.0, center=(1.0, 0.0, 0.0)), materials=np.array([mirror]))
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=2.0))
+    image = render.render(scene, RenderSettings(width=8, height=4, samples=4, kernels=kernels)).image
+    np.testing.assert_allclose(image[1:3, 1:3, :3], 0.5 / math.pi * 2.0, rtol=1e-6)
+    np.testing.assert_array_equal(image[1:3, 5:7, :3], 0.0)
+
+
+def test_light_sampling_and_bsdf_sampling_estimate_the_same_light_from_an_area_light():
+    """The light and BSDF interfaces agree on what arrives: the irradiance an area light gives a point,
+    estimated by sampling the light (strength = L_e / pdf) and by sampling the Lambert BSDF's
+    cosine-weighted directions that hit it (E = pi E[L_e], Light.hit), and the pdf that hit reports for
+    a direction is the pdf sample gave it. With MIS weights w_l = p_l^2 / (p_l^2 + p_b^2) and
+    w_b = p_b^2 / (p_l^2 + p_b^2), which sum to one, the combination estimates it too."""
+    axis_u, axis_v = np.array([1.2, 0.0, 0.0]), np.array([0.0, 0.8, 0.3])
+    down = -np.cross(axis_u, axis_v) / np.linalg.norm(np.cross(axis_u, axis_v))       # emitting downwards
+    light = AreaLight(np.array([0.3, -0.2, 1.5]), axis_u, axis_v, down, power=50.0)
+    n = 400_000
+    rng = np.random.default_rng(8)
+    P = np.zeros((n, 3))
+    N = np.tile([0.0, 0.0, 1.0], (n, 1))
+    # 1. Light sampling: E = mean(strength cos).
+    ls = light.sample(P, rng.random((n, 2)))
+    cos_l = np.maximum(ls.L[:, 2], 0.0)
+    E_light = np.mean(ls.strength * cos_l)
+    # 2. BSDF sampling: cosine-weighted directions, pdf cos / pi: E = mean(L_e cos / pdf) = pi mean(L_e).
+    bs = Lambert.sample(np.ones((n, 3)), N, N, rng.random((n, 2)))
+    found = light.hit(P, bs.wi, np.full(n, np.inf))
+    E_bsdf = np.mean(np.where(found.hit, found.radiance * math.pi, 0.0))
+    assert E_bsdf == pytest.approx(E_light, rel=0.01)
+    # 3. hit's pdf of a direction is the pdf sample gave it (the same solid-angle density).
+    back = light.hit(P[:1000], ls.L[:1000], np.full(1000, np.inf))
+    facing = ls.pdf[:1000] > 0
+    assert back.hit[facing].all()
+    np.testing.assert_allclose(back.pdf[facing], ls.pdf[:1000][facing], rtol=1e-9)
+    # 4. MIS with the power heuristic: both estimators weighted, summed.
+    p_b_of_light = np.maximum(ls.L[:, 2], 0.0) / math.pi
+    w_light = ls.pdf ** 2 / (ls.pdf ** 2 + p_b_of_light ** 2)
+    p_l_of_bsdf = found.pdf
+    w_bsdf = np.where(found.hit, bs.pdf ** 2 / (bs.pdf ** 2 + p_l_of_bsdf ** 2), 0.0)
+    E_mis = np.mean(w_light * ls.strength * cos_l) + np.mean(w_bsdf * np.where(found.hit, found.radiance * math.pi, 0.0))
+    assert E_mis == pytest.approx(E_light, rel=0.01)
