@@ -1,4 +1,4 @@
-"""How the ray inspector shows a PixelRecord (core/inspector.py): lines, points, panel rows, picking.
+"""How the ray inspector shows a PixelRecord (core/teaching/inspector.py): lines, points, panel rows, picking.
 
 Pure functions, no bpy and no gpu: addon/inspector.py hands their output to
 Blender's `gpu` module and panels, and tests check them without a GPU.

@@ -6,11 +6,11 @@ Blender calls two methods of the RenderEngine for the viewport:
   SceneCache (addon/scene_cache.py) re-exports only what `depsgraph.updates` names, and the
   samples start again;
 * `view_draw(context, depsgraph)` whenever the viewport is redrawn (also while the user flies
-  around): the view's camera is taken from the region's matrices (core/view.py); if it moved, the
+  around): the view's camera is taken from the region's matrices (core/camera/view.py); if it moved, the
   samples start again, and the newest image is drawn.
 
 Rendering never happens in those calls. A worker thread renders progressive passes
-(core/progressive.py): a coarse one of one ray per block of pixels within a frame or two, then
+(core/film/progressive.py): a coarse one of one ray per block of pixels within a frame or two, then
 full-resolution passes that are averaged. A change cancels the pass in flight through core.render's
 `cancel` callback. The frame time of each pass is shown in the viewport's corner, as in the
 lecture's framerate slide: "measure the time it takes to render a frame".
@@ -41,7 +41,7 @@ COARSE_SECONDS = 0.05       # the coarse pass's time budget: well inside the 100
 def viewport_settings(scene) -> RenderSettings:
     """Return the render settings the viewport uses: the scene's, with no border and no auxiliary buffers.
 
-    No adaptive sampling: progressive refinement is the viewport's own schedule (core/progressive.py),
+    No adaptive sampling: progressive refinement is the viewport's own schedule (core/film/progressive.py),
     and it weighs every pass by its sample count, which holds only if every pixel got them all.
     """
     settings = export.render_settings(scene, 1, 1, (0, 0, 1, 1))

@@ -242,22 +242,23 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     def recording(query):
         def traced(self, origins, directions, t_max):
             o, d, t = to_f32(origins, directions, t_max)
-            active = t >= 0.0           # t_max < 0 marks a sample with no ray (core/shading.py): Embree skips it
+            active = t >= 0.0           # (t_max < 0 would mark a ray Embree skips)
             batches.append((query, np.ascontiguousarray(o[active]), np.ascontiguousarray(d[active]),
                             np.ascontiguousarray(t[active])))
             return original[query](self, origins, directions, t_max)
         return traced
 
-    # The compiled render traces its rays inside its kernels; for the recording, it asks
-    # Tracer.intersect and Tracer.occluded instead, with the very same rays (tests/test_kernels.py).
+    # The compiled render traces its rays inside its C chunk; for the recording, the Python reference
+    # renders instead: it asks Tracer.intersect and Tracer.occluded the very same rays, to float32
+    # rounding (tests/test_compiled.py: the same rays traced, pixel for pixel).
     Tracer.__init__, Tracer.intersect, Tracer.occluded = init, recording("intersect"), recording("occluded")
-    Tracer.stream_queries = False
+    scene.primer.kernels = "NUMPY"
     try:
         render_timed()
     finally:
         for method_name, method in original.items():
             setattr(Tracer, method_name, method)
-        Tracer.stream_queries = True
+        scene.primer.kernels = "COMPILED"
     n_rays = sum(len(b[1]) for b in batches)
     if n_rays != record.rays or len(meshes) != 1:
         raise RuntimeError(f"recorded {n_rays} rays in {len(meshes)} BVH(s); the render traced {record.rays}")

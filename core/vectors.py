@@ -164,7 +164,7 @@ def determinant(L: np.ndarray) -> np.ndarray:
 def adjugate(L: np.ndarray) -> np.ndarray:
     """Return the adjugate of (k, 3, 3) float64 matrices: (k, 3, 3) with the rows b x c, c x a, a x b,
     a, b, c the columns of L. L^-1 = adj L / det L, and normals turn with its transpose, the
-    cofactor matrix (core/instancing.py)."""
+    cofactor matrix (core/geometry/instancing.py)."""
     a, b, c = L[:, :, 0], L[:, :, 1], L[:, :, 2]
     rows = np.empty((len(L), 3, 3), np.result_type(L))
     cross(b, c, rows[:, 0])

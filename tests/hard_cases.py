@@ -556,7 +556,7 @@ def _sphere_outcome(mesh: Mesh, method: str, travel, smooth: bool, size: int = 6
     NL, NgL = N @ L, Ng @ L
     expected = np.where(hit & (NL > 0) & (NgL > 0), ALBEDO / math.pi * 3.0 * NL, 0.0)
     judged = (edge > 1e-4) & (np.abs(NgL) > 1e-9) | ~hit & (edge > 1e-4)
-    # Smooth corner normals are stored as float32 (core/geometry.py): N.L is good to ~1e-7 absolute.
+    # Smooth corner normals are stored as float32 (core/geometry/geometry.py): N.L is good to ~1e-7 absolute.
     return compare(result.image, expected.reshape(size, size), judged.reshape(size, size),
                    floor=1e-6 if smooth else 1e-7)
 

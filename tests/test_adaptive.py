@@ -1,4 +1,4 @@
-"""Adaptive sampling (core/adaptive.py): samples go where pixels need them, and pixels stay unbiased."""
+"""Adaptive sampling (core/film/adaptive.py): samples go where pixels need them, and pixels stay unbiased."""
 from __future__ import annotations
 
 import math

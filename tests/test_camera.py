@@ -1,4 +1,4 @@
-"""Tests for core/camera.py against hand-computed, closed-form rays.
+"""Tests for core/camera/camera.py against hand-computed, closed-form rays.
 
 Conventions: an identity matrix_world means the camera sits at the origin looking
 along -Z, with +X to the right and +Y up.  Raster y counts rows from the top.

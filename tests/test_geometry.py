@@ -1,6 +1,6 @@
 """Placing copies: every copied triangle lands where its own object's matrix puts it.
 
-core/geometry.py places the copies of many meshes in one batch (_place_copies). Each test builds
+core/geometry/geometry.py places the copies of many meshes in one batch (_place_copies). Each test builds
 a scene of many different small meshes and checks the placed triangles against the closed forms:
 world point = M p + t, face normal along (b - a) x (c - a), corner normals turned by M^-T, the
 instance's material table, and the bad triangles dropped and counted.

@@ -1,6 +1,6 @@
 """Instancing: a mesh stored once and traced through its placements gives what its copies give.
 
-core/instancing.py stores a mesh placed many times once and finds, for every hit, the
+core/geometry/instancing.py stores a mesh placed many times once and finds, for every hit, the
 instance it was on (embreex reports no instance ID). Each test compares the instanced scene
 with the same scene copied triangle by triangle (the reference path), or with a closed form.
 """

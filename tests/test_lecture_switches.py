@@ -1,6 +1,6 @@
 """The lecture switches: flip one and the image changes exactly as its closed form says.
 
-Each switch defaults to the lecture's choice (core/scene.py, LECTURE_SWITCHES). The scenes are
+Each switch defaults to the lecture's choice (core/scene/scene.py, LECTURE_SWITCHES). The scenes are
 small and built so that every pixel has a closed form with the switch on and with it off.
 """
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Tests for core/normals.py and the normals that core/geometry.py and core/shading.py derive from it.
+"""Tests for core/geometry/normals.py and the normals that core/geometry/geometry.py and core/integrators/direct.py derive from it.
 
 Expected values are closed forms: face normals and areas of hand-picked triangles,
 cube corner normals (+-1, +-1, +-1)/sqrt(3), normalised sums of corner normals at edge

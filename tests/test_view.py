@@ -1,4 +1,4 @@
-"""The viewport's camera and progressive passes, without Blender (core/view.py, core/progressive.py).
+"""The viewport's camera and progressive passes, without Blender (core/camera/view.py, core/film/progressive.py).
 
 The projection matrices here are OpenGL's frustum and orthographic matrices written out from their
 closed forms, the same ones Blender's viewport uses; tests/test_viewport.py checks against bpy's own.

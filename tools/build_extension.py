@@ -13,7 +13,7 @@ Steps:
    module), which applies the manifest's [build] paths_exclude_pattern, then check it with
    `blender_ext.py validate` and with a listing check of its own.
 
-Only embreex is bundled: numpy comes with Blender, and OpenImageIO (used by core/image_io.py, never by
+Only embreex is bundled: numpy comes with Blender, and OpenImageIO (used by core/film/image_io.py, never by
 the add-on) is Blender's own copy when anything inside Blender needs it.
 """
 from __future__ import annotations

@@ -15,7 +15,7 @@ A perspective window matrix (last row 0 0 -1 0) is::
     [   0        0         -1         0 ]
 
 and an orthographic one (last row 0 0 0 1) has 2/(R-L) and -(R+L)/(R-L) in its first row, with
-L, R, B, T in scene units. Either way the four edges are Blender's *viewplane*, which core/camera.py
+L, R, B, T in scene units. Either way the four edges are Blender's *viewplane*, which core/camera/camera.py
 already turns into rays: `camera_from_viewplane` picks the lens, sensor, ortho scale, shift and pixel
 aspect whose viewplane is exactly (L, R, B, T). Viewport and camera view both work this way, since
 in camera view Blender's window matrix is the scene camera's projection, zoomed and panned.

@@ -17,7 +17,7 @@ So instead of `samples` rays in every pixel, Primer renders in passes:
    edge runs there, and a sliver of it narrower than one first-pass stratum, which
    all its samples may have missed, could hide an error above the threshold.
 
-The passes continue one progressive sample pattern per pixel (core/sampling.py):
+The passes continue one progressive sample pattern per pixel (core/sampling/sobol.py):
 a pixel that takes every pass gets exactly the samples a uniform render of `samples`
 gets, stratified as well, and its passes so far always form a well-spread pattern.
 The mean is not quite unbiased: whether a pixel goes on is decided from the very

@@ -12,11 +12,11 @@ from the object's memory, and only after checking the object's layout three ways
 value we write through a public field, and the device pointer beside it) and asking Embree
 whether the scene belongs to the device. If anything is unexpected (another embreex, another
 platform, a missing library), `attach_triangles` returns None and the caller copies the
-arrays the ordinary way (`core/intersect.py` keeps that path and tests both against each other).
+arrays the ordinary way (`core/geometry/intersect.py` keeps that path and tests both against each other).
 
 The same C API places a mesh many times while storing it once (`attach_instances`): the mesh
 goes into a scene of its own, and one instance array reads every placement's 3 x 4 transform in
-place (core/instancing.py explains how a hit's instance is found, since embreex drops instID).
+place (core/geometry/instancing.py explains how a hit's instance is found, since embreex drops instID).
 
 Embree reads shared arrays until the scene is freed, so the caller must keep them alive.
 """

@@ -2,7 +2,7 @@
 
 Most meshes are copied into the world, one triangle soup for all of them. A mesh whose copies
 would hold more than `instancing.INSTANCE_TRIANGLES` triangles is stored once and traced as
-Embree instances instead (`core/instancing.py`); `WorldGeometry.triangle_data` answers for both
+Embree instances instead (`core/geometry/instancing.py`); `WorldGeometry.triangle_data` answers for both
 kinds, by one flat triangle index.
 
 Camera-relative rendering: all world points are stored relative to `origin`
@@ -51,7 +51,7 @@ class WorldGeometry:
     tracer:         the Embree BVH over vertices and triangles
     warnings:       human-readable notes about input that was dropped or replaced
     instance:       (t,) int32 index into Scene.instances per triangle (which object it belongs to)
-    instanced:      InstancedMesh records (core/instancing.py) of the meshes stored once; their
+    instanced:      InstancedMesh records (core/geometry/instancing.py) of the meshes stored once; their
                     triangles have the flat indices len(triangles) and up
     The arrays above hold the copied triangles only; ask `triangle_data` for any triangle.
     """
@@ -327,7 +327,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                             "and were skipped")
         if (len(placed) >= 2 and len(placed) * len(mesh.triangles) > instance_triangles
                 and embree_buffers.instancing_supported()):
-            # Stored once, traced as Embree instances (core/instancing.py).
+            # Stored once, traced as Embree instances (core/geometry/instancing.py).
             record, found = _instanced_placements(scene, mesh, placed, all_matrices, origin, n_materials)
             # Unless asked to always instance, instances piled up in one place are copied instead:
             # every hit there would have to try each of them (instancing.CROWDED).

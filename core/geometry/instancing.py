@@ -5,7 +5,7 @@ can trace a mesh stored once, in a scene of its own (the prototype), through k o
 transforms (an instance array): the ray is moved into a candidate instance's object space and
 tested against the one prototype BVH. Primer does this for a mesh whose copies would add more
 than INSTANCE_TRIANGLES triangles; smaller scenes are copied into one triangle soup, which is
-faster to trace and to shade (`core/geometry.py`).
+faster to trace and to shade (`core/geometry/geometry.py`).
 
 Which instance did the ray hit? Embree's hit record names it (instID), but embreex hands back
 only geomID, primID, u, v, Ng and t. The prototype's geomID tells the mesh; primID and (u, v)

@@ -8,7 +8,7 @@ Two questions can be asked of the scene:
 
 Everything above this module is float64; Embree works in float32. The
 conversion happens here and only here. Callers pass camera-relative
-coordinates (see `core/geometry.py`), so float32 keeps its precision where
+coordinates (see `core/geometry/geometry.py`), so float32 keeps its precision where
 the camera looks.
 """
 from __future__ import annotations
@@ -57,7 +57,7 @@ class Tracer:
     vertices:  (v, 3) float32 camera-relative points
     triangles: (t, 3) int32 vertex indices
     The queries release the GIL, so several threads may query one Tracer at once.
-    share: True lets Embree read the arrays in place (`core/embree_buffers.py`); False, or a share
+    share: True lets Embree read the arrays in place (`core/geometry/embree_buffers.py`); False, or a share
     that fails its checks, copies them through embreex's `TriangleMesh`, the reference path.
     Both give the same BVH and the same hits.
     shared: whether the arrays were shared.
@@ -66,7 +66,7 @@ class Tracer:
     a padding row); embreex's copy goes one element at a time through Python indexing (about
     0.35 us per number, so 1.6 s for a mesh of 10^6 triangles and 5 x 10^5 vertices).
     build_seconds: time Embree took to build the BVH itself.
-    instanced: InstancedMesh records (core/instancing.py), each traced as an Embree instance array
+    instanced: InstancedMesh records (core/geometry/instancing.py), each traced as an Embree instance array
     of one prototype; `intersect` reports their hits by flat triangle index like the copied ones.
     packets: True asks Embree 8 rays at a time (rtcIntersect8 / rtcOccluded8, through the compiled
     compiled code in core/geometry/embree.c) where it can; False, or without the library, asks through embreex's
@@ -113,12 +113,6 @@ class Tracer:
         if packets:
             self._packets = embree_packets(self._scene, self._device)
 
-    # Whether a compiled render may trace its rays inside its C chunk (core/integrators/chunk.c)
-    # through `packets`, rather than asking `intersect` and
-    # `occluded`: the same rays and answers, with no arrays of rays in between. The benchmark
-    # switches it off to record every ray that reaches Embree.
-    stream_queries = True
-
     @property
     def packed(self) -> bool:
         """Whether the queries go to Embree in packets of 8 rays."""
@@ -153,7 +147,7 @@ class Tracer:
         return True
 
     def _instance(self, mesh, geometry_id: int) -> None:
-        """Attach an instanced mesh (core/instancing.py): its prototype once, reported as geomID `geometry_id`."""
+        """Attach an instanced mesh (core/geometry/instancing.py): its prototype once, reported as geomID `geometry_id`."""
         points = embree_buffers.padded(mesh.vertices, np.float32)
         indices = embree_buffers.padded(mesh.triangles, np.uint32)
         transforms = mesh.embree_transforms()
@@ -196,7 +190,7 @@ class Tracer:
     def _flat_indices(self, geometry_id: np.ndarray, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
                       origins: np.ndarray, directions: np.ndarray, t: np.ndarray,
                       instance: Optional[np.ndarray] = None) -> None:
-        """Turn hits on instances into flat triangle indices, in place in `prim` (core/instancing.py).
+        """Turn hits on instances into flat triangle indices, in place in `prim` (core/geometry/instancing.py).
 
         geometry_id: (n,) int32 Embree's geomID (0 copied triangles, m + 1 instanced mesh m);
         prim: (n,) int64 Embree's primID; instance: (n,) int64 Embree's instPrimID, the placement

@@ -6,7 +6,7 @@ The lecture's recipe for smooth surfaces:
 2. inside a triangle, the normal is interpolated from its corners with the
    barycentric coordinates of the hit, then normalised again.
 Use the interpolated normal for N.L, but the face normal to decide whether a
-light can be visible at all (`core/shadows.py`).
+light can be visible at all (`core/integrators/shadows.py`).
 """
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ Camera and light samples come from one progressive pattern per pixel (`sample_2d
 a scrambled Sobol (0,2)-sequence. Its first 2^m points are stratified in every
 way a set of 2^m points can be (one point in each of the 2^m cells of any grid
 of 2^a x 2^b cells with a + b = m), and every later block of 2^m points is too. So
-adaptive sampling (core/adaptive.py), which adds samples pass by pass, gets the
+adaptive sampling (core/film/adaptive.py), which adds samples pass by pass, gets the
 same well-spread pattern a uniform render of the same count gets: its passes
 continue one sequence instead of starting new ones.
 """
