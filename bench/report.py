@@ -504,7 +504,7 @@ def report_markdown(results: dict, plots: dict) -> str:
              "Half the squared difference of the two halves estimates the reference's own noise "
              "(the dotted line in the plots).",
              f"- Ladders: Primer at {plan['primer_ladder']} samples per pixel, with adaptive sampling as the "
-             "files have it (on by default: the number is the most samples any pixel gets, core/adaptive.py), "
+             "files have it (on by default: the number is the most samples any pixel gets, core/film/adaptive.py), "
              f"Cycles (seed 0, adaptive sampling off) at {plan['cycles_ladder']}. Each time is the wall time of one whole `bpy.ops.render.render()` call, "
              "export and BVH build included, in one Blender process per scene with the engines alternating, "
              f"after an untimed warm-up render of each; the median of {plan['repeats']} repeats.",
@@ -524,7 +524,7 @@ def report_markdown(results: dict, plots: dict) -> str:
     text += ["", "## Where Primer's time goes", "",
              f"Primer at {results['profile']['samples']} samples per pixel on one thread (so the parts add up to the "
              "wall time), median of the repeats. *Embree queries* is the time inside Embree's queries for camera "
-             "and shadow rays (timed inside the compiled kernels that ask them, core/kernels.c); *shading* is the "
+             "and shadow rays (timed inside the compiled kernels that ask them, core/integrators/direct.c); *shading* is the "
              "work on the hits (normals, lights, shadow-ray set-up: compiled kernels) without those queries; "
              "*camera rays, filter, buffers* is the rest of core's render loop (sampling, camera rays, the box "
              "filter, the noise test between passes); *Blender* is what the `bpy.ops.render.render()` call spends "
@@ -535,7 +535,7 @@ def report_markdown(results: dict, plots: dict) -> str:
              "very same ray batches (recorded from the same render, replayed with the same BVH settings, timing only "
              "embreex's calls), on one thread and on a pool of one thread per core. Primer asks Embree 8 rays at a "
              "time (rtcIntersect8 / rtcOccluded8), inside one kernel that makes, traces, shades and sums each block "
-             "of 64 camera samples (kernels.samples); embreex's "
+             "of 64 camera samples (core/integrators/chunk.c); embreex's "
              "`run` asks one ray at a time: the same rays, the same BVH, the same answers. The measurement goes in "
              "rounds (one Primer render, then both replays), since this shared machine has slow and fast spells "
              "(its hypervisor takes 5-30% of the time); the rates are medians over the rounds, and the share is the "
@@ -617,7 +617,7 @@ def findings(results: dict, heads: list) -> list:
                    f"at peak; {big['bvh_seconds']:.1f} s of it is placing the triangles and building the BVH "
                    f"(Embree alone: {_embree_split(big)} s, upload + BVH build; the arrays were "
                    f"{_upload_kind(big)}), so tracing is cheap next to scene set-up at that size. Shared in place "
-                   "(core/embree_buffers.py), the arrays cost Embree one padded numpy copy; embreex's own path copies "
+                   "(core/geometry/embree_buffers.py), the arrays cost Embree one padded numpy copy; embreex's own path copies "
                    "the vertices and indices one number at a time through Python indexing (about 0.35 µs each).")
     many = max((p for p in points.values() if p["kind"] == "instances"), key=lambda p: p["value"], default=None)
     one_instance = min((p for p in points.values() if p["kind"] == "instances"), key=lambda p: p["value"], default=None)
@@ -625,7 +625,7 @@ def findings(results: dict, heads: list) -> list:
         out.append(f"{many['instances'] - 1:,} instances take {many['bvh_seconds']:.1f} s to place and build "
                    f"(Embree alone: {_embree_split(many)} s, upload + BVH build), "
                    f"{1e6 * many['bvh_seconds'] / max(1, many['instances']):.0f} µs per instance. The mesh is "
-                   "stored once and traced as an Embree instance array (core/instancing.py); Embree's packet "
+                   "stored once and traced as an Embree instance array (core/geometry/instancing.py); Embree's packet "
                    "queries name each hit's instance (embreex's single-ray reference path has no instance ID, "
                    "so there it is found from the hit's point, with a grid over the instances' boxes). "
                    f"Peak memory: {many['peak_mb'] / 1024:.2f} GB"
