@@ -139,23 +139,28 @@ def test_each_lights_c_file_samples_what_its_class_samples(name):
 
 
 def test_each_bsdfs_c_file_evaluates_and_samples_what_its_class_does():
-    """f, pdf and a sampled direction of every BSDF in C, against its Python class, on random directions."""
+    """f cos, pdf and a sampled direction of every BSDF in C (as a one-closure ShaderResult), against its
+    Python class, on random directions."""
     rng = np.random.default_rng(4)
     n = 3000
     kind = rng.integers(0, len(materials.BSDF_TYPES), n).astype(np.int32)
-    color = rng.random((n, 3))
+    weight = rng.random((n, 3))
     N = rng.normal(size=(n, 3))
     N /= np.linalg.norm(N, axis=1, keepdims=True)
     wo, wi = (rng.normal(size=(n, 3)) for _ in range(2))
     wo, wi = wo / np.linalg.norm(wo, axis=1, keepdims=True), wi / np.linalg.norm(wi, axis=1, keepdims=True)
     wo *= np.where(np.einsum("ij,ij->i", wo, N) < 0, -1.0, 1.0)[:, None]          # the viewer's side
     u = rng.random((n, 2))
-    f, pdf, sampled = materials.compiled_bsdf(kind, color, N, wo, wi, u)
-    expected = materials.sample(kind, color, N, wo, u)
-    np.testing.assert_allclose(f, materials.f(kind, color, N, wo, wi), rtol=1e-12, atol=0)
-    np.testing.assert_allclose(pdf, materials.pdf(kind, color, N, wo, wi), rtol=1e-12, atol=0)
+    params = rng.random((n, materials.PARAMS))
+    f_cos, pdf, sampled = materials.compiled_bsdf(kind, weight, N, params, wo, wi, u)
+    closures = materials.Closures(kind[:, None], weight[:, None, :], np.abs(weight.mean(axis=1))[:, None],
+                                  N[:, None, :], params[:, None, :])
+    expected_f, expected_pdf = materials.eval_closures(closures, wo, wi)
+    expected = materials.sample_closures(closures, wo, u, np.full(n, 0.5))
+    np.testing.assert_allclose(f_cos, expected_f, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(pdf, expected_pdf, rtol=1e-12, atol=0)
     np.testing.assert_allclose(sampled.wi, expected.wi, rtol=0, atol=1e-6)     # (a float32 cosine, as for lights)
-    np.testing.assert_allclose(sampled.weight, expected.weight, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(sampled.weight, expected.weight, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(sampled.pdf, expected.pdf, rtol=1e-6, atol=1e-9)
 
 

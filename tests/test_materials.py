@@ -25,67 +25,100 @@ def random_frames(n: int, seed: int = 0):
     return N, wo
 
 
-def test_lambert_is_colour_over_pi_and_reflects_its_albedo():
-    """f = rho / pi for every pair of directions, so the directional albedo, the integral of f cos over
-    the hemisphere, is rho: estimated with cosine-weighted samples, each sample's weight f cos / pdf is rho."""
+def no_params(n: int) -> np.ndarray:
+    return np.zeros((n, materials.PARAMS))
+
+
+def test_lambert_is_one_over_pi_and_reflects_its_albedo():
+    """f cos = max(N.wi, 0) / pi for every pair of directions (the colour is the closure's weight), so the
+    directional albedo, the integral of f cos over the hemisphere, is 1: with cosine-weighted samples each
+    sample's f cos / pdf is 1, and pdf = N.wi / pi."""
     n = 20000
     N, wo = random_frames(n)
-    color = np.tile([0.2, 0.5, 0.9], (n, 1))
     wi = np.random.default_rng(1).normal(size=(n, 3))
-    np.testing.assert_allclose(Lambert.f(color, N, wo, wi), color / math.pi, rtol=0, atol=0)
-    sample = Lambert.sample(color, N, wo, np.random.default_rng(2).random((n, 2)))
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    f_cos, pdf = Lambert.eval(no_params(n), N, wo, wi)
+    cos = np.einsum("ij,ij->i", N, wi)
+    np.testing.assert_allclose(f_cos, np.repeat(np.maximum(cos, 0.0)[:, None] / math.pi, 3, axis=1), rtol=1e-15)
+    np.testing.assert_allclose(pdf, np.maximum(cos, 0.0) / math.pi, rtol=1e-15)
+    sample = Lambert.sample(no_params(n), N, wo, np.random.default_rng(2).random((n, 2)))
     np.testing.assert_allclose(np.linalg.norm(sample.wi, axis=1), 1.0, rtol=1e-12)
     cos = np.einsum("ij,ij->i", N, sample.wi)
     assert (cos >= 0).all()
     np.testing.assert_allclose(sample.pdf, cos / math.pi, rtol=1e-12, atol=1e-15)
-    np.testing.assert_allclose(sample.pdf, Lambert.pdf(color, N, wo, sample.wi), rtol=1e-12, atol=1e-15)
-    np.testing.assert_allclose(sample.weight, color, rtol=0, atol=0)
+    np.testing.assert_array_equal(sample.weight, 1.0)
     # Cosine-weighted: E[cos] = 2/3 and E[cos^2] = 1/2 (their closed forms under pdf = cos / pi).
     assert cos.mean() == pytest.approx(2.0 / 3.0, abs=5e-3)
     assert (cos ** 2).mean() == pytest.approx(0.5, abs=5e-3)
 
 
-def test_lambert_pdf_is_zero_below_the_surface():
+def test_lambert_is_zero_below_the_surface_unless_the_lecture_switch_keeps_the_sign():
     N = np.array([[0.0, 0.0, 1.0]])
-    assert Lambert.pdf(np.ones((1, 3)), N, N, np.array([[0.0, 0.6, -0.8]]))[0] == 0.0
+    below = np.array([[0.0, 0.6, -0.8]])
+    f_cos, pdf = Lambert.eval(no_params(1), N, N, below)
+    assert (f_cos == 0.0).all() and pdf[0] == 0.0
+    signed, _ = Lambert.eval(no_params(1), N, N, below, signed_cosine=True)
+    np.testing.assert_allclose(signed, -0.8 / math.pi)
 
 
-def test_mirror_reflects_about_the_normal_with_its_colour_and_is_a_delta():
+def test_mirror_reflects_about_the_normal_and_is_a_delta():
     """R = 2 (N.wo) N - wo: the angle of incidence equals the angle of reflection, in the plane of N and
-    wo; weight = colour; pdf = inf; f = pdf = 0 for any pair of directions (light samples find nothing)."""
+    wo; weight 1 (the closure's weight tints it); pdf = inf; eval is 0 for any pair of directions."""
     n = 1000
     N, wo = random_frames(n, 3)
-    color = np.random.default_rng(4).random((n, 3))
-    sample = Mirror.sample(color, N, wo, np.zeros((n, 2)))
+    sample = Mirror.sample(no_params(n), N, wo, np.zeros((n, 2)))
     np.testing.assert_allclose(np.einsum("ij,ij->i", N, sample.wi), np.einsum("ij,ij->i", N, wo), atol=1e-12)
     np.testing.assert_allclose(sample.wi + wo, 2.0 * np.einsum("ij,ij->i", N, wo)[:, None] * N, atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(sample.wi, axis=1), 1.0, rtol=1e-12)
-    np.testing.assert_array_equal(sample.weight, color)
+    np.testing.assert_array_equal(sample.weight, 1.0)
     assert np.isinf(sample.pdf).all()
-    assert (Mirror.f(color, N, wo, sample.wi) == 0).all() and (Mirror.pdf(color, N, wo, sample.wi) == 0).all()
+    f_cos, pdf = Mirror.eval(no_params(n), N, wo, sample.wi)
+    assert (f_cos == 0).all() and (pdf == 0).all()
     assert Mirror.delta and not Lambert.delta
 
 
-def test_the_table_dispatches_each_hit_to_its_own_bsdf():
-    """A batch of mixed BSDFs: each hit gets its own BSDF's f, pdf and sample (one call per kind present)."""
-    n = 200
+def closures_of(kinds, weights, N):
+    """Closures of n hits with the given per-slot kinds (K,) and weights (K, 3), all at normals N (n, 3)."""
+    n, K = len(N), len(kinds)
+    c = materials.Closures.empty(n, K)
+    c.kind[:] = kinds
+    c.weight[:] = weights
+    c.sample_weight[:] = np.abs(np.asarray(weights, np.float64).mean(axis=1))
+    c.N[:] = N[:, None, :]
+    return c
+
+
+def test_closures_sum_their_values_and_average_their_pdfs_by_sampling_weight():
+    """Two closures (a diffuse of weight a, a mirror of weight b): f cos = a cos / pi (the mirror adds 0);
+    pdf = (w_a cos/pi + w_b 0) / (w_a + w_b); sampling picks each in proportion to its weight, and a
+    picked mirror carries b / P(mirror)."""
+    n = 4000
     N, wo = random_frames(n, 5)
-    kind = (np.arange(n) % 2).astype(np.int32)
-    color = np.random.default_rng(6).random((n, 3))
-    u = np.random.default_rng(7).random((n, 2))
-    f = materials.f(kind, color, N, wo, wo)
-    np.testing.assert_array_equal(f[kind == 0], color[kind == 0] * (1.0 / math.pi))
-    np.testing.assert_array_equal(f[kind == 1], 0.0)
-    sample = materials.sample(kind, color, N, wo, u)
-    assert np.isinf(sample.pdf[kind == 1]).all() and np.isfinite(sample.pdf[kind == 0]).all()
-    assert [cls.kind for cls in materials.BSDF_TYPES] == list(range(len(materials.BSDF_TYPES)))
+    a, b = np.array([0.6, 0.3, 0.1]), np.array([0.2, 0.2, 0.5])
+    closures = closures_of([Lambert.kind, Mirror.kind], [a, b], N)
+    wi = np.random.default_rng(6).normal(size=(n, 3))
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    f_cos, pdf = materials.eval_closures(closures, wo, wi)
+    cos = np.maximum(np.einsum("ij,ij->i", N, wi), 0.0)
+    np.testing.assert_allclose(f_cos, a * (cos / math.pi)[:, None], rtol=1e-13)
+    wa, wb = a.mean(), b.mean()
+    np.testing.assert_allclose(pdf, wa * cos / math.pi / (wa + wb), rtol=1e-13)
+    pick = np.random.default_rng(7).random(n)
+    s = materials.sample_closures(closures, wo, np.random.default_rng(8).random((n, 2)), pick)
+    assert s.delta.mean() == pytest.approx(wb / (wa + wb), abs=0.03)
+    np.testing.assert_allclose(s.weight[s.delta], np.tile(b * (wa + wb) / wb, (s.delta.sum(), 1)), rtol=1e-12)
+    # A diffuse pick carries f cos / pdf of the pair: a / P(diffuse).
+    np.testing.assert_allclose(s.weight[~s.delta], np.tile(a * (wa + wb) / wa, ((~s.delta).sum(), 1)), rtol=1e-9)
 
 
 def test_material_table_has_a_default_grey_diffuse_row_and_refuses_unknown_bsdfs():
     table = MaterialTable.of([materials.Material((0.1, 0.2, 0.3), "Red", "DIFFUSE"),
-                              materials.Material((1.5, -1.0, np.nan), "Odd", "MIRROR")])
-    np.testing.assert_array_equal(table.kind, [Lambert.kind, Mirror.kind, Lambert.kind])
-    np.testing.assert_allclose(table.color, [[0.1, 0.2, 0.3], [1.0, 0.0, 0.0], [0.8, 0.8, 0.8]])
+                              materials.Material((1.5, -1.0, np.nan), "Odd", "MIRROR", emission=(2.0, 0.0, 1.0))])
+    N = np.tile([0.0, 0.0, 1.0], (3, 1))
+    result = table.shade(np.array([0, 1, 2], np.int32), N, N)
+    np.testing.assert_array_equal(result.closures.kind[:, 0], [Lambert.kind, Mirror.kind, Lambert.kind])
+    np.testing.assert_allclose(result.closures.weight[:, 0], [[0.1, 0.2, 0.3], [1.0, 0.0, 0.0], [0.8, 0.8, 0.8]])
+    np.testing.assert_allclose(result.emission, [[0, 0, 0], [2.0, 0.0, 1.0], [0, 0, 0]])
     with pytest.raises(ValueError, match="asks for BSDF 'VELVET'"):
         MaterialTable.of([materials.Material((0.5, 0.5, 0.5), "Cloth", "VELVET")])
 
@@ -123,7 +156,7 @@ def test_light_sampling_and_bsdf_sampling_estimate_the_same_light_from_an_area_l
     cos_l = np.maximum(ls.L[:, 2], 0.0)
     E_light = np.mean(ls.strength * cos_l)
     # 2. BSDF sampling: cosine-weighted directions, pdf cos / pi: E = mean(L_e cos / pdf) = pi mean(L_e).
-    bs = Lambert.sample(np.ones((n, 3)), N, N, rng.random((n, 2)))
+    bs = Lambert.sample(no_params(n), N, N, rng.random((n, 2)))
     found = light.hit(P, bs.wi, np.full(n, np.inf))
     E_bsdf = np.mean(np.where(found.hit, found.radiance * math.pi, 0.0))
     assert E_bsdf == pytest.approx(E_light, rel=0.01)

@@ -68,6 +68,9 @@ class Recorder:
     def hits(self, O: np.ndarray, D: np.ndarray, surface: Optional[Surface], hit: np.ndarray) -> None:
         """The camera rays O, D (n, 3) float64, which hit (n,) bool, and the hits' Surface (or None)."""
 
+    def shader(self, result) -> None:
+        """The material at each hit: core/materials/closures.py ShaderResult (closures, emission)."""
+
     def light_sample(self, light: int, count: int, sample: LightSample, NL: np.ndarray, NgL: np.ndarray,
                      cosine: np.ndarray, face_allows: np.ndarray, lit: np.ndarray) -> None:
         """One sample (of `count`) of light `light` at every hit: N.L, Ng.L, the cosine used, whether

@@ -59,7 +59,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
         intersect(valid, params->scene, &packet, NULL);
         *embree += ticks() - start;
         *traced += lanes;
-        /* b. The surface at each hit (core/geometry/surface.py) and its BSDF (a constant material). */
+        /* b. The surface at each hit (core/geometry/surface.py) and its material: closures, emission. */
         for (int k = 0; k < lanes; k++) {
             if (packet.hit.geomID[k] == INVALID_ID) continue;
             int64_t lane = lane_of[k], h = H->m++;
@@ -70,11 +70,11 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
                          instance_of(&packet.hit, k), 1, &tri);
             surface_at(O, D, (double)packet.ray.tfar[k], (double)packet.hit.u[k], (double)packet.hit.v[k], &tri,
                        lift, H->s + h);
-            closure_of(params->materials, H->s[h].material, H->bsdf + h);
+            shade_constant(params->materials + H->s[h].material, H->s[h].N, H->sd + h);
             H->lane[h] = lane;
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];
-            for (int c = 0; c < 3; c++) { H->wo[3 * h + c] = -D[c]; H->L[3 * h + c] = 0.0; }
+            for (int c = 0; c < 3; c++) { H->wo[3 * h + c] = -D[c]; H->L[3 * h + c] = H->sd[h].emission[c]; }
         }
     }
 }

@@ -17,6 +17,7 @@ from ..film import adaptive
 from ..film.film import ChunkSums
 from ..geometry.tables import GeometryTables
 from ..lights import LightRecord
+from ..materials import MAX_CLOSURES, PARAMS
 from ..native import library
 from .base import Context
 
@@ -25,7 +26,9 @@ COMPILED_INTEGRATORS = {"direct": 0}
 
 ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "terminator_fix", "terminator_offset", "seed"],
                                 size_function="primer_shadow_settings_size")
-MaterialRecord = library.record("MaterialRecord", ["kind", ("color", 3)], size_function="primer_material_record_size")
+MaterialRecord = library.record("MaterialRecord", [
+    "n", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
+    ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3)], size_function="primer_material_record_size")
 
 
 class ChunkParams(ctypes.Structure):
@@ -45,6 +48,20 @@ class ChunkOut(ctypes.Structure):
     _fields_ = [("rgba", ctypes.c_void_p), ("squares", ctypes.c_void_p), ("hits", ctypes.c_void_p),
                 ("counts", ctypes.c_int64 * 2), ("seconds", ctypes.c_double * 3)]
     _size_function = "primer_chunk_out_size"
+
+
+def material_record(shader) -> MaterialRecord:
+    """Return the C record of a constant material (core/materials ConstantShader)."""
+    record = MaterialRecord()
+    k = len(shader.kinds)
+    record.n = float(k)
+    record.kind[:k] = [float(x) for x in shader.kinds]
+    record.weight[:3 * k] = np.asarray(shader.weights, np.float64).ravel().tolist()
+    record.sample_weight[:k] = np.asarray(shader.sample_weights, np.float64).tolist()
+    record.p[:PARAMS * k] = np.asarray(shader.params, np.float64).ravel().tolist()
+    record.emission[:] = np.asarray(shader.emission, np.float64).tolist()
+    record.transparency[:] = np.asarray(shader.transparency, np.float64).tolist()
+    return record
 
 
 def why_not(settings) -> str:
@@ -83,10 +100,8 @@ class Compiled:
         self.tables = GeometryTables(geometry)
         self.lights = (LightRecord * max(1, len(ctx.lights)))(
             *[light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)])
-        self.materials = (MaterialRecord * len(ctx.materials.kind))()
-        for row, (kind, color) in enumerate(zip(ctx.materials.kind, ctx.materials.color)):
-            self.materials[row].kind = float(kind)
-            self.materials[row].color[:] = color.tolist()
+        self.materials = (MaterialRecord * len(ctx.materials.shaders))(
+            *[material_record(shader) for shader in ctx.materials.shaders])
         self.shadows = ShadowSettings(1.0 if s.shadow_method == "robust" else 0.0, float(s.epsilon),
                                       1.0 if s.terminator_fix else 0.0, float(s.terminator_offset), float(s.seed))
         params = ChunkParams()

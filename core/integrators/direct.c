@@ -2,8 +2,8 @@
  *
  * For every light, every sample of it at every hit: where the light comes from (core/lights), the
  * lecture's two tests (N.L > 0 and Ng.L > 0), one shadow ray from a point safely off the surface
- * (shadows.c), and what gets through, f(wo, L) E_normal max(N.L, 0) / samples times the light's
- * colour, added to the hit's radiance. The samples go BLOCK at a time through SIMD lanes, their
+ * (shadows.c), and what gets through, f cos (the hit's closures at L) E_normal / samples times the
+ * light's colour, added to the hit's radiance (which starts as the light the hit emits itself). The samples go BLOCK at a time through SIMD lanes, their
  * shadow rays 8 at a time through Embree's packets, while all of it is still in the cache. */
 
 /* The hits of one block of camera samples, one row per hit (at most BLOCK). */
@@ -12,7 +12,7 @@ typedef struct {
     int64_t lane[BLOCK];                         /* the camera sample (lane of the block) it belongs to */
     int64_t pixel[BLOCK], sample[BLOCK];         /* its random-number keys */
     Surface s[BLOCK];
-    Closure bsdf[BLOCK];
+    ShaderResult sd[BLOCK];                      /* the material there: closures, emission */
     double wo[3 * BLOCK];                        /* towards the viewer */
     double L[3 * BLOCK];                         /* the radiance it sends towards the viewer */
 } BlockHits;
@@ -28,7 +28,7 @@ typedef struct {
     double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK];
     double origin[3][BLOCK], D[3][BLOCK], t[BLOCK], weight[BLOCK];
     double keep[BLOCK];                          /* 1: the ray can carry light */
-    double f[3][BLOCK];                          /* the BSDF of the lane's hit, for its light direction */
+    double f[3][BLOCK];                          /* f cos of the lane's hit's closures, for its light direction */
 } SampleBlock;
 
 /* Step 0: samples first .. first + n - 1 of a light with `count` samples per hit (sample s is sample
@@ -94,7 +94,7 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
 }
 
 /* Step 2: the lecture's two tests, then the shadow ray (shadows.c) and the sample's scalar weight
- * E_normal max(N.L, 0) / samples. (Inlined once for each offset method, so that the loop has no branch.) */
+ * E_normal / samples. (Inlined once for each offset method, so that the loop has no branch.) */
 INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict settings, int lift, double samples,
                       int robust)
 {
@@ -117,7 +117,7 @@ INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict se
         shadow_ray(P, ng, lifted, b->offset[k], amount, L, b->distance[k], position, robust, epsilon, origin, D, &t);
         for (int c = 0; c < 3; c++) { b->origin[c][k] = origin[c]; b->D[c][k] = D[c]; }
         b->t[k] = t;
-        b->weight[k] = b->strength[k] * cosine * (1.0 / samples);
+        b->weight[k] = b->strength[k] * (1.0 / samples);
     }
 }
 
@@ -128,26 +128,34 @@ SIMD_CLONES NOINLINE static void ray_block(SampleBlock *restrict b, const Shadow
     else ray_lanes(b, settings, lift, samples, 0);
 }
 
-/* Step 3: f(wo, L) of each lane's hit (the BSDFs' table); all-Lambert blocks in SIMD lanes. */
+/* Step 3: f cos of each lane's hit's closures for the light's direction (the BSDFs' table); blocks whose
+ * hits are all one Lambert closure in a loop of their own (SIMD lanes), the same numbers. */
 static void bsdf_block(SampleBlock *restrict b, const BlockHits *restrict H)
 {
     int lambert = 1;
-    for (int64_t k = 0; k < b->n; k++) lambert &= H->bsdf[b->hit[k]].kind == BSDF_LAMBERT;
+    for (int64_t k = 0; k < b->n; k++) {
+        const ShaderResult *sd = H->sd + b->hit[k];
+        lambert &= (sd->n == 1) & (sd->c[0].kind == BSDF_LAMBERT);
+    }
     if (lambert) {
-        for (int64_t k = 0; k < b->n; k++)
-            for (int c = 0; c < 3; c++) b->f[c][k] = H->bsdf[b->hit[k]].color[c] * (1.0 / PI);
+        for (int64_t k = 0; k < b->n; k++) {
+            const Closure *c = H->sd[b->hit[k]].c;
+            double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
+            double e = at_least(dot3(c->N, L), 0.0) * (1.0 / PI);
+            for (int j = 0; j < 3; j++) b->f[j][k] = c->weight[j] * e;
+        }
         return;
     }
     for (int64_t k = 0; k < b->n; k++) {
         int64_t h = b->hit[k];
         double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, f[3];
-        bsdf_f(H->bsdf + h, H->s[h].N, H->wo + 3 * h, L, f);
+        shader_eval(H->sd + h, H->wo + 3 * h, L, f);
         for (int c = 0; c < 3; c++) b->f[c][k] = f[c];
     }
 }
 
 /* Step 4: the rays that can carry light go into packets, Embree answers each packet of 8, and what
- * gets through, (weight colour) f, is added to its hit's radiance in ray order. Returns the rays traced. */
+ * gets through, (weight colour) f cos, is added to its hit's radiance in ray order. Returns the rays traced. */
 INLINE int64_t occlude_block(const SampleBlock *b, const LightRecord *light, Occluded8 occluded8, void *scene,
                              double *L_out)
 {

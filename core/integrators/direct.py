@@ -1,9 +1,10 @@
 """Direct lighting: the lecture's ray tracer. What a camera ray sees where it hits a surface.
 
 For each camera ray, the nearest hit I with its face normal Ng and shading normal N (flipped
-towards the viewer); then for every light, and every sample of a light with extent:
+towards the viewer), the material there (core/materials: its closures and what it emits); then
+the light it emits itself, and for every light, and every sample of a light with extent:
 
-    L_out += f(wo, L) * E_normal * max(N.L, 0) * V         (core/materials, core/lights, shadows.py)
+    L_out += f(wo, L) max(N.L, 0) * E_normal * V          (core/materials, core/lights, shadows.py)
 
 where E_normal = L_e / pdf is the light sample's irradiance at normal incidence and V the shadow
 ray's verdict. For the Lambert BSDF f = albedo / pi: the lecture's absorption. Work is done only
@@ -61,9 +62,10 @@ class DirectLighting(Integrator):
         """
         s = ctx.settings
         m = len(surface.I)
-        L_out = np.zeros((m, 3))
-        kind = ctx.materials.kind[surface.material]
-        color = ctx.materials.color[surface.material]
+        # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
+        shader = ctx.materials.shade(surface.material, surface.N, wo)
+        recorder.shader(shader)
+        L_out = shader.emission.copy()
         shadow_rays = 0
         offsets = shadows.error_bound(surface.I, surface.vertices) if s.shadow_method == "robust" else None
         for index, light in enumerate(ctx.lights):
@@ -104,10 +106,11 @@ class DirectLighting(Integrator):
                 seen = shadows.visible(ctx.geometry.tracer, rays)
                 recorder.shadow_rays(index, count, rows, rays, seen)
                 shadow_rays += len(rows)
-                # 4. What gets through: f(wo, L) E_normal max(N.L, 0) / count, coloured by the light.
-                f = materials_.f(kind[rows], color[rows], surface.N[rows], wo[rows], ls.L[rows])
-                weight = ls.strength[rows] * cosine[rows] * (1.0 / count)
-                value = (weight[:, None] * ls.color) * f * seen[:, None]
+                # 4. What gets through: f cos (the closures at L) E_normal / count, coloured by the light.
+                part = materials_.Closures(*(array[rows] for array in shader.closures))
+                f_cos, _ = materials_.eval_closures(part, wo[rows], ls.L[rows], signed_cosine=not s.clamp_n_dot_l)
+                weight = ls.strength[rows] * (1.0 / count)
+                value = (weight[:, None] * ls.color) * f_cos * seen[:, None]
                 recorder.contribution(index, rows, value)
                 L_out[rows] += value
         return L_out, shadow_rays

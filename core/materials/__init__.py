@@ -1,20 +1,23 @@
-"""Materials: what a surface does with the light that reaches it, as BSDFs in one table.
+"""Materials: what a surface does with the light that reaches it, as closures of BSDFs in one table.
 
-BSDF_TYPES is the table: a BSDF's `kind` tag is its class's position in it, and
-core/materials/bsdf.c dispatches on the same tag. To add a BSDF, write its class
-(core/materials/base.py says what it implements), its C file, and one entry here and in bsdf.c.
+BSDF_TYPES is the table: a BSDF's `kind` tag is its class's position in it, and core/materials/bsdf.c
+dispatches on the same tag. To add a BSDF, write its class (core/materials/base.py says what it
+implements), its C file, and one entry here and in bsdf.c.
 
-A scene's materials become one MaterialTable per render: a row per material (its BSDF and colour),
-and a last row for triangles without a material (Blender's default grey, diffuse).
+A scene's materials become one MaterialTable per render: a row per material and a last row for
+triangles without a material (Blender's default grey, diffuse). `MaterialTable.shade` turns hits
+into ShaderResults (core/materials/closures.py): a constant material is the same closures at every
+hit, with only the normal changing.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 
 from .base import BSDF, BsdfSample
+from .closures import (MAX_CLOSURES, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
+                       constant_result, eval_closures, sample_closures)
 from .lambert import Lambert
 from .mirror import Mirror
 
@@ -29,91 +32,104 @@ DEFAULT_BASE_COLOR = (0.8, 0.8, 0.8)
 
 @dataclass
 class Material:
-    """A surface's material: one BSDF from the table (by name) and its colour.
+    """A surface's material: one BSDF from the table (by name), its colour, and what it emits.
 
-    base_color: (3,) float64 in 0..1, the BSDF's colour (the Lambert albedo, the mirror's tint)
+    base_color: (3,) float64 in 0..1, the BSDF closure's weight (the Lambert albedo, the mirror's tint)
     bsdf:       a name in BSDF_BY_NAME ("DIFFUSE" or "MIRROR")
+    emission:   (3,) float64 emitted radiance L_e = colour x strength (W / (m^2 sr)), from both sides
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
     name: str = "Material"
     bsdf: str = "DIFFUSE"
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
-class MaterialTable(NamedTuple):
-    """The scene's materials as the integrators read them, one row per material and a default row last.
+@dataclass
+class ConstantShader:
+    """A material whose closures are the same at every hit (only their normal follows the hit).
 
-    kind:  (m + 1,) int32 each material's BSDF tag
-    color: (m + 1, 3) float64 each material's colour, clipped to 0..1
+    kinds (K,) int32; weights (K, 3); sample_weights (K,); params (K, PARAMS); emission (3,);
+    transparency (3,)
     """
 
-    kind: np.ndarray
-    color: np.ndarray
+    kinds: np.ndarray
+    weights: np.ndarray
+    sample_weights: np.ndarray
+    params: np.ndarray
+    emission: np.ndarray
+    transparency: np.ndarray
+
+    @classmethod
+    def of(cls, material: Material) -> "ConstantShader":
+        """One closure, the material's BSDF weighted by its colour (clipped to 0..1)."""
+        if material.bsdf not in BSDF_BY_NAME:
+            raise ValueError(f"material '{material.name}' asks for BSDF {material.bsdf!r}; "
+                             f"Primer knows {sorted(BSDF_BY_NAME)}")
+        color = np.clip(np.nan_to_num(np.asarray(material.base_color, np.float64)[:3]), 0.0, 1.0)
+        emission = np.nan_to_num(np.asarray(material.emission, np.float64)[:3], posinf=0.0, neginf=0.0)
+        return cls(np.array([BSDF_BY_NAME[material.bsdf].kind], np.int32), color[None, :],
+                   np.array([abs(color.mean())]), np.zeros((1, PARAMS)), np.maximum(emission, 0.0), np.zeros(3))
+
+    def shade(self, N: np.ndarray) -> ShaderResult:
+        """The ShaderResult at hits with shading normals N (n, 3)."""
+        return constant_result(len(N), N, self.kinds, self.weights, self.sample_weights, self.params,
+                               self.emission, self.transparency)
+
+
+class MaterialTable:
+    """The scene's materials as the integrators read them: a shader per material, the default last.
+
+    shaders: one ConstantShader per material, then the default (diffuse grey)
+    """
+
+    def __init__(self, shaders: list, names: list):
+        self.shaders = shaders
+        self.names = names
 
     @classmethod
     def of(cls, materials: list) -> "MaterialTable":
         """Build the table of `materials` (an unknown BSDF name is refused with a clear message)."""
-        for material in materials:
-            if material.bsdf not in BSDF_BY_NAME:
-                raise ValueError(f"material '{material.name}' asks for BSDF {material.bsdf!r}; "
-                                 f"Primer knows {sorted(BSDF_BY_NAME)}")
-        kind = np.array([BSDF_BY_NAME[m.bsdf].kind for m in materials] + [Lambert.kind], np.int32)
-        colors = [np.asarray(m.base_color, np.float64)[:3] for m in materials] + [DEFAULT_BASE_COLOR]
-        return cls(kind, np.clip(np.nan_to_num(np.array(colors, np.float64)), 0.0, 1.0))
+        shaders = [ConstantShader.of(m) for m in materials] + [ConstantShader.of(Material())]
+        return cls(shaders, [m.name for m in materials] + ["(default)"])
+
+    @property
+    def emissive(self) -> np.ndarray:
+        """Which rows emit: (m + 1,) bool."""
+        return np.array([shader.emission.max() > 0.0 for shader in self.shaders])
+
+    def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray) -> ShaderResult:
+        """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3)."""
+        n = len(material)
+        first = int(material[0]) if n else len(self.shaders) - 1
+        if n == 0 or (material == first).all():
+            return self.shaders[first].shade(N)
+        results, order = [], []
+        for row in np.unique(material):
+            rows = np.flatnonzero(material == row)
+            results.append(self.shaders[int(row)].shade(N[rows]))
+            order.append(rows)
+        return concatenate(results, order, n)
 
 
-def _by_kind(kind: np.ndarray, method: str, width: int, *args) -> np.ndarray:
-    """Call BSDF method `method` of each hit's BSDF on its rows of args; one call per kind present."""
-    first = int(kind[0]) if len(kind) else Lambert.kind
-    if len(kind) == 0 or (kind == first).all():
-        return getattr(BSDF_TYPES[first], method)(*args)
-    out = np.zeros((len(kind), width) if width else len(kind))
-    for k in np.unique(kind):
-        rows = np.flatnonzero(kind == k)
-        out[rows] = getattr(BSDF_TYPES[int(k)], method)(*(a[rows] for a in args))
-    return out
+__all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",
+           "DEFAULT_BASE_COLOR", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable", "Mirror", "PARAMS",
+           "ShaderResult", "eval_closures", "sample_closures"]
 
 
-def f(kind: np.ndarray, color: np.ndarray, N: np.ndarray, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
-    """Return each hit's BSDF value f(wo, wi), without the cosine: kind (n,) int32 -> (n, 3) float64."""
-    return _by_kind(kind, "f", 3, color, N, wo, wi)
-
-
-def pdf(kind: np.ndarray, color: np.ndarray, N: np.ndarray, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
-    """Return each hit's BSDF sampling pdf of wi: (n,) float64."""
-    return _by_kind(kind, "pdf", 0, color, N, wo, wi)
-
-
-def sample(kind: np.ndarray, color: np.ndarray, N: np.ndarray, wo: np.ndarray, u: np.ndarray) -> BsdfSample:
-    """Return one direction sampled from each hit's BSDF (u: (n, 2) float64)."""
-    first = int(kind[0]) if len(kind) else Lambert.kind
-    if len(kind) == 0 or (kind == first).all():
-        return BSDF_TYPES[first].sample(color, N, wo, u)
-    wi, weight, density = np.zeros((len(kind), 3)), np.zeros((len(kind), 3)), np.zeros(len(kind))
-    for k in np.unique(kind):
-        rows = np.flatnonzero(kind == k)
-        s = BSDF_TYPES[int(k)].sample(color[rows], N[rows], wo[rows], u[rows])
-        wi[rows], weight[rows], density[rows] = s.wi, s.weight, s.pdf
-    return BsdfSample(wi, weight, density)
-
-
-__all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "DEFAULT_BASE_COLOR", "Lambert", "Material",
-           "MaterialTable", "Mirror", "f", "pdf", "sample"]
-
-
-def compiled_bsdf(kind: np.ndarray, color: np.ndarray, N: np.ndarray, wo: np.ndarray, wi: np.ndarray,
-                  u: np.ndarray) -> tuple:
-    """f, pdf and sample of each hit's BSDF in C (core/materials/bsdf.c's table), for the tests:
-    -> f (n, 3), pdf (n,), BsdfSample."""
+def compiled_bsdf(kind: np.ndarray, weight: np.ndarray, N: np.ndarray, params: np.ndarray, wo: np.ndarray,
+                  wi: np.ndarray, u: np.ndarray) -> tuple:
+    """One closure per row in C (core/materials/bsdf.c's table), for the tests: eval and a sample of a
+    ShaderResult holding only that closure -> f cos (n, 3), pdf (n,), ClosureSample (pick 0.5)."""
     from ..native import library
     P, I64, ptr = library.P, library.I64, library.pointer
     n = len(kind)
     kind = library.contiguous(kind, np.int32)
-    color, N, wo, wi, u = (library.contiguous(a, np.float64) for a in (color, N, wo, wi, u))
-    f_out, pdf_out, sampled, weight, sampled_pdf = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)),
-                                                   np.empty((n, 3)), np.empty(n))
-    library.function("primer_bsdf", None, [I64] + [P] * 11)(
-        n, ptr(kind, np.int32), ptr(color, np.float64), ptr(N, np.float64), ptr(wo, np.float64),
-        ptr(wi, np.float64), ptr(u, np.float64), ptr(f_out, np.float64), ptr(pdf_out, np.float64),
-        ptr(sampled, np.float64), ptr(weight, np.float64), ptr(sampled_pdf, np.float64))
-    return f_out, pdf_out, BsdfSample(sampled, weight, sampled_pdf)
+    weight, N, params, wo, wi, u = (library.contiguous(a, np.float64) for a in (weight, N, params, wo, wi, u))
+    f_cos, pdf, sampled, sampled_weight, sampled_pdf = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)),
+                                                       np.empty((n, 3)), np.empty(n))
+    library.function("primer_bsdf", None, [I64] + [P] * 12)(
+        n, ptr(kind, np.int32), ptr(weight, np.float64), ptr(N, np.float64), ptr(params, np.float64),
+        ptr(wo, np.float64), ptr(wi, np.float64), ptr(u, np.float64), ptr(f_cos, np.float64), ptr(pdf, np.float64),
+        ptr(sampled, np.float64), ptr(sampled_weight, np.float64), ptr(sampled_pdf, np.float64))
+    return f_cos, pdf, ClosureSample(sampled, sampled_weight, sampled_pdf, np.isinf(sampled_pdf))

@@ -1,50 +1,123 @@
 /* The table of BSDFs: a closure's `kind` tag picks its functions (core/materials/__init__.py). */
 
-INLINE void bsdf_f(const Closure *c, const double *N, const double *wo, const double *wi, double *f)
+INLINE int bsdf_is_delta(int kind) { return kind == BSDF_MIRROR; }
+
+INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
 {
     switch (c->kind) {
-    case BSDF_MIRROR: mirror_f(c, N, wo, wi, f); break;
-    default: lambert_f(c, N, wo, wi, f); break;
+    case BSDF_MIRROR: mirror_eval(c, wo, wi, f_cos, pdf); break;
+    default: lambert_eval(c, wo, wi, f_cos, pdf); break;
     }
 }
 
-INLINE double bsdf_pdf(const Closure *c, const double *N, const double *wo, const double *wi)
+INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, BsdfSample *out)
 {
     switch (c->kind) {
-    case BSDF_MIRROR: return mirror_pdf(c, N, wo, wi);
-    default: return lambert_pdf(c, N, wo, wi);
+    case BSDF_MIRROR: mirror_sample(c, wo, u, out); break;
+    default: lambert_sample(c, wo, u, out); break;
     }
 }
 
-INLINE void bsdf_sample(const Closure *c, const double *N, const double *wo, const double *u, BsdfSample *out)
+/* ------------------------------------------------------------------------------------------------
+ * A hit's closures together (core/materials/closures.py)
+ * --------------------------------------------------------------------------------------------- */
+
+/* closures.eval_closures for one hit: f cos = sum of weight x f cos; pdf = sampling-weighted mean. */
+INLINE double shader_eval(const ShaderResult *sd, const double *wo, const double *wi, double *f_cos)
 {
-    switch (c->kind) {
-    case BSDF_MIRROR: mirror_sample(c, N, wo, u, out); break;
-    default: lambert_sample(c, N, wo, u, out); break;
+    double numerator = 0.0, total = 0.0;
+    f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = sd->c + k;
+        double value[3], pdf;
+        bsdf_eval(c, wo, wi, value, &pdf);
+        for (int j = 0; j < 3; j++) f_cos[j] += c->weight[j] * value[j];
+        numerator += c->sample_weight * pdf;
+    }
+    for (int k = 0; k < sd->n; k++) total += sd->c[k].sample_weight;
+    return total > 0.0 ? numerator / total : 0.0;
+}
+
+/* A sampled direction of a hit's closures (closures.ClosureSample for one hit). */
+typedef struct {
+    double wi[3];
+    double weight[3];       /* f cos / pdf, closure weights included */
+    double pdf;             /* inf for a delta closure, 0 where nothing was sampled */
+    int delta;
+} ClosureSample;
+
+/* closures.sample_closures for one hit: pick a closure by sampling weight, sample it; unless a delta,
+ * weight and pdf from all closures at that direction. */
+INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double *u, double pick, ClosureSample *out)
+{
+    double total = 0.0, running = 0.0;
+    for (int k = 0; k < sd->n; k++) total += sd->c[k].sample_weight;
+    int chosen = 0;
+    for (int k = 0; k < sd->n; k++) {
+        running += sd->c[k].sample_weight;
+        if (running <= pick * total) chosen = k + 1;
+    }
+    if (chosen > MAX_CLOSURES - 1) chosen = MAX_CLOSURES - 1;
+    out->delta = 0;
+    out->pdf = 0.0;
+    out->weight[0] = out->weight[1] = out->weight[2] = 0.0;
+    out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
+    if (sd->n == 0 || chosen >= sd->n) return;
+    const Closure *c = sd->c + chosen;
+    BsdfSample s;
+    bsdf_sample(c, wo, u, &s);
+    for (int j = 0; j < 3; j++) out->wi[j] = s.wi[j];
+    if (bsdf_is_delta(c->kind)) {
+        double probability = c->sample_weight / total;
+        for (int j = 0; j < 3; j++) out->weight[j] = c->weight[j] * s.weight[j] / at_least(probability, 1e-300);
+        out->pdf = s.pdf;
+        out->delta = 1;
+        return;
+    }
+    if (!(s.pdf > 0.0)) return;
+    double f_cos[3];
+    double pdf = shader_eval(sd, wo, out->wi, f_cos);
+    for (int j = 0; j < 3; j++) out->weight[j] = pdf > 0.0 ? f_cos[j] / pdf : 0.0;
+    out->pdf = pdf;
+}
+
+/* The ShaderResult of a constant material at a hit with shading normal N. */
+INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResult *sd)
+{
+    sd->n = (int)m->n;
+    for (int k = 0; k < sd->n; k++) {
+        Closure *c = sd->c + k;
+        c->kind = (int)m->kind[k];
+        c->sample_weight = m->sample_weight[k];
+        for (int j = 0; j < 3; j++) { c->weight[j] = m->weight[k][j]; c->N[j] = N[j]; }
+        for (int j = 0; j < CLOSURE_PARAMS; j++) c->p[j] = m->p[k][j];
+    }
+    for (int j = 0; j < 3; j++) {
+        sd->emission[j] = m->emission[j];
+        sd->transparency[j] = m->transparency[j];
+        sd->N[j] = N[j];
     }
 }
 
-/* The closure of material row `material` (a constant material: no work per hit beyond a copy). */
-INLINE void closure_of(const MaterialRecord *materials, int32_t material, Closure *c)
-{
-    const MaterialRecord *m = materials + material;
-    c->kind = (int)m->kind;
-    for (int k = 0; k < 3; k++) c->color[k] = m->color[k];
-}
-
-/* f, pdf and a sample of each hit's BSDF over arrays (for the tests): kind (n,) int32, color, N, wo, wi
- * (n, 3), u (n, 2) float64 -> f (n, 3), pdf (n,), sampled wi (n, 3), weight (n, 3), sampled pdf (n,). */
-EXPORT void primer_bsdf(int64_t n, const int32_t *kind, const double *color, const double *N, const double *wo,
-                        const double *wi, const double *u, double *f, double *pdf, double *sampled, double *weight,
-                        double *sampled_pdf)
+/* eval and sample of one closure per row (for the tests): kind (n,) int32; weight, N, wo, wi (n, 3),
+ * params (n, PARAMS), u (n, 2), pick (n,) float64 -> f_cos (n, 3), pdf (n,), and a sample from the
+ * single closure: sampled wi (n, 3), weight (n, 3), sampled pdf (n,). */
+EXPORT void primer_bsdf(int64_t n, const int32_t *kind, const double *weight, const double *N, const double *params,
+                        const double *wo, const double *wi, const double *u, double *f_cos, double *pdf,
+                        double *sampled, double *sampled_weight, double *sampled_pdf)
 {
     for (int64_t i = 0; i < n; i++) {
-        Closure c = {kind[i], {color[3 * i], color[3 * i + 1], color[3 * i + 2]}};
-        bsdf_f(&c, N + 3 * i, wo + 3 * i, wi + 3 * i, f + 3 * i);
-        pdf[i] = bsdf_pdf(&c, N + 3 * i, wo + 3 * i, wi + 3 * i);
-        BsdfSample s;
-        bsdf_sample(&c, N + 3 * i, wo + 3 * i, u + 2 * i, &s);
-        for (int k = 0; k < 3; k++) { sampled[3 * i + k] = s.wi[k]; weight[3 * i + k] = s.weight[k]; }
+        ShaderResult sd;
+        sd.n = 1;
+        Closure *c = sd.c;
+        c->kind = kind[i];
+        c->sample_weight = fabs((weight[3 * i] + weight[3 * i + 1] + weight[3 * i + 2]) / 3.0);
+        for (int j = 0; j < 3; j++) { c->weight[j] = weight[3 * i + j]; c->N[j] = N[3 * i + j]; }
+        for (int j = 0; j < CLOSURE_PARAMS; j++) c->p[j] = params[CLOSURE_PARAMS * i + j];
+        pdf[i] = shader_eval(&sd, wo + 3 * i, wi + 3 * i, f_cos + 3 * i);
+        ClosureSample s;
+        shader_sample(&sd, wo + 3 * i, u + 2 * i, 0.5, &s);
+        for (int j = 0; j < 3; j++) { sampled[3 * i + j] = s.wi[j]; sampled_weight[3 * i + j] = s.weight[j]; }
         sampled_pdf[i] = s.pdf;
     }
 }

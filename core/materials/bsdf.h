@@ -1,25 +1,47 @@
-/* What every BSDF's C file shares (core/materials/base.py): a hit's closure and a sampled direction.
+/* What every BSDF's C file shares (core/materials/base.py, closures.py): closures and samples.
  *
- * Conventions as in base.py: wo points towards the viewer, wi towards the light, both unit; N is the
- * unit shading normal facing the viewer; f is returned without the cosine. */
+ * Conventions as in base.py: wo points towards the viewer, wi towards the light, both unit; a
+ * closure's N is its own unit normal on the viewer's side; eval returns f cos (0 below N) and the
+ * pdf of its own sampling. */
 
 enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1 };
 
-/* One material of the scene's MaterialTable (core/materials/__init__.py), as C reads it. */
-typedef struct {
-    double kind;            /* BSDF_*: its class's place in BSDF_TYPES */
-    double color[3];
-} MaterialRecord;
+#define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
+#define CLOSURE_PARAMS 24       /* closures.PARAMS */
 
-/* The BSDF at one hit: which one, and its parameters there. */
+/* One closure at a hit: a BSDF of the table, its weight, its sampling weight, its normal, its parameters. */
 typedef struct {
     int kind;
-    double color[3];
+    double weight[3];
+    double sample_weight;
+    double N[3];
+    double p[CLOSURE_PARAMS];
 } Closure;
 
-/* A direction sampled from a BSDF (base.BsdfSample for one hit). */
+/* A material at one hit (closures.ShaderResult for one hit). */
+typedef struct {
+    int n;
+    Closure c[MAX_CLOSURES];
+    double emission[3];
+    double transparency[3];
+    double N[3];
+} ShaderResult;
+
+/* A direction sampled from one BSDF (base.BsdfSample for one hit). */
 typedef struct {
     double wi[3];
-    double weight[3];       /* f |N.wi| / pdf */
+    double weight[3];       /* f cos / pdf, without the closure's weight */
     double pdf;             /* inf for a delta BSDF, 0 where nothing was sampled */
 } BsdfSample;
+
+/* One material of the scene's MaterialTable, as core/integrators/compiled.py packs a ConstantShader:
+ * its closures, the same at every hit but for their normal. Only doubles. */
+typedef struct {
+    double n;
+    double kind[MAX_CLOSURES];
+    double weight[MAX_CLOSURES][3];
+    double sample_weight[MAX_CLOSURES];
+    double p[MAX_CLOSURES][CLOSURE_PARAMS];
+    double emission[3];
+    double transparency[3];
+} MaterialRecord;

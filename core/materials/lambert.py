@@ -11,26 +11,23 @@ from .base import BSDF, BsdfSample
 
 
 class Lambert(BSDF):
-    """f = colour / pi. The lecture's absorption: the surface keeps 1 - colour of the light it receives.
-
-    f is the same for every pair of directions; the cosine N.L (clamped at 0 by the lecture) is the
-    integrator's. Sampling is cosine-weighted over the hemisphere around N: pdf = max(N.wi, 0) / pi,
-    so each sample's weight f cos / pdf is exactly the colour.
-    """
+    """f = 1 / pi (the closure's weight is the colour): the lecture's absorption, the surface keeps
+    1 - colour of the light it receives. f cos = max(N.wi, 0) / pi. Sampling is cosine-weighted over
+    the hemisphere around N: pdf = max(N.wi, 0) / pi, so each sample's f cos / pdf is exactly 1."""
 
     kind: ClassVar[int] = 0
     name: ClassVar[str] = "DIFFUSE"
 
     @staticmethod
-    def f(color, N, wo, wi):
-        return color * (1.0 / math.pi)
+    def eval(params, N, wo, wi, signed_cosine: bool = False):
+        """f cos and pdf; signed_cosine keeps N.wi below the surface (the lecture switch "Clamp N.L" off)."""
+        cosine = np.einsum("ij,ij->i", N, wi)
+        pdf = np.maximum(cosine, 0.0) * (1.0 / math.pi)
+        f_cos = (cosine if signed_cosine else np.maximum(cosine, 0.0)) * (1.0 / math.pi)
+        return np.repeat(f_cos[:, None], 3, axis=1), pdf
 
     @staticmethod
-    def pdf(color, N, wo, wi):
-        return np.maximum(np.einsum("ij,ij->i", N, wi), 0.0) * (1.0 / math.pi)
-
-    @staticmethod
-    def sample(color, N, wo, u):
+    def sample(params, N, wo, u):
         # A point uniform on the unit disk (polar map), lifted onto the hemisphere: cosine-weighted.
         r = np.sqrt(u[:, 0])
         cos_phi, sin_phi = vectors.cos_sin(2.0 * math.pi * u[:, 1])
@@ -39,5 +36,5 @@ class Lambert(BSDF):
         t, b = vectors.orthonormal_frame(N)
         wi = t * x[:, None] + b * y[:, None] + N * z[:, None]
         pdf = z * (1.0 / math.pi)
-        weight = np.where((pdf > 0.0)[:, None], color, 0.0)
+        weight = np.repeat(np.where(pdf > 0.0, 1.0, 0.0)[:, None], 3, axis=1)
         return BsdfSample(wi, weight, pdf)

@@ -1,4 +1,4 @@
-"""A perfect mirror: all light leaves in the one reflected direction, tinted by the colour."""
+"""A perfect mirror: all light leaves in the one reflected direction (the closure's weight tints it)."""
 from __future__ import annotations
 
 from typing import ClassVar
@@ -14,8 +14,8 @@ def reflect(wo: np.ndarray, N: np.ndarray) -> np.ndarray:
 
 
 class Mirror(BSDF):
-    """A delta BSDF: f and pdf are 0 for any pair of directions a light sample could find; `sample`
-    returns the reflection R = 2 (N.wo) N - wo with weight colour (f cos / pdf of the delta) and pdf inf.
+    """A delta BSDF: eval is 0 for any pair of directions a light sample could find; `sample` returns
+    the reflection R = 2 (N.wo) N - wo with weight 1 (f cos / pdf of the delta) and pdf inf.
 
     Under direct light alone a mirror is black, as in Cycles with max_bounces = 0: only a ray that
     follows R (an integrator that recurses, the lecture's next part) sees what it reflects.
@@ -26,15 +26,11 @@ class Mirror(BSDF):
     delta: ClassVar[bool] = True
 
     @staticmethod
-    def f(color, N, wo, wi):
-        return np.zeros_like(color)
+    def eval(params, N, wo, wi):
+        return np.zeros((len(wi), 3)), np.zeros(len(wi))
 
     @staticmethod
-    def pdf(color, N, wo, wi):
-        return np.zeros(len(wi))
-
-    @staticmethod
-    def sample(color, N, wo, u):
+    def sample(params, N, wo, u):
         wi = reflect(wo, N)
         above = np.einsum("ij,ij->i", N, wi) > 0.0
-        return BsdfSample(wi, np.where(above[:, None], color, 0.0), np.where(above, np.inf, 0.0))
+        return BsdfSample(wi, np.repeat(np.where(above, 1.0, 0.0)[:, None], 3, axis=1), np.where(above, np.inf, 0.0))

@@ -195,6 +195,9 @@ class DebugRecorder:
                 self.geometry, rays.origins[blocked], rays.directions[blocked], rays.t_max[blocked],
                 self.surface.prim[rows[blocked]], self.self_hit_distance)
 
+    def shader(self, result) -> None:
+        pass
+
     def contribution(self, light, rows, value) -> None:
         pass
 

@@ -64,7 +64,7 @@ class LightRecord(NamedTuple):
     shadow_end:      (3,) float64 where the shadow ray stops (origin + t_max D); None when not cast
                      (for the sun it is the origin + t_max D with t_max = inf, so it is not finite)
     shadow_t_max:    the shadow ray's t_max; None when not cast
-    contribution:    (3,) float64 f * E_normal * max(N.L, 0) * visibility (radiance, RGB)
+    contribution:    (3,) float64 f cos * E_normal * visibility (radiance, RGB; f cos = albedo / pi N.L on a diffuse surface)
     """
 
     name: str
@@ -103,7 +103,7 @@ class PixelRecord(NamedTuple):
     u, v:           barycentric coordinates: I = (1-u-v) V0 + u V1 + v V2
     triangle:       index of the hit triangle in the traced geometry; -1 when missed
     object_name:    name of the object (Scene.instances[...].name) the triangle belongs to; "" when missed
-    albedo:         (3,) float64 the material's base colour; None when missed
+    albedo:         (3,) float64 the material's colour (its closures' weights); None when missed
     shadow_method:  "robust" or "epsilon", as in the settings
     lights:         tuple of LightRecord, one per light that sends light (as the renderer uses them)
     radiance:       (3,) float64 the pixel's colour from this one ray: sum of the contributions on a hit,
@@ -145,6 +145,9 @@ class InspectorRecorder(Recorder):
     def hits(self, O, D, surface, hit) -> None:
         self.surface = surface
 
+    def shader(self, result) -> None:
+        self.result = result
+
     def light_sample(self, light, count, sample, NL, NgL, cosine, face_allows, lit) -> None:
         s = self.settings
         E_normal = sample.irradiance[0]
@@ -166,6 +169,11 @@ class InspectorRecorder(Recorder):
 
     def contribution(self, light, rows, value) -> None:
         self.lights[light]["value"] = value[0].copy()
+
+    def albedo(self) -> np.ndarray:
+        """The colour of the hit's material: the sum of its closures' weights (3,) float64."""
+        closures = self.result.closures
+        return (closures.weight[0] * (closures.kind[0] >= 0)[:, None]).sum(axis=0)
 
     def light_record(self, index: int, light) -> LightRecord:
         """The LightRecord of light `index` (camera-relative values in, world out)."""
@@ -234,7 +242,7 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     records = tuple(recorder.light_record(index, light) for index, light in enumerate(ctx.lights))
     miss.update(hit=True, t=float(surface.t[0]), I=surface.I[0] + origin, Ng=surface.Ng[0].copy(), N=surface.N[0].copy(),
                 smooth=bool(surface.smooth[0]), u=float(surface.u[0]), v=float(surface.v[0]), triangle=triangle,
-                object_name=object_name, albedo=ctx.materials.color[surface.material[0]].copy(), lights=records)
+                object_name=object_name, albedo=recorder.albedo(), lights=records)
     return PixelRecord(radiance=found.L[0].copy(), **miss)
 
 

@@ -1,0 +1,172 @@
+"""Closures: what a material is at one hit, a list of weighted BSDFs plus emission, as in Cycles.
+
+A shader (a material's node tree, or a constant material) turns each hit into a ShaderResult: up to
+MAX_CLOSURES closures (a BSDF from the table, its RGB weight, its sampling weight, its own normal and
+its parameters), the emitted radiance, the transparency, and the shading normal. The integrand is
+the sum over closures of weight x (f cos); one-sample MIS over the closures picks one to sample in
+proportion to its sampling weight, and the combined pdf is the sampling-weighted mean of theirs
+(Cycles' surface_shader.h does the same). core/materials/closures.c is the compiled twin.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple, Optional
+
+import numpy as np
+
+from .base import BsdfSample
+
+# At most this many closures per hit, and this many parameter floats per closure (closures.h).
+MAX_CLOSURES = 8
+PARAMS = 24
+# A closure whose sampling weight falls below this is dropped (Cycles' CLOSURE_WEIGHT_CUTOFF).
+WEIGHT_CUTOFF = 1e-5
+
+
+class Closures(NamedTuple):
+    """The closures of n hits, K slots each (structure of arrays); kind -1 marks an empty slot.
+
+    kind (n, K) int32; weight (n, K, 3) float64; sample_weight (n, K) float64; N (n, K, 3) float64
+    unit normals on the viewer's side; params (n, K, PARAMS) float64
+    """
+
+    kind: np.ndarray
+    weight: np.ndarray
+    sample_weight: np.ndarray
+    N: np.ndarray
+    params: np.ndarray
+
+    @classmethod
+    def empty(cls, n: int, slots: int = 1) -> "Closures":
+        """n hits without closures (a black surface), with room for `slots` closures each."""
+        return cls(np.full((n, slots), -1, np.int32), np.zeros((n, slots, 3)), np.zeros((n, slots)),
+                   np.zeros((n, slots, 3)), np.zeros((n, slots, PARAMS)))
+
+
+class ShaderResult(NamedTuple):
+    """What a material is at n hits.
+
+    closures:     the Closures
+    emission:     (n, 3) float64 emitted radiance L_e (W / (m^2 sr)), the same from both sides
+    transparency: (n, 3) float64 the weight of light passing straight through (Transparent BSDF, alpha)
+    N:            (n, 3) float64 the shading normal after normal maps and bump (Cycles' sd->N)
+    """
+
+    closures: Closures
+    emission: np.ndarray
+    transparency: np.ndarray
+    N: np.ndarray
+
+
+def _each_kind(closures: Closures, slot: int):
+    """Yield (BSDF class, rows) of the hits whose slot `slot` holds each kind present."""
+    from . import BSDF_TYPES
+    kinds = closures.kind[:, slot]
+    first = int(kinds[0]) if len(kinds) else -1
+    if len(kinds) and (kinds == first).all():
+        if first >= 0:
+            yield BSDF_TYPES[first], slice(None)
+        return
+    for kind in np.unique(kinds):
+        if kind >= 0:
+            yield BSDF_TYPES[int(kind)], np.flatnonzero(kinds == kind)
+
+
+def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cosine: bool = False):
+    """Return (f cos (n, 3), pdf (n,)): sum of weight x f cos, and the sampling-weighted mean pdf.
+
+    wo, wi: (n, 3) float64 unit. signed_cosine: diffuse closures keep N.wi < 0 (a lecture switch).
+    """
+    n, slots = closures.kind.shape
+    f_cos, numerator = np.zeros((n, 3)), np.zeros(n)
+    for k in range(slots):
+        for bsdf, rows in _each_kind(closures, k):
+            args = (closures.params[rows, k], closures.N[rows, k], wo[rows], wi[rows])
+            value, pdf = bsdf.eval(*args, signed_cosine=True) if signed_cosine and bsdf.kind == 0 else bsdf.eval(*args)
+            f_cos[rows] += closures.weight[rows, k] * value
+            numerator[rows] += closures.sample_weight[rows, k] * pdf
+    total = closures.sample_weight.sum(axis=1)
+    pdf = np.divide(numerator, total, out=np.zeros(n), where=total > 0)
+    return f_cos, pdf
+
+
+class ClosureSample(NamedTuple):
+    """A direction sampled from the closures of each hit.
+
+    wi (n, 3); weight (n, 3) the path throughput factor f cos / pdf (closure weights included);
+    pdf (n,) the combined pdf (inf when a delta closure was sampled, 0 when nothing was);
+    delta (n,) bool whether the sampled closure was a delta (a mirror: no MIS)
+    """
+
+    wi: np.ndarray
+    weight: np.ndarray
+    pdf: np.ndarray
+    delta: np.ndarray
+
+
+def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.ndarray) -> ClosureSample:
+    """Sample a direction: choose a closure in proportion to its sampling weight (pick (n,) in [0, 1)),
+    sample it with u (n, 2); then, unless it is a delta, weight and pdf from all closures at that
+    direction (one-sample MIS with the balance heuristic)."""
+    from . import BSDF_TYPES
+    n, slots = closures.kind.shape
+    total = closures.sample_weight.sum(axis=1)
+    running = np.cumsum(closures.sample_weight, axis=1)
+    chosen = np.minimum((running <= (pick * total)[:, None]).sum(axis=1), slots - 1)
+    rows = np.arange(n)
+    kind = closures.kind[rows, chosen]
+    wi, weight, pdf = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
+    delta = np.zeros(n, bool)
+    for k in np.unique(kind):
+        if k < 0:
+            continue
+        bsdf = BSDF_TYPES[int(k)]
+        at = np.flatnonzero(kind == k)
+        c = chosen[at]
+        s = bsdf.sample(closures.params[at, c], closures.N[at, c], wo[at], u[at])
+        wi[at] = s.wi
+        if bsdf.delta:
+            # The closure's weight, over the probability of choosing it.
+            probability = closures.sample_weight[at, c] / total[at]
+            weight[at] = closures.weight[at, c] * s.weight / np.maximum(probability, 1e-300)[:, None]
+            pdf[at] = s.pdf
+            delta[at] = True
+        else:
+            pdf[at] = s.pdf                         # (replaced by the combined pdf below)
+    smooth = np.flatnonzero(~delta & (pdf > 0))
+    if len(smooth):
+        part = Closures(*(array[smooth] for array in closures))
+        f_cos, combined = eval_closures(part, wo[smooth], wi[smooth])
+        weight[smooth] = np.divide(f_cos, combined[:, None], out=np.zeros_like(f_cos), where=combined[:, None] > 0)
+        pdf[smooth] = combined
+    return ClosureSample(wi, weight, pdf, delta)
+
+
+def constant_result(n: int, N: np.ndarray, kinds: np.ndarray, weights: np.ndarray, sample_weights: np.ndarray,
+                    params: np.ndarray, emission: np.ndarray, transparency: Optional[np.ndarray] = None) -> ShaderResult:
+    """A ShaderResult of closures that are the same at every hit but for the normal (a constant material).
+
+    kinds (K,), weights (K, 3), sample_weights (K,), params (K, PARAMS), emission (3,); N (n, 3).
+    """
+    K = max(1, len(kinds))
+    closures = Closures.empty(n, K)
+    if len(kinds):
+        closures.kind[:] = kinds
+        closures.weight[:] = weights
+        closures.sample_weight[:] = sample_weights
+        closures.N[:] = N[:, None, :]
+        closures.params[:] = params
+    transparency = np.zeros(3) if transparency is None else transparency
+    return ShaderResult(closures, np.broadcast_to(emission, (n, 3)).copy(), np.broadcast_to(transparency, (n, 3)).copy(),
+                        N)
+
+
+def concatenate(results: list, order: np.ndarray, n: int) -> ShaderResult:
+    """Put ShaderResults of groups of hits back in hit order: results[i] covers the hits order[i] (m_i,) int64."""
+    slots = max(r.closures.kind.shape[1] for r in results)
+    out = ShaderResult(Closures.empty(n, slots), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)))
+    for result, rows in zip(results, order):
+        k = result.closures.kind.shape[1]
+        for mine, theirs in zip(out.closures, result.closures):
+            mine[rows, :k] = theirs
+        out.emission[rows], out.transparency[rows], out.N[rows] = result.emission, result.transparency, result.N
+    return out
