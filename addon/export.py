@@ -238,7 +238,18 @@ def _light_color(light) -> np.ndarray:
 
 
 def export_light(obj, matrix: np.ndarray, warnings: list):
-    """Return the core light of a Blender light object placed by `matrix` (4, 4), or None if it sends no diffuse light."""
+    """Return the core light of a Blender light object placed by `matrix` (4, 4), or None if it sends no diffuse light.
+
+    A light with size is seen by camera rays, as in Cycles, unless its Ray Visibility > Camera is off.
+    """
+    core = _export_light(obj, matrix, warnings)
+    if core is not None:
+        core.camera = bool(getattr(obj, "visible_camera", True))
+    return core
+
+
+def _export_light(obj, matrix: np.ndarray, warnings: list):
+    """export_light's work."""
     light = obj.data
     if not getattr(obj, "visible_diffuse", True):
         return None

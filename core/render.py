@@ -113,11 +113,28 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
         geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing))
     warnings.extend(w for w in geometry.warnings if w not in warnings)
     lights = [light.moved(geometry.origin) for light in lights_.usable(scene.lights, warnings)]
-    ctx = Context(scene, settings, geometry, lights, MaterialTable.of(scene.materials), light_numbers)
-    world = np.asarray(scene.world_color, np.float64)[:3]
-    ctx.extra["world"] = world
+    materials = MaterialTable.of(scene.materials)
+    # The lights a render makes of its scene: the emissive meshes, and the world's image.
+    world = scene.the_world()
+    emitters = lights_.emitters.from_geometry(geometry, materials)
+    sampler = lights_.WorldLight.of(world)
+    lights += [light for light in (emitters, sampler) if light is not None]
+    ctx = Context(scene, settings, geometry, lights, materials, light_numbers)
+    ctx.extra["world_light"] = world
+    ctx.extra["emitters"] = emitters
+    ctx.extra["world_sampler"] = sampler
+    # Which lights BSDF-sampled rays can find (weighed by MIS), which the camera sees, and whether a
+    # BSDF ray is worth tracing at all (not for scenes lit by lights without extent alone).
+    ctx.extra["hittable"] = {index for index, light in enumerate(lights) if light.hittable}
+    ctx.extra["camera_lamps"] = [index for index, light in enumerate(lights)
+                                 if light.hittable and light.kind in (0, 1, 3) and light.camera]
+    world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0)
+    ctx.extra["bsdf_rays"] = bool(ctx.extra["hittable"]) or world_lights
+    background = np.asarray(world.color, np.float64)[:3] if world.camera else np.zeros(3)
+    ctx.extra["world"] = background
     ctx.extra["camera"] = scene.camera.moved(geometry.origin)      # its rays come out camera-relative
-    ctx.extra["background"] = np.array([0.0, 0.0, 0.0, 0.0] if settings.transparent_background else [*world, 1.0])
+    ctx.extra["background"] = np.array([0.0, 0.0, 0.0, 0.0] if settings.transparent_background
+                                        else [*background, 1.0])
     forward = -np.asarray(scene.camera.matrix_world, np.float64)[:3, 2]
     ctx.extra["forward"] = forward / np.linalg.norm(forward)
     ctx.extra["camera_offset"] = geometry.origin - np.asarray(scene.camera.matrix_world, np.float64)[:3, 3]
@@ -178,7 +195,7 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
                                 sample[traced], recorder or Recorder())
     shading_seconds = time.perf_counter() - start
     hit = traced[found.hit]
-    rgba[hit, :3] = found.L[found.hit]
+    rgba[traced, :3] = found.L                   # what each ray brought back (misses: the world, lamps)
     rgba[hit, 3] = 1.0
     # c. Each pixel's sums (the film divides by the count).
     per_pixel, squares = pixel_sums(rgba, p, spp, s.adaptive)

@@ -226,7 +226,8 @@ def extended_scene() -> Scene:
 @pytest.mark.parametrize("terminator_fix", [False, True])
 def test_each_lights_share_is_albedo_over_pi_irradiance_cosine_visibility_and_they_sum_to_the_pixel(terminator_fix):
     """With one centre sample per light, each light's contribution is albedo / pi * E_normal * max(N.L, 0) * V
-    from the record's own numbers, and the contributions sum to the ray's radiance."""
+    * w_mis from the record's own numbers, and the contributions and the BSDF sample's light sum to the
+    ray's radiance."""
     scene = extended_scene()
     s = settings(width=40, height=30, terminator_fix=terminator_fix)
     geometry = build_geometry(scene, scene.camera.position)
@@ -238,10 +239,13 @@ def test_each_lights_share_is_albedo_over_pi_irradiance_cosine_visibility_and_th
                 continue
             for light in record.lights:
                 visibility = 1.0 if light.cast and not light.occluded else 0.0
-                expected = record.albedo / math.pi * light.irradiance * max(light.n_dot_l, 0.0) * visibility
+                expected = (record.albedo / math.pi * light.irradiance * max(light.n_dot_l, 0.0) * visibility
+                            * light.mis_weight)
                 np.testing.assert_allclose(light.contribution, expected, rtol=1e-12, atol=1e-15)
-            np.testing.assert_allclose(record.radiance, sum(light.contribution for light in record.lights),
-                                       rtol=1e-12, atol=1e-15)
+                assert 0.0 <= light.mis_weight <= 1.0
+            found = record.bsdf_sample[2] if record.bsdf_sample is not None else 0.0
+            np.testing.assert_allclose(record.radiance, record.emission + sum(light.contribution for light in record.lights)
+                                       + found, rtol=1e-12, atol=1e-15)
             checked += 1
     assert checked > 50
 

@@ -158,7 +158,7 @@ def test_light_sampling_and_bsdf_sampling_estimate_the_same_light_from_an_area_l
     # 2. BSDF sampling: cosine-weighted directions, pdf cos / pi: E = mean(L_e cos / pdf) = pi mean(L_e).
     bs = Lambert.sample(no_params(n), N, N, rng.random((n, 2)))
     found = light.hit(P, bs.wi, np.full(n, np.inf))
-    E_bsdf = np.mean(np.where(found.hit, found.radiance * math.pi, 0.0))
+    E_bsdf = np.mean(np.where(found.hit, found.radiance[:, 0] * math.pi, 0.0))
     assert E_bsdf == pytest.approx(E_light, rel=0.01)
     # 3. hit's pdf of a direction is the pdf sample gave it (the same solid-angle density).
     back = light.hit(P[:1000], ls.L[:1000], np.full(1000, np.inf))
@@ -170,5 +170,5 @@ def test_light_sampling_and_bsdf_sampling_estimate_the_same_light_from_an_area_l
     w_light = ls.pdf ** 2 / (ls.pdf ** 2 + p_b_of_light ** 2)
     p_l_of_bsdf = found.pdf
     w_bsdf = np.where(found.hit, bs.pdf ** 2 / (bs.pdf ** 2 + p_l_of_bsdf ** 2), 0.0)
-    E_mis = np.mean(w_light * ls.strength * cos_l) + np.mean(w_bsdf * np.where(found.hit, found.radiance * math.pi, 0.0))
+    E_mis = np.mean(w_light * ls.strength * cos_l) + np.mean(w_bsdf * np.where(found.hit, found.radiance[:, 0] * math.pi, 0.0))
     assert E_mis == pytest.approx(E_light, rel=0.01)

@@ -18,7 +18,7 @@ class InstancedRecord(ctypes.Structure):
 
     _fields_ = [(name, ctypes.c_void_p) for name in ("vertices", "triangles", "smooth_index", "corner_normals",
                                                     "transforms", "flip", "material", "material_row")] + \
-               [("triangle_count", ctypes.c_double), ("placements", ctypes.c_double)]
+               [("triangle_count", ctypes.c_double), ("placements", ctypes.c_double), ("first_prim", ctypes.c_double)]
 
 
 class GeometryRecord(ctypes.Structure):
@@ -49,5 +49,6 @@ class GeometryTables:
             for (name, _), array in zip(InstancedRecord._fields_, arrays):
                 setattr(record, name, array.ctypes.data)
             record.triangle_count, record.placements = float(len(mesh.triangles)), float(len(mesh.transforms))
+            record.first_prim = float(mesh.first_prim)
         self.record = GeometryRecord(*[None if a is None else a.ctypes.data for a in self.arrays[:6]],
                                      ctypes.addressof(self.meshes), float(len(geometry.instanced)))

@@ -17,6 +17,7 @@ typedef struct {
     const int32_t *material_row;    /* (k,) the row of `material` each placement uses */
     double triangle_count;          /* t */
     double placements;              /* k */
+    double first_prim;              /* WorldGeometry's flat index of placement 0's triangle 0 */
 } InstancedTables;
 
 /* Every triangle of the scene (core/geometry/tables.py `geometry_tables`). */

@@ -79,8 +79,13 @@ class Recorder:
     def shadow_rays(self, light: int, count: int, rows: np.ndarray, rays: ShadowRays, seen: np.ndarray) -> None:
         """The shadow rays cast for the hits `rows` (r,) int64 and whether each reached the light (r,) bool."""
 
-    def contribution(self, light: int, rows: np.ndarray, value: np.ndarray) -> None:
-        """The radiance (r, 3) float64 that light `light`'s sample adds at the hits `rows`."""
+    def contribution(self, light: int, rows: np.ndarray, value: np.ndarray, mis_weight: np.ndarray) -> None:
+        """The radiance (r, 3) float64 that light `light`'s sample adds at the hits `rows`, with its MIS
+        weight (r,) float64 against BSDF sampling (1 for a light no BSDF ray can find)."""
+
+    def bsdf_sample(self, wi: np.ndarray, pdf: np.ndarray, found: np.ndarray) -> None:
+        """The direction sampled from each hit's closures, wi (m, 3), its pdf (m,) (inf: a delta) and the
+        light (m, 3) it found (lamps, emitters, the world), weighed by MIS."""
 
 
 class Integrator:

@@ -14,8 +14,12 @@ typedef struct {
     const MaterialRecord *materials;
     const ShadowSettings *shadows;
     void *intersect8, *occluded8, *scene;        /* Embree's packet queries and the RTCScene */
+    const LightContext *light_context;           /* the emitters' and the world's tables */
     double light_count;
     double integrator;                           /* INTEGRATOR_* */
+    double sampling;                             /* SAMPLE_*: how lights with extent are found */
+    double bsdf_rays;                            /* 1: one BSDF-sampled ray per hit finds lights with extent */
+    double transparent;                          /* 1: the film is transparent (the world is not drawn) */
     double width, height, seed;
     double background[4];                        /* RGBA of a camera ray that misses */
     double luminance[3];                         /* adaptive sampling's luminance weights */
@@ -41,6 +45,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
     int valid[PACKET] ALIGNED(32);
     int64_t lane_of[PACKET];
     H->m = 0;
+    for (int64_t k = 0; k < b->n; k++) H->t[k] = b->t[k];
     for (int64_t at = 0; at < b->n; at += PACKET) {
         /* a. The next 8 camera rays that have a ray (a fisheye's samples outside its circle have none). */
         int lanes = 0;
@@ -63,6 +68,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
         for (int k = 0; k < lanes; k++) {
             if (packet.hit.geomID[k] == INVALID_ID) continue;
             int64_t lane = lane_of[k], h = H->m++;
+            H->t[lane] = (double)packet.ray.tfar[k];
             double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]};
             double D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
             Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
@@ -79,13 +85,38 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
     }
 }
 
-/* The integrator at the block's hits: the radiance each sends towards the camera, into H->L. */
+/* The integrator at the block's hits: the radiance each sends towards the camera, into H->L. Returns the
+ * shadow rays; embree[0] += ticks in occlusion queries, embree[1] in the BSDF rays' nearest hits. */
 INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, uint64_t *embree)
 {
+    DirectSettings ds = {params->shadows, params->lights, (int64_t)params->light_count, params->light_context,
+                         (Occluded8)params->occluded8, (Intersect8)params->intersect8, params->scene,
+                         params->geometry, params->materials, (int)params->sampling == SAMPLE_MIS && params->bsdf_rays != 0.0,
+                         (int)params->sampling, params->bsdf_rays != 0.0, params->seed};
     switch ((int)params->integrator) {
-    default:
-        return direct_light(H, params->shadows, params->lights, (int64_t)params->light_count,
-                            (Occluded8)params->occluded8, params->scene, embree);
+    default: {
+        int64_t rays = direct_light(H, &ds, embree);
+        if (ds.bsdf_rays && ds.sampling != SAMPLE_LIGHTS) embree[1] += bsdf_rays(H, &ds);
+        return rays;
+    }
+    }
+}
+
+/* What a camera ray brings back besides its hit: the world where it escapes (when the camera sees it and
+ * the film is not transparent), and the lamps with extent it passes before t (direct.lamps_seen). */
+INLINE void camera_sees(const ChunkParams *params, const double *O, const double *D, double t, int hit, double *out)
+{
+    out[0] = out[1] = out[2] = 0.0;
+    const WorldTables *world = params->light_context->world;
+    if (!hit && world->camera != 0.0 && params->transparent == 0.0) world_radiance(world, D, out);
+    for (int64_t l = 0; l < (int64_t)params->light_count; l++) {
+        const LightRecord *light = params->lights + l;
+        if (light->hittable == 0.0 || light->camera == 0.0 || (int)light->kind >= LIGHT_EMITTERS
+            || (int)light->kind == LIGHT_SUN)
+            continue;
+        LightHit lh;
+        if (light_hit(light, O, D, t, &lh))
+            for (int c = 0; c < 3; c++) out[c] += lh.radiance[c];
     }
 }
 
@@ -114,22 +145,29 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
         uint64_t begin = ticks();
         uint64_t before = spent[0];
         block_hits(params, &b, &H, &traced, spent);
-        uint64_t shading = ticks();
         /* 3. The light each hit sends towards the camera. */
-        shadow_rays += integrate(params, &H, spent + 1);
-        spent[2] += (ticks() - shading) + ((shading - begin) - (spent[0] - before));
+        uint64_t embree[2] = {0, 0};
+        shadow_rays += integrate(params, &H, embree);
+        spent[1] += embree[0];
+        spent[0] += embree[1];
+        spent[2] += (ticks() - begin) - (spent[0] - before);      /* (occlusion queries included, as before) */
         /* 4. Every sample of the block into its pixel's sums (film.c), in sample order. */
         int64_t h = 0, k = start / spp, j = start % spp;
         for (int64_t lane = 0; lane < b.n; lane++, j++) {
             if (j == spp) { j = 0; k++; }
-            double s[4];
-            if (h < H.m && H.lane[h] == lane) {
-                for (int c = 0; c < 3; c++) s[c] = H.L[3 * h + c];
+            double s[4] = {0.0, 0.0, 0.0, 0.0};
+            int is_hit = h < H.m && H.lane[h] == lane;
+            if (b.valid[lane]) {
+                double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
+                camera_sees(params, O, D, H.t[lane], is_hit, s);
+            }
+            if (is_hit) {
+                for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];
                 s[3] = 1.0;
                 h++;
                 out->hits[k]++;
             } else if (b.valid[lane]) {
-                for (int c = 0; c < 4; c++) s[c] = params->background[c];
+                s[3] = params->background[3];
             } else {
                 s[0] = s[1] = s[2] = 0.0;   /* outside a fisheye's image circle: opaque black */
                 s[3] = 1.0;

@@ -31,12 +31,19 @@ MaterialRecord = library.record("MaterialRecord", [
     ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3)], size_function="primer_material_record_size")
 
 
+class LightContext(ctypes.Structure):
+    """The emitters' and the world's tables (lights.h LightContext)."""
+
+    _fields_ = [("emitters", ctypes.c_void_p), ("world", ctypes.c_void_p)]
+
+
 class ChunkParams(ctypes.Structure):
     """Everything a chunk reads (chunk.c ChunkParams)."""
 
     _fields_ = ([(name, ctypes.c_void_p) for name in ("camera", "geometry", "lights", "materials", "shadows",
-                                                      "intersect8", "occluded8", "scene")]
-                + [(name, ctypes.c_double) for name in ("light_count", "integrator", "width", "height", "seed")]
+                                                      "intersect8", "occluded8", "scene", "light_context")]
+                + [(name, ctypes.c_double) for name in ("light_count", "integrator", "sampling", "bsdf_rays",
+                                                        "transparent", "width", "height", "seed")]
                 + [("background", ctypes.c_double * 4), ("luminance", ctypes.c_double * 3),
                    ("want_squares", ctypes.c_double)])
     _size_function = "primer_chunk_params_size"
@@ -109,8 +116,19 @@ class Compiled:
         params.lights, params.materials = ctypes.addressof(self.lights), ctypes.addressof(self.materials)
         params.shadows = ctypes.addressof(self.shadows)
         params.intersect8, params.occluded8, params.scene = packets.intersect8, packets.occluded8, packets.scene
+        # The emissive meshes' and the world's tables (their records in self.lights say only how often).
+        from ..lights.world import WorldTables
+        emitters = ctx.extra.get("emitters")
+        self.emitter_tables = emitters.tables() if emitters is not None else None
+        self.world_tables = WorldTables(ctx.extra["world_light"], ctx.extra.get("world_sampler"))
+        self.context = LightContext(ctypes.addressof(self.emitter_tables.record) if emitters is not None else None,
+                                    ctypes.addressof(self.world_tables.record))
+        params.light_context = ctypes.addressof(self.context)
         params.light_count = float(len(ctx.lights))
         params.integrator = float(COMPILED_INTEGRATORS[s.integrator])
+        params.sampling = float(("mis", "light", "bsdf").index(s.light_sampling))
+        params.bsdf_rays = 1.0 if ctx.extra.get("bsdf_rays") else 0.0
+        params.transparent = 1.0 if s.transparent_background else 0.0
         params.width, params.height = float(s.width), float(s.height)
         params.background[:] = [float(x) for x in background]
         params.luminance[:] = adaptive.LUMINANCE.tolist()

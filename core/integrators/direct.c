@@ -15,6 +15,7 @@ typedef struct {
     ShaderResult sd[BLOCK];                      /* the material there: closures, emission */
     double wo[3 * BLOCK];                        /* towards the viewer */
     double L[3 * BLOCK];                         /* the radiance it sends towards the viewer */
+    double t[BLOCK];                             /* each camera lane's ray length: its hit, or its t_max */
 } BlockHits;
 
 /* Light samples of one light, BLOCK at a time (structure of arrays, see sample_lanes). */
@@ -25,10 +26,12 @@ typedef struct {
     double u[2][BLOCK];                          /* its point in the unit square */
     double P[3][BLOCK], N[3][BLOCK], Ng[3][BLOCK], lifted[3][BLOCK];
     double offset[BLOCK], smooth[BLOCK];
-    double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK];
+    double u2[BLOCK];                            /* a third number (an emitter's pick) */
+    double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK], color[3][BLOCK], pdf[BLOCK];
     double origin[3][BLOCK], D[3][BLOCK], t[BLOCK], weight[BLOCK];
     double keep[BLOCK];                          /* 1: the ray can carry light */
     double f[3][BLOCK];                          /* f cos of the lane's hit's closures, for its light direction */
+    double pdf_bsdf[BLOCK];                      /* and the pdf their sampling gives that direction (MIS) */
 } SampleBlock;
 
 /* Step 0: samples first .. first + n - 1 of a light with `count` samples per hit (sample s is sample
@@ -58,14 +61,20 @@ SIMD_CLONES NOINLINE static void gather_block(SampleBlock *b, const BlockHits *H
 /* A light sample into the block's columns. */
 INLINE void store_sample(SampleBlock *b, int64_t k, const LightSample *ls)
 {
-    for (int c = 0; c < 3; c++) { b->L[c][k] = ls->L[c]; b->position[c][k] = ls->position[c]; }
+    for (int c = 0; c < 3; c++) {
+        b->L[c][k] = ls->L[c];
+        b->position[c][k] = ls->position[c];
+        b->color[c][k] = ls->color[c];
+    }
     b->distance[k] = ls->distance;
     b->strength[k] = ls->strength;
+    b->pdf[k] = ls->pdf;
 }
 
 /* Step 1: where the light comes from (Light.sample through the lights' table). The most common kinds
  * get loops of their own, with no branch, which the compiler turns into SIMD lanes; the same numbers. */
-SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const LightRecord *restrict record)
+SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const LightRecord *restrict record,
+                                             const LightContext *restrict ctx)
 {
     const LightRecord copy = *record, *light = &copy;   /* a local copy: every lane may read every field */
     int kind = (int)light->kind;
@@ -74,6 +83,7 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
             LightSample ls;
             sample_area(light, P, b->u[0][k] - 0.5, b->u[1][k] - 0.5, &ls);
+            for (int c = 0; c < 3; c++) ls.color[c] = light->color[c];
             store_sample(b, k, &ls);
         }
     } else if (kind == LIGHT_POINT && light->delta != 0.0) {
@@ -81,13 +91,14 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
             LightSample ls;
             sample_point(light, P, &ls);
+            for (int c = 0; c < 3; c++) ls.color[c] = light->color[c];
             store_sample(b, k, &ls);
         }
     } else {
         for (int64_t k = 0; k < b->n; k++) {
-            double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[2] = {b->u[0][k], b->u[1][k]};
+            double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[3] = {b->u[0][k], b->u[1][k], b->u2[k]};
             LightSample ls;
-            sample_light(light, P, u, &ls);
+            sample_light(light, ctx, P, u, &ls);
             store_sample(b, k, &ls);
         }
     }
@@ -143,21 +154,21 @@ static void bsdf_block(SampleBlock *restrict b, const BlockHits *restrict H)
             double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
             double e = at_least(dot3(c->N, L), 0.0) * (1.0 / PI);
             for (int j = 0; j < 3; j++) b->f[j][k] = c->weight[j] * e;
+            b->pdf_bsdf[k] = c->sample_weight > 0.0 ? c->sample_weight * e / c->sample_weight : 0.0;
         }
         return;
     }
     for (int64_t k = 0; k < b->n; k++) {
         int64_t h = b->hit[k];
         double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, f[3];
-        shader_eval(H->sd + h, H->wo + 3 * h, L, f);
+        b->pdf_bsdf[k] = shader_eval(H->sd + h, H->wo + 3 * h, L, f);
         for (int c = 0; c < 3; c++) b->f[c][k] = f[c];
     }
 }
 
 /* Step 4: the rays that can carry light go into packets, Embree answers each packet of 8, and what
  * gets through, (weight colour) f cos, is added to its hit's radiance in ray order. Returns the rays traced. */
-INLINE int64_t occlude_block(const SampleBlock *b, const LightRecord *light, Occluded8 occluded8, void *scene,
-                             double *L_out)
+INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *scene, double *L_out)
 {
     RayPacket ray;
     int valid[PACKET] ALIGNED(32);
@@ -171,7 +182,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, const LightRecord *light, Occ
             double d[3] = {b->D[0][k], b->D[1][k], b->D[2][k]};
             set_lane(&ray, lanes, o, d, b->t[k]);
             owner[lanes] = b->hit[k];
-            for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * light->color[c]) * b->f[c][k];
+            for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * b->color[c][k]) * b->f[c][k];
             if (++lanes < PACKET) continue;
         }
         if (lanes == 0) continue;
@@ -188,33 +199,171 @@ INLINE int64_t occlude_block(const SampleBlock *b, const LightRecord *light, Occ
     return rays;
 }
 
+/* Veach's power heuristic a^2 / (a^2 + b^2): 1 for a = inf (a delta strategy), 0 for a = 0 (direct.power_heuristic). */
+INLINE double power_heuristic(double a, double b)
+{
+    if (a == INFINITY) return 1.0;
+    if (!(a > 0.0)) return 0.0;
+    double w = a * a / (a * a + b * b);
+    return w == w ? w : 0.0;
+}
+
+/* How a render finds lights with extent (RenderSettings.light_sampling). */
+enum { SAMPLE_MIS = 0, SAMPLE_LIGHTS = 1, SAMPLE_BSDF = 2 };
+
+/* What direct_light reads besides the block's hits. */
+typedef struct {
+    const ShadowSettings *shadows;
+    const LightRecord *lights;
+    int64_t n_lights;
+    const LightContext *context;
+    Occluded8 occluded;
+    Intersect8 intersect;
+    void *scene;
+    const GeometryTables *geometry;
+    const MaterialRecord *materials;
+    int mis;                    /* 1: weigh light samples against BSDF samples */
+    int sampling;               /* SAMPLE_* */
+    int bsdf_rays;              /* 1: trace one BSDF-sampled ray per hit */
+    double seed;
+} DirectSettings;
+
 /* Direct light at the block's hits, added to H->L: every light's samples, BLOCK at a time. Returns the
  * shadow rays traced; embree_ticks[0] += the time inside Embree's occlusion queries. */
-INLINE int64_t direct_light(BlockHits *H, const ShadowSettings *settings, const LightRecord *lights,
-                            int64_t n_lights, Occluded8 occluded, void *scene, uint64_t *embree_ticks)
+INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *embree_ticks)
 {
+    const ShadowSettings *settings = ds->shadows;
     SampleBlock b;
     int64_t rays = 0;
     uint64_t embree = 0;
     int lift = settings->terminator_fix != 0.0;
-    for (int64_t l = 0; l < n_lights; l++) {
-        const LightRecord *light = lights + l;
+    for (int64_t l = 0; l < ds->n_lights; l++) {
+        const LightRecord *light = ds->lights + l;
+        int weighed = ds->mis && light->delta == 0.0 && light->hittable != 0.0;
+        if (ds->sampling == SAMPLE_BSDF && light->delta == 0.0 && light->hittable != 0.0) continue;
         int64_t count = (int64_t)light->samples, total = H->m * count;
         for (int64_t first = 0; first < total; first += BLOCK) {
             gather_block(&b, H, first, total - first < BLOCK ? total - first : BLOCK, count, lift);
-            if (light->delta == 0.0)
-                sample_lanes(b.n, stream_of((int64_t)settings->seed, (int64_t)light->dimension), b.pixel, b.index,
+            if (light->delta == 0.0) {
+                sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension), b.pixel, b.index,
                              b.u[0], b.u[1]);
-            else
-                for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = 0.0;
-            light_block(&b, light);
+                if ((int)light->kind == LIGHT_EMITTERS) {
+                    double unused[BLOCK];
+                    sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + 2), b.pixel, b.index,
+                                 b.u2, unused);
+                }
+            } else {
+                for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = b.u2[k] = 0.0;
+            }
+            light_block(&b, light, ds->context);
             ray_block(&b, settings, lift, (double)count);
             bsdf_block(&b, H);
+            if (weighed)
+                for (int64_t k = 0; k < b.n; k++)
+                    b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
             uint64_t start = ticks();
-            rays += occlude_block(&b, light, occluded, scene, H->L);
+            rays += occlude_block(&b, ds->occluded, ds->scene, H->L);
             embree += ticks() - start;
         }
     }
     embree_ticks[0] += embree;
     return rays;
+}
+
+/* WorldGeometry's flat triangle index of an Embree hit (copied, or a placement of an instanced mesh). */
+INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
+{
+    if (geometry <= 0) return prim;
+    const InstancedTables *mesh = g->meshes + (geometry - 1);
+    return (int64_t)mesh->first_prim + instance * (int64_t)mesh->triangle_count + prim;
+}
+
+/* The light one direction sampled from each hit's closures finds (direct.bsdf_ray): a lamp with extent
+ * in front of what the ray hits, an emissive surface it hits, or the world it escapes to, weighed by
+ * MIS against that light's own samples (1 for a constant world); added to H->L. Returns Embree's ticks. */
+INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
+{
+    uint32_t stream = stream_of((int64_t)ds->seed, 2), pick_stream = stream_of((int64_t)ds->seed, 3);
+    uint64_t embree = 0;
+    RayHitPacket packet;
+    int valid[PACKET] ALIGNED(32);
+    int64_t owner[PACKET];
+    ClosureSample sampled[PACKET];
+    double origin[PACKET][3];
+    const LightContext *ctx = ds->context;
+    int64_t emitters_index = -1, world_index = -1;
+    for (int64_t l = 0; l < ds->n_lights; l++) {
+        if ((int)ds->lights[l].kind == LIGHT_EMITTERS) emitters_index = l;
+        if ((int)ds->lights[l].kind == LIGHT_WORLD) world_index = l;
+    }
+    int lanes = 0;
+    for (int64_t h = 0; h <= H->m; h++) {
+        if (h < H->m) {
+            /* a. A direction from the hit's closures, and the ray that leaves on its side. */
+            double u[2], pick[2];
+            sample_2d(stream, H->pixel[h], H->sample[h], u);
+            sample_2d(pick_stream, H->pixel[h], H->sample[h], pick);
+            ClosureSample *s = sampled + lanes;
+            shader_sample(H->sd + h, H->wo + 3 * h, u, pick[0], s);
+            if (!(s->pdf > 0.0)) continue;
+            const Surface *sf = H->s + h;
+            double side = dot3(sf->Ng, s->wi) < 0.0 ? -1.0 : 1.0;
+            double step = ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon;
+            for (int c = 0; c < 3; c++) origin[lanes][c] = sf->I[c] + (step * side) * sf->Ng[c];
+            set_lane(&packet.ray, lanes, origin[lanes], s->wi, INFINITY);
+            owner[lanes] = h;
+            if (++lanes < PACKET) continue;
+        }
+        if (lanes == 0) continue;
+        /* b. Embree's nearest hits, 8 at a time. */
+        close_packet(&packet.ray, valid, lanes);
+        clear_hits(&packet);
+        uint64_t start = ticks();
+        ds->intersect(valid, ds->scene, &packet, NULL);
+        embree += ticks() - start;
+        for (int k = 0; k < lanes; k++) {
+            const ClosureSample *s = sampled + k;
+            const double *O = origin[k], *D = s->wi;
+            int hit = packet.hit.geomID[k] != INVALID_ID;
+            double t_limit = hit ? (double)packet.ray.tfar[k] : INFINITY;
+            double pdf_b = s->delta ? INFINITY : s->pdf;
+            int use_mis = ds->mis && !s->delta;
+            double light_L[3] = {0.0, 0.0, 0.0};
+            /* c. Lamps with extent in front of the hit (they never block). */
+            for (int64_t l = 0; l < ds->n_lights; l++) {
+                const LightRecord *light = ds->lights + l;
+                if (light->hittable == 0.0 || (int)light->kind >= LIGHT_EMITTERS) continue;
+                LightHit lh;
+                if (!light_hit(light, O, D, t_limit, &lh)) continue;
+                double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
+                for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
+            }
+            /* d. An emissive surface the ray hits, weighed against the emitters' own samples. */
+            if (hit && emitters_index >= 0) {
+                int64_t geometry = (int64_t)packet.hit.geomID[k], prim = (int64_t)packet.hit.primID[k];
+                int64_t instance = instance_of(&packet.hit, k);
+                Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+                hit_triangle(ds->geometry, geometry, prim, instance, 0, &tri);
+                const double *emitted = ds->materials[tri.material].emission;
+                int64_t index = emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance));
+                double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, O, D, t_limit) : 0.0;
+                double n_l = ds->lights[emitters_index].samples;
+                double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
+                for (int c = 0; c < 3; c++) light_L[c] += emitted[c] * w;
+            }
+            /* e. The world, where the ray escapes: a constant world with weight 1, an image by MIS. */
+            if (!hit && ctx->world->lights != 0.0) {
+                double L_world[3];
+                world_radiance(ctx->world, D, L_world);
+                double w = 1.0;
+                if (world_index >= 0 && use_mis)
+                    w = power_heuristic(pdf_b, ds->lights[world_index].samples * world_pdf(ctx->world, D));
+                for (int c = 0; c < 3; c++) light_L[c] += L_world[c] * w;
+            }
+            double *L = H->L + 3 * owner[k];
+            for (int c = 0; c < 3; c++) L[c] += s->weight[c] * light_L[c];
+        }
+        lanes = 0;
+    }
+    return embree;
 }

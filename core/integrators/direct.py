@@ -4,10 +4,20 @@ For each camera ray, the nearest hit I with its face normal Ng and shading norma
 towards the viewer), the material there (core/materials: its closures and what it emits); then
 the light it emits itself, and for every light, and every sample of a light with extent:
 
-    L_out += f(wo, L) max(N.L, 0) * E_normal * V          (core/materials, core/lights, shadows.py)
+    L_out += f(wo, L) max(N.L, 0) * E_normal * V * w_light    (core/materials, core/lights, shadows.py)
 
 where E_normal = L_e / pdf is the light sample's irradiance at normal incidence and V the shadow
-ray's verdict. For the Lambert BSDF f = albedo / pi: the lecture's absorption. Work is done only
+ray's verdict. For the Lambert BSDF f = albedo / pi: the lecture's absorption. Lights with extent
+(area lights, round lights, sun disks, emissive meshes, an environment) can also be found the other
+way round: one direction sampled from the BSDF, traced, adds the light it meets,
+
+    L_out += (f cos / pdf_bsdf) * L_e * w_bsdf,
+
+and multiple importance sampling (Veach's power heuristic, as Cycles weighs them) gives each
+strategy the weight w = (n p)^2 / sum over strategies of (n p)^2, so that each light is counted
+once, by whichever strategy finds it best. A constant world is found by BSDF rays only, as in Cycles.
+RenderSettings.light_sampling "light" or "bsdf" keeps one strategy alone (the lecture switch that
+shows why MIS). Work is done only
 where it matters: interpolated normals only for smooth triangles, shadow rays only for lights in
 front of both N and the face, and only where the light sends something. The lecture switches of
 RenderSettings undo these choices one at a time, to show why the lecture makes them.
@@ -28,8 +38,19 @@ from . import shadows
 from .base import Context, Integrator, Radiance, Recorder
 
 
+def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Veach's power heuristic a^2 / (a^2 + b^2), with a = inf (a delta strategy) giving 1 and a = 0 giving 0.
+
+    a, b: (n,) float64 the two strategies' pdfs, each times its number of samples.
+    """
+    with np.errstate(invalid="ignore", over="ignore"):
+        w = a * a / (a * a + b * b)
+    return np.where(np.isinf(a), 1.0, np.where(a > 0.0, np.nan_to_num(w), 0.0))
+
+
 class DirectLighting(Integrator):
-    """Light that reaches a surface straight from a lamp, with one shadow ray per light sample."""
+    """Light that reaches a surface straight from a lamp, an emitter or the world: one shadow ray per
+    light sample, and one BSDF-sampled ray per hit where lights can be found that way."""
 
     name: ClassVar[str] = "direct"
 
@@ -37,10 +58,17 @@ class DirectLighting(Integrator):
                  sample: np.ndarray, recorder: Recorder) -> Radiance:
         s = ctx.settings
         n = len(O)
-        L_out = np.zeros((n, 3))
         # 1. The nearest hit of each camera ray (t), and the surface there: I, Ng, N.
         found = ctx.geometry.tracer.intersect(O, D, t_max)
         hit = np.flatnonzero(found.hit)
+        # 2. What rays that hit nothing see: the world, where it is visible to the camera.
+        L_out = np.zeros((n, 3))
+        world = ctx.extra.get("world_light")
+        if world is not None and world.camera and not s.transparent_background:
+            missed = np.flatnonzero(~found.hit)
+            L_out[missed] = world.radiance(D[missed])
+        # 3. Lamps seen by the camera in front of what it hits (area lights, round lights).
+        L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
         if len(hit) == 0:
             recorder.hits(O, D, None, found.hit)
             return Radiance(L_out, found.hit, 0)
@@ -48,14 +76,14 @@ class DirectLighting(Integrator):
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit],
                                   vectors.gather(O, hit), D_hit, found.t[hit], flat_only=not s.smooth_normals)
         recorder.hits(O, D, surface, found.hit)
-        # 2. The light each hit reflects towards the camera.
+        # 4. The light each hit sends towards the camera.
         L_hit, shadow_rays = self.shade(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder)
-        L_out[hit] = L_hit
+        L_out[hit] += L_hit
         return Radiance(L_out, found.hit, shadow_rays)
 
     def shade(self, ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray,
               recorder: Recorder):
-        """Return (the radiance (m, 3) float64 each hit reflects towards wo, shadow rays traced).
+        """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced).
 
         wo: (m, 3) float64 unit directions towards the viewer; pixel, sample: (m,) int64 each hit's
         keys for its random numbers.
@@ -68,23 +96,21 @@ class DirectLighting(Integrator):
         L_out = shader.emission.copy()
         shadow_rays = 0
         offsets = shadows.error_bound(surface.I, surface.vertices) if s.shadow_method == "robust" else None
+        mis = s.light_sampling == "mis" and ctx.extra.get("bsdf_rays", False)
         for index, light in enumerate(ctx.lights):
-            count = 1 if light.delta or ctx.light_numbers is not None else max(1, int(s.light_samples))
+            if s.light_sampling == "bsdf" and not light.delta and index in ctx.extra.get("hittable", ()):
+                continue                      # found by BSDF rays alone
+            count = light_count(ctx, light)
             cone = light.cone(surface.I)                   # shared by all the light's samples
             for j in range(count):
-                # 1. Where does the light come from? One sample of the light's progressive pattern:
+                # a. Where does the light come from? One sample of the light's progressive pattern:
                 #    camera sample s takes its points s*count .. s*count+count-1 (core/sampling), so
                 #    the points of any number of camera samples together cover the light evenly.
-                if light.delta:
-                    u = np.zeros((m, 2))
-                elif ctx.light_numbers is not None:
-                    u = np.broadcast_to(np.asarray(ctx.light_numbers[index], np.float64), (m, 2))
-                else:
-                    u = sampling.sample_2d(s.seed, pixel, sample * count + j, dimension=16 + 4 * index)
+                u = light_numbers(ctx, light, index, pixel, sample * count + j, m)
                 ls = light.sample(surface.I, u, cone)
                 if not s.distance_attenuation:
                     ls = light.without_attenuation(ls, surface.I)
-                # 2. The lecture's two tests: N.L > 0 (shading normal, the clamp) and Ng.L > 0 (the
+                # b. The lecture's two tests: N.L > 0 (shading normal, the clamp) and Ng.L > 0 (the
                 #    face normal decides whether the light can be visible; `visibility_normal`
                 #    switches it). The terminator fix lifts smooth points onto the curved surface,
                 #    where the face normal no longer decides; its shadow ray does.
@@ -101,19 +127,95 @@ class DirectLighting(Integrator):
                 rows = np.flatnonzero(lit)
                 if len(rows) == 0:
                     continue
-                # 3. One shadow ray per lit sample, from a point safely off the surface.
+                # c. One shadow ray per lit sample, from a point safely off the surface.
                 rays = self.shadow_rays(s, surface, rows, ls, NL, NgL, offsets)
                 seen = shadows.visible(ctx.geometry.tracer, rays)
                 recorder.shadow_rays(index, count, rows, rays, seen)
                 shadow_rays += len(rows)
-                # 4. What gets through: f cos (the closures at L) E_normal / count, coloured by the light.
+                # d. What gets through: f cos (the closures at L) E_normal / count, coloured by the
+                #    light, weighed against BSDF sampling where a BSDF ray could find this light.
                 part = materials_.Closures(*(array[rows] for array in shader.closures))
-                f_cos, _ = materials_.eval_closures(part, wo[rows], ls.L[rows], signed_cosine=not s.clamp_n_dot_l)
+                f_cos, pdf_bsdf = materials_.eval_closures(part, wo[rows], ls.L[rows],
+                                                           signed_cosine=not s.clamp_n_dot_l)
                 weight = ls.strength[rows] * (1.0 / count)
-                value = (weight[:, None] * ls.color) * f_cos * seen[:, None]
-                recorder.contribution(index, rows, value)
+                mis_weight = np.ones(len(rows))
+                if mis and not light.delta and index in ctx.extra["hittable"]:
+                    mis_weight = power_heuristic(count * ls.pdf[rows], pdf_bsdf)
+                    weight = weight * mis_weight
+                color = ls.color if ls.color.ndim == 1 else ls.color[rows]
+                value = (weight[:, None] * color) * f_cos * seen[:, None]
+                recorder.contribution(index, rows, value, mis_weight)
                 L_out[rows] += value
+        # 2. The light one BSDF-sampled direction finds (lamps with extent, emitters, the world).
+        if ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light":
+            L_out += self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, recorder)
         return L_out, shadow_rays
+
+    def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: bool,
+                 recorder: Recorder) -> np.ndarray:
+        """Return the light (m, 3) one direction sampled from each hit's closures finds: a lamp with
+        extent in front of what the ray hits, an emissive surface it hits, or the world it escapes to,
+        each weighed by MIS against that light's own samples (weight 1 for a constant world)."""
+        s = ctx.settings
+        m = len(surface.I)
+        u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION)
+        pick = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + 1)[:, 0]
+        bs = materials_.sample_closures(shader.closures, wo, u, pick)
+        found = np.zeros((m, 3))
+        go = np.flatnonzero(bs.pdf > 0.0)
+        if len(go) == 0:
+            recorder.bsdf_sample(bs.wi, bs.pdf, found)
+            return found
+        # The ray leaves from a point safely off the surface, on the side it goes to.
+        side = np.where(np.einsum("ij,ij->i", surface.Ng[go], bs.wi[go]) < 0.0, -1.0, 1.0)
+        step = offsets[go] if offsets is not None else np.full(len(go), s.epsilon)
+        O = surface.I[go] + (step * side)[:, None] * surface.Ng[go]
+        D = bs.wi[go]
+        hits = ctx.geometry.tracer.intersect(O, D, np.full(len(go), np.inf))
+        pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
+        use_mis = mis & ~bs.delta[go]
+        light_L = np.zeros((len(go), 3))
+        t_limit = np.where(hits.hit, hits.t, np.inf)
+        # a. Lamps with extent in front of the hit (they never block, as in Cycles).
+        for index in ctx.extra["hittable"]:
+            light = ctx.lights[index]
+            if light.kind in (4, 5):                  # emitters and the world are found below
+                continue
+            lh = light.hit(O, D, t_limit)
+            if not lh.hit.any():
+                continue
+            w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * lh.pdf), 1.0)
+            light_L += lh.radiance * w[:, None]
+        # b. An emissive surface the ray hits: its emission, weighed against the emitters' own samples.
+        struck = np.flatnonzero(hits.hit)
+        emitters = ctx.extra.get("emitters")
+        if len(struck) and emitters is not None:
+            where = surface_at_hits(ctx.geometry, hits.prim[struck], hits.u[struck], hits.v[struck], O[struck],
+                                    D[struck], hits.t[struck])
+            emitted = ctx.materials.shade(where.material, where.N, -D[struck]).emission
+            index = emitters.index_of_prim(hits.prim[struck])
+            pdf_l = np.zeros(len(struck))
+            known = index >= 0
+            if known.any():
+                pdf_l[known] = emitters.pdf_of_hits(O[struck][known], index[known], D[struck][known],
+                                                    hits.t[struck][known])
+            n_l = light_count(ctx, emitters)
+            w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
+            light_L[struck] += emitted * w[:, None]
+        # c. The world, where the ray escapes: a constant world with weight 1, an image by MIS.
+        world = ctx.extra.get("world_light")
+        missed = np.flatnonzero(~hits.hit)
+        if world is not None and world.lights and len(missed):
+            L_world = world.radiance(D[missed])
+            w = np.ones(len(missed))
+            sampler = ctx.extra.get("world_sampler")
+            if sampler is not None:
+                w = np.where(use_mis[missed], power_heuristic(pdf_b[missed],
+                             light_count(ctx, sampler) * sampler.pdf(D[missed])), 1.0)
+            light_L[missed] += L_world * w[:, None]
+        found[go] = bs.weight[go] * light_L
+        recorder.bsdf_sample(bs.wi, bs.pdf, found)
+        return found
 
     @staticmethod
     def shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.ndarray, offsets) -> shadows.ShadowRays:
@@ -129,3 +231,40 @@ class DirectLighting(Integrator):
             return shadows.robust_rays(I, Ng, offsets[rows], ls.position[rows], ls.L[rows], ls.distance[rows],
                                        s.reduce_t_max)
         return shadows.epsilon_rays(I, ls.L[rows], ls.distance[rows], s.epsilon, s.reduce_t_max)
+
+
+# The sampling dimensions of the BSDF-sampled direction (2D) and of the closure it picks (core/sampling).
+BSDF_DIMENSION = 2
+
+
+def light_count(ctx: Context, light) -> int:
+    """Samples per hit of `light`: 1 for a light without extent or for the inspector's one sample, else
+    the settings' light samples."""
+    return 1 if light.delta or ctx.light_numbers is not None else max(1, int(ctx.settings.light_samples))
+
+
+def light_numbers(ctx: Context, light, index: int, pixel: np.ndarray, number: np.ndarray, m: int) -> np.ndarray:
+    """The light's unit-square numbers for m samples (and a third for lights that pick, e.g. a triangle):
+    zeros for a light without extent, the inspector's fixed point, or the light's progressive pattern."""
+    width = getattr(light, "random_numbers", 2)
+    if light.delta:
+        return np.zeros((m, width))
+    if ctx.light_numbers is not None:
+        fixed = np.zeros(width)
+        fixed[:2] = np.asarray(ctx.light_numbers[index], np.float64)
+        fixed[2:] = 0.5
+        return np.broadcast_to(fixed, (m, width))
+    dimension = 16 + 4 * index
+    u = sampling.sample_2d(ctx.settings.seed, pixel, number, dimension=dimension)
+    if width == 2:
+        return u
+    pick = sampling.sample_2d(ctx.settings.seed, pixel, number, dimension=dimension + 2)[:, :1]
+    return np.concatenate([u, pick], axis=1)
+
+
+def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+    """The radiance (n, 3) of lamps with extent that camera rays meet before t_max (lamps never block)."""
+    seen = np.zeros((len(O), 3))
+    for index in ctx.extra.get("camera_lamps", ()):
+        seen += ctx.lights[index].hit(O, D, t_max).radiance
+    return seen

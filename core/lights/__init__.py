@@ -8,11 +8,14 @@ from __future__ import annotations
 
 from .area import AreaLight
 from .base import Light, LightHit, LightRecord, LightSample
+from .emitters import MeshEmitters
 from .point import PointLight
 from .spot import SpotLight
 from .sun import SunLight
+from .world import World, WorldLight
 
-LIGHT_TYPES = (PointLight, SpotLight, SunLight, AreaLight)
+# Blender's lamps, then the lights a render makes of its scene: the emissive meshes, the world's image.
+LIGHT_TYPES = (PointLight, SpotLight, SunLight, AreaLight, MeshEmitters, WorldLight)
 
 assert all(cls.kind == index for index, cls in enumerate(LIGHT_TYPES)), "a light's kind is its place in LIGHT_TYPES"
 
@@ -28,5 +31,5 @@ def usable(lights: list, warnings: list) -> list:
     return kept
 
 
-__all__ = ["AreaLight", "LIGHT_TYPES", "Light", "LightHit", "LightRecord", "LightSample", "PointLight",
-           "SpotLight", "SunLight", "usable"]
+__all__ = ["AreaLight", "LIGHT_TYPES", "Light", "LightHit", "LightRecord", "LightSample", "MeshEmitters",
+           "PointLight", "SpotLight", "SunLight", "World", "WorldLight", "usable"]

@@ -46,3 +46,31 @@ INLINE void sample_area_light(const LightRecord *light, const double *P, const d
     if (light->ellipse != 0.0) area_disk_point(u, &x, &y);
     sample_area(light, P, x, y, out);
 }
+
+/* AreaLight.hit: a ray meets the light's plane from its emitting side inside its shape: radiance
+ * P / (pi A) (spread applied) and the pdf `sample` gives that direction, t^2 / (cos A). */
+INLINE int area_light_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
+{
+    const double *n = light->direction, *U = light->axis_u, *V = light->axis_v;
+    double cos_light = -dot3(D, n);
+    double to_center[3] = {light->position[0] - O[0], light->position[1] - O[1], light->position[2] - O[2]};
+    double t = dot3(to_center, n) / -cos_light;
+    double X[3];
+    for (int c = 0; c < 3; c++) X[c] = O[c] + t * D[c] - light->position[c];
+    /* The point in the light's own coordinates: solve the 2 x 2 Gram system of its edges. */
+    double uu = dot3(U, U), uv = dot3(U, V), vv = dot3(V, V), xu = dot3(X, U), xv = dot3(X, V);
+    double det = uu * vv - uv * uv;
+    double x = (vv * xu - uv * xv) / det, y = (uu * xv - uv * xu) / det;
+    int inside = light->ellipse != 0.0 ? x * x + y * y <= 0.25 : (fabs(x) <= 0.5) & (fabs(y) <= 0.5);
+    int hit = (cos_light > 0.0) & (t > 0.0) & (t < t_max) & inside;
+    if (!hit) return 0;
+    double attenuation = 1.0;
+    if (light->spread_narrow != 0.0) {
+        double tan_theta = sqrt(at_least(1.0 - cos_light * cos_light, 0.0)) / cos_light;
+        attenuation = at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
+    }
+    out->t = t;
+    for (int c = 0; c < 3; c++) out->radiance[c] = light->radiance * attenuation * light->color[c];
+    out->pdf = t * t / (cos_light * light->area);
+    return 1;
+}

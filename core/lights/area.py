@@ -67,6 +67,7 @@ class AreaLight(Light):
     shape: str = "SQUARE"
     spread: float = math.pi
     name: str = "Area"
+    camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
 
     kind: ClassVar[int] = 3
     blender_type: ClassVar[str] = "AREA"
@@ -122,15 +123,23 @@ class AreaLight(Light):
         with np.errstate(divide="ignore", invalid="ignore"):
             t = np.einsum("ij,j->i", center - origins, normal) / -cos_light
             X = origins + t[:, None] * directions - center
-            # The hit point in the light's own coordinates (x, y in [-1/2, 1/2] on the square).
-            gram = np.array([[axis_u @ axis_u, axis_u @ axis_v], [axis_u @ axis_v, axis_v @ axis_v]])
-            x, y = np.linalg.solve(gram, np.stack([X @ axis_u, X @ axis_v])) if len(X) else (np.zeros(0),) * 2
+            # The hit point in the light's own coordinates (x, y in [-1/2, 1/2] on the square): the 2 x 2
+            # Gram system of its edges, by Cramer's rule.
+            uu, uv, vv = axis_u @ axis_u, axis_u @ axis_v, axis_v @ axis_v
+            xu, xv = np.einsum("ij,j->i", X, axis_u), np.einsum("ij,j->i", X, axis_v)
+            det = uu * vv - uv * uv
+            x, y = (vv * xu - uv * xv) / det, (uu * xv - uv * xu) / det
             inside = (x * x + y * y <= 0.25) if self.round else ((np.abs(x) <= 0.5) & (np.abs(y) <= 0.5))
             hit = (cos_light > 0) & (t > 0) & (t < t_max) & inside
             area = self.area()
             pdf = np.where(hit, t * t / (cos_light * area), 0.0)
             radiance = np.where(hit, self.radiance() * spread_attenuation(self.spread, cos_light), 0.0)
-        return LightHit(hit, np.where(hit, t, np.inf), radiance, pdf)
+        color = np.asarray(self.color, np.float64)[:3]
+        return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, pdf)
+
+    @property
+    def hittable(self) -> bool:
+        return self.area() > 0.0 and self.spread > 0.0
 
     def centre_numbers(self) -> np.ndarray:
         """u = (0.5, 0.5) is the middle of the square, and the middle of the disk."""

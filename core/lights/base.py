@@ -61,7 +61,7 @@ class LightHit(NamedTuple):
 
     hit:      (n,) bool the ray meets the light's emitting side before t_max
     t:        (n,) float64 distance to it (inf where not hit)
-    radiance: (n,) float64 emitted radiance per unit of the light's colour towards the ray's origin
+    radiance: (n, 3) float64 emitted RGB radiance towards the ray's origin (0 where not hit)
     pdf:      (n,) float64 the solid-angle pdf with which `sample` would have chosen that direction
     """
 
@@ -95,7 +95,7 @@ LightRecord = library.record("LightRecord", [
     "kind", "samples", "dimension", "delta", ("color", 3), ("position", 3), ("direction", 3),
     ("axis_u", 3), ("axis_v", 3), "ellipse", "area", "radiance", "power", "radius", "soft_falloff",
     "strength", ("sun_t", 3), ("sun_b", 3), "sun_cos_max", "spot_frame", ("spot_inverse", 9),
-    "spot_cos_half", "spot_blend_width", "spread_narrow", "spread_tan_half", "spread_norm"],
+    "spot_cos_half", "spot_blend_width", "spread_narrow", "spread_tan_half", "spread_norm", "hittable", "camera"],
     size_function="primer_light_record_size")
 
 
@@ -125,7 +125,7 @@ class Light:
     def finite(self) -> bool:
         """Whether every parameter is a finite number."""
         values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
-                  if f.name not in ("name", "shape") and getattr(self, f.name) is not None]
+                  if f.name not in ("name", "shape", "camera") and getattr(self, f.name) is not None]
         return all(np.isfinite(x).all() for x in values)
 
     def moved(self, origin: np.ndarray) -> "Light":
@@ -151,7 +151,13 @@ class Light:
         origins, directions: (n, 3) float64; t_max: (n,) float64.
         """
         n = len(origins)
-        return LightHit(np.zeros(n, bool), np.full(n, np.inf), np.zeros(n), np.zeros(n))
+        return LightHit(np.zeros(n, bool), np.full(n, np.inf), np.zeros((n, 3)), np.zeros(n))
+
+    @property
+    def hittable(self) -> bool:
+        """Whether rays can meet the light (it has an emitting surface or solid angle): BSDF-sampled rays
+        then find it too, and multiple importance sampling weighs the two ways."""
+        return False
 
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """Return the sample with its 1/r^2 falloff undone (the lecture switch "distance attenuation" off).
@@ -173,6 +179,8 @@ class Light:
         record.samples = 1 if self.delta else max(1, int(light_samples))
         record.dimension = light_dimension(index)
         record.color[:] = np.asarray(self.color, np.float64)[:3].tolist()
+        record.hittable = 1.0 if self.hittable else 0.0
+        record.camera = 1.0 if getattr(self, "camera", True) else 0.0
         self.pack_fields(record)
         return record
 
@@ -222,16 +230,37 @@ def delta_pdf(n: int) -> np.ndarray:
     return np.full(n, np.inf)
 
 
-def compiled_sample(light: Light, points: np.ndarray, u: np.ndarray) -> LightSample:
-    """Light.sample in C (the light's C file, through core/lights/lights.c's table), for the tests."""
+def compiled_sample(light: Light, points: np.ndarray, u: np.ndarray, context=None) -> LightSample:
+    """Light.sample in C (the light's C file, through core/lights/lights.c's table), for the tests.
+
+    context: the compiled LightContext (core/integrators/compiled.py) for emitters and the world.
+    """
     import ctypes
     P, I64, ptr = library.P, library.I64, library.pointer
     n = len(points)
-    points, u = library.contiguous(points, np.float64), library.contiguous(u, np.float64)
-    L, position = np.empty((n, 3)), np.empty((n, 3))
+    points = library.contiguous(points, np.float64)
+    u3 = np.zeros((n, 3))
+    u3[:, :u.shape[1]] = u
+    L, position, color = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
     distance, strength, pdf = np.empty(n), np.empty(n), np.empty(n)
     record = light.pack(0, 1)
-    library.function("primer_sample_light", None, [P, I64, P, P, P, P, P, P, P])(
-        ctypes.byref(record), n, ptr(points, np.float64), ptr(u, np.float64), ptr(L, np.float64),
-        ptr(distance, np.float64), ptr(strength, np.float64), ptr(pdf, np.float64), ptr(position, np.float64))
-    return LightSample(L, distance, strength, pdf, np.asarray(light.color, np.float64)[:3], position)
+    library.function("primer_sample_light", None, [P, P, I64, P, P, P, P, P, P, P, P])(
+        ctypes.byref(record), None if context is None else ctypes.byref(context), n, ptr(points, np.float64),
+        ptr(u3, np.float64), ptr(L, np.float64), ptr(distance, np.float64), ptr(strength, np.float64),
+        ptr(pdf, np.float64), ptr(position, np.float64), ptr(color, np.float64))
+    return LightSample(L, distance, strength, pdf, color, position)
+
+
+def compiled_hit(light: Light, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
+    """Light.hit in C (core/lights/lights.c), for the tests."""
+    import ctypes
+    P, I64, ptr = library.P, library.I64, library.pointer
+    n = len(origins)
+    origins, directions = library.contiguous(origins, np.float64), library.contiguous(directions, np.float64)
+    t_max = library.contiguous(t_max, np.float64)
+    hit, t, radiance, pdf = np.empty(n, np.uint8), np.empty(n), np.empty((n, 3)), np.empty(n)
+    record = light.pack(0, 1)
+    library.function("primer_light_hit", None, [P, I64, P, P, P, P, P, P, P])(
+        ctypes.byref(record), n, ptr(origins, np.float64), ptr(directions, np.float64), ptr(t_max, np.float64),
+        ptr(hit, np.uint8), ptr(t, np.float64), ptr(radiance, np.float64), ptr(pdf, np.float64))
+    return LightHit(hit.astype(bool), t, radiance, pdf)

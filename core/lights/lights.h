@@ -1,6 +1,6 @@
 /* What every light's C file shares: the light record and the light sample (core/lights/base.py). */
 
-enum { LIGHT_POINT = 0, LIGHT_SPOT = 1, LIGHT_SUN = 2, LIGHT_AREA = 3 };
+enum { LIGHT_POINT = 0, LIGHT_SPOT = 1, LIGHT_SUN = 2, LIGHT_AREA = 3, LIGHT_EMITTERS = 4, LIGHT_WORLD = 5 };
 
 /* One light, prepared by its class's `pack` (core/lights/<kind>.py): everything that does not depend on
  * the shading point. Only doubles, so that its layout is the same on every compiler. */
@@ -24,6 +24,8 @@ typedef struct {
     double spot_cos_half, spot_blend_width;
     double spread_narrow;   /* area: 1 when spread < pi */
     double spread_tan_half, spread_norm;
+    double hittable;        /* 1: rays can meet it (it has extent): BSDF rays find it, weighed by MIS */
+    double camera;          /* 1: camera rays see it (Ray Visibility > Camera) */
 } LightRecord;
 
 /* Light arriving at one point (lights.base.LightSample for one sample). */
@@ -33,7 +35,52 @@ typedef struct {
     double strength;        /* irradiance at normal incidence per unit of the light's colour: L_e / pdf */
     double pdf;             /* solid-angle pdf of L (inf for lights without extent) */
     double position[3];     /* the sampled light point */
+    double color[3];        /* the RGB the strength is of: the light's colour, or an emitter's radiance */
 } LightSample;
+
+/* Where a ray meets a light it was not aimed at (lights.base.LightHit for one ray). */
+typedef struct {
+    double t;               /* distance to it (inf for the sun) */
+    double radiance[3];     /* RGB radiance towards the ray's origin */
+    double pdf;             /* the pdf `sample` would have given the direction */
+} LightHit;
+
+/* The emissive triangles as one light (core/lights/emitters.py MeshEmitters), camera-relative. */
+typedef struct {
+    const double *corners;      /* (t, 3, 3) */
+    const double *normal;       /* (t, 3) unit front-side normals */
+    const double *area;         /* (t,) */
+    const double *emission;     /* (t, 3) radiance */
+    const int32_t *sides;       /* (t,) FRONT 1 | BACK 2 */
+    const double *cdf;          /* (t + 1,) pick probabilities, by power */
+    const int64_t *sorted_prim; /* (t,) WorldGeometry's flat triangle index of each, ascending */
+    const int64_t *order;       /* (t,) the emitter of each sorted_prim */
+    double count;               /* t */
+} EmitterTables;
+
+/* The world (core/lights/world.py World and WorldLight): a constant colour or an equirectangular image. */
+typedef struct {
+    const float *image;         /* (H, W, 3) linear radiance, or NULL for a constant world */
+    const double *map;          /* (h, w) importance map, or NULL */
+    const double *rows;         /* (h + 1,) cumulative over rows */
+    const double *columns;      /* (h, w + 1) cumulative within each row */
+    double width, height;       /* the image's W, H */
+    double map_width, map_height, total;
+    double color[3];            /* a constant world's radiance */
+    double strength;
+    double rotation[9];         /* world to texture, row-major */
+    double camera;              /* 1: camera rays see it */
+    double lights;              /* 1: it lights surfaces */
+} WorldTables;
+
+/* spot.c's cone factor, which point.c's hit applies to a spot. */
+static inline double spot_factor(const LightRecord *light, const double *L);
+
+/* What the lights a render makes of its scene need besides their records. */
+typedef struct {
+    const EmitterTables *emitters;
+    const WorldTables *world;
+} LightContext;
 
 /* A direction uniform in solid angle within the cone (axis, t, b, cos_max): lights.base.sample_cone. */
 INLINE void sample_cone(const double *axis, const double *t, const double *b, double cos_max,

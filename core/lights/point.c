@@ -11,6 +11,38 @@ INLINE void sample_point(const LightRecord *light, const double *P, LightSample 
     for (int c = 0; c < 3; c++) out->position[c] = light->position[c];
 }
 
+/* PointLight.hit: a ray meets a round light (the disk facing its origin with soft falloff, else the
+ * sphere) within the cone the light covers from the origin; radiance P / (4 pi^2 R^2); the cone's pdf.
+ * Returns whether it met it before t_max; `spot` applies a spot's cone to what leaves. */
+INLINE int point_light_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
+{
+    double axis[3];
+    double d = direction_to(O, light->position, axis);
+    double R = light->radius, sin2_max;
+    if (light->soft_falloff != 0.0) {
+        sin2_max = R * R / (R * R + d * d);
+    } else {
+        d = at_least(d, R * (1.0 + 1e-9));
+        sin2_max = at_most((R / d) * (R / d), 1.0);
+    }
+    double cos_max = sqrt(1.0 - sin2_max);
+    double cos_to_center = dot3(D, axis), t;
+    if (light->soft_falloff != 0.0) {
+        t = d / cos_to_center;
+    } else {
+        double b = d * cos_to_center;
+        t = b - sqrt(at_least(b * b - (d * d - R * R), 0.0));
+    }
+    int hit = (cos_to_center >= cos_max) & (cos_to_center > 0.0) & (t > 0.0) & (t < t_max);
+    if (!hit) return 0;
+    out->t = t;
+    double radiance = light->radiance;
+    if ((int)light->kind == LIGHT_SPOT) radiance *= spot_factor(light, D);   /* (D: towards the light) */
+    for (int c = 0; c < 3; c++) out->radiance[c] = radiance * light->color[c];
+    out->pdf = cone_pdf(cos_max);
+    return 1;
+}
+
 /* A sphere (or, with soft falloff, a disk facing P): the cone it covers, sampled uniformly. */
 INLINE void sample_sphere(const LightRecord *light, const double *P, const double *u, LightSample *out)
 {

@@ -8,7 +8,7 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from ..vectors import orthonormal_frame
-from .base import INV_4PI, Cone, Light, LightSample, cone_pdf, delta_pdf, direction_to, sample_cone
+from .base import INV_4PI, Cone, Light, LightHit, LightSample, cone_pdf, delta_pdf, direction_to, sample_cone
 
 
 def sphere_radiance(power: float, radius: float) -> float:
@@ -74,6 +74,36 @@ class RoundLight(Light):
         strength = sphere_radiance(self.power, self.radius) * 2.0 * math.pi * (1.0 - cone.cos_max)
         return LightSample(L, distance, strength, cone_pdf(cone.cos_max), color, points + L * distance[:, None])
 
+    @property
+    def hittable(self) -> bool:
+        return self.radius > 0.0
+
+    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
+        """Rays meet a round light of radius R: with soft falloff the disk through its centre facing the
+        ray's origin, else the sphere; radiance P / (4 pi^2 R^2); pdf that of `sample`'s cone."""
+        n = len(origins)
+        if self.delta:
+            return super().hit(origins, directions, t_max)
+        cone = self.cone(origins)
+        cos_to_center = np.einsum("ij,ij->i", directions, cone.axis)
+        inside = cos_to_center >= cone.cos_max
+        d = cone.d
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if self.soft_falloff:
+                t = d / cos_to_center
+            else:
+                b = d * cos_to_center
+                t = b - np.sqrt(np.maximum(0.0, b * b - (d * d - self.radius * self.radius)))
+        hit = inside & (cos_to_center > 0.0) & (t > 0.0) & (t < t_max)
+        radiance = np.where(hit, sphere_radiance(self.power, self.radius), 0.0)
+        radiance = self.attenuate(radiance, -directions)
+        color = np.asarray(self.color, np.float64)[:3]
+        return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, np.where(hit, cone_pdf(cone.cos_max), 0.0))
+
+    def attenuate(self, radiance: np.ndarray, leaving: np.ndarray) -> np.ndarray:
+        """The radiance leaving along `leaving` (n, 3): unchanged for a point light (a spot masks it)."""
+        return radiance
+
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """Undo 1/r^2 with r measured to the light's centre: E_normal = P / (4 pi) at any distance."""
         w = points - np.asarray(self.position, np.float64)
@@ -100,6 +130,7 @@ class PointLight(RoundLight):
     radius: float = 0.0
     soft_falloff: bool = True
     name: str = "Point"
+    camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
 
     kind: ClassVar[int] = 0
     blender_type: ClassVar[str] = "POINT"

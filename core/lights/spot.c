@@ -1,7 +1,7 @@
 /* Spot lights: core/lights/spot.py, a point light masked by Blender's spot cone. */
 
 /* Blender's spot cone factor for light leaving along -L: SpotLight.attenuation. */
-INLINE double spot_factor(const LightRecord *light, const double *L)
+static inline double spot_factor(const LightRecord *light, const double *L)
 {
     /* The angle to the axis, in a spot's (scaled) frame when it has one; both computed, one chosen. */
     double plain = -dot3(L, light->direction);

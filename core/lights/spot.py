@@ -33,6 +33,7 @@ class SpotLight(RoundLight):
     spot_blend: float = 0.15
     frame: Optional[np.ndarray] = None
     name: str = "Spot"
+    camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
 
     kind: ClassVar[int] = 1
     blender_type: ClassVar[str] = "SPOT"
@@ -66,6 +67,10 @@ class SpotLight(RoundLight):
             return (cos_angle > cos_half).astype(np.float64)
         x = np.clip((cos_angle - cos_half) / blend_width, 0.0, 1.0)
         return x * x * (3.0 - 2.0 * x)
+
+    def attenuate(self, radiance: np.ndarray, leaving: np.ndarray) -> np.ndarray:
+        """The spot's cone masks what leaves along `leaving` (n, 3) unit."""
+        return radiance * self.attenuation(leaving)
 
     def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
         """The point light's sample, times the cone factor for the direction from the (sampled) light point."""

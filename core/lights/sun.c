@@ -13,3 +13,14 @@ INLINE void sample_sun_light(const LightRecord *light, const double *u, LightSam
     out->strength = light->strength;
     out->position[0] = out->position[1] = out->position[2] = 0.0;
 }
+
+/* SunLight.hit: a ray that escapes the scene (t_max inf) inside the sun's disk sees S / (pi sin^2 a). */
+INLINE int sun_light_hit(const LightRecord *light, const double *D, double t_max, LightHit *out)
+{
+    int inside = (dot3(D, light->direction) >= light->sun_cos_max) & (t_max == INFINITY);
+    if (!inside) return 0;
+    out->t = INFINITY;
+    for (int c = 0; c < 3; c++) out->radiance[c] = light->radiance * light->color[c];
+    out->pdf = cone_pdf(light->sun_cos_max);
+    return 1;
+}

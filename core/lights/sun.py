@@ -8,7 +8,7 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from ..vectors import orthonormal_frame
-from .base import Cone, Light, LightSample, cone_pdf, delta_pdf, sample_cone
+from .base import Cone, Light, LightHit, LightSample, cone_pdf, delta_pdf, sample_cone
 
 
 @dataclass
@@ -24,6 +24,7 @@ class SunLight(Light):
     color: np.ndarray = field(default_factory=lambda: np.ones(3))
     angle: float = 0.0
     name: str = "Sun"
+    camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
 
     kind: ClassVar[int] = 2
     blender_type: ClassVar[str] = "SUN"
@@ -67,6 +68,22 @@ class SunLight(Light):
         return LightSample(L, np.full(n, np.inf), np.full(n, self.disk_strength()), cone_pdf(cone.cos_max), color,
                            np.zeros((n, 3)))
 
+    @property
+    def hittable(self) -> bool:
+        return not self.delta
+
+    def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
+        """A ray that escapes the scene (t_max inf) inside the sun's disk sees radiance S / (pi sin^2 a)."""
+        n = len(origins)
+        if self.delta:
+            return super().hit(origins, directions, t_max)
+        half = 0.5 * self.angle
+        inside = (np.einsum("ij,j->i", directions, self.towards()) >= math.cos(half)) & np.isinf(t_max)
+        radiance = np.where(inside, self.strength / (math.pi * math.sin(half) ** 2), 0.0)
+        pdf = np.where(inside, cone_pdf(np.full(n, math.cos(half))), 0.0)
+        color = np.asarray(self.color, np.float64)[:3]
+        return LightHit(inside, np.where(inside, np.inf, np.inf), radiance[:, None] * color, pdf)
+
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """A sun has no falloff to undo."""
         return sample
@@ -81,3 +98,4 @@ class SunLight(Light):
             t, b = orthonormal_frame(axis[None, :])
             record.sun_t[:], record.sun_b[:] = t[0].tolist(), b[0].tolist()
             record.sun_cos_max = math.cos(0.5 * self.angle)
+            record.radiance = self.strength / (math.pi * math.sin(0.5 * self.angle) ** 2)

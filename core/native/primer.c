@@ -18,6 +18,8 @@
 #include "../lights/spot.c"
 #include "../lights/sun.c"
 #include "../lights/area.c"
+#include "../lights/emitters.c"
+#include "../lights/world.c"
 #include "../lights/lights.c"
 #include "../materials/bsdf.h"
 #include "../materials/lambert.c"

@@ -3,10 +3,10 @@ and the render settings. Nothing here knows about Blender; a student can build a
 from __future__ import annotations
 
 from ..camera.camera import Camera
-from ..lights import AreaLight, Light, PointLight, SpotLight, SunLight
+from ..lights import AreaLight, Light, PointLight, SpotLight, SunLight, World
 from ..materials import DEFAULT_BASE_COLOR, Material
 from .scene import Instance, Mesh, Scene
 from .settings import LECTURE_SWITCHES, RenderSettings
 
 __all__ = ["AreaLight", "Camera", "DEFAULT_BASE_COLOR", "Instance", "LECTURE_SWITCHES", "Light", "Material", "Mesh",
-           "PointLight", "RenderSettings", "Scene", "SpotLight", "SunLight"]
+           "PointLight", "RenderSettings", "Scene", "SpotLight", "SunLight", "World"]

@@ -18,7 +18,7 @@ from typing import Optional
 import numpy as np
 
 from ..camera.camera import Camera
-from ..lights import AreaLight, Light, PointLight, SpotLight, SunLight  # noqa: F401 (the scene's light records)
+from ..lights import AreaLight, Light, PointLight, SpotLight, SunLight, World  # noqa: F401 (the scene's light records)
 from ..materials import DEFAULT_BASE_COLOR, Material  # noqa: F401 (the scene's material record)
 
 
@@ -81,7 +81,11 @@ class Instance:
 
 @dataclass
 class Scene:
-    """Everything the tracer needs: meshes, their instances, materials, lights, camera, world."""
+    """Everything the tracer needs: meshes, their instances, materials, lights, camera, world.
+
+    world_color: a background colour seen by camera rays only (it lights nothing); world: a World
+    (core/lights/world.py) that lights the scene as Cycles' world does, when given.
+    """
 
     camera: Camera
     meshes: list = field(default_factory=list)
@@ -89,6 +93,14 @@ class Scene:
     materials: list = field(default_factory=list)
     lights: list = field(default_factory=list)
     world_color: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    world: Optional[World] = None
+
+    def the_world(self) -> World:
+        """The world: `world` when given (it lights the scene unless told not to), else a background of
+        `world_color` that camera rays see and that lights nothing (the lecture's world)."""
+        if self.world is not None:
+            return self.world
+        return World(color=np.asarray(self.world_color, np.float64)[:3], camera=True, lights=False)
 
     def add_mesh(self, mesh: Mesh, matrix=None, materials=None, name: str = "Object") -> int:
         """Store `mesh` once, place it with `matrix`, and return the mesh index (to instance it again)."""

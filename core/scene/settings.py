@@ -11,6 +11,9 @@ class RenderSettings:
 
     integrator: the name of the light-transport algorithm in core/integrators ("direct": the
         lecture's direct lighting, each light sampled with shadow rays).
+    light_sampling: how lights with extent are found: "mis" (light samples and BSDF-sampled rays,
+        weighed by multiple importance sampling, as Cycles), "light" (light samples alone) or "bsdf"
+        (BSDF-sampled rays alone; lights without extent keep their light samples).
 
     region: (x0, y0, x1, y1) pixel rectangle to render, y from the top row, or None for all.
     shadow_method: "robust" (error-bound offset, no user epsilon) or "epsilon" (the lecture's).
@@ -39,6 +42,7 @@ class RenderSettings:
     """
 
     integrator: str = "direct"
+    light_sampling: str = "mis"
     width: int = 640
     height: int = 480
     samples: int = 16

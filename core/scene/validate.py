@@ -28,6 +28,8 @@ def validate(scene, settings) -> None:
         raise ValueError(f"pixel aspect must be two finite numbers > 0, got {settings.pixel_aspect}")
     if settings.integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {settings.integrator!r}")
+    if settings.light_sampling not in ("mis", "light", "bsdf"):
+        raise ValueError(f"light sampling must be 'mis', 'light' or 'bsdf', got {settings.light_sampling!r}")
     if settings.shadow_method not in ("robust", "epsilon"):
         raise ValueError(f"shadow method must be 'robust' or 'epsilon', got {settings.shadow_method!r}")
     if settings.visibility_normal not in ("face", "shading"):

@@ -198,7 +198,10 @@ class DebugRecorder:
     def shader(self, result) -> None:
         pass
 
-    def contribution(self, light, rows, value) -> None:
+    def contribution(self, light, rows, value, mis_weight) -> None:
+        pass
+
+    def bsdf_sample(self, wi, pdf, found) -> None:
         pass
 
     def per_hit(self, name: str) -> np.ndarray:

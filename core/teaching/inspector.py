@@ -64,7 +64,10 @@ class LightRecord(NamedTuple):
     shadow_end:      (3,) float64 where the shadow ray stops (origin + t_max D); None when not cast
                      (for the sun it is the origin + t_max D with t_max = inf, so it is not finite)
     shadow_t_max:    the shadow ray's t_max; None when not cast
-    contribution:    (3,) float64 f cos * E_normal * visibility (radiance, RGB; f cos = albedo / pi N.L on a diffuse surface)
+    contribution:    (3,) float64 f cos * E_normal * visibility * mis_weight (radiance, RGB; f cos =
+                     albedo / pi N.L on a diffuse surface)
+    pdf:             the solid-angle pdf of the light sample's direction (inf for a light without extent)
+    mis_weight:      its multiple-importance weight against BSDF sampling (1 where no BSDF ray can find it)
     """
 
     name: str
@@ -84,6 +87,8 @@ class LightRecord(NamedTuple):
     shadow_end: Optional[np.ndarray]
     shadow_t_max: Optional[float]
     contribution: np.ndarray
+    pdf: float = math.inf
+    mis_weight: float = 1.0
 
 
 class PixelRecord(NamedTuple):
@@ -106,8 +111,12 @@ class PixelRecord(NamedTuple):
     albedo:         (3,) float64 the material's colour (its closures' weights); None when missed
     shadow_method:  "robust" or "epsilon", as in the settings
     lights:         tuple of LightRecord, one per light that sends light (as the renderer uses them)
-    radiance:       (3,) float64 the pixel's colour from this one ray: sum of the contributions on a hit,
-                    the world colour on a miss (black when the film is transparent or outside a fisheye)
+    radiance:       (3,) float64 the pixel's colour from this one ray: on a hit, the light the surface emits,
+                    the lights' contributions and what the BSDF-sampled direction found; the world colour on
+                    a miss (black when the film is transparent or outside a fisheye)
+    bsdf_sample:    (wi (3,), pdf, the light (3,) it found) of the direction sampled from the hit's closures,
+                    or None when none was traced (the scene has no light a BSDF ray can find)
+    emission:       (3,) float64 the light the hit surface emits itself; None when missed
     warnings:       notes about the scene (lights skipped, geometry dropped)
     """
 
@@ -132,6 +141,8 @@ class PixelRecord(NamedTuple):
     lights: tuple
     radiance: np.ndarray
     warnings: tuple
+    bsdf_sample: Optional[tuple] = None
+    emission: Optional[np.ndarray] = None
 
 
 class InspectorRecorder(Recorder):
@@ -141,6 +152,7 @@ class InspectorRecorder(Recorder):
         self.settings, self.origin = settings, origin
         self.surface = None
         self.lights = {}
+        self.bsdf = None
 
     def hits(self, O, D, surface, hit) -> None:
         self.surface = surface
@@ -162,13 +174,18 @@ class InspectorRecorder(Recorder):
         else:
             reason = CAST
         self.lights[light] = dict(sample=sample, NL=float(NL[0]), NgL=float(NgL[0]), reason=reason,
-                                  E_normal=E_normal.copy(), rays=None, seen=None, value=np.zeros(3))
+                                  E_normal=E_normal.copy(), rays=None, seen=None, value=np.zeros(3), mis=1.0,
+                                  pdf=float(sample.pdf[0]))
 
     def shadow_rays(self, light, count, rows, rays, seen) -> None:
         self.lights[light].update(rays=rays, seen=bool(seen[0]))
 
-    def contribution(self, light, rows, value) -> None:
+    def contribution(self, light, rows, value, mis_weight) -> None:
         self.lights[light]["value"] = value[0].copy()
+        self.lights[light]["mis"] = float(mis_weight[0])
+
+    def bsdf_sample(self, wi, pdf, found) -> None:
+        self.bsdf = (wi[0].copy(), float(pdf[0]), found[0].copy())
 
     def albedo(self) -> np.ndarray:
         """The colour of the hit's material: the sum of its closures' weights (3,) float64."""
@@ -194,7 +211,8 @@ class InspectorRecorder(Recorder):
             light_point=None if is_sun else sample.position[0] + origin, n_dot_l=kept["NL"], ng_dot_l=kept["NgL"],
             inverse_square=None if is_sun else (1.0 / (r * r) if r > 0 else math.inf), irradiance=kept["E_normal"],
             cast=kept["reason"] == CAST, reason=kept["reason"], occluded=occluded, shadow_origin=shadow_origin,
-            shadow_end=shadow_end, shadow_t_max=shadow_t_max, contribution=kept["value"])
+            shadow_end=shadow_end, shadow_t_max=shadow_t_max, contribution=kept["value"], pdf=kept["pdf"],
+            mis_weight=kept["mis"])
 
 
 def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
@@ -242,7 +260,8 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     records = tuple(recorder.light_record(index, light) for index, light in enumerate(ctx.lights))
     miss.update(hit=True, t=float(surface.t[0]), I=surface.I[0] + origin, Ng=surface.Ng[0].copy(), N=surface.N[0].copy(),
                 smooth=bool(surface.smooth[0]), u=float(surface.u[0]), v=float(surface.v[0]), triangle=triangle,
-                object_name=object_name, albedo=recorder.albedo(), lights=records)
+                object_name=object_name, albedo=recorder.albedo(), lights=records, bsdf_sample=recorder.bsdf,
+                emission=recorder.result.emission[0].copy())
     return PixelRecord(radiance=found.L[0].copy(), **miss)
 
 

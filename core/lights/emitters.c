@@ -1,0 +1,185 @@
+/* Emissive meshes as one light: core/lights/emitters.py. A triangle chosen by power, then a direction
+ * towards it: uniform over the spherical triangle near it (Arvo), uniform in its area far from it. */
+
+#define EMIT_FRONT 1
+#define EMIT_BACK 2
+
+INLINE void unit3(const double *v, double *out)
+{
+    double length = sqrt(dot3(v, v));
+    for (int c = 0; c < 3; c++) out[c] = v[c] / length;
+}
+
+INLINE void cross_product(const double *a, const double *b, double *out)
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* The emitter of pick number x in [0, 1): the last index whose cumulative probability is <= x. */
+INLINE int64_t emitter_pick(const EmitterTables *e, double x)
+{
+    int64_t lo = 0, hi = (int64_t)e->count;          /* cdf[lo] <= x < cdf[hi] */
+    while (hi - lo > 1) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (e->cdf[mid] <= x) lo = mid; else hi = mid;
+    }
+    return lo;
+}
+
+/* emitters.solid_angle: the solid angle of triangle V seen from P (Van Oosterom and Strackee). */
+INLINE double triangle_solid_angle(const double *P, const double *V)
+{
+    double A[3], B[3], C[3], w[3], bc[3];
+    for (int c = 0; c < 3; c++) w[c] = V[c] - P[c];
+    unit3(w, A);
+    for (int c = 0; c < 3; c++) w[c] = V[3 + c] - P[c];
+    unit3(w, B);
+    for (int c = 0; c < 3; c++) w[c] = V[6 + c] - P[c];
+    unit3(w, C);
+    cross_product(B, C, bc);
+    double triple = fabs(dot3(A, bc));
+    return 2.0 * atan2(triple, 1.0 + dot3(A, B) + dot3(B, C) + dot3(C, A));
+}
+
+/* The angle at x of the spherical triangle (x, y, z): between the great circles x-y and x-z. */
+INLINE double vertex_angle(const double *x, const double *y, const double *z)
+{
+    double n1[3], n2[3];
+    cross_product(x, y, n1);
+    cross_product(x, z, n2);
+    double l1 = at_least(sqrt(dot3(n1, n1)), 1e-300), l2 = at_least(sqrt(dot3(n2, n2)), 1e-300);
+    for (int c = 0; c < 3; c++) { n1[c] /= l1; n2[c] /= l2; }
+    double cosine = dot3(n1, n2);
+    return acos(cosine < -1.0 ? -1.0 : (cosine > 1.0 ? 1.0 : cosine));
+}
+
+/* emitters.spherical_triangle_sample for one point: the direction L, the distance to the plane along
+ * it, and pdf 1 / Omega. */
+INLINE void spherical_triangle_sample(const double *P, const double *V, const double *u, double *L, double *t,
+                                      double *pdf)
+{
+    double A[3], B[3], C[3], w[3];
+    for (int c = 0; c < 3; c++) w[c] = V[c] - P[c];
+    unit3(w, A);
+    for (int c = 0; c < 3; c++) w[c] = V[3 + c] - P[c];
+    unit3(w, B);
+    for (int c = 0; c < 3; c++) w[c] = V[6 + c] - P[c];
+    unit3(w, C);
+    double alpha = vertex_angle(A, B, C), beta = vertex_angle(B, C, A), gamma = vertex_angle(C, A, B);
+    double omega = alpha + beta + gamma - PI;
+    /* 1. A sub-triangle of area u0 Omega, its third vertex C' on the arc from A to C. */
+    double area_hat = u[0] * omega;
+    double s = sin(area_hat - alpha), tt = cos(area_hat - alpha);
+    double cos_c = dot3(A, B), cos_alpha = cos(alpha), sin_alpha = sin(alpha);
+    double uu = tt - cos_alpha, vv = s + sin_alpha * cos_c;
+    double q = ((vv * tt - uu * s) * cos_alpha - vv) / ((vv * s + uu * tt) * sin_alpha);
+    q = q != q ? 1.0 : (q < -1.0 ? -1.0 : (q > 1.0 ? 1.0 : q));
+    double ca = dot3(C, A), perp[3];
+    for (int c = 0; c < 3; c++) perp[c] = C[c] - ca * A[c];
+    double lp = at_least(sqrt(dot3(perp, perp)), 1e-300);
+    double C_hat[3];
+    for (int c = 0; c < 3; c++) C_hat[c] = q * A[c] + sqrt(at_least(1.0 - q * q, 0.0)) * (perp[c] / lp);
+    /* 2. A point on the arc from B to C' at height u1. */
+    double cb = dot3(C_hat, B);
+    double z = 1.0 - u[1] * (1.0 - cb);
+    double wb[3];
+    for (int c = 0; c < 3; c++) wb[c] = C_hat[c] - cb * B[c];
+    double lw = at_least(sqrt(dot3(wb, wb)), 1e-300);
+    double Lr[3];
+    for (int c = 0; c < 3; c++) Lr[c] = z * B[c] + sqrt(at_least(1.0 - z * z, 0.0)) * (wb[c] / lw);
+    unit3(Lr, L);
+    /* 3. The distance to the planar triangle along L. */
+    double e1[3], e2[3], n[3], to_V[3];
+    for (int c = 0; c < 3; c++) { e1[c] = V[3 + c] - V[c]; e2[c] = V[6 + c] - V[c]; to_V[c] = V[c] - P[c]; }
+    cross_product(e1, e2, n);
+    double distance = dot3(to_V, n) / dot3(L, n);
+    *t = isfinite(distance) && distance > 0.0 ? distance : 0.0;
+    double p = omega > 0.0 ? 1.0 / omega : 0.0;
+    *pdf = isfinite(p) ? p : 0.0;
+}
+
+/* emitters.area_sample for one point: a point uniform in the triangle's area (Heitz's map). */
+INLINE void triangle_area_sample(const double *P, const double *V, const double *normal, double area,
+                                 const double *u, double *L, double *t, double *pdf)
+{
+    double a = u[0], b = u[1];
+    if (b > a) { a = 0.5 * a; b = b - a; }
+    else { b = 0.5 * b; a = a - b; }
+    double point[3], w[3];
+    for (int c = 0; c < 3; c++) {
+        point[c] = (1.0 - a - b) * V[c] + a * V[3 + c] + b * V[6 + c];
+        w[c] = point[c] - P[c];
+    }
+    double d = sqrt(dot3(w, w));
+    for (int c = 0; c < 3; c++) L[c] = d > 0.0 ? w[c] / d : 0.0;
+    double cos_light = fabs(dot3(normal, L));
+    double p = d * d / (cos_light * area);
+    *t = d;
+    *pdf = isfinite(p) ? p : 0.0;
+}
+
+/* Whether the triangle uses solid-angle sampling from P: its longest edge^2 > delta^2, delta = h / (2 A). */
+INLINE int emitter_spherical(const double *V, double height, double area)
+{
+    double longest = 0.0;
+    for (int k = 0; k < 3; k++) {
+        const double *a = V + 3 * k, *b = V + 3 * ((k + 1) % 3);
+        double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        double l = dot3(e, e);
+        if (l > longest) longest = l;
+    }
+    double delta = height / (2.0 * area);
+    return longest > delta * delta;
+}
+
+/* MeshEmitters.sample for one point: u (3,) the unit-square point and the pick. */
+INLINE void sample_emitters(const EmitterTables *e, const double *P, const double *u, LightSample *out)
+{
+    int64_t i = emitter_pick(e, u[2]);
+    const double *V = e->corners + 9 * i, *normal = e->normal + 3 * i;
+    double area = e->area[i];
+    double to_V[3] = {V[0] - P[0], V[1] - P[1], V[2] - P[2]};
+    double height = dot3(normal, to_V);
+    int side = height > 0.0 ? EMIT_BACK : EMIT_FRONT;
+    int allowed = (e->sides[i] & side) != 0;
+    double pdf_direction;
+    if (emitter_spherical(V, height, area)) spherical_triangle_sample(P, V, u, out->L, &out->distance, &pdf_direction);
+    else triangle_area_sample(P, V, normal, area, u, out->L, &out->distance, &pdf_direction);
+    double pdf = (e->cdf[i + 1] - e->cdf[i]) * pdf_direction;
+    int ok = allowed & (pdf > 0.0) & isfinite(pdf);
+    out->strength = ok ? 1.0 / pdf : 0.0;
+    out->pdf = ok ? pdf : 0.0;
+    for (int c = 0; c < 3; c++) {
+        out->position[c] = P[c] + out->L[c] * out->distance;
+        out->color[c] = e->emission[3 * i + c];
+    }
+}
+
+/* MeshEmitters.pdf_of_hits: the pdf `sample` gives direction D from O to emitter i at distance t. */
+INLINE double emitter_pdf(const EmitterTables *e, int64_t i, const double *O, const double *D, double t)
+{
+    const double *V = e->corners + 9 * i, *normal = e->normal + 3 * i;
+    double area = e->area[i];
+    double to_V[3] = {V[0] - O[0], V[1] - O[1], V[2] - O[2]};
+    double height = dot3(normal, to_V);
+    int side = height > 0.0 ? EMIT_BACK : EMIT_FRONT;
+    if ((e->sides[i] & side) == 0) return 0.0;
+    double pdf_direction;
+    if (emitter_spherical(V, height, area)) pdf_direction = 1.0 / triangle_solid_angle(O, V);
+    else pdf_direction = t * t / (fabs(dot3(normal, D)) * area);
+    double pdf = (e->cdf[i + 1] - e->cdf[i]) * pdf_direction;
+    return isfinite(pdf) ? pdf : 0.0;
+}
+
+/* MeshEmitters.index_of_prim: the emitter of WorldGeometry triangle `prim`, or -1. */
+INLINE int64_t emitter_of_prim(const EmitterTables *e, int64_t prim)
+{
+    int64_t lo = 0, hi = (int64_t)e->count;
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (e->sorted_prim[mid] < prim) lo = mid + 1; else hi = mid;
+    }
+    return lo < (int64_t)e->count && e->sorted_prim[lo] == prim ? e->order[lo] : -1;
+}

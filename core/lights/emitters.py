@@ -1,0 +1,291 @@
+"""Emissive meshes as one light: every triangle whose material emits, sampled in proportion to its power.
+
+A triangle of a material with Emission (colour x strength = radiance L_e, the same from both sides,
+as in Cycles) lights the scene like an area light. For next-event estimation the emitters are one
+light: a triangle is chosen with probability proportional to its power estimate (area x mean L_e),
+then a direction towards it, by one of two strategies, as Cycles chooses them
+(cycles_lights.md, section 1.3):
+
+- near a triangle (its plane closer than about its size), the direction is uniform over the
+  spherical triangle it subtends (Arvo, "Stratified sampling of spherical triangles", 1995):
+  pdf = 1 / Omega, the triangle's solid angle;
+- far from it, a point uniform in its area: pdf = t^2 / (|cos theta_light| A).
+
+The pdf of a direction is the pick probability times that. A BSDF-sampled ray that hits an emissive
+triangle asks `pdf_of_hits` for the pdf the light would have given its direction, for MIS.
+A material's Emission Sampling (None, Front, Back, Front and Back; Auto: both when it emits much)
+says from which sides the triangle is sampled; its emission is seen from both sides regardless.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar, Optional
+
+import numpy as np
+
+from .. import vectors
+from .base import Light, LightSample
+
+FRONT, BACK = 1, 2
+
+
+@dataclass
+class MeshEmitters(Light):
+    """All emissive triangles of a scene, camera-relative.
+
+    corners:  (t, 3, 3) float64 each triangle's corners
+    normal:   (t, 3) float64 unit front-side normals (counter-clockwise corners)
+    area:     (t,) float64
+    emission: (t, 3) float64 radiance L_e
+    sides:    (t,) int32 FRONT | BACK: from which sides the triangle is sampled (0: never)
+    prim:     (t,) int64 WorldGeometry's flat triangle index of each
+    cdf:      (t + 1,) float64 cumulative pick probability, in proportion to area x mean(L_e)
+    """
+
+    corners: np.ndarray
+    normal: np.ndarray
+    area: np.ndarray
+    emission: np.ndarray
+    sides: np.ndarray
+    prim: np.ndarray
+    cdf: np.ndarray
+    name: str = "Emissive meshes"
+
+    kind: ClassVar[int] = 4
+    blender_type: ClassVar[str] = "MESH"
+    random_numbers: ClassVar[int] = 3
+
+    @property
+    def color(self) -> np.ndarray:
+        return np.ones(3)
+
+    @property
+    def delta(self) -> bool:
+        return False
+
+    def emits(self) -> bool:
+        return len(self.prim) > 0 and self.cdf[-1] > 0
+
+    def finite(self) -> bool:
+        return bool(np.isfinite(self.corners).all() and np.isfinite(self.emission).all())
+
+    def moved(self, origin: np.ndarray) -> "MeshEmitters":
+        return self                          # built from the camera-relative geometry already
+
+    @classmethod
+    def of(cls, corners: np.ndarray, emission: np.ndarray, sides: np.ndarray, prim: np.ndarray) -> Optional["MeshEmitters"]:
+        """The emitters of triangles with corners (t, 3, 3), radiance (t, 3), sides (t,); None if none emits."""
+        e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+        cross = vectors.cross(e1, e2)
+        length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+        area = 0.5 * length
+        power = area * np.abs(emission).mean(axis=1) * (sides > 0)
+        keep = np.isfinite(power) & (power > 0.0)
+        if not keep.any():
+            return None
+        corners, emission, sides, prim = corners[keep], emission[keep], sides[keep], prim[keep]
+        normal = cross[keep] / length[keep, None]
+        cdf = np.zeros(keep.sum() + 1)
+        cdf[1:] = np.cumsum(power[keep])
+        cdf /= cdf[-1]
+        return cls(corners, normal, area[keep], emission, sides.astype(np.int32), prim, cdf)
+
+    def pick_probability(self, index: np.ndarray) -> np.ndarray:
+        """P(choosing triangle `index`): (n,) int64 -> (n,) float64."""
+        return self.cdf[index + 1] - self.cdf[index]
+
+    def sample(self, points: np.ndarray, u: np.ndarray, cone=None) -> LightSample:
+        """One emissive triangle per point, chosen by power (u[:, 2]), then a direction towards it (u[:, :2])."""
+        n = len(points)
+        index = np.clip(np.searchsorted(self.cdf, u[:, 2], side="right") - 1, 0, len(self.prim) - 1)
+        V = self.corners[index]
+        normal, area = self.normal[index], self.area[index]
+        # 1. Which side the point sees, and whether that side is sampled.
+        height = np.einsum("ij,ij->i", normal, V[:, 0] - points)           # > 0: the point is behind
+        side = np.where(height > 0.0, BACK, FRONT)
+        allowed = (self.sides[index] & side) != 0
+        # 2. Spherical-triangle sampling near the triangle, area sampling far from it (Cycles' choice:
+        #    the longest edge squared against delta^2, delta = h / (2 A)).
+        longest = np.max(np.stack([np.einsum("ij,ij->i", a, a) for a in
+                                   (V[:, 1] - V[:, 0], V[:, 2] - V[:, 1], V[:, 0] - V[:, 2])]), axis=0)
+        delta = height / (2.0 * area)
+        spherical = longest > delta * delta
+        L, distance, pdf_direction = np.zeros((n, 3)), np.zeros(n), np.zeros(n)
+        if spherical.any():
+            rows = np.flatnonzero(spherical)
+            L[rows], distance[rows], pdf_direction[rows] = spherical_triangle_sample(points[rows], V[rows], u[rows, :2])
+        if (~spherical).any():
+            rows = np.flatnonzero(~spherical)
+            L[rows], distance[rows], pdf_direction[rows] = area_sample(points[rows], V[rows], normal[rows],
+                                                                       area[rows], u[rows, :2])
+        pdf = self.pick_probability(index) * pdf_direction
+        ok = allowed & (pdf > 0.0) & np.isfinite(pdf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            strength = np.where(ok, 1.0 / pdf, 0.0)
+        position = points + L * distance[:, None]
+        return LightSample(L, distance, strength, np.where(ok, pdf, 0.0), self.emission[index], position)
+
+    def pdf_of_hits(self, origins: np.ndarray, index: np.ndarray, D: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """The pdf with which `sample` would choose the direction D from `origins` to emitter `index`
+        at distance t (a BSDF-sampled ray that hit it): (n,) float64, 0 where the side is not sampled."""
+        V = self.corners[index]
+        normal, area = self.normal[index], self.area[index]
+        height = np.einsum("ij,ij->i", normal, V[:, 0] - origins)
+        side = np.where(height > 0.0, BACK, FRONT)
+        allowed = (self.sides[index] & side) != 0
+        longest = np.max(np.stack([np.einsum("ij,ij->i", a, a) for a in
+                                   (V[:, 1] - V[:, 0], V[:, 2] - V[:, 1], V[:, 0] - V[:, 2])]), axis=0)
+        delta = height / (2.0 * area)
+        spherical = longest > delta * delta
+        with np.errstate(divide="ignore", invalid="ignore"):
+            omega = solid_angle(origins, V)
+            by_angle = 1.0 / omega
+            cos_light = np.abs(np.einsum("ij,ij->i", normal, D))
+            by_area = t * t / (cos_light * area)
+        pdf = self.pick_probability(index) * np.where(spherical, by_angle, by_area)
+        return np.where(allowed & np.isfinite(pdf), pdf, 0.0)
+
+    def index_of_prim(self, prim: np.ndarray) -> np.ndarray:
+        """The emitter index of WorldGeometry triangles `prim` (-1 for triangles that are not emitters)."""
+        order = np.argsort(self.prim)
+        found = np.searchsorted(self.prim[order], prim)
+        found = np.clip(found, 0, len(order) - 1)
+        return np.where(self.prim[order][found] == prim, order[found], -1)
+
+    def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
+        return sample._replace(strength=sample.strength * sample.distance * sample.distance)
+
+    def centre_numbers(self) -> np.ndarray:
+        return np.array([0.5, 0.5])
+
+    def pack_fields(self, record) -> None:
+        """The record says only how many samples and which dimension; the triangles go in `tables`."""
+
+    def tables(self) -> "EmitterTables":
+        """The C tables of the emitters (core/lights/lights.h EmitterTables), keeping their arrays alive."""
+        return EmitterTables(self)
+
+
+def solid_angle(P: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """The solid angle of triangles V (n, 3, 3) seen from P (n, 3): Van Oosterom and Strackee's formula."""
+    A, B, C = (vectors_unit(V[:, k] - P) for k in range(3))
+    triple = np.abs(np.einsum("ij,ij->i", A, vectors.cross(B, C)))
+    return 2.0 * np.arctan2(triple, 1.0 + np.einsum("ij,ij->i", A, B) + np.einsum("ij,ij->i", B, C)
+                            + np.einsum("ij,ij->i", C, A))
+
+
+def vectors_unit(v: np.ndarray) -> np.ndarray:
+    """v / |v| per row (n, 3)."""
+    return v / np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
+
+
+def area_sample(P: np.ndarray, V: np.ndarray, normal: np.ndarray, area: np.ndarray, u: np.ndarray):
+    """A point uniform in each triangle's area (Heitz's low-distortion map of the square), seen from P:
+    (L (n, 3), t (n,), pdf (n,) = t^2 / (|cos theta_light| A))."""
+    a, b = u[:, 0].copy(), u[:, 1].copy()
+    upper = b > a
+    a = np.where(upper, 0.5 * a, a)
+    b = np.where(upper, b - a, b)
+    lower = ~upper
+    b = np.where(lower, 0.5 * b, b)
+    a = np.where(lower, a - b, a)
+    point = (1.0 - a - b)[:, None] * V[:, 0] + a[:, None] * V[:, 1] + b[:, None] * V[:, 2]
+    w = point - P
+    t = np.sqrt(np.einsum("ij,ij->i", w, w))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        L = w / t[:, None]
+        cos_light = np.abs(np.einsum("ij,ij->i", normal, L))
+        pdf = t * t / (cos_light * area)
+    return np.nan_to_num(L), t, np.where(np.isfinite(pdf), pdf, 0.0)
+
+
+def spherical_triangle_sample(P: np.ndarray, V: np.ndarray, u: np.ndarray):
+    """A direction uniform over the spherical triangle V (n, 3, 3) subtends from P (Arvo 1995), and the
+    distance to the planar triangle along it: (L (n, 3), t (n,), pdf (n,) = 1 / Omega)."""
+    A, B, C = (vectors_unit(V[:, k] - P) for k in range(3))
+    # The spherical triangle's angles at A, B, C from the great-circle normals.
+    def angle(x, y, z):
+        n1, n2 = vectors.cross(x, y), vectors.cross(x, z)
+        n1 = n1 / np.maximum(np.sqrt(np.einsum("ij,ij->i", n1, n1)), 1e-300)[:, None]
+        n2 = n2 / np.maximum(np.sqrt(np.einsum("ij,ij->i", n2, n2)), 1e-300)[:, None]
+        return np.arccos(np.clip(np.einsum("ij,ij->i", n1, n2), -1.0, 1.0))
+    alpha, beta, gamma = angle(A, B, C), angle(B, C, A), angle(C, A, B)
+    omega = alpha + beta + gamma - math.pi
+    # 1. A sub-triangle of area u0 Omega, fixing the third vertex C' on the arc from A to C.
+    area_hat = u[:, 0] * omega
+    s, t_ = np.sin(area_hat - alpha), np.cos(area_hat - alpha)
+    cos_c = np.einsum("ij,ij->i", A, B)
+    cos_alpha, sin_alpha = np.cos(alpha), np.sin(alpha)
+    uu = t_ - cos_alpha
+    vv = s + sin_alpha * cos_c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = ((vv * t_ - uu * s) * cos_alpha - vv) / ((vv * s + uu * t_) * sin_alpha)
+    q = np.clip(np.nan_to_num(q, nan=1.0), -1.0, 1.0)
+    C_perp = C - np.einsum("ij,ij->i", C, A)[:, None] * A
+    C_perp = C_perp / np.maximum(np.sqrt(np.einsum("ij,ij->i", C_perp, C_perp)), 1e-300)[:, None]
+    C_hat = q[:, None] * A + np.sqrt(np.maximum(1.0 - q * q, 0.0))[:, None] * C_perp
+    # 2. A point on the arc from B to C' at the height u1 of the way.
+    z = 1.0 - u[:, 1] * (1.0 - np.einsum("ij,ij->i", C_hat, B))
+    w = C_hat - np.einsum("ij,ij->i", C_hat, B)[:, None] * B
+    w = w / np.maximum(np.sqrt(np.einsum("ij,ij->i", w, w)), 1e-300)[:, None]
+    L = z[:, None] * B + np.sqrt(np.maximum(1.0 - z * z, 0.0))[:, None] * w
+    L = vectors_unit(L)
+    # 3. The distance to the planar triangle along L.
+    e1, e2 = V[:, 1] - V[:, 0], V[:, 2] - V[:, 0]
+    normal = vectors.cross(e1, e2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        distance = np.einsum("ij,ij->i", V[:, 0] - P, normal) / np.einsum("ij,ij->i", L, normal)
+        pdf = np.where(omega > 0.0, 1.0 / omega, 0.0)
+    return L, np.where(np.isfinite(distance) & (distance > 0), distance, 0.0), np.where(np.isfinite(pdf), pdf, 0.0)
+
+
+def from_geometry(geometry, materials) -> Optional[MeshEmitters]:
+    """The emitters of a WorldGeometry: the triangles whose material (a row of the MaterialTable) emits.
+
+    Each material's `emission_sides` (FRONT | BACK, 0 for Emission Sampling None) and its emission
+    estimate (a constant shader's emission) decide; copied and instanced triangles alike.
+    """
+    emission = np.array([np.asarray(shader.emission, np.float64) for shader in materials.shaders])
+    sides = np.array([getattr(shader, "emission_sides", FRONT | BACK) for shader in materials.shaders], np.int32)
+    emissive = (emission.max(axis=1) > 0.0) & (sides > 0)
+    if not emissive.any():
+        return None
+    corners, radiance, side, prims = [], [], [], []
+    if len(geometry.triangles):
+        prim = np.flatnonzero(emissive[geometry.material])
+        if len(prim):
+            corners.append(geometry.corner_points(prim))
+            radiance.append(emission[geometry.material[prim]])
+            side.append(sides[geometry.material[prim]])
+            prims.append(prim)
+    for mesh in geometry.instanced:
+        rows = mesh.material[mesh.material_row]                  # (k, t) each placement's materials
+        j, local = np.nonzero(emissive[rows])
+        if len(j):
+            corners.append(mesh.corner_points(j, local))
+            material = rows[j, local]
+            radiance.append(emission[material])
+            side.append(sides[material])
+            prims.append(mesh.first_prim + j * len(mesh.triangles) + local)
+    if not corners:
+        return None
+    return MeshEmitters.of(np.concatenate(corners), np.concatenate(radiance), np.concatenate(side),
+                           np.concatenate(prims).astype(np.int64))
+
+
+class EmitterTables:
+    """MeshEmitters' arrays in C's dtypes and the record (lights.h EmitterTables) that points at them."""
+
+    def __init__(self, emitters: MeshEmitters):
+        import ctypes
+        from ..native import library
+        c = library.contiguous
+        order = np.argsort(emitters.prim, kind="stable").astype(np.int64)
+        self.arrays = [c(emitters.corners, np.float64), c(emitters.normal, np.float64), c(emitters.area, np.float64),
+                       c(emitters.emission, np.float64), c(emitters.sides, np.int32), c(emitters.cdf, np.float64),
+                       c(emitters.prim[order], np.int64), c(order, np.int64)]
+        fields = [(name, ctypes.c_void_p) for name in ("corners", "normal", "area", "emission", "sides", "cdf",
+                                                       "sorted_prim", "order")] + [("count", ctypes.c_double)]
+        Record = type("EmitterTablesRecord", (ctypes.Structure,), {"_fields_": fields})
+        self.record = Record(*[a.ctypes.data for a in self.arrays], float(len(emitters.prim)))

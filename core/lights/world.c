@@ -1,0 +1,103 @@
+/* The world: core/lights/world.py. A constant colour, or an equirectangular image importance-sampled
+ * by a map of its brightness x sin(theta). */
+
+/* world.direction_to_uv of a unit direction already in texture space. */
+INLINE void world_uv(const double *d, double *u, double *v)
+{
+    double z = d[2] < -1.0 ? -1.0 : (d[2] > 1.0 ? 1.0 : d[2]);
+    *u = (PI - atan2(d[1], d[0])) / (2.0 * PI);
+    *v = 1.0 - acos(z) / PI;
+}
+
+/* world.uv_to_direction. */
+INLINE void world_direction(double u, double v, double *d)
+{
+    double phi = PI - 2.0 * PI * u, theta = PI * (1.0 - v);
+    double sin_theta = sin(theta);
+    d[0] = sin_theta * cos(phi);
+    d[1] = sin_theta * sin(phi);
+    d[2] = cos(theta);
+}
+
+/* The rotation world -> texture (R D), and back (R^T D). */
+INLINE void world_to_texture(const WorldTables *w, const double *D, double *out)
+{
+    const double *R = w->rotation;
+    for (int c = 0; c < 3; c++) out[c] = R[3 * c] * D[0] + R[3 * c + 1] * D[1] + R[3 * c + 2] * D[2];
+}
+
+/* world.bilinear_equirect: linear interpolation, texel centres at (i + 0.5) / W, u repeats, v extends. */
+INLINE void world_lookup(const WorldTables *w, double u, double v, double *out)
+{
+    int64_t W = (int64_t)w->width, H = (int64_t)w->height;
+    double x = u * (double)W - 0.5, y = v * (double)H - 0.5;
+    double x0 = floor(x), y0 = floor(y), fx = x - x0, fy = y - y0;
+    int64_t xa = ((int64_t)x0 % W + W) % W, xb = (((int64_t)x0 + 1) % W + W) % W;
+    int64_t ya = (int64_t)y0, yb = (int64_t)y0 + 1;
+    ya = ya < 0 ? 0 : (ya > H - 1 ? H - 1 : ya);
+    yb = yb < 0 ? 0 : (yb > H - 1 ? H - 1 : yb);
+    const float *p = w->image;
+    for (int c = 0; c < 3; c++) {
+        double top = (double)p[3 * (ya * W + xa) + c] * (1.0 - fx) + (double)p[3 * (ya * W + xb) + c] * fx;
+        double bottom = (double)p[3 * (yb * W + xa) + c] * (1.0 - fx) + (double)p[3 * (yb * W + xb) + c] * fx;
+        out[c] = top * (1.0 - fy) + bottom * fy;
+    }
+}
+
+/* World.radiance: the radiance arriving from direction D (world space). */
+INLINE void world_radiance(const WorldTables *w, const double *D, double *out)
+{
+    if (w->image == NULL) {
+        for (int c = 0; c < 3; c++) out[c] = w->color[c];
+        return;
+    }
+    double local[3], u, v;
+    world_to_texture(w, D, local);
+    world_uv(local, &u, &v);
+    world_lookup(w, u, v, out);
+    for (int c = 0; c < 3; c++) out[c] *= w->strength;
+}
+
+/* WorldLight.pdf: f / (total 2 pi^2 sin theta) of the map cell of direction D. */
+INLINE double world_pdf(const WorldTables *w, const double *D)
+{
+    int64_t mw = (int64_t)w->map_width, mh = (int64_t)w->map_height;
+    double local[3], u, v;
+    world_to_texture(w, D, local);
+    world_uv(local, &u, &v);
+    int64_t x = (int64_t)(u * (double)mw), y = (int64_t)(v * (double)mh);
+    x = x < 0 ? 0 : (x > mw - 1 ? mw - 1 : x);
+    y = y < 0 ? 0 : (y > mh - 1 ? mh - 1 : y);
+    double sin_theta = sin(PI * v);
+    return sin_theta > 0.0 ? w->map[y * mw + x] / (w->total * 2.0 * PI * PI * sin_theta) : 0.0;
+}
+
+/* WorldLight.sample for u (2,): a row by the marginal distribution, a column within it. */
+INLINE void sample_world(const WorldTables *w, const double *u, LightSample *out)
+{
+    int64_t mw = (int64_t)w->map_width, mh = (int64_t)w->map_height;
+    int64_t lo = 0, hi = mh;                             /* the last row with rows[y] <= u0 */
+    while (hi - lo > 1) { int64_t mid = lo + (hi - lo) / 2; if (w->rows[mid] <= u[0]) lo = mid; else hi = mid; }
+    int64_t y = lo;
+    double dy = (u[0] - w->rows[y]) / at_least(w->rows[y + 1] - w->rows[y], 1e-300);
+    const double *row = w->columns + y * (mw + 1);
+    int64_t count = 0;
+    for (int64_t x = 0; x <= mw; x++) count += row[x] <= u[1];
+    int64_t x = count - 1;
+    x = x < 0 ? 0 : (x > mw - 1 ? mw - 1 : x);
+    double dx = (u[1] - row[x]) / at_least(row[x + 1] - row[x], 1e-300);
+    dx = dx < 0.0 ? 0.0 : (dx > 1.0 ? 1.0 : dx);
+    dy = dy < 0.0 ? 0.0 : (dy > 1.0 ? 1.0 : dy);
+    double uu = ((double)x + dx) / (double)mw, vv = ((double)y + dy) / (double)mh;
+    double local[3];
+    world_direction(uu, vv, local);
+    const double *R = w->rotation;                       /* back from texture space: R^T */
+    for (int c = 0; c < 3; c++) out->L[c] = R[c] * local[0] + R[3 + c] * local[1] + R[6 + c] * local[2];
+    double sin_theta = sin(PI * vv);
+    double pdf = sin_theta > 0.0 ? w->map[y * mw + x] / (w->total * 2.0 * PI * PI * sin_theta) : 0.0;
+    out->pdf = pdf;
+    out->strength = pdf > 0.0 ? 1.0 / pdf : 0.0;
+    out->distance = INFINITY;
+    world_radiance(w, out->L, out->color);
+    out->position[0] = out->position[1] = out->position[2] = 0.0;
+}

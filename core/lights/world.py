@@ -1,0 +1,232 @@
+"""The world: the light that arrives from infinitely far in every direction, as in Cycles.
+
+A constant world (one colour) lights a surface from the whole sky: a Lambert plane of albedo rho
+under a uniform white world of radiance L receives E = pi L and shows rho L. As in Cycles, a
+constant world is not sampled as a light: BSDF-sampled rays that escape the scene find it (for a
+diffuse surface, cosine-weighted sampling is already proportional to what it sends). A world with
+an equirectangular environment image is importance-sampled: a map of the image's brightness,
+weighted by sin(theta) (the solid angle of a row), gives each texel a probability, and the pdf of
+a direction is p_texel / (2 pi^2 sin theta) (cycles_lights.md, section 3).
+
+The equirectangular mapping, as Cycles and Blender's Environment Texture use it:
+    u = (pi - atan2(y, x)) / (2 pi),   v = 1 - acos(z) / pi     (v = 1 straight up, +Z)
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar, Optional
+
+import numpy as np
+
+from .base import Light, LightHit, LightSample
+
+# The importance map's resolution when the image is larger (a texel per map cell up to this size).
+MAP_WIDTH = 1024
+
+
+@dataclass
+class World:
+    """The world's light (Blender's World > Surface: a Background shader).
+
+    color:    (3,) float64 radiance of a constant world (colour x strength), linear RGB
+    image:    (H, W, 3) float32 linear radiance of an equirectangular environment, or None
+    strength: multiplies the image (the Background node's Strength)
+    rotation: (3, 3) float64 world-to-texture rotation (the Mapping node's), applied before (u, v)
+    camera:   whether camera rays see it (Ray Visibility > Camera)
+    lights:   whether it lights surfaces (Ray Visibility > Diffuse / Glossy)
+    """
+
+    color: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    image: Optional[np.ndarray] = None
+    strength: float = 1.0
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    camera: bool = True
+    lights: bool = True
+    name: str = "World"
+
+    @property
+    def varying(self) -> bool:
+        """Whether the world's radiance depends on the direction (an environment image)."""
+        return self.image is not None
+
+    def radiance(self, directions: np.ndarray) -> np.ndarray:
+        """Return the radiance arriving from each direction: (n, 3) unit -> (n, 3) float64."""
+        if self.image is None:
+            return np.broadcast_to(np.asarray(self.color, np.float64)[:3], (len(directions), 3)).copy()
+        u, v = direction_to_uv(directions @ np.asarray(self.rotation, np.float64).T)
+        return bilinear_equirect(self.image, u, v) * self.strength
+
+
+def direction_to_uv(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Equirectangular (u, v) of unit directions: (n, 3) -> two (n,) float64 in [0, 1]."""
+    u = (math.pi - np.arctan2(d[:, 1], d[:, 0])) / (2.0 * math.pi)
+    v = 1.0 - np.arccos(np.clip(d[:, 2], -1.0, 1.0)) / math.pi
+    return u, v
+
+
+def uv_to_direction(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The unit direction of equirectangular (u, v): phi = pi - 2 pi u, theta = pi (1 - v) -> (n, 3)."""
+    phi = math.pi - 2.0 * math.pi * u
+    theta = math.pi * (1.0 - v)
+    sin_theta = np.sin(theta)
+    return np.stack([sin_theta * np.cos(phi), sin_theta * np.sin(phi), np.cos(theta)], axis=1)
+
+
+def bilinear_equirect(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Linear interpolation of an equirectangular image at (u, v), texel centres at (i + 0.5) / W, row 0
+    at the bottom (v = 0) as Blender stores images; u repeats, v extends: (n,) -> (n, 3) float64."""
+    H, W = image.shape[:2]
+    x = u * W - 0.5
+    y = v * H - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    x0 = x0.astype(np.int64)
+    y0 = y0.astype(np.int64)
+    xa, xb = x0 % W, (x0 + 1) % W
+    ya, yb = np.clip(y0, 0, H - 1), np.clip(y0 + 1, 0, H - 1)
+    pixels = image.astype(np.float64, copy=False)
+    top = pixels[ya, xa, :3] * (1.0 - fx) + pixels[ya, xb, :3] * fx
+    bottom = pixels[yb, xa, :3] * (1.0 - fx) + pixels[yb, xb, :3] * fx
+    return top * (1.0 - fy) + bottom * fy
+
+
+@dataclass
+class WorldLight(Light):
+    """The environment image as a light: importance-sampled by a map of brightness x sin(theta).
+
+    map:   (h, w) float64 the map's values f = mean(|L|) sin(theta) at cell centres
+    rows:  (h + 1,) float64 cumulative distribution over rows; columns (h, w + 1) within each row
+    total: the mean of the map (its integral over the unit square)
+    """
+
+    world: World
+    map: np.ndarray
+    rows: np.ndarray
+    columns: np.ndarray
+    total: float
+    name: str = "World"
+
+    kind: ClassVar[int] = 5
+    blender_type: ClassVar[str] = "WORLD"
+    random_numbers: ClassVar[int] = 2
+
+    @property
+    def color(self) -> np.ndarray:
+        return np.ones(3)
+
+    def emits(self) -> bool:
+        return self.total > 0.0
+
+    def finite(self) -> bool:
+        return bool(np.isfinite(self.map).all())
+
+    def moved(self, origin: np.ndarray) -> "WorldLight":
+        return self                          # infinitely far: no position
+
+    @classmethod
+    def of(cls, world: World, width: int = 0) -> Optional["WorldLight"]:
+        """The light of a world with an image (None for a constant or dark world). width: the map's."""
+        if world.image is None or not world.lights:
+            return None
+        H, W = world.image.shape[:2]
+        w = min(W, width or MAP_WIDTH)
+        h = max(1, w // 2)
+        # f at the map's cell centres: the radiance's plain RGB mean, times sin(theta) of the row.
+        u = (np.arange(w) + 0.5) / w
+        v = (np.arange(h) + 0.5) / h
+        uu, vv = np.meshgrid(u, v)
+        directions = uv_to_direction(uu.ravel(), vv.ravel())
+        # The map is made in texture space: no rotation (a direction is rotated before lookup).
+        L = bilinear_equirect(world.image, uu.ravel(), vv.ravel()) * abs(world.strength)
+        L = np.where(np.isfinite(L), np.abs(L), 0.0)
+        f = L.mean(axis=1).reshape(h, w) * np.sin(math.pi * vv)
+        del directions
+        row_sums = f.sum(axis=1) / w
+        total = row_sums.sum() / h
+        if not total > 0.0:
+            return None
+        columns = np.zeros((h, w + 1))
+        columns[:, 1:] = np.cumsum(f, axis=1)
+        columns /= np.where(columns[:, -1:] > 0, columns[:, -1:], 1.0)
+        rows = np.zeros(h + 1)
+        rows[1:] = np.cumsum(row_sums)
+        rows /= rows[-1]
+        return cls(world, f, rows, columns, float(total))
+
+    def pdf(self, directions: np.ndarray) -> np.ndarray:
+        """The solid-angle pdf of sampling each direction: f / (total 2 pi^2 sin theta): (n, 3) -> (n,)."""
+        h, w = self.map.shape
+        u, v = direction_to_uv(directions @ np.asarray(self.world.rotation, np.float64).T)
+        x = np.clip((u * w).astype(np.int64), 0, w - 1)
+        y = np.clip((v * h).astype(np.int64), 0, h - 1)
+        sin_theta = np.sin(math.pi * v)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pdf = self.map[y, x] / (self.total * 2.0 * math.pi * math.pi * sin_theta)
+        return np.where(sin_theta > 0.0, pdf, 0.0)
+
+    def sample(self, points: np.ndarray, u: np.ndarray, cone=None) -> LightSample:
+        """A direction by the map: a row by the marginal distribution, a column within it, linear
+        inside the cell; strength = L / pdf per unit colour (colour: the radiance's RGB)."""
+        n = len(points)
+        h, w = self.map.shape
+        y = np.clip(np.searchsorted(self.rows, u[:, 0], side="right") - 1, 0, h - 1)
+        dy = (u[:, 0] - self.rows[y]) / np.maximum(self.rows[y + 1] - self.rows[y], 1e-300)
+        row_cdf = self.columns[y]
+        x = np.clip((row_cdf <= u[:, 1][:, None]).sum(axis=1) - 1, 0, w - 1)
+        lo, hi = row_cdf[np.arange(n), x], row_cdf[np.arange(n), x + 1]
+        dx = (u[:, 1] - lo) / np.maximum(hi - lo, 1e-300)
+        uu, vv = (x + np.clip(dx, 0.0, 1.0)) / w, (y + np.clip(dy, 0.0, 1.0)) / h
+        local = uv_to_direction(uu, vv)
+        L = local @ np.asarray(self.world.rotation, np.float64)      # back from texture space
+        sin_theta = np.sin(math.pi * vv)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pdf = np.where(sin_theta > 0.0, self.map[y, x] / (self.total * 2.0 * math.pi * math.pi * sin_theta), 0.0)
+        radiance = self.world.radiance(L)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            strength = np.where(pdf > 0.0, 1.0 / pdf, 0.0)
+        return LightSample(L, np.full(n, np.inf), strength, pdf, radiance, np.zeros((n, 3)))
+
+    def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
+        return sample
+
+    def centre_numbers(self) -> np.ndarray:
+        return np.array([0.5, 0.5])
+
+    def pack_fields(self, record) -> None:
+        """The record says only how many samples and which dimension; the map goes in WorldTables."""
+
+
+class WorldTables:
+    """The world (and its importance map, where it has one) in C's dtypes, and the record (lights.h
+    WorldTables) that points at them. sampler: the WorldLight, or None."""
+
+    def __init__(self, world: World, sampler: Optional[WorldLight]):
+        import ctypes
+        from ..native import library
+        c = library.contiguous
+        self.arrays = []
+        image = c(world.image[..., :3], np.float32) if world.image is not None else None
+        fields = ([(name, ctypes.c_void_p) for name in ("image", "map", "rows", "columns")]
+                  + [(name, ctypes.c_double) for name in ("width", "height", "map_width", "map_height", "total")]
+                  + [("color", ctypes.c_double * 3), ("strength", ctypes.c_double), ("rotation", ctypes.c_double * 9),
+                     ("camera", ctypes.c_double), ("lights", ctypes.c_double)])
+        Record = type("WorldTablesRecord", (ctypes.Structure,), {"_fields_": fields})
+        record = Record()
+        if image is not None:
+            self.arrays.append(image)
+            record.image = image.ctypes.data
+            record.height, record.width = float(image.shape[0]), float(image.shape[1])
+        if sampler is not None:
+            for name in ("map", "rows", "columns"):
+                array = c(getattr(sampler, name), np.float64)
+                self.arrays.append(array)
+                setattr(record, name, array.ctypes.data)
+            record.map_height, record.map_width = float(sampler.map.shape[0]), float(sampler.map.shape[1])
+            record.total = sampler.total
+        record.color[:] = np.asarray(world.color, np.float64)[:3].tolist()
+        record.strength = float(world.strength)
+        record.rotation[:] = np.asarray(world.rotation, np.float64).ravel().tolist()
+        record.camera = 1.0 if world.camera else 0.0
+        record.lights = 1.0 if world.lights else 0.0
+        self.record = record
