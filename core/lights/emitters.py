@@ -64,6 +64,10 @@ class MeshEmitters(Light):
     def delta(self) -> bool:
         return False
 
+    @property
+    def hittable(self) -> bool:
+        return True
+
     def emits(self) -> bool:
         return len(self.prim) > 0 and self.cdf[-1] > 0
 

@@ -115,6 +115,10 @@ class WorldLight(Light):
     def color(self) -> np.ndarray:
         return np.ones(3)
 
+    @property
+    def hittable(self) -> bool:
+        return True
+
     def emits(self) -> bool:
         return self.total > 0.0
 

@@ -1,0 +1,163 @@
+"""Emissive meshes and the world as lights (core/lights/emitters.py, world.py) against closed forms.
+
+Direct light only, as Cycles with max_bounces = 0: a Lambert surface of albedo rho shows rho / pi E,
+where E is the irradiance the emitter or the world gives it. Every strategy (light samples alone,
+BSDF-sampled rays alone, both weighed by MIS) must converge to the same closed form: the MIS weights
+of the two strategies sum to one for every direction.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import ortho_down
+from core import render
+from core.geometry import primitives
+from core.lights import MeshEmitters, World, WorldLight
+from core.lights.base import compiled_sample
+from core.lights.emitters import solid_angle, spherical_triangle_sample
+from core.scene import Material, RenderSettings, Scene
+
+
+def rectangle_factor(x: float, y: float) -> float:
+    """View factor from a point to a parallel rectangle of sides x h, y h whose corner is straight above it."""
+    a, b = math.sqrt(1 + x * x), math.sqrt(1 + y * y)
+    return (x / a * math.atan(y / a) + y / b * math.atan(x / b)) / (2.0 * math.pi)
+
+
+def emitter_over_floor(side: float, height: float, radiance: float, albedo: float) -> Scene:
+    """A floor of albedo `albedo` and a square emitter of radiance L, side `side`, `height` above, facing down."""
+    scene = Scene(camera=ortho_down(center=(0.0, 0.0, 0.0), height=0.5 * height, scale=0.02))
+    floor = scene.add_material((albedo,) * 3)
+    scene.materials.append(Material(np.zeros(3), "Lamp", emission=np.full(3, radiance)))
+    lamp = len(scene.materials) - 1
+    scene.add_mesh(primitives.plane(40.0), materials=np.array([floor]))
+    flipped = np.diag([1.0, -1.0, -1.0, 1.0])                       # the plane turned to face -Z
+    flipped[2, 3] = height
+    scene.add_mesh(primitives.plane(side), matrix=flipped, materials=np.array([lamp]))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+@pytest.mark.parametrize("strategy", ["mis", "light", "bsdf"])
+def test_square_emitter_lights_a_floor_by_its_form_factor(strategy, kernels):
+    """Under the centre of a square emitter of radiance L (side s, height h) a Lambert floor of albedo rho
+    shows rho L F, F = 4 F_corner(s / 2h, s / 2h): the camera sees a tiny patch straight below it."""
+    side, height, L, rho = 1.0, 0.7, 3.0, 0.6
+    scene = emitter_over_floor(side, height, L, rho)
+    size = 8 if strategy == "bsdf" else 2          # (BSDF rays alone are the noisiest: more samples)
+    settings = RenderSettings(width=size, height=size, samples=512, light_samples=4, light_sampling=strategy,
+                              kernels=kernels, adaptive=False)
+    image = render.render(scene, settings).image
+    expected = rho * L * 4.0 * rectangle_factor(side / (2 * height), side / (2 * height))
+    assert image[..., :3].mean() == pytest.approx(expected, rel=0.01)
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_a_white_world_lights_a_lambert_plane_with_its_albedo(kernels):
+    """A world of uniform radiance L over an infinite Lambert plane of albedo rho: E = pi L, so the plane
+    shows rho L exactly (every cosine-weighted BSDF ray escapes; no noise)."""
+    scene = Scene(camera=ortho_down(height=1.0, scale=2.0), world=World(color=np.array([0.5, 1.0, 2.0])))
+    scene.add_material((0.25, 0.5, 0.75))
+    scene.add_mesh(primitives.plane(1e4), materials=np.array([0]))
+    image = render.render(scene, RenderSettings(width=4, height=4, samples=4, kernels=kernels)).image
+    np.testing.assert_allclose(image[..., :3], np.broadcast_to([0.125, 0.5, 1.5], (4, 4, 3)), rtol=1e-6)
+
+
+def environment(width: int = 64) -> np.ndarray:
+    """An equirectangular image: dim blue sky, a bright patch, dark ground: (w/2, w, 3) float32, row 0 at the bottom."""
+    h = width // 2
+    image = np.zeros((h, width, 3), np.float32)
+    image[h // 2:] = (0.2, 0.3, 0.6)                     # the upper half: sky
+    image[int(0.8 * h):int(0.9 * h), width // 8:width // 4] = (40.0, 35.0, 30.0)   # a sun-like patch
+    image[:h // 2] = (0.05, 0.04, 0.03)                  # the lower half: ground
+    return image
+
+
+def test_world_map_pdf_integrates_to_one_and_sampling_follows_it():
+    """The importance map's pdf over the sphere integrates to 1, and sampled directions are distributed by it."""
+    sampler = WorldLight.of(World(image=environment(), strength=1.0))
+    n = 400_000
+    rng = np.random.default_rng(3)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    assert np.mean(sampler.pdf(d) * 4.0 * math.pi) == pytest.approx(1.0, rel=0.01)
+    sample = sampler.sample(np.zeros((50_000, 3)), rng.random((50_000, 2)))
+    np.testing.assert_allclose(sample.pdf, sampler.pdf(sample.L), rtol=1e-6)
+    bright = sample.L[:, 2] > 0.8                          # the patch's band of elevation
+    expected = np.mean(sampler.pdf(d) * (d[:, 2] > 0.8)) * 4.0 * math.pi
+    assert bright.mean() == pytest.approx(expected, rel=0.02)
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+@pytest.mark.parametrize("strategy", ["mis", "light", "bsdf"])
+def test_an_environment_lights_a_plane_by_its_cosine_weighted_mean(strategy, kernels):
+    """A Lambert plane of albedo rho under an environment L(w) shows rho / pi * integral of L cos over the
+    upper hemisphere: computed here by quadrature of the image, and reached by every strategy."""
+    image = environment()
+    world = World(image=image, strength=1.0)
+    scene = Scene(camera=ortho_down(height=1.0, scale=0.01), world=world)
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(primitives.plane(1e5), materials=np.array([0]))
+    settings = RenderSettings(width=2, height=2, samples=1024, light_samples=4, light_sampling=strategy,
+                              kernels=kernels, adaptive=False)
+    result = render.render(scene, settings).image[..., :3].mean(axis=(0, 1))
+    # Quadrature: a fine grid of directions over the upper hemisphere.
+    k = 2000
+    theta = (np.arange(k) + 0.5) / k * (math.pi / 2)
+    phi = (np.arange(2 * k) + 0.5) / (2 * k) * (2 * math.pi)
+    T, P = np.meshgrid(theta, phi, indexing="ij")
+    d = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], axis=-1).reshape(-1, 3)
+    weight = (np.cos(T) * np.sin(T)).reshape(-1) * (math.pi / 2 / k) * (2 * math.pi / (2 * k))
+    E = (world.radiance(d) * weight[:, None]).sum(axis=0)
+    np.testing.assert_allclose(result, 0.5 / math.pi * E, rtol=0.02)
+
+
+def test_spherical_triangle_sampling_is_uniform_over_the_solid_angle():
+    """Arvo's map: directions hit the triangle, pdf 1 / Omega, and the mean of 1 / pdf is Omega."""
+    rng = np.random.default_rng(5)
+    V = np.array([[[0.3, -0.2, 1.0], [1.5, 0.4, 1.2], [-0.4, 1.1, 0.8]]])
+    P = np.zeros((1, 3))
+    n = 20_000
+    L, t, pdf = spherical_triangle_sample(np.repeat(P, n, 0), np.repeat(V, n, 0), rng.random((n, 2)))
+    omega = solid_angle(P, V)[0]
+    np.testing.assert_allclose(pdf, 1.0 / omega, rtol=1e-12)
+    X = L * t[:, None]                                       # on the triangle's plane, inside the triangle
+    e1, e2 = V[0, 1] - V[0, 0], V[0, 2] - V[0, 0]
+    normal = np.cross(e1, e2)
+    np.testing.assert_allclose((X - V[0, 0]) @ normal, 0.0, atol=1e-9)
+    # Uniform in solid angle: split the triangle in halves by a median; each gets half the directions
+    # in proportion to its solid angle.
+    mid = 0.5 * (V[0, 1] + V[0, 2])
+    half = np.array([[V[0, 0], V[0, 1], mid]])
+    a = np.cross(V[0, 0], V[0, 1]), np.cross(V[0, 1], mid), np.cross(mid, V[0, 0])
+    inside_half = (L @ a[0] > 0) & (L @ a[1] > 0) & (L @ a[2] > 0)
+    if not inside_half.any():
+        inside_half = (L @ -a[0] > 0) & (L @ -a[1] > 0) & (L @ -a[2] > 0)
+    assert inside_half.mean() == pytest.approx(solid_angle(P, half)[0] / omega, abs=0.01)
+
+
+def test_compiled_emitter_and_world_samples_are_the_pythons():
+    """emitters.c and world.c sample what their Python classes sample (same directions, pdfs, radiance)."""
+    from core.integrators.compiled import LightContext
+    import ctypes
+    rng = np.random.default_rng(6)
+    corners = rng.normal(size=(40, 3, 3)) + [0.0, 0.0, 3.0]
+    emission = rng.random((40, 3)) * 5
+    emitters = MeshEmitters.of(corners, emission, np.full(40, 3, np.int32), np.arange(40) * 2)
+    sampler = WorldLight.of(World(image=environment(), strength=2.0, rotation=np.array(
+        [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])))
+    from core.lights.world import WorldTables
+    tables, world_tables = emitters.tables(), WorldTables(sampler.world, sampler)
+    context = LightContext(ctypes.addressof(tables.record), ctypes.addressof(world_tables.record))
+    points = rng.normal(size=(3000, 3))
+    u = rng.random((3000, 3))
+    for light, numbers in ((emitters, u), (sampler, u[:, :2])):
+        expected = light.sample(points, numbers)
+        found = compiled_sample(light, points, numbers, context)
+        np.testing.assert_allclose(found.pdf, expected.pdf, rtol=1e-6, atol=1e-12)
+        np.testing.assert_allclose(found.L, expected.L, atol=1e-6)
+        np.testing.assert_allclose(found.color, np.broadcast_to(expected.color, found.color.shape), rtol=1e-6)
+        np.testing.assert_allclose(found.strength, expected.strength, rtol=1e-6)
