@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core import scene as core_scene
 from ..core.camera import Camera
+from ..core.lights import World
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
 # Blender sync). Curves, text, surfaces and metaballs are skipped themselves: the depsgraph hands
@@ -162,7 +163,7 @@ def _input_value(node, name: str, default: float = 0.0) -> float:
 
 # Principled BSDF inputs that, when non-zero, add light that a Lambert surface does not reflect.
 _NOT_LAMBERT = ("Metallic", "Specular IOR Level", "Transmission Weight", "Coat Weight", "Sheen Weight",
-                "Emission Strength", "Subsurface Weight", "Diffuse Roughness")
+                "Subsurface Weight", "Diffuse Roughness")
 
 
 def _material_notes(material, node) -> list:
@@ -171,6 +172,8 @@ def _material_notes(material, node) -> list:
         return ["it has no surface shader node"]
     if node.bl_idname == "ShaderNodeBsdfDiffuse":
         return ["its Diffuse BSDF has Roughness > 0 (Oren-Nayar)"] if _input_value(node, "Roughness") > 0 else []
+    if node.bl_idname == "ShaderNodeEmission":
+        return []
     if node.bl_idname == "ShaderNodeBsdfPrincipled":
         notes = [name for name in _NOT_LAMBERT if _input_value(node, name) > 0]
         if _input_value(node, "Alpha", 1.0) < 1.0:
@@ -191,11 +194,35 @@ def _material_color(material, warnings: list | None = None) -> np.ndarray:
         for note in _material_notes(material, node):
             warnings.append(f"material '{material.name}' is not pure diffuse in Cycles: {note}; "
                             "Primer renders its base colour as a Lambert surface")
+    if node is not None and node.bl_idname == "ShaderNodeEmission":
+        return np.zeros(3)                          # light only: no BSDF
     if node is not None:
         socket_name = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}.get(node.bl_idname)
         if socket_name is not None and not node.inputs[socket_name].is_linked:
             return np.array(node.inputs[socket_name].default_value[:3], np.float64)
     return np.array(material.diffuse_color[:3], np.float64)
+
+
+def _material_emission(material) -> np.ndarray:
+    """Return the radiance a material emits (colour x strength, linear RGB): of an Emission node or the
+    Principled BSDF's Emission at the Surface output, when their inputs are constant; else 0."""
+    node = _surface_node(material) if material is not None else None
+    if node is None:
+        return np.zeros(3)
+    sockets = {"ShaderNodeEmission": ("Color", "Strength"),
+               "ShaderNodeBsdfPrincipled": ("Emission Color", "Emission Strength")}.get(node.bl_idname)
+    if sockets is None:
+        return np.zeros(3)
+    color, strength = (node.inputs.get(name) for name in sockets)
+    if color is None or strength is None or color.is_linked or strength.is_linked:
+        return np.zeros(3)
+    return np.array(color.default_value[:3], np.float64) * float(strength.default_value)
+
+
+def _emission_sampling(material) -> str:
+    """Return the material's Emission Sampling (Cycles' material setting), "AUTO" where it has none."""
+    cycles = getattr(material, "cycles", None)
+    return str(getattr(cycles, "emission_sampling", "AUTO")) if cycles is not None else "AUTO"
 
 
 class MaterialTable:
@@ -220,7 +247,9 @@ class MaterialTable:
             uid = material.original.session_uid
             if uid not in self.index:
                 self.index[uid] = len(self.materials)
-                self.materials.append(core_scene.Material(_material_color(material, warnings), material.name))
+                self.materials.append(core_scene.Material(_material_color(material, warnings), material.name,
+                                                          emission=_material_emission(material),
+                                                          emission_sampling=_emission_sampling(material)))
             slots.append(self.index[uid])
         return np.array(slots, np.int64)
 
@@ -326,14 +355,15 @@ def export_camera(camera_object) -> Camera:
     )
 
 
-def export_world(world, warnings: list) -> np.ndarray:
-    """Return the world colour that camera rays see (colour x strength of its Background node), linear RGB.
+def export_world(world, warnings: list) -> World:
+    """Return the world as Cycles shows and uses it: its Background colour x strength, seen by camera
+    rays (Ray Visibility > Camera) and lighting surfaces (Ray Visibility > Diffuse or Glossy).
 
-    Primer's world is only a background: it lights no surface. In Cycles it also lights the scene
-    unless its diffuse ray visibility is off, which the warnings say.
+    A world without nodes is its viewport colour (Cycles makes a Background of it); other world shaders
+    than a plain Background colour are noted, and their viewport colour used.
     """
     if world is None:
-        return np.zeros(3)
+        return World(color=np.zeros(3), camera=True, lights=False)
     visibility = getattr(world, "cycles_visibility", None)
     color = np.array(world.color[:3], np.float64)
     tree = _node_tree(world)
@@ -341,19 +371,20 @@ def export_world(world, warnings: list) -> np.ndarray:
         output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output
                        and n.target in {"ALL", "CYCLES"}), None)
         if output is None or not output.inputs["Surface"].is_linked:
-            return np.zeros(3)
+            return World(color=np.zeros(3), camera=True, lights=False)
         node = output.inputs["Surface"].links[0].from_node
         if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
                 and not node.inputs["Strength"].is_linked:
             color = np.array(node.inputs["Color"].default_value[:3], np.float64) * float(node.inputs["Strength"].default_value)
         else:
             warnings.append("the world shader is not a plain Background colour; Primer uses the world's viewport colour")
-    if visibility is not None and not visibility.camera:
-        return np.zeros(3)
-    if color.max() > 0 and (visibility is None or visibility.diffuse):
-        warnings.append("the world lights surfaces in Cycles but not in Primer, which shows it only behind the "
-                        "scene (World > Settings > Ray Visibility: turn Diffuse off to compare like with like)")
-    return color
+    camera = visibility is None or bool(visibility.camera)
+    diffuse = visibility is None or bool(visibility.diffuse)
+    glossy = visibility is None or bool(visibility.glossy)
+    if diffuse != glossy:
+        warnings.append("the world's Diffuse and Glossy ray visibility differ; Primer lets it light every surface "
+                        "when Diffuse is on and none when it is off")
+    return World(color=color, camera=camera, lights=diffuse)
 
 
 def frame_size(render) -> tuple:
@@ -470,7 +501,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     camera = export_camera(camera_eval)
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
-    core = core_scene.Scene(camera=camera, world_color=export_world(scene.world, warnings))
+    world = export_world(scene.world, warnings)
+    core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world)
     materials = MaterialTable()
     mesh_index: dict = {}
     ray_visibility_noted: set = set()

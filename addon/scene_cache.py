@@ -177,7 +177,7 @@ class SceneCache:
         self.placements: dict = {}
         self.material_table = _MaterialTable()
         self.lights: list = []
-        self.world_color = np.zeros(3)
+        self.world = None                  # core World (its colour, visibility)
         self.totals = SyncReport()         # summed over all syncs
         self.instancing = "auto"           # RenderSettings.instancing the BVH was built with
 
@@ -194,7 +194,7 @@ class SceneCache:
         walk = first or changes.scene or changes.lights or bool(changes.objects)
         # 2. World and materials: colours only, no BVH.
         if first or changes.world:
-            self.world_color = export.export_world(depsgraph.scene_eval.world, self.warnings)
+            self.world = export.export_world(depsgraph.scene_eval.world, self.warnings)
             report.world = True
         if changes.materials and not first:
             report.materials = self.material_table.refresh(depsgraph, self.warnings)
@@ -300,8 +300,10 @@ class SceneCache:
 
     def _core_scene(self) -> core_scene.Scene:
         """Return a new core Scene from the cache (meshes shared, lists fresh, so running renders keep theirs)."""
-        scene = core_scene.Scene(camera=core_scene.Camera(), world_color=np.array(self.world_color),
-                                 lights=list(self.lights), materials=list(self.material_table.materials))
+        world = self.world
+        scene = core_scene.Scene(camera=core_scene.Camera(),
+                                 world_color=np.array(world.color if world is not None and world.camera else np.zeros(3)),
+                                 world=world, lights=list(self.lights), materials=list(self.material_table.materials))
         mesh_index: dict = {}
         for placement in self.placements.values():
             entry = self.meshes[placement.mesh_key]

@@ -129,7 +129,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     ctx.extra["camera_lamps"] = [index for index, light in enumerate(lights)
                                  if light.hittable and light.kind in (0, 1, 3) and light.camera]
     world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0)
-    ctx.extra["bsdf_rays"] = bool(ctx.extra["hittable"]) or world_lights
+    ctx.extra["emissive"] = bool(materials.emissive.any())
+    ctx.extra["bsdf_rays"] = bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
     background = np.asarray(world.color, np.float64)[:3] if world.camera else np.zeros(3)
     ctx.extra["world"] = background
     ctx.extra["camera"] = scene.camera.moved(geometry.origin)      # its rays come out camera-relative

@@ -12,6 +12,8 @@ Settings that 4.2 lacks (light exposure, temperature) are skipped there.
 The scenes, one idea each:
     light_point, light_point_soft, light_spot, light_sun     one light of each type, Cycles' units
     light_area, light_area_spread                             area lights: rectangle (mirrored), ellipse
+    light_emissive                                            an emissive mesh (a ceiling lamp) lights a room
+    world_light                                               a sky-blue world lights the stage, with a sun
     shading_flat_smooth                                       the shadow terminator of a 12-segment sphere
     shading_visibility                                        an open smooth sheet: light leaks, negative N.L
     modifiers_instances                                       modifiers, instancing, negative scale, curves
@@ -25,7 +27,7 @@ leak through the open sheet, like Primer's Visibility Normal: Shading), because:
 - materials are pure Lambert: a Diffuse BSDF with roughness 0, or a Principled BSDF with
   Specular IOR Level 0 (Cycles then adds no specular lobe);
 - the world is a plain Background colour seen by camera rays only (its diffuse, glossy,
-  transmission and scatter ray visibility are off), which is how Primer treats the world;
+  transmission and scatter ray visibility are off), except in world_light, where it lights the stage;
 - lights stay invisible to the camera (Blender's default for light objects);
 - Cycles' per-object shadow-terminator geometry offset is 0, matching Primer's default
   (terminator fix off); see `shading_flat_smooth`;
@@ -89,8 +91,9 @@ def new_file(name: str, width: int = 160, height: int = 120, light_samples: int 
     return scene
 
 
-def set_world(scene, color, strength: float = 1.0):
-    """A plain Background colour that only camera rays see: Primer's world (it lights nothing)."""
+def set_world(scene, color, strength: float = 1.0, lights: bool = False):
+    """A plain Background colour; camera rays see it, and with `lights` it lights surfaces too (as Cycles'
+    world does by default); without, only camera rays see it."""
     bpy = _bpy()
     world = bpy.data.worlds.new("World")
     scene.world = world
@@ -102,8 +105,29 @@ def set_world(scene, color, strength: float = 1.0):
     world.color = color
     visibility = world.cycles_visibility
     visibility.camera = True
-    visibility.diffuse = visibility.glossy = visibility.transmission = visibility.scatter = False
+    visibility.diffuse = visibility.glossy = visibility.transmission = visibility.scatter = lights
     return world
+
+
+def emission(name: str, color, strength: float, sampling: str = "AUTO"):
+    """A material that emits colour x strength (radiance, W / (m^2 sr)) from both sides, and reflects nothing."""
+    bpy = _bpy()
+    material = bpy.data.materials.new(name)
+    material.diffuse_color = (*color, 1.0)
+    if material.node_tree is None:
+        material.use_nodes = True
+    tree = material.node_tree
+    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    for node in list(tree.nodes):
+        if node.name != output.name:
+            tree.nodes.remove(node)
+    node = tree.nodes.new("ShaderNodeEmission")
+    node.inputs["Color"].default_value = (*color, 1.0)
+    node.inputs["Strength"].default_value = strength
+    tree.links.new(node.outputs["Emission"], output.inputs["Surface"])
+    if hasattr(material, "cycles"):
+        material.cycles.emission_sampling = sampling
+    return material
 
 
 def diffuse(name: str, color, principled: bool = False):
@@ -503,6 +527,42 @@ def _instance_on_points(obj, material):
     return modifier
 
 
+def light_emissive():
+    """A room lit by its ceiling: an emissive quad (a mesh, not a lamp) over a floor, walls and the stage.
+
+    Emissive meshes are lights: sampled by power, found by BSDF rays too, the two weighed by MIS."""
+    new_file("light_emissive", light_samples=4, world=(0.0, 0.0, 0.0))
+    grey = stage()
+    white = diffuse("White Wall", (0.75, 0.75, 0.72))
+    add_primitive("plane", white, False, "Back Wall", location=(0.0, 2.2, 2.0),
+                  rotation=(math.radians(90), 0, 0), size=6.0)
+    add_primitive("plane", diffuse("Red Wall", (0.7, 0.12, 0.1)), False, "Left Wall", location=(-2.8, 0.0, 2.0),
+                  rotation=(0, math.radians(90), 0), size=6.0)
+    lamp = emission("Ceiling Lamp", (1.0, 0.92, 0.8), 12.0, sampling="FRONT")
+    add_primitive("plane", lamp, False, "Ceiling Lamp", location=(0.0, 0.2, 3.4), rotation=(math.radians(180), 0, 0),
+                  size=1.4)
+    del grey
+    stage_camera()
+
+
+def world_light():
+    """The stage under a sky-blue world that lights it (Ray Visibility > Diffuse on), plus a low sun.
+
+    A constant world is found by BSDF-sampled rays, as in Cycles: a Lambert plane of albedo rho under a
+    world of radiance L shows rho L."""
+    new_file("world_light", light_samples=2)
+    set_world(bpy_scene(), (0.35, 0.45, 0.6), lights=True)
+    stage()
+    stage_camera()
+    add_light("SUN", "Sun", rotation=sun_rotation(25.0, -40.0), energy=1.5, angle=math.radians(3.0),
+              color=(1.0, 0.9, 0.75))
+
+
+def bpy_scene():
+    """The current scene."""
+    return _bpy().context.scene
+
+
 def camera_ortho():
     """An orthographic camera with shift and a vertical sensor fit on a wide image, under a disk light."""
     new_file("camera_ortho", 160, 96, light_samples=8)
@@ -553,6 +613,8 @@ SCENES = {
     "shading_flat_smooth": shading_flat_smooth,
     "shading_visibility": shading_visibility,
     "modifiers_instances": modifiers_instances,
+    "light_emissive": light_emissive,
+    "world_light": world_light,
     "camera_ortho": camera_ortho,
     "camera_persp_shift": camera_persp_shift,
     "camera_fisheye_equidistant": camera_fisheye_equidistant,

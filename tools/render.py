@@ -44,7 +44,8 @@ def load_primer(name: str = "primer"):
 
 
 def configure_cycles_reference(scene, samples: int) -> None:
-    """Set Cycles up as Primer's reference: direct light only, 1-pixel box filter, no denoising, CPU."""
+    """Set Cycles up as Primer's reference: direct light only, 1-pixel box filter, no denoising, no
+    clamping, no Filter Glossy, CPU."""
     scene.render.engine = "CYCLES"
     cycles = scene.cycles
     cycles.device = "CPU"
@@ -57,6 +58,10 @@ def configure_cycles_reference(scene, samples: int) -> None:
         setattr(cycles, bounce, 0)
     cycles.pixel_filter_type = "BOX"
     cycles.filter_width = 1.0
+    # No bias: Filter Glossy and sample clamping (on by default in Cycles) are switched off.
+    cycles.blur_glossy = 0.0
+    cycles.sample_clamp_direct = 0.0
+    cycles.sample_clamp_indirect = 0.0
 
 
 def configure_output(scene, path: str) -> None:

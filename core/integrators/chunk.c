@@ -19,6 +19,7 @@ typedef struct {
     double integrator;                           /* INTEGRATOR_* */
     double sampling;                             /* SAMPLE_*: how lights with extent are found */
     double bsdf_rays;                            /* 1: one BSDF-sampled ray per hit finds lights with extent */
+    double emissive;                             /* 1: some material emits */
     double transparent;                          /* 1: the film is transparent (the world is not drawn) */
     double width, height, seed;
     double background[4];                        /* RGBA of a camera ray that misses */
@@ -92,7 +93,7 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, uint64_t *embr
     DirectSettings ds = {params->shadows, params->lights, (int64_t)params->light_count, params->light_context,
                          (Occluded8)params->occluded8, (Intersect8)params->intersect8, params->scene,
                          params->geometry, params->materials, (int)params->sampling == SAMPLE_MIS && params->bsdf_rays != 0.0,
-                         (int)params->sampling, params->bsdf_rays != 0.0, params->seed};
+                         (int)params->sampling, params->bsdf_rays != 0.0, params->emissive != 0.0, params->seed};
     switch ((int)params->integrator) {
     default: {
         int64_t rays = direct_light(H, &ds, embree);

@@ -225,6 +225,7 @@ typedef struct {
     int mis;                    /* 1: weigh light samples against BSDF samples */
     int sampling;               /* SAMPLE_* */
     int bsdf_rays;              /* 1: trace one BSDF-sampled ray per hit */
+    int emissive;               /* 1: some material emits (BSDF rays add what they hit emits) */
     double seed;
 } DirectSettings;
 
@@ -339,15 +340,16 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
             }
             /* d. An emissive surface the ray hits, weighed against the emitters' own samples. */
-            if (hit && emitters_index >= 0) {
+            if (hit && ds->emissive) {
                 int64_t geometry = (int64_t)packet.hit.geomID[k], prim = (int64_t)packet.hit.primID[k];
                 int64_t instance = instance_of(&packet.hit, k);
                 Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
                 hit_triangle(ds->geometry, geometry, prim, instance, 0, &tri);
                 const double *emitted = ds->materials[tri.material].emission;
-                int64_t index = emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance));
+                int64_t index = emitters_index >= 0
+                    ? emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance)) : -1;
                 double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, O, D, t_limit) : 0.0;
-                double n_l = ds->lights[emitters_index].samples;
+                double n_l = emitters_index >= 0 ? ds->lights[emitters_index].samples : 1.0;
                 double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
                 for (int c = 0; c < 3; c++) light_L[c] += emitted[c] * w;
             }

@@ -189,17 +189,18 @@ class DirectLighting(Integrator):
         # b. An emissive surface the ray hits: its emission, weighed against the emitters' own samples.
         struck = np.flatnonzero(hits.hit)
         emitters = ctx.extra.get("emitters")
-        if len(struck) and emitters is not None:
+        if len(struck) and ctx.extra.get("emissive", False):
             where = surface_at_hits(ctx.geometry, hits.prim[struck], hits.u[struck], hits.v[struck], O[struck],
                                     D[struck], hits.t[struck])
             emitted = ctx.materials.shade(where.material, where.N, -D[struck]).emission
-            index = emitters.index_of_prim(hits.prim[struck])
-            pdf_l = np.zeros(len(struck))
-            known = index >= 0
-            if known.any():
-                pdf_l[known] = emitters.pdf_of_hits(O[struck][known], index[known], D[struck][known],
-                                                    hits.t[struck][known])
-            n_l = light_count(ctx, emitters)
+            pdf_l, n_l = np.zeros(len(struck)), 1
+            if emitters is not None:
+                index = emitters.index_of_prim(hits.prim[struck])
+                known = index >= 0
+                if known.any():
+                    pdf_l[known] = emitters.pdf_of_hits(O[struck][known], index[known], D[struck][known],
+                                                        hits.t[struck][known])
+                n_l = light_count(ctx, emitters)
             w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
             light_L[struck] += emitted * w[:, None]
         # c. The world, where the ray escapes: a constant world with weight 1, an image by MIS.

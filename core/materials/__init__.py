@@ -37,12 +37,28 @@ class Material:
     base_color: (3,) float64 in 0..1, the BSDF closure's weight (the Lambert albedo, the mirror's tint)
     bsdf:       a name in BSDF_BY_NAME ("DIFFUSE" or "MIRROR")
     emission:   (3,) float64 emitted radiance L_e = colour x strength (W / (m^2 sr)), from both sides
+    emission_sampling: from which sides light samples find its triangles (Blender's Material > Settings >
+                Emission Sampling): "NONE", "FRONT", "BACK", "FRONT_BACK", or "AUTO" (both sides when the
+                emission exceeds 0.5 in some channel, as Cycles decides; else none: BSDF rays still find it)
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
     name: str = "Material"
     bsdf: str = "DIFFUSE"
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    emission_sampling: str = "AUTO"
+
+
+# The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).
+EMISSION_SIDES = {"NONE": 0, "FRONT": 1, "BACK": 2, "FRONT_BACK": 3}
+
+
+def emission_sides(method: str, estimate: np.ndarray) -> int:
+    """The sides of Emission Sampling `method` for an emission estimate (3,): AUTO is both sides when some
+    channel exceeds 0.5 (Cycles' Shader::estimate_emission), else none."""
+    if method == "AUTO":
+        return 3 if float(np.max(np.abs(estimate))) > 0.5 else 0
+    return EMISSION_SIDES.get(method, 3)
 
 
 @dataclass
@@ -50,7 +66,7 @@ class ConstantShader:
     """A material whose closures are the same at every hit (only their normal follows the hit).
 
     kinds (K,) int32; weights (K, 3); sample_weights (K,); params (K, PARAMS); emission (3,);
-    transparency (3,)
+    transparency (3,); emission_sides: FRONT 1 | BACK 2 from which light samples find its triangles
     """
 
     kinds: np.ndarray
@@ -59,6 +75,7 @@ class ConstantShader:
     params: np.ndarray
     emission: np.ndarray
     transparency: np.ndarray
+    emission_sides: int = 3
 
     @classmethod
     def of(cls, material: Material) -> "ConstantShader":
@@ -68,8 +85,10 @@ class ConstantShader:
                              f"Primer knows {sorted(BSDF_BY_NAME)}")
         color = np.clip(np.nan_to_num(np.asarray(material.base_color, np.float64)[:3]), 0.0, 1.0)
         emission = np.nan_to_num(np.asarray(material.emission, np.float64)[:3], posinf=0.0, neginf=0.0)
+        emission = np.maximum(emission, 0.0)
         return cls(np.array([BSDF_BY_NAME[material.bsdf].kind], np.int32), color[None, :],
-                   np.array([abs(color.mean())]), np.zeros((1, PARAMS)), np.maximum(emission, 0.0), np.zeros(3))
+                   np.array([abs(color.mean())]), np.zeros((1, PARAMS)), emission, np.zeros(3),
+                   emission_sides(material.emission_sampling, emission))
 
     def shade(self, N: np.ndarray) -> ShaderResult:
         """The ShaderResult at hits with shading normals N (n, 3)."""
