@@ -445,6 +445,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         distance_attenuation=bool(props.distance_attenuation),
         clamp_n_dot_l=bool(props.clamp_n_dot_l),
         shadow_rays_for_backfacing=bool(props.shadow_rays_for_backfacing),
+        light_sampling=props.light_sampling.lower(),
         adaptive=bool(props.use_adaptive_sampling),
         adaptive_threshold=float(props.adaptive_threshold),
         adaptive_min_samples=int(props.adaptive_min_samples),

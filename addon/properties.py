@@ -115,6 +115,16 @@ class PrimerSettings(bpy.types.PropertyGroup):
     clamp_n_dot_l: BoolProperty(name="Clamp N.L", default=True,
                                 description="Below the horizon N.L turns negative; clamp it at 0, or lights "
                                             "behind the normal subtract light")
+    light_sampling: EnumProperty(
+        name="Light Sampling",
+        items=(("MIS", "Multiple Importance", "Light samples and BSDF-sampled rays, each weighed by how well it "
+                                              "finds each light (the power heuristic, as Cycles)"),
+               ("LIGHT", "Light Samples Only", "Only sample the lights: noisy where a glossy surface reflects a "
+                                               "large light"),
+               ("BSDF", "BSDF Samples Only", "Only follow directions sampled from the material: noisy for small "
+                                             "lights; lights without extent keep their light samples")),
+        default="MIS",
+        description="How lights with extent (area lights, round lights, emissive meshes, the world) are found")
     shadow_rays_for_backfacing: BoolProperty(name="Shadow Rays for Back-Facing Lights", default=False,
                                              description="A light behind the surface is invisible anyway: casting "
                                                          "its shadow ray costs rays and changes nothing")

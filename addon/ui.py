@@ -109,6 +109,7 @@ class RENDER_PT_primer_lecture(PrimerPanel, bpy.types.Panel):
         col = layout.column(heading="Transport")
         col.prop(props, "distance_attenuation")
         col.prop(props, "clamp_n_dot_l")
+        col.prop(props, "light_sampling")
 
 
 class DATA_PT_primer_light(PrimerPanel, bpy.types.Panel):
