@@ -20,6 +20,7 @@ typedef struct {
     double sampling;                             /* SAMPLE_*: how lights with extent are found */
     double bsdf_rays;                            /* 1: one BSDF-sampled ray per hit finds lights with extent */
     double emissive;                             /* 1: some material emits */
+    double everywhere;                           /* 1: every hit traces a BSDF ray, else glossy hits only */
     double transparent;                          /* 1: the film is transparent (the world is not drawn) */
     double width, height, seed;
     double background[4];                        /* RGBA of a camera ray that misses */
@@ -93,9 +94,11 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, uint64_t *embr
     DirectSettings ds = {params->shadows, params->lights, (int64_t)params->light_count, params->light_context,
                          (Occluded8)params->occluded8, (Intersect8)params->intersect8, params->scene,
                          params->geometry, params->materials, (int)params->sampling == SAMPLE_MIS && params->bsdf_rays != 0.0,
-                         (int)params->sampling, params->bsdf_rays != 0.0, params->emissive != 0.0, params->seed};
+                         (int)params->sampling, params->bsdf_rays != 0.0, params->emissive != 0.0,
+                         params->everywhere != 0.0, params->seed};
     switch ((int)params->integrator) {
     default: {
+        choose_bsdf_rays(H, &ds);
         int64_t rays = direct_light(H, &ds, embree);
         if (ds.bsdf_rays && ds.sampling != SAMPLE_LIGHTS) embree[1] += bsdf_rays(H, &ds);
         return rays;
@@ -139,6 +142,13 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
         if (out->squares != NULL) out->squares[2 * k] = out->squares[2 * k + 1] = 0.0;
         out->hits[k] = 0;
     }
+    /* Whether camera rays can see more than the hit and a constant background: lamps, an image world. */
+    int sees_more = params->light_context->world->image != NULL && params->light_context->world->camera != 0.0;
+    for (int64_t l = 0; l < (int64_t)params->light_count; l++) {
+        const LightRecord *light = params->lights + l;
+        sees_more |= light->hittable != 0.0 && light->camera != 0.0 && (int)light->kind < LIGHT_EMITTERS
+                     && (int)light->kind != LIGHT_SUN;
+    }
     for (int64_t start = 0; start < total; start += BLOCK) {
         /* 1. The block's camera rays (camera.c). */
         camera_samples(&b, params->camera, stream, width, height, pixels, first, spp, start, total);
@@ -158,9 +168,11 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
             if (j == spp) { j = 0; k++; }
             double s[4] = {0.0, 0.0, 0.0, 0.0};
             int is_hit = h < H.m && H.lane[h] == lane;
-            if (b.valid[lane]) {
+            if (b.valid[lane] && sees_more) {
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
                 camera_sees(params, O, D, H.t[lane], is_hit, s);
+            } else if (b.valid[lane] && !is_hit) {
+                for (int c = 0; c < 3; c++) s[c] = params->background[c];
             }
             if (is_hit) {
                 for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];

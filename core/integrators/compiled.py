@@ -43,7 +43,7 @@ class ChunkParams(ctypes.Structure):
     _fields_ = ([(name, ctypes.c_void_p) for name in ("camera", "geometry", "lights", "materials", "shadows",
                                                       "intersect8", "occluded8", "scene", "light_context")]
                 + [(name, ctypes.c_double) for name in ("light_count", "integrator", "sampling", "bsdf_rays",
-                                                        "emissive", "transparent", "width", "height", "seed")]
+                                                        "emissive", "everywhere", "transparent", "width", "height", "seed")]
                 + [("background", ctypes.c_double * 4), ("luminance", ctypes.c_double * 3),
                    ("want_squares", ctypes.c_double)])
     _size_function = "primer_chunk_params_size"
@@ -129,6 +129,7 @@ class Compiled:
         params.sampling = float(("mis", "light", "bsdf").index(s.light_sampling))
         params.bsdf_rays = 1.0 if ctx.extra.get("bsdf_rays") else 0.0
         params.emissive = 1.0 if ctx.extra.get("emissive") else 0.0
+        params.everywhere = 1.0 if ctx.extra.get("bsdf_everywhere") else 0.0
         params.transparent = 1.0 if s.transparent_background else 0.0
         params.width, params.height = float(s.width), float(s.height)
         params.background[:] = [float(x) for x in background]

@@ -16,6 +16,9 @@ typedef struct {
     double wo[3 * BLOCK];                        /* towards the viewer */
     double L[3 * BLOCK];                         /* the radiance it sends towards the viewer */
     double t[BLOCK];                             /* each camera lane's ray length: its hit, or its t_max */
+    uint8_t traced[BLOCK];                       /* 1: the hit traces a BSDF ray (direct.wants_bsdf_ray) */
+    uint8_t lambert[BLOCK];                      /* 1: its material is one Lambert closure on the shading normal */
+    double albedo[3 * BLOCK];                    /* and that closure's weight */
 } BlockHits;
 
 /* Light samples of one light, BLOCK at a time (structure of arrays, see sample_lanes). */
@@ -26,6 +29,7 @@ typedef struct {
     double u[2][BLOCK];                          /* its point in the unit square */
     double P[3][BLOCK], N[3][BLOCK], Ng[3][BLOCK], lifted[3][BLOCK];
     double offset[BLOCK], smooth[BLOCK];
+    double albedo[3][BLOCK], lambert[BLOCK];     /* the hit's one Lambert closure, where it has just that */
     double u2[BLOCK];                            /* a third number (an emitter's pick) */
     double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK], color[3][BLOCK], pdf[BLOCK];
     double origin[3][BLOCK], D[3][BLOCK], t[BLOCK], weight[BLOCK];
@@ -54,6 +58,8 @@ SIMD_CLONES NOINLINE static void gather_block(SampleBlock *b, const BlockHits *H
         }
         b->offset[k] = s->offset;
         b->smooth[k] = s->smooth ? 1.0 : 0.0;
+        b->lambert[k] = H->lambert[i] ? 1.0 : 0.0;
+        for (int c = 0; c < 3; c++) b->albedo[c][k] = H->albedo[3 * i + c];
         if (++j == count) { j = 0; i++; }
     }
 }
@@ -64,7 +70,6 @@ INLINE void store_sample(SampleBlock *b, int64_t k, const LightSample *ls)
     for (int c = 0; c < 3; c++) {
         b->L[c][k] = ls->L[c];
         b->position[c][k] = ls->position[c];
-        b->color[c][k] = ls->color[c];
     }
     b->distance[k] = ls->distance;
     b->strength[k] = ls->strength;
@@ -83,7 +88,6 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
             LightSample ls;
             sample_area(light, P, b->u[0][k] - 0.5, b->u[1][k] - 0.5, &ls);
-            for (int c = 0; c < 3; c++) ls.color[c] = light->color[c];
             store_sample(b, k, &ls);
         }
     } else if (kind == LIGHT_POINT && light->delta != 0.0) {
@@ -91,7 +95,6 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
             LightSample ls;
             sample_point(light, P, &ls);
-            for (int c = 0; c < 3; c++) ls.color[c] = light->color[c];
             store_sample(b, k, &ls);
         }
     } else {
@@ -100,8 +103,13 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             LightSample ls;
             sample_light(light, ctx, P, u, &ls);
             store_sample(b, k, &ls);
+            for (int c = 0; c < 3; c++) b->color[c][k] = ls.color[c];
         }
+        return;
     }
+    /* (A lamp's colour is the same for all its samples: filled apart, so the loops above stay SIMD.) */
+    for (int c = 0; c < 3; c++)
+        for (int64_t k = 0; k < b->n; k++) b->color[c][k] = light->color[c];
 }
 
 /* Step 2: the lecture's two tests, then the shadow ray (shadows.c) and the sample's scalar weight
@@ -141,21 +149,18 @@ SIMD_CLONES NOINLINE static void ray_block(SampleBlock *restrict b, const Shadow
 
 /* Step 3: f cos of each lane's hit's closures for the light's direction (the BSDFs' table); blocks whose
  * hits are all one Lambert closure in a loop of their own (SIMD lanes), the same numbers. */
-static void bsdf_block(SampleBlock *restrict b, const BlockHits *restrict H)
+static void bsdf_block(SampleBlock *restrict b, const BlockHits *restrict H, int want_pdf)
 {
     int lambert = 1;
-    for (int64_t k = 0; k < b->n; k++) {
-        const ShaderResult *sd = H->sd + b->hit[k];
-        lambert &= (sd->n == 1) & (sd->c[0].kind == BSDF_LAMBERT);
-    }
+    for (int64_t k = 0; k < b->n; k++) lambert &= b->lambert[k] != 0.0;
     if (lambert) {
         for (int64_t k = 0; k < b->n; k++) {
-            const Closure *c = H->sd[b->hit[k]].c;
-            double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
-            double e = at_least(dot3(c->N, L), 0.0) * (1.0 / PI);
-            for (int j = 0; j < 3; j++) b->f[j][k] = c->weight[j] * e;
-            b->pdf_bsdf[k] = c->sample_weight > 0.0 ? c->sample_weight * e / c->sample_weight : 0.0;
+            double e = at_least(b->N[0][k] * b->L[0][k] + b->N[1][k] * b->L[1][k] + b->N[2][k] * b->L[2][k], 0.0)
+                       * (1.0 / PI);
+            for (int j = 0; j < 3; j++) b->f[j][k] = b->albedo[j][k] * e;
+            b->pdf_bsdf[k] = e;          /* (one closure: its own pdf) */
         }
+        (void)want_pdf;
         return;
     }
     for (int64_t k = 0; k < b->n; k++) {
@@ -226,11 +231,28 @@ typedef struct {
     int sampling;               /* SAMPLE_* */
     int bsdf_rays;              /* 1: trace one BSDF-sampled ray per hit */
     int emissive;               /* 1: some material emits (BSDF rays add what they hit emits) */
+    int everywhere;             /* 1: every hit traces a BSDF ray (emitters or the world light the scene) */
     double seed;
 } DirectSettings;
 
 /* Direct light at the block's hits, added to H->L: every light's samples, BLOCK at a time. Returns the
  * shadow rays traced; embree_ticks[0] += the time inside Embree's occlusion queries. */
+/* direct.wants_bsdf_ray: whether each hit traces a BSDF ray, into H->traced. */
+INLINE void choose_bsdf_rays(BlockHits *H, const DirectSettings *ds)
+{
+    for (int64_t h = 0; h < H->m; h++) {
+        const ShaderResult *sd = H->sd + h;
+        int glossy = 0;
+        for (int k = 0; k < sd->n; k++) glossy |= sd->c[k].kind != BSDF_LAMBERT;
+        H->traced[h] = (uint8_t)(ds->bsdf_rays && (ds->everywhere || glossy));
+        /* The common material, one Lambert closure on the shading normal, as columns bsdf_block reads. */
+        const Closure *c = sd->c;
+        H->lambert[h] = (uint8_t)((sd->n == 1) & (c->kind == BSDF_LAMBERT) & (c->sample_weight > 0.0)
+                                  & (c->N[0] == H->s[h].N[0]) & (c->N[1] == H->s[h].N[1]) & (c->N[2] == H->s[h].N[2]));
+        for (int j = 0; j < 3; j++) H->albedo[3 * h + j] = c->weight[j];
+    }
+}
+
 INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *embree_ticks)
 {
     const ShadowSettings *settings = ds->shadows;
@@ -258,10 +280,11 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
             }
             light_block(&b, light, ds->context);
             ray_block(&b, settings, lift, (double)count);
-            bsdf_block(&b, H);
+            bsdf_block(&b, H, weighed);
             if (weighed)
                 for (int64_t k = 0; k < b.n; k++)
-                    b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
+                    if (H->traced[b.hit[k]])
+                        b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
             uint64_t start = ticks();
             rays += occlude_block(&b, ds->occluded, ds->scene, H->L);
             embree += ticks() - start;
@@ -305,6 +328,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             sample_2d(stream, H->pixel[h], H->sample[h], u);
             sample_2d(pick_stream, H->pixel[h], H->sample[h], pick);
             ClosureSample *s = sampled + lanes;
+            if (!H->traced[h]) continue;
             shader_sample(H->sd + h, H->wo + 3 * h, u, pick[0], s);
             if (!(s->pdf > 0.0)) continue;
             const Surface *sf = H->s + h;

@@ -96,7 +96,10 @@ class DirectLighting(Integrator):
         L_out = shader.emission.copy()
         shadow_rays = 0
         offsets = shadows.error_bound(surface.I, surface.vertices) if s.shadow_method == "robust" else None
-        mis = s.light_sampling == "mis" and ctx.extra.get("bsdf_rays", False)
+        # Which hits trace a BSDF ray (every hit where emitters or the world light the scene, glossy hits
+        # where only lamps with extent do) and so weigh their light samples by MIS.
+        traced = wants_bsdf_ray(ctx, shader)
+        mis = (traced & (s.light_sampling == "mis")) if ctx.extra.get("bsdf_rays", False) else np.zeros(m, bool)
         for index, light in enumerate(ctx.lights):
             if s.light_sampling == "bsdf" and not light.delta and index in ctx.extra.get("hittable", ()):
                 continue                      # found by BSDF rays alone
@@ -139,30 +142,31 @@ class DirectLighting(Integrator):
                                                            signed_cosine=not s.clamp_n_dot_l)
                 weight = ls.strength[rows] * (1.0 / count)
                 mis_weight = np.ones(len(rows))
-                if mis and not light.delta and index in ctx.extra["hittable"]:
-                    mis_weight = power_heuristic(count * ls.pdf[rows], pdf_bsdf)
+                if not light.delta and index in ctx.extra["hittable"] and mis[rows].any():
+                    mis_weight = np.where(mis[rows], power_heuristic(count * ls.pdf[rows], pdf_bsdf), 1.0)
                     weight = weight * mis_weight
                 color = ls.color if ls.color.ndim == 1 else ls.color[rows]
                 value = (weight[:, None] * color) * f_cos * seen[:, None]
                 recorder.contribution(index, rows, value, mis_weight)
                 L_out[rows] += value
         # 2. The light one BSDF-sampled direction finds (lamps with extent, emitters, the world).
-        if ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light":
-            L_out += self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, recorder)
+        if ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light" and traced.any():
+            L_out += self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder)
         return L_out, shadow_rays
 
-    def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: bool,
-                 recorder: Recorder) -> np.ndarray:
+    def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray,
+                 traced: np.ndarray, recorder: Recorder) -> np.ndarray:
         """Return the light (m, 3) one direction sampled from each hit's closures finds: a lamp with
         extent in front of what the ray hits, an emissive surface it hits, or the world it escapes to,
-        each weighed by MIS against that light's own samples (weight 1 for a constant world)."""
+        each weighed by MIS against that light's own samples (weight 1 for a constant world).
+        mis, traced: (m,) bool which hits weigh by MIS, which trace a ray at all."""
         s = ctx.settings
         m = len(surface.I)
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION)
         pick = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + 1)[:, 0]
         bs = materials_.sample_closures(shader.closures, wo, u, pick)
         found = np.zeros((m, 3))
-        go = np.flatnonzero(bs.pdf > 0.0)
+        go = np.flatnonzero((bs.pdf > 0.0) & traced)
         if len(go) == 0:
             recorder.bsdf_sample(bs.wi, bs.pdf, found)
             return found
@@ -173,7 +177,7 @@ class DirectLighting(Integrator):
         D = bs.wi[go]
         hits = ctx.geometry.tracer.intersect(O, D, np.full(len(go), np.inf))
         pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
-        use_mis = mis & ~bs.delta[go]
+        use_mis = mis[go] & ~bs.delta[go]
         light_L = np.zeros((len(go), 3))
         t_limit = np.where(hits.hit, hits.t, np.inf)
         # a. Lamps with extent in front of the hit (they never block, as in Cycles).
@@ -236,6 +240,14 @@ class DirectLighting(Integrator):
 
 # The sampling dimensions of the BSDF-sampled direction (2D) and of the closure it picks (core/sampling).
 BSDF_DIMENSION = 2
+
+
+def wants_bsdf_ray(ctx: Context, shader) -> np.ndarray:
+    """Which hits trace a BSDF-sampled ray: all where emitters or the world light the scene, else those
+    with a closure other than Lambert (a glossy lobe that light samples of a large lamp find poorly)."""
+    kind = shader.closures.kind
+    glossy = ((kind >= 0) & (kind != materials_.Lambert.kind)).any(axis=1)
+    return glossy | bool(ctx.extra.get("bsdf_everywhere", False))
 
 
 def light_count(ctx: Context, light) -> int:

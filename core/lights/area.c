@@ -25,10 +25,10 @@ INLINE void sample_area(const LightRecord *light, const double *P, double x, dou
         out->position[c] = x * light->axis_u[c] + y * light->axis_v[c] + light->position[c];
     double d = direction_to(P, out->position, out->L);
     double cos_light = -dot3(out->L, light->direction);
-    int facing = (cos_light > 0.0) & (d > 0.0);
     double geometry = cos_light * light->area / (d * d);
     double pdf = d * d / (cos_light * light->area);
-    geometry = facing ? geometry : 0.0;
+    geometry = (cos_light > 0.0) & (d > 0.0) ? geometry : 0.0;
+    pdf = (cos_light > 0.0) & (d > 0.0) ? pdf : 0.0;
     if (light->spread_narrow != 0.0) {
         double tan_theta = sqrt(at_least(1.0 - cos_light * cos_light, 0.0)) / cos_light;
         double narrowed = at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
@@ -36,7 +36,7 @@ INLINE void sample_area(const LightRecord *light, const double *P, double x, dou
     }
     out->distance = d;
     out->strength = light->radiance * geometry;
-    out->pdf = facing ? pdf : 0.0;
+    out->pdf = pdf;
 }
 
 /* AreaLight.sample for the unit-square sample u. */
@@ -53,8 +53,10 @@ INLINE int area_light_hit(const LightRecord *light, const double *O, const doubl
 {
     const double *n = light->direction, *U = light->axis_u, *V = light->axis_v;
     double cos_light = -dot3(D, n);
+    if (!(cos_light > 0.0)) return 0;                           /* the back, or along the plane */
     double to_center[3] = {light->position[0] - O[0], light->position[1] - O[1], light->position[2] - O[2]};
     double t = dot3(to_center, n) / -cos_light;
+    if (!((t > 0.0) & (t < t_max))) return 0;
     double X[3];
     for (int c = 0; c < 3; c++) X[c] = O[c] + t * D[c] - light->position[c];
     /* The point in the light's own coordinates: solve the 2 x 2 Gram system of its edges. */

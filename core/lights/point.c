@@ -27,6 +27,7 @@ INLINE int point_light_hit(const LightRecord *light, const double *O, const doub
     }
     double cos_max = sqrt(1.0 - sin2_max);
     double cos_to_center = dot3(D, axis), t;
+    if (!(cos_to_center >= cos_max)) return 0;                  /* outside the cone the light covers */
     if (light->soft_falloff != 0.0) {
         t = d / cos_to_center;
     } else {

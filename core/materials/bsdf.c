@@ -90,8 +90,9 @@ INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResul
         c->kind = (int)m->kind[k];
         c->sample_weight = m->sample_weight[k];
         for (int j = 0; j < 3; j++) { c->weight[j] = m->weight[k][j]; c->N[j] = N[j]; }
-        for (int j = 0; j < CLOSURE_PARAMS; j++) c->p[j] = m->p[k][j];
+        c->p = m->p[k];
     }
+    sd->storage = NULL;
     for (int j = 0; j < 3; j++) {
         sd->emission[j] = m->emission[j];
         sd->transparency[j] = m->transparency[j];
@@ -109,11 +110,12 @@ EXPORT void primer_bsdf(int64_t n, const int32_t *kind, const double *weight, co
     for (int64_t i = 0; i < n; i++) {
         ShaderResult sd;
         sd.n = 1;
+        sd.storage = NULL;
         Closure *c = sd.c;
         c->kind = kind[i];
         c->sample_weight = fabs((weight[3 * i] + weight[3 * i + 1] + weight[3 * i + 2]) / 3.0);
         for (int j = 0; j < 3; j++) { c->weight[j] = weight[3 * i + j]; c->N[j] = N[3 * i + j]; }
-        for (int j = 0; j < CLOSURE_PARAMS; j++) c->p[j] = params[CLOSURE_PARAMS * i + j];
+        c->p = params + CLOSURE_PARAMS * i;
         pdf[i] = shader_eval(&sd, wo + 3 * i, wi + 3 * i, f_cos + 3 * i);
         ClosureSample s;
         shader_sample(&sd, wo + 3 * i, u + 2 * i, 0.5, &s);

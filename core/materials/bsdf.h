@@ -9,22 +9,26 @@ enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1 };
 #define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
 #define CLOSURE_PARAMS 24       /* closures.PARAMS */
 
-/* One closure at a hit: a BSDF of the table, its weight, its sampling weight, its normal, its parameters. */
+/* One closure at a hit: a BSDF of the table, its weight, its sampling weight, its normal, and its
+ * CLOSURE_PARAMS parameters: a constant material's row (no copy per hit), or a row of the hit's own
+ * parameter storage where a shader computed them. */
 typedef struct {
     int kind;
     double weight[3];
     double sample_weight;
     double N[3];
-    double p[CLOSURE_PARAMS];
+    const double *p;
 } Closure;
 
-/* A material at one hit (closures.ShaderResult for one hit). */
+/* A material at one hit (closures.ShaderResult for one hit). storage: MAX_CLOSURES x CLOSURE_PARAMS
+ * doubles the hit's shader may write its closures' parameters into (NULL where none is needed). */
 typedef struct {
     int n;
     Closure c[MAX_CLOSURES];
     double emission[3];
     double transparency[3];
     double N[3];
+    double *storage;
 } ShaderResult;
 
 /* A direction sampled from one BSDF (base.BsdfSample for one hit). */
