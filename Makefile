@@ -35,7 +35,7 @@ $(VENV42)/.installed: requirements-bpy42.txt
 venv: $(VENV)/.installed
 venv42: $(VENV42)/.installed
 
-# Compile core/native/kernels.c for this machine (core/native/kernels.py loads it; without it Primer renders on numpy).
+# Compile core/native/primer.c for this machine (core/native/library.py loads it; without it Primer renders on its Python path).
 kernels: venv
 	$(PY) tools/build_kernels.py
 
@@ -65,7 +65,7 @@ $(VENV)/.bench-installed: $(VENV)/.installed requirements-bench.txt
 	touch $@
 
 # Primer against Cycles: speed against error, profile, scaling and the hard cases, written to
-# bench/REPORT.md and README's Benchmark section (about half an hour; BENCH_ARGS=--quick: a few minutes).
+# bench/REPORT.md and docs/performance.md's Benchmark section (about half an hour; BENCH_ARGS=--quick: a few minutes).
 BENCH_ARGS ?=
 bench: venv kernels $(VENV)/.bench-installed
 	$(PY) bench/run.py $(BENCH_ARGS)

@@ -8,9 +8,9 @@ Phases, in order (each Blender job in its own process, with empty Blender user f
   rays       Primer's rays per second against embreex's on the same rays
   scaling    time and peak memory against triangles, pixels, lights and instances (core alone)
   stability  the hard cases of tests/hard_cases.py with both shadow offsets
-Then bench/report.py writes bench/REPORT.md, the plots in docs/images/bench/ and README's
-"## Benchmark" section. --quick measures a little of everything in a few minutes and writes its
-report to bench/out/quick/ instead, leaving the committed report alone. Skipped phases keep their
+Then bench/report.py writes bench/REPORT.md, the plots in docs/images/bench/ and the "## Benchmark"
+section of docs/performance.md. --quick measures a little of everything in a few minutes and writes
+its report to bench/out/quick/ instead, leaving the committed report alone. Skipped phases keep their
 measurements from bench/results/results.json (the last full run).
 """
 from __future__ import annotations
@@ -195,7 +195,7 @@ def main(argv=None) -> int:
     import report
 
     folder = os.path.join(common.OUT, "quick") if args.quick else common.BENCH
-    path = report.build(results, folder, folder if args.quick else common.PLOTS, readme=not args.quick)
+    path = report.build(results, folder, folder if args.quick else common.PLOTS, docs=not args.quick)
     print_summary(results)
     print(f"\nreport: {os.path.relpath(path, common.ROOT)}  ({results['machine']['total_minutes']:.1f} minutes)")
     return 0
