@@ -16,6 +16,8 @@ import numpy as np
 from ..core import scene as core_scene
 from ..core.camera import Camera
 from ..core.lights import World
+from ..core.materials import DEFAULT_SURFACE
+from . import materials as materials_
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
 # Blender sync). Curves, text, surfaces and metaballs are skipped themselves: the depsgraph hands
@@ -134,97 +136,6 @@ def _core_mesh(mesh, co: np.ndarray, triangles: np.ndarray, loops: np.ndarray, s
                            corner_normals=corner_normals, material_indices=material_indices, name=mesh.name)
 
 
-def _node_tree(datablock):
-    """Return the node tree Cycles uses for a material or world, or None (Blender 4.x: use_nodes off)."""
-    if bpy.app.version < (5, 0, 0) and not datablock.use_nodes:
-        return None
-    return datablock.node_tree
-
-
-def _surface_node(material):
-    """Return the node linked to the active Cycles material output's Surface socket, or None."""
-    tree = _node_tree(material)
-    if tree is None:
-        return None
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in {"ALL", "CYCLES"}]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-    if output is None or not output.inputs["Surface"].is_linked:
-        return None
-    return output.inputs["Surface"].links[0].from_node
-
-
-def _input_value(node, name: str, default: float = 0.0) -> float:
-    """Return the unlinked float value of input `name` of `node`, or `default` if it is absent or linked."""
-    socket = node.inputs.get(name)
-    if socket is None or socket.is_linked:
-        return default
-    return float(socket.default_value)
-
-
-# Principled BSDF inputs that, when non-zero, add light that a Lambert surface does not reflect.
-_NOT_LAMBERT = ("Metallic", "Specular IOR Level", "Transmission Weight", "Coat Weight", "Sheen Weight",
-                "Subsurface Weight", "Diffuse Roughness")
-
-
-def _material_notes(material, node) -> list:
-    """Return why Cycles will not render `material` as Primer's Lambert surface (empty when it does)."""
-    if node is None:
-        return ["it has no surface shader node"]
-    if node.bl_idname == "ShaderNodeBsdfDiffuse":
-        return ["its Diffuse BSDF has Roughness > 0 (Oren-Nayar)"] if _input_value(node, "Roughness") > 0 else []
-    if node.bl_idname == "ShaderNodeEmission":
-        return []
-    if node.bl_idname == "ShaderNodeBsdfPrincipled":
-        notes = [name for name in _NOT_LAMBERT if _input_value(node, name) > 0]
-        if _input_value(node, "Alpha", 1.0) < 1.0:
-            notes.append("Alpha")
-        return [f"its Principled BSDF has {', '.join(notes)} above 0 (set them to 0 for pure diffuse)"] if notes else []
-    return [f"its surface is a {node.bl_label} node, not a Diffuse or Principled BSDF"]
-
-
-def _material_color(material, warnings: list | None = None) -> np.ndarray:
-    """Return a material's diffuse colour: the surface BSDF's base colour, else its viewport colour.
-
-    Notes in `warnings` when Cycles will shade the material differently from Primer's Lambert surface.
-    """
-    if material is None:
-        return np.array(core_scene.DEFAULT_BASE_COLOR)
-    node = _surface_node(material)
-    if warnings is not None and _node_tree(material) is not None:    # without nodes Cycles is Lambert too
-        for note in _material_notes(material, node):
-            warnings.append(f"material '{material.name}' is not pure diffuse in Cycles: {note}; "
-                            "Primer renders its base colour as a Lambert surface")
-    if node is not None and node.bl_idname == "ShaderNodeEmission":
-        return np.zeros(3)                          # light only: no BSDF
-    if node is not None:
-        socket_name = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}.get(node.bl_idname)
-        if socket_name is not None and not node.inputs[socket_name].is_linked:
-            return np.array(node.inputs[socket_name].default_value[:3], np.float64)
-    return np.array(material.diffuse_color[:3], np.float64)
-
-
-def _material_emission(material) -> np.ndarray:
-    """Return the radiance a material emits (colour x strength, linear RGB): of an Emission node or the
-    Principled BSDF's Emission at the Surface output, when their inputs are constant; else 0."""
-    node = _surface_node(material) if material is not None else None
-    if node is None:
-        return np.zeros(3)
-    sockets = {"ShaderNodeEmission": ("Color", "Strength"),
-               "ShaderNodeBsdfPrincipled": ("Emission Color", "Emission Strength")}.get(node.bl_idname)
-    if sockets is None:
-        return np.zeros(3)
-    color, strength = (node.inputs.get(name) for name in sockets)
-    if color is None or strength is None or color.is_linked or strength.is_linked:
-        return np.zeros(3)
-    return np.array(color.default_value[:3], np.float64) * float(strength.default_value)
-
-
-def _emission_sampling(material) -> str:
-    """Return the material's Emission Sampling (Cycles' material setting), "AUTO" where it has none."""
-    cycles = getattr(material, "cycles", None)
-    return str(getattr(cycles, "emission_sampling", "AUTO")) if cycles is not None else "AUTO"
-
-
 class MaterialTable:
     """Scene materials, each exported once, with stable indices (the BVH stores them per triangle).
 
@@ -236,22 +147,22 @@ class MaterialTable:
         self.index: dict = {}
         self.materials: list = []          # core_scene.Material, in index order
 
-    def slot_map(self, obj, warnings: list) -> np.ndarray:
-        """Return the scene material index of each of the object's material slots (-1 for empty): (k,) int64."""
-        slots = []
-        for slot in obj.material_slots:
-            material = slot.material
-            if material is None:
-                slots.append(-1)
-                continue
-            uid = material.original.session_uid
-            if uid not in self.index:
-                self.index[uid] = len(self.materials)
-                self.materials.append(core_scene.Material(_material_color(material, warnings), material.name,
-                                                          emission=_material_emission(material),
-                                                          emission_sampling=_emission_sampling(material)))
-            slots.append(self.index[uid])
-        return np.array(slots, np.int64)
+    def index_of(self, material, warnings: list) -> int:
+        """Return the scene index of `material`, exporting it the first time it is seen."""
+        uid = material.original.session_uid
+        if uid not in self.index:
+            self.index[uid] = len(self.materials)
+            self.materials.append(materials_.export_material(material, warnings))
+        return self.index[uid]
+
+    def slot_map(self, obj, warnings: list, override=None) -> np.ndarray:
+        """Return the scene material index of each of the object's material slots (-1 for empty): (k,) int64.
+
+        With the view layer's Material Override every slot, and an object without slots, gets it (as in Cycles)."""
+        if override is not None:
+            return np.full(max(1, len(obj.material_slots)), self.index_of(override, warnings), np.int64)
+        return np.array([-1 if slot.material is None else self.index_of(slot.material, warnings)
+                         for slot in obj.material_slots], np.int64)
 
 
 # ----------------------------------------------------------------------------
@@ -366,7 +277,7 @@ def export_world(world, warnings: list) -> World:
         return World(color=np.zeros(3), camera=True, lights=False)
     visibility = getattr(world, "cycles_visibility", None)
     color = np.array(world.color[:3], np.float64)
-    tree = _node_tree(world)
+    tree = materials_.node_tree(world)
     if tree is not None:
         output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output
                        and n.target in {"ALL", "CYCLES"}), None)
@@ -503,8 +414,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
     world = export_world(scene.world, warnings)
-    core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world)
+    core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world,
+                            default_material=DEFAULT_SURFACE)
     materials = MaterialTable()
+    override = getattr(depsgraph.view_layer_eval, "material_override", None)
     mesh_index: dict = {}
     ray_visibility_noted: set = set()
     unsupported_noted: set = set()
@@ -546,7 +459,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             continue
         if obj.name not in terminator_offsets and core.meshes[mesh_index[key]].smooth.any():
             terminator_offsets[obj.name] = _terminator_offsets(obj)
-        core.instances.append(core_scene.Instance(mesh_index[key], matrix, materials.slot_map(obj, warnings), obj.name))
+        core.instances.append(core_scene.Instance(mesh_index[key], matrix, materials.slot_map(obj, warnings, override), obj.name))
 
     core.materials = materials.materials
     if not core.lights:

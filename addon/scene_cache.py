@@ -42,6 +42,7 @@ from . import export
 from ..core import scene as core_scene
 from ..core.geometry import instancing
 from ..core.geometry.geometry import WorldGeometry, build_geometry
+from ..core.materials import DEFAULT_SURFACE
 
 
 @dataclass
@@ -150,7 +151,7 @@ class _MaterialTable(export.MaterialTable):
         for uid, index in self.index.items():
             material = by_uid.get(uid)
             if material is not None:
-                self.materials[index] = core_scene.Material(export._material_color(material, warnings), material.name)
+                self.materials[index] = export.materials_.export_material(material, warnings)
         return len(self.index)
 
 
@@ -180,6 +181,7 @@ class SceneCache:
         self.world = None                  # core World (its colour, visibility)
         self.totals = SyncReport()         # summed over all syncs
         self.instancing = "auto"           # RenderSettings.instancing the BVH was built with
+        self.override = None               # the view layer's Material Override
 
     def sync(self, depsgraph, origin=None, updates=None) -> SyncReport:
         """Bring the cached scene up to date with `depsgraph`; return what was read and rebuilt.
@@ -189,6 +191,7 @@ class SceneCache:
         """
         # 1. Sort the updates; the first sync counts as every kind of change.
         first = self.scene is None
+        self.override = getattr(depsgraph.view_layer_eval, "material_override", None)   # View Layer > Material Override
         changes = classify(depsgraph.updates if updates is None else updates)
         report = SyncReport(scene_changed=changes.scene, camera_changed=changes.camera)
         walk = first or changes.scene or changes.lights or bool(changes.objects)
@@ -288,11 +291,11 @@ class SceneCache:
             self.warnings.append(f"object '{obj.name}' hides itself from some rays; Primer renders it fully visible")
         report.objects.append(obj.name)
         return _Placement(mesh_key, np.array(instance.matrix_world, np.float64),
-                          self.material_table.slot_map(obj, self.warnings), obj.name, owner, key[1] or owner)
+                          self.material_table.slot_map(obj, self.warnings, self.override), obj.name, owner, key[1] or owner)
 
     def _relink(self, old: "_Placement", obj, report: SyncReport) -> "_Placement":
         """Return `old` with the object's material slots read again (a new placement only if they changed)."""
-        materials = self.material_table.slot_map(obj, self.warnings)
+        materials = self.material_table.slot_map(obj, self.warnings, self.override)
         if np.array_equal(materials, old.materials):
             return old
         report.relinked.append(obj.name)
@@ -303,7 +306,8 @@ class SceneCache:
         world = self.world
         scene = core_scene.Scene(camera=core_scene.Camera(),
                                  world_color=np.array(world.color if world is not None and world.camera else np.zeros(3)),
-                                 world=world, lights=list(self.lights), materials=list(self.material_table.materials))
+                                 world=world, lights=list(self.lights), materials=list(self.material_table.materials),
+                                 default_material=DEFAULT_SURFACE)
         mesh_index: dict = {}
         for placement in self.placements.values():
             entry = self.meshes[placement.mesh_key]

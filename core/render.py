@@ -113,7 +113,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
         geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing))
     warnings.extend(w for w in geometry.warnings if w not in warnings)
     lights = [light.moved(geometry.origin) for light in lights_.usable(scene.lights, warnings)]
-    materials = MaterialTable.of(scene.materials)
+    materials = MaterialTable.of(scene.materials, scene.default_material)
     # The lights a render makes of its scene: the emissive meshes, and the world's image.
     world = scene.the_world()
     emitters = lights_.emitters.from_geometry(geometry, materials)

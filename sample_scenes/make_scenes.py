@@ -156,6 +156,43 @@ def diffuse(name: str, color, principled: bool = False):
     return material
 
 
+def principled(name: str, **inputs):
+    """A Principled BSDF material with these inputs (socket names with spaces as underscores) and Blender's
+    defaults for the rest; `distribution` picks GGX or Multiscatter GGX."""
+    bpy = _bpy()
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:          # Blender 4.x: node trees are opt-in
+        material.use_nodes = True
+    tree = material.node_tree
+    bsdf = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    bsdf.distribution = inputs.pop("distribution", "MULTI_GGX")
+    for key, value in inputs.items():
+        socket = bsdf.inputs[key.replace("_", " ")]
+        socket.default_value = (*value, 1.0) if isinstance(value, tuple) and len(value) == 3 else value
+    base = bsdf.inputs["Base Color"].default_value
+    material.diffuse_color = (base[0], base[1], base[2], 1.0)
+    return material
+
+
+def glossy_mix(name: str, color, roughness: float, glossy_color, factor: float):
+    """A Mix Shader of a Diffuse BSDF (colour) and a Multiscatter GGX Glossy BSDF (glossy_color, roughness)."""
+    bpy = _bpy()
+    material = diffuse(name, color)
+    tree = material.node_tree
+    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    diffuse_node = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfDiffuse")
+    glossy = tree.nodes.new("ShaderNodeBsdfAnisotropic" if bpy.app.version >= (4, 0, 0) else "ShaderNodeBsdfGlossy")
+    glossy.distribution = "MULTI_GGX"
+    glossy.inputs["Color"].default_value = (*glossy_color, 1.0)
+    glossy.inputs["Roughness"].default_value = roughness
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = factor
+    tree.links.new(diffuse_node.outputs["BSDF"], mix.inputs[1])
+    tree.links.new(glossy.outputs["BSDF"], mix.inputs[2])
+    tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
+    return material
+
+
 def link(obj, collection=None):
     """Put `obj` in `collection` (default: the scene's collection) and return it."""
     bpy = _bpy()
@@ -558,6 +595,30 @@ def world_light():
               color=(1.0, 0.9, 0.75))
 
 
+def materials_principled():
+    """Principled BSDFs as Cycles lays them out: a rough dielectric, a gold metal with a specular tint, a
+    polished clear-coated red, a tinted translucent (alpha) blue, Glossy mixed with Diffuse, and a sphere
+    without material (Cycles' default surface), under a soft area light, a point light and a dim world."""
+    new_file("materials_principled", 192, 96, light_samples=4)
+    set_world(bpy_scene(), (0.05, 0.06, 0.08), lights=True)
+    ground(diffuse("Grey", (0.6, 0.6, 0.6)))
+    looks = [principled("Plastic", Base_Color=(0.1, 0.35, 0.8), Roughness=0.4),
+             principled("Gold", Base_Color=(1.0, 0.77, 0.34), Metallic=1.0, Roughness=0.3,
+                        Specular_Tint=(1.0, 0.85, 0.7)),
+             principled("Coated", Base_Color=(0.7, 0.06, 0.05), Roughness=0.6, Coat_Weight=1.0,
+                        Coat_Roughness=0.05, Specular_IOR_Level=0.7),
+             principled("Glassy Alpha", Base_Color=(0.2, 0.6, 0.9), Roughness=0.2, Alpha=0.6),
+             glossy_mix("Glossy Mix", (0.7, 0.65, 0.5), 0.25, (0.9, 0.9, 0.9), 0.4),
+             None]
+    for i, material in enumerate(looks):
+        add_primitive("uv_sphere", material, True, f"Sphere {i}", location=(-2.75 + 1.1 * i, 0.0, 0.5), radius=0.5,
+                      segments=32, ring_count=16)
+    add_camera((0.0, -5.2, 1.9), (0.0, 0.0, 0.45), lens=35.0)
+    add_light("AREA", "Softbox", (-1.5, -2.5, 3.0), target=(0.0, 0.0, 0.5), energy=350.0, shape="RECTANGLE",
+              size=1.5, size_y=0.8)
+    add_light("POINT", "Point", (2.5, -1.0, 2.5), energy=150.0, shadow_soft_size=0.0, color=(1.0, 0.9, 0.8))
+
+
 def bpy_scene():
     """The current scene."""
     return _bpy().context.scene
@@ -615,6 +676,7 @@ SCENES = {
     "modifiers_instances": modifiers_instances,
     "light_emissive": light_emissive,
     "world_light": world_light,
+    "materials_principled": materials_principled,
     "camera_ortho": camera_ortho,
     "camera_persp_shift": camera_persp_shift,
     "camera_fisheye_equidistant": camera_fisheye_equidistant,

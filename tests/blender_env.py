@@ -222,3 +222,26 @@ def check_mesh_reads(result) -> None:
     assert any(r["mesh"] == "Empty" and r["n_triangles"] == 0 for r in results)
     assert len(results) > 20
 
+
+
+def diffuse_material(name: str = "Diffuse", albedo=(0.8, 0.8, 0.8)):
+    """A material that Cycles and Primer both render as a Lambert surface of `albedo`: a Diffuse BSDF
+    (Blender 4.x without nodes: its viewport colour, which Cycles renders the same way)."""
+    import bpy
+    material = bpy.data.materials.new(name)
+    material.diffuse_color = (*albedo, 1.0)
+    tree = material.node_tree
+    if tree is not None and (bpy.app.version >= (5, 0, 0) or material.use_nodes):
+        tree.nodes.clear()
+        output = tree.nodes.new("ShaderNodeOutputMaterial")
+        diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+        diffuse.inputs["Color"].default_value = (*albedo, 1.0)
+        tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    return material
+
+
+def lambert_everywhere(scene, albedo=(0.8, 0.8, 0.8)):
+    """Render every surface of `scene` as the lecture's grey Lambert surface: the view layer's Material
+    Override (Cycles' default surface is a Principled BSDF, whose specular layer the lecture's closed forms
+    leave out)."""
+    scene.view_layers[0].material_override = diffuse_material("Lecture Lambert", albedo)

@@ -17,6 +17,7 @@ bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else _
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
 from render import configure_output, load_primer  # noqa: E402
 
+from blender_env import lambert_everywhere  # noqa: E402
 from core.film import image_io  # noqa: E402
 
 pytestmark = pytest.mark.blender
@@ -37,6 +38,7 @@ def new_scene(width=48, height=36, light=True, camera=True):
     """Start from an empty file: a plane under a sun, seen from above, rendered by Primer."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
+    lambert_everywhere(scene)                  # the lecture's grey Lambert surface, for its closed forms
     scene.render.engine = "PRIMER"
     scene.render.resolution_x, scene.render.resolution_y = width, height
     scene.render.resolution_percentage = 100

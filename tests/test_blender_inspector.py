@@ -17,6 +17,7 @@ import pytest
 bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
 from render import load_primer  # noqa: E402
+from blender_env import lambert_everywhere  # noqa: E402
 
 from core.film import image_io  # noqa: E402
 
@@ -67,6 +68,7 @@ def add_plane(scene, name, size, center):
 def floor_scene(width=16, height=12):
     """An empty file: a 20 m floor at z = 0 seen straight down by an orthographic camera 3 m above it."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
+    lambert_everywhere(bpy.context.scene)       # the lecture's grey Lambert surface, for its closed forms
     scene = bpy.context.scene
     scene.render.engine = "PRIMER"
     scene.render.resolution_x, scene.render.resolution_y = width, height

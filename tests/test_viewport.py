@@ -20,6 +20,7 @@ import pytest
 bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
 from render import load_primer  # noqa: E402
+from blender_env import diffuse_material  # noqa: E402
 
 from core.camera import camera as camera_  # noqa: E402
 from core.film import progressive  # noqa: E402
@@ -48,6 +49,8 @@ def add_mesh(scene, name, vertices, faces, location=(0.0, 0.0, 0.0), mesh=None):
     obj = bpy.data.objects.new(name, mesh)
     obj.location = location
     scene.collection.objects.link(obj)
+    if not mesh.materials:                     # the lecture's grey Lambert surface, for its closed forms
+        mesh.materials.append(bpy.data.materials.get("Lecture Lambert") or diffuse_material("Lecture Lambert"))
     return obj
 
 
@@ -174,14 +177,16 @@ def test_changing_a_light_rebuilds_no_bvh(session_in_scene):
 
 
 def test_changing_a_material_rebuilds_no_bvh_and_shows_the_new_colour(session_in_scene):
-    """A new base colour reaches the traced albedo without a BVH build: the plane shows albedo / pi * E."""
+    """A new base colour reaches the traced albedo without a BVH build: the plane shows albedo / pi * E
+    (a Principled BSDF without specular layer, Specular IOR Level 0, is Lambert's)."""
     scene, session, recorder, _ = session_in_scene
     material = bpy.data.materials.new("Red")
     if bpy.app.version < (5, 0, 0):
         material.use_nodes = True
-    report = recorder.change(lambda: bpy.data.objects["Plane"].data.materials.append(material))
-    assert report.meshes == ["Plane"] or report.objects == ["Plane"]
     bsdf = material.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    report = recorder.change(lambda: bpy.data.objects["Plane"].data.materials.__setitem__(0, material))
+    assert report.meshes == ["Plane"] or report.objects == ["Plane"]
     geometry = session.cache.geometry
     report = recorder.change(lambda: setattr(bsdf.inputs["Base Color"], "default_value", (0.5, 0.25, 0.1, 1.0)))
     assert report.materials >= 1 and not report.bvh and report.meshes == []

@@ -367,7 +367,9 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         warnings.append(f"{counts['nonfinite']} triangle(s) with NaN or infinite vertices were skipped")
     if counts["degenerate"]:
         warnings.append(f"{counts['degenerate']} zero-area triangle(s) were skipped")
-    if counts["missing"]:
+    # A scene from Blender gives them Cycles' own default surface: then nothing differs, nothing to warn.
+    cycles_default = bool(getattr(getattr(scene, "default_material", None), "nodes", None))
+    if counts["missing"] and not cycles_default:
         warnings.append(f"{counts['missing']} triangle(s) have no material and render in the default grey")
 
     vertices = np.concatenate(parts["v"]) if parts["v"] else np.zeros((0, 3), np.float32)

@@ -78,11 +78,13 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
                          instance_of(&packet.hit, k), 1, &tri);
             surface_at(O, D, (double)packet.ray.tfar[k], (double)packet.hit.u[k], (double)packet.hit.v[k], &tri,
                        lift, H->s + h);
-            shade_constant(params->materials + H->s[h].material, H->s[h].N, H->sd + h);
+            for (int c = 0; c < 3; c++) H->wo[3 * h + c] = -D[c];
+            H->sd[h].storage = H->storage[h];
+            shade_material(params->materials + H->s[h].material, H->s[h].N, H->wo + 3 * h, H->sd + h);
             H->lane[h] = lane;
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];
-            for (int c = 0; c < 3; c++) { H->wo[3 * h + c] = -D[c]; H->L[3 * h + c] = H->sd[h].emission[c]; }
+            for (int c = 0; c < 3; c++) H->L[3 * h + c] = H->sd[h].emission[c];
         }
     }
 }

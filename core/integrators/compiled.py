@@ -27,7 +27,7 @@ COMPILED_INTEGRATORS = {"direct": 0}
 ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "terminator_fix", "terminator_offset", "seed"],
                                 size_function="primer_shadow_settings_size")
 MaterialRecord = library.record("MaterialRecord", [
-    "n", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
+    "n", "program", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
     ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3)], size_function="primer_material_record_size")
 
 
@@ -58,8 +58,18 @@ class ChunkOut(ctypes.Structure):
 
 
 def material_record(shader) -> MaterialRecord:
-    """Return the C record of a constant material (core/materials ConstantShader)."""
+    """Return the C record of a material: a ConstantShader's closures, or a NodeShader's nodes (program 1)."""
     record = MaterialRecord()
+    if hasattr(shader, "nodes"):
+        k = len(shader.nodes)
+        record.n, record.program = float(k), 1.0
+        record.kind[:k] = [float(node.kind) for node, _, _ in shader.nodes]
+        if k:
+            record.weight[:3 * k] = np.concatenate([w for _, w, _ in shader.nodes]).tolist()
+            record.p[:PARAMS * k] = np.concatenate([p for _, _, p in shader.nodes]).tolist()
+        record.emission[:] = np.asarray(shader.emission, np.float64).tolist()
+        record.transparency[:] = np.asarray(shader.transparency, np.float64).tolist()
+        return record
     k = len(shader.kinds)
     record.n = float(k)
     record.kind[:k] = [float(x) for x in shader.kinds]

@@ -13,6 +13,7 @@ typedef struct {
     int64_t pixel[BLOCK], sample[BLOCK];         /* its random-number keys */
     Surface s[BLOCK];
     ShaderResult sd[BLOCK];                      /* the material there: closures, emission */
+    double storage[BLOCK][SHADER_STORAGE];       /* their closures' parameters, where its nodes set them up */
     double wo[3 * BLOCK];                        /* towards the viewer */
     double L[3 * BLOCK];                         /* the radiance it sends towards the viewer */
     double t[BLOCK];                             /* each camera lane's ray length: its hit, or its t_max */

@@ -196,7 +196,9 @@ class DirectLighting(Integrator):
         if len(struck) and ctx.extra.get("emissive", False):
             where = surface_at_hits(ctx.geometry, hits.prim[struck], hits.u[struck], hits.v[struck], O[struck],
                                     D[struck], hits.t[struck])
-            emitted = ctx.materials.shade(where.material, where.N, -D[struck]).emission
+            # (Each material's emission as its light samples see it: head-on, so that both strategies of
+            #  MIS weigh the same radiance; a coat tint's change with angle is seen by the camera only.)
+            emitted = ctx.materials.emission[where.material]
             pdf_l, n_l = np.zeros(len(struck)), 1
             if emitters is not None:
                 index = emitters.index_of_prim(hits.prim[struck])

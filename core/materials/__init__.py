@@ -12,6 +12,7 @@ hit, with only the normal changing.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
@@ -19,9 +20,10 @@ from .base import BSDF, BsdfSample
 from .closures import (MAX_CLOSURES, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
                        constant_result, eval_closures, sample_closures)
 from .lambert import Lambert
+from .microfacet import Microfacet
 from .mirror import Mirror
 
-BSDF_TYPES = (Lambert, Mirror)
+BSDF_TYPES = (Lambert, Mirror, Microfacet)
 BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
 
 assert all(cls.kind == index for index, cls in enumerate(BSDF_TYPES)), "a BSDF's kind is its place in BSDF_TYPES"
@@ -40,6 +42,9 @@ class Material:
     emission_sampling: from which sides light samples find its triangles (Blender's Material > Settings >
                 Emission Sampling): "NONE", "FRONT", "BACK", "FRONT_BACK", or "AUTO" (both sides when the
                 emission exceeds 0.5 in some channel, as Cycles decides; else none: BSDF rays still find it)
+    nodes:      the shader nodes of its node tree, when it has more than one colour to say (a Principled,
+                Glossy or Mix of them): (name in nodes.NODE_BY_NAME, weight (3,), inputs dict) each. When
+                given, they decide the surface and its emission; base_color, bsdf and emission are ignored.
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
@@ -47,6 +52,7 @@ class Material:
     bsdf: str = "DIFFUSE"
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
     emission_sampling: str = "AUTO"
+    nodes: list = field(default_factory=list)
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).
@@ -59,6 +65,10 @@ def emission_sides(method: str, estimate: np.ndarray) -> int:
     if method == "AUTO":
         return 3 if float(np.max(np.abs(estimate))) > 0.5 else 0
     return EMISSION_SIDES.get(method, 3)
+
+
+# The surface of triangles without a material: Cycles' default surface, a Principled BSDF with its defaults.
+DEFAULT_SURFACE = Material(name="(default)", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0), {})])
 
 
 @dataclass
@@ -90,10 +100,52 @@ class ConstantShader:
                    np.array([abs(color.mean())]), np.zeros((1, PARAMS)), emission, np.zeros(3),
                    emission_sides(material.emission_sampling, emission))
 
-    def shade(self, N: np.ndarray) -> ShaderResult:
-        """The ShaderResult at hits with shading normals N (n, 3)."""
+    def shade(self, N: np.ndarray, wo: Optional[np.ndarray] = None) -> ShaderResult:
+        """The ShaderResult at hits with shading normals N (n, 3) (the same from every direction wo)."""
         return constant_result(len(N), N, self.kinds, self.weights, self.sample_weights, self.params,
                                self.emission, self.transparency)
+
+
+@dataclass
+class NodeShader:
+    """A material made of shader nodes (core/materials/nodes.py), set up per hit for its view direction.
+
+    nodes: (node class, weight (3,), inputs (PARAMS,)) each; emission, transparency (3,): what it emits
+    and lets through seen head-on (the emitters' power and the `emissive` flag use it); emission_sides
+    as ConstantShader's.
+    """
+
+    nodes: list
+    emission: np.ndarray
+    transparency: np.ndarray
+    emission_sides: int = 3
+
+    @classmethod
+    def of(cls, material: Material) -> "NodeShader":
+        """The material's nodes, their inputs checked: NaN or infinite values become their defaults."""
+        from . import nodes as nodes_
+        rows = []
+        for name, weight, inputs in material.nodes:
+            if name not in nodes_.NODE_BY_NAME:
+                raise ValueError(f"material '{material.name}' has shader node {name!r}; "
+                                 f"Primer knows {sorted(nodes_.NODE_BY_NAME)}")
+            node = nodes_.NODE_BY_NAME[name]
+            clean = {key: value for key, value in inputs.items() if np.all(np.isfinite(np.asarray(value, np.float64)))}
+            weight = np.nan_to_num(np.asarray(weight, np.float64)[:3], nan=0.0, posinf=0.0, neginf=0.0)
+            rows.append((node, weight, node.row(clean)))
+        head_on = nodes_.shade_nodes(rows, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))
+        emission = np.maximum(head_on.emission[0], 0.0)
+        return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission))
+
+    def shade(self, N: np.ndarray, wo: np.ndarray) -> ShaderResult:
+        """The ShaderResult at hits with shading normals N (n, 3) seen from wo (n, 3)."""
+        from . import nodes as nodes_
+        return nodes_.shade_nodes(self.nodes, N, wo)
+
+
+def shader_of(material: Material):
+    """A material's shader: its nodes where it has them, else one constant closure."""
+    return NodeShader.of(material) if material.nodes else ConstantShader.of(material)
 
 
 class MaterialTable:
@@ -107,10 +159,16 @@ class MaterialTable:
         self.names = names
 
     @classmethod
-    def of(cls, materials: list) -> "MaterialTable":
-        """Build the table of `materials` (an unknown BSDF name is refused with a clear message)."""
-        shaders = [ConstantShader.of(m) for m in materials] + [ConstantShader.of(Material())]
+    def of(cls, materials: list, default: Optional[Material] = None) -> "MaterialTable":
+        """Build the table of `materials` and the `default` surface (the grey Lambert surface unless given);
+        an unknown BSDF or node name is refused with a clear message."""
+        shaders = [shader_of(m) for m in materials] + [shader_of(default if default is not None else Material())]
         return cls(shaders, [m.name for m in materials] + ["(default)"])
+
+    @property
+    def emission(self) -> np.ndarray:
+        """Each row's emitted radiance as light samples see it (a node material's head-on value): (m + 1, 3)."""
+        return np.array([np.asarray(shader.emission, np.float64) for shader in self.shaders])
 
     @property
     def emissive(self) -> np.ndarray:
@@ -122,17 +180,18 @@ class MaterialTable:
         n = len(material)
         first = int(material[0]) if n else len(self.shaders) - 1
         if n == 0 or (material == first).all():
-            return self.shaders[first].shade(N)
+            return self.shaders[first].shade(N, wo)
         results, order = [], []
         for row in np.unique(material):
             rows = np.flatnonzero(material == row)
-            results.append(self.shaders[int(row)].shade(N[rows]))
+            results.append(self.shaders[int(row)].shade(N[rows], None if wo is None else wo[rows]))
             order.append(rows)
         return concatenate(results, order, n)
 
 
 __all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",
-           "DEFAULT_BASE_COLOR", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable", "Mirror", "PARAMS",
+           "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable",
+           "Microfacet", "Mirror", "NodeShader", "PARAMS",
            "ShaderResult", "eval_closures", "sample_closures"]
 
 

@@ -6,6 +6,7 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
 {
     switch (c->kind) {
     case BSDF_MIRROR: mirror_eval(c, wo, wi, f_cos, pdf); break;
+    case BSDF_MICROFACET: microfacet_eval(c, wo, wi, f_cos, pdf); break;
     default: lambert_eval(c, wo, wi, f_cos, pdf); break;
     }
 }
@@ -14,6 +15,7 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
 {
     switch (c->kind) {
     case BSDF_MIRROR: mirror_sample(c, wo, u, out); break;
+    case BSDF_MICROFACET: microfacet_sample(c, wo, u, out); break;
     default: lambert_sample(c, wo, u, out); break;
     }
 }
@@ -81,7 +83,7 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
     out->pdf = pdf;
 }
 
-/* The ShaderResult of a constant material at a hit with shading normal N. */
+/* The ShaderResult of a constant material at a hit with shading normal N (sd->storage is left alone). */
 INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResult *sd)
 {
     sd->n = (int)m->n;
@@ -92,7 +94,6 @@ INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResul
         for (int j = 0; j < 3; j++) { c->weight[j] = m->weight[k][j]; c->N[j] = N[j]; }
         c->p = m->p[k];
     }
-    sd->storage = NULL;
     for (int j = 0; j < 3; j++) {
         sd->emission[j] = m->emission[j];
         sd->transparency[j] = m->transparency[j];

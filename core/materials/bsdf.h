@@ -4,7 +4,7 @@
  * closure's N is its own unit normal on the viewer's side; eval returns f cos (0 below N) and the
  * pdf of its own sampling. */
 
-enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1 };
+enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2 };
 
 #define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
 #define CLOSURE_PARAMS 24       /* closures.PARAMS */
@@ -38,10 +38,12 @@ typedef struct {
     double pdf;             /* inf for a delta BSDF, 0 where nothing was sampled */
 } BsdfSample;
 
-/* One material of the scene's MaterialTable, as core/integrators/compiled.py packs a ConstantShader:
- * its closures, the same at every hit but for their normal. Only doubles. */
+/* One material of the scene's MaterialTable, as core/integrators/compiled.py packs it. program 0: a
+ * ConstantShader, n closures the same at every hit but for their normal. program 1: a NodeShader, n shader
+ * nodes (kind: nodes.c NODE_*, weight, p: the node's inputs) set up per hit (nodes.c). Only doubles. */
 typedef struct {
     double n;
+    double program;
     double kind[MAX_CLOSURES];
     double weight[MAX_CLOSURES][3];
     double sample_weight[MAX_CLOSURES];

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 9
+#define PRIMER_ABI 10
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -24,7 +24,9 @@
 #include "../materials/bsdf.h"
 #include "../materials/lambert.c"
 #include "../materials/mirror.c"
+#include "../materials/microfacet.c"
 #include "../materials/bsdf.c"
+#include "../materials/nodes.c"
 #include "../film/film.c"
 #include "../film/adaptive.c"
 #include "../integrators/shadows.c"

@@ -85,6 +85,8 @@ class Scene:
 
     world_color: a background colour seen by camera rays only (it lights nothing); world: a World
     (core/lights/world.py) that lights the scene as Cycles' world does, when given.
+    default_material: the surface of triangles without a material: the lecture's grey Lambert surface,
+    unless a scene from Blender says Cycles' default surface (core/materials DEFAULT_SURFACE).
     """
 
     camera: Camera
@@ -94,6 +96,7 @@ class Scene:
     lights: list = field(default_factory=list)
     world_color: np.ndarray = field(default_factory=lambda: np.zeros(3))
     world: Optional[World] = None
+    default_material: Material = field(default_factory=Material)
 
     def the_world(self) -> World:
         """The world: `world` when given (it lights the scene unless told not to), else a background of

@@ -1,0 +1,120 @@
+/* The GGX microfacet BSDF: core/materials/microfacet.py (its docstring has the model and the sources).
+ * p: alpha, fresnel, ior, f0 (3), f90 or F82's b (3), energy_scale. */
+
+enum { MF_ALPHA = 0, MF_FRESNEL = 1, MF_IOR = 2, MF_F0 = 3, MF_F90 = 6, MF_ENERGY = 9, MF_PARAMS = 10 };
+enum { FRESNEL_NONE = 0, FRESNEL_DIELECTRIC = 1, FRESNEL_SCHLICK_IOR = 2, FRESNEL_F82_TINT = 3 };
+#define ROUGHNESS_SQ_THRESHOLD 2e-10
+
+/* Exact Fresnel reflectance of a dielectric of relative index eta at cos_i: microfacet.fresnel_dielectric. */
+INLINE double fresnel_dielectric(double cos_i, double eta)
+{
+    cos_i = fabs(cos_i);
+    double sin_t2 = (1.0 - cos_i * cos_i) / (eta * eta);
+    if (sin_t2 >= 1.0) return 1.0;
+    double cos_t = sqrt(at_least(1.0 - sin_t2, 0.0));
+    double r_s = (cos_i - eta * cos_t) / at_least(cos_i + eta * cos_t, 1e-300);
+    double r_p = (eta * cos_i - cos_t) / at_least(eta * cos_i + cos_t, 1e-300);
+    return 0.5 * (r_s * r_s + r_p * r_p);
+}
+
+INLINE double F0_from_ior(double ior) { double r = (ior - 1.0) / (ior + 1.0); return r * r; }
+
+INLINE double clamp01(double x) { return x < 0.0 ? 0.0 : (x > 1.0 ? 1.0 : x); }
+
+/* microfacet.fresnel: the reflectance of the closure's Fresnel model at cos_HI. */
+INLINE void microfacet_fresnel(const double *p, double cos_HI, double *F)
+{
+    int mode = (int)p[MF_FRESNEL];
+    if (mode == FRESNEL_DIELECTRIC || mode == FRESNEL_SCHLICK_IOR) {
+        double real = fresnel_dielectric(cos_HI, p[MF_IOR]);
+        if (mode == FRESNEL_DIELECTRIC) { F[0] = F[1] = F[2] = real; return; }
+        double F0_real = F0_from_ior(p[MF_IOR]);
+        double s = clamp01((real - F0_real) / at_least(1.0 - F0_real, 1e-300));
+        for (int c = 0; c < 3; c++) F[c] = p[MF_F0 + c] + (p[MF_F90 + c] - p[MF_F0 + c]) * s;
+    } else if (mode == FRESNEL_F82_TINT) {
+        double s = clamp01(1.0 - cos_HI), s5 = s * s * s * s * s;
+        for (int c = 0; c < 3; c++)
+            F[c] = clamp01(p[MF_F0 + c] + (1.0 - p[MF_F0 + c]) * s5 - p[MF_F90 + c] * (cos_HI * s5 * s));
+    } else {
+        F[0] = F[1] = F[2] = 1.0;
+    }
+}
+
+/* Smith's Lambda for GGX at `cosine`, and the GGX distribution at cos_NH. */
+INLINE double lambda_ggx(double alpha2, double cosine)
+{
+    double tan2 = at_least(1.0 / at_least(cosine * cosine, 1e-300) - 1.0, 0.0);
+    return 0.5 * (sqrt(1.0 + alpha2 * tan2) - 1.0);
+}
+
+INLINE double D_ggx(double alpha2, double cos_NH)
+{
+    double c2 = at_most(cos_NH * cos_NH, 1.0);
+    double d = 1.0 - c2 + alpha2 * c2;
+    return alpha2 / (PI * d * d);
+}
+
+INLINE void microfacet_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
+{
+    const double *p = c->p;
+    double alpha2 = p[MF_ALPHA] * p[MF_ALPHA];
+    double cos_NI = dot3(c->N, wo), cos_NO = dot3(c->N, wi);
+    f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
+    *pdf = 0.0;
+    if (!(cos_NI > 0.0 && cos_NO > 0.0 && alpha2 > ROUGHNESS_SQ_THRESHOLD)) return;
+    double H[3] = {wo[0] + wi[0], wo[1] + wi[1], wo[2] + wi[2]};
+    double length = at_least(sqrt(dot3(H, H)), 1e-300);
+    for (int k = 0; k < 3; k++) H[k] /= length;
+    double common = D_ggx(alpha2, dot3(c->N, H)) / cos_NI * 0.25;
+    double lambda_I = lambda_ggx(alpha2, cos_NI), lambda_O = lambda_ggx(alpha2, cos_NO);
+    *pdf = common / (1.0 + lambda_I);
+    double scale = common / (1.0 + lambda_I + lambda_O) * p[MF_ENERGY];
+    double F[3];
+    microfacet_fresnel(p, dot3(H, wo), F);
+    for (int k = 0; k < 3; k++) f_cos[k] = F[k] * scale;
+}
+
+/* microfacet.sample_visible_normal: a normal the viewer sees, in the frame where N = z (Heitz 2018). */
+INLINE void sample_visible_normal(const double *local_wo, double alpha, const double *u, double *H)
+{
+    double v[3] = {alpha * local_wo[0], alpha * local_wo[1], local_wo[2]};
+    double length = sqrt(dot3(v, v));
+    for (int k = 0; k < 3; k++) v[k] /= length;
+    double lensq = v[0] * v[0] + v[1] * v[1];
+    double T1[3] = {1.0, 0.0, 0.0}, T2[3];
+    if (lensq > 1e-7) {
+        double inv = 1.0 / sqrt(lensq);
+        T1[0] = -v[1] * inv; T1[1] = v[0] * inv; T1[2] = 0.0;
+    }
+    T2[0] = v[1] * T1[2] - v[2] * T1[1];
+    T2[1] = v[2] * T1[0] - v[0] * T1[2];
+    T2[2] = v[0] * T1[1] - v[1] * T1[0];
+    double r = sqrt(u[0]), cos_phi, sin_phi;
+    cos_sin(2.0 * PI * u[1], &cos_phi, &sin_phi);
+    double t1 = r * cos_phi, t2 = r * sin_phi;
+    double blend = 0.5 * (1.0 + v[2]);
+    t2 = (1.0 - blend) * sqrt(at_least(1.0 - t1 * t1, 0.0)) + blend * t2;
+    double lift = sqrt(at_least(1.0 - t1 * t1 - t2 * t2, 0.0));
+    double h[3];
+    for (int k = 0; k < 3; k++) h[k] = T1[k] * t1 + T2[k] * t2 + v[k] * lift;
+    H[0] = alpha * h[0]; H[1] = alpha * h[1]; H[2] = at_least(h[2], 0.0);
+    length = sqrt(dot3(H, H));
+    for (int k = 0; k < 3; k++) H[k] /= length;
+}
+
+INLINE void microfacet_sample(const Closure *c, const double *wo, const double *u, BsdfSample *out)
+{
+    const double *N = c->N;
+    double t[3], b[3];
+    orthonormal_frame(N, t, b);
+    double local[3] = {dot3(t, wo), dot3(b, wo), dot3(N, wo)};
+    if (!(local[2] > 0.0)) { local[0] = 0.0; local[1] = 0.0; local[2] = 1.0; }
+    double h[3], H[3];
+    sample_visible_normal(local, c->p[MF_ALPHA], u, h);
+    for (int k = 0; k < 3; k++) H[k] = (t[k] * h[0] + b[k] * h[1]) + N[k] * h[2];
+    double cos_HI = dot3(H, wo);
+    for (int k = 0; k < 3; k++) out->wi[k] = 2.0 * cos_HI * H[k] - wo[k];
+    double f_cos[3];
+    microfacet_eval(c, wo, out->wi, f_cos, &out->pdf);
+    for (int k = 0; k < 3; k++) out->weight[k] = out->pdf > 0.0 ? f_cos[k] / out->pdf : 0.0;
+}

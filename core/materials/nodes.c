@@ -1,0 +1,259 @@
+/* Shader nodes: core/materials/nodes.py. Each node of a material sets up its closures at a hit; the
+ * Principled BSDF lays out its layers as Cycles does. A closure's parameters go into the hit's storage. */
+
+#include "ggx_tables.h"
+
+enum { NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
+       NODE_TRANSPARENT = 5 };
+#define WEIGHT_CUTOFF 1e-5          /* closures.WEIGHT_CUTOFF */
+#define STORAGE_STRIDE MF_PARAMS    /* doubles of a hit's storage per closure */
+#define SHADER_STORAGE (MAX_CLOSURES * STORAGE_STRIDE)
+
+/* ggx_tables.lookup_*: linear interpolation between grid points i / (size - 1), clamped to 0..1. */
+INLINE void table_position(double x, int size, int *i, int *j, double *t)
+{
+    x = (x != x) ? 0.0 : clamp01(x) * (size - 1);
+    *i = (int)x < size - 1 ? (int)x : size - 1;
+    *j = *i + 1 < size - 1 ? *i + 1 : size - 1;
+    *t = x - *i;
+}
+
+INLINE double lookup_1d(const double *table, int size, double x)
+{
+    int i, j; double t;
+    table_position(x, size, &i, &j, &t);
+    return (1.0 - t) * table[i] + t * table[j];
+}
+
+INLINE double lookup_2d(const double *table, int nx, int ny, double x, double y)
+{
+    int yi, yj, xi, xj; double ty, tx;
+    table_position(y, ny, &yi, &yj, &ty);
+    table_position(x, nx, &xi, &xj, &tx);
+    double a = (1.0 - tx) * table[yi * nx + xi] + tx * table[yi * nx + xj];
+    double b = (1.0 - tx) * table[yj * nx + xi] + tx * table[yj * nx + xj];
+    return (1.0 - ty) * a + ty * b;
+}
+
+INLINE double lookup_3d(const double *table, int n, double x, double y, double z)
+{
+    int zi, zj; double tz;
+    table_position(z, n, &zi, &zj, &tz);
+    return (1.0 - tz) * lookup_2d(table + zi * n * n, n, n, x, y) + tz * lookup_2d(table + zj * n * n, n, n, x, y);
+}
+
+/* ClosureBuilder.add: a closure of `kind` with `weight`; its sampling weight is |mean(allocated)| x factor;
+ * none below the cutoff. params (MF_PARAMS doubles, or NULL) go into the hit's storage. */
+INLINE void closure_add(ShaderResult *sd, int kind, const double *weight, const double *allocated, double factor,
+                        const double *params)
+{
+    double sample_weight = fabs((allocated[0] + allocated[1] + allocated[2]) / 3.0);
+    if (!(sample_weight >= WEIGHT_CUTOFF) || sd->n >= MAX_CLOSURES) return;
+    Closure *c = sd->c + sd->n;
+    c->kind = kind;
+    c->sample_weight = sample_weight * factor;
+    for (int j = 0; j < 3; j++) { c->weight[j] = weight[j]; c->N[j] = sd->N[j]; }
+    c->p = NULL;
+    if (params != NULL) {
+        double *row = sd->storage + STORAGE_STRIDE * sd->n;
+        for (int j = 0; j < MF_PARAMS; j++) row[j] = params[j];
+        c->p = row;
+    }
+    sd->n++;
+}
+
+/* nodes.layering_weight: what a layer with `albedo` leaves of `weight` for the layers below. */
+INLINE void layering_weight(const double *albedo, double *weight)
+{
+    double largest = -INFINITY;
+    for (int j = 0; j < 3; j++) {
+        double ratio = weight[j] != 0.0 ? albedo[j] / weight[j] : 0.0;
+        largest = ratio > largest ? ratio : largest;
+    }
+    double keep = clamp01(1.0 - largest);
+    for (int j = 0; j < 3; j++) weight[j] *= keep;
+}
+
+INLINE double dielectric_Fss(double eta)
+{
+    if (eta < 1.0) return 0.997118 + eta * (0.1014 - eta * (0.965241 + eta * 0.130607));
+    return (eta - 1.0) / (4.08567 + 1.00071 * eta);
+}
+
+INLINE double ior_from_F0(double f0)
+{
+    double root = sqrt(f0 < 0.0 ? 0.0 : (f0 > 1.0 - 1e-7 ? 1.0 - 1e-7 : f0));
+    return (1.0 + root) / (1.0 - root);
+}
+
+/* GlossyLobe.params: a microfacet closure's parameters, energy scale 1. */
+INLINE void lobe_params(double *p, double roughness, int mode, double ior, const double *f0, const double *f90)
+{
+    double r = clamp01(roughness);
+    p[MF_ALPHA] = r * r;
+    p[MF_FRESNEL] = (double)mode;
+    p[MF_IOR] = ior;
+    for (int j = 0; j < 3; j++) { p[MF_F0 + j] = f0[j]; p[MF_F90 + j] = f90[j]; }
+    p[MF_ENERGY] = 1.0;
+}
+
+/* GlossyLobe.add: append the closure (albedo: its Fresnel estimate or NULL; Fss: multiscatter's average
+ * Fresnel or NULL for none); `weight` becomes the closure's weight after darkening. */
+INLINE void lobe_add(ShaderResult *sd, double mu, double *weight, double *p, const double *albedo, const double *Fss)
+{
+    double rough = sqrt(p[MF_ALPHA]);
+    double allocated[3] = {weight[0], weight[1], weight[2]};
+    double factor = albedo != NULL ? (albedo[0] + albedo[1] + albedo[2]) / 3.0 : 1.0;
+    if (Fss != NULL) {
+        double E = at_least(lookup_2d(GGX_E, 32, 32, rough, mu), 1e-6);
+        double E_avg = lookup_1d(GGX_EAVG, 32, rough);
+        double missing = (1.0 - E) / E;
+        p[MF_ENERGY] = 1.0 + missing;
+        if (!(Fss[0] == 1.0 && Fss[1] == 1.0 && Fss[2] == 1.0)) {
+            double darkening[3];
+            for (int j = 0; j < 3; j++) {
+                double Fms = Fss[j] * E_avg / (1.0 - Fss[j] * (1.0 - E_avg));
+                darkening[j] = (1.0 + Fms * missing) / p[MF_ENERGY];
+                weight[j] *= darkening[j];
+            }
+            factor *= (darkening[0] + darkening[1] + darkening[2]) / 3.0;
+        }
+    }
+    double closure_weight[3] = {weight[0], weight[1], weight[2]};
+    int kind = BSDF_MICROFACET;
+    if (p[MF_ALPHA] * p[MF_ALPHA] <= ROUGHNESS_SQ_THRESHOLD) {
+        double F[3];
+        microfacet_fresnel(p, clamp01(mu), F);
+        for (int j = 0; j < 3; j++) closure_weight[j] *= F[j] * p[MF_ENERGY];
+        kind = BSDF_MIRROR;
+    }
+    closure_add(sd, kind, closure_weight, allocated, factor, p);
+}
+
+/* nodes.dielectric_albedo: estimated albedo of a lobe with the dielectric curve remapped from f0 to 1. */
+INLINE void dielectric_albedo(double rough, double mu, double eta, const double *f0, double *albedo)
+{
+    double z = sqrt(fabs((eta - 1.0) / (eta + 1.0)));
+    double s = lookup_3d(GGX_SCHLICK_IOR_S, 16, rough, mu, z);
+    for (int j = 0; j < 3; j++) albedo[j] = f0[j] + (1.0 - f0[j]) * s;
+}
+
+/* nodes.PrincipledNode.setup: p holds nodes.PRINCIPLED_INPUTS in order. */
+INLINE void setup_principled(ShaderResult *sd, double mu, const double *weight, const double *p)
+{
+    double base[3], clamped[3], tint[3], coat_tint[3], W[3];
+    for (int j = 0; j < 3; j++) {
+        base[j] = at_least(p[j], 0.0);
+        clamped[j] = at_most(base[j], 1.0);
+        tint[j] = at_least(p[9 + j], 0.0);
+        coat_tint[j] = at_least(p[15 + j], 0.0);
+        W[j] = weight[j];
+    }
+    double metallic = clamp01(p[3]), roughness = clamp01(p[4]), ior = at_least(p[5], 1e-5), alpha = clamp01(p[6]);
+    double subsurface = clamp01(p[7]), level = at_least(p[8], 0.0);
+    double coat = at_least(p[12], 0.0), coat_roughness = clamp01(p[13]), coat_ior = at_least(p[14], 1.0);
+    double transmission = clamp01(p[21]);
+    int multiscatter = p[22] != 0.0;
+    double lobe[MF_PARAMS], one[3] = {1.0, 1.0, 1.0};
+    /* 1. Alpha. */
+    if (alpha < 1.0)
+        for (int j = 0; j < 3; j++) { sd->transparency[j] += W[j] * (1.0 - alpha); W[j] *= alpha; }
+    /* 2. Coat. */
+    if (coat > WEIGHT_CUTOFF) {
+        double F0c = F0_from_ior(coat_ior), f0[3] = {F0c, F0c, F0c}, reflect[3], Fss[3];
+        lobe_params(lobe, coat_roughness, FRESNEL_DIELECTRIC, coat_ior, f0, one);
+        dielectric_albedo(coat_roughness, mu, coat_ior, f0, reflect);
+        double coat_weight[3] = {W[0] * coat, W[1] * coat, W[2] * coat};
+        Fss[0] = Fss[1] = Fss[2] = dielectric_Fss(coat_ior);
+        lobe_add(sd, mu, coat_weight, lobe, reflect, Fss);
+        double albedo[3] = {coat_weight[0] * reflect[0], coat_weight[1] * reflect[1], coat_weight[2] * reflect[2]};
+        layering_weight(albedo, W);
+        if (!(coat_tint[0] == 1.0 && coat_tint[1] == 1.0 && coat_tint[2] == 1.0)) {
+            double cos_t = sqrt(at_least(1.0 - (1.0 - mu * mu) / (coat_ior * coat_ior), 1e-12));
+            for (int j = 0; j < 3; j++) W[j] *= 1.0 + coat * (pow(coat_tint[j], 1.0 / cos_t) - 1.0);
+        }
+    }
+    /* 3. Emission. */
+    for (int j = 0; j < 3; j++) sd->emission[j] += W[j] * p[18 + j];
+    /* 4. Metal. */
+    if (metallic > WEIGHT_CUTOFF) {
+        double B[3] = {0.0, 0.0, 0.0}, reflect[3], Fss[3], metal_weight[3];
+        int tinted = 0;
+        for (int j = 0; j < 3; j++) tinted |= at_most(tint[j], 1.0) != 1.0;
+        if (tinted) {
+            double f = 6.0 / 7.0, f5 = f * f * f * f * f;
+            for (int j = 0; j < 3; j++)
+                B[j] = (clamped[j] + (1.0 - clamped[j]) * f5) * (7.0 / (f5 * f)) * (1.0 - at_most(tint[j], 1.0));
+        }
+        lobe_params(lobe, roughness, FRESNEL_F82_TINT, 1.0, clamped, B);
+        double s = lookup_2d(GGX_SCHLICK_S_HALF, 16, 16, roughness, mu);
+        for (int j = 0; j < 3; j++) {
+            reflect[j] = clamped[j] + (1.0 - clamped[j]) * s;
+            Fss[j] = clamped[j] + (1.0 - clamped[j]) / 21.0 - B[j] / 126.0;
+            metal_weight[j] = W[j] * metallic;
+        }
+        lobe_add(sd, mu, metal_weight, lobe, reflect, multiscatter ? Fss : NULL);
+        for (int j = 0; j < 3; j++) W[j] *= 1.0 - metallic;
+    }
+    /* 5. Transmission (not rendered yet). */
+    if (transmission > WEIGHT_CUTOFF)
+        for (int j = 0; j < 3; j++) W[j] *= 1.0 - transmission;
+    /* 6. Specular. */
+    double eta = ior, f0 = F0_from_ior(ior);
+    if (level != 0.5) {
+        f0 *= 2.0 * level;
+        eta = ior_from_F0(f0);
+        if (ior < 1.0) eta = 1.0 / eta;
+    }
+    if (eta != 1.0) {
+        double f0_tinted[3], reflect[3], Fss[3];
+        for (int j = 0; j < 3; j++) f0_tinted[j] = clamp01(f0 * tint[j]);
+        lobe_params(lobe, roughness, FRESNEL_SCHLICK_IOR, eta, f0_tinted, one);
+        dielectric_albedo(roughness, mu, eta, f0_tinted, reflect);
+        double F0_real = F0_from_ior(eta);
+        double s = F0_real < 1.0 ? clamp01((dielectric_Fss(eta) - F0_real) / (1.0 - F0_real)) : 1.0;
+        for (int j = 0; j < 3; j++) Fss[j] = f0_tinted[j] + (1.0 - f0_tinted[j]) * s;
+        double specular_weight[3] = {W[0], W[1], W[2]};
+        lobe_add(sd, mu, specular_weight, lobe, reflect, multiscatter ? Fss : NULL);
+        double albedo[3];
+        for (int j = 0; j < 3; j++) albedo[j] = specular_weight[j] * reflect[j];
+        layering_weight(albedo, W);
+    }
+    /* 7. Diffuse. */
+    double diffuse[3];
+    for (int j = 0; j < 3; j++) diffuse[j] = W[j] * (base[j] * (1.0 - subsurface) + clamped[j] * subsurface);
+    closure_add(sd, BSDF_LAMBERT, diffuse, diffuse, 1.0, NULL);
+}
+
+/* nodes.shade_nodes for one hit: every node of the material sets up its closures. */
+INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *wo, ShaderResult *sd)
+{
+    double mu = dot3(N, wo);
+    sd->n = 0;
+    for (int j = 0; j < 3; j++) { sd->emission[j] = 0.0; sd->transparency[j] = 0.0; sd->N[j] = N[j]; }
+    for (int k = 0; k < (int)m->n; k++) {
+        const double *weight = m->weight[k], *p = m->p[k];
+        switch ((int)m->kind[k]) {
+        case NODE_DIFFUSE: closure_add(sd, BSDF_LAMBERT, weight, weight, 1.0, NULL); break;
+        case NODE_MIRROR: closure_add(sd, BSDF_MIRROR, weight, weight, 1.0, NULL); break;
+        case NODE_GLOSSY: {
+            double lobe[MF_PARAMS], w[3] = {weight[0], weight[1], weight[2]}, one[3] = {1.0, 1.0, 1.0};
+            double Fss[3] = {at_least(p[2], 0.0), at_least(p[3], 0.0), at_least(p[4], 0.0)};
+            lobe_params(lobe, p[0], FRESNEL_NONE, 1.0, one, one);
+            lobe_add(sd, mu, w, lobe, NULL, p[1] != 0.0 ? Fss : NULL);
+            break;
+        }
+        case NODE_PRINCIPLED: setup_principled(sd, mu, weight, p); break;
+        case NODE_EMISSION: for (int j = 0; j < 3; j++) sd->emission[j] += weight[j] * p[j]; break;
+        case NODE_TRANSPARENT: for (int j = 0; j < 3; j++) sd->transparency[j] += weight[j]; break;
+        default: break;
+        }
+    }
+}
+
+/* A material at a hit: its constant closures, or its nodes set up for this view direction. */
+INLINE void shade_material(const MaterialRecord *m, const double *N, const double *wo, ShaderResult *sd)
+{
+    if (m->program != 0.0) shade_nodes(m, N, wo, sd);
+    else shade_constant(m, N, sd);
+}

@@ -1,0 +1,326 @@
+"""Shader nodes: how a material's BSDF nodes become closures at a hit, as Cycles' closure nodes do.
+
+A material's node tree is exported (addon/export.py) as a short list of shader nodes, each with a
+weight (the product of the Mix Shader factors and Add Shaders above it) and its constant inputs. At
+each hit every node *sets up* its closures: the Diffuse BSDF one Lambert closure, the Glossy BSDF one
+microfacet closure, the Principled BSDF a stack of layers (coat over emission over metal over
+specular over diffuse) where each layer takes the light it reflects away from the layers below, as
+Cycles' svm_node_closure_bsdf does. The setup depends on the view direction (how much a glossy layer
+reflects, and so leaves for the layers below, depends on mu = N.wo), so it runs per hit.
+
+NODE_TYPES is the table: a node's `kind` is its position, and core/materials/nodes.c dispatches on the
+same tag. Each class lists its `inputs` (the slots of its row of PARAMS floats) and `defaults`.
+"""
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from . import ggx_tables as tables
+from . import microfacet as mf
+from .closures import PARAMS, WEIGHT_CUTOFF, Closures, ShaderResult
+from .lambert import Lambert
+from .microfacet import Microfacet
+from .mirror import Mirror
+
+
+class ClosureBuilder:
+    """Closures of n hits, appended one slot at a time by the nodes' setups (Cycles' bsdf_alloc).
+
+    N, wo: (n, 3) float64 unit shading normals and directions towards the viewer; mu = N.wo (n,).
+    """
+
+    def __init__(self, N: np.ndarray, wo: np.ndarray, slots: int):
+        n = len(N)
+        self.N, self.wo = N, wo
+        self.mu = np.einsum("ij,ij->i", N, wo)
+        self.closures = Closures.empty(n, max(1, slots))
+        self.count = 0
+        self.emission = np.zeros((n, 3))
+        self.transparency = np.zeros((n, 3))
+
+    def add(self, kind, weight: np.ndarray, params=None, allocated=None, factor=None) -> int:
+        """Append a closure: kind (n,) or int, weight (n, 3). Its sampling weight is |mean of the weight it
+        was allocated with| (`allocated` (n, 3), default `weight`) times `factor` (n,) (Cycles' Fresnel
+        estimate and darkening); hits where that mean is below the cutoff get none. Returns its slot."""
+        k = self.count
+        self.count += 1
+        n = len(weight)
+        sample_weight = np.abs((weight if allocated is None else allocated).mean(axis=1))
+        kept = sample_weight >= WEIGHT_CUTOFF
+        if factor is not None:
+            sample_weight = sample_weight * factor
+        c = self.closures
+        c.kind[:, k] = np.where(kept, np.broadcast_to(np.asarray(kind, np.int32), (n,)), -1)
+        c.weight[:, k] = np.where(kept[:, None], weight, 0.0)
+        c.sample_weight[:, k] = np.where(kept, sample_weight, 0.0)
+        c.N[:, k] = self.N
+        if params is not None:
+            c.params[:, k] = params
+        return k
+
+    def result(self) -> ShaderResult:
+        """The ShaderResult of what the setups added."""
+        k = max(1, self.count)
+        closures = Closures(*(array[:, :k] for array in self.closures))
+        return ShaderResult(closures, self.emission, self.transparency, self.N)
+
+
+def layering_weight(albedo: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """What a layer leaves for the layers below it: weight x (1 - the largest channel of albedo / weight),
+    clipped to 0..1 (Cycles' closure_layering_weight). albedo, weight: (n, 3)."""
+    ratio = np.divide(albedo, weight, out=np.zeros_like(albedo), where=weight != 0.0)
+    return weight * np.clip(1.0 - ratio.max(axis=1), 0.0, 1.0)[:, None]
+
+
+def dielectric_Fss(eta: float) -> float:
+    """Fresnel reflectance of a dielectric averaged over the hemisphere (2 cos dcos), Kulla and Conty's fit."""
+    if eta < 1.0:
+        return 0.997118 + eta * (0.1014 - eta * (0.965241 + eta * 0.130607))
+    return (eta - 1.0) / (4.08567 + 1.00071 * eta)
+
+
+def f82_tint_B(f0: np.ndarray, tint: np.ndarray) -> np.ndarray:
+    """The b of F82-tint that makes the curve at cos = 1/7 equal Schlick's times `tint` (Kutz et al.)."""
+    f = 6.0 / 7.0
+    f5 = f ** 5
+    return (f0 + (1.0 - f0) * f5) * (7.0 / (f5 * f)) * (1.0 - tint)
+
+
+class GlossyLobe:
+    """The microfacet closures' shared setup: parameters, Fresnel estimate and energy compensation."""
+
+    @staticmethod
+    def params(n: int, roughness: float, mode: int, ior: float = 1.0, f0=(1.0, 1.0, 1.0), f90=(1.0, 1.0, 1.0)):
+        """A (n, PARAMS) row of a microfacet closure; the energy scale starts at 1."""
+        p = np.zeros((n, PARAMS))
+        p[:, mf.ALPHA] = min(max(roughness, 0.0), 1.0) ** 2
+        p[:, mf.FRESNEL] = mode
+        p[:, mf.IOR] = ior
+        p[:, mf.F0:mf.F0 + 3] = f0
+        p[:, mf.F90:mf.F90 + 3] = f90
+        p[:, mf.ENERGY] = 1.0
+        return p
+
+    @staticmethod
+    def add(b: ClosureBuilder, weight: np.ndarray, p: np.ndarray, albedo=None, Fss=None) -> np.ndarray:
+        """Append the closure; with Fss (3,) restore the energy of multiple scattering (Multiscatter GGX,
+        Cycles' microfacet_ggx_preserve_energy). Returns the closure's weight after darkening (n, 3).
+
+        A lobe smoother than the threshold is a mirror reflecting F(mu) of the light."""
+        rough = np.sqrt(p[:, mf.ALPHA])
+        allocated = weight
+        factor = None if albedo is None else albedo.mean(axis=1)
+        if Fss is not None:
+            E = np.maximum(tables.lookup_2d(tables.E, rough, b.mu), 1e-6)
+            E_avg = tables.lookup_1d(tables.EAVG, rough)
+            missing = (1.0 - E) / E
+            p[:, mf.ENERGY] = 1.0 + missing
+            Fss = np.asarray(Fss, np.float64)
+            if not np.all(Fss == 1.0):
+                Fms = Fss * E_avg[:, None] / (1.0 - Fss * (1.0 - E_avg[:, None]))
+                darkening = (1.0 + Fms * missing[:, None]) / p[:, mf.ENERGY][:, None]
+                weight = weight * darkening
+                factor = darkening.mean(axis=1) if factor is None else factor * darkening.mean(axis=1)
+        singular = p[:, mf.ALPHA] ** 2 <= mf.ROUGHNESS_SQ_THRESHOLD
+        kind = np.where(singular, Mirror.kind, Microfacet.kind)
+        closure_weight = weight
+        if singular.any():
+            at_mu = mf.fresnel(p, np.clip(b.mu, 0.0, 1.0)) * p[:, mf.ENERGY][:, None]
+            closure_weight = np.where(singular[:, None], weight * at_mu, weight)
+        b.add(kind, closure_weight, p, allocated, factor)
+        return weight
+
+
+def dielectric_albedo(rough: np.ndarray, mu: np.ndarray, eta: float, f0: np.ndarray, f90: np.ndarray) -> np.ndarray:
+    """Estimated albedo (n, 3) of a lobe with the dielectric curve remapped from f0 to f90 (Cycles'
+    bsdf_microfacet_estimate_albedo with the schlick_ior table)."""
+    z = np.sqrt(abs((eta - 1.0) / (eta + 1.0)))
+    s = tables.lookup_3d(tables.SCHLICK_IOR_S, rough, mu, np.full(len(mu), z))
+    return f0 + (f90 - f0) * s[:, None]
+
+
+class Node:
+    """A shader node of the table: its inputs (names of the slots of its row) and their defaults."""
+
+    kind: ClassVar[int] = -1
+    name: ClassVar[str] = ""
+    inputs: ClassVar[tuple] = ()
+    defaults: ClassVar[tuple] = ()
+    slots: ClassVar[int] = 1            # at most this many closures
+
+    @classmethod
+    def row(cls, values: dict) -> np.ndarray:
+        """The node's inputs as a row of PARAMS floats, defaults where `values` has none."""
+        p = np.zeros(PARAMS)
+        i = 0
+        for name, default in zip(cls.inputs, cls.defaults):
+            value = np.asarray(values.get(name, default), np.float64).reshape(-1)
+            p[i:i + len(value)] = value
+            i += len(value)
+        return p
+
+    @staticmethod
+    def setup(b: ClosureBuilder, weight: np.ndarray, p: np.ndarray) -> None:
+        raise NotImplementedError
+
+
+class DiffuseNode(Node):
+    """Diffuse BSDF: one Lambert closure weighted by its colour (the node's weight carries the colour)."""
+
+    kind, name, inputs, defaults = 0, "DIFFUSE", (), ()
+
+    @staticmethod
+    def setup(b, weight, p):
+        b.add(Lambert.kind, weight)
+
+
+class MirrorNode(Node):
+    """The lecture's perfect mirror (no Blender node: Primer's own sample scenes)."""
+
+    kind, name, inputs, defaults = 1, "MIRROR", (), ()
+
+    @staticmethod
+    def setup(b, weight, p):
+        b.add(Mirror.kind, weight)
+
+
+class GlossyNode(Node):
+    """Glossy BSDF (GGX or Multiscatter GGX): one microfacet closure without Fresnel, weighted by its colour."""
+
+    kind, name = 2, "GLOSSY"
+    inputs = ("roughness", "multiscatter", "color")
+    defaults = (0.5, 1.0, (1.0, 1.0, 1.0))
+
+    @staticmethod
+    def setup(b, weight, p):
+        n = len(weight)
+        lobe = GlossyLobe.params(n, p[0], mf.FRESNEL_NONE)
+        GlossyLobe.add(b, weight, lobe, Fss=np.maximum(p[2:5], 0.0) if p[1] else None)
+
+
+class EmissionNode(Node):
+    """Emission: radiance colour x strength, no BSDF (the node's weight scales it)."""
+
+    kind, name, inputs, defaults = 4, "EMISSION", ("emission",), ((0.0, 0.0, 0.0),)
+    slots = 0
+
+    @staticmethod
+    def setup(b, weight, p):
+        b.emission += weight * p[0:3]
+
+
+class TransparentNode(Node):
+    """Transparent BSDF: light passes straight through, coloured by the node's weight."""
+
+    kind, name, inputs, defaults = 5, "TRANSPARENT", (), ()
+    slots = 0
+
+    @staticmethod
+    def setup(b, weight, p):
+        b.transparency += weight
+
+
+# The Principled BSDF's inputs, in their slots.
+PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "subsurface", "specular_ior_level",
+                     "specular_tint", "coat", "coat_roughness", "coat_ior", "coat_tint", "emission",
+                     "transmission", "multiscatter")
+PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
+                       (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0)
+
+
+class PrincipledNode(Node):
+    """Principled BSDF, as Cycles lays it out (svm_node_closure_bsdf, CLOSURE_BSDF_PRINCIPLED_ID):
+
+    1. alpha: 1 - alpha of the light passes through (a transparent closure), the rest meets the layers;
+    2. coat: a dielectric GGX layer (index coat_ior); below it, light is tinted by coat_tint along the
+       refracted path and reduced by what the coat reflects;
+    3. emission, seen through the coat;
+    4. metal (metallic): GGX with the F82-tint curve from the base colour, tinted near 82 degrees by
+       the specular tint; the rest (1 - metallic) goes on;
+    5. transmission: not rendered yet (a warning says so); it takes its share away from what follows;
+    6. specular: a dielectric GGX layer whose F0 the Specular IOR Level scales and the Specular Tint
+       colours; below it, what it does not reflect;
+    7. diffuse: Lambert with the base colour (subsurface scattering approximated by it, with a warning).
+    Sheen and anisotropy are left out (warned at export).
+    """
+
+    kind, name = 3, "PRINCIPLED"
+    inputs, defaults = PRINCIPLED_INPUTS, PRINCIPLED_DEFAULTS
+    slots = 4
+
+    @staticmethod
+    def setup(b, weight, p):
+        n = len(weight)
+        base = np.maximum(p[0:3], 0.0)
+        clamped = np.minimum(base, 1.0)
+        metallic, roughness = np.clip(p[3], 0.0, 1.0), np.clip(p[4], 0.0, 1.0)
+        ior, alpha, subsurface = max(p[5], 1e-5), np.clip(p[6], 0.0, 1.0), np.clip(p[7], 0.0, 1.0)
+        level, tint = max(p[8], 0.0), np.maximum(p[9:12], 0.0)
+        coat, coat_roughness, coat_ior = max(p[12], 0.0), np.clip(p[13], 0.0, 1.0), max(p[14], 1.0)
+        coat_tint, emission = np.maximum(p[15:18], 0.0), p[18:21]
+        transmission, multiscatter = np.clip(p[21], 0.0, 1.0), p[22] != 0.0
+        W = np.broadcast_to(weight, (n, 3)).astype(np.float64)
+        rough = np.full(n, roughness)
+        # 1. Alpha.
+        if alpha < 1.0:
+            b.transparency += W * (1.0 - alpha)
+            W = W * alpha
+        # 2. Coat.
+        if coat > WEIGHT_CUTOFF:
+            lobe = GlossyLobe.params(n, coat_roughness, mf.FRESNEL_DIELECTRIC, coat_ior)
+            reflect = dielectric_albedo(np.full(n, coat_roughness), b.mu, coat_ior,
+                                        np.full((n, 3), mf.F0_from_ior(coat_ior)), np.ones((n, 3)))
+            coat_weight = GlossyLobe.add(b, W * coat, lobe, reflect, Fss=np.full(3, dielectric_Fss(coat_ior)))
+            W = layering_weight(coat_weight * reflect, W)
+            if not np.all(coat_tint == 1.0):
+                cos_t = np.sqrt(np.maximum(1.0 - (1.0 - b.mu ** 2) / coat_ior ** 2, 1e-12))
+                W = W * (1.0 + coat * (coat_tint[None, :] ** (1.0 / cos_t)[:, None] - 1.0))
+        # 3. Emission.
+        b.emission += W * emission
+        # 4. Metal.
+        if metallic > WEIGHT_CUTOFF:
+            f82 = np.minimum(tint, 1.0)
+            B = np.zeros(3) if np.all(f82 == 1.0) else f82_tint_B(clamped, f82)
+            lobe = GlossyLobe.params(n, roughness, mf.FRESNEL_F82_TINT, 1.0, clamped, B)
+            s = tables.lookup_2d(tables.SCHLICK_S_HALF, rough, b.mu)
+            reflect = clamped + (1.0 - clamped) * s[:, None]
+            Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
+            GlossyLobe.add(b, W * metallic, lobe, reflect, Fss=Fss if multiscatter else None)
+            W = W * (1.0 - metallic)
+        # 5. Transmission (not rendered yet).
+        if transmission > WEIGHT_CUTOFF:
+            W = W * (1.0 - transmission)
+        # 6. Specular: the index whose F0 the Specular IOR Level scales.
+        eta, f0 = ior, mf.F0_from_ior(ior)
+        if level != 0.5:
+            f0 *= 2.0 * level
+            eta = float(mf.ior_from_F0(f0))
+            if ior < 1.0:
+                eta = 1.0 / eta
+        if eta != 1.0:
+            f0_tinted = np.clip(f0 * tint, 0.0, 1.0)
+            lobe = GlossyLobe.params(n, roughness, mf.FRESNEL_SCHLICK_IOR, eta, f0_tinted, (1.0, 1.0, 1.0))
+            reflect = dielectric_albedo(rough, b.mu, eta, np.broadcast_to(f0_tinted, (n, 3)), np.ones((n, 3)))
+            F0_real = mf.F0_from_ior(eta)
+            s = np.clip((dielectric_Fss(eta) - F0_real) / (1.0 - F0_real), 0.0, 1.0) if F0_real < 1.0 else 1.0
+            Fss = f0_tinted + (1.0 - f0_tinted) * s
+            specular_weight = GlossyLobe.add(b, W, lobe, reflect, Fss=Fss if multiscatter else None)
+            W = layering_weight(specular_weight * reflect, W)
+        # 7. Diffuse (and subsurface, approximated by a diffuse of the clamped colour).
+        b.add(Lambert.kind, W * (base * (1.0 - subsurface) + clamped * subsurface))
+
+
+NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode)
+NODE_BY_NAME = {cls.name: cls for cls in NODE_TYPES}
+
+assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's kind is its place in NODE_TYPES"
+
+
+def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray) -> ShaderResult:
+    """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,))."""
+    b = ClosureBuilder(N, wo, sum(cls.slots for cls, _, _ in nodes))
+    for cls, weight, p in nodes:
+        cls.setup(b, np.broadcast_to(np.asarray(weight, np.float64), (len(N), 3)), p)
+    return b.result()
