@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from .base import Context, Integrator, Radiance, Recorder
 from .direct import DirectLighting
+from .path import PathTracing
 
-INTEGRATORS = {cls.name: cls for cls in (DirectLighting,)}
+INTEGRATORS = {cls.name: cls for cls in (DirectLighting, PathTracing)}
 
-__all__ = ["Context", "DirectLighting", "INTEGRATORS", "Integrator", "Radiance", "Recorder"]
+__all__ = ["Context", "DirectLighting", "INTEGRATORS", "Integrator", "PathTracing", "Radiance", "Recorder"]

@@ -26,7 +26,7 @@ Its compiled twin is core/integrators/direct.c: the same steps in the same order
 """
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 
@@ -77,28 +77,31 @@ class DirectLighting(Integrator):
                                   vectors.gather(O, hit), D_hit, found.t[hit], flat_only=not s.smooth_normals)
         recorder.hits(O, D, surface, found.hit)
         # 4. The light each hit sends towards the camera.
-        L_hit, shadow_rays = self.shade(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder)
+        L_hit, shadow_rays, _ = self.shade(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder)
         L_out[hit] += L_hit
         return Radiance(L_out, found.hit, shadow_rays)
 
     def shade(self, ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray,
-              recorder: Recorder):
-        """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced).
+              recorder: Recorder, dimension: int = 0, vertex: int = 0, trace_all: bool = False):
+        """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
+        each traced hit sent out, or None).
 
         wo: (m, 3) float64 unit directions towards the viewer; pixel, sample: (m,) int64 each hit's
-        keys for its random numbers.
+        keys for its random numbers. A path (core/integrators/path.py) calls this at every vertex:
+        `dimension` shifts its random numbers, vertices after the first leave their emission to the
+        ray that found them (vertex > 0), and every hit traces its BSDF ray (trace_all).
         """
         s = ctx.settings
         m = len(surface.I)
         # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
         shader = ctx.materials.shade(surface.material, surface.N, wo)
         recorder.shader(shader)
-        L_out = shader.emission.copy()
+        L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
         shadow_rays = 0
         offsets = shadows.error_bound(surface.I, surface.vertices) if s.shadow_method == "robust" else None
         # Which hits trace a BSDF ray (every hit where emitters or the world light the scene, glossy hits
         # where only lamps with extent do) and so weigh their light samples by MIS.
-        traced = wants_bsdf_ray(ctx, shader)
+        traced = np.ones(m, bool) if trace_all else wants_bsdf_ray(ctx, shader)
         mis = (traced & (s.light_sampling == "mis")) if ctx.extra.get("bsdf_rays", False) else np.zeros(m, bool)
         for index, light in enumerate(ctx.lights):
             if s.light_sampling == "bsdf" and not light.delta and index in ctx.extra.get("hittable", ()):
@@ -109,7 +112,7 @@ class DirectLighting(Integrator):
                 # a. Where does the light come from? One sample of the light's progressive pattern:
                 #    camera sample s takes its points s*count .. s*count+count-1 (core/sampling), so
                 #    the points of any number of camera samples together cover the light evenly.
-                u = light_numbers(ctx, light, index, pixel, sample * count + j, m)
+                u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension)
                 ls = light.sample(surface.I, u, cone)
                 if not s.distance_attenuation:
                     ls = light.without_attenuation(ls, surface.I)
@@ -150,26 +153,31 @@ class DirectLighting(Integrator):
                 recorder.contribution(index, rows, value, mis_weight)
                 L_out[rows] += value
         # 2. The light one BSDF-sampled direction finds (lamps with extent, emitters, the world).
-        if ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light" and traced.any():
-            L_out += self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder)
-        return L_out, shadow_rays
+        ray = None
+        if trace_all or (ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light" and traced.any()):
+            gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
+            found, ray = self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
+                                       dimension, gather)
+            L_out += found
+        return L_out, shadow_rays, ray
 
     def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray,
-                 traced: np.ndarray, recorder: Recorder) -> np.ndarray:
-        """Return the light (m, 3) one direction sampled from each hit's closures finds: a lamp with
-        extent in front of what the ray hits, an emissive surface it hits, or the world it escapes to,
-        each weighed by MIS against that light's own samples (weight 1 for a constant world).
-        mis, traced: (m,) bool which hits weigh by MIS, which trace a ray at all."""
+                 traced: np.ndarray, recorder: Recorder, dimension: int = 0, gather: bool = True):
+        """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
+
+        The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
+        world it escapes to, each weighed by MIS against that light's own samples (weight 1 for a constant
+        world); nothing unless `gather`. mis, traced: (m,) bool which hits weigh by MIS, which trace a ray."""
         s = ctx.settings
         m = len(surface.I)
-        u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION)
-        pick = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + 1)[:, 0]
+        u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
+        pick = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + 1 + dimension)[:, 0]
         bs = materials_.sample_closures(shader.closures, wo, u, pick)
         found = np.zeros((m, 3))
         go = np.flatnonzero((bs.pdf > 0.0) & traced)
         if len(go) == 0:
             recorder.bsdf_sample(bs.wi, bs.pdf, found)
-            return found
+            return found, None
         # The ray leaves from a point safely off the surface, on the side it goes to.
         side = np.where(np.einsum("ij,ij->i", surface.Ng[go], bs.wi[go]) < 0.0, -1.0, 1.0)
         step = offsets[go] if offsets is not None else np.full(len(go), s.epsilon)
@@ -177,6 +185,10 @@ class DirectLighting(Integrator):
         D = bs.wi[go]
         hits = ctx.geometry.tracer.intersect(O, D, np.full(len(go), np.inf))
         pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
+        ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go])
+        if not gather:
+            recorder.bsdf_sample(bs.wi, bs.pdf, found)
+            return found, ray
         use_mis = mis[go] & ~bs.delta[go]
         light_L = np.zeros((len(go), 3))
         t_limit = np.where(hits.hit, hits.t, np.inf)
@@ -222,7 +234,7 @@ class DirectLighting(Integrator):
             light_L[missed] += L_world * w[:, None]
         found[go] = bs.weight[go] * light_L
         recorder.bsdf_sample(bs.wi, bs.pdf, found)
-        return found
+        return found, ray
 
     @staticmethod
     def shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.ndarray, offsets) -> shadows.ShadowRays:
@@ -244,6 +256,23 @@ class DirectLighting(Integrator):
 BSDF_DIMENSION = 2
 
 
+class BsdfRay(NamedTuple):
+    """The BSDF-sampled rays of the hits that traced one, and what they hit (a path continues from there).
+
+    rows (k,) int64 the hits that traced a ray; O, D (k, 3) their origins and unit directions; hits: the
+    tracer's Hits of them; weight (k, 3) f cos / pdf; kind (k,) int32 the sampled closure's BSDF kind;
+    delta (k,) bool whether it was a delta closure
+    """
+
+    rows: np.ndarray
+    O: np.ndarray
+    D: np.ndarray
+    hits: object
+    weight: np.ndarray
+    kind: np.ndarray
+    delta: np.ndarray
+
+
 def wants_bsdf_ray(ctx: Context, shader) -> np.ndarray:
     """Which hits trace a BSDF-sampled ray: all where emitters or the world light the scene, else those
     with a closure other than Lambert (a glossy lobe that light samples of a large lamp find poorly)."""
@@ -258,9 +287,11 @@ def light_count(ctx: Context, light) -> int:
     return 1 if light.delta or ctx.light_numbers is not None else max(1, int(ctx.settings.light_samples))
 
 
-def light_numbers(ctx: Context, light, index: int, pixel: np.ndarray, number: np.ndarray, m: int) -> np.ndarray:
+def light_numbers(ctx: Context, light, index: int, pixel: np.ndarray, number: np.ndarray, m: int,
+                  offset: int = 0) -> np.ndarray:
     """The light's unit-square numbers for m samples (and a third for lights that pick, e.g. a triangle):
-    zeros for a light without extent, the inspector's fixed point, or the light's progressive pattern."""
+    zeros for a light without extent, the inspector's fixed point, or the light's progressive pattern
+    (its dimensions shifted by `offset` at a path's later vertices)."""
     width = getattr(light, "random_numbers", 2)
     if light.delta:
         return np.zeros((m, width))
@@ -269,7 +300,7 @@ def light_numbers(ctx: Context, light, index: int, pixel: np.ndarray, number: np
         fixed[:2] = np.asarray(ctx.light_numbers[index], np.float64)
         fixed[2:] = 0.5
         return np.broadcast_to(fixed, (m, width))
-    dimension = 16 + 4 * index
+    dimension = 16 + 4 * index + offset
     u = sampling.sample_2d(ctx.settings.seed, pixel, number, dimension=dimension)
     if width == 2:
         return u

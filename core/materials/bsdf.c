@@ -46,6 +46,7 @@ typedef struct {
     double weight[3];       /* f cos / pdf, closure weights included */
     double pdf;             /* inf for a delta closure, 0 where nothing was sampled */
     int delta;
+    int kind;               /* the sampled closure's BSDF kind (-1 where none): a path counts bounces by it */
 } ClosureSample;
 
 /* closures.sample_closures for one hit: pick a closure by sampling weight, sample it; unless a delta,
@@ -61,6 +62,7 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
     }
     if (chosen > MAX_CLOSURES - 1) chosen = MAX_CLOSURES - 1;
     out->delta = 0;
+    out->kind = -1;
     out->pdf = 0.0;
     out->weight[0] = out->weight[1] = out->weight[2] = 0.0;
     out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
@@ -69,18 +71,21 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
     BsdfSample s;
     bsdf_sample(c, wo, u, &s);
     for (int j = 0; j < 3; j++) out->wi[j] = s.wi[j];
+    out->kind = c->kind;
     if (bsdf_is_delta(c->kind)) {
         double probability = c->sample_weight / total;
         for (int j = 0; j < 3; j++) out->weight[j] = c->weight[j] * s.weight[j] / at_least(probability, 1e-300);
         out->pdf = s.pdf;
         out->delta = 1;
+        if (!(s.pdf > 0.0)) out->kind = -1;
         return;
     }
-    if (!(s.pdf > 0.0)) return;
+    if (!(s.pdf > 0.0)) { out->kind = -1; return; }
     double f_cos[3];
     double pdf = shader_eval(sd, wo, out->wi, f_cos);
     for (int j = 0; j < 3; j++) out->weight[j] = pdf > 0.0 ? f_cos[j] / pdf : 0.0;
     out->pdf = pdf;
+    if (!(pdf > 0.0)) out->kind = -1;
 }
 
 /* The ShaderResult of a constant material at a hit with shading normal N (sd->storage is left alone). */

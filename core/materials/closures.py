@@ -94,13 +94,15 @@ class ClosureSample(NamedTuple):
 
     wi (n, 3); weight (n, 3) the path throughput factor f cos / pdf (closure weights included);
     pdf (n,) the combined pdf (inf when a delta closure was sampled, 0 when nothing was);
-    delta (n,) bool whether the sampled closure was a delta (a mirror: no MIS)
+    delta (n,) bool whether the sampled closure was a delta (a mirror: no MIS);
+    kind (n,) int32 the BSDF kind of the sampled closure (-1 where none): a path counts its bounces by it
     """
 
     wi: np.ndarray
     weight: np.ndarray
     pdf: np.ndarray
     delta: np.ndarray
+    kind: np.ndarray = None
 
 
 def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.ndarray) -> ClosureSample:
@@ -138,7 +140,7 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
         f_cos, combined = eval_closures(part, wo[smooth], wi[smooth])
         weight[smooth] = np.divide(f_cos, combined[:, None], out=np.zeros_like(f_cos), where=combined[:, None] > 0)
         pdf[smooth] = combined
-    return ClosureSample(wi, weight, pdf, delta)
+    return ClosureSample(wi, weight, pdf, delta, np.where(pdf > 0.0, kind, -1).astype(np.int32))
 
 
 def constant_result(n: int, N: np.ndarray, kinds: np.ndarray, weights: np.ndarray, sample_weights: np.ndarray,

@@ -10,7 +10,11 @@ class RenderSettings:
     """How to render: image size, sampling, the integrator and the lecture's switches.
 
     integrator: the name of the light-transport algorithm in core/integrators ("direct": the
-        lecture's direct lighting, each light sampled with shadow rays).
+        lecture's direct lighting, each light sampled with shadow rays; "path": path tracing).
+    max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, transparent_max_bounces: a path's
+        bounce limits, with Cycles' meaning and defaults (Light Paths > Max Bounces); "direct" is a path
+        with max_bounces 0. min_light_bounces: Russian roulette spares a path's first min_light_bounces + 1
+        bounces (Cycles' Min Light Bounces).
     light_sampling: how lights with extent are found: "mis" (light samples and BSDF-sampled rays,
         weighed by multiple importance sampling, as Cycles), "light" (light samples alone) or "bsdf"
         (BSDF-sampled rays alone; lights without extent keep their light samples).
@@ -43,6 +47,12 @@ class RenderSettings:
 
     integrator: str = "direct"
     light_sampling: str = "mis"
+    max_bounces: int = 12
+    diffuse_bounces: int = 4
+    glossy_bounces: int = 4
+    transmission_bounces: int = 12
+    transparent_max_bounces: int = 8
+    min_light_bounces: int = 0
     width: int = 640
     height: int = 480
     samples: int = 16

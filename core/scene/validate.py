@@ -5,6 +5,9 @@ import math
 
 import numpy as np
 
+# The most bounces a path may take (Blender's own limit for Light Paths > Max Bounces).
+MAX_BOUNCES = 1024
+
 
 def validate(scene, settings) -> None:
     """Raise ValueError with a clear message when the scene or settings cannot be rendered."""
@@ -28,6 +31,11 @@ def validate(scene, settings) -> None:
         raise ValueError(f"pixel aspect must be two finite numbers > 0, got {settings.pixel_aspect}")
     if settings.integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {settings.integrator!r}")
+    for name in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
+                 "transparent_max_bounces", "min_light_bounces"):
+        value = getattr(settings, name)
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= MAX_BOUNCES:
+            raise ValueError(f"{name.replace('_', ' ')} must be a whole number from 0 to {MAX_BOUNCES}, got {value!r}")
     if settings.light_sampling not in ("mis", "light", "bsdf"):
         raise ValueError(f"light sampling must be 'mis', 'light' or 'bsdf', got {settings.light_sampling!r}")
     if settings.shadow_method not in ("robust", "epsilon"):

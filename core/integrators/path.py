@@ -1,0 +1,131 @@
+"""Path tracing: light that reaches the camera after any number of bounces, as the lecture's next part
+("Ray Tracing (3)") and Cycles compute it.
+
+The rendering equation says the light leaving a point is what it emits plus what it reflects of the
+light arriving from every direction, and that arriving light is itself light leaving another point:
+
+    L(x, wo) = L_e(x, wo) + integral of f(wo, wi) L(x', -wi) cos(N, wi) dwi
+
+A path estimates it with one direction per bounce. At every vertex (every hit along the path) it does
+what the lecture's direct-lighting tracer does at the camera's hit (core/integrators/direct.py): light
+samples with shadow rays, and one direction sampled from the BSDF that finds lamps, emitters and the
+world, the two weighed by multiple importance sampling (the lecture's `Mis2`). That BSDF direction
+is also where the path goes on: the surface it hits is the next vertex, seen through the path's
+throughput, the product of f cos / pdf of every bounce so far.
+
+    L += throughput x (what the vertex gathers);   throughput *= f cos / pdf of the sampled direction
+
+Bounces are counted as in Cycles: after `max_bounces` bounces (and `diffuse_bounces` after diffuse
+ones, `glossy_bounces` after glossy ones) the last BSDF ray still brings back the light it finds, but the
+surface it hits does no more. From the third vertex on, Russian roulette ends a path with probability
+1 - q, q = min(sqrt(max throughput), 1), and divides the throughput of those that go on by q: unbiased,
+cheaper, noisier (Cycles' rule: after Min Light Bounces + 1 bounces, min_light_bounces in RenderSettings).
+
+With max_bounces = 0 a path is the direct-lighting tracer at the camera's hit, except that every hit
+traces its BSDF ray (the direct tracer skips it where light samples alone do well).
+Its compiled twin is the same loop in core/integrators/chunk.c (INTEGRATOR_PATH).
+"""
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from .. import materials as materials_
+from .. import vectors
+from ..geometry.surface import surface_at_hits
+from ..sampling import sobol as sampling
+from .base import Context, Radiance, Recorder
+from .direct import DirectLighting, lamps_seen
+
+# Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
+VERTEX_DIMENSIONS = 1 << 16
+# The dimension of Russian roulette's number at a vertex (before the shift).
+ROULETTE_DIMENSION = 6
+
+
+def roulette_from(settings) -> int:
+    """The first vertex where Russian roulette may end a path (Cycles: bounce > Min Light Bounces + 1)."""
+    return settings.min_light_bounces + 2
+
+
+def bounce_kind(kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Which sampled closures count as diffuse and which as glossy bounces: (diffuse, glossy) (k,) bool."""
+    return kind == materials_.Lambert.kind, (kind == materials_.Microfacet.kind) | (kind == materials_.Mirror.kind)
+
+
+class PathTracing(DirectLighting):
+    """Unidirectional path tracing with next-event estimation, MIS and Russian roulette (module docstring)."""
+
+    name: ClassVar[str] = "path"
+
+    def radiance(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, pixel: np.ndarray,
+                 sample: np.ndarray, recorder: Recorder) -> Radiance:
+        s = ctx.settings
+        n = len(O)
+        # 1. The camera rays: what they hit, the world where they escape, the lamps they pass.
+        found = ctx.geometry.tracer.intersect(O, D, t_max)
+        hit = np.flatnonzero(found.hit)
+        L_out = np.zeros((n, 3))
+        world = ctx.extra.get("world_light")
+        if world is not None and world.camera and not s.transparent_background:
+            missed = np.flatnonzero(~found.hit)
+            L_out[missed] = world.radiance(D[missed])
+        L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
+        if len(hit) == 0:
+            recorder.hits(O, D, None, found.hit)
+            return Radiance(L_out, found.hit, 0)
+        D_hit = vectors.gather(D, hit)
+        surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit],
+                                  vectors.gather(O, hit), D_hit, found.t[hit], flat_only=not s.smooth_normals)
+        recorder.hits(O, D, surface, found.hit)
+        # 2. The path's vertices, one batch per bounce: the camera's hits first.
+        owner = hit                                  # the camera ray each path belongs to
+        throughput = np.ones((len(hit), 3))
+        diffuse = np.zeros(len(hit), np.int64)
+        glossy = np.zeros(len(hit), np.int64)
+        wo = -D_hit
+        shadow_rays = 0
+        vertex = 0
+        while len(owner):
+            # a. What the vertex gathers: its emission (camera hits only; later ones were found by the ray
+            #    that led there), light samples, and the light its BSDF ray finds; then where that ray goes.
+            dimension = vertex * VERTEX_DIMENSIONS
+            L_vertex, rays, ray = self.shade(ctx, surface, wo, pixel[owner], sample[owner], recorder,
+                                             dimension, vertex, trace_all=True)
+            shadow_rays += rays
+            L_out[owner] += throughput * L_vertex
+            recorder.path_vertex(vertex, owner, throughput, L_vertex)
+            if ray is None:
+                break
+            # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.
+            is_diffuse, is_glossy = bounce_kind(ray.kind)
+            bounces = vertex + 1
+            d = diffuse[ray.rows] + is_diffuse
+            g = glossy[ray.rows] + is_glossy
+            going = (ray.hits.hit & (bounces <= s.max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces))
+            next_throughput = throughput[ray.rows] * ray.weight
+            # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
+            if bounces >= roulette_from(s):
+                q = np.minimum(np.sqrt(np.abs(next_throughput).max(axis=1)), 1.0)
+                u = sampling.sample_2d(s.seed, pixel[owner[ray.rows]], sample[owner[ray.rows]],
+                                       dimension=ROULETTE_DIMENSION + bounces * VERTEX_DIMENSIONS)[:, 0]
+                survived = u < q
+                recorder.roulette(bounces, owner[ray.rows], q, survived & going)
+                going &= survived
+                next_throughput = next_throughput / np.where(going, q, 1.0)[:, None]
+            keep = np.flatnonzero(going & np.isfinite(next_throughput).all(axis=1))
+            if len(keep) == 0:
+                break
+            # d. The next vertex: the surfaces the kept rays hit.
+            hits = ray.hits
+            rows = ray.rows[keep]
+            D_next = ray.D[keep]
+            surface = surface_at_hits(ctx.geometry, hits.prim[keep], hits.u[keep], hits.v[keep], ray.O[keep],
+                                      D_next, hits.t[keep], flat_only=not s.smooth_normals)
+            owner = owner[rows]
+            throughput = next_throughput[keep]
+            diffuse, glossy = d[keep], g[keep]
+            wo = -D_next
+            vertex += 1
+        return Radiance(L_out, found.hit, shadow_rays)
