@@ -59,3 +59,34 @@ def test_russian_roulette_keeps_the_furnace_unbiased(kernels):
     image = render.render(scene, settings).image[..., :3]
     expected = furnace_radiance(math.inf, albedo=0.8)
     assert image.mean() == pytest.approx(expected, rel=0.02)
+
+
+def test_compiled_paths_follow_the_reference_paths():
+    """A path-traced scene with every kind of light (point, sun disk, area, an emissive mesh, a world) and
+    diffuse, metal, glossy and default surfaces, three bounces: the compiled path renders what the Python
+    reference renders, within the stated tolerance, with the same rays."""
+    from test_compiled import LIGHTS, assert_same_render, compare_paths, lit_scene
+    from core.lights import World
+    scene = lit_scene(LIGHTS["several"])
+    scene.materials[1] = materials.Material(name="metal", nodes=[
+        ("PRINCIPLED", (1, 1, 1), {"metallic": 1.0, "base_color": (0.9, 0.6, 0.3), "roughness": 0.3})])
+    scene.materials.append(materials.Material(name="lamp", nodes=[
+        ("EMISSION", (1, 1, 1), {"emission": (4.0, 3.0, 2.0)}), ("GLOSSY", (0.3, 0.3, 0.3), {"roughness": 0.4})]))
+    scene.add_mesh(primitives.plane(0.6, center=(-1.2, 1.0, 1.5)), materials=np.array([2]))
+    scene.world = World(color=np.array([0.1, 0.12, 0.15]), camera=True, lights=True)
+    settings = RenderSettings(width=40, height=30, samples=4, integrator="path", max_bounces=3)
+    compiled, reference = compare_paths(scene, settings)
+    assert_same_render(compiled, reference)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_path_of_no_bounces_is_the_direct_light(kernels):
+    """Max Bounces 0: path tracing converges to the direct-lighting tracer's image (they differ only in
+    where a BSDF ray is traced, which changes the noise, not the mean)."""
+    from test_compiled import LIGHTS, lit_scene
+    scene = lit_scene(LIGHTS["several"])
+    settings = RenderSettings(width=24, height=18, samples=256, max_bounces=0, kernels=kernels)
+    direct = render.render(scene, dataclasses.replace(settings, integrator="direct")).image[..., :3]
+    path = render.render(scene, dataclasses.replace(settings, integrator="path")).image[..., :3]
+    assert abs(path.mean() / direct.mean() - 1.0) < 0.01
+    np.testing.assert_allclose(path, direct, atol=0.02 * direct.max())

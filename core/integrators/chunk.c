@@ -4,7 +4,7 @@
  * of spp samples each, BLOCK camera samples at a time: each block's rays, hits, surfaces and shadow
  * rays live in the cache and on the stack, and its samples go straight into their pixels' sums. */
 
-enum { INTEGRATOR_DIRECT = 0 };
+enum { INTEGRATOR_DIRECT = 0, INTEGRATOR_PATH = 1 };
 
 /* Everything a chunk reads, made once per render by core/integrators/compiled.py (`chunk_params`). */
 typedef struct {
@@ -26,6 +26,7 @@ typedef struct {
     double background[4];                        /* RGBA of a camera ray that misses */
     double luminance[3];                         /* adaptive sampling's luminance weights */
     double want_squares;                         /* 1: sum squared luminance and alpha (adaptive sampling) */
+    double max_bounces, diffuse_bounces, glossy_bounces, roulette_from;   /* a path's limits (path.c) */
 } ChunkParams;
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -91,14 +92,21 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
 
 /* The integrator at the block's hits: the radiance each sends towards the camera, into H->L. Returns the
  * shadow rays; embree[0] += ticks in occlusion queries, embree[1] in the BSDF rays' nearest hits. */
-INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, uint64_t *embree)
+INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work, uint64_t *embree)
 {
     DirectSettings ds = {params->shadows, params->lights, (int64_t)params->light_count, params->light_context,
                          (Occluded8)params->occluded8, (Intersect8)params->intersect8, params->scene,
                          params->geometry, params->materials, (int)params->sampling == SAMPLE_MIS && params->bsdf_rays != 0.0,
                          (int)params->sampling, params->bsdf_rays != 0.0, params->emissive != 0.0,
-                         params->everywhere != 0.0, params->seed};
+                         params->everywhere != 0.0, params->seed, 0,
+                         params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHTS, NULL};
     switch ((int)params->integrator) {
+    case INTEGRATOR_PATH: {
+        PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
+                             (int)params->roulette_from};
+        ds.everywhere = 1;
+        return trace_paths(H, &ds, &limits, work, embree);
+    }
     default: {
         choose_bsdf_rays(H, &ds);
         int64_t rays = direct_light(H, &ds, embree);
@@ -139,6 +147,11 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
     int64_t traced = 0, shadow_rays = 0;
     CameraBlock b;
     BlockHits H;
+    PathWork *work = NULL;
+    if ((int)params->integrator == INTEGRATOR_PATH) {
+        work = (PathWork *)malloc(sizeof(PathWork));
+        if (work == NULL) return;                   /* (the caller finds no samples counted) */
+    }
     for (int64_t k = 0; k < p; k++) {
         for (int c = 0; c < 4; c++) out->rgba[4 * k + c] = 0.0;
         if (out->squares != NULL) out->squares[2 * k] = out->squares[2 * k + 1] = 0.0;
@@ -160,7 +173,7 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
         block_hits(params, &b, &H, &traced, spent);
         /* 3. The light each hit sends towards the camera. */
         uint64_t embree[2] = {0, 0};
-        shadow_rays += integrate(params, &H, embree);
+        shadow_rays += integrate(params, &H, work, embree);
         spent[1] += embree[0];
         spent[0] += embree[1];
         spent[2] += (ticks() - begin) - (spent[0] - before);      /* (occlusion queries included, as before) */
@@ -178,6 +191,8 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
             }
             if (is_hit) {
                 for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];
+                if (work != NULL)
+                    for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];
                 s[3] = 1.0;
                 h++;
                 out->hits[k]++;
@@ -190,6 +205,7 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
             add_sample(s, params->luminance, out->rgba + 4 * k, out->squares != NULL ? out->squares + 2 * k : NULL);
         }
     }
+    free(work);
     out->counts[0] += traced;
     out->counts[1] += shadow_rays;
     double scale = seconds_per_tick(started);

@@ -22,7 +22,7 @@ from ..native import library
 from .base import Context
 
 # The integrators the C code knows (chunk.c INTEGRATOR_*).
-COMPILED_INTEGRATORS = {"direct": 0}
+COMPILED_INTEGRATORS = {"direct": 0, "path": 1}
 
 ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "terminator_fix", "terminator_offset", "seed"],
                                 size_function="primer_shadow_settings_size")
@@ -45,7 +45,9 @@ class ChunkParams(ctypes.Structure):
                 + [(name, ctypes.c_double) for name in ("light_count", "integrator", "sampling", "bsdf_rays",
                                                         "emissive", "everywhere", "transparent", "width", "height", "seed")]
                 + [("background", ctypes.c_double * 4), ("luminance", ctypes.c_double * 3),
-                   ("want_squares", ctypes.c_double)])
+                   ("want_squares", ctypes.c_double)]
+                + [(name, ctypes.c_double) for name in ("max_bounces", "diffuse_bounces", "glossy_bounces",
+                                                        "roulette_from")])
     _size_function = "primer_chunk_params_size"
 
 
@@ -145,6 +147,10 @@ class Compiled:
         params.background[:] = [float(x) for x in background]
         params.luminance[:] = adaptive.LUMINANCE.tolist()
         params.want_squares = 1.0 if s.adaptive else 0.0
+        params.max_bounces, params.diffuse_bounces = float(s.max_bounces), float(s.diffuse_bounces)
+        params.glossy_bounces = float(s.glossy_bounces)
+        from .path import roulette_from
+        params.roulette_from = float(roulette_from(s))
         self.params = params
         self.want_squares = bool(s.adaptive)
         self._render = library.function("primer_render_chunk", None,

@@ -20,7 +20,23 @@ typedef struct {
     uint8_t traced[BLOCK];                       /* 1: the hit traces a BSDF ray (direct.wants_bsdf_ray) */
     uint8_t lambert[BLOCK];                      /* 1: its material is one Lambert closure on the shading normal */
     double albedo[3 * BLOCK];                    /* and that closure's weight */
+    double throughput[3 * BLOCK];                /* a path's throughput at the hit (path.c; 1 at the camera's) */
+    int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse and glossy bounces so far */
 } BlockHits;
+
+/* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */
+typedef struct {
+    int64_t h;
+    double O[3], D[3], t, u, v;
+    int64_t geometry, prim, instance;
+    double weight[3];                            /* f cos / pdf of the sampled closures */
+    int kind;                                    /* the sampled closure's BSDF kind */
+} PathRay;
+
+typedef struct {
+    int64_t n;
+    PathRay r[BLOCK];
+} PathRays;
 
 /* Light samples of one light, BLOCK at a time (structure of arrays, see sample_lanes). */
 typedef struct {
@@ -234,6 +250,9 @@ typedef struct {
     int emissive;               /* 1: some material emits (BSDF rays add what they hit emits) */
     int everywhere;             /* 1: every hit traces a BSDF ray (emitters or the world light the scene) */
     double seed;
+    int64_t dimension;          /* a path's later vertices shift every sampling dimension by this */
+    int gather;                 /* 1: BSDF rays add the light they find (lamps, emitters, the world) */
+    PathRays *continuing;       /* where BSDF rays that hit a surface are kept for a path, or NULL */
 } DirectSettings;
 
 /* Direct light at the block's hits, added to H->L: every light's samples, BLOCK at a time. Returns the
@@ -269,11 +288,11 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
         for (int64_t first = 0; first < total; first += BLOCK) {
             gather_block(&b, H, first, total - first < BLOCK ? total - first : BLOCK, count, lift);
             if (light->delta == 0.0) {
-                sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension), b.pixel, b.index,
+                sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + ds->dimension), b.pixel, b.index,
                              b.u[0], b.u[1]);
                 if ((int)light->kind == LIGHT_EMITTERS) {
                     double unused[BLOCK];
-                    sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + 2), b.pixel, b.index,
+                    sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + 2 + ds->dimension), b.pixel, b.index,
                                  b.u2, unused);
                 }
             } else {
@@ -308,7 +327,8 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
  * MIS against that light's own samples (1 for a constant world); added to H->L. Returns Embree's ticks. */
 INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
 {
-    uint32_t stream = stream_of((int64_t)ds->seed, 2), pick_stream = stream_of((int64_t)ds->seed, 3);
+    uint32_t stream = stream_of((int64_t)ds->seed, 2 + ds->dimension);
+    uint32_t pick_stream = stream_of((int64_t)ds->seed, 3 + ds->dimension);
     uint64_t embree = 0;
     RayHitPacket packet;
     int valid[PACKET] ALIGNED(32);
@@ -355,6 +375,19 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             double pdf_b = s->delta ? INFINITY : s->pdf;
             int use_mis = ds->mis && !s->delta;
             double light_L[3] = {0.0, 0.0, 0.0};
+            if (hit && ds->continuing != NULL) {
+                PathRay *r = ds->continuing->r + ds->continuing->n++;
+                r->h = owner[k];
+                r->t = t_limit;
+                r->u = (double)packet.hit.u[k];
+                r->v = (double)packet.hit.v[k];
+                r->geometry = (int64_t)packet.hit.geomID[k];
+                r->prim = (int64_t)packet.hit.primID[k];
+                r->instance = instance_of(&packet.hit, k);
+                r->kind = s->kind;
+                for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
+            }
+            if (!ds->gather) continue;
             /* c. Lamps with extent in front of the hit (they never block). */
             for (int64_t l = 0; l < ds->n_lights; l++) {
                 const LightRecord *light = ds->lights + l;

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 10
+#define PRIMER_ABI 11
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -31,6 +31,7 @@
 #include "../film/adaptive.c"
 #include "../integrators/shadows.c"
 #include "../integrators/direct.c"
+#include "../integrators/path.c"
 #include "../integrators/chunk.c"
 
 /* The interface version core/native/library.py checks (its ABI). */

@@ -1,0 +1,104 @@
+/* Path tracing: core/integrators/path.py. Every vertex is a block of hits that direct.c lights (light
+ * samples, and a BSDF ray that gathers what it finds); the BSDF rays that hit a surface become the next
+ * block of vertices, within the bounce limits and Russian roulette. */
+
+#define VERTEX_DIMENSIONS (1 << 16)        /* path.VERTEX_DIMENSIONS */
+#define ROULETTE_DIMENSION 6               /* path.ROULETTE_DIMENSION */
+
+/* A path's bounce limits (RenderSettings, Cycles' meaning) and where Russian roulette starts. */
+typedef struct {
+    int max_bounces, diffuse_bounces, glossy_bounces, roulette_from;
+} PathLimits;
+
+/* What a chunk's paths need beyond the camera's block: two blocks of vertices to alternate between, the
+ * BSDF rays that go on, and each camera lane's light from vertices after the first. */
+typedef struct {
+    BlockHits a, b;
+    PathRays rays;
+    double extra[BLOCK][3];
+} PathWork;
+
+/* path.bounce_kind: whether a sampled closure makes a diffuse or a glossy bounce. */
+INLINE int is_diffuse_bounce(int kind) { return kind == BSDF_LAMBERT; }
+INLINE int is_glossy_bounce(int kind) { return kind == BSDF_MICROFACET || kind == BSDF_MIRROR; }
+
+/* path.py steps b-d: the vertices after `vertex`, where the BSDF rays of H that hit a surface and may
+ * still bounce there go on (Russian roulette from limits->roulette_from); their surfaces and materials. */
+INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
+                          const DirectSettings *ds, BlockHits *next)
+{
+    int lift = ds->shadows->terminator_fix != 0.0;
+    int bounces = vertex + 1;
+    uint32_t roulette = stream_of((int64_t)ds->seed, ROULETTE_DIMENSION + (int64_t)bounces * VERTEX_DIMENSIONS);
+    next->m = 0;
+    for (int64_t i = 0; i < rays->n; i++) {
+        const PathRay *r = rays->r + i;
+        int64_t h = r->h;
+        /* a. The bounce limits. */
+        int d = H->diffuse[h] + is_diffuse_bounce(r->kind), g = H->glossy[h] + is_glossy_bounce(r->kind);
+        if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces) continue;
+        /* b. The throughput, and Russian roulette. */
+        double tp[3];
+        for (int c = 0; c < 3; c++) tp[c] = H->throughput[3 * h + c] * r->weight[c];
+        if (bounces >= limits->roulette_from) {
+            double largest = at_least(fabs(tp[0]), at_least(fabs(tp[1]), fabs(tp[2])));
+            double q = at_most(sqrt(largest), 1.0), u[2];
+            sample_2d(roulette, H->pixel[h], H->sample[h], u);
+            if (!(u[0] < q)) continue;
+            for (int c = 0; c < 3; c++) tp[c] = tp[c] / q;
+        }
+        if (!(isfinite(tp[0]) && isfinite(tp[1]) && isfinite(tp[2]))) continue;
+        /* c. The next vertex: the surface the ray hit, its material seen from the ray. */
+        int64_t m = next->m++;
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+        hit_triangle(ds->geometry, r->geometry, r->prim, r->instance, 1, &tri);
+        surface_at(r->O, r->D, r->t, r->u, r->v, &tri, lift, next->s + m);
+        for (int c = 0; c < 3; c++) {
+            next->wo[3 * m + c] = -r->D[c];
+            next->L[3 * m + c] = 0.0;
+            next->throughput[3 * m + c] = tp[c];
+        }
+        next->sd[m].storage = next->storage[m];
+        shade_material(ds->materials + next->s[m].material, next->s[m].N, next->wo + 3 * m, next->sd + m);
+        next->lane[m] = H->lane[h];
+        next->pixel[m] = H->pixel[h];
+        next->sample[m] = H->sample[h];
+        next->diffuse[m] = d;
+        next->glossy[m] = g;
+    }
+}
+
+/* The paths of a block's camera hits H: vertex 0 is lit into H->L (the film adds it), later vertices add
+ * throughput x their light into work->extra per camera lane. Returns the shadow rays traced. */
+INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *limits, PathWork *work,
+                           uint64_t *embree)
+{
+    int64_t shadow_rays = 0;
+    for (int64_t k = 0; k < BLOCK; k++) work->extra[k][0] = work->extra[k][1] = work->extra[k][2] = 0.0;
+    for (int64_t h = 0; h < H->m; h++) {
+        H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
+        H->diffuse[h] = H->glossy[h] = 0;
+    }
+    BlockHits *current = H, *next = &work->a;
+    for (int vertex = 0; current->m > 0; vertex++) {
+        /* a. What the vertex gathers: light samples, and the light its BSDF ray finds. */
+        ds->dimension = (int64_t)vertex * VERTEX_DIMENSIONS;
+        choose_bsdf_rays(current, ds);
+        for (int64_t h = 0; h < current->m; h++) current->traced[h] = 1;
+        shadow_rays += direct_light(current, ds, embree);
+        work->rays.n = 0;
+        ds->continuing = &work->rays;
+        embree[1] += bsdf_rays(current, ds);
+        if (vertex > 0)
+            for (int64_t h = 0; h < current->m; h++)
+                for (int c = 0; c < 3; c++)
+                    work->extra[current->lane[h]][c] += current->throughput[3 * h + c] * current->L[3 * h + c];
+        /* b. Where the paths go on. */
+        next_vertices(current, &work->rays, vertex, limits, ds, next);
+        current = next;
+        next = next == &work->a ? &work->b : &work->a;
+    }
+    ds->continuing = NULL;
+    ds->dimension = 0;
+    return shadow_rays;
+}
