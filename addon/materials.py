@@ -1,7 +1,7 @@
 """Blender materials as Primer reads them: the node tree at the Material Output, as a list of shader nodes.
 
 From the Surface socket down, Mix Shader and Add Shader nodes are multiplied out into one weight per
-BSDF node (Principled, Diffuse, Glossy, Emission, Transparent), with each node's constant inputs
+BSDF node (Principled, Diffuse, Glossy, Glass, Refraction, Emission, Transparent), with each node's constant inputs
 (core/materials/nodes.py sets them up per hit, as Cycles does). A plain Diffuse BSDF stays the lecture's
 constant Lambert material. Whatever Primer cannot read yet (a texture or another node linked into an
 input, a shader node it does not know, sheen, transmission) gets a warning that names the material and
@@ -21,7 +21,6 @@ PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Rough
                       "Coat IOR": "coat_ior", "Coat Tint": "coat_tint", "Transmission Weight": "transmission"}
 # Principled inputs Primer leaves out: socket -> what Primer does instead (warned when above 0).
 PRINCIPLED_LEFT_OUT = {"Sheen Weight": "leaves the sheen out", "Anisotropic": "renders it isotropic",
-                       "Transmission Weight": "does not render the transmitted light yet (its share is dark)",
                        "Subsurface Weight": "approximates subsurface scattering by diffuse reflection",
                        "Diffuse Roughness": "uses Lambert's diffuse (roughness 0)",
                        "Thin Film Thickness": "leaves the thin film out"}
@@ -113,6 +112,8 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list) -> None:
         for socket, instead in PRINCIPLED_LEFT_OUT.items():
             if node.inputs.get(socket) is not None and float(np.max(reader.value(node, socket, 0.0))) > 0.0:
                 reader.warn(node, f"'{socket}' is above 0; Primer {instead}")
+        if inputs.get("transmission", 0.0) > 0.0 and inputs.get("roughness", 0.5) > 0.0:
+            reader.warn(node, "its transmission is rough (Roughness above 0); Primer renders it as smooth glass")
         out.append(("PRINCIPLED", weight, inputs))
     elif kind == "ShaderNodeBsdfDiffuse":
         if float(reader.value(node, "Roughness", 0.0)) > 0.0:
@@ -128,6 +129,12 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list) -> None:
         out.append(("GLOSSY", weight * color, {"roughness": float(reader.value(node, "Roughness", 0.5)),
                                                "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0,
                                                "color": color}))
+    elif kind in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
+        if float(reader.value(node, "Roughness", 0.0)) > 0.0:
+            reader.warn(node, "Roughness is above 0; Primer renders it as smooth glass")
+        out.append(("GLASS", weight, {"color": np.maximum(reader.value(node, "Color", np.ones(3)), 0.0),
+                                      "ior": float(reader.value(node, "IOR", 1.5)),
+                                      "refraction_only": 1.0 if kind == "ShaderNodeBsdfRefraction" else 0.0}))
     elif kind == "ShaderNodeEmission":
         color = np.asarray(reader.value(node, "Color", np.ones(3)), np.float64)
         out.append(("EMISSION", weight, {"emission": color * float(reader.value(node, "Strength", 1.0))}))

@@ -31,6 +31,22 @@ def _is_light(_settings, obj) -> bool:
 class PrimerSettings(bpy.types.PropertyGroup):
     """Render settings of the Primer engine."""
 
+    integrator: EnumProperty(
+        name="Integrator", default="DIRECT",
+        items=(("DIRECT", "Direct Light", "The lecture's ray tracer: light straight from lamps, emitters and the "
+                                          "world (Cycles with Max Bounces 0)"),
+               ("PATH", "Path Tracing", "Light after any number of bounces, with the bounce limits of Light Paths "
+                                        "(as Cycles renders it)")),
+        description="How light is carried to the camera (core/integrators)")
+    max_bounces: IntProperty(name="Total", default=12, min=0, max=1024, soft_max=64,
+                             description="Most bounces a path makes, as Cycles' Light Paths > Max Bounces > Total")
+    diffuse_bounces: IntProperty(name="Diffuse", default=4, min=0, max=1024, soft_max=64,
+                                 description="Most diffuse bounces a path makes (Cycles' Max Bounces > Diffuse)")
+    glossy_bounces: IntProperty(name="Glossy", default=4, min=0, max=1024, soft_max=64,
+                                description="Most glossy and mirror bounces a path makes (Cycles' Max Bounces > Glossy)")
+    min_light_bounces: IntProperty(name="Min Light Bounces", default=0, min=0, max=1024, soft_max=64,
+                                   description="Bounces (plus one) before Russian roulette may end a path, as in "
+                                               "Cycles: more is less noise in deep paths, and slower")
     samples: IntProperty(name="Samples", default=16, min=1, max=1 << 16, soft_max=1024,
                          description="Camera rays per pixel, on a jittered stratified pattern (anti-aliasing)")
     viewport_samples: IntProperty(name="Viewport Samples", default=16, min=1, max=1 << 16, soft_max=1024,

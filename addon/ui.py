@@ -51,6 +51,27 @@ class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
         col.prop(props, "kernels")
 
 
+class RENDER_PT_primer_light_paths(PrimerPanel, bpy.types.Panel):
+    """The integrator and a path's bounce limits (Cycles' Light Paths)."""
+
+    bl_label = "Light Paths"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        props = context.scene.primer
+        col = layout.column()
+        col.prop(props, "integrator")
+        sub = col.column(align=True, heading="Max Bounces")
+        sub.active = props.integrator == "PATH"
+        for name in ("max_bounces", "diffuse_bounces", "glossy_bounces"):
+            sub.prop(props, name)
+        row = col.row()
+        row.active = props.integrator == "PATH"
+        row.prop(props, "min_light_bounces")
+
+
 class RENDER_PT_primer_shadows(PrimerPanel, bpy.types.Panel):
     """How shadow rays leave the surface."""
 
@@ -170,6 +191,7 @@ class DATA_PT_primer_spot(PrimerPanel, bpy.types.Panel):
 
 classes = (
     RENDER_PT_primer_sampling,
+    RENDER_PT_primer_light_paths,
     RENDER_PT_primer_shadows,
     RENDER_PT_primer_debug,
     RENDER_PT_primer_lecture,

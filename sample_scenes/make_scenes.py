@@ -619,6 +619,41 @@ def materials_principled():
     add_light("POINT", "Point", (2.5, -1.0, 2.5), energy=150.0, shadow_soft_size=0.0, color=(1.0, 0.9, 0.8))
 
 
+def cornell_box():
+    """The Cornell box, the standard test of light that bounces: white, red and green walls, two white
+    boxes, lit only by an emissive quad under the ceiling (dimensions after the Cornell data, in dm).
+    Rendered by path tracing with Cycles' default bounce limits (12 in all, 4 diffuse, 4 glossy)."""
+    bpy = _bpy()
+    new_file("cornell_box", 128, 128, light_samples=1, world=(0.0, 0.0, 0.0))
+    scene = bpy_scene()
+    if hasattr(scene, "primer"):
+        scene.primer.integrator = "PATH"
+        scene.primer.max_bounces, scene.primer.diffuse_bounces, scene.primer.glossy_bounces = 12, 4, 4
+    configure = __import__("render").configure_cycles_reference
+    configure(scene, DEFAULT_CYCLES_SAMPLES)               # Cycles follows Primer's bounce limits
+    white = diffuse("Cornell White", (0.725, 0.71, 0.68))
+    red = diffuse("Cornell Red", (0.63, 0.065, 0.05))
+    green = diffuse("Cornell Green", (0.14, 0.45, 0.091))
+    w, d, h = 5.56, 5.59, 5.48
+    walls = [("Floor", white, (w / 2, d / 2, 0.0), (0, 0, 0), (w, d)),
+             ("Ceiling", white, (w / 2, d / 2, h), (math.pi, 0, 0), (w, d)),
+             ("Back Wall", white, (w / 2, d, h / 2), (math.radians(90), 0, 0), (w, h)),
+             ("Red Wall", red, (0.0, d / 2, h / 2), (0, math.radians(90), 0), (h, d)),
+             ("Green Wall", green, (w, d / 2, h / 2), (0, math.radians(-90), 0), (h, d))]
+    for name, material, location, rotation, (sx, sy) in walls:
+        obj = add_primitive("plane", material, False, name, location=location, rotation=rotation, size=1.0)
+        obj.scale = (sx, sy, 1.0)
+    add_primitive("cube", white, False, "Short Box", location=(1.855, 1.69, 0.825),
+                  rotation=(0, 0, math.radians(-17)), size=1.65)
+    tall = add_primitive("cube", white, False, "Tall Box", location=(3.685, 3.515, 1.65),
+                         rotation=(0, 0, math.radians(17)), size=1.65)
+    tall.scale = (1.0, 1.0, 2.0)
+    lamp = emission("Cornell Lamp", (1.0, 0.706, 0.235), 17.0, sampling="FRONT")
+    add_primitive("plane", lamp, False, "Lamp", location=(w / 2, d / 2, h - 0.01), rotation=(math.pi, 0, 0),
+                  size=1.0).scale = (1.3, 1.05, 1.0)
+    add_camera((w / 2, -8.0, h / 2), (w / 2, 0.0, h / 2), lens=33.6, sensor_fit="VERTICAL", sensor_height=24.0)
+
+
 def bpy_scene():
     """The current scene."""
     return _bpy().context.scene
@@ -677,6 +712,7 @@ SCENES = {
     "light_emissive": light_emissive,
     "world_light": world_light,
     "materials_principled": materials_principled,
+    "cornell_box": cornell_box,
     "camera_ortho": camera_ortho,
     "camera_persp_shift": camera_persp_shift,
     "camera_fisheye_equidistant": camera_fisheye_equidistant,

@@ -90,3 +90,48 @@ def test_a_path_of_no_bounces_is_the_direct_light(kernels):
     path = render.render(scene, dataclasses.replace(settings, integrator="path")).image[..., :3]
     assert abs(path.mean() / direct.mean() - 1.0) < 0.01
     np.testing.assert_allclose(path, direct, atol=0.02 * direct.max())
+
+
+def test_smooth_glass_splits_light_by_fresnel_and_bends_it_by_snells_law():
+    """A Glass closure: reflection with probability R / (R + T) about N, refraction with sin_t = sin_i / eta,
+    total internal reflection past the critical angle, and white glass keeps all the light (R + T = 1)."""
+    n = 20000
+    rng = np.random.default_rng(3)
+    theta = math.radians(50.0)
+    wo = np.tile([math.sin(theta), 0.0, math.cos(theta)], (n, 1))
+    N = np.tile([0.0, 0.0, 1.0], (n, 1))
+    glass = materials.nodes.glass_params(n, np.zeros(n, bool), 1.5, materials.microfacet.FRESNEL_DIELECTRIC,
+                                         np.zeros(3), np.zeros(3), np.ones(3), np.ones(3))
+    s = materials.Glass.sample(glass, N, wo, rng.random((n, 2)))
+    F = materials.microfacet.fresnel_dielectric(np.array([math.cos(theta)]), 1.5)[0]
+    reflected = s.wi[:, 2] > 0
+    assert reflected.mean() == pytest.approx(F, abs=0.01)
+    np.testing.assert_allclose(s.weight.mean(axis=0), 1.0, rtol=0.02)          # R + T = 1
+    sin_t = np.hypot(s.wi[~reflected, 0], s.wi[~reflected, 1])
+    np.testing.assert_allclose(sin_t, math.sin(theta) / 1.5, rtol=1e-12)
+    # Leaving the glass (eta = 1 / 1.5) at 50 degrees, past the critical angle of 41.8: all reflected.
+    inside = materials.nodes.glass_params(n, np.ones(n, bool), 1.5, materials.microfacet.FRESNEL_DIELECTRIC,
+                                          np.zeros(3), np.zeros(3), np.ones(3), np.ones(3))
+    s = materials.Glass.sample(inside, N, wo, rng.random((n, 2)))
+    assert (s.wi[:, 2] > 0).all() and np.allclose(s.weight, 1.0)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_glass_slab_passes_the_fresnel_series_of_light(kernels):
+    """Looking straight through a smooth glass slab at a glowing wall, in the dark: each face passes 1 - R
+    and reflects R = ((n - 1) / (n + 1))^2, so light that bounces inside the slab 2k times adds up to
+    L (1 - R)^2 (1 + R^2 + R^4 + ...) = L (1 - R) / (1 + R). (No roulette, ample bounces.)"""
+    ior, glow = 1.5, 2.0
+    scene = Scene(camera=Camera(type="ORTHO", ortho_scale=0.5, matrix_world=np.array(
+        [[1, 0, 0, 0], [0, 0, -1, -3], [0, 1, 0, 0], [0, 0, 0, 1.0]])))
+    scene.materials.append(materials.Material(name="glass", nodes=[("GLASS", (1, 1, 1), {"ior": ior})]))
+    scene.materials.append(materials.Material(name="glow", nodes=[("EMISSION", (1, 1, 1), {"emission": (glow,) * 3})]))
+    scene.add_mesh(primitives.box((4.0, 0.2, 4.0)), materials=np.array([0]))
+    wall = primitives.plane(8.0)
+    scene.add_mesh(wall, np.array([[1, 0, 0, 0], [0, 0, -1, 2.0], [0, 1, 0, 0], [0, 0, 0, 1.0]]),
+                   materials=np.array([1]))
+    settings = RenderSettings(width=6, height=6, samples=256, integrator="path", max_bounces=64,
+                              glossy_bounces=64, transmission_bounces=64, min_light_bounces=64, kernels=kernels)
+    image = render.render(scene, settings).image[..., :3]
+    R = ((ior - 1) / (ior + 1)) ** 2
+    assert image.mean() == pytest.approx(glow * (1 - R) / (1 + R), rel=0.01)

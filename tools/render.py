@@ -44,18 +44,26 @@ def load_primer(name: str = "primer"):
 
 
 def configure_cycles_reference(scene, samples: int) -> None:
-    """Set Cycles up as Primer's reference: direct light only, 1-pixel box filter, no denoising, no
-    clamping, no Filter Glossy, CPU."""
+    """Set Cycles up as Primer's reference: the light paths Primer's integrator follows (direct light only,
+    or path tracing with Primer's bounce limits), 1-pixel box filter, no denoising, no clamping, no Filter
+    Glossy, CPU."""
+    primer = getattr(scene, "primer", None)
+    path = primer is not None and getattr(primer, "integrator", "DIRECT") == "PATH"
     scene.render.engine = "CYCLES"
     cycles = scene.cycles
     cycles.device = "CPU"
     cycles.samples = samples
     cycles.use_adaptive_sampling = False
     cycles.use_denoising = False
-    cycles.max_bounces = 0
-    for bounce in ("diffuse_bounces", "glossy_bounces", "transmission_bounces", "volume_bounces",
+    for bounce in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces", "volume_bounces",
                    "transparent_max_bounces"):
         setattr(cycles, bounce, 0)
+    if path:
+        cycles.max_bounces = primer.max_bounces
+        cycles.diffuse_bounces = primer.diffuse_bounces
+        cycles.glossy_bounces = primer.glossy_bounces
+        cycles.min_light_bounces = primer.min_light_bounces
+        cycles.caustics_reflective = cycles.caustics_refractive = True
     cycles.pixel_filter_type = "BOX"
     cycles.filter_width = 1.0
     # No bias: Filter Glossy and sample clamping (on by default in Cycles) are switched off.

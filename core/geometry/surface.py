@@ -26,6 +26,8 @@ class Surface(NamedTuple):
     u, v:     (n,) float64 barycentric coordinates
     prim:     (n,) int64 the hit triangle (WorldGeometry's flat index)
     t:        (n,) float64 Embree's distance along the ray
+    backfacing: (n,) bool where the ray hit the triangle from behind (it leaves a closed object: glass
+              bends it with 1 / IOR)
     Read-only: N may be the very array Ng is (no hit smooth), and corners a broadcast view of zeros.
     """
 
@@ -40,6 +42,7 @@ class Surface(NamedTuple):
     v: np.ndarray
     prim: np.ndarray
     t: np.ndarray
+    backfacing: np.ndarray = None
 
 
 def hit_points(vertices: np.ndarray, Ng: np.ndarray, u: np.ndarray, v: np.ndarray,
@@ -91,4 +94,4 @@ def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
         corners[smooth] = triangle.corner_normals * side[smooth, None, None]
         N[smooth] = normals_.interpolate(corners[smooth], u[smooth], v[smooth], Ng[smooth])
     return Surface(I, N, Ng, triangle.material, vertices, corners, smooth, u, v, np.asarray(prim, np.int64),
-                   np.asarray(t, np.float64))
+                   np.asarray(t, np.float64), side < 0.0)

@@ -124,6 +124,7 @@ typedef struct {
     double lifted[3];   /* the terminator fix's point (smooth hits, when asked for) */
     int smooth;
     int32_t material;
+    int backfacing;     /* 1: the ray hit the triangle from behind (leaves a closed object) */
 } Surface;
 
 /* The surface of one hit: surface.hit_points, surface_at_hits, shadows.error_bound and, for the
@@ -145,6 +146,7 @@ INLINE void surface_at(const double *O, const double *D, double t, double u, dou
     }
     /* 2. The face normal, flipped when the triangle was hit from behind (N.D > 0). */
     double side = dot3(tri->Ng, D) > 0.0 ? -1.0 : 1.0;
+    s->backfacing = side < 0.0;
     for (int c = 0; c < 3; c++) { s->Ng[c] = tri->Ng[c] * side; s->N[c] = s->Ng[c]; }
     /* 3. The robust offset: ROBUST_ULPS float32 ulps of the largest coordinate involved. */
     double magnitude = largest3(s->I);

@@ -26,7 +26,7 @@ typedef struct {
     double background[4];                        /* RGBA of a camera ray that misses */
     double luminance[3];                         /* adaptive sampling's luminance weights */
     double want_squares;                         /* 1: sum squared luminance and alpha (adaptive sampling) */
-    double max_bounces, diffuse_bounces, glossy_bounces, roulette_from;   /* a path's limits (path.c) */
+    double max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, roulette_from;   /* path.c */
 } ChunkParams;
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -81,7 +81,8 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
                        lift, H->s + h);
             for (int c = 0; c < 3; c++) H->wo[3 * h + c] = -D[c];
             H->sd[h].storage = H->storage[h];
-            shade_material(params->materials + H->s[h].material, H->s[h].N, H->wo + 3 * h, H->sd + h);
+            shade_material(params->materials + H->s[h].material, H->s[h].N, H->wo + 3 * h, H->s[h].backfacing,
+                           H->sd + h);
             H->lane[h] = lane;
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];
@@ -103,7 +104,7 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH: {
         PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
-                             (int)params->roulette_from};
+                             (int)params->transmission_bounces, (int)params->roulette_from};
         ds.everywhere = 1;
         return trace_paths(H, &ds, &limits, work, embree);
     }

@@ -47,7 +47,7 @@ class ChunkParams(ctypes.Structure):
                 + [("background", ctypes.c_double * 4), ("luminance", ctypes.c_double * 3),
                    ("want_squares", ctypes.c_double)]
                 + [(name, ctypes.c_double) for name in ("max_bounces", "diffuse_bounces", "glossy_bounces",
-                                                        "roulette_from")])
+                                                        "transmission_bounces", "roulette_from")])
     _size_function = "primer_chunk_params_size"
 
 
@@ -148,7 +148,7 @@ class Compiled:
         params.luminance[:] = adaptive.LUMINANCE.tolist()
         params.want_squares = 1.0 if s.adaptive else 0.0
         params.max_bounces, params.diffuse_bounces = float(s.max_bounces), float(s.diffuse_bounces)
-        params.glossy_bounces = float(s.glossy_bounces)
+        params.glossy_bounces, params.transmission_bounces = float(s.glossy_bounces), float(s.transmission_bounces)
         from .path import roulette_from
         params.roulette_from = float(roulette_from(s))
         self.params = params

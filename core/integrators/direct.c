@@ -21,7 +21,8 @@ typedef struct {
     uint8_t lambert[BLOCK];                      /* 1: its material is one Lambert closure on the shading normal */
     double albedo[3 * BLOCK];                    /* and that closure's weight */
     double throughput[3 * BLOCK];                /* a path's throughput at the hit (path.c; 1 at the camera's) */
-    int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse and glossy bounces so far */
+    int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse, glossy and transmission bounces so far */
+    int32_t transmission[BLOCK];
 } BlockHits;
 
 /* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */
@@ -31,6 +32,7 @@ typedef struct {
     int64_t geometry, prim, instance;
     double weight[3];                            /* f cos / pdf of the sampled closures */
     int kind;                                    /* the sampled closure's BSDF kind */
+    int transmit;                                /* 1: it went through the surface */
 } PathRay;
 
 typedef struct {
@@ -385,6 +387,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->prim = (int64_t)packet.hit.primID[k];
                 r->instance = instance_of(&packet.hit, k);
                 r->kind = s->kind;
+                r->transmit = dot3(H->s[owner[k]].Ng, D) < 0.0;
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
             }
             if (!ds->gather) continue;

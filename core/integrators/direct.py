@@ -94,7 +94,7 @@ class DirectLighting(Integrator):
         s = ctx.settings
         m = len(surface.I)
         # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
-        shader = ctx.materials.shade(surface.material, surface.N, wo)
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface.backfacing)
         recorder.shader(shader)
         L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
         shadow_rays = 0
@@ -185,7 +185,8 @@ class DirectLighting(Integrator):
         D = bs.wi[go]
         hits = ctx.geometry.tracer.intersect(O, D, np.full(len(go), np.inf))
         pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
-        ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go])
+        ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go],
+                      np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0)
         if not gather:
             recorder.bsdf_sample(bs.wi, bs.pdf, found)
             return found, ray
@@ -261,7 +262,7 @@ class BsdfRay(NamedTuple):
 
     rows (k,) int64 the hits that traced a ray; O, D (k, 3) their origins and unit directions; hits: the
     tracer's Hits of them; weight (k, 3) f cos / pdf; kind (k,) int32 the sampled closure's BSDF kind;
-    delta (k,) bool whether it was a delta closure
+    delta (k,) bool whether it was a delta closure; transmit (k,) bool whether it went through the surface
     """
 
     rows: np.ndarray
@@ -271,6 +272,7 @@ class BsdfRay(NamedTuple):
     weight: np.ndarray
     kind: np.ndarray
     delta: np.ndarray
+    transmit: np.ndarray
 
 
 def wants_bsdf_ray(ctx: Context, shader) -> np.ndarray:

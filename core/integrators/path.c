@@ -7,7 +7,7 @@
 
 /* A path's bounce limits (RenderSettings, Cycles' meaning) and where Russian roulette starts. */
 typedef struct {
-    int max_bounces, diffuse_bounces, glossy_bounces, roulette_from;
+    int max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, roulette_from;
 } PathLimits;
 
 /* What a chunk's paths need beyond the camera's block: two blocks of vertices to alternate between, the
@@ -18,9 +18,10 @@ typedef struct {
     double extra[BLOCK][3];
 } PathWork;
 
-/* path.bounce_kind: whether a sampled closure makes a diffuse or a glossy bounce. */
+/* path.bounce_kind: whether a sampled closure makes a diffuse, a glossy or a transmission bounce. */
 INLINE int is_diffuse_bounce(int kind) { return kind == BSDF_LAMBERT; }
-INLINE int is_glossy_bounce(int kind) { return kind == BSDF_MICROFACET || kind == BSDF_MIRROR; }
+INLINE int is_glossy_bounce(int kind, int transmit) { return kind >= 0 && kind != BSDF_LAMBERT && !transmit; }
+INLINE int is_transmission_bounce(int kind, int transmit) { return kind >= 0 && kind != BSDF_LAMBERT && transmit; }
 
 /* path.py steps b-d: the vertices after `vertex`, where the BSDF rays of H that hit a surface and may
  * still bounce there go on (Russian roulette from limits->roulette_from); their surfaces and materials. */
@@ -35,8 +36,11 @@ INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, 
         const PathRay *r = rays->r + i;
         int64_t h = r->h;
         /* a. The bounce limits. */
-        int d = H->diffuse[h] + is_diffuse_bounce(r->kind), g = H->glossy[h] + is_glossy_bounce(r->kind);
-        if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces) continue;
+        int d = H->diffuse[h] + is_diffuse_bounce(r->kind), g = H->glossy[h] + is_glossy_bounce(r->kind, r->transmit);
+        int tr = H->transmission[h] + is_transmission_bounce(r->kind, r->transmit);
+        if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces
+            || tr > limits->transmission_bounces)
+            continue;
         /* b. The throughput, and Russian roulette. */
         double tp[3];
         for (int c = 0; c < 3; c++) tp[c] = H->throughput[3 * h + c] * r->weight[c];
@@ -59,12 +63,14 @@ INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, 
             next->throughput[3 * m + c] = tp[c];
         }
         next->sd[m].storage = next->storage[m];
-        shade_material(ds->materials + next->s[m].material, next->s[m].N, next->wo + 3 * m, next->sd + m);
+        shade_material(ds->materials + next->s[m].material, next->s[m].N, next->wo + 3 * m, next->s[m].backfacing,
+                       next->sd + m);
         next->lane[m] = H->lane[h];
         next->pixel[m] = H->pixel[h];
         next->sample[m] = H->sample[h];
         next->diffuse[m] = d;
         next->glossy[m] = g;
+        next->transmission[m] = tr;
     }
 }
 
@@ -77,7 +83,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
     for (int64_t k = 0; k < BLOCK; k++) work->extra[k][0] = work->extra[k][1] = work->extra[k][2] = 0.0;
     for (int64_t h = 0; h < H->m; h++) {
         H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
-        H->diffuse[h] = H->glossy[h] = 0;
+        H->diffuse[h] = H->glossy[h] = H->transmission[h] = 0;
     }
     BlockHits *current = H, *next = &work->a;
     for (int vertex = 0; current->m > 0; vertex++) {

@@ -16,7 +16,8 @@ throughput, the product of f cos / pdf of every bounce so far.
     L += throughput x (what the vertex gathers);   throughput *= f cos / pdf of the sampled direction
 
 Bounces are counted as in Cycles: after `max_bounces` bounces (and `diffuse_bounces` after diffuse
-ones, `glossy_bounces` after glossy ones) the last BSDF ray still brings back the light it finds, but the
+ones, `glossy_bounces` after glossy or mirror reflections, `transmission_bounces` after refractions) the
+last BSDF ray still brings back the light it finds, but the
 surface it hits does no more. From the third vertex on, Russian roulette ends a path with probability
 1 - q, q = min(sqrt(max throughput), 1), and divides the throughput of those that go on by q: unbiased,
 cheaper, noisier (Cycles' rule: after Min Light Bounces + 1 bounces, min_light_bounces in RenderSettings).
@@ -49,9 +50,11 @@ def roulette_from(settings) -> int:
     return settings.min_light_bounces + 2
 
 
-def bounce_kind(kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Which sampled closures count as diffuse and which as glossy bounces: (diffuse, glossy) (k,) bool."""
-    return kind == materials_.Lambert.kind, (kind == materials_.Microfacet.kind) | (kind == materials_.Mirror.kind)
+def bounce_kind(kind: np.ndarray, transmit: np.ndarray) -> tuple:
+    """Which bounces are diffuse, glossy (a rough or mirror reflection) and transmission (through glass):
+    (diffuse, glossy, transmission) (k,) bool each, from the sampled closure's kind and its side."""
+    diffuse = kind == materials_.Lambert.kind
+    return diffuse, ~diffuse & (kind >= 0) & ~transmit, ~diffuse & (kind >= 0) & transmit
 
 
 class PathTracing(DirectLighting):
@@ -84,6 +87,7 @@ class PathTracing(DirectLighting):
         throughput = np.ones((len(hit), 3))
         diffuse = np.zeros(len(hit), np.int64)
         glossy = np.zeros(len(hit), np.int64)
+        transmission = np.zeros(len(hit), np.int64)
         wo = -D_hit
         shadow_rays = 0
         vertex = 0
@@ -99,11 +103,13 @@ class PathTracing(DirectLighting):
             if ray is None:
                 break
             # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.
-            is_diffuse, is_glossy = bounce_kind(ray.kind)
+            is_diffuse, is_glossy, is_transmission = bounce_kind(ray.kind, ray.transmit)
             bounces = vertex + 1
             d = diffuse[ray.rows] + is_diffuse
             g = glossy[ray.rows] + is_glossy
-            going = (ray.hits.hit & (bounces <= s.max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces))
+            tr = transmission[ray.rows] + is_transmission
+            going = (ray.hits.hit & (bounces <= s.max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
+                     & (tr <= s.transmission_bounces))
             next_throughput = throughput[ray.rows] * ray.weight
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
             if bounces >= roulette_from(s):
@@ -125,7 +131,7 @@ class PathTracing(DirectLighting):
                                       D_next, hits.t[keep], flat_only=not s.smooth_normals)
             owner = owner[rows]
             throughput = next_throughput[keep]
-            diffuse, glossy = d[keep], g[keep]
+            diffuse, glossy, transmission = d[keep], g[keep], tr[keep]
             wo = -D_next
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays)

@@ -19,11 +19,12 @@ import numpy as np
 from .base import BSDF, BsdfSample
 from .closures import (MAX_CLOSURES, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
                        constant_result, eval_closures, sample_closures)
+from .glass import Glass
 from .lambert import Lambert
 from .microfacet import Microfacet
 from .mirror import Mirror
 
-BSDF_TYPES = (Lambert, Mirror, Microfacet)
+BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass)
 BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
 
 assert all(cls.kind == index for index, cls in enumerate(BSDF_TYPES)), "a BSDF's kind is its place in BSDF_TYPES"
@@ -100,7 +101,7 @@ class ConstantShader:
                    np.array([abs(color.mean())]), np.zeros((1, PARAMS)), emission, np.zeros(3),
                    emission_sides(material.emission_sampling, emission))
 
-    def shade(self, N: np.ndarray, wo: Optional[np.ndarray] = None) -> ShaderResult:
+    def shade(self, N: np.ndarray, wo: Optional[np.ndarray] = None, backfacing=None) -> ShaderResult:
         """The ShaderResult at hits with shading normals N (n, 3) (the same from every direction wo)."""
         return constant_result(len(N), N, self.kinds, self.weights, self.sample_weights, self.params,
                                self.emission, self.transparency)
@@ -137,10 +138,11 @@ class NodeShader:
         emission = np.maximum(head_on.emission[0], 0.0)
         return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission))
 
-    def shade(self, N: np.ndarray, wo: np.ndarray) -> ShaderResult:
-        """The ShaderResult at hits with shading normals N (n, 3) seen from wo (n, 3)."""
+    def shade(self, N: np.ndarray, wo: np.ndarray, backfacing: Optional[np.ndarray] = None) -> ShaderResult:
+        """The ShaderResult at hits with shading normals N (n, 3) seen from wo (n, 3), hit from behind
+        where `backfacing` (n,) bool (glass bends light leaving an object the other way)."""
         from . import nodes as nodes_
-        return nodes_.shade_nodes(self.nodes, N, wo)
+        return nodes_.shade_nodes(self.nodes, N, wo, backfacing)
 
 
 def shader_of(material: Material):
@@ -175,23 +177,26 @@ class MaterialTable:
         """Which rows emit: (m + 1,) bool."""
         return np.array([shader.emission.max() > 0.0 for shader in self.shaders])
 
-    def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray) -> ShaderResult:
-        """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3)."""
+    def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray,
+              backfacing: Optional[np.ndarray] = None) -> ShaderResult:
+        """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3),
+        backfacing (n,) bool where the ray hit the triangle from behind (None: none did)."""
         n = len(material)
         first = int(material[0]) if n else len(self.shaders) - 1
         if n == 0 or (material == first).all():
-            return self.shaders[first].shade(N, wo)
+            return self.shaders[first].shade(N, wo, backfacing)
         results, order = [], []
         for row in np.unique(material):
             rows = np.flatnonzero(material == row)
-            results.append(self.shaders[int(row)].shade(N[rows], None if wo is None else wo[rows]))
+            results.append(self.shaders[int(row)].shade(N[rows], None if wo is None else wo[rows],
+                                                        None if backfacing is None else backfacing[rows]))
             order.append(rows)
         return concatenate(results, order, n)
 
 
 __all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",
            "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable",
-           "Microfacet", "Mirror", "NodeShader", "PARAMS",
+           "Glass", "Microfacet", "Mirror", "NodeShader", "PARAMS",
            "ShaderResult", "eval_closures", "sample_closures"]
 
 

@@ -1,12 +1,13 @@
 /* The table of BSDFs: a closure's `kind` tag picks its functions (core/materials/__init__.py). */
 
-INLINE int bsdf_is_delta(int kind) { return kind == BSDF_MIRROR; }
+INLINE int bsdf_is_delta(int kind) { return kind == BSDF_MIRROR || kind == BSDF_GLASS; }
 
 INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
 {
     switch (c->kind) {
     case BSDF_MIRROR: mirror_eval(c, wo, wi, f_cos, pdf); break;
     case BSDF_MICROFACET: microfacet_eval(c, wo, wi, f_cos, pdf); break;
+    case BSDF_GLASS: glass_eval(c, wo, wi, f_cos, pdf); break;
     default: lambert_eval(c, wo, wi, f_cos, pdf); break;
     }
 }
@@ -16,6 +17,7 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     switch (c->kind) {
     case BSDF_MIRROR: mirror_sample(c, wo, u, out); break;
     case BSDF_MICROFACET: microfacet_sample(c, wo, u, out); break;
+    case BSDF_GLASS: glass_sample(c, wo, u, out); break;
     default: lambert_sample(c, wo, u, out); break;
     }
 }

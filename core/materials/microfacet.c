@@ -19,8 +19,6 @@ INLINE double fresnel_dielectric(double cos_i, double eta)
 
 INLINE double F0_from_ior(double ior) { double r = (ior - 1.0) / (ior + 1.0); return r * r; }
 
-INLINE double clamp01(double x) { return x < 0.0 ? 0.0 : (x > 1.0 ? 1.0 : x); }
-
 /* microfacet.fresnel: the reflectance of the closure's Fresnel model at cos_HI. */
 INLINE void microfacet_fresnel(const double *p, double cos_HI, double *F)
 {

@@ -4,9 +4,9 @@
 #include "ggx_tables.h"
 
 enum { NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
-       NODE_TRANSPARENT = 5 };
+       NODE_TRANSPARENT = 5, NODE_GLASS = 6 };
 #define WEIGHT_CUTOFF 1e-5          /* closures.WEIGHT_CUTOFF */
-#define STORAGE_STRIDE MF_PARAMS    /* doubles of a hit's storage per closure */
+#define STORAGE_STRIDE 16           /* doubles of a hit's storage per closure (a glass closure's parameters) */
 #define SHADER_STORAGE (MAX_CLOSURES * STORAGE_STRIDE)
 
 /* ggx_tables.lookup_*: linear interpolation between grid points i / (size - 1), clamped to 0..1. */
@@ -56,7 +56,7 @@ INLINE void closure_add(ShaderResult *sd, int kind, const double *weight, const 
     c->p = NULL;
     if (params != NULL) {
         double *row = sd->storage + STORAGE_STRIDE * sd->n;
-        for (int j = 0; j < MF_PARAMS; j++) row[j] = params[j];
+        for (int j = 0; j < STORAGE_STRIDE; j++) row[j] = params[j];
         c->p = row;
     }
     sd->n++;
@@ -89,6 +89,7 @@ INLINE double ior_from_F0(double f0)
 /* GlossyLobe.params: a microfacet closure's parameters, energy scale 1. */
 INLINE void lobe_params(double *p, double roughness, int mode, double ior, const double *f0, const double *f90)
 {
+    for (int j = 0; j < STORAGE_STRIDE; j++) p[j] = 0.0;
     double r = clamp01(roughness);
     p[MF_ALPHA] = r * r;
     p[MF_FRESNEL] = (double)mode;
@@ -138,8 +139,32 @@ INLINE void dielectric_albedo(double rough, double mu, double eta, const double 
     for (int j = 0; j < 3; j++) albedo[j] = f0[j] + (1.0 - f0[j]) * s;
 }
 
+/* nodes.glass_params: a Glass closure's parameters; the relative index is ior entering, 1 / ior leaving. */
+INLINE void glass_params(double *g, int backfacing, double ior, int mode, const double *f0, const double *f90,
+                         const double *reflect_tint, const double *transmit_tint)
+{
+    for (int j = 0; j < STORAGE_STRIDE; j++) g[j] = 0.0;
+    g[MF_FRESNEL] = (double)mode;
+    g[MF_IOR] = backfacing ? 1.0 / ior : ior;
+    g[MF_ENERGY] = 1.0;
+    for (int j = 0; j < 3; j++) {
+        g[MF_F0 + j] = f0[j];
+        g[MF_F90 + j] = f90[j];
+        g[GLASS_REFLECT_TINT + j] = reflect_tint[j];
+        g[GLASS_TRANSMIT_TINT + j] = transmit_tint[j];
+    }
+}
+
+/* nodes.glass_albedo: the mean of the reflected and transmitted shares at the view angle. */
+INLINE double glass_albedo(const double *g, double mu)
+{
+    double R[3], T[3];
+    glass_shares(g, clamp01(mu), R, T);
+    return (R[0] + T[0] + R[1] + T[1] + R[2] + T[2]) / 3.0;
+}
+
 /* nodes.PrincipledNode.setup: p holds nodes.PRINCIPLED_INPUTS in order. */
-INLINE void setup_principled(ShaderResult *sd, double mu, const double *weight, const double *p)
+INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const double *weight, const double *p)
 {
     double base[3], clamped[3], tint[3], coat_tint[3], W[3];
     for (int j = 0; j < 3; j++) {
@@ -154,7 +179,7 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *weight, 
     double coat = at_least(p[12], 0.0), coat_roughness = clamp01(p[13]), coat_ior = at_least(p[14], 1.0);
     double transmission = clamp01(p[21]);
     int multiscatter = p[22] != 0.0;
-    double lobe[MF_PARAMS], one[3] = {1.0, 1.0, 1.0};
+    double lobe[STORAGE_STRIDE], one[3] = {1.0, 1.0, 1.0};
     /* 1. Alpha. */
     if (alpha < 1.0)
         for (int j = 0; j < 3; j++) { sd->transparency[j] += W[j] * (1.0 - alpha); W[j] *= alpha; }
@@ -195,9 +220,18 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *weight, 
         lobe_add(sd, mu, metal_weight, lobe, reflect, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - metallic;
     }
-    /* 5. Transmission (not rendered yet). */
-    if (transmission > WEIGHT_CUTOFF)
+    /* 5. Transmission: smooth glass. */
+    if (transmission > WEIGHT_CUTOFF) {
+        double g[STORAGE_STRIDE], f0[3], root[3], glass_weight[3];
+        for (int j = 0; j < 3; j++) {
+            f0[j] = clamp01(F0_from_ior(ior) * tint[j]);
+            root[j] = sqrt(clamped[j]);
+            glass_weight[j] = W[j] * transmission;
+        }
+        glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, f0, one, one, root);
+        closure_add(sd, BSDF_GLASS, glass_weight, glass_weight, glass_albedo(g, mu), g);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - transmission;
+    }
     /* 6. Specular. */
     double eta = ior, f0 = F0_from_ior(ior);
     if (level != 0.5) {
@@ -226,7 +260,7 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *weight, 
 }
 
 /* nodes.shade_nodes for one hit: every node of the material sets up its closures. */
-INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *wo, ShaderResult *sd)
+INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *wo, int backfacing, ShaderResult *sd)
 {
     double mu = dot3(N, wo);
     sd->n = 0;
@@ -237,13 +271,22 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
         case NODE_DIFFUSE: closure_add(sd, BSDF_LAMBERT, weight, weight, 1.0, NULL); break;
         case NODE_MIRROR: closure_add(sd, BSDF_MIRROR, weight, weight, 1.0, NULL); break;
         case NODE_GLOSSY: {
-            double lobe[MF_PARAMS], w[3] = {weight[0], weight[1], weight[2]}, one[3] = {1.0, 1.0, 1.0};
+            double lobe[STORAGE_STRIDE], w[3] = {weight[0], weight[1], weight[2]}, one[3] = {1.0, 1.0, 1.0};
             double Fss[3] = {at_least(p[2], 0.0), at_least(p[3], 0.0), at_least(p[4], 0.0)};
             lobe_params(lobe, p[0], FRESNEL_NONE, 1.0, one, one);
             lobe_add(sd, mu, w, lobe, NULL, p[1] != 0.0 ? Fss : NULL);
             break;
         }
-        case NODE_PRINCIPLED: setup_principled(sd, mu, weight, p); break;
+        case NODE_PRINCIPLED: setup_principled(sd, mu, backfacing, weight, p); break;
+        case NODE_GLASS: {
+            double g[STORAGE_STRIDE], zero[3] = {0.0, 0.0, 0.0}, color[3];
+            for (int j = 0; j < 3; j++) color[j] = at_least(p[j], 0.0);
+            double ior = at_least(p[3], 1e-5);
+            if (p[4] != 0.0) glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, zero, zero, zero, color);
+            else glass_params(g, backfacing, ior, FRESNEL_DIELECTRIC, zero, zero, color, color);
+            closure_add(sd, BSDF_GLASS, weight, weight, glass_albedo(g, mu), g);
+            break;
+        }
         case NODE_EMISSION: for (int j = 0; j < 3; j++) sd->emission[j] += weight[j] * p[j]; break;
         case NODE_TRANSPARENT: for (int j = 0; j < 3; j++) sd->transparency[j] += weight[j]; break;
         default: break;
@@ -252,8 +295,9 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
 }
 
 /* A material at a hit: its constant closures, or its nodes set up for this view direction. */
-INLINE void shade_material(const MaterialRecord *m, const double *N, const double *wo, ShaderResult *sd)
+INLINE void shade_material(const MaterialRecord *m, const double *N, const double *wo, int backfacing,
+                           ShaderResult *sd)
 {
-    if (m->program != 0.0) shade_nodes(m, N, wo, sd);
+    if (m->program != 0.0) shade_nodes(m, N, wo, backfacing, sd);
     else shade_constant(m, N, sd);
 }

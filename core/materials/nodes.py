@@ -20,6 +20,8 @@ import numpy as np
 from . import ggx_tables as tables
 from . import microfacet as mf
 from .closures import PARAMS, WEIGHT_CUTOFF, Closures, ShaderResult
+from .glass import REFLECT_TINT, TRANSMIT_TINT, Glass
+from .glass import shares as glass_shares
 from .lambert import Lambert
 from .microfacet import Microfacet
 from .mirror import Mirror
@@ -28,12 +30,14 @@ from .mirror import Mirror
 class ClosureBuilder:
     """Closures of n hits, appended one slot at a time by the nodes' setups (Cycles' bsdf_alloc).
 
-    N, wo: (n, 3) float64 unit shading normals and directions towards the viewer; mu = N.wo (n,).
+    N, wo: (n, 3) float64 unit shading normals and directions towards the viewer; mu = N.wo (n,);
+    backfacing: (n,) bool where the ray hit from behind (leaving an object: glass bends by 1 / IOR).
     """
 
-    def __init__(self, N: np.ndarray, wo: np.ndarray, slots: int):
+    def __init__(self, N: np.ndarray, wo: np.ndarray, slots: int, backfacing=None):
         n = len(N)
         self.N, self.wo = N, wo
+        self.backfacing = np.zeros(n, bool) if backfacing is None else np.asarray(backfacing, bool)
         self.mu = np.einsum("ij,ij->i", N, wo)
         self.closures = Closures.empty(n, max(1, slots))
         self.count = 0
@@ -239,7 +243,8 @@ class PrincipledNode(Node):
     3. emission, seen through the coat;
     4. metal (metallic): GGX with the F82-tint curve from the base colour, tinted near 82 degrees by
        the specular tint; the rest (1 - metallic) goes on;
-    5. transmission: not rendered yet (a warning says so); it takes its share away from what follows;
+    5. transmission: smooth glass (rough transmission is rendered smooth, with a warning); it takes its
+       share away from what follows;
     6. specular: a dielectric GGX layer whose F0 the Specular IOR Level scales and the Specular Tint
        colours; below it, what it does not reflect;
     7. diffuse: Lambert with the base colour (subsurface scattering approximated by it, with a warning).
@@ -248,7 +253,7 @@ class PrincipledNode(Node):
 
     kind, name = 3, "PRINCIPLED"
     inputs, defaults = PRINCIPLED_INPUTS, PRINCIPLED_DEFAULTS
-    slots = 4
+    slots = 5
 
     @staticmethod
     def setup(b, weight, p):
@@ -289,8 +294,12 @@ class PrincipledNode(Node):
             Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
             GlossyLobe.add(b, W * metallic, lobe, reflect, Fss=Fss if multiscatter else None)
             W = W * (1.0 - metallic)
-        # 5. Transmission (not rendered yet).
+        # 5. Transmission: smooth glass, Fresnel's curve remapped from F0 x specular tint to 1, the
+        #    transmitted light tinted by the square root of the base colour (it passes the surface twice).
         if transmission > WEIGHT_CUTOFF:
+            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, np.clip(mf.F0_from_ior(ior) * tint, 0, 1),
+                                 np.ones(3), np.ones(3), np.sqrt(clamped))
+            b.add(Glass.kind, W * transmission, glass, factor=glass_albedo(glass, b.mu))
             W = W * (1.0 - transmission)
         # 6. Specular: the index whose F0 the Specular IOR Level scales.
         eta, f0 = ior, mf.F0_from_ior(ior)
@@ -312,15 +321,55 @@ class PrincipledNode(Node):
         b.add(Lambert.kind, W * (base * (1.0 - subsurface) + clamped * subsurface))
 
 
-NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode)
+def glass_params(n: int, backfacing: np.ndarray, ior: float, mode: int, f0, f90, reflect_tint, transmit_tint):
+    """(n, PARAMS) rows of a Glass closure: the relative index is ior entering, 1 / ior leaving."""
+    p = np.zeros((n, PARAMS))
+    p[:, mf.FRESNEL] = mode
+    p[:, mf.IOR] = np.where(backfacing, 1.0 / ior, ior)
+    p[:, mf.F0:mf.F0 + 3] = f0
+    p[:, mf.F90:mf.F90 + 3] = f90
+    p[:, mf.ENERGY] = 1.0
+    p[:, REFLECT_TINT:REFLECT_TINT + 3] = reflect_tint
+    p[:, TRANSMIT_TINT:TRANSMIT_TINT + 3] = transmit_tint
+    return p
+
+
+def glass_albedo(p: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    """The mean of reflected plus transmitted shares at the view angle (the closure's sampling weight factor)."""
+    R, T = glass_shares(p, np.clip(mu, 0.0, 1.0))
+    return (R + T).mean(axis=1)
+
+
+class GlassNode(Node):
+    """Glass BSDF (reflection and refraction, tinted by its colour) and Refraction BSDF (refraction only,
+    no Fresnel loss), smooth: rough ones are rendered smooth (a warning at export says so)."""
+
+    kind, name = 6, "GLASS"
+    inputs = ("color", "ior", "refraction_only")
+    defaults = ((1.0, 1.0, 1.0), 1.5, 0.0)
+
+    @staticmethod
+    def setup(b, weight, p):
+        n = len(weight)
+        color, ior = np.maximum(p[0:3], 0.0), max(p[3], 1e-5)
+        if p[4]:
+            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, np.zeros(3), np.zeros(3),
+                                 np.zeros(3), color)
+        else:
+            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_DIELECTRIC, np.zeros(3), np.zeros(3), color, color)
+        b.add(Glass.kind, weight, glass, factor=glass_albedo(glass, b.mu))
+
+
+NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode)
 NODE_BY_NAME = {cls.name: cls for cls in NODE_TYPES}
 
 assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's kind is its place in NODE_TYPES"
 
 
-def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray) -> ShaderResult:
-    """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,))."""
-    b = ClosureBuilder(N, wo, sum(cls.slots for cls, _, _ in nodes))
+def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, backfacing=None) -> ShaderResult:
+    """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,));
+    backfacing (n,) bool where the ray hit from behind."""
+    b = ClosureBuilder(N, wo, sum(cls.slots for cls, _, _ in nodes), backfacing)
     for cls, weight, p in nodes:
         cls.setup(b, np.broadcast_to(np.asarray(weight, np.float64), (len(N), 3)), p)
     return b.result()

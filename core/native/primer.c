@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 11
+#define PRIMER_ABI 12
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -25,6 +25,7 @@
 #include "../materials/lambert.c"
 #include "../materials/mirror.c"
 #include "../materials/microfacet.c"
+#include "../materials/glass.c"
 #include "../materials/bsdf.c"
 #include "../materials/nodes.c"
 #include "../film/film.c"

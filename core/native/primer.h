@@ -67,6 +67,7 @@ INLINE double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1]
 /* max(x, floor) and min(x, ceiling): as fmax / fmin (a NaN x gives the bound), but vectorizable. */
 INLINE double at_least(double x, double floor) { return x > floor ? x : floor; }
 INLINE double at_most(double x, double ceiling) { return x < ceiling ? x : ceiling; }
+INLINE double clamp01(double x) { return x < 0.0 ? 0.0 : (x > 1.0 ? 1.0 : x); }
 
 INLINE double largest3(const double *a)
 {
