@@ -35,6 +35,8 @@ class PrimerSettings(bpy.types.PropertyGroup):
         name="Integrator", default="DIRECT",
         items=(("DIRECT", "Direct Light", "The lecture's ray tracer: light straight from lamps, emitters and the "
                                           "world (Cycles with Max Bounces 0)"),
+               ("WHITTED", "Whitted", "The lecture's recursion: perfect mirrors and glass followed exactly (both "
+                                      "branches, Fresnel), direct light at every hit; up to Max Bounces deep"),
                ("PATH", "Path Tracing", "Light after any number of bounces, with the bounce limits of Light Paths "
                                         "(as Cycles renders it)")),
         description="How light is carried to the camera (core/integrators)")
@@ -44,6 +46,13 @@ class PrimerSettings(bpy.types.PropertyGroup):
                                  description="Most diffuse bounces a path makes (Cycles' Max Bounces > Diffuse)")
     glossy_bounces: IntProperty(name="Glossy", default=4, min=0, max=1024, soft_max=64,
                                 description="Most glossy and mirror bounces a path makes (Cycles' Max Bounces > Glossy)")
+    transmission_bounces: IntProperty(name="Transmission", default=12, min=0, max=1024, soft_max=64,
+                                      description="Most refractions a path makes (Cycles' Max Bounces > Transmission)")
+    fresnel: EnumProperty(
+        name="Fresnel", default="EXACT",
+        items=(("EXACT", "Exact", "The Fresnel equations of a dielectric"),
+               ("SCHLICK", "Schlick", "Schlick's approximation R0 + (1 - R0)(1 - cos)^5, as in the lecture's code")),
+        description="How Whitted's tracer splits light between reflection and refraction at glass")
     min_light_bounces: IntProperty(name="Min Light Bounces", default=0, min=0, max=1024, soft_max=64,
                                    description="Bounces (plus one) before Russian roulette may end a path, as in "
                                                "Cycles: more is less noise in deep paths, and slower")

@@ -64,12 +64,15 @@ class RENDER_PT_primer_light_paths(PrimerPanel, bpy.types.Panel):
         col = layout.column()
         col.prop(props, "integrator")
         sub = col.column(align=True, heading="Max Bounces")
-        sub.active = props.integrator == "PATH"
-        for name in ("max_bounces", "diffuse_bounces", "glossy_bounces"):
+        sub.active = props.integrator != "DIRECT"
+        for name in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces"):
             sub.prop(props, name)
         row = col.row()
         row.active = props.integrator == "PATH"
         row.prop(props, "min_light_bounces")
+        row = col.row()
+        row.active = props.integrator == "WHITTED"
+        row.prop(props, "fresnel")
 
 
 class RENDER_PT_primer_shadows(PrimerPanel, bpy.types.Panel):

@@ -135,3 +135,64 @@ def test_a_glass_slab_passes_the_fresnel_series_of_light(kernels):
     image = render.render(scene, settings).image[..., :3]
     R = ((ior - 1) / (ior + 1)) ** 2
     assert image.mean() == pytest.approx(glow * (1 - R) / (1 + R), rel=0.01)
+
+
+def test_the_inspector_shows_each_vertex_of_a_path_and_they_add_up_to_the_pixel():
+    """The ray inspector on a path-traced pixel: one record per vertex with its throughput and the light it
+    gathered; the pixel's radiance is the sum of throughput x gathered over the vertices, and in the furnace
+    every vertex gathers emission x albedo (the light samples and BSDF ray of a uniform glowing sphere)."""
+    from core.teaching.inspector import inspect_pixel
+    scene, settings = furnace()
+    settings = dataclasses.replace(settings, max_bounces=3, diffuse_bounces=3)
+    record = inspect_pixel(scene, settings, 4, 4)
+    assert [v.vertex for v in record.path] == [0, 1, 2, 3]
+    total = sum(v.throughput * v.gathered for v in record.path)
+    np.testing.assert_allclose(total, record.radiance, rtol=1e-12)
+    np.testing.assert_allclose(record.radiance, furnace_radiance(3), rtol=1e-9)
+    for v in record.path:
+        np.testing.assert_allclose(v.throughput, ALBEDO ** v.vertex, rtol=1e-9)
+        assert v.bsdf_direction is not None and v.bsdf_pdf > 0
+
+
+def slab_scene(ior: float = 1.5, glow: float = 2.0):
+    """An orthographic camera looking through a smooth glass slab at a glowing wall, in the dark."""
+    scene = Scene(camera=Camera(type="ORTHO", ortho_scale=0.5, matrix_world=np.array(
+        [[1, 0, 0, 0], [0, 0, -1, -3], [0, 1, 0, 0], [0, 0, 0, 1.0]])))
+    scene.materials.append(materials.Material(name="glass", nodes=[("GLASS", (1, 1, 1), {"ior": ior})]))
+    scene.materials.append(materials.Material(name="glow", nodes=[("EMISSION", (1, 1, 1), {"emission": (glow,) * 3})]))
+    scene.add_mesh(primitives.box((4.0, 0.2, 4.0)), materials=np.array([0]))
+    scene.add_mesh(primitives.plane(8.0), np.array([[1, 0, 0, 0], [0, 0, -1, 2.0], [0, 1, 0, 0], [0, 0, 0, 1.0]]),
+                   materials=np.array([1]))
+    return scene
+
+
+@pytest.mark.parametrize("fresnel", ["exact", "schlick"])
+def test_whitted_splits_light_at_glass_by_fresnel_exactly(fresnel):
+    """Whitted's tracer follows both branches at glass: through a slab at normal incidence it sees
+    L (1 - R)^2 (1 + R^2 + ... + R^(2k)) for the internal reflections its depth allows, with no noise;
+    Schlick's approximation equals the exact R0 at normal incidence."""
+    ior, glow, depth = 1.5, 2.0, 5
+    settings = RenderSettings(width=4, height=4, samples=1, integrator="whitted", max_bounces=depth,
+                              glossy_bounces=depth, transmission_bounces=depth, fresnel=fresnel)
+    image = render.render(slab_scene(ior, glow), settings).image[..., :3]
+    R = ((ior - 1) / (ior + 1)) ** 2
+    # Through 2 refractions and 2k internal reflections: 2 + 2k bounces <= depth.
+    expected = glow * (1 - R) ** 2 * sum(R ** (2 * k) for k in range((depth - 2) // 2 + 1))
+    np.testing.assert_allclose(image, expected, rtol=1e-6)          # (a float32 image)
+
+
+def test_whitted_sees_a_glowing_wall_in_a_tinted_mirror():
+    """A mirror tinted (0.9, 0.5, 0.2) facing a glowing wall: the camera sees the wall's radiance times the tint."""
+    scene = Scene(camera=Camera(type="ORTHO", ortho_scale=0.5, matrix_world=np.array(
+        [[1, 0, 0, 0], [0, 0, -1, -3], [0, 1, 0, 0], [0, 0, 0, 1.0]])))
+    scene.materials.append(materials.Material((0.9, 0.5, 0.2), name="mirror", bsdf="MIRROR"))
+    scene.materials.append(materials.Material(name="glow", nodes=[("EMISSION", (1, 1, 1), {"emission": (2.0,) * 3})]))
+    tilt = math.radians(45)
+    c, s_ = math.cos(tilt), math.sin(tilt)
+    scene.add_mesh(primitives.plane(4.0), np.array([[1, 0, 0, 0], [0, c, -s_, 0], [0, s_, c, 0], [0, 0, 0, 1.0]]),
+                   materials=np.array([0]))
+    scene.add_mesh(primitives.plane(8.0), np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 3.0], [0, 0, 0, 1.0]]),
+                   materials=np.array([1]))
+    settings = RenderSettings(width=4, height=4, samples=1, integrator="whitted", max_bounces=2)
+    image = render.render(scene, settings).image[..., :3]
+    np.testing.assert_allclose(image, np.broadcast_to([1.8, 1.0, 0.4], image.shape), rtol=1e-6)

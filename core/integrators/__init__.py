@@ -8,7 +8,9 @@ from __future__ import annotations
 from .base import Context, Integrator, Radiance, Recorder
 from .direct import DirectLighting
 from .path import PathTracing
+from .whitted import WhittedTracing
 
-INTEGRATORS = {cls.name: cls for cls in (DirectLighting, PathTracing)}
+INTEGRATORS = {cls.name: cls for cls in (DirectLighting, WhittedTracing, PathTracing)}
 
-__all__ = ["Context", "DirectLighting", "INTEGRATORS", "Integrator", "PathTracing", "Radiance", "Recorder"]
+__all__ = ["Context", "DirectLighting", "INTEGRATORS", "Integrator", "PathTracing", "Radiance", "Recorder",
+           "WhittedTracing"]

@@ -87,9 +87,11 @@ class Recorder:
         """The direction sampled from each hit's closures, wi (m, 3), its pdf (m,) (inf: a delta) and the
         light (m, 3) it found (lamps, emitters, the world), weighed by MIS."""
 
-    def path_vertex(self, vertex: int, owner: np.ndarray, throughput: np.ndarray, L: np.ndarray) -> None:
-        """A path tracer's vertex `vertex` (0: the camera's hit) of the camera rays `owner` (m,) int64: the
-        path's throughput (m, 3) there and the light L (m, 3) the vertex gathered (before the throughput)."""
+    def path_vertex(self, vertex: int, owner: np.ndarray, surface: Surface, throughput: np.ndarray,
+                    L: np.ndarray) -> None:
+        """A path tracer's vertex `vertex` (0: the camera's hit) of the camera rays `owner` (m,) int64, after
+        it was shaded: its Surface, the path's throughput (m, 3) there and the light L (m, 3) it gathered
+        (before the throughput). The shader, light-sample and BSDF-sample calls before it were this vertex's."""
 
     def roulette(self, vertex: int, owner: np.ndarray, q: np.ndarray, survived: np.ndarray) -> None:
         """Russian roulette before vertex `vertex` of the paths of camera rays `owner` (k,): the probability

@@ -82,14 +82,16 @@ class DirectLighting(Integrator):
         return Radiance(L_out, found.hit, shadow_rays)
 
     def shade(self, ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray,
-              recorder: Recorder, dimension: int = 0, vertex: int = 0, trace_all: bool = False):
+              recorder: Recorder, dimension: int = 0, vertex: int = 0, trace_all: bool = False,
+              light_samples_only: bool = False):
         """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
         each traced hit sent out, or None).
 
         wo: (m, 3) float64 unit directions towards the viewer; pixel, sample: (m,) int64 each hit's
         keys for its random numbers. A path (core/integrators/path.py) calls this at every vertex:
         `dimension` shifts its random numbers, vertices after the first leave their emission to the
-        ray that found them (vertex > 0), and every hit traces its BSDF ray (trace_all).
+        ray that found them (vertex > 0), and every hit traces its BSDF ray (trace_all). Whitted's tracer
+        lights every hit by light samples alone (light_samples_only: no BSDF ray, no MIS).
         """
         s = ctx.settings
         m = len(surface.I)
@@ -102,9 +104,12 @@ class DirectLighting(Integrator):
         # Which hits trace a BSDF ray (every hit where emitters or the world light the scene, glossy hits
         # where only lamps with extent do) and so weigh their light samples by MIS.
         traced = np.ones(m, bool) if trace_all else wants_bsdf_ray(ctx, shader)
+        if light_samples_only:
+            traced = np.zeros(m, bool)
         mis = (traced & (s.light_sampling == "mis")) if ctx.extra.get("bsdf_rays", False) else np.zeros(m, bool)
         for index, light in enumerate(ctx.lights):
-            if s.light_sampling == "bsdf" and not light.delta and index in ctx.extra.get("hittable", ()):
+            if (s.light_sampling == "bsdf" and not light_samples_only and not light.delta
+                    and index in ctx.extra.get("hittable", ())):
                 continue                      # found by BSDF rays alone
             count = light_count(ctx, light)
             cone = light.cone(surface.I)                   # shared by all the light's samples
@@ -154,7 +159,8 @@ class DirectLighting(Integrator):
                 L_out[rows] += value
         # 2. The light one BSDF-sampled direction finds (lamps with extent, emitters, the world).
         ray = None
-        if trace_all or (ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light" and traced.any()):
+        if not light_samples_only and (trace_all or (ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light"
+                                                     and traced.any())):
             gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
             found, ray = self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                                        dimension, gather)

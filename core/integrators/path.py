@@ -99,7 +99,7 @@ class PathTracing(DirectLighting):
                                              dimension, vertex, trace_all=True)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
-            recorder.path_vertex(vertex, owner, throughput, L_vertex)
+            recorder.path_vertex(vertex, owner, surface, throughput, L_vertex)
             if ray is None:
                 break
             # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.

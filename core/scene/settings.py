@@ -15,6 +15,8 @@ class RenderSettings:
         bounce limits, with Cycles' meaning and defaults (Light Paths > Max Bounces); "direct" is a path
         with max_bounces 0. min_light_bounces: Russian roulette spares a path's first min_light_bounces + 1
         bounces (Cycles' Min Light Bounces).
+    fresnel: how Whitted's tracer splits light at glass: "exact" (the dielectric Fresnel equations) or
+        "schlick" (Schlick's approximation, the lecture's R0 + (1 - R0)(1 - cos)^5).
     light_sampling: how lights with extent are found: "mis" (light samples and BSDF-sampled rays,
         weighed by multiple importance sampling, as Cycles), "light" (light samples alone) or "bsdf"
         (BSDF-sampled rays alone; lights without extent keep their light samples).
@@ -53,6 +55,7 @@ class RenderSettings:
     transmission_bounces: int = 12
     transparent_max_bounces: int = 8
     min_light_bounces: int = 0
+    fresnel: str = "exact"
     width: int = 640
     height: int = 480
     samples: int = 16

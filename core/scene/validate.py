@@ -36,6 +36,8 @@ def validate(scene, settings) -> None:
         value = getattr(settings, name)
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= MAX_BOUNCES:
             raise ValueError(f"{name.replace('_', ' ')} must be a whole number from 0 to {MAX_BOUNCES}, got {value!r}")
+    if settings.fresnel not in ("exact", "schlick"):
+        raise ValueError(f"fresnel must be 'exact' or 'schlick', got {settings.fresnel!r}")
     if settings.light_sampling not in ("mis", "light", "bsdf"):
         raise ValueError(f"light sampling must be 'mis', 'light' or 'bsdf', got {settings.light_sampling!r}")
     if settings.shadow_method not in ("robust", "epsilon"):

@@ -143,6 +143,27 @@ class PixelRecord(NamedTuple):
     warnings: tuple
     bsdf_sample: Optional[tuple] = None
     emission: Optional[np.ndarray] = None
+    path: tuple = ()
+
+
+class PathVertex(NamedTuple):
+    """One vertex of the inspected pixel's path (integrator "path"; vertex 0 is the camera's hit).
+
+    I, N: (3,) float64 the hit point (world) and shading normal; throughput: (3,) float64 the product of
+    f cos / pdf of the bounces before it (divided by the roulette's q); gathered: (3,) float64 the light the
+    vertex gathered (light samples and what its BSDF ray found, weighed by MIS; emission at vertex 0), before
+    the throughput; bsdf_direction: (3,) and bsdf_pdf: the direction sampled there (pdf inf: a delta), or None;
+    roulette: (q, went on) of the Russian roulette before this vertex, or None where none was played
+    """
+
+    vertex: int
+    I: np.ndarray
+    N: np.ndarray
+    throughput: np.ndarray
+    gathered: np.ndarray
+    bsdf_direction: Optional[np.ndarray]
+    bsdf_pdf: float
+    roulette: Optional[tuple]
 
 
 class InspectorRecorder(Recorder):
@@ -153,14 +174,21 @@ class InspectorRecorder(Recorder):
         self.surface = None
         self.lights = {}
         self.bsdf = None
+        self.vertex = 0                      # the path vertex whose calls come in (0: the camera's hit)
+        self.path: list = []
+        self.pending_bsdf = None
+        self.pending_roulette = None
 
     def hits(self, O, D, surface, hit) -> None:
         self.surface = surface
 
     def shader(self, result) -> None:
-        self.result = result
+        if self.vertex == 0:
+            self.result = result
 
     def light_sample(self, light, count, sample, NL, NgL, cosine, face_allows, lit) -> None:
+        if self.vertex > 0:
+            return
         s = self.settings
         E_normal = sample.irradiance[0]
         if s.shadow_rays_for_backfacing and E_normal.max() > 0.0:
@@ -178,14 +206,29 @@ class InspectorRecorder(Recorder):
                                   pdf=float(sample.pdf[0]))
 
     def shadow_rays(self, light, count, rows, rays, seen) -> None:
-        self.lights[light].update(rays=rays, seen=bool(seen[0]))
+        if self.vertex == 0:
+            self.lights[light].update(rays=rays, seen=bool(seen[0]))
 
     def contribution(self, light, rows, value, mis_weight) -> None:
-        self.lights[light]["value"] = value[0].copy()
-        self.lights[light]["mis"] = float(mis_weight[0])
+        if self.vertex == 0:
+            self.lights[light]["value"] = value[0].copy()
+            self.lights[light]["mis"] = float(mis_weight[0])
 
     def bsdf_sample(self, wi, pdf, found) -> None:
-        self.bsdf = (wi[0].copy(), float(pdf[0]), found[0].copy())
+        if self.vertex == 0:
+            self.bsdf = (wi[0].copy(), float(pdf[0]), found[0].copy())
+        self.pending_bsdf = (wi[0].copy(), float(pdf[0])) if len(wi) else None
+
+    def roulette(self, vertex, owner, q, survived) -> None:
+        self.pending_roulette = (float(q[0]), bool(survived[0])) if len(q) else None
+
+    def path_vertex(self, vertex, owner, surface, throughput, L) -> None:
+        if len(owner) == 0:
+            return
+        wi, pdf = self.pending_bsdf if self.pending_bsdf is not None else (None, 0.0)
+        self.path.append(PathVertex(vertex, surface.I[0] + self.origin, surface.N[0].copy(), throughput[0].copy(),
+                                    L[0].copy(), wi, pdf, self.pending_roulette))
+        self.vertex, self.pending_bsdf, self.pending_roulette = vertex + 1, None, None
 
     def albedo(self) -> np.ndarray:
         """The colour of the hit's material: the sum of its closures' weights (3,) float64."""
@@ -261,7 +304,7 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     miss.update(hit=True, t=float(surface.t[0]), I=surface.I[0] + origin, Ng=surface.Ng[0].copy(), N=surface.N[0].copy(),
                 smooth=bool(surface.smooth[0]), u=float(surface.u[0]), v=float(surface.v[0]), triangle=triangle,
                 object_name=object_name, albedo=recorder.albedo(), lights=records, bsdf_sample=recorder.bsdf,
-                emission=recorder.result.emission[0].copy())
+                emission=recorder.result.emission[0].copy(), path=tuple(recorder.path))
     return PixelRecord(radiance=found.L[0].copy(), **miss)
 
 

@@ -1,0 +1,150 @@
+"""Whitted ray tracing: the lecture's recursion, perfect mirrors and glass followed exactly, direct light elsewhere.
+
+Turner Whitted's tracer (1980), as the lecture's closing code writes it with MAXDEPTH: at every hit,
+the light the surface emits and the direct light of every lamp (shadow rays, the direct tracer's
+light samples), and for each perfectly specular closure a new ray, traced recursively:
+
+    mirror:  L += tint x L(reflected ray)
+    glass:   L += R x L(reflected ray) + T x L(refracted ray)      (R + T = 1 for clear glass)
+
+R is the Fresnel reflectance: exact for a dielectric, or Schlick's approximation
+R0 + (1 - R0)(1 - cos)^5 (RenderSettings.fresnel, a lecture switch); past the critical angle all light
+is reflected (total internal reflection), and a ray leaving glass bends by 1 / IOR. Nothing is random
+but the light samples of lamps with extent: both branches of glass are followed, so a pixel needs no
+samples beyond anti-aliasing. Rough surfaces get direct light only (no glossy reflections of other
+objects): that is what distinguishes Whitted's tracer from path tracing.
+
+The recursion stops after max_bounces bounces (glossy_bounces reflections, transmission_bounces
+refractions), or where a branch carries less than CUTOFF of the light (its children are dropped: a
+small, stated loss). Rays that escape see the world. This integrator runs on the Python reference path.
+"""
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from .. import materials as materials_
+from .. import vectors
+from ..geometry.surface import surface_at_hits
+from ..materials import glass as glass_
+from ..materials import microfacet as mf
+from .base import Context, Radiance, Recorder
+from .direct import DirectLighting, lamps_seen
+
+# A branch whose throughput falls below this in every channel is not followed.
+CUTOFF = 1e-4
+
+
+def schlick(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """Schlick's approximation of the Fresnel reflectance, R0 + (1 - R0)(1 - cos)^5, with the cosine on the
+    denser side when leaving it (so total internal reflection still happens): (n,)."""
+    R0 = mf.F0_from_ior(eta)
+    sin_t2 = (1.0 - cos_i * cos_i) / (eta * eta)
+    cos = np.where(eta < 1.0, np.sqrt(np.maximum(1.0 - sin_t2, 0.0)), cos_i)
+    return np.where(sin_t2 >= 1.0, 1.0, R0 + (1.0 - R0) * (1.0 - cos) ** 5)
+
+
+class WhittedTracing(DirectLighting):
+    """Recursive perfect reflection and refraction with direct light at every hit (module docstring)."""
+
+    name: ClassVar[str] = "whitted"
+
+    def radiance(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, pixel: np.ndarray,
+                 sample: np.ndarray, recorder: Recorder) -> Radiance:
+        s = ctx.settings
+        n = len(O)
+        L_out = np.zeros((n, 3))
+        owner = np.arange(n)
+        throughput = np.ones((n, 3))
+        glossy = np.zeros(n, np.int64)
+        transmission = np.zeros(n, np.int64)
+        camera_hit = np.zeros(n, bool)
+        shadow_rays = 0
+        world = ctx.extra.get("world_light")
+        depth = 0
+        while len(owner):
+            # 1. The rays of this depth: what they hit; the world and lamps where they escape or pass.
+            found = ctx.geometry.tracer.intersect(O, D, t_max)
+            if depth == 0:
+                camera_hit = found.hit.copy()
+            missed = np.flatnonzero(~found.hit)
+            if world is not None and world.camera and not (depth == 0 and s.transparent_background):
+                np.add.at(L_out, owner[missed], throughput[missed] * world.radiance(D[missed]))
+            np.add.at(L_out, owner, throughput * lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max)))
+            hit = np.flatnonzero(found.hit)
+            if len(hit) == 0:
+                break
+            surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[hit], D[hit],
+                                      found.t[hit], flat_only=not s.smooth_normals)
+            if depth == 0:
+                recorder.hits(O, D, surface, found.hit)
+            # 2. Emission and direct light at every hit (light samples only: no BSDF rays, no MIS).
+            wo = -D[hit]
+            rows = owner[hit]
+            L_hit, rays, _ = self.shade(ctx, surface, wo, pixel[rows], sample[rows], recorder,
+                                        dimension=depth * (1 << 16), vertex=0, light_samples_only=True)
+            shadow_rays += rays
+            np.add.at(L_out, rows, throughput[hit] * L_hit)
+            recorder.path_vertex(depth, rows, surface, throughput[hit], L_hit)
+            # 3. The specular closures' rays: a mirror's reflection, glass's reflection and refraction.
+            shader = ctx.materials.shade(surface.material, surface.N, wo, surface.backfacing)
+            children = self.specular_rays(s, surface, shader, wo, throughput[hit], glossy[hit], transmission[hit])
+            if children is None or depth + 1 > s.max_bounces:
+                break
+            index, O, D, throughput, glossy, transmission = children
+            owner = rows[index]
+            t_max = np.full(len(owner), np.inf)
+            depth += 1
+        return Radiance(L_out, camera_hit, shadow_rays)
+
+    def specular_rays(self, s, surface, shader, wo, throughput, glossy, transmission):
+        """The child rays of every perfectly specular closure: (hit index (k,), O (k, 3), D (k, 3), throughput
+        (k, 3), glossy and transmission bounce counts (k,)), or None when there are none."""
+        closures = shader.closures
+        parts = []
+        cos_i = np.clip(np.einsum("ij,ij->i", surface.N, wo), 0.0, 1.0)
+        for slot in range(closures.kind.shape[1]):
+            kind, weight = closures.kind[:, slot], closures.weight[:, slot]
+            N = closures.N[:, slot]
+            mirror = np.flatnonzero(kind == materials_.Mirror.kind)
+            if len(mirror):
+                R = 2.0 * cos_i[mirror, None] * N[mirror] - wo[mirror]
+                parts.append((mirror, R, weight[mirror], 1, 0))
+            glass = np.flatnonzero(kind == materials_.Glass.kind)
+            if len(glass):
+                p = closures.params[glass, slot]
+                eta = p[:, mf.IOR]
+                R_share, T_share = glass_.shares(p, cos_i[glass])
+                if s.fresnel == "schlick":
+                    F = schlick(cos_i[glass], eta)[:, None]
+                    tir = (1.0 - (1.0 - cos_i[glass] ** 2) / eta ** 2) <= 0.0
+                    R_share = np.where(tir[:, None], 1.0, F) * p[:, glass_.REFLECT_TINT:glass_.REFLECT_TINT + 3]
+                    T_share = np.where(tir[:, None], 0.0, 1.0 - F) * p[:, glass_.TRANSMIT_TINT:glass_.TRANSMIT_TINT + 3]
+                reflected = 2.0 * cos_i[glass, None] * N[glass] - wo[glass]
+                refracted, exists = glass_.refract(wo[glass], N[glass], eta)
+                parts.append((glass, reflected, weight[glass] * R_share, 1, 0))
+                parts.append((glass[exists], refracted[exists], (weight[glass] * T_share)[exists], 0, 1))
+        if not parts:
+            return None
+        index = np.concatenate([rows for rows, *_ in parts])
+        D = np.concatenate([d for _, d, *_ in parts])
+        weight = np.concatenate([w for _, _, w, *_ in parts])
+        g = glossy[index] + np.concatenate([np.full(len(rows), a) for rows, _, _, a, _ in parts])
+        t = transmission[index] + np.concatenate([np.full(len(rows), b) for rows, _, _, _, b in parts])
+        tp = throughput[index] * weight
+        keep = np.flatnonzero((tp.max(axis=1) > CUTOFF) & (g <= s.glossy_bounces) & (t <= s.transmission_bounces))
+        if len(keep) == 0:
+            return None
+        index, D, tp, g, t = index[keep], D[keep], tp[keep], g[keep], t[keep]
+        # Each ray leaves from a point safely off the surface, on the side it goes to.
+        side = np.where(np.einsum("ij,ij->i", surface.Ng[index], D) < 0.0, -1.0, 1.0)
+        step = (shadows_offsets(s, surface)[index] if s.shadow_method == "robust" else np.full(len(index), s.epsilon))
+        O = surface.I[index] + (step * side)[:, None] * surface.Ng[index]
+        return index, O, D / np.linalg.norm(D, axis=1)[:, None], tp, g, t
+
+
+def shadows_offsets(s, surface) -> np.ndarray:
+    """The robust offsets of the hits (shadows.error_bound)."""
+    from . import shadows
+    return shadows.error_bound(surface.I, surface.vertices)
