@@ -62,6 +62,7 @@ def configure_cycles_reference(scene, samples: int) -> None:
         cycles.max_bounces = primer.max_bounces
         cycles.diffuse_bounces = primer.diffuse_bounces
         cycles.glossy_bounces = primer.glossy_bounces
+        cycles.transmission_bounces = getattr(primer, "transmission_bounces", 12)
         cycles.min_light_bounces = primer.min_light_bounces
         cycles.caustics_reflective = cycles.caustics_refractive = True
     cycles.pixel_filter_type = "BOX"
