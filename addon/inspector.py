@@ -146,6 +146,55 @@ class PRIMER_OT_inspect_pixel(bpy.types.Operator):
         return run_inspection(self, context, x, y)
 
 
+DIAGRAM_IMAGE = "Primer Ray Diagram"
+
+
+def ray_diagram(context, row: int, size: int = 512):
+    """Draw the 2D ray diagram of pixel row `row` (from the top) into the image DIAGRAM_IMAGE; return the image."""
+    from ..core.teaching import diagram
+    exported = export.export_scene(context.evaluated_depsgraph_get())
+    drawn = diagram.ray_diagram(exported.scene, exported.settings, row, size=size)
+    image = bpy.data.images.get(DIAGRAM_IMAGE)
+    if image is None or tuple(image.size) != (size, size):
+        if image is not None:
+            bpy.data.images.remove(image)
+        image = bpy.data.images.new(DIAGRAM_IMAGE, size, size, float_buffer=True)
+    image.pixels.foreach_set(drawn.image[::-1].ravel())      # Blender's rows run bottom-up
+    image.update()
+    return image
+
+
+class PRIMER_OT_ray_diagram(bpy.types.Operator):
+    """Draw the scene from above, cut at the camera's height, with the rays of one row of pixels: camera rays,
+    shadow rays, reflected and refracted rays, each in its own colour (image "Primer Ray Diagram")"""
+
+    bl_idname = "primer.ray_diagram"
+    bl_label = "Ray Diagram"
+    bl_options = {"REGISTER"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None
+
+    def execute(self, context):
+        row = context.scene.primer_inspector.y
+        try:
+            image = ray_diagram(context, row)
+        except (export.ExportError, ValueError) as error:
+            self.report({"ERROR"}, f"Primer: {error}")
+            return {"CANCELLED"}
+        except Exception as error:          # a clear report, never a traceback in Blender's face
+            log.exception("ray diagram failed")
+            self.report({"ERROR"}, f"Primer: ray diagram failed: {error}")
+            return {"CANCELLED"}
+        for window in context.window_manager.windows:
+            for area in window.screen.areas:
+                if area.type == "IMAGE_EDITOR":
+                    area.spaces.active.image = image
+        self.report({"INFO"}, f"Primer: ray diagram of row {row} in image '{image.name}'")
+        return {"FINISHED"}
+
+
 def _window_region(area):
     """Return the main (WINDOW) region of an area, or None."""
     for region in area.regions:
@@ -281,6 +330,7 @@ def draw_inspector(layout, context, pick: bool = False) -> None:
     row.operator(PRIMER_OT_inspect_pixel.bl_idname, icon="VIEWZOOM")
     if pick:
         row.operator(PRIMER_OT_pick_pixel.bl_idname, icon="EYEDROPPER")
+    layout.operator(PRIMER_OT_ray_diagram.bl_idname, icon="SNAP_PERPENDICULAR")
     col = layout.column(heading="Draw", align=True)
     col.prop(settings, "show_overlay")
     sub = col.column(align=True)
@@ -349,6 +399,7 @@ classes = (
     PrimerInspectorSettings,
     PRIMER_OT_inspect_pixel,
     PRIMER_OT_pick_pixel,
+    PRIMER_OT_ray_diagram,
     VIEW3D_PT_primer_inspector,
     IMAGE_PT_primer_inspector,
     RENDER_PT_primer_inspector,

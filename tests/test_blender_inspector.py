@@ -281,3 +281,15 @@ def test_viewport_drawing_is_not_installed_in_background_mode(primer):
     assert bpy.app.background
     assert module(primer, "inspector")._draw_handle is None
     assert hasattr(bpy.types, "PRIMER_OT_inspect_pixel") or hasattr(bpy.ops.primer, "inspect_pixel")
+
+
+def test_ray_diagram_operator_draws_the_rays_into_an_image(primer):
+    """Primer > Ray Diagram: the row of the inspector's Y is drawn from above into image 'Primer Ray Diagram',
+    with the camera's rays in their colour (bottom-up rows, as Blender stores images)."""
+    scene = floor_scene()
+    scene.primer_inspector.y = 6
+    assert bpy.ops.primer.ray_diagram() == {"FINISHED"}
+    image = bpy.data.images["Primer Ray Diagram"]
+    pixels = np.array(image.pixels[:]).reshape(image.size[1], image.size[0], 4)
+    yellow = np.all(np.isclose(pixels[..., :3], (1.0, 0.85, 0.1), atol=1e-6), axis=-1)
+    assert yellow.any()

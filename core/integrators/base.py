@@ -93,6 +93,10 @@ class Recorder:
         it was shaded: its Surface, the path's throughput (m, 3) there and the light L (m, 3) it gathered
         (before the throughput). The shader, light-sample and BSDF-sample calls before it were this vertex's."""
 
+    def rays(self, kind: str, O: np.ndarray, D: np.ndarray, t: np.ndarray) -> None:
+        """Rays the integrator traced beyond the shadow rays: kind "camera", "reflect" or "refract"; origins
+        O and unit directions D (k, 3), and how far each went, t (k,) (inf where it escaped)."""
+
     def roulette(self, vertex: int, owner: np.ndarray, q: np.ndarray, survived: np.ndarray) -> None:
         """Russian roulette before vertex `vertex` of the paths of camera rays `owner` (k,): the probability
         q (k,) of going on, and which went on (k,) bool."""

@@ -193,6 +193,10 @@ class DirectLighting(Integrator):
         pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
         ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go],
                       np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0)
+        t_hit = np.where(hits.hit, hits.t, np.inf)
+        for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
+            if mask.any():
+                recorder.rays(kind, O[mask], D[mask], t_hit[mask])
         if not gather:
             recorder.bsdf_sample(bs.wi, bs.pdf, found)
             return found, ray

@@ -68,6 +68,11 @@ class WhittedTracing(DirectLighting):
             found = ctx.geometry.tracer.intersect(O, D, t_max)
             if depth == 0:
                 camera_hit = found.hit.copy()
+            else:
+                t_hit = np.where(found.hit, found.t, np.inf)
+                for kind, mask in (("reflect", ~crossing), ("refract", crossing)):
+                    if mask.any():
+                        recorder.rays(kind, O[mask], D[mask], t_hit[mask])
             missed = np.flatnonzero(~found.hit)
             if world is not None and world.camera and not (depth == 0 and s.transparent_background):
                 np.add.at(L_out, owner[missed], throughput[missed] * world.radiance(D[missed]))
@@ -93,6 +98,7 @@ class WhittedTracing(DirectLighting):
             if children is None or depth + 1 > s.max_bounces:
                 break
             index, O, D, throughput, glossy, transmission = children
+            crossing = np.einsum("ij,ij->i", surface.Ng[index], D) < 0.0
             owner = rows[index]
             t_max = np.full(len(owner), np.inf)
             depth += 1
