@@ -1,0 +1,213 @@
+"""Compare Primer with Cycles on real scenes: Blender files made by other people, which no test of ours built.
+
+The scenes are not committed (each one's source, commit and licence is listed in SOURCES); `fetch` copies
+them from a local git mirror of their repository into the cache folder, `compare` renders each with
+Primer and with Cycles under the same settings and writes a report:
+
+    .venv/bin/python tools/real_scenes.py fetch --mirror PATH/TO/glTF-Blender-IO   # once
+    .venv/bin/python tools/real_scenes.py compare [--integrator direct|path] [--only NAME ...]
+
+A scene without a camera gets one that frames its meshes from a three-quarter view above; a scene
+without lights gets a sun and a dim world that lights it. Both renderers then run through
+tools/render.py (Cycles as Primer's reference: the same bounces, a 1-pixel box filter, no denoising, no
+clamping). The error measure is the project's: the relative MSE of 4x4-pixel block means,
+mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)); for scale, Cycles at 256 samples against its own 512 scores
+about 1e-4 or less. Cache: $PRIMER_REAL_SCENES, default ~/.cache/primer/real_scenes.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+CACHE = os.environ.get("PRIMER_REAL_SCENES", os.path.join(os.path.expanduser("~"), ".cache", "primer", "real_scenes"))
+GLTF_IO = ("KhronosGroup/glTF-Blender-IO", "7551a35b146ab62ebc503ec661f88a74dc611392", "Apache-2.0")
+
+# name -> (repository, commit, licence, path in the repository, what it exercises)
+SOURCES = {
+    "gltf_factors": GLTF_IO + ("tests/scenes/01_factors.blend", "Principled factors, a node group, Math and Mix"),
+    "gltf_sheen": GLTF_IO + ("tests/scenes/19_sheen.blend", "Principled sheen variants (Primer leaves sheen out)"),
+    "gltf_specular": GLTF_IO + ("tests/scenes/20_specular.blend", "Specular IOR Level and Specular Tint"),
+    "gltf_node_groups": GLTF_IO + ("tests/scenes/22_node_groups.blend", "materials inside node groups"),
+    "gltf_vertex_colors": GLTF_IO + ("tests/scenes/24_vertex_colors.blend", "vertex colours, transparency, emission"),
+    "gltf_robot": GLTF_IO + ("tests/scenes/RobotExpressive.blend", "a rigged character, Principled materials"),
+    "gltf_scene_export": GLTF_IO + ("tests/scenes/00_scene_export.blend", "diffuse and Principled meshes"),
+}
+
+RIG = r'''
+import sys, math
+import bpy
+from mathutils import Vector
+sys.path.insert(0, {tools!r})
+from render import load_primer
+load_primer()
+bpy.ops.wm.open_mainfile(filepath={source!r})
+scene = bpy.context.scene
+notes = []
+meshes = [o for o in scene.objects if o.type == "MESH" and o.visible_get()]
+if scene.camera is None:
+    points = [o.matrix_world @ Vector(c) for o in meshes for c in o.bound_box]
+    lo = Vector([min(p[i] for p in points) for i in range(3)])
+    hi = Vector([max(p[i] for p in points) for i in range(3)])
+    centre, radius = (lo + hi) / 2, max((hi - lo).length / 2, 1e-3)
+    direction = Vector((1.0, -1.3, 0.9)).normalized()
+    camera = bpy.data.objects.new("Rig Camera", bpy.data.cameras.new("Rig Camera"))
+    camera.data.lens = 50.0
+    camera.location = centre + direction * radius * 3.2
+    camera.rotation_euler = (centre - camera.location).to_track_quat("-Z", "Y").to_euler()
+    camera.data.clip_start, camera.data.clip_end = radius * 0.01, radius * 100
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    notes.append("camera added")
+if not any(o.type == "LIGHT" for o in scene.objects):
+    sun = bpy.data.objects.new("Rig Sun", bpy.data.lights.new("Rig Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 3.0, math.radians(3.0)
+    sun.rotation_euler = (math.radians(40), 0, math.radians(30))
+    scene.collection.objects.link(sun)
+    notes.append("sun added")
+    world = scene.world or bpy.data.worlds.new("Rig World")
+    scene.world = world
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    background = next((n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground"), None)
+    if background is not None:
+        background.inputs["Color"].default_value = (0.05, 0.055, 0.06, 1.0)
+        background.inputs["Strength"].default_value = 1.0
+render = scene.render
+render.resolution_x, render.resolution_y, render.resolution_percentage = {width}, {height}, 100
+render.film_transparent = False
+scene.view_settings.view_transform = "Standard"
+scene.view_settings.look = "None"
+scene.view_settings.exposure, scene.view_settings.gamma = 0.0, 1.0
+scene.primer.integrator = {integrator!r}
+scene.primer.light_samples = 1
+scene.primer.terminator_fix = True          # Cycles lifts smooth shadow rays by each object's offset (0.1)
+scene.primer.use_adaptive_sampling = False
+render.engine = "PRIMER"
+bpy.ops.wm.save_as_mainfile(filepath={out!r}, copy=True)
+print("RIG " + ", ".join(notes))
+'''
+
+
+def block_rel_mse(P: np.ndarray, C: np.ndarray) -> float:
+    """The project's error: mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)) over the RGB of 4x4-pixel block means."""
+    h, w = P.shape[0] // 4 * 4, P.shape[1] // 4 * 4
+
+    def blocks(x):
+        return x[:h, :w, :3].reshape(h // 4, 4, w // 4, 4, 3).mean(axis=(1, 3))
+    b, c = blocks(P.astype(np.float64)), blocks(C.astype(np.float64))
+    return float(np.mean((b - c) ** 2 / (c * c + 0.01)))
+
+
+def fetch(mirror: str) -> None:
+    """Copy every source whose repository `mirror` (a git directory) holds into the cache."""
+    os.makedirs(CACHE, exist_ok=True)
+    for name, (repo, commit, _, path, _) in SOURCES.items():
+        data = subprocess.run(["git", "--git-dir", mirror, "show", f"{commit}:{path}"], capture_output=True)
+        if data.returncode != 0:
+            data = subprocess.run(["git", "--git-dir", mirror, "show", f"HEAD:{path}"], capture_output=True)
+        if data.returncode != 0:
+            print(f"{name}: not in {mirror} ({data.stderr.decode().strip()})")
+            continue
+        with open(os.path.join(CACHE, name + os.path.splitext(path)[1]), "wb") as handle:
+            handle.write(data.stdout)
+        print(f"{name}: {len(data.stdout) / 1e6:.1f} MB from {repo} ({path})")
+
+
+def run(args: list, timeout: float = 1800) -> subprocess.CompletedProcess:
+    """Run a Python command of this checkout's venv, returning the finished process."""
+    return subprocess.run([sys.executable] + args, capture_output=True, text=True, timeout=timeout, cwd=ROOT)
+
+
+def compare(names: list, integrator: str, samples: int, reference: int, width: int, height: int,
+            report: str) -> list:
+    """Rig, render with both engines and measure each cached scene; write the report; return the rows."""
+    from core.film import image_io
+    rows = []
+    work = os.path.join(CACHE, "work")
+    os.makedirs(work, exist_ok=True)
+    for name in names:
+        source = os.path.join(CACHE, name + ".blend")
+        if not os.path.exists(source):
+            print(f"{name}: not in the cache ({source}); run `fetch` first")
+            continue
+        rigged = os.path.join(work, f"{name}_{integrator}.blend")
+        script = RIG.format(tools=os.path.join(ROOT, "tools"), source=source, out=rigged, width=width, height=height,
+                            integrator=integrator.upper())
+        done = run(["-c", script])
+        if done.returncode != 0:
+            print(f"{name}: rigging failed\n{done.stderr[-2000:]}")
+            continue
+        notes = [line[4:] for line in done.stdout.splitlines() if line.startswith("RIG ")]
+        images, seconds, warnings = {}, {}, []
+        for engine, count in (("PRIMER", samples), ("CYCLES", reference)):
+            out = os.path.join(work, f"{name}_{integrator}_{engine.lower()}.exr")
+            start = time.time()
+            done = run([os.path.join(ROOT, "tools", "render.py"), rigged, "-o", out, "--engine", engine,
+                        "--samples", str(count)])
+            seconds[engine] = time.time() - start
+            if done.returncode != 0:
+                print(f"{name}: {engine} failed\n{done.stderr[-2000:]}")
+                break
+            if engine == "PRIMER":
+                warnings = sorted({line.split("Primer: ", 1)[1] for line in (done.stdout + done.stderr).splitlines()
+                                   if "Warning: Primer: " in line})
+            images[engine] = image_io.read_image(out)
+        if len(images) < 2:
+            continue
+        P, C = images["PRIMER"], images["CYCLES"]
+        row = dict(name=name, integrator=integrator, error=block_rel_mse(P, C),
+                   ratio=float(P[..., :3].mean() / max(C[..., :3].mean(), 1e-12)), primer_s=seconds["PRIMER"],
+                   cycles_s=seconds["CYCLES"], notes=notes, warnings=warnings, what=SOURCES[name][4],
+                   source=f"{SOURCES[name][0]} {SOURCES[name][3]} ({SOURCES[name][2]})")
+        rows.append(row)
+        print(f"{name:22s} relMSE {row['error']:.2e}  mean P/C {row['ratio']:.4f}  "
+              f"Primer {row['primer_s']:.1f} s  Cycles {row['cycles_s']:.1f} s  {len(warnings)} warning(s)")
+    write_report(rows, report, samples, reference)
+    return rows
+
+
+def write_report(rows: list, path: str, samples: int, reference: int) -> None:
+    """A markdown table of the measurements, and the JSON beside it."""
+    lines = [f"| scene | what it exercises | relMSE (4x4 blocks) | mean P/C | Primer {samples} spp (s) | "
+             f"Cycles {reference} spp (s) | Primer's warnings |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['name']} ({r['integrator']}) | {r['what']} | {r['error']:.2e} | {r['ratio']:.3f} | "
+                     f"{r['primer_s']:.1f} | {r['cycles_s']:.1f} | {'; '.join(r['warnings'])[:300]} |")
+    with open(path, "w") as handle:
+        handle.write("\n".join(lines) + "\n")
+    with open(os.path.splitext(path)[0] + ".json", "w") as handle:
+        json.dump(rows, handle, indent=1)
+    print(f"report: {path}")
+
+
+def main(argv=None) -> int:
+    """Parse the command line and run it."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    f = sub.add_parser("fetch", help="copy the sources from a local git mirror into the cache")
+    f.add_argument("--mirror", required=True, help="the repository's git directory")
+    c = sub.add_parser("compare", help="render every cached scene with Primer and Cycles and measure")
+    c.add_argument("--only", nargs="*", default=None)
+    c.add_argument("--integrator", choices=("direct", "path"), default="direct")
+    c.add_argument("--samples", type=int, default=1024)
+    c.add_argument("--reference", type=int, default=2048)
+    c.add_argument("--size", type=int, nargs=2, default=(320, 240))
+    c.add_argument("--report", default=os.path.join(CACHE, "report.md"))
+    args = parser.parse_args(argv)
+    if args.command == "fetch":
+        fetch(args.mirror)
+        return 0
+    compare(args.only or list(SOURCES), args.integrator, args.samples, args.reference, *args.size, args.report)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
