@@ -361,6 +361,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         max_bounces=int(props.max_bounces), diffuse_bounces=int(props.diffuse_bounces),
         glossy_bounces=int(props.glossy_bounces), transmission_bounces=int(props.transmission_bounces),
         min_light_bounces=int(props.min_light_bounces), fresnel=props.fresnel.lower(),
+        transparent_max_bounces=int(props.transparent_bounces),
         adaptive=bool(props.use_adaptive_sampling),
         adaptive_threshold=float(props.adaptive_threshold),
         adaptive_min_samples=int(props.adaptive_min_samples),

@@ -33,12 +33,13 @@ class PrimerSettings(bpy.types.PropertyGroup):
 
     integrator: EnumProperty(
         name="Integrator", default="DIRECT",
+        # (Explicit numbers: a .blend file stores the number, so an item keeps its number forever.)
         items=(("DIRECT", "Direct Light", "The lecture's ray tracer: light straight from lamps, emitters and the "
-                                          "world (Cycles with Max Bounces 0)"),
+                                          "world (Cycles with Max Bounces 0)", 0),
                ("WHITTED", "Whitted", "The lecture's recursion: perfect mirrors and glass followed exactly (both "
-                                      "branches, Fresnel), direct light at every hit; up to Max Bounces deep"),
+                                      "branches, Fresnel), direct light at every hit; up to Max Bounces deep", 2),
                ("PATH", "Path Tracing", "Light after any number of bounces, with the bounce limits of Light Paths "
-                                        "(as Cycles renders it)")),
+                                        "(as Cycles renders it)", 1)),
         description="How light is carried to the camera (core/integrators)")
     max_bounces: IntProperty(name="Total", default=12, min=0, max=1024, soft_max=64,
                              description="Most bounces a path makes, as Cycles' Light Paths > Max Bounces > Total")
@@ -48,6 +49,9 @@ class PrimerSettings(bpy.types.PropertyGroup):
                                 description="Most glossy and mirror bounces a path makes (Cycles' Max Bounces > Glossy)")
     transmission_bounces: IntProperty(name="Transmission", default=12, min=0, max=1024, soft_max=64,
                                       description="Most refractions a path makes (Cycles' Max Bounces > Transmission)")
+    transparent_bounces: IntProperty(name="Transparent", default=8, min=0, max=1024, soft_max=64,
+                                     description="Most transparent surfaces (Transparent BSDF, alpha) a ray passes, "
+                                                 "with every integrator (Cycles' Max Bounces > Transparent)")
     fresnel: EnumProperty(
         name="Fresnel", default="EXACT",
         items=(("EXACT", "Exact", "The Fresnel equations of a dielectric"),

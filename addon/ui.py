@@ -67,6 +67,7 @@ class RENDER_PT_primer_light_paths(PrimerPanel, bpy.types.Panel):
         sub.active = props.integrator != "DIRECT"
         for name in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces"):
             sub.prop(props, name)
+        col.prop(props, "transparent_bounces", text="Transparent Bounces")
         row = col.row()
         row.active = props.integrator == "PATH"
         row.prop(props, "min_light_bounces")

@@ -196,3 +196,44 @@ def test_whitted_sees_a_glowing_wall_in_a_tinted_mirror():
     settings = RenderSettings(width=4, height=4, samples=1, integrator="whitted", max_bounces=2)
     image = render.render(scene, settings).image[..., :3]
     np.testing.assert_allclose(image, np.broadcast_to([1.8, 1.0, 0.4], image.shape), rtol=1e-6)
+
+
+def glow_behind(planes: list) -> Scene:
+    """The slab scene's camera looking at a glowing wall (radiance 2) through planes of the given materials
+    (each a list of shader nodes), one behind the other, in the dark."""
+    scene = Scene(camera=Camera(type="ORTHO", ortho_scale=0.5, matrix_world=np.array(
+        [[1, 0, 0, 0], [0, 0, -1, -3], [0, 1, 0, 0], [0, 0, 0, 1.0]])))
+    scene.materials.append(materials.Material(name="glow", nodes=[("EMISSION", (1, 1, 1), {"emission": (2.0,) * 3})]))
+    scene.add_mesh(primitives.plane(8.0), np.array([[1, 0, 0, 0], [0, 0, -1, 2.0], [0, 1, 0, 0], [0, 0, 0, 1.0]]),
+                   materials=np.array([0]))
+    for i, nodes in enumerate(planes):
+        scene.materials.append(materials.Material(name=f"sheet {i}", nodes=nodes))
+        scene.add_mesh(primitives.plane(4.0), np.array([[1, 0, 0, 0], [0, 0, -1, -1.0 + 0.5 * i], [0, 1, 0, 0],
+                                                        [0, 0, 0, 1.0]]), materials=np.array([i + 1]))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_light_passes_transparent_surfaces_tinted_and_alpha_lets_one_minus_alpha_through(integrator, kernels):
+    """A Transparent BSDF tinted (0.5, 0.25, 1) shows the wall behind times the tint; a Principled BSDF of
+    Alpha 0.3 in the dark lets 0.7 of it through; both with Max Bounces 0 too (transparent bounces are not
+    bounces, as in Cycles)."""
+    settings = RenderSettings(width=4, height=4, samples=16, integrator=integrator, max_bounces=0, kernels=kernels)
+    tinted = render.render(glow_behind([[("TRANSPARENT", (0.5, 0.25, 1.0), {})]]), settings).image[..., :3]
+    np.testing.assert_allclose(tinted, np.broadcast_to([1.0, 0.5, 2.0], tinted.shape), rtol=1e-6)
+    alpha = render.render(glow_behind([[("PRINCIPLED", (1, 1, 1), {"alpha": 0.3})]]), settings).image[..., :3]
+    assert alpha.mean() == pytest.approx(0.7 * 2.0, rel=0.05)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_transparent_bounces_stop_at_their_limit(kernels):
+    """Three clear sheets before the wall: with Transparent Max Bounces 2 the camera sees the wall (as with Max
+    Bounces, the ray leaving the last surface a path may pass still brings back what it finds), with 1 it
+    sees black."""
+    sheets = glow_behind([[("TRANSPARENT", (1, 1, 1), {})]] * 3)
+    settings = RenderSettings(width=4, height=4, samples=1, integrator="path", kernels=kernels)
+    seen = render.render(sheets, dataclasses.replace(settings, transparent_max_bounces=2)).image[..., :3]
+    np.testing.assert_allclose(seen, 2.0, rtol=1e-6)
+    stopped = render.render(sheets, dataclasses.replace(settings, transparent_max_bounces=1)).image[..., :3]
+    assert not stopped.any()

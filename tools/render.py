@@ -55,9 +55,10 @@ def configure_cycles_reference(scene, samples: int) -> None:
     cycles.samples = samples
     cycles.use_adaptive_sampling = False
     cycles.use_denoising = False
-    for bounce in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces", "volume_bounces",
-                   "transparent_max_bounces"):
+    for bounce in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces", "volume_bounces"):
         setattr(cycles, bounce, 0)
+    # Rays pass transparent surfaces with every Primer integrator, as in Cycles (apart from Max Bounces).
+    cycles.transparent_max_bounces = getattr(primer, "transparent_bounces", 8) if primer is not None else 8
     if path:
         cycles.max_bounces = primer.max_bounces
         cycles.diffuse_bounces = primer.diffuse_bounces

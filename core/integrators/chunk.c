@@ -27,6 +27,8 @@ typedef struct {
     double luminance[3];                         /* adaptive sampling's luminance weights */
     double want_squares;                         /* 1: sum squared luminance and alpha (adaptive sampling) */
     double max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, roulette_from;   /* path.c */
+    double transparent_bounces;                  /* a path's limit of transparent bounces */
+    double see_through;                          /* 1: some material lets light through (Transparent, alpha) */
 } ChunkParams;
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -104,10 +106,19 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH: {
         PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
-                             (int)params->transmission_bounces, (int)params->roulette_from};
+                             (int)params->transmission_bounces, (int)params->transparent_bounces,
+                             (int)params->roulette_from};
         ds.everywhere = 1;
         return trace_paths(H, &ds, &limits, work, embree);
     }
+    case INTEGRATOR_DIRECT:
+        if (params->see_through != 0.0) {
+            /* Through transparent surfaces: the path tracer with no bounces but transparent ones. */
+            PathLimits limits = {0, 0, 0, 0, (int)params->transparent_bounces, (int)params->roulette_from};
+            ds.everywhere = 1;
+            return trace_paths(H, &ds, &limits, work, embree);
+        }
+        /* fall through */
     default: {
         choose_bsdf_rays(H, &ds);
         int64_t rays = direct_light(H, &ds, embree);
@@ -149,7 +160,7 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
     CameraBlock b;
     BlockHits H;
     PathWork *work = NULL;
-    if ((int)params->integrator == INTEGRATOR_PATH) {
+    if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0) {
         work = (PathWork *)malloc(sizeof(PathWork));
         if (work == NULL) return;                   /* (the caller finds no samples counted) */
     }

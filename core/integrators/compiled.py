@@ -47,7 +47,8 @@ class ChunkParams(ctypes.Structure):
                 + [("background", ctypes.c_double * 4), ("luminance", ctypes.c_double * 3),
                    ("want_squares", ctypes.c_double)]
                 + [(name, ctypes.c_double) for name in ("max_bounces", "diffuse_bounces", "glossy_bounces",
-                                                        "transmission_bounces", "roulette_from")])
+                                                        "transmission_bounces", "roulette_from",
+                                                        "transparent_bounces", "see_through")])
     _size_function = "primer_chunk_params_size"
 
 
@@ -151,6 +152,8 @@ class Compiled:
         params.glossy_bounces, params.transmission_bounces = float(s.glossy_bounces), float(s.transmission_bounces)
         from .path import roulette_from
         params.roulette_from = float(roulette_from(s))
+        params.transparent_bounces = float(s.transparent_max_bounces)
+        params.see_through = 1.0 if ctx.extra.get("transparent") else 0.0
         self.params = params
         self.want_squares = bool(s.adaptive)
         self._render = library.function("primer_render_chunk", None,

@@ -22,7 +22,7 @@ typedef struct {
     double albedo[3 * BLOCK];                    /* and that closure's weight */
     double throughput[3 * BLOCK];                /* a path's throughput at the hit (path.c; 1 at the camera's) */
     int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse, glossy and transmission bounces so far */
-    int32_t transmission[BLOCK];
+    int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
 } BlockHits;
 
 /* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */

@@ -58,6 +58,11 @@ class DirectLighting(Integrator):
                  sample: np.ndarray, recorder: Recorder) -> Radiance:
         s = ctx.settings
         n = len(O)
+        if ctx.extra.get("transparent", False):
+            # Rays go on through transparent surfaces (Cycles' transparent bounces, apart from Max Bounces 0):
+            # the path tracer with no bounces but those (core/integrators/path.py).
+            from .path import PathTracing
+            return PathTracing(direct_only=True).radiance(ctx, O, D, t_max, pixel, sample, recorder)
         # 1. The nearest hit of each camera ray (t), and the surface there: I, Ng, N.
         found = ctx.geometry.tracer.intersect(O, D, t_max)
         hit = np.flatnonzero(found.hit)

@@ -7,7 +7,7 @@
 
 /* A path's bounce limits (RenderSettings, Cycles' meaning) and where Russian roulette starts. */
 typedef struct {
-    int max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, roulette_from;
+    int max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, transparent_bounces, roulette_from;
 } PathLimits;
 
 /* What a chunk's paths need beyond the camera's block: two blocks of vertices to alternate between, the
@@ -20,8 +20,15 @@ typedef struct {
 
 /* path.bounce_kind: whether a sampled closure makes a diffuse, a glossy or a transmission bounce. */
 INLINE int is_diffuse_bounce(int kind) { return kind == BSDF_LAMBERT; }
-INLINE int is_glossy_bounce(int kind, int transmit) { return kind >= 0 && kind != BSDF_LAMBERT && !transmit; }
-INLINE int is_transmission_bounce(int kind, int transmit) { return kind >= 0 && kind != BSDF_LAMBERT && transmit; }
+INLINE int is_transparent_bounce(int kind) { return kind == BSDF_TRANSPARENT; }
+INLINE int is_glossy_bounce(int kind, int transmit)
+{
+    return kind >= 0 && kind != BSDF_LAMBERT && kind != BSDF_TRANSPARENT && !transmit;
+}
+INLINE int is_transmission_bounce(int kind, int transmit)
+{
+    return kind >= 0 && kind != BSDF_LAMBERT && kind != BSDF_TRANSPARENT && transmit;
+}
 
 /* path.py steps b-d: the vertices after `vertex`, where the BSDF rays of H that hit a surface and may
  * still bounce there go on (Russian roulette from limits->roulette_from); their surfaces and materials. */
@@ -29,8 +36,7 @@ INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, 
                           const DirectSettings *ds, BlockHits *next)
 {
     int lift = ds->shadows->terminator_fix != 0.0;
-    int bounces = vertex + 1;
-    uint32_t roulette = stream_of((int64_t)ds->seed, ROULETTE_DIMENSION + (int64_t)bounces * VERTEX_DIMENSIONS);
+    uint32_t roulette = stream_of((int64_t)ds->seed, ROULETTE_DIMENSION + (int64_t)(vertex + 1) * VERTEX_DIMENSIONS);
     next->m = 0;
     for (int64_t i = 0; i < rays->n; i++) {
         const PathRay *r = rays->r + i;
@@ -38,13 +44,15 @@ INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, 
         /* a. The bounce limits. */
         int d = H->diffuse[h] + is_diffuse_bounce(r->kind), g = H->glossy[h] + is_glossy_bounce(r->kind, r->transmit);
         int tr = H->transmission[h] + is_transmission_bounce(r->kind, r->transmit);
+        int see_through = is_transparent_bounce(r->kind), clear = H->transparent[h] + see_through;
+        int bounces = H->bounce[h] + !see_through;
         if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces
-            || tr > limits->transmission_bounces)
+            || tr > limits->transmission_bounces || clear > limits->transparent_bounces)
             continue;
         /* b. The throughput, and Russian roulette. */
         double tp[3];
         for (int c = 0; c < 3; c++) tp[c] = H->throughput[3 * h + c] * r->weight[c];
-        if (bounces >= limits->roulette_from) {
+        if (bounces >= limits->roulette_from && !see_through) {
             double largest = at_least(fabs(tp[0]), at_least(fabs(tp[1]), fabs(tp[2])));
             double q = at_most(sqrt(largest), 1.0), u[2];
             sample_2d(roulette, H->pixel[h], H->sample[h], u);
@@ -71,6 +79,8 @@ INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, 
         next->diffuse[m] = d;
         next->glossy[m] = g;
         next->transmission[m] = tr;
+        next->transparent[m] = clear;
+        next->bounce[m] = bounces;
     }
 }
 
@@ -83,7 +93,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
     for (int64_t k = 0; k < BLOCK; k++) work->extra[k][0] = work->extra[k][1] = work->extra[k][2] = 0.0;
     for (int64_t h = 0; h < H->m; h++) {
         H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
-        H->diffuse[h] = H->glossy[h] = H->transmission[h] = 0;
+        H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
     }
     BlockHits *current = H, *next = &work->a;
     for (int vertex = 0; current->m > 0; vertex++) {

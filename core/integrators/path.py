@@ -51,16 +51,22 @@ def roulette_from(settings) -> int:
 
 
 def bounce_kind(kind: np.ndarray, transmit: np.ndarray) -> tuple:
-    """Which bounces are diffuse, glossy (a rough or mirror reflection) and transmission (through glass):
-    (diffuse, glossy, transmission) (k,) bool each, from the sampled closure's kind and its side."""
+    """Which bounces are diffuse, glossy (a rough or mirror reflection), transmission (through glass) and
+    transparent (straight through a Transparent closure, not counted as a bounce): four (k,) bool arrays."""
     diffuse = kind == materials_.Lambert.kind
-    return diffuse, ~diffuse & (kind >= 0) & ~transmit, ~diffuse & (kind >= 0) & transmit
+    transparent = kind == materials_.Transparent.kind
+    other = ~diffuse & ~transparent & (kind >= 0)
+    return diffuse, other & ~transmit, other & transmit, transparent
 
 
 class PathTracing(DirectLighting):
     """Unidirectional path tracing with next-event estimation, MIS and Russian roulette (module docstring)."""
 
     name: ClassVar[str] = "path"
+
+    def __init__(self, direct_only: bool = False):
+        """direct_only: no bounces at all, only transparent ones (the direct tracer through transparent surfaces)."""
+        self.direct_only = direct_only
 
     def radiance(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, pixel: np.ndarray,
                  sample: np.ndarray, recorder: Recorder) -> Radiance:
@@ -88,6 +94,9 @@ class PathTracing(DirectLighting):
         diffuse = np.zeros(len(hit), np.int64)
         glossy = np.zeros(len(hit), np.int64)
         transmission = np.zeros(len(hit), np.int64)
+        transparent = np.zeros(len(hit), np.int64)
+        bounce = np.zeros(len(hit), np.int64)
+        max_bounces = 0 if self.direct_only else s.max_bounces
         wo = -D_hit
         shadow_rays = 0
         vertex = 0
@@ -103,21 +112,23 @@ class PathTracing(DirectLighting):
             if ray is None:
                 break
             # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.
-            is_diffuse, is_glossy, is_transmission = bounce_kind(ray.kind, ray.transmit)
-            bounces = vertex + 1
+            is_diffuse, is_glossy, is_transmission, is_transparent = bounce_kind(ray.kind, ray.transmit)
+            bounces = bounce[ray.rows] + ~is_transparent
             d = diffuse[ray.rows] + is_diffuse
             g = glossy[ray.rows] + is_glossy
             tr = transmission[ray.rows] + is_transmission
-            going = (ray.hits.hit & (bounces <= s.max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
-                     & (tr <= s.transmission_bounces))
+            tp = transparent[ray.rows] + is_transparent
+            going = (ray.hits.hit & (bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
+                     & (tr <= s.transmission_bounces) & (tp <= s.transparent_max_bounces))
             next_throughput = throughput[ray.rows] * ray.weight
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
-            if bounces >= roulette_from(s):
-                q = np.minimum(np.sqrt(np.abs(next_throughput).max(axis=1)), 1.0)
+            played = (bounces >= roulette_from(s)) & ~is_transparent
+            if played.any():
+                q = np.where(played, np.minimum(np.sqrt(np.abs(next_throughput).max(axis=1)), 1.0), 1.0)
                 u = sampling.sample_2d(s.seed, pixel[owner[ray.rows]], sample[owner[ray.rows]],
-                                       dimension=ROULETTE_DIMENSION + bounces * VERTEX_DIMENSIONS)[:, 0]
-                survived = u < q
-                recorder.roulette(bounces, owner[ray.rows], q, survived & going)
+                                       dimension=ROULETTE_DIMENSION + (vertex + 1) * VERTEX_DIMENSIONS)[:, 0]
+                survived = ~played | (u < q)
+                recorder.roulette(vertex + 1, owner[ray.rows], q, survived & going)
                 going &= survived
                 next_throughput = next_throughput / np.where(going, q, 1.0)[:, None]
             keep = np.flatnonzero(going & np.isfinite(next_throughput).all(axis=1))
@@ -131,7 +142,8 @@ class PathTracing(DirectLighting):
                                       D_next, hits.t[keep], flat_only=not s.smooth_normals)
             owner = owner[rows]
             throughput = next_throughput[keep]
-            diffuse, glossy, transmission = d[keep], g[keep], tr[keep]
+            diffuse, glossy, transmission, transparent = d[keep], g[keep], tr[keep], tp[keep]
+            bounce = bounces[keep]
             wo = -D_next
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays)

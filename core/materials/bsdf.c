@@ -1,6 +1,6 @@
 /* The table of BSDFs: a closure's `kind` tag picks its functions (core/materials/__init__.py). */
 
-INLINE int bsdf_is_delta(int kind) { return kind == BSDF_MIRROR || kind == BSDF_GLASS; }
+INLINE int bsdf_is_delta(int kind) { return kind == BSDF_MIRROR || kind == BSDF_GLASS || kind == BSDF_TRANSPARENT; }
 
 INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
 {
@@ -8,6 +8,7 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
     case BSDF_MIRROR: mirror_eval(c, wo, wi, f_cos, pdf); break;
     case BSDF_MICROFACET: microfacet_eval(c, wo, wi, f_cos, pdf); break;
     case BSDF_GLASS: glass_eval(c, wo, wi, f_cos, pdf); break;
+    case BSDF_TRANSPARENT: transparent_eval(c, wo, wi, f_cos, pdf); break;
     default: lambert_eval(c, wo, wi, f_cos, pdf); break;
     }
 }
@@ -18,6 +19,7 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     case BSDF_MIRROR: mirror_sample(c, wo, u, out); break;
     case BSDF_MICROFACET: microfacet_sample(c, wo, u, out); break;
     case BSDF_GLASS: glass_sample(c, wo, u, out); break;
+    case BSDF_TRANSPARENT: transparent_sample(c, wo, u, out); break;
     default: lambert_sample(c, wo, u, out); break;
     }
 }

@@ -292,6 +292,9 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
         default: break;
         }
     }
+    /* The light let through, as a Transparent closure (nodes.ClosureBuilder.result). */
+    if (sd->transparency[0] != 0.0 || sd->transparency[1] != 0.0 || sd->transparency[2] != 0.0)
+        closure_add(sd, BSDF_TRANSPARENT, sd->transparency, sd->transparency, 1.0, NULL);
 }
 
 /* A material at a hit: its constant closures, or its nodes set up for this view direction. */

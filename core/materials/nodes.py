@@ -25,6 +25,7 @@ from .glass import shares as glass_shares
 from .lambert import Lambert
 from .microfacet import Microfacet
 from .mirror import Mirror
+from .transparent import Transparent
 
 
 class ClosureBuilder:
@@ -65,7 +66,9 @@ class ClosureBuilder:
         return k
 
     def result(self) -> ShaderResult:
-        """The ShaderResult of what the setups added."""
+        """The ShaderResult of what the setups added; the light let through becomes a Transparent closure."""
+        if self.transparency.any():
+            self.add(Transparent.kind, self.transparency)
         k = max(1, self.count)
         closures = Closures(*(array[:, :k] for array in self.closures))
         return ShaderResult(closures, self.emission, self.transparency, self.N)
@@ -369,7 +372,7 @@ assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's
 def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, backfacing=None) -> ShaderResult:
     """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,));
     backfacing (n,) bool where the ray hit from behind."""
-    b = ClosureBuilder(N, wo, sum(cls.slots for cls, _, _ in nodes), backfacing)
+    b = ClosureBuilder(N, wo, sum(cls.slots for cls, _, _ in nodes) + 1, backfacing)
     for cls, weight, p in nodes:
         cls.setup(b, np.broadcast_to(np.asarray(weight, np.float64), (len(N), 3)), p)
     return b.result()

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 12
+#define PRIMER_ABI 13
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -26,6 +26,7 @@
 #include "../materials/mirror.c"
 #include "../materials/microfacet.c"
 #include "../materials/glass.c"
+#include "../materials/transparent.c"
 #include "../materials/bsdf.c"
 #include "../materials/nodes.c"
 #include "../film/film.c"
