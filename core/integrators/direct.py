@@ -91,7 +91,7 @@ class DirectLighting(Integrator):
         s = ctx.settings
         m = len(surface.I)
         # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
-        shader = ctx.materials.shade(surface.material, surface.N, wo)
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry)
         recorder.shader(shader)
         L_out = shader.emission.copy()
         shadow_rays = 0
