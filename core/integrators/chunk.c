@@ -15,6 +15,7 @@ typedef struct {
     const ShadowSettings *shadows;
     void *intersect8, *occluded8, *scene;        /* Embree's packet queries and the RTCScene */
     const LightContext *light_context;           /* the emitters' and the world's tables */
+    const GraphTables *graphs;                   /* the materials' node-graph programs, or NULL (graph.c) */
     double light_count;
     double integrator;                           /* INTEGRATOR_* */
     double sampling;                             /* SAMPLE_*: how lights with extent are found */
@@ -80,7 +81,9 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
                        lift, H->s + h);
             for (int c = 0; c < 3; c++) H->wo[3 * h + c] = -D[c];
             H->sd[h].storage = H->storage[h];
-            shade_material(params->materials + H->s[h].material, H->s[h].N, H->wo + 3 * h, H->sd + h);
+            shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
+                      (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
+                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, H->sd + h);
             H->lane[h] = lane;
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];

@@ -5,7 +5,6 @@ enum { OP_ATTR = 0, OP_RANDOM, OP_IMAGE, OP_MAPPING, OP_MATH, OP_MIX_COLOR, OP_M
        OP_COPY, OP_CLAMP, OP_MAP_RANGE, OP_NORMAL_MAP, OP_BUMP, OP_OFFSET, OP_CONVERT, OP_SCALE };
 #define OP_WIDTH 12                 /* 1 + graph.OP_ARGS */
 #define MAX_REGISTERS 512           /* graph.MAX_REGISTERS */
-#define MAX_ATTRIBUTES 64           /* graph.MAX_ATTRIBUTES */
 #define BUMP_STEP 1e-3              /* graph.BUMP_STEP */
 enum { OUT_INPUT = 0, OUT_WEIGHT = 1, OUT_NORMAL = 2 };
 
@@ -17,16 +16,7 @@ typedef struct {
     double count;
 } GraphTables;
 
-/* graph.ShadingPoint for one hit. */
-typedef struct {
-    double attributes[MAX_ATTRIBUTES], d_du[MAX_ATTRIBUTES], d_dv[MAX_ATTRIBUTES];
-    int width;
-    double random;
-    double N[3];
-    double side;
-    double L[9];
-    double dPdu[3], dPdv[3];
-} ShadingPoint;
+/* The ShadingPoint a program reads: core/geometry/triangles.c. */
 
 INLINE double safe_div(double a, double b) { return b != 0.0 ? a / b : 0.0; }
 
@@ -71,8 +61,8 @@ INLINE double math_op(int op, double a, double b, double c)
     case 34: return sinh(a);
     case 35: return cosh(a);
     case 36: return tanh(a);
-    case 37: return a * (M_PI / 180.0);
-    case 38: return a * (180.0 / M_PI);
+    case 37: return a * (PI / 180.0);
+    case 38: return a * (180.0 / PI);
     default: return 0.0;
     }
 }

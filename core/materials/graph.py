@@ -839,3 +839,44 @@ def empty_point(n: int, width: int) -> ShadingPoint:
     return ShadingPoint(z, z, z, np.zeros(n), np.tile([0.0, 0.0, 1.0], (n, 1)), np.ones(n),
                         np.tile(np.eye(3), (n, 1, 1)), np.tile([1.0, 0.0, 0.0], (n, 1)), np.tile([0.0, 1.0, 0.0], (n, 1)))
 
+
+
+class GraphTablesRecord:
+    """Every program of a render's materials as C reads them (graph.c GraphTables): the record, the
+    arrays it points at, and `rows`: material row -> program index."""
+
+    def __init__(self, table, layout: dict):
+        import ctypes
+        from ..native import library
+        from .textures import TextureTablesRecord
+        programs, self.rows = [], {}
+        for row in range(len(table.shaders)):
+            program = table.program(row, layout)
+            if program is not None:
+                self.rows[row] = len(programs)
+                programs.append(program)
+        info = np.zeros((max(1, len(programs)), 8))
+        starts = np.zeros(4, np.int64)                      # ops, constants, outputs, ramp floats so far
+        for k, p in enumerate(programs):
+            info[k] = [starts[0], len(p.ops), starts[1], len(p.constants), p.registers, starts[2], len(p.outputs),
+                       starts[3]]
+            starts += [len(p.ops), len(p.constants), len(p.outputs), len(p.ramps)]
+        joined = lambda arrays, width: (np.concatenate([a.reshape(-1) for a in arrays]) if arrays   # noqa: E731
+                                        else np.zeros(width))
+        c = library.contiguous
+        self.textures = TextureTablesRecord(table.textures)
+        self.arrays = [c(joined([p.ops for p in programs], 1 + OP_ARGS), np.float64),
+                       c(joined([p.constants for p in programs], 1), np.float64),
+                       c(joined([p.outputs for p in programs], 5), np.float64),
+                       c(joined([p.ramps for p in programs], 4), np.float64), c(info, np.float64)]
+
+        class Record(ctypes.Structure):
+            _fields_ = [(name, ctypes.c_void_p) for name in ("ops", "constants", "outputs", "ramps", "programs",
+                                                            "textures")] + [("count", ctypes.c_double)]
+        self.record = Record(*[a.ctypes.data for a in self.arrays], self.textures.pointer, float(len(programs)))
+        self.pointer = ctypes.addressof(self.record)
+
+
+def graph_tables(table, layout: dict):
+    """The GraphTablesRecord of a MaterialTable for an attribute layout, or None when no material has links."""
+    return GraphTablesRecord(table, layout) if table.has_graphs else None

@@ -26,6 +26,8 @@
 #include "../materials/mirror.c"
 #include "../materials/microfacet.c"
 #include "../materials/bsdf.c"
+#include "../materials/textures.c"
+#include "../materials/graph.c"
 #include "../materials/nodes.c"
 #include "../film/film.c"
 #include "../film/adaptive.c"
