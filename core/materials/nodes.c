@@ -256,8 +256,8 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
 
 /* NodeShader.shade with a program: the node graph runs at the hit (graph.c), its outputs replace the
  * nodes' linked inputs, multiply their weights and give them their own normals (graph.apply_outputs);
- * then every node sets up its closures with its normal. The first node with its own normal gives the
- * result's shading normal. */
+ * then every node sets up its closures with its normal; sd->N stays the hit's (Cycles' sd->N), which
+ * bump shadowing (bsdf.c) compares the closures' normals with. */
 INLINE void shade_graph(const GraphTables *G, const MaterialRecord *m, const ShadingPoint *sp, const double *N,
                         const double *wo, ShaderResult *sd)
 {
@@ -290,14 +290,12 @@ INLINE void shade_graph(const GraphTables *G, const MaterialRecord *m, const Sha
     }
     sd->n = 0;
     for (int j = 0; j < 3; j++) { sd->emission[j] = 0.0; sd->transparency[j] = 0.0; }
-    const double *shading = NULL;
     for (int k = 0; k < n; k++) {
         const double *Nk = own[k] ? normal[k] : N;
-        if (own[k] && shading == NULL) shading = normal[k];
         for (int j = 0; j < 3; j++) sd->N[j] = Nk[j];
         setup_node(sd, (int)m->kind[k], dot3(Nk, wo), weight[k], p[k]);
     }
-    for (int j = 0; j < 3; j++) sd->N[j] = shading != NULL ? shading[j] : N[j];
+    for (int j = 0; j < 3; j++) sd->N[j] = N[j];
 }
 
 /* A material at a hit: its constant closures, or its nodes set up for this view direction. */

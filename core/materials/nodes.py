@@ -40,6 +40,7 @@ class ClosureBuilder:
         self.emission = np.zeros((n, 3))
         self.transparency = np.zeros((n, 3))
         self.shading_N = N
+        self.smooth_N = N          # the hit's own normal (Cycles' sd->N), whatever normal a node's closures get
 
     def use_normal(self, N: np.ndarray) -> None:
         """The normal (n, 3) the next node's closures get (its Normal input, or the hit's), and its mu."""
@@ -66,6 +67,7 @@ class ClosureBuilder:
         c.weight[:, k] = np.where(kept[:, None], weight, 0.0)
         c.sample_weight[:, k] = np.where(kept, sample_weight, 0.0)
         c.N[:, k] = self.N
+        c.Ns[:, k] = self.smooth_N
         if params is not None:
             c.params[:, k] = params
         return k
@@ -353,22 +355,17 @@ def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None) -> Sha
     """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,)).
 
     per_hit: what a node graph computed at each hit (graph.apply_outputs), or None: (weights, rows,
-    normals) lists by node of (n, 3), (n, PARAMS) and (n, 3) or None arrays. The first node with its own
-    normal gives the result's shading normal.
+    normals) lists by node of (n, 3), (n, PARAMS) and (n, 3) or None arrays. A node's own normal goes to its
+    closures only: the result's N stays the hit's normal (Cycles' sd->N), which bump shadowing compares with.
     """
     n = len(N)
     b = ClosureBuilder(N, wo, sum(entry[0].slots for entry in nodes))
-    shading = None
     for k, entry in enumerate(nodes):
         cls, weight, p = entry[0], entry[1], entry[2]
         normal = None
         if per_hit is not None:
             weight, p, normal = per_hit[0][k], per_hit[1][k], per_hit[2][k]
         b.use_normal(N if normal is None else normal)
-        if normal is not None and shading is None:
-            shading = normal
         cls.setup(b, np.broadcast_to(np.asarray(weight, np.float64), (n, 3)),
                   np.broadcast_to(np.asarray(p, np.float64), (n, PARAMS)))
-    if shading is not None:
-        b.shading_N = shading
     return b.result()
