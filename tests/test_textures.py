@@ -183,7 +183,7 @@ def test_a_mapping_scale_of_two_repeats_the_pattern_twice(kernels):
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
-@pytest.mark.parametrize("degrees", [20.0, 45.0])
+@pytest.mark.parametrize("degrees", [20.0, 35.0])
 def test_a_normal_map_tilting_the_normal_makes_n_dot_l_the_cosine_of_the_tilt(kernels, degrees):
     theta = math.radians(degrees)
     tilted = np.array([math.sin(theta), 0.0, math.cos(theta)])   # in tangent space (T, B, N)

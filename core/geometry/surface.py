@@ -131,4 +131,4 @@ def shading_point(geometry, surface: Surface):
     side = np.where(np.einsum("ij,ij->i", front, surface.Ng) < 0.0, -1.0, 1.0)
     V = surface.vertices
     return graph_.ShadingPoint(attributes, d_du, d_dv, random, surface.N, side, linear, V[:, 1] - V[:, 0],
-                               V[:, 2] - V[:, 0])
+                               V[:, 2] - V[:, 0], surface.Ng)

@@ -195,6 +195,7 @@ typedef struct {
     double side;        /* +1: the front was hit, -1: the back */
     double L[9];        /* the object's linear transform, row-major */
     double dPdu[3], dPdv[3];
+    double Ng[3];       /* the face normal, facing the viewer */
 } ShadingPoint;
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with
@@ -232,6 +233,7 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
     sp->side = dot3(tri->Ng, s->Ng) < 0.0 ? -1.0 : 1.0;
     for (int c = 0; c < 3; c++) {
         sp->N[c] = s->N[c];
+        sp->Ng[c] = s->Ng[c];
         sp->dPdu[c] = tri->V[3 + c] - tri->V[c];
         sp->dPdv[c] = tri->V[6 + c] - tri->V[c];
     }

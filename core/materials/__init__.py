@@ -174,7 +174,8 @@ class NodeShader:
         rows = [np.tile(p, (n, 1)) for _, _, p in self.nodes]
         normals = [None] * len(self.nodes)
         graph_.apply_outputs(program, registers, weights, rows, normals)
-        return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals))
+        glossy = [None if normal is None else graph_.valid_reflection(point.Ng, wo, normal) for normal in normals]
+        return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy)
 
 
 def shader_of(material: Material):
@@ -272,7 +273,7 @@ class MaterialTable:
         """The hits' ShadingPoint (core/geometry/surface.py), or one without attributes."""
         from . import graph as graph_
         if surface is None or geometry is None:
-            return graph_.empty_point(len(N), 0)._replace(N=N)
+            return graph_.empty_point(len(N), 0)._replace(N=N, Ng=N)
         from ..geometry.surface import shading_point
         return shading_point(geometry, surface)
 

@@ -29,6 +29,7 @@ typedef struct {
     double transparency[3];
     double N[3];
     double *storage;
+    const double *glossy;   /* the normal glossy lobes get while a node sets up (nodes.c), NULL: N */
 } ShaderResult;
 
 /* A direction sampled from one BSDF (base.BsdfSample for one hit). */

@@ -352,3 +352,22 @@ INLINE void run_program(const GraphTables *G, int program, const ShadingPoint *s
         }
     }
 }
+
+/* graph.valid_reflection: Cycles' ensure_valid_specular_reflection of a node's unit normal N in place. */
+INLINE void valid_reflection(const double *Ng, const double *wo, double *N)
+{
+    double NI = dot3(N, wo), R[3];
+    for (int j = 0; j < 3; j++) R[j] = 2.0 * NI * N[j] - wo[j];
+    double Iz = dot3(wo, Ng), threshold = 0.9 * Iz < 0.01 ? 0.9 * Iz : 0.01;
+    if (!(dot3(Ng, R) < threshold)) return;
+    double NNg = dot3(N, Ng), X[3];
+    for (int j = 0; j < 3; j++) X[j] = N[j] - NNg * Ng[j];
+    double length = sqrt(dot3(X, X));
+    for (int j = 0; j < 3; j++) X[j] = length > 0.0 ? X[j] / length : N[j];
+    double Ix = dot3(wo, X);
+    double a = Ix * Ix + Iz * Iz, b = 2.0 * (a + Iz * threshold), c = (threshold + Iz) * (threshold + Iz);
+    double root = sqrt(at_least(b * b - 4.0 * a * c, 0.0)), a_safe = a != 0.0 ? a : 1.0;
+    double Nz2 = Ix < 0.0 ? 0.25 * (b + root) / a_safe : 0.25 * (b - root) / a_safe;
+    double Nx = sqrt(at_least(1.0 - Nz2, 0.0)), Nz = sqrt(at_least(Nz2, 0.0));
+    for (int j = 0; j < 3; j++) N[j] = Nx * X[j] + Nz * Ng[j];
+}

@@ -154,7 +154,7 @@ class ShadingPoint(NamedTuple):
     triangle's barycentric u and v (corner 1 - corner 0, corner 2 - corner 0); random: (n,) float64
     the object's random number; N: (n, 3) the shading normal facing the viewer; side: (n,) +1 where the
     front was hit, -1 the back; linear: (n, 3, 3) the object's linear transform (for tangents);
-    dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0.
+    dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0; Ng: (n, 3) the face normal facing the viewer.
     """
 
     attributes: np.ndarray
@@ -166,6 +166,7 @@ class ShadingPoint(NamedTuple):
     linear: np.ndarray
     dPdu: np.ndarray
     dPdv: np.ndarray
+    Ng: np.ndarray
 
 
 def has_links(nodes: list) -> bool:
@@ -830,14 +831,39 @@ def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, 
                 factor = np.maximum(value, 0.0)
             weights[node] = weights[node] * factor
         else:
-            normals[node] = value
+            normals[node] = safe_normalize(value)
 
 
 def empty_point(n: int, width: int) -> ShadingPoint:
     """A ShadingPoint of n hits with no attributes (tests and scenes without meshes' data)."""
     z = np.zeros((n, width))
     return ShadingPoint(z, z, z, np.zeros(n), np.tile([0.0, 0.0, 1.0], (n, 1)), np.ones(n),
-                        np.tile(np.eye(3), (n, 1, 1)), np.tile([1.0, 0.0, 0.0], (n, 1)), np.tile([0.0, 1.0, 0.0], (n, 1)))
+                        np.tile(np.eye(3), (n, 1, 1)), np.tile([1.0, 0.0, 0.0], (n, 1)), np.tile([0.0, 1.0, 0.0], (n, 1)),
+                        np.tile([0.0, 0.0, 1.0], (n, 1)))
+
+
+def valid_reflection(Ng: np.ndarray, wo: np.ndarray, N: np.ndarray) -> np.ndarray:
+    """Cycles' ensure_valid_specular_reflection for a node's own normal N (n, 3) (unit): where the mirror
+    direction of wo about N would dip below the face (Ng) by more than a threshold, N turned towards Ng just
+    enough (Cycles does this to every BSDF's normal input when Bump Map Correction is on, its default)."""
+    R = 2.0 * np.einsum("ij,ij->i", N, wo)[:, None] * N - wo
+    Iz = np.einsum("ij,ij->i", wo, Ng)
+    threshold = np.minimum(0.9 * Iz, 0.01)
+    bad = np.einsum("ij,ij->i", Ng, R) < threshold
+    if not bad.any():
+        return N
+    X = N - np.einsum("ij,ij->i", N, Ng)[:, None] * Ng
+    length = np.sqrt(np.einsum("ij,ij->i", X, X))
+    X = np.where(length[:, None] > 0.0, X / np.where(length > 0.0, length, 1.0)[:, None], N)
+    Ix = np.einsum("ij,ij->i", wo, X)
+    a = Ix * Ix + Iz * Iz
+    b = 2.0 * (a + Iz * threshold)
+    c = (threshold + Iz) ** 2
+    root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
+    a_safe = np.where(a != 0.0, a, 1.0)
+    Nz2 = np.where(Ix < 0.0, 0.25 * (b + root) / a_safe, 0.25 * (b - root) / a_safe)
+    Nx, Nz = np.sqrt(np.maximum(1.0 - Nz2, 0.0)), np.sqrt(np.maximum(Nz2, 0.0))
+    return np.where(bad[:, None], Nx[:, None] * X + Nz[:, None] * Ng, N)
 
 
 

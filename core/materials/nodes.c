@@ -127,6 +127,13 @@ INLINE void lobe_add(ShaderResult *sd, double mu, double *weight, double *p, con
         for (int j = 0; j < 3; j++) closure_weight[j] *= F[j] * p[MF_ENERGY];
         kind = BSDF_MIRROR;
     }
+    if (sd->glossy != NULL) {                       /* the node's glossy normal (graph.valid_reflection) */
+        double saved[3] = {sd->N[0], sd->N[1], sd->N[2]};
+        for (int j = 0; j < 3; j++) sd->N[j] = sd->glossy[j];
+        closure_add(sd, kind, closure_weight, allocated, factor, p);
+        for (int j = 0; j < 3; j++) sd->N[j] = saved[j];
+        return;
+    }
     closure_add(sd, kind, closure_weight, allocated, factor, p);
 }
 
@@ -250,6 +257,7 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
 {
     double mu = dot3(N, wo);
     sd->n = 0;
+    sd->glossy = NULL;
     for (int j = 0; j < 3; j++) { sd->emission[j] = 0.0; sd->transparency[j] = 0.0; sd->N[j] = N[j]; }
     for (int k = 0; k < (int)m->n; k++) setup_node(sd, (int)m->kind[k], mu, m->weight[k], m->p[k]);
 }
@@ -286,15 +294,24 @@ INLINE void shade_graph(const GraphTables *G, const MaterialRecord *m, const Sha
         } else {
             own[k] = 1;
             for (int j = 0; j < 3; j++) normal[k][j] = value[j];
+            safe_normalize3(normal[k]);
         }
     }
+    double glossy[MAX_CLOSURES][3];
+    for (int k = 0; k < n; k++)
+        if (own[k]) {
+            for (int j = 0; j < 3; j++) glossy[k][j] = normal[k][j];
+            valid_reflection(sp->Ng, wo, glossy[k]);
+        }
     sd->n = 0;
     for (int j = 0; j < 3; j++) { sd->emission[j] = 0.0; sd->transparency[j] = 0.0; }
     for (int k = 0; k < n; k++) {
-        const double *Nk = own[k] ? normal[k] : N;
+        const double *Nk = own[k] ? normal[k] : N, *Gk = own[k] ? glossy[k] : N;
         for (int j = 0; j < 3; j++) sd->N[j] = Nk[j];
-        setup_node(sd, (int)m->kind[k], dot3(Nk, wo), weight[k], p[k]);
+        sd->glossy = own[k] ? glossy[k] : NULL;
+        setup_node(sd, (int)m->kind[k], dot3(Gk, wo), weight[k], p[k]);
     }
+    sd->glossy = NULL;
     for (int j = 0; j < 3; j++) sd->N[j] = N[j];
 }
 

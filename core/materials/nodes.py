@@ -13,7 +13,7 @@ same tag. Each class lists its `inputs` (the slots of its row of PARAMS floats) 
 """
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import ClassVar, Optional
 
 import numpy as np
 
@@ -35,6 +35,7 @@ class ClosureBuilder:
         n = len(N)
         self.N, self.wo = N, wo
         self.mu = np.einsum("ij,ij->i", N, wo)
+        self.glossy_N = N
         self.closures = Closures.empty(n, max(1, slots))
         self.count = 0
         self.emission = np.zeros((n, 3))
@@ -42,13 +43,16 @@ class ClosureBuilder:
         self.shading_N = N
         self.smooth_N = N          # the hit's own normal (Cycles' sd->N), whatever normal a node's closures get
 
-    def use_normal(self, N: np.ndarray) -> None:
-        """The normal (n, 3) the next node's closures get (its Normal input, or the hit's), and its mu."""
-        if N is not self.N:
-            self.N = N
-            self.mu = np.einsum("ij,ij->i", N, self.wo)
+    def use_normal(self, N: np.ndarray, glossy: Optional[np.ndarray] = None) -> None:
+        """The normal (n, 3) the next node's closures get (its Normal input, or the hit's), and the one its
+        glossy lobes get (`glossy`, default N: Cycles turns a node's own normal for them so that their
+        mirror direction stays above the face), with mu = glossy.wo."""
+        glossy = N if glossy is None else glossy
+        if glossy is not self.glossy_N:
+            self.mu = np.einsum("ij,ij->i", glossy, self.wo)
+        self.N, self.glossy_N = N, glossy
 
-    def add(self, kind, weight: np.ndarray, params=None, allocated=None, factor=None, keep=None) -> int:
+    def add(self, kind, weight: np.ndarray, params=None, allocated=None, factor=None, keep=None, N=None) -> int:
         """Append a closure: kind (n,) or int, weight (n, 3). Its sampling weight is |mean of the weight it
         was allocated with| (`allocated` (n, 3), default `weight`) times `factor` (n,) (Cycles' Fresnel
         estimate and darkening); hits where that mean is below the cutoff, or where `keep` (n,) bool is
@@ -66,7 +70,7 @@ class ClosureBuilder:
         c.kind[:, k] = np.where(kept, np.broadcast_to(np.asarray(kind, np.int32), (n,)), -1)
         c.weight[:, k] = np.where(kept[:, None], weight, 0.0)
         c.sample_weight[:, k] = np.where(kept, sample_weight, 0.0)
-        c.N[:, k] = self.N
+        c.N[:, k] = self.N if N is None else N
         c.Ns[:, k] = self.smooth_N
         if params is not None:
             c.params[:, k] = params
@@ -146,7 +150,7 @@ class GlossyLobe:
         if singular.any():
             at_mu = mf.fresnel(p, np.clip(b.mu, 0.0, 1.0)) * p[:, mf.ENERGY][:, None]
             closure_weight = np.where(singular[:, None], weight * at_mu, weight)
-        b.add(kind, closure_weight, p, allocated, factor, keep)
+        b.add(kind, closure_weight, p, allocated, factor, keep, b.glossy_N)
         return weight
 
 
@@ -351,12 +355,13 @@ NODE_BY_NAME = {cls.name: cls for cls in NODE_TYPES}
 assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's kind is its place in NODE_TYPES"
 
 
-def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None) -> ShaderResult:
+def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy=None) -> ShaderResult:
     """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,)).
 
     per_hit: what a node graph computed at each hit (graph.apply_outputs), or None: (weights, rows,
     normals) lists by node of (n, 3), (n, PARAMS) and (n, 3) or None arrays. A node's own normal goes to its
     closures only: the result's N stays the hit's normal (Cycles' sd->N), which bump shadowing compares with.
+    glossy: by node, the normal its glossy lobes get instead ((n, 3) or None).
     """
     n = len(N)
     b = ClosureBuilder(N, wo, sum(entry[0].slots for entry in nodes))
@@ -365,7 +370,7 @@ def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None) -> Sha
         normal = None
         if per_hit is not None:
             weight, p, normal = per_hit[0][k], per_hit[1][k], per_hit[2][k]
-        b.use_normal(N if normal is None else normal)
+        b.use_normal(N if normal is None else normal, None if glossy is None else glossy[k])
         cls.setup(b, np.broadcast_to(np.asarray(weight, np.float64), (n, 3)),
                   np.broadcast_to(np.asarray(p, np.float64), (n, PARAMS)))
     return b.result()
