@@ -92,6 +92,7 @@ class NodeReader:
 
     @property
     def graph(self) -> "GraphReader":
+        """The reader that follows this material's links (made on first use)."""
         if not hasattr(self, "_graph"):
             self._graph = GraphReader(self)
         return self._graph
@@ -410,6 +411,7 @@ def shader_nodes(material, warnings: list) -> list:
 
 
 def _linked(value) -> bool:
+    """Whether an input's value is a graph.Link (fed per hit) rather than a constant."""
     return isinstance(value, Link)
 
 

@@ -201,6 +201,7 @@ class MaterialTable:
             for image in graph_.images_of(shader.graph) if getattr(shader, "graph", None) else ():
                 self.image_index(image)
         self.textures = TextureSet.of(self.images)
+        self._has_graphs = any(getattr(shader, "graph", None) is not None for shader in shaders)
 
     def image_index(self, image) -> int:
         """The row of a textures.Image in the table's TextureSet; -1 for a missing image (None)."""
@@ -214,7 +215,7 @@ class MaterialTable:
     @property
     def has_graphs(self) -> bool:
         """Whether some material has inputs fed by a node graph (then shading reads the hits' attributes)."""
-        return any(getattr(shader, "graph", None) is not None for shader in self.shaders)
+        return self._has_graphs
 
     def program(self, row: int, layout: dict):
         """The compiled graph of material `row` for an attribute layout, or None (no links)."""
@@ -247,12 +248,11 @@ class MaterialTable:
         """
         n = len(material)
         first = int(material[0]) if n else len(self.shaders) - 1
-        if not self.has_graphs:
-            if n == 0 or (material == first).all():
-                return self.shaders[first].shade(N, wo)
+        if n == 0 or (not self.has_graphs and (material == first).all()):
+            return self.shaders[first].shade(N, wo)
         point = None
         results, order = [], []
-        for row in np.unique(material) if n else [first]:
+        for row in np.unique(material):
             rows = np.flatnonzero(material == row)
             shader = self.shaders[int(row)]
             if getattr(shader, "graph", None) is None:
@@ -264,7 +264,7 @@ class MaterialTable:
                 part = type(point)(*(array[rows] for array in point))
                 results.append(shader.shade(N[rows], wo[rows], part, self.program(int(row), layout), self.textures))
             order.append(rows)
-        if len(results) == 1 and n and len(order[0]) == n:
+        if len(results) == 1:
             return results[0]
         return concatenate(results, order, n)
 

@@ -18,6 +18,7 @@ typedef struct {
 
 /* The ShadingPoint a program reads: core/geometry/triangles.c. */
 
+/* graph.safe_divide: a / b, 0 where b is 0. */
 INLINE double safe_div(double a, double b) { return b != 0.0 ? a / b : 0.0; }
 
 /* graph.math_op */
@@ -129,6 +130,7 @@ INLINE void hsv_to_rgb(const double *hsv, double *rgb)
     for (int j = 0; j < 3; j++) rgb[j] = out[k][j];
 }
 
+/* graph.safe_normalize: v / |v| in place, 0 where |v| is 0. */
 INLINE void safe_normalize3(double *v)
 {
     double length = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);

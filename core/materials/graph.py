@@ -228,7 +228,6 @@ def attributes_of(nodes: list) -> set:
             visit(value)
         for link, _ in (entry[3] if len(entry) > 3 else ()):
             visit(link)
-    # Any node reading other nodes' outputs: every link's outputs of TEXCOORD are found by the visit above.
     return names
 
 
@@ -270,17 +269,20 @@ class Compiler:
     # Registers: constants are numbered 0.. in order; computed registers get negative provisional
     # numbers -1, -2, ... and are renumbered after the constants when the program is done.
     def constant(self, values) -> int:
+        """A new constant register (start) holding `values` (float or sequence)."""
         values = np.atleast_1d(np.asarray(values, np.float64)).reshape(-1)
         start = len(self.constants)
         self.constants.extend(values.tolist())
         return start
 
     def temporary(self, width: int) -> int:
+        """A new computed register of `width` floats (a provisional negative number, see `compile`)."""
         start = self.temporaries
         self.temporaries += width
         return -1 - start
 
     def emit(self, name: str, *args) -> None:
+        """Append op `name` with its arguments (registers provisional, renumbered by `compile`)."""
         if len(args) > OP_ARGS:
             raise ValueError(f"op {name} has too many arguments")
         self.ops.append([OP[name]] + list(args))
