@@ -17,6 +17,7 @@ from ..core import scene as core_scene
 from ..core.camera import Camera
 from ..core.lights import World
 from ..core.materials import DEFAULT_SURFACE
+from ..core.materials import graph as graph_
 from . import materials as materials_
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
@@ -134,6 +135,97 @@ def _core_mesh(mesh, co: np.ndarray, triangles: np.ndarray, loops: np.ndarray, s
         corner_normals = np.take(normals.reshape(-1, 3), loops, axis=0).reshape(n_triangles, 3, 3)
     return core_scene.Mesh(co.reshape(-1, 3), triangles.reshape(-1, 3), smooth=smooth,
                            corner_normals=corner_normals, material_indices=material_indices, name=mesh.name)
+
+
+# Mesh attributes a material graph may read (core/materials/graph.py attributes_of), read per triangle corner.
+
+def _active_render(collection):
+    """The layer of a UV map or colour attribute collection that renders (Cycles' default), or None."""
+    for layer in collection:
+        if getattr(layer, "active_render", False):
+            return layer
+    return getattr(collection, "active", None)
+
+
+def _corner_loops(mesh) -> np.ndarray:
+    """The face corner (loop) of each triangle corner: (t, 3) int64."""
+    loops = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    return loops.reshape(-1, 3).astype(np.int64)
+
+
+def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> None:
+    """Add to `core_mesh` the per-corner attributes `names` it lacks (graph.attributes_of's names), read in
+    bulk: UV maps, colour attributes, MikkTSpace tangents (mesh.calc_tangents), generated and object
+    coordinates. A missing map or attribute stays zeros (as in Cycles), with a warning."""
+    missing = [name for name in sorted(names) if name not in core_mesh.attributes]
+    if not missing or len(core_mesh.triangles) == 0:
+        return
+    loops = _corner_loops(mesh)
+    t = len(loops)
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3).astype(np.float64)
+    corner_vertex = _corner_vertices(mesh)
+    for name in missing:
+        kind, _, layer = name.partition(":")
+        values = np.zeros((t, 3, 4 if kind in ("color", "tangent") else 3))
+        if kind == "uv":
+            uv = mesh.uv_layers.get(layer) if layer else _active_render(mesh.uv_layers)
+            if uv is None:
+                warnings.append(f"mesh '{mesh.name}' has no UV map '{layer or '(active)'}'; Primer reads (0, 0)")
+            else:
+                data = np.empty(len(mesh.loops) * 2, np.float32)
+                uv.uv.foreach_get("vector", data)
+                values[:, :, :2] = data.reshape(-1, 2)[loops]
+        elif kind == "color":
+            attribute = (mesh.color_attributes.get(layer) or mesh.attributes.get(layer)) if layer else None
+            if not layer:
+                index = getattr(mesh.color_attributes, "render_color_index", -1)
+                attribute = mesh.color_attributes[index] if 0 <= index < len(mesh.color_attributes) else None
+            if attribute is None:
+                warnings.append(f"mesh '{mesh.name}' has no colour attribute '{layer or '(active)'}'; Primer reads 0")
+            else:
+                width = {"FLOAT_COLOR": 4, "BYTE_COLOR": 4, "FLOAT_VECTOR": 3, "FLOAT2": 2, "FLOAT": 1}.get(
+                    attribute.data_type, 0)
+                field_name = "color" if width == 4 else ("vector" if width in (2, 3) else "value")
+                if width == 0:
+                    warnings.append(f"attribute '{layer}' of mesh '{mesh.name}' is {attribute.data_type}; Primer reads 0")
+                    continue
+                data = np.empty(len(attribute.data) * width, np.float32)
+                attribute.data.foreach_get(field_name, data)
+                data = data.reshape(-1, width)
+                per_corner = {"CORNER": loops, "POINT": corner_vertex[loops]}.get(attribute.domain)
+                if per_corner is None:
+                    warnings.append(f"attribute '{layer}' of mesh '{mesh.name}' is on the {attribute.domain} domain; "
+                                    "Primer reads 0")
+                    continue
+                values[:, :, :width] = data[per_corner]
+                if width < 4:
+                    values[:, :, 3] = 1.0
+        elif kind == "tangent":
+            uv = mesh.uv_layers.get(layer) if layer else _active_render(mesh.uv_layers)
+            try:
+                if uv is None:
+                    raise ValueError("no such UV map")
+                mesh.calc_tangents(uvmap=uv.name)
+                tangent = np.empty(len(mesh.loops) * 3, np.float32)
+                sign = np.empty(len(mesh.loops), np.float32)
+                mesh.loops.foreach_get("tangent", tangent)
+                mesh.loops.foreach_get("bitangent_sign", sign)
+                values[:, :, :3] = tangent.reshape(-1, 3)[loops]
+                values[:, :, 3] = sign[loops]
+            except (RuntimeError, ValueError) as error:
+                warnings.append(f"mesh '{mesh.name}': no tangents for UV map '{layer or '(active)'}' ({error}); "
+                                "normal maps there keep the surface's normal")
+        elif kind in ("generated", "object"):
+            points = co[corner_vertex[loops]]                                   # (t, 3, 3)
+            if kind == "generated":
+                location = np.array(mesh.texspace_location, np.float64)
+                size = np.array(mesh.texspace_size, np.float64)
+                points = np.divide(points - location, 2.0 * size, out=np.zeros_like(points), where=size != 0.0) + 0.5
+            values[:] = points
+        core_mesh.attributes[name] = values
 
 
 class MaterialTable:
@@ -422,6 +514,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world,
                             default_material=DEFAULT_SURFACE)
     materials = MaterialTable()
+    materials_.begin_export()
     override = getattr(depsgraph.view_layer_eval, "material_override", None)
     mesh_index: dict = {}
     ray_visibility_noted: set = set()
@@ -464,7 +557,15 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             continue
         if obj.name not in terminator_offsets and core.meshes[mesh_index[key]].smooth.any():
             terminator_offsets[obj.name] = _terminator_offsets(obj)
-        core.instances.append(core_scene.Instance(mesh_index[key], matrix, materials.slot_map(obj, warnings, override), obj.name))
+        slots = materials.slot_map(obj, warnings, override)
+        # The attributes its materials' node graphs read, and Cycles' random number of an instance.
+        wanted = set()
+        for slot in slots[slots >= 0].tolist():
+            wanted |= graph_.attributes_of(materials.materials[slot].nodes)
+        if wanted:
+            mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
+        random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
+        core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random))
 
     core.materials = materials.materials
     if not core.lights:

@@ -1,18 +1,27 @@
 """Blender materials as Primer reads them: the node tree at the Material Output, as a list of shader nodes.
 
 From the Surface socket down, Mix Shader and Add Shader nodes are multiplied out into one weight per
-BSDF node (Principled, Diffuse, Glossy, Glass, Refraction, Emission, Transparent), with each node's constant inputs
+BSDF node (Principled, Diffuse, Glossy, Glass, Refraction, Emission, Transparent), with each node's inputs
 (core/materials/nodes.py sets them up per hit, as Cycles does). A plain Diffuse BSDF stays the lecture's
-constant Lambert material. Whatever Primer cannot read yet (a texture or another node linked into an
-input, a shader node it does not know, sheen, transmission) gets a warning that names the material and
-the node and says what Primer used instead.
+constant Lambert material. An input fed by a link becomes a core/materials/graph.py Link to the
+sub-graph that feeds it (image textures, texture coordinates, Math, Mix, Color Ramp ...; reroutes
+skipped, node groups flattened), evaluated per hit; a linked Mix Shader factor or BSDF colour becomes a
+per-hit factor of the node's weight. Whatever Primer cannot read (a node it does not know, sheen,
+transmission, a missing image) gets a warning that names the material and the node and says what Primer
+used instead.
 """
 from __future__ import annotations
+
+import os
+import tempfile
 
 import bpy
 import numpy as np
 
 from ..core.materials import Material
+from ..core.materials import graph as graph_
+from ..core.materials import textures as textures_
+from ..core.materials.graph import GraphNode, Link
 
 # Principled BSDF sockets -> core/materials/nodes.py PRINCIPLED_INPUTS.
 PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Roughness": "roughness", "IOR": "ior",
@@ -66,80 +75,448 @@ class NodeReader:
             self.warnings.append(note)
 
     def value(self, node, name: str, default):
-        """An input's own value (float or RGB), `default` where the node has no such input."""
+        """An input's own value (float or RGB), `default` where the node has no such input (a link into it
+        is not followed: the callers that want links use `input`)."""
         socket = node.inputs.get(name)
         if socket is None:
             return default
-        if socket.is_linked:
-            self.warn(node, f"input '{name}' is linked to '{socket.links[0].from_node.name}', which Primer does "
-                            "not evaluate yet; it uses the input's own value")
-        value = socket.default_value
+        return own_value(socket)
+
+    def input(self, node, name: str, default, path: tuple = ()):
+        """An input as the core reads it: its own value, or a graph.Link to the sub-graph feeding it."""
+        socket = node.inputs.get(name) or next((s for s in node.inputs if s.identifier == name), None)
+        if socket is None:
+            return default
+        return self.graph.socket(socket, path)
+
+    @property
+    def graph(self) -> "GraphReader":
+        """The reader that follows this material's links (made on first use)."""
+        if not hasattr(self, "_graph"):
+            self._graph = GraphReader(self)
+        return self._graph
+
+
+def own_value(socket):
+    """A socket's own value: a float, or (3,) float64 for colours and vectors."""
+    value = getattr(socket, "default_value", 0.0)
+    try:
+        return np.array(value[:3], np.float64)
+    except TypeError:
+        return float(value)
+
+
+# Texture and colour nodes Primer evaluates: Blender's node -> core/materials/graph.py kind.
+GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", "ShaderNodeUVMap": "UVMAP",
+               "ShaderNodeAttribute": "ATTRIBUTE", "ShaderNodeVertexColor": "ATTRIBUTE",
+               "ShaderNodeObjectInfo": "OBJECT_INFO", "ShaderNodeMapping": "MAPPING", "ShaderNodeNormalMap": "NORMAL_MAP",
+               "ShaderNodeBump": "BUMP", "ShaderNodeMath": "MATH", "ShaderNodeMix": "MIX", "ShaderNodeMixRGB": "MIX",
+               "ShaderNodeValToRGB": "RAMP", "ShaderNodeInvert": "INVERT", "ShaderNodeHueSaturation": "HSV",
+               "ShaderNodeSeparateColor": "SEPARATE_COLOR", "ShaderNodeSeparateRGB": "SEPARATE_COLOR",
+               "ShaderNodeSeparateXYZ": "SEPARATE_XYZ", "ShaderNodeCombineColor": "COMBINE_COLOR",
+               "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
+               "ShaderNodeMapRange": "MAP_RANGE"}
+# Legacy socket names -> the core's.
+RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac"}
+# Colour spaces whose numbers are used as they are (no decoding); sRGB is decoded after lookup.
+LINEAR_SPACES = {"Non-Color", "Linear Rec.709", "Linear", "Raw", "Linear CIE-XYZ E", "Linear CIE-XYZ D65",
+                 "Linear Rec.2020", "Linear FilmLight E-Gamut", "Generic Data", "Scene Linear"}
+
+
+class GraphReader:
+    """Follows links from a shader node's inputs into the texture and colour nodes that feed them, as
+    graph.GraphNode records (once per node and group path); groups flattened, reroutes skipped."""
+
+    def __init__(self, reader: NodeReader):
+        self.reader = reader
+        self.nodes: dict = {}
+
+    def socket(self, socket, path: tuple = ()):
+        """An input socket's value: its own, or a Link; `path`: the group nodes it sits inside."""
+        link = socket.links[0] if socket.is_linked and socket.links else None
+        if link is None or getattr(link, "is_muted", False) or not getattr(link, "is_valid", True):
+            return own_value(socket)
+        return self.output(link.from_node, link.from_socket, path, socket)
+
+    def output(self, node, out, path: tuple, consumer):
+        """The value an output socket `out` of `node` gives `consumer` (an input socket)."""
+        kind = node.bl_idname
+        if kind == "NodeReroute":
+            return self.socket(node.inputs[0], path) if node.inputs else own_value(consumer)
+        if getattr(node, "mute", False):
+            for internal in getattr(node, "internal_links", ()):
+                if internal.to_socket.identifier == out.identifier:
+                    return self.socket(internal.from_socket, path)
+            return own_value(consumer)
+        if kind == "ShaderNodeGroup" and node.node_tree is not None:
+            outputs = [n for n in node.node_tree.nodes if n.bl_idname == "NodeGroupOutput"]
+            inner = next((n for n in outputs if getattr(n, "is_active_output", False)), outputs[0] if outputs else None)
+            socket = next((s for s in inner.inputs if s.identifier == out.identifier), None) if inner else None
+            return self.socket(socket, path + (node,)) if socket is not None else own_value(consumer)
+        if kind == "NodeGroupInput":
+            if not path:
+                return own_value(consumer)
+            group = path[-1]
+            socket = next((s for s in group.inputs if s.identifier == out.identifier), None)
+            return self.socket(socket, path[:-1]) if socket is not None else own_value(consumer)
+        if kind == "ShaderNodeRGB":
+            return np.array(out.default_value[:3], np.float64)
+        if kind == "ShaderNodeValue":
+            return float(out.default_value)
+        name = RENAMED.get(out.name, out.name)
+        if kind not in GRAPH_KINDS:
+            self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
+                                   f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
+            return own_value(consumer)
+        graph_node = self.node(node, path)
+        if graph_node is None:
+            return own_value(consumer)
+        if name not in graph_.NODE_OUTPUTS[graph_node.kind]:
+            self.reader.warn(node, f"output '{out.name}' is not one Primer evaluates; for '{consumer.name}' of "
+                                   f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
+            return own_value(consumer)
+        return Link(graph_node, name)
+
+    def node(self, node, path: tuple):
+        """The GraphNode of a Blender node (made once per group path), or None when Primer cannot read it."""
+        key = (tuple(g.as_pointer() for g in path), node.as_pointer())
+        if key not in self.nodes:
+            self.nodes[key] = None
+            self.nodes[key] = self.convert(node, path)
+        return self.nodes[key]
+
+    def inputs(self, node, path: tuple, names, legacy: dict = None) -> dict:
+        """The enabled inputs called `names` (first of that name), each its value or a Link."""
+        out = {}
+        for name in names:
+            socket = next((s for s in node.inputs if name in (s.name, s.identifier) and getattr(s, "enabled", True)),
+                          None)
+            if socket is None and legacy:
+                socket = next((s for s in node.inputs if s.name == legacy.get(name)), None)
+            if socket is not None:
+                out[name] = self.socket(socket, path)
+        return out
+
+    def convert(self, node, path: tuple):
+        """A Blender node as a GraphNode (warnings for what Primer leaves out)."""
+        kind, warn = GRAPH_KINDS[node.bl_idname], lambda text: self.reader.warn(node, text)    # noqa: E731
+        props: dict = {}
+        inputs: dict = {}
+        if kind == "IMAGE":
+            props = {"image": load_image(node.image, self.reader, node),
+                     "interpolation": node.interpolation, "extension": node.extension}
+            if node.projection != "FLAT":
+                warn(f"projection {node.projection} is not supported; Primer uses Flat")
+            inputs = self.inputs(node, path, ["Vector"])
+            if not node.inputs["Vector"].is_linked:
+                inputs = {}
+        elif kind == "TEXCOORD":
+            pass
+        elif kind == "UVMAP":
+            props = {"map": node.uv_map}
+        elif kind == "ATTRIBUTE":
+            if node.bl_idname == "ShaderNodeVertexColor":
+                props = {"attribute": "color:" + node.layer_name}
+            else:
+                if node.attribute_type != "GEOMETRY":
+                    warn(f"attribute type {node.attribute_type} is not supported; Primer reads a mesh attribute")
+                name = node.attribute_name
+                uv = any(name in mesh.uv_layers for mesh in bpy.data.meshes)
+                props = {"attribute": ("uv:" if uv else "color:") + name}
+        elif kind == "OBJECT_INFO":
+            pass
+        elif kind == "MAPPING":
+            props = {"type": node.vector_type}
+            inputs = self.inputs(node, path, ["Vector", "Location", "Rotation", "Scale"])
+        elif kind == "NORMAL_MAP":
+            if node.space != "TANGENT":
+                warn(f"space {node.space} is not supported; Primer reads the colour as a tangent-space normal")
+            props = {"map": node.uv_map}
+            inputs = self.inputs(node, path, ["Strength", "Color"])
+        elif kind == "BUMP":
+            props = {"invert": bool(node.invert)}
+            inputs = self.inputs(node, path, ["Strength", "Distance", "Height", "Normal"])
+            if not node.inputs["Normal"].is_linked:
+                inputs.pop("Normal", None)
+        elif kind == "MATH":
+            operation = "FRACT" if node.operation == "FRACT" else node.operation
+            if operation not in graph_.MATH_OPS:
+                warn(f"operation {node.operation} is not supported; Primer uses Add")
+                operation = "ADD"
+            props = {"operation": operation, "clamp": bool(node.use_clamp)}
+            inputs = {str(i): self.socket(socket, path) for i, socket in enumerate(node.inputs) if i < 3}
+        elif kind == "MIX":
+            if node.bl_idname == "ShaderNodeMixRGB":
+                props = {"data_type": "RGBA", "blend_type": node.blend_type, "clamp_result": bool(node.use_clamp),
+                         "clamp_factor": True}
+                by_id = {s.identifier: s for s in node.inputs}
+                inputs = {"Factor": self.socket(by_id["Fac"], path),
+                          "A": self.socket(by_id["Color1"], path), "B": self.socket(by_id["Color2"], path)}
+            else:
+                data_type = node.data_type
+                if data_type not in ("FLOAT", "VECTOR", "RGBA"):
+                    warn(f"data type {data_type} is not supported; Primer mixes colours")
+                    data_type = "RGBA"
+                props = {"data_type": data_type, "blend_type": node.blend_type, "clamp_result": bool(node.clamp_result),
+                         "clamp_factor": bool(node.clamp_factor), "factor_mode": getattr(node, "factor_mode", "UNIFORM")}
+                suffix = {"FLOAT": "Float", "VECTOR": "Vector", "RGBA": "Color"}[data_type]
+                factor = "Factor_Vector" if data_type == "VECTOR" and props["factor_mode"] == "NON_UNIFORM" else "Factor_Float"
+                by_id = {s.identifier: s for s in node.inputs}
+                for name, identifier in (("Factor", factor), ("A", "A_" + suffix), ("B", "B_" + suffix)):
+                    if identifier in by_id:
+                        inputs[name] = self.socket(by_id[identifier], path)
+            if props["blend_type"] not in graph_.BLEND_TYPES:
+                warn(f"blend mode {props['blend_type']} is not supported; Primer uses Mix")
+                props["blend_type"] = "MIX"
+        elif kind == "RAMP":
+            ramp = node.color_ramp
+            props = {"table": np.array([ramp.evaluate(i / 255.0)[:] for i in range(256)], np.float64),
+                     "interpolate": ramp.interpolation != "CONSTANT"}
+            inputs = self.inputs(node, path, ["Fac"])
+        elif kind == "INVERT":
+            inputs = self.inputs(node, path, ["Fac", "Color"])
+        elif kind == "HSV":
+            inputs = self.inputs(node, path, ["Hue", "Saturation", "Value", "Fac", "Color"])
+        elif kind in ("SEPARATE_COLOR", "COMBINE_COLOR"):
+            if getattr(node, "mode", "RGB") != "RGB":
+                warn(f"mode {node.mode} is not supported; Primer reads RGB")
+            if kind == "SEPARATE_COLOR":
+                inputs = self.inputs(node, path, ["Color"], legacy={"Color": "Image"})
+            else:
+                inputs = self.inputs(node, path, ["Red", "Green", "Blue"], legacy={"Red": "R", "Green": "G", "Blue": "B"})
+        elif kind == "SEPARATE_XYZ":
+            inputs = self.inputs(node, path, ["Vector"])
+        elif kind == "COMBINE_XYZ":
+            inputs = self.inputs(node, path, ["X", "Y", "Z"])
+        elif kind == "CLAMP":
+            props = {"clamp_type": node.clamp_type}
+            inputs = self.inputs(node, path, ["Value", "Min", "Max"])
+        elif kind == "MAP_RANGE":
+            if node.data_type != "FLOAT":
+                warn("only the Float Map Range is supported; Primer maps the vector's average")
+            props = {"interpolation_type": node.interpolation_type, "clamp": bool(node.clamp)}
+            inputs = self.inputs(node, path, ["Value", "From Min", "From Max", "To Min", "To Max", "Steps"])
+        return GraphNode(kind, props, inputs, node.name)
+
+
+def _shown(socket) -> str:
+    """A socket's own value, as the warnings show it."""
+    value = own_value(socket)
+    return f"{value:g}" if isinstance(value, float) else "(" + ", ".join(f"{x:g}" for x in value) + ")"
+
+
+def load_image(image, reader: NodeReader, node):
+    """A Blender image as a textures.Image (float32 RGBA, bottom row first), read once per export; None (Cycles'
+    magenta) with a warning when it is missing or cannot be read. Packed images are read from their bytes,
+    external files from disk, with OpenImageIO (Blender's own module inside Blender, else the pip one);
+    without OpenImageIO Blender's pixel buffer is read in bulk."""
+    if image is None:
+        reader.warn(node, "has no image; Primer renders it magenta, as Cycles does")
+        return None
+    cache = _IMAGES
+    key = image.as_pointer()
+    if key in cache:
+        return cache[key]
+    space = image.colorspace_settings.name
+    if space != "sRGB" and space not in LINEAR_SPACES:
+        reader.warn(node, f"image '{image.name}' is in colour space {space}; Primer uses its numbers as linear")
+    pixels, why = None, ""
+    if image.source in ("FILE", "GENERATED"):
         try:
-            return np.array(value[:3], np.float64)
-        except TypeError:
-            return float(value)
+            pixels = _read_pixels(image)
+        except Exception as error:                      # noqa: BLE001 (a corrupt file must not stop the render)
+            why = str(error) or type(error).__name__
+    else:
+        why = f"source {image.source} is not supported"
+    if pixels is None or pixels.size == 0 or not np.isfinite(pixels).all():
+        reader.warn(node, f"image '{image.name}' could not be read ({why or 'no pixels'}); Primer renders it magenta, "
+                          "as Cycles does")
+        cache[key] = None
+        return None
+    cache[key] = textures_.Image(pixels, srgb=space == "sRGB", name=image.name)
+    return cache[key]
+
+
+# Images read in this export (cleared by `begin_export`).
+_IMAGES: dict = {}
+
+
+def begin_export() -> None:
+    """Forget the images read by an earlier export (a render reads each image once)."""
+    _IMAGES.clear()
+
+
+def _oiio():
+    """OpenImageIO's Python module, or None."""
+    try:
+        import OpenImageIO
+        return OpenImageIO
+    except ImportError:
+        return None
+
+
+def _read_pixels(image) -> np.ndarray:
+    """An image's pixels (h, w, c) float32 bottom row first, its channels as stored (sRGB values of an sRGB
+    image are left encoded)."""
+    oiio = _oiio()
+    packed = image.packed_file
+    if oiio is not None and image.source == "FILE":
+        if packed is not None:
+            suffix = os.path.splitext(image.filepath)[1] or "." + image.file_format.lower()
+            with tempfile.TemporaryDirectory() as folder:
+                path = os.path.join(folder, "packed" + suffix)
+                with open(path, "wb") as handle:
+                    handle.write(packed.data)
+                return _oiio_read(oiio, path)
+        path = bpy.path.abspath(image.filepath, library=image.library)
+        if not os.path.isfile(path):
+            raise FileNotFoundError(f"no file {path}")
+        return _oiio_read(oiio, path)
+    if image.source == "FILE" and packed is None:
+        path = bpy.path.abspath(image.filepath, library=image.library)
+        if not os.path.isfile(path):
+            raise FileNotFoundError(f"no file {path}")
+    # Blender's own buffer, in bulk (OpenImageIO missing, or a generated image): rows bottom first.
+    width, height = image.size
+    channels = image.channels
+    if width * height == 0:
+        raise ValueError("the image is empty")
+    flat = np.empty(width * height * channels, np.float32)
+    image.pixels.foreach_get(flat)
+    return flat.reshape(height, width, channels)
+
+
+def _oiio_read(oiio, path: str) -> np.ndarray:
+    """An image file's pixels with OpenImageIO, flipped to bottom row first."""
+    buf = oiio.ImageBuf(path)
+    if buf.has_error:
+        raise OSError(buf.geterror())
+    pixels = buf.get_pixels(oiio.FLOAT)
+    if pixels is None or buf.has_error:
+        raise OSError(buf.geterror() or "unreadable")
+    pixels = np.asarray(pixels, np.float32)
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    return np.ascontiguousarray(pixels[::-1])
 
 
 def shader_nodes(material, warnings: list) -> list:
-    """The material's surface as [(node name in core/materials/nodes.py, weight (3,), inputs dict)]."""
+    """The material's surface as [(node name in core/materials/nodes.py, weight (3,), inputs dict, factors)]:
+    inputs are values or graph.Links; factors [(graph.Link, mode)] multiply the weight per hit."""
     reader = NodeReader(material, warnings)
     out: list = []
-    _collect(reader, surface_node(material), np.ones(3), out)
+    _collect(reader, surface_node(material), np.ones(3), out, ())
     return out
 
 
-def _collect(reader: NodeReader, node, weight: np.ndarray, out: list) -> None:
-    """Append the shader nodes under `node`, their weights multiplied by `weight`."""
+def _linked(value) -> bool:
+    """Whether an input's value is a graph.Link (fed per hit) rather than a constant."""
+    return isinstance(value, Link)
+
+
+def _scaled(color, strength):
+    """Colour x strength: a number when both are, else a SCALE node's Link."""
+    if not _linked(color) and not _linked(strength):
+        return np.asarray(color, np.float64) * float(strength)
+    return Link(GraphNode("SCALE", {}, {"Color": color, "Factor": strength}), "Color")
+
+
+def _normal(reader: NodeReader, node, inputs: dict) -> None:
+    """A BSDF's Normal input, when linked (a Normal Map, a Bump), into inputs["normal"]."""
+    socket = node.inputs.get("Normal")
+    if socket is not None and socket.is_linked:
+        value = reader.input(node, "Normal", None)
+        if _linked(value):
+            inputs["normal"] = value
+
+
+def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
+    """Append the shader nodes under `node`, their weights multiplied by `weight` and the per-hit `factors`."""
     node = _follow(node)
     if node is None or not weight.any():
         return
     kind = node.bl_idname
     if kind == "ShaderNodeMixShader":
-        fac = float(np.clip(np.mean(reader.value(node, "Fac", 0.5)), 0.0, 1.0))
+        fac = reader.input(node, "Fac", 0.5)
+        if _linked(fac):
+            for socket, mode in ((node.inputs[1], "one_minus"), (node.inputs[2], "fac")):
+                if socket.is_linked:
+                    _collect(reader, socket.links[0].from_node, weight, out, factors + ((fac, mode),))
+            return
+        fac = float(np.clip(np.mean(fac), 0.0, 1.0))
         for socket, share in ((node.inputs[1], 1.0 - fac), (node.inputs[2], fac)):
             if socket.is_linked:
-                _collect(reader, socket.links[0].from_node, weight * share, out)
+                _collect(reader, socket.links[0].from_node, weight * share, out, factors)
     elif kind == "ShaderNodeAddShader":
         for socket in (node.inputs[0], node.inputs[1]):
             if socket.is_linked:
-                _collect(reader, socket.links[0].from_node, weight, out)
+                _collect(reader, socket.links[0].from_node, weight, out, factors)
     elif kind == "ShaderNodeBsdfPrincipled":
-        inputs = {key: reader.value(node, socket, None) for socket, key in PRINCIPLED_SOCKETS.items()}
+        inputs = {key: reader.input(node, socket, None) for socket, key in PRINCIPLED_SOCKETS.items()}
         inputs = {key: value for key, value in inputs.items() if value is not None}
-        color = reader.value(node, "Emission Color", np.ones(3))
-        inputs["emission"] = np.asarray(color, np.float64) * float(reader.value(node, "Emission Strength", 0.0))
+        inputs["emission"] = _scaled(reader.input(node, "Emission Color", np.ones(3)),
+                                     reader.input(node, "Emission Strength", 0.0))
         inputs["multiscatter"] = 1.0 if getattr(node, "distribution", "MULTI_GGX") == "MULTI_GGX" else 0.0
+        _normal(reader, node, inputs)
         for socket, instead in PRINCIPLED_LEFT_OUT.items():
-            if node.inputs.get(socket) is not None and float(np.max(reader.value(node, socket, 0.0))) > 0.0:
+            own = node.inputs.get(socket)
+            if own is None:
+                continue
+            if own.is_linked:
+                reader.warn(node, f"'{socket}' is linked; where it is above 0 Primer {instead}")
+            elif not own.is_linked and float(np.max(reader.value(node, socket, 0.0))) > 0.0:
                 reader.warn(node, f"'{socket}' is above 0; Primer {instead}")
-        if inputs.get("transmission", 0.0) > 0.0 and inputs.get("roughness", 0.5) > 0.0:
-            reader.warn(node, "its transmission is rough (Roughness above 0); Primer renders it as smooth glass")
-        out.append(("PRINCIPLED", weight, inputs))
+        transmission, roughness = inputs.get("transmission", 0.0), inputs.get("roughness", 0.5)
+        if _linked(transmission) or float(np.max(transmission)) > 0.0:
+            if _linked(roughness) or float(np.max(roughness)) > 0.0:
+                reader.warn(node, "its transmission is rough (Roughness above 0); Primer renders it as smooth glass")
+        coat_normal = node.inputs.get("Coat Normal")
+        if coat_normal is not None and coat_normal.is_linked:
+            reader.warn(node, "'Coat Normal' is linked; Primer gives the coat the surface's normal")
+        out.append(("PRINCIPLED", weight, inputs, list(factors)))
     elif kind == "ShaderNodeBsdfDiffuse":
-        if float(reader.value(node, "Roughness", 0.0)) > 0.0:
-            reader.warn(node, "Roughness is above 0 (Oren-Nayar in Cycles); Primer uses Lambert's diffuse")
-        out.append(("DIFFUSE", weight * np.maximum(reader.value(node, "Color", np.full(3, 0.8)), 0.0), {}))
+        if float(reader.value(node, "Roughness", 0.0)) > 0.0 or node.inputs["Roughness"].is_linked:
+            reader.warn(node, "Roughness is above 0 or linked (Oren-Nayar in Cycles); Primer uses Lambert's diffuse")
+        color = reader.input(node, "Color", np.full(3, 0.8))
+        inputs: dict = {}
+        _normal(reader, node, inputs)
+        if _linked(color):
+            out.append(("DIFFUSE", weight, inputs, list(factors) + [(color, "color")]))
+        else:
+            out.append(("DIFFUSE", weight * np.maximum(color, 0.0), inputs, list(factors)))
     elif kind in GLOSSY_IDS:
         distribution = getattr(node, "distribution", "GGX")
         if distribution not in {"GGX", "MULTI_GGX"}:
             reader.warn(node, f"distribution {distribution} is not GGX; Primer uses GGX")
         if abs(float(reader.value(node, "Anisotropy", 0.0))) > 1e-4:
             reader.warn(node, "Anisotropy is not 0; Primer renders it isotropic")
-        color = np.maximum(reader.value(node, "Color", np.full(3, 0.8)), 0.0)
-        out.append(("GLOSSY", weight * color, {"roughness": float(reader.value(node, "Roughness", 0.5)),
-                                               "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0,
-                                               "color": color}))
+        color = reader.input(node, "Color", np.full(3, 0.8))
+        inputs = {"roughness": reader.input(node, "Roughness", 0.5),
+                  "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0}
+        _normal(reader, node, inputs)
+        if _linked(color):
+            inputs["color"] = color
+            out.append(("GLOSSY", weight, inputs, list(factors) + [(color, "color")]))
+        else:
+            color = np.maximum(color, 0.0)
+            inputs["color"] = color
+            out.append(("GLOSSY", weight * color, inputs, list(factors)))
     elif kind in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
         if float(reader.value(node, "Roughness", 0.0)) > 0.0:
             reader.warn(node, "Roughness is above 0; Primer renders it as smooth glass")
         out.append(("GLASS", weight, {"color": np.maximum(reader.value(node, "Color", np.ones(3)), 0.0),
                                       "ior": float(reader.value(node, "IOR", 1.5)),
-                                      "refraction_only": 1.0 if kind == "ShaderNodeBsdfRefraction" else 0.0}))
+                                      "refraction_only": 1.0 if kind == "ShaderNodeBsdfRefraction" else 0.0},
+                    list(factors)))
     elif kind == "ShaderNodeEmission":
-        color = np.asarray(reader.value(node, "Color", np.ones(3)), np.float64)
-        out.append(("EMISSION", weight, {"emission": color * float(reader.value(node, "Strength", 1.0))}))
+        emission = _scaled(reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0))
+        out.append(("EMISSION", weight, {"emission": emission}, list(factors)))
     elif kind == "ShaderNodeBsdfTransparent":
-        out.append(("TRANSPARENT", weight * np.maximum(reader.value(node, "Color", np.ones(3)), 0.0), {}))
+        color = reader.input(node, "Color", np.ones(3))
+        if _linked(color):
+            out.append(("TRANSPARENT", weight, {}, list(factors) + [(color, "color")]))
+        else:
+            out.append(("TRANSPARENT", weight * np.maximum(color, 0.0), {}, list(factors)))
     elif kind == "ShaderNodeHoldout":
         reader.warn(node, "Holdout is not supported yet; Primer leaves this part black")
     else:
@@ -147,7 +524,8 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list) -> None:
         reader.warn(node, f"'{node.bl_label}' is not a shader node Primer knows; "
                           + ("it uses a diffuse surface of the node's colour" if color is not None else "it leaves it black"))
         if color is not None:
-            out.append(("DIFFUSE", weight * np.maximum(np.array(color.default_value[:3], np.float64), 0.0), {}))
+            out.append(("DIFFUSE", weight * np.maximum(np.array(color.default_value[:3], np.float64), 0.0), {},
+                        list(factors)))
 
 
 def export_material(material, warnings: list) -> Material:
@@ -157,7 +535,7 @@ def export_material(material, warnings: list) -> Material:
     if node_tree(material) is None:
         return Material(np.array(material.diffuse_color[:3], np.float64), material.name, emission_sampling=sampling)
     nodes = shader_nodes(material, warnings)
-    if len(nodes) == 1 and nodes[0][0] == "DIFFUSE":
+    if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes):
         return Material(np.clip(nodes[0][1], 0.0, None), material.name, emission_sampling=sampling)
     if not nodes:
         return Material(np.zeros(3), material.name, emission_sampling=sampling)

@@ -290,12 +290,26 @@ class SceneCache:
         if not (obj.visible_camera and obj.visible_shadow):
             self.warnings.append(f"object '{obj.name}' hides itself from some rays; Primer renders it fully visible")
         report.objects.append(obj.name)
-        return _Placement(mesh_key, np.array(instance.matrix_world, np.float64),
-                          self.material_table.slot_map(obj, self.warnings, self.override), obj.name, owner, key[1] or owner)
+        slots = self.material_table.slot_map(obj, self.warnings, self.override)
+        self._read_attributes(obj, mesh_key, slots)
+        return _Placement(mesh_key, np.array(instance.matrix_world, np.float64), slots, obj.name, owner,
+                          key[1] or owner)
+
+    def _read_attributes(self, obj, mesh_key, slots: np.ndarray) -> None:
+        """Read into the cached mesh the per-corner attributes its materials' node graphs use (export.mesh_attributes)."""
+        entry = self.meshes.get(mesh_key)
+        if entry is None or entry.mesh is None:
+            return
+        wanted = set()
+        for slot in slots[slots >= 0].tolist():
+            wanted |= export.graph_.attributes_of(self.material_table.materials[slot].nodes)
+        if wanted:
+            export.mesh_attributes(obj.data, entry.mesh, wanted, self.warnings)
 
     def _relink(self, old: "_Placement", obj, report: SyncReport) -> "_Placement":
         """Return `old` with the object's material slots read again (a new placement only if they changed)."""
         materials = self.material_table.slot_map(obj, self.warnings, self.override)
+        self._read_attributes(obj, old.mesh_key, materials)
         if np.array_equal(materials, old.materials):
             return old
         report.relinked.append(obj.name)

@@ -17,6 +17,7 @@ The scenes, one idea each:
     shading_flat_smooth                                       the shadow terminator of a 12-segment sphere
     shading_visibility                                        an open smooth sheet: light leaks, negative N.L
     modifiers_instances                                       modifiers, instancing, negative scale, curves
+    materials_principled, materials_textures                  Principled BSDFs; materials from node graphs
     camera_ortho, camera_persp_shift,                         every camera type, with shift and sensor fit
     camera_fisheye_equidistant, camera_fisheye_equisolid      (disk, square and sphere lights light them)
 
@@ -654,6 +655,140 @@ def cornell_box():
     add_camera((w / 2, -8.0, h / 2), (w / 2, 0.0, h / 2), lens=33.6, sensor_fit="VERTICAL", sensor_height=24.0)
 
 
+def packed_image(name: str, pixels, color_space: str):
+    """An image made here from RGBA rows (h, w, 4) floats in 0..1, bottom row first, saved as PNG bytes
+    inside the .blend (packed), in the colour space `color_space` ("sRGB" or "Non-Color")."""
+    bpy = _bpy()
+    height, width = len(pixels), len(pixels[0])
+    image = bpy.data.images.new(name, width, height, alpha=True)
+    image.colorspace_settings.name = color_space
+    image.pixels.foreach_set([channel for row in pixels for texel in row for channel in texel])
+    image.filepath_raw = f"//{name}.png"
+    image.file_format = "PNG"
+    image.pack()
+    return image
+
+
+def _texture_nodes(material):
+    """The material's node tree, its output and its BSDF (Principled or Diffuse)."""
+    tree = material.node_tree
+    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    bsdf = next(n for n in tree.nodes if n.bl_idname in ("ShaderNodeBsdfPrincipled", "ShaderNodeBsdfDiffuse"))
+    return tree, output, bsdf
+
+
+def materials_textures():
+    """Materials fed by node graphs: a floor whose Principled base colour is a packed sRGB checker image
+    repeated by a Mapping node, its roughness from a Math node; a sphere with a packed tangent-space normal
+    map (Non-Color); a sphere coloured by its vertex colours through a Multiply Mix; a sphere mixing Diffuse
+    and Glossy by a Color Ramp of its generated height, hue shifted; under one sun."""
+    new_file("materials_textures", 160, 96, light_samples=4)
+    n = 64
+    checker = [[(0.9, 0.75, 0.2, 1.0) if ((i // 8) + (j // 8)) % 2 else (0.15, 0.3, 0.6, 1.0) for j in range(n)]
+               for i in range(n)]
+    bumps = []
+    for i in range(n):
+        row = []
+        for j in range(n):
+            # A field of round bumps: the normal of h = 0.08 (cos 2 pi 4x + cos 2 pi 4y).
+            x, y = (j + 0.5) / n, (i + 0.5) / n
+            dx = -0.08 * 2 * math.pi * 4 * math.sin(2 * math.pi * 4 * x)
+            dy = -0.08 * 2 * math.pi * 4 * math.sin(2 * math.pi * 4 * y)
+            length = math.sqrt(dx * dx + dy * dy + 1.0)
+            row.append((0.5 - 0.5 * dx / length, 0.5 - 0.5 * dy / length, 0.5 + 0.5 / length, 1.0))
+        bumps.append(row)
+    checker_image = packed_image("Checker", checker, "sRGB")
+    normal_image = packed_image("Bumps", bumps, "Non-Color")
+    # The floor: base colour = checker(mapping(UV) x 3), roughness = 0.3 + 0.4 x checker's red.
+    floor = principled("Checker Floor", Roughness=0.5)
+    tree, _, bsdf = _texture_nodes(floor)
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Scale"].default_value = (3.0, 3.0, 1.0)
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(15.0))
+    image = tree.nodes.new("ShaderNodeTexImage")
+    image.image = checker_image
+    image.interpolation = "Closest"
+    roughness = tree.nodes.new("ShaderNodeMath")
+    roughness.operation = "MULTIPLY_ADD"
+    roughness.inputs[1].default_value, roughness.inputs[2].default_value = 0.4, 0.3
+    separate = tree.nodes.new("ShaderNodeSeparateColor")
+    tree.links.new(coords.outputs["UV"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], image.inputs["Vector"])
+    tree.links.new(image.outputs["Color"], bsdf.inputs["Base Color"])
+    tree.links.new(image.outputs["Color"], separate.inputs["Color"])
+    tree.links.new(separate.outputs["Red"], roughness.inputs[0])
+    tree.links.new(roughness.outputs["Value"], bsdf.inputs["Roughness"])
+    add_primitive("plane", floor, False, "Floor", size=6.0)
+    # Normal-mapped sphere.
+    mapped = principled("Normal Mapped", Base_Color=(0.8, 0.8, 0.8), Roughness=0.45)
+    tree, _, bsdf = _texture_nodes(mapped)
+    image = tree.nodes.new("ShaderNodeTexImage")
+    image.image = normal_image
+    normal_map = tree.nodes.new("ShaderNodeNormalMap")
+    reroute = tree.nodes.new("NodeReroute")
+    tree.links.new(image.outputs["Color"], reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], normal_map.inputs["Color"])
+    tree.links.new(normal_map.outputs["Normal"], bsdf.inputs["Normal"])
+    add_primitive("uv_sphere", mapped, True, "Mapped Sphere", location=(-1.6, 0.3, 0.6), radius=0.6, segments=48,
+                  ring_count=24)
+    # Vertex-coloured sphere: Diffuse colour = vertex colours x a warm tint (Mix, Multiply).
+    painted = diffuse("Vertex Colours", (0.8, 0.8, 0.8))
+    tree, _, bsdf = _texture_nodes(painted)
+    attribute = tree.nodes.new("ShaderNodeVertexColor")
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type, mix.blend_type = "RGBA", "MULTIPLY"
+    mix.inputs["Factor"].default_value = 0.8
+    mix.inputs[7].default_value = (1.0, 0.85, 0.7, 1.0)
+    tree.links.new(attribute.outputs["Color"], mix.inputs[6])
+    tree.links.new(mix.outputs[2], bsdf.inputs["Color"])
+    sphere = add_primitive("uv_sphere", painted, True, "Painted Sphere", location=(0.0, 0.6, 0.6), radius=0.6,
+                           segments=32, ring_count=16)
+    colors = sphere.data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+    values = []
+    for vertex in sphere.data.vertices:
+        x, y, z = vertex.co
+        values += [0.5 + 0.5 * x / 0.6, 0.5 + 0.5 * y / 0.6, 0.5 + 0.5 * z / 0.6, 1.0]
+    colors.data.foreach_set("color", values)
+    sphere.data.color_attributes.active_color = colors
+    # Diffuse and Glossy mixed by a Color Ramp of the generated height, through a group; hue shifted.
+    mixed = glossy_mix("Ramp Mix", (0.2, 0.5, 0.3), 0.3, (0.9, 0.9, 0.9), 0.5)
+    tree = mixed.node_tree
+    mix_shader = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeMixShader")
+    diffuse_node = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfDiffuse")
+    group = bpy_data().node_groups.new("Height Ramp", "ShaderNodeTree")
+    if hasattr(group, "interface"):
+        group.interface.new_socket("Vector", in_out="INPUT", socket_type="NodeSocketVector")
+        group.interface.new_socket("Fac", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    else:                                   # (before Blender 4.0)
+        group.inputs.new("NodeSocketVector", "Vector")
+        group.outputs.new("NodeSocketFloat", "Fac")
+    group_in, group_out = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    split = group.nodes.new("ShaderNodeSeparateXYZ")
+    ramp = group.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].position, ramp.color_ramp.elements[1].position = 0.3, 0.7
+    group.links.new(group_in.outputs[0], split.inputs["Vector"])
+    group.links.new(split.outputs["Z"], ramp.inputs["Fac"])
+    group.links.new(ramp.outputs["Color"], group_out.inputs[0])
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    tree.links.new(coords.outputs["Generated"], node.inputs[0])
+    tree.links.new(node.outputs[0], mix_shader.inputs["Fac"])
+    hue = tree.nodes.new("ShaderNodeHueSaturation")
+    hue.inputs["Hue"].default_value, hue.inputs["Color"].default_value = 0.6, (0.2, 0.5, 0.3, 1.0)
+    tree.links.new(hue.outputs["Color"], diffuse_node.inputs["Color"])
+    add_primitive("uv_sphere", mixed, True, "Ramp Sphere", location=(1.6, 0.3, 0.6), radius=0.6, segments=32,
+                  ring_count=16)
+    add_camera((0.0, -5.0, 2.6), (0.0, 0.3, 0.4), lens=35.0)
+    add_light("SUN", "Sun", rotation=sun_rotation(50.0, -120.0), energy=3.0, angle=0.0)
+
+
+def bpy_data():
+    """Blender's data."""
+    return _bpy().data
+
+
 def bpy_scene():
     """The current scene."""
     return _bpy().context.scene
@@ -713,6 +848,9 @@ SCENES = {
     "world_light": world_light,
     "materials_principled": materials_principled,
     "cornell_box": cornell_box,
+
+
+    "materials_textures": materials_textures,
     "camera_ortho": camera_ortho,
     "camera_persp_shift": camera_persp_shift,
     "camera_fisheye_equidistant": camera_fisheye_equidistant,

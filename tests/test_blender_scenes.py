@@ -62,6 +62,7 @@ SCENES = {
     "world_light": (256, 1024),
     "materials_principled": (2048, 4096),       # glossy highlights: Cycles needs many samples here
     "cornell_box": (1024, 2048),                # path tracing, Cycles' default bounce limits
+    "materials_textures": (512, 1024),          # image textures, a normal map, vertex colours, node groups
     "camera_ortho": (256, 1024),
     "camera_persp_shift": (128, 1024),
     "camera_fisheye_equidistant": (256, 256),

@@ -30,6 +30,7 @@ from . import normals as normals_
 from .. import vectors
 from .intersect import Tracer
 from ..scene import Scene
+from ..materials import graph as graph_
 
 
 # Scenes up to this many triangles keep a per-triangle table of corner coordinates (WorldGeometry.corner_points).
@@ -53,6 +54,12 @@ class WorldGeometry:
     instance:       (t,) int32 index into Scene.instances per triangle (which object it belongs to)
     instanced:      InstancedMesh records (core/geometry/instancing.py) of the meshes stored once; their
                     triangles have the flat indices len(triangles) and up
+    attributes:     (r, 3, A) float32 the meshes' per-corner attributes (Mesh.attributes), each mesh's
+                    triangles once, laid out by `attribute_layout` (name -> (offset, width)); None when no
+                    mesh has any
+    attribute_row:  (t,) int32 row of `attributes` per copied triangle (instanced meshes keep their own)
+    instance_random: (n,) float64 the Object Info Random of each Scene.instances entry
+    instance_linear: (n, 3, 3) float64 each instance's linear transform (tangents turn with it)
     The arrays above hold the copied triangles only; ask `triangle_data` for any triangle.
     """
 
@@ -67,6 +74,11 @@ class WorldGeometry:
     warnings: list = field(default_factory=list)
     instance: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     instanced: list = field(default_factory=list)
+    attributes: Optional[np.ndarray] = None
+    attribute_layout: dict = field(default_factory=dict)
+    attribute_row: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    instance_random: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    instance_linear: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
 
     @property
     def has_smooth(self) -> bool:
@@ -227,7 +239,8 @@ class _Batch(NamedTuple):
     points: (v, 3) float64 world points minus the origin; triangles: (t, 3) int64 into points;
     sign: (t,) float64 the sign of each triangle's placement's determinant; material: (t,) int64;
     owner: (t,) int32 Scene.instances index; smooth: (t,) bool; corner_normals: (s, 3, 3) float64
-    world corner normals of the smooth triangles, or None.
+    world corner normals of the smooth triangles, or None; source: (t,) int64 row of the attribute
+    table (WorldGeometry.attributes) per triangle.
     """
 
     points: np.ndarray
@@ -237,6 +250,7 @@ class _Batch(NamedTuple):
     owner: np.ndarray
     smooth: np.ndarray
     corner_normals: Optional[np.ndarray]
+    source: np.ndarray
 
 
 def _face_normals(points: np.ndarray, triangles: np.ndarray):
@@ -277,6 +291,7 @@ def _finish_batch(batch: _Batch, vertex_offset: int, counts: dict, parts: dict) 
     parts["n"].append(vectors.keep_rows(face_n, keep))
     parts["m"].append(batch.material[keep])
     parts["i"].append(batch.owner[keep])
+    parts["src"].append(batch.source[keep])
     return vertex_offset + len(points32)
 
 
@@ -295,7 +310,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     if instance_triangles is None:
         instance_triangles = instancing.INSTANCE_TRIANGLES
     warnings: list[str] = []
-    parts = {"v": [], "t": [], "n": [], "m": [], "cn": [], "smooth": [], "i": []}
+    parts = {"v": [], "t": [], "n": [], "m": [], "cn": [], "smooth": [], "i": [], "src": []}
     instanced: list = []
     vertex_offset = 0
     n_materials = len(scene.materials)
@@ -316,6 +331,8 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     by_mesh.sort(key=lambda owners: owners[0])
 
     singular_all = ~(np.isfinite(all_det) & (all_det != 0.0))                              # (n,)
+    # The meshes' per-corner attributes, each mesh's triangles once (rows first_row[id(mesh)] ..).
+    attributes, layout, first_row = attribute_table(scene.meshes)
     copies: list = []           # (mesh, its placements' indices into scene.instances): placed as copies
     for owners in by_mesh:
         mesh = scene.meshes[int(mesh_of[owners[0]])]
@@ -328,7 +345,8 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         if (len(placed) >= 2 and len(placed) * len(mesh.triangles) > instance_triangles
                 and embree_buffers.instancing_supported()):
             # Stored once, traced as Embree instances (core/geometry/instancing.py).
-            record, found = _instanced_placements(scene, mesh, placed, all_matrices, origin, n_materials)
+            record, found = _instanced_placements(scene, mesh, placed, all_matrices, origin, n_materials,
+                                                  first_row.get(id(mesh), 0))
             # Unless asked to always instance, instances piled up in one place are copied instead:
             # every hit there would have to try each of them (instancing.CROWDED).
             crowded = (record is not None and instance_triangles > 0
@@ -355,11 +373,12 @@ def build_geometry(scene: Scene, origin: np.ndarray,
             batch_triangles += len(some) * len(mesh.triangles)
             if batch_triangles >= BATCH_TRIANGLES:
                 vertex_offset = _finish_batch(_place_copies(batch, scene, all_matrices, all_det, origin,
-                                                            n_materials, counts), vertex_offset, counts, parts)
+                                                            n_materials, counts, first_row), vertex_offset, counts,
+                                              parts)
                 batch, batch_triangles = [], 0
     if batch:
         vertex_offset = _finish_batch(_place_copies(batch, scene, all_matrices, all_det, origin, n_materials,
-                                                    counts), vertex_offset, counts, parts)
+                                                    counts, first_row), vertex_offset, counts, parts)
 
     if counts["index"]:
         warnings.append(f"{counts['index']} triangle(s) with out-of-range vertex indices were skipped")
@@ -396,7 +415,40 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         warnings=warnings,
         instance=np.concatenate(parts["i"]) if parts["i"] else np.zeros(0, np.int32),
         instanced=instanced,
+        attributes=attributes,
+        attribute_layout=layout,
+        attribute_row=(np.concatenate(parts["src"]) if parts["src"] else np.zeros(0, np.int64)).astype(np.int32),
+        instance_random=np.array([graph_.object_random(i.name) if i.random is None else float(i.random)
+                                  for i in scene.instances], np.float64),
+        instance_linear=all_matrices[:, :3, :3].copy(),
     )
+
+
+def attribute_table(meshes: list) -> tuple:
+    """The meshes' per-corner attributes in one table: ((r, 3, A) float32 or None, layout name -> (offset,
+    width), first row of each mesh by id). A mesh without one of the attributes has zeros there."""
+    names = set()
+    for mesh in meshes:
+        names.update(getattr(mesh, "attributes", None) or {})
+    if not names:
+        return None, {}, {}
+    layout = graph_.layout_of(names)
+    width = sum(w for _, w in layout.values())
+    if width > graph_.MAX_ATTRIBUTES:
+        raise ValueError(f"the materials read {width} attribute floats per corner; Primer has {graph_.MAX_ATTRIBUTES}")
+    first, rows = {}, 0
+    for mesh in meshes:
+        if id(mesh) not in first:
+            first[id(mesh)] = rows
+            rows += len(mesh.triangles)
+    table = np.zeros((rows, 3, width), np.float32)
+    for mesh in meshes:
+        start = first[id(mesh)]
+        for name, values in (getattr(mesh, "attributes", None) or {}).items():
+            offset, w = layout[name]
+            values = np.asarray(values, np.float64).reshape(len(mesh.triangles), 3, -1)
+            table[start:start + len(mesh.triangles), :, offset:offset + min(w, values.shape[2])] = values[:, :, :w]
+    return table, layout, first
 
 
 def _in_range(mesh) -> np.ndarray:
@@ -405,7 +457,7 @@ def _in_range(mesh) -> np.ndarray:
 
 
 def _instanced_placements(scene: Scene, mesh, placed: np.ndarray, all_matrices: np.ndarray, origin: np.ndarray,
-                          n_materials: int):
+                          n_materials: int, first_row: int = 0):
     """Return (the InstancedMesh of `mesh` at the placements `placed`, or None; its counts of dropped
     and defaulted triangles). placed: (k,) int64 indices into scene.instances of non-singular
     placements, ascending (so when they are all of scene.instances, all_matrices is used uncopied)."""
@@ -418,12 +470,13 @@ def _instanced_placements(scene: Scene, mesh, placed: np.ndarray, all_matrices: 
     record = _instanced_mesh(mesh, triangles, smooth, mesh.material_indices[in_range], corners,
                              all_matrices if every else all_matrices[placed],
                              [scene.instances[index].materials for index in placed.tolist()],
-                             placed.astype(np.int32), origin, n_materials, found)
+                             placed.astype(np.int32), origin, n_materials, found,
+                             np.flatnonzero(in_range) + first_row)
     return record, found
 
 
 def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: np.ndarray, origin: np.ndarray,
-                  n_materials: int, counts: dict) -> _Batch:
+                  n_materials: int, counts: dict, first_row: Optional[dict] = None) -> _Batch:
     """Place meshes as copies, all at once: batch is a list of (mesh, placements (k,) int64 indices into
     scene.instances); a mesh with many placements may come more than once, a part of its placements
     each time. Returns the _Batch of their triangles in that order (a
@@ -518,20 +571,28 @@ def _place_copies(batch: list, scene: Scene, all_matrices: np.ndarray, all_det: 
         else:
             corner_normals = normals_.safe_normalize(vectors.rows_times_each(corners[triangle_row[smooth]],
                                                                              inverse[placement_of_triangle[smooth]]))
+    # 7. Each triangle's row of the attribute table: its mesh's first row plus its index in the mesh.
+    source = np.zeros(len(triangle_row), np.int64)
+    if first_row:
+        starts = np.cumsum(T) - T
+        mesh_of_row = np.repeat(np.arange(len(meshes)), T)[triangle_row]
+        firsts = np.array([first_row.get(id(mesh), 0) for mesh in meshes], np.int64)
+        source = firsts[mesh_of_row] + triangle_row - starts[mesh_of_row]
     return _Batch(points=world, triangles=triangles, sign=np.sign(all_det[instance]),
                   material=np.where(missing, n_materials, material), owner=instance.astype(np.int32),
-                  smooth=smooth, corner_normals=corner_normals)
+                  smooth=smooth, corner_normals=corner_normals, source=source)
 
 
 def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.ndarray,
                     corners: Optional[np.ndarray], matrices: np.ndarray, tables: list, owners: np.ndarray,
-                    origin: np.ndarray, n_materials: int, counts: dict):
+                    origin: np.ndarray, n_materials: int, counts: dict, attribute_rows: Optional[np.ndarray] = None):
     """Return the InstancedMesh of one mesh placed k times, or None when nothing of it can be traced.
 
     triangles: (t, 3) int64 in-range vertex indices; smooth: (t,) bool; slots: (t,) int64 material
     slots; corners: (t, 3, 3) float64 object-space corner normals or None; matrices: (k, 4, 4)
     float64 non-singular object-to-world matrices; tables: each instance's slot -> material table;
-    owners: (k,) int32 Scene.instances indices. Dropped and defaulted triangles are added to `counts`.
+    owners: (k,) int32 Scene.instances indices; attribute_rows: (t,) int64 each triangle's row of the
+    attribute table, or None. Dropped and defaulted triangles are added to `counts`.
     """
     # 1. The prototype: finite, non-degenerate triangles in object space (what Embree stores once).
     with np.errstate(invalid="ignore", over="ignore"):
@@ -591,4 +652,5 @@ def _instanced_mesh(mesh, triangles: np.ndarray, smooth: np.ndarray, slots: np.n
         smooth_index=smooth_index, corner_normals=corner_normals, transforms=transforms,
         flip=np.sign(det).astype(np.float32),
         material=material, material_row=material_row, owner=owners.astype(np.int32), first_prim=0,
-        locator=instancing.InstanceLocator(lo, hi))
+        locator=instancing.InstanceLocator(lo, hi),
+        attribute_row=None if attribute_rows is None else attribute_rows[keep].astype(np.int32))

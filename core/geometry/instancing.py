@@ -23,6 +23,7 @@ integer, and `WorldGeometry` answers for both kinds.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -171,6 +172,7 @@ class InstancedMesh:
     owner:          (k,) int32 index into Scene.instances
     first_prim:     flat index of instance 0's triangle 0
     locator:        InstanceLocator over the instances' world boxes
+    attribute_row:  (t,) int32 row of WorldGeometry.attributes per triangle (None without attributes)
     """
 
     name: str
@@ -185,6 +187,7 @@ class InstancedMesh:
     owner: np.ndarray
     first_prim: int
     locator: InstanceLocator
+    attribute_row: Optional[np.ndarray] = None
 
     @property
     def triangle_count(self) -> int:

@@ -95,3 +95,43 @@ def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
         N[smooth] = normals_.interpolate(corners[smooth], u[smooth], v[smooth], Ng[smooth])
     return Surface(I, N, Ng, triangle.material, vertices, corners, smooth, u, v, np.asarray(prim, np.int64),
                    np.asarray(t, np.float64), side < 0.0)
+
+
+def shading_point(geometry, surface: Surface):
+    """What a material's node graph reads at each hit (core/materials/graph.py ShadingPoint): the mesh
+    attributes interpolated with the barycentrics (w = 1 - u - v at corner 0, u at 1, v at 2) and their
+    changes along u and v, the object's random number and linear transform, the side that was hit, the
+    triangle's edges."""
+    from ..materials import graph as graph_
+    prim = surface.prim
+    n = len(prim)
+    rows, owner = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    linear = np.zeros((n, 3, 3))
+    copied = np.flatnonzero(prim < len(geometry.triangles))
+    if len(copied):
+        if len(geometry.attribute_row):
+            rows[copied] = geometry.attribute_row[prim[copied]]
+        owner[copied] = geometry.instance[prim[copied]]
+        linear[copied] = geometry.instance_linear[owner[copied]]
+    for mesh in geometry.instanced:
+        at = np.flatnonzero((prim >= mesh.first_prim) & (prim < mesh.first_prim + mesh.triangle_count))
+        if len(at) == 0:
+            continue
+        j, local = mesh.split(prim[at])
+        if mesh.attribute_row is not None:
+            rows[at] = mesh.attribute_row[local]
+        owner[at] = mesh.owner[j]
+        linear[at] = mesh.transforms[j, :, :3].astype(np.float64)
+    random = geometry.instance_random[owner] if len(geometry.instance_random) else np.zeros(n)
+    if geometry.attributes is not None:
+        corners = geometry.attributes[rows].astype(np.float64)                      # (n, 3, A)
+        w = (1.0 - surface.u - surface.v)[:, None]
+        attributes = (w * corners[:, 0] + surface.u[:, None] * corners[:, 1]) + surface.v[:, None] * corners[:, 2]
+        d_du, d_dv = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    else:
+        attributes = d_du = d_dv = np.zeros((n, 0))
+    front = geometry.triangle_data(prim, smooth=False).Ng
+    side = np.where(np.einsum("ij,ij->i", front, surface.Ng) < 0.0, -1.0, 1.0)
+    V = surface.vertices
+    return graph_.ShadingPoint(attributes, d_du, d_dv, random, surface.N, side, linear, V[:, 1] - V[:, 0],
+                               V[:, 2] - V[:, 0], surface.Ng)

@@ -18,7 +18,8 @@ class InstancedRecord(ctypes.Structure):
 
     _fields_ = [(name, ctypes.c_void_p) for name in ("vertices", "triangles", "smooth_index", "corner_normals",
                                                     "transforms", "flip", "material", "material_row")] + \
-               [("triangle_count", ctypes.c_double), ("placements", ctypes.c_double), ("first_prim", ctypes.c_double)]
+               [("triangle_count", ctypes.c_double), ("placements", ctypes.c_double), ("first_prim", ctypes.c_double),
+                ("owner", ctypes.c_void_p), ("attribute_row", ctypes.c_void_p)]
 
 
 class GeometryRecord(ctypes.Structure):
@@ -26,7 +27,9 @@ class GeometryRecord(ctypes.Structure):
 
     _fields_ = [(name, ctypes.c_void_p) for name in ("vertices", "triangles", "face_normals", "material",
                                                     "smooth_index", "corner_normals", "meshes")] + \
-               [("instanced", ctypes.c_double)]
+               [("instanced", ctypes.c_double)] + \
+               [(name, ctypes.c_void_p) for name in ("attributes", "attribute_row", "instance", "instance_random",
+                                                    "instance_linear")] + [("attribute_width", ctypes.c_double)]
 
 
 class GeometryTables:
@@ -50,5 +53,20 @@ class GeometryTables:
                 setattr(record, name, array.ctypes.data)
             record.triangle_count, record.placements = float(len(mesh.triangles)), float(len(mesh.transforms))
             record.first_prim = float(mesh.first_prim)
+            own = [c(mesh.owner, np.int32)] + ([c(mesh.attribute_row, np.int32)] if mesh.attribute_row is not None else [])
+            self.arrays += own
+            record.owner = own[0].ctypes.data
+            record.attribute_row = own[1].ctypes.data if len(own) > 1 else None
         self.record = GeometryRecord(*[None if a is None else a.ctypes.data for a in self.arrays[:6]],
                                      ctypes.addressof(self.meshes), float(len(geometry.instanced)))
+        # What node graphs read: the attributes, each copied triangle's row and instance, the instances'
+        # random numbers and transforms.
+        shading = [None if geometry.attributes is None else c(geometry.attributes, np.float32),
+                   c(geometry.attribute_row, np.int32) if len(geometry.attribute_row) else None,
+                   c(geometry.instance, np.int32) if len(geometry.instance) else None,
+                   c(geometry.instance_random, np.float64) if len(geometry.instance_random) else None,
+                   c(geometry.instance_linear, np.float64) if len(geometry.instance_linear) else None]
+        self.arrays += shading
+        for name, array in zip(("attributes", "attribute_row", "instance", "instance_random", "instance_linear"), shading):
+            setattr(self.record, name, None if array is None else array.ctypes.data)
+        self.record.attribute_width = float(geometry.attributes.shape[2]) if geometry.attributes is not None else 0.0

@@ -18,6 +18,8 @@ typedef struct {
     double triangle_count;          /* t */
     double placements;              /* k */
     double first_prim;              /* WorldGeometry's flat index of placement 0's triangle 0 */
+    const int32_t *owner;           /* (k,) Scene.instances index per placement */
+    const int32_t *attribute_row;   /* (t,) row of GeometryTables.attributes per triangle, or NULL */
 } InstancedTables;
 
 /* Every triangle of the scene (core/geometry/tables.py `geometry_tables`). */
@@ -30,6 +32,13 @@ typedef struct {
     const float *corner_normals;    /* (s, 3, 3) world unit corner normals */
     const InstancedTables *meshes;  /* the instanced meshes, Embree geometry 1 .. instanced */
     double instanced;
+    /* What node graphs read (WorldGeometry.attributes ...): NULL / 0 where no material needs them. */
+    const float *attributes;        /* (r, 3, A) per-corner attributes */
+    const int32_t *attribute_row;   /* (t,) row of `attributes` per copied triangle */
+    const int32_t *instance;        /* (t,) Scene.instances index per copied triangle */
+    const double *instance_random;  /* (n,) each instance's random number */
+    const double *instance_linear;  /* (n, 3, 3) each instance's linear transform */
+    double attribute_width;         /* A */
 } GeometryTables;
 
 /* What shading needs of one hit triangle. */
@@ -174,6 +183,61 @@ INLINE void surface_at(const double *O, const double *D, double t, double u, dou
             for (int c = 0; c < 3; c++)
                 s->lifted[c] += weight[k] * (corner[c] + (to_point[c] - below * normal[c]));
         }
+    }
+}
+
+#define MAX_ATTRIBUTES 64           /* core/materials/graph.py MAX_ATTRIBUTES */
+
+/* What a material's node graph reads at one hit (core/materials/graph.py ShadingPoint). */
+typedef struct {
+    double attributes[MAX_ATTRIBUTES], d_du[MAX_ATTRIBUTES], d_dv[MAX_ATTRIBUTES];
+    int width;
+    double random;
+    double N[3];
+    double side;        /* +1: the front was hit, -1: the back */
+    double L[9];        /* the object's linear transform, row-major */
+    double dPdu[3], dPdv[3];
+    double Ng[3];       /* the face normal, facing the viewer */
+} ShadingPoint;
+
+/* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with
+ * surface `s` at barycentrics (u, v): the attributes interpolated (w at corner 0, u at 1, v at 2) and
+ * their changes along u and v, the object's random number and transform, the side hit, the edges. */
+INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance,
+                             const Triangle *tri, const Surface *s, double u, double v, ShadingPoint *sp)
+{
+    int64_t row = 0, object = 0;
+    if (geometry <= 0) {
+        row = g->attribute_row != NULL ? (int64_t)g->attribute_row[prim] : 0;
+        object = g->instance != NULL ? (int64_t)g->instance[prim] : 0;
+        for (int c = 0; c < 9; c++) sp->L[c] = g->instance_linear != NULL ? g->instance_linear[9 * object + c] : (c % 4 == 0);
+    } else {
+        const InstancedTables *mesh = g->meshes + (geometry - 1);
+        row = mesh->attribute_row != NULL ? (int64_t)mesh->attribute_row[prim] : 0;
+        object = (int64_t)mesh->owner[instance];
+        const float *A = mesh->transforms + 12 * instance;
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) sp->L[3 * i + j] = (double)A[4 * i + j];
+    }
+    sp->random = g->instance_random != NULL ? g->instance_random[object] : 0.0;
+    int width = g->attributes != NULL ? (int)g->attribute_width : 0;
+    sp->width = width;
+    if (width > 0) {
+        const float *corner = g->attributes + 3 * (int64_t)width * row;
+        double w = 1.0 - u - v;
+        for (int k = 0; k < width; k++) {
+            double c0 = (double)corner[k], c1 = (double)corner[width + k], c2 = (double)corner[2 * width + k];
+            sp->attributes[k] = (w * c0 + u * c1) + v * c2;
+            sp->d_du[k] = c1 - c0;
+            sp->d_dv[k] = c2 - c0;
+        }
+    }
+    sp->side = dot3(tri->Ng, s->Ng) < 0.0 ? -1.0 : 1.0;
+    for (int c = 0; c < 3; c++) {
+        sp->N[c] = s->N[c];
+        sp->Ng[c] = s->Ng[c];
+        sp->dPdu[c] = tri->V[3 + c] - tri->V[c];
+        sp->dPdv[c] = tri->V[6 + c] - tri->V[c];
     }
 }
 

@@ -15,6 +15,7 @@ typedef struct {
     const ShadowSettings *shadows;
     void *intersect8, *occluded8, *scene;        /* Embree's packet queries and the RTCScene */
     const LightContext *light_context;           /* the emitters' and the world's tables */
+    const GraphTables *graphs;                   /* the materials' node-graph programs, or NULL (graph.c) */
     double light_count;
     double integrator;                           /* INTEGRATOR_* */
     double sampling;                             /* SAMPLE_*: how lights with extent are found */
@@ -83,8 +84,9 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
                        lift, H->s + h);
             for (int c = 0; c < 3; c++) H->wo[3 * h + c] = -D[c];
             H->sd[h].storage = H->storage[h];
-            shade_material(params->materials + H->s[h].material, H->s[h].N, H->wo + 3 * h, H->s[h].backfacing,
-                           H->sd + h);
+            shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
+                      (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
+                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, H->sd + h);
             H->lane[h] = lane;
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];
@@ -102,7 +104,7 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
                          params->geometry, params->materials, (int)params->sampling == SAMPLE_MIS && params->bsdf_rays != 0.0,
                          (int)params->sampling, params->bsdf_rays != 0.0, params->emissive != 0.0,
                          params->everywhere != 0.0, params->seed, 0,
-                         params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHTS, NULL};
+                         params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHTS, NULL, params->graphs};
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH: {
         PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,

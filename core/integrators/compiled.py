@@ -18,6 +18,7 @@ from ..film.film import ChunkSums
 from ..geometry.tables import GeometryTables
 from ..lights import LightRecord
 from ..materials import MAX_CLOSURES, PARAMS
+from ..materials.graph import graph_tables
 from ..native import library
 from .base import Context
 
@@ -27,7 +28,7 @@ COMPILED_INTEGRATORS = {"direct": 0, "path": 1}
 ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "terminator_fix", "terminator_offset", "seed"],
                                 size_function="primer_shadow_settings_size")
 MaterialRecord = library.record("MaterialRecord", [
-    "n", "program", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
+    "n", "program", "graph", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
     ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3)], size_function="primer_material_record_size")
 
 
@@ -41,7 +42,7 @@ class ChunkParams(ctypes.Structure):
     """Everything a chunk reads (chunk.c ChunkParams)."""
 
     _fields_ = ([(name, ctypes.c_void_p) for name in ("camera", "geometry", "lights", "materials", "shadows",
-                                                      "intersect8", "occluded8", "scene", "light_context")]
+                                                      "intersect8", "occluded8", "scene", "light_context", "graphs")]
                 + [(name, ctypes.c_double) for name in ("light_count", "integrator", "sampling", "bsdf_rays",
                                                         "emissive", "everywhere", "transparent", "width", "height", "seed")]
                 + [("background", ctypes.c_double * 4), ("luminance", ctypes.c_double * 3),
@@ -122,12 +123,17 @@ class Compiled:
             *[light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)])
         self.materials = (MaterialRecord * len(ctx.materials.shaders))(
             *[material_record(shader) for shader in ctx.materials.shaders])
+        # Materials with node graphs: their programs, and each record's program number (+ 1).
+        self.graphs = graph_tables(ctx.materials, geometry.attribute_layout)
+        for row, index in (self.graphs.rows.items() if self.graphs is not None else ()):
+            self.materials[row].graph = float(index + 1)
         self.shadows = ShadowSettings(1.0 if s.shadow_method == "robust" else 0.0, float(s.epsilon),
                                       1.0 if s.terminator_fix else 0.0, float(s.terminator_offset), float(s.seed))
         params = ChunkParams()
         params.camera, params.geometry = ctypes.addressof(self.camera), ctypes.addressof(self.tables.record)
         params.lights, params.materials = ctypes.addressof(self.lights), ctypes.addressof(self.materials)
         params.shadows = ctypes.addressof(self.shadows)
+        params.graphs = self.graphs.pointer if self.graphs is not None else None
         params.intersect8, params.occluded8, params.scene = packets.intersect8, packets.occluded8, packets.scene
         # The emissive meshes' and the world's tables (their records in self.lights say only how often).
         from ..lights.world import WorldTables

@@ -255,6 +255,7 @@ typedef struct {
     int64_t dimension;          /* a path's later vertices shift every sampling dimension by this */
     int gather;                 /* 1: BSDF rays add the light they find (lamps, emitters, the world) */
     PathRays *continuing;       /* where BSDF rays that hit a surface are kept for a path, or NULL */
+    const GraphTables *graphs;  /* the materials' node-graph programs, or NULL (a path shades its vertices) */
 } DirectSettings;
 
 /* Direct light at the block's hits, added to H->L: every light's samples, BLOCK at a time. Returns the

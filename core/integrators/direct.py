@@ -101,7 +101,7 @@ class DirectLighting(Integrator):
         s = ctx.settings
         m = len(surface.I)
         # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
-        shader = ctx.materials.shade(surface.material, surface.N, wo, surface.backfacing)
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry)
         recorder.shader(shader)
         L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
         shadow_rays = 0

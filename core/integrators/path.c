@@ -71,8 +71,8 @@ INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, 
             next->throughput[3 * m + c] = tp[c];
         }
         next->sd[m].storage = next->storage[m];
-        shade_material(ds->materials + next->s[m].material, next->s[m].N, next->wo + 3 * m, next->s[m].backfacing,
-                       next->sd + m);
+        shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
+                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m, next->sd + m);
         next->lane[m] = H->lane[h];
         next->pixel[m] = H->pixel[h];
         next->sample[m] = H->sample[h];

@@ -93,7 +93,7 @@ class WhittedTracing(DirectLighting):
             np.add.at(L_out, rows, throughput[hit] * L_hit)
             recorder.path_vertex(depth, rows, surface, throughput[hit], L_hit)
             # 3. The specular closures' rays: a mirror's reflection, glass's reflection and refraction.
-            shader = ctx.materials.shade(surface.material, surface.N, wo, surface.backfacing)
+            shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry)
             children = self.specular_rays(s, surface, shader, wo, throughput[hit], glossy[hit], transmission[hit])
             if children is None or depth + 1 > s.max_bounces:
                 break

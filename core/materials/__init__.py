@@ -45,8 +45,12 @@ class Material:
                 Emission Sampling): "NONE", "FRONT", "BACK", "FRONT_BACK", or "AUTO" (both sides when the
                 emission exceeds 0.5 in some channel, as Cycles decides; else none: BSDF rays still find it)
     nodes:      the shader nodes of its node tree, when it has more than one colour to say (a Principled,
-                Glossy or Mix of them): (name in nodes.NODE_BY_NAME, weight (3,), inputs dict) each. When
-                given, they decide the surface and its emission; base_color, bsdf and emission are ignored.
+                Glossy or Mix of them): (name in nodes.NODE_BY_NAME, weight (3,), inputs dict[, factors]) each.
+                An input may be a graph.Link (a texture or colour node feeding it, evaluated per hit); factors,
+                a list of (graph.Link, "fac" | "one_minus" | "color"), multiply the weight per hit (a Mix
+                Shader's linked factor, a Diffuse BSDF's linked colour); inputs["normal"] may be a Link (Normal
+                Map, Bump). When given, the nodes decide the surface and its emission; base_color, bsdf and
+                emission are ignored.
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
@@ -112,38 +116,70 @@ class ConstantShader:
 class NodeShader:
     """A material made of shader nodes (core/materials/nodes.py), set up per hit for its view direction.
 
-    nodes: (node class, weight (3,), inputs (PARAMS,)) each; emission, transparency (3,): what it emits
-    and lets through seen head-on (the emitters' power and the `emissive` flag use it); emission_sides
-    as ConstantShader's.
+    nodes: (node class, weight (3,), inputs (PARAMS,)) each, linked inputs at their own values;
+    emission, transparency (3,): what it emits and lets through seen head-on with the inputs' own values
+    (the emitters' power and the `emissive` flag use it); emission_sides as ConstantShader's;
+    graph: the nodes with their links [(node class, weight, inputs, factors)], None when nothing is linked
+    (then the nodes are the same at every hit); programs: its compiled graph per attribute layout.
     """
 
     nodes: list
     emission: np.ndarray
     transparency: np.ndarray
     emission_sides: int = 3
+    graph: Optional[list] = None
+    programs: dict = field(default_factory=dict)
 
     @classmethod
     def of(cls, material: Material) -> "NodeShader":
         """The material's nodes, their inputs checked: NaN or infinite values become their defaults."""
+        from . import graph as graph_
         from . import nodes as nodes_
-        rows = []
-        for name, weight, inputs in material.nodes:
+        rows, linked = [], []
+        for entry in material.nodes:
+            name, weight, inputs = entry[:3]
             if name not in nodes_.NODE_BY_NAME:
                 raise ValueError(f"material '{material.name}' has shader node {name!r}; "
                                  f"Primer knows {sorted(nodes_.NODE_BY_NAME)}")
             node = nodes_.NODE_BY_NAME[name]
-            clean = {key: value for key, value in inputs.items() if np.all(np.isfinite(np.asarray(value, np.float64)))}
+            clean = {key: value for key, value in inputs.items() if not isinstance(value, graph_.Link)
+                     and np.all(np.isfinite(np.asarray(value, np.float64)))}
             weight = np.nan_to_num(np.asarray(weight, np.float64)[:3], nan=0.0, posinf=0.0, neginf=0.0)
             rows.append((node, weight, node.row(clean)))
+            linked.append((node, weight, inputs, tuple(entry[3]) if len(entry) > 3 else ()))
         head_on = nodes_.shade_nodes(rows, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))
         emission = np.maximum(head_on.emission[0], 0.0)
-        return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission))
+        graph = linked if graph_.has_links(material.nodes) else None
+        return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission),
+                   graph)
 
-    def shade(self, N: np.ndarray, wo: np.ndarray, backfacing: Optional[np.ndarray] = None) -> ShaderResult:
-        """The ShaderResult at hits with shading normals N (n, 3) seen from wo (n, 3), hit from behind
-        where `backfacing` (n,) bool (glass bends light leaving an object the other way)."""
+    def program(self, layout: dict, image_index, name: str = ""):
+        """Its graph compiled for an attribute layout (core/materials/graph.py), once; None without links."""
+        from . import graph as graph_
+        if self.graph is None:
+            return None
+        key = tuple(sorted(layout.items()))
+        if key not in self.programs:
+            self.programs[key] = graph_.Compiler(layout, image_index, material=name).compile(self.graph)
+        return self.programs[key]
+
+    def shade(self, N: np.ndarray, wo: np.ndarray, point=None, program=None, textures=None,
+              backfacing: Optional[np.ndarray] = None) -> ShaderResult:
+        """The ShaderResult at hits with shading normals N (n, 3) seen from wo (n, 3), hit from behind where
+        `backfacing` (n,) bool (glass bends light leaving an object the other way); with a program, its
+        outputs at the ShadingPoint `point` replace the linked inputs, weights and normals first."""
+        from . import graph as graph_
         from . import nodes as nodes_
-        return nodes_.shade_nodes(self.nodes, N, wo, backfacing)
+        if program is None:
+            return nodes_.shade_nodes(self.nodes, N, wo, backfacing=backfacing)
+        n = len(N)
+        registers = graph_.run(program, point, textures)
+        weights = [np.broadcast_to(weight, (n, 3)).astype(np.float64) for _, weight, _ in self.nodes]
+        rows = [np.tile(p, (n, 1)) for _, _, p in self.nodes]
+        normals = [None] * len(self.nodes)
+        graph_.apply_outputs(program, registers, weights, rows, normals)
+        glossy = [None if normal is None else graph_.valid_reflection(point.Ng, wo, normal) for normal in normals]
+        return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing)
 
 
 def shader_of(material: Material):
@@ -158,8 +194,37 @@ class MaterialTable:
     """
 
     def __init__(self, shaders: list, names: list):
+        from . import graph as graph_
+        from .textures import TextureSet
         self.shaders = shaders
         self.names = names
+        # The images the node graphs read, in one TextureSet (core/materials/textures.py); None is missing.
+        self.images: list = []
+        self._image_rows: dict = {}
+        for shader in shaders:
+            for image in graph_.images_of(shader.graph) if getattr(shader, "graph", None) else ():
+                self.image_index(image)
+        self.textures = TextureSet.of(self.images)
+        self._has_graphs = any(getattr(shader, "graph", None) is not None for shader in shaders)
+
+    def image_index(self, image) -> int:
+        """The row of a textures.Image in the table's TextureSet; -1 for a missing image (None)."""
+        if image is None:
+            return -1
+        if id(image) not in self._image_rows:
+            self._image_rows[id(image)] = len(self.images)
+            self.images.append(image)
+        return self._image_rows[id(image)]
+
+    @property
+    def has_graphs(self) -> bool:
+        """Whether some material has inputs fed by a node graph (then shading reads the hits' attributes)."""
+        return self._has_graphs
+
+    def program(self, row: int, layout: dict):
+        """The compiled graph of material `row` for an attribute layout, or None (no links)."""
+        shader = self.shaders[row]
+        return shader.program(layout, self.image_index, self.names[row]) if hasattr(shader, "program") else None
 
     @classmethod
     def of(cls, materials: list, default: Optional[Material] = None) -> "MaterialTable":
@@ -178,21 +243,46 @@ class MaterialTable:
         """Which rows emit: (m + 1,) bool."""
         return np.array([shader.emission.max() > 0.0 for shader in self.shaders])
 
-    def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray,
-              backfacing: Optional[np.ndarray] = None) -> ShaderResult:
-        """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3),
-        backfacing (n,) bool where the ray hit the triangle from behind (None: none did)."""
+    def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None,
+              geometry=None) -> ShaderResult:
+        """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3).
+
+        surface, geometry: the hits' Surface and the WorldGeometry (core/geometry), which materials with node
+        graphs read their attributes from (without them, every attribute reads 0).
+        """
         n = len(material)
+        backfacing = getattr(surface, "backfacing", None)
         first = int(material[0]) if n else len(self.shaders) - 1
-        if n == 0 or (material == first).all():
-            return self.shaders[first].shade(N, wo, backfacing)
+        if n == 0 or (not self.has_graphs and (material == first).all()):
+            return self.shaders[first].shade(N, wo, backfacing=backfacing)
+        point = None
         results, order = [], []
         for row in np.unique(material):
             rows = np.flatnonzero(material == row)
-            results.append(self.shaders[int(row)].shade(N[rows], None if wo is None else wo[rows],
-                                                        None if backfacing is None else backfacing[rows]))
+            shader = self.shaders[int(row)]
+            if getattr(shader, "graph", None) is None:
+                results.append(shader.shade(N[rows], None if wo is None else wo[rows],
+                                            backfacing=None if backfacing is None else backfacing[rows]))
+            else:
+                layout = geometry.attribute_layout if geometry is not None else {}
+                if point is None:
+                    point = self.shading_point(surface, geometry, N)
+                part = type(point)(*(array[rows] for array in point))
+                results.append(shader.shade(N[rows], wo[rows], part, self.program(int(row), layout), self.textures,
+                                            backfacing=None if backfacing is None else backfacing[rows]))
             order.append(rows)
+        if len(results) == 1:
+            return results[0]
         return concatenate(results, order, n)
+
+    @staticmethod
+    def shading_point(surface, geometry, N: np.ndarray):
+        """The hits' ShadingPoint (core/geometry/surface.py), or one without attributes."""
+        from . import graph as graph_
+        if surface is None or geometry is None:
+            return graph_.empty_point(len(N), 0)._replace(N=N, Ng=N)
+        from ..geometry.surface import shading_point
+        return shading_point(geometry, surface)
 
 
 __all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",

@@ -28,7 +28,25 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
  * A hit's closures together (core/materials/closures.py)
  * --------------------------------------------------------------------------------------------- */
 
-/* closures.eval_closures for one hit: f cos = sum of weight x f cos; pdf = sampling-weighted mean. */
+/* closures.bump_shadowing for one closure whose normal differs from the hit's sd->N: 0 where wi and the
+ * closure's N lie on different sides of the smooth surface; for diffuse closures, GGX's G1 at |Ns.wi| of a
+ * roughness growing with the angle between N and Ns. */
+INLINE double bump_shadowing(const double *Ns, const double *N, const double *wi, int diffuse)
+{
+    double cos_si = dot3(Ns, wi), cos_sn = dot3(Ns, N), cos_ni = dot3(N, wi);
+    if (cos_si * cos_sn * cos_ni < 0.0) return 0.0;
+    if (!diffuse) return 1.0;
+    double cos_i = fabs(cos_si), cos_d = fabs(cos_sn);
+    if (cos_d >= 1.0 || cos_i >= 1.0) return 1.0;
+    if (cos_i < 1e-6) return 0.0;
+    double tan2_d = 1.0 / (cos_d * cos_d) - 1.0;
+    double alpha2 = clamp01(0.125 * tan2_d);
+    double tan2_i = (1.0 - cos_i * cos_i) / (cos_i * cos_i);
+    return 2.0 / (1.0 + sqrt(1.0 + alpha2 * tan2_i));
+}
+
+/* closures.eval_closures for one hit: f cos = sum of weight x f cos; pdf = sampling-weighted mean. A closure
+ * whose normal is not the hit's (sd->N) is shadowed by bump_shadowing. */
 INLINE double shader_eval(const ShaderResult *sd, const double *wo, const double *wi, double *f_cos)
 {
     double numerator = 0.0, total = 0.0;
@@ -37,6 +55,11 @@ INLINE double shader_eval(const ShaderResult *sd, const double *wo, const double
         const Closure *c = sd->c + k;
         double value[3], pdf;
         bsdf_eval(c, wo, wi, value, &pdf);
+        if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
+            double term = bump_shadowing(sd->N, c->N, wi, c->kind == BSDF_LAMBERT);
+            for (int j = 0; j < 3; j++) value[j] *= term;
+            if (term == 0.0) pdf = 0.0;
+        }
         for (int j = 0; j < 3; j++) f_cos[j] += c->weight[j] * value[j];
         numerator += c->sample_weight * pdf;
     }
@@ -124,7 +147,7 @@ EXPORT void primer_bsdf(int64_t n, const int32_t *kind, const double *weight, co
         Closure *c = sd.c;
         c->kind = kind[i];
         c->sample_weight = fabs((weight[3 * i] + weight[3 * i + 1] + weight[3 * i + 2]) / 3.0);
-        for (int j = 0; j < 3; j++) { c->weight[j] = weight[3 * i + j]; c->N[j] = N[3 * i + j]; }
+        for (int j = 0; j < 3; j++) { c->weight[j] = weight[3 * i + j]; c->N[j] = N[3 * i + j]; sd.N[j] = N[3 * i + j]; }
         c->p = params + CLOSURE_PARAMS * i;
         pdf[i] = shader_eval(&sd, wo + 3 * i, wi + 3 * i, f_cos + 3 * i);
         ClosureSample s;

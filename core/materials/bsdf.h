@@ -29,6 +29,7 @@ typedef struct {
     double transparency[3];
     double N[3];
     double *storage;
+    const double *glossy;   /* the normal glossy lobes get while a node sets up (nodes.c), NULL: N */
 } ShaderResult;
 
 /* A direction sampled from one BSDF (base.BsdfSample for one hit). */
@@ -40,10 +41,12 @@ typedef struct {
 
 /* One material of the scene's MaterialTable, as core/integrators/compiled.py packs it. program 0: a
  * ConstantShader, n closures the same at every hit but for their normal. program 1: a NodeShader, n shader
- * nodes (kind: nodes.c NODE_*, weight, p: the node's inputs) set up per hit (nodes.c). Only doubles. */
+ * nodes (kind: nodes.c NODE_*, weight, p: the node's inputs) set up per hit (nodes.c); graph: 0, or 1 + its
+ * node graph's program in the render's GraphTables (graph.c), which overwrites inputs per hit. Only doubles. */
 typedef struct {
     double n;
     double program;
+    double graph;
     double kind[MAX_CLOSURES];
     double weight[MAX_CLOSURES][3];
     double sample_weight[MAX_CLOSURES];

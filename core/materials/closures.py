@@ -26,7 +26,9 @@ class Closures(NamedTuple):
     """The closures of n hits, K slots each (structure of arrays); kind -1 marks an empty slot.
 
     kind (n, K) int32; weight (n, K, 3) float64; sample_weight (n, K) float64; N (n, K, 3) float64
-    unit normals on the viewer's side; params (n, K, PARAMS) float64
+    unit normals on the viewer's side; params (n, K, PARAMS) float64; Ns (n, K, 3) float64 the hit's
+    smooth shading normal (Cycles' sd->N) beside each closure, or None: where a closure's own normal differs
+    (a Normal Map, a Bump), its light is shadowed by `bump_shadowing`
     """
 
     kind: np.ndarray
@@ -34,12 +36,13 @@ class Closures(NamedTuple):
     sample_weight: np.ndarray
     N: np.ndarray
     params: np.ndarray
+    Ns: Optional[np.ndarray] = None
 
     @classmethod
     def empty(cls, n: int, slots: int = 1) -> "Closures":
         """n hits without closures (a black surface), with room for `slots` closures each."""
         return cls(np.full((n, slots), -1, np.int32), np.zeros((n, slots, 3)), np.zeros((n, slots)),
-                   np.zeros((n, slots, 3)), np.zeros((n, slots, PARAMS)))
+                   np.zeros((n, slots, 3)), np.zeros((n, slots, PARAMS)), np.zeros((n, slots, 3)))
 
 
 class ShaderResult(NamedTuple):
@@ -82,11 +85,41 @@ def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cos
         for bsdf, rows in _each_kind(closures, k):
             args = (closures.params[rows, k], closures.N[rows, k], wo[rows], wi[rows])
             value, pdf = bsdf.eval(*args, signed_cosine=True) if signed_cosine and bsdf.kind == 0 else bsdf.eval(*args)
+            if closures.Ns is not None:
+                term = bump_shadowing(closures.Ns[rows, k], closures.N[rows, k], wi[rows], bsdf.kind == 0)
+                if term is not None:
+                    value = value * term[:, None]
+                    pdf = np.where(term == 0.0, 0.0, pdf)
             f_cos[rows] += closures.weight[rows, k] * value
             numerator[rows] += closures.sample_weight[rows, k] * pdf
     total = closures.sample_weight.sum(axis=1)
     pdf = np.divide(numerator, total, out=np.zeros(n), where=total > 0)
     return f_cos, pdf
+
+
+def bump_shadowing(Ns: np.ndarray, N: np.ndarray, wi: np.ndarray, diffuse: bool):
+    """Cycles' bump shadowing term (kernel/closure/bsdf.h) for closures whose normal N (m, 3) differs from the
+    smooth normal Ns (m, 3), light from wi (m, 3): 0 where wi and N lie on different sides of the smooth
+    surface; for diffuse closures, the GGX masking G1 of a roughness that grows with the angle between N and
+    Ns at cos_i = |Ns.wi| ("A Microfacet-Based Shadowing Function to Solve the Bump Terminator Problem",
+    Conty Estevez et al.). Returns the term (m,), or None where every N is Ns (nothing to do)."""
+    differs = ~np.all(N == Ns, axis=1) & np.any(Ns != 0.0, axis=1)      # (zeros: no smooth normal given)
+    if not differs.any():
+        return None
+    cos_si = np.einsum("ij,ij->i", Ns, wi)
+    cos_sn = np.einsum("ij,ij->i", Ns, N)
+    cos_ni = np.einsum("ij,ij->i", N, wi)
+    term = np.where(cos_si * cos_sn * cos_ni < 0.0, 0.0, 1.0)
+    if diffuse:
+        cos_i, cos_d = np.abs(cos_si), np.abs(cos_sn)
+        tan2_d = 1.0 / np.maximum(cos_d, 1e-300) ** 2 - 1.0
+        alpha2 = np.clip(0.125 * tan2_d, 0.0, 1.0)
+        safe = np.maximum(cos_i, 1e-300)
+        tan2_i = (1.0 - safe * safe) / (safe * safe)
+        g1 = 2.0 / (1.0 + np.sqrt(1.0 + alpha2 * tan2_i))
+        smooth = np.where((cos_d >= 1.0) | (cos_i >= 1.0), 1.0, np.where(cos_i < 1e-6, 0.0, g1))
+        term = term * smooth
+    return np.where(differs, term, 1.0)
 
 
 class ClosureSample(NamedTuple):
@@ -136,7 +169,7 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
             pdf[at] = s.pdf                         # (replaced by the combined pdf below)
     smooth = np.flatnonzero(~delta & (pdf > 0))
     if len(smooth):
-        part = Closures(*(array[smooth] for array in closures))
+        part = Closures(*(None if array is None else array[smooth] for array in closures))
         f_cos, combined = eval_closures(part, wo[smooth], wi[smooth])
         weight[smooth] = np.divide(f_cos, combined[:, None], out=np.zeros_like(f_cos), where=combined[:, None] > 0)
         pdf[smooth] = combined
@@ -156,6 +189,7 @@ def constant_result(n: int, N: np.ndarray, kinds: np.ndarray, weights: np.ndarra
         closures.weight[:] = weights
         closures.sample_weight[:] = sample_weights
         closures.N[:] = N[:, None, :]
+        closures.Ns[:] = N[:, None, :]
         closures.params[:] = params
     transparency = np.zeros(3) if transparency is None else transparency
     return ShaderResult(closures, np.broadcast_to(emission, (n, 3)).copy(), np.broadcast_to(transparency, (n, 3)).copy(),

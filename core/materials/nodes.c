@@ -128,6 +128,13 @@ INLINE void lobe_add(ShaderResult *sd, double mu, double *weight, double *p, con
         for (int j = 0; j < 3; j++) closure_weight[j] *= F[j] * p[MF_ENERGY];
         kind = BSDF_MIRROR;
     }
+    if (sd->glossy != NULL) {                       /* the node's glossy normal (graph.valid_reflection) */
+        double saved[3] = {sd->N[0], sd->N[1], sd->N[2]};
+        for (int j = 0; j < 3; j++) sd->N[j] = sd->glossy[j];
+        closure_add(sd, kind, closure_weight, allocated, factor, p);
+        for (int j = 0; j < 3; j++) sd->N[j] = saved[j];
+        return;
+    }
     closure_add(sd, kind, closure_weight, allocated, factor, p);
 }
 
@@ -259,42 +266,105 @@ INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const 
     closure_add(sd, BSDF_LAMBERT, diffuse, diffuse, 1.0, NULL);
 }
 
+/* One node's setup (nodes.py NODE_TYPES[kind].setup) with the normal sd->N and mu = N.wo. */
+INLINE void setup_node(ShaderResult *sd, int kind, double mu, int backfacing, const double *weight, const double *p)
+{
+    switch (kind) {
+    case NODE_DIFFUSE: closure_add(sd, BSDF_LAMBERT, weight, weight, 1.0, NULL); break;
+    case NODE_MIRROR: closure_add(sd, BSDF_MIRROR, weight, weight, 1.0, NULL); break;
+    case NODE_GLOSSY: {
+        double lobe[STORAGE_STRIDE], w[3] = {weight[0], weight[1], weight[2]}, one[3] = {1.0, 1.0, 1.0};
+        double Fss[3] = {at_least(p[2], 0.0), at_least(p[3], 0.0), at_least(p[4], 0.0)};
+        lobe_params(lobe, p[0], FRESNEL_NONE, 1.0, one, one);
+        lobe_add(sd, mu, w, lobe, NULL, p[1] != 0.0 ? Fss : NULL);
+        break;
+    }
+    case NODE_PRINCIPLED: setup_principled(sd, mu, backfacing, weight, p); break;
+    case NODE_GLASS: {
+        double g[STORAGE_STRIDE], zero[3] = {0.0, 0.0, 0.0}, color[3];
+        for (int j = 0; j < 3; j++) color[j] = at_least(p[j], 0.0);
+        double ior = at_least(p[3], 1e-5);
+        if (p[4] != 0.0) glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, zero, zero, zero, color);
+        else glass_params(g, backfacing, ior, FRESNEL_DIELECTRIC, zero, zero, color, color);
+        closure_add(sd, BSDF_GLASS, weight, weight, glass_albedo(g, mu), g);
+        break;
+    }
+    case NODE_EMISSION: for (int j = 0; j < 3; j++) sd->emission[j] += weight[j] * p[j]; break;
+    case NODE_TRANSPARENT: for (int j = 0; j < 3; j++) sd->transparency[j] += weight[j]; break;
+    default: break;
+    }
+}
+
+/* nodes.ClosureBuilder.result: the light let through, as a Transparent closure. */
+INLINE void add_transparent(ShaderResult *sd)
+{
+    if (sd->transparency[0] != 0.0 || sd->transparency[1] != 0.0 || sd->transparency[2] != 0.0)
+        closure_add(sd, BSDF_TRANSPARENT, sd->transparency, sd->transparency, 1.0, NULL);
+}
+
 /* nodes.shade_nodes for one hit: every node of the material sets up its closures. */
 INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *wo, int backfacing, ShaderResult *sd)
 {
     double mu = dot3(N, wo);
     sd->n = 0;
+    sd->glossy = NULL;
     for (int j = 0; j < 3; j++) { sd->emission[j] = 0.0; sd->transparency[j] = 0.0; sd->N[j] = N[j]; }
-    for (int k = 0; k < (int)m->n; k++) {
-        const double *weight = m->weight[k], *p = m->p[k];
-        switch ((int)m->kind[k]) {
-        case NODE_DIFFUSE: closure_add(sd, BSDF_LAMBERT, weight, weight, 1.0, NULL); break;
-        case NODE_MIRROR: closure_add(sd, BSDF_MIRROR, weight, weight, 1.0, NULL); break;
-        case NODE_GLOSSY: {
-            double lobe[STORAGE_STRIDE], w[3] = {weight[0], weight[1], weight[2]}, one[3] = {1.0, 1.0, 1.0};
-            double Fss[3] = {at_least(p[2], 0.0), at_least(p[3], 0.0), at_least(p[4], 0.0)};
-            lobe_params(lobe, p[0], FRESNEL_NONE, 1.0, one, one);
-            lobe_add(sd, mu, w, lobe, NULL, p[1] != 0.0 ? Fss : NULL);
-            break;
-        }
-        case NODE_PRINCIPLED: setup_principled(sd, mu, backfacing, weight, p); break;
-        case NODE_GLASS: {
-            double g[STORAGE_STRIDE], zero[3] = {0.0, 0.0, 0.0}, color[3];
-            for (int j = 0; j < 3; j++) color[j] = at_least(p[j], 0.0);
-            double ior = at_least(p[3], 1e-5);
-            if (p[4] != 0.0) glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, zero, zero, zero, color);
-            else glass_params(g, backfacing, ior, FRESNEL_DIELECTRIC, zero, zero, color, color);
-            closure_add(sd, BSDF_GLASS, weight, weight, glass_albedo(g, mu), g);
-            break;
-        }
-        case NODE_EMISSION: for (int j = 0; j < 3; j++) sd->emission[j] += weight[j] * p[j]; break;
-        case NODE_TRANSPARENT: for (int j = 0; j < 3; j++) sd->transparency[j] += weight[j]; break;
-        default: break;
+    for (int k = 0; k < (int)m->n; k++) setup_node(sd, (int)m->kind[k], mu, backfacing, m->weight[k], m->p[k]);
+    add_transparent(sd);
+}
+
+/* NodeShader.shade with a program: the node graph runs at the hit (graph.c), its outputs replace the
+ * nodes' linked inputs, multiply their weights and give them their own normals (graph.apply_outputs);
+ * then every node sets up its closures with its normal; sd->N stays the hit's (Cycles' sd->N), which
+ * bump shadowing (bsdf.c) compares the closures' normals with. */
+INLINE void shade_graph(const GraphTables *G, const MaterialRecord *m, const ShadingPoint *sp, const double *N,
+                        const double *wo, int backfacing, ShaderResult *sd)
+{
+    double reg[MAX_REGISTERS], weight[MAX_CLOSURES][3], p[MAX_CLOSURES][CLOSURE_PARAMS], normal[MAX_CLOSURES][3];
+    int own[MAX_CLOSURES], n = (int)m->n, program = (int)m->graph - 1;
+    for (int k = 0; k < n; k++) {
+        own[k] = 0;
+        for (int j = 0; j < 3; j++) weight[k][j] = m->weight[k][j];
+        for (int j = 0; j < CLOSURE_PARAMS; j++) p[k][j] = m->p[k][j];
+    }
+    run_program(G, program, sp, reg);
+    const double *info = G->programs + 8 * program;
+    const double *outputs = G->outputs + 5 * (int64_t)info[5];
+    for (int64_t o = 0; o < (int64_t)info[6]; o++) {
+        const double *out = outputs + 5 * o;
+        int kind = (int)out[0], k = (int)out[1], slot = (int)out[2], width = (int)out[3];
+        const double *value = reg + (int64_t)out[4];
+        if (kind == OUT_INPUT) {
+            for (int j = 0; j < width; j++) p[k][slot + j] = value[j];
+        } else if (kind == OUT_WEIGHT) {
+            for (int j = 0; j < 3; j++) {
+                double v = value[width == 3 ? j : 0];
+                double f = slot == 0 ? clamp01(v) : (slot == 1 ? 1.0 - clamp01(v) : at_least(v, 0.0));
+                weight[k][j] *= f;
+            }
+        } else {
+            own[k] = 1;
+            for (int j = 0; j < 3; j++) normal[k][j] = value[j];
+            safe_normalize3(normal[k]);
         }
     }
-    /* The light let through, as a Transparent closure (nodes.ClosureBuilder.result). */
-    if (sd->transparency[0] != 0.0 || sd->transparency[1] != 0.0 || sd->transparency[2] != 0.0)
-        closure_add(sd, BSDF_TRANSPARENT, sd->transparency, sd->transparency, 1.0, NULL);
+    double glossy[MAX_CLOSURES][3];
+    for (int k = 0; k < n; k++)
+        if (own[k]) {
+            for (int j = 0; j < 3; j++) glossy[k][j] = normal[k][j];
+            valid_reflection(sp->Ng, wo, glossy[k]);
+        }
+    sd->n = 0;
+    for (int j = 0; j < 3; j++) { sd->emission[j] = 0.0; sd->transparency[j] = 0.0; }
+    for (int k = 0; k < n; k++) {
+        const double *Nk = own[k] ? normal[k] : N, *Gk = own[k] ? glossy[k] : N;
+        for (int j = 0; j < 3; j++) sd->N[j] = Nk[j];
+        sd->glossy = own[k] ? glossy[k] : NULL;
+        setup_node(sd, (int)m->kind[k], dot3(Gk, wo), backfacing, weight[k], p[k]);
+    }
+    sd->glossy = NULL;
+    for (int j = 0; j < 3; j++) sd->N[j] = N[j];
+    add_transparent(sd);
 }
 
 /* A material at a hit: its constant closures, or its nodes set up for this view direction. */
@@ -303,4 +373,19 @@ INLINE void shade_material(const MaterialRecord *m, const double *N, const doubl
 {
     if (m->program != 0.0) shade_nodes(m, N, wo, backfacing, sd);
     else shade_constant(m, N, sd);
+}
+
+/* The material at a hit as the chunk shades it: a material with a node graph reads the hit's
+ * ShadingPoint (triangles.c) and runs its program; any other material as shade_material. */
+INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const MaterialRecord *m, const Triangle *tri,
+                      const Surface *s, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
+                      const double *wo, ShaderResult *sd)
+{
+    if (m->graph == 0.0 || G == NULL) {
+        shade_material(m, s->N, wo, s->backfacing, sd);
+        return;
+    }
+    ShadingPoint sp;
+    shading_point_at(g, geometry, prim, instance, tri, s, u, v, &sp);
+    shade_graph(G, m, &sp, s->N, wo, s->backfacing, sd);
 }

@@ -13,7 +13,7 @@ same tag. Each class lists its `inputs` (the slots of its row of PARAMS floats) 
 """
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import ClassVar, Optional
 
 import numpy as np
 
@@ -40,27 +40,43 @@ class ClosureBuilder:
         self.N, self.wo = N, wo
         self.backfacing = np.zeros(n, bool) if backfacing is None else np.asarray(backfacing, bool)
         self.mu = np.einsum("ij,ij->i", N, wo)
+        self.glossy_N = N
         self.closures = Closures.empty(n, max(1, slots))
         self.count = 0
         self.emission = np.zeros((n, 3))
         self.transparency = np.zeros((n, 3))
+        self.shading_N = N
+        self.smooth_N = N          # the hit's own normal (Cycles' sd->N), whatever normal a node's closures get
 
-    def add(self, kind, weight: np.ndarray, params=None, allocated=None, factor=None) -> int:
+    def use_normal(self, N: np.ndarray, glossy: Optional[np.ndarray] = None) -> None:
+        """The normal (n, 3) the next node's closures get (its Normal input, or the hit's), and the one its
+        glossy lobes get (`glossy`, default N: Cycles turns a node's own normal for them so that their
+        mirror direction stays above the face), with mu = glossy.wo."""
+        glossy = N if glossy is None else glossy
+        if glossy is not self.glossy_N:
+            self.mu = np.einsum("ij,ij->i", glossy, self.wo)
+        self.N, self.glossy_N = N, glossy
+
+    def add(self, kind, weight: np.ndarray, params=None, allocated=None, factor=None, keep=None, N=None) -> int:
         """Append a closure: kind (n,) or int, weight (n, 3). Its sampling weight is |mean of the weight it
         was allocated with| (`allocated` (n, 3), default `weight`) times `factor` (n,) (Cycles' Fresnel
-        estimate and darkening); hits where that mean is below the cutoff get none. Returns its slot."""
+        estimate and darkening); hits where that mean is below the cutoff, or where `keep` (n,) bool is
+        False, get none. Returns its slot."""
         k = self.count
         self.count += 1
         n = len(weight)
         sample_weight = np.abs((weight if allocated is None else allocated).mean(axis=1))
         kept = sample_weight >= WEIGHT_CUTOFF
+        if keep is not None:
+            kept &= keep
         if factor is not None:
             sample_weight = sample_weight * factor
         c = self.closures
         c.kind[:, k] = np.where(kept, np.broadcast_to(np.asarray(kind, np.int32), (n,)), -1)
         c.weight[:, k] = np.where(kept[:, None], weight, 0.0)
         c.sample_weight[:, k] = np.where(kept, sample_weight, 0.0)
-        c.N[:, k] = self.N
+        c.N[:, k] = self.N if N is None else N
+        c.Ns[:, k] = self.smooth_N
         if params is not None:
             c.params[:, k] = params
         return k
@@ -71,7 +87,7 @@ class ClosureBuilder:
             self.add(Transparent.kind, self.transparency)
         k = max(1, self.count)
         closures = Closures(*(array[:, :k] for array in self.closures))
-        return ShaderResult(closures, self.emission, self.transparency, self.N)
+        return ShaderResult(closures, self.emission, self.transparency, self.shading_N)
 
 
 def layering_weight(albedo: np.ndarray, weight: np.ndarray) -> np.ndarray:
@@ -81,11 +97,12 @@ def layering_weight(albedo: np.ndarray, weight: np.ndarray) -> np.ndarray:
     return weight * np.clip(1.0 - ratio.max(axis=1), 0.0, 1.0)[:, None]
 
 
-def dielectric_Fss(eta: float) -> float:
-    """Fresnel reflectance of a dielectric averaged over the hemisphere (2 cos dcos), Kulla and Conty's fit."""
-    if eta < 1.0:
-        return 0.997118 + eta * (0.1014 - eta * (0.965241 + eta * 0.130607))
-    return (eta - 1.0) / (4.08567 + 1.00071 * eta)
+def dielectric_Fss(eta):
+    """Fresnel reflectance of a dielectric averaged over the hemisphere (2 cos dcos), Kulla and Conty's fit;
+    eta a float or (n,)."""
+    eta = np.asarray(eta, np.float64)
+    return np.where(eta < 1.0, 0.997118 + eta * (0.1014 - eta * (0.965241 + eta * 0.130607)),
+                    (eta - 1.0) / (4.08567 + 1.00071 * eta))
 
 
 def f82_tint_B(f0: np.ndarray, tint: np.ndarray) -> np.ndarray:
@@ -99,10 +116,11 @@ class GlossyLobe:
     """The microfacet closures' shared setup: parameters, Fresnel estimate and energy compensation."""
 
     @staticmethod
-    def params(n: int, roughness: float, mode: int, ior: float = 1.0, f0=(1.0, 1.0, 1.0), f90=(1.0, 1.0, 1.0)):
-        """A (n, PARAMS) row of a microfacet closure; the energy scale starts at 1."""
+    def params(n: int, roughness, mode: int, ior=1.0, f0=(1.0, 1.0, 1.0), f90=(1.0, 1.0, 1.0)):
+        """(n, PARAMS) rows of a microfacet closure (roughness, ior: float or (n,); f0, f90: (3,) or (n, 3));
+        the energy scale starts at 1."""
         p = np.zeros((n, PARAMS))
-        p[:, mf.ALPHA] = min(max(roughness, 0.0), 1.0) ** 2
+        p[:, mf.ALPHA] = np.clip(roughness, 0.0, 1.0) ** 2
         p[:, mf.FRESNEL] = mode
         p[:, mf.IOR] = ior
         p[:, mf.F0:mf.F0 + 3] = f0
@@ -111,9 +129,10 @@ class GlossyLobe:
         return p
 
     @staticmethod
-    def add(b: ClosureBuilder, weight: np.ndarray, p: np.ndarray, albedo=None, Fss=None) -> np.ndarray:
-        """Append the closure; with Fss (3,) restore the energy of multiple scattering (Multiscatter GGX,
-        Cycles' microfacet_ggx_preserve_energy). Returns the closure's weight after darkening (n, 3).
+    def add(b: ClosureBuilder, weight: np.ndarray, p: np.ndarray, albedo=None, Fss=None, keep=None) -> np.ndarray:
+        """Append the closure (only at the hits `keep` (n,) bool, default all); with Fss (3,) or (n, 3)
+        restore the energy of multiple scattering (Multiscatter GGX, Cycles' microfacet_ggx_preserve_energy).
+        Returns the closure's weight after darkening (n, 3).
 
         A lobe smoother than the threshold is a mirror reflecting F(mu) of the light."""
         rough = np.sqrt(p[:, mf.ALPHA])
@@ -124,10 +143,12 @@ class GlossyLobe:
             E_avg = tables.lookup_1d(tables.EAVG, rough)
             missing = (1.0 - E) / E
             p[:, mf.ENERGY] = 1.0 + missing
-            Fss = np.asarray(Fss, np.float64)
-            if not np.all(Fss == 1.0):
+            Fss = np.broadcast_to(np.asarray(Fss, np.float64), weight.shape)
+            dark = ~np.all(Fss == 1.0, axis=1)
+            if dark.any():
                 Fms = Fss * E_avg[:, None] / (1.0 - Fss * (1.0 - E_avg[:, None]))
                 darkening = (1.0 + Fms * missing[:, None]) / p[:, mf.ENERGY][:, None]
+                darkening = np.where(dark[:, None], darkening, 1.0)
                 weight = weight * darkening
                 factor = darkening.mean(axis=1) if factor is None else factor * darkening.mean(axis=1)
         singular = p[:, mf.ALPHA] ** 2 <= mf.ROUGHNESS_SQ_THRESHOLD
@@ -136,16 +157,21 @@ class GlossyLobe:
         if singular.any():
             at_mu = mf.fresnel(p, np.clip(b.mu, 0.0, 1.0)) * p[:, mf.ENERGY][:, None]
             closure_weight = np.where(singular[:, None], weight * at_mu, weight)
-        b.add(kind, closure_weight, p, allocated, factor)
+        b.add(kind, closure_weight, p, allocated, factor, keep, b.glossy_N)
         return weight
 
 
 def dielectric_albedo(rough: np.ndarray, mu: np.ndarray, eta: float, f0: np.ndarray, f90: np.ndarray) -> np.ndarray:
     """Estimated albedo (n, 3) of a lobe with the dielectric curve remapped from f0 to f90 (Cycles'
     bsdf_microfacet_estimate_albedo with the schlick_ior table)."""
-    z = np.sqrt(abs((eta - 1.0) / (eta + 1.0)))
-    s = tables.lookup_3d(tables.SCHLICK_IOR_S, rough, mu, np.full(len(mu), z))
+    z = np.sqrt(np.abs((eta - 1.0) / (eta + 1.0)))
+    s = tables.lookup_3d(tables.SCHLICK_IOR_S, rough, mu, np.broadcast_to(z, mu.shape))
     return f0 + (f90 - f0) * s[:, None]
+
+
+def per_hit_rows(p: np.ndarray, n: int) -> np.ndarray:
+    """A node's inputs as (n, PARAMS) rows: one row (PARAMS,) shared by all hits, or a row per hit."""
+    return np.broadcast_to(np.asarray(p, np.float64).reshape(-1, PARAMS), (n, PARAMS))
 
 
 class Node:
@@ -203,8 +229,9 @@ class GlossyNode(Node):
     @staticmethod
     def setup(b, weight, p):
         n = len(weight)
-        lobe = GlossyLobe.params(n, p[0], mf.FRESNEL_NONE)
-        GlossyLobe.add(b, weight, lobe, Fss=np.maximum(p[2:5], 0.0) if p[1] else None)
+        p = per_hit_rows(p, n)
+        lobe = GlossyLobe.params(n, p[:, 0], mf.FRESNEL_NONE)
+        GlossyLobe.add(b, weight, lobe, Fss=np.maximum(p[:, 2:5], 0.0) if p[0, 1] else None)
 
 
 class EmissionNode(Node):
@@ -215,7 +242,7 @@ class EmissionNode(Node):
 
     @staticmethod
     def setup(b, weight, p):
-        b.emission += weight * p[0:3]
+        b.emission += weight * per_hit_rows(p, len(weight))[:, 0:3]
 
 
 class TransparentNode(Node):
@@ -261,67 +288,77 @@ class PrincipledNode(Node):
     @staticmethod
     def setup(b, weight, p):
         n = len(weight)
-        base = np.maximum(p[0:3], 0.0)
+        p = per_hit_rows(p, n)
+        ones = np.ones((n, 3))
+        base = np.maximum(p[:, 0:3], 0.0)
         clamped = np.minimum(base, 1.0)
-        metallic, roughness = np.clip(p[3], 0.0, 1.0), np.clip(p[4], 0.0, 1.0)
-        ior, alpha, subsurface = max(p[5], 1e-5), np.clip(p[6], 0.0, 1.0), np.clip(p[7], 0.0, 1.0)
-        level, tint = max(p[8], 0.0), np.maximum(p[9:12], 0.0)
-        coat, coat_roughness, coat_ior = max(p[12], 0.0), np.clip(p[13], 0.0, 1.0), max(p[14], 1.0)
-        coat_tint, emission = np.maximum(p[15:18], 0.0), p[18:21]
-        transmission, multiscatter = np.clip(p[21], 0.0, 1.0), p[22] != 0.0
+        metallic, roughness = np.clip(p[:, 3], 0.0, 1.0), np.clip(p[:, 4], 0.0, 1.0)
+        ior, alpha, subsurface = np.maximum(p[:, 5], 1e-5), np.clip(p[:, 6], 0.0, 1.0), np.clip(p[:, 7], 0.0, 1.0)
+        level, tint = np.maximum(p[:, 8], 0.0), np.maximum(p[:, 9:12], 0.0)
+        coat, coat_roughness, coat_ior = np.maximum(p[:, 12], 0.0), np.clip(p[:, 13], 0.0, 1.0), np.maximum(p[:, 14], 1.0)
+        coat_tint, emission = np.maximum(p[:, 15:18], 0.0), p[:, 18:21]
+        transmission, multiscatter = np.clip(p[:, 21], 0.0, 1.0), p[0, 22] != 0.0
         W = np.broadcast_to(weight, (n, 3)).astype(np.float64)
-        rough = np.full(n, roughness)
-        # 1. Alpha.
-        if alpha < 1.0:
-            b.transparency += W * (1.0 - alpha)
-            W = W * alpha
+        # 1. Alpha (nothing changes where alpha is 1).
+        if (alpha < 1.0).any():
+            b.transparency += W * (1.0 - alpha)[:, None]
+            W = W * alpha[:, None]
         # 2. Coat.
-        if coat > WEIGHT_CUTOFF:
+        on = coat > WEIGHT_CUTOFF
+        if on.any():
             lobe = GlossyLobe.params(n, coat_roughness, mf.FRESNEL_DIELECTRIC, coat_ior)
-            reflect = dielectric_albedo(np.full(n, coat_roughness), b.mu, coat_ior,
-                                        np.full((n, 3), mf.F0_from_ior(coat_ior)), np.ones((n, 3)))
-            coat_weight = GlossyLobe.add(b, W * coat, lobe, reflect, Fss=np.full(3, dielectric_Fss(coat_ior)))
-            W = layering_weight(coat_weight * reflect, W)
-            if not np.all(coat_tint == 1.0):
+            reflect = dielectric_albedo(coat_roughness, b.mu, coat_ior, mf.F0_from_ior(coat_ior)[:, None] * ones, ones)
+            coat_weight = GlossyLobe.add(b, W * coat[:, None], lobe, reflect,
+                                         Fss=dielectric_Fss(coat_ior)[:, None] * ones, keep=on)
+            layered = layering_weight(coat_weight * reflect, W)
+            tinted = on & ~np.all(coat_tint == 1.0, axis=1)
+            if tinted.any():
                 cos_t = np.sqrt(np.maximum(1.0 - (1.0 - b.mu ** 2) / coat_ior ** 2, 1e-12))
-                W = W * (1.0 + coat * (coat_tint[None, :] ** (1.0 / cos_t)[:, None] - 1.0))
+                tinted_weight = layered * (1.0 + coat[:, None] * (coat_tint ** (1.0 / cos_t)[:, None] - 1.0))
+                layered = np.where(tinted[:, None], tinted_weight, layered)
+            W = np.where(on[:, None], layered, W)
         # 3. Emission.
         b.emission += W * emission
         # 4. Metal.
-        if metallic > WEIGHT_CUTOFF:
+        on = metallic > WEIGHT_CUTOFF
+        if on.any():
             f82 = np.minimum(tint, 1.0)
-            B = np.zeros(3) if np.all(f82 == 1.0) else f82_tint_B(clamped, f82)
+            B = np.where(np.all(f82 == 1.0, axis=1)[:, None], 0.0, f82_tint_B(clamped, f82))
             lobe = GlossyLobe.params(n, roughness, mf.FRESNEL_F82_TINT, 1.0, clamped, B)
-            s = tables.lookup_2d(tables.SCHLICK_S_HALF, rough, b.mu)
+            s = tables.lookup_2d(tables.SCHLICK_S_HALF, roughness, b.mu)
             reflect = clamped + (1.0 - clamped) * s[:, None]
             Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
-            GlossyLobe.add(b, W * metallic, lobe, reflect, Fss=Fss if multiscatter else None)
-            W = W * (1.0 - metallic)
+            GlossyLobe.add(b, W * metallic[:, None], lobe, reflect, Fss=Fss if multiscatter else None, keep=on)
+            W = np.where(on[:, None], W * (1.0 - metallic)[:, None], W)
         # 5. Transmission: smooth glass, Fresnel's curve remapped from F0 x specular tint to 1, the
         #    transmitted light tinted by the square root of the base colour (it passes the surface twice).
-        if transmission > WEIGHT_CUTOFF:
-            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, np.clip(mf.F0_from_ior(ior) * tint, 0, 1),
-                                 np.ones(3), np.ones(3), np.sqrt(clamped))
-            b.add(Glass.kind, W * transmission, glass, factor=glass_albedo(glass, b.mu))
-            W = W * (1.0 - transmission)
+        on = transmission > WEIGHT_CUTOFF
+        if on.any():
+            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR,
+                                 np.clip(mf.F0_from_ior(ior)[:, None] * tint, 0.0, 1.0), ones, ones, np.sqrt(clamped))
+            b.add(Glass.kind, W * transmission[:, None], glass, factor=glass_albedo(glass, b.mu), keep=on)
+            W = np.where(on[:, None], W * (1.0 - transmission)[:, None], W)
         # 6. Specular: the index whose F0 the Specular IOR Level scales.
-        eta, f0 = ior, mf.F0_from_ior(ior)
-        if level != 0.5:
-            f0 *= 2.0 * level
-            eta = float(mf.ior_from_F0(f0))
-            if ior < 1.0:
-                eta = 1.0 / eta
-        if eta != 1.0:
-            f0_tinted = np.clip(f0 * tint, 0.0, 1.0)
+        f0 = mf.F0_from_ior(ior)
+        scaled = level != 0.5
+        f0 = np.where(scaled, f0 * 2.0 * level, f0)
+        remapped = mf.ior_from_F0(f0)
+        eta = np.where(scaled, np.where(ior < 1.0, 1.0 / remapped, remapped), ior)
+        on = eta != 1.0
+        if on.any():
+            f0_tinted = np.clip(f0[:, None] * tint, 0.0, 1.0)
             lobe = GlossyLobe.params(n, roughness, mf.FRESNEL_SCHLICK_IOR, eta, f0_tinted, (1.0, 1.0, 1.0))
-            reflect = dielectric_albedo(rough, b.mu, eta, np.broadcast_to(f0_tinted, (n, 3)), np.ones((n, 3)))
+            reflect = dielectric_albedo(roughness, b.mu, eta, f0_tinted, ones)
             F0_real = mf.F0_from_ior(eta)
-            s = np.clip((dielectric_Fss(eta) - F0_real) / (1.0 - F0_real), 0.0, 1.0) if F0_real < 1.0 else 1.0
-            Fss = f0_tinted + (1.0 - f0_tinted) * s
-            specular_weight = GlossyLobe.add(b, W, lobe, reflect, Fss=Fss if multiscatter else None)
-            W = layering_weight(specular_weight * reflect, W)
+            below = F0_real < 1.0
+            s = np.where(below, np.clip((dielectric_Fss(eta) - F0_real) / np.where(below, 1.0 - F0_real, 1.0), 0.0, 1.0),
+                         1.0)
+            Fss = f0_tinted + (1.0 - f0_tinted) * s[:, None]
+            specular_weight = GlossyLobe.add(b, W, lobe, reflect, Fss=Fss if multiscatter else None, keep=on)
+            W = np.where(on[:, None], layering_weight(specular_weight * reflect, W), W)
         # 7. Diffuse (and subsurface, approximated by a diffuse of the clamped colour).
-        b.add(Lambert.kind, W * (base * (1.0 - subsurface) + clamped * subsurface))
+        ss = subsurface[:, None]
+        b.add(Lambert.kind, W * (base * (1.0 - ss) + clamped * ss))
 
 
 def glass_params(n: int, backfacing: np.ndarray, ior: float, mode: int, f0, f90, reflect_tint, transmit_tint):
@@ -354,12 +391,12 @@ class GlassNode(Node):
     @staticmethod
     def setup(b, weight, p):
         n = len(weight)
-        color, ior = np.maximum(p[0:3], 0.0), max(p[3], 1e-5)
-        if p[4]:
-            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, np.zeros(3), np.zeros(3),
-                                 np.zeros(3), color)
-        else:
-            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_DIELECTRIC, np.zeros(3), np.zeros(3), color, color)
+        p = per_hit_rows(p, n)
+        color, ior, refraction_only = np.maximum(p[:, 0:3], 0.0), np.maximum(p[:, 3], 1e-5), p[:, 4] != 0.0
+        zero = np.zeros((n, 3))
+        glass = np.where(refraction_only[:, None],
+                         glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, zero, zero, zero, color),
+                         glass_params(n, b.backfacing, ior, mf.FRESNEL_DIELECTRIC, zero, zero, color, color))
         b.add(Glass.kind, weight, glass, factor=glass_albedo(glass, b.mu))
 
 
@@ -369,10 +406,23 @@ NODE_BY_NAME = {cls.name: cls for cls in NODE_TYPES}
 assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's kind is its place in NODE_TYPES"
 
 
-def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, backfacing=None) -> ShaderResult:
-    """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,));
-    backfacing (n,) bool where the ray hit from behind."""
-    b = ClosureBuilder(N, wo, sum(cls.slots for cls, _, _ in nodes) + 1, backfacing)
-    for cls, weight, p in nodes:
-        cls.setup(b, np.broadcast_to(np.asarray(weight, np.float64), (len(N), 3)), p)
+def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy=None, backfacing=None) -> ShaderResult:
+    """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,)).
+
+    per_hit: what a node graph computed at each hit (graph.apply_outputs), or None: (weights, rows,
+    normals) lists by node of (n, 3), (n, PARAMS) and (n, 3) or None arrays. A node's own normal goes to its
+    closures only: the result's N stays the hit's normal (Cycles' sd->N), which bump shadowing compares with.
+    glossy: by node, the normal its glossy lobes get instead ((n, 3) or None). backfacing: (n,) bool where
+    the ray hit from behind (glass bends light leaving an object by 1 / IOR).
+    """
+    n = len(N)
+    b = ClosureBuilder(N, wo, sum(entry[0].slots for entry in nodes) + 1, backfacing)
+    for k, entry in enumerate(nodes):
+        cls, weight, p = entry[0], entry[1], entry[2]
+        normal = None
+        if per_hit is not None:
+            weight, p, normal = per_hit[0][k], per_hit[1][k], per_hit[2][k]
+        b.use_normal(N if normal is None else normal, None if glossy is None else glossy[k])
+        cls.setup(b, np.broadcast_to(np.asarray(weight, np.float64), (n, 3)),
+                  np.broadcast_to(np.asarray(p, np.float64), (n, PARAMS)))
     return b.result()

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 13
+#define PRIMER_ABI 14
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -28,6 +28,8 @@
 #include "../materials/glass.c"
 #include "../materials/transparent.c"
 #include "../materials/bsdf.c"
+#include "../materials/textures.c"
+#include "../materials/graph.c"
 #include "../materials/nodes.c"
 #include "../film/film.c"
 #include "../film/adaptive.c"

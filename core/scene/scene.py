@@ -32,6 +32,10 @@ class Mesh:
     corner_normals:   (t, 3, 3) float64 unit normal per triangle corner, or None to
                       derive vertex normals from the geometry (`core.normals.vertex_normals`)
     material_indices: (t,) int64 index into the instance's material list
+    attributes:       per-corner data the materials read (core/materials/graph.py): name -> (t, 3, w)
+                      float64, e.g. "uv:UVMap" (w 3, z 0), "color:Col" (RGBA), "tangent:UVMap" (object-space
+                      tangent and bitangent sign), "generated", "object"; an empty name after the colon is the
+                      mesh's active map
     """
 
     vertices: np.ndarray
@@ -40,6 +44,7 @@ class Mesh:
     corner_normals: Optional[np.ndarray] = None
     material_indices: Optional[np.ndarray] = None
     name: str = "Mesh"
+    attributes: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.vertices = np.asarray(self.vertices, dtype=np.float64).reshape(-1, 3)
@@ -61,12 +66,14 @@ class Instance:
     matrix:    (4, 4) float64 object-to-world transform (may include negative scale)
     materials: (k,) int64 index into Scene.materials per material slot, or None
                to use the mesh's material indices as scene material indices
+    random:    the Object Info node's Random (0..1); None: Cycles' value for an object named `name`
     """
 
     mesh: int
     matrix: np.ndarray = field(default_factory=lambda: np.eye(4))
     materials: Optional[np.ndarray] = None
     name: str = "Object"
+    random: Optional[float] = None
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).

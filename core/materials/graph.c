@@ -1,0 +1,375 @@
+/* Node graphs: core/materials/graph.py. A material's compiled program (ops on numbered registers) run
+ * at one hit; its outputs overwrite the shader nodes' inputs, weights and normals before the setups. */
+
+enum { OP_ATTR = 0, OP_RANDOM, OP_IMAGE, OP_MAPPING, OP_MATH, OP_MIX_COLOR, OP_MIX_FLOAT, OP_RAMP, OP_INVERT, OP_HSV,
+       OP_COPY, OP_CLAMP, OP_MAP_RANGE, OP_NORMAL_MAP, OP_BUMP, OP_OFFSET, OP_CONVERT, OP_SCALE };
+#define OP_WIDTH 12                 /* 1 + graph.OP_ARGS */
+#define MAX_REGISTERS 512           /* graph.MAX_REGISTERS */
+#define BUMP_STEP 1e-3              /* graph.BUMP_STEP */
+enum { OUT_INPUT = 0, OUT_WEIGHT = 1, OUT_NORMAL = 2 };
+
+/* Every program of a render (core/materials/graph.py GraphTables). programs: (p, 8) first op, op count,
+ * first constant, constant count, registers, first output, output count, first ramp float. */
+typedef struct {
+    const double *ops, *constants, *outputs, *ramps, *programs;
+    const TextureTables *textures;
+    double count;
+} GraphTables;
+
+/* The ShadingPoint a program reads: core/geometry/triangles.c. */
+
+/* graph.safe_divide: a / b, 0 where b is 0. */
+INLINE double safe_div(double a, double b) { return b != 0.0 ? a / b : 0.0; }
+
+/* graph.math_op */
+INLINE double math_op(int op, double a, double b, double c)
+{
+    switch (op) {
+    case 0: return a + b;
+    case 1: return a - b;
+    case 2: return a * b;
+    case 3: return safe_div(a, b);
+    case 4: return a * b + c;
+    case 5: if (a < 0.0 && b != trunc(b)) return 0.0; return b == 0.0 ? 1.0 : pow(a, b);
+    case 6: return (a > 0.0 && b > 0.0) ? safe_div(log(a), log(b)) : 0.0;
+    case 7: return a > 0.0 ? sqrt(a) : 0.0;
+    case 8: return a > 0.0 ? 1.0 / sqrt(a) : 0.0;
+    case 9: return fabs(a);
+    case 10: return exp(a);
+    case 11: return a < b ? a : (b < a ? b : (a != a ? a : b));
+    case 12: return a > b ? a : (b > a ? b : (a != a ? a : b));
+    case 13: return a < b ? 1.0 : 0.0;
+    case 14: return a > b ? 1.0 : 0.0;
+    case 15: return a > 0.0 ? 1.0 : (a < 0.0 ? -1.0 : a);
+    case 16: return fabs(a - b) <= (c > 1e-5 ? c : 1e-5) ? 1.0 : 0.0;
+    case 17: return floor(a + 0.5);
+    case 18: return floor(a);
+    case 19: return ceil(a);
+    case 20: return trunc(a);
+    case 21: return a - floor(a);
+    case 22: return b != 0.0 ? fmod(a, b) : 0.0;
+    case 23: return b != 0.0 ? a - floor(a / b) * b : 0.0;
+    case 24: { double span = b - c; return span != 0.0 ? a - span * floor((a - c) / span) : c; }
+    case 25: return floor(safe_div(a, b)) * b;
+    case 26: { if (b == 0.0) return 0.0; double x = (a - b) / (b * 2.0); return fabs((x - floor(x)) * b * 2.0 - b); }
+    case 27: return sin(a);
+    case 28: return cos(a);
+    case 29: return tan(a);
+    case 30: return asin(a < -1.0 ? -1.0 : (a > 1.0 ? 1.0 : a));
+    case 31: return acos(a < -1.0 ? -1.0 : (a > 1.0 ? 1.0 : a));
+    case 32: return atan(a);
+    case 33: return atan2(a, b);
+    case 34: return sinh(a);
+    case 35: return cosh(a);
+    case 36: return tanh(a);
+    case 37: return a * (PI / 180.0);
+    case 38: return a * (180.0 / PI);
+    default: return 0.0;
+    }
+}
+
+/* graph.mix_color for one channel. */
+INLINE double mix_channel(int blend, double t, double c1, double c2)
+{
+    double tm = 1.0 - t;
+    switch (blend) {
+    case 0: return tm * c1 + t * c2;
+    case 1: return tm * c1 + t * (c1 < c2 ? c1 : c2);
+    case 2: return c1 * (tm + t * c2);
+    case 3: { double tmp = tm + t * c2; return tmp <= 0.0 ? 0.0 : clamp01(1.0 - safe_div(1.0 - c1, tmp)); }
+    case 4: return tm * c1 + t * (c1 > c2 ? c1 : c2);
+    case 5: return 1.0 - (tm + t * (1.0 - c2)) * (1.0 - c1);
+    case 6: {
+        if (c1 == 0.0) return c1;
+        double tmp = 1.0 - t * c2;
+        if (tmp <= 0.0) return 1.0;
+        double q = safe_div(c1, tmp);
+        return q < 1.0 ? q : 1.0;
+    }
+    case 7: return tm * c1 + t * (c1 + c2);
+    case 8: return c1 < 0.5 ? c1 * (tm + 2.0 * t * c2) : 1.0 - (tm + 2.0 * t * (1.0 - c2)) * (1.0 - c1);
+    case 9: return tm * c1 + t * (c1 - c2);
+    case 10: return c2 != 0.0 ? tm * c1 + t * safe_div(c1, c2) : c1;
+    case 11: return tm * c1 + t * fabs(c1 - c2);
+    case 12: { double v = tm * c1 + t * (c1 + c2 - 2.0 * c1 * c2); return v > 0.0 ? v : 0.0; }
+    case 13: { double screen = 1.0 - (1.0 - c2) * (1.0 - c1); return tm * c1 + t * ((1.0 - c1) * c2 * c1 + c1 * screen); }
+    case 14: return c1 + t * (2.0 * c2 - 1.0);
+    default: return c1;
+    }
+}
+
+/* graph.rgb_to_hsv, hsv_to_rgb */
+INLINE void rgb_to_hsv(const double *rgb, double *hsv)
+{
+    double cmax = rgb[0] > rgb[1] ? rgb[0] : rgb[1];
+    cmax = rgb[2] > cmax ? rgb[2] : cmax;
+    double cmin = rgb[0] < rgb[1] ? rgb[0] : rgb[1];
+    cmin = rgb[2] < cmin ? rgb[2] : cmin;
+    double delta = cmax - cmin, s = cmax != 0.0 ? safe_div(delta, cmax) : 0.0, h = 0.0;
+    if (s != 0.0) {
+        double c[3];
+        for (int j = 0; j < 3; j++) c[j] = safe_div(cmax - rgb[j], delta);
+        if (rgb[0] == cmax) h = c[2] - c[1];
+        else if (rgb[1] == cmax) h = 2.0 + c[0] - c[2];
+        else h = 4.0 + c[1] - c[0];
+        h /= 6.0;
+        if (h < 0.0) h += 1.0;
+    }
+    hsv[0] = h; hsv[1] = s; hsv[2] = cmax;
+}
+
+INLINE void hsv_to_rgb(const double *hsv, double *rgb)
+{
+    double h = hsv[0], s = hsv[1], v = hsv[2];
+    if (s == 0.0) { rgb[0] = rgb[1] = rgb[2] = v; return; }
+    h = (h == 1.0 ? 0.0 : h) * 6.0;
+    double i = floor(h), f = h - i;
+    double p = v * (1.0 - s), q = v * (1.0 - s * f), t = v * (1.0 - s * (1.0 - f));
+    double out[6][3] = {{v, t, p}, {q, v, p}, {p, v, t}, {p, q, v}, {t, p, v}, {v, p, q}};
+    int k = (i >= 0.0 && i < 5.0) ? (int)i : 5;
+    for (int j = 0; j < 3; j++) rgb[j] = out[k][j];
+}
+
+/* graph.safe_normalize: v / |v| in place, 0 where |v| is 0. */
+INLINE void safe_normalize3(double *v)
+{
+    double length = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int j = 0; j < 3; j++) v[j] = length > 0.0 ? v[j] / length : 0.0;
+}
+
+/* graph.map_range */
+INLINE double map_range(int kind, int clamp, double value, double from_min, double from_max, double to_min,
+                        double to_max, double steps)
+{
+    double factor;
+    if (kind <= 1) {
+        factor = safe_div(value - from_min, from_max - from_min);
+        if (kind == 1) factor = steps > 0.0 ? floor(factor * (steps + 1.0)) / steps : 0.0;
+        double result = to_min + factor * (to_max - to_min);
+        if (clamp) {
+            double lo = to_min > to_max ? to_max : to_min, hi = to_min > to_max ? to_min : to_max;
+            result = result < lo ? lo : (result > hi ? hi : result);
+        }
+        return result;
+    }
+    double e0 = from_min, e1 = from_max;
+    int flip = from_min > from_max;
+    if (flip) { e0 = from_max; e1 = from_min; }
+    if (kind == 2) {
+        double t = safe_div(value - e0, e1 - e0);
+        factor = value < e0 ? 0.0 : (value >= e1 ? 1.0 : t * t * (3.0 - 2.0 * t));
+    } else {
+        double t = clamp01(safe_div(value - e0, e1 - e0));
+        factor = t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+    }
+    if (flip) factor = 1.0 - factor;
+    return to_min + factor * (to_max - to_min);
+}
+
+/* graph.normal_map */
+INLINE void normal_map(const double *color, double strength, int tangent, const ShadingPoint *sp,
+                       const double *attributes, double *out)
+{
+    for (int j = 0; j < 3; j++) out[j] = sp->N[j];
+    if (tangent < 0) return;
+    double c[3] = {2.0 * (color[0] - 0.5) * strength, 2.0 * (color[1] - 0.5) * strength, 0.0};
+    c[2] = 1.0 + clamp01(strength) * (2.0 * (color[2] - 0.5) - 1.0);
+    const double *t = attributes + tangent;
+    double sign = attributes[tangent + 3], T[3], n[3], B[3], v[3];
+    for (int i = 0; i < 3; i++) {
+        T[i] = (sp->L[3 * i] * t[0] + sp->L[3 * i + 1] * t[1]) + sp->L[3 * i + 2] * t[2];
+        n[i] = sp->N[i] * sp->side;
+    }
+    cross3(n, T, B);
+    for (int i = 0; i < 3; i++) v[i] = (c[0] * T[i] + c[1] * (sign * B[i])) + c[2] * n[i];
+    safe_normalize3(v);
+    int ok = 1, zero = 1;
+    for (int i = 0; i < 3; i++) { v[i] *= sp->side; ok &= isfinite(v[i]) != 0; zero &= v[i] == 0.0; }
+    if (ok && !zero) for (int i = 0; i < 3; i++) out[i] = v[i];
+}
+
+/* graph.bump */
+INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
+                 int invert, const ShadingPoint *sp, double *out)
+{
+    double dPdx[3], dPdy[3], Rx[3], Ry[3];
+    for (int j = 0; j < 3; j++) { dPdx[j] = BUMP_STEP * sp->dPdu[j]; dPdy[j] = BUMP_STEP * sp->dPdv[j]; }
+    cross3(dPdy, normal, Rx);
+    cross3(normal, dPdx, Ry);
+    double det = dot3(dPdx, Rx), scale = invert ? -distance : distance;
+    double sgn = det > 0.0 ? 1.0 : (det < 0.0 ? -1.0 : 0.0);
+    strength = strength > 0.0 ? strength : 0.0;
+    double v[3];
+    for (int j = 0; j < 3; j++)
+        v[j] = fabs(det) * normal[j] - (scale * sgn) * ((h_x - h_c) * Rx[j] + (h_y - h_c) * Ry[j]);
+    safe_normalize3(v);
+    if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) {
+        for (int j = 0; j < 3; j++) out[j] = normal[j];
+        return;
+    }
+    for (int j = 0; j < 3; j++) out[j] = strength * v[j] + (1.0 - strength) * normal[j];
+    safe_normalize3(out);
+}
+
+/* graph.run for one hit: reg holds the program's registers afterwards. */
+INLINE void run_program(const GraphTables *G, int program, const ShadingPoint *sp, double *reg)
+{
+    const double *info = G->programs + 8 * program;
+    const double *ops = G->ops + OP_WIDTH * (int64_t)info[0], *ramps = G->ramps + (int64_t)info[7];
+    int64_t n_ops = (int64_t)info[1], n_constants = (int64_t)info[3];
+    const double *constants = G->constants + (int64_t)info[2];
+    for (int64_t k = 0; k < n_constants; k++) reg[k] = constants[k];
+    double offset_attr[MAX_ATTRIBUTES];
+    const double *attributes = sp->attributes;
+    for (int64_t o = 0; o < n_ops; o++) {
+        const double *op = ops + OP_WIDTH * o;
+        int a[OP_WIDTH - 1];
+        for (int j = 0; j < OP_WIDTH - 1; j++) a[j] = (int)op[1 + j];
+        double *out = reg + (a[0] >= 0 ? a[0] : 0);
+        switch ((int)op[0]) {
+        case OP_ATTR:
+            for (int j = 0; j < a[3]; j++) out[j] = (a[1] >= 0 && j < a[2]) ? attributes[a[1] + j] : 0.0;
+            break;
+        case OP_RANDOM: out[0] = sp->random; break;
+        case OP_OFFSET:
+            if (a[0] == 0) { attributes = sp->attributes; break; }
+            for (int j = 0; j < sp->width; j++)
+                offset_attr[j] = sp->attributes[j] + BUMP_STEP * (a[0] == 1 ? sp->d_du[j] : sp->d_dv[j]);
+            attributes = offset_attr;
+            break;
+        case OP_IMAGE:
+            texture_lookup(G->textures, a[2], reg[a[1]], reg[a[1] + 1], a[3], a[4], out);
+            break;
+        case OP_MAPPING: {
+            const double *v = reg + a[1], *loc = reg + a[2], *rot = reg + a[3], *scale = reg + a[4];
+            double cx = cos(rot[0]), cy = cos(rot[1]), cz = cos(rot[2]), sx = sin(rot[0]), sy = sin(rot[1]), sz = sin(rot[2]);
+            double M[9] = {cy * cz, sy * sx * cz - cx * sz, sy * cx * cz + sx * sz,
+                           cy * sz, sy * sx * sz + cx * cz, sy * cx * sz - sx * cz,
+                           -sy, cy * sx, cy * cx};
+            double w[3], r[3];
+            switch (a[5]) {
+            case 0: case 2:
+                for (int j = 0; j < 3; j++) w[j] = v[j] * scale[j];
+                for (int i = 0; i < 3; i++) r[i] = (M[3 * i] * w[0] + M[3 * i + 1] * w[1]) + M[3 * i + 2] * w[2];
+                if (a[5] == 0) for (int j = 0; j < 3; j++) r[j] += loc[j];
+                break;
+            case 1:
+                for (int j = 0; j < 3; j++) w[j] = v[j] - loc[j];
+                for (int i = 0; i < 3; i++) r[i] = safe_div((M[i] * w[0] + M[3 + i] * w[1]) + M[6 + i] * w[2], scale[i]);
+                break;
+            default:
+                for (int j = 0; j < 3; j++) w[j] = safe_div(v[j], scale[j]);
+                for (int i = 0; i < 3; i++) r[i] = (M[3 * i] * w[0] + M[3 * i + 1] * w[1]) + M[3 * i + 2] * w[2];
+                safe_normalize3(r);
+                break;
+            }
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            break;
+        }
+        case OP_MATH: {
+            double v = math_op(a[1], reg[a[2]], reg[a[3]], reg[a[4]]);
+            out[0] = a[5] ? clamp01(v) : v;
+            break;
+        }
+        case OP_MIX_COLOR: {
+            double t = reg[a[2]], r[3];
+            if (a[6]) t = clamp01(t);
+            for (int j = 0; j < 3; j++) {
+                r[j] = mix_channel(a[1], t, reg[a[3] + j], reg[a[4] + j]);
+                if (a[5]) r[j] = clamp01(r[j]);
+            }
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            break;
+        }
+        case OP_MIX_FLOAT: {
+            int w = a[5] < 0 ? -a[5] : a[5];
+            double r[3];
+            for (int j = 0; j < w; j++) {
+                double t = reg[a[1] + (a[5] == 3 ? j : 0)];
+                if (a[4]) t = clamp01(t);
+                r[j] = (1.0 - t) * reg[a[2] + j] + t * reg[a[3] + j];
+            }
+            for (int j = 0; j < w; j++) out[j] = r[j];
+            break;
+        }
+        case OP_RAMP: {
+            double f = reg[a[1]];
+            f = (f != f) ? 0.0 : clamp01(f) * (double)(a[3] - 1);
+            int k = (int)f;
+            k = k < 0 ? 0 : (k > a[3] - 1 ? a[3] - 1 : k);
+            double t = f - k;
+            const double *lo = ramps + a[2] + 4 * k, *hi = ramps + a[2] + 4 * (k + 1 < a[3] ? k + 1 : a[3] - 1);
+            for (int j = 0; j < 4; j++) out[j] = (a[4] && t > 0.0) ? (1.0 - t) * lo[j] + t * hi[j] : lo[j];
+            break;
+        }
+        case OP_INVERT: {
+            double fac = reg[a[1]], r[3];
+            for (int j = 0; j < 3; j++) r[j] = fac * (1.0 - reg[a[2] + j]) + (1.0 - fac) * reg[a[2] + j];
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            break;
+        }
+        case OP_HSV: {
+            const double *color = reg + a[5];
+            double hsv[3], rgb[3], fac = reg[a[4]];
+            rgb_to_hsv(color, hsv);
+            hsv[0] = hsv[0] + reg[a[1]] + 0.5;
+            hsv[0] -= floor(hsv[0]);
+            hsv[1] = clamp01(hsv[1] * reg[a[2]]);
+            hsv[2] = hsv[2] * reg[a[3]];
+            hsv_to_rgb(hsv, rgb);
+            for (int j = 0; j < 3; j++) {
+                double v = fac * rgb[j] + (1.0 - fac) * color[j];
+                rgb[j] = v > 0.0 ? v : 0.0;
+            }
+            for (int j = 0; j < 3; j++) out[j] = rgb[j];
+            break;
+        }
+        case OP_COPY: { double r[3]; for (int j = 0; j < a[2]; j++) r[j] = reg[a[1] + j]; for (int j = 0; j < a[2]; j++) out[j] = r[j]; break; }
+        case OP_CLAMP: {
+            double value = reg[a[1]], lo = reg[a[2]], hi = reg[a[3]];
+            if (a[4] && lo > hi) { double s = lo; lo = hi; hi = s; }
+            value = value > lo ? value : lo;
+            out[0] = value < hi ? value : hi;
+            break;
+        }
+        case OP_MAP_RANGE:
+            out[0] = map_range(a[7], a[8], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], reg[a[6]]);
+            break;
+        case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], sp, attributes, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_BUMP: {
+            double r[3];
+            bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7], sp, r);
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            break;
+        }
+        case OP_CONVERT: {
+            const double *s = reg + a[1];
+            if (a[2] == 0) out[0] = 0.2126729 * s[0] + 0.7151522 * s[1] + 0.0721750 * s[2];
+            else if (a[2] == 1) out[0] = (s[0] + s[1] + s[2]) * (1.0 / 3.0);
+            else { double v = s[0]; out[0] = out[1] = out[2] = v; }
+            break;
+        }
+        case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        default: break;
+        }
+    }
+}
+
+/* graph.valid_reflection: Cycles' ensure_valid_specular_reflection of a node's unit normal N in place. */
+INLINE void valid_reflection(const double *Ng, const double *wo, double *N)
+{
+    double NI = dot3(N, wo), R[3];
+    for (int j = 0; j < 3; j++) R[j] = 2.0 * NI * N[j] - wo[j];
+    double Iz = dot3(wo, Ng), threshold = 0.9 * Iz < 0.01 ? 0.9 * Iz : 0.01;
+    if (!(dot3(Ng, R) < threshold)) return;
+    double NNg = dot3(N, Ng), X[3];
+    for (int j = 0; j < 3; j++) X[j] = N[j] - NNg * Ng[j];
+    double length = sqrt(dot3(X, X));
+    for (int j = 0; j < 3; j++) X[j] = length > 0.0 ? X[j] / length : N[j];
+    double Ix = dot3(wo, X);
+    double a = Ix * Ix + Iz * Iz, b = 2.0 * (a + Iz * threshold), c = (threshold + Iz) * (threshold + Iz);
+    double root = sqrt(at_least(b * b - 4.0 * a * c, 0.0)), a_safe = a != 0.0 ? a : 1.0;
+    double Nz2 = Ix < 0.0 ? 0.25 * (b + root) / a_safe : 0.25 * (b - root) / a_safe;
+    double Nx = sqrt(at_least(1.0 - Nz2, 0.0)), Nz = sqrt(at_least(Nz2, 0.0));
+    for (int j = 0; j < 3; j++) N[j] = Nx * X[j] + Nz * Ng[j];
+}

@@ -1,0 +1,910 @@
+"""Node graphs: the texture and colour nodes that feed a material's shader nodes, as a flat program.
+
+A shader node's input can be a constant or a `Link` to an output of a `GraphNode` (an image texture, a
+Math node, a Mix ...), whose own inputs can be links again: the sub-graph Blender's node tree feeds
+into it (addon/materials.py exports it, groups flattened and reroutes skipped). Per render, each
+material's sub-graphs are compiled once into a `Program`, as Cycles' SVM compiles node trees: a list
+of ops on numbered registers. Registers 0 .. c - 1 hold the program's constants; every op reads
+registers and writes new ones. Its `outputs` say which registers overwrite which shader node's
+inputs (a slot of its row of PARAMS floats, core/materials/nodes.py), which multiply its weight (a
+Mix Shader's factor, a Diffuse BSDF's colour) and which replace its normal (Normal Map, Bump).
+
+At a hit the program reads a `ShadingPoint`: the mesh attributes the materials use (UV maps, colour
+attributes, tangents, generated and object coordinates) interpolated with the hit's barycentrics, the
+object's random number, the normals and the triangle's edges. `run` evaluates a program for n hits at
+once with numpy; core/materials/graph.c is the compiled twin, one hit at a time. Materials whose inputs
+are all constants have no program and cost nothing more.
+
+The Bump node needs the height's derivative. Cycles evaluates the height at the hit and at two points
+one ray-differential step away; Primer evaluates it at two points a small step (BUMP_STEP of the
+triangle's edges V1 - V0 and V2 - V0) away, re-interpolating the attributes there: a finite difference
+along the surface, which agrees with Cycles' to first order (it differs where the height changes faster
+than a pixel's footprint, where Cycles' differences average more).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple, Optional
+
+import numpy as np
+
+from . import textures as textures_
+
+# Op codes (graph.c OP_*), and the width of one op's record: the code and up to OP_ARGS arguments.
+OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
+       "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE")
+OP = {name: code for code, name in enumerate(OPS)}
+OP_ARGS = 11
+# At most this many registers per program (graph.c MAX_REGISTERS), attribute floats per hit (MAX_ATTRIBUTES).
+MAX_REGISTERS = 512
+MAX_ATTRIBUTES = 64
+# The bump's finite-difference step, as a fraction of the triangle's edges.
+BUMP_STEP = 1e-3
+# Luminance of scene-linear Rec.709 (Cycles' rgb_to_y: colour to float conversions).
+LUMINANCE = (0.2126729, 0.7151522, 0.0721750)
+
+MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT", "INVERSE_SQRT",
+            "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN", "GREATER_THAN", "SIGN", "COMPARE", "ROUND",
+            "FLOOR", "CEIL", "TRUNCATE", "FRACT", "MODULO", "FLOORED_MODULO", "WRAP", "SNAP", "PINGPONG", "SINE",
+            "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE", "ARCTANGENT", "ARCTAN2", "SINH", "COSH", "TANH", "RADIANS",
+            "DEGREES")
+BLEND_TYPES = ("MIX", "DARKEN", "MULTIPLY", "BURN", "LIGHTEN", "SCREEN", "DODGE", "ADD", "OVERLAY", "SUBTRACT",
+               "DIVIDE", "DIFFERENCE", "EXCLUSION", "SOFT_LIGHT", "LINEAR_LIGHT")
+MAPPING_TYPES = ("POINT", "TEXTURE", "VECTOR", "NORMAL")
+MAP_RANGE_TYPES = ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
+# Program outputs: what a register does to a shader node (graph.c OUT_*).
+OUT_INPUT, OUT_WEIGHT, OUT_NORMAL = 0, 1, 2
+# How a weight factor multiplies a node's weight: by the value, by 1 - the value, by a colour.
+WEIGHT_MODES = {"fac": 0, "one_minus": 1, "color": 2}
+
+
+@dataclass(eq=False)
+class GraphNode:
+    """A texture or colour node: its kind (a key of NODE_OUTPUTS), properties and inputs.
+
+    inputs: socket name -> a constant (float or (3,)) or a Link; props: the node's settings (for
+    IMAGE: "image" a textures.Image or None when missing, "interpolation", "extension"; for RAMP:
+    "table" (256, 4) float64 and "interpolate").
+    """
+
+    kind: str
+    props: dict = field(default_factory=dict)
+    inputs: dict = field(default_factory=dict)
+    name: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Link:
+    """An output of a GraphNode, feeding an input."""
+
+    node: GraphNode
+    output: str
+
+
+# Each kind's outputs: name -> (width, type); type decides how a colour or vector becomes a float.
+NODE_OUTPUTS = {
+    "RGB": {"Color": (3, "color")}, "VALUE": {"Value": (1, "float")},
+    "TEXCOORD": {"UV": (3, "vector"), "Generated": (3, "vector"), "Object": (3, "vector")},
+    "UVMAP": {"UV": (3, "vector")},
+    "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
+    "OBJECT_INFO": {"Random": (1, "float")},
+    "IMAGE": {"Color": (3, "color"), "Alpha": (1, "float")},
+    "MAPPING": {"Vector": (3, "vector")}, "NORMAL_MAP": {"Normal": (3, "vector")}, "BUMP": {"Normal": (3, "vector")},
+    "MATH": {"Value": (1, "float")}, "MIX": {"Result": (3, "color")},
+    "RAMP": {"Color": (3, "color"), "Alpha": (1, "float")}, "INVERT": {"Color": (3, "color")},
+    "HSV": {"Color": (3, "color")},
+    "SEPARATE_COLOR": {"Red": (1, "float"), "Green": (1, "float"), "Blue": (1, "float")},
+    "SEPARATE_XYZ": {"X": (1, "float"), "Y": (1, "float"), "Z": (1, "float")},
+    "COMBINE_COLOR": {"Color": (3, "color")}, "COMBINE_XYZ": {"Vector": (3, "vector")},
+    "CLAMP": {"Result": (1, "float")}, "MAP_RANGE": {"Result": (1, "float")}, "SCALE": {"Color": (3, "color")},
+}
+
+
+def object_random(name: str) -> float:
+    """An object's random number as Cycles gives one not made by instancing: hash_uint2(hash_string(name), 0)
+    as a float in 0..1 (Cycles' util/hash.h, scene/object.cpp)."""
+    h = 0
+    for byte in name.encode("utf-8"):
+        c = byte - 256 if byte > 127 else byte           # C's signed char, widened to uint
+        h = (h * 37 + c) & 0xFFFFFFFF
+    return random_from_id(hash_uint2(h, 0))
+
+
+def random_from_id(random_id: int) -> float:
+    """Cycles' object random number from a 32-bit random id: float(id) x (1 / 0xFFFFFFFF), in float32."""
+    return float(np.float32(np.float32(random_id & 0xFFFFFFFF) * np.float32(1.0 / 0xFFFFFFFF)))
+
+
+def hash_uint2(kx: int, ky: int) -> int:
+    """Bob Jenkins' lookup3 final mix of two 32-bit words (Cycles' hash_uint2)."""
+    M = 0xFFFFFFFF
+    rot = lambda x, k: ((x << k) | (x >> (32 - k))) & M          # noqa: E731
+    a = b = c = (0xDEADBEEF + (2 << 2) + 13) & M
+    b = (b + ky) & M
+    a = (a + kx) & M
+    c ^= b; c = (c - rot(b, 14)) & M
+    a ^= c; a = (a - rot(c, 11)) & M
+    b ^= a; b = (b - rot(a, 25)) & M
+    c ^= b; c = (c - rot(b, 16)) & M
+    a ^= c; a = (a - rot(c, 4)) & M
+    b ^= a; b = (b - rot(a, 14)) & M
+    c ^= b; c = (c - rot(b, 24)) & M
+    return c
+
+
+class Program(NamedTuple):
+    """A material's compiled sub-graphs (graph.c Program).
+
+    ops: (k, 1 + OP_ARGS) float64 op records; constants: (c,) float64, registers 0 .. c - 1;
+    registers: R, how many a hit needs; outputs: (m, 5) float64 rows (kind OUT_*, shader node, slot or
+    weight mode, width, register); ramps: (r,) float64 colour-ramp tables, 256 RGBA rows each.
+    """
+
+    ops: np.ndarray
+    constants: np.ndarray
+    registers: int
+    outputs: np.ndarray
+    ramps: np.ndarray
+
+
+class ShadingPoint(NamedTuple):
+    """What a program reads at n hits (graph.c ShadingPoint).
+
+    attributes, d_du, d_dv: (n, A) float64 the attributes at the hit and their changes along the
+    triangle's barycentric u and v (corner 1 - corner 0, corner 2 - corner 0); random: (n,) float64
+    the object's random number; N: (n, 3) the shading normal facing the viewer; side: (n,) +1 where the
+    front was hit, -1 the back; linear: (n, 3, 3) the object's linear transform (for tangents);
+    dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0; Ng: (n, 3) the face normal facing the viewer.
+    """
+
+    attributes: np.ndarray
+    d_du: np.ndarray
+    d_dv: np.ndarray
+    random: np.ndarray
+    N: np.ndarray
+    side: np.ndarray
+    linear: np.ndarray
+    dPdu: np.ndarray
+    dPdv: np.ndarray
+    Ng: np.ndarray
+
+
+def has_links(nodes: list) -> bool:
+    """Whether a material's shader nodes ((name, weight, inputs[, factors]) each) have any linked input."""
+    for entry in nodes:
+        if len(entry) > 3 and entry[3]:
+            return True
+        if any(isinstance(value, Link) for value in entry[2].values()):
+            return True
+    return False
+
+
+def images_of(nodes: list) -> list:
+    """The textures.Image objects (or None for missing ones) of every IMAGE node under a material's links."""
+    found, seen = [], set()
+
+    def visit(value):
+        if not isinstance(value, Link) or id(value.node) in seen:
+            return
+        seen.add(id(value.node))
+        if value.node.kind == "IMAGE":
+            found.append(value.node.props.get("image"))
+        for child in value.node.inputs.values():
+            visit(child)
+
+    for entry in nodes:
+        for value in entry[2].values():
+            visit(value)
+        for link, _ in (entry[3] if len(entry) > 3 else ()):
+            visit(link)
+    return found
+
+
+def attributes_of(nodes: list) -> set:
+    """The mesh attribute names a material's links read ("uv:NAME", "color:NAME", "tangent:NAME",
+    "generated", "object"; an empty NAME is the mesh's active one)."""
+    names, seen = set(), set()
+
+    def visit(value):
+        if not isinstance(value, Link) or id(value.node) in seen:
+            return
+        seen.add(id(value.node))
+        node = value.node
+        if node.kind == "TEXCOORD":
+            names.add({"UV": "uv:", "Generated": "generated", "Object": "object"}.get(value.output, "uv:"))
+        elif node.kind == "UVMAP":
+            names.add("uv:" + node.props.get("map", ""))
+        elif node.kind == "ATTRIBUTE":
+            names.add(node.props.get("attribute", "color:"))
+        elif node.kind == "NORMAL_MAP":
+            names.add("tangent:" + node.props.get("map", ""))
+        elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
+            names.add("uv:")
+        for child in node.inputs.values():
+            visit(child)
+
+    for entry in nodes:
+        for value in entry[2].values():
+            visit(value)
+        for link, _ in (entry[3] if len(entry) > 3 else ()):
+            visit(link)
+    return names
+
+
+# The widths of the mesh attributes by name prefix.
+ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3}
+
+
+def attribute_width(name: str) -> int:
+    """How many floats a mesh attribute takes per corner."""
+    return ATTRIBUTE_WIDTHS[name.split(":")[0]]
+
+
+def layout_of(names) -> dict:
+    """The attribute layout of a scene: name -> (offset, width), names sorted."""
+    layout, offset = {}, 0
+    for name in sorted(names):
+        layout[name] = (offset, attribute_width(name))
+        offset += attribute_width(name)
+    return layout
+
+
+class Compiler:
+    """Turns one material's links into a Program (`compile`): registers, ops, outputs."""
+
+    def __init__(self, layout: dict, image_index, warnings: Optional[list] = None, material: str = ""):
+        self.layout = layout
+        self.image_index = image_index          # textures.Image or None -> index in the render's TextureSet
+        self.constants: list = []
+        self.ops: list = []
+        self.outputs: list = []
+        self.ramps: list = []
+        self.next = 0                           # registers after the constants are numbered at the end
+        self.memo: dict = {}
+        self.offset = 0                         # the bump's evaluation point: 0 the hit, 1 along u, 2 along v
+        self.temporaries = 0
+        self.warnings = warnings if warnings is not None else []
+        self.material = material
+
+    # Registers: constants are numbered 0.. in order; computed registers get negative provisional
+    # numbers -1, -2, ... and are renumbered after the constants when the program is done.
+    def constant(self, values) -> int:
+        """A new constant register (start) holding `values` (float or sequence)."""
+        values = np.atleast_1d(np.asarray(values, np.float64)).reshape(-1)
+        start = len(self.constants)
+        self.constants.extend(values.tolist())
+        return start
+
+    def temporary(self, width: int) -> int:
+        """A new computed register of `width` floats (a provisional negative number, see `compile`)."""
+        start = self.temporaries
+        self.temporaries += width
+        return -1 - start
+
+    def emit(self, name: str, *args) -> None:
+        """Append op `name` with its arguments (registers provisional, renumbered by `compile`)."""
+        if len(args) > OP_ARGS:
+            raise ValueError(f"op {name} has too many arguments")
+        self.ops.append([OP[name]] + list(args))
+
+    def value(self, source, width: int, default=0.0) -> int:
+        """A register (start) holding `source` (a constant or a Link) as `width` floats."""
+        if isinstance(source, Link):
+            reg, w, kind = self.link(source)
+            if w == width:
+                return reg
+            out = self.temporary(width)
+            if width == 1:
+                self.emit("CONVERT", out, reg, 0 if kind == "color" else 1)
+            else:
+                self.emit("CONVERT", out, reg, 2)
+            return out
+        value = np.atleast_1d(np.asarray(default if source is None else source, np.float64)).reshape(-1)
+        if width == 1:
+            return self.constant(value[:1] if len(value) == 1 else [float(np.mean(value[:3]))])
+        if len(value) == 1:
+            value = np.repeat(value, 3)
+        return self.constant(value[:3])
+
+    def link(self, link: Link) -> tuple:
+        """(register, width, type) of a link's output, compiled once per bump evaluation point."""
+        key = (id(link.node), link.output, self.offset)
+        if key not in self.memo:
+            self.memo[key] = self.compile_node(link.node, link.output)
+        return self.memo[key]
+
+    def attribute(self, name: str, width: int = 3) -> int:
+        """A register reading a mesh attribute (zeros where the scene has none of that name)."""
+        out = self.temporary(width)
+        offset, stored = self.layout.get(name, (-1, width))
+        self.emit("ATTR", out, offset, min(width, stored), width)
+        return out
+
+    def compile_node(self, node: GraphNode, output: str) -> tuple:
+        """Emit a node's ops; return (register, width, type) of `output`."""
+        kind, inp, props = node.kind, node.inputs, node.props
+        width, vtype = NODE_OUTPUTS.get(kind, {}).get(output, (3, "color"))
+        if kind == "RGB":
+            return self.constant(np.asarray(props["value"], np.float64)[:3]), 3, "color"
+        if kind == "VALUE":
+            return self.constant([float(props["value"])]), 1, "float"
+        if kind == "TEXCOORD":
+            name = {"UV": "uv:", "Generated": "generated", "Object": "object"}[output]
+            return self.attribute(name), 3, "vector"
+        if kind == "UVMAP":
+            return self.attribute("uv:" + props.get("map", "")), 3, "vector"
+        if kind == "ATTRIBUTE":
+            name = props.get("attribute", "color:")
+            if output in ("Color", "Vector"):
+                return self.attribute(name, 3), 3, vtype
+            if output == "Alpha":
+                if not name.startswith("color:"):
+                    return self.constant([1.0]), 1, "float"
+                reg = self.attribute(name, 4)
+                return reg + 3 if reg >= 0 else reg - 3, 1, "float"
+            reg = self.attribute(name, 3)
+            out = self.temporary(1)
+            self.emit("CONVERT", out, reg, 1)            # Fac: the average
+            return out, 1, "float"
+        if kind == "OBJECT_INFO":
+            out = self.temporary(1)
+            self.emit("RANDOM", out)
+            return out, 1, "float"
+        if kind == "IMAGE":
+            vector = (self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link)
+                      else self.attribute("uv:"))
+            out = self.temporary(4)
+            index = self.image_index(props.get("image"))
+            self.emit("IMAGE", out, vector, index, textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0),
+                      textures_.EXTENSIONS.get(props.get("extension", "REPEAT"), 0))
+            return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
+        if kind == "MAPPING":
+            args = [self.value(inp.get(name), 3, default) for name, default in
+                    (("Vector", 0.0), ("Location", 0.0), ("Rotation", 0.0), ("Scale", 1.0))]
+            out = self.temporary(3)
+            self.emit("MAPPING", out, *args, MAPPING_TYPES.index(props.get("type", "POINT")))
+            return out, 3, "vector"
+        if kind == "NORMAL_MAP":
+            color = self.value(inp.get("Color"), 3, (0.5, 0.5, 1.0))
+            strength = self.value(inp.get("Strength"), 1, 1.0)
+            out = self.temporary(3)
+            offset, _ = self.layout.get("tangent:" + props.get("map", ""), (-1, 4))
+            self.emit("NORMAL_MAP", out, color, strength, offset)
+            return out, 3, "vector"
+        if kind == "BUMP":
+            strength = self.value(inp.get("Strength"), 1, 1.0)
+            distance = self.value(inp.get("Distance"), 1, 1.0)
+            normal = self.value(inp["Normal"], 3) if isinstance(inp.get("Normal"), Link) else None
+            height = inp.get("Height", 1.0)
+            saved = self.offset
+            h = []
+            for where in (saved, 1, 2):
+                if where != self.offset:
+                    self.emit("OFFSET", where)
+                    self.offset = where
+                h.append(self.value(height, 1, 1.0))
+            if self.offset != saved:
+                self.emit("OFFSET", saved)
+                self.offset = saved
+            out = self.temporary(3)
+            self.emit("BUMP", out, strength, distance, h[0], h[1], h[2], normal,
+                      1 if props.get("invert") else 0)
+            return out, 3, "vector"
+        if kind == "MATH":
+            a, b, c = (self.value(inp.get(str(i)), 1, 0.5) for i in range(3))
+            out = self.temporary(1)
+            self.emit("MATH", out, MATH_OPS.index(props.get("operation", "ADD")), a, b, c,
+                      1 if props.get("clamp") else 0)
+            return out, 1, "float"
+        if kind == "MIX":
+            data_type = props.get("data_type", "RGBA")
+            w = 1 if data_type == "FLOAT" else 3
+            non_uniform = data_type == "VECTOR" and props.get("factor_mode") == "NON_UNIFORM"
+            fac = self.value(inp.get("Factor"), 3 if non_uniform else 1, 0.5)
+            a, b = self.value(inp.get("A"), w, 0.0), self.value(inp.get("B"), w, 0.0)
+            out = self.temporary(w)
+            clamp_factor = 1 if props.get("clamp_factor", True) else 0
+            if data_type == "FLOAT":
+                self.emit("MIX_FLOAT", out, fac, a, b, clamp_factor, 1)
+                return out, 1, "float"
+            if data_type == "VECTOR":
+                self.emit("MIX_FLOAT", out, fac, a, b, clamp_factor, 3 if non_uniform else -3)
+                return out, 3, "vector"
+            self.emit("MIX_COLOR", out, BLEND_TYPES.index(props.get("blend_type", "MIX")), fac, a, b,
+                      1 if props.get("clamp_result") else 0, clamp_factor)
+            return out, 3, "color"
+        if kind == "RAMP":
+            fac = self.value(inp.get("Fac"), 1, 0.5)
+            table = np.asarray(props["table"], np.float64).reshape(-1, 4)
+            start = sum(len(r) for r in self.ramps)
+            self.ramps.append(table.reshape(-1))
+            out = self.temporary(4)
+            self.emit("RAMP", out, fac, start, len(table), 1 if props.get("interpolate", True) else 0)
+            return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
+        if kind == "INVERT":
+            fac, color = self.value(inp.get("Fac"), 1, 1.0), self.value(inp.get("Color"), 3, 0.0)
+            out = self.temporary(3)
+            self.emit("INVERT", out, fac, color)
+            return out, 3, "color"
+        if kind == "HSV":
+            args = [self.value(inp.get(name), 1, default) for name, default in
+                    (("Hue", 0.5), ("Saturation", 1.0), ("Value", 1.0), ("Fac", 1.0))]
+            color = self.value(inp.get("Color"), 3, 0.8)
+            out = self.temporary(3)
+            self.emit("HSV", out, *args, color)
+            return out, 3, "color"
+        if kind in ("SEPARATE_COLOR", "SEPARATE_XYZ"):
+            reg = self.value(inp.get("Color" if kind == "SEPARATE_COLOR" else "Vector"), 3, 0.0)
+            index = list(NODE_OUTPUTS[kind]).index(output)
+            return shift(reg, index), 1, "float"
+        if kind in ("COMBINE_COLOR", "COMBINE_XYZ"):
+            names = ("Red", "Green", "Blue") if kind == "COMBINE_COLOR" else ("X", "Y", "Z")
+            out = self.temporary(3)
+            for i, name in enumerate(names):
+                self.emit("COPY", shift(out, i), self.value(inp.get(name), 1, 0.0), 1)
+            return out, 3, "color" if kind == "COMBINE_COLOR" else "vector"
+        if kind == "CLAMP":
+            args = [self.value(inp.get(name), 1, default) for name, default in
+                    (("Value", 1.0), ("Min", 0.0), ("Max", 1.0))]
+            out = self.temporary(1)
+            self.emit("CLAMP", out, *args, 1 if props.get("clamp_type") == "RANGE" else 0)
+            return out, 1, "float"
+        if kind == "MAP_RANGE":
+            args = [self.value(inp.get(name), 1, default) for name, default in
+                    (("Value", 1.0), ("From Min", 0.0), ("From Max", 1.0), ("To Min", 0.0), ("To Max", 1.0),
+                     ("Steps", 4.0))]
+            out = self.temporary(1)
+            self.emit("MAP_RANGE", out, *args, MAP_RANGE_TYPES.index(props.get("interpolation_type", "LINEAR")),
+                      1 if props.get("clamp", True) else 0)
+            return out, 1, "float"
+        if kind == "SCALE":
+            color, factor = self.value(inp.get("Color"), 3, 1.0), self.value(inp.get("Factor"), 1, 1.0)
+            out = self.temporary(3)
+            self.emit("SCALE", out, color, factor)
+            return out, 3, "color"
+        raise ValueError(f"material '{self.material}': Primer cannot evaluate node kind {kind!r}")
+
+    def compile(self, nodes: list) -> Program:
+        """The program of a material's shader nodes [(node class, weight, inputs dict, factors), ...]:
+        linked inputs overwrite their slots, factors multiply the weight, "normal" replaces the normal."""
+        for k, entry in enumerate(nodes):
+            cls, inputs = entry[0], entry[2]
+            factors = entry[3] if len(entry) > 3 else ()
+            slot = 0
+            for name, default in zip(cls.inputs, cls.defaults):
+                size = np.atleast_1d(np.asarray(default)).size
+                value = inputs.get(name)
+                if isinstance(value, Link):
+                    self.outputs.append([OUT_INPUT, k, slot, size, self.value(value, size)])
+                slot += size
+            if isinstance(inputs.get("normal"), Link):
+                self.outputs.append([OUT_NORMAL, k, 0, 3, self.value(inputs["normal"], 3)])
+            for link, mode in factors:
+                width = 3 if mode == "color" else 1
+                self.outputs.append([OUT_WEIGHT, k, WEIGHT_MODES[mode], width, self.value(link, width)])
+        c = len(self.constants)
+        registers = c + self.temporaries
+        if registers > MAX_REGISTERS:
+            raise ValueError(f"material '{self.material}': its node graph needs {registers} registers; "
+                             f"Primer has {MAX_REGISTERS}")
+        renumber = lambda r: c - 1 - r if r < 0 else r                  # noqa: E731
+        ops = np.zeros((len(self.ops), 1 + OP_ARGS))
+        for i, op in enumerate(self.ops):
+            code = op[0]
+            args = [(-1 if a is None else renumber(a)) if j in REGISTER_ARGS[OPS[code]] else a
+                    for j, a in enumerate(op[1:])]
+            ops[i, :1 + len(args)] = [code] + args
+        outputs = np.array([[o[0], o[1], o[2], o[3], renumber(o[4])] for o in self.outputs], np.float64).reshape(-1, 5)
+        ramps = np.concatenate(self.ramps) if self.ramps else np.zeros(0)
+        return Program(ops, np.array(self.constants, np.float64), registers, outputs, ramps)
+
+
+def shift(register: int, by: int) -> int:
+    """The register `by` places after `register` (provisional negative numbers count down)."""
+    return register + by if register >= 0 else register - by
+
+
+# Which arguments of each op are registers (renumbered when the program is done); the rest are numbers.
+REGISTER_ARGS = {
+    "ATTR": {0}, "RANDOM": {0}, "IMAGE": {0, 1}, "MAPPING": {0, 1, 2, 3, 4}, "MATH": {0, 2, 3, 4},
+    "MIX_COLOR": {0, 2, 3, 4}, "MIX_FLOAT": {0, 1, 2, 3}, "RAMP": {0, 1}, "INVERT": {0, 1, 2},
+    "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
+    "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
+}
+
+
+# ------------------------------------------------------------------------------------------------
+# Running a program over n hits (the reference)
+# ------------------------------------------------------------------------------------------------
+
+def safe_divide(a, b):
+    """a / b, 0 where b is 0."""
+    return np.divide(a, b, out=np.zeros(np.broadcast(a, b).shape), where=b != 0.0)
+
+
+def math_op(op: int, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Cycles' svm_math for operation MATH_OPS[op] on (n,) float64."""
+    name = MATH_OPS[op]
+    with np.errstate(all="ignore"):
+        if name == "ADD": return a + b
+        if name == "SUBTRACT": return a - b
+        if name == "MULTIPLY": return a * b
+        if name == "DIVIDE": return safe_divide(a, b)
+        if name == "MULTIPLY_ADD": return a * b + c
+        if name == "POWER":
+            bad = (a < 0.0) & (b != np.trunc(b))
+            return np.where(bad, 0.0, np.where(b == 0.0, 1.0, np.power(np.where(bad, 1.0, a), b)))
+        if name == "LOGARITHM":
+            ok = (a > 0.0) & (b > 0.0)
+            la, lb = np.log(np.where(ok, a, 1.0)), np.log(np.where(ok, b, 2.0))
+            return np.where(ok, safe_divide(la, lb), 0.0)
+        if name == "SQRT": return np.where(a > 0.0, np.sqrt(np.maximum(a, 0.0)), 0.0)
+        if name == "INVERSE_SQRT": return np.where(a > 0.0, 1.0 / np.sqrt(np.where(a > 0.0, a, 1.0)), 0.0)
+        if name == "ABSOLUTE": return np.abs(a)
+        if name == "EXPONENT": return np.exp(a)
+        if name == "MINIMUM": return np.minimum(a, b)
+        if name == "MAXIMUM": return np.maximum(a, b)
+        if name == "LESS_THAN": return (a < b).astype(np.float64)
+        if name == "GREATER_THAN": return (a > b).astype(np.float64)
+        if name == "SIGN": return np.sign(a)
+        if name == "COMPARE": return (np.abs(a - b) <= np.maximum(c, 1e-5)).astype(np.float64)
+        if name == "ROUND": return np.floor(a + 0.5)
+        if name == "FLOOR": return np.floor(a)
+        if name == "CEIL": return np.ceil(a)
+        if name == "TRUNCATE": return np.trunc(a)
+        if name == "FRACT": return a - np.floor(a)
+        if name == "MODULO": return np.where(b != 0.0, np.fmod(a, np.where(b != 0.0, b, 1.0)), 0.0)
+        if name == "FLOORED_MODULO":
+            bb = np.where(b != 0.0, b, 1.0)
+            return np.where(b != 0.0, a - np.floor(a / bb) * bb, 0.0)
+        if name == "WRAP":
+            span = b - c
+            s = np.where(span != 0.0, span, 1.0)
+            return np.where(span != 0.0, a - s * np.floor((a - c) / s), c)
+        if name == "SNAP": return np.floor(safe_divide(a, b)) * b
+        if name == "PINGPONG":
+            bb = np.where(b != 0.0, b, 1.0)
+            x = (a - bb) / (bb * 2.0)
+            return np.where(b != 0.0, np.abs((x - np.floor(x)) * bb * 2.0 - bb), 0.0)
+        if name == "SINE": return np.sin(a)
+        if name == "COSINE": return np.cos(a)
+        if name == "TANGENT": return np.tan(a)
+        if name == "ARCSINE": return np.arcsin(np.clip(a, -1.0, 1.0))
+        if name == "ARCCOSINE": return np.arccos(np.clip(a, -1.0, 1.0))
+        if name == "ARCTANGENT": return np.arctan(a)
+        if name == "ARCTAN2": return np.arctan2(a, b)
+        if name == "SINH": return np.sinh(a)
+        if name == "COSH": return np.cosh(a)
+        if name == "TANH": return np.tanh(a)
+        if name == "RADIANS": return a * (np.pi / 180.0)
+        if name == "DEGREES": return a * (180.0 / np.pi)
+    raise ValueError(name)
+
+
+def mix_color(blend: int, t: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
+    """Cycles' svm_mix for BLEND_TYPES[blend]: t (n, 1), colours (n, 3)."""
+    name = BLEND_TYPES[blend]
+    tm = 1.0 - t
+    if name == "MIX": return tm * c1 + t * c2
+    if name == "DARKEN": return tm * c1 + t * np.minimum(c1, c2)
+    if name == "LIGHTEN": return tm * c1 + t * np.maximum(c1, c2)
+    if name == "MULTIPLY": return c1 * (tm + t * c2)
+    if name == "SCREEN": return 1.0 - (tm + t * (1.0 - c2)) * (1.0 - c1)
+    if name == "ADD": return tm * c1 + t * (c1 + c2)
+    if name == "SUBTRACT": return tm * c1 + t * (c1 - c2)
+    if name == "DIVIDE":
+        return np.where(c2 != 0.0, tm * c1 + t * safe_divide(c1, c2), c1)
+    if name == "DIFFERENCE": return tm * c1 + t * np.abs(c1 - c2)
+    if name == "EXCLUSION": return np.maximum(tm * c1 + t * (c1 + c2 - 2.0 * c1 * c2), 0.0)
+    if name == "OVERLAY":
+        return np.where(c1 < 0.5, c1 * (tm + 2.0 * t * c2), 1.0 - (tm + 2.0 * t * (1.0 - c2)) * (1.0 - c1))
+    if name == "SOFT_LIGHT":
+        screen = 1.0 - (1.0 - c2) * (1.0 - c1)
+        return tm * c1 + t * ((1.0 - c1) * c2 * c1 + c1 * screen)
+    if name == "LINEAR_LIGHT": return c1 + t * (2.0 * c2 - 1.0)
+    if name == "BURN":
+        tmp = tm + t * c2
+        return np.where(tmp <= 0.0, 0.0, np.clip(1.0 - safe_divide(1.0 - c1, tmp), 0.0, 1.0))
+    if name == "DODGE":
+        tmp = 1.0 - t * c2
+        return np.where(c1 != 0.0, np.where(tmp <= 0.0, 1.0, np.minimum(safe_divide(c1, tmp), 1.0)), c1)
+    raise ValueError(name)
+
+
+def rgb_to_hsv(rgb: np.ndarray) -> np.ndarray:
+    """Cycles' rgb_to_hsv for (n, 3)."""
+    cmax, cmin = rgb.max(axis=1), rgb.min(axis=1)
+    delta = cmax - cmin
+    s = np.where(cmax != 0.0, safe_divide(delta, cmax), 0.0)
+    c = safe_divide(cmax[:, None] - rgb, delta[:, None])
+    h = np.where(rgb[:, 0] == cmax, c[:, 2] - c[:, 1],
+                 np.where(rgb[:, 1] == cmax, 2.0 + c[:, 0] - c[:, 2], 4.0 + c[:, 1] - c[:, 0])) / 6.0
+    h = np.where(h < 0.0, h + 1.0, h)
+    h = np.where(s != 0.0, h, 0.0)
+    return np.stack([h, s, cmax], axis=1)
+
+
+def hsv_to_rgb(hsv: np.ndarray) -> np.ndarray:
+    """Cycles' hsv_to_rgb for (n, 3)."""
+    h, s, v = hsv[:, 0], hsv[:, 1], hsv[:, 2]
+    h = np.where(h == 1.0, 0.0, h) * 6.0
+    i = np.floor(h)
+    f = h - i
+    p, q, t = v * (1.0 - s), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f))
+    choices = [np.stack(x, axis=1) for x in ((v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q))]
+    out = choices[5].copy()
+    for k in range(5):
+        out = np.where((i == k)[:, None], choices[k], out)
+    return np.where((s != 0.0)[:, None], out, np.stack([v, v, v], axis=1))
+
+
+def euler_matrix(r: np.ndarray) -> np.ndarray:
+    """Cycles' euler_to_transform: the rotation (n, 3, 3) of XYZ Euler angles (n, 3), Rz Ry Rx."""
+    cx, cy, cz = np.cos(r[:, 0]), np.cos(r[:, 1]), np.cos(r[:, 2])
+    sx, sy, sz = np.sin(r[:, 0]), np.sin(r[:, 1]), np.sin(r[:, 2])
+    return np.stack([np.stack([cy * cz, sy * sx * cz - cx * sz, sy * cx * cz + sx * sz], axis=1),
+                     np.stack([cy * sz, sy * sx * sz + cx * cz, sy * cx * sz - sx * cz], axis=1),
+                     np.stack([-sy, cy * sx, cy * cx], axis=1)], axis=1)
+
+
+def safe_normalize(v: np.ndarray) -> np.ndarray:
+    """v / |v| per row, 0 where |v| is 0 (n, 3)."""
+    length = np.sqrt(np.einsum("ij,ij->i", v, v))
+    return np.divide(v, length[:, None], out=np.zeros_like(v), where=length[:, None] > 0.0)
+
+
+def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> np.ndarray:
+    """The registers (n, R) float64 of a program run at n hits."""
+    n = len(sp.random)
+    reg = np.zeros((n, max(1, program.registers)))
+    c = len(program.constants)
+    reg[:, :c] = program.constants
+    attributes = sp.attributes
+    for row in program.ops:
+        code, a = int(row[0]), row[1:]
+        name = OPS[code]
+        i = [int(x) for x in a]
+        R = lambda k, w=1: reg[:, i[k]:i[k] + w]              # noqa: E731
+        if name == "ATTR":
+            if i[1] >= 0:
+                reg[:, i[0]:i[0] + i[2]] = attributes[:, i[1]:i[1] + i[2]]
+                reg[:, i[0] + i[2]:i[0] + i[3]] = 0.0
+            else:
+                reg[:, i[0]:i[0] + i[3]] = 0.0
+        elif name == "RANDOM":
+            reg[:, i[0]] = sp.random
+        elif name == "OFFSET":
+            attributes = sp.attributes + (BUMP_STEP * sp.d_du if i[0] == 1 else BUMP_STEP * sp.d_dv if i[0] == 2
+                                          else 0.0)
+        elif name == "IMAGE":
+            reg[:, i[0]:i[0] + 4] = textures.lookup(i[2], reg[:, i[1]], reg[:, i[1] + 1], i[3], i[4])
+        elif name == "MAPPING":
+            v, loc, rot, scale = R(1, 3), R(2, 3), R(3, 3), R(4, 3)
+            M = euler_matrix(rot)
+            kind = MAPPING_TYPES[i[5]]
+            if kind == "POINT":
+                out = np.einsum("nij,nj->ni", M, v * scale) + loc
+            elif kind == "TEXTURE":
+                out = safe_divide(np.einsum("nji,nj->ni", M, v - loc), scale)
+            elif kind == "VECTOR":
+                out = np.einsum("nij,nj->ni", M, v * scale)
+            else:
+                out = safe_normalize(np.einsum("nij,nj->ni", M, safe_divide(v, scale)))
+            reg[:, i[0]:i[0] + 3] = out
+        elif name == "MATH":
+            out = math_op(i[1], reg[:, i[2]], reg[:, i[3]], reg[:, i[4]])
+            reg[:, i[0]] = np.clip(out, 0.0, 1.0) if i[5] else out
+        elif name == "MIX_COLOR":
+            t = reg[:, i[2]:i[2] + 1]
+            if i[6]:
+                t = np.clip(t, 0.0, 1.0)
+            out = mix_color(i[1], t, R(3, 3), R(4, 3))
+            reg[:, i[0]:i[0] + 3] = np.clip(out, 0.0, 1.0) if i[5] else out
+        elif name == "MIX_FLOAT":
+            w = abs(i[5])
+            t = reg[:, i[1]:i[1] + (3 if i[5] == 3 else 1)]
+            if i[4]:
+                t = np.clip(t, 0.0, 1.0)
+            reg[:, i[0]:i[0] + w] = (1.0 - t) * R(2, w) + t * R(3, w)
+        elif name == "RAMP":
+            table = program.ramps[i[2]:i[2] + 4 * i[3]].reshape(-1, 4)
+            f = np.clip(np.nan_to_num(reg[:, i[1]]), 0.0, 1.0) * (i[3] - 1)
+            k = np.clip(f.astype(np.int64), 0, i[3] - 1)
+            t = f - k
+            out = table[k]
+            if i[4]:
+                upper = table[np.minimum(k + 1, i[3] - 1)]
+                out = np.where((t > 0.0)[:, None], (1.0 - t)[:, None] * out + t[:, None] * upper, out)
+            reg[:, i[0]:i[0] + 4] = out
+        elif name == "INVERT":
+            fac, color = reg[:, i[1]:i[1] + 1], R(2, 3)
+            reg[:, i[0]:i[0] + 3] = fac * (1.0 - color) + (1.0 - fac) * color
+        elif name == "HSV":
+            color = R(5, 3)
+            hsv = rgb_to_hsv(color)
+            hsv[:, 0] = hsv[:, 0] + reg[:, i[1]] + 0.5
+            hsv[:, 0] -= np.floor(hsv[:, 0])
+            hsv[:, 1] = np.clip(hsv[:, 1] * reg[:, i[2]], 0.0, 1.0)
+            hsv[:, 2] = hsv[:, 2] * reg[:, i[3]]
+            fac = reg[:, i[4]:i[4] + 1]
+            reg[:, i[0]:i[0] + 3] = np.maximum(fac * hsv_to_rgb(hsv) + (1.0 - fac) * color, 0.0)
+        elif name == "COPY":
+            reg[:, i[0]:i[0] + i[2]] = R(1, i[2])
+        elif name == "CLAMP":
+            value, lo, hi = reg[:, i[1]], reg[:, i[2]], reg[:, i[3]]
+            if i[4]:
+                lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+            reg[:, i[0]] = np.minimum(np.maximum(value, lo), hi)
+        elif name == "MAP_RANGE":
+            reg[:, i[0]] = map_range(i[7], i[8], *(reg[:, i[k]] for k in range(1, 7)))
+        elif name == "NORMAL_MAP":
+            reg[:, i[0]:i[0] + 3] = normal_map(R(1, 3), reg[:, i[2]], i[3], sp, attributes)
+        elif name == "BUMP":
+            normal = sp.N if i[6] < 0 else R(6, 3)
+            reg[:, i[0]:i[0] + 3] = bump(normal, reg[:, i[1]], reg[:, i[2]], reg[:, i[3]], reg[:, i[4]],
+                                         reg[:, i[5]], i[7], sp)
+        elif name == "CONVERT":
+            if i[2] == 0:
+                src = R(1, 3)
+                reg[:, i[0]] = LUMINANCE[0] * src[:, 0] + LUMINANCE[1] * src[:, 1] + LUMINANCE[2] * src[:, 2]
+            elif i[2] == 1:
+                src = R(1, 3)
+                reg[:, i[0]] = (src[:, 0] + src[:, 1] + src[:, 2]) * (1.0 / 3.0)
+            else:
+                reg[:, i[0]:i[0] + 3] = reg[:, i[1]:i[1] + 1]
+        elif name == "SCALE":
+            reg[:, i[0]:i[0] + 3] = R(1, 3) * reg[:, i[2]:i[2] + 1]
+    return reg
+
+
+def map_range(kind: int, clamp: int, value, from_min, from_max, to_min, to_max, steps) -> np.ndarray:
+    """Cycles' float Map Range (svm_map_range) of MAP_RANGE_TYPES[kind]."""
+    name = MAP_RANGE_TYPES[kind]
+    if name in ("LINEAR", "STEPPED"):
+        factor = safe_divide(value - from_min, from_max - from_min)
+        if name == "STEPPED":
+            factor = np.where(steps > 0.0, np.floor(factor * (steps + 1.0)) / np.where(steps > 0.0, steps, 1.0), 0.0)
+        result = to_min + factor * (to_max - to_min)
+        if clamp:
+            result = np.where(to_min > to_max, np.clip(result, to_max, to_min), np.clip(result, to_min, to_max))
+        return result
+    if name == "SMOOTHSTEP":
+        def smooth(e0, e1, x):
+            t = safe_divide(x - e0, e1 - e0)
+            return np.where(x < e0, 0.0, np.where(x >= e1, 1.0, t * t * (3.0 - 2.0 * t)))
+        factor = np.where(from_min > from_max, 1.0 - smooth(from_max, from_min, value), smooth(from_min, from_max, value))
+    else:
+        def smoother(e0, e1, x):
+            t = np.clip(safe_divide(x - e0, e1 - e0), 0.0, 1.0)
+            return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+        factor = np.where(from_min > from_max, 1.0 - smoother(from_max, from_min, value),
+                          smoother(from_min, from_max, value))
+    return to_min + factor * (to_max - to_min)
+
+
+def normal_map(color: np.ndarray, strength: np.ndarray, tangent_offset: int, sp: ShadingPoint,
+               attributes: np.ndarray) -> np.ndarray:
+    """Cycles' tangent-space Normal Map (svm_node_normal_map), in world space: the mesh's interpolated
+    tangent turned by the object's linear transform, the bitangent sign x N x T, strength applied in
+    tangent space; the unperturbed normal where the mesh has no tangents."""
+    if tangent_offset < 0:
+        return sp.N.copy()
+    c = 2.0 * (color - 0.5)
+    s = strength[:, None]
+    c = np.concatenate([c[:, :2] * s, (1.0 + np.clip(s, 0.0, 1.0) * (c[:, 2:3] - 1.0))], axis=1)
+    t = attributes[:, tangent_offset:tangent_offset + 3]
+    sign = attributes[:, tangent_offset + 3]
+    T = np.einsum("nij,nj->ni", sp.linear, t)
+    n = sp.N * sp.side[:, None]                      # the front side's normal
+    B = sign[:, None] * np.cross(n, T)
+    out = safe_normalize(c[:, 0:1] * T + c[:, 1:2] * B + c[:, 2:3] * n) * sp.side[:, None]
+    bad = ~np.isfinite(out).all(axis=1) | (np.abs(out).sum(axis=1) == 0.0)
+    return np.where(bad[:, None], sp.N, out)
+
+
+def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Bump (svm_node_set_bump) with the surface steps BUMP_STEP (V1 - V0) and BUMP_STEP (V2 - V0)
+    for the pixel footprint's dPdx, dPdy."""
+    dPdx, dPdy = BUMP_STEP * sp.dPdu, BUMP_STEP * sp.dPdv
+    Rx, Ry = np.cross(dPdy, normal), np.cross(normal, dPdx)
+    det = np.einsum("ij,ij->i", dPdx, Rx)
+    surfgrad = (h_x - h_c)[:, None] * Rx + (h_y - h_c)[:, None] * Ry
+    scale = -distance if invert else distance
+    strength = np.maximum(strength, 0.0)
+    out = safe_normalize(np.abs(det)[:, None] * normal - (scale * np.sign(det))[:, None] * surfgrad)
+    zero = np.abs(out).sum(axis=1) == 0.0
+    mixed = safe_normalize(strength[:, None] * out + (1.0 - strength)[:, None] * normal)
+    return np.where(zero[:, None], normal, mixed)
+
+
+def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, normals: list) -> None:
+    """Overwrite the shader nodes' per-hit weights (n, 3), rows (n, PARAMS) and normals ((n, 3) or None)
+    with the program's outputs (lists indexed by shader node, changed in place)."""
+    for kind, node, slot, width, register in program.outputs.astype(np.int64):
+        value = reg[:, register:register + width]
+        if kind == OUT_INPUT:
+            rows[node][:, slot:slot + width] = value
+        elif kind == OUT_WEIGHT:
+            if slot == 0:
+                factor = np.clip(value, 0.0, 1.0)
+            elif slot == 1:
+                factor = 1.0 - np.clip(value, 0.0, 1.0)
+            else:
+                factor = np.maximum(value, 0.0)
+            weights[node] = weights[node] * factor
+        else:
+            normals[node] = safe_normalize(value)
+
+
+def empty_point(n: int, width: int) -> ShadingPoint:
+    """A ShadingPoint of n hits with no attributes (tests and scenes without meshes' data)."""
+    z = np.zeros((n, width))
+    return ShadingPoint(z, z, z, np.zeros(n), np.tile([0.0, 0.0, 1.0], (n, 1)), np.ones(n),
+                        np.tile(np.eye(3), (n, 1, 1)), np.tile([1.0, 0.0, 0.0], (n, 1)), np.tile([0.0, 1.0, 0.0], (n, 1)),
+                        np.tile([0.0, 0.0, 1.0], (n, 1)))
+
+
+def valid_reflection(Ng: np.ndarray, wo: np.ndarray, N: np.ndarray) -> np.ndarray:
+    """Cycles' ensure_valid_specular_reflection for a node's own normal N (n, 3) (unit): where the mirror
+    direction of wo about N would dip below the face (Ng) by more than a threshold, N turned towards Ng just
+    enough (Cycles does this to every BSDF's normal input when Bump Map Correction is on, its default)."""
+    R = 2.0 * np.einsum("ij,ij->i", N, wo)[:, None] * N - wo
+    Iz = np.einsum("ij,ij->i", wo, Ng)
+    threshold = np.minimum(0.9 * Iz, 0.01)
+    bad = np.einsum("ij,ij->i", Ng, R) < threshold
+    if not bad.any():
+        return N
+    X = N - np.einsum("ij,ij->i", N, Ng)[:, None] * Ng
+    length = np.sqrt(np.einsum("ij,ij->i", X, X))
+    X = np.where(length[:, None] > 0.0, X / np.where(length > 0.0, length, 1.0)[:, None], N)
+    Ix = np.einsum("ij,ij->i", wo, X)
+    a = Ix * Ix + Iz * Iz
+    b = 2.0 * (a + Iz * threshold)
+    c = (threshold + Iz) ** 2
+    root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
+    a_safe = np.where(a != 0.0, a, 1.0)
+    Nz2 = np.where(Ix < 0.0, 0.25 * (b + root) / a_safe, 0.25 * (b - root) / a_safe)
+    Nx, Nz = np.sqrt(np.maximum(1.0 - Nz2, 0.0)), np.sqrt(np.maximum(Nz2, 0.0))
+    return np.where(bad[:, None], Nx[:, None] * X + Nz[:, None] * Ng, N)
+
+
+
+class GraphTablesRecord:
+    """Every program of a render's materials as C reads them (graph.c GraphTables): the record, the
+    arrays it points at, and `rows`: material row -> program index."""
+
+    def __init__(self, table, layout: dict):
+        import ctypes
+        from ..native import library
+        from .textures import TextureTablesRecord
+        programs, self.rows = [], {}
+        for row in range(len(table.shaders)):
+            program = table.program(row, layout)
+            if program is not None:
+                self.rows[row] = len(programs)
+                programs.append(program)
+        info = np.zeros((max(1, len(programs)), 8))
+        starts = np.zeros(4, np.int64)                      # ops, constants, outputs, ramp floats so far
+        for k, p in enumerate(programs):
+            info[k] = [starts[0], len(p.ops), starts[1], len(p.constants), p.registers, starts[2], len(p.outputs),
+                       starts[3]]
+            starts += [len(p.ops), len(p.constants), len(p.outputs), len(p.ramps)]
+        joined = lambda arrays, width: (np.concatenate([a.reshape(-1) for a in arrays]) if arrays   # noqa: E731
+                                        else np.zeros(width))
+        c = library.contiguous
+        self.textures = TextureTablesRecord(table.textures)
+        self.arrays = [c(joined([p.ops for p in programs], 1 + OP_ARGS), np.float64),
+                       c(joined([p.constants for p in programs], 1), np.float64),
+                       c(joined([p.outputs for p in programs], 5), np.float64),
+                       c(joined([p.ramps for p in programs], 4), np.float64), c(info, np.float64)]
+
+        class Record(ctypes.Structure):
+            _fields_ = [(name, ctypes.c_void_p) for name in ("ops", "constants", "outputs", "ramps", "programs",
+                                                            "textures")] + [("count", ctypes.c_double)]
+        self.record = Record(*[a.ctypes.data for a in self.arrays], self.textures.pointer, float(len(programs)))
+        self.pointer = ctypes.addressof(self.record)
+
+
+def graph_tables(table, layout: dict):
+    """The GraphTablesRecord of a MaterialTable for an attribute layout, or None when no material has links."""
+    return GraphTablesRecord(table, layout) if table.has_graphs else None

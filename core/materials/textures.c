@@ -1,0 +1,100 @@
+/* Image textures: core/materials/textures.py. Every image of a render in one float32 RGBA buffer,
+ * looked up with Cycles' conventions (texel centres at i + 0.5, Closest, Linear, Cubic B-spline;
+ * Repeat, Extend, Clip, Mirror); sRGB images decoded after interpolation. */
+
+/* textures.TextureSet as core/materials/textures.py lays it out. */
+typedef struct {
+    const float *pixels;        /* all images, RGBA rows bottom first */
+    const double *offset;       /* (k,) first float of each image */
+    const double *width, *height, *srgb;
+    double count;
+} TextureTables;
+
+enum { TEX_LINEAR = 0, TEX_CLOSEST = 1, TEX_CUBIC = 2 };
+enum { EXT_REPEAT = 0, EXT_EXTEND = 1, EXT_CLIP = 2, EXT_MIRROR = 3 };
+
+/* textures.srgb_to_linear */
+INLINE double srgb_to_linear(double c)
+{
+    if (c < 0.04045) return c < 0.0 ? 0.0 : c * (1.0 / 12.92);
+    return pow((c + 0.055) * (1.0 / 1.055), 2.4);
+}
+
+/* textures.wrap: a texel index wrapped by the extension mode (Clip leaves it). */
+INLINE int64_t texel_wrap(int64_t i, int64_t size, int extension)
+{
+    switch (extension) {
+    case EXT_REPEAT: { int64_t m = i % size; return m < 0 ? m + size : m; }
+    case EXT_EXTEND: return i < 0 ? 0 : (i > size - 1 ? size - 1 : i);
+    case EXT_MIRROR: {
+        int64_t a = i + (i < 0);
+        int64_t m = (a < 0 ? -a : a) % (2 * size);
+        return m >= size ? 2 * size - m - 1 : m;
+    }
+    default: return i;
+    }
+}
+
+/* textures.read: out += weight x texel (ix, iy); nothing outside the image. */
+INLINE void texel_add(const float *data, int64_t w, int64_t h, int64_t ix, int64_t iy, double weight, double *out)
+{
+    if (ix < 0 || ix >= w || iy < 0 || iy >= h) return;
+    const float *t = data + 4 * (iy * w + ix);
+    for (int c = 0; c < 4; c++) out[c] += weight * (double)t[c];
+}
+
+/* TextureSet.lookup for one point: image `index` (-1: missing, magenta) at (x, y) -> RGBA out[4]. */
+INLINE void texture_lookup(const TextureTables *T, int index, double x, double y, int interpolation, int extension,
+                           double *out)
+{
+    if (index < 0 || T == NULL || index >= (int)T->count) {
+        out[0] = 1.0; out[1] = 0.0; out[2] = 1.0; out[3] = 1.0;
+        return;
+    }
+    int64_t w = (int64_t)T->width[index], h = (int64_t)T->height[index];
+    const float *data = T->pixels + (int64_t)T->offset[index];
+    for (int c = 0; c < 4; c++) out[c] = 0.0;
+    if (interpolation == TEX_CLOSEST) {
+        int64_t ix = (int64_t)floor(x * (double)w), iy = (int64_t)floor(y * (double)h);
+        texel_add(data, w, h, texel_wrap(ix, w, extension), texel_wrap(iy, h, extension), 1.0, out);
+    } else {
+        double fx = x * (double)w - 0.5, fy = y * (double)h - 0.5;
+        double bx = floor(fx), by = floor(fy);
+        double tx = fx - bx, ty = fy - by;
+        int64_t ix = (int64_t)bx, iy = (int64_t)by;
+        if (interpolation == TEX_CUBIC) {
+            if (extension == EXT_CLIP && (ix < -2 || ix > w || iy < -2 || iy > h)) goto decode;
+            double u[4] = {(((-1.0 / 6.0) * tx + 0.5) * tx - 0.5) * tx + 1.0 / 6.0, ((0.5 * tx - 1.0) * tx) * tx + 2.0 / 3.0,
+                           ((-0.5 * tx + 0.5) * tx + 0.5) * tx + 1.0 / 6.0, (1.0 / 6.0) * tx * tx * tx};
+            double v[4] = {(((-1.0 / 6.0) * ty + 0.5) * ty - 0.5) * ty + 1.0 / 6.0, ((0.5 * ty - 1.0) * ty) * ty + 2.0 / 3.0,
+                           ((-0.5 * ty + 0.5) * ty + 0.5) * ty + 1.0 / 6.0, (1.0 / 6.0) * ty * ty * ty};
+            for (int b = 0; b < 4; b++) {
+                double row[4] = {0.0, 0.0, 0.0, 0.0};
+                int64_t yb = texel_wrap(iy + b - 1, h, extension);
+                for (int a = 0; a < 4; a++)
+                    texel_add(data, w, h, texel_wrap(ix + a - 1, w, extension), yb, u[a], row);
+                for (int c = 0; c < 4; c++) out[c] += v[b] * row[c];
+            }
+        } else {
+            int64_t x0 = texel_wrap(ix, w, extension), x1 = texel_wrap(ix + 1, w, extension);
+            int64_t y0 = texel_wrap(iy, h, extension), y1 = texel_wrap(iy + 1, h, extension);
+            double r0[4] = {0.0, 0.0, 0.0, 0.0}, r1[4] = {0.0, 0.0, 0.0, 0.0};
+            texel_add(data, w, h, x0, y0, 1.0 - tx, r0);
+            texel_add(data, w, h, x1, y0, tx, r0);
+            texel_add(data, w, h, x0, y1, 1.0 - tx, r1);
+            texel_add(data, w, h, x1, y1, tx, r1);
+            for (int c = 0; c < 4; c++) out[c] = (1.0 - ty) * r0[c] + ty * r1[c];
+        }
+    }
+decode:
+    if (T->srgb[index] != 0.0)
+        for (int c = 0; c < 3; c++) out[c] = srgb_to_linear(out[c]);
+}
+
+/* textures.compiled_lookup: n lookups of one image, for the tests. out (n, 4). */
+EXPORT void primer_texture_lookup(const TextureTables *T, int64_t index, int64_t interpolation, int64_t extension,
+                                  int64_t n, const double *x, const double *y, double *out)
+{
+    for (int64_t i = 0; i < n; i++)
+        texture_lookup(T, (int)index, x[i], y[i], (int)interpolation, (int)extension, out + 4 * i);
+}

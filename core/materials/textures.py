@@ -1,0 +1,204 @@
+"""Image textures: every image a render's materials use, in one buffer, looked up as Cycles does.
+
+An image is stored as float32 RGBA rows, bottom row first (Blender's convention: UV (0, 0) is the
+image's lower-left corner). All images of a render share one flat buffer; an image is its offset,
+width and height there. Images in the sRGB colour space keep their sRGB-encoded values and are decoded
+to linear after interpolation, as Cycles does ("compress as sRGB", kernel/svm/image.h); every other
+colour space is stored as it is read (Non-Color, Linear Rec.709: already the numbers to use).
+
+Lookups follow Cycles' CPU kernel (kernel/device/cpu/image.h): a texel's centre is at (i + 0.5) /
+width; Closest takes the texel the point lies in, Linear interpolates the four nearest centres,
+Cubic weighs the sixteen nearest with the uniform cubic B-spline; Repeat wraps, Extend clamps to the
+edge, Clip is transparent black outside the image, Mirror reflects. core/materials/textures.c is the
+compiled twin.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+INTERPOLATIONS = {"Linear": 0, "Closest": 1, "Cubic": 2, "Smart": 2}
+EXTENSIONS = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2, "MIRROR": 3}
+# What Cycles returns for an image it could not load (TEX_IMAGE_MISSING_R, G, B, A): magenta.
+MISSING = (1.0, 0.0, 1.0, 1.0)
+
+
+@dataclass(eq=False)
+class Image:
+    """One image: pixels (h, w, 4) float32 RGBA, bottom row first; srgb: decode sRGB after lookup."""
+
+    pixels: np.ndarray
+    srgb: bool = False
+    name: str = "Image"
+
+    def __post_init__(self):
+        pixels = np.asarray(self.pixels, np.float32)
+        if pixels.ndim == 2:
+            pixels = pixels[:, :, None]
+        h, w, c = pixels.shape
+        if c < 4:                      # grey -> RGB; missing alpha = 1
+            rgb = pixels[:, :, :3] if c >= 3 else np.repeat(pixels[:, :, :1], 3, axis=2)
+            pixels = np.concatenate([rgb, np.ones((h, w, 1), np.float32)], axis=2)
+        self.pixels = np.ascontiguousarray(pixels[:, :, :4])
+
+
+@dataclass
+class TextureSet:
+    """Every image of a render in one buffer (textures.c TextureTables).
+
+    pixels: (sum of w h 4,) float32; offset, width, height, srgb: (k,) float64 per image (offset in floats)
+    """
+
+    pixels: np.ndarray = field(default_factory=lambda: np.zeros(4, np.float32))
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    width: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    height: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    srgb: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @classmethod
+    def of(cls, images: list) -> "TextureSet":
+        """The images (Image each) in one buffer, in the order given."""
+        if not images:
+            return cls()
+        flat = [image.pixels.reshape(-1) for image in images]
+        sizes = np.array([len(f) for f in flat], np.int64)
+        return cls(np.concatenate(flat).astype(np.float32), (np.cumsum(sizes) - sizes).astype(np.float64),
+                   np.array([image.pixels.shape[1] for image in images], np.float64),
+                   np.array([image.pixels.shape[0] for image in images], np.float64),
+                   np.array([1.0 if image.srgb else 0.0 for image in images]))
+
+    def lookup(self, index: int, x: np.ndarray, y: np.ndarray, interpolation: int, extension: int) -> np.ndarray:
+        """Image `index` at texture coordinates (x, y) (n,) float64 -> RGBA (n, 4) float64, linear.
+        index -1 is the missing image (magenta)."""
+        n = len(x)
+        if index < 0:
+            return np.tile(np.array(MISSING), (n, 1))
+        w, h = int(self.width[index]), int(self.height[index])
+        data = self.pixels[int(self.offset[index]):int(self.offset[index]) + w * h * 4].reshape(h, w, 4)
+        if interpolation == 1:
+            rgba = closest(data, x, y, extension)
+        elif interpolation == 2:
+            rgba = cubic(data, x, y, extension)
+        else:
+            rgba = linear(data, x, y, extension)
+        if self.srgb[index]:
+            rgba[:, :3] = srgb_to_linear(rgba[:, :3])
+        return rgba
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    """The exact sRGB decoding curve (IEC 61966-2-1), as Cycles' color_srgb_to_linear: c (...) float64."""
+    c = np.asarray(c, np.float64)
+    return np.where(c < 0.04045, np.where(c < 0.0, 0.0, c * (1.0 / 12.92)),
+                    ((np.maximum(c, 0.04045) + 0.055) * (1.0 / 1.055)) ** 2.4)
+
+
+def floor_frac(x: np.ndarray):
+    """(integer part (n,) int64 rounded down, fraction (n,) float64) of x (Cycles' frac)."""
+    i = np.floor(x)
+    return i.astype(np.int64), x - i
+
+
+def wrap(i: np.ndarray, size: int, extension: int) -> np.ndarray:
+    """Texel indices i (n,) int64 wrapped by an extension mode (Clip: left as they are)."""
+    if extension == 0:
+        return np.mod(i, size)
+    if extension == 1:
+        return np.clip(i, 0, size - 1)
+    if extension == 3:
+        m = np.mod(np.abs(i + (i < 0)), 2 * size)
+        return np.where(m >= size, 2 * size - m - 1, m)
+    return i
+
+
+def read(data: np.ndarray, ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
+    """Texels (n, 4) float64 at (ix, iy); transparent black outside the image (Cycles' read_clip)."""
+    h, w = data.shape[:2]
+    inside = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h)
+    out = data[np.where(inside, iy, 0), np.where(inside, ix, 0)].astype(np.float64)
+    return np.where(inside[:, None], out, 0.0)
+
+
+def closest(data: np.ndarray, x: np.ndarray, y: np.ndarray, extension: int) -> np.ndarray:
+    """The texel each point lies in."""
+    h, w = data.shape[:2]
+    ix, _ = floor_frac(np.asarray(x, np.float64) * w)
+    iy, _ = floor_frac(np.asarray(y, np.float64) * h)
+    return read(data, wrap(ix, w, extension), wrap(iy, h, extension))
+
+
+def linear(data: np.ndarray, x: np.ndarray, y: np.ndarray, extension: int) -> np.ndarray:
+    """Bilinear interpolation between the four nearest texel centres."""
+    h, w = data.shape[:2]
+    ix, tx = floor_frac(np.asarray(x, np.float64) * w - 0.5)
+    iy, ty = floor_frac(np.asarray(y, np.float64) * h - 0.5)
+    x0, x1 = wrap(ix, w, extension), wrap(ix + 1, w, extension)
+    y0, y1 = wrap(iy, h, extension), wrap(iy + 1, h, extension)
+    tx, ty = tx[:, None], ty[:, None]
+    return ((1.0 - ty) * ((1.0 - tx) * read(data, x0, y0) + tx * read(data, x1, y0))
+            + ty * ((1.0 - tx) * read(data, x0, y1) + tx * read(data, x1, y1)))
+
+
+def spline_weights(t: np.ndarray) -> list:
+    """The uniform cubic B-spline's four weights at fraction t (n,) (Cycles' SET_CUBIC_SPLINE_WEIGHTS)."""
+    return [(((-1.0 / 6.0) * t + 0.5) * t - 0.5) * t + 1.0 / 6.0,
+            ((0.5 * t - 1.0) * t) * t + 2.0 / 3.0,
+            ((-0.5 * t + 0.5) * t + 0.5) * t + 1.0 / 6.0,
+            (1.0 / 6.0) * t * t * t]
+
+
+def cubic(data: np.ndarray, x: np.ndarray, y: np.ndarray, extension: int) -> np.ndarray:
+    """Bicubic B-spline over the sixteen nearest texel centres."""
+    h, w = data.shape[:2]
+    ix, tx = floor_frac(np.asarray(x, np.float64) * w - 0.5)
+    iy, ty = floor_frac(np.asarray(y, np.float64) * h - 0.5)
+    u, v = spline_weights(tx), spline_weights(ty)
+    out = np.zeros((len(ix), 4))
+    if extension == 2:                              # Clip: nothing of the image within reach
+        far = (ix < -2) | (ix > w) | (iy < -2) | (iy > h)
+    for b in range(4):
+        row = np.zeros((len(ix), 4))
+        yb = wrap(iy + b - 1, h, extension)
+        for a in range(4):
+            row += u[a][:, None] * read(data, wrap(ix + a - 1, w, extension), yb)
+        out += v[b][:, None] * row
+    if extension == 2:
+        out[far] = 0.0
+    return out
+
+
+def compiled_lookup(textures: TextureSet, index: int, x: np.ndarray, y: np.ndarray, interpolation: int,
+                    extension: int) -> np.ndarray:
+    """TextureSet.lookup in C (textures.c), for the tests: RGBA (n, 4) float64."""
+    from ..native import library
+    P, I64, ptr = library.P, library.I64, library.pointer
+    x, y = library.contiguous(x, np.float64), library.contiguous(y, np.float64)
+    tables = texture_tables(textures)
+    out = np.empty((len(x), 4))
+    library.function("primer_texture_lookup", None, [P, I64, I64, I64, I64, P, P, P])(
+        tables.pointer, index, interpolation, extension, len(x), ptr(x, np.float64), ptr(y, np.float64),
+        ptr(out, np.float64))
+    return out
+
+
+class TextureTablesRecord:
+    """A TextureSet as C reads it (textures.c TextureTables): the record and the arrays it points at."""
+
+    def __init__(self, textures: TextureSet):
+        import ctypes
+        from ..native import library
+        c = library.contiguous
+        self.arrays = [c(textures.pixels, np.float32), c(textures.offset, np.float64), c(textures.width, np.float64),
+                       c(textures.height, np.float64), c(textures.srgb, np.float64)]
+
+        class Record(ctypes.Structure):
+            _fields_ = [(name, ctypes.c_void_p) for name in ("pixels", "offset", "width", "height", "srgb")] + \
+                       [("count", ctypes.c_double)]
+        self.record = Record(*[a.ctypes.data for a in self.arrays], float(len(textures.width)))
+        self.pointer = ctypes.addressof(self.record)
+
+
+def texture_tables(textures: TextureSet) -> TextureTablesRecord:
+    """The C record of a TextureSet (keep it alive while C reads it)."""
+    return TextureTablesRecord(textures)

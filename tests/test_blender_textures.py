@@ -1,0 +1,223 @@
+"""Materials from Blender's node trees, exported with real Blender (the bpy module, no mocks): images from
+files and packed bytes, node groups and reroutes, warnings for what Primer cannot read, and the Object
+Info node's Random per object and per instance against Cycles' own render.
+
+The sample scene materials_textures (image textures, a normal map, vertex colours, Mix, Math, a group)
+is matched against Cycles by tests/test_blender_scenes.py.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+
+import numpy as np
+import pytest
+
+from blender_env import ROOT, run_bpy
+
+pytestmark = pytest.mark.blender
+
+if importlib.util.find_spec("bpy") is None:
+    if os.environ.get("PRIMER_ALLOW_NO_BPY"):
+        pytest.skip("bpy (Blender as a Python module) is not installed", allow_module_level=True)
+    raise ImportError("tests/test_blender_textures.py needs bpy (Blender as a Python module): pip install bpy")
+
+PRELUDE = """
+import sys, os
+import bpy
+import numpy as np
+from blender_env import report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+primer = load_primer()
+export = sys.modules[primer.__name__ + ".addon.export"]
+graph = sys.modules[primer.__name__ + ".core.materials.graph"]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+
+
+def material(name):
+    m = bpy.data.materials.new(name)
+    if m.node_tree is None:
+        m.use_nodes = True
+    tree = m.node_tree
+    for node in list(tree.nodes):
+        if node.bl_idname != "ShaderNodeOutputMaterial":
+            tree.nodes.remove(node)
+    return m, tree, next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+
+
+def plane(name, mat, location=(0, 0, 0)):
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=location)
+    obj = bpy.context.view_layer.objects.active
+    obj.name = name
+    obj.data.materials.append(mat)
+    return obj
+"""
+
+IMAGES = PRELUDE + """
+import OpenImageIO as oiio
+# A 2 x 2 file, top row red, green; bottom row blue, white (as image files store rows: top first).
+path = os.path.join(os.getcwd(), "corners.png")
+pixels = np.array([[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 1, 1]]], np.float32)
+out = oiio.ImageOutput.create(path)
+out.open(path, oiio.ImageSpec(2, 2, 3, oiio.UINT8))
+out.write_image(pixels)
+out.close()
+mat, tree, output = material("Textured")
+image = tree.nodes.new("ShaderNodeTexImage")
+image.image = bpy.data.images.load(path)
+image.image.colorspace_settings.name = "Non-Color"
+packed = bpy.data.images.load(path)
+packed.name = "Packed"
+packed.pack()
+packed.filepath = "//nowhere/corners.png"              # only its bytes are left
+diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+mix = tree.nodes.new("ShaderNodeMix")
+mix.data_type = "RGBA"
+packed_node = tree.nodes.new("ShaderNodeTexImage")
+packed_node.image = packed
+# Through a group (Group Input -> Reroute -> Invert -> Group Output) and a reroute.
+group = bpy.data.node_groups.new("Inverted", "ShaderNodeTree")
+if hasattr(group, "interface"):
+    group.interface.new_socket("Color", in_out="INPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+else:
+    group.inputs.new("NodeSocketColor", "Color")
+    group.outputs.new("NodeSocketColor", "Color")
+g_in, g_out = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+g_reroute, invert = group.nodes.new("NodeReroute"), group.nodes.new("ShaderNodeInvert")
+group.links.new(g_in.outputs[0], g_reroute.inputs[0])
+group.links.new(g_reroute.outputs[0], invert.inputs["Color"])
+group.links.new(invert.outputs[0], g_out.inputs[0])
+group_node = tree.nodes.new("ShaderNodeGroup")
+group_node.node_tree = group
+reroute = tree.nodes.new("NodeReroute")
+tree.links.new(packed_node.outputs["Color"], reroute.inputs[0])
+tree.links.new(reroute.outputs[0], group_node.inputs[0])
+tree.links.new(image.outputs["Color"], mix.inputs[6])
+tree.links.new(group_node.outputs[0], mix.inputs[7])
+tree.links.new(mix.outputs[2], diffuse.inputs["Color"])
+tree.links.new(diffuse.outputs[0], output.inputs["Surface"])
+# Missing and unknown: a material whose colour comes from a missing file, one fed by a Noise Texture.
+missing, tree2, output2 = material("Missing")
+node = tree2.nodes.new("ShaderNodeTexImage")
+node.name = "Lost Image"
+lost = bpy.data.images.new("Lost", 4, 4)
+lost.source = "FILE"
+lost.filepath = os.path.join(os.getcwd(), "no_such_file.png")
+node.image = lost
+emission = tree2.nodes.new("ShaderNodeEmission")
+tree2.links.new(node.outputs["Color"], emission.inputs["Color"])
+tree2.links.new(emission.outputs[0], output2.inputs["Surface"])
+noisy, tree3, output3 = material("Noisy")
+noise = tree3.nodes.new("ShaderNodeTexNoise")
+noise.name = "Some Noise"
+principled = tree3.nodes.new("ShaderNodeBsdfPrincipled")
+principled.inputs["Roughness"].default_value = 0.25
+tree3.links.new(noise.outputs["Fac"], principled.inputs["Roughness"])
+tree3.links.new(principled.outputs[0], output3.inputs["Surface"])
+plane("A", mat)
+plane("B", missing, (2, 0, 0))
+plane("C", noisy, (4, 0, 0))
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+scene.camera = camera
+camera.location = (2, 0, 8)
+exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+table = {{m.name: m for m in exported.scene.materials}}
+images = []
+for name in ("Textured",):
+    for entry in table[name].nodes:
+        pass
+def find(link, kind, found):
+    if isinstance(link, graph.Link):
+        if link.node.kind == kind:
+            found.append(link.node)
+        for value in link.node.inputs.values():
+            find(value, kind, found)
+    return found
+factors = table["Textured"].nodes[0][3]
+images = find(factors[0][0], "IMAGE", [])
+inverts = find(factors[0][0], "INVERT", [])
+missing_nodes = find(table["Missing"].nodes[0][2]["emission"], "IMAGE", [])
+roughness = table["Noisy"].nodes[0][2]["roughness"]
+report(warnings=exported.warnings,
+       images=[None if n.props["image"] is None else n.props["image"].pixels[:, :, :3].tolist() for n in images],
+       srgb=[None if n.props["image"] is None else n.props["image"].srgb for n in images],
+       inverts=len(inverts), missing=[n.props["image"] is None for n in missing_nodes],
+       roughness=float(roughness), uv=[sorted(m.attributes) for m in exported.scene.meshes])
+"""
+
+
+def test_images_from_files_and_packed_bytes_groups_and_warnings(tmp_path):
+    result = run_bpy(IMAGES.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    # Both images: bottom row first (blue, white), then red, green; the file's Non-Color, the packed one sRGB.
+    expected = [[[0, 0, 1], [1, 1, 1]], [[1, 0, 0], [0, 1, 0]]]
+    assert len(result["images"]) == 2
+    for pixels in result["images"]:
+        np.testing.assert_allclose(pixels, expected, atol=1e-6)
+    assert sorted(result["srgb"]) == [False, True]
+    assert result["inverts"] == 1                            # the group's Invert, reached through reroutes
+    assert result["missing"] == [True]
+    assert result["roughness"] == pytest.approx(0.25)      # the unknown node's input keeps its own value
+    assert ["uv:"] in result["uv"]
+    warnings = "\n".join(result["warnings"])
+    assert "material 'Missing', node 'Lost Image'" in warnings and "magenta" in warnings
+    assert "material 'Noisy', node 'Some Noise'" in warnings and "own value 0.25" in warnings
+
+
+RANDOM = PRELUDE + """
+import math
+mat, tree, output = material("Random")
+info = tree.nodes.new("ShaderNodeObjectInfo")
+emission = tree.nodes.new("ShaderNodeEmission")
+tree.links.new(info.outputs["Random"], emission.inputs["Color"])
+tree.links.new(emission.outputs[0], output.inputs["Surface"])
+for i, name in enumerate(("Cube", "Plane.001", "Thing")):
+    plane(name, mat, (i - 1.5, 0.7, 0))
+# Instances of a collection: Blender gives each its own random id.
+source = bpy.data.collections.new("Source")
+bpy.ops.mesh.primitive_plane_add(size=1.0)
+tile = bpy.context.view_layer.objects.active
+tile.data.materials.append(mat)
+for collection in list(tile.users_collection):
+    collection.objects.unlink(tile)
+source.objects.link(tile)
+for i in range(3):
+    empty = bpy.data.objects.new(f"Instance {{i}}", None)
+    empty.instance_type = "COLLECTION"
+    empty.instance_collection = source
+    empty.location = (i - 1.5, -0.7, 0)
+    scene.collection.objects.link(empty)
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.data.type = "ORTHO"
+camera.data.ortho_scale = 4.0
+camera.location = (-0.5, 0, 5)
+scene.collection.objects.link(camera)
+scene.camera = camera
+scene.render.resolution_x, scene.render.resolution_y = 64, 64
+exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+randoms = [graph.object_random(i.name) if i.random is None else i.random for i in exported.scene.instances]
+# Cycles' own render of the same scene.
+from render import configure_cycles_reference
+configure_cycles_reference(scene, 4)
+scene.render.engine = "CYCLES"
+scene.view_settings.view_transform = "Standard"
+scene.render.filepath = os.path.join(os.getcwd(), "cycles.exr")
+scene.render.image_settings.file_format = "OPEN_EXR"
+bpy.ops.render.render(write_still=True)
+import OpenImageIO as oiio
+pixels = oiio.ImageBuf(scene.render.filepath).get_pixels(oiio.FLOAT)
+# Pixel centres of the six planes: x = (X + 2.5) / 4 * 64, rows from the top.
+points = [(x - 1.5, y) for y in (0.7, -0.7) for x in range(3)]
+cycles = [float(pixels[int((2.0 - y) / 4.0 * 64), int((x + 2.5) / 4.0 * 64), 0]) for x, y in points]
+report(randoms=randoms, cycles=cycles, names=[i.name for i in exported.scene.instances])
+"""
+
+
+def test_object_random_is_cycles_per_object_and_per_instance(tmp_path):
+    result = run_bpy(RANDOM.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    assert len(result["randoms"]) == 6
+    assert len(set(result["randoms"])) == 6                # different for every object and instance
+    np.testing.assert_allclose(result["randoms"], result["cycles"], rtol=1e-5, atol=1e-6)

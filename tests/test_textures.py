@@ -1,0 +1,344 @@
+"""Materials from node graphs: image textures, texture coordinates, normal maps, bump, vertex colours,
+object random and the colour nodes, each checked against a closed form on both paths (the compiled C
+and the numpy reference), and the two paths against each other for every op.
+
+The scenes look straight down at a 2 x 2 plane (UV 0..1 across it) lit by a sun from straight above
+with irradiance E: a diffuse pixel is albedo / pi x E x N.L, an emitting one its emission.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from conftest import ortho_down
+from core import render
+from core.geometry import primitives
+from core.materials import Material, graph, textures
+from core.materials.graph import GraphNode, Link
+from core.scene import Instance, RenderSettings, Scene, SunLight
+
+E = 2.0
+KERNELS = ["compiled", "numpy"]
+SIZE = 8
+
+
+def plane_attributes(mesh, tangent: bool = False, colors=None) -> dict:
+    """Per-corner UVs of a plane mapping its extent onto 0..1, and optionally the tangent (+x, sign 1) and
+    vertex colours (v, 4) per vertex."""
+    v, t = mesh.vertices, mesh.triangles
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    uv = (v[:, :2] - lo[:2]) / (hi - lo)[:2]
+    out = {"uv:": np.concatenate([uv[t], np.zeros((len(t), 3, 1))], axis=2)}
+    if tangent:
+        out["tangent:"] = np.broadcast_to([1.0, 0.0, 0.0, 1.0], (len(t), 3, 4)).copy()
+    if colors is not None:
+        out["color:"] = np.asarray(colors, np.float64)[t]
+    return out
+
+
+def scene_of(material: Material, tangent: bool = False, colors=None, sun: bool = True) -> Scene:
+    """The plane with `material` under the camera (and the sun)."""
+    scene = Scene(camera=ortho_down(height=2.0, scale=2.0))
+    scene.materials.append(material)
+    mesh = primitives.plane(2.0)
+    mesh.attributes = plane_attributes(mesh, tangent, colors)
+    scene.add_mesh(mesh, materials=np.array([0]))
+    if sun:
+        scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=E))
+    return scene
+
+
+def shoot(scene: Scene, kernels: str, size: int = SIZE) -> np.ndarray:
+    """The rendered RGB (size, size, 3), one sample per pixel at its centre's ray (orthographic, so every
+    sample of a pixel sees the same point only with an unjittered camera: we use the pixel's mean)."""
+    return render.render(scene, RenderSettings(width=size, height=size, samples=1, kernels=kernels)).image[..., :3]
+
+
+def check_varying(scene: Scene, kernels: str, expected: np.ndarray, atol: float = 1e-6) -> None:
+    """A value that varies across pixels: the reference path, unjittered (rays through the pixel
+    centres), renders the closed form; the compiled path (always jittered) renders what the
+    reference renders jittered."""
+    if kernels == "numpy":
+        settings = RenderSettings(width=SIZE, height=SIZE, samples=1, kernels="numpy", jitter=False)
+        np.testing.assert_allclose(render.render(scene, settings).image[..., :3], expected, atol=atol)
+    else:
+        settings = RenderSettings(width=SIZE, height=SIZE, samples=4)
+        compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+        reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+        assert compiled.stats.kernels == "compiled"
+        np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+        np.testing.assert_allclose(compiled.image[..., :3], expected, atol=0.1)
+
+
+def pixel_uv(size: int = SIZE):
+    """The UV at each pixel centre of the plane seen by shoot: (size, size) u, v (image row 0 at the top)."""
+    centres = (np.arange(size) + 0.5) / size
+    return np.meshgrid(centres, 1.0 - centres)
+
+
+def checker(n: int = 4, dark: float = 0.2, light: float = 0.8) -> np.ndarray:
+    """An n x n checker (h, w, 4) float32, bottom row first: texel (i, j) is light where i + j is odd."""
+    i, j = np.mgrid[0:n, 0:n]
+    grey = np.where((i + j) % 2 == 1, light, dark).astype(np.float32)
+    return np.dstack([grey, grey, grey, np.ones_like(grey)])
+
+
+def diffuse_textured(image: textures.Image, interpolation="Closest", vector=None) -> Material:
+    """A Diffuse BSDF whose colour is the image."""
+    node = GraphNode("IMAGE", {"image": image, "interpolation": interpolation, "extension": "REPEAT"},
+                     {} if vector is None else {"Vector": vector})
+    return Material(name="Textured", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {}, [(Link(node, "Color"), "color")])])
+
+
+def emitting(link: Link) -> Material:
+    """An Emission shader whose colour is a link (no BSDF: the pixel is the emission)."""
+    return Material(name="Emitting", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": link})])
+
+
+def checker_value(u, v, n=4, dark=0.2, light=0.8):
+    """The checker's value at UV (u, v)."""
+    return np.where((np.floor(u * n) + np.floor(v * n)) % 2 == 1, light, dark)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_checker_texture_renders_albedo_over_pi_times_irradiance_in_each_square(kernels):
+    image = shoot(scene_of(diffuse_textured(textures.Image(checker()))), kernels)
+    u, v = pixel_uv()
+    expected = checker_value(u, v) / math.pi * E
+    np.testing.assert_allclose(image[..., 0], expected, rtol=1e-6)
+    np.testing.assert_allclose(image[..., 1], expected, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_srgb_images_are_decoded_with_the_srgb_curve_and_non_color_images_are_not(kernels):
+    grey = np.full((2, 2, 4), 0.5, np.float32)
+    srgb = shoot(scene_of(diffuse_textured(textures.Image(grey, srgb=True))), kernels)
+    data = shoot(scene_of(diffuse_textured(textures.Image(grey, srgb=False))), kernels)
+    decoded = ((0.5 + 0.055) / 1.055) ** 2.4                     # IEC 61966-2-1 above the linear toe
+    np.testing.assert_allclose(srgb, decoded / math.pi * E, rtol=1e-6)
+    np.testing.assert_allclose(data, 0.5 / math.pi * E, rtol=1e-6)
+    assert textures.srgb_to_linear(0.02) == pytest.approx(0.02 / 12.92)
+
+
+LOOKUPS = [textures.TextureSet.lookup, None]        # None: the compiled twin
+
+
+def lookup(which, tex: textures.TextureSet, x, y, interpolation: int, extension: int) -> np.ndarray:
+    """A lookup on the reference (which is TextureSet.lookup) or in C."""
+    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    if which is None:
+        return textures.compiled_lookup(tex, 0, x, y, interpolation, extension)
+    return tex.lookup(0, x, y, interpolation, extension)
+
+
+@pytest.mark.parametrize("which", LOOKUPS, ids=["numpy", "compiled"])
+def test_closest_takes_the_texel_and_linear_averages_the_two_at_a_texel_boundary(which):
+    tex = textures.TextureSet.of([textures.Image(np.array([[[0.0, 0, 0, 1], [1.0, 1, 1, 1]]], np.float32))])
+    x = np.array([0.5, 0.25, 0.75, 0.4999])
+    closest = lookup(which, tex, x, np.full(4, 0.5), 1, 1)[:, 0]
+    linear = lookup(which, tex, x, np.full(4, 0.5), 0, 1)[:, 0]
+    np.testing.assert_array_equal(closest, [1.0, 0.0, 1.0, 0.0])
+    # Texel centres at 0.25 and 0.75: the boundary 0.5 is halfway; linear in between.
+    np.testing.assert_allclose(linear, [0.5, 0.0, 1.0, 0.4998], atol=1e-12)
+
+
+@pytest.mark.parametrize("which", LOOKUPS, ids=["numpy", "compiled"])
+def test_extension_modes_outside_the_unit_square(which):
+    row = np.array([[[0.1, 0, 0, 1], [0.2, 0, 0, 1], [0.3, 0, 0, 1], [0.4, 0, 0, 1]]], np.float32)
+    tex = textures.TextureSet.of([textures.Image(row)])
+    x = np.array([1.125, -0.125, 1.375, 0.375])                 # texel centres beyond the right, left edges
+    y = np.full(4, 0.5)
+    repeat = lookup(which, tex, x, y, 1, textures.EXTENSIONS["REPEAT"])[:, 0]
+    extend = lookup(which, tex, x, y, 1, textures.EXTENSIONS["EXTEND"])[:, 0]
+    clip = lookup(which, tex, x, y, 1, textures.EXTENSIONS["CLIP"])
+    mirror = lookup(which, tex, x, y, 1, textures.EXTENSIONS["MIRROR"])[:, 0]
+    np.testing.assert_allclose(repeat, [0.1, 0.4, 0.2, 0.2], rtol=1e-7)
+    np.testing.assert_allclose(extend, [0.4, 0.1, 0.4, 0.2], rtol=1e-7)
+    np.testing.assert_allclose(clip[:, 0], [0.0, 0.0, 0.0, 0.2], rtol=1e-7)
+    np.testing.assert_array_equal(clip[:3, 3], 0.0)            # transparent outside
+    np.testing.assert_allclose(mirror, [0.4, 0.1, 0.3, 0.2], rtol=1e-7)
+
+
+@pytest.mark.parametrize("which", LOOKUPS, ids=["numpy", "compiled"])
+def test_cubic_b_spline_reproduces_a_linear_ramp(which):
+    """The uniform cubic B-spline's weights sum to 1 and have their mean at t: linear data comes back."""
+    ramp = np.zeros((1, 16, 4), np.float32)
+    ramp[0, :, 0] = np.arange(16) / 15.0
+    tex = textures.TextureSet.of([textures.Image(ramp)])
+    x = np.linspace(3.0, 12.0, 7) / 16.0                         # away from the edges
+    cubic = lookup(which, tex, x, np.full(7, 0.5), 2, 1)[:, 0]
+    np.testing.assert_allclose(cubic, (x * 16.0 - 0.5) / 15.0, atol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_mapping_scale_of_two_repeats_the_pattern_twice(kernels):
+    uv = GraphNode("TEXCOORD", {}, {})
+    mapping = GraphNode("MAPPING", {"type": "POINT"}, {"Vector": Link(uv, "UV"), "Scale": (2.0, 2.0, 1.0)})
+    image = shoot(scene_of(diffuse_textured(textures.Image(checker(2)), vector=Link(mapping, "Vector"))), kernels)
+    u, v = pixel_uv()
+    np.testing.assert_allclose(image[..., 0], checker_value(2 * u, 2 * v, n=2) / math.pi * E, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("degrees", [20.0, 35.0])
+def test_a_normal_map_tilting_the_normal_makes_n_dot_l_the_cosine_of_the_tilt(kernels, degrees):
+    theta = math.radians(degrees)
+    tilted = np.array([math.sin(theta), 0.0, math.cos(theta)])   # in tangent space (T, B, N)
+    color = GraphNode("RGB", {"value": tilted * 0.5 + 0.5})
+    normal = GraphNode("NORMAL_MAP", {"map": ""}, {"Color": Link(color, "Color"), "Strength": 1.0})
+    material = Material(name="Mapped", nodes=[("DIFFUSE", (0.5, 0.5, 0.5), {"normal": Link(normal, "Normal")})])
+    image = shoot(scene_of(material, tangent=True), kernels)
+    np.testing.assert_allclose(image, 0.5 / math.pi * E * math.cos(theta), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_bump_of_a_sloped_height_tilts_the_normal_by_the_slope(kernels):
+    """Height h = u on a plane 2 wide: dh/dx = 1/2, so N' = normalize(-d/2, 0, 1) and N'.L = 1/sqrt(1 + d^2/4)."""
+    distance = 0.8
+    uv = GraphNode("TEXCOORD", {}, {})
+    height = GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(uv, "UV")})
+    bump = GraphNode("BUMP", {}, {"Height": Link(height, "X"), "Distance": distance, "Strength": 1.0})
+    material = Material(name="Bumpy", nodes=[("DIFFUSE", (0.5, 0.5, 0.5), {"normal": Link(bump, "Normal")})])
+    image = shoot(scene_of(material), kernels)
+    np.testing.assert_allclose(image, 0.5 / math.pi * E / math.sqrt(1.0 + distance ** 2 / 4.0), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_vertex_colours_are_interpolated_across_each_triangle(kernels):
+    corners = [[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]]
+    attribute = GraphNode("ATTRIBUTE", {"attribute": "color:"})
+    scene = scene_of(emitting(Link(attribute, "Color")), colors=corners, sun=False)
+    # The plane's corners (-1,-1), (1,-1), (1,1), (-1,1): bilinear would differ; each triangle is linear.
+    u, v = pixel_uv()
+    in_first = u >= v                                            # triangle (0, 1, 2)
+    c = np.asarray(corners)[:, :3]
+    first = (1 - u)[..., None] * c[0] + (u - v)[..., None] * c[1] + v[..., None] * c[2]
+    second = (1 - v)[..., None] * c[0] + (u)[..., None] * c[2] + (v - u)[..., None] * c[3]
+    check_varying(scene, kernels, np.where(in_first[..., None], first, second))
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_object_random_differs_per_instance_as_cycles_hashes_object_names(kernels):
+    random = GraphNode("OBJECT_INFO", {})
+    scene = Scene(camera=ortho_down(height=2.0, scale=2.0))
+    scene.materials.append(emitting(Link(random, "Random")))
+    left, right = primitives.plane(1.0, 2.0, center=(-0.5, 0.0, 0.0)), primitives.plane(1.0, 2.0, center=(0.5, 0.0, 0.0))
+    scene.add_mesh(left, materials=np.array([0]), name="Cube")
+    scene.add_mesh(right, materials=np.array([0]), name="Cube.001")
+    image = shoot(scene, kernels)
+    a, b = graph.object_random("Cube"), graph.object_random("Cube.001")
+    assert a != b and 0.0 <= a <= 1.0 and 0.0 <= b <= 1.0
+    np.testing.assert_allclose(image[:, :SIZE // 2], a, rtol=1e-7)
+    np.testing.assert_allclose(image[:, SIZE // 2:], b, rtol=1e-7)
+    # An instance's own random number (Blender's instance.random_id) wins over its name's.
+    scene.instances[1] = dataclasses.replace(scene.instances[1], random=graph.random_from_id(123456789))
+    np.testing.assert_allclose(shoot(scene, kernels)[:, SIZE // 2:], np.float32(123456789) / np.float32(0xFFFFFFFF),
+                               rtol=1e-6)
+
+
+def test_cycles_object_hash_is_lookup3_of_the_name_hash():
+    """hash_string is i = 37 i + c over the bytes; hash_uint2 Bob Jenkins' lookup3 final mix (its published
+    hashword of the two words with initval 0)."""
+    name_hash = 0
+    for ch in b"Cube":
+        name_hash = name_hash * 37 + ch
+    assert graph.object_random("Cube") == graph.random_from_id(graph.hash_uint2(name_hash, 0))
+    assert graph.hash_uint2(0, 0) != graph.hash_uint2(1, 0) != graph.hash_uint2(0, 1)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_missing_image_renders_magenta_as_cycles_does(kernels):
+    node = GraphNode("IMAGE", {"image": None}, {})
+    image = shoot(scene_of(emitting(Link(node, "Color")), sun=False), kernels)
+    np.testing.assert_allclose(image, np.broadcast_to([1.0, 0.0, 1.0], image.shape))
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_linked_mix_shader_factor_weighs_its_two_shaders_per_hit(kernels):
+    """Mix Shader with Fac = u between two emissions 0 and 1: the pixel is u."""
+    uv = GraphNode("TEXCOORD", {}, {})
+    fac = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(uv, "UV")}), "X")
+    material = Material(name="Mixed", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": (0.0, 0.0, 0.0)}, [(fac, "one_minus")]),
+                                             ("EMISSION", (1.0, 1.0, 1.0), {"emission": (1.0, 1.0, 1.0)}, [(fac, "fac")])])
+    u, _ = pixel_uv()
+    check_varying(scene_of(material, sun=False), kernels, np.repeat(u[..., None], 3, axis=2))
+
+
+def op_materials() -> list:
+    """One emitting material per op variant, each fed by UV-dependent values (for the twins test)."""
+    uv = GraphNode("TEXCOORD", {}, {})
+    sep = GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(uv, "UV")})
+    x, y = Link(sep, "X"), Link(sep, "Y")
+    scaled = Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": x, "1": 4.0, "2": -2.0}), "Value")
+    img = textures.Image(np.random.default_rng(1).random((5, 7, 4)).astype(np.float32), srgb=True)
+    color = Link(GraphNode("COMBINE_COLOR", {}, {"Red": x, "Green": y, "Blue": 0.3}), "Color")
+    links = []
+    for op in graph.MATH_OPS:
+        links.append(Link(GraphNode("MATH", {"operation": op, "clamp": op == "ADD"}, {"0": scaled, "1": y, "2": 0.25}), "Value"))
+    for blend in graph.BLEND_TYPES:
+        links.append(Link(GraphNode("MIX", {"data_type": "RGBA", "blend_type": blend, "clamp_result": blend == "ADD"},
+                                    {"Factor": y, "A": color, "B": (0.2, 0.6, 0.9)}), "Result"))
+    links.append(Link(GraphNode("MIX", {"data_type": "FLOAT"}, {"Factor": x, "A": 0.1, "B": y}), "Result"))
+    links.append(Link(GraphNode("MIX", {"data_type": "VECTOR", "factor_mode": "NON_UNIFORM"},
+                                {"Factor": color, "A": (0.0, 0.5, 1.0), "B": Link(uv, "UV")}), "Result"))
+    for interpolation in ("Linear", "Closest", "Cubic"):
+        for extension in ("REPEAT", "EXTEND", "CLIP", "MIRROR"):
+            mapped = Link(GraphNode("MAPPING", {"type": "TEXTURE"}, {"Vector": Link(uv, "UV"), "Location": (0.3, -0.2, 0),
+                                                                   "Rotation": (0.1, 0.2, 0.7), "Scale": (2.5, 1.5, 1)}), "Vector")
+            links.append(Link(GraphNode("IMAGE", {"image": img, "interpolation": interpolation, "extension": extension},
+                                        {"Vector": mapped}), "Color"))
+    for kind in graph.MAPPING_TYPES:
+        links.append(Link(GraphNode("MAPPING", {"type": kind}, {"Vector": color, "Location": (0.1, 0.2, 0.3),
+                                                               "Rotation": (0.4, -0.5, 0.6), "Scale": (1.5, 0.5, 2.0)}), "Vector"))
+    table = np.random.default_rng(2).random((256, 4))
+    for interpolate in (True, False):
+        links.append(Link(GraphNode("RAMP", {"table": table, "interpolate": interpolate}, {"Fac": x}), "Color"))
+    links.append(Link(GraphNode("INVERT", {}, {"Fac": y, "Color": color}), "Color"))
+    links.append(Link(GraphNode("HSV", {}, {"Hue": x, "Saturation": 1.5, "Value": 0.8, "Fac": 0.9, "Color": color}), "Color"))
+    for kind in ("MINMAX", "RANGE"):
+        links.append(Link(GraphNode("CLAMP", {"clamp_type": kind}, {"Value": scaled, "Min": y, "Max": 0.4}), "Result"))
+    for kind in graph.MAP_RANGE_TYPES:
+        links.append(Link(GraphNode("MAP_RANGE", {"interpolation_type": kind}, {"Value": scaled, "From Min": -1.0,
+                                                                                "From Max": y, "To Min": 0.2, "To Max": 0.9}), "Result"))
+    links.append(Link(GraphNode("ATTRIBUTE", {"attribute": "color:"}), "Fac"))
+    links.append(Link(GraphNode("SCALE", {}, {"Color": color, "Factor": scaled}), "Color"))
+    materials = [emitting(link) for link in links]
+    # Lit ones: linked BSDF inputs, normal maps, bump, a linked Mix Shader factor.
+    picture = Link(GraphNode("IMAGE", {"image": img, "interpolation": "Linear"}, {}), "Color")
+    alpha = Link(GraphNode("IMAGE", {"image": img, "interpolation": "Cubic"}, {}), "Alpha")
+    mapped = Link(GraphNode("NORMAL_MAP", {"map": ""}, {"Color": picture, "Strength": 0.7}), "Normal")
+    bumped = Link(GraphNode("BUMP", {"invert": True}, {"Height": alpha, "Distance": 0.3, "Strength": 0.8,
+                                                       "Normal": mapped}), "Normal")
+    materials.append(Material(name="Mapped", nodes=[("DIFFUSE", (0.8, 0.8, 0.8), {"normal": mapped})]))
+    materials.append(Material(name="Principled", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0), {
+        "base_color": picture, "roughness": y, "metallic": x, "coat": Link(GraphNode("MATH", {"operation": "SUBTRACT"},
+                                                                               {"0": y, "1": 0.5}), "Value"),
+        "specular_ior_level": x, "alpha": y, "normal": bumped})]))
+    materials.append(Material(name="Glossy", nodes=[("GLOSSY", (1.0, 1.0, 1.0), {"roughness": x, "multiscatter": 1.0,
+                                                                                 "color": color}, [(color, "color")])]))
+    materials.append(Material(name="Mix", nodes=[("DIFFUSE", (0.9, 0.9, 0.9), {"normal": bumped}, [(x, "one_minus")]),
+                                                 ("GLOSSY", (1.0, 1.0, 1.0), {"roughness": 0.3}, [(x, "fac")])]))
+    return materials
+
+
+def test_the_compiled_graph_computes_what_the_reference_computes_for_every_op():
+    materials = op_materials()
+    count = len(materials)
+    columns = 8
+    rows = -(-count // columns)
+    scene = Scene(camera=ortho_down(center=(columns / 2, rows / 2, 0.0), height=2.0, scale=float(max(columns, rows))))
+    scene.materials = materials
+    for index in range(count):
+        mesh = primitives.plane(1.0, center=(index % columns + 0.5, index // columns + 0.5, 0.0))
+        mesh.attributes = plane_attributes(mesh, tangent=True, colors=np.random.default_rng(index).random((4, 4)))
+        scene.add_mesh(mesh, materials=np.array([index]), name=f"Op{index}")
+    scene.lights.append(SunLight(np.array([0.3, -0.2, -1.0]), strength=E, angle=0.2))
+    settings = RenderSettings(width=64, height=64, samples=2)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled"
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+    assert np.isfinite(reference.image).all() and reference.image[..., :3].std() > 0.05
