@@ -4,38 +4,67 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 VENV42 := .venv42
 PY42   := $(VENV42)/bin/python
+# Blender 5.1 and later run Python 3.13: python3.13 on the PATH if it runs (a pyenv shim may not), else
+# pyenv's own 3.13. Set PYTHON313=/path/to/python3.13 to choose another.
+PYTHON313 ?= $(shell for p in python3.13 $$HOME/.pyenv/versions/3.13*/bin/python3.13; do \
+	"$$p" -c 'import sys; assert sys.version_info[:2] == (3, 13)' 2>/dev/null && { command -v "$$p"; break; }; done)
+VENV52 := .venv52
+PY52   := $(VENV52)/bin/python
+# What `make test` runs on bpy 5.2: the tests that run Blender, and the debug views whose float32 buffers
+# numpy 2 compares differently. The rest of the tracer never imports bpy; `make test TESTS52=tests` runs
+# everything on 5.2 too (about 45 s more; a cold cache of Cycles references costs about 4 minutes either way).
+TESTS52 ?= $(wildcard tests/test_blender_*.py) tests/test_extension.py tests/test_tour.py tests/test_viewport.py \
+	tests/test_debug_views.py
 
 BLENDER_USER := $(CURDIR)/.pytest_cache/blender-user
 
 # Extra pytest arguments, e.g. `make test PYTEST_ARGS="-m 'not slow'"` or PYTEST_ARGS="-k camera".
 PYTEST_ARGS ?=
 # pytest exits with 5 when it collects no test. With a filter in PYTEST_ARGS that is expected for one
-# of the two runs below, so it passes; without a filter it means tests went missing, so it fails.
+# of the runs below, so it passes; without a filter it means tests went missing, so it fails.
 EMPTY_OK := $(if $(strip $(PYTEST_ARGS)),|| [ $$? -eq 5 ])
 
-.PHONY: demo test venv venv42 kernels extension scenes clean
+.PHONY: demo test venv venv42 venv52 kernels extension scenes clean
 
-# Create a virtual environment and install pinned dependencies (once, or when they change).
+# Create a virtual environment $(1) with Python $(2) and install the pinned dependencies $(3) (once, or
+# when they change).
 define make_venv
-	@$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "Primer needs Python 3.11, found " + sys.version.split()[0]'
-	test -x $(1)/bin/python || $(PYTHON) -m venv $(1)
+	test -x $(1)/bin/python || $(2) -m venv $(1)
 	$(1)/bin/python -m pip install --quiet --upgrade pip
-	$(1)/bin/python -m pip install --quiet -r $(2)
-	touch $(1)/.installed
+	$(1)/bin/python -m pip install --quiet -r $(3)
 endef
+CHECK_PYTHON311 = @$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), \
+	"Primer needs Python 3.11 (Blender 4.2 to 5.0), found " + sys.version.split()[0]'
 
 # .venv: the tracer, bpy 5.0 (Blender as a module) and the tools; used by `make demo` and `make test`.
 $(VENV)/.installed: requirements.txt
-	$(call make_venv,$(VENV),requirements.txt)
+	$(CHECK_PYTHON311)
+	$(call make_venv,$(VENV),$(PYTHON),requirements.txt)
+	touch $@
 
 # .venv42: bpy 4.2 LTS, for the smoke test on the oldest Blender that Primer supports.
 $(VENV42)/.installed: requirements-bpy42.txt
-	$(call make_venv,$(VENV42),requirements-bpy42.txt)
+	$(CHECK_PYTHON311)
+	$(call make_venv,$(VENV42),$(PYTHON),requirements-bpy42.txt)
+	touch $@
+
+# .venv52: bpy 5.2 on Python 3.13 and numpy 2, for the Blender tests on the newest Blender. OpenImageIO is
+# the copy inside bpy (a .pth file puts bpy's bundled site-packages on the path), not a second install.
+$(VENV52)/.installed: requirements-bpy52.txt
+	@test -n "$(PYTHON313)" || { echo "make: the Blender 5.2 tests need Python 3.13 (none found on the PATH" \
+		"or in ~/.pyenv/versions); install it or set PYTHON313=/path/to/python3.13" >&2; exit 1; }
+	@$(PYTHON313) -c 'import sys; assert sys.version_info[:2] == (3, 13), \
+		"bpy 5.2 needs Python 3.13, found " + sys.version.split()[0]'
+	$(call make_venv,$(VENV52),$(PYTHON313),requirements-bpy52.txt)
+	$(PY52) tools/bpy_site_packages.py
+	touch $@
 
 venv: $(VENV)/.installed
 venv42: $(VENV42)/.installed
+venv52: $(VENV52)/.installed
 
 # Compile core/native/primer.c for this machine (core/native/library.py loads it; without it Primer renders on its Python path).
+# A plain C library loaded through ctypes, the same file for every Python: .venv42 and .venv52 use it too.
 kernels: venv
 	$(PY) tools/build_kernels.py
 
@@ -51,12 +80,14 @@ scenes: venv42
 extension: venv kernels
 	$(PY) tools/build_extension.py
 
-# Run the whole test suite: the tracer and Blender 5.0 tests, then the Blender 4.2 LTS smoke test.
-# Blender inside the test process gets an empty user folder, so a personal Blender setup (preferences,
-# installed extensions) cannot change the results; tests that install Primer use their own (tests/blender_env.py).
-test: venv venv42 kernels
+# Run the whole test suite: the tracer and Blender 5.0 tests, the Blender 5.2 tests (Python 3.13, numpy 2),
+# then the Blender 4.2 LTS smoke test. Blender inside the test process gets an empty user folder, so a
+# personal Blender setup (preferences, installed extensions) cannot change the results; tests that install
+# Primer use their own (tests/blender_env.py).
+test: venv venv42 venv52 kernels
 	rm -rf $(BLENDER_USER) && mkdir -p $(BLENDER_USER)
 	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q $(PYTEST_ARGS) $(EMPTY_OK)
+	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY52) -m pytest -q $(TESTS52) $(PYTEST_ARGS) $(EMPTY_OK)
 	$(PY42) -m pytest -q tests/smoke_bpy42.py $(PYTEST_ARGS) $(EMPTY_OK)
 
 # The benchmark's extra tools (FLIP, matplotlib), installed into .venv beside the pinned dependencies.
@@ -71,4 +102,4 @@ bench: venv kernels $(VENV)/.bench-installed
 	$(PY) bench/run.py $(BENCH_ARGS)
 
 clean:
-	rm -rf $(VENV) $(VENV42) out dist .pytest_cache core/native/_kernels-*
+	rm -rf $(VENV) $(VENV42) $(VENV52) out dist .pytest_cache core/native/_kernels-*

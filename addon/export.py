@@ -269,6 +269,32 @@ def _light_color(light) -> np.ndarray:
     return color
 
 
+def light_node_factor(obj, warnings: list) -> np.ndarray:
+    """Return what the light's node tree multiplies its colour by: (3,) linear RGB.
+
+    Cycles renders a light as its colour x power x the emission of its shader. Without a node tree that
+    shader is an Emission node, white, strength 1; Blender 5.2 gives every light such a tree (4.2 and 5.0
+    use one only with Use Nodes on). Primer reads an Emission node at the Light Output as Cycles does, its
+    Color x Strength, so a default tree changes nothing. Nothing at the output: Cycles' light sends no
+    light (zeros, noted). Another shader there, or a node linked into the Emission's inputs, is warned about,
+    naming the light and the node, and Primer uses the light's colour and power (or the input's own value).
+    """
+    tree = materials_.node_tree(obj.data)
+    if tree is None:
+        return np.ones(3)
+    node = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight"))
+    if node is None:
+        warnings.append(f"light '{obj.name}': nothing is linked to its Light Output, so it sends no light "
+                        "(as in Cycles)")
+        return np.zeros(3)
+    reader = materials_.NodeReader(obj, warnings, kind="light")
+    if node.bl_idname != "ShaderNodeEmission":
+        reader.warn(node, f"'{node.bl_label}' at the Light Output is not an Emission node; Primer uses the "
+                          "light's colour and power")
+        return np.ones(3)
+    return reader.value(node, "Color", np.ones(3)) * reader.value(node, "Strength", 1.0)
+
+
 def export_light(obj, matrix: np.ndarray, warnings: list):
     """Return the core light of a Blender light object placed by `matrix` (4, 4), or None if it sends no diffuse light.
 
@@ -289,9 +315,10 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
         return None
     if not getattr(light, "use_shadow", True):
         warnings.append(f"light '{obj.name}' casts no shadows in Cycles; Primer always traces its shadow rays")
-    if getattr(light, "use_nodes", False):
-        warnings.append(f"light '{obj.name}' uses shader nodes, which Primer ignores (it uses colour and power)")
-    color = _light_color(light)
+    emission = light_node_factor(obj, warnings)
+    if not emission.any():
+        return None                     # Cycles leaves out a light whose shader emits nothing
+    color = _light_color(light) * emission
     normalize = getattr(light, "normalize", True)
     position = matrix[:3, 3].copy()
     axes = matrix[:3, :3]

@@ -37,10 +37,31 @@ GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
 
 
 def node_tree(datablock):
-    """Return the node tree Cycles uses for a material or world, or None (Blender 4.x: use_nodes off)."""
-    if bpy.app.version < (5, 0, 0) and not datablock.use_nodes:
+    """Return the node tree Cycles uses for a material, world or light, or None where Use Nodes is off.
+
+    Use Nodes is deprecated, and always on, once Blender gives every such datablock a node tree: materials
+    and worlds from Blender 5.0, lights from 5.2 (whose default tree is an Emission node, white, strength 1).
+    Before that the tree counts only with Use Nodes on, as in Cycles. RNA says which applies, so the
+    deprecated property is never read.
+    """
+    prop = datablock.bl_rna.properties.get("use_nodes")
+    if prop is not None and not getattr(prop, "is_deprecated", False) and not datablock.use_nodes:
         return None
     return datablock.node_tree
+
+
+def output_node(tree, idname: str):
+    """Return the active Cycles output node of type `idname` (ShaderNodeOutputMaterial, ...Light) in `tree`,
+    else its first such node, or None."""
+    outputs = [n for n in tree.nodes if n.bl_idname == idname and n.target in {"ALL", "CYCLES"}]
+    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+
+
+def linked_node(output, socket: str = "Surface"):
+    """Return the node linked to `output`'s `socket` (through reroutes), or None where nothing is."""
+    if output is None or not output.inputs[socket].is_linked:
+        return None
+    return _follow(output.inputs[socket].links[0].from_node)
 
 
 def surface_node(material):
@@ -48,11 +69,7 @@ def surface_node(material):
     tree = node_tree(material)
     if tree is None:
         return None
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial" and n.target in {"ALL", "CYCLES"}]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-    if output is None or not output.inputs["Surface"].is_linked:
-        return None
-    return _follow(output.inputs["Surface"].links[0].from_node)
+    return linked_node(output_node(tree, "ShaderNodeOutputMaterial"))
 
 
 def _follow(node):
@@ -63,14 +80,14 @@ def _follow(node):
 
 
 class NodeReader:
-    """Reads one material's inputs, noting each input that a link feeds (Primer takes its own value)."""
+    """Reads one material's (or light's) inputs, noting each input that a link feeds (Primer takes its own value)."""
 
-    def __init__(self, material, warnings: list):
-        self.material, self.warnings = material, warnings
+    def __init__(self, material, warnings: list, kind: str = "material"):
+        self.material, self.warnings, self.kind = material, warnings, kind
 
     def warn(self, node, text: str) -> None:
-        """A warning naming the material and node."""
-        note = f"material '{self.material.name}', node '{node.name}': {text}"
+        """A warning naming the material (or light) and node."""
+        note = f"{self.kind} '{self.material.name}', node '{node.name}': {text}"
         if note not in self.warnings:
             self.warnings.append(note)
 

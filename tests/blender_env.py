@@ -224,6 +224,144 @@ def check_mesh_reads(result) -> None:
 
 
 
+# A script for run_bpy (format it with tools=): a plane under a sun, rendered by Primer and by Cycles with
+# the light plain and with a node tree; check_light_nodes judges it. Every Blender version runs it: 4.2 and
+# 5.0 give a light a node tree only with Use Nodes on, 5.2 gives every light one (Emission, white, strength 1).
+LIGHT_NODES = """
+import os, sys
+import bpy
+import numpy as np
+from blender_env import lambert_everywhere, report
+sys.path.insert(0, {tools!r})
+from render import configure_cycles_reference, configure_output, load_primer
+
+primer = load_primer()
+export = sys.modules[primer.__name__ + ".addon.export"]
+
+
+def sun_over_a_plane():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    lambert_everywhere(scene)
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 16, 12, 100
+    mesh = bpy.data.meshes.new("Plane")
+    mesh.from_pydata([(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [], [(0, 1, 2, 3)])
+    scene.collection.objects.link(bpy.data.objects.new("Plane", mesh))
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 2.0, 0.0
+    sun.rotation_euler = (0.5, 0.2, 0.0)
+    scene.collection.objects.link(sun)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location = (0.0, 0.0, 5.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    return scene, sun.data
+
+
+def deprecated_use_nodes(light):
+    return getattr(light.bl_rna.properties["use_nodes"], "is_deprecated", False)
+
+
+def emission_node(light):
+    if not deprecated_use_nodes(light):
+        light.use_nodes = True                      # Blender 4.2 and 5.0 make the default tree here
+    return light.node_tree, next(n for n in light.node_tree.nodes if n.bl_idname == "ShaderNodeEmission")
+
+
+def exported(scene):
+    result = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    return {{"warnings": result.warnings, "colors": [light.color.tolist() for light in result.scene.lights]}}
+
+
+def render(scene, engine, path):
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        configure_cycles_reference(scene, 4)
+    else:
+        scene.primer.samples = 1
+    configure_output(scene, path)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(path)
+    pixels = np.array(image.pixels[:], np.float64).reshape(image.size[1], image.size[0], image.channels)
+    bpy.data.images.remove(image)
+    return pixels[..., :3].tolist()
+
+
+cases = {{}}
+bpy.ops.wm.read_factory_settings(use_empty=False)            # the default scene: cube, point light, camera
+cases["default scene"] = exported(bpy.context.scene)
+
+scene, light = sun_over_a_plane()
+cases["plain"] = exported(scene)
+cases["plain"].update(primer=render(scene, "PRIMER", os.path.abspath("plain_primer.exr")),
+                      cycles=render(scene, "CYCLES", os.path.abspath("plain_cycles.exr")))
+
+tree, emission = emission_node(light)
+emission.inputs["Color"].default_value = (1.0, 0.5, 0.25, 1.0)
+emission.inputs["Strength"].default_value = 2.0
+cases["emission"] = exported(scene)
+cases["emission"].update(primer=render(scene, "PRIMER", os.path.abspath("emission_primer.exr")),
+                         cycles=render(scene, "CYCLES", os.path.abspath("emission_cycles.exr")))
+
+if not deprecated_use_nodes(light):                       # 4.2, 5.0: the tree counts only with Use Nodes
+    light.use_nodes = False
+    cases["use nodes off"] = exported(scene)
+    light.use_nodes = True
+
+falloff = tree.nodes.new("ShaderNodeLightFalloff")
+tree.links.new(falloff.outputs["Quadratic"], emission.inputs["Strength"])
+cases["linked strength"] = exported(scene)
+
+output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputLight")
+add = tree.nodes.new("ShaderNodeAddShader")
+tree.links.new(emission.outputs["Emission"], add.inputs[0])
+tree.links.new(add.outputs["Shader"], output.inputs["Surface"])
+cases["other shader"] = exported(scene)
+
+tree.links.remove(output.inputs["Surface"].links[0])
+cases["nothing at the output"] = exported(scene)
+
+primer.unregister()             # bpy 4.2 crashes at exit while a Python RenderEngine is registered
+report(version=list(bpy.app.version), cases=cases)
+"""
+
+
+def check_light_nodes(result) -> None:
+    """A light's node tree, as Cycles reads it: an Emission node at the Light Output multiplies the light's
+    colour by its Color x Strength (2 x (1, 0.5, 0.25) here, exactly, in Primer's pixels and in Cycles');
+    a default tree changes nothing and warns nothing; anything else is warned about, naming light and node."""
+    import numpy as np
+
+    cases = result["cases"]
+    factor = 2.0 * np.array([1.0, 0.5, 0.25])
+    light_notes = [w for w in cases["default scene"]["warnings"] if "light" in w.lower()]
+    assert light_notes == [], light_notes
+    assert cases["plain"]["warnings"] == [] and cases["emission"]["warnings"] == []
+    np.testing.assert_allclose(cases["plain"]["colors"], [[1.0, 1.0, 1.0]], rtol=1e-12)
+    np.testing.assert_allclose(cases["emission"]["colors"], [factor], rtol=1e-7)
+    for renderer in ("primer", "cycles"):
+        plain, lit = np.array(cases["plain"][renderer]), np.array(cases["emission"][renderer])
+        assert plain.min() > 0.1, f"{renderer}: the plane is not lit everywhere"
+        # Float32 pixels scaled by powers of two (2, 1, 0.5): the same samples give exactly factor x plain.
+        np.testing.assert_allclose(lit, plain * factor, rtol=1e-6, err_msg=renderer)
+    if result["version"][:2] < [5, 2]:
+        np.testing.assert_allclose(cases["use nodes off"]["colors"], [[1.0, 1.0, 1.0]], rtol=1e-12)
+        assert cases["use nodes off"]["warnings"] == []
+    else:
+        assert "use nodes off" not in cases
+    linked = cases["linked strength"]
+    assert len(linked["warnings"]) == 1 and "light 'Sun', node 'Emission'" in linked["warnings"][0]
+    assert "'Light Falloff'" in linked["warnings"][0] and "own value" in linked["warnings"][0]
+    np.testing.assert_allclose(linked["colors"], [factor], rtol=1e-7)
+    other = cases["other shader"]
+    assert len(other["warnings"]) == 1 and "light 'Sun', node 'Add Shader'" in other["warnings"][0]
+    assert "colour and power" in other["warnings"][0]
+    np.testing.assert_allclose(other["colors"], [[1.0, 1.0, 1.0]], rtol=1e-12)
+    nothing = cases["nothing at the output"]
+    assert nothing["colors"] == []                              # Cycles leaves such a light out too
+    assert any("light 'Sun': nothing is linked to its Light Output" in w for w in nothing["warnings"])
+
+
 def diffuse_material(name: str = "Diffuse", albedo=(0.8, 0.8, 0.8)):
     """A material that Cycles and Primer both render as a Lambert surface of `albedo`: a Diffuse BSDF
     (Blender 4.x without nodes: its viewport colour, which Cycles renders the same way)."""

@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-from blender_env import MESH_READS, ROOT, check_mesh_reads, run_bpy
+from blender_env import LIGHT_NODES, MESH_READS, ROOT, check_light_nodes, check_mesh_reads, run_bpy
 
 pytestmark = pytest.mark.smoke42
 
@@ -103,3 +103,11 @@ def test_mesh_read_by_attributes_equals_rna_reading_in_blender_4_2(tmp_path):
                      str(tmp_path))
     assert result["version"][:2] == [4, 2]
     check_mesh_reads(result)
+
+
+def test_light_node_tree_in_blender_4_2(tmp_path):
+    """Blender 4.2: a light's tree counts only with Use Nodes on; its Emission scales the light as in Cycles,
+    and a default light warns nothing (tests/test_blender_lights.py on 5.0 and 5.2)."""
+    result = run_bpy(LIGHT_NODES.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    assert result["version"][:2] == [4, 2]
+    check_light_nodes(result)

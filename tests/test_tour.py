@@ -94,11 +94,19 @@ def render(primer, scene, path: str, view: str = "NONE", passes: tuple = ()) -> 
 
 
 def save(name: str, rgba: np.ndarray, exposure: float = 0.0) -> np.ndarray:
-    """Write docs/images/tour/<name>.png (sRGB, like Blender's Standard view at this exposure); return it."""
+    """Write docs/images/tour/<name>.png (sRGB, like Blender's Standard view at this exposure); return it.
+
+    A PNG whose pixels are unchanged is left as it is: OpenImageIO versions write different metadata
+    chunks (3.1, inside bpy 5.2, adds sRGB, gAMA and cHRM), which would otherwise change the file."""
     picture = np.array(rgba, np.float32)
     picture[..., :3] *= 2.0 ** exposure
     path = os.path.join(PICTURES, f"{name}.png")
-    image_io.write_image(path, picture)
+    fresh = path + ".new.png"
+    image_io.write_image(fresh, picture)
+    if os.path.isfile(path) and np.array_equal(image_io.read_image(path), image_io.read_image(fresh)):
+        os.remove(fresh)
+    else:
+        os.replace(fresh, path)
     assert os.path.getsize(path) < MAX_PNG_BYTES
     return picture
 
