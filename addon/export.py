@@ -292,6 +292,11 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
         reader.warn(node, f"'{node.bl_label}' at the Light Output is not an Emission node; Primer uses the "
                           "light's colour and power")
         return np.ones(3)
+    for name in ("Color", "Strength"):
+        socket = node.inputs.get(name)
+        if socket is not None and socket.is_linked:
+            reader.warn(node, f"input '{name}' is linked to '{socket.links[0].from_node.name}', which Primer does "
+                              "not evaluate for lights; it uses the input's own value")
     return reader.value(node, "Color", np.ones(3)) * reader.value(node, "Strength", 1.0)
 
 

@@ -237,3 +237,34 @@ def test_transparent_bounces_stop_at_their_limit(kernels):
     np.testing.assert_allclose(seen, 2.0, rtol=1e-6)
     stopped = render.render(sheets, dataclasses.replace(settings, transparent_max_bounces=1)).image[..., :3]
     assert not stopped.any()
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_shadows_pass_transparent_surfaces_as_in_cycles(integrator, kernels):
+    """A sun 45 degrees high over a grey floor, seen straight from above; a sheet outside the view, 2 above
+    the floor, shadows the viewed floor: a clear tinted sheet (0.5, 0.25, 1) lets that share of the sunlight
+    through (the floor shows albedo/pi x E x tint), a sheet of Principled Alpha 0.3 lets 0.7 through, an
+    opaque one nothing (Cycles' transparent shadows)."""
+    from core.scene import SunLight
+
+    def floor(sheet):
+        scene = Scene(camera=Camera(type="ORTHO", ortho_scale=1.0, matrix_world=np.array(
+            [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 5.0], [0, 0, 0, 1.0]])))
+        scene.materials.append(materials.Material((0.5, 0.5, 0.5), name="floor"))
+        scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+        if sheet is not None:
+            scene.materials.append(materials.Material(name="sheet", nodes=sheet))
+            scene.add_mesh(primitives.plane(2.0, center=(2.5, 0.0, 2.0)), materials=np.array([1]))
+        scene.lights.append(SunLight(np.array([-1.0, 0.0, -1.0]) / math.sqrt(2.0), strength=3.0))
+        return scene
+
+    settings = RenderSettings(width=4, height=4, samples=4, integrator=integrator, max_bounces=0, kernels=kernels)
+    lit = 0.5 / math.pi * 3.0 * math.cos(math.radians(45))
+    np.testing.assert_allclose(render.render(floor(None), settings).image[..., :3], lit, rtol=1e-5)
+    tinted = render.render(floor([("TRANSPARENT", (0.5, 0.25, 1.0), {})]), settings).image[..., :3]
+    np.testing.assert_allclose(tinted, np.broadcast_to(lit * np.array([0.5, 0.25, 1.0]), tinted.shape), rtol=1e-5)
+    alpha = render.render(floor([("PRINCIPLED", (1, 1, 1), {"alpha": 0.3})]), settings).image[..., :3]
+    np.testing.assert_allclose(alpha, 0.7 * lit, rtol=1e-5)
+    opaque = render.render(floor([("DIFFUSE", (0.5, 0.5, 0.5), {})]), settings).image[..., :3]
+    assert not opaque.any()

@@ -104,7 +104,11 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
                          params->geometry, params->materials, (int)params->sampling == SAMPLE_MIS && params->bsdf_rays != 0.0,
                          (int)params->sampling, params->bsdf_rays != 0.0, params->emissive != 0.0,
                          params->everywhere != 0.0, params->seed, 0,
-                         params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHTS, NULL, params->graphs};
+                         params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHTS, NULL, params->graphs,
+                         NULL};
+    Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
+                               params->graphs, (int)params->transparent_bounces};
+    if (params->see_through != 0.0) ds.transmitter = &transmitter;
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH: {
         PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,

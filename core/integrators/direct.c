@@ -192,30 +192,44 @@ static void bsdf_block(SampleBlock *restrict b, const BlockHits *restrict H, int
 
 /* Step 4: the rays that can carry light go into packets, Embree answers each packet of 8, and what
  * gets through, (weight colour) f cos, is added to its hit's radiance in ray order. Returns the rays traced. */
-INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *scene, double *L_out)
+typedef struct Transmitter Transmitter;
+INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D[][3], const double *t,
+                            double T[][3]);
+
+INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *scene, double *L_out,
+                             const Transmitter *transmitter)
 {
     RayPacket ray;
     int valid[PACKET] ALIGNED(32);
     int64_t owner[PACKET], rays = 0;
-    double value[PACKET][3];
+    double value[PACKET][3], O[PACKET][3], D[PACKET][3], t[PACKET], T[PACKET][3];
     int lanes = 0;
     for (int64_t k = 0; k <= b->n; k++) {
         if (k < b->n) {
             if (b->keep[k] == 0.0) continue;
-            double o[3] = {b->origin[0][k], b->origin[1][k], b->origin[2][k]};
-            double d[3] = {b->D[0][k], b->D[1][k], b->D[2][k]};
-            set_lane(&ray, lanes, o, d, b->t[k]);
+            for (int c = 0; c < 3; c++) { O[lanes][c] = b->origin[c][k]; D[lanes][c] = b->D[c][k]; }
+            t[lanes] = b->t[k];
+            set_lane(&ray, lanes, O[lanes], D[lanes], b->t[k]);
             owner[lanes] = b->hit[k];
             for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * b->color[c][k]) * b->f[c][k];
             if (++lanes < PACKET) continue;
         }
         if (lanes == 0) continue;
-        close_packet(&ray, valid, lanes);
-        occluded8(valid, scene, &ray, NULL);
-        for (int lane = 0; lane < lanes; lane++) {
-            if (ray.tfar[lane] < 0.0f) continue;               /* blocked */
-            double *e = L_out + 3 * owner[lane];
-            for (int c = 0; c < 3; c++) e[c] += value[lane][c];
+        if (transmitter != NULL) {
+            /* Transparent shadows: each ray carries the product of the transparencies it passes. */
+            transmit_packet(transmitter, lanes, O, D, t, T);
+            for (int lane = 0; lane < lanes; lane++) {
+                double *e = L_out + 3 * owner[lane];
+                for (int c = 0; c < 3; c++) e[c] += value[lane][c] * T[lane][c];
+            }
+        } else {
+            close_packet(&ray, valid, lanes);
+            occluded8(valid, scene, &ray, NULL);
+            for (int lane = 0; lane < lanes; lane++) {
+                if (ray.tfar[lane] < 0.0f) continue;               /* blocked */
+                double *e = L_out + 3 * owner[lane];
+                for (int c = 0; c < 3; c++) e[c] += value[lane][c];
+            }
         }
         rays += lanes;
         lanes = 0;
@@ -256,7 +270,68 @@ typedef struct {
     int gather;                 /* 1: BSDF rays add the light they find (lamps, emitters, the world) */
     PathRays *continuing;       /* where BSDF rays that hit a surface are kept for a path, or NULL */
     const GraphTables *graphs;  /* the materials' node-graph programs, or NULL (a path shades its vertices) */
+    const Transmitter *transmitter;   /* transparent shadows, where some material lets light through; or NULL */
 } DirectSettings;
+
+/* What transparent shadows read (shadows.transmittance): the scene's queries, tables and materials. */
+struct Transmitter {
+    Intersect8 intersect;
+    void *scene;
+    const GeometryTables *geometry;
+    const MaterialRecord *materials;
+    const GraphTables *graphs;
+    int limit;                  /* the most transparent surfaces a shadow ray passes */
+};
+
+/* shadows.transmittance for up to 8 shadow rays (O, D, t: float64 origins, directions, lengths): T, the
+ * share of light each carries through the transparent surfaces it passes (0 where something opaque, or
+ * more than tr->limit surfaces, is in the way). */
+INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D[][3], const double *t,
+                            double T[][3])
+{
+    double origin[PACKET][3], left[PACKET];
+    int alive[PACKET];
+    for (int l = 0; l < lanes; l++) {
+        for (int c = 0; c < 3; c++) { T[l][c] = 1.0; origin[l][c] = O[l][c]; }
+        left[l] = t[l];
+        alive[l] = 1;
+    }
+    for (int passed = 0; passed <= tr->limit; passed++) {
+        RayHitPacket packet;
+        int valid[PACKET] ALIGNED(32), lane_of[PACKET], n = 0;
+        for (int l = 0; l < lanes; l++)
+            if (alive[l]) { set_lane(&packet.ray, n, origin[l], D[l], left[l]); lane_of[n++] = l; }
+        if (n == 0) return;
+        close_packet(&packet.ray, valid, n);
+        clear_hits(&packet);
+        tr->intersect(valid, tr->scene, &packet, NULL);
+        for (int k = 0; k < n; k++) {
+            int l = lane_of[k];
+            if (packet.hit.geomID[k] == INVALID_ID) { alive[l] = 0; continue; }
+            if (passed == tr->limit) { T[l][0] = T[l][1] = T[l][2] = 0.0; alive[l] = 0; continue; }
+            /* The surface passed: what its material lets through, seen along the ray. */
+            int64_t geometry = (int64_t)packet.hit.geomID[k], prim = (int64_t)packet.hit.primID[k];
+            int64_t instance = instance_of(&packet.hit, k);
+            double u = (double)packet.hit.u[k], v = (double)packet.hit.v[k];
+            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+            hit_triangle(tr->geometry, geometry, prim, instance, 1, &tri);
+            Surface s;
+            surface_at(origin[l], D[l], (double)packet.ray.tfar[k], u, v, &tri, 0, &s);
+            double wo[3] = {-D[l][0], -D[l][1], -D[l][2]}, storage[SHADER_STORAGE];
+            ShaderResult sd;
+            sd.storage = storage;
+            shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u, v,
+                      wo, &sd);
+            for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c];
+            /* On from just past that surface, for what is left of the way to the light. */
+            double side = dot3(s.Ng, D[l]) < 0.0 ? -1.0 : 1.0, travelled[3];
+            for (int c = 0; c < 3; c++) origin[l][c] = s.I[c] + (s.offset * side) * s.Ng[c];
+            for (int c = 0; c < 3; c++) travelled[c] = origin[l][c] - O[l][c];
+            left[l] = t[l] - dot3(travelled, D[l]);
+            alive[l] = T[l][0] > 0.0 || T[l][1] > 0.0 || T[l][2] > 0.0;
+        }
+    }
+}
 
 /* Direct light at the block's hits, added to H->L: every light's samples, BLOCK at a time. Returns the
  * shadow rays traced; embree_ticks[0] += the time inside Embree's occlusion queries. */
@@ -309,7 +384,7 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
                     if (H->traced[b.hit[k]])
                         b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
             uint64_t start = ticks();
-            rays += occlude_block(&b, ds->occluded, ds->scene, H->L);
+            rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter);
             embree += ticks() - start;
         }
     }

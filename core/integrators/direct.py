@@ -145,7 +145,12 @@ class DirectLighting(Integrator):
                     continue
                 # c. One shadow ray per lit sample, from a point safely off the surface.
                 rays = self.shadow_rays(s, surface, rows, ls, NL, NgL, offsets)
-                seen = shadows.visible(ctx.geometry.tracer, rays)
+                if ctx.extra.get("transparent", False):
+                    through = shadows.transmittance(ctx, rays, s.transparent_max_bounces)
+                    seen = through.any(axis=1)
+                else:
+                    seen = shadows.visible(ctx.geometry.tracer, rays)
+                    through = seen[:, None].astype(np.float64)
                 recorder.shadow_rays(index, count, rows, rays, seen)
                 shadow_rays += len(rows)
                 # d. What gets through: f cos (the closures at L) E_normal / count, coloured by the
@@ -159,7 +164,7 @@ class DirectLighting(Integrator):
                     mis_weight = np.where(mis[rows], power_heuristic(count * ls.pdf[rows], pdf_bsdf), 1.0)
                     weight = weight * mis_weight
                 color = ls.color if ls.color.ndim == 1 else ls.color[rows]
-                value = (weight[:, None] * color) * f_cos * seen[:, None]
+                value = (weight[:, None] * color) * f_cos * through
                 recorder.contribution(index, rows, value, mis_weight)
                 L_out[rows] += value
         # 2. The light one BSDF-sampled direction finds (lamps with extent, emitters, the world).

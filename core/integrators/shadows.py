@@ -150,6 +150,40 @@ def visible(tracer, rays: ShadowRays) -> np.ndarray:
     return ~tracer.occluded(rays.origins, rays.directions, rays.t_max)
 
 
+def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
+    """The share of light (n, 3) float64 a shadow ray carries through transparent surfaces (Cycles'
+    transparent shadows): the product of the transparency of each surface it passes, 0 where an opaque
+    surface blocks it or where it would pass more than `limit` of them."""
+    from ..geometry.surface import surface_at_hits
+    n = len(rays.origins)
+    T = np.ones((n, 3))
+    O, D, t = rays.origins.copy(), rays.directions, rays.t_max.copy()
+    alive = np.arange(n)
+    for passed in range(limit + 1):
+        found = ctx.geometry.tracer.intersect(O[alive], D[alive], t[alive])
+        hit = np.flatnonzero(found.hit)
+        if len(hit) == 0:
+            break
+        rows = alive[hit]
+        if passed == limit:
+            T[rows] = 0.0
+            break
+        # The surface the ray passes: what its material lets through, seen along the ray.
+        surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
+                                  found.t[hit])
+        shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry)
+        T[rows] *= shader.transparency
+        # On from just past that surface, for what is left of the way to the light.
+        step = error_bound(surface.I, surface.vertices)
+        side = np.where(np.einsum("ij,ij->i", surface.Ng, D[rows]) < 0.0, -1.0, 1.0)
+        O[rows] = surface.I + (step * side)[:, None] * surface.Ng
+        t[rows] = rays.t_max[rows] - np.einsum("ij,ij->i", O[rows] - rays.origins[rows], D[rows])
+        alive = rows[(T[rows] > 0.0).any(axis=1)]
+        if len(alive) == 0:
+            break
+    return T
+
+
 def lift_terminator(surface, rows: np.ndarray, NL: np.ndarray, NgL: np.ndarray, cutoff: float) -> np.ndarray:
     """Return shadow-ray origins for the hits `rows`, lifted by the terminator fix on smooth triangles.
 
