@@ -245,3 +245,19 @@ def test_a_real_shadow_in_a_concave_crease_is_not_acne_however_close():
     np.testing.assert_allclose(result.aux["n_dot_l"][:, 20, 0], math.sin(math.radians(20.0)))   # rays were cast
     assert (column == 0.0).all()                 # the sun sets behind the wall: really shadowed
     assert not result.aux["acne"].any()
+
+
+def test_debug_buffers_render_where_bsdf_rays_find_lights():
+    """Debug buffers (the reference path with the debug recorder) on a scene whose area light BSDF rays find:
+    every buffer comes back, finite, and the image equals the render without them."""
+    import dataclasses
+    from test_compiled import LIGHTS, lit_scene
+    from core import render
+    from core.scene import RenderSettings
+    from core.teaching.debug import AUX_BUFFERS
+    scene = lit_scene(LIGHTS["area_rect"])
+    settings = RenderSettings(width=16, height=12, samples=2, kernels="numpy")
+    plain = render.render(scene, settings)
+    with_aux = render.render(scene, dataclasses.replace(settings, aux=tuple(AUX_BUFFERS)))
+    np.testing.assert_allclose(with_aux.image, plain.image, rtol=1e-6, atol=1e-7)
+    assert all(np.isfinite(np.asarray(v)).all() for v in with_aux.aux.values())

@@ -181,14 +181,14 @@ class DebugRecorder:
         m = 0 if surface is None else len(surface.I)
         self.D_hit = D[hit]
         self.n_dot_l, self.visibility = np.zeros((m, self.k)), np.zeros((m, self.k))
-        self.rays, self.acne = np.zeros(m), np.zeros(m)
+        self.shadow_ray_count, self.acne = np.zeros(m), np.zeros(m)
 
     def light_sample(self, light, count, sample, NL, NgL, cosine, face_allows, lit) -> None:
         self.n_dot_l[:, light] += cosine / count
 
     def shadow_rays(self, light, count, rows, rays, seen) -> None:
         self.visibility[rows, light] += seen / count
-        self.rays[rows] += 1.0
+        self.shadow_ray_count[rows] += 1.0
         if "acne" in self.wanted:
             blocked = np.flatnonzero(~seen)
             self.acne[rows[blocked]] += self_intersections(
@@ -241,10 +241,10 @@ class DebugRecorder:
         sums = {}
         for name in self.wanted - {"time"}:              # "time" is measured around the chunk
             if name == "rays":
-                sums[name] = (traced_per_pixel + (total(self.rays)[:, 0] if hit else 0.0))[:, None]
+                sums[name] = (traced_per_pixel + (total(self.shadow_ray_count)[:, 0] if hit else 0.0))[:, None]
             elif name == "acne":
                 sums[name] = total(self.acne) if hit else np.zeros((p, 1))
-                sums[ACNE_CAST] = total(self.rays) if hit else np.zeros((p, 1))
+                sums[ACNE_CAST] = total(self.shadow_ray_count) if hit else np.zeros((p, 1))
             elif not hit:
                 sums[name] = np.zeros((p, self.k if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]))
             else:
