@@ -255,7 +255,9 @@ def test_debug_buffers_render_where_bsdf_rays_find_lights():
     from core import render
     from core.scene import RenderSettings
     from core.teaching.debug import AUX_BUFFERS
+    from core.lights import World
     scene = lit_scene(LIGHTS["area_rect"])
+    scene.world = World(color=np.array([0.1, 0.1, 0.1]), camera=True, lights=True)    # BSDF rays at every hit
     settings = RenderSettings(width=16, height=12, samples=2, kernels="numpy")
     plain = render.render(scene, settings)
     with_aux = render.render(scene, dataclasses.replace(settings, aux=tuple(AUX_BUFFERS)))

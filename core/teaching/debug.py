@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..integrators.base import Recorder
+
 # How far above the plane a shadow ray leaves a blocker may rise and still count as lying in it
 # (so that hitting it needs rounding: acne), as a fraction of the scene's bounding-box diagonal.
 SELF_HIT_FRACTION = 1e-5
@@ -159,7 +161,7 @@ def aux_channels(names, lights: int) -> dict:
     return channels
 
 
-class DebugRecorder:
+class DebugRecorder(Recorder):
     """Keeps, for a batch of camera rays, the values the debug buffers show (core/integrators/base.py Recorder).
 
     Made per chunk by core/render.py; `pixel_sums` then sums them per pixel, over the samples that hit
