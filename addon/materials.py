@@ -536,6 +536,10 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             out.append(("TRANSPARENT", weight * np.maximum(color, 0.0), {}, list(factors)))
     elif kind == "ShaderNodeHoldout":
         reader.warn(node, "Holdout is not supported yet; Primer leaves this part black")
+    elif kind.startswith("ShaderNodeVolume"):
+        # A volume closure at a Surface socket: Cycles renders nothing of it on the surface.
+        reader.warn(node, f"'{node.bl_label}' is a volume shader; at a surface it adds nothing (as in Cycles), and "
+                          "Primer renders no volumes")
     else:
         color = node.inputs.get("Color") or node.inputs.get("Base Color")
         reader.warn(node, f"'{node.bl_label}' is not a shader node Primer knows; "
