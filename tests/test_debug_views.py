@@ -263,3 +263,7 @@ def test_debug_buffers_render_where_bsdf_rays_find_lights():
     with_aux = render.render(scene, dataclasses.replace(settings, aux=tuple(AUX_BUFFERS)))
     np.testing.assert_allclose(with_aux.image, plain.image, rtol=1e-6, atol=1e-7)
     assert all(np.isfinite(np.asarray(v)).all() for v in with_aux.aux.values())
+    # And on a path (the debug buffers keep the camera's hits; later vertices are not theirs).
+    path = dataclasses.replace(settings, integrator="path", max_bounces=2)
+    traced = render.render(scene, dataclasses.replace(path, aux=tuple(AUX_BUFFERS)))
+    np.testing.assert_allclose(traced.image, render.render(scene, path).image, rtol=1e-6, atol=1e-7)

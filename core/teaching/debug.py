@@ -184,11 +184,19 @@ class DebugRecorder(Recorder):
         self.D_hit = D[hit]
         self.n_dot_l, self.visibility = np.zeros((m, self.k)), np.zeros((m, self.k))
         self.shadow_ray_count, self.acne = np.zeros(m), np.zeros(m)
+        self.vertex = 0                      # a path's later vertices are not the camera's hits: not kept
+
+    def path_vertex(self, vertex, owner, surface, throughput, L) -> None:
+        self.vertex = vertex + 1
 
     def light_sample(self, light, count, sample, NL, NgL, cosine, face_allows, lit) -> None:
+        if self.vertex > 0:
+            return
         self.n_dot_l[:, light] += cosine / count
 
     def shadow_rays(self, light, count, rows, rays, seen) -> None:
+        if self.vertex > 0:
+            return
         self.visibility[rows, light] += seen / count
         self.shadow_ray_count[rows] += 1.0
         if "acne" in self.wanted:
