@@ -84,6 +84,7 @@ class NodeReader:
 
     def __init__(self, material, warnings: list, kind: str = "material"):
         self.material, self.warnings, self.kind = material, warnings, kind
+        self.path: tuple = ()          # the group nodes the shader nodes being read sit inside
 
     def warn(self, node, text: str) -> None:
         """A warning naming the material (or light) and node."""
@@ -99,12 +100,13 @@ class NodeReader:
             return default
         return own_value(socket)
 
-    def input(self, node, name: str, default, path: tuple = ()):
-        """An input as the core reads it: its own value, or a graph.Link to the sub-graph feeding it."""
+    def input(self, node, name: str, default, path: tuple = None):
+        """An input as the core reads it: its own value, or a graph.Link to the sub-graph feeding it
+        (`path`: the group nodes it sits inside, default the ones being read)."""
         socket = node.inputs.get(name) or next((s for s in node.inputs if s.identifier == name), None)
         if socket is None:
             return default
-        return self.graph.socket(socket, path)
+        return self.graph.socket(socket, self.path if path is None else path)
 
     @property
     def graph(self) -> "GraphReader":
@@ -464,6 +466,22 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         for socket, share in ((node.inputs[1], 1.0 - fac), (node.inputs[2], fac)):
             if socket.is_linked:
                 _collect(reader, socket.links[0].from_node, weight * share, out, factors)
+    elif kind == "ShaderNodeGroup" and node.node_tree is not None:
+        # A node group whose output is a shader: the shader nodes inside it, their inputs read in the group.
+        outputs = [n for n in node.node_tree.nodes if n.bl_idname == "NodeGroupOutput"]
+        inner = next((n for n in outputs if getattr(n, "is_active_output", False)), outputs[0] if outputs else None)
+        socket = next((s for s in inner.inputs if s.type == "SHADER" and s.is_linked), None) if inner else None
+        if socket is None:
+            reader.warn(node, "the group gives no shader; Primer leaves this part black")
+            return
+        reader.path += (node,)
+        try:
+            _collect(reader, socket.links[0].from_node, weight, out, factors)
+        finally:
+            reader.path = reader.path[:-1]
+    elif kind == "ShaderNodeBsdfSheen":
+        reader.warn(node, "Sheen BSDF is not modelled yet; Primer leaves this part black (a sheen reflects little "
+                          "light)")
     elif kind == "ShaderNodeAddShader":
         for socket in (node.inputs[0], node.inputs[1]):
             if socket.is_linked:
