@@ -56,31 +56,16 @@ class DirectLighting(Integrator):
 
     def radiance(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, pixel: np.ndarray,
                  sample: np.ndarray, recorder: Recorder) -> Radiance:
-        s = ctx.settings
-        n = len(O)
         if ctx.extra.get("transparent", False):
             # Rays go on through transparent surfaces (Cycles' transparent bounces, apart from Max Bounces 0):
             # the path tracer with no bounces but those (core/integrators/path.py).
             from .path import PathTracing
             return PathTracing(direct_only=True).radiance(ctx, O, D, t_max, pixel, sample, recorder)
-        # 1. The nearest hit of each camera ray (t), and the surface there: I, Ng, N.
-        found = ctx.geometry.tracer.intersect(O, D, t_max)
-        hit = np.flatnonzero(found.hit)
-        # 2. What rays that hit nothing see: the world, where it is visible to the camera.
-        L_out = np.zeros((n, 3))
-        world = ctx.extra.get("world_light")
-        if world is not None and world.camera and not s.transparent_background:
-            missed = np.flatnonzero(~found.hit)
-            L_out[missed] = world.radiance(D[missed])
-        # 3. Lamps seen by the camera in front of what it hits (area lights, round lights).
-        L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
-        if len(hit) == 0:
-            recorder.hits(O, D, None, found.hit)
+        # 1-3. The camera rays' hits and surfaces, the world where they escape, the lamps they pass.
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder)
+        if surface is None:
             return Radiance(L_out, found.hit, 0)
         D_hit = vectors.gather(D, hit)
-        surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit],
-                                  vectors.gather(O, hit), D_hit, found.t[hit], flat_only=not s.smooth_normals)
-        recorder.hits(O, D, surface, found.hit)
         # 4. The light each hit sends towards the camera.
         L_hit, shadow_rays, _ = self.shade(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder)
         L_out[hit] += L_hit
@@ -328,6 +313,32 @@ def light_numbers(ctx: Context, light, index: int, pixel: np.ndarray, number: np
         return u
     pick = sampling.sample_2d(ctx.settings.seed, pixel, number, dimension=dimension + 2)[:, :1]
     return np.concatenate([u, pick], axis=1)
+
+
+def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, recorder: Recorder) -> tuple:
+    """What camera rays O, D (n, 3) up to t_max (n,) meet: (L (n, 3) the world where they escape, where the
+    camera sees it, plus the lamps with extent they pass; the tracer's hits; the hit rows (m,) int64; the
+    hits' Surface, or None when nothing was hit)."""
+    s = ctx.settings
+    # 1. The nearest hit of each camera ray (t).
+    found = ctx.geometry.tracer.intersect(O, D, t_max)
+    hit = np.flatnonzero(found.hit)
+    # 2. What rays that hit nothing see: the world, where it is visible to the camera.
+    L_out = np.zeros((len(O), 3))
+    world = ctx.extra.get("world_light")
+    if world is not None and world.camera and not s.transparent_background:
+        missed = np.flatnonzero(~found.hit)
+        L_out[missed] = world.radiance(D[missed])
+    # 3. Lamps seen by the camera in front of what it hits (area lights, round lights).
+    L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
+    if len(hit) == 0:
+        recorder.hits(O, D, None, found.hit)
+        return L_out, found, hit, None
+    # The surface at each hit: I, Ng, N.
+    surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit),
+                              vectors.gather(D, hit), found.t[hit], flat_only=not s.smooth_normals)
+    recorder.hits(O, D, surface, found.hit)
+    return L_out, found, hit, surface
 
 
 def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> np.ndarray:

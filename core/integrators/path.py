@@ -37,7 +37,7 @@ from .. import vectors
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from .base import Context, Radiance, Recorder
-from .direct import DirectLighting, lamps_seen
+from .direct import DirectLighting, camera_hits
 
 # Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
 VERTEX_DIMENSIONS = 1 << 16
@@ -71,23 +71,11 @@ class PathTracing(DirectLighting):
     def radiance(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, pixel: np.ndarray,
                  sample: np.ndarray, recorder: Recorder) -> Radiance:
         s = ctx.settings
-        n = len(O)
         # 1. The camera rays: what they hit, the world where they escape, the lamps they pass.
-        found = ctx.geometry.tracer.intersect(O, D, t_max)
-        hit = np.flatnonzero(found.hit)
-        L_out = np.zeros((n, 3))
-        world = ctx.extra.get("world_light")
-        if world is not None and world.camera and not s.transparent_background:
-            missed = np.flatnonzero(~found.hit)
-            L_out[missed] = world.radiance(D[missed])
-        L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
-        if len(hit) == 0:
-            recorder.hits(O, D, None, found.hit)
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder)
+        if surface is None:
             return Radiance(L_out, found.hit, 0)
         D_hit = vectors.gather(D, hit)
-        surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit],
-                                  vectors.gather(O, hit), D_hit, found.t[hit], flat_only=not s.smooth_normals)
-        recorder.hits(O, D, surface, found.hit)
         # 2. The path's vertices, one batch per bounce: the camera's hits first.
         owner = hit                                  # the camera ray each path belongs to
         throughput = np.ones((len(hit), 3))

@@ -25,7 +25,6 @@ from typing import ClassVar
 import numpy as np
 
 from .. import materials as materials_
-from .. import vectors
 from ..geometry.surface import surface_at_hits
 from ..materials import glass as glass_
 from ..materials import microfacet as mf
@@ -63,6 +62,7 @@ class WhittedTracing(DirectLighting):
         shadow_rays = 0
         world = ctx.extra.get("world_light")
         depth = 0
+        crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
         while len(owner):
             # 1. The rays of this depth: what they hit; the world and lamps where they escape or pass.
             found = ctx.geometry.tracer.intersect(O, D, t_max)
