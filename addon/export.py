@@ -408,11 +408,17 @@ def export_world(world, warnings: list) -> World:
         if output is None or not output.inputs["Surface"].is_linked:
             return World(color=np.zeros(3), camera=True, lights=False)
         node = output.inputs["Surface"].links[0].from_node
+        environment = _environment(world, node, warnings)
+        if environment is not None:
+            image, strength, rotation = environment
+            return World(color=np.zeros(3), image=image, strength=strength, rotation=rotation,
+                         camera=_world_visibility(world, warnings)[0], lights=_world_visibility(world, [])[1])
         if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
                 and not node.inputs["Strength"].is_linked:
             color = np.array(node.inputs["Color"].default_value[:3], np.float64) * float(node.inputs["Strength"].default_value)
         else:
-            warnings.append("the world shader is not a plain Background colour; Primer uses the world's viewport colour")
+            warnings.append("the world shader is not a plain Background colour or an Environment Texture; Primer "
+                            "uses the world's viewport colour")
     camera = visibility is None or bool(visibility.camera)
     diffuse = visibility is None or bool(visibility.diffuse)
     glossy = visibility is None or bool(visibility.glossy)
@@ -420,6 +426,64 @@ def export_world(world, warnings: list) -> World:
         warnings.append("the world's Diffuse and Glossy ray visibility differ; Primer lets it light every surface "
                         "when Diffuse is on and none when it is off")
     return World(color=color, camera=camera, lights=diffuse)
+
+
+def _world_visibility(world, warnings: list) -> tuple:
+    """(camera, lights): whether camera rays see the world and whether it lights surfaces."""
+    visibility = getattr(world, "cycles_visibility", None)
+    camera = visibility is None or bool(visibility.camera)
+    diffuse = visibility is None or bool(visibility.diffuse)
+    return camera, diffuse
+
+
+def _environment(world, background, warnings: list):
+    """An equirectangular Environment Texture at the Background's Color, as (image (H, W, 3) float32 linear,
+    strength, world-to-texture rotation (3, 3)), or None where the world is something else. A Mapping node
+    between (Texture Coordinate Generated or none) gives the rotation; scale and location are noted."""
+    if background.bl_idname != "ShaderNodeBackground" or not background.inputs["Color"].is_linked:
+        return None
+    texture = background.inputs["Color"].links[0].from_node
+    if texture.bl_idname != "ShaderNodeTexEnvironment":
+        return None
+    if background.inputs["Strength"].is_linked:
+        warnings.append("the world's Background Strength is linked; Primer uses its own value")
+    strength = float(background.inputs["Strength"].default_value)
+    if getattr(texture, "projection", "EQUIRECTANGULAR") != "EQUIRECTANGULAR":
+        warnings.append(f"the world's Environment Texture uses projection {texture.projection}; Primer reads it "
+                        "as equirectangular")
+    rotation = np.eye(3)
+    vector = texture.inputs["Vector"]
+    if vector.is_linked:
+        mapping = vector.links[0].from_node
+        if mapping.bl_idname == "ShaderNodeMapping":
+            angles = np.array(mapping.inputs["Rotation"].default_value[:3], np.float64)
+            rotation = _euler_xyz(angles)
+            scale = np.array(mapping.inputs["Scale"].default_value[:3])
+            if mapping.inputs["Location"].is_linked or mapping.inputs["Rotation"].is_linked \
+                    or not np.allclose(scale, 1.0) or getattr(mapping, "vector_type", "POINT") not in ("POINT", "VECTOR"):
+                warnings.append("the world's Mapping node has scale, links or a type Primer does not read; Primer "
+                                "uses its rotation only")
+        elif mapping.bl_idname != "ShaderNodeTexCoord":
+            warnings.append(f"the world's Environment Texture reads '{mapping.bl_label}'; Primer uses the direction")
+    reader = materials_.NodeReader(world, warnings, kind="world")
+    image = materials_.load_image(texture.image, reader, texture)
+    if image is None:
+        return None
+    pixels = np.asarray(image.pixels, np.float32)[:, :, :3]
+    if image.srgb:
+        from ..core.film import image_io
+        pixels = image_io.srgb_to_linear(pixels.astype(np.float64)).astype(np.float32)
+    return np.ascontiguousarray(pixels), strength, rotation
+
+
+def _euler_xyz(angles: np.ndarray) -> np.ndarray:
+    """The rotation matrix of Blender's XYZ Euler angles (radians): Rz @ Ry @ Rx."""
+    cx, cy, cz = np.cos(angles)
+    sx, sy, sz = np.sin(angles)
+    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return Rz @ Ry @ Rx
 
 
 def frame_size(render) -> tuple:
@@ -542,11 +606,11 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     camera = export_camera(camera_eval)
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
+    materials_.begin_export()
     world = export_world(scene.world, warnings)
     core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world,
                             default_material=DEFAULT_SURFACE)
     materials = MaterialTable()
-    materials_.begin_export()
     override = getattr(depsgraph.view_layer_eval, "material_override", None)
     mesh_index: dict = {}
     ray_visibility_noted: set = set()
@@ -600,7 +664,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random))
 
     core.materials = materials.materials
-    if not core.lights:
+    world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0)
+    emits = any(float(np.max(m.emission)) > 0.0 or m.nodes for m in core.materials)
+    if not core.lights and not world_lights and not emits:
         warnings.append("the scene has no lights: only the world colour will be visible")
     width, height = frame_size(scene.render)
     border = border_rectangle(scene.render, width, height)

@@ -235,3 +235,38 @@ def test_renders_keep_the_heap_warm_until_blender_is_idle(primer, tmp_path):
     memory._idle_since -= engine.RELEASE_AFTER
     engine.release_memory_when_idle()
     assert not memory.is_warm() and memory._idle_since is None
+
+
+def test_an_environment_texture_world_is_exported_and_lights_the_plane(primer, tmp_path):
+    """A world made of an Environment Texture (a constant 16 x 8 image of (0.5, 0.25, 0.125)) through a Mapping
+    node turned 30 degrees about Z, at Background Strength 2: Primer reads the image, its strength and the
+    rotation, and the grey Lambert plane (albedo 0.8) under it shows 0.8 x 2 x the image's colour."""
+    import math
+    scene = new_scene(light=False)
+    scene.primer.samples = 64
+    world = bpy.data.worlds.new("Sky")
+    scene.world = world
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    tree = world.node_tree
+    background = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBackground")
+    background.inputs["Strength"].default_value = 2.0
+    image = bpy.data.images.new("Sky", 16, 8, float_buffer=True)
+    image.pixels.foreach_set([0.5, 0.25, 0.125, 1.0] * (16 * 8))
+    texture = tree.nodes.new("ShaderNodeTexEnvironment")
+    texture.image = image
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(30.0))
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    tree.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], texture.inputs["Vector"])
+    tree.links.new(texture.outputs["Color"], background.inputs["Color"])
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    sky = exported.scene.world
+    assert sky.image is not None and sky.image.shape == (8, 16, 3) and sky.strength == 2.0
+    np.testing.assert_allclose(sky.rotation[:2, :2], [[math.cos(math.pi / 6), -0.5], [0.5, math.cos(math.pi / 6)]],
+                               atol=1e-12)
+    assert not [w for w in exported.warnings if "world" in w]
+    pixels = render_to(scene, str(tmp_path / "sky.exr"))[..., :3]
+    np.testing.assert_allclose(pixels.mean(axis=(0, 1)), 0.8 * 2.0 * np.array([0.5, 0.25, 0.125]), rtol=0.02)
