@@ -128,7 +128,7 @@ def own_value(socket):
 # Texture and colour nodes Primer evaluates: Blender's node -> core/materials/graph.py kind.
 GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", "ShaderNodeUVMap": "UVMAP",
                "ShaderNodeAttribute": "ATTRIBUTE", "ShaderNodeVertexColor": "ATTRIBUTE",
-               "ShaderNodeObjectInfo": "OBJECT_INFO", "ShaderNodeMapping": "MAPPING", "ShaderNodeNormalMap": "NORMAL_MAP",
+               "ShaderNodeObjectInfo": "OBJECT_INFO", "ShaderNodeLightPath": "LIGHT_PATH", "ShaderNodeMapping": "MAPPING", "ShaderNodeNormalMap": "NORMAL_MAP",
                "ShaderNodeBump": "BUMP", "ShaderNodeMath": "MATH", "ShaderNodeMix": "MIX", "ShaderNodeMixRGB": "MIX",
                "ShaderNodeValToRGB": "RAMP", "ShaderNodeInvert": "INVERT", "ShaderNodeHueSaturation": "HSV",
                "ShaderNodeSeparateColor": "SEPARATE_COLOR", "ShaderNodeSeparateRGB": "SEPARATE_COLOR",

@@ -270,3 +270,30 @@ def test_an_environment_texture_world_is_exported_and_lights_the_plane(primer, t
     assert not [w for w in exported.warnings if "world" in w]
     pixels = render_to(scene, str(tmp_path / "sky.exr"))[..., :3]
     np.testing.assert_allclose(pixels.mean(axis=(0, 1)), 0.8 * 2.0 * np.array([0.5, 0.25, 0.125]), rtol=0.02)
+
+
+def test_an_unlit_material_made_with_light_path_shows_its_colour_to_the_camera_only(primer, tmp_path):
+    """glTF's unlit material (KHR_materials_unlit as Blender imports it): a Mix Shader of Transparent and
+    Emission by Light Path > Is Camera Ray. The camera sees the emission colour exactly; the sun's shadow
+    rays pass it (transparent to them), so it casts no shadow on the floor below; no warning."""
+    scene = new_scene(width=8, height=6)
+    scene.view_layers[0].material_override = None
+    unlit = bpy.data.materials.new("Unlit")
+    if bpy.app.version < (5, 0, 0):
+        unlit.use_nodes = True
+    tree = unlit.node_tree
+    tree.nodes.clear()
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    mix, path = tree.nodes.new("ShaderNodeMixShader"), tree.nodes.new("ShaderNodeLightPath")
+    transparent, emission = tree.nodes.new("ShaderNodeBsdfTransparent"), tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (0.6, 0.3, 0.1, 1.0)
+    tree.links.new(path.outputs["Is Camera Ray"], mix.inputs["Fac"])
+    tree.links.new(transparent.outputs["BSDF"], mix.inputs[1])
+    tree.links.new(emission.outputs["Emission"], mix.inputs[2])
+    tree.links.new(mix.outputs["Shader"], output.inputs["Surface"])
+    scene.objects["Plane"].data.materials.append(unlit)
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    assert not [w for w in exported.warnings if "Light Path" in w]
+    pixels = render_to(scene, str(tmp_path / "unlit.exr"))[..., :3]
+    np.testing.assert_allclose(pixels, np.broadcast_to([0.6, 0.3, 0.1], pixels.shape), rtol=1e-5)

@@ -198,6 +198,7 @@ typedef struct {
     double L[9];        /* the object's linear transform, row-major */
     double dPdu[3], dPdv[3];
     double Ng[3];       /* the face normal, facing the viewer */
+    double ray;         /* which kind of ray found the hit (graph.RAY_*): the Light Path node asks */
 } ShadingPoint;
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with

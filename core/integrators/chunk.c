@@ -86,7 +86,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             H->sd[h].storage = H->storage[h];
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
-                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, H->sd + h);
+                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, RAY_CAMERA, H->sd + h);
             H->lane[h] = lane;
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];

@@ -31,6 +31,7 @@ from typing import ClassVar, NamedTuple
 import numpy as np
 
 from .. import materials as materials_
+from ..materials import graph as graph_
 from .. import vectors
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
@@ -73,7 +74,7 @@ class DirectLighting(Integrator):
 
     def shade(self, ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray,
               recorder: Recorder, dimension: int = 0, vertex: int = 0, trace_all: bool = False,
-              light_samples_only: bool = False):
+              light_samples_only: bool = False, ray=None):
         """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
         each traced hit sent out, or None).
 
@@ -81,12 +82,15 @@ class DirectLighting(Integrator):
         keys for its random numbers. A path (core/integrators/path.py) calls this at every vertex:
         `dimension` shifts its random numbers, vertices after the first leave their emission to the
         ray that found them (vertex > 0), and every hit traces its BSDF ray (trace_all). Whitted's tracer
-        lights every hit by light samples alone (light_samples_only: no BSDF ray, no MIS).
+        lights every hit by light samples alone (light_samples_only: no BSDF ray, no MIS). ray: which kind of ray
+        found the hits (graph.RAY_*, scalar or (m,); default: the camera's at vertex 0), for the Light Path node.
         """
         s = ctx.settings
         m = len(surface.I)
         # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
-        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry)
+        if ray is None:
+            ray = graph_.RAY_CAMERA if vertex == 0 else graph_.RAY_BOUNCE
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, ray)
         recorder.shader(shader)
         L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
         shadow_rays = 0

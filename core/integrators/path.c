@@ -72,7 +72,8 @@ INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, 
         }
         next->sd[m].storage = next->storage[m];
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
-                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m, next->sd + m);
+                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m,
+                  bounces == 0 ? RAY_CAMERA : RAY_BOUNCE, next->sd + m);   /* (through clear surfaces: still the camera's) */
         next->lane[m] = H->lane[h];
         next->pixel[m] = H->pixel[h];
         next->sample[m] = H->sample[h];

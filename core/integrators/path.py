@@ -33,6 +33,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import materials as materials_
+from ..materials import graph as graph_
 from .. import vectors
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
@@ -93,7 +94,8 @@ class PathTracing(DirectLighting):
             #    that led there), light samples, and the light its BSDF ray finds; then where that ray goes.
             dimension = vertex * VERTEX_DIMENSIONS
             L_vertex, rays, ray = self.shade(ctx, surface, wo, pixel[owner], sample[owner], recorder,
-                                             dimension, vertex, trace_all=True)
+                                             dimension, vertex, trace_all=True,
+                                             ray=np.where(bounce == 0, graph_.RAY_CAMERA, graph_.RAY_BOUNCE))
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
             recorder.path_vertex(vertex, owner, surface, throughput, L_vertex)

@@ -155,6 +155,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
     transparent shadows): the product of the transparency of each surface it passes, 0 where an opaque
     surface blocks it or where it would pass more than `limit` of them."""
     from ..geometry.surface import surface_at_hits
+    from ..materials import graph as graph_
     n = len(rays.origins)
     T = np.ones((n, 3))
     O, D, t = rays.origins.copy(), rays.directions, rays.t_max.copy()
@@ -171,7 +172,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
         # The surface the ray passes: what its material lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
-        shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry)
+        shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, graph_.RAY_SHADOW)
         T[rows] *= shader.transparency
         # On from just past that surface, for what is left of the way to the light.
         step = error_bound(surface.I, surface.vertices)

@@ -27,6 +27,7 @@ import numpy as np
 from .. import materials as materials_
 from ..geometry.surface import surface_at_hits
 from ..materials import glass as glass_
+from ..materials import graph as graph_
 from ..materials import microfacet as mf
 from .base import Context, Radiance, Recorder
 from .direct import DirectLighting, lamps_seen
@@ -88,12 +89,14 @@ class WhittedTracing(DirectLighting):
             wo = -D[hit]
             rows = owner[hit]
             L_hit, rays, _ = self.shade(ctx, surface, wo, pixel[rows], sample[rows], recorder,
-                                        dimension=depth * (1 << 16), vertex=0, light_samples_only=True)
+                                        dimension=depth * (1 << 16), vertex=0, light_samples_only=True,
+                                        ray=graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE)
             shadow_rays += rays
             np.add.at(L_out, rows, throughput[hit] * L_hit)
             recorder.path_vertex(depth, rows, surface, throughput[hit], L_hit)
             # 3. The specular closures' rays: a mirror's reflection, glass's reflection and refraction.
-            shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry)
+            shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry,
+                                         graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE)
             children = self.specular_rays(s, surface, shader, wo, throughput[hit], glossy[hit], transmission[hit])
             if children is None or depth + 1 > s.max_bounces:
                 break

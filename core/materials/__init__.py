@@ -244,7 +244,7 @@ class MaterialTable:
         return np.array([shader.emission.max() > 0.0 for shader in self.shaders])
 
     def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None,
-              geometry=None) -> ShaderResult:
+              geometry=None, ray=None) -> ShaderResult:
         """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3).
 
         surface, geometry: the hits' Surface and the WorldGeometry (core/geometry), which materials with node
@@ -267,6 +267,8 @@ class MaterialTable:
                 layout = geometry.attribute_layout if geometry is not None else {}
                 if point is None:
                     point = self.shading_point(surface, geometry, N)
+                    if ray is not None:                       # which ray found the hits (the Light Path node)
+                        point = point._replace(ray=np.broadcast_to(np.asarray(ray, np.float64), (n,)).copy())
                 part = type(point)(*(array[rows] for array in point))
                 results.append(shader.shade(N[rows], wo[rows], part, self.program(int(row), layout), self.textures,
                                             backfacing=None if backfacing is None else backfacing[rows]))

@@ -2,7 +2,8 @@
  * at one hit; its outputs overwrite the shader nodes' inputs, weights and normals before the setups. */
 
 enum { OP_ATTR = 0, OP_RANDOM, OP_IMAGE, OP_MAPPING, OP_MATH, OP_MIX_COLOR, OP_MIX_FLOAT, OP_RAMP, OP_INVERT, OP_HSV,
-       OP_COPY, OP_CLAMP, OP_MAP_RANGE, OP_NORMAL_MAP, OP_BUMP, OP_OFFSET, OP_CONVERT, OP_SCALE };
+       OP_COPY, OP_CLAMP, OP_MAP_RANGE, OP_NORMAL_MAP, OP_BUMP, OP_OFFSET, OP_CONVERT, OP_SCALE, OP_RAY };
+enum { RAY_CAMERA = 0, RAY_BOUNCE = 1, RAY_SHADOW = 2 };   /* graph.RAY_* */
 #define OP_WIDTH 12                 /* 1 + graph.OP_ARGS */
 #define MAX_REGISTERS 512           /* graph.MAX_REGISTERS */
 #define BUMP_STEP 1e-3              /* graph.BUMP_STEP */
@@ -231,6 +232,7 @@ INLINE void run_program(const GraphTables *G, int program, const ShadingPoint *s
             for (int j = 0; j < a[3]; j++) out[j] = (a[1] >= 0 && j < a[2]) ? attributes[a[1] + j] : 0.0;
             break;
         case OP_RANDOM: out[0] = sp->random; break;
+        case OP_RAY: out[0] = sp->ray == (double)a[1] ? 1.0 : 0.0; break;
         case OP_OFFSET:
             if (a[0] == 0) { attributes = sp->attributes; break; }
             for (int j = 0; j < sp->width; j++)

@@ -32,7 +32,10 @@ from . import textures as textures_
 
 # Op codes (graph.c OP_*), and the width of one op's record: the code and up to OP_ARGS arguments.
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
-       "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE")
+       "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY")
+# The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
+# that went on through transparent surfaces from it), any other ray of a path, a shadow ray.
+RAY_CAMERA, RAY_BOUNCE, RAY_SHADOW = 0, 1, 2
 OP = {name: code for code, name in enumerate(OPS)}
 OP_ARGS = 11
 # At most this many registers per program (graph.c MAX_REGISTERS), attribute floats per hit (MAX_ATTRIBUTES).
@@ -88,6 +91,7 @@ NODE_OUTPUTS = {
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "OBJECT_INFO": {"Random": (1, "float")},
+    "LIGHT_PATH": {"Is Camera Ray": (1, "float"), "Is Shadow Ray": (1, "float")},
     "IMAGE": {"Color": (3, "color"), "Alpha": (1, "float")},
     "MAPPING": {"Vector": (3, "vector")}, "NORMAL_MAP": {"Normal": (3, "vector")}, "BUMP": {"Normal": (3, "vector")},
     "MATH": {"Value": (1, "float")}, "MIX": {"Result": (3, "color")},
@@ -154,7 +158,8 @@ class ShadingPoint(NamedTuple):
     triangle's barycentric u and v (corner 1 - corner 0, corner 2 - corner 0); random: (n,) float64
     the object's random number; N: (n, 3) the shading normal facing the viewer; side: (n,) +1 where the
     front was hit, -1 the back; linear: (n, 3, 3) the object's linear transform (for tangents);
-    dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0; Ng: (n, 3) the face normal facing the viewer.
+    dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0; Ng: (n, 3) the face normal facing the viewer;
+    ray: (n,) which kind of ray found the hit (RAY_*; None: camera rays).
     """
 
     attributes: np.ndarray
@@ -167,6 +172,7 @@ class ShadingPoint(NamedTuple):
     dPdu: np.ndarray
     dPdv: np.ndarray
     Ng: np.ndarray
+    ray: np.ndarray = None     # (n,) float64 RAY_CAMERA, RAY_BOUNCE or RAY_SHADOW: which ray found the hit
 
 
 def has_links(nodes: list) -> bool:
@@ -350,6 +356,10 @@ class Compiler:
             out = self.temporary(1)
             self.emit("RANDOM", out)
             return out, 1, "float"
+        if kind == "LIGHT_PATH":
+            out = self.temporary(1)
+            self.emit("RAY", out, RAY_SHADOW if output == "Is Shadow Ray" else RAY_CAMERA)
+            return out, 1, "float"
         if kind == "IMAGE":
             vector = (self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link)
                       else self.attribute("uv:"))
@@ -510,6 +520,7 @@ REGISTER_ARGS = {
     "MIX_COLOR": {0, 2, 3, 4}, "MIX_FLOAT": {0, 1, 2, 3}, "RAMP": {0, 1}, "INVERT": {0, 1, 2},
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
+    "RAY": {0},
 }
 
 
@@ -673,6 +684,9 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
                 reg[:, i[0]:i[0] + i[3]] = 0.0
         elif name == "RANDOM":
             reg[:, i[0]] = sp.random
+        elif name == "RAY":
+            ray = np.full(n, float(RAY_CAMERA)) if sp.ray is None else sp.ray
+            reg[:, i[0]] = (ray == i[1]).astype(np.float64)
         elif name == "OFFSET":
             attributes = sp.attributes + (BUMP_STEP * sp.d_du if i[0] == 1 else BUMP_STEP * sp.d_dv if i[0] == 2
                                           else 0.0)

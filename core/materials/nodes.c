@@ -379,7 +379,7 @@ INLINE void shade_material(const MaterialRecord *m, const double *N, const doubl
  * ShadingPoint (triangles.c) and runs its program; any other material as shade_material. */
 INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const MaterialRecord *m, const Triangle *tri,
                       const Surface *s, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
-                      const double *wo, ShaderResult *sd)
+                      const double *wo, double ray, ShaderResult *sd)
 {
     if (m->graph == 0.0 || G == NULL) {
         shade_material(m, s->N, wo, s->backfacing, sd);
@@ -387,5 +387,6 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
     }
     ShadingPoint sp;
     shading_point_at(g, geometry, prim, instance, tri, s, u, v, &sp);
+    sp.ray = ray;
     shade_graph(G, m, &sp, s->N, wo, s->backfacing, sd);
 }
