@@ -274,8 +274,8 @@ def test_an_environment_texture_world_is_exported_and_lights_the_plane(primer, t
 
 def test_an_unlit_material_made_with_light_path_shows_its_colour_to_the_camera_only(primer, tmp_path):
     """glTF's unlit material (KHR_materials_unlit as Blender imports it): a Mix Shader of Transparent and
-    Emission by Light Path > Is Camera Ray. The camera sees the emission colour exactly; the sun's shadow
-    rays pass it (transparent to them), so it casts no shadow on the floor below; no warning."""
+    Emission by Light Path > Is Camera Ray. The camera sees the emission colour exactly; to every other ray
+    it is transparent, so it lights nothing (no emitter is made of it); no warning."""
     scene = new_scene(width=8, height=6)
     scene.view_layers[0].material_override = None
     unlit = bpy.data.materials.new("Unlit")
@@ -295,5 +295,8 @@ def test_an_unlit_material_made_with_light_path_shows_its_colour_to_the_camera_o
     export = sys.modules[primer.__name__ + ".addon.export"]
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
     assert not [w for w in exported.warnings if "Light Path" in w]
+    # Other surfaces see it transparent, so it is no light (Cycles evaluates it per ray: no emission).
+    render_module = sys.modules[primer.__name__ + ".core.render"]
+    assert render_module.prepare(exported.scene, exported.settings).extra["emitters"] is None
     pixels = render_to(scene, str(tmp_path / "unlit.exr"))[..., :3]
     np.testing.assert_allclose(pixels, np.broadcast_to([0.6, 0.3, 0.1], pixels.shape), rtol=1e-5)

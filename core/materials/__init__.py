@@ -148,7 +148,11 @@ class NodeShader:
             rows.append((node, weight, node.row(clean)))
             linked.append((node, weight, inputs, tuple(entry[3]) if len(entry) > 3 else ()))
         head_on = nodes_.shade_nodes(rows, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))
-        emission = np.maximum(head_on.emission[0], 0.0)
+        # The emission light samples use is what other surfaces see: a shader mixed by Light Path's Is Camera
+        # Ray shows the camera one part and every other ray the other (glTF's unlit materials emit nothing).
+        lit = [(node, weight * _bounce_factor(entry), p) for (node, weight, p), entry in zip(rows, linked)]
+        emission = np.maximum(nodes_.shade_nodes(lit, np.array([[0.0, 0.0, 1.0]]),
+                                                 np.array([[0.0, 0.0, 1.0]])).emission[0], 0.0)
         graph = linked if graph_.has_links(material.nodes) else None
         return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission),
                    graph)
@@ -180,6 +184,17 @@ class NodeShader:
         graph_.apply_outputs(program, registers, weights, rows, normals)
         glossy = [None if normal is None else graph_.valid_reflection(point.Ng, wo, normal) for normal in normals]
         return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing)
+
+
+def _bounce_factor(entry: tuple) -> float:
+    """The factor a node's Light Path Mix factors give it for rays other than the camera's: 0 where it is the
+    camera's side of such a Mix, 1 otherwise (other factors keep their inputs' own values, as before)."""
+    from . import graph as graph_
+    factor = 1.0
+    for value, mode in entry[3]:
+        if isinstance(value, graph_.Link) and value.node.kind == "LIGHT_PATH" and value.output == "Is Camera Ray":
+            factor *= 0.0 if mode == "fac" else (1.0 if mode == "one_minus" else factor)
+    return factor
 
 
 def shader_of(material: Material):
