@@ -268,3 +268,26 @@ def test_shadows_pass_transparent_surfaces_as_in_cycles(integrator, kernels):
     np.testing.assert_allclose(alpha, 0.7 * lit, rtol=1e-5)
     opaque = render.render(floor([("DIFFUSE", (0.5, 0.5, 0.5), {})]), settings).image[..., :3]
     assert not opaque.any()
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_light_found_through_a_transparent_surface_is_weighed_as_before_it(kernels):
+    """A sun with a 10-degree disk over a grey floor, a clear sheet of Alpha 0.5 between them (outside the
+    view, wide enough to cover the sun's whole disk): the floor shows albedo/pi x E x 0.5 in expectation. The sun is found both by light
+    samples (their shadow rays pass the sheet at half strength) and by BSDF rays that go on through it; the
+    latter must be weighed by MIS with the floor's own BSDF pdf (as Cycles does: a transparent bounce keeps
+    the last real bounce's pdf), or the light through the sheet is counted twice."""
+    from core.scene import SunLight
+    scene = Scene(camera=Camera(type="ORTHO", ortho_scale=1.0, matrix_world=np.array(
+        [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 5.0], [0, 0, 0, 1.0]])))
+    scene.materials.append(materials.Material((0.5, 0.5, 0.5), name="floor"))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(materials.Material(name="sheet", nodes=[("PRINCIPLED", (1, 1, 1), {"alpha": 0.5,
+                                                                                          "base_color": (0, 0, 0)})]))
+    scene.add_mesh(primitives.plane(3.0, center=(2.5, 0.0, 2.0)), materials=np.array([1]))
+    scene.lights.append(SunLight(np.array([-1.0, 0.0, -1.0]) / math.sqrt(2.0), strength=3.0, angle=math.radians(10)))
+    lit = 0.5 / math.pi * 3.0 * math.cos(math.radians(45))
+    for integrator in ("direct", "path"):         # (the sheet is black: no light bounces off it)
+        settings = RenderSettings(width=4, height=4, samples=512, integrator=integrator, kernels=kernels)
+        image = render.render(scene, settings).image[..., :3]
+        assert image.mean() == pytest.approx(0.5 * lit, rel=0.03), integrator

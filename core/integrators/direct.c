@@ -23,6 +23,7 @@ typedef struct {
     double throughput[3 * BLOCK];                /* a path's throughput at the hit (path.c; 1 at the camera's) */
     int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse, glossy and transmission bounces so far */
     int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
+    double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
 } BlockHits;
 
 /* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */
@@ -33,6 +34,7 @@ typedef struct {
     double weight[3];                            /* f cos / pdf of the sampled closures */
     int kind;                                    /* the sampled closure's BSDF kind */
     int transmit;                                /* 1: it went through the surface */
+    double pdf;                                  /* the pdf MIS weighs what it finds with (inf: none) */
 } PathRay;
 
 typedef struct {
@@ -452,6 +454,11 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             double t_limit = hit ? (double)packet.ray.tfar[k] : INFINITY;
             double pdf_b = s->delta ? INFINITY : s->pdf;
             int use_mis = ds->mis && !s->delta;
+            if (s->kind == BSDF_TRANSPARENT && ds->continuing != NULL) {
+                /* Straight through a transparent surface: still the last real bounce's ray (direct.bsdf_ray). */
+                pdf_b = H->mis_pdf[owner[k]];
+                use_mis = ds->mis && isfinite(pdf_b);
+            }
             double light_L[3] = {0.0, 0.0, 0.0};
             if (hit && ds->continuing != NULL) {
                 PathRay *r = ds->continuing->r + ds->continuing->n++;
@@ -464,6 +471,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->instance = instance_of(&packet.hit, k);
                 r->kind = s->kind;
                 r->transmit = dot3(H->s[owner[k]].Ng, D) < 0.0;
+                r->pdf = pdf_b;
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
             }
             if (!ds->gather) continue;

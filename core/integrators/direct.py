@@ -74,7 +74,7 @@ class DirectLighting(Integrator):
 
     def shade(self, ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray,
               recorder: Recorder, dimension: int = 0, vertex: int = 0, trace_all: bool = False,
-              light_samples_only: bool = False, ray=None):
+              light_samples_only: bool = False, ray=None, carried_pdf=None):
         """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
         each traced hit sent out, or None).
 
@@ -162,17 +162,20 @@ class DirectLighting(Integrator):
                                                      and traced.any())):
             gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
             found, ray = self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
-                                       dimension, gather)
+                                       dimension, gather, carried_pdf)
             L_out += found
         return L_out, shadow_rays, ray
 
     def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray,
-                 traced: np.ndarray, recorder: Recorder, dimension: int = 0, gather: bool = True):
+                 traced: np.ndarray, recorder: Recorder, dimension: int = 0, gather: bool = True,
+                 carried_pdf=None):
         """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
         The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
         world it escapes to, each weighed by MIS against that light's own samples (weight 1 for a constant
-        world); nothing unless `gather`. mis, traced: (m,) bool which hits weigh by MIS, which trace a ray."""
+        world); nothing unless `gather`. mis, traced: (m,) bool which hits weigh by MIS, which trace a ray.
+        carried_pdf: (m,) the pdf of the path's last real bounce (inf: the camera's), for rays that go on
+        through a transparent surface."""
         s = ctx.settings
         m = len(surface.I)
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
@@ -190,8 +193,13 @@ class DirectLighting(Integrator):
         D = bs.wi[go]
         hits = ctx.geometry.tracer.intersect(O, D, np.full(len(go), np.inf))
         pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
+        # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
+        # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
+        clear = bs.kind[go] == materials_.Transparent.kind
+        if carried_pdf is not None and clear.any():
+            pdf_b = np.where(clear, carried_pdf[go], pdf_b)
         ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go],
-                      np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0)
+                      np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0, pdf_b)
         t_hit = np.where(hits.hit, hits.t, np.inf)
         for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
             if mask.any():
@@ -199,7 +207,7 @@ class DirectLighting(Integrator):
         if not gather:
             recorder.bsdf_sample(bs.wi, bs.pdf, found)
             return found, ray
-        use_mis = mis[go] & ~bs.delta[go]
+        use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
         light_L = np.zeros((len(go), 3))
         t_limit = np.where(hits.hit, hits.t, np.inf)
         # a. Lamps with extent in front of the hit (they never block, as in Cycles).
@@ -271,7 +279,8 @@ class BsdfRay(NamedTuple):
 
     rows (k,) int64 the hits that traced a ray; O, D (k, 3) their origins and unit directions; hits: the
     tracer's Hits of them; weight (k, 3) f cos / pdf; kind (k,) int32 the sampled closure's BSDF kind;
-    delta (k,) bool whether it was a delta closure; transmit (k,) bool whether it went through the surface
+    delta (k,) bool whether it was a delta closure; transmit (k,) bool whether it went through the surface;
+    pdf (k,) the pdf MIS weighs what the ray finds with (inf: none)
     """
 
     rows: np.ndarray
@@ -282,6 +291,7 @@ class BsdfRay(NamedTuple):
     kind: np.ndarray
     delta: np.ndarray
     transmit: np.ndarray
+    pdf: np.ndarray = None
 
 
 def wants_bsdf_ray(ctx: Context, shader) -> np.ndarray:

@@ -81,6 +81,7 @@ INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, 
         next->glossy[m] = g;
         next->transmission[m] = tr;
         next->transparent[m] = clear;
+        next->mis_pdf[m] = r->pdf;
         next->bounce[m] = bounces;
     }
 }
@@ -95,6 +96,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
     for (int64_t h = 0; h < H->m; h++) {
         H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
+        H->mis_pdf[h] = INFINITY;
     }
     BlockHits *current = H, *next = &work->a;
     for (int vertex = 0; current->m > 0; vertex++) {

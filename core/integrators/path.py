@@ -85,6 +85,7 @@ class PathTracing(DirectLighting):
         transmission = np.zeros(len(hit), np.int64)
         transparent = np.zeros(len(hit), np.int64)
         bounce = np.zeros(len(hit), np.int64)
+        mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
         max_bounces = 0 if self.direct_only else s.max_bounces
         wo = -D_hit
         shadow_rays = 0
@@ -95,7 +96,8 @@ class PathTracing(DirectLighting):
             dimension = vertex * VERTEX_DIMENSIONS
             L_vertex, rays, ray = self.shade(ctx, surface, wo, pixel[owner], sample[owner], recorder,
                                              dimension, vertex, trace_all=True,
-                                             ray=np.where(bounce == 0, graph_.RAY_CAMERA, graph_.RAY_BOUNCE))
+                                             ray=np.where(bounce == 0, graph_.RAY_CAMERA, graph_.RAY_BOUNCE),
+                                             carried_pdf=mis_pdf)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
             recorder.path_vertex(vertex, owner, surface, throughput, L_vertex)
@@ -134,6 +136,7 @@ class PathTracing(DirectLighting):
             throughput = next_throughput[keep]
             diffuse, glossy, transmission, transparent = d[keep], g[keep], tr[keep], tp[keep]
             bounce = bounces[keep]
+            mis_pdf = ray.pdf[keep]
             wo = -D_next
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays)

@@ -157,6 +157,17 @@ class NodeShader:
         return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission),
                    graph)
 
+    @property
+    def may_let_light_through(self) -> bool:
+        """Whether some hit may let light through: a Transparent node, or an alpha below 1 or fed by a link."""
+        from . import graph as graph_
+        if np.asarray(self.transparency).any():
+            return True
+        for node, _, inputs, _ in (self.graph or ()):
+            if node.name == "TRANSPARENT" or isinstance(inputs.get("alpha"), graph_.Link):
+                return True
+        return False
+
     def program(self, layout: dict, image_index, name: str = ""):
         """Its graph compiled for an attribute layout (core/materials/graph.py), once; None without links."""
         from . import graph as graph_

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 15
+#define PRIMER_ABI 16
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
