@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import bpy
 import numpy as np
 
 from ..core import scene as core_scene
@@ -400,6 +399,12 @@ def export_world(world, warnings: list) -> World:
     if world is None:
         return World(color=np.zeros(3), camera=True, lights=False)
     visibility = getattr(world, "cycles_visibility", None)
+    camera = visibility is None or bool(visibility.camera)
+    diffuse = visibility is None or bool(visibility.diffuse)
+    glossy = visibility is None or bool(visibility.glossy)
+    if diffuse != glossy:
+        warnings.append("the world's Diffuse and Glossy ray visibility differ; Primer lets it light every surface "
+                        "when Diffuse is on and none when it is off")
     color = np.array(world.color[:3], np.float64)
     tree = materials_.node_tree(world)
     if tree is not None:
@@ -411,29 +416,15 @@ def export_world(world, warnings: list) -> World:
         environment = _environment(world, node, warnings)
         if environment is not None:
             image, strength, rotation = environment
-            return World(color=np.zeros(3), image=image, strength=strength, rotation=rotation,
-                         camera=_world_visibility(world, warnings)[0], lights=_world_visibility(world, [])[1])
+            return World(color=np.zeros(3), image=image, strength=strength, rotation=rotation, camera=camera,
+                         lights=diffuse)
         if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
                 and not node.inputs["Strength"].is_linked:
             color = np.array(node.inputs["Color"].default_value[:3], np.float64) * float(node.inputs["Strength"].default_value)
         else:
             warnings.append("the world shader is not a plain Background colour or an Environment Texture; Primer "
                             "uses the world's viewport colour")
-    camera = visibility is None or bool(visibility.camera)
-    diffuse = visibility is None or bool(visibility.diffuse)
-    glossy = visibility is None or bool(visibility.glossy)
-    if diffuse != glossy:
-        warnings.append("the world's Diffuse and Glossy ray visibility differ; Primer lets it light every surface "
-                        "when Diffuse is on and none when it is off")
     return World(color=color, camera=camera, lights=diffuse)
-
-
-def _world_visibility(world, warnings: list) -> tuple:
-    """(camera, lights): whether camera rays see the world and whether it lights surfaces."""
-    visibility = getattr(world, "cycles_visibility", None)
-    camera = visibility is None or bool(visibility.camera)
-    diffuse = visibility is None or bool(visibility.diffuse)
-    return camera, diffuse
 
 
 def _environment(world, background, warnings: list):

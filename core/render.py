@@ -130,8 +130,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                  if light.hittable and light.kind in (0, 1, 3) and light.camera]
     world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0)
     ctx.extra["emissive"] = bool(materials.emissive.any())
-    ctx.extra["transparent"] = any(getattr(shader, "may_let_light_through", False)
-                                   or np.asarray(shader.transparency).any() for shader in materials.shaders)
+    ctx.extra["transparent"] = any(shader.may_let_light_through for shader in materials.shaders)
     ctx.extra["bsdf_rays"] = bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
     # Where BSDF rays are traced: at every hit where emitters or the world light the scene (only BSDF rays
     # find a constant world, and MIS is what samples emitters well); where only lamps with extent do, at

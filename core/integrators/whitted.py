@@ -29,6 +29,7 @@ from ..geometry.surface import surface_at_hits
 from ..materials import glass as glass_
 from ..materials import graph as graph_
 from ..materials import microfacet as mf
+from . import shadows
 from .base import Context, Radiance, Recorder
 from .direct import DirectLighting, lamps_seen
 
@@ -148,12 +149,7 @@ class WhittedTracing(DirectLighting):
         index, D, tp, g, t = index[keep], D[keep], tp[keep], g[keep], t[keep]
         # Each ray leaves from a point safely off the surface, on the side it goes to.
         side = np.where(np.einsum("ij,ij->i", surface.Ng[index], D) < 0.0, -1.0, 1.0)
-        step = (shadows_offsets(s, surface)[index] if s.shadow_method == "robust" else np.full(len(index), s.epsilon))
+        step = (shadows.error_bound(surface.I[index], surface.vertices[index]) if s.shadow_method == "robust"
+                else np.full(len(index), s.epsilon))
         O = surface.I[index] + (step * side)[:, None] * surface.Ng[index]
         return index, O, D / np.linalg.norm(D, axis=1)[:, None], tp, g, t
-
-
-def shadows_offsets(s, surface) -> np.ndarray:
-    """The robust offsets of the hits (shadows.error_bound)."""
-    from . import shadows
-    return shadows.error_bound(surface.I, surface.vertices)

@@ -106,6 +106,11 @@ class ConstantShader:
                    np.array([abs(color.mean())]), np.zeros((1, PARAMS)), emission, np.zeros(3),
                    emission_sides(material.emission_sampling, emission))
 
+    @property
+    def may_let_light_through(self) -> bool:
+        """Whether its hits let light through (a constant transparency)."""
+        return bool(np.asarray(self.transparency).any())
+
     def shade(self, N: np.ndarray, wo: Optional[np.ndarray] = None, backfacing=None) -> ShaderResult:
         """The ShaderResult at hits with shading normals N (n, 3) (the same from every direction wo)."""
         return constant_result(len(N), N, self.kinds, self.weights, self.sample_weights, self.params,
@@ -150,9 +155,12 @@ class NodeShader:
         head_on = nodes_.shade_nodes(rows, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))
         # The emission light samples use is what other surfaces see: a shader mixed by Light Path's Is Camera
         # Ray shows the camera one part and every other ray the other (glTF's unlit materials emit nothing).
-        lit = [(node, weight * _bounce_factor(entry), p) for (node, weight, p), entry in zip(rows, linked)]
-        emission = np.maximum(nodes_.shade_nodes(lit, np.array([[0.0, 0.0, 1.0]]),
-                                                 np.array([[0.0, 0.0, 1.0]])).emission[0], 0.0)
+        emitted = head_on.emission[0]
+        factors = [_bounce_factor(entry) for entry in linked]
+        if any(factor != 1.0 for factor in factors):
+            lit = [(node, weight * factor, p) for (node, weight, p), factor in zip(rows, factors)]
+            emitted = nodes_.shade_nodes(lit, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]])).emission[0]
+        emission = np.maximum(emitted, 0.0)
         graph = linked if graph_.has_links(material.nodes) else None
         return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission),
                    graph)
@@ -201,11 +209,11 @@ def _bounce_factor(entry: tuple) -> float:
     """The factor a node's Light Path Mix factors give it for rays other than the camera's: 0 where it is the
     camera's side of such a Mix, 1 otherwise (other factors keep their inputs' own values, as before)."""
     from . import graph as graph_
-    factor = 1.0
     for value, mode in entry[3]:
-        if isinstance(value, graph_.Link) and value.node.kind == "LIGHT_PATH" and value.output == "Is Camera Ray":
-            factor *= 0.0 if mode == "fac" else (1.0 if mode == "one_minus" else factor)
-    return factor
+        if (isinstance(value, graph_.Link) and value.node.kind == "LIGHT_PATH" and value.output == "Is Camera Ray"
+                and mode == "fac"):
+            return 0.0
+    return 1.0
 
 
 def shader_of(material: Material):

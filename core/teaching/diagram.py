@@ -67,7 +67,7 @@ class Diagram(NamedTuple):
 
 def scene_section(geometry, height: float) -> np.ndarray:
     """The triangles cut by the plane z = height (camera-relative): (k, 2, 2) float64 (x, y) segments."""
-    n = geometry.triangle_count if hasattr(geometry, "triangle_count") else len(geometry.triangles)
+    n = geometry.triangle_count
     corners = geometry.triangle_data(np.arange(n), smooth=False).corners if n else np.zeros((0, 3, 3))
     z = corners[:, :, 2] - height
     lines = []
