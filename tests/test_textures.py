@@ -220,6 +220,13 @@ def test_vertex_colours_are_interpolated_across_each_triangle(kernels):
     check_varying(scene, kernels, np.where(in_first[..., None], first, second))
 
 
+def test_a_graph_reading_two_outputs_of_one_texture_coordinate_node_asks_for_both_attributes():
+    coords = GraphNode("TEXCOORD", {}, {})
+    mixed = GraphNode("MIX", {"data_type": "RGBA", "blend_type": "MIX"},
+                      {"Factor": 0.5, "A": Link(coords, "UV"), "B": Link(coords, "Generated")})
+    assert graph.attributes_of(emitting(Link(mixed, "Result")).nodes) == {"uv:", "generated"}
+
+
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_object_random_differs_per_instance_as_cycles_hashes_object_names(kernels):
     random = GraphNode("OBJECT_INFO", {})

@@ -185,39 +185,42 @@ def has_links(nodes: list) -> bool:
     return False
 
 
+def links_under(nodes: list):
+    """Yield every Link a material's nodes reach (its inputs' and factors' links, and theirs, down the graph),
+    each node's inputs followed once, each (node, output) pair once."""
+    followed, given = set(), set()
+    stack = [value for entry in nodes for value in entry[2].values()]
+    stack += [link for entry in nodes for link, _ in (entry[3] if len(entry) > 3 else ())]
+    while stack:
+        value = stack.pop()
+        if not isinstance(value, Link):
+            continue
+        if (id(value.node), value.output) not in given:
+            given.add((id(value.node), value.output))
+            yield value
+        if id(value.node) not in followed:
+            followed.add(id(value.node))
+            stack.extend(value.node.inputs.values())
+
+
 def images_of(nodes: list) -> list:
     """The textures.Image objects (or None for missing ones) of every IMAGE node under a material's links."""
     found, seen = [], set()
-
-    def visit(value):
-        if not isinstance(value, Link) or id(value.node) in seen:
-            return
-        seen.add(id(value.node))
-        if value.node.kind == "IMAGE":
-            found.append(value.node.props.get("image"))
-        for child in value.node.inputs.values():
-            visit(child)
-
-    for entry in nodes:
-        for value in entry[2].values():
-            visit(value)
-        for link, _ in (entry[3] if len(entry) > 3 else ()):
-            visit(link)
+    for link in links_under(nodes):
+        if link.node.kind == "IMAGE" and id(link.node) not in seen:
+            seen.add(id(link.node))
+            found.append(link.node.props.get("image"))
     return found
 
 
 def attributes_of(nodes: list) -> set:
     """The mesh attribute names a material's links read ("uv:NAME", "color:NAME", "tangent:NAME",
     "generated", "object"; an empty NAME is the mesh's active one)."""
-    names, seen = set(), set()
-
-    def visit(value):
-        if not isinstance(value, Link) or id(value.node) in seen:
-            return
-        seen.add(id(value.node))
-        node = value.node
+    names = set()
+    for link in links_under(nodes):
+        node = link.node
         if node.kind == "TEXCOORD":
-            names.add({"UV": "uv:", "Generated": "generated", "Object": "object"}.get(value.output, "uv:"))
+            names.add({"UV": "uv:", "Generated": "generated", "Object": "object"}.get(link.output, "uv:"))
         elif node.kind == "UVMAP":
             names.add("uv:" + node.props.get("map", ""))
         elif node.kind == "ATTRIBUTE":
@@ -226,14 +229,6 @@ def attributes_of(nodes: list) -> set:
             names.add("tangent:" + node.props.get("map", ""))
         elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("uv:")
-        for child in node.inputs.values():
-            visit(child)
-
-    for entry in nodes:
-        for value in entry[2].values():
-            visit(value)
-        for link, _ in (entry[3] if len(entry) > 3 else ()):
-            visit(link)
     return names
 
 
