@@ -501,10 +501,6 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                 reader.warn(node, f"'{socket}' is linked; where it is above 0 Primer {instead}")
             elif not own.is_linked and float(np.max(reader.value(node, socket, 0.0))) > 0.0:
                 reader.warn(node, f"'{socket}' is above 0; Primer {instead}")
-        transmission, roughness = inputs.get("transmission", 0.0), inputs.get("roughness", 0.5)
-        if _linked(transmission) or float(np.max(transmission)) > 0.0:
-            if _linked(roughness) or float(np.max(roughness)) > 0.0:
-                reader.warn(node, "its transmission is rough (Roughness above 0); Primer renders it as smooth glass")
         coat_normal = node.inputs.get("Coat Normal")
         if coat_normal is not None and coat_normal.is_linked:
             reader.warn(node, "'Coat Normal' is linked; Primer gives the coat the surface's normal")
@@ -537,12 +533,15 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             inputs["color"] = color
             out.append(("GLOSSY", weight * color, inputs, list(factors)))
     elif kind in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
-        if float(reader.value(node, "Roughness", 0.0)) > 0.0:
-            reader.warn(node, "Roughness is above 0; Primer renders it as smooth glass")
-        out.append(("GLASS", weight, {"color": np.maximum(reader.value(node, "Color", np.ones(3)), 0.0),
-                                      "ior": float(reader.value(node, "IOR", 1.5)),
-                                      "refraction_only": 1.0 if kind == "ShaderNodeBsdfRefraction" else 0.0},
-                    list(factors)))
+        roughness = reader.input(node, "Roughness", 0.0)
+        distribution = getattr(node, "distribution", "GGX")
+        if distribution not in {"GGX", "MULTI_GGX"} and (_linked(roughness) or float(np.max(roughness)) > 0.0):
+            reader.warn(node, f"distribution {distribution} is not GGX; Primer uses GGX")
+        inputs = {"color": np.maximum(reader.value(node, "Color", np.ones(3)), 0.0),
+                  "ior": float(reader.value(node, "IOR", 1.5)),
+                  "refraction_only": 1.0 if kind == "ShaderNodeBsdfRefraction" else 0.0,
+                  "roughness": roughness, "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0}
+        out.append(("GLASS", weight, inputs, list(factors)))
     elif kind == "ShaderNodeEmission":
         emission = _scaled(reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0))
         out.append(("EMISSION", weight, {"emission": emission}, list(factors)))

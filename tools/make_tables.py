@@ -111,6 +111,48 @@ def ggx_schlick_s_half(size: int = 16) -> np.ndarray:
     return np.clip(table, 0.0, 1.0)
 
 
+def glass_weights(rough: float, mu: np.ndarray, eta: float, grid: int = GRID // 2) -> np.ndarray:
+    """Rough glass (dielectric Fresnel, relative index eta) seen from each mu (k,): the mean weight of its
+    samples over a grid of visible normals, reflection and refraction each counted with its Fresnel share
+    (so no third number is needed): F G2 / G1 where the reflected direction is above the surface, plus
+    (1 - F) G2 / G1 where the refracted one is below. Returns (k,)."""
+    u = square(grid)
+    g, k = len(u), len(mu)
+    alpha = rough * rough
+    if alpha * alpha <= mf.ROUGHNESS_SQ_THRESHOLD:
+        return np.ones(k)
+    wo = np.repeat(np.stack([np.sqrt(np.maximum(1.0 - mu * mu, 0.0)), np.zeros(k), mu], axis=1), g, axis=0)
+    H = mf.sample_visible_normal(wo, np.full(k * g, alpha), np.tile(u, (k, 1)))
+    cos_HO = np.einsum("ij,ij->i", H, wo)
+    F = mf.fresnel_dielectric(cos_HO, eta)
+    reflected = 2.0 * cos_HO[:, None] * H - wo
+    cos_t2 = 1.0 - (1.0 - cos_HO * cos_HO) / (eta * eta)
+    refracted = -wo / eta + (cos_HO / eta - np.sqrt(np.maximum(cos_t2, 0.0)))[:, None] * H
+    a2 = alpha * alpha
+    lambda_O = mf.lambda_ggx(a2, wo[:, 2])
+
+    def lobe(wi, valid):
+        G2_over_G1 = (1.0 + lambda_O) / (1.0 + lambda_O + mf.lambda_ggx(a2, np.abs(wi[:, 2])))
+        return np.where(valid, G2_over_G1, 0.0)
+    weight = F * lobe(reflected, reflected[:, 2] > 0.0) + (1.0 - F) * lobe(refracted, (refracted[:, 2] < 0.0) & (cos_t2 > 0.0))
+    return weight.reshape(k, g).mean(axis=1)
+
+
+def ggx_glass_E(inverse: bool, size: int = 16) -> tuple:
+    """(E[z][mu][rough] 16^3, Eavg[z][rough] 16^2) of rough glass entering (ior = ior_from_F0(z^4)) or, with
+    `inverse`, leaving it (relative index 1 / ior)."""
+    table, average = np.zeros((size, size, size)), np.zeros((size, size))
+    mus = clamp_axis(size)
+    mid = (np.arange(32) + 0.5) / 32
+    for z, zz in enumerate(clamp_axis(size, 1e-4, 0.99)):
+        ior = float(mf.ior_from_F0(zz ** 4))
+        eta = 1.0 / ior if inverse else ior
+        for x, rough in enumerate(clamp_axis(size)):
+            table[z, :, x] = glass_weights(rough, mus, eta)
+            average[z, x] = np.mean(2.0 * mid * glass_weights(rough, mid, eta, GRID // 4))
+    return np.clip(table, 0.0, 1.0), np.clip(average, 0.0, 1.0)
+
+
 def c_array(name: str, values: np.ndarray, comment: str) -> str:
     """One table as a C array of doubles, 8 numbers a line."""
     flat = np.asarray(values, np.float64).ravel()
@@ -128,6 +170,12 @@ def main() -> None:
                          "s[z][mu][rough], 16^3: blend from F0 to F90 of the dielectric curve, ior = ior_from_F0(z^4)"))
     parts.append(c_array("GGX_SCHLICK_S_HALF", ggx_schlick_s_half(),
                          "s[mu][rough], 16 x 16: blend of Schlick's curve, as read at z = 0.5 (exponent about 5)"))
+    for inverse, name in ((False, "GGX_GLASS"), (True, "GGX_GLASS_INV")):
+        E, E_avg = ggx_glass_E(inverse)
+        side = "leaving (relative index 1 / ior)" if inverse else "entering (relative index ior)"
+        parts.append(c_array(name + "_E", E, f"E[z][mu][rough], 16^3: albedo of rough glass {side}, "
+                                             "ior = ior_from_F0(z^4)"))
+        parts.append(c_array(name + "_EAVG", E_avg, f"Eavg[z][rough], 16^2: its cosine-weighted mean over mu"))
     with open(OUT, "w") as handle:
         handle.write("\n".join(parts))
     print(f"wrote {os.path.relpath(OUT, ROOT)}")

@@ -19,6 +19,7 @@ typedef struct {
     double t[BLOCK];                             /* each camera lane's ray length: its hit, or its t_max */
     uint8_t traced[BLOCK];                       /* 1: the hit traces a BSDF ray (direct.wants_bsdf_ray) */
     uint8_t lambert[BLOCK];                      /* 1: its material is one Lambert closure on the shading normal */
+    uint8_t through[BLOCK];                      /* 1: a closure refracts light from behind (direct.lets_light_through) */
     double albedo[3 * BLOCK];                    /* and that closure's weight */
     double throughput[3 * BLOCK];                /* a path's throughput at the hit (path.c; 1 at the camera's) */
     int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse, glossy and transmission bounces so far */
@@ -49,7 +50,7 @@ typedef struct {
     uint32_t pixel[BLOCK], index[BLOCK];         /* its random-number keys */
     double u[2][BLOCK];                          /* its point in the unit square */
     double P[3][BLOCK], N[3][BLOCK], Ng[3][BLOCK], lifted[3][BLOCK];
-    double offset[BLOCK], smooth[BLOCK];
+    double offset[BLOCK], smooth[BLOCK], through[BLOCK];
     double albedo[3][BLOCK], lambert[BLOCK];     /* the hit's one Lambert closure, where it has just that */
     double u2[BLOCK];                            /* a third number (an emitter's pick) */
     double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK], color[3][BLOCK], pdf[BLOCK];
@@ -79,6 +80,7 @@ SIMD_CLONES NOINLINE static void gather_block(SampleBlock *b, const BlockHits *H
         }
         b->offset[k] = s->offset;
         b->smooth[k] = s->smooth ? 1.0 : 0.0;
+        b->through[k] = H->through[i] ? 1.0 : 0.0;
         b->lambert[k] = H->lambert[i] ? 1.0 : 0.0;
         for (int c = 0; c < 3; c++) b->albedo[c][k] = H->albedo[3 * i + c];
         if (++j == count) { j = 0; i++; }
@@ -146,13 +148,17 @@ INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict se
         double n[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, ng[3] = {b->Ng[0][k], b->Ng[1][k], b->Ng[2][k]};
         double lifted[3] = {b->lifted[0][k], b->lifted[1][k], b->lifted[2][k]};
         double position[3] = {b->position[0][k], b->position[1][k], b->position[2][k]};
-        /* a. N.L > 0 and Ng.L > 0 (smooth points lifted by the terminator fix leave that to their ray). */
+        /* a. N.L > 0 and Ng.L > 0 (smooth points lifted by the terminator fix leave that to their ray); a
+         *    surface that lets light through from behind takes light from both sides, reached from behind
+         *    by a ray from its back (no lift). */
         double NL = dot3(n, L), NgL = dot3(ng, L);
-        double cosine = at_least(NL, 0.0);
-        int face_allows = (NgL > 0.0) | ((fix * b->smooth[k]) != 0.0);
+        int through = b->through[k] != 0.0, behind = through & (NgL < 0.0);
+        double cosine = through ? fabs(NL) : at_least(NL, 0.0);
+        int face_allows = (NgL > 0.0) | ((fix * b->smooth[k]) != 0.0) | through;
         b->keep[k] = (cosine != 0.0) & face_allows & (b->strength[k] > 0.0) ? 1.0 : 0.0;
+        if (behind) for (int c = 0; c < 3; c++) ng[c] = -ng[c];
         /* b. The ray, from I or the terminator fix's blend towards the lifted point (amount 0 elsewhere). */
-        double amount = (lifting * b->smooth[k]) != 0.0 ? terminator_amount(NL, NgL, cutoff) : 0.0;
+        double amount = (lifting * b->smooth[k]) != 0.0 && !behind ? terminator_amount(NL, NgL, cutoff) : 0.0;
         double origin[3], D[3], t;
         shadow_ray(P, ng, lifted, b->offset[k], amount, L, b->distance[k], position, robust, epsilon, origin, D, &t);
         for (int c = 0; c < 3; c++) { b->origin[c][k] = origin[c]; b->D[c][k] = D[c]; }
@@ -343,7 +349,12 @@ INLINE void choose_bsdf_rays(BlockHits *H, const DirectSettings *ds)
     for (int64_t h = 0; h < H->m; h++) {
         const ShaderResult *sd = H->sd + h;
         int glossy = 0;
-        for (int k = 0; k < sd->n; k++) glossy |= sd->c[k].kind != BSDF_LAMBERT;
+        int through = 0;
+        for (int k = 0; k < sd->n; k++) {
+            glossy |= sd->c[k].kind != BSDF_LAMBERT;
+            through |= sd->c[k].kind == BSDF_ROUGH_GLASS;
+        }
+        H->through[h] = (uint8_t)through;
         H->traced[h] = (uint8_t)(ds->bsdf_rays && (ds->everywhere || glossy));
         /* The common material, one Lambert closure on the shading normal, as columns bsdf_block reads. */
         const Closure *c = sd->c;

@@ -101,6 +101,8 @@ class DirectLighting(Integrator):
         if light_samples_only:
             traced = np.zeros(m, bool)
         mis = (traced & (s.light_sampling == "mis")) if ctx.extra.get("bsdf_rays", False) else np.zeros(m, bool)
+        # Hits whose closures let light through from behind (rough glass) sample lights on both sides.
+        refracts = lets_light_through(shader)
         for index, light in enumerate(ctx.lights):
             if (s.light_sampling == "bsdf" and not light_samples_only and not light.delta
                     and index in ctx.extra.get("hittable", ())):
@@ -122,8 +124,9 @@ class DirectLighting(Integrator):
                 NL = np.einsum("ij,ij->i", surface.N, ls.L)
                 NgL = np.einsum("ij,ij->i", surface.Ng, ls.L)
                 facing = NgL > 0.0 if s.visibility_normal == "face" else NL > 0.0
-                face_allows = facing | surface.smooth if s.terminator_fix else facing
+                face_allows = (facing | surface.smooth if s.terminator_fix else facing) | refracts
                 cosine = np.maximum(NL, 0.0) if s.clamp_n_dot_l else NL
+                cosine = np.where(refracts, np.abs(NL), cosine)
                 lit = (cosine != 0.0) & face_allows
                 if s.shadow_rays_for_backfacing:
                     lit[:] = True                     # cast them anyway, to count what the lecture saves
@@ -133,7 +136,7 @@ class DirectLighting(Integrator):
                 if len(rows) == 0:
                     continue
                 # c. One shadow ray per lit sample, from a point safely off the surface.
-                rays = self.shadow_rays(s, surface, rows, ls, NL, NgL, offsets)
+                rays = self.shadow_rays(s, surface, rows, ls, NL, NgL, offsets, refracts[rows] & (NgL[rows] < 0.0))
                 if ctx.extra.get("transparent", False):
                     through = shadows.transmittance(ctx, rays, s.transparent_max_bounces)
                     seen = through.any(axis=1)
@@ -255,8 +258,10 @@ class DirectLighting(Integrator):
         return found, ray
 
     @staticmethod
-    def shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.ndarray, offsets) -> shadows.ShadowRays:
-        """Return the shadow rays of the hits `rows` towards their light samples (robust or epsilon offsets)."""
+    def shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.ndarray, offsets,
+                    behind=None) -> shadows.ShadowRays:
+        """Return the shadow rays of the hits `rows` towards their light samples (robust or epsilon offsets);
+        behind (r,) bool: lights behind the face of a surface that lets light through, reached from its back."""
         I = surface.I[rows]
         Ng = surface.Ng[rows]
         if s.terminator_fix:
@@ -264,6 +269,9 @@ class DirectLighting(Integrator):
         elif s.shadow_rays_for_backfacing or s.visibility_normal != "face":
             # Switches that cast rays towards lights behind the face: offset to the light's side.
             Ng = Ng * np.where(NgL[rows] < 0.0, -1.0, 1.0)[:, None]
+        if behind is not None and behind.any():
+            I = np.where(behind[:, None], surface.I[rows], I)
+            Ng = np.where(behind[:, None], -surface.Ng[rows], Ng)
         if s.shadow_method == "robust":
             return shadows.robust_rays(I, Ng, offsets[rows], ls.position[rows], ls.L[rows], ls.distance[rows],
                                        s.reduce_t_max)
@@ -292,6 +300,12 @@ class BsdfRay(NamedTuple):
     delta: np.ndarray
     transmit: np.ndarray
     pdf: np.ndarray = None
+
+
+def lets_light_through(shader) -> np.ndarray:
+    """Which hits have a closure that refracts light arriving from behind the surface (rough glass): (m,) bool.
+    Their light samples come from both sides (smooth glass is a delta: only its BSDF rays find light)."""
+    return (shader.closures.kind == materials_.RoughGlass.kind).any(axis=1)
 
 
 def wants_bsdf_ray(ctx: Context, shader) -> np.ndarray:

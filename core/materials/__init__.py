@@ -23,9 +23,10 @@ from .glass import Glass
 from .lambert import Lambert
 from .microfacet import Microfacet
 from .mirror import Mirror
+from .rough_glass import RoughGlass
 from .transparent import Transparent
 
-BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent)
+BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass)
 BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
 
 assert all(cls.kind == index for index, cls in enumerate(BSDF_TYPES)), "a BSDF's kind is its place in BSDF_TYPES"
@@ -323,7 +324,7 @@ class MaterialTable:
 
 __all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",
            "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable",
-           "Glass", "Microfacet", "Mirror", "NodeShader", "PARAMS", "Transparent",
+           "Glass", "Microfacet", "Mirror", "NodeShader", "PARAMS", "RoughGlass", "Transparent",
            "ShaderResult", "eval_closures", "sample_closures"]
 
 

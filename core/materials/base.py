@@ -49,7 +49,8 @@ class BSDF:
     name:   the name a Material uses to choose it
     delta:  True for a perfectly specular BSDF (eval is 0; only `sample` finds its direction)
     params: the names of its parameters, in their slots of a closure's parameter row
-    Arguments: params (m, PARAMS) float64; N, wo, wi (m, 3) float64 unit; u (m, 2) float64 in [0, 1).
+    Arguments: params (m, PARAMS) float64; N, wo, wi (m, 3) float64 unit; u (m, 2) or (m, 3) float64 in
+    [0, 1): two numbers for the direction, and a third for a BSDF that chooses between lobes (rough glass).
     """
 
     kind: ClassVar[int] = -1

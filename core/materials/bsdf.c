@@ -9,6 +9,7 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
     case BSDF_MICROFACET: microfacet_eval(c, wo, wi, f_cos, pdf); break;
     case BSDF_GLASS: glass_eval(c, wo, wi, f_cos, pdf); break;
     case BSDF_TRANSPARENT: transparent_eval(c, wo, wi, f_cos, pdf); break;
+    case BSDF_ROUGH_GLASS: rough_glass_eval(c, wo, wi, f_cos, pdf); break;
     default: lambert_eval(c, wo, wi, f_cos, pdf); break;
     }
 }
@@ -20,6 +21,7 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     case BSDF_MICROFACET: microfacet_sample(c, wo, u, out); break;
     case BSDF_GLASS: glass_sample(c, wo, u, out); break;
     case BSDF_TRANSPARENT: transparent_sample(c, wo, u, out); break;
+    case BSDF_ROUGH_GLASS: rough_glass_sample(c, wo, u, out); break;
     default: lambert_sample(c, wo, u, out); break;
     }
 }
@@ -95,8 +97,14 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
     out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
     if (sd->n == 0 || chosen >= sd->n) return;
     const Closure *c = sd->c + chosen;
+    /* Where `pick` fell inside the chosen closure's share: a third number for a BSDF that chooses between
+     * lobes (rough glass), uniform and independent of the choice of closure (closures.sample_closures). */
+    double share = c->sample_weight, before = 0.0;
+    for (int k = 0; k < chosen; k++) before += sd->c[k].sample_weight;
+    double within = share > 0.0 ? (pick * total - before) / share : 0.5;
+    double u3[3] = {u[0], u[1], within < 0.0 ? 0.0 : (within >= 1.0 ? nextafter(1.0, 0.0) : within)};
     BsdfSample s;
-    bsdf_sample(c, wo, u, &s);
+    bsdf_sample(c, wo, u3, &s);
     for (int j = 0; j < 3; j++) out->wi[j] = s.wi[j];
     out->kind = c->kind;
     if (bsdf_is_delta(c->kind)) {

@@ -4,7 +4,7 @@
  * closure's N is its own unit normal on the viewer's side; eval returns f cos (0 below N) and the
  * pdf of its own sampling. */
 
-enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4 };
+enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4, BSDF_ROUGH_GLASS = 5 };
 
 #define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
 #define CLOSURE_PARAMS 24       /* closures.PARAMS */

@@ -149,6 +149,12 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
     chosen = np.minimum((running <= (pick * total)[:, None]).sum(axis=1), slots - 1)
     rows = np.arange(n)
     kind = closures.kind[rows, chosen]
+    # Where `pick` fell inside the chosen closure's share: a third number for a BSDF that chooses between
+    # lobes (rough glass: reflect or refract), uniform and independent of the choice of closure.
+    share = closures.sample_weight[rows, chosen]
+    before = np.pad(running, ((0, 0), (1, 0)))[rows, chosen]
+    within = np.divide(pick * total - before, share, out=np.full(n, 0.5), where=share > 0)
+    u = np.column_stack([u[:, 0], u[:, 1], np.clip(within, 0.0, np.nextafter(1.0, 0.0))])
     wi, weight, pdf = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
     delta = np.zeros(n, bool)
     for k in np.unique(kind):

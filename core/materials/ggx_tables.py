@@ -10,6 +10,10 @@ core/materials/ggx_tables.h; the C code includes that file and this module reads
   schlick_ior_s[z][mu][rough]  16^3  where between F0 and F90 the albedo of a lobe with the dielectric curve
                                   lies (z = ((ior - 1) / (ior + 1))^(1/2))
   schlick_s_half[mu][rough]   16^2  the same for Schlick's curve (1 - cos)^5, used for metals
+  glass_E[z][mu][rough]       16^3  albedo (reflected plus refracted) of rough glass with the dielectric
+                                  curve, entering a medium of index ior = ior_from_F0(z^4); glass_inv_E
+                                  leaving it (relative index 1 / ior); glass_Eavg[z][rough] and
+                                  glass_inv_Eavg their cosine-weighted means over mu
 
 Lookups interpolate linearly between grid points at i / (size - 1), clamping outside 0..1, in the same
 order as Cycles' lookup_table_read_2D/3D (rough fastest, then mu, then z).
@@ -38,6 +42,10 @@ E = _read("GGX_E").reshape(32, 32)
 EAVG = _read("GGX_EAVG")
 SCHLICK_IOR_S = _read("GGX_SCHLICK_IOR_S").reshape(16, 16, 16)
 SCHLICK_S_HALF = _read("GGX_SCHLICK_S_HALF").reshape(16, 16)
+GLASS_E = _read("GGX_GLASS_E").reshape(16, 16, 16)
+GLASS_EAVG = _read("GGX_GLASS_EAVG").reshape(16, 16)
+GLASS_INV_E = _read("GGX_GLASS_INV_E").reshape(16, 16, 16)
+GLASS_INV_EAVG = _read("GGX_GLASS_INV_EAVG").reshape(16, 16)
 
 
 def _position(x: np.ndarray, size: int):
@@ -73,3 +81,15 @@ def lookup_3d(table: np.ndarray, x, y, z) -> np.ndarray:
         row = lambda r: (1.0 - tx) * table[s, r, xi] + tx * table[s, r, xj]   # noqa: E731
         return (1.0 - ty) * row(yi) + ty * row(yj)
     return (1.0 - tz) * plane(zi) + tz * plane(zj)
+
+
+def glass_E(rough, mu, eta) -> tuple:
+    """(E, Eavg) of rough glass of relative index eta (n,) at roughness and mu (n,): the entering table for
+    eta >= 1, the leaving one for eta < 1, at z = ((ior - 1) / (ior + 1))^(1/2) of ior = max(eta, 1 / eta)."""
+    eta = np.asarray(eta, np.float64)
+    ior = np.where(eta < 1.0, 1.0 / np.maximum(eta, 1e-300), eta)
+    z = np.sqrt(np.abs((ior - 1.0) / (ior + 1.0)))
+    leaving = eta < 1.0
+    E = np.where(leaving, lookup_3d(GLASS_INV_E, rough, mu, z), lookup_3d(GLASS_E, rough, mu, z))
+    E_avg = np.where(leaving, lookup_2d(GLASS_INV_EAVG, rough, z), lookup_2d(GLASS_EAVG, rough, z))
+    return E, E_avg

@@ -170,6 +170,40 @@ INLINE double glass_albedo(const double *g, double mu)
     return (R[0] + T[0] + R[1] + T[1] + R[2] + T[2]) / 3.0;
 }
 
+/* ggx_tables.glass_E: E and Eavg of rough glass of relative index eta (the entering table for eta >= 1). */
+INLINE double glass_E(double rough, double mu, double eta, double *E_avg)
+{
+    double ior = eta < 1.0 ? 1.0 / at_least(eta, 1e-300) : eta;
+    double z = sqrt(fabs((ior - 1.0) / (ior + 1.0)));
+    *E_avg = lookup_2d(eta < 1.0 ? GGX_GLASS_INV_EAVG : GGX_GLASS_EAVG, 16, 16, rough, z);
+    return lookup_3d(eta < 1.0 ? GGX_GLASS_INV_E : GGX_GLASS_E, 16, rough, mu, z);
+}
+
+/* nodes.add_glass: smooth glass below the roughness threshold (or at index 1), else rough glass; with Fss
+ * (Multiscatter GGX) its energy restored from the glass tables and darkened by Fss. g: glass_params. */
+INLINE void glass_add(ShaderResult *sd, double mu, const double *weight, double *g, double roughness, const double *Fss)
+{
+    double rough = clamp01(roughness), eta = g[MF_IOR];
+    g[MF_ALPHA] = rough * rough;
+    int smooth = g[MF_ALPHA] * g[MF_ALPHA] <= ROUGHNESS_SQ_THRESHOLD || fabs(eta - 1.0) < 1e-4;
+    double factor = glass_albedo(g, mu), w[3] = {weight[0], weight[1], weight[2]};
+    if (Fss != NULL) {
+        double E_avg, E = glass_E(rough, mu, eta, &E_avg);
+        double missing = smooth ? 0.0 : (1.0 - at_least(E, 1e-6)) / at_least(E, 1e-6);
+        g[MF_ENERGY] = 1.0 + missing;
+        if (!(Fss[0] == 1.0 && Fss[1] == 1.0 && Fss[2] == 1.0) && !smooth) {
+            double darkening[3];
+            for (int j = 0; j < 3; j++) {
+                double Fms = Fss[j] * E_avg / (1.0 - Fss[j] * (1.0 - E_avg));
+                darkening[j] = (1.0 + Fms * missing) / g[MF_ENERGY];
+                w[j] *= darkening[j];
+            }
+            factor *= (darkening[0] + darkening[1] + darkening[2]) / 3.0;
+        }
+    }
+    closure_add(sd, smooth ? BSDF_GLASS : BSDF_ROUGH_GLASS, w, weight, factor, g);
+}
+
 /* nodes.PrincipledNode.setup: p holds nodes.PRINCIPLED_INPUTS in order. */
 INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const double *weight, const double *p)
 {
@@ -227,16 +261,21 @@ INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const 
         lobe_add(sd, mu, metal_weight, lobe, reflect, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - metallic;
     }
-    /* 5. Transmission: smooth glass. */
+    /* 5. Transmission: glass, smooth or rough. */
     if (transmission > WEIGHT_CUTOFF) {
-        double g[STORAGE_STRIDE], f0[3], root[3], glass_weight[3];
+        double g[STORAGE_STRIDE], f0[3], root[3], glass_weight[3], Fss[3];
         for (int j = 0; j < 3; j++) {
             f0[j] = clamp01(F0_from_ior(ior) * tint[j]);
             root[j] = sqrt(clamped[j]);
             glass_weight[j] = W[j] * transmission;
         }
         glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, f0, one, one, root);
-        closure_add(sd, BSDF_GLASS, glass_weight, glass_weight, glass_albedo(g, mu), g);
+        if (multiscatter) {
+            double eta_rel = g[MF_IOR], F0_real = F0_from_ior(eta_rel);
+            double s = clamp01((dielectric_Fss(eta_rel) - F0_real) / at_least(1.0 - F0_real, 1e-300));
+            for (int j = 0; j < 3; j++) Fss[j] = f0[j] + (1.0 - f0[j]) * s;
+        }
+        glass_add(sd, mu, glass_weight, g, roughness, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - transmission;
     }
     /* 6. Specular. */
@@ -286,7 +325,7 @@ INLINE void setup_node(ShaderResult *sd, int kind, double mu, int backfacing, co
         double ior = at_least(p[3], 1e-5);
         if (p[4] != 0.0) glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, zero, zero, zero, color);
         else glass_params(g, backfacing, ior, FRESNEL_DIELECTRIC, zero, zero, color, color);
-        closure_add(sd, BSDF_GLASS, weight, weight, glass_albedo(g, mu), g);
+        glass_add(sd, mu, weight, g, p[5], p[6] != 0.0 && p[4] == 0.0 ? color : NULL);
         break;
     }
     case NODE_EMISSION: for (int j = 0; j < 3; j++) sd->emission[j] += weight[j] * p[j]; break;

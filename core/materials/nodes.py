@@ -25,6 +25,7 @@ from .glass import shares as glass_shares
 from .lambert import Lambert
 from .microfacet import Microfacet
 from .mirror import Mirror
+from .rough_glass import RoughGlass
 from .transparent import Transparent
 
 
@@ -273,8 +274,9 @@ class PrincipledNode(Node):
     3. emission, seen through the coat;
     4. metal (metallic): GGX with the F82-tint curve from the base colour, tinted near 82 degrees by
        the specular tint; the rest (1 - metallic) goes on;
-    5. transmission: smooth glass (rough transmission is rendered smooth, with a warning); it takes its
-       share away from what follows;
+    5. transmission: glass, smooth or rough (GGX), Fresnel's curve remapped from F0 x specular tint to 1,
+       the transmitted light tinted by the square root of the base colour; it takes its share away from
+       what follows;
     6. specular: a dielectric GGX layer whose F0 the Specular IOR Level scales and the Specular Tint
        colours; below it, what it does not reflect;
     7. diffuse: Lambert with the base colour (subsurface scattering approximated by it, with a warning).
@@ -330,13 +332,19 @@ class PrincipledNode(Node):
             Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
             GlossyLobe.add(b, W * metallic[:, None], lobe, reflect, Fss=Fss if multiscatter else None, keep=on)
             W = np.where(on[:, None], W * (1.0 - metallic)[:, None], W)
-        # 5. Transmission: smooth glass, Fresnel's curve remapped from F0 x specular tint to 1, the
-        #    transmitted light tinted by the square root of the base colour (it passes the surface twice).
+        # 5. Transmission: glass, Fresnel's curve remapped from F0 x specular tint to 1, the transmitted
+        #    light tinted by the square root of the base colour (it passes the surface twice).
         on = transmission > WEIGHT_CUTOFF
         if on.any():
-            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR,
-                                 np.clip(mf.F0_from_ior(ior)[:, None] * tint, 0.0, 1.0), ones, ones, np.sqrt(clamped))
-            b.add(Glass.kind, W * transmission[:, None], glass, factor=glass_albedo(glass, b.mu), keep=on)
+            f0 = np.clip(mf.F0_from_ior(ior)[:, None] * tint, 0.0, 1.0)
+            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, f0, ones, ones, np.sqrt(clamped))
+            Fss = None
+            if multiscatter:                # the multiple-scattering Fresnel of the reflection (Cycles' Fss)
+                eta_rel = glass[:, mf.IOR]
+                F0_real = mf.F0_from_ior(eta_rel)
+                s = np.clip((dielectric_Fss(eta_rel) - F0_real) / np.maximum(1.0 - F0_real, 1e-300), 0.0, 1.0)
+                Fss = f0 + (1.0 - f0) * s[:, None]
+            add_glass(b, W * transmission[:, None], glass, roughness, Fss, keep=on)
             W = np.where(on[:, None], W * (1.0 - transmission)[:, None], W)
         # 6. Specular: the index whose F0 the Specular IOR Level scales.
         f0 = mf.F0_from_ior(ior)
@@ -380,13 +388,39 @@ def glass_albedo(p: np.ndarray, mu: np.ndarray) -> np.ndarray:
     return (R + T).mean(axis=1)
 
 
+def add_glass(b: ClosureBuilder, weight: np.ndarray, glass: np.ndarray, roughness, Fss=None, keep=None) -> None:
+    """Append a glass closure with the parameters `glass` (n, PARAMS): smooth glass where roughness (n,) is
+    below the threshold (or the index is 1: light goes straight through), else rough glass; with Fss (n, 3)
+    (Multiscatter GGX) its energy restored from the glass albedo tables and darkened by Fss, as Cycles'
+    microfacet_ggx_preserve_energy does for glass."""
+    rough = np.clip(roughness, 0.0, 1.0)
+    glass[:, mf.ALPHA] = rough * rough
+    eta = glass[:, mf.IOR]
+    smooth = (glass[:, mf.ALPHA] ** 2 <= mf.ROUGHNESS_SQ_THRESHOLD) | (np.abs(eta - 1.0) < 1e-4)
+    factor = glass_albedo(glass, b.mu)
+    allocated = weight
+    if Fss is not None:
+        E, E_avg = tables.glass_E(rough, b.mu, eta)
+        missing = np.where(smooth, 0.0, (1.0 - np.maximum(E, 1e-6)) / np.maximum(E, 1e-6))
+        glass[:, mf.ENERGY] = 1.0 + missing
+        Fss = np.broadcast_to(np.asarray(Fss, np.float64), weight.shape)
+        dark = ~np.all(Fss == 1.0, axis=1) & ~smooth
+        if dark.any():
+            Fms = Fss * E_avg[:, None] / (1.0 - Fss * (1.0 - E_avg[:, None]))
+            darkening = np.where(dark[:, None], (1.0 + Fms * missing[:, None]) / glass[:, mf.ENERGY][:, None], 1.0)
+            weight = weight * darkening
+            factor = factor * darkening.mean(axis=1)
+    b.add(np.where(smooth, Glass.kind, RoughGlass.kind), weight, glass, allocated, factor=factor, keep=keep)
+
+
 class GlassNode(Node):
     """Glass BSDF (reflection and refraction, tinted by its colour) and Refraction BSDF (refraction only,
-    no Fresnel loss), smooth: rough ones are rendered smooth (a warning at export says so)."""
+    no Fresnel loss), smooth or rough (GGX; Multiscatter GGX restores the energy of the Glass BSDF's
+    microfacets, its darkening by the colour, as Cycles assumes the transmission makes most of it)."""
 
     kind, name = 6, "GLASS"
-    inputs = ("color", "ior", "refraction_only")
-    defaults = ((1.0, 1.0, 1.0), 1.5, 0.0)
+    inputs = ("color", "ior", "refraction_only", "roughness", "multiscatter")
+    defaults = ((1.0, 1.0, 1.0), 1.5, 0.0, 0.0, 0.0)
 
     @staticmethod
     def setup(b, weight, p):
@@ -397,7 +431,8 @@ class GlassNode(Node):
         glass = np.where(refraction_only[:, None],
                          glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, zero, zero, zero, color),
                          glass_params(n, b.backfacing, ior, mf.FRESNEL_DIELECTRIC, zero, zero, color, color))
-        b.add(Glass.kind, weight, glass, factor=glass_albedo(glass, b.mu))
+        multiscatter = (p[0, 6] != 0.0) and not refraction_only.all()
+        add_glass(b, weight, glass, p[:, 5], color if multiscatter else None)
 
 
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode)

@@ -27,6 +27,7 @@
 #include "../materials/microfacet.c"
 #include "../materials/glass.c"
 #include "../materials/transparent.c"
+#include "../materials/rough_glass.c"
 #include "../materials/bsdf.c"
 #include "../materials/textures.c"
 #include "../materials/graph.c"

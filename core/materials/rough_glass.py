@@ -1,0 +1,103 @@
+"""Rough glass: GGX microfacets that reflect or refract, as Cycles' rough Glass and Refraction BSDF and the
+Principled BSDF's rough transmission do.
+
+Each microfacet (normal H, drawn from the GGX normals the viewer sees, as core/materials/microfacet.py
+does) is a little smooth glass boundary (core/materials/glass.py): it reflects R(wo.H) and refracts
+T(wo.H) of the light, and one of the two is chosen in proportion. For a pair of directions the
+microfacet normal is the half vector: H = wo + wi for reflection, and for refraction, where Snell's law
+bends wi into wo at H, H = -(eta wi + wo) (Walter et al. 2007, "Microfacet Models for Refraction
+through Rough Surfaces"), both normalised and turned to N's side. Then, with D, Lambda and the lobe's
+energy scale as in the reflection-only lobe,
+
+    reflection:   f cos = R D / (4 N.wo) G2,   pdf = P(reflect | H) D / (4 N.wo) G1(wo)
+    refraction:   f cos = T D eta^2 |wo.H| |wi.H| / (N.wo |eta wi + wo|^2) G2,
+                  pdf = P(refract | H) D eta^2 |wo.H| |wi.H| / (N.wo |eta wi + wo|^2) G1(wo)
+
+with G2 = 1 / (1 + Lambda(wo) + Lambda(wi)), G1(wo) = 1 / (1 + Lambda(wo)). As in Cycles the refracted
+radiance is not scaled by 1 / eta^2 (smooth glass lets T through unscaled too). A lobe smoother than
+ROUGHNESS_SQ_THRESHOLD is smooth glass, whose closure the node setups choose instead.
+
+Choosing between reflection and refraction takes a third random number: u[:, 2], which
+closures.sample_closures derives from the number that picked the closure.
+"""
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from .. import vectors
+from . import microfacet as mf
+from .base import BSDF, BsdfSample
+from .glass import refract, shares
+
+
+def half_vector(wo: np.ndarray, wi: np.ndarray, eta: np.ndarray, transmit: np.ndarray) -> tuple:
+    """(H (n, 3) unit, |eta wi + wo| (n,)): the microfacet normal that reflects wo into wi, or refracts
+    (where `transmit` (n,) bool) light from wi into wo; turned to N's side by the caller."""
+    raw = np.where(transmit[:, None], -(eta[:, None] * wi + wo), wo + wi)
+    length = np.maximum(np.linalg.norm(raw, axis=1), 1e-300)
+    return raw / length[:, None], length
+
+
+class RoughGlass(BSDF):
+    """GGX reflection and refraction at a dielectric boundary (module docstring); params as Glass's."""
+
+    kind: ClassVar[int] = 5
+    name: ClassVar[str] = "ROUGH_GLASS"
+    params: ClassVar[tuple] = ("alpha", "fresnel", "ior", "f0_r", "f0_g", "f0_b", "f90_r", "f90_g", "f90_b",
+                               "energy_scale", "reflect_r", "reflect_g", "reflect_b",
+                               "transmit_r", "transmit_g", "transmit_b")
+
+    @staticmethod
+    def eval(params, N, wo, wi):
+        alpha2 = params[:, mf.ALPHA] ** 2
+        eta = params[:, mf.IOR]
+        cos_NO, cos_NI = np.einsum("ij,ij->i", N, wo), np.einsum("ij,ij->i", N, wi)
+        transmit = cos_NI < 0.0
+        # 1. The microfacet normal that sends wi to wo, on N's side.
+        H, length = half_vector(wo, wi, eta, transmit)
+        H = H * np.where(np.einsum("ij,ij->i", N, H) < 0.0, -1.0, 1.0)[:, None]
+        cos_HO, cos_HI = np.einsum("ij,ij->i", H, wo), np.einsum("ij,ij->i", H, wi)
+        # 2. Only pairs a microfacet can connect: wo sees H; refraction crosses it, reflection does not.
+        valid = ((cos_NO > 0.0) & (cos_NI != 0.0) & (alpha2 > mf.ROUGHNESS_SQ_THRESHOLD) & (cos_HO > 0.0)
+                 & np.where(transmit, cos_HI < 0.0, cos_HI > 0.0))
+        # 3. What the microfacet reflects and refracts, and how often the sampler picks each.
+        R, T = shares(params, np.clip(cos_HO, 0.0, 1.0))
+        total = R.mean(axis=1) + T.mean(axis=1)
+        p_reflect = np.divide(R.mean(axis=1), total, out=np.ones(len(total)), where=total > 0.0)
+        lobe = np.where(transmit, 1.0 - p_reflect, p_reflect)
+        # 4. D times the Jacobian from H to wi, over N.wo; then masking and shadowing.
+        safe_NO = np.where(valid, cos_NO, 1.0)
+        jacobian = np.where(transmit, eta * eta * np.abs(cos_HO * cos_HI) / (length * length), 0.25)
+        common = mf.D_ggx(alpha2, np.einsum("ij,ij->i", N, H)) / safe_NO * jacobian
+        lambda_O = mf.lambda_ggx(alpha2, safe_NO)
+        lambda_I = mf.lambda_ggx(alpha2, np.where(valid, np.abs(cos_NI), 1.0))
+        pdf = np.where(valid, common * lobe / (1.0 + lambda_O), 0.0)
+        scale = np.where(valid, common / (1.0 + lambda_O + lambda_I) * params[:, mf.ENERGY], 0.0)
+        return np.where(transmit[:, None], T, R) * scale[:, None], pdf
+
+    @staticmethod
+    def sample(params, N, wo, u):
+        # 1. A microfacet normal the viewer sees.
+        t, b = vectors.orthonormal_frame(N)
+        local = np.stack([np.einsum("ij,ij->i", t, wo), np.einsum("ij,ij->i", b, wo), np.einsum("ij,ij->i", N, wo)],
+                         axis=1)
+        h = mf.sample_visible_normal(np.where(local[:, 2:] > 0.0, local, [0.0, 0.0, 1.0]), params[:, mf.ALPHA], u)
+        H = t * h[:, 0:1] + b * h[:, 1:2] + N * h[:, 2:3]
+        # 2. Reflect or refract at it, in proportion to what it reflects and refracts.
+        cos_HO = np.einsum("ij,ij->i", H, wo)
+        R, T = shares(params, np.clip(cos_HO, 0.0, 1.0))
+        total = R.mean(axis=1) + T.mean(axis=1)
+        p_reflect = np.divide(R.mean(axis=1), total, out=np.ones(len(total)), where=total > 0.0)
+        lobe_u = u[:, 2] if u.shape[1] > 2 else np.full(len(u), 0.5)
+        reflect = lobe_u < p_reflect
+        refracted, _ = refract(wo, H, params[:, mf.IOR])
+        wi = np.where(reflect[:, None], 2.0 * cos_HO[:, None] * H - wo, refracted)
+        # 3. Its value and pdf, from eval (a direction on the wrong side of N is no sample).
+        f_cos, pdf = RoughGlass.eval(params, N, wo, wi)
+        cos_NI = np.einsum("ij,ij->i", N, wi)
+        ok = (pdf > 0.0) & np.where(reflect, cos_NI > 0.0, cos_NI < 0.0) & (total > 0.0)
+        pdf = np.where(ok, pdf, 0.0)
+        weight = np.divide(f_cos, pdf[:, None], out=np.zeros_like(f_cos), where=pdf[:, None] > 0.0)
+        return BsdfSample(wi, weight, pdf)
