@@ -36,8 +36,9 @@ REL_MSE_GUARD = 1e-2
 HEADLINE_SAMPLES = 64
 
 
-# The scene of the denoise phase: a large area light's soft shadows, noisy at few samples.
-DENOISE_SCENE = "light_area"
+# The scenes of the denoise phase: a large area light's soft shadows (direct light, cheap samples) and the
+# path-traced Cornell box (costly samples, noisy at few).
+DENOISE_SCENES = ("light_area", "cornell_box")
 
 
 # Sample scenes built to differ from Cycles on purpose: with the lecture's defaults Primer does not converge
@@ -56,7 +57,7 @@ class Plan:
         self.primer_ladder = [1, 4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128, 256, 512]
         self.cycles_ladder = [4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128]
         self.repeats = 1 if quick else 3
-        # Primer's samples with and without Render > Denoise (the denoise phase, on DENOISE_SCENE).
+        # Primer's samples with and without Render > Denoise (the denoise phase, on DENOISE_SCENES).
         self.denoise_ladder = [1, 4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128]
         # Rounds of the rays phase (one Primer render, then embreex on the same rays): this shared
         # machine's steal time moves single rounds by ±30%, so the median needs many.

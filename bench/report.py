@@ -86,24 +86,25 @@ def error_at_time(points: list, seconds: float) -> tuple:
 
 
 def denoise_table(results: dict) -> list:
-    """Return the denoise phase's table: per sample count, time and relMSE without and with Denoise, and the
-    relMSE a render without Denoise reaches in the denoised render's time."""
-    phase = results.get("denoise") or {}
-    rows = phase.get("rows", [])
+    """Return the denoise phase's table: per scene and sample count, time and errors without and with Denoise,
+    and the relMSE a render without Denoise reaches in the denoised render's time (equal time)."""
+    rows = (results.get("denoise") or {}).get("rows", [])
     if not rows:
         return ["(no denoise measurements in these results: run `make bench` without `--skip denoise`)"]
-    plain = sorted((r["samples"], r["seconds"], r["relmse"]) for r in rows if not r["denoised"])
-    lines = ["| samples | seconds | relMSE | FLIP | with Denoise: seconds | relMSE | FLIP | without Denoise in that time: relMSE |",
-             "|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    by = {(r["samples"], r["denoised"]): r for r in rows}
-    for samples in sorted({r["samples"] for r in rows}):
-        a, b = by.get((samples, False)), by.get((samples, True))
-        if a is None or b is None:
-            continue
-        equal, how = error_at_time(plain, b["seconds"])
-        mark = "" if how == "=" else f" ({how})"
-        lines.append(f"| {samples} | {fmt(a['seconds'])} | {fmt(a['relmse'])} | {fmt(a['flip'])} | {fmt(b['seconds'])} "
-                     f"| {fmt(b['relmse'])} | {fmt(b['flip'])} | {fmt(equal)}{mark} |")
+    lines = ["| scene | samples | seconds | relMSE | FLIP | with Denoise: seconds | relMSE | FLIP "
+             "| without Denoise in that time: relMSE |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    by = {(r["scene"], r["samples"], r["denoised"]): r for r in rows}
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        plain = sorted((r["samples"], r["seconds"], r["relmse"]) for r in rows
+                       if r["scene"] == scene and not r["denoised"])
+        for samples in sorted({r["samples"] for r in rows if r["scene"] == scene}):
+            a, b = by.get((scene, samples, False)), by.get((scene, samples, True))
+            if a is None or b is None:
+                continue
+            equal, how = error_at_time(plain, b["seconds"])
+            mark = "" if how == "=" else f" ({how})"
+            lines.append(f"| {scene} | {samples} | {fmt(a['seconds'])} | {fmt(a['relmse'])} | {fmt(a['flip'])} "
+                         f"| {fmt(b['seconds'])} | {fmt(b['relmse'])} | {fmt(b['flip'])} | {fmt(equal)}{mark} |")
     return lines
 
 
@@ -559,9 +560,9 @@ def report_markdown(results: dict, plots: dict) -> str:
     text += [HOW_TO_READ, "", f"![relMSE against time]({plots['relmse']})", "",
              f"![FLIP against time]({plots['flip']})", "", "## All renders", ""]
     text += ladder_table(results)
-    denoise_scene = (results.get("denoise") or {}).get("scene", common.DENOISE_SCENE)
+    denoise_scenes = ", ".join(f"`{name}`" for name in (results.get("denoise") or {}).get("references", {}))
     text += ["", "## Denoising: error against time", "",
-             f"Primer on `{denoise_scene}` with Render > Denoise off and on (Blender's compositor Denoise node, "
+             f"Primer on {denoise_scenes or 'the denoise scenes'} with Render > Denoise off and on (Blender's compositor Denoise node, "
              "Open Image Denoise, fed with Primer's Denoising Albedo and Denoising Normal passes; docs/blender.md), "
              "against the same Cycles reference. Times are whole `bpy.ops.render.render()` calls, the denoising "
              "features' first-hit pass and the compositor included; errors are of the composited image. The last "

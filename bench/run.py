@@ -4,7 +4,7 @@
 
 Phases, in order (each Blender job in its own process, with empty Blender user folders):
   scenes     the Cycles references (cached in bench/refs/) and both engines' sample ladders
-  denoise    Primer with and without Render > Denoise on common.DENOISE_SCENE: error against time
+  denoise    Primer with and without Render > Denoise on common.DENOISE_SCENES: error against time
   profile    Primer's time per phase on every scene
   rays       Primer's rays per second against embreex's on the same rays
   scaling    time and peak memory against triangles, pixels, lights and instances (core alone)
@@ -97,6 +97,17 @@ def run_scenes(plan: common.Plan) -> dict:
     return {"rows": rows, "references": references}
 
 
+def run_denoise(plan: common.Plan) -> dict:
+    """Render every denoise scene with and without Render > Denoise; return {"rows": [...], "references": {...}}."""
+    rows, references = [], {}
+    for name in common.DENOISE_SCENES:
+        blender_job("denoise", name, quick=plan.quick)
+        result = common.read_json(os.path.join(common.OUT, f"denoise_{name}.json"))
+        rows += result["rows"]
+        references[name] = result["reference"]
+    return {"rows": rows, "references": references}
+
+
 def run_scaling(quick: bool) -> dict:
     """Measure every scaling point in its own process; points past the timeout are noted as skipped."""
     points, notes = [], []
@@ -172,8 +183,7 @@ def main(argv=None) -> int:
         if phase == "scenes":
             results[phase] = run_scenes(plan)
         elif phase == "denoise":
-            blender_job("denoise", common.DENOISE_SCENE, quick=plan.quick)
-            results[phase] = common.read_json(os.path.join(common.OUT, f"denoise_{common.DENOISE_SCENE}.json"))
+            results[phase] = run_denoise(plan)
         elif phase == "profile":
             blender_job("profile", quick=plan.quick)
             results[phase] = common.read_json(os.path.join(common.OUT, "profile.json"))

@@ -44,7 +44,7 @@ from .base import Context, Recorder
 from .direct import camera_hits
 
 # Camera samples per pixel the features average (at most the render's samples).
-FEATURE_SAMPLES = 4
+FEATURE_SAMPLES = 2
 # A glossy closure whose alpha (roughness^2) exceeds this counts as diffuse-like (Cycles' 0.075).
 ROUGH_ALPHA = 0.075
 # Specular vertices followed before the last one is taken as the feature vertex.
