@@ -194,3 +194,23 @@ def test_denoised_low_sample_render_is_closer_to_a_converged_one(primer, tmp_pat
     block_noisy, block_denoised = block_relative_mse(noisy, reference), block_relative_mse(denoised, reference)
     assert pixel_denoised < 0.3 * pixel_noisy, (pixel_noisy, pixel_denoised)
     assert block_denoised < 0.8 * block_noisy, (block_noisy, block_denoised)
+
+
+def test_a_file_saved_with_denoise_renders_denoised_when_opened_again(primer, tmp_path):
+    """As `blender -b scene.blend -f 1` does: the set-up is saved with the file, no tick needed after opening it."""
+    scene = noisy_scene(48, 36)
+    scene.primer.samples = 4
+    noisy = render_image(scene, str(tmp_path / "noisy.exr"))
+    scene.primer.use_denoising = True
+    path = str(tmp_path / "denoise.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    reopened = bpy.context.scene
+    assert reopened.primer.use_denoising
+    denoised = render_image(reopened, str(tmp_path / "reopened.exr"))
+    assert addon(primer, "engine").last_render.warnings == []
+    # The Denoise node ran: the composited image is smoother than the raw one (less pixel-to-pixel change).
+    def roughness(image):
+        return float(np.abs(np.diff(image[..., :3], axis=1)).mean())
+    assert roughness(denoised) < 0.7 * roughness(noisy), (roughness(noisy), roughness(denoised))
