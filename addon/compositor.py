@@ -14,7 +14,11 @@ Group Output is the composited image.
 """
 from __future__ import annotations
 
+import logging
+
 import bpy
+
+log = logging.getLogger("primer")
 
 DENOISE_NODE = "Primer Denoise"
 ALBEDO_PASS, NORMAL_PASS = "Denoising Albedo", "Denoising Normal"
@@ -158,6 +162,6 @@ def on_toggle(settings, context) -> None:
     if settings.use_denoising:
         warning = set_up(scene)
         if warning:
-            print(f"Primer: {warning}")
+            log.warning("Primer: %s", warning)
     else:
         take_down(scene)
