@@ -214,3 +214,17 @@ def test_a_file_saved_with_denoise_renders_denoised_when_opened_again(primer, tm
     def roughness(image):
         return float(np.abs(np.diff(image[..., :3], axis=1)).mean())
     assert roughness(denoised) < 0.7 * roughness(noisy), (roughness(noisy), roughness(denoised))
+
+
+def test_a_blender_without_open_image_denoise_is_warned_about_and_the_frame_still_renders(primer, tmp_path,
+                                                                                          monkeypatch):
+    """Where Blender was built without OIDN (its Denoise node passes images through), the report says so."""
+    compositor = addon(primer, "compositor")
+    assert compositor.has_denoiser()                # this bpy ships it (bpy/lib/libOpenImageDenoise*)
+    monkeypatch.setattr(compositor, "has_denoiser", lambda: False)
+    scene = plane_scene()
+    scene.primer.use_denoising = True
+    image = render_image(scene, str(tmp_path / "no_oidn.exr"))
+    assert image[..., :3].max() > 0.0
+    warnings = addon(primer, "engine").last_render.warnings
+    assert any("without Open Image Denoise" in warning for warning in warnings)
