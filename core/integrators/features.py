@@ -7,9 +7,9 @@ they show while it smooths the noise of the Combined pass.
 
 Cycles' meaning (kernel/film/denoising_passes.h), followed here along each camera sample's path:
 
-- At a hit, its closures split into diffuse-like ones (Lambert; glossy with alpha > ROUGH_ALPHA,
-  Cycles' 0.075) and specular-like ones (mirror, smooth glass, Transparent, glossy with alpha at
-  most ROUGH_ALPHA). If the diffuse-like closures carry more than a quarter of the sampling weight
+- At a hit, its closures split into diffuse-like ones (Lambert; glossy or rough glass with alpha >
+  ROUGH_ALPHA, Cycles' 0.075) and specular-like ones (mirror, smooth glass, Transparent, and those
+  with alpha at most ROUGH_ALPHA). If the diffuse-like closures carry more than a quarter of the sampling weight
   (or there are no closures), the hit is the feature vertex:
       albedo = throughput * (sum of the diffuse-like closures' weights + the emission seen there),
       normal = sum of every closure's normal times its sampling weight / the sum of those weights
@@ -63,12 +63,19 @@ def feature_samples(samples: int) -> int:
 def diffuse_like(closures: materials_.Closures) -> np.ndarray:
     """Return which closure slots count as diffuse for the features: (n, K) bool (empty slots False).
 
-    Lambert always; a glossy (microfacet) closure when its alpha, parameter 0, exceeds ROUGH_ALPHA.
-    Mirror, smooth glass and Transparent are specular-like.
+    From each BSDF's class (materials_.BSDF_TYPES): a delta BSDF (mirror, smooth glass, Transparent) is
+    specular-like; one with an "alpha" parameter (GGX glossy, rough glass) is diffuse-like when its alpha
+    exceeds ROUGH_ALPHA; any other (Lambert) is diffuse-like.
     """
-    kind = closures.kind
-    rough = (kind == materials_.Microfacet.kind) & (closures.params[..., 0] > ROUGH_ALPHA)
-    return (kind == materials_.Lambert.kind) | rough
+    out = np.zeros(closures.kind.shape, bool)
+    for bsdf in materials_.BSDF_TYPES:
+        mine = closures.kind == bsdf.kind
+        if bsdf.delta or not mine.any():
+            continue
+        if "alpha" in bsdf.params:
+            mine &= closures.params[..., bsdf.params.index("alpha")] > ROUGH_ALPHA
+        out |= mine
+    return out
 
 
 def vertex_features(shader) -> tuple:
