@@ -19,7 +19,7 @@ import bpy
 import numpy as np
 
 from ..core.teaching import debug
-from . import export, viewport
+from . import compositor, export, viewport
 
 log = logging.getLogger("primer")
 
@@ -27,6 +27,11 @@ log = logging.getLogger("primer")
 STANDARD_PASSES = {
     "Depth": ("depth", 1, "Z", "VALUE"),
     "Normal": ("normal", 3, "XYZ", "VECTOR"),
+}
+# The compositor's Denoise node reads these (Cycles' names and channels); written with Render > Denoise.
+DENOISING_PASSES = {
+    "Denoising Albedo": ("denoising_albedo", 3, "RGB", "COLOR"),
+    "Denoising Normal": ("denoising_normal", 3, "XYZ", "VECTOR"),
 }
 # One pass per debug view (README, "Debug views"); the shading normal and depth views match Normal and Depth.
 DEBUG_PASSES = {
@@ -176,8 +181,8 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
                 continue
             if name == "Combined":
                 fill(render_pass, block(image))
-            elif name in STANDARD_PASSES or name in DEBUG_PASSES:
-                buffer = (STANDARD_PASSES.get(name) or DEBUG_PASSES[name])[0]
+            elif name in STANDARD_PASSES or name in DEBUG_PASSES or name in DENOISING_PASSES:
+                buffer = (STANDARD_PASSES.get(name) or DEBUG_PASSES.get(name) or DENOISING_PASSES[name])[0]
                 if buffer in buffers:
                     fill(render_pass, block(_pass_values(buffers, buffer, channels)))
             written.add(name)
@@ -242,6 +247,8 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
                                        requested_buffers(scene.primer, depsgraph.view_layer))
         record.export_seconds = time.perf_counter() - start
         record.warnings = list(exported.warnings)
+        if scene.primer.use_denoising:
+            record.warnings += compositor.problems(getattr(scene, "original", scene))
         if cancelled():
             record.cancelled = True
             return record
@@ -332,6 +339,9 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
         if renderlayer.use_pass_normal:
             self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
+        if scene.primer.use_denoising:
+            for name, (_, channels, chan_id, kind) in DENOISING_PASSES.items():
+                self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
         if scene.primer.debug_passes:
             for name, (_, channels, chan_id, kind) in DEBUG_PASSES.items():
                 self.register_pass(scene, renderlayer, name, channels, chan_id, kind)

@@ -544,6 +544,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         adaptive=bool(props.use_adaptive_sampling),
         adaptive_threshold=float(props.adaptive_threshold),
         adaptive_min_samples=int(props.adaptive_min_samples),
+        denoising_features=bool(props.use_denoising),
     )
 
 

@@ -28,6 +28,12 @@ def _is_light(_settings, obj) -> bool:
     return obj.type == "LIGHT"
 
 
+def _denoising_toggled(settings, context) -> None:
+    """Set the compositor's Denoise node up, or take it out (addon/compositor.py)."""
+    from . import compositor
+    compositor.on_toggle(settings, context)
+
+
 class PrimerSettings(bpy.types.PropertyGroup):
     """Render settings of the Primer engine."""
 
@@ -79,6 +85,10 @@ class PrimerSettings(bpy.types.PropertyGroup):
     adaptive_min_samples: IntProperty(
         name="Min Samples", default=0, min=0, max=4096,
         description="Samples every pixel gets before its noise is judged; 0 chooses max(4, samples / 16)")
+    use_denoising: BoolProperty(
+        name="Denoise", default=False, update=_denoising_toggled,
+        description="Denoise the composited image with Open Image Denoise: Primer writes the Denoising Albedo and "
+                    "Denoising Normal passes and puts a Denoise node fed with them into the compositor")
     seed: IntProperty(name="Seed", default=0, min=0, description="Seed of the sampling pattern: same seed, same image")
     animate_seed: BoolProperty(name="Animate Seed", default=False,
                                description="Add the frame number to the seed, so noise changes between frames")

@@ -44,6 +44,7 @@ class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
         sub.active = props.use_adaptive_sampling
         sub.prop(props, "adaptive_threshold", text="Noise Threshold")
         sub.prop(props, "adaptive_min_samples", text="Min Samples")
+        col.prop(props, "use_denoising")
         col.prop(props, "seed")
         col.prop(props, "animate_seed")
         col.prop(props, "threads")

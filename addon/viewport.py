@@ -39,14 +39,15 @@ COARSE_SECONDS = 0.05       # the coarse pass's time budget: well inside the 100
 
 
 def viewport_settings(scene) -> RenderSettings:
-    """Return the render settings the viewport uses: the scene's, with no border and no auxiliary buffers.
+    """Return the render settings the viewport uses: the scene's, with no border, no auxiliary buffers and no
+    denoising features (the viewport does not composite).
 
     No adaptive sampling: progressive refinement is the viewport's own schedule (core/film/progressive.py),
     and it weighs every pass by its sample count, which holds only if every pixel got them all.
     """
     settings = export.render_settings(scene, 1, 1, (0, 0, 1, 1))
     return dataclasses.replace(settings, samples=int(scene.primer.viewport_samples), region=None,
-                               pixel_aspect=(1.0, 1.0), aux=(), adaptive=False)
+                               pixel_aspect=(1.0, 1.0), aux=(), adaptive=False, denoising_features=False)
 
 
 def view_from_region(region_data, width: int, height: int, depsgraph=None) -> progressive.View:

@@ -36,6 +36,11 @@ REL_MSE_GUARD = 1e-2
 HEADLINE_SAMPLES = 64
 
 
+# The scenes of the denoise phase: a large area light's soft shadows (direct light, cheap samples) and the
+# path-traced Cornell box (costly samples, noisy at few).
+DENOISE_SCENES = ("light_area", "cornell_box")
+
+
 # Sample scenes built to differ from Cycles on purpose: with the lecture's defaults Primer does not converge
 # to Cycles there (shading_visibility: Cycles lets light leak through an open smooth sheet, the lecture's
 # face-normal rule does not; tests/test_blender_scenes.py, CYCLES_CHOICES), so an error against Cycles
@@ -52,6 +57,8 @@ class Plan:
         self.primer_ladder = [1, 4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128, 256, 512]
         self.cycles_ladder = [4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128]
         self.repeats = 1 if quick else 3
+        # Primer's samples with and without Render > Denoise (the denoise phase, on DENOISE_SCENES).
+        self.denoise_ladder = [1, 4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128]
         # Rounds of the rays phase (one Primer render, then embreex on the same rays): this shared
         # machine's steal time moves single rounds by ±30%, so the median needs many.
         self.rays_rounds = 5 if quick else 21
@@ -63,7 +70,8 @@ class Plan:
         """Return the plan as plain values, for the results file."""
         return {"quick": self.quick, "reference_samples": self.reference_samples,
                 "primer_ladder": self.primer_ladder, "cycles_ladder": self.cycles_ladder,
-                "repeats": self.repeats, "rays_rounds": self.rays_rounds, "scenes": self.scenes}
+                "repeats": self.repeats, "denoise_ladder": self.denoise_ladder, "rays_rounds": self.rays_rounds,
+                "scenes": self.scenes}
 
 
 def digest(*parts) -> str:

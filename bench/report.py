@@ -69,6 +69,45 @@ def headline(results: dict) -> list:
     return out
 
 
+def error_at_time(points: list, seconds: float) -> tuple:
+    """Return (error, how) of a curve [(samples, seconds, error)] at `seconds`, interpolated linearly in
+    log(seconds) against log(error); how is "=" (interpolated), ">=" (before the cheapest point: its error, which
+    equal time could only match or exceed) or "<=" (after the last point: its error, an upper bound)."""
+    points = sorted(points, key=lambda p: p[1])
+    if not points:
+        return math.nan, "?"
+    if seconds <= points[0][1]:
+        return points[0][2], ">="
+    for (_, t0, e0), (_, t1, e1) in zip(points, points[1:]):
+        if t0 <= seconds <= t1 and t1 > t0:
+            f = (math.log(seconds) - math.log(t0)) / (math.log(t1) - math.log(t0))
+            return math.exp(math.log(e0) + f * (math.log(e1) - math.log(e0))), "="
+    return points[-1][2], "<="
+
+
+def denoise_table(results: dict) -> list:
+    """Return the denoise phase's table: per scene and sample count, time and errors without and with Denoise,
+    and the relMSE a render without Denoise reaches in the denoised render's time (equal time)."""
+    rows = (results.get("denoise") or {}).get("rows", [])
+    if not rows:
+        return ["(no denoise measurements in these results: run `make bench` without `--skip denoise`)"]
+    lines = ["| scene | samples | seconds | relMSE | FLIP | with Denoise: seconds | relMSE | FLIP "
+             "| without Denoise in that time: relMSE |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    by = {(r["scene"], r["samples"], r["denoised"]): r for r in rows}
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        plain = sorted((r["samples"], r["seconds"], r["relmse"]) for r in rows
+                       if r["scene"] == scene and not r["denoised"])
+        for samples in sorted({r["samples"] for r in rows if r["scene"] == scene}):
+            a, b = by.get((scene, samples, False)), by.get((scene, samples, True))
+            if a is None or b is None:
+                continue
+            equal, how = error_at_time(plain, b["seconds"])
+            mark = "" if how == "=" else f" ({how})"
+            lines.append(f"| {scene} | {samples} | {fmt(a['seconds'])} | {fmt(a['relmse'])} | {fmt(a['flip'])} "
+                         f"| {fmt(b['seconds'])} | {fmt(b['relmse'])} | {fmt(b['flip'])} | {fmt(equal)}{mark} |")
+    return lines
+
+
 def geometric_mean(values: list) -> float:
     """Return the geometric mean of positive values (nan for none)."""
     values = [v for v in values if v > 0 and math.isfinite(v)]
@@ -521,6 +560,14 @@ def report_markdown(results: dict, plots: dict) -> str:
     text += [HOW_TO_READ, "", f"![relMSE against time]({plots['relmse']})", "",
              f"![FLIP against time]({plots['flip']})", "", "## All renders", ""]
     text += ladder_table(results)
+    denoise_scenes = ", ".join(f"`{name}`" for name in (results.get("denoise") or {}).get("references", {}))
+    text += ["", "## Denoising: error against time", "",
+             f"Primer on {denoise_scenes or 'the denoise scenes'} with Render > Denoise off and on (Blender's compositor Denoise node, "
+             "Open Image Denoise, fed with Primer's Denoising Albedo and Denoising Normal passes; docs/blender.md), "
+             "against the same Cycles reference. Times are whole `bpy.ops.render.render()` calls, the denoising "
+             "features' first-hit pass and the compositor included; errors are of the composited image. The last "
+             "column interpolates the renders without Denoise (log-log) at the denoised render's time: equal time.", ""]
+    text += denoise_table(results)
     text += ["", "## Where Primer's time goes", "",
              f"Primer at {results['profile']['samples']} samples per pixel on one thread (so the parts add up to the "
              "wall time), median of the repeats. *Embree queries* is the time inside Embree's queries for camera "

@@ -4,6 +4,7 @@
 
 Phases, in order (each Blender job in its own process, with empty Blender user folders):
   scenes     the Cycles references (cached in bench/refs/) and both engines' sample ladders
+  denoise    Primer with and without Render > Denoise on common.DENOISE_SCENES: error against time
   profile    Primer's time per phase on every scene
   rays       Primer's rays per second against embreex's on the same rays
   scaling    time and peak memory against triangles, pixels, lights and instances (core alone)
@@ -28,7 +29,7 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
-PHASES = ("scenes", "profile", "rays", "scaling", "stability")
+PHASES = ("scenes", "denoise", "profile", "rays", "scaling", "stability")
 RAYS_SCENES = ("modifiers_instances", "light_area")
 SCALING = {"triangles": [1e3, 1e4, 1e5, 1e6, 1e7], "pixels": [160 * 90, 320 * 180, 640 * 360, 1280 * 720,
                                                            1920 * 1080, 3840 * 2160],
@@ -93,6 +94,17 @@ def run_scenes(plan: common.Plan) -> dict:
         rows += result["rows"]
         references[name] = result["reference"]
         print(f"  {name}: {time.perf_counter() - start:.0f} s", flush=True)
+    return {"rows": rows, "references": references}
+
+
+def run_denoise(plan: common.Plan) -> dict:
+    """Render every denoise scene with and without Render > Denoise; return {"rows": [...], "references": {...}}."""
+    rows, references = [], {}
+    for name in common.DENOISE_SCENES:
+        blender_job("denoise", name, quick=plan.quick)
+        result = common.read_json(os.path.join(common.OUT, f"denoise_{name}.json"))
+        rows += result["rows"]
+        references[name] = result["reference"]
     return {"rows": rows, "references": references}
 
 
@@ -170,6 +182,8 @@ def main(argv=None) -> int:
         start = time.perf_counter()
         if phase == "scenes":
             results[phase] = run_scenes(plan)
+        elif phase == "denoise":
+            results[phase] = run_denoise(plan)
         elif phase == "profile":
             blender_job("profile", quick=plan.quick)
             results[phase] = common.read_json(os.path.join(common.OUT, "profile.json"))

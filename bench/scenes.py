@@ -182,6 +182,37 @@ def ladder(name: str, plan: common.Plan) -> dict:
     return {"scene": name, "reference": {**ref_meta, "rendered_now": fresh}, "rows": rows}
 
 
+def denoise(name: str, plan: common.Plan) -> dict:
+    """Time Primer with and without Render > Denoise (Blender's Denoise node fed with Primer's passes) at every
+    sample count of the plan's denoise ladder and measure each composited image's error against Cycles'."""
+    ref, ref_meta, fresh = reference(name, plan)
+    scene = open_scene(name)
+    folder = os.path.join(common.OUT, "denoise", name)
+    scene.render.use_compositing = True
+    for denoised in (False, True):              # warm-up: kernels, modules, the denoiser's first filter
+        scene.primer.use_denoising = denoised
+        use_primer(scene, 1)
+        render_timed()
+    runs = [(samples, denoised) for samples in plan.denoise_ladder for denoised in (False, True)]
+    times = {run: [] for run in runs}
+    images = {}
+    for repeat in range(plan.repeats):
+        for samples, denoised in (runs if repeat % 2 == 0 else runs[::-1]):
+            scene.primer.use_denoising = denoised
+            use_primer(scene, samples)
+            times[(samples, denoised)].append(render_timed())
+            record = primer_record()
+            if denoised and record.warnings:
+                raise RuntimeError(f"{name}: Denoise did not run: {record.warnings}")
+            if repeat == 0:
+                label = "denoised" if denoised else "plain"
+                images[(samples, denoised)] = save_render(scene, os.path.join(folder, f"{label}_{samples}.exr"))
+    rows = [{"scene": name, "samples": samples, "denoised": denoised,
+             "seconds": statistics.median(times[(samples, denoised)]), "all_seconds": times[(samples, denoised)],
+             **common.errors(images[(samples, denoised)], ref)} for samples, denoised in runs]
+    return {"scene": name, "reference": {**ref_meta, "rendered_now": fresh}, "rows": rows}
+
+
 def profile(plan: common.Plan, samples: int = 16) -> dict:
     """Return Primer's time per phase for every scene at `samples`, on one thread and on all cores."""
     out = {}
@@ -315,7 +346,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
 def main(argv=None) -> int:
     """Run one job and write its JSON into bench/out/."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("job", choices=("ladder", "profile", "rays"))
+    parser.add_argument("job", choices=("ladder", "profile", "rays", "denoise"))
     parser.add_argument("name", nargs="?")
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
@@ -325,6 +356,8 @@ def main(argv=None) -> int:
             common.write_json(os.path.join(common.OUT, "scenes", f"{args.name}.json"), ladder(args.name, plan))
         elif args.job == "profile":
             common.write_json(os.path.join(common.OUT, "profile.json"), profile(plan))
+        elif args.job == "denoise":
+            common.write_json(os.path.join(common.OUT, f"denoise_{args.name}.json"), denoise(args.name, plan))
         else:
             common.write_json(os.path.join(common.OUT, f"rays_{args.name}.json"), rays(args.name, plan))
     finally:

@@ -37,6 +37,7 @@ from .film.film import ChunkSums, Film, pixel_sums
 from .geometry import instancing
 from .geometry.geometry import WorldGeometry, build_geometry
 from .integrators import INTEGRATORS, Context, Recorder
+from .integrators import features
 from .integrators.compiled import Compiled, why_not
 from .materials import MaterialTable
 from .sampling import sobol as sampling
@@ -64,6 +65,7 @@ class RenderStats:
     samples_per_pixel: Optional[np.ndarray] = None   # (H, W) int32 camera samples each pixel received
     warnings: list = field(default_factory=list)
     kernels: str = ""               # "compiled", or "numpy" and why (core/integrators/compiled.py)
+    feature_seconds: float = 0.0    # the denoising features' first-hit pass (core/integrators/features.py)
 
     @property
     def rays(self) -> int:
@@ -76,7 +78,8 @@ class RenderResult:
     """A rendered image.
 
     image: (H, W, 4) float32 scene-linear RGBA, row 0 at the top
-    aux:   name -> (H, W, c) float32 auxiliary buffer
+    aux:   name -> (H, W, c) float32 auxiliary buffer: the debug buffers asked for, and with
+           settings.denoising_features the features' "denoising_albedo" and "denoising_normal" (3 each)
     light_names: the name of the light behind each channel of the per-light buffers
     """
 
@@ -165,6 +168,51 @@ def sample_keys(pixels: np.ndarray, spp: int, first: Optional[np.ndarray]) -> tu
     return pixel, sample
 
 
+def camera_rays(ctx: Context, s: RenderSettings, pixel: np.ndarray, sample: np.ndarray, spp: int):
+    """Return the camera rays (core/camera Rays, camera-relative) of samples `sample` of pixels `pixel`:
+    both (n,) int64; the positions in the pixel are the samples' jittered points (dimension 0 of the
+    pattern), or without jitter the centres of a grid of spp cells."""
+    W, H = s.width, s.height
+    if s.jitter:
+        offset = sampling.sample_2d(s.seed, pixel, sample, dimension=0)
+    else:
+        offset = sampling.stratum_centres(sample, spp)
+    return camera_.generate_rays(ctx.extra["camera"], W, H, (pixel % W) + offset[:, 0], (pixel // W) + offset[:, 1],
+                                 tuple(s.pixel_aspect))
+
+
+def feature_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> tuple[np.ndarray, np.ndarray]:
+    """Return the denoising features of `pixels` (p,) int64: (albedo, normal), each (p, 3) float64, the mean
+    over samples 0 .. spp - 1 of each pixel (core/integrators/features.py; 0 where a sample traced nothing)."""
+    s = ctx.settings
+    p = len(pixels)
+    pixel, sample = sample_keys(pixels, spp, None)
+    rays = camera_rays(ctx, s, pixel, sample, spp)
+    traced = np.flatnonzero(rays.valid)
+    albedo, normal = np.zeros((len(pixel), 3)), np.zeros((len(pixel), 3))
+    if len(traced):
+        albedo[traced], normal[traced] = features.trace_features(
+            ctx, vectors.gather(rays.origins, traced), vectors.gather(rays.directions, traced), rays.t_max[traced],
+            pixel[traced], sample[traced])
+    return albedo.reshape(p, spp, 3).mean(axis=1), normal.reshape(p, spp, 3).mean(axis=1)
+
+
+def feature_images(ctx: Context, region: np.ndarray, pool, threads: int) -> dict:
+    """Return the denoising feature buffers of the pixels `region` (p,) int64: name -> (H, W, 3) float32,
+    0 outside the region (features.FEATURE_BUFFERS), computed in chunks on the pool."""
+    s = ctx.settings
+    spp = features.feature_samples(s.samples)
+    size = s.width * s.height
+    albedo, normal = np.zeros((size, 3)), np.zeros((size, 3))
+    per_chunk = max(1, min(-(-len(region) // max(1, threads)), s.chunk_size // spp))
+    parts = [region[i:i + per_chunk] for i in range(0, len(region), per_chunk)]
+    for part, (a, n) in zip(parts, pool.map(lambda part: feature_chunk(ctx, part, spp), parts)):
+        albedo[part], normal[part] = a, n
+    shape = (s.height, s.width, 3)
+    return {"denoising_albedo": albedo.astype(np.float32).reshape(shape),
+            "denoising_normal": normal.astype(np.float32).reshape(shape)}
+
+
 def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
                     first: Optional[np.ndarray] = None, recorder: Optional[Recorder] = None) -> ChunkSums:
     """Render `spp` samples in each of `pixels` with the Python reference: samples first .. first + spp - 1.
@@ -173,18 +221,12 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     recorder: listens to the integrator (the debug buffers make their own when asked for).
     """
     s = dataclasses.replace(ctx.settings, samples=spp, seed=seed)
-    W, H = s.width, s.height
     p = len(pixels)
     # a. Sample positions inside each pixel: the next spp points of its progressive pattern
     #    (core/sampling), or without jitter the centres of a grid of spp cells; their camera rays,
     #    camera-relative (the camera moved by the geometry's origin).
     pixel, sample = sample_keys(pixels, spp, first)
-    if s.jitter:
-        offset = sampling.sample_2d(s.seed, pixel, sample, dimension=0)
-    else:
-        offset = sampling.stratum_centres(sample, spp)
-    rays = camera_.generate_rays(ctx.extra["camera"], W, H, (pixel % W) + offset[:, 0], (pixel // W) + offset[:, 1],
-                                 tuple(s.pixel_aspect))
+    rays = camera_rays(ctx, s, pixel, sample, spp)
     # As in Cycles: outside a fisheye's image circle the film is opaque black; camera rays that miss
     # show the world, or leave the film clear (alpha 0, premultiplied RGB 0) when transparent.
     n = len(pixel)
@@ -390,11 +432,18 @@ def render(scene: Scene, settings: RenderSettings,
             stats.passes += 1
             if cancelled:
                 break
+        # c. The denoising features, from a few first-hit samples per pixel (core/integrators/features.py).
+        features_ = {}
+        if settings.denoising_features and not cancelled:
+            started = time.perf_counter()
+            features_ = feature_images(ctx, region_pixels(settings), pool, threads)
+            stats.feature_seconds = time.perf_counter() - started
     if progress is not None and not cancelled:
         progress(1.0, stats)
     # 4. The image: each pixel's mean over all its samples; debug buffers as debug.aux_images makes them.
     image = film.image()
     aux = debug.aux_images(film.aux, film.hits, settings.aux, H, W)
+    aux.update(features_)
     stats.samples_per_pixel = film.noise.count.reshape(H, W).astype(np.int32)
     stats.seconds = time.perf_counter() - start
     # Embree's share: the shadow rays' queries ran inside shading, so they move from there to trace.

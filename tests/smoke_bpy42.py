@@ -111,3 +111,64 @@ def test_light_node_tree_in_blender_4_2(tmp_path):
     result = run_bpy(LIGHT_NODES.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
     assert result["version"][:2] == [4, 2]
     check_light_nodes(result)
+
+
+def test_denoise_sets_up_the_compositor_and_denoises_in_blender_4_2(tmp_path):
+    """Render > Denoise in bpy 4.2: the Denoise node goes into scene.node_tree between Render Layers and Composite,
+    and the composited 4-sample image is nearer a 128-sample one than without it."""
+    result = run_bpy(f"""
+    import sys
+    sys.path.append({ROOT!r})
+    import bpy
+    import numpy as np
+    from blender_env import report
+    from tools.render import configure_output, load_primer
+
+    primer = load_primer()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "PRIMER"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 48, 36, 100
+    mesh = bpy.data.meshes.new("Plane")
+    mesh.from_pydata([(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [], [(0, 1, 2, 3)])
+    scene.collection.objects.link(bpy.data.objects.new("Plane", mesh))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, location=(0.0, 0.0, 1.0))
+    light = bpy.data.objects.new("Area", bpy.data.lights.new("Area", "AREA"))
+    light.data.energy, light.data.size, light.location = 300.0, 3.0, (1.5, -1.0, 4.0)
+    scene.collection.objects.link(light)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location, camera.rotation_euler = (0.0, -6.0, 4.0), (0.95, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.primer.use_adaptive_sampling = False
+    scene.primer.light_samples = 1
+
+    def render(name, samples):
+        scene.primer.samples = samples
+        configure_output(scene, name)
+        bpy.ops.render.render(write_still=True)
+        image = bpy.data.images.load(name)
+        pixels = np.array(image.pixels[:], np.float64).reshape(image.size[1], image.size[0], image.channels)
+        bpy.data.images.remove(image)
+        return pixels[..., :3]
+
+    def error(image, reference):
+        return float(np.mean((image - reference) ** 2 / (reference ** 2 + 1e-2)))
+
+    reference = render("reference.exr", 128)
+    noisy = render("noisy.exr", 4)
+    scene.primer.use_denoising = True
+    links = sorted((l.from_node.name, l.from_socket.name, l.to_node.name, l.to_socket.name)
+                   for l in scene.node_tree.links)
+    denoised = render("denoised.exr", 4)
+    warnings = sys.modules["primer.addon.engine"].last_render.warnings
+    primer.unregister()
+    report(links=links, noisy=error(noisy, reference), denoised=error(denoised, reference), warnings=warnings)
+    """, str(tmp_path))
+    links = {tuple(link) for link in result["links"]}
+    assert {("Render Layers", "Image", "Primer Denoise", "Image"),
+            ("Render Layers", "Denoising Albedo", "Primer Denoise", "Albedo"),
+            ("Render Layers", "Denoising Normal", "Primer Denoise", "Normal"),
+            ("Primer Denoise", "Image", "Composite", "Image")} <= links
+    assert result["warnings"] == []
+    assert result["denoised"] < 0.3 * result["noisy"], (result["noisy"], result["denoised"])

@@ -30,6 +30,9 @@ class RenderSettings:
     kernels: "compiled" renders in C (the integrator's compiled twin, core/integrators/*.c) where it
         applies (the same numbers, several times faster); "numpy" keeps every render on the readable
         Python reference path.
+    denoising_features: also return the denoising features "denoising_albedo" and "denoising_normal"
+        (core/integrators/features.py: albedo and normal of each pixel's first non-specular hit), computed
+        by a first-hit pass of a few samples per pixel after the render, with either kernels.
     adaptive: render in passes and stop pixels whose noise is below adaptive_threshold
         (core/film/adaptive.py); samples is then the most a pixel gets. adaptive_threshold 0 and
         adaptive_min_samples 0 choose automatic values from samples.
@@ -75,6 +78,7 @@ class RenderSettings:
     instancing: str = "auto"
     kernels: str = "compiled"
     aux: Sequence[str] = ()
+    denoising_features: bool = False
     adaptive: bool = False
     adaptive_threshold: float = 0.0
     adaptive_min_samples: int = 0
