@@ -18,6 +18,7 @@ The scenes, one idea each:
     shading_visibility                                        an open smooth sheet: light leaks, negative N.L
     modifiers_instances                                       modifiers, instancing, negative scale, curves
     materials_principled, materials_textures                  Principled BSDFs; materials from node graphs
+    cornell_box, materials_glass                              path tracing: light that bounces; glass
     camera_ortho, camera_persp_shift,                         every camera type, with shift and sensor fit
     camera_fisheye_equidistant, camera_fisheye_equisolid      (disk, square and sphere lights light them)
 
@@ -655,6 +656,54 @@ def cornell_box():
     add_camera((w / 2, -8.0, h / 2), (w / 2, 0.0, h / 2), lens=33.6, sensor_fit="VERTICAL", sensor_height=24.0)
 
 
+def glass_node(name: str, kind: str, color, roughness: float, ior: float, distribution: str):
+    """A material of one Glass BSDF or Refraction BSDF (kind "Glass" or "Refraction") with these inputs."""
+    bpy = _bpy()
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:
+        material.use_nodes = True
+    tree = material.node_tree
+    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        tree.nodes.remove(node)
+    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    bsdf = tree.nodes.new(f"ShaderNodeBsdf{kind}")
+    bsdf.distribution = distribution
+    bsdf.inputs["Color"].default_value = (*color, 1.0)
+    bsdf.inputs["Roughness"].default_value = roughness
+    bsdf.inputs["IOR"].default_value = ior
+    tree.links.new(bsdf.outputs["BSDF"], output.inputs["Surface"])
+    return material
+
+
+def materials_glass():
+    """Glass in front of coloured stripes, by path tracing: a smooth Glass BSDF, a frosted one (roughness
+    0.35, Multiscatter GGX), a rough Principled transmission and a rough tinted Refraction BSDF, under a
+    softbox and a dim world. Light reaches the stripes through the glass and the floor in the glass's
+    caustics, as Cycles renders them with its default bounce limits."""
+    new_file("materials_glass", 160, 96, light_samples=1)
+    scene = bpy_scene()
+    if hasattr(scene, "primer"):
+        scene.primer.integrator = "PATH"
+        scene.primer.max_bounces, scene.primer.diffuse_bounces, scene.primer.glossy_bounces = 12, 4, 4
+    __import__("render").configure_cycles_reference(scene, DEFAULT_CYCLES_SAMPLES)
+    set_world(scene, (0.08, 0.09, 0.1), lights=True)
+    ground(diffuse("Grey", (0.6, 0.6, 0.6)))
+    for i, color in enumerate([(0.8, 0.15, 0.1), (0.9, 0.8, 0.2), (0.15, 0.5, 0.2), (0.1, 0.25, 0.7)]):
+        add_primitive("cube", diffuse(f"Stripe {i}", color), False, f"Stripe {i}", location=(-2.1 + 1.4 * i, 1.6, 0.9),
+                      size=1.0).scale = (1.4, 0.2, 1.8)
+    looks = [glass_node("Clear Glass", "Glass", (1.0, 1.0, 1.0), 0.0, 1.45, "MULTI_GGX"),
+             glass_node("Frosted Glass", "Glass", (0.95, 0.97, 1.0), 0.35, 1.45, "MULTI_GGX"),
+             principled("Principled Glass", Base_Color=(0.9, 0.95, 1.0), Roughness=0.2, Transmission_Weight=1.0,
+                        IOR=1.5),
+             glass_node("Rough Refraction", "Refraction", (0.8, 0.9, 1.0), 0.15, 1.33, "GGX")]
+    for i, material in enumerate(looks):
+        add_primitive("uv_sphere", material, True, f"Sphere {i}", location=(-2.1 + 1.4 * i, 0.0, 0.6), radius=0.6,
+                      segments=48, ring_count=24)
+    add_camera((0.0, -5.6, 1.7), (0.0, 0.4, 0.6), lens=35.0)
+    add_light("AREA", "Softbox", (-1.0, -2.0, 3.5), target=(0.0, 0.3, 0.5), energy=150.0, shape="RECTANGLE",
+              size=2.5, size_y=1.5)
+
+
 def packed_image(name: str, pixels, color_space: str):
     """An image made here from RGBA rows (h, w, 4) floats in 0..1, bottom row first, saved as PNG bytes
     inside the .blend (packed), in the colour space `color_space` ("sRGB" or "Non-Color")."""
@@ -848,8 +897,7 @@ SCENES = {
     "world_light": world_light,
     "materials_principled": materials_principled,
     "cornell_box": cornell_box,
-
-
+    "materials_glass": materials_glass,
     "materials_textures": materials_textures,
     "camera_ortho": camera_ortho,
     "camera_persp_shift": camera_persp_shift,

@@ -35,6 +35,10 @@ from bench.common import digest  # one cache-key function for the tests and the 
 SCENES_DIR = os.path.join(ROOT, "sample_scenes")
 RENDER_TOOL = os.path.join(ROOT, "tools", "render.py")
 TOLERANCE = 0.01            # relative RMSE of RGB
+# Scenes whose caustics stay noisy per pixel at any affordable sample count are held to the project's measure
+# instead, the relative MSE of 4x4-pixel block means (relative_mse_of_blocks), at issue 21's bound for Primer
+# at 1024 samples against Cycles at 2048.
+BLOCK_TOLERANCE = {"materials_glass": 1.5e-4}
 ALPHA_TOLERANCE = 0.005     # RMSE of alpha
 TIMEOUT = 900               # seconds per render
 
@@ -62,6 +66,7 @@ SCENES = {
     "world_light": (256, 1024),
     "materials_principled": (2048, 4096),       # glossy highlights: Cycles needs many samples here
     "cornell_box": (1024, 2048),                # path tracing, Cycles' default bounce limits
+    "materials_glass": (1024, 2048),            # glass, smooth and rough: caustics make it noisy per pixel
     "materials_textures": (512, 1024),          # image textures, a normal map, vertex colours, node groups
     "camera_ortho": (256, 1024),
     "camera_persp_shift": (128, 1024),
@@ -144,6 +149,15 @@ def relative_rmse(image: np.ndarray, reference: np.ndarray) -> float:
     return float(np.sqrt(np.mean(difference ** 2)) / np.sqrt(np.mean(reference[..., :3].astype(np.float64) ** 2)))
 
 
+def relative_mse_of_blocks(image: np.ndarray, reference: np.ndarray) -> float:
+    """mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)) over RGB, B the means of 4x4-pixel blocks."""
+    def blocks(x):
+        h, w = x.shape[0] // 4 * 4, x.shape[1] // 4 * 4
+        return x[:h, :w, :3].astype(np.float64).reshape(h // 4, 4, w // 4, 4, 3).mean(axis=(1, 3))
+    P, C = blocks(image), blocks(reference)
+    return float(np.mean((P - C) ** 2 / (C * C + 0.01)))
+
+
 def render(blend: str, out: str, engine: str, samples: int, folder: str) -> None:
     """Render `blend` into the EXR `out` with tools/render.py in a fresh, isolated bpy process."""
     command = [sys.executable, RENDER_TOOL, blend, "-o", out, "--engine", engine, "--samples", str(samples)]
@@ -207,8 +221,14 @@ def compare(blend: str, key_parts: tuple, primer_samples: int, cycles_samples: i
     assert image.shape == reference.shape, f"Primer wrote {image.shape}, Cycles {reference.shape}"
     error = relative_rmse(image, reference)
     alpha_error = float(np.sqrt(np.mean((image[..., 3].astype(np.float64) - reference[..., 3]) ** 2)))
-    print(f"{os.path.basename(blend)}: relative RMSE {100 * error:.3f}%, alpha RMSE {alpha_error:.4f}")
-    assert error < TOLERANCE, f"relative RMSE {100 * error:.2f}% against Cycles"
+    block_error = relative_mse_of_blocks(image, reference)
+    print(f"{os.path.basename(blend)}: relative RMSE {100 * error:.3f}%, relative MSE of 4x4 blocks "
+          f"{block_error:.2e}, alpha RMSE {alpha_error:.4f}")
+    name = os.path.splitext(os.path.basename(blend))[0]
+    if name in BLOCK_TOLERANCE:
+        assert block_error < BLOCK_TOLERANCE[name], f"relative MSE of 4x4 blocks {block_error:.2e} against Cycles"
+    else:
+        assert error < TOLERANCE, f"relative RMSE {100 * error:.2f}% against Cycles"
     assert alpha_error < ALPHA_TOLERANCE, f"alpha RMSE {alpha_error:.4f} against Cycles"
 
 
