@@ -4,7 +4,7 @@ The scenes are not committed (each one's source, commit and licence is listed in
 them from a local git mirror of their repository into the cache folder, `compare` renders each with
 Primer and with Cycles under the same settings and writes a report:
 
-    .venv/bin/python tools/real_scenes.py fetch --mirror PATH/TO/glTF-Blender-IO   # once
+    .venv/bin/python tools/real_scenes.py fetch --mirror PATH/TO/glTF-Blender-IO --mirror ...   # once
     .venv/bin/python tools/real_scenes.py compare [--integrator direct|path] [--only NAME ...]
 
 A scene without a camera gets one that frames its meshes from a three-quarter view above; a scene
@@ -41,6 +41,42 @@ SOURCES = {
     "gltf_scene_export": GLTF_IO + ("tests/scenes/00_scene_export.blend", "diffuse and Principled meshes"),
 }
 
+HELMET = ("GDLynx/3d-models", "b56af89fbbe17fa6e8c0a49d886daae01efc1e9f",
+          "CC-BY 4.0, 'Battle Damaged Sci-fi Helmet' by theblueturtle_ (Khronos glTF sample model)")
+STUDIO = ("adityawaskel/PlutarchyHRDI", "59d64fda881538cea86e403c4545e3ec82447158", "CC0, Poly Haven 'Studio Small 08'")
+
+# Scenes built from files (a glTF model and an HDRI) by a bpy script: name -> (files [(repository, commit,
+# licence, path)], the name of the HDRI among them or "", what it exercises). The script imports the model with
+# Blender's own glTF importer and lights it by the HDRI alone (an Environment Texture in the world).
+BUILT = {
+    "gltf_damaged_helmet": ([HELMET + (path,) for path in (
+        "DamagedHelmet.gltf", "DamagedHelmet.bin", "Default_albedo.jpg", "Default_metalRoughness.jpg",
+        "Default_normal.jpg", "Default_emissive.jpg", "Default_AO.jpg")] + [STUDIO + ("studio_small_08_1k.hdr",)],
+        "studio_small_08_1k.hdr", "glTF: textured metal-rough, normal map, emissive texture; an HDRI world"),
+}
+
+BUILD = r'''
+import sys
+import bpy
+import addon_utils
+addon_utils.enable("io_scene_gltf2", default_set=True)
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.import_scene.gltf(filepath={model!r})
+scene = bpy.context.scene
+world = bpy.data.worlds.new("HDRI World")
+scene.world = world
+if bpy.app.version < (5, 0, 0):
+    world.use_nodes = True
+tree = world.node_tree
+background = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBackground")
+environment = tree.nodes.new("ShaderNodeTexEnvironment")
+environment.image = bpy.data.images.load({hdri!r})
+tree.links.new(environment.outputs["Color"], background.inputs["Color"])
+background.inputs["Strength"].default_value = 1.0
+bpy.ops.wm.save_as_mainfile(filepath={out!r})
+print("BUILT")
+'''
+
 RIG = r'''
 import sys, math
 import bpy
@@ -66,7 +102,9 @@ if scene.camera is None:
     scene.collection.objects.link(camera)
     scene.camera = camera
     notes.append("camera added")
-if not any(o.type == "LIGHT" for o in scene.objects):
+lit_by_image = scene.world is not None and scene.world.node_tree is not None and any(
+    n.bl_idname == "ShaderNodeTexEnvironment" for n in scene.world.node_tree.nodes)
+if not any(o.type == "LIGHT" for o in scene.objects) and not lit_by_image:
     sun = bpy.data.objects.new("Rig Sun", bpy.data.lights.new("Rig Sun", "SUN"))
     sun.data.energy, sun.data.angle = 3.0, math.radians(3.0)
     sun.rotation_euler = (math.radians(40), 0, math.radians(30))
@@ -106,19 +144,57 @@ def block_rel_mse(P: np.ndarray, C: np.ndarray) -> float:
     return float(np.mean((b - c) ** 2 / (c * c + 0.01)))
 
 
-def fetch(mirror: str) -> None:
-    """Copy every source whose repository `mirror` (a git directory) holds into the cache."""
+def git_file(mirrors: list, commit: str, path: str):
+    """The bytes of `path` at `commit` (or HEAD) in the first of the git directories `mirrors` that has it."""
+    for mirror in mirrors:
+        for revision in (commit, "HEAD"):
+            data = subprocess.run(["git", "--git-dir", mirror, "show", f"{revision}:{path}"], capture_output=True)
+            if data.returncode == 0:
+                return data.stdout
+    return None
+
+
+def fetch(mirrors: list) -> None:
+    """Copy every source that one of the git directories `mirrors` holds into the cache."""
     os.makedirs(CACHE, exist_ok=True)
     for name, (repo, commit, _, path, _) in SOURCES.items():
-        data = subprocess.run(["git", "--git-dir", mirror, "show", f"{commit}:{path}"], capture_output=True)
-        if data.returncode != 0:
-            data = subprocess.run(["git", "--git-dir", mirror, "show", f"HEAD:{path}"], capture_output=True)
-        if data.returncode != 0:
-            print(f"{name}: not in {mirror} ({data.stderr.decode().strip()})")
+        data = git_file(mirrors, commit, path)
+        if data is None:
+            print(f"{name}: {path} is in none of {mirrors}")
             continue
         with open(os.path.join(CACHE, name + os.path.splitext(path)[1]), "wb") as handle:
-            handle.write(data.stdout)
-        print(f"{name}: {len(data.stdout) / 1e6:.1f} MB from {repo} ({path})")
+            handle.write(data)
+        print(f"{name}: {len(data) / 1e6:.1f} MB from {repo} ({path})")
+    for name, (files, _, _) in BUILT.items():
+        folder = os.path.join(CACHE, name)
+        os.makedirs(folder, exist_ok=True)
+        missing = []
+        for repo, commit, _, path in files:
+            data = git_file(mirrors, commit, path)
+            if data is None:
+                missing.append(f"{repo}:{path}")
+                continue
+            with open(os.path.join(folder, os.path.basename(path)), "wb") as handle:
+                handle.write(data)
+        print(f"{name}: {len(files) - len(missing)} of {len(files)} files" + (f"; missing {missing}" if missing else ""))
+
+
+def build(name: str) -> str:
+    """Make the .blend of a BUILT scene in the cache from its fetched files (once); return its path, or ""."""
+    files, hdri, _ = BUILT[name]
+    folder = os.path.join(CACHE, name)
+    out = os.path.join(CACHE, name + ".blend")
+    if os.path.exists(out):
+        return out
+    model = os.path.join(folder, os.path.basename(files[0][3]))
+    if not all(os.path.exists(os.path.join(folder, os.path.basename(f[3]))) for f in files):
+        print(f"{name}: its files are not all in {folder}; run `fetch` first")
+        return ""
+    done = run(["-c", BUILD.format(model=model, hdri=os.path.join(folder, hdri), out=out)])
+    if done.returncode != 0 or not os.path.exists(out):
+        print(f"{name}: building failed\n{done.stderr[-2000:]}")
+        return ""
+    return out
 
 
 def run(args: list, timeout: float = 1800) -> subprocess.CompletedProcess:
@@ -134,8 +210,8 @@ def compare(names: list, integrator: str, samples: int, reference: int, width: i
     work = os.path.join(CACHE, "work")
     os.makedirs(work, exist_ok=True)
     for name in names:
-        source = os.path.join(CACHE, name + ".blend")
-        if not os.path.exists(source):
+        source = build(name) if name in BUILT else os.path.join(CACHE, name + ".blend")
+        if not source or not os.path.exists(source):
             print(f"{name}: not in the cache ({source}); run `fetch` first")
             continue
         rigged = os.path.join(work, f"{name}_{integrator}.blend")
@@ -165,13 +241,21 @@ def compare(names: list, integrator: str, samples: int, reference: int, width: i
         P, C = images["PRIMER"], images["CYCLES"]
         row = dict(name=name, integrator=integrator, error=block_rel_mse(P, C),
                    ratio=float(P[..., :3].mean() / max(C[..., :3].mean(), 1e-12)), primer_s=seconds["PRIMER"],
-                   cycles_s=seconds["CYCLES"], notes=notes, warnings=warnings, what=SOURCES[name][4],
-                   source=f"{SOURCES[name][0]} {SOURCES[name][3]} ({SOURCES[name][2]})")
+                   cycles_s=seconds["CYCLES"], notes=notes, warnings=warnings,
+                   what=SOURCES[name][4] if name in SOURCES else BUILT[name][2],
+                   source=describe(name))
         rows.append(row)
         print(f"{name:22s} relMSE {row['error']:.2e}  mean P/C {row['ratio']:.4f}  "
               f"Primer {row['primer_s']:.1f} s  Cycles {row['cycles_s']:.1f} s  {len(warnings)} warning(s)")
     write_report(rows, report, samples, reference)
     return rows
+
+
+def describe(name: str) -> str:
+    """Where a scene's files come from, with their licences."""
+    if name in SOURCES:
+        return f"{SOURCES[name][0]} {SOURCES[name][3]} ({SOURCES[name][2]})"
+    return "; ".join(sorted({f"{repo} ({licence})" for repo, _, licence, _ in BUILT[name][0]}))
 
 
 def write_report(rows: list, path: str, samples: int, reference: int) -> None:
@@ -193,7 +277,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     f = sub.add_parser("fetch", help="copy the sources from a local git mirror into the cache")
-    f.add_argument("--mirror", required=True, help="the repository's git directory")
+    f.add_argument("--mirror", required=True, action="append", help="a repository's git directory (repeatable)")
     c = sub.add_parser("compare", help="render every cached scene with Primer and Cycles and measure")
     c.add_argument("--only", nargs="*", default=None)
     c.add_argument("--integrator", choices=("direct", "path"), default="direct")
@@ -205,7 +289,7 @@ def main(argv=None) -> int:
     if args.command == "fetch":
         fetch(args.mirror)
         return 0
-    compare(args.only or list(SOURCES), args.integrator, args.samples, args.reference, *args.size, args.report)
+    compare(args.only or list(SOURCES) + list(BUILT), args.integrator, args.samples, args.reference, *args.size, args.report)
     return 0
 
 
