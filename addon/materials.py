@@ -570,11 +570,15 @@ def export_material(material, warnings: list) -> Material:
     """A Blender material as a core Material: a plain Diffuse BSDF (or no node tree: the viewport colour)
     stays the constant Lambert material; anything else becomes shader nodes."""
     sampling = str(getattr(getattr(material, "cycles", None), "emission_sampling", "AUTO"))
+    # Settings > Transparent Shadows (Blender 4.2 and later; Cycles reads it too): off, shadow rays stop at it.
+    shadows = bool(getattr(material, "use_transparent_shadow", True))
     if node_tree(material) is None:
-        return Material(np.array(material.diffuse_color[:3], np.float64), material.name, emission_sampling=sampling)
+        return Material(np.array(material.diffuse_color[:3], np.float64), material.name, emission_sampling=sampling,
+                        transparent_shadows=shadows)
     nodes = shader_nodes(material, warnings)
     if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes):
-        return Material(np.clip(nodes[0][1], 0.0, None), material.name, emission_sampling=sampling)
+        return Material(np.clip(nodes[0][1], 0.0, None), material.name, emission_sampling=sampling,
+                        transparent_shadows=shadows)
     if not nodes:
-        return Material(np.zeros(3), material.name, emission_sampling=sampling)
-    return Material(np.zeros(3), material.name, nodes=nodes, emission_sampling=sampling)
+        return Material(np.zeros(3), material.name, emission_sampling=sampling, transparent_shadows=shadows)
+    return Material(np.zeros(3), material.name, nodes=nodes, emission_sampling=sampling, transparent_shadows=shadows)

@@ -300,3 +300,26 @@ def test_an_unlit_material_made_with_light_path_shows_its_colour_to_the_camera_o
     assert render_module.prepare(exported.scene, exported.settings).extra["emitters"] is None
     pixels = render_to(scene, str(tmp_path / "unlit.exr"))[..., :3]
     np.testing.assert_allclose(pixels, np.broadcast_to([0.6, 0.3, 0.1], pixels.shape), rtol=1e-5)
+
+
+def test_transparent_shadows_off_in_a_material_makes_it_opaque_to_shadow_rays(primer):
+    """Material > Settings > Transparent Shadows (Blender 4.2 and later), which Cycles reads: off, the material's
+    alpha still shows the camera what is behind it, but shadow rays stop at it (its row is shadow-opaque)."""
+    scene = new_scene(width=8, height=6)
+    scene.view_layers[0].material_override = None
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    render_module = sys.modules[primer.__name__ + ".core.render"]
+    for setting in (True, False):
+        material = bpy.data.materials.new(f"Alpha {setting}")
+        if bpy.app.version < (5, 0, 0):
+            material.use_nodes = True
+        material.node_tree.nodes["Principled BSDF"].inputs["Alpha"].default_value = 0.3
+        material.use_transparent_shadow = setting
+        plane = scene.objects["Plane"]
+        plane.data.materials.clear()
+        plane.data.materials.append(material)
+        exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+        (ours,) = [m for m in exported.scene.materials if m.name == material.name]
+        assert ours.transparent_shadows is setting
+        table = render_module.prepare(exported.scene, exported.settings).materials
+        assert bool(table.shadow_opaque[table.names.index(material.name)]) is (not setting)

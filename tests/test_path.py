@@ -248,13 +248,14 @@ def test_shadows_pass_transparent_surfaces_as_in_cycles(integrator, kernels):
     opaque one nothing (Cycles' transparent shadows)."""
     from core.scene import SunLight
 
-    def floor(sheet):
+    def floor(sheet, transparent_shadows=True):
         scene = Scene(camera=Camera(type="ORTHO", ortho_scale=1.0, matrix_world=np.array(
             [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 5.0], [0, 0, 0, 1.0]])))
         scene.materials.append(materials.Material((0.5, 0.5, 0.5), name="floor"))
         scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
         if sheet is not None:
-            scene.materials.append(materials.Material(name="sheet", nodes=sheet))
+            scene.materials.append(materials.Material(name="sheet", nodes=sheet,
+                                                      transparent_shadows=transparent_shadows))
             scene.add_mesh(primitives.plane(2.0, center=(2.5, 0.0, 2.0)), materials=np.array([1]))
         scene.lights.append(SunLight(np.array([-1.0, 0.0, -1.0]) / math.sqrt(2.0), strength=3.0))
         return scene
@@ -268,6 +269,10 @@ def test_shadows_pass_transparent_surfaces_as_in_cycles(integrator, kernels):
     np.testing.assert_allclose(alpha, 0.7 * lit, rtol=1e-5)
     opaque = render.render(floor([("DIFFUSE", (0.5, 0.5, 0.5), {})]), settings).image[..., :3]
     assert not opaque.any()
+    # Transparent Shadows off (the material's setting, which Cycles reads): the same alpha sheet shadows fully.
+    blocked = render.render(floor([("PRINCIPLED", (1, 1, 1), {"alpha": 0.3})], transparent_shadows=False),
+                            settings).image[..., :3]
+    assert not blocked.any()
 
 
 @pytest.mark.parametrize("kernels", ["numpy", "compiled"])

@@ -29,7 +29,8 @@ ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "termina
                                 size_function="primer_shadow_settings_size")
 MaterialRecord = library.record("MaterialRecord", [
     "n", "program", "graph", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
-    ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3)], size_function="primer_material_record_size")
+    ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3), "shadow_opaque"],
+    size_function="primer_material_record_size")
 
 
 class LightContext(ctypes.Structure):
@@ -61,9 +62,11 @@ class ChunkOut(ctypes.Structure):
     _size_function = "primer_chunk_out_size"
 
 
-def material_record(shader) -> MaterialRecord:
-    """Return the C record of a material: a ConstantShader's closures, or a NodeShader's nodes (program 1)."""
+def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
+    """Return the C record of a material: a ConstantShader's closures, or a NodeShader's nodes (program 1);
+    shadow_opaque: it blocks shadow rays even where it lets light through (Transparent Shadows off)."""
     record = MaterialRecord()
+    record.shadow_opaque = 1.0 if shadow_opaque else 0.0
     if hasattr(shader, "nodes"):
         k = len(shader.nodes)
         record.n, record.program = float(k), 1.0
@@ -122,7 +125,7 @@ class Compiled:
         self.lights = (LightRecord * max(1, len(ctx.lights)))(
             *[light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)])
         self.materials = (MaterialRecord * len(ctx.materials.shaders))(
-            *[material_record(shader) for shader in ctx.materials.shaders])
+            *[material_record(shader, opaque) for shader, opaque in zip(ctx.materials.shaders, ctx.materials.shadow_opaque)])
         # Materials with node graphs: their programs, and each record's program number (+ 1).
         self.graphs = graph_tables(ctx.materials, geometry.attribute_layout)
         for row, index in (self.graphs.rows.items() if self.graphs is not None else ()):

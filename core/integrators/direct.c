@@ -330,7 +330,8 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             sd.storage = storage;
             shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u, v,
                       wo, RAY_SHADOW, &sd);
-            for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c];
+            double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
+            for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
             /* On from just past that surface, for what is left of the way to the light. */
             double side = dot3(s.Ng, D[l]) < 0.0 ? -1.0 : 1.0, travelled[3];
             for (int c = 0; c < 3; c++) origin[l][c] = s.I[c] + (s.offset * side) * s.Ng[c];

@@ -173,7 +173,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
         shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, graph_.RAY_SHADOW)
-        T[rows] *= shader.transparency
+        T[rows] *= np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
         # On from just past that surface, for what is left of the way to the light.
         step = error_bound(surface.I, surface.vertices)
         side = np.where(np.einsum("ij,ij->i", surface.Ng, D[rows]) < 0.0, -1.0, 1.0)

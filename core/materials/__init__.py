@@ -45,6 +45,8 @@ class Material:
     emission_sampling: from which sides light samples find its triangles (Blender's Material > Settings >
                 Emission Sampling): "NONE", "FRONT", "BACK", "FRONT_BACK", or "AUTO" (both sides when the
                 emission exceeds 0.5 in some channel, as Cycles decides; else none: BSDF rays still find it)
+    transparent_shadows: whether shadow rays pass it where it lets light through (Blender's Material >
+                Settings > Transparent Shadows, which Cycles reads): False makes it opaque to shadow rays only
     nodes:      the shader nodes of its node tree, when it has more than one colour to say (a Principled,
                 Glossy or Mix of them): (name in nodes.NODE_BY_NAME, weight (3,), inputs dict[, factors]) each.
                 An input may be a graph.Link (a texture or colour node feeding it, evaluated per hit); factors,
@@ -60,6 +62,7 @@ class Material:
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
     emission_sampling: str = "AUTO"
     nodes: list = field(default_factory=list)
+    transparent_shadows: bool = True
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).
@@ -228,11 +231,13 @@ class MaterialTable:
     shaders: one ConstantShader per material, then the default (diffuse grey)
     """
 
-    def __init__(self, shaders: list, names: list):
+    def __init__(self, shaders: list, names: list, shadow_opaque=None):
         from . import graph as graph_
         from .textures import TextureSet
         self.shaders = shaders
         self.names = names
+        # Which rows block shadow rays even where they let light through (Transparent Shadows off): (m + 1,) bool.
+        self.shadow_opaque = np.zeros(len(shaders), bool) if shadow_opaque is None else np.asarray(shadow_opaque, bool)
         # The images the node graphs read, in one TextureSet (core/materials/textures.py); None is missing.
         self.images: list = []
         self._image_rows: dict = {}
@@ -265,8 +270,10 @@ class MaterialTable:
     def of(cls, materials: list, default: Optional[Material] = None) -> "MaterialTable":
         """Build the table of `materials` and the `default` surface (the grey Lambert surface unless given);
         an unknown BSDF or node name is refused with a clear message."""
-        shaders = [shader_of(m) for m in materials] + [shader_of(default if default is not None else Material())]
-        return cls(shaders, [m.name for m in materials] + ["(default)"])
+        default = default if default is not None else Material()
+        shaders = [shader_of(m) for m in materials] + [shader_of(default)]
+        opaque = [not getattr(m, "transparent_shadows", True) for m in list(materials) + [default]]
+        return cls(shaders, [m.name for m in materials] + ["(default)"], opaque)
 
     @property
     def emission(self) -> np.ndarray:

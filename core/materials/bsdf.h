@@ -53,4 +53,5 @@ typedef struct {
     double p[MAX_CLOSURES][CLOSURE_PARAMS];
     double emission[3];
     double transparency[3];
+    double shadow_opaque;   /* 1: opaque to shadow rays even where it lets light through (Transparent Shadows off) */
 } MaterialRecord;

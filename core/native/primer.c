@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 16
+#define PRIMER_ABI 17
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
