@@ -296,3 +296,22 @@ def test_light_found_through_a_transparent_surface_is_weighed_as_before_it(kerne
         settings = RenderSettings(width=4, height=4, samples=512, integrator=integrator, kernels=kernels)
         image = render.render(scene, settings).image[..., :3]
         assert image.mean() == pytest.approx(0.5 * lit, rel=0.03), integrator
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_a_path_past_its_bounce_limit_still_sees_the_world_through_a_clear_roof(integrator, kernels):
+    """A grey floor (albedo 0.5) under a wide clear roof (a Transparent BSDF of colour 0.6), lit only by a
+    constant world L = 2, with no bounces: the floor's BSDF rays end their path, yet go on through the roof
+    to the world, as Cycles' paths do past their limits (terminate after transparent): the floor shows
+    exactly albedo x 0.6 x L, without noise (each ray brings 0.6 L, weighed by the albedo)."""
+    from core.lights.world import World
+    scene = Scene(camera=Camera(type="ORTHO", ortho_scale=1.0, matrix_world=np.array(
+        [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 1.0], [0, 0, 0, 1.0]])), world=World(color=np.full(3, 2.0)))
+    scene.materials.append(materials.Material((0.5, 0.5, 0.5), name="floor"))
+    scene.materials.append(materials.Material(name="roof", nodes=[("TRANSPARENT", (0.6, 0.6, 0.6), {})]))
+    scene.add_mesh(primitives.plane(4000.0), materials=np.array([0]))
+    scene.add_mesh(primitives.plane(4000.0, center=(0.0, 0.0, 2.0)), materials=np.array([1]))
+    settings = RenderSettings(width=4, height=4, samples=8, integrator=integrator, max_bounces=0, kernels=kernels)
+    image = render.render(scene, settings).image[..., :3]
+    np.testing.assert_allclose(image, 0.5 * 0.6 * 2.0, rtol=1e-4)

@@ -29,7 +29,7 @@ ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "termina
                                 size_function="primer_shadow_settings_size")
 MaterialRecord = library.record("MaterialRecord", [
     "n", "program", "graph", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
-    ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3), "shadow_opaque"],
+    ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3), "shadow_opaque", "may_pass"],
     size_function="primer_material_record_size")
 
 
@@ -67,6 +67,7 @@ def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
     shadow_opaque: it blocks shadow rays even where it lets light through (Transparent Shadows off)."""
     record = MaterialRecord()
     record.shadow_opaque = 1.0 if shadow_opaque else 0.0
+    record.may_pass = 1.0 if shader.may_let_light_through else 0.0
     if hasattr(shader, "nodes"):
         k = len(shader.nodes)
         record.n, record.program = float(k), 1.0

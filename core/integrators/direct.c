@@ -414,6 +414,51 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
     return (int64_t)mesh->first_prim + instance * (int64_t)mesh->triangle_count + prim;
 }
 
+/* direct.gather_light for one ray O + t D that ends at its hit (geometry, prim, instance; t_limit) or escapes
+ * (hit 0): lamps with extent in front of the hit (they never block), the emission of the surface hit, or the
+ * world, each weighed by MIS against that light's own samples (where use_mis) with pdf_b, the pdf of the
+ * bounce that sent the ray (a constant world with weight 1); added to light_L. */
+INLINE void gather_light(const DirectSettings *ds, const double *O, const double *D, int hit, double t_limit,
+                         int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis, double *light_L)
+{
+    const LightContext *ctx = ds->context;
+    int64_t emitters_index = -1, world_index = -1;
+    for (int64_t l = 0; l < ds->n_lights; l++) {
+        if ((int)ds->lights[l].kind == LIGHT_EMITTERS) emitters_index = l;
+        if ((int)ds->lights[l].kind == LIGHT_WORLD) world_index = l;
+    }
+    /* a. Lamps with extent in front of the hit. */
+    for (int64_t l = 0; l < ds->n_lights; l++) {
+        const LightRecord *light = ds->lights + l;
+        if (light->hittable == 0.0 || (int)light->kind >= LIGHT_EMITTERS) continue;
+        LightHit lh;
+        if (!light_hit(light, O, D, t_limit, &lh)) continue;
+        double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
+        for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
+    }
+    /* b. An emissive surface the ray hits, weighed against the emitters' own samples. */
+    if (hit && ds->emissive) {
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+        hit_triangle(ds->geometry, geometry, prim, instance, 0, &tri);
+        const double *emitted = ds->materials[tri.material].emission;
+        int64_t index = emitters_index >= 0
+            ? emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance)) : -1;
+        double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, O, D, t_limit) : 0.0;
+        double n_l = emitters_index >= 0 ? ds->lights[emitters_index].samples : 1.0;
+        double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
+        for (int c = 0; c < 3; c++) light_L[c] += emitted[c] * w;
+    }
+    /* c. The world, where the ray escapes: a constant world with weight 1, an image by MIS. */
+    if (!hit && ctx->world->lights != 0.0) {
+        double L_world[3];
+        world_radiance(ctx->world, D, L_world);
+        double w = 1.0;
+        if (world_index >= 0 && use_mis)
+            w = power_heuristic(pdf_b, ds->lights[world_index].samples * world_pdf(ctx->world, D));
+        for (int c = 0; c < 3; c++) light_L[c] += L_world[c] * w;
+    }
+}
+
 /* The light one direction sampled from each hit's closures finds (direct.bsdf_ray): a lamp with extent
  * in front of what the ray hits, an emissive surface it hits, or the world it escapes to, weighed by
  * MIS against that light's own samples (1 for a constant world); added to H->L. Returns Embree's ticks. */
@@ -427,12 +472,6 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
     int64_t owner[PACKET];
     ClosureSample sampled[PACKET];
     double origin[PACKET][3];
-    const LightContext *ctx = ds->context;
-    int64_t emitters_index = -1, world_index = -1;
-    for (int64_t l = 0; l < ds->n_lights; l++) {
-        if ((int)ds->lights[l].kind == LIGHT_EMITTERS) emitters_index = l;
-        if ((int)ds->lights[l].kind == LIGHT_WORLD) world_index = l;
-    }
     int lanes = 0;
     for (int64_t h = 0; h <= H->m; h++) {
         if (h < H->m) {
@@ -487,38 +526,8 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
             }
             if (!ds->gather) continue;
-            /* c. Lamps with extent in front of the hit (they never block). */
-            for (int64_t l = 0; l < ds->n_lights; l++) {
-                const LightRecord *light = ds->lights + l;
-                if (light->hittable == 0.0 || (int)light->kind >= LIGHT_EMITTERS) continue;
-                LightHit lh;
-                if (!light_hit(light, O, D, t_limit, &lh)) continue;
-                double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
-                for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
-            }
-            /* d. An emissive surface the ray hits, weighed against the emitters' own samples. */
-            if (hit && ds->emissive) {
-                int64_t geometry = (int64_t)packet.hit.geomID[k], prim = (int64_t)packet.hit.primID[k];
-                int64_t instance = instance_of(&packet.hit, k);
-                Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
-                hit_triangle(ds->geometry, geometry, prim, instance, 0, &tri);
-                const double *emitted = ds->materials[tri.material].emission;
-                int64_t index = emitters_index >= 0
-                    ? emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance)) : -1;
-                double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, O, D, t_limit) : 0.0;
-                double n_l = emitters_index >= 0 ? ds->lights[emitters_index].samples : 1.0;
-                double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
-                for (int c = 0; c < 3; c++) light_L[c] += emitted[c] * w;
-            }
-            /* e. The world, where the ray escapes: a constant world with weight 1, an image by MIS. */
-            if (!hit && ctx->world->lights != 0.0) {
-                double L_world[3];
-                world_radiance(ctx->world, D, L_world);
-                double w = 1.0;
-                if (world_index >= 0 && use_mis)
-                    w = power_heuristic(pdf_b, ds->lights[world_index].samples * world_pdf(ctx->world, D));
-                for (int c = 0; c < 3; c++) light_L[c] += L_world[c] * w;
-            }
+            gather_light(ds, O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
+                         instance_of(&packet.hit, k), pdf_b, use_mis, light_L);
             double *L = H->L + 3 * owner[k];
             for (int c = 0; c < 3; c++) L[c] += s->weight[c] * light_L[c];
         }

@@ -211,49 +211,7 @@ class DirectLighting(Integrator):
             recorder.bsdf_sample(bs.wi, bs.pdf, found)
             return found, ray
         use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
-        light_L = np.zeros((len(go), 3))
-        t_limit = np.where(hits.hit, hits.t, np.inf)
-        # a. Lamps with extent in front of the hit (they never block, as in Cycles).
-        for index in ctx.extra["hittable"]:
-            light = ctx.lights[index]
-            if light.kind in (4, 5):                  # emitters and the world are found below
-                continue
-            lh = light.hit(O, D, t_limit)
-            if not lh.hit.any():
-                continue
-            w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * lh.pdf), 1.0)
-            light_L += lh.radiance * w[:, None]
-        # b. An emissive surface the ray hits: its emission, weighed against the emitters' own samples.
-        struck = np.flatnonzero(hits.hit)
-        emitters = ctx.extra.get("emitters")
-        if len(struck) and ctx.extra.get("emissive", False):
-            where = surface_at_hits(ctx.geometry, hits.prim[struck], hits.u[struck], hits.v[struck], O[struck],
-                                    D[struck], hits.t[struck])
-            # (Each material's emission as its light samples see it: head-on, so that both strategies of
-            #  MIS weigh the same radiance; a coat tint's change with angle is seen by the camera only.)
-            emitted = ctx.materials.emission[where.material]
-            pdf_l, n_l = np.zeros(len(struck)), 1
-            if emitters is not None:
-                index = emitters.index_of_prim(hits.prim[struck])
-                known = index >= 0
-                if known.any():
-                    pdf_l[known] = emitters.pdf_of_hits(O[struck][known], index[known], D[struck][known],
-                                                        hits.t[struck][known])
-                n_l = light_count(ctx, emitters)
-            w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
-            light_L[struck] += emitted * w[:, None]
-        # c. The world, where the ray escapes: a constant world with weight 1, an image by MIS.
-        world = ctx.extra.get("world_light")
-        missed = np.flatnonzero(~hits.hit)
-        if world is not None and world.lights and len(missed):
-            L_world = world.radiance(D[missed])
-            w = np.ones(len(missed))
-            sampler = ctx.extra.get("world_sampler")
-            if sampler is not None:
-                w = np.where(use_mis[missed], power_heuristic(pdf_b[missed],
-                             light_count(ctx, sampler) * sampler.pdf(D[missed])), 1.0)
-            light_L[missed] += L_world * w[:, None]
-        found[go] = bs.weight[go] * light_L
+        found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis)
         recorder.bsdf_sample(bs.wi, bs.pdf, found)
         return found, ray
 
@@ -276,6 +234,55 @@ class DirectLighting(Integrator):
             return shadows.robust_rays(I, Ng, offsets[rows], ls.position[rows], ls.L[rows], ls.distance[rows],
                                        s.reduce_t_max)
         return shadows.epsilon_rays(I, ls.L[rows], ls.distance[rows], s.epsilon, s.reduce_t_max)
+
+
+def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray) -> np.ndarray:
+    """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
+    extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
+    weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray."""
+    light_L = np.zeros((len(O), 3))
+    t_limit = np.where(hits.hit, hits.t, np.inf)
+    # a. Lamps with extent in front of the hit (they never block, as in Cycles).
+    for index in ctx.extra["hittable"]:
+        light = ctx.lights[index]
+        if light.kind in (4, 5):                  # emitters and the world are found below
+            continue
+        lh = light.hit(O, D, t_limit)
+        if not lh.hit.any():
+            continue
+        w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * lh.pdf), 1.0)
+        light_L += lh.radiance * w[:, None]
+    # b. An emissive surface the ray hits: its emission, weighed against the emitters' own samples.
+    struck = np.flatnonzero(hits.hit)
+    emitters = ctx.extra.get("emitters")
+    if len(struck) and ctx.extra.get("emissive", False):
+        where = surface_at_hits(ctx.geometry, hits.prim[struck], hits.u[struck], hits.v[struck], O[struck],
+                                D[struck], hits.t[struck])
+        # (Each material's emission as its light samples see it: head-on, so that both strategies of
+        #  MIS weigh the same radiance; a coat tint's change with angle is seen by the camera only.)
+        emitted = ctx.materials.emission[where.material]
+        pdf_l, n_l = np.zeros(len(struck)), 1
+        if emitters is not None:
+            index = emitters.index_of_prim(hits.prim[struck])
+            known = index >= 0
+            if known.any():
+                pdf_l[known] = emitters.pdf_of_hits(O[struck][known], index[known], D[struck][known],
+                                                    hits.t[struck][known])
+            n_l = light_count(ctx, emitters)
+        w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
+        light_L[struck] += emitted * w[:, None]
+    # c. The world, where the ray escapes: a constant world with weight 1, an image by MIS.
+    world = ctx.extra.get("world_light")
+    missed = np.flatnonzero(~hits.hit)
+    if world is not None and world.lights and len(missed):
+        L_world = world.radiance(D[missed])
+        w = np.ones(len(missed))
+        sampler = ctx.extra.get("world_sampler")
+        if sampler is not None:
+            w = np.where(use_mis[missed], power_heuristic(pdf_b[missed],
+                         light_count(ctx, sampler) * sampler.pdf(D[missed])), 1.0)
+        light_L[missed] += L_world * w[:, None]
+    return light_L
 
 
 # The sampling dimensions of the BSDF-sampled direction (2D) and of the closure it picks (core/sampling).

@@ -30,9 +30,59 @@ INLINE int is_transmission_bounce(int kind, int transmit)
     return kind >= 0 && kind != BSDF_LAMBERT && kind != BSDF_TRANSPARENT && transmit;
 }
 
+/* path.through_transparent for one ray r of hit h whose path has ended at its bounce limits, after `clear`
+ * transparent surfaces: the light behind the transparent surfaces it meets (each multiplies by its
+ * transparency; the ray goes straight on and gathers as a BSDF ray does, weighed by MIS with the pdf of the
+ * path's last real bounce), up to the transparent-bounce limit; added to found (r's weight included). */
+INLINE void through_transparent(const PathRay *r, int clear, const PathLimits *limits, const DirectSettings *ds,
+                                double *found)
+{
+    double T[3] = {r->weight[0], r->weight[1], r->weight[2]}, O[3] = {r->O[0], r->O[1], r->O[2]};
+    const double *D = r->D;
+    int64_t geometry = r->geometry, prim = r->prim, instance = r->instance;
+    double u = r->u, v = r->v, t = r->t;
+    int use_mis = ds->mis && isfinite(r->pdf);
+    for (;;) {
+        /* 1. The surface met: what it lets through, seen along the ray. */
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+        hit_triangle(ds->geometry, geometry, prim, instance, 1, &tri);
+        const MaterialRecord *material = ds->materials + tri.material;
+        if (material->may_pass == 0.0) return;
+        Surface s;
+        surface_at(O, D, t, u, v, &tri, 0, &s);
+        double wo[3] = {-D[0], -D[1], -D[2]}, storage[SHADER_STORAGE];
+        ShaderResult sd;
+        sd.storage = storage;
+        shade_hit(ds->graphs, ds->geometry, material, &tri, &s, geometry, prim, instance, u, v, wo, RAY_BOUNCE, &sd);
+        for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
+        if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0) || ++clear > limits->transparent_bounces) return;
+        /* 2. On from just past it, straight ahead, gathering what the ray finds. */
+        double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0;
+        for (int c = 0; c < 3; c++) O[c] = s.I[c] + (s.offset * side) * s.Ng[c];
+        RayHitPacket packet;
+        int valid[PACKET] ALIGNED(32);
+        set_lane(&packet.ray, 0, O, D, INFINITY);
+        close_packet(&packet.ray, valid, 1);
+        clear_hits(&packet);
+        ds->intersect(valid, ds->scene, &packet, NULL);
+        int hit = packet.hit.geomID[0] != INVALID_ID;
+        double light_L[3] = {0.0, 0.0, 0.0};
+        t = hit ? (double)packet.ray.tfar[0] : INFINITY;
+        geometry = (int64_t)packet.hit.geomID[0];
+        prim = (int64_t)packet.hit.primID[0];
+        instance = instance_of(&packet.hit, 0);
+        gather_light(ds, O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, light_L);
+        for (int c = 0; c < 3; c++) found[c] += T[c] * light_L[c];
+        /* 3. A ray that met another surface goes on. */
+        if (!hit) return;
+        u = (double)packet.hit.u[0];
+        v = (double)packet.hit.v[0];
+    }
+}
+
 /* path.py steps b-d: the vertices after `vertex`, where the BSDF rays of H that hit a surface and may
  * still bounce there go on (Russian roulette from limits->roulette_from); their surfaces and materials. */
-INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
+INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
                           const DirectSettings *ds, BlockHits *next)
 {
     int lift = ds->shadows->terminator_fix != 0.0;
@@ -46,9 +96,13 @@ INLINE void next_vertices(const BlockHits *H, const PathRays *rays, int vertex, 
         int tr = H->transmission[h] + is_transmission_bounce(r->kind, r->transmit);
         int see_through = is_transparent_bounce(r->kind), clear = H->transparent[h] + see_through;
         int bounces = H->bounce[h] + !see_through;
+        if (clear > limits->transparent_bounces) continue;
         if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces
-            || tr > limits->transmission_bounces || clear > limits->transparent_bounces)
+            || tr > limits->transmission_bounces) {
+            /* Past its bounce limits the path still looks through the transparent surfaces its ray meets. */
+            if (ds->transmitter != NULL) through_transparent(r, clear, limits, ds, H->L + 3 * h);
             continue;
+        }
         /* b. The throughput, and Russian roulette. */
         double tp[3];
         for (int c = 0; c < 3; c++) tp[c] = H->throughput[3 * h + c] * r->weight[c];
@@ -108,12 +162,12 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         work->rays.n = 0;
         ds->continuing = &work->rays;
         embree[1] += bsdf_rays(current, ds);
+        /* b. Where the paths go on (ended ones add the light behind transparent surfaces to their vertex's). */
+        next_vertices(current, &work->rays, vertex, limits, ds, next);
         if (vertex > 0)
             for (int64_t h = 0; h < current->m; h++)
                 for (int c = 0; c < 3; c++)
                     work->extra[current->lane[h]][c] += current->throughput[3 * h + c] * current->L[3 * h + c];
-        /* b. Where the paths go on. */
-        next_vertices(current, &work->rays, vertex, limits, ds, next);
         current = next;
         next = next == &work->a ? &work->b : &work->a;
     }

@@ -38,7 +38,8 @@ from .. import vectors
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from .base import Context, Radiance, Recorder
-from .direct import DirectLighting, camera_hits
+from . import shadows
+from .direct import DirectLighting, camera_hits, gather_light
 
 # Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
 VERTEX_DIMENSIONS = 1 << 16
@@ -58,6 +59,46 @@ def bounce_kind(kind: np.ndarray, transmit: np.ndarray) -> tuple:
     transparent = kind == materials_.Transparent.kind
     other = ~diffuse & ~transparent & (kind >= 0)
     return diffuse, other & ~transmit, other & transmit, transparent
+
+
+def hit_materials(ctx: Context, ray, rows: np.ndarray) -> np.ndarray:
+    """The material rows (k,) int of the surfaces the BSDF rays `rows` of `ray` hit."""
+    return ctx.geometry.triangle_data(ray.hits.prim[rows], smooth=False).material
+
+
+def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray, passed: np.ndarray) -> np.ndarray:
+    """The light (k, 3) behind the transparent surfaces that the ended paths' last rays (`rows` of the BsdfRay
+    `ray`, carrying `weight` (k, 3), after `passed` (k,) clear surfaces) meet: each surface multiplies by its
+    transparency and the ray goes straight on, finding lamps, emission and the world as a BSDF ray does, weighed
+    by MIS with the pdf of the path's last real bounce; up to the transparent-bounce limit."""
+    s = ctx.settings
+    found = np.zeros((len(rows), 3))
+    O, D, pdf = ray.O[rows], ray.D[rows], ray.pdf[rows]
+    prim, u, v, t = ray.hits.prim[rows], ray.hits.u[rows], ray.hits.v[rows], ray.hits.t[rows]
+    T, passed = weight.copy(), passed.copy()
+    mis = (s.light_sampling == "mis") and bool(ctx.extra.get("bsdf_rays", False))
+    alive = np.arange(len(rows))
+    while len(alive):
+        # 1. The surface met: what it lets through, seen along the ray.
+        surface = surface_at_hits(ctx.geometry, prim, u, v, O, D, t)
+        shader = ctx.materials.shade(surface.material, surface.N, -D, surface, ctx.geometry, graph_.RAY_BOUNCE)
+        T[alive] *= shader.transparency
+        passed[alive] += 1
+        go = ((T[alive] > 0.0).any(axis=1) & (passed[alive] <= s.transparent_max_bounces)
+              & ctx.materials.may_pass[surface.material])
+        alive, I, Ng, D = alive[go], surface.I[go], surface.Ng[go], D[go]
+        if len(alive) == 0:
+            break
+        # 2. On from just past it, straight ahead, gathering what the ray finds.
+        side = np.where(np.einsum("ij,ij->i", Ng, D) < 0.0, -1.0, 1.0)
+        O = I + (shadows.error_bound(I, surface.vertices[go]) * side)[:, None] * Ng
+        hits = ctx.geometry.tracer.intersect(O, D, np.full(len(alive), np.inf))
+        found[alive] += T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]))
+        # 3. The rays that met another surface go on.
+        more = hits.hit
+        alive, O, D = alive[more], O[more], D[more]
+        prim, u, v, t = hits.prim[more], hits.u[more], hits.v[more], hits.t[more]
+    return found
 
 
 class PathTracing(DirectLighting):
@@ -110,8 +151,17 @@ class PathTracing(DirectLighting):
             g = glossy[ray.rows] + is_glossy
             tr = transmission[ray.rows] + is_transmission
             tp = transparent[ray.rows] + is_transparent
-            going = (ray.hits.hit & (bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
-                     & (tr <= s.transmission_bounces) & (tp <= s.transparent_max_bounces))
+            within = ((bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
+                      & (tr <= s.transmission_bounces))
+            going = ray.hits.hit & within & (tp <= s.transparent_max_bounces)
+            # A path past its bounce limits still looks through the transparent surfaces its last ray meets, to
+            # the light behind them (Cycles' terminate-after-transparent): no more bounces, only clear ones.
+            ended = np.flatnonzero(ray.hits.hit & ~within & (tp <= s.transparent_max_bounces))
+            ended = ended[ctx.materials.may_pass[hit_materials(ctx, ray, ended)]] if len(ended) else ended
+            if len(ended):
+                L_out[owner[ray.rows[ended]]] += through_transparent(ctx, ray, ended,
+                                                                     throughput[ray.rows[ended]] * ray.weight[ended],
+                                                                     tp[ended])
             next_throughput = throughput[ray.rows] * ray.weight
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
             played = (bounces >= roulette_from(s)) & ~is_transparent

@@ -238,6 +238,8 @@ class MaterialTable:
         self.names = names
         # Which rows block shadow rays even where they let light through (Transparent Shadows off): (m + 1,) bool.
         self.shadow_opaque = np.zeros(len(shaders), bool) if shadow_opaque is None else np.asarray(shadow_opaque, bool)
+        # Which rows may let light through somewhere (a Transparent node, alpha): (m + 1,) bool.
+        self.may_pass = np.array([bool(shader.may_let_light_through) for shader in shaders], bool)
         # The images the node graphs read, in one TextureSet (core/materials/textures.py); None is missing.
         self.images: list = []
         self._image_rows: dict = {}

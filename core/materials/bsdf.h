@@ -54,4 +54,5 @@ typedef struct {
     double emission[3];
     double transparency[3];
     double shadow_opaque;   /* 1: opaque to shadow rays even where it lets light through (Transparent Shadows off) */
+    double may_pass;        /* 1: it may let light through somewhere (a Transparent node, alpha) */
 } MaterialRecord;
