@@ -58,7 +58,7 @@ PASS_CHANNELS = {
 # Passes Cycles takes from sample 0 alone (overwritten, not averaged).
 FIRST_SAMPLE_ONLY = ("position", "object_index", "material_index")
 # Camera samples per pixel the passes average (at most the render's samples).
-PASS_SAMPLES = 4
+PASS_SAMPLES = 16
 # A surface at least this opaque (1 - mean transparency) holds the data passes (Cycles' pass_alpha_threshold).
 ALPHA_THRESHOLD = 0.5
 # Sampling dimension of the ambient occlusion ray's direction (features.py uses 96 .. 113).
