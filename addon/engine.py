@@ -33,6 +33,35 @@ DENOISING_PASSES = {
     "Denoising Albedo": ("denoising_albedo", 3, "RGB", "COLOR"),
     "Denoising Normal": ("denoising_normal", 3, "XYZ", "VECTOR"),
 }
+# Cycles' first-hit passes (core/integrators/passes.py): core buffer -> (view layer toggle, Blender 5 name,
+# the name before Blender 5, channels, chan ids, type); written with the view layer's toggle, as Cycles does.
+CYCLES_PASSES = {
+    "position": ("use_pass_position", "Position", "Position", 3, "XYZ", "VECTOR"),
+    "uv": ("use_pass_uv", "UV", "UV", 3, "UVA", "VECTOR"),
+    "object_index": ("use_pass_object_index", "Object Index", "IndexOB", 1, "X", "VALUE"),
+    "material_index": ("use_pass_material_index", "Material Index", "IndexMA", 1, "X", "VALUE"),
+    "diffuse_color": ("use_pass_diffuse_color", "Diffuse Color", "DiffCol", 3, "RGB", "COLOR"),
+    "glossy_color": ("use_pass_glossy_color", "Glossy Color", "GlossCol", 3, "RGB", "COLOR"),
+    "transmission_color": ("use_pass_transmission_color", "Transmission Color", "TransCol", 3, "RGB", "COLOR"),
+    "emission": ("use_pass_emit", "Emission", "Emit", 3, "RGB", "COLOR"),
+    "environment": ("use_pass_environment", "Environment", "Env", 3, "RGB", "COLOR"),
+    "ambient_occlusion": ("use_pass_ambient_occlusion", "Ambient Occlusion", "AO", 3, "RGB", "COLOR"),
+}
+
+
+def cycles_pass_name(buffer: str, version: tuple = None) -> str:
+    """Return the name Cycles gives the pass of core buffer `buffer` in Blender `version` (default: this one)."""
+    version = tuple(bpy.app.version) if version is None else tuple(version)
+    return CYCLES_PASSES[buffer][1 if version >= (5, 0, 0) else 2]
+
+
+def requested_passes(view_layer) -> tuple:
+    """Return the first-hit passes (core buffers) whose toggles are on in the view layer, and no more."""
+    if view_layer is None:
+        return ()
+    return tuple(buffer for buffer, (toggle, *_) in CYCLES_PASSES.items() if getattr(view_layer, toggle, False))
+
+
 # One pass per debug view (README, "Debug views"); the shading normal and depth views match Normal and Depth.
 DEBUG_PASSES = {
     "Primer Face Normal": ("face_normal", 3, "XYZ", "VECTOR"),
@@ -175,12 +204,15 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
     try:
         layer = result.layers[0]
         written = set()
+        cycles_names = {cycles_pass_name(buffer): buffer for buffer in CYCLES_PASSES}
         for render_pass in layer.passes:
             name = render_pass.name
             if name in written:
                 continue
             if name == "Combined":
                 fill(render_pass, block(image))
+            elif name in cycles_names and cycles_names[name] in buffers:
+                fill(render_pass, block(buffers[cycles_names[name]]))
             elif name in STANDARD_PASSES or name in DEBUG_PASSES or name in DENOISING_PASSES:
                 buffer = (STANDARD_PASSES.get(name) or DEBUG_PASSES.get(name) or DENOISING_PASSES[name])[0]
                 if buffer in buffers:
@@ -244,7 +276,8 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
     try:
         engine.update_stats("", "Primer | exporting scene")
         exported = export.export_scene(depsgraph, engine.camera_override, cancelled,
-                                       requested_buffers(scene.primer, depsgraph.view_layer))
+                                       requested_buffers(scene.primer, depsgraph.view_layer),
+                                       requested_passes(depsgraph.view_layer))
         record.export_seconds = time.perf_counter() - start
         record.warnings = list(exported.warnings)
         if scene.primer.use_denoising:
@@ -339,6 +372,9 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, "Depth", 1, "Z", "VALUE")
         if renderlayer.use_pass_normal:
             self.register_pass(scene, renderlayer, "Normal", 3, "XYZ", "VECTOR")
+        for buffer, (toggle, _, _, channels, chan_id, kind) in CYCLES_PASSES.items():
+            if getattr(renderlayer, toggle, False):
+                self.register_pass(scene, renderlayer, cycles_pass_name(buffer), channels, chan_id, kind)
         if scene.primer.use_denoising:
             for name, (_, channels, chan_id, kind) in DENOISING_PASSES.items():
                 self.register_pass(scene, renderlayer, name, channels, chan_id, kind)

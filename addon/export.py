@@ -7,6 +7,7 @@ Python loop per vertex, and a mesh shared by many instances is exported once.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -243,7 +244,8 @@ class MaterialTable:
         uid = material.original.session_uid
         if uid not in self.index:
             self.index[uid] = len(self.materials)
-            self.materials.append(materials_.export_material(material, warnings))
+            exported = materials_.export_material(material, warnings)
+            self.materials.append(dataclasses.replace(exported, pass_index=int(getattr(material, "pass_index", 0))))
         return self.index[uid]
 
     def slot_map(self, obj, warnings: list, override=None) -> np.ndarray:
@@ -508,10 +510,12 @@ def border_rectangle(render, width: int, height: int) -> tuple:
     return x0, y0, x1 - x0, y1 - y0
 
 
-def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = ()) -> core_scene.RenderSettings:
+def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = (),
+                    passes: tuple = ()) -> core_scene.RenderSettings:
     """Return core render settings from the scene's Primer settings and Blender's render settings.
 
-    aux: the core buffers to compute (core.debug.AUX_BUFFERS), only those the passes and debug view need.
+    aux: the core buffers to compute (core.debug.AUX_BUFFERS), only those the passes and debug view need;
+    passes: the first-hit render passes to compute (core/integrators/passes.py PASS_CHANNELS).
     """
     props = scene.primer
     render = scene.render
@@ -545,7 +549,16 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         adaptive_threshold=float(props.adaptive_threshold),
         adaptive_min_samples=int(props.adaptive_min_samples),
         denoising_features=bool(props.use_denoising),
+        passes=tuple(passes),
+        ao_distance=_ao_distance(scene),
     )
+
+
+def _ao_distance(scene) -> float:
+    """Return how far the Ambient Occlusion pass looks: the world's AO Distance (Cycles' ao_distance), else 10."""
+    world = scene.world
+    settings = getattr(world, "light_settings", None) if world is not None else None
+    return float(getattr(settings, "distance", 10.0)) if settings is not None else 10.0
 
 
 # ----------------------------------------------------------------------------
@@ -584,8 +597,10 @@ def _terminator_notes(offsets: dict, fix: bool, cutoff: float) -> list:
     return notes
 
 
-def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, aux: tuple = ()) -> Export:
-    """Return the evaluated depsgraph as a core scene plus render settings (computing the buffers `aux`).
+def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, aux: tuple = (),
+                 passes: tuple = ()) -> Export:
+    """Return the evaluated depsgraph as a core scene plus render settings (computing the buffers `aux` and
+    the first-hit render passes `passes`; the UV pass reads each mesh's active render UV map).
 
     Raises ExportError with a readable message when the scene cannot be rendered.
     """
@@ -650,10 +665,13 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         wanted = set()
         for slot in slots[slots >= 0].tolist():
             wanted |= graph_.attributes_of(materials.materials[slot].nodes)
+        if "uv" in passes and len(obj.data.uv_layers):
+            wanted.add("uv:")
         if wanted:
             mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
-        core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random))
+        core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
+                                                  int(getattr(obj, "pass_index", 0))))
 
     core.materials = materials.materials
     world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0)
@@ -662,6 +680,6 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         warnings.append("the scene has no lights: only the world colour will be visible")
     width, height = frame_size(scene.render)
     border = border_rectangle(scene.render, width, height)
-    settings = render_settings(scene, width, height, border, aux)
+    settings = render_settings(scene, width, height, border, aux, passes)
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
     return Export(core, settings, (width, height), border, warnings)

@@ -37,7 +37,7 @@ from .film.film import ChunkSums, Film, pixel_sums
 from .geometry import instancing
 from .geometry.geometry import WorldGeometry, build_geometry
 from .integrators import INTEGRATORS, Context, Recorder
-from .integrators import features
+from .integrators import features, passes as passes_
 from .integrators.compiled import Compiled, why_not
 from .materials import MaterialTable
 from .sampling import sobol as sampling
@@ -66,6 +66,7 @@ class RenderStats:
     warnings: list = field(default_factory=list)
     kernels: str = ""               # "compiled", or "numpy" and why (core/integrators/compiled.py)
     feature_seconds: float = 0.0    # the denoising features' first-hit pass (core/integrators/features.py)
+    pass_seconds: float = 0.0       # the first-hit render passes (core/integrators/passes.py)
 
     @property
     def rays(self) -> int:
@@ -79,7 +80,8 @@ class RenderResult:
 
     image: (H, W, 4) float32 scene-linear RGBA, row 0 at the top
     aux:   name -> (H, W, c) float32 auxiliary buffer: the debug buffers asked for, and with
-           settings.denoising_features the features' "denoising_albedo" and "denoising_normal" (3 each)
+           settings.denoising_features the features' "denoising_albedo" and "denoising_normal" (3 each),
+           and the first-hit passes settings.passes names (core/integrators/passes.py PASS_CHANNELS)
     light_names: the name of the light behind each channel of the per-light buffers
     """
 
@@ -211,6 +213,44 @@ def feature_images(ctx: Context, region: np.ndarray, pool, threads: int) -> dict
     shape = (s.height, s.width, 3)
     return {"denoising_albedo": albedo.astype(np.float32).reshape(shape),
             "denoising_normal": normal.astype(np.float32).reshape(shape)}
+
+
+def pass_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> dict:
+    """Return the first-hit passes ctx.settings.passes of `pixels` (p,) int64: name -> (p, c) float64, the
+    mean over samples 0 .. spp - 1 of each pixel, or sample 0's value (passes.FIRST_SAMPLE_ONLY)."""
+    s = ctx.settings
+    p = len(pixels)
+    wanted = tuple(s.passes)
+    pixel, sample = sample_keys(pixels, spp, None)
+    rays = camera_rays(ctx, s, pixel, sample, spp)
+    traced = np.flatnonzero(rays.valid)
+    values = {name: np.zeros((len(pixel), passes_.PASS_CHANNELS[name])) for name in wanted}
+    if len(traced):
+        found = passes_.trace_passes(ctx, wanted, vectors.gather(rays.origins, traced),
+                                     vectors.gather(rays.directions, traced), rays.t_max[traced],
+                                     pixel[traced], sample[traced])
+        for name in wanted:
+            values[name][traced] = found[name]
+    out = {}
+    for name, v in values.items():
+        v = v.reshape(p, spp, -1)
+        out[name] = v[:, 0] if name in passes_.FIRST_SAMPLE_ONLY else v.mean(axis=1)
+    return out
+
+
+def pass_images(ctx: Context, region: np.ndarray, pool, threads: int) -> dict:
+    """Return the first-hit pass buffers of the pixels `region` (p,) int64: name -> (H, W, c) float32, 0
+    outside the region, computed in chunks on the pool."""
+    s = ctx.settings
+    spp = passes_.pass_samples(s.samples)
+    size = s.width * s.height
+    images = {name: np.zeros((size, passes_.PASS_CHANNELS[name])) for name in s.passes}
+    per_chunk = max(1, min(-(-len(region) // max(1, threads)), s.chunk_size // spp))
+    parts = [region[i:i + per_chunk] for i in range(0, len(region), per_chunk)]
+    for part, values in zip(parts, pool.map(lambda part: pass_chunk(ctx, part, spp), parts)):
+        for name, v in values.items():
+            images[name][part] = v
+    return {name: v.astype(np.float32).reshape(s.height, s.width, -1) for name, v in images.items()}
 
 
 def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
@@ -438,6 +478,11 @@ def render(scene: Scene, settings: RenderSettings,
             started = time.perf_counter()
             features_ = feature_images(ctx, region_pixels(settings), pool, threads)
             stats.feature_seconds = time.perf_counter() - started
+        # d. The first-hit render passes asked for (core/integrators/passes.py).
+        if settings.passes and not cancelled:
+            started = time.perf_counter()
+            features_.update(pass_images(ctx, region_pixels(settings), pool, threads))
+            stats.pass_seconds = time.perf_counter() - started
     if progress is not None and not cancelled:
         progress(1.0, stats)
     # 4. The image: each pixel's mean over all its samples; debug buffers as debug.aux_images makes them.

@@ -105,6 +105,20 @@ def shading_point(geometry, surface: Surface):
     from ..materials import graph as graph_
     prim = surface.prim
     n = len(prim)
+    rows, owner, linear = hit_owners(geometry, prim)
+    random = geometry.instance_random[owner] if len(geometry.instance_random) else np.zeros(n)
+    attributes, d_du, d_dv = hit_attributes(geometry, rows, surface.u, surface.v)
+    front = geometry.triangle_data(prim, smooth=False).Ng
+    side = np.where(np.einsum("ij,ij->i", front, surface.Ng) < 0.0, -1.0, 1.0)
+    V = surface.vertices
+    return graph_.ShadingPoint(attributes, d_du, d_dv, random, surface.N, side, linear, V[:, 1] - V[:, 0],
+                               V[:, 2] - V[:, 0], surface.Ng)
+
+
+def hit_owners(geometry, prim: np.ndarray) -> tuple:
+    """Return, for the hit triangles `prim` (n,) int64: (row of geometry.attributes (n,) int64, index into
+    Scene.instances of the object hit (n,) int64, that object's linear transform (n, 3, 3) float64)."""
+    n = len(prim)
     rows, owner = np.zeros(n, np.int64), np.zeros(n, np.int64)
     linear = np.zeros((n, 3, 3))
     copied = np.flatnonzero(prim < len(geometry.triangles))
@@ -122,16 +136,16 @@ def shading_point(geometry, surface: Surface):
             rows[at] = mesh.attribute_row[local]
         owner[at] = mesh.owner[j]
         linear[at] = mesh.transforms[j, :, :3].astype(np.float64)
-    random = geometry.instance_random[owner] if len(geometry.instance_random) else np.zeros(n)
-    if geometry.attributes is not None:
-        corners = geometry.attributes[rows].astype(np.float64)                      # (n, 3, A)
-        w = (1.0 - surface.u - surface.v)[:, None]
-        attributes = (w * corners[:, 0] + surface.u[:, None] * corners[:, 1]) + surface.v[:, None] * corners[:, 2]
-        d_du, d_dv = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    else:
-        attributes = d_du = d_dv = np.zeros((n, 0))
-    front = geometry.triangle_data(prim, smooth=False).Ng
-    side = np.where(np.einsum("ij,ij->i", front, surface.Ng) < 0.0, -1.0, 1.0)
-    V = surface.vertices
-    return graph_.ShadingPoint(attributes, d_du, d_dv, random, surface.N, side, linear, V[:, 1] - V[:, 0],
-                               V[:, 2] - V[:, 0], surface.Ng)
+    return rows, owner, linear
+
+
+def hit_attributes(geometry, rows: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple:
+    """Return the mesh attributes at hits on attribute rows `rows` (n,) int64 with barycentrics u, v (n,):
+    (values (n, A), their change along u (n, A), along v (n, A)) float64, A = 0 without attributes."""
+    n = len(rows)
+    if geometry.attributes is None:
+        return np.zeros((n, 0)), np.zeros((n, 0)), np.zeros((n, 0))
+    corners = geometry.attributes[rows].astype(np.float64)                      # (n, 3, A)
+    w = (1.0 - u - v)[:, None]
+    attributes = (w * corners[:, 0] + u[:, None] * corners[:, 1]) + v[:, None] * corners[:, 2]
+    return attributes, corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]

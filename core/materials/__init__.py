@@ -54,6 +54,7 @@ class Material:
                 Shader's linked factor, a Diffuse BSDF's linked colour); inputs["normal"] may be a Link (Normal
                 Map, Bump). When given, the nodes decide the surface and its emission; base_color, bsdf and
                 emission are ignored.
+    pass_index: Blender's Material > Settings > Pass Index, what the Material Index pass shows
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
@@ -63,6 +64,7 @@ class Material:
     emission_sampling: str = "AUTO"
     nodes: list = field(default_factory=list)
     transparent_shadows: bool = True
+    pass_index: int = 0
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).

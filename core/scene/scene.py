@@ -67,6 +67,7 @@ class Instance:
     materials: (k,) int64 index into Scene.materials per material slot, or None
                to use the mesh's material indices as scene material indices
     random:    the Object Info node's Random (0..1); None: Cycles' value for an object named `name`
+    pass_index: Blender's Object > Relations > Pass Index, what the Object Index pass shows
     """
 
     mesh: int
@@ -74,6 +75,7 @@ class Instance:
     materials: Optional[np.ndarray] = None
     name: str = "Object"
     random: Optional[float] = None
+    pass_index: int = 0
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).

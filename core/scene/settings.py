@@ -48,6 +48,9 @@ class RenderSettings:
     clamp_n_dot_l:    the cosine factor is max(N.L, 0) (False: N.L, negative light from behind)
     shadow_rays_for_backfacing: also trace shadow rays for lights behind the surface (True: the same
                       image, more rays; the lecture skips them, since their visibility is 0)
+    passes: the first-hit render passes to return as Cycles writes them (core/integrators/passes.py
+                      PASS_CHANNELS: "position", "uv", "object_index", "diffuse_color", ...), only those asked for
+    ao_distance: how far the Ambient Occlusion pass's rays look (Blender's World > Ambient Occlusion > Distance)
     """
 
     integrator: str = "direct"
@@ -88,6 +91,8 @@ class RenderSettings:
     distance_attenuation: bool = True
     clamp_n_dot_l: bool = True
     shadow_rays_for_backfacing: bool = False
+    passes: Sequence[str] = ()
+    ao_distance: float = 10.0
 
     def is_lecture_default(self) -> bool:
         """Whether every lecture switch is at the lecture's choice (a fast path may then stand in)."""

@@ -55,3 +55,7 @@ def validate(scene, settings) -> None:
     unknown = set(settings.aux) - set(AUX_BUFFERS)
     if unknown:
         raise ValueError(f"unknown auxiliary buffers {sorted(unknown)}; choose from {list(AUX_BUFFERS)}")
+    from ..integrators.passes import PASS_CHANNELS
+    unknown = set(settings.passes) - set(PASS_CHANNELS)
+    if unknown:
+        raise ValueError(f"unknown render passes {sorted(unknown)}; choose from {list(PASS_CHANNELS)}")

@@ -1,0 +1,210 @@
+"""First-hit render passes: what compositing setups made for Cycles read besides Combined.
+
+Like the denoising features (features.py), these come from a separate, cheap pass of camera rays after
+the render, computed only for the passes a scene asks for. Cycles' meaning (kernel/film/data_passes.h,
+kernel/film/light_passes.h, kernel/integrator/shade_surface.h), followed along each camera sample:
+
+- A camera ray goes on through transparent surfaces (a Transparent BSDF, a Principled BSDF's Alpha) with
+  its throughput times their transparency, up to transparent_max_bounces of them.
+- The data passes come from the first surface whose alpha (1 - the mean transparency) is at least
+  ALPHA_THRESHOLD (Cycles' Alpha Threshold, 0.5):
+    position        the world-space hit point, of sample 0 only (not anti-aliased, as in Cycles)
+    object_index    the object's Pass Index, of sample 0 only
+    material_index  the material's Pass Index, of sample 0 only
+    uv              (u, v, 1) of the object's active render UV map, the mean over samples: the third channel
+                    is the share of samples that hit a surface (0 where they all missed)
+- The colour passes add, at every surface the ray meets before it scatters, throughput times the sum over
+  the closures of their weight times their albedo (Cycles' bsdf_albedo): Lambert's albedo is 1; a
+  microfacet's is its Fresnel reflectance at the view angle (Cycles reads a roughness-averaged table for
+  some Fresnel models; Primer's closures do not keep it); glass splits into its reflected share
+  (glossy) and transmitted share (transmission); a smooth glossy lobe, stored as a mirror whose weight
+  already holds its Fresnel reflectance, counts with albedo 1:
+    diffuse_color, glossy_color, transmission_color
+- emission      throughput times what the surfaces the camera sees emit, plus the lamps with extent it
+                sees (Cycles writes directly seen lights there too)
+- environment   throughput times the world where the camera ray escapes, also with a transparent film
+                (Cycles keeps it for compositing the background back in)
+- ambient_occlusion  throughput times whether a cosine-distributed ray from the first opaque surface
+                (around its shading normal) escapes within ao_distance: 1 open, 0 occluded (grey, 3 channels)
+
+Each pass is the mean over PASS_SAMPLES camera samples (fewer when the render takes fewer), at the same
+jittered positions as the render's first samples, with Primer's 1-pixel box filter (Cycles uses its pixel
+filter, 1.5 pixels Blackman-Harris by default: anti-aliased edges differ); pixels without samples are 0.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import materials as materials_
+from .. import vectors
+from ..geometry.surface import hit_attributes, hit_owners, surface_at_hits
+from ..materials import graph as graph_
+from ..materials import microfacet as mf
+from ..materials.glass import shares as glass_shares
+from ..materials.lambert import Lambert
+from ..materials.microfacet import Microfacet
+from ..materials.mirror import Mirror
+from ..sampling import sobol as sampling
+from . import shadows
+from .base import Context
+from .direct import lamps_seen
+
+# Channels of each pass buffer (core/render.py RenderResult.aux).
+PASS_CHANNELS = {
+    "position": 3, "uv": 3, "object_index": 1, "material_index": 1,
+    "diffuse_color": 3, "glossy_color": 3, "transmission_color": 3,
+    "emission": 3, "environment": 3, "ambient_occlusion": 3,
+}
+# Passes Cycles takes from sample 0 alone (overwritten, not averaged).
+FIRST_SAMPLE_ONLY = ("position", "object_index", "material_index")
+# Camera samples per pixel the passes average (at most the render's samples).
+PASS_SAMPLES = 16
+# A surface at least this opaque (1 - mean transparency) holds the data passes (Cycles' pass_alpha_threshold).
+ALPHA_THRESHOLD = 0.5
+# Sampling dimension of the ambient occlusion ray's direction (features.py uses 96 .. 113).
+AO_DIMENSION = 120
+# The UV map the UV pass reads: the mesh's active render map (core/scene Mesh.attributes).
+UV_ATTRIBUTE = "uv:"
+
+
+def pass_samples(samples: int) -> int:
+    """Return the camera samples per pixel the passes average for a render of `samples` samples."""
+    return max(1, min(int(samples), PASS_SAMPLES))
+
+
+def closure_albedos(shader) -> tuple:
+    """Return (diffuse, glossy, transmission) colours (m, 3) float64 of hits with the ShaderResult `shader`:
+    each the sum of its closures' weight x albedo (module docstring)."""
+    c = shader.closures
+    m = len(c.kind)
+    diffuse, glossy, transmission = np.zeros((m, 3)), np.zeros((m, 3)), np.zeros((m, 3))
+    wo_dot_n = None
+    for slot in range(c.kind.shape[1]):
+        kind = c.kind[:, slot]
+        weight = c.weight[:, slot]
+        lambert = kind == Lambert.kind
+        diffuse[lambert] += weight[lambert]
+        mirror = kind == Mirror.kind
+        glossy[mirror] += weight[mirror]
+        lobe = np.flatnonzero(kind == Microfacet.kind)
+        glass = np.flatnonzero((kind == materials_.Glass.kind) | (kind == materials_.RoughGlass.kind))
+        if (len(lobe) or len(glass)) and wo_dot_n is None:
+            wo_dot_n = np.clip(np.einsum("ij,ij->i", c.N[:, slot], shader.wo), 0.0, 1.0)
+        if len(lobe):
+            glossy[lobe] += weight[lobe] * mf.fresnel(c.params[lobe, slot], wo_dot_n[lobe])
+        if len(glass):
+            R, T = glass_shares(c.params[glass, slot], wo_dot_n[glass])
+            glossy[glass] += weight[glass] * R
+            transmission[glass] += weight[glass] * T
+    return diffuse, glossy, transmission
+
+
+class _Shaded:
+    """A ShaderResult with the view direction each hit was seen from (wo (m, 3) float64)."""
+
+    def __init__(self, shader, wo: np.ndarray):
+        self.closures, self.emission, self.transparency, self.wo = (shader.closures, shader.emission,
+                                                                    shader.transparency, wo)
+
+
+def trace_passes(ctx: Context, wanted: tuple, O: np.ndarray, D: np.ndarray, t_max: np.ndarray,
+                 pixel: np.ndarray, sample: np.ndarray) -> dict:
+    """Return name -> (n, c) float64 of the passes `wanted` (PASS_CHANNELS' names) for camera rays O, D (n, 3)
+    float64 up to t_max (n,), as the module docstring says. pixel, sample: (n,) int64 random-number keys."""
+    s = ctx.settings
+    n = len(O)
+    out = {name: np.zeros((n, PASS_CHANNELS[name])) for name in wanted}
+    data = [name for name in ("position", "uv", "object_index", "material_index", "ambient_occlusion")
+            if name in wanted]
+    colours = [name for name in ("diffuse_color", "glossy_color", "transmission_color") if name in wanted]
+    owner = np.arange(n)
+    throughput = np.ones((n, 3))
+    pending = np.ones(n, bool)                  # the data passes are not written yet
+    world = ctx.extra.get("world_light")
+    geometry = ctx.geometry
+    for bounce in range(max(0, int(s.transparent_max_bounces)) + 1):
+        # 1. What the rays meet: the world where they escape (lamps with extent in front of what they hit).
+        found = geometry.tracer.intersect(O, D, t_max)
+        hit = np.flatnonzero(found.hit)
+        missed = np.flatnonzero(~found.hit)
+        if "environment" in wanted and world is not None and world.camera and len(missed):
+            out["environment"][owner[missed]] += throughput[missed] * world.radiance(D[missed])
+        if "emission" in wanted:
+            out["emission"][owner] += throughput * lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
+        if len(hit) == 0:
+            break
+        surface = surface_at_hits(geometry, found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit),
+                                  vectors.gather(D, hit), found.t[hit], flat_only=not s.smooth_normals)
+        owner, throughput, pending = owner[hit], throughput[hit], pending[hit]
+        wo = -vectors.gather(D, hit)
+        ray = graph_.RAY_CAMERA if bounce == 0 else graph_.RAY_BOUNCE
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, geometry, ray)
+        # 2. Emission and the closures' colours, seen through what the ray passed.
+        if "emission" in wanted:
+            out["emission"][owner] += throughput * shader.emission
+        if colours:
+            albedos = dict(zip(("diffuse_color", "glossy_color", "transmission_color"),
+                               closure_albedos(_Shaded(shader, wo))))
+            for name in colours:
+                out[name][owner] += throughput * albedos[name]
+        # 3. The data passes, at the first surface opaque enough.
+        transparency = np.clip(shader.transparency, 0.0, None)
+        opaque = pending & (1.0 - transparency.mean(axis=1) >= ALPHA_THRESHOLD)
+        if data and opaque.any():
+            rows = np.flatnonzero(opaque)
+            write_data_passes(ctx, out, data, rows, owner[rows], surface, shader, throughput[rows], pixel, sample)
+        pending &= ~opaque
+        # 4. On through the transparent part.
+        through = np.flatnonzero(transparency.max(axis=1) > 0.0)
+        if len(through) == 0:
+            break
+        step = shadows.error_bound(surface.I[through], surface.vertices[through])
+        O = surface.I[through] - step[:, None] * surface.Ng[through]
+        D = -wo[through]
+        t_max = np.full(len(through), np.inf)
+        owner, pending = owner[through], pending[through]
+        throughput = throughput[through] * transparency[through]
+    return out
+
+
+def write_data_passes(ctx: Context, out: dict, data: list, rows: np.ndarray, owner: np.ndarray, surface, shader,
+                      throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray) -> None:
+    """Write the data passes `data` of the hits `rows` (k,) int64 (of `surface`, `shader`) into `out`'s rows
+    `owner` (k,) int64 (the camera samples they belong to); throughput (k, 3) float64 weighs the AO pass."""
+    geometry = ctx.geometry
+    prim = surface.prim[rows]
+    attribute_rows, instance, _ = hit_owners(geometry, prim)
+    if "position" in data:
+        out["position"][owner] = surface.I[rows] + geometry.origin
+    if "object_index" in data:
+        indices = np.array([float(getattr(i, "pass_index", 0)) for i in ctx.scene.instances] or [0.0])
+        out["object_index"][owner, 0] = indices[np.clip(instance, 0, len(indices) - 1)]
+    if "material_index" in data:
+        table = [float(getattr(m, "pass_index", 0)) for m in ctx.scene.materials]
+        indices = np.array(table + [float(getattr(ctx.scene.default_material, "pass_index", 0))])
+        out["material_index"][owner, 0] = indices[np.clip(surface.material[rows], 0, len(indices) - 1)]
+    if "uv" in data:
+        uv = np.zeros((len(rows), 3))
+        uv[:, 2] = 1.0
+        layout = geometry.attribute_layout.get(UV_ATTRIBUTE)
+        if layout is not None:
+            values, _, _ = hit_attributes(geometry, attribute_rows, surface.u[rows], surface.v[rows])
+            uv[:, :2] = values[:, layout[0]:layout[0] + 2]
+        out["uv"][owner] = uv
+    if "ambient_occlusion" in data:
+        out["ambient_occlusion"][owner] += throughput * ambient_occlusion(
+            ctx, surface.I[rows], surface.Ng[rows], surface.vertices[rows], shader.N[rows], pixel[owner],
+            sample[owner])[:, None]
+
+
+def ambient_occlusion(ctx: Context, I: np.ndarray, Ng: np.ndarray, vertices: np.ndarray, N: np.ndarray,
+                      pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
+    """Return 1 where a cosine-distributed ray about N (k, 3) from the hit points I (k, 3) float64 escapes
+    within ctx.settings.ao_distance, else 0: (k,) float64. Ng: (k, 3) face normals; vertices (k, 3, 3)."""
+    u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=AO_DIMENSION)
+    wi = Lambert.sample(None, N, None, u).wi
+    side = np.where(np.einsum("ij,ij->i", Ng, wi) < 0.0, -1.0, 1.0)
+    below = side < 0.0                       # a direction under the surface sees nothing: occluded
+    origin = I + (shadows.error_bound(I, vertices) * side)[:, None] * Ng
+    blocked = ctx.geometry.tracer.occluded(origin, wi, np.full(len(I), float(ctx.settings.ao_distance)))
+    return np.where(blocked | below, 0.0, 1.0)
