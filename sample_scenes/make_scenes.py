@@ -633,6 +633,7 @@ def cornell_box():
         scene.primer.max_bounces, scene.primer.diffuse_bounces, scene.primer.glossy_bounces = 12, 4, 4
     configure = __import__("render").configure_cycles_reference
     configure(scene, DEFAULT_CYCLES_SAMPLES)               # Cycles follows Primer's bounce limits
+    scene.render.engine = "PRIMER" if hasattr(scene, "primer") else "CYCLES"
     white = diffuse("Cornell White", (0.725, 0.71, 0.68))
     red = diffuse("Cornell Red", (0.63, 0.065, 0.05))
     green = diffuse("Cornell Green", (0.14, 0.45, 0.091))
@@ -685,7 +686,8 @@ def materials_glass():
     if hasattr(scene, "primer"):
         scene.primer.integrator = "PATH"
         scene.primer.max_bounces, scene.primer.diffuse_bounces, scene.primer.glossy_bounces = 12, 4, 4
-    __import__("render").configure_cycles_reference(scene, DEFAULT_CYCLES_SAMPLES)
+    __import__("render").configure_cycles_reference(scene, DEFAULT_CYCLES_SAMPLES)   # Cycles follows the limits
+    scene.render.engine = "PRIMER" if hasattr(scene, "primer") else "CYCLES"
     set_world(scene, (0.08, 0.09, 0.1), lights=True)
     ground(diffuse("Grey", (0.6, 0.6, 0.6)))
     for i, color in enumerate([(0.8, 0.15, 0.1), (0.9, 0.8, 0.2), (0.15, 0.5, 0.2), (0.1, 0.25, 0.7)]):

@@ -290,6 +290,28 @@ def test_every_sample_scene_is_built_by_the_script_and_tested():
         assert os.path.getsize(os.path.join(SCENES_DIR, f"{name}.blend")) < 256 * 1024, f"{name}.blend is large"
 
 
+OPEN_ENGINES = """
+import glob, os, sys
+import bpy
+from blender_env import report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+load_primer()
+engines = {{}}
+for path in sorted(glob.glob(os.path.join({folder!r}, "*.blend"))):
+    bpy.ops.wm.open_mainfile(filepath=path)
+    engines[os.path.basename(path)] = bpy.context.scene.render.engine
+report(engines=engines)
+"""
+
+
+def test_every_sample_scene_opens_with_primer_as_its_engine(tmp_path):
+    """A student who opens a sample scene and presses F12 renders it with Primer (a scene that also sets Cycles
+    up as its reference must leave Primer selected)."""
+    found = run_bpy(OPEN_ENGINES.format(tools=os.path.join(ROOT, "tools"), folder=SCENES_DIR), str(tmp_path))
+    assert found["engines"] and set(found["engines"].values()) == {"PRIMER"}, found["engines"]
+
+
 EXPORT_INSTANCES = """
 import sys
 import bpy

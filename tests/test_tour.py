@@ -696,3 +696,115 @@ def test_viewport_coarse_pass_is_one_ray_per_block(primer):
     refined_blocks = refined.reshape(height // 8, 8, width // 8, 8, 4)
     flat_blocks = (refined_blocks == refined_blocks[:, :1, :, :1]).all(axis=(1, 3, 4))
     assert flat_blocks.mean() < 0.5                     # the refined image has detail inside the blocks
+
+
+# ---------------------------------------------------------------------------
+# 13-16. Beyond direct light: recursion, Fresnel, MIS, Russian roulette
+# ---------------------------------------------------------------------------
+
+def block_error(image: np.ndarray, reference: np.ndarray) -> float:
+    """The project's error: the relative MSE of 4x4-pixel block means, mean((B(P) - B(C))^2 / (B(C)^2 + 0.01))."""
+    def blocks(x):
+        h, w = x.shape[0] // 4 * 4, x.shape[1] // 4 * 4
+        return x[:h, :w, :3].astype(np.float64).reshape(h // 4, 4, w // 4, 4, 3).mean(axis=(1, 3))
+    P, C = blocks(image), blocks(reference)
+    return float(np.mean((P - C) ** 2 / (C * C + 0.01)))
+
+
+def glass_sphere_pixels(scene, index: int = 0) -> np.ndarray:
+    """The (H, W) bool pixels whose centre ray meets sphere `index` of materials_glass first (radius 0.6 at
+    x = -2.1 + 1.4 index, z = 0.6), away from its rim (85% of its radius)."""
+    position, _, D, _ = lecture_camera(scene, (0.0, 0.4, 0.6))
+    return sphere_core(position, D, np.array([-2.1 + 1.4 * index, 0.0, 0.6]), 0.6)
+
+
+def test_recursion_depth_lets_glass_show_what_is_behind_it(primer, tmp_path):
+    """Whitted's tracer on the glass spheres: at depth 0 clear glass shows only what it emits (nothing) and
+    what lamps light directly (nothing: a smooth boundary is a delta), so it is black; each level adds
+    the light of one more reflection or refraction and takes none away, so depth 4 is brighter everywhere
+    and the clear sphere shows the stripes behind it."""
+    scene = open_scene("materials_glass")
+    scene.primer.integrator = "WHITTED"
+    scene.primer.use_adaptive_sampling = False
+    pictures = {}
+    for depth in (0, 1, 4):
+        scene.primer.max_bounces = depth
+        pictures[depth] = save(f"recursion_{depth}", render(primer, scene, str(tmp_path / f"d{depth}.exr"))["Combined"])
+    clear = glass_sphere_pixels(scene)
+    assert clear.sum() > 200
+    assert pictures[0][..., :3][clear].max() < 1e-6
+    for low, high in ((0, 1), (1, 4)):
+        assert (pictures[high][..., :3] >= pictures[low][..., :3] - 1e-6).all()
+    assert pictures[4][..., :3][clear].mean() > 0.05
+
+
+def test_schlicks_fresnel_is_close_to_the_exact_one_and_differs_most_at_the_rim(primer, tmp_path):
+    """The same Whitted picture with Schlick's approximation instead of the exact Fresnel equations: for IOR
+    1.45 the reflected share differs by at most 4% of the light, near grazing incidence (the two curves,
+    computed here), so the pictures differ little; what differs lies towards the spheres' rims."""
+    n = 1.45
+    cos = np.linspace(0.0, 1.0, 2001)
+    sin_t = np.sqrt(1.0 - cos ** 2) / n
+    cos_t = np.sqrt(1.0 - sin_t ** 2)
+    exact = 0.5 * (((cos - n * cos_t) / (cos + n * cos_t)) ** 2 + ((n * cos - cos_t) / (n * cos + cos_t)) ** 2)
+    r0 = ((n - 1.0) / (n + 1.0)) ** 2
+    schlick = r0 + (1.0 - r0) * (1.0 - cos) ** 5
+    assert 0.03 < np.abs(exact - schlick).max() < 0.05
+    scene = open_scene("materials_glass")
+    scene.primer.integrator = "WHITTED"
+    scene.primer.use_adaptive_sampling = False
+    scene.primer.max_bounces = 4
+    exact_picture = render(primer, scene, str(tmp_path / "exact.exr"))["Combined"][..., :3]
+    scene.primer.fresnel = "SCHLICK"
+    schlick_picture = save("fresnel_schlick", render(primer, scene, str(tmp_path / "schlick.exr"))["Combined"])[..., :3]
+    difference = np.abs(schlick_picture - exact_picture).mean(axis=-1)
+    assert difference.max() > 0.0
+    assert difference.mean() < 0.01 * exact_picture.mean()
+    position, _, D, _ = lecture_camera(scene, (0.0, 0.4, 0.6))
+    whole = sphere_core(position, D, np.array([-2.1, 0.0, 0.6]), 0.6, fraction=0.98)
+    core = sphere_core(position, D, np.array([-2.1, 0.0, 0.6]), 0.6, fraction=0.5)
+    rim = whole & ~sphere_core(position, D, np.array([-2.1, 0.0, 0.6]), 0.6, fraction=0.8)
+    assert difference[rim].mean() > difference[core].mean()
+
+
+def test_mis_beats_light_sampling_and_bsdf_sampling_at_equal_samples(primer, tmp_path):
+    """Glossy spheres under a softbox and a point light, 16 samples each way: light samples alone miss the
+    sharp reflections of the softbox, BSDF samples alone miss the lamps on the rough surfaces; both are
+    unbiased (their means agree with MIS's within 2%), and MIS, which weighs the two by the power
+    heuristic, has the lowest error against a 256-sample render. (The dim world is switched off as a light:
+    a constant world has no light samples in Primer, so light samples alone would miss it.)"""
+    scene = open_scene("materials_principled")
+    scene.primer.use_adaptive_sampling = False
+    scene.world.cycles_visibility.diffuse = scene.world.cycles_visibility.glossy = False
+    scene.primer.samples = 256
+    reference = render(primer, scene, str(tmp_path / "reference.exr"))["Combined"]
+    scene.primer.samples = SAMPLES
+    errors, pictures = {}, {}
+    for strategy in ("LIGHT", "BSDF", "MIS"):
+        scene.primer.light_sampling = strategy
+        pictures[strategy] = save(f"sampling_{strategy.lower()}",
+                                  render(primer, scene, str(tmp_path / f"{strategy}.exr"))["Combined"])
+        errors[strategy] = block_error(pictures[strategy], reference)
+        assert pictures[strategy][..., :3].mean() == pytest.approx(reference[..., :3].mean(), rel=0.02)
+    assert errors["MIS"] < errors["LIGHT"] and errors["MIS"] < errors["BSDF"]
+
+
+def test_russian_roulette_is_unbiased_cheaper_and_noisier(primer, tmp_path):
+    """The Cornell box by path tracing, 16 samples: with Russian roulette (paths may end from the third
+    vertex on, survivors count 1/q) the mean is the same as without (within 2%), fewer shadow rays are
+    traced, and the error against a 256-sample render is larger at equal samples."""
+    scene = open_scene("cornell_box")
+    scene.primer.use_adaptive_sampling = False
+    scene.primer.samples = 256
+    reference = render(primer, scene, str(tmp_path / "reference.exr"))["Combined"]
+    scene.primer.samples = SAMPLES
+    engine = addon_module(primer, "engine")
+    results = {}
+    for name, min_light_bounces in (("roulette", 0), ("no_roulette", 64)):
+        scene.primer.min_light_bounces = min_light_bounces
+        picture = save(f"cornell_{name}", render(primer, scene, str(tmp_path / f"{name}.exr"))["Combined"])
+        results[name] = (picture, engine.last_render.stats.shadow_rays, block_error(picture, reference))
+    (with_rr, rays_rr, error_rr), (without, rays_all, error_all) = results["roulette"], results["no_roulette"]
+    assert with_rr[..., :3].mean() == pytest.approx(without[..., :3].mean(), rel=0.02)
+    assert rays_rr < 0.9 * rays_all
+    assert error_rr > error_all
