@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import signal
+import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
@@ -81,6 +83,8 @@ class RenderRecord:
     export_seconds: float = 0.0     # reading the depsgraph (addon/export.py)
     write_seconds: float = 0.0      # writing the passes into Blender's render result
     stats: object = None            # core.render.RenderStats of the render (BVH, Embree and shading times)
+    frame: int = 0                  # the scene frame rendered
+    meshes_read: list = field(default_factory=list)    # meshes read from Blender (the others were kept)
 
 
 last_render = RenderRecord()
@@ -210,6 +214,39 @@ def _ctrl_c_cancels():
         signal.signal(signal.SIGINT, previous)
 
 
+def _writable_folder(folder: str) -> str:
+    """Return "" when a file can be made in `folder` (created if missing, as Blender does), else why not."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as error:
+        return error.strerror or str(error)
+    return ""
+
+
+def animation_notes(scene, is_animation: bool) -> list:
+    """Return warnings about an animation render's frame range and output path (none for a still render).
+
+    Blender renders frame End alone when End is before Start, and stops an animation at the first frame
+    it cannot save; both are said before the frame is rendered, and the frame is rendered all the same
+    (it stays in the Render Result).
+    """
+    if not is_animation:
+        return []
+    notes = []
+    if scene.frame_end < scene.frame_start:
+        notes.append(f"the frame range is empty (End {scene.frame_end} is before Start {scene.frame_start}); "
+                     f"Blender renders frame {scene.frame_current} alone")
+    path = scene.render.frame_path(frame=scene.frame_current)
+    why = _writable_folder(os.path.dirname(path) or ".")
+    if why:
+        notes.append(f"cannot write frame {scene.frame_current} to '{path}' ({why}): Blender will stop after "
+                     "this frame, which stays in the Render Result (Image > Save As); set Output > Path to "
+                     "a writable folder")
+    return notes
+
+
 def render_frame(engine, depsgraph) -> RenderRecord:
     """Export, render and write one frame; report problems in Blender instead of raising."""
     with _ctrl_c_cancels() as interrupted:
@@ -241,12 +278,18 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
     record = RenderRecord()
     start = time.perf_counter()
     scene = depsgraph.scene
+    record.frame = scene.frame_current
     try:
+        # Persistent Data: Blender keeps this engine and its depsgraph from frame to frame, and the meshes
+        # are kept with them; otherwise every frame starts from a new depsgraph and reads every mesh.
+        mesh_cache = getattr(engine, "mesh_cache", None) if scene.render.use_persistent_data else None
         engine.update_stats("", "Primer | exporting scene")
         exported = export.export_scene(depsgraph, engine.camera_override, cancelled,
-                                       requested_buffers(scene.primer, depsgraph.view_layer))
+                                       requested_buffers(scene.primer, depsgraph.view_layer), mesh_cache)
         record.export_seconds = time.perf_counter() - start
-        record.warnings = list(exported.warnings)
+        record.meshes_read = exported.meshes_read
+        record.warnings = animation_notes(scene, bool(getattr(engine, "is_animation", False)))
+        record.warnings += exported.warnings
         if scene.primer.use_denoising:
             record.warnings += compositor.problems(getattr(scene, "original", scene))
         if cancelled():
@@ -308,6 +351,7 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
+        self.mesh_cache = export.MeshCache()    # used with Persistent Data, when Blender keeps this engine
 
     def __del__(self):
         """Stop the viewport's worker thread, if this engine drew a viewport."""
