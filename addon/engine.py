@@ -225,26 +225,53 @@ def _writable_folder(folder: str) -> str:
     return ""
 
 
-def animation_notes(scene, is_animation: bool) -> list:
-    """Return warnings about an animation render's frame range and output path (none for a still render).
+def empty_range_note(start: int, end: int) -> str:
+    """Return the message for a frame range with End before Start (`blender -b -s 5 -e 2 -a`), else ""."""
+    if end >= start:
+        return ""
+    return (f"no frame rendered: the frame range is empty (End {end} is before Start {start}); set -s/-e "
+            "on the command line, or Output > Frame Start and End")
 
-    Blender renders frame End alone when End is before Start, and stops an animation at the first frame
-    it cannot save; both are said before the frame is rendered, and the frame is rendered all the same
-    (it stays in the Render Result).
+
+def animation_notes(scene, is_animation: bool) -> list:
+    """Return warnings about an animation render's output path (none for a still render).
+
+    Blender stops an animation at the first frame it cannot save; this is said before the frame is
+    rendered, and the frame is rendered all the same (it stays in the Render Result).
     """
     if not is_animation:
         return []
-    notes = []
-    if scene.frame_end < scene.frame_start:
-        notes.append(f"the frame range is empty (End {scene.frame_end} is before Start {scene.frame_start}); "
-                     f"Blender renders frame {scene.frame_current} alone")
     path = scene.render.frame_path(frame=scene.frame_current)
     why = _writable_folder(os.path.dirname(path) or ".")
-    if why:
-        notes.append(f"cannot write frame {scene.frame_current} to '{path}' ({why}): Blender will stop after "
-                     "this frame, which stays in the Render Result (Image > Save As); set Output > Path to "
-                     "a writable folder")
-    return notes
+    if not why:
+        return []
+    return [f"cannot write frame {scene.frame_current} to '{path}' ({why}): Blender will stop after this "
+            "frame, which stays in the Render Result (Image > Save As); set Output > Path to a writable folder"]
+
+
+# Frames Primer rendered since Blender's last render_init: an animation that ends with none had an
+# empty frame range (Blender renders no frame then, and says nothing).
+frames_since_init = 0
+
+
+@bpy.app.handlers.persistent
+def on_render_init(scene, *args):
+    """bpy handler (render_init): start counting the frames of this render job."""
+    global frames_since_init
+    frames_since_init = 0
+
+
+@bpy.app.handlers.persistent
+def on_render_end(scene, *args):
+    """bpy handler (render_complete, render_cancel): say why a Primer render job rendered no frame."""
+    if frames_since_init == 0 and scene.render.engine == PrimerRenderEngine.bl_idname:
+        note = empty_range_note(scene.frame_start, scene.frame_end)
+        if note:
+            log.error("Primer: %s", note)
+            print(f"Primer: {note}", flush=True)
+
+
+HANDLERS = (("render_init", on_render_init), ("render_complete", on_render_end), ("render_cancel", on_render_end))
 
 
 def render_frame(engine, depsgraph) -> RenderRecord:
@@ -365,7 +392,8 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         """Render the frame (F12, animation, or `blender -b -f`)."""
-        global last_render
+        global last_render, frames_since_init
+        frames_since_init += 1
         last_render = render_frame(self, depsgraph)
 
     def view_update(self, context, depsgraph):
