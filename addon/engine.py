@@ -84,7 +84,7 @@ class RenderRecord:
     write_seconds: float = 0.0      # writing the passes into Blender's render result
     stats: object = None            # core.render.RenderStats of the render (BVH, Embree and shading times)
     frame: int = 0                  # the scene frame rendered
-    meshes_read: list = field(default_factory=list)    # meshes read from Blender (the others were kept)
+    meshes_read: list = field(default_factory=list)    # objects whose meshes were read (the others kept)
 
 
 last_render = RenderRecord()

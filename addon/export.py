@@ -41,7 +41,7 @@ class Export:
                                 # the bottom; Blender's render result is exactly this rectangle, so write it
                                 # with engine.begin_result(0, 0, width, height)
     warnings: list = field(default_factory=list)
-    meshes_read: list = field(default_factory=list)     # names of the meshes read from Blender (not reused)
+    meshes_read: list = field(default_factory=list)     # objects whose meshes were read from Blender (not kept)
 
 
 # ----------------------------------------------------------------------------
@@ -575,14 +575,15 @@ class MeshCache:
         self.meshes = {key: entry for key, entry in self.meshes.items() if not entry[1] & changed}
         self.used = set()
 
-    def mesh(self, data, owner: int, read: list) -> core_scene.Mesh:
-        """Return the core mesh of evaluated mesh `data` used by object `owner`, reading it (and naming it
-        in `read`) unless it is kept."""
+    def mesh(self, obj, read: list) -> core_scene.Mesh:
+        """Return the core mesh of evaluated object `obj`, reading it (and naming the object in `read`)
+        unless it is kept."""
+        data, owner = obj.data, obj.original.session_uid
         key = (data.session_uid, data.as_pointer())
         entry = self.meshes.get(key)
         if entry is None:
             entry = self.meshes[key] = (_mesh_arrays(data), set())
-            read.append(data.name)
+            read.append(obj.name)
         entry[1].add(owner)
         self.used.add(key)
         return entry[0]
@@ -685,10 +686,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         key = obj.data.as_pointer()
         if key not in mesh_index:
             if mesh_cache is not None:
-                mesh = mesh_cache.mesh(obj.data, obj.original.session_uid, meshes_read)
+                mesh = mesh_cache.mesh(obj, meshes_read)
             else:
                 mesh = _mesh_arrays(obj.data)
-                meshes_read.append(obj.data.name)
+                meshes_read.append(obj.name)
             if len(mesh.triangles) == 0:
                 mesh_index[key] = None
                 continue
