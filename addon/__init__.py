@@ -12,6 +12,9 @@ def register():
         bpy.utils.register_class(cls)
     ui.register()
     inspector.register()
+    for name, handler in engine.HANDLERS:
+        if handler not in getattr(bpy.app.handlers, name):
+            getattr(bpy.app.handlers, name).append(handler)
     # The warm heap renders leave goes back to the system once Blender is idle (addon/engine.py).
     if not bpy.app.timers.is_registered(engine.release_memory_when_idle):
         bpy.app.timers.register(engine.release_memory_when_idle, first_interval=engine.RELEASE_CHECK, persistent=True)
@@ -22,6 +25,9 @@ def unregister():
     import bpy
     from . import engine, inspector, properties, ui
 
+    for name, handler in engine.HANDLERS:
+        if handler in getattr(bpy.app.handlers, name):
+            getattr(bpy.app.handlers, name).remove(handler)
     inspector.unregister()
     ui.unregister()
     for cls in reversed(engine.classes):

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import signal
+import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
@@ -110,6 +112,8 @@ class RenderRecord:
     export_seconds: float = 0.0     # reading the depsgraph (addon/export.py)
     write_seconds: float = 0.0      # writing the passes into Blender's render result
     stats: object = None            # core.render.RenderStats of the render (BVH, Embree and shading times)
+    frame: int = 0                  # the scene frame rendered
+    meshes_read: list = field(default_factory=list)    # objects whose meshes were read (the others kept)
 
 
 last_render = RenderRecord()
@@ -242,6 +246,66 @@ def _ctrl_c_cancels():
         signal.signal(signal.SIGINT, previous)
 
 
+def _writable_folder(folder: str) -> str:
+    """Return "" when a file can be made in `folder` (created if missing, as Blender does), else why not."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as error:
+        return error.strerror or str(error)
+    return ""
+
+
+def empty_range_note(start: int, end: int) -> str:
+    """Return the message for a frame range with End before Start (`blender -b -s 5 -e 2 -a`), else ""."""
+    if end >= start:
+        return ""
+    return (f"no frame rendered: the frame range is empty (End {end} is before Start {start}); set -s/-e "
+            "on the command line, or Output > Frame Start and End")
+
+
+def animation_notes(scene, is_animation: bool) -> list:
+    """Return warnings about an animation render's output path (none for a still render).
+
+    Blender stops an animation at the first frame it cannot save; this is said before the frame is
+    rendered, and the frame is rendered all the same (it stays in the Render Result).
+    """
+    if not is_animation:
+        return []
+    path = scene.render.frame_path(frame=scene.frame_current)
+    why = _writable_folder(os.path.dirname(path) or ".")
+    if not why:
+        return []
+    return [f"cannot write frame {scene.frame_current} to '{path}' ({why}): Blender will stop after this "
+            "frame, which stays in the Render Result (Image > Save As); set Output > Path to a writable folder"]
+
+
+# Frames Primer rendered since Blender's last render_init: an animation that ends with none had an
+# empty frame range (Blender renders no frame then, and says nothing).
+frames_since_init = 0
+
+
+@bpy.app.handlers.persistent
+def on_render_init(scene, *args):
+    """bpy handler (render_init): start counting the frames of this render job."""
+    global frames_since_init
+    frames_since_init = 0
+
+
+@bpy.app.handlers.persistent
+def on_render_end(scene, *args):
+    """bpy handler (render_complete, render_cancel): say why a Primer render job rendered no frame."""
+    if frames_since_init == 0 and scene.render.engine == PrimerRenderEngine.bl_idname:
+        note = empty_range_note(scene.frame_start, scene.frame_end)
+        if note:
+            log.error("Primer: %s", note)
+            print(f"Primer: {note}", flush=True)
+
+
+HANDLERS = (("render_init", on_render_init), ("render_complete", on_render_end), ("render_cancel", on_render_end))
+
+
 def render_frame(engine, depsgraph) -> RenderRecord:
     """Export, render and write one frame; report problems in Blender instead of raising."""
     with _ctrl_c_cancels() as interrupted:
@@ -273,13 +337,19 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
     record = RenderRecord()
     start = time.perf_counter()
     scene = depsgraph.scene
+    record.frame = scene.frame_current
     try:
+        # Persistent Data: Blender keeps this engine and its depsgraph from frame to frame, and the meshes
+        # are kept with them; otherwise every frame starts from a new depsgraph and reads every mesh.
+        mesh_cache = getattr(engine, "mesh_cache", None) if scene.render.use_persistent_data else None
         engine.update_stats("", "Primer | exporting scene")
         exported = export.export_scene(depsgraph, engine.camera_override, cancelled,
                                        requested_buffers(scene.primer, depsgraph.view_layer),
-                                       requested_passes(depsgraph.view_layer))
+                                       requested_passes(depsgraph.view_layer), mesh_cache)
         record.export_seconds = time.perf_counter() - start
-        record.warnings = list(exported.warnings)
+        record.meshes_read = exported.meshes_read
+        record.warnings = animation_notes(scene, bool(getattr(engine, "is_animation", False)))
+        record.warnings += exported.warnings
         if scene.primer.use_denoising:
             record.warnings += compositor.problems(getattr(scene, "original", scene))
         if cancelled():
@@ -341,6 +411,7 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
+        self.mesh_cache = export.MeshCache()    # used with Persistent Data, when Blender keeps this engine
 
     def __del__(self):
         """Stop the viewport's worker thread, if this engine drew a viewport."""
@@ -354,7 +425,8 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
 
     def render(self, depsgraph):
         """Render the frame (F12, animation, or `blender -b -f`)."""
-        global last_render
+        global last_render, frames_since_init
+        frames_since_init += 1
         last_render = render_frame(self, depsgraph)
 
     def view_update(self, context, depsgraph):

@@ -42,6 +42,7 @@ class Export:
                                 # the bottom; Blender's render result is exactly this rectangle, so write it
                                 # with engine.begin_result(0, 0, width, height)
     warnings: list = field(default_factory=list)
+    meshes_read: list = field(default_factory=list)     # objects whose meshes were read from Blender (not kept)
 
 
 # ----------------------------------------------------------------------------
@@ -562,6 +563,50 @@ def _ao_distance(scene) -> float:
 
 
 # ----------------------------------------------------------------------------
+# Meshes kept between frames
+# ----------------------------------------------------------------------------
+
+class MeshCache:
+    """Exported meshes kept from one frame to the next by a render engine whose depsgraph Blender keeps
+    (Render > Performance > Persistent Data).
+
+    Blender keeps the evaluated mesh of an object whose geometry did not change between frames: the
+    same datablock, same session_uid. An object whose geometry changed (deformed, new topology, a
+    modifier or shape key animated) gets a new evaluated mesh, and the depsgraph's updates name it;
+    either one is enough for the mesh to be read again. Every frame's scene is assembled afresh from
+    these meshes in the order of the depsgraph's instances, so it is the scene a full export makes.
+    """
+
+    def __init__(self):
+        self.meshes: dict = {}          # (session_uid, pointer) of an evaluated mesh -> (core Mesh, owner uids)
+        self.used: set = set()          # keys used by the current export
+
+    def begin(self, updates) -> None:
+        """Start an export: forget the meshes of objects whose geometry the depsgraph's `updates` say changed."""
+        changed = {update.id.original.session_uid for update in updates
+                   if update.is_updated_geometry and update.id.id_type == "OBJECT"}
+        self.meshes = {key: entry for key, entry in self.meshes.items() if not entry[1] & changed}
+        self.used = set()
+
+    def mesh(self, obj, read: list) -> core_scene.Mesh:
+        """Return the core mesh of evaluated object `obj`, reading it (and naming the object in `read`)
+        unless it is kept."""
+        data, owner = obj.data, obj.original.session_uid
+        key = (data.session_uid, data.as_pointer())
+        entry = self.meshes.get(key)
+        if entry is None:
+            entry = self.meshes[key] = (_mesh_arrays(data), set())
+            read.append(obj.name)
+        entry[1].add(owner)
+        self.used.add(key)
+        return entry[0]
+
+    def end(self) -> None:
+        """End an export: drop the meshes it did not use (gone, or replaced by a new evaluation)."""
+        self.meshes = {key: entry for key, entry in self.meshes.items() if key in self.used}
+
+
+# ----------------------------------------------------------------------------
 # The whole scene
 # ----------------------------------------------------------------------------
 
@@ -598,10 +643,11 @@ def _terminator_notes(offsets: dict, fix: bool, cutoff: float) -> list:
 
 
 def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, aux: tuple = (),
-                 passes: tuple = ()) -> Export:
+                 passes: tuple = (), mesh_cache: MeshCache = None) -> Export:
     """Return the evaluated depsgraph as a core scene plus render settings (computing the buffers `aux` and
     the first-hit render passes `passes`; the UV pass reads each mesh's active render UV map).
 
+    mesh_cache: meshes kept from the engine's previous frame (MeshCache); only changed ones are read.
     Raises ExportError with a readable message when the scene cannot be rendered.
     """
     scene = depsgraph.scene_eval
@@ -623,6 +669,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     ray_visibility_noted: set = set()
     unsupported_noted: set = set()
     terminator_offsets: dict = {}
+    meshes_read: list = []
+    if mesh_cache is not None:
+        mesh_cache.begin(depsgraph.updates)
 
     for instance in depsgraph.object_instances:
         if is_cancelled():
@@ -650,7 +699,11 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         # duplicates, collection and geometry-nodes instances share it; modifiers make a mesh of its own.
         key = obj.data.as_pointer()
         if key not in mesh_index:
-            mesh = _mesh_arrays(obj.data)
+            if mesh_cache is not None:
+                mesh = mesh_cache.mesh(obj, meshes_read)
+            else:
+                mesh = _mesh_arrays(obj.data)
+                meshes_read.append(obj.name)
             if len(mesh.triangles) == 0:
                 mesh_index[key] = None
                 continue
@@ -673,6 +726,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
                                                   int(getattr(obj, "pass_index", 0))))
 
+    if mesh_cache is not None:
+        mesh_cache.end()
     core.materials = materials.materials
     world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0)
     emits = any(float(np.max(m.emission)) > 0.0 or m.nodes for m in core.materials)
@@ -682,4 +737,4 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     border = border_rectangle(scene.render, width, height)
     settings = render_settings(scene, width, height, border, aux, passes)
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
-    return Export(core, settings, (width, height), border, warnings)
+    return Export(core, settings, (width, height), border, warnings, meshes_read)

@@ -47,6 +47,8 @@ class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
         col.prop(props, "use_denoising")
         col.prop(props, "seed")
         col.prop(props, "animate_seed")
+        # Blender keeps the engine between frames: Primer then reads only the meshes that changed.
+        col.prop(context.scene.render, "use_persistent_data", text="Persistent Data")
         col.prop(props, "threads")
         col.prop(props, "instancing")
         col.prop(props, "kernels")
