@@ -270,11 +270,7 @@ INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const 
             glass_weight[j] = W[j] * transmission;
         }
         glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, f0, one, one, root);
-        if (multiscatter) {
-            double eta_rel = g[MF_IOR], F0_real = F0_from_ior(eta_rel);
-            double s = clamp01((dielectric_Fss(eta_rel) - F0_real) / at_least(1.0 - F0_real, 1e-300));
-            for (int j = 0; j < 3; j++) Fss[j] = f0[j] + (1.0 - f0[j]) * s;
-        }
+        for (int j = 0; j < 3; j++) Fss[j] = root[j];   /* the transmission tint: Cycles' Fss for glass */
         glass_add(sd, mu, glass_weight, g, roughness, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - transmission;
     }

@@ -338,13 +338,9 @@ class PrincipledNode(Node):
         if on.any():
             f0 = np.clip(mf.F0_from_ior(ior)[:, None] * tint, 0.0, 1.0)
             glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, f0, ones, ones, np.sqrt(clamped))
-            Fss = None
-            if multiscatter:                # the multiple-scattering Fresnel of the reflection (Cycles' Fss)
-                eta_rel = glass[:, mf.IOR]
-                F0_real = mf.F0_from_ior(eta_rel)
-                s = np.clip((dielectric_Fss(eta_rel) - F0_real) / np.maximum(1.0 - F0_real, 1e-300), 0.0, 1.0)
-                Fss = f0 + (1.0 - f0) * s[:, None]
-            add_glass(b, W * transmission[:, None], glass, roughness, Fss, keep=on)
+            # Multiscatter GGX darkens by the transmission tint, which Cycles takes to make most of the colour.
+            add_glass(b, W * transmission[:, None], glass, roughness, np.sqrt(clamped) if multiscatter else None,
+                      keep=on)
             W = np.where(on[:, None], W * (1.0 - transmission)[:, None], W)
         # 6. Specular: the index whose F0 the Specular IOR Level scales.
         f0 = mf.F0_from_ior(ior)

@@ -32,12 +32,11 @@ INLINE void rough_glass_eval(const Closure *c, const double *wo, const double *w
     double length = rough_glass_half_vector(wo, wi, eta, transmit, H);
     if (dot3(N, H) < 0.0) for (int k = 0; k < 3; k++) H[k] = -H[k];
     double cos_HO = dot3(H, wo), cos_HI = dot3(H, wi);
-    /* 2. Only pairs a microfacet can connect. */
-    if (!(cos_NO > 0.0 && cos_NI != 0.0 && alpha2 > ROUGHNESS_SQ_THRESHOLD && cos_HO > 0.0
-          && (transmit ? cos_HI < 0.0 : cos_HI > 0.0))) return;
+    /* 2. Pairs with the viewer above the surface (every such pair, as Cycles: rough_glass.connects). */
+    if (!(cos_NO > 0.0 && cos_NI != 0.0 && alpha2 > ROUGHNESS_SQ_THRESHOLD)) return;
     /* 3. What it reflects and refracts, and how often the sampler picks each. */
     double R[3], T[3], total;
-    glass_shares(p, clamp01(cos_HO), R, T);
+    glass_shares(p, clamp01(fabs(cos_HO)), R, T);
     double p_reflect = rough_glass_p_reflect(R, T, &total);
     double lobe = transmit ? 1.0 - p_reflect : p_reflect;
     /* 4. D times the Jacobian from H to wi, over N.wo; then masking and shadowing. */

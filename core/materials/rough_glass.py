@@ -19,6 +19,12 @@ ROUGHNESS_SQ_THRESHOLD is smooth glass, whose closure the node setups choose ins
 
 Choosing between reflection and refraction takes a third random number: u[:, 2], which
 closures.sample_closures derives from the number that picked the closure.
+
+Cycles parity, stated: for a pair of directions eval does not check that a microfacet can connect them
+(that wo sees H, and that refraction crosses H while reflection does not: `connects`), as Cycles'
+bsdf_microfacet_eval does not either. The sampler only ever produces pairs that connect, so light
+samples find some light that BSDF samples cannot: in a test of a sphere of roughness 0.7 lit from
+behind, 25% more than the physical model, which is what Cycles renders; at roughness 0.3, under 1%.
 """
 from __future__ import annotations
 
@@ -40,6 +46,16 @@ def half_vector(wo: np.ndarray, wi: np.ndarray, eta: np.ndarray, transmit: np.nd
     return raw / length[:, None], length
 
 
+def connects(N: np.ndarray, wo: np.ndarray, wi: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """Which pairs (n,) bool a microfacet can connect: wo sees H, and the light from wi crosses H where it
+    is refracted (wi below N) and does not where it is reflected (the physical model's support)."""
+    transmit = np.einsum("ij,ij->i", N, wi) < 0.0
+    H, _ = half_vector(wo, wi, eta, transmit)
+    H = H * np.where(np.einsum("ij,ij->i", N, H) < 0.0, -1.0, 1.0)[:, None]
+    cos_HO, cos_HI = np.einsum("ij,ij->i", H, wo), np.einsum("ij,ij->i", H, wi)
+    return (cos_HO > 0.0) & np.where(transmit, cos_HI < 0.0, cos_HI > 0.0)
+
+
 class RoughGlass(BSDF):
     """GGX reflection and refraction at a dielectric boundary (module docstring); params as Glass's."""
 
@@ -59,11 +75,10 @@ class RoughGlass(BSDF):
         H, length = half_vector(wo, wi, eta, transmit)
         H = H * np.where(np.einsum("ij,ij->i", N, H) < 0.0, -1.0, 1.0)[:, None]
         cos_HO, cos_HI = np.einsum("ij,ij->i", H, wo), np.einsum("ij,ij->i", H, wi)
-        # 2. Only pairs a microfacet can connect: wo sees H; refraction crosses it, reflection does not.
-        valid = ((cos_NO > 0.0) & (cos_NI != 0.0) & (alpha2 > mf.ROUGHNESS_SQ_THRESHOLD) & (cos_HO > 0.0)
-                 & np.where(transmit, cos_HI < 0.0, cos_HI > 0.0))
+        # 2. Pairs with the viewer above the surface (every such pair, as Cycles: see `connects`).
+        valid = (cos_NO > 0.0) & (cos_NI != 0.0) & (alpha2 > mf.ROUGHNESS_SQ_THRESHOLD)
         # 3. What the microfacet reflects and refracts, and how often the sampler picks each.
-        R, T = shares(params, np.clip(cos_HO, 0.0, 1.0))
+        R, T = shares(params, np.clip(np.abs(cos_HO), 0.0, 1.0))
         total = R.mean(axis=1) + T.mean(axis=1)
         p_reflect = np.divide(R.mean(axis=1), total, out=np.ones(len(total)), where=total > 0.0)
         lobe = np.where(transmit, 1.0 - p_reflect, p_reflect)
