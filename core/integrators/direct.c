@@ -150,7 +150,7 @@ INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict se
         double NL = dot3(n, L), NgL = dot3(ng, L);
         double cosine = at_least(NL, 0.0);
         int face_allows = (NgL > 0.0) | ((fix * b->smooth[k]) != 0.0);
-        b->keep[k] = (cosine != 0.0) & face_allows & (b->strength[k] > 0.0) ? 1.0 : 0.0;
+        b->keep[k] = ((cosine != 0.0) & face_allows & (b->strength[k] > 0.0)) ? 1.0 : 0.0;
         /* b. The ray, from I or the terminator fix's blend towards the lifted point (amount 0 elsewhere). */
         double amount = (lifting * b->smooth[k]) != 0.0 ? terminator_amount(NL, NgL, cutoff) : 0.0;
         double origin[3], D[3], t;
