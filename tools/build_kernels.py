@@ -87,11 +87,16 @@ def build(cc: str, force: bool = False) -> str:
 
 
 def zig_command() -> list:
-    """Return the command that runs Zig's C compiler from the ziglang package (ToolchainError if it is not installed)."""
+    """Return the command that runs Zig's C compiler: $ZIG (a command, e.g. `python -m ziglang`) + cc, else this Python's ziglang.
+
+    ToolchainError when neither is there.
+    """
+    if os.environ.get("ZIG"):
+        return shlex.split(os.environ["ZIG"]) + ["cc"]
     if importlib.util.find_spec("ziglang") is None:
         raise ToolchainError(f"the ziglang package is not installed in {sys.executable}: cross-compiling the kernels "
                              "for every platform needs Zig's C compiler (`make extension` installs it; or "
-                             "`pip install -r requirements-platforms.txt`)")
+                             "`pip install -r requirements-platforms.txt`, or set ZIG to a zig command)")
     return [sys.executable, "-m", "ziglang", "cc"]
 
 
@@ -114,7 +119,7 @@ def cross_build_one(platform_name: str, folder: str, force: bool = False) -> str
             output = os.path.join(scratch, os.path.basename(target))
             command = zig_command() + ["-target", zig_target] + FLAGS + ["-s", source, "-o", output]
             command += ["-lm"] if system == "linux" else []
-            print(" ".join(command[2:]), flush=True)
+            print(" ".join(command), flush=True)
             completed = subprocess.run(command, capture_output=True, text=True)
             if completed.returncode != 0:
                 raise ToolchainError(f"zig cc for {zig_target} failed:\n{completed.stdout}{completed.stderr}")
