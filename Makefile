@@ -24,7 +24,7 @@ PYTEST_ARGS ?=
 # of the runs below, so it passes; without a filter it means tests went missing, so it fails.
 EMPTY_OK := $(if $(strip $(PYTEST_ARGS)),|| [ $$? -eq 5 ])
 
-.PHONY: demo test venv venv42 venv52 kernels extension scenes clean
+.PHONY: demo test venv venv42 venv52 kernels platforms extension scenes clean
 
 # Create a virtual environment $(1) with Python $(2) and install the pinned dependencies $(3) (once, or
 # when they change).
@@ -63,6 +63,15 @@ venv: $(VENV)/.installed
 venv42: $(VENV42)/.installed
 venv52: $(VENV52)/.installed
 
+# Zig's C toolchain (the ziglang package), installed into .venv beside the pinned dependencies: the
+# cross-compiler of `make platforms` and `make extension`, and of tests/test_platforms.py.
+$(VENV)/.platforms-installed: $(VENV)/.installed requirements-platforms.txt
+	$(PY) -m pip install --quiet -r requirements-platforms.txt -c requirements.txt
+	touch $@
+
+# The other environments build the extension with .venv's Zig (tools/build_kernels.py reads $ZIG).
+ZIG := $(CURDIR)/$(PY) -m ziglang
+
 # Compile core/native/primer.c for this machine (core/native/library.py loads it; without it Primer renders on its Python path).
 # A plain C library loaded through ctypes, the same file for every Python: .venv42 and .venv52 use it too.
 kernels: venv
@@ -76,19 +85,24 @@ demo: venv kernels
 scenes: venv42
 	$(PY42) sample_scenes/make_scenes.py
 
-# Build dist/primer-<version>.zip, the Blender extension, with embreex wheels for every platform.
-extension: venv kernels
+# Cross-compile the kernels for every platform the extension ships (Linux x64/arm64, Windows x64, macOS
+# arm64/x64) into dist/kernels/ with Zig; the first build takes a few minutes (Zig builds each C library once).
+platforms: $(VENV)/.platforms-installed
+	$(PY) tools/build_kernels.py --all-platforms
+
+# Build dist/primer-<version>.zip, the Blender extension, with embreex wheels and kernels for every platform.
+extension: venv $(VENV)/.platforms-installed
 	$(PY) tools/build_extension.py
 
 # Run the whole test suite: the tracer and Blender 5.0 tests, the Blender 5.2 tests (Python 3.13, numpy 2),
 # then the Blender 4.2 LTS smoke test. Blender inside the test process gets an empty user folder, so a
 # personal Blender setup (preferences, installed extensions) cannot change the results; tests that install
 # Primer use their own (tests/blender_env.py).
-test: venv venv42 venv52 kernels
+test: venv venv42 venv52 kernels $(VENV)/.platforms-installed
 	rm -rf $(BLENDER_USER) && mkdir -p $(BLENDER_USER)
 	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q $(PYTEST_ARGS) $(EMPTY_OK)
-	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY52) -m pytest -q $(TESTS52) $(PYTEST_ARGS) $(EMPTY_OK)
-	$(PY42) -m pytest -q tests/smoke_bpy42.py $(PYTEST_ARGS) $(EMPTY_OK)
+	BLENDER_USER_RESOURCES=$(BLENDER_USER) ZIG="$(ZIG)" $(PY52) -m pytest -q $(TESTS52) $(PYTEST_ARGS) $(EMPTY_OK)
+	ZIG="$(ZIG)" $(PY42) -m pytest -q tests/smoke_bpy42.py $(PYTEST_ARGS) $(EMPTY_OK)
 
 # The benchmark's extra tools (FLIP, matplotlib), installed into .venv beside the pinned dependencies.
 $(VENV)/.bench-installed: $(VENV)/.installed requirements-bench.txt

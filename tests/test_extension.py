@@ -34,8 +34,8 @@ def extension_zip() -> str:
     return path
 
 
-def test_zip_holds_the_addon_and_the_wheels_and_no_development_files(extension_zip):
-    """The zip has the add-on, the manifest with platforms and wheels, and nothing from tests, tools or docs."""
+def test_zip_holds_the_addon_the_wheels_the_kernels_and_no_development_files(extension_zip):
+    """The zip has the add-on, the manifest with platforms and wheels, the five platforms' kernels, and nothing from tests, tools or docs."""
     with zipfile.ZipFile(extension_zip) as archive:
         names = set(archive.namelist())
         manifest = tomllib.loads(archive.read("blender_manifest.toml").decode("utf-8"))
@@ -52,6 +52,10 @@ def test_zip_holds_the_addon_and_the_wheels_and_no_development_files(extension_z
         assert "__pycache__" not in name and not name.endswith(".pyc"), name
 
     assert manifest["platforms"] == ["linux-x64", "windows-x64", "macos-arm64", "macos-x64"]
+    kernels = {n for n in names if n.startswith("core/native/_kernels-")}
+    assert kernels == {"core/native/_kernels-linux-x86_64.so", "core/native/_kernels-linux-aarch64.so",
+                       "core/native/_kernels-win32-amd64.dll", "core/native/_kernels-darwin-arm64.dylib",
+                       "core/native/_kernels-darwin-x86_64.dylib"}
     wheels = [w.removeprefix("./") for w in manifest["wheels"]]
     assert set(wheels) == {n for n in names if n.endswith(".whl")}
     for tag in ("manylinux_2_28_x86_64", "win_amd64", "macosx_13_0_arm64", "macosx_13_0_x86_64"):

@@ -1,4 +1,4 @@
-"""Build Primer's Blender extension: dist/primer-<version>.zip, with embreex wheels for every platform.
+"""Build Primer's Blender extension: dist/primer-<version>.zip, with embreex wheels and compiled kernels for every platform.
 
 Usage:
     .venv/bin/python tools/build_extension.py [--dist dist] [--offline] [--blender-ext PATH]
@@ -7,9 +7,12 @@ Steps:
 1. Download the embreex wheels (the version pinned in requirements.txt) for each Blender platform and
    Python version below with `pip download --no-deps --only-binary=:all:`, cached in dist/wheels/ so
    that later builds need no network.
-2. Copy the add-on into dist/build/primer/ with a copy of blender_manifest.toml that lists the
-   platforms and the wheels (the committed manifest stays platform-free).
-3. Build the zip with Blender's own extension builder (`blender_ext.py build`, shipped inside the bpy
+2. Cross-compile the C kernels for every platform of tools/build_kernels.py's TARGETS with Zig (the
+   ziglang package, requirements-platforms.txt) into dist/kernels/, rebuilt only when a C file changed.
+3. Copy the add-on into dist/build/primer/ with a copy of blender_manifest.toml that lists the
+   platforms and the wheels (the committed manifest stays platform-free), and the five libraries into
+   its core/native/ in place of whatever `make kernels` built for this machine.
+4. Build the zip with Blender's own extension builder (`blender_ext.py build`, shipped inside the bpy
    module), which applies the manifest's [build] paths_exclude_pattern, then check it with
    `blender_ext.py validate` and with a listing check of its own.
 
@@ -31,6 +34,9 @@ import tomllib
 import zipfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+from tools import build_kernels  # noqa: E402  (after the path is set, when run as a script)
 MANIFEST = "blender_manifest.toml"
 
 # Blender platform -> the pip platform tag whose wheels it runs. embreex 4.4.0.post1 publishes
@@ -141,11 +147,17 @@ def manifest_with_wheels(text: str, platforms: list, wheels: list) -> str:
     return result
 
 
-def stage(stage_dir: str, wheels_by_platform: dict) -> None:
-    """Copy the add-on and the wheels into `stage_dir`, with the manifest that lists them."""
+def stage(stage_dir: str, wheels_by_platform: dict, kernels: list) -> None:
+    """Copy the add-on, the wheels and the `kernels` libraries into `stage_dir`, with the manifest that lists the wheels."""
     if os.path.exists(stage_dir):
         shutil.rmtree(stage_dir)
     shutil.copytree(ROOT, stage_dir, ignore=_skipped)
+    native = os.path.join(stage_dir, "core", "native")
+    for name in os.listdir(native):
+        if name.startswith("_kernels-"):            # this machine's `make kernels` build: the zip takes the cross-built one
+            os.remove(os.path.join(native, name))
+    for library in kernels:
+        shutil.copy2(library, native)
     wheel_dir = os.path.join(stage_dir, "wheels")
     os.makedirs(wheel_dir, exist_ok=True)
     wheel_paths = []
@@ -193,8 +205,8 @@ def run_blender_ext(blender_ext: str, *args: str) -> str:
     return output
 
 
-def check_contents(zip_path: str, wheel_paths: list) -> list:
-    """Check that the zip holds the add-on and the wheels and no development file; return its names."""
+def check_contents(zip_path: str, wheel_paths: list, kernels: list = ()) -> list:
+    """Check that the zip holds the add-on, the wheels, the `kernels` libraries and no development file; return its names."""
     with zipfile.ZipFile(zip_path) as archive:
         names = archive.namelist()
         manifest = tomllib.loads(archive.read(MANIFEST).decode("utf-8"))
@@ -203,6 +215,7 @@ def check_contents(zip_path: str, wheel_paths: list) -> list:
         raise BuildError(f"development files in {zip_path}: {leaked[:10]}")
     missing = [n for n in REQUIRED_FILES if n not in names]
     missing += [w for w in manifest.get("wheels", []) if w.removeprefix("./") not in names]
+    missing += [f"core/native/{name}" for name in kernels if f"core/native/{name}" not in names]
     if missing:
         raise BuildError(f"{zip_path} lacks {missing}")
     if sorted(manifest.get("wheels", [])) != sorted(wheel_paths):
@@ -221,15 +234,21 @@ def build(dist: str = os.path.join(ROOT, "dist"), offline: bool = False, blender
         print(f"  {platform:12s} " + ", ".join(os.path.basename(w) for w in wheels))
     if not wheels_by_platform:
         raise BuildError("no embreex wheel at all" + (" in the cache (--offline)" if offline else ""))
+    try:
+        kernels = build_kernels.cross_build(os.path.join(dist, "kernels"))
+    except build_kernels.ToolchainError as error:
+        raise BuildError(str(error)) from error
+    for platform, library in kernels.items():
+        print(f"  kernels {platform:12s} {os.path.basename(library)} ({os.path.getsize(library) / 1e3:.0f} kB)")
     stage_dir = os.path.join(dist, "build", manifest["id"])
-    stage(stage_dir, wheels_by_platform)
+    stage(stage_dir, wheels_by_platform, list(kernels.values()))
     print(run_blender_ext(tool, "build", "--source-dir", stage_dir, "--output-filepath", zip_path))
     print(run_blender_ext(tool, "validate", zip_path))
     staged = read_manifest(os.path.join(stage_dir, MANIFEST))["wheels"]
-    names = check_contents(zip_path, staged)
+    names = check_contents(zip_path, staged, [os.path.basename(path) for path in kernels.values()])
     size = os.path.getsize(zip_path) / 1e6
     print(f"{os.path.relpath(zip_path, ROOT)}: {len(names)} files, {size:.1f} MB, "
-          f"platforms {', '.join(wheels_by_platform)}, Python {', '.join(PYTHONS)}")
+          f"platforms {', '.join(wheels_by_platform)}, Python {', '.join(PYTHONS)}, kernels {', '.join(kernels)}")
     for platform, python in missing:
         print(f"warning: PyPI has no embreex wheel for {platform}, Python {python}: not bundled", file=sys.stderr)
     return zip_path
@@ -237,7 +256,7 @@ def build(dist: str = os.path.join(ROOT, "dist"), offline: bool = False, blender
 
 def main(argv=None) -> int:
     """Parse the command line, build the extension, and return the exit code."""
-    parser = argparse.ArgumentParser(description="Build Primer's Blender extension zip with bundled embreex wheels.")
+    parser = argparse.ArgumentParser(description="Build Primer's Blender extension zip with embreex wheels and kernels.")
     parser.add_argument("--dist", default=os.path.join(ROOT, "dist"), help="output folder (default: dist/)")
     parser.add_argument("--offline", action="store_true", help="use cached wheels only, never download")
     parser.add_argument("--blender-ext", default=os.environ.get("BLENDER_EXT"),

@@ -2,32 +2,61 @@
 
 Usage:
     python tools/build_kernels.py [--cc CC] [--force]
+    python tools/build_kernels.py --all-platforms [--out DIR] [--force]
 
 core/native/primer.c includes every part's C file (core/lights/*.c, core/materials/*.c, ...) into one
 translation unit. The library is named after the platform it runs on (core/native/library.py
-`library_path`), so an extension built on one machine carries the library for that machine only;
-elsewhere Primer uses its Python reference path. Rebuilt only when a C file under core/ is newer than
-the library (or with --force).
+`library_name`). The first form compiles it for this machine with the host C compiler, into
+core/native/ (`make kernels`). The second cross-compiles it for every platform the extension ships
+(TARGETS: Linux x64 and arm64, Windows x64, macOS arm64 and x64) with Zig's C compiler, from the
+`ziglang` package (requirements-platforms.txt), into DIR (default dist/kernels/); tools/build_extension.py
+puts those five in the zip. Each library is rebuilt only when a C file under core/ is newer than it
+(or with --force), and each cross-compiled one is checked by its headers (tools/binaries.py): format,
+processor, and the exported primer_abi.
 
 Flags: no fused multiply-add (-ffp-contract=off), so that the kernels round exactly as the numpy code
 they mirror does, step by step. -O3 turns the loops over blocks of samples into SIMD instructions
 (core/native/primer.h compiles those for AVX2 as well, where the compiler can); two flags let it, and
 neither changes a result: -fno-math-errno (sqrt is one instruction, with no errno to set) and
--fno-trapping-math (a lane may compute a value it then throws away, such as a division by zero).
+-fno-trapping-math (a lane may compute a value it then throws away, such as a division by zero). The
+cross-compiled libraries take the same flags, stripped of debug information (-s); the Linux ones link
+against glibc 2.17, so that they load on any Linux Blender runs on, and the macOS ones ask for macOS 11.
 """
 from __future__ import annotations
 
 import argparse
+import concurrent.futures
+import importlib.util
 import os
 import shlex
+import shutil
 import subprocess
 import sys
+import tempfile
+import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 FLAGS = ["-O3", "-std=c99", "-Wall", "-Wextra", "-fPIC", "-shared", "-ffp-contract=off",
          "-fno-math-errno", "-fno-trapping-math", "-fvisibility=hidden"]
+
+
+# Blender's platform name -> (Zig's target, sys.platform and platform.machine() there, the processor
+# tools/binaries.py reads from the library's header).
+TARGETS = {
+    "linux-x64": ("x86_64-linux-gnu.2.17", "linux", "x86_64", "x86_64"),
+    "linux-arm64": ("aarch64-linux-gnu.2.17", "linux", "aarch64", "aarch64"),
+    "windows-x64": ("x86_64-windows-gnu", "win32", "AMD64", "x86_64"),
+    "macos-arm64": ("aarch64-macos.11.0", "darwin", "arm64", "aarch64"),
+    "macos-x64": ("x86_64-macos.11.0", "darwin", "x86_64", "x86_64"),
+}
+FORMATS = {"linux": "ELF", "win32": "PE", "darwin": "Mach-O"}
+CROSS_FOLDER = os.path.join(ROOT, "dist", "kernels")
+
+
+class ToolchainError(Exception):
+    """The cross-compiler is missing or failed; the message says what to do."""
 
 
 def sources() -> list:
@@ -38,13 +67,17 @@ def sources() -> list:
     return sorted(found)
 
 
+def up_to_date(target: str) -> bool:
+    """Whether the library `target` exists and is newer than every C file under core/."""
+    return os.path.exists(target) and os.path.getmtime(target) >= max(os.path.getmtime(p) for p in sources())
+
+
 def build(cc: str, force: bool = False) -> str:
     """Compile core/native/primer.c if any C file changed; return the library's path."""
     from core.native import library
     source = os.path.join(ROOT, "core", "native", "primer.c")
     target = library.library_path()
-    newest = max(os.path.getmtime(path) for path in sources())
-    if not force and os.path.exists(target) and os.path.getmtime(target) >= newest:
+    if not force and up_to_date(target):
         return target
     command = shlex.split(cc) + FLAGS + [source, "-o", target + ".tmp", "-lm"]
     print(" ".join(command), flush=True)
@@ -53,13 +86,85 @@ def build(cc: str, force: bool = False) -> str:
     return target
 
 
+def zig_command() -> list:
+    """Return the command that runs Zig's C compiler: $ZIG (a command, e.g. `python -m ziglang`) + cc, else this Python's ziglang.
+
+    ToolchainError when neither is there.
+    """
+    if os.environ.get("ZIG"):
+        return shlex.split(os.environ["ZIG"]) + ["cc"]
+    if importlib.util.find_spec("ziglang") is None:
+        raise ToolchainError(f"the ziglang package is not installed in {sys.executable}: cross-compiling the kernels "
+                             "for every platform needs Zig's C compiler (`make extension` installs it; or "
+                             "`pip install -r requirements-platforms.txt`, or set ZIG to a zig command)")
+    return [sys.executable, "-m", "ziglang", "cc"]
+
+
+def cross_name(platform_name: str) -> str:
+    """Return the file name of one platform's library, as core/native/library.py names it on that platform."""
+    from core.native import library
+    _, system, machine, _ = TARGETS[platform_name]
+    return library.library_name(system, machine)
+
+
+def cross_build_one(platform_name: str, folder: str, force: bool = False) -> str:
+    """Cross-compile core/native/primer.c for one platform of TARGETS into `folder`, check it; return its path."""
+    from tools import binaries
+    zig_target, system, _, processor = TARGETS[platform_name]
+    target = os.path.join(folder, cross_name(platform_name))
+    if force or not up_to_date(target):
+        source = os.path.join(ROOT, "core", "native", "primer.c")
+        with tempfile.TemporaryDirectory(prefix=f"kernels-{platform_name}-") as scratch:
+            # Built in a scratch folder: the Windows link also writes an import library and a .pdb beside the DLL.
+            output = os.path.join(scratch, os.path.basename(target))
+            command = zig_command() + ["-target", zig_target] + FLAGS + ["-s", source, "-o", output]
+            command += ["-lm"] if system == "linux" else []
+            print(" ".join(command), flush=True)
+            completed = subprocess.run(command, capture_output=True, text=True)
+            if completed.returncode != 0:
+                raise ToolchainError(f"zig cc for {zig_target} failed:\n{completed.stdout}{completed.stderr}")
+            if completed.stderr.strip():
+                print(completed.stderr, file=sys.stderr, flush=True)
+            shutil.move(output, target)
+    found = binaries.read(target)
+    expected = (FORMATS[system], processor, True)
+    if (found.format, found.machine, found.shared) != expected or "primer_abi" not in found.exports:
+        raise ToolchainError(f"{target} is a {found.format} {found.machine} file (shared: {found.shared}), "
+                             f"not a {expected[0]} {expected[1]} shared library exporting primer_abi")
+    return target
+
+
+def cross_build(folder: str = CROSS_FOLDER, force: bool = False, platforms=tuple(TARGETS)) -> dict:
+    """Cross-compile the kernels for `platforms` (default: all of TARGETS) into `folder`; return {platform: path}."""
+    zig_command()                                   # a missing toolchain fails before any thread starts
+    os.makedirs(folder, exist_ok=True)
+    with concurrent.futures.ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        futures = {name: pool.submit(cross_build_one, name, folder, force) for name in platforms}
+        return {name: future.result() for name, future in futures.items()}
+
+
 def main() -> int:
+    """Parse the command line, build the host library or every platform's, and return the exit code."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cc", default=os.environ.get("CC", "cc"), help="C compiler (default: $CC or cc)")
     parser.add_argument("--force", action="store_true", help="rebuild even if the library is up to date")
+    parser.add_argument("--all-platforms", action="store_true",
+                        help="cross-compile for every platform the extension ships, with Zig (ziglang package)")
+    parser.add_argument("--out", default=CROSS_FOLDER, help="folder of --all-platforms' libraries (default: dist/kernels)")
     args = parser.parse_args()
-    path = build(args.cc, args.force)
-    print(f"kernels: {os.path.relpath(path, ROOT)}")
+    if not args.all_platforms:
+        path = build(args.cc, args.force)
+        print(f"kernels: {os.path.relpath(path, ROOT)}")
+        return 0
+    started = time.perf_counter()
+    try:
+        paths = cross_build(os.path.abspath(args.out), args.force)
+    except ToolchainError as error:
+        print(f"build_kernels: {error}", file=sys.stderr)
+        return 1
+    for name, path in paths.items():
+        print(f"kernels {name:12s} {os.path.relpath(path, ROOT)} ({os.path.getsize(path) / 1e3:.0f} kB)")
+    print(f"kernels for {len(paths)} platforms in {time.perf_counter() - started:.1f} s")
     return 0
 
 

@@ -31,10 +31,10 @@ SIMD_CLONES NOINLINE static void contrast_lanes(int64_t width, const double *res
     if (up == NULL) {
         c[0] = 0.0;
         for (int64_t x = 1; x < width; x++)
-            c[x] = (n[x] > 0) & (n[x - 1] > 0) ? contrast(m[x], m[x - 1]) : 0.0;
+            c[x] = ((n[x] > 0) & (n[x - 1] > 0)) ? contrast(m[x], m[x - 1]) : 0.0;
     } else {
         for (int64_t x = 0; x < width; x++)
-            c[x] = (n[x] > 0) & (n_up[x] > 0) ? contrast(m[x], up[x]) : 0.0;
+            c[x] = ((n[x] > 0) & (n_up[x] > 0)) ? contrast(m[x], up[x]) : 0.0;
     }
 }
 

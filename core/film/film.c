@@ -42,7 +42,7 @@ INLINE double pixel_error(int64_t i, const double *restrict total, const double 
     double error_y = sqrt(variance_y / n) / sqrt(luminance * luminance + DARK * DARK);
     double error_a = sqrt(variance_a / n);
     double larger = error_y > error_a ? error_y : error_a;
-    larger = (error_y != error_y) | (error_a != error_a) ? NAN : larger;     /* np.maximum keeps NaN */
+    larger = ((error_y != error_y) | (error_a != error_a)) ? NAN : larger;     /* np.maximum keeps NaN */
     return n >= 2.0 ? larger : INFINITY;
 }
 

@@ -27,8 +27,8 @@ INLINE void sample_area(const LightRecord *light, const double *P, double x, dou
     double cos_light = -dot3(out->L, light->direction);
     double geometry = cos_light * light->area / (d * d);
     double pdf = d * d / (cos_light * light->area);
-    geometry = (cos_light > 0.0) & (d > 0.0) ? geometry : 0.0;
-    pdf = (cos_light > 0.0) & (d > 0.0) ? pdf : 0.0;
+    geometry = ((cos_light > 0.0) & (d > 0.0)) ? geometry : 0.0;
+    pdf = ((cos_light > 0.0) & (d > 0.0)) ? pdf : 0.0;
     if (light->spread_narrow != 0.0) {
         double tan_theta = sqrt(at_least(1.0 - cos_light * cos_light, 0.0)) / cos_light;
         double narrowed = at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;

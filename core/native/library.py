@@ -4,10 +4,11 @@ This module only finds, loads and checks the library. It knows no part of the re
 declares the C functions it calls (`function`) and defines the records it hands to C (`record`),
 next to the Python code it mirrors (core/lights, core/camera, core/integrators, core/film, ...).
 
-The library is compiled for the machine that builds Primer (tools/build_kernels.py compiles
-core/native/primer.c, which includes each part's C file); where it is missing or does not load
-(another platform, no compiler), Primer says so in the log once and renders on the readable
-Python path: the same image, more slowly. ctypes releases Python's GIL while a C function runs,
+`make kernels` compiles it for the machine that builds Primer (tools/build_kernels.py compiles
+core/native/primer.c, which includes each part's C file); the extension zip carries one library for
+each platform Blender publishes (`build_kernels.py --all-platforms`, docs/platforms.md). Where it is
+missing or does not load (another platform, no compiler), Primer says so in the log once and renders
+on the readable Python path: the same image, more slowly. ctypes releases Python's GIL while a C function runs,
 so the render's threads run on every core at once.
 """
 from __future__ import annotations
@@ -32,11 +33,20 @@ KERNELS = ("compiled", "numpy")
 FOLDER = os.path.dirname(os.path.abspath(__file__))
 
 
+def library_name(system: Optional[str] = None, machine: Optional[str] = None) -> str:
+    """Return the library's file name for a sys.platform and platform.machine(): _kernels-<platform>-<machine>.<ext>.
+
+    Windows says win32 and AMD64, macOS darwin and arm64 or x86_64, Linux linux and x86_64 or aarch64
+    (tools/build_kernels.py names the library it builds for each of them this way). Default: this machine.
+    """
+    system, machine = system or sys.platform, machine or platform.machine()
+    extension = {"win32": ".dll", "darwin": ".dylib"}.get(system, ".so")
+    return f"_kernels-{system}-{machine.lower()}{extension}"
+
+
 def library_path() -> str:
     """Return where this platform's library lives: core/native/_kernels-<platform>-<machine>.<ext>."""
-    extension = {"win32": ".dll", "darwin": ".dylib"}.get(sys.platform, ".so")
-    tag = f"{sys.platform}-{platform.machine().lower()}"
-    return os.path.join(FOLDER, f"_kernels-{tag}{extension}")
+    return os.path.join(FOLDER, library_name())
 
 
 _cache: dict = {}

@@ -26,22 +26,26 @@
 #define ROBUST_ULPS 8.0
 #define T_INFINITY 1e37f                    /* core/geometry/intersect.py: Embree's "infinite" t_far */
 
+/* Exported by name: a DLL's export table on Windows (MSVC or MinGW), default visibility elsewhere
+ * (the build hides every other symbol with -fvisibility=hidden). */
 #if defined(_WIN32)
 #define EXPORT __declspec(dllexport)
+#else
+#define EXPORT __attribute__((visibility("default")))
+#endif
+
+/* MSVC's spellings, and GCC's and Clang's (MinGW's headers define __forceinline as `extern inline`,
+ * which cannot be static, so a Clang or GCC build for Windows takes the attributes too). */
+#if defined(_MSC_VER)
 #define INLINE static __forceinline
+#define NOINLINE __declspec(noinline)
 #define BYTE_SWAP(x) _byteswap_ulong(x)
 #define ALIGNED(n) __declspec(align(n))
 #else
-#define EXPORT __attribute__((visibility("default")))
 #define INLINE static inline __attribute__((always_inline))
+#define NOINLINE __attribute__((noinline))
 #define BYTE_SWAP(x) __builtin_bswap32(x)
 #define ALIGNED(n) __attribute__((aligned(n)))
-#endif
-
-#if defined(_MSC_VER)
-#define NOINLINE __declspec(noinline)
-#else
-#define NOINLINE __attribute__((noinline))
 #endif
 
 /* The loops over blocks of samples are compiled twice on x86-64 Linux with GCC: for any x86-64
