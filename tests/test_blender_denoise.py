@@ -14,6 +14,8 @@ from render import configure_output, load_primer  # noqa: E402
 
 from blender_env import diffuse_material  # noqa: E402
 
+from core.film.compare import relative_mse_of_blocks  # noqa: E402
+
 pytestmark = pytest.mark.blender
 
 
@@ -165,17 +167,6 @@ def test_denoise_with_compositing_off_renders_the_frame_and_warns(primer, tmp_pa
     assert any("Compositing is off" in warning for warning in addon(primer, "engine").last_render.warnings)
 
 
-def block_relative_mse(image: np.ndarray, reference: np.ndarray, block: int = 4) -> float:
-    """Return the relative MSE of the images' block x block means: mean (a - r)^2 / (r^2 + 0.01) over RGB."""
-    h, w = image.shape[0] // block * block, image.shape[1] // block * block
-
-    def means(x):
-        return x[:h, :w, :3].reshape(h // block, block, w // block, block, 3).mean(axis=(1, 3))
-
-    a, r = means(image), means(reference)
-    return float(np.mean((a - r) ** 2 / (r * r + 1e-2)))
-
-
 def test_denoised_low_sample_render_is_closer_to_a_converged_one(primer, tmp_path):
     """4 samples of an area-lit sphere: Blender's Denoise node fed with Primer's passes cuts the error against a
     256-sample render, per pixel and in 4 x 4 block means, by a margin."""
@@ -190,8 +181,8 @@ def test_denoised_low_sample_render_is_closer_to_a_converged_one(primer, tmp_pat
     scene.primer.use_denoising = True
     denoised = render_image(scene, str(tmp_path / "denoised.exr"))
     assert addon(primer, "engine").last_render.warnings == []
-    pixel_noisy, pixel_denoised = block_relative_mse(noisy, reference, 1), block_relative_mse(denoised, reference, 1)
-    block_noisy, block_denoised = block_relative_mse(noisy, reference), block_relative_mse(denoised, reference)
+    pixel_noisy, pixel_denoised = relative_mse_of_blocks(noisy, reference, 1), relative_mse_of_blocks(denoised, reference, 1)
+    block_noisy, block_denoised = relative_mse_of_blocks(noisy, reference), relative_mse_of_blocks(denoised, reference)
     assert pixel_denoised < 0.3 * pixel_noisy, (pixel_noisy, pixel_denoised)
     assert block_denoised < 0.8 * block_noisy, (block_noisy, block_denoised)
 

@@ -30,6 +30,7 @@ import pytest
 from blender_env import MESH_READS, ROOT, check_mesh_reads, isolated_env, run_bpy
 
 from core.film import image_io
+from core.film.compare import relative_mse_of_blocks
 from bench.common import digest  # one cache-key function for the tests and the benchmark
 
 SCENES_DIR = os.path.join(ROOT, "sample_scenes")
@@ -147,15 +148,6 @@ def relative_rmse(image: np.ndarray, reference: np.ndarray) -> float:
     """Return sqrt(mean((image - reference)^2)) / sqrt(mean(reference^2)) over RGB."""
     difference = image[..., :3].astype(np.float64) - reference[..., :3]
     return float(np.sqrt(np.mean(difference ** 2)) / np.sqrt(np.mean(reference[..., :3].astype(np.float64) ** 2)))
-
-
-def relative_mse_of_blocks(image: np.ndarray, reference: np.ndarray) -> float:
-    """mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)) over RGB, B the means of 4x4-pixel blocks."""
-    def blocks(x):
-        h, w = x.shape[0] // 4 * 4, x.shape[1] // 4 * 4
-        return x[:h, :w, :3].astype(np.float64).reshape(h // 4, 4, w // 4, 4, 3).mean(axis=(1, 3))
-    P, C = blocks(image), blocks(reference)
-    return float(np.mean((P - C) ** 2 / (C * C + 0.01)))
 
 
 def render(blend: str, out: str, engine: str, samples: int, folder: str) -> None:

@@ -30,6 +30,7 @@ from test_blender_engine import render_passes  # noqa: E402
 
 from core.teaching import debug
 from core.film import image_io  # noqa: E402
+from core.film.compare import relative_mse_of_blocks  # noqa: E402
 
 pytestmark = [pytest.mark.slow, pytest.mark.blender]
 
@@ -702,15 +703,6 @@ def test_viewport_coarse_pass_is_one_ray_per_block(primer):
 # 13-16. Beyond direct light: recursion, Fresnel, MIS, Russian roulette
 # ---------------------------------------------------------------------------
 
-def block_error(image: np.ndarray, reference: np.ndarray) -> float:
-    """The project's error: the relative MSE of 4x4-pixel block means, mean((B(P) - B(C))^2 / (B(C)^2 + 0.01))."""
-    def blocks(x):
-        h, w = x.shape[0] // 4 * 4, x.shape[1] // 4 * 4
-        return x[:h, :w, :3].astype(np.float64).reshape(h // 4, 4, w // 4, 4, 3).mean(axis=(1, 3))
-    P, C = blocks(image), blocks(reference)
-    return float(np.mean((P - C) ** 2 / (C * C + 0.01)))
-
-
 def glass_sphere_pixels(scene, index: int = 0) -> np.ndarray:
     """The (H, W) bool pixels whose centre ray meets sphere `index` of materials_glass first (radius 0.6 at
     x = -2.1 + 1.4 index, z = 0.6), away from its rim (85% of its radius)."""
@@ -784,7 +776,7 @@ def test_mis_beats_light_sampling_and_bsdf_sampling_at_equal_samples(primer, tmp
         scene.primer.light_sampling = strategy
         pictures[strategy] = save(f"sampling_{strategy.lower()}",
                                   render(primer, scene, str(tmp_path / f"{strategy}.exr"))["Combined"])
-        errors[strategy] = block_error(pictures[strategy], reference)
+        errors[strategy] = relative_mse_of_blocks(pictures[strategy], reference)
         assert pictures[strategy][..., :3].mean() == pytest.approx(reference[..., :3].mean(), rel=0.02)
     assert errors["MIS"] < errors["LIGHT"] and errors["MIS"] < errors["BSDF"]
 
@@ -803,7 +795,7 @@ def test_russian_roulette_is_unbiased_cheaper_and_noisier(primer, tmp_path):
     for name, min_light_bounces in (("roulette", 0), ("no_roulette", 64)):
         scene.primer.min_light_bounces = min_light_bounces
         picture = save(f"cornell_{name}", render(primer, scene, str(tmp_path / f"{name}.exr"))["Combined"])
-        results[name] = (picture, engine.last_render.stats.shadow_rays, block_error(picture, reference))
+        results[name] = (picture, engine.last_render.stats.shadow_rays, relative_mse_of_blocks(picture, reference))
     (with_rr, rays_rr, error_rr), (without, rays_all, error_all) = results["roulette"], results["no_roulette"]
     assert with_rr[..., :3].mean() == pytest.approx(without[..., :3].mean(), rel=0.02)
     assert rays_rr < 0.9 * rays_all

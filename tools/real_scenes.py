@@ -23,10 +23,10 @@ import subprocess
 import sys
 import time
 
-import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
+from core.film.compare import relative_mse_of_blocks  # noqa: E402  (the project's error measure)
 CACHE = os.environ.get("PRIMER_REAL_SCENES", os.path.join(os.path.expanduser("~"), ".cache", "primer", "real_scenes"))
 GLTF_IO = ("KhronosGroup/glTF-Blender-IO", "7551a35b146ab62ebc503ec661f88a74dc611392", "Apache-2.0")
 
@@ -134,16 +134,6 @@ print("RIG " + ", ".join(notes))
 '''
 
 
-def block_rel_mse(P: np.ndarray, C: np.ndarray) -> float:
-    """The project's error: mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)) over the RGB of 4x4-pixel block means."""
-    h, w = P.shape[0] // 4 * 4, P.shape[1] // 4 * 4
-
-    def blocks(x):
-        return x[:h, :w, :3].reshape(h // 4, 4, w // 4, 4, 3).mean(axis=(1, 3))
-    b, c = blocks(P.astype(np.float64)), blocks(C.astype(np.float64))
-    return float(np.mean((b - c) ** 2 / (c * c + 0.01)))
-
-
 def git_file(mirrors: list, commit: str, path: str):
     """The bytes of `path` at `commit` (or HEAD) in the first of the git directories `mirrors` that has it."""
     for mirror in mirrors:
@@ -239,7 +229,7 @@ def compare(names: list, integrator: str, samples: int, reference: int, width: i
         if len(images) < 2:
             continue
         P, C = images["PRIMER"], images["CYCLES"]
-        row = dict(name=name, integrator=integrator, error=block_rel_mse(P, C),
+        row = dict(name=name, integrator=integrator, error=relative_mse_of_blocks(P, C),
                    ratio=float(P[..., :3].mean() / max(C[..., :3].mean(), 1e-12)), primer_s=seconds["PRIMER"],
                    cycles_s=seconds["CYCLES"], notes=notes, warnings=warnings,
                    what=SOURCES[name][4] if name in SOURCES else BUILT[name][2],
