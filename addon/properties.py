@@ -66,6 +66,22 @@ class PrimerSettings(bpy.types.PropertyGroup):
     min_light_bounces: IntProperty(name="Min Light Bounces", default=0, min=0, max=1024, soft_max=64,
                                    description="Bounces (plus one) before Russian roulette may end a path, as in "
                                                "Cycles: more is less noise in deep paths, and slower")
+    caustics_reflective: BoolProperty(
+        name="Reflective Caustics", default=True,
+        description="Light reflected by glossy and mirror surfaces reaches diffuse ones (off: those reflections are "
+                    "left out after a diffuse bounce, less noise and less light, as Cycles' Caustics > Reflective)")
+    caustics_refractive: BoolProperty(
+        name="Refractive Caustics", default=True,
+        description="Light refracted by glass reaches diffuse surfaces (off: glass lets no light through after a "
+                    "diffuse bounce, less noise and less light, as Cycles' Caustics > Refractive)")
+    sample_clamp_direct: FloatProperty(
+        name="Direct Light", default=0.0, min=0.0, max=1e8, soft_max=100.0,
+        description="Cap on what one sample adds through the camera's hit (its channel sum at 3x this); 0: no cap. "
+                    "Less noise from rare bright samples, but the image is darker where it bites (Cycles' Clamping)")
+    sample_clamp_indirect: FloatProperty(
+        name="Indirect Light", default=0.0, min=0.0, max=1e8, soft_max=100.0,
+        description="Cap on what one sample adds after a bounce (its channel sum at 3x this); 0: no cap, Primer's "
+                    "unbiased default (Cycles' default is 10)")
     samples: IntProperty(name="Samples", default=16, min=1, max=1 << 16, soft_max=1024,
                          description="Camera rays per pixel, on a jittered stratified pattern (anti-aliasing)")
     viewport_samples: IntProperty(name="Viewport Samples", default=16, min=1, max=1 << 16, soft_max=1024,

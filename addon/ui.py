@@ -77,6 +77,14 @@ class RENDER_PT_primer_light_paths(PrimerPanel, bpy.types.Panel):
         row = col.row()
         row.active = props.integrator == "WHITTED"
         row.prop(props, "fresnel")
+        sub = col.column(align=True, heading="Clamping")
+        sub.active = props.integrator != "WHITTED"
+        sub.prop(props, "sample_clamp_direct")
+        sub.prop(props, "sample_clamp_indirect")
+        sub = col.column(align=True, heading="Caustics")
+        sub.active = props.integrator == "PATH"
+        sub.prop(props, "caustics_reflective", text="Reflective")
+        sub.prop(props, "caustics_refractive", text="Refractive")
 
 
 class RENDER_PT_primer_shadows(PrimerPanel, bpy.types.Panel):

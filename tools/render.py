@@ -45,8 +45,8 @@ def load_primer(name: str = "primer"):
 
 def configure_cycles_reference(scene, samples: int) -> None:
     """Set Cycles up as Primer's reference: the light paths Primer's integrator follows (direct light only,
-    or path tracing with Primer's bounce limits), 1-pixel box filter, no denoising, no clamping, no Filter
-    Glossy, CPU."""
+    or path tracing with Primer's bounce limits and caustics switches), Primer's sample clamping (none unless
+    the file asks), 1-pixel box filter, no denoising, no Filter Glossy, CPU."""
     primer = getattr(scene, "primer", None)
     path = primer is not None and getattr(primer, "integrator", "DIRECT") == "PATH"
     scene.render.engine = "CYCLES"
@@ -65,13 +65,15 @@ def configure_cycles_reference(scene, samples: int) -> None:
         cycles.glossy_bounces = primer.glossy_bounces
         cycles.transmission_bounces = getattr(primer, "transmission_bounces", 12)
         cycles.min_light_bounces = primer.min_light_bounces
-        cycles.caustics_reflective = cycles.caustics_refractive = True
+        cycles.caustics_reflective = bool(getattr(primer, "caustics_reflective", True))
+        cycles.caustics_refractive = bool(getattr(primer, "caustics_refractive", True))
     cycles.pixel_filter_type = "BOX"
     cycles.filter_width = 1.0
-    # No bias: Filter Glossy and sample clamping (on by default in Cycles) are switched off.
+    # No bias: Filter Glossy is switched off, and so is sample clamping (on by default in Cycles) unless the
+    # file asks Primer for it.
     cycles.blur_glossy = 0.0
-    cycles.sample_clamp_direct = 0.0
-    cycles.sample_clamp_indirect = 0.0
+    cycles.sample_clamp_direct = float(getattr(primer, "sample_clamp_direct", 0.0))
+    cycles.sample_clamp_indirect = float(getattr(primer, "sample_clamp_indirect", 0.0))
 
 
 def configure_output(scene, path: str) -> None:

@@ -30,6 +30,8 @@ typedef struct {
     double max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, roulette_from;   /* path.c */
     double transparent_bounces;                  /* a path's limit of transparent bounces */
     double see_through;                          /* 1: some material lets light through (Transparent, alpha) */
+    double caustics;                             /* FILTER_* bits after a diffuse bounce (path.caustics_filter) */
+    double clamp_direct, clamp_indirect;         /* sample clamping's caps (clamp.limits; inf: none) */
 } ChunkParams;
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -84,6 +86,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
                        lift, H->s + h);
             for (int c = 0; c < 3; c++) H->wo[3 * h + c] = -D[c];
             H->sd[h].storage = H->storage[h];
+            H->sd[h].caustics = 0;
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
                       (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, RAY_CAMERA, H->sd + h);
@@ -91,6 +94,13 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];
             for (int c = 0; c < 3; c++) H->L[3 * h + c] = H->sd[h].emission[c];
+            /* (what clamping reads: a path's throughput and bounces, 1 and 0 at the camera's hit) */
+            for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
+            H->bounce[h] = 0;
+            if (params->clamp_direct < INFINITY) {
+                double f = clamp_scale(H->L + 3 * h, H->throughput + 3 * h, params->clamp_direct, 1.0);
+                for (int c = 0; c < 3; c++) H->L[3 * h + c] *= f;
+            }
         }
     }
 }
@@ -105,7 +115,8 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
                          (int)params->sampling, params->bsdf_rays != 0.0, params->emissive != 0.0,
                          params->everywhere != 0.0, params->seed, 0,
                          params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHTS, NULL, params->graphs,
-                         NULL};
+                         NULL, (int)params->caustics, {params->clamp_direct, params->clamp_indirect},
+                         params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY};
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
                                params->graphs, (int)params->transparent_bounces};
     if (params->see_through != 0.0) ds.transmitter = &transmitter;
@@ -206,6 +217,10 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
                 camera_sees(params, O, D, H.t[lane], is_hit, s);
             } else if (b.valid[lane] && !is_hit) {
                 for (int c = 0; c < 3; c++) s[c] = params->background[c];
+            }
+            if (params->clamp_direct < INFINITY) {      /* what the camera sees itself: a direct contribution */
+                double one[3] = {1.0, 1.0, 1.0}, f = clamp_scale(s, one, params->clamp_direct, 1.0);
+                for (int c = 0; c < 3; c++) s[c] *= f;
             }
             if (is_hit) {
                 for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];

@@ -50,7 +50,8 @@ class ChunkParams(ctypes.Structure):
                    ("want_squares", ctypes.c_double)]
                 + [(name, ctypes.c_double) for name in ("max_bounces", "diffuse_bounces", "glossy_bounces",
                                                         "transmission_bounces", "roulette_from",
-                                                        "transparent_bounces", "see_through")])
+                                                        "transparent_bounces", "see_through", "caustics",
+                                                        "clamp_direct", "clamp_indirect")])
     _size_function = "primer_chunk_params_size"
 
 
@@ -164,6 +165,11 @@ class Compiled:
         params.roulette_from = float(roulette_from(s))
         params.transparent_bounces = float(s.transparent_max_bounces)
         params.see_through = 1.0 if ctx.extra.get("transparent") else 0.0
+        from .clamp import limits
+        from .path import caustics_filter
+        filtered = caustics_filter(s, np.ones(1, bool))
+        params.caustics = float(filtered[0]) if filtered is not None else 0.0
+        params.clamp_direct, params.clamp_indirect = limits(s)
         self.params = params
         self.want_squares = bool(s.adaptive)
         self._render = library.function("primer_render_chunk", None,

@@ -25,6 +25,7 @@ typedef struct {
     int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse, glossy and transmission bounces so far */
     int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
+    uint8_t after_diffuse[BLOCK];                /* 1: that bounce was diffuse (the caustics switches) */
 } BlockHits;
 
 /* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */
@@ -204,8 +205,23 @@ typedef struct Transmitter Transmitter;
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D[][3], const double *t,
                             double T[][3]);
 
+/* clamp.scale: the factor that caps a contribution value x throughput x count (channel sum) at limit (inf: none). */
+INLINE double clamp_scale(const double *value, const double *throughput, double limit, double count)
+{
+    if (!(limit < INFINITY)) return 1.0;
+    double total = 0.0;
+    for (int c = 0; c < 3; c++) total += fabs(value[c] * throughput[c] * count);
+    return total > limit ? limit / total : 1.0;
+}
+
+/* The cap on what hit h of H gathers: Clamp Direct at a path's first vertex, Clamp Indirect after a bounce. */
+INLINE double clamp_limit(const BlockHits *H, int64_t h, const double *caps)
+{
+    return H->bounce[h] == 0 ? caps[0] : caps[1];
+}
+
 INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *scene, double *L_out,
-                             const Transmitter *transmitter)
+                             const Transmitter *transmitter, const BlockHits *H, const double *caps, double count)
 {
     RayPacket ray;
     int valid[PACKET] ALIGNED(32);
@@ -220,6 +236,11 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             set_lane(&ray, lanes, O[lanes], D[lanes], b->t[k]);
             owner[lanes] = b->hit[k];
             for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * b->color[c][k]) * b->f[c][k];
+            if (caps != NULL) {
+                /* Sample clamping: the sample as the one-sample estimate it stands for (x count). */
+                double f = clamp_scale(value[lanes], H->throughput + 3 * b->hit[k], clamp_limit(H, b->hit[k], caps), count);
+                for (int c = 0; c < 3; c++) value[lanes][c] *= f;
+            }
             if (++lanes < PACKET) continue;
         }
         if (lanes == 0) continue;
@@ -279,6 +300,9 @@ typedef struct {
     PathRays *continuing;       /* where BSDF rays that hit a surface are kept for a path, or NULL */
     const GraphTables *graphs;  /* the materials' node-graph programs, or NULL (a path shades its vertices) */
     const Transmitter *transmitter;   /* transparent shadows, where some material lets light through; or NULL */
+    int caustics;               /* the FILTER_* bits of hits a diffuse bounce's ray reached (path.caustics_filter) */
+    double caps[2];             /* sample clamping's caps (direct, indirect; clamp.limits) */
+    int clamping;               /* 1: some cap is finite */
 } DirectSettings;
 
 /* What transparent shadows read (shadows.transmittance): the scene's queries, tables and materials. */
@@ -328,6 +352,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             double wo[3] = {-D[l][0], -D[l][1], -D[l][2]}, storage[SHADER_STORAGE];
             ShaderResult sd;
             sd.storage = storage;
+            sd.caustics = 0;
             shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u, v,
                       wo, RAY_SHADOW, &sd);
             double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
@@ -398,7 +423,8 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
                     if (H->traced[b.hit[k]])
                         b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
             uint64_t start = ticks();
-            rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter);
+            rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter, H,
+                                  ds->clamping ? ds->caps : NULL, (double)count);
             embree += ticks() - start;
         }
     }
@@ -528,8 +554,11 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             if (!ds->gather) continue;
             gather_light(ds, O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                          instance_of(&packet.hit, k), pdf_b, use_mis, light_L);
-            double *L = H->L + 3 * owner[k];
-            for (int c = 0; c < 3; c++) L[c] += s->weight[c] * light_L[c];
+            double *L = H->L + 3 * owner[k], found[3];
+            for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];
+            double f = ds->clamping ? clamp_scale(found, H->throughput + 3 * owner[k],
+                                                  clamp_limit(H, owner[k], ds->caps), 1.0) : 1.0;
+            for (int c = 0; c < 3; c++) L[c] += found[c] * f;
         }
         lanes = 0;
     }

@@ -35,6 +35,7 @@ from ..materials import graph as graph_
 from .. import vectors
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
+from . import clamp as clamp_
 from . import shadows
 from .base import Context, Integrator, Radiance, Recorder
 
@@ -63,18 +64,20 @@ class DirectLighting(Integrator):
             from .path import PathTracing
             return PathTracing(direct_only=True).radiance(ctx, O, D, t_max, pixel, sample, recorder)
         # 1-3. The camera rays' hits and surfaces, the world where they escape, the lamps they pass.
-        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder)
+        direct_cap = clamp_.limits(ctx.settings)[0]
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap)
         if surface is None:
             return Radiance(L_out, found.hit, 0)
         D_hit = vectors.gather(D, hit)
-        # 4. The light each hit sends towards the camera.
-        L_hit, shadow_rays, _ = self.shade(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder)
+        # 4. The light each hit sends towards the camera (each contribution capped by Clamp Direct).
+        L_hit, shadow_rays, _ = self.shade(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder, limit=direct_cap)
         L_out[hit] += L_hit
         return Radiance(L_out, found.hit, shadow_rays)
 
     def shade(self, ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray,
               recorder: Recorder, dimension: int = 0, vertex: int = 0, trace_all: bool = False,
-              light_samples_only: bool = False, ray=None, carried_pdf=None):
+              light_samples_only: bool = False, ray=None, carried_pdf=None, caustics=None, throughput=None,
+              limit=np.inf):
         """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
         each traced hit sent out, or None).
 
@@ -84,15 +87,21 @@ class DirectLighting(Integrator):
         ray that found them (vertex > 0), and every hit traces its BSDF ray (trace_all). Whitted's tracer
         lights every hit by light samples alone (light_samples_only: no BSDF ray, no MIS). ray: which kind of ray
         found the hits (graph.RAY_*, scalar or (m,); default: the camera's at vertex 0), for the Light Path node.
+        caustics: (m,) int the closures a caustics filter takes away (closures.FILTER_*), or None. throughput
+        (m, 3) or None (1) and limit (scalar or (m,), inf: none): each contribution the hits gather is capped at
+        `limit` seen through its path's throughput (sample clamping, core/integrators/clamp.py).
         """
         s = ctx.settings
         m = len(surface.I)
         # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
         if ray is None:
             ray = graph_.RAY_CAMERA if vertex == 0 else graph_.RAY_BOUNCE
-        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, ray)
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, ray, caustics)
         recorder.shader(shader)
+        clamping = np.any(np.isfinite(limit))
         L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
+        if clamping and vertex == 0:
+            L_out = clamp_.clamped(L_out, throughput, limit)
         shadow_rays = 0
         offsets = shadows.error_bound(surface.I, surface.vertices) if s.shadow_method == "robust" else None
         # Which hits trace a BSDF ray (every hit where emitters or the world light the scene, glossy hits
@@ -157,6 +166,9 @@ class DirectLighting(Integrator):
                     weight = weight * mis_weight
                 color = ls.color if ls.color.ndim == 1 else ls.color[rows]
                 value = (weight[:, None] * color) * f_cos * through
+                if clamping:
+                    value = clamp_.clamped(value, None if throughput is None else throughput[rows],
+                                           limit if np.ndim(limit) == 0 else limit[rows], count)
                 recorder.contribution(index, rows, value, mis_weight)
                 L_out[rows] += value
         # 2. The light one BSDF-sampled direction finds (lamps with extent, emitters, the world).
@@ -166,7 +178,7 @@ class DirectLighting(Integrator):
             gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
             found, ray = self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                                        dimension, gather, carried_pdf)
-            L_out += found
+            L_out += clamp_.clamped(found, throughput, limit) if clamping else found
         return L_out, shadow_rays, ray
 
     def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray,
@@ -350,10 +362,11 @@ def light_numbers(ctx: Context, light, index: int, pixel: np.ndarray, number: np
     return np.concatenate([u, pick], axis=1)
 
 
-def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, recorder: Recorder) -> tuple:
+def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, recorder: Recorder,
+                limit=np.inf) -> tuple:
     """What camera rays O, D (n, 3) up to t_max (n,) meet: (L (n, 3) the world where they escape, where the
-    camera sees it, plus the lamps with extent they pass; the tracer's hits; the hit rows (m,) int64; the
-    hits' Surface, or None when nothing was hit)."""
+    camera sees it, plus the lamps with extent they pass, each ray's capped at `limit` (sample clamping); the
+    tracer's hits; the hit rows (m,) int64; the hits' Surface, or None when nothing was hit)."""
     s = ctx.settings
     # 1. The nearest hit of each camera ray (t).
     found = ctx.geometry.tracer.intersect(O, D, t_max)
@@ -366,6 +379,9 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
         L_out[missed] = world.radiance(D[missed])
     # 3. Lamps seen by the camera in front of what it hits (area lights, round lights).
     L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
+    # What the camera sees itself is a direct contribution (Clamp Direct).
+    if np.isfinite(limit):
+        L_out = clamp_.clamped(L_out, None, limit)
     if len(hit) == 0:
         recorder.hits(O, D, None, found.hit)
         return L_out, found, hit, None

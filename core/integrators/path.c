@@ -33,9 +33,10 @@ INLINE int is_transmission_bounce(int kind, int transmit)
 /* path.through_transparent for one ray r of hit h whose path has ended at its bounce limits, after `clear`
  * transparent surfaces: the light behind the transparent surfaces it meets (each multiplies by its
  * transparency; the ray goes straight on and gathers as a BSDF ray does, weighed by MIS with the pdf of the
- * path's last real bounce), up to the transparent-bounce limit; added to found (r's weight included). */
+ * path's last real bounce), up to the transparent-bounce limit; added to found (r's weight included, each
+ * find capped at `cap` seen through the path's throughput at h). */
 INLINE void through_transparent(const PathRay *r, int clear, const PathLimits *limits, const DirectSettings *ds,
-                                double *found)
+                                const double *throughput, double cap, double *found)
 {
     double T[3] = {r->weight[0], r->weight[1], r->weight[2]}, O[3] = {r->O[0], r->O[1], r->O[2]};
     const double *D = r->D;
@@ -53,6 +54,7 @@ INLINE void through_transparent(const PathRay *r, int clear, const PathLimits *l
         double wo[3] = {-D[0], -D[1], -D[2]}, storage[SHADER_STORAGE];
         ShaderResult sd;
         sd.storage = storage;
+        sd.caustics = 0;
         shade_hit(ds->graphs, ds->geometry, material, &tri, &s, geometry, prim, instance, u, v, wo, RAY_BOUNCE, &sd);
         for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
         if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0) || ++clear > limits->transparent_bounces) return;
@@ -72,7 +74,9 @@ INLINE void through_transparent(const PathRay *r, int clear, const PathLimits *l
         prim = (int64_t)packet.hit.primID[0];
         instance = instance_of(&packet.hit, 0);
         gather_light(ds, O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, light_L);
-        for (int c = 0; c < 3; c++) found[c] += T[c] * light_L[c];
+        for (int c = 0; c < 3; c++) light_L[c] *= T[c];
+        double f = clamp_scale(light_L, throughput, cap, 1.0);
+        for (int c = 0; c < 3; c++) found[c] += light_L[c] * f;
         /* 3. A ray that met another surface goes on. */
         if (!hit) return;
         u = (double)packet.hit.u[0];
@@ -100,7 +104,13 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces
             || tr > limits->transmission_bounces) {
             /* Past its bounce limits the path still looks through the transparent surfaces its ray meets. */
-            if (ds->transmitter != NULL) through_transparent(r, clear, limits, ds, H->L + 3 * h);
+            /* (found lands in H->L, which the path's throughput multiplies: give it r's weight alone) */
+            if (ds->transmitter != NULL) {
+                double found[3] = {0.0, 0.0, 0.0};
+                double cap = ds->clamping ? clamp_limit(H, h, ds->caps) : INFINITY;
+                through_transparent(r, clear, limits, ds, H->throughput + 3 * h, cap, found);
+                for (int c = 0; c < 3; c++) H->L[3 * h + c] += found[c];
+            }
             continue;
         }
         /* b. The throughput, and Russian roulette. */
@@ -125,6 +135,10 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
             next->throughput[3 * m + c] = tp[c];
         }
         next->sd[m].storage = next->storage[m];
+        /* A transparent bounce keeps the kind of the last real one; after a diffuse one, the caustics filter. */
+        int after_diffuse = see_through ? H->after_diffuse[h] : is_diffuse_bounce(r->kind);
+        next->after_diffuse[m] = (uint8_t)after_diffuse;
+        next->sd[m].caustics = after_diffuse ? ds->caustics : 0;
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
                   r->prim, r->instance, r->u, r->v, next->wo + 3 * m,
                   bounces == 0 ? RAY_CAMERA : RAY_BOUNCE, next->sd + m);   /* (through clear surfaces: still the camera's) */
@@ -151,6 +165,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
         H->mis_pdf[h] = INFINITY;
+        H->after_diffuse[h] = 0;
     }
     BlockHits *current = H, *next = &work->a;
     for (int vertex = 0; current->m > 0; vertex++) {

@@ -22,6 +22,12 @@ surface it hits does no more. From the third vertex on, Russian roulette ends a 
 1 - q, q = min(sqrt(max throughput), 1), and divides the throughput of those that go on by q: unbiased,
 cheaper, noisier (Cycles' rule: after Min Light Bounces + 1 bounces, min_light_bounces in RenderSettings).
 
+Two of Cycles' Light Paths settings trade correctness for less noise, with Cycles' meaning: the caustics
+switches (caustics_reflective, caustics_refractive) leave glossy reflection and refraction out of the
+closures of a hit that a diffuse bounce's ray reached (the light of caustics, focused by a mirror or a
+glass, then never reaches a diffuse surface), and sample clamping (core/integrators/clamp.py) caps
+each contribution.
+
 With max_bounces = 0 a path is the direct-lighting tracer at the camera's hit, except that every hit
 traces its BSDF ray (the direct tracer skips it where light samples alone do well).
 Its compiled twin is the same loop in core/integrators/chunk.c (INTEGRATOR_PATH).
@@ -34,10 +40,12 @@ import numpy as np
 
 from .. import materials as materials_
 from ..materials import graph as graph_
+from ..materials.closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE
 from .. import vectors
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from .base import Context, Radiance, Recorder
+from . import clamp as clamp_
 from . import shadows
 from .direct import DirectLighting, camera_hits, gather_light
 
@@ -61,16 +69,29 @@ def bounce_kind(kind: np.ndarray, transmit: np.ndarray) -> tuple:
     return diffuse, other & ~transmit, other & transmit, transparent
 
 
+def caustics_filter(settings, after_diffuse: np.ndarray):
+    """The caustics filter bits (k,) int of hits that rays reached (closures.FILTER_*), or None: where the
+    path's last real bounce was diffuse (after_diffuse (k,) bool), Cycles' caustics switches take reflective
+    closures away (Reflective Caustics off) and light through glass (Refractive Caustics off)."""
+    bits = ((0 if settings.caustics_reflective else FILTER_REFLECTIVE)
+            | (0 if settings.caustics_refractive else FILTER_REFRACTIVE))
+    if bits == 0 or not after_diffuse.any():
+        return None
+    return np.where(after_diffuse, bits, 0)
+
+
 def hit_materials(ctx: Context, ray, rows: np.ndarray) -> np.ndarray:
     """The material rows (k,) int of the surfaces the BSDF rays `rows` of `ray` hit."""
     return ctx.geometry.triangle_data(ray.hits.prim[rows], smooth=False).material
 
 
-def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray, passed: np.ndarray) -> np.ndarray:
+def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray, passed: np.ndarray,
+                        limit=np.inf) -> np.ndarray:
     """The light (k, 3) behind the transparent surfaces that the ended paths' last rays (`rows` of the BsdfRay
     `ray`, carrying `weight` (k, 3), after `passed` (k,) clear surfaces) meet: each surface multiplies by its
     transparency and the ray goes straight on, finding lamps, emission and the world as a BSDF ray does, weighed
-    by MIS with the pdf of the path's last real bounce; up to the transparent-bounce limit."""
+    by MIS with the pdf of the path's last real bounce; up to the transparent-bounce limit. Each find is capped
+    at `limit` (scalar or (k,), sample clamping)."""
     s = ctx.settings
     found = np.zeros((len(rows), 3))
     O, D, pdf = ray.O[rows], ray.D[rows], ray.pdf[rows]
@@ -93,7 +114,8 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         side = np.where(np.einsum("ij,ij->i", Ng, D) < 0.0, -1.0, 1.0)
         O = I + (shadows.error_bound(I, surface.vertices[go]) * side)[:, None] * Ng
         hits = ctx.geometry.tracer.intersect(O, D, np.full(len(alive), np.inf))
-        found[alive] += T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]))
+        light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]))
+        found[alive] += clamp_.clamped(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         # 3. The rays that met another surface go on.
         more = hits.hit
         alive, O, D = alive[more], O[more], D[more]
@@ -114,7 +136,8 @@ class PathTracing(DirectLighting):
                  sample: np.ndarray, recorder: Recorder) -> Radiance:
         s = ctx.settings
         # 1. The camera rays: what they hit, the world where they escape, the lamps they pass.
-        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder)
+        direct_cap, indirect_cap = clamp_.limits(s)
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap)
         if surface is None:
             return Radiance(L_out, found.hit, 0)
         D_hit = vectors.gather(D, hit)
@@ -127,6 +150,7 @@ class PathTracing(DirectLighting):
         transparent = np.zeros(len(hit), np.int64)
         bounce = np.zeros(len(hit), np.int64)
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
+        after_diffuse = np.zeros(len(hit), bool)     # whether that bounce was diffuse (the caustics switches)
         max_bounces = 0 if self.direct_only else s.max_bounces
         wo = -D_hit
         shadow_rays = 0
@@ -134,11 +158,14 @@ class PathTracing(DirectLighting):
         while len(owner):
             # a. What the vertex gathers: its emission (camera hits only; later ones were found by the ray
             #    that led there), light samples, and the light its BSDF ray finds; then where that ray goes.
+            #    Light the camera's hit gathers is direct, later light indirect (sample clamping).
             dimension = vertex * VERTEX_DIMENSIONS
+            cap = np.where(bounce == 0, direct_cap, indirect_cap)
             L_vertex, rays, ray = self.shade(ctx, surface, wo, pixel[owner], sample[owner], recorder,
                                              dimension, vertex, trace_all=True,
                                              ray=np.where(bounce == 0, graph_.RAY_CAMERA, graph_.RAY_BOUNCE),
-                                             carried_pdf=mis_pdf)
+                                             carried_pdf=mis_pdf, caustics=caustics_filter(s, after_diffuse),
+                                             throughput=throughput, limit=cap)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
             recorder.path_vertex(vertex, owner, surface, throughput, L_vertex)
@@ -161,7 +188,7 @@ class PathTracing(DirectLighting):
             if len(ended):
                 L_out[owner[ray.rows[ended]]] += through_transparent(ctx, ray, ended,
                                                                      throughput[ray.rows[ended]] * ray.weight[ended],
-                                                                     tp[ended])
+                                                                     tp[ended], cap[ray.rows[ended]])
             next_throughput = throughput[ray.rows] * ray.weight
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
             played = (bounces >= roulette_from(s)) & ~is_transparent
@@ -185,6 +212,8 @@ class PathTracing(DirectLighting):
             owner = owner[rows]
             throughput = next_throughput[keep]
             diffuse, glossy, transmission, transparent = d[keep], g[keep], tr[keep], tp[keep]
+            # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
+            after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], is_diffuse)[keep]
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
             wo = -D_next

@@ -117,10 +117,17 @@ class ConstantShader:
         """Whether its hits let light through (a constant transparency)."""
         return bool(np.asarray(self.transparency).any())
 
-    def shade(self, N: np.ndarray, wo: Optional[np.ndarray] = None, backfacing=None) -> ShaderResult:
-        """The ShaderResult at hits with shading normals N (n, 3) (the same from every direction wo)."""
-        return constant_result(len(N), N, self.kinds, self.weights, self.sample_weights, self.params,
-                               self.emission, self.transparency)
+    def shade(self, N: np.ndarray, wo: Optional[np.ndarray] = None, backfacing=None, caustics=None) -> ShaderResult:
+        """The ShaderResult at hits with shading normals N (n, 3) (the same from every direction wo); caustics:
+        (n,) int filter bits (closures.FILTER_*) that take away its reflective or refractive closure, or None."""
+        result = constant_result(len(N), N, self.kinds, self.weights, self.sample_weights, self.params,
+                                 self.emission, self.transparency)
+        if caustics is not None and np.any(caustics):
+            filtered = caustics_filtered(result.closures.kind, np.asarray(caustics))
+            result.closures.kind[filtered] = -1
+            result.closures.weight[filtered] = 0.0
+            result.closures.sample_weight[filtered] = 0.0
+        return result
 
 
 @dataclass
@@ -193,14 +200,15 @@ class NodeShader:
         return self.programs[key]
 
     def shade(self, N: np.ndarray, wo: np.ndarray, point=None, program=None, textures=None,
-              backfacing: Optional[np.ndarray] = None) -> ShaderResult:
+              backfacing: Optional[np.ndarray] = None, caustics=None) -> ShaderResult:
         """The ShaderResult at hits with shading normals N (n, 3) seen from wo (n, 3), hit from behind where
-        `backfacing` (n,) bool (glass bends light leaving an object the other way); with a program, its
-        outputs at the ShadingPoint `point` replace the linked inputs, weights and normals first."""
+        `backfacing` (n,) bool (glass bends light leaving an object the other way), with the caustics filter
+        bits (n,) int (closures.FILTER_*) or None; with a program, its outputs at the ShadingPoint `point`
+        replace the linked inputs, weights and normals first."""
         from . import graph as graph_
         from . import nodes as nodes_
         if program is None:
-            return nodes_.shade_nodes(self.nodes, N, wo, backfacing=backfacing)
+            return nodes_.shade_nodes(self.nodes, N, wo, backfacing=backfacing, caustics=caustics)
         n = len(N)
         registers = graph_.run(program, point, textures)
         weights = [np.broadcast_to(weight, (n, 3)).astype(np.float64) for _, weight, _ in self.nodes]
@@ -208,7 +216,19 @@ class NodeShader:
         normals = [None] * len(self.nodes)
         graph_.apply_outputs(program, registers, weights, rows, normals)
         glossy = [None if normal is None else graph_.valid_reflection(point.Ng, wo, normal) for normal in normals]
-        return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing)
+        return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing,
+                                  caustics=caustics)
+
+
+def caustics_filtered(kind: np.ndarray, caustics: np.ndarray) -> np.ndarray:
+    """Which of a constant material's closures kind (n, K) a caustics filter (n,) int takes away: reflective
+    ones (mirror, microfacet) with FILTER_REFLECTIVE, glass with both bits: (n, K) bool."""
+    from .closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE
+    bits = caustics[:, None]
+    reflective = (kind == Mirror.kind) | (kind == Microfacet.kind)
+    glass = (kind == Glass.kind) | (kind == RoughGlass.kind)
+    both = FILTER_REFLECTIVE | FILTER_REFRACTIVE
+    return (reflective & ((bits & FILTER_REFLECTIVE) != 0)) | (glass & ((bits & both) == both))
 
 
 def _bounce_factor(entry: tuple) -> float:
@@ -290,17 +310,23 @@ class MaterialTable:
         return np.array([shader.emission.max() > 0.0 for shader in self.shaders])
 
     def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None,
-              geometry=None, ray=None) -> ShaderResult:
+              geometry=None, ray=None, caustics=None) -> ShaderResult:
         """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3).
 
         surface, geometry: the hits' Surface and the WorldGeometry (core/geometry), which materials with node
-        graphs read their attributes from (without them, every attribute reads 0).
+        graphs read their attributes from (without them, every attribute reads 0). ray: which ray found the
+        hits (graph.RAY_*, for the Light Path node); caustics: (n,) int the closures a caustics filter takes
+        away at each hit (closures.FILTER_*), or None.
         """
         n = len(material)
         backfacing = getattr(surface, "backfacing", None)
+        if caustics is not None:
+            caustics = np.broadcast_to(np.asarray(caustics, np.int64), (n,))
+            if not caustics.any():
+                caustics = None
         first = int(material[0]) if n else len(self.shaders) - 1
         if n == 0 or (not self.has_graphs and (material == first).all()):
-            return self.shaders[first].shade(N, wo, backfacing=backfacing)
+            return self.shaders[first].shade(N, wo, backfacing=backfacing, caustics=caustics)
         point = None
         results, order = [], []
         for row in np.unique(material):
@@ -308,7 +334,8 @@ class MaterialTable:
             shader = self.shaders[int(row)]
             if getattr(shader, "graph", None) is None:
                 results.append(shader.shade(N[rows], None if wo is None else wo[rows],
-                                            backfacing=None if backfacing is None else backfacing[rows]))
+                                            backfacing=None if backfacing is None else backfacing[rows],
+                                            caustics=None if caustics is None else caustics[rows]))
             else:
                 layout = geometry.attribute_layout if geometry is not None else {}
                 if point is None:
@@ -317,7 +344,8 @@ class MaterialTable:
                         point = point._replace(ray=np.broadcast_to(np.asarray(ray, np.float64), (n,)).copy())
                 part = type(point)(*(array[rows] for array in point))
                 results.append(shader.shade(N[rows], wo[rows], part, self.program(int(row), layout), self.textures,
-                                            backfacing=None if backfacing is None else backfacing[rows]))
+                                            backfacing=None if backfacing is None else backfacing[rows],
+                                            caustics=None if caustics is None else caustics[rows]))
             order.append(rows)
         if len(results) == 1:
             return results[0]

@@ -126,10 +126,15 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
 /* The ShaderResult of a constant material at a hit with shading normal N (sd->storage is left alone). */
 INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResult *sd)
 {
-    sd->n = (int)m->n;
-    for (int k = 0; k < sd->n; k++) {
-        Closure *c = sd->c + k;
-        c->kind = (int)m->kind[k];
+    int both = FILTER_REFLECTIVE | FILTER_REFRACTIVE;
+    sd->n = 0;
+    for (int k = 0; k < (int)m->n; k++) {
+        int kind = (int)m->kind[k];
+        /* ConstantShader.shade: a caustics filter takes away a mirror or microfacet closure, glass with both bits. */
+        if ((kind == BSDF_MIRROR || kind == BSDF_MICROFACET) && (sd->caustics & FILTER_REFLECTIVE)) continue;
+        if ((kind == BSDF_GLASS || kind == BSDF_ROUGH_GLASS) && (sd->caustics & both) == both) continue;
+        Closure *c = sd->c + sd->n++;
+        c->kind = kind;
         c->sample_weight = m->sample_weight[k];
         for (int j = 0; j < 3; j++) { c->weight[j] = m->weight[k][j]; c->N[j] = N[j]; }
         c->p = m->p[k];
@@ -152,6 +157,7 @@ EXPORT void primer_bsdf(int64_t n, const int32_t *kind, const double *weight, co
         ShaderResult sd;
         sd.n = 1;
         sd.storage = NULL;
+        sd.caustics = 0;
         Closure *c = sd.c;
         c->kind = kind[i];
         c->sample_weight = fabs((weight[3 * i] + weight[3 * i + 1] + weight[3 * i + 2]) / 3.0);

@@ -7,6 +7,8 @@
 enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4, BSDF_ROUGH_GLASS = 5 };
 
 #define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
+/* The closures a caustics filter takes away at a hit that a diffuse bounce's ray reached (closures.FILTER_*). */
+enum { FILTER_REFLECTIVE = 1, FILTER_REFRACTIVE = 2 };
 #define CLOSURE_PARAMS 24       /* closures.PARAMS */
 
 /* One closure at a hit: a BSDF of the table, its weight, its sampling weight, its normal, and its
@@ -30,6 +32,7 @@ typedef struct {
     double N[3];
     double *storage;
     const double *glossy;   /* the normal glossy lobes get while a node sets up (nodes.c), NULL: N */
+    int caustics;           /* FILTER_* bits the caller sets before shading (0: every closure) */
 } ShaderResult;
 
 /* A direction sampled from one BSDF (base.BsdfSample for one hit). */

@@ -20,6 +20,11 @@ MAX_CLOSURES = 8
 PARAMS = 24
 # A closure whose sampling weight falls below this is dropped (Cycles' CLOSURE_WEIGHT_CUTOFF).
 WEIGHT_CUTOFF = 1e-5
+# What a hit's shading may leave out (Cycles' caustics switches, Light Paths > Caustics): the bits of a hit's
+# `caustics` filter. A hit reached by a ray that a diffuse bounce sent sets up no reflective (glossy, mirror,
+# metal, coat, specular) closures with FILTER_REFLECTIVE, and lets no light through glass with
+# FILTER_REFRACTIVE; core/integrators/path.py decides which hits get which bits.
+FILTER_REFLECTIVE, FILTER_REFRACTIVE = 1, 2
 
 
 class Closures(NamedTuple):

@@ -221,19 +221,22 @@ INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const 
     double transmission = clamp01(p[21]);
     int multiscatter = p[22] != 0.0;
     double lobe[STORAGE_STRIDE], one[3] = {1.0, 1.0, 1.0};
+    int reflective = !(sd->caustics & FILTER_REFLECTIVE), refractive = !(sd->caustics & FILTER_REFRACTIVE);
     /* 1. Alpha. */
     if (alpha < 1.0)
         for (int j = 0; j < 3; j++) { sd->transparency[j] += W[j] * (1.0 - alpha); W[j] *= alpha; }
-    /* 2. Coat. */
+    /* 2. Coat (where reflective caustics are filtered out it reflects nothing, but still tints). */
     if (coat > WEIGHT_CUTOFF) {
-        double F0c = F0_from_ior(coat_ior), f0[3] = {F0c, F0c, F0c}, reflect[3], Fss[3];
-        lobe_params(lobe, coat_roughness, FRESNEL_DIELECTRIC, coat_ior, f0, one);
-        dielectric_albedo(coat_roughness, mu, coat_ior, f0, reflect);
-        double coat_weight[3] = {W[0] * coat, W[1] * coat, W[2] * coat};
-        Fss[0] = Fss[1] = Fss[2] = dielectric_Fss(coat_ior);
-        lobe_add(sd, mu, coat_weight, lobe, reflect, Fss);
-        double albedo[3] = {coat_weight[0] * reflect[0], coat_weight[1] * reflect[1], coat_weight[2] * reflect[2]};
-        layering_weight(albedo, W);
+        if (reflective) {
+            double F0c = F0_from_ior(coat_ior), f0[3] = {F0c, F0c, F0c}, reflect[3], Fss[3];
+            lobe_params(lobe, coat_roughness, FRESNEL_DIELECTRIC, coat_ior, f0, one);
+            dielectric_albedo(coat_roughness, mu, coat_ior, f0, reflect);
+            double coat_weight[3] = {W[0] * coat, W[1] * coat, W[2] * coat};
+            Fss[0] = Fss[1] = Fss[2] = dielectric_Fss(coat_ior);
+            lobe_add(sd, mu, coat_weight, lobe, reflect, Fss);
+            double albedo[3] = {coat_weight[0] * reflect[0], coat_weight[1] * reflect[1], coat_weight[2] * reflect[2]};
+            layering_weight(albedo, W);
+        }
         if (!(coat_tint[0] == 1.0 && coat_tint[1] == 1.0 && coat_tint[2] == 1.0)) {
             double cos_t = sqrt(at_least(1.0 - (1.0 - mu * mu) / (coat_ior * coat_ior), 1e-12));
             for (int j = 0; j < 3; j++) W[j] *= 1.0 + coat * (pow(coat_tint[j], 1.0 / cos_t) - 1.0);
@@ -258,20 +261,21 @@ INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const 
             Fss[j] = clamped[j] + (1.0 - clamped[j]) / 21.0 - B[j] / 126.0;
             metal_weight[j] = W[j] * metallic;
         }
-        lobe_add(sd, mu, metal_weight, lobe, reflect, multiscatter ? Fss : NULL);
+        if (reflective) lobe_add(sd, mu, metal_weight, lobe, reflect, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - metallic;
     }
-    /* 5. Transmission: glass, smooth or rough. */
+    /* 5. Transmission: glass, smooth or rough; a caustics filter takes away its reflection or refraction. */
     if (transmission > WEIGHT_CUTOFF) {
-        double g[STORAGE_STRIDE], f0[3], root[3], glass_weight[3], Fss[3];
+        double g[STORAGE_STRIDE], f0[3], root[3], glass_weight[3], Fss[3], reflect_tint[3];
         for (int j = 0; j < 3; j++) {
             f0[j] = clamp01(F0_from_ior(ior) * tint[j]);
-            root[j] = sqrt(clamped[j]);
+            root[j] = refractive ? sqrt(clamped[j]) : 0.0;
+            reflect_tint[j] = reflective ? 1.0 : 0.0;
             glass_weight[j] = W[j] * transmission;
         }
-        glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, f0, one, one, root);
+        glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, f0, one, reflect_tint, root);
         for (int j = 0; j < 3; j++) Fss[j] = root[j];   /* the transmission tint: Cycles' Fss for glass */
-        glass_add(sd, mu, glass_weight, g, roughness, multiscatter ? Fss : NULL);
+        if (reflective || refractive) glass_add(sd, mu, glass_weight, g, roughness, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - transmission;
     }
     /* 6. Specular. */
@@ -281,7 +285,7 @@ INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const 
         eta = ior_from_F0(f0);
         if (ior < 1.0) eta = 1.0 / eta;
     }
-    if (eta != 1.0) {
+    if (eta != 1.0 && reflective) {
         double f0_tinted[3], reflect[3], Fss[3];
         for (int j = 0; j < 3; j++) f0_tinted[j] = clamp01(f0 * tint[j]);
         lobe_params(lobe, roughness, FRESNEL_SCHLICK_IOR, eta, f0_tinted, one);
@@ -306,8 +310,11 @@ INLINE void setup_node(ShaderResult *sd, int kind, double mu, int backfacing, co
 {
     switch (kind) {
     case NODE_DIFFUSE: closure_add(sd, BSDF_LAMBERT, weight, weight, 1.0, NULL); break;
-    case NODE_MIRROR: closure_add(sd, BSDF_MIRROR, weight, weight, 1.0, NULL); break;
+    case NODE_MIRROR:
+        if (!(sd->caustics & FILTER_REFLECTIVE)) closure_add(sd, BSDF_MIRROR, weight, weight, 1.0, NULL);
+        break;
     case NODE_GLOSSY: {
+        if (sd->caustics & FILTER_REFLECTIVE) break;
         double lobe[STORAGE_STRIDE], w[3] = {weight[0], weight[1], weight[2]}, one[3] = {1.0, 1.0, 1.0};
         double Fss[3] = {at_least(p[2], 0.0), at_least(p[3], 0.0), at_least(p[4], 0.0)};
         lobe_params(lobe, p[0], FRESNEL_NONE, 1.0, one, one);
@@ -316,12 +323,20 @@ INLINE void setup_node(ShaderResult *sd, int kind, double mu, int backfacing, co
     }
     case NODE_PRINCIPLED: setup_principled(sd, mu, backfacing, weight, p); break;
     case NODE_GLASS: {
-        double g[STORAGE_STRIDE], zero[3] = {0.0, 0.0, 0.0}, color[3];
-        for (int j = 0; j < 3; j++) color[j] = at_least(p[j], 0.0);
+        /* A caustics filter takes away the reflection or the refraction (tints of 0). */
+        int reflective = !(sd->caustics & FILTER_REFLECTIVE), refractive = !(sd->caustics & FILTER_REFRACTIVE);
+        double g[STORAGE_STRIDE], zero[3] = {0.0, 0.0, 0.0}, reflect_tint[3], transmit_tint[3];
+        for (int j = 0; j < 3; j++) {
+            double color = at_least(p[j], 0.0);
+            reflect_tint[j] = reflective ? color : 0.0;
+            transmit_tint[j] = refractive ? color : 0.0;
+        }
         double ior = at_least(p[3], 1e-5);
-        if (p[4] != 0.0) glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, zero, zero, zero, color);
-        else glass_params(g, backfacing, ior, FRESNEL_DIELECTRIC, zero, zero, color, color);
-        glass_add(sd, mu, weight, g, p[5], p[6] != 0.0 && p[4] == 0.0 ? color : NULL);
+        int refraction_only = p[4] != 0.0;
+        if (refraction_only ? !refractive : !(reflective || refractive)) break;
+        if (refraction_only) glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, zero, zero, zero, transmit_tint);
+        else glass_params(g, backfacing, ior, FRESNEL_DIELECTRIC, zero, zero, reflect_tint, transmit_tint);
+        glass_add(sd, mu, weight, g, p[5], p[6] != 0.0 && !refraction_only ? transmit_tint : NULL);
         break;
     }
     case NODE_EMISSION: for (int j = 0; j < 3; j++) sd->emission[j] += weight[j] * p[j]; break;

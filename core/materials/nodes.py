@@ -19,7 +19,7 @@ import numpy as np
 
 from . import ggx_tables as tables
 from . import microfacet as mf
-from .closures import PARAMS, WEIGHT_CUTOFF, Closures, ShaderResult
+from .closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE, PARAMS, WEIGHT_CUTOFF, Closures, ShaderResult
 from .glass import REFLECT_TINT, TRANSMIT_TINT, Glass
 from .glass import shares as glass_shares
 from .lambert import Lambert
@@ -33,13 +33,18 @@ class ClosureBuilder:
     """Closures of n hits, appended one slot at a time by the nodes' setups (Cycles' bsdf_alloc).
 
     N, wo: (n, 3) float64 unit shading normals and directions towards the viewer; mu = N.wo (n,);
-    backfacing: (n,) bool where the ray hit from behind (leaving an object: glass bends by 1 / IOR).
+    backfacing: (n,) bool where the ray hit from behind (leaving an object: glass bends by 1 / IOR);
+    caustics: (n,) int the hits' filter bits (closures.FILTER_*), or None: `reflective` and `refractive`,
+    (n,) bool, say where reflective and refractive closures may be set up (Cycles' caustics switches).
     """
 
-    def __init__(self, N: np.ndarray, wo: np.ndarray, slots: int, backfacing=None):
+    def __init__(self, N: np.ndarray, wo: np.ndarray, slots: int, backfacing=None, caustics=None):
         n = len(N)
         self.N, self.wo = N, wo
         self.backfacing = np.zeros(n, bool) if backfacing is None else np.asarray(backfacing, bool)
+        bits = np.zeros(n, np.int64) if caustics is None else np.broadcast_to(np.asarray(caustics, np.int64), (n,))
+        self.reflective = (bits & FILTER_REFLECTIVE) == 0
+        self.refractive = (bits & FILTER_REFRACTIVE) == 0
         self.mu = np.einsum("ij,ij->i", N, wo)
         self.glossy_N = N
         self.closures = Closures.empty(n, max(1, slots))
@@ -217,7 +222,7 @@ class MirrorNode(Node):
 
     @staticmethod
     def setup(b, weight, p):
-        b.add(Mirror.kind, weight)
+        b.add(Mirror.kind, weight, keep=b.reflective)
 
 
 class GlossyNode(Node):
@@ -232,7 +237,7 @@ class GlossyNode(Node):
         n = len(weight)
         p = per_hit_rows(p, n)
         lobe = GlossyLobe.params(n, p[:, 0], mf.FRESNEL_NONE)
-        GlossyLobe.add(b, weight, lobe, Fss=np.maximum(p[:, 2:5], 0.0) if p[0, 1] else None)
+        GlossyLobe.add(b, weight, lobe, Fss=np.maximum(p[:, 2:5], 0.0) if p[0, 1] else None, keep=b.reflective)
 
 
 class EmissionNode(Node):
@@ -308,11 +313,13 @@ class PrincipledNode(Node):
         # 2. Coat.
         on = coat > WEIGHT_CUTOFF
         if on.any():
+            # (Where reflective caustics are filtered out the coat reflects nothing, but still tints.)
+            lobe_on = on & b.reflective
             lobe = GlossyLobe.params(n, coat_roughness, mf.FRESNEL_DIELECTRIC, coat_ior)
             reflect = dielectric_albedo(coat_roughness, b.mu, coat_ior, mf.F0_from_ior(coat_ior)[:, None] * ones, ones)
             coat_weight = GlossyLobe.add(b, W * coat[:, None], lobe, reflect,
-                                         Fss=dielectric_Fss(coat_ior)[:, None] * ones, keep=on)
-            layered = layering_weight(coat_weight * reflect, W)
+                                         Fss=dielectric_Fss(coat_ior)[:, None] * ones, keep=lobe_on)
+            layered = np.where(lobe_on[:, None], layering_weight(coat_weight * reflect, W), W)
             tinted = on & ~np.all(coat_tint == 1.0, axis=1)
             if tinted.any():
                 cos_t = np.sqrt(np.maximum(1.0 - (1.0 - b.mu ** 2) / coat_ior ** 2, 1e-12))
@@ -330,17 +337,21 @@ class PrincipledNode(Node):
             s = tables.lookup_2d(tables.SCHLICK_S_HALF, roughness, b.mu)
             reflect = clamped + (1.0 - clamped) * s[:, None]
             Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
-            GlossyLobe.add(b, W * metallic[:, None], lobe, reflect, Fss=Fss if multiscatter else None, keep=on)
+            GlossyLobe.add(b, W * metallic[:, None], lobe, reflect, Fss=Fss if multiscatter else None,
+                           keep=on & b.reflective)
             W = np.where(on[:, None], W * (1.0 - metallic)[:, None], W)
         # 5. Transmission: glass, Fresnel's curve remapped from F0 x specular tint to 1, the transmitted
-        #    light tinted by the square root of the base colour (it passes the surface twice).
+        #    light tinted by the square root of the base colour (it passes the surface twice); a caustics
+        #    filter takes away its reflection or its refraction.
         on = transmission > WEIGHT_CUTOFF
         if on.any():
             f0 = np.clip(mf.F0_from_ior(ior)[:, None] * tint, 0.0, 1.0)
-            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, f0, ones, ones, np.sqrt(clamped))
+            reflect_tint = np.where(b.reflective[:, None], 1.0, 0.0) * ones
+            transmit_tint = np.where(b.refractive[:, None], np.sqrt(clamped), 0.0)
+            glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, f0, ones, reflect_tint, transmit_tint)
             # Multiscatter GGX darkens by the transmission tint, which Cycles takes to make most of the colour.
-            add_glass(b, W * transmission[:, None], glass, roughness, np.sqrt(clamped) if multiscatter else None,
-                      keep=on)
+            add_glass(b, W * transmission[:, None], glass, roughness, transmit_tint if multiscatter else None,
+                      keep=on & (b.reflective | b.refractive))
             W = np.where(on[:, None], W * (1.0 - transmission)[:, None], W)
         # 6. Specular: the index whose F0 the Specular IOR Level scales.
         f0 = mf.F0_from_ior(ior)
@@ -348,7 +359,7 @@ class PrincipledNode(Node):
         f0 = np.where(scaled, f0 * 2.0 * level, f0)
         remapped = mf.ior_from_F0(f0)
         eta = np.where(scaled, np.where(ior < 1.0, 1.0 / remapped, remapped), ior)
-        on = eta != 1.0
+        on = (eta != 1.0) & b.reflective
         if on.any():
             f0_tinted = np.clip(f0[:, None] * tint, 0.0, 1.0)
             lobe = GlossyLobe.params(n, roughness, mf.FRESNEL_SCHLICK_IOR, eta, f0_tinted, (1.0, 1.0, 1.0))
@@ -424,11 +435,16 @@ class GlassNode(Node):
         p = per_hit_rows(p, n)
         color, ior, refraction_only = np.maximum(p[:, 0:3], 0.0), np.maximum(p[:, 3], 1e-5), p[:, 4] != 0.0
         zero = np.zeros((n, 3))
+        # A caustics filter takes away the reflection or the refraction (Cycles' tints of 0).
+        reflect_tint = np.where(b.reflective[:, None], color, 0.0)
+        transmit_tint = np.where(b.refractive[:, None], color, 0.0)
         glass = np.where(refraction_only[:, None],
-                         glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, zero, zero, zero, color),
-                         glass_params(n, b.backfacing, ior, mf.FRESNEL_DIELECTRIC, zero, zero, color, color))
+                         glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, zero, zero, zero, transmit_tint),
+                         glass_params(n, b.backfacing, ior, mf.FRESNEL_DIELECTRIC, zero, zero, reflect_tint,
+                                      transmit_tint))
         multiscatter = (p[0, 6] != 0.0) and not refraction_only.all()
-        add_glass(b, weight, glass, p[:, 5], color if multiscatter else None)
+        keep = np.where(refraction_only, b.refractive, b.reflective | b.refractive)
+        add_glass(b, weight, glass, p[:, 5], transmit_tint if multiscatter else None, keep=keep)
 
 
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode)
@@ -437,17 +453,19 @@ NODE_BY_NAME = {cls.name: cls for cls in NODE_TYPES}
 assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's kind is its place in NODE_TYPES"
 
 
-def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy=None, backfacing=None) -> ShaderResult:
+def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy=None, backfacing=None,
+                caustics=None) -> ShaderResult:
     """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,)).
 
     per_hit: what a node graph computed at each hit (graph.apply_outputs), or None: (weights, rows,
     normals) lists by node of (n, 3), (n, PARAMS) and (n, 3) or None arrays. A node's own normal goes to its
     closures only: the result's N stays the hit's normal (Cycles' sd->N), which bump shadowing compares with.
     glossy: by node, the normal its glossy lobes get instead ((n, 3) or None). backfacing: (n,) bool where
-    the ray hit from behind (glass bends light leaving an object by 1 / IOR).
+    the ray hit from behind (glass bends light leaving an object by 1 / IOR). caustics: (n,) int filter bits
+    (closures.FILTER_*) or None: the closures left out at hits that a diffuse bounce's ray reached.
     """
     n = len(N)
-    b = ClosureBuilder(N, wo, sum(entry[0].slots for entry in nodes) + 1, backfacing)
+    b = ClosureBuilder(N, wo, sum(entry[0].slots for entry in nodes) + 1, backfacing, caustics)
     for k, entry in enumerate(nodes):
         cls, weight, p = entry[0], entry[1], entry[2]
         normal = None

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 17
+#define PRIMER_ABI 18
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"

@@ -15,6 +15,11 @@ class RenderSettings:
         bounce limits, with Cycles' meaning and defaults (Light Paths > Max Bounces); "direct" is a path
         with max_bounces 0. min_light_bounces: Russian roulette spares a path's first min_light_bounces + 1
         bounces (Cycles' Min Light Bounces).
+    caustics_reflective, caustics_refractive: whether light reaches a diffuse surface by a glossy reflection
+        or a refraction after it (Cycles' Light Paths > Caustics; off: those closures are left out at hits that
+        a diffuse bounce's ray reaches; a path tracer's switches, core/integrators/path.py).
+    sample_clamp_direct, sample_clamp_indirect: cap each direct (camera hit) and indirect contribution's
+        channel sum at 3 x the value, 0: no cap (Cycles' Light Paths > Clamping; core/integrators/clamp.py).
     fresnel: how Whitted's tracer splits light at glass: "exact" (the dielectric Fresnel equations) or
         "schlick" (Schlick's approximation, the lecture's R0 + (1 - R0)(1 - cos)^5).
     light_sampling: how lights with extent are found: "mis" (light samples and BSDF-sampled rays,
@@ -61,6 +66,10 @@ class RenderSettings:
     transmission_bounces: int = 12
     transparent_max_bounces: int = 8
     min_light_bounces: int = 0
+    caustics_reflective: bool = True
+    caustics_refractive: bool = True
+    sample_clamp_direct: float = 0.0
+    sample_clamp_indirect: float = 0.0
     fresnel: str = "exact"
     width: int = 640
     height: int = 480

@@ -36,6 +36,10 @@ def validate(scene, settings) -> None:
         value = getattr(settings, name)
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= MAX_BOUNCES:
             raise ValueError(f"{name.replace('_', ' ')} must be a whole number from 0 to {MAX_BOUNCES}, got {value!r}")
+    for name in ("sample_clamp_direct", "sample_clamp_indirect"):
+        value = getattr(settings, name)
+        if not (isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name.replace('_', ' ')} must be a finite number >= 0 (0: no clamping), got {value!r}")
     if settings.fresnel not in ("exact", "schlick"):
         raise ValueError(f"fresnel must be 'exact' or 'schlick', got {settings.fresnel!r}")
     if settings.light_sampling not in ("mis", "light", "bsdf"):
