@@ -102,7 +102,7 @@ def reference(name: str, plan: common.Plan) -> tuple:
 
     blend = os.path.join(common.SCENES_DIR, f"{name}.blend")
     settings = {"engine": "CYCLES", "samples": plan.reference_samples, "seeds": list(REFERENCE_SEEDS),
-                "max_bounces": 0, "filter": "BOX 1 px", "denoising": False, "adaptive_sampling": False,
+                "light_paths": "the Primer integrator's", "filter": "BOX 1 px", "denoising": False, "adaptive_sampling": False,
                 "view_transform": "Standard", "file": "OpenEXR float32 (linear)",
                 "configured_by": "tools/render.py configure_cycles_reference"}
     key = common.digest(blend, settings, bpy.app.version_string, os.path.join(common.ROOT, "tools", "render.py"))
