@@ -700,7 +700,7 @@ def test_viewport_coarse_pass_is_one_ray_per_block(primer):
 
 
 # ---------------------------------------------------------------------------
-# 13-16. Beyond direct light: recursion, Fresnel, MIS, Russian roulette
+# 13-17. Beyond direct light: recursion, Fresnel, the rendering equation, MIS, Russian roulette
 # ---------------------------------------------------------------------------
 
 def glass_sphere_pixels(scene, index: int = 0) -> np.ndarray:
@@ -757,6 +757,29 @@ def test_schlicks_fresnel_is_close_to_the_exact_one_and_differs_most_at_the_rim(
     core = sphere_core(position, D, np.array([-2.1, 0.0, 0.6]), 0.6, fraction=0.5)
     rim = whole & ~sphere_core(position, D, np.array([-2.1, 0.0, 0.6]), 0.6, fraction=0.8)
     assert difference[rim].mean() > difference[core].mean()
+
+
+def test_each_bounce_of_the_rendering_equation_adds_light_where_lamps_cannot_reach(primer, tmp_path):
+    """The Cornell box with direct light (Max Bounces 0), one bounce and Cycles' twelve: each added bounce only
+    adds light (the Monte Carlo estimate of one more term of the rendering equation), so the mean brightness
+    grows; the ceiling, which the lamp just below it cannot light, is black with direct light and lit by
+    the light the walls and floor send back up."""
+    scene = open_scene("cornell_box")
+    scene.primer.use_adaptive_sampling = False
+    pictures = {}
+    for bounces in (0, 1, 12):
+        scene.primer.max_bounces = bounces
+        pictures[bounces] = save(f"cornell_bounces_{bounces}",
+                                 render(primer, scene, str(tmp_path / f"b{bounces}.exr"))["Combined"])[..., :3]
+    lamp = (pictures[0] > 1.0).any(axis=-1)                      # the lamp itself, and its rim
+    height = pictures[0].shape[0]
+    ceiling = np.zeros(lamp.shape, bool)
+    ceiling[: height // 12] = True                               # the top rows: the ceiling
+    ceiling &= ~lamp
+    means = [pictures[b][~lamp].mean() for b in (0, 1, 12)]
+    assert means[0] < 0.8 * means[1] < 0.8 * means[2]
+    assert pictures[0][ceiling].mean() < 0.02 * pictures[12][ceiling].mean()
+    assert pictures[12][ceiling].mean() > 0.01
 
 
 def test_mis_beats_light_sampling_and_bsdf_sampling_at_equal_samples(primer, tmp_path):
