@@ -677,7 +677,11 @@ def odd_corner_normals(method: str) -> Outcome:
     L = -travel
     NL = N @ L
     expected = np.where(tri >= 0, ALBEDO / math.pi * 2.0 * np.maximum(NL, 0.0), 0.0)
-    judged = (tri >= 0) & (margin > 1e-4) & ((length > 1e-6) | (length == 0)) & (np.abs(NL) > 1e-9)
+    # Where opposite corners cancel, the sum's sign depends on the last bits of Embree's float32 barycentrics
+    # (it differs between CPUs): only sums clearly away from zero are judged, and the face normal where every
+    # corner is zero-length (the sum is then 0 for any barycentrics).
+    zero_corners = (np.linalg.norm(c, axis=2) == 0.0).all(axis=1)
+    judged = (tri >= 0) & (margin > 1e-4) & ((length > 1e-6) | zero_corners) & (np.abs(NL) > 1e-9)
     return compare(result.image, expected.reshape(H, W), judged.reshape(H, W))
 
 
