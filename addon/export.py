@@ -302,6 +302,24 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
     return reader.value(node, "Color", np.ones(3)) * reader.value(node, "Strength", 1.0)
 
 
+# The rays of Object > Visibility > Ray Visibility that Primer does not hide an object from (it reads Camera
+# and Shadow), and the names Blender shows for them.
+UNREAD_RAY_VISIBILITY = (("visible_diffuse", "Diffuse"), ("visible_glossy", "Glossy"),
+                         ("visible_transmission", "Transmission"), ("visible_volume_scatter", "Volume Scatter"))
+
+
+def ray_visibility_notes(obj) -> list:
+    """The warnings for what an object's Ray Visibility and Holdout ask that Primer does not do."""
+    notes = []
+    hidden = [label for name, label in UNREAD_RAY_VISIBILITY if not getattr(obj, name, True)]
+    if hidden:
+        notes.append(f"object '{obj.name}' hides itself from {', '.join(hidden)} rays (Ray Visibility); Primer "
+                     "shows it to them (only Camera and Shadow visibility are read)")
+    if getattr(obj, "is_holdout", False):
+        notes.append(f"object '{obj.name}' is a holdout; Primer renders it as an ordinary object")
+    return notes
+
+
 def export_light(obj, matrix: np.ndarray, warnings: list):
     """Return the core light of a Blender light object placed by `matrix` (4, 4), or None if it sends no diffuse light.
 
@@ -694,9 +712,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             continue
         if obj.type != "MESH" or obj.data is None:
             continue
-        if not (obj.visible_camera and obj.visible_shadow) and obj.name not in ray_visibility_noted:
+        if obj.name not in ray_visibility_noted:
             ray_visibility_noted.add(obj.name)
-            warnings.append(f"object '{obj.name}' hides itself from some rays; Primer renders it fully visible")
+            warnings.extend(ray_visibility_notes(obj))
         # A mesh shared by several instances is exported once (keyed by its evaluated data): linked
         # duplicates, collection and geometry-nodes instances share it; modifiers make a mesh of its own.
         key = obj.data.as_pointer()
@@ -726,7 +744,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
-                                                  int(getattr(obj, "pass_index", 0))))
+                                                  int(getattr(obj, "pass_index", 0)),
+                                                  visible_camera=bool(getattr(obj, "visible_camera", True)),
+                                                  visible_shadow=bool(getattr(obj, "visible_shadow", True))))
 
     if mesh_cache is not None:
         mesh_cache.end()

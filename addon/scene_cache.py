@@ -135,11 +135,12 @@ class _Placement:
     name: str
     owner: int          # original object's session uid
     parent: int         # the instancer's session uid (the owner itself when not instanced)
+    visible: tuple = (True, True)   # Ray Visibility > Camera, Shadow
 
     def same_as(self, other: "_Placement") -> bool:
-        """Whether `other` places the same mesh at the same spot with the same materials."""
+        """Whether `other` places the same mesh at the same spot with the same materials and visibility."""
         return (other is not None and self.mesh_key == other.mesh_key and np.array_equal(self.matrix, other.matrix)
-                and np.array_equal(self.materials, other.materials))
+                and np.array_equal(self.materials, other.materials) and self.visible == other.visible)
 
 
 class _MaterialTable(export.MaterialTable):
@@ -287,13 +288,12 @@ class SceneCache:
             mesh = export._mesh_arrays(data)
             self.meshes[mesh_key] = _MeshEntry(mesh if len(mesh.triangles) else None, {owner})
             report.meshes.append(data.name)
-        if not (obj.visible_camera and obj.visible_shadow):
-            self.warnings.append(f"object '{obj.name}' hides itself from some rays; Primer renders it fully visible")
+        self.warnings.extend(export.ray_visibility_notes(obj))
         report.objects.append(obj.name)
         slots = self.material_table.slot_map(obj, self.warnings, self.override)
         self._read_attributes(obj, mesh_key, slots)
         return _Placement(mesh_key, np.array(instance.matrix_world, np.float64), slots, obj.name, owner,
-                          key[1] or owner)
+                          key[1] or owner, (bool(obj.visible_camera), bool(obj.visible_shadow)))
 
     def _read_attributes(self, obj, mesh_key, slots: np.ndarray) -> None:
         """Read into the cached mesh the per-corner attributes its materials' node graphs use (export.mesh_attributes)."""
@@ -331,7 +331,9 @@ class SceneCache:
                 scene.meshes.append(entry.mesh)
                 mesh_index[placement.mesh_key] = len(scene.meshes) - 1
             scene.instances.append(core_scene.Instance(mesh_index[placement.mesh_key], placement.matrix,
-                                                       placement.materials, placement.name))
+                                                       placement.materials, placement.name,
+                                                       visible_camera=placement.visible[0],
+                                                       visible_shadow=placement.visible[1]))
         return scene
 
     def _add_to_totals(self, report: SyncReport) -> None:

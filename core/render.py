@@ -37,6 +37,7 @@ from .film.film import ChunkSums, Film, pixel_sums
 from .geometry import instancing
 from .geometry.geometry import WorldGeometry, build_geometry
 from .integrators import INTEGRATORS, Context, Recorder
+from .geometry.geometry import HIDDEN_FROM_SHADOW
 from .integrators import features, passes as passes_
 from .integrators.compiled import Compiled, why_not
 from .materials import MaterialTable
@@ -135,7 +136,9 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                  if light.hittable and light.kind in (0, 1, 3) and light.camera]
     world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0)
     ctx.extra["emissive"] = bool(materials.emissive.any())
-    ctx.extra["transparent"] = any(shader.may_let_light_through for shader in materials.shaders)
+    # Shadow rays go on through surfaces: transparent ones, and objects hidden from shadow rays.
+    ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)
+                                or ctx.geometry.hides(HIDDEN_FROM_SHADOW))
     ctx.extra["bsdf_rays"] = bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
     # Where BSDF rays are traced: at every hit where emitters or the world light the scene (only BSDF rays
     # find a constant world, and MIS is what samples emitters well); where only lamps with extent do, at

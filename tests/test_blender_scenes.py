@@ -86,7 +86,8 @@ CYCLES_CHOICES = {"shading_visibility": {"primer.visibility_normal": "SHADING"}}
 
 @dataclass(frozen=True)
 class Variant:
-    """A sample scene with some settings changed ("render.x", "camera.x", "lights.x", "objects.x", "primer.x")."""
+    """A sample scene with some settings changed ("render.x", "camera.x", "lights.x", "objects.x" (every mesh
+    object), "object:NAME.x" (one object), "primer.x")."""
 
     id: str
     scene: str
@@ -116,6 +117,10 @@ VARIANTS = [
     # Cycles' default terminator offset (0.1) against Primer's terminator fix, which follows it.
     Variant("terminator_fix", "shading_flat_smooth",
             {"objects.shadow_terminator_geometry_offset": 0.1, "primer.terminator_fix": True}, 256, 256),
+    # Object > Visibility > Ray Visibility: a wall hidden from the camera (still casting its shadow), and every
+    # object hidden from shadow rays (no shadows at all).
+    Variant("wall_hidden_from_camera", "light_emissive", {"object:Left Wall.visible_camera": False}, 256, 1024),
+    Variant("no_object_casts_shadows", "light_point", {"objects.visible_shadow": False}, 64, 256),
     # Cycles' biased path-tracing settings with their meaning in Cycles: both caustics switches off in the glass
     # scene (9% less light); no reflective caustics and Clamp Indirect 1 in the Principled scene path traced
     # (4% and 2% less light).
@@ -144,6 +149,8 @@ for source, target, settings in json.loads({jobs!r}):
         if owner in ("lights", "objects"):
             kind = "LIGHT" if owner == "lights" else "MESH"
             changed = [o.data if kind == "LIGHT" else o for o in scene.objects if o.type == kind]
+        elif owner.startswith("object:"):
+            changed = [scene.objects[owner[len("object:"):]]]
         else:
             changed = [{{"render": scene.render, "camera": scene.camera.data, "primer": scene.primer}}[owner]]
         for thing in changed:

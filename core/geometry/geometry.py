@@ -37,6 +37,10 @@ from ..materials import graph as graph_
 CORNER_TABLE_TRIANGLES = 1 << 21
 
 
+# The rays an object may hide from (WorldGeometry.instance_hidden bits; triangles.c HIDDEN_FROM_*).
+HIDDEN_FROM_CAMERA, HIDDEN_FROM_SHADOW = 1, 2
+
+
 @dataclass
 class WorldGeometry:
     """The traced scene.
@@ -60,6 +64,8 @@ class WorldGeometry:
     attribute_row:  (t,) int32 row of `attributes` per copied triangle (instanced meshes keep their own)
     instance_random: (n,) float64 the Object Info Random of each Scene.instances entry
     instance_linear: (n, 3, 3) float64 each instance's linear transform (tangents turn with it)
+    instance_hidden: (n,) uint8 the rays each Scene.instances entry hides from (HIDDEN_FROM_CAMERA |
+                    HIDDEN_FROM_SHADOW bits, Ray Visibility), or an empty array when no object hides
     The arrays above hold the copied triangles only; ask `triangle_data` for any triangle.
     """
 
@@ -79,6 +85,7 @@ class WorldGeometry:
     attribute_row: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     instance_random: np.ndarray = field(default_factory=lambda: np.zeros(0))
     instance_linear: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    instance_hidden: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
 
     @property
     def has_smooth(self) -> bool:
@@ -148,6 +155,25 @@ class WorldGeometry:
         if smooth and len(mesh.corner_normals):
             is_smooth, normals = mesh.smooth_normals(j, local)
         return TriangleData(corners, Ng, mesh.materials(j, local), is_smooth, normals)
+
+    def hides(self, bit: int) -> bool:
+        """Whether some object hides from the rays of `bit` (HIDDEN_FROM_CAMERA, HIDDEN_FROM_SHADOW)."""
+        return bool(len(self.instance_hidden)) and bool((self.instance_hidden & bit).any())
+
+    def hidden(self, prim: np.ndarray, bit: int) -> np.ndarray:
+        """Which triangles `prim` (k,) int64 belong to objects hidden from the rays of `bit`: (k,) bool."""
+        prim = np.asarray(prim, np.int64)
+        if not self.hides(bit) or len(prim) == 0:
+            return np.zeros(len(prim), bool)
+        owner = np.full(len(prim), -1, np.int64)
+        copied = (prim >= 0) & (prim < len(self.instance))
+        owner[copied] = self.instance[prim[copied]]
+        for mesh in self.instanced:
+            mine = (prim >= mesh.first_prim) & (prim < mesh.first_prim + mesh.triangle_count)
+            if mine.any():
+                j, _ = mesh.split(prim[mine])
+                owner[mine] = mesh.owner[j]
+        return (owner >= 0) & ((self.instance_hidden[np.maximum(owner, 0)] & bit) != 0)
 
     def instance_of(self, prim: int) -> int:
         """Return the index into Scene.instances of the object triangle `prim` belongs to, or -1."""
@@ -421,7 +447,15 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_random=np.array([graph_.object_random(i.name) if i.random is None else float(i.random)
                                   for i in scene.instances], np.float64),
         instance_linear=all_matrices[:, :3, :3].copy(),
+        instance_hidden=hidden_flags(scene.instances),
     )
+
+
+def hidden_flags(instances: list) -> np.ndarray:
+    """(n,) uint8 the rays each instance hides from (HIDDEN_FROM_* bits); empty when none hides."""
+    flags = np.array([(0 if i.visible_camera else HIDDEN_FROM_CAMERA) | (0 if i.visible_shadow else HIDDEN_FROM_SHADOW)
+                      for i in instances], np.uint8)
+    return flags if flags.any() else np.zeros(0, np.uint8)
 
 
 def attribute_table(meshes: list) -> tuple:

@@ -29,7 +29,8 @@ class GeometryRecord(ctypes.Structure):
                                                     "smooth_index", "corner_normals", "meshes")] + \
                [("instanced", ctypes.c_double)] + \
                [(name, ctypes.c_void_p) for name in ("attributes", "attribute_row", "instance", "instance_random",
-                                                    "instance_linear")] + [("attribute_width", ctypes.c_double)]
+                                                    "instance_linear")] + [("attribute_width", ctypes.c_double),
+                                                                           ("hidden", ctypes.c_void_p)]
 
 
 class GeometryTables:
@@ -70,3 +71,11 @@ class GeometryTables:
         for name, array in zip(("attributes", "attribute_row", "instance", "instance_random", "instance_linear"), shading):
             setattr(self.record, name, None if array is None else array.ctypes.data)
         self.record.attribute_width = float(geometry.attributes.shape[2]) if geometry.attributes is not None else 0.0
+        # Which rays each instance hides from, where some object hides (Ray Visibility); the copied triangles'
+        # instances are needed to find a hit's object then.
+        if len(geometry.instance_hidden):
+            hidden = [c(geometry.instance_hidden, np.uint8),
+                      c(geometry.instance, np.int32) if len(geometry.instance) else None]
+            self.arrays += hidden
+            self.record.hidden = hidden[0].ctypes.data
+            self.record.instance = None if hidden[1] is None else hidden[1].ctypes.data

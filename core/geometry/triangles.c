@@ -39,7 +39,11 @@ typedef struct {
     const double *instance_random;  /* (n,) each instance's random number */
     const double *instance_linear;  /* (n, 3, 3) each instance's linear transform */
     double attribute_width;         /* A */
+    const uint8_t *hidden;          /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
 } GeometryTables;
+
+/* The rays an object may hide from (geometry.HIDDEN_FROM_*: Ray Visibility > Camera, Shadow off). */
+enum { HIDDEN_FROM_CAMERA = 1, HIDDEN_FROM_SHADOW = 2 };
 
 /* What shading needs of one hit triangle. */
 typedef struct {
@@ -122,6 +126,14 @@ INLINE void hit_triangle(const GeometryTables *g, int64_t geometry, int64_t prim
 {
     if (geometry <= 0) copied_triangle(g, prim, want_smooth, out);
     else instanced_triangle(g->meshes + (geometry - 1), instance, prim, want_smooth, out);
+}
+
+/* WorldGeometry.hidden for one Embree hit: whether its object hides from the rays of `bit`. */
+INLINE int hidden_from(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance, int bit)
+{
+    if (g->hidden == NULL) return 0;
+    int64_t owner = geometry <= 0 ? (int64_t)g->instance[prim] : (int64_t)g->meshes[geometry - 1].owner[instance];
+    return owner >= 0 && (g->hidden[owner] & bit) != 0;
 }
 
 /* A hit's surface (core/geometry/surface.py), with what its shadow rays need. */

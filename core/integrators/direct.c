@@ -317,18 +317,19 @@ struct Transmitter {
 
 /* shadows.transmittance for up to 8 shadow rays (O, D, t: float64 origins, directions, lengths): T, the
  * share of light each carries through the transparent surfaces it passes (0 where something opaque, or
- * more than tr->limit surfaces, is in the way). */
+ * more than tr->limit surfaces, is in the way); objects hidden from shadow rays are passed as if not there. */
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D[][3], const double *t,
                             double T[][3])
 {
     double origin[PACKET][3], left[PACKET];
-    int alive[PACKET];
+    int alive[PACKET], passed[PACKET];
     for (int l = 0; l < lanes; l++) {
         for (int c = 0; c < 3; c++) { T[l][c] = 1.0; origin[l][c] = O[l][c]; }
         left[l] = t[l];
         alive[l] = 1;
+        passed[l] = 0;
     }
-    for (int passed = 0; passed <= tr->limit; passed++) {
+    for (;;) {
         RayHitPacket packet;
         int valid[PACKET] ALIGNED(32), lane_of[PACKET], n = 0;
         for (int l = 0; l < lanes; l++)
@@ -340,23 +341,27 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
         for (int k = 0; k < n; k++) {
             int l = lane_of[k];
             if (packet.hit.geomID[k] == INVALID_ID) { alive[l] = 0; continue; }
-            if (passed == tr->limit) { T[l][0] = T[l][1] = T[l][2] = 0.0; alive[l] = 0; continue; }
-            /* The surface passed: what its material lets through, seen along the ray. */
             int64_t geometry = (int64_t)packet.hit.geomID[k], prim = (int64_t)packet.hit.primID[k];
             int64_t instance = instance_of(&packet.hit, k);
+            int hidden = hidden_from(tr->geometry, geometry, prim, instance, HIDDEN_FROM_SHADOW);
+            if (!hidden && passed[l] == tr->limit) { T[l][0] = T[l][1] = T[l][2] = 0.0; alive[l] = 0; continue; }
+            passed[l] += !hidden;
+            /* The surface passed: what its material lets through, seen along the ray. */
             double u = (double)packet.hit.u[k], v = (double)packet.hit.v[k];
             Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
             hit_triangle(tr->geometry, geometry, prim, instance, 1, &tri);
             Surface s;
             surface_at(origin[l], D[l], (double)packet.ray.tfar[k], u, v, &tri, 0, &s);
-            double wo[3] = {-D[l][0], -D[l][1], -D[l][2]}, storage[SHADER_STORAGE];
-            ShaderResult sd;
-            sd.storage = storage;
-            sd.caustics = 0;
-            shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u, v,
-                      wo, RAY_SHADOW, &sd);
-            double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
-            for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
+            if (!hidden) {
+                double wo[3] = {-D[l][0], -D[l][1], -D[l][2]}, storage[SHADER_STORAGE];
+                ShaderResult sd;
+                sd.storage = storage;
+                sd.caustics = 0;
+                shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
+                          v, wo, RAY_SHADOW, &sd);
+                double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
+                for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
+            }
             /* On from just past that surface, for what is left of the way to the light. */
             double side = dot3(s.Ng, D[l]) < 0.0 ? -1.0 : 1.0, travelled[3];
             for (int c = 0; c < 3; c++) origin[l][c] = s.I[c] + (s.offset * side) * s.Ng[c];

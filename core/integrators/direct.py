@@ -33,6 +33,7 @@ import numpy as np
 from .. import materials as materials_
 from ..materials import graph as graph_
 from .. import vectors
+from ..geometry.geometry import HIDDEN_FROM_CAMERA
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from . import clamp as clamp_
@@ -368,8 +369,8 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
     camera sees it, plus the lamps with extent they pass, each ray's capped at `limit` (sample clamping); the
     tracer's hits; the hit rows (m,) int64; the hits' Surface, or None when nothing was hit)."""
     s = ctx.settings
-    # 1. The nearest hit of each camera ray (t).
-    found = ctx.geometry.tracer.intersect(O, D, t_max)
+    # 1. The nearest hit of each camera ray (t), past objects hidden from the camera.
+    found = nearest_seen(ctx, O, D, t_max)
     hit = np.flatnonzero(found.hit)
     # 2. What rays that hit nothing see: the world, where it is visible to the camera.
     L_out = np.zeros((len(O), 3))
@@ -390,6 +391,29 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
                               vectors.gather(D, hit), found.t[hit], flat_only=not s.smooth_normals)
     recorder.hits(O, D, surface, found.hit)
     return L_out, found, hit, surface
+
+
+def nearest_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray):
+    """The nearest hits (the tracer's Hits) of camera rays O, D (n, 3) up to t_max (n,) on objects the camera
+    sees: a ray goes on past the triangles of objects hidden from the camera (Object > Visibility > Ray
+    Visibility > Camera off), as if they were not there; t stays the distance from O."""
+    geometry = ctx.geometry
+    found = geometry.tracer.intersect(O, D, t_max)
+    if not geometry.hides(HIDDEN_FROM_CAMERA):
+        return found
+    hit, t, prim, u, v = (np.array(array) for array in found)
+    rows = np.flatnonzero(hit & geometry.hidden(prim, HIDDEN_FROM_CAMERA))
+    while len(rows):
+        # On from just past the hidden triangle, for what is left of the ray.
+        surface = surface_at_hits(geometry, prim[rows], u[rows], v[rows], O[rows], D[rows], t[rows])
+        side = np.where(np.einsum("ij,ij->i", surface.Ng, D[rows]) < 0.0, -1.0, 1.0)
+        P = surface.I + (shadows.error_bound(surface.I, surface.vertices) * side)[:, None] * surface.Ng
+        gone = np.einsum("ij,ij->i", P - O[rows], D[rows])
+        again = geometry.tracer.intersect(P, D[rows], t_max[rows] - gone)
+        hit[rows], t[rows], prim[rows] = again.hit, np.where(again.hit, gone + again.t, np.inf), again.prim
+        u[rows], v[rows] = again.u, again.v
+        rows = rows[again.hit & geometry.hidden(again.prim, HIDDEN_FROM_CAMERA)]
+    return type(found)(hit, t, prim, u, v)
 
 
 def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> np.ndarray:

@@ -153,27 +153,32 @@ def visible(tracer, rays: ShadowRays) -> np.ndarray:
 def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
     """The share of light (n, 3) float64 a shadow ray carries through transparent surfaces (Cycles'
     transparent shadows): the product of the transparency of each surface it passes, 0 where an opaque
-    surface blocks it or where it would pass more than `limit` of them."""
+    surface blocks it or where it would pass more than `limit` of them. Objects hidden from shadow rays
+    (Ray Visibility > Shadow off) are passed as if they were not there."""
+    from ..geometry.geometry import HIDDEN_FROM_SHADOW
     from ..geometry.surface import surface_at_hits
     from ..materials import graph as graph_
     n = len(rays.origins)
     T = np.ones((n, 3))
     O, D, t = rays.origins.copy(), rays.directions, rays.t_max.copy()
+    passed = np.zeros(n, np.int64)
     alive = np.arange(n)
-    for passed in range(limit + 1):
+    while len(alive):
         found = ctx.geometry.tracer.intersect(O[alive], D[alive], t[alive])
         hit = np.flatnonzero(found.hit)
         if len(hit) == 0:
             break
         rows = alive[hit]
-        if passed == limit:
-            T[rows] = 0.0
-            break
+        hidden = ctx.geometry.hidden(found.prim[hit], HIDDEN_FROM_SHADOW)
+        over = ~hidden & (passed[rows] >= limit)
+        T[rows[over]] = 0.0
+        passed[rows] += ~hidden
         # The surface the ray passes: what its material lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
         shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, graph_.RAY_SHADOW)
-        T[rows] *= np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
+        through = np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
+        T[rows] *= np.where(hidden[:, None], 1.0, through)
         # On from just past that surface, for what is left of the way to the light.
         step = error_bound(surface.I, surface.vertices)
         side = np.where(np.einsum("ij,ij->i", surface.Ng, D[rows]) < 0.0, -1.0, 1.0)

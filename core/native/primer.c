@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 18
+#define PRIMER_ABI 19
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"

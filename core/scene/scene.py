@@ -68,6 +68,9 @@ class Instance:
                to use the mesh's material indices as scene material indices
     random:    the Object Info node's Random (0..1); None: Cycles' value for an object named `name`
     pass_index: Blender's Object > Relations > Pass Index, what the Object Index pass shows
+    visible_camera, visible_shadow: Blender's Object > Visibility > Ray Visibility > Camera and Shadow: camera
+               rays (and shadow rays) pass the object as if it were not there; it still lights the scene and
+               is seen by every other ray
     """
 
     mesh: int
@@ -76,6 +79,8 @@ class Instance:
     name: str = "Object"
     random: Optional[float] = None
     pass_index: int = 0
+    visible_camera: bool = True
+    visible_shadow: bool = True
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
