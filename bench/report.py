@@ -325,8 +325,9 @@ def profile_table(results: dict) -> list:
 
 
 def rays_table(results: dict) -> list:
-    """Return Primer's end-to-end rays per second against embreex's on the same rays."""
-    lines = ["| scene | image | rays (primary + shadow) | Primer end to end | Primer's render alone "
+    """Return Primer's end-to-end rays per second against embreex's on the same rays, and for path-traced
+    scenes embreex's rate on each vertex's rays (incoherent bounce rays cost Embree more than camera rays)."""
+    lines = ["| scene | image | rays (primary + shadow + BSDF) | Primer end to end | Primer's render alone "
              "| embreex, one thread | embreex, all cores | Primer / embreex (all cores) |",
              "|---|---|---:|---:|---:|---:|---:|---:|"]
     for r in results["rays"]:
@@ -335,8 +336,23 @@ def rays_table(results: dict) -> list:
         one = r["rays"] / r["embreex_one_thread"]
         full = r["rays"] / r["embreex_all_cores"]
         lines.append(f"| {r['scene']} | {r['size'][0]}×{r['size'][1]}, {r['samples']} spp | "
-                     f"{r['primary_rays'] / 1e6:.2f} M + {r['shadow_rays'] / 1e6:.2f} M | {e2e / 1e6:.2f} M/s | "
+                     f"{r['primary_rays'] / 1e6:.2f} M + {r['shadow_rays'] / 1e6:.2f} M + "
+                     f"{r.get('bsdf_rays', 0) / 1e6:.2f} M | {e2e / 1e6:.2f} M/s | "
                      f"{core / 1e6:.2f} M/s | {one / 1e6:.2f} M/s | {full / 1e6:.2f} M/s | {_share_text(r)} |")
+    for r in results["rays"]:
+        vertices = r.get("vertices") or []
+        if len(vertices) <= 2:
+            continue
+        lines += ["", f"Per bounce in `{r['scene']}` (embreex on one thread; vertex k's shadow rays and the BSDF rays "
+                  "that leave it for vertex k + 1; Primer traces them all in one compiled loop, so its own time is "
+                  "not split by vertex, but its end-to-end rate above is over this same mix):", "",
+                  "| vertex | shadow rays | nearest-hit rays | embreex, one thread |", "|---|---:|---:|---:|"]
+        for v in vertices:
+            rays = v["shadow_rays"] + v["nearest_rays"]
+            name = "camera rays" if v["vertex"] < 0 else str(v["vertex"])
+            rate = rays / v["embreex_one_thread"] if v["embreex_one_thread"] > 0 else float("nan")
+            lines.append(f"| {name} | {v['shadow_rays'] / 1e6:.3f} M | {v['nearest_rays'] / 1e6:.3f} M | "
+                         f"{rate / 1e6:.2f} M/s |")
     return lines
 
 
@@ -597,7 +613,7 @@ def report_markdown(results: dict, plots: dict) -> str:
              "outside Primer's engine.", ""]
     text += profile_table(results)
     text += ["", f"![Primer's profile]({plots['profile']})", "", "## Rays per second: Primer against embreex alone", "",
-             "Primer's rays (camera and shadow rays) per second of the whole render, against embreex tracing the "
+             "Primer's rays (camera, shadow and BSDF rays) per second of the whole render, against embreex tracing the "
              "very same ray batches (recorded from the same render, replayed with the same BVH settings, timing only "
              "embreex's calls), on one thread and on a pool of one thread per core. Primer asks Embree 8 rays at a "
              "time (rtcIntersect8 / rtcOccluded8), inside one kernel that makes, traces, shades and sums each block "

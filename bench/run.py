@@ -30,7 +30,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
 PHASES = ("scenes", "denoise", "profile", "rays", "scaling", "stability")
-RAYS_SCENES = ("modifiers_instances", "light_area")
+RAYS_SCENES = ("modifiers_instances", "light_area", "cornell_box")
 SCALING = {"triangles": [1e3, 1e4, 1e5, 1e6, 1e7], "pixels": [160 * 90, 320 * 180, 640 * 360, 1280 * 720,
                                                            1920 * 1080, 3840 * 2160],
            "lights": [1, 2, 4, 8, 16, 32, 64], "instances": [1, 10, 100, 1e3, 1e4, 1e5], "instances_fine": [1, 1e5],

@@ -244,8 +244,10 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
 
     Primer renders the scene through bpy (timed end to end). Then the exported scene is rendered again
     with core alone while every ray batch that reaches Embree is recorded (the float32 arrays Embree
-    gets), and the batches are replayed through embreex directly, timing only embreex's calls: first
-    one batch after another on one thread, then on a pool of one thread per core.
+    gets), each with the path vertex it belongs to (-1: camera rays; k: the shadow rays of vertex k and the
+    BSDF rays leaving it, which find vertex k + 1), and the batches are replayed through embreex directly,
+    timing only embreex's calls: first one batch after another on one thread (also per vertex), then on a
+    pool of one thread per core.
     """
     import numpy as np
 
@@ -261,8 +263,22 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     # Embree gets) and the triangles of the BVH.
     Tracer = importlib.import_module("primer.core.geometry.intersect").Tracer
     to_f32 = importlib.import_module("primer.core.geometry.intersect")._f32_rays
+    direct = importlib.import_module("primer.core.integrators.direct")
+    path = importlib.import_module("primer.core.integrators.path")
     batches, meshes = [], []
     original = {name: getattr(Tracer, name) for name in ("__init__", "intersect", "occluded")}
+    # Which path vertex the integrator is at: camera_hits traces the camera rays, shade(..., vertex) a vertex.
+    at = {"vertex": -1}
+    hooks = {(direct, "camera_hits"): direct.camera_hits, (path, "camera_hits"): path.camera_hits,
+             (direct.DirectLighting, "shade"): direct.DirectLighting.shade}
+
+    def camera_hits(*args, **kwargs):
+        at["vertex"] = -1
+        return hooks[(direct, "camera_hits")](*args, **kwargs)
+
+    def shade(self, *args, **kwargs):
+        at["vertex"] = kwargs.get("vertex", args[7] if len(args) > 7 else 0)
+        return hooks[(direct.DirectLighting, "shade")](self, *args, **kwargs)
 
     def init(self, vertices, triangles, *args, **kwargs):
         if kwargs.get("instanced"):
@@ -275,7 +291,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
             o, d, t = to_f32(origins, directions, t_max)
             active = t >= 0.0           # (t_max < 0 would mark a ray Embree skips)
             batches.append((query, np.ascontiguousarray(o[active]), np.ascontiguousarray(d[active]),
-                            np.ascontiguousarray(t[active])))
+                            np.ascontiguousarray(t[active]), at["vertex"]))
             return original[query](self, origins, directions, t_max)
         return traced
 
@@ -283,16 +299,24 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     # renders instead: it asks Tracer.intersect and Tracer.occluded the very same rays, to float32
     # rounding (tests/test_compiled.py: the same rays traced, pixel for pixel).
     Tracer.__init__, Tracer.intersect, Tracer.occluded = init, recording("intersect"), recording("occluded")
+    direct.camera_hits = path.camera_hits = camera_hits
+    direct.DirectLighting.shade = shade
     scene.primer.kernels = "NUMPY"
     try:
         render_timed()
     finally:
         for method_name, method in original.items():
             setattr(Tracer, method_name, method)
+        for (owner, attribute), value in hooks.items():
+            setattr(owner, attribute, value)
         scene.primer.kernels = "COMPILED"
+    # Primer's statistics count camera and shadow rays; the recording also has the BSDF rays (bounces, and the
+    # BSDF rays that find lights with extent), which the stats leave out.
+    camera_and_shadow = sum(len(b[1]) for b in batches if b[4] < 0 or b[0] == "occluded")
     n_rays = sum(len(b[1]) for b in batches)
-    if n_rays != record.rays or len(meshes) != 1:
-        raise RuntimeError(f"recorded {n_rays} rays in {len(meshes)} BVH(s); the render traced {record.rays}")
+    if camera_and_shadow != record.rays or len(meshes) != 1:
+        raise RuntimeError(f"recorded {camera_and_shadow} camera and shadow rays in {len(meshes)} BVH(s); the render "
+                           f"traced {record.rays}")
     vertices, triangles = meshes[0]
 
     from embreex import rtcore_scene
@@ -303,7 +327,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     raw.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")    # build the BVH
 
     def run(batch) -> float:
-        query, o, d, t = batch          # t: a fresh copy, since embreex writes the hit distances into it
+        query, o, d, t, _ = batch       # t: a fresh copy, since embreex writes the hit distances into it
         start = time.perf_counter()
         if query == "intersect":
             raw.run(o, d, dists=t, output=1)
@@ -312,19 +336,26 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
         return time.perf_counter() - start
 
     def fresh():
-        return [(query, o, d, t.copy()) for query, o, d, t in batches]
+        return [(query, o, d, t.copy(), vertex) for query, o, d, t, vertex in batches]
 
     # Rounds of: Primer's render end to end, then embreex on one thread, then on all cores. This
     # machine has slow and fast spells; within one round all three meet the same spell, so the
     # ratio of each round is the fair one, and the report gives the median of those ratios.
     walls, renders, one_thread, all_cores, seconds_in_embree = [], [], [], [], []
+    vertices = sorted({b[4] for b in batches})
+    by_vertex = {vertex: [] for vertex in vertices}
     cores = os.cpu_count() or 1
     for _ in range(plan.rays_rounds):
         walls.append(render_timed())
         record = primer_record()
         renders.append(record.stats.seconds)
         seconds_in_embree.append(record.stats.trace_seconds)
-        one_thread.append(sum(run(b) for b in fresh()))
+        spent = {vertex: 0.0 for vertex in vertices}
+        for b in fresh():
+            spent[b[4]] += run(b)
+        for vertex in vertices:
+            by_vertex[vertex].append(spent[vertex])
+        one_thread.append(sum(spent.values()))
         copies = fresh()
         with ThreadPoolExecutor(max_workers=cores) as pool:
             start = time.perf_counter()
@@ -334,7 +365,13 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     return {"scene": name, "percentage": percentage, "size": [scene.render.resolution_x * percentage // 100,
                                                               scene.render.resolution_y * percentage // 100],
             "samples": samples, "triangles": int(len(triangles)),
-            "rays": record.rays, "primary_rays": stats.primary_rays, "shadow_rays": stats.shadow_rays,
+            "rays": n_rays, "primary_rays": stats.primary_rays, "shadow_rays": stats.shadow_rays,
+            "bsdf_rays": n_rays - camera_and_shadow,
+            # Per path vertex (-1: the camera rays): its rays (shadow + BSDF), and embreex's one-thread time on them.
+            "vertices": [{"vertex": vertex,
+                          "shadow_rays": sum(len(b[1]) for b in batches if b[4] == vertex and b[0] == "occluded"),
+                          "nearest_rays": sum(len(b[1]) for b in batches if b[4] == vertex and b[0] == "intersect"),
+                          "embreex_one_thread": statistics.median(by_vertex[vertex])} for vertex in vertices],
             "batches": len(batches), "cores": cores, "rounds": len(walls),
             "primer_wall": statistics.median(walls), "primer_render": statistics.median(renders),
             "primer_embree_thread_seconds": statistics.median(seconds_in_embree),
