@@ -27,11 +27,11 @@ from ..core.materials.graph import GraphNode, Link
 PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Roughness": "roughness", "IOR": "ior",
                       "Alpha": "alpha", "Subsurface Weight": "subsurface", "Specular IOR Level": "specular_ior_level",
                       "Specular Tint": "specular_tint", "Coat Weight": "coat", "Coat Roughness": "coat_roughness",
-                      "Coat IOR": "coat_ior", "Coat Tint": "coat_tint", "Transmission Weight": "transmission"}
+                      "Coat IOR": "coat_ior", "Coat Tint": "coat_tint", "Transmission Weight": "transmission",
+                      "Diffuse Roughness": "diffuse_roughness"}
 # Principled inputs Primer leaves out: socket -> what Primer does instead (warned when above 0).
 PRINCIPLED_LEFT_OUT = {"Sheen Weight": "leaves the sheen out", "Anisotropic": "renders it isotropic",
                        "Subsurface Weight": "approximates subsurface scattering by diffuse reflection",
-                       "Diffuse Roughness": "uses Lambert's diffuse (roughness 0)",
                        "Thin Film Thickness": "leaves the thin film out"}
 GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
 
@@ -506,10 +506,13 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             reader.warn(node, "'Coat Normal' is linked; Primer gives the coat the surface's normal")
         out.append(("PRINCIPLED", weight, inputs, list(factors)))
     elif kind == "ShaderNodeBsdfDiffuse":
-        if float(reader.value(node, "Roughness", 0.0)) > 0.0 or node.inputs["Roughness"].is_linked:
-            reader.warn(node, "Roughness is above 0 or linked (Oren-Nayar in Cycles); Primer uses Lambert's diffuse")
+        # Roughness above 0: Oren-Nayar's rough diffuse, which also needs the colour itself.
         color = reader.input(node, "Color", np.full(3, 0.8))
         inputs: dict = {}
+        roughness = reader.input(node, "Roughness", 0.0)
+        if _linked(roughness) or float(np.max(roughness)) > 0.0:
+            inputs["roughness"] = roughness
+            inputs["color"] = color if _linked(color) else np.clip(np.asarray(color, np.float64), 0.0, 1.0)
         _normal(reader, node, inputs)
         if _linked(color):
             out.append(("DIFFUSE", weight, inputs, list(factors) + [(color, "color")]))
@@ -576,7 +579,7 @@ def export_material(material, warnings: list) -> Material:
         return Material(np.array(material.diffuse_color[:3], np.float64), material.name, emission_sampling=sampling,
                         transparent_shadows=shadows)
     nodes = shader_nodes(material, warnings)
-    if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes):
+    if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes) and "roughness" not in nodes[0][2]:
         return Material(np.clip(nodes[0][1], 0.0, None), material.name, emission_sampling=sampling,
                         transparent_shadows=shadows)
     if not nodes:

@@ -87,7 +87,8 @@ CYCLES_CHOICES = {"shading_visibility": {"primer.visibility_normal": "SHADING"}}
 @dataclass(frozen=True)
 class Variant:
     """A sample scene with some settings changed ("render.x", "camera.x", "lights.x", "objects.x" (every mesh
-    object), "object:NAME.x" (one object), "primer.x")."""
+    object), "object:NAME.x" (one object), "nodes.INPUT" (that input of every material's shader nodes),
+    "primer.x")."""
 
     id: str
     scene: str
@@ -121,6 +122,8 @@ VARIANTS = [
     # object hidden from shadow rays (no shadows at all).
     Variant("wall_hidden_from_camera", "light_emissive", {"object:Left Wall.visible_camera": False}, 256, 1024),
     Variant("no_object_casts_shadows", "light_point", {"objects.visible_shadow": False}, 64, 256),
+    # Rough diffuse: every Diffuse BSDF's Roughness and the Principled BSDF's Diffuse Roughness at 1 (Oren-Nayar).
+    Variant("rough_diffuse", "light_point", {"nodes.Roughness": 1.0, "nodes.Diffuse Roughness": 1.0}, 64, 256),
     # Cycles' biased path-tracing settings with their meaning in Cycles: both caustics switches off in the glass
     # scene (9% less light); no reflective caustics and Clamp Indirect 1 in the Principled scene path traced
     # (4% and 2% less light).
@@ -151,6 +154,13 @@ for source, target, settings in json.loads({jobs!r}):
             changed = [o.data if kind == "LIGHT" else o for o in scene.objects if o.type == kind]
         elif owner.startswith("object:"):
             changed = [scene.objects[owner[len("object:"):]]]
+        elif owner == "nodes":                  # the input `name` of every shader node that has one
+            changed = []
+            for material in bpy.data.materials:
+                for node in (material.node_tree.nodes if material.node_tree else ()):
+                    if name in node.inputs:
+                        node.inputs[name].default_value = value
+            continue
         else:
             changed = [{{"render": scene.render, "camera": scene.camera.data, "primer": scene.primer}}[owner]]
         for thing in changed:

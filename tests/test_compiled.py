@@ -163,8 +163,14 @@ def test_each_bsdfs_c_file_evaluates_and_samples_what_its_class_does():
     # A microfacet's weight depends on the sampled direction itself (a Lambert's or a mirror's does not),
     # so it inherits the direction's float32 cosine: the compiled path's stated tolerance, 1e-6 relative.
     rough = (kind == materials.Microfacet.kind) | (kind == materials.RoughGlass.kind)
+    # Oren-Nayar's weight goes through G(N.wi), whose slope near grazing (tan theta) doubles the float32 cosine's
+    # error there.
+    oren_nayar = kind == materials.OrenNayar.kind
+    np.testing.assert_allclose(sampled.weight[oren_nayar], expected.weight[oren_nayar], rtol=5e-6, atol=1e-12)
+    rough |= oren_nayar
     np.testing.assert_allclose(sampled.weight[~rough], expected.weight[~rough], rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(sampled.weight[rough], expected.weight[rough], rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(sampled.weight[rough & ~oren_nayar], expected.weight[rough & ~oren_nayar], rtol=1e-6,
+                               atol=1e-12)
     np.testing.assert_allclose(sampled.pdf, expected.pdf, rtol=1e-6, atol=1e-9)
 
 

@@ -382,7 +382,7 @@ INLINE void choose_bsdf_rays(BlockHits *H, const DirectSettings *ds)
         int glossy = 0;
         int through = 0;
         for (int k = 0; k < sd->n; k++) {
-            glossy |= sd->c[k].kind != BSDF_LAMBERT;
+            glossy |= !IS_DIFFUSE(sd->c[k].kind);
             through |= sd->c[k].kind == BSDF_ROUGH_GLASS;
         }
         H->through[h] = (uint8_t)through;

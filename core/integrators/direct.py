@@ -332,7 +332,7 @@ def wants_bsdf_ray(ctx: Context, shader) -> np.ndarray:
     """Which hits trace a BSDF-sampled ray: all where emitters or the world light the scene, else those
     with a closure other than Lambert (a glossy lobe that light samples of a large lamp find poorly)."""
     kind = shader.closures.kind
-    glossy = ((kind >= 0) & (kind != materials_.Lambert.kind)).any(axis=1)
+    glossy = ((kind >= 0) & ~materials_.is_diffuse(kind)).any(axis=1)
     return glossy | bool(ctx.extra.get("bsdf_everywhere", False))
 
 

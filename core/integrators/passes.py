@@ -82,7 +82,7 @@ def closure_albedos(shader) -> tuple:
     for slot in range(c.kind.shape[1]):
         kind = c.kind[:, slot]
         weight = c.weight[:, slot]
-        lambert = kind == Lambert.kind
+        lambert = materials_.is_diffuse(kind)
         diffuse[lambert] += weight[lambert]
         mirror = kind == Mirror.kind
         glossy[mirror] += weight[mirror]

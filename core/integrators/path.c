@@ -19,15 +19,15 @@ typedef struct {
 } PathWork;
 
 /* path.bounce_kind: whether a sampled closure makes a diffuse, a glossy or a transmission bounce. */
-INLINE int is_diffuse_bounce(int kind) { return kind == BSDF_LAMBERT; }
+INLINE int is_diffuse_bounce(int kind) { return IS_DIFFUSE(kind); }
 INLINE int is_transparent_bounce(int kind) { return kind == BSDF_TRANSPARENT; }
 INLINE int is_glossy_bounce(int kind, int transmit)
 {
-    return kind >= 0 && kind != BSDF_LAMBERT && kind != BSDF_TRANSPARENT && !transmit;
+    return kind >= 0 && !IS_DIFFUSE(kind) && kind != BSDF_TRANSPARENT && !transmit;
 }
 INLINE int is_transmission_bounce(int kind, int transmit)
 {
-    return kind >= 0 && kind != BSDF_LAMBERT && kind != BSDF_TRANSPARENT && transmit;
+    return kind >= 0 && !IS_DIFFUSE(kind) && kind != BSDF_TRANSPARENT && transmit;
 }
 
 /* path.through_transparent for one ray r of hit h whose path has ended at its bounce limits, after `clear`

@@ -63,7 +63,7 @@ def roulette_from(settings) -> int:
 def bounce_kind(kind: np.ndarray, transmit: np.ndarray) -> tuple:
     """Which bounces are diffuse, glossy (a rough or mirror reflection), transmission (through glass) and
     transparent (straight through a Transparent closure, not counted as a bounce): four (k,) bool arrays."""
-    diffuse = kind == materials_.Lambert.kind
+    diffuse = materials_.is_diffuse(kind)
     transparent = kind == materials_.Transparent.kind
     other = ~diffuse & ~transparent & (kind >= 0)
     return diffuse, other & ~transmit, other & transmit, transparent

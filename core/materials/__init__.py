@@ -23,10 +23,18 @@ from .glass import Glass
 from .lambert import Lambert
 from .microfacet import Microfacet
 from .mirror import Mirror
+from .oren_nayar import OrenNayar
 from .rough_glass import RoughGlass
 from .transparent import Transparent
 
-BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass)
+BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar)
+# The BSDFs that reflect diffusely (a path's diffuse bounce; Cycles' CLOSURE_IS_BSDF_DIFFUSE).
+DIFFUSE_KINDS = (Lambert.kind, OrenNayar.kind)
+
+
+def is_diffuse(kind: np.ndarray) -> np.ndarray:
+    """Which closure kinds (any shape, int) reflect diffusely."""
+    return (kind == Lambert.kind) | (kind == OrenNayar.kind)
 BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
 
 assert all(cls.kind == index for index, cls in enumerate(BSDF_TYPES)), "a BSDF's kind is its place in BSDF_TYPES"
@@ -363,7 +371,8 @@ class MaterialTable:
 
 __all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",
            "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable",
-           "Glass", "Microfacet", "Mirror", "NodeShader", "PARAMS", "RoughGlass", "Transparent",
+           "Glass", "Microfacet", "Mirror", "NodeShader", "OrenNayar", "PARAMS", "RoughGlass", "Transparent",
+           "DIFFUSE_KINDS", "is_diffuse",
            "ShaderResult", "eval_closures", "sample_closures"]
 
 

@@ -4,7 +4,11 @@
  * closure's N is its own unit normal on the viewer's side; eval returns f cos (0 below N) and the
  * pdf of its own sampling. */
 
-enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4, BSDF_ROUGH_GLASS = 5 };
+enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4, BSDF_ROUGH_GLASS = 5,
+       BSDF_OREN_NAYAR = 6 };
+
+/* materials.is_diffuse: the BSDFs that reflect diffusely (a path's diffuse bounce). */
+#define IS_DIFFUSE(kind) ((kind) == BSDF_LAMBERT || (kind) == BSDF_OREN_NAYAR)
 
 #define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
 /* The closures a caustics filter takes away at a hit that a diffuse bounce's ray reached (closures.FILTER_*). */

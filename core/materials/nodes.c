@@ -204,6 +204,19 @@ INLINE void glass_add(ShaderResult *sd, double mu, const double *weight, double 
     closure_add(sd, smooth ? BSDF_GLASS : BSDF_ROUGH_GLASS, w, weight, factor, g);
 }
 
+/* nodes.add_diffuse: Lambert below the roughness cutoff, else Oren-Nayar with that roughness and colour. */
+INLINE void diffuse_add(ShaderResult *sd, double mu, const double *weight, double roughness, const double *albedo,
+                        double cutoff)
+{
+    if (!(roughness >= cutoff)) {
+        closure_add(sd, BSDF_LAMBERT, weight, weight, 1.0, NULL);
+        return;
+    }
+    double p[STORAGE_STRIDE] = {0.0};
+    oren_nayar_params(roughness, albedo, mu, p);
+    closure_add(sd, BSDF_OREN_NAYAR, weight, weight, 1.0, p);
+}
+
 /* nodes.PrincipledNode.setup: p holds nodes.PRINCIPLED_INPUTS in order. */
 INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const double *weight, const double *p)
 {
@@ -299,17 +312,21 @@ INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const 
         for (int j = 0; j < 3; j++) albedo[j] = specular_weight[j] * reflect[j];
         layering_weight(albedo, W);
     }
-    /* 7. Diffuse. */
+    /* 7. Diffuse, Oren-Nayar's with Diffuse Roughness. */
     double diffuse[3];
     for (int j = 0; j < 3; j++) diffuse[j] = W[j] * (base[j] * (1.0 - subsurface) + clamped[j] * subsurface);
-    closure_add(sd, BSDF_LAMBERT, diffuse, diffuse, 1.0, NULL);
+    diffuse_add(sd, mu, diffuse, clamp01(p[23]), base, WEIGHT_CUTOFF);
 }
 
 /* One node's setup (nodes.py NODE_TYPES[kind].setup) with the normal sd->N and mu = N.wo. */
 INLINE void setup_node(ShaderResult *sd, int kind, double mu, int backfacing, const double *weight, const double *p)
 {
     switch (kind) {
-    case NODE_DIFFUSE: closure_add(sd, BSDF_LAMBERT, weight, weight, 1.0, NULL); break;
+    case NODE_DIFFUSE: {
+        double albedo[3] = {clamp01(p[1]), clamp01(p[2]), clamp01(p[3])};
+        diffuse_add(sd, mu, weight, p[0], albedo, 1e-5);            /* nodes.DIFFUSE_ROUGHNESS_CUTOFF */
+        break;
+    }
     case NODE_MIRROR:
         if (!(sd->caustics & FILTER_REFLECTIVE)) closure_add(sd, BSDF_MIRROR, weight, weight, 1.0, NULL);
         break;

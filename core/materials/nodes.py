@@ -25,6 +25,8 @@ from .glass import shares as glass_shares
 from .lambert import Lambert
 from .microfacet import Microfacet
 from .mirror import Mirror
+from .oren_nayar import OrenNayar
+from .oren_nayar import params_of as oren_nayar_params
 from .rough_glass import RoughGlass
 from .transparent import Transparent
 
@@ -205,14 +207,31 @@ class Node:
         raise NotImplementedError
 
 
-class DiffuseNode(Node):
-    """Diffuse BSDF: one Lambert closure weighted by its colour (the node's weight carries the colour)."""
+# Below this roughness Cycles sets a Diffuse BSDF up as Lambert's, and Oren-Nayar's above it.
+DIFFUSE_ROUGHNESS_CUTOFF = 1e-5
 
-    kind, name, inputs, defaults = 0, "DIFFUSE", (), ()
+
+def add_diffuse(b: ClosureBuilder, weight: np.ndarray, roughness: np.ndarray, albedo: np.ndarray,
+                cutoff: float = DIFFUSE_ROUGHNESS_CUTOFF) -> None:
+    """Append a diffuse closure of `weight` (n, 3): Lambert where roughness (n,) is below `cutoff`, else
+    Oren-Nayar with that roughness and colour `albedo` (n, 3) (its multiple scattering depends on it)."""
+    rough = roughness >= cutoff
+    if not rough.any():
+        b.add(Lambert.kind, weight)
+        return
+    b.add(np.where(rough, OrenNayar.kind, Lambert.kind), weight, oren_nayar_params(roughness, albedo, b.mu))
+
+
+class DiffuseNode(Node):
+    """Diffuse BSDF: a Lambert closure weighted by its colour (the node's weight carries the colour), or with
+    Roughness above 0 an Oren-Nayar closure, whose multiple scattering needs the colour itself."""
+
+    kind, name, inputs, defaults = 0, "DIFFUSE", ("roughness", "color"), (0.0, (0.8, 0.8, 0.8))
 
     @staticmethod
     def setup(b, weight, p):
-        b.add(Lambert.kind, weight)
+        p = per_hit_rows(p, len(weight))
+        add_diffuse(b, weight, p[:, 0], np.clip(p[:, 1:4], 0.0, 1.0))
 
 
 class MirrorNode(Node):
@@ -265,9 +284,9 @@ class TransparentNode(Node):
 # The Principled BSDF's inputs, in their slots.
 PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "subsurface", "specular_ior_level",
                      "specular_tint", "coat", "coat_roughness", "coat_ior", "coat_tint", "emission",
-                     "transmission", "multiscatter")
+                     "transmission", "multiscatter", "diffuse_roughness")
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
-                       (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0)
+                       (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0)
 
 
 class PrincipledNode(Node):
@@ -284,7 +303,8 @@ class PrincipledNode(Node):
        what follows;
     6. specular: a dielectric GGX layer whose F0 the Specular IOR Level scales and the Specular Tint
        colours; below it, what it does not reflect;
-    7. diffuse: Lambert with the base colour (subsurface scattering approximated by it, with a warning).
+    7. diffuse: Lambert with the base colour, or Oren-Nayar's with Diffuse Roughness (subsurface scattering
+       approximated by it, with a warning).
     Sheen and anisotropy are left out (warned at export).
     """
 
@@ -371,9 +391,10 @@ class PrincipledNode(Node):
             Fss = f0_tinted + (1.0 - f0_tinted) * s[:, None]
             specular_weight = GlossyLobe.add(b, W, lobe, reflect, Fss=Fss if multiscatter else None, keep=on)
             W = np.where(on[:, None], layering_weight(specular_weight * reflect, W), W)
-        # 7. Diffuse (and subsurface, approximated by a diffuse of the clamped colour).
+        # 7. Diffuse, Oren-Nayar's with Diffuse Roughness (and subsurface, approximated by a diffuse of the
+        #    clamped colour).
         ss = subsurface[:, None]
-        b.add(Lambert.kind, W * (base * (1.0 - ss) + clamped * ss))
+        add_diffuse(b, W * (base * (1.0 - ss) + clamped * ss), np.clip(p[:, 23], 0.0, 1.0), base, WEIGHT_CUTOFF)
 
 
 def glass_params(n: int, backfacing: np.ndarray, ior: float, mode: int, f0, f90, reflect_tint, transmit_tint):

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 19
+#define PRIMER_ABI 20
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -28,6 +28,7 @@
 #include "../materials/glass.c"
 #include "../materials/transparent.c"
 #include "../materials/rough_glass.c"
+#include "../materials/oren_nayar.c"
 #include "../materials/bsdf.c"
 #include "../materials/textures.c"
 #include "../materials/graph.c"
