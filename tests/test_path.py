@@ -315,3 +315,31 @@ def test_a_path_past_its_bounce_limit_still_sees_the_world_through_a_clear_roof(
     settings = RenderSettings(width=4, height=4, samples=8, integrator=integrator, max_bounces=0, kernels=kernels)
     image = render.render(scene, settings).image[..., :3]
     np.testing.assert_allclose(image, 0.5 * 0.6 * 2.0, rtol=1e-4)
+
+
+def glass(name: str, ior: float, roughness: float = 0.0) -> materials.Material:
+    """A clear Glass BSDF of index `ior` (any number: 1, 0 and below are bad input) and roughness."""
+    return materials.Material(name=name, nodes=[("GLASS", (1, 1, 1), {"ior": ior, "roughness": roughness})])
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_bad_glass_never_makes_a_nan_pixel_nor_hangs(kernels):
+    """Path tracing at every bounce limit 1024 with roulette off: the camera inside a closed glass sphere (light
+    trapped by total internal reflection), ten nested dielectric spheres of alternating index, and glass of
+    index 1, 0, -1, 1e-9 and 1e9 next to an emitter of 1e30: the render ends, and every pixel is finite and
+    non-negative."""
+    scene = Scene(camera=Camera(lens=18.0))
+    scene.materials += [glass("inside", 1.5), glass("index 1", 1.0), glass("index 0", 0.0), glass("negative", -1.0),
+                        glass("tiny", 1e-9), glass("huge", 1e9, 0.3),
+                        materials.Material(name="sun", nodes=[("EMISSION", (1, 1, 1), {"emission": (1e30,) * 3})])]
+    scene.add_mesh(primitives.uv_sphere(1.0, 12, 6, smooth=True), materials=np.array([0]))      # around the camera
+    for k in range(10):                                                                           # nested, ahead
+        scene.add_mesh(primitives.uv_sphere(1.5 - 0.1 * k, 12, 6, center=(0.0, 0.0, -4.0), smooth=k % 2 == 0),
+                       materials=np.array([1 + k % 5]))
+    scene.add_mesh(primitives.plane(6.0, center=(0.0, 0.0, -8.0)), materials=np.array([6]))      # behind them
+    settings = RenderSettings(width=12, height=12, samples=2, integrator="path", max_bounces=1024,
+                              diffuse_bounces=1024, glossy_bounces=1024, transmission_bounces=1024,
+                              transparent_max_bounces=1024, min_light_bounces=1024, kernels=kernels)
+    image = render.render(scene, settings).image
+    assert np.isfinite(image).all() and (image >= 0.0).all()
+    assert image[..., :3].max() > 1e20                   # the emitter is seen, through the glass
