@@ -14,6 +14,7 @@ The scenes, one idea each:
     light_area, light_area_spread                             area lights: rectangle (mirrored), ellipse
     light_emissive                                            an emissive mesh (a ceiling lamp) lights a room
     world_light                                               a sky-blue world lights the stage, with a sun
+    world_hdri                                                an HDRI (a sky with a small sun) lights the stage
     shading_flat_smooth                                       the shadow terminator of a 12-segment sphere
     shading_visibility                                        an open smooth sheet: light leaks, negative N.L
     modifiers_instances                                       modifiers, instancing, negative scale, curves
@@ -597,6 +598,56 @@ def world_light():
               color=(1.0, 0.9, 0.75))
 
 
+def sky_pixels(width: int = 128, height: int = 64) -> list:
+    """An equirectangular sky made here, RGBA rows bottom first (radiance, W / (m^2 sr)): a blue gradient over a
+    brown ground and a sun 12 degrees wide, 40 degrees up, about 100 times brighter than the sky (the soft
+    shadows that light sampling by the image's brightness must find)."""
+    rows = []
+    for j in range(height):
+        elevation = (j + 0.5) / height * math.pi - math.pi / 2.0
+        row = []
+        for i in range(width):
+            azimuth = (i + 0.5) / width * 2.0 * math.pi
+            if elevation > 0.0:
+                k = 0.35 + 0.65 * (1.0 - math.sin(elevation))
+                color = (0.25 * k, 0.35 * k, 0.6 * k)
+            else:
+                color = (0.12, 0.1, 0.08)
+            if abs(elevation - math.radians(40.0)) < math.radians(6.0) and abs(azimuth - math.radians(110.0)) < math.radians(6.0):
+                color = (40.0, 35.0, 28.0)
+            row.append((*color, 1.0))
+        rows.append(row)
+    return rows
+
+
+def world_hdri():
+    """The stage lit by an HDRI alone: an Environment Texture of a sky made here (packed, float), turned by a
+    Mapping node, strength 1.5. The world is a light with a varying image: importance-sampled by brightness
+    x sin(theta) and found by BSDF rays, the two weighed by MIS, as in Cycles."""
+    bpy = _bpy()
+    new_file("world_hdri", light_samples=4)
+    world = set_world(bpy_scene(), (0.3, 0.4, 0.6), lights=True)
+    pixels = sky_pixels()
+    image = bpy.data.images.new("Sky", len(pixels[0]), len(pixels), alpha=True, float_buffer=True)
+    image.pixels.foreach_set([channel for row in pixels for texel in row for channel in texel])
+    image.filepath_raw = "//Sky.exr"
+    image.file_format = "OPEN_EXR"
+    image.pack()
+    tree = world.node_tree
+    background = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBackground")
+    background.inputs["Strength"].default_value = 1.5
+    texture = tree.nodes.new("ShaderNodeTexEnvironment")
+    texture.image = image
+    coordinates = tree.nodes.new("ShaderNodeTexCoord")
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(30.0))
+    tree.links.new(coordinates.outputs["Generated"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], texture.inputs["Vector"])
+    tree.links.new(texture.outputs["Color"], background.inputs["Color"])
+    stage()
+    stage_camera()
+
+
 def materials_principled():
     """Principled BSDFs as Cycles lays them out: a rough dielectric, a gold metal with a specular tint, a
     polished clear-coated red, a tinted translucent (alpha) blue, Glossy mixed with Diffuse, and a sphere
@@ -897,6 +948,7 @@ SCENES = {
     "modifiers_instances": modifiers_instances,
     "light_emissive": light_emissive,
     "world_light": world_light,
+    "world_hdri": world_hdri,
     "materials_principled": materials_principled,
     "cornell_box": cornell_box,
     "materials_glass": materials_glass,
