@@ -356,6 +356,19 @@ def rays_table(results: dict) -> list:
     return lines
 
 
+def integrators_table(results: dict) -> list:
+    """Return each integrator's time and error against Cycles' path-traced reference, per path-traced scene."""
+    runs = results.get("integrators") or []
+    if not runs:
+        return ["(no integrator measurements in these results: run `make bench` without `--skip integrators`)"]
+    lines = ["| scene | integrator | samples | seconds | relMSE | RMSE | FLIP |", "|---|---|---:|---:|---:|---:|---:|"]
+    for run in runs:
+        for r in run["rows"]:
+            lines.append(f"| {r['scene']} | {r['integrator']} | {r['samples']} | {fmt(r['seconds'])} | "
+                         f"{fmt(r['relmse'])} | {fmt(r['rmse'])} | {fmt(r['flip'])} |")
+    return lines
+
+
 def rays_share(r: dict) -> float:
     """Primer's end-to-end rays per second over embreex's on all cores: the median of the rounds'
     ratios where the rounds were kept (each round times both in the same spell of the machine)."""
@@ -612,6 +625,13 @@ def report_markdown(results: dict, plots: dict) -> str:
              "filter, the noise test between passes); *Blender* is what the `bpy.ops.render.render()` call spends "
              "outside Primer's engine.", ""]
     text += profile_table(results)
+    text += ["", "## Each integrator's cost against its error", "",
+             "The path-traced sample scenes rendered by each of Primer's integrators, against the same Cycles "
+             "reference (path tracing with the file's bounce limits). *Direct Light* (the lecture's tracer) and "
+             "*Whitted* (perfect mirrors and glass followed, direct light at every hit; Python reference only) are "
+             "cheaper per sample but leave light out, so their error stops falling at a floor that is their bias; "
+             "*Path Tracing* converges to the reference. Times are whole `bpy.ops.render.render()` calls.", ""]
+    text += integrators_table(results)
     text += ["", f"![Primer's profile]({plots['profile']})", "", "## Rays per second: Primer against embreex alone", "",
              "Primer's rays (camera, shadow and BSDF rays) per second of the whole render, against embreex tracing the "
              "very same ray batches (recorded from the same render, replayed with the same BVH settings, timing only "

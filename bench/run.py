@@ -5,6 +5,7 @@
 Phases, in order (each Blender job in its own process, with empty Blender user folders):
   scenes     the Cycles references (cached in bench/refs/) and both engines' sample ladders
   denoise    Primer with and without Render > Denoise on common.DENOISE_SCENES: error against time
+  integrators  DIRECT, WHITTED and PATH on the path-traced scenes: time and error against Cycles' path tracing
   profile    Primer's time per phase on every scene
   rays       Primer's rays per second against embreex's on the same rays
   scaling    time and peak memory against triangles, pixels, lights and instances (core alone)
@@ -29,7 +30,9 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
-PHASES = ("scenes", "denoise", "profile", "rays", "scaling", "stability")
+PHASES = ("scenes", "denoise", "integrators", "profile", "rays", "scaling", "stability")
+# The path-traced sample scenes, where each integrator's cost is set against its error (the integrators phase).
+INTEGRATOR_SCENES = ("cornell_box", "materials_glass")
 RAYS_SCENES = ("modifiers_instances", "light_area", "cornell_box")
 SCALING = {"triangles": [1e3, 1e4, 1e5, 1e6, 1e7], "pixels": [160 * 90, 320 * 180, 640 * 360, 1280 * 720,
                                                            1920 * 1080, 3840 * 2160],
@@ -175,7 +178,7 @@ def main(argv=None) -> int:
         else results["machine"]["commit"] for phase in PHASES}
     for phase in PHASES:
         if phase in args.skip:
-            results[phase] = previous.get(phase, [] if phase in ("rays", "stability") else {})
+            results[phase] = previous.get(phase, [] if phase in ("rays", "stability", "integrators") else {})
             print(f"{phase}: taken from the last results", flush=True)
             continue
         print(f"{phase}:", flush=True)
@@ -184,6 +187,11 @@ def main(argv=None) -> int:
             results[phase] = run_scenes(plan)
         elif phase == "denoise":
             results[phase] = run_denoise(plan)
+        elif phase == "integrators":
+            results[phase] = []
+            for name in INTEGRATOR_SCENES:
+                blender_job("integrators", name, quick=plan.quick)
+                results[phase].append(common.read_json(os.path.join(common.OUT, f"integrators_{name}.json")))
         elif phase == "profile":
             blender_job("profile", quick=plan.quick)
             results[phase] = common.read_json(os.path.join(common.OUT, "profile.json"))

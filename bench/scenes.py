@@ -380,10 +380,36 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
             "share_by_round": [full / wall for full, wall in zip(all_cores, walls)]}
 
 
+def integrators(name: str, plan: common.Plan) -> dict:
+    """Each of Primer's integrators (DIRECT, WHITTED, PATH) on a path-traced scene: the time of a render and
+    its error against the scene's Cycles reference (Cycles path tracing with the file's bounce limits), at a
+    few sample counts. Direct light and Whitted's recursion leave light out (a bias no sample count removes);
+    path tracing converges to the reference."""
+    ref, _, _ = reference(name, plan)
+    scene = open_scene(name)
+    folder = os.path.join(common.OUT, "integrators", name)
+    use_primer(scene, 1)
+    render_timed()                                  # warm-up
+    ladder_of = {"DIRECT": [4, 16, 64], "WHITTED": [4, 16] if plan.quick else [4, 16, 64],
+                 "PATH": [4, 16, 64] if plan.quick else [4, 16, 64, 256]}
+    rows = []
+    for integrator, samples_list in ladder_of.items():
+        scene.primer.integrator = integrator
+        for samples in samples_list:
+            use_primer(scene, samples)
+            seconds = render_timed()
+            record = primer_record()
+            image = save_render(scene, os.path.join(folder, f"{integrator.lower()}_{samples}.exr"))
+            rows.append({"scene": name, "integrator": integrator, "samples": samples, "seconds": seconds,
+                         "kernels": record.stats.kernels, **common.errors(image, ref)})
+            print(f"{name}: {integrator} {samples} done", flush=True)
+    return {"scene": name, "rows": rows}
+
+
 def main(argv=None) -> int:
     """Run one job and write its JSON into bench/out/."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("job", choices=("ladder", "profile", "rays", "denoise"))
+    parser.add_argument("job", choices=("ladder", "profile", "rays", "denoise", "integrators"))
     parser.add_argument("name", nargs="?")
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
@@ -395,6 +421,8 @@ def main(argv=None) -> int:
             common.write_json(os.path.join(common.OUT, "profile.json"), profile(plan))
         elif args.job == "denoise":
             common.write_json(os.path.join(common.OUT, f"denoise_{args.name}.json"), denoise(args.name, plan))
+        elif args.job == "integrators":
+            common.write_json(os.path.join(common.OUT, f"integrators_{args.name}.json"), integrators(args.name, plan))
         else:
             common.write_json(os.path.join(common.OUT, f"rays_{args.name}.json"), rays(args.name, plan))
     finally:
