@@ -265,12 +265,21 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     to_f32 = importlib.import_module("primer.core.geometry.intersect")._f32_rays
     direct = importlib.import_module("primer.core.integrators.direct")
     path = importlib.import_module("primer.core.integrators.path")
+    shadows = importlib.import_module("primer.core.integrators.shadows")
     batches, meshes = [], []
     original = {name: getattr(Tracer, name) for name in ("__init__", "intersect", "occluded")}
     # Which path vertex the integrator is at: camera_hits traces the camera rays, shade(..., vertex) a vertex.
-    at = {"vertex": -1}
+    at = {"vertex": -1, "shadow": False}
     hooks = {(direct, "camera_hits"): direct.camera_hits, (path, "camera_hits"): path.camera_hits,
-             (direct.DirectLighting, "shade"): direct.DirectLighting.shade}
+             (direct.DirectLighting, "shade"): direct.DirectLighting.shade,
+             (shadows, "transmittance"): shadows.transmittance}
+
+    def transmittance(*args, **kwargs):             # shadow rays through transparent surfaces: nearest-hit queries
+        at["shadow"] = True
+        try:
+            return hooks[(shadows, "transmittance")](*args, **kwargs)
+        finally:
+            at["shadow"] = False
 
     def camera_hits(*args, **kwargs):
         at["vertex"] = -1
@@ -290,8 +299,9 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
         def traced(self, origins, directions, t_max):
             o, d, t = to_f32(origins, directions, t_max)
             active = t >= 0.0           # (t_max < 0 would mark a ray Embree skips)
+            kind = "shadow" if query == "occluded" or at["shadow"] else ("camera" if at["vertex"] < 0 else "bsdf")
             batches.append((query, np.ascontiguousarray(o[active]), np.ascontiguousarray(d[active]),
-                            np.ascontiguousarray(t[active]), at["vertex"]))
+                            np.ascontiguousarray(t[active]), at["vertex"], kind))
             return original[query](self, origins, directions, t_max)
         return traced
 
@@ -301,6 +311,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     Tracer.__init__, Tracer.intersect, Tracer.occluded = init, recording("intersect"), recording("occluded")
     direct.camera_hits = path.camera_hits = camera_hits
     direct.DirectLighting.shade = shade
+    shadows.transmittance = transmittance
     scene.primer.kernels = "NUMPY"
     try:
         render_timed()
@@ -310,13 +321,14 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
         for (owner, attribute), value in hooks.items():
             setattr(owner, attribute, value)
         scene.primer.kernels = "COMPILED"
-    # Primer's statistics count camera and shadow rays; the recording also has the BSDF rays (bounces, and the
-    # BSDF rays that find lights with extent), which the stats leave out.
-    camera_and_shadow = sum(len(b[1]) for b in batches if b[4] < 0 or b[0] == "occluded")
-    n_rays = sum(len(b[1]) for b in batches)
-    if camera_and_shadow != record.rays or len(meshes) != 1:
-        raise RuntimeError(f"recorded {camera_and_shadow} camera and shadow rays in {len(meshes)} BVH(s); the render "
-                           f"traced {record.rays}")
+    # Primer's statistics count camera rays and shadow rays (once each, where a shadow ray through transparent
+    # surfaces asks Embree once per surface); the recording also has the BSDF rays (bounces, and the BSDF rays
+    # that find lights with extent), which the stats leave out.
+    counted = {kind: sum(len(b[1]) for b in batches if b[5] == kind) for kind in ("camera", "shadow", "bsdf")}
+    n_rays = sum(counted.values())
+    if counted["camera"] != record.stats.primary_rays or counted["shadow"] < record.stats.shadow_rays or len(meshes) != 1:
+        raise RuntimeError(f"recorded {counted} rays in {len(meshes)} BVH(s); the render traced "
+                           f"{record.stats.primary_rays} camera and {record.stats.shadow_rays} shadow rays")
     vertices, triangles = meshes[0]
 
     from embreex import rtcore_scene
@@ -327,7 +339,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     raw.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")    # build the BVH
 
     def run(batch) -> float:
-        query, o, d, t, _ = batch       # t: a fresh copy, since embreex writes the hit distances into it
+        query, o, d, t = batch[:4]      # t: a fresh copy, since embreex writes the hit distances into it
         start = time.perf_counter()
         if query == "intersect":
             raw.run(o, d, dists=t, output=1)
@@ -336,7 +348,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
         return time.perf_counter() - start
 
     def fresh():
-        return [(query, o, d, t.copy(), vertex) for query, o, d, t, vertex in batches]
+        return [(query, o, d, t.copy(), vertex, kind) for query, o, d, t, vertex, kind in batches]
 
     # Rounds of: Primer's render end to end, then embreex on one thread, then on all cores. This
     # machine has slow and fast spells; within one round all three meet the same spell, so the
@@ -366,11 +378,11 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
                                                               scene.render.resolution_y * percentage // 100],
             "samples": samples, "triangles": int(len(triangles)),
             "rays": n_rays, "primary_rays": stats.primary_rays, "shadow_rays": stats.shadow_rays,
-            "bsdf_rays": n_rays - camera_and_shadow,
+            "bsdf_rays": counted["bsdf"], "shadow_queries": counted["shadow"],
             # Per path vertex (-1: the camera rays): its rays (shadow + BSDF), and embreex's one-thread time on them.
             "vertices": [{"vertex": vertex,
-                          "shadow_rays": sum(len(b[1]) for b in batches if b[4] == vertex and b[0] == "occluded"),
-                          "nearest_rays": sum(len(b[1]) for b in batches if b[4] == vertex and b[0] == "intersect"),
+                          "shadow_rays": sum(len(b[1]) for b in batches if b[4] == vertex and b[5] == "shadow"),
+                          "nearest_rays": sum(len(b[1]) for b in batches if b[4] == vertex and b[5] != "shadow"),
                           "embreex_one_thread": statistics.median(by_vertex[vertex])} for vertex in vertices],
             "batches": len(batches), "cores": cores, "rounds": len(walls),
             "primer_wall": statistics.median(walls), "primer_render": statistics.median(renders),
