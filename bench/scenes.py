@@ -253,6 +253,9 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
 
     scene = open_scene(name)
     scene.render.resolution_percentage = percentage
+    # Every pixel gets its samples (adaptive sampling off): the recording (Python reference) and the timed
+    # renders (compiled) then trace the same camera rays, however their noise estimates differ.
+    scene.primer.use_adaptive_sampling = False
     use_primer(scene, 1)
     render_timed()
     use_primer(scene, samples)
