@@ -328,8 +328,11 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     # surfaces asks Embree once per surface); the recording also has the BSDF rays (bounces, and the BSDF rays
     # that find lights with extent), which the stats leave out.
     counted = {kind: sum(len(b[1]) for b in batches if b[5] == kind) for kind in ("camera", "shadow", "bsdf")}
-    n_rays = sum(counted.values())
-    if counted["camera"] != record.stats.primary_rays or counted["shadow"] < record.stats.shadow_rays or len(meshes) != 1:
+    # Primer's rays: its own counts of camera and shadow rays, and the BSDF rays the recording saw. (On a
+    # path-traced scene the recording has a few percent more camera-tagged queries than the render's camera
+    # rays; embreex replays them all, which costs it at most that share more time.)
+    n_rays = record.stats.primary_rays + record.stats.shadow_rays + counted["bsdf"]
+    if counted["camera"] < record.stats.primary_rays or counted["shadow"] < record.stats.shadow_rays or len(meshes) != 1:
         raise RuntimeError(f"recorded {counted} rays in {len(meshes)} BVH(s); the render traced "
                            f"{record.stats.primary_rays} camera and {record.stats.shadow_rays} shadow rays")
     vertices, triangles = meshes[0]
@@ -381,7 +384,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
                                                               scene.render.resolution_y * percentage // 100],
             "samples": samples, "triangles": int(len(triangles)),
             "rays": n_rays, "primary_rays": stats.primary_rays, "shadow_rays": stats.shadow_rays,
-            "bsdf_rays": counted["bsdf"], "shadow_queries": counted["shadow"],
+            "bsdf_rays": counted["bsdf"], "shadow_queries": counted["shadow"], "camera_queries": counted["camera"],
             # Per path vertex (-1: the camera rays): its rays (shadow + BSDF), and embreex's one-thread time on them.
             "vertices": [{"vertex": vertex,
                           "shadow_rays": sum(len(b[1]) for b in batches if b[4] == vertex and b[5] == "shadow"),
