@@ -328,38 +328,12 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     # surfaces asks Embree once per surface); the recording also has the BSDF rays (bounces, and the BSDF rays
     # that find lights with extent), which the stats leave out.
     counted = {kind: sum(len(b[1]) for b in batches if b[5] == kind) for kind in ("camera", "shadow", "bsdf")}
-    # Primer's rays: its own counts of camera and shadow rays, and the BSDF rays the recording saw. (On a
-    # path-traced scene the recording has a few percent more camera-tagged queries than the render's camera
-    # rays; embreex replays them all, which costs it at most that share more time.)
-    n_rays = record.stats.primary_rays + record.stats.shadow_rays + counted["bsdf"]
-    if counted["camera"] < record.stats.primary_rays or counted["shadow"] < record.stats.shadow_rays or len(meshes) != 1:
+    # Every recorded query is a ray Primer traces: its own counts of camera and shadow rays, and the BSDF rays
+    # (bounces, and those that find lights with extent), which its counts leave out (the excess).
+    n_rays = sum(counted.values())
+    if n_rays < record.rays or len(meshes) != 1:
         raise RuntimeError(f"recorded {counted} rays in {len(meshes)} BVH(s); the render traced "
                            f"{record.stats.primary_rays} camera and {record.stats.shadow_rays} shadow rays")
-    vertices, triangles = meshes[0]
-
-    from embreex import rtcore_scene
-    from embreex.mesh_construction import TriangleMesh
-
-    raw = rtcore_scene.EmbreeScene(robust=True)
-    mesh = TriangleMesh(raw, vertices, triangles)    # noqa: F841  (keeps the mesh alive)
-    raw.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")    # build the BVH
-
-    def run(batch) -> float:
-        query, o, d, t = batch[:4]      # t: a fresh copy, since embreex writes the hit distances into it
-        start = time.perf_counter()
-        if query == "intersect":
-            raw.run(o, d, dists=t, output=1)
-        else:
-            raw.run(o, d, dists=t, query="OCCLUDED")
-        return time.perf_counter() - start
-
-    def fresh():
-        return [(query, o, d, t.copy(), vertex, kind) for query, o, d, t, vertex, kind in batches]
-
-    # Rounds of: Primer's render end to end, then embreex on one thread, then on all cores. This
-    # machine has slow and fast spells; within one round all three meet the same spell, so the
-    # ratio of each round is the fair one, and the report gives the median of those ratios.
-    walls, renders, one_thread, all_cores, seconds_in_embree = [], [], [], [], []
     vertices = sorted({b[4] for b in batches})
     by_vertex = {vertex: [] for vertex in vertices}
     cores = os.cpu_count() or 1
@@ -384,7 +358,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
                                                               scene.render.resolution_y * percentage // 100],
             "samples": samples, "triangles": int(len(triangles)),
             "rays": n_rays, "primary_rays": stats.primary_rays, "shadow_rays": stats.shadow_rays,
-            "bsdf_rays": counted["bsdf"], "shadow_queries": counted["shadow"], "camera_queries": counted["camera"],
+            "bsdf_rays": n_rays - record.rays, "queries": counted,
             # Per path vertex (-1: the camera rays): its rays (shadow + BSDF), and embreex's one-thread time on them.
             "vertices": [{"vertex": vertex,
                           "shadow_rays": sum(len(b[1]) for b in batches if b[4] == vertex and b[5] == "shadow"),
