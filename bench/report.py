@@ -499,7 +499,7 @@ COPIED_TRIANGLE_BYTES = 48
 
 # The sample scenes of issue 20's speed target (an image texture, emissive meshes, a world light) and of
 # issue 21's (path traced: bounced light, glass).
-LIT_SCENES = ("materials_textures", "light_emissive", "world_light")
+LIT_SCENES = ("materials_textures", "light_emissive", "world_light", "world_hdri")
 PATH_SCENES = ("cornell_box", "materials_glass")
 
 
