@@ -165,6 +165,11 @@ class WorldGeometry:
         prim = np.asarray(prim, np.int64)
         if not self.hides(bit) or len(prim) == 0:
             return np.zeros(len(prim), bool)
+        owner = self.owners(prim)
+        return (owner >= 0) & ((self.instance_hidden[np.maximum(owner, 0)] & bit) != 0)
+
+    def owners(self, prim: np.ndarray) -> np.ndarray:
+        """The index into Scene.instances of the object each triangle `prim` (k,) int64 belongs to, -1 for none."""
         owner = np.full(len(prim), -1, np.int64)
         copied = (prim >= 0) & (prim < len(self.instance))
         owner[copied] = self.instance[prim[copied]]
@@ -173,17 +178,11 @@ class WorldGeometry:
             if mine.any():
                 j, _ = mesh.split(prim[mine])
                 owner[mine] = mesh.owner[j]
-        return (owner >= 0) & ((self.instance_hidden[np.maximum(owner, 0)] & bit) != 0)
+        return owner
 
     def instance_of(self, prim: int) -> int:
         """Return the index into Scene.instances of the object triangle `prim` belongs to, or -1."""
-        if 0 <= prim < len(self.instance):
-            return int(self.instance[prim])
-        for mesh in self.instanced:
-            if mesh.first_prim <= prim < mesh.first_prim + mesh.triangle_count:
-                j, _ = mesh.split(np.array([prim]))
-                return int(mesh.owner[j[0]])
-        return -1
+        return int(self.owners(np.array([prim], np.int64))[0])
 
     @functools.cached_property
     def _corner_columns(self) -> np.ndarray:

@@ -30,7 +30,7 @@ typedef struct {
     double max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, roulette_from;   /* path.c */
     double transparent_bounces;                  /* a path's limit of transparent bounces */
     double see_through;                          /* 1: some material lets light through (Transparent, alpha) */
-    double caustics;                             /* FILTER_* bits after a diffuse bounce (path.caustics_filter) */
+    double caustics;                             /* FILTER_* bits after a diffuse bounce (path.caustics_bits) */
     double clamp_direct, clamp_indirect;         /* sample clamping's caps (clamp.limits; inf: none) */
 } ChunkParams;
 

@@ -16,7 +16,7 @@ Where the two renderers differ: the cap applies to each contribution an estimato
 not all Cycles' (Primer samples every lamp at each vertex, Cycles picks one lamp per sample and divides
 by the chance of that pick). Primer clamps each light sample as the one-sample estimate it stands for
 (its value x the light's samples per hit). Where the cap bites, the two images differ by how much their
-estimators' contributions exceed it (docs/integrators.md, "Clamping").
+estimators' contributions exceed it (docs/lecture.md, "Caustics switches and clamping").
 """
 from __future__ import annotations
 

@@ -166,9 +166,8 @@ class Compiled:
         params.transparent_bounces = float(s.transparent_max_bounces)
         params.see_through = 1.0 if ctx.extra.get("transparent") else 0.0
         from .clamp import limits
-        from .path import caustics_filter
-        filtered = caustics_filter(s, np.ones(1, bool))
-        params.caustics = float(filtered[0]) if filtered is not None else 0.0
+        from .path import caustics_bits
+        params.caustics = float(caustics_bits(s))
         params.clamp_direct, params.clamp_indirect = limits(s)
         self.params = params
         self.want_squares = bool(s.adaptive)

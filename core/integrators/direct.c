@@ -300,7 +300,7 @@ typedef struct {
     PathRays *continuing;       /* where BSDF rays that hit a surface are kept for a path, or NULL */
     const GraphTables *graphs;  /* the materials' node-graph programs, or NULL (a path shades its vertices) */
     const Transmitter *transmitter;   /* transparent shadows, where some material lets light through; or NULL */
-    int caustics;               /* the FILTER_* bits of hits a diffuse bounce's ray reached (path.caustics_filter) */
+    int caustics;               /* the FILTER_* bits of hits a diffuse bounce's ray reached (path.caustics_bits) */
     double caps[2];             /* sample clamping's caps (direct, indirect; clamp.limits) */
     int clamping;               /* 1: some cap is finite */
 } DirectSettings;

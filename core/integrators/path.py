@@ -69,12 +69,17 @@ def bounce_kind(kind: np.ndarray, transmit: np.ndarray) -> tuple:
     return diffuse, other & ~transmit, other & transmit, transparent
 
 
-def caustics_filter(settings, after_diffuse: np.ndarray):
-    """The caustics filter bits (k,) int of hits that rays reached (closures.FILTER_*), or None: where the
-    path's last real bounce was diffuse (after_diffuse (k,) bool), Cycles' caustics switches take reflective
-    closures away (Reflective Caustics off) and light through glass (Refractive Caustics off)."""
-    bits = ((0 if settings.caustics_reflective else FILTER_REFLECTIVE)
+def caustics_bits(settings) -> int:
+    """The closures.FILTER_* bits Cycles' caustics switches set at hits a diffuse bounce's ray reaches:
+    reflective closures away with Reflective Caustics off, light through glass with Refractive Caustics off."""
+    return ((0 if settings.caustics_reflective else FILTER_REFLECTIVE)
             | (0 if settings.caustics_refractive else FILTER_REFRACTIVE))
+
+
+def caustics_filter(settings, after_diffuse: np.ndarray):
+    """The caustics filter bits (k,) int of hits that rays reached, or None: caustics_bits where the path's
+    last real bounce was diffuse (after_diffuse (k,) bool), 0 elsewhere."""
+    bits = caustics_bits(settings)
     if bits == 0 or not after_diffuse.any():
         return None
     return np.where(after_diffuse, bits, 0)

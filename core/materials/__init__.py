@@ -28,14 +28,14 @@ from .rough_glass import RoughGlass
 from .transparent import Transparent
 
 BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar)
+BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
 # The BSDFs that reflect diffusely (a path's diffuse bounce; Cycles' CLOSURE_IS_BSDF_DIFFUSE).
 DIFFUSE_KINDS = (Lambert.kind, OrenNayar.kind)
 
 
 def is_diffuse(kind: np.ndarray) -> np.ndarray:
-    """Which closure kinds (any shape, int) reflect diffusely."""
-    return (kind == Lambert.kind) | (kind == OrenNayar.kind)
-BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
+    """Which closure kinds (any shape, int) reflect diffusely (DIFFUSE_KINDS)."""
+    return np.isin(kind, DIFFUSE_KINDS)
 
 assert all(cls.kind == index for index, cls in enumerate(BSDF_TYPES)), "a BSDF's kind is its place in BSDF_TYPES"
 
