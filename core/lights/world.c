@@ -81,9 +81,9 @@ INLINE void sample_world(const WorldTables *w, const double *u, LightSample *out
     int64_t y = lo;
     double dy = (u[0] - w->rows[y]) / at_least(w->rows[y + 1] - w->rows[y], 1e-300);
     const double *row = w->columns + y * (mw + 1);
-    int64_t count = 0;
-    for (int64_t x = 0; x <= mw; x++) count += row[x] <= u[1];
-    int64_t x = count - 1;
+    int64_t below = 0, above = mw + 1;                   /* how many entries of the row are <= u1 (binary search) */
+    while (above > below) { int64_t mid = below + (above - below) / 2; if (row[mid] <= u[1]) below = mid + 1; else above = mid; }
+    int64_t x = below - 1;
     x = x < 0 ? 0 : (x > mw - 1 ? mw - 1 : x);
     double dx = (u[1] - row[x]) / at_least(row[x + 1] - row[x], 1e-300);
     dx = dx < 0.0 ? 0.0 : (dx > 1.0 ? 1.0 : dx);

@@ -21,7 +21,7 @@ import numpy as np
 
 from .base import Light, LightHit, LightSample
 
-# The importance map's resolution when the image is larger (a texel per map cell up to this size).
+# The importance map's width (its height is half), whatever the image's (Cycles' default map resolution).
 MAP_WIDTH = 1024
 
 
@@ -133,8 +133,9 @@ class WorldLight(Light):
         """The light of a world with an image (None for a constant or dark world). width: the map's."""
         if world.image is None or not world.lights:
             return None
-        H, W = world.image.shape[:2]
-        w = min(W, width or MAP_WIDTH)
+        # As Cycles, the map has its own resolution, whatever the image's: finer than a small image, so that the
+        # bilinear ramp around a bright texel (a sun) gets the pdf its radiance needs, not its dim neighbour's.
+        w = width or MAP_WIDTH
         h = max(1, w // 2)
         # f at the map's cell centres: the radiance's plain RGB mean, times sin(theta) of the row.
         u = (np.arange(w) + 0.5) / w
@@ -176,9 +177,16 @@ class WorldLight(Light):
         h, w = self.map.shape
         y = np.clip(np.searchsorted(self.rows, u[:, 0], side="right") - 1, 0, h - 1)
         dy = (u[:, 0] - self.rows[y]) / np.maximum(self.rows[y + 1] - self.rows[y], 1e-300)
-        row_cdf = self.columns[y]
-        x = np.clip((row_cdf <= u[:, 1][:, None]).sum(axis=1) - 1, 0, w - 1)
-        lo, hi = row_cdf[np.arange(n), x], row_cdf[np.arange(n), x + 1]
+        # The column: how many entries of the row's cdf are <= u1, by binary search over each sample's row.
+        below, above = np.zeros(n, np.int64), np.full(n, w + 1, np.int64)
+        while (above > below).any():
+            mid = (below + above) // 2
+            go = (above > below) & (self.columns[y, np.minimum(mid, w)] <= u[:, 1])
+            stop = (above > below) & ~go
+            below = np.where(go, mid + 1, below)
+            above = np.where(stop, mid, above)
+        x = np.clip(below - 1, 0, w - 1)
+        lo, hi = self.columns[y, x], self.columns[y, x + 1]
         dx = (u[:, 1] - lo) / np.maximum(hi - lo, 1e-300)
         uu, vv = (x + np.clip(dx, 0.0, 1.0)) / w, (y + np.clip(dy, 0.0, 1.0)) / h
         local = uv_to_direction(uu, vv)
