@@ -277,7 +277,9 @@ def machine_lines(machine: dict) -> list:
             f"{machine.get('total_minutes', float('nan')):.1f} minutes"
             + (f" ({machine['reference_note']})" if machine.get("reference_note") else "")] + [
         f"- Phase {phase} was skipped in this run; its numbers come from the run at commit {commit}"
-        for phase, commit in machine.get("phase_commits", {}).items() if commit != machine["commit"]]
+        for phase, commit in machine.get("phase_commits", {}).items() if commit != machine["commit"]] + [
+        f"- Scene {scene} was measured again alone (its ladder and Cycles', in one job) at commit {commit}"
+        for scene, commit in sorted(machine.get("scene_commits", {}).items())]
 
 
 def ladder_table(results: dict) -> list:
