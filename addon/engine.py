@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
+from ..core.integrators import cryptomatte
 from ..core.teaching import debug
 from . import compositor, export, viewport
 
@@ -57,11 +58,42 @@ def cycles_pass_name(buffer: str, version: tuple = None) -> str:
     return CYCLES_PASSES[buffer][1 if version >= (5, 0, 0) else 2]
 
 
+# Cryptomatte (core/integrators/cryptomatte.py): core buffer -> (view layer toggle, the passes' name prefix).
+CRYPTO_PASSES = {
+    "crypto_object": ("use_pass_cryptomatte_object", "CryptoObject"),
+    "crypto_material": ("use_pass_cryptomatte_material", "CryptoMaterial"),
+    "crypto_asset": ("use_pass_cryptomatte_asset", "CryptoAsset"),
+}
+
+
 def requested_passes(view_layer) -> tuple:
     """Return the first-hit passes (core buffers) whose toggles are on in the view layer, and no more."""
     if view_layer is None:
         return ()
-    return tuple(buffer for buffer, (toggle, *_) in CYCLES_PASSES.items() if getattr(view_layer, toggle, False))
+    toggles = {buffer: toggle for buffer, (toggle, *_) in CYCLES_PASSES.items()}
+    toggles.update({buffer: toggle for buffer, (toggle, _) in CRYPTO_PASSES.items()})
+    return tuple(buffer for buffer, toggle in toggles.items() if getattr(view_layer, toggle, False))
+
+
+def crypto_pass_names(buffer: str, depth: int) -> list:
+    """Return the RGBA passes holding the Cryptomatte buffer `buffer` with `depth` ranks, as Cycles names them
+    ("CryptoObject00", "CryptoObject01", ...)."""
+    prefix = CRYPTO_PASSES[buffer][1]
+    return [f"{prefix}{i:02d}" for i in range(cryptomatte.pass_count(depth))]
+
+
+def add_crypto_metadata(result, exported: export.Export, view_layer: str) -> None:
+    """Store each Cryptomatte's manifest in the render result's metadata, as Cycles does, so that the
+    compositor's Cryptomatte node and other compositors find the names (core/integrators/cryptomatte.py)."""
+    scene = exported.scene
+    names = {"crypto_object": [i.name for i in scene.instances],
+             "crypto_asset": [i.asset or i.name for i in scene.instances],
+             "crypto_material": [m.name for m in scene.materials] + [cryptomatte.DEFAULT_MATERIAL]}
+    for buffer in exported.settings.passes:
+        if buffer in names:
+            kind = buffer.split("_", 1)[1]
+            for key, value in cryptomatte.metadata(view_layer, kind, names[buffer]).items():
+                result.stamp_data_add_field(key, value)
 
 
 # One pass per debug view (README, "Debug views"); the shading normal and depth views match Normal and Depth.
@@ -204,9 +236,13 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
             render_pass.rect = values
 
     # Blender's render result is the border rectangle itself: its coordinates start at the border's corner.
+    crypto_names = {name: (buffer, 4 * i) for buffer in CRYPTO_PASSES if buffer in buffers
+                    for i, name in enumerate(crypto_pass_names(buffer, exported.settings.cryptomatte_depth))}
     result = engine.begin_result(0, 0, w, h)
+    layer_name = ""
     try:
         layer = result.layers[0]
+        layer_name = layer.name
         written = set()
         cycles_names = {cycles_pass_name(buffer): buffer for buffer in CYCLES_PASSES}
         for render_pass in layer.passes:
@@ -217,6 +253,9 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
                 fill(render_pass, block(image))
             elif name in cycles_names and cycles_names[name] in buffers:
                 fill(render_pass, block(buffers[cycles_names[name]]))
+            elif name in crypto_names:
+                buffer, first = crypto_names[name]
+                fill(render_pass, block(buffers[buffer][..., first:first + 4]))
             elif name in STANDARD_PASSES or name in DEBUG_PASSES or name in DENOISING_PASSES:
                 buffer = (STANDARD_PASSES.get(name) or DEBUG_PASSES.get(name) or DENOISING_PASSES[name])[0]
                 if buffer in buffers:
@@ -224,6 +263,9 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
             written.add(name)
     finally:
         engine.end_result(result)
+    if crypto_names:
+        # On the whole frame's result, as Cycles does: what a rectangle's result holds is not kept.
+        add_crypto_metadata(engine.get_result(), exported, layer_name)
 
 
 @contextlib.contextmanager
@@ -447,6 +489,10 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
         for buffer, (toggle, _, _, channels, chan_id, kind) in CYCLES_PASSES.items():
             if getattr(renderlayer, toggle, False):
                 self.register_pass(scene, renderlayer, cycles_pass_name(buffer), channels, chan_id, kind)
+        for buffer, (toggle, _) in CRYPTO_PASSES.items():
+            if getattr(renderlayer, toggle, False):
+                for name in crypto_pass_names(buffer, renderlayer.pass_cryptomatte_depth):
+                    self.register_pass(scene, renderlayer, name, 4, "rgba", "COLOR")   # lower case, as Cycles
         if scene.primer.use_denoising:
             for name, (_, channels, chan_id, kind) in DENOISING_PASSES.items():
                 self.register_pass(scene, renderlayer, name, channels, chan_id, kind)

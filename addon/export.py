@@ -662,6 +662,15 @@ def _terminator_notes(offsets: dict, fix: bool, cutoff: float) -> list:
     return notes
 
 
+def topmost_parent(obj):
+    """Return the object at the top of `obj`'s parent chain (`obj` itself without a parent): Cryptomatte's asset."""
+    seen = {obj.name}
+    while obj.parent is not None and obj.parent.name not in seen:
+        obj = obj.parent
+        seen.add(obj.name)
+    return obj
+
+
 def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, aux: tuple = (),
                  passes: tuple = (), mesh_cache: MeshCache = None) -> Export:
     """Return the evaluated depsgraph as a core scene plus render settings (computing the buffers `aux` and
@@ -746,7 +755,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
                                                   int(getattr(obj, "pass_index", 0)),
                                                   visible_camera=bool(getattr(obj, "visible_camera", True)),
-                                                  visible_shadow=bool(getattr(obj, "visible_shadow", True))))
+                                                  visible_shadow=bool(getattr(obj, "visible_shadow", True)),
+                                                  asset=topmost_parent(obj).name))
 
     if mesh_cache is not None:
         mesh_cache.end()
@@ -758,5 +768,6 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     width, height = frame_size(scene.render)
     border = border_rectangle(scene.render, width, height)
     settings = render_settings(scene, width, height, border, aux, passes)
+    settings.cryptomatte_depth = int(getattr(depsgraph.view_layer, "pass_cryptomatte_depth", 6))
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
     return Export(core, settings, (width, height), border, warnings, meshes_read)

@@ -38,7 +38,7 @@ from .geometry import instancing
 from .geometry.geometry import WorldGeometry, build_geometry
 from .integrators import INTEGRATORS, Context, Recorder
 from .geometry.geometry import HIDDEN_FROM_SHADOW
-from .integrators import features, passes as passes_
+from .integrators import cryptomatte, features, passes as passes_
 from .integrators.compiled import Compiled, why_not
 from .materials import MaterialTable
 from .sampling import sobol as sampling
@@ -224,20 +224,30 @@ def pass_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> dict:
     s = ctx.settings
     p = len(pixels)
     wanted = tuple(s.passes)
+    mattes = [name for name in wanted if name in passes_.CRYPTO_PASSES]
     pixel, sample = sample_keys(pixels, spp, None)
     rays = camera_rays(ctx, s, pixel, sample, spp)
     traced = np.flatnonzero(rays.valid)
-    values = {name: np.zeros((len(pixel), passes_.PASS_CHANNELS[name])) for name in wanted}
+    values = {name: np.zeros((len(pixel), passes_.PASS_CHANNELS[name])) for name in wanted if name not in mattes}
+    found = {}
     if len(traced):
         found = passes_.trace_passes(ctx, wanted, vectors.gather(rays.origins, traced),
                                      vectors.gather(rays.directions, traced), rays.t_max[traced],
                                      pixel[traced], sample[traced])
-        for name in wanted:
+        for name in values:
             values[name][traced] = found[name]
     out = {}
     for name, v in values.items():
         v = v.reshape(p, spp, -1)
         out[name] = v[:, 0] if name in passes_.FIRST_SAMPLE_ONLY else v.mean(axis=1)
+    # Cryptomatte: each surface's coverage goes to its pixel (camera sample // spp), ranked per pixel.
+    ids = found.get("cryptomatte")
+    for name in mattes:
+        if ids is None:
+            out[name] = np.zeros((p, passes_.pass_channels(name, s.cryptomatte_depth)), np.float32)
+            continue
+        out[name] = cryptomatte.rank(traced[ids["sample"]] // spp, ids[name], ids["coverage"], p, spp,
+                                     s.cryptomatte_depth)
     return out
 
 
@@ -247,7 +257,8 @@ def pass_images(ctx: Context, region: np.ndarray, pool, threads: int) -> dict:
     s = ctx.settings
     spp = passes_.pass_samples(s.samples)
     size = s.width * s.height
-    images = {name: np.zeros((size, passes_.PASS_CHANNELS[name])) for name in s.passes}
+    images = {name: np.zeros((size, passes_.pass_channels(name, s.cryptomatte_depth)),
+                             np.float32 if name in passes_.CRYPTO_PASSES else np.float64) for name in s.passes}
     per_chunk = max(1, min(-(-len(region) // max(1, threads)), s.chunk_size // spp))
     parts = [region[i:i + per_chunk] for i in range(0, len(region), per_chunk)]
     for part, values in zip(parts, pool.map(lambda part: pass_chunk(ctx, part, spp), parts)):

@@ -26,6 +26,9 @@ kernel/film/light_passes.h, kernel/integrator/shade_surface.h), followed along e
                 (Cycles keeps it for compositing the background back in)
 - ambient_occlusion  throughput times whether a cosine-distributed ray from the first opaque surface
                 (around its shading normal) escapes within ao_distance: 1 open, 0 occluded (grey, 3 channels)
+- crypto_object, crypto_material, crypto_asset  Cryptomatte (cryptomatte.py): at every surface the ray
+                meets, mean(throughput) x (1 - mean(transparency)) for the surface's object, material or asset
+                id; ranked per pixel into settings.cryptomatte_depth (id, coverage) pairs
 
 Each pass is the mean over PASS_SAMPLES camera samples (fewer when the render takes fewer), at the same
 jittered positions as the render's first samples, with Primer's 1-pixel box filter (Cycles uses its pixel
@@ -45,9 +48,9 @@ from ..materials.lambert import Lambert
 from ..materials.microfacet import Microfacet
 from ..materials.mirror import Mirror
 from ..sampling import sobol as sampling
-from . import shadows
+from . import cryptomatte, shadows
 from .base import Context
-from .direct import lamps_seen
+from .direct import lamps_seen, nearest_seen
 
 # Channels of each pass buffer (core/render.py RenderResult.aux).
 PASS_CHANNELS = {
@@ -55,6 +58,8 @@ PASS_CHANNELS = {
     "diffuse_color": 3, "glossy_color": 3, "transmission_color": 3,
     "emission": 3, "environment": 3, "ambient_occlusion": 3,
 }
+# Cryptomatte's passes: core buffer -> matte kind (cryptomatte.KINDS); their channels follow the depth.
+CRYPTO_PASSES = {"crypto_object": "object", "crypto_material": "material", "crypto_asset": "asset"}
 # Passes Cycles takes from sample 0 alone (overwritten, not averaged).
 FIRST_SAMPLE_ONLY = ("position", "object_index", "material_index")
 # Camera samples per pixel the passes average (at most the render's samples).
@@ -65,6 +70,11 @@ ALPHA_THRESHOLD = 0.5
 AO_DIMENSION = 120
 # The UV map the UV pass reads: the mesh's active render map (core/scene Mesh.attributes).
 UV_ATTRIBUTE = "uv:"
+
+
+def pass_channels(name: str, depth: int) -> int:
+    """Return the channels of the pass `name`: PASS_CHANNELS', or 4 per two Cryptomatte ranks of `depth`."""
+    return 4 * cryptomatte.pass_count(depth) if name in CRYPTO_PASSES else PASS_CHANNELS[name]
 
 
 def pass_samples(samples: int) -> int:
@@ -113,7 +123,9 @@ def trace_passes(ctx: Context, wanted: tuple, O: np.ndarray, D: np.ndarray, t_ma
     float64 up to t_max (n,), as the module docstring says. pixel, sample: (n,) int64 random-number keys."""
     s = ctx.settings
     n = len(O)
-    out = {name: np.zeros((n, PASS_CHANNELS[name])) for name in wanted}
+    out = {name: np.zeros((n, PASS_CHANNELS[name])) for name in wanted if name in PASS_CHANNELS}
+    mattes = [name for name in wanted if name in CRYPTO_PASSES]
+    matte_parts = []                            # (camera sample, object, material, instance, coverage) per surface
     data = [name for name in ("position", "uv", "object_index", "material_index", "ambient_occlusion")
             if name in wanted]
     colours = [name for name in ("diffuse_color", "glossy_color", "transmission_color") if name in wanted]
@@ -124,7 +136,7 @@ def trace_passes(ctx: Context, wanted: tuple, O: np.ndarray, D: np.ndarray, t_ma
     geometry = ctx.geometry
     for bounce in range(max(0, int(s.transparent_max_bounces)) + 1):
         # 1. What the rays meet: the world where they escape (lamps with extent in front of what they hit).
-        found = geometry.tracer.intersect(O, D, t_max)
+        found = nearest_seen(ctx, O, D, t_max)
         hit = np.flatnonzero(found.hit)
         missed = np.flatnonzero(~found.hit)
         if "environment" in wanted and world is not None and world.camera and len(missed):
@@ -150,6 +162,10 @@ def trace_passes(ctx: Context, wanted: tuple, O: np.ndarray, D: np.ndarray, t_ma
         # 3. The data passes, at the first surface opaque enough.
         transparency = np.clip(shader.transparency, 0.0, None)
         opaque = pending & (1.0 - transparency.mean(axis=1) >= ALPHA_THRESHOLD)
+        if mattes:
+            coverage = throughput.mean(axis=1) * (1.0 - transparency.mean(axis=1))
+            _, instance, _ = hit_owners(geometry, surface.prim)
+            matte_parts.append((owner, instance, surface.material, coverage))
         if data and opaque.any():
             rows = np.flatnonzero(opaque)
             write_data_passes(ctx, out, data, rows, owner[rows], surface, shader, throughput[rows], pixel, sample)
@@ -164,6 +180,32 @@ def trace_passes(ctx: Context, wanted: tuple, O: np.ndarray, D: np.ndarray, t_ma
         t_max = np.full(len(through), np.inf)
         owner, pending = owner[through], pending[through]
         throughput = throughput[through] * transparency[through]
+    if mattes:
+        out["cryptomatte"] = matte_ids(ctx, mattes, matte_parts)
+    return out
+
+
+def matte_ids(ctx: Context, mattes: list, parts: list) -> dict:
+    """Return {"sample": (m,) int64 camera samples, "coverage": (m,) float64, name: (m,) float32 ids for each
+    Cryptomatte pass in `mattes`} of the surfaces `parts` (trace_passes' (sample, instance, material,
+    coverage) tuples), with the names cryptomatte.py's docstring gives."""
+    if parts:
+        sample, instance, material, coverage = (np.concatenate(column) for column in zip(*parts))
+    else:
+        sample = instance = material = np.zeros(0, np.int64)
+        coverage = np.zeros(0)
+    out = {"sample": sample, "coverage": coverage}
+    scene = ctx.scene
+    instances = scene.instances or []
+    names = {
+        "crypto_object": [i.name for i in instances],
+        "crypto_asset": [getattr(i, "asset", "") or i.name for i in instances],
+        "crypto_material": [m.name for m in scene.materials] + [cryptomatte.DEFAULT_MATERIAL],
+    }
+    for name in mattes:
+        table = np.array([cryptomatte.name_id(n) for n in names[name]] or [0.0], np.float32)
+        index = material if name == "crypto_material" else instance
+        out[name] = table[np.clip(np.asarray(index, np.int64), 0, len(table) - 1)]
     return out
 
 

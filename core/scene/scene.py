@@ -71,6 +71,7 @@ class Instance:
     visible_camera, visible_shadow: Blender's Object > Visibility > Ray Visibility > Camera and Shadow: camera
                rays (and shadow rays) pass the object as if it were not there; it still lights the scene and
                is seen by every other ray
+    asset:     the name of the object's topmost parent (Cryptomatte's asset); "" for the object's own name
     """
 
     mesh: int
@@ -81,6 +82,7 @@ class Instance:
     pass_index: int = 0
     visible_camera: bool = True
     visible_shadow: bool = True
+    asset: str = ""
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).

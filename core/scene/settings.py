@@ -54,7 +54,10 @@ class RenderSettings:
     shadow_rays_for_backfacing: also trace shadow rays for lights behind the surface (True: the same
                       image, more rays; the lecture skips them, since their visibility is 0)
     passes: the first-hit render passes to return as Cycles writes them (core/integrators/passes.py
-                      PASS_CHANNELS: "position", "uv", "object_index", "diffuse_color", ...), only those asked for
+                      PASS_CHANNELS: "position", "uv", "object_index", "diffuse_color", ...; CRYPTO_PASSES:
+                      "crypto_object", "crypto_material", "crypto_asset"), only those asked for
+    cryptomatte_depth: the (id, coverage) ranks each Cryptomatte pass keeps per pixel (View Layer >
+                      Passes > Cryptomatte > Levels; 6 by default, two per RGBA pass)
     ao_distance: how far the Ambient Occlusion pass's rays look (Blender's World > Ambient Occlusion > Distance)
     """
 
@@ -102,6 +105,7 @@ class RenderSettings:
     shadow_rays_for_backfacing: bool = False
     passes: Sequence[str] = ()
     ao_distance: float = 10.0
+    cryptomatte_depth: int = 6
 
     def is_lecture_default(self) -> bool:
         """Whether every lecture switch is at the lecture's choice (a fast path may then stand in)."""

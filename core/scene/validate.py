@@ -59,7 +59,9 @@ def validate(scene, settings) -> None:
     unknown = set(settings.aux) - set(AUX_BUFFERS)
     if unknown:
         raise ValueError(f"unknown auxiliary buffers {sorted(unknown)}; choose from {list(AUX_BUFFERS)}")
-    from ..integrators.passes import PASS_CHANNELS
-    unknown = set(settings.passes) - set(PASS_CHANNELS)
+    from ..integrators.passes import CRYPTO_PASSES, PASS_CHANNELS
+    unknown = set(settings.passes) - set(PASS_CHANNELS) - set(CRYPTO_PASSES)
     if unknown:
-        raise ValueError(f"unknown render passes {sorted(unknown)}; choose from {list(PASS_CHANNELS)}")
+        raise ValueError(f"unknown render passes {sorted(unknown)}; choose from {list(PASS_CHANNELS) + list(CRYPTO_PASSES)}")
+    if not 1 <= int(settings.cryptomatte_depth) <= 16:
+        raise ValueError(f"cryptomatte_depth must be 1 .. 16 ranks, got {settings.cryptomatte_depth}")

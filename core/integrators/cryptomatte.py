@@ -1,0 +1,135 @@
+"""Cryptomatte: per pixel, which objects, materials and assets cover it and how much, as Cycles writes it.
+
+A matte for compositing without render layers (Friedman and Jones, "Fully automatic ID mattes with support
+for motion blur and transparency", 2015). Each name becomes a 32-bit id by MurmurHash3 (seed 0), stored as
+the float32 with the same bits; a pixel keeps its `depth` ids of largest coverage, ranked, as (id, coverage)
+pairs: two pairs per RGBA pass (CryptoObject00, CryptoObject01, ...). A compositor finds the ids by name
+again through the manifest (name -> hex id) stored in the image's metadata.
+
+Coverage follows Cycles (kernel/film/data_passes.h): along each camera sample, every surface the ray meets
+(through transparent surfaces, up to the transparent bounce limit) adds mean(throughput) x (1 -
+mean(transparency)) to its id, the one opaque enough for the data passes (passes.ALPHA_THRESHOLD) and those
+behind it alike; the pixel's value is the sum over its samples divided by their count. So an object behind a
+60 % transparent plane covers 0.6 of the pixel and the plane 0.4, and the background covers nothing.
+
+Names, as Cycles gives them (checked against Cycles' own manifest): the object is the object's name (an
+instanced object's own name, not its instancer's); the asset is its topmost parent's name (the object itself
+without a parent); the material is the material's name, "default_surface" for triangles without one.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+# The kinds of matte, Blender's View Layer > Passes > Cryptomatte toggles, and their pass names.
+KINDS = ("object", "material", "asset")
+PASS_PREFIX = {"object": "CryptoObject", "material": "CryptoMaterial", "asset": "CryptoAsset"}
+# Cycles' name for the surface of triangles without a material.
+DEFAULT_MATERIAL = "default_surface"
+
+
+def murmur3_32(data: bytes, seed: int = 0) -> int:
+    """MurmurHash3's 32-bit x86 variant of `data` (Austin Appleby's public-domain hash)."""
+    c1, c2, mask = 0xCC9E2D51, 0x1B873593, 0xFFFFFFFF
+    h = seed & mask
+    whole = len(data) - len(data) % 4
+    # 1. Four bytes at a time, little-endian: mix each block into the hash.
+    for i in range(0, whole, 4):
+        k = int.from_bytes(data[i:i + 4], "little")
+        k = (k * c1) & mask
+        k = ((k << 15) | (k >> 17)) & mask
+        k = (k * c2) & mask
+        h ^= k
+        h = ((h << 13) | (h >> 19)) & mask
+        h = (h * 5 + 0xE6546B64) & mask
+    # 2. The last one to three bytes.
+    tail = data[whole:]
+    if tail:
+        k = int.from_bytes(tail, "little")
+        k = (k * c1) & mask
+        k = ((k << 15) | (k >> 17)) & mask
+        k = (k * c2) & mask
+        h ^= k
+    # 3. Finalise: fold in the length and avalanche the bits.
+    h ^= len(data)
+    h ^= h >> 16
+    h = (h * 0x85EBCA6B) & mask
+    h ^= h >> 13
+    h = (h * 0xC2B2AE35) & mask
+    h ^= h >> 16
+    return h
+
+
+def name_hash(name: str) -> int:
+    """The 32-bit id of `name` as Cryptomatte stores it: an exponent of all zeros or all ones (a denormal,
+    an infinity or a NaN once read as a float) has its lowest exponent bit flipped."""
+    h = murmur3_32(name.encode("utf-8"))
+    exponent = (h >> 23) & 0xFF
+    if exponent in (0, 255):
+        h ^= 1 << 23
+    return h
+
+
+def name_id(name: str) -> np.float32:
+    """The float32 whose bits are name_hash(name): the value a Cryptomatte pass holds for `name`."""
+    return np.array([name_hash(name)], np.uint32).view(np.float32)[0]
+
+
+def layer_key(layer: str) -> str:
+    """The metadata key of the matte layer `layer` ("ViewLayer.CryptoObject"): the first 7 hex digits of its
+    hash, as in "cryptomatte/542cafa/name"."""
+    return f"{murmur3_32(layer.encode('utf-8')):08x}"[:7]
+
+
+def manifest(names) -> str:
+    """The manifest of `names`: a JSON object name -> 8 hex digits of its id."""
+    return json.dumps({name: f"{name_hash(name):08x}" for name in dict.fromkeys(names)}, separators=(",", ":"))
+
+
+def metadata(view_layer: str, kind: str, names) -> dict:
+    """The image metadata that lets a compositor find `names` (their manifest) in the matte `kind` of the
+    view layer `view_layer`: key -> value, as Cycles writes it."""
+    layer = f"{view_layer}.{PASS_PREFIX[kind]}"
+    prefix = f"cryptomatte/{layer_key(layer)}/"
+    return {prefix + "name": layer, prefix + "hash": "MurmurHash3_32", prefix + "conversion": "uint32_to_float32",
+            prefix + "manifest": manifest(names)}
+
+
+def pass_count(depth: int) -> int:
+    """How many RGBA passes (two ranks each) hold `depth` ranks."""
+    return max(1, (int(depth) + 1) // 2)
+
+
+def rank(pixel: np.ndarray, ids: np.ndarray, weight: np.ndarray, pixels: int, samples: int,
+         depth: int) -> np.ndarray:
+    """The ranked (id, coverage) pairs of `pixels` pixels: (pixels, 4 * pass_count(depth)) float32.
+
+    pixel: (m,) int64 the pixel (0 .. pixels - 1) of each contribution; ids: (m,) float32 ids; weight: (m,)
+    float64 coverage of one sample; samples: the samples each pixel took (coverage = sum / samples). Per pixel
+    the ids come in order of falling coverage (equal coverage: smaller id first), `depth` of them at most; the
+    rest of the row is 0 (no id, no coverage). Cycles keeps the first `depth` ids a pixel meets and ranks those:
+    the same unless a pixel sees more than `depth` ids.
+    """
+    out = np.zeros((pixels, 2 * 2 * pass_count(depth)), np.float32)
+    keep = weight > 0.0
+    if not keep.any():
+        return out
+    pixel, bits, weight = pixel[keep], ids[keep].view(np.uint32), weight[keep]
+    # 1. Sum each (pixel, id)'s coverage over the samples.
+    key = (pixel.astype(np.uint64) << np.uint64(32)) | bits.astype(np.uint64)
+    unique, inverse = np.unique(key, return_inverse=True)
+    coverage = np.bincount(inverse, weights=weight) / max(1, samples)
+    where = (unique >> np.uint64(32)).astype(np.int64)
+    ident = (unique & np.uint64(0xFFFFFFFF)).astype(np.uint32)
+    # 2. Rank within each pixel: by pixel, then by falling coverage, then by id.
+    order = np.lexsort((ident, -coverage, where))
+    where, ident, coverage = where[order], ident[order], coverage[order]
+    first = np.searchsorted(where, where, side="left")
+    place = np.arange(len(where)) - first
+    kept = place < depth
+    # 3. Write (id, coverage) into each pixel's slots.
+    rows, slots = where[kept], place[kept]
+    out[rows, 2 * slots] = ident[kept].view(np.float32)
+    out[rows, 2 * slots + 1] = coverage[kept]
+    return out
