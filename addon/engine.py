@@ -27,9 +27,11 @@ from . import compositor, export, viewport
 log = logging.getLogger("primer")
 
 # Passes that Primer writes besides Combined: Blender name -> (core buffer, channels, chan ids, type).
+# Both come from the first-hit passes (core/integrators/passes.py: z_depth, average_normal), so the compiled
+# kernels still render the image.
 STANDARD_PASSES = {
-    "Depth": ("depth", 1, "Z", "VALUE"),
-    "Normal": ("normal", 3, "XYZ", "VECTOR"),
+    "Depth": ("z_depth", 1, "Z", "VALUE"),
+    "Normal": ("average_normal", 3, "XYZ", "VECTOR"),
 }
 # The compositor's Denoise node reads these (Cycles' names and channels); written with Render > Denoise.
 DENOISING_PASSES = {
@@ -70,7 +72,8 @@ def requested_passes(view_layer) -> tuple:
     """Return the first-hit passes (core buffers) whose toggles are on in the view layer, and no more."""
     if view_layer is None:
         return ()
-    toggles = {buffer: toggle for buffer, (toggle, *_) in CYCLES_PASSES.items()}
+    toggles = {"z_depth": "use_pass_z", "average_normal": "use_pass_normal"}
+    toggles.update({buffer: toggle for buffer, (toggle, *_) in CYCLES_PASSES.items()})
     toggles.update({buffer: toggle for buffer, (toggle, _) in CRYPTO_PASSES.items()})
     return tuple(buffer for buffer, toggle in toggles.items() if getattr(view_layer, toggle, False))
 
@@ -121,10 +124,6 @@ PER_LIGHT = ("n_dot_l", "visibility")
 def requested_buffers(props, view_layer) -> tuple:
     """Return the core buffers that the enabled passes and the debug view need, and no more."""
     wanted = set()
-    if view_layer is not None and view_layer.use_pass_z:
-        wanted.add("depth")
-    if view_layer is not None and view_layer.use_pass_normal:
-        wanted.add("normal")
     if props.debug_passes:
         wanted.update(buffer for buffer, *_ in DEBUG_PASSES.values())
     if props.debug_view != "NONE":

@@ -228,7 +228,8 @@ def pass_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> dict:
     pixel, sample = sample_keys(pixels, spp, None)
     rays = camera_rays(ctx, s, pixel, sample, spp)
     traced = np.flatnonzero(rays.valid)
-    values = {name: np.zeros((len(pixel), passes_.PASS_CHANNELS[name])) for name in wanted if name not in mattes}
+    values = {name: np.zeros((len(pixel), passes_.PASS_CHANNELS[name] + (name in passes_.HIT_MEAN)))
+              for name in wanted if name not in mattes}
     found = {}
     if len(traced):
         found = passes_.trace_passes(ctx, wanted, vectors.gather(rays.origins, traced),
@@ -239,7 +240,11 @@ def pass_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> dict:
     out = {}
     for name, v in values.items():
         v = v.reshape(p, spp, -1)
-        out[name] = v[:, 0] if name in passes_.FIRST_SAMPLE_ONLY else v.mean(axis=1)
+        if name in passes_.HIT_MEAN:            # the mean over the samples that hit: the last channel counts them
+            count = v[..., -1].sum(axis=1)[:, None]
+            out[name] = np.where(count > 0, v[..., :-1].sum(axis=1) / np.maximum(count, 1), passes_.HIT_MEAN[name])
+        else:
+            out[name] = v[:, 0] if name in passes_.FIRST_SAMPLE_ONLY else v.mean(axis=1)
     # Cryptomatte: each surface's coverage goes to its pixel (camera sample // spp), ranked per pixel.
     ids = found.get("cryptomatte")
     for name in mattes:

@@ -226,6 +226,7 @@ def test_hit_distance_is_t_along_the_unit_ray(primer, tmp_path):
     """I = O + tD: t over the depth along the view axis is |P - O| for the screen point P at distance 1,
     in every pixel that hits; the Hit Distance view shows t from white (nearest) to black (farthest)."""
     scene = open_scene("light_point")
+    scene.primer.use_adaptive_sampling = False     # the Depth pass averages the first 16 samples: these same ones
     passes = render(primer, scene, str(tmp_path / "t.exr"), view="HIT_DISTANCE", passes=("Depth", "Primer"))
     save("hit_distance", passes["Combined"])
     position, V, D, length = lecture_camera(scene, TARGETS["light_point"])
@@ -823,3 +824,133 @@ def test_russian_roulette_is_unbiased_cheaper_and_noisier(primer, tmp_path):
     assert with_rr[..., :3].mean() == pytest.approx(without[..., :3].mean(), rel=0.02)
     assert rays_rr < 0.9 * rays_all
     assert error_rr > error_all
+
+
+# ---------------------------------------------------------------------------
+# 18-21. What real scenes need: textures, normal maps, microfacets, emitters and the world
+# ---------------------------------------------------------------------------
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    """Rec. 709 luminance of linear RGB (..., 3)."""
+    return rgb[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
+
+
+def edges_along(row: np.ndarray, jump: float) -> int:
+    """How many times the values (w,) of a row jump by more than `jump` (relative) from one pixel to the next."""
+    ratio = np.abs(np.diff(np.log(np.maximum(row, 1e-6))))
+    return int((ratio > np.log(1.0 + jump)).sum())
+
+
+def test_a_texture_is_looked_up_at_the_uv_the_mapping_scales(primer, tmp_path):
+    """The checker floor reads its image at UV x Mapping Scale (Closest: each texel a flat square): doubling
+    the scale from 3 to 6 doubles the checker squares along a row of the floor; the UV pass shows the (u, v)
+    each pixel looks the texture up at, inside 0..1 on the floor."""
+    scene = open_scene("materials_textures")
+    scene.primer.use_adaptive_sampling = False
+    scene.view_layers[0].use_pass_uv = True
+    mapping = bpy.data.materials["Checker Floor"].node_tree.nodes["Mapping"]
+    pictures = {}
+    for scale in (3.0, 6.0):
+        mapping.inputs["Scale"].default_value = (scale, scale, 1.0)
+        result = render(primer, scene, str(tmp_path / f"scale{scale:g}.exr"))
+        pictures[scale] = save(f"texture_scale_{scale:g}", result["Combined"])
+        uv = result["UV"]
+    # The UV pass's channels come as A, U, V (Blender sorts them): show (u, v, 0).
+    save("texture_uv", np.concatenate([uv[..., 1:3], np.zeros_like(uv[..., :1]), np.ones_like(uv[..., :1])], axis=-1))
+    row = pictures[3.0].shape[0] - 4                              # near the bottom: the floor alone
+    counts = {scale: edges_along(luminance(pictures[scale][row]), 0.3) for scale in pictures}
+    assert counts[3.0] >= 4
+    assert 1.6 <= counts[6.0] / counts[3.0] <= 2.4
+    assert np.all(uv[row, :, 0] == 1.0) and np.all((uv[row, :, 1:] >= 0.0) & (uv[row, :, 1:] <= 1.0))
+
+
+def test_a_normal_map_turns_the_shading_normal_only(primer, tmp_path):
+    """With the Normal Map's Strength at 0 the sphere's Normal pass is its smooth normal, (P - centre) / r
+    from the Position pass; at 1 the bumps of the tangent-space map turn it away by several degrees, while
+    the sphere's silhouette (its coverage) stays the same: the normal map changes shading, not geometry."""
+    scene = open_scene("materials_textures")
+    scene.primer.use_adaptive_sampling = False
+    scene.view_layers[0].use_pass_position = True
+    scene.view_layers[0].use_pass_object_index = True
+    sphere = scene.objects["Mapped Sphere"]
+    sphere.pass_index = 7
+    centre, radius = np.array(sphere.matrix_world.translation), sphere.dimensions[0] / 2.0
+    node = bpy.data.materials["Normal Mapped"].node_tree.nodes["Normal Map"]
+    angles, coverage = {}, {}
+    for strength in (0.0, 1.0):
+        node.inputs["Strength"].default_value = strength
+        result = render(primer, scene, str(tmp_path / f"n{strength:g}.exr"), passes=("Normal",))
+        save(f"normal_map_{strength:g}", result["Combined"])
+        if strength == 1.0:
+            save("normal_map_pass", np.concatenate([0.5 + 0.5 * result["Normal"], np.ones_like(result["Normal"][..., :1])], -1))
+        on = result["Object Index"][..., 0] == 7
+        coverage[strength] = on.sum()
+        smooth = (result["Position"][on] - centre) / radius
+        smooth /= np.linalg.norm(smooth, axis=-1, keepdims=True)
+        N = result["Normal"][on]
+        cosines = np.clip(np.einsum("ij,ij->i", N / np.linalg.norm(N, axis=-1, keepdims=True), smooth), -1, 1)
+        angles[strength] = np.degrees(np.arccos(cosines))
+    assert coverage[0.0] == coverage[1.0] > 100
+    assert np.median(angles[0.0]) < 2.0                           # the smooth normal of a 48 x 24 sphere
+    assert np.median(angles[1.0]) > 10.0                          # the bumps
+
+
+def test_a_rougher_microfacet_highlight_is_wider_and_dimmer(primer, tmp_path):
+    """The Plastic sphere's GGX highlight of the point lamp at Roughness 0.1, 0.3 and 0.6: the peak falls and
+    the highlight spreads over more pixels as the microfacet normals spread; with Specular IOR Level 0
+    (F0 = 0, no Fresnel reflection) the highlight is gone and only the diffuse base remains."""
+    scene = open_scene("materials_principled")
+    scene.primer.use_adaptive_sampling = False
+    scene.view_layers[0].use_pass_object_index = True
+    sphere = scene.objects["Sphere 0"]
+    sphere.pass_index = 3
+    principled = bpy.data.materials["Plastic"].node_tree.nodes["Principled BSDF"]
+    stats = {}
+    for name, roughness, level in (("0.1", 0.1, 0.5), ("0.3", 0.3, 0.5), ("0.6", 0.6, 0.5), ("no_specular", 0.3, 0.0)):
+        principled.inputs["Roughness"].default_value = roughness
+        principled.inputs["Specular IOR Level"].default_value = level
+        result = render(primer, scene, str(tmp_path / f"r{name}.exr"))
+        save(f"microfacet_{name}", result["Combined"])
+        on = result["Object Index"][..., 0] == 3
+        Y = luminance(result["Combined"][on])
+        stats[name] = (Y.max(), np.median(Y), (Y > 2.0 * np.median(Y)).sum())
+    assert stats["0.1"][0] > stats["0.3"][0] > stats["0.6"][0]
+    assert stats["0.3"][2] > stats["0.1"][2]
+    assert stats["no_specular"][0] < 0.5 * stats["0.3"][0]
+
+
+def test_emitters_and_the_world_light_the_scene_and_light_adds_up(primer, tmp_path):
+    """An emissive mesh is a light: the light_emissive stage at the ceiling lamp's strength s and 2s differs
+    from the stage with the lamp at 0 by a factor of 2 (light is linear in its sources). The world is a light:
+    with world_light's sun at 0, open floor far from the objects shows albedo x the world's radiance (a Lambert
+    plane under a uniform sky: L = rho x L_world), and the ground under the objects is darker, shadowed by them."""
+    scene = open_scene("light_emissive", samples=64)
+    scene.primer.use_adaptive_sampling = False
+    emission = bpy.data.materials["Ceiling Lamp"].node_tree.nodes["Emission"].inputs["Strength"]
+    s = emission.default_value
+    images = {}
+    for factor in (0.0, 1.0, 2.0):
+        emission.default_value = s * factor
+        images[factor] = render(primer, scene, str(tmp_path / f"e{factor:g}.exr"))["Combined"][..., :3]
+    save("emitter_lamp", np.concatenate([images[1.0], np.ones_like(images[1.0][..., :1])], -1))
+    lit = luminance(images[1.0] - images[0.0]) > 0.02
+    ratio = luminance(images[2.0] - images[0.0])[lit].mean() / luminance(images[1.0] - images[0.0])[lit].mean()
+    assert lit.mean() > 0.3 and ratio == pytest.approx(2.0, rel=0.03)
+    scene = open_scene("world_light", samples=64)
+    scene.primer.use_adaptive_sampling = False
+    scene.objects["Sun"].data.energy = 0.0
+    picture = save("world_sky_only", render(primer, scene, str(tmp_path / "sky.exr"))["Combined"])
+    background = scene.world.node_tree.nodes["Background"]
+    sky = np.array(background.inputs["Color"].default_value[:3]) * background.inputs["Strength"].default_value
+    rho = np.array(bpy.data.materials["Grey"].node_tree.nodes["Diffuse BSDF"].inputs["Color"].default_value[:3])
+    corner = picture[-6:, :6, :3].reshape(-1, 3)                   # floor in the bottom-left corner
+    np.testing.assert_allclose(corner.mean(axis=0), rho * sky, rtol=0.05)
+
+
+def test_every_picture_the_tour_shows_exists():
+    """Each docs/images/tour/*.png that docs/tour.md links to is there (this module's tests write them)."""
+    with open(TOUR, encoding="utf-8") as fh:
+        shown = set(re.findall(r"images/tour/([\w.-]+)\.png", fh.read()))
+    assert len(shown) > 40
+    missing = sorted(name for name in shown if not os.path.isfile(os.path.join(PICTURES, f"{name}.png")))
+    assert not missing, missing

@@ -11,6 +11,11 @@ kernel/film/light_passes.h, kernel/integrator/shade_surface.h), followed along e
     position        the world-space hit point, of sample 0 only (not anti-aliased, as in Cycles)
     object_index    the object's Pass Index, of sample 0 only
     material_index  the material's Pass Index, of sample 0 only
+    z_depth         the hit's distance along the camera's forward axis (Blender's Depth pass), the mean over
+                    the samples that hit, MISS_DEPTH where none did (Cycles keeps sample 0's)
+    average_normal  the closures' normals weighed by their mean weight, normalised (the shading normal where
+                    no closure says otherwise: normal maps and bump included), world space, the mean over
+                    samples (Cycles' Normal pass, surface_shader_average_normal)
     uv              (u, v, 1) of the object's active render UV map, the mean over samples: the third channel
                     is the share of samples that hit a surface (0 where they all missed)
 - The colour passes add, at every surface the ray meets before it scatters, throughput times the sum over
@@ -54,12 +59,14 @@ from .direct import lamps_seen, nearest_seen
 
 # Channels of each pass buffer (core/render.py RenderResult.aux).
 PASS_CHANNELS = {
-    "position": 3, "uv": 3, "object_index": 1, "material_index": 1,
+    "position": 3, "uv": 3, "object_index": 1, "material_index": 1, "z_depth": 1, "average_normal": 3,
     "diffuse_color": 3, "glossy_color": 3, "transmission_color": 3,
     "emission": 3, "environment": 3, "ambient_occlusion": 3,
 }
 # Cryptomatte's passes: core buffer -> matte kind (cryptomatte.KINDS); their channels follow the depth.
 CRYPTO_PASSES = {"crypto_object": "object", "crypto_material": "material", "crypto_asset": "asset"}
+# Passes averaged over the samples that hit (the others do not count), with their value where none hit.
+HIT_MEAN = {"z_depth": 1e10}
 # Passes Cycles takes from sample 0 alone (overwritten, not averaged).
 FIRST_SAMPLE_ONLY = ("position", "object_index", "material_index")
 # Camera samples per pixel the passes average (at most the render's samples).
@@ -123,11 +130,11 @@ def trace_passes(ctx: Context, wanted: tuple, O: np.ndarray, D: np.ndarray, t_ma
     float64 up to t_max (n,), as the module docstring says. pixel, sample: (n,) int64 random-number keys."""
     s = ctx.settings
     n = len(O)
-    out = {name: np.zeros((n, PASS_CHANNELS[name])) for name in wanted if name in PASS_CHANNELS}
+    out = {name: np.zeros((n, PASS_CHANNELS[name] + (name in HIT_MEAN))) for name in wanted if name in PASS_CHANNELS}
     mattes = [name for name in wanted if name in CRYPTO_PASSES]
     matte_parts = []                            # (camera sample, object, material, instance, coverage) per surface
-    data = [name for name in ("position", "uv", "object_index", "material_index", "ambient_occlusion")
-            if name in wanted]
+    data = [name for name in ("position", "uv", "object_index", "material_index", "ambient_occlusion", "z_depth",
+                              "average_normal") if name in wanted]
     colours = [name for name in ("diffuse_color", "glossy_color", "transmission_color") if name in wanted]
     owner = np.arange(n)
     throughput = np.ones((n, 3))
@@ -233,10 +240,25 @@ def write_data_passes(ctx: Context, out: dict, data: list, rows: np.ndarray, own
             values, _, _ = hit_attributes(geometry, attribute_rows, surface.u[rows], surface.v[rows])
             uv[:, :2] = values[:, layout[0]:layout[0] + 2]
         out["uv"][owner] = uv
+    if "z_depth" in data:            # a last channel counts the samples that hit (HIT_MEAN)
+        camera = surface.I[rows] + ctx.extra["camera_offset"]
+        out["z_depth"][owner] = np.stack([camera @ ctx.extra["forward"], np.ones(len(rows))], axis=-1)
+    if "average_normal" in data:
+        out["average_normal"][owner] = average_normal(shader.closures, shader.N, rows)
     if "ambient_occlusion" in data:
         out["ambient_occlusion"][owner] += throughput * ambient_occlusion(
             ctx, surface.I[rows], surface.Ng[rows], surface.vertices[rows], shader.N[rows], pixel[owner],
             sample[owner])[:, None]
+
+
+def average_normal(closures, N: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Return the unit normals (k, 3) float64 of the hits `rows` (k,) int64: their closures' normals weighed by
+    |mean(weight)| (the Transparent BSDF left out), or the shading normal N (m, 3) where they have none."""
+    kind, weight, normals = closures.kind[rows], closures.weight[rows], closures.N[rows]
+    w = np.where((kind >= 0) & (kind != materials_.Transparent.kind), np.abs(weight.mean(axis=-1)), 0.0)
+    total = np.einsum("nk,nkj->nj", w, normals)
+    length = np.linalg.norm(total, axis=-1, keepdims=True)
+    return np.where(length > 0.0, total / np.where(length > 0.0, length, 1.0), N[rows])
 
 
 def ambient_occlusion(ctx: Context, I: np.ndarray, Ng: np.ndarray, vertices: np.ndarray, N: np.ndarray,
