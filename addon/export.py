@@ -481,7 +481,7 @@ def _environment(world, background, warnings: list):
     image = materials_.load_image(texture.image, reader, texture)
     if image is None:
         return None
-    pixels = np.asarray(image.pixels, np.float32)[:, :, :3]
+    pixels = image.rgba()[:, :, :3]
     if image.srgb:
         from ..core.film import image_io
         pixels = image_io.srgb_to_linear(pixels.astype(np.float64)).astype(np.float32)

@@ -347,11 +347,17 @@ def load_image(image, reader: NodeReader, node):
             why = str(error) or type(error).__name__
     else:
         why = f"source {image.source} is not supported"
-    if pixels is None or pixels.size == 0 or not np.isfinite(pixels).all():
+    if pixels is None or pixels.size == 0:
         reader.warn(node, f"image '{image.name}' could not be read ({why or 'no pixels'}); Primer renders it magenta, "
                           "as Cycles does")
         cache[key] = None
         return None
+    if pixels.dtype.kind == "f":
+        bad = ~np.isfinite(pixels)
+        if bad.any():
+            reader.warn(node, f"image '{image.name}' has {int(bad.any(axis=-1).sum())} NaN or infinite pixel(s); "
+                              "Primer reads them as 0")
+            pixels = np.where(bad, np.float32(0.0), pixels)
     cache[key] = textures_.Image(pixels, srgb=space == "sRGB", name=image.name)
     return cache[key]
 
@@ -406,14 +412,18 @@ def _read_pixels(image) -> np.ndarray:
 
 
 def _oiio_read(oiio, path: str) -> np.ndarray:
-    """An image file's pixels with OpenImageIO, flipped to bottom row first."""
+    """An image file's pixels with OpenImageIO at their stored precision (uint8 for 8-bit files, uint16 for
+    16-bit ones, else float32), flipped to bottom row first."""
     buf = oiio.ImageBuf(path)
     if buf.has_error:
         raise OSError(buf.geterror())
-    pixels = buf.get_pixels(oiio.FLOAT)
+    stored = buf.spec().format.basetype
+    kind, dtype = ((oiio.UINT8, np.uint8) if stored == oiio.UINT8 else
+                   (oiio.UINT16, np.uint16) if stored == oiio.UINT16 else (oiio.FLOAT, np.float32))
+    pixels = buf.get_pixels(kind)
     if pixels is None or buf.has_error:
         raise OSError(buf.geterror() or "unreadable")
-    pixels = np.asarray(pixels, np.float32)
+    pixels = np.asarray(pixels, dtype)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
     return np.ascontiguousarray(pixels[::-1])

@@ -143,7 +143,8 @@ inverts = find(factors[0][0], "INVERT", [])
 missing_nodes = find(table["Missing"].nodes[0][2]["emission"], "IMAGE", [])
 roughness = table["Noisy"].nodes[0][2]["roughness"]
 report(warnings=exported.warnings,
-       images=[None if n.props["image"] is None else n.props["image"].pixels[:, :, :3].tolist() for n in images],
+       images=[None if n.props["image"] is None else n.props["image"].rgba()[:, :, :3].tolist() for n in images],
+       dtypes=[None if n.props["image"] is None else n.props["image"].pixels.dtype.name for n in images],
        srgb=[None if n.props["image"] is None else n.props["image"].srgb for n in images],
        inverts=len(inverts), missing=[n.props["image"] is None for n in missing_nodes],
        roughness=float(roughness), uv=[sorted(m.attributes) for m in exported.scene.meshes])
@@ -158,6 +159,7 @@ def test_images_from_files_and_packed_bytes_groups_and_warnings(tmp_path):
     for pixels in result["images"]:
         np.testing.assert_allclose(pixels, expected, atol=1e-6)
     assert sorted(result["srgb"]) == [False, True]
+    assert result["dtypes"] == ["uint8", "uint8"]             # 8-bit files stay 8-bit
     assert result["inverts"] == 1                            # the group's Invert, reached through reroutes
     assert result["missing"] == [True]
     assert result["roughness"] == pytest.approx(0.25)      # the unknown node's input keeps its own value
@@ -221,3 +223,87 @@ def test_object_random_is_cycles_per_object_and_per_instance(tmp_path):
     assert len(result["randoms"]) == 6
     assert len(set(result["randoms"])) == 6                # different for every object and instance
     np.testing.assert_allclose(result["randoms"], result["cycles"], rtol=1e-5, atol=1e-6)
+
+
+STORED = PRELUDE + """
+import OpenImageIO as oiio
+render_ = sys.modules[primer.__name__ + ".core.render"]
+
+
+def write(name, pixels, kind):
+    path = os.path.join(os.getcwd(), name)
+    out = oiio.ImageOutput.create(path)
+    out.open(path, oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], kind))
+    out.write_image(pixels)
+    out.close()
+    return path
+
+
+# A 16384 x 4 8-bit RGB ramp (red grows along u), a 16-bit grey image, and a float EXR with NaN and infinite
+# texels, each the colour of an emitting plane; the EXR is the world's HDRI too.
+wide = np.zeros((4, 16384, 3), np.uint8)
+wide[..., 0] = (np.arange(16384) * 255 // 16383).astype(np.uint8)
+grey16 = np.full((2, 2, 1), 13107, np.uint16)                   # 0.2 exactly
+broken = np.full((2, 2, 3), 0.5, np.float32)
+broken[0, 0] = (np.nan, np.inf, -np.inf)
+paths = [write("wide.png", wide, oiio.UINT8), write("grey16.png", grey16, oiio.UINT16),
+         write("broken.exr", broken, oiio.FLOAT)]
+for i, path in enumerate(paths):
+    mat, tree, output = material(f"Image {{i}}")
+    node = tree.nodes.new("ShaderNodeTexImage")
+    node.image = bpy.data.images.load(path)
+    node.image.colorspace_settings.name = "Non-Color"
+    node.interpolation = "Closest"
+    emission = tree.nodes.new("ShaderNodeEmission")
+    tree.links.new(node.outputs["Color"], emission.inputs["Color"])
+    tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    plane(f"P{{i}}", mat, (2 * i, 0, 0))
+world = bpy.data.worlds.new("HDRI")
+scene.world = world
+if bpy.app.version < (5, 0, 0):
+    world.use_nodes = True
+environment = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+environment.image = bpy.data.images.load(paths[2])
+background = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
+world.node_tree.links.new(environment.outputs["Color"], background.inputs["Color"])
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+scene.camera = camera
+camera.location = (2, 0, 6)
+scene.render.resolution_x, scene.render.resolution_y = 96, 32
+exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+images = {{}}
+for material in exported.scene.materials:
+    for entry in material.nodes:
+        value = entry[2].get("emission")
+        node = getattr(value, "node", None)
+        while node is not None and node.kind != "IMAGE":
+            node = next((v.node for v in node.inputs.values() if isinstance(v, graph.Link)), None)
+        if node is not None:
+            image = node.props["image"]
+            images[material.name] = (image.pixels.dtype.name, list(image.pixels.shape), image.rgba()[..., :3].tolist()
+                                     if image.pixels.shape[1] <= 2 else image.rgba()[0, [0, 8192, 16383], :3].tolist())
+settings = exported.settings
+settings.samples = 4
+result = render_.render(exported.scene, settings)
+report(warnings=exported.warnings, images=images, finite=bool(np.isfinite(result.image).all()),
+       world_finite=bool(np.isfinite(exported.scene.world.image).all()))
+"""
+
+
+def test_images_keep_their_stored_precision_and_bad_texels_are_read_as_zero(tmp_path):
+    """An 8-bit 16384-texel-wide image stays bytes (a quarter of floats' memory), a 16-bit grey one 16-bit and
+    one channel, read as value / maximum; NaN and infinite texels of a float image (a texture and the world's
+    HDRI) are read as 0 with a warning, and the render has no NaN pixel."""
+    result = run_bpy(STORED.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    wide, grey, broken = (result["images"][f"Image {i}"] for i in range(3))
+    assert wide[:2] == ["uint8", [4, 16384, 3]]
+    np.testing.assert_allclose(np.array(wide[2])[:, 0], [0.0, 8192 * 255 // 16383 / 255.0, 1.0], atol=1e-9)
+    assert grey[:2] == ["uint16", [2, 2, 1]]
+    np.testing.assert_allclose(grey[2], 0.2, atol=1e-12)            # grey to RGB: 13107 / 65535
+    assert broken[0] == "float32" and np.isfinite(broken[2]).all()
+    assert broken[2][1][0] == [0.0, 0.0, 0.0]                       # the file's top-left texel (rows bottom first)
+    assert broken[2][0][0] == [0.5, 0.5, 0.5]
+    warnings = "\n".join(result["warnings"])
+    assert "NaN or infinite" in warnings and "broken.exr" in warnings
+    assert result["finite"] and result["world_finite"]

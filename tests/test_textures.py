@@ -349,3 +349,31 @@ def test_the_compiled_graph_computes_what_the_reference_computes_for_every_op():
     assert compiled.stats.kernels == "compiled"
     np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
     assert np.isfinite(reference.image).all() and reference.image[..., :3].std() > 0.05
+
+
+@pytest.mark.parametrize("which", LOOKUPS, ids=["numpy", "compiled"])
+def test_stored_texels_read_as_value_over_their_maximum_grey_as_rgb_and_alpha_one_where_missing(which):
+    """8-bit texels read as x / 255, 16-bit ones as x / 65535; one channel is grey (R = G = B, alpha 1), two are
+    grey and alpha, three have alpha 1: the same RGBA whatever the image was stored as."""
+    images = [textures.Image(np.array([[[0, 51, 255, 102]]], np.uint8)),
+              textures.Image(np.array([[[13107]]], np.uint16)),
+              textures.Image(np.array([[[51, 204]]], np.uint8)),
+              textures.Image(np.array([[[0.25, 0.5, 2.0]]], np.float32))]
+    tex = textures.TextureSet.of(images)
+    expected = [(0.0, 0.2, 1.0, 0.4), (0.2, 0.2, 0.2, 1.0), (0.2, 0.2, 0.2, 0.8), (0.25, 0.5, 2.0, 1.0)]
+    for index, rgba in enumerate(expected):
+        x = y = np.array([0.5])
+        if which is None:
+            found = textures.compiled_lookup(tex, index, x, y, 1, 1)
+        else:
+            found = tex.lookup(index, x, y, 1, 1)
+        np.testing.assert_allclose(found[0], rgba, rtol=1e-12, atol=1e-15)
+
+
+def test_an_8_bit_image_takes_a_quarter_of_the_memory_of_floats():
+    """Images keep their stored type: 8-bit RGBA texels are one byte per channel, not four."""
+    pixels = np.random.default_rng(1).integers(0, 256, (64, 128, 4), dtype=np.uint8)
+    tex = textures.TextureSet.of([textures.Image(pixels), textures.Image(np.ones((2, 2, 3), np.float64))])
+    assert tex.bytes.nbytes == pixels.size and tex.bytes.dtype == np.uint8
+    assert tex.floats.dtype == np.float32 and tex.floats.size == 2 * 2 * 3     # float64 read as float32, no copy kept
+    np.testing.assert_array_equal(tex.texels(0), pixels)

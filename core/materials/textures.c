@@ -1,14 +1,27 @@
-/* Image textures: core/materials/textures.py. Every image of a render in one float32 RGBA buffer,
- * looked up with Cycles' conventions (texel centres at i + 0.5, Closest, Linear, Cubic B-spline;
- * Repeat, Extend, Clip, Mirror); sRGB images decoded after interpolation. */
+/* Image textures: core/materials/textures.py. Every image of a render kept as stored (8-bit, 16-bit or float
+ * texels, 1 to 4 channels) in one buffer per format, looked up with Cycles' conventions (texel centres at
+ * i + 0.5, Closest, Linear, Cubic B-spline; Repeat, Extend, Clip, Mirror); sRGB images decoded after
+ * interpolation. */
 
 /* textures.TextureSet as core/materials/textures.py lays it out. */
 typedef struct {
-    const float *pixels;        /* all images, RGBA rows bottom first */
-    const double *offset;       /* (k,) first float of each image */
-    const double *width, *height, *srgb;
+    const float *floats;        /* the float images' texels, rows bottom first */
+    const uint16_t *shorts;     /* the 16-bit images' */
+    const uint8_t *bytes;       /* the 8-bit images' */
+    const double *format;       /* (k,) TEX_FLOAT, TEX_BYTE or TEX_SHORT */
+    const double *offset;       /* (k,) first value of each image in its format's buffer */
+    const double *width, *height, *channels, *srgb;
     double count;
 } TextureTables;
+
+enum { TEX_FLOAT = 0, TEX_BYTE = 1, TEX_SHORT = 2 };
+
+/* One image as a lookup reads it. */
+typedef struct {
+    const void *data;
+    int format, channels;
+    int64_t w, h;
+} TextureView;
 
 enum { TEX_LINEAR = 0, TEX_CLOSEST = 1, TEX_CUBIC = 2 };
 enum { EXT_REPEAT = 0, EXT_EXTEND = 1, EXT_CLIP = 2, EXT_MIRROR = 3 };
@@ -35,12 +48,34 @@ INLINE int64_t texel_wrap(int64_t i, int64_t size, int extension)
     }
 }
 
-/* textures.read: out += weight x texel (ix, iy); nothing outside the image. */
-INLINE void texel_add(const float *data, int64_t w, int64_t h, int64_t ix, int64_t iy, double weight, double *out)
+/* textures.as_rgba of one texel: its stored values scaled to 0..1, grey to RGB, a missing alpha 1. */
+INLINE void texel_rgba(const TextureView *image, int64_t at, double *rgba)
 {
-    if (ix < 0 || ix >= w || iy < 0 || iy >= h) return;
-    const float *t = data + 4 * (iy * w + ix);
-    for (int c = 0; c < 4; c++) out[c] += weight * (double)t[c];
+    double v[4] = {0.0, 0.0, 0.0, 1.0};
+    for (int c = 0; c < image->channels; c++) {
+        switch (image->format) {
+        case TEX_BYTE: v[c] = (double)((const uint8_t *)image->data)[at + c] * (1.0 / 255.0); break;
+        case TEX_SHORT: v[c] = (double)((const uint16_t *)image->data)[at + c] * (1.0 / 65535.0); break;
+        default: v[c] = (double)((const float *)image->data)[at + c]; break;
+        }
+    }
+    if (image->channels <= 2) {
+        double alpha = image->channels == 2 ? v[1] : 1.0;
+        rgba[0] = rgba[1] = rgba[2] = v[0];
+        rgba[3] = alpha;
+    } else {
+        for (int c = 0; c < 3; c++) rgba[c] = v[c];
+        rgba[3] = image->channels == 4 ? v[3] : 1.0;
+    }
+}
+
+/* textures.read: out += weight x texel (ix, iy); nothing outside the image. */
+INLINE void texel_add(const TextureView *image, int64_t ix, int64_t iy, double weight, double *out)
+{
+    if (ix < 0 || ix >= image->w || iy < 0 || iy >= image->h) return;
+    double t[4];
+    texel_rgba(image, (int64_t)image->channels * (iy * image->w + ix), t);
+    for (int c = 0; c < 4; c++) out[c] += weight * t[c];
 }
 
 /* TextureSet.lookup for one point: image `index` (-1: missing, magenta) at (x, y) -> RGBA out[4]. */
@@ -52,11 +87,15 @@ INLINE void texture_lookup(const TextureTables *T, int index, double x, double y
         return;
     }
     int64_t w = (int64_t)T->width[index], h = (int64_t)T->height[index];
-    const float *data = T->pixels + (int64_t)T->offset[index];
+    TextureView view = {NULL, (int)T->format[index], (int)T->channels[index], w, h};
+    int64_t start = (int64_t)T->offset[index];
+    view.data = view.format == TEX_BYTE ? (const void *)(T->bytes + start)
+              : view.format == TEX_SHORT ? (const void *)(T->shorts + start) : (const void *)(T->floats + start);
+    const TextureView *data = &view;
     for (int c = 0; c < 4; c++) out[c] = 0.0;
     if (interpolation == TEX_CLOSEST) {
         int64_t ix = (int64_t)floor(x * (double)w), iy = (int64_t)floor(y * (double)h);
-        texel_add(data, w, h, texel_wrap(ix, w, extension), texel_wrap(iy, h, extension), 1.0, out);
+        texel_add(data, texel_wrap(ix, w, extension), texel_wrap(iy, h, extension), 1.0, out);
     } else {
         double fx = x * (double)w - 0.5, fy = y * (double)h - 0.5;
         double bx = floor(fx), by = floor(fy);
@@ -72,17 +111,17 @@ INLINE void texture_lookup(const TextureTables *T, int index, double x, double y
                 double row[4] = {0.0, 0.0, 0.0, 0.0};
                 int64_t yb = texel_wrap(iy + b - 1, h, extension);
                 for (int a = 0; a < 4; a++)
-                    texel_add(data, w, h, texel_wrap(ix + a - 1, w, extension), yb, u[a], row);
+                    texel_add(data, texel_wrap(ix + a - 1, w, extension), yb, u[a], row);
                 for (int c = 0; c < 4; c++) out[c] += v[b] * row[c];
             }
         } else {
             int64_t x0 = texel_wrap(ix, w, extension), x1 = texel_wrap(ix + 1, w, extension);
             int64_t y0 = texel_wrap(iy, h, extension), y1 = texel_wrap(iy + 1, h, extension);
             double r0[4] = {0.0, 0.0, 0.0, 0.0}, r1[4] = {0.0, 0.0, 0.0, 0.0};
-            texel_add(data, w, h, x0, y0, 1.0 - tx, r0);
-            texel_add(data, w, h, x1, y0, tx, r0);
-            texel_add(data, w, h, x0, y1, 1.0 - tx, r1);
-            texel_add(data, w, h, x1, y1, tx, r1);
+            texel_add(data, x0, y0, 1.0 - tx, r0);
+            texel_add(data, x1, y0, tx, r0);
+            texel_add(data, x0, y1, 1.0 - tx, r1);
+            texel_add(data, x1, y1, tx, r1);
             for (int c = 0; c < 4; c++) out[c] = (1.0 - ty) * r0[c] + ty * r1[c];
         }
     }

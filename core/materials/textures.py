@@ -1,10 +1,14 @@
-"""Image textures: every image a render's materials use, in one buffer, looked up as Cycles does.
+"""Image textures: every image a render's materials use, kept as stored, looked up as Cycles does.
 
-An image is stored as float32 RGBA rows, bottom row first (Blender's convention: UV (0, 0) is the
-image's lower-left corner). All images of a render share one flat buffer; an image is its offset,
-width and height there. Images in the sRGB colour space keep their sRGB-encoded values and are decoded
-to linear after interpolation, as Cycles does ("compress as sRGB", kernel/svm/image.h); every other
-colour space is stored as it is read (Non-Color, Linear Rec.709: already the numbers to use).
+An image is stored at the precision and with the channels its file has: 8-bit values stay bytes (a texel
+x / 255 when read), 16-bit ones 16-bit integers (x / 65535), half and full floats float32; grey stays one
+channel (read as RGB = grey, alpha 1), grey with alpha two, RGB three (alpha 1). Rows run bottom first
+(Blender's convention: UV (0, 0) is the image's lower-left corner). All images of a render share one flat
+buffer per precision; an image is its format, offset, width, height and channels there. Images in the sRGB
+colour space keep their sRGB-encoded values and are decoded to linear after interpolation, as Cycles does
+("compress as sRGB", kernel/svm/image.h); every other colour space is stored as it is read (Non-Color,
+Linear Rec.709: already the numbers to use). An 8-bit RGBA image of 16384 x 16384 texels takes 1 GiB so,
+4 GiB as floats.
 
 Lookups follow Cycles' CPU kernel (kernel/device/cpu/image.h): a texel's centre is at (i + 0.5) /
 width; Closest takes the texel the point lies in, Linear interpolates the four nearest centres,
@@ -24,49 +28,102 @@ EXTENSIONS = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2, "MIRROR": 3}
 MISSING = (1.0, 0.0, 1.0, 1.0)
 
 
+# Storage formats of an image's texels (TextureSet.format), and the scale that reads each as 0..1.
+FORMAT_FLOAT, FORMAT_BYTE, FORMAT_SHORT = 0, 1, 2
+FORMAT_OF = {np.dtype(np.float32): FORMAT_FLOAT, np.dtype(np.uint8): FORMAT_BYTE, np.dtype(np.uint16): FORMAT_SHORT}
+SCALE = {FORMAT_FLOAT: 1.0, FORMAT_BYTE: 1.0 / 255.0, FORMAT_SHORT: 1.0 / 65535.0}
+
+
 @dataclass(eq=False)
 class Image:
-    """One image: pixels (h, w, 4) float32 RGBA, bottom row first; srgb: decode sRGB after lookup."""
+    """One image: pixels (h, w, c) with c in 1..4, uint8, uint16 or float32 (other types become float32), bottom
+    row first; srgb: decode sRGB after lookup."""
 
     pixels: np.ndarray
     srgb: bool = False
     name: str = "Image"
 
     def __post_init__(self):
-        pixels = np.asarray(self.pixels, np.float32)
+        pixels = np.asarray(self.pixels)
+        if pixels.dtype not in FORMAT_OF:
+            pixels = pixels.astype(np.float32)
         if pixels.ndim == 2:
             pixels = pixels[:, :, None]
-        h, w, c = pixels.shape
-        if c < 4:                      # grey -> RGB; missing alpha = 1
-            rgb = pixels[:, :, :3] if c >= 3 else np.repeat(pixels[:, :, :1], 3, axis=2)
-            pixels = np.concatenate([rgb, np.ones((h, w, 1), np.float32)], axis=2)
         self.pixels = np.ascontiguousarray(pixels[:, :, :4])
+
+    @property
+    def format(self) -> int:
+        """FORMAT_FLOAT, FORMAT_BYTE or FORMAT_SHORT."""
+        return FORMAT_OF[self.pixels.dtype]
+
+    def rgba(self) -> np.ndarray:
+        """The texels as (h, w, 4) float32 RGBA, still encoded as stored (sRGB stays sRGB)."""
+        return as_rgba(self.pixels).astype(np.float32)
+
+
+def as_rgba(texels: np.ndarray) -> np.ndarray:
+    """Texels (..., c) of any stored format as float64 RGBA (..., 4): scaled to 0..1 from integers, grey to
+    RGB, a missing alpha 1."""
+    values = texels.astype(np.float64)
+    if texels.dtype != np.float32:
+        values = values * SCALE[FORMAT_OF[texels.dtype]]
+    c = texels.shape[-1]
+    grey = values[..., :1]
+    if c == 1:
+        return np.concatenate([grey, grey, grey, np.ones_like(grey)], axis=-1)
+    if c == 2:
+        return np.concatenate([grey, grey, grey, values[..., 1:2]], axis=-1)
+    if c == 3:
+        return np.concatenate([values, np.ones_like(grey)], axis=-1)
+    return values
 
 
 @dataclass
 class TextureSet:
-    """Every image of a render in one buffer (textures.c TextureTables).
+    """Every image of a render in one buffer per storage format (textures.c TextureTables).
 
-    pixels: (sum of w h 4,) float32; offset, width, height, srgb: (k,) float64 per image (offset in floats)
+    floats (a,) float32, shorts (b,) uint16, bytes (c,) uint8: the texels of the images of each format, one after
+    another; format, offset (in values of its buffer), width, height, channels, srgb: (k,) float64 per image
     """
 
-    pixels: np.ndarray = field(default_factory=lambda: np.zeros(4, np.float32))
+    floats: np.ndarray = field(default_factory=lambda: np.zeros(4, np.float32))
+    shorts: np.ndarray = field(default_factory=lambda: np.zeros(4, np.uint16))
+    bytes: np.ndarray = field(default_factory=lambda: np.zeros(4, np.uint8))
+    format: np.ndarray = field(default_factory=lambda: np.zeros(0))
     offset: np.ndarray = field(default_factory=lambda: np.zeros(0))
     width: np.ndarray = field(default_factory=lambda: np.zeros(0))
     height: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    channels: np.ndarray = field(default_factory=lambda: np.zeros(0))
     srgb: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @classmethod
     def of(cls, images: list) -> "TextureSet":
-        """The images (Image each) in one buffer, in the order given."""
+        """The images (Image each) in their formats' buffers, in the order given."""
         if not images:
             return cls()
-        flat = [image.pixels.reshape(-1) for image in images]
-        sizes = np.array([len(f) for f in flat], np.int64)
-        return cls(np.concatenate(flat).astype(np.float32), (np.cumsum(sizes) - sizes).astype(np.float64),
-                   np.array([image.pixels.shape[1] for image in images], np.float64),
-                   np.array([image.pixels.shape[0] for image in images], np.float64),
-                   np.array([1.0 if image.srgb else 0.0 for image in images]))
+        buffers = {FORMAT_FLOAT: [], FORMAT_BYTE: [], FORMAT_SHORT: []}
+        offset = []
+        for image in images:
+            parts = buffers[image.format]
+            offset.append(sum(len(part) for part in parts))
+            parts.append(image.pixels.reshape(-1))
+
+        def joined(form, dtype):
+            parts = buffers[form]
+            return np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(4, dtype)
+
+        shape = np.array([image.pixels.shape for image in images], np.float64)
+        return cls(joined(FORMAT_FLOAT, np.float32), joined(FORMAT_SHORT, np.uint16), joined(FORMAT_BYTE, np.uint8),
+                   np.array([image.format for image in images], np.float64), np.array(offset, np.float64),
+                   shape[:, 1], shape[:, 0], shape[:, 2], np.array([1.0 if image.srgb else 0.0 for image in images]))
+
+    def texels(self, index: int) -> np.ndarray:
+        """Image `index`'s texels (h, w, c) as stored (a view into its format's buffer)."""
+        form = int(self.format[index])
+        data = {FORMAT_FLOAT: self.floats, FORMAT_BYTE: self.bytes, FORMAT_SHORT: self.shorts}[form]
+        w, h, c = int(self.width[index]), int(self.height[index]), int(self.channels[index])
+        start = int(self.offset[index])
+        return data[start:start + w * h * c].reshape(h, w, c)
 
     def lookup(self, index: int, x: np.ndarray, y: np.ndarray, interpolation: int, extension: int) -> np.ndarray:
         """Image `index` at texture coordinates (x, y) (n,) float64 -> RGBA (n, 4) float64, linear.
@@ -74,8 +131,7 @@ class TextureSet:
         n = len(x)
         if index < 0:
             return np.tile(np.array(MISSING), (n, 1))
-        w, h = int(self.width[index]), int(self.height[index])
-        data = self.pixels[int(self.offset[index]):int(self.offset[index]) + w * h * 4].reshape(h, w, 4)
+        data = self.texels(index)
         if interpolation == 1:
             rgba = closest(data, x, y, extension)
         elif interpolation == 2:
@@ -113,10 +169,11 @@ def wrap(i: np.ndarray, size: int, extension: int) -> np.ndarray:
 
 
 def read(data: np.ndarray, ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
-    """Texels (n, 4) float64 at (ix, iy); transparent black outside the image (Cycles' read_clip)."""
+    """Texels as RGBA (n, 4) float64 (as_rgba) at (ix, iy) of `data` (h, w, c) as stored; transparent black
+    outside the image (Cycles' read_clip)."""
     h, w = data.shape[:2]
     inside = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h)
-    out = data[np.where(inside, iy, 0), np.where(inside, ix, 0)].astype(np.float64)
+    out = as_rgba(data[np.where(inside, iy, 0), np.where(inside, ix, 0)])
     return np.where(inside[:, None], out, 0.0)
 
 
@@ -189,12 +246,12 @@ class TextureTablesRecord:
         import ctypes
         from ..native import library
         c = library.contiguous
-        self.arrays = [c(textures.pixels, np.float32), c(textures.offset, np.float64), c(textures.width, np.float64),
-                       c(textures.height, np.float64), c(textures.srgb, np.float64)]
+        names = ("floats", "shorts", "bytes", "format", "offset", "width", "height", "channels", "srgb")
+        dtypes = (np.float32, np.uint16, np.uint8) + (np.float64,) * 6
+        self.arrays = [c(getattr(textures, name), dtype) for name, dtype in zip(names, dtypes)]
 
         class Record(ctypes.Structure):
-            _fields_ = [(name, ctypes.c_void_p) for name in ("pixels", "offset", "width", "height", "srgb")] + \
-                       [("count", ctypes.c_double)]
+            _fields_ = [(name, ctypes.c_void_p) for name in names] + [("count", ctypes.c_double)]
         self.record = Record(*[a.ctypes.data for a in self.arrays], float(len(textures.width)))
         self.pointer = ctypes.addressof(self.record)
 
