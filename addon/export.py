@@ -437,6 +437,9 @@ def export_world(world, warnings: list) -> World:
         environment = _environment(world, node, warnings)
         if environment is not None:
             image, strength, rotation = environment
+            if strength < 0.0:
+                warnings.append(NEGATIVE_WORLD.format(strength))
+                strength = 0.0
             return World(color=np.zeros(3), image=image, strength=strength, rotation=rotation, camera=camera,
                          lights=diffuse)
         if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
@@ -445,7 +448,16 @@ def export_world(world, warnings: list) -> World:
         else:
             warnings.append("the world shader is not a plain Background colour or an Environment Texture; Primer "
                             "uses the world's viewport colour")
+    if (color < 0.0).any():
+        warnings.append(NEGATIVE_WORLD.format(float(color.min())))
+        color = np.maximum(color, 0.0)
     return World(color=color, camera=camera, lights=diffuse)
+
+
+# Cycles shows a world of negative strength as black and lights nothing with it on its own (with lamps it
+# takes some of their light away, and clamps); Primer reads it as 0.
+NEGATIVE_WORLD = ("the world's Background is negative ({:g}); Primer reads it as 0: a black world that lights "
+                  "nothing, as Cycles shows it (Cycles also subtracts it from the light of lamps)")
 
 
 def _environment(world, background, warnings: list):

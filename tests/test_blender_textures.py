@@ -307,3 +307,59 @@ def test_images_keep_their_stored_precision_and_bad_texels_are_read_as_zero(tmp_
     warnings = "\n".join(result["warnings"])
     assert "NaN or infinite" in warnings and "broken.exr" in warnings
     assert result["finite"] and result["world_finite"]
+
+
+ODD = PRELUDE + """
+import bmesh
+render_ = sys.modules[primer.__name__ + ".core.render"]
+# An image texture on a mesh without UV maps, an emitter of strength 1e9 whose triangles have no area,
+# and a world of negative strength.
+img = bpy.data.images.new("Checker", 8, 8)
+img.generated_type = "COLOR_GRID"
+mat, tree, output = material("No UV")
+node = tree.nodes.new("ShaderNodeTexImage")
+node.image = img
+diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+tree.links.new(node.outputs["Color"], diffuse.inputs["Color"])
+tree.links.new(diffuse.outputs[0], output.inputs["Surface"])
+floor = plane("Floor", mat)
+floor.scale = (4, 4, 1)
+floor.data.uv_layers.remove(floor.data.uv_layers[0])
+glow, tree2, output2 = material("Glow")
+emission = tree2.nodes.new("ShaderNodeEmission")
+emission.inputs["Strength"].default_value = 1e9
+tree2.links.new(emission.outputs[0], output2.inputs["Surface"])
+flat = plane("Flat", glow, (0, 0, 1))
+for vertex in flat.data.vertices:                            # every triangle has zero area
+    vertex.co.y = 0.0
+world = bpy.data.worlds.new("Negative")
+scene.world = world
+if bpy.app.version < (5, 0, 0):
+    world.use_nodes = True
+background = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
+background.inputs["Strength"].default_value = -2.0
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+scene.collection.objects.link(sun)
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+scene.camera = camera
+camera.location = (0, 0, 6)
+scene.render.resolution_x, scene.render.resolution_y = 32, 32
+exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+settings = exported.settings
+settings.samples = 4
+result = render_.render(exported.scene, settings)
+report(warnings=exported.warnings + list(result.stats.warnings),
+       finite=bool(np.isfinite(result.image).all()), low=float(result.image[..., :3].min()),
+       mean=result.image[..., :3].mean(axis=(0, 1)).tolist())
+"""
+
+
+def test_a_texture_without_uvs_a_zero_area_emitter_of_1e9_and_a_negative_world_render_finite(tmp_path):
+    """Bad input of issue 20: each is reported, and the render has no NaN, no infinite and no negative pixel."""
+    result = run_bpy(ODD.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    warnings = "\n".join(result["warnings"])
+    assert "has no UV map" in warnings and "reads (0, 0)" in warnings
+    assert "world's Background is negative (-0.1" in warnings
+    assert "zero-area triangle(s) were skipped" in warnings          # the emitter of 1e9: dropped, reported
+    assert result["finite"] and result["low"] >= 0.0
