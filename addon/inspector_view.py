@@ -189,7 +189,27 @@ def panel_sections(record, height: Optional[int] = None) -> list:
         ]
         if light.sampled:
             rows.append(("Sample", "one, at the light's centre"))
+            rows.append(("pdf", number(light.pdf)))
+        rows.append(("MIS weight", number(light.mis_weight)))
         sections.append((f"{light.kind.title()} '{light.name}'", rows))
+    if getattr(record, "bsdf_sample", None) is not None:
+        wi, pdf, found = record.bsdf_sample
+        sections.append(("BSDF sample", [("ωi", vector(wi)), ("pdf", number(pdf) if pdf != float("inf") else "delta"),
+                                         ("Light found (MIS-weighted)", colour(found))]))
+    material = getattr(record, "material", None)
+    if material is not None:
+        rows = [("Name", material.name), ("UV", vector(material.uv) if material.uv is not None else "no UV map")]
+        if material.tangent_frame is not None:
+            T, B, _ = material.tangent_frame
+            rows += [("Tangent T", vector(T)), ("Bitangent B", vector(B))]
+        for texture in material.textures:
+            rows.append((f"Texel '{texture.image}'", f"at {number(texture.x)}, {number(texture.y)}: "
+                                                     f"{colour(texture.rgba[:3])} α {number(texture.rgba[3])}"))
+        for closure in material.closures:
+            alpha = "" if closure.alpha is None else f", α {number(closure.alpha)}"
+            rows.append((f"Closure {closure.bsdf.lower()}", f"{colour(closure.weight)}, sampling weight "
+                                                             f"{number(closure.sample_weight)}{alpha}"))
+        sections.append(("Material", rows))
     sections.append(("Pixel", [("Sum", colour(record.radiance)),
                                ("Formula", "Σ albedo/π · E · max(N·L, 0) · V")]))
     if record.warnings:

@@ -318,3 +318,29 @@ def test_inspector_follows_every_lecture_switch_as_the_render_does(switch):
         for x in range(0, 40, 3):
             record = inspector.inspect_pixel(scene, s, x, y, geometry=geometry)
             np.testing.assert_allclose(record.radiance, image[y, x, :3], rtol=1e-5, atol=1e-7)
+
+
+def test_the_inspector_shows_the_uv_the_texel_the_tangent_frame_and_the_closures_of_a_textured_hit():
+    """A checker-textured plane with a tangent: at each inspected pixel the UV is the pixel centre's, the texel
+    is the checker's value there (Closest), the tangent frame is the plane's (T = x, B = y, N = z), and the one
+    closure is a diffuse of the texel's colour; the panel lists them."""
+    from addon.inspector_view import panel_sections
+    from test_textures import SIZE, checker, checker_value, diffuse_textured, pixel_uv, scene_of
+    from core.materials import textures
+    scene = scene_of(diffuse_textured(textures.Image(checker())), tangent=True)
+    u, v = pixel_uv()
+    for x, y in ((3, 5), (6, 1), (7, 7)):
+        record = inspector.inspect_pixel(scene, RenderSettings(width=SIZE, height=SIZE, samples=1, jitter=False), x, y)
+        material = record.material
+        np.testing.assert_allclose(material.uv, (u[y, x], v[y, x]), atol=1e-6)
+        (texel,) = material.textures
+        assert texel.image == "Image" and (texel.x, texel.y) == pytest.approx((u[y, x], v[y, x]), abs=1e-6)
+        np.testing.assert_allclose(texel.rgba, [checker_value(u[y, x], v[y, x])] * 3 + [1.0], atol=1e-7)
+        T, B, N = material.tangent_frame
+        np.testing.assert_allclose(np.abs([T @ (1, 0, 0), B @ (0, 1, 0), N @ (0, 0, 1)]), 1.0, atol=1e-6)
+        (closure,) = material.closures
+        assert closure.bsdf == "DIFFUSE" and closure.alpha is None
+        np.testing.assert_allclose(closure.weight, texel.rgba[:3], atol=1e-7)
+        titles = dict(panel_sections(record))
+        assert any(label.startswith("Texel") for label, _ in titles["Material"])
+        assert ("Name", "Textured") in titles["Material"]

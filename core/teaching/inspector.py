@@ -91,6 +91,43 @@ class LightRecord(NamedTuple):
     mis_weight: float = 1.0
 
 
+class TextureRecord(NamedTuple):
+    """One image texture the hit's material read: image name, where it looked ((x, y) in the image's 0..1
+    square, after Mapping), its interpolation and extension (textures.INTERPOLATIONS, EXTENSIONS codes), and
+    the RGBA (4,) float64 it got (linear: sRGB images decoded)."""
+
+    image: str
+    x: float
+    y: float
+    interpolation: int
+    extension: int
+    rgba: np.ndarray
+
+
+class ClosureRecord(NamedTuple):
+    """One closure of the hit's material: the BSDF's name, its weight (3,) (the colour it scatters with), its
+    sampling weight (how often one-sample MIS picks it), its normal (3,), and alpha (roughness^2) where the
+    BSDF has one (None for Lambert, mirror, smooth glass)."""
+
+    bsdf: str
+    weight: np.ndarray
+    sample_weight: float
+    N: np.ndarray
+    alpha: Optional[float]
+
+
+class MaterialRecord(NamedTuple):
+    """What the hit's material reads and makes (core/materials): its name, the active UV map's (u, v) at the
+    hit (None without one), the tangent frame (T, B, N) a Normal Map reads (None where no material asks for
+    tangents), the image texels its node graph looked up, and its closures."""
+
+    name: str
+    uv: Optional[np.ndarray]
+    tangent_frame: Optional[tuple]
+    textures: tuple
+    closures: tuple
+
+
 class PixelRecord(NamedTuple):
     """Everything the renderer computes for the ray through one pixel's centre (world space).
 
@@ -117,6 +154,8 @@ class PixelRecord(NamedTuple):
     bsdf_sample:    (wi (3,), pdf, the light (3,) it found) of the direction sampled from the hit's closures,
                     or None when none was traced (the scene has no light a BSDF ray can find)
     emission:       (3,) float64 the light the hit surface emits itself; None when missed
+    material:       MaterialRecord: the hit's material inputs (UV, tangent frame, texels) and closures; None
+                    when missed
     warnings:       notes about the scene (lights skipped, geometry dropped)
     """
 
@@ -144,6 +183,7 @@ class PixelRecord(NamedTuple):
     bsdf_sample: Optional[tuple] = None
     emission: Optional[np.ndarray] = None
     path: tuple = ()
+    material: Optional[MaterialRecord] = None
 
 
 class PathVertex(NamedTuple):
@@ -304,8 +344,61 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     miss.update(hit=True, t=float(surface.t[0]), I=surface.I[0] + origin, Ng=surface.Ng[0].copy(), N=surface.N[0].copy(),
                 smooth=bool(surface.smooth[0]), u=float(surface.u[0]), v=float(surface.v[0]), triangle=triangle,
                 object_name=object_name, albedo=recorder.albedo(), lights=records, bsdf_sample=recorder.bsdf,
-                emission=recorder.result.emission[0].copy(), path=tuple(recorder.path))
+                emission=recorder.result.emission[0].copy(), path=tuple(recorder.path),
+                material=material_record(ctx, surface, recorder.result))
     return PixelRecord(radiance=found.L[0].copy(), **miss)
+
+
+class _RecordingTextures:
+    """A TextureSet that keeps every lookup the node graph makes at the inspected hit (one point each)."""
+
+    def __init__(self, textures, images: list):
+        self.textures, self.images, self.found = textures, images, []
+
+    def lookup(self, index, x, y, interpolation, extension):
+        rgba = self.textures.lookup(index, x, y, interpolation, extension)
+        name = self.images[index].name if 0 <= index < len(self.images) else "(missing: magenta)"
+        self.found.append(TextureRecord(name, float(x[0]), float(y[0]), int(interpolation), int(extension),
+                                        rgba[0].copy()))
+        return rgba
+
+
+def material_record(ctx, surface, result) -> MaterialRecord:
+    """The MaterialRecord of the inspected hit (row 0 of `surface`, shaded as `result`): the material's graph
+    run once more with its image lookups kept, the UV and tangent it reads, and its closures."""
+    from ..geometry.surface import shading_point
+    from ..materials import BSDF_TYPES, graph as graph_
+    from ..materials import microfacet as mf
+    geometry, table = ctx.geometry, ctx.materials
+    row = int(surface.material[0])
+    name = str(table.names[row]) if row < len(table.names) else "(default)"
+    # 1. What the node graph reads at the hit (core/geometry/surface.py): the active UV map, a tangent.
+    layout = geometry.attribute_layout
+    one = type(surface)(*(a[:1] if isinstance(a, np.ndarray) else a for a in surface))
+    point = shading_point(geometry, one)
+    values = point.attributes[0]
+    uv = values[layout["uv:"][0]:layout["uv:"][0] + 2].copy() if "uv:" in layout else None
+    tangent_key = next((key for key in layout if key.startswith("tangent:")), None)
+    frame = None
+    if tangent_key is not None:                 # as graph.normal_map builds it (the front side's frame)
+        t = values[layout[tangent_key][0]:layout[tangent_key][0] + 4]
+        n = surface.N[0] * point.side[0]
+        T = point.linear[0] @ t[:3]
+        frame = (T, t[3] * np.cross(n, T), n)
+    # 2. The node graph once more at this hit, its image lookups kept.
+    textures = ()
+    program = table.program(row, layout)
+    if program is not None:
+        recording = _RecordingTextures(table.textures, table.images)
+        graph_.run(program, point, recording)
+        textures = tuple(recording.found)
+    # 3. The closures it made.
+    c = result.closures
+    closures = tuple(ClosureRecord(BSDF_TYPES[int(kind)].name, c.weight[0, k].copy(), float(c.sample_weight[0, k]),
+                                   c.N[0, k].copy(), float(c.params[0, k, mf.ALPHA])
+                                   if "alpha" in BSDF_TYPES[int(kind)].params else None)
+                     for k, kind in enumerate(c.kind[0]) if kind >= 0)
+    return MaterialRecord(name, uv, frame, textures, closures)
 
 
 def light_numbers_of(lights: list) -> np.ndarray:
