@@ -25,12 +25,14 @@ from .microfacet import Microfacet
 from .mirror import Mirror
 from .oren_nayar import OrenNayar
 from .rough_glass import RoughGlass
+from .sheen import Sheen
 from .transparent import Transparent
 
-BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar)
+BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen)
 BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
-# The BSDFs that reflect diffusely (a path's diffuse bounce; Cycles' CLOSURE_IS_BSDF_DIFFUSE).
-DIFFUSE_KINDS = (Lambert.kind, OrenNayar.kind)
+# The BSDFs that reflect diffusely (a path's diffuse bounce; Cycles' CLOSURE_IS_BSDF_DIFFUSE, which counts its
+# sheen among them: Light Paths' diffuse bounces, the caustics filter and bump shadowing treat it as diffuse).
+DIFFUSE_KINDS = (Lambert.kind, OrenNayar.kind, Sheen.kind)
 
 
 def is_diffuse(kind: np.ndarray) -> np.ndarray:
@@ -371,7 +373,7 @@ class MaterialTable:
 
 __all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",
            "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable",
-           "Glass", "Microfacet", "Mirror", "NodeShader", "OrenNayar", "PARAMS", "RoughGlass", "Transparent",
+           "Glass", "Microfacet", "Mirror", "NodeShader", "OrenNayar", "PARAMS", "RoughGlass", "Sheen", "Transparent",
            "DIFFUSE_KINDS", "is_diffuse",
            "ShaderResult", "eval_closures", "sample_closures"]
 

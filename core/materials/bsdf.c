@@ -11,6 +11,7 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
     case BSDF_TRANSPARENT: transparent_eval(c, wo, wi, f_cos, pdf); break;
     case BSDF_ROUGH_GLASS: rough_glass_eval(c, wo, wi, f_cos, pdf); break;
     case BSDF_OREN_NAYAR: oren_nayar_eval(c, wo, wi, f_cos, pdf); break;
+    case BSDF_SHEEN: sheen_eval(c, wo, wi, f_cos, pdf); break;
     default: lambert_eval(c, wo, wi, f_cos, pdf); break;
     }
 }
@@ -24,6 +25,7 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     case BSDF_TRANSPARENT: transparent_sample(c, wo, u, out); break;
     case BSDF_ROUGH_GLASS: rough_glass_sample(c, wo, u, out); break;
     case BSDF_OREN_NAYAR: oren_nayar_sample(c, wo, u, out); break;
+    case BSDF_SHEEN: sheen_sample(c, wo, u, out); break;
     default: lambert_sample(c, wo, u, out); break;
     }
 }
