@@ -481,13 +481,10 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         finally:
             reader.path = reader.path[:-1]
     elif kind == "ShaderNodeBsdfSheen":
-        # Cycles' microfiber sheen (core/materials/sheen.py); the older Ashikhmin velvet is rendered as it.
-        distribution = getattr(node, "distribution", "MICROFIBER")
-        if distribution != "MICROFIBER":
-            reader.warn(node, f"distribution {distribution} (velvet) is not modelled; Primer renders it as "
-                              "Microfiber sheen with the same Roughness (Cycles' sigma)")
+        # Cycles' microfiber sheen (core/materials/sheen.py), or the older Ashikhmin velvet (velvet.py).
+        velvet = getattr(node, "distribution", "MICROFIBER") == "ASHIKHMIN"
         color = reader.input(node, "Color", np.full(3, 0.8))
-        inputs = {"roughness": reader.input(node, "Roughness", 0.5)}
+        inputs = {"roughness": reader.input(node, "Roughness", 0.5), "velvet": 1.0 if velvet else 0.0}
         _normal(reader, node, inputs)
         if _linked(color):
             out.append(("SHEEN", weight, inputs, list(factors) + [(color, "color")]))

@@ -373,7 +373,15 @@ INLINE void setup_node(ShaderResult *sd, int kind, double mu, const double *wo, 
         break;
     }
     case NODE_PRINCIPLED: setup_principled(sd, mu, wo, backfacing, weight, p); break;
-    case NODE_SHEEN: sheen_add(sd, wo, sd->N, weight, clamp01(p[0])); break;
+    case NODE_SHEEN:
+        if (p[1] != 0.0) {                                          /* Ashikhmin velvet */
+            double v[STORAGE_STRIDE] = {0.0};
+            velvet_params(p[0], v);
+            closure_add(sd, BSDF_VELVET, weight, weight, 1.0, v);
+        } else {
+            sheen_add(sd, wo, sd->N, weight, clamp01(p[0]));
+        }
+        break;
     case NODE_GLASS: {
         /* A caustics filter takes away the reflection or the refraction (tints of 0). */
         int reflective = !(sd->caustics & FILTER_REFLECTIVE), refractive = !(sd->caustics & FILTER_REFRACTIVE);

@@ -30,6 +30,8 @@ from .oren_nayar import params_of as oren_nayar_params
 from .rough_glass import RoughGlass
 from .sheen import Sheen
 from .sheen import params_of as sheen_params
+from .velvet import Velvet
+from .velvet import params_of as velvet_params
 from .transparent import Transparent
 
 
@@ -497,14 +499,19 @@ class GlassNode(Node):
 
 
 class SheenNode(Node):
-    """Sheen BSDF (Microfiber): one sheen closure of the node's weight (its colour) x the albedo R, with its
-    normal; Cycles' Ashikhmin velvet is rendered as microfiber (warned at export)."""
+    """Sheen BSDF: Microfiber, one sheen closure of the node's weight (its colour) x the albedo R; or Ashikhmin
+    (`velvet` 1), one velvet closure of the node's weight with sigma = Roughness (core/materials/velvet.py)."""
 
-    kind, name, inputs, defaults = 7, "SHEEN", ("roughness",), (0.5,)
+    kind, name, inputs, defaults = 7, "SHEEN", ("roughness", "velvet"), (0.5, 0.0)
 
     @staticmethod
     def setup(b, weight, p):
-        add_sheen(b, weight, np.clip(per_hit_rows(p, len(weight))[:, 0], 0.0, 1.0), b.N)
+        p = per_hit_rows(p, len(weight))
+        roughness = np.clip(p[:, 0], 0.0, 1.0)
+        if p[0, 1] != 0.0:
+            b.add(Velvet.kind, weight, velvet_params(roughness))
+        else:
+            add_sheen(b, weight, roughness, b.N)
 
 
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
