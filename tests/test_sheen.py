@@ -3,7 +3,7 @@ physical properties: the lobe reflects exactly the albedo the layers below lose,
 keeps all the light, the lobe is isotropic and mirror-symmetric (but, like Cycles', not reciprocal), sampling
 draws the distribution its pdf states, C equals Python, and a Principled BSDF without sheen is unchanged.
 The Sheen BSDF's Ashikhmin velvet too: its facet distribution is normalized, it is reciprocal, its samples
-weigh to what eval integrates, C equals Python."""
+weigh to what eval integrates, C equals Python. And the addon reads both from Blender without a warning."""
 from __future__ import annotations
 
 import dataclasses
@@ -339,3 +339,76 @@ def test_the_sheen_node_sets_up_microfiber_or_velvet():
     assert velvet.closures.kind[0, 0] == materials.Velvet.kind
     np.testing.assert_allclose(velvet.closures.weight[0, 0], color)
     np.testing.assert_allclose(velvet.closures.params[0, 0, vv.INV_SIGMA2], 1.0 / 0.09)
+
+
+EXPORT = """
+import sys
+import bpy
+from blender_env import report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+primer = load_primer()
+materials_ = sys.modules[primer.__name__ + ".addon.materials"]
+graph = sys.modules[primer.__name__ + ".core.materials.graph"]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def material(name, kind):
+    m = bpy.data.materials.new(name)
+    if m.node_tree is None:
+        m.use_nodes = True
+    tree = m.node_tree
+    for node in list(tree.nodes):
+        if node.bl_idname != "ShaderNodeOutputMaterial":
+            tree.nodes.remove(node)
+    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    node = tree.nodes.new(kind)
+    tree.links.new(node.outputs[0], output.inputs["Surface"])
+    return m, tree, node
+
+
+result = {{}}
+m, tree, principled = material("Velvety", "ShaderNodeBsdfPrincipled")
+principled.inputs["Sheen Weight"].default_value = 0.7
+principled.inputs["Sheen Roughness"].default_value = 0.3
+tint = tree.nodes.new("ShaderNodeRGB")
+tint.outputs[0].default_value = (0.9, 0.5, 0.2, 1.0)
+tree.links.new(tint.outputs[0], principled.inputs["Sheen Tint"])
+warnings = []
+nodes = materials_.export_material(m, warnings).nodes
+result["principled"] = [nodes[0][0], float(nodes[0][2]["sheen"]), float(nodes[0][2]["sheen_roughness"]),
+                        "link" if isinstance(nodes[0][2]["sheen_tint"], graph.Link)
+                        else list(map(float, nodes[0][2]["sheen_tint"]))[:3]]
+for distribution in ("MICROFIBER", "ASHIKHMIN"):
+    m, tree, sheen = material(distribution.title(), "ShaderNodeBsdfSheen")
+    sheen.distribution = distribution
+    sheen.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1.0)
+    sheen.inputs["Roughness"].default_value = 0.25
+    nodes = materials_.export_material(m, warnings).nodes
+    result[distribution] = [nodes[0][0], list(map(float, nodes[0][1])), float(nodes[0][2]["roughness"]),
+                            float(nodes[0][2]["velvet"])]
+report(result=result, warnings=warnings)
+"""
+
+
+@pytest.mark.blender
+def test_blender_sheen_inputs_and_sheen_bsdfs_are_read_without_warnings(tmp_path):
+    """The addon reads the Principled BSDF's Sheen Weight, Roughness and (linked) Tint, and the Sheen BSDF's
+    colour, roughness and distribution (Microfiber or Ashikhmin), with no warning."""
+    import importlib.util
+    import os
+    if importlib.util.find_spec("bpy") is None:
+        pytest.skip("bpy (Blender as a Python module) is not installed")
+    from blender_env import ROOT, run_bpy
+    report = run_bpy(EXPORT.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    result = report["result"]
+    assert result["principled"][0] == "PRINCIPLED"
+    # The RGB node feeding the tint: a link, or its colour where the reader folds a constant node.
+    assert result["principled"][3] == "link" or np.allclose(result["principled"][3], [0.9, 0.5, 0.2], rtol=1e-6)
+    np.testing.assert_allclose(result["principled"][1:3], [0.7, 0.3], rtol=1e-6)
+    for distribution, velvet in (("MICROFIBER", 0.0), ("ASHIKHMIN", 1.0)):
+        name, weight, roughness, flag = result[distribution]
+        assert name == "SHEEN" and flag == velvet
+        np.testing.assert_allclose(weight, [0.2, 0.4, 0.6], rtol=1e-6)
+        assert roughness == pytest.approx(0.25)
+    assert report["warnings"] == []

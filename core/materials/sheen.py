@@ -27,8 +27,9 @@ top of its other layers, which keep 1 - (largest channel of) the sheen's weight 
 
 Cycles reads a, b and R from the authors' 32 x 32 tables (the volume fit). Primer uses the authors' published
 closed-form fits of those tables instead (ltc_a, ltc_b, albedo below; the formulas of github.com/tizian/
-ltc-sheen, also in MaterialX's mx_zeltner_sheen_* functions): R differs from the table by at most 0.01 except
-at grazing views (mu < 1/31, up to 0.08 there); docs/blender.md states what that does to renders.
+ltc-sheen, also in MaterialX's mx_zeltner_sheen_* functions): R is within 0.01 of the table for mu >= 0.1 and
+differs more at grazing views (0.02 at mu = 2/31, 0.04 at 1/31, up to 0.17 at 0); docs/blender.md states what
+that does to renders.
 
 The lobe is not exactly reciprocal (the cosine is part of the fitted lobe), as in Cycles. Cycles counts sheen
 as a diffuse closure (CLOSURE_IS_BSDF_DIFFUSE, LABEL_DIFFUSE): a diffuse bounce for the Light Paths limits and
