@@ -1,13 +1,13 @@
 """Blender materials as Primer reads them: the node tree at the Material Output, as a list of shader nodes.
 
 From the Surface socket down, Mix Shader and Add Shader nodes are multiplied out into one weight per
-BSDF node (Principled, Diffuse, Glossy, Glass, Refraction, Emission, Transparent), with each node's inputs
+BSDF node (Principled, Diffuse, Glossy, Glass, Refraction, Sheen, Emission, Transparent), with each node's inputs
 (core/materials/nodes.py sets them up per hit, as Cycles does). A plain Diffuse BSDF stays the lecture's
 constant Lambert material. An input fed by a link becomes a core/materials/graph.py Link to the
 sub-graph that feeds it (image textures, texture coordinates, Math, Mix, Color Ramp ...; reroutes
 skipped, node groups flattened), evaluated per hit; a linked Mix Shader factor or BSDF colour becomes a
-per-hit factor of the node's weight. Whatever Primer cannot read (a node it does not know, sheen,
-transmission, a missing image) gets a warning that names the material and the node and says what Primer
+per-hit factor of the node's weight. Whatever Primer cannot read (a node it does not know, anisotropy,
+a missing image) gets a warning that names the material and the node and says what Primer
 used instead.
 """
 from __future__ import annotations
@@ -28,9 +28,10 @@ PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Rough
                       "Alpha": "alpha", "Subsurface Weight": "subsurface", "Specular IOR Level": "specular_ior_level",
                       "Specular Tint": "specular_tint", "Coat Weight": "coat", "Coat Roughness": "coat_roughness",
                       "Coat IOR": "coat_ior", "Coat Tint": "coat_tint", "Transmission Weight": "transmission",
-                      "Diffuse Roughness": "diffuse_roughness"}
+                      "Diffuse Roughness": "diffuse_roughness", "Sheen Weight": "sheen",
+                      "Sheen Roughness": "sheen_roughness", "Sheen Tint": "sheen_tint"}
 # Principled inputs Primer leaves out: socket -> what Primer does instead (warned when above 0).
-PRINCIPLED_LEFT_OUT = {"Sheen Weight": "leaves the sheen out", "Anisotropic": "renders it isotropic",
+PRINCIPLED_LEFT_OUT = {"Anisotropic": "renders it isotropic",
                        "Subsurface Weight": "approximates subsurface scattering by diffuse reflection",
                        "Thin Film Thickness": "leaves the thin film out"}
 GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
@@ -490,8 +491,15 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         finally:
             reader.path = reader.path[:-1]
     elif kind == "ShaderNodeBsdfSheen":
-        reader.warn(node, "Sheen BSDF is not modelled yet; Primer leaves this part black (a sheen reflects little "
-                          "light)")
+        # Cycles' microfiber sheen (core/materials/sheen.py), or the older Ashikhmin velvet (velvet.py).
+        velvet = getattr(node, "distribution", "MICROFIBER") == "ASHIKHMIN"
+        color = reader.input(node, "Color", np.full(3, 0.8))
+        inputs = {"roughness": reader.input(node, "Roughness", 0.5), "velvet": 1.0 if velvet else 0.0}
+        _normal(reader, node, inputs)
+        if _linked(color):
+            out.append(("SHEEN", weight, inputs, list(factors) + [(color, "color")]))
+        else:
+            out.append(("SHEEN", weight * np.maximum(color, 0.0), inputs, list(factors)))
     elif kind == "ShaderNodeAddShader":
         for socket in (node.inputs[0], node.inputs[1]):
             if socket.is_linked:

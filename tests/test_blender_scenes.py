@@ -125,6 +125,9 @@ VARIANTS = [
     Variant("no_object_casts_shadows", "light_point", {"objects.visible_shadow": False}, 64, 256),
     # Rough diffuse: every Diffuse BSDF's Roughness and the Principled BSDF's Diffuse Roughness at 1 (Oren-Nayar).
     Variant("rough_diffuse", "light_point", {"nodes.Roughness": 1.0, "nodes.Diffuse Roughness": 1.0}, 64, 256),
+    # Microfiber sheen: the Principled sphere with Sheen Weight 1, an orange tint and Sheen Roughness 0.5.
+    Variant("sheen", "light_point", {"nodes.Sheen Weight": 1.0, "nodes.Sheen Tint": [1.0, 0.5, 0.2, 1.0],
+                                     "nodes.Sheen Roughness": 0.5}, 64, 256),
     # Cycles' biased path-tracing settings with their meaning in Cycles: both caustics switches off in the glass
     # scene (9% less light); no reflective caustics and Clamp Indirect 1 in the Principled scene path traced
     # (4% and 2% less light).

@@ -162,7 +162,7 @@ def test_each_bsdfs_c_file_evaluates_and_samples_what_its_class_does():
     np.testing.assert_allclose(sampled.wi, expected.wi, rtol=0, atol=1e-6)     # (a float32 cosine, as for lights)
     # A microfacet's weight depends on the sampled direction itself (a Lambert's or a mirror's does not),
     # so it inherits the direction's float32 cosine: the compiled path's stated tolerance, 1e-6 relative.
-    rough = (kind == materials.Microfacet.kind) | (kind == materials.RoughGlass.kind)
+    rough = (kind == materials.Microfacet.kind) | (kind == materials.RoughGlass.kind) | (kind == materials.Velvet.kind)
     # Oren-Nayar's weight goes through G(N.wi), whose slope near grazing (tan theta) doubles the float32 cosine's
     # error there.
     oren_nayar = kind == materials.OrenNayar.kind

@@ -33,7 +33,7 @@ GLTF_IO = ("KhronosGroup/glTF-Blender-IO", "7551a35b146ab62ebc503ec661f88a74dc61
 # name -> (repository, commit, licence, path in the repository, what it exercises)
 SOURCES = {
     "gltf_factors": GLTF_IO + ("tests/scenes/01_factors.blend", "Principled factors, a node group, Math and Mix"),
-    "gltf_sheen": GLTF_IO + ("tests/scenes/19_sheen.blend", "Principled sheen variants (Primer leaves sheen out)"),
+    "gltf_sheen": GLTF_IO + ("tests/scenes/19_sheen.blend", "the Sheen BSDF (Ashikhmin velvet), with textures"),
     "gltf_specular": GLTF_IO + ("tests/scenes/20_specular.blend", "Specular IOR Level and Specular Tint"),
     "gltf_node_groups": GLTF_IO + ("tests/scenes/22_node_groups.blend", "materials inside node groups"),
     "gltf_vertex_colors": GLTF_IO + ("tests/scenes/24_vertex_colors.blend", "vertex colours, transparency, emission"),

@@ -99,9 +99,9 @@ def closure_albedos(shader) -> tuple:
     for slot in range(c.kind.shape[1]):
         kind = c.kind[:, slot]
         weight = c.weight[:, slot]
-        lambert = materials_.is_diffuse(kind)
+        lambert = np.isin(kind, materials_.SHADOWED_KINDS)           # Cycles' CLOSURE_IS_BSDF_DIFFUSE
         diffuse[lambert] += weight[lambert]
-        mirror = kind == Mirror.kind
+        mirror = (kind == Mirror.kind) | (kind == materials_.Velvet.kind)   # the velvet is glossy there
         glossy[mirror] += weight[mirror]
         lobe = np.flatnonzero(kind == Microfacet.kind)
         glass = np.flatnonzero((kind == materials_.Glass.kind) | (kind == materials_.RoughGlass.kind))

@@ -25,12 +25,18 @@ from .microfacet import Microfacet
 from .mirror import Mirror
 from .oren_nayar import OrenNayar
 from .rough_glass import RoughGlass
+from .sheen import Sheen
+from .velvet import Velvet
 from .transparent import Transparent
 
-BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar)
+BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet)
 BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
-# The BSDFs that reflect diffusely (a path's diffuse bounce; Cycles' CLOSURE_IS_BSDF_DIFFUSE).
-DIFFUSE_KINDS = (Lambert.kind, OrenNayar.kind)
+# The BSDFs that reflect diffusely: a path's diffuse bounce (Cycles' LABEL_DIFFUSE, which its sheens carry: Light
+# Paths' diffuse bounces and the caustics filter treat them as diffuse).
+DIFFUSE_KINDS = (Lambert.kind, OrenNayar.kind, Sheen.kind, Velvet.kind)
+# The closures bump shadowing darkens where their normal is not the hit's (Cycles' CLOSURE_IS_BSDF_DIFFUSE): the
+# diffuse ones but the velvet, a glossy closure type in Cycles.
+SHADOWED_KINDS = (Lambert.kind, OrenNayar.kind, Sheen.kind)
 
 
 def is_diffuse(kind: np.ndarray) -> np.ndarray:
@@ -371,8 +377,8 @@ class MaterialTable:
 
 __all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",
            "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable",
-           "Glass", "Microfacet", "Mirror", "NodeShader", "OrenNayar", "PARAMS", "RoughGlass", "Transparent",
-           "DIFFUSE_KINDS", "is_diffuse",
+           "Glass", "Microfacet", "Mirror", "NodeShader", "OrenNayar", "PARAMS", "RoughGlass", "Sheen", "Transparent", "Velvet",
+           "DIFFUSE_KINDS", "SHADOWED_KINDS", "is_diffuse",
            "ShaderResult", "eval_closures", "sample_closures"]
 
 

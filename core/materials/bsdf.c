@@ -11,6 +11,8 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
     case BSDF_TRANSPARENT: transparent_eval(c, wo, wi, f_cos, pdf); break;
     case BSDF_ROUGH_GLASS: rough_glass_eval(c, wo, wi, f_cos, pdf); break;
     case BSDF_OREN_NAYAR: oren_nayar_eval(c, wo, wi, f_cos, pdf); break;
+    case BSDF_SHEEN: sheen_eval(c, wo, wi, f_cos, pdf); break;
+    case BSDF_VELVET: velvet_eval(c, wo, wi, f_cos, pdf); break;
     default: lambert_eval(c, wo, wi, f_cos, pdf); break;
     }
 }
@@ -24,6 +26,8 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     case BSDF_TRANSPARENT: transparent_sample(c, wo, u, out); break;
     case BSDF_ROUGH_GLASS: rough_glass_sample(c, wo, u, out); break;
     case BSDF_OREN_NAYAR: oren_nayar_sample(c, wo, u, out); break;
+    case BSDF_SHEEN: sheen_sample(c, wo, u, out); break;
+    case BSDF_VELVET: velvet_sample(c, wo, u, out); break;
     default: lambert_sample(c, wo, u, out); break;
     }
 }
@@ -60,7 +64,7 @@ INLINE double shader_eval(const ShaderResult *sd, const double *wo, const double
         double value[3], pdf;
         bsdf_eval(c, wo, wi, value, &pdf);
         if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
-            double term = bump_shadowing(sd->N, c->N, wi, IS_DIFFUSE(c->kind));
+            double term = bump_shadowing(sd->N, c->N, wi, IS_SHADOWED(c->kind));
             for (int j = 0; j < 3; j++) value[j] *= term;
             if (term == 0.0) pdf = 0.0;
         }

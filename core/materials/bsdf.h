@@ -5,15 +5,17 @@
  * pdf of its own sampling. */
 
 enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4, BSDF_ROUGH_GLASS = 5,
-       BSDF_OREN_NAYAR = 6 };
+       BSDF_OREN_NAYAR = 6, BSDF_SHEEN = 7, BSDF_VELVET = 8 };
 
 /* materials.is_diffuse: the BSDFs that reflect diffusely (a path's diffuse bounce). */
-#define IS_DIFFUSE(kind) ((kind) == BSDF_LAMBERT || (kind) == BSDF_OREN_NAYAR)
+#define IS_DIFFUSE(kind) ((kind) == BSDF_LAMBERT || (kind) == BSDF_OREN_NAYAR || (kind) == BSDF_SHEEN || (kind) == BSDF_VELVET)
+/* materials.SHADOWED_KINDS: the closures bump shadowing darkens (the velvet is glossy there, as in Cycles). */
+#define IS_SHADOWED(kind) (IS_DIFFUSE(kind) && (kind) != BSDF_VELVET)
 
 #define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
 /* The closures a caustics filter takes away at a hit that a diffuse bounce's ray reached (closures.FILTER_*). */
 enum { FILTER_REFLECTIVE = 1, FILTER_REFRACTIVE = 2 };
-#define CLOSURE_PARAMS 24       /* closures.PARAMS */
+#define CLOSURE_PARAMS 32       /* closures.PARAMS */
 
 /* One closure at a hit: a BSDF of the table, its weight, its sampling weight, its normal, and its
  * CLOSURE_PARAMS parameters: a constant material's row (no copy per hit), or a row of the hit's own
@@ -36,6 +38,7 @@ typedef struct {
     double N[3];
     double *storage;
     const double *glossy;   /* the normal glossy lobes get while a node sets up (nodes.c), NULL: N */
+    const double *hit_N;    /* the hit's own normal while a node with its own normal sets up (nodes.c), NULL: N */
     int caustics;           /* FILTER_* bits the caller sets before shading (0: every closure) */
 } ShaderResult;
 

@@ -17,7 +17,7 @@ from .base import BsdfSample
 
 # At most this many closures per hit, and this many parameter floats per closure (closures.h).
 MAX_CLOSURES = 8
-PARAMS = 24
+PARAMS = 32
 # A closure whose sampling weight falls below this is dropped (Cycles' CLOSURE_WEIGHT_CUTOFF).
 WEIGHT_CUTOFF = 1e-5
 # What a hit's shading may leave out (Cycles' caustics switches, Light Paths > Caustics): the bits of a hit's
@@ -84,7 +84,7 @@ def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cos
 
     wo, wi: (n, 3) float64 unit. signed_cosine: diffuse closures keep N.wi < 0 (a lecture switch).
     """
-    from . import DIFFUSE_KINDS
+    from . import SHADOWED_KINDS
     n, slots = closures.kind.shape
     f_cos, numerator = np.zeros((n, 3)), np.zeros(n)
     for k in range(slots):
@@ -92,7 +92,7 @@ def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cos
             args = (closures.params[rows, k], closures.N[rows, k], wo[rows], wi[rows])
             value, pdf = bsdf.eval(*args, signed_cosine=True) if signed_cosine and bsdf.kind == 0 else bsdf.eval(*args)
             if closures.Ns is not None:
-                term = bump_shadowing(closures.Ns[rows, k], closures.N[rows, k], wi[rows], bsdf.kind in DIFFUSE_KINDS)
+                term = bump_shadowing(closures.Ns[rows, k], closures.N[rows, k], wi[rows], bsdf.kind in SHADOWED_KINDS)
                 if term is not None:
                     value = value * term[:, None]
                     pdf = np.where(term == 0.0, 0.0, pdf)

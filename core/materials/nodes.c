@@ -4,7 +4,7 @@
 #include "ggx_tables.h"
 
 enum { NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
-       NODE_TRANSPARENT = 5, NODE_GLASS = 6 };
+       NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7 };
 #define WEIGHT_CUTOFF 1e-5          /* closures.WEIGHT_CUTOFF */
 #define STORAGE_STRIDE 16           /* doubles of a hit's storage per closure (a glass closure's parameters) */
 #define SHADER_STORAGE (MAX_CLOSURES * STORAGE_STRIDE)
@@ -217,8 +217,31 @@ INLINE void diffuse_add(ShaderResult *sd, double mu, const double *weight, doubl
     closure_add(sd, BSDF_OREN_NAYAR, weight, weight, 1.0, p);
 }
 
+/* nodes.add_sheen: a sheen closure with normal N seen from wo, weight x its albedo R (weight and sampling weight);
+ * returns R. */
+INLINE double sheen_add(ShaderResult *sd, const double *wo, const double *N, const double *weight, double roughness)
+{
+    double p[STORAGE_STRIDE] = {0.0};
+    double R = sheen_params(roughness, dot3(N, wo), p);
+    double w[3] = {weight[0] * R, weight[1] * R, weight[2] * R}, saved[3] = {sd->N[0], sd->N[1], sd->N[2]};
+    for (int j = 0; j < 3; j++) sd->N[j] = N[j];
+    closure_add(sd, BSDF_SHEEN, w, weight, R, p);
+    for (int j = 0; j < 3; j++) sd->N[j] = saved[j];
+    return R;
+}
+
+/* nodes.sheen_normal: the node's normal sd->N turned towards the hit's (the coat's) by coat in 0..1. */
+INLINE void sheen_normal(const ShaderResult *sd, double coat, double *N)
+{
+    const double *hit = sd->hit_N != NULL ? sd->hit_N : sd->N;
+    for (int j = 0; j < 3; j++) N[j] = sd->N[j] + coat * (hit[j] - sd->N[j]);
+    double length = sqrt(dot3(N, N));
+    for (int j = 0; j < 3; j++) N[j] = length > 0.0 ? N[j] / length : hit[j];
+}
+
 /* nodes.PrincipledNode.setup: p holds nodes.PRINCIPLED_INPUTS in order. */
-INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const double *weight, const double *p)
+INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                             const double *p)
 {
     double base[3], clamped[3], tint[3], coat_tint[3], W[3];
     for (int j = 0; j < 3; j++) {
@@ -238,6 +261,16 @@ INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const 
     /* 1. Alpha. */
     if (alpha < 1.0)
         for (int j = 0; j < 3; j++) { sd->transparency[j] += W[j] * (1.0 - alpha); W[j] *= alpha; }
+    /* 1b. Sheen, on top of everything else (a diffuse closure: no caustics filter). */
+    double sheen = at_least(p[24], 0.0);
+    if (sheen > WEIGHT_CUTOFF) {
+        double Ns[3], sheen_weight[3];
+        sheen_normal(sd, clamp01(coat), Ns);
+        for (int j = 0; j < 3; j++) sheen_weight[j] = W[j] * sheen * at_least(p[26 + j], 0.0);
+        double R = sheen_add(sd, wo, Ns, sheen_weight, clamp01(p[25]));
+        double albedo[3] = {sheen_weight[0] * R, sheen_weight[1] * R, sheen_weight[2] * R};
+        layering_weight(albedo, W);
+    }
     /* 2. Coat (where reflective caustics are filtered out it reflects nothing, but still tints). */
     if (coat > WEIGHT_CUTOFF) {
         if (reflective) {
@@ -319,7 +352,8 @@ INLINE void setup_principled(ShaderResult *sd, double mu, int backfacing, const 
 }
 
 /* One node's setup (nodes.py NODE_TYPES[kind].setup) with the normal sd->N and mu = N.wo. */
-INLINE void setup_node(ShaderResult *sd, int kind, double mu, int backfacing, const double *weight, const double *p)
+INLINE void setup_node(ShaderResult *sd, int kind, double mu, const double *wo, int backfacing, const double *weight,
+                       const double *p)
 {
     switch (kind) {
     case NODE_DIFFUSE: {
@@ -338,7 +372,16 @@ INLINE void setup_node(ShaderResult *sd, int kind, double mu, int backfacing, co
         lobe_add(sd, mu, w, lobe, NULL, p[1] != 0.0 ? Fss : NULL);
         break;
     }
-    case NODE_PRINCIPLED: setup_principled(sd, mu, backfacing, weight, p); break;
+    case NODE_PRINCIPLED: setup_principled(sd, mu, wo, backfacing, weight, p); break;
+    case NODE_SHEEN:
+        if (p[1] != 0.0) {                                          /* Ashikhmin velvet */
+            double v[STORAGE_STRIDE] = {0.0};
+            velvet_params(p[0], v);
+            closure_add(sd, BSDF_VELVET, weight, weight, 1.0, v);
+        } else {
+            sheen_add(sd, wo, sd->N, weight, clamp01(p[0]));
+        }
+        break;
     case NODE_GLASS: {
         /* A caustics filter takes away the reflection or the refraction (tints of 0). */
         int reflective = !(sd->caustics & FILTER_REFLECTIVE), refractive = !(sd->caustics & FILTER_REFRACTIVE);
@@ -375,8 +418,9 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
     double mu = dot3(N, wo);
     sd->n = 0;
     sd->glossy = NULL;
+    sd->hit_N = NULL;
     for (int j = 0; j < 3; j++) { sd->emission[j] = 0.0; sd->transparency[j] = 0.0; sd->N[j] = N[j]; }
-    for (int k = 0; k < (int)m->n; k++) setup_node(sd, (int)m->kind[k], mu, backfacing, m->weight[k], m->p[k]);
+    for (int k = 0; k < (int)m->n; k++) setup_node(sd, (int)m->kind[k], mu, wo, backfacing, m->weight[k], m->p[k]);
     add_transparent(sd);
 }
 
@@ -427,9 +471,11 @@ INLINE void shade_graph(const GraphTables *G, const MaterialRecord *m, const Sha
         const double *Nk = own[k] ? normal[k] : N, *Gk = own[k] ? glossy[k] : N;
         for (int j = 0; j < 3; j++) sd->N[j] = Nk[j];
         sd->glossy = own[k] ? glossy[k] : NULL;
-        setup_node(sd, (int)m->kind[k], dot3(Gk, wo), backfacing, weight[k], p[k]);
+        sd->hit_N = N;
+        setup_node(sd, (int)m->kind[k], dot3(Gk, wo), wo, backfacing, weight[k], p[k]);
     }
     sd->glossy = NULL;
+    sd->hit_N = NULL;
     for (int j = 0; j < 3; j++) sd->N[j] = N[j];
     add_transparent(sd);
 }

@@ -3,7 +3,7 @@
 A material's node tree is exported (addon/export.py) as a short list of shader nodes, each with a
 weight (the product of the Mix Shader factors and Add Shaders above it) and its constant inputs. At
 each hit every node *sets up* its closures: the Diffuse BSDF one Lambert closure, the Glossy BSDF one
-microfacet closure, the Principled BSDF a stack of layers (coat over emission over metal over
+microfacet closure, the Principled BSDF a stack of layers (sheen over coat over emission over metal over
 specular over diffuse) where each layer takes the light it reflects away from the layers below, as
 Cycles' svm_node_closure_bsdf does. The setup depends on the view direction (how much a glossy layer
 reflects, and so leaves for the layers below, depends on mu = N.wo), so it runs per hit.
@@ -28,6 +28,10 @@ from .mirror import Mirror
 from .oren_nayar import OrenNayar
 from .oren_nayar import params_of as oren_nayar_params
 from .rough_glass import RoughGlass
+from .sheen import Sheen
+from .sheen import params_of as sheen_params
+from .velvet import Velvet
+from .velvet import params_of as velvet_params
 from .transparent import Transparent
 
 
@@ -222,6 +226,22 @@ def add_diffuse(b: ClosureBuilder, weight: np.ndarray, roughness: np.ndarray, al
     b.add(np.where(rough, OrenNayar.kind, Lambert.kind), weight, oren_nayar_params(roughness, albedo, b.mu))
 
 
+def sheen_normal(b: ClosureBuilder, coat: np.ndarray) -> np.ndarray:
+    """The Principled sheen's normal (n, 3): the node's normal turned towards the coat's by the coat weight
+    `coat` (n,) in 0..1, as Cycles mixes them; Primer's coat has the hit's own normal."""
+    N = b.N + coat[:, None] * (b.smooth_N - b.N)
+    length = np.linalg.norm(N, axis=1)
+    return np.where(length[:, None] > 0.0, N / np.where(length > 0.0, length, 1.0)[:, None], b.smooth_N)
+
+
+def add_sheen(b: ClosureBuilder, weight: np.ndarray, roughness: np.ndarray, N: np.ndarray, keep=None) -> np.ndarray:
+    """Append a microfiber sheen closure with normal N (n, 3): its weight is `weight` (n, 3) x its albedo R, its
+    sampling weight too (Cycles' bsdf_sheen_setup). Returns R (n,), what the layers below lose."""
+    p, R = sheen_params(roughness, np.einsum("ij,ij->i", N, b.wo))
+    b.add(Sheen.kind, weight * R[:, None], p, allocated=weight, factor=R, keep=keep, N=N)
+    return R
+
+
 class DiffuseNode(Node):
     """Diffuse BSDF: a Lambert closure weighted by its colour (the node's weight carries the colour), or with
     Roughness above 0 an Oren-Nayar closure, whose multiple scattering needs the colour itself."""
@@ -284,15 +304,18 @@ class TransparentNode(Node):
 # The Principled BSDF's inputs, in their slots.
 PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "subsurface", "specular_ior_level",
                      "specular_tint", "coat", "coat_roughness", "coat_ior", "coat_tint", "emission",
-                     "transmission", "multiscatter", "diffuse_roughness")
+                     "transmission", "multiscatter", "diffuse_roughness", "sheen", "sheen_roughness", "sheen_tint")
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
-                       (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0)
+                       (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0))
 
 
 class PrincipledNode(Node):
     """Principled BSDF, as Cycles lays it out (svm_node_closure_bsdf, CLOSURE_BSDF_PRINCIPLED_ID):
 
     1. alpha: 1 - alpha of the light passes through (a transparent closure), the rest meets the layers;
+    1b. sheen (the outermost layer): microfiber sheen (core/materials/sheen.py) of weight sheen x sheen tint x
+       its albedo R, its normal turned towards the coat's (the hit's) by the coat weight; below it, what it
+       does not reflect (layering_weight);
     2. coat: a dielectric GGX layer (index coat_ior); below it, light is tinted by coat_tint along the
        refracted path and reduced by what the coat reflects;
     3. emission, seen through the coat;
@@ -305,12 +328,12 @@ class PrincipledNode(Node):
        colours; below it, what it does not reflect;
     7. diffuse: Lambert with the base colour, or Oren-Nayar's with Diffuse Roughness (subsurface scattering
        approximated by it, with a warning).
-    Sheen and anisotropy are left out (warned at export).
+    Anisotropy is left out (warned at export).
     """
 
     kind, name = 3, "PRINCIPLED"
     inputs, defaults = PRINCIPLED_INPUTS, PRINCIPLED_DEFAULTS
-    slots = 5
+    slots = 6
 
     @staticmethod
     def setup(b, weight, p):
@@ -330,6 +353,13 @@ class PrincipledNode(Node):
         if (alpha < 1.0).any():
             b.transparency += W * (1.0 - alpha)[:, None]
             W = W * alpha[:, None]
+        # 1b. Sheen, on top of everything else.
+        sheen = np.maximum(p[:, 24], 0.0)
+        on = sheen > WEIGHT_CUTOFF
+        if on.any():
+            sheen_weight = W * sheen[:, None] * np.maximum(p[:, 26:29], 0.0)
+            R = add_sheen(b, sheen_weight, np.clip(p[:, 25], 0.0, 1.0), sheen_normal(b, np.clip(coat, 0.0, 1.0)), on)
+            W = np.where(on[:, None], layering_weight(sheen_weight * R[:, None], W), W)
         # 2. Coat.
         on = coat > WEIGHT_CUTOFF
         if on.any():
@@ -468,7 +498,24 @@ class GlassNode(Node):
         add_glass(b, weight, glass, p[:, 5], transmit_tint if multiscatter else None, keep=keep)
 
 
-NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode)
+class SheenNode(Node):
+    """Sheen BSDF: Microfiber, one sheen closure of the node's weight (its colour) x the albedo R; or Ashikhmin
+    (`velvet` 1), one velvet closure of the node's weight with sigma = Roughness (core/materials/velvet.py)."""
+
+    kind, name, inputs, defaults = 7, "SHEEN", ("roughness", "velvet"), (0.5, 0.0)
+
+    @staticmethod
+    def setup(b, weight, p):
+        p = per_hit_rows(p, len(weight))
+        roughness = np.clip(p[:, 0], 0.0, 1.0)
+        if p[0, 1] != 0.0:
+            b.add(Velvet.kind, weight, velvet_params(roughness))
+        else:
+            add_sheen(b, weight, roughness, b.N)
+
+
+NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
+              SheenNode)
 NODE_BY_NAME = {cls.name: cls for cls in NODE_TYPES}
 
 assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's kind is its place in NODE_TYPES"

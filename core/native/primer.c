@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 21
+#define PRIMER_ABI 23
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -29,6 +29,8 @@
 #include "../materials/transparent.c"
 #include "../materials/rough_glass.c"
 #include "../materials/oren_nayar.c"
+#include "../materials/sheen.c"
+#include "../materials/velvet.c"
 #include "../materials/bsdf.c"
 #include "../materials/textures.c"
 #include "../materials/graph.c"

@@ -1,0 +1,146 @@
+"""The microfiber sheen BSDF: the soft glow of velvet and cloth at grazing angles, as Cycles renders the Sheen
+BSDF (Microfiber) and the Principled BSDF's Sheen.
+
+Cloth is covered in tiny fibres standing up from the surface. Seen head-on, light slips between them; seen at
+a grazing angle, the fibres' sides catch it and scatter it back, many times over. Zeltner, Burley and Chiang
+("Practical Multiple-Scattering Sheen Using Linearly Transformed Cosines", SIGGRAPH 2022) simulated that
+fibre layer as a volume and fitted what it reflects with a *linearly transformed cosine* (LTC, Heitz et al.
+2016): take the cosine distribution D_o(w) = max(w.z, 0) / pi, whose integral over the hemisphere is 1, and
+stretch it by a 3 x 3 matrix. In the frame of the hit (x along the view direction's tangent part, z = N),
+a direction wi is mapped back to the cosine's domain by
+
+    M^-1 = [[a, 0, b],      w = M^-1 wi / |M^-1 wi|,     D(wi) = D_o(w) det(M^-1) / |M^-1 wi|^3
+            [0, a, 0],                                         = (N.wi / pi) a^2 / |M^-1 wi|^4
+            [0, 0, 1]]
+
+D is again a distribution of directions (its integral is 1), and the lobe is
+
+    f cos = R D(wi),    pdf = D(wi)
+
+with R the directional albedo of the fibre layer, the fraction of light it reflects seen from wo. a, b and R
+depend on the view angle (mu = N.wo) and the roughness (how far the fibres lean over). M leaves the z
+coordinate alone, so the stretched lobe stays above the surface, and sampling is exact: a cosine-distributed
+direction, mapped by M = M^-1's inverse, is distributed by D (its weight f cos / pdf is R).
+
+The fibres that reflect take that light away from what lies below: the Principled BSDF puts the sheen on
+top of its other layers, which keep 1 - (largest channel of) the sheen's weight x R (nodes.py).
+
+Cycles reads a, b and R from the authors' 32 x 32 tables (the volume fit). Primer uses the authors' published
+closed-form fits of those tables instead (ltc_a, ltc_b, albedo below; the formulas of github.com/tizian/
+ltc-sheen, also in MaterialX's mx_zeltner_sheen_* functions): R is within 0.01 of the table for mu >= 0.1 and
+differs more at grazing views (0.02 at mu = 2/31, 0.04 at 1/31, up to 0.17 at 0); docs/blender.md states what
+that does to renders.
+
+The lobe is not exactly reciprocal (the cosine is part of the fitted lobe), as in Cycles. Cycles counts sheen
+as a diffuse closure (CLOSURE_IS_BSDF_DIFFUSE, LABEL_DIFFUSE): a diffuse bounce for the Light Paths limits and
+the caustics filter; so does Primer (materials.DIFFUSE_KINDS).
+
+Parameters (computed per hit by the node that sets the closure up, `params_of`): a and b; R goes into the
+closure's weight.
+"""
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import numpy as np
+
+from .. import vectors
+from .base import BSDF, BsdfSample
+from .closures import PARAMS
+
+# The slots of its parameter row: M^-1's diagonal a and corner b.
+A, B = 0, 1
+# Cycles clamps the sheen roughness to this range (a roughness of 0 would make the lobe a delta at grazing).
+ROUGHNESS_MIN = 1e-3
+
+
+def albedo(mu: np.ndarray, roughness: np.ndarray) -> np.ndarray:
+    """R(mu, roughness), the fibre layer's directional albedo: a Gaussian in mu whose width, centre and offset
+    are rational in the roughness (Zeltner et al.'s published fit). mu, roughness: same shape, float64."""
+    r = roughness
+    width = r * (0.0206607 + 1.58491 * r) / (0.0379424 + r * (1.32227 + r))
+    centre = r * (-0.193854 + r * (-1.14885 + r * (1.7932 - 0.95943 * r * r))) / (0.046391 + r)
+    offset = r * (0.000654023 + (-0.0207818 + 0.119681 * r) * r) / (1.26264 + r * (-1.92021 + r))
+    gauss = np.exp(-0.5 * ((mu - centre) / width) ** 2) / (width * math.sqrt(2.0 * math.pi))
+    return np.clip(gauss + offset, 0.0, 1.0)
+
+
+def ltc_a(mu: np.ndarray, roughness: np.ndarray) -> np.ndarray:
+    """a(mu, roughness), M^-1's diagonal (published rational fit): small a stretches the lobe wide."""
+    r = roughness
+    return (2.58126 * mu + 0.813703 * r) * r / (1.0 + 0.310327 * mu * mu + 2.60994 * mu * r)
+
+
+def ltc_b(mu: np.ndarray, roughness: np.ndarray) -> np.ndarray:
+    """b(mu, roughness) <= 0, M^-1's corner (published rational fit): it tilts the lobe towards grazing."""
+    r = roughness
+    return (np.sqrt(np.maximum(1.0 - mu, 0.0)) * (r - 1.0) * r * r * r
+            / (0.0000254053 + 1.71228 * mu - 1.71506 * mu * r + 1.34174 * r * r))
+
+
+def params_of(roughness: np.ndarray, mu_o: np.ndarray) -> tuple:
+    """(n, PARAMS) closure rows and R (n,) for roughness (n,) and mu_o = N.wo (n,), both clamped as Cycles does
+    (roughness to 1e-3..1, mu to 0..1)."""
+    r = np.clip(np.asarray(roughness, np.float64), ROUGHNESS_MIN, 1.0)
+    mu = np.clip(np.asarray(mu_o, np.float64), 0.0, 1.0)
+    p = np.zeros((len(r), PARAMS))
+    p[:, A], p[:, B] = ltc_a(mu, r), ltc_b(mu, r)
+    return p, albedo(mu, r)
+
+
+def frame(N: np.ndarray, wo: np.ndarray) -> tuple:
+    """The lobe's frame (T, Bt), (m, 3) each: T along wo's part tangent to N, Bt = N x T (any frame where wo
+    is N itself: there b = 0 and the lobe is symmetric about N)."""
+    T = wo - np.einsum("ij,ij->i", N, wo)[:, None] * N
+    length = np.linalg.norm(T, axis=1)
+    head_on = length < 1e-12
+    if head_on.any():                   # a vector not along N, made tangent
+        other = np.where(np.abs(N[:, 0:1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+        fallback = other - np.einsum("ij,ij->i", N, other)[:, None] * N
+        T = np.where(head_on[:, None], fallback, T)
+        length = np.linalg.norm(T, axis=1)
+    T = T / length[:, None]
+    return T, np.cross(N, T)
+
+
+def ltc_density(a: np.ndarray, b: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """D at a direction with local coordinates x, y, z (m,) each: (z / pi) a^2 / |M^-1 w|^4, 0 where z <= 0."""
+    length_sq = (a * x + b * z) ** 2 + (a * y) ** 2 + z * z
+    above = z > 0.0
+    safe = np.where(above, length_sq, 1.0)
+    return np.where(above, z * a * a / (math.pi * safe * safe), 0.0)
+
+
+class Sheen(BSDF):
+    """Microfiber sheen (module docstring): f cos = pdf = D(wi), the LTC lobe (R is in the closure's weight)."""
+
+    kind: ClassVar[int] = 7
+    name: ClassVar[str] = "SHEEN"
+    params: ClassVar[tuple] = ("a", "b")
+
+    @staticmethod
+    def eval(params, N, wo, wi):
+        T, Bt = frame(N, wo)
+        x, y = np.einsum("ij,ij->i", T, wi), np.einsum("ij,ij->i", Bt, wi)
+        z = np.einsum("ij,ij->i", N, wi)
+        D = ltc_density(params[:, A], params[:, B], x, y, z)
+        return np.repeat(D[:, None], 3, axis=1), D
+
+    @staticmethod
+    def sample(params, N, wo, u):
+        a, b = params[:, A], params[:, B]
+        # A cosine-distributed direction (a uniform point on the disk, lifted to the hemisphere) ...
+        radius = np.sqrt(u[:, 0])
+        cos_phi, sin_phi = vectors.cos_sin(2.0 * math.pi * u[:, 1])
+        x, y = radius * cos_phi, radius * sin_phi
+        z = np.sqrt(np.maximum(1.0 - u[:, 0], 0.0))
+        # ... mapped by M: x' = (x - b z) / a, y' = y / a, z' = z, then normalized.
+        local = np.stack([(x - b * z) / a, y / a, z], axis=1)
+        local /= np.linalg.norm(local, axis=1)[:, None]
+        T, Bt = frame(N, wo)
+        wi = local[:, 0:1] * T + local[:, 1:2] * Bt + local[:, 2:3] * N
+        wi /= np.linalg.norm(wi, axis=1)[:, None]
+        pdf = ltc_density(a, b, local[:, 0], local[:, 1], local[:, 2])
+        weight = np.where(pdf[:, None] > 0.0, 1.0, 0.0) * np.ones((len(a), 3))
+        return BsdfSample(wi, weight, pdf)
