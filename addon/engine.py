@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core.integrators import cryptomatte
 from ..core.teaching import debug
-from . import compositor, export, viewport
+from . import compositor, export, lightgroups, viewport
 
 log = logging.getLogger("primer")
 
@@ -255,6 +255,9 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
             elif name in crypto_names:
                 buffer, first = crypto_names[name]
                 fill(render_pass, block(buffers[buffer][..., first:first + 4]))
+            elif name.startswith(lightgroups.PASS_PREFIX):
+                group = lightgroups.BUFFER_PREFIX + name[len(lightgroups.PASS_PREFIX):]
+                fill(render_pass, block(buffers[group] if group in buffers else np.zeros((height, width, 3))))
             elif name in STANDARD_PASSES or name in DEBUG_PASSES or name in DENOISING_PASSES:
                 buffer = (STANDARD_PASSES.get(name) or DEBUG_PASSES.get(name) or DENOISING_PASSES[name])[0]
                 if buffer in buffers:
@@ -413,10 +416,20 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
                  result.stats.seconds, result.stats.kernels)
         record.cancelled = result.cancelled
         record.stats = result.stats
+        buffers = result.aux
+        groups = lightgroups.group_names(depsgraph.view_layer)
+        if groups and not result.cancelled:
+            def group_progress(fraction, stats, group):
+                engine.update_progress(fraction)
+                engine.update_stats("", f"Primer | light group '{group}' | {100 * fraction:.0f}%")
+
+            buffers = {**buffers, **lightgroups.render_groups(core_render, exported, groups, group_progress,
+                                                               cancelled)}
+            record.cancelled = cancelled()
         written = time.perf_counter()
         chosen = scene.primer.debug_light
         channels = light_channels(result.light_names, chosen.name if chosen is not None else "")
-        write_result(engine, exported, result.image, result.aux, channels, scene.primer.debug_view)
+        write_result(engine, exported, result.image, buffers, channels, scene.primer.debug_view)
         record.write_seconds = time.perf_counter() - written
     except KeyboardInterrupt:            # Ctrl+C before the handler was set: stop like Esc
         record.cancelled = True
@@ -488,6 +501,8 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
         for buffer, (toggle, _, _, channels, chan_id, kind) in CYCLES_PASSES.items():
             if getattr(renderlayer, toggle, False):
                 self.register_pass(scene, renderlayer, cycles_pass_name(buffer), channels, chan_id, kind)
+        for group in lightgroups.group_names(renderlayer):
+            self.register_pass(scene, renderlayer, lightgroups.PASS_PREFIX + group, 3, "RGB", "COLOR")
         for buffer, (toggle, _) in CRYPTO_PASSES.items():
             if getattr(renderlayer, toggle, False):
                 for name in crypto_pass_names(buffer, renderlayer.pass_cryptomatte_depth):

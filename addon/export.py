@@ -18,6 +18,7 @@ from ..core.camera import Camera
 from ..core.lights import World
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
+from . import lightgroups
 from . import materials as materials_
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
@@ -43,6 +44,9 @@ class Export:
                                 # with engine.begin_result(0, 0, width, height)
     warnings: list = field(default_factory=list)
     meshes_read: list = field(default_factory=list)     # objects whose meshes were read from Blender (not kept)
+    # The light group (View Layer > Light Groups) of each source: {"lights": [per scene.lights], "instances":
+    # [per scene.instances], "world": name}; "" for none (addon/lightgroups.py).
+    lightgroups: dict = field(default_factory=lambda: {"lights": [], "instances": [], "world": ""})
 
 
 # ----------------------------------------------------------------------------
@@ -707,6 +711,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     materials = MaterialTable()
     override = getattr(depsgraph.view_layer_eval, "material_override", None)
     mesh_index: dict = {}
+    groups = {"lights": [], "instances": [], "world": lightgroups.source_group(scene.world)}
     ray_visibility_noted: set = set()
     unsupported_noted: set = set()
     terminator_offsets: dict = {}
@@ -723,6 +728,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             light = export_light(obj, matrix, warnings)
             if light is not None:
                 core.lights.append(light)
+                groups["lights"].append(lightgroups.source_group(obj))
             continue
         if not instance.show_self:
             continue                    # e.g. a particle emitter that is not rendered itself
@@ -769,6 +775,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                                                   visible_camera=bool(getattr(obj, "visible_camera", True)),
                                                   visible_shadow=bool(getattr(obj, "visible_shadow", True)),
                                                   asset=topmost_parent(obj).name))
+        groups["instances"].append(lightgroups.source_group(obj))
 
     if mesh_cache is not None:
         mesh_cache.end()
@@ -782,4 +789,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     settings = render_settings(scene, width, height, border, aux, passes)
     settings.cryptomatte_depth = int(getattr(depsgraph.view_layer, "pass_cryptomatte_depth", 6))
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
-    return Export(core, settings, (width, height), border, warnings, meshes_read)
+    groups_wanted = lightgroups.group_names(depsgraph.view_layer)
+    for group in lightgroups.empty_groups(groups_wanted, groups):
+        warnings.append(f"light group '{group}' has no light, emissive object or world in it: its pass is black")
+    return Export(core, settings, (width, height), border, warnings, meshes_read, groups)
