@@ -377,3 +377,28 @@ def test_an_8_bit_image_takes_a_quarter_of_the_memory_of_floats():
     assert tex.bytes.nbytes == pixels.size and tex.bytes.dtype == np.uint8
     assert tex.floats.dtype == np.float32 and tex.floats.size == 2 * 2 * 3     # float64 read as float32, no copy kept
     np.testing.assert_array_equal(tex.texels(0), pixels)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_normal_map_at_the_principled_normal_turns_the_base_not_the_coat(kernels):
+    """Cycles gives the Principled coat the hit's own normal (Coat Normal unlinked), whatever feeds the node's
+    Normal input: over a black base with no specular, where the coat is the only lobe, a normal map tilting
+    N by 30 degrees changes nothing; over a white base it changes the diffuse light by cos 30."""
+    theta = math.radians(30.0)
+    tilted = np.array([math.sin(theta), 0.0, math.cos(theta)])
+    color = GraphNode("RGB", {"value": tilted * 0.5 + 0.5})
+    mapped = Link(GraphNode("NORMAL_MAP", {"map": ""}, {"Color": Link(color, "Color"), "Strength": 1.0}), "Normal")
+
+    def coated(base, normal):
+        inputs = {"base_color": base, "specular_ior_level": 0.0, "coat": 1.0, "coat_roughness": 0.3}
+        if normal:
+            inputs["normal"] = mapped
+        return Material(name="Coated", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0), inputs)])
+
+    flat = shoot(scene_of(coated((0.0, 0.0, 0.0), False), tangent=True), kernels)
+    bumped = shoot(scene_of(coated((0.0, 0.0, 0.0), True), tangent=True), kernels)
+    assert flat.min() > 0.0                                        # the coat reflects the sun straight back
+    np.testing.assert_allclose(bumped, flat, rtol=1e-9)
+    white_flat = shoot(scene_of(coated((1.0, 1.0, 1.0), False), tangent=True), kernels)
+    white_bumped = shoot(scene_of(coated((1.0, 1.0, 1.0), True), tangent=True), kernels)
+    np.testing.assert_allclose(white_bumped - flat, (white_flat - flat) * math.cos(theta), rtol=1e-6)

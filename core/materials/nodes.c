@@ -271,22 +271,32 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
         double albedo[3] = {sheen_weight[0] * R, sheen_weight[1] * R, sheen_weight[2] * R};
         layering_weight(albedo, W);
     }
-    /* 2. Coat (where reflective caustics are filtered out it reflects nothing, but still tints). */
+    /* 2. Coat, with the hit's own normal (nodes.py: a normal map at the node's Normal input turns the layers
+     *    below it, not the coat); where reflective caustics are filtered out it reflects nothing, but still
+     *    tints. */
     if (coat > WEIGHT_CUTOFF) {
+        const double *hit = sd->hit_N != NULL ? sd->hit_N : sd->N;
+        double node_N[3] = {sd->N[0], sd->N[1], sd->N[2]};
+        const double *node_glossy = sd->glossy;
+        for (int j = 0; j < 3; j++) sd->N[j] = hit[j];
+        sd->glossy = NULL;
+        double mu_c = dot3(hit, wo);
         if (reflective) {
             double F0c = F0_from_ior(coat_ior), f0[3] = {F0c, F0c, F0c}, reflect[3], Fss[3];
             lobe_params(lobe, coat_roughness, FRESNEL_DIELECTRIC, coat_ior, f0, one);
-            dielectric_albedo(coat_roughness, mu, coat_ior, f0, reflect);
+            dielectric_albedo(coat_roughness, mu_c, coat_ior, f0, reflect);
             double coat_weight[3] = {W[0] * coat, W[1] * coat, W[2] * coat};
             Fss[0] = Fss[1] = Fss[2] = dielectric_Fss(coat_ior);
-            lobe_add(sd, mu, coat_weight, lobe, reflect, Fss);
+            lobe_add(sd, mu_c, coat_weight, lobe, reflect, Fss);
             double albedo[3] = {coat_weight[0] * reflect[0], coat_weight[1] * reflect[1], coat_weight[2] * reflect[2]};
             layering_weight(albedo, W);
         }
         if (!(coat_tint[0] == 1.0 && coat_tint[1] == 1.0 && coat_tint[2] == 1.0)) {
-            double cos_t = sqrt(at_least(1.0 - (1.0 - mu * mu) / (coat_ior * coat_ior), 1e-12));
+            double cos_t = sqrt(at_least(1.0 - (1.0 - mu_c * mu_c) / (coat_ior * coat_ior), 1e-12));
             for (int j = 0; j < 3; j++) W[j] *= 1.0 + coat * (pow(coat_tint[j], 1.0 / cos_t) - 1.0);
         }
+        for (int j = 0; j < 3; j++) sd->N[j] = node_N[j];
+        sd->glossy = node_glossy;
     }
     /* 3. Emission. */
     for (int j = 0; j < 3; j++) sd->emission[j] += W[j] * p[18 + j];

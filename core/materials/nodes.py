@@ -228,7 +228,7 @@ def add_diffuse(b: ClosureBuilder, weight: np.ndarray, roughness: np.ndarray, al
 
 def sheen_normal(b: ClosureBuilder, coat: np.ndarray) -> np.ndarray:
     """The Principled sheen's normal (n, 3): the node's normal turned towards the coat's by the coat weight
-    `coat` (n,) in 0..1, as Cycles mixes them; Primer's coat has the hit's own normal."""
+    `coat` (n,) in 0..1, as Cycles mixes them (the coat has the hit's own normal)."""
     N = b.N + coat[:, None] * (b.smooth_N - b.N)
     length = np.linalg.norm(N, axis=1)
     return np.where(length[:, None] > 0.0, N / np.where(length > 0.0, length, 1.0)[:, None], b.smooth_N)
@@ -360,9 +360,12 @@ class PrincipledNode(Node):
             sheen_weight = W * sheen[:, None] * np.maximum(p[:, 26:29], 0.0)
             R = add_sheen(b, sheen_weight, np.clip(p[:, 25], 0.0, 1.0), sheen_normal(b, np.clip(coat, 0.0, 1.0)), on)
             W = np.where(on[:, None], layering_weight(sheen_weight * R[:, None], W), W)
-        # 2. Coat.
+        # 2. Coat, with the hit's own normal (Cycles' Coat Normal unlinked is sd->N): a normal map at the node's
+        #    Normal input turns the layers below it, not the coat.
         on = coat > WEIGHT_CUTOFF
         if on.any():
+            node_normals = (b.N, b.glossy_N, b.mu)
+            b.use_normal(b.smooth_N)
             # (Where reflective caustics are filtered out the coat reflects nothing, but still tints.)
             lobe_on = on & b.reflective
             lobe = GlossyLobe.params(n, coat_roughness, mf.FRESNEL_DIELECTRIC, coat_ior)
@@ -376,6 +379,7 @@ class PrincipledNode(Node):
                 tinted_weight = layered * (1.0 + coat[:, None] * (coat_tint ** (1.0 / cos_t)[:, None] - 1.0))
                 layered = np.where(tinted[:, None], tinted_weight, layered)
             W = np.where(on[:, None], layered, W)
+            b.N, b.glossy_N, b.mu = node_normals
         # 3. Emission.
         b.emission += W * emission
         # 4. Metal.
