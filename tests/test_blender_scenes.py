@@ -123,6 +123,14 @@ VARIANTS = [
     # object hidden from shadow rays (no shadows at all).
     Variant("wall_hidden_from_camera", "light_emissive", {"object:Left Wall.visible_camera": False}, 256, 1024),
     Variant("no_object_casts_shadows", "light_point", {"objects.visible_shadow": False}, 64, 256),
+    # The Cornell box's tall box hidden from diffuse rays: still seen and casting its shadow, but no longer in
+    # the way of (nor reflecting) the light between the other surfaces, path traced.
+    Variant("tall_box_hidden_from_diffuse", "cornell_box", {"object:Tall Box.visible_diffuse": False}, 1024, 2048),
+    # Object > Visibility > Holdout: the sphere a hole in the film (colour and alpha 0), on an opaque film and a
+    # transparent one; its shadow stays.
+    Variant("holdout_sphere", "light_point", {"object:Sphere.is_holdout": True}, 64, 256),
+    Variant("holdout_sphere_transparent_film", "light_point",
+            {"object:Sphere.is_holdout": True, "render.film_transparent": True}, 64, 256),
     # Rough diffuse: every Diffuse BSDF's Roughness and the Principled BSDF's Diffuse Roughness at 1 (Oren-Nayar).
     Variant("rough_diffuse", "light_point", {"nodes.Roughness": 1.0, "nodes.Diffuse Roughness": 1.0}, 64, 256),
     # Cycles' biased path-tracing settings with their meaning in Cycles: both caustics switches off in the glass

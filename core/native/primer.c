@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 20
+#define PRIMER_ABI 21
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
