@@ -126,6 +126,9 @@ VARIANTS = [
     # The Cornell box's tall box hidden from diffuse rays: still seen and casting its shadow, but no longer in
     # the way of (nor reflecting) the light between the other surfaces, path traced.
     Variant("tall_box_hidden_from_diffuse", "cornell_box", {"object:Tall Box.visible_diffuse": False}, 1024, 2048),
+    # The ceiling lamp of light_emissive hidden from diffuse rays: it lights the room's diffuse surfaces by neither
+    # light samples nor bounces (the world still does), only the Principled cylinder's specular layer.
+    Variant("lamp_hidden_from_diffuse", "light_emissive", {"object:Ceiling Lamp.visible_diffuse": False}, 256, 1024),
     # Object > Visibility > Holdout: the sphere a hole in the film (colour and alpha 0), on an opaque film and a
     # transparent one; its shadow stays.
     Variant("holdout_sphere", "light_point", {"object:Sphere.is_holdout": True}, 64, 256),

@@ -28,6 +28,11 @@ closures of a hit that a diffuse bounce's ray reached (the light of caustics, fo
 glass, then never reaches a diffuse surface), and sample clamping (core/integrators/clamp.py) caps
 each contribution.
 
+Object > Visibility as Cycles reads it: every ray has a kind (camera; after a bounce diffuse, glossy or
+transmission, direct.ray_kind; straight through a Transparent closure the kind it had) and passes the objects
+hidden from that kind (Ray Visibility). A holdout object met by a camera path is a hole in the film
+(hold_out): its colour is not added and the pixel's alpha loses the share the object covers.
+
 With max_bounces = 0 a path is the direct-lighting tracer at the camera's hit, except that every hit
 traces its BSDF ray (the direct tracer skips it where light samples alone do well).
 Its compiled twin is the same loop in core/integrators/chunk.c (INTEGRATOR_PATH).
