@@ -282,3 +282,4 @@ def test_whitted_rays_pass_the_objects_hidden_from_their_kind():
     scene, settings = behind_a_pane([("GLASS", (1.0,) * 3, {"ior": 1.0, "roughness": 0.0})], "transmission", "numpy")
     image = render.render(scene, dataclasses.replace(settings, integrator="whitted")).image[..., :3]
     np.testing.assert_allclose(image, 2.0, rtol=1e-12)
+
