@@ -257,8 +257,9 @@ class SceneCache:
             parent = instance.parent.original.session_uid if instance.is_instance and instance.parent else 0
             key = (owner, parent, tuple(instance.persistent_id) if instance.is_instance else ())
             old = self.placements.get(key)
+            # (Object > Visibility changes tag no transform nor geometry: compared here, they are few and cheap.)
             if old is not None and not first and owner not in moved and parent not in moved \
-                    and old.mesh_key in self.meshes:
+                    and old.mesh_key in self.meshes and old.visible == tuple(export.ray_visibility(obj).items()):
                 placements[key] = old
                 if owner in changes.shading:
                     # Shading updates (materials edited, objects added) may re-link material slots.
