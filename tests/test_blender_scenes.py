@@ -129,6 +129,14 @@ VARIANTS = [
     # The ceiling lamp of light_emissive hidden from diffuse rays: it lights the room's diffuse surfaces by neither
     # light samples nor bounces (the world still does), only the Principled cylinder's specular layer.
     Variant("lamp_hidden_from_diffuse", "light_emissive", {"object:Ceiling Lamp.visible_diffuse": False}, 256, 1024),
+    # Glossy and transmission rays: the Principled spheres reflect no floor (hidden from glossy rays), and the
+    # glass spheres show no floor through them (hidden from transmission rays; still reflected, still lit through
+    # the glass by caustics). (Not the stripes: boxes standing on the floor, whose bottom faces lie in its plane,
+    # where a ray passing a hidden face may step past the floor too; see docs/blender.md.)
+    Variant("floor_hidden_from_glossy", "materials_principled",
+            {"object:Floor.visible_glossy": False, "render.resolution_percentage": 50}, 1024, 2048, 1.5e-4),
+    Variant("floor_hidden_from_transmission", "materials_glass", {"object:Floor.visible_transmission": False},
+            1024, 2048, 1.5e-4),
     # Object > Visibility > Holdout: the sphere a hole in the film (colour and alpha 0), on an opaque film and a
     # transparent one; its shadow stays.
     Variant("holdout_sphere", "light_point", {"object:Sphere.is_holdout": True}, 64, 256),
