@@ -283,3 +283,32 @@ def test_whitted_rays_pass_the_objects_hidden_from_their_kind():
     image = render.render(scene, dataclasses.replace(settings, integrator="whitted")).image[..., :3]
     np.testing.assert_allclose(image, 2.0, rtol=1e-12)
 
+
+
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_both_kernels_render_every_visibility_and_holdout_alike(integrator):
+    """A glossy, glass and transparent scene where objects hide from each kind of ray, an emitter hides from
+    glossy rays and one object is a holdout: the compiled kernels and the Python reference trace the same rays
+    and agree pixel for pixel, alpha included (tests/test_compiled.py's comparison)."""
+    from test_compiled import assert_same_render, compare_paths
+    scene = Scene(camera=looking_down(6.0), world=World(color=np.full(3, 0.3)))
+    scene.materials += [materials.Material(name="floor", nodes=[("DIFFUSE", (0.6,) * 3, {})]),
+                        materials.Material(name="glossy", nodes=[("GLOSSY", (0.9,) * 3, {"roughness": 0.3})]),
+                        materials.Material(name="glass", nodes=[("GLASS", (1.0,) * 3, {"ior": 1.45, "roughness": 0.1})]),
+                        materials.Material(name="clear", nodes=[("TRANSPARENT", (0.5,) * 3, {})]), glow("lamp", 6.0)]
+    scene.add_mesh(primitives.plane(40.0), materials=np.array([0]))
+    for i, (x, material) in enumerate([(-1.5, 1), (0.0, 2), (1.5, 3), (0.0, 0)]):
+        scene.add_mesh(primitives.box((0.8, 0.8, 0.8), center=(x, 0.7 * (i == 3), 0.4 + 1.2 * (i == 3))),
+                       materials=np.array([material]))
+    lamp = np.array([[1, 0, 0, 0], [0, -1, 0, 0.5], [0, 0, -1, 2.5], [0, 0, 0, 1.0]])
+    scene.add_mesh(primitives.plane(1.0), lamp, materials=np.array([4]))
+    scene.instances[1].visible_diffuse = False
+    scene.instances[2].visible_transmission = False
+    scene.instances[3].visible_glossy = False
+    scene.instances[4].is_holdout = True
+    scene.instances[5].visible_glossy = False
+    scene.instances[5].visible_camera = False
+    settings = RenderSettings(width=40, height=40, samples=4, integrator=integrator, light_samples=2)
+    compiled, reference = compare_paths(scene, settings)
+    assert_same_render(compiled, reference)
+    assert (reference.image[..., 3] < 1.0).any()
