@@ -306,22 +306,26 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
     return reader.value(node, "Color", np.ones(3)) * reader.value(node, "Strength", 1.0)
 
 
-# The rays of Object > Visibility > Ray Visibility that Primer does not hide an object from (it reads Camera
-# and Shadow), and the names Blender shows for them.
-UNREAD_RAY_VISIBILITY = (("visible_diffuse", "Diffuse"), ("visible_glossy", "Glossy"),
-                         ("visible_transmission", "Transmission"), ("visible_volume_scatter", "Volume Scatter"))
+# The rays of Object > Visibility > Ray Visibility that Primer does not hide an object from (it reads Camera,
+# Diffuse, Glossy, Transmission and Shadow; it has no volumes), and the names Blender shows for them.
+UNREAD_RAY_VISIBILITY = (("visible_volume_scatter", "Volume Scatter"),)
+
+
+def ray_visibility(obj) -> dict:
+    """An object's Object > Visibility settings Primer reads, as core Instance keywords (visible_camera, ...,
+    is_holdout: bool)."""
+    names = ("visible_camera", "visible_shadow", "visible_diffuse", "visible_glossy", "visible_transmission")
+    seen = {name: bool(getattr(obj, name, True)) for name in names}
+    return dict(seen, is_holdout=bool(getattr(obj, "is_holdout", False)))
 
 
 def ray_visibility_notes(obj) -> list:
-    """The warnings for what an object's Ray Visibility and Holdout ask that Primer does not do."""
-    notes = []
+    """The warnings for what an object's Ray Visibility asks that Primer does not do."""
     hidden = [label for name, label in UNREAD_RAY_VISIBILITY if not getattr(obj, name, True)]
     if hidden:
-        notes.append(f"object '{obj.name}' hides itself from {', '.join(hidden)} rays (Ray Visibility); Primer "
-                     "shows it to them (only Camera and Shadow visibility are read)")
-    if getattr(obj, "is_holdout", False):
-        notes.append(f"object '{obj.name}' is a holdout; Primer renders it as an ordinary object")
-    return notes
+        return [f"object '{obj.name}' hides itself from {', '.join(hidden)} rays (Ray Visibility); Primer has no "
+                "volumes, so nothing changes"]
+    return []
 
 
 def export_light(obj, matrix: np.ndarray, warnings: list):
@@ -771,9 +775,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
-                                                  int(getattr(obj, "pass_index", 0)),
-                                                  visible_camera=bool(getattr(obj, "visible_camera", True)),
-                                                  visible_shadow=bool(getattr(obj, "visible_shadow", True)),
+                                                  int(getattr(obj, "pass_index", 0)), **ray_visibility(obj),
                                                   asset=topmost_parent(obj).name))
         groups["instances"].append(lightgroups.source_group(obj))
 

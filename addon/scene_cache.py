@@ -135,7 +135,7 @@ class _Placement:
     name: str
     owner: int          # original object's session uid
     parent: int         # the instancer's session uid (the owner itself when not instanced)
-    visible: tuple = (True, True)   # Ray Visibility > Camera, Shadow
+    visible: tuple = ()             # export.ray_visibility's items: Ray Visibility and Holdout
 
     def same_as(self, other: "_Placement") -> bool:
         """Whether `other` places the same mesh at the same spot with the same materials and visibility."""
@@ -257,8 +257,9 @@ class SceneCache:
             parent = instance.parent.original.session_uid if instance.is_instance and instance.parent else 0
             key = (owner, parent, tuple(instance.persistent_id) if instance.is_instance else ())
             old = self.placements.get(key)
+            # (Object > Visibility changes tag no transform nor geometry: compared here, they are few and cheap.)
             if old is not None and not first and owner not in moved and parent not in moved \
-                    and old.mesh_key in self.meshes:
+                    and old.mesh_key in self.meshes and old.visible == tuple(export.ray_visibility(obj).items()):
                 placements[key] = old
                 if owner in changes.shading:
                     # Shading updates (materials edited, objects added) may re-link material slots.
@@ -293,7 +294,7 @@ class SceneCache:
         slots = self.material_table.slot_map(obj, self.warnings, self.override)
         self._read_attributes(obj, mesh_key, slots)
         return _Placement(mesh_key, np.array(instance.matrix_world, np.float64), slots, obj.name, owner,
-                          key[1] or owner, (bool(obj.visible_camera), bool(obj.visible_shadow)))
+                          key[1] or owner, tuple(export.ray_visibility(obj).items()))
 
     def _read_attributes(self, obj, mesh_key, slots: np.ndarray) -> None:
         """Read into the cached mesh the per-corner attributes its materials' node graphs use (export.mesh_attributes)."""
@@ -332,8 +333,7 @@ class SceneCache:
                 mesh_index[placement.mesh_key] = len(scene.meshes) - 1
             scene.instances.append(core_scene.Instance(mesh_index[placement.mesh_key], placement.matrix,
                                                        placement.materials, placement.name,
-                                                       visible_camera=placement.visible[0],
-                                                       visible_shadow=placement.visible[1]))
+                                                       **dict(placement.visible)))
         return scene
 
     def _add_to_totals(self, report: SyncReport) -> None:

@@ -37,7 +37,7 @@ from .film.film import ChunkSums, Film, pixel_sums
 from .geometry import instancing
 from .geometry.geometry import WorldGeometry, build_geometry
 from .integrators import INTEGRATORS, Context, Recorder
-from .geometry.geometry import HIDDEN_FROM_SHADOW
+from .geometry.geometry import HIDDEN_FROM_SHADOW, HOLDOUT
 from .integrators import cryptomatte, features, passes as passes_
 from .integrators.compiled import Compiled, why_not
 from .materials import MaterialTable
@@ -137,8 +137,9 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0)
     ctx.extra["emissive"] = bool(materials.emissive.any())
     # Shadow rays go on through surfaces: transparent ones, and objects hidden from shadow rays.
+    # (and holdouts, which the path tracer's loop handles, as the camera's paths through transparent surfaces)
     ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)
-                                or ctx.geometry.hides(HIDDEN_FROM_SHADOW))
+                                or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT))
     ctx.extra["bsdf_rays"] = bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
     # Where BSDF rays are traced: at every hit where emitters or the world light the scene (only BSDF rays
     # find a constant world, and MIS is what samples emitters well); where only lamps with extent do, at
@@ -306,6 +307,8 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     hit = traced[found.hit]
     rgba[traced, :3] = found.L                   # what each ray brought back (misses: the world, lamps)
     rgba[hit, 3] = 1.0
+    if found.holdout is not None:
+        rgba[traced, 3] -= found.holdout         # the holes holdout objects make (Cycles' holdout transparency)
     # c. Each pixel's sums (the film divides by the count).
     per_pixel, squares = pixel_sums(rgba, p, spp, s.adaptive)
     hits = np.bincount(hit // spp, minlength=p)

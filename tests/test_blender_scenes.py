@@ -123,6 +123,25 @@ VARIANTS = [
     # object hidden from shadow rays (no shadows at all).
     Variant("wall_hidden_from_camera", "light_emissive", {"object:Left Wall.visible_camera": False}, 256, 1024),
     Variant("no_object_casts_shadows", "light_point", {"objects.visible_shadow": False}, 64, 256),
+    # The Cornell box's tall box hidden from diffuse rays: still seen and casting its shadow, but no longer in
+    # the way of (nor reflecting) the light between the other surfaces, path traced.
+    Variant("tall_box_hidden_from_diffuse", "cornell_box", {"object:Tall Box.visible_diffuse": False}, 1024, 2048),
+    # The ceiling lamp of light_emissive hidden from diffuse rays: it lights the room's diffuse surfaces by neither
+    # light samples nor bounces (the world still does), only the Principled cylinder's specular layer.
+    Variant("lamp_hidden_from_diffuse", "light_emissive", {"object:Ceiling Lamp.visible_diffuse": False}, 256, 1024),
+    # Glossy and transmission rays: the Principled spheres reflect no floor (hidden from glossy rays), and the
+    # glass spheres show no floor through them (hidden from transmission rays; still reflected, still lit through
+    # the glass by caustics). (Not the stripes: boxes standing on the floor, whose bottom faces lie in its plane,
+    # where a ray passing a hidden face may step past the floor too; see docs/blender.md.)
+    Variant("floor_hidden_from_glossy", "materials_principled",
+            {"object:Floor.visible_glossy": False, "render.resolution_percentage": 50}, 1024, 2048, 1.5e-4),
+    Variant("floor_hidden_from_transmission", "materials_glass", {"object:Floor.visible_transmission": False},
+            1024, 2048, 1.5e-4),
+    # Object > Visibility > Holdout: the sphere a hole in the film (colour and alpha 0), on an opaque film and a
+    # transparent one; its shadow stays.
+    Variant("holdout_sphere", "light_point", {"object:Sphere.is_holdout": True}, 64, 256),
+    Variant("holdout_sphere_transparent_film", "light_point",
+            {"object:Sphere.is_holdout": True, "render.film_transparent": True}, 64, 256),
     # Rough diffuse: every Diffuse BSDF's Roughness and the Principled BSDF's Diffuse Roughness at 1 (Oren-Nayar).
     Variant("rough_diffuse", "light_point", {"nodes.Roughness": 1.0, "nodes.Diffuse Roughness": 1.0}, 64, 256),
     # Microfiber sheen: the Principled sphere with Sheen Weight 1, an orange tint and Sheen Roughness 0.5.

@@ -320,3 +320,20 @@ def test_worker_thread_restarts_on_a_change_and_converges(session_in_scene):
     assert frame.samples == 4 and session.error == ""
     np.testing.assert_allclose(frame.image[..., :3], 0.8 / math.pi * 3.0, rtol=1e-5)
     assert "frame time" in session.status_text()
+
+
+def test_ray_visibility_and_holdout_reach_the_traced_scene(session_in_scene):
+    """Object > Visibility > Ray Visibility > Diffuse off and Holdout on for one cube: the viewport's traced scene
+    has an object hidden from diffuse rays and a holdout, and none hidden from glossy rays."""
+    from core.geometry.geometry import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HOLDOUT
+    _, session, recorder, _ = session_in_scene
+    assert not session.cache.geometry.hides(HIDDEN_FROM_DIFFUSE | HOLDOUT)
+
+    def edit():
+        cube = bpy.data.objects["Cube B"]
+        cube.visible_diffuse = False
+        cube.is_holdout = True
+
+    recorder.change(edit)
+    geometry = session.cache.geometry
+    assert geometry.hides(HIDDEN_FROM_DIFFUSE) and geometry.hides(HOLDOUT) and not geometry.hides(HIDDEN_FROM_GLOSSY)

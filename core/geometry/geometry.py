@@ -37,8 +37,12 @@ from ..materials import graph as graph_
 CORNER_TABLE_TRIANGLES = 1 << 21
 
 
-# The rays an object may hide from (WorldGeometry.instance_hidden bits; triangles.c HIDDEN_FROM_*).
+# The rays an object may hide from (WorldGeometry.instance_hidden bits; triangles.c HIDDEN_FROM_*): Object >
+# Visibility > Ray Visibility. A ray of one kind passes the objects hidden from that kind as if they were not there.
 HIDDEN_FROM_CAMERA, HIDDEN_FROM_SHADOW = 1, 2
+HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION = 4, 8, 16
+# In the same flags: the object is a holdout (Object > Visibility > Holdout), a hole in the film for camera paths.
+HOLDOUT = 32
 
 
 @dataclass
@@ -64,8 +68,8 @@ class WorldGeometry:
     attribute_row:  (t,) int32 row of `attributes` per copied triangle (instanced meshes keep their own)
     instance_random: (n,) float64 the Object Info Random of each Scene.instances entry
     instance_linear: (n, 3, 3) float64 each instance's linear transform (tangents turn with it)
-    instance_hidden: (n,) uint8 the rays each Scene.instances entry hides from (HIDDEN_FROM_CAMERA |
-                    HIDDEN_FROM_SHADOW bits, Ray Visibility), or an empty array when no object hides
+    instance_hidden: (n,) uint8 the rays each Scene.instances entry hides from (HIDDEN_FROM_* bits, Ray
+                    Visibility) and whether it is a holdout (HOLDOUT), or an empty array when no object does either
     The arrays above hold the copied triangles only; ask `triangle_data` for any triangle.
     """
 
@@ -157,13 +161,15 @@ class WorldGeometry:
         return TriangleData(corners, Ng, mesh.materials(j, local), is_smooth, normals)
 
     def hides(self, bit: int) -> bool:
-        """Whether some object hides from the rays of `bit` (HIDDEN_FROM_CAMERA, HIDDEN_FROM_SHADOW)."""
+        """Whether some object hides from the rays of `bit` (any of the HIDDEN_FROM_* or HOLDOUT bits it has)."""
         return bool(len(self.instance_hidden)) and bool((self.instance_hidden & bit).any())
 
-    def hidden(self, prim: np.ndarray, bit: int) -> np.ndarray:
-        """Which triangles `prim` (k,) int64 belong to objects hidden from the rays of `bit`: (k,) bool."""
+    def hidden(self, prim: np.ndarray, bit) -> np.ndarray:
+        """Which triangles `prim` (k,) int64 belong to objects hidden from the rays of `bit` (an int, or (k,) int
+        each triangle's own ray kind: HIDDEN_FROM_* bits; HOLDOUT asks which are holdouts): (k,) bool."""
         prim = np.asarray(prim, np.int64)
-        if not self.hides(bit) or len(prim) == 0:
+        bits = np.asarray(bit, np.int64)
+        if len(prim) == 0 or not self.hides(int(np.bitwise_or.reduce(bits.ravel())) if bits.size else 0):
             return np.zeros(len(prim), bool)
         owner = self.owners(prim)
         return (owner >= 0) & ((self.instance_hidden[np.maximum(owner, 0)] & bit) != 0)
@@ -451,8 +457,11 @@ def build_geometry(scene: Scene, origin: np.ndarray,
 
 
 def hidden_flags(instances: list) -> np.ndarray:
-    """(n,) uint8 the rays each instance hides from (HIDDEN_FROM_* bits); empty when none hides."""
+    """(n,) uint8 the rays each instance hides from (HIDDEN_FROM_* bits) and whether it is a holdout (HOLDOUT);
+    empty when no instance does either."""
     flags = np.array([(0 if i.visible_camera else HIDDEN_FROM_CAMERA) | (0 if i.visible_shadow else HIDDEN_FROM_SHADOW)
+                      | (0 if i.visible_diffuse else HIDDEN_FROM_DIFFUSE) | (0 if i.visible_glossy else HIDDEN_FROM_GLOSSY)
+                      | (0 if i.visible_transmission else HIDDEN_FROM_TRANSMISSION) | (HOLDOUT if i.is_holdout else 0)
                       for i in instances], np.uint8)
     return flags if flags.any() else np.zeros(0, np.uint8)
 

@@ -42,8 +42,10 @@ typedef struct {
     const uint8_t *hidden;          /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
 } GeometryTables;
 
-/* The rays an object may hide from (geometry.HIDDEN_FROM_*: Ray Visibility > Camera, Shadow off). */
-enum { HIDDEN_FROM_CAMERA = 1, HIDDEN_FROM_SHADOW = 2 };
+/* The rays an object may hide from (geometry.HIDDEN_FROM_*: Ray Visibility > Camera, Shadow, Diffuse, Glossy,
+ * Transmission off), and in the same flags whether it is a holdout (geometry.HOLDOUT). */
+enum { HIDDEN_FROM_CAMERA = 1, HIDDEN_FROM_SHADOW = 2, HIDDEN_FROM_DIFFUSE = 4, HIDDEN_FROM_GLOSSY = 8,
+       HIDDEN_FROM_TRANSMISSION = 16, HOLDOUT = 32 };
 
 /* What shading needs of one hit triangle. */
 typedef struct {

@@ -51,11 +51,14 @@ class Radiance(NamedTuple):
     L:       (n, 3) float64 radiance towards the camera (0 where the ray missed)
     hit:     (n,) bool which rays hit a surface
     shadow_rays: int shadow rays traced
+    holdout: (n,) float64 the share of each ray's alpha that holdout objects take away (Object > Visibility >
+             Holdout), or None where no object is a holdout
     """
 
     L: np.ndarray
     hit: np.ndarray
     shadow_rays: int
+    holdout: Optional[np.ndarray] = None
 
 
 class Recorder:

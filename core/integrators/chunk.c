@@ -43,42 +43,6 @@ typedef struct {
     double seconds[3];          /* inside Embree's nearest-hit queries, its occlusion queries, shading */
 } ChunkOut;
 
-/* direct.nearest_seen for lane k of a packet whose hit is on an object hidden from the camera: the ray goes on
- * past it (one ray at a time: only rays meeting such an object come here), until it meets a seen object or
- * nothing; the lane's hit and tfar (the distance from O) are replaced. */
-INLINE void see_past_hidden(const ChunkParams *params, Intersect8 intersect, RayHitPacket *packet, int k,
-                            const double *O, const double *D, double t_max)
-{
-    const GeometryTables *g = params->geometry;
-    while (packet->hit.geomID[k] != INVALID_ID
-           && hidden_from(g, (int64_t)packet->hit.geomID[k], (int64_t)packet->hit.primID[k], instance_of(&packet->hit, k),
-                          HIDDEN_FROM_CAMERA)) {
-        /* On from just past the hidden triangle, for what is left of the ray. */
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
-        hit_triangle(g, (int64_t)packet->hit.geomID[k], (int64_t)packet->hit.primID[k], instance_of(&packet->hit, k), 0,
-                     &tri);
-        Surface s;
-        surface_at(O, D, (double)packet->ray.tfar[k], (double)packet->hit.u[k], (double)packet->hit.v[k], &tri, 0, &s);
-        double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0, P[3], gone[3];
-        for (int c = 0; c < 3; c++) P[c] = s.I[c] + (s.offset * side) * s.Ng[c];
-        for (int c = 0; c < 3; c++) gone[c] = P[c] - O[c];
-        double travelled = dot3(gone, D);
-        RayHitPacket one;
-        int valid[PACKET] ALIGNED(32);
-        set_lane(&one.ray, 0, P, D, t_max - travelled);
-        close_packet(&one.ray, valid, 1);
-        clear_hits(&one);
-        intersect(valid, params->scene, &one, NULL);
-        packet->hit.geomID[k] = one.hit.geomID[0];
-        packet->hit.primID[k] = one.hit.primID[0];
-        packet->hit.instID[0][k] = one.hit.instID[0][0];
-        packet->hit.instPrimID[0][k] = one.hit.instPrimID[0][0];
-        packet->hit.u[k] = one.hit.u[0];
-        packet->hit.v[k] = one.hit.v[0];
-        packet->ray.tfar[k] = (float)(travelled + (double)one.ray.tfar[0]);
-    }
-}
-
 /* Step 2: the block's nearest hits, 8 rays at a time; the rays that hit kept, with their surfaces. */
 INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHits *H, int64_t *traced,
                        uint64_t *embree)
@@ -89,7 +53,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
     int valid[PACKET] ALIGNED(32);
     int64_t lane_of[PACKET];
     H->m = 0;
-    for (int64_t k = 0; k < b->n; k++) H->t[k] = b->t[k];
+    for (int64_t k = 0; k < b->n; k++) { H->t[k] = b->t[k]; H->held[k] = 0.0; }
     for (int64_t at = 0; at < b->n; at += PACKET) {
         /* a. The next 8 camera rays that have a ray (a fisheye's samples outside its circle have none). */
         int lanes = 0;
@@ -114,7 +78,8 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
                 int64_t lane = lane_of[k];
                 double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]};
                 double D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
-                see_past_hidden(params, intersect, &packet, k, O, D, b->t[lane]);
+                see_past_hidden(params->geometry, intersect, params->scene, &packet, k, O, D, b->t[lane],
+                                HIDDEN_FROM_CAMERA);
             }
             if (packet.hit.geomID[k] == INVALID_ID) continue;
             int64_t lane = lane_of[k], h = H->m++;
@@ -132,6 +97,13 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
                       (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, RAY_CAMERA, H->sd + h);
+            H->seen_by[h] = HIDDEN_FROM_CAMERA;
+            if (hidden_from(params->geometry, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
+                            instance_of(&packet.hit, k), HOLDOUT)) {
+                double weight[3];
+                hold_out(H->sd + h, weight);
+                H->held[lane] += (weight[0] + weight[1] + weight[2]) / 3.0;
+            }
             H->lane[h] = lane;
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];
@@ -268,7 +240,7 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
                 for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];
                 if (work != NULL)
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];
-                s[3] = 1.0;
+                s[3] = 1.0 - H.held[lane];          /* the holes holdout objects make (path.hold_out) */
                 h++;
                 out->hits[k]++;
             } else if (b.valid[lane]) {

@@ -26,6 +26,8 @@ typedef struct {
     int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
     uint8_t after_diffuse[BLOCK];                /* 1: that bounce was diffuse (the caustics switches) */
+    int32_t seen_by[BLOCK];                      /* the kind of ray that reached it (HIDDEN_FROM_*, direct.ray_kind) */
+    double held[BLOCK];                          /* per camera lane: the alpha holdouts take away (path.hold_out) */
 } BlockHits;
 
 /* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */
@@ -37,7 +39,65 @@ typedef struct {
     int kind;                                    /* the sampled closure's BSDF kind */
     int transmit;                                /* 1: it went through the surface */
     double pdf;                                  /* the pdf MIS weighs what it finds with (inf: none) */
+    int seen_as;                                 /* its kind: the HIDDEN_FROM_* bit of objects it passes */
 } PathRay;
+
+/* direct.nearest_seen for lane k of a packet whose rays are of the kind `bit` (HIDDEN_FROM_*): while the lane's
+ * hit is on an object hidden from that kind, the ray goes on past it (one ray at a time: only rays meeting such
+ * an object come here), until it meets a seen object or nothing; the lane's hit and tfar (from O) are replaced. */
+INLINE void see_past_hidden(const GeometryTables *g, Intersect8 intersect, void *scene, RayHitPacket *packet, int k,
+                            const double *O, const double *D, double t_max, int bit)
+{
+    while (packet->hit.geomID[k] != INVALID_ID
+           && hidden_from(g, (int64_t)packet->hit.geomID[k], (int64_t)packet->hit.primID[k], instance_of(&packet->hit, k),
+                          bit)) {
+        /* On from just past the hidden triangle, for what is left of the ray. */
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+        hit_triangle(g, (int64_t)packet->hit.geomID[k], (int64_t)packet->hit.primID[k], instance_of(&packet->hit, k), 0,
+                     &tri);
+        Surface s;
+        surface_at(O, D, (double)packet->ray.tfar[k], (double)packet->hit.u[k], (double)packet->hit.v[k], &tri, 0, &s);
+        double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0, P[3], gone[3];
+        for (int c = 0; c < 3; c++) P[c] = s.I[c] + (s.offset * side) * s.Ng[c];
+        for (int c = 0; c < 3; c++) gone[c] = P[c] - O[c];
+        double travelled = dot3(gone, D);
+        RayHitPacket one;
+        int valid[PACKET] ALIGNED(32);
+        set_lane(&one.ray, 0, P, D, t_max - travelled);
+        close_packet(&one.ray, valid, 1);
+        clear_hits(&one);
+        intersect(valid, scene, &one, NULL);
+        packet->hit.geomID[k] = one.hit.geomID[0];
+        packet->hit.primID[k] = one.hit.primID[0];
+        packet->hit.instID[0][k] = one.hit.instID[0][0];
+        packet->hit.instPrimID[0][k] = one.hit.instPrimID[0][0];
+        packet->hit.u[k] = one.hit.u[0];
+        packet->hit.v[k] = one.hit.v[0];
+        packet->ray.tfar[k] = (float)(travelled + (double)one.ray.tfar[0]);
+    }
+}
+
+/* direct.ray_kind: the kind of the ray a bounce sends (the HIDDEN_FROM_* bit of the objects it passes): through
+ * the surface a transmission ray, a diffuse reflection's a diffuse ray, any other reflection's a glossy ray;
+ * straight through a Transparent closure the kind of the ray that arrived, `previous`. */
+INLINE int ray_kind(int kind, int transmit, int previous)
+{
+    if (kind == BSDF_TRANSPARENT) return previous;
+    if (transmit) return HIDDEN_FROM_TRANSMISSION;
+    return IS_DIFFUSE(kind) ? HIDDEN_FROM_DIFFUSE : HIDDEN_FROM_GLOSSY;
+}
+
+/* path.hold_out for one hit of a camera path on a holdout object: weight = 1 - transparency (the share of
+ * the pixel's alpha it takes away, before the path's throughput); the shader keeps only its Transparent
+ * closures and emits nothing. */
+INLINE void hold_out(ShaderResult *sd, double *weight)
+{
+    int n = 0;
+    for (int c = 0; c < 3; c++) { weight[c] = 1.0 - sd->transparency[c]; sd->emission[c] = 0.0; }
+    for (int k = 0; k < sd->n; k++)
+        if (sd->c[k].kind == BSDF_TRANSPARENT) sd->c[n++] = sd->c[k];
+    sd->n = n;
+}
 
 typedef struct {
     int64_t n;
@@ -59,6 +119,7 @@ typedef struct {
     double keep[BLOCK];                          /* 1: the ray can carry light */
     double f[3][BLOCK];                          /* f cos of the lane's hit's closures, for its light direction */
     double pdf_bsdf[BLOCK];                      /* and the pdf their sampling gives that direction (MIS) */
+    int hidden[BLOCK];                           /* the HIDDEN_FROM_* bits of the sample's object (emitters) */
 } SampleBlock;
 
 /* Step 0: samples first .. first + n - 1 of a light with `count` samples per hit (sample s is sample
@@ -113,6 +174,7 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             LightSample ls;
             sample_area(light, P, b->u[0][k] - 0.5, b->u[1][k] - 0.5, &ls);
             store_sample(b, k, &ls);
+            b->hidden[k] = 0;
         }
     } else if (kind == LIGHT_POINT && light->delta != 0.0) {
         for (int64_t k = 0; k < b->n; k++) {
@@ -120,6 +182,7 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             LightSample ls;
             sample_point(light, P, &ls);
             store_sample(b, k, &ls);
+            b->hidden[k] = 0;
         }
     } else {
         for (int64_t k = 0; k < b->n; k++) {
@@ -128,6 +191,7 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             sample_light(light, ctx, P, u, &ls);
             store_sample(b, k, &ls);
             for (int c = 0; c < 3; c++) b->color[c][k] = ls.color[c];
+            b->hidden[k] = ls.hidden;
         }
         return;
     }
@@ -180,7 +244,7 @@ SIMD_CLONES NOINLINE static void ray_block(SampleBlock *restrict b, const Shadow
 static void bsdf_block(SampleBlock *restrict b, const BlockHits *restrict H, int want_pdf)
 {
     int lambert = 1;
-    for (int64_t k = 0; k < b->n; k++) lambert &= b->lambert[k] != 0.0;
+    for (int64_t k = 0; k < b->n; k++) lambert &= (b->lambert[k] != 0.0) & (b->hidden[k] == 0);
     if (lambert) {
         for (int64_t k = 0; k < b->n; k++) {
             double e = at_least(b->N[0][k] * b->L[0][k] + b->N[1][k] * b->L[1][k] + b->N[2][k] * b->L[2][k], 0.0)
@@ -194,7 +258,7 @@ static void bsdf_block(SampleBlock *restrict b, const BlockHits *restrict H, int
     for (int64_t k = 0; k < b->n; k++) {
         int64_t h = b->hit[k];
         double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, f[3];
-        b->pdf_bsdf[k] = shader_eval(H->sd + h, H->wo + 3 * h, L, f);
+        b->pdf_bsdf[k] = shader_eval_seen(H->sd + h, H->wo + 3 * h, L, f, b->hidden[k]);
         for (int c = 0; c < 3; c++) b->f[c][k] = f[c];
     }
 }
@@ -448,9 +512,11 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
 /* direct.gather_light for one ray O + t D that ends at its hit (geometry, prim, instance; t_limit) or escapes
  * (hit 0): lamps with extent in front of the hit (they never block), the emission of the surface hit, or the
  * world, each weighed by MIS against that light's own samples (where use_mis) with pdf_b, the pdf of the
- * bounce that sent the ray (a constant world with weight 1); added to light_L. */
+ * bounce that sent the ray (a constant world with weight 1); added to light_L. camera: 1 for a camera path's ray
+ * (a holdout it hits emits nothing). */
 INLINE void gather_light(const DirectSettings *ds, const double *O, const double *D, int hit, double t_limit,
-                         int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis, double *light_L)
+                         int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis, int camera,
+                         double *light_L)
 {
     const LightContext *ctx = ds->context;
     int64_t emitters_index = -1, world_index = -1;
@@ -468,7 +534,8 @@ INLINE void gather_light(const DirectSettings *ds, const double *O, const double
         for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
     }
     /* b. An emissive surface the ray hits, weighed against the emitters' own samples. */
-    if (hit && ds->emissive) {
+    /* (a camera path's ray, through Transparent closures, finds a holdout emitting nothing: a hole, path.hold_out) */
+    if (hit && ds->emissive && !(camera && hidden_from(ds->geometry, geometry, prim, instance, HOLDOUT))) {
         Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
         hit_triangle(ds->geometry, geometry, prim, instance, 0, &tri);
         const double *emitted = ds->materials[tri.material].emission;
@@ -503,6 +570,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
     int64_t owner[PACKET];
     ClosureSample sampled[PACKET];
     double origin[PACKET][3];
+    int kinds[PACKET];
     int lanes = 0;
     for (int64_t h = 0; h <= H->m; h++) {
         if (h < H->m) {
@@ -528,6 +596,15 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
         clear_hits(&packet);
         uint64_t start = ticks();
         ds->intersect(valid, ds->scene, &packet, NULL);
+        for (int k = 0; k < lanes; k++) {
+            /* Each ray passes the objects hidden from its kind (direct.nearest_seen). */
+            const ClosureSample *s = sampled + k;
+            int transmit = dot3(H->s[owner[k]].Ng, s->wi) < 0.0;
+            kinds[k] = ray_kind(s->kind, transmit, H->seen_by[owner[k]]);
+            if (packet.hit.geomID[k] != INVALID_ID && ds->geometry->hidden != NULL)
+                see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, k, origin[k], s->wi, INFINITY,
+                                kinds[k]);
+        }
         embree += ticks() - start;
         for (int k = 0; k < lanes; k++) {
             const ClosureSample *s = sampled + k;
@@ -554,11 +631,12 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->kind = s->kind;
                 r->transmit = dot3(H->s[owner[k]].Ng, D) < 0.0;
                 r->pdf = pdf_b;
+                r->seen_as = kinds[k];
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
             }
             if (!ds->gather) continue;
             gather_light(ds, O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
-                         instance_of(&packet.hit, k), pdf_b, use_mis, light_L);
+                         instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, light_L);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];
             double f = ds->clamping ? clamp_scale(found, H->throughput + 3 * owner[k],

@@ -33,7 +33,8 @@ import numpy as np
 from .. import materials as materials_
 from ..materials import graph as graph_
 from .. import vectors
-from ..geometry.geometry import HIDDEN_FROM_CAMERA
+from ..geometry.geometry import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY,
+                                 HIDDEN_FROM_TRANSMISSION, HOLDOUT)
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from . import clamp as clamp_
@@ -78,7 +79,7 @@ class DirectLighting(Integrator):
     def shade(self, ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray,
               recorder: Recorder, dimension: int = 0, vertex: int = 0, trace_all: bool = False,
               light_samples_only: bool = False, ray=None, carried_pdf=None, caustics=None, throughput=None,
-              limit=np.inf):
+              limit=np.inf, shader=None, seen_by=HIDDEN_FROM_CAMERA):
         """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
         each traced hit sent out, or None).
 
@@ -90,14 +91,18 @@ class DirectLighting(Integrator):
         found the hits (graph.RAY_*, scalar or (m,); default: the camera's at vertex 0), for the Light Path node.
         caustics: (m,) int the closures a caustics filter takes away (closures.FILTER_*), or None. throughput
         (m, 3) or None (1) and limit (scalar or (m,), inf: none): each contribution the hits gather is capped at
-        `limit` seen through its path's throughput (sample clamping, core/integrators/clamp.py).
+        `limit` seen through its path's throughput (sample clamping, core/integrators/clamp.py). shader: the
+        hits' ShaderResult when the caller has it already (a path's holdouts change it), else evaluated here.
+        seen_by: the kind of ray that reached each hit (HIDDEN_FROM_* bit, int or (m,)): a Transparent closure's
+        ray goes on as that kind (ray_kind).
         """
         s = ctx.settings
         m = len(surface.I)
         # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
         if ray is None:
             ray = graph_.RAY_CAMERA if vertex == 0 else graph_.RAY_BOUNCE
-        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, ray, caustics)
+        if shader is None:
+            shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, ray, caustics)
         recorder.shader(shader)
         clamping = np.any(np.isfinite(limit))
         L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
@@ -158,8 +163,9 @@ class DirectLighting(Integrator):
                 # d. What gets through: f cos (the closures at L) E_normal / count, coloured by the
                 #    light, weighed against BSDF sampling where a BSDF ray could find this light.
                 part = materials_.Closures(*(array[rows] for array in shader.closures))
+                left_out = None if ls.hidden is None else closures_left_out(part.kind, ls.hidden[rows])
                 f_cos, pdf_bsdf = materials_.eval_closures(part, wo[rows], ls.L[rows],
-                                                           signed_cosine=not s.clamp_n_dot_l)
+                                                           signed_cosine=not s.clamp_n_dot_l, left_out=left_out)
                 weight = ls.strength[rows] * (1.0 / count)
                 mis_weight = np.ones(len(rows))
                 if not light.delta and index in ctx.extra["hittable"] and mis[rows].any():
@@ -178,20 +184,21 @@ class DirectLighting(Integrator):
                                                      and traced.any())):
             gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
             found, ray = self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
-                                       dimension, gather, carried_pdf)
+                                       dimension, gather, carried_pdf, seen_by)
             L_out += clamp_.clamped(found, throughput, limit) if clamping else found
         return L_out, shadow_rays, ray
 
     def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray,
                  traced: np.ndarray, recorder: Recorder, dimension: int = 0, gather: bool = True,
-                 carried_pdf=None):
+                 carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA):
         """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
         The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
         world it escapes to, each weighed by MIS against that light's own samples (weight 1 for a constant
         world); nothing unless `gather`. mis, traced: (m,) bool which hits weigh by MIS, which trace a ray.
         carried_pdf: (m,) the pdf of the path's last real bounce (inf: the camera's), for rays that go on
-        through a transparent surface."""
+        through a transparent surface. seen_by: the kind of ray that reached each hit (HIDDEN_FROM_* bit, int or
+        (m,)); each ray passes the objects hidden from its own kind (ray_kind)."""
         s = ctx.settings
         m = len(surface.I)
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
@@ -207,15 +214,16 @@ class DirectLighting(Integrator):
         step = offsets[go] if offsets is not None else np.full(len(go), s.epsilon)
         O = surface.I[go] + (step * side)[:, None] * surface.Ng[go]
         D = bs.wi[go]
-        hits = ctx.geometry.tracer.intersect(O, D, np.full(len(go), np.inf))
+        transmit = np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0
+        seen_as = ray_kind(bs.kind[go], transmit, np.broadcast_to(np.asarray(seen_by, np.int64), (m,))[go])
+        hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as)
         pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
         # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
         # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
         clear = bs.kind[go] == materials_.Transparent.kind
         if carried_pdf is not None and clear.any():
             pdf_b = np.where(clear, carried_pdf[go], pdf_b)
-        ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go],
-                      np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0, pdf_b)
+        ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as)
         t_hit = np.where(hits.hit, hits.t, np.inf)
         for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
             if mask.any():
@@ -224,7 +232,9 @@ class DirectLighting(Integrator):
             recorder.bsdf_sample(bs.wi, bs.pdf, found)
             return found, ray
         use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
-        found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis)
+        holdouts = ctx.geometry.hides(HOLDOUT)
+        found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
+                                                 seen_as == HIDDEN_FROM_CAMERA if holdouts else None)
         recorder.bsdf_sample(bs.wi, bs.pdf, found)
         return found, ray
 
@@ -249,10 +259,13 @@ class DirectLighting(Integrator):
         return shadows.epsilon_rays(I, ls.L[rows], ls.distance[rows], s.epsilon, s.reduce_t_max)
 
 
-def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray) -> np.ndarray:
+def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
+                 camera=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
-    weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray."""
+    weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
+    camera: (k,) bool which rays are still a camera path's (through Transparent closures), or None: a holdout
+    object such a ray hits emits nothing (it is a hole in the film, path.hold_out)."""
     light_L = np.zeros((len(O), 3))
     t_limit = np.where(hits.hit, hits.t, np.inf)
     # a. Lamps with extent in front of the hit (they never block, as in Cycles).
@@ -274,6 +287,9 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         # (Each material's emission as its light samples see it: head-on, so that both strategies of
         #  MIS weigh the same radiance; a coat tint's change with angle is seen by the camera only.)
         emitted = ctx.materials.emission[where.material]
+        if camera is not None and camera[struck].any():
+            emitted = np.where((camera[struck] & ctx.geometry.hidden(hits.prim[struck], HOLDOUT))[:, None], 0.0,
+                               emitted)
         pdf_l, n_l = np.zeros(len(struck)), 1
         if emitters is not None:
             index = emitters.index_of_prim(hits.prim[struck])
@@ -308,7 +324,8 @@ class BsdfRay(NamedTuple):
     rows (k,) int64 the hits that traced a ray; O, D (k, 3) their origins and unit directions; hits: the
     tracer's Hits of them; weight (k, 3) f cos / pdf; kind (k,) int32 the sampled closure's BSDF kind;
     delta (k,) bool whether it was a delta closure; transmit (k,) bool whether it went through the surface;
-    pdf (k,) the pdf MIS weighs what the ray finds with (inf: none)
+    pdf (k,) the pdf MIS weighs what the ray finds with (inf: none); seen_as (k,) int64 the ray's kind, the
+    HIDDEN_FROM_* bit of the objects it passes (ray_kind)
     """
 
     rows: np.ndarray
@@ -320,6 +337,23 @@ class BsdfRay(NamedTuple):
     delta: np.ndarray
     transmit: np.ndarray
     pdf: np.ndarray = None
+    seen_as: np.ndarray = None
+
+
+def closures_left_out(kind: np.ndarray, hidden: np.ndarray) -> np.ndarray:
+    """Which closures (n, K) bool a light sample leaves out when it is on an object hidden from some kinds of ray
+    (Cycles' rule for an emitter's Ray Visibility): diffuse closures if it is hidden from diffuse rays, glossy
+    ones (microfacet, mirror) if from glossy rays, glass only if from both glossy and transmission rays (a BSDF
+    ray of any of these closures could never find the object, so its light samples do not count for them either).
+
+    kind: (n, K) int the closures' BSDF kinds; hidden: (n,) int each sample's object's HIDDEN_FROM_* bits.
+    """
+    bits = np.asarray(hidden, np.int64)[:, None]
+    diffuse = materials_.is_diffuse(kind) & ((bits & HIDDEN_FROM_DIFFUSE) != 0)
+    glossy = np.isin(kind, (materials_.Mirror.kind, materials_.Microfacet.kind)) & ((bits & HIDDEN_FROM_GLOSSY) != 0)
+    both = HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
+    glass = np.isin(kind, (materials_.Glass.kind, materials_.RoughGlass.kind)) & ((bits & both) == both)
+    return diffuse | glossy | glass
 
 
 def lets_light_through(shader) -> np.ndarray:
@@ -393,16 +427,18 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
     return L_out, found, hit, surface
 
 
-def nearest_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray):
-    """The nearest hits (the tracer's Hits) of camera rays O, D (n, 3) up to t_max (n,) on objects the camera
-    sees: a ray goes on past the triangles of objects hidden from the camera (Object > Visibility > Ray
-    Visibility > Camera off), as if they were not there; t stays the distance from O."""
+def nearest_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, kind=HIDDEN_FROM_CAMERA):
+    """The nearest hits (the tracer's Hits) of rays O, D (n, 3) up to t_max (n,) on the objects these rays see: a
+    ray goes on past the triangles of objects hidden from its kind (Object > Visibility > Ray Visibility), as if
+    they were not there; t stays the distance from O. kind: the rays' HIDDEN_FROM_* bit, one int or (n,) int
+    (camera rays by default; ray_kind gives a bounce's)."""
     geometry = ctx.geometry
     found = geometry.tracer.intersect(O, D, t_max)
-    if not geometry.hides(HIDDEN_FROM_CAMERA):
+    kind = np.broadcast_to(np.asarray(kind, np.int64), (len(O),))
+    if not geometry.hides(int(np.bitwise_or.reduce(kind)) if len(kind) else 0):
         return found
     hit, t, prim, u, v = (np.array(array) for array in found)
-    rows = np.flatnonzero(hit & geometry.hidden(prim, HIDDEN_FROM_CAMERA))
+    rows = np.flatnonzero(hit & geometry.hidden(prim, kind))
     while len(rows):
         # On from just past the hidden triangle, for what is left of the ray.
         surface = surface_at_hits(geometry, prim[rows], u[rows], v[rows], O[rows], D[rows], t[rows])
@@ -412,8 +448,21 @@ def nearest_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray):
         again = geometry.tracer.intersect(P, D[rows], t_max[rows] - gone)
         hit[rows], t[rows], prim[rows] = again.hit, np.where(again.hit, gone + again.t, np.inf), again.prim
         u[rows], v[rows] = again.u, again.v
-        rows = rows[again.hit & geometry.hidden(again.prim, HIDDEN_FROM_CAMERA)]
+        rows = rows[again.hit & geometry.hidden(again.prim, kind[rows])]
     return type(found)(hit, t, prim, u, v)
+
+
+def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
+    """The kind of the rays a bounce sends, as the HIDDEN_FROM_* bit (k,) int64 of the objects they pass (Cycles'
+    path_state_ray_visibility): a refraction's ray (through the surface) is a transmission ray, a diffuse
+    reflection's a diffuse ray, any other reflection's (glossy, mirror) a glossy ray; straight through a
+    Transparent closure the ray keeps the kind of the ray that arrived, `previous` (int or (k,) int).
+
+    kind: (k,) int the sampled closures' BSDF kinds; transmit: (k,) bool whether each ray went through the surface.
+    """
+    reflected = np.where(materials_.is_diffuse(kind), HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY)
+    bounced = np.where(transmit, HIDDEN_FROM_TRANSMISSION, reflected)
+    return np.where(kind == materials_.Transparent.kind, previous, bounced).astype(np.int64)
 
 
 def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> np.ndarray:

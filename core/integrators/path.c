@@ -67,13 +67,15 @@ INLINE void through_transparent(const PathRay *r, int clear, const PathLimits *l
         close_packet(&packet.ray, valid, 1);
         clear_hits(&packet);
         ds->intersect(valid, ds->scene, &packet, NULL);
+        if (packet.hit.geomID[0] != INVALID_ID && ds->geometry->hidden != NULL)
+            see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, O, D, INFINITY, r->seen_as);
         int hit = packet.hit.geomID[0] != INVALID_ID;
         double light_L[3] = {0.0, 0.0, 0.0};
         t = hit ? (double)packet.ray.tfar[0] : INFINITY;
         geometry = (int64_t)packet.hit.geomID[0];
         prim = (int64_t)packet.hit.primID[0];
         instance = instance_of(&packet.hit, 0);
-        gather_light(ds, O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, light_L);
+        gather_light(ds, O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, light_L);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         double f = clamp_scale(light_L, throughput, cap, 1.0);
         for (int c = 0; c < 3; c++) found[c] += light_L[c] * f;
@@ -87,7 +89,7 @@ INLINE void through_transparent(const PathRay *r, int clear, const PathLimits *l
 /* path.py steps b-d: the vertices after `vertex`, where the BSDF rays of H that hit a surface and may
  * still bounce there go on (Russian roulette from limits->roulette_from); their surfaces and materials. */
 INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
-                          const DirectSettings *ds, BlockHits *next)
+                          const DirectSettings *ds, BlockHits *next, double *held)
 {
     int lift = ds->shadows->terminator_fix != 0.0;
     uint32_t roulette = stream_of((int64_t)ds->seed, ROULETTE_DIMENSION + (int64_t)(vertex + 1) * VERTEX_DIMENSIONS);
@@ -142,6 +144,13 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
                   r->prim, r->instance, r->u, r->v, next->wo + 3 * m,
                   bounces == 0 ? RAY_CAMERA : RAY_BOUNCE, next->sd + m);   /* (through clear surfaces: still the camera's) */
+        next->seen_by[m] = r->seen_as;
+        if (bounces == 0 && hidden_from(ds->geometry, r->geometry, r->prim, r->instance, HOLDOUT)) {
+            /* A camera path through clear surfaces meets a holdout: a hole in the film (path.hold_out). */
+            double weight[3];
+            hold_out(next->sd + m, weight);
+            held[H->lane[h]] += (tp[0] * weight[0] + tp[1] * weight[1] + tp[2] * weight[2]) / 3.0;
+        }
         next->lane[m] = H->lane[h];
         next->pixel[m] = H->pixel[h];
         next->sample[m] = H->sample[h];
@@ -178,7 +187,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         ds->continuing = &work->rays;
         embree[1] += bsdf_rays(current, ds);
         /* b. Where the paths go on (ended ones add the light behind transparent surfaces to their vertex's). */
-        next_vertices(current, &work->rays, vertex, limits, ds, next);
+        next_vertices(current, &work->rays, vertex, limits, ds, next, H->held);
         if (vertex > 0)
             for (int64_t h = 0; h < current->m; h++)
                 for (int c = 0; c < 3; c++)

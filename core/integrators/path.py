@@ -28,6 +28,11 @@ closures of a hit that a diffuse bounce's ray reached (the light of caustics, fo
 glass, then never reaches a diffuse surface), and sample clamping (core/integrators/clamp.py) caps
 each contribution.
 
+Object > Visibility as Cycles reads it: every ray has a kind (camera; after a bounce diffuse, glossy or
+transmission, direct.ray_kind; straight through a Transparent closure the kind it had) and passes the objects
+hidden from that kind (Ray Visibility). A holdout object met by a camera path is a hole in the film
+(hold_out): its colour is not added and the pixel's alpha loses the share the object covers.
+
 With max_bounces = 0 a path is the direct-lighting tracer at the camera's hit, except that every hit
 traces its BSDF ray (the direct tracer skips it where light samples alone do well).
 Its compiled twin is the same loop in core/integrators/chunk.c (INTEGRATOR_PATH).
@@ -47,7 +52,8 @@ from ..sampling import sobol as sampling
 from .base import Context, Radiance, Recorder
 from . import clamp as clamp_
 from . import shadows
-from .direct import DirectLighting, camera_hits, gather_light
+from .direct import DirectLighting, camera_hits, gather_light, nearest_seen
+from ..geometry.geometry import HIDDEN_FROM_CAMERA, HOLDOUT
 
 # Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
 VERTEX_DIMENSIONS = 1 << 16
@@ -118,7 +124,7 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         # 2. On from just past it, straight ahead, gathering what the ray finds.
         side = np.where(np.einsum("ij,ij->i", Ng, D) < 0.0, -1.0, 1.0)
         O = I + (shadows.error_bound(I, surface.vertices[go]) * side)[:, None] * Ng
-        hits = ctx.geometry.tracer.intersect(O, D, np.full(len(alive), np.inf))
+        hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]))
         found[alive] += clamp_.clamped(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         # 3. The rays that met another surface go on.
@@ -126,6 +132,27 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         alive, O, D = alive[more], O[more], D[more]
         prim, u, v, t = hits.prim[more], hits.u[more], hits.v[more], hits.t[more]
     return found
+
+
+def hold_out(ctx: Context, surface, shader, camera_path: np.ndarray) -> tuple:
+    """Object > Visibility > Holdout at a path's vertices, as Cycles: where a camera path (the camera ray, and its
+    ray on through Transparent closures: `camera_path` (m,) bool) meets a holdout object, the object becomes a hole
+    in the film. It takes away the share 1 - transparency of the pixel's alpha (times the path's throughput, which
+    the caller applies) and leaves the shader nothing but its Transparent closures: no emission, no light, and the
+    path goes on only through what the object lets through. Every other ray sees the object as usual.
+
+    Returns (the shader with the holdouts' closures taken away, the holdout weight (m, 3) float64: 1 - transparency
+    at the holdout hits of camera paths, 0 elsewhere)."""
+    holdout = camera_path & ctx.geometry.hidden(surface.prim, HOLDOUT)
+    weight = np.where(holdout[:, None], 1.0 - shader.transparency, 0.0)
+    if not holdout.any():
+        return shader, weight
+    c = shader.closures
+    gone = holdout[:, None] & (c.kind != materials_.Transparent.kind)
+    closures = c._replace(kind=np.where(gone, -1, c.kind).astype(c.kind.dtype),
+                          weight=np.where(gone[..., None], 0.0, c.weight),
+                          sample_weight=np.where(gone, 0.0, c.sample_weight))
+    return shader._replace(closures=closures, emission=np.where(holdout[:, None], 0.0, shader.emission)), weight
 
 
 class PathTracing(DirectLighting):
@@ -146,6 +173,8 @@ class PathTracing(DirectLighting):
         if surface is None:
             return Radiance(L_out, found.hit, 0)
         D_hit = vectors.gather(D, hit)
+        held = np.zeros(len(O))                      # each camera ray's alpha that holdouts take away
+        holdouts = ctx.geometry.hides(HOLDOUT)
         # 2. The path's vertices, one batch per bounce: the camera's hits first.
         owner = hit                                  # the camera ray each path belongs to
         throughput = np.ones((len(hit), 3))
@@ -156,6 +185,7 @@ class PathTracing(DirectLighting):
         bounce = np.zeros(len(hit), np.int64)
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
         after_diffuse = np.zeros(len(hit), bool)     # whether that bounce was diffuse (the caustics switches)
+        seen_by = np.full(len(hit), HIDDEN_FROM_CAMERA)   # the kind of ray that reached each vertex (ray_kind)
         max_bounces = 0 if self.direct_only else s.max_bounces
         wo = -D_hit
         shadow_rays = 0
@@ -166,11 +196,17 @@ class PathTracing(DirectLighting):
             #    Light the camera's hit gathers is direct, later light indirect (sample clamping).
             dimension = vertex * VERTEX_DIMENSIONS
             cap = np.where(bounce == 0, direct_cap, indirect_cap)
+            light_path = np.where(bounce == 0, graph_.RAY_CAMERA, graph_.RAY_BOUNCE)
+            shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
+                                         caustics_filter(s, after_diffuse))
+            if holdouts:
+                # A camera path (no real bounce yet) that meets a holdout: a hole in the film (hold_out).
+                shader, weight = hold_out(ctx, surface, shader, bounce == 0)
+                np.add.at(held, owner, (throughput * weight).mean(axis=1))
             L_vertex, rays, ray = self.shade(ctx, surface, wo, pixel[owner], sample[owner], recorder,
-                                             dimension, vertex, trace_all=True,
-                                             ray=np.where(bounce == 0, graph_.RAY_CAMERA, graph_.RAY_BOUNCE),
-                                             carried_pdf=mis_pdf, caustics=caustics_filter(s, after_diffuse),
-                                             throughput=throughput, limit=cap)
+                                             dimension, vertex, trace_all=True, ray=light_path,
+                                             carried_pdf=mis_pdf, throughput=throughput, limit=cap, shader=shader,
+                                             seen_by=seen_by)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
             recorder.path_vertex(vertex, owner, surface, throughput, L_vertex)
@@ -208,6 +244,7 @@ class PathTracing(DirectLighting):
             keep = np.flatnonzero(going & np.isfinite(next_throughput).all(axis=1))
             if len(keep) == 0:
                 break
+            seen_by = ray.seen_as[keep]
             # d. The next vertex: the surfaces the kept rays hit.
             hits = ray.hits
             rows = ray.rows[keep]
@@ -223,4 +260,4 @@ class PathTracing(DirectLighting):
             mis_pdf = ray.pdf[keep]
             wo = -D_next
             vertex += 1
-        return Radiance(L_out, found.hit, shadow_rays)
+        return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None)

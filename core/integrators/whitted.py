@@ -25,13 +25,14 @@ from typing import ClassVar
 import numpy as np
 
 from .. import materials as materials_
+from ..geometry.geometry import HIDDEN_FROM_CAMERA, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
 from ..geometry.surface import surface_at_hits
 from ..materials import glass as glass_
 from ..materials import graph as graph_
 from ..materials import microfacet as mf
 from . import shadows
 from .base import Context, Radiance, Recorder
-from .direct import DirectLighting, lamps_seen
+from .direct import DirectLighting, lamps_seen, nearest_seen
 
 # A branch whose throughput falls below this in every channel is not followed.
 CUTOFF = 1e-4
@@ -67,7 +68,10 @@ class WhittedTracing(DirectLighting):
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
         while len(owner):
             # 1. The rays of this depth: what they hit; the world and lamps where they escape or pass.
-            found = ctx.geometry.tracer.intersect(O, D, t_max)
+            #    (Each ray passes the objects hidden from its kind: the camera's, a mirror reflection's (glossy), a
+            #    refraction's (transmission); direct.nearest_seen.)
+            kind = HIDDEN_FROM_CAMERA if depth == 0 else np.where(crossing, HIDDEN_FROM_TRANSMISSION, HIDDEN_FROM_GLOSSY)
+            found = nearest_seen(ctx, O, D, t_max, kind)
             if depth == 0:
                 camera_hit = found.hit.copy()
             else:

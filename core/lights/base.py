@@ -41,6 +41,8 @@ class LightSample(NamedTuple):
     pdf:        (n,) float64 solid-angle density of having sampled L (inf for lights without extent)
     color:      (3,) float64 the light's RGB colour
     position:   (n, 3) float64 the sampled light point (undefined for the sun)
+    hidden:     (n,) int64 the Ray Visibility bits (geometry.HIDDEN_FROM_*) of the object each sample is on (an
+                emissive mesh), or None: its light reaches no closure of a kind that cannot see the object
     """
 
     L: np.ndarray
@@ -49,6 +51,7 @@ class LightSample(NamedTuple):
     pdf: np.ndarray
     color: np.ndarray
     position: np.ndarray
+    hidden: Optional[np.ndarray] = None
 
     @property
     def irradiance(self) -> np.ndarray:

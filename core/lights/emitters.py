@@ -41,6 +41,8 @@ class MeshEmitters(Light):
     sides:    (t,) int32 FRONT | BACK: from which sides the triangle is sampled (0: never)
     prim:     (t,) int64 WorldGeometry's flat triangle index of each
     cdf:      (t + 1,) float64 cumulative pick probability, in proportion to area x mean(L_e)
+    hidden:   (t,) uint8 the Ray Visibility bits (geometry.HIDDEN_FROM_*) of each triangle's object, or None
+              where no emitting object hides from diffuse, glossy or transmission rays
     """
 
     corners: np.ndarray
@@ -51,6 +53,7 @@ class MeshEmitters(Light):
     prim: np.ndarray
     cdf: np.ndarray
     name: str = "Emissive meshes"
+    hidden: Optional[np.ndarray] = None
 
     kind: ClassVar[int] = 4
     blender_type: ClassVar[str] = "MESH"
@@ -128,7 +131,8 @@ class MeshEmitters(Light):
         with np.errstate(divide="ignore", invalid="ignore"):
             strength = np.where(ok, 1.0 / pdf, 0.0)
         position = points + L * distance[:, None]
-        return LightSample(L, distance, strength, np.where(ok, pdf, 0.0), self.emission[index], position)
+        hidden = None if self.hidden is None else self.hidden[index].astype(np.int64)
+        return LightSample(L, distance, strength, np.where(ok, pdf, 0.0), self.emission[index], position, hidden)
 
     def pdf_of_hits(self, origins: np.ndarray, index: np.ndarray, D: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The pdf with which `sample` would choose the direction D from `origins` to emitter `index`
@@ -274,8 +278,17 @@ def from_geometry(geometry, materials) -> Optional[MeshEmitters]:
             prims.append(mesh.first_prim + j * len(mesh.triangles) + local)
     if not corners:
         return None
-    return MeshEmitters.of(np.concatenate(corners), np.concatenate(radiance), np.concatenate(side),
-                           np.concatenate(prims).astype(np.int64))
+    emitters = MeshEmitters.of(np.concatenate(corners), np.concatenate(radiance), np.concatenate(side),
+                               np.concatenate(prims).astype(np.int64))
+    # Ray Visibility > Diffuse, Glossy, Transmission of the emitting objects: as in Cycles, the light samples of an
+    # object hidden from a kind of ray light no closure of that kind (direct.closures_left_out).
+    from ..geometry.geometry import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
+    bits = HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
+    if emitters is not None and geometry.hides(bits):
+        owner = geometry.owners(emitters.prim)
+        hidden = np.where(owner >= 0, geometry.instance_hidden[np.maximum(owner, 0)] & bits, 0).astype(np.uint8)
+        emitters.hidden = hidden if hidden.any() else None
+    return emitters
 
 
 class EmitterTables:
@@ -289,7 +302,11 @@ class EmitterTables:
         self.arrays = [c(emitters.corners, np.float64), c(emitters.normal, np.float64), c(emitters.area, np.float64),
                        c(emitters.emission, np.float64), c(emitters.sides, np.int32), c(emitters.cdf, np.float64),
                        c(emitters.prim[order], np.int64), c(order, np.int64)]
+        hidden = None if emitters.hidden is None else c(emitters.hidden, np.uint8)
+        self.arrays.append(hidden)
         fields = [(name, ctypes.c_void_p) for name in ("corners", "normal", "area", "emission", "sides", "cdf",
-                                                       "sorted_prim", "order")] + [("count", ctypes.c_double)]
+                                                       "sorted_prim", "order")] + [("count", ctypes.c_double),
+                                                                                   ("hidden", ctypes.c_void_p)]
         Record = type("EmitterTablesRecord", (ctypes.Structure,), {"_fields_": fields})
-        self.record = Record(*[a.ctypes.data for a in self.arrays], float(len(emitters.prim)))
+        self.record = Record(*[a.ctypes.data for a in self.arrays[:8]], float(len(emitters.prim)),
+                             None if hidden is None else hidden.ctypes.data)

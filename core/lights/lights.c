@@ -5,6 +5,7 @@
 INLINE void sample_light(const LightRecord *light, const LightContext *ctx, const double *P, const double *u,
                          LightSample *out)
 {
+    out->hidden = 0;
     switch ((int)light->kind) {
     case LIGHT_POINT: sample_point_light(light, P, u, out); break;
     case LIGHT_SPOT: sample_spot_light(light, P, u, out); break;

@@ -36,6 +36,7 @@ typedef struct {
     double pdf;             /* solid-angle pdf of L (inf for lights without extent) */
     double position[3];     /* the sampled light point */
     double color[3];        /* the RGB the strength is of: the light's colour, or an emitter's radiance */
+    int hidden;             /* the HIDDEN_FROM_* bits of an emitter's object (0 for other lights) */
 } LightSample;
 
 /* Where a ray meets a light it was not aimed at (lights.base.LightHit for one ray). */
@@ -56,6 +57,7 @@ typedef struct {
     const int64_t *sorted_prim; /* (t,) WorldGeometry's flat triangle index of each, ascending */
     const int64_t *order;       /* (t,) the emitter of each sorted_prim */
     double count;               /* t */
+    const uint8_t *hidden;      /* (t,) each triangle's object's Ray Visibility bits (HIDDEN_FROM_*), or NULL */
 } EmitterTables;
 
 /* The world (core/lights/world.py World and WorldLight): a constant colour or an equirectangular image. */

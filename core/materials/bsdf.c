@@ -55,12 +55,28 @@ INLINE double bump_shadowing(const double *Ns, const double *N, const double *wi
 
 /* closures.eval_closures for one hit: f cos = sum of weight x f cos; pdf = sampling-weighted mean. A closure
  * whose normal is not the hit's (sd->N) is shadowed by bump_shadowing. */
-INLINE double shader_eval(const ShaderResult *sd, const double *wo, const double *wi, double *f_cos)
+/* direct.closures_left_out for one closure: whether a light sample on an object hidden from the rays `hidden`
+ * (HIDDEN_FROM_* bits) leaves closure kind `kind` out (diffuse, glossy; glass only if hidden from both glossy
+ * and transmission rays). */
+INLINE int closure_left_out(int kind, int hidden)
+{
+    if (hidden == 0) return 0;
+    if (IS_DIFFUSE(kind)) return (hidden & HIDDEN_FROM_DIFFUSE) != 0;
+    if (kind == BSDF_MIRROR || kind == BSDF_MICROFACET) return (hidden & HIDDEN_FROM_GLOSSY) != 0;
+    int both = HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION;
+    if (kind == BSDF_GLASS || kind == BSDF_ROUGH_GLASS) return (hidden & both) == both;
+    return 0;
+}
+
+/* shader_eval for a light sample on an object hidden from the rays `hidden` (0: none): the closures it leaves
+ * out add neither f cos nor pdf, their sampling weight still counts (closures.eval_closures' left_out). */
+INLINE double shader_eval_seen(const ShaderResult *sd, const double *wo, const double *wi, double *f_cos, int hidden)
 {
     double numerator = 0.0, total = 0.0;
     f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
     for (int k = 0; k < sd->n; k++) {
         const Closure *c = sd->c + k;
+        if (closure_left_out(c->kind, hidden)) continue;
         double value[3], pdf;
         bsdf_eval(c, wo, wi, value, &pdf);
         if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
@@ -73,6 +89,11 @@ INLINE double shader_eval(const ShaderResult *sd, const double *wo, const double
     }
     for (int k = 0; k < sd->n; k++) total += sd->c[k].sample_weight;
     return total > 0.0 ? numerator / total : 0.0;
+}
+
+INLINE double shader_eval(const ShaderResult *sd, const double *wo, const double *wi, double *f_cos)
+{
+    return shader_eval_seen(sd, wo, wi, f_cos, 0);
 }
 
 /* A sampled direction of a hit's closures (closures.ClosureSample for one hit). */

@@ -79,10 +79,13 @@ def _each_kind(closures: Closures, slot: int):
             yield BSDF_TYPES[int(kind)], np.flatnonzero(kinds == kind)
 
 
-def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cosine: bool = False):
+def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cosine: bool = False,
+                  left_out=None):
     """Return (f cos (n, 3), pdf (n,)): sum of weight x f cos, and the sampling-weighted mean pdf.
 
-    wo, wi: (n, 3) float64 unit. signed_cosine: diffuse closures keep N.wi < 0 (a lecture switch).
+    wo, wi: (n, 3) float64 unit. signed_cosine: diffuse closures keep N.wi < 0 (a lecture switch). left_out:
+    (n, K) bool closures that add neither f cos nor pdf (their sampling weight still counts in the mean, as in
+    Cycles: a light sample of an object hidden from their kind of ray), or None.
     """
     from . import SHADOWED_KINDS
     n, slots = closures.kind.shape
@@ -96,6 +99,9 @@ def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cos
                 if term is not None:
                     value = value * term[:, None]
                     pdf = np.where(term == 0.0, 0.0, pdf)
+            if left_out is not None:
+                kept = ~left_out[rows, k]
+                value, pdf = value * kept[:, None], pdf * kept
             f_cos[rows] += closures.weight[rows, k] * value
             numerator[rows] += closures.sample_weight[rows, k] * pdf
     total = closures.sample_weight.sum(axis=1)

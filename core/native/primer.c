@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 23
+#define PRIMER_ABI 24
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"

@@ -71,6 +71,11 @@ class Instance:
     visible_camera, visible_shadow: Blender's Object > Visibility > Ray Visibility > Camera and Shadow: camera
                rays (and shadow rays) pass the object as if it were not there; it still lights the scene and
                is seen by every other ray
+    visible_diffuse, visible_glossy, visible_transmission: Ray Visibility > Diffuse, Glossy, Transmission: the
+               rays of diffuse reflections (glossy reflections, refractions) pass the object, and its emission
+               lights no diffuse (glossy, refracting) closure by light samples either, as in Cycles
+    is_holdout: Object > Visibility > Holdout: where camera rays (also through Transparent surfaces) meet the
+               object the film is clear (colour 0, alpha 0); every other ray sees it as usual
     asset:     the name of the object's topmost parent (Cryptomatte's asset); "" for the object's own name
     """
 
@@ -82,6 +87,10 @@ class Instance:
     pass_index: int = 0
     visible_camera: bool = True
     visible_shadow: bool = True
+    visible_diffuse: bool = True
+    visible_glossy: bool = True
+    visible_transmission: bool = True
+    is_holdout: bool = False
     asset: str = ""
 
     def __post_init__(self):
