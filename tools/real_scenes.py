@@ -8,7 +8,7 @@ Primer and with Cycles under the same settings and writes a report:
     .venv/bin/python tools/real_scenes.py compare [--integrator direct|path] [--only NAME ...]
 
 A scene without a camera gets one that frames its meshes from a three-quarter view above; a scene
-without lights gets a sun and a dim world that lights it. Both renderers then run through
+without lights (lamps, an HDRI world or a mesh whose surface is an Emission shader) gets a sun and a dim world that lights it. Both renderers then run through
 tools/render.py (Cycles as Primer's reference: the same bounces, a 1-pixel box filter, no denoising, no
 clamping). The error measure is the project's: the relative MSE of 4x4-pixel block means,
 mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)); for scale, Cycles at 256 samples against its own 512 scores
@@ -39,11 +39,27 @@ SOURCES = {
     "gltf_vertex_colors": GLTF_IO + ("tests/scenes/24_vertex_colors.blend", "vertex colours, transparency, emission"),
     "gltf_robot": GLTF_IO + ("tests/scenes/RobotExpressive.blend", "a rigged character, Principled materials"),
     "gltf_scene_export": GLTF_IO + ("tests/scenes/00_scene_export.blend", "diffuse and Principled meshes"),
+    "cornell_box": ("wahn/render_comparison", "04527399aa828c72b46c80abda49d6718ae7af71",
+                    "GPL-3.0 (the repository's licence), Jan Walter",
+                    "cornell_box/blend/cornell_box.blend",
+                    "a Cycles Cornell box saved by Blender 2.79: diffuse walls, a mesh-emitter ceiling light, "
+                    "its own camera"),
 }
 
 HELMET = ("GDLynx/3d-models", "b56af89fbbe17fa6e8c0a49d886daae01efc1e9f",
           "CC-BY 4.0, 'Battle Damaged Sci-fi Helmet' by theblueturtle_ (Khronos glTF sample model)")
 STUDIO = ("adityawaskel/PlutarchyHRDI", "59d64fda881538cea86e403c4545e3ec82447158", "CC0, Poly Haven 'Studio Small 08'")
+# Copies of Khronos glTF sample models in small repositories (the Khronos sample repositories are too large to
+# fetch here); each model's own licence is that of its Khronos README.
+VCLIB, ASSIMP = "cnr-isti-vclab/vclib", "assimp/assimp"
+VCLIB_AT = "d37c2830819731c9930bebdae7d72d88d9565059"
+ASSIMP_AT = "21bea12f1278090c09a94c39ca090d9fb458ccd9"
+SPHERES = (VCLIB, VCLIB_AT, "CC0, 'Metal-Rough Spheres (textureless)' by Krill Gavrilov (Khronos glTF sample model)")
+MIRROR = (VCLIB, VCLIB_AT, "CC-BY 4.0, 'NormalTangentMirrorTest' by Ed Mackey, Analytical Graphics (Khronos glTF "
+          "sample model)")
+CLEARCOAT = (ASSIMP, ASSIMP_AT, "CC-BY 4.0, 'KHR_materials_clearcoat Test' by Ed Mackey, Analytical Graphics (Khronos "
+             "glTF sample model)")
+TRUCK = (VCLIB, VCLIB_AT, "CC-BY 4.0, 'Cesium Milk Truck' donated by Cesium (Khronos glTF sample model)")
 
 # Scenes built from files (a glTF model and an HDRI) by a bpy script: name -> (files [(repository, commit,
 # licence, path)], the name of the HDRI among them or "", what it exercises). The script imports the model with
@@ -53,6 +69,30 @@ BUILT = {
         "DamagedHelmet.gltf", "DamagedHelmet.bin", "Default_albedo.jpg", "Default_metalRoughness.jpg",
         "Default_normal.jpg", "Default_emissive.jpg", "Default_AO.jpg")] + [STUDIO + ("studio_small_08_1k.hdr",)],
         "studio_small_08_1k.hdr", "glTF: textured metal-rough, normal map, emissive texture; an HDRI world"),
+    "gltf_metal_rough_spheres": ([SPHERES + ("assets/example_meshes/gltf/MetalRoughSpheresNoTextures/" + path,)
+                                  for path in ("MetalRoughSpheresNoTextures.gltf", "MetalRoughSpheresNoTextures.bin")]
+                                 + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
+                                 "glTF: 98 spheres, metallic 0-1 against roughness 0-1 in gold and silver (no textures); "
+                                 "an HDRI world"),
+    "gltf_normal_tangent_mirror": ([MIRROR + ("assets/example_meshes/gltf/NormalTangentMirrorTest/" + path,)
+                                    for path in ("NormalTangentMirrorTest.gltf", "NormalTangentMirrorTest.bin",
+                                                 "NormalTangentMirrorTest_BaseColor.png",
+                                                 "NormalTangentMirrorTest_Normal.png",
+                                                 "NormalTangentMirrorTest_OcclusionRoughnessMetallic.png")]
+                                   + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
+                                   "glTF: tangent-space normal maps on mirrored UVs, a packed ORM texture; an HDRI "
+                                   "world"),
+    "gltf_clearcoat": ([CLEARCOAT + ("test/models/glTF2/ClearCoat-glTF/" + path,)
+                        for path in ("ClearCoatTest.gltf", "ClearCoatTest.bin", "PartialCoating.png",
+                                     "PartialCoating_Alpha.png", "RoughnessStripes.png", "RibsNormal.png",
+                                     "PlasticWrap_normals.jpg", "ClearCoatLabels.png")]
+                       + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
+                       "glTF KHR_materials_clearcoat: coat weight, roughness and normal textures, alpha-blended "
+                       "coats; an HDRI world"),
+    "gltf_milk_truck": ([TRUCK + ("assets/example_meshes/gltf/CesiumMilkTruck/" + path,)
+                         for path in ("CesiumMilkTruck.gltf", "CesiumMilkTruck_data.bin", "CesiumMilkTruck.jpg")]
+                        + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
+                        "glTF: a textured vehicle (rough dielectrics), a node hierarchy; an HDRI world"),
 }
 
 BUILD = r'''
@@ -104,7 +144,14 @@ if scene.camera is None:
     notes.append("camera added")
 lit_by_image = scene.world is not None and scene.world.node_tree is not None and any(
     n.bl_idname == "ShaderNodeTexEnvironment" for n in scene.world.node_tree.nodes)
-if not any(o.type == "LIGHT" for o in scene.objects) and not lit_by_image:
+def emitter(material):
+    """Whether a material's active output takes its surface straight from an Emission shader (a mesh light)."""
+    tree = material.node_tree if material is not None else None
+    return tree is not None and any(
+        n.bl_idname == "ShaderNodeOutputMaterial" and n.is_active_output and n.inputs["Surface"].is_linked
+        and n.inputs["Surface"].links[0].from_node.bl_idname == "ShaderNodeEmission" for n in tree.nodes)
+mesh_lights = any(emitter(slot.material) for o in meshes for slot in o.material_slots)
+if not any(o.type == "LIGHT" for o in scene.objects) and not lit_by_image and not mesh_lights:
     sun = bpy.data.objects.new("Rig Sun", bpy.data.lights.new("Rig Sun", "SUN"))
     sun.data.energy, sun.data.angle = 3.0, math.radians(3.0)
     sun.rotation_euler = (math.radians(40), 0, math.radians(30))
@@ -121,6 +168,7 @@ if not any(o.type == "LIGHT" for o in scene.objects) and not lit_by_image:
 render = scene.render
 render.resolution_x, render.resolution_y, render.resolution_percentage = {width}, {height}, 100
 render.film_transparent = False
+render.use_stamp = False                    # a file may burn its date and render time into the image
 scene.view_settings.view_transform = "Standard"
 scene.view_settings.look = "None"
 scene.view_settings.exposure, scene.view_settings.gamma = 0.0, 1.0
