@@ -59,6 +59,7 @@ MIRROR = (VCLIB, VCLIB_AT, "CC-BY 4.0, 'NormalTangentMirrorTest' by Ed Mackey, A
           "sample model)")
 CLEARCOAT = (ASSIMP, ASSIMP_AT, "CC-BY 4.0, 'KHR_materials_clearcoat Test' by Ed Mackey, Analytical Graphics (Khronos "
              "glTF sample model)")
+TRANSFORM = (ASSIMP, ASSIMP_AT, "CC0, 'Texture Transform Test' by Microsoft (Khronos glTF sample model)")
 TRUCK = (VCLIB, VCLIB_AT, "CC-BY 4.0, 'Cesium Milk Truck' donated by Cesium (Khronos glTF sample model)")
 
 # Scenes built from files (a glTF model and an HDRI) by a bpy script: name -> (files [(repository, commit,
@@ -89,6 +90,12 @@ BUILT = {
                        + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
                        "glTF KHR_materials_clearcoat: coat weight, roughness and normal textures, alpha-blended "
                        "coats; an HDRI world"),
+    "gltf_texture_transform": ([TRANSFORM + ("test/models/glTF2/textureTransform/" + path,)
+                                for path in ("TextureTransformTest.gltf", "TextureTransformTest.bin", "UV.png",
+                                             "Arrow.png", "Correct.png", "NotSupported.png", "Error.png")]
+                               + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
+                               "glTF KHR_texture_transform (offset, rotation, scale: a Mapping node), clamped "
+                               "textures; an HDRI world"),
     "gltf_milk_truck": ([TRUCK + ("assets/example_meshes/gltf/CesiumMilkTruck/" + path,)
                          for path in ("CesiumMilkTruck.gltf", "CesiumMilkTruck_data.bin", "CesiumMilkTruck.jpg")]
                         + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
