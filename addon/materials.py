@@ -451,6 +451,29 @@ def _scaled(color, strength):
     return Link(GraphNode("SCALE", {}, {"Color": color, "Factor": strength}), "Color")
 
 
+def same_graph(a, b, depth: int = 0) -> bool:
+    """Whether two values (constants or graph.Links) compute the same thing: the same node kinds, settings
+    (the same image) and inputs, all the way down (glTF's importer gives Normal and Coat Normal a Normal Map
+    node each for one shared map)."""
+    if depth > 64:
+        return False
+    if _linked(a) != _linked(b):
+        return False
+    if not _linked(a):
+        return np.array_equal(np.asarray(a, dtype=object), np.asarray(b, dtype=object))
+    if a.node is b.node:
+        return a.output == b.output
+    na, nb = a.node, b.node
+    if a.output != b.output or na.kind != nb.kind or set(na.props) != set(nb.props) or set(na.inputs) != set(nb.inputs):
+        return False
+    for key in na.props:
+        x, y = na.props[key], nb.props[key]
+        if x is not y and not (isinstance(x, (str, int, float, bool, tuple)) and x == y) \
+                and not (isinstance(x, np.ndarray) and isinstance(y, np.ndarray) and np.array_equal(x, y)):
+            return False
+    return all(same_graph(na.inputs[key], nb.inputs[key], depth + 1) for key in na.inputs)
+
+
 def _normal(reader: NodeReader, node, inputs: dict) -> None:
     """A BSDF's Normal input, when linked (a Normal Map, a Bump), into inputs["normal"]."""
     socket = node.inputs.get("Normal")
@@ -519,9 +542,17 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                 reader.warn(node, f"'{socket}' is linked; where it is above 0 Primer {instead}")
             elif not own.is_linked and float(np.max(reader.value(node, socket, 0.0))) > 0.0:
                 reader.warn(node, f"'{socket}' is above 0; Primer {instead}")
+        # The coat's normal: Coat Normal, or the hit's own normal where it is unlinked (Cycles); Primer reads a
+        # Coat Normal fed by the very node that feeds Normal (glTF's usual shared map), not another one.
         coat_normal = node.inputs.get("Coat Normal")
         if coat_normal is not None and coat_normal.is_linked:
-            reader.warn(node, "'Coat Normal' is linked; Primer gives the coat the surface's normal")
+            coat_value = reader.input(node, "Coat Normal", None)
+            normal = inputs.get("normal")
+            if _linked(coat_value) and _linked(normal) and same_graph(coat_value, normal):
+                inputs["coat_follows_normal"] = 1.0
+            else:
+                reader.warn(node, "'Coat Normal' is linked to another normal than 'Normal'; Primer gives the coat "
+                                  "the hit's own normal (Cycles' coat without a Coat Normal)")
         out.append(("PRINCIPLED", weight, inputs, list(factors)))
     elif kind == "ShaderNodeBsdfDiffuse":
         # Roughness above 0: Oren-Nayar's rough diffuse, which also needs the colour itself.

@@ -363,3 +363,25 @@ def test_a_texture_without_uvs_a_zero_area_emitter_of_1e9_and_a_negative_world_r
     assert "world's Background is negative (-0.1" in warnings
     assert "zero-area triangle(s) were skipped" in warnings          # the emitter of 1e9: dropped, reported
     assert result["finite"] and result["low"] >= 0.0
+
+
+def test_two_normal_map_nodes_reading_one_map_count_as_the_same_normal():
+    """glTF's importer feeds Normal and Coat Normal from a Normal Map node each, reading one image: the coat then
+    follows the node's normal (addon/materials.py same_graph); another image or strength is another normal."""
+    import sys
+    sys.path.insert(0, os.path.join(ROOT, "tools"))
+    from render import load_primer
+    primer = load_primer()
+    same_graph = sys.modules[f"{primer.__name__}.addon.materials"].same_graph
+    graph = sys.modules[f"{primer.__name__}.core.materials.graph"]
+    textures = sys.modules[f"{primer.__name__}.core.materials.textures"]
+    image = textures.Image(np.zeros((2, 2, 3), np.uint8))
+
+    def normal_map(picture, strength):
+        texture = graph.GraphNode("IMAGE", {"image": picture, "interpolation": "Linear", "extension": "REPEAT"}, {})
+        return graph.Link(graph.GraphNode("NORMAL_MAP", {"map": ""}, {"Color": graph.Link(texture, "Color"),
+                                                                       "Strength": strength}), "Normal")
+
+    assert same_graph(normal_map(image, 1.0), normal_map(image, 1.0))
+    assert not same_graph(normal_map(image, 1.0), normal_map(image, 0.5))
+    assert not same_graph(normal_map(image, 1.0), normal_map(textures.Image(np.zeros((2, 2, 3), np.uint8)), 1.0))

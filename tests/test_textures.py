@@ -402,3 +402,20 @@ def test_a_normal_map_at_the_principled_normal_turns_the_base_not_the_coat(kerne
     white_flat = shoot(scene_of(coated((1.0, 1.0, 1.0), False), tangent=True), kernels)
     white_bumped = shoot(scene_of(coated((1.0, 1.0, 1.0), True), tangent=True), kernels)
     np.testing.assert_allclose(white_bumped - flat, (white_flat - flat) * math.cos(theta), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_coat_normal_fed_by_the_normals_map_turns_the_coat_too(kernels):
+    """With Coat Normal fed by the node that feeds Normal (glTF's shared map: coat_follows_normal), the coat
+    over a black base follows the normal map: tilted 30 degrees, its highlight of the overhead sun moves off
+    the camera's direction and the plane darkens."""
+    tilted = np.array([math.sin(math.radians(30.0)), 0.0, math.cos(math.radians(30.0))])
+    color = GraphNode("RGB", {"value": tilted * 0.5 + 0.5})
+    mapped = Link(GraphNode("NORMAL_MAP", {"map": ""}, {"Color": Link(color, "Color"), "Strength": 1.0}), "Normal")
+    inputs = {"base_color": (0.0, 0.0, 0.0), "specular_ior_level": 0.0, "coat": 1.0, "coat_roughness": 0.3}
+    flat = shoot(scene_of(Material(name="Flat", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0), inputs)]), tangent=True),
+                 kernels)
+    shared = {**inputs, "normal": mapped, "coat_follows_normal": 1.0}
+    bumped = shoot(scene_of(Material(name="Shared", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0), shared)]), tangent=True),
+                   kernels)
+    assert bumped.max() < 0.5 * flat.min()

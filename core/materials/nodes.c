@@ -275,12 +275,16 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
      *    below it, not the coat); where reflective caustics are filtered out it reflects nothing, but still
      *    tints. */
     if (coat > WEIGHT_CUTOFF) {
-        const double *hit = sd->hit_N != NULL ? sd->hit_N : sd->N;
+        int follows = p[29] != 0.0;                  /* Coat Normal fed by what feeds Normal: the node's own */
+        const double *hit = sd->hit_N != NULL && !follows ? sd->hit_N : sd->N;
         double node_N[3] = {sd->N[0], sd->N[1], sd->N[2]};
         const double *node_glossy = sd->glossy;
-        for (int j = 0; j < 3; j++) sd->N[j] = hit[j];
-        sd->glossy = NULL;
-        double mu_c = dot3(hit, wo);
+        double mu_c = mu;
+        if (!follows) {
+            for (int j = 0; j < 3; j++) sd->N[j] = hit[j];
+            sd->glossy = NULL;
+            mu_c = dot3(hit, wo);
+        }
         if (reflective) {
             double F0c = F0_from_ior(coat_ior), f0[3] = {F0c, F0c, F0c}, reflect[3], Fss[3];
             lobe_params(lobe, coat_roughness, FRESNEL_DIELECTRIC, coat_ior, f0, one);

@@ -304,9 +304,10 @@ class TransparentNode(Node):
 # The Principled BSDF's inputs, in their slots.
 PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "subsurface", "specular_ior_level",
                      "specular_tint", "coat", "coat_roughness", "coat_ior", "coat_tint", "emission",
-                     "transmission", "multiscatter", "diffuse_roughness", "sheen", "sheen_roughness", "sheen_tint")
+                     "transmission", "multiscatter", "diffuse_roughness", "sheen", "sheen_roughness", "sheen_tint",
+                     "coat_follows_normal")
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
-                       (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0))
+                       (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0)
 
 
 class PrincipledNode(Node):
@@ -365,7 +366,10 @@ class PrincipledNode(Node):
         on = coat > WEIGHT_CUTOFF
         if on.any():
             node_normals = (b.N, b.glossy_N, b.mu)
-            b.use_normal(b.smooth_N)
+            follows = p[:, 29] != 0.0           # Coat Normal fed by what feeds Normal: the node's own normal
+            if not follows.all():
+                b.use_normal(np.where(follows[:, None], b.N, b.smooth_N),
+                             glossy=np.where(follows[:, None], b.glossy_N, b.smooth_N))
             # (Where reflective caustics are filtered out the coat reflects nothing, but still tints.)
             lobe_on = on & b.reflective
             lobe = GlossyLobe.params(n, coat_roughness, mf.FRESNEL_DIELECTRIC, coat_ior)
