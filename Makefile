@@ -15,6 +15,10 @@ PY52   := $(VENV52)/bin/python
 # everything on 5.2 too (about 45 s more; a cold cache of Cycles references costs about 4 minutes either way).
 TESTS52 ?= $(wildcard tests/test_blender_*.py) tests/test_extension.py tests/test_tour.py tests/test_viewport.py \
 	tests/test_debug_views.py
+# On 5.2 the render-setting variants' image comparisons with Cycles (tests/test_blender_scenes.py) are left to
+# the 5.0 run: they check Primer's light transport, the same on both, and rendering Cycles' 2048-sample
+# references again for 5.2 costs CI about ten minutes. `make test TESTS52_SKIP=` runs them on 5.2 too.
+TESTS52_SKIP ?= -k "not test_render_setting_matches_cycles"
 
 BLENDER_USER := $(CURDIR)/.pytest_cache/blender-user
 
@@ -101,7 +105,7 @@ extension: venv $(VENV)/.platforms-installed
 test: venv venv42 venv52 kernels $(VENV)/.platforms-installed
 	rm -rf $(BLENDER_USER) && mkdir -p $(BLENDER_USER)
 	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q $(PYTEST_ARGS) $(EMPTY_OK)
-	BLENDER_USER_RESOURCES=$(BLENDER_USER) ZIG="$(ZIG)" $(PY52) -m pytest -q $(TESTS52) $(PYTEST_ARGS) $(EMPTY_OK)
+	BLENDER_USER_RESOURCES=$(BLENDER_USER) ZIG="$(ZIG)" $(PY52) -m pytest -q $(TESTS52) $(TESTS52_SKIP) $(PYTEST_ARGS) $(EMPTY_OK)
 	ZIG="$(ZIG)" $(PY42) -m pytest -q tests/smoke_bpy42.py $(PYTEST_ARGS) $(EMPTY_OK)
 
 # The benchmark's extra tools (FLIP, matplotlib), installed into .venv beside the pinned dependencies.
