@@ -88,14 +88,11 @@ def crypto_pass_names(buffer: str, depth: int) -> list:
 def add_crypto_metadata(result, exported: export.Export, view_layer: str) -> None:
     """Store each Cryptomatte's manifest in the render result's metadata, as Cycles does, so that the
     compositor's Cryptomatte node and other compositors find the names (core/integrators/cryptomatte.py)."""
-    scene = exported.scene
-    names = {"crypto_object": [i.name for i in scene.instances],
-             "crypto_asset": [i.asset or i.name for i in scene.instances],
-             "crypto_material": [m.name for m in scene.materials] + [cryptomatte.DEFAULT_MATERIAL]}
+    names = cryptomatte.names_of(exported.scene)
     for buffer in exported.settings.passes:
-        if buffer in names:
+        if buffer in CRYPTO_PASSES:
             kind = buffer.split("_", 1)[1]
-            for key, value in cryptomatte.metadata(view_layer, kind, names[buffer]).items():
+            for key, value in cryptomatte.metadata(view_layer, kind, names[kind]).items():
                 result.stamp_data_add_field(key, value)
 
 

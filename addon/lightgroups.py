@@ -44,7 +44,7 @@ def dark(material: Material) -> Material:
         elif "emission" in inputs:
             inputs = {**inputs, "emission": (0.0, 0.0, 0.0)}
         nodes.append((name, weight, inputs) + tuple(entry[3:]))
-    return dataclasses.replace(material, emission=np.zeros(3), nodes=nodes, name=material.name)
+    return dataclasses.replace(material, emission=np.zeros(3), nodes=nodes)
 
 
 def emits(material: Material) -> bool:

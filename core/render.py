@@ -263,6 +263,8 @@ def pass_images(ctx: Context, region: np.ndarray, pool, threads: int) -> dict:
     s = ctx.settings
     spp = passes_.pass_samples(s.samples)
     size = s.width * s.height
+    if any(name in passes_.CRYPTO_PASSES for name in s.passes):
+        ctx.extra["crypto_ids"] = cryptomatte.id_tables(ctx.scene)      # hashed once, not per chunk
     images = {name: np.zeros((size, passes_.pass_channels(name, s.cryptomatte_depth)),
                              np.float32 if name in passes_.CRYPTO_PASSES else np.float64) for name in s.passes}
     per_chunk = max(1, min(-(-len(region) // max(1, threads)), s.chunk_size // spp))

@@ -18,9 +18,9 @@ import pytest
 bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
-from render import configure_cycles_reference, configure_output, load_primer  # noqa: E402
+from render import configure_cycles_reference, load_primer  # noqa: E402
 
-from test_blender_denoise import read_channels  # noqa: E402
+from test_blender_denoise import render_image  # noqa: E402
 
 pytestmark = pytest.mark.blender
 
@@ -78,11 +78,7 @@ def render_both(folder) -> dict:
         if engine == "CYCLES":
             configure_cycles_reference(scene, SAMPLES)
         path = str(folder / f"crypto_{engine}.exr")
-        scene.render.image_settings.media_type = "IMAGE"
-        configure_output(scene, path)
-        scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
-        bpy.ops.render.render(write_still=True)
-        out[engine] = (read_channels(path), read_metadata(path))
+        out[engine] = (render_image(scene, path, multilayer=True), read_metadata(path))
     return out
 
 
@@ -165,7 +161,6 @@ def test_the_manifest_names_every_id_as_cycles_does(renders, kind):
 
 def test_the_compositor_cryptomatte_node_cuts_the_same_matte_from_primer_as_from_cycles(primer, tmp_path):
     """A Cryptomatte node picking "Sphere 2" from the render gives the same matte for both engines."""
-    from core.film import image_io
     scene = open_scene()
     from addon.compositor import compositor_tree
     tree = compositor_tree(scene, create=True)
@@ -184,11 +179,7 @@ def test_the_compositor_cryptomatte_node_cuts_the_same_matte_from_primer_as_from
         scene.render.engine = engine
         if engine == "CYCLES":
             configure_cycles_reference(scene, SAMPLES)
-        path = str(tmp_path / f"matte_{engine}.exr")
-        scene.render.image_settings.media_type = "IMAGE"
-        configure_output(scene, path)
-        bpy.ops.render.render(write_still=True)
-        mattes[engine] = image_io.read_image(path)
+        mattes[engine] = render_image(scene, str(tmp_path / f"matte_{engine}.exr"))
     mine, cycles = (mattes[e][..., 0] for e in ("PRIMER", "CYCLES"))
     assert 0.02 < (cycles > 0.5).mean() < 0.5                # the sphere, not nothing and not everything
     assert np.abs(mine - cycles).mean() < 0.01

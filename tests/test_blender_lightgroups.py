@@ -16,9 +16,9 @@ import pytest
 bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
-from render import configure_cycles_reference, configure_output, load_primer  # noqa: E402
+from render import configure_cycles_reference, load_primer  # noqa: E402
 
-from test_blender_denoise import read_channels  # noqa: E402
+from test_blender_denoise import render_image  # noqa: E402
 from core.film.compare import relative_mse_of_blocks  # noqa: E402
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
@@ -55,12 +55,7 @@ def render_both(name: str, folder) -> dict:
         scene.primer.samples = samples
         if engine == "CYCLES":
             configure_cycles_reference(scene, samples)
-        path = str(folder / f"{name}_{engine}.exr")
-        scene.render.image_settings.media_type = "IMAGE"
-        configure_output(scene, path)
-        scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
-        bpy.ops.render.render(write_still=True)
-        out[engine] = read_channels(path)
+        out[engine] = render_image(scene, str(folder / f"{name}_{engine}.exr"), multilayer=True)
     return out
 
 

@@ -82,6 +82,20 @@ def layer_key(layer: str) -> str:
     return f"{murmur3_32(layer.encode('utf-8')):08x}"[:7]
 
 
+def names_of(scene) -> dict:
+    """The names each Cryptomatte kind gives a scene's sources, by index: {"object": [per scene.instances],
+    "asset": [per scene.instances], "material": [per scene.materials, then the default surface's]}."""
+    return {"object": [instance.name for instance in scene.instances],
+            "asset": [instance.asset or instance.name for instance in scene.instances],
+            "material": [material.name for material in scene.materials] + [DEFAULT_MATERIAL]}
+
+
+def id_tables(scene) -> dict:
+    """The float32 ids of names_of(scene): {kind: (k,) float32}, a 0 id for a kind without names."""
+    return {kind: np.array([name_id(name) for name in names] or [0.0], np.float32)
+            for kind, names in names_of(scene).items()}
+
+
 def manifest(names) -> str:
     """The manifest of `names`: a JSON object name -> 8 hex digits of its id."""
     return json.dumps({name: f"{name_hash(name):08x}" for name in dict.fromkeys(names)}, separators=(",", ":"))

@@ -195,23 +195,19 @@ def trace_passes(ctx: Context, wanted: tuple, O: np.ndarray, D: np.ndarray, t_ma
 def matte_ids(ctx: Context, mattes: list, parts: list) -> dict:
     """Return {"sample": (m,) int64 camera samples, "coverage": (m,) float64, name: (m,) float32 ids for each
     Cryptomatte pass in `mattes`} of the surfaces `parts` (trace_passes' (sample, instance, material,
-    coverage) tuples), with the names cryptomatte.py's docstring gives."""
+    coverage) tuples), with the names cryptomatte.py's docstring gives (their ids hashed once per render,
+    ctx.extra["crypto_ids"], else here)."""
     if parts:
         sample, instance, material, coverage = (np.concatenate(column) for column in zip(*parts))
     else:
         sample = instance = material = np.zeros(0, np.int64)
         coverage = np.zeros(0)
     out = {"sample": sample, "coverage": coverage}
-    scene = ctx.scene
-    instances = scene.instances or []
-    names = {
-        "crypto_object": [i.name for i in instances],
-        "crypto_asset": [getattr(i, "asset", "") or i.name for i in instances],
-        "crypto_material": [m.name for m in scene.materials] + [cryptomatte.DEFAULT_MATERIAL],
-    }
+    tables = ctx.extra.get("crypto_ids") or cryptomatte.id_tables(ctx.scene)
     for name in mattes:
-        table = np.array([cryptomatte.name_id(n) for n in names[name]] or [0.0], np.float32)
-        index = material if name == "crypto_material" else instance
+        kind = CRYPTO_PASSES[name]
+        table = tables[kind]
+        index = material if kind == "material" else instance
         out[name] = table[np.clip(np.asarray(index, np.int64), 0, len(table) - 1)]
     return out
 
