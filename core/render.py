@@ -135,7 +135,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     ctx.extra["camera_lamps"] = [index for index, light in enumerate(lights)
                                  if light.hittable and light.kind in (0, 1, 3) and light.camera]
     world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0)
-    ctx.extra["emissive"] = bool(materials.emissive.any())
+    ctx.extra["emissive"] = bool(materials.emissive.any() or materials.graph_emits.any())
     # Shadow rays go on through surfaces: transparent ones, and objects hidden from shadow rays.
     # (and holdouts, which the path tracer's loop handles, as the camera's paths through transparent surfaces)
     ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)

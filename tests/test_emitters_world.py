@@ -161,3 +161,43 @@ def test_compiled_emitter_and_world_samples_are_the_pythons():
         np.testing.assert_allclose(found.L, expected.L, atol=1e-6)
         np.testing.assert_allclose(found.color, np.broadcast_to(expected.color, found.color.shape), rtol=1e-6)
         np.testing.assert_allclose(found.strength, expected.strength, rtol=1e-6)
+
+
+def half_textured_emitter_over_floor(a: float, b: float, side: float, height: float, albedo: float,
+                                     sampling: str = "AUTO") -> Scene:
+    """emitter_over_floor's square lamp with its emission from a 2 x 1 image: radiance a where x < 0 (u < 0.5),
+    b where x > 0 (Closest interpolation), seen from a camera over the floor below the left half's centre."""
+    from test_textures import plane_attributes
+    from core.materials import textures
+    from core.materials.graph import GraphNode, Link
+    image = textures.Image(np.array([[[a, a, a, 1.0], [b, b, b, 1.0]]], np.float32), srgb=False)
+    node = GraphNode("IMAGE", {"image": image, "interpolation": "Closest", "extension": "EXTEND"}, {})
+    scene = Scene(camera=ortho_down(center=(-0.25 * side, 0.0, 0.0), height=0.5 * height, scale=0.02))
+    floor = scene.add_material((albedo,) * 3)
+    scene.materials.append(Material(name="Screen", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": Link(node, "Color")})],
+                                    emission_sampling=sampling))
+    scene.add_mesh(primitives.plane(40.0), materials=np.array([floor]))
+    flipped = np.diag([1.0, -1.0, -1.0, 1.0])                       # the plane turned to face -Z
+    flipped[2, 3] = height
+    lamp = primitives.plane(side)
+    lamp.attributes = plane_attributes(lamp)
+    scene.add_mesh(lamp, matrix=flipped, materials=np.array([len(scene.materials) - 1]))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+@pytest.mark.parametrize("strategy", ["mis", "light", "bsdf"])
+def test_a_textured_emitter_lights_a_floor_by_each_texels_form_factor(strategy, kernels):
+    """A square emitter whose left half emits a and right half b (an image texture on its Emission colour), seen
+    from the floor below the left half's centre: rho (a F_left + b F_right), each half's view factor from corner
+    rectangles. Each triangle of the square covers both halves: the texture is read where each sample lands."""
+    side, height, a, b, rho = 1.0, 0.7, 4.0, 1.0, 0.6
+    scene = half_textured_emitter_over_floor(a, b, side, height, rho)
+    size = 8 if strategy == "bsdf" else 2
+    settings = RenderSettings(width=size, height=size, samples=512, light_samples=4, light_sampling=strategy,
+                              kernels=kernels, adaptive=False)
+    image = render.render(scene, settings).image
+    q, y = 0.25 * side / height, 0.5 * side / height
+    left = 4.0 * rectangle_factor(q, y)
+    right = 2.0 * (rectangle_factor(3.0 * q, y) - rectangle_factor(q, y))
+    assert image[..., :3].mean() == pytest.approx(rho * (a * left + b * right), rel=0.01)

@@ -29,7 +29,8 @@ ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "termina
                                 size_function="primer_shadow_settings_size")
 MaterialRecord = library.record("MaterialRecord", [
     "n", "program", "graph", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
-    ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3), "shadow_opaque", "may_pass"],
+    ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3), "shadow_opaque", "may_pass",
+    "graph_emits"],
     size_function="primer_material_record_size")
 
 
@@ -69,6 +70,7 @@ def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
     record = MaterialRecord()
     record.shadow_opaque = 1.0 if shadow_opaque else 0.0
     record.may_pass = 1.0 if shader.may_let_light_through else 0.0
+    record.graph_emits = 1.0 if getattr(shader, "graph_emits", False) else 0.0
     if hasattr(shader, "nodes"):
         k = len(shader.nodes)
         record.n, record.program = float(k), 1.0

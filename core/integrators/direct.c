@@ -120,6 +120,7 @@ typedef struct {
     double f[3][BLOCK];                          /* f cos of the lane's hit's closures, for its light direction */
     double pdf_bsdf[BLOCK];                      /* and the pdf their sampling gives that direction (MIS) */
     int hidden[BLOCK];                           /* the HIDDEN_FROM_* bits of the sample's object (emitters) */
+    int64_t emitter[BLOCK];                      /* the emissive triangle sampled (emitters) */
 } SampleBlock;
 
 /* Step 0: samples first .. first + n - 1 of a light with `count` samples per hit (sample s is sample
@@ -188,10 +189,12 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
         for (int64_t k = 0; k < b->n; k++) {
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[3] = {b->u[0][k], b->u[1][k], b->u2[k]};
             LightSample ls;
+            ls.emitter = -1;
             sample_light(light, ctx, P, u, &ls);
             store_sample(b, k, &ls);
             for (int c = 0; c < 3; c++) b->color[c][k] = ls.color[c];
             b->hidden[k] = ls.hidden;
+            b->emitter[k] = ls.emitter;
         }
         return;
     }
@@ -436,6 +439,69 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
     }
 }
 
+/* direct.barycentrics for one point P in the plane of triangle V: P = (1 - u - v) V0 + u V1 + v V2. */
+INLINE void point_barycentrics(const double *V, const double *P, double *u, double *v)
+{
+    double e1[3], e2[3], d[3];
+    for (int c = 0; c < 3; c++) { e1[c] = V[3 + c] - V[c]; e2[c] = V[6 + c] - V[c]; d[c] = P[c] - V[c]; }
+    double d11 = dot3(e1, e1), d12 = dot3(e1, e2), d22 = dot3(e2, e2), p1 = dot3(d, e1), p2 = dot3(d, e2);
+    double det = d11 * d22 - d12 * d12;
+    *u = det > 0.0 ? (d22 * p1 - d12 * p2) / det : 1.0 / 3.0;
+    *v = det > 0.0 ? (d11 * p2 - d12 * p1) / det : 1.0 / 3.0;
+}
+
+/* direct.graph_emission for one point O + t D on triangle (geometry, prim, instance): what its material's node
+ * graph emits back along -D (a texture's emission), for a ray other than the camera's; the barycentrics come
+ * from the point. */
+INLINE void graph_emission(const DirectSettings *ds, int64_t geometry, int64_t prim, int64_t instance,
+                           const double *O, const double *D, double t, double *out)
+{
+    Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+    hit_triangle(ds->geometry, geometry, prim, instance, 1, &tri);
+    double P[3] = {O[0] + t * D[0], O[1] + t * D[1], O[2] + t * D[2]}, u, v;
+    point_barycentrics(tri.V, P, &u, &v);
+    Surface s;
+    surface_at(O, D, t, u, v, &tri, 0, &s);
+    double wo[3] = {-D[0], -D[1], -D[2]}, storage[SHADER_STORAGE];
+    ShaderResult sd;
+    sd.storage = storage;
+    sd.caustics = 0;
+    shade_hit(ds->graphs, ds->geometry, ds->materials + tri.material, &tri, &s, geometry, prim, instance, u, v, wo,
+              RAY_BOUNCE, &sd);
+    for (int c = 0; c < 3; c++) out[c] = sd.emission[c];
+}
+
+/* The Embree geometry, primitive and placement of WorldGeometry's flat triangle index `flat` (flat_prim's inverse). */
+INLINE void unflat_prim(const GeometryTables *g, int64_t flat, int64_t *geometry, int64_t *prim, int64_t *instance)
+{
+    *geometry = 0; *prim = flat; *instance = 0;
+    for (int64_t m = 0; m < (int64_t)g->instanced; m++) {
+        const InstancedTables *mesh = g->meshes + m;
+        int64_t first = (int64_t)mesh->first_prim, count = (int64_t)mesh->triangle_count;
+        if (flat >= first && flat < first + count * (int64_t)mesh->placements) {
+            *geometry = m + 1;
+            *instance = (flat - first) / count;
+            *prim = (flat - first) % count;
+            return;
+        }
+    }
+}
+
+/* direct.textured_samples: the emitters' samples in the block that landed on a textured triangle bring what its
+ * node graph emits there, in place of the triangle's estimate. */
+static void textured_block(SampleBlock *b, const DirectSettings *ds)
+{
+    const EmitterTables *e = ds->context->emitters;
+    for (int64_t k = 0; k < b->n; k++) {
+        if (!(b->strength[k] > 0.0) || !e->textured[b->emitter[k]]) continue;
+        int64_t geometry, prim, instance;
+        unflat_prim(ds->geometry, e->prim[b->emitter[k]], &geometry, &prim, &instance);
+        double O[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, D[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, out[3];
+        graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], out);
+        for (int c = 0; c < 3; c++) b->color[c][k] = out[c];
+    }
+}
+
 /* Direct light at the block's hits, added to H->L: every light's samples, BLOCK at a time. Returns the
  * shadow rays traced; embree_ticks[0] += the time inside Embree's occlusion queries. */
 /* direct.wants_bsdf_ray: whether each hit traces a BSDF ray, into H->traced. */
@@ -485,6 +551,7 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
                 for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = b.u2[k] = 0.0;
             }
             light_block(&b, light, ds->context);
+            if ((int)light->kind == LIGHT_EMITTERS && ds->context->emitters->textured != NULL) textured_block(&b, ds);
             ray_block(&b, settings, lift, (double)count);
             bsdf_block(&b, H, weighed);
             if (weighed)
@@ -539,6 +606,11 @@ INLINE void gather_light(const DirectSettings *ds, const double *O, const double
         Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
         hit_triangle(ds->geometry, geometry, prim, instance, 0, &tri);
         const double *emitted = ds->materials[tri.material].emission;
+        double textured[3];
+        if (ds->materials[tri.material].graph_emits != 0.0) {     /* a texture's emission, where the ray landed */
+            graph_emission(ds, geometry, prim, instance, O, D, t_limit, textured);
+            emitted = textured;
+        }
         int64_t index = emitters_index >= 0
             ? emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance)) : -1;
         double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, O, D, t_limit) : 0.0;

@@ -130,6 +130,8 @@ class DirectLighting(Integrator):
                 #    the points of any number of camera samples together cover the light evenly.
                 u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension)
                 ls = light.sample(surface.I, u, cone)
+                if getattr(light, "textured", None) is not None:
+                    ls = textured_samples(ctx, light, surface.I, ls)
                 if not s.distance_attenuation:
                     ls = light.without_attenuation(ls, surface.I)
                 # b. The lecture's two tests: N.L > 0 (shading normal, the clamp) and Ng.L > 0 (the
@@ -287,6 +289,12 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         # (Each material's emission as its light samples see it: head-on, so that both strategies of
         #  MIS weigh the same radiance; a coat tint's change with angle is seen by the camera only.)
         emitted = ctx.materials.emission[where.material]
+        textured = ctx.materials.graph_emits[where.material]
+        if textured.any():                        # a texture's emission, evaluated where the ray landed
+            rows = np.flatnonzero(textured)
+            emitted = emitted.copy()
+            emitted[rows] = graph_emission(ctx.geometry, ctx.materials, hits.prim[struck][rows], O[struck][rows],
+                                           D[struck][rows], hits.t[struck][rows])
         if camera is not None and camera[struck].any():
             emitted = np.where((camera[struck] & ctx.geometry.hidden(hits.prim[struck], HOLDOUT))[:, None], 0.0,
                                emitted)
@@ -312,6 +320,44 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
                          light_count(ctx, sampler) * sampler.pdf(D[missed])), 1.0)
         light_L[missed] += L_world * w[:, None]
     return light_L
+
+
+def textured_samples(ctx: Context, emitters, points: np.ndarray, ls):
+    """The emitters' samples `ls` of points (n, 3), with what each textured triangle emits where its sample
+    landed (its node graph evaluated there) in place of the triangle's estimate: a LightSample with (n, 3) colour."""
+    color = np.array(np.broadcast_to(ls.color, (len(points), 3)))
+    rows = np.flatnonzero(emitters.textured[ls.emitter] & (ls.strength > 0.0))
+    if len(rows):
+        color[rows] = graph_emission(ctx.geometry, ctx.materials, emitters.prim[ls.emitter[rows]], points[rows],
+                                     ls.L[rows], ls.distance[rows])
+    return ls._replace(color=color)
+
+
+def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """What the surfaces at O + t D on triangles prim (n,) int64 emit back along -D (n, 3) float64, by their
+    materials' node graphs (a texture's emission), for a ray other than the camera's (graph.RAY_BOUNCE).
+
+    The barycentrics come from the point itself (a light sample's point has no ray hit of its own), as in the
+    C twin (direct.c graph_emission)."""
+    if len(prim) == 0:
+        return np.zeros((0, 3))
+    V = geometry.triangle_data(prim, smooth=False).corners
+    u, v = barycentrics(V, O + t[:, None] * D)
+    where = surface_at_hits(geometry, prim, u, v, O, D, t)
+    return materials.shade(where.material, where.N, -D, where, geometry, graph_.RAY_BOUNCE).emission
+
+
+def barycentrics(V: np.ndarray, P: np.ndarray) -> tuple:
+    """The barycentrics (u, v) (n,) float64 of points P (n, 3) in the planes of triangles V (n, 3, 3): P = (1 - u
+    - v) V0 + u V1 + v V2 for points on them (the nearest such point otherwise)."""
+    e1, e2, d = V[:, 1] - V[:, 0], V[:, 2] - V[:, 0], P - V[:, 0]
+    d11, d12, d22 = (np.einsum("ij,ij->i", a, b) for a, b in ((e1, e1), (e1, e2), (e2, e2)))
+    p1, p2 = np.einsum("ij,ij->i", d, e1), np.einsum("ij,ij->i", d, e2)
+    det = d11 * d22 - d12 * d12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.where(det > 0.0, (d22 * p1 - d12 * p2) / det, 1.0 / 3.0)
+        v = np.where(det > 0.0, (d11 * p2 - d12 * p1) / det, 1.0 / 3.0)
+    return u, v
 
 
 # The sampling dimensions of the BSDF-sampled direction (2D) and of the closure it picks (core/sampling).

@@ -43,6 +43,7 @@ class LightSample(NamedTuple):
     position:   (n, 3) float64 the sampled light point (undefined for the sun)
     hidden:     (n,) int64 the Ray Visibility bits (geometry.HIDDEN_FROM_*) of the object each sample is on (an
                 emissive mesh), or None: its light reaches no closure of a kind that cannot see the object
+    emitter:    (n,) int64 the emissive triangle each sample is on (MeshEmitters' index), or None for other lights
     """
 
     L: np.ndarray
@@ -52,6 +53,7 @@ class LightSample(NamedTuple):
     color: np.ndarray
     position: np.ndarray
     hidden: Optional[np.ndarray] = None
+    emitter: Optional[np.ndarray] = None
 
     @property
     def irradiance(self) -> np.ndarray:

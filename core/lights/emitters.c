@@ -152,6 +152,7 @@ INLINE void sample_emitters(const EmitterTables *e, const double *P, const doubl
     out->strength = ok ? 1.0 / pdf : 0.0;
     out->pdf = ok ? pdf : 0.0;
     out->hidden = e->hidden != NULL ? (int)e->hidden[i] : 0;
+    out->emitter = i;
     for (int c = 0; c < 3; c++) {
         out->position[c] = P[c] + out->L[c] * out->distance;
         out->color[c] = e->emission[3 * i + c];

@@ -15,6 +15,8 @@ The pdf of a direction is the pick probability times that. A BSDF-sampled ray th
 triangle asks `pdf_of_hits` for the pdf the light would have given its direction, for MIS.
 A material's Emission Sampling (None, Front, Back, Front and Back; Auto: both when it emits much)
 says from which sides the triangle is sampled; its emission is seen from both sides regardless.
+A textured emitter (its node graph gives the emission) is picked by its mean emission at a few points
+inside it; the integrator evaluates the graph where each sample lands (direct.textured_samples).
 """
 from __future__ import annotations
 
@@ -43,6 +45,9 @@ class MeshEmitters(Light):
     cdf:      (t + 1,) float64 cumulative pick probability, in proportion to area x mean(L_e)
     hidden:   (t,) uint8 the Ray Visibility bits (geometry.HIDDEN_FROM_*) of each triangle's object, or None
               where no emitting object hides from diffuse, glossy or transmission rays
+    textured: (t,) bool the triangles whose material's node graph gives their emission (a texture): `emission`
+              is then only its estimate (for picking), and the integrators evaluate the graph where a sample
+              lands (direct.graph_emission); None where there are none
     """
 
     corners: np.ndarray
@@ -54,6 +59,7 @@ class MeshEmitters(Light):
     cdf: np.ndarray
     name: str = "Emissive meshes"
     hidden: Optional[np.ndarray] = None
+    textured: Optional[np.ndarray] = None
 
     kind: ClassVar[int] = 4
     blender_type: ClassVar[str] = "MESH"
@@ -81,8 +87,10 @@ class MeshEmitters(Light):
         return self                          # built from the camera-relative geometry already
 
     @classmethod
-    def of(cls, corners: np.ndarray, emission: np.ndarray, sides: np.ndarray, prim: np.ndarray) -> Optional["MeshEmitters"]:
-        """The emitters of triangles with corners (t, 3, 3), radiance (t, 3), sides (t,); None if none emits."""
+    def of(cls, corners: np.ndarray, emission: np.ndarray, sides: np.ndarray, prim: np.ndarray,
+           textured: Optional[np.ndarray] = None) -> Optional["MeshEmitters"]:
+        """The emitters of triangles with corners (t, 3, 3), radiance (t, 3), sides (t,), textured (t,) bool or
+        None; None if none emits."""
         e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
         cross = vectors.cross(e1, e2)
         length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
@@ -96,7 +104,8 @@ class MeshEmitters(Light):
         cdf = np.zeros(keep.sum() + 1)
         cdf[1:] = np.cumsum(power[keep])
         cdf /= cdf[-1]
-        return cls(corners, normal, area[keep], emission, sides.astype(np.int32), prim, cdf)
+        textured = textured[keep] if textured is not None and textured[keep].any() else None
+        return cls(corners, normal, area[keep], emission, sides.astype(np.int32), prim, cdf, textured=textured)
 
     def pick_probability(self, index: np.ndarray) -> np.ndarray:
         """P(choosing triangle `index`): (n,) int64 -> (n,) float64."""
@@ -132,7 +141,8 @@ class MeshEmitters(Light):
             strength = np.where(ok, 1.0 / pdf, 0.0)
         position = points + L * distance[:, None]
         hidden = None if self.hidden is None else self.hidden[index].astype(np.int64)
-        return LightSample(L, distance, strength, np.where(ok, pdf, 0.0), self.emission[index], position, hidden)
+        return LightSample(L, distance, strength, np.where(ok, pdf, 0.0), self.emission[index], position, hidden,
+                           index)
 
     def pdf_of_hits(self, origins: np.ndarray, index: np.ndarray, D: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The pdf with which `sample` would choose the direction D from `origins` to emitter `index`
@@ -173,6 +183,26 @@ class MeshEmitters(Light):
     def tables(self) -> "EmitterTables":
         """The C tables of the emitters (core/lights/lights.h EmitterTables), keeping their arrays alive."""
         return EmitterTables(self)
+
+
+# Where a textured emitter's mean emission is estimated: barycentrics (u, v) of its centroid and three points
+# around it.
+ESTIMATE_POINTS = np.array([[1.0 / 3.0, 1.0 / 3.0], [2.0 / 3.0, 1.0 / 6.0], [1.0 / 6.0, 2.0 / 3.0], [1.0 / 6.0, 1.0 / 6.0]])
+
+
+def mean_graph_emission(geometry, materials, prim: np.ndarray) -> np.ndarray:
+    """The mean over ESTIMATE_POINTS of what triangles prim (t,) int64 emit by their materials' node graphs,
+    seen head-on by a ray other than the camera's: (t, 3) float64, at least 0."""
+    from ..integrators.direct import graph_emission
+    t, k = len(prim), len(ESTIMATE_POINTS)
+    P = np.repeat(prim, k)
+    u, v = np.tile(ESTIMATE_POINTS[:, 0], t), np.tile(ESTIMATE_POINTS[:, 1], t)
+    triangle = geometry.triangle_data(P, smooth=False)
+    V = triangle.corners
+    I = (1.0 - u - v)[:, None] * V[:, 0] + u[:, None] * V[:, 1] + v[:, None] * V[:, 2]
+    D = -triangle.Ng
+    emitted = graph_emission(geometry, materials, P, I - D, D, np.ones(len(P)))
+    return np.maximum(np.nan_to_num(emitted.reshape(t, k, 3).mean(axis=1)), 0.0)
 
 
 def solid_angle(P: np.ndarray, V: np.ndarray) -> np.ndarray:
@@ -256,30 +286,34 @@ def from_geometry(geometry, materials) -> Optional[MeshEmitters]:
     """
     emission = np.array([np.asarray(shader.emission, np.float64) for shader in materials.shaders])
     sides = np.array([getattr(shader, "emission_sides", FRONT | BACK) for shader in materials.shaders], np.int32)
-    emissive = (emission.max(axis=1) > 0.0) & (sides > 0)
+    by_graph = materials.graph_emits
+    emissive = ((emission.max(axis=1) > 0.0) | by_graph) & (sides > 0)
     if not emissive.any():
         return None
-    corners, radiance, side, prims = [], [], [], []
+    corners, rows_of, prims = [], [], []
     if len(geometry.triangles):
         prim = np.flatnonzero(emissive[geometry.material])
         if len(prim):
             corners.append(geometry.corner_points(prim))
-            radiance.append(emission[geometry.material[prim]])
-            side.append(sides[geometry.material[prim]])
+            rows_of.append(geometry.material[prim])
             prims.append(prim)
     for mesh in geometry.instanced:
         rows = mesh.material[mesh.material_row]                  # (k, t) each placement's materials
         j, local = np.nonzero(emissive[rows])
         if len(j):
             corners.append(mesh.corner_points(j, local))
-            material = rows[j, local]
-            radiance.append(emission[material])
-            side.append(sides[material])
+            rows_of.append(rows[j, local])
             prims.append(mesh.first_prim + j * len(mesh.triangles) + local)
     if not corners:
         return None
-    emitters = MeshEmitters.of(np.concatenate(corners), np.concatenate(radiance), np.concatenate(side),
-                               np.concatenate(prims).astype(np.int64))
+    material, prim = np.concatenate(rows_of), np.concatenate(prims).astype(np.int64)
+    radiance, textured = emission[material], by_graph[material]
+    if textured.any():
+        # A textured emitter is picked by its mean emission at a few points inside it (an estimate: where it is 0,
+        # only BSDF rays find the triangle, with MIS weight 1); what a sample brings is evaluated where it lands.
+        radiance[textured] = mean_graph_emission(geometry, materials, prim[textured])
+    emitters = MeshEmitters.of(np.concatenate(corners), radiance, sides[material], prim,
+                               textured if textured.any() else None)
     # Ray Visibility > Diffuse, Glossy, Transmission of the emitting objects: as in Cycles, the light samples of an
     # object hidden from a kind of ray light no closure of that kind (direct.closures_left_out).
     from ..geometry.geometry import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
@@ -303,10 +337,14 @@ class EmitterTables:
                        c(emitters.emission, np.float64), c(emitters.sides, np.int32), c(emitters.cdf, np.float64),
                        c(emitters.prim[order], np.int64), c(order, np.int64)]
         hidden = None if emitters.hidden is None else c(emitters.hidden, np.uint8)
-        self.arrays.append(hidden)
+        textured = None if emitters.textured is None else c(emitters.textured, np.uint8)
+        self.arrays += [hidden, textured, c(emitters.prim, np.int64)]
         fields = [(name, ctypes.c_void_p) for name in ("corners", "normal", "area", "emission", "sides", "cdf",
                                                        "sorted_prim", "order")] + [("count", ctypes.c_double),
-                                                                                   ("hidden", ctypes.c_void_p)]
+                                                                                   ("hidden", ctypes.c_void_p),
+                                                                                   ("textured", ctypes.c_void_p),
+                                                                                   ("prim", ctypes.c_void_p)]
         Record = type("EmitterTablesRecord", (ctypes.Structure,), {"_fields_": fields})
         self.record = Record(*[a.ctypes.data for a in self.arrays[:8]], float(len(emitters.prim)),
-                             None if hidden is None else hidden.ctypes.data)
+                             None if hidden is None else hidden.ctypes.data,
+                             None if textured is None else textured.ctypes.data, self.arrays[-1].ctypes.data)

@@ -37,6 +37,7 @@ typedef struct {
     double position[3];     /* the sampled light point */
     double color[3];        /* the RGB the strength is of: the light's colour, or an emitter's radiance */
     int hidden;             /* the HIDDEN_FROM_* bits of an emitter's object (0 for other lights) */
+    int64_t emitter;        /* the emissive triangle sampled (EmitterTables' index; emitters only) */
 } LightSample;
 
 /* Where a ray meets a light it was not aimed at (lights.base.LightHit for one ray). */
@@ -58,6 +59,8 @@ typedef struct {
     const int64_t *order;       /* (t,) the emitter of each sorted_prim */
     double count;               /* t */
     const uint8_t *hidden;      /* (t,) each triangle's object's Ray Visibility bits (HIDDEN_FROM_*), or NULL */
+    const uint8_t *textured;    /* (t,) 1: its material's node graph gives its emission (direct.c), or NULL */
+    const int64_t *prim;        /* (t,) WorldGeometry's flat triangle index of each */
 } EmitterTables;
 
 /* The world (core/lights/world.py World and WorldLight): a constant colour or an equirectangular image. */

@@ -161,6 +161,7 @@ class NodeShader:
     emission_sides: int = 3
     graph: Optional[list] = None
     programs: dict = field(default_factory=dict)
+    graph_emits: bool = False
 
     @classmethod
     def of(cls, material: Material) -> "NodeShader":
@@ -189,8 +190,14 @@ class NodeShader:
             emitted = nodes_.shade_nodes(lit, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]])).emission[0]
         emission = np.maximum(emitted, 0.0)
         graph = linked if graph_.has_links(material.nodes) else None
-        return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission),
-                   graph)
+        estimate = graph_emission_estimate(linked, rows) if graph is not None else None
+        if estimate is None:
+            return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission),
+                       graph)
+        # Its emission comes from the graph (a texture, a linked factor): light samples and BSDF rays evaluate it
+        # where they land, and Emission Sampling Auto decides on Cycles' estimate of it.
+        return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, estimate),
+                   graph, graph_emits=True)
 
     @property
     def may_let_light_through(self) -> bool:
@@ -245,6 +252,38 @@ def caustics_filtered(kind: np.ndarray, caustics: np.ndarray) -> np.ndarray:
     return (reflective & ((bits & FILTER_REFLECTIVE) != 0)) | (glass & ((bits & both) == both))
 
 
+def graph_emission_estimate(linked: list, rows: list) -> Optional[np.ndarray]:
+    """Cycles' estimate (3,) of what a node material emits where its node graph decides it (Shader::
+    estimate_emission: a linked colour or strength counts as 1, a node under a linked mix factor at full
+    weight), or None where the graph changes no emission (then the head-on value is exact for other rays).
+
+    linked: the NodeShader's (node class, weight, inputs, factors) entries; rows: its (node, weight, p) rows.
+    """
+    from . import graph as graph_
+    estimate, varies = np.zeros(3), False
+    for (node, _, inputs, factors), (_, weight, _) in zip(linked, rows):
+        value = inputs.get("emission")
+        if value is None:
+            continue
+        if isinstance(value, graph_.Link):
+            own = np.ones(3)
+            if value.node.kind == "SCALE":            # colour x strength (addon/materials.py _scaled)
+                color, strength = value.node.inputs.get("Color"), value.node.inputs.get("Factor")
+                own = (np.ones(3) if isinstance(color, graph_.Link) else np.asarray(color, np.float64)[:3]) * \
+                      (1.0 if isinstance(strength, graph_.Link) else float(strength))
+            varies = True
+        else:
+            own = np.asarray(value, np.float64)[:3]
+        if not np.any(own > 0.0) or _bounce_factor((node, weight, inputs, factors)) == 0.0:
+            continue                                  # emits nothing, or only towards the camera
+        if any(isinstance(factor, graph_.Link) for factor, _ in factors):
+            varies = True
+            estimate += own                           # a linked mix factor: the node at full weight
+        else:
+            estimate += own * np.asarray(weight, np.float64)[:3]
+    return np.maximum(estimate, 0.0) if varies else None
+
+
 def _bounce_factor(entry: tuple) -> float:
     """The factor a node's Light Path Mix factors give it for rays other than the camera's: 0 where it is the
     camera's side of such a Mix, 1 otherwise (other factors keep their inputs' own values, as before)."""
@@ -284,6 +323,9 @@ class MaterialTable:
                 self.image_index(image)
         self.textures = TextureSet.of(self.images)
         self._has_graphs = any(getattr(shader, "graph", None) is not None for shader in shaders)
+        # Which rows' emission their node graph gives (a texture, a linked factor), evaluated where a light sample
+        # or a BSDF ray lands rather than taken from `emission`: (m + 1,) bool.
+        self.graph_emits = np.array([bool(getattr(shader, "graph_emits", False)) for shader in shaders], bool)
 
     def image_index(self, image) -> int:
         """The row of a textures.Image in the table's TextureSet; -1 for a missing image (None)."""
@@ -322,6 +364,7 @@ class MaterialTable:
     def emissive(self) -> np.ndarray:
         """Which rows emit: (m + 1,) bool."""
         return np.array([shader.emission.max() > 0.0 for shader in self.shaders])
+
 
     def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None,
               geometry=None, ray=None, caustics=None) -> ShaderResult:

@@ -65,4 +65,5 @@ typedef struct {
     double transparency[3];
     double shadow_opaque;   /* 1: opaque to shadow rays even where it lets light through (Transparent Shadows off) */
     double may_pass;        /* 1: it may let light through somewhere (a Transparent node, alpha) */
+    double graph_emits;     /* 1: its node graph gives its emission (a texture): evaluated where light lands */
 } MaterialRecord;
