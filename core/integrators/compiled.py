@@ -20,6 +20,7 @@ from ..lights import LightRecord
 from ..materials import MAX_CLOSURES, PARAMS
 from ..materials.graph import graph_tables
 from ..native import library
+from . import lightpasses
 from .base import Context
 
 # The integrators the C code knows (chunk.c INTEGRATOR_*).
@@ -102,6 +103,8 @@ def why_not(settings) -> str:
         return "a lecture switch is off its default"
     if settings.aux:
         return "debug buffers are requested"
+    if lightpasses.wanted(settings.passes):
+        return "light passes are requested (the compiled kernels do not write them yet)"
     if not settings.jitter:
         return "jitter is off"
     if abs(settings.seed) >= 2 ** 53:
