@@ -461,8 +461,6 @@ def render(scene: Scene, settings: RenderSettings,
     light_passes = lightpasses.wanted(settings.passes)
     if light_passes:
         film_sums[lightpasses.FILM_BUFFER] = lightpasses.FILM_CHANNELS
-        stats.warnings.append("the light passes (Diffuse, Glossy, Transmission Direct and Indirect) are rendered by "
-                              "the Python reference integrator, slower than the compiled kernels")
     film = Film(W, H, film_sums, compiled=compiled is not None, keep_estimates=len(passes) > 1)
     region = region_pixels(settings)
     outside = camera_.outside_image_circle(scene.camera, W, H, region, tuple(settings.pixel_aspect))

@@ -1,6 +1,7 @@
-"""Light passes in core (core/integrators/lightpasses.py), without Blender: Diffuse/Glossy/Transmission Direct and
-Indirect on scenes whose answers are known, and Cycles' sum rule, Combined = sum of (light pass x colour pass) +
-Emission + Environment, on a path-traced scene of several materials."""
+"""Light passes in core (core/integrators/lightpasses.py, lightpasses.c), without Blender: Diffuse/Glossy/Transmission
+Direct and Indirect on scenes whose answers are known, Cycles' sum rule, Combined = sum of (light pass x colour
+pass) + Emission + Environment, on a path-traced scene of several materials, on both kernels; the compiled passes
+follow the reference's, and asking for them leaves Combined as it was, bit for bit."""
 from __future__ import annotations
 
 import dataclasses
@@ -15,6 +16,8 @@ from core.geometry import primitives
 from core.integrators.lightpasses import COLOR_OF, LIGHT_PASSES, safe_divide_even_color
 from core.lights import PointLight, World
 from core.scene import RenderSettings, Scene
+
+KERNELS = ["numpy", "compiled"]
 
 
 def plane_scene(node: tuple) -> Scene:
@@ -33,11 +36,12 @@ def passes(result) -> dict:
             if name in result.aux}
 
 
-def test_a_lambert_plane_under_a_point_light_is_all_diffuse_direct():
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_lambert_plane_under_a_point_light_is_all_diffuse_direct(kernels):
     """Max Bounces 0: DiffDir = Combined / DiffCol, the other light passes 0."""
     scene = plane_scene(("DIFFUSE", (0.8, 0.5, 0.3), {}))
     settings = RenderSettings(width=24, height=16, samples=4, integrator="path", max_bounces=0,
-                              passes=LIGHT_PASSES + ("diffuse_color",))
+                              passes=LIGHT_PASSES + ("diffuse_color",), kernels=kernels)
     result = render.render(scene, settings)
     p = passes(result)
     combined = result.image[..., :3].astype(np.float64)
@@ -49,21 +53,25 @@ def test_a_lambert_plane_under_a_point_light_is_all_diffuse_direct():
     assert "glossy_color" not in result.aux                 # divided by, but not asked for: not returned
 
 
-def test_the_direct_integrator_writes_the_same_light_passes():
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_the_direct_integrator_writes_the_same_light_passes(kernels):
     """integrator "direct" (Max Bounces 0 in Blender) splits its light the same way."""
     scene = plane_scene(("DIFFUSE", (0.8, 0.5, 0.3), {}))
-    settings = RenderSettings(width=24, height=16, samples=4, integrator="direct", passes=LIGHT_PASSES)
+    settings = RenderSettings(width=24, height=16, samples=4, integrator="direct", passes=LIGHT_PASSES,
+                              kernels=kernels)
     result = render.render(scene, settings)
     assert set(LIGHT_PASSES) <= set(result.aux) and "diffuse_color" not in result.aux
+    assert result.stats.kernels.startswith(kernels)
     combined = result.image[..., :3].astype(np.float64)
     np.testing.assert_allclose(result.aux["diffuse_direct"] * np.array([0.8, 0.5, 0.3]), combined, rtol=1e-5)
-    assert "light passes" in " ".join(result.stats.warnings) and result.stats.kernels.startswith("numpy")
 
 
-def test_a_metal_plane_is_all_glossy_direct():
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_metal_plane_is_all_glossy_direct(kernels):
     """A rough metal under a point light, path traced: GlossDir x GlossCol = Combined, no diffuse light."""
     scene = plane_scene(("PRINCIPLED", (1, 1, 1), {"metallic": 1.0, "base_color": (0.9, 0.6, 0.3), "roughness": 0.5}))
-    settings = RenderSettings(width=24, height=16, samples=4, integrator="path", max_bounces=2, passes=LIGHT_PASSES)
+    settings = RenderSettings(width=24, height=16, samples=4, integrator="path", max_bounces=2, passes=LIGHT_PASSES,
+                              kernels=kernels)
     result = render.render(scene, dataclasses.replace(settings, passes=LIGHT_PASSES + ("glossy_color",)))
     p = passes(result)
     combined = result.image[..., :3].astype(np.float64)
@@ -97,15 +105,17 @@ def sum_scene() -> Scene:
     return scene
 
 
+@pytest.mark.parametrize("kernels", KERNELS)
 @pytest.mark.parametrize("integrator, bounces", [("path", 4), ("direct", 0)])
-def test_light_passes_times_colours_plus_emission_and_environment_make_combined(integrator, bounces):
+def test_light_passes_times_colours_plus_emission_and_environment_make_combined(integrator, bounces, kernels):
     """The sum rule, per pixel: the passes are shares of the very samples Combined adds up (the first-hit passes
     take the render's samples when it has at most PASS_SAMPLES), so it holds to float precision."""
     scene = sum_scene()
     wanted = LIGHT_PASSES + ("diffuse_color", "glossy_color", "transmission_color", "emission", "environment")
     settings = RenderSettings(width=40, height=30, samples=8, integrator=integrator, max_bounces=bounces,
-                              passes=wanted)
+                              passes=wanted, kernels=kernels)
     result = render.render(scene, settings)
+    assert result.stats.kernels.startswith(kernels)
     p = {name: result.aux[name].astype(np.float64) for name in wanted}
     total = p["emission"] + p["environment"]
     for name in LIGHT_PASSES:
@@ -117,13 +127,34 @@ def test_light_passes_times_colours_plus_emission_and_environment_make_combined(
         assert (p[name].max() > 0.0) == (integrator == "path" or name.endswith("_direct")), name
 
 
-def test_without_light_passes_the_image_is_unchanged():
-    """Asking for light passes changes nothing in Combined of the Python reference (same samples, same sums)."""
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_without_light_passes_the_image_is_unchanged(integrator, kernels):
+    """Asking for light passes changes nothing in Combined (same samples, same sums), on either kernel."""
     scene = sum_scene()
-    settings = RenderSettings(width=20, height=15, samples=4, integrator="path", max_bounces=3, kernels="numpy")
-    plain = render.render(scene, settings).image
-    split = render.render(scene, dataclasses.replace(settings, passes=LIGHT_PASSES)).image
-    np.testing.assert_array_equal(plain, split)
+    settings = RenderSettings(width=20, height=15, samples=4, integrator=integrator, max_bounces=3, kernels=kernels)
+    plain = render.render(scene, settings)
+    split = render.render(scene, dataclasses.replace(settings, passes=LIGHT_PASSES))
+    assert plain.stats.kernels == split.stats.kernels and plain.stats.kernels.startswith(kernels)
+    np.testing.assert_array_equal(plain.image, split.image)
+
+
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_the_compiled_light_passes_follow_the_reference(integrator):
+    """The C kernels split the same samples the same way as the Python reference (the images' tolerance of
+    tests/test_compiled.py, relative to each pass's largest value)."""
+    from test_compiled import IMAGE_ATOL, IMAGE_RTOL
+    scene = sum_scene()
+    settings = RenderSettings(width=40, height=30, samples=4, integrator=integrator, max_bounces=4,
+                              passes=LIGHT_PASSES)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled"
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=IMAGE_RTOL, atol=IMAGE_ATOL)
+    for name in LIGHT_PASSES:
+        a, b = compiled.aux[name], reference.aux[name]
+        np.testing.assert_allclose(a, b, rtol=IMAGE_RTOL, atol=IMAGE_ATOL * max(1.0, float(np.abs(b).max())),
+                                   err_msg=name)
 
 
 def test_safe_divide_even_color_fills_channels_with_a_zero_divisor_as_cycles():

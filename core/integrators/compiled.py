@@ -52,7 +52,7 @@ class ChunkParams(ctypes.Structure):
                 + [(name, ctypes.c_double) for name in ("max_bounces", "diffuse_bounces", "glossy_bounces",
                                                         "transmission_bounces", "roulette_from",
                                                         "transparent_bounces", "see_through", "caustics",
-                                                        "clamp_direct", "clamp_indirect")])
+                                                        "clamp_direct", "clamp_indirect", "light_passes")])
     _size_function = "primer_chunk_params_size"
 
 
@@ -60,7 +60,7 @@ class ChunkOut(ctypes.Structure):
     """What a chunk adds up (chunk.c ChunkOut)."""
 
     _fields_ = [("rgba", ctypes.c_void_p), ("squares", ctypes.c_void_p), ("hits", ctypes.c_void_p),
-                ("counts", ctypes.c_int64 * 2), ("seconds", ctypes.c_double * 3)]
+                ("counts", ctypes.c_int64 * 2), ("seconds", ctypes.c_double * 3), ("light", ctypes.c_void_p)]
     _size_function = "primer_chunk_out_size"
 
 
@@ -103,8 +103,6 @@ def why_not(settings) -> str:
         return "a lecture switch is off its default"
     if settings.aux:
         return "debug buffers are requested"
-    if lightpasses.wanted(settings.passes):
-        return "light passes are requested (the compiled kernels do not write them yet)"
     if not settings.jitter:
         return "jitter is off"
     if abs(settings.seed) >= 2 ** 53:
@@ -172,6 +170,8 @@ class Compiled:
         from .path import caustics_bits
         params.caustics = float(caustics_bits(s))
         params.clamp_direct, params.clamp_indirect = limits(s)
+        self.light_passes = lightpasses.wanted(s.passes)
+        params.light_passes = 1.0 if self.light_passes else 0.0
         self.params = params
         self.want_squares = bool(s.adaptive)
         self._render = library.function("primer_render_chunk", None,
@@ -192,8 +192,12 @@ class Compiled:
         params = ChunkParams.from_buffer_copy(self.params)
         params.seed = float(seed)
         out = ChunkOut(rgba.ctypes.data, None if squares is None else squares.ctypes.data, hits.ctypes.data)
+        aux = {}
+        if self.light_passes:               # the light passes' sums (core/integrators/lightpasses.py)
+            aux[lightpasses.FILM_BUFFER] = light = np.empty((p, lightpasses.FILM_CHANNELS))
+            out.light = light.ctypes.data
         self._render(ctypes.addressof(params), pixels.ctypes.data, first.ctypes.data, p, int(spp), ctypes.addressof(out))
         self.tracer.count_intersect(out.seconds[0])
         self.tracer.count_occluded(out.seconds[1])
-        return ChunkSums(rgba, squares if squares is not None else np.zeros((p, 2)), hits, {}, int(out.counts[0]),
+        return ChunkSums(rgba, squares if squares is not None else np.zeros((p, 2)), hits, aux, int(out.counts[0]),
                          int(out.counts[1]), spp, out.seconds[0], out.seconds[1], out.seconds[2])
