@@ -91,7 +91,8 @@ def sum_scene() -> Scene:
         ("PRINCIPLED", (1, 1, 1), {"metallic": 1.0, "base_color": (0.9, 0.6, 0.3), "roughness": 0.3})]))
     scene.materials.append(materials.Material(name="plastic", nodes=[
         ("PRINCIPLED", (1, 1, 1), {"base_color": (0.2, 0.4, 0.8), "roughness": 0.2})]))
-    scene.materials.append(materials.Material(name="lamp", nodes=[("EMISSION", (1, 1, 1), {"emission": (4.0, 3.0, 2.0)})]))
+    scene.materials.append(materials.Material(name="lamp", nodes=[
+        ("EMISSION", (1, 1, 1), {"emission": (4.0, 3.0, 2.0)})]))
     scene.add_mesh(primitives.plane(8.0), materials=np.array([0]))
     scene.add_mesh(primitives.uv_sphere(0.8, 16, 8, center=(0.0, 0.0, 0.8), smooth=True), materials=np.array([1]))
     scene.add_mesh(primitives.box((0.6, 0.6, 1.2), center=(1.3, 0.6, 0.6)), materials=np.array([2]))
