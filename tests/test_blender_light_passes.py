@@ -93,3 +93,12 @@ def test_each_light_pass_matches_cycles_within_the_renders_noise(renders, name):
     assert error < max(3.0 * noise, 2e-5), (name, error, noise)
     if light(reference, name).mean() > 1e-3:
         assert ratio == pytest.approx(1.0, abs=0.05), name
+
+
+def test_before_blender_5_the_light_passes_take_cycles_short_names(primer):
+    """Blender 4.x names them DiffDir, DiffInd, GlossDir, GlossInd, TransDir, TransInd (bpy 5 checks the long ones)."""
+    engine = sys.modules[f"{primer.__name__}.addon.engine"]
+    buffers = [f"{kind.lower()}_{when}" for kind in KINDS for when in ("direct", "indirect")]
+    assert [engine.cycles_pass_name(b, (4, 2, 0)) for b in buffers] == ["DiffDir", "DiffInd", "GlossDir", "GlossInd",
+                                                                       "TransDir", "TransInd"]
+    assert [engine.cycles_pass_name(b, (5, 0, 0)) for b in buffers] == LIGHT
