@@ -1,10 +1,11 @@
 """The light passes (Diffuse, Glossy, Transmission Direct and Indirect) inside real Blender (the bpy module),
 against Cycles' own passes on the same scene: names, channels and values. No mocks.
 
-Primer's passes come from the Python reference integrator (core/integrators/lightpasses.py), Cycles' from its
-kernels: the two agree in expectation, so each pass, times its colour pass (the light it adds to Combined), is
-compared with the project's error (relative MSE of 4x4-pixel block means) against the noise of the renders
-themselves: Cycles at 256 samples against Cycles at 512 (its baseline).
+Primer's passes split its integrator's samples (core/integrators/lightpasses.py), Cycles' its own: the two agree in
+expectation, so each pass, times its colour pass (the light it adds to Combined), is compared with the project's
+error (relative MSE of 4x4-pixel block means) against the noise of the renders themselves. Expected, that error is
+Primer's variance plus Cycles' (plus any bias): Primer's is half its difference with itself at another seed, Cycles'
+at most its 256 samples' difference with its 512 (the reference); the pass must stay within 3x their sum.
 """
 from __future__ import annotations
 
@@ -36,13 +37,16 @@ def primer():
     return load_primer()
 
 
-@pytest.fixture(scope="module")
-def renders(primer, tmp_path_factory):
-    """The glass sample scene (a diffuse floor and stripes, four glass spheres, a softbox, path traced) at 64 x 48
-    with the light, colour, Emission and Environment passes on: (Primer's, Cycles' at BASELINE and at REFERENCE
-    samples) passes, each name -> (channels, (H, W, c) float32)."""
-    folder = tmp_path_factory.mktemp("lightpasses")
-    bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_scenes", "materials_glass.blend"))
+# materials_glass: a diffuse floor and stripes, four glass spheres, a softbox, path traced (12 bounces);
+# materials_principled: six Principled spheres (diffuse, metal, plastic, ...) under a softbox and a point lamp, direct
+# light only (Max Bounces 0: the indirect passes are black in both).
+SCENES = ("materials_glass", "materials_principled")
+
+
+def render_three(name: str, folder) -> tuple:
+    """Sample scene `name` at 64 x 48 with the light, colour, Emission and Environment passes on: (Primer's, Cycles'
+    at BASELINE and at REFERENCE samples, Primer's at another seed) passes, each name -> (channels, (H, W, c) float32)."""
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_scenes", name + ".blend"))
     scene = bpy.context.scene
     layer = scene.view_layers[0]
     for kind in KINDS:
@@ -53,12 +57,21 @@ def renders(primer, tmp_path_factory):
     scene.primer.use_adaptive_sampling = False
     scene.primer.samples = SAMPLES
     scene.render.engine = "PRIMER"
-    out = [render_image(scene, str(folder / "primer.exr"), multilayer=True)]
+    out = [render_image(scene, str(folder / f"{name}_primer.exr"), multilayer=True)]
+    scene.primer.seed = 1
+    again = render_image(scene, str(folder / f"{name}_primer_seed1.exr"), multilayer=True)
     for samples in (BASELINE, REFERENCE):
         configure_cycles_reference(scene, samples)
         scene.cycles.seed = samples
-        out.append(render_image(scene, str(folder / f"cycles{samples}.exr"), multilayer=True))
-    return tuple(out)
+        out.append(render_image(scene, str(folder / f"{name}_cycles{samples}.exr"), multilayer=True))
+    return (*out, again)
+
+
+@pytest.fixture(scope="module")
+def renders(primer, tmp_path_factory):
+    """scene -> render_three's passes."""
+    folder = tmp_path_factory.mktemp("lightpasses")
+    return {name: render_three(name, folder) for name in SCENES}
 
 
 def light(passes: dict, name: str) -> np.ndarray:
@@ -67,30 +80,33 @@ def light(passes: dict, name: str) -> np.ndarray:
 
 
 def test_primer_writes_the_light_passes_under_cycles_names_and_channels(renders):
-    mine, cycles, _ = renders
+    mine, cycles, *_ = renders["materials_glass"]
     for name in LIGHT:
         assert name in mine and name in cycles, name
         assert mine[name][0] == cycles[name][0] == ["R", "G", "B"], name
 
 
-def test_light_passes_times_colours_plus_emission_and_environment_make_combined(renders):
+@pytest.mark.parametrize("scene", SCENES)
+def test_light_passes_times_colours_plus_emission_and_environment_make_combined(renders, scene):
     """Cycles' sum rule, as Cycles keeps it: in Primer's passes to float precision (the passes share out the very
     samples of Combined, and the colour passes see the same first samples; here a render of more samples than
     the colour passes' PASS_SAMPLES, so to their noise), and in Cycles' to its own."""
-    for passes in renders:
+    for passes in renders[scene][:3]:
         total = passes["Emission"][1] + passes["Environment"][1] + sum(light(passes, name) for name in LIGHT)
         combined = passes["Combined"][1][..., :3]
         assert relative_mse_of_blocks(total, combined) < 1e-4
 
 
+@pytest.mark.parametrize("scene", SCENES)
 @pytest.mark.parametrize("name", LIGHT)
-def test_each_light_pass_matches_cycles_within_the_renders_noise(renders, name):
-    mine, baseline, reference = renders
-    noise = relative_mse_of_blocks(light(baseline, name), light(reference, name))
+def test_each_light_pass_matches_cycles_within_the_renders_noise(renders, scene, name):
+    mine, baseline, reference, again = renders[scene]
+    cycles = relative_mse_of_blocks(light(baseline, name), light(reference, name))
+    primer = relative_mse_of_blocks(light(mine, name), light(again, name)) / 2.0
     error = relative_mse_of_blocks(light(mine, name), light(reference, name))
     ratio = light(mine, name).mean() / max(light(reference, name).mean(), 1e-12)
-    print(name, f"error {error:.2e}, Cycles {BASELINE} vs {REFERENCE}: {noise:.2e}, mean ratio {ratio:.3f}")
-    assert error < max(3.0 * noise, 2e-5), (name, error, noise)
+    print(scene, name, f"error {error:.2e}, noise: Cycles {cycles:.2e} Primer {primer:.2e}, mean ratio {ratio:.3f}")
+    assert error < max(3.0 * (cycles + primer), 2e-5), (name, error, cycles, primer)
     if light(reference, name).mean() > 1e-3:
         assert ratio == pytest.approx(1.0, abs=0.05), name
 
