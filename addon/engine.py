@@ -38,8 +38,9 @@ DENOISING_PASSES = {
     "Denoising Albedo": ("denoising_albedo", 3, "RGB", "COLOR"),
     "Denoising Normal": ("denoising_normal", 3, "XYZ", "VECTOR"),
 }
-# Cycles' first-hit passes (core/integrators/passes.py): core buffer -> (view layer toggle, Blender 5 name,
-# the name before Blender 5, channels, chan ids, type); written with the view layer's toggle, as Cycles does.
+# Cycles' first-hit passes (core/integrators/passes.py) and light passes: core buffer -> (view layer toggle,
+# Blender 5 name, the name before Blender 5, channels, chan ids, type); written with the view layer's toggle, as
+# Cycles does.
 CYCLES_PASSES = {
     "position": ("use_pass_position", "Position", "Position", 3, "XYZ", "VECTOR"),
     "uv": ("use_pass_uv", "UV", "UV", 3, "UVA", "VECTOR"),
@@ -51,6 +52,15 @@ CYCLES_PASSES = {
     "emission": ("use_pass_emit", "Emission", "Emit", 3, "RGB", "COLOR"),
     "environment": ("use_pass_environment", "Environment", "Env", 3, "RGB", "COLOR"),
     "ambient_occlusion": ("use_pass_ambient_occlusion", "Ambient Occlusion", "AO", 3, "RGB", "COLOR"),
+    # The light passes come from the integrator instead (core/integrators/lightpasses.py), each divided by its
+    # colour pass as Cycles stores them.
+    "diffuse_direct": ("use_pass_diffuse_direct", "Diffuse Direct", "DiffDir", 3, "RGB", "COLOR"),
+    "diffuse_indirect": ("use_pass_diffuse_indirect", "Diffuse Indirect", "DiffInd", 3, "RGB", "COLOR"),
+    "glossy_direct": ("use_pass_glossy_direct", "Glossy Direct", "GlossDir", 3, "RGB", "COLOR"),
+    "glossy_indirect": ("use_pass_glossy_indirect", "Glossy Indirect", "GlossInd", 3, "RGB", "COLOR"),
+    "transmission_direct": ("use_pass_transmission_direct", "Transmission Direct", "TransDir", 3, "RGB", "COLOR"),
+    "transmission_indirect": ("use_pass_transmission_indirect", "Transmission Indirect", "TransInd", 3, "RGB",
+                              "COLOR"),
 }
 
 
@@ -69,7 +79,8 @@ CRYPTO_PASSES = {
 
 
 def requested_passes(view_layer) -> tuple:
-    """Return the first-hit passes (core buffers) whose toggles are on in the view layer, and no more."""
+    """Return the render passes (core buffers: first-hit and light passes) whose toggles are on in the view layer,
+    and no more."""
     if view_layer is None:
         return ()
     toggles = {"z_depth": "use_pass_z", "average_normal": "use_pass_normal"}

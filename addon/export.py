@@ -554,7 +554,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
     """Return core render settings from the scene's Primer settings and Blender's render settings.
 
     aux: the core buffers to compute (core.debug.AUX_BUFFERS), only those the passes and debug view need;
-    passes: the first-hit render passes to compute (core/integrators/passes.py PASS_CHANNELS).
+    passes: the render passes to compute (core/integrators/passes.py PASS_CHANNELS, lightpasses.py LIGHT_PASSES).
     """
     props = scene.primer
     render = scene.render

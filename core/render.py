@@ -38,7 +38,7 @@ from .geometry import instancing
 from .geometry.geometry import WorldGeometry, build_geometry
 from .integrators import INTEGRATORS, Context, Recorder
 from .geometry.geometry import HIDDEN_FROM_SHADOW, HOLDOUT
-from .integrators import cryptomatte, features, passes as passes_
+from .integrators import cryptomatte, features, lightpasses, passes as passes_
 from .integrators.compiled import Compiled, why_not
 from .materials import MaterialTable
 from .sampling import sobol as sampling
@@ -82,7 +82,8 @@ class RenderResult:
     image: (H, W, 4) float32 scene-linear RGBA, row 0 at the top
     aux:   name -> (H, W, c) float32 auxiliary buffer: the debug buffers asked for, and with
            settings.denoising_features the features' "denoising_albedo" and "denoising_normal" (3 each),
-           and the first-hit passes settings.passes names (core/integrators/passes.py PASS_CHANNELS)
+           and the first-hit passes settings.passes names (core/integrators/passes.py PASS_CHANNELS), and the
+           light passes it names (core/integrators/lightpasses.py LIGHT_PASSES, each divided by its colour pass)
     light_names: the name of the light behind each channel of the per-light buffers
     """
 
@@ -275,6 +276,15 @@ def pass_images(ctx: Context, region: np.ndarray, pool, threads: int) -> dict:
     return {name: v.astype(np.float32).reshape(s.height, s.width, -1) for name, v in images.items()}
 
 
+def light_pass_images(film: Film, first_hit: dict, wanted) -> dict:
+    """Return the light passes `wanted` names, from the film's sums and the colour passes in `first_hit` (name ->
+    (H, W, 3)): name -> (H, W, 3) float32 (core/integrators/lightpasses.py divide_by_color)."""
+    H, W = film.height, film.width
+    sums = film.aux[lightpasses.FILM_BUFFER].reshape(H, W, -1)
+    images = lightpasses.divide_by_color(sums, film.noise.count.reshape(H, W).astype(np.float64), first_hit)
+    return {name: image for name, image in images.items() if name in wanted}
+
+
 def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
                     first: Optional[np.ndarray] = None, recorder: Optional[Recorder] = None) -> ChunkSums:
     """Render `spp` samples in each of `pixels` with the Python reference: samples first .. first + spp - 1.
@@ -318,6 +328,10 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     if isinstance(recorder, debug.DebugRecorder):
         traced_per_pixel = rays.valid.reshape(p, spp).sum(axis=1).astype(np.float64)
         aux = recorder.pixel_sums(hit // spp, traced_per_pixel)
+    if found.light is not None:                  # the light passes' sums (core/integrators/lightpasses.py)
+        light = np.zeros((n, lightpasses.FILM_CHANNELS))
+        light[traced] = found.light.reshape(len(traced), -1)
+        aux[lightpasses.FILM_BUFFER] = light.reshape(p, spp, -1).sum(axis=1)
     return ChunkSums(per_pixel, squares, hits, aux, len(traced), found.shadow_rays, spp,
                      shading_seconds=shading_seconds)
 
@@ -443,8 +457,11 @@ def render(scene: Scene, settings: RenderSettings,
     passes = (adaptive.pass_sizes(settings.samples, settings.adaptive_min_samples) if settings.adaptive
               else [settings.samples])
     threshold = settings.adaptive_threshold or adaptive.automatic_threshold(settings.samples)
-    film = Film(W, H, debug.aux_channels(settings.aux, len(ctx.lights)), compiled=compiled is not None,
-                keep_estimates=len(passes) > 1)
+    film_sums = debug.aux_channels(settings.aux, len(ctx.lights))
+    light_passes = lightpasses.wanted(settings.passes)
+    if light_passes:
+        film_sums[lightpasses.FILM_BUFFER] = lightpasses.FILM_CHANNELS
+    film = Film(W, H, film_sums, compiled=compiled is not None, keep_estimates=len(passes) > 1)
     region = region_pixels(settings)
     outside = camera_.outside_image_circle(scene.camera, W, H, region, tuple(settings.pixel_aspect))
     if outside.any():
@@ -503,9 +520,15 @@ def render(scene: Scene, settings: RenderSettings,
             features_ = feature_images(ctx, region_pixels(settings), pool, threads)
             stats.feature_seconds = time.perf_counter() - started
         # d. The first-hit render passes asked for (core/integrators/passes.py).
-        if settings.passes and not cancelled:
+        #    With light passes, also the colour passes they are divided by (core/integrators/lightpasses.py).
+        first_hit = lightpasses.first_hit_passes(settings.passes)
+        if first_hit and not cancelled:
             started = time.perf_counter()
-            features_.update(pass_images(ctx, region_pixels(settings), pool, threads))
+            hit_ctx = dataclasses.replace(ctx, settings=dataclasses.replace(settings, passes=first_hit))
+            found = pass_images(hit_ctx, region_pixels(settings), pool, threads)
+            if light_passes:
+                found.update(light_pass_images(film, found, settings.passes))
+            features_.update({name: image for name, image in found.items() if name in settings.passes})
             stats.pass_seconds = time.perf_counter() - started
     if progress is not None and not cancelled:
         progress(1.0, stats)

@@ -53,12 +53,15 @@ class Radiance(NamedTuple):
     shadow_rays: int shadow rays traced
     holdout: (n,) float64 the share of each ray's alpha that holdout objects take away (Object > Visibility >
              Holdout), or None where no object is a holdout
+    light:   (n, 6, 3) float64 each ray's contributions to the light passes (lightpasses.LIGHT_PASSES' order), or
+             None where none is asked for
     """
 
     L: np.ndarray
     hit: np.ndarray
     shadow_rays: int
     holdout: Optional[np.ndarray] = None
+    light: Optional[np.ndarray] = None
 
 
 class Recorder:

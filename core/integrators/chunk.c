@@ -32,6 +32,7 @@ typedef struct {
     double see_through;                          /* 1: some material lets light through (Transparent, alpha) */
     double caustics;                             /* FILTER_* bits after a diffuse bounce (path.caustics_bits) */
     double clamp_direct, clamp_indirect;         /* sample clamping's caps (clamp.limits; inf: none) */
+    double light_passes;                         /* 1: sum the light passes (lightpasses.c) into ChunkOut.light */
 } ChunkParams;
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -41,6 +42,7 @@ typedef struct {
     int64_t *hits;              /* (p,) samples that hit a surface */
     int64_t counts[2];          /* camera rays traced, shadow rays traced */
     double seconds[3];          /* inside Embree's nearest-hit queries, its occlusion queries, shading */
+    double *light;              /* (p, LIGHT_CHANNELS) sums of the light passes, or NULL */
 } ChunkOut;
 
 /* Step 2: the block's nearest hits, 8 rays at a time; the rays that hit kept, with their surfaces. */
@@ -130,10 +132,11 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
                          params->everywhere != 0.0, params->seed, 0,
                          params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHTS, NULL, params->graphs,
                          NULL, (int)params->caustics, {params->clamp_direct, params->clamp_indirect},
-                         params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY};
+                         params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY, 0};
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
                                params->graphs, (int)params->transparent_bounces};
     if (params->see_through != 0.0) ds.transmitter = &transmitter;
+    ds.light_passes = params->light_passes != 0.0 && work != NULL;
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH: {
         PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
@@ -151,9 +154,15 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
         }
         /* fall through */
     default: {
+        if (ds.light_passes) {
+            clear_parts(H);
+            for (int64_t k = 0; k < BLOCK; k++)
+                for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
+        }
         choose_bsdf_rays(H, &ds);
         int64_t rays = direct_light(H, &ds, embree);
         if (ds.bsdf_rays && ds.sampling != SAMPLE_LIGHTS) embree[1] += bsdf_rays(H, &ds);
+        if (ds.light_passes) add_light_passes(H, work);     /* (all of it direct: the camera's hits) */
         return rays;
     }
     }
@@ -191,7 +200,8 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
     CameraBlock b;
     BlockHits H;
     PathWork *work = NULL;
-    if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0) {
+    int light_passes = params->light_passes != 0.0 && out->light != NULL;
+    if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || light_passes) {
         work = (PathWork *)malloc(sizeof(PathWork));
         if (work == NULL) return;                   /* (the caller finds no samples counted) */
     }
@@ -199,6 +209,8 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
         for (int c = 0; c < 4; c++) out->rgba[4 * k + c] = 0.0;
         if (out->squares != NULL) out->squares[2 * k] = out->squares[2 * k + 1] = 0.0;
         out->hits[k] = 0;
+        if (light_passes)
+            for (int i = 0; i < LIGHT_CHANNELS; i++) out->light[LIGHT_CHANNELS * k + i] = 0.0;
     }
     /* Whether camera rays can see more than the hit and a constant background: lamps, an image world. */
     int sees_more = params->light_context->world->image != NULL && params->light_context->world->camera != 0.0;
@@ -238,8 +250,10 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
             }
             if (is_hit) {
                 for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];
-                if (work != NULL)
+                if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0))
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];
+                if (light_passes)
+                    for (int i = 0; i < LIGHT_CHANNELS; i++) out->light[LIGHT_CHANNELS * k + i] += work->light[lane][i];
                 s[3] = 1.0 - H.held[lane];          /* the holes holdout objects make (path.hold_out) */
                 h++;
                 out->hits[k]++;

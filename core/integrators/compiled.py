@@ -20,6 +20,7 @@ from ..lights import LightRecord
 from ..materials import MAX_CLOSURES, PARAMS
 from ..materials.graph import graph_tables
 from ..native import library
+from . import lightpasses
 from .base import Context
 
 # The integrators the C code knows (chunk.c INTEGRATOR_*).
@@ -52,7 +53,7 @@ class ChunkParams(ctypes.Structure):
                 + [(name, ctypes.c_double) for name in ("max_bounces", "diffuse_bounces", "glossy_bounces",
                                                         "transmission_bounces", "roulette_from",
                                                         "transparent_bounces", "see_through", "caustics",
-                                                        "clamp_direct", "clamp_indirect")])
+                                                        "clamp_direct", "clamp_indirect", "light_passes")])
     _size_function = "primer_chunk_params_size"
 
 
@@ -60,7 +61,7 @@ class ChunkOut(ctypes.Structure):
     """What a chunk adds up (chunk.c ChunkOut)."""
 
     _fields_ = [("rgba", ctypes.c_void_p), ("squares", ctypes.c_void_p), ("hits", ctypes.c_void_p),
-                ("counts", ctypes.c_int64 * 2), ("seconds", ctypes.c_double * 3)]
+                ("counts", ctypes.c_int64 * 2), ("seconds", ctypes.c_double * 3), ("light", ctypes.c_void_p)]
     _size_function = "primer_chunk_out_size"
 
 
@@ -171,6 +172,8 @@ class Compiled:
         from .path import caustics_bits
         params.caustics = float(caustics_bits(s))
         params.clamp_direct, params.clamp_indirect = limits(s)
+        self.light_passes = lightpasses.wanted(s.passes)
+        params.light_passes = 1.0 if self.light_passes else 0.0
         self.params = params
         self.want_squares = bool(s.adaptive)
         self._render = library.function("primer_render_chunk", None,
@@ -191,8 +194,12 @@ class Compiled:
         params = ChunkParams.from_buffer_copy(self.params)
         params.seed = float(seed)
         out = ChunkOut(rgba.ctypes.data, None if squares is None else squares.ctypes.data, hits.ctypes.data)
+        aux = {}
+        if self.light_passes:               # the light passes' sums (core/integrators/lightpasses.py)
+            aux[lightpasses.FILM_BUFFER] = light = np.empty((p, lightpasses.FILM_CHANNELS))
+            out.light = light.ctypes.data
         self._render(ctypes.addressof(params), pixels.ctypes.data, first.ctypes.data, p, int(spp), ctypes.addressof(out))
         self.tracer.count_intersect(out.seconds[0])
         self.tracer.count_occluded(out.seconds[1])
-        return ChunkSums(rgba, squares if squares is not None else np.zeros((p, 2)), hits, {}, int(out.counts[0]),
+        return ChunkSums(rgba, squares if squares is not None else np.zeros((p, 2)), hits, aux, int(out.counts[0]),
                          int(out.counts[1]), spp, out.seconds[0], out.seconds[1], out.seconds[2])

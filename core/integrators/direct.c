@@ -28,6 +28,10 @@ typedef struct {
     uint8_t after_diffuse[BLOCK];                /* 1: that bounce was diffuse (the caustics switches) */
     int32_t seen_by[BLOCK];                      /* the kind of ray that reached it (HIDDEN_FROM_*, direct.ray_kind) */
     double held[BLOCK];                          /* per camera lane: the alpha holdouts take away (path.hold_out) */
+    /* The light passes (lightpasses.c), where asked for: what a first hit gathers split by pass kind (not its
+     * emission), and a path's shares by kind, set at its first real bounce. */
+    double parts[BLOCK][PASS_KINDS][3];
+    double shares[BLOCK][PASS_KINDS][3];
 } BlockHits;
 
 /* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */
@@ -40,6 +44,7 @@ typedef struct {
     int transmit;                                /* 1: it went through the surface */
     double pdf;                                  /* the pdf MIS weighs what it finds with (inf: none) */
     int seen_as;                                 /* its kind: the HIDDEN_FROM_* bit of objects it passes */
+    double shares[PASS_KINDS][3];                /* its pass kinds' shares (lightpasses.c; light passes only) */
 } PathRay;
 
 /* direct.nearest_seen for lane k of a packet whose rays are of the kind `bit` (HIDDEN_FROM_*): while the lane's
@@ -288,11 +293,12 @@ INLINE double clamp_limit(const BlockHits *H, int64_t h, const double *caps)
 }
 
 INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *scene, double *L_out,
-                             const Transmitter *transmitter, const BlockHits *H, const double *caps, double count)
+                             const Transmitter *transmitter, const BlockHits *H, const double *caps, double count,
+                             double (*parts)[PASS_KINDS][3])
 {
     RayPacket ray;
     int valid[PACKET] ALIGNED(32);
-    int64_t owner[PACKET], rays = 0;
+    int64_t owner[PACKET], sample_of[PACKET], rays = 0;
     double value[PACKET][3], O[PACKET][3], D[PACKET][3], t[PACKET], T[PACKET][3];
     int lanes = 0;
     for (int64_t k = 0; k <= b->n; k++) {
@@ -302,6 +308,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             t[lanes] = b->t[k];
             set_lane(&ray, lanes, O[lanes], D[lanes], b->t[k]);
             owner[lanes] = b->hit[k];
+            sample_of[lanes] = k;
             for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * b->color[c][k]) * b->f[c][k];
             if (caps != NULL) {
                 /* Sample clamping: the sample as the one-sample estimate it stands for (x count). */
@@ -322,9 +329,21 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             close_packet(&ray, valid, lanes);
             occluded8(valid, scene, &ray, NULL);
             for (int lane = 0; lane < lanes; lane++) {
-                if (ray.tfar[lane] < 0.0f) continue;               /* blocked */
+                if (ray.tfar[lane] < 0.0f) { T[lane][0] = T[lane][1] = T[lane][2] = 0.0; continue; }   /* blocked */
+                T[lane][0] = T[lane][1] = T[lane][2] = 1.0;
                 double *e = L_out + 3 * owner[lane];
                 for (int c = 0; c < 3; c++) e[c] += value[lane][c];
+            }
+        }
+        if (parts != NULL) {
+            /* The light passes: a first hit's light sample split by the kinds' shares of f cos at its direction. */
+            for (int lane = 0; lane < lanes; lane++) {
+                int64_t h = owner[lane], k = sample_of[lane];
+                if (H->bounce[h] != 0) continue;
+                double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, shares[PASS_KINDS][3], got[3];
+                for (int c = 0; c < 3; c++) got[c] = value[lane][c] * T[lane][c];
+                kind_shares(H->sd + h, H->wo + 3 * h, L, b->hidden[k], shares);
+                add_split(parts[h], got, &shares[0][0]);
             }
         }
         rays += lanes;
@@ -370,6 +389,7 @@ typedef struct {
     int caustics;               /* the FILTER_* bits of hits a diffuse bounce's ray reached (path.caustics_bits) */
     double caps[2];             /* sample clamping's caps (direct, indirect; clamp.limits) */
     int clamping;               /* 1: some cap is finite */
+    int light_passes;           /* 1: first hits split what they gather by pass kind into BlockHits.parts */
 } DirectSettings;
 
 /* What transparent shadows read (shadows.transmittance): the scene's queries, tables and materials. */
@@ -560,7 +580,7 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
                         b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
             uint64_t start = ticks();
             rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter, H,
-                                  ds->clamping ? ds->caps : NULL, (double)count);
+                                  ds->clamping ? ds->caps : NULL, (double)count, ds->light_passes ? H->parts : NULL);
             embree += ticks() - start;
         }
     }
@@ -690,7 +710,10 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 pdf_b = H->mis_pdf[owner[k]];
                 use_mis = ds->mis && isfinite(pdf_b);
             }
-            double light_L[3] = {0.0, 0.0, 0.0};
+            double light_L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];
+            int first = ds->light_passes && H->bounce[owner[k]] == 0;
+            if (first)
+                sample_shares(H->sd + owner[k], H->wo + 3 * owner[k], s, dot3(H->s[owner[k]].Ng, D) < 0.0, shares);
             if (hit && ds->continuing != NULL) {
                 PathRay *r = ds->continuing->r + ds->continuing->n++;
                 r->h = owner[k];
@@ -705,6 +728,9 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->pdf = pdf_b;
                 r->seen_as = kinds[k];
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
+                if (first)
+                    for (int p = 0; p < PASS_KINDS; p++)
+                        for (int c = 0; c < 3; c++) r->shares[p][c] = shares[p][c];
             }
             if (!ds->gather) continue;
             gather_light(ds, O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
@@ -714,6 +740,10 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             double f = ds->clamping ? clamp_scale(found, H->throughput + 3 * owner[k],
                                                   clamp_limit(H, owner[k], ds->caps), 1.0) : 1.0;
             for (int c = 0; c < 3; c++) L[c] += found[c] * f;
+            if (first) {
+                for (int c = 0; c < 3; c++) found[c] *= f;
+                add_split(H->parts[owner[k]], found, &shares[0][0]);
+            }
         }
         lanes = 0;
     }

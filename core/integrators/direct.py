@@ -38,6 +38,7 @@ from ..geometry.geometry import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from . import clamp as clamp_
+from . import lightpasses
 from . import shadows
 from .base import Context, Integrator, Radiance, Recorder
 
@@ -72,14 +73,20 @@ class DirectLighting(Integrator):
             return Radiance(L_out, found.hit, 0)
         D_hit = vectors.gather(D, hit)
         # 4. The light each hit sends towards the camera (each contribution capped by Clamp Direct).
-        L_hit, shadow_rays, _ = self.shade(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder, limit=direct_cap)
+        parts = lightpasses.FirstHitParts(len(hit)) if lightpasses.wanted(ctx.settings.passes) else None
+        L_hit, shadow_rays, _ = self.shade(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder, limit=direct_cap,
+                                           parts=parts)
         L_out[hit] += L_hit
-        return Radiance(L_out, found.hit, shadow_rays)
+        light = None
+        if parts is not None:                    # the light passes: all of it direct (core/integrators/lightpasses.py)
+            light = np.zeros((len(O), len(lightpasses.LIGHT_PASSES), 3))
+            light[hit, :lightpasses.KINDS] = parts.gathered
+        return Radiance(L_out, found.hit, shadow_rays, light=light)
 
     def shade(self, ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray,
               recorder: Recorder, dimension: int = 0, vertex: int = 0, trace_all: bool = False,
               light_samples_only: bool = False, ray=None, carried_pdf=None, caustics=None, throughput=None,
-              limit=np.inf, shader=None, seen_by=HIDDEN_FROM_CAMERA):
+              limit=np.inf, shader=None, seen_by=HIDDEN_FROM_CAMERA, parts=None):
         """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
         each traced hit sent out, or None).
 
@@ -94,7 +101,8 @@ class DirectLighting(Integrator):
         `limit` seen through its path's throughput (sample clamping, core/integrators/clamp.py). shader: the
         hits' ShaderResult when the caller has it already (a path's holdouts change it), else evaluated here.
         seen_by: the kind of ray that reached each hit (HIDDEN_FROM_* bit, int or (m,)): a Transparent closure's
-        ray goes on as that kind (ray_kind).
+        ray goes on as that kind (ray_kind). parts: a lightpasses.FirstHitParts that receives the light samples'
+        and the BSDF ray's contributions split by closure kind, and the BSDF rays' shares (the light passes), or None.
         """
         s = ctx.settings
         m = len(surface.I)
@@ -180,6 +188,9 @@ class DirectLighting(Integrator):
                                            limit if np.ndim(limit) == 0 else limit[rows], count)
                 recorder.contribution(index, rows, value, mis_weight)
                 L_out[rows] += value
+                if parts is not None:
+                    parts.gathered[rows] += lightpasses.split(value, lightpasses.kind_shares(
+                        part, wo[rows], ls.L[rows], signed_cosine=not s.clamp_n_dot_l, left_out=left_out))
         # 2. The light one BSDF-sampled direction finds (lamps with extent, emitters, the world).
         ray = None
         if not light_samples_only and (trace_all or (ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light"
@@ -187,7 +198,12 @@ class DirectLighting(Integrator):
             gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
             found, ray = self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                                        dimension, gather, carried_pdf, seen_by)
-            L_out += clamp_.clamped(found, throughput, limit) if clamping else found
+            found = clamp_.clamped(found, throughput, limit) if clamping else found
+            L_out += found
+            if parts is not None and ray is not None:
+                c = materials_.Closures(*(None if array is None else array[ray.rows] for array in shader.closures))
+                parts.ray_shares = lightpasses.sample_shares(c, wo[ray.rows], ray.D, ray.kind, ray.delta, ray.transmit)
+                parts.gathered[ray.rows] += lightpasses.split(found[ray.rows], parts.ray_shares)
         return L_out, shadow_rays, ray
 
     def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray,

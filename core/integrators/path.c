@@ -16,6 +16,7 @@ typedef struct {
     BlockHits a, b;
     PathRays rays;
     double extra[BLOCK][3];
+    double light[BLOCK][LIGHT_CHANNELS];       /* each camera lane's light passes (lightpasses.c), where asked for */
 } PathWork;
 
 /* path.bounce_kind: whether a sampled closure makes a diffuse, a glossy or a transmission bounce. */
@@ -112,6 +113,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
                 double cap = ds->clamping ? clamp_limit(H, h, ds->caps) : INFINITY;
                 through_transparent(r, clear, limits, ds, H->throughput + 3 * h, cap, found);
                 for (int c = 0; c < 3; c++) H->L[3 * h + c] += found[c];
+                if (ds->light_passes && H->bounce[h] == 0) add_split(H->parts[h], found, &r->shares[0][0]);
             }
             continue;
         }
@@ -160,6 +162,35 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->transparent[m] = clear;
         next->mis_pdf[m] = r->pdf;
         next->bounce[m] = bounces;
+        if (ds->light_passes) {
+            /* A path's shares are those of its first real bounce's ray, kept from then on. */
+            const double *from = H->bounce[h] == 0 && !see_through ? &r->shares[0][0] : &H->shares[h][0][0];
+            for (int p = 0; p < PASS_KINDS; p++)
+                for (int c = 0; c < 3; c++) next->shares[m][p][c] = from[3 * p + c];
+        }
+    }
+}
+
+/* Zero what the hits of H gather for the light passes. */
+INLINE void clear_parts(BlockHits *H)
+{
+    for (int64_t h = 0; h < H->m; h++)
+        for (int p = 0; p < PASS_KINDS; p++) H->parts[h][p][0] = H->parts[h][p][1] = H->parts[h][p][2] = 0.0;
+}
+
+/* path.py's light passes at one vertex block H: direct, what first hits (no real bounce yet) gathered split by
+ * kind (H->parts); indirect, all later vertices gather (H->L) split by their paths' shares; both times the
+ * path's throughput, into work->light per camera lane. */
+INLINE void add_light_passes(const BlockHits *H, PathWork *work)
+{
+    for (int64_t h = 0; h < H->m; h++) {
+        double *out = work->light[H->lane[h]];
+        const double *tp = H->throughput + 3 * h;
+        for (int p = 0; p < PASS_KINDS; p++)
+            for (int c = 0; c < 3; c++) {
+                if (H->bounce[h] == 0) out[3 * p + c] += tp[c] * H->parts[h][p][c];
+                else out[3 * (PASS_KINDS + p) + c] += tp[c] * H->L[3 * h + c] * H->shares[h][p][c];
+            }
     }
 }
 
@@ -170,11 +201,16 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
 {
     int64_t shadow_rays = 0;
     for (int64_t k = 0; k < BLOCK; k++) work->extra[k][0] = work->extra[k][1] = work->extra[k][2] = 0.0;
+    if (ds->light_passes)
+        for (int64_t k = 0; k < BLOCK; k++)
+            for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
     for (int64_t h = 0; h < H->m; h++) {
         H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
         H->mis_pdf[h] = INFINITY;
         H->after_diffuse[h] = 0;
+        if (ds->light_passes)
+            for (int p = 0; p < PASS_KINDS; p++) H->shares[h][p][0] = H->shares[h][p][1] = H->shares[h][p][2] = 0.0;
     }
     BlockHits *current = H, *next = &work->a;
     for (int vertex = 0; current->m > 0; vertex++) {
@@ -182,6 +218,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         ds->dimension = (int64_t)vertex * VERTEX_DIMENSIONS;
         choose_bsdf_rays(current, ds);
         for (int64_t h = 0; h < current->m; h++) current->traced[h] = 1;
+        if (ds->light_passes) clear_parts(current);
         shadow_rays += direct_light(current, ds, embree);
         work->rays.n = 0;
         ds->continuing = &work->rays;
@@ -192,6 +229,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
             for (int64_t h = 0; h < current->m; h++)
                 for (int c = 0; c < 3; c++)
                     work->extra[current->lane[h]][c] += current->throughput[3 * h + c] * current->L[3 * h + c];
+        if (ds->light_passes) add_light_passes(current, work);
         current = next;
         next = next == &work->a ? &work->b : &work->a;
     }

@@ -51,6 +51,7 @@ from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from .base import Context, Radiance, Recorder
 from . import clamp as clamp_
+from . import lightpasses
 from . import shadows
 from .direct import DirectLighting, camera_hits, gather_light, nearest_seen
 from ..geometry.geometry import HIDDEN_FROM_CAMERA, HOLDOUT
@@ -190,6 +191,10 @@ class PathTracing(DirectLighting):
         wo = -D_hit
         shadow_rays = 0
         vertex = 0
+        # The light passes (core/integrators/lightpasses.py): each camera ray's contributions by pass, and each
+        # path's shares by closure kind, set at its first real bounce.
+        light = np.zeros((len(O), len(lightpasses.LIGHT_PASSES), 3)) if lightpasses.wanted(s.passes) else None
+        shares = np.zeros((len(hit), lightpasses.KINDS, 3))
         while len(owner):
             # a. What the vertex gathers: its emission (camera hits only; later ones were found by the ray
             #    that led there), light samples, and the light its BSDF ray finds; then where that ray goes.
@@ -203,12 +208,21 @@ class PathTracing(DirectLighting):
                 # A camera path (no real bounce yet) that meets a holdout: a hole in the film (hold_out).
                 shader, weight = hold_out(ctx, surface, shader, bounce == 0)
                 np.add.at(held, owner, (throughput * weight).mean(axis=1))
+            first = bounce == 0
+            parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             L_vertex, rays, ray = self.shade(ctx, surface, wo, pixel[owner], sample[owner], recorder,
                                              dimension, vertex, trace_all=True, ray=light_path,
                                              carried_pdf=mis_pdf, throughput=throughput, limit=cap, shader=shader,
-                                             seen_by=seen_by)
+                                             seen_by=seen_by, parts=parts)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
+            if light is not None:
+                # Direct: what the first hits gather (not their emission); indirect: all later vertices gather.
+                if parts is not None:
+                    light[owner[first], :lightpasses.KINDS] += throughput[first, None, :] * parts.gathered[first]
+                later = ~first
+                light[owner[later], lightpasses.KINDS:] += lightpasses.split(throughput[later] * L_vertex[later],
+                                                                             shares[later])
             recorder.path_vertex(vertex, owner, surface, throughput, L_vertex)
             if ray is None:
                 break
@@ -227,9 +241,12 @@ class PathTracing(DirectLighting):
             ended = np.flatnonzero(ray.hits.hit & ~within & (tp <= s.transparent_max_bounces))
             ended = ended[ctx.materials.may_pass[hit_materials(ctx, ray, ended)]] if len(ended) else ended
             if len(ended):
-                L_out[owner[ray.rows[ended]]] += through_transparent(ctx, ray, ended,
-                                                                     throughput[ray.rows[ended]] * ray.weight[ended],
-                                                                     tp[ended], cap[ray.rows[ended]])
+                behind = through_transparent(ctx, ray, ended, throughput[ray.rows[ended]] * ray.weight[ended],
+                                             tp[ended], cap[ray.rows[ended]])
+                L_out[owner[ray.rows[ended]]] += behind
+                if light is not None:
+                    self.light_behind(light, owner[ray.rows[ended]], behind, bounce[ray.rows[ended]] == 0,
+                                      parts.ray_shares[ended] if parts is not None else None, shares[ray.rows[ended]])
             next_throughput = throughput[ray.rows] * ray.weight
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
             played = (bounces >= roulette_from(s)) & ~is_transparent
@@ -245,6 +262,13 @@ class PathTracing(DirectLighting):
             if len(keep) == 0:
                 break
             seen_by = ray.seen_as[keep]
+            if light is not None:
+                # A path's shares are those of its first real bounce's ray, kept from then on.
+                sets = (bounce[ray.rows] == 0) & ~is_transparent
+                shares = shares[ray.rows]
+                if parts is not None:
+                    shares = np.where(sets[:, None, None], parts.ray_shares, shares)
+                shares = shares[keep]
             # d. The next vertex: the surfaces the kept rays hit.
             hits = ray.hits
             rows = ray.rows[keep]
@@ -260,4 +284,15 @@ class PathTracing(DirectLighting):
             mis_pdf = ray.pdf[keep]
             wo = -D_next
             vertex += 1
-        return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None)
+        return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light)
+
+    @staticmethod
+    def light_behind(light: np.ndarray, owner: np.ndarray, value: np.ndarray, first: np.ndarray, ray_shares,
+                     shares: np.ndarray) -> None:
+        """Add to the light passes `light` (n, 6, 3) what ended paths' last rays found behind transparent surfaces,
+        value (k, 3) of the camera rays `owner` (k,): direct, by their ray's shares ray_shares (k, KINDS, 3), where
+        the ray left a first hit (first (k,) bool), else indirect by the path's shares (k, KINDS, 3)."""
+        kinds = lightpasses.KINDS
+        if first.any():
+            light[owner[first], :kinds] += lightpasses.split(value[first], ray_shares[first])
+        light[owner[~first], kinds:] += lightpasses.split(value[~first], shares[~first])

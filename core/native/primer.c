@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 27
+#define PRIMER_ABI 29
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -38,6 +38,7 @@
 #include "../film/film.c"
 #include "../film/adaptive.c"
 #include "../integrators/shadows.c"
+#include "../integrators/lightpasses.c"
 #include "../integrators/direct.c"
 #include "../integrators/path.c"
 #include "../integrators/chunk.c"

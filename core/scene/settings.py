@@ -55,7 +55,9 @@ class RenderSettings:
                       image, more rays; the lecture skips them, since their visibility is 0)
     passes: the first-hit render passes to return as Cycles writes them (core/integrators/passes.py
                       PASS_CHANNELS: "position", "uv", "object_index", "diffuse_color", ...; CRYPTO_PASSES:
-                      "crypto_object", "crypto_material", "crypto_asset"), only those asked for
+                      "crypto_object", "crypto_material", "crypto_asset"), and the light passes, from the
+                      integrator (core/integrators/lightpasses.py LIGHT_PASSES: "diffuse_direct", ...), only
+                      those asked for
     cryptomatte_depth: the (id, coverage) ranks each Cryptomatte pass keeps per pixel (View Layer >
                       Passes > Cryptomatte > Levels; 6 by default, two per RGBA pass)
     ao_distance: how far the Ambient Occlusion pass's rays look (Blender's World > Ambient Occlusion > Distance)

@@ -59,9 +59,11 @@ def validate(scene, settings) -> None:
     unknown = set(settings.aux) - set(AUX_BUFFERS)
     if unknown:
         raise ValueError(f"unknown auxiliary buffers {sorted(unknown)}; choose from {list(AUX_BUFFERS)}")
+    from ..integrators.lightpasses import LIGHT_PASSES
     from ..integrators.passes import CRYPTO_PASSES, PASS_CHANNELS
-    unknown = set(settings.passes) - set(PASS_CHANNELS) - set(CRYPTO_PASSES)
+    known = list(PASS_CHANNELS) + list(CRYPTO_PASSES) + list(LIGHT_PASSES)
+    unknown = set(settings.passes) - set(known)
     if unknown:
-        raise ValueError(f"unknown render passes {sorted(unknown)}; choose from {list(PASS_CHANNELS) + list(CRYPTO_PASSES)}")
+        raise ValueError(f"unknown render passes {sorted(unknown)}; choose from {known}")
     if not 1 <= int(settings.cryptomatte_depth) <= 16:
         raise ValueError(f"cryptomatte_depth must be 1 .. 16 ranks, got {settings.cryptomatte_depth}")

@@ -1,0 +1,64 @@
+/* Light passes: core/integrators/lightpasses.py. Each pass kind's share of a hit's closures' f cos at a
+ * direction (a light sample's, or a BSDF-sampled ray's), which splits that direction's light between
+ * Diffuse, Glossy and Transmission. */
+
+enum { PASS_DIFFUSE = 0, PASS_GLOSSY = 1, PASS_TRANSMISSION = 2, PASS_KINDS = 3 };
+/* The light passes' channels: the three kinds direct, then indirect, RGB each (lightpasses.FILM_CHANNELS). */
+#define LIGHT_CHANNELS 18
+
+/* lightpasses.closure_kinds for one closure c: its pass kind for light from wi towards wo (-1: none). */
+INLINE int pass_kind(const Closure *c, const double *wo, const double *wi)
+{
+    if (IS_SHADOWED(c->kind)) return PASS_DIFFUSE;
+    if (c->kind == BSDF_MIRROR || c->kind == BSDF_MICROFACET || c->kind == BSDF_VELVET) return PASS_GLOSSY;
+    if (c->kind == BSDF_GLASS || c->kind == BSDF_ROUGH_GLASS)
+        return dot3(c->N, wo) * dot3(c->N, wi) > 0.0 ? PASS_GLOSSY : PASS_TRANSMISSION;
+    return -1;
+}
+
+/* lightpasses.kind_shares for one hit: each pass kind's part of the closures' f cos at wi (shader_eval_seen,
+ * the same closures left out for `hidden`) over all kinds' parts, per channel; 0 where that sum is 0. */
+INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *wi, int hidden,
+                        double shares[PASS_KINDS][3])
+{
+    double total[3] = {0.0, 0.0, 0.0};
+    for (int p = 0; p < PASS_KINDS; p++) shares[p][0] = shares[p][1] = shares[p][2] = 0.0;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = sd->c + k;
+        int p = pass_kind(c, wo, wi);
+        if (p < 0 || closure_left_out(c->kind, hidden)) continue;
+        double value[3], pdf;
+        bsdf_eval(c, wo, wi, value, &pdf);
+        if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
+            double term = bump_shadowing(sd->N, c->N, wi, IS_SHADOWED(c->kind));
+            for (int j = 0; j < 3; j++) value[j] *= term;
+        }
+        for (int j = 0; j < 3; j++) shares[p][j] += c->weight[j] * value[j];
+    }
+    for (int p = 0; p < PASS_KINDS; p++)
+        for (int j = 0; j < 3; j++) total[j] += shares[p][j];
+    for (int p = 0; p < PASS_KINDS; p++)
+        for (int j = 0; j < 3; j++) shares[p][j] = total[j] != 0.0 ? shares[p][j] / total[j] : 0.0;
+}
+
+/* lightpasses.sample_shares for one BSDF-sampled ray s of a hit (transmit: it went through the surface):
+ * kind_shares at its direction, a delta closure's own kind alone, none for a Transparent closure's ray. */
+INLINE void sample_shares(const ShaderResult *sd, const double *wo, const ClosureSample *s, int transmit,
+                          double shares[PASS_KINDS][3])
+{
+    if (!s->delta) {
+        kind_shares(sd, wo, s->wi, 0, shares);
+        return;
+    }
+    for (int p = 0; p < PASS_KINDS; p++) shares[p][0] = shares[p][1] = shares[p][2] = 0.0;
+    int p = s->kind == BSDF_MIRROR ? PASS_GLOSSY
+            : (s->kind == BSDF_GLASS ? (transmit ? PASS_TRANSMISSION : PASS_GLOSSY) : -1);
+    if (p >= 0) shares[p][0] = shares[p][1] = shares[p][2] = 1.0;
+}
+
+/* Add contribution value (RGB) shared out by `shares` (PASS_KINDS x 3, row by row) to parts[kind][channel]. */
+INLINE void add_split(double parts[PASS_KINDS][3], const double *value, const double *shares)
+{
+    for (int p = 0; p < PASS_KINDS; p++)
+        for (int j = 0; j < 3; j++) parts[p][j] += value[j] * shares[3 * p + j];
+}

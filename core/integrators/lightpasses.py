@@ -1,0 +1,147 @@
+"""Light passes: Cycles' Diffuse, Glossy and Transmission Direct and Indirect, from the integrator's own samples.
+
+Cycles' meaning (kernel/film/light_passes.h), which Primer follows: a path's light is classified by what the
+path did at its first real bounce (its first surface interaction other than passing straight through a
+Transparent closure), split by the kind of closure that scattered it there:
+
+- diffuse       Lambert, Oren-Nayar, Sheen (Cycles' CLOSURE_IS_BSDF_DIFFUSE: the same closures as the Diffuse
+                Color pass, core/integrators/passes.py closure_albedos)
+- glossy        microfacet lobes, mirrors, the velvet, and glass reflecting (light on the viewer's side)
+- transmission  glass refracting (light from the other side)
+
+"Direct" is the light that arrives at the first hit: its light samples (next-event estimation) and what its
+BSDF-sampled ray finds (lamps, emitters, the world), each weighed by MIS as in Combined. "Indirect" is
+everything a path gathers from its second hit on. What the camera sees itself (emission, the world, lamps,
+and what it sees through Transparent closures) goes to the Emission and Environment passes instead.
+
+The split by closure kind, as Cycles' BsdfEval keeps it: a light sample's contribution is shared out in
+proportion to each kind's part of the closures' f cos at the light's direction (`kind_shares`); a BSDF-sampled
+ray's, and with it the whole rest of its path, in proportion to each kind's part of f cos at the sampled
+direction (one-hot for a delta closure: a mirror is glossy, smooth glass glossy or transmission by the side the
+ray leaves to). The shares of one contribution add up to 1 wherever it is not 0, so, per sample,
+
+    Combined = sum of the six light passes' contributions + Emission + Environment.
+
+Cycles stores each light pass divided by the matching colour pass (scene/film.cpp: DiffDir's divide_type is
+PASS_DIFFUSE_COLOR; kernel/film/read.h divides with safe_divide_even_color), so that DiffDir x DiffCol +
+DiffInd x DiffCol + ... + Emission + Environment = Combined: `divide_by_color` does the same with the colour
+passes Primer writes (core/integrators/passes.py).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import materials as materials_
+from ..materials.closures import Closures, eval_closures
+
+# The light passes, in the order of the integrator's (n, 6, 3) buffer: the three kinds direct, then indirect.
+LIGHT_PASSES = ("diffuse_direct", "glossy_direct", "transmission_direct",
+                "diffuse_indirect", "glossy_indirect", "transmission_indirect")
+# The closure kinds the passes split light by; the indirect passes follow the direct ones.
+KINDS = 3
+DIFFUSE, GLOSSY, TRANSMISSION = range(KINDS)
+# The colour pass each light pass is divided by (Cycles' divide_type).
+COLOR_OF = {name: f"{name.split('_')[0]}_color" for name in LIGHT_PASSES}
+# The film's buffer of the light passes' per-pixel sums: 6 passes x RGB.
+FILM_BUFFER = "light_passes"
+FILM_CHANNELS = 3 * len(LIGHT_PASSES)
+
+
+def wanted(passes) -> bool:
+    """Whether any light pass is among the render passes `passes` (names)."""
+    return any(name in LIGHT_PASSES for name in passes)
+
+
+def first_hit_passes(passes) -> tuple:
+    """Return the first-hit passes (core/integrators/passes.py) a render of `passes` computes: those asked for
+    but the light passes, and the colour passes the light passes asked for are divided by."""
+    names = [name for name in passes if name not in LIGHT_PASSES]
+    names += [COLOR_OF[name] for name in LIGHT_PASSES if name in passes and COLOR_OF[name] not in names]
+    return tuple(dict.fromkeys(names))
+
+
+def closure_kinds(kind: np.ndarray, N: np.ndarray, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+    """Return the pass kind (DIFFUSE, GLOSSY, TRANSMISSION; -1 for none: empty slots, Transparent) of each closure
+    (n, K) int for light from wi (n, 3) towards wo (n, 3); glass counts as glossy where wi is on wo's side of the
+    closure's normal N (n, K, 3), else as transmission."""
+    same_side = (np.einsum("nkj,nj->nk", N, wo) * np.einsum("nkj,nj->nk", N, wi)) > 0.0
+    glass = (kind == materials_.Glass.kind) | (kind == materials_.RoughGlass.kind)
+    glossy = np.isin(kind, (materials_.Mirror.kind, materials_.Microfacet.kind, materials_.Velvet.kind))
+    out = np.full(kind.shape, -1, np.int64)
+    out[np.isin(kind, materials_.SHADOWED_KINDS)] = DIFFUSE
+    out[glossy | (glass & same_side)] = GLOSSY
+    out[glass & ~same_side] = TRANSMISSION
+    return out
+
+
+def kind_shares(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cosine: bool = False,
+                left_out=None) -> np.ndarray:
+    """Return each pass kind's share (n, KINDS, 3) float64 of the closures' f cos (eval_closures, same arguments)
+    for light from wi (n, 3) towards wo (n, 3): its closures' f cos over all closures', per channel; 0 where the
+    closures' f cos is 0."""
+    kinds = closure_kinds(closures.kind, closures.N, wo, wi)
+    left = np.zeros(kinds.shape, bool) if left_out is None else np.asarray(left_out, bool)
+    parts = np.stack([eval_closures(closures, wo, wi, signed_cosine, left | (kinds != k))[0] for k in range(KINDS)],
+                     axis=1)
+    total = parts.sum(axis=1, keepdims=True)
+    return np.divide(parts, total, out=np.zeros_like(parts), where=total != 0.0)
+
+
+def sample_shares(closures: Closures, wo: np.ndarray, wi: np.ndarray, kind: np.ndarray, delta: np.ndarray,
+                  transmit: np.ndarray) -> np.ndarray:
+    """Return the pass kinds' shares (k, KINDS, 3) of BSDF-sampled rays: kind_shares at the sampled direction wi
+    (k, 3), or for a delta closure (delta (k,) bool) its own kind alone: a mirror glossy, smooth glass glossy or
+    transmission (transmit (k,) bool: the ray went through the surface); none for a Transparent closure's ray.
+
+    closures: the k hits' Closures; wo (k, 3); kind (k,) int the sampled closures' BSDF kinds."""
+    shares = kind_shares(closures, wo, wi)
+    one = np.zeros_like(shares)
+    glass = kind == materials_.Glass.kind
+    one[glass & transmit, TRANSMISSION] = 1.0
+    one[(glass & ~transmit) | (kind == materials_.Mirror.kind), GLOSSY] = 1.0
+    shares = np.where(delta[:, None, None], one, shares)
+    return np.where((kind == materials_.Transparent.kind)[:, None, None], 0.0, shares)
+
+
+def split(value: np.ndarray, shares: np.ndarray) -> np.ndarray:
+    """Return contributions value (k, 3) shared out by `shares` (k, KINDS, 3): (k, KINDS, 3)."""
+    return value[:, None, :] * shares
+
+
+class FirstHitParts:
+    """Where DirectLighting.shade puts the light a batch of m first hits gathers, split by pass kind.
+
+    gathered: (m, KINDS, 3) float64 their light samples' and BSDF rays' contributions (not their emission);
+    ray_shares: (k, KINDS, 3) float64 the shares of the BSDF rays they sent (rows: the BsdfRay's), or None.
+    """
+
+    def __init__(self, m: int):
+        """Start with nothing gathered by m hits."""
+        self.gathered = np.zeros((m, KINDS, 3))
+        self.ray_shares = None
+
+
+def safe_divide_even_color(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Return a / b per channel (..., 3), as Cycles' safe_divide_even_color: 0 where b is 0, except that a channel
+    whose divisor is 0 takes the mean of the other channels' quotients (one of them where two divisors are 0)."""
+    q = np.divide(a, b, out=np.zeros(np.broadcast_shapes(a.shape, b.shape)), where=b != 0.0)
+    zx, zy, zz = b[..., 0] == 0.0, b[..., 1] == 0.0, b[..., 2] == 0.0
+    x0, y0, z0 = q[..., 0], q[..., 1], q[..., 2]
+    x = np.where(zx, np.where(zy, z0, np.where(zz, y0, 0.5 * (y0 + z0))), x0)
+    y = np.where(zx, np.where(zy, z0, y0), np.where(zy, np.where(zz, x0, 0.5 * (x0 + z0)), y0))
+    z = np.where(zx, np.where(zy | ~zz, z0, y0), np.where(zy, np.where(zz, x0, z0), np.where(zz, 0.5 * (x0 + y0), z0)))
+    return np.stack([x, y, z], axis=-1)
+
+
+def divide_by_color(sums: np.ndarray, count: np.ndarray, colors: dict) -> dict:
+    """Return the light pass images: name -> (H, W, 3) float32, each pixel's mean contribution divided by the
+    matching colour pass (safe_divide_even_color; 0 where the pixel has no samples).
+
+    sums: (H, W, 18) float64 the film's per-pixel sums (FILM_BUFFER); count: (H, W) samples per pixel;
+    colors: colour pass name -> (H, W, 3) image (core/integrators/passes.py)."""
+    mean = np.divide(sums, count[..., None], out=np.zeros_like(sums), where=count[..., None] > 0)
+    out = {}
+    for index, name in enumerate(LIGHT_PASSES):
+        color = np.asarray(colors[COLOR_OF[name]], np.float64)
+        out[name] = safe_divide_even_color(mean[..., 3 * index:3 * index + 3], color).astype(np.float32)
+    return out
