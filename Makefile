@@ -104,7 +104,7 @@ extension: venv $(VENV)/.platforms-installed
 # Primer use their own (tests/blender_env.py).
 test: venv venv42 venv52 kernels $(VENV)/.platforms-installed
 	rm -rf $(BLENDER_USER) && mkdir -p $(BLENDER_USER)
-	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q $(PYTEST_ARGS) $(EMPTY_OK)
+	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q --durations=15 $(PYTEST_ARGS) $(EMPTY_OK)
 	BLENDER_USER_RESOURCES=$(BLENDER_USER) ZIG="$(ZIG)" $(PY52) -m pytest -q $(TESTS52) $(TESTS52_SKIP) $(PYTEST_ARGS) $(EMPTY_OK)
 	ZIG="$(ZIG)" $(PY42) -m pytest -q tests/smoke_bpy42.py $(PYTEST_ARGS) $(EMPTY_OK)
 
