@@ -473,7 +473,7 @@ INLINE void point_barycentrics(const double *V, const double *P, double *u, doub
 /* direct.graph_emission for one point O + t D on triangle (geometry, prim, instance): what its material's node
  * graph emits back along -D (a texture's emission), for a ray other than the camera's; the barycentrics come
  * from the point. */
-INLINE void graph_emission(const DirectSettings *ds, int64_t geometry, int64_t prim, int64_t instance,
+NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, int64_t prim, int64_t instance,
                            const double *O, const double *D, double t, double *out)
 {
     Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
@@ -601,7 +601,7 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
  * world, each weighed by MIS against that light's own samples (where use_mis) with pdf_b, the pdf of the
  * bounce that sent the ray (a constant world with weight 1); added to light_L. camera: 1 for a camera path's ray
  * (a holdout it hits emits nothing). */
-INLINE void gather_light(const DirectSettings *ds, const double *O, const double *D, int hit, double t_limit,
+NOINLINE static void gather_light(const DirectSettings *ds, const double *O, const double *D, int hit, double t_limit,
                          int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis, int camera,
                          double *light_L)
 {

@@ -36,7 +36,7 @@ INLINE int is_transmission_bounce(int kind, int transmit)
  * transparency; the ray goes straight on and gathers as a BSDF ray does, weighed by MIS with the pdf of the
  * path's last real bounce), up to the transparent-bounce limit; added to found (r's weight included, each
  * find capped at `cap` seen through the path's throughput at h). */
-INLINE void through_transparent(const PathRay *r, int clear, const PathLimits *limits, const DirectSettings *ds,
+NOINLINE static void through_transparent(const PathRay *r, int clear, const PathLimits *limits, const DirectSettings *ds,
                                 const double *throughput, double cap, double *found)
 {
     double T[3] = {r->weight[0], r->weight[1], r->weight[2]}, O[3] = {r->O[0], r->O[1], r->O[2]};

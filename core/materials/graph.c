@@ -213,7 +213,7 @@ INLINE void bump(const double *normal, double strength, double distance, double 
 }
 
 /* graph.run for one hit: reg holds the program's registers afterwards. */
-INLINE void run_program(const GraphTables *G, int program, const ShadingPoint *sp, double *reg)
+NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *sp, double *reg)
 {
     const double *info = G->programs + 8 * program;
     const double *ops = G->ops + OP_WIDTH * (int64_t)info[0], *ramps = G->ramps + (int64_t)info[7];

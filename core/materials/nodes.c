@@ -442,7 +442,7 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
  * nodes' linked inputs, multiply their weights and give them their own normals (graph.apply_outputs);
  * then every node sets up its closures with its normal; sd->N stays the hit's (Cycles' sd->N), which
  * bump shadowing (bsdf.c) compares the closures' normals with. */
-INLINE void shade_graph(const GraphTables *G, const MaterialRecord *m, const ShadingPoint *sp, const double *N,
+NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, const ShadingPoint *sp, const double *N,
                         const double *wo, int backfacing, ShaderResult *sd)
 {
     double reg[MAX_REGISTERS], weight[MAX_CLOSURES][3], p[MAX_CLOSURES][CLOSURE_PARAMS], normal[MAX_CLOSURES][3];

@@ -35,7 +35,11 @@
 #endif
 
 /* MSVC's spellings, and GCC's and Clang's (MinGW's headers define __forceinline as `extern inline`,
- * which cannot be static, so a Clang or GCC build for Windows takes the attributes too). */
+ * which cannot be static, so a Clang or GCC build for Windows takes the attributes too).
+ * INLINE functions are inlined at every call. The few large ones called from several places once per hit
+ * (the node-graph interpreter run_program, shade_graph, gather_light, graph_emission, through_transparent)
+ * are `NOINLINE static` instead: inlined everywhere, they made the one translation unit take 9.5 minutes of
+ * GCC -O3 (2.9 without), for 2.5 % fewer instructions (callgrind, a path-traced emitter scene). */
 #if defined(_MSC_VER)
 #define INLINE static __forceinline
 #define NOINLINE __declspec(noinline)
