@@ -1,0 +1,228 @@
+"""A light tree over the emissive triangles: which triangle a shading point asks for a light sample.
+
+A binary bounding-volume hierarchy over the triangles, built once per render (Conty Estevez and Kulla,
+"Importance sampling of many lights with adaptive tree splitting", 2018, which Cycles' light tree
+follows; docs/cycles_lights.md). Every node keeps
+
+- its bounding box (lo, hi) of its triangles' corners,
+- its power (energy): the sum of its triangles' area x mean(L_e),
+- an orientation bounds cone: every triangle's sampled side faces within theta_o of the cone's
+  axis, and emits within theta_e (pi / 2, a Lambert emitter) of its own normal. A triangle sampled from
+  both sides has theta_o = pi (it faces every way).
+
+At a shading point P with normal N the tree is walked from the root: at every inner node both
+children's importance I is computed, and the walk goes left with probability I_left / (I_left + I_right),
+the random number rescaled to [0, 1) for the next step. A triangle's pick probability is the product
+of the branch probabilities on its path. The importance of a node is a bound of what it could send to P:
+
+    I = energy x cos(theta_i') x cos(theta') / max(d, half diagonal)^2
+
+with d the distance from P to the box's centre, theta_u the half-angle of the cone from P around
+the centre that holds the box, theta_i' = max(theta_i - theta_u, 0) (theta_i: between N and the
+centre; cos 1 where N is unknown: transmission, volumes) and theta' = max(theta - theta_o - theta_u, 0)
+(theta: between the cone's axis and the direction from the centre to P), 0 beyond theta_e. It is 0
+only where no triangle of the node can light P (all of it below P's horizon, or all of it facing away),
+so every triangle that can contribute keeps a probability > 0: the estimate stays unbiased. Where both
+children have importance 0 the walk goes by power. The distance is clamped to half the box's diagonal,
+so that the importance stays finite near and inside the box.
+
+Leaves hold one triangle each. The tree is flat arrays, the same for Python and C (emitters.c):
+nodes (k, NODE_FIELDS) float64, rows [lo (3), hi (3), axis (3), theta_o, theta_e, energy, left, right];
+an inner node's children are rows left and right; a leaf has left = -1 - its triangle, right = -1.
+Each triangle's path from the root is `depth` steps, bit l of `path` the side (1: right) at step l, so
+that `pick_probability` (the MIS pdf of a BSDF ray that hits the triangle) multiplies the same branch
+probabilities in the same order as `pick`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT = 0, 3, 6, 9, 10, 11, 12, 13
+NODE_FIELDS = 14
+# Past this depth the build splits at the median (balanced), so that paths fit in 62 bits.
+MEDIAN_DEPTH = 40
+MAX_DEPTH = 62
+
+
+@dataclass
+class LightTree:
+    """The tree over t triangles.
+
+    nodes: (k, NODE_FIELDS) float64 the nodes, root first (module docstring)
+    path:  (t,) int64 each triangle's branch bits from the root (bit l: 1 = right at step l)
+    depth: (t,) int64 each triangle's number of steps from the root to its leaf
+    """
+
+    nodes: np.ndarray
+    path: np.ndarray
+    depth: np.ndarray
+
+    @property
+    def max_depth(self) -> int:
+        return int(self.depth.max()) if len(self.depth) else 0
+
+    @classmethod
+    def build(cls, corners: np.ndarray, normal: np.ndarray, power: np.ndarray, sides: np.ndarray) -> "LightTree":
+        """The tree over triangles: corners (t, 3, 3), unit front normals (t, 3), power (t,), sides (t,) int
+        (FRONT 1 | BACK 2): split at the middle of the longest axis of the centroids' bounds."""
+        t = len(power)
+        centroid = corners.mean(axis=1)
+        lo_t, hi_t = corners.min(axis=1), corners.max(axis=1)
+        axis_t = np.where((sides == 2)[:, None], -normal, normal)
+        theta_o_t = np.where(sides == 3, math.pi, 0.0)
+        nodes = np.zeros((2 * t - 1, NODE_FIELDS))
+        path, depth = np.zeros(t, np.int64), np.zeros(t, np.int64)
+        count = [0]
+
+        def make(members: np.ndarray, bits: int, level: int) -> int:
+            """The node over triangles `members` (m,) int64, reached by `bits` in `level` steps: its row."""
+            row = count[0]
+            count[0] += 1
+            node = nodes[row]
+            if len(members) == 1:
+                i = int(members[0])
+                node[LO:LO + 3], node[HI:HI + 3], node[AXIS:AXIS + 3] = lo_t[i], hi_t[i], axis_t[i]
+                node[THETA_O], node[THETA_E], node[ENERGY] = theta_o_t[i], 0.5 * math.pi, power[i]
+                node[LEFT], node[RIGHT] = -1 - i, -1
+                path[i], depth[i] = bits, level
+                return row
+            c = centroid[members]
+            extent = c.max(axis=0) - c.min(axis=0)
+            k = int(np.argmax(extent))
+            middle = 0.5 * (c[:, k].max() + c[:, k].min())
+            goes_left = c[:, k] < middle
+            if level >= MEDIAN_DEPTH or goes_left.all() or not goes_left.any():
+                order = np.argsort(c[:, k], kind="stable")
+                goes_left = np.zeros(len(members), bool)
+                goes_left[order[:len(members) // 2]] = True
+            left = make(members[goes_left], bits, level + 1)
+            right = make(members[~goes_left], bits | (1 << level), level + 1)
+            a, b = nodes[left], nodes[right]
+            node[LO:LO + 3] = np.minimum(a[LO:LO + 3], b[LO:LO + 3])
+            node[HI:HI + 3] = np.maximum(a[HI:HI + 3], b[HI:HI + 3])
+            node[AXIS:AXIS + 3], node[THETA_O] = cone_union(a[AXIS:AXIS + 3], a[THETA_O], b[AXIS:AXIS + 3], b[THETA_O])
+            node[THETA_E] = max(a[THETA_E], b[THETA_E])
+            node[ENERGY] = a[ENERGY] + b[ENERGY]
+            node[LEFT], node[RIGHT] = left, right
+            return row
+
+        make(np.arange(t), 0, 0)
+        if depth.max() > MAX_DEPTH:
+            raise ValueError("light tree deeper than its path bits")
+        return cls(nodes, path, depth)
+
+    def by_power(self) -> "LightTree":
+        """The same tree weighing nothing but power (every node the same huge box, facing everywhere): it picks
+        each triangle in proportion to its power wherever the point is, as the global power CDF did before the
+        tree (for the comparison in bench/light_tree.py)."""
+        nodes = self.nodes.copy()
+        nodes[:, LO:LO + 3], nodes[:, HI:HI + 3] = -1e30, 1e30
+        nodes[:, THETA_O] = math.pi
+        return LightTree(nodes, self.path, self.depth)
+
+    def branch_left(self, P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
+        """The probability of going to the left child of inner nodes `node` (m,) int64 from points P (m, 3)
+        with normals N (m, 3) (zero rows: unknown): by importance, by power where both are 0. (m,) float64"""
+        left = self.nodes[node, LEFT].astype(np.int64)
+        right = self.nodes[node, RIGHT].astype(np.int64)
+        I_left = importance(P, N, self.nodes[left])
+        I_right = importance(P, N, self.nodes[right])
+        total = I_left + I_right
+        E_left, E_right = self.nodes[left, ENERGY], self.nodes[right, ENERGY]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            by_importance = I_left / total
+            by_power = E_left / (E_left + E_right)
+        return np.where(total > 0.0, by_importance, by_power)
+
+    def pick(self, P: np.ndarray, N: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One triangle per point, walking down with u (m,) in [0, 1): (index (m,) int64, probability (m,))."""
+        m = len(P)
+        node, u = np.zeros(m, np.int64), u.astype(np.float64).copy()
+        probability = np.ones(m)
+        for _ in range(self.max_depth):
+            inner_rows = np.flatnonzero(self.nodes[node, RIGHT] >= 0)
+            if not len(inner_rows):
+                break
+            at = node[inner_rows]
+            p_left = self.branch_left(P[inner_rows], N[inner_rows], at)
+            x = u[inner_rows]
+            goes_left = x < p_left
+            probability[inner_rows] *= np.where(goes_left, p_left, 1.0 - p_left)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x = np.where(goes_left, x / p_left, (x - p_left) / (1.0 - p_left))
+            u[inner_rows] = np.minimum(np.maximum(x, 0.0), 1.0 - 2.0 ** -53)
+            node[inner_rows] = np.where(goes_left, self.nodes[at, LEFT], self.nodes[at, RIGHT]).astype(np.int64)
+        return (-1 - self.nodes[node, LEFT]).astype(np.int64), probability
+
+    def pick_probability(self, P: np.ndarray, N: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """The probability that `pick` from P (m, 3), N (m, 3) chooses triangle `index` (m,) int64: (m,) float64,
+        the same products in the same order."""
+        m = len(P)
+        node = np.zeros(m, np.int64)
+        probability = np.ones(m)
+        path, depth = self.path[index], self.depth[index]
+        for level in range(self.max_depth):
+            rows = np.flatnonzero(depth > level)
+            if not len(rows):
+                break
+            at = node[rows]
+            p_left = self.branch_left(P[rows], N[rows], at)
+            goes_right = ((path[rows] >> level) & 1) == 1
+            probability[rows] *= np.where(goes_right, 1.0 - p_left, p_left)
+            node[rows] = np.where(goes_right, self.nodes[at, RIGHT], self.nodes[at, LEFT]).astype(np.int64)
+        return probability
+
+
+def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
+    """The importance of nodes (m, NODE_FIELDS) seen from P (m, 3) with normals N (m, 3) (zero: unknown):
+    (m,) float64, the bound of the module docstring; 0 only where nothing of the node can light P."""
+    lo, hi = node[:, LO:LO + 3], node[:, HI:HI + 3]
+    centre = 0.5 * (lo + hi)
+    v = centre - P
+    d = np.sqrt(np.einsum("ij,ij->i", v, v))
+    diagonal = hi - lo
+    half = 0.5 * np.sqrt(np.einsum("ij,ij->i", diagonal, diagonal))
+    inside_box = np.all((P >= lo) & (P <= hi), axis=1) | (d <= 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = v / d[:, None]
+        cos_u = np.ones(len(P))
+        for corner in range(8):
+            pick = [(corner >> c) & 1 for c in range(3)]
+            C = np.stack([np.where(pick[c], hi[:, c], lo[:, c]) for c in range(3)], axis=1)
+            to_corner = C - P
+            length = np.sqrt(np.einsum("ij,ij->i", to_corner, to_corner))
+            cos_u = np.minimum(cos_u, np.einsum("ij,ij->i", w, to_corner) / length)
+    # Inside the box, or so near that the cone around the centre would pass a hemisphere: every direction.
+    everywhere = inside_box | ~(cos_u >= 0.0)
+    theta_u = np.where(everywhere, math.pi, np.arccos(np.clip(cos_u, -1.0, 1.0)))
+    known_normal = np.einsum("ij,ij->i", N, N) > 0.0
+    theta_i = np.arccos(np.clip(np.einsum("ij,ij->i", N, np.where(everywhere[:, None], 0.0, w)), -1.0, 1.0))
+    cos_incidence = np.where(known_normal, np.maximum(np.cos(np.maximum(theta_i - theta_u, 0.0)), 0.0), 1.0)
+    axis = node[:, AXIS:AXIS + 3]
+    theta = np.arccos(np.clip(-np.einsum("ij,ij->i", axis, np.where(everywhere[:, None], 0.0, w)), -1.0, 1.0))
+    theta_out = np.maximum(theta - node[:, THETA_O] - theta_u, 0.0)
+    cos_outgoing = np.where(theta_out < node[:, THETA_E], np.maximum(np.cos(theta_out), 0.0), 0.0)
+    distance = np.maximum(d, half)
+    return node[:, ENERGY] * cos_incidence * cos_outgoing / (distance * distance)
+
+
+def cone_union(a: np.ndarray, theta_a: float, b: np.ndarray, theta_b: float) -> tuple[np.ndarray, float]:
+    """The narrowest cone (axis (3,), theta_o) around two orientation cones (unit axes a, b (3,), half-angles)."""
+    if theta_b > theta_a:
+        a, theta_a, b, theta_b = b, theta_b, a, theta_a
+    theta_d = math.acos(min(max(float(np.dot(a, b)), -1.0), 1.0))
+    if min(theta_d + theta_b, math.pi) <= theta_a:
+        return a.copy(), theta_a                               # b lies inside a
+    theta_o = 0.5 * (theta_a + theta_d + theta_b)
+    if theta_o >= math.pi:
+        return a.copy(), math.pi
+    perpendicular = b - np.dot(a, b) * a
+    length = math.sqrt(float(np.dot(perpendicular, perpendicular)))
+    if length < 1e-12:                                          # opposite axes: no plane to turn in
+        return a.copy(), math.pi
+    turn = theta_o - theta_a                                    # turn a towards b by this much
+    axis = math.cos(turn) * a + math.sin(turn) * (perpendicular / length)
+    return axis / math.sqrt(float(np.dot(axis, axis))), theta_o
