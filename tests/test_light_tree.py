@@ -53,6 +53,29 @@ def all_pick_probabilities(emitters: MeshEmitters, P: np.ndarray, N: np.ndarray)
     return leaf_probability
 
 
+def test_every_node_bounds_its_triangles_and_their_orientations():
+    """Each node's box holds the corners of every triangle below it, its power is theirs summed, and its
+    orientation cone holds each one's sampled-side normal (theta_o = pi above a two-sided triangle)."""
+    emitters = scattered_emitters(400, 19)
+    tree = emitters.tree
+    assert len(tree.nodes) == 2 * 400 - 1
+    power = emitters.area * emitters.emission.mean(axis=1)
+    axis = np.where((emitters.sides == 2)[:, None], -emitters.normal, emitters.normal)
+    energy = np.zeros(len(tree.nodes))
+    for i in range(400):
+        node = 0
+        for level in range(tree.depth[i] + 1):
+            row = tree.nodes[node]
+            assert (emitters.corners[i] >= row[0:3]).all() and (emitters.corners[i] <= row[3:6]).all()
+            angle = math.acos(min(max(float(row[6:9] @ axis[i]), -1.0), 1.0))
+            assert angle <= row[9] + 1e-6 and (emitters.sides[i] != 3 or row[9] == math.pi)
+            energy[node] += power[i]
+            if level < tree.depth[i]:
+                node = int(row[RIGHT] if (tree.path[i] >> level) & 1 else row[LEFT])
+        assert row[RIGHT] == -1 and -1 - row[LEFT] == i
+    np.testing.assert_allclose(tree.nodes[:, 11], energy, rtol=1e-12)
+
+
 def test_pick_probabilities_of_all_triangles_sum_to_one():
     """Whatever the point and normal (known or not, inside the emitters' boxes or far away), the
     probabilities of the tree's leaves sum to one, and the path walk gives each leaf's."""

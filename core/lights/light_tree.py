@@ -67,49 +67,69 @@ class LightTree:
     @classmethod
     def build(cls, corners: np.ndarray, normal: np.ndarray, power: np.ndarray, sides: np.ndarray) -> "LightTree":
         """The tree over triangles: corners (t, 3, 3), unit front normals (t, 3), power (t,), sides (t,) int
-        (FRONT 1 | BACK 2): split at the middle of the longest axis of the centroids' bounds."""
+        (FRONT 1 | BACK 2): each node split at the middle of the longest axis of its centroids' bounds (at
+        the median where that leaves a side empty, or past MEDIAN_DEPTH). Built a level at a time, every
+        node of the level at once; the rows are in level order, so parents come before their children."""
         t = len(power)
         centroid = corners.mean(axis=1)
-        lo_t, hi_t = corners.min(axis=1), corners.max(axis=1)
         axis_t = np.where((sides == 2)[:, None], -normal, normal)
-        theta_o_t = np.where(sides == 3, math.pi, 0.0)
         nodes = np.zeros((2 * t - 1, NODE_FIELDS))
         path, depth = np.zeros(t, np.int64), np.zeros(t, np.int64)
-        count = [0]
-
-        def make(members: np.ndarray, bits: int, level: int) -> int:
-            """The node over triangles `members` (m,) int64, reached by `bits` in `level` steps: its row."""
-            row = count[0]
-            count[0] += 1
-            node = nodes[row]
-            if len(members) == 1:
-                i = int(members[0])
-                node[LO:LO + 3], node[HI:HI + 3], node[AXIS:AXIS + 3] = lo_t[i], hi_t[i], axis_t[i]
-                node[THETA_O], node[THETA_E], node[ENERGY] = theta_o_t[i], 0.5 * math.pi, power[i]
-                node[LEFT], node[RIGHT] = -1 - i, -1
-                path[i], depth[i] = bits, level
-                return row
+        order = np.arange(t)                     # the triangles, each node's a contiguous run start .. end
+        start, end, row = np.array([0]), np.array([t]), np.array([0])
+        count, level, inner_levels = 1, 0, []
+        while len(row):
+            # 1. Nodes of one triangle are leaves.
+            leaf = end - start == 1
+            i = order[start[leaf]]
+            leaves = nodes[row[leaf]]
+            leaves[:, LO:LO + 3], leaves[:, HI:HI + 3] = corners[i].min(axis=1), corners[i].max(axis=1)
+            leaves[:, AXIS:AXIS + 3] = axis_t[i]
+            leaves[:, THETA_O], leaves[:, THETA_E] = np.where(sides[i] == 3, math.pi, 0.0), 0.5 * math.pi
+            leaves[:, ENERGY], leaves[:, LEFT], leaves[:, RIGHT] = power[i], -1 - i, -1
+            nodes[row[leaf]] = leaves
+            depth[i] = level
+            s, e, parents = start[~leaf], end[~leaf], row[~leaf]
+            if not len(s):
+                break
+            # 2. The others split: their members, segment by segment.
+            length = e - s
+            offset = np.cumsum(length) - length
+            segment = np.repeat(np.arange(len(s)), length)
+            position = np.arange(length.sum()) - offset[segment] + s[segment]
+            members = order[position]
             c = centroid[members]
-            extent = c.max(axis=0) - c.min(axis=0)
-            k = int(np.argmax(extent))
-            middle = 0.5 * (c[:, k].max() + c[:, k].min())
-            goes_left = c[:, k] < middle
-            if level >= MEDIAN_DEPTH or goes_left.all() or not goes_left.any():
-                order = np.argsort(c[:, k], kind="stable")
-                goes_left = np.zeros(len(members), bool)
-                goes_left[order[:len(members) // 2]] = True
-            left = make(members[goes_left], bits, level + 1)
-            right = make(members[~goes_left], bits | (1 << level), level + 1)
+            low, high = np.minimum.reduceat(c, offset), np.maximum.reduceat(c, offset)
+            k = np.argmax(high - low, axis=1)
+            key = c[np.arange(len(c)), k[segment]]
+            middle = 0.5 * (high[np.arange(len(s)), k] + low[np.arange(len(s)), k])
+            goes_left = key < middle[segment]
+            n_left = np.add.reduceat(goes_left.astype(np.int64), offset)
+            median = (n_left == 0) | (n_left == length) | (level >= MEDIAN_DEPTH)
+            if median.any():
+                by_key = np.lexsort((key, segment))
+                rank = np.empty(len(c), np.int64)
+                rank[by_key] = np.arange(len(c)) - offset[segment[by_key]]
+                goes_left = np.where(median[segment], rank < (length // 2)[segment], goes_left)
+                n_left = np.where(median, length // 2, n_left)
+            order[position] = members[np.lexsort((~goes_left, segment))]     # left ones first, stable
+            path[members[~goes_left]] |= 1 << level
+            left = count + 2 * np.arange(len(s))
+            count += 2 * len(s)
+            nodes[parents, LEFT], nodes[parents, RIGHT] = left, left + 1
+            inner_levels.append((parents, left, left + 1))
+            start, end = np.concatenate([s, s + n_left]), np.concatenate([s + n_left, e])
+            row = np.concatenate([left, left + 1])
+            level += 1
+        # 3. The inner nodes from the deepest level up: bounds, cone, power of their two children.
+        for parents, left, right in reversed(inner_levels):
             a, b = nodes[left], nodes[right]
-            node[LO:LO + 3] = np.minimum(a[LO:LO + 3], b[LO:LO + 3])
-            node[HI:HI + 3] = np.maximum(a[HI:HI + 3], b[HI:HI + 3])
-            node[AXIS:AXIS + 3], node[THETA_O] = cone_union(a[AXIS:AXIS + 3], a[THETA_O], b[AXIS:AXIS + 3], b[THETA_O])
-            node[THETA_E] = max(a[THETA_E], b[THETA_E])
-            node[ENERGY] = a[ENERGY] + b[ENERGY]
-            node[LEFT], node[RIGHT] = left, right
-            return row
-
-        make(np.arange(t), 0, 0)
+            nodes[parents, LO:LO + 3] = np.minimum(a[:, LO:LO + 3], b[:, LO:LO + 3])
+            nodes[parents, HI:HI + 3] = np.maximum(a[:, HI:HI + 3], b[:, HI:HI + 3])
+            nodes[parents, AXIS:AXIS + 3], nodes[parents, THETA_O] = cone_union(
+                a[:, AXIS:AXIS + 3], a[:, THETA_O], b[:, AXIS:AXIS + 3], b[:, THETA_O])
+            nodes[parents, THETA_E] = np.maximum(a[:, THETA_E], b[:, THETA_E])
+            nodes[parents, ENERGY] = a[:, ENERGY] + b[:, ENERGY]
         if depth.max() > MAX_DEPTH:
             raise ValueError("light tree deeper than its path bits")
         return cls(nodes, path, depth)
@@ -209,20 +229,22 @@ def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
     return node[:, ENERGY] * cos_incidence * cos_outgoing / (distance * distance)
 
 
-def cone_union(a: np.ndarray, theta_a: float, b: np.ndarray, theta_b: float) -> tuple[np.ndarray, float]:
-    """The narrowest cone (axis (3,), theta_o) around two orientation cones (unit axes a, b (3,), half-angles)."""
-    if theta_b > theta_a:
-        a, theta_a, b, theta_b = b, theta_b, a, theta_a
-    theta_d = math.acos(min(max(float(np.dot(a, b)), -1.0), 1.0))
-    if min(theta_d + theta_b, math.pi) <= theta_a:
-        return a.copy(), theta_a                               # b lies inside a
+def cone_union(a: np.ndarray, theta_a: np.ndarray, b: np.ndarray, theta_b: np.ndarray):
+    """The narrowest cones around pairs of orientation cones: unit axes a, b (m, 3), half-angles (m,) ->
+    (axis (m, 3), theta_o (m,)) float64."""
+    swap = theta_b > theta_a
+    a, b = np.where(swap[:, None], b, a), np.where(swap[:, None], a, b)
+    theta_a, theta_b = np.where(swap, theta_b, theta_a), np.where(swap, theta_a, theta_b)
+    cos_d = np.einsum("ij,ij->i", a, b)
+    theta_d = np.arccos(np.clip(cos_d, -1.0, 1.0))
     theta_o = 0.5 * (theta_a + theta_d + theta_b)
-    if theta_o >= math.pi:
-        return a.copy(), math.pi
-    perpendicular = b - np.dot(a, b) * a
-    length = math.sqrt(float(np.dot(perpendicular, perpendicular)))
-    if length < 1e-12:                                          # opposite axes: no plane to turn in
-        return a.copy(), math.pi
+    perpendicular = b - cos_d[:, None] * a
+    length = np.sqrt(np.einsum("ij,ij->i", perpendicular, perpendicular))
     turn = theta_o - theta_a                                    # turn a towards b by this much
-    axis = math.cos(turn) * a + math.sin(turn) * (perpendicular / length)
-    return axis / math.sqrt(float(np.dot(axis, axis))), theta_o
+    with np.errstate(divide="ignore", invalid="ignore"):
+        turned = np.cos(turn)[:, None] * a + np.sin(turn)[:, None] * (perpendicular / length[:, None])
+        turned = turned / np.sqrt(np.einsum("ij,ij->i", turned, turned))[:, None]
+    inside = np.minimum(theta_d + theta_b, math.pi) <= theta_a   # b lies inside a
+    everywhere = ~inside & ((theta_o >= math.pi) | (length < 1e-12))   # (opposite axes: no plane to turn in)
+    axis = np.where((inside | everywhere)[:, None], a, turned)
+    return axis, np.where(inside, theta_a, np.where(everywhere, math.pi, theta_o))
