@@ -1,12 +1,14 @@
 """The light tree against the global power CDF: noise at equal samples with many small emitters.
 
-    .venv/bin/python bench/light_tree.py [--size 128] [--samples 8] [--emitters 2000]
+    .venv/bin/python bench/light_tree.py [--size 128] [--samples 8] [--reference 64] [--emitters 2000]
 
 A 12 m x 12 m room lit by `emitters` small emissive triangles under its 3 m ceiling, their radiance spread
 over three orders of magnitude, and a few boxes on the floor; a camera looks down on the floor (direct
 light, compiled kernels). Each way of picking a triangle renders the same samples; the error is the
 project's relMSE of 4x4 block means, mean((B(P) - B(R))^2 / (B(R)^2 + 0.01)), against a reference the
-tree renders with 64 times the samples; then the CDF again with the samples the tree's time buys it. The old way is the same tree weighing power alone
+tree renders with `reference` (64) times the samples; then the CDF again with the samples the tree's time buys it (each
+time the least of five runs, in processor seconds of all threads, which a shared machine disturbs less than
+the clock). The old way is the same tree weighing power alone
 (LightTree.by_power), which picks exactly as the global power CDF did. The numbers go to docs/performance.md
 by hand.
 """
@@ -54,8 +56,9 @@ def many_emitters_room(count: int, seed: int = 1) -> Scene:
     return scene
 
 
-def render_with(scene: Scene, settings: RenderSettings, by_power: bool):
-    """The image (H, W, 3) and seconds of one render, the emitters picked by the tree or by power alone."""
+def render_with(scene: Scene, settings: RenderSettings, by_power: bool, repeat: int = 1):
+    """The image (H, W, 3) and processor seconds (all threads) of a render (the least of `repeat` runs: the
+    machine is shared), the emitters picked by the tree or by power alone."""
     original = emitters_.from_geometry
 
     def power_only(geometry, materials):
@@ -66,9 +69,12 @@ def render_with(scene: Scene, settings: RenderSettings, by_power: bool):
 
     emitters_.from_geometry = power_only if by_power else original
     try:
-        start = time.perf_counter()
-        image = render.render(scene, settings).image[..., :3]
-        return image, time.perf_counter() - start
+        seconds = []
+        for _ in range(repeat):
+            start = time.process_time()
+            image = render.render(scene, settings).image[..., :3]
+            seconds.append(time.process_time() - start)
+        return image, min(seconds)
     finally:
         emitters_.from_geometry = original
 
@@ -89,6 +95,7 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--samples", type=int, default=8)
     parser.add_argument("--emitters", type=int, default=2000)
+    parser.add_argument("--reference", type=int, default=64, help="the reference's samples per test sample")
     parser.add_argument("--kernels", default="compiled")
     args = parser.parse_args()
     scene = many_emitters_room(args.emitters)
@@ -97,17 +104,17 @@ def main() -> None:
         return RenderSettings(width=args.size, height=args.size, samples=samples, light_samples=1, seed=seed,
                               kernels=args.kernels, adaptive=False)
 
-    reference, seconds = render_with(scene, settings(64 * args.samples, 99), by_power=False)
-    print(f"reference: {64 * args.samples} samples, {seconds:.1f} s, mean {reference.mean():.4f}")
+    reference, seconds = render_with(scene, settings(args.reference * args.samples, 99), by_power=False)
+    print(f"reference: {args.reference * args.samples} samples, {seconds:.1f} s, mean {reference.mean():.4f}")
     times = {}
     for name, by_power in (("power CDF", True), ("light tree", False)):
-        image, seconds = render_with(scene, settings(args.samples, 1), by_power)
+        image, seconds = render_with(scene, settings(args.samples, 1), by_power, repeat=5)
         times[by_power] = seconds
         print(f"{name:10s}: {args.samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, "
               f"relMSE {block_rel_mse(image, reference):.5f}")
     # Equal time: the power CDF with as many more samples as the tree's time buys it.
     samples = max(args.samples, round(args.samples * times[False] / times[True]))
-    image, seconds = render_with(scene, settings(samples, 1), True)
+    image, seconds = render_with(scene, settings(samples, 1), True, repeat=5)
     print(f"power CDF : {samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, "
           f"relMSE {block_rel_mse(image, reference):.5f} (equal time)")
 

@@ -19,18 +19,18 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 }
 
 /* light_tree.py: the tree's node rows (NODE_FIELDS doubles each). */
-#define TREE_FIELDS 14
+#define TREE_FIELDS 17
 #define TREE_AXIS 6
-#define TREE_THETA_O 9
-#define TREE_THETA_E 10
 #define TREE_ENERGY 11
 #define TREE_LEFT 12
 #define TREE_RIGHT 13
-
-INLINE double clamp_unit(double x) { return x < -1.0 ? -1.0 : (x > 1.0 ? 1.0 : x); }
+#define TREE_COS_O 14
+#define TREE_SIN_O 15
+#define TREE_COS_E 16
 
 /* light_tree.importance for one node row seen from P with normal N (zero: unknown): energy x the cosine
- * bounds at the receiver and the emitter / max(d, half diagonal)^2; 0 only where nothing of it lights P. */
+ * bounds at the receiver and the emitter / max(d, half diagonal)^2; 0 only where nothing of it lights P.
+ * In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi]. */
 INLINE double light_tree_importance(const double *node, const double *P, const double *N)
 {
     const double *lo = node, *hi = node + 3, *axis = node + TREE_AXIS;
@@ -43,29 +43,36 @@ INLINE double light_tree_importance(const double *node, const double *P, const d
     }
     double d = sqrt(dot3(v, v));
     double half = 0.5 * sqrt(dot3(diagonal, diagonal));
-    inside_box |= d <= 0.0;
+    double distance = at_least(d, half);
+    double scale = node[TREE_ENERGY] / (distance * distance);
+    if (inside_box || d <= 0.0) return scale;
+    /* theta_u: the half-angle around the direction w to the centre that holds the box's corners (cos^2
+     * of each corner's angle, all of them in front, else the cone passes a hemisphere: every direction). */
     double w[3] = {v[0] / d, v[1] / d, v[2] / d};
-    double cos_u = 1.0;
+    double cos2_u = 1.0;
     for (int corner = 0; corner < 8; corner++) {
         double to_corner[3];
         for (int c = 0; c < 3; c++) to_corner[c] = (((corner >> c) & 1) ? hi[c] : lo[c]) - P[c];
-        double cosine = dot3(w, to_corner) / sqrt(dot3(to_corner, to_corner));
-        if (cosine < cos_u) cos_u = cosine;
+        double along = dot3(w, to_corner);
+        if (!(along > 0.0)) return scale;
+        double c2 = along * along / dot3(to_corner, to_corner);
+        if (c2 < cos2_u) cos2_u = c2;
     }
-    /* Inside the box, or so near that the cone around the centre would pass a hemisphere: every direction. */
-    int everywhere = inside_box || !(cos_u >= 0.0);
-    double theta_u = everywhere ? PI : acos(clamp_unit(cos_u));
-    if (everywhere) w[0] = w[1] = w[2] = 0.0;
+    double cos_u = sqrt(cos2_u < 1.0 ? cos2_u : 1.0), sin_u = sqrt(at_least(1.0 - cos2_u, 0.0));
+    /* The receiver: cos(max(theta_i - theta_u, 0)), at least 0; 1 where N is unknown. */
     double cos_incidence = 1.0;
     if (dot3(N, N) > 0.0) {
-        double theta_i = acos(clamp_unit(dot3(N, w)));
-        cos_incidence = at_least(cos(at_least(theta_i - theta_u, 0.0)), 0.0);
+        double cos_i = dot3(N, w), sin_i = sqrt(at_least(1.0 - cos_i * cos_i, 0.0));
+        if (!(cos_i >= cos_u)) cos_incidence = at_least(cos_i * cos_u + sin_i * sin_u, 0.0);
     }
-    double theta = acos(clamp_unit(-dot3(axis, w)));
-    double theta_out = at_least(theta - node[TREE_THETA_O] - theta_u, 0.0);
-    double cos_outgoing = theta_out < node[TREE_THETA_E] ? at_least(cos(theta_out), 0.0) : 0.0;
-    double distance = at_least(d, half);
-    return node[TREE_ENERGY] * cos_incidence * cos_outgoing / (distance * distance);
+    /* The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0. */
+    double cos_t = -dot3(axis, w), sin_t = sqrt(at_least(1.0 - cos_t * cos_t, 0.0));
+    double cos_1 = cos_t * cos_u + sin_t * sin_u, sin_1 = at_least(sin_t * cos_u - cos_t * sin_u, 0.0);
+    double cos_2 = cos_1 * node[TREE_COS_O] + sin_1 * node[TREE_SIN_O];
+    double cos_outgoing = 1.0;
+    if (!(cos_t >= cos_u) && !(cos_1 >= node[TREE_COS_O]))
+        cos_outgoing = cos_2 > node[TREE_COS_E] ? at_least(cos_2, 0.0) : 0.0;
+    return scale * (cos_incidence * cos_outgoing);
 }
 
 /* LightTree.branch_left: the probability of the inner node's left child, by importance (by power where

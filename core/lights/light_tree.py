@@ -2,7 +2,7 @@
 
 A binary bounding-volume hierarchy over the triangles, built once per render (Conty Estevez and Kulla,
 "Importance sampling of many lights with adaptive tree splitting", 2018, which Cycles' light tree
-follows; docs/cycles_lights.md). Every node keeps
+follows: intern/cycles/scene/light_tree.cpp, kernel/light/tree.h). Every node keeps
 
 - its bounding box (lo, hi) of its triangles' corners,
 - its power (energy): the sum of its triangles' area x mean(L_e),
@@ -27,7 +27,8 @@ children have importance 0 the walk goes by power. The distance is clamped to ha
 so that the importance stays finite near and inside the box.
 
 Leaves hold one triangle each. The tree is flat arrays, the same for Python and C (emitters.c):
-nodes (k, NODE_FIELDS) float64, rows [lo (3), hi (3), axis (3), theta_o, theta_e, energy, left, right];
+nodes (k, NODE_FIELDS) float64, rows [lo (3), hi (3), axis (3), theta_o, theta_e, energy, left, right,
+cos theta_o, sin theta_o, cos theta_e] (the importance works in cosines: no trigonometry per step);
 an inner node's children are rows left and right; a leaf has left = -1 - its triangle, right = -1.
 Each triangle's path from the root is `depth` steps, bit l of `path` the side (1: right) at step l, so
 that `pick_probability` (the MIS pdf of a BSDF ray that hits the triangle) multiplies the same branch
@@ -40,8 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT = 0, 3, 6, 9, 10, 11, 12, 13
-NODE_FIELDS = 14
+LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT, COS_O, SIN_O, COS_E = 0, 3, 6, 9, 10, 11, 12, 13, 14, 15, 16
+NODE_FIELDS = 17
 # Past this depth the build splits at the median (balanced), so that paths fit in 62 bits.
 MEDIAN_DEPTH = 40
 MAX_DEPTH = 62
@@ -132,7 +133,7 @@ class LightTree:
             nodes[parents, ENERGY] = a[:, ENERGY] + b[:, ENERGY]
         if depth.max() > MAX_DEPTH:
             raise ValueError("light tree deeper than its path bits")
-        return cls(nodes, path, depth)
+        return cls(with_cosines(nodes), path, depth)
 
     def by_power(self) -> "LightTree":
         """The same tree weighing nothing but power (every node the same huge box, facing everywhere): it picks
@@ -141,7 +142,7 @@ class LightTree:
         nodes = self.nodes.copy()
         nodes[:, LO:LO + 3], nodes[:, HI:HI + 3] = -1e30, 1e30
         nodes[:, THETA_O] = math.pi
-        return LightTree(nodes, self.path, self.depth)
+        return LightTree(with_cosines(nodes), self.path, self.depth)
 
     def branch_left(self, P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
         """The probability of going to the left child of inner nodes `node` (m,) int64 from points P (m, 3)
@@ -196,37 +197,54 @@ class LightTree:
         return probability
 
 
+def with_cosines(nodes: np.ndarray) -> np.ndarray:
+    """The nodes (k, NODE_FIELDS) with their cos theta_o, sin theta_o and cos theta_e filled in from the angles."""
+    nodes[:, COS_O], nodes[:, SIN_O] = np.cos(nodes[:, THETA_O]), np.sin(nodes[:, THETA_O])
+    nodes[:, COS_E] = np.cos(nodes[:, THETA_E])
+    return nodes
+
+
 def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
     """The importance of nodes (m, NODE_FIELDS) seen from P (m, 3) with normals N (m, 3) (zero: unknown):
-    (m,) float64, the bound of the module docstring; 0 only where nothing of the node can light P."""
+    (m,) float64, the bound of the module docstring; 0 only where nothing of the node can light P.
+
+    In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi] (sines >= 0)."""
     lo, hi = node[:, LO:LO + 3], node[:, HI:HI + 3]
-    centre = 0.5 * (lo + hi)
-    v = centre - P
+    v = 0.5 * (lo + hi) - P
     d = np.sqrt(np.einsum("ij,ij->i", v, v))
     diagonal = hi - lo
     half = 0.5 * np.sqrt(np.einsum("ij,ij->i", diagonal, diagonal))
     inside_box = np.all((P >= lo) & (P <= hi), axis=1) | (d <= 0.0)
+    # theta_u: the half-angle around the direction w to the centre that holds the box's corners.
+    # cos^2 of each corner's angle where all lie in front (else the cone passes a hemisphere).
     with np.errstate(divide="ignore", invalid="ignore"):
         w = v / d[:, None]
-        cos_u = np.ones(len(P))
+        cos2_u = np.ones(len(P))
+        behind = np.zeros(len(P), bool)
         for corner in range(8):
-            pick = [(corner >> c) & 1 for c in range(3)]
-            C = np.stack([np.where(pick[c], hi[:, c], lo[:, c]) for c in range(3)], axis=1)
-            to_corner = C - P
-            length = np.sqrt(np.einsum("ij,ij->i", to_corner, to_corner))
-            cos_u = np.minimum(cos_u, np.einsum("ij,ij->i", w, to_corner) / length)
-    # Inside the box, or so near that the cone around the centre would pass a hemisphere: every direction.
-    everywhere = inside_box | ~(cos_u >= 0.0)
-    theta_u = np.where(everywhere, math.pi, np.arccos(np.clip(cos_u, -1.0, 1.0)))
+            to_corner = np.stack([np.where((corner >> c) & 1, hi[:, c], lo[:, c]) for c in range(3)], axis=1) - P
+            along = np.einsum("ij,ij->i", w, to_corner)
+            behind |= ~(along > 0.0)
+            cos2_u = np.minimum(cos2_u, along * along / np.einsum("ij,ij->i", to_corner, to_corner))
+    everywhere = inside_box | behind
+    cos_u = np.sqrt(np.minimum(cos2_u, 1.0))
+    sin_u = np.sqrt(np.maximum(1.0 - cos2_u, 0.0))
+    # The receiver: cos(max(theta_i - theta_u, 0)), at least 0; 1 where N is unknown.
+    cos_i = np.einsum("ij,ij->i", N, w)
+    sin_i = np.sqrt(np.maximum(1.0 - cos_i * cos_i, 0.0))
     known_normal = np.einsum("ij,ij->i", N, N) > 0.0
-    theta_i = np.arccos(np.clip(np.einsum("ij,ij->i", N, np.where(everywhere[:, None], 0.0, w)), -1.0, 1.0))
-    cos_incidence = np.where(known_normal, np.maximum(np.cos(np.maximum(theta_i - theta_u, 0.0)), 0.0), 1.0)
-    axis = node[:, AXIS:AXIS + 3]
-    theta = np.arccos(np.clip(-np.einsum("ij,ij->i", axis, np.where(everywhere[:, None], 0.0, w)), -1.0, 1.0))
-    theta_out = np.maximum(theta - node[:, THETA_O] - theta_u, 0.0)
-    cos_outgoing = np.where(theta_out < node[:, THETA_E], np.maximum(np.cos(theta_out), 0.0), 0.0)
+    cos_incidence = np.where(~known_normal | (cos_i >= cos_u), 1.0, np.maximum(cos_i * cos_u + sin_i * sin_u, 0.0))
+    # The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0.
+    cos_t = -np.einsum("ij,ij->i", node[:, AXIS:AXIS + 3], w)
+    sin_t = np.sqrt(np.maximum(1.0 - cos_t * cos_t, 0.0))
+    cos_1 = cos_t * cos_u + sin_t * sin_u                       # cos(theta - theta_u), where theta > theta_u
+    sin_1 = np.maximum(sin_t * cos_u - cos_t * sin_u, 0.0)
+    cos_2 = cos_1 * node[:, COS_O] + sin_1 * node[:, SIN_O]     # cos(theta - theta_u - theta_o)
+    cos_outgoing = np.where((cos_t >= cos_u) | (cos_1 >= node[:, COS_O]), 1.0,
+                            np.where(cos_2 > node[:, COS_E], np.maximum(cos_2, 0.0), 0.0))
     distance = np.maximum(d, half)
-    return node[:, ENERGY] * cos_incidence * cos_outgoing / (distance * distance)
+    scale = node[:, ENERGY] / (distance * distance)
+    return scale * np.where(everywhere, 1.0, cos_incidence * cos_outgoing)
 
 
 def cone_union(a: np.ndarray, theta_a: np.ndarray, b: np.ndarray, theta_b: np.ndarray):
