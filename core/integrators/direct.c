@@ -193,9 +193,12 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
     } else {
         for (int64_t k = 0; k < b->n; k++) {
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[3] = {b->u[0][k], b->u[1][k], b->u2[k]};
+            /* (the light tree's normal, direct.tree_normals: unknown where a closure lets light through) */
+            double N[3] = {b->N[0][k], b->N[1][k], b->N[2][k]};
+            if (b->through[k] != 0.0) N[0] = N[1] = N[2] = 0.0;
             LightSample ls;
             ls.emitter = -1;
-            sample_light(light, ctx, P, u, &ls);
+            sample_light(light, ctx, P, N, u, &ls);
             store_sample(b, k, &ls);
             for (int c = 0; c < 3; c++) b->color[c][k] = ls.color[c];
             b->hidden[k] = ls.hidden;
@@ -600,10 +603,10 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
  * (hit 0): lamps with extent in front of the hit (they never block), the emission of the surface hit, or the
  * world, each weighed by MIS against that light's own samples (where use_mis) with pdf_b, the pdf of the
  * bounce that sent the ray (a constant world with weight 1); added to light_L. camera: 1 for a camera path's ray
- * (a holdout it hits emits nothing). */
-NOINLINE static void gather_light(const DirectSettings *ds, const double *O, const double *D, int hit, double t_limit,
-                         int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis, int camera,
-                         double *light_L)
+ * (a holdout it hits emits nothing). N: the normal the light tree weighed the emitters by at O (NULL: unknown). */
+NOINLINE static void gather_light(const DirectSettings *ds, const double *O, const double *N, const double *D, int hit,
+                         double t_limit, int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis,
+                         int camera, double *light_L)
 {
     const LightContext *ctx = ds->context;
     int64_t emitters_index = -1, world_index = -1;
@@ -633,7 +636,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
         }
         int64_t index = emitters_index >= 0
             ? emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance)) : -1;
-        double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, O, D, t_limit) : 0.0;
+        double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, O, N, D, t_limit) : 0.0;
         double n_l = emitters_index >= 0 ? ds->lights[emitters_index].samples : 1.0;
         double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
         for (int c = 0; c < 3; c++) light_L[c] += emitted[c] * w;
@@ -733,7 +736,8 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                         for (int c = 0; c < 3; c++) r->shares[p][c] = shares[p][c];
             }
             if (!ds->gather) continue;
-            gather_light(ds, O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
+            const double *N = H->through[owner[k]] ? NULL : H->s[owner[k]].N;     /* as its light samples had it */
+            gather_light(ds, O, N, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                          instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, light_L);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

@@ -126,6 +126,7 @@ class DirectLighting(Integrator):
         mis = (traced & (s.light_sampling == "mis")) if ctx.extra.get("bsdf_rays", False) else np.zeros(m, bool)
         # Hits whose closures let light through from behind (rough glass) sample lights on both sides.
         refracts = lets_light_through(shader)
+        tree_N = tree_normals(s, surface, refracts)
         for index, light in enumerate(ctx.lights):
             if (s.light_sampling == "bsdf" and not light_samples_only and not light.delta
                     and index in ctx.extra.get("hittable", ())):
@@ -137,7 +138,8 @@ class DirectLighting(Integrator):
                 #    camera sample s takes its points s*count .. s*count+count-1 (core/sampling), so
                 #    the points of any number of camera samples together cover the light evenly.
                 u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension)
-                ls = light.sample(surface.I, u, cone)
+                ls = (light.sample(surface.I, u, cone, N=tree_N) if light.kind == 4   # the emitters
+                      else light.sample(surface.I, u, cone))
                 if getattr(light, "textured", None) is not None:
                     ls = textured_samples(ctx, light, surface.I, ls)
                 if not s.distance_attenuation:
@@ -251,8 +253,9 @@ class DirectLighting(Integrator):
             return found, ray
         use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
         holdouts = ctx.geometry.hides(HOLDOUT)
+        tree_N = tree_normals(s, surface, lets_light_through(shader))[go]
         found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
-                                                 seen_as == HIDDEN_FROM_CAMERA if holdouts else None)
+                                                 seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=tree_N)
         recorder.bsdf_sample(bs.wi, bs.pdf, found)
         return found, ray
 
@@ -278,12 +281,14 @@ class DirectLighting(Integrator):
 
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
-                 camera=None) -> np.ndarray:
+                 camera=None, N=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
     camera: (k,) bool which rays are still a camera path's (through Transparent closures), or None: a holdout
-    object such a ray hits emits nothing (it is a hole in the film, path.hold_out)."""
+    object such a ray hits emits nothing (it is a hole in the film, path.hold_out). N: (k, 3) the normals the light
+    tree weighed the emitters by at the rays' origins (tree_normals), or None (unknown): the emitters' MIS pdf
+    picks each triangle with the probability their light samples gave it."""
     light_L = np.zeros((len(O), 3))
     t_limit = np.where(hits.hit, hits.t, np.inf)
     # a. Lamps with extent in front of the hit (they never block, as in Cycles).
@@ -320,7 +325,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             known = index >= 0
             if known.any():
                 pdf_l[known] = emitters.pdf_of_hits(O[struck][known], index[known], D[struck][known],
-                                                    hits.t[struck][known])
+                                                    hits.t[struck][known],
+                                                    N=None if N is None else N[struck][known])
             n_l = light_count(ctx, emitters)
         w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
         light_L[struck] += emitted * w[:, None]
@@ -422,6 +428,15 @@ def lets_light_through(shader) -> np.ndarray:
     """Which hits have a closure that refracts light arriving from behind the surface (rough glass): (m,) bool.
     Their light samples come from both sides (smooth glass is a delta: only its BSDF rays find light)."""
     return (shader.closures.kind == materials_.RoughGlass.kind).any(axis=1)
+
+
+def tree_normals(settings, surface, refracts: np.ndarray) -> np.ndarray:
+    """The normals (m, 3) float64 the light tree weighs the emitters by at the hits: the shading normal N, below
+    whose horizon no light sample counts (N.L clamped at 0); zero (unknown: light from every side) where a
+    closure lets light through from behind, or where N.L is not clamped."""
+    if not settings.clamp_n_dot_l:
+        return np.zeros_like(surface.N)
+    return np.where(refracts[:, None], 0.0, surface.N)
 
 
 def wants_bsdf_ray(ctx: Context, shader) -> np.ndarray:

@@ -1,4 +1,5 @@
-/* Emissive meshes as one light: core/lights/emitters.py. A triangle chosen by power, then a direction
+/* Emissive meshes as one light: core/lights/emitters.py. A triangle chosen by the light tree
+ * (core/lights/light_tree.py), then a direction
  * towards it: uniform over the spherical triangle near it (Arvo), uniform in its area far from it. */
 
 #define EMIT_FRONT 1
@@ -17,16 +18,120 @@ INLINE void cross_product(const double *a, const double *b, double *out)
     out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-/* The emitter of pick number x in [0, 1): the last index whose cumulative probability is <= x. */
-INLINE int64_t emitter_pick(const EmitterTables *e, double x)
+/* light_tree.py: the tree's node rows (NODE_FIELDS doubles each). */
+#define TREE_FIELDS 17
+#define TREE_AXIS 6
+#define TREE_ENERGY 11
+#define TREE_LEFT 12
+#define TREE_RIGHT 13
+#define TREE_COS_O 14
+#define TREE_SIN_O 15
+#define TREE_COS_E 16
+
+/* light_tree.importance for one node row seen from P with normal N (zero: unknown): energy x the cosine
+ * bounds at the receiver and the emitter / max(d, half diagonal)^2; 0 only where nothing of it lights P.
+ * In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi]. */
+INLINE double light_tree_importance(const double *node, const double *P, const double *N)
 {
-    int64_t lo = 0, hi = (int64_t)e->count;          /* cdf[lo] <= x < cdf[hi] */
-    while (hi - lo > 1) {
-        int64_t mid = lo + (hi - lo) / 2;
-        if (e->cdf[mid] <= x) lo = mid; else hi = mid;
+    const double *lo = node, *hi = node + 3, *axis = node + TREE_AXIS;
+    double v[3], diagonal[3];
+    int inside_box = 1;
+    for (int c = 0; c < 3; c++) {
+        v[c] = 0.5 * (lo[c] + hi[c]) - P[c];
+        diagonal[c] = hi[c] - lo[c];
+        inside_box &= (P[c] >= lo[c]) & (P[c] <= hi[c]);
     }
-    return lo;
+    double d = sqrt(dot3(v, v));
+    double half = 0.5 * sqrt(dot3(diagonal, diagonal));
+    double distance = at_least(d, half);
+    double scale = node[TREE_ENERGY] / (distance * distance);
+    if (inside_box || d <= 0.0) return scale;
+    /* theta_u: the half-angle around the direction w to the centre that holds the box's corners (cos^2
+     * of each corner's angle, all of them in front, else the cone passes a hemisphere: every direction). */
+    double w[3] = {v[0] / d, v[1] / d, v[2] / d};
+    double cos2_u = 1.0;
+    for (int corner = 0; corner < 8; corner++) {
+        double to_corner[3];
+        for (int c = 0; c < 3; c++) to_corner[c] = (((corner >> c) & 1) ? hi[c] : lo[c]) - P[c];
+        double along = dot3(w, to_corner);
+        if (!(along > 0.0)) return scale;
+        double c2 = along * along / dot3(to_corner, to_corner);
+        if (c2 < cos2_u) cos2_u = c2;
+    }
+    double cos_u = sqrt(cos2_u < 1.0 ? cos2_u : 1.0), sin_u = sqrt(at_least(1.0 - cos2_u, 0.0));
+    /* The receiver: cos(max(theta_i - theta_u, 0)), at least 0; 1 where N is unknown. */
+    double cos_incidence = 1.0;
+    if (dot3(N, N) > 0.0) {
+        double cos_i = dot3(N, w), sin_i = sqrt(at_least(1.0 - cos_i * cos_i, 0.0));
+        if (!(cos_i >= cos_u)) cos_incidence = at_least(cos_i * cos_u + sin_i * sin_u, 0.0);
+    }
+    /* The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0. */
+    double cos_t = -dot3(axis, w), sin_t = sqrt(at_least(1.0 - cos_t * cos_t, 0.0));
+    double cos_1 = cos_t * cos_u + sin_t * sin_u, sin_1 = at_least(sin_t * cos_u - cos_t * sin_u, 0.0);
+    double cos_2 = cos_1 * node[TREE_COS_O] + sin_1 * node[TREE_SIN_O];
+    double cos_outgoing = 1.0;
+    if (!(cos_t >= cos_u) && !(cos_1 >= node[TREE_COS_O]))
+        cos_outgoing = cos_2 > node[TREE_COS_E] ? at_least(cos_2, 0.0) : 0.0;
+    return scale * (cos_incidence * cos_outgoing);
 }
+
+/* LightTree.branch_left: the probability of the inner node's left child, by importance (by power where
+ * both children's is 0). */
+INLINE double light_tree_branch_left(const EmitterTables *e, const double *node, const double *P, const double *N)
+{
+    const double *left = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];
+    const double *right = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];
+    double I_left = light_tree_importance(left, P, N), I_right = light_tree_importance(right, P, N);
+    double total = I_left + I_right;
+    if (total > 0.0) return I_left / total;
+    return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
+}
+
+/* LightTree.pick: the emitter the walk down the tree from P (normal N) with x in [0, 1) reaches, and
+ * its probability. */
+INLINE int64_t emitter_pick(const EmitterTables *e, const double *P, const double *N, double x, double *probability)
+{
+    const double *node = e->nodes;
+    double p = 1.0;
+    while (node[TREE_RIGHT] >= 0.0) {
+        double p_left = light_tree_branch_left(e, node, P, N);
+        if (x < p_left) {
+            p *= p_left;
+            x = x / p_left;
+            node = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];
+        } else {
+            p *= 1.0 - p_left;
+            x = (x - p_left) / (1.0 - p_left);
+            node = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];
+        }
+        x = x < 0.0 ? 0.0 : x;
+        x = x > 1.0 - 0x1p-53 ? 1.0 - 0x1p-53 : x;
+    }
+    *probability = p;
+    return -1 - (int64_t)node[TREE_LEFT];
+}
+
+/* LightTree.pick_probability: the probability that emitter_pick from P (normal N) reaches emitter i,
+ * the same products in the same order along i's path. */
+INLINE double emitter_pick_probability(const EmitterTables *e, int64_t i, const double *P, const double *N)
+{
+    const double *node = e->nodes;
+    double p = 1.0;
+    int64_t path = e->path[i];
+    for (int64_t level = 0; level < e->depth[i]; level++) {
+        double p_left = light_tree_branch_left(e, node, P, N);
+        if ((path >> level) & 1) {
+            p *= 1.0 - p_left;
+            node = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];
+        } else {
+            p *= p_left;
+            node = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];
+        }
+    }
+    return p;
+}
+
+static const double UNKNOWN_NORMAL[3] = {0.0, 0.0, 0.0};
 
 /* emitters.solid_angle: the solid angle of triangle V seen from P (Van Oosterom and Strackee). */
 INLINE double triangle_solid_angle(const double *P, const double *V)
@@ -134,10 +239,13 @@ INLINE int emitter_spherical(const double *V, double height, double area)
     return longest > delta * delta;
 }
 
-/* MeshEmitters.sample for one point: u (3,) the unit-square point and the pick. */
-INLINE void sample_emitters(const EmitterTables *e, const double *P, const double *u, LightSample *out)
+/* MeshEmitters.sample for one point with normal N (NULL or zero: unknown): u (3,) the unit-square point
+ * and the pick. */
+INLINE void sample_emitters(const EmitterTables *e, const double *P, const double *N, const double *u,
+                            LightSample *out)
 {
-    int64_t i = emitter_pick(e, u[2]);
+    double pick;
+    int64_t i = emitter_pick(e, P, N != NULL ? N : UNKNOWN_NORMAL, u[2], &pick);
     const double *V = e->corners + 9 * i, *normal = e->normal + 3 * i;
     double area = e->area[i];
     double to_V[3] = {V[0] - P[0], V[1] - P[1], V[2] - P[2]};
@@ -147,7 +255,7 @@ INLINE void sample_emitters(const EmitterTables *e, const double *P, const doubl
     double pdf_direction;
     if (emitter_spherical(V, height, area)) spherical_triangle_sample(P, V, u, out->L, &out->distance, &pdf_direction);
     else triangle_area_sample(P, V, normal, area, u, out->L, &out->distance, &pdf_direction);
-    double pdf = (e->cdf[i + 1] - e->cdf[i]) * pdf_direction;
+    double pdf = pick * pdf_direction;
     int ok = allowed & (pdf > 0.0) & isfinite(pdf);
     out->strength = ok ? 1.0 / pdf : 0.0;
     out->pdf = ok ? pdf : 0.0;
@@ -159,8 +267,10 @@ INLINE void sample_emitters(const EmitterTables *e, const double *P, const doubl
     }
 }
 
-/* MeshEmitters.pdf_of_hits: the pdf `sample` gives direction D from O to emitter i at distance t. */
-INLINE double emitter_pdf(const EmitterTables *e, int64_t i, const double *O, const double *D, double t)
+/* MeshEmitters.pdf_of_hits: the pdf `sample` gives direction D from O (normal N, NULL or zero: unknown,
+ * as sample_emitters had it) to emitter i at distance t. */
+INLINE double emitter_pdf(const EmitterTables *e, int64_t i, const double *O, const double *N, const double *D,
+                          double t)
 {
     const double *V = e->corners + 9 * i, *normal = e->normal + 3 * i;
     double area = e->area[i];
@@ -171,7 +281,7 @@ INLINE double emitter_pdf(const EmitterTables *e, int64_t i, const double *O, co
     double pdf_direction;
     if (emitter_spherical(V, height, area)) pdf_direction = 1.0 / triangle_solid_angle(O, V);
     else pdf_direction = t * t / (fabs(dot3(normal, D)) * area);
-    double pdf = (e->cdf[i + 1] - e->cdf[i]) * pdf_direction;
+    double pdf = emitter_pick_probability(e, i, O, N != NULL ? N : UNKNOWN_NORMAL) * pdf_direction;
     return isfinite(pdf) ? pdf : 0.0;
 }
 
@@ -184,4 +294,22 @@ INLINE int64_t emitter_of_prim(const EmitterTables *e, int64_t prim)
         if (e->sorted_prim[mid] < prim) lo = mid + 1; else hi = mid;
     }
     return lo < (int64_t)e->count && e->sorted_prim[lo] == prim ? e->order[lo] : -1;
+}
+
+/* LightTree.pick over arrays (for the tests): points, normals (n, 3), u (n,) -> index (n,) int64,
+ * probability (n,) float64. */
+EXPORT void primer_emitter_pick(const EmitterTables *e, int64_t n, const double *points, const double *normals,
+                                const double *u, int64_t *index, double *probability)
+{
+    for (int64_t k = 0; k < n; k++)
+        index[k] = emitter_pick(e, points + 3 * k, normals + 3 * k, u[k], probability + k);
+}
+
+/* LightTree.pick_probability over arrays (for the tests): points, normals (n, 3), index (n,) int64 ->
+ * probability (n,) float64. */
+EXPORT void primer_emitter_pick_probability(const EmitterTables *e, int64_t n, const double *points,
+                                            const double *normals, const int64_t *index, double *probability)
+{
+    for (int64_t k = 0; k < n; k++)
+        probability[k] = emitter_pick_probability(e, index[k], points + 3 * k, normals + 3 * k);
 }

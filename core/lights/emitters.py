@@ -2,8 +2,10 @@
 
 A triangle of a material with Emission (colour x strength = radiance L_e, the same from both sides,
 as in Cycles) lights the scene like an area light. For next-event estimation the emitters are one
-light: a triangle is chosen with probability proportional to its power estimate (area x mean L_e),
-then a direction towards it, by one of two strategies, as Cycles chooses them
+light: a triangle is chosen by a light tree (core/lights/light_tree.py): a walk down a bounding-volume
+hierarchy over the triangles, each step by the importance of the two children seen from the shading
+point (their power, distance and orientation; by power alone where neither can light it), as in
+Cycles. Then a direction towards it, by one of two strategies, as Cycles chooses them
 (cycles_lights.md, section 1.3):
 
 - near a triangle (its plane closer than about its size), the direction is uniform over the
@@ -12,7 +14,8 @@ then a direction towards it, by one of two strategies, as Cycles chooses them
 - far from it, a point uniform in its area: pdf = t^2 / (|cos theta_light| A).
 
 The pdf of a direction is the pick probability times that. A BSDF-sampled ray that hits an emissive
-triangle asks `pdf_of_hits` for the pdf the light would have given its direction, for MIS.
+triangle asks `pdf_of_hits` for the pdf the light would have given its direction, for MIS: the tree
+gives the same pick probability for that triangle from the ray's origin, walking its path.
 A material's Emission Sampling (None, Front, Back, Front and Back; Auto: both when it emits much)
 says from which sides the triangle is sampled; its emission is seen from both sides regardless.
 A textured emitter (its node graph gives the emission) is picked by its mean emission at a few points
@@ -28,6 +31,7 @@ import numpy as np
 
 from .. import vectors
 from .base import Light, LightSample
+from .light_tree import LightTree
 
 FRONT, BACK = 1, 2
 
@@ -42,7 +46,8 @@ class MeshEmitters(Light):
     emission: (t, 3) float64 radiance L_e
     sides:    (t,) int32 FRONT | BACK: from which sides the triangle is sampled (0: never)
     prim:     (t,) int64 WorldGeometry's flat triangle index of each
-    cdf:      (t + 1,) float64 cumulative pick probability, in proportion to area x mean(L_e)
+    power:    (t,) float64 area x mean(L_e), each triangle's power estimate
+    tree:     the LightTree over the triangles that picks one for a shading point
     hidden:   (t,) uint8 the Ray Visibility bits (geometry.HIDDEN_FROM_*) of each triangle's object, or None
               where no emitting object hides from diffuse, glossy or transmission rays
     textured: (t,) bool the triangles whose material's node graph gives their emission (a texture): `emission`
@@ -56,7 +61,8 @@ class MeshEmitters(Light):
     emission: np.ndarray
     sides: np.ndarray
     prim: np.ndarray
-    cdf: np.ndarray
+    power: np.ndarray
+    tree: LightTree
     name: str = "Emissive meshes"
     hidden: Optional[np.ndarray] = None
     textured: Optional[np.ndarray] = None
@@ -78,7 +84,7 @@ class MeshEmitters(Light):
         return True
 
     def emits(self) -> bool:
-        return len(self.prim) > 0 and self.cdf[-1] > 0
+        return len(self.prim) > 0 and self.power.sum() > 0
 
     def finite(self) -> bool:
         return bool(np.isfinite(self.corners).all() and np.isfinite(self.emission).all())
@@ -101,20 +107,21 @@ class MeshEmitters(Light):
             return None
         corners, emission, sides, prim = corners[keep], emission[keep], sides[keep], prim[keep]
         normal = cross[keep] / length[keep, None]
-        cdf = np.zeros(keep.sum() + 1)
-        cdf[1:] = np.cumsum(power[keep])
-        cdf /= cdf[-1]
+        sides = sides.astype(np.int32)
+        tree = LightTree.build(corners, normal, power[keep], sides)
         textured = textured[keep] if textured is not None and textured[keep].any() else None
-        return cls(corners, normal, area[keep], emission, sides.astype(np.int32), prim, cdf, textured=textured)
+        return cls(corners, normal, area[keep], emission, sides, prim, power[keep], tree, textured=textured)
 
-    def pick_probability(self, index: np.ndarray) -> np.ndarray:
-        """P(choosing triangle `index`): (n,) int64 -> (n,) float64."""
-        return self.cdf[index + 1] - self.cdf[index]
+    def pick_probability(self, points: np.ndarray, index: np.ndarray, N: Optional[np.ndarray] = None) -> np.ndarray:
+        """P(the tree chooses triangle `index` (n,) int64 from points (n, 3) with normals N (n, 3), zero rows
+        or None: unknown): (n,) float64."""
+        return self.tree.pick_probability(points, unknown_normals(points, N), index)
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone=None) -> LightSample:
-        """One emissive triangle per point, chosen by power (u[:, 2]), then a direction towards it (u[:, :2])."""
+    def sample(self, points: np.ndarray, u: np.ndarray, cone=None, N: Optional[np.ndarray] = None) -> LightSample:
+        """One emissive triangle per point, chosen by the light tree from the point and its normal N (n, 3)
+        (zero rows or None: unknown) with u[:, 2], then a direction towards it (u[:, :2])."""
         n = len(points)
-        index = np.clip(np.searchsorted(self.cdf, u[:, 2], side="right") - 1, 0, len(self.prim) - 1)
+        index, pick = self.tree.pick(points, unknown_normals(points, N), u[:, 2])
         V = self.corners[index]
         normal, area = self.normal[index], self.area[index]
         # 1. Which side the point sees, and whether that side is sampled.
@@ -135,7 +142,7 @@ class MeshEmitters(Light):
             rows = np.flatnonzero(~spherical)
             L[rows], distance[rows], pdf_direction[rows] = area_sample(points[rows], V[rows], normal[rows],
                                                                        area[rows], u[rows, :2])
-        pdf = self.pick_probability(index) * pdf_direction
+        pdf = pick * pdf_direction
         ok = allowed & (pdf > 0.0) & np.isfinite(pdf)
         with np.errstate(divide="ignore", invalid="ignore"):
             strength = np.where(ok, 1.0 / pdf, 0.0)
@@ -144,9 +151,11 @@ class MeshEmitters(Light):
         return LightSample(L, distance, strength, np.where(ok, pdf, 0.0), self.emission[index], position, hidden,
                            index)
 
-    def pdf_of_hits(self, origins: np.ndarray, index: np.ndarray, D: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """The pdf with which `sample` would choose the direction D from `origins` to emitter `index`
-        at distance t (a BSDF-sampled ray that hit it): (n,) float64, 0 where the side is not sampled."""
+    def pdf_of_hits(self, origins: np.ndarray, index: np.ndarray, D: np.ndarray, t: np.ndarray,
+                    N: Optional[np.ndarray] = None) -> np.ndarray:
+        """The pdf with which `sample` would choose the direction D from `origins` (normals N, as `sample`'s)
+        to emitter `index` at distance t (a BSDF-sampled ray that hit it): (n,) float64, 0 where the side is
+        not sampled."""
         V = self.corners[index]
         normal, area = self.normal[index], self.area[index]
         height = np.einsum("ij,ij->i", normal, V[:, 0] - origins)
@@ -161,7 +170,7 @@ class MeshEmitters(Light):
             by_angle = 1.0 / omega
             cos_light = np.abs(np.einsum("ij,ij->i", normal, D))
             by_area = t * t / (cos_light * area)
-        pdf = self.pick_probability(index) * np.where(spherical, by_angle, by_area)
+        pdf = self.pick_probability(origins, index, N) * np.where(spherical, by_angle, by_area)
         return np.where(allowed & np.isfinite(pdf), pdf, 0.0)
 
     def index_of_prim(self, prim: np.ndarray) -> np.ndarray:
@@ -203,6 +212,11 @@ def mean_graph_emission(geometry, materials, prim: np.ndarray) -> np.ndarray:
     D = -triangle.Ng
     emitted = graph_emission(geometry, materials, P, I - D, D, np.ones(len(P)))
     return np.maximum(np.nan_to_num(emitted.reshape(t, k, 3).mean(axis=1)), 0.0)
+
+
+def unknown_normals(points: np.ndarray, N: Optional[np.ndarray]) -> np.ndarray:
+    """N (n, 3) float64, zero rows where the normal is unknown (all of them for None)."""
+    return np.zeros_like(points, dtype=np.float64) if N is None else np.asarray(N, np.float64)
 
 
 def solid_angle(P: np.ndarray, V: np.ndarray) -> np.ndarray:
@@ -333,18 +347,55 @@ class EmitterTables:
         from ..native import library
         c = library.contiguous
         order = np.argsort(emitters.prim, kind="stable").astype(np.int64)
+        tree = emitters.tree
         self.arrays = [c(emitters.corners, np.float64), c(emitters.normal, np.float64), c(emitters.area, np.float64),
-                       c(emitters.emission, np.float64), c(emitters.sides, np.int32), c(emitters.cdf, np.float64),
+                       c(emitters.emission, np.float64), c(emitters.sides, np.int32), c(tree.nodes, np.float64),
+                       c(tree.path, np.int64), c(tree.depth, np.int64),
                        c(emitters.prim[order], np.int64), c(order, np.int64)]
         hidden = None if emitters.hidden is None else c(emitters.hidden, np.uint8)
         textured = None if emitters.textured is None else c(emitters.textured, np.uint8)
         self.arrays += [hidden, textured, c(emitters.prim, np.int64)]
-        fields = [(name, ctypes.c_void_p) for name in ("corners", "normal", "area", "emission", "sides", "cdf",
-                                                       "sorted_prim", "order")] + [("count", ctypes.c_double),
-                                                                                   ("hidden", ctypes.c_void_p),
-                                                                                   ("textured", ctypes.c_void_p),
-                                                                                   ("prim", ctypes.c_void_p)]
+        names = ("corners", "normal", "area", "emission", "sides", "nodes", "path", "depth", "sorted_prim", "order")
+        fields = [(name, ctypes.c_void_p) for name in names] + [("count", ctypes.c_double),
+                                                                ("hidden", ctypes.c_void_p),
+                                                                ("textured", ctypes.c_void_p),
+                                                                ("prim", ctypes.c_void_p)]
         Record = type("EmitterTablesRecord", (ctypes.Structure,), {"_fields_": fields})
-        self.record = Record(*[a.ctypes.data for a in self.arrays[:8]], float(len(emitters.prim)),
+        self.record = Record(*[a.ctypes.data for a in self.arrays[:len(names)]], float(len(emitters.prim)),
                              None if hidden is None else hidden.ctypes.data,
                              None if textured is None else textured.ctypes.data, self.arrays[-1].ctypes.data)
+
+
+def compiled_pick(emitters: MeshEmitters, points: np.ndarray, N: np.ndarray, u: np.ndarray):
+    """LightTree.pick in C (emitters.c), for the tests: points, N (n, 3), u (n,) -> (index (n,) int64,
+    probability (n,) float64)."""
+    from ..native import library
+    P, I64, ptr = library.P, library.I64, library.pointer
+    tables = emitters.tables()
+    points, N, u = (library.contiguous(a, np.float64) for a in (points, N, u))
+    index, probability = np.empty(len(points), np.int64), np.empty(len(points))
+    library.function("primer_emitter_pick", None, [P, I64, P, P, P, P, P])(
+        ctypes_address(tables), len(points), ptr(points, np.float64), ptr(N, np.float64), ptr(u, np.float64),
+        ptr(index, np.int64), ptr(probability, np.float64))
+    return index, probability
+
+
+def compiled_pick_probability(emitters: MeshEmitters, points: np.ndarray, N: np.ndarray,
+                              index: np.ndarray) -> np.ndarray:
+    """LightTree.pick_probability in C (emitters.c), for the tests: (n,) float64."""
+    from ..native import library
+    P, I64, ptr = library.P, library.I64, library.pointer
+    tables = emitters.tables()
+    points, N = (library.contiguous(a, np.float64) for a in (points, N))
+    index = library.contiguous(index, np.int64)
+    probability = np.empty(len(points))
+    library.function("primer_emitter_pick_probability", None, [P, I64, P, P, P, P])(
+        ctypes_address(tables), len(points), ptr(points, np.float64), ptr(N, np.float64), ptr(index, np.int64),
+        ptr(probability, np.float64))
+    return probability
+
+
+def ctypes_address(tables: EmitterTables) -> int:
+    """The address of the tables' C record."""
+    import ctypes
+    return ctypes.addressof(tables.record)

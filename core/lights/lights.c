@@ -1,16 +1,17 @@
 /* The table of lights: a light's `kind` tag picks its functions (core/lights/__init__.py LIGHT_TYPES). */
 
 /* Light from `light` arriving at point P for the unit-square sample u (and for emitters u[2], the
- * pick): Light.sample. ctx: the emitters' and the world's tables. */
-INLINE void sample_light(const LightRecord *light, const LightContext *ctx, const double *P, const double *u,
-                         LightSample *out)
+ * pick): Light.sample. ctx: the emitters' and the world's tables. N: the normal the emitters' light tree
+ * weighs by (direct.tree_normals; NULL or zero: unknown). */
+INLINE void sample_light(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
+                         const double *u, LightSample *out)
 {
     out->hidden = 0;
     switch ((int)light->kind) {
     case LIGHT_POINT: sample_point_light(light, P, u, out); break;
     case LIGHT_SPOT: sample_spot_light(light, P, u, out); break;
     case LIGHT_SUN: sample_sun_light(light, u, out); break;
-    case LIGHT_EMITTERS: sample_emitters(ctx->emitters, P, u, out); return;
+    case LIGHT_EMITTERS: sample_emitters(ctx->emitters, P, N, u, out); return;
     case LIGHT_WORLD: sample_world(ctx->world, u, out); return;
     default: sample_area_light(light, P, u, out); break;
     }
@@ -37,7 +38,7 @@ EXPORT void primer_sample_light(const LightRecord *light, const LightContext *ct
 {
     for (int64_t i = 0; i < n; i++) {
         LightSample s;
-        sample_light(light, ctx, points + 3 * i, u + 3 * i, &s);
+        sample_light(light, ctx, points + 3 * i, NULL, u + 3 * i, &s);
         for (int c = 0; c < 3; c++) {
             L[3 * i + c] = s.L[c];
             position[3 * i + c] = s.position[c];

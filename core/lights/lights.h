@@ -54,7 +54,9 @@ typedef struct {
     const double *area;         /* (t,) */
     const double *emission;     /* (t, 3) radiance */
     const int32_t *sides;       /* (t,) FRONT 1 | BACK 2 */
-    const double *cdf;          /* (t + 1,) pick probabilities, by power */
+    const double *nodes;        /* (k, 14) the light tree's nodes (core/lights/light_tree.py), root first */
+    const int64_t *path;        /* (t,) each emitter's branch bits from the root (bit l: 1 = right) */
+    const int64_t *depth;       /* (t,) each emitter's steps from the root to its leaf */
     const int64_t *sorted_prim; /* (t,) WorldGeometry's flat triangle index of each, ascending */
     const int64_t *order;       /* (t,) the emitter of each sorted_prim */
     double count;               /* t */

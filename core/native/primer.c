@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 29
+#define PRIMER_ABI 30
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"

@@ -1,0 +1,268 @@
+"""A light tree over the emissive triangles: which triangle a shading point asks for a light sample.
+
+A binary bounding-volume hierarchy over the triangles, built once per render (Conty Estevez and Kulla,
+"Importance sampling of many lights with adaptive tree splitting", 2018, which Cycles' light tree
+follows: intern/cycles/scene/light_tree.cpp, kernel/light/tree.h). Every node keeps
+
+- its bounding box (lo, hi) of its triangles' corners,
+- its power (energy): the sum of its triangles' area x mean(L_e),
+- an orientation bounds cone: every triangle's sampled side faces within theta_o of the cone's
+  axis, and emits within theta_e (pi / 2, a Lambert emitter) of its own normal. A triangle sampled from
+  both sides has theta_o = pi (it faces every way).
+
+At a shading point P with normal N the tree is walked from the root: at every inner node both
+children's importance I is computed, and the walk goes left with probability I_left / (I_left + I_right),
+the random number rescaled to [0, 1) for the next step. A triangle's pick probability is the product
+of the branch probabilities on its path. The importance of a node is a bound of what it could send to P:
+
+    I = energy x cos(theta_i') x cos(theta') / max(d, half diagonal)^2
+
+with d the distance from P to the box's centre, theta_u the half-angle of the cone from P around
+the centre that holds the box, theta_i' = max(theta_i - theta_u, 0) (theta_i: between N and the
+centre; cos 1 where N is unknown: transmission, volumes) and theta' = max(theta - theta_o - theta_u, 0)
+(theta: between the cone's axis and the direction from the centre to P), 0 beyond theta_e. It is 0
+only where no triangle of the node can light P (all of it below P's horizon, or all of it facing away),
+so every triangle that can contribute keeps a probability > 0: the estimate stays unbiased. Where both
+children have importance 0 the walk goes by power. The distance is clamped to half the box's diagonal,
+so that the importance stays finite near and inside the box.
+
+Leaves hold one triangle each. The tree is flat arrays, the same for Python and C (emitters.c):
+nodes (k, NODE_FIELDS) float64, rows [lo (3), hi (3), axis (3), theta_o, theta_e, energy, left, right,
+cos theta_o, sin theta_o, cos theta_e] (the importance works in cosines: no trigonometry per step);
+an inner node's children are rows left and right; a leaf has left = -1 - its triangle, right = -1.
+Each triangle's path from the root is `depth` steps, bit l of `path` the side (1: right) at step l, so
+that `pick_probability` (the MIS pdf of a BSDF ray that hits the triangle) multiplies the same branch
+probabilities in the same order as `pick`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT, COS_O, SIN_O, COS_E = 0, 3, 6, 9, 10, 11, 12, 13, 14, 15, 16
+NODE_FIELDS = 17
+# Past this depth the build splits at the median (balanced), so that paths fit in 62 bits.
+MEDIAN_DEPTH = 40
+MAX_DEPTH = 62
+
+
+@dataclass
+class LightTree:
+    """The tree over t triangles.
+
+    nodes: (k, NODE_FIELDS) float64 the nodes, root first (module docstring)
+    path:  (t,) int64 each triangle's branch bits from the root (bit l: 1 = right at step l)
+    depth: (t,) int64 each triangle's number of steps from the root to its leaf
+    """
+
+    nodes: np.ndarray
+    path: np.ndarray
+    depth: np.ndarray
+
+    @property
+    def max_depth(self) -> int:
+        return int(self.depth.max()) if len(self.depth) else 0
+
+    @classmethod
+    def build(cls, corners: np.ndarray, normal: np.ndarray, power: np.ndarray, sides: np.ndarray) -> "LightTree":
+        """The tree over triangles: corners (t, 3, 3), unit front normals (t, 3), power (t,), sides (t,) int
+        (FRONT 1 | BACK 2): each node split at the middle of the longest axis of its centroids' bounds (at
+        the median where that leaves a side empty, or past MEDIAN_DEPTH). Built a level at a time, every
+        node of the level at once; the rows are in level order, so parents come before their children."""
+        t = len(power)
+        centroid = corners.mean(axis=1)
+        axis_t = np.where((sides == 2)[:, None], -normal, normal)
+        nodes = np.zeros((2 * t - 1, NODE_FIELDS))
+        path, depth = np.zeros(t, np.int64), np.zeros(t, np.int64)
+        order = np.arange(t)                     # the triangles, each node's a contiguous run start .. end
+        start, end, row = np.array([0]), np.array([t]), np.array([0])
+        count, level, inner_levels = 1, 0, []
+        while len(row):
+            # 1. Nodes of one triangle are leaves.
+            leaf = end - start == 1
+            i = order[start[leaf]]
+            leaves = nodes[row[leaf]]
+            leaves[:, LO:LO + 3], leaves[:, HI:HI + 3] = corners[i].min(axis=1), corners[i].max(axis=1)
+            leaves[:, AXIS:AXIS + 3] = axis_t[i]
+            leaves[:, THETA_O], leaves[:, THETA_E] = np.where(sides[i] == 3, math.pi, 0.0), 0.5 * math.pi
+            leaves[:, ENERGY], leaves[:, LEFT], leaves[:, RIGHT] = power[i], -1 - i, -1
+            nodes[row[leaf]] = leaves
+            depth[i] = level
+            s, e, parents = start[~leaf], end[~leaf], row[~leaf]
+            if not len(s):
+                break
+            # 2. The others split: their members, segment by segment.
+            length = e - s
+            offset = np.cumsum(length) - length
+            segment = np.repeat(np.arange(len(s)), length)
+            position = np.arange(length.sum()) - offset[segment] + s[segment]
+            members = order[position]
+            c = centroid[members]
+            low, high = np.minimum.reduceat(c, offset), np.maximum.reduceat(c, offset)
+            k = np.argmax(high - low, axis=1)
+            key = c[np.arange(len(c)), k[segment]]
+            middle = 0.5 * (high[np.arange(len(s)), k] + low[np.arange(len(s)), k])
+            goes_left = key < middle[segment]
+            n_left = np.add.reduceat(goes_left.astype(np.int64), offset)
+            median = (n_left == 0) | (n_left == length) | (level >= MEDIAN_DEPTH)
+            if median.any():
+                by_key = np.lexsort((key, segment))
+                rank = np.empty(len(c), np.int64)
+                rank[by_key] = np.arange(len(c)) - offset[segment[by_key]]
+                goes_left = np.where(median[segment], rank < (length // 2)[segment], goes_left)
+                n_left = np.where(median, length // 2, n_left)
+            order[position] = members[np.lexsort((~goes_left, segment))]     # left ones first, stable
+            path[members[~goes_left]] |= 1 << level
+            left = count + 2 * np.arange(len(s))
+            count += 2 * len(s)
+            nodes[parents, LEFT], nodes[parents, RIGHT] = left, left + 1
+            inner_levels.append((parents, left, left + 1))
+            start, end = np.concatenate([s, s + n_left]), np.concatenate([s + n_left, e])
+            row = np.concatenate([left, left + 1])
+            level += 1
+        # 3. The inner nodes from the deepest level up: bounds, cone, power of their two children.
+        for parents, left, right in reversed(inner_levels):
+            a, b = nodes[left], nodes[right]
+            nodes[parents, LO:LO + 3] = np.minimum(a[:, LO:LO + 3], b[:, LO:LO + 3])
+            nodes[parents, HI:HI + 3] = np.maximum(a[:, HI:HI + 3], b[:, HI:HI + 3])
+            nodes[parents, AXIS:AXIS + 3], nodes[parents, THETA_O] = cone_union(
+                a[:, AXIS:AXIS + 3], a[:, THETA_O], b[:, AXIS:AXIS + 3], b[:, THETA_O])
+            nodes[parents, THETA_E] = np.maximum(a[:, THETA_E], b[:, THETA_E])
+            nodes[parents, ENERGY] = a[:, ENERGY] + b[:, ENERGY]
+        if depth.max() > MAX_DEPTH:
+            raise ValueError("light tree deeper than its path bits")
+        return cls(with_cosines(nodes), path, depth)
+
+    def by_power(self) -> "LightTree":
+        """The same tree weighing nothing but power (every node the same huge box, facing everywhere): it picks
+        each triangle in proportion to its power wherever the point is, as the global power CDF did before the
+        tree (for the comparison in bench/light_tree.py)."""
+        nodes = self.nodes.copy()
+        nodes[:, LO:LO + 3], nodes[:, HI:HI + 3] = -1e30, 1e30
+        nodes[:, THETA_O] = math.pi
+        return LightTree(with_cosines(nodes), self.path, self.depth)
+
+    def branch_left(self, P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
+        """The probability of going to the left child of inner nodes `node` (m,) int64 from points P (m, 3)
+        with normals N (m, 3) (zero rows: unknown): by importance, by power where both are 0. (m,) float64"""
+        left = self.nodes[node, LEFT].astype(np.int64)
+        right = self.nodes[node, RIGHT].astype(np.int64)
+        I_left = importance(P, N, self.nodes[left])
+        I_right = importance(P, N, self.nodes[right])
+        total = I_left + I_right
+        E_left, E_right = self.nodes[left, ENERGY], self.nodes[right, ENERGY]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            by_importance = I_left / total
+            by_power = E_left / (E_left + E_right)
+        return np.where(total > 0.0, by_importance, by_power)
+
+    def pick(self, P: np.ndarray, N: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One triangle per point, walking down with u (m,) in [0, 1): (index (m,) int64, probability (m,))."""
+        m = len(P)
+        node, u = np.zeros(m, np.int64), u.astype(np.float64).copy()
+        probability = np.ones(m)
+        for _ in range(self.max_depth):
+            inner_rows = np.flatnonzero(self.nodes[node, RIGHT] >= 0)
+            if not len(inner_rows):
+                break
+            at = node[inner_rows]
+            p_left = self.branch_left(P[inner_rows], N[inner_rows], at)
+            x = u[inner_rows]
+            goes_left = x < p_left
+            probability[inner_rows] *= np.where(goes_left, p_left, 1.0 - p_left)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                x = np.where(goes_left, x / p_left, (x - p_left) / (1.0 - p_left))
+            u[inner_rows] = np.minimum(np.maximum(x, 0.0), 1.0 - 2.0 ** -53)
+            node[inner_rows] = np.where(goes_left, self.nodes[at, LEFT], self.nodes[at, RIGHT]).astype(np.int64)
+        return (-1 - self.nodes[node, LEFT]).astype(np.int64), probability
+
+    def pick_probability(self, P: np.ndarray, N: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """The probability that `pick` from P (m, 3), N (m, 3) chooses triangle `index` (m,) int64: (m,) float64,
+        the same products in the same order."""
+        m = len(P)
+        node = np.zeros(m, np.int64)
+        probability = np.ones(m)
+        path, depth = self.path[index], self.depth[index]
+        for level in range(self.max_depth):
+            rows = np.flatnonzero(depth > level)
+            if not len(rows):
+                break
+            at = node[rows]
+            p_left = self.branch_left(P[rows], N[rows], at)
+            goes_right = ((path[rows] >> level) & 1) == 1
+            probability[rows] *= np.where(goes_right, 1.0 - p_left, p_left)
+            node[rows] = np.where(goes_right, self.nodes[at, RIGHT], self.nodes[at, LEFT]).astype(np.int64)
+        return probability
+
+
+def with_cosines(nodes: np.ndarray) -> np.ndarray:
+    """The nodes (k, NODE_FIELDS) with their cos theta_o, sin theta_o and cos theta_e filled in from the angles."""
+    nodes[:, COS_O], nodes[:, SIN_O] = np.cos(nodes[:, THETA_O]), np.sin(nodes[:, THETA_O])
+    nodes[:, COS_E] = np.cos(nodes[:, THETA_E])
+    return nodes
+
+
+def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
+    """The importance of nodes (m, NODE_FIELDS) seen from P (m, 3) with normals N (m, 3) (zero: unknown):
+    (m,) float64, the bound of the module docstring; 0 only where nothing of the node can light P.
+
+    In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi] (sines >= 0)."""
+    lo, hi = node[:, LO:LO + 3], node[:, HI:HI + 3]
+    v = 0.5 * (lo + hi) - P
+    d = np.sqrt(np.einsum("ij,ij->i", v, v))
+    diagonal = hi - lo
+    half = 0.5 * np.sqrt(np.einsum("ij,ij->i", diagonal, diagonal))
+    inside_box = np.all((P >= lo) & (P <= hi), axis=1) | (d <= 0.0)
+    # theta_u: the half-angle around the direction w to the centre that holds the box's corners.
+    # cos^2 of each corner's angle where all lie in front (else the cone passes a hemisphere).
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = v / d[:, None]
+        cos2_u = np.ones(len(P))
+        behind = np.zeros(len(P), bool)
+        for corner in range(8):
+            to_corner = np.stack([np.where((corner >> c) & 1, hi[:, c], lo[:, c]) for c in range(3)], axis=1) - P
+            along = np.einsum("ij,ij->i", w, to_corner)
+            behind |= ~(along > 0.0)
+            cos2_u = np.minimum(cos2_u, along * along / np.einsum("ij,ij->i", to_corner, to_corner))
+    everywhere = inside_box | behind
+    cos_u = np.sqrt(np.minimum(cos2_u, 1.0))
+    sin_u = np.sqrt(np.maximum(1.0 - cos2_u, 0.0))
+    # The receiver: cos(max(theta_i - theta_u, 0)), at least 0; 1 where N is unknown.
+    cos_i = np.einsum("ij,ij->i", N, w)
+    sin_i = np.sqrt(np.maximum(1.0 - cos_i * cos_i, 0.0))
+    known_normal = np.einsum("ij,ij->i", N, N) > 0.0
+    cos_incidence = np.where(~known_normal | (cos_i >= cos_u), 1.0, np.maximum(cos_i * cos_u + sin_i * sin_u, 0.0))
+    # The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0.
+    cos_t = -np.einsum("ij,ij->i", node[:, AXIS:AXIS + 3], w)
+    sin_t = np.sqrt(np.maximum(1.0 - cos_t * cos_t, 0.0))
+    cos_1 = cos_t * cos_u + sin_t * sin_u                       # cos(theta - theta_u), where theta > theta_u
+    sin_1 = np.maximum(sin_t * cos_u - cos_t * sin_u, 0.0)
+    cos_2 = cos_1 * node[:, COS_O] + sin_1 * node[:, SIN_O]     # cos(theta - theta_u - theta_o)
+    cos_outgoing = np.where((cos_t >= cos_u) | (cos_1 >= node[:, COS_O]), 1.0,
+                            np.where(cos_2 > node[:, COS_E], np.maximum(cos_2, 0.0), 0.0))
+    distance = np.maximum(d, half)
+    scale = node[:, ENERGY] / (distance * distance)
+    return scale * np.where(everywhere, 1.0, cos_incidence * cos_outgoing)
+
+
+def cone_union(a: np.ndarray, theta_a: np.ndarray, b: np.ndarray, theta_b: np.ndarray):
+    """The narrowest cones around pairs of orientation cones: unit axes a, b (m, 3), half-angles (m,) ->
+    (axis (m, 3), theta_o (m,)) float64."""
+    swap = theta_b > theta_a
+    a, b = np.where(swap[:, None], b, a), np.where(swap[:, None], a, b)
+    theta_a, theta_b = np.where(swap, theta_b, theta_a), np.where(swap, theta_a, theta_b)
+    cos_d = np.einsum("ij,ij->i", a, b)
+    theta_d = np.arccos(np.clip(cos_d, -1.0, 1.0))
+    theta_o = 0.5 * (theta_a + theta_d + theta_b)
+    perpendicular = b - cos_d[:, None] * a
+    length = np.sqrt(np.einsum("ij,ij->i", perpendicular, perpendicular))
+    turn = theta_o - theta_a                                    # turn a towards b by this much
+    with np.errstate(divide="ignore", invalid="ignore"):
+        turned = np.cos(turn)[:, None] * a + np.sin(turn)[:, None] * (perpendicular / length[:, None])
+        turned = turned / np.sqrt(np.einsum("ij,ij->i", turned, turned))[:, None]
+    inside = np.minimum(theta_d + theta_b, math.pi) <= theta_a   # b lies inside a
+    everywhere = ~inside & ((theta_o >= math.pi) | (length < 1e-12))   # (opposite axes: no plane to turn in)
+    axis = np.where((inside | everywhere)[:, None], a, turned)
+    return axis, np.where(inside, theta_a, np.where(everywhere, math.pi, theta_o))

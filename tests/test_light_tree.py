@@ -1,0 +1,252 @@
+"""The light tree that picks an emissive triangle for a shading point (core/lights/light_tree.py, emitters.c).
+
+The pick probabilities of all triangles sum to one wherever the point is; a triangle that can light the
+point is never left out (the estimate stays unbiased); sampling follows the probabilities; a BSDF ray's
+MIS pdf (pdf_of_hits) is the probability the sample gave; C picks what Python picks; and the irradiance
+many emitters give a point converges to Lambert's closed form for polygons.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core.lights import MeshEmitters
+from core.lights.light_tree import LEFT, RIGHT
+from core.native import library
+
+
+def scattered_emitters(count: int, seed: int, sides=None) -> MeshEmitters:
+    """`count` small triangles of random power and orientation spread over a 4 m box."""
+    rng = np.random.default_rng(seed)
+    corners = rng.random((count, 1, 3)) * 4.0 + rng.normal(size=(count, 3, 3)) * 0.1
+    emission = rng.random((count, 3)) ** 3 * 10.0
+    sides = rng.integers(1, 4, count) if sides is None else np.full(count, sides)
+    return MeshEmitters.of(corners, emission, sides.astype(np.int32), np.arange(count) * 3)
+
+
+def random_receivers(n: int, seed: int, unknown: float = 0.25):
+    """Points (n, 3) in and around the emitters' box, unit normals (n, 3), a share of them unknown (zero)."""
+    rng = np.random.default_rng(seed)
+    P = rng.random((n, 3)) * 6.0 - 1.0
+    N = rng.normal(size=(n, 3))
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    N[rng.random(n) < unknown] = 0.0
+    return P, N
+
+
+def all_pick_probabilities(emitters: MeshEmitters, P: np.ndarray, N: np.ndarray) -> np.ndarray:
+    """Every triangle's pick probability from each point, by enumerating the tree's branches: (n, t)."""
+    tree = emitters.tree
+    node_probability = np.zeros((len(P), len(tree.nodes)))
+    node_probability[:, 0] = 1.0
+    leaf_probability = np.zeros((len(P), len(emitters.prim)))
+    for row in range(len(tree.nodes)):                   # parents come before their children
+        left, right = int(tree.nodes[row, LEFT]), int(tree.nodes[row, RIGHT])
+        if right < 0:
+            leaf_probability[:, -1 - left] = node_probability[:, row]
+            continue
+        p_left = tree.branch_left(P, N, np.full(len(P), row))
+        node_probability[:, left] = node_probability[:, row] * p_left
+        node_probability[:, right] = node_probability[:, row] * (1.0 - p_left)
+    return leaf_probability
+
+
+def test_every_node_bounds_its_triangles_and_their_orientations():
+    """Each node's box holds the corners of every triangle below it, its power is theirs summed, and its
+    orientation cone holds each one's sampled-side normal (theta_o = pi above a two-sided triangle)."""
+    emitters = scattered_emitters(400, 19)
+    tree = emitters.tree
+    assert len(tree.nodes) == 2 * 400 - 1
+    power = emitters.area * emitters.emission.mean(axis=1)
+    axis = np.where((emitters.sides == 2)[:, None], -emitters.normal, emitters.normal)
+    energy = np.zeros(len(tree.nodes))
+    for i in range(400):
+        node = 0
+        for level in range(tree.depth[i] + 1):
+            row = tree.nodes[node]
+            assert (emitters.corners[i] >= row[0:3]).all() and (emitters.corners[i] <= row[3:6]).all()
+            angle = math.acos(min(max(float(row[6:9] @ axis[i]), -1.0), 1.0))
+            assert angle <= row[9] + 1e-6 and (emitters.sides[i] != 3 or row[9] == math.pi)
+            energy[node] += power[i]
+            if level < tree.depth[i]:
+                node = int(row[RIGHT] if (tree.path[i] >> level) & 1 else row[LEFT])
+        assert row[RIGHT] == -1 and -1 - row[LEFT] == i
+    np.testing.assert_allclose(tree.nodes[:, 11], energy, rtol=1e-12)
+
+
+def test_pick_probabilities_of_all_triangles_sum_to_one():
+    """Whatever the point and normal (known or not, inside the emitters' boxes or far away), the
+    probabilities of the tree's leaves sum to one, and the path walk gives each leaf's."""
+    emitters = scattered_emitters(300, 1)
+    P, N = random_receivers(200, 2)
+    probability = all_pick_probabilities(emitters, P, N)
+    np.testing.assert_allclose(probability.sum(axis=1), 1.0, rtol=1e-12)
+    rows = np.repeat(np.arange(len(P)), 5)
+    index = np.random.default_rng(3).integers(0, 300, len(rows))
+    np.testing.assert_allclose(emitters.pick_probability(P[rows], index, N[rows]), probability[rows, index],
+                               rtol=1e-12)
+
+
+def test_every_triangle_that_can_light_a_point_may_be_picked():
+    """Unbiasedness: a triangle with some point above the receiver's horizon, seen from its sampled side,
+    has a pick probability > 0 (the importance never rules out a node that could light the point)."""
+    emitters = scattered_emitters(200, 4)
+    P, N = random_receivers(150, 5)
+    probability = all_pick_probabilities(emitters, P, N)
+    rng = np.random.default_rng(6)
+    ab = rng.random((64, 2))
+    ab = np.where(ab.sum(axis=1, keepdims=True) > 1.0, 1.0 - ab, ab)
+    V = emitters.corners
+    X = (V[:, None, 0] + ab[None, :, :1] * (V[:, None, 1] - V[:, None, 0])
+         + ab[None, :, 1:] * (V[:, None, 2] - V[:, None, 0]))
+    X = np.concatenate([X, V], axis=1)                                    # (t, 67, 3) points on each triangle
+    to_X = X[None] - P[:, None, None]                                     # (n, t, 67, 3)
+    above = (np.einsum("nk,ntsk->nts", N, to_X) > 1e-9) | (np.einsum("nk,nk->n", N, N) == 0.0)[:, None, None]
+    height = np.einsum("tk,ntk->nt", emitters.normal, V[None, :, 0] - P[:, None])
+    side = np.where(height > 0.0, 2, 1)
+    sampled_side = (emitters.sides[None] & side) != 0
+    can_light = above.any(axis=2) & sampled_side & (np.abs(height) > 1e-9)
+    assert can_light.sum() > 1000
+    assert (probability[can_light] > 0.0).all()
+    assert (probability[~can_light] == 0.0).mean() > 0.2          # and the tree does leave out what cannot
+
+
+def test_sampling_follows_the_pick_probabilities():
+    """From one point, 40,000 walks down the tree land on each triangle as often as its probability says
+    (within 5 standard deviations of the binomial count)."""
+    emitters = scattered_emitters(60, 7)
+    n = 40_000
+    P = np.tile([1.0, 2.0, 0.5], (n, 1))
+    N = np.tile([0.0, 0.6, 0.8], (n, 1))
+    index, probability = emitters.tree.pick(P, N, np.random.default_rng(8).random(n))
+    expected = all_pick_probabilities(emitters, P[:1], N[:1])[0]
+    counts = np.bincount(index, minlength=60)
+    sigma = np.sqrt(n * expected * (1.0 - expected))
+    assert (np.abs(counts - n * expected) <= 5.0 * sigma + 1.0).all()
+    np.testing.assert_allclose(probability, expected[index], rtol=1e-12)
+
+
+def test_a_bsdf_ray_that_hits_an_emitter_gets_the_pdf_the_light_sample_gave():
+    """pdf_of_hits (MIS of BSDF rays) equals the pdf `sample` gave the same direction: the same pick
+    probability from the same point and normal, times the same direction pdf."""
+    emitters = scattered_emitters(120, 9)
+    P, N = random_receivers(4000, 10)
+    u = np.random.default_rng(11).random((4000, 3))
+    sample = emitters.sample(P, u, N=N)
+    index, pick = emitters.tree.pick(P, N, u[:, 2])
+    np.testing.assert_array_equal(emitters.pick_probability(P, index, N), pick)
+    found = sample.pdf > 0.0
+    pdf = emitters.pdf_of_hits(P[found], index[found], sample.L[found], sample.distance[found], N=N[found])
+    np.testing.assert_allclose(pdf, sample.pdf[found], rtol=1e-5)   # (two formulas of the solid angle)
+
+
+def test_one_emissive_triangle_is_a_single_leaf_picked_always():
+    """With one triangle the tree is one leaf, picked with probability 1."""
+    emitters = MeshEmitters.of(np.array([[[0.0, 0, 1], [1, 0, 1], [0, 1, 1]]]), np.ones((1, 3)),
+                               np.array([1], np.int32), np.array([0]))
+    assert len(emitters.tree.nodes) == 1
+    P, N = random_receivers(10, 12)
+    index, probability = emitters.tree.pick(P, N, np.linspace(0.0, 0.99, 10))
+    assert (index == 0).all() and (probability == 1.0).all()
+
+
+def lambert_irradiance(P: np.ndarray, N: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """The irradiance per unit radiance a triangle V (t, 3, 3) wholly above the horizon gives point P (3,)
+    with normal N (3,): Lambert's polygon formula |sum_k Theta_k (Gamma_k . N)| / 2. (t,) float64"""
+    r = V - P
+    r = r / np.linalg.norm(r, axis=2, keepdims=True)
+    total = np.zeros(len(V))
+    for k in range(3):
+        a, b = r[:, k], r[:, (k + 1) % 3]
+        theta = np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0))
+        gamma = np.cross(a, b)
+        gamma /= np.linalg.norm(gamma, axis=1, keepdims=True)
+        total += theta * (gamma @ N)
+    return 0.5 * np.abs(total)
+
+
+@pytest.mark.parametrize("known_normal", [True, False])
+def test_many_emitters_light_a_point_by_lamberts_formula(known_normal):
+    """300 emitters over a point whose horizon they are all above: the mean of the light samples'
+    L_e cos / pdf converges to the sum of the triangles' L_e x Lambert's polygon irradiance."""
+    emitters = scattered_emitters(300, 13, sides=3)
+    point, normal = np.array([2.0, 2.0, -1.5]), np.array([0.0, 0.0, 1.0])
+    assert (emitters.corners[..., 2] > point[2]).all()
+    n = 40_000
+    P = np.tile(point, (n, 1))
+    N = np.tile(normal, (n, 1)) if known_normal else None
+    sample = emitters.sample(P, np.random.default_rng(14).random((n, 3)), N=N)
+    estimate = (sample.strength[:, None] * sample.color * np.maximum(sample.L @ normal, 0.0)[:, None]).mean(axis=0)
+    exact = (emitters.emission * lambert_irradiance(point, normal, emitters.corners)[:, None]).sum(axis=0)
+    np.testing.assert_allclose(estimate, exact, rtol=0.02)
+
+
+@pytest.mark.skipif(not library.available(), reason="compiled kernels unavailable")
+def test_compiled_light_tree_picks_what_the_python_picks():
+    """emitters.c walks the same tree: the same triangle for the same number, the same probabilities,
+    and the same pick probability along a triangle's path (pdf_of_hits)."""
+    from core.lights.emitters import compiled_pick, compiled_pick_probability
+    emitters = scattered_emitters(500, 15)
+    P, N = random_receivers(5000, 16)
+    u = np.random.default_rng(17).random(5000)
+    index, probability = emitters.tree.pick(P, N, u)
+    found, found_probability = compiled_pick(emitters, P, N, u)
+    same = found == index
+    assert same.mean() > 0.999
+    np.testing.assert_allclose(found_probability[same], probability[same], rtol=1e-9)
+    np.testing.assert_allclose(compiled_pick_probability(emitters, P, N, index), probability, rtol=1e-9)
+
+
+def small_emitters_over_floor(count: int, height: float, albedo: float, seed: int):
+    """A floor of albedo `albedo` under `count` small triangles in the plane z = height, some facing down,
+    some up, of six radiances, the three dimmest sampled from their front only; the camera sees a tiny
+    patch of the floor at the origin. (Scene, corners, radiance per triangle, whether light samples reach
+    each from the floor)"""
+    from conftest import ortho_down
+    from core.geometry import primitives
+    from core.scene import Material, Mesh, Scene
+    rng = np.random.default_rng(seed)
+    scene = Scene(camera=ortho_down(center=(0.0, 0.0, 0.0), height=0.5 * height, scale=0.02))
+    floor = scene.add_material((albedo,) * 3)
+    scene.add_mesh(primitives.plane(40.0), materials=np.array([floor]))
+    radiances = np.geomspace(0.3, 30.0, 6)
+    lamps = []
+    for k, radiance in enumerate(radiances):
+        scene.materials.append(Material(np.zeros(3), f"Lamp {k}", emission=np.full(3, radiance),
+                                        emission_sampling="FRONT" if k < 3 else "FRONT_BACK"))
+        lamps.append(len(scene.materials) - 1)
+    centre = np.column_stack([rng.uniform(-2.0, 2.0, (count, 2)), np.full(count, height)])
+    angle = rng.uniform(0.0, 2.0 * math.pi, count)[:, None] + np.array([0.0, 2.0, 4.0]) * math.pi / 3.0
+    turn = np.where(rng.random(count) < 0.5, 1.0, -1.0)[:, None]            # counter-clockwise: facing up
+    corners = np.stack([centre[:, None, 0] + 0.15 * np.cos(turn * angle),
+                        centre[:, None, 1] + 0.15 * np.sin(turn * angle), np.repeat(centre[:, 2:], 3, axis=1)], axis=2)
+    which = rng.integers(0, 6, count)
+    scene.add_mesh(Mesh(corners.reshape(-1, 3), np.arange(3 * count).reshape(-1, 3), material_indices=which),
+                   materials=np.array(lamps))
+    sampled_from_below = (which >= 3) | (turn[:, 0] < 0.0)
+    return scene, corners, radiances[which], sampled_from_below
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+@pytest.mark.parametrize("strategy", ["mis", "light"])
+def test_a_floor_under_many_emitters_shows_the_sum_of_their_form_factors(strategy, kernels):
+    """Under 60 small emitters in one plane (no one shadows another), a Lambert floor of albedo rho shows
+    rho / pi x sum_i L_i E_i, E_i Lambert's polygon irradiance of triangle i: MIS, whose BSDF rays ask the
+    tree for the pick probability the light samples gave, converges to it; light samples alone to the sum
+    over the triangles sampled from below (the tree leaves out the front-only ones facing up, and only them)."""
+    if kernels == "compiled" and not library.available():
+        pytest.skip("compiled kernels unavailable")
+    from core import render
+    from core.scene import RenderSettings
+    height, rho = 1.0, 0.5
+    scene, corners, radiance, sampled = small_emitters_over_floor(60, height, rho, 18)
+    settings = RenderSettings(width=2, height=2, samples=1024, light_samples=4, light_sampling=strategy,
+                              kernels=kernels, adaptive=False)
+    image = render.render(scene, settings).image
+    E = lambert_irradiance(np.zeros(3), np.array([0.0, 0.0, 1.0]), corners)
+    counted = np.ones(60, bool) if strategy == "mis" else sampled
+    assert 0 < counted.sum() < 60 or strategy == "mis"
+    expected = rho / math.pi * (radiance * E)[counted].sum()
+    assert image[..., :3].mean() == pytest.approx(expected, rel=0.015)
