@@ -15,7 +15,7 @@ enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, B
 #define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
 /* The closures a caustics filter takes away at a hit that a diffuse bounce's ray reached (closures.FILTER_*). */
 enum { FILTER_REFLECTIVE = 1, FILTER_REFRACTIVE = 2 };
-#define CLOSURE_PARAMS 32       /* closures.PARAMS */
+#define CLOSURE_PARAMS 40       /* closures.PARAMS */
 
 /* One closure at a hit: a BSDF of the table, its weight, its sampling weight, its normal, and its
  * CLOSURE_PARAMS parameters: a constant material's row (no copy per hit), or a row of the hit's own

@@ -17,7 +17,7 @@ from .base import BsdfSample
 
 # At most this many closures per hit, and this many parameter floats per closure (closures.h).
 MAX_CLOSURES = 8
-PARAMS = 32
+PARAMS = 40
 # A closure whose sampling weight falls below this is dropped (Cycles' CLOSURE_WEIGHT_CUTOFF).
 WEIGHT_CUTOFF = 1e-5
 # What a hit's shading may leave out (Cycles' caustics switches, Light Paths > Caustics): the bits of a hit's

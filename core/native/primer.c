@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 24
+#define PRIMER_ABI 28
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
