@@ -121,7 +121,7 @@ def test_equal_alphas_give_the_isotropic_closure_bit_for_bit():
         np.testing.assert_array_equal(a, b)
     for name, zero in (("PRINCIPLED", {"metallic": 0.5, "anisotropic": 0.0, "anisotropic_rotation": 0.3}),
                        ("GLOSSY", {"anisotropy": 0.0, "rotation": 0.3})):
-        plain = nodes.shade_nodes([(nodes.NODE_BY_NAME[name], np.ones(3), nodes.NODE_BY_NAME[name].row({}))], N, wo)
+        plain = nodes.shade_nodes([(nodes.NODE_BY_NAME[name], np.ones(3), nodes.NODE_BY_NAME[name].row(zero))], N, wo)
         row = nodes.NODE_BY_NAME[name].row(dict(zero, tangent=(1.0, 0.0, 0.0)))
         same = nodes.shade_nodes([(nodes.NODE_BY_NAME[name], np.ones(3), row)], N, wo)
         for a, b in zip(plain.closures, same.closures):
@@ -229,7 +229,9 @@ def test_c_evaluates_and_samples_anisotropic_ggx_as_python_does():
     np.testing.assert_allclose(f_cos, expected_f, rtol=1e-12, atol=0)
     np.testing.assert_allclose(pdf, expected_pdf, rtol=1e-12, atol=0)
     np.testing.assert_allclose(sampled.wi, expected.wi, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(sampled.weight, expected.weight, rtol=1e-6, atol=1e-12)
+    # The weight inherits the sampled direction's float32 azimuth cosine (as the isotropic lobe's does); narrow,
+    # stretched lobes seen near grazing steepen it: 1e-5 relative.
+    np.testing.assert_allclose(sampled.weight, expected.weight, rtol=1e-5, atol=1e-12)
     np.testing.assert_allclose(sampled.pdf, expected.pdf, rtol=1e-6, atol=1e-9)
 
 
