@@ -52,6 +52,9 @@ def sphere(name: str, location, material):
     obj.name = name
     bpy.ops.object.shade_smooth()
     obj.data.materials.append(material)
+    # Primer's Shadow Terminator Fix is off: Cycles' shadow rays not lifted either, to compare like with like.
+    owner = obj if hasattr(obj, "shadow_terminator_geometry_offset") else obj.cycles
+    owner.shadow_terminator_geometry_offset = 0.0
     return obj
 
 
