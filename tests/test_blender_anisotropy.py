@@ -28,8 +28,9 @@ def primer():
     return load_primer()
 
 
-def node_material(name: str, kind: str, settings: dict):
-    """A material of one BSDF node `kind` with `settings` (socket name -> value) at the output."""
+def node_material(name: str, kind: str, settings: dict, tangent=None):
+    """A material of one BSDF node `kind` with `settings` (socket name -> value) at the output; tangent: None
+    (Cycles' default), or a Tangent node's (direction, axis) feeding the BSDF's Tangent."""
     material = bpy.data.materials.new(name)
     if material.node_tree is None:
         material.use_nodes = True
@@ -42,6 +43,10 @@ def node_material(name: str, kind: str, settings: dict):
     for socket, value in settings.items():
         bsdf.inputs[socket].default_value = value
     tree.links.new(bsdf.outputs[0], output.inputs["Surface"])
+    if tangent is not None:
+        node = tree.nodes.new("ShaderNodeTangent")
+        node.direction_type, node.axis = tangent
+        tree.links.new(node.outputs["Tangent"], bsdf.inputs["Tangent"])
     return material
 
 
@@ -58,16 +63,20 @@ def sphere(name: str, location, material):
     return obj
 
 
-def brushed_scene(anisotropic: float = 0.8):
-    """Two anisotropic spheres under a point light, seen from the front; 64 x 48."""
+def brushed_scene(anisotropic: float = 0.8, tangents: bool = False):
+    """Two anisotropic spheres under a point light, seen from the front; 64 x 48. tangents: the Principled's
+    tangent from a Tangent node Radial about X, the Glossy's from a Tangent node on the UV map (else Cycles'
+    default, Radial about Z)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 64, 48
     scene.render.resolution_percentage = 100
     sphere("Principled", (-1.15, 0.0, 0.0), node_material("Brushed metal", "ShaderNodeBsdfPrincipled", {
-        "Base Color": (0.9, 0.7, 0.5, 1.0), "Metallic": 1.0, "Roughness": 0.3, "Anisotropic": anisotropic}))
+        "Base Color": (0.9, 0.7, 0.5, 1.0), "Metallic": 1.0, "Roughness": 0.3, "Anisotropic": anisotropic},
+        ("RADIAL", "X") if tangents else None))
     sphere("Glossy", (1.15, 0.0, 0.0), node_material("Brushed glossy", "ShaderNodeBsdfGlossy", {
-        "Color": (0.6, 0.8, 0.9, 1.0), "Roughness": 0.4, "Anisotropy": 0.7 * anisotropic / 0.8, "Rotation": 0.125}))
+        "Color": (0.6, 0.8, 0.9, 1.0), "Roughness": 0.4, "Anisotropy": 0.7 * anisotropic / 0.8, "Rotation": 0.125},
+        ("UV_MAP", "Z") if tangents else None))
     light = bpy.data.objects.new("Point", bpy.data.lights.new("Point", "POINT"))
     light.data.energy, light.data.shadow_soft_size = 800.0, 0.25
     light.location = (1.0, -4.0, 3.0)
@@ -91,15 +100,16 @@ def render(scene, engine: str, samples: int, path: str) -> np.ndarray:
     return render_image(scene, path)[..., :3]
 
 
-def test_anisotropic_principled_and_glossy_match_cycles_within_its_noise(primer, tmp_path):
+@pytest.mark.parametrize("tangents", [False, True], ids=["default_tangent", "tangent_nodes"])
+def test_anisotropic_principled_and_glossy_match_cycles_within_its_noise(primer, tmp_path, tangents):
     """Primer (256 samples) against Cycles (512): the error is within a few times Cycles' own 256-vs-512 noise,
     with no anisotropy warning; the isotropic render is far off (the test sees the stretched highlight)."""
-    scene = brushed_scene()
+    scene = brushed_scene(tangents=tangents)
     cycles = render(scene, "CYCLES", 512, str(tmp_path / "cycles512.exr"))
     cycles_256 = render(scene, "CYCLES", 256, str(tmp_path / "cycles256.exr"))
     mine = render(scene, "PRIMER", 256, str(tmp_path / "primer.exr"))
     warnings = addon(primer, "engine").last_render.warnings
-    assert not any("isotropic" in w or "Anisotrop" in w for w in warnings), warnings
+    assert not any("isotropic" in w or "Anisotrop" in w or "Tangent" in w for w in warnings), warnings
     baseline = relative_mse_of_blocks(cycles_256, cycles)
     error = relative_mse_of_blocks(mine, cycles)
     isotropic = render(brushed_scene(0.0), "PRIMER", 256, str(tmp_path / "isotropic.exr"))

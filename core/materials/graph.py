@@ -6,7 +6,7 @@ into it (addon/materials.py exports it, groups flattened and reroutes skipped). 
 material's sub-graphs are compiled once into a `Program`, as Cycles' SVM compiles node trees: a list
 of ops on numbered registers. Registers 0 .. c - 1 hold the program's constants; every op reads
 registers and writes new ones. Its `outputs` say which registers overwrite which shader node's
-inputs (a slot of its row of PARAMS floats, core/materials/nodes.py), which multiply its weight (a
+inputs (a slot of its row of NODE_PARAMS floats, core/materials/nodes.py), which multiply its weight (a
 Mix Shader's factor, a Diffuse BSDF's colour) and which replace its normal (Normal Map, Bump).
 
 At a hit the program reads a `ShadingPoint`: the mesh attributes the materials use (UV maps, colour
@@ -860,7 +860,7 @@ def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, sp:
 
 
 def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, normals: list) -> None:
-    """Overwrite the shader nodes' per-hit weights (n, 3), rows (n, PARAMS) and normals ((n, 3) or None)
+    """Overwrite the shader nodes' per-hit weights (n, 3), rows (n, NODE_PARAMS) and normals ((n, 3) or None)
     with the program's outputs (lists indexed by shader node, changed in place)."""
     for kind, node, slot, width, register in program.outputs.astype(np.int64):
         value = reg[:, register:register + width]

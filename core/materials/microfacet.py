@@ -145,10 +145,15 @@ def is_anisotropic(params: np.ndarray) -> np.ndarray:
     return np.any(T != 0.0, axis=1) & (params[:, ALPHA_Y] != params[:, ALPHA])
 
 
+def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a.b (m,) of (m, 3) vectors, summed in C's order (dot3), so that the C twin gives the same bits."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
 def tangent_frame(N: np.ndarray, T: np.ndarray):
     """The frame (X, Y) (m, 3) of anisotropy: Y = normalize(N x T), X = Y x N (Cycles' make_orthonormals_tangent)."""
     Y = vectors.cross(N, T)
-    Y /= np.maximum(np.linalg.norm(Y, axis=1), 1e-300)[:, None]
+    Y /= np.maximum(np.sqrt(dot(Y, Y)), 1e-300)[:, None]
     return vectors.cross(Y, N), Y
 
 
@@ -166,7 +171,7 @@ def D_aniso(alpha_x: np.ndarray, alpha_y: np.ndarray, local_H: np.ndarray) -> np
 
 def to_local(X: np.ndarray, Y: np.ndarray, N: np.ndarray, v: np.ndarray) -> np.ndarray:
     """v (m, 3) in the frame (X, Y, N): (m, 3)."""
-    return np.stack([np.einsum("ij,ij->i", X, v), np.einsum("ij,ij->i", Y, v), np.einsum("ij,ij->i", N, v)], axis=1)
+    return np.stack([dot(X, v), dot(Y, v), dot(N, v)], axis=1)
 
 
 class Microfacet(BSDF):

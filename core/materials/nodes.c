@@ -484,12 +484,12 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
 INLINE void shade_graph(const GraphTables *G, const MaterialRecord *m, const ShadingPoint *sp, const double *N,
                         const double *wo, int backfacing, ShaderResult *sd)
 {
-    double reg[MAX_REGISTERS], weight[MAX_CLOSURES][3], p[MAX_CLOSURES][CLOSURE_PARAMS], normal[MAX_CLOSURES][3];
+    double reg[MAX_REGISTERS], weight[MAX_CLOSURES][3], p[MAX_CLOSURES][NODE_PARAMS], normal[MAX_CLOSURES][3];
     int own[MAX_CLOSURES], n = (int)m->n, program = (int)m->graph - 1;
     for (int k = 0; k < n; k++) {
         own[k] = 0;
         for (int j = 0; j < 3; j++) weight[k][j] = m->weight[k][j];
-        for (int j = 0; j < CLOSURE_PARAMS; j++) p[k][j] = m->p[k][j];
+        for (int j = 0; j < NODE_PARAMS; j++) p[k][j] = m->p[k][j];
     }
     run_program(G, program, sp, reg);
     const double *info = G->programs + 8 * program;

@@ -9,7 +9,7 @@ Cycles' svm_node_closure_bsdf does. The setup depends on the view direction (how
 reflects, and so leaves for the layers below, depends on mu = N.wo), so it runs per hit.
 
 NODE_TYPES is the table: a node's `kind` is its position, and core/materials/nodes.c dispatches on the
-same tag. Each class lists its `inputs` (the slots of its row of PARAMS floats) and `defaults`.
+same tag. Each class lists its `inputs` (the slots of its row of NODE_PARAMS floats) and `defaults`.
 """
 from __future__ import annotations
 
@@ -19,7 +19,8 @@ import numpy as np
 
 from . import ggx_tables as tables
 from . import microfacet as mf
-from .closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE, PARAMS, WEIGHT_CUTOFF, Closures, ShaderResult
+from .closures import (FILTER_REFLECTIVE, FILTER_REFRACTIVE, NODE_PARAMS, PARAMS, WEIGHT_CUTOFF, Closures,
+                       ShaderResult)
 from .glass import REFLECT_TINT, TRANSMIT_TINT, Glass
 from .glass import shares as glass_shares
 from .lambert import Lambert
@@ -227,8 +228,8 @@ def dielectric_albedo(rough: np.ndarray, mu: np.ndarray, eta: float, f0: np.ndar
 
 
 def per_hit_rows(p: np.ndarray, n: int) -> np.ndarray:
-    """A node's inputs as (n, PARAMS) rows: one row (PARAMS,) shared by all hits, or a row per hit."""
-    return np.broadcast_to(np.asarray(p, np.float64).reshape(-1, PARAMS), (n, PARAMS))
+    """A node's inputs as (n, NODE_PARAMS) rows: one row (NODE_PARAMS,) shared by all hits, or a row per hit."""
+    return np.broadcast_to(np.asarray(p, np.float64).reshape(-1, NODE_PARAMS), (n, NODE_PARAMS))
 
 
 class Node:
@@ -242,8 +243,8 @@ class Node:
 
     @classmethod
     def row(cls, values: dict) -> np.ndarray:
-        """The node's inputs as a row of PARAMS floats, defaults where `values` has none."""
-        p = np.zeros(PARAMS)
+        """The node's inputs as a row (NODE_PARAMS,) float64, defaults where `values` has none."""
+        p = np.zeros(NODE_PARAMS)
         i = 0
         for name, default in zip(cls.inputs, cls.defaults):
             value = np.asarray(values.get(name, default), np.float64).reshape(-1)
@@ -597,10 +598,10 @@ assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's
 
 def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy=None, backfacing=None,
                 caustics=None) -> ShaderResult:
-    """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,)).
+    """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (NODE_PARAMS,)).
 
     per_hit: what a node graph computed at each hit (graph.apply_outputs), or None: (weights, rows,
-    normals) lists by node of (n, 3), (n, PARAMS) and (n, 3) or None arrays. A node's own normal goes to its
+    normals) lists by node of (n, 3), (n, NODE_PARAMS) and (n, 3) or None arrays. A node's own normal goes to its
     closures only: the result's N stays the hit's normal (Cycles' sd->N), which bump shadowing compares with.
     glossy: by node, the normal its glossy lobes get instead ((n, 3) or None). backfacing: (n,) bool where
     the ray hit from behind (glass bends light leaving an object by 1 / IOR). caustics: (n,) int filter bits
@@ -615,5 +616,5 @@ def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy
             weight, p, normal = per_hit[0][k], per_hit[1][k], per_hit[2][k]
         b.use_normal(N if normal is None else normal, None if glossy is None else glossy[k])
         cls.setup(b, np.broadcast_to(np.asarray(weight, np.float64), (n, 3)),
-                  np.broadcast_to(np.asarray(p, np.float64), (n, PARAMS)))
+                  np.broadcast_to(np.asarray(p, np.float64), (n, NODE_PARAMS)))
     return b.result()
