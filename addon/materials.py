@@ -2,12 +2,13 @@
 
 From the Surface socket down, Mix Shader and Add Shader nodes are multiplied out into one weight per
 BSDF node (Principled, Diffuse, Glossy, Glass, Refraction, Sheen, Emission, Transparent), with each node's inputs
-(core/materials/nodes.py sets them up per hit, as Cycles does). A plain Diffuse BSDF stays the lecture's
-constant Lambert material. An input fed by a link becomes a core/materials/graph.py Link to the
-sub-graph that feeds it (image textures, texture coordinates, Math, Mix, Color Ramp ...; reroutes
-skipped, node groups flattened), evaluated per hit; a linked Mix Shader factor or BSDF colour becomes a
-per-hit factor of the node's weight. Whatever Primer cannot read (a node it does not know, anisotropy,
-a missing image) gets a warning that names the material and the node and says what Primer
+(core/materials/nodes.py sets them up per hit, as Cycles does). An anisotropic Principled or Glossy BSDF whose
+Tangent is unlinked gets Cycles' default tangent: a Tangent node, Radial about Z of the Generated coordinates.
+A plain Diffuse BSDF stays the lecture's constant Lambert material. An input fed by a link becomes a
+core/materials/graph.py Link to the sub-graph that feeds it (image textures, texture coordinates, Math, Mix,
+Color Ramp, Tangent ...; reroutes skipped, node groups flattened), evaluated per hit; a linked Mix Shader factor or BSDF colour becomes a
+per-hit factor of the node's weight. Whatever Primer cannot read (a node it does not know, subsurface
+scattering, a missing image) gets a warning that names the material and the node and says what Primer
 used instead.
 """
 from __future__ import annotations
@@ -29,10 +30,10 @@ PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Rough
                       "Specular Tint": "specular_tint", "Coat Weight": "coat", "Coat Roughness": "coat_roughness",
                       "Coat IOR": "coat_ior", "Coat Tint": "coat_tint", "Transmission Weight": "transmission",
                       "Diffuse Roughness": "diffuse_roughness", "Sheen Weight": "sheen",
-                      "Sheen Roughness": "sheen_roughness", "Sheen Tint": "sheen_tint"}
+                      "Sheen Roughness": "sheen_roughness", "Sheen Tint": "sheen_tint", "Anisotropic": "anisotropic",
+                      "Anisotropic Rotation": "anisotropic_rotation"}
 # Principled inputs Primer leaves out: socket -> what Primer does instead (warned when above 0).
-PRINCIPLED_LEFT_OUT = {"Anisotropic": "renders it isotropic",
-                       "Subsurface Weight": "approximates subsurface scattering by diffuse reflection",
+PRINCIPLED_LEFT_OUT = {"Subsurface Weight": "approximates subsurface scattering by diffuse reflection",
                        "Thin Film Thickness": "leaves the thin film out"}
 GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
 
@@ -135,7 +136,7 @@ GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", 
                "ShaderNodeSeparateColor": "SEPARATE_COLOR", "ShaderNodeSeparateRGB": "SEPARATE_COLOR",
                "ShaderNodeSeparateXYZ": "SEPARATE_XYZ", "ShaderNodeCombineColor": "COMBINE_COLOR",
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
-               "ShaderNodeMapRange": "MAP_RANGE"}
+               "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT"}
 # Legacy socket names -> the core's.
 RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac"}
 # Colour spaces whose numbers are used as they are (no decoding); sRGB is decoded after lookup.
@@ -253,6 +254,8 @@ class GraphReader:
                 warn(f"space {node.space} is not supported; Primer reads the colour as a tangent-space normal")
             props = {"map": node.uv_map}
             inputs = self.inputs(node, path, ["Strength", "Color"])
+        elif kind == "TANGENT":
+            props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}
         elif kind == "BUMP":
             props = {"invert": bool(node.invert)}
             inputs = self.inputs(node, path, ["Strength", "Distance", "Height", "Normal"])
@@ -483,6 +486,20 @@ def _normal(reader: NodeReader, node, inputs: dict) -> None:
             inputs["normal"] = value
 
 
+def _tangent(reader: NodeReader, node, inputs: dict, amount: str) -> None:
+    """A BSDF's Tangent input into inputs["tangent"] where its anisotropy (input `amount`) is linked or not 0: the
+    link, or Cycles' default for an unlinked Tangent (a Tangent node, Radial about Z of Generated)."""
+    socket = node.inputs.get("Tangent")
+    value = inputs.get(amount)
+    if socket is None or value is None or (not _linked(value) and abs(float(np.max(value))) <= 1e-4
+                                           and abs(float(np.min(value))) <= 1e-4):
+        return
+    if socket.is_linked:
+        inputs["tangent"] = reader.input(node, "Tangent", np.zeros(3))
+    else:
+        inputs["tangent"] = Link(GraphNode("TANGENT", {"direction": "RADIAL", "axis": "Z", "map": ""}), "Tangent")
+
+
 def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
     """Append the shader nodes under `node`, their weights multiplied by `weight` and the per-hit `factors`."""
     node = _follow(node)
@@ -534,6 +551,7 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                                      reader.input(node, "Emission Strength", 0.0))
         inputs["multiscatter"] = 1.0 if getattr(node, "distribution", "MULTI_GGX") == "MULTI_GGX" else 0.0
         _normal(reader, node, inputs)
+        _tangent(reader, node, inputs, "anisotropic")
         for socket, instead in PRINCIPLED_LEFT_OUT.items():
             own = node.inputs.get(socket)
             if own is None:
@@ -571,12 +589,14 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         distribution = getattr(node, "distribution", "GGX")
         if distribution not in {"GGX", "MULTI_GGX"}:
             reader.warn(node, f"distribution {distribution} is not GGX; Primer uses GGX")
-        if abs(float(reader.value(node, "Anisotropy", 0.0))) > 1e-4:
-            reader.warn(node, "Anisotropy is not 0; Primer renders it isotropic")
         color = reader.input(node, "Color", np.full(3, 0.8))
         inputs = {"roughness": reader.input(node, "Roughness", 0.5),
                   "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0}
+        for socket, key in (("Anisotropy", "anisotropy"), ("Rotation", "rotation")):
+            if node.inputs.get(socket) is not None:
+                inputs[key] = reader.input(node, socket, 0.0)
         _normal(reader, node, inputs)
+        _tangent(reader, node, inputs, "anisotropy")
         if _linked(color):
             inputs["color"] = color
             out.append(("GLOSSY", weight, inputs, list(factors) + [(color, "color")]))

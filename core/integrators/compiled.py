@@ -17,7 +17,7 @@ from ..film import adaptive
 from ..film.film import ChunkSums
 from ..geometry.tables import GeometryTables
 from ..lights import LightRecord
-from ..materials import MAX_CLOSURES, PARAMS
+from ..materials import MAX_CLOSURES, NODE_PARAMS, PARAMS
 from ..materials.graph import graph_tables
 from ..native import library
 from . import lightpasses
@@ -30,7 +30,7 @@ ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "termina
                                 size_function="primer_shadow_settings_size")
 MaterialRecord = library.record("MaterialRecord", [
     "n", "program", "graph", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
-    ("p", PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3), "shadow_opaque", "may_pass",
+    ("p", NODE_PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3), "shadow_opaque", "may_pass",
     "graph_emits"],
     size_function="primer_material_record_size")
 
@@ -78,7 +78,7 @@ def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
         record.kind[:k] = [float(node.kind) for node, _, _ in shader.nodes]
         if k:
             record.weight[:3 * k] = np.concatenate([w for _, w, _ in shader.nodes]).tolist()
-            record.p[:PARAMS * k] = np.concatenate([p for _, _, p in shader.nodes]).tolist()
+            record.p[:NODE_PARAMS * k] = np.concatenate([p for _, _, p in shader.nodes]).tolist()
         record.emission[:] = np.asarray(shader.emission, np.float64).tolist()
         record.transparency[:] = np.asarray(shader.transparency, np.float64).tolist()
         return record
@@ -87,7 +87,9 @@ def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
     record.kind[:k] = [float(x) for x in shader.kinds]
     record.weight[:3 * k] = np.asarray(shader.weights, np.float64).ravel().tolist()
     record.sample_weight[:k] = np.asarray(shader.sample_weights, np.float64).tolist()
-    record.p[:PARAMS * k] = np.asarray(shader.params, np.float64).ravel().tolist()
+    rows = np.zeros((k, NODE_PARAMS))                    # a closure's PARAMS, in a record's row of NODE_PARAMS
+    rows[:, :PARAMS] = np.asarray(shader.params, np.float64).reshape(k, PARAMS)
+    record.p[:NODE_PARAMS * k] = rows.ravel().tolist()
     record.emission[:] = np.asarray(shader.emission, np.float64).tolist()
     record.transparency[:] = np.asarray(shader.transparency, np.float64).tolist()
     return record

@@ -17,7 +17,7 @@ from typing import Optional
 import numpy as np
 
 from .base import BSDF, BsdfSample
-from .closures import (MAX_CLOSURES, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
+from .closures import (MAX_CLOSURES, NODE_PARAMS, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
                        constant_result, eval_closures, sample_closures)
 from .glass import Glass
 from .lambert import Lambert
@@ -148,7 +148,7 @@ class ConstantShader:
 class NodeShader:
     """A material made of shader nodes (core/materials/nodes.py), set up per hit for its view direction.
 
-    nodes: (node class, weight (3,), inputs (PARAMS,)) each, linked inputs at their own values;
+    nodes: (node class, weight (3,), inputs (NODE_PARAMS,)) each, linked inputs at their own values;
     emission, transparency (3,): what it emits and lets through seen head-on with the inputs' own values
     (the emitters' power and the `emissive` flag use it); emission_sides as ConstantShader's;
     graph: the nodes with their links [(node class, weight, inputs, factors)], None when nothing is linked
@@ -420,7 +420,7 @@ class MaterialTable:
 
 __all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",
            "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable",
-           "Glass", "Microfacet", "Mirror", "NodeShader", "OrenNayar", "PARAMS", "RoughGlass", "Sheen", "Transparent", "Velvet",
+           "Glass", "Microfacet", "Mirror", "NodeShader", "NODE_PARAMS", "OrenNayar", "PARAMS", "RoughGlass", "Sheen", "Transparent", "Velvet",
            "DIFFUSE_KINDS", "SHADOWED_KINDS", "is_diffuse",
            "ShaderResult", "eval_closures", "sample_closures"]
 

@@ -16,6 +16,7 @@ enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, B
 /* The closures a caustics filter takes away at a hit that a diffuse bounce's ray reached (closures.FILTER_*). */
 enum { FILTER_REFLECTIVE = 1, FILTER_REFRACTIVE = 2 };
 #define CLOSURE_PARAMS 32       /* closures.PARAMS */
+#define NODE_PARAMS 40          /* closures.NODE_PARAMS: a shader node's inputs, a MaterialRecord's rows */
 
 /* One closure at a hit: a BSDF of the table, its weight, its sampling weight, its normal, and its
  * CLOSURE_PARAMS parameters: a constant material's row (no copy per hit), or a row of the hit's own
@@ -60,7 +61,7 @@ typedef struct {
     double kind[MAX_CLOSURES];
     double weight[MAX_CLOSURES][3];
     double sample_weight[MAX_CLOSURES];
-    double p[MAX_CLOSURES][CLOSURE_PARAMS];
+    double p[MAX_CLOSURES][NODE_PARAMS];   /* a closure's CLOSURE_PARAMS, or a node's NODE_PARAMS inputs */
     double emission[3];
     double transparency[3];
     double shadow_opaque;   /* 1: opaque to shadow rays even where it lets light through (Transparent Shadows off) */

@@ -15,9 +15,11 @@ import numpy as np
 
 from .base import BsdfSample
 
-# At most this many closures per hit, and this many parameter floats per closure (closures.h).
+# At most this many closures per hit, this many parameter floats per closure (bsdf.h CLOSURE_PARAMS), and this
+# many input floats per shader node (core/materials/nodes.py; bsdf.h NODE_PARAMS: a MaterialRecord's rows).
 MAX_CLOSURES = 8
 PARAMS = 32
+NODE_PARAMS = 40
 # A closure whose sampling weight falls below this is dropped (Cycles' CLOSURE_WEIGHT_CUTOFF).
 WEIGHT_CUTOFF = 1e-5
 # What a hit's shading may leave out (Cycles' caustics switches, Light Paths > Caustics): the bits of a hit's

@@ -2,7 +2,8 @@
  * at one hit; its outputs overwrite the shader nodes' inputs, weights and normals before the setups. */
 
 enum { OP_ATTR = 0, OP_RANDOM, OP_IMAGE, OP_MAPPING, OP_MATH, OP_MIX_COLOR, OP_MIX_FLOAT, OP_RAMP, OP_INVERT, OP_HSV,
-       OP_COPY, OP_CLAMP, OP_MAP_RANGE, OP_NORMAL_MAP, OP_BUMP, OP_OFFSET, OP_CONVERT, OP_SCALE, OP_RAY };
+       OP_COPY, OP_CLAMP, OP_MAP_RANGE, OP_NORMAL_MAP, OP_BUMP, OP_OFFSET, OP_CONVERT, OP_SCALE, OP_RAY,
+       OP_TANGENT };
 enum { RAY_CAMERA = 0, RAY_BOUNCE = 1, RAY_SHADOW = 2 };   /* graph.RAY_* */
 #define OP_WIDTH 12                 /* 1 + graph.OP_ARGS */
 #define MAX_REGISTERS 512           /* graph.MAX_REGISTERS */
@@ -189,6 +190,24 @@ INLINE void normal_map(const double *color, double strength, int tangent, const 
     if (ok && !zero) for (int i = 0; i < 3; i++) out[i] = v[i];
 }
 
+/* graph.tangent: Cycles' Tangent node, radial about an axis of Generated (uv_map 0) or a UV map's tangent, in
+ * world space as a normal is (cofactor of the object's linear transform), then N x normalize(T x N). */
+INLINE void tangent_node(const double *source, int uv_map, int axis, const ShadingPoint *sp, double *out)
+{
+    double t[3], g[3] = {source[0] - 0.5, source[1] - 0.5, source[2] - 0.5};
+    if (uv_map) { t[0] = source[0]; t[1] = source[1]; t[2] = source[2]; }
+    else if (axis == 0) { t[0] = 0.0; t[1] = -g[2]; t[2] = g[1]; }
+    else if (axis == 1) { t[0] = -g[2]; t[1] = 0.0; t[2] = g[0]; }
+    else { t[0] = -g[1]; t[1] = g[0]; t[2] = 0.0; }
+    double m0[3], m1[3], m2[3], c12[3], c20[3], c01[3], T[3], u[3];
+    for (int i = 0; i < 3; i++) { m0[i] = sp->L[3 * i]; m1[i] = sp->L[3 * i + 1]; m2[i] = sp->L[3 * i + 2]; }
+    cross3(m1, m2, c12); cross3(m2, m0, c20); cross3(m0, m1, c01);
+    for (int i = 0; i < 3; i++) T[i] = (t[0] * c12[i] + t[1] * c20[i]) + t[2] * c01[i];
+    cross3(T, sp->N, u);
+    safe_normalize3(u);
+    cross3(sp->N, u, out);
+}
+
 /* graph.bump */
 INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
                  int invert, const ShadingPoint *sp, double *out)
@@ -351,6 +370,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             else { double v = s[0]; out[0] = out[1] = out[2] = v; }
             break;
         }
+        case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         default: break;
         }

@@ -6,7 +6,7 @@ into it (addon/materials.py exports it, groups flattened and reroutes skipped). 
 material's sub-graphs are compiled once into a `Program`, as Cycles' SVM compiles node trees: a list
 of ops on numbered registers. Registers 0 .. c - 1 hold the program's constants; every op reads
 registers and writes new ones. Its `outputs` say which registers overwrite which shader node's
-inputs (a slot of its row of PARAMS floats, core/materials/nodes.py), which multiply its weight (a
+inputs (a slot of its row of NODE_PARAMS floats, core/materials/nodes.py), which multiply its weight (a
 Mix Shader's factor, a Diffuse BSDF's colour) and which replace its normal (Normal Map, Bump).
 
 At a hit the program reads a `ShadingPoint`: the mesh attributes the materials use (UV maps, colour
@@ -32,7 +32,8 @@ from . import textures as textures_
 
 # Op codes (graph.c OP_*), and the width of one op's record: the code and up to OP_ARGS arguments.
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
-       "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY")
+       "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
+       "TANGENT")
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
 # that went on through transparent surfaces from it), any other ray of a path, a shadow ray.
 RAY_CAMERA, RAY_BOUNCE, RAY_SHADOW = 0, 1, 2
@@ -101,7 +102,11 @@ NODE_OUTPUTS = {
     "SEPARATE_XYZ": {"X": (1, "float"), "Y": (1, "float"), "Z": (1, "float")},
     "COMBINE_COLOR": {"Color": (3, "color")}, "COMBINE_XYZ": {"Vector": (3, "vector")},
     "CLAMP": {"Result": (1, "float")}, "MAP_RANGE": {"Result": (1, "float")}, "SCALE": {"Color": (3, "color")},
+    "TANGENT": {"Tangent": (3, "vector")},
 }
+# The Tangent node's directions and axes (props "direction", "axis"), as Blender names them.
+TANGENT_DIRECTIONS = ("RADIAL", "UV_MAP")
+TANGENT_AXES = ("X", "Y", "Z")
 
 
 def object_random(name: str) -> float:
@@ -227,6 +232,9 @@ def attributes_of(nodes: list) -> set:
             names.add(node.props.get("attribute", "color:"))
         elif node.kind == "NORMAL_MAP":
             names.add("tangent:" + node.props.get("map", ""))
+        elif node.kind == "TANGENT":
+            names.add("generated" if node.props.get("direction", "RADIAL") == "RADIAL"
+                      else "tangent:" + node.props.get("map", ""))
         elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("uv:")
     return names
@@ -376,6 +384,12 @@ class Compiler:
             offset, _ = self.layout.get("tangent:" + props.get("map", ""), (-1, 4))
             self.emit("NORMAL_MAP", out, color, strength, offset)
             return out, 3, "vector"
+        if kind == "TANGENT":
+            radial = props.get("direction", "RADIAL") == "RADIAL"
+            source = self.attribute("generated" if radial else "tangent:" + props.get("map", ""), 3)
+            out = self.temporary(3)
+            self.emit("TANGENT", out, source, 0 if radial else 1, TANGENT_AXES.index(props.get("axis", "Z")))
+            return out, 3, "vector"
         if kind == "BUMP":
             strength = self.value(inp.get("Strength"), 1, 1.0)
             distance = self.value(inp.get("Distance"), 1, 1.0)
@@ -515,7 +529,7 @@ REGISTER_ARGS = {
     "MIX_COLOR": {0, 2, 3, 4}, "MIX_FLOAT": {0, 1, 2, 3}, "RAMP": {0, 1}, "INVERT": {0, 1, 2},
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
-    "RAY": {0},
+    "RAY": {0}, "TANGENT": {0, 1},
 }
 
 
@@ -763,7 +777,26 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
                 reg[:, i[0]:i[0] + 3] = reg[:, i[1]:i[1] + 1]
         elif name == "SCALE":
             reg[:, i[0]:i[0] + 3] = R(1, 3) * reg[:, i[2]:i[2] + 1]
+        elif name == "TANGENT":
+            reg[:, i[0]:i[0] + 3] = tangent(R(1, 3), i[2], i[3], sp)
     return reg
+
+
+def tangent(source: np.ndarray, uv_map: int, axis: int, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Tangent node (svm_node_tangent) in world space (n, 3): radial about `axis` (0 X, 1 Y, 2 Z) of the
+    Generated coordinates `source` (n, 3), or the UV map's tangent `source` (uv_map 1); turned to world space as
+    a normal is (the cofactor of the object's linear transform), then made perpendicular to the shading normal:
+    N x normalize(T x N). Zero where the mesh has none."""
+    if uv_map:
+        T = source
+    else:
+        g = source - 0.5
+        zero = np.zeros(len(g))
+        T = (np.stack([zero, -g[:, 2], g[:, 1]], axis=1) if axis == 0 else
+             np.stack([-g[:, 2], zero, g[:, 0]], axis=1) if axis == 1 else np.stack([-g[:, 1], g[:, 0], zero], axis=1))
+    m0, m1, m2 = sp.linear[:, :, 0], sp.linear[:, :, 1], sp.linear[:, :, 2]
+    T = T[:, 0:1] * np.cross(m1, m2) + T[:, 1:2] * np.cross(m2, m0) + T[:, 2:3] * np.cross(m0, m1)
+    return np.cross(sp.N, safe_normalize(np.cross(T, sp.N)))
 
 
 def map_range(kind: int, clamp: int, value, from_min, from_max, to_min, to_max, steps) -> np.ndarray:
@@ -827,7 +860,7 @@ def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, sp:
 
 
 def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, normals: list) -> None:
-    """Overwrite the shader nodes' per-hit weights (n, 3), rows (n, PARAMS) and normals ((n, 3) or None)
+    """Overwrite the shader nodes' per-hit weights (n, 3), rows (n, NODE_PARAMS) and normals ((n, 3) or None)
     with the program's outputs (lists indexed by shader node, changed in place)."""
     for kind, node, slot, width, register in program.outputs.astype(np.int64):
         value = reg[:, register:register + width]

@@ -1,7 +1,9 @@
 /* The GGX microfacet BSDF: core/materials/microfacet.py (its docstring has the model and the sources).
- * p: alpha, fresnel, ior, f0 (3), f90 or F82's b (3), energy_scale. */
+ * p: alpha, fresnel, ior, f0 (3), f90 or F82's b (3), energy_scale, alpha_y, tangent (3): anisotropic where
+ * the tangent is not zero and alpha_y differs from alpha (microfacet.is_anisotropic). */
 
-enum { MF_ALPHA = 0, MF_FRESNEL = 1, MF_IOR = 2, MF_F0 = 3, MF_F90 = 6, MF_ENERGY = 9, MF_PARAMS = 10 };
+enum { MF_ALPHA = 0, MF_FRESNEL = 1, MF_IOR = 2, MF_F0 = 3, MF_F90 = 6, MF_ENERGY = 9, MF_ALPHA_Y = 10, MF_TANGENT = 11,
+       MF_PARAMS = 14 };
 enum { FRESNEL_NONE = 0, FRESNEL_DIELECTRIC = 1, FRESNEL_SCHLICK_IOR = 2, FRESNEL_F82_TINT = 3 };
 #define ROUGHNESS_SQ_THRESHOLD 2e-10
 
@@ -52,10 +54,43 @@ INLINE double D_ggx(double alpha2, double cos_NH)
     return alpha2 / (PI * d * d);
 }
 
+/* microfacet.is_anisotropic: a non-zero tangent and alpha_y != alpha. */
+INLINE int mf_is_anisotropic(const double *p)
+{
+    return (p[MF_TANGENT] != 0.0 || p[MF_TANGENT + 1] != 0.0 || p[MF_TANGENT + 2] != 0.0) && p[MF_ALPHA_Y] != p[MF_ALPHA];
+}
+
+/* microfacet.tangent_frame: Y = normalize(N x T), X = Y x N. */
+INLINE void mf_tangent_frame(const double *N, const double *T, double *X, double *Y)
+{
+    Y[0] = N[1] * T[2] - N[2] * T[1];
+    Y[1] = N[2] * T[0] - N[0] * T[2];
+    Y[2] = N[0] * T[1] - N[1] * T[0];
+    double length = at_least(sqrt(dot3(Y, Y)), 1e-300);
+    for (int k = 0; k < 3; k++) Y[k] /= length;
+    X[0] = Y[1] * N[2] - Y[2] * N[1];
+    X[1] = Y[2] * N[0] - Y[0] * N[2];
+    X[2] = Y[0] * N[1] - Y[1] * N[0];
+}
+
+/* microfacet.lambda_aniso and D_aniso, in the tangent frame (x, y, z). */
+INLINE double lambda_aniso(double ax, double ay, double x, double y, double z)
+{
+    double z2 = at_least(z * z, 1e-300);
+    return 0.5 * (sqrt(1.0 + ((ax * x) * (ax * x) + (ay * y) * (ay * y)) / z2) - 1.0);
+}
+
+INLINE double D_aniso(double ax, double ay, double x, double y, double z)
+{
+    double s = (x / ax) * (x / ax) + (y / ay) * (y / ay) + z * z;
+    return 1.0 / (PI * ax * ay * s * s);
+}
+
 INLINE void microfacet_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
 {
     const double *p = c->p;
-    double alpha2 = p[MF_ALPHA] * p[MF_ALPHA];
+    int aniso = mf_is_anisotropic(p);
+    double alpha2 = aniso ? p[MF_ALPHA] * p[MF_ALPHA_Y] : p[MF_ALPHA] * p[MF_ALPHA];
     double cos_NI = dot3(c->N, wo), cos_NO = dot3(c->N, wi);
     f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
     *pdf = 0.0;
@@ -63,8 +98,17 @@ INLINE void microfacet_eval(const Closure *c, const double *wo, const double *wi
     double H[3] = {wo[0] + wi[0], wo[1] + wi[1], wo[2] + wi[2]};
     double length = at_least(sqrt(dot3(H, H)), 1e-300);
     for (int k = 0; k < 3; k++) H[k] /= length;
-    double common = D_ggx(alpha2, dot3(c->N, H)) / cos_NI * 0.25;
-    double lambda_I = lambda_ggx(alpha2, cos_NI), lambda_O = lambda_ggx(alpha2, cos_NO);
+    double common, lambda_I, lambda_O;
+    if (aniso) {
+        double X[3], Y[3], ax = p[MF_ALPHA], ay = p[MF_ALPHA_Y];
+        mf_tangent_frame(c->N, p + MF_TANGENT, X, Y);
+        common = D_aniso(ax, ay, dot3(X, H), dot3(Y, H), dot3(c->N, H)) / cos_NI * 0.25;
+        lambda_I = lambda_aniso(ax, ay, dot3(X, wo), dot3(Y, wo), cos_NI);
+        lambda_O = lambda_aniso(ax, ay, dot3(X, wi), dot3(Y, wi), cos_NO);
+    } else {
+        common = D_ggx(alpha2, dot3(c->N, H)) / cos_NI * 0.25;
+        lambda_I = lambda_ggx(alpha2, cos_NI); lambda_O = lambda_ggx(alpha2, cos_NO);
+    }
     *pdf = common / (1.0 + lambda_I);
     double scale = common / (1.0 + lambda_I + lambda_O) * p[MF_ENERGY];
     double F[3];
@@ -73,9 +117,9 @@ INLINE void microfacet_eval(const Closure *c, const double *wo, const double *wi
 }
 
 /* microfacet.sample_visible_normal: a normal the viewer sees, in the frame where N = z (Heitz 2018). */
-INLINE void sample_visible_normal(const double *local_wo, double alpha, const double *u, double *H)
+INLINE void sample_visible_normal(const double *local_wo, double alpha, double alpha_y, const double *u, double *H)
 {
-    double v[3] = {alpha * local_wo[0], alpha * local_wo[1], local_wo[2]};
+    double v[3] = {alpha * local_wo[0], alpha_y * local_wo[1], local_wo[2]};
     double length = sqrt(dot3(v, v));
     for (int k = 0; k < 3; k++) v[k] /= length;
     double lensq = v[0] * v[0] + v[1] * v[1];
@@ -95,7 +139,7 @@ INLINE void sample_visible_normal(const double *local_wo, double alpha, const do
     double lift = sqrt(at_least(1.0 - t1 * t1 - t2 * t2, 0.0));
     double h[3];
     for (int k = 0; k < 3; k++) h[k] = T1[k] * t1 + T2[k] * t2 + v[k] * lift;
-    H[0] = alpha * h[0]; H[1] = alpha * h[1]; H[2] = at_least(h[2], 0.0);
+    H[0] = alpha * h[0]; H[1] = alpha_y * h[1]; H[2] = at_least(h[2], 0.0);
     length = sqrt(dot3(H, H));
     for (int k = 0; k < 3; k++) H[k] /= length;
 }
@@ -103,12 +147,17 @@ INLINE void sample_visible_normal(const double *local_wo, double alpha, const do
 INLINE void microfacet_sample(const Closure *c, const double *wo, const double *u, BsdfSample *out)
 {
     const double *N = c->N;
-    double t[3], b[3];
-    orthonormal_frame(N, t, b);
+    double t[3], b[3], alpha_y = c->p[MF_ALPHA];
+    if (mf_is_anisotropic(c->p)) {
+        mf_tangent_frame(N, c->p + MF_TANGENT, t, b);
+        alpha_y = c->p[MF_ALPHA_Y];
+    } else {
+        orthonormal_frame(N, t, b);
+    }
     double local[3] = {dot3(t, wo), dot3(b, wo), dot3(N, wo)};
     if (!(local[2] > 0.0)) { local[0] = 0.0; local[1] = 0.0; local[2] = 1.0; }
     double h[3], H[3];
-    sample_visible_normal(local, c->p[MF_ALPHA], u, h);
+    sample_visible_normal(local, c->p[MF_ALPHA], alpha_y, u, h);
     for (int k = 0; k < 3; k++) H[k] = (t[k] * h[0] + b[k] * h[1]) + N[k] * h[2];
     double cos_HI = dot3(H, wo);
     for (int k = 0; k < 3; k++) out->wi[k] = 2.0 * cos_HI * H[k] - wo[k];

@@ -15,6 +15,16 @@ energy_scale = 1 / E(mu, roughness), E being the model's directional albedo (cor
 and darkens it where Fresnel colours each extra bounce; both are set per hit by the closure's setup
 (core/materials/principled.py), so this class only multiplies by `energy_scale`.
 
+Anisotropic GGX (Cycles' bsdf_aniso_D and bsdf_aniso_lambda) spreads the normals by alpha_x along a tangent T
+and alpha_y across it: in the frame X = T made perpendicular to N, Y = N x X, Z = N,
+
+    D(h) = 1 / (pi ax ay ((hx/ax)^2 + (hy/ay)^2 + hz^2)^2),
+    Lambda(v) = (sqrt(1 + ((ax vx)^2 + (ay vy)^2) / vz^2) - 1) / 2,
+
+and the visible normals are sampled by stretching the view direction by (ax, ay, 1). A closure is anisotropic
+where its TANGENT slots hold a non-zero vector and ALPHA_Y differs from ALPHA; otherwise it runs the isotropic
+code unchanged (the same bits as before).
+
 Fresnel models (parameter "fresnel"), as Cycles names them:
   NONE 0         F = 1 (the Glossy BSDF; its colour is the closure's weight)
   DIELECTRIC 1   the exact Fresnel reflectance of a dielectric with index `ior` (the Principled coat)
@@ -35,6 +45,7 @@ from .base import BSDF, BsdfSample
 
 # Parameter slots (a closure's row of PARAMS floats).
 ALPHA, FRESNEL, IOR, F0, F90, ENERGY = 0, 1, 2, 3, 6, 9        # F0 and F90 take 3 slots each (RGB)
+ALPHA_Y, TANGENT = 10, 11                                       # anisotropic: alpha across T, and T (3 slots)
 FRESNEL_NONE, FRESNEL_DIELECTRIC, FRESNEL_SCHLICK_IOR, FRESNEL_F82_TINT = 0, 1, 2, 3
 # Below this alpha^2 a microfacet lobe is a perfect mirror (Cycles' BSDF_ROUGHNESS_SQ_THRESH).
 ROUGHNESS_SQ_THRESHOLD = 2e-10
@@ -101,10 +112,13 @@ def D_ggx(alpha2: np.ndarray, cos_NH: np.ndarray) -> np.ndarray:
     return alpha2 / (math.pi * (1.0 - c2 + alpha2 * c2) ** 2)
 
 
-def sample_visible_normal(local_wo: np.ndarray, alpha: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """A microfacet normal (n, 3), in the frame where N = z, seen from local_wo (n, 3) (Heitz 2018)."""
+def sample_visible_normal(local_wo: np.ndarray, alpha: np.ndarray, u: np.ndarray, alpha_y=None) -> np.ndarray:
+    """A microfacet normal (n, 3), in the frame where N = z, seen from local_wo (n, 3) (Heitz 2018); alpha (n,)
+    along x, alpha_y (n,) along y (default alpha: isotropic)."""
+    alpha_x = alpha
+    alpha_y = alpha if alpha_y is None else alpha_y
     # 1. Stretch the view direction so the distribution becomes a hemisphere of radius 1.
-    v = np.stack([alpha * local_wo[:, 0], alpha * local_wo[:, 1], local_wo[:, 2]], axis=1)
+    v = np.stack([alpha_x * local_wo[:, 0], alpha_y * local_wo[:, 1], local_wo[:, 2]], axis=1)
     v /= np.linalg.norm(v, axis=1)[:, None]
     # 2. A frame around it.
     lensq = v[:, 0] ** 2 + v[:, 1] ** 2
@@ -121,25 +135,64 @@ def sample_visible_normal(local_wo: np.ndarray, alpha: np.ndarray, u: np.ndarray
     # 4. Lifted onto the hemisphere, and unstretched.
     lift = np.sqrt(np.maximum(1.0 - t1 * t1 - t2 * t2, 0.0))
     H = T1 * t1[:, None] + T2 * t2[:, None] + v * lift[:, None]
-    H = np.stack([alpha * H[:, 0], alpha * H[:, 1], np.maximum(H[:, 2], 0.0)], axis=1)
+    H = np.stack([alpha_x * H[:, 0], alpha_y * H[:, 1], np.maximum(H[:, 2], 0.0)], axis=1)
     return H / np.linalg.norm(H, axis=1)[:, None]
+
+
+def is_anisotropic(params: np.ndarray) -> np.ndarray:
+    """Where closures' rows (m, PARAMS) are anisotropic: a non-zero tangent and alpha_y != alpha: (m,) bool."""
+    T = params[:, TANGENT:TANGENT + 3]
+    return np.any(T != 0.0, axis=1) & (params[:, ALPHA_Y] != params[:, ALPHA])
+
+
+def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a.b (m,) of (m, 3) vectors, summed in C's order (dot3), so that the C twin gives the same bits."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def tangent_frame(N: np.ndarray, T: np.ndarray):
+    """The frame (X, Y) (m, 3) of anisotropy: Y = normalize(N x T), X = Y x N (Cycles' make_orthonormals_tangent)."""
+    Y = vectors.cross(N, T)
+    Y /= np.maximum(np.sqrt(dot(Y, Y)), 1e-300)[:, None]
+    return vectors.cross(Y, N), Y
+
+
+def lambda_aniso(alpha_x: np.ndarray, alpha_y: np.ndarray, local: np.ndarray) -> np.ndarray:
+    """Smith's Lambda (m,) of anisotropic GGX for directions local (m, 3) in the tangent frame (bsdf_aniso_lambda)."""
+    z2 = np.maximum(local[:, 2] ** 2, 1e-300)
+    return 0.5 * (np.sqrt(1.0 + ((alpha_x * local[:, 0]) ** 2 + (alpha_y * local[:, 1]) ** 2) / z2) - 1.0)
+
+
+def D_aniso(alpha_x: np.ndarray, alpha_y: np.ndarray, local_H: np.ndarray) -> np.ndarray:
+    """Anisotropic GGX D (m,) of microfacet normals local_H (m, 3) in the tangent frame (per unit projected area)."""
+    s = (local_H[:, 0] / alpha_x) ** 2 + (local_H[:, 1] / alpha_y) ** 2 + local_H[:, 2] ** 2
+    return 1.0 / (math.pi * alpha_x * alpha_y * s * s)
+
+
+def to_local(X: np.ndarray, Y: np.ndarray, N: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """v (m, 3) in the frame (X, Y, N): (m, 3)."""
+    return np.stack([dot(X, v), dot(Y, v), dot(N, v)], axis=1)
 
 
 class Microfacet(BSDF):
     """GGX reflection with Smith masking-shadowing, a Fresnel model and an energy scale (module docstring).
 
     f cos = energy_scale F D / (4 N.wo (1 + Lambda(wo) + Lambda(wi))),  pdf = D / (4 N.wo (1 + Lambda(wo))).
-    Below ROUGHNESS_SQ_THRESHOLD the lobe is a mirror: closure setups give a Mirror closure instead.
+    Anisotropic (alpha_x = alpha, alpha_y, tangent) where is_anisotropic. Below ROUGHNESS_SQ_THRESHOLD (of
+    alpha_x alpha_y) the lobe is a mirror: closure setups give a Mirror closure instead.
     """
 
     kind: ClassVar[int] = 2
     name: ClassVar[str] = "GLOSSY"
     params: ClassVar[tuple] = ("alpha", "fresnel", "ior", "f0_r", "f0_g", "f0_b", "f90_r", "f90_g", "f90_b",
-                               "energy_scale")
+                               "energy_scale", "alpha_y", "tangent_x", "tangent_y", "tangent_z")
 
     @staticmethod
     def eval(params, N, wo, wi):
         alpha2 = params[:, ALPHA] ** 2
+        aniso = is_anisotropic(params)
+        if aniso.any():
+            alpha2 = np.where(aniso, params[:, ALPHA] * params[:, ALPHA_Y], alpha2)
         cos_NI, cos_NO = np.einsum("ij,ij->i", N, wo), np.einsum("ij,ij->i", N, wi)
         valid = (cos_NI > 0.0) & (cos_NO > 0.0) & (alpha2 > ROUGHNESS_SQ_THRESHOLD)
         H = wo + wi
@@ -148,6 +201,16 @@ class Microfacet(BSDF):
         safe_NI = np.where(valid, cos_NI, 1.0)
         common = D_ggx(alpha2, cos_NH) / safe_NI * 0.25
         lambda_I, lambda_O = lambda_ggx(alpha2, safe_NI), lambda_ggx(alpha2, np.where(valid, cos_NO, 1.0))
+        if aniso.any():
+            ax, ay = params[:, ALPHA], np.where(aniso, params[:, ALPHA_Y], 1.0)
+            ax = np.where(aniso, ax, 1.0)
+            X, Y = tangent_frame(N, np.where(aniso[:, None], params[:, TANGENT:TANGENT + 3], [1.0, 0.0, 0.0]))
+            local_I = to_local(X, Y, N, wo)
+            local_O = to_local(X, Y, N, wi)
+            local_I[:, 2], local_O[:, 2] = safe_NI, np.where(valid, cos_NO, 1.0)
+            common = np.where(aniso, D_aniso(ax, ay, to_local(X, Y, N, H)) / safe_NI * 0.25, common)
+            lambda_I = np.where(aniso, lambda_aniso(ax, ay, local_I), lambda_I)
+            lambda_O = np.where(aniso, lambda_aniso(ax, ay, local_O), lambda_O)
         pdf = np.where(valid, common / (1.0 + lambda_I), 0.0)
         scale = np.where(valid, common / (1.0 + lambda_I + lambda_O) * params[:, ENERGY], 0.0)
         return fresnel(params, cos_HI) * scale[:, None], pdf
@@ -155,10 +218,16 @@ class Microfacet(BSDF):
     @staticmethod
     def sample(params, N, wo, u):
         alpha = params[:, ALPHA]
+        alpha_y = alpha
         t, b = vectors.orthonormal_frame(N)
+        aniso = is_anisotropic(params)
+        if aniso.any():
+            X, Y = tangent_frame(N, np.where(aniso[:, None], params[:, TANGENT:TANGENT + 3], [1.0, 0.0, 0.0]))
+            t, b = np.where(aniso[:, None], X, t), np.where(aniso[:, None], Y, b)
+            alpha_y = np.where(aniso, params[:, ALPHA_Y], alpha)
         local = np.stack([np.einsum("ij,ij->i", t, wo), np.einsum("ij,ij->i", b, wo), np.einsum("ij,ij->i", N, wo)],
                          axis=1)
-        h = sample_visible_normal(np.where(local[:, 2:] > 0.0, local, [0.0, 0.0, 1.0]), alpha, u)
+        h = sample_visible_normal(np.where(local[:, 2:] > 0.0, local, [0.0, 0.0, 1.0]), alpha, u, alpha_y)
         H = t * h[:, 0:1] + b * h[:, 1:2] + N * h[:, 2:3]
         wi = 2.0 * np.einsum("ij,ij->i", H, wo)[:, None] * H - wo
         f_cos, pdf = Microfacet.eval(params, N, wo, wi)

@@ -98,11 +98,33 @@ INLINE void lobe_params(double *p, double roughness, int mode, double ior, const
     p[MF_ENERGY] = 1.0;
 }
 
+/* nodes.rotate_around_axis: v turned by angle about the unit axis (Rodrigues). */
+INLINE void rotate_around_axis(const double *v, const double *axis, double angle, double *out)
+{
+    double c = cos(angle), s = sin(angle), d = dot3(axis, v), x[3];
+    cross3(axis, v, x);
+    for (int k = 0; k < 3; k++) out[k] = (v[k] * c + x[k] * s) + (d * axis[k]) * (1.0 - c);
+}
+
+/* nodes.anisotropic_lobe: alpha_x, alpha_y (clipped to 1) and the tangent T into a microfacet closure's parameters. */
+INLINE void anisotropic_lobe(double *p, double alpha_x, double alpha_y, const double *T)
+{
+    p[MF_ALPHA] = at_most(alpha_x, 1.0);
+    p[MF_ALPHA_Y] = at_most(alpha_y, 1.0);
+    for (int k = 0; k < 3; k++) p[MF_TANGENT + k] = T[k];
+}
+
+/* nodes.table_roughness: sqrt(alpha), or sqrt(sqrt(alpha_x alpha_y)) for an anisotropic lobe. */
+INLINE double table_roughness(const double *p)
+{
+    return mf_is_anisotropic(p) ? sqrt(sqrt(p[MF_ALPHA] * p[MF_ALPHA_Y])) : sqrt(p[MF_ALPHA]);
+}
+
 /* GlossyLobe.add: append the closure (albedo: its Fresnel estimate or NULL; Fss: multiscatter's average
  * Fresnel or NULL for none); `weight` becomes the closure's weight after darkening. */
 INLINE void lobe_add(ShaderResult *sd, double mu, double *weight, double *p, const double *albedo, const double *Fss)
 {
-    double rough = sqrt(p[MF_ALPHA]);
+    double rough = table_roughness(p);
     double allocated[3] = {weight[0], weight[1], weight[2]};
     double factor = albedo != NULL ? (albedo[0] + albedo[1] + albedo[2]) / 3.0 : 1.0;
     if (Fss != NULL) {
@@ -122,7 +144,7 @@ INLINE void lobe_add(ShaderResult *sd, double mu, double *weight, double *p, con
     }
     double closure_weight[3] = {weight[0], weight[1], weight[2]};
     int kind = BSDF_MICROFACET;
-    if (p[MF_ALPHA] * p[MF_ALPHA] <= ROUGHNESS_SQ_THRESHOLD) {
+    if ((mf_is_anisotropic(p) ? p[MF_ALPHA] * p[MF_ALPHA_Y] : p[MF_ALPHA] * p[MF_ALPHA]) <= ROUGHNESS_SQ_THRESHOLD) {
         double F[3];
         microfacet_fresnel(p, clamp01(mu), F);
         for (int j = 0; j < 3; j++) closure_weight[j] *= F[j] * p[MF_ENERGY];
@@ -258,6 +280,15 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
     int multiscatter = p[22] != 0.0;
     double lobe[STORAGE_STRIDE], one[3] = {1.0, 1.0, 1.0};
     int reflective = !(sd->caustics & FILTER_REFLECTIVE), refractive = !(sd->caustics & FILTER_REFRACTIVE);
+    /* nodes.principled_anisotropy: the metal's and the specular's alphas and tangent. */
+    double anisotropic = clamp01(p[30]), T[3] = {p[32], p[33], p[34]}, alpha_x = 0.0, alpha_y = 0.0;
+    int aniso = anisotropic > 0.0 && (T[0] != 0.0 || T[1] != 0.0 || T[2] != 0.0);
+    if (aniso) {
+        double aspect = sqrt(1.0 - clamp01(anisotropic) * 0.9), a = roughness * roughness;
+        alpha_x = a / aspect;
+        alpha_y = a * aspect;
+        if (p[31] != 0.0) rotate_around_axis(p + 32, sd->N, p[31] * 2.0 * PI, T);
+    }
     /* 1. Alpha. */
     if (alpha < 1.0)
         for (int j = 0; j < 3; j++) { sd->transparency[j] += W[j] * (1.0 - alpha); W[j] *= alpha; }
@@ -315,7 +346,8 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
                 B[j] = (clamped[j] + (1.0 - clamped[j]) * f5) * (7.0 / (f5 * f)) * (1.0 - at_most(tint[j], 1.0));
         }
         lobe_params(lobe, roughness, FRESNEL_F82_TINT, 1.0, clamped, B);
-        double s = lookup_2d(GGX_SCHLICK_S_HALF, 16, 16, roughness, mu);
+        if (aniso) anisotropic_lobe(lobe, alpha_x, alpha_y, T);
+        double s = lookup_2d(GGX_SCHLICK_S_HALF, 16, 16, aniso ? table_roughness(lobe) : roughness, mu);
         for (int j = 0; j < 3; j++) {
             reflect[j] = clamped[j] + (1.0 - clamped[j]) * s;
             Fss[j] = clamped[j] + (1.0 - clamped[j]) / 21.0 - B[j] / 126.0;
@@ -349,7 +381,8 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
         double f0_tinted[3], reflect[3], Fss[3];
         for (int j = 0; j < 3; j++) f0_tinted[j] = clamp01(f0 * tint[j]);
         lobe_params(lobe, roughness, FRESNEL_SCHLICK_IOR, eta, f0_tinted, one);
-        dielectric_albedo(roughness, mu, eta, f0_tinted, reflect);
+        if (aniso) anisotropic_lobe(lobe, alpha_x, alpha_y, T);
+        dielectric_albedo(aniso ? table_roughness(lobe) : roughness, mu, eta, f0_tinted, reflect);
         double F0_real = F0_from_ior(eta);
         double s = F0_real < 1.0 ? clamp01((dielectric_Fss(eta) - F0_real) / (1.0 - F0_real)) : 1.0;
         for (int j = 0; j < 3; j++) Fss[j] = f0_tinted[j] + (1.0 - f0_tinted[j]) * s;
@@ -383,6 +416,12 @@ INLINE void setup_node(ShaderResult *sd, int kind, double mu, const double *wo, 
         double lobe[STORAGE_STRIDE], w[3] = {weight[0], weight[1], weight[2]}, one[3] = {1.0, 1.0, 1.0};
         double Fss[3] = {at_least(p[2], 0.0), at_least(p[3], 0.0), at_least(p[4], 0.0)};
         lobe_params(lobe, p[0], FRESNEL_NONE, 1.0, one, one);
+        double a = p[5] < -0.99 ? -0.99 : (p[5] > 0.99 ? 0.99 : p[5]);
+        if (fabs(a) > 1e-4 && (p[7] != 0.0 || p[8] != 0.0 || p[9] != 0.0)) {   /* nodes.GlossyNode: anisotropic */
+            double T[3] = {p[7], p[8], p[9]}, r = lobe[MF_ALPHA];
+            if (p[6] != 0.0) rotate_around_axis(p + 7, sd->glossy != NULL ? sd->glossy : sd->N, p[6] * 2.0 * PI, T);
+            anisotropic_lobe(lobe, a < 0.0 ? r / (1.0 + a) : r * (1.0 - a), a < 0.0 ? r * (1.0 + a) : r / (1.0 - a), T);
+        }
         lobe_add(sd, mu, w, lobe, NULL, p[1] != 0.0 ? Fss : NULL);
         break;
     }
@@ -445,12 +484,12 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
 NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, const ShadingPoint *sp, const double *N,
                         const double *wo, int backfacing, ShaderResult *sd)
 {
-    double reg[MAX_REGISTERS], weight[MAX_CLOSURES][3], p[MAX_CLOSURES][CLOSURE_PARAMS], normal[MAX_CLOSURES][3];
+    double reg[MAX_REGISTERS], weight[MAX_CLOSURES][3], p[MAX_CLOSURES][NODE_PARAMS], normal[MAX_CLOSURES][3];
     int own[MAX_CLOSURES], n = (int)m->n, program = (int)m->graph - 1;
     for (int k = 0; k < n; k++) {
         own[k] = 0;
         for (int j = 0; j < 3; j++) weight[k][j] = m->weight[k][j];
-        for (int j = 0; j < CLOSURE_PARAMS; j++) p[k][j] = m->p[k][j];
+        for (int j = 0; j < NODE_PARAMS; j++) p[k][j] = m->p[k][j];
     }
     run_program(G, program, sp, reg);
     const double *info = G->programs + 8 * program;

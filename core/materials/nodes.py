@@ -9,7 +9,7 @@ Cycles' svm_node_closure_bsdf does. The setup depends on the view direction (how
 reflects, and so leaves for the layers below, depends on mu = N.wo), so it runs per hit.
 
 NODE_TYPES is the table: a node's `kind` is its position, and core/materials/nodes.c dispatches on the
-same tag. Each class lists its `inputs` (the slots of its row of PARAMS floats) and `defaults`.
+same tag. Each class lists its `inputs` (the slots of its row of NODE_PARAMS floats) and `defaults`.
 """
 from __future__ import annotations
 
@@ -19,7 +19,8 @@ import numpy as np
 
 from . import ggx_tables as tables
 from . import microfacet as mf
-from .closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE, PARAMS, WEIGHT_CUTOFF, Closures, ShaderResult
+from .closures import (FILTER_REFLECTIVE, FILTER_REFRACTIVE, NODE_PARAMS, PARAMS, WEIGHT_CUTOFF, Closures,
+                       ShaderResult)
 from .glass import REFLECT_TINT, TRANSMIT_TINT, Glass
 from .glass import shares as glass_shares
 from .lambert import Lambert
@@ -124,6 +125,46 @@ def f82_tint_B(f0: np.ndarray, tint: np.ndarray) -> np.ndarray:
     return (f0 + (1.0 - f0) * f5) * (7.0 / (f5 * f)) * (1.0 - tint)
 
 
+def rotate_around_axis(v: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """v (n, 3) turned by angle (n,) radians about the unit axis (n, 3) (Rodrigues; Cycles' rotate_around_axis)."""
+    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    along = np.einsum("ij,ij->i", axis, v)[:, None] * axis
+    return v * c + np.cross(axis, v) * s + along * (1.0 - c)
+
+
+def anisotropic_lobe(p: np.ndarray, alpha_x: np.ndarray, alpha_y: np.ndarray, T: np.ndarray, on: np.ndarray) -> None:
+    """Make the microfacet rows p (n, PARAMS) anisotropic where `on` (n,) bool: alpha_x, alpha_y (n,) clipped to 1
+    as Cycles' bsdf_microfacet_ggx_setup does, tangent T (n, 3); changed in place."""
+    p[:, mf.ALPHA] = np.where(on, np.minimum(alpha_x, 1.0), p[:, mf.ALPHA])
+    p[:, mf.ALPHA_Y] = np.where(on, np.minimum(alpha_y, 1.0), 0.0)
+    p[:, mf.TANGENT:mf.TANGENT + 3] = np.where(on[:, None], T, 0.0)
+
+
+def table_roughness(p: np.ndarray) -> np.ndarray:
+    """The roughness (n,) the albedo tables read for microfacet rows p (n, PARAMS): sqrt(alpha), or for anisotropic
+    rows sqrt(sqrt(alpha_x alpha_y)), as Cycles' energy compensation and albedo estimates do."""
+    rough = np.sqrt(p[:, mf.ALPHA])
+    aniso = mf.is_anisotropic(p)
+    if aniso.any():
+        rough = np.where(aniso, np.sqrt(np.sqrt(p[:, mf.ALPHA] * p[:, mf.ALPHA_Y])), rough)
+    return rough
+
+
+def principled_anisotropy(b: "ClosureBuilder", roughness: np.ndarray, anisotropic: np.ndarray, rotation: np.ndarray,
+                          T: np.ndarray):
+    """The Principled BSDF's (alpha_x, alpha_y, tangent, on) for its metal and specular layers (Cycles'
+    svm_node_closure_bsdf): aspect = sqrt(1 - 0.9 anisotropic), alpha_x = r^2 / aspect, alpha_y = r^2 aspect, the
+    tangent T (n, 3) turned by rotation x 2 pi about the node's normal; on (n,) bool where anisotropic > 0 and T
+    is not zero."""
+    on = (anisotropic > 0.0) & np.any(T != 0.0, axis=1)
+    if not on.any():
+        return None, None, None, on
+    aspect = np.sqrt(1.0 - np.clip(anisotropic, 0.0, 1.0) * 0.9)
+    alpha = roughness * roughness
+    turned = np.where((rotation != 0.0)[:, None], rotate_around_axis(T, b.N, rotation * 2.0 * np.pi), T)
+    return alpha / aspect, alpha * aspect, turned, on
+
+
 class GlossyLobe:
     """The microfacet closures' shared setup: parameters, Fresnel estimate and energy compensation."""
 
@@ -146,8 +187,9 @@ class GlossyLobe:
         restore the energy of multiple scattering (Multiscatter GGX, Cycles' microfacet_ggx_preserve_energy).
         Returns the closure's weight after darkening (n, 3).
 
-        A lobe smoother than the threshold is a mirror reflecting F(mu) of the light."""
-        rough = np.sqrt(p[:, mf.ALPHA])
+        A lobe smoother than the threshold is a mirror reflecting F(mu) of the light. An anisotropic lobe reads
+        the tables at sqrt(sqrt(alpha_x alpha_y)) (table_roughness)."""
+        rough = table_roughness(p)
         allocated = weight
         factor = None if albedo is None else albedo.mean(axis=1)
         if Fss is not None:
@@ -163,7 +205,11 @@ class GlossyLobe:
                 darkening = np.where(dark[:, None], darkening, 1.0)
                 weight = weight * darkening
                 factor = darkening.mean(axis=1) if factor is None else factor * darkening.mean(axis=1)
-        singular = p[:, mf.ALPHA] ** 2 <= mf.ROUGHNESS_SQ_THRESHOLD
+        alpha2 = p[:, mf.ALPHA] ** 2
+        aniso = mf.is_anisotropic(p)
+        if aniso.any():
+            alpha2 = np.where(aniso, p[:, mf.ALPHA] * p[:, mf.ALPHA_Y], alpha2)
+        singular = alpha2 <= mf.ROUGHNESS_SQ_THRESHOLD
         kind = np.where(singular, Mirror.kind, Microfacet.kind)
         closure_weight = weight
         if singular.any():
@@ -182,8 +228,8 @@ def dielectric_albedo(rough: np.ndarray, mu: np.ndarray, eta: float, f0: np.ndar
 
 
 def per_hit_rows(p: np.ndarray, n: int) -> np.ndarray:
-    """A node's inputs as (n, PARAMS) rows: one row (PARAMS,) shared by all hits, or a row per hit."""
-    return np.broadcast_to(np.asarray(p, np.float64).reshape(-1, PARAMS), (n, PARAMS))
+    """A node's inputs as (n, NODE_PARAMS) rows: one row (NODE_PARAMS,) shared by all hits, or a row per hit."""
+    return np.broadcast_to(np.asarray(p, np.float64).reshape(-1, NODE_PARAMS), (n, NODE_PARAMS))
 
 
 class Node:
@@ -197,8 +243,8 @@ class Node:
 
     @classmethod
     def row(cls, values: dict) -> np.ndarray:
-        """The node's inputs as a row of PARAMS floats, defaults where `values` has none."""
-        p = np.zeros(PARAMS)
+        """The node's inputs as a row (NODE_PARAMS,) float64, defaults where `values` has none."""
+        p = np.zeros(NODE_PARAMS)
         i = 0
         for name, default in zip(cls.inputs, cls.defaults):
             value = np.asarray(values.get(name, default), np.float64).reshape(-1)
@@ -265,17 +311,28 @@ class MirrorNode(Node):
 
 
 class GlossyNode(Node):
-    """Glossy BSDF (GGX or Multiscatter GGX): one microfacet closure without Fresnel, weighted by its colour."""
+    """Glossy BSDF (GGX or Multiscatter GGX): one microfacet closure without Fresnel, weighted by its colour;
+    anisotropic (Cycles' svm_node_closure_bsdf) where |Anisotropy| > 1e-4 and the Tangent is not zero: with
+    r = roughness^2 and a = Anisotropy clipped to +-0.99, alpha_x = r (1 - a), alpha_y = r / (1 - a) for a >= 0,
+    alpha_x = r / (1 + a), alpha_y = r (1 + a) below; the tangent turned by Rotation x 2 pi about the normal."""
 
     kind, name = 2, "GLOSSY"
-    inputs = ("roughness", "multiscatter", "color")
-    defaults = (0.5, 1.0, (1.0, 1.0, 1.0))
+    inputs = ("roughness", "multiscatter", "color", "anisotropy", "rotation", "tangent")
+    defaults = (0.5, 1.0, (1.0, 1.0, 1.0), 0.0, 0.0, (0.0, 0.0, 0.0))
 
     @staticmethod
     def setup(b, weight, p):
         n = len(weight)
         p = per_hit_rows(p, n)
         lobe = GlossyLobe.params(n, p[:, 0], mf.FRESNEL_NONE)
+        a, T = np.clip(p[:, 5], -0.99, 0.99), p[:, 7:10]
+        on = (np.abs(a) > 1e-4) & np.any(T != 0.0, axis=1)
+        if on.any():
+            r = lobe[:, mf.ALPHA]
+            turned = np.where((p[:, 6] != 0.0)[:, None], rotate_around_axis(T, b.glossy_N, p[:, 6] * 2.0 * np.pi), T)
+            alpha_x = np.where(a < 0.0, r / (1.0 + a), r * (1.0 - a))
+            alpha_y = np.where(a < 0.0, r * (1.0 + a), r / (1.0 - a))
+            anisotropic_lobe(lobe, alpha_x, alpha_y, turned, on)
         GlossyLobe.add(b, weight, lobe, Fss=np.maximum(p[:, 2:5], 0.0) if p[0, 1] else None, keep=b.reflective)
 
 
@@ -305,9 +362,10 @@ class TransparentNode(Node):
 PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "subsurface", "specular_ior_level",
                      "specular_tint", "coat", "coat_roughness", "coat_ior", "coat_tint", "emission",
                      "transmission", "multiscatter", "diffuse_roughness", "sheen", "sheen_roughness", "sheen_tint",
-                     "coat_follows_normal")
+                     "coat_follows_normal", "anisotropic", "anisotropic_rotation", "tangent")
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
-                       (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0)
+                       (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.0, 0.0,
+                       (0.0, 0.0, 0.0))
 
 
 class PrincipledNode(Node):
@@ -329,7 +387,9 @@ class PrincipledNode(Node):
        colours; below it, what it does not reflect;
     7. diffuse: Lambert with the base colour, or Oren-Nayar's with Diffuse Roughness (subsurface scattering
        approximated by it, with a warning).
-    Anisotropy is left out (warned at export).
+    The metal and specular layers are anisotropic where Anisotropic > 0 and the Tangent is not zero
+    (principled_anisotropy); their albedo estimates and energy compensation read the tables at
+    sqrt(sqrt(alpha_x alpha_y)), as Cycles' do. The coat, sheen and transmission stay isotropic, as in Cycles.
     """
 
     kind, name = 3, "PRINCIPLED"
@@ -350,6 +410,9 @@ class PrincipledNode(Node):
         coat_tint, emission = np.maximum(p[:, 15:18], 0.0), p[:, 18:21]
         transmission, multiscatter = np.clip(p[:, 21], 0.0, 1.0), p[0, 22] != 0.0
         W = np.broadcast_to(weight, (n, 3)).astype(np.float64)
+        alpha_x, alpha_y, T, anisotropic = principled_anisotropy(b, roughness, np.clip(p[:, 30], 0.0, 1.0), p[:, 31],
+                                                                 p[:, 32:35])
+        aniso_on = anisotropic.any()
         # 1. Alpha (nothing changes where alpha is 1).
         if (alpha < 1.0).any():
             b.transparency += W * (1.0 - alpha)[:, None]
@@ -392,7 +455,9 @@ class PrincipledNode(Node):
             f82 = np.minimum(tint, 1.0)
             B = np.where(np.all(f82 == 1.0, axis=1)[:, None], 0.0, f82_tint_B(clamped, f82))
             lobe = GlossyLobe.params(n, roughness, mf.FRESNEL_F82_TINT, 1.0, clamped, B)
-            s = tables.lookup_2d(tables.SCHLICK_S_HALF, roughness, b.mu)
+            if aniso_on:
+                anisotropic_lobe(lobe, alpha_x, alpha_y, T, anisotropic)
+            s = tables.lookup_2d(tables.SCHLICK_S_HALF, table_roughness(lobe) if aniso_on else roughness, b.mu)
             reflect = clamped + (1.0 - clamped) * s[:, None]
             Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
             GlossyLobe.add(b, W * metallic[:, None], lobe, reflect, Fss=Fss if multiscatter else None,
@@ -421,7 +486,9 @@ class PrincipledNode(Node):
         if on.any():
             f0_tinted = np.clip(f0[:, None] * tint, 0.0, 1.0)
             lobe = GlossyLobe.params(n, roughness, mf.FRESNEL_SCHLICK_IOR, eta, f0_tinted, (1.0, 1.0, 1.0))
-            reflect = dielectric_albedo(roughness, b.mu, eta, f0_tinted, ones)
+            if aniso_on:
+                anisotropic_lobe(lobe, alpha_x, alpha_y, T, anisotropic)
+            reflect = dielectric_albedo(table_roughness(lobe) if aniso_on else roughness, b.mu, eta, f0_tinted, ones)
             F0_real = mf.F0_from_ior(eta)
             below = F0_real < 1.0
             s = np.where(below, np.clip((dielectric_Fss(eta) - F0_real) / np.where(below, 1.0 - F0_real, 1.0), 0.0, 1.0),
@@ -531,10 +598,10 @@ assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's
 
 def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy=None, backfacing=None,
                 caustics=None) -> ShaderResult:
-    """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (PARAMS,)).
+    """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (NODE_PARAMS,)).
 
     per_hit: what a node graph computed at each hit (graph.apply_outputs), or None: (weights, rows,
-    normals) lists by node of (n, 3), (n, PARAMS) and (n, 3) or None arrays. A node's own normal goes to its
+    normals) lists by node of (n, 3), (n, NODE_PARAMS) and (n, 3) or None arrays. A node's own normal goes to its
     closures only: the result's N stays the hit's normal (Cycles' sd->N), which bump shadowing compares with.
     glossy: by node, the normal its glossy lobes get instead ((n, 3) or None). backfacing: (n,) bool where
     the ray hit from behind (glass bends light leaving an object by 1 / IOR). caustics: (n,) int filter bits
@@ -549,5 +616,5 @@ def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy
             weight, p, normal = per_hit[0][k], per_hit[1][k], per_hit[2][k]
         b.use_normal(N if normal is None else normal, None if glossy is None else glossy[k])
         cls.setup(b, np.broadcast_to(np.asarray(weight, np.float64), (n, 3)),
-                  np.broadcast_to(np.asarray(p, np.float64), (n, PARAMS)))
+                  np.broadcast_to(np.asarray(p, np.float64), (n, NODE_PARAMS)))
     return b.result()

@@ -58,7 +58,7 @@ INLINE void rough_glass_sample(const Closure *c, const double *wo, const double 
     double local[3] = {dot3(t, wo), dot3(b, wo), dot3(N, wo)};
     if (!(local[2] > 0.0)) { local[0] = 0.0; local[1] = 0.0; local[2] = 1.0; }
     double h[3], H[3];
-    sample_visible_normal(local, p[MF_ALPHA], u, h);
+    sample_visible_normal(local, p[MF_ALPHA], p[MF_ALPHA], u, h);
     for (int k = 0; k < 3; k++) H[k] = (t[k] * h[0] + b[k] * h[1]) + N[k] * h[2];
     /* 2. Reflect or refract at it, in proportion to what it reflects and refracts. */
     double cos_HO = dot3(H, wo), R[3], T[3], total;

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 30
+#define PRIMER_ABI 31
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
