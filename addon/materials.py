@@ -560,17 +560,16 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                 reader.warn(node, f"'{socket}' is linked; where it is above 0 Primer {instead}")
             elif not own.is_linked and float(np.max(reader.value(node, socket, 0.0))) > 0.0:
                 reader.warn(node, f"'{socket}' is above 0; Primer {instead}")
-        # The coat's normal: Coat Normal, or the hit's own normal where it is unlinked (Cycles); Primer reads a
-        # Coat Normal fed by the very node that feeds Normal (glTF's usual shared map), not another one.
+        # The coat's normal: Coat Normal, or the hit's own normal where it is unlinked (Cycles); fed by the very
+        # node that feeds Normal (glTF's usual shared map) the coat takes the node's own normal, no second copy.
         coat_normal = node.inputs.get("Coat Normal")
         if coat_normal is not None and coat_normal.is_linked:
             coat_value = reader.input(node, "Coat Normal", None)
             normal = inputs.get("normal")
             if _linked(coat_value) and _linked(normal) and same_graph(coat_value, normal):
                 inputs["coat_follows_normal"] = 1.0
-            else:
-                reader.warn(node, "'Coat Normal' is linked to another normal than 'Normal'; Primer gives the coat "
-                                  "the hit's own normal (Cycles' coat without a Coat Normal)")
+            elif _linked(coat_value):
+                inputs["coat_normal"] = coat_value
         out.append(("PRINCIPLED", weight, inputs, list(factors)))
     elif kind == "ShaderNodeBsdfDiffuse":
         # Roughness above 0: Oren-Nayar's rough diffuse, which also needs the colour itself.

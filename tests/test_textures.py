@@ -419,3 +419,64 @@ def test_a_coat_normal_fed_by_the_normals_map_turns_the_coat_too(kernels):
     bumped = shoot(scene_of(Material(name="Shared", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0), shared)]), tangent=True),
                    kernels)
     assert bumped.max() < 0.5 * flat.min()
+
+
+def tilted_map(degrees: float) -> Link:
+    """A Normal Map node's output tilting the normal by `degrees` towards the tangent (+x), constant."""
+    theta = math.radians(degrees)
+    color = GraphNode("RGB", {"value": np.array([math.sin(theta), 0.0, math.cos(theta)]) * 0.5 + 0.5})
+    return Link(GraphNode("NORMAL_MAP", {"map": ""}, {"Color": Link(color, "Color"), "Strength": 1.0}), "Normal")
+
+
+def coat_scene(inputs: dict, sun_degrees: float = 0.0) -> Scene:
+    """The plane with a coated Principled of `inputs` (no specular) under a sun `sun_degrees` from the zenith
+    towards +x."""
+    scene = scene_of(Material(name="Coated", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0), {
+        "specular_ior_level": 0.0, "coat": 1.0, "coat_roughness": 0.2, **inputs})]), tangent=True, sun=False)
+    phi = math.radians(sun_degrees)
+    scene.lights.append(SunLight(-np.array([math.sin(phi), 0.0, math.cos(phi)]), strength=E))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_coat_normal_map_of_its_own_turns_the_coat_alone(kernels):
+    """Coat Normal fed by its own map (Cycles' coat_normal): over a black base, where the coat is the only lobe,
+    the plane renders as when the coat follows that map through Normal, whatever feeds Normal; the coat's
+    highlight moves to the mirror of the view about the coat's normal (the sun 2 x 20 degrees off the zenith);
+    the diffuse base keeps the flat Normal: its light goes as N.L = cos 40 (the coat's mu, so what it lets
+    through, is the same for both suns)."""
+    black, white = {"base_color": (0.0, 0.0, 0.0)}, {"base_color": (1.0, 1.0, 1.0)}
+    own = {"coat_normal": tilted_map(20.0), "normal": tilted_map(-10.0)}
+    follows = {"normal": tilted_map(20.0), "coat_follows_normal": 1.0}
+    for sun in (0.0, 40.0):
+        np.testing.assert_allclose(shoot(coat_scene({**black, **own}, sun), kernels),
+                                   shoot(coat_scene({**black, **follows}, sun), kernels), rtol=1e-9)
+    mapped = {"coat_normal": tilted_map(20.0)}
+    overhead, mirrored = shoot(coat_scene({**black, **mapped}, 0.0), kernels), shoot(coat_scene({**black, **mapped},
+                                                                                                 40.0), kernels)
+    flat_overhead, flat_mirrored = shoot(coat_scene(black, 0.0), kernels), shoot(coat_scene(black, 40.0), kernels)
+    assert mirrored.min() > 3.0 * overhead.max() and flat_overhead.min() > 3.0 * flat_mirrored.max()
+    base_overhead = shoot(coat_scene({**white, **mapped}, 0.0), kernels) - overhead
+    base_mirrored = shoot(coat_scene({**white, **mapped}, 40.0), kernels) - mirrored
+    assert base_overhead.min() > 0.05
+    np.testing.assert_allclose(base_mirrored, base_overhead * math.cos(math.radians(40.0)), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_coat_normal_fed_by_the_normals_own_map_renders_as_coat_follows_normal(kernels):
+    """Coat Normal linked to the map that feeds Normal (a second copy of the graph) renders what
+    coat_follows_normal (the node's own normal, no copy) renders, with a sheen mixing the two normals too."""
+    inputs = {"base_color": (0.6, 0.4, 0.2), "sheen": 0.5, "normal": tilted_map(25.0)}
+    linked = shoot(coat_scene({**inputs, "coat_normal": tilted_map(25.0)}, 30.0), kernels)
+    follows = shoot(coat_scene({**inputs, "coat_follows_normal": 1.0}, 30.0), kernels)
+    assert follows.min() > 0.0
+    np.testing.assert_allclose(linked, follows, rtol=1e-9, atol=1e-12)
+
+
+def test_a_coat_normal_map_renders_the_same_compiled_and_in_numpy():
+    """The compiled Principled with its own Coat Normal (nodes.c, graph.c) renders what the numpy one does."""
+    inputs = {"base_color": (0.5, 0.6, 0.7), "sheen": 0.3, "coat_tint": (0.9, 0.7, 0.5),
+              "coat_normal": tilted_map(30.0), "normal": tilted_map(-15.0)}
+    for sun in (0.0, 25.0, 60.0):
+        np.testing.assert_allclose(shoot(coat_scene(inputs, sun), "compiled"), shoot(coat_scene(inputs, sun), "numpy"),
+                                   rtol=1e-9, atol=1e-12)

@@ -235,7 +235,7 @@ class NodeShader:
         weights = [np.broadcast_to(weight, (n, 3)).astype(np.float64) for _, weight, _ in self.nodes]
         rows = [np.tile(p, (n, 1)) for _, _, p in self.nodes]
         normals = [None] * len(self.nodes)
-        graph_.apply_outputs(program, registers, weights, rows, normals)
+        graph_.apply_outputs(program, registers, weights, rows, normals, point.Ng, wo)
         glossy = [None if normal is None else graph_.valid_reflection(point.Ng, wo, normal) for normal in normals]
         return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing,
                                   caustics=caustics)

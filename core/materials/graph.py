@@ -146,7 +146,8 @@ class Program(NamedTuple):
 
     ops: (k, 1 + OP_ARGS) float64 op records; constants: (c,) float64, registers 0 .. c - 1;
     registers: R, how many a hit needs; outputs: (m, 5) float64 rows (kind OUT_*, shader node, slot or
-    weight mode, width, register); ramps: (r,) float64 colour-ramp tables, 256 RGBA rows each.
+    weight mode, width, register; OUT_NORMAL to slot 0 is the node's normal, to another slot a normal input);
+    ramps: (r,) float64 colour-ramp tables, 256 RGBA rows each.
     """
 
     ops: np.ndarray
@@ -485,7 +486,8 @@ class Compiler:
 
     def compile(self, nodes: list) -> Program:
         """The program of a material's shader nodes [(node class, weight, inputs dict, factors), ...]:
-        linked inputs overwrite their slots, factors multiply the weight, "normal" replaces the normal."""
+        linked inputs overwrite their slots, factors multiply the weight, "normal" replaces the normal; a linked
+        input in cls.normal_inputs (the Principled's "coat_normal") is a normal written into its slots."""
         for k, entry in enumerate(nodes):
             cls, inputs = entry[0], entry[2]
             factors = entry[3] if len(entry) > 3 else ()
@@ -494,7 +496,8 @@ class Compiler:
                 size = np.atleast_1d(np.asarray(default)).size
                 value = inputs.get(name)
                 if isinstance(value, Link):
-                    self.outputs.append([OUT_INPUT, k, slot, size, self.value(value, size)])
+                    kind = OUT_NORMAL if name in getattr(cls, "normal_inputs", ()) else OUT_INPUT
+                    self.outputs.append([kind, k, slot, size, self.value(value, size)])
                 slot += size
             if isinstance(inputs.get("normal"), Link):
                 self.outputs.append([OUT_NORMAL, k, 0, 3, self.value(inputs["normal"], 3)])
@@ -859,9 +862,12 @@ def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, sp:
     return np.where(zero[:, None], normal, mixed)
 
 
-def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, normals: list) -> None:
+def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, normals: list,
+                  Ng: Optional[np.ndarray] = None, wo: Optional[np.ndarray] = None) -> None:
     """Overwrite the shader nodes' per-hit weights (n, 3), rows (n, NODE_PARAMS) and normals ((n, 3) or None)
-    with the program's outputs (lists indexed by shader node, changed in place)."""
+    with the program's outputs (lists indexed by shader node, changed in place); a normal output to slot > 0
+    (a node's normal input, e.g. Coat Normal) goes to the row, unit and, given Ng and wo (n, 3), corrected by
+    valid_reflection."""
     for kind, node, slot, width, register in program.outputs.astype(np.int64):
         value = reg[:, register:register + width]
         if kind == OUT_INPUT:
@@ -874,8 +880,13 @@ def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, 
             else:
                 factor = np.maximum(value, 0.0)
             weights[node] = weights[node] * factor
-        else:
+        elif slot == 0:
             normals[node] = safe_normalize(value)
+        else:
+            unit = safe_normalize(value)
+            if Ng is not None:                      # (zero stays zero: the node reads it as unlinked)
+                unit = np.where(np.any(unit != 0.0, axis=1)[:, None], valid_reflection(Ng, wo, unit), 0.0)
+            rows[node][:, slot:slot + 3] = unit
 
 
 def empty_point(n: int, width: int) -> ShadingPoint:

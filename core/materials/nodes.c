@@ -252,10 +252,9 @@ INLINE double sheen_add(ShaderResult *sd, const double *wo, const double *N, con
     return R;
 }
 
-/* nodes.sheen_normal: the node's normal sd->N turned towards the hit's (the coat's) by coat in 0..1. */
-INLINE void sheen_normal(const ShaderResult *sd, double coat, double *N)
+/* nodes.sheen_normal: the node's normal sd->N turned towards the coat's normal `hit` by coat in 0..1. */
+INLINE void sheen_normal(const ShaderResult *sd, double coat, const double *hit, double *N)
 {
-    const double *hit = sd->hit_N != NULL ? sd->hit_N : sd->N;
     for (int j = 0; j < 3; j++) N[j] = sd->N[j] + coat * (hit[j] - sd->N[j]);
     double length = sqrt(dot3(N, N));
     for (int j = 0; j < 3; j++) N[j] = length > 0.0 ? N[j] / length : hit[j];
@@ -289,6 +288,11 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
         alpha_y = a * aspect;
         if (p[31] != 0.0) rotate_around_axis(p + 32, sd->N, p[31] * 2.0 * PI, T);
     }
+    /* nodes.coat_normal: Coat Normal from the graph (p[35..37], unit and valid-reflection corrected; zero where
+     * unlinked), else the node's own normal where it follows Normal (p[29]), else the hit's. */
+    int follows = p[29] != 0.0, coat_linked = p[35] != 0.0 || p[36] != 0.0 || p[37] != 0.0;
+    const double *coat_N = coat_linked ? p + 35 : (sd->hit_N != NULL && !follows ? sd->hit_N : sd->N);
+    const double *coat_glossy = coat_linked || !follows ? NULL : sd->glossy;
     /* 1. Alpha. */
     if (alpha < 1.0)
         for (int j = 0; j < 3; j++) { sd->transparency[j] += W[j] * (1.0 - alpha); W[j] *= alpha; }
@@ -296,24 +300,22 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
     double sheen = at_least(p[24], 0.0);
     if (sheen > WEIGHT_CUTOFF) {
         double Ns[3], sheen_weight[3];
-        sheen_normal(sd, clamp01(coat), Ns);
+        sheen_normal(sd, clamp01(coat), coat_N, Ns);
         for (int j = 0; j < 3; j++) sheen_weight[j] = W[j] * sheen * at_least(p[26 + j], 0.0);
         double R = sheen_add(sd, wo, Ns, sheen_weight, clamp01(p[25]));
         double albedo[3] = {sheen_weight[0] * R, sheen_weight[1] * R, sheen_weight[2] * R};
         layering_weight(albedo, W);
     }
-    /* 2. Coat, with the hit's own normal (nodes.py: a normal map at the node's Normal input turns the layers
-     *    below it, not the coat); where reflective caustics are filtered out it reflects nothing, but still
-     *    tints. */
+    /* 2. Coat, with its own normal coat_N (nodes.py: a normal map at the node's Normal input alone turns the
+     *    layers below it, not the coat); where reflective caustics are filtered out it reflects nothing, but
+     *    still tints. */
     if (coat > WEIGHT_CUTOFF) {
-        int follows = p[29] != 0.0;                  /* Coat Normal fed by what feeds Normal: the node's own */
-        const double *hit = sd->hit_N != NULL && !follows ? sd->hit_N : sd->N;
-        double node_N[3] = {sd->N[0], sd->N[1], sd->N[2]};
+        double node_N[3] = {sd->N[0], sd->N[1], sd->N[2]}, hit[3] = {coat_N[0], coat_N[1], coat_N[2]};
         const double *node_glossy = sd->glossy;
         double mu_c = mu;
-        if (!follows) {
+        if (coat_linked || !follows) {
             for (int j = 0; j < 3; j++) sd->N[j] = hit[j];
-            sd->glossy = NULL;
+            sd->glossy = coat_glossy;
             mu_c = dot3(hit, wo);
         }
         if (reflective) {
@@ -506,10 +508,15 @@ NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, 
                 double f = slot == 0 ? clamp01(v) : (slot == 1 ? 1.0 - clamp01(v) : at_least(v, 0.0));
                 weight[k][j] *= f;
             }
-        } else {
+        } else if (slot == 0) {
             own[k] = 1;
             for (int j = 0; j < 3; j++) normal[k][j] = value[j];
             safe_normalize3(normal[k]);
+        } else {                                    /* a normal input (Coat Normal) into the row, zero kept zero */
+            double *into = p[k] + slot;
+            for (int j = 0; j < 3; j++) into[j] = value[j];
+            safe_normalize3(into);
+            if (into[0] != 0.0 || into[1] != 0.0 || into[2] != 0.0) valid_reflection(sp->Ng, wo, into);
         }
     }
     double glossy[MAX_CLOSURES][3];

@@ -240,6 +240,7 @@ class Node:
     inputs: ClassVar[tuple] = ()
     defaults: ClassVar[tuple] = ()
     slots: ClassVar[int] = 1            # at most this many closures
+    normal_inputs: ClassVar[tuple] = ()  # inputs a linked normal feeds (unit, valid for reflection; 0: unlinked)
 
     @classmethod
     def row(cls, values: dict) -> np.ndarray:
@@ -272,12 +273,25 @@ def add_diffuse(b: ClosureBuilder, weight: np.ndarray, roughness: np.ndarray, al
     b.add(np.where(rough, OrenNayar.kind, Lambert.kind), weight, oren_nayar_params(roughness, albedo, b.mu))
 
 
-def sheen_normal(b: ClosureBuilder, coat: np.ndarray) -> np.ndarray:
-    """The Principled sheen's normal (n, 3): the node's normal turned towards the coat's by the coat weight
-    `coat` (n,) in 0..1, as Cycles mixes them (the coat has the hit's own normal)."""
-    N = b.N + coat[:, None] * (b.smooth_N - b.N)
+def coat_normal(b: ClosureBuilder, linked: np.ndarray, follows: np.ndarray) -> tuple:
+    """The Principled coat's normal and glossy normal ((n, 3) each, Cycles' coat_normal): the graph's Coat Normal
+    `linked` (n, 3) (unit, valid-reflection corrected; zero where unlinked), else the node's own where `follows`
+    (n,) bool (Coat Normal fed by what feeds Normal), else the hit's own normal (Cycles' sd->N)."""
+    has = np.any(linked != 0.0, axis=1)
+    if not has.any() and follows.all():
+        return b.N, b.glossy_N
+    if not has.any() and not follows.any():
+        return b.smooth_N, b.smooth_N
+    N = np.where(has[:, None], linked, np.where(follows[:, None], b.N, b.smooth_N))
+    return N, np.where(has[:, None], linked, np.where(follows[:, None], b.glossy_N, b.smooth_N))
+
+
+def sheen_normal(b: ClosureBuilder, coat: np.ndarray, coat_N: np.ndarray) -> np.ndarray:
+    """The Principled sheen's normal (n, 3): the node's normal turned towards the coat's `coat_N` (n, 3) by the
+    coat weight `coat` (n,) in 0..1, as Cycles mixes them."""
+    N = b.N + coat[:, None] * (coat_N - b.N)
     length = np.linalg.norm(N, axis=1)
-    return np.where(length[:, None] > 0.0, N / np.where(length > 0.0, length, 1.0)[:, None], b.smooth_N)
+    return np.where(length[:, None] > 0.0, N / np.where(length > 0.0, length, 1.0)[:, None], coat_N)
 
 
 def add_sheen(b: ClosureBuilder, weight: np.ndarray, roughness: np.ndarray, N: np.ndarray, keep=None) -> np.ndarray:
@@ -362,10 +376,10 @@ class TransparentNode(Node):
 PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "subsurface", "specular_ior_level",
                      "specular_tint", "coat", "coat_roughness", "coat_ior", "coat_tint", "emission",
                      "transmission", "multiscatter", "diffuse_roughness", "sheen", "sheen_roughness", "sheen_tint",
-                     "coat_follows_normal", "anisotropic", "anisotropic_rotation", "tangent")
+                     "coat_follows_normal", "anisotropic", "anisotropic_rotation", "tangent", "coat_normal")
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
                        (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.0, 0.0,
-                       (0.0, 0.0, 0.0))
+                       (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 class PrincipledNode(Node):
@@ -375,7 +389,9 @@ class PrincipledNode(Node):
     1b. sheen (the outermost layer): microfiber sheen (core/materials/sheen.py) of weight sheen x sheen tint x
        its albedo R, its normal turned towards the coat's (the hit's) by the coat weight; below it, what it
        does not reflect (layering_weight);
-    2. coat: a dielectric GGX layer (index coat_ior); below it, light is tinted by coat_tint along the
+    2. coat: a dielectric GGX layer (index coat_ior) with its own normal (Coat Normal: the graph's unit,
+       valid-reflection normal in slots 35-37, zero where unlinked; else the node's own with
+       coat_follows_normal, else the hit's); below it, light is tinted by coat_tint along the
        refracted path and reduced by what the coat reflects;
     3. emission, seen through the coat;
     4. metal (metallic): GGX with the F82-tint curve from the base colour, tinted near 82 degrees by
@@ -394,6 +410,7 @@ class PrincipledNode(Node):
 
     kind, name = 3, "PRINCIPLED"
     inputs, defaults = PRINCIPLED_INPUTS, PRINCIPLED_DEFAULTS
+    normal_inputs = ("coat_normal",)
     slots = 6
 
     @staticmethod
@@ -413,6 +430,7 @@ class PrincipledNode(Node):
         alpha_x, alpha_y, T, anisotropic = principled_anisotropy(b, roughness, np.clip(p[:, 30], 0.0, 1.0), p[:, 31],
                                                                  p[:, 32:35])
         aniso_on = anisotropic.any()
+        coat_N, coat_glossy = coat_normal(b, p[:, 35:38], p[:, 29] != 0.0)
         # 1. Alpha (nothing changes where alpha is 1).
         if (alpha < 1.0).any():
             b.transparency += W * (1.0 - alpha)[:, None]
@@ -422,17 +440,16 @@ class PrincipledNode(Node):
         on = sheen > WEIGHT_CUTOFF
         if on.any():
             sheen_weight = W * sheen[:, None] * np.maximum(p[:, 26:29], 0.0)
-            R = add_sheen(b, sheen_weight, np.clip(p[:, 25], 0.0, 1.0), sheen_normal(b, np.clip(coat, 0.0, 1.0)), on)
+            R = add_sheen(b, sheen_weight, np.clip(p[:, 25], 0.0, 1.0),
+                          sheen_normal(b, np.clip(coat, 0.0, 1.0), coat_N), on)
             W = np.where(on[:, None], layering_weight(sheen_weight * R[:, None], W), W)
-        # 2. Coat, with the hit's own normal (Cycles' Coat Normal unlinked is sd->N): a normal map at the node's
-        #    Normal input turns the layers below it, not the coat.
+        # 2. Coat, with its own normal (coat_N, coat_glossy above); a normal map at the node's Normal input alone
+        #    turns the layers below it, not the coat.
         on = coat > WEIGHT_CUTOFF
         if on.any():
             node_normals = (b.N, b.glossy_N, b.mu)
-            follows = p[:, 29] != 0.0           # Coat Normal fed by what feeds Normal: the node's own normal
-            if not follows.all():
-                b.use_normal(np.where(follows[:, None], b.N, b.smooth_N),
-                             glossy=np.where(follows[:, None], b.glossy_N, b.smooth_N))
+            if coat_N is not b.N or coat_glossy is not b.glossy_N:
+                b.use_normal(coat_N, glossy=coat_glossy)
             # (Where reflective caustics are filtered out the coat reflects nothing, but still tints.)
             lobe_on = on & b.reflective
             lobe = GlossyLobe.params(n, coat_roughness, mf.FRESNEL_DIELECTRIC, coat_ior)

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 31
+#define PRIMER_ABI 32
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
