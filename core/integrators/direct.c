@@ -473,6 +473,20 @@ INLINE void point_barycentrics(const double *V, const double *P, double *u, doub
     *v = det > 0.0 ? (d11 * p2 - d12 * p1) / det : 1.0 / 3.0;
 }
 
+/* The surface s and material sd (its closures in the caller's `storage`) of triangle tri (Embree's geometry,
+ * prim, instance) where the ray O + t D meets it at barycentrics (u, v), for a ray other than the camera's. */
+INLINE void shade_along(const DirectSettings *ds, const Triangle *tri, int64_t geometry, int64_t prim,
+                        int64_t instance, const double *O, const double *D, double t, double u, double v,
+                        Surface *s, double *storage, ShaderResult *sd)
+{
+    surface_at(O, D, t, u, v, tri, 0, s);
+    double wo[3] = {-D[0], -D[1], -D[2]};
+    sd->storage = storage;
+    sd->caustics = 0;
+    shade_hit(ds->graphs, ds->geometry, ds->materials + tri->material, tri, s, geometry, prim, instance, u, v, wo,
+              RAY_BOUNCE, sd);
+}
+
 /* direct.graph_emission for one point O + t D on triangle (geometry, prim, instance): what its material's node
  * graph emits back along -D (a texture's emission), for a ray other than the camera's; the barycentrics come
  * from the point. */
@@ -484,13 +498,9 @@ NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, 
     double P[3] = {O[0] + t * D[0], O[1] + t * D[1], O[2] + t * D[2]}, u, v;
     point_barycentrics(tri.V, P, &u, &v);
     Surface s;
-    surface_at(O, D, t, u, v, &tri, 0, &s);
-    double wo[3] = {-D[0], -D[1], -D[2]}, storage[SHADER_STORAGE];
+    double storage[SHADER_STORAGE];
     ShaderResult sd;
-    sd.storage = storage;
-    sd.caustics = 0;
-    shade_hit(ds->graphs, ds->geometry, ds->materials + tri.material, &tri, &s, geometry, prim, instance, u, v, wo,
-              RAY_BOUNCE, &sd);
+    shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &s, storage, &sd);
     for (int c = 0; c < 3; c++) out[c] = sd.emission[c];
 }
 

@@ -199,7 +199,7 @@ class DirectLighting(Integrator):
                                                      and traced.any())):
             gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
             found, ray = self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
-                                       dimension, gather, carried_pdf, seen_by)
+                                       dimension, gather, carried_pdf, seen_by, tree_N=tree_N)
             found = clamp_.clamped(found, throughput, limit) if clamping else found
             L_out += found
             if parts is not None and ray is not None:
@@ -210,7 +210,7 @@ class DirectLighting(Integrator):
 
     def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray,
                  traced: np.ndarray, recorder: Recorder, dimension: int = 0, gather: bool = True,
-                 carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA):
+                 carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA, *, tree_N: np.ndarray):
         """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
         The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -218,7 +218,8 @@ class DirectLighting(Integrator):
         world); nothing unless `gather`. mis, traced: (m,) bool which hits weigh by MIS, which trace a ray.
         carried_pdf: (m,) the pdf of the path's last real bounce (inf: the camera's), for rays that go on
         through a transparent surface. seen_by: the kind of ray that reached each hit (HIDDEN_FROM_* bit, int or
-        (m,)); each ray passes the objects hidden from its own kind (ray_kind)."""
+        (m,)); each ray passes the objects hidden from its own kind (ray_kind). tree_N: (m, 3) the normals the hits'
+        light samples gave the light tree (tree_normals), for the emitters' MIS pdf."""
         s = ctx.settings
         m = len(surface.I)
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
@@ -253,9 +254,8 @@ class DirectLighting(Integrator):
             return found, ray
         use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
         holdouts = ctx.geometry.hides(HOLDOUT)
-        tree_N = tree_normals(s, surface, lets_light_through(shader))[go]
         found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
-                                                 seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=tree_N)
+                                                 seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=tree_N[go])
         recorder.bsdf_sample(bs.wi, bs.pdf, found)
         return found, ray
 

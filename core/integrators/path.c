@@ -51,12 +51,9 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         const MaterialRecord *material = ds->materials + tri.material;
         if (material->may_pass == 0.0) return;
         Surface s;
-        surface_at(O, D, t, u, v, &tri, 0, &s);
-        double wo[3] = {-D[0], -D[1], -D[2]}, storage[SHADER_STORAGE];
+        double storage[SHADER_STORAGE];
         ShaderResult sd;
-        sd.storage = storage;
-        sd.caustics = 0;
-        shade_hit(ds->graphs, ds->geometry, material, &tri, &s, geometry, prim, instance, u, v, wo, RAY_BOUNCE, &sd);
+        shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &s, storage, &sd);
         for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
         if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0) || ++clear > limits->transparent_bounces) return;
         /* 2. On from just past it, straight ahead, gathering what the ray finds. */
