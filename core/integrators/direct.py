@@ -138,8 +138,7 @@ class DirectLighting(Integrator):
                 #    camera sample s takes its points s*count .. s*count+count-1 (core/sampling), so
                 #    the points of any number of camera samples together cover the light evenly.
                 u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension)
-                ls = (light.sample(surface.I, u, cone, N=tree_N) if light.kind == 4   # the emitters
-                      else light.sample(surface.I, u, cone))
+                ls = light.sample(surface.I, u, cone, N=tree_N)
                 if getattr(light, "textured", None) is not None:
                     ls = textured_samples(ctx, light, surface.I, ls)
                 if not s.distance_attenuation:

@@ -98,7 +98,7 @@ class AreaLight(Light):
         return vectors.combine(np.asarray(self.center, np.float64), [x, y],
                                [np.asarray(self.axis_u, np.float64), np.asarray(self.axis_v, np.float64)])
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
         """A point uniform in area: E_normal = L_e cos(theta_light) A / d^2, pdf = d^2 / (cos(theta_light) A)."""
         targets = self.points(u)
         area = self.area()

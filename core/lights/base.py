@@ -142,11 +142,14 @@ class Light:
         """Return the cone of directions the light covers from each point, or None (no cone)."""
         return None
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None,
+               N: Optional[np.ndarray] = None) -> LightSample:
         """Return the light arriving at each point, one sample per point.
 
         points: (n, 3) float64 shading points in the light's frame; u: (n, 2) float64 uniform numbers
-        in [0, 1) (ignored by lights without extent); cone: `self.cone(points)`, if already made.
+        in [0, 1) (ignored by lights without extent); cone: `self.cone(points)`, if already made;
+        N: (n, 3) float64 the points' normals (zero rows or None: unknown), read only by a light made of
+        many parts that picks one by them (the emitters' light tree).
         """
         raise NotImplementedError
 

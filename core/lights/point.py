@@ -49,7 +49,7 @@ class RoundLight(Light):
         t, b = orthonormal_frame(to_center)
         return Cone(to_center, t, b, np.sqrt(1.0 - sin2_max), d)
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
         """The lecture's point light I / r^2; with a radius, a direction uniform in the cone it covers."""
         color = np.asarray(self.color, np.float64)[:3]
         center = np.asarray(self.position, np.float64)

@@ -72,7 +72,7 @@ class SpotLight(RoundLight):
         """The spot's cone masks what leaves along `leaving` (n, 3) unit."""
         return radiance * self.attenuation(leaving)
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
         """The point light's sample, times the cone factor for the direction from the (sampled) light point."""
         sample = super().sample(points, u, cone)
         return sample._replace(strength=sample.strength * self.attenuation(-sample.L))

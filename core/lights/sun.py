@@ -55,7 +55,7 @@ class SunLight(Light):
         return Cone(np.broadcast_to(axis, (n, 3)), np.broadcast_to(t, (n, 3)), np.broadcast_to(b, (n, 3)),
                     np.full(n, math.cos(0.5 * self.angle)), np.full(n, np.inf))
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
         """One direction with irradiance = strength, no distance attenuation; or a direction in the disk."""
         n = len(points)
         color = np.asarray(self.color, np.float64)[:3]

@@ -170,7 +170,7 @@ class WorldLight(Light):
             pdf = self.map[y, x] / (self.total * 2.0 * math.pi * math.pi * sin_theta)
         return np.where(sin_theta > 0.0, pdf, 0.0)
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone=None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone=None, N=None) -> LightSample:
         """A direction by the map: a row by the marginal distribution, a column within it, linear
         inside the cell; strength = L / pdf per unit colour (colour: the radiance's RGB)."""
         n = len(points)
