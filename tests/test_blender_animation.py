@@ -137,6 +137,78 @@ report(records=records, files=sorted(os.listdir(job["out"])))
 """
 
 
+# Flamenco's "Simple Blender Render" job (Flamenco 3), as its job compiler writes each task's command line for
+# the workers. Written here from its documented behaviour; Flamenco itself (a Go manager and workers) cannot
+# run on this machine, so its workers are stood in for by processes that run that command line.
+def flamenco_chunks(frames: str, chunk_size: int) -> list:
+    """Flamenco's frame chunks of a frame list ('1-10,20-25,40', '1..4'): the sorted distinct frames, taken
+    chunk_size at a time; in each chunk a run of three or more frames is written 'a-b', the others singly."""
+    wanted = set()
+    for part in frames.replace("..", "-").split(","):
+        ends = [int(end) for end in part.split("-")]
+        wanted.update(range(ends[0], ends[-1] + 1))
+    ordered = sorted(wanted)
+    chunks = []
+    for first in range(0, len(ordered), chunk_size):
+        runs, chunk = [], ordered[first:first + chunk_size]
+        for frame in chunk:
+            if runs and frame == runs[-1][-1] + 1:
+                runs[-1].append(frame)
+            else:
+                runs.append([frame])
+        chunks.append(",".join(f"{run[0]}-{run[-1]}" if len(run) > 2 else ",".join(map(str, run)) for run in runs))
+    return chunks
+
+
+def flamenco_commands(blendfile: str, frames: str, chunk_size: int, output: str, file_format: str) -> list:
+    """The `blender` arguments of each render task: the job's default blenderArgs ('-b -y'), the .blend, then
+    --render-output (the job's path, ending in ######), --render-format (the scene's file_format, read when
+    the job was submitted) and --render-frame (the chunk in Blender's 'a..b' notation)."""
+    return [["-b", "-y", blendfile, "--render-output", output, "--render-format", file_format,
+             "--render-frame", chunk.replace("-", "..")] for chunk in flamenco_chunks(frames, chunk_size)]
+
+
+def test_flamenco_chunks_as_its_job_compiler_makes_them():
+    """Frame lists split as Flamenco's job compiler splits them (the cases of its own tests)."""
+    assert flamenco_chunks("1-10,20-25,40", 4) == ["1-4", "5-8", "9,10,20,21", "22-25", "40"]
+    assert flamenco_chunks("1..10,20..25,40,3..8", 4) == ["1-4", "5-8", "9,10,20,21", "22-25", "40"]
+    assert flamenco_chunks("47", 4) == ["47"] and flamenco_chunks("1-3", 3) == ["1-3"]
+    assert flamenco_chunks("1-4", 3) == ["1-3", "4"]
+
+
+# A Flamenco worker's `blender` process: the arguments of one task, applied in order as Blender's command
+# line applies them (the .blend opens where it stands; --render-frame renders each listed frame on its own,
+# writing it as an animation frame to the output path with its #'s filled in).
+CLI_WORKER = PRELUDE + """
+args = json.loads(sys.argv[1])
+scene = None
+while args:
+    arg = args.pop(0)
+    if arg in ("-b", "-y"):                             # background; trust the file's scripts
+        continue
+    if arg == "--render-output":
+        scene.render.filepath = args.pop(0)
+    elif arg == "--render-format":
+        file_format = args.pop(0)
+        settings = scene.render.image_settings
+        if file_format == "OPEN_EXR_MULTILAYER" and hasattr(settings, "media_type"):
+            settings.media_type = "MULTI_LAYER_IMAGE"   # Blender 5.0: multilayer is a media type
+        else:
+            settings.file_format = file_format
+    elif arg == "--render-frame":
+        for part in args.pop(0).split(","):
+            first, _, last = part.partition("..")
+            for frame in range(int(first), int(last or first) + 1):
+                scene.frame_start = scene.frame_end = frame
+                bpy.ops.render.render(animation=True)
+    else:                                               # the .blend
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(arg))
+        scene = bpy.context.scene
+primer.unregister()
+report(records=records)
+"""
+
+
 def read_channels(path: str) -> dict:
     """Return every channel of a (multi-part, multilayer) EXR: full channel name -> (H, W) float32."""
     import OpenImageIO as oiio
@@ -188,9 +260,27 @@ def renders(tmp_path_factory):
         "odd": dict(chunk=(1, 4, 2)),                                  # -s 1 -e 4 -j 2 -a: frames 1, 3
         "even": dict(stills=(4, 2)),                                   # -f 4, then -f 2, backwards
     }
+    # Flamenco: frames 1-4 in chunks of 3 ("1..3" and "4"), each task in its own worker process, all writing
+    # to the job's shared output folder; the format is the one the .blend was saved with.
+    shared = os.path.join(folder, "flamenco", "render", "animation", "2026-11-26_140000")
+    commands = flamenco_commands(blend, "1-4", 3, os.path.join(shared, "######"), "OPEN_EXR_MULTILAYER")
     with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
         futures = {name: pool.submit(run_worker, folder, blend, name, **job) for name, job in jobs.items()}
-        return {name: future.result() for name, future in futures.items()}
+        tasks = [pool.submit(run_bpy, CLI_WORKER.format(tools=TOOLS), make_folder(folder, f"task{i}"),
+                             json.dumps(command)) for i, command in enumerate(commands)]
+        results = {name: future.result() for name, future in futures.items()}
+        results["flamenco"] = {"commands": commands, "records": [r for t in tasks for r in t.result()["records"]],
+                               "files": sorted(os.listdir(shared)),
+                               "frames": {int(f[:-len(".exr")]): read_channels(os.path.join(shared, f))
+                                          for f in os.listdir(shared)}}
+        return results
+
+
+def make_folder(parent: str, name: str) -> str:
+    """Return the folder parent/name, made if missing."""
+    path = os.path.join(parent, name)
+    os.makedirs(path, exist_ok=True)
+    return path
 
 
 def test_every_frame_is_identical_whichever_process_renders_it(renders):
@@ -204,6 +294,22 @@ def test_every_frame_is_identical_whichever_process_renders_it(renders):
         assert sorted(split[frame]) == sorted(single[frame])
         for channel, values in single[frame].items():
             assert np.array_equal(split[frame][channel], values), f"frame {frame}, channel {channel} differs"
+
+
+def test_a_flamenco_job_split_over_workers_gives_the_single_process_frames(renders):
+    """Simple Blender Render's tasks ("--render-frame 1..3" and "4", with the job's ###### output path and
+    the .blend's multilayer format), each run by its own worker process, write frames 000001-000004.exr
+    equal bit for bit, in every channel of every pass, to one process rendering the whole animation."""
+    flamenco = renders["flamenco"]
+    assert [c[-1] for c in flamenco["commands"]] == ["1..3", "4"]
+    assert flamenco["files"] == [f"{frame:06d}.exr" for frame in FRAMES]
+    assert sorted(r["frame"] for r in flamenco["records"]) == list(FRAMES)
+    assert all(r["error"] == "" for r in flamenco["records"])
+    single = renders["single"]["frames"]
+    for frame in FRAMES:
+        assert sorted(flamenco["frames"][frame]) == sorted(single[frame])
+        for channel, values in single[frame].items():
+            assert np.array_equal(flamenco["frames"][frame][channel], values), f"frame {frame}, {channel} differs"
 
 
 def test_meshes_kept_between_frames_render_as_a_fresh_export(renders):
