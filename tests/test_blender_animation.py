@@ -3,7 +3,8 @@ farm's workers render them: one .blend, frames split over processes, each frame'
 
 A script builds a small animated .blend in a fresh process (a moving camera, a light whose power is
 keyframed, a sphere deformed by a keyframed shape key, a cube whose Subdivision levels are keyframed so
-its topology changes every frame, a static ground plane). Then the frames are rendered once in a
+its topology changes every frame, a static ground plane; Denoise on, the light and the world in two light
+groups). Then the frames are rendered once in a
 single process and again split over two "worker" processes, as Flamenco's chunks split them, and
 every channel of every multilayer EXR must be equal bit for bit. Nothing is mocked: run_bpy runs bpy
 with Primer loaded from this checkout, in isolated user folders (tests/blender_env.py).
@@ -100,6 +101,13 @@ light.energy = 400.0
 light.keyframe_insert("energy", frame=1)
 light.energy = 1200.0
 light.keyframe_insert("energy", frame=4)
+bpy.context.object.lightgroup = "key"                  # a light group, and the world in another
+layer.lightgroups.add(name="key")
+layer.lightgroups.add(name="sky")
+scene.world = bpy.data.worlds.new("World")
+scene.world.color = (0.05, 0.06, 0.08)
+scene.world.lightgroup = "sky"
+scene.primer.use_denoising = True                      # Denoise: the compositor's Denoise node and its passes
 bpy.ops.object.camera_add(location=(0, -8, 1.5), rotation=(1.35, 0, 0))
 camera = bpy.context.object
 scene.camera = camera
@@ -236,6 +244,11 @@ def pass_channels(channels: dict, name: str) -> np.ndarray:
     return np.stack(found, axis=-1)
 
 
+def rgb(channels: dict, name: str) -> np.ndarray:
+    """Return the R, G, B channels of the view layer's pass `name`: (H, W, 3)."""
+    return np.stack([channels[f"ViewLayer.{name}.{c}"] for c in "RGB"], axis=-1)
+
+
 def run_worker(folder, blend: str, name: str, **job) -> dict:
     """Run WORKER in its own process and folder; return its report with the frames it wrote, read back."""
     work = os.path.join(folder, name)
@@ -299,7 +312,8 @@ def test_every_frame_is_identical_whichever_process_renders_it(renders):
 def test_a_flamenco_job_split_over_workers_gives_the_single_process_frames(renders):
     """Simple Blender Render's tasks ("--render-frame 1..3" and "4", with the job's ###### output path and
     the .blend's multilayer format), each run by its own worker process, write frames 000001-000004.exr
-    equal bit for bit, in every channel of every pass, to one process rendering the whole animation."""
+    equal bit for bit, in every channel of every pass (the light groups' and the compositor's denoised
+    Combined among them), to one process rendering the whole animation."""
     flamenco = renders["flamenco"]
     assert [c[-1] for c in flamenco["commands"]] == ["1..3", "4"]
     assert flamenco["files"] == [f"{frame:06d}.exr" for frame in FRAMES]
@@ -344,11 +358,19 @@ def test_changed_topology_is_read_again_every_frame(renders):
 
 
 def test_frames_differ_where_the_camera_moved_and_the_light_changed(renders):
-    """Consecutive frames differ in Combined and Depth; every pass the view layer enables is in each file."""
+    """Consecutive frames differ in Combined and Depth; every pass the view layer enables is in each file:
+    the denoiser's guides and both light groups too, whose passes add up to the (noisy) Combined."""
     frames = renders["single"]["frames"]
     for frame in FRAMES:
         passes = {key.split(".")[-2] for key in frames[frame]}
-        assert {"Combined", "Depth", "Normal"} <= passes, passes
+        assert {"Combined", "Depth", "Normal", "Denoising Albedo", "Denoising Normal", "Combined_key",
+                "Combined_sky"} <= passes, passes
+        key, sky = rgb(frames[frame], "Combined_key"), rgb(frames[frame], "Combined_sky")
+        assert key.mean() > sky.mean() > 0
+        np.testing.assert_allclose(key + sky, rgb(frames[frame], "Combined"), rtol=1e-4, atol=1e-5)
+        # The compositor's output (Blender writes it as the Composite layer): the denoised Combined.
+        denoised = np.stack([frames[frame][f"Composite.Combined.{c}"] for c in "RGB"], axis=-1)
+        assert np.isfinite(denoised).all() and not np.array_equal(denoised, rgb(frames[frame], "Combined"))
     for a, b in zip(FRAMES, FRAMES[1:]):
         assert not np.array_equal(pass_channels(frames[a], "Combined"), pass_channels(frames[b], "Combined"))
 
