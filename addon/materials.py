@@ -623,7 +623,8 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         else:
             out.append(("TRANSPARENT", weight * np.maximum(color, 0.0), {}, list(factors)))
     elif kind == "ShaderNodeHoldout":
-        reader.warn(node, "Holdout is not supported yet; Primer leaves this part black")
+        # A hole in the film for camera paths, as much as its weight (the Mix and Add Shaders above it).
+        out.append(("HOLDOUT", weight, {}, list(factors)))
     elif kind.startswith("ShaderNodeVolume"):
         # A volume closure at a Surface socket: Cycles renders nothing of it on the surface.
         reader.warn(node, f"'{node.bl_label}' is a volume shader; at a surface it adds nothing (as in Cycles), and "

@@ -138,9 +138,10 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0)
     ctx.extra["emissive"] = bool(materials.emissive.any() or materials.graph_emits.any())
     # Shadow rays go on through surfaces: transparent ones, and objects hidden from shadow rays.
-    # (and holdouts, which the path tracer's loop handles, as the camera's paths through transparent surfaces)
+    # (and holdouts, objects or Holdout nodes, which the path tracer's loop handles, as the camera's paths through
+    # transparent surfaces)
     ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)
-                                or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT))
+                                or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any()))
     ctx.extra["bsdf_rays"] = bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
     # Where BSDF rays are traced: at every hit where emitters or the world light the scene (only BSDF rays
     # find a constant world, and MIS is what samples emitters well); where only lamps with extent do, at

@@ -100,12 +100,11 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
                       (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, RAY_CAMERA, H->sd + h);
             H->seen_by[h] = HIDDEN_FROM_CAMERA;
-            if (hidden_from(params->geometry, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
-                            instance_of(&packet.hit, k), HOLDOUT)) {
-                double weight[3];
-                hold_out(H->sd + h, weight);
+            double weight[3];                   /* a holdout object or node: a hole in the film (path.hold_out) */
+            if (hold_out(H->sd + h, hidden_from(params->geometry, (int64_t)packet.hit.geomID[k],
+                                                (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k), HOLDOUT),
+                         weight))
                 H->held[lane] += (weight[0] + weight[1] + weight[2]) / 3.0;
-            }
             H->lane[h] = lane;
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];

@@ -92,16 +92,28 @@ INLINE int ray_kind(int kind, int transmit, int previous)
     return IS_DIFFUSE(kind) ? HIDDEN_FROM_DIFFUSE : HIDDEN_FROM_GLOSSY;
 }
 
-/* path.hold_out for one hit of a camera path on a holdout object: weight = 1 - transparency (the share of
- * the pixel's alpha it takes away, before the path's throughput); the shader keeps only its Transparent
- * closures and emits nothing. */
-INLINE void hold_out(ShaderResult *sd, double *weight)
+/* path.hold_out for one hit of a camera path; object: 1 on a holdout object. Returns whether the hit holds out
+ * at all, with weight (3) the share of the pixel's alpha it takes away (before the path's throughput). A holdout
+ * object: weight = 1 - transparency, and the shader keeps only its Transparent closures and emits nothing. Else
+ * the Holdout nodes' weight sd->holdout, the other closures kept; where it is exactly 1 the path stops there (no
+ * closures, no emission). */
+INLINE int hold_out(ShaderResult *sd, int object, double *weight)
 {
     int n = 0;
+    if (!object) {
+        for (int c = 0; c < 3; c++) weight[c] = sd->holdout[c];
+        if (weight[0] == 0.0 && weight[1] == 0.0 && weight[2] == 0.0) return 0;
+        if (weight[0] == 1.0 && weight[1] == 1.0 && weight[2] == 1.0) {
+            sd->n = 0;
+            for (int c = 0; c < 3; c++) sd->emission[c] = 0.0;
+        }
+        return 1;
+    }
     for (int c = 0; c < 3; c++) { weight[c] = 1.0 - sd->transparency[c]; sd->emission[c] = 0.0; }
     for (int k = 0; k < sd->n; k++)
         if (sd->c[k].kind == BSDF_TRANSPARENT) sd->c[n++] = sd->c[k];
     sd->n = n;
+    return 1;
 }
 
 typedef struct {

@@ -144,11 +144,11 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
                   r->prim, r->instance, r->u, r->v, next->wo + 3 * m,
                   bounces == 0 ? RAY_CAMERA : RAY_BOUNCE, next->sd + m);   /* (through clear surfaces: still the camera's) */
         next->seen_by[m] = r->seen_as;
-        if (bounces == 0 && hidden_from(ds->geometry, r->geometry, r->prim, r->instance, HOLDOUT)) {
-            /* A camera path through clear surfaces meets a holdout: a hole in the film (path.hold_out). */
+        if (bounces == 0) {
+            /* A camera path through clear surfaces meets a holdout object or node: a hole in the film (path.hold_out). */
             double weight[3];
-            hold_out(next->sd + m, weight);
-            held[H->lane[h]] += (tp[0] * weight[0] + tp[1] * weight[1] + tp[2] * weight[2]) / 3.0;
+            if (hold_out(next->sd + m, hidden_from(ds->geometry, r->geometry, r->prim, r->instance, HOLDOUT), weight))
+                held[H->lane[h]] += (tp[0] * weight[0] + tp[1] * weight[1] + tp[2] * weight[2]) / 3.0;
         }
         next->lane[m] = H->lane[h];
         next->pixel[m] = H->pixel[h];

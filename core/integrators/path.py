@@ -31,7 +31,8 @@ each contribution.
 Object > Visibility as Cycles reads it: every ray has a kind (camera; after a bounce diffuse, glossy or
 transmission, direct.ray_kind; straight through a Transparent closure the kind it had) and passes the objects
 hidden from that kind (Ray Visibility). A holdout object met by a camera path is a hole in the film
-(hold_out): its colour is not added and the pixel's alpha loses the share the object covers.
+(hold_out): its colour is not added and the pixel's alpha loses the share the object covers; a Holdout shader
+node is such a hole in proportion to its weight, the rest of the material shading as usual.
 
 With max_bounces = 0 a path is the direct-lighting tracer at the camera's hit, except that every hit
 traces its BSDF ray (the direct tracer skips it where light samples alone do well).
@@ -136,24 +137,32 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
 
 
 def hold_out(ctx: Context, surface, shader, camera_path: np.ndarray) -> tuple:
-    """Object > Visibility > Holdout at a path's vertices, as Cycles: where a camera path (the camera ray, and its
-    ray on through Transparent closures: `camera_path` (m,) bool) meets a holdout object, the object becomes a hole
-    in the film. It takes away the share 1 - transparency of the pixel's alpha (times the path's throughput, which
-    the caller applies) and leaves the shader nothing but its Transparent closures: no emission, no light, and the
-    path goes on only through what the object lets through. Every other ray sees the object as usual.
+    """Holdouts at a path's vertices, as Cycles: where a camera path (the camera ray, and its ray on through
+    Transparent closures: `camera_path` (m,) bool) meets a holdout, that part of the surface is a hole in the film.
+
+    A holdout object (Object > Visibility > Holdout) takes away the share 1 - transparency of the pixel's alpha
+    (times the path's throughput, which the caller applies) and leaves the shader nothing but its Transparent
+    closures: no emission, no light, and the path goes on only through what the object lets through. A Holdout
+    shader node takes away its own weight w (shader.holdout, after the Mix and Add Shaders above it) and the other
+    closures keep theirs (a Diffuse mixed 50/50 with a Holdout still shades with 0.5); where w is exactly 1 the
+    path stops there (no closures, no emission). Every other ray sees neither: an ordinary object, and a Holdout
+    node that reflects and emits nothing.
 
     Returns (the shader with the holdouts' closures taken away, the holdout weight (m, 3) float64: 1 - transparency
-    at the holdout hits of camera paths, 0 elsewhere)."""
-    holdout = camera_path & ctx.geometry.hidden(surface.prim, HOLDOUT)
-    weight = np.where(holdout[:, None], 1.0 - shader.transparency, 0.0)
-    if not holdout.any():
+    at holdout objects', the Holdout nodes' weight at other hits of camera paths, 0 elsewhere)."""
+    obj = camera_path & ctx.geometry.hidden(surface.prim, HOLDOUT)
+    node = np.zeros((len(camera_path), 3)) if shader.holdout is None else shader.holdout
+    node = np.where((camera_path & ~obj)[:, None], node, 0.0)
+    weight = np.where(obj[:, None], 1.0 - shader.transparency, node)
+    stop = (node == 1.0).all(axis=1)                 # a whole Holdout (Cycles: the holdout weight equals one)
+    if not (obj.any() or stop.any()):
         return shader, weight
     c = shader.closures
-    gone = holdout[:, None] & (c.kind != materials_.Transparent.kind)
+    gone = (obj[:, None] & (c.kind != materials_.Transparent.kind)) | stop[:, None]
     closures = c._replace(kind=np.where(gone, -1, c.kind).astype(c.kind.dtype),
                           weight=np.where(gone[..., None], 0.0, c.weight),
                           sample_weight=np.where(gone, 0.0, c.sample_weight))
-    return shader._replace(closures=closures, emission=np.where(holdout[:, None], 0.0, shader.emission)), weight
+    return shader._replace(closures=closures, emission=np.where((obj | stop)[:, None], 0.0, shader.emission)), weight
 
 
 class PathTracing(DirectLighting):
@@ -175,7 +184,7 @@ class PathTracing(DirectLighting):
             return Radiance(L_out, found.hit, 0)
         D_hit = vectors.gather(D, hit)
         held = np.zeros(len(O))                      # each camera ray's alpha that holdouts take away
-        holdouts = ctx.geometry.hides(HOLDOUT)
+        holdouts = ctx.geometry.hides(HOLDOUT) or bool(ctx.materials.holds_out.any())
         # 2. The path's vertices, one batch per bounce: the camera's hits first.
         owner = hit                                  # the camera ray each path belongs to
         throughput = np.ones((len(hit), 3))
@@ -205,7 +214,7 @@ class PathTracing(DirectLighting):
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
                                          caustics_filter(s, after_diffuse))
             if holdouts:
-                # A camera path (no real bounce yet) that meets a holdout: a hole in the film (hold_out).
+                # A camera path (no real bounce yet) that meets a holdout object or node: a hole in the film.
                 shader, weight = hold_out(ctx, surface, shader, bounce == 0)
                 np.add.at(held, owner, (throughput * weight).mean(axis=1))
             first = bounce == 0

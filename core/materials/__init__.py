@@ -315,6 +315,9 @@ class MaterialTable:
         self.shadow_opaque = np.zeros(len(shaders), bool) if shadow_opaque is None else np.asarray(shadow_opaque, bool)
         # Which rows may let light through somewhere (a Transparent node, alpha): (m + 1,) bool.
         self.may_pass = np.array([bool(shader.may_let_light_through) for shader in shaders], bool)
+        # Which rows have a Holdout shader node (a hole in the film where camera paths meet it): (m + 1,) bool.
+        self.holds_out = np.array([any(node.name == "HOLDOUT" for node, *_ in getattr(shader, "nodes", ()))
+                                   for shader in shaders], bool)
         # The images the node graphs read, in one TextureSet (core/materials/textures.py); None is missing.
         self.images: list = []
         self._image_rows: dict = {}

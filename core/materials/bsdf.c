@@ -169,6 +169,7 @@ INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResul
     for (int j = 0; j < 3; j++) {
         sd->emission[j] = m->emission[j];
         sd->transparency[j] = m->transparency[j];
+        sd->holdout[j] = 0.0;
         sd->N[j] = N[j];
     }
 }

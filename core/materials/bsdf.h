@@ -36,6 +36,7 @@ typedef struct {
     Closure c[MAX_CLOSURES];
     double emission[3];
     double transparency[3];
+    double holdout[3];      /* the Holdout nodes' weight (closures.ShaderResult.holdout; 0: none) */
     double N[3];
     double *storage;
     const double *glossy;   /* the normal glossy lobes get while a node sets up (nodes.c), NULL: N */

@@ -59,12 +59,15 @@ class ShaderResult(NamedTuple):
     emission:     (n, 3) float64 emitted radiance L_e (W / (m^2 sr)), the same from both sides
     transparency: (n, 3) float64 the weight of light passing straight through (Transparent BSDF, alpha)
     N:            (n, 3) float64 the shading normal after normal maps and bump (Cycles' sd->N)
+    holdout:      (n, 3) float64 the weight of Holdout shader nodes (the Mix and Add Shaders above them), which
+                  camera paths make a hole in the film of (path.hold_out); None: no Holdout node, all 0
     """
 
     closures: Closures
     emission: np.ndarray
     transparency: np.ndarray
     N: np.ndarray
+    holdout: Optional[np.ndarray] = None
 
 
 def _each_kind(closures: Closures, slot: int):
@@ -219,10 +222,14 @@ def constant_result(n: int, N: np.ndarray, kinds: np.ndarray, weights: np.ndarra
 def concatenate(results: list, order: np.ndarray, n: int) -> ShaderResult:
     """Put ShaderResults of groups of hits back in hit order: results[i] covers the hits order[i] (m_i,) int64."""
     slots = max(r.closures.kind.shape[1] for r in results)
-    out = ShaderResult(Closures.empty(n, slots), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)))
+    holds = any(r.holdout is not None for r in results)
+    out = ShaderResult(Closures.empty(n, slots), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+                       np.zeros((n, 3)) if holds else None)
     for result, rows in zip(results, order):
         k = result.closures.kind.shape[1]
         for mine, theirs in zip(out.closures, result.closures):
             mine[rows, :k] = theirs
         out.emission[rows], out.transparency[rows], out.N[rows] = result.emission, result.transparency, result.N
+        if result.holdout is not None:
+            out.holdout[rows] = result.holdout
     return out

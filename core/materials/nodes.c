@@ -4,7 +4,7 @@
 #include "ggx_tables.h"
 
 enum { NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
-       NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7 };
+       NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7, NODE_HOLDOUT = 8 };
 #define WEIGHT_CUTOFF 1e-5          /* closures.WEIGHT_CUTOFF */
 #define STORAGE_STRIDE 16           /* doubles of a hit's storage per closure (a glass closure's parameters) */
 #define SHADER_STORAGE (MAX_CLOSURES * STORAGE_STRIDE)
@@ -456,6 +456,7 @@ INLINE void setup_node(ShaderResult *sd, int kind, double mu, const double *wo, 
     }
     case NODE_EMISSION: for (int j = 0; j < 3; j++) sd->emission[j] += weight[j] * p[j]; break;
     case NODE_TRANSPARENT: for (int j = 0; j < 3; j++) sd->transparency[j] += weight[j]; break;
+    case NODE_HOLDOUT: for (int j = 0; j < 3; j++) sd->holdout[j] += weight[j]; break;
     default: break;
     }
 }
@@ -474,7 +475,7 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
     sd->n = 0;
     sd->glossy = NULL;
     sd->hit_N = NULL;
-    for (int j = 0; j < 3; j++) { sd->emission[j] = 0.0; sd->transparency[j] = 0.0; sd->N[j] = N[j]; }
+    for (int j = 0; j < 3; j++) { sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0; sd->N[j] = N[j]; }
     for (int k = 0; k < (int)m->n; k++) setup_node(sd, (int)m->kind[k], mu, wo, backfacing, m->weight[k], m->p[k]);
     add_transparent(sd);
 }
@@ -526,7 +527,7 @@ NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, 
             valid_reflection(sp->Ng, wo, glossy[k]);
         }
     sd->n = 0;
-    for (int j = 0; j < 3; j++) { sd->emission[j] = 0.0; sd->transparency[j] = 0.0; }
+    for (int j = 0; j < 3; j++) sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0;
     for (int k = 0; k < n; k++) {
         const double *Nk = own[k] ? normal[k] : N, *Gk = own[k] ? glossy[k] : N;
         for (int j = 0; j < 3; j++) sd->N[j] = Nk[j];

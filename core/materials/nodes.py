@@ -58,6 +58,7 @@ class ClosureBuilder:
         self.count = 0
         self.emission = np.zeros((n, 3))
         self.transparency = np.zeros((n, 3))
+        self.holdout = None        # (n, 3) the Holdout nodes' weight, once one sets up
         self.shading_N = N
         self.smooth_N = N          # the hit's own normal (Cycles' sd->N), whatever normal a node's closures get
 
@@ -100,7 +101,7 @@ class ClosureBuilder:
             self.add(Transparent.kind, self.transparency)
         k = max(1, self.count)
         closures = Closures(*(array[:, :k] for array in self.closures))
-        return ShaderResult(closures, self.emission, self.transparency, self.shading_N)
+        return ShaderResult(closures, self.emission, self.transparency, self.shading_N, self.holdout)
 
 
 def layering_weight(albedo: np.ndarray, weight: np.ndarray) -> np.ndarray:
@@ -372,6 +373,18 @@ class TransparentNode(Node):
         b.transparency += weight
 
 
+class HoldoutNode(Node):
+    """Holdout: no BSDF and no light; its weight (the Mix and Add Shaders above it) is the share of the surface that
+    camera paths see as a hole in the film (path.hold_out, Cycles' holdout closure). Its Weight input is hidden."""
+
+    kind, name, inputs, defaults = 8, "HOLDOUT", (), ()
+    slots = 0
+
+    @staticmethod
+    def setup(b, weight, p):
+        b.holdout = weight.copy() if b.holdout is None else b.holdout + weight
+
+
 # The Principled BSDF's inputs, in their slots.
 PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "subsurface", "specular_ior_level",
                      "specular_tint", "coat", "coat_roughness", "coat_ior", "coat_tint", "emission",
@@ -607,7 +620,7 @@ class SheenNode(Node):
 
 
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
-              SheenNode)
+              SheenNode, HoldoutNode)
 NODE_BY_NAME = {cls.name: cls for cls in NODE_TYPES}
 
 assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's kind is its place in NODE_TYPES"

@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 32
+#define PRIMER_ABI 33
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
