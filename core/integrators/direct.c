@@ -417,16 +417,18 @@ struct Transmitter {
     int limit;                  /* the most transparent surfaces a shadow ray passes */
 };
 
-/* shadows.transmittance for up to 8 shadow rays (O, D, t: float64 origins, directions, lengths): T, the
+/* shadows.transmittance for up to 8 shadow rays (O, D0, t: float64 origins, directions, lengths): T, the
  * share of light each carries through the transparent surfaces it passes (0 where something opaque, or
- * more than tr->limit surfaces, is in the way); objects hidden from shadow rays are passed as if not there. */
-INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D[][3], const double *t,
+ * more than tr->limit surfaces, is in the way); objects hidden from shadow rays are passed as if not there.
+ * Past a surface each ray goes on towards its own end point O + t D0 (short of the light), which stays put. */
+INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D0[][3], const double *t,
                             double T[][3])
 {
-    double origin[PACKET][3], left[PACKET];
+    double origin[PACKET][3], left[PACKET], D[PACKET][3], end[PACKET][3];
     int alive[PACKET], passed[PACKET];
     for (int l = 0; l < lanes; l++) {
-        for (int c = 0; c < 3; c++) { T[l][c] = 1.0; origin[l][c] = O[l][c]; }
+        for (int c = 0; c < 3; c++) { T[l][c] = 1.0; origin[l][c] = O[l][c]; D[l][c] = D0[l][c]; }
+        for (int c = 0; c < 3; c++) end[l][c] = O[l][c] + (isfinite(t[l]) ? t[l] : 0.0) * D0[l][c];
         left[l] = t[l];
         alive[l] = 1;
         passed[l] = 0;
@@ -464,11 +466,18 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
                 for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
             }
-            /* On from just past that surface, for what is left of the way to the light. */
-            double side = dot3(s.Ng, D[l]) < 0.0 ? -1.0 : 1.0, travelled[3];
+            /* On from just past that surface, for what is left of the way to the light: towards the ray's own
+             * end point, so that the step off the surface (along its normal) does not carry the end onto the
+             * light (Cycles moves only the start of its one shadow ray). A sun's ray keeps its direction. */
+            double side = dot3(s.Ng, D[l]) < 0.0 ? -1.0 : 1.0, w[3];
             for (int c = 0; c < 3; c++) origin[l][c] = s.I[c] + (s.offset * side) * s.Ng[c];
-            for (int c = 0; c < 3; c++) travelled[c] = origin[l][c] - O[l][c];
-            left[l] = t[l] - dot3(travelled, D[l]);
+            if (isfinite(t[l])) {
+                for (int c = 0; c < 3; c++) w[c] = end[l][c] - origin[l][c];
+                double length = sqrt(dot3(w, w));
+                int ahead = dot3(w, D0[l]) > 0.0;
+                for (int c = 0; c < 3; c++) D[l][c] = ahead ? w[c] / at_least(length, 1e-300) : D[l][c];
+                left[l] = ahead ? length : 0.0;
+            }
             alive[l] = T[l][0] > 0.0 || T[l][1] > 0.0 || T[l][2] > 0.0;
         }
     }

@@ -154,13 +154,21 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
     """The share of light (n, 3) float64 a shadow ray carries through transparent surfaces (Cycles'
     transparent shadows): the product of the transparency of each surface it passes, 0 where an opaque
     surface blocks it or where it would pass more than `limit` of them. Objects hidden from shadow rays
-    (Ray Visibility > Shadow off) are passed as if they were not there."""
+    (Ray Visibility > Shadow off) are passed as if they were not there.
+
+    Past each surface the ray goes on from just off it towards its own end point, origin + t_max direction
+    (short of the light by robust_rays' margin), which stays where it was: Cycles moves only the start of its
+    one shadow ray. (Going on along the old direction for the old length less the distance gained along it
+    would move the end by the step off the surface across the ray, onto the light's own surface when the
+    surface faces the light; a sun's ray, with no end, keeps its direction.)"""
     from ..geometry.geometry import HIDDEN_FROM_SHADOW
     from ..geometry.surface import surface_at_hits
     from ..materials import graph as graph_
     n = len(rays.origins)
     T = np.ones((n, 3))
-    O, D, t = rays.origins.copy(), rays.directions, rays.t_max.copy()
+    O, D, t = rays.origins.copy(), rays.directions.copy(), rays.t_max.copy()
+    finite = np.isfinite(rays.t_max)
+    ends = rays.origins + np.where(finite, rays.t_max, 0.0)[:, None] * rays.directions
     passed = np.zeros(n, np.int64)
     alive = np.arange(n)
     while len(alive):
@@ -179,11 +187,15 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
         shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, graph_.RAY_SHADOW)
         through = np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
         T[rows] *= np.where(hidden[:, None], 1.0, through)
-        # On from just past that surface, for what is left of the way to the light.
+        # On from just past that surface, for what is left of the way to the light: towards the ray's end.
         step = error_bound(surface.I, surface.vertices)
         side = np.where(np.einsum("ij,ij->i", surface.Ng, D[rows]) < 0.0, -1.0, 1.0)
         O[rows] = surface.I + (step * side)[:, None] * surface.Ng
-        t[rows] = rays.t_max[rows] - np.einsum("ij,ij->i", O[rows] - rays.origins[rows], D[rows])
+        w = ends[rows] - O[rows]
+        length = np.sqrt(np.einsum("ij,ij->i", w, w))
+        ahead = finite[rows] & (np.einsum("ij,ij->i", w, rays.directions[rows]) > 0.0)
+        D[rows] = np.where(ahead[:, None], w / np.maximum(length, 1e-300)[:, None], D[rows])
+        t[rows] = np.where(finite[rows], np.where(ahead, length, 0.0), rays.t_max[rows])
         alive = rows[(T[rows] > 0.0).any(axis=1)]
         if len(alive) == 0:
             break
