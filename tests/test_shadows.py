@@ -167,3 +167,25 @@ def test_robust_offset_scales_with_coordinates():
     triangles = np.repeat(points[:, None, :], 3, axis=1)
     bound = shadows.error_bound(points, triangles)
     np.testing.assert_allclose(bound, shadows.ROBUST_ULPS * 2.0 ** -24 * np.array([1e-4, 3.0, 1e5]))
+
+
+@pytest.mark.parametrize("distance", [5.0, 20.0, 100.0])
+def test_shadow_rays_grazing_an_emitter_stop_before_it(distance):
+    """Shadow rays from floor points far from an emissive quad to points sampled on it (nearly parallel to the
+    quad: the cosine at the lamp falls to 0.005) meet nothing, the quad included: the ray stops short of its
+    light point by the float32 rounding of the ray, not of the light point's coordinates alone."""
+    from core.geometry.intersect import Tracer
+
+    rng = np.random.default_rng(7)
+    quad = np.array([[-0.5, -0.5, 0.5], [0.5, -0.5, 0.5], [0.5, 0.5, 0.5], [-0.5, 0.5, 0.5]])
+    tracer = Tracer(quad.astype(np.float32), np.array([[0, 1, 2], [0, 2, 3]], np.int32))
+    n = 20000
+    points = np.column_stack([distance * (1.0 + rng.random(n)), rng.uniform(-2.0, 2.0, n), np.zeros(n)])
+    up = np.tile([0.0, 0.0, 1.0], (n, 1))
+    on_lamp = np.column_stack([rng.uniform(-0.5, 0.5, (n, 2)), np.full(n, 0.5)])
+    w = on_lamp - points
+    length = np.linalg.norm(w, axis=1)
+    offsets = shadows.error_bound(points, np.repeat(points[:, None, :], 3, axis=1))
+    rays = shadows.robust_rays(points, up, offsets, on_lamp, w / length[:, None], length)
+    assert (rays.t_max < length).all()
+    assert not tracer.occluded(rays.origins, rays.directions, rays.t_max).any()

@@ -21,12 +21,14 @@ INLINE void shadow_ray(const double *P, const double *ng, const double *lifted, 
     for (int c = 0; c < 3; c++) origin[c] = P[c] + amount * (lifted[c] - P[c]);
     if (robust) {
         /* Off the surface along Ng by the error bound, towards the light point, stopping short of it by
-         * the rounding at its own coordinates; a sun's ray keeps its direction. */
+         * the rounding of the float32 ray: ulps of the largest of its coordinates, the origin's and the
+         * length; a sun's ray keeps its direction. */
         for (int c = 0; c < 3; c++) origin[c] += offset * ng[c];
         double w[3] = {position[0] - origin[0], position[1] - origin[1], position[2] - origin[2]};
         double length = sqrt(dot3(w, w));
         double inverse = 1.0 / at_least(length, 1e-300);
-        double stop = length - ROBUST_ULPS * FLOAT32_EPSILON * largest3(position);
+        double magnitude = fmax(fmax(largest3(position), largest3(origin)), length);
+        double stop = length - ROBUST_ULPS * FLOAT32_EPSILON * magnitude;
         int finite = distance < INFINITY;
         for (int c = 0; c < 3; c++) D[c] = finite ? w[c] * inverse : L[c];
         *t = finite ? at_least(stop, 0.0) : distance;

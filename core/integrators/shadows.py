@@ -97,8 +97,11 @@ def robust_rays(points: np.ndarray, face_normals: np.ndarray, offsets: np.ndarra
         directions = w / np.maximum(length, 1e-300)[:, None]
         if not reduce_t_max:
             return ShadowRays(origins, directions, distance)
-        # Stop short of the light point by the rounding error at its own coordinates.
-        end_offset = ROBUST_ULPS * FLOAT32_EPSILON * largest_coordinate(light_points)
+        # Stop short of the light point by the rounding error of the float32 ray that reaches it: ulps of the
+        # largest of its coordinates, the origin's and the ray's length (a long ray that grazes an emitter
+        # would otherwise meet the emitter it aims at, a few ulps past the end).
+        magnitude = np.maximum(np.maximum(largest_coordinate(light_points), largest_coordinate(origins)), length)
+        end_offset = ROBUST_ULPS * FLOAT32_EPSILON * magnitude
         return ShadowRays(origins, directions, np.maximum(length - end_offset, 0.0))
     return ShadowRays(origins, L, distance)
 
