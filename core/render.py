@@ -282,8 +282,7 @@ def light_pass_images(film: Film, first_hit: dict, wanted) -> dict:
     (H, W, 3)): name -> (H, W, 3) float32 (core/integrators/lightpasses.py divide_by_color)."""
     H, W = film.height, film.width
     sums = film.aux[lightpasses.FILM_BUFFER].reshape(H, W, -1)
-    images = lightpasses.divide_by_color(sums, film.noise.count.reshape(H, W).astype(np.float64), first_hit)
-    return {name: image for name, image in images.items() if name in wanted}
+    return lightpasses.divide_by_color(sums, film.noise.count.reshape(H, W).astype(np.float64), first_hit, wanted)
 
 
 def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,

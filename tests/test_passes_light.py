@@ -54,6 +54,20 @@ def test_a_lambert_plane_under_a_point_light_is_all_diffuse_direct(kernels):
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
+def test_one_light_pass_alone_is_the_same_as_among_all(kernels):
+    """Diffuse Direct asked alone (Blender's usual choice: one tick) equals Diffuse Direct among all six, and no
+    other light pass is computed or returned."""
+    scene = plane_scene(("DIFFUSE", (0.8, 0.5, 0.3), {}))
+    settings = RenderSettings(width=24, height=16, samples=4, integrator="path", max_bounces=1,
+                              passes=("diffuse_direct",), kernels=kernels)
+    alone = render.render(scene, settings).aux
+    among = render.render(scene, dataclasses.replace(settings, passes=LIGHT_PASSES)).aux
+    assert alone["diffuse_direct"].max() > 0.0
+    np.testing.assert_array_equal(alone["diffuse_direct"], among["diffuse_direct"])
+    assert not any(name in alone for name in LIGHT_PASSES[1:])
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
 def test_the_direct_integrator_writes_the_same_light_passes(kernels):
     """integrator "direct" (Max Bounces 0 in Blender) splits its light the same way."""
     scene = plane_scene(("DIFFUSE", (0.8, 0.5, 0.3), {}))

@@ -133,15 +133,17 @@ def safe_divide_even_color(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack([x, y, z], axis=-1)
 
 
-def divide_by_color(sums: np.ndarray, count: np.ndarray, colors: dict) -> dict:
-    """Return the light pass images: name -> (H, W, 3) float32, each pixel's mean contribution divided by the
-    matching colour pass (safe_divide_even_color; 0 where the pixel has no samples).
+def divide_by_color(sums: np.ndarray, count: np.ndarray, colors: dict, wanted) -> dict:
+    """Return the light passes `wanted` (names; others are ignored): name -> (H, W, 3) float32, each pixel's mean
+    contribution divided by the matching colour pass (safe_divide_even_color; 0 where the pixel has no samples).
 
     sums: (H, W, 18) float64 the film's per-pixel sums (FILM_BUFFER); count: (H, W) samples per pixel;
-    colors: colour pass name -> (H, W, 3) image (core/integrators/passes.py)."""
+    colors: colour pass name -> (H, W, 3) image (core/integrators/passes.py), at least those of `wanted`."""
     mean = np.divide(sums, count[..., None], out=np.zeros_like(sums), where=count[..., None] > 0)
     out = {}
     for index, name in enumerate(LIGHT_PASSES):
+        if name not in wanted:
+            continue
         color = np.asarray(colors[COLOR_OF[name]], np.float64)
         out[name] = safe_divide_even_color(mean[..., 3 * index:3 * index + 3], color).astype(np.float32)
     return out
