@@ -367,6 +367,31 @@ def test_a_clear_pane_passes_its_transparency_times_a_lamps_light(lamp, transpar
         assert image.mean() == pytest.approx(transparency * bare, rel=0.01), (integrator, bounces)
 
 
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("strategy", ["mis", "light", "bsdf"])
+def test_a_clear_pane_passes_its_transparency_times_a_round_lamps_light(strategy, kernels):
+    """A floor under a round point lamp (radius R, d above, soft falloff: a disk of radiance P / (4 pi^2 R^2) facing
+    the shading point, covering the cone sin^2 a = R^2 / (R^2 + d^2) around the floor's normal) shows rho/pi x
+    L pi sin^2 a; with a Transparent pane of transparency 0.5 between them, half that, by every strategy and
+    integrator. The BSDF ray past the pane must meet the disk that faces the floor point its light samples saw (not
+    one facing the pane: -13 % with BSDF rays alone), weighed by the cone's pdf from there."""
+    from conftest import ortho_down
+    from core.lights.point import PointLight, sphere_radiance
+    power, radius, height, albedo, T = 40.0, 0.5, 0.6, 0.6, 0.5
+    scene = Scene(camera=ortho_down(height=0.1, scale=0.02))
+    scene.materials.append(materials.Material((albedo,) * 3, name="floor"))
+    scene.add_mesh(primitives.plane(40.0), materials=np.array([0]))
+    scene.lights.append(PointLight(np.array([0.0, 0.0, height]), power=power, radius=radius))
+    scene.materials.append(materials.Material(name="pane", nodes=[("TRANSPARENT", (T,) * 3, {})]))
+    scene.add_mesh(primitives.plane(8.0, center=(0.0, 0.0, 0.5 * height)), materials=np.array([1]))
+    bare = albedo * sphere_radiance(power, radius) * radius ** 2 / (radius ** 2 + height ** 2)
+    for integrator, bounces in (("direct", 0), ("path", 0), ("path", 4)):
+        settings = RenderSettings(width=8, height=8, samples=256, light_samples=4, light_sampling=strategy,
+                                  integrator=integrator, max_bounces=bounces, kernels=kernels, adaptive=False)
+        image = render.render(scene, settings).image[..., :3]
+        assert image.mean() == pytest.approx(T * bare, rel=0.01), (integrator, bounces)
+
+
 def glass(name: str, ior: float, roughness: float = 0.0) -> materials.Material:
     """A clear Glass BSDF of index `ior` (any number: 1, 0 and below are bad input) and roughness."""
     return materials.Material(name=name, nodes=[("GLASS", (1, 1, 1), {"ior": ior, "roughness": roughness})])

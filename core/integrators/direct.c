@@ -640,7 +640,8 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
  * (a holdout it hits emits nothing). N: the normal the light tree weighed the emitters by at P (NULL: unknown).
  * P: where the light samples MIS weighs against were taken (the last real bounce's ray origin; NULL: O): a ray
  * straight on through transparent surfaces from there finds a light at |O + t D - P| from P (Cycles' mis_origin);
- * its radiance is the actual hit's. */
+ * an emitter's radiance is the actual hit's; a lamp is met where the line from P meets it past O (the disk facing
+ * P for a round lamp with soft falloff, as its light samples there saw it). */
 NOINLINE static void gather_light(const DirectSettings *ds, const double *O, const double *N, const double *D, int hit,
                          double t_limit, int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis,
                          int camera, double *light_L, const double *P)
@@ -663,10 +664,14 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
         const LightRecord *light = ds->lights + l;
         if (light->hittable == 0.0 || (int)light->kind >= LIGHT_EMITTERS) continue;
         LightHit lh;
-        if (!light_hit(light, O, D, t_limit, &lh)) continue;
+        if (away) {
+            /* The lamp as the light samples at P see it (a round lamp with soft falloff: the disk facing P), met
+             * on this stretch of the line, past O: its pdf from P, the radiance it sends along D. */
+            if (!light_hit(light, P, D, hit ? t_mis : INFINITY, &lh)) continue;
+            double d[3] = {O[0] - P[0], O[1] - P[1], O[2] - P[2]};
+            if (!(lh.t > sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))) continue;
+        } else if (!light_hit(light, O, D, t_limit, &lh)) continue;
         double pdf_l = lh.pdf;
-        LightHit seen;                              /* the pdf the light samples at P gave D (else the hit's) */
-        if (away && light_hit(light, P, D, INFINITY, &seen)) pdf_l = seen.pdf;
         double w = use_mis ? power_heuristic(pdf_b, light->samples * pdf_l) : 1.0;
         for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
     }

@@ -303,7 +303,9 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     picks each triangle with the probability their light samples gave it. mis_O: (k, 3) where the light samples that
     MIS weighs against were taken (the last real bounce's ray origin, N its normal there), or None (O): a ray that
     went straight on through transparent surfaces from there still has the direction D, and a light it finds at
-    distance t from O is at |O + t D - mis_O| from there (Cycles' mis_origin); its radiance is the actual hit's."""
+    distance t from O is at |O + t D - mis_O| from there (Cycles' mis_origin); an emitter's radiance is the actual
+    hit's; a lamp is met where the line from mis_O meets it past O (the same point, but for a round lamp with soft
+    falloff: the disk facing mis_O, the one its light samples there saw), with the radiance it sends along D."""
     light_L = np.zeros((len(O), 3))
     t_limit = np.where(hits.hit, hits.t, np.inf)
     away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
@@ -317,16 +319,21 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         if light.kind in (4, 5):                  # emitters and the world are found below
             continue
         lh = light.hit(O, D, t_limit)
-        if not lh.hit.any():
+        found, radiance, pdf_l = lh.hit, lh.radiance, lh.pdf
+        moved = np.flatnonzero(away)
+        if len(moved):
+            # The lamp as the light samples at mis_O see it (a round lamp with soft falloff is a disk facing that
+            # point), met on this stretch of the line, past O: its pdf from there, the radiance it sends along D.
+            seen = light.hit(mis_O[moved], D[moved], np.where(hits.hit[moved], t_mis[moved], np.inf))
+            past = seen.hit & (seen.t > np.linalg.norm(O[moved] - mis_O[moved], axis=1))
+            found, radiance, pdf_l = found.copy(), radiance.copy(), pdf_l.copy()
+            found[moved] = past
+            radiance[moved] = np.where(past[:, None], seen.radiance, 0.0)
+            pdf_l[moved] = np.where(past, seen.pdf, 0.0)
+        if not found.any():
             continue
-        pdf_l = lh.pdf
-        moved = np.flatnonzero(away & lh.hit)
-        if len(moved):                            # the pdf the light samples at mis_O gave D (else the hit's)
-            seen = light.hit(mis_O[moved], D[moved], np.full(len(moved), np.inf))
-            pdf_l = pdf_l.copy()
-            pdf_l[moved] = np.where(seen.hit, seen.pdf, lh.pdf[moved])
         w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * pdf_l), 1.0)
-        light_L += lh.radiance * w[:, None]
+        light_L += radiance * w[:, None]
     # b. An emissive surface the ray hits: its emission, weighed against the emitters' own samples.
     struck = np.flatnonzero(hits.hit)
     emitters = ctx.extra.get("emitters")

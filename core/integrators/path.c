@@ -208,7 +208,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
         H->mis_pdf[h] = INFINITY;
-        for (int c = 0; c < 3; c++) H->mis_origin[3 * h + c] = H->mis_n[3 * h + c] = 0.0;   /* (unused: no MIS) */
+        for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;
         if (ds->light_passes)
             for (int p = 0; p < PASS_KINDS; p++) H->shares[h][p][0] = H->shares[h][p][1] = H->shares[h][p][2] = 0.0;

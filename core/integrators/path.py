@@ -199,7 +199,8 @@ class PathTracing(DirectLighting):
         transparent = np.zeros(len(hit), np.int64)
         bounce = np.zeros(len(hit), np.int64)
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
-        mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (direct.BsdfRay.mis_O)
+        mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (direct.BsdfRay.mis_O):
+        #                                              the camera's, from where a camera path sees lamps past clear panes
         mis_normal = np.zeros((len(hit), 3))
         after_diffuse = np.zeros(len(hit), bool)     # whether that bounce was diffuse (the caustics switches)
         seen_by = np.full(len(hit), HIDDEN_FROM_CAMERA)   # the kind of ray that reached each vertex (ray_kind)
