@@ -475,3 +475,22 @@ def test_a_clear_pane_casts_no_shadow():
     assert (seen & pane.hit).sum() > 1000                    # (many rays pass the pane, at many slants)
     T = shadows.transmittance(ctx, rays, 8)
     np.testing.assert_array_equal(T, np.where(seen, 1.0, 0.0)[:, None] * np.ones(3))
+
+
+@pytest.mark.parametrize("strategy", ["mis", "light", "bsdf"])
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_light_found_through_a_pane_is_weighed_from_the_last_real_bounce_on_both_paths(integrator, strategy):
+    """The boxes under the quad lamp and the pane, with an area lamp and a round point lamp above the pane too: BSDF
+    rays that pass the pane (as a path's clear bounce, or looking on past the path's end) weigh the emitter and the
+    lamps they find by the light pdfs measured from the last real bounce's point and normal (mis_origin; the round
+    lamp's disk faces that point), and with light samples alone find nothing; the two kernels agree."""
+    from core.lights.area import AreaLight
+    from core.lights.point import PointLight
+    scene = lamp_over_a_pane(0.5)
+    scene.lights += [AreaLight(np.array([1.0, 0.6, 2.3]), np.array([0.6, 0.0, 0.0]), np.array([0.0, 0.5, 0.0]),
+                               np.array([0.0, 0.0, -1.0]), power=60.0),
+                     PointLight(np.array([0.2, 0.2, 2.2]), power=80.0, radius=0.2)]
+    settings = RenderSettings(width=32, height=32, samples=4, integrator=integrator, light_samples=2, max_bounces=2,
+                              light_sampling=strategy)
+    compiled, reference = compare_paths(scene, settings)
+    assert_same_render(compiled, reference)

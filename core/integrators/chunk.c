@@ -94,6 +94,8 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             surface_at(O, D, (double)packet.ray.tfar[k], (double)packet.hit.u[k], (double)packet.hit.v[k], &tri,
                        lift, H->s + h);
             for (int c = 0; c < 3; c++) H->wo[3 * h + c] = -D[c];
+            /* (a camera path's origin: where its rays through clear surfaces meet lamps from, path.py's mis_origin) */
+            for (int c = 0; c < 3; c++) H->mis_origin[3 * h + c] = O[c];
             H->sd[h].storage = H->storage[h];
             H->sd[h].caustics = 0;
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,

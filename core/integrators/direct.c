@@ -25,6 +25,8 @@ typedef struct {
     int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse, glossy and transmission bounces so far */
     int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
+    double mis_origin[3 * BLOCK];                /* its ray origin, and its light-tree normal (0: unknown), from which */
+    double mis_n[3 * BLOCK];                     /* MIS measures the light pdfs (direct.BsdfRay.mis_O, mis_N) */
     uint8_t after_diffuse[BLOCK];                /* 1: that bounce was diffuse (the caustics switches) */
     int32_t seen_by[BLOCK];                      /* the kind of ray that reached it (HIDDEN_FROM_*, direct.ray_kind) */
     double held[BLOCK];                          /* per camera lane: the alpha holdouts take away (path.hold_out) */
@@ -43,6 +45,7 @@ typedef struct {
     int kind;                                    /* the sampled closure's BSDF kind */
     int transmit;                                /* 1: it went through the surface */
     double pdf;                                  /* the pdf MIS weighs what it finds with (inf: none) */
+    double mis_O[3], mis_N[3];                   /* where MIS measures the light pdfs from (the last real bounce) */
     int seen_as;                                 /* its kind: the HIDDEN_FROM_* bit of objects it passes */
     double shares[PASS_KINDS][3];                /* its pass kinds' shares (lightpasses.c; light passes only) */
 } PathRay;
@@ -634,12 +637,23 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
  * (hit 0): lamps with extent in front of the hit (they never block), the emission of the surface hit, or the
  * world, each weighed by MIS against that light's own samples (where use_mis) with pdf_b, the pdf of the
  * bounce that sent the ray (a constant world with weight 1); added to light_L. camera: 1 for a camera path's ray
- * (a holdout it hits emits nothing). N: the normal the light tree weighed the emitters by at O (NULL: unknown). */
+ * (a holdout it hits emits nothing). N: the normal the light tree weighed the emitters by at P (NULL: unknown).
+ * P: where the light samples MIS weighs against were taken (the last real bounce's ray origin; NULL: O): a ray
+ * straight on through transparent surfaces from there finds a light at |O + t D - P| from P (Cycles' mis_origin);
+ * an emitter's radiance is the actual hit's; a lamp is met where the line from P meets it past O (the disk facing
+ * P for a round lamp with soft falloff, as its light samples there saw it). */
 NOINLINE static void gather_light(const DirectSettings *ds, const double *O, const double *N, const double *D, int hit,
                          double t_limit, int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis,
-                         int camera, double *light_L)
+                         int camera, double *light_L, const double *P)
 {
     const LightContext *ctx = ds->context;
+    int away = P != NULL && (P[0] != O[0] || P[1] != O[1] || P[2] != O[2]);
+    double t_mis = t_limit;
+    if (away && hit) {
+        double d[3];
+        for (int c = 0; c < 3; c++) d[c] = O[c] + t_limit * D[c] - P[c];
+        t_mis = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    }
     int64_t emitters_index = -1, world_index = -1;
     for (int64_t l = 0; l < ds->n_lights; l++) {
         if ((int)ds->lights[l].kind == LIGHT_EMITTERS) emitters_index = l;
@@ -650,8 +664,15 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
         const LightRecord *light = ds->lights + l;
         if (light->hittable == 0.0 || (int)light->kind >= LIGHT_EMITTERS) continue;
         LightHit lh;
-        if (!light_hit(light, O, D, t_limit, &lh)) continue;
-        double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
+        if (away) {
+            /* The lamp as the light samples at P see it (a round lamp with soft falloff: the disk facing P), met
+             * on this stretch of the line, past O: its pdf from P, the radiance it sends along D. */
+            if (!light_hit(light, P, D, hit ? t_mis : INFINITY, &lh)) continue;
+            double d[3] = {O[0] - P[0], O[1] - P[1], O[2] - P[2]};
+            if (!(lh.t > sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))) continue;
+        } else if (!light_hit(light, O, D, t_limit, &lh)) continue;
+        double pdf_l = lh.pdf;
+        double w = use_mis ? power_heuristic(pdf_b, light->samples * pdf_l) : 1.0;
         for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
     }
     /* b. An emissive surface the ray hits, weighed against the emitters' own samples. */
@@ -667,7 +688,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
         }
         int64_t index = emitters_index >= 0
             ? emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance)) : -1;
-        double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, O, N, D, t_limit) : 0.0;
+        double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, away ? P : O, N, D, t_mis) : 0.0;
         double n_l = emitters_index >= 0 ? ds->lights[emitters_index].samples : 1.0;
         double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
         for (int c = 0; c < 3; c++) light_L[c] += emitted[c] * w;
@@ -739,10 +760,15 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             double t_limit = hit ? (double)packet.ray.tfar[k] : INFINITY;
             double pdf_b = s->delta ? INFINITY : s->pdf;
             int use_mis = ds->mis && !s->delta;
+            /* The light-tree normal as its light samples had it (zero: unknown), and where MIS measures from. */
+            const double *N = H->through[owner[k]] ? NULL : H->s[owner[k]].N;
+            const double *P = O;
             if (s->kind == BSDF_TRANSPARENT && ds->continuing != NULL) {
                 /* Straight through a transparent surface: still the last real bounce's ray (direct.bsdf_ray). */
                 pdf_b = H->mis_pdf[owner[k]];
                 use_mis = ds->mis && isfinite(pdf_b);
+                P = H->mis_origin + 3 * owner[k];
+                N = H->mis_n + 3 * owner[k];
             }
             double light_L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];
             int first = ds->light_passes && H->bounce[owner[k]] == 0;
@@ -762,14 +788,14 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->pdf = pdf_b;
                 r->seen_as = kinds[k];
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
+                for (int c = 0; c < 3; c++) { r->mis_O[c] = P[c]; r->mis_N[c] = N != NULL ? N[c] : 0.0; }
                 if (first)
                     for (int p = 0; p < PASS_KINDS; p++)
                         for (int c = 0; c < 3; c++) r->shares[p][c] = shares[p][c];
             }
             if (!ds->gather) continue;
-            const double *N = H->through[owner[k]] ? NULL : H->s[owner[k]].N;     /* as its light samples had it */
             gather_light(ds, O, N, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
-                         instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, light_L);
+                         instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, light_L, P);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];
             double f = ds->clamping ? clamp_scale(found, H->throughput + 3 * owner[k],

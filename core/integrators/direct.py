@@ -86,7 +86,8 @@ class DirectLighting(Integrator):
     def shade(self, ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray,
               recorder: Recorder, dimension: int = 0, vertex: int = 0, trace_all: bool = False,
               light_samples_only: bool = False, ray=None, carried_pdf=None, caustics=None, throughput=None,
-              limit=np.inf, shader=None, seen_by=HIDDEN_FROM_CAMERA, parts=None):
+              limit=np.inf, shader=None, seen_by=HIDDEN_FROM_CAMERA, parts=None, carried_origin=None,
+              carried_N=None):
         """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
         each traced hit sent out, or None).
 
@@ -103,6 +104,8 @@ class DirectLighting(Integrator):
         seen_by: the kind of ray that reached each hit (HIDDEN_FROM_* bit, int or (m,)): a Transparent closure's
         ray goes on as that kind (ray_kind). parts: a lightpasses.FirstHitParts that receives the light samples'
         and the BSDF ray's contributions split by closure kind, and the BSDF rays' shares (the light passes), or None.
+        carried_pdf, carried_origin, carried_N: (m,), (m, 3), (m, 3) the pdf, ray origin and light-tree normal of each
+        path's last real bounce (bsdf_ray), or None.
         """
         s = ctx.settings
         m = len(surface.I)
@@ -198,7 +201,8 @@ class DirectLighting(Integrator):
                                                      and traced.any())):
             gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
             found, ray = self.bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
-                                       dimension, gather, carried_pdf, seen_by, tree_N=tree_N)
+                                       dimension, gather, carried_pdf, seen_by, tree_N=tree_N,
+                                       carried_origin=carried_origin, carried_N=carried_N)
             found = clamp_.clamped(found, throughput, limit) if clamping else found
             L_out += found
             if parts is not None and ray is not None:
@@ -209,7 +213,8 @@ class DirectLighting(Integrator):
 
     def bsdf_ray(self, ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray,
                  traced: np.ndarray, recorder: Recorder, dimension: int = 0, gather: bool = True,
-                 carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA, *, tree_N: np.ndarray):
+                 carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA, *, tree_N: np.ndarray, carried_origin=None,
+                 carried_N=None):
         """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
         The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -218,7 +223,10 @@ class DirectLighting(Integrator):
         carried_pdf: (m,) the pdf of the path's last real bounce (inf: the camera's), for rays that go on
         through a transparent surface. seen_by: the kind of ray that reached each hit (HIDDEN_FROM_* bit, int or
         (m,)); each ray passes the objects hidden from its own kind (ray_kind). tree_N: (m, 3) the normals the hits'
-        light samples gave the light tree (tree_normals), for the emitters' MIS pdf."""
+        light samples gave the light tree (tree_normals), for the emitters' MIS pdf. carried_origin, carried_N: (m, 3)
+        the ray origin and light-tree normal of the path's last real bounce (with carried_pdf): a ray straight through
+        a transparent surface weighs what it finds with the pdfs the light samples at that bounce would have given
+        its direction, measured from there (Cycles' mis_origin), not from the transparent surface."""
         s = ctx.settings
         m = len(surface.I)
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
@@ -241,9 +249,13 @@ class DirectLighting(Integrator):
         # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
         # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
         clear = bs.kind[go] == materials_.Transparent.kind
+        mis_O, mis_N = O, tree_N[go]
         if carried_pdf is not None and clear.any():
             pdf_b = np.where(clear, carried_pdf[go], pdf_b)
-        ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as)
+            if carried_origin is not None:
+                mis_O = np.where(clear[:, None], carried_origin[go], O)
+                mis_N = np.where(clear[:, None], carried_N[go], mis_N)
+        ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N)
         t_hit = np.where(hits.hit, hits.t, np.inf)
         for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
             if mask.any():
@@ -254,7 +266,8 @@ class DirectLighting(Integrator):
         use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
         holdouts = ctx.geometry.hides(HOLDOUT)
         found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
-                                                 seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=tree_N[go])
+                                                 seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
+                                                 mis_O=mis_O)
         recorder.bsdf_sample(bs.wi, bs.pdf, found)
         return found, ray
 
@@ -280,26 +293,47 @@ class DirectLighting(Integrator):
 
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
-                 camera=None, N=None) -> np.ndarray:
+                 camera=None, N=None, mis_O=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
     camera: (k,) bool which rays are still a camera path's (through Transparent closures), or None: a holdout
     object such a ray hits emits nothing (it is a hole in the film, path.hold_out). N: (k, 3) the normals the light
     tree weighed the emitters by at the rays' origins (tree_normals), or None (unknown): the emitters' MIS pdf
-    picks each triangle with the probability their light samples gave it."""
+    picks each triangle with the probability their light samples gave it. mis_O: (k, 3) where the light samples that
+    MIS weighs against were taken (the last real bounce's ray origin, N its normal there), or None (O): a ray that
+    went straight on through transparent surfaces from there still has the direction D, and a light it finds at
+    distance t from O is at |O + t D - mis_O| from there (Cycles' mis_origin); an emitter's radiance is the actual
+    hit's; a lamp is met where the line from mis_O meets it past O (the same point, but for a round lamp with soft
+    falloff: the disk facing mis_O, the one its light samples there saw), with the radiance it sends along D."""
     light_L = np.zeros((len(O), 3))
     t_limit = np.where(hits.hit, hits.t, np.inf)
+    away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
+    t_mis = t_limit
+    if away.any():
+        t_mis = np.where(away, np.linalg.norm(O + np.where(hits.hit, hits.t, 0.0)[:, None] * D - mis_O, axis=1),
+                         t_limit)
     # a. Lamps with extent in front of the hit (they never block, as in Cycles).
     for index in ctx.extra["hittable"]:
         light = ctx.lights[index]
         if light.kind in (4, 5):                  # emitters and the world are found below
             continue
         lh = light.hit(O, D, t_limit)
-        if not lh.hit.any():
+        found, radiance, pdf_l = lh.hit, lh.radiance, lh.pdf
+        moved = np.flatnonzero(away)
+        if len(moved):
+            # The lamp as the light samples at mis_O see it (a round lamp with soft falloff is a disk facing that
+            # point), met on this stretch of the line, past O: its pdf from there, the radiance it sends along D.
+            seen = light.hit(mis_O[moved], D[moved], np.where(hits.hit[moved], t_mis[moved], np.inf))
+            past = seen.hit & (seen.t > np.linalg.norm(O[moved] - mis_O[moved], axis=1))
+            found, radiance, pdf_l = found.copy(), radiance.copy(), pdf_l.copy()
+            found[moved] = past
+            radiance[moved] = np.where(past[:, None], seen.radiance, 0.0)
+            pdf_l[moved] = np.where(past, seen.pdf, 0.0)
+        if not found.any():
             continue
-        w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * lh.pdf), 1.0)
-        light_L += lh.radiance * w[:, None]
+        w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * pdf_l), 1.0)
+        light_L += radiance * w[:, None]
     # b. An emissive surface the ray hits: its emission, weighed against the emitters' own samples.
     struck = np.flatnonzero(hits.hit)
     emitters = ctx.extra.get("emitters")
@@ -323,8 +357,9 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             index = emitters.index_of_prim(hits.prim[struck])
             known = index >= 0
             if known.any():
-                pdf_l[known] = emitters.pdf_of_hits(O[struck][known], index[known], D[struck][known],
-                                                    hits.t[struck][known],
+                origin = O if mis_O is None else mis_O
+                pdf_l[known] = emitters.pdf_of_hits(origin[struck][known], index[known], D[struck][known],
+                                                    t_mis[struck][known],
                                                     N=None if N is None else N[struck][known])
             n_l = light_count(ctx, emitters)
         w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
@@ -392,7 +427,9 @@ class BsdfRay(NamedTuple):
     tracer's Hits of them; weight (k, 3) f cos / pdf; kind (k,) int32 the sampled closure's BSDF kind;
     delta (k,) bool whether it was a delta closure; transmit (k,) bool whether it went through the surface;
     pdf (k,) the pdf MIS weighs what the ray finds with (inf: none); seen_as (k,) int64 the ray's kind, the
-    HIDDEN_FROM_* bit of the objects it passes (ray_kind)
+    HIDDEN_FROM_* bit of the objects it passes (ray_kind); mis_O, mis_N (k, 3) the origin and light-tree normal
+    that MIS measures the light pdfs from (those of the path's last real bounce: O and its tree normal, unless the
+    ray went straight through a transparent surface)
     """
 
     rows: np.ndarray
@@ -405,6 +442,8 @@ class BsdfRay(NamedTuple):
     transmit: np.ndarray
     pdf: np.ndarray = None
     seen_as: np.ndarray = None
+    mis_O: np.ndarray = None
+    mis_N: np.ndarray = None
 
 
 def closures_left_out(kind: np.ndarray, hidden: np.ndarray) -> np.ndarray:

@@ -34,8 +34,9 @@ INLINE int is_transmission_bounce(int kind, int transmit)
 /* path.through_transparent for one ray r of hit h whose path has ended at its bounce limits, after `clear`
  * transparent surfaces: the light behind the transparent surfaces it meets (each multiplies by its
  * transparency; the ray goes straight on and gathers as a BSDF ray does, weighed by MIS with the pdf of the
- * path's last real bounce), up to the transparent-bounce limit; added to found (r's weight included, each
- * find capped at `cap` seen through the path's throughput at h). */
+ * path's last real bounce and the light pdfs measured from there, r->mis_O and r->mis_N), up to the
+ * transparent-bounce limit; added to found (r's weight included, each find capped at `cap` seen through the
+ * path's throughput at h). The caller calls it only where BSDF rays gather (not with light samples alone). */
 NOINLINE static void through_transparent(const PathRay *r, int clear, const PathLimits *limits, const DirectSettings *ds,
                                 const double *throughput, double cap, double *found)
 {
@@ -73,7 +74,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         geometry = (int64_t)packet.hit.geomID[0];
         prim = (int64_t)packet.hit.primID[0];
         instance = instance_of(&packet.hit, 0);
-        gather_light(ds, O, NULL, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, light_L);
+        gather_light(ds, O, r->mis_N, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, light_L, r->mis_O);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         double f = clamp_scale(light_L, throughput, cap, 1.0);
         for (int c = 0; c < 3; c++) found[c] += light_L[c] * f;
@@ -105,7 +106,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
             || tr > limits->transmission_bounces) {
             /* Past its bounce limits the path still looks through the transparent surfaces its ray meets. */
             /* (found lands in H->L, which the path's throughput multiplies: give it r's weight alone) */
-            if (ds->transmitter != NULL) {
+            /* (nothing with light samples alone, whose BSDF rays gather nothing: path.through_transparent) */
+            if (ds->transmitter != NULL && ds->gather) {
                 double found[3] = {0.0, 0.0, 0.0};
                 double cap = ds->clamping ? clamp_limit(H, h, ds->caps) : INFINITY;
                 through_transparent(r, clear, limits, ds, H->throughput + 3 * h, cap, found);
@@ -158,6 +160,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->transmission[m] = tr;
         next->transparent[m] = clear;
         next->mis_pdf[m] = r->pdf;
+        for (int c = 0; c < 3; c++) { next->mis_origin[3 * m + c] = r->mis_O[c]; next->mis_n[3 * m + c] = r->mis_N[c]; }
         next->bounce[m] = bounces;
         if (ds->light_passes) {
             /* A path's shares are those of its first real bounce's ray, kept from then on. */
@@ -205,6 +208,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
         H->mis_pdf[h] = INFINITY;
+        for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;
         if (ds->light_passes)
             for (int p = 0; p < PASS_KINDS; p++) H->shares[h][p][0] = H->shares[h][p][1] = H->shares[h][p][2] = 0.0;

@@ -103,11 +103,15 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
     """The light (k, 3) behind the transparent surfaces that the ended paths' last rays (`rows` of the BsdfRay
     `ray`, carrying `weight` (k, 3), after `passed` (k,) clear surfaces) meet: each surface multiplies by its
     transparency and the ray goes straight on, finding lamps, emission and the world as a BSDF ray does, weighed
-    by MIS with the pdf of the path's last real bounce; up to the transparent-bounce limit. Each find is capped
-    at `limit` (scalar or (k,), sample clamping)."""
+    by MIS with the pdf of the path's last real bounce and the light pdfs measured from that bounce (ray.mis_O,
+    ray.mis_N: Cycles' mis_origin); up to the transparent-bounce limit. Each find is capped at `limit` (scalar or
+    (k,), sample clamping). Nothing where BSDF rays gather nothing (light_sampling "light", as bsdf_ray)."""
     s = ctx.settings
     found = np.zeros((len(rows), 3))
+    if s.light_sampling == "light" or not ctx.extra.get("bsdf_rays", False):
+        return found                             # light samples alone: the BSDF ray found nothing either
     O, D, pdf = ray.O[rows], ray.D[rows], ray.pdf[rows]
+    mis_O, mis_N = ray.mis_O[rows], ray.mis_N[rows]
     prim, u, v, t = ray.hits.prim[rows], ray.hits.u[rows], ray.hits.v[rows], ray.hits.t[rows]
     T, passed = weight.copy(), passed.copy()
     mis = (s.light_sampling == "mis") and bool(ctx.extra.get("bsdf_rays", False))
@@ -127,7 +131,8 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         side = np.where(np.einsum("ij,ij->i", Ng, D) < 0.0, -1.0, 1.0)
         O = I + (shadows.error_bound(I, surface.vertices[go]) * side)[:, None] * Ng
         hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
-        light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]))
+        light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
+                                        N=mis_N[alive], mis_O=mis_O[alive])
         found[alive] += clamp_.clamped(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         # 3. The rays that met another surface go on.
         more = hits.hit
@@ -194,6 +199,9 @@ class PathTracing(DirectLighting):
         transparent = np.zeros(len(hit), np.int64)
         bounce = np.zeros(len(hit), np.int64)
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
+        mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (direct.BsdfRay.mis_O):
+        #                                              the camera's, from where a camera path sees lamps past clear panes
+        mis_normal = np.zeros((len(hit), 3))
         after_diffuse = np.zeros(len(hit), bool)     # whether that bounce was diffuse (the caustics switches)
         seen_by = np.full(len(hit), HIDDEN_FROM_CAMERA)   # the kind of ray that reached each vertex (ray_kind)
         max_bounces = 0 if self.direct_only else s.max_bounces
@@ -222,7 +230,8 @@ class PathTracing(DirectLighting):
             L_vertex, rays, ray = self.shade(ctx, surface, wo, pixel[owner], sample[owner], recorder,
                                              dimension, vertex, trace_all=True, ray=light_path,
                                              carried_pdf=mis_pdf, throughput=throughput, limit=cap, shader=shader,
-                                             seen_by=seen_by, parts=parts)
+                                             seen_by=seen_by, parts=parts, carried_origin=mis_origin,
+                                             carried_N=mis_normal)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
             if light is not None:
@@ -291,6 +300,7 @@ class PathTracing(DirectLighting):
             after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], is_diffuse)[keep]
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
+            mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]
             wo = -D_next
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light)
