@@ -38,14 +38,6 @@ PRINCIPLED_LEFT_OUT = {"Subsurface Weight": "approximates subsurface scattering 
 GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
 
 
-def _above_zero(reader, node, socket: str) -> bool:
-    """Whether a node's input `socket` is linked, or its value is above 0 (False where the node has none)."""
-    own = node.inputs.get(socket)
-    if own is None:
-        return False
-    return own.is_linked or float(np.max(reader.value(node, socket, 0.0))) > 0.0
-
-
 def node_tree(datablock):
     """Return the node tree Cycles uses for a material, world or light, or None where Use Nodes is off.
 
@@ -568,10 +560,6 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                 reader.warn(node, f"'{socket}' is linked; where it is above 0 Primer {instead}")
             elif not own.is_linked and float(np.max(reader.value(node, socket, 0.0))) > 0.0:
                 reader.warn(node, f"'{socket}' is above 0; Primer {instead}")
-        # The thin film is read for the specular layer and glass; Cycles also puts it on the metal, Primer does not.
-        if _above_zero(reader, node, "Thin Film Thickness") and _above_zero(reader, node, "Metallic"):
-            reader.warn(node, "'Thin Film Thickness' with 'Metallic' above 0: Primer leaves the thin film out of the "
-                              "metallic layer (it iridesces the specular layer and glass only)")
         # The coat's normal: Coat Normal, or the hit's own normal where it is unlinked (Cycles); fed by the very
         # node that feeds Normal (glTF's usual shared map) the coat takes the node's own normal, no second copy.
         coat_normal = node.inputs.get("Coat Normal")

@@ -96,10 +96,52 @@ def test_principled_fresnel_scales_towards_f0_as_specular_tint():
     assert tinted[0, 2] > 0.5 * plain[0, 2]        # grazing: the film's reflectance near 1 keeps most of it
 
 
+def gulbrandsen(f0: np.ndarray, f82: np.ndarray) -> tuple:
+    """The metal's (n, k) (3,) from its reflectances at 0 and 82 degrees (Gulbrandsen 2014, written out here)."""
+    r = np.minimum(f0, 0.999)
+    n_max = (1.0 + np.sqrt(r)) / (1.0 - np.sqrt(r))
+    n = f82 * (1.0 - r) / (1.0 + r) + (1.0 - f82) * n_max
+    k = np.sqrt(np.maximum((r * (n + 1.0) ** 2 - (n - 1.0) ** 2) / (1.0 - r), 0.0))
+    return n, k
+
+
+@pytest.mark.parametrize("film,thickness,atol", [(1.33, 400.0, 2e-4), (1.8, 250.0, 2e-3)])
+def test_metal_series_at_normal_incidence_is_the_airy_sum(monkeypatch, film, thickness, atol):
+    """A film on metal at normal incidence (where Cycles' F82 reflectance of the metal is the exact one): with
+    one wavelength per channel the series is the Airy sum with the metal's complex amplitude (n + ik from F0 and
+    F82), to its truncation (larger than a dielectric's: the metal reflects most of the light back into the film)."""
+    lam = np.array([460.0, 540.0, 630.0])
+    monkeypatch.setattr(tf, "sensitivity", lambda opd: np.cos(2.0 * math.pi * np.asarray(opd)[:, None] / lam))
+    monkeypatch.setattr(tf, "sensitivity_imaginary",
+                        lambda opd: -np.sin(2.0 * math.pi * np.asarray(opd)[:, None] / lam))
+    f0, b = np.array([[0.9, 0.6, 0.3]]), np.array([[0.1, 0.2, 0.0]])
+    F = tf.metal(np.array([1.0]), f0, b, np.array([thickness]), np.array([film]))[0]
+    n, k = gulbrandsen(f0[0], mf.fresnel_f82(np.array([1.0 / 7.0]), f0, b)[0])
+    r12, r23 = (1.0 - film) / (1.0 + film), (film - (n + 1j * k)) / (film + (n + 1j * k))
+    phase = np.exp(1j * 2.0 * math.pi * 2.0 * film * thickness / lam)
+    np.testing.assert_allclose(F, np.abs((r12 + r23 * phase) / (1.0 + r12 * r23 * phase)) ** 2, rtol=0, atol=atol)
+
+
+def test_metal_limits_give_its_f82_curve_and_energy_stays_in_0_1():
+    """No film, or a film of the ambient's index, on metal: the metal's own F82-tint curve; any film 0..1."""
+    m = len(COSINES)
+    f0, b = np.tile([0.9, 0.6, 0.3], (m, 1)), np.tile([0.1, 0.2, 0.0], (m, 1))
+    plain = mf.fresnel_f82(COSINES, f0, b)
+    np.testing.assert_allclose(tf.metal(COSINES, f0, b, np.zeros(m), np.full(m, 1.5)), plain, atol=1e-14)
+    np.testing.assert_allclose(tf.metal(COSINES, f0, b, np.full(m, 400.0), np.ones(m)), plain, atol=1e-14)
+    rng = np.random.default_rng(4)
+    n = 20000
+    F = tf.metal(rng.random(n), rng.random((n, 3)), rng.random((n, 3)) * 0.5, rng.uniform(0.0, 3000.0, n),
+                 rng.uniform(0.5, 3.0, n))
+    assert np.isfinite(F).all() and F.min() >= 0.0 and F.max() <= 1.0
+
+
 def test_table_is_what_the_generator_computes():
-    """core/materials/thin_film_table.h holds tools/thin_film_table.py's sensitivities (1 at OPD 0)."""
-    expected = thin_film_table.sensitivity(np.linspace(0.0, tf.OPD_MAX, tf.SENSITIVITY.shape[1]))
-    np.testing.assert_allclose(tf.SENSITIVITY.T, expected, rtol=0, atol=1e-8)
+    """core/materials/thin_film_table.h holds tools/thin_film_table.py's sensitivities (1 at OPD 0), real and
+    imaginary parts."""
+    opd = np.linspace(0.0, tf.OPD_MAX, tf.SENSITIVITY.shape[1])
+    np.testing.assert_allclose(tf.SENSITIVITY.T, thin_film_table.sensitivity(opd), rtol=0, atol=1e-8)
+    np.testing.assert_allclose(tf.SENSITIVITY_IM.T, thin_film_table.sensitivity_imaginary(opd), rtol=0, atol=1e-8)
     np.testing.assert_array_equal(tf.SENSITIVITY[:, 0], 1.0)
 
 
@@ -123,12 +165,12 @@ def test_zero_thickness_sets_up_what_it_did_without_a_film():
                 np.testing.assert_array_equal(a, b)
 
 
-def test_film_iridesces_specular_and_glass_not_metal():
-    """Thickness 400 nm: the specular layer and the glass get the thin-film Fresnel (their indices: the film's,
-    over the glass's when leaving it), the metal keeps F82; at IOR 1 the specular layer is set up for the film."""
+def test_film_iridesces_metal_specular_and_glass():
+    """Thickness 400 nm: the metal, the specular layer and the glass get the thin-film Fresnel (their indices: the
+    film's, over the glass's when leaving it); at IOR 1 the specular layer is set up for the film."""
     c = principled_closures({"thin_film_thickness": 400.0, "thin_film_ior": 1.33, "metallic": 0.5})
     modes = c.params[:, :, mf.FRESNEL][c.kind >= 0]
-    assert mf.FRESNEL_THIN_FILM in modes and mf.FRESNEL_F82_TINT in modes
+    assert mf.FRESNEL_THIN_FILM in modes and mf.FRESNEL_THIN_FILM_F82 in modes and mf.FRESNEL_F82_TINT not in modes
     c = principled_closures({"thin_film_thickness": 400.0, "thin_film_ior": 1.33, "transmission": 1.0,
                              "roughness": 0.2}, backfacing=True)
     glass = c.params[c.kind == materials.RoughGlass.kind]
@@ -153,11 +195,17 @@ def random_closures(kind: int, n: int, rng):
     params = np.zeros((n, materials.PARAMS))
     params[:, mf.ALPHA] = rng.uniform(0.05, 1.0, n)
     params[:, mf.FRESNEL] = mf.FRESNEL_THIN_FILM
+    if kind == materials.Microfacet.kind:       # half of them metal (F0 the colour, F90's slots its F82 b)
+        params[:, mf.FRESNEL] = np.where(rng.random(n) < 0.5, mf.FRESNEL_THIN_FILM_F82, mf.FRESNEL_THIN_FILM)
     ior = rng.uniform(1.1, 2.2, n)
     leaving = rng.random(n) < 0.3
     params[:, mf.IOR] = np.where(leaving, 1.0 / ior, ior)
     params[:, mf.F0:mf.F0 + 3] = mf.F0_from_ior(ior)[:, None] * rng.uniform(0.3, 1.0, (n, 3))
     params[:, mf.F90:mf.F90 + 3] = 1.0
+    metal = params[:, mf.FRESNEL] == mf.FRESNEL_THIN_FILM_F82
+    params[metal, mf.IOR] = 1.0
+    params[metal, mf.F0:mf.F0 + 3] = rng.random((metal.sum(), 3))
+    params[metal, mf.F90:mf.F90 + 3] = rng.random((metal.sum(), 3)) * 0.4
     params[:, mf.ENERGY] = 1.0
     params[:, 10:16] = rng.random((n, 6)) if kind != materials.Microfacet.kind else 0.0
     params[:, mf.THICKNESS] = rng.choice([0.5, 150.0, 400.0, 900.0, 4000.0], n)
@@ -168,8 +216,8 @@ def random_closures(kind: int, n: int, rng):
 
 @pytest.mark.parametrize("kind", ["Microfacet", "RoughGlass", "Glass"])
 def test_c_evaluates_and_samples_thin_film_closures_as_python_does(kind):
-    """f cos, pdf and samples of microfacet, rough and smooth glass closures with the thin-film Fresnel, in C and
-    in Python."""
+    """f cos, pdf and samples of microfacet (dielectric and metal), rough and smooth glass closures with the
+    thin-film Fresnel, in C and in Python."""
     from core.native import library
     if not library.available():
         pytest.skip(library.unavailable_reason())
@@ -194,9 +242,9 @@ def test_c_evaluates_and_samples_thin_film_closures_as_python_does(kind):
 
 
 def test_thin_film_principled_renders_the_same_compiled_and_in_python():
-    """A thin-film Principled sphere (specular; the film's thickness 200 to 800 nm and its index from node graphs of
-    the object's coordinates) and a thin-film rough glass floor and box, path traced: the compiled path renders what
-    the reference does, and the film changes the image."""
+    """A thin-film Principled sphere (half metal, half specular; the film's thickness 200 to 800 nm and its index
+    from node graphs of the object's coordinates) and a thin-film rough glass floor and box, path traced: the
+    compiled path renders what the reference does, and the film changes the image."""
     from test_compiled import LIGHTS, assert_same_render, compare_paths, lit_scene
     from core.materials.graph import GraphNode, Link
     from core.native import library
@@ -210,7 +258,7 @@ def test_thin_film_principled_renders_the_same_compiled_and_in_python():
     thickness = Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": z, "1": 375.0, "2": 200.0}), "Value")
     film_ior = Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": x, "1": 0.3, "2": 1.5}), "Value")
     scene.materials[1] = materials.Material(name="film", nodes=[
-        ("PRINCIPLED", (1, 1, 1), {"base_color": (0.05, 0.05, 0.08), "roughness": 0.15,
+        ("PRINCIPLED", (1, 1, 1), {"base_color": (0.8, 0.5, 0.2), "metallic": 0.5, "roughness": 0.15,
                                    "thin_film_thickness": thickness, "thin_film_ior": film_ior})])
     scene.materials[0] = materials.Material(name="coated glass", nodes=[
         ("PRINCIPLED", (1, 1, 1), {"transmission": 1.0, "roughness": 0.3, "thin_film_thickness": 300.0,

@@ -9,9 +9,9 @@ needs only the channel's sensitivity to one optical path difference OPD (nm):
     S_c(OPD) = integral cbar(lambda) cos(2 pi OPD / lambda) dlambda / integral cbar(lambda) dlambda
 
 (the real part of the Fourier transform of the matching function in 1 / lambda, normalised so S_c(0) = 1;
-dielectric films need no imaginary part). cbar is the linear Rec.709 (scene-linear) matching function, the
-CIE 1931 2-degree observer's xbar, ybar, zbar through the XYZ (D65) to Rec.709 matrix, integrated here on a
-0.25 nm grid of the 5 nm table, linearly interpolated. The table holds S at TABLE_SIZE optical path
+films on metal also need its imaginary part, -integral cbar sin(2 pi OPD / lambda) / integral cbar). cbar is
+the linear Rec.709 (scene-linear) matching function, the CIE 1931 2-degree observer's xbar, ybar, zbar through
+the XYZ (D65) to Rec.709 matrix, integrated here on a 0.25 nm grid of the 5 nm table, linearly interpolated. The table holds S at TABLE_SIZE optical path
 differences i * OPD_MAX / (TABLE_SIZE - 1), the range and spacing of Cycles' own table (60 um / 2 pi);
 beyond OPD_MAX the sensitivities are below 1e-3 and the lookups clamp.
 
@@ -148,6 +148,14 @@ def sensitivity(opd: np.ndarray, step: float = 0.25) -> np.ndarray:
     return (phase @ cbar) / cbar.sum(axis=0)
 
 
+def sensitivity_imaginary(opd: np.ndarray, step: float = 0.25) -> np.ndarray:
+    """The imaginary parts (n, 3) of the same transform, -integral cbar sin(2 pi OPD / lambda) / integral cbar:
+    what a film on metal needs, whose faces shift the phase by other angles than 0 and pi."""
+    lam, cbar = matching_functions(step)
+    phase = np.sin(2.0 * math.pi * np.asarray(opd, np.float64)[:, None] / lam[None, :])
+    return -(phase @ cbar) / cbar.sum(axis=0)
+
+
 def main() -> None:
     """Compute the table and write the header."""
     table = sensitivity(np.linspace(0.0, OPD_MAX, TABLE_SIZE))
@@ -160,6 +168,11 @@ def main() -> None:
     flat = table.T.reshape(-1)
     for start in range(0, len(flat), 8):
         lines.append("    " + ", ".join("%.9g" % v for v in flat[start:start + 8]) + ",")
+    lines += ["};", "", "/* S_IM[channel][i], 3 x %d: the imaginary parts (films on metal) */" % TABLE_SIZE,
+              "static const double THIN_FILM_S_IM[%d] = {" % (3 * TABLE_SIZE)]
+    flat = sensitivity_imaginary(np.linspace(0.0, OPD_MAX, TABLE_SIZE)).T.reshape(-1)
+    for start in range(0, len(flat), 8):
+        lines.append("    " + ", ".join("%.9g" % (v + 0.0) for v in flat[start:start + 8]) + ",")
     lines.append("};")
     with open(OUT, "w") as handle:
         handle.write("\n".join(lines) + "\n")

@@ -35,6 +35,7 @@ Fresnel models (parameter "fresnel"), as Cycles names them:
   THIN_FILM 4    the dielectric under a thin film (slots THICKNESS nm and FILM_IOR, relative to the ambient),
                  iridescent, scaled towards F0 as SCHLICK_IOR's F0 (core/materials/thin_film.py; the
                  Principled specular layer and glass with Thin Film Thickness > 0.1 nm); F90 is 1
+  THIN_FILM_F82 5  F82_TINT's metal under a thin film (slots THICKNESS, FILM_IOR; thin_film.metal)
 """
 from __future__ import annotations
 
@@ -52,6 +53,7 @@ ALPHA, FRESNEL, IOR, F0, F90, ENERGY = 0, 1, 2, 3, 6, 9        # F0 and F90 take
 ALPHA_Y, TANGENT = 10, 11                                       # anisotropic: alpha across T, and T (3 slots)
 THICKNESS, FILM_IOR = 16, 17                                    # thin film: nm, and its index (past glass's tints)
 FRESNEL_NONE, FRESNEL_DIELECTRIC, FRESNEL_SCHLICK_IOR, FRESNEL_F82_TINT, FRESNEL_THIN_FILM = 0, 1, 2, 3, 4
+FRESNEL_THIN_FILM_F82 = 5
 # Below this alpha^2 a microfacet lobe is a perfect mirror (Cycles' BSDF_ROUGHNESS_SQ_THRESH).
 ROUGHNESS_SQ_THRESHOLD = 2e-10
 
@@ -99,6 +101,10 @@ def fresnel(params: np.ndarray, cos_HI: np.ndarray) -> np.ndarray:
     if film.any():
         rows = np.flatnonzero(film)
         F[rows] = thin_film.fresnel(cos_HI[rows], ior[rows], f0[rows], params[rows, THICKNESS], params[rows, FILM_IOR])
+    film = mode == FRESNEL_THIN_FILM_F82
+    if film.any():
+        rows = np.flatnonzero(film)
+        F[rows] = thin_film.metal(cos_HI[rows], f0[rows], f90[rows], params[rows, THICKNESS], params[rows, FILM_IOR])
     return F
 
 

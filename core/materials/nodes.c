@@ -168,11 +168,11 @@ INLINE void dielectric_albedo(double rough, double mu, double eta, const double 
     for (int j = 0; j < 3; j++) albedo[j] = f0[j] + (1.0 - f0[j]) * s;
 }
 
-/* nodes.thin_film_slots: a closure's remapped dielectric Fresnel made a thin film's (film_ior relative to the
- * medium light arrives from). */
-INLINE void thin_film_slots(double *p, double thickness, double film_ior)
+/* nodes.thin_film_slots: a closure's remapped dielectric Fresnel (or its metal's, mode FRESNEL_THIN_FILM_F82) made
+ * a thin film's (film_ior relative to the medium light arrives from). */
+INLINE void thin_film_slots(double *p, double thickness, double film_ior, int mode)
 {
-    p[MF_FRESNEL] = (double)FRESNEL_THIN_FILM;
+    p[MF_FRESNEL] = (double)mode;
     p[MF_THICKNESS] = thickness;
     p[MF_FILM_IOR] = film_ior;
 }
@@ -366,6 +366,10 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
             Fss[j] = clamped[j] + (1.0 - clamped[j]) / 21.0 - B[j] / 126.0;
             metal_weight[j] = W[j] * metallic;
         }
+        if (film) {     /* the film on the metal (Cycles 5.0): its Fresnel at mu is the albedo estimate */
+            thin_film_slots(lobe, thickness, film_ior, FRESNEL_THIN_FILM_F82);
+            microfacet_fresnel(lobe, clamp01(mu), reflect);
+        }
         if (reflective) lobe_add(sd, mu, metal_weight, lobe, reflect, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - metallic;
     }
@@ -379,7 +383,7 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
             glass_weight[j] = W[j] * transmission;
         }
         glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, f0, one, reflect_tint, root);
-        if (film) thin_film_slots(g, thickness, backfacing ? film_ior / ior : film_ior);
+        if (film) thin_film_slots(g, thickness, backfacing ? film_ior / ior : film_ior, FRESNEL_THIN_FILM);
         for (int j = 0; j < 3; j++) Fss[j] = root[j];   /* the transmission tint: Cycles' Fss for glass */
         if (reflective || refractive) glass_add(sd, mu, glass_weight, g, roughness, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - transmission;
@@ -398,7 +402,7 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
         if (aniso) anisotropic_lobe(lobe, alpha_x, alpha_y, T);
         dielectric_albedo(aniso ? table_roughness(lobe) : roughness, mu, eta, f0_tinted, reflect);
         if (film) {     /* no table for a film: its albedo estimate is its Fresnel at mu (Cycles) */
-            thin_film_slots(lobe, thickness, film_ior);
+            thin_film_slots(lobe, thickness, film_ior, FRESNEL_THIN_FILM);
             microfacet_fresnel(lobe, clamp01(mu), reflect);
         }
         double F0_real = F0_from_ior(eta);

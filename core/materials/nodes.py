@@ -405,9 +405,9 @@ class PrincipledNode(Node):
        colours; below it, what it does not reflect;
     7. diffuse: Lambert with the base colour, or Oren-Nayar's with Diffuse Roughness (subsurface scattering
        approximated by it, with a warning).
-    A thin film (Thin Film Thickness > 0.1 nm, of Thin Film IOR) makes the specular layer's and the glass's
-    Fresnel iridescent (core/materials/thin_film.py; the specular layer is then set up even at index 1, its
-    albedo estimate the film's reflectance at mu, as Cycles'); the metal leaves it out.
+    A thin film (Thin Film Thickness > 0.1 nm, of Thin Film IOR) makes the metal's, the specular layer's and
+    the glass's Fresnel iridescent (core/materials/thin_film.py; the specular layer is then set up even at
+    index 1; the metal's and specular's albedo estimates are the film's reflectance at mu, as Cycles').
     The metal and specular layers are anisotropic where Anisotropic > 0 and the Tangent is not zero
     (principled_anisotropy); their albedo estimates and energy compensation read the tables at
     sqrt(sqrt(alpha_x alpha_y)), as Cycles' do. The coat, sheen and transmission stay isotropic, as in Cycles.
@@ -485,6 +485,9 @@ class PrincipledNode(Node):
                 anisotropic_lobe(lobe, alpha_x, alpha_y, T, anisotropic)
             s = tables.lookup_2d(tables.SCHLICK_S_HALF, table_roughness(lobe) if aniso_on else roughness, b.mu)
             reflect = clamped + (1.0 - clamped) * s[:, None]
+            if film_on:     # the film on the metal (Cycles 5.0): its Fresnel at mu is the albedo estimate
+                thin_film_slots(lobe, film, thickness, film_ior, mf.FRESNEL_THIN_FILM_F82)
+                reflect = np.where(film[:, None], mf.fresnel(lobe, np.clip(b.mu, 0.0, 1.0)), reflect)
             Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
             GlossyLobe.add(b, W * metallic[:, None], lobe, reflect, Fss=Fss if multiscatter else None,
                            keep=on & b.reflective)
@@ -533,10 +536,12 @@ class PrincipledNode(Node):
         add_diffuse(b, W * (base * (1.0 - ss) + clamped * ss), np.clip(p[:, 23], 0.0, 1.0), base, WEIGHT_CUTOFF)
 
 
-def thin_film_slots(p: np.ndarray, film: np.ndarray, thickness: np.ndarray, film_ior: np.ndarray) -> None:
-    """Turn the closures' rows p (n, PARAMS) with the Principled's remapped dielectric Fresnel into thin-film
-    ones where `film` (n,) bool: thickness (n,) nm, film_ior (n,) relative to the medium light arrives from."""
-    p[:, mf.FRESNEL] = np.where(film, mf.FRESNEL_THIN_FILM, p[:, mf.FRESNEL])
+def thin_film_slots(p: np.ndarray, film: np.ndarray, thickness: np.ndarray, film_ior: np.ndarray,
+                    mode: int = mf.FRESNEL_THIN_FILM) -> None:
+    """Turn the closures' rows p (n, PARAMS) with the Principled's remapped dielectric Fresnel (or, mode
+    THIN_FILM_F82, its metal's) into thin-film ones where `film` (n,) bool: thickness (n,) nm, film_ior (n,)
+    relative to the medium light arrives from."""
+    p[:, mf.FRESNEL] = np.where(film, mode, p[:, mf.FRESNEL])
     p[:, mf.THICKNESS] = np.where(film, thickness, 0.0)
     p[:, mf.FILM_IOR] = np.where(film, film_ior, 0.0)
 

@@ -25,8 +25,10 @@ ambient's. Total internal reflection at either face reflects everything.
 The Principled BSDF puts the film over its specular layer and its glass (Cycles' fresnel_iridescence with
 the Generalized Schlick Fresnel): the film's reflectance is then scaled towards F0 x Specular Tint / F0
 where it lies near the plain curve's F0 (`fresnel`), the artist's control of the specular colour and level.
-Films on metal (the Principled's metallic layer, in Cycles since 5.0) are not modelled.
-core/materials/thin_film.c is the compiled twin.
+Since Cycles 5.0 the film also covers the Principled's metal (`metal`): the metal's complex index n + ik is
+estimated from its F0 and F82 colours, the film-to-metal face shifts the phase by any angle, and each term
+of the series takes the complex sensitivity (the table's imaginary part too). core/materials/thin_film.c
+is the compiled twin.
 """
 from __future__ import annotations
 
@@ -41,28 +43,41 @@ THICKNESS_CUTOFF = 0.1
 
 
 def _read():
-    """(S (3, size) float64, OPD_MAX nm): the header's sensitivity table and the optical path difference at
-    its last entry."""
+    """(S (3, size), S_IM (3, size) float64, OPD_MAX nm): the header's sensitivity tables (real and imaginary
+    parts) and the optical path difference at their last entry."""
     with open(HEADER) as handle:
         text = handle.read()
     size = int(re.search(r"#define THIN_FILM_TABLE_SIZE (\d+)", text).group(1))
     opd_max = float(re.search(r"#define THIN_FILM_OPD_MAX ([0-9.eE+-]+)", text).group(1))
-    body = re.search(r"THIN_FILM_S\[\d+\] = \{(.*?)\};", text, re.S).group(1)
-    return np.array([float(x) for x in body.split(",") if x.strip()]).reshape(3, size), opd_max
+    tables = []
+    for name in ("THIN_FILM_S", "THIN_FILM_S_IM"):
+        body = re.search(name + r"\[\d+\] = \{(.*?)\};", text, re.S).group(1)
+        tables.append(np.array([float(x) for x in body.split(",") if x.strip()]).reshape(3, size))
+    return tables[0], tables[1], opd_max
 
 
-SENSITIVITY, OPD_MAX = _read()
+SENSITIVITY, SENSITIVITY_IM, OPD_MAX = _read()
 
 
-def sensitivity(opd: np.ndarray) -> np.ndarray:
-    """The R, G, B sensitivities (m, 3) to optical path differences opd (m,) nm: the table linearly
-    interpolated, clamped to its last entry beyond OPD_MAX (Cycles' lookup_table_read)."""
-    size = SENSITIVITY.shape[1]
+def _lookup(table: np.ndarray, opd: np.ndarray) -> np.ndarray:
+    """table (3, size) at optical path differences opd (m,) nm: (m, 3), linearly interpolated, clamped to the
+    last entry beyond OPD_MAX (Cycles' lookup_table_read)."""
+    size = table.shape[1]
     x = np.clip(np.nan_to_num(np.asarray(opd, np.float64) / OPD_MAX), 0.0, 1.0) * (size - 1)
     i = np.minimum(x.astype(np.int64), size - 1)
     j = np.minimum(i + 1, size - 1)
     t = (x - i)[:, None]
-    return (1.0 - t) * SENSITIVITY[:, i].T + t * SENSITIVITY[:, j].T
+    return (1.0 - t) * table[:, i].T + t * table[:, j].T
+
+
+def sensitivity(opd: np.ndarray) -> np.ndarray:
+    """The R, G, B sensitivities (m, 3) to optical path differences opd (m,) nm (the table's real part)."""
+    return _lookup(SENSITIVITY, opd)
+
+
+def sensitivity_imaginary(opd: np.ndarray) -> np.ndarray:
+    """The imaginary parts (m, 3) of the sensitivities at opd (m,) nm (films on metal)."""
+    return _lookup(SENSITIVITY_IM, opd)
 
 
 def polarized(cos_i: np.ndarray, eta: np.ndarray) -> tuple:
@@ -111,6 +126,81 @@ def iridescence(cos_i: np.ndarray, eta: np.ndarray, thickness: np.ndarray, film_
     R_p = airy(R12_p, R23_p, -sign12_p * sign23_p, opd)
     R = np.clip(0.5 * (R_s + R_p), 0.0, 1.0)
     return np.where((tir12 | tir23)[:, None], 1.0, R)
+
+
+def conductor(cos_i: np.ndarray, film: np.ndarray, n: np.ndarray, k: np.ndarray, F82: np.ndarray) -> tuple:
+    """A metal of index n + ik (m, 3) under a film of index film (m,), met inside the film at cos_i (m,):
+    (R_s, R_p, phasor_s, phasor_p), the reflectances (m, 3), as the F82 curve through F82 (m, 3) that the
+    metal's F0 relative to the film gives (Cycles' choice), and the phase shifts e^(i phi) (m, 3) complex of
+    the exact amplitudes r_s = (a - w) / (a + w), r_p = (N^2 c - n1 w) / (N^2 c + n1 w), with a = n1 c and
+    w = N cos_t = u + iv (Born and Wolf 14.4.1, with N = n + ik)."""
+    c, n1 = cos_i[:, None], film[:, None]
+    t1 = n * n - k * k - n1 * n1 * (1.0 - c * c)
+    t2 = np.sqrt(t1 * t1 + (2.0 * n * k) ** 2)
+    u2, v2 = np.maximum(0.5 * (t2 + t1), 0.0), np.maximum(0.5 * (t2 - t1), 0.0)
+    u, v = np.sqrt(u2), np.sqrt(v2)
+    # Reflectance: the F82 curve of F0 relative to the film, dipped to match F82 (as Cycles).
+    n_rel, k_rel2 = n / n1, (k / n1) ** 2
+    F0 = ((n_rel - 1.0) ** 2 + k_rel2) / ((n_rel + 1.0) ** 2 + k_rel2)
+    f = 6.0 / 7.0
+    f5 = f ** 5
+    B = (7.0 / (f5 * f)) * (F0 + (1.0 - F0) * f5 - F82)
+    s = np.clip(1.0 - c, 0.0, 1.0)
+    s5 = s ** 5
+    R = np.clip(F0 + (1.0 - F0) * s5 - B * (c * s5 * s), 0.0, 1.0)
+    a = n1 * c
+    re_s, im_s = a * a - u2 - v2, -2.0 * a * v
+    N2_re, N2_im = n * n - k * k, 2.0 * n * k
+    re_p = ((n * n + k * k) * c) ** 2 - n1 * n1 * (u2 + v2)
+    im_p = 2.0 * a * (N2_im * u - N2_re * v)
+    phasors = []
+    for re, im in ((re_s, im_s), (re_p, im_p)):
+        mag = np.sqrt(re * re + im * im)
+        zero = mag == 0.0
+        safe = np.where(zero, 1.0, mag)
+        phasors.append(np.where(zero, 1.0, re / safe) + 1j * np.where(zero, 0.0, im / safe))
+    return R, R, phasors[0], phasors[1]
+
+
+def airy_complex(R12: np.ndarray, R23: np.ndarray, phasor: np.ndarray, opd: np.ndarray) -> np.ndarray:
+    """`airy` for a face below the film that shifts the phase by any angle: R12 (m,), R23 (m, 3), phasor (m, 3)
+    complex, opd (m,) nm -> (m, 3); each term is Re(phasor^m S*(m OPD)) with the table's complex sensitivities."""
+    T121 = (1.0 - R12)[:, None]
+    R123 = R12[:, None] * R23
+    r123 = np.sqrt(R123)
+    Rs = T121 * T121 * R23 / np.maximum(1.0 - R123, 1e-300)
+    R = R12[:, None] + Rs
+    Cm, turn = Rs - T121, phasor.copy()
+    for m in range(1, 4):
+        Cm = Cm * r123
+        R += Cm * 2.0 * (turn.real * sensitivity(m * opd) + turn.imag * sensitivity_imaginary(m * opd))
+        turn = turn * phasor
+    return R
+
+
+def metal(cos_i: np.ndarray, f0: np.ndarray, b: np.ndarray, thickness: np.ndarray,
+          film_ior: np.ndarray) -> np.ndarray:
+    """Reflectance (m, 3) in 0..1 of the Principled's metal (F82-tint: f0 and b (m, 3), microfacet.fresnel_f82)
+    under a film `thickness` (m,) nm of index film_ior (m,), at cos_i (m,): the metal's n and k estimated from
+    F0 and F82 (Gulbrandsen's artist-friendly mapping, as Cycles), the film's sum with `conductor`'s faces."""
+    from . import microfacet as mf
+    m = len(cos_i)
+    cos_i = np.abs(np.asarray(cos_i, np.float64))
+    thickness, film = np.asarray(thickness, np.float64), np.asarray(film_ior, np.float64)
+    r = np.minimum(f0, 0.999)
+    g = mf.fresnel_f82(np.full(m, 1.0 / 7.0), f0, b)
+    root = np.sqrt(r)
+    outer = (1.0 + root) / (1.0 - root)
+    n = outer + ((1.0 - r) / (1.0 + r) - outer) * g
+    k = np.sqrt(np.maximum((r * (n + 1.0) ** 2 - (n - 1.0) ** 2) / (1.0 - r), 0.0))
+    x = np.clip(thickness, 0.0, 1.0)
+    film = np.where(thickness < 1.0, 1.0 + (film - 1.0) * x * x * (3.0 - 2.0 * x), film)
+    R12_s, R12_p, cos_2, sign12_s, sign12_p, tir12 = polarized(cos_i, film)
+    R23_s, R23_p, phasor23_s, phasor23_p = conductor(cos_2, film, n, k, g)
+    opd = 2.0 * film * thickness * cos_2
+    R_s = airy_complex(R12_s, R23_s, phasor23_s * -sign12_s[:, None], opd)
+    R_p = airy_complex(R12_p, R23_p, phasor23_p * -sign12_p[:, None], opd)
+    return np.where(tir12[:, None], 1.0, np.clip(0.5 * (R_s + R_p), 0.0, 1.0))
 
 
 def fresnel(cos_i: np.ndarray, eta: np.ndarray, f0: np.ndarray, thickness: np.ndarray,
