@@ -31,10 +31,10 @@ PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Rough
                       "Coat IOR": "coat_ior", "Coat Tint": "coat_tint", "Transmission Weight": "transmission",
                       "Diffuse Roughness": "diffuse_roughness", "Sheen Weight": "sheen",
                       "Sheen Roughness": "sheen_roughness", "Sheen Tint": "sheen_tint", "Anisotropic": "anisotropic",
-                      "Anisotropic Rotation": "anisotropic_rotation"}
+                      "Anisotropic Rotation": "anisotropic_rotation", "Thin Film Thickness": "thin_film_thickness",
+                      "Thin Film IOR": "thin_film_ior"}
 # Principled inputs Primer leaves out: socket -> what Primer does instead (warned when above 0).
-PRINCIPLED_LEFT_OUT = {"Subsurface Weight": "approximates subsurface scattering by diffuse reflection",
-                       "Thin Film Thickness": "leaves the thin film out"}
+PRINCIPLED_LEFT_OUT = {"Subsurface Weight": "approximates subsurface scattering by diffuse reflection"}
 GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
 
 

@@ -1,10 +1,12 @@
 /* The GGX microfacet BSDF: core/materials/microfacet.py (its docstring has the model and the sources).
  * p: alpha, fresnel, ior, f0 (3), f90 or F82's b (3), energy_scale, alpha_y, tangent (3): anisotropic where
- * the tangent is not zero and alpha_y differs from alpha (microfacet.is_anisotropic). */
+ * the tangent is not zero and alpha_y differs from alpha (microfacet.is_anisotropic); a thin film's thickness and
+ * index at 16 and 17. */
 
 enum { MF_ALPHA = 0, MF_FRESNEL = 1, MF_IOR = 2, MF_F0 = 3, MF_F90 = 6, MF_ENERGY = 9, MF_ALPHA_Y = 10, MF_TANGENT = 11,
-       MF_PARAMS = 14 };
-enum { FRESNEL_NONE = 0, FRESNEL_DIELECTRIC = 1, FRESNEL_SCHLICK_IOR = 2, FRESNEL_F82_TINT = 3 };
+       MF_PARAMS = 14, MF_THICKNESS = 16, MF_FILM_IOR = 17 };   /* thin film (past glass's tints): nm, index */
+enum { FRESNEL_NONE = 0, FRESNEL_DIELECTRIC = 1, FRESNEL_SCHLICK_IOR = 2, FRESNEL_F82_TINT = 3, FRESNEL_THIN_FILM = 4,
+       FRESNEL_THIN_FILM_F82 = 5 };
 #define ROUGHNESS_SQ_THRESHOLD 2e-10
 
 /* Exact Fresnel reflectance of a dielectric of relative index eta at cos_i: microfacet.fresnel_dielectric. */
@@ -35,6 +37,10 @@ INLINE void microfacet_fresnel(const double *p, double cos_HI, double *F)
         double s = clamp01(1.0 - cos_HI), s5 = s * s * s * s * s;
         for (int c = 0; c < 3; c++)
             F[c] = clamp01(p[MF_F0 + c] + (1.0 - p[MF_F0 + c]) * s5 - p[MF_F90 + c] * (cos_HI * s5 * s));
+    } else if (mode == FRESNEL_THIN_FILM) {
+        thin_film_fresnel(cos_HI, p[MF_IOR], p + MF_F0, p[MF_THICKNESS], p[MF_FILM_IOR], F);
+    } else if (mode == FRESNEL_THIN_FILM_F82) {
+        thin_film_metal(cos_HI, p + MF_F0, p + MF_F90, p[MF_THICKNESS], p[MF_FILM_IOR], F);
     } else {
         F[0] = F[1] = F[2] = 1.0;
     }

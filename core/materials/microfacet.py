@@ -32,6 +32,10 @@ Fresnel models (parameter "fresnel"), as Cycles names them:
                  whose Specular IOR Level and Specular Tint scale F0)
   F82_TINT 3     Schlick's curve from F0 (the metal's colour) to 1, less b cos (1 - cos)^6, which dips it
                  near 82 degrees by the Specular Tint (the Principled metal: Kutz et al., Adobe Standard Material)
+  THIN_FILM 4    the dielectric under a thin film (slots THICKNESS nm and FILM_IOR, relative to the ambient),
+                 iridescent, scaled towards F0 as SCHLICK_IOR's F0 (core/materials/thin_film.py; the
+                 Principled specular layer and glass with Thin Film Thickness > 0.1 nm); F90 is 1
+  THIN_FILM_F82 5  F82_TINT's metal under a thin film (slots THICKNESS, FILM_IOR; thin_film.metal)
 """
 from __future__ import annotations
 
@@ -41,12 +45,15 @@ from typing import ClassVar
 import numpy as np
 
 from .. import vectors
+from . import thin_film
 from .base import BSDF, BsdfSample
 
 # Parameter slots (a closure's row of PARAMS floats).
 ALPHA, FRESNEL, IOR, F0, F90, ENERGY = 0, 1, 2, 3, 6, 9        # F0 and F90 take 3 slots each (RGB)
 ALPHA_Y, TANGENT = 10, 11                                       # anisotropic: alpha across T, and T (3 slots)
-FRESNEL_NONE, FRESNEL_DIELECTRIC, FRESNEL_SCHLICK_IOR, FRESNEL_F82_TINT = 0, 1, 2, 3
+THICKNESS, FILM_IOR = 16, 17                                    # thin film: nm, and its index (past glass's tints)
+FRESNEL_NONE, FRESNEL_DIELECTRIC, FRESNEL_SCHLICK_IOR, FRESNEL_F82_TINT, FRESNEL_THIN_FILM = 0, 1, 2, 3, 4
+FRESNEL_THIN_FILM_F82 = 5
 # Below this alpha^2 a microfacet lobe is a perfect mirror (Cycles' BSDF_ROUGHNESS_SQ_THRESH).
 ROUGHNESS_SQ_THRESHOLD = 2e-10
 
@@ -90,6 +97,14 @@ def fresnel(params: np.ndarray, cos_HI: np.ndarray) -> np.ndarray:
     metal = mode == FRESNEL_F82_TINT
     if metal.any():
         F = np.where(metal[:, None], fresnel_f82(cos_HI, f0, f90), F)
+    film = mode == FRESNEL_THIN_FILM
+    if film.any():
+        rows = np.flatnonzero(film)
+        F[rows] = thin_film.fresnel(cos_HI[rows], ior[rows], f0[rows], params[rows, THICKNESS], params[rows, FILM_IOR])
+    film = mode == FRESNEL_THIN_FILM_F82
+    if film.any():
+        rows = np.flatnonzero(film)
+        F[rows] = thin_film.metal(cos_HI[rows], f0[rows], f90[rows], params[rows, THICKNESS], params[rows, FILM_IOR])
     return F
 
 

@@ -6,7 +6,7 @@
 enum { NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
        NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7, NODE_HOLDOUT = 8 };
 #define WEIGHT_CUTOFF 1e-5          /* closures.WEIGHT_CUTOFF */
-#define STORAGE_STRIDE 16           /* doubles of a hit's storage per closure (a glass closure's parameters) */
+#define STORAGE_STRIDE 18           /* doubles of a hit's storage per closure (a glass closure's, with a thin film) */
 #define SHADER_STORAGE (MAX_CLOSURES * STORAGE_STRIDE)
 
 /* ggx_tables.lookup_*: linear interpolation between grid points i / (size - 1), clamped to 0..1. */
@@ -168,6 +168,15 @@ INLINE void dielectric_albedo(double rough, double mu, double eta, const double 
     for (int j = 0; j < 3; j++) albedo[j] = f0[j] + (1.0 - f0[j]) * s;
 }
 
+/* nodes.thin_film_slots: a closure's remapped dielectric Fresnel (or its metal's, mode FRESNEL_THIN_FILM_F82) made
+ * a thin film's (film_ior relative to the medium light arrives from). */
+INLINE void thin_film_slots(double *p, double thickness, double film_ior, int mode)
+{
+    p[MF_FRESNEL] = (double)mode;
+    p[MF_THICKNESS] = thickness;
+    p[MF_FILM_IOR] = film_ior;
+}
+
 /* nodes.glass_params: a Glass closure's parameters; the relative index is ior entering, 1 / ior leaving. */
 INLINE void glass_params(double *g, int backfacing, double ior, int mode, const double *f0, const double *f90,
                          const double *reflect_tint, const double *transmit_tint)
@@ -277,6 +286,8 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
     double coat = at_least(p[12], 0.0), coat_roughness = clamp01(p[13]), coat_ior = at_least(p[14], 1.0);
     double transmission = clamp01(p[21]);
     int multiscatter = p[22] != 0.0;
+    double thickness = p[38], film_ior = at_least(p[39], 1e-5);
+    int film = thickness > THIN_FILM_THICKNESS_CUTOFF;
     double lobe[STORAGE_STRIDE], one[3] = {1.0, 1.0, 1.0};
     int reflective = !(sd->caustics & FILTER_REFLECTIVE), refractive = !(sd->caustics & FILTER_REFRACTIVE);
     /* nodes.principled_anisotropy: the metal's and the specular's alphas and tangent. */
@@ -355,6 +366,10 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
             Fss[j] = clamped[j] + (1.0 - clamped[j]) / 21.0 - B[j] / 126.0;
             metal_weight[j] = W[j] * metallic;
         }
+        if (film) {     /* the film on the metal (Cycles 5.0): its Fresnel at mu is the albedo estimate */
+            thin_film_slots(lobe, thickness, film_ior, FRESNEL_THIN_FILM_F82);
+            microfacet_fresnel(lobe, clamp01(mu), reflect);
+        }
         if (reflective) lobe_add(sd, mu, metal_weight, lobe, reflect, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - metallic;
     }
@@ -368,6 +383,7 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
             glass_weight[j] = W[j] * transmission;
         }
         glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, f0, one, reflect_tint, root);
+        if (film) thin_film_slots(g, thickness, backfacing ? film_ior / ior : film_ior, FRESNEL_THIN_FILM);
         for (int j = 0; j < 3; j++) Fss[j] = root[j];   /* the transmission tint: Cycles' Fss for glass */
         if (reflective || refractive) glass_add(sd, mu, glass_weight, g, roughness, multiscatter ? Fss : NULL);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - transmission;
@@ -379,12 +395,16 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
         eta = ior_from_F0(f0);
         if (ior < 1.0) eta = 1.0 / eta;
     }
-    if (eta != 1.0 && reflective) {
+    if ((eta != 1.0 || film) && reflective) {
         double f0_tinted[3], reflect[3], Fss[3];
         for (int j = 0; j < 3; j++) f0_tinted[j] = clamp01(f0 * tint[j]);
         lobe_params(lobe, roughness, FRESNEL_SCHLICK_IOR, eta, f0_tinted, one);
         if (aniso) anisotropic_lobe(lobe, alpha_x, alpha_y, T);
         dielectric_albedo(aniso ? table_roughness(lobe) : roughness, mu, eta, f0_tinted, reflect);
+        if (film) {     /* no table for a film: its albedo estimate is its Fresnel at mu (Cycles) */
+            thin_film_slots(lobe, thickness, film_ior, FRESNEL_THIN_FILM);
+            microfacet_fresnel(lobe, clamp01(mu), reflect);
+        }
         double F0_real = F0_from_ior(eta);
         double s = F0_real < 1.0 ? clamp01((dielectric_Fss(eta) - F0_real) / (1.0 - F0_real)) : 1.0;
         for (int j = 0; j < 3; j++) Fss[j] = f0_tinted[j] + (1.0 - f0_tinted[j]) * s;

@@ -19,6 +19,7 @@ import numpy as np
 
 from . import ggx_tables as tables
 from . import microfacet as mf
+from . import thin_film
 from .closures import (FILTER_REFLECTIVE, FILTER_REFRACTIVE, NODE_PARAMS, PARAMS, WEIGHT_CUTOFF, Closures,
                        ShaderResult)
 from .glass import REFLECT_TINT, TRANSMIT_TINT, Glass
@@ -389,10 +390,11 @@ class HoldoutNode(Node):
 PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "subsurface", "specular_ior_level",
                      "specular_tint", "coat", "coat_roughness", "coat_ior", "coat_tint", "emission",
                      "transmission", "multiscatter", "diffuse_roughness", "sheen", "sheen_roughness", "sheen_tint",
-                     "coat_follows_normal", "anisotropic", "anisotropic_rotation", "tangent", "coat_normal")
+                     "coat_follows_normal", "anisotropic", "anisotropic_rotation", "tangent", "coat_normal",
+                     "thin_film_thickness", "thin_film_ior")
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
                        (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.0, 0.0,
-                       (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+                       (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 1.33)
 
 
 class PrincipledNode(Node):
@@ -416,6 +418,9 @@ class PrincipledNode(Node):
        colours; below it, what it does not reflect;
     7. diffuse: Lambert with the base colour, or Oren-Nayar's with Diffuse Roughness (subsurface scattering
        approximated by it, with a warning).
+    A thin film (Thin Film Thickness > 0.1 nm, of Thin Film IOR) makes the metal's, the specular layer's and
+    the glass's Fresnel iridescent (core/materials/thin_film.py; the specular layer is then set up even at
+    index 1; the metal's and specular's albedo estimates are the film's reflectance at mu, as Cycles').
     The metal and specular layers are anisotropic where Anisotropic > 0 and the Tangent is not zero
     (principled_anisotropy); their albedo estimates and energy compensation read the tables at
     sqrt(sqrt(alpha_x alpha_y)), as Cycles' do. The coat, sheen and transmission stay isotropic, as in Cycles.
@@ -444,6 +449,10 @@ class PrincipledNode(Node):
                                                                  p[:, 32:35])
         aniso_on = anisotropic.any()
         coat_N, coat_glossy = coat_normal(b, p[:, 35:38], p[:, 29] != 0.0)
+        thickness = p[:, 38]
+        film = thickness > thin_film.THICKNESS_CUTOFF
+        film_on = film.any()
+        film_ior = np.maximum(p[:, 39], 1e-5)
         # 1. Alpha (nothing changes where alpha is 1).
         if (alpha < 1.0).any():
             b.transparency += W * (1.0 - alpha)[:, None]
@@ -489,6 +498,9 @@ class PrincipledNode(Node):
                 anisotropic_lobe(lobe, alpha_x, alpha_y, T, anisotropic)
             s = tables.lookup_2d(tables.SCHLICK_S_HALF, table_roughness(lobe) if aniso_on else roughness, b.mu)
             reflect = clamped + (1.0 - clamped) * s[:, None]
+            if film_on:     # the film on the metal (Cycles 5.0): its Fresnel at mu is the albedo estimate
+                thin_film_slots(lobe, film, thickness, film_ior, mf.FRESNEL_THIN_FILM_F82)
+                reflect = np.where(film[:, None], mf.fresnel(lobe, np.clip(b.mu, 0.0, 1.0)), reflect)
             Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
             GlossyLobe.add(b, W * metallic[:, None], lobe, reflect, Fss=Fss if multiscatter else None,
                            keep=on & b.reflective)
@@ -502,6 +514,8 @@ class PrincipledNode(Node):
             reflect_tint = np.where(b.reflective[:, None], 1.0, 0.0) * ones
             transmit_tint = np.where(b.refractive[:, None], np.sqrt(clamped), 0.0)
             glass = glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, f0, ones, reflect_tint, transmit_tint)
+            if film_on:     # the film's index relative to the medium the light comes from (glass when leaving)
+                thin_film_slots(glass, film, thickness, np.where(b.backfacing, film_ior / ior, film_ior))
             # Multiscatter GGX darkens by the transmission tint, which Cycles takes to make most of the colour.
             add_glass(b, W * transmission[:, None], glass, roughness, transmit_tint if multiscatter else None,
                       keep=on & (b.reflective | b.refractive))
@@ -512,13 +526,16 @@ class PrincipledNode(Node):
         f0 = np.where(scaled, f0 * 2.0 * level, f0)
         remapped = mf.ior_from_F0(f0)
         eta = np.where(scaled, np.where(ior < 1.0, 1.0 / remapped, remapped), ior)
-        on = (eta != 1.0) & b.reflective
+        on = ((eta != 1.0) | film) & b.reflective
         if on.any():
             f0_tinted = np.clip(f0[:, None] * tint, 0.0, 1.0)
             lobe = GlossyLobe.params(n, roughness, mf.FRESNEL_SCHLICK_IOR, eta, f0_tinted, (1.0, 1.0, 1.0))
             if aniso_on:
                 anisotropic_lobe(lobe, alpha_x, alpha_y, T, anisotropic)
             reflect = dielectric_albedo(table_roughness(lobe) if aniso_on else roughness, b.mu, eta, f0_tinted, ones)
+            if film_on:     # no table for a film: its albedo estimate is its Fresnel at mu (Cycles)
+                thin_film_slots(lobe, film, thickness, film_ior)
+                reflect = np.where(film[:, None], mf.fresnel(lobe, np.clip(b.mu, 0.0, 1.0)), reflect)
             F0_real = mf.F0_from_ior(eta)
             below = F0_real < 1.0
             s = np.where(below, np.clip((dielectric_Fss(eta) - F0_real) / np.where(below, 1.0 - F0_real, 1.0), 0.0, 1.0),
@@ -530,6 +547,16 @@ class PrincipledNode(Node):
         #    clamped colour).
         ss = subsurface[:, None]
         add_diffuse(b, W * (base * (1.0 - ss) + clamped * ss), np.clip(p[:, 23], 0.0, 1.0), base, WEIGHT_CUTOFF)
+
+
+def thin_film_slots(p: np.ndarray, film: np.ndarray, thickness: np.ndarray, film_ior: np.ndarray,
+                    mode: int = mf.FRESNEL_THIN_FILM) -> None:
+    """Turn the closures' rows p (n, PARAMS) with the Principled's remapped dielectric Fresnel (or, mode
+    THIN_FILM_F82, its metal's) into thin-film ones where `film` (n,) bool: thickness (n,) nm, film_ior (n,)
+    relative to the medium light arrives from."""
+    p[:, mf.FRESNEL] = np.where(film, mode, p[:, mf.FRESNEL])
+    p[:, mf.THICKNESS] = np.where(film, thickness, 0.0)
+    p[:, mf.FILM_IOR] = np.where(film, film_ior, 0.0)
 
 
 def glass_params(n: int, backfacing: np.ndarray, ior: float, mode: int, f0, f90, reflect_tint, transmit_tint):

@@ -25,7 +25,7 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 # The interface version: core/native/primer.c returns the same number, or the library is stale.
-ABI = 33
+ABI = 34
 
 # Where a render's arithmetic runs: "compiled" (C, where it applies) or "numpy" (the reference).
 KERNELS = ("compiled", "numpy")

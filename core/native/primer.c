@@ -7,7 +7,7 @@
  * core/native/library.py. */
 #include "primer.h"
 
-#define PRIMER_ABI 33
+#define PRIMER_ABI 34
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -24,6 +24,7 @@
 #include "../materials/bsdf.h"
 #include "../materials/lambert.c"
 #include "../materials/mirror.c"
+#include "../materials/thin_film.c"
 #include "../materials/microfacet.c"
 #include "../materials/glass.c"
 #include "../materials/transparent.c"
