@@ -648,11 +648,15 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
 {
     const LightContext *ctx = ds->context;
     int away = P != NULL && (P[0] != O[0] || P[1] != O[1] || P[2] != O[2]);
-    double t_mis = t_limit;
-    if (away && hit) {
+    double t_mis = t_limit, t_start = 0.0;      /* from P: how far the ray's end (inf: none) and its start O are */
+    if (away) {
         double d[3];
-        for (int c = 0; c < 3; c++) d[c] = O[c] + t_limit * D[c] - P[c];
-        t_mis = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        for (int c = 0; c < 3; c++) d[c] = O[c] - P[c];
+        t_start = sqrt(dot3(d, d));
+        if (hit) {
+            for (int c = 0; c < 3; c++) d[c] = O[c] + t_limit * D[c] - P[c];
+            t_mis = sqrt(dot3(d, d));
+        }
     }
     int64_t emitters_index = -1, world_index = -1;
     for (int64_t l = 0; l < ds->n_lights; l++) {
@@ -667,12 +671,9 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
         if (away) {
             /* The lamp as the light samples at P see it (a round lamp with soft falloff: the disk facing P), met
              * on this stretch of the line, past O: its pdf from P, the radiance it sends along D. */
-            if (!light_hit(light, P, D, hit ? t_mis : INFINITY, &lh)) continue;
-            double d[3] = {O[0] - P[0], O[1] - P[1], O[2] - P[2]};
-            if (!(lh.t > sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))) continue;
+            if (!light_hit(light, P, D, t_mis, &lh) || !(lh.t > t_start)) continue;
         } else if (!light_hit(light, O, D, t_limit, &lh)) continue;
-        double pdf_l = lh.pdf;
-        double w = use_mis ? power_heuristic(pdf_b, light->samples * pdf_l) : 1.0;
+        double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
         for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
     }
     /* b. An emissive surface the ray hits, weighed against the emitters' own samples. */

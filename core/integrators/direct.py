@@ -309,10 +309,13 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     light_L = np.zeros((len(O), 3))
     t_limit = np.where(hits.hit, hits.t, np.inf)
     away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
+    # From mis_O: how far each ray's end (inf: none) and its start O are.
     t_mis = t_limit
-    if away.any():
-        t_mis = np.where(away, np.linalg.norm(O + np.where(hits.hit, hits.t, 0.0)[:, None] * D - mis_O, axis=1),
-                         t_limit)
+    moved = np.flatnonzero(away)
+    if len(moved):
+        t_mis = np.where(away & hits.hit, np.linalg.norm(O + np.where(hits.hit, hits.t, 0.0)[:, None] * D - mis_O,
+                                                         axis=1), t_limit)
+        t_start = np.linalg.norm(O[moved] - mis_O[moved], axis=1)
     # a. Lamps with extent in front of the hit (they never block, as in Cycles).
     for index in ctx.extra["hittable"]:
         light = ctx.lights[index]
@@ -320,12 +323,11 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             continue
         lh = light.hit(O, D, t_limit)
         found, radiance, pdf_l = lh.hit, lh.radiance, lh.pdf
-        moved = np.flatnonzero(away)
         if len(moved):
             # The lamp as the light samples at mis_O see it (a round lamp with soft falloff is a disk facing that
             # point), met on this stretch of the line, past O: its pdf from there, the radiance it sends along D.
-            seen = light.hit(mis_O[moved], D[moved], np.where(hits.hit[moved], t_mis[moved], np.inf))
-            past = seen.hit & (seen.t > np.linalg.norm(O[moved] - mis_O[moved], axis=1))
+            seen = light.hit(mis_O[moved], D[moved], t_mis[moved])
+            past = seen.hit & (seen.t > t_start)
             found, radiance, pdf_l = found.copy(), radiance.copy(), pdf_l.copy()
             found[moved] = past
             radiance[moved] = np.where(past[:, None], seen.radiance, 0.0)
