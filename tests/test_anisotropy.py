@@ -121,9 +121,9 @@ def test_equal_alphas_give_the_isotropic_closure_bit_for_bit():
         np.testing.assert_array_equal(a, b)
     for name, zero in (("PRINCIPLED", {"metallic": 0.5, "anisotropic": 0.0, "anisotropic_rotation": 0.3}),
                        ("GLOSSY", {"anisotropy": 0.0, "rotation": 0.3})):
-        plain = nodes.shade_nodes([(nodes.NODE_BY_NAME[name], np.ones(3), nodes.NODE_BY_NAME[name].row(zero))], N, wo)
-        row = nodes.NODE_BY_NAME[name].row(dict(zero, tangent=(1.0, 0.0, 0.0)))
-        same = nodes.shade_nodes([(nodes.NODE_BY_NAME[name], np.ones(3), row)], N, wo)
+        plain = nodes.shade_nodes([(materials.NODE_BY_NAME[name], np.ones(3), materials.NODE_BY_NAME[name].row(zero))], N, wo)
+        row = materials.NODE_BY_NAME[name].row(dict(zero, tangent=(1.0, 0.0, 0.0)))
+        same = nodes.shade_nodes([(materials.NODE_BY_NAME[name], np.ones(3), row)], N, wo)
         for a, b in zip(plain.closures, same.closures):
             np.testing.assert_array_equal(a, b)
 

@@ -10,7 +10,7 @@ from conftest import ortho_down
 from core import materials, render
 from core.geometry import primitives
 from core.lights import AreaLight, SunLight
-from core.materials import Lambert, MaterialTable, Mirror
+from core.materials import BSDFFlags, Lambert, MaterialTable, Mirror
 from core.scene import RenderSettings, Scene
 
 
@@ -74,7 +74,7 @@ def test_mirror_reflects_about_the_normal_and_is_a_delta():
     assert np.isinf(sample.pdf).all()
     f_cos, pdf = Mirror.eval(no_params(n), N, wo, sample.wi)
     assert (f_cos == 0).all() and (pdf == 0).all()
-    assert Mirror.delta and not Lambert.delta
+    assert Mirror.is_(BSDFFlags.SINGULAR) and not Lambert.is_(BSDFFlags.SINGULAR)
 
 
 def closures_of(kinds, weights, N):

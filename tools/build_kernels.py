@@ -5,7 +5,8 @@ Usage:
     python tools/build_kernels.py --all-platforms [--out DIR] [--force]
 
 core/native/primer.c includes every part's C file (core/lights/*.c, core/materials/*.c, ...) into one
-translation unit. The library is named after the platform it runs on (core/native/library.py
+translation unit; the generated ones (*.gen.h, *.gen.c: the tables' kinds, flags and switches, the records) are
+written again first from the Python they describe (tools/make_boundary.py). The library is named after the platform it runs on (core/native/library.py
 `library_name`). The first form compiles it for this machine with the host C compiler, into
 core/native/ (`make kernels`). The second cross-compiles it for every platform the extension ships
 (TARGETS: Linux x64 and arm64, Windows x64, macOS arm64 and x64) with Zig's C compiler, from the
@@ -152,6 +153,10 @@ def main() -> int:
                         help="cross-compile for every platform the extension ships, with Zig (ziglang package)")
     parser.add_argument("--out", default=CROSS_FOLDER, help="folder of --all-platforms' libraries (default: dist/kernels)")
     args = parser.parse_args()
+    # The C side of the Python tables and records first (tools/make_boundary.py): the library is built from them.
+    from tools import make_boundary
+    for path in make_boundary.write():
+        print(f"wrote {path} (tools/make_boundary.py)", flush=True)
     if not args.all_platforms:
         path = build(args.cc, args.force)
         print(f"kernels: {os.path.relpath(path, ROOT)}")

@@ -178,8 +178,8 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
     if (!hit && world->camera != 0.0 && params->transparent == 0.0) world_radiance(world, D, out);
     for (int64_t l = 0; l < (int64_t)params->light_count; l++) {
         const LightRecord *light = params->lights + l;
-        if (light->hittable == 0.0 || light->camera == 0.0 || (int)light->kind >= LIGHT_EMITTERS
-            || (int)light->kind == LIGHT_SUN)
+        if (light->hittable == 0.0 || light->camera == 0.0
+            || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA))
             continue;
         LightHit lh;
         if (light_hit(light, O, D, t, &lh))
@@ -217,8 +217,8 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
     int sees_more = params->light_context->world->image != NULL && params->light_context->world->camera != 0.0;
     for (int64_t l = 0; l < (int64_t)params->light_count; l++) {
         const LightRecord *light = params->lights + l;
-        sees_more |= light->hittable != 0.0 && light->camera != 0.0 && (int)light->kind < LIGHT_EMITTERS
-                     && (int)light->kind != LIGHT_SUN;
+        sees_more |= light->hittable != 0.0 && light->camera != 0.0
+                     && light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA);
     }
     for (int64_t start = 0; start < total; start += BLOCK) {
         /* 1. The block's camera rays (camera.c). */

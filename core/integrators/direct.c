@@ -85,14 +85,23 @@ INLINE void see_past_hidden(const GeometryTables *g, Intersect8 intersect, void 
     }
 }
 
+/* direct.goes_through: whether a direction sampled from a closure of kind `kind` counts as going through the
+ * surface: a diffuse closure's by its class (a Lambert reflects, a translucent surface transmits), any other's by
+ * the side of the face it leaves to (`transmit`). */
+INLINE int goes_through(int kind, int transmit)
+{
+    if (bsdf_is(kind, BSDF_FLAG_DIFFUSE)) return bsdf_is(kind, BSDF_FLAG_TRANSMISSION);
+    return transmit;
+}
+
 /* direct.ray_kind: the kind of the ray a bounce sends (the HIDDEN_FROM_* bit of the objects it passes): through
  * the surface a transmission ray, a diffuse reflection's a diffuse ray, any other reflection's a glossy ray;
  * straight through a Transparent closure the kind of the ray that arrived, `previous`. */
 INLINE int ray_kind(int kind, int transmit, int previous)
 {
-    if (kind == BSDF_TRANSPARENT) return previous;
-    if (transmit) return HIDDEN_FROM_TRANSMISSION;
-    return IS_DIFFUSE(kind) ? HIDDEN_FROM_DIFFUSE : HIDDEN_FROM_GLOSSY;
+    if (bsdf_is(kind, BSDF_FLAG_STRAIGHT)) return previous;
+    if (goes_through(kind, transmit)) return HIDDEN_FROM_TRANSMISSION;
+    return bsdf_is(kind, BSDF_FLAG_DIFFUSE) ? HIDDEN_FROM_DIFFUSE : HIDDEN_FROM_GLOSSY;
 }
 
 /* path.hold_out for one hit of a camera path; object: 1 on a holdout object. Returns whether the hit holds out
@@ -114,7 +123,7 @@ INLINE int hold_out(ShaderResult *sd, int object, double *weight)
     }
     for (int c = 0; c < 3; c++) { weight[c] = 1.0 - sd->transparency[c]; sd->emission[c] = 0.0; }
     for (int k = 0; k < sd->n; k++)
-        if (sd->c[k].kind == BSDF_TRANSPARENT) sd->c[n++] = sd->c[k];
+        if (bsdf_is(sd->c[k].kind, BSDF_FLAG_STRAIGHT)) sd->c[n++] = sd->c[k];
     sd->n = n;
     return 1;
 }
@@ -569,8 +578,10 @@ INLINE void choose_bsdf_rays(BlockHits *H, const DirectSettings *ds)
         int glossy = 0;
         int through = 0;
         for (int k = 0; k < sd->n; k++) {
-            glossy |= !IS_DIFFUSE(sd->c[k].kind);
-            through |= sd->c[k].kind == BSDF_ROUGH_GLASS;
+            int kind = sd->c[k].kind;
+            glossy |= !bsdf_is(kind, BSDF_FLAG_DIFFUSE);
+            /* (direct.lets_light_through: a transmission that is not a delta takes light samples from behind) */
+            through |= bsdf_is(kind, BSDF_FLAG_TRANSMISSION) && !bsdf_is(kind, BSDF_FLAG_SINGULAR);
         }
         H->through[h] = (uint8_t)through;
         H->traced[h] = (uint8_t)(ds->bsdf_rays && (ds->everywhere || glossy));
@@ -599,7 +610,7 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
             if (light->delta == 0.0) {
                 sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + ds->dimension), b.pixel, b.index,
                              b.u[0], b.u[1]);
-                if ((int)light->kind == LIGHT_EMITTERS) {
+                if (light_is((int)light->kind, LIGHT_FLAG_EMITTER)) {     /* (a third number: the pick) */
                     double unused[BLOCK];
                     sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + 2 + ds->dimension), b.pixel, b.index,
                                  b.u2, unused);
@@ -608,7 +619,8 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
                 for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = b.u2[k] = 0.0;
             }
             light_block(&b, light, ds->context);
-            if ((int)light->kind == LIGHT_EMITTERS && ds->context->emitters->textured != NULL) textured_block(&b, ds);
+            if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && ds->context->emitters->textured != NULL)
+                textured_block(&b, ds);
             ray_block(&b, settings, lift, (double)count);
             bsdf_block(&b, H, weighed);
             if (weighed)
@@ -660,13 +672,14 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
     }
     int64_t emitters_index = -1, world_index = -1;
     for (int64_t l = 0; l < ds->n_lights; l++) {
-        if ((int)ds->lights[l].kind == LIGHT_EMITTERS) emitters_index = l;
-        if ((int)ds->lights[l].kind == LIGHT_WORLD) world_index = l;
+        if (light_is((int)ds->lights[l].kind, LIGHT_FLAG_EMITTER)) emitters_index = l;
+        if (light_is((int)ds->lights[l].kind, LIGHT_FLAG_INFINITE)) world_index = l;
     }
     /* a. Lamps with extent in front of the hit. */
     for (int64_t l = 0; l < ds->n_lights; l++) {
         const LightRecord *light = ds->lights + l;
-        if (light->hittable == 0.0 || (int)light->kind >= LIGHT_EMITTERS) continue;
+        if (light->hittable == 0.0 || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_DISTANT | LIGHT_FLAG_AREA))
+            continue;                                   /* (emitters and the world are found below) */
         LightHit lh;
         if (away) {
             /* The lamp as the light samples at P see it (a round lamp with soft falloff: the disk facing P), met
@@ -764,7 +777,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             /* The light-tree normal as its light samples had it (zero: unknown), and where MIS measures from. */
             const double *N = H->through[owner[k]] ? NULL : H->s[owner[k]].N;
             const double *P = O;
-            if (s->kind == BSDF_TRANSPARENT && ds->continuing != NULL) {
+            if (bsdf_is(s->kind, BSDF_FLAG_STRAIGHT) && ds->continuing != NULL) {
                 /* Straight through a transparent surface: still the last real bounce's ray (direct.bsdf_ray). */
                 pdf_b = H->mis_pdf[owner[k]];
                 use_mis = ds->mis && isfinite(pdf_b);

@@ -36,6 +36,7 @@ from .. import vectors
 from ..geometry.geometry import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY,
                                  HIDDEN_FROM_TRANSMISSION, HOLDOUT)
 from ..geometry.surface import surface_at_hits
+from ..lights.base import LAMP
 from ..sampling import sobol as sampling
 from . import clamp as clamp_
 from . import lightpasses
@@ -248,7 +249,7 @@ class DirectLighting(Integrator):
         pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
         # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
         # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
-        clear = bs.kind[go] == materials_.Transparent.kind
+        clear = materials_.has(bs.kind[go], materials_.BSDFFlags.STRAIGHT)
         mis_O, mis_N = O, tree_N[go]
         if carried_pdf is not None and clear.any():
             pdf_b = np.where(clear, carried_pdf[go], pdf_b)
@@ -319,7 +320,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     # a. Lamps with extent in front of the hit (they never block, as in Cycles).
     for index in ctx.extra["hittable"]:
         light = ctx.lights[index]
-        if light.kind in (4, 5):                  # emitters and the world are found below
+        if not light.is_(LAMP):                   # emitters and the world are found below
             continue
         lh = light.hit(O, D, t_limit)
         found, radiance, pdf_l = lh.hit, lh.radiance, lh.pdf
@@ -450,24 +451,30 @@ class BsdfRay(NamedTuple):
 
 def closures_left_out(kind: np.ndarray, hidden: np.ndarray) -> np.ndarray:
     """Which closures (n, K) bool a light sample leaves out when it is on an object hidden from some kinds of ray
-    (Cycles' rule for an emitter's Ray Visibility): diffuse closures if it is hidden from diffuse rays, glossy
-    ones (microfacet, mirror) if from glossy rays, glass only if from both glossy and transmission rays (a BSDF
-    ray of any of these closures could never find the object, so its light samples do not count for them either).
+    (Cycles' rule for an emitter's Ray Visibility, by closure type): closures of the diffuse type if it is hidden
+    from diffuse rays, of the glossy type if from glossy rays, of the transmission type if from transmission rays,
+    glass only if from both glossy and transmission rays (a BSDF ray of such a closure could never find the
+    object, so its light samples do not count for it either).
 
     kind: (n, K) int the closures' BSDF kinds; hidden: (n,) int each sample's object's HIDDEN_FROM_* bits.
     """
     bits = np.asarray(hidden, np.int64)[:, None]
-    diffuse = materials_.is_diffuse(kind) & ((bits & HIDDEN_FROM_DIFFUSE) != 0)
-    glossy = np.isin(kind, (materials_.Mirror.kind, materials_.Microfacet.kind)) & ((bits & HIDDEN_FROM_GLOSSY) != 0)
+    flags = materials_.flags_of(kind)
+    F = materials_.BSDFFlags
     both = HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
-    glass = np.isin(kind, (materials_.Glass.kind, materials_.RoughGlass.kind)) & ((bits & both) == both)
-    return diffuse | glossy | glass
+    return ((((flags & F.DIFFUSE_TYPE) != 0) & ((bits & HIDDEN_FROM_DIFFUSE) != 0))
+            | (((flags & F.GLOSSY_TYPE) != 0) & ((bits & HIDDEN_FROM_GLOSSY) != 0))
+            | (((flags & F.TRANSMISSION_TYPE) != 0) & ((bits & HIDDEN_FROM_TRANSMISSION) != 0))
+            | (((flags & F.GLASS_TYPE) != 0) & ((bits & both) == both)))
 
 
 def lets_light_through(shader) -> np.ndarray:
-    """Which hits have a closure that refracts light arriving from behind the surface (rough glass): (m,) bool.
-    Their light samples come from both sides (smooth glass is a delta: only its BSDF rays find light)."""
-    return (shader.closures.kind == materials_.RoughGlass.kind).any(axis=1)
+    """Which hits have a closure that takes light from behind the surface by light samples (a transmission that
+    is not a delta: rough glass): (m,) bool. Their light samples come from both sides (smooth glass is a delta:
+    only its BSDF rays find light)."""
+    flags = materials_.flags_of(shader.closures.kind)
+    F = materials_.BSDFFlags
+    return (((flags & F.TRANSMISSION) != 0) & ((flags & F.SINGULAR) == 0)).any(axis=1)
 
 
 def tree_normals(settings, surface, refracts: np.ndarray) -> np.ndarray:
@@ -483,7 +490,7 @@ def wants_bsdf_ray(ctx: Context, shader) -> np.ndarray:
     """Which hits trace a BSDF-sampled ray: all where emitters or the world light the scene, else those
     with a closure other than Lambert (a glossy lobe that light samples of a large lamp find poorly)."""
     kind = shader.closures.kind
-    glossy = ((kind >= 0) & ~materials_.is_diffuse(kind)).any(axis=1)
+    glossy = ((kind >= 0) & ~materials_.has(kind, materials_.BSDFFlags.DIFFUSE)).any(axis=1)
     return glossy | bool(ctx.extra.get("bsdf_everywhere", False))
 
 
@@ -569,17 +576,28 @@ def nearest_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, 
     return type(found)(hit, t, prim, u, v)
 
 
+def goes_through(kind: np.ndarray, transmit: np.ndarray) -> np.ndarray:
+    """Which sampled directions count as going through the surface (Cycles' LABEL_TRANSMIT): a diffuse closure's
+    by its class (a Lambert reflects, a translucent surface transmits), any other's by the side of the face it
+    leaves to, `transmit` (k,) bool. kind: (k,) int the sampled closures' BSDF kinds. Returns (k,) bool."""
+    flags = materials_.flags_of(kind)
+    F = materials_.BSDFFlags
+    diffuse = (flags & F.DIFFUSE) != 0
+    return np.where(diffuse, (flags & F.TRANSMISSION) != 0, transmit)
+
+
 def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
     """The kind of the rays a bounce sends, as the HIDDEN_FROM_* bit (k,) int64 of the objects they pass (Cycles'
-    path_state_ray_visibility): a refraction's ray (through the surface) is a transmission ray, a diffuse
+    path_state_ray_visibility): a ray through the surface (goes_through) is a transmission ray, a diffuse
     reflection's a diffuse ray, any other reflection's (glossy, mirror) a glossy ray; straight through a
     Transparent closure the ray keeps the kind of the ray that arrived, `previous` (int or (k,) int).
 
-    kind: (k,) int the sampled closures' BSDF kinds; transmit: (k,) bool whether each ray went through the surface.
+    kind: (k,) int the sampled closures' BSDF kinds; transmit: (k,) bool whether each ray went through the face.
     """
-    reflected = np.where(materials_.is_diffuse(kind), HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY)
-    bounced = np.where(transmit, HIDDEN_FROM_TRANSMISSION, reflected)
-    return np.where(kind == materials_.Transparent.kind, previous, bounced).astype(np.int64)
+    F = materials_.BSDFFlags
+    reflected = np.where(materials_.has(kind, F.DIFFUSE), HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY)
+    bounced = np.where(goes_through(kind, transmit), HIDDEN_FROM_TRANSMISSION, reflected)
+    return np.where(materials_.has(kind, F.STRAIGHT), previous, bounced).astype(np.int64)
 
 
 def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> np.ndarray:

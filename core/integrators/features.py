@@ -63,14 +63,14 @@ def feature_samples(samples: int) -> int:
 def diffuse_like(closures: materials_.Closures) -> np.ndarray:
     """Return which closure slots count as diffuse for the features: (n, K) bool (empty slots False).
 
-    From each BSDF's class (materials_.BSDF_TYPES): a delta BSDF (mirror, smooth glass, Transparent) is
+    From each BSDF's class (materials_.BSDF_TYPES): a singular BSDF (mirror, smooth glass, Transparent) is
     specular-like; one with an "alpha" parameter (GGX glossy, rough glass) is diffuse-like when its alpha
     exceeds ROUGH_ALPHA; any other (Lambert) is diffuse-like.
     """
     out = np.zeros(closures.kind.shape, bool)
     for bsdf in materials_.BSDF_TYPES:
         mine = closures.kind == bsdf.kind
-        if bsdf.delta or not mine.any():
+        if bsdf.is_(materials_.BSDFFlags.SINGULAR) or not mine.any():
             continue
         if "alpha" in bsdf.params:
             mine &= closures.params[..., bsdf.params.index("alpha")] > ROUGH_ALPHA

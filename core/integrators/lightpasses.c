@@ -6,12 +6,14 @@ enum { PASS_DIFFUSE = 0, PASS_GLOSSY = 1, PASS_TRANSMISSION = 2, PASS_KINDS = 3 
 /* The light passes' channels: the three kinds direct, then indirect, RGB each (lightpasses.FILM_CHANNELS). */
 #define LIGHT_CHANNELS 18
 
-/* lightpasses.closure_kinds for one closure c: its pass kind for light from wi towards wo (-1: none). */
+/* lightpasses.closure_kinds for one closure c: its pass kind for light from wi towards wo (-1: none), by its closure
+ * type; glass by the side of c's normal the light comes from. */
 INLINE int pass_kind(const Closure *c, const double *wo, const double *wi)
 {
-    if (IS_SHADOWED(c->kind)) return PASS_DIFFUSE;
-    if (c->kind == BSDF_MIRROR || c->kind == BSDF_MICROFACET || c->kind == BSDF_VELVET) return PASS_GLOSSY;
-    if (c->kind == BSDF_GLASS || c->kind == BSDF_ROUGH_GLASS)
+    if (bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE)) return PASS_DIFFUSE;
+    if (bsdf_is(c->kind, BSDF_FLAG_GLOSSY_TYPE)) return PASS_GLOSSY;
+    if (bsdf_is(c->kind, BSDF_FLAG_TRANSMISSION_TYPE)) return PASS_TRANSMISSION;
+    if (bsdf_is(c->kind, BSDF_FLAG_GLASS_TYPE))
         return dot3(c->N, wo) * dot3(c->N, wi) > 0.0 ? PASS_GLOSSY : PASS_TRANSMISSION;
     return -1;
 }
@@ -30,7 +32,7 @@ INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *
         double value[3], pdf;
         bsdf_eval(c, wo, wi, value, &pdf);
         if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
-            double term = bump_shadowing(sd->N, c->N, wi, IS_SHADOWED(c->kind));
+            double term = bump_shadowing(sd->N, c->N, wi, bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE));
             for (int j = 0; j < 3; j++) value[j] *= term;
         }
         for (int j = 0; j < 3; j++) shares[p][j] += c->weight[j] * value[j];
@@ -42,7 +44,8 @@ INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *
 }
 
 /* lightpasses.sample_shares for one BSDF-sampled ray s of a hit (transmit: it went through the surface):
- * kind_shares at its direction, a delta closure's own kind alone, none for a Transparent closure's ray. */
+ * kind_shares at its direction, a delta closure's own pass kind alone (glass by `transmit`), none for a
+ * Transparent closure's ray. */
 INLINE void sample_shares(const ShaderResult *sd, const double *wo, const ClosureSample *s, int transmit,
                           double shares[PASS_KINDS][3])
 {
@@ -51,8 +54,12 @@ INLINE void sample_shares(const ShaderResult *sd, const double *wo, const Closur
         return;
     }
     for (int p = 0; p < PASS_KINDS; p++) shares[p][0] = shares[p][1] = shares[p][2] = 0.0;
-    int p = s->kind == BSDF_MIRROR ? PASS_GLOSSY
-            : (s->kind == BSDF_GLASS ? (transmit ? PASS_TRANSMISSION : PASS_GLOSSY) : -1);
+    int p = -1;
+    if (bsdf_is(s->kind, BSDF_FLAG_STRAIGHT)) p = -1;
+    else if (bsdf_is(s->kind, BSDF_FLAG_DIFFUSE_TYPE)) p = PASS_DIFFUSE;
+    else if (bsdf_is(s->kind, BSDF_FLAG_GLOSSY_TYPE)) p = PASS_GLOSSY;
+    else if (bsdf_is(s->kind, BSDF_FLAG_TRANSMISSION_TYPE)) p = PASS_TRANSMISSION;
+    else if (bsdf_is(s->kind, BSDF_FLAG_GLASS_TYPE)) p = transmit ? PASS_TRANSMISSION : PASS_GLOSSY;
     if (p >= 0) shares[p][0] = shares[p][1] = shares[p][2] = 1.0;
 }
 

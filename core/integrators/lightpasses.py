@@ -4,10 +4,11 @@ Cycles' meaning (kernel/film/light_passes.h), which Primer follows: a path's lig
 path did at its first real bounce (its first surface interaction other than passing straight through a
 Transparent closure), split by the kind of closure that scattered it there:
 
-- diffuse       Lambert, Oren-Nayar, Sheen (Cycles' CLOSURE_IS_BSDF_DIFFUSE: the same closures as the Diffuse
-                Color pass, core/integrators/passes.py closure_albedos)
-- glossy        microfacet lobes, mirrors, the velvet, and glass reflecting (light on the viewer's side)
-- transmission  glass refracting (light from the other side)
+- diffuse       closures of the diffuse type (BSDFFlags.DIFFUSE_TYPE, Cycles' CLOSURE_IS_BSDF_DIFFUSE: Lambert,
+                Oren-Nayar, Sheen; the same closures as the Diffuse Color pass, core/integrators/passes.py)
+- glossy        the glossy type (microfacet lobes, mirrors, the velvet), and glass reflecting (light on the
+                viewer's side)
+- transmission  the transmission type, and glass refracting (light from the other side)
 
 "Direct" is the light that arrives at the first hit: its light samples (next-event estimation) and what its
 BSDF-sampled ray finds (lamps, emitters, the world), each weighed by MIS as in Combined. "Indirect" is
@@ -62,15 +63,17 @@ def first_hit_passes(passes) -> tuple:
 
 def closure_kinds(kind: np.ndarray, N: np.ndarray, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
     """Return the pass kind (DIFFUSE, GLOSSY, TRANSMISSION; -1 for none: empty slots, Transparent) of each closure
-    (n, K) int for light from wi (n, 3) towards wo (n, 3); glass counts as glossy where wi is on wo's side of the
-    closure's normal N (n, K, 3), else as transmission."""
+    (n, K) int for light from wi (n, 3) towards wo (n, 3), by its BSDF's closure type (Cycles' bsdf_eval_accum):
+    the diffuse, glossy and transmission types their own; glass glossy where wi is on wo's side of the closure's
+    normal N (n, K, 3), else transmission."""
+    F = materials_.BSDFFlags
+    flags = materials_.flags_of(kind)
     same_side = (np.einsum("nkj,nj->nk", N, wo) * np.einsum("nkj,nj->nk", N, wi)) > 0.0
-    glass = (kind == materials_.Glass.kind) | (kind == materials_.RoughGlass.kind)
-    glossy = np.isin(kind, (materials_.Mirror.kind, materials_.Microfacet.kind, materials_.Velvet.kind))
+    glass = (flags & F.GLASS_TYPE) != 0
     out = np.full(kind.shape, -1, np.int64)
-    out[np.isin(kind, materials_.SHADOWED_KINDS)] = DIFFUSE
-    out[glossy | (glass & same_side)] = GLOSSY
-    out[glass & ~same_side] = TRANSMISSION
+    out[(flags & F.DIFFUSE_TYPE) != 0] = DIFFUSE
+    out[((flags & F.GLOSSY_TYPE) != 0) | (glass & same_side)] = GLOSSY
+    out[((flags & F.TRANSMISSION_TYPE) != 0) | (glass & ~same_side)] = TRANSMISSION
     return out
 
 
@@ -90,17 +93,20 @@ def kind_shares(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cosin
 def sample_shares(closures: Closures, wo: np.ndarray, wi: np.ndarray, kind: np.ndarray, delta: np.ndarray,
                   transmit: np.ndarray) -> np.ndarray:
     """Return the pass kinds' shares (k, KINDS, 3) of BSDF-sampled rays: kind_shares at the sampled direction wi
-    (k, 3), or for a delta closure (delta (k,) bool) its own kind alone: a mirror glossy, smooth glass glossy or
-    transmission (transmit (k,) bool: the ray went through the surface); none for a Transparent closure's ray.
+    (k, 3), or for a delta closure (delta (k,) bool) its own pass kind alone (closure_kinds; smooth glass glossy or
+    transmission by the side the ray leaves to, transmit (k,) bool); none for a Transparent closure's ray.
 
     closures: the k hits' Closures; wo (k, 3); kind (k,) int the sampled closures' BSDF kinds."""
+    F = materials_.BSDFFlags
     shares = kind_shares(closures, wo, wi)
+    flags = materials_.flags_of(kind)
+    glass = (flags & F.GLASS_TYPE) != 0
     one = np.zeros_like(shares)
-    glass = kind == materials_.Glass.kind
-    one[glass & transmit, TRANSMISSION] = 1.0
-    one[(glass & ~transmit) | (kind == materials_.Mirror.kind), GLOSSY] = 1.0
+    one[(flags & F.DIFFUSE_TYPE) != 0, DIFFUSE] = 1.0
+    one[((flags & F.GLOSSY_TYPE) != 0) | (glass & ~transmit), GLOSSY] = 1.0
+    one[((flags & F.TRANSMISSION_TYPE) != 0) | (glass & transmit), TRANSMISSION] = 1.0
     shares = np.where(delta[:, None, None], one, shares)
-    return np.where((kind == materials_.Transparent.kind)[:, None, None], 0.0, shares)
+    return np.where(((flags & F.STRAIGHT) != 0)[:, None, None], 0.0, shares)
 
 
 def split(value: np.ndarray, shares: np.ndarray) -> np.ndarray:

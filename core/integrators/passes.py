@@ -47,11 +47,8 @@ from .. import materials as materials_
 from .. import vectors
 from ..geometry.surface import hit_attributes, hit_owners, surface_at_hits
 from ..materials import graph as graph_
-from ..materials import microfacet as mf
-from ..materials.glass import shares as glass_shares
+from ..materials.closures import each_kind
 from ..materials.lambert import Lambert
-from ..materials.microfacet import Microfacet
-from ..materials.mirror import Mirror
 from ..sampling import sobol as sampling
 from . import cryptomatte, shadows
 from .base import Context
@@ -91,28 +88,25 @@ def pass_samples(samples: int) -> int:
 
 def closure_albedos(shader) -> tuple:
     """Return (diffuse, glossy, transmission) colours (m, 3) float64 of hits with the ShaderResult `shader`:
-    each the sum of its closures' weight x albedo (module docstring)."""
+    each the sum of its closures' weight x albedo (module docstring), by closure type (BSDFFlags.*_TYPE): the
+    diffuse type's reflection to Diffuse, the glossy type's to Glossy, the transmission type's transmission to
+    Transmission, and glass's reflection and transmission to Glossy and Transmission."""
+    F = materials_.BSDFFlags
     c = shader.closures
     m = len(c.kind)
     diffuse, glossy, transmission = np.zeros((m, 3)), np.zeros((m, 3)), np.zeros((m, 3))
-    wo_dot_n = None
     for slot in range(c.kind.shape[1]):
-        kind = c.kind[:, slot]
-        weight = c.weight[:, slot]
-        lambert = np.isin(kind, materials_.SHADOWED_KINDS)           # Cycles' CLOSURE_IS_BSDF_DIFFUSE
-        diffuse[lambert] += weight[lambert]
-        mirror = (kind == Mirror.kind) | (kind == materials_.Velvet.kind)   # the velvet is glossy there
-        glossy[mirror] += weight[mirror]
-        lobe = np.flatnonzero(kind == Microfacet.kind)
-        glass = np.flatnonzero((kind == materials_.Glass.kind) | (kind == materials_.RoughGlass.kind))
-        if (len(lobe) or len(glass)) and wo_dot_n is None:
-            wo_dot_n = np.clip(np.einsum("ij,ij->i", c.N[:, slot], shader.wo), 0.0, 1.0)
-        if len(lobe):
-            glossy[lobe] += weight[lobe] * mf.fresnel(c.params[lobe, slot], wo_dot_n[lobe])
-        if len(glass):
-            R, T = glass_shares(c.params[glass, slot], wo_dot_n[glass])
-            glossy[glass] += weight[glass] * R
-            transmission[glass] += weight[glass] * T
+        for bsdf, rows in each_kind(c, slot):
+            if not bsdf.is_(F.DIFFUSE_TYPE | F.GLOSSY_TYPE | F.TRANSMISSION_TYPE | F.GLASS_TYPE):
+                continue
+            weight = c.weight[rows, slot]
+            R, T = bsdf.albedo(c.params[rows, slot], c.N[rows, slot], shader.wo[rows])
+            if bsdf.is_(F.DIFFUSE_TYPE):
+                diffuse[rows] += weight * R
+            if bsdf.is_(F.GLOSSY_TYPE | F.GLASS_TYPE):
+                glossy[rows] += weight * R
+            if bsdf.is_(F.TRANSMISSION_TYPE | F.GLASS_TYPE):
+                transmission[rows] += weight * T
     return diffuse, glossy, transmission
 
 
@@ -251,7 +245,7 @@ def average_normal(closures, N: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Return the unit normals (k, 3) float64 of the hits `rows` (k,) int64: their closures' normals weighed by
     |mean(weight)| (the Transparent BSDF left out), or the shading normal N (m, 3) where they have none."""
     kind, weight, normals = closures.kind[rows], closures.weight[rows], closures.N[rows]
-    w = np.where((kind >= 0) & (kind != materials_.Transparent.kind), np.abs(weight.mean(axis=-1)), 0.0)
+    w = np.where((kind >= 0) & ~materials_.has(kind, materials_.BSDFFlags.STRAIGHT), np.abs(weight.mean(axis=-1)), 0.0)
     total = np.einsum("nk,nkj->nj", w, normals)
     length = np.linalg.norm(total, axis=-1, keepdims=True)
     return np.where(length > 0.0, total / np.where(length > 0.0, length, 1.0), N[rows])

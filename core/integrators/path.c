@@ -19,16 +19,21 @@ typedef struct {
     double light[BLOCK][LIGHT_CHANNELS];       /* each camera lane's light passes (lightpasses.c), where asked for */
 } PathWork;
 
-/* path.bounce_kind: whether a sampled closure makes a diffuse, a glossy or a transmission bounce. */
-INLINE int is_diffuse_bounce(int kind) { return IS_DIFFUSE(kind); }
-INLINE int is_transparent_bounce(int kind) { return kind == BSDF_TRANSPARENT; }
+/* path.bounce_kind: whether a sampled closure makes a diffuse, a glossy or a transmission bounce (through the
+ * surface by direct.goes_through), or a transparent one (no bounce); and whether it was labelled diffuse. */
+INLINE int is_labelled_diffuse(int kind) { return bsdf_is(kind, BSDF_FLAG_DIFFUSE); }
+INLINE int is_transparent_bounce(int kind) { return bsdf_is(kind, BSDF_FLAG_STRAIGHT); }
+INLINE int is_diffuse_bounce(int kind, int transmit)
+{
+    return kind >= 0 && is_labelled_diffuse(kind) && !goes_through(kind, transmit) && !is_transparent_bounce(kind);
+}
 INLINE int is_glossy_bounce(int kind, int transmit)
 {
-    return kind >= 0 && !IS_DIFFUSE(kind) && kind != BSDF_TRANSPARENT && !transmit;
+    return kind >= 0 && !is_labelled_diffuse(kind) && !goes_through(kind, transmit) && !is_transparent_bounce(kind);
 }
 INLINE int is_transmission_bounce(int kind, int transmit)
 {
-    return kind >= 0 && !IS_DIFFUSE(kind) && kind != BSDF_TRANSPARENT && transmit;
+    return kind >= 0 && goes_through(kind, transmit) && !is_transparent_bounce(kind);
 }
 
 /* path.through_transparent for one ray r of hit h whose path has ended at its bounce limits, after `clear`
@@ -97,7 +102,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         const PathRay *r = rays->r + i;
         int64_t h = r->h;
         /* a. The bounce limits. */
-        int d = H->diffuse[h] + is_diffuse_bounce(r->kind), g = H->glossy[h] + is_glossy_bounce(r->kind, r->transmit);
+        int d = H->diffuse[h] + is_diffuse_bounce(r->kind, r->transmit), g = H->glossy[h] + is_glossy_bounce(r->kind, r->transmit);
         int tr = H->transmission[h] + is_transmission_bounce(r->kind, r->transmit);
         int see_through = is_transparent_bounce(r->kind), clear = H->transparent[h] + see_through;
         int bounces = H->bounce[h] + !see_through;
@@ -139,7 +144,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         }
         next->sd[m].storage = next->storage[m];
         /* A transparent bounce keeps the kind of the last real one; after a diffuse one, the caustics filter. */
-        int after_diffuse = see_through ? H->after_diffuse[h] : is_diffuse_bounce(r->kind);
+        int after_diffuse = see_through ? H->after_diffuse[h] : is_labelled_diffuse(r->kind);
         next->after_diffuse[m] = (uint8_t)after_diffuse;
         next->sd[m].caustics = after_diffuse ? ds->caustics : 0;
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,

@@ -54,7 +54,7 @@ from .base import Context, Radiance, Recorder
 from . import clamp as clamp_
 from . import lightpasses
 from . import shadows
-from .direct import DirectLighting, camera_hits, gather_light, nearest_seen
+from .direct import DirectLighting, camera_hits, gather_light, goes_through, nearest_seen
 from ..geometry.geometry import HIDDEN_FROM_CAMERA, HOLDOUT
 
 # Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
@@ -69,12 +69,18 @@ def roulette_from(settings) -> int:
 
 
 def bounce_kind(kind: np.ndarray, transmit: np.ndarray) -> tuple:
-    """Which bounces are diffuse, glossy (a rough or mirror reflection), transmission (through glass) and
-    transparent (straight through a Transparent closure, not counted as a bounce): four (k,) bool arrays."""
-    diffuse = materials_.is_diffuse(kind)
-    transparent = kind == materials_.Transparent.kind
-    other = ~diffuse & ~transparent & (kind >= 0)
-    return diffuse, other & ~transmit, other & transmit, transparent
+    """Which bounces are diffuse, glossy (a rough or mirror reflection), transmission (through the surface:
+    direct.goes_through) and transparent (straight through a Transparent closure, not counted as a bounce), as
+    Cycles' path_state_next counts them by the sampled closure's flags; and which were labelled diffuse (the
+    caustics switches apply after those): five (k,) bool arrays. kind (k,) int the sampled closures' BSDF
+    kinds (-1: none); transmit (k,) bool whether each ray went through the face."""
+    F = materials_.BSDFFlags
+    flags = materials_.flags_of(kind)
+    transparent = (flags & F.STRAIGHT) != 0
+    labelled_diffuse = (flags & F.DIFFUSE) != 0
+    through = goes_through(kind, transmit) & ~transparent & (kind >= 0)
+    reflected = ~through & ~transparent & (kind >= 0)
+    return reflected & labelled_diffuse, reflected & ~labelled_diffuse, through, transparent, labelled_diffuse
 
 
 def caustics_bits(settings) -> int:
@@ -163,7 +169,7 @@ def hold_out(ctx: Context, surface, shader, camera_path: np.ndarray) -> tuple:
     if not (obj.any() or stop.any()):
         return shader, weight
     c = shader.closures
-    gone = (obj[:, None] & (c.kind != materials_.Transparent.kind)) | stop[:, None]
+    gone = (obj[:, None] & ~materials_.has(c.kind, materials_.BSDFFlags.STRAIGHT)) | stop[:, None]
     closures = c._replace(kind=np.where(gone, -1, c.kind).astype(c.kind.dtype),
                           weight=np.where(gone[..., None], 0.0, c.weight),
                           sample_weight=np.where(gone, 0.0, c.sample_weight))
@@ -245,7 +251,8 @@ class PathTracing(DirectLighting):
             if ray is None:
                 break
             # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.
-            is_diffuse, is_glossy, is_transmission, is_transparent = bounce_kind(ray.kind, ray.transmit)
+            is_diffuse, is_glossy, is_transmission, is_transparent, labelled_diffuse = bounce_kind(ray.kind,
+                                                                                                   ray.transmit)
             bounces = bounce[ray.rows] + ~is_transparent
             d = diffuse[ray.rows] + is_diffuse
             g = glossy[ray.rows] + is_glossy
@@ -297,7 +304,7 @@ class PathTracing(DirectLighting):
             throughput = next_throughput[keep]
             diffuse, glossy, transmission, transparent = d[keep], g[keep], tr[keep], tp[keep]
             # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
-            after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], is_diffuse)[keep]
+            after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], labelled_diffuse)[keep]
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
             mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]

@@ -113,7 +113,7 @@ class WhittedTracing(DirectLighting):
         return Radiance(L_out, camera_hit, shadow_rays)
 
     def specular_rays(self, s, surface, shader, wo, throughput, glossy, transmission):
-        """The child rays of every perfectly specular closure: (hit index (k,), O (k, 3), D (k, 3), throughput
+        """The child rays of every perfectly specular (singular) reflection and smooth glass closure: (hit index (k,), O (k, 3), D (k, 3), throughput
         (k, 3), glossy and transmission bounce counts (k,)), or None when there are none."""
         closures = shader.closures
         parts = []
@@ -121,11 +121,12 @@ class WhittedTracing(DirectLighting):
         for slot in range(closures.kind.shape[1]):
             kind, weight = closures.kind[:, slot], closures.weight[:, slot]
             N = closures.N[:, slot]
-            mirror = np.flatnonzero(kind == materials_.Mirror.kind)
+            singular = materials_.has(kind, materials_.BSDFFlags.SINGULAR)
+            mirror = np.flatnonzero(singular & materials_.reflective(kind))
             if len(mirror):
                 R = 2.0 * cos_i[mirror, None] * N[mirror] - wo[mirror]
                 parts.append((mirror, R, weight[mirror], 1, 0))
-            glass = np.flatnonzero(kind == materials_.Glass.kind)
+            glass = np.flatnonzero(singular & materials_.has(kind, materials_.BSDFFlags.GLASS_TYPE))
             if len(glass):
                 p = closures.params[glass, slot]
                 eta = p[:, mf.IOR]

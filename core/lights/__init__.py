@@ -1,13 +1,13 @@
 """Lights in Cycles' units: each light type is a class here and a C file beside it.
 
-LIGHT_TYPES is the table: a light's `kind` tag is its class's position in it, and core/lights/lights.c
-dispatches on the same tag. To add a light type, write its class (core/lights/base.py says what it
-implements), its C file, and one entry here and in lights.c.
+LIGHT_TYPES is the table: a light's `kind` tag is its class's position in it, and the C code, generated from
+it (core/lights/lights.gen.c), dispatches on the same tag. To add a light type, write its class
+(core/lights/base.py says what it implements and which flags say what it is), its C file, and one entry here.
 """
 from __future__ import annotations
 
 from .area import AreaLight
-from .base import Light, LightHit, LightRecord, LightSample
+from .base import LAMP, Light, LightFlags, LightHit, LightRecord, LightSample
 from .emitters import MeshEmitters
 from .point import PointLight
 from .spot import SpotLight
@@ -17,7 +17,9 @@ from .world import World, WorldLight
 # Blender's lamps, then the lights a render makes of its scene: the emissive meshes, the world's image.
 LIGHT_TYPES = (PointLight, SpotLight, SunLight, AreaLight, MeshEmitters, WorldLight)
 
-assert all(cls.kind == index for index, cls in enumerate(LIGHT_TYPES)), "a light's kind is its place in LIGHT_TYPES"
+for _kind, _cls in enumerate(LIGHT_TYPES):
+    _cls.kind = _kind
+Light.types = LIGHT_TYPES
 
 
 def usable(lights: list, warnings: list) -> list:
@@ -31,5 +33,5 @@ def usable(lights: list, warnings: list) -> list:
     return kept
 
 
-__all__ = ["AreaLight", "LIGHT_TYPES", "Light", "LightHit", "LightRecord", "LightSample", "MeshEmitters",
+__all__ = ["AreaLight", "LAMP", "LIGHT_TYPES", "Light", "LightFlags", "LightHit", "LightRecord", "LightSample", "MeshEmitters",
            "PointLight", "SpotLight", "SunLight", "World", "WorldLight", "usable"]

@@ -76,3 +76,17 @@ INLINE int area_light_hit(const LightRecord *light, const double *O, const doubl
     out->pdf = t * t / (cos_light * light->area);
     return 1;
 }
+
+/* The table's entries (lights.gen.c): AreaLight.sample and AreaLight.hit. */
+INLINE void area_sample(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
+                        const double *u, LightSample *out)
+{
+    (void)ctx; (void)N;
+    sample_area_light(light, P, u, out);
+    lamp_color(light, out);
+}
+
+INLINE int area_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
+{
+    return area_light_hit(light, O, D, t_max, out);
+}

@@ -8,7 +8,7 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from .. import vectors
-from .base import Cone, Light, LightHit, LightSample, direction_to
+from .base import Cone, Light, LightFlags, LightHit, LightSample, direction_to
 
 
 def spread_constants(spread: float) -> tuple[float, float]:
@@ -69,7 +69,7 @@ class AreaLight(Light):
     name: str = "Area"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
 
-    kind: ClassVar[int] = 3
+    flags: ClassVar[LightFlags] = LightFlags.AREA
     blender_type: ClassVar[str] = "AREA"
     point_fields: ClassVar[tuple] = ("center",)
 

@@ -14,12 +14,15 @@ noise, and a pdf of infinity (a delta: no BSDF-sampled direction can find them).
 with the solid-angle pdf of its direction, so that an integrator can weigh light sampling against
 BSDF sampling (multiple importance sampling). Every formula was checked against Cycles 4.x/5.0.
 
-A light type is one class (core/lights/<kind>.py), one C file (core/lights/<kind>.c) and one entry
-in the table of core/lights/__init__.py, whose position is the light's `kind` tag in C.
+What a light *is* is declared once, on its class, as LightFlags (pbrt's LightType): the integrators ask the
+flags, never which light it is. A light type is one class (core/lights/<name>.py), one C file beside it
+(core/lights/<name>.c, functions <name>_sample and <name>_hit) and one entry in the table of
+core/lights/__init__.py, whose position is the light's `kind` tag; tools/make_boundary.py writes the C side.
 """
 from __future__ import annotations
 
 import dataclasses
+import enum
 import math
 from typing import ClassVar, NamedTuple, Optional
 
@@ -104,16 +107,52 @@ LightRecord = library.record("LightRecord", [
     size_function="primer_light_record_size")
 
 
+class LightFlags(enum.IntFlag):
+    """What a light is (pbrt's LightType: DeltaPosition, DeltaDirection, Area, Infinite).
+
+    POSITION  at a point in space (point and spot lamps): a delta position with radius 0, else a round lamp that
+              rays meet (Light.hit)
+    DISTANT   at infinity in one direction (the sun): a delta direction with angle 0, else a disk that rays
+              escaping the scene meet
+    AREA      a surface in space (area lamps) that rays meet
+    INFINITE  all around the scene at infinity (the world): rays find it where they escape
+    EMITTER   the scene's own emissive triangles: rays find them as the surfaces they hit
+    """
+
+    POSITION = 1 << 0
+    DISTANT = 1 << 1
+    AREA = 1 << 2
+    INFINITE = 1 << 3
+    EMITTER = 1 << 4
+
+
+# Blender's lamps: lights rays meet by Light.hit (not as scene geometry, not by escaping it).
+LAMP = LightFlags.POSITION | LightFlags.DISTANT | LightFlags.AREA
+
+
 class Light:
     """The interface every light implements (a dataclass of its parameters, in Cycles' units).
 
-    kind:          its tag: the position of its class in core/lights/__init__.py's LIGHT_TYPES,
+    kind:          its tag: the position of its class in core/lights/__init__.py's LIGHT_TYPES (set there),
                    and the `kind` field of its C record
+    flags:         what it is (LightFlags)
     blender_type:  Blender's name of the light type ("POINT", "SPOT", "SUN", "AREA")
     """
 
     kind: ClassVar[int] = -1
+    flags: ClassVar[LightFlags] = LightFlags(0)
+    types: ClassVar[tuple] = ()     # every light class by kind (core/lights/__init__.py fills it)
     blender_type: ClassVar[str] = ""
+
+    @classmethod
+    def is_(cls, flags: LightFlags) -> bool:
+        """Whether the light has any of `flags`."""
+        return bool(cls.flags & flags)
+
+    @classmethod
+    def c_name(cls) -> str:
+        """The name of its C file and functions: its module's (point for core/lights/point.py)."""
+        return cls.__module__.rsplit(".", 1)[-1]
     # Fields holding points (moved with the camera-relative origin) and the light's output.
     point_fields: ClassVar[tuple] = ()
     output_field: ClassVar[str] = "power"

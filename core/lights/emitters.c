@@ -267,6 +267,20 @@ INLINE void sample_emitters(const EmitterTables *e, const double *P, const doubl
     }
 }
 
+/* The table's entries (lights.gen.c): MeshEmitters.sample; rays meet emitters as the surfaces they hit, not here. */
+INLINE void emitters_sample(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
+                            const double *u, LightSample *out)
+{
+    (void)light;
+    sample_emitters(ctx->emitters, P, N, u, out);
+}
+
+INLINE int emitters_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
+{
+    (void)light; (void)O; (void)D; (void)t_max; (void)out;
+    return 0;
+}
+
 /* MeshEmitters.pdf_of_hits: the pdf `sample` gives direction D from O (normal N, NULL or zero: unknown,
  * as sample_emitters had it) to emitter i at distance t. */
 INLINE double emitter_pdf(const EmitterTables *e, int64_t i, const double *O, const double *N, const double *D,

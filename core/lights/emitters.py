@@ -30,7 +30,7 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from .. import vectors
-from .base import Light, LightSample
+from .base import Light, LightFlags, LightSample
 from .light_tree import LightTree
 
 FRONT, BACK = 1, 2
@@ -67,7 +67,7 @@ class MeshEmitters(Light):
     hidden: Optional[np.ndarray] = None
     textured: Optional[np.ndarray] = None
 
-    kind: ClassVar[int] = 4
+    flags: ClassVar[LightFlags] = LightFlags.EMITTER
     blender_type: ClassVar[str] = "MESH"
     random_numbers: ClassVar[int] = 3
 

@@ -1,34 +1,6 @@
-/* The table of lights: a light's `kind` tag picks its functions (core/lights/__init__.py LIGHT_TYPES). */
-
-/* Light from `light` arriving at point P for the unit-square sample u (and for emitters u[2], the
- * pick): Light.sample. ctx: the emitters' and the world's tables. N: the normal the emitters' light tree
- * weighs by (direct.tree_normals; NULL or zero: unknown). */
-INLINE void sample_light(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
-                         const double *u, LightSample *out)
-{
-    out->hidden = 0;
-    switch ((int)light->kind) {
-    case LIGHT_POINT: sample_point_light(light, P, u, out); break;
-    case LIGHT_SPOT: sample_spot_light(light, P, u, out); break;
-    case LIGHT_SUN: sample_sun_light(light, u, out); break;
-    case LIGHT_EMITTERS: sample_emitters(ctx->emitters, P, N, u, out); return;
-    case LIGHT_WORLD: sample_world(ctx->world, u, out); return;
-    default: sample_area_light(light, P, u, out); break;
-    }
-    for (int c = 0; c < 3; c++) out->color[c] = light->color[c];
-}
-
-/* Light.hit for Blender's lamps: whether a ray from O along D meets `light` before t_max. */
-INLINE int light_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
-{
-    switch ((int)light->kind) {
-    case LIGHT_POINT:
-    case LIGHT_SPOT: return light->delta == 0.0 ? point_light_hit(light, O, D, t_max, out) : 0;
-    case LIGHT_SUN: return light->delta == 0.0 ? sun_light_hit(light, D, t_max, out) : 0;
-    case LIGHT_AREA: return area_light_hit(light, O, D, t_max, out);
-    default: return 0;
-    }
-}
+/* The table of lights: each light's C file, and sample_light / light_hit switching on a light's kind (generated
+ * from core/lights/__init__.py's LIGHT_TYPES by tools/make_boundary.py). */
+#include "lights.gen.c"
 
 /* Light.sample over arrays (for the tests): points (n, 3), u (n, 3) float64 -> L (n, 3), distance,
  * strength, pdf (n,), position (n, 3), color (n, 3) float64. */

@@ -1,6 +1,7 @@
 /* What every light's C file shares: the light record and the light sample (core/lights/base.py). */
 
-enum { LIGHT_POINT = 0, LIGHT_SPOT = 1, LIGHT_SUN = 2, LIGHT_AREA = 3, LIGHT_EMITTERS = 4, LIGHT_WORLD = 5 };
+/* A light's kind (LIGHT_*) and what it is (LIGHT_FLAG_*, light_is) come from the table of lights, generated into
+ * core/native/boundary.gen.h from core/lights/__init__.py. */
 
 /* One light, prepared by its class's `pack` (core/lights/<kind>.py): everything that does not depend on
  * the shading point. Only doubles, so that its layout is the same on every compiler. */

@@ -13,8 +13,9 @@ INLINE void sample_point(const LightRecord *light, const double *P, LightSample 
 
 /* PointLight.hit: a ray meets a round light (the disk facing its origin with soft falloff, else the
  * sphere) within the cone the light covers from the origin; radiance P / (4 pi^2 R^2); the cone's pdf.
- * Returns whether it met it before t_max; `spot` applies a spot's cone to what leaves. */
-INLINE int point_light_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
+ * Returns whether it met it before t_max; `spot`: apply a spot's cone to what leaves. */
+INLINE int point_light_hit(const LightRecord *light, const double *O, const double *D, double t_max, int spot,
+                           LightHit *out)
 {
     double axis[3];
     double d = direction_to(O, light->position, axis);
@@ -38,7 +39,7 @@ INLINE int point_light_hit(const LightRecord *light, const double *O, const doub
     if (!hit) return 0;
     out->t = t;
     double radiance = light->radiance;
-    if ((int)light->kind == LIGHT_SPOT) radiance *= spot_factor(light, D);   /* (D: towards the light) */
+    if (spot) radiance *= spot_factor(light, D);               /* (D: towards the light) */
     for (int c = 0; c < 3; c++) out->radiance[c] = radiance * light->color[c];
     out->pdf = cone_pdf(cos_max);
     return 1;
@@ -76,4 +77,24 @@ INLINE void sample_point_light(const LightRecord *light, const double *P, const 
 {
     if (light->delta != 0.0) sample_point(light, P, out);
     else sample_sphere(light, P, u, out);
+}
+
+/* A lamp's sample carries the lamp's colour. */
+INLINE void lamp_color(const LightRecord *light, LightSample *out)
+{
+    for (int c = 0; c < 3; c++) out->color[c] = light->color[c];
+}
+
+/* The table's entries (lights.gen.c): PointLight.sample and PointLight.hit (a round light only). */
+INLINE void point_sample(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
+                         const double *u, LightSample *out)
+{
+    (void)ctx; (void)N;
+    sample_point_light(light, P, u, out);
+    lamp_color(light, out);
+}
+
+INLINE int point_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
+{
+    return light->delta == 0.0 ? point_light_hit(light, O, D, t_max, 0, out) : 0;
 }

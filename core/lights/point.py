@@ -8,7 +8,8 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from ..vectors import orthonormal_frame
-from .base import INV_4PI, Cone, Light, LightHit, LightSample, cone_pdf, delta_pdf, direction_to, sample_cone
+from .base import (INV_4PI, Cone, Light, LightFlags, LightHit, LightSample, cone_pdf, delta_pdf, direction_to,
+                   sample_cone)
 
 
 def sphere_radiance(power: float, radius: float) -> float:
@@ -132,5 +133,5 @@ class PointLight(RoundLight):
     name: str = "Point"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
 
-    kind: ClassVar[int] = 0
+    flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "POINT"

@@ -25,3 +25,17 @@ INLINE void sample_spot_light(const LightRecord *light, const double *P, const d
     sample_point_light(light, P, u, out);
     out->strength *= spot_factor(light, out->L);
 }
+
+/* The table's entries (lights.gen.c): SpotLight.sample and SpotLight.hit (a round spot only). */
+INLINE void spot_sample(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
+                        const double *u, LightSample *out)
+{
+    (void)ctx; (void)N;
+    sample_spot_light(light, P, u, out);
+    lamp_color(light, out);
+}
+
+INLINE int spot_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
+{
+    return light->delta == 0.0 ? point_light_hit(light, O, D, t_max, 1, out) : 0;
+}

@@ -8,7 +8,7 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from .. import vectors
-from .base import Cone, LightSample
+from .base import Cone, LightFlags, LightSample
 from .point import RoundLight
 
 
@@ -35,7 +35,7 @@ class SpotLight(RoundLight):
     name: str = "Spot"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
 
-    kind: ClassVar[int] = 1
+    flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "SPOT"
 
     def cone_constants(self) -> tuple[float, float]:

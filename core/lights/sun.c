@@ -24,3 +24,18 @@ INLINE int sun_light_hit(const LightRecord *light, const double *D, double t_max
     out->pdf = cone_pdf(light->sun_cos_max);
     return 1;
 }
+
+/* The table's entries (lights.gen.c): SunLight.sample and SunLight.hit (a sun with a disk only). */
+INLINE void sun_sample(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
+                       const double *u, LightSample *out)
+{
+    (void)ctx; (void)P; (void)N;
+    sample_sun_light(light, u, out);
+    lamp_color(light, out);
+}
+
+INLINE int sun_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
+{
+    (void)O;
+    return light->delta == 0.0 ? sun_light_hit(light, D, t_max, out) : 0;
+}

@@ -8,7 +8,7 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from ..vectors import orthonormal_frame
-from .base import Cone, Light, LightHit, LightSample, cone_pdf, delta_pdf, sample_cone
+from .base import Cone, Light, LightFlags, LightHit, LightSample, cone_pdf, delta_pdf, sample_cone
 
 
 @dataclass
@@ -26,7 +26,7 @@ class SunLight(Light):
     name: str = "Sun"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
 
-    kind: ClassVar[int] = 2
+    flags: ClassVar[LightFlags] = LightFlags.DISTANT
     blender_type: ClassVar[str] = "SUN"
     output_field: ClassVar[str] = "strength"
 

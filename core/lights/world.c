@@ -101,3 +101,17 @@ INLINE void sample_world(const WorldTables *w, const double *u, LightSample *out
     world_radiance(w, out->L, out->color);
     out->position[0] = out->position[1] = out->position[2] = 0.0;
 }
+
+/* The table's entries (lights.gen.c): WorldLight.sample; rays find the world where they escape, not here. */
+INLINE void world_sample(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
+                         const double *u, LightSample *out)
+{
+    (void)light; (void)P; (void)N;
+    sample_world(ctx->world, u, out);
+}
+
+INLINE int world_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
+{
+    (void)light; (void)O; (void)D; (void)t_max; (void)out;
+    return 0;
+}

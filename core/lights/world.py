@@ -19,7 +19,7 @@ from typing import ClassVar, Optional
 
 import numpy as np
 
-from .base import Light, LightHit, LightSample
+from .base import Light, LightFlags, LightHit, LightSample
 
 # The importance map's width (its height is half), whatever the image's (Cycles' default map resolution).
 MAP_WIDTH = 1024
@@ -107,7 +107,7 @@ class WorldLight(Light):
     total: float
     name: str = "World"
 
-    kind: ClassVar[int] = 5
+    flags: ClassVar[LightFlags] = LightFlags.INFINITE
     blender_type: ClassVar[str] = "WORLD"
     random_numbers: ClassVar[int] = 2
 

@@ -1,8 +1,9 @@
 """Materials: what a surface does with the light that reaches it, as closures of BSDFs in one table.
 
-BSDF_TYPES is the table: a BSDF's `kind` tag is its class's position in it, and core/materials/bsdf.c
-dispatches on the same tag. To add a BSDF, write its class (core/materials/base.py says what it
-implements), its C file, and one entry here and in bsdf.c.
+core/materials/registry.py holds the tables: a BSDF's (a shader node's) `kind` tag is its class's position in
+BSDF_TYPES (NODE_TYPES), and the C code, generated from them, dispatches on the same tag. To add a BSDF, write its
+class (core/materials/base.py says what it implements and which flags say what it is), its C file, and one entry
+in the registry. What a closure is (diffuse, glossy, transmission, singular) its BSDF's flags say (`has`).
 
 A scene's materials become one MaterialTable per render: a row per material and a last row for
 triangles without a material (Blender's default grey, diffuse). `MaterialTable.shade` turns hits
@@ -16,34 +17,11 @@ from typing import Optional
 
 import numpy as np
 
-from .base import BSDF, BsdfSample
+from .base import BSDF, BSDFFlags, BsdfSample, flags_of, has
 from .closures import (MAX_CLOSURES, NODE_PARAMS, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
                        constant_result, eval_closures, sample_closures)
-from .glass import Glass
-from .lambert import Lambert
-from .microfacet import Microfacet
-from .mirror import Mirror
-from .oren_nayar import OrenNayar
-from .rough_glass import RoughGlass
-from .sheen import Sheen
-from .velvet import Velvet
-from .transparent import Transparent
-
-BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet)
-BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
-# The BSDFs that reflect diffusely: a path's diffuse bounce (Cycles' LABEL_DIFFUSE, which its sheens carry: Light
-# Paths' diffuse bounces and the caustics filter treat them as diffuse).
-DIFFUSE_KINDS = (Lambert.kind, OrenNayar.kind, Sheen.kind, Velvet.kind)
-# The closures bump shadowing darkens where their normal is not the hit's (Cycles' CLOSURE_IS_BSDF_DIFFUSE): the
-# diffuse ones but the velvet, a glossy closure type in Cycles.
-SHADOWED_KINDS = (Lambert.kind, OrenNayar.kind, Sheen.kind)
-
-
-def is_diffuse(kind: np.ndarray) -> np.ndarray:
-    """Which closure kinds (any shape, int) reflect diffusely (DIFFUSE_KINDS)."""
-    return np.isin(kind, DIFFUSE_KINDS)
-
-assert all(cls.kind == index for index, cls in enumerate(BSDF_TYPES)), "a BSDF's kind is its place in BSDF_TYPES"
+from .registry import (BSDF_BY_NAME, BSDF_TYPES, NODE_BY_NAME, NODE_TYPES, Glass, Lambert, Microfacet, Mirror,
+                       OrenNayar, RoughGlass, Sheen, Transparent, Velvet)
 
 # The colour used when a triangle's material is missing (Blender's default grey).
 DEFAULT_BASE_COLOR = (0.8, 0.8, 0.8)
@@ -62,7 +40,7 @@ class Material:
     transparent_shadows: whether shadow rays pass it where it lets light through (Blender's Material >
                 Settings > Transparent Shadows, which Cycles reads): False makes it opaque to shadow rays only
     nodes:      the shader nodes of its node tree, when it has more than one colour to say (a Principled,
-                Glossy or Mix of them): (name in nodes.NODE_BY_NAME, weight (3,), inputs dict[, factors]) each.
+                Glossy or Mix of them): (name in NODE_BY_NAME, weight (3,), inputs dict[, factors]) each.
                 An input may be a graph.Link (a texture or colour node feeding it, evaluated per hit); factors,
                 a list of (graph.Link, "fac" | "one_minus" | "color"), multiply the weight per hit (a Mix
                 Shader's linked factor, a Diffuse BSDF's linked colour); inputs["normal"] may be a Link (Normal
@@ -171,10 +149,10 @@ class NodeShader:
         rows, linked = [], []
         for entry in material.nodes:
             name, weight, inputs = entry[:3]
-            if name not in nodes_.NODE_BY_NAME:
+            if name not in NODE_BY_NAME:
                 raise ValueError(f"material '{material.name}' has shader node {name!r}; "
-                                 f"Primer knows {sorted(nodes_.NODE_BY_NAME)}")
-            node = nodes_.NODE_BY_NAME[name]
+                                 f"Primer knows {sorted(NODE_BY_NAME)}")
+            node = NODE_BY_NAME[name]
             clean = {key: value for key, value in inputs.items() if not isinstance(value, graph_.Link)
                      and np.all(np.isfinite(np.asarray(value, np.float64)))}
             weight = np.nan_to_num(np.asarray(weight, np.float64)[:3], nan=0.0, posinf=0.0, neginf=0.0)
@@ -241,15 +219,22 @@ class NodeShader:
                                   caustics=caustics)
 
 
+def reflective(kind) -> np.ndarray:
+    """Which closures of kind `kind` (int, any shape) are glossy or mirror reflections, what Cycles' Reflective
+    Caustics switch takes away (labelled glossy or singular, reflection only): bool, kind's shape."""
+    flags = flags_of(kind)
+    lobe = (flags & (BSDFFlags.GLOSSY | BSDFFlags.SINGULAR)) != 0
+    return lobe & ((flags & BSDFFlags.REFLECTION) != 0) & ((flags & BSDFFlags.TRANSMISSION) == 0)
+
+
 def caustics_filtered(kind: np.ndarray, caustics: np.ndarray) -> np.ndarray:
     """Which of a constant material's closures kind (n, K) a caustics filter (n,) int takes away: reflective
-    ones (mirror, microfacet) with FILTER_REFLECTIVE, glass with both bits: (n, K) bool."""
+    ones (a mirror, a glossy lobe) with FILTER_REFLECTIVE, glass with both bits: (n, K) bool."""
     from .closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE
     bits = caustics[:, None]
-    reflective = (kind == Mirror.kind) | (kind == Microfacet.kind)
-    glass = (kind == Glass.kind) | (kind == RoughGlass.kind)
+    glass = has(kind, BSDFFlags.GLASS_TYPE)
     both = FILTER_REFLECTIVE | FILTER_REFRACTIVE
-    return (reflective & ((bits & FILTER_REFLECTIVE) != 0)) | (glass & ((bits & both) == both))
+    return (reflective(kind) & ((bits & FILTER_REFLECTIVE) != 0)) | (glass & ((bits & both) == both))
 
 
 def graph_emission_estimate(linked: list, rows: list) -> Optional[np.ndarray]:
@@ -421,11 +406,11 @@ class MaterialTable:
         return shading_point(geometry, surface)
 
 
-__all__ = ["BSDF", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures", "ConstantShader",
-           "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Lambert", "MAX_CLOSURES", "Material", "MaterialTable",
-           "Glass", "Microfacet", "Mirror", "NodeShader", "NODE_PARAMS", "OrenNayar", "PARAMS", "RoughGlass", "Sheen", "Transparent", "Velvet",
-           "DIFFUSE_KINDS", "SHADOWED_KINDS", "is_diffuse",
-           "ShaderResult", "eval_closures", "sample_closures"]
+__all__ = ["BSDF", "BSDFFlags", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures",
+           "ConstantShader", "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Glass", "Lambert", "MAX_CLOSURES", "Material",
+           "MaterialTable", "Microfacet", "Mirror", "NODE_BY_NAME", "NODE_PARAMS", "NODE_TYPES", "NodeShader",
+           "OrenNayar", "PARAMS", "RoughGlass", "ShaderResult", "Sheen", "Transparent", "Velvet", "eval_closures",
+           "flags_of", "has", "reflective", "sample_closures"]
 
 
 def compiled_bsdf(kind: np.ndarray, weight: np.ndarray, N: np.ndarray, params: np.ndarray, wo: np.ndarray,

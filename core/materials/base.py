@@ -19,14 +19,55 @@ eval is 0 for every pair of directions, and only `sample` finds its one directio
 A closure's parameters beyond its normal and weight are a row of PARAMS floats (closures.py), whose
 meaning each BSDF class lists in `params`.
 
-A BSDF is one class (core/materials/<name>.py), one C file (core/materials/<name>.c) and one entry
-in the table of core/materials/__init__.py, whose position is its `kind` tag in C.
+What a BSDF *is* is declared once, on its class, as BSDFFlags (pbrt's BxDFFlags, Mitsuba's BSDF flags,
+Cycles' closure labels and closure types): the integrators and the passes ask the flags, never which BSDF it is.
+
+A BSDF is one class (core/materials/<name>.py), one C file beside it (core/materials/<name>.c, functions
+<name>_eval and <name>_sample) and one entry in the table of core/materials/registry.py, whose position is its
+`kind` tag; tools/make_boundary.py writes the C side of the table (the kinds, the flags, the dispatch).
 """
 from __future__ import annotations
 
+import enum
 from typing import ClassVar, NamedTuple
 
 import numpy as np
+
+# A closure's parameters beyond its normal and weight: a row of PARAMS floats, whose slots each BSDF class names
+# in `params`; a shader node's inputs: a row of NODE_PARAMS floats (core/materials/nodes.py).
+PARAMS = 32
+NODE_PARAMS = 40
+
+
+class BSDFFlags(enum.IntFlag):
+    """What a BSDF is. The first six say how the directions it samples count (Cycles' closure labels):
+
+    REFLECTION    it sends light back to the side it came from
+    TRANSMISSION  it lets light through to the other side
+    DIFFUSE       its directions are diffuse bounces: the Diffuse bounce limit, diffuse rays (Ray Visibility),
+                  and the caustics switches for what those rays meet
+    GLOSSY        its directions are glossy (or transmission) bounces
+    SINGULAR      a delta distribution: eval is 0 for every pair of directions, only `sample` finds its
+                  directions (pdf inf): a mirror, smooth glass
+    STRAIGHT      light goes on straight through, unchanged in direction (Transparent): no bounce, no pass, the
+                  ray keeps the kind it had
+
+    The last four say which family of Cycles' closure types it belongs to (CLOSURE_IS_BSDF_DIFFUSE, _GLOSSY,
+    _TRANSMISSION, CLOSURE_IS_GLASS): which light passes and colour passes its light goes to, whether bump shadowing
+    darkens it, and which closures a light hidden from some kinds of ray leaves out (core/integrators/direct.py).
+    A closure may be labelled diffuse but be of the glossy family (the Ashikhmin velvet), as in Cycles.
+    """
+
+    REFLECTION = 1 << 0
+    TRANSMISSION = 1 << 1
+    DIFFUSE = 1 << 2
+    GLOSSY = 1 << 3
+    SINGULAR = 1 << 4
+    STRAIGHT = 1 << 5
+    DIFFUSE_TYPE = 1 << 6
+    GLOSSY_TYPE = 1 << 7
+    TRANSMISSION_TYPE = 1 << 8
+    GLASS_TYPE = 1 << 9
 
 
 class BsdfSample(NamedTuple):
@@ -45,9 +86,9 @@ class BsdfSample(NamedTuple):
 class BSDF:
     """The interface every BSDF implements, vectorized over the m hits that have one.
 
-    kind:   its tag, the position of its class in core/materials/__init__.py's BSDF_TYPES
+    kind:   its tag, the position of its class in core/materials/registry.py's BSDF_TYPES (set there)
     name:   the name a Material uses to choose it
-    delta:  True for a perfectly specular BSDF (eval is 0; only `sample` finds its direction)
+    flags:  what it is (BSDFFlags)
     params: the names of its parameters, in their slots of a closure's parameter row
     Arguments: params (m, PARAMS) float64; N, wo, wi (m, 3) float64 unit; u (m, 2) or (m, 3) float64 in
     [0, 1): two numbers for the direction, and a third for a BSDF that chooses between lobes (rough glass).
@@ -55,8 +96,21 @@ class BSDF:
 
     kind: ClassVar[int] = -1
     name: ClassVar[str] = ""
-    delta: ClassVar[bool] = False
+    flags: ClassVar[BSDFFlags] = BSDFFlags(0)
     params: ClassVar[tuple] = ()
+    # The table (core/materials/registry.py fills it): every BSDF class by kind, and their flags by kind.
+    types: ClassVar[tuple] = ()
+    flag_table: ClassVar[np.ndarray] = np.zeros(1, np.int64)
+
+    @classmethod
+    def is_(cls, flags: BSDFFlags) -> bool:
+        """Whether the BSDF has any of `flags`."""
+        return bool(cls.flags & flags)
+
+    @classmethod
+    def c_name(cls) -> str:
+        """The name of its C file and functions: its module's (lambert for core/materials/lambert.py)."""
+        return cls.__module__.rsplit(".", 1)[-1]
 
     @staticmethod
     def eval(params: np.ndarray, N: np.ndarray, wo: np.ndarray, wi: np.ndarray):
@@ -64,6 +118,27 @@ class BSDF:
         raise NotImplementedError
 
     @staticmethod
+    def albedo(params: np.ndarray, N: np.ndarray, wo: np.ndarray) -> tuple:
+        """Return what the closure reflects and lets through of light seen from wo, (R (m, 3), T (m, 3)) per unit
+        of its weight, as Cycles estimates it for the colour passes (bsdf_albedo): 1 and 0 unless the BSDF says."""
+        m = len(wo)
+        return np.ones((m, 3)), np.zeros((m, 3))
+
+    @staticmethod
     def sample(params: np.ndarray, N: np.ndarray, wo: np.ndarray, u: np.ndarray) -> BsdfSample:
         """Return one sampled direction per hit."""
         raise NotImplementedError
+
+
+def flags_of(kind) -> np.ndarray:
+    """The BSDFFlags (int64, kind's shape) of closures of BSDF kind `kind` (int, any shape); 0 for -1 (an empty
+    slot). A kind outside the table raises IndexError: an unknown kind is an error, never a Lambert."""
+    kind = np.asarray(kind)
+    if kind.size and int(kind.max()) >= len(BSDF.types):
+        raise IndexError(f"BSDF kind {int(kind.max())} is not in the table of {len(BSDF.types)} BSDFs")
+    return BSDF.flag_table[kind]
+
+
+def has(kind, flags: BSDFFlags) -> np.ndarray:
+    """Whether closures of kind `kind` (int, any shape) have any of `flags`: bool, kind's shape (False for -1)."""
+    return (flags_of(kind) & int(flags)) != 0

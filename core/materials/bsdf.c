@@ -1,35 +1,25 @@
-/* The table of BSDFs: a closure's `kind` tag picks its functions (core/materials/__init__.py). */
+/* The table of BSDFs: each BSDF's C file, and bsdf_eval / bsdf_sample switching on a closure's kind (generated
+ * from core/materials/registry.py by tools/make_boundary.py). */
+#include "bsdfs.gen.c"
 
-INLINE int bsdf_is_delta(int kind) { return kind == BSDF_MIRROR || kind == BSDF_GLASS || kind == BSDF_TRANSPARENT; }
+/* Whether closures of kind `kind` are deltas: only their sampled directions carry light. */
+INLINE int bsdf_is_delta(int kind) { return bsdf_is(kind, BSDF_FLAG_SINGULAR); }
 
-INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
+/* Whether closures of kind `kind` are glossy or mirror reflections, what the Reflective Caustics switch takes away
+ * (materials.reflective: labelled glossy or singular, reflection only). */
+INLINE int bsdf_is_reflective(int kind)
 {
-    switch (c->kind) {
-    case BSDF_MIRROR: mirror_eval(c, wo, wi, f_cos, pdf); break;
-    case BSDF_MICROFACET: microfacet_eval(c, wo, wi, f_cos, pdf); break;
-    case BSDF_GLASS: glass_eval(c, wo, wi, f_cos, pdf); break;
-    case BSDF_TRANSPARENT: transparent_eval(c, wo, wi, f_cos, pdf); break;
-    case BSDF_ROUGH_GLASS: rough_glass_eval(c, wo, wi, f_cos, pdf); break;
-    case BSDF_OREN_NAYAR: oren_nayar_eval(c, wo, wi, f_cos, pdf); break;
-    case BSDF_SHEEN: sheen_eval(c, wo, wi, f_cos, pdf); break;
-    case BSDF_VELVET: velvet_eval(c, wo, wi, f_cos, pdf); break;
-    default: lambert_eval(c, wo, wi, f_cos, pdf); break;
-    }
+    return bsdf_is(kind, BSDF_FLAG_GLOSSY | BSDF_FLAG_SINGULAR) && bsdf_is(kind, BSDF_FLAG_REFLECTION)
+           && !bsdf_is(kind, BSDF_FLAG_TRANSMISSION);
 }
 
-INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, BsdfSample *out)
+/* ConstantShader.shade's caustics filter (materials.caustics_filtered): whether the FILTER_* bits `caustics` take
+ * closures of kind `kind` away, a reflective one with FILTER_REFLECTIVE, glass with both bits. */
+INLINE int caustics_take(int kind, int caustics)
 {
-    switch (c->kind) {
-    case BSDF_MIRROR: mirror_sample(c, wo, u, out); break;
-    case BSDF_MICROFACET: microfacet_sample(c, wo, u, out); break;
-    case BSDF_GLASS: glass_sample(c, wo, u, out); break;
-    case BSDF_TRANSPARENT: transparent_sample(c, wo, u, out); break;
-    case BSDF_ROUGH_GLASS: rough_glass_sample(c, wo, u, out); break;
-    case BSDF_OREN_NAYAR: oren_nayar_sample(c, wo, u, out); break;
-    case BSDF_SHEEN: sheen_sample(c, wo, u, out); break;
-    case BSDF_VELVET: velvet_sample(c, wo, u, out); break;
-    default: lambert_sample(c, wo, u, out); break;
-    }
+    int both = FILTER_REFLECTIVE | FILTER_REFRACTIVE;
+    if (bsdf_is(kind, BSDF_FLAG_GLASS_TYPE)) return (caustics & both) == both;
+    return bsdf_is_reflective(kind) && (caustics & FILTER_REFLECTIVE) != 0;
 }
 
 /* ------------------------------------------------------------------------------------------------
@@ -56,16 +46,16 @@ INLINE double bump_shadowing(const double *Ns, const double *N, const double *wi
 /* closures.eval_closures for one hit: f cos = sum of weight x f cos; pdf = sampling-weighted mean. A closure
  * whose normal is not the hit's (sd->N) is shadowed by bump_shadowing. */
 /* direct.closures_left_out for one closure: whether a light sample on an object hidden from the rays `hidden`
- * (HIDDEN_FROM_* bits) leaves closure kind `kind` out (diffuse, glossy; glass only if hidden from both glossy
- * and transmission rays). */
+ * (HIDDEN_FROM_* bits) leaves closure kind `kind` out, by its closure type (diffuse, glossy, transmission; glass
+ * only if hidden from both glossy and transmission rays). */
 INLINE int closure_left_out(int kind, int hidden)
 {
     if (hidden == 0) return 0;
-    if (IS_DIFFUSE(kind)) return (hidden & HIDDEN_FROM_DIFFUSE) != 0;
-    if (kind == BSDF_MIRROR || kind == BSDF_MICROFACET) return (hidden & HIDDEN_FROM_GLOSSY) != 0;
     int both = HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION;
-    if (kind == BSDF_GLASS || kind == BSDF_ROUGH_GLASS) return (hidden & both) == both;
-    return 0;
+    return (bsdf_is(kind, BSDF_FLAG_DIFFUSE_TYPE) && (hidden & HIDDEN_FROM_DIFFUSE) != 0)
+           || (bsdf_is(kind, BSDF_FLAG_GLOSSY_TYPE) && (hidden & HIDDEN_FROM_GLOSSY) != 0)
+           || (bsdf_is(kind, BSDF_FLAG_TRANSMISSION_TYPE) && (hidden & HIDDEN_FROM_TRANSMISSION) != 0)
+           || (bsdf_is(kind, BSDF_FLAG_GLASS_TYPE) && (hidden & both) == both);
 }
 
 /* shader_eval for a light sample on an object hidden from the rays `hidden` (0: none): the closures it leaves
@@ -80,7 +70,7 @@ INLINE double shader_eval_seen(const ShaderResult *sd, const double *wo, const d
         double value[3], pdf;
         bsdf_eval(c, wo, wi, value, &pdf);
         if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
-            double term = bump_shadowing(sd->N, c->N, wi, IS_SHADOWED(c->kind));
+            double term = bump_shadowing(sd->N, c->N, wi, bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE));
             for (int j = 0; j < 3; j++) value[j] *= term;
             if (term == 0.0) pdf = 0.0;
         }
@@ -153,13 +143,10 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
 /* The ShaderResult of a constant material at a hit with shading normal N (sd->storage is left alone). */
 INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResult *sd)
 {
-    int both = FILTER_REFLECTIVE | FILTER_REFRACTIVE;
     sd->n = 0;
     for (int k = 0; k < (int)m->n; k++) {
         int kind = (int)m->kind[k];
-        /* ConstantShader.shade: a caustics filter takes away a mirror or microfacet closure, glass with both bits. */
-        if ((kind == BSDF_MIRROR || kind == BSDF_MICROFACET) && (sd->caustics & FILTER_REFLECTIVE)) continue;
-        if ((kind == BSDF_GLASS || kind == BSDF_ROUGH_GLASS) && (sd->caustics & both) == both) continue;
+        if (caustics_take(kind, sd->caustics)) continue;      /* ConstantShader.shade's caustics filter */
         Closure *c = sd->c + sd->n++;
         c->kind = kind;
         c->sample_weight = m->sample_weight[k];

@@ -4,13 +4,8 @@
  * closure's N is its own unit normal on the viewer's side; eval returns f cos (0 below N) and the
  * pdf of its own sampling. */
 
-enum { BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4, BSDF_ROUGH_GLASS = 5,
-       BSDF_OREN_NAYAR = 6, BSDF_SHEEN = 7, BSDF_VELVET = 8 };
-
-/* materials.is_diffuse: the BSDFs that reflect diffusely (a path's diffuse bounce). */
-#define IS_DIFFUSE(kind) ((kind) == BSDF_LAMBERT || (kind) == BSDF_OREN_NAYAR || (kind) == BSDF_SHEEN || (kind) == BSDF_VELVET)
-/* materials.SHADOWED_KINDS: the closures bump shadowing darkens (the velvet is glossy there, as in Cycles). */
-#define IS_SHADOWED(kind) (IS_DIFFUSE(kind) && (kind) != BSDF_VELVET)
+/* A closure's kind (BSDF_*) and what it is (BSDF_FLAG_*, bsdf_is) come from the table of BSDFs, generated into
+ * core/native/boundary.gen.h from core/materials/registry.py. */
 
 #define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
 /* The closures a caustics filter takes away at a hit that a diffuse bounce's ray reached (closures.FILTER_*). */

@@ -13,13 +13,13 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from .base import BsdfSample
+from .base import BSDF, NODE_PARAMS, PARAMS, BsdfSample  # noqa: F401 (PARAMS, NODE_PARAMS: the closures' rows)
+from .base import BSDFFlags as F
+from .lambert import Lambert
 
-# At most this many closures per hit, this many parameter floats per closure (bsdf.h CLOSURE_PARAMS), and this
-# many input floats per shader node (core/materials/nodes.py; bsdf.h NODE_PARAMS: a MaterialRecord's rows).
+# At most this many closures per hit (bsdf.h MAX_CLOSURES); PARAMS floats of parameters per closure and NODE_PARAMS
+# per shader node (core/materials/base.py).
 MAX_CLOSURES = 8
-PARAMS = 32
-NODE_PARAMS = 40
 # A closure whose sampling weight falls below this is dropped (Cycles' CLOSURE_WEIGHT_CUTOFF).
 WEIGHT_CUTOFF = 1e-5
 # What a hit's shading may leave out (Cycles' caustics switches, Light Paths > Caustics): the bits of a hit's
@@ -70,18 +70,17 @@ class ShaderResult(NamedTuple):
     holdout: Optional[np.ndarray] = None
 
 
-def _each_kind(closures: Closures, slot: int):
+def each_kind(closures: Closures, slot: int):
     """Yield (BSDF class, rows) of the hits whose slot `slot` holds each kind present."""
-    from . import BSDF_TYPES
     kinds = closures.kind[:, slot]
     first = int(kinds[0]) if len(kinds) else -1
     if len(kinds) and (kinds == first).all():
         if first >= 0:
-            yield BSDF_TYPES[first], slice(None)
+            yield BSDF.types[first], slice(None)
         return
     for kind in np.unique(kinds):
         if kind >= 0:
-            yield BSDF_TYPES[int(kind)], np.flatnonzero(kinds == kind)
+            yield BSDF.types[int(kind)], np.flatnonzero(kinds == kind)
 
 
 def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cosine: bool = False,
@@ -92,15 +91,14 @@ def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cos
     (n, K) bool closures that add neither f cos nor pdf (their sampling weight still counts in the mean, as in
     Cycles: a light sample of an object hidden from their kind of ray), or None.
     """
-    from . import SHADOWED_KINDS
     n, slots = closures.kind.shape
     f_cos, numerator = np.zeros((n, 3)), np.zeros(n)
     for k in range(slots):
-        for bsdf, rows in _each_kind(closures, k):
+        for bsdf, rows in each_kind(closures, k):
             args = (closures.params[rows, k], closures.N[rows, k], wo[rows], wi[rows])
-            value, pdf = bsdf.eval(*args, signed_cosine=True) if signed_cosine and bsdf.kind == 0 else bsdf.eval(*args)
+            value, pdf = bsdf.eval(*args, signed_cosine=True) if signed_cosine and bsdf is Lambert else bsdf.eval(*args)
             if closures.Ns is not None:
-                term = bump_shadowing(closures.Ns[rows, k], closures.N[rows, k], wi[rows], bsdf.kind in SHADOWED_KINDS)
+                term = bump_shadowing(closures.Ns[rows, k], closures.N[rows, k], wi[rows], bsdf.is_(F.DIFFUSE_TYPE))
                 if term is not None:
                     value = value * term[:, None]
                     pdf = np.where(term == 0.0, 0.0, pdf)
@@ -159,7 +157,6 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
     """Sample a direction: choose a closure in proportion to its sampling weight (pick (n,) in [0, 1)),
     sample it with u (n, 2); then, unless it is a delta, weight and pdf from all closures at that
     direction (one-sample MIS with the balance heuristic)."""
-    from . import BSDF_TYPES
     n, slots = closures.kind.shape
     total = closures.sample_weight.sum(axis=1)
     running = np.cumsum(closures.sample_weight, axis=1)
@@ -177,12 +174,12 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
     for k in np.unique(kind):
         if k < 0:
             continue
-        bsdf = BSDF_TYPES[int(k)]
+        bsdf = BSDF.types[int(k)]
         at = np.flatnonzero(kind == k)
         c = chosen[at]
         s = bsdf.sample(closures.params[at, c], closures.N[at, c], wo[at], u[at])
         wi[at] = s.wi
-        if bsdf.delta:
+        if bsdf.is_(F.SINGULAR):
             # The closure's weight, over the probability of choosing it.
             probability = closures.sample_weight[at, c] / total[at]
             weight[at] = closures.weight[at, c] * s.weight / np.maximum(probability, 1e-300)[:, None]

@@ -20,6 +20,7 @@ import numpy as np
 
 from . import microfacet as mf
 from .base import BSDF, BsdfSample
+from .base import BSDFFlags as F
 
 # Parameter slots beyond the microfacet's (fresnel, ior, f0, f90): the two tints.
 REFLECT_TINT, TRANSMIT_TINT = 10, 13
@@ -47,12 +48,16 @@ def shares(params: np.ndarray, cos_i: np.ndarray) -> tuple:
 class Glass(BSDF):
     """A smooth dielectric boundary (module docstring): a delta BSDF that reflects or refracts."""
 
-    kind: ClassVar[int] = 3
     name: ClassVar[str] = "GLASS"
-    delta: ClassVar[bool] = True
+    flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.SINGULAR | F.GLASS_TYPE
     params: ClassVar[tuple] = ("alpha", "fresnel", "ior", "f0_r", "f0_g", "f0_b", "f90_r", "f90_g", "f90_b",
                                "energy_scale", "reflect_r", "reflect_g", "reflect_b",
                                "transmit_r", "transmit_g", "transmit_b")
+
+    @staticmethod
+    def albedo(params, N, wo):
+        """The colour passes' albedo: its reflected and transmitted shares of light arriving at N.wo."""
+        return shares(params, np.clip(np.einsum("ij,ij->i", N, wo), 0.0, 1.0))
 
     @staticmethod
     def eval(params, N, wo, wi):

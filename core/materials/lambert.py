@@ -8,6 +8,7 @@ import numpy as np
 
 from .. import vectors
 from .base import BSDF, BsdfSample
+from .base import BSDFFlags as F
 
 
 class Lambert(BSDF):
@@ -15,8 +16,8 @@ class Lambert(BSDF):
     1 - colour of the light it receives. f cos = max(N.wi, 0) / pi. Sampling is cosine-weighted over
     the hemisphere around N: pdf = max(N.wi, 0) / pi, so each sample's f cos / pdf is exactly 1."""
 
-    kind: ClassVar[int] = 0
     name: ClassVar[str] = "DIFFUSE"
+    flags: ClassVar[F] = F.REFLECTION | F.DIFFUSE | F.DIFFUSE_TYPE
 
     @staticmethod
     def eval(params, N, wo, wi, signed_cosine: bool = False):

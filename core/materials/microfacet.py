@@ -47,6 +47,7 @@ import numpy as np
 from .. import vectors
 from . import thin_film
 from .base import BSDF, BsdfSample
+from .base import BSDFFlags as F
 
 # Parameter slots (a closure's row of PARAMS floats).
 ALPHA, FRESNEL, IOR, F0, F90, ENERGY = 0, 1, 2, 3, 6, 9        # F0 and F90 take 3 slots each (RGB)
@@ -197,10 +198,16 @@ class Microfacet(BSDF):
     alpha_x alpha_y) the lobe is a mirror: closure setups give a Mirror closure instead.
     """
 
-    kind: ClassVar[int] = 2
     name: ClassVar[str] = "GLOSSY"
+    flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE
     params: ClassVar[tuple] = ("alpha", "fresnel", "ior", "f0_r", "f0_g", "f0_b", "f90_r", "f90_g", "f90_b",
                                "energy_scale", "alpha_y", "tangent_x", "tangent_y", "tangent_z")
+
+    @staticmethod
+    def albedo(params, N, wo):
+        """The colour passes' albedo: its Fresnel at N.wo (no transmission)."""
+        R = fresnel(params, np.clip(np.einsum("ij,ij->i", N, wo), 0.0, 1.0))
+        return R, np.zeros_like(R)
 
     @staticmethod
     def eval(params, N, wo, wi):

@@ -6,6 +6,7 @@ from typing import ClassVar
 import numpy as np
 
 from .base import BSDF, BsdfSample
+from .base import BSDFFlags as F
 
 
 def reflect(wo: np.ndarray, N: np.ndarray) -> np.ndarray:
@@ -21,9 +22,8 @@ class Mirror(BSDF):
     follows R (an integrator that recurses, the lecture's next part) sees what it reflects.
     """
 
-    kind: ClassVar[int] = 1
     name: ClassVar[str] = "MIRROR"
-    delta: ClassVar[bool] = True
+    flags: ClassVar[F] = F.REFLECTION | F.SINGULAR | F.GLOSSY_TYPE
 
     @staticmethod
     def eval(params, N, wo, wi):

@@ -1,10 +1,10 @@
 /* Shader nodes: core/materials/nodes.py. Each node of a material sets up its closures at a hit; the
- * Principled BSDF lays out its layers as Cycles does. A closure's parameters go into the hit's storage. */
+ * Principled BSDF lays out its layers as Cycles does. A closure's parameters go into the hit's storage.
+ * Each node's setup is <name>_node here; setup_node, generated from core/materials/registry.py's NODE_TYPES
+ * (nodes.gen.c), picks it by the node's kind (NODE_*, core/native/boundary.gen.h). */
 
 #include "ggx_tables.h"
 
-enum { NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
-       NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7, NODE_HOLDOUT = 8 };
 #define WEIGHT_CUTOFF 1e-5          /* closures.WEIGHT_CUTOFF */
 #define STORAGE_STRIDE 18           /* doubles of a hit's storage per closure (a glass closure's, with a thin film) */
 #define SHADER_STORAGE (MAX_CLOSURES * STORAGE_STRIDE)
@@ -270,8 +270,8 @@ INLINE void sheen_normal(const ShaderResult *sd, double coat, const double *hit,
 }
 
 /* nodes.PrincipledNode.setup: p holds nodes.PRINCIPLED_INPUTS in order. */
-INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
-                             const double *p)
+INLINE void principled_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                            const double *p)
 {
     double base[3], clamped[3], tint[3], coat_tint[3], W[3];
     for (int j = 0; j < 3; j++) {
@@ -420,66 +420,95 @@ INLINE void setup_principled(ShaderResult *sd, double mu, const double *wo, int 
     diffuse_add(sd, mu, diffuse, clamp01(p[23]), base, WEIGHT_CUTOFF);
 }
 
-/* One node's setup (nodes.py NODE_TYPES[kind].setup) with the normal sd->N and mu = N.wo. */
-INLINE void setup_node(ShaderResult *sd, int kind, double mu, const double *wo, int backfacing, const double *weight,
+/* The other nodes' setups (nodes.py <Name>Node.setup), each with the normal sd->N and mu = N.wo. */
+INLINE void diffuse_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                         const double *p)
+{
+    (void)wo; (void)backfacing;
+    double albedo[3] = {clamp01(p[1]), clamp01(p[2]), clamp01(p[3])};
+    diffuse_add(sd, mu, weight, p[0], albedo, 1e-5);            /* nodes.DIFFUSE_ROUGHNESS_CUTOFF */
+}
+
+INLINE void glossy_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                        const double *p)
+{
+    (void)wo; (void)backfacing;
+    if (sd->caustics & FILTER_REFLECTIVE) return;
+    double lobe[STORAGE_STRIDE], w[3] = {weight[0], weight[1], weight[2]}, one[3] = {1.0, 1.0, 1.0};
+    double Fss[3] = {at_least(p[2], 0.0), at_least(p[3], 0.0), at_least(p[4], 0.0)};
+    lobe_params(lobe, p[0], FRESNEL_NONE, 1.0, one, one);
+    double a = p[5] < -0.99 ? -0.99 : (p[5] > 0.99 ? 0.99 : p[5]);
+    if (fabs(a) > 1e-4 && (p[7] != 0.0 || p[8] != 0.0 || p[9] != 0.0)) {   /* nodes.GlossyNode: anisotropic */
+        double T[3] = {p[7], p[8], p[9]}, r = lobe[MF_ALPHA];
+        if (p[6] != 0.0) rotate_around_axis(p + 7, sd->glossy != NULL ? sd->glossy : sd->N, p[6] * 2.0 * PI, T);
+        anisotropic_lobe(lobe, a < 0.0 ? r / (1.0 + a) : r * (1.0 - a), a < 0.0 ? r * (1.0 + a) : r / (1.0 - a), T);
+    }
+    lobe_add(sd, mu, w, lobe, NULL, p[1] != 0.0 ? Fss : NULL);
+}
+
+INLINE void sheen_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
                        const double *p)
 {
-    switch (kind) {
-    case NODE_DIFFUSE: {
-        double albedo[3] = {clamp01(p[1]), clamp01(p[2]), clamp01(p[3])};
-        diffuse_add(sd, mu, weight, p[0], albedo, 1e-5);            /* nodes.DIFFUSE_ROUGHNESS_CUTOFF */
-        break;
-    }
-    case NODE_MIRROR:
-        if (!(sd->caustics & FILTER_REFLECTIVE)) closure_add(sd, BSDF_MIRROR, weight, weight, 1.0, NULL);
-        break;
-    case NODE_GLOSSY: {
-        if (sd->caustics & FILTER_REFLECTIVE) break;
-        double lobe[STORAGE_STRIDE], w[3] = {weight[0], weight[1], weight[2]}, one[3] = {1.0, 1.0, 1.0};
-        double Fss[3] = {at_least(p[2], 0.0), at_least(p[3], 0.0), at_least(p[4], 0.0)};
-        lobe_params(lobe, p[0], FRESNEL_NONE, 1.0, one, one);
-        double a = p[5] < -0.99 ? -0.99 : (p[5] > 0.99 ? 0.99 : p[5]);
-        if (fabs(a) > 1e-4 && (p[7] != 0.0 || p[8] != 0.0 || p[9] != 0.0)) {   /* nodes.GlossyNode: anisotropic */
-            double T[3] = {p[7], p[8], p[9]}, r = lobe[MF_ALPHA];
-            if (p[6] != 0.0) rotate_around_axis(p + 7, sd->glossy != NULL ? sd->glossy : sd->N, p[6] * 2.0 * PI, T);
-            anisotropic_lobe(lobe, a < 0.0 ? r / (1.0 + a) : r * (1.0 - a), a < 0.0 ? r * (1.0 + a) : r / (1.0 - a), T);
-        }
-        lobe_add(sd, mu, w, lobe, NULL, p[1] != 0.0 ? Fss : NULL);
-        break;
-    }
-    case NODE_PRINCIPLED: setup_principled(sd, mu, wo, backfacing, weight, p); break;
-    case NODE_SHEEN:
-        if (p[1] != 0.0) {                                          /* Ashikhmin velvet */
-            double v[STORAGE_STRIDE] = {0.0};
-            velvet_params(p[0], v);
-            closure_add(sd, BSDF_VELVET, weight, weight, 1.0, v);
-        } else {
-            sheen_add(sd, wo, sd->N, weight, clamp01(p[0]));
-        }
-        break;
-    case NODE_GLASS: {
-        /* A caustics filter takes away the reflection or the refraction (tints of 0). */
-        int reflective = !(sd->caustics & FILTER_REFLECTIVE), refractive = !(sd->caustics & FILTER_REFRACTIVE);
-        double g[STORAGE_STRIDE], zero[3] = {0.0, 0.0, 0.0}, reflect_tint[3], transmit_tint[3];
-        for (int j = 0; j < 3; j++) {
-            double color = at_least(p[j], 0.0);
-            reflect_tint[j] = reflective ? color : 0.0;
-            transmit_tint[j] = refractive ? color : 0.0;
-        }
-        double ior = at_least(p[3], 1e-5);
-        int refraction_only = p[4] != 0.0;
-        if (refraction_only ? !refractive : !(reflective || refractive)) break;
-        if (refraction_only) glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, zero, zero, zero, transmit_tint);
-        else glass_params(g, backfacing, ior, FRESNEL_DIELECTRIC, zero, zero, reflect_tint, transmit_tint);
-        glass_add(sd, mu, weight, g, p[5], p[6] != 0.0 && !refraction_only ? transmit_tint : NULL);
-        break;
-    }
-    case NODE_EMISSION: for (int j = 0; j < 3; j++) sd->emission[j] += weight[j] * p[j]; break;
-    case NODE_TRANSPARENT: for (int j = 0; j < 3; j++) sd->transparency[j] += weight[j]; break;
-    case NODE_HOLDOUT: for (int j = 0; j < 3; j++) sd->holdout[j] += weight[j]; break;
-    default: break;
+    (void)mu; (void)backfacing;
+    if (p[1] != 0.0) {                                          /* Ashikhmin velvet */
+        double v[STORAGE_STRIDE] = {0.0};
+        velvet_params(p[0], v);
+        closure_add(sd, BSDF_VELVET, weight, weight, 1.0, v);
+    } else {
+        sheen_add(sd, wo, sd->N, weight, clamp01(p[0]));
     }
 }
+
+INLINE void glass_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                       const double *p)
+{
+    (void)wo;
+    /* A caustics filter takes away the reflection or the refraction (tints of 0). */
+    int reflective = !(sd->caustics & FILTER_REFLECTIVE), refractive = !(sd->caustics & FILTER_REFRACTIVE);
+    double g[STORAGE_STRIDE], zero[3] = {0.0, 0.0, 0.0}, reflect_tint[3], transmit_tint[3];
+    for (int j = 0; j < 3; j++) {
+        double color = at_least(p[j], 0.0);
+        reflect_tint[j] = reflective ? color : 0.0;
+        transmit_tint[j] = refractive ? color : 0.0;
+    }
+    double ior = at_least(p[3], 1e-5);
+    int refraction_only = p[4] != 0.0;
+    if (refraction_only ? !refractive : !(reflective || refractive)) return;
+    if (refraction_only) glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, zero, zero, zero, transmit_tint);
+    else glass_params(g, backfacing, ior, FRESNEL_DIELECTRIC, zero, zero, reflect_tint, transmit_tint);
+    glass_add(sd, mu, weight, g, p[5], p[6] != 0.0 && !refraction_only ? transmit_tint : NULL);
+}
+
+INLINE void emission_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                          const double *p)
+{
+    (void)mu; (void)wo; (void)backfacing;
+    for (int j = 0; j < 3; j++) sd->emission[j] += weight[j] * p[j];
+}
+
+INLINE void transparent_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                             const double *p)
+{
+    (void)mu; (void)wo; (void)backfacing; (void)p;
+    for (int j = 0; j < 3; j++) sd->transparency[j] += weight[j];
+}
+
+INLINE void holdout_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                         const double *p)
+{
+    (void)mu; (void)wo; (void)backfacing; (void)p;
+    for (int j = 0; j < 3; j++) sd->holdout[j] += weight[j];
+}
+
+/* Node.setup of a node that adds one closure of BSDF kind `kind` (its `bsdf`), weighted by the node's weight, with
+ * the hit's normal, unless the caustics switches take closures of that kind away. */
+INLINE void closure_node(ShaderResult *sd, int kind, const double *weight)
+{
+    if (!caustics_take(kind, sd->caustics)) closure_add(sd, kind, weight, weight, 1.0, NULL);
+}
+
+/* setup_node: the switch on a node's kind (generated from core/materials/registry.py NODE_TYPES). */
+#include "nodes.gen.c"
 
 /* nodes.ClosureBuilder.result: the light let through, as a Transparent closure. */
 INLINE void add_transparent(ShaderResult *sd)

@@ -8,8 +8,9 @@ specular over diffuse) where each layer takes the light it reflects away from th
 Cycles' svm_node_closure_bsdf does. The setup depends on the view direction (how much a glossy layer
 reflects, and so leaves for the layers below, depends on mu = N.wo), so it runs per hit.
 
-NODE_TYPES is the table: a node's `kind` is its position, and core/materials/nodes.c dispatches on the
-same tag. Each class lists its `inputs` (the slots of its row of NODE_PARAMS floats) and `defaults`.
+core/materials/registry.py's NODE_TYPES is the table: a node's `kind` is its position, and the C side
+(core/materials/nodes.gen.c, generated) dispatches on the same tag to each node's setup in nodes.c. Each class
+lists its `inputs` (the slots of its row of NODE_PARAMS floats) and `defaults`.
 """
 from __future__ import annotations
 
@@ -20,8 +21,8 @@ import numpy as np
 from . import ggx_tables as tables
 from . import microfacet as mf
 from . import thin_film
-from .closures import (FILTER_REFLECTIVE, FILTER_REFRACTIVE, NODE_PARAMS, PARAMS, WEIGHT_CUTOFF, Closures,
-                       ShaderResult)
+from .base import NODE_PARAMS, PARAMS
+from .closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE, WEIGHT_CUTOFF, Closures, ShaderResult
 from .glass import REFLECT_TINT, TRANSMIT_TINT, Glass
 from .glass import shares as glass_shares
 from .lambert import Lambert
@@ -71,6 +72,16 @@ class ClosureBuilder:
         if glossy is not self.glossy_N:
             self.mu = np.einsum("ij,ij->i", glossy, self.wo)
         self.N, self.glossy_N = N, glossy
+
+    def kept(self, kind: int) -> np.ndarray:
+        """Where the caustics switches keep a closure of BSDF kind `kind` (n,) bool: a reflective one (a mirror,
+        a glossy lobe) where reflective closures may be set up, glass where reflection or refraction may be."""
+        from . import base
+        if base.has(kind, base.BSDFFlags.GLASS_TYPE):
+            return self.reflective | self.refractive
+        reflective = base.has(kind, base.BSDFFlags.GLOSSY | base.BSDFFlags.SINGULAR) \
+            and base.has(kind, base.BSDFFlags.REFLECTION) and not base.has(kind, base.BSDFFlags.TRANSMISSION)
+        return self.reflective if reflective else np.ones(len(self.N), bool)
 
     def add(self, kind, weight: np.ndarray, params=None, allocated=None, factor=None, keep=None, N=None) -> int:
         """Append a closure: kind (n,) or int, weight (n, 3). Its sampling weight is |mean of the weight it
@@ -235,10 +246,18 @@ def per_hit_rows(p: np.ndarray, n: int) -> np.ndarray:
 
 
 class Node:
-    """A shader node of the table: its inputs (names of the slots of its row) and their defaults."""
+    """A shader node of the table: its inputs (names of the slots of its row) and their defaults.
+
+    kind: its place in core/materials/registry.py's NODE_TYPES (set there); name: what a Material's nodes call it;
+    its C setup is nodes.c's <name>_node (lower case). bsdf: a BSDF class for a node that adds just one closure of
+    it, weighted by the node's weight (its colour), with the hit's normal: its setup is written for it, in Python
+    and in C (closure_node), and the caustics switches take it away as they take its kind.
+    """
 
     kind: ClassVar[int] = -1
+    types: ClassVar[tuple] = ()     # every node class by kind (core/materials/registry.py fills it)
     name: ClassVar[str] = ""
+    bsdf: ClassVar[Optional[type]] = None
     inputs: ClassVar[tuple] = ()
     defaults: ClassVar[tuple] = ()
     slots: ClassVar[int] = 1            # at most this many closures
@@ -255,9 +274,12 @@ class Node:
             i += len(value)
         return p
 
-    @staticmethod
-    def setup(b: ClosureBuilder, weight: np.ndarray, p: np.ndarray) -> None:
-        raise NotImplementedError
+    @classmethod
+    def setup(cls, b: ClosureBuilder, weight: np.ndarray, p: np.ndarray) -> None:
+        """Append the node's closures for n hits: weight (n, 3), its inputs p (n, NODE_PARAMS)."""
+        if cls.bsdf is None:
+            raise NotImplementedError(f"{cls.__name__} sets up no closures")
+        b.add(cls.bsdf.kind, weight, keep=b.kept(cls.bsdf.kind))
 
 
 # Below this roughness Cycles sets a Diffuse BSDF up as Lambert's, and Oren-Nayar's above it.
@@ -308,7 +330,7 @@ class DiffuseNode(Node):
     """Diffuse BSDF: a Lambert closure weighted by its colour (the node's weight carries the colour), or with
     Roughness above 0 an Oren-Nayar closure, whose multiple scattering needs the colour itself."""
 
-    kind, name, inputs, defaults = 0, "DIFFUSE", ("roughness", "color"), (0.0, (0.8, 0.8, 0.8))
+    name, inputs, defaults = "DIFFUSE", ("roughness", "color"), (0.0, (0.8, 0.8, 0.8))
 
     @staticmethod
     def setup(b, weight, p):
@@ -319,11 +341,8 @@ class DiffuseNode(Node):
 class MirrorNode(Node):
     """The lecture's perfect mirror (no Blender node: Primer's own sample scenes)."""
 
-    kind, name, inputs, defaults = 1, "MIRROR", (), ()
-
-    @staticmethod
-    def setup(b, weight, p):
-        b.add(Mirror.kind, weight, keep=b.reflective)
+    name, inputs, defaults = "MIRROR", (), ()
+    bsdf = Mirror
 
 
 class GlossyNode(Node):
@@ -332,7 +351,7 @@ class GlossyNode(Node):
     r = roughness^2 and a = Anisotropy clipped to +-0.99, alpha_x = r (1 - a), alpha_y = r / (1 - a) for a >= 0,
     alpha_x = r / (1 + a), alpha_y = r (1 + a) below; the tangent turned by Rotation x 2 pi about the normal."""
 
-    kind, name = 2, "GLOSSY"
+    name = "GLOSSY"
     inputs = ("roughness", "multiscatter", "color", "anisotropy", "rotation", "tangent")
     defaults = (0.5, 1.0, (1.0, 1.0, 1.0), 0.0, 0.0, (0.0, 0.0, 0.0))
 
@@ -355,7 +374,7 @@ class GlossyNode(Node):
 class EmissionNode(Node):
     """Emission: radiance colour x strength, no BSDF (the node's weight scales it)."""
 
-    kind, name, inputs, defaults = 4, "EMISSION", ("emission",), ((0.0, 0.0, 0.0),)
+    name, inputs, defaults = "EMISSION", ("emission",), ((0.0, 0.0, 0.0),)
     slots = 0
 
     @staticmethod
@@ -366,7 +385,7 @@ class EmissionNode(Node):
 class TransparentNode(Node):
     """Transparent BSDF: light passes straight through, coloured by the node's weight."""
 
-    kind, name, inputs, defaults = 5, "TRANSPARENT", (), ()
+    name, inputs, defaults = "TRANSPARENT", (), ()
     slots = 0
 
     @staticmethod
@@ -378,7 +397,7 @@ class HoldoutNode(Node):
     """Holdout: no BSDF and no light; its weight (the Mix and Add Shaders above it) is the share of the surface that
     camera paths see as a hole in the film (path.hold_out, Cycles' holdout closure). Its Weight input is hidden."""
 
-    kind, name, inputs, defaults = 8, "HOLDOUT", (), ()
+    name, inputs, defaults = "HOLDOUT", (), ()
     slots = 0
 
     @staticmethod
@@ -426,7 +445,7 @@ class PrincipledNode(Node):
     sqrt(sqrt(alpha_x alpha_y)), as Cycles' do. The coat, sheen and transmission stay isotropic, as in Cycles.
     """
 
-    kind, name = 3, "PRINCIPLED"
+    name = "PRINCIPLED"
     inputs, defaults = PRINCIPLED_INPUTS, PRINCIPLED_DEFAULTS
     normal_inputs = ("coat_normal",)
     slots = 6
@@ -608,7 +627,7 @@ class GlassNode(Node):
     no Fresnel loss), smooth or rough (GGX; Multiscatter GGX restores the energy of the Glass BSDF's
     microfacets, its darkening by the colour, as Cycles assumes the transmission makes most of it)."""
 
-    kind, name = 6, "GLASS"
+    name = "GLASS"
     inputs = ("color", "ior", "refraction_only", "roughness", "multiscatter")
     defaults = ((1.0, 1.0, 1.0), 1.5, 0.0, 0.0, 0.0)
 
@@ -634,7 +653,7 @@ class SheenNode(Node):
     """Sheen BSDF: Microfiber, one sheen closure of the node's weight (its colour) x the albedo R; or Ashikhmin
     (`velvet` 1), one velvet closure of the node's weight with sigma = Roughness (core/materials/velvet.py)."""
 
-    kind, name, inputs, defaults = 7, "SHEEN", ("roughness", "velvet"), (0.5, 0.0)
+    name, inputs, defaults = "SHEEN", ("roughness", "velvet"), (0.5, 0.0)
 
     @staticmethod
     def setup(b, weight, p):
@@ -644,13 +663,6 @@ class SheenNode(Node):
             b.add(Velvet.kind, weight, velvet_params(roughness))
         else:
             add_sheen(b, weight, roughness, b.N)
-
-
-NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
-              SheenNode, HoldoutNode)
-NODE_BY_NAME = {cls.name: cls for cls in NODE_TYPES}
-
-assert all(cls.kind == index for index, cls in enumerate(NODE_TYPES)), "a node's kind is its place in NODE_TYPES"
 
 
 def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy=None, backfacing=None,

@@ -30,7 +30,8 @@ from typing import ClassVar
 import numpy as np
 
 from .base import BSDF, BsdfSample
-from .closures import PARAMS
+from .base import BSDFFlags as F
+from .base import PARAMS
 from .lambert import Lambert
 
 # The slots of its parameter row.
@@ -66,8 +67,8 @@ def params_of(roughness: np.ndarray, albedo: np.ndarray, mu_o: np.ndarray) -> np
 class OrenNayar(BSDF):
     """Rough diffuse reflection (module docstring): f cos = N.wi (A + B t + multi (1 - E(N.wi)))."""
 
-    kind: ClassVar[int] = 6
     name: ClassVar[str] = "OREN_NAYAR"
+    flags: ClassVar[F] = F.REFLECTION | F.DIFFUSE | F.DIFFUSE_TYPE
     params: ClassVar[tuple] = ("A", "B", "multi_r", "multi_g", "multi_b")
 
     @staticmethod

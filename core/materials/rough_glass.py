@@ -35,6 +35,7 @@ import numpy as np
 from .. import vectors
 from . import microfacet as mf
 from .base import BSDF, BsdfSample
+from .base import BSDFFlags as F
 from .glass import refract, shares
 
 
@@ -59,11 +60,16 @@ def connects(N: np.ndarray, wo: np.ndarray, wi: np.ndarray, eta: np.ndarray) -> 
 class RoughGlass(BSDF):
     """GGX reflection and refraction at a dielectric boundary (module docstring); params as Glass's."""
 
-    kind: ClassVar[int] = 5
     name: ClassVar[str] = "ROUGH_GLASS"
+    flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLASS_TYPE
     params: ClassVar[tuple] = ("alpha", "fresnel", "ior", "f0_r", "f0_g", "f0_b", "f90_r", "f90_g", "f90_b",
                                "energy_scale", "reflect_r", "reflect_g", "reflect_b",
                                "transmit_r", "transmit_g", "transmit_b")
+
+    @staticmethod
+    def albedo(params, N, wo):
+        """The colour passes' albedo: its reflected and transmitted shares of light arriving at N.wo."""
+        return shares(params, np.clip(np.einsum("ij,ij->i", N, wo), 0.0, 1.0))
 
     @staticmethod
     def eval(params, N, wo, wi):

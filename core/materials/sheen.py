@@ -33,7 +33,7 @@ that does to renders.
 
 The lobe is not exactly reciprocal (the cosine is part of the fitted lobe), as in Cycles. Cycles counts sheen
 as a diffuse closure (CLOSURE_IS_BSDF_DIFFUSE, LABEL_DIFFUSE): a diffuse bounce for the Light Paths limits and
-the caustics filter; so does Primer (materials.DIFFUSE_KINDS).
+the caustics filter; so does Primer (its flags: BSDFFlags.DIFFUSE and DIFFUSE_TYPE).
 
 Parameters (computed per hit by the node that sets the closure up, `params_of`): a and b; R goes into the
 closure's weight.
@@ -47,7 +47,8 @@ import numpy as np
 
 from .. import vectors
 from .base import BSDF, BsdfSample
-from .closures import PARAMS
+from .base import BSDFFlags as F
+from .base import PARAMS
 
 # The slots of its parameter row: M^-1's diagonal a and corner b.
 A, B = 0, 1
@@ -115,8 +116,8 @@ def ltc_density(a: np.ndarray, b: np.ndarray, x: np.ndarray, y: np.ndarray, z: n
 class Sheen(BSDF):
     """Microfiber sheen (module docstring): f cos = pdf = D(wi), the LTC lobe (R is in the closure's weight)."""
 
-    kind: ClassVar[int] = 7
     name: ClassVar[str] = "SHEEN"
+    flags: ClassVar[F] = F.REFLECTION | F.DIFFUSE | F.DIFFUSE_TYPE
     params: ClassVar[tuple] = ("a", "b")
 
     @staticmethod

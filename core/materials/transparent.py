@@ -13,14 +13,14 @@ from typing import ClassVar
 import numpy as np
 
 from .base import BSDF, BsdfSample
+from .base import BSDFFlags as F
 
 
 class Transparent(BSDF):
     """Straight through: wi = -wo, weight 1, pdf inf (module docstring)."""
 
-    kind: ClassVar[int] = 4
     name: ClassVar[str] = "TRANSPARENT"
-    delta: ClassVar[bool] = True
+    flags: ClassVar[F] = F.TRANSMISSION | F.SINGULAR | F.STRAIGHT
 
     @staticmethod
     def eval(params, N, wo, wi):

@@ -19,7 +19,7 @@ Cycles does.
 
 Cycles' closure type is glossy (CLOSURE_IS_BSDF_GLOSSY: no bump shadowing term, the Glossy passes), but its
 samples are labelled diffuse, so its bounces count as diffuse bounces; Primer follows both
-(materials.DIFFUSE_KINDS for bounces, materials.SHADOWED_KINDS for bump shadowing).
+(its flags: BSDFFlags.DIFFUSE for bounces, GLOSSY_TYPE for passes and bump shadowing).
 
 Parameters (computed per hit by the node that sets the closure up, `params_of`): 1 / sigma^2.
 """
@@ -32,7 +32,8 @@ import numpy as np
 
 from .. import vectors
 from .base import BSDF, BsdfSample
-from .closures import PARAMS
+from .base import BSDFFlags as F
+from .base import PARAMS
 
 # The slot of its parameter row.
 INV_SIGMA2 = 0
@@ -51,8 +52,8 @@ def params_of(roughness: np.ndarray) -> np.ndarray:
 class Velvet(BSDF):
     """Ashikhmin velvet (module docstring): f cos = D G / (4 N.wo); uniform hemisphere sampling."""
 
-    kind: ClassVar[int] = 8
     name: ClassVar[str] = "VELVET"
+    flags: ClassVar[F] = F.REFLECTION | F.DIFFUSE | F.GLOSSY_TYPE
     params: ClassVar[tuple] = ("inv_sigma2",)
 
     @staticmethod

@@ -1,11 +1,12 @@
 /* Primer's compiled library: every part's C file, in the order they build on each other.
  *
  * One translation unit, so that the compiler can inline a light's sampling or a BSDF into the
- * integrator's loops. Each file is the compiled twin of the Python beside it; adding a light type
- * or a BSDF means one C file here and one entry in its part's table (core/lights/lights.c,
- * core/materials/bsdf.c). Built by tools/build_kernels.py (`make kernels`), loaded by
- * core/native/library.py. */
+ * integrator's loops. Each file is the compiled twin of the Python beside it; a light type's or a
+ * BSDF's C file is included by its part's generated table (core/lights/lights.gen.c,
+ * core/materials/bsdfs.gen.c), written by tools/make_boundary.py from the Python tables. Built by
+ * tools/build_kernels.py (`make kernels`), loaded by core/native/library.py. */
 #include "primer.h"
+#include "boundary.gen.h"               /* the tables' kinds and flags (tools/make_boundary.py) */
 
 #define PRIMER_ABI 34
 
@@ -14,25 +15,10 @@
 #include "../geometry/embree.c"
 #include "../geometry/triangles.c"
 #include "../lights/lights.h"
-#include "../lights/point.c"
-#include "../lights/spot.c"
-#include "../lights/sun.c"
-#include "../lights/area.c"
-#include "../lights/emitters.c"
-#include "../lights/world.c"
-#include "../lights/lights.c"
+#include "../lights/lights.c"           /* every light's C file, through the generated table lights.gen.c */
 #include "../materials/bsdf.h"
-#include "../materials/lambert.c"
-#include "../materials/mirror.c"
 #include "../materials/thin_film.c"
-#include "../materials/microfacet.c"
-#include "../materials/glass.c"
-#include "../materials/transparent.c"
-#include "../materials/rough_glass.c"
-#include "../materials/oren_nayar.c"
-#include "../materials/sheen.c"
-#include "../materials/velvet.c"
-#include "../materials/bsdf.c"
+#include "../materials/bsdf.c"          /* every BSDF's C file, through the generated table bsdfs.gen.c */
 #include "../materials/textures.c"
 #include "../materials/graph.c"
 #include "../materials/nodes.c"

@@ -367,7 +367,7 @@ def material_record(ctx, surface, result) -> MaterialRecord:
     """The MaterialRecord of the inspected hit (row 0 of `surface`, shaded as `result`): the material's graph
     run once more with its image lookups kept, the UV and tangent it reads, and its closures."""
     from ..geometry.surface import shading_point
-    from ..materials import BSDF_TYPES, graph as graph_
+    from ..materials import BSDF_TYPES, graph as graph_  # noqa: F401
     from ..materials import microfacet as mf
     geometry, table = ctx.geometry, ctx.materials
     row = int(surface.material[0])
