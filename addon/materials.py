@@ -19,7 +19,7 @@ import tempfile
 import bpy
 import numpy as np
 
-from ..core.materials import Material
+from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
 from ..core.materials.graph import GraphNode, Link
@@ -36,6 +36,8 @@ PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Rough
 # Principled inputs Primer leaves out: socket -> what Primer does instead (warned when above 0).
 PRINCIPLED_LEFT_OUT = {"Subsurface Weight": "approximates subsurface scattering by diffuse reflection"}
 GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
+# Blender's nodes that add one closure of a BSDF, read alike: bl_idname -> core/materials node name (Node.blender).
+ONE_CLOSURE_NODES = {cls.blender: cls.name for cls in NODE_TYPES if cls.blender is not None}
 
 
 def node_tree(datablock):
@@ -625,6 +627,16 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
     elif kind == "ShaderNodeHoldout":
         # A hole in the film for camera paths, as much as its weight (the Mix and Add Shaders above it).
         out.append(("HOLDOUT", weight, {}, list(factors)))
+    elif kind in ONE_CLOSURE_NODES:
+        # A node that adds one closure of a BSDF (core/materials Node.bsdf): its colour weighs it, a linked colour per
+        # hit, and a linked Normal is the closure's own.
+        color = reader.input(node, "Color", np.full(3, 0.8))
+        inputs = {}
+        _normal(reader, node, inputs)
+        if _linked(color):
+            out.append((ONE_CLOSURE_NODES[kind], weight, inputs, list(factors) + [(color, "color")]))
+        else:
+            out.append((ONE_CLOSURE_NODES[kind], weight * np.maximum(color, 0.0), inputs, list(factors)))
     elif kind.startswith("ShaderNodeVolume"):
         # A volume closure at a Surface socket: Cycles renders nothing of it on the surface.
         reader.warn(node, f"'{node.bl_label}' is a volume shader; at a surface it adds nothing (as in Cycles), and "

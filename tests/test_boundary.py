@@ -2,6 +2,7 @@
 C tables generated from that (tools/make_boundary.py)."""
 from __future__ import annotations
 
+import ctypes
 import os
 
 import numpy as np
@@ -97,3 +98,57 @@ def test_lamps_are_the_lights_rays_meet_in_space():
     lamps = {cls.__name__ for cls in LIGHT_TYPES if cls.is_(lights_.LAMP)}
     assert lamps == {"PointLight", "SpotLight", "SunLight", "AreaLight"}
     assert lights_.MeshEmitters.is_(LightFlags.EMITTER) and lights_.WorldLight.is_(LightFlags.INFINITE)
+
+
+def test_records_are_typed_integers_as_integers_and_pointers_by_what_they_point_at():
+    """A record refuses what does not fit its C field: a float in an integer field, an array of another dtype or a
+    strided array in a pointer, a record of another type in a typed pointer; it keeps what it points at alive."""
+    from core.lights.base import LightContext, LightRecord
+    from core.lights.world import WorldTablesRecord
+    from core.sampling.sobol import Sample2dArgs
+    record = LightRecord(kind=2, delta=True, samples=4)
+    assert (record.kind, record.delta, record.samples) == (2, 1, 4)
+    with pytest.raises(TypeError, match="integer"):
+        record.samples = 4.0
+    args = Sample2dArgs()
+    with pytest.raises(TypeError, match="int64"):
+        args.pixel = np.zeros(4, np.float64)
+    with pytest.raises(TypeError, match="contiguous"):
+        args.pixel = np.zeros(8, np.int64)[::2]
+    with pytest.raises(TypeError, match="WorldTables"):
+        LightContext(world=LightRecord())
+    pixels = np.arange(5, dtype=np.int64)
+    args.pixel = pixels
+    del pixels
+    assert np.array_equal(np.ctypeslib.as_array(ctypes.cast(args.pixel, ctypes.POINTER(ctypes.c_int64)), (5,)),
+                          np.arange(5))
+    assert WorldTablesRecord(camera=True).camera == 1
+
+
+def test_a_library_built_from_other_sources_is_refused_before_a_record_crosses(monkeypatch):
+    """When the library's layout of a record is not the one Python describes (a stale build), the first call that
+    hands it over raises, naming the record and `make kernels`, instead of reading fields at the wrong places."""
+    from core.native import library, schema
+    from core.sampling import sobol
+    if not library.available():
+        pytest.skip(library.unavailable_reason())
+    monkeypatch.setattr(sobol.Sample2dArgs, "_checked", False)
+    monkeypatch.setattr(library, "layout_of", lambda name: 12345)
+    with pytest.raises(RuntimeError, match="Sample2dArgs.*make kernels"):
+        sobol.compiled_sample_2d(0, np.zeros(1, np.int64), np.zeros(1, np.int64), 0)
+    assert all(name in schema.RECORDS for name in ("LightRecord", "ChunkParams", "MaterialRecord", "CameraRecord"))
+
+
+def test_every_record_and_function_is_laid_out_in_c_as_in_python():
+    """The library built from the generated header knows each described record with the same layout hash and size
+    as Python, and exports each described function."""
+    from core.native import library
+    schema = make_boundary.described()
+    if not library.available():
+        pytest.skip(library.unavailable_reason())
+    for name, struct in schema.RECORDS.items():
+        assert library.layout_of(name) == struct.layout_hash(), name
+        assert library.size_of(name) == ctypes.sizeof(struct), name
+    lib = library.library()
+    for name in schema.FUNCTIONS:
+        assert hasattr(lib, name), name

@@ -141,7 +141,7 @@ def test_spherical_triangle_sampling_is_uniform_over_the_solid_angle():
 
 def test_compiled_emitter_and_world_samples_are_the_pythons():
     """emitters.c and world.c sample what their Python classes sample (same directions, pdfs, radiance)."""
-    from core.integrators.compiled import LightContext
+    from core.lights.base import LightContext
     import ctypes
     rng = np.random.default_rng(6)
     corners = rng.normal(size=(40, 3, 3)) + [0.0, 0.0, 3.0]
@@ -151,7 +151,7 @@ def test_compiled_emitter_and_world_samples_are_the_pythons():
         [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])))
     from core.lights.world import WorldTables
     tables, world_tables = emitters.tables(), WorldTables(sampler.world, sampler)
-    context = LightContext(ctypes.addressof(tables.record), ctypes.addressof(world_tables.record))
+    context = LightContext(emitters=tables.record, world=world_tables.record)
     points = rng.normal(size=(3000, 3))
     u = rng.random((3000, 3))
     for light, numbers in ((emitters, u), (sampler, u[:, :2])):

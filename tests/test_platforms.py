@@ -9,7 +9,6 @@ tests that need a build skip.
 from __future__ import annotations
 
 import ctypes
-import glob
 import importlib.util
 import os
 import platform
@@ -29,12 +28,10 @@ needs_zig = pytest.mark.skipif(not HAS_ZIG, reason="ziglang is not installed (pi
 
 
 def declared_functions() -> set:
-    """Return every C function Python code under core/ names (library.function, record size functions, primer_abi)."""
-    names = set()
-    for path in glob.glob(os.path.join(ROOT, "core", "**", "*.py"), recursive=True):
-        with open(path, encoding="utf-8") as fh:
-            names |= set(re.findall(r"\bprimer_[a-z0-9_]+\b", fh.read()))
-    return names
+    """Return every C function Python calls: those core describes (core/native/schema.py FUNCTIONS), and the two the
+    library answers its layout checks with."""
+    from tools import make_boundary
+    return set(make_boundary.described().FUNCTIONS) | {"primer_layout", "primer_record_size"}
 
 
 def c_exports() -> set:
@@ -58,8 +55,8 @@ def libraries() -> dict:
 def test_the_python_side_declares_the_functions_the_c_side_exports():
     """The scans below find what they look for: core's Python names the C functions, all of them EXPORTed in C."""
     declared, exported = declared_functions(), c_exports()
-    assert {"primer_abi", "primer_render_chunk", "primer_intersect", "primer_shadow_settings_size"} <= declared
-    assert len(declared) >= 20
+    assert {"primer_layout", "primer_record_size", "primer_render_chunk", "primer_intersect"} <= declared
+    assert len(declared) >= 19
     assert declared <= exported, declared - exported
 
 
@@ -148,18 +145,19 @@ def test_header_reader_refuses_a_file_that_is_no_library(tmp_path):
 
 @needs_zig
 @pytest.mark.skipif(not (sys.platform == "linux" and platform.machine() == "x86_64"), reason="needs Linux x86-64")
-def test_linux_x86_64_library_loads_and_agrees_with_pythons_abi_and_records(libraries):
-    """The cross-built Linux x86-64 library loads here, returns library.ABI and sizes its records as Python does."""
-    from core.integrators import compiled
-    from core.lights import base
+def test_linux_x86_64_library_loads_and_lays_out_every_record_as_python_does(libraries):
+    """The cross-built Linux x86-64 library loads here, and knows every record Python describes with Python's layout
+    hash and size."""
+    from tools import make_boundary
+    schema = make_boundary.described()
     lib = ctypes.CDLL(libraries["linux-x64"])
-    lib.primer_abi.restype = ctypes.c_int64
-    assert lib.primer_abi() == library.ABI
-    for struct in (compiled.ShadowSettings, compiled.MaterialRecord, compiled.ChunkParams, compiled.ChunkOut,
-                   base.LightRecord):
-        size = getattr(lib, struct._size_function)
-        size.restype = ctypes.c_int64
-        assert size() == ctypes.sizeof(struct), struct.__name__
+    lib.primer_layout.restype, lib.primer_layout.argtypes = ctypes.c_uint64, [ctypes.c_char_p]
+    lib.primer_record_size.restype, lib.primer_record_size.argtypes = ctypes.c_int64, [ctypes.c_char_p]
+    assert len(schema.RECORDS) >= 20
+    for name, struct in schema.RECORDS.items():
+        assert lib.primer_layout(name.encode()) == struct.layout_hash(), name
+        assert lib.primer_record_size(name.encode()) == ctypes.sizeof(struct), name
+    assert lib.primer_layout(b"NoSuchRecord") == 0
     for name in declared_functions():
         assert getattr(lib, name) is not None
 
@@ -171,9 +169,9 @@ LOADER = r"""
 int main(int argc, char **argv) {
     void *library = dlopen(argv[1], RTLD_NOW);
     if (!library) { fprintf(stderr, "%s\n", dlerror()); return 2; }
-    int64_t (*abi)(void) = (int64_t (*)(void))dlsym(library, "primer_abi");
-    if (!abi) { fprintf(stderr, "no primer_abi\n"); return 3; }
-    printf("%lld\n", (long long)abi());
+    uint64_t (*layout)(const char *) = (uint64_t (*)(const char *))dlsym(library, "primer_layout");
+    if (!layout) { fprintf(stderr, "no primer_layout\n"); return 3; }
+    printf("%llu\n", (unsigned long long)layout("LightRecord"));
     return 0;
 }
 """
@@ -182,8 +180,8 @@ int main(int argc, char **argv) {
 @needs_zig
 @pytest.mark.skipif(not (shutil.which("qemu-aarch64") and os.path.isdir("/usr/aarch64-linux-gnu")),
                     reason="needs qemu-aarch64 and an arm64 glibc in /usr/aarch64-linux-gnu (qemu-user, libc6-arm64-cross)")
-def test_linux_arm64_library_loads_under_qemu_and_returns_the_abi(libraries, tmp_path):
-    """An arm64 program dlopens the Linux arm64 library under qemu and reads primer_abi() == library.ABI."""
+def test_linux_arm64_library_loads_under_qemu_and_returns_the_layout(libraries, tmp_path):
+    """An arm64 program dlopens the Linux arm64 library under qemu and reads LightRecord's layout hash, Python's."""
     source, loader = tmp_path / "loader.c", tmp_path / "loader"
     source.write_text(LOADER)
     subprocess.run(build_kernels.zig_command() + ["-target", "aarch64-linux-gnu.2.17", str(source), "-o", str(loader),
@@ -191,7 +189,8 @@ def test_linux_arm64_library_loads_under_qemu_and_returns_the_abi(libraries, tmp
     completed = subprocess.run(["qemu-aarch64", "-L", "/usr/aarch64-linux-gnu", str(loader), libraries["linux-arm64"]],
                                capture_output=True, text=True, timeout=120)
     assert completed.returncode == 0, completed.stderr
-    assert int(completed.stdout) == library.ABI
+    from core.lights.base import LightRecord
+    assert int(completed.stdout) == LightRecord.layout_hash()
 
 
 def test_missing_zig_is_a_clear_error(monkeypatch):

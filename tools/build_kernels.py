@@ -13,7 +13,7 @@ core/native/ (`make kernels`). The second cross-compiles it for every platform t
 `ziglang` package (requirements-platforms.txt), into DIR (default dist/kernels/); tools/build_extension.py
 puts those five in the zip. Each library is rebuilt only when a C file under core/ is newer than it
 (or with --force), and each cross-compiled one is checked by its headers (tools/binaries.py): format,
-processor, and the exported primer_abi.
+processor, and the exported primer_layout.
 
 Flags: no fused multiply-add (-ffp-contract=off), so that the kernels round exactly as the numpy code
 they mirror does, step by step. -O3 turns the loops over blocks of samples into SIMD instructions
@@ -129,9 +129,9 @@ def cross_build_one(platform_name: str, folder: str, force: bool = False) -> str
             shutil.move(output, target)
     found = binaries.read(target)
     expected = (FORMATS[system], processor, True)
-    if (found.format, found.machine, found.shared) != expected or "primer_abi" not in found.exports:
+    if (found.format, found.machine, found.shared) != expected or "primer_layout" not in found.exports:
         raise ToolchainError(f"{target} is a {found.format} {found.machine} file (shared: {found.shared}), "
-                             f"not a {expected[0]} {expected[1]} shared library exporting primer_abi")
+                             f"not a {expected[0]} {expected[1]} shared library exporting primer_layout")
     return target
 
 

@@ -4,8 +4,9 @@ What a BSDF, a shader node or a light *is* is declared once, on its Python class
 table, flags, C name), and the records C reads are described once, next to the Python that fills them (core/native/
 schema.py). From those this script writes:
 
-- core/native/boundary.gen.h: the kinds and flags of every table as C enums with their flag tables, the shared
-  constants, and every record as a C struct, with the layout hash core/native/library.py checks when it loads;
+- core/native/boundary.gen.h: the shared constants, the kinds and flags of every table as C enums with their
+  flag tables, and every record as a C struct, with the layout hash each record checks before it crosses;
+- core/native/exports.gen.c: every function the library exports, taking one record of arguments;
 - core/materials/bsdfs.gen.c: each BSDF's C file, and bsdf_eval / bsdf_sample switching on a closure's kind;
 - core/materials/nodes.gen.c: setup_node switching on a shader node's kind;
 - core/lights/lights.gen.c: each light's C file, and sample_light / light_hit switching on a light's kind.
@@ -74,12 +75,51 @@ def flag_table(prefix: str, table: tuple) -> str:
             f"{{\n    return kind >= 0 && kind < {prefix}_COUNT && ({prefix}_FLAGS[kind] & flags) != 0;\n}}\n")
 
 
+def described():
+    """Import every part that describes records, constants and functions for C (core.render imports them all)."""
+    import core.render  # noqa: F401
+    from core.native import schema
+    return schema
+
+
+def constants_block(schema) -> str:
+    """Every constant the parts defined (schema.constant), as #defines, each group under its comment."""
+    lines, last = [], None
+    for name in schema.in_order(schema.CONSTANTS):
+        value, doc = schema.CONSTANTS[name]
+        module = schema.where(name)
+        if doc and (doc, module) != last:
+            lines.append(f"/* {doc} ({module}) */")
+        last = (doc, module) if doc else last
+        lines.append(f"#define {name} {int(value) if isinstance(value, int) else repr(float(value))}")
+    return "\n".join(lines) + "\n"
+
+
+def records_block(schema) -> str:
+    """Every record as a C struct (forward typedefs first, so that records may point at each other), and the two
+    functions the library answers Python's checks with: each record's layout hash and size."""
+    names = schema.in_order(schema.RECORDS)
+    forward = "".join(f"typedef struct {name} {name};\n" for name in names)
+    structs = "\n".join(schema.c_struct(schema.RECORDS[name]) for name in names)
+    layouts = "".join(f'    if (strcmp(name, "{name}") == 0) return UINT64_C({schema.RECORDS[name].layout_hash()});\n'
+                      for name in names)
+    sizes = "".join(f'    if (strcmp(name, "{name}") == 0) return (int64_t)sizeof({name});\n' for name in names)
+    return (forward + "\n" + structs
+            + "\n/* Each record's layout hash (core/native/schema.py Record.layout_hash), 0 for a name it does not know: "
+              "what\n * Record.check compares with Python's before a record crosses. */\n"
+              "EXPORT uint64_t primer_layout(const char *name)\n{\n" + layouts + "    return 0;\n}\n"
+            + "\n/* sizeof each record, -1 for a name it does not know. */\n"
+              "EXPORT int64_t primer_record_size(const char *name)\n{\n" + sizes + "    return -1;\n}\n")
+
+
 def boundary_header() -> str:
-    """core/native/boundary.gen.h: the tables' kinds and flags (records follow once described)."""
+    """core/native/boundary.gen.h: the constants, the tables' kinds and flags, and the records."""
     from core.lights import LIGHT_TYPES, LightFlags
     from core.materials import BSDF_TYPES, NODE_TYPES, BSDFFlags
-    parts = [NOTICE.format(source="core/materials/registry.py, core/lights/__init__.py, core/native/schema.py"),
-             "#ifndef PRIMER_BOUNDARY_GEN_H\n#define PRIMER_BOUNDARY_GEN_H\n",
+    schema = described()
+    parts = [NOTICE.format(source="the Python tables and records described through core/native/schema.py"),
+             "#ifndef PRIMER_BOUNDARY_GEN_H\n#define PRIMER_BOUNDARY_GEN_H\n\n#include <string.h>\n",
+             constants_block(schema),
              enum_block("core/materials/registry.py BSDF_TYPES: a closure's kind", "BSDF",
                         [cls.c_name() for cls in BSDF_TYPES]),
              flags_block("core/materials/base.py BSDFFlags: what a BSDF is", "BSDF", BSDFFlags),
@@ -90,8 +130,18 @@ def boundary_header() -> str:
                         [cls.c_name() for cls in LIGHT_TYPES]),
              flags_block("core/lights/base.py LightFlags: what a light is", "LIGHT", LightFlags),
              flag_table("LIGHT", LIGHT_TYPES),
+             records_block(schema),
              "#endif\n"]
     return "\n".join(parts)
+
+
+def exports() -> str:
+    """core/native/exports.gen.c: each function the library exports, taking one record of arguments."""
+    schema = described()
+    return (NOTICE.format(source="the functions described through core/native/schema.py")
+            + "\n/* What Python calls (core/native/library.py call): each takes its arguments as one record and passes\n"
+              " * them, in the record's order, to the C function that does the work. */\n\n"
+            + "\n".join(schema.c_export(name) for name in schema.in_order(schema.FUNCTIONS)))
 
 
 def bsdf_table() -> str:
@@ -151,19 +201,20 @@ def light_table() -> str:
               " * zero: unknown). A kind outside the table sends nothing. */\n"
               "INLINE void sample_light(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,\n"
               "                         const double *u, LightSample *out)\n"
-              "{\n    out->hidden = 0;\n    switch ((int)light->kind) {\n" + samples + "    default: break;\n    }\n"
+              "{\n    out->hidden = 0;\n    switch (light->kind) {\n" + samples + "    default: break;\n    }\n"
               "    for (int c = 0; c < 3; c++) out->L[c] = out->position[c] = out->color[c] = 0.0;\n"
               "    out->distance = out->strength = out->pdf = 0.0;\n}\n"
             + "\n/* Light.hit through the table: whether a ray from O along D meets `light` before t_max (rays find emitters\n"
               " * and the world as surfaces and as the sky, not here). */\n"
               "INLINE int light_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)\n"
-              "{\n    switch ((int)light->kind) {\n" + hits + "    default: return 0;\n    }\n}\n")
+              "{\n    switch (light->kind) {\n" + hits + "    default: return 0;\n    }\n}\n")
 
 
 def generated() -> dict:
     """Every generated file: its path (relative to the repository) -> its text."""
     return {
         "core/native/boundary.gen.h": boundary_header(),
+        "core/native/exports.gen.c": exports(),
         "core/materials/bsdfs.gen.c": bsdf_table(),
         "core/materials/nodes.gen.c": node_table(),
         "core/lights/lights.gen.c": light_table(),

@@ -1,21 +1,5 @@
 /* Camera rays: core/camera/camera.py generate_rays, for every camera type, a block of samples at a time. */
 
-enum { CAMERA_PERSP = 0, CAMERA_ORTHO = 1, CAMERA_FISHEYE_EQUIDISTANT = 2, CAMERA_FISHEYE_EQUISOLID = 3 };
-
-/* The camera, prepared by core/camera/camera.py (`camera_record`). */
-typedef struct {
-    double kind;                /* CAMERA_* */
-    double left, right, bottom, top;   /* camera.viewplane (PERSP, ORTHO) */
-    double clip_start, clip_end;
-    double rotation[9];         /* camera-to-world rotation, row-major */
-    double eye[3];              /* the camera's position minus the geometry's origin */
-    double renormalize;         /* 1 when the rotation is not orthonormal (a sheared parent) */
-    double shift_x, shift_y;    /* fisheye: the panorama shift */
-    double scale_x, scale_y;    /* fisheye: the image plane is ((u - 0.5) scale_x, (v - 0.5) scale_y) */
-    double limit;               /* fisheye: the image circle's radius on that plane */
-    double fisheye_fov, fisheye_lens;
-} CameraRecord;
-
 /* A block of camera samples: their pixels' keys and positions, their points, their rays. */
 typedef struct {
     int64_t n;
@@ -142,7 +126,7 @@ INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t 
 
 /* The camera rays of `spp` samples in each of `p` pixels, camera-relative (for the tests).
  * pixels, first: (p,) int64; out: origins, directions (p spp, 3), t_max (p spp,) float64, valid (p spp,) uint8. */
-EXPORT void primer_camera_rays(const CameraRecord *camera, int64_t seed, int64_t width, int64_t height,
+static void camera_rays(const CameraRecord *camera, int64_t seed, int64_t width, int64_t height,
                                const int64_t *pixels, const int64_t *first, int64_t p, int64_t spp,
                                double *origins, double *directions, double *t_max, uint8_t *valid)
 {
@@ -160,4 +144,3 @@ EXPORT void primer_camera_rays(const CameraRecord *camera, int64_t seed, int64_t
     }
 }
 
-EXPORT int64_t primer_camera_record_size(void) { return (int64_t)sizeof(CameraRecord); }

@@ -45,7 +45,6 @@ growing **downwards** from the top row; pixel centres sit at +0.5.
 
 from __future__ import annotations
 
-import ctypes
 import dataclasses
 import math
 from dataclasses import dataclass, field
@@ -54,6 +53,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import vectors
+from ..native import schema
+from ..native.schema import F64, I32, I64, U8, out, ptr
 
 __all__ = [
     "Camera",
@@ -475,19 +476,42 @@ def _is_rotation(matrix: np.ndarray) -> bool:
 # The compiled twin (core/camera/camera.c)
 # ---------------------------------------------------------------------------
 
-def _camera_record_type():
-    """The C record of the camera (camera.c CameraRecord), made on first use."""
-    from ..native import library
-    if "record" not in _RECORD:
-        _RECORD["record"] = library.record("CameraRecord", [
-            "kind", "left", "right", "bottom", "top", "clip_start", "clip_end", ("rotation", 9), ("eye", 3),
-            "renormalize", "shift_x", "shift_y", "scale_x", "scale_y", "limit", "fisheye_fov", "fisheye_lens"],
-            size_function="primer_camera_record_size")
-    return _RECORD["record"]
+CameraRecord = schema.record("CameraRecord", "The camera, prepared by core/camera/camera.py (`camera_record`).", [
+    ("kind", I32, "CAMERA_*"),
+    ("renormalize", I32, "1 when the rotation is not orthonormal (a sheared parent)"),
+    ("left", F64, "camera.viewplane (PERSP, ORTHO)"),
+    ("right", F64, ""),
+    ("bottom", F64, ""),
+    ("top", F64, ""),
+    ("clip_start", F64, ""),
+    ("clip_end", F64, ""),
+    ("rotation", F64, 9, "camera-to-world rotation, row-major"),
+    ("eye", F64, 3, "the camera's position minus the geometry's origin"),
+    ("shift_x", F64, "fisheye: the panorama shift"),
+    ("shift_y", F64, ""),
+    ("scale_x", F64, "fisheye: the image plane is ((u - 0.5) scale_x, (v - 0.5) scale_y)"),
+    ("scale_y", F64, ""),
+    ("limit", F64, "fisheye: the image circle's radius on that plane"),
+    ("fisheye_fov", F64, ""),
+    ("fisheye_lens", F64, ""),
+])
+# The camera types camera.c knows: CAMERA_PERSP, ...
+_KINDS = schema.constants("CAMERA", ("PERSP", "ORTHO", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"), "camera.c's camera types")
 
-
-_RECORD: dict = {}
-_KINDS = {"PERSP": 0, "ORTHO": 1, "FISHEYE_EQUIDISTANT": 2, "FISHEYE_EQUISOLID": 3}
+CameraRaysArgs = schema.function("primer_camera_rays", "camera_rays", schema.record("CameraRaysArgs", "primer_camera_rays' arguments: the camera rays of spp samples in each of p pixels.", [
+    ("camera", ptr("CameraRecord"), ""),
+    ("seed", I64, ""),
+    ("width", I64, ""),
+    ("height", I64, ""),
+    ("pixels", ptr(I64), "(p,)"),
+    ("first", ptr(I64), "(p,) each pixel's first sample"),
+    ("p", I64, ""),
+    ("spp", I64, ""),
+    ("origins", out(F64), "(p spp, 3)"),
+    ("directions", out(F64), "(p spp, 3)"),
+    ("t_max", out(F64), "(p spp,)"),
+    ("valid", out(U8), "(p spp,)"),
+]))
 
 
 def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, origin: np.ndarray):
@@ -495,11 +519,7 @@ def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, 
 
     origin: (3,) float64 the geometry's origin, subtracted from the camera's position (camera-relative).
     """
-    from ..native import library
-    Record = _camera_record_type()
-    library.check_size(Record)
-    record = Record()
-    record.kind = _KINDS[camera.type if camera.type != "PANO" else camera.panorama_type]
+    record = CameraRecord(kind=_KINDS[camera.type if camera.type != "PANO" else camera.panorama_type])
     if camera.type in ("PERSP", "ORTHO"):
         record.left, record.right, record.bottom, record.top = viewplane(camera, width, height, pixel_aspect)
     else:
@@ -508,9 +528,9 @@ def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, 
         record.fisheye_fov, record.fisheye_lens = camera.fisheye_fov, camera.fisheye_lens
     record.clip_start, record.clip_end = camera.clip_start, camera.clip_end
     rotation = np.asarray(camera.matrix_world, np.float64)[:3, :3]
-    record.rotation[:] = rotation.ravel().tolist()
-    record.eye[:] = (np.asarray(camera.matrix_world, np.float64)[:3, 3] - origin).tolist()
-    record.renormalize = 0.0 if _is_rotation(rotation) else 1.0
+    record.rotation = rotation.ravel()
+    record.eye = np.asarray(camera.matrix_world, np.float64)[:3, 3] - origin
+    record.renormalize = not _is_rotation(rotation)
     return record
 
 
@@ -520,12 +540,10 @@ def compiled_rays(record, seed: int, width: int, height: int, pixels: np.ndarray
     pixels, first: (p,) int64 -> origins, directions (p spp, 3) float64, t_max (p spp,) float64, valid (p spp,) bool
     """
     from ..native import library
-    P, I64, ptr = library.P, library.I64, library.pointer
     pixels, first = library.contiguous(pixels, np.int64), library.contiguous(first, np.int64)
     n = len(pixels) * spp
     origins, directions, t_max, valid = np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n, np.uint8)
-    library.function("primer_camera_rays", None, [P, I64, I64, I64, P, P, I64, I64, P, P, P, P])(
-        ctypes.byref(record), int(seed), int(width), int(height), ptr(pixels, np.int64), ptr(first, np.int64),
-        len(pixels), int(spp), ptr(origins, np.float64), ptr(directions, np.float64), ptr(t_max, np.float64),
-        ptr(valid, np.uint8))
+    library.call("primer_camera_rays", CameraRaysArgs(
+        camera=record, seed=int(seed), width=int(width), height=int(height), pixels=pixels, first=first,
+        p=len(pixels), spp=int(spp), origins=origins, directions=directions, t_max=t_max, valid=valid))
     return origins, directions, t_max, valid.astype(bool)

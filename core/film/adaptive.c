@@ -12,7 +12,7 @@ INLINE int64_t first_at_least(const int64_t *pixels, int64_t p, int64_t i)
 }
 
 /* Whether pixels (p,) int64 are distinct flat indices of an image of `size` pixels, ascending. */
-EXPORT SIMD_CLONES int64_t primer_ascending(const int64_t *pixels, int64_t p, int64_t size)
+SIMD_CLONES NOINLINE static int64_t ascending(const int64_t *pixels, int64_t p, int64_t size)
 {
     if (p == 0) return 1;
     int64_t ascending = pixels[0] >= 0 && pixels[p - 1] < size;
@@ -56,7 +56,7 @@ INLINE void raise_to(int64_t n, double *restrict e, const double *restrict c)
  * noisy and grown uint8; row (W,) float64. Out: wanted (at most p) int64; returns how many.
  * Where the window's pixels are all of one run (a first pass over every pixel), the loops run over
  * the run itself instead of the list, in SIMD lanes. */
-EXPORT SIMD_CLONES int64_t primer_unconverged(int64_t width, int64_t height, int64_t y0, int64_t y1,
+SIMD_CLONES NOINLINE static int64_t unconverged(int64_t width, int64_t height, int64_t y0, int64_t y1,
                                               const double *total, const double *squares, const int64_t *count,
                                               const double *weights, const int64_t *pixels, int64_t p,
                                               double threshold, int64_t first, const double *known_error,

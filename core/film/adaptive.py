@@ -39,7 +39,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import vectors
-from ..native import library
+from ..native import library, schema
+from ..native.schema import F64, I64, U8, out, ptr
 
 # Brightness below which absolute rather than relative noise counts (as in the benchmark's relMSE,
 # whose denominator is r^2 + 0.01): noise of 0.01 in a black pixel is as visible as 1% of a white one.
@@ -168,6 +169,39 @@ def unconverged(pixels: np.ndarray, noise: PixelNoise, threshold: float, width: 
     return pixels[wanted[region]]
 
 
+AscendingArgs = schema.function("primer_ascending", "ascending", schema.record(
+    "AscendingArgs", "primer_ascending's arguments: whether p pixels are distinct flat indices below size, ascending.", [
+        ("pixels", ptr(I64), "(p,)"),
+        ("p", I64, ""),
+        ("size", I64, ""),
+        ("result", I64, "1: they are"),
+    ]), result="result")
+UnconvergedArgs = schema.function("primer_unconverged", "unconverged", schema.record(
+    "UnconvergedArgs", "primer_unconverged's arguments: the pixels of rows y0 .. y1 - 1 that need another pass (adaptive.c).", [
+        ("width", I64, ""),
+        ("height", I64, ""),
+        ("y0", I64, ""),
+        ("y1", I64, ""),
+        ("total", ptr(F64), "(H W, 4) the film's sums"),
+        ("squares", ptr(F64), "(H W, 2)"),
+        ("count", ptr(I64), "(H W,)"),
+        ("weights", ptr(F64), "(3,) luminance"),
+        ("pixels", ptr(I64), "(p,) ascending"),
+        ("p", I64, ""),
+        ("threshold", F64, ""),
+        ("first", I64, ""),
+        ("known_error", ptr(F64), "(H W,) kept noise estimates, or NULL"),
+        ("known_mean", ptr(F64), "(H W,) or NULL"),
+        ("error", out(F64), "scratch: one value per pixel of the window"),
+        ("mean", out(F64), "scratch"),
+        ("noisy", out(U8), "scratch"),
+        ("grown", out(U8), "scratch"),
+        ("row", out(F64), "(W,) scratch"),
+        ("wanted", out(I64), "the pixels that need another pass"),
+        ("result", I64, "how many"),
+    ]), result="result")
+
+
 def unconverged_compiled(pixels: np.ndarray, noise: PixelNoise, threshold: float, width: int, height: int,
                          first: int = 0, pool=None, bands: int = 1, estimates=None) -> np.ndarray:
     """`unconverged` in C (core/film/adaptive.c): the pixels of `pixels` (sorted, (p,) int64) that need another pass.
@@ -179,12 +213,8 @@ def unconverged_compiled(pixels: np.ndarray, noise: PixelNoise, threshold: float
     mean from them instead of working them out again.
     """
     size = width * height
-    ptr, P, I64 = library.pointer, library.P, library.I64
-    ascending = library.function("primer_ascending", I64, [P, I64, I64])
-    kernel = library.function("primer_unconverged", I64, [I64, I64, I64, I64, P, P, P, P, P, I64, library.F64, I64]
-                              + [P] * 8)
     pixels = library.contiguous(pixels, np.int64)
-    if not ascending(ptr(pixels, np.int64), len(pixels), size):
+    if not library.call("primer_ascending", AscendingArgs(pixels=pixels, p=len(pixels), size=size)).result:
         raise ValueError("unconverged: pixels must be distinct flat indices of the image, ascending")
     weights = library.contiguous(LUMINANCE, np.float64)
     known_error = estimates.error if estimates is not None else None
@@ -201,12 +231,11 @@ def unconverged_compiled(pixels: np.ndarray, noise: PixelNoise, threshold: float
         error, mean = np.empty(window), np.empty(window)
         noisy, grown, row = np.empty(window, np.uint8), np.empty(window, np.uint8), np.empty(width)
         mine = wanted[k0:k1]
-        count = kernel(
-            width, height, y0, y1, ptr(noise.total, np.float64), ptr(noise.squares, np.float64),
-            ptr(noise.count, np.int64), ptr(weights, np.float64), ptr(pixels, np.int64), len(pixels),
-            float(threshold), int(first), ptr(known_error, np.float64), ptr(known_mean, np.float64),
-            ptr(error, np.float64), ptr(mean, np.float64), ptr(noisy, np.uint8), ptr(grown, np.uint8),
-            ptr(row, np.float64), ptr(mine, np.int64))
+        count = library.call("primer_unconverged", UnconvergedArgs(
+            width=width, height=height, y0=y0, y1=y1, total=noise.total, squares=noise.squares, count=noise.count,
+            weights=weights, pixels=pixels, p=len(pixels), threshold=float(threshold), first=int(first),
+            known_error=known_error, known_mean=known_mean, error=error, mean=mean, noisy=noisy, grown=grown,
+            row=row, wanted=mine)).result
         return mine[:count]
 
     rows = list(zip(edges[:-1], edges[1:]))

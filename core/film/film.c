@@ -79,7 +79,7 @@ SIMD_CLONES NOINLINE static void mean_lanes(int64_t lo, int64_t hi, const double
  * and mean (H W,) float64 (else NULL), also the pixels' new pixel_error and pixel_mean, which the
  * noise test between passes then reads instead of working them out for every pixel itself. The
  * chunks of a pass have pixels of their own, so the threads rendering them may add at the same time. */
-EXPORT void primer_add_pixels(int64_t p, const int64_t *pixels, int64_t spp, const double *rgba, const double *squares,
+static void add_pixels(int64_t p, const int64_t *pixels, int64_t spp, const double *rgba, const double *squares,
                               const int64_t *hits, double *total, double *squares_sum, int64_t *count, int64_t *hits_sum,
                               const double *weights, double *error, double *mean)
 {
@@ -109,7 +109,7 @@ EXPORT void primer_add_pixels(int64_t p, const int64_t *pixels, int64_t spp, con
 
 /* The image from the running sums: each pixel's mean over max(count, 1) samples (Film.image's
  * box filter). total (n, 4) float64, count (n,) int64 -> out (n, 4) float32. */
-EXPORT void primer_resolve(int64_t n, const double *total, const int64_t *count, float *out)
+static void resolve_rows(int64_t n, const double *total, const int64_t *count, float *out)
 {
     for (int64_t i = 0; i < n; i++) {
         double samples = (double)(count[i] > 1 ? count[i] : 1);

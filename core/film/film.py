@@ -15,10 +15,10 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from ..native import library
+from ..native import library, schema
+from ..native.schema import F32, F64, I64, out, ptr
 from . import adaptive
 
-I64, P = library.I64, library.P
 
 
 class ChunkSums(NamedTuple):
@@ -137,6 +137,31 @@ def _selector(pixels: np.ndarray):
 # The compiled twin (core/film/film.c)
 # ---------------------------------------------------------------------------
 
+AddPixelsArgs = schema.function("primer_add_pixels", "add_pixels", schema.record(
+    "AddPixelsArgs", "primer_add_pixels' arguments: a chunk's per-pixel sums into the film's (film.c).", [
+        ("p", I64, ""),
+        ("pixels", ptr(I64), "(p,) distinct"),
+        ("spp", I64, ""),
+        ("rgba", ptr(F64), "(p, 4)"),
+        ("squares", ptr(F64), "(p, 2)"),
+        ("hits", ptr(I64), "(p,)"),
+        ("total", out(F64), "(H W, 4) the film's sums"),
+        ("squares_sum", out(F64), "(H W, 2)"),
+        ("count", out(I64), "(H W,)"),
+        ("hits_sum", out(I64), "(H W,)"),
+        ("weights", ptr(F64), "(3,) luminance"),
+        ("error", out(F64), "(H W,) noise estimates renewed, or NULL"),
+        ("mean", out(F64), "(H W,) or NULL"),
+    ]))
+ResolveArgs = schema.function("primer_resolve", "resolve_rows", schema.record(
+    "ResolveArgs", "primer_resolve's arguments: each pixel's mean.", [
+        ("n", I64, ""),
+        ("total", ptr(F64), "(n, 4)"),
+        ("count", ptr(I64), "(n,)"),
+        ("out", out(F32), "(n, 4)"),
+    ]))
+
+
 def add_pixels(pixels: np.ndarray, spp: int, rgba: np.ndarray, squares: np.ndarray, hits: np.ndarray, noise,
                hits_sum: np.ndarray, estimates: Optional[NoiseEstimates] = None) -> None:
     """Add a chunk's per-pixel sums to the film's, in place, and renew the pixels' `estimates` where given.
@@ -147,23 +172,19 @@ def add_pixels(pixels: np.ndarray, spp: int, rgba: np.ndarray, squares: np.ndarr
     pixels = library.contiguous(pixels, np.int64)
     weights = library.contiguous(adaptive.LUMINANCE, np.float64)
     kept = estimates if estimates is not None else NoiseEstimates(None, None)
-    ptr = library.pointer
-    library.function("primer_add_pixels", None, [I64, P, I64, P, P, P, P, P, P, P, P, P, P])(
-        len(pixels), ptr(pixels, np.int64), int(spp), ptr(rgba, np.float64), ptr(squares, np.float64),
-        ptr(hits, np.int64), ptr(noise.total, np.float64), ptr(noise.squares, np.float64),
-        ptr(noise.count, np.int64), ptr(hits_sum, np.int64), ptr(weights, np.float64), ptr(kept.error, np.float64),
-        ptr(kept.mean, np.float64))
+    library.call("primer_add_pixels", AddPixelsArgs(
+        p=len(pixels), pixels=pixels, spp=int(spp), rgba=rgba, squares=squares, hits=hits, total=noise.total,
+        squares_sum=noise.squares, count=noise.count, hits_sum=hits_sum, weights=weights, error=kept.error,
+        mean=kept.mean))
 
 
 def resolve(total: np.ndarray, count: np.ndarray) -> np.ndarray:
     """Each pixel's mean over max(count, 1) samples, as Film.image's numpy divides:
     total (n, 4) float64, count (n,) int64 -> (n, 4) float32, in one pass."""
     total, count = library.contiguous(total, np.float64), library.contiguous(count, np.int64)
-    out = np.empty((len(count), 4), np.float32)
-    library.function("primer_resolve", None, [I64, P, P, P])(
-        len(count), library.pointer(total, np.float64), library.pointer(count, np.int64),
-        library.pointer(out, np.float32))
-    return out
+    means = np.empty((len(count), 4), np.float32)
+    library.call("primer_resolve", ResolveArgs(n=len(count), total=total, count=count, out=means))
+    return means
 
 
 def sums_buffer(p: int, want_squares: bool) -> tuple:

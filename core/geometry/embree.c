@@ -77,7 +77,7 @@ INLINE int64_t instance_of(const HitPacket *hit, int k)
 /* Whether anything lies on each ray within (0, t_max): Tracer.occluded.
  * origins, directions (n, 3), t_max (n,) float32 -> blocked (n,) uint8. Embree marks an occluded ray
  * by setting its tfar to -inf, as embreex reads it. */
-EXPORT void primer_occluded(void *function, void *scene, int64_t n, const float *origins, const float *directions,
+static void occluded_rays(void *function, void *scene, int64_t n, const float *origins, const float *directions,
                             const float *t_max, uint8_t *blocked)
 {
     Occluded8 occluded8 = (Occluded8)function;
@@ -101,7 +101,7 @@ EXPORT void primer_occluded(void *function, void *scene, int64_t n, const float 
  * origins, directions (n, 3), t_max (n,) float64 (rounded to float32 here) -> t (n,) float64 (inf where
  * missed), prim (n,) int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed),
  * u, v (n,) float64, instance (n,) int64 the placement hit in an instance array (-1: a copied triangle). */
-EXPORT void primer_intersect(void *function, void *scene, int64_t n, const double *origins, const double *directions,
+static void intersect_rays(void *function, void *scene, int64_t n, const double *origins, const double *directions,
                              const double *t_max, double *t, int64_t *prim, int32_t *geometry, double *u, double *v,
                              int64_t *instance)
 {

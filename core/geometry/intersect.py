@@ -21,7 +21,8 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from . import embree_buffers
-from ..native import library
+from ..native import library, schema
+from ..native.schema import F32, F64, I32, I64, U8, out, ptr
 
 # Embree's "infinite" t_far: the largest distance embreex uses itself.
 T_INFINITY = 1e37
@@ -237,7 +238,6 @@ class Tracer:
 # Embree's queries in packets of 8 rays (core/geometry/embree.c)
 # ---------------------------------------------------------------------------
 
-P, I64 = library.P, library.I64
 
 
 class EmbreePackets(NamedTuple):
@@ -267,6 +267,33 @@ def embree_packets(scene, device) -> Optional[EmbreePackets]:
     return EmbreePackets(handles.scene, address(embree.rtcOccluded8), address(embree.rtcIntersect8))
 
 
+OccludedArgs = schema.function("primer_occluded", "occluded_rays", schema.record(
+    "OccludedArgs", "primer_occluded's arguments: whether anything lies on each of n rays (Embree's packets).", [
+        ("function", out(), "Embree's rtcOccluded8"),
+        ("scene", out(), "the RTCScene"),
+        ("n", I64, ""),
+        ("origins", ptr(F32), "(n, 3)"),
+        ("directions", ptr(F32), "(n, 3)"),
+        ("t_max", ptr(F32), "(n,)"),
+        ("blocked", out(U8), "(n,)"),
+    ]))
+IntersectArgs = schema.function("primer_intersect", "intersect_rays", schema.record(
+    "IntersectArgs", "primer_intersect's arguments: the nearest hit of each of n rays (Embree's packets).", [
+        ("function", out(), "Embree's rtcIntersect8"),
+        ("scene", out(), "the RTCScene"),
+        ("n", I64, ""),
+        ("origins", ptr(F64), "(n, 3)"),
+        ("directions", ptr(F64), "(n, 3)"),
+        ("t_max", ptr(F64), "(n,)"),
+        ("t", out(F64), "(n,) inf where missed"),
+        ("prim", out(I64), "(n,) -1 where missed"),
+        ("geometry", out(I32), "(n,) Embree's geomID, -1 where missed"),
+        ("u", out(F64), "(n,)"),
+        ("v", out(F64), "(n,)"),
+        ("instance", out(I64), "(n,) the placement hit in an instance array, -1: a copied triangle"),
+    ]))
+
+
 def _check_rays(origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> None:
     """Refuse a ray batch whose arrays disagree in length (the C code would read past one of them)."""
     n = len(origins)
@@ -282,10 +309,8 @@ def packet_occluded(packets: EmbreePackets, origins: np.ndarray, directions: np.
     n = len(origins)
     _check_rays(origins, directions, t_max)
     blocked = np.empty(n, np.bool_)
-    ptr = library.pointer
-    library.function("primer_occluded", None, [P, P, I64, P, P, P, P])(
-        packets.occluded8, packets.scene, n, ptr(origins, np.float32), ptr(directions, np.float32),
-        ptr(t_max, np.float32), blocked.ctypes.data)
+    library.call("primer_occluded", OccludedArgs(function=packets.occluded8, scene=packets.scene, n=n, origins=origins,
+                                                 directions=directions, t_max=t_max, blocked=blocked.view(np.uint8)))
     return blocked
 
 
@@ -303,9 +328,7 @@ def packet_intersect(packets: EmbreePackets, origins: np.ndarray, directions: np
     t, prim, geometry, u, v = (np.empty(n), np.empty(n, np.int64), np.empty(n, np.int32), np.empty(n),
                                np.empty(n))
     instance = np.empty(n, np.int64)
-    ptr = library.pointer
-    library.function("primer_intersect", None, [P, P, I64, P, P, P, P, P, P, P, P, P])(
-        packets.intersect8, packets.scene, n, ptr(origins, np.float64), ptr(directions, np.float64),
-        ptr(t_max, np.float64), ptr(t, np.float64), ptr(prim, np.int64), ptr(geometry, np.int32), ptr(u, np.float64),
-        ptr(v, np.float64), ptr(instance, np.int64))
+    library.call("primer_intersect", IntersectArgs(
+        function=packets.intersect8, scene=packets.scene, n=n, origins=origins, directions=directions, t_max=t_max,
+        t=t, prim=prim, geometry=geometry, u=u, v=v, instance=instance))
     return t, prim, geometry, u, v, instance

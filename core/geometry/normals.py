@@ -14,7 +14,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..native import library
+from ..native import library, schema
+from ..native.schema import F64, I64, out, ptr
 
 from .. import vectors
 
@@ -110,7 +111,23 @@ def face_forward(normals: np.ndarray, directions: np.ndarray) -> np.ndarray:
 # The compiled twins (core/geometry/triangles.c)
 # ---------------------------------------------------------------------------
 
-P, I64 = library.P, library.I64
+FaceNormalsArgs = schema.function("primer_face_normals", "face_normals_rows", schema.record(
+    "FaceNormalsArgs", "primer_face_normals' arguments: face_normals of t triangles.", [
+        ("t", I64, ""),
+        ("vertices", ptr(F64), "(v, 3)"),
+        ("triangles", ptr(I64), "(t, 3)"),
+        ("normals", out(F64), "(t, 3)"),
+        ("area", out(F64), "(t,)"),
+    ]))
+TurnNormalsArgs = schema.function("primer_turn_normals", "turn_normals_rows", schema.record(
+    "TurnNormalsArgs", "primer_turn_normals' arguments: corner normals turned by their placements' inverse.", [
+        ("n", I64, ""),
+        ("corners", ptr(F64), "(c, 3, 3)"),
+        ("rows", ptr(I64), "(n,)"),
+        ("inverse", ptr(F64), "(p, 3, 3)"),
+        ("placement", ptr(I64), "(n,)"),
+        ("out", out(F64), "(n, 3, 3)"),
+    ]))
 
 
 def compiled_face_normals(vertices: np.ndarray, triangles: np.ndarray) -> FaceNormals:
@@ -118,10 +135,8 @@ def compiled_face_normals(vertices: np.ndarray, triangles: np.ndarray) -> FaceNo
     -> FaceNormals of (t, 3) unit normals and (t,) areas, the same numbers."""
     vertices, triangles = library.contiguous(vertices, np.float64), library.contiguous(triangles, np.int64)
     normals, area = np.empty((len(triangles), 3)), np.empty(len(triangles))
-    ptr = library.pointer
-    library.function("primer_face_normals", None, [I64, P, P, P, P])(
-        len(triangles), ptr(vertices, np.float64), ptr(triangles, np.int64), ptr(normals, np.float64),
-        ptr(area, np.float64))
+    library.call("primer_face_normals", FaceNormalsArgs(t=len(triangles), vertices=vertices, triangles=triangles,
+                                                        normals=normals, area=area))
     return FaceNormals(normals, area)
 
 
@@ -130,9 +145,7 @@ def compiled_turn_normals(corners: np.ndarray, rows: np.ndarray, inverse: np.nda
     corners (c, 3, 3), inverse (p, 3, 3) float64; rows (n,) and placement (n,) int64 -> (n, 3, 3)."""
     corners, inverse = library.contiguous(corners, np.float64), library.contiguous(inverse, np.float64)
     rows, placement = library.contiguous(rows, np.int64), library.contiguous(placement, np.int64)
-    out = np.empty((len(rows), 3, 3))
-    ptr = library.pointer
-    library.function("primer_turn_normals", None, [I64, P, P, P, P, P])(
-        len(rows), ptr(corners, np.float64), ptr(rows, np.int64), ptr(inverse, np.float64),
-        ptr(placement, np.int64), ptr(out, np.float64))
-    return out
+    turned = np.empty((len(rows), 3, 3))
+    library.call("primer_turn_normals", TurnNormalsArgs(n=len(rows), corners=corners, rows=rows, inverse=inverse,
+                                                        placement=placement, out=turned))
+    return turned

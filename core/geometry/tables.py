@@ -1,36 +1,49 @@
-"""The scene's triangles as the compiled code reads them (core/geometry/triangles.c GeometryTables).
+"""The scene's triangles as the compiled code reads them (GeometryTables, core/geometry/triangles.c).
 
 Made once per render from a WorldGeometry: the copied triangles' arrays and, for each instanced mesh,
 its prototype, placements and material rows, in the dtypes C reads (no copy where they already are).
-The arrays must outlive every C call that reads them: GeometryTables keeps them.
+The records keep the arrays they point at alive for as long as they live.
 """
 from __future__ import annotations
 
-import ctypes
-
 import numpy as np
 
-from ..native import library
+from ..native import library, schema
+from ..native.schema import F32, F64, I32, I64, U8, ptr
 
+InstancedRecord = schema.record("InstancedTables", "One instanced mesh (core/geometry/instancing.py InstancedMesh), as core/geometry/tables.py lays it out.", [
+    ("vertices", ptr(F32), "(v, 3) object-space points"),
+    ("triangles", ptr(I32), "(t, 3)"),
+    ("smooth_index", ptr(I32), "(t,) row of corner_normals, -1 on flat triangles"),
+    ("corner_normals", ptr(F64), "(s, 3, 3) object-space unit corner normals"),
+    ("transforms", ptr(F32), "(k, 3, 4) camera-relative [L | T] per placement"),
+    ("flip", ptr(F32), "(k,) sign of det L"),
+    ("material", ptr(I32), "(r, t) material row per triangle, one row per slot table"),
+    ("material_row", ptr(I32), "(k,) the row of `material` each placement uses"),
+    ("triangle_count", I64, "t"),
+    ("placements", I64, "k"),
+    ("first_prim", I64, "WorldGeometry's flat index of placement 0's triangle 0"),
+    ("owner", ptr(I32), "(k,) Scene.instances index per placement"),
+    ("attribute_row", ptr(I32), "(t,) row of GeometryTables.attributes per triangle, or NULL"),
+])
 
-class InstancedRecord(ctypes.Structure):
-    """One instanced mesh (triangles.c InstancedTables)."""
-
-    _fields_ = [(name, ctypes.c_void_p) for name in ("vertices", "triangles", "smooth_index", "corner_normals",
-                                                    "transforms", "flip", "material", "material_row")] + \
-               [("triangle_count", ctypes.c_double), ("placements", ctypes.c_double), ("first_prim", ctypes.c_double),
-                ("owner", ctypes.c_void_p), ("attribute_row", ctypes.c_void_p)]
-
-
-class GeometryRecord(ctypes.Structure):
-    """Every triangle of the scene (triangles.c GeometryTables)."""
-
-    _fields_ = [(name, ctypes.c_void_p) for name in ("vertices", "triangles", "face_normals", "material",
-                                                    "smooth_index", "corner_normals", "meshes")] + \
-               [("instanced", ctypes.c_double)] + \
-               [(name, ctypes.c_void_p) for name in ("attributes", "attribute_row", "instance", "instance_random",
-                                                    "instance_linear")] + [("attribute_width", ctypes.c_double),
-                                                                           ("hidden", ctypes.c_void_p)]
+GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (core/geometry/tables.py).", [
+    ("vertices", ptr(F32), "(v, 3) camera-relative points of the copied triangles"),
+    ("triangles", ptr(I32), "(t, 3)"),
+    ("face_normals", ptr(F64), "(t, 3) unit front-side normals"),
+    ("material", ptr(I32), "(t,) material row"),
+    ("smooth_index", ptr(I32), "(t,) row of corner_normals, -1 flat; NULL when nothing is smooth"),
+    ("corner_normals", ptr(F32), "(s, 3, 3) world unit corner normals"),
+    ("meshes", ptr("InstancedTables"), "the instanced meshes, Embree geometry 1 .. instanced"),
+    ("instanced", I64, ""),
+    ("attributes", ptr(F32), "(r, 3, A) per-corner attributes the node graphs read, or NULL"),
+    ("attribute_row", ptr(I32), "(t,) row of `attributes` per copied triangle"),
+    ("instance", ptr(I32), "(t,) Scene.instances index per copied triangle"),
+    ("instance_random", ptr(F64), "(n,) each instance's random number"),
+    ("instance_linear", ptr(F64), "(n, 3, 3) each instance's linear transform"),
+    ("attribute_width", I64, "A"),
+    ("hidden", ptr(U8), "(n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides"),
+])
 
 
 class GeometryTables:
@@ -39,43 +52,36 @@ class GeometryTables:
     def __init__(self, geometry):
         c = library.contiguous
         smooth = len(geometry.corner_normals) > 0
-        self.arrays = [c(geometry.vertices, np.float32), c(geometry.triangles, np.int32),
-                       c(geometry.face_normals, np.float64), c(geometry.material, np.int32),
-                       c(geometry.smooth_index, np.int32) if smooth else None,
-                       c(geometry.corner_normals, np.float32) if smooth else None]
         self.meshes = (InstancedRecord * max(1, len(geometry.instanced)))()
         for index, mesh in enumerate(geometry.instanced):
-            arrays = [c(mesh.vertices, np.float32), c(mesh.triangles, np.int32), c(mesh.smooth_index, np.int32),
-                      c(mesh.corner_normals, np.float64).reshape(-1, 3, 3), c(mesh.transforms, np.float32),
-                      c(mesh.flip, np.float32), c(mesh.material, np.int32), c(mesh.material_row, np.int32)]
-            self.arrays += arrays
             record = self.meshes[index]
-            for (name, _), array in zip(InstancedRecord._fields_, arrays):
-                setattr(record, name, array.ctypes.data)
-            record.triangle_count, record.placements = float(len(mesh.triangles)), float(len(mesh.transforms))
-            record.first_prim = float(mesh.first_prim)
-            own = [c(mesh.owner, np.int32)] + ([c(mesh.attribute_row, np.int32)] if mesh.attribute_row is not None else [])
-            self.arrays += own
-            record.owner = own[0].ctypes.data
-            record.attribute_row = own[1].ctypes.data if len(own) > 1 else None
-        self.record = GeometryRecord(*[None if a is None else a.ctypes.data for a in self.arrays[:6]],
-                                     ctypes.addressof(self.meshes), float(len(geometry.instanced)))
-        # What node graphs read: the attributes, each copied triangle's row and instance, the instances'
-        # random numbers and transforms.
-        shading = [None if geometry.attributes is None else c(geometry.attributes, np.float32),
-                   c(geometry.attribute_row, np.int32) if len(geometry.attribute_row) else None,
-                   c(geometry.instance, np.int32) if len(geometry.instance) else None,
-                   c(geometry.instance_random, np.float64) if len(geometry.instance_random) else None,
-                   c(geometry.instance_linear, np.float64) if len(geometry.instance_linear) else None]
-        self.arrays += shading
-        for name, array in zip(("attributes", "attribute_row", "instance", "instance_random", "instance_linear"), shading):
-            setattr(self.record, name, None if array is None else array.ctypes.data)
-        self.record.attribute_width = float(geometry.attributes.shape[2]) if geometry.attributes is not None else 0.0
+            for name, array in (("vertices", c(mesh.vertices, np.float32)), ("triangles", c(mesh.triangles, np.int32)),
+                                ("smooth_index", c(mesh.smooth_index, np.int32)),
+                                ("corner_normals", c(mesh.corner_normals, np.float64).reshape(-1, 3, 3)),
+                                ("transforms", c(mesh.transforms, np.float32)), ("flip", c(mesh.flip, np.float32)),
+                                ("material", c(mesh.material, np.int32)),
+                                ("material_row", c(mesh.material_row, np.int32)), ("owner", c(mesh.owner, np.int32)),
+                                ("attribute_row", None if mesh.attribute_row is None
+                                 else c(mesh.attribute_row, np.int32))):
+                setattr(record, name, array)
+            record.triangle_count, record.placements = len(mesh.triangles), len(mesh.transforms)
+            record.first_prim = int(mesh.first_prim)
+        self.record = GeometryRecord(
+            vertices=c(geometry.vertices, np.float32), triangles=c(geometry.triangles, np.int32),
+            face_normals=c(geometry.face_normals, np.float64), material=c(geometry.material, np.int32),
+            smooth_index=c(geometry.smooth_index, np.int32) if smooth else None,
+            corner_normals=c(geometry.corner_normals, np.float32) if smooth else None,
+            meshes=self.meshes, instanced=len(geometry.instanced),
+            # What node graphs read: the attributes, each copied triangle's row and instance, the instances'
+            # random numbers and transforms.
+            attributes=None if geometry.attributes is None else c(geometry.attributes, np.float32),
+            attribute_row=c(geometry.attribute_row, np.int32) if len(geometry.attribute_row) else None,
+            instance=c(geometry.instance, np.int32) if len(geometry.instance) else None,
+            instance_random=c(geometry.instance_random, np.float64) if len(geometry.instance_random) else None,
+            instance_linear=c(geometry.instance_linear, np.float64) if len(geometry.instance_linear) else None,
+            attribute_width=geometry.attributes.shape[2] if geometry.attributes is not None else 0)
         # Which rays each instance hides from, where some object hides (Ray Visibility); the copied triangles'
         # instances are needed to find a hit's object then.
         if len(geometry.instance_hidden):
-            hidden = [c(geometry.instance_hidden, np.uint8),
-                      c(geometry.instance, np.int32) if len(geometry.instance) else None]
-            self.arrays += hidden
-            self.record.hidden = hidden[0].ctypes.data
-            self.record.instance = None if hidden[1] is None else hidden[1].ctypes.data
+            self.record.hidden = c(geometry.instance_hidden, np.uint8)
+            self.record.instance = c(geometry.instance, np.int32) if len(geometry.instance) else None

@@ -5,43 +5,6 @@
  * core/geometry/instancing.py). Either way, shading gets the triangle's camera-relative corners,
  * its face normal, its material row and, on smooth triangles, its corner normals. */
 
-/* One instanced mesh (core/geometry/instancing.py InstancedMesh), as core/geometry/tables.py lays it out. */
-typedef struct {
-    const float *vertices;          /* (v, 3) object-space points */
-    const int32_t *triangles;       /* (t, 3) */
-    const int32_t *smooth_index;    /* (t,) row of corner_normals, -1 on flat triangles */
-    const double *corner_normals;   /* (s, 3, 3) object-space unit corner normals */
-    const float *transforms;        /* (k, 3, 4) camera-relative [L | T] per placement */
-    const float *flip;              /* (k,) sign of det L */
-    const int32_t *material;        /* (r, t) material row per triangle, one row per slot table */
-    const int32_t *material_row;    /* (k,) the row of `material` each placement uses */
-    double triangle_count;          /* t */
-    double placements;              /* k */
-    double first_prim;              /* WorldGeometry's flat index of placement 0's triangle 0 */
-    const int32_t *owner;           /* (k,) Scene.instances index per placement */
-    const int32_t *attribute_row;   /* (t,) row of GeometryTables.attributes per triangle, or NULL */
-} InstancedTables;
-
-/* Every triangle of the scene (core/geometry/tables.py `geometry_tables`). */
-typedef struct {
-    const float *vertices;          /* (v, 3) camera-relative points of the copied triangles */
-    const int32_t *triangles;       /* (t, 3) */
-    const double *face_normals;     /* (t, 3) unit front-side normals */
-    const int32_t *material;        /* (t,) material row */
-    const int32_t *smooth_index;    /* (t,) row of corner_normals, -1 flat; NULL when nothing is smooth */
-    const float *corner_normals;    /* (s, 3, 3) world unit corner normals */
-    const InstancedTables *meshes;  /* the instanced meshes, Embree geometry 1 .. instanced */
-    double instanced;
-    /* What node graphs read (WorldGeometry.attributes ...): NULL / 0 where no material needs them. */
-    const float *attributes;        /* (r, 3, A) per-corner attributes */
-    const int32_t *attribute_row;   /* (t,) row of `attributes` per copied triangle */
-    const int32_t *instance;        /* (t,) Scene.instances index per copied triangle */
-    const double *instance_random;  /* (n,) each instance's random number */
-    const double *instance_linear;  /* (n, 3, 3) each instance's linear transform */
-    double attribute_width;         /* A */
-    const uint8_t *hidden;          /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
-} GeometryTables;
-
 /* The rays an object may hide from (geometry.HIDDEN_FROM_*: Ray Visibility > Camera, Shadow, Diffuse, Glossy,
  * Transmission off), and in the same flags whether it is a holdout (geometry.HOLDOUT). */
 enum { HIDDEN_FROM_CAMERA = 1, HIDDEN_FROM_SHADOW = 2, HIDDEN_FROM_DIFFUSE = 4, HIDDEN_FROM_GLOSSY = 8,
@@ -200,7 +163,6 @@ INLINE void surface_at(const double *O, const double *D, double t, double u, dou
     }
 }
 
-#define MAX_ATTRIBUTES 64           /* core/materials/graph.py MAX_ATTRIBUTES */
 
 /* What a material's node graph reads at one hit (core/materials/graph.py ShadingPoint). */
 typedef struct {
@@ -263,7 +225,7 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
 /* normals.face_normals: each triangle's unit normal (e1 x e2 normalised, zero where degenerate) and
  * area (0.5 |e1 x e2|, 0 where not finite). vertices (v, 3) float64, triangles (t, 3) int64 ->
  * normals (t, 3), area (t,) float64. */
-EXPORT void primer_face_normals(int64_t t, const double *vertices, const int64_t *triangles, double *normals,
+static void face_normals_rows(int64_t t, const double *vertices, const int64_t *triangles, double *normals,
                                 double *area)
 {
     for (int64_t i = 0; i < t; i++) {
@@ -282,7 +244,7 @@ EXPORT void primer_face_normals(int64_t t, const double *vertices, const int64_t
 /* geometry._place_copies' corner normals turned by the inverse transpose, N' = N M^-1 (row vectors),
  * normalised. corners (., 3, 3) float64, rows (n,) int64 the triangles' rows in it; inverse (p, 3, 3)
  * float64, placement (n,) int64 -> out (n, 3, 3) float64. */
-EXPORT void primer_turn_normals(int64_t n, const double *corners, const int64_t *rows, const double *inverse,
+static void turn_normals_rows(int64_t n, const double *corners, const int64_t *rows, const double *inverse,
                                 const int64_t *placement, double *out)
 {
     for (int64_t i = 0; i < n; i++) {

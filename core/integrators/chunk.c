@@ -4,47 +4,6 @@
  * of spp samples each, BLOCK camera samples at a time: each block's rays, hits, surfaces and shadow
  * rays live in the cache and on the stack, and its samples go straight into their pixels' sums. */
 
-enum { INTEGRATOR_DIRECT = 0, INTEGRATOR_PATH = 1 };
-
-/* Everything a chunk reads, made once per render by core/integrators/compiled.py (`chunk_params`). */
-typedef struct {
-    const CameraRecord *camera;
-    const GeometryTables *geometry;
-    const LightRecord *lights;
-    const MaterialRecord *materials;
-    const ShadowSettings *shadows;
-    void *intersect8, *occluded8, *scene;        /* Embree's packet queries and the RTCScene */
-    const LightContext *light_context;           /* the emitters' and the world's tables */
-    const GraphTables *graphs;                   /* the materials' node-graph programs, or NULL (graph.c) */
-    double light_count;
-    double integrator;                           /* INTEGRATOR_* */
-    double sampling;                             /* SAMPLE_*: how lights with extent are found */
-    double bsdf_rays;                            /* 1: one BSDF-sampled ray per hit finds lights with extent */
-    double emissive;                             /* 1: some material emits */
-    double everywhere;                           /* 1: every hit traces a BSDF ray, else glossy hits only */
-    double transparent;                          /* 1: the film is transparent (the world is not drawn) */
-    double width, height, seed;
-    double background[4];                        /* RGBA of a camera ray that misses */
-    double luminance[3];                         /* adaptive sampling's luminance weights */
-    double want_squares;                         /* 1: sum squared luminance and alpha (adaptive sampling) */
-    double max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, roulette_from;   /* path.c */
-    double transparent_bounces;                  /* a path's limit of transparent bounces */
-    double see_through;                          /* 1: some material lets light through (Transparent, alpha) */
-    double caustics;                             /* FILTER_* bits after a diffuse bounce (path.caustics_bits) */
-    double clamp_direct, clamp_indirect;         /* sample clamping's caps (clamp.limits; inf: none) */
-    double light_passes;                         /* 1: sum the light passes (lightpasses.c) into ChunkOut.light */
-} ChunkParams;
-
-/* What a chunk adds up: per pixel, and for the render's statistics. */
-typedef struct {
-    double *rgba;               /* (p, 4) sums of the samples' RGBA */
-    double *squares;            /* (p, 2) sums of squared luminance and alpha, or NULL */
-    int64_t *hits;              /* (p,) samples that hit a surface */
-    int64_t counts[2];          /* camera rays traced, shadow rays traced */
-    double seconds[3];          /* inside Embree's nearest-hit queries, its occlusion queries, shading */
-    double *light;              /* (p, LIGHT_CHANNELS) sums of the light passes, or NULL */
-} ChunkOut;
-
 /* Step 2: the block's nearest hits, 8 rays at a time; the rays that hit kept, with their surfaces. */
 INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHits *H, int64_t *traced,
                        uint64_t *embree)
@@ -131,7 +90,7 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
                          params->geometry, params->materials, (int)params->sampling == SAMPLE_MIS && params->bsdf_rays != 0.0,
                          (int)params->sampling, params->bsdf_rays != 0.0, params->emissive != 0.0,
                          params->everywhere != 0.0, params->seed, 0,
-                         params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHTS, NULL, params->graphs,
+                         params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHT, NULL, params->graphs,
                          NULL, (int)params->caustics, {params->clamp_direct, params->clamp_indirect},
                          params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY, 0};
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
@@ -162,7 +121,7 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
         }
         choose_bsdf_rays(H, &ds);
         int64_t rays = direct_light(H, &ds, embree);
-        if (ds.bsdf_rays && ds.sampling != SAMPLE_LIGHTS) embree[1] += bsdf_rays(H, &ds);
+        if (ds.bsdf_rays && ds.sampling != SAMPLE_LIGHT) embree[1] += bsdf_rays(H, &ds);
         if (ds.light_passes) add_light_passes(H, work);     /* (all of it direct: the camera's hits) */
         return rays;
     }
@@ -190,7 +149,7 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
 /* Render spp samples in each of p pixels: samples first[k] .. first[k] + spp - 1 of pixel k's pattern.
  * pixels, first: (p,) int64. Out: the pixels' sums (out->rgba, squares, hits, zeroed here first) and
  * the chunk's counts and seconds (added to). */
-EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels, const int64_t *first, int64_t p,
+static void render_chunk(const ChunkParams *params, const int64_t *pixels, const int64_t *first, int64_t p,
                                 int64_t spp, ChunkOut *out)
 {
     int64_t width = (int64_t)params->width, height = (int64_t)params->height, total = p * spp;
@@ -274,5 +233,3 @@ EXPORT void primer_render_chunk(const ChunkParams *params, const int64_t *pixels
     for (int i = 0; i < 3; i++) out->seconds[i] += (double)spent[i] * scale;
 }
 
-EXPORT int64_t primer_chunk_params_size(void) { return (int64_t)sizeof(ChunkParams); }
-EXPORT int64_t primer_chunk_out_size(void) { return (int64_t)sizeof(ChunkOut); }

@@ -8,8 +8,6 @@ the materials, the shadow settings, Embree's packet queries, and the film's back
 """
 from __future__ import annotations
 
-import ctypes
-
 import numpy as np
 
 from ..camera import camera as camera_
@@ -17,81 +15,117 @@ from ..film import adaptive
 from ..film.film import ChunkSums
 from ..geometry.tables import GeometryTables
 from ..lights import LightRecord
+from ..lights.base import LightContext
 from ..materials import MAX_CLOSURES, NODE_PARAMS, PARAMS
 from ..materials.graph import graph_tables
-from ..native import library
+from ..native import library, schema
+from ..native.schema import F64, I32, I64, out, ptr
 from . import lightpasses
 from .base import Context
+from .shadows import ShadowSettings
 
-# The integrators the C code knows (chunk.c INTEGRATOR_*).
-COMPILED_INTEGRATORS = {"direct": 0, "path": 1}
+# The integrators the C code knows (INTEGRATOR_*), and how it finds lights with extent (SAMPLE_*: light_sampling).
+COMPILED_INTEGRATORS = schema.constants("INTEGRATOR", ("direct", "path"), "the integrators with a compiled twin")
+schema.table("INTEGRATOR", lambda: list(COMPILED_INTEGRATORS))
+SAMPLING = schema.constants("SAMPLE", ("mis", "light", "bsdf"), "RenderSettings.light_sampling")
 
-ShadowSettings = library.record("ShadowSettings", ["robust", "epsilon", "terminator_fix", "terminator_offset", "seed"],
-                                size_function="primer_shadow_settings_size")
-MaterialRecord = library.record("MaterialRecord", [
-    "n", "program", "graph", ("kind", MAX_CLOSURES), ("weight", 3 * MAX_CLOSURES), ("sample_weight", MAX_CLOSURES),
-    ("p", NODE_PARAMS * MAX_CLOSURES), ("emission", 3), ("transparency", 3), "shadow_opaque", "may_pass",
-    "graph_emits"],
-    size_function="primer_material_record_size")
+MaterialRecord = schema.record("MaterialRecord", """One material of the scene's MaterialTable. program 0: a ConstantShader, n closures the same at
+every hit but for their normal (kind: BSDF_*). program 1: a NodeShader, n shader nodes (kind: NODE_*, weight, p:
+the node's inputs) set up per hit (nodes.c); graph: 0, or 1 + its node graph's program in the render's
+GraphTables (graph.c), which overwrites inputs per hit.""", [
+    ("n", I32, "closures or nodes"),
+    ("program", I32, "0: closures; 1: shader nodes"),
+    ("graph", I32, "0, or 1 + its program in GraphTables"),
+    ("kind", I32, MAX_CLOSURES, "BSDF_* (program 0) or NODE_* (program 1)"),
+    ("weight", F64, (MAX_CLOSURES, 3), ""),
+    ("sample_weight", F64, MAX_CLOSURES, ""),
+    ("p", F64, (MAX_CLOSURES, NODE_PARAMS), "a closure's CLOSURE_PARAMS, or a node's NODE_PARAMS inputs"),
+    ("emission", F64, 3, ""),
+    ("transparency", F64, 3, ""),
+    ("shadow_opaque", I32, "1: opaque to shadow rays even where it lets light through (Transparent Shadows off)"),
+    ("may_pass", I32, "1: it may let light through somewhere (a Transparent node, alpha)"),
+    ("graph_emits", I32, "1: its node graph gives its emission (a texture): evaluated where light lands"),
+], tables=("BSDF", "NODE"))
 
+ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once per render (core/integrators/compiled.py).", [
+    ("camera", ptr("CameraRecord"), ""),
+    ("geometry", ptr("GeometryTables"), ""),
+    ("lights", ptr("LightRecord"), "(light_count,)"),
+    ("materials", ptr("MaterialRecord"), "(m + 1,) the MaterialTable's rows"),
+    ("shadows", ptr("ShadowSettings"), ""),
+    ("intersect8", out(), "Embree's packet queries and the RTCScene"),
+    ("occluded8", out(), ""),
+    ("scene", out(), ""),
+    ("light_context", ptr("LightContext"), "the emitters' and the world's tables"),
+    ("graphs", ptr("GraphTables"), "the materials' node-graph programs, or NULL (graph.c)"),
+    ("light_count", I64, ""),
+    ("integrator", I32, "INTEGRATOR_*"),
+    ("sampling", I32, "SAMPLE_*: how lights with extent are found"),
+    ("bsdf_rays", I32, "1: one BSDF-sampled ray per hit finds lights with extent"),
+    ("emissive", I32, "1: some material emits"),
+    ("everywhere", I32, "1: every hit traces a BSDF ray, else glossy hits only"),
+    ("transparent", I32, "1: the film is transparent (the world is not drawn)"),
+    ("width", I64, ""),
+    ("height", I64, ""),
+    ("seed", I64, "the sampling pattern's seed"),
+    ("background", F64, 4, "RGBA of a camera ray that misses"),
+    ("luminance", F64, 3, "adaptive sampling's luminance weights"),
+    ("want_squares", I32, "1: sum squared luminance and alpha (adaptive sampling)"),
+    ("max_bounces", I32, "path.c's bounce limits (RenderSettings)"),
+    ("diffuse_bounces", I32, ""),
+    ("glossy_bounces", I32, ""),
+    ("transmission_bounces", I32, ""),
+    ("roulette_from", I32, "the first vertex Russian roulette may end"),
+    ("transparent_bounces", I32, "a path's limit of transparent bounces"),
+    ("see_through", I32, "1: some material lets light through (Transparent, alpha)"),
+    ("caustics", I32, "FILTER_* bits after a diffuse bounce (path.caustics_bits)"),
+    ("clamp_direct", F64, "sample clamping's caps (clamp.limits; inf: none)"),
+    ("clamp_indirect", F64, ""),
+    ("light_passes", I32, "1: sum the light passes (lightpasses.c) into ChunkOut.light"),
+], tables=("INTEGRATOR",))
 
-class LightContext(ctypes.Structure):
-    """The emitters' and the world's tables (lights.h LightContext)."""
+ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for the render's statistics.", [
+    ("rgba", out(F64), "(p, 4) sums of the samples' RGBA"),
+    ("squares", out(F64), "(p, 2) sums of squared luminance and alpha, or NULL"),
+    ("hits", out(I64), "(p,) samples that hit a surface"),
+    ("counts", I64, 2, "camera rays traced, shadow rays traced"),
+    ("seconds", F64, 3, "inside Embree's nearest-hit queries, its occlusion queries, shading"),
+    ("light", out(F64), "(p, LIGHT_CHANNELS) sums of the light passes, or NULL"),
+])
 
-    _fields_ = [("emitters", ctypes.c_void_p), ("world", ctypes.c_void_p)]
-
-
-class ChunkParams(ctypes.Structure):
-    """Everything a chunk reads (chunk.c ChunkParams)."""
-
-    _fields_ = ([(name, ctypes.c_void_p) for name in ("camera", "geometry", "lights", "materials", "shadows",
-                                                      "intersect8", "occluded8", "scene", "light_context", "graphs")]
-                + [(name, ctypes.c_double) for name in ("light_count", "integrator", "sampling", "bsdf_rays",
-                                                        "emissive", "everywhere", "transparent", "width", "height", "seed")]
-                + [("background", ctypes.c_double * 4), ("luminance", ctypes.c_double * 3),
-                   ("want_squares", ctypes.c_double)]
-                + [(name, ctypes.c_double) for name in ("max_bounces", "diffuse_bounces", "glossy_bounces",
-                                                        "transmission_bounces", "roulette_from",
-                                                        "transparent_bounces", "see_through", "caustics",
-                                                        "clamp_direct", "clamp_indirect", "light_passes")])
-    _size_function = "primer_chunk_params_size"
-
-
-class ChunkOut(ctypes.Structure):
-    """What a chunk adds up (chunk.c ChunkOut)."""
-
-    _fields_ = [("rgba", ctypes.c_void_p), ("squares", ctypes.c_void_p), ("hits", ctypes.c_void_p),
-                ("counts", ctypes.c_int64 * 2), ("seconds", ctypes.c_double * 3), ("light", ctypes.c_void_p)]
-    _size_function = "primer_chunk_out_size"
+ChunkArgs = schema.function("primer_render_chunk", "render_chunk", schema.record("ChunkArgs", "primer_render_chunk's arguments: spp samples in each of p pixels.", [
+    ("params", ptr("ChunkParams"), ""),
+    ("pixels", ptr(I64), "(p,) the pixels' flat indices"),
+    ("first", ptr(I64), "(p,) each pixel's first sample of its pattern"),
+    ("p", I64, ""),
+    ("spp", I64, ""),
+    ("out", out("ChunkOut"), "the sums (zeroed first), the counts and seconds (added to)"),
+]))
 
 
 def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
     """Return the C record of a material: a ConstantShader's closures, or a NodeShader's nodes (program 1);
     shadow_opaque: it blocks shadow rays even where it lets light through (Transparent Shadows off)."""
-    record = MaterialRecord()
-    record.shadow_opaque = 1.0 if shadow_opaque else 0.0
-    record.may_pass = 1.0 if shader.may_let_light_through else 0.0
-    record.graph_emits = 1.0 if getattr(shader, "graph_emits", False) else 0.0
+    record = MaterialRecord(shadow_opaque=shadow_opaque, may_pass=shader.may_let_light_through,
+                            graph_emits=bool(getattr(shader, "graph_emits", False)))
+    kind, weight = np.zeros(MAX_CLOSURES, np.int32), np.zeros((MAX_CLOSURES, 3))
+    p = np.zeros((MAX_CLOSURES, NODE_PARAMS))
     if hasattr(shader, "nodes"):
         k = len(shader.nodes)
-        record.n, record.program = float(k), 1.0
-        record.kind[:k] = [float(node.kind) for node, _, _ in shader.nodes]
+        record.program = 1
+        kind[:k] = [node.kind for node, _, _ in shader.nodes]
         if k:
-            record.weight[:3 * k] = np.concatenate([w for _, w, _ in shader.nodes]).tolist()
-            record.p[:NODE_PARAMS * k] = np.concatenate([p for _, _, p in shader.nodes]).tolist()
-        record.emission[:] = np.asarray(shader.emission, np.float64).tolist()
-        record.transparency[:] = np.asarray(shader.transparency, np.float64).tolist()
-        return record
-    k = len(shader.kinds)
-    record.n = float(k)
-    record.kind[:k] = [float(x) for x in shader.kinds]
-    record.weight[:3 * k] = np.asarray(shader.weights, np.float64).ravel().tolist()
-    record.sample_weight[:k] = np.asarray(shader.sample_weights, np.float64).tolist()
-    rows = np.zeros((k, NODE_PARAMS))                    # a closure's PARAMS, in a record's row of NODE_PARAMS
-    rows[:, :PARAMS] = np.asarray(shader.params, np.float64).reshape(k, PARAMS)
-    record.p[:NODE_PARAMS * k] = rows.ravel().tolist()
-    record.emission[:] = np.asarray(shader.emission, np.float64).tolist()
-    record.transparency[:] = np.asarray(shader.transparency, np.float64).tolist()
+            weight[:k] = [w for _, w, _ in shader.nodes]
+            p[:k] = [row for _, _, row in shader.nodes]
+    else:
+        k = len(shader.kinds)
+        kind[:k] = shader.kinds
+        weight[:k] = np.asarray(shader.weights, np.float64).reshape(k, 3)
+        record.sample_weight = np.concatenate([np.asarray(shader.sample_weights, np.float64), np.zeros(MAX_CLOSURES - k)])
+        p[:k, :PARAMS] = np.asarray(shader.params, np.float64).reshape(k, PARAMS)   # a closure's PARAMS in its row
+    record.n, record.kind, record.weight, record.p = k, kind, weight, p
+    record.emission = np.asarray(shader.emission, np.float64)
+    record.transparency = np.asarray(shader.transparency, np.float64)
     return record
 
 
@@ -121,9 +155,10 @@ class Compiled:
     """
 
     def __init__(self, ctx: Context, background: np.ndarray):
+        from ..lights.world import WorldTables
+        from .clamp import limits
+        from .path import caustics_bits, roulette_from
         s = ctx.settings
-        for struct in (LightRecord, ShadowSettings, MaterialRecord, ChunkParams, ChunkOut):
-            library.check_size(struct)
         geometry = ctx.geometry
         self.tracer = geometry.tracer
         packets = self.tracer.packets
@@ -136,51 +171,32 @@ class Compiled:
         # Materials with node graphs: their programs, and each record's program number (+ 1).
         self.graphs = graph_tables(ctx.materials, geometry.attribute_layout)
         for row, index in (self.graphs.rows.items() if self.graphs is not None else ()):
-            self.materials[row].graph = float(index + 1)
-        self.shadows = ShadowSettings(1.0 if s.shadow_method == "robust" else 0.0, float(s.epsilon),
-                                      1.0 if s.terminator_fix else 0.0, float(s.terminator_offset), float(s.seed))
-        params = ChunkParams()
-        params.camera, params.geometry = ctypes.addressof(self.camera), ctypes.addressof(self.tables.record)
-        params.lights, params.materials = ctypes.addressof(self.lights), ctypes.addressof(self.materials)
-        params.shadows = ctypes.addressof(self.shadows)
-        params.graphs = self.graphs.pointer if self.graphs is not None else None
-        params.intersect8, params.occluded8, params.scene = packets.intersect8, packets.occluded8, packets.scene
+            self.materials[row].graph = index + 1
+        self.shadows = ShadowSettings(robust=s.shadow_method == "robust", epsilon=s.epsilon,
+                                      terminator_fix=s.terminator_fix, terminator_offset=s.terminator_offset)
         # The emissive meshes' and the world's tables (their records in self.lights say only how often).
-        from ..lights.world import WorldTables
         emitters = ctx.extra.get("emitters")
         self.emitter_tables = emitters.tables() if emitters is not None else None
         self.world_tables = WorldTables(ctx.extra["world_light"], ctx.extra.get("world_sampler"))
-        self.context = LightContext(ctypes.addressof(self.emitter_tables.record) if emitters is not None else None,
-                                    ctypes.addressof(self.world_tables.record))
-        params.light_context = ctypes.addressof(self.context)
-        params.light_count = float(len(ctx.lights))
-        params.integrator = float(COMPILED_INTEGRATORS[s.integrator])
-        params.sampling = float(("mis", "light", "bsdf").index(s.light_sampling))
-        params.bsdf_rays = 1.0 if ctx.extra.get("bsdf_rays") else 0.0
-        params.emissive = 1.0 if ctx.extra.get("emissive") else 0.0
-        params.everywhere = 1.0 if ctx.extra.get("bsdf_everywhere") else 0.0
-        params.transparent = 1.0 if s.transparent_background else 0.0
-        params.width, params.height = float(s.width), float(s.height)
-        params.background[:] = [float(x) for x in background]
-        params.luminance[:] = adaptive.LUMINANCE.tolist()
-        params.want_squares = 1.0 if s.adaptive else 0.0
-        params.max_bounces, params.diffuse_bounces = float(s.max_bounces), float(s.diffuse_bounces)
-        params.glossy_bounces, params.transmission_bounces = float(s.glossy_bounces), float(s.transmission_bounces)
-        from .path import roulette_from
-        params.roulette_from = float(roulette_from(s))
-        params.transparent_bounces = float(s.transparent_max_bounces)
-        params.see_through = 1.0 if ctx.extra.get("transparent") else 0.0
-        from .clamp import limits
-        from .path import caustics_bits
-        params.caustics = float(caustics_bits(s))
-        params.clamp_direct, params.clamp_indirect = limits(s)
+        self.context = LightContext(emitters=self.emitter_tables.record if emitters is not None else None,
+                                    world=self.world_tables.record)
+        direct_cap, indirect_cap = limits(s)
         self.light_passes = lightpasses.wanted(s.passes)
-        params.light_passes = 1.0 if self.light_passes else 0.0
-        self.params = params
+        self.params = ChunkParams(
+            camera=self.camera, geometry=self.tables.record, lights=self.lights, materials=self.materials,
+            shadows=self.shadows, graphs=self.graphs.record if self.graphs is not None else None,
+            intersect8=packets.intersect8, occluded8=packets.occluded8, scene=packets.scene,
+            light_context=self.context, light_count=len(ctx.lights), integrator=COMPILED_INTEGRATORS[s.integrator],
+            sampling=SAMPLING[s.light_sampling], bsdf_rays=bool(ctx.extra.get("bsdf_rays")),
+            emissive=bool(ctx.extra.get("emissive")), everywhere=bool(ctx.extra.get("bsdf_everywhere")),
+            transparent=s.transparent_background, width=s.width, height=s.height,
+            background=np.asarray(background, np.float64), luminance=adaptive.LUMINANCE, want_squares=s.adaptive,
+            max_bounces=s.max_bounces, diffuse_bounces=s.diffuse_bounces, glossy_bounces=s.glossy_bounces,
+            transmission_bounces=s.transmission_bounces, roulette_from=roulette_from(s),
+            transparent_bounces=s.transparent_max_bounces, see_through=bool(ctx.extra.get("transparent")),
+            caustics=caustics_bits(s), clamp_direct=direct_cap, clamp_indirect=indirect_cap,
+            light_passes=self.light_passes)
         self.want_squares = bool(s.adaptive)
-        self._render = library.function("primer_render_chunk", None,
-                                        [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64,
-                                         ctypes.c_int64, ctypes.c_void_p])
 
     @staticmethod
     def applies(ctx: Context) -> bool:
@@ -193,14 +209,15 @@ class Compiled:
         pixels = library.contiguous(pixels, np.int64)
         first = library.contiguous(first, np.int64)
         rgba, squares, hits = np.empty((p, 4)), (np.empty((p, 2)) if self.want_squares else None), np.empty(p, np.int64)
-        params = ChunkParams.from_buffer_copy(self.params)
-        params.seed = float(seed)
-        out = ChunkOut(rgba.ctypes.data, None if squares is None else squares.ctypes.data, hits.ctypes.data)
+        params = self.params.copy()
+        params.seed = int(seed)
+        out = ChunkOut(rgba=rgba, squares=squares, hits=hits)
         aux = {}
         if self.light_passes:               # the light passes' sums (core/integrators/lightpasses.py)
             aux[lightpasses.FILM_BUFFER] = light = np.empty((p, lightpasses.FILM_CHANNELS))
-            out.light = light.ctypes.data
-        self._render(ctypes.addressof(params), pixels.ctypes.data, first.ctypes.data, p, int(spp), ctypes.addressof(out))
+            out.light = light
+        library.call("primer_render_chunk", ChunkArgs(params=params, pixels=pixels, first=first, p=p, spp=int(spp),
+                                                      out=out))
         self.tracer.count_intersect(out.seconds[0])
         self.tracer.count_occluded(out.seconds[1])
         return ChunkSums(rgba, squares if squares is not None else np.zeros((p, 2)), hits, aux, int(out.counts[0]),

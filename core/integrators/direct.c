@@ -388,8 +388,7 @@ INLINE double power_heuristic(double a, double b)
     return w == w ? w : 0.0;
 }
 
-/* How a render finds lights with extent (RenderSettings.light_sampling). */
-enum { SAMPLE_MIS = 0, SAMPLE_LIGHTS = 1, SAMPLE_BSDF = 2 };
+/* How a render finds lights with extent: SAMPLE_* (RenderSettings.light_sampling, core/integrators/compiled.py). */
 
 /* What direct_light reads besides the block's hits. */
 typedef struct {
@@ -610,7 +609,7 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
             if (light->delta == 0.0) {
                 sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + ds->dimension), b.pixel, b.index,
                              b.u[0], b.u[1]);
-                if (light_is((int)light->kind, LIGHT_FLAG_EMITTER)) {     /* (a third number: the pick) */
+                if (light->numbers == 3) {                /* a third number: the pick of one of its parts */
                     double unused[BLOCK];
                     sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + 2 + ds->dimension), b.pixel, b.index,
                                  b.u2, unused);

@@ -2,9 +2,7 @@
  * direction (a light sample's, or a BSDF-sampled ray's), which splits that direction's light between
  * Diffuse, Glossy and Transmission. */
 
-enum { PASS_DIFFUSE = 0, PASS_GLOSSY = 1, PASS_TRANSMISSION = 2, PASS_KINDS = 3 };
-/* The light passes' channels: the three kinds direct, then indirect, RGB each (lightpasses.FILM_CHANNELS). */
-#define LIGHT_CHANNELS 18
+/* PASS_* and LIGHT_CHANNELS (the three kinds direct, then indirect, RGB each) come from lightpasses.py. */
 
 /* lightpasses.closure_kinds for one closure c: its pass kind for light from wi towards wo (-1: none), by its closure
  * type; glass by the side of c's normal the light comes from. */

@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..native import schema
+
 from .. import materials as materials_
 from ..materials.closures import Closures, eval_closures
 
@@ -39,13 +41,14 @@ from ..materials.closures import Closures, eval_closures
 LIGHT_PASSES = ("diffuse_direct", "glossy_direct", "transmission_direct",
                 "diffuse_indirect", "glossy_indirect", "transmission_indirect")
 # The closure kinds the passes split light by; the indirect passes follow the direct ones.
-KINDS = 3
-DIFFUSE, GLOSSY, TRANSMISSION = range(KINDS)
+DIFFUSE, GLOSSY, TRANSMISSION = schema.constants("PASS", ("diffuse", "glossy", "transmission"),
+                                                 "the light passes' kinds of closure").values()
+KINDS = schema.constant("PASS_KINDS", 3, "")
 # The colour pass each light pass is divided by (Cycles' divide_type).
 COLOR_OF = {name: f"{name.split('_')[0]}_color" for name in LIGHT_PASSES}
 # The film's buffer of the light passes' per-pixel sums: 6 passes x RGB.
 FILM_BUFFER = "light_passes"
-FILM_CHANNELS = 3 * len(LIGHT_PASSES)
+FILM_CHANNELS = schema.constant("LIGHT_CHANNELS", 3 * len(LIGHT_PASSES), "the light passes' channels: 6 passes x RGB")
 
 
 def wanted(passes) -> bool:

@@ -2,8 +2,7 @@
  * samples, and a BSDF ray that gathers what it finds); the BSDF rays that hit a surface become the next
  * block of vertices, within the bounce limits and Russian roulette. */
 
-#define VERTEX_DIMENSIONS (1 << 16)        /* path.VERTEX_DIMENSIONS */
-#define ROULETTE_DIMENSION 6               /* path.ROULETTE_DIMENSION */
+/* VERTEX_DIMENSIONS and ROULETTE_DIMENSION come from path.py (core/native/boundary.gen.h). */
 
 /* A path's bounce limits (RenderSettings, Cycles' meaning) and where Russian roulette starts. */
 typedef struct {

@@ -45,6 +45,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import materials as materials_
+from ..native import schema
 from ..materials import graph as graph_
 from ..materials.closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE
 from .. import vectors
@@ -58,9 +59,9 @@ from .direct import DirectLighting, camera_hits, gather_light, goes_through, nea
 from ..geometry.geometry import HIDDEN_FROM_CAMERA, HOLDOUT
 
 # Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
-VERTEX_DIMENSIONS = 1 << 16
+VERTEX_DIMENSIONS = schema.constant("VERTEX_DIMENSIONS", 1 << 16, "each path vertex's shift of the sampling dimensions")
 # The dimension of Russian roulette's number at a vertex (before the shift).
-ROULETTE_DIMENSION = 6
+ROULETTE_DIMENSION = schema.constant("ROULETTE_DIMENSION", 6, "Russian roulette's dimension at a vertex")
 
 
 def roulette_from(settings) -> int:

@@ -1,14 +1,5 @@
 /* Shadow rays: core/integrators/shadows.py. From a point safely off the surface towards a light sample. */
 
-/* How shadow rays leave the surface (RenderSettings' shadow settings). */
-typedef struct {
-    double robust;            /* 1: robust offsets (shadows.robust_rays); 0: the lecture's epsilon */
-    double epsilon;
-    double terminator_fix;    /* 1: lift smooth points (Surface.lifted) */
-    double terminator_offset;
-    double seed;
-} ShadowSettings;
-
 /* The shadow ray of one light sample: shadows.robust_rays when `robust`, else shadows.epsilon_rays,
  * from I (or the terminator fix's blend towards the lifted point) towards the sampled light point.
  * P, ng, lifted: the hit's point, face normal (facing the viewer) and terminator point; offset: its

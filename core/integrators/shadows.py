@@ -39,12 +39,23 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..native import schema
+from ..native.schema import F64, I32
+
 # float32 unit roundoff, and how many of them the robust offset spans. Measured
 # (tests/test_shadows.py scenes, grazing suns down to 0.01 degrees, 1e5 from the
 # origin): acne vanishes from 0.5 units of roundoff on; 8 leaves a 16x margin while
 # keeping the offset ~1e-6 of the coordinates, far below any modelled thickness.
 FLOAT32_EPSILON = 2.0 ** -24
 ROBUST_ULPS = 8.0
+
+# How shadow rays leave the surface, for the compiled kernels (shadows.c).
+ShadowSettings = schema.record("ShadowSettings", "How shadow rays leave the surface (RenderSettings' shadow settings).", [
+    ("robust", I32, "1: robust offsets (robust_rays); 0: the lecture's epsilon"),
+    ("epsilon", F64, ""),
+    ("terminator_fix", I32, "1: lift smooth points (Surface.lifted)"),
+    ("terminator_offset", F64, ""),
+])
 
 
 class ShadowRays(NamedTuple):

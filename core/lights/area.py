@@ -150,9 +150,9 @@ class AreaLight(Light):
         record.direction[:] = np.asarray(self.direction, np.float64).tolist()
         record.axis_u[:] = np.asarray(self.axis_u, np.float64).tolist()
         record.axis_v[:] = np.asarray(self.axis_v, np.float64).tolist()
-        record.ellipse = 1.0 if self.round else 0.0
+        record.ellipse = self.round
         record.area = self.area()
         record.radiance = self.radiance()
         if self.spread < math.pi:
-            record.spread_narrow = 1.0
+            record.spread_narrow = 1
             record.spread_tan_half, record.spread_norm = spread_constants(self.spread)

@@ -29,7 +29,8 @@ from typing import ClassVar, NamedTuple, Optional
 import numpy as np
 
 from .. import vectors
-from ..native import library
+from ..native import library, schema
+from ..native.schema import F64, I32, I64, ptr
 
 INV_4PI = 1.0 / (4.0 * math.pi)
 
@@ -97,14 +98,46 @@ class Cone(NamedTuple):
     d: np.ndarray
 
 
-# The C record of one light (core/lights/lights.h LightRecord): everything that does not depend on
-# the shading point, filled by each light's `pack`. Only doubles, so the layout is the same everywhere.
-LightRecord = library.record("LightRecord", [
-    "kind", "samples", "dimension", "delta", ("color", 3), ("position", 3), ("direction", 3),
-    ("axis_u", 3), ("axis_v", 3), "ellipse", "area", "radiance", "power", "radius", "soft_falloff",
-    "strength", ("sun_t", 3), ("sun_b", 3), "sun_cos_max", "spot_frame", ("spot_inverse", 9),
-    "spot_cos_half", "spot_blend_width", "spread_narrow", "spread_tan_half", "spread_norm", "hittable", "camera"],
-    size_function="primer_light_record_size")
+# The C record of one light: everything that does not depend on the shading point, filled by each light's `pack`.
+LightRecord = schema.record("LightRecord", "One light, prepared by its class's `pack` (core/lights/<name>.py): everything that does not\n"
+                            "depend on the shading point.", [
+    ("kind", I32, "its place in core/lights/__init__.py's LIGHT_TYPES: LIGHT_*"),
+    ("samples", I32, "light samples per camera sample (1 for lights without extent)"),
+    ("dimension", I64, "the sampling dimension of its pattern: 16 + 4 index"),
+    ("numbers", I32, "random numbers per sample: 2, or 3 for a light that picks one of its parts"),
+    ("delta", I32, "1: no extent (exact, one direction)"),
+    ("hittable", I32, "1: rays can meet it (it has extent): BSDF rays find it, weighed by MIS"),
+    ("camera", I32, "1: camera rays see it (Ray Visibility > Camera)"),
+    ("color", F64, 3, "RGB"),
+    ("position", F64, 3, "point and spot: the centre; area: the centre"),
+    ("direction", F64, 3, "spot: unit axis; sun: unit direction towards the sun; area: unit normal"),
+    ("axis_u", F64, 3, "area: the two edge vectors"),
+    ("axis_v", F64, 3, ""),
+    ("ellipse", I32, "area: 1 for DISK and ELLIPSE"),
+    ("soft_falloff", I32, "round lights: 1 for a disk facing the shading point"),
+    ("area", F64, "area: emitting area"),
+    ("radiance", F64, "area: P / (pi A); sphere: P / (4 pi^2 R^2)"),
+    ("power", F64, ""),
+    ("radius", F64, ""),
+    ("strength", F64, "sun: irradiance at normal incidence (delta) or carried by each sample (disk)"),
+    ("sun_t", F64, 3, "sun disk: the cone's frame and half-angle"),
+    ("sun_b", F64, 3, ""),
+    ("sun_cos_max", F64, ""),
+    ("spot_frame", I32, "1: the spot has a (scaled) frame: use spot_inverse"),
+    ("spot_inverse", F64, 9, "world to spot-local, row-major"),
+    ("spot_cos_half", F64, ""),
+    ("spot_blend_width", F64, ""),
+    ("spread_narrow", I32, "area: 1 when spread < pi"),
+    ("spread_tan_half", F64, ""),
+    ("spread_norm", F64, ""),
+], tables=("LIGHT",))
+
+
+LightContext = schema.record("LightContext", "What the lights a render makes of its scene need besides their records.", [
+    ("emitters", ptr("EmitterTables"), "the emissive triangles (core/lights/emitters.py), or NULL"),
+    ("world", ptr("WorldTables"), "the world (core/lights/world.py)"),
+])
+schema.table("LIGHT", lambda: [cls.c_name() for cls in Light.types])
 
 
 class LightFlags(enum.IntFlag):
@@ -156,6 +189,8 @@ class Light:
     # Fields holding points (moved with the camera-relative origin) and the light's output.
     point_fields: ClassVar[tuple] = ()
     output_field: ClassVar[str] = "power"
+    # Random numbers per sample: a direction's two, and a third for a light that picks one of its parts.
+    random_numbers: ClassVar[int] = 2
 
     @property
     def delta(self) -> bool:
@@ -219,15 +254,10 @@ class Light:
 
     def pack(self, index: int, light_samples: int) -> LightRecord:
         """Return the light's C record: the fields every light has, then its own (`pack_fields`)."""
-        library.check_size(LightRecord)
-        record = LightRecord()
-        record.kind = float(self.kind)
-        record.delta = 1.0 if self.delta else 0.0
-        record.samples = 1 if self.delta else max(1, int(light_samples))
-        record.dimension = light_dimension(index)
-        record.color[:] = np.asarray(self.color, np.float64)[:3].tolist()
-        record.hittable = 1.0 if self.hittable else 0.0
-        record.camera = 1.0 if getattr(self, "camera", True) else 0.0
+        record = LightRecord(kind=self.kind, delta=self.delta, samples=1 if self.delta else max(1, int(light_samples)),
+                             dimension=light_dimension(index), numbers=self.random_numbers,
+                             color=np.asarray(self.color, np.float64)[:3], hittable=self.hittable,
+                             camera=bool(getattr(self, "camera", True)))
         self.pack_fields(record)
         return record
 
@@ -277,37 +307,55 @@ def delta_pdf(n: int) -> np.ndarray:
     return np.full(n, np.inf)
 
 
+# The light table's C functions over arrays, for the tests (core/lights/lights.c).
+SampleLightArgs = schema.function("primer_sample_light", "sample_light_rows", schema.record("SampleLightArgs", "primer_sample_light's arguments: Light.sample for n points.", [
+    ("light", ptr("LightRecord"), ""),
+    ("context", ptr("LightContext"), "the emitters' and the world's tables, or NULL"),
+    ("n", I64, ""),
+    ("points", ptr(F64), "(n, 3)"),
+    ("u", ptr(F64), "(n, 3): the unit-square point and a pick"),
+    ("L", schema.out(F64), "(n, 3)"),
+    ("distance", schema.out(F64), "(n,)"),
+    ("strength", schema.out(F64), "(n,)"),
+    ("pdf", schema.out(F64), "(n,)"),
+    ("position", schema.out(F64), "(n, 3)"),
+    ("color", schema.out(F64), "(n, 3)"),
+]))
+LightHitArgs = schema.function("primer_light_hit", "light_hit_rows", schema.record("LightHitArgs", "primer_light_hit's arguments: Light.hit for n rays.", [
+    ("light", ptr("LightRecord"), ""),
+    ("n", I64, ""),
+    ("origins", ptr(F64), "(n, 3)"),
+    ("directions", ptr(F64), "(n, 3)"),
+    ("t_max", ptr(F64), "(n,)"),
+    ("hit", schema.out(schema.U8), "(n,)"),
+    ("t", schema.out(F64), "(n,)"),
+    ("radiance", schema.out(F64), "(n, 3)"),
+    ("pdf", schema.out(F64), "(n,)"),
+]))
+
+
 def compiled_sample(light: Light, points: np.ndarray, u: np.ndarray, context=None) -> LightSample:
-    """Light.sample in C (the light's C file, through core/lights/lights.c's table), for the tests.
+    """Light.sample in C (the light's C file, through the generated light table), for the tests.
 
     context: the compiled LightContext (core/integrators/compiled.py) for emitters and the world.
     """
-    import ctypes
-    P, I64, ptr = library.P, library.I64, library.pointer
     n = len(points)
-    points = library.contiguous(points, np.float64)
     u3 = np.zeros((n, 3))
     u3[:, :u.shape[1]] = u
     L, position, color = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
     distance, strength, pdf = np.empty(n), np.empty(n), np.empty(n)
-    record = light.pack(0, 1)
-    library.function("primer_sample_light", None, [P, P, I64, P, P, P, P, P, P, P, P])(
-        ctypes.byref(record), None if context is None else ctypes.byref(context), n, ptr(points, np.float64),
-        ptr(u3, np.float64), ptr(L, np.float64), ptr(distance, np.float64), ptr(strength, np.float64),
-        ptr(pdf, np.float64), ptr(position, np.float64), ptr(color, np.float64))
+    library.call("primer_sample_light", SampleLightArgs(
+        light=light.pack(0, 1), context=context, n=n, points=library.contiguous(points, np.float64), u=u3, L=L,
+        distance=distance, strength=strength, pdf=pdf, position=position, color=color))
     return LightSample(L, distance, strength, pdf, color, position)
 
 
 def compiled_hit(light: Light, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
-    """Light.hit in C (core/lights/lights.c), for the tests."""
-    import ctypes
-    P, I64, ptr = library.P, library.I64, library.pointer
+    """Light.hit in C (the generated light table), for the tests."""
     n = len(origins)
-    origins, directions = library.contiguous(origins, np.float64), library.contiguous(directions, np.float64)
-    t_max = library.contiguous(t_max, np.float64)
     hit, t, radiance, pdf = np.empty(n, np.uint8), np.empty(n), np.empty((n, 3)), np.empty(n)
-    record = light.pack(0, 1)
-    library.function("primer_light_hit", None, [P, I64, P, P, P, P, P, P, P])(
-        ctypes.byref(record), n, ptr(origins, np.float64), ptr(directions, np.float64), ptr(t_max, np.float64),
-        ptr(hit, np.uint8), ptr(t, np.float64), ptr(radiance, np.float64), ptr(pdf, np.float64))
+    c = library.contiguous
+    library.call("primer_light_hit", LightHitArgs(
+        light=light.pack(0, 1), n=n, origins=c(origins, np.float64), directions=c(directions, np.float64),
+        t_max=c(t_max, np.float64), hit=hit, t=t, radiance=radiance, pdf=pdf))
     return LightHit(hit.astype(bool), t, radiance, pdf)

@@ -30,6 +30,8 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from .. import vectors
+from ..native import library, schema
+from ..native.schema import F64, I32, I64, U8, out, ptr
 from .base import Light, LightFlags, LightSample
 from .light_tree import LightTree
 
@@ -69,7 +71,7 @@ class MeshEmitters(Light):
 
     flags: ClassVar[LightFlags] = LightFlags.EMITTER
     blender_type: ClassVar[str] = "MESH"
-    random_numbers: ClassVar[int] = 3
+    random_numbers: ClassVar[int] = 3          # the direction's two, and a third that picks the triangle
 
     @property
     def color(self) -> np.ndarray:
@@ -339,63 +341,71 @@ def from_geometry(geometry, materials) -> Optional[MeshEmitters]:
     return emitters
 
 
+EmitterTablesRecord = schema.record("EmitterTables", "The emissive triangles as one light (core/lights/emitters.py MeshEmitters), camera-relative.", [
+    ("corners", ptr(F64), "(t, 3, 3)"),
+    ("normal", ptr(F64), "(t, 3) unit front-side normals"),
+    ("area", ptr(F64), "(t,)"),
+    ("emission", ptr(F64), "(t, 3) radiance"),
+    ("sides", ptr(I32), "(t,) FRONT 1 | BACK 2"),
+    ("nodes", ptr(F64), "(k, TREE_FIELDS) the light tree's nodes (core/lights/light_tree.py), root first"),
+    ("path", ptr(I64), "(t,) each emitter's branch bits from the root (bit l: 1 = right)"),
+    ("depth", ptr(I64), "(t,) each emitter's steps from the root to its leaf"),
+    ("sorted_prim", ptr(I64), "(t,) WorldGeometry's flat triangle index of each, ascending"),
+    ("order", ptr(I64), "(t,) the emitter of each sorted_prim"),
+    ("count", I64, "t"),
+    ("hidden", ptr(U8), "(t,) each triangle's object's Ray Visibility bits (HIDDEN_FROM_*), or NULL"),
+    ("textured", ptr(U8), "(t,) 1: its material's node graph gives its emission (direct.c), or NULL"),
+    ("prim", ptr(I64), "(t,) WorldGeometry's flat triangle index of each"),
+])
+
+
 class EmitterTables:
-    """MeshEmitters' arrays in C's dtypes and the record (lights.h EmitterTables) that points at them."""
+    """MeshEmitters' arrays in C's dtypes and the record (EmitterTables) that points at them."""
 
     def __init__(self, emitters: MeshEmitters):
-        import ctypes
-        from ..native import library
         c = library.contiguous
         order = np.argsort(emitters.prim, kind="stable").astype(np.int64)
         tree = emitters.tree
-        self.arrays = [c(emitters.corners, np.float64), c(emitters.normal, np.float64), c(emitters.area, np.float64),
-                       c(emitters.emission, np.float64), c(emitters.sides, np.int32), c(tree.nodes, np.float64),
-                       c(tree.path, np.int64), c(tree.depth, np.int64),
-                       c(emitters.prim[order], np.int64), c(order, np.int64)]
-        hidden = None if emitters.hidden is None else c(emitters.hidden, np.uint8)
-        textured = None if emitters.textured is None else c(emitters.textured, np.uint8)
-        self.arrays += [hidden, textured, c(emitters.prim, np.int64)]
-        names = ("corners", "normal", "area", "emission", "sides", "nodes", "path", "depth", "sorted_prim", "order")
-        fields = [(name, ctypes.c_void_p) for name in names] + [("count", ctypes.c_double),
-                                                                ("hidden", ctypes.c_void_p),
-                                                                ("textured", ctypes.c_void_p),
-                                                                ("prim", ctypes.c_void_p)]
-        Record = type("EmitterTablesRecord", (ctypes.Structure,), {"_fields_": fields})
-        self.record = Record(*[a.ctypes.data for a in self.arrays[:len(names)]], float(len(emitters.prim)),
-                             None if hidden is None else hidden.ctypes.data,
-                             None if textured is None else textured.ctypes.data, self.arrays[-1].ctypes.data)
+        self.record = EmitterTablesRecord(
+            corners=c(emitters.corners, np.float64), normal=c(emitters.normal, np.float64),
+            area=c(emitters.area, np.float64), emission=c(emitters.emission, np.float64),
+            sides=c(emitters.sides, np.int32), nodes=c(tree.nodes, np.float64), path=c(tree.path, np.int64),
+            depth=c(tree.depth, np.int64), sorted_prim=c(emitters.prim[order], np.int64), order=order,
+            count=len(emitters.prim), hidden=None if emitters.hidden is None else c(emitters.hidden, np.uint8),
+            textured=None if emitters.textured is None else c(emitters.textured, np.uint8),
+            prim=c(emitters.prim, np.int64))
+
+
+EmitterPickArgs = schema.record("EmitterPickArgs", "primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points.", [
+    ("emitters", ptr("EmitterTables"), ""),
+    ("n", I64, ""),
+    ("points", ptr(F64), "(n, 3)"),
+    ("normals", ptr(F64), "(n, 3) (zero: unknown)"),
+    ("u", ptr(F64), "(n,) the pick's numbers (primer_emitter_pick) or NULL"),
+    ("index", out(I64), "(n,) the emitters picked (primer_emitter_pick), or those whose probability is asked"),
+    ("probability", out(F64), "(n,)"),
+])
+schema.function("primer_emitter_pick", "emitter_pick_rows", EmitterPickArgs)
+schema.function("primer_emitter_pick_probability", "emitter_pick_probability_rows", EmitterPickArgs)
 
 
 def compiled_pick(emitters: MeshEmitters, points: np.ndarray, N: np.ndarray, u: np.ndarray):
     """LightTree.pick in C (emitters.c), for the tests: points, N (n, 3), u (n,) -> (index (n,) int64,
     probability (n,) float64)."""
-    from ..native import library
-    P, I64, ptr = library.P, library.I64, library.pointer
-    tables = emitters.tables()
-    points, N, u = (library.contiguous(a, np.float64) for a in (points, N, u))
+    c = library.contiguous
     index, probability = np.empty(len(points), np.int64), np.empty(len(points))
-    library.function("primer_emitter_pick", None, [P, I64, P, P, P, P, P])(
-        ctypes_address(tables), len(points), ptr(points, np.float64), ptr(N, np.float64), ptr(u, np.float64),
-        ptr(index, np.int64), ptr(probability, np.float64))
+    library.call("primer_emitter_pick", EmitterPickArgs(
+        emitters=emitters.tables().record, n=len(points), points=c(points, np.float64), normals=c(N, np.float64),
+        u=c(u, np.float64), index=index, probability=probability))
     return index, probability
 
 
 def compiled_pick_probability(emitters: MeshEmitters, points: np.ndarray, N: np.ndarray,
                               index: np.ndarray) -> np.ndarray:
     """LightTree.pick_probability in C (emitters.c), for the tests: (n,) float64."""
-    from ..native import library
-    P, I64, ptr = library.P, library.I64, library.pointer
-    tables = emitters.tables()
-    points, N = (library.contiguous(a, np.float64) for a in (points, N))
-    index = library.contiguous(index, np.int64)
+    c = library.contiguous
     probability = np.empty(len(points))
-    library.function("primer_emitter_pick_probability", None, [P, I64, P, P, P, P])(
-        ctypes_address(tables), len(points), ptr(points, np.float64), ptr(N, np.float64), ptr(index, np.int64),
-        ptr(probability, np.float64))
+    library.call("primer_emitter_pick_probability", EmitterPickArgs(
+        emitters=emitters.tables().record, n=len(points), points=c(points, np.float64), normals=c(N, np.float64),
+        index=np.array(index, np.int64), probability=probability))
     return probability
-
-
-def ctypes_address(tables: EmitterTables) -> int:
-    """The address of the tables' C record."""
-    import ctypes
-    return ctypes.addressof(tables.record)

@@ -4,7 +4,7 @@
 
 /* Light.sample over arrays (for the tests): points (n, 3), u (n, 3) float64 -> L (n, 3), distance,
  * strength, pdf (n,), position (n, 3), color (n, 3) float64. */
-EXPORT void primer_sample_light(const LightRecord *light, const LightContext *ctx, int64_t n, const double *points,
+static void sample_light_rows(const LightRecord *light, const LightContext *ctx, int64_t n, const double *points,
                                 const double *u, double *L, double *distance, double *strength, double *pdf,
                                 double *position, double *color)
 {
@@ -24,7 +24,7 @@ EXPORT void primer_sample_light(const LightRecord *light, const LightContext *ct
 
 /* Light.hit over arrays (for the tests): origins, directions (n, 3), t_max (n,) -> hit (n,) uint8,
  * t (n,), radiance (n, 3), pdf (n,). */
-EXPORT void primer_light_hit(const LightRecord *light, int64_t n, const double *origins, const double *directions,
+static void light_hit_rows(const LightRecord *light, int64_t n, const double *origins, const double *directions,
                              const double *t_max, uint8_t *hit, double *t, double *radiance, double *pdf)
 {
     for (int64_t i = 0; i < n; i++) {
@@ -36,6 +36,3 @@ EXPORT void primer_light_hit(const LightRecord *light, int64_t n, const double *
     }
 }
 
-EXPORT int64_t primer_light_record_size(void) { return (int64_t)sizeof(LightRecord); }
-EXPORT int64_t primer_emitter_tables_size(void) { return (int64_t)sizeof(EmitterTables); }
-EXPORT int64_t primer_world_tables_size(void) { return (int64_t)sizeof(WorldTables); }

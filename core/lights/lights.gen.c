@@ -15,7 +15,7 @@ INLINE void sample_light(const LightRecord *light, const LightContext *ctx, cons
                          const double *u, LightSample *out)
 {
     out->hidden = 0;
-    switch ((int)light->kind) {
+    switch (light->kind) {
     case LIGHT_POINT: point_sample(light, ctx, P, N, u, out); return;
     case LIGHT_SPOT: spot_sample(light, ctx, P, N, u, out); return;
     case LIGHT_SUN: sun_sample(light, ctx, P, N, u, out); return;
@@ -32,7 +32,7 @@ INLINE void sample_light(const LightRecord *light, const LightContext *ctx, cons
  * and the world as surfaces and as the sky, not here). */
 INLINE int light_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
 {
-    switch ((int)light->kind) {
+    switch (light->kind) {
     case LIGHT_POINT: return point_hit(light, O, D, t_max, out);
     case LIGHT_SPOT: return spot_hit(light, O, D, t_max, out);
     case LIGHT_SUN: return sun_hit(light, O, D, t_max, out);

@@ -113,7 +113,7 @@ class RoundLight(Light):
     def pack_fields(self, record) -> None:
         record.position[:] = np.asarray(self.position, np.float64).tolist()
         record.power, record.radius = float(self.power), float(self.radius)
-        record.soft_falloff = 1.0 if self.soft_falloff else 0.0
+        record.soft_falloff = self.soft_falloff
         if not self.delta:
             record.radiance = sphere_radiance(self.power, self.radius)
 

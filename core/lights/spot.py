@@ -82,6 +82,6 @@ class SpotLight(RoundLight):
         if self.frame is None:
             record.direction[:] = np.asarray(self.direction, np.float64).tolist()
         else:
-            record.spot_frame = 1.0
+            record.spot_frame = 1
             record.spot_inverse[:] = self.inverse_frame().ravel().tolist()
         record.spot_cos_half, record.spot_blend_width = self.cone_constants()

@@ -19,6 +19,8 @@ from typing import ClassVar, Optional
 
 import numpy as np
 
+from ..native import library, schema
+from ..native.schema import F32, F64, I32, I64, ptr
 from .base import Light, LightFlags, LightHit, LightSample
 
 # The importance map's width (its height is half), whatever the image's (Cycles' default map resolution).
@@ -209,36 +211,39 @@ class WorldLight(Light):
         """The record says only how many samples and which dimension; the map goes in WorldTables."""
 
 
+WorldTablesRecord = schema.record("WorldTables", "The world (core/lights/world.py World and WorldLight): a constant colour or an equirectangular image.", [
+    ("image", ptr(F32), "(H, W, 3) linear radiance, or NULL for a constant world"),
+    ("map", ptr(F64), "(h, w) importance map, or NULL"),
+    ("rows", ptr(F64), "(h + 1,) cumulative over rows"),
+    ("columns", ptr(F64), "(h, w + 1) cumulative within each row"),
+    ("width", I64, "the image's W"),
+    ("height", I64, "the image's H"),
+    ("map_width", I64, "w"),
+    ("map_height", I64, "h"),
+    ("total", F64, "the map's sum"),
+    ("color", F64, 3, "a constant world's radiance"),
+    ("strength", F64, ""),
+    ("rotation", F64, 9, "world to texture, row-major"),
+    ("camera", I32, "1: camera rays see it"),
+    ("lights", I32, "1: it lights surfaces"),
+])
+
+
 class WorldTables:
-    """The world (and its importance map, where it has one) in C's dtypes, and the record (lights.h
-    WorldTables) that points at them. sampler: the WorldLight, or None."""
+    """The world (and its importance map, where it has one) in C's dtypes, and the record (WorldTables) that points
+    at them. sampler: the WorldLight, or None."""
 
     def __init__(self, world: World, sampler: Optional[WorldLight]):
-        import ctypes
-        from ..native import library
         c = library.contiguous
-        self.arrays = []
-        image = c(world.image[..., :3], np.float32) if world.image is not None else None
-        fields = ([(name, ctypes.c_void_p) for name in ("image", "map", "rows", "columns")]
-                  + [(name, ctypes.c_double) for name in ("width", "height", "map_width", "map_height", "total")]
-                  + [("color", ctypes.c_double * 3), ("strength", ctypes.c_double), ("rotation", ctypes.c_double * 9),
-                     ("camera", ctypes.c_double), ("lights", ctypes.c_double)])
-        Record = type("WorldTablesRecord", (ctypes.Structure,), {"_fields_": fields})
-        record = Record()
-        if image is not None:
-            self.arrays.append(image)
-            record.image = image.ctypes.data
-            record.height, record.width = float(image.shape[0]), float(image.shape[1])
+        record = WorldTablesRecord(color=np.asarray(world.color, np.float64)[:3], strength=float(world.strength),
+                                   rotation=np.asarray(world.rotation, np.float64).ravel(), camera=world.camera,
+                                   lights=world.lights)
+        if world.image is not None:
+            image = c(world.image[..., :3], np.float32)
+            record.image, record.height, record.width = image, image.shape[0], image.shape[1]
         if sampler is not None:
             for name in ("map", "rows", "columns"):
-                array = c(getattr(sampler, name), np.float64)
-                self.arrays.append(array)
-                setattr(record, name, array.ctypes.data)
-            record.map_height, record.map_width = float(sampler.map.shape[0]), float(sampler.map.shape[1])
+                setattr(record, name, c(getattr(sampler, name), np.float64))
+            record.map_height, record.map_width = sampler.map.shape[0], sampler.map.shape[1]
             record.total = sampler.total
-        record.color[:] = np.asarray(world.color, np.float64)[:3].tolist()
-        record.strength = float(world.strength)
-        record.rotation[:] = np.asarray(world.rotation, np.float64).ravel().tolist()
-        record.camera = 1.0 if world.camera else 0.0
-        record.lights = 1.0 if world.lights else 0.0
         self.record = record

@@ -17,6 +17,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..native import schema
 from .base import BSDF, BSDFFlags, BsdfSample, flags_of, has
 from .closures import (MAX_CLOSURES, NODE_PARAMS, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
                        constant_result, eval_closures, sample_closures)
@@ -413,19 +414,35 @@ __all__ = ["BSDF", "BSDFFlags", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "Clo
            "flags_of", "has", "reflective", "sample_closures"]
 
 
+BsdfArgs = schema.function("primer_bsdf", "bsdf_rows", schema.record(
+    "BsdfArgs", "primer_bsdf's arguments: eval and a sample of one closure per row (bsdf.c), for the tests.", [
+        ("n", schema.I64, ""),
+        ("kind", schema.ptr(schema.I32), "(n,) BSDF_*"),
+        ("weight", schema.ptr(schema.F64), "(n, 3)"),
+        ("N", schema.ptr(schema.F64), "(n, 3)"),
+        ("params", schema.ptr(schema.F64), "(n, CLOSURE_PARAMS)"),
+        ("wo", schema.ptr(schema.F64), "(n, 3)"),
+        ("wi", schema.ptr(schema.F64), "(n, 3)"),
+        ("u", schema.ptr(schema.F64), "(n, 2)"),
+        ("f_cos", schema.out(schema.F64), "(n, 3)"),
+        ("pdf", schema.out(schema.F64), "(n,)"),
+        ("sampled", schema.out(schema.F64), "(n, 3)"),
+        ("sampled_weight", schema.out(schema.F64), "(n, 3)"),
+        ("sampled_pdf", schema.out(schema.F64), "(n,)"),
+    ], tables=("BSDF",)))
+
+
 def compiled_bsdf(kind: np.ndarray, weight: np.ndarray, N: np.ndarray, params: np.ndarray, wo: np.ndarray,
                   wi: np.ndarray, u: np.ndarray) -> tuple:
-    """One closure per row in C (core/materials/bsdf.c's table), for the tests: eval and a sample of a
-    ShaderResult holding only that closure -> f cos (n, 3), pdf (n,), ClosureSample (pick 0.5)."""
+    """One closure per row in C (the generated BSDF table), for the tests: eval and a sample of a ShaderResult
+    holding only that closure -> f cos (n, 3), pdf (n,), ClosureSample (pick 0.5)."""
     from ..native import library
-    P, I64, ptr = library.P, library.I64, library.pointer
     n = len(kind)
-    kind = library.contiguous(kind, np.int32)
-    weight, N, params, wo, wi, u = (library.contiguous(a, np.float64) for a in (weight, N, params, wo, wi, u))
+    c = library.contiguous
     f_cos, pdf, sampled, sampled_weight, sampled_pdf = (np.empty((n, 3)), np.empty(n), np.empty((n, 3)),
                                                        np.empty((n, 3)), np.empty(n))
-    library.function("primer_bsdf", None, [I64] + [P] * 12)(
-        n, ptr(kind, np.int32), ptr(weight, np.float64), ptr(N, np.float64), ptr(params, np.float64),
-        ptr(wo, np.float64), ptr(wi, np.float64), ptr(u, np.float64), ptr(f_cos, np.float64), ptr(pdf, np.float64),
-        ptr(sampled, np.float64), ptr(sampled_weight, np.float64), ptr(sampled_pdf, np.float64))
+    library.call("primer_bsdf", BsdfArgs(
+        n=n, kind=c(kind, np.int32), weight=c(weight, np.float64), N=c(N, np.float64), params=c(params, np.float64),
+        wo=c(wo, np.float64), wi=c(wi, np.float64), u=c(u, np.float64), f_cos=f_cos, pdf=pdf, sampled=sampled,
+        sampled_weight=sampled_weight, sampled_pdf=sampled_pdf))
     return f_cos, pdf, ClosureSample(sampled, sampled_weight, sampled_pdf, np.isinf(sampled_pdf))

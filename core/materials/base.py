@@ -33,10 +33,12 @@ from typing import ClassVar, NamedTuple
 
 import numpy as np
 
+from ..native import schema
+
 # A closure's parameters beyond its normal and weight: a row of PARAMS floats, whose slots each BSDF class names
 # in `params`; a shader node's inputs: a row of NODE_PARAMS floats (core/materials/nodes.py).
-PARAMS = 32
-NODE_PARAMS = 40
+PARAMS = schema.constant("CLOSURE_PARAMS", 32, "a closure's parameters (core/materials/base.py PARAMS)")
+NODE_PARAMS = schema.constant("NODE_PARAMS", 40, "a shader node's inputs, a MaterialRecord's rows")
 
 
 class BSDFFlags(enum.IntFlag):

@@ -164,7 +164,7 @@ INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResul
 /* eval and sample of one closure per row (for the tests): kind (n,) int32; weight, N, wo, wi (n, 3),
  * params (n, PARAMS), u (n, 2), pick (n,) float64 -> f_cos (n, 3), pdf (n,), and a sample from the
  * single closure: sampled wi (n, 3), weight (n, 3), sampled pdf (n,). */
-EXPORT void primer_bsdf(int64_t n, const int32_t *kind, const double *weight, const double *N, const double *params,
+static void bsdf_rows(int64_t n, const int32_t *kind, const double *weight, const double *N, const double *params,
                         const double *wo, const double *wi, const double *u, double *f_cos, double *pdf,
                         double *sampled, double *sampled_weight, double *sampled_pdf)
 {
@@ -186,4 +186,3 @@ EXPORT void primer_bsdf(int64_t n, const int32_t *kind, const double *weight, co
     }
 }
 
-EXPORT int64_t primer_material_record_size(void) { return (int64_t)sizeof(MaterialRecord); }

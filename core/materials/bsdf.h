@@ -5,13 +5,9 @@
  * pdf of its own sampling. */
 
 /* A closure's kind (BSDF_*) and what it is (BSDF_FLAG_*, bsdf_is) come from the table of BSDFs, generated into
- * core/native/boundary.gen.h from core/materials/registry.py. */
+ * core/native/boundary.gen.h from core/materials/registry.py, with MAX_CLOSURES, CLOSURE_PARAMS, NODE_PARAMS, the
+ * caustics filter's FILTER_* bits and a material's record (MaterialRecord). */
 
-#define MAX_CLOSURES 8          /* closures.MAX_CLOSURES */
-/* The closures a caustics filter takes away at a hit that a diffuse bounce's ray reached (closures.FILTER_*). */
-enum { FILTER_REFLECTIVE = 1, FILTER_REFRACTIVE = 2 };
-#define CLOSURE_PARAMS 32       /* closures.PARAMS */
-#define NODE_PARAMS 40          /* closures.NODE_PARAMS: a shader node's inputs, a MaterialRecord's rows */
 
 /* One closure at a hit: a BSDF of the table, its weight, its sampling weight, its normal, and its
  * CLOSURE_PARAMS parameters: a constant material's row (no copy per hit), or a row of the hit's own
@@ -45,22 +41,3 @@ typedef struct {
     double weight[3];       /* f cos / pdf, without the closure's weight */
     double pdf;             /* inf for a delta BSDF, 0 where nothing was sampled */
 } BsdfSample;
-
-/* One material of the scene's MaterialTable, as core/integrators/compiled.py packs it. program 0: a
- * ConstantShader, n closures the same at every hit but for their normal. program 1: a NodeShader, n shader
- * nodes (kind: nodes.c NODE_*, weight, p: the node's inputs) set up per hit (nodes.c); graph: 0, or 1 + its
- * node graph's program in the render's GraphTables (graph.c), which overwrites inputs per hit. Only doubles. */
-typedef struct {
-    double n;
-    double program;
-    double graph;
-    double kind[MAX_CLOSURES];
-    double weight[MAX_CLOSURES][3];
-    double sample_weight[MAX_CLOSURES];
-    double p[MAX_CLOSURES][NODE_PARAMS];   /* a closure's CLOSURE_PARAMS, or a node's NODE_PARAMS inputs */
-    double emission[3];
-    double transparency[3];
-    double shadow_opaque;   /* 1: opaque to shadow rays even where it lets light through (Transparent Shadows off) */
-    double may_pass;        /* 1: it may let light through somewhere (a Transparent node, alpha) */
-    double graph_emits;     /* 1: its node graph gives its emission (a texture): evaluated where light lands */
-} MaterialRecord;

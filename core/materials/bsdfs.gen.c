@@ -10,6 +10,7 @@
 #include "oren_nayar.c"
 #include "sheen.c"
 #include "velvet.c"
+#include "translucent.c"
 
 /* BSDF.eval through the table: f cos of closure c for light from wi towards wo, and its pdf. A kind
  * outside the table (which core/materials refuses before C sees it) reflects nothing. */
@@ -25,6 +26,7 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
     case BSDF_OREN_NAYAR: oren_nayar_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_SHEEN: sheen_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_VELVET: velvet_eval(c, wo, wi, f_cos, pdf); return;
+    case BSDF_TRANSLUCENT: translucent_eval(c, wo, wi, f_cos, pdf); return;
     default: break;
     }
     f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
@@ -44,6 +46,7 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     case BSDF_OREN_NAYAR: oren_nayar_sample(c, wo, u, out); return;
     case BSDF_SHEEN: sheen_sample(c, wo, u, out); return;
     case BSDF_VELVET: velvet_sample(c, wo, u, out); return;
+    case BSDF_TRANSLUCENT: translucent_sample(c, wo, u, out); return;
     default: break;
     }
     out->wi[0] = out->wi[1] = out->wi[2] = 0.0;

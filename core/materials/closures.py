@@ -13,20 +13,22 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
+from ..native import schema
 from .base import BSDF, NODE_PARAMS, PARAMS, BsdfSample  # noqa: F401 (PARAMS, NODE_PARAMS: the closures' rows)
 from .base import BSDFFlags as F
 from .lambert import Lambert
 
 # At most this many closures per hit (bsdf.h MAX_CLOSURES); PARAMS floats of parameters per closure and NODE_PARAMS
 # per shader node (core/materials/base.py).
-MAX_CLOSURES = 8
+MAX_CLOSURES = schema.constant("MAX_CLOSURES", 8, "closures per hit at most")
 # A closure whose sampling weight falls below this is dropped (Cycles' CLOSURE_WEIGHT_CUTOFF).
 WEIGHT_CUTOFF = 1e-5
 # What a hit's shading may leave out (Cycles' caustics switches, Light Paths > Caustics): the bits of a hit's
 # `caustics` filter. A hit reached by a ray that a diffuse bounce sent sets up no reflective (glossy, mirror,
 # metal, coat, specular) closures with FILTER_REFLECTIVE, and lets no light through glass with
 # FILTER_REFRACTIVE; core/integrators/path.py decides which hits get which bits.
-FILTER_REFLECTIVE, FILTER_REFRACTIVE = 1, 2
+FILTER_REFLECTIVE, FILTER_REFRACTIVE = schema.constants("FILTER", {"REFLECTIVE": 1, "REFRACTIVE": 2},
+                                                       "what a hit's caustics filter takes away").values()
 
 
 class Closures(NamedTuple):

@@ -1,22 +1,8 @@
 /* Node graphs: core/materials/graph.py. A material's compiled program (ops on numbered registers) run
  * at one hit; its outputs overwrite the shader nodes' inputs, weights and normals before the setups. */
 
-enum { OP_ATTR = 0, OP_RANDOM, OP_IMAGE, OP_MAPPING, OP_MATH, OP_MIX_COLOR, OP_MIX_FLOAT, OP_RAMP, OP_INVERT, OP_HSV,
-       OP_COPY, OP_CLAMP, OP_MAP_RANGE, OP_NORMAL_MAP, OP_BUMP, OP_OFFSET, OP_CONVERT, OP_SCALE, OP_RAY,
-       OP_TANGENT };
-enum { RAY_CAMERA = 0, RAY_BOUNCE = 1, RAY_SHADOW = 2 };   /* graph.RAY_* */
-#define OP_WIDTH 12                 /* 1 + graph.OP_ARGS */
-#define MAX_REGISTERS 512           /* graph.MAX_REGISTERS */
-#define BUMP_STEP 1e-3              /* graph.BUMP_STEP */
-enum { OUT_INPUT = 0, OUT_WEIGHT = 1, OUT_NORMAL = 2 };
-
-/* Every program of a render (core/materials/graph.py GraphTables). programs: (p, 8) first op, op count,
- * first constant, constant count, registers, first output, output count, first ramp float. */
-typedef struct {
-    const double *ops, *constants, *outputs, *ramps, *programs;
-    const TextureTables *textures;
-    double count;
-} GraphTables;
+/* The op codes (OP_*), the kinds of ray (RAY_*), the outputs (OUT_*), OP_WIDTH, MAX_REGISTERS and BUMP_STEP come from
+ * core/materials/graph.py (core/native/boundary.gen.h). */
 
 /* The ShadingPoint a program reads: core/geometry/triangles.c. */
 

@@ -28,22 +28,27 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
+from ..native import library, schema
+from ..native.schema import F64, I64, ptr
 from . import textures as textures_
 
-# Op codes (graph.c OP_*), and the width of one op's record: the code and up to OP_ARGS arguments.
+# Op codes (graph.c's OP_*), and the width of one op's record: the code and up to OP_ARGS arguments.
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
        "TANGENT")
+OP = schema.constants("OP", OPS, "a node-graph program's op codes")
+schema.table("OP", lambda: list(OPS))
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
 # that went on through transparent surfaces from it), any other ray of a path, a shadow ray.
-RAY_CAMERA, RAY_BOUNCE, RAY_SHADOW = 0, 1, 2
-OP = {name: code for code, name in enumerate(OPS)}
+RAY_CAMERA, RAY_BOUNCE, RAY_SHADOW = schema.constants("RAY", ("camera", "bounce", "shadow"),
+                                                      "the kind of ray a hit was found by").values()
 OP_ARGS = 11
-# At most this many registers per program (graph.c MAX_REGISTERS), attribute floats per hit (MAX_ATTRIBUTES).
-MAX_REGISTERS = 512
-MAX_ATTRIBUTES = 64
+schema.constant("OP_WIDTH", 1 + OP_ARGS, "one op's record: the code and its arguments")
+# At most this many registers per program, attribute floats per hit.
+MAX_REGISTERS = schema.constant("MAX_REGISTERS", 512, "a program's registers at most")
+MAX_ATTRIBUTES = schema.constant("MAX_ATTRIBUTES", 64, "attribute floats per hit at most")
 # The bump's finite-difference step, as a fraction of the triangle's edges.
-BUMP_STEP = 1e-3
+BUMP_STEP = schema.constant("BUMP_STEP", 1e-3, "the bump's finite-difference step, a fraction of the edges")
 # Luminance of scene-linear Rec.709 (Cycles' rgb_to_y: colour to float conversions).
 LUMINANCE = (0.2126729, 0.7151522, 0.0721750)
 
@@ -56,8 +61,9 @@ BLEND_TYPES = ("MIX", "DARKEN", "MULTIPLY", "BURN", "LIGHTEN", "SCREEN", "DODGE"
                "DIVIDE", "DIFFERENCE", "EXCLUSION", "SOFT_LIGHT", "LINEAR_LIGHT")
 MAPPING_TYPES = ("POINT", "TEXTURE", "VECTOR", "NORMAL")
 MAP_RANGE_TYPES = ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
-# Program outputs: what a register does to a shader node (graph.c OUT_*).
-OUT_INPUT, OUT_WEIGHT, OUT_NORMAL = 0, 1, 2
+# Program outputs: what a register does to a shader node (OUT_*).
+OUT_INPUT, OUT_WEIGHT, OUT_NORMAL = schema.constants("OUT", ("input", "weight", "normal"),
+                                                     "what a program's output does to a shader node").values()
 # How a weight factor multiplies a node's weight: by the value, by 1 - the value, by a colour.
 WEIGHT_MODES = {"fac": 0, "one_minus": 1, "color": 2}
 
@@ -922,14 +928,25 @@ def valid_reflection(Ng: np.ndarray, wo: np.ndarray, N: np.ndarray) -> np.ndarra
 
 
 
-class GraphTablesRecord:
-    """Every program of a render's materials as C reads them (graph.c GraphTables): the record, the
-    arrays it points at, and `rows`: material row -> program index."""
+GraphTablesRecord = schema.record("GraphTables", """Every program of a render's materials (core/materials/graph.py). ops: (k, OP_WIDTH) the op code and its
+arguments; programs: (p, 8) first op, op count, first constant, constant count, registers, first output, output
+count, first ramp float. (Numbers that index stay doubles here: one row type for codes, registers and constants.)""", [
+    ("ops", ptr(F64), "(k, OP_WIDTH)"),
+    ("constants", ptr(F64), "(c,)"),
+    ("outputs", ptr(F64), "(o, 5) rows of graph.Program.outputs"),
+    ("ramps", ptr(F64), "(r,) the colour ramps' floats"),
+    ("programs", ptr(F64), "(p, 8)"),
+    ("textures", ptr("TextureTables"), "the images the programs read"),
+    ("count", I64, "p"),
+], tables=("OP",))
+
+
+class GraphTables:
+    """Every program of a render's materials as C reads them (GraphTables): the record, and `rows`: material row ->
+    program index."""
 
     def __init__(self, table, layout: dict):
-        import ctypes
-        from ..native import library
-        from .textures import TextureTablesRecord
+        from .textures import texture_tables
         programs, self.rows = [], {}
         for row in range(len(table.shaders)):
             program = table.program(row, layout)
@@ -945,19 +962,14 @@ class GraphTablesRecord:
         joined = lambda arrays, width: (np.concatenate([a.reshape(-1) for a in arrays]) if arrays   # noqa: E731
                                         else np.zeros(width))
         c = library.contiguous
-        self.textures = TextureTablesRecord(table.textures)
-        self.arrays = [c(joined([p.ops for p in programs], 1 + OP_ARGS), np.float64),
-                       c(joined([p.constants for p in programs], 1), np.float64),
-                       c(joined([p.outputs for p in programs], 5), np.float64),
-                       c(joined([p.ramps for p in programs], 4), np.float64), c(info, np.float64)]
-
-        class Record(ctypes.Structure):
-            _fields_ = [(name, ctypes.c_void_p) for name in ("ops", "constants", "outputs", "ramps", "programs",
-                                                            "textures")] + [("count", ctypes.c_double)]
-        self.record = Record(*[a.ctypes.data for a in self.arrays], self.textures.pointer, float(len(programs)))
-        self.pointer = ctypes.addressof(self.record)
+        self.record = GraphTablesRecord(
+            ops=c(joined([p.ops for p in programs], 1 + OP_ARGS), np.float64),
+            constants=c(joined([p.constants for p in programs], 1), np.float64),
+            outputs=c(joined([p.outputs for p in programs], 5), np.float64),
+            ramps=c(joined([p.ramps for p in programs], 4), np.float64), programs=c(info, np.float64),
+            textures=texture_tables(table.textures), count=len(programs))
 
 
 def graph_tables(table, layout: dict):
-    """The GraphTablesRecord of a MaterialTable for an attribute layout, or None when no material has links."""
-    return GraphTablesRecord(table, layout) if table.has_graphs else None
+    """The GraphTables of a MaterialTable for an attribute layout, or None when no material has links."""
+    return GraphTables(table, layout) if table.has_graphs else None

@@ -251,13 +251,16 @@ class Node:
     kind: its place in core/materials/registry.py's NODE_TYPES (set there); name: what a Material's nodes call it;
     its C setup is nodes.c's <name>_node (lower case). bsdf: a BSDF class for a node that adds just one closure of
     it, weighted by the node's weight (its colour), with the hit's normal: its setup is written for it, in Python
-    and in C (closure_node), and the caustics switches take it away as they take its kind.
+    and in C (closure_node), and the caustics switches take it away as they take its kind. blender: the Blender node
+    (bl_idname) such a node reads, whose Color weighs the closure (a link into it, per hit) and whose linked Normal
+    is the closure's normal (addon/materials.py reads it with no code of its own).
     """
 
     kind: ClassVar[int] = -1
     types: ClassVar[tuple] = ()     # every node class by kind (core/materials/registry.py fills it)
     name: ClassVar[str] = ""
     bsdf: ClassVar[Optional[type]] = None
+    blender: ClassVar[Optional[str]] = None
     inputs: ClassVar[tuple] = ()
     defaults: ClassVar[tuple] = ()
     slots: ClassVar[int] = 1            # at most this many closures

@@ -29,6 +29,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from .. import vectors
 from .base import BSDF, BsdfSample
 from .base import BSDFFlags as F
 from .base import PARAMS
@@ -73,9 +74,9 @@ class OrenNayar(BSDF):
 
     @staticmethod
     def eval(params, N, wo, wi):
-        nl = np.maximum(np.einsum("ij,ij->i", N, wi), 0.0)
-        nv = np.maximum(np.einsum("ij,ij->i", N, wo), 0.0)
-        t = np.einsum("ij,ij->i", wi, wo) - nl * nv
+        nl = np.maximum(vectors.dot(N, wi), 0.0)
+        nv = np.maximum(vectors.dot(N, wo), 0.0)
+        t = vectors.dot(wi, wo) - nl * nv
         t = np.where(t > 0.0, t / (np.maximum(nl, nv) + np.finfo(np.float32).tiny), t)
         a, b = params[:, A], params[:, B]
         E_l = a * math.pi + b * G(nl)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..native import schema
 from .base import BSDF
 from .glass import Glass
 from .lambert import Lambert
@@ -20,12 +21,13 @@ from .nodes import (DiffuseNode, EmissionNode, GlassNode, GlossyNode, HoldoutNod
 from .oren_nayar import OrenNayar
 from .rough_glass import RoughGlass
 from .sheen import Sheen
+from .translucent import Translucent, TranslucentNode
 from .transparent import Transparent
 from .velvet import Velvet
 
-BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet)
+BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet, Translucent)
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
-              SheenNode, HoldoutNode)
+              SheenNode, HoldoutNode, TranslucentNode)
 
 
 def _number(table: tuple, base: type) -> None:
@@ -42,6 +44,9 @@ _number(BSDF_TYPES, BSDF)
 _number(NODE_TYPES, Node)
 # The flags by kind, with a last 0 that kind -1 (an empty closure slot) picks.
 BSDF.flag_table = np.array([int(cls.flags) for cls in BSDF_TYPES] + [0], np.int64)
+
+schema.table("BSDF", lambda: [cls.c_name() for cls in BSDF_TYPES])
+schema.table("NODE", lambda: [cls.name for cls in NODE_TYPES])
 
 BSDF_BY_NAME = {cls.name: cls for cls in BSDF_TYPES}
 NODE_BY_NAME = {cls.name: cls for cls in NODE_TYPES}

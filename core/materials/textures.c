@@ -3,19 +3,6 @@
  * i + 0.5, Closest, Linear, Cubic B-spline; Repeat, Extend, Clip, Mirror); sRGB images decoded after
  * interpolation. */
 
-/* textures.TextureSet as core/materials/textures.py lays it out. */
-typedef struct {
-    const float *floats;        /* the float images' texels, rows bottom first */
-    const uint16_t *shorts;     /* the 16-bit images' */
-    const uint8_t *bytes;       /* the 8-bit images' */
-    const double *format;       /* (k,) TEX_FLOAT, TEX_BYTE or TEX_SHORT */
-    const double *offset;       /* (k,) first value of each image in its format's buffer */
-    const double *width, *height, *channels, *srgb;
-    double count;
-} TextureTables;
-
-enum { TEX_FLOAT = 0, TEX_BYTE = 1, TEX_SHORT = 2 };
-
 /* One image as a lookup reads it. */
 typedef struct {
     const void *data;
@@ -23,8 +10,6 @@ typedef struct {
     int64_t w, h;
 } TextureView;
 
-enum { TEX_LINEAR = 0, TEX_CLOSEST = 1, TEX_CUBIC = 2 };
-enum { EXT_REPEAT = 0, EXT_EXTEND = 1, EXT_CLIP = 2, EXT_MIRROR = 3 };
 
 /* textures.srgb_to_linear */
 INLINE double srgb_to_linear(double c)
@@ -131,7 +116,7 @@ decode:
 }
 
 /* textures.compiled_lookup: n lookups of one image, for the tests. out (n, 4). */
-EXPORT void primer_texture_lookup(const TextureTables *T, int64_t index, int64_t interpolation, int64_t extension,
+static void texture_lookup_rows(const TextureTables *T, int64_t index, int interpolation, int extension,
                                   int64_t n, const double *x, const double *y, double *out)
 {
     for (int64_t i = 0; i < n; i++)

@@ -22,14 +22,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..native import library, schema
+from ..native.schema import F32, F64, I32, I64, U8, U16, out, ptr
+
 INTERPOLATIONS = {"Linear": 0, "Closest": 1, "Cubic": 2, "Smart": 2}
 EXTENSIONS = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2, "MIRROR": 3}
+schema.constants("TEX", {"LINEAR": 0, "CLOSEST": 1, "CUBIC": 2}, "an image node's interpolation (INTERPOLATIONS)")
+schema.constants("EXT", EXTENSIONS, "an image node's extension (EXTENSIONS)")
 # What Cycles returns for an image it could not load (TEX_IMAGE_MISSING_R, G, B, A): magenta.
 MISSING = (1.0, 0.0, 1.0, 1.0)
 
 
 # Storage formats of an image's texels (TextureSet.format), and the scale that reads each as 0..1.
-FORMAT_FLOAT, FORMAT_BYTE, FORMAT_SHORT = 0, 1, 2
+FORMAT_FLOAT, FORMAT_BYTE, FORMAT_SHORT = schema.constants("TEX", ("float", "byte", "short"),
+                                                          "how an image's texels are stored").values()
 FORMAT_OF = {np.dtype(np.float32): FORMAT_FLOAT, np.dtype(np.uint8): FORMAT_BYTE, np.dtype(np.uint16): FORMAT_SHORT}
 SCALE = {FORMAT_FLOAT: 1.0, FORMAT_BYTE: 1.0 / 255.0, FORMAT_SHORT: 1.0 / 65535.0}
 
@@ -83,18 +89,18 @@ class TextureSet:
     """Every image of a render in one buffer per storage format (textures.c TextureTables).
 
     floats (a,) float32, shorts (b,) uint16, bytes (c,) uint8: the texels of the images of each format, one after
-    another; format, offset (in values of its buffer), width, height, channels, srgb: (k,) float64 per image
+    another; format, offset (in values of its buffer), width, height, channels, srgb: (k,) int64 per image
     """
 
     floats: np.ndarray = field(default_factory=lambda: np.zeros(4, np.float32))
     shorts: np.ndarray = field(default_factory=lambda: np.zeros(4, np.uint16))
     bytes: np.ndarray = field(default_factory=lambda: np.zeros(4, np.uint8))
-    format: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    offset: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    width: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    height: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    channels: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    srgb: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    format: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    width: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    height: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    channels: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    srgb: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @classmethod
     def of(cls, images: list) -> "TextureSet":
@@ -112,10 +118,11 @@ class TextureSet:
             parts = buffers[form]
             return np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(4, dtype)
 
-        shape = np.array([image.pixels.shape for image in images], np.float64)
+        shape = np.array([image.pixels.shape for image in images], np.int64)
         return cls(joined(FORMAT_FLOAT, np.float32), joined(FORMAT_SHORT, np.uint16), joined(FORMAT_BYTE, np.uint8),
-                   np.array([image.format for image in images], np.float64), np.array(offset, np.float64),
-                   shape[:, 1], shape[:, 0], shape[:, 2], np.array([1.0 if image.srgb else 0.0 for image in images]))
+                   np.array([image.format for image in images], np.int64), np.array(offset, np.int64),
+                   shape[:, 1].copy(), shape[:, 0].copy(), shape[:, 2].copy(),
+                   np.array([1 if image.srgb else 0 for image in images], np.int64))
 
     def texels(self, index: int) -> np.ndarray:
         """Image `index`'s texels (h, w, c) as stored (a view into its format's buffer)."""
@@ -225,37 +232,46 @@ def cubic(data: np.ndarray, x: np.ndarray, y: np.ndarray, extension: int) -> np.
     return out
 
 
-def compiled_lookup(textures: TextureSet, index: int, x: np.ndarray, y: np.ndarray, interpolation: int,
-                    extension: int) -> np.ndarray:
-    """TextureSet.lookup in C (textures.c), for the tests: RGBA (n, 4) float64."""
-    from ..native import library
-    P, I64, ptr = library.P, library.I64, library.pointer
-    x, y = library.contiguous(x, np.float64), library.contiguous(y, np.float64)
-    tables = texture_tables(textures)
-    out = np.empty((len(x), 4))
-    library.function("primer_texture_lookup", None, [P, I64, I64, I64, I64, P, P, P])(
-        tables.pointer, index, interpolation, extension, len(x), ptr(x, np.float64), ptr(y, np.float64),
-        ptr(out, np.float64))
-    return out
+TextureTablesRecord = schema.record("TextureTables", "A render's images (core/materials/textures.py TextureSet): the texels of each format in one buffer.", [
+    ("floats", ptr(F32), "the float images' texels, rows bottom first"),
+    ("shorts", ptr(U16), "the 16-bit images'"),
+    ("bytes", ptr(U8), "the 8-bit images'"),
+    ("format", ptr(I64), "(k,) TEX_FLOAT, TEX_BYTE or TEX_SHORT"),
+    ("offset", ptr(I64), "(k,) first value of each image in its format's buffer"),
+    ("width", ptr(I64), "(k,)"),
+    ("height", ptr(I64), "(k,)"),
+    ("channels", ptr(I64), "(k,)"),
+    ("srgb", ptr(I64), "(k,) 1: decode the sRGB curve after interpolation"),
+    ("count", I64, "k"),
+])
 
-
-class TextureTablesRecord:
-    """A TextureSet as C reads it (textures.c TextureTables): the record and the arrays it points at."""
-
-    def __init__(self, textures: TextureSet):
-        import ctypes
-        from ..native import library
-        c = library.contiguous
-        names = ("floats", "shorts", "bytes", "format", "offset", "width", "height", "channels", "srgb")
-        dtypes = (np.float32, np.uint16, np.uint8) + (np.float64,) * 6
-        self.arrays = [c(getattr(textures, name), dtype) for name, dtype in zip(names, dtypes)]
-
-        class Record(ctypes.Structure):
-            _fields_ = [(name, ctypes.c_void_p) for name in names] + [("count", ctypes.c_double)]
-        self.record = Record(*[a.ctypes.data for a in self.arrays], float(len(textures.width)))
-        self.pointer = ctypes.addressof(self.record)
+TextureLookupArgs = schema.function("primer_texture_lookup", "texture_lookup_rows", schema.record("TextureLookupArgs", "primer_texture_lookup's arguments: TextureSet.lookup of image `index` at n points.", [
+    ("textures", ptr("TextureTables"), ""),
+    ("index", I64, ""),
+    ("interpolation", I32, "TEX_LINEAR, TEX_CLOSEST, TEX_CUBIC"),
+    ("extension", I32, "EXT_REPEAT, EXT_EXTEND, EXT_CLIP, EXT_MIRROR"),
+    ("n", I64, ""),
+    ("x", ptr(F64), "(n,)"),
+    ("y", ptr(F64), "(n,)"),
+    ("rgba", out(F64), "(n, 4)"),
+]))
 
 
 def texture_tables(textures: TextureSet) -> TextureTablesRecord:
-    """The C record of a TextureSet (keep it alive while C reads it)."""
-    return TextureTablesRecord(textures)
+    """The C record of a TextureSet, keeping its arrays alive."""
+    c = library.contiguous
+    return TextureTablesRecord(floats=c(textures.floats, np.float32), shorts=c(textures.shorts, np.uint16),
+                               bytes=c(textures.bytes, np.uint8), count=len(textures.width),
+                               **{name: c(getattr(textures, name), np.int64)
+                                  for name in ("format", "offset", "width", "height", "channels", "srgb")})
+
+
+def compiled_lookup(textures: TextureSet, index: int, x: np.ndarray, y: np.ndarray, interpolation: int,
+                    extension: int) -> np.ndarray:
+    """TextureSet.lookup in C (textures.c), for the tests: RGBA (n, 4) float64."""
+    x, y = library.contiguous(x, np.float64), library.contiguous(y, np.float64)
+    out_ = np.empty((len(x), 4))
+    library.call("primer_texture_lookup", TextureLookupArgs(
+        textures=texture_tables(textures), index=index, interpolation=interpolation, extension=extension, n=len(x),
+        x=x, y=y, rgba=out_))
+    return out_

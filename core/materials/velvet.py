@@ -58,10 +58,10 @@ class Velvet(BSDF):
 
     @staticmethod
     def eval(params, N, wo, wi):
-        cos_v, cos_l = np.einsum("ij,ij->i", N, wo), np.einsum("ij,ij->i", N, wi)
+        cos_v, cos_l = vectors.dot(N, wo), vectors.dot(N, wi)
         H = wo + wi
-        H = H / np.maximum(np.linalg.norm(H, axis=1), 1e-300)[:, None]
-        cos_nh, cos_hv = np.einsum("ij,ij->i", N, H), np.abs(np.einsum("ij,ij->i", wo, H))
+        H = H / np.maximum(np.sqrt(vectors.dot(H, H)), 1e-300)[:, None]
+        cos_nh, cos_hv = vectors.dot(N, H), np.abs(vectors.dot(wo, H))
         lit = (cos_v > 0.0) & (cos_l > 0.0) & (np.abs(cos_nh) < 1.0 - 1e-5) & (cos_hv > 1e-5)
         ratio = np.maximum(cos_nh / np.where(lit, cos_hv, 1.0), 1e-5)
         G = np.minimum(1.0, np.minimum(2.0 * np.abs(ratio * cos_v), 2.0 * np.abs(ratio * cos_l)))

@@ -1,15 +1,16 @@
 """The compiled library: every part's C file, built into one shared library (`make kernels`).
 
-This module only finds, loads and checks the library. It knows no part of the renderer: each part
-declares the C functions it calls (`function`) and defines the records it hands to C (`record`),
-next to the Python code it mirrors (core/lights, core/camera, core/integrators, core/film, ...).
+This module only finds, loads and calls the library. It knows no part of the renderer: each part describes
+the records it hands to C and the C functions it calls (core/native/schema.py) next to the Python code they
+mirror (core/lights, core/camera, core/integrators, core/film, ...), and calls them with `call`.
 
 `make kernels` compiles it for the machine that builds Primer (tools/build_kernels.py compiles
 core/native/primer.c, which includes each part's C file); the extension zip carries one library for
 each platform Blender publishes (`build_kernels.py --all-platforms`, docs/platforms.md). Where it is
 missing or does not load (another platform, no compiler), Primer says so in the log once and renders
-on the readable Python path: the same image, more slowly. ctypes releases Python's GIL while a C function runs,
-so the render's threads run on every core at once.
+on the readable Python path: the same image, more slowly. Where it was built from other sources than the
+Python describes, the first record that crosses says so (its layout hash differs: schema.Record.check).
+ctypes releases Python's GIL while a C function runs, so the render's threads run on every core at once.
 """
 from __future__ import annotations
 
@@ -23,9 +24,6 @@ from typing import Optional
 import numpy as np
 
 log = logging.getLogger(__name__)
-
-# The interface version: core/native/primer.c returns the same number, or the library is stale.
-ABI = 34
 
 # Where a render's arithmetic runs: "compiled" (C, where it applies) or "numpy" (the reference).
 KERNELS = ("compiled", "numpy")
@@ -53,7 +51,9 @@ _cache: dict = {}
 
 
 def library() -> Optional[ctypes.CDLL]:
-    """Return the loaded library, or None (the reason is logged once and kept in `unavailable_reason`)."""
+    """Return the loaded library, or None (the reason is logged once and kept in `unavailable_reason`).
+
+    A library without `primer_layout` predates the described boundary (schema.py): it is refused."""
     if "library" in _cache:
         return _cache["library"]
     path, lib, reason = library_path(), None, ""
@@ -62,14 +62,13 @@ def library() -> Optional[ctypes.CDLL]:
     else:
         try:
             lib = ctypes.CDLL(path)
-            lib.primer_abi.restype, lib.primer_abi.argtypes = ctypes.c_int64, []
-            if lib.primer_abi() != ABI:
-                reason, lib = f"{os.path.basename(path)} was built from other C sources (make kernels)", None
+            lib.primer_layout.restype, lib.primer_layout.argtypes = ctypes.c_uint64, [ctypes.c_char_p]
+            lib.primer_record_size.restype, lib.primer_record_size.argtypes = ctypes.c_int64, [ctypes.c_char_p]
         except (OSError, AttributeError) as error:
-            reason, lib = f"{os.path.basename(path)} does not load ({error})", None
+            reason, lib = f"{os.path.basename(path)} does not load or predates this boundary ({error}; make kernels)", None
     if lib is None:
         log.info("Compiled kernels unavailable: %s; rendering on the numpy path", reason)
-    _cache["library"], _cache["reason"] = lib, reason
+    _cache["library"], _cache["reason"], _cache["functions"] = lib, reason, {}
     return lib
 
 
@@ -84,51 +83,36 @@ def unavailable_reason() -> str:
     return _cache["reason"]
 
 
-P, I64, F64 = ctypes.c_void_p, ctypes.c_int64, ctypes.c_double
-
-
-def function(name: str, restype, argtypes: list):
-    """Return the library's C function `name` with its signature set (pointers as P, counts as I64).
-
-    Raises RuntimeError when the library is not loaded: callers check `available()` first.
-    """
+def _loaded() -> ctypes.CDLL:
+    """The library; RuntimeError when it is not loaded (callers check `available()` first)."""
     lib = library()
     if lib is None:
         raise RuntimeError(f"compiled kernels unavailable: {unavailable_reason()}")
-    c_function = getattr(lib, name)
-    c_function.restype, c_function.argtypes = restype, argtypes
-    return c_function
+    return lib
 
 
-def record(name: str, fields: list, size_function: Optional[str] = None) -> type:
-    """Return a ctypes Structure of doubles; a field given as (name, k) is an array of k doubles.
-
-    Only doubles, so that the layout is the same on every compiler. size_function: the name of
-    the C function that returns sizeof the C struct, checked the first time a record is made.
-    """
-    spec = [(field, F64) if isinstance(field, str) else (field[0], F64 * field[1]) for field in fields]
-    return type(name, (ctypes.Structure,), {"_fields_": spec, "_size_function": size_function})
+def layout_of(name: str) -> int:
+    """The layout hash the library was built with for the record `name` (0: it knows no such record)."""
+    return int(_loaded().primer_layout(name.encode()))
 
 
-def check_size(struct: type) -> None:
-    """Raise RuntimeError when the C side's struct has another size than `struct` (a stale library)."""
-    name = getattr(struct, "_size_function", None)
-    if name is None or getattr(struct, "_size_checked", False):
-        return
-    size = function(name, I64, [])()
-    if size != ctypes.sizeof(struct):
-        raise RuntimeError(f"{struct.__name__} is {ctypes.sizeof(struct)} bytes here and {size} in C (make kernels)")
-    struct._size_checked = True
+def size_of(name: str) -> int:
+    """sizeof the record `name` in the library (-1: it knows no such record)."""
+    return int(_loaded().primer_record_size(name.encode()))
 
 
-def pointer(array: Optional[np.ndarray], dtype) -> Optional[int]:
-    """Return the address of a C-contiguous array of `dtype` (None for None); refuse anything else."""
-    if array is None:
-        return None
-    if array.dtype != dtype or not array.flags.c_contiguous:
-        raise TypeError(f"C argument must be C-contiguous {np.dtype(dtype)}, got {array.dtype} "
-                        f"{'contiguous' if array.flags.c_contiguous else 'strided'}")
-    return array.ctypes.data
+def call(name: str, args):
+    """Call the library's C function `name` with its record of arguments (schema.function), checked first
+    against the library's layout, and return the record (results the function stores are in its fields)."""
+    args.check()
+    functions = _cache["functions"] if "functions" in _cache else {}
+    function = functions.get(name)
+    if function is None:
+        function = getattr(_loaded(), name)
+        function.restype, function.argtypes = None, [ctypes.c_void_p]
+        _cache["functions"][name] = function
+    function(ctypes.addressof(args))
+    return args
 
 
 def contiguous(array: np.ndarray, dtype) -> np.ndarray:

@@ -6,9 +6,7 @@
  * core/materials/bsdfs.gen.c), written by tools/make_boundary.py from the Python tables. Built by
  * tools/build_kernels.py (`make kernels`), loaded by core/native/library.py. */
 #include "primer.h"
-#include "boundary.gen.h"               /* the tables' kinds and flags (tools/make_boundary.py) */
-
-#define PRIMER_ABI 34
+#include "boundary.gen.h"               /* constants, tables and records from the Python (tools/make_boundary.py) */
 
 #include "../sampling/sobol.c"
 #include "../camera/camera.c"
@@ -29,7 +27,4 @@
 #include "../integrators/direct.c"
 #include "../integrators/path.c"
 #include "../integrators/chunk.c"
-
-/* The interface version core/native/library.py checks (its ABI). */
-EXPORT int64_t primer_abi(void) { return PRIMER_ABI; }
-EXPORT int64_t primer_shadow_settings_size(void) { return (int64_t)sizeof(ShadowSettings); }
+#include "exports.gen.c"               /* what Python calls: one record of arguments each (tools/make_boundary.py) */

@@ -76,7 +76,7 @@ SIMD_CLONES NOINLINE static void sample_lanes(int64_t n, uint32_t stream, const 
 }
 
 /* sobol.sample_2d over arrays: pixel, index (n,) int64 -> out (n, 2) float64 (for the tests). */
-EXPORT void primer_sample_2d(int64_t seed, const int64_t *pixel, const int64_t *index, int64_t dimension,
+static void sample_2d_rows(int64_t seed, const int64_t *pixel, const int64_t *index, int64_t dimension,
                              int64_t n, double *out)
 {
     uint32_t stream = stream_of(seed, dimension);

@@ -19,6 +19,8 @@ import math
 
 import numpy as np
 
+from ..native import schema
+
 _U32 = np.uint32
 
 
@@ -177,12 +179,22 @@ def sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -
     return out.T
 
 
+Sample2dArgs = schema.function("primer_sample_2d", "sample_2d_rows", schema.record(
+    "Sample2dArgs", "primer_sample_2d's arguments: sample_2d for n samples.", [
+        ("seed", schema.I64, ""),
+        ("pixel", schema.ptr(schema.I64), "(n,)"),
+        ("index", schema.ptr(schema.I64), "(n,)"),
+        ("dimension", schema.I64, ""),
+        ("n", schema.I64, ""),
+        ("out", schema.out(schema.F64), "(n, 2)"),
+    ]))
+
+
 def compiled_sample_2d(seed: int, pixel: np.ndarray, index: np.ndarray, dimension: int) -> np.ndarray:
     """sample_2d in C (core/sampling/sobol.c): pixel, index (n,) int64 -> (n, 2) float64, bit for bit the same."""
     from ..native import library
-    P, I64, ptr = library.P, library.I64, library.pointer
     pixel, index = library.contiguous(pixel, np.int64), library.contiguous(index, np.int64)
     out = np.empty((len(pixel), 2))
-    library.function("primer_sample_2d", None, [I64, P, P, I64, I64, P])(
-        int(seed), ptr(pixel, np.int64), ptr(index, np.int64), int(dimension), len(pixel), ptr(out, np.float64))
+    library.call("primer_sample_2d", Sample2dArgs(seed=int(seed), pixel=pixel, index=index, dimension=int(dimension),
+                                                  n=len(pixel), out=out))
     return out
