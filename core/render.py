@@ -37,7 +37,7 @@ from .film.film import ChunkSums, Film, pixel_sums
 from .geometry import instancing
 from .geometry.geometry import WorldGeometry, build_geometry
 from .integrators import INTEGRATORS, Context, Recorder
-from .geometry.geometry import HIDDEN_FROM_SHADOW, HOLDOUT
+from .visibility import HIDDEN_FROM_SHADOW, HOLDOUT
 from .integrators import cryptomatte, features, lightpasses, passes as passes_
 from .integrators.compiled import Compiled, why_not
 from .materials import MaterialTable

@@ -31,18 +31,13 @@ from .. import vectors
 from .intersect import Tracer
 from ..scene import Scene
 from ..materials import graph as graph_
+# The rays an object may hide from, and holdouts: WorldGeometry.instance_hidden's bits (core/visibility.py).
+from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_SHADOW,
+                          HIDDEN_FROM_TRANSMISSION, HOLDOUT)
 
 
 # Scenes up to this many triangles keep a per-triangle table of corner coordinates (WorldGeometry.corner_points).
 CORNER_TABLE_TRIANGLES = 1 << 21
-
-
-# The rays an object may hide from (WorldGeometry.instance_hidden bits; triangles.c HIDDEN_FROM_*): Object >
-# Visibility > Ray Visibility. A ray of one kind passes the objects hidden from that kind as if they were not there.
-HIDDEN_FROM_CAMERA, HIDDEN_FROM_SHADOW = 1, 2
-HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION = 4, 8, 16
-# In the same flags: the object is a holdout (Object > Visibility > Holdout), a hole in the film for camera paths.
-HOLDOUT = 32
 
 
 @dataclass

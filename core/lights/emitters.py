@@ -330,7 +330,7 @@ def from_geometry(geometry, materials) -> Optional[MeshEmitters]:
                                textured if textured.any() else None)
     # Ray Visibility > Diffuse, Glossy, Transmission of the emitting objects: as in Cycles, the light samples of an
     # object hidden from a kind of ray light no closure of that kind (direct.closures_left_out).
-    from ..geometry.geometry import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
+    from ..visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
     bits = HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
     if emitters is not None and geometry.hides(bits):
         owner = geometry.owners(emitters.prim)
