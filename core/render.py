@@ -38,7 +38,7 @@ from .geometry import instancing
 from .geometry.geometry import WorldGeometry, build_geometry
 from .integrators import INTEGRATORS, Context, Recorder
 from .visibility import HIDDEN_FROM_SHADOW, HOLDOUT
-from .integrators import cryptomatte, features, lightpasses, passes as passes_
+from .integrators import cryptomatte, direct, features, lightpasses, passes as passes_
 from .integrators.compiled import Compiled, why_not
 from .materials import MaterialTable
 from .sampling import sobol as sampling
@@ -123,7 +123,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     materials = MaterialTable.of(scene.materials, scene.default_material)
     # The lights a render makes of its scene: the emissive meshes, and the world's image.
     world = scene.the_world()
-    emitters = lights_.emitters.from_geometry(geometry, materials)
+    emitters = lights_.emitters.from_geometry(geometry, materials, direct.graph_emission)
     sampler = lights_.WorldLight.of(world)
     lights += [light for light in (emitters, sampler) if light is not None]
     ctx = Context(scene, settings, geometry, lights, materials, light_numbers)
