@@ -27,6 +27,7 @@ from . import embree_buffers
 from . import instancing
 from ..native import library
 from . import normals as normals_
+from . import surface as surface_
 from .. import vectors
 from .intersect import Tracer
 from ..scene import Scene
@@ -154,6 +155,12 @@ class WorldGeometry:
         if smooth and len(mesh.corner_normals):
             is_smooth, normals = mesh.smooth_normals(j, local)
         return TriangleData(corners, Ng, mesh.materials(j, local), is_smooth, normals)
+
+    def shading_point(self, surface):
+        """What materials' node graphs read at the hits `surface` (a Surface): their ShadingPoint
+        (core/materials/graph.py), made by core/geometry/surface.py shading_point. MaterialTable.shade asks the
+        geometry it is given for it, so that the materials need not import the geometry."""
+        return surface_.shading_point(self, surface)
 
     def hides(self, bit: int) -> bool:
         """Whether some object hides from the rays of `bit` (any of the HIDDEN_FROM_* or HOLDOUT bits it has)."""
