@@ -44,7 +44,7 @@ from .materials import MaterialTable
 from .sampling import sobol as sampling
 from .scene import RenderSettings, Scene
 from .scene.validate import validate
-from .teaching import debug
+from .integrators import debug
 
 AUX_BUFFERS = debug.AUX_BUFFERS
 # With the "time" buffer, each chunk is rendered and timed in runs of this many pixels.
@@ -158,7 +158,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     ctx.extra["forward"] = forward / np.linalg.norm(forward)
     ctx.extra["camera_offset"] = geometry.origin - np.asarray(scene.camera.matrix_world, np.float64)[:3, 3]
     # Acne debug view: how far a blocker may rise above the plane a shadow ray leaves and still count
-    # as lying in it (core/teaching/debug.py, self_intersections).
+    # as lying in it (core/integrators/debug.py, self_intersections).
     ctx.extra["self_hit_distance"] = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry)
                                       if "acne" in settings.aux else 0.0)
     return ctx

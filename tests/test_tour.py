@@ -28,7 +28,7 @@ sys.path.insert(0, os.path.join(ROOT, "tools"))
 from render import load_primer  # noqa: E402
 from test_blender_engine import render_passes  # noqa: E402
 
-from core.teaching import debug
+from core.integrators import debug
 from core.film import image_io  # noqa: E402
 from core.film.compare import relative_mse_of_blocks  # noqa: E402
 

@@ -14,7 +14,7 @@ def validate(scene, settings) -> None:
     from ..geometry import instancing
     from ..integrators import INTEGRATORS
     from ..native.library import KERNELS
-    from ..teaching.debug import AUX_BUFFERS
+    from ..integrators.debug import AUX_BUFFERS
     if scene.camera is None:
         raise ValueError("the scene has no camera")
     if settings.width < 1 or settings.height < 1:

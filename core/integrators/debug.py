@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..integrators.base import Recorder
+from .base import Recorder
 
 # How far above the plane a shadow ray leaves a blocker may rise and still count as lying in it
 # (so that hitting it needs rounding: acne), as a fraction of the scene's bounding-box diagonal.
