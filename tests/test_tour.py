@@ -676,7 +676,7 @@ def test_viewport_coarse_pass_is_one_ray_per_block(primer):
     the block, so it is ready at once; the following passes refine it to the full image."""
     scene = open_scene("light_point")
     viewport = addon_module(primer, "viewport")
-    progressive = importlib.import_module(f"{primer.__name__}.core.film.progressive")
+    progressive = importlib.import_module(f"{primer.__name__}.core.render.progressive")
     cache = addon_module(primer, "scene_cache").SceneCache()
     cache.sync(bpy.context.evaluated_depsgraph_get())
     settings = viewport.viewport_settings(scene)

@@ -23,7 +23,7 @@ from render import load_primer  # noqa: E402
 from blender_env import diffuse_material  # noqa: E402
 
 from core.camera import camera as camera_  # noqa: E402
-from core.film import progressive  # noqa: E402
+from core.render import progressive  # noqa: E402
 from core.camera import view as view_  # noqa: E402
 
 pytestmark = pytest.mark.blender
