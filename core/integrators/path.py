@@ -55,7 +55,7 @@ from . import clamp as clamp_
 from . import lightpasses
 from . import shadows
 from .direct import DirectLighting, camera_hits, gather_light, nearest_seen
-from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
+from ..geometry.geometry import HIDDEN_FROM_CAMERA, HOLDOUT
 
 # Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
 VERTEX_DIMENSIONS = 1 << 16
