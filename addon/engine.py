@@ -21,7 +21,7 @@ import bpy
 import numpy as np
 
 from ..core.integrators import cryptomatte
-from ..core.teaching import debug
+from ..core.integrators import debug
 from . import compositor, export, lightgroups, viewport
 
 log = logging.getLogger("primer")

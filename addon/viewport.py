@@ -10,7 +10,7 @@ Blender calls two methods of the RenderEngine for the viewport:
   samples start again, and the newest image is drawn.
 
 Rendering never happens in those calls. A worker thread renders progressive passes
-(core/film/progressive.py): a coarse one of one ray per block of pixels within a frame or two, then
+(core/render/progressive.py): a coarse one of one ray per block of pixels within a frame or two, then
 full-resolution passes that are averaged. A change cancels the pass in flight through core.render's
 `cancel` callback. The frame time of each pass is shown in the viewport's corner, as in the
 lecture's framerate slide: "measure the time it takes to render a frame".
@@ -29,7 +29,7 @@ import numpy as np
 
 from . import export
 from .scene_cache import SceneCache, SyncReport
-from ..core.film import progressive
+from ..core.render import progressive
 from ..core.camera import view as view_
 from ..core.scene import RenderSettings
 
@@ -42,7 +42,7 @@ def viewport_settings(scene) -> RenderSettings:
     """Return the render settings the viewport uses: the scene's, with no border, no auxiliary buffers and no
     denoising features (the viewport does not composite).
 
-    No adaptive sampling: progressive refinement is the viewport's own schedule (core/film/progressive.py),
+    No adaptive sampling: progressive refinement is the viewport's own schedule (core/render/progressive.py),
     and it weighs every pass by its sample count, which holds only if every pixel got them all.
     """
     settings = export.render_settings(scene, 1, 1, (0, 0, 1, 1))

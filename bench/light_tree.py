@@ -61,8 +61,8 @@ def render_with(scene: Scene, settings: RenderSettings, by_power: bool, repeat: 
     machine is shared), the emitters picked by the tree or by power alone."""
     original = emitters_.from_geometry
 
-    def power_only(geometry, materials):
-        emitters = original(geometry, materials)
+    def power_only(geometry, materials, graph_emission):
+        emitters = original(geometry, materials, graph_emission)
         if emitters is not None:
             emitters.tree = emitters.tree.by_power()
         return emitters

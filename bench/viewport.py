@@ -41,7 +41,7 @@ def main() -> int:
 
     primer = load_primer()
     viewport = sys.modules[primer.__name__ + ".addon.viewport"]
-    progressive = sys.modules[primer.__name__ + ".core.film.progressive"]
+    progressive = sys.modules[primer.__name__ + ".core.render.progressive"]
     names = args.scenes or sorted(f[:-6] for f in os.listdir(os.path.join(ROOT, "sample_scenes"))
                                   if f.endswith(".blend"))
     print(f"viewport {width}x{height}, load average {os.getloadavg()[0]:.2f}, {os.cpu_count()} cores")

@@ -30,7 +30,7 @@ from conftest import ortho_down, rotation, sun_direction
 from core.camera import camera as camera_
 from core.geometry import primitives
 from core import render
-from core.teaching import debug
+from core.integrators import debug
 from core.integrators import shadows
 from core.camera import Camera
 from core.geometry.geometry import build_geometry

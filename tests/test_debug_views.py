@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import ortho_down, pixel_points_on_plane, rotation, sun_direction
-from core.teaching import debug
+from core.integrators import debug
 from core.geometry import primitives
 from core import render
 from core.camera import Camera
@@ -254,7 +254,7 @@ def test_debug_buffers_render_where_bsdf_rays_find_lights():
     from test_compiled import LIGHTS, lit_scene
     from core import render
     from core.scene import RenderSettings
-    from core.teaching.debug import AUX_BUFFERS
+    from core.integrators.debug import AUX_BUFFERS
     from core.lights import World
     scene = lit_scene(LIGHTS["area_rect"])
     scene.world = World(color=np.array([0.1, 0.1, 0.1]), camera=True, lights=True)    # BSDF rays at every hit

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import sun_direction
-from core.teaching import debug
+from core.integrators import debug
 from core.geometry import instancing
 from core.geometry import primitives
 from core import render

@@ -13,7 +13,7 @@ import pytest
 from conftest import ortho_down, pixel_points_on_plane
 from core.geometry import primitives
 from core import render
-from core.teaching import debug
+from core.integrators import debug
 from core.scene import Mesh, PointLight, RenderSettings, Scene, SpotLight, SunLight
 from test_debug_views import tilted_quad
 

@@ -28,7 +28,7 @@ sys.path.insert(0, os.path.join(ROOT, "tools"))
 from render import load_primer  # noqa: E402
 from test_blender_engine import render_passes  # noqa: E402
 
-from core.teaching import debug
+from core.integrators import debug
 from core.film import image_io  # noqa: E402
 from core.film.compare import relative_mse_of_blocks  # noqa: E402
 
@@ -676,7 +676,7 @@ def test_viewport_coarse_pass_is_one_ray_per_block(primer):
     the block, so it is ready at once; the following passes refine it to the full image."""
     scene = open_scene("light_point")
     viewport = addon_module(primer, "viewport")
-    progressive = importlib.import_module(f"{primer.__name__}.core.film.progressive")
+    progressive = importlib.import_module(f"{primer.__name__}.core.render.progressive")
     cache = addon_module(primer, "scene_cache").SceneCache()
     cache.sync(bpy.context.evaluated_depsgraph_get())
     settings = viewport.viewport_settings(scene)

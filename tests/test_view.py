@@ -1,4 +1,4 @@
-"""The viewport's camera and progressive passes, without Blender (core/camera/view.py, core/film/progressive.py).
+"""The viewport's camera and progressive passes, without Blender (core/camera/view.py, core/render/progressive.py).
 
 The projection matrices here are OpenGL's frustum and orthographic matrices written out from their
 closed forms, the same ones Blender's viewport uses; tests/test_viewport.py checks against bpy's own.
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from core.camera import camera as camera_
-from core.film import progressive
+from core.render import progressive
 from core.camera import view as view_
 from core.scene import Mesh, RenderSettings, Scene, SunLight
 

@@ -23,7 +23,7 @@ from render import load_primer  # noqa: E402
 from blender_env import diffuse_material  # noqa: E402
 
 from core.camera import camera as camera_  # noqa: E402
-from core.film import progressive  # noqa: E402
+from core.render import progressive  # noqa: E402
 from core.camera import view as view_  # noqa: E402
 
 pytestmark = pytest.mark.blender
@@ -325,7 +325,7 @@ def test_worker_thread_restarts_on_a_change_and_converges(session_in_scene):
 def test_ray_visibility_and_holdout_reach_the_traced_scene(session_in_scene):
     """Object > Visibility > Ray Visibility > Diffuse off and Holdout on for one cube: the viewport's traced scene
     has an object hidden from diffuse rays and a holdout, and none hidden from glossy rays."""
-    from core.geometry.geometry import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HOLDOUT
+    from core.visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HOLDOUT
     _, session, recorder, _ = session_in_scene
     assert not session.cache.geometry.hides(HIDDEN_FROM_DIFFUSE | HOLDOUT)
 

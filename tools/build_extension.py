@@ -58,7 +58,7 @@ STAGING_SKIP = (".git", ".venv*", "dist", "out", ".pytest_cache", "__pycache__")
 FORBIDDEN_PREFIXES = ("tests/", "sample_scenes/", "tools/", "docs/", "bench/", ".ci/", ".git", ".venv",
                       "dist/", "out/", "Makefile", "pyproject.toml", "requirements", ".pytest_cache")
 REQUIRED_FILES = ("blender_manifest.toml", "__init__.py", "addon/__init__.py", "addon/engine.py",
-                  "core/render.py", "core/geometry/intersect.py")
+                  "core/render/__init__.py", "core/geometry/intersect.py")
 
 
 class BuildError(Exception):

@@ -27,7 +27,7 @@ class ChunkSums(NamedTuple):
     rgba:     (p, 4) float64 sum of the samples' RGBA
     squares:  (p, 2) float64 sums of the samples' squared luminance and alpha (zeros unless adaptive)
     hits:     (p,) int64 samples that hit a surface
-    aux:      name -> (p, c) float64 sums of debug values (core/teaching/debug.py)
+    aux:      name -> (p, c) float64 sums of debug values (core/integrators/debug.py)
     primary:  camera rays traced (a fisheye's samples outside its image circle trace none)
     shadow:   shadow rays traced
     samples:  camera samples per pixel in this chunk

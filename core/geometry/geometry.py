@@ -27,22 +27,18 @@ from . import embree_buffers
 from . import instancing
 from ..native import library
 from . import normals as normals_
+from . import surface as surface_
 from .. import vectors
 from .intersect import Tracer
 from ..scene import Scene
 from ..materials import graph as graph_
+# The rays an object may hide from, and holdouts: WorldGeometry.instance_hidden's bits (core/visibility.py).
+from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_SHADOW,
+                          HIDDEN_FROM_TRANSMISSION, HOLDOUT)
 
 
 # Scenes up to this many triangles keep a per-triangle table of corner coordinates (WorldGeometry.corner_points).
 CORNER_TABLE_TRIANGLES = 1 << 21
-
-
-# The rays an object may hide from (WorldGeometry.instance_hidden bits; triangles.c HIDDEN_FROM_*): Object >
-# Visibility > Ray Visibility. A ray of one kind passes the objects hidden from that kind as if they were not there.
-HIDDEN_FROM_CAMERA, HIDDEN_FROM_SHADOW = 1, 2
-HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION = 4, 8, 16
-# In the same flags: the object is a holdout (Object > Visibility > Holdout), a hole in the film for camera paths.
-HOLDOUT = 32
 
 
 @dataclass
@@ -159,6 +155,12 @@ class WorldGeometry:
         if smooth and len(mesh.corner_normals):
             is_smooth, normals = mesh.smooth_normals(j, local)
         return TriangleData(corners, Ng, mesh.materials(j, local), is_smooth, normals)
+
+    def shading_point(self, surface):
+        """What materials' node graphs read at the hits `surface` (a Surface): their ShadingPoint
+        (core/materials/graph.py), made by core/geometry/surface.py shading_point. MaterialTable.shade asks the
+        geometry it is given for it, so that the materials need not import the geometry."""
+        return surface_.shading_point(self, surface)
 
     def hides(self, bit: int) -> bool:
         """Whether some object hides from the rays of `bit` (any of the HIDDEN_FROM_* or HOLDOUT bits it has)."""

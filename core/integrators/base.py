@@ -67,8 +67,8 @@ class Radiance(NamedTuple):
 class Recorder:
     """Receives the integrator's decisions as they are made; every method here ignores them.
 
-    Subclasses keep what they need (core/teaching). Arrays are for the batch the integrator works
-    on: n rays, and per light the hits `rows` it cast shadow rays for.
+    Subclasses keep what they need (core/integrators/debug.py, core/teaching). Arrays are for the batch the
+    integrator works on: n rays, and per light the hits `rows` it cast shadow rays for.
     """
 
     def hits(self, O: np.ndarray, D: np.ndarray, surface: Optional[Surface], hit: np.ndarray) -> None:

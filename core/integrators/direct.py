@@ -33,8 +33,8 @@ import numpy as np
 from .. import materials as materials_
 from ..materials import graph as graph_
 from .. import vectors
-from ..geometry.geometry import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY,
-                                 HIDDEN_FROM_TRANSMISSION, HOLDOUT)
+from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY,
+                          HIDDEN_FROM_TRANSMISSION, HOLDOUT)
 from ..geometry.surface import surface_at_hits
 from ..lights.base import LAMP
 from ..sampling import sobol as sampling

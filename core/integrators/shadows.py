@@ -175,7 +175,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
     one shadow ray. (Going on along the old direction for the old length less the distance gained along it
     would move the end by the step off the surface across the ray, onto the light's own surface when the
     surface faces the light; a sun's ray, with no end, keeps its direction.)"""
-    from ..geometry.geometry import HIDDEN_FROM_SHADOW
+    from ..visibility import HIDDEN_FROM_SHADOW
     from ..geometry.surface import surface_at_hits
     from ..materials import graph as graph_
     n = len(rays.origins)

@@ -25,7 +25,7 @@ from typing import ClassVar
 import numpy as np
 
 from .. import materials as materials_
-from ..geometry.geometry import HIDDEN_FROM_CAMERA, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
+from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
 from ..geometry.surface import surface_at_hits
 from ..materials import glass as glass_
 from ..materials import graph as graph_

@@ -201,10 +201,10 @@ class MeshEmitters(Light):
 ESTIMATE_POINTS = np.array([[1.0 / 3.0, 1.0 / 3.0], [2.0 / 3.0, 1.0 / 6.0], [1.0 / 6.0, 2.0 / 3.0], [1.0 / 6.0, 1.0 / 6.0]])
 
 
-def mean_graph_emission(geometry, materials, prim: np.ndarray) -> np.ndarray:
+def mean_graph_emission(geometry, materials, prim: np.ndarray, graph_emission) -> np.ndarray:
     """The mean over ESTIMATE_POINTS of what triangles prim (t,) int64 emit by their materials' node graphs,
-    seen head-on by a ray other than the camera's: (t, 3) float64, at least 0."""
-    from ..integrators.direct import graph_emission
+    seen head-on by a ray other than the camera's: (t, 3) float64, at least 0. graph_emission: what the caller
+    evaluates a graph's emission with (core/integrators/direct.py graph_emission; the lights sit below it)."""
     t, k = len(prim), len(ESTIMATE_POINTS)
     P = np.repeat(prim, k)
     u, v = np.tile(ESTIMATE_POINTS[:, 0], t), np.tile(ESTIMATE_POINTS[:, 1], t)
@@ -294,11 +294,12 @@ def spherical_triangle_sample(P: np.ndarray, V: np.ndarray, u: np.ndarray):
     return L, np.where(np.isfinite(distance) & (distance > 0), distance, 0.0), np.where(np.isfinite(pdf), pdf, 0.0)
 
 
-def from_geometry(geometry, materials) -> Optional[MeshEmitters]:
+def from_geometry(geometry, materials, graph_emission) -> Optional[MeshEmitters]:
     """The emitters of a WorldGeometry: the triangles whose material (a row of the MaterialTable) emits.
 
     Each material's `emission_sides` (FRONT | BACK, 0 for Emission Sampling None) and its emission
-    estimate (a constant shader's emission) decide; copied and instanced triangles alike.
+    estimate (a constant shader's emission) decide; copied and instanced triangles alike. graph_emission
+    (core/integrators/direct.py graph_emission, from the caller) estimates what textured emitters emit.
     """
     emission = np.array([np.asarray(shader.emission, np.float64) for shader in materials.shaders])
     sides = np.array([getattr(shader, "emission_sides", FRONT | BACK) for shader in materials.shaders], np.int32)
@@ -327,12 +328,12 @@ def from_geometry(geometry, materials) -> Optional[MeshEmitters]:
     if textured.any():
         # A textured emitter is picked by its mean emission at a few points inside it (an estimate: where it is 0,
         # only BSDF rays find the triangle, with MIS weight 1); what a sample brings is evaluated where it lands.
-        radiance[textured] = mean_graph_emission(geometry, materials, prim[textured])
+        radiance[textured] = mean_graph_emission(geometry, materials, prim[textured], graph_emission)
     emitters = MeshEmitters.of(np.concatenate(corners), radiance, sides[material], prim,
                                textured if textured.any() else None)
     # Ray Visibility > Diffuse, Glossy, Transmission of the emitting objects: as in Cycles, the light samples of an
     # object hidden from a kind of ray light no closure of that kind (direct.closures_left_out).
-    from ..geometry.geometry import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
+    from ..visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
     bits = HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
     if emitters is not None and geometry.hides(bits):
         owner = geometry.owners(emitters.prim)

@@ -403,8 +403,7 @@ class MaterialTable:
         from . import graph as graph_
         if surface is None or geometry is None:
             return graph_.empty_point(len(N), 0)._replace(N=N, Ng=N)
-        from ..geometry.surface import shading_point
-        return shading_point(geometry, surface)
+        return geometry.shading_point(surface)
 
 
 __all__ = ["BSDF", "BSDFFlags", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures",

@@ -28,7 +28,7 @@ class RenderSettings:
 
     region: (x0, y0, x1, y1) pixel rectangle to render, y from the top row, or None for all.
     shadow_method: "robust" (error-bound offset, no user epsilon) or "epsilon" (the lecture's).
-    aux: names of auxiliary buffers to return, from core.teaching.debug.AUX_BUFFERS.
+    aux: names of auxiliary buffers to return, from core.integrators.debug.AUX_BUFFERS.
     instancing: "auto" stores a mesh once and traces it as Embree instances when its copies would
         exceed core.geometry.instancing.INSTANCE_TRIANGLES triangles, "always" does so for every mesh placed
         twice or more, "never" copies every placement (core/geometry/instancing.py). The image is the same.

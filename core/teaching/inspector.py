@@ -131,7 +131,7 @@ class MaterialRecord(NamedTuple):
 class PixelRecord(NamedTuple):
     """Everything the renderer computes for the ray through one pixel's centre (world space).
 
-    x, y:           the pixel, row 0 at the top (core/render.py's convention)
+    x, y:           the pixel, row 0 at the top (core/render/__init__.py's convention)
     camera_point:   (3,) float64 the camera's position (the eye)
     origin:         (3,) float64 the primary ray's origin (on the near clip plane)
     direction:      (3,) float64 its unit direction D

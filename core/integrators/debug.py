@@ -2,7 +2,7 @@
 
 "Use that debug output" (the lecture). Each function here turns what the
 tracer already knows about a batch of samples into a quantity a student can
-look at; core/render.py averages them per pixel (`AUX_BUFFERS`) and the
+look at; core/render/__init__.py averages them per pixel (`AUX_BUFFERS`) and the
 add-on shows them as debug views and passes. Nothing here runs unless a
 debug buffer was asked for.
 
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..integrators.base import Recorder
+from .base import Recorder
 
 # How far above the plane a shadow ray leaves a blocker may rise and still count as lying in it
 # (so that hitting it needs rounding: acne), as a fraction of the scene's bounding-box diagonal.
@@ -91,7 +91,7 @@ def self_intersections(geometry, origins: np.ndarray, directions: np.ndarray, t_
 def share_time(seconds: float, rays: np.ndarray) -> np.ndarray:
     """Return each pixel's share of a batch's wall time, in proportion to the rays it cast.
 
-    The time is measured per batch of pixels (core/render.py: TIME_TILE pixels), not per
+    The time is measured per batch of pixels (core/render/__init__.py: TIME_TILE pixels), not per
     pixel: numpy works on whole batches. So this is an estimate: within a batch it follows
     the rays per pixel, between batches it follows the clock.
     seconds: wall time of the batch; rays: (p,) float64 rays per pixel -> (p,) float64 seconds
@@ -164,7 +164,7 @@ def aux_channels(names, lights: int) -> dict:
 class DebugRecorder(Recorder):
     """Keeps, for a batch of camera rays, the values the debug buffers show (core/integrators/base.py Recorder).
 
-    Made per chunk by core/render.py; `pixel_sums` then sums them per pixel, over the samples that hit
+    Made per chunk by core/render/__init__.py; `pixel_sums` then sums them per pixel, over the samples that hit
     (except the per-pixel totals "rays" and "time", and "acne", a ratio of two sums).
     geometry: the WorldGeometry (acne asks it once more about blocked shadow rays).
     """

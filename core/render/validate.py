@@ -1,9 +1,20 @@
-"""Refuse a scene or settings that cannot be rendered, with a message that says why."""
+"""Refuse a scene or settings that cannot be rendered, with a message that says why.
+
+It checks the settings against the tables of the parts that use them (integrators, passes, debug
+buffers, kernels, instancing modes), so it sits in the render part, above them all.
+"""
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from ..geometry import instancing
+from ..integrators import INTEGRATORS
+from ..integrators.debug import AUX_BUFFERS
+from ..integrators.lightpasses import LIGHT_PASSES
+from ..integrators.passes import CRYPTO_PASSES, PASS_CHANNELS
+from ..native.library import KERNELS
 
 # The most bounces a path may take (Blender's own limit for Light Paths > Max Bounces).
 MAX_BOUNCES = 1024
@@ -11,10 +22,6 @@ MAX_BOUNCES = 1024
 
 def validate(scene, settings) -> None:
     """Raise ValueError with a clear message when the scene or settings cannot be rendered."""
-    from ..geometry import instancing
-    from ..integrators import INTEGRATORS
-    from ..native.library import KERNELS
-    from ..teaching.debug import AUX_BUFFERS
     if scene.camera is None:
         raise ValueError("the scene has no camera")
     if settings.width < 1 or settings.height < 1:
@@ -59,8 +66,6 @@ def validate(scene, settings) -> None:
     unknown = set(settings.aux) - set(AUX_BUFFERS)
     if unknown:
         raise ValueError(f"unknown auxiliary buffers {sorted(unknown)}; choose from {list(AUX_BUFFERS)}")
-    from ..integrators.lightpasses import LIGHT_PASSES
-    from ..integrators.passes import CRYPTO_PASSES, PASS_CHANNELS
     known = list(PASS_CHANNELS) + list(CRYPTO_PASSES) + list(LIGHT_PASSES)
     unknown = set(settings.passes) - set(known)
     if unknown:

@@ -25,7 +25,7 @@ import numpy as np
 from ..camera import view as view_
 from ..camera.camera import Camera
 from ..geometry.geometry import WorldGeometry
-from ..render import render
+from . import render                      # the function: the render loop is core/render/__init__.py
 from ..scene import RenderSettings, Scene
 
 BLOCK_SIZES = (1, 2, 4, 8, 16, 32)

@@ -3,7 +3,7 @@
 F12, `blender -b`, the viewport's progressive passes, adaptive sampling and the ray inspector all
 come here; what differs between them is settings, not code. For a render:
 
-1. prepare: validate, build the geometry (core/geometry), move the lights into the camera-relative
+1. prepare: validate (validate.py), build the geometry (core/geometry), move the lights into the camera-relative
    frame (core/lights), make the material table (core/materials): a Context;
 2. plan passes: one pass of `samples`, or with adaptive sampling a small first pass and then
    passes over the pixels still noisy (core/film/adaptive.py);
@@ -17,6 +17,9 @@ come here; what differs between them is settings, not code. For a render:
 Chunks write to disjoint pixels, so threads need no locks; Embree, numpy and the C code release the
 GIL, so large passes run on every core. Memory stays bounded by the chunk size, whatever the image
 size, and the temporaries come from the heap (core/memory.py).
+
+The render part sits above every part it drives: beside this loop are its validation (validate.py, what
+cannot be rendered and why) and the viewport's progressive passes (progressive.py, which call `render`).
 """
 from __future__ import annotations
 
@@ -29,22 +32,22 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from . import lights as lights_
-from . import memory, vectors
-from .camera import camera as camera_
-from .film import adaptive
-from .film.film import ChunkSums, Film, pixel_sums
-from .geometry import instancing
-from .geometry.geometry import WorldGeometry, build_geometry
-from .integrators import INTEGRATORS, Context, Recorder
-from .geometry.geometry import HIDDEN_FROM_SHADOW, HOLDOUT
-from .integrators import cryptomatte, features, lightpasses, passes as passes_
-from .integrators.compiled import Compiled, why_not
-from .materials import MaterialTable
-from .sampling import sobol as sampling
-from .scene import RenderSettings, Scene
-from .scene.validate import validate
-from .teaching import debug
+from .. import lights as lights_
+from .. import memory, vectors
+from ..camera import camera as camera_
+from ..film import adaptive
+from ..film.film import ChunkSums, Film, pixel_sums
+from ..geometry import instancing
+from ..geometry.geometry import WorldGeometry, build_geometry
+from ..integrators import INTEGRATORS, Context, Recorder
+from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
+from ..integrators import cryptomatte, direct, features, lightpasses, passes as passes_
+from ..integrators.compiled import Compiled, why_not
+from ..materials import MaterialTable
+from ..sampling import sobol as sampling
+from ..scene import RenderSettings, Scene
+from .validate import validate
+from ..integrators import debug
 
 AUX_BUFFERS = debug.AUX_BUFFERS
 # With the "time" buffer, each chunk is rendered and timed in runs of this many pixels.
@@ -123,7 +126,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     materials = MaterialTable.of(scene.materials, scene.default_material)
     # The lights a render makes of its scene: the emissive meshes, and the world's image.
     world = scene.the_world()
-    emitters = lights_.emitters.from_geometry(geometry, materials)
+    emitters = lights_.emitters.from_geometry(geometry, materials, direct.graph_emission)
     sampler = lights_.WorldLight.of(world)
     lights += [light for light in (emitters, sampler) if light is not None]
     ctx = Context(scene, settings, geometry, lights, materials, light_numbers)
@@ -158,7 +161,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     ctx.extra["forward"] = forward / np.linalg.norm(forward)
     ctx.extra["camera_offset"] = geometry.origin - np.asarray(scene.camera.matrix_world, np.float64)[:3, 3]
     # Acne debug view: how far a blocker may rise above the plane a shadow ray leaves and still count
-    # as lying in it (core/teaching/debug.py, self_intersections).
+    # as lying in it (core/integrators/debug.py, self_intersections).
     ctx.extra["self_hit_distance"] = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry)
                                       if "acne" in settings.aux else 0.0)
     return ctx
