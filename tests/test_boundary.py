@@ -152,3 +152,21 @@ def test_every_record_and_function_is_laid_out_in_c_as_in_python():
     lib = library.library()
     for name in schema.FUNCTIONS:
         assert hasattr(lib, name), name
+
+
+def test_a_stale_library_is_set_aside_and_renders_fall_back_to_the_reference(monkeypatch):
+    """A library whose layout of some record is not Python's (built from other C sources) is not used at all: it
+    is unavailable with a reason naming the record, and a render takes the numpy path, saying why."""
+    from core.integrators import compiled
+    from core.native import library, schema
+    from core.scene import RenderSettings
+    if not library.available():
+        pytest.skip(library.unavailable_reason())
+    monkeypatch.setattr(library, "_cache", dict(library._cache))
+    for record in schema.RECORDS.values():
+        monkeypatch.setattr(record, "_checked", False)
+    real = library.layout_of
+    monkeypatch.setattr(library, "layout_of", lambda name: 1 if name == "LightRecord" else real(name))
+    assert not library.available()
+    assert "LightRecord" in library.unavailable_reason() and "make kernels" in library.unavailable_reason()
+    assert "LightRecord" in compiled.why_not(RenderSettings())

@@ -17,7 +17,7 @@ from core.materials import Material
 from core.materials.translucent import Translucent
 from core.render import render
 from core.scene import RenderSettings, Scene
-from core.geometry.geometry import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
+from core.visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
 
 UP = np.array([0.0, 0.0, 1.0])
 

@@ -5,10 +5,7 @@
  * core/geometry/instancing.py). Either way, shading gets the triangle's camera-relative corners,
  * its face normal, its material row and, on smooth triangles, its corner normals. */
 
-/* The rays an object may hide from (geometry.HIDDEN_FROM_*: Ray Visibility > Camera, Shadow, Diffuse, Glossy,
- * Transmission off), and in the same flags whether it is a holdout (geometry.HOLDOUT). */
-enum { HIDDEN_FROM_CAMERA = 1, HIDDEN_FROM_SHADOW = 2, HIDDEN_FROM_DIFFUSE = 4, HIDDEN_FROM_GLOSSY = 8,
-       HIDDEN_FROM_TRANSMISSION = 16, HOLDOUT = 32 };
+/* The rays an object may hide from (HIDDEN_FROM_*) and the holdout flag come from core/visibility.py. */
 
 /* What shading needs of one hit triangle. */
 typedef struct {

@@ -87,6 +87,13 @@
 #define TEX_FLOAT 0
 #define TEX_BYTE 1
 #define TEX_SHORT 2
+/* the rays an object hides from (Ray Visibility), and the holdout flag (core.visibility) */
+#define HIDDEN_FROM_CAMERA 1
+#define HIDDEN_FROM_SHADOW 2
+#define HIDDEN_FROM_DIFFUSE 4
+#define HIDDEN_FROM_GLOSSY 8
+#define HIDDEN_FROM_TRANSMISSION 16
+#define HOLDOUT 32
 
 /* core/materials/registry.py BSDF_TYPES: a closure's kind */
 enum {

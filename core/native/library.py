@@ -68,13 +68,25 @@ def library() -> Optional[ctypes.CDLL]:
             reason, lib = f"{os.path.basename(path)} does not load or predates this boundary ({error}; make kernels)", None
     if lib is None:
         log.info("Compiled kernels unavailable: %s; rendering on the numpy path", reason)
-    _cache["library"], _cache["reason"], _cache["functions"] = lib, reason, {}
+    _cache["library"], _cache["loaded"], _cache["reason"], _cache["functions"] = lib, lib, reason, {}
     return lib
 
 
 def available() -> bool:
-    """Whether the library loaded."""
-    return library() is not None
+    """Whether the library loaded and lays out every record described so far as Python does (core/native/schema.py;
+    a library built from other C sources is set aside, with the reason logged once, and Primer renders on the
+    numpy path)."""
+    if library() is None:
+        return False
+    from . import schema
+    stale = stale_records(list(schema.RECORDS.values()))
+    if stale:
+        reason = (f"{library_name()} was built from other C sources than this Python ({', '.join(stale[:3])} "
+                  "differ; make kernels)")
+        log.info("Compiled kernels unavailable: %s; rendering on the numpy path", reason)
+        _cache["library"], _cache["reason"] = None, reason
+        return False
+    return True
 
 
 def unavailable_reason() -> str:
@@ -85,7 +97,7 @@ def unavailable_reason() -> str:
 
 def _loaded() -> ctypes.CDLL:
     """The library; RuntimeError when it is not loaded (callers check `available()` first)."""
-    lib = library()
+    lib = _cache.get("loaded") or library()
     if lib is None:
         raise RuntimeError(f"compiled kernels unavailable: {unavailable_reason()}")
     return lib
@@ -99,6 +111,18 @@ def layout_of(name: str) -> int:
 def size_of(name: str) -> int:
     """sizeof the record `name` in the library (-1: it knows no such record)."""
     return int(_loaded().primer_record_size(name.encode()))
+
+
+def stale_records(records) -> list:
+    """The names of the records (schema.Record classes) whose layout in the library is not the one Python describes:
+    a library built from other C sources (empty: they all agree). Checked once per record."""
+    out = []
+    for record in records:
+        try:
+            record.check()
+        except RuntimeError:
+            out.append(record.__name__)
+    return out
 
 
 def call(name: str, args):
