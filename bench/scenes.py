@@ -271,10 +271,10 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     shadows = importlib.import_module("primer.core.integrators.shadows")
     batches, meshes = [], []
     original = {name: getattr(Tracer, name) for name in ("__init__", "intersect", "occluded")}
-    # Which path vertex the integrator is at: camera_hits traces the camera rays, shade(..., vertex) a vertex.
+    # Which path vertex the integrator is at: camera_hits traces the camera rays, shade_vertex(..., PathState) a vertex.
     at = {"vertex": -1, "shadow": False}
     hooks = {(direct, "camera_hits"): direct.camera_hits, (path, "camera_hits"): path.camera_hits,
-             (direct.DirectLighting, "shade"): direct.DirectLighting.shade,
+             (direct, "shade_vertex"): direct.shade_vertex, (path, "shade_vertex"): path.shade_vertex,
              (shadows, "transmittance"): shadows.transmittance}
 
     def transmittance(*args, **kwargs):             # shadow rays through transparent surfaces: nearest-hit queries
@@ -288,9 +288,10 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
         at["vertex"] = -1
         return hooks[(direct, "camera_hits")](*args, **kwargs)
 
-    def shade(self, *args, **kwargs):
-        at["vertex"] = kwargs.get("vertex", args[7] if len(args) > 7 else 0)
-        return hooks[(direct.DirectLighting, "shade")](self, *args, **kwargs)
+    def shade(*args, **kwargs):
+        state = kwargs.get("path", args[6] if len(args) > 6 else None)
+        at["vertex"] = state.vertex if state is not None else 0
+        return hooks[(direct, "shade_vertex")](*args, **kwargs)
 
     def init(self, vertices, triangles, *args, **kwargs):
         if kwargs.get("instanced"):
@@ -313,7 +314,7 @@ def rays(name: str, plan: common.Plan, percentage: int = 200, samples: int = 16)
     # rounding (tests/test_compiled.py: the same rays traced, pixel for pixel).
     Tracer.__init__, Tracer.intersect, Tracer.occluded = init, recording("intersect"), recording("occluded")
     direct.camera_hits = path.camera_hits = camera_hits
-    direct.DirectLighting.shade = shade
+    direct.shade_vertex = path.shade_vertex = shade
     shadows.transmittance = transmittance
     scene.primer.kernels = "NUMPY"
     try:

@@ -11,7 +11,7 @@ import pytest
 from core import materials
 from core.camera import Camera
 from core.geometry import primitives
-from core.integrators import direct, path
+from core.integrators import path, rays, vertex
 from core.lights import SunLight
 from core.materials import Material
 from core.materials.translucent import Translucent
@@ -67,7 +67,7 @@ def test_its_bounces_count_as_transmission_but_labelled_diffuse():
     np.testing.assert_array_equal(transmission, [True, True, False])
     np.testing.assert_array_equal(transparent, [False, False, False])
     np.testing.assert_array_equal(labelled, [True, True, True])
-    np.testing.assert_array_equal(direct.ray_kind(kind, transmit, 0),
+    np.testing.assert_array_equal(rays.ray_kind(kind, transmit, 0),
                                   [HIDDEN_FROM_TRANSMISSION, HIDDEN_FROM_TRANSMISSION, HIDDEN_FROM_DIFFUSE])
 
 
@@ -76,7 +76,7 @@ def test_a_light_hidden_from_diffuse_rays_leaves_it_out_as_cycles_does():
     one hidden from glossy or transmission rays does (Cycles' _surface_shader_exclude)."""
     kind = np.full((3, 1), Translucent.kind)
     hidden = np.array([HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION])
-    np.testing.assert_array_equal(direct.closures_left_out(kind, hidden)[:, 0], [True, False, False])
+    np.testing.assert_array_equal(vertex.closures_left_out(kind, hidden)[:, 0], [True, False, False])
 
 
 def sheet_lit_from_below(albedo, strength, elevation_deg, kernels):

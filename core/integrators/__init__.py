@@ -12,5 +12,16 @@ from .whitted import WhittedTracing
 
 INTEGRATORS = {cls.name: cls for cls in (DirectLighting, WhittedTracing, PathTracing)}
 
+
+def for_render(ctx: Context) -> Integrator:
+    """The integrator that renders with ctx.settings: the one its `integrator` names, but where rays go on through
+    transparent surfaces (ctx.extra["transparent"]) the direct-lighting tracer is the path tracer with no bounces
+    but those (Cycles' transparent bounces, apart from Max Bounces 0)."""
+    name = ctx.settings.integrator
+    if name == DirectLighting.name and ctx.extra.get("transparent", False):
+        return PathTracing(direct_only=True)
+    return INTEGRATORS[name]()
+
+
 __all__ = ["Context", "DirectLighting", "INTEGRATORS", "Integrator", "PathTracing", "Radiance", "Recorder",
-           "WhittedTracing"]
+           "WhittedTracing", "for_render"]

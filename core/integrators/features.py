@@ -41,7 +41,7 @@ from ..materials import graph as graph_
 from ..sampling import sobol as sampling
 from . import shadows
 from .base import Context, Recorder
-from .direct import camera_hits
+from .rays import camera_hits
 
 # Camera samples per pixel the features average (at most the render's samples).
 FEATURE_SAMPLES = 2
@@ -136,9 +136,8 @@ def trace_features(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray
         going = np.flatnonzero(bs.pdf > 0.0)
         rows = on[going]
         wi = bs.wi[going]
-        side = np.where(np.einsum("ij,ij->i", surface.Ng[rows], wi) < 0.0, -1.0, 1.0)
-        step = shadows.error_bound(surface.I[rows], surface.vertices[rows])
-        O = surface.I[rows] + (step * side)[:, None] * surface.Ng[rows]
+        O = shadows.spawn_ray(surface.I[rows], surface.Ng[rows], wi, shadows.error_bound(surface.I[rows],
+                                                                                         surface.vertices[rows]))
         D = wi
         t_max = np.full(len(rows), np.inf)
         owner = owner[rows]

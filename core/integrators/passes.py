@@ -52,7 +52,7 @@ from ..materials.lambert import Lambert
 from ..sampling import sobol as sampling
 from . import cryptomatte, shadows
 from .base import Context
-from .direct import lamps_seen, nearest_seen
+from .rays import lamps_seen, nearest_seen
 
 # Channels of each pass buffer (core/render.py RenderResult.aux).
 PASS_CHANNELS = {
@@ -257,8 +257,7 @@ def ambient_occlusion(ctx: Context, I: np.ndarray, Ng: np.ndarray, vertices: np.
     within ctx.settings.ao_distance, else 0: (k,) float64. Ng: (k, 3) face normals; vertices (k, 3, 3)."""
     u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=AO_DIMENSION)
     wi = Lambert.sample(None, N, None, u).wi
-    side = np.where(np.einsum("ij,ij->i", Ng, wi) < 0.0, -1.0, 1.0)
-    below = side < 0.0                       # a direction under the surface sees nothing: occluded
-    origin = I + (shadows.error_bound(I, vertices) * side)[:, None] * Ng
+    below = np.einsum("ij,ij->i", Ng, wi) < 0.0      # a direction under the surface sees nothing: occluded
+    origin = shadows.spawn_ray(I, Ng, wi, shadows.error_bound(I, vertices))
     blocked = ctx.geometry.tracer.occluded(origin, wi, np.full(len(I), float(ctx.settings.ao_distance)))
     return np.where(blocked | below, 0.0, 1.0)

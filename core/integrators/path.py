@@ -29,7 +29,7 @@ glass, then never reaches a diffuse surface), and sample clamping (core/integrat
 each contribution.
 
 Object > Visibility as Cycles reads it: every ray has a kind (camera; after a bounce diffuse, glossy or
-transmission, direct.ray_kind; straight through a Transparent closure the kind it had) and passes the objects
+transmission, rays.ray_kind; straight through a Transparent closure the kind it had) and passes the objects
 hidden from that kind (Ray Visibility). A holdout object met by a camera path is a hole in the film
 (hold_out): its colour is not added and the pixel's alpha loses the share the object covers; a Holdout shader
 node is such a hole in proportion to its weight, the rest of the material shading as usual.
@@ -51,12 +51,14 @@ from ..materials.closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE
 from .. import vectors
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
-from .base import Context, Radiance, Recorder
+from .base import Context, Integrator, Radiance, Recorder
 from . import clamp as clamp_
 from . import lightpasses
 from . import shadows
-from .direct import DirectLighting, camera_hits, gather_light, goes_through, nearest_seen
-from ..geometry.geometry import HIDDEN_FROM_CAMERA, HOLDOUT
+from .rays import camera_hits, goes_through, nearest_seen
+from .shadows import spawn_ray
+from .vertex import PathState, gather_light, shade_vertex
+from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
 
 # Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
 VERTEX_DIMENSIONS = schema.constant("VERTEX_DIMENSIONS", 1 << 16, "each path vertex's shift of the sampling dimensions")
@@ -71,7 +73,7 @@ def roulette_from(settings) -> int:
 
 def bounce_kind(kind: np.ndarray, transmit: np.ndarray) -> tuple:
     """Which bounces are diffuse, glossy (a rough or mirror reflection), transmission (through the surface:
-    direct.goes_through) and transparent (straight through a Transparent closure, not counted as a bounce), as
+    rays.goes_through) and transparent (straight through a Transparent closure, not counted as a bounce), as
     Cycles' path_state_next counts them by the sampled closure's flags; and which were labelled diffuse (the
     caustics switches apply after those): five (k,) bool arrays. kind (k,) int the sampled closures' BSDF
     kinds (-1: none); transmit (k,) bool whether each ray went through the face."""
@@ -135,8 +137,7 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         if len(alive) == 0:
             break
         # 2. On from just past it, straight ahead, gathering what the ray finds.
-        side = np.where(np.einsum("ij,ij->i", Ng, D) < 0.0, -1.0, 1.0)
-        O = I + (shadows.error_bound(I, surface.vertices[go]) * side)[:, None] * Ng
+        O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
         hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive])
@@ -177,7 +178,7 @@ def hold_out(ctx: Context, surface, shader, camera_path: np.ndarray) -> tuple:
     return shader._replace(closures=closures, emission=np.where((obj | stop)[:, None], 0.0, shader.emission)), weight
 
 
-class PathTracing(DirectLighting):
+class PathTracing(Integrator):
     """Unidirectional path tracing with next-event estimation, MIS and Russian roulette (module docstring)."""
 
     name: ClassVar[str] = "path"
@@ -206,7 +207,7 @@ class PathTracing(DirectLighting):
         transparent = np.zeros(len(hit), np.int64)
         bounce = np.zeros(len(hit), np.int64)
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
-        mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (direct.BsdfRay.mis_O):
+        mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (vertex.BsdfRay.mis_O):
         #                                              the camera's, from where a camera path sees lamps past clear panes
         mis_normal = np.zeros((len(hit), 3))
         after_diffuse = np.zeros(len(hit), bool)     # whether that bounce was diffuse (the caustics switches)
@@ -234,11 +235,10 @@ class PathTracing(DirectLighting):
                 np.add.at(held, owner, (throughput * weight).mean(axis=1))
             first = bounce == 0
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
-            L_vertex, rays, ray = self.shade(ctx, surface, wo, pixel[owner], sample[owner], recorder,
-                                             dimension, vertex, trace_all=True, ray=light_path,
-                                             carried_pdf=mis_pdf, throughput=throughput, limit=cap, shader=shader,
-                                             seen_by=seen_by, parts=parts, carried_origin=mis_origin,
-                                             carried_N=mis_normal)
+            state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
+                              carried_origin=mis_origin, carried_N=mis_normal)
+            L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,
+                                               trace_all=True, shader=shader, parts=parts)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
             if light is not None:

@@ -58,6 +58,13 @@ ShadowSettings = schema.record("ShadowSettings", "How shadow rays leave the surf
 ])
 
 
+def spawn_ray(I: np.ndarray, Ng: np.ndarray, D: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """The origins (k, 3) of rays leaving points I (k, 3) along D (k, 3): `step` (k,) off the surface along its face
+    normal Ng (k, 3), on the side D goes to (the robust offset, shadows.error_bound, or the lecture's epsilon)."""
+    side = np.where(np.einsum("ij,ij->i", Ng, D) < 0.0, -1.0, 1.0)
+    return I + (step * side)[:, None] * Ng
+
+
 class ShadowRays(NamedTuple):
     """Rays from shading points to light points.
 
@@ -202,9 +209,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
         through = np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
         T[rows] *= np.where(hidden[:, None], 1.0, through)
         # On from just past that surface, for what is left of the way to the light: towards the ray's end.
-        step = error_bound(surface.I, surface.vertices)
-        side = np.where(np.einsum("ij,ij->i", surface.Ng, D[rows]) < 0.0, -1.0, 1.0)
-        O[rows] = surface.I + (step * side)[:, None] * surface.Ng
+        O[rows] = spawn_ray(surface.I, surface.Ng, D[rows], error_bound(surface.I, surface.vertices))
         w = ends[rows] - O[rows]
         length = np.sqrt(np.einsum("ij,ij->i", w, w))
         ahead = finite[rows] & (np.einsum("ij,ij->i", w, rays.directions[rows]) > 0.0)

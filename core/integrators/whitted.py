@@ -31,8 +31,10 @@ from ..materials import glass as glass_
 from ..materials import graph as graph_
 from ..materials import microfacet as mf
 from . import shadows
-from .base import Context, Radiance, Recorder
-from .direct import DirectLighting, lamps_seen, nearest_seen
+from .base import Context, Integrator, Radiance, Recorder
+from .rays import lamps_seen, nearest_seen
+from .shadows import spawn_ray
+from .vertex import PathState, shade_vertex
 
 # A branch whose throughput falls below this in every channel is not followed.
 CUTOFF = 1e-4
@@ -47,7 +49,7 @@ def schlick(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
     return np.where(sin_t2 >= 1.0, 1.0, R0 + (1.0 - R0) * (1.0 - cos) ** 5)
 
 
-class WhittedTracing(DirectLighting):
+class WhittedTracing(Integrator):
     """Recursive perfect reflection and refraction with direct light at every hit (module docstring)."""
 
     name: ClassVar[str] = "whitted"
@@ -69,7 +71,7 @@ class WhittedTracing(DirectLighting):
         while len(owner):
             # 1. The rays of this depth: what they hit; the world and lamps where they escape or pass.
             #    (Each ray passes the objects hidden from its kind: the camera's, a mirror reflection's (glossy), a
-            #    refraction's (transmission); direct.nearest_seen.)
+            #    refraction's (transmission); rays.nearest_seen.)
             kind = HIDDEN_FROM_CAMERA if depth == 0 else np.where(crossing, HIDDEN_FROM_TRANSMISSION, HIDDEN_FROM_GLOSSY)
             found = nearest_seen(ctx, O, D, t_max, kind)
             if depth == 0:
@@ -93,9 +95,9 @@ class WhittedTracing(DirectLighting):
             # 2. Emission and direct light at every hit (light samples only: no BSDF rays, no MIS).
             wo = -D[hit]
             rows = owner[hit]
-            L_hit, rays, _ = self.shade(ctx, surface, wo, pixel[rows], sample[rows], recorder,
-                                        dimension=depth * (1 << 16), vertex=0, light_samples_only=True,
-                                        ray=graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE)
+            state = PathState(dimension=depth * (1 << 16), ray=graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE)
+            L_hit, rays, _ = shade_vertex(ctx, surface, wo, pixel[rows], sample[rows], recorder, state,
+                                          light_samples_only=True)
             shadow_rays += rays
             np.add.at(L_out, rows, throughput[hit] * L_hit)
             recorder.path_vertex(depth, rows, surface, throughput[hit], L_hit)
@@ -153,8 +155,7 @@ class WhittedTracing(DirectLighting):
             return None
         index, D, tp, g, t = index[keep], D[keep], tp[keep], g[keep], t[keep]
         # Each ray leaves from a point safely off the surface, on the side it goes to.
-        side = np.where(np.einsum("ij,ij->i", surface.Ng[index], D) < 0.0, -1.0, 1.0)
         step = (shadows.error_bound(surface.I[index], surface.vertices[index]) if s.shadow_method == "robust"
                 else np.full(len(index), s.epsilon))
-        O = surface.I[index] + (step * side)[:, None] * surface.Ng[index]
+        O = spawn_ray(surface.I[index], surface.Ng[index], D, step)
         return index, O, D / np.linalg.norm(D, axis=1)[:, None], tp, g, t

@@ -19,7 +19,7 @@ gives the same pick probability for that triangle from the ray's origin, walking
 A material's Emission Sampling (None, Front, Back, Front and Back; Auto: both when it emits much)
 says from which sides the triangle is sampled; its emission is seen from both sides regardless.
 A textured emitter (its node graph gives the emission) is picked by its mean emission at a few points
-inside it; the integrator evaluates the graph where each sample lands (direct.textured_samples).
+inside it; the integrator evaluates the graph where each sample lands (integrators/vertex.py textured_samples).
 """
 from __future__ import annotations
 
@@ -54,7 +54,7 @@ class MeshEmitters(Light):
               where no emitting object hides from diffuse, glossy or transmission rays
     textured: (t,) bool the triangles whose material's node graph gives their emission (a texture): `emission`
               is then only its estimate (for picking), and the integrators evaluate the graph where a sample
-              lands (direct.graph_emission); None where there are none
+              lands (integrators/vertex.py graph_emission); None where there are none
     """
 
     corners: np.ndarray
@@ -332,7 +332,7 @@ def from_geometry(geometry, materials, graph_emission) -> Optional[MeshEmitters]
     emitters = MeshEmitters.of(np.concatenate(corners), radiance, sides[material], prim,
                                textured if textured.any() else None)
     # Ray Visibility > Diffuse, Glossy, Transmission of the emitting objects: as in Cycles, the light samples of an
-    # object hidden from a kind of ray light no closure of that kind (direct.closures_left_out).
+    # object hidden from a kind of ray light no closure of that kind (integrators/vertex.py closures_left_out).
     from ..visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
     bits = HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
     if emitters is not None and geometry.hides(bits):

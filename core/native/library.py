@@ -48,6 +48,9 @@ def library_path() -> str:
 
 
 _cache: dict = {}
+# What the library must agree with: callables giving the records described so far (core/native/schema.py adds
+# its own when it is imported, so that this module, below it, imports nothing of it).
+DESCRIBED: list = []
 
 
 def library() -> Optional[ctypes.CDLL]:
@@ -78,8 +81,7 @@ def available() -> bool:
     numpy path)."""
     if library() is None:
         return False
-    from . import schema
-    stale = stale_records(list(schema.RECORDS.values()))
+    stale = [name for described in DESCRIBED for name in stale_records(list(described()))]
     if stale:
         reason = (f"{library_name()} was built from other C sources than this Python ({', '.join(stale[:3])} "
                   "differ; make kernels)")

@@ -26,6 +26,8 @@ from typing import Optional, Union
 
 import numpy as np
 
+from . import library
+
 # ----------------------------------------------------------------------------
 # Types
 # ----------------------------------------------------------------------------
@@ -110,6 +112,11 @@ TABLES: dict = {}           # a kind field's table name -> callable giving its C
 # them in the same order whichever module Python happened to import first.
 _PLACE: dict = {}
 _COUNTER = itertools.count()
+
+
+def described_records() -> list:
+    """Every record described so far (what core/native/library.py checks the library against)."""
+    return list(RECORDS.values())
 
 
 def _caller(depth: int = 2) -> str:
@@ -240,7 +247,6 @@ class Record(ctypes.Structure):
         for f in cls._description:
             if isinstance(f.type, Pointer) and isinstance(f.type.target, str):
                 RECORDS[f.type.target].check()
-        from . import library
         theirs = library.layout_of(cls.__name__)
         if theirs != cls.layout_hash():
             raise RuntimeError(f"{cls.__name__}'s layout in {library.library_name()} is not the one Python describes "
@@ -356,3 +362,6 @@ def layout_text(name: Optional[str] = None) -> str:
     """The canonical layout of one record, or of all of them."""
     names = [name] if name else list(RECORDS)
     return "\n\n".join(RECORDS[n].layout() for n in names)
+
+
+library.DESCRIBED.append(described_records)

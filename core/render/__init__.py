@@ -39,9 +39,9 @@ from ..film import adaptive
 from ..film.film import ChunkSums, Film, pixel_sums
 from ..geometry import instancing
 from ..geometry.geometry import WorldGeometry, build_geometry
-from ..integrators import INTEGRATORS, Context, Recorder
+from ..integrators import Context, Recorder, for_render
 from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
-from ..integrators import cryptomatte, direct, features, lightpasses, passes as passes_
+from ..integrators import cryptomatte, features, lightpasses, passes as passes_, vertex
 from ..integrators.compiled import Compiled, why_not
 from ..materials import MaterialTable
 from ..sampling import sobol as sampling
@@ -126,7 +126,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     materials = MaterialTable.of(scene.materials, scene.default_material)
     # The lights a render makes of its scene: the emissive meshes, and the world's image.
     world = scene.the_world()
-    emitters = lights_.emitters.from_geometry(geometry, materials, direct.graph_emission)
+    emitters = lights_.emitters.from_geometry(geometry, materials, vertex.graph_emission)
     sampler = lights_.WorldLight.of(world)
     lights += [light for light in (emitters, sampler) if light is not None]
     ctx = Context(scene, settings, geometry, lights, materials, light_numbers)
@@ -313,7 +313,7 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     if recorder is None and s.aux:
         recorder = debug.DebugRecorder(s.aux, len(ctx.lights), ctx.geometry, ctx.extra["camera_offset"],
                                        ctx.extra["forward"], ctx.extra["self_hit_distance"])
-    integrator = INTEGRATORS[s.integrator]()
+    integrator = for_render(ctx)
     start = time.perf_counter()
     found = integrator.radiance(dataclasses.replace(ctx, settings=s), vectors.gather(rays.origins, traced),
                                 vectors.gather(rays.directions, traced), rays.t_max[traced], pixel[traced],

@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import render as render_
 from ..camera import camera as camera_
-from ..integrators import INTEGRATORS, Recorder
+from ..integrators import Recorder, for_render
 
 # The colours of the diagram (linear RGB).
 COLORS = {"scene": (0.55, 0.55, 0.55), "camera": (1.0, 0.85, 0.1), "shadow_free": (0.1, 0.8, 0.2),
@@ -99,7 +99,7 @@ def ray_diagram(scene, settings, row: Optional[int] = None, every: int = 0, size
     recorder = DiagramRecorder()
     found = ctx.geometry.tracer.intersect(rays.origins, rays.directions, rays.t_max)
     recorder.rays("camera", rays.origins, rays.directions, np.where(found.hit, found.t, np.inf))
-    INTEGRATORS[settings.integrator]().radiance(ctx, rays.origins, rays.directions, rays.t_max, row * W + xs,
+    for_render(ctx).radiance(ctx, rays.origins, rays.directions, rays.t_max, row * W + xs,
                                                 np.zeros(len(xs), np.int64), recorder)
     eye = np.asarray(scene.camera.matrix_world, np.float64)[:3, 3]
     lines = scene_section(ctx.geometry, eye[2] - origin[2]) + origin[:2]

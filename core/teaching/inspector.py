@@ -34,7 +34,7 @@ import numpy as np
 from .. import render as render_
 from ..camera import camera as camera_
 from ..geometry.geometry import WorldGeometry
-from ..integrators import INTEGRATORS, Recorder
+from ..integrators import Recorder, for_render
 from ..scene import RenderSettings, Scene
 
 # Why a shadow ray was or was not cast (LightRecord.reason).
@@ -331,7 +331,7 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
         return PixelRecord(radiance=np.zeros(3), **miss)
     # 3. The integrator on that one ray, with a recorder listening.
     recorder = InspectorRecorder(settings, origin)
-    found = INTEGRATORS[settings.integrator]().radiance(ctx, rays.origins, rays.directions, rays.t_max,
+    found = for_render(ctx).radiance(ctx, rays.origins, rays.directions, rays.t_max,
                                                         np.array([y * W + x]), np.zeros(1, np.int64), recorder)
     if not found.hit[0]:
         return PixelRecord(radiance=np.zeros(3) if settings.transparent_background else ctx.extra["world"].copy(),

@@ -1,0 +1,104 @@
+"""Rays that leave surfaces and the camera: where a new ray starts, what it meets, which kind of ray it is.
+
+Every integrator starts its rays the same ways, so they live here once: a ray off a surface starts a safe distance
+off it, on the side it goes to (shadows.spawn_ray); a ray of one kind passes the objects hidden from that kind
+(`nearest_seen`, Object > Visibility > Ray Visibility); a bounce's ray is a diffuse, glossy or transmission ray by
+what the BSDF that sent it is (`ray_kind`); camera rays see the world and the lamps they pass (`camera_hits`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import materials as materials_
+from .. import vectors
+from ..geometry.surface import surface_at_hits
+from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
+from . import clamp as clamp_
+from . import shadows
+from .base import Context, Recorder
+
+
+def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, recorder: Recorder,
+                limit=np.inf) -> tuple:
+    """What camera rays O, D (n, 3) up to t_max (n,) meet: (L (n, 3) the world where they escape, where the
+    camera sees it, plus the lamps with extent they pass, each ray's capped at `limit` (sample clamping); the
+    tracer's hits; the hit rows (m,) int64; the hits' Surface, or None when nothing was hit)."""
+    s = ctx.settings
+    # 1. The nearest hit of each camera ray (t), past objects hidden from the camera.
+    found = nearest_seen(ctx, O, D, t_max)
+    hit = np.flatnonzero(found.hit)
+    # 2. What rays that hit nothing see: the world, where it is visible to the camera.
+    L_out = np.zeros((len(O), 3))
+    world = ctx.extra.get("world_light")
+    if world is not None and world.camera and not s.transparent_background:
+        missed = np.flatnonzero(~found.hit)
+        L_out[missed] = world.radiance(D[missed])
+    # 3. Lamps seen by the camera in front of what it hits (area lights, round lights).
+    L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
+    # What the camera sees itself is a direct contribution (Clamp Direct).
+    if np.isfinite(limit):
+        L_out = clamp_.clamped(L_out, None, limit)
+    if len(hit) == 0:
+        recorder.hits(O, D, None, found.hit)
+        return L_out, found, hit, None
+    # The surface at each hit: I, Ng, N.
+    surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit),
+                              vectors.gather(D, hit), found.t[hit], flat_only=not s.smooth_normals)
+    recorder.hits(O, D, surface, found.hit)
+    return L_out, found, hit, surface
+
+
+def nearest_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, kind=HIDDEN_FROM_CAMERA):
+    """The nearest hits (the tracer's Hits) of rays O, D (n, 3) up to t_max (n,) on the objects these rays see: a
+    ray goes on past the triangles of objects hidden from its kind (Object > Visibility > Ray Visibility), as if
+    they were not there; t stays the distance from O. kind: the rays' HIDDEN_FROM_* bit, one int or (n,) int
+    (camera rays by default; ray_kind gives a bounce's)."""
+    geometry = ctx.geometry
+    found = geometry.tracer.intersect(O, D, t_max)
+    kind = np.broadcast_to(np.asarray(kind, np.int64), (len(O),))
+    if not geometry.hides(int(np.bitwise_or.reduce(kind)) if len(kind) else 0):
+        return found
+    hit, t, prim, u, v = (np.array(array) for array in found)
+    rows = np.flatnonzero(hit & geometry.hidden(prim, kind))
+    while len(rows):
+        # On from just past the hidden triangle, for what is left of the ray.
+        surface = surface_at_hits(geometry, prim[rows], u[rows], v[rows], O[rows], D[rows], t[rows])
+        P = shadows.spawn_ray(surface.I, surface.Ng, D[rows], shadows.error_bound(surface.I, surface.vertices))
+        gone = np.einsum("ij,ij->i", P - O[rows], D[rows])
+        again = geometry.tracer.intersect(P, D[rows], t_max[rows] - gone)
+        hit[rows], t[rows], prim[rows] = again.hit, np.where(again.hit, gone + again.t, np.inf), again.prim
+        u[rows], v[rows] = again.u, again.v
+        rows = rows[again.hit & geometry.hidden(again.prim, kind[rows])]
+    return type(found)(hit, t, prim, u, v)
+
+
+def goes_through(kind: np.ndarray, transmit: np.ndarray) -> np.ndarray:
+    """Which sampled directions count as going through the surface (Cycles' LABEL_TRANSMIT): a diffuse closure's
+    by its class (a Lambert reflects, a translucent surface transmits), any other's by the side of the face it
+    leaves to, `transmit` (k,) bool. kind: (k,) int the sampled closures' BSDF kinds. Returns (k,) bool."""
+    flags = materials_.flags_of(kind)
+    F = materials_.BSDFFlags
+    diffuse = (flags & F.DIFFUSE) != 0
+    return np.where(diffuse, (flags & F.TRANSMISSION) != 0, transmit)
+
+
+def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
+    """The kind of the rays a bounce sends, as the HIDDEN_FROM_* bit (k,) int64 of the objects they pass (Cycles'
+    path_state_ray_visibility): a ray through the surface (goes_through) is a transmission ray, a diffuse
+    reflection's a diffuse ray, any other reflection's (glossy, mirror) a glossy ray; straight through a
+    Transparent closure the ray keeps the kind of the ray that arrived, `previous` (int or (k,) int).
+
+    kind: (k,) int the sampled closures' BSDF kinds; transmit: (k,) bool whether each ray went through the face.
+    """
+    F = materials_.BSDFFlags
+    reflected = np.where(materials_.has(kind, F.DIFFUSE), HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY)
+    bounced = np.where(goes_through(kind, transmit), HIDDEN_FROM_TRANSMISSION, reflected)
+    return np.where(materials_.has(kind, F.STRAIGHT), previous, bounced).astype(np.int64)
+
+
+def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+    """The radiance (n, 3) of lamps with extent that camera rays meet before t_max (lamps never block)."""
+    seen = np.zeros((len(O), 3))
+    for index in ctx.extra.get("camera_lamps", ()):
+        seen += ctx.lights[index].hit(O, D, t_max).radiance
+    return seen

@@ -1,0 +1,516 @@
+"""What one vertex of a path gathers: the light its hits send back, by light samples and a BSDF-sampled ray.
+
+Every integrator lights the surfaces its rays meet the same way, the lecture's way: for every light, and every
+sample of a light with extent,
+
+    L_out += f(wo, L) max(N.L, 0) * E_normal * V * w_light    (core/materials, core/lights, shadows.py)
+
+where E_normal = L_e / pdf is the light sample's irradiance at normal incidence and V the shadow ray's verdict;
+and lights with extent (area lights, round lights, sun disks, emissive meshes, an environment) also the other way
+round: one direction sampled from the BSDF, traced, adds the light it meets, L_out += (f cos / pdf_bsdf) L_e
+w_bsdf, the two weighed by multiple importance sampling (Veach's power heuristic, as Cycles weighs them). The
+direct-lighting tracer does this at the camera's hits (core/integrators/direct.py), Whitted's tracer at the hits of
+its mirror and glass rays by light samples alone (whitted.py), the path tracer at every vertex, whose BSDF ray is
+also where the path goes on (path.py). What a path brings to the hits it reached (how far it is, what it carries,
+which kind of ray it is) is one record, PathState.
+
+The compiled twin is core/integrators/direct.c (direct_light, bsdf_rays, gather_light).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple, Optional
+
+import numpy as np
+
+from .. import materials as materials_
+from ..geometry.surface import surface_at_hits
+from ..lights.base import LAMP
+from ..materials import graph as graph_
+from ..sampling import sobol as sampling
+from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION,
+                          HOLDOUT)
+from . import clamp as clamp_
+from . import lightpasses
+from . import shadows
+from .base import Context, Recorder
+from .rays import nearest_seen, ray_kind
+from .shadows import spawn_ray
+
+
+class PathState(NamedTuple):
+    """What a path brings to the hits it reached (one row per hit, or one value for all).
+
+    dimension: the shift of every sampling dimension at this vertex (path.VERTEX_DIMENSIONS per vertex)
+    vertex:    0 at the camera's hits, which add their own emission; later hits leave it to the ray that found them
+    ray:       which kind of ray found the hits (graph.RAY_*; None: the camera's at vertex 0, else a bounce's),
+               for the Light Path node
+    throughput: (m, 3) what the path carries so far, or None (1)
+    limit:     the cap on each contribution seen through the throughput (sample clamping, clamp.py; inf: none),
+               scalar or (m,)
+    caustics:  (m,) int the closures a caustics filter takes away (closures.FILTER_*), or None
+    seen_by:   the kind of ray that reached each hit (HIDDEN_FROM_* bit, int or (m,)): a Transparent closure's ray
+               goes on as that kind (rays.ray_kind)
+    carried_pdf, carried_origin, carried_N: (m,), (m, 3), (m, 3) the pdf, ray origin and light-tree normal of each
+               path's last real bounce (bsdf_ray), or None: a camera ray's
+    """
+
+    dimension: int = 0
+    vertex: int = 0
+    ray: object = None
+    throughput: Optional[np.ndarray] = None
+    limit: object = np.inf
+    caustics: Optional[np.ndarray] = None
+    seen_by: object = HIDDEN_FROM_CAMERA
+    carried_pdf: Optional[np.ndarray] = None
+    carried_origin: Optional[np.ndarray] = None
+    carried_N: Optional[np.ndarray] = None
+
+
+def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Veach's power heuristic a^2 / (a^2 + b^2), with a = inf (a delta strategy) giving 1 and a = 0 giving 0.
+
+    a, b: (n,) float64 the two strategies' pdfs, each times its number of samples.
+    """
+    with np.errstate(invalid="ignore", over="ignore"):
+        w = a * a / (a * a + b * b)
+    return np.where(np.isinf(a), 1.0, np.where(a > 0.0, np.nan_to_num(w), 0.0))
+
+
+def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray, recorder: Recorder,
+                 path: Optional["PathState"] = None, trace_all: bool = False, light_samples_only: bool = False,
+                 shader=None, parts=None):
+    """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
+    each traced hit sent out, or None).
+
+    wo: (m, 3) float64 unit directions towards the viewer; pixel, sample: (m,) int64 each hit's
+    keys for its random numbers; path: what the path that reached the hits brings (PathState; default: camera
+    rays, whose fields are named below). Every integrator lights its hits with this. A path
+    (core/integrators/path.py) calls it at every vertex:
+    `dimension` shifts its random numbers, vertices after the first leave their emission to the
+    ray that found them (vertex > 0), and every hit traces its BSDF ray (trace_all). Whitted's tracer
+    lights every hit by light samples alone (light_samples_only: no BSDF ray, no MIS). ray: which kind of ray
+    found the hits (graph.RAY_*, scalar or (m,); default: the camera's at vertex 0), for the Light Path node.
+    caustics: (m,) int the closures a caustics filter takes away (closures.FILTER_*), or None. throughput
+    (m, 3) or None (1) and limit (scalar or (m,), inf: none): each contribution the hits gather is capped at
+    `limit` seen through its path's throughput (sample clamping, core/integrators/clamp.py). shader: the
+    hits' ShaderResult when the caller has it already (a path's holdouts change it), else evaluated here.
+    seen_by: the kind of ray that reached each hit (HIDDEN_FROM_* bit, int or (m,)): a Transparent closure's
+    ray goes on as that kind (ray_kind). parts: a lightpasses.FirstHitParts that receives the light samples'
+    and the BSDF ray's contributions split by closure kind, and the BSDF rays' shares (the light passes), or None.
+    carried_pdf, carried_origin, carried_N: (m,), (m, 3), (m, 3) the pdf, ray origin and light-tree normal of each
+    path's last real bounce (bsdf_ray), or None.
+    """
+    s = ctx.settings
+    m = len(surface.I)
+    path = PathState() if path is None else path
+    dimension, vertex, ray, throughput, limit = path.dimension, path.vertex, path.ray, path.throughput, path.limit
+    caustics, seen_by = path.caustics, path.seen_by
+    carried_pdf, carried_origin, carried_N = path.carried_pdf, path.carried_origin, path.carried_N
+    # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
+    if ray is None:
+        ray = graph_.RAY_CAMERA if vertex == 0 else graph_.RAY_BOUNCE
+    if shader is None:
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, ray, caustics)
+    recorder.shader(shader)
+    clamping = np.any(np.isfinite(limit))
+    L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
+    if clamping and vertex == 0:
+        L_out = clamp_.clamped(L_out, throughput, limit)
+    shadow_rays = 0
+    offsets = shadows.error_bound(surface.I, surface.vertices) if s.shadow_method == "robust" else None
+    # Which hits trace a BSDF ray (every hit where emitters or the world light the scene, glossy hits
+    # where only lamps with extent do) and so weigh their light samples by MIS.
+    traced = np.ones(m, bool) if trace_all else wants_bsdf_ray(ctx, shader)
+    if light_samples_only:
+        traced = np.zeros(m, bool)
+    mis = (traced & (s.light_sampling == "mis")) if ctx.extra.get("bsdf_rays", False) else np.zeros(m, bool)
+    # Hits whose closures let light through from behind (rough glass) sample lights on both sides.
+    refracts = lets_light_through(shader)
+    tree_N = tree_normals(s, surface, refracts)
+    for index, light in enumerate(ctx.lights):
+        if (s.light_sampling == "bsdf" and not light_samples_only and not light.delta
+                and index in ctx.extra.get("hittable", ())):
+            continue                      # found by BSDF rays alone
+        count = light_count(ctx, light)
+        cone = light.cone(surface.I)                   # shared by all the light's samples
+        for j in range(count):
+            # a. Where does the light come from? One sample of the light's progressive pattern:
+            #    camera sample s takes its points s*count .. s*count+count-1 (core/sampling), so
+            #    the points of any number of camera samples together cover the light evenly.
+            u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension)
+            ls = light.sample(surface.I, u, cone, N=tree_N)
+            if getattr(light, "textured", None) is not None:
+                ls = textured_samples(ctx, light, surface.I, ls)
+            if not s.distance_attenuation:
+                ls = light.without_attenuation(ls, surface.I)
+            # b. The lecture's two tests: N.L > 0 (shading normal, the clamp) and Ng.L > 0 (the
+            #    face normal decides whether the light can be visible; `visibility_normal`
+            #    switches it). The terminator fix lifts smooth points onto the curved surface,
+            #    where the face normal no longer decides; its shadow ray does.
+            NL = np.einsum("ij,ij->i", surface.N, ls.L)
+            NgL = np.einsum("ij,ij->i", surface.Ng, ls.L)
+            facing = NgL > 0.0 if s.visibility_normal == "face" else NL > 0.0
+            face_allows = (facing | surface.smooth if s.terminator_fix else facing) | refracts
+            cosine = np.maximum(NL, 0.0) if s.clamp_n_dot_l else NL
+            cosine = np.where(refracts, np.abs(NL), cosine)
+            lit = (cosine != 0.0) & face_allows
+            if s.shadow_rays_for_backfacing:
+                lit[:] = True                     # cast them anyway, to count what the lecture saves
+            lit &= ls.strength > 0.0
+            recorder.light_sample(index, count, ls, NL, NgL, cosine, face_allows, lit)
+            rows = np.flatnonzero(lit)
+            if len(rows) == 0:
+                continue
+            # c. One shadow ray per lit sample, from a point safely off the surface.
+            rays = aim_shadow_rays(s, surface, rows, ls, NL, NgL, offsets, refracts[rows] & (NgL[rows] < 0.0))
+            if ctx.extra.get("transparent", False):
+                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces)
+                seen = through.any(axis=1)
+            else:
+                seen = shadows.visible(ctx.geometry.tracer, rays)
+                through = seen[:, None].astype(np.float64)
+            recorder.shadow_rays(index, count, rows, rays, seen)
+            shadow_rays += len(rows)
+            # d. What gets through: f cos (the closures at L) E_normal / count, coloured by the
+            #    light, weighed against BSDF sampling where a BSDF ray could find this light.
+            part = materials_.Closures(*(array[rows] for array in shader.closures))
+            left_out = None if ls.hidden is None else closures_left_out(part.kind, ls.hidden[rows])
+            f_cos, pdf_bsdf = materials_.eval_closures(part, wo[rows], ls.L[rows],
+                                                       signed_cosine=not s.clamp_n_dot_l, left_out=left_out)
+            weight = ls.strength[rows] * (1.0 / count)
+            mis_weight = np.ones(len(rows))
+            if not light.delta and index in ctx.extra["hittable"] and mis[rows].any():
+                mis_weight = np.where(mis[rows], power_heuristic(count * ls.pdf[rows], pdf_bsdf), 1.0)
+                weight = weight * mis_weight
+            color = ls.color if ls.color.ndim == 1 else ls.color[rows]
+            value = (weight[:, None] * color) * f_cos * through
+            if clamping:
+                value = clamp_.clamped(value, None if throughput is None else throughput[rows],
+                                       limit if np.ndim(limit) == 0 else limit[rows], count)
+            recorder.contribution(index, rows, value, mis_weight)
+            L_out[rows] += value
+            if parts is not None:
+                parts.gathered[rows] += lightpasses.split(value, lightpasses.kind_shares(
+                    part, wo[rows], ls.L[rows], signed_cosine=not s.clamp_n_dot_l, left_out=left_out))
+    # 2. The light one BSDF-sampled direction finds (lamps with extent, emitters, the world).
+    ray = None
+    if not light_samples_only and (trace_all or (ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light"
+                                                 and traced.any())):
+        gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
+        found, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
+                              dimension, gather, carried_pdf, seen_by, tree_N=tree_N,
+                              carried_origin=carried_origin, carried_N=carried_N)
+        found = clamp_.clamped(found, throughput, limit) if clamping else found
+        L_out += found
+        if parts is not None and ray is not None:
+            c = materials_.Closures(*(None if array is None else array[ray.rows] for array in shader.closures))
+            parts.ray_shares = lightpasses.sample_shares(c, wo[ray.rows], ray.D, ray.kind, ray.delta, ray.transmit)
+            parts.gathered[ray.rows] += lightpasses.split(found[ray.rows], parts.ray_shares)
+    return L_out, shadow_rays, ray
+
+
+def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
+             recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
+             *, tree_N: np.ndarray, carried_origin=None, carried_N=None):
+    """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
+
+    The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
+    world it escapes to, each weighed by MIS against that light's own samples (weight 1 for a constant
+    world); nothing unless `gather`. mis, traced: (m,) bool which hits weigh by MIS, which trace a ray.
+    carried_pdf: (m,) the pdf of the path's last real bounce (inf: the camera's), for rays that go on
+    through a transparent surface. seen_by: the kind of ray that reached each hit (HIDDEN_FROM_* bit, int or
+    (m,)); each ray passes the objects hidden from its own kind (ray_kind). tree_N: (m, 3) the normals the hits'
+    light samples gave the light tree (tree_normals), for the emitters' MIS pdf. carried_origin, carried_N: (m, 3)
+    the ray origin and light-tree normal of the path's last real bounce (with carried_pdf): a ray straight through
+    a transparent surface weighs what it finds with the pdfs the light samples at that bounce would have given
+    its direction, measured from there (Cycles' mis_origin), not from the transparent surface."""
+    s = ctx.settings
+    m = len(surface.I)
+    u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
+    pick = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + 1 + dimension)[:, 0]
+    bs = materials_.sample_closures(shader.closures, wo, u, pick)
+    found = np.zeros((m, 3))
+    go = np.flatnonzero((bs.pdf > 0.0) & traced)
+    if len(go) == 0:
+        recorder.bsdf_sample(bs.wi, bs.pdf, found)
+        return found, None
+    # The ray leaves from a point safely off the surface, on the side it goes to.
+    D = bs.wi[go]
+    O = spawn_ray(surface.I[go], surface.Ng[go], D, offsets[go] if offsets is not None else np.full(len(go), s.epsilon))
+    transmit = np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0
+    seen_as = ray_kind(bs.kind[go], transmit, np.broadcast_to(np.asarray(seen_by, np.int64), (m,))[go])
+    hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as)
+    pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
+    # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
+    # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
+    clear = materials_.has(bs.kind[go], materials_.BSDFFlags.STRAIGHT)
+    mis_O, mis_N = O, tree_N[go]
+    if carried_pdf is not None and clear.any():
+        pdf_b = np.where(clear, carried_pdf[go], pdf_b)
+        if carried_origin is not None:
+            mis_O = np.where(clear[:, None], carried_origin[go], O)
+            mis_N = np.where(clear[:, None], carried_N[go], mis_N)
+    ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N)
+    t_hit = np.where(hits.hit, hits.t, np.inf)
+    for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
+        if mask.any():
+            recorder.rays(kind, O[mask], D[mask], t_hit[mask])
+    if not gather:
+        recorder.bsdf_sample(bs.wi, bs.pdf, found)
+        return found, ray
+    use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
+    holdouts = ctx.geometry.hides(HOLDOUT)
+    found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
+                                             seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
+                                             mis_O=mis_O)
+    recorder.bsdf_sample(bs.wi, bs.pdf, found)
+    return found, ray
+
+
+def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.ndarray, offsets,
+                behind=None) -> shadows.ShadowRays:
+    """Return the shadow rays of the hits `rows` towards their light samples (robust or epsilon offsets);
+    behind (r,) bool: lights behind the face of a surface that lets light through, reached from its back."""
+    I = surface.I[rows]
+    Ng = surface.Ng[rows]
+    if s.terminator_fix:
+        I = shadows.lift_terminator(surface, rows, NL[rows], NgL[rows], s.terminator_offset)
+    elif s.shadow_rays_for_backfacing or s.visibility_normal != "face":
+        # Switches that cast rays towards lights behind the face: offset to the light's side.
+        Ng = Ng * np.where(NgL[rows] < 0.0, -1.0, 1.0)[:, None]
+    if behind is not None and behind.any():
+        I = np.where(behind[:, None], surface.I[rows], I)
+        Ng = np.where(behind[:, None], -surface.Ng[rows], Ng)
+    if s.shadow_method == "robust":
+        return shadows.robust_rays(I, Ng, offsets[rows], ls.position[rows], ls.L[rows], ls.distance[rows],
+                                   s.reduce_t_max)
+    return shadows.epsilon_rays(I, ls.L[rows], ls.distance[rows], s.epsilon, s.reduce_t_max)
+
+
+
+def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
+                 camera=None, N=None, mis_O=None) -> np.ndarray:
+    """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
+    extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
+    weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
+    camera: (k,) bool which rays are still a camera path's (through Transparent closures), or None: a holdout
+    object such a ray hits emits nothing (it is a hole in the film, path.hold_out). N: (k, 3) the normals the light
+    tree weighed the emitters by at the rays' origins (tree_normals), or None (unknown): the emitters' MIS pdf
+    picks each triangle with the probability their light samples gave it. mis_O: (k, 3) where the light samples that
+    MIS weighs against were taken (the last real bounce's ray origin, N its normal there), or None (O): a ray that
+    went straight on through transparent surfaces from there still has the direction D, and a light it finds at
+    distance t from O is at |O + t D - mis_O| from there (Cycles' mis_origin); an emitter's radiance is the actual
+    hit's; a lamp is met where the line from mis_O meets it past O (the same point, but for a round lamp with soft
+    falloff: the disk facing mis_O, the one its light samples there saw), with the radiance it sends along D."""
+    light_L = np.zeros((len(O), 3))
+    t_limit = np.where(hits.hit, hits.t, np.inf)
+    away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
+    # From mis_O: how far each ray's end (inf: none) and its start O are.
+    t_mis = t_limit
+    moved = np.flatnonzero(away)
+    if len(moved):
+        t_mis = np.where(away & hits.hit, np.linalg.norm(O + np.where(hits.hit, hits.t, 0.0)[:, None] * D - mis_O,
+                                                         axis=1), t_limit)
+        t_start = np.linalg.norm(O[moved] - mis_O[moved], axis=1)
+    # a. Lamps with extent in front of the hit (they never block, as in Cycles).
+    for index in ctx.extra["hittable"]:
+        light = ctx.lights[index]
+        if not light.is_(LAMP):                   # emitters and the world are found below
+            continue
+        lh = light.hit(O, D, t_limit)
+        found, radiance, pdf_l = lh.hit, lh.radiance, lh.pdf
+        if len(moved):
+            # The lamp as the light samples at mis_O see it (a round lamp with soft falloff is a disk facing that
+            # point), met on this stretch of the line, past O: its pdf from there, the radiance it sends along D.
+            seen = light.hit(mis_O[moved], D[moved], t_mis[moved])
+            past = seen.hit & (seen.t > t_start)
+            found, radiance, pdf_l = found.copy(), radiance.copy(), pdf_l.copy()
+            found[moved] = past
+            radiance[moved] = np.where(past[:, None], seen.radiance, 0.0)
+            pdf_l[moved] = np.where(past, seen.pdf, 0.0)
+        if not found.any():
+            continue
+        w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * pdf_l), 1.0)
+        light_L += radiance * w[:, None]
+    # b. An emissive surface the ray hits: its emission, weighed against the emitters' own samples.
+    struck = np.flatnonzero(hits.hit)
+    emitters = ctx.extra.get("emitters")
+    if len(struck) and ctx.extra.get("emissive", False):
+        where = surface_at_hits(ctx.geometry, hits.prim[struck], hits.u[struck], hits.v[struck], O[struck],
+                                D[struck], hits.t[struck])
+        # (Each material's emission as its light samples see it: head-on, so that both strategies of
+        #  MIS weigh the same radiance; a coat tint's change with angle is seen by the camera only.)
+        emitted = ctx.materials.emission[where.material]
+        textured = ctx.materials.graph_emits[where.material]
+        if textured.any():                        # a texture's emission, evaluated where the ray landed
+            rows = np.flatnonzero(textured)
+            emitted = emitted.copy()
+            emitted[rows] = graph_emission(ctx.geometry, ctx.materials, hits.prim[struck][rows], O[struck][rows],
+                                           D[struck][rows], hits.t[struck][rows])
+        if camera is not None and camera[struck].any():
+            emitted = np.where((camera[struck] & ctx.geometry.hidden(hits.prim[struck], HOLDOUT))[:, None], 0.0,
+                               emitted)
+        pdf_l, n_l = np.zeros(len(struck)), 1
+        if emitters is not None:
+            index = emitters.index_of_prim(hits.prim[struck])
+            known = index >= 0
+            if known.any():
+                origin = O if mis_O is None else mis_O
+                pdf_l[known] = emitters.pdf_of_hits(origin[struck][known], index[known], D[struck][known],
+                                                    t_mis[struck][known],
+                                                    N=None if N is None else N[struck][known])
+            n_l = light_count(ctx, emitters)
+        w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
+        light_L[struck] += emitted * w[:, None]
+    # c. The world, where the ray escapes: a constant world with weight 1, an image by MIS.
+    world = ctx.extra.get("world_light")
+    missed = np.flatnonzero(~hits.hit)
+    if world is not None and world.lights and len(missed):
+        L_world = world.radiance(D[missed])
+        w = np.ones(len(missed))
+        sampler = ctx.extra.get("world_sampler")
+        if sampler is not None:
+            w = np.where(use_mis[missed], power_heuristic(pdf_b[missed],
+                         light_count(ctx, sampler) * sampler.pdf(D[missed])), 1.0)
+        light_L[missed] += L_world * w[:, None]
+    return light_L
+
+
+def textured_samples(ctx: Context, emitters, points: np.ndarray, ls):
+    """The emitters' samples `ls` of points (n, 3), with what each textured triangle emits where its sample
+    landed (its node graph evaluated there) in place of the triangle's estimate: a LightSample with (n, 3) colour."""
+    color = np.array(np.broadcast_to(ls.color, (len(points), 3)))
+    rows = np.flatnonzero(emitters.textured[ls.emitter] & (ls.strength > 0.0))
+    if len(rows):
+        color[rows] = graph_emission(ctx.geometry, ctx.materials, emitters.prim[ls.emitter[rows]], points[rows],
+                                     ls.L[rows], ls.distance[rows])
+    return ls._replace(color=color)
+
+
+def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """What the surfaces at O + t D on triangles prim (n,) int64 emit back along -D (n, 3) float64, by their
+    materials' node graphs (a texture's emission), for a ray other than the camera's (graph.RAY_BOUNCE).
+
+    The barycentrics come from the point itself (a light sample's point has no ray hit of its own), as in the
+    C twin (direct.c graph_emission)."""
+    if len(prim) == 0:
+        return np.zeros((0, 3))
+    V = geometry.triangle_data(prim, smooth=False).corners
+    u, v = barycentrics(V, O + t[:, None] * D)
+    where = surface_at_hits(geometry, prim, u, v, O, D, t)
+    return materials.shade(where.material, where.N, -D, where, geometry, graph_.RAY_BOUNCE).emission
+
+
+def barycentrics(V: np.ndarray, P: np.ndarray) -> tuple:
+    """The barycentrics (u, v) (n,) float64 of points P (n, 3) in the planes of triangles V (n, 3, 3): P = (1 - u
+    - v) V0 + u V1 + v V2 for points on them (the nearest such point otherwise)."""
+    e1, e2, d = V[:, 1] - V[:, 0], V[:, 2] - V[:, 0], P - V[:, 0]
+    d11, d12, d22 = (np.einsum("ij,ij->i", a, b) for a, b in ((e1, e1), (e1, e2), (e2, e2)))
+    p1, p2 = np.einsum("ij,ij->i", d, e1), np.einsum("ij,ij->i", d, e2)
+    det = d11 * d22 - d12 * d12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.where(det > 0.0, (d22 * p1 - d12 * p2) / det, 1.0 / 3.0)
+        v = np.where(det > 0.0, (d11 * p2 - d12 * p1) / det, 1.0 / 3.0)
+    return u, v
+
+
+# The sampling dimensions of the BSDF-sampled direction (2D) and of the closure it picks (core/sampling).
+BSDF_DIMENSION = 2
+
+
+class BsdfRay(NamedTuple):
+    """The BSDF-sampled rays of the hits that traced one, and what they hit (a path continues from there).
+
+    rows (k,) int64 the hits that traced a ray; O, D (k, 3) their origins and unit directions; hits: the
+    tracer's Hits of them; weight (k, 3) f cos / pdf; kind (k,) int32 the sampled closure's BSDF kind;
+    delta (k,) bool whether it was a delta closure; transmit (k,) bool whether it went through the surface;
+    pdf (k,) the pdf MIS weighs what the ray finds with (inf: none); seen_as (k,) int64 the ray's kind, the
+    HIDDEN_FROM_* bit of the objects it passes (ray_kind); mis_O, mis_N (k, 3) the origin and light-tree normal
+    that MIS measures the light pdfs from (those of the path's last real bounce: O and its tree normal, unless the
+    ray went straight through a transparent surface)
+    """
+
+    rows: np.ndarray
+    O: np.ndarray
+    D: np.ndarray
+    hits: object
+    weight: np.ndarray
+    kind: np.ndarray
+    delta: np.ndarray
+    transmit: np.ndarray
+    pdf: np.ndarray = None
+    seen_as: np.ndarray = None
+    mis_O: np.ndarray = None
+    mis_N: np.ndarray = None
+
+
+def closures_left_out(kind: np.ndarray, hidden: np.ndarray) -> np.ndarray:
+    """Which closures (n, K) bool a light sample leaves out when it is on an object hidden from some kinds of ray
+    (Cycles' rule for an emitter's Ray Visibility, by closure type): closures of the diffuse type if it is hidden
+    from diffuse rays, of the glossy type if from glossy rays, of the transmission type if from transmission rays,
+    glass only if from both glossy and transmission rays (a BSDF ray of such a closure could never find the
+    object, so its light samples do not count for it either).
+
+    kind: (n, K) int the closures' BSDF kinds; hidden: (n,) int each sample's object's HIDDEN_FROM_* bits.
+    """
+    bits = np.asarray(hidden, np.int64)[:, None]
+    flags = materials_.flags_of(kind)
+    F = materials_.BSDFFlags
+    both = HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
+    return ((((flags & F.DIFFUSE_TYPE) != 0) & ((bits & HIDDEN_FROM_DIFFUSE) != 0))
+            | (((flags & F.GLOSSY_TYPE) != 0) & ((bits & HIDDEN_FROM_GLOSSY) != 0))
+            | (((flags & F.TRANSMISSION_TYPE) != 0) & ((bits & HIDDEN_FROM_TRANSMISSION) != 0))
+            | (((flags & F.GLASS_TYPE) != 0) & ((bits & both) == both)))
+
+
+def lets_light_through(shader) -> np.ndarray:
+    """Which hits have a closure that takes light from behind the surface by light samples (a transmission that
+    is not a delta: rough glass): (m,) bool. Their light samples come from both sides (smooth glass is a delta:
+    only its BSDF rays find light)."""
+    flags = materials_.flags_of(shader.closures.kind)
+    F = materials_.BSDFFlags
+    return (((flags & F.TRANSMISSION) != 0) & ((flags & F.SINGULAR) == 0)).any(axis=1)
+
+
+def tree_normals(settings, surface, refracts: np.ndarray) -> np.ndarray:
+    """The normals (m, 3) float64 the light tree weighs the emitters by at the hits: the shading normal N, below
+    whose horizon no light sample counts (N.L clamped at 0); zero (unknown: light from every side) where a
+    closure lets light through from behind, or where N.L is not clamped."""
+    if not settings.clamp_n_dot_l:
+        return np.zeros_like(surface.N)
+    return np.where(refracts[:, None], 0.0, surface.N)
+
+
+def wants_bsdf_ray(ctx: Context, shader) -> np.ndarray:
+    """Which hits trace a BSDF-sampled ray: all where emitters or the world light the scene, else those
+    with a closure other than Lambert (a glossy lobe that light samples of a large lamp find poorly)."""
+    kind = shader.closures.kind
+    glossy = ((kind >= 0) & ~materials_.has(kind, materials_.BSDFFlags.DIFFUSE)).any(axis=1)
+    return glossy | bool(ctx.extra.get("bsdf_everywhere", False))
+
+
+def light_count(ctx: Context, light) -> int:
+    """Samples per hit of `light`: 1 for a light without extent or for the inspector's one sample, else
+    the settings' light samples."""
+    return 1 if light.delta or ctx.light_numbers is not None else max(1, int(ctx.settings.light_samples))
+
+
+def light_numbers(ctx: Context, light, index: int, pixel: np.ndarray, number: np.ndarray, m: int,
+                  offset: int = 0) -> np.ndarray:
+    """The light's unit-square numbers for m samples (and a third for lights that pick, e.g. a triangle):
+    zeros for a light without extent, the inspector's fixed point, or the light's progressive pattern
+    (its dimensions shifted by `offset` at a path's later vertices)."""
+    width = getattr(light, "random_numbers", 2)
+    if light.delta:
+        return np.zeros((m, width))
+    if ctx.light_numbers is not None:
+        fixed = np.zeros(width)
+        fixed[:2] = np.asarray(ctx.light_numbers[index], np.float64)
+        fixed[2:] = 0.5
+        return np.broadcast_to(fixed, (m, width))
+    dimension = 16 + 4 * index + offset
+    u = sampling.sample_2d(ctx.settings.seed, pixel, number, dimension=dimension)
+    if width == 2:
+        return u
+    pick = sampling.sample_2d(ctx.settings.seed, pixel, number, dimension=dimension + 2)[:, :1]
+    return np.concatenate([u, pick], axis=1)
