@@ -65,8 +65,8 @@ INLINE void see_past_hidden(const GeometryTables *g, Intersect8 intersect, void 
                      &tri);
         Surface s;
         surface_at(O, D, (double)packet->ray.tfar[k], (double)packet->hit.u[k], (double)packet->hit.v[k], &tri, 0, &s);
-        double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0, P[3], gone[3];
-        for (int c = 0; c < 3; c++) P[c] = s.I[c] + (s.offset * side) * s.Ng[c];
+        double P[3], gone[3];
+        spawn_ray(s.I, s.Ng, D, s.offset, P);
         for (int c = 0; c < 3; c++) gone[c] = P[c] - O[c];
         double travelled = dot3(gone, D);
         RayHitPacket one;
@@ -480,8 +480,8 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             /* On from just past that surface, for what is left of the way to the light: towards the ray's own
              * end point, so that the step off the surface (along its normal) does not carry the end onto the
              * light (Cycles moves only the start of its one shadow ray). A sun's ray keeps its direction. */
-            double side = dot3(s.Ng, D[l]) < 0.0 ? -1.0 : 1.0, w[3];
-            for (int c = 0; c < 3; c++) origin[l][c] = s.I[c] + (s.offset * side) * s.Ng[c];
+            double w[3];
+            spawn_ray(s.I, s.Ng, D[l], s.offset, origin[l]);
             if (isfinite(t[l])) {
                 for (int c = 0; c < 3; c++) w[c] = end[l][c] - origin[l][c];
                 double length = sqrt(dot3(w, w));
@@ -743,9 +743,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             shader_sample(H->sd + h, H->wo + 3 * h, u, pick[0], s);
             if (!(s->pdf > 0.0)) continue;
             const Surface *sf = H->s + h;
-            double side = dot3(sf->Ng, s->wi) < 0.0 ? -1.0 : 1.0;
-            double step = ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon;
-            for (int c = 0; c < 3; c++) origin[lanes][c] = sf->I[c] + (step * side) * sf->Ng[c];
+            spawn_ray(sf->I, sf->Ng, s->wi, ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon, origin[lanes]);
             set_lane(&packet.ray, lanes, origin[lanes], s->wi, INFINITY);
             owner[lanes] = h;
             if (++lanes < PACKET) continue;

@@ -62,8 +62,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
         if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0) || ++clear > limits->transparent_bounces) return;
         /* 2. On from just past it, straight ahead, gathering what the ray finds. */
-        double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0;
-        for (int c = 0; c < 3; c++) O[c] = s.I[c] + (s.offset * side) * s.Ng[c];
+        spawn_ray(s.I, s.Ng, D, s.offset, O);
         RayHitPacket packet;
         int valid[PACKET] ALIGNED(32);
         set_lane(&packet.ray, 0, O, D, INFINITY);

@@ -1,5 +1,13 @@
 /* Shadow rays: core/integrators/shadows.py. From a point safely off the surface towards a light sample. */
 
+/* shadows.spawn_ray: the origin O of a ray leaving point I along D, `step` off the surface along its face normal Ng,
+ * on the side D goes to. */
+INLINE void spawn_ray(const double *I, const double *Ng, const double *D, double step, double *O)
+{
+    double side = dot3(Ng, D) < 0.0 ? -1.0 : 1.0;
+    for (int c = 0; c < 3; c++) O[c] = I[c] + (step * side) * Ng[c];
+}
+
 /* The shadow ray of one light sample: shadows.robust_rays when `robust`, else shadows.epsilon_rays,
  * from I (or the terminator fix's blend towards the lifted point) towards the sampled light point.
  * P, ng, lifted: the hit's point, face normal (facing the viewer) and terminator point; offset: its
