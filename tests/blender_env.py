@@ -231,9 +231,9 @@ LIGHT_NODES = """
 import os, sys
 import bpy
 import numpy as np
-from blender_env import lambert_everywhere, report
+from blender_env import lambert_everywhere, render_pixels, report
 sys.path.insert(0, {tools!r})
-from render import configure_cycles_reference, configure_output, load_primer
+from render import load_primer
 
 primer = load_primer()
 export = sys.modules[primer.__name__ + ".addon.export"]
@@ -274,17 +274,7 @@ def exported(scene):
 
 
 def render(scene, engine, path):
-    scene.render.engine = engine
-    if engine == "CYCLES":
-        configure_cycles_reference(scene, 4)
-    else:
-        scene.primer.samples = 1
-    configure_output(scene, path)
-    bpy.ops.render.render(write_still=True)
-    image = bpy.data.images.load(path)
-    pixels = np.array(image.pixels[:], np.float64).reshape(image.size[1], image.size[0], image.channels)
-    bpy.data.images.remove(image)
-    return pixels[..., :3].tolist()
+    return render_pixels(scene, engine, path, 1 if engine == "PRIMER" else 4)[..., :3].tolist()
 
 
 cases = {{}}
@@ -360,6 +350,25 @@ def check_light_nodes(result) -> None:
     nothing = cases["nothing at the output"]
     assert nothing["colors"] == []                              # Cycles leaves such a light out too
     assert any("light 'Sun': nothing is linked to its Light Output" in w for w in nothing["warnings"])
+
+
+def render_pixels(scene, engine: str, path: str, samples: int):
+    """Render `scene` with `engine` ("PRIMER", or "CYCLES" set up as Primer's reference by tools/render.py) at
+    `samples` samples into the EXR `path`, and return its pixels (H, W, channels) float64, rows bottom first."""
+    import bpy
+    import numpy as np
+    from render import configure_cycles_reference, configure_output
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        configure_cycles_reference(scene, samples)
+    else:
+        scene.primer.samples = samples
+    configure_output(scene, path)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(path)
+    pixels = np.array(image.pixels[:], np.float64).reshape(image.size[1], image.size[0], image.channels)
+    bpy.data.images.remove(image)
+    return pixels
 
 
 def diffuse_material(name: str = "Diffuse", albedo=(0.8, 0.8, 0.8)):

@@ -20,9 +20,9 @@ SCRIPT = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import report
+from blender_env import render_pixels, report
 sys.path.insert(0, {tools!r})
-from render import configure_cycles_reference, configure_output, load_primer
+from render import load_primer
 
 primer = load_primer()
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
@@ -57,17 +57,7 @@ nodes = materials_.export_material(material, warnings).nodes
 
 
 def render(engine, path):
-    scene.render.engine = engine
-    if engine == "CYCLES":
-        configure_cycles_reference(scene, 256)
-    else:
-        scene.primer.samples = 4
-    configure_output(scene, path)
-    bpy.ops.render.render(write_still=True)
-    image = bpy.data.images.load(path)
-    pixels = np.array(image.pixels[:], np.float64).reshape(image.size[1], image.size[0], image.channels)
-    bpy.data.images.remove(image)
-    rgb = pixels[..., :3].reshape(-1, 3)
+    rgb = render_pixels(scene, engine, path, 256 if engine == "CYCLES" else 4)[..., :3].reshape(-1, 3)
     return rgb.mean(axis=0).tolist(), np.median(rgb, axis=0).tolist(), float(np.ptp(rgb, axis=0).max())
 
 
