@@ -32,7 +32,8 @@ from core.teaching import debug
 from core.film import image_io  # noqa: E402
 from core.film.compare import relative_mse_of_blocks  # noqa: E402
 
-pytestmark = [pytest.mark.slow, pytest.mark.blender]
+# One pytest-xdist worker writes docs/images/tour/ (`--dist loadgroup`).
+pytestmark = [pytest.mark.slow, pytest.mark.blender, pytest.mark.xdist_group("tour")]
 
 SCENES = os.path.join(ROOT, "sample_scenes")
 PICTURES = os.path.join(ROOT, "docs", "images", "tour")
