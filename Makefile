@@ -32,7 +32,8 @@ EMPTY_OK := $(if $(strip $(PYTEST_ARGS)),|| [ $$? -eq 5 ])
 # pytest-xdist workers of `make test`'s two large runs (the tracer with bpy 5.0, and bpy 5.2): both cores.
 # PYTEST_JOBS=0 runs in one process.
 PYTEST_JOBS ?= 2
-XDIST := $(if $(filter-out 0 1,$(PYTEST_JOBS)),-n $(PYTEST_JOBS) --dist loadgroup)
+# tests/conftest.py's pytest_xdist_make_scheduler keeps the tests that write into the checkout on one worker.
+XDIST := $(if $(filter-out 0 1,$(PYTEST_JOBS)),-n $(PYTEST_JOBS))
 
 .PHONY: demo test test-setup test-run venv venv42 venv52 kernels platforms extension scenes references clean
 

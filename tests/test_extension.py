@@ -19,9 +19,6 @@ from blender_env import ROOT, run_bpy
 
 from tools import build_extension
 
-# One pytest-xdist worker builds dist/ (the zip, and the kernels test_platforms.py reads): `--dist loadgroup`.
-pytestmark = pytest.mark.xdist_group("dist")
-
 MODULE = "bl_ext.user_default.primer"      # where Blender imports an extension of the user_default repository
 
 

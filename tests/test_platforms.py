@@ -25,8 +25,6 @@ from tools import binaries, build_kernels
 
 ROOT = build_kernels.ROOT
 HAS_ZIG = bool(os.environ.get("ZIG")) or importlib.util.find_spec("ziglang") is not None
-# One pytest-xdist worker builds dist/kernels/ (here and for test_extension.py's zip): `--dist loadgroup`.
-pytestmark = pytest.mark.xdist_group("dist")
 needs_zig = pytest.mark.skipif(not HAS_ZIG, reason="ziglang is not installed (pip install -r requirements-platforms.txt)")
 
 

@@ -32,8 +32,7 @@ from core.teaching import debug
 from core.film import image_io  # noqa: E402
 from core.film.compare import relative_mse_of_blocks  # noqa: E402
 
-# One pytest-xdist worker writes docs/images/tour/ (`--dist loadgroup`).
-pytestmark = [pytest.mark.slow, pytest.mark.blender, pytest.mark.xdist_group("tour")]
+pytestmark = [pytest.mark.slow, pytest.mark.blender]
 
 SCENES = os.path.join(ROOT, "sample_scenes")
 PICTURES = os.path.join(ROOT, "docs", "images", "tour")
