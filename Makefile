@@ -12,12 +12,13 @@ VENV52 := .venv52
 PY52   := $(VENV52)/bin/python
 # What `make test` runs on bpy 5.2: the tests that run Blender, and the debug views whose float32 buffers
 # numpy 2 compares differently. The rest of the tracer never imports bpy; `make test TESTS52=tests` runs
-# everything on 5.2 too (about 45 s more; a cold cache of Cycles references costs about 4 minutes either way).
+# everything on 5.2 too (about 45 s more).
 TESTS52 ?= $(wildcard tests/test_blender_*.py) tests/test_extension.py tests/test_tour.py tests/test_viewport.py \
 	tests/test_debug_views.py
 # On 5.2 the render-setting variants' image comparisons with Cycles (tests/test_blender_scenes.py) are left to
-# the 5.0 run: they check Primer's light transport, the same on both, and rendering Cycles' 2048-sample
-# references again for 5.2 costs CI about ten minutes. `make test TESTS52_SKIP=` runs them on 5.2 too.
+# the 5.0 run: they check Primer's light transport, the same on both, and their Cycles references are committed
+# for 5.0 only (tests/references/). `make test TESTS52_SKIP=` runs them on 5.2 too, rendering those references
+# (about ten minutes).
 TESTS52_SKIP ?= -k "not test_render_setting_matches_cycles"
 
 BLENDER_USER := $(CURDIR)/.pytest_cache/blender-user
@@ -28,7 +29,13 @@ PYTEST_ARGS ?=
 # of the runs below, so it passes; without a filter it means tests went missing, so it fails.
 EMPTY_OK := $(if $(strip $(PYTEST_ARGS)),|| [ $$? -eq 5 ])
 
-.PHONY: demo test venv venv42 venv52 kernels platforms extension scenes clean
+# pytest-xdist workers of `make test`'s two large runs (the tracer with bpy 5.0, and bpy 5.2): both cores.
+# PYTEST_JOBS=0 runs in one process.
+PYTEST_JOBS ?= 2
+# tests/conftest.py's pytest_xdist_make_scheduler keeps the tests that write into the checkout on one worker.
+XDIST := $(if $(filter-out 0 1,$(PYTEST_JOBS)),-n $(PYTEST_JOBS))
+
+.PHONY: demo test test-setup test-run venv venv42 venv52 kernels platforms extension scenes references clean
 
 # Create a virtual environment $(1) with Python $(2) and install the pinned dependencies $(3) (once, or
 # when they change).
@@ -102,11 +109,28 @@ extension: venv $(VENV)/.platforms-installed
 # then the Blender 4.2 LTS smoke test. Blender inside the test process gets an empty user folder, so a
 # personal Blender setup (preferences, installed extensions) cannot change the results; tests that install
 # Primer use their own (tests/blender_env.py).
-test: venv venv42 venv52 kernels $(VENV)/.platforms-installed
+# First the set-up, up to three jobs at once: the environments, this machine's kernels (GCC, one core) and every
+# platform's (Zig, two at a time), so that no test waits for a compiler; then the three runs, the two large ones on
+# both cores (pytest-xdist); last, the whole suite's time.
+test:
+	@start=$$(date +%s); \
+	$(MAKE) --no-print-directory -j3 test-setup && $(MAKE) --no-print-directory test-run; status=$$?; \
+	took=$$(( $$(date +%s) - start )); echo "make test: $$((took / 60))m$$((took % 60))s"; exit $$status
+
+test-setup: venv venv42 venv52 kernels platforms
+
+test-run:
 	rm -rf $(BLENDER_USER) && mkdir -p $(BLENDER_USER)
-	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q --durations=15 $(PYTEST_ARGS) $(EMPTY_OK)
-	BLENDER_USER_RESOURCES=$(BLENDER_USER) ZIG="$(ZIG)" $(PY52) -m pytest -q $(TESTS52) $(TESTS52_SKIP) $(PYTEST_ARGS) $(EMPTY_OK)
+	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q $(XDIST) --durations=15 $(PYTEST_ARGS) $(EMPTY_OK)
+	BLENDER_USER_RESOURCES=$(BLENDER_USER) ZIG="$(ZIG)" $(PY52) -m pytest -q $(XDIST) --durations=5 $(TESTS52) \
+		$(TESTS52_SKIP) $(PYTEST_ARGS) $(EMPTY_OK)
 	ZIG="$(ZIG)" $(PY42) -m pytest -q tests/smoke_bpy42.py $(PYTEST_ARGS) $(EMPTY_OK)
+
+# Render the Cycles references of tests/test_blender_scenes.py and tests/test_blender_holdout.py that are missing or
+# stale (their key changed) into tests/references/<bpy version>/, with bpy 5.0 and 5.2; commit them after.
+references: venv venv52
+	$(PY) tools/cycles_references.py
+	$(PY52) tools/cycles_references.py --no-variants
 
 # The benchmark's extra tools (FLIP, matplotlib), installed into .venv beside the pinned dependencies.
 $(VENV)/.bench-installed: $(VENV)/.installed requirements-bench.txt

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -51,3 +52,24 @@ def rotation(axis, angle):
 def rng():
     """A fixed-seed random generator."""
     return np.random.default_rng(12345)
+
+
+# Test files whose tests pytest-xdist (`make test` runs `pytest -n 2`) gives to one worker, one after the other: they
+# write into the checkout, which tools/build_extension.py copies while it builds the zip. test_extension.py builds
+# dist/primer-<version>.zip (once per worker that runs it), test_platforms.py dist/kernels/ (when older than a C
+# file), and test_tour.py writes docs/images/tour/ (two of its tests the same picture).
+ONE_WORKER = {"test_extension.py", "test_platforms.py", "test_tour.py"}
+
+
+@pytest.hookimpl(optionalhook=True)         # a hook of pytest-xdist, which .venv42 does not install
+def pytest_xdist_make_scheduler(config, log):
+    """pytest-xdist's scheduling: every test on its own (as --dist load), but the tests of ONE_WORKER's files
+    together on one worker. (xdist 3.8's --dist loadgroup groups nothing under pytest 9.2, which no longer reads
+    the node id xdist changes to mark a group.)"""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class OneWorkerForTheCheckoutsWriters(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return "one worker" if os.path.basename(nodeid.split("::", 1)[0]) in ONE_WORKER else nodeid
+
+    return OneWorkerForTheCheckoutsWriters(config, log)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from blender_env import ROOT, run_bpy
+import cycles_references
 from test_blender_scenes import SCENES_DIR, compare, reference_cache  # noqa: F401 (reference_cache: a fixture)
 
 pytestmark = pytest.mark.blender
@@ -81,14 +82,22 @@ def test_a_holdout_node_is_read_with_its_mix_weight_and_no_warning(tmp_path):
     np.testing.assert_allclose(report["nodes"][1][1], [0.3] * 3, rtol=1e-6)
 
 
+def holdout_scene(transparent_film: bool, folder: str) -> tuple:
+    """Write light_point with its sphere half held out into `folder`; return (Cycles reference id, .blend path, the
+    inputs that make it, for the reference's key). tools/cycles_references.py renders the same reference."""
+    source = os.path.join(SCENES_DIR, "light_point.blend")
+    blend = os.path.join(folder, "holdout_node.blend")
+    run_bpy(MAKE_SCENE.format(source=source, target=blend, fac=0.5, transparent=transparent_film), folder)
+    inputs = (source, json.dumps({"sphere": "Mix(0.5, shader, Holdout)", "film_transparent": transparent_film}),
+              MAKE_SCENE)
+    return f"holdout_node-{'transparent' if transparent_film else 'opaque'}_film", blend, inputs
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("transparent_film", [True, False], ids=["transparent_film", "opaque_film"])
 def test_a_sphere_half_held_out_is_half_a_hole_as_in_cycles(transparent_film, reference_cache, tmp_path):
     """light_point's sphere as Mix(Fac 0.5, its Principled BSDF, Holdout): Primer's RGBA against Cycles'."""
-    source = os.path.join(SCENES_DIR, "light_point.blend")
-    blend = str(tmp_path / "holdout_node.blend")
-    run_bpy(MAKE_SCENE.format(source=source, target=blend, fac=0.5, transparent=transparent_film), str(tmp_path))
-    key = (source, json.dumps({"sphere": "Mix(0.5, shader, Holdout)", "film_transparent": transparent_film}),
-           MAKE_SCENE)
-    compare(blend, key, PRIMER_SAMPLES, CYCLES_SAMPLES, reference_cache, str(tmp_path),
+    ref_id, blend, inputs = holdout_scene(transparent_film, str(tmp_path))
+    applied, = cycles_references.applied_settings([(blend, CYCLES_SAMPLES)], str(tmp_path))
+    compare(ref_id, blend, inputs, applied, PRIMER_SAMPLES, CYCLES_SAMPLES, reference_cache, str(tmp_path),
             block_tolerance=BLOCK_TOLERANCE)

@@ -9,17 +9,17 @@ sample_scenes/*.blend files and on variants of them that change one render setti
 
 Alpha is compared too (its RMSE, absolute). The sample counts below keep each renderer's own noise
 near 0.2-0.3% relative RMSE (measured by rendering twice with different seeds), so a failure means
-a real difference of ~0.9% or more. Cycles' images are cached, keyed by the .blend file, the
-setting changes, the sample count, tools/render.py and the bpy version, in pytest's cache folder
-(.pytest_cache/d/primer-cycles-references); with a cold cache the test renders them itself.
+a real difference of ~0.9% or more. Cycles' images are committed in tests/references/<bpy version>/
+with their keys (the .blend file, the setting changes, the sample count, tools/render.py, the Cycles settings
+it applies, the add-on's included, and the bpy version; tests/cycles_references.py); a missing or stale one
+is rendered by the test itself, with a warning saying so, and cached in pytest's cache folder
+(.pytest_cache/d/primer-cycles-references). `make references` renders and commits them.
 """
 from __future__ import annotations
 
-import importlib.metadata
 import importlib.util
 import json
 import os
-import shutil
 import subprocess
 import sys
 from dataclasses import dataclass, field
@@ -28,10 +28,10 @@ import numpy as np
 import pytest
 
 from blender_env import MESH_READS, ROOT, check_mesh_reads, isolated_env, run_bpy
+import cycles_references
 
 from core.film import image_io
 from core.film.compare import relative_mse_of_blocks
-from bench.common import digest  # one cache-key function for the tests and the benchmark
 
 SCENES_DIR = os.path.join(ROOT, "sample_scenes")
 RENDER_TOOL = os.path.join(ROOT, "tools", "render.py")
@@ -222,26 +222,37 @@ def reference_cache(request) -> str:
     return folder
 
 
-@pytest.fixture(scope="module")
-def variant_blends(tmp_path_factory) -> dict:
-    """Write every variant's .blend (one bpy process for all); return variant id -> path."""
-    folder = tmp_path_factory.mktemp("variants")
-    paths = {v.id: str(folder / f"{v.id}.blend") for v in VARIANTS}
+def write_variants(folder: str) -> dict:
+    """Write every variant's .blend into `folder` (one bpy process for all); return variant id -> path."""
+    paths = {v.id: os.path.join(folder, f"{v.id}.blend") for v in VARIANTS}
     jobs = [(os.path.join(SCENES_DIR, f"{v.scene}.blend"), paths[v.id], v.settings) for v in VARIANTS]
-    run_bpy(MAKE_VARIANTS.format(tools=os.path.join(ROOT, "tools"), jobs=json.dumps(jobs)), str(folder))
+    run_bpy(MAKE_VARIANTS.format(tools=os.path.join(ROOT, "tools"), jobs=json.dumps(jobs)), folder)
     return paths
 
 
-def cycles_reference(blend: str, key_parts: tuple, samples: int, cache: str, folder: str) -> np.ndarray:
-    """Return Cycles' image of `blend`, from the cache or rendered now (and cached)."""
-    key = digest(*key_parts, samples, RENDER_TOOL, importlib.metadata.version("bpy"))
-    cached = os.path.join(cache, f"{key}.exr")
-    if not os.path.isfile(cached):
-        fresh = os.path.join(folder, "cycles.exr")
-        render(blend, fresh, "CYCLES", samples, folder)
-        shutil.copyfile(fresh, cached + ".part")
-        os.replace(cached + ".part", cached)     # never leave a half-written reference behind
-    return image_io.read_image(cached)
+@pytest.fixture(scope="module")
+def variant_blends(tmp_path_factory) -> dict:
+    """Every variant's .blend and the Cycles settings tools/render.py applies to it: variant id -> (path, settings)."""
+    folder = str(tmp_path_factory.mktemp("variants"))
+    paths = write_variants(folder)
+    applied = cycles_references.applied_settings([(paths[v.id], v.cycles_samples) for v in VARIANTS], folder)
+    return {v.id: (paths[v.id], settings) for v, settings in zip(VARIANTS, applied)}
+
+
+@pytest.fixture(scope="module")
+def scene_settings(tmp_path_factory) -> dict:
+    """The Cycles settings tools/render.py applies to each sample scene (one bpy process): name -> settings."""
+    folder = str(tmp_path_factory.mktemp("scene-settings"))
+    names = sorted(SCENES)
+    jobs = [(os.path.join(SCENES_DIR, f"{name}.blend"), SCENES[name][1]) for name in names]
+    return dict(zip(names, cycles_references.applied_settings(jobs, folder)))
+
+
+def cycles_reference(ref_id: str, blend: str, inputs: tuple, applied: dict, samples: int, cache: str,
+                     folder: str) -> np.ndarray:
+    """Return Cycles' image of `blend`: the committed reference `ref_id` if its key matches, else from the cache
+    or rendered now (tests/cycles_references.py)."""
+    return cycles_references.reference(ref_id, blend, inputs, samples, applied, cache, folder, render)
 
 
 def make_variant(scene: str, settings: dict, folder: str) -> str:
@@ -252,12 +263,12 @@ def make_variant(scene: str, settings: dict, folder: str) -> str:
     return target
 
 
-def compare(blend: str, key_parts: tuple, primer_samples: int, cycles_samples: int, cache: str, folder: str,
-            primer_blend: str = "", block_tolerance: float = 0.0):
-    """Render `blend` (or `primer_blend`) with Primer, fetch Cycles' reference of `blend`, and assert they agree
-    (within block_tolerance on the relative MSE of 4x4 blocks where it is given, or the scene is listed in
-    BLOCK_TOLERANCE)."""
-    reference = cycles_reference(blend, key_parts, cycles_samples, cache, folder)
+def compare(ref_id: str, blend: str, inputs: tuple, applied: dict, primer_samples: int, cycles_samples: int,
+            cache: str, folder: str, primer_blend: str = "", block_tolerance: float = 0.0):
+    """Render `blend` (or `primer_blend`) with Primer, fetch Cycles' reference `ref_id` of `blend` (made from
+    `inputs`, with Cycles' settings `applied`), and assert they agree (within block_tolerance on the relative MSE
+    of 4x4 blocks where it is given, or the scene is listed in BLOCK_TOLERANCE)."""
+    reference = cycles_reference(ref_id, blend, inputs, applied, cycles_samples, cache, folder)
     primer_path = os.path.join(folder, "primer.exr")
     render(primer_blend or blend, primer_path, "PRIMER", primer_samples, folder)
     image = image_io.read_image(primer_path)
@@ -278,24 +289,26 @@ def compare(blend: str, key_parts: tuple, primer_samples: int, cycles_samples: i
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(SCENES))
-def test_sample_scene_matches_cycles(name, reference_cache, tmp_path):
+def test_sample_scene_matches_cycles(name, scene_settings, reference_cache, tmp_path):
     """Each committed sample scene: Primer against Cycles with direct light only (choosing as Cycles does,
     CYCLES_CHOICES)."""
     blend = os.path.join(SCENES_DIR, f"{name}.blend")
     primer_samples, cycles_samples = SCENES[name]
     primer_blend = make_variant(name, CYCLES_CHOICES[name], str(tmp_path)) if name in CYCLES_CHOICES else ""
-    compare(blend, (blend,), primer_samples, cycles_samples, reference_cache, str(tmp_path), primer_blend)
+    compare(name, blend, (blend,), scene_settings[name], primer_samples, cycles_samples, reference_cache,
+            str(tmp_path), primer_blend)
 
 
 @pytest.mark.slow
-def test_lecture_differs_from_cycles_only_by_the_leak(reference_cache, tmp_path):
+def test_lecture_differs_from_cycles_only_by_the_leak(scene_settings, reference_cache, tmp_path):
     """shading_visibility with the lecture's face-normal rule (Primer's default): where the shading-normal
     rule lets light leak through the open sheet, Primer is black and Cycles is lit; everywhere else the
     two agree within the usual 1%. (The same seed gives both Primer renders the same samples.)"""
     name = "shading_visibility"
     blend = os.path.join(SCENES_DIR, f"{name}.blend")
     primer_samples, cycles_samples = SCENES[name]
-    reference = cycles_reference(blend, (blend,), cycles_samples, reference_cache, str(tmp_path))[..., :3]
+    reference = cycles_reference(name, blend, (blend,), scene_settings[name], cycles_samples, reference_cache,
+                                 str(tmp_path))[..., :3]
     images = {}
     for rule, source in (("face", blend), ("shading", make_variant(name, CYCLES_CHOICES[name], str(tmp_path)))):
         render(source, str(tmp_path / f"{rule}.exr"), "PRIMER", primer_samples, str(tmp_path))
@@ -318,8 +331,9 @@ def test_render_setting_matches_cycles(variant, variant_blends, reference_cache,
     transparent film, light exposure / temperature / normalize, the terminator fix, the caustics switches and
     sample clamping."""
     base = os.path.join(SCENES_DIR, f"{variant.scene}.blend")
-    compare(variant_blends[variant.id], (base, variant.settings), variant.primer_samples, variant.cycles_samples,
-            reference_cache, str(tmp_path), block_tolerance=variant.block_tolerance)
+    blend, applied = variant_blends[variant.id]
+    compare(f"variant-{variant.id}", blend, (base, variant.settings), applied, variant.primer_samples,
+            variant.cycles_samples, reference_cache, str(tmp_path), block_tolerance=variant.block_tolerance)
 
 
 def test_every_sample_scene_is_built_by_the_script_and_tested():

@@ -15,6 +15,11 @@ puts those five in the zip. Each library is rebuilt only when a C file under cor
 (or with --force), and each cross-compiled one is checked by its headers (tools/binaries.py): format,
 processor, and the exported primer_layout.
 
+Zig caches every object it compiles, keyed by the source files' paths as well as their contents, so the
+cross-builds compile a copy of core/'s C files in a folder named by their digest (under $XDG_CACHE_HOME or
+~/.cache, primer-kernels/): a new clone of the same sources (CI's) then finds Zig's objects, and a changed C file
+makes a new folder, so a copy is never stale.
+
 Flags: no fused multiply-add (-ffp-contract=off), so that the kernels round exactly as the numpy code
 they mirror does, step by step. -O3 turns the loops over blocks of samples into SIMD instructions
 (core/native/primer.h compiles those for AVX2 as well, where the compiler can); two flags let it, and
@@ -27,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures
+import hashlib
 import importlib.util
 import os
 import shlex
@@ -87,6 +93,30 @@ def build(cc: str, force: bool = False) -> str:
     return target
 
 
+def source_copy() -> str:
+    """Copy every C file under core/ into a folder named by their paths' and contents' digest (once); return the copy
+    of core/native/primer.c there. Zig then keys its objects by the same paths in every clone of the same sources."""
+    sha = hashlib.sha256()
+    files = sources()
+    for path in files:
+        with open(path, "rb") as fh:
+            sha.update(os.path.relpath(path, ROOT).encode() + b"\0" + fh.read() + b"\0")
+    cache_home = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    folder = os.path.join(cache_home, "primer-kernels", sha.hexdigest()[:20])
+    if not os.path.isdir(folder):
+        os.makedirs(os.path.dirname(folder), exist_ok=True)
+        scratch = tempfile.mkdtemp(prefix="sources-", dir=os.path.dirname(folder))
+        for path in files:
+            copy = os.path.join(scratch, os.path.relpath(path, ROOT))
+            os.makedirs(os.path.dirname(copy), exist_ok=True)
+            shutil.copyfile(path, copy)
+        try:
+            os.rename(scratch, folder)          # whole or not at all; another build may have made it meanwhile
+        except OSError:
+            shutil.rmtree(scratch, ignore_errors=True)
+    return os.path.join(folder, "core", "native", "primer.c")
+
+
 def zig_command() -> list:
     """Return the command that runs Zig's C compiler: $ZIG (a command, e.g. `python -m ziglang`) + cc, else this Python's ziglang.
 
@@ -114,7 +144,7 @@ def cross_build_one(platform_name: str, folder: str, force: bool = False) -> str
     zig_target, system, _, processor = TARGETS[platform_name]
     target = os.path.join(folder, cross_name(platform_name))
     if force or not up_to_date(target):
-        source = os.path.join(ROOT, "core", "native", "primer.c")
+        source = source_copy()
         with tempfile.TemporaryDirectory(prefix=f"kernels-{platform_name}-") as scratch:
             # Built in a scratch folder: the Windows link also writes an import library and a .pdb beside the DLL.
             output = os.path.join(scratch, os.path.basename(target))
