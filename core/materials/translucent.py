@@ -44,12 +44,6 @@ class Translucent(BSDF):
     def sample(params, N, wo, u) -> BsdfSample:
         return Lambert.sample(params, -N, wo, u)       # Lambert's hemisphere, turned to the far side
 
-    @staticmethod
-    def albedo(params, N, wo) -> tuple:
-        """The colour passes' albedo (Cycles' bsdf_albedo): all of it, to the Diffuse Color pass (its type)."""
-        m = len(wo)
-        return np.ones((m, 3)), np.zeros((m, 3))
-
 
 class TranslucentNode(Node):
     """Translucent BSDF (Blender's ShaderNodeBsdfTranslucent): one Translucent closure of the node's weight (its

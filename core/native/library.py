@@ -81,7 +81,7 @@ def available() -> bool:
     numpy path)."""
     if library() is None:
         return False
-    stale = [name for described in DESCRIBED for name in stale_records(list(described()))]
+    stale = [name for described in DESCRIBED for name in stale_records(described())]
     if stale:
         reason = (f"{library_name()} was built from other C sources than this Python ({', '.join(stale[:3])} "
                   "differ; make kernels)")
@@ -131,10 +131,10 @@ def call(name: str, args):
     """Call the library's C function `name` with its record of arguments (schema.function), checked first
     against the library's layout, and return the record (results the function stores are in its fields)."""
     args.check()
-    functions = _cache["functions"] if "functions" in _cache else {}
-    function = functions.get(name)
+    lib = _loaded()
+    function = _cache["functions"].get(name)
     if function is None:
-        function = getattr(_loaded(), name)
+        function = getattr(lib, name)
         function.restype, function.argtypes = None, [ctypes.c_void_p]
         _cache["functions"][name] = function
     function(ctypes.addressof(args))

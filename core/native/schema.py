@@ -201,10 +201,8 @@ class Record(ctypes.Structure):
             array = np.asarray(value, field.type.dtype)
             if field.type.integer and not np.array_equal(array, np.asarray(value)):
                 raise TypeError(f"{type(self).__name__}.{name} holds integers, not {value!r}")
-            target = getattr(self, name)
-            flat = np.broadcast_to(array, field.shape).ravel() if array.size > 1 else np.full(
-                int(np.prod(field.shape)), array.reshape(-1)[0] if array.size else 0, field.type.dtype)
-            np.frombuffer(target, dtype=field.type.dtype, count=flat.size)[:] = flat
+            flat = np.broadcast_to(array, field.shape).ravel()
+            np.frombuffer(getattr(self, name), dtype=field.type.dtype, count=flat.size)[:] = flat
         else:
             if field.type.integer:
                 if isinstance(value, (bool, np.bool_)):
@@ -251,9 +249,9 @@ class Record(ctypes.Structure):
         if theirs != cls.layout_hash():
             raise RuntimeError(f"{cls.__name__}'s layout in {library.library_name()} is not the one Python describes "
                                "(built from other sources: make kernels)")
-        if ctypes.sizeof(cls) != library.size_of(cls.__name__):
-            raise RuntimeError(f"{cls.__name__} is {ctypes.sizeof(cls)} bytes here and {library.size_of(cls.__name__)} "
-                               "in C (make kernels)")
+        size = library.size_of(cls.__name__)
+        if ctypes.sizeof(cls) != size:
+            raise RuntimeError(f"{cls.__name__} is {ctypes.sizeof(cls)} bytes here and {size} in C (make kernels)")
         cls._checked = True
 
 
