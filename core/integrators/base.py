@@ -55,6 +55,8 @@ class Radiance(NamedTuple):
              Holdout), or None where no object is a holdout
     light:   (n, 6, 3) float64 each ray's contributions to the light passes (lightpasses.LIGHT_PASSES' order), or
              None where none is asked for
+    groups:  (n, G, 3) float64 each ray's light by the group of its source (core/integrators/lightgroups.py), or
+             None where no light group is asked for
     """
 
     L: np.ndarray
@@ -62,6 +64,7 @@ class Radiance(NamedTuple):
     shadow_rays: int
     holdout: Optional[np.ndarray] = None
     light: Optional[np.ndarray] = None
+    groups: Optional[np.ndarray] = None
 
 
 class Recorder:

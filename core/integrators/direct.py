@@ -23,7 +23,7 @@ import numpy as np
 
 from .. import vectors
 from . import clamp as clamp_
-from . import lightpasses
+from . import lightgroups, lightpasses
 from .base import Context, Integrator, Radiance, Recorder
 from .rays import camera_hits
 from .vertex import PathState, shade_vertex
@@ -39,17 +39,21 @@ class DirectLighting(Integrator):
                  sample: np.ndarray, recorder: Recorder) -> Radiance:
         # 1-3. The camera rays' hits and surfaces, the world where they escape, the lamps they pass.
         direct_cap = clamp_.limits(ctx.settings)[0]
-        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap)
+        groups = lightgroups.tally(ctx, len(O))
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups)
         if surface is None:
-            return Radiance(L_out, found.hit, 0)
+            return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L)
         D_hit = vectors.gather(D, hit)
         # 4. The light each hit sends towards the camera (each contribution capped by Clamp Direct).
         parts = lightpasses.FirstHitParts(len(hit)) if lightpasses.wanted(ctx.settings.passes) else None
+        hit_groups = lightgroups.tally(ctx, len(hit))
         L_hit, shadow_rays, _ = shade_vertex(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder,
-                                             PathState(limit=direct_cap), parts=parts)
+                                             PathState(limit=direct_cap), parts=parts, groups=hit_groups)
         L_out[hit] += L_hit
+        if groups is not None:
+            groups.add_rows(hit, hit_groups)
         light = None
         if parts is not None:                    # the light passes: all of it direct (core/integrators/lightpasses.py)
             light = np.zeros((len(O), len(lightpasses.LIGHT_PASSES), 3))
             light[hit, :lightpasses.KINDS] = parts.gathered
-        return Radiance(L_out, found.hit, shadow_rays, light=light)
+        return Radiance(L_out, found.hit, shadow_rays, light=light, groups=None if groups is None else groups.L)

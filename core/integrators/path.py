@@ -53,7 +53,7 @@ from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from .base import Context, Integrator, Radiance, Recorder
 from . import clamp as clamp_
-from . import lightpasses
+from . import lightgroups, lightpasses
 from . import shadows
 from .rays import camera_hits, goes_through, nearest_seen
 from .shadows import spawn_ray
@@ -108,13 +108,14 @@ def hit_materials(ctx: Context, ray, rows: np.ndarray) -> np.ndarray:
 
 
 def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray, passed: np.ndarray,
-                        limit=np.inf) -> np.ndarray:
+                        limit=np.inf, groups=None) -> np.ndarray:
     """The light (k, 3) behind the transparent surfaces that the ended paths' last rays (`rows` of the BsdfRay
     `ray`, carrying `weight` (k, 3), after `passed` (k,) clear surfaces) meet: each surface multiplies by its
     transparency and the ray goes straight on, finding lamps, emission and the world as a BSDF ray does, weighed
     by MIS with the pdf of the path's last real bounce and the light pdfs measured from that bounce (ray.mis_O,
     ray.mis_N: Cycles' mis_origin); up to the transparent-bounce limit. Each find is capped at `limit` (scalar or
-    (k,), sample clamping). Nothing where BSDF rays gather nothing (light_sampling "light", as bsdf_ray)."""
+    (k,), sample clamping). Nothing where BSDF rays gather nothing (light_sampling "light", as bsdf_ray). groups: a
+    lightgroups.GroupLight of the k rows that receives the light found by the group of its source, or None."""
     s = ctx.settings
     found = np.zeros((len(rows), 3))
     if s.light_sampling == "light" or not ctx.extra.get("bsdf_rays", False):
@@ -139,9 +140,13 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         # 2. On from just past it, straight ahead, gathering what the ray finds.
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
         hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
+        found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
-                                        N=mis_N[alive], mis_O=mis_O[alive])
-        found[alive] += clamp_.clamped(light, None, limit if np.ndim(limit) == 0 else limit[alive])
+                                        N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups)
+        f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
+        found[alive] += light * f[:, None]
+        if groups is not None:
+            groups.add_rows(alive, found_groups, T[alive] * f[:, None])
         # 3. The rays that met another surface go on.
         more = hits.hit
         alive, O, D = alive[more], O[more], D[more]
@@ -192,9 +197,10 @@ class PathTracing(Integrator):
         s = ctx.settings
         # 1. The camera rays: what they hit, the world where they escape, the lamps they pass.
         direct_cap, indirect_cap = clamp_.limits(s)
-        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap)
+        groups = lightgroups.tally(ctx, len(O))
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups)
         if surface is None:
-            return Radiance(L_out, found.hit, 0)
+            return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L)
         D_hit = vectors.gather(D, hit)
         held = np.zeros(len(O))                      # each camera ray's alpha that holdouts take away
         holdouts = ctx.geometry.hides(HOLDOUT) or bool(ctx.materials.holds_out.any())
@@ -237,10 +243,13 @@ class PathTracing(Integrator):
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
                               carried_origin=mis_origin, carried_N=mis_normal)
+            vertex_groups = lightgroups.tally(ctx, len(owner))
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,
-                                               trace_all=True, shader=shader, parts=parts)
+                                               trace_all=True, shader=shader, parts=parts, groups=vertex_groups)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
+            if groups is not None:
+                groups.add_rows(owner, vertex_groups, throughput)
             if light is not None:
                 # Direct: what the first hits gather (not their emission); indirect: all later vertices gather.
                 if parts is not None:
@@ -267,9 +276,12 @@ class PathTracing(Integrator):
             ended = np.flatnonzero(ray.hits.hit & ~within & (tp <= s.transparent_max_bounces))
             ended = ended[ctx.materials.may_pass[hit_materials(ctx, ray, ended)]] if len(ended) else ended
             if len(ended):
+                behind_groups = lightgroups.tally(ctx, len(ended))
                 behind = through_transparent(ctx, ray, ended, throughput[ray.rows[ended]] * ray.weight[ended],
-                                             tp[ended], cap[ray.rows[ended]])
+                                             tp[ended], cap[ray.rows[ended]], behind_groups)
                 L_out[owner[ray.rows[ended]]] += behind
+                if groups is not None:
+                    groups.add_rows(owner[ray.rows[ended]], behind_groups)
                 if light is not None:
                     self.light_behind(light, owner[ray.rows[ended]], behind, bounce[ray.rows[ended]] == 0,
                                       parts.ray_shares[ended] if parts is not None else None, shares[ray.rows[ended]])
@@ -311,7 +323,8 @@ class PathTracing(Integrator):
             mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]
             wo = -D_next
             vertex += 1
-        return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light)
+        return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
+                        None if groups is None else groups.L)
 
     @staticmethod
     def light_behind(light: np.ndarray, owner: np.ndarray, value: np.ndarray, first: np.ndarray, ray_shares,

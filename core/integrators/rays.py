@@ -19,10 +19,11 @@ from .base import Context, Recorder
 
 
 def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, recorder: Recorder,
-                limit=np.inf) -> tuple:
+                limit=np.inf, groups=None) -> tuple:
     """What camera rays O, D (n, 3) up to t_max (n,) meet: (L (n, 3) the world where they escape, where the
     camera sees it, plus the lamps with extent they pass, each ray's capped at `limit` (sample clamping); the
-    tracer's hits; the hit rows (m,) int64; the hits' Surface, or None when nothing was hit)."""
+    tracer's hits; the hit rows (m,) int64; the hits' Surface, or None when nothing was hit). groups: a
+    lightgroups.GroupLight of the n rays that receives L split by source, or None."""
     s = ctx.settings
     # 1. The nearest hit of each camera ray (t), past objects hidden from the camera.
     found = nearest_seen(ctx, O, D, t_max)
@@ -33,11 +34,16 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
     if world is not None and world.camera and not s.transparent_background:
         missed = np.flatnonzero(~found.hit)
         L_out[missed] = world.radiance(D[missed])
+        if groups is not None:
+            groups.add(missed, L_out[missed], groups.groups.world)
     # 3. Lamps seen by the camera in front of what it hits (area lights, round lights).
-    L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
+    L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), groups)
     # What the camera sees itself is a direct contribution (Clamp Direct).
     if np.isfinite(limit):
-        L_out = clamp_.clamped(L_out, None, limit)
+        f = clamp_.scale(L_out, None, limit)
+        L_out = L_out * f[:, None]
+        if groups is not None:
+            groups.scale(f)
     if len(hit) == 0:
         recorder.hits(O, D, None, found.hit)
         return L_out, found, hit, None
@@ -96,9 +102,13 @@ def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
     return np.where(materials_.has(kind, F.STRAIGHT), previous, bounced).astype(np.int64)
 
 
-def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> np.ndarray:
-    """The radiance (n, 3) of lamps with extent that camera rays meet before t_max (lamps never block)."""
+def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, groups=None) -> np.ndarray:
+    """The radiance (n, 3) of lamps with extent that camera rays meet before t_max (lamps never block); groups: a
+    lightgroups.GroupLight of the n rays that receives it by each lamp's group, or None."""
     seen = np.zeros((len(O), 3))
     for index in ctx.extra.get("camera_lamps", ()):
-        seen += ctx.lights[index].hit(O, D, t_max).radiance
+        radiance = ctx.lights[index].hit(O, D, t_max).radiance
+        seen += radiance
+        if groups is not None:
+            groups.add(np.arange(len(O)), radiance, groups.groups.lights[index])
     return seen

@@ -78,7 +78,7 @@ def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray, recorder: Recorder,
                  path: Optional["PathState"] = None, trace_all: bool = False, light_samples_only: bool = False,
-                 shader=None, parts=None):
+                 shader=None, parts=None, groups=None):
     """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
     each traced hit sent out, or None).
 
@@ -98,7 +98,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     ray goes on as that kind (ray_kind). parts: a lightpasses.FirstHitParts that receives the light samples'
     and the BSDF ray's contributions split by closure kind, and the BSDF rays' shares (the light passes), or None.
     carried_pdf, carried_origin, carried_N: (m,), (m, 3), (m, 3) the pdf, ray origin and light-tree normal of each
-    path's last real bounce (bsdf_ray), or None.
+    path's last real bounce (bsdf_ray), or None. groups: a lightgroups.GroupLight of the m hits that receives
+    everything L_out does, by the group of its source (core/integrators/lightgroups.py), or None.
     """
     s = ctx.settings
     m = len(surface.I)
@@ -116,6 +117,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
     if clamping and vertex == 0:
         L_out = clamp_.clamped(L_out, throughput, limit)
+    if groups is not None and vertex == 0:
+        groups.add(np.arange(m), L_out, groups.groups.of_prims(ctx.geometry, surface.prim))
     shadow_rays = 0
     offsets = shadows.error_bound(surface.I, surface.vertices) if s.shadow_method == "robust" else None
     # Which hits trace a BSDF ray (every hit where emitters or the world light the scene, glossy hits
@@ -189,6 +192,9 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                                        limit if np.ndim(limit) == 0 else limit[rows], count)
             recorder.contribution(index, rows, value, mis_weight)
             L_out[rows] += value
+            if groups is not None:
+                group = groups.groups.of_sample(ctx.geometry, index, light, ls)
+                groups.add(rows, value, group if np.ndim(group) == 0 else group[rows])
             if parts is not None:
                 parts.gathered[rows] += lightpasses.split(value, lightpasses.kind_shares(
                     part, wo[rows], ls.L[rows], signed_cosine=not s.clamp_n_dot_l, left_out=left_out))
@@ -197,11 +203,18 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     if not light_samples_only and (trace_all or (ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light"
                                                  and traced.any())):
         gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
+        ray_groups = None if groups is None else type(groups)(groups.groups, m)
         found, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N,
-                              carried_origin=carried_origin, carried_N=carried_N)
-        found = clamp_.clamped(found, throughput, limit) if clamping else found
+                              carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups)
+        if clamping:
+            f = clamp_.scale(found, throughput, limit)
+            found = found * f[:, None]
+            if ray_groups is not None:
+                ray_groups.scale(f)
         L_out += found
+        if groups is not None:
+            groups.L += ray_groups.L
         if parts is not None and ray is not None:
             c = materials_.Closures(*(None if array is None else array[ray.rows] for array in shader.closures))
             parts.ray_shares = lightpasses.sample_shares(c, wo[ray.rows], ray.D, ray.kind, ray.delta, ray.transmit)
@@ -211,7 +224,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
 
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
              recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
-             *, tree_N: np.ndarray, carried_origin=None, carried_N=None):
+             *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None):
     """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
     The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -223,7 +236,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     light samples gave the light tree (tree_normals), for the emitters' MIS pdf. carried_origin, carried_N: (m, 3)
     the ray origin and light-tree normal of the path's last real bounce (with carried_pdf): a ray straight through
     a transparent surface weighs what it finds with the pdfs the light samples at that bounce would have given
-    its direction, measured from there (Cycles' mis_origin), not from the transparent surface."""
+    its direction, measured from there (Cycles' mis_origin), not from the transparent surface. groups: a
+    lightgroups.GroupLight of the m hits that receives the light found by the group of its source, or None."""
     s = ctx.settings
     m = len(surface.I)
     u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
@@ -260,9 +274,12 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         return found, ray
     use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
     holdouts = ctx.geometry.hides(HOLDOUT)
+    ray_groups = None if groups is None else type(groups)(groups.groups, len(go))
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
-                                             mis_O=mis_O)
+                                             mis_O=mis_O, groups=ray_groups)
+    if groups is not None:
+        groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
     return found, ray
 
@@ -289,7 +306,7 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
 
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
-                 camera=None, N=None, mis_O=None) -> np.ndarray:
+                 camera=None, N=None, mis_O=None, groups=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -301,7 +318,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     went straight on through transparent surfaces from there still has the direction D, and a light it finds at
     distance t from O is at |O + t D - mis_O| from there (Cycles' mis_origin); an emitter's radiance is the actual
     hit's; a lamp is met where the line from mis_O meets it past O (the same point, but for a round lamp with soft
-    falloff: the disk facing mis_O, the one its light samples there saw), with the radiance it sends along D."""
+    falloff: the disk facing mis_O, the one its light samples there saw), with the radiance it sends along D.
+    groups: a lightgroups.GroupLight of the k rays that receives each find by the group of its source, or None."""
     light_L = np.zeros((len(O), 3))
     t_limit = np.where(hits.hit, hits.t, np.inf)
     away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
@@ -332,6 +350,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             continue
         w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * pdf_l), 1.0)
         light_L += radiance * w[:, None]
+        if groups is not None:
+            groups.add(np.arange(len(O)), radiance * w[:, None], groups.groups.lights[index])
     # b. An emissive surface the ray hits: its emission, weighed against the emitters' own samples.
     struck = np.flatnonzero(hits.hit)
     emitters = ctx.extra.get("emitters")
@@ -362,6 +382,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             n_l = light_count(ctx, emitters)
         w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
         light_L[struck] += emitted * w[:, None]
+        if groups is not None:
+            groups.add(struck, emitted * w[:, None], groups.groups.of_prims(ctx.geometry, hits.prim[struck]))
     # c. The world, where the ray escapes: a constant world with weight 1, an image by MIS.
     world = ctx.extra.get("world_light")
     missed = np.flatnonzero(~hits.hit)
@@ -373,6 +395,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             w = np.where(use_mis[missed], power_heuristic(pdf_b[missed],
                          light_count(ctx, sampler) * sampler.pdf(D[missed])), 1.0)
         light_L[missed] += L_world * w[:, None]
+        if groups is not None:
+            groups.add(missed, L_world * w[:, None], groups.groups.world)
     return light_L
 
 

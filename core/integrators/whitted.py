@@ -30,7 +30,7 @@ from ..geometry.surface import surface_at_hits
 from ..materials import glass as glass_
 from ..materials import graph as graph_
 from ..materials import microfacet as mf
-from . import shadows
+from . import lightgroups, shadows
 from .base import Context, Integrator, Radiance, Recorder
 from .rays import lamps_seen, nearest_seen
 from .shadows import spawn_ray
@@ -67,6 +67,7 @@ class WhittedTracing(Integrator):
         shadow_rays = 0
         world = ctx.extra.get("world_light")
         depth = 0
+        groups = lightgroups.tally(ctx, n)          # each ray's light by source (core/integrators/lightgroups.py)
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
         while len(owner):
             # 1. The rays of this depth: what they hit; the world and lamps where they escape or pass.
@@ -82,9 +83,15 @@ class WhittedTracing(Integrator):
                     if mask.any():
                         recorder.rays(kind, O[mask], D[mask], t_hit[mask])
             missed = np.flatnonzero(~found.hit)
+            seen = lightgroups.tally(ctx, len(owner))     # what these rays see, by source
             if world is not None and world.camera and not (depth == 0 and s.transparent_background):
-                np.add.at(L_out, owner[missed], throughput[missed] * world.radiance(D[missed]))
-            np.add.at(L_out, owner, throughput * lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max)))
+                L_world = world.radiance(D[missed])
+                np.add.at(L_out, owner[missed], throughput[missed] * L_world)
+                if seen is not None:
+                    seen.add(missed, L_world, seen.groups.world)
+            np.add.at(L_out, owner, throughput * lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), seen))
+            if groups is not None:
+                groups.add_rows(owner, seen, throughput)
             hit = np.flatnonzero(found.hit)
             if len(hit) == 0:
                 break
@@ -96,10 +103,13 @@ class WhittedTracing(Integrator):
             wo = -D[hit]
             rows = owner[hit]
             state = PathState(dimension=depth * (1 << 16), ray=graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE)
+            hit_groups = lightgroups.tally(ctx, len(hit))
             L_hit, rays, _ = shade_vertex(ctx, surface, wo, pixel[rows], sample[rows], recorder, state,
-                                          light_samples_only=True)
+                                          light_samples_only=True, groups=hit_groups)
             shadow_rays += rays
             np.add.at(L_out, rows, throughput[hit] * L_hit)
+            if groups is not None:
+                groups.add_rows(rows, hit_groups, throughput[hit])
             recorder.path_vertex(depth, rows, surface, throughput[hit], L_hit)
             # 3. The specular closures' rays: a mirror's reflection, glass's reflection and refraction.
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry,
@@ -112,7 +122,7 @@ class WhittedTracing(Integrator):
             owner = rows[index]
             t_max = np.full(len(owner), np.inf)
             depth += 1
-        return Radiance(L_out, camera_hit, shadow_rays)
+        return Radiance(L_out, camera_hit, shadow_rays, groups=None if groups is None else groups.L)
 
     def specular_rays(self, s, surface, shader, wo, throughput, glossy, transmission):
         """The child rays of every perfectly specular (singular) reflection and smooth glass closure: (hit index (k,), O (k, 3), D (k, 3), throughput

@@ -41,7 +41,7 @@ from ..geometry import instancing
 from ..geometry.geometry import WorldGeometry, build_geometry
 from ..integrators import Context, Recorder, for_render
 from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
-from ..integrators import cryptomatte, features, lightpasses, passes as passes_, vertex
+from ..integrators import cryptomatte, features, lightgroups, lightpasses, passes as passes_, vertex
 from ..integrators.compiled import Compiled, why_not
 from ..materials import MaterialTable
 from ..sampling import sobol as sampling
@@ -122,7 +122,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     if geometry is None:
         geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing))
     warnings.extend(w for w in geometry.warnings if w not in warnings)
-    lights = [light.moved(geometry.origin) for light in lights_.usable(scene.lights, warnings)]
+    lamps = lights_.usable(scene.lights, warnings)
+    lights = [light.moved(geometry.origin) for light in lamps]
     materials = MaterialTable.of(scene.materials, scene.default_material)
     # The lights a render makes of its scene: the emissive meshes, and the world's image.
     world = scene.the_world()
@@ -133,6 +134,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     ctx.extra["world_light"] = world
     ctx.extra["emitters"] = emitters
     ctx.extra["world_sampler"] = sampler
+    # The light groups asked for: which group each light, object and the world belongs to (lightgroups.py).
+    ctx.extra["light_groups"] = lightgroups.LightGroups.of(scene, settings.light_groups, lamps, lights)
     # Which lights BSDF-sampled rays can find (weighed by MIS), which the camera sees, and whether a
     # BSDF ray is worth tracing at all (not for scenes lit by lights without extent alone).
     ctx.extra["hittable"] = {index for index, light in enumerate(lights) if light.hittable}
@@ -288,6 +291,17 @@ def light_pass_images(film: Film, first_hit: dict, wanted) -> dict:
     return lightpasses.divide_by_color(sums, film.noise.count.reshape(H, W).astype(np.float64), first_hit, wanted)
 
 
+def light_group_images(film: Film, names) -> dict:
+    """Return each light group's pass, from the film's sums: lightgroups.BUFFER_PREFIX + name -> (H, W, 3) float32,
+    the mean over each pixel's samples (0 where it has none)."""
+    H, W = film.height, film.width
+    count = film.noise.count.reshape(H, W, 1).astype(np.float64)
+    sums = film.aux[lightgroups.FILM_BUFFER].reshape(H, W, len(names), 3)
+    mean = np.divide(sums, count[..., None], out=np.zeros_like(sums), where=count[..., None] > 0)
+    return {lightgroups.BUFFER_PREFIX + name: np.ascontiguousarray(mean[:, :, k], np.float32)
+            for k, name in enumerate(names)}
+
+
 def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
                     first: Optional[np.ndarray] = None, recorder: Optional[Recorder] = None) -> ChunkSums:
     """Render `spp` samples in each of `pixels` with the Python reference: samples first .. first + spp - 1.
@@ -335,6 +349,10 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
         light = np.zeros((n, lightpasses.FILM_CHANNELS))
         light[traced] = found.light.reshape(len(traced), -1)
         aux[lightpasses.FILM_BUFFER] = light.reshape(p, spp, -1).sum(axis=1)
+    if found.groups is not None:                 # the light groups' sums (core/integrators/lightgroups.py)
+        groups = np.zeros((n, found.groups.shape[1] * 3))
+        groups[traced] = found.groups.reshape(len(traced), -1)
+        aux[lightgroups.FILM_BUFFER] = groups.reshape(p, spp, -1).sum(axis=1)
     return ChunkSums(per_pixel, squares, hits, aux, len(traced), found.shadow_rays, spp,
                      shading_seconds=shading_seconds)
 
@@ -464,6 +482,8 @@ def render(scene: Scene, settings: RenderSettings,
     light_passes = lightpasses.wanted(settings.passes)
     if light_passes:
         film_sums[lightpasses.FILM_BUFFER] = lightpasses.FILM_CHANNELS
+    if settings.light_groups:
+        film_sums[lightgroups.FILM_BUFFER] = 3 * len(settings.light_groups)
     film = Film(W, H, film_sums, compiled=compiled is not None, keep_estimates=len(passes) > 1)
     region = region_pixels(settings)
     outside = camera_.outside_image_circle(scene.camera, W, H, region, tuple(settings.pixel_aspect))
@@ -539,6 +559,8 @@ def render(scene: Scene, settings: RenderSettings,
     image = film.image()
     aux = debug.aux_images(film.aux, film.hits, settings.aux, H, W)
     aux.update(features_)
+    if settings.light_groups:
+        aux.update(light_group_images(film, settings.light_groups))
     stats.samples_per_pixel = film.noise.count.reshape(H, W).astype(np.int32)
     stats.seconds = time.perf_counter() - start
     # Embree's share: the shadow rays' queries ran inside shading, so they move from there to trace.

@@ -112,6 +112,9 @@ class Scene:
     (core/lights/world.py) that lights the scene as Cycles' world does, when given.
     default_material: the surface of triangles without a material: the lecture's grey Lambert surface,
     unless a scene from Blender says Cycles' default surface (core/materials DEFAULT_SURFACE).
+    lightgroups: the light group (View Layer > Light Groups) each source belongs to, by name ("" for none):
+    {"lights": [one per lights entry], "instances": [one per instances entry], "world": the world's}; the
+    groups a render writes are RenderSettings.light_groups (core/integrators/lightgroups.py)
     """
 
     camera: Camera
@@ -122,6 +125,7 @@ class Scene:
     world_color: np.ndarray = field(default_factory=lambda: np.zeros(3))
     world: Optional[World] = None
     default_material: Material = field(default_factory=Material)
+    lightgroups: dict = field(default_factory=lambda: {"lights": [], "instances": [], "world": ""})
 
     def the_world(self) -> World:
         """The world: `world` when given (it lights the scene unless told not to), else a background of

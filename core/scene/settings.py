@@ -61,6 +61,9 @@ class RenderSettings:
     cryptomatte_depth: the (id, coverage) ranks each Cryptomatte pass keeps per pixel (View Layer >
                       Passes > Cryptomatte > Levels; 6 by default, two per RGBA pass)
     ao_distance: how far the Ambient Occlusion pass's rays look (Blender's World > Ambient Occlusion > Distance)
+    light_groups: the light groups whose passes to write (View Layer > Light Groups' names, in order): each the
+                      light of the sources in it, from the integrator (core/integrators/lightgroups.py;
+                      membership: Scene.lightgroups)
     """
 
     integrator: str = "direct"
@@ -108,6 +111,7 @@ class RenderSettings:
     passes: Sequence[str] = ()
     ao_distance: float = 10.0
     cryptomatte_depth: int = 6
+    light_groups: Sequence[str] = ()
 
     def is_lecture_default(self) -> bool:
         """Whether every lecture switch is at the lecture's choice (a fast path may then stand in)."""

@@ -1,0 +1,135 @@
+"""Light groups (View Layer > Light Groups): each sample's light split by the group of the source it came from.
+
+A light group collects lamps, emissive objects and the world (their Light Group property). Its pass, Cycles'
+`Combined_<name>`, holds the light that reaches the camera from those sources alone, by every path. Light is
+linear in its sources, so the integrator can tell each contribution's source as it adds it, as Cycles does
+(kernel/film/light_passes.h, film_write_*: a contribution goes to the light group of the lamp, the emissive
+object or the world it ends at):
+
+- a light sample goes to its light's group: a lamp's, the world's, or for the emissive meshes the group of the
+  object whose triangle was sampled;
+- what a BSDF ray finds goes to the group of what it finds: a lamp with extent, the object hit, the world;
+- what the camera sees itself goes to the group of what it sees: an emitting surface (the object's group),
+  a lamp with extent, the world where the ray escapes.
+
+Each is the same value the Combined pass receives (MIS weights, clamping and the path's throughput included),
+so the groups' passes add up to Combined wherever every source is in some group. Both kernels write them: the
+Python reference through a GroupLight per batch, the compiled chunk (direct.c, path.c, chunk.c) per camera lane.
+The film keeps their per-pixel sums in FILM_BUFFER (3 channels per group) and the render divides by the samples.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..lights.base import LightFlags
+
+# The film's buffer of the groups' per-pixel sums: 3 channels per group, in RenderSettings.light_groups' order.
+FILM_BUFFER = "light_groups"
+# The render's buffer of the group NAME (RenderResult.aux), (H, W, 3).
+BUFFER_PREFIX = "lightgroup:"
+# The group of a source in none of the groups asked for.
+NONE = -1
+
+
+@dataclass
+class LightGroups:
+    """Which group (0 .. count - 1, or NONE) each source of a render belongs to.
+
+    count:     the groups asked for (RenderSettings.light_groups)
+    lights:    (l,) int64 the group of each of the render's lights (Context.lights): lamps by their own, the world's
+               image by the world's, NONE for the emissive meshes (they go by the object of each triangle)
+    instances: (i,) int64 the group of each Scene.instances entry (what it emits)
+    world:     the world's group
+    """
+
+    count: int
+    lights: np.ndarray
+    instances: np.ndarray
+    world: int
+
+    @classmethod
+    def of(cls, scene, names, lamps: list, lights: list) -> Optional["LightGroups"]:
+        """The groups `names` (a sequence of group names, or empty: None) of `scene` (its Scene.lightgroups
+        membership), for the render's `lights`: the usable lamps `lamps` (scene.lights' entries, in the render's
+        order) and then the emitters and the world's image (the rest of `lights`)."""
+        names = list(names)
+        if not names:
+            return None
+        index = {name: k for k, name in enumerate(names)}
+        members = getattr(scene, "lightgroups", None) or {}
+
+        def group(name) -> int:
+            return index.get(str(name or ""), NONE)
+
+        of_light = {id(light): group(name) for light, name in zip(scene.lights, members.get("lights", ()))}
+        world = group(members.get("world", ""))
+        per_light = [of_light.get(id(lamp), NONE) for lamp in lamps]
+        for light in lights[len(lamps):]:
+            per_light.append(world if light.is_(LightFlags.INFINITE) else NONE)
+        instances = [group(name) for name in members.get("instances", ())]
+        instances += [NONE] * (len(scene.instances) - len(instances))
+        return cls(len(names), np.array(per_light, np.int64), np.array(instances, np.int64), world)
+
+    def of_prims(self, geometry, prim: np.ndarray) -> np.ndarray:
+        """The group (k,) int64 of the objects the triangles `prim` (k,) int64 belong to."""
+        owner = geometry.owners(np.asarray(prim, np.int64))
+        known = (owner >= 0) & (owner < len(self.instances))
+        return np.where(known, self.instances[np.clip(owner, 0, max(0, len(self.instances) - 1))]
+                        if len(self.instances) else NONE, NONE)
+
+    def of_sample(self, geometry, index: int, light, ls):
+        """The group of light `index`'s samples `ls`: its own (int), or for the emissive meshes each sample's
+        triangle's object's (n,) int64."""
+        if getattr(light, "prim", None) is not None and ls.emitter is not None:
+            return self.of_prims(geometry, light.prim[np.asarray(ls.emitter, np.int64)])
+        return int(self.lights[index])
+
+    def emitter_groups(self, geometry, emitters) -> np.ndarray:
+        """The group (t,) int32 of each emissive triangle's object (the compiled chunk's table)."""
+        return self.of_prims(geometry, emitters.prim).astype(np.int32)
+
+
+class GroupLight:
+    """The light of m rows (hits or rays) split by group: L (m, count, 3) float64, or nothing without groups."""
+
+    def __init__(self, groups: Optional[LightGroups], m: int):
+        """Start with nothing gathered by m rows."""
+        self.groups = groups
+        self.L = np.zeros((m, groups.count if groups is not None else 0, 3))
+
+    def add(self, rows, value: np.ndarray, group) -> None:
+        """Add value (k, 3) to the rows `rows` (k,) int64 in their groups `group` (int or (k,) int; NONE: nowhere)."""
+        rows = np.asarray(rows, np.int64)
+        group = np.broadcast_to(np.asarray(group, np.int64), rows.shape)
+        kept = group >= 0
+        if kept.any():
+            np.add.at(self.L, (rows[kept], group[kept]), np.asarray(value)[kept])
+
+    def scale(self, factor: np.ndarray) -> None:
+        """Multiply every row by factor (m,) or (m, 3) (clamping's caps, a path's throughput)."""
+        factor = np.asarray(factor, np.float64)
+        self.L *= factor[:, None, None] if factor.ndim == 1 else factor[:, None, :]
+
+    def add_rows(self, rows, other: "GroupLight", factor=None) -> None:
+        """Add the rows of `other` (k rows) into the rows `rows` (k,) int64, each times factor (k,) or (k, 3)."""
+        if self.L.shape[1] == 0:
+            return
+        values = other.L
+        if factor is not None:
+            factor = np.asarray(factor, np.float64)
+            values = values * (factor[:, None, None] if factor.ndim == 1 else factor[:, None, :])
+        np.add.at(self.L, np.asarray(rows, np.int64), values)
+
+
+def wanted(ctx) -> Optional[LightGroups]:
+    """The render's LightGroups (Context.extra["light_groups"]), or None where none is asked for."""
+    return ctx.extra.get("light_groups")
+
+
+def tally(ctx, m: int) -> Optional[GroupLight]:
+    """A GroupLight of m rows where the render splits light by group, else None."""
+    groups = wanted(ctx)
+    return GroupLight(groups, m) if groups is not None else None
