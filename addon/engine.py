@@ -425,15 +425,6 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
         record.cancelled = result.cancelled
         record.stats = result.stats
         buffers = result.aux
-        groups = lightgroups.group_names(depsgraph.view_layer)
-        if groups and not result.cancelled:
-            def group_progress(fraction, stats, group):
-                engine.update_progress(fraction)
-                engine.update_stats("", f"Primer | light group '{group}' | {100 * fraction:.0f}%")
-
-            buffers = {**buffers, **lightgroups.render_groups(core_render, exported, groups, group_progress,
-                                                               cancelled)}
-            record.cancelled = cancelled()
         written = time.perf_counter()
         chosen = scene.primer.debug_light
         channels = light_channels(result.light_names, chosen.name if chosen is not None else "")

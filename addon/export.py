@@ -44,9 +44,6 @@ class Export:
                                 # with engine.begin_result(0, 0, width, height)
     warnings: list = field(default_factory=list)
     meshes_read: list = field(default_factory=list)     # objects whose meshes were read from Blender (not kept)
-    # The light group (View Layer > Light Groups) of each source: {"lights": [per scene.lights], "instances":
-    # [per scene.instances], "world": name}; "" for none (addon/lightgroups.py).
-    lightgroups: dict = field(default_factory=lambda: {"lights": [], "instances": [], "world": ""})
 
 
 # ----------------------------------------------------------------------------
@@ -790,8 +787,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     border = border_rectangle(scene.render, width, height)
     settings = render_settings(scene, width, height, border, aux, passes)
     settings.cryptomatte_depth = int(getattr(depsgraph.view_layer, "pass_cryptomatte_depth", 6))
+    settings.light_groups = tuple(lightgroups.group_names(depsgraph.view_layer))
+    core.lightgroups = groups
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
-    groups_wanted = lightgroups.group_names(depsgraph.view_layer)
-    for group in lightgroups.empty_groups(groups_wanted, groups):
+    for group in lightgroups.empty_groups(settings.light_groups, groups):
         warnings.append(f"light group '{group}' has no light, emissive object or world in it: its pass is black")
-    return Export(core, settings, (width, height), border, warnings, meshes_read, groups)
+    return Export(core, settings, (width, height), border, warnings, meshes_read)

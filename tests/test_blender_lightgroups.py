@@ -1,9 +1,9 @@
 """Light groups (View Layer > Light Groups) inside real Blender (the bpy module), against Cycles' own
 Combined_<name> passes on the same scenes: names, channels and values. No mocks.
 
-Primer renders each group as the scene with only that group's sources emitting (addon/lightgroups.py);
-Cycles splits one render's paths. The two agree in expectation, so the passes are compared converged
-enough, with the project's error (relative MSE of 4x4-pixel block means).
+Both renderers split one render's light by the source each contribution comes from (Primer:
+core/integrators/lightgroups.py). Their samples differ, so the passes are compared converged enough, with the
+project's error (relative MSE of 4x4-pixel block means).
 """
 from __future__ import annotations
 

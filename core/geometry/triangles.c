@@ -90,11 +90,17 @@ INLINE void hit_triangle(const GeometryTables *g, int64_t geometry, int64_t prim
     else instanced_triangle(g->meshes + (geometry - 1), instance, prim, want_smooth, out);
 }
 
+/* WorldGeometry.owners for one Embree hit: the Scene.instances entry of the object hit (-1: none). */
+INLINE int64_t owner_of(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
+{
+    return geometry <= 0 ? (int64_t)g->instance[prim] : (int64_t)g->meshes[geometry - 1].owner[instance];
+}
+
 /* WorldGeometry.hidden for one Embree hit: whether its object hides from the rays of `bit`. */
 INLINE int hidden_from(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance, int bit)
 {
     if (g->hidden == NULL) return 0;
-    int64_t owner = geometry <= 0 ? (int64_t)g->instance[prim] : (int64_t)g->meshes[geometry - 1].owner[instance];
+    int64_t owner = owner_of(g, geometry, prim, instance);
     return owner >= 0 && (g->hidden[owner] & bit) != 0;
 }
 

@@ -77,6 +77,13 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
                 double f = clamp_scale(H->L + 3 * h, H->throughput + 3 * h, params->clamp_direct, 1.0);
                 for (int c = 0; c < 3; c++) H->L[3 * h + c] *= f;
             }
+            if (H->groups != NULL) {            /* (its emission goes to its object's light group) */
+                for (int64_t i = 0; i < 3 * H->group_count; i++) H->groups[3 * h * H->group_count + i] = 0.0;
+                add_to_group(H->groups, H->group_count, h,
+                             group_of_hit(params->instance_groups, params->geometry, (int64_t)packet.hit.geomID[k],
+                                          (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k)),
+                             H->L + 3 * h, 1.0);
+            }
         }
     }
 }
@@ -92,11 +99,14 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
                          params->everywhere != 0.0, params->seed, 0,
                          params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHT, NULL, params->graphs,
                          NULL, (int)params->caustics, {params->clamp_direct, params->clamp_indirect},
-                         params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY, 0};
+                         params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY, 0, 0, NULL, -1};
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
                                params->graphs, (int)params->transparent_bounces};
     if (params->see_through != 0.0) ds.transmitter = &transmitter;
     ds.light_passes = params->light_passes != 0.0 && work != NULL;
+    ds.groups = H->groups != NULL ? H->group_count : 0;
+    ds.instance_groups = params->instance_groups;
+    ds.world_group = (int64_t)params->world_group;
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH: {
         PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
@@ -129,21 +139,37 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
 }
 
 /* What a camera ray brings back besides its hit: the world where it escapes (when the camera sees it and
- * the film is not transparent), and the lamps with extent it passes before t (direct.lamps_seen). */
-INLINE void camera_sees(const ChunkParams *params, const double *O, const double *D, double t, int hit, double *out)
+ * the film is not transparent), and the lamps with extent it passes before t (direct.lamps_seen). groups: (G, 3)
+ * the same by the group of each source (lightgroups.py), added to, or NULL. */
+INLINE void camera_sees(const ChunkParams *params, const double *O, const double *D, double t, int hit, double *out,
+                        double *groups)
 {
     out[0] = out[1] = out[2] = 0.0;
     const WorldTables *world = params->light_context->world;
-    if (!hit && world->camera != 0.0 && params->transparent == 0.0) world_radiance(world, D, out);
+    if (!hit && world->camera != 0.0 && params->transparent == 0.0) {
+        world_radiance(world, D, out);
+        add_to_group(groups, params->light_groups, 0, params->world_group, out, 1.0);
+    }
     for (int64_t l = 0; l < (int64_t)params->light_count; l++) {
         const LightRecord *light = params->lights + l;
         if (light->hittable == 0.0 || light->camera == 0.0
             || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA))
             continue;
         LightHit lh;
-        if (light_hit(light, O, D, t, &lh))
+        if (light_hit(light, O, D, t, &lh)) {
             for (int c = 0; c < 3; c++) out[c] += lh.radiance[c];
+            add_to_group(groups, params->light_groups, 0, light->group, lh.radiance, 1.0);
+        }
     }
+}
+
+/* The light groups' buffer `part` (0 .. 3) of four (BLOCK, G, 3) buffers in one allocation, made at the first
+ * call; NULL without groups (G = 0) or memory. */
+INLINE double *work_groups(double **storage, int64_t G, int part)
+{
+    if (G <= 0) return NULL;
+    if (*storage == NULL) *storage = (double *)calloc((size_t)(4 * BLOCK * 3 * G), sizeof(double));
+    return *storage != NULL ? *storage + part * BLOCK * 3 * G : NULL;
 }
 
 /* Render spp samples in each of p pixels: samples first[k] .. first[k] + spp - 1 of pixel k's pattern.
@@ -161,16 +187,27 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
     BlockHits H;
     PathWork *work = NULL;
     int light_passes = params->light_passes != 0.0 && out->light != NULL;
+    int64_t G = out->groups != NULL && params->light_groups > 0 && params->light_groups <= MAX_LIGHT_GROUPS
+                ? (int64_t)params->light_groups : 0;
+    double *group_storage = NULL;                   /* the light groups (lightgroups.py): H's, a's, b's, the lanes' */
+    H.groups = work_groups(&group_storage, G, 0);
+    H.group_count = G;
     if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || light_passes) {
         work = (PathWork *)malloc(sizeof(PathWork));
-        if (work == NULL) return;                   /* (the caller finds no samples counted) */
+        if (work == NULL) { free(group_storage); return; }   /* (the caller finds no samples counted) */
+        work->a.groups = work_groups(&group_storage, G, 1);
+        work->b.groups = work_groups(&group_storage, G, 2);
+        work->groups = work_groups(&group_storage, G, 3);
+        work->a.group_count = work->b.group_count = G;
     }
+    if (G > 0 && group_storage == NULL) { free(work); return; }
     for (int64_t k = 0; k < p; k++) {
         for (int c = 0; c < 4; c++) out->rgba[4 * k + c] = 0.0;
         if (out->squares != NULL) out->squares[2 * k] = out->squares[2 * k + 1] = 0.0;
         out->hits[k] = 0;
         if (light_passes)
             for (int i = 0; i < LIGHT_CHANNELS; i++) out->light[LIGHT_CHANNELS * k + i] = 0.0;
+        for (int64_t i = 0; i < 3 * G; i++) out->groups[3 * G * k + i] = 0.0;
     }
     /* Whether camera rays can see more than the hit and a constant background: lamps, an image world. */
     int sees_more = params->light_context->world->image != NULL && params->light_context->world->camera != 0.0;
@@ -196,22 +233,33 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         int64_t h = 0, k = start / spp, j = start % spp;
         for (int64_t lane = 0; lane < b.n; lane++, j++) {
             if (j == spp) { j = 0; k++; }
-            double s[4] = {0.0, 0.0, 0.0, 0.0};
+            double s[4] = {0.0, 0.0, 0.0, 0.0}, seen[3 * MAX_LIGHT_GROUPS];
+            double *groups = G > 0 ? out->groups + 3 * G * k : NULL;      /* (the pixel's light groups) */
+            for (int64_t i = 0; i < 3 * G; i++) seen[i] = 0.0;
             int is_hit = h < H.m && H.lane[h] == lane;
             if (b.valid[lane] && sees_more) {
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
-                camera_sees(params, O, D, H.t[lane], is_hit, s);
+                camera_sees(params, O, D, H.t[lane], is_hit, s, groups != NULL ? seen : NULL);
             } else if (b.valid[lane] && !is_hit) {
                 for (int c = 0; c < 3; c++) s[c] = params->background[c];
+                if (params->world_group >= 0 && groups != NULL && params->transparent == 0.0
+                    && params->light_context->world->camera != 0.0)
+                    add_to_group(seen, G, 0, params->world_group, s, 1.0);
             }
+            double f = 1.0;
             if (params->clamp_direct < INFINITY) {      /* what the camera sees itself: a direct contribution */
-                double one[3] = {1.0, 1.0, 1.0}, f = clamp_scale(s, one, params->clamp_direct, 1.0);
+                double one[3] = {1.0, 1.0, 1.0};
+                f = clamp_scale(s, one, params->clamp_direct, 1.0);
                 for (int c = 0; c < 3; c++) s[c] *= f;
             }
+            for (int64_t i = 0; i < 3 * G; i++) groups[i] += seen[i] * f;
             if (is_hit) {
                 for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];
-                if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0))
+                for (int64_t i = 0; i < 3 * G; i++) groups[i] += H.groups[3 * G * h + i];
+                if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0)) {
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];
+                    for (int64_t i = 0; i < 3 * G; i++) groups[i] += work->groups[3 * G * lane + i];
+                }
                 if (light_passes)
                     for (int i = 0; i < LIGHT_CHANNELS; i++) out->light[LIGHT_CHANNELS * k + i] += work->light[lane][i];
                 s[3] = 1.0 - H.held[lane];          /* the holes holdout objects make (path.hold_out) */
@@ -227,6 +275,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         }
     }
     free(work);
+    free(group_storage);
     out->counts[0] += traced;
     out->counts[1] += shadow_rays;
     double scale = seconds_per_tick(started);

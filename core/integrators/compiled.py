@@ -20,7 +20,7 @@ from ..materials import MAX_CLOSURES, NODE_PARAMS, PARAMS
 from ..materials.graph import graph_tables
 from ..native import library, schema
 from ..native.schema import F64, I32, I64, out, ptr
-from . import lightpasses
+from . import lightgroups, lightpasses
 from .base import Context
 from .shadows import ShadowSettings
 
@@ -82,6 +82,9 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("clamp_direct", F64, "sample clamping's caps (clamp.limits; inf: none)"),
     ("clamp_indirect", F64, ""),
     ("light_passes", I32, "1: sum the light passes (lightpasses.c) into ChunkOut.light"),
+    ("light_groups", I32, "G: sum the light groups' light into ChunkOut.groups (lightgroups.py; 0: none)"),
+    ("instance_groups", ptr(I32), "(n,) each Scene.instances entry's light group (-1: none), or NULL"),
+    ("world_group", I32, "the world's light group (-1: none)"),
 ], tables=("INTEGRATOR",))
 
 ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for the render's statistics.", [
@@ -91,6 +94,7 @@ ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for t
     ("counts", I64, 2, "camera rays traced, shadow rays traced"),
     ("seconds", F64, 3, "inside Embree's nearest-hit queries, its occlusion queries, shading"),
     ("light", out(F64), "(p, LIGHT_CHANNELS) sums of the light passes, or NULL"),
+    ("groups", out(F64), "(p, 3 light_groups) sums of the light groups' light, or NULL"),
 ])
 
 ChunkArgs = schema.function("primer_render_chunk", "render_chunk", schema.record("ChunkArgs", "primer_render_chunk's arguments: spp samples in each of p pixels.", [
@@ -145,6 +149,8 @@ def why_not(settings) -> str:
         return "jitter is off"
     if abs(settings.seed) >= 2 ** 53:
         return "the seed does not fit a double"
+    if len(settings.light_groups) > lightgroups.MAX_GROUPS:
+        return f"more than {lightgroups.MAX_GROUPS} light groups"
     return ""
 
 
@@ -197,6 +203,19 @@ class Compiled:
             caustics=caustics_bits(s), clamp_direct=direct_cap, clamp_indirect=indirect_cap,
             light_passes=self.light_passes)
         self.want_squares = bool(s.adaptive)
+        # The light groups (core/integrators/lightgroups.py): each light's, each object's, each emitter's.
+        groups = ctx.extra.get("light_groups")
+        self.group_count = groups.count if groups is not None else 0
+        if groups is not None:
+            for index in range(len(ctx.lights)):
+                self.lights[index].group = int(groups.lights[index])
+            self.instance_groups = library.contiguous(groups.instances, np.int32)
+            self.params.light_groups = groups.count
+            self.params.instance_groups = self.instance_groups if len(self.instance_groups) else None
+            self.params.world_group = groups.world
+            if emitters is not None:
+                self.emitter_groups = groups.emitter_groups(geometry, emitters)
+                self.emitter_tables.record.group = self.emitter_groups
 
     @staticmethod
     def applies(ctx: Context) -> bool:
@@ -216,6 +235,9 @@ class Compiled:
         if self.light_passes:               # the light passes' sums (core/integrators/lightpasses.py)
             aux[lightpasses.FILM_BUFFER] = light = np.empty((p, lightpasses.FILM_CHANNELS))
             out.light = light
+        if self.group_count:                # the light groups' sums (core/integrators/lightgroups.py)
+            aux[lightgroups.FILM_BUFFER] = groups = np.empty((p, 3 * self.group_count))
+            out.groups = groups
         library.call("primer_render_chunk", ChunkArgs(params=params, pixels=pixels, first=first, p=p, spp=int(spp),
                                                       out=out))
         self.tracer.count_intersect(out.seconds[0])

@@ -34,7 +34,29 @@ typedef struct {
      * emission), and a path's shares by kind, set at its first real bounce. */
     double parts[BLOCK][PASS_KINDS][3];
     double shares[BLOCK][PASS_KINDS][3];
+    /* The light groups (lightgroups.py), where asked for: what each hit gathers (L's share of it) by the group
+     * of its source, (BLOCK, group_count, 3) beside the block; NULL: none. */
+    double *groups;
+    int64_t group_count;
 } BlockHits;
+
+/* lightgroups.GroupLight.add for one contribution: value (3) x scale to row `row` of a (rows, count, 3) group
+ * buffer, in group `group` (NONE, -1: nowhere). */
+INLINE void add_to_group(double *groups, int64_t count, int64_t row, int64_t group, const double *value, double scale)
+{
+    if (groups == NULL || group < 0) return;
+    double *out = groups + 3 * (row * count + group);
+    for (int c = 0; c < 3; c++) out[c] += value[c] * scale;
+}
+
+/* The light group of the object an Embree hit is on (lightgroups.LightGroups.of_prims). */
+INLINE int64_t group_of_hit(const int32_t *instance_groups, const GeometryTables *g, int64_t geometry, int64_t prim,
+                            int64_t instance)
+{
+    if (instance_groups == NULL) return -1;
+    int64_t owner = owner_of(g, geometry, prim, instance);
+    return owner >= 0 ? (int64_t)instance_groups[owner] : -1;
+}
 
 /* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */
 typedef struct {
@@ -150,6 +172,7 @@ typedef struct {
     double pdf_bsdf[BLOCK];                      /* and the pdf their sampling gives that direction (MIS) */
     int hidden[BLOCK];                           /* the HIDDEN_FROM_* bits of the sample's object (emitters) */
     int64_t emitter[BLOCK];                      /* the emissive triangle sampled (emitters) */
+    int32_t group[BLOCK];                        /* the light group of its source (lightgroups.py; -1: none) */
 } SampleBlock;
 
 /* Step 0: samples first .. first + n - 1 of a light with `count` samples per hit (sample s is sample
@@ -227,12 +250,16 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             for (int c = 0; c < 3; c++) b->color[c][k] = ls.color[c];
             b->hidden[k] = ls.hidden;
             b->emitter[k] = ls.emitter;
+            /* (an emitter's group is its object's) */
+            const EmitterTables *e = ctx->emitters;
+            b->group[k] = ls.emitter >= 0 && e != NULL && e->group != NULL ? e->group[ls.emitter] : light->group;
         }
         return;
     }
-    /* (A lamp's colour is the same for all its samples: filled apart, so the loops above stay SIMD.) */
+    /* (A lamp's colour and group are the same for all its samples: filled apart, so the loops above stay SIMD.) */
     for (int c = 0; c < 3; c++)
         for (int64_t k = 0; k < b->n; k++) b->color[c][k] = light->color[c];
+    for (int64_t k = 0; k < b->n; k++) b->group[k] = light->group;
 }
 
 /* Step 2: the lecture's two tests, then the shadow ray (shadows.c) and the sample's scalar weight
@@ -349,8 +376,9 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             /* Transparent shadows: each ray carries the product of the transparencies it passes. */
             transmit_packet(transmitter, lanes, O, D, t, T);
             for (int lane = 0; lane < lanes; lane++) {
-                double *e = L_out + 3 * owner[lane];
-                for (int c = 0; c < 3; c++) e[c] += value[lane][c] * T[lane][c];
+                double *e = L_out + 3 * owner[lane], got[3];
+                for (int c = 0; c < 3; c++) { got[c] = value[lane][c] * T[lane][c]; e[c] += got[c]; }
+                add_to_group(H->groups, H->group_count, owner[lane], b->group[sample_of[lane]], got, 1.0);
             }
         } else {
             close_packet(&ray, valid, lanes);
@@ -360,6 +388,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
                 T[lane][0] = T[lane][1] = T[lane][2] = 1.0;
                 double *e = L_out + 3 * owner[lane];
                 for (int c = 0; c < 3; c++) e[c] += value[lane][c];
+                add_to_group(H->groups, H->group_count, owner[lane], b->group[sample_of[lane]], value[lane], 1.0);
             }
         }
         if (parts != NULL) {
@@ -416,6 +445,9 @@ typedef struct {
     double caps[2];             /* sample clamping's caps (direct, indirect; clamp.limits) */
     int clamping;               /* 1: some cap is finite */
     int light_passes;           /* 1: first hits split what they gather by pass kind into BlockHits.parts */
+    int64_t groups;             /* the light groups (lightgroups.py): hits gather by group into BlockHits.groups */
+    const int32_t *instance_groups;   /* each object's group, or NULL */
+    int64_t world_group;        /* the world's group (-1: none) */
 } DirectSettings;
 
 /* What transparent shadows read (shadows.transmittance): the scene's queries, tables and materials. */
@@ -652,10 +684,11 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
  * P: where the light samples MIS weighs against were taken (the last real bounce's ray origin; NULL: O): a ray
  * straight on through transparent surfaces from there finds a light at |O + t D - P| from P (Cycles' mis_origin);
  * an emitter's radiance is the actual hit's; a lamp is met where the line from P meets it past O (the disk facing
- * P for a round lamp with soft falloff, as its light samples there saw it). */
+ * P for a round lamp with soft falloff, as its light samples there saw it). groups_L: (ds->groups, 3) what it adds
+ * by the group of each source (lightgroups.py), added to, or NULL. */
 NOINLINE static void gather_light(const DirectSettings *ds, const double *O, const double *N, const double *D, int hit,
                          double t_limit, int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis,
-                         int camera, double *light_L, const double *P)
+                         int camera, double *light_L, const double *P, double *groups_L)
 {
     const LightContext *ctx = ds->context;
     int away = P != NULL && (P[0] != O[0] || P[1] != O[1] || P[2] != O[2]);
@@ -687,6 +720,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
         } else if (!light_hit(light, O, D, t_limit, &lh)) continue;
         double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
         for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
+        add_to_group(groups_L, ds->groups, 0, light->group, lh.radiance, w);
     }
     /* b. An emissive surface the ray hits, weighed against the emitters' own samples. */
     /* (a camera path's ray, through Transparent closures, finds a holdout emitting nothing: a hole, path.hold_out) */
@@ -705,6 +739,9 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
         double n_l = emitters_index >= 0 ? ds->lights[emitters_index].samples : 1.0;
         double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
         for (int c = 0; c < 3; c++) light_L[c] += emitted[c] * w;
+        if (groups_L != NULL)
+            add_to_group(groups_L, ds->groups, 0, group_of_hit(ds->instance_groups, ds->geometry, geometry, prim, instance),
+                         emitted, w);
     }
     /* c. The world, where the ray escapes: a constant world with weight 1, an image by MIS. */
     if (!hit && ctx->world->lights != 0.0) {
@@ -714,6 +751,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const double *O, con
         if (world_index >= 0 && use_mis)
             w = power_heuristic(pdf_b, ds->lights[world_index].samples * world_pdf(ctx->world, D));
         for (int c = 0; c < 3; c++) light_L[c] += L_world[c] * w;
+        add_to_group(groups_L, ds->groups, 0, ds->world_group, L_world, w);
     }
 }
 
@@ -805,13 +843,22 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                         for (int c = 0; c < 3; c++) r->shares[p][c] = shares[p][c];
             }
             if (!ds->gather) continue;
+            double groups_L[3 * MAX_LIGHT_GROUPS];
+            for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
             gather_light(ds, O, N, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
-                         instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, light_L, P);
+                         instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, light_L, P,
+                         H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];
             double f = ds->clamping ? clamp_scale(found, H->throughput + 3 * owner[k],
                                                   clamp_limit(H, owner[k], ds->caps), 1.0) : 1.0;
             for (int c = 0; c < 3; c++) L[c] += found[c] * f;
+            if (H->groups != NULL)                 /* (the same weight and cap, by the group of each find) */
+                for (int64_t g = 0; g < ds->groups; g++) {
+                    double got[3];
+                    for (int c = 0; c < 3; c++) got[c] = s->weight[c] * groups_L[3 * g + c];
+                    add_to_group(H->groups, H->group_count, owner[k], g, got, f);
+                }
             if (first) {
                 for (int c = 0; c < 3; c++) found[c] *= f;
                 add_split(H->parts[owner[k]], found, &shares[0][0]);

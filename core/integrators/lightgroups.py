@@ -25,6 +25,7 @@ from typing import Optional
 import numpy as np
 
 from ..lights.base import LightFlags
+from ..native import schema
 
 # The film's buffer of the groups' per-pixel sums: 3 channels per group, in RenderSettings.light_groups' order.
 FILM_BUFFER = "light_groups"
@@ -32,6 +33,8 @@ FILM_BUFFER = "light_groups"
 BUFFER_PREFIX = "lightgroup:"
 # The group of a source in none of the groups asked for.
 NONE = -1
+# The most groups the compiled chunk splits light into (its per-ray buffers are on the stack); more render in Python.
+MAX_GROUPS = schema.constant("MAX_LIGHT_GROUPS", 64, "the most light groups the compiled chunk splits light into")
 
 
 @dataclass

@@ -16,6 +16,8 @@ typedef struct {
     PathRays rays;
     double extra[BLOCK][3];
     double light[BLOCK][LIGHT_CHANNELS];       /* each camera lane's light passes (lightpasses.c), where asked for */
+    double *groups;                            /* (BLOCK, G, 3) each camera lane's light groups from vertices after
+                                                * the first (lightgroups.py), or NULL */
 } PathWork;
 
 /* path.bounce_kind: whether a sampled closure makes a diffuse, a glossy or a transmission bounce (through the
@@ -40,9 +42,10 @@ INLINE int is_transmission_bounce(int kind, int transmit)
  * transparency; the ray goes straight on and gathers as a BSDF ray does, weighed by MIS with the pdf of the
  * path's last real bounce and the light pdfs measured from there, r->mis_O and r->mis_N), up to the
  * transparent-bounce limit; added to found (r's weight included, each find capped at `cap` seen through the
- * path's throughput at h). The caller calls it only where BSDF rays gather (not with light samples alone). */
+ * path's throughput at h). The caller calls it only where BSDF rays gather (not with light samples alone).
+ * groups: (ds->groups, 3) the same by the group of each source, added to, or NULL. */
 NOINLINE static void through_transparent(const PathRay *r, int clear, const PathLimits *limits, const DirectSettings *ds,
-                                const double *throughput, double cap, double *found)
+                                const double *throughput, double cap, double *found, double *groups)
 {
     double T[3] = {r->weight[0], r->weight[1], r->weight[2]}, O[3] = {r->O[0], r->O[1], r->O[2]};
     const double *D = r->D;
@@ -72,15 +75,20 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         if (packet.hit.geomID[0] != INVALID_ID && ds->geometry->hidden != NULL)
             see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, O, D, INFINITY, r->seen_as);
         int hit = packet.hit.geomID[0] != INVALID_ID;
-        double light_L[3] = {0.0, 0.0, 0.0};
+        double light_L[3] = {0.0, 0.0, 0.0}, groups_L[3 * MAX_LIGHT_GROUPS];
+        for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
         t = hit ? (double)packet.ray.tfar[0] : INFINITY;
         geometry = (int64_t)packet.hit.geomID[0];
         prim = (int64_t)packet.hit.primID[0];
         instance = instance_of(&packet.hit, 0);
-        gather_light(ds, O, r->mis_N, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, light_L, r->mis_O);
+        gather_light(ds, O, r->mis_N, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, light_L, r->mis_O,
+                     groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         double f = clamp_scale(light_L, throughput, cap, 1.0);
         for (int c = 0; c < 3; c++) found[c] += light_L[c] * f;
+        if (groups != NULL)
+            for (int64_t g = 0; g < ds->groups; g++)
+                for (int c = 0; c < 3; c++) groups[3 * g + c] += groups_L[3 * g + c] * T[c] * f;
         /* 3. A ray that met another surface goes on. */
         if (!hit) return;
         u = (double)packet.hit.u[0];
@@ -113,7 +121,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
             if (ds->transmitter != NULL && ds->gather) {
                 double found[3] = {0.0, 0.0, 0.0};
                 double cap = ds->clamping ? clamp_limit(H, h, ds->caps) : INFINITY;
-                through_transparent(r, clear, limits, ds, H->throughput + 3 * h, cap, found);
+                through_transparent(r, clear, limits, ds, H->throughput + 3 * h, cap, found,
+                                    H->groups != NULL ? H->groups + 3 * h * H->group_count : NULL);
                 for (int c = 0; c < 3; c++) H->L[3 * h + c] += found[c];
                 if (ds->light_passes && H->bounce[h] == 0) add_split(H->parts[h], found, &r->shares[0][0]);
             }
@@ -140,6 +149,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
             next->L[3 * m + c] = 0.0;
             next->throughput[3 * m + c] = tp[c];
         }
+        if (next->groups != NULL)
+            for (int64_t i = 0; i < 3 * next->group_count; i++) next->groups[3 * m * next->group_count + i] = 0.0;
         next->sd[m].storage = next->storage[m];
         /* A transparent bounce keeps the kind of the last real one; after a diffuse one, the caustics filter. */
         int after_diffuse = see_through ? H->after_diffuse[h] : is_labelled_diffuse(r->kind);
@@ -204,6 +215,8 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
 {
     int64_t shadow_rays = 0;
     for (int64_t k = 0; k < BLOCK; k++) work->extra[k][0] = work->extra[k][1] = work->extra[k][2] = 0.0;
+    if (work->groups != NULL)
+        for (int64_t i = 0; i < BLOCK * 3 * ds->groups; i++) work->groups[i] = 0.0;
     if (ds->light_passes)
         for (int64_t k = 0; k < BLOCK; k++)
             for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
@@ -230,9 +243,15 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         /* b. Where the paths go on (ended ones add the light behind transparent surfaces to their vertex's). */
         next_vertices(current, &work->rays, vertex, limits, ds, next, H->held);
         if (vertex > 0)
-            for (int64_t h = 0; h < current->m; h++)
+            for (int64_t h = 0; h < current->m; h++) {
                 for (int c = 0; c < 3; c++)
                     work->extra[current->lane[h]][c] += current->throughput[3 * h + c] * current->L[3 * h + c];
+                if (work->groups != NULL)            /* (the same, by group) */
+                    for (int64_t g = 0; g < ds->groups; g++)
+                        for (int c = 0; c < 3; c++)
+                            work->groups[3 * (current->lane[h] * ds->groups + g) + c]
+                                += current->throughput[3 * h + c] * current->groups[3 * (h * ds->groups + g) + c];
+            }
         if (ds->light_passes) add_light_passes(current, work);
         current = next;
         next = next == &work->a ? &work->b : &work->a;

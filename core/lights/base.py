@@ -130,6 +130,7 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("spread_narrow", I32, "area: 1 when spread < pi"),
     ("spread_tan_half", F64, ""),
     ("spread_norm", F64, ""),
+    ("group", I32, "its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group)"),
 ], tables=("LIGHT",))
 
 
@@ -257,7 +258,7 @@ class Light:
         record = LightRecord(kind=self.kind, delta=self.delta, samples=1 if self.delta else max(1, int(light_samples)),
                              dimension=light_dimension(index), numbers=self.random_numbers,
                              color=np.asarray(self.color, np.float64)[:3], hittable=self.hittable,
-                             camera=bool(getattr(self, "camera", True)))
+                             camera=bool(getattr(self, "camera", True)), group=-1)
         self.pack_fields(record)
         return record
 

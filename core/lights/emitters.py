@@ -357,6 +357,7 @@ EmitterTablesRecord = schema.record("EmitterTables", "The emissive triangles as 
     ("hidden", ptr(U8), "(t,) each triangle's object's Ray Visibility bits (HIDDEN_FROM_*), or NULL"),
     ("textured", ptr(U8), "(t,) 1: its material's node graph gives its emission (direct.c), or NULL"),
     ("prim", ptr(I64), "(t,) WorldGeometry's flat triangle index of each"),
+    ("group", ptr(I32), "(t,) each triangle's object's light group (core/integrators/lightgroups.py), or NULL"),
 ])
 
 

@@ -17,6 +17,8 @@
 #define SAMPLE_MIS 0
 #define SAMPLE_LIGHT 1
 #define SAMPLE_BSDF 2
+/* the most light groups the compiled chunk splits light into (core.integrators.lightgroups) */
+#define MAX_LIGHT_GROUPS 64
 /* the light passes' kinds of closure (core.integrators.lightpasses) */
 #define PASS_DIFFUSE 0
 #define PASS_GLOSSY 1
@@ -422,6 +424,9 @@ struct ChunkParams {
     double clamp_direct;                    /* sample clamping's caps (clamp.limits; inf: none) */
     double clamp_indirect;
     int32_t light_passes;                   /* 1: sum the light passes (lightpasses.c) into ChunkOut.light */
+    int32_t light_groups;                   /* G: sum the light groups' light into ChunkOut.groups (lightgroups.py; 0: none) */
+    const int32_t *instance_groups;         /* (n,) each Scene.instances entry's light group (-1: none), or NULL */
+    int32_t world_group;                    /* the world's light group (-1: none) */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -432,6 +437,7 @@ struct ChunkOut {
     int64_t counts[2];                      /* camera rays traced, shadow rays traced */
     double seconds[3];                      /* inside Embree's nearest-hit queries, its occlusion queries, shading */
     double *light;                          /* (p, LIGHT_CHANNELS) sums of the light passes, or NULL */
+    double *groups;                         /* (p, 3 light_groups) sums of the light groups' light, or NULL */
 };
 
 /* primer_render_chunk's arguments: spp samples in each of p pixels. */
@@ -484,6 +490,7 @@ struct LightRecord {
     int32_t spread_narrow;                  /* area: 1 when spread < pi */
     double spread_tan_half;
     double spread_norm;
+    int32_t group;                          /* its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group) */
 };
 
 /* What the lights a render makes of its scene need besides their records. */
@@ -536,6 +543,7 @@ struct EmitterTables {
     const uint8_t *hidden;                  /* (t,) each triangle's object's Ray Visibility bits (HIDDEN_FROM_*), or NULL */
     const uint8_t *textured;                /* (t,) 1: its material's node graph gives its emission (direct.c), or NULL */
     const int64_t *prim;                    /* (t,) WorldGeometry's flat triangle index of each */
+    const int32_t *group;                   /* (t,) each triangle's object's light group (core/integrators/lightgroups.py), or NULL */
 };
 
 /* primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points. */
@@ -650,15 +658,15 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7810907097562677354);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(667361432378423050);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3240975664832054486);
-    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(3997495938714537150);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(7144018088207365405);
+    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(9026999036581648919);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(4463822978858678376);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(4369246942035671920);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
-    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(7189482493106094044);
+    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(2679673540171007921);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7667246339315466006);

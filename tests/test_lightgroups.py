@@ -1,0 +1,131 @@
+"""Light groups in core (core/integrators/lightgroups.py; direct.c, path.c, chunk.c), without Blender: each group's
+pass is the light of its sources alone, split from the one render as the integrator adds each contribution.
+
+Light is linear in its sources, so a group's pass is the image of the scene in which only the group's sources
+emit: exactly so for lamps without extent (no random numbers), and in expectation for the others. Every source
+in some group: the passes add up to Combined, sample for sample. (tests/test_blender_lightgroups.py holds the
+passes to Cycles' own.)
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from core import render
+from core.camera import Camera
+from core.geometry import primitives
+from core.lights import PointLight, World
+from core.scene import Material, RenderSettings, Scene
+
+KERNELS = ["numpy", "compiled"]
+
+
+def lit_room(world: bool = True, emitter: bool = True, lamps=("A", "B")) -> Scene:
+    """A floor and a glossy back wall under two point lamps A and B, a square emitter E above, a grey world W."""
+    scene = Scene(camera=Camera.look_at(np.array([0.0, -3.0, 2.0]), np.array([0.0, 0.0, 0.3]), fov=math.radians(55)))
+    floor = scene.add_material((0.7, 0.6, 0.5))
+    scene.materials.append(Material(name="Wall", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0),
+                                                          {"base_color": (0.3, 0.5, 0.8), "roughness": 0.3,
+                                                           "metallic": 0.5})]))
+    scene.add_mesh(primitives.plane(6.0), materials=np.array([floor]), name="Floor")
+    upright = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 1.5], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]])
+    scene.add_mesh(primitives.plane(6.0, 2.0), matrix=upright, materials=np.array([1]), name="Wall")
+    if emitter:
+        scene.materials.append(Material(np.zeros(3), "Lamp", emission=np.array([4.0, 3.0, 2.0])))
+        down = np.diag([1.0, -1.0, -1.0, 1.0])
+        down[:3, 3] = (0.8, 0.3, 1.6)
+        scene.add_mesh(primitives.plane(0.6), matrix=down, materials=np.array([len(scene.materials) - 1]), name="E")
+    positions = {"A": (-1.0, -0.5, 1.5), "B": (1.2, 0.2, 0.8)}
+    colors = {"A": (1.0, 0.9, 0.8), "B": (0.4, 0.6, 1.0)}
+    scene.lights = [PointLight(np.array(positions[name]), power=150.0, color=np.array(colors[name]), name=name)
+                    for name in lamps]
+    if world:
+        scene.world = World(color=np.array([0.2, 0.25, 0.3]))
+    scene.lightgroups = {"lights": list(lamps), "instances": ["", "", "E"][:len(scene.instances)],
+                         "world": "W" if world else ""}
+    return scene
+
+
+def settings(kernels: str, integrator: str = "path", **more) -> RenderSettings:
+    return RenderSettings(**{"width": 24, "height": 18, "samples": 4, "integrator": integrator, "max_bounces": 2,
+                             "kernels": kernels, **more})
+
+
+def group(result, name: str) -> np.ndarray:
+    return result.aux["lightgroup:" + name].astype(np.float64)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("integrator", ["direct", "path", "whitted"])
+def test_the_groups_add_up_to_combined_when_every_source_is_in_one(kernels, integrator):
+    """Lamps A and B, emitter E and world W each in a group: per pixel, their passes sum to Combined."""
+    if integrator == "whitted" and kernels == "compiled":
+        pytest.skip("Whitted's tracer has no compiled twin")
+    scene = lit_room()
+    result = render.render(scene, settings(kernels, integrator, light_groups=("A", "B", "E", "W")))
+    assert result.stats.kernels.startswith(kernels)
+    combined = result.image[..., :3].astype(np.float64)
+    passes = {name: group(result, name) for name in "ABEW"}
+    for name, image in passes.items():                          # every source lights something (but a constant
+        assert image.max() > 0.0 or (integrator, name) == ("whitted", "W"), name    # world, for Whitted's samples)
+    np.testing.assert_allclose(sum(passes.values()), combined, rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_point_lamps_group_is_the_room_lit_by_that_lamp_alone(kernels):
+    """Lamp A has no extent: its light samples use no random numbers, so its group's pass in the full room equals,
+    pixel for pixel, the direct light of the room with A as its only source."""
+    result = render.render(lit_room(), settings(kernels, "direct", light_groups=("A",)))
+    alone = render.render(lit_room(world=False, emitter=False, lamps=("A",)), settings(kernels, "direct"))
+    np.testing.assert_allclose(group(result, "A"), alone.image[..., :3], rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_group_of_an_emitter_and_the_world_converges_to_their_light_alone(kernels):
+    """Path traced, two bounces: the group of E and W in the full room against the room lit by E and W alone (the
+    lamps gone): the same image in expectation (block means within the two renders' noise)."""
+    s = settings(kernels, samples=64, light_groups=("EW",))
+    scene = lit_room()
+    scene.lightgroups["instances"][2] = "EW"
+    scene.lightgroups["world"] = "EW"
+    mine = group(render.render(scene, s), "EW")
+    alone = render.render(lit_room(lamps=()), dataclasses.replace(s, light_groups=(), seed=7)).image[..., :3]
+    blocks = lambda image: image.reshape(6, 3, 8, 3, 3).mean(axis=(1, 3))     # 3 x 3 pixel blocks
+    assert alone.mean() > 0.05
+    assert mine.mean() == pytest.approx(alone.mean(), rel=0.03)
+    np.testing.assert_allclose(blocks(mine), blocks(alone), rtol=0.15, atol=0.01)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_sources_in_no_group_are_in_no_pass_and_an_empty_group_is_black(kernels):
+    """Only A and B in groups: their passes add up to Combined less the light of E and W; the group of nothing
+    stays 0."""
+    scene = lit_room()
+    scene.lightgroups = {"lights": ["A", "B"], "instances": ["", "", ""], "world": ""}
+    s = settings(kernels, "direct", light_groups=("A", "B", "nothing"))
+    result = render.render(scene, s)
+    assert not group(result, "nothing").any()
+    lamps = render.render(lit_room(world=False, emitter=False), dataclasses.replace(s, light_groups=()))
+    np.testing.assert_allclose(group(result, "A") + group(result, "B"), lamps.image[..., :3], rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_asking_for_light_groups_leaves_combined_as_it_was_bit_for_bit(kernels):
+    scene = lit_room()
+    plain = render.render(scene, settings(kernels))
+    grouped = render.render(scene, settings(kernels, light_groups=("A", "E", "W")))
+    np.testing.assert_array_equal(plain.image, grouped.image)
+
+
+def test_the_compiled_groups_follow_the_reference():
+    """Both kernels, the same samples: each group's pass agrees (the kernels' usual tolerance for Combined)."""
+    scene = lit_room()
+    s = settings("numpy", samples=8, light_groups=("A", "B", "E", "W"))
+    numpy_ = render.render(scene, s)
+    compiled = render.render(scene, dataclasses.replace(s, kernels="compiled"))
+    for name in "ABEW":
+        a, b = group(numpy_, name), group(compiled, name)
+        assert abs(a.mean() - b.mean()) <= 0.02 * a.mean() + 1e-6, name
