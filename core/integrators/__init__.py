@@ -5,7 +5,7 @@ Python reference (core/integrators/<name>.py) and a compiled twin (core/integrat
 """
 from __future__ import annotations
 
-from .base import Context, Integrator, Radiance, Recorder
+from .base import Cancelled, Context, Integrator, Radiance, Recorder, StopFlag
 from .direct import DirectLighting
 from .path import PathTracing
 from .whitted import WhittedTracing
@@ -23,5 +23,5 @@ def for_render(ctx: Context) -> Integrator:
     return INTEGRATORS[name]()
 
 
-__all__ = ["Context", "DirectLighting", "INTEGRATORS", "Integrator", "PathTracing", "Radiance", "Recorder",
-           "WhittedTracing", "for_render"]
+__all__ = ["Cancelled", "Context", "DirectLighting", "INTEGRATORS", "Integrator", "PathTracing", "Radiance", "Recorder",
+           "StopFlag", "WhittedTracing", "for_render"]

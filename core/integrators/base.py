@@ -45,6 +45,37 @@ class Context:
     extra: dict = field(default_factory=dict)
 
 
+class Cancelled(Exception):
+    """The render was asked to stop (StopFlag set): raised inside a chunk's work, which is then dropped."""
+
+
+class StopFlag:
+    """Whether a render was asked to stop, for every chunk to read while it works: the Python reference checks it at
+    each vertex and light (`check_stop`), the compiled chunk reads `flag` before each block of samples (chunk.c), so
+    that a cancel is answered within a block's time, not a chunk's.
+
+    flag: (1,) int32, 1 once set
+    """
+
+    def __init__(self):
+        """A flag not set."""
+        self.flag = np.zeros(1, np.int32)
+
+    def set(self) -> None:
+        """Ask every chunk to stop."""
+        self.flag[0] = 1
+
+    def __bool__(self) -> bool:
+        return bool(self.flag[0])
+
+
+def check_stop(ctx: "Context") -> None:
+    """Raise Cancelled if the render of `ctx` was asked to stop (Context.extra["stop"], a StopFlag)."""
+    stop = ctx.extra.get("stop")
+    if stop is not None and stop.flag[0]:
+        raise Cancelled()
+
+
 class Radiance(NamedTuple):
     """What a batch of camera rays found.
 

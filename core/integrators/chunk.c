@@ -217,6 +217,8 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
                      && light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA);
     }
     for (int64_t start = 0; start < total; start += BLOCK) {
+        /* 0. A cancelled render stops here (render.py drops the chunk). */
+        if (params->stop != NULL && *(volatile const int32_t *)params->stop != 0) break;
         /* 1. The block's camera rays (camera.c). */
         camera_samples(&b, params->camera, stream, width, height, pixels, first, spp, start, total);
         /* 2. Their nearest hits and the surfaces there. */

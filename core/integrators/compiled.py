@@ -21,7 +21,7 @@ from ..materials.graph import graph_tables
 from ..native import library, schema
 from ..native.schema import F64, I32, I64, out, ptr
 from . import lightgroups, lightpasses
-from .base import Context
+from .base import Cancelled, Context
 from .shadows import ShadowSettings
 
 # The integrators the C code knows (INTEGRATOR_*), and how it finds lights with extent (SAMPLE_*: light_sampling).
@@ -85,6 +85,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("light_groups", I32, "G: sum the light groups' light into ChunkOut.groups (lightgroups.py; 0: none)"),
     ("instance_groups", ptr(I32), "(n,) each Scene.instances entry's light group (-1: none), or NULL"),
     ("world_group", I32, "the world's light group (-1: none)"),
+    ("stop", ptr(I32), "(1,) set to 1 when the render is cancelled: the chunk stops before its next block, or NULL"),
 ], tables=("INTEGRATOR",))
 
 ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for the render's statistics.", [
@@ -203,6 +204,9 @@ class Compiled:
             caustics=caustics_bits(s), clamp_direct=direct_cap, clamp_indirect=indirect_cap,
             light_passes=self.light_passes)
         self.want_squares = bool(s.adaptive)
+        self.stop = stop = ctx.extra.get("stop")      # (base.StopFlag: read before each block of samples, chunk.c)
+        if stop is not None:
+            self.params.stop = stop.flag
         # The light groups (core/integrators/lightgroups.py): each light's, each object's, each emitter's.
         groups = ctx.extra.get("light_groups")
         self.group_count = groups.count if groups is not None else 0
@@ -240,6 +244,8 @@ class Compiled:
             out.groups = groups
         library.call("primer_render_chunk", ChunkArgs(params=params, pixels=pixels, first=first, p=p, spp=int(spp),
                                                       out=out))
+        if self.stop is not None and self.stop.flag[0]:
+            raise Cancelled()                   # (stopped part way: its sums are incomplete)
         self.tracer.count_intersect(out.seconds[0])
         self.tracer.count_occluded(out.seconds[1])
         return ChunkSums(rgba, squares if squares is not None else np.zeros((p, 2)), hits, aux, int(out.counts[0]),

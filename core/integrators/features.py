@@ -40,7 +40,7 @@ from .. import vectors
 from ..materials import graph as graph_
 from ..sampling import sobol as sampling
 from . import shadows
-from .base import Context, Recorder
+from .base import Context, Recorder, check_stop
 from .rays import camera_hits
 
 # Camera samples per pixel the features average (at most the render's samples).
@@ -107,6 +107,7 @@ def trace_features(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray
     throughput = np.ones((n, 3))
     recorder = Recorder()
     for vertex in range(MAX_SPECULAR_VERTICES + 1):
+        check_stop(ctx)
         # 1. What the rays meet: the world (and lamps with extent) where they escape, else a surface.
         seen, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder)
         missed = np.flatnonzero(~found.hit)

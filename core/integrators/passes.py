@@ -51,7 +51,7 @@ from ..materials.closures import each_kind
 from ..materials.lambert import Lambert
 from ..sampling import sobol as sampling
 from . import cryptomatte, shadows
-from .base import Context
+from .base import Context, check_stop
 from .rays import lamps_seen, nearest_seen
 
 # Channels of each pass buffer (core/render.py RenderResult.aux).
@@ -136,6 +136,7 @@ def trace_passes(ctx: Context, wanted: tuple, O: np.ndarray, D: np.ndarray, t_ma
     world = ctx.extra.get("world_light")
     geometry = ctx.geometry
     for bounce in range(max(0, int(s.transparent_max_bounces)) + 1):
+        check_stop(ctx)
         # 1. What the rays meet: the world where they escape (lamps with extent in front of what they hit).
         found = nearest_seen(ctx, O, D, t_max)
         hit = np.flatnonzero(found.hit)

@@ -51,7 +51,7 @@ from ..materials.closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE
 from .. import vectors
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
-from .base import Context, Integrator, Radiance, Recorder
+from .base import Context, Integrator, Radiance, Recorder, check_stop
 from . import clamp as clamp_
 from . import lightgroups, lightpasses
 from . import shadows
@@ -227,6 +227,7 @@ class PathTracing(Integrator):
         light = np.zeros((len(O), len(lightpasses.LIGHT_PASSES), 3)) if lightpasses.wanted(s.passes) else None
         shares = np.zeros((len(hit), lightpasses.KINDS, 3))
         while len(owner):
+            check_stop(ctx)
             # a. What the vertex gathers: its emission (camera hits only; later ones were found by the ray
             #    that led there), light samples, and the light its BSDF ray finds; then where that ray goes.
             #    Light the camera's hit gathers is direct, later light indirect (sample clamping).

@@ -32,7 +32,7 @@ from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_G
 from . import clamp as clamp_
 from . import lightpasses
 from . import shadows
-from .base import Context, Recorder
+from .base import Context, Recorder, check_stop
 from .rays import nearest_seen, ray_kind
 from .shadows import spawn_ray
 
@@ -131,6 +131,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     refracts = lets_light_through(shader)
     tree_N = tree_normals(s, surface, refracts)
     for index, light in enumerate(ctx.lights):
+        check_stop(ctx)
         if (s.light_sampling == "bsdf" and not light_samples_only and not light.delta
                 and index in ctx.extra.get("hittable", ())):
             continue                      # found by BSDF rays alone
@@ -199,6 +200,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 parts.gathered[rows] += lightpasses.split(value, lightpasses.kind_shares(
                     part, wo[rows], ls.L[rows], signed_cosine=not s.clamp_n_dot_l, left_out=left_out))
     # 2. The light one BSDF-sampled direction finds (lamps with extent, emitters, the world).
+    check_stop(ctx)
     ray = None
     if not light_samples_only and (trace_all or (ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light"
                                                  and traced.any())):

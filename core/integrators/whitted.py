@@ -31,7 +31,7 @@ from ..materials import glass as glass_
 from ..materials import graph as graph_
 from ..materials import microfacet as mf
 from . import lightgroups, shadows
-from .base import Context, Integrator, Radiance, Recorder
+from .base import Context, Integrator, Radiance, Recorder, check_stop
 from .rays import lamps_seen, nearest_seen
 from .shadows import spawn_ray
 from .vertex import PathState, shade_vertex
@@ -70,6 +70,7 @@ class WhittedTracing(Integrator):
         groups = lightgroups.tally(ctx, n)          # each ray's light by source (core/integrators/lightgroups.py)
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
         while len(owner):
+            check_stop(ctx)
             # 1. The rays of this depth: what they hit; the world and lamps where they escape or pass.
             #    (Each ray passes the objects hidden from its kind: the camera's, a mirror reflection's (glossy), a
             #    refraction's (transmission); rays.nearest_seen.)

@@ -427,6 +427,7 @@ struct ChunkParams {
     int32_t light_groups;                   /* G: sum the light groups' light into ChunkOut.groups (lightgroups.py; 0: none) */
     const int32_t *instance_groups;         /* (n,) each Scene.instances entry's light group (-1: none), or NULL */
     int32_t world_group;                    /* the world's light group (-1: none) */
+    const int32_t *stop;                    /* (1,) set to 1 when the render is cancelled: the chunk stops before its next block, or NULL */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -658,7 +659,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7810907097562677354);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(667361432378423050);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(7144018088207365405);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(385801130152938479);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(9026999036581648919);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);

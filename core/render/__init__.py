@@ -39,7 +39,7 @@ from ..film import adaptive
 from ..film.film import ChunkSums, Film, pixel_sums
 from ..geometry import instancing
 from ..geometry.geometry import WorldGeometry, build_geometry
-from ..integrators import Context, Recorder, for_render
+from ..integrators import Cancelled, Context, Recorder, StopFlag, for_render
 from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
 from ..integrators import cryptomatte, features, lightgroups, lightpasses, passes as passes_, vertex
 from ..integrators.compiled import Compiled, why_not
@@ -132,6 +132,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     lights += [light for light in (emitters, sampler) if light is not None]
     ctx = Context(scene, settings, geometry, lights, materials, light_numbers)
     ctx.extra["world_light"] = world
+    ctx.extra["stop"] = StopFlag()      # set when the render is cancelled: every chunk reads it as it works
     ctx.extra["emitters"] = emitters
     ctx.extra["world_sampler"] = sampler
     # The light groups asked for: which group each light, object and the world belongs to (lightgroups.py).
@@ -211,17 +212,19 @@ def feature_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> tuple[np.ndarra
     return albedo.reshape(p, spp, 3).mean(axis=1), normal.reshape(p, spp, 3).mean(axis=1)
 
 
-def feature_images(ctx: Context, region: np.ndarray, pool, threads: int) -> dict:
+def feature_images(ctx: Context, region: np.ndarray, run: Callable, threads: int) -> dict:
     """Return the denoising feature buffers of the pixels `region` (p,) int64: name -> (H, W, 3) float32,
-    0 outside the region (features.FEATURE_BUFFERS), computed in chunks on the pool."""
+    0 outside the region (features.FEATURE_BUFFERS), computed in chunks by run(chunks, work, store) (on the pool)."""
     s = ctx.settings
     spp = features.feature_samples(s.samples)
     size = s.width * s.height
     albedo, normal = np.zeros((size, 3)), np.zeros((size, 3))
     per_chunk = max(1, min(-(-len(region) // max(1, threads)), s.chunk_size // spp))
     parts = [region[i:i + per_chunk] for i in range(0, len(region), per_chunk)]
-    for part, (a, n) in zip(parts, pool.map(lambda part: feature_chunk(ctx, part, spp), parts)):
-        albedo[part], normal[part] = a, n
+    def store(part, found):
+        albedo[part], normal[part] = found
+
+    run(parts, lambda part: feature_chunk(ctx, part, spp), store)
     shape = (s.height, s.width, 3)
     return {"denoising_albedo": albedo.astype(np.float32).reshape(shape),
             "denoising_normal": normal.astype(np.float32).reshape(shape)}
@@ -265,9 +268,9 @@ def pass_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> dict:
     return out
 
 
-def pass_images(ctx: Context, region: np.ndarray, pool, threads: int) -> dict:
+def pass_images(ctx: Context, region: np.ndarray, run: Callable, threads: int) -> dict:
     """Return the first-hit pass buffers of the pixels `region` (p,) int64: name -> (H, W, c) float32, 0
-    outside the region, computed in chunks on the pool."""
+    outside the region, computed in chunks by run(chunks, work, store) (on the pool)."""
     s = ctx.settings
     spp = passes_.pass_samples(s.samples)
     size = s.width * s.height
@@ -277,9 +280,11 @@ def pass_images(ctx: Context, region: np.ndarray, pool, threads: int) -> dict:
                              np.float32 if name in passes_.CRYPTO_PASSES else np.float64) for name in s.passes}
     per_chunk = max(1, min(-(-len(region) // max(1, threads)), s.chunk_size // spp))
     parts = [region[i:i + per_chunk] for i in range(0, len(region), per_chunk)]
-    for part, values in zip(parts, pool.map(lambda part: pass_chunk(ctx, part, spp), parts)):
+    def store(part, values):
         for name, v in values.items():
             images[name][part] = v
+
+    run(parts, lambda part: pass_chunk(ctx, part, spp), store)
     return {name: v.astype(np.float32).reshape(s.height, s.width, -1) for name, v in images.items()}
 
 
@@ -377,14 +382,25 @@ def timed_reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
                      shading_seconds=sum(part.shading_seconds for part in parts))
 
 
+# The most samples a chunk of the Python reference holds: one step of its vertex loop over them (numpy over every
+# ray at once) takes about a tenth of a second on one core, so a cancel, checked between steps, is answered
+# within half a second (tests/test_cancel.py). The compiled chunk checks before each block of 64 samples instead.
+REFERENCE_CHUNK = 1 << 15
+
+# How often the render loop asks cancel() while chunks run (a cancel is answered within this and a block's time).
+CANCEL_POLL_SECONDS = 0.05
+
+
 def _run_chunks(pool, in_flight: int, chunks: list, work: Callable, store: Callable,
                 cancel: Optional[Callable[[], bool]], progress: Callable[[float], None],
-                stats: RenderStats, start: float) -> bool:
+                stats: RenderStats, start: float, stop: Optional[StopFlag] = None) -> bool:
     """Run work(chunk) for every chunk on the pool and store(chunk, result) each; return whether cancelled.
 
     At most `in_flight` chunks are submitted at once: more than the pool's workers keeps them busy
     while results are stored, fewer runs a pass on fewer threads; and cancelling never waits for a
-    long queue. store, progress and cancel are called from this (the calling) thread only.
+    long queue. store, progress and cancel are called from this (the calling) thread only; cancel every
+    CANCEL_POLL_SECONDS. When it says stop, `stop` is set (the running chunks stop part way, raising
+    Cancelled, and are not stored) and this returns once they have.
     """
     queue = iter(chunks)
     running = {}
@@ -398,17 +414,26 @@ def _run_chunks(pool, in_flight: int, chunks: list, work: Callable, store: Calla
     refill()
     done = 0
     while running:
-        finished, _ = wait(running, return_when=FIRST_COMPLETED)
+        finished, _ = wait(running, timeout=CANCEL_POLL_SECONDS, return_when=FIRST_COMPLETED)
         for future in finished:
-            store(running.pop(future), future.result())
+            chunk = running.pop(future)
+            try:
+                result = future.result()
+            except Cancelled:
+                continue
+            store(chunk, result)
             done += 1
-        if cancel is not None and cancel():
+        if (cancel is not None and cancel()) or (stop is not None and stop):
+            if stop is not None:
+                stop.set()
             for future in running:
                 future.cancel()
+            wait(running)                       # (the running ones stop at their next check)
             return True
-        refill()
-        stats.seconds = time.perf_counter() - start
-        progress(done / max(1, len(chunks)))
+        if finished:
+            refill()
+            stats.seconds = time.perf_counter() - start
+            progress(done / max(1, len(chunks)))
     return False
 
 
@@ -501,7 +526,12 @@ def render(scene: Scene, settings: RenderSettings,
     tracer = geometry.tracer
     queried = (tracer.intersect_seconds, tracer.occluded_seconds)
     cancelled = False
+    stop = ctx.extra["stop"]
     with memory.temporaries_from_the_heap(keep_memory), ThreadPoolExecutor(max_workers=threads) as pool:
+        def run(chunks: list, work: Callable, store: Callable) -> bool:
+            """A first-hit pass's chunks on the pool, as cancellable as the render's (no progress of their own)."""
+            return _run_chunks(pool, 2 * threads, chunks, work, store, cancel, lambda f: None, stats, start, stop)
+
         pixels = region
         for index, spp in enumerate(passes):
             # a. Which pixels still need samples: all of them at first, then the noisy ones.
@@ -512,7 +542,8 @@ def render(scene: Scene, settings: RenderSettings,
             # b. A pass of `spp` more samples over them, chunk by chunk: each pixel continues its own
             #    progressive pattern where it left off, so all its passes together stay stratified.
             last = index == len(passes) - 1
-            per_chunk, workers = _plan_chunks(len(pixels), spp, settings.chunk_size, threads)
+            chunk_size = settings.chunk_size if compiled is not None else min(settings.chunk_size, REFERENCE_CHUNK)
+            per_chunk, workers = _plan_chunks(len(pixels), spp, chunk_size, threads)
             done_before = film.noise.count[pixels]               # samples each pixel has, before this pass
             chunks = [(pixels[i:i + per_chunk], done_before[i:i + per_chunk])
                       for i in range(0, len(pixels), per_chunk)]
@@ -532,7 +563,7 @@ def render(scene: Scene, settings: RenderSettings,
             in_flight = 2 * threads if workers == threads else workers
             cancelled = _run_chunks(pool, in_flight, chunks, work, store, cancel,
                                     lambda f: progress((index + f) / len(passes), stats) if progress else None,
-                                    stats, start)
+                                    stats, start, stop)
             stats.passes += 1
             if cancelled:
                 break
@@ -540,15 +571,17 @@ def render(scene: Scene, settings: RenderSettings,
         features_ = {}
         if settings.denoising_features and not cancelled:
             started = time.perf_counter()
-            features_ = feature_images(ctx, region_pixels(settings), pool, threads)
+            features_ = feature_images(ctx, region_pixels(settings), run, threads)
             stats.feature_seconds = time.perf_counter() - started
+            cancelled = bool(stop)
         # d. The first-hit render passes asked for (core/integrators/passes.py).
         #    With light passes, also the colour passes they are divided by (core/integrators/lightpasses.py).
         first_hit = lightpasses.first_hit_passes(settings.passes)
         if first_hit and not cancelled:
             started = time.perf_counter()
             hit_ctx = dataclasses.replace(ctx, settings=dataclasses.replace(settings, passes=first_hit))
-            found = pass_images(hit_ctx, region_pixels(settings), pool, threads)
+            found = pass_images(hit_ctx, region_pixels(settings), run, threads)
+            cancelled = bool(stop)
             if light_passes:
                 found.update(light_pass_images(film, found, settings.passes))
             features_.update({name: image for name, image in found.items() if name in settings.passes})
