@@ -610,10 +610,13 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         distribution = getattr(node, "distribution", "GGX")
         if distribution not in {"GGX", "MULTI_GGX"} and (_linked(roughness) or float(np.max(roughness)) > 0.0):
             reader.warn(node, f"distribution {distribution} is not GGX; Primer uses GGX")
-        inputs = {"color": np.maximum(reader.value(node, "Color", np.ones(3)), 0.0),
-                  "ior": float(reader.value(node, "IOR", 1.5)),
+        # Colour and IOR as Cycles reads them, per hit where linked (the node clamps: colour >= 0, IOR >= 1e-5).
+        color, ior = reader.input(node, "Color", np.ones(3)), reader.input(node, "IOR", 1.5)
+        inputs = {"color": color if _linked(color) else np.maximum(color, 0.0),
+                  "ior": ior if _linked(ior) else float(np.asarray(ior, np.float64).reshape(-1)[0]),
                   "refraction_only": 1.0 if kind == "ShaderNodeBsdfRefraction" else 0.0,
                   "roughness": roughness, "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0}
+        _normal(reader, node, inputs)
         out.append(("GLASS", weight, inputs, list(factors)))
     elif kind == "ShaderNodeEmission":
         emission = _scaled(reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0))
