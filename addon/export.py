@@ -445,6 +445,8 @@ def export_world(world, warnings: list) -> World:
             if strength < 0.0:
                 warnings.append(NEGATIVE_WORLD.format(strength))
                 strength = 0.0
+            if image is None:               # missing or unreadable (load_image said so): Cycles' magenta everywhere
+                return World(color=np.array(MISSING_RGB) * strength, camera=camera, lights=diffuse)
             return World(color=np.zeros(3), image=image, strength=strength, rotation=rotation, camera=camera,
                          lights=diffuse)
         if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
@@ -459,6 +461,9 @@ def export_world(world, warnings: list) -> World:
     return World(color=color, camera=camera, lights=diffuse)
 
 
+# What Cycles shows for an image it cannot read (core/materials/textures.py MISSING): magenta.
+MISSING_RGB = (1.0, 0.0, 1.0)
+
 # Cycles shows a world of negative strength as black and lights nothing with it on its own (with lamps it
 # takes some of their light away, and clamps); Primer reads it as 0.
 NEGATIVE_WORLD = ("the world's Background is negative ({:g}); Primer reads it as 0: a black world that lights "
@@ -466,9 +471,10 @@ NEGATIVE_WORLD = ("the world's Background is negative ({:g}); Primer reads it as
 
 
 def _environment(world, background, warnings: list):
-    """An equirectangular Environment Texture at the Background's Color, as (image (H, W, 3) float32 linear,
-    strength, world-to-texture rotation (3, 3)), or None where the world is something else. A Mapping node
-    between (Texture Coordinate Generated or none) gives the rotation; scale and location are noted."""
+    """An equirectangular Environment Texture at the Background's Color, as (image (H, W, 3) float32 linear, or None
+    where it is missing or cannot be read (a warning says so); strength, world-to-texture rotation (3, 3)), or None
+    where the world is something else. A Mapping node between (Texture Coordinate Generated or none) gives the
+    rotation; scale and location are noted."""
     if background.bl_idname != "ShaderNodeBackground" or not background.inputs["Color"].is_linked:
         return None
     texture = background.inputs["Color"].links[0].from_node
@@ -497,7 +503,7 @@ def _environment(world, background, warnings: list):
     reader = materials_.NodeReader(world, warnings, kind="world")
     image = materials_.load_image(texture.image, reader, texture)
     if image is None:
-        return None
+        return None, strength, rotation
     pixels = image.rgba()[:, :, :3]
     if image.srgb:
         from ..core.film import image_io
