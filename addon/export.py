@@ -18,7 +18,7 @@ from ..core.camera import Camera
 from ..core.lights import World
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
-from . import lightgroups
+from . import lightgroups, unmodelled
 from . import materials as materials_
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
@@ -712,6 +712,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
     materials_.begin_export()
+    # What the scene asks of Cycles that Primer does not render, said once (addon/unmodelled.py).
+    warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
+    warnings += unmodelled.view_layer_notes(depsgraph.view_layer) + unmodelled.world_notes(scene.world)
+    holdouts = unmodelled.holdout_objects(depsgraph.view_layer)
     world = export_world(scene.world, warnings)
     core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world,
                             default_material=DEFAULT_SURFACE)
@@ -731,6 +735,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             break
         obj = instance.object
         matrix = np.array(instance.matrix_world, np.float64)
+        if obj.name not in ray_visibility_noted:
+            ray_visibility_noted.add(obj.name)
+            warnings.extend(note for note in unmodelled.object_notes(obj) + ray_visibility_notes(obj)
+                            + (unmodelled.light_notes(obj) if obj.type == "LIGHT" else []) if note not in warnings)
         if obj.type == "LIGHT":
             light = export_light(obj, matrix, warnings)
             if light is not None:
@@ -746,9 +754,6 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             continue
         if obj.type != "MESH" or obj.data is None:
             continue
-        if obj.name not in ray_visibility_noted:
-            ray_visibility_noted.add(obj.name)
-            warnings.extend(ray_visibility_notes(obj))
         # A mesh shared by several instances is exported once (keyed by its evaluated data): linked
         # duplicates, collection and geometry-nodes instances share it; modifiers make a mesh of its own.
         key = obj.data.as_pointer()
@@ -777,8 +782,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         if wanted:
             mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
+        visibility = ray_visibility(obj)          # (a Holdout collection makes its objects holdouts, as in Cycles)
+        visibility["is_holdout"] |= obj.name in holdouts
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
-                                                  int(getattr(obj, "pass_index", 0)), **ray_visibility(obj),
+                                                  int(getattr(obj, "pass_index", 0)), **visibility,
                                                   asset=topmost_parent(obj).name))
         groups["instances"].append(lightgroups.source_group(obj))
 

@@ -34,7 +34,8 @@ PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Rough
                       "Anisotropic Rotation": "anisotropic_rotation", "Thin Film Thickness": "thin_film_thickness",
                       "Thin Film IOR": "thin_film_ior"}
 # Principled inputs Primer leaves out: socket -> what Primer does instead (warned when above 0).
-PRINCIPLED_LEFT_OUT = {"Subsurface Weight": "approximates subsurface scattering by diffuse reflection"}
+PRINCIPLED_LEFT_OUT = {"Subsurface Weight": "approximates subsurface scattering by diffuse reflection",
+                      "Dispersion": "refracts every wavelength alike (no dispersion)"}
 GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
 # Blender's nodes that add one closure of a BSDF, read alike: bl_idname -> core/materials node name (Node.blender).
 ONE_CLOSURE_NODES = {cls.blender: cls.name for cls in NODE_TYPES if cls.blender is not None}
@@ -157,7 +158,12 @@ class GraphReader:
     def socket(self, socket, path: tuple = ()):
         """An input socket's value: its own, or a Link; `path`: the group nodes it sits inside."""
         link = socket.links[0] if socket.is_linked and socket.links else None
-        if link is None or getattr(link, "is_muted", False) or not getattr(link, "is_valid", True):
+        if link is not None and not getattr(link, "is_valid", True):
+            # A link Blender marks invalid (one that closes a loop): Cycles leaves it out, and so does Primer.
+            self.reader.warn(link.to_node, f"the link from '{link.from_node.name}' into '{socket.name}' is invalid (it "
+                                           "closes a loop); it is ignored, as in Cycles")
+            return own_value(socket)
+        if link is None or getattr(link, "is_muted", False):
             return own_value(socket)
         return self.output(link.from_node, link.from_socket, path, socket)
 
@@ -662,7 +668,21 @@ def export_material(material, warnings: list) -> Material:
     if node_tree(material) is None:
         return Material(np.array(material.diffuse_color[:3], np.float64), material.name, emission_sampling=sampling,
                         transparent_shadows=shadows)
+    output = output_node(node_tree(material), "ShaderNodeOutputMaterial")
+    volume = linked_node(output, "Volume") if output is not None and "Volume" in output.inputs else None
+    if volume is not None:
+        warnings.append(f"material '{material.name}': its Volume output is not rendered (Primer renders no volumes)"
+                        + ("; with no Surface, its surface lets light through, as in Cycles"
+                           if surface_node(material) is None else ""))
+    if output is not None and "Displacement" in output.inputs and linked_node(output, "Displacement") is not None:
+        method = str(getattr(material, "displacement_method", "BUMP"))
+        warnings.append(f"material '{material.name}': its Displacement output is ignored (Cycles uses it"
+                        + (" as a bump map" if method == "BUMP" else f", method {method}") + "; Primer does not)")
     nodes = shader_nodes(material, warnings)
+    if volume is not None and surface_node(material) is None:
+        # Cycles: a volume's boundary with no surface shader is not there for rays (they enter the volume).
+        return Material(np.zeros(3), material.name, nodes=[("TRANSPARENT", np.ones(3), {}, [])],
+                        emission_sampling=sampling, transparent_shadows=True)
     if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes) and "roughness" not in nodes[0][2]:
         return Material(np.clip(nodes[0][1], 0.0, None), material.name, emission_sampling=sampling,
                         transparent_shadows=shadows)

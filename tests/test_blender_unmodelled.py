@@ -1,0 +1,144 @@
+"""What Primer does not render is said, inside real Blender (the bpy module, no mocks): each setting of issue 31's list
+("ignored without a word") gets its note in the render's warnings, once; and the two it now renders as Cycles do
+(a Holdout collection, a material with a Volume and no Surface) match Cycles' image."""
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+from render import load_primer  # noqa: E402
+
+from blender_env import render_pixels  # noqa: E402
+
+pytestmark = [pytest.mark.blender]
+
+
+@pytest.fixture(scope="module")
+def primer():
+    return load_primer()
+
+
+def material(name: str, surface=None, volume=None, displacement=False):
+    """A material whose output has the given Surface node type, Volume node type, and a Displacement."""
+    m = bpy.data.materials.new(name)
+    if m.node_tree is None:
+        m.use_nodes = True
+    tree = m.node_tree
+    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        tree.nodes.remove(node)
+    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    for kind, socket in ((surface, "Surface"), (volume, "Volume")):
+        if kind is not None:
+            tree.links.new(tree.nodes.new(kind).outputs[0], output.inputs[socket])
+    if displacement:
+        tree.links.new(tree.nodes.new("ShaderNodeDisplacement").outputs[0], output.inputs["Displacement"])
+    return m
+
+
+def scene_with_everything():
+    """Blender's default scene with every setting of the list switched on."""
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    scene = bpy.context.scene
+    layer = scene.view_layers[0]
+    scene.render.use_motion_blur = True
+    scene.camera.data.dof.use_dof = True
+    cube, light = scene.objects["Cube"], scene.objects["Light"]
+    cube.is_shadow_catcher = True
+    cube.data.materials.clear()
+    cube.data.materials.append(material("Smoke", volume="ShaderNodeVolumePrincipled"))
+    bpy.ops.mesh.primitive_uv_sphere_add(location=(3, 0, 0))
+    sphere = bpy.context.object
+    principled = material("Displaced", surface="ShaderNodeBsdfPrincipled", displacement=True)
+    dispersion = next(n for n in principled.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled").inputs.get(
+        "Dispersion")                                   # (Blender 4.2 to 4.5 have it)
+    if dispersion is not None:
+        dispersion.default_value = 0.5
+    sphere.data.materials.append(principled)
+    receivers = bpy.data.collections.new("Receivers")
+    light.light_linking.receiver_collection = receivers
+    light.light_linking.blocker_collection = receivers
+    light.data.cycles.use_multiple_importance_sampling = False
+    light.data.cycles.max_bounces = 3
+    bpy.ops.object.light_add(type="POINT", location=(0, 3, 3))
+    bpy.context.object.data.energy = -100.0
+    bpy.context.object.name = "Sink"
+    world = scene.world
+    tree = world.node_tree
+    out = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld")
+    tree.links.new(tree.nodes.new("ShaderNodeVolumeScatter").outputs[0], out.inputs["Volume"])
+    layer.use_pass_mist = layer.use_pass_vector = True
+    layer.aovs.add().name = "Mask"
+    indirect = bpy.data.collections.new("Bounce Only")
+    scene.collection.children.link(indirect)
+    layer.layer_collection.children["Bounce Only"].indirect_only = True
+    cube.modifiers.new("Hair", "PARTICLE_SYSTEM")
+    cube.particle_systems[0].settings.type = "HAIR"
+    return scene
+
+
+def test_every_unmodelled_setting_is_said_once(primer):
+    """Depth of field, motion blur, shadow catcher, light and shadow linking, a lamp's MIS and Max Bounces, a
+    negative lamp, a material's Volume and Displacement, Principled Dispersion, a world volume, Mist, Vector and
+    AOV passes, an Indirect Only collection, particle hair, Cycles' pixel filter: each named in one warning."""
+    scene = scene_with_everything()
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    expected = ["depth of field", "motion blur", "shadow catcher", "uses light linking", "uses shadow linking",
+                "Multiple Importance off", "Max Bounces 3", "'Sink' has a negative power", "Volume output",
+                "Displacement output", "world's Volume", "Mist pass", "Vector pass",
+                "AOVs (Mask)", "Indirect Only", "hair of particle system", "Blackman-Harris filter 1.5 px"]
+    if any(node.inputs.get("Dispersion") is not None for node in bpy.data.materials["Displaced"].node_tree.nodes):
+        expected.append("'Dispersion' is above 0")
+    for phrase in expected:
+        found = [w for w in warnings if phrase in w]
+        assert len(found) == 1, (phrase, warnings)
+
+
+def test_a_default_scene_says_nothing_of_these(primer):
+    """Blender's default scene with the box filter asks none of them: no note (but Cycles' default filter's)."""
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    assert [w for w in warnings if "Primer" in w] == [w for w in warnings if "filter" in w], warnings
+    bpy.context.scene.cycles.pixel_filter_type = "BOX"
+    bpy.context.scene.cycles.filter_width = 1.0
+    bpy.context.scene.update_tag()                      # (an add-on's setting tags no update by itself)
+    bpy.context.view_layer.update()
+    assert not [w for w in export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings if "filter" in w]
+
+
+@pytest.mark.slow
+def test_a_holdout_collection_and_a_volume_only_box_render_as_in_cycles(primer, tmp_path):
+    """A sphere in a Holdout collection cuts a hole in the film (alpha 0), and a cube whose material has only a
+    Volume lets the camera see through it (Primer renders no volume; the scatter is faint), as Cycles renders both."""
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32, 24, 100
+    scene.render.film_transparent = True
+    cube = scene.objects["Cube"]
+    cube.data.materials.clear()
+    thin = material("Thin", volume="ShaderNodeVolumeAbsorption")
+    thin.node_tree.nodes["Volume Absorption"].inputs["Density"].default_value = 0.0
+    cube.data.materials.append(thin)
+    bpy.ops.mesh.primitive_plane_add(size=20.0, location=(0, 0, -1.2))
+    holes = bpy.data.collections.new("Holes")
+    scene.collection.children.link(holes)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.7, location=(1.5, -1.5, 0.0))
+    sphere = bpy.context.object
+    for collection in sphere.users_collection:
+        collection.objects.unlink(sphere)
+    holes.objects.link(sphere)
+    scene.view_layers[0].layer_collection.children["Holes"].holdout = True
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 16)
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 64)
+    holes_primer, holes_cycles = mine[..., 3] < 0.5, cycles[..., 3] < 0.5
+    assert holes_cycles.sum() > 10
+    assert (holes_primer != holes_cycles).sum() <= 4, ((holes_primer != holes_cycles).sum(), holes_cycles.sum())
+    rgb = (mine[..., :3] * mine[..., 3:]).mean(axis=(0, 1)), (cycles[..., :3] * cycles[..., 3:]).mean(axis=(0, 1))
+    np.testing.assert_allclose(rgb[0], rgb[1], rtol=0.05, atol=0.005)
