@@ -266,7 +266,7 @@ class MaterialTable:
 
 def _light_color(light) -> np.ndarray:
     """Return colour x 2^exposure (x blackbody colour when temperature is used), linear RGB."""
-    color = np.array(light.color[:3], np.float64) * 2.0 ** getattr(light, "exposure", 0.0)
+    color = materials_.blender_float(np.array(light.color[:3], np.float64)) * 2.0 ** getattr(light, "exposure", 0.0)
     if getattr(light, "use_temperature", False):
         color = color * np.array(light.temperature_color[:3], np.float64)
     return color
@@ -355,7 +355,7 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
     minus_z = -axes[:, 2] / max(np.linalg.norm(axes[:, 2]), 1e-300)
     if light.type in {"POINT", "SPOT"}:
         radius = float(light.shadow_soft_size)
-        power = float(light.energy)
+        power = materials_.blender_float(float(light.energy))
         if not normalize:
             # Unnormalised: radiance P / pi instead of P / (4 pi^2 R^2) (radius 0: intensity P / pi).
             power *= 4.0 * math.pi * radius * radius if radius > 0 else 4.0
@@ -367,7 +367,7 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
                                     frame=axes.copy(), name=obj.name)
     if light.type == "SUN":
         angle = float(light.angle)
-        strength = float(light.energy)
+        strength = materials_.blender_float(float(light.energy))
         if not normalize and angle > 0:
             strength *= math.pi * math.sin(0.5 * angle) ** 2
         return core_scene.SunLight(minus_z, strength, color, angle, name=obj.name)
@@ -381,7 +381,7 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
         if not (np.linalg.norm(np.cross(axis_u, axis_v)) > 0 and np.linalg.norm(axes[:, 2]) > 0):
             warnings.append(f"area light '{obj.name}' has zero size and was skipped")
             return None
-        power = float(light.energy)
+        power = materials_.blender_float(float(light.energy))
         area = core_scene.AreaLight(position, axis_u, axis_v, minus_z, power, color,
                                     light.shape, float(getattr(light, "spread", math.pi)), name=obj.name)
         if not normalize:
@@ -395,9 +395,12 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
 # Camera, world, settings
 # ----------------------------------------------------------------------------
 
-def export_camera(camera_object) -> Camera:
-    """Return the core camera of a Blender camera object (scale is ignored, as in Cycles)."""
+def export_camera(camera_object, warnings: list = None) -> Camera:
+    """Return the core camera of a Blender camera object (scale is ignored, as in Cycles); another object (an
+    Empty, a mesh, a light) as the scene camera is looked through as Cycles does, with a warning."""
     data = camera_object.data
+    if getattr(camera_object, "type", "CAMERA") != "CAMERA" or data is None or not hasattr(data, "lens"):
+        return _object_camera(camera_object, warnings)
     kind = data.type if data.type in {"PERSP", "ORTHO", "PANO"} else "PERSP"
     panorama = getattr(data, "panorama_type", "FISHEYE_EQUIDISTANT")
     if kind == "PANO" and panorama not in {"FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"}:
@@ -413,6 +416,28 @@ def export_camera(camera_object) -> Camera:
         fisheye_fov=float(getattr(data, "fisheye_fov", math.pi)),
         fisheye_lens=float(getattr(data, "fisheye_lens", 10.5)),
     )
+
+
+# Cycles' camera for a scene camera that is no camera object (intern/cycles/blender/camera.cpp, BlenderCamera's
+# defaults): perspective, 50 mm lens on a 36 x 24 mm sensor fitted automatically, no shift, clipping 1e-5 .. 1e5.
+OBJECT_CAMERA = dict(type="PERSP", lens=50.0, sensor_width=36.0, sensor_height=24.0, sensor_fit="AUTO",
+                     shift_x=0.0, shift_y=0.0, clip_start=1e-5, clip_end=1e5)
+
+
+def _object_camera(obj, warnings) -> Camera:
+    """The camera Cycles looks through for an object that is not a camera: its transform (scale cleared) with
+    OBJECT_CAMERA's settings; a spot lamp's cone sets the lens (16 mm / tan(spot size / 2)), as in Cycles."""
+    settings = dict(OBJECT_CAMERA)
+    data = obj.data
+    if getattr(obj, "type", "") == "LIGHT" and getattr(data, "type", "") == "SPOT":
+        lens = 16.0 / math.tan(float(data.spot_size) * 0.5)
+        if lens > 0.0:
+            settings["lens"] = lens
+    if warnings is not None:
+        warnings.append(f"the scene camera '{obj.name}' is not a camera object but {getattr(obj, 'type', '?')}: Primer "
+                        f"looks through it as Cycles does, a perspective camera with a {settings['lens']:g} mm lens on a "
+                        "36 x 24 mm sensor (Auto fit), clipping 1e-05 to 1e+05")
+    return Camera(matrix_world=np.array(obj.matrix_world, np.float64), **settings)
 
 
 def export_world(world, warnings: list) -> World:
@@ -431,7 +456,7 @@ def export_world(world, warnings: list) -> World:
     if diffuse != glossy:
         warnings.append("the world's Diffuse and Glossy ray visibility differ; Primer lets it light every surface "
                         "when Diffuse is on and none when it is off")
-    color = np.array(world.color[:3], np.float64)
+    color = materials_.blender_float(np.array(world.color[:3], np.float64))
     tree = materials_.node_tree(world)
     if tree is not None:
         output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output
@@ -451,7 +476,8 @@ def export_world(world, warnings: list) -> World:
                          lights=diffuse)
         if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
                 and not node.inputs["Strength"].is_linked:
-            color = np.array(node.inputs["Color"].default_value[:3], np.float64) * float(node.inputs["Strength"].default_value)
+            # (a NaN or infinite strength or colour: core/lights/world.py finite_world reads it as Cycles renders it)
+            color = materials_.own_value(node.inputs["Color"]) * materials_.own_value(node.inputs["Strength"])
         else:
             warnings.append("the world shader is not a plain Background colour or an Environment Texture; Primer "
                             "uses the world's viewport colour")
@@ -482,7 +508,7 @@ def _environment(world, background, warnings: list):
         return None
     if background.inputs["Strength"].is_linked:
         warnings.append("the world's Background Strength is linked; Primer uses its own value")
-    strength = float(background.inputs["Strength"].default_value)
+    strength = materials_.own_value(background.inputs["Strength"])
     if getattr(texture, "projection", "EQUIRECTANGULAR") != "EQUIRECTANGULAR":
         warnings.append(f"the world's Environment Texture uses projection {texture.projection}; Primer reads it "
                         "as equirectangular")
@@ -708,7 +734,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     if camera_object is None:
         raise ExportError("the scene has no camera: add one, or set Scene > Camera")
     camera_eval = camera_object.evaluated_get(depsgraph)
-    camera = export_camera(camera_eval)
+    camera = export_camera(camera_eval, warnings)
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
     materials_.begin_export()

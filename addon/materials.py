@@ -122,12 +122,24 @@ class NodeReader:
 
 
 def own_value(socket):
-    """A socket's own value: a float, or (3,) float64 for colours and vectors."""
+    """A socket's own value: a float, or (3,) float64 for colours and vectors (infinities as blender_float reads them)."""
     value = getattr(socket, "default_value", 0.0)
     try:
-        return np.array(value[:3], np.float64)
+        return blender_float(np.array(value[:3], np.float64))
     except TypeError:
-        return float(value)
+        return float(blender_float(float(value)))
+
+
+# Blender stores a typed-in infinity as the largest float32 (RNA clamps to the float range).
+BLENDER_INFINITY = float(np.finfo(np.float32).max)
+
+
+def blender_float(value):
+    """A float or (k,) float64 array from Blender with +-FLT_MAX read back as the +-infinity it stands for, so that
+    the core reads it as Cycles renders it (core/materials/finite.py)."""
+    array = np.asarray(value, np.float64)
+    out = np.where(np.abs(array) >= BLENDER_INFINITY, np.copysign(np.inf, array), array)
+    return float(out) if out.ndim == 0 else out
 
 
 # Texture and colour nodes Primer evaluates: Blender's node -> core/materials/graph.py kind.

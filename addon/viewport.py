@@ -60,7 +60,7 @@ def view_from_region(region_data, width: int, height: int, depsgraph=None) -> pr
     window_matrix = np.array(region_data.window_matrix, np.float64)
     scene = depsgraph.scene_eval if depsgraph is not None else None
     camera_object = scene.camera if scene is not None else None
-    if region_data.view_perspective == "CAMERA" and camera_object is not None \
+    if region_data.view_perspective == "CAMERA" and camera_object is not None and camera_object.type == "CAMERA" \
             and camera_object.data.type == "PANO":
         camera_eval = camera_object.evaluated_get(depsgraph)
         frame = [camera_eval.matrix_world @ corner for corner in camera_eval.data.view_frame(scene=scene)]

@@ -3,6 +3,9 @@
  * A chunk's samples go straight into their pixels' sums (RGBA, and for adaptive sampling the squared
  * luminance and alpha); the chunk that adds a pixel's samples to the film renews its noise estimate. */
 
+/* The largest float32 (film.py FILM_MAX): the image is float32, so a sample beyond it is infinite there. */
+#define FILM_MAX 3.4028234663852886e38
+
 /* Add a sample's RGBA s to its pixel's sums: sum (4,), and its squared luminance and alpha to
  * squares (2,) unless squares is NULL. */
 INLINE void add_sample(const double *s, const double *luminance, double *sum, double *squares)

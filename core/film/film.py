@@ -34,6 +34,7 @@ class ChunkSums(NamedTuple):
     intersect_seconds, occluded_seconds: time inside Embree's queries (compiled chunks count them)
     shading_seconds: time spent shading, Embree's shadow queries included
     added:    True when the chunk already added its sums to the film itself (rgba, squares, hits None)
+    nonfinite: (p,) int64 samples whose value was NaN or infinite, replaced by 0 (finite_samples), or None
     """
 
     rgba: Optional[np.ndarray]
@@ -47,6 +48,23 @@ class ChunkSums(NamedTuple):
     occluded_seconds: float = 0.0
     shading_seconds: float = 0.0
     added: bool = False
+    nonfinite: Optional[np.ndarray] = None
+
+
+# The largest float32: the film's image is float32, as Cycles' render buffer is, so a sample beyond it is infinite
+# there (film.c's FILM_MAX).
+FILM_MAX = float(np.finfo(np.float32).max)
+
+
+def finite_samples(rgba: np.ndarray, p: int, spp: int) -> np.ndarray:
+    """Replace, in place, each channel of a sample that is NaN or beyond the float32 film's range by 0, as Cycles'
+    film does with each contribution (ensure_finite): rgba (p spp, c) float64, pixel by pixel; return (p,) int64
+    how many of each pixel's samples had one."""
+    bad = ~(np.abs(rgba) <= FILM_MAX)
+    if not bad.any():
+        return np.zeros(p, np.int64)
+    rgba[bad] = 0.0
+    return bad.any(axis=1).reshape(p, spp).sum(axis=1).astype(np.int64)
 
 
 def pixel_sums(rgba: np.ndarray, p: int, spp: int, want_squares: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -97,6 +115,7 @@ class Film:
         self.aux = {name: np.zeros((size, channels)) for name, channels in aux_channels.items()}
         self.compiled = compiled
         self.estimates = NoiseEstimates.empty(size) if compiled and keep_estimates else None
+        self.nonfinite = np.zeros(size, np.int64)     # samples whose NaN or infinite value became 0, per pixel
 
     def add(self, pixels: np.ndarray, sums: ChunkSums, estimates: bool = True) -> None:
         """Add a chunk's per-pixel sums: pixels (p,) int64 distinct flat indices.
@@ -106,6 +125,8 @@ class Film:
         """
         if sums.added:
             return
+        if sums.nonfinite is not None and sums.nonfinite.any():
+            self.nonfinite[_selector(pixels)] += sums.nonfinite
         if self.compiled:
             add_pixels(pixels, sums.samples, sums.rgba, sums.squares, sums.hits, self.noise, self.hits,
                        self.estimates if estimates else None)
@@ -117,6 +138,16 @@ class Film:
             self.hits[chosen] += sums.hits
         for name, values in sums.aux.items():
             self.aux[name][_selector(pixels)] += values
+
+    def nonfinite_note(self) -> Optional[str]:
+        """The warning that some samples were NaN or infinite and went in as 0 (the first pixel named), or None."""
+        if not self.nonfinite.any():
+            return None
+        pixels = np.flatnonzero(self.nonfinite)
+        y, x = divmod(int(pixels[0]), self.width)
+        return (f"{int(self.nonfinite.sum())} samples in {len(pixels)} pixels were NaN or infinite and went into the "
+                f"image as 0, as Cycles' film does (the first at pixel x {x}, y {y} from the top); an input the "
+                "add-on and core did not catch made them")
 
     def image(self) -> np.ndarray:
         """Return each pixel's mean over all its samples (a 1-pixel box filter): (H, W, 4) float32."""

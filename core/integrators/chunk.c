@@ -205,6 +205,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         for (int c = 0; c < 4; c++) out->rgba[4 * k + c] = 0.0;
         if (out->squares != NULL) out->squares[2 * k] = out->squares[2 * k + 1] = 0.0;
         out->hits[k] = 0;
+        if (out->nonfinite != NULL) out->nonfinite[k] = 0;
         if (light_passes)
             for (int i = 0; i < LIGHT_CHANNELS; i++) out->light[LIGHT_CHANNELS * k + i] = 0.0;
         for (int64_t i = 0; i < 3 * G; i++) out->groups[3 * G * k + i] = 0.0;
@@ -273,6 +274,11 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
                 s[0] = s[1] = s[2] = 0.0;   /* outside a fisheye's image circle: opaque black */
                 s[3] = 1.0;
             }
+            /* A channel that is NaN or beyond the float32 film goes in as 0, counted (film.py finite_samples). */
+            int bad = 0;
+            for (int c = 0; c < 4; c++)
+                if (!(fabs(s[c]) <= FILM_MAX)) { s[c] = 0.0; bad = 1; }
+            if (bad && out->nonfinite != NULL) out->nonfinite[k]++;
             add_sample(s, params->luminance, out->rgba + 4 * k, out->squares != NULL ? out->squares + 2 * k : NULL);
         }
     }

@@ -96,6 +96,7 @@ ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for t
     ("seconds", F64, 3, "inside Embree's nearest-hit queries, its occlusion queries, shading"),
     ("light", out(F64), "(p, LIGHT_CHANNELS) sums of the light passes, or NULL"),
     ("groups", out(F64), "(p, 3 light_groups) sums of the light groups' light, or NULL"),
+    ("nonfinite", out(I64), "(p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL"),
 ])
 
 ChunkArgs = schema.function("primer_render_chunk", "render_chunk", schema.record("ChunkArgs", "primer_render_chunk's arguments: spp samples in each of p pixels.", [
@@ -234,7 +235,8 @@ class Compiled:
         rgba, squares, hits = np.empty((p, 4)), (np.empty((p, 2)) if self.want_squares else None), np.empty(p, np.int64)
         params = self.params.copy()
         params.seed = int(seed)
-        out = ChunkOut(rgba=rgba, squares=squares, hits=hits)
+        nonfinite = np.zeros(p, np.int64)
+        out = ChunkOut(rgba=rgba, squares=squares, hits=hits, nonfinite=nonfinite)
         aux = {}
         if self.light_passes:               # the light passes' sums (core/integrators/lightpasses.py)
             aux[lightpasses.FILM_BUFFER] = light = np.empty((p, lightpasses.FILM_CHANNELS))
@@ -249,4 +251,5 @@ class Compiled:
         self.tracer.count_intersect(out.seconds[0])
         self.tracer.count_occluded(out.seconds[1])
         return ChunkSums(rgba, squares if squares is not None else np.zeros((p, 2)), hits, aux, int(out.counts[0]),
-                         int(out.counts[1]), spp, out.seconds[0], out.seconds[1], out.seconds[2])
+                         int(out.counts[1]), spp, out.seconds[0], out.seconds[1], out.seconds[2],
+                         nonfinite=nonfinite)

@@ -60,6 +60,31 @@ class World:
         return bilinear_equirect(self.image, u, v) * self.strength
 
 
+def finite_world(world: World, warnings: Optional[list] = None) -> World:
+    """Return `world` as Cycles renders it when its colour, strength or image holds a NaN or an infinity: each such
+    channel or texel 0, a non-finite strength 0 (Cycles' film drops every non-finite contribution, ensure_finite:
+    a black world that lights nothing), with one warning; the world itself when all is finite."""
+    from ..materials.finite import finite_color
+    color, bad_color = finite_color(world.color)
+    strength = float(world.strength)
+    bad_strength = not math.isfinite(strength)
+    image, bad_texels = world.image, 0
+    if image is not None:
+        bad = ~np.isfinite(image)
+        bad_texels = int(bad.any(axis=-1).sum())
+        if bad_texels:
+            image = np.where(bad, np.float32(0.0), image).astype(np.float32)
+    if not (bad_color or bad_strength or bad_texels):
+        return world
+    what = [text for text, bad in (("colour", bad_color), ("strength", bad_strength),
+                                   (f"image ({bad_texels} texels)", bad_texels)) if bad]
+    if warnings is not None:
+        warnings.append(f"the world's {' and '.join(what)} NaN or infinite; Primer reads it as 0, as Cycles renders it "
+                        "(its film drops every non-finite contribution)")
+    return World(color=color, image=image, strength=0.0 if bad_strength else strength, rotation=world.rotation,
+                 camera=world.camera, lights=world.lights, name=world.name)
+
+
 def direction_to_uv(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Equirectangular (u, v) of unit directions: (n, 3) -> two (n,) float64 in [0, 1]."""
     u = (math.pi - np.arctan2(d[:, 1], d[:, 0])) / (2.0 * math.pi)

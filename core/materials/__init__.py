@@ -19,6 +19,7 @@ import numpy as np
 
 from ..native import schema
 from .base import BSDF, BSDFFlags, BsdfSample, flags_of, has
+from .finite import finite_color, finite_value
 from .closures import (MAX_CLOSURES, NODE_PARAMS, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
                        constant_result, eval_closures, sample_closures)
 from .registry import (BSDF_BY_NAME, BSDF_TYPES, NODE_BY_NAME, NODE_TYPES, Glass, Lambert, Microfacet, Mirror,
@@ -93,14 +94,17 @@ class ConstantShader:
     emission_sides: int = 3
 
     @classmethod
-    def of(cls, material: Material) -> "ConstantShader":
-        """One closure, the material's BSDF weighted by its colour (clipped to 0..1)."""
+    def of(cls, material: Material, notes: Optional[list] = None) -> "ConstantShader":
+        """One closure, the material's BSDF weighted by its colour (clipped to 0..1); a NaN or infinite channel of
+        the colour or emission reads 0 (core/materials/finite.py), named in `notes`."""
         if material.bsdf not in BSDF_BY_NAME:
             raise ValueError(f"material '{material.name}' asks for BSDF {material.bsdf!r}; "
                              f"Primer knows {sorted(BSDF_BY_NAME)}")
-        color = np.clip(np.nan_to_num(np.asarray(material.base_color, np.float64)[:3]), 0.0, 1.0)
-        emission = np.nan_to_num(np.asarray(material.emission, np.float64)[:3], posinf=0.0, neginf=0.0)
-        emission = np.maximum(emission, 0.0)
+        color, bad_color = finite_color(material.base_color)
+        emission, bad_emission = finite_color(material.emission)
+        color, emission = np.clip(color, 0.0, 1.0), np.maximum(emission, 0.0)
+        if notes is not None:
+            notes.extend(name for name, bad in (("base colour", bad_color), ("emission", bad_emission)) if bad)
         return cls(np.array([BSDF_BY_NAME[material.bsdf].kind], np.int32), color[None, :],
                    np.array([abs(color.mean())]), np.zeros((1, PARAMS)), emission, np.zeros(3),
                    emission_sides(material.emission_sampling, emission))
@@ -143,8 +147,9 @@ class NodeShader:
     graph_emits: bool = False
 
     @classmethod
-    def of(cls, material: Material) -> "NodeShader":
-        """The material's nodes, their inputs checked: NaN or infinite values become their defaults."""
+    def of(cls, material: Material, notes: Optional[list] = None) -> "NodeShader":
+        """The material's nodes, their inputs read as Cycles reads a NaN or an infinity (core/materials/finite.py),
+        each one changed named in `notes` ("Principled base_color")."""
         from . import graph as graph_
         from . import nodes as nodes_
         rows, linked = [], []
@@ -154,9 +159,15 @@ class NodeShader:
                 raise ValueError(f"material '{material.name}' has shader node {name!r}; "
                                  f"Primer knows {sorted(NODE_BY_NAME)}")
             node = NODE_BY_NAME[name]
-            clean = {key: value for key, value in inputs.items() if not isinstance(value, graph_.Link)
-                     and np.all(np.isfinite(np.asarray(value, np.float64)))}
-            weight = np.nan_to_num(np.asarray(weight, np.float64)[:3], nan=0.0, posinf=0.0, neginf=0.0)
+            clean = {}
+            for key, value in inputs.items():
+                if not isinstance(value, graph_.Link):
+                    clean[key], changed = finite_value(key, value)
+                    if changed and notes is not None:
+                        notes.append(f"{node.name.title()} {key}")
+            weight, changed = finite_color(weight)
+            if changed and notes is not None:
+                notes.append(f"{node.name.title()} weight")
             rows.append((node, weight, node.row(clean)))
             linked.append((node, weight, inputs, tuple(entry[3]) if len(entry) > 3 else ()))
         head_on = nodes_.shade_nodes(rows, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))
@@ -281,9 +292,17 @@ def _bounce_factor(entry: tuple) -> float:
     return 1.0
 
 
-def shader_of(material: Material):
-    """A material's shader: its nodes where it has them, else one constant closure."""
-    return NodeShader.of(material) if material.nodes else ConstantShader.of(material)
+def shader_of(material: Material, warnings: Optional[list] = None):
+    """A material's shader: its nodes where it has them, else one constant closure; a NaN or infinite input read as
+    Cycles reads it (core/materials/finite.py) is noted in `warnings`, naming the material."""
+    notes: list = []
+    shader = NodeShader.of(material, notes) if material.nodes else ConstantShader.of(material, notes)
+    if notes and warnings is not None:
+        note = (f"material '{material.name}': {', '.join(notes)} NaN or infinite; Primer reads it as Cycles renders "
+                "it: 0 (a clamped input such as roughness: its bound), so that the closure or emission drops out")
+        if note not in warnings:
+            warnings.append(note)
+    return shader
 
 
 class MaterialTable:
@@ -336,11 +355,11 @@ class MaterialTable:
         return shader.program(layout, self.image_index, self.names[row]) if hasattr(shader, "program") else None
 
     @classmethod
-    def of(cls, materials: list, default: Optional[Material] = None) -> "MaterialTable":
+    def of(cls, materials: list, default: Optional[Material] = None, warnings: Optional[list] = None) -> "MaterialTable":
         """Build the table of `materials` and the `default` surface (the grey Lambert surface unless given);
-        an unknown BSDF or node name is refused with a clear message."""
+        an unknown BSDF or node name is refused with a clear message; NaN or infinite inputs go to `warnings`."""
         default = default if default is not None else Material()
-        shaders = [shader_of(m) for m in materials] + [shader_of(default)]
+        shaders = [shader_of(m, warnings) for m in materials] + [shader_of(default, warnings)]
         opaque = [not getattr(m, "transparent_shadows", True) for m in list(materials) + [default]]
         return cls(shaders, [m.name for m in materials] + ["(default)"], opaque)
 

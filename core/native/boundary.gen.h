@@ -439,6 +439,7 @@ struct ChunkOut {
     double seconds[3];                      /* inside Embree's nearest-hit queries, its occlusion queries, shading */
     double *light;                          /* (p, LIGHT_CHANNELS) sums of the light passes, or NULL */
     double *groups;                         /* (p, 3 light_groups) sums of the light groups' light, or NULL */
+    int64_t *nonfinite;                     /* (p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL */
 };
 
 /* primer_render_chunk's arguments: spp samples in each of p pixels. */
@@ -660,7 +661,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7810907097562677354);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(667361432378423050);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(385801130152938479);
-    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(9026999036581648919);
+    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(5958533739751111163);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(4369246942035671920);

@@ -36,7 +36,7 @@ from .. import lights as lights_
 from .. import memory, vectors
 from ..camera import camera as camera_
 from ..film import adaptive
-from ..film.film import ChunkSums, Film, pixel_sums
+from ..film.film import FILM_MAX, ChunkSums, Film, finite_samples, pixel_sums
 from ..geometry import instancing
 from ..geometry.geometry import WorldGeometry, build_geometry
 from ..integrators import Cancelled, Context, Recorder, StopFlag, for_render
@@ -124,9 +124,10 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     warnings.extend(w for w in geometry.warnings if w not in warnings)
     lamps = lights_.usable(scene.lights, warnings)
     lights = [light.moved(geometry.origin) for light in lamps]
-    materials = MaterialTable.of(scene.materials, scene.default_material)
-    # The lights a render makes of its scene: the emissive meshes, and the world's image.
-    world = scene.the_world()
+    materials = MaterialTable.of(scene.materials, scene.default_material, warnings)
+    # The lights a render makes of its scene: the emissive meshes, and the world's image (NaN or infinite parts
+    # read as 0, as Cycles renders them).
+    world = lights_.world.finite_world(scene.the_world(), warnings)
     emitters = lights_.emitters.from_geometry(geometry, materials, vertex.graph_emission)
     sampler = lights_.WorldLight.of(world)
     lights += [light for light in (emitters, sampler) if light is not None]
@@ -343,7 +344,8 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     rgba[hit, 3] = 1.0
     if found.holdout is not None:
         rgba[traced, 3] -= found.holdout         # the holes holdout objects make (Cycles' holdout transparency)
-    # c. Each pixel's sums (the film divides by the count).
+    # c. Each pixel's sums (the film divides by the count); a NaN or infinite sample goes in as 0, counted.
+    nonfinite = finite_samples(rgba, p, spp)
     per_pixel, squares = pixel_sums(rgba, p, spp, s.adaptive)
     hits = np.bincount(hit // spp, minlength=p)
     aux = {}
@@ -358,8 +360,11 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
         groups = np.zeros((n, found.groups.shape[1] * 3))
         groups[traced] = found.groups.reshape(len(traced), -1)
         aux[lightgroups.FILM_BUFFER] = groups.reshape(p, spp, -1).sum(axis=1)
+    for name in (lightpasses.FILM_BUFFER, lightgroups.FILM_BUFFER):
+        if name in aux:
+            aux[name][~(np.abs(aux[name]) <= FILM_MAX)] = 0.0
     return ChunkSums(per_pixel, squares, hits, aux, len(traced), found.shadow_rays, spp,
-                     shading_seconds=shading_seconds)
+                     shading_seconds=shading_seconds, nonfinite=nonfinite)
 
 
 def timed_reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
@@ -379,7 +384,8 @@ def timed_reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     return ChunkSums(np.concatenate([part.rgba for part in parts]), np.concatenate([part.squares for part in parts]),
                      np.concatenate([part.hits for part in parts]), aux, sum(part.primary for part in parts),
                      sum(part.shadow for part in parts), spp,
-                     shading_seconds=sum(part.shading_seconds for part in parts))
+                     shading_seconds=sum(part.shading_seconds for part in parts),
+                     nonfinite=np.concatenate([part.nonfinite for part in parts]))
 
 
 # The most samples a chunk of the Python reference holds: one step of its vertex loop over them (numpy over every
@@ -590,6 +596,9 @@ def render(scene: Scene, settings: RenderSettings,
         progress(1.0, stats)
     # 4. The image: each pixel's mean over all its samples; debug buffers as debug.aux_images makes them.
     image = film.image()
+    note = film.nonfinite_note()
+    if note is not None:
+        stats.warnings.append(note)
     aux = debug.aux_images(film.aux, film.hits, settings.aux, H, W)
     aux.update(features_)
     if settings.light_groups:
