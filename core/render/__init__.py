@@ -389,9 +389,10 @@ def timed_reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
 
 
 # The most samples a chunk of the Python reference holds: one step of its vertex loop over them (numpy over every
-# ray at once) takes about a tenth of a second on one core, so a cancel, checked between steps, is answered
-# within half a second (tests/test_cancel.py). The compiled chunk checks before each block of 64 samples instead.
-REFERENCE_CHUNK = 1 << 15
+# ray at once) takes a few hundredths of a second on one core, so a cancel, checked between steps, is answered
+# well within half a second, also on a loaded machine (tests/test_cancel.py: 0.03-0.14 s with both cores busy
+# elsewhere). The compiled chunk checks before each block of 64 samples instead.
+REFERENCE_CHUNK = 1 << 14
 
 # How often the render loop asks cancel() while chunks run (a cancel is answered within this and a block's time).
 CANCEL_POLL_SECONDS = 0.05
