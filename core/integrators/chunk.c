@@ -55,8 +55,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             for (int c = 0; c < 3; c++) H->wo[3 * h + c] = -D[c];
             /* (a camera path's origin: where its rays through clear surfaces meet lamps from, path.py's mis_origin) */
             for (int c = 0; c < 3; c++) H->mis_origin[3 * h + c] = O[c];
-            H->sd[h].storage = H->storage[h];
-            H->sd[h].caustics = 0;
+            hit_closures(H, h);
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
                       (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, RAY_CAMERA, H->sd + h);
@@ -172,6 +171,23 @@ INLINE double *work_groups(double **storage, int64_t G, int part)
     return *storage != NULL ? *storage + part * BLOCK * 3 * G : NULL;
 }
 
+/* Give `count` blocks of hits their room for closures, `room` per hit, in one allocation (*closures, then their
+ * parameters; free it with free(*closures)). Returns 0 without memory. */
+INLINE int block_closures(BlockHits **blocks, int count, int64_t room, Closure **closures)
+{
+    size_t per_block = (size_t)(BLOCK * room);
+    size_t bytes = (size_t)count * per_block * (sizeof(Closure) + STORAGE_STRIDE * sizeof(double));
+    *closures = (Closure *)malloc(bytes);
+    if (*closures == NULL) return 0;
+    double *storage = (double *)(*closures + (size_t)count * per_block);
+    for (int i = 0; i < count; i++) {
+        blocks[i]->room = room;
+        blocks[i]->closures = *closures + (size_t)i * per_block;
+        blocks[i]->storage = storage + (size_t)i * per_block * STORAGE_STRIDE;
+    }
+    return 1;
+}
+
 /* Render spp samples in each of p pixels: samples first[k] .. first[k] + spp - 1 of pixel k's pattern.
  * pixels, first: (p,) int64. Out: the pixels' sums (out->rgba, squares, hits, zeroed here first) and
  * the chunk's counts and seconds (added to). */
@@ -201,6 +217,15 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         work->a.group_count = work->b.group_count = G;
     }
     if (G > 0 && group_storage == NULL) { free(work); return; }
+    /* Room for every closure a hit of the scene's materials sets up (no limit of their own). */
+    BlockHits *blocks[3] = {&H, work != NULL ? &work->a : NULL, work != NULL ? &work->b : NULL};
+    Closure *closures = NULL;
+    if (!block_closures(blocks, work != NULL ? 3 : 1, params->closure_room < 1 ? 1 : (int64_t)params->closure_room,
+                        &closures)) {
+        free(work);
+        free(group_storage);
+        return;
+    }
     for (int64_t k = 0; k < p; k++) {
         for (int c = 0; c < 4; c++) out->rgba[4 * k + c] = 0.0;
         if (out->squares != NULL) out->squares[2 * k] = out->squares[2 * k + 1] = 0.0;
@@ -284,6 +309,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
     }
     free(work);
     free(group_storage);
+    free(closures);
     out->counts[0] += traced;
     out->counts[1] += shadow_rays;
     double scale = seconds_per_tick(started);

@@ -16,7 +16,7 @@ from ..film.film import ChunkSums
 from ..geometry.tables import GeometryTables
 from ..lights import LightRecord
 from ..lights.base import LightContext
-from ..materials import MAX_CLOSURES, NODE_PARAMS, PARAMS
+from ..materials import NODE_PARAMS, PARAMS
 from ..materials.graph import graph_tables
 from ..native import library, schema
 from ..native.schema import F64, I32, I64, out, ptr
@@ -32,14 +32,15 @@ SAMPLING = schema.constants("SAMPLE", ("mis", "light", "bsdf"), "RenderSettings.
 MaterialRecord = schema.record("MaterialRecord", """One material of the scene's MaterialTable. program 0: a ConstantShader, n closures the same at
 every hit but for their normal (kind: BSDF_*). program 1: a NodeShader, n shader nodes (kind: NODE_*, weight, p:
 the node's inputs) set up per hit (nodes.c); graph: 0, or 1 + its node graph's program in the render's
-GraphTables (graph.c), which overwrites inputs per hit.""", [
+GraphTables (graph.c), which overwrites inputs per hit. Its rows are arrays of n (as many as it has: no limit),
+which the record keeps alive.""", [
     ("n", I32, "closures or nodes"),
     ("program", I32, "0: closures; 1: shader nodes"),
     ("graph", I32, "0, or 1 + its program in GraphTables"),
-    ("kind", I32, MAX_CLOSURES, "BSDF_* (program 0) or NODE_* (program 1)"),
-    ("weight", F64, (MAX_CLOSURES, 3), ""),
-    ("sample_weight", F64, MAX_CLOSURES, ""),
-    ("p", F64, (MAX_CLOSURES, NODE_PARAMS), "a closure's CLOSURE_PARAMS, or a node's NODE_PARAMS inputs"),
+    ("kind", ptr(I32), "(n,) BSDF_* (program 0) or NODE_* (program 1)"),
+    ("weight", ptr(F64), "(n, 3)"),
+    ("sample_weight", ptr(F64), "(n,) a closure's (program 0)"),
+    ("p", ptr(F64), "(n, NODE_PARAMS) a closure's CLOSURE_PARAMS, or a node's NODE_PARAMS inputs"),
     ("emission", F64, 3, ""),
     ("transparency", F64, 3, ""),
     ("shadow_opaque", I32, "1: opaque to shadow rays even where it lets light through (Transparent Shadows off)"),
@@ -52,6 +53,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("geometry", ptr("GeometryTables"), ""),
     ("lights", ptr("LightRecord"), "(light_count,)"),
     ("materials", ptr("MaterialRecord"), "(m + 1,) the MaterialTable's rows"),
+    ("closure_room", I64, "the most closures a hit of any of them sets up (closure_room): room made per hit"),
     ("shadows", ptr("ShadowSettings"), ""),
     ("intersect8", out(), "Embree's packet queries and the RTCScene"),
     ("occluded8", out(), ""),
@@ -110,29 +112,39 @@ ChunkArgs = schema.function("primer_render_chunk", "render_chunk", schema.record
 
 
 def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
-    """Return the C record of a material: a ConstantShader's closures, or a NodeShader's nodes (program 1);
-    shadow_opaque: it blocks shadow rays even where it lets light through (Transparent Shadows off)."""
+    """Return the C record of a material: a ConstantShader's closures, or a NodeShader's nodes (program 1), as many as
+    it has; shadow_opaque: it blocks shadow rays even where it lets light through (Transparent Shadows off)."""
     record = MaterialRecord(shadow_opaque=shadow_opaque, may_pass=shader.may_let_light_through,
                             graph_emits=bool(getattr(shader, "graph_emits", False)))
-    kind, weight = np.zeros(MAX_CLOSURES, np.int32), np.zeros((MAX_CLOSURES, 3))
-    p = np.zeros((MAX_CLOSURES, NODE_PARAMS))
     if hasattr(shader, "nodes"):
         k = len(shader.nodes)
         record.program = 1
-        kind[:k] = [node.kind for node, _, _ in shader.nodes]
-        if k:
-            weight[:k] = [w for _, w, _ in shader.nodes]
-            p[:k] = [row for _, _, row in shader.nodes]
+        kind = np.array([node.kind for node, _, _ in shader.nodes], np.int32)
+        weight = np.array([w for _, w, _ in shader.nodes], np.float64).reshape(k, 3)
+        p = np.array([row for _, _, row in shader.nodes], np.float64).reshape(k, NODE_PARAMS)
+        sample_weight = np.zeros(k)
     else:
         k = len(shader.kinds)
-        kind[:k] = shader.kinds
-        weight[:k] = np.asarray(shader.weights, np.float64).reshape(k, 3)
-        record.sample_weight = np.concatenate([np.asarray(shader.sample_weights, np.float64), np.zeros(MAX_CLOSURES - k)])
-        p[:k, :PARAMS] = np.asarray(shader.params, np.float64).reshape(k, PARAMS)   # a closure's PARAMS in its row
-    record.n, record.kind, record.weight, record.p = k, kind, weight, p
+        kind = np.asarray(shader.kinds, np.int32).reshape(k)
+        weight = np.asarray(shader.weights, np.float64).reshape(k, 3)
+        sample_weight = np.asarray(shader.sample_weights, np.float64).reshape(k)
+        p = np.zeros((k, NODE_PARAMS))
+        p[:, :PARAMS] = np.asarray(shader.params, np.float64).reshape(k, PARAMS)   # a closure's PARAMS in its row
+    record.n = k
+    # (a zero row where there are none, so that no pointer is to an empty array)
+    record.kind, record.weight, record.sample_weight, record.p = (
+        np.ascontiguousarray(array if k else np.zeros((1,) + array.shape[1:], array.dtype))
+        for array in (kind, weight, sample_weight, p))
     record.emission = np.asarray(shader.emission, np.float64)
     record.transparency = np.asarray(shader.transparency, np.float64)
     return record
+
+
+def closure_room(shaders: list) -> int:
+    """The room for closures the compiled kernel makes at each hit: the most any of the materials' `shaders` sets up
+    (ConstantShader / NodeShader.closures_at_most), at least 1. Python's ClosureBuilder makes the same room per
+    material, so both kernels keep every closure."""
+    return max([1] + [int(shader.closures_at_most) for shader in shaders])
 
 
 def why_not(settings) -> str:
@@ -174,8 +186,10 @@ class Compiled:
         self.tables = GeometryTables(geometry)
         self.lights = (LightRecord * max(1, len(ctx.lights)))(
             *[light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)])
-        self.materials = (MaterialRecord * len(ctx.materials.shaders))(
-            *[material_record(shader, opaque) for shader, opaque in zip(ctx.materials.shaders, ctx.materials.shadow_opaque)])
+        # (the records keep their rows' arrays alive; the C array holds copies of the records' pointers)
+        self.material_records = [material_record(shader, opaque)
+                                 for shader, opaque in zip(ctx.materials.shaders, ctx.materials.shadow_opaque)]
+        self.materials = (MaterialRecord * len(self.material_records))(*self.material_records)
         # Materials with node graphs: their programs, and each record's program number (+ 1).
         self.graphs = graph_tables(ctx.materials, geometry.attribute_layout)
         for row, index in (self.graphs.rows.items() if self.graphs is not None else ()):
@@ -192,6 +206,7 @@ class Compiled:
         self.light_passes = lightpasses.wanted(s.passes)
         self.params = ChunkParams(
             camera=self.camera, geometry=self.tables.record, lights=self.lights, materials=self.materials,
+            closure_room=closure_room(ctx.materials.shaders),
             shadows=self.shadows, graphs=self.graphs.record if self.graphs is not None else None,
             intersect8=packets.intersect8, occluded8=packets.occluded8, scene=packets.scene,
             light_context=self.context, light_count=len(ctx.lights), integrator=COMPILED_INTEGRATORS[s.integrator],

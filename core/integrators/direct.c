@@ -13,7 +13,9 @@ typedef struct {
     int64_t pixel[BLOCK], sample[BLOCK];         /* its random-number keys */
     Surface s[BLOCK];
     ShaderResult sd[BLOCK];                      /* the material there: closures, emission */
-    double storage[BLOCK][SHADER_STORAGE];       /* their closures' parameters, where its nodes set them up */
+    Closure *closures;                           /* (BLOCK, room) the hits' closures (hit_closures) */
+    double *storage;                             /* (BLOCK, room, STORAGE_STRIDE) their parameters, where nodes set them up */
+    int64_t room;                                /* closures per hit: ChunkParams.closure_room */
     double wo[3 * BLOCK];                        /* towards the viewer */
     double L[3 * BLOCK];                         /* the radiance it sends towards the viewer */
     double t[BLOCK];                             /* each camera lane's ray length: its hit, or its t_max */
@@ -39,6 +41,18 @@ typedef struct {
     double *groups;
     int64_t group_count;
 } BlockHits;
+
+/* Make hit h's ShaderResult ready to shade: its room for closures and their parameters in the block's buffers, no
+ * caustics filter. */
+INLINE void hit_closures(BlockHits *H, int64_t h)
+{
+    ShaderResult *sd = H->sd + h;
+    sd->n = 0;
+    sd->room = (int)H->room;
+    sd->c = H->closures + h * H->room;
+    sd->storage = H->storage + h * H->room * STORAGE_STRIDE;
+    sd->caustics = 0;
+}
 
 /* lightgroups.GroupLight.add for one contribution: value (3) x scale to row `row` of a (rows, count, 3) group
  * buffer, in group `group` (NONE, -1: nowhere). */
@@ -500,10 +514,9 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             Surface s;
             surface_at(origin[l], D[l], (double)packet.ray.tfar[k], u, v, &tri, 0, &s);
             if (!hidden) {
-                double wo[3] = {-D[l][0], -D[l][1], -D[l][2]}, storage[SHADER_STORAGE];
+                double wo[3] = {-D[l][0], -D[l][1], -D[l][2]};
                 ShaderResult sd;
-                sd.storage = storage;
-                sd.caustics = 0;
+                no_closures(&sd);                   /* (only what it lets through counts) */
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
                           v, wo, RAY_SHADOW, &sd);
                 double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
@@ -537,16 +550,16 @@ INLINE void point_barycentrics(const double *V, const double *P, double *u, doub
     *v = det > 0.0 ? (d11 * p2 - d12 * p1) / det : 1.0 / 3.0;
 }
 
-/* The surface s and material sd (its closures in the caller's `storage`) of triangle tri (Embree's geometry,
- * prim, instance) where the ray O + t D meets it at barycentrics (u, v), for a ray other than the camera's. */
+/* The surface s and material sd (its emission, transparency and holdout: no closures, no_closures) of triangle tri
+ * (Embree's geometry, prim, instance) where the ray O + t D meets it at barycentrics (u, v), for a ray other than
+ * the camera's. */
 INLINE void shade_along(const DirectSettings *ds, const Triangle *tri, int64_t geometry, int64_t prim,
                         int64_t instance, const double *O, const double *D, double t, double u, double v,
-                        Surface *s, double *storage, ShaderResult *sd)
+                        Surface *s, ShaderResult *sd)
 {
     surface_at(O, D, t, u, v, tri, 0, s);
     double wo[3] = {-D[0], -D[1], -D[2]};
-    sd->storage = storage;
-    sd->caustics = 0;
+    no_closures(sd);
     shade_hit(ds->graphs, ds->geometry, ds->materials + tri->material, tri, s, geometry, prim, instance, u, v, wo,
               RAY_BOUNCE, sd);
 }
@@ -562,9 +575,8 @@ NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, 
     double P[3] = {O[0] + t * D[0], O[1] + t * D[1], O[2] + t * D[2]}, u, v;
     point_barycentrics(tri.V, P, &u, &v);
     Surface s;
-    double storage[SHADER_STORAGE];
     ShaderResult sd;
-    shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &s, storage, &sd);
+    shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &s, &sd);
     for (int c = 0; c < 3; c++) out[c] = sd.emission[c];
 }
 

@@ -59,9 +59,8 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         const MaterialRecord *material = ds->materials + tri.material;
         if (material->may_pass == 0.0) return;
         Surface s;
-        double storage[SHADER_STORAGE];
         ShaderResult sd;
-        shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &s, storage, &sd);
+        shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &s, &sd);
         for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
         if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0) || ++clear > limits->transparent_bounces) return;
         /* 2. On from just past it, straight ahead, gathering what the ray finds. */
@@ -151,7 +150,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         }
         if (next->groups != NULL)
             for (int64_t i = 0; i < 3 * next->group_count; i++) next->groups[3 * m * next->group_count + i] = 0.0;
-        next->sd[m].storage = next->storage[m];
+        hit_closures(next, m);
         /* A transparent bounce keeps the kind of the last real one; after a diffuse one, the caustics filter. */
         int after_diffuse = see_through ? H->after_diffuse[h] : is_labelled_diffuse(r->kind);
         next->after_diffuse[m] = (uint8_t)after_diffuse;

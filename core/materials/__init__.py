@@ -20,7 +20,7 @@ import numpy as np
 from ..native import schema
 from .base import BSDF, BSDFFlags, BsdfSample, flags_of, has
 from .finite import finite_color, finite_value
-from .closures import (MAX_CLOSURES, NODE_PARAMS, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
+from .closures import (NODE_PARAMS, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
                        constant_result, eval_closures, sample_closures)
 from .registry import (BSDF_BY_NAME, BSDF_TYPES, NODE_BY_NAME, NODE_TYPES, Glass, Lambert, Microfacet, Mirror,
                        OrenNayar, RoughGlass, Sheen, Transparent, Velvet)
@@ -114,6 +114,11 @@ class ConstantShader:
         """Whether its hits let light through (a constant transparency)."""
         return bool(np.asarray(self.transparency).any())
 
+    @property
+    def closures_at_most(self) -> int:
+        """The most closures a hit of it has: its K."""
+        return len(self.kinds)
+
     def shade(self, N: np.ndarray, wo: Optional[np.ndarray] = None, backfacing=None, caustics=None) -> ShaderResult:
         """The ShaderResult at hits with shading normals N (n, 3) (the same from every direction wo); caustics:
         (n,) int filter bits (closures.FILTER_*) that take away its reflective or refractive closure, or None."""
@@ -188,6 +193,13 @@ class NodeShader:
         # where they land, and Emission Sampling Auto decides on Cycles' estimate of it.
         return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, estimate),
                    graph, graph_emits=True)
+
+    @property
+    def closures_at_most(self) -> int:
+        """The most closures a hit of it sets up: its nodes' slots and the Transparent closure of the light let
+        through (nodes.closures_at_most)."""
+        from . import nodes as nodes_
+        return nodes_.closures_at_most(self.nodes)
 
     @property
     def may_let_light_through(self) -> bool:
@@ -426,7 +438,7 @@ class MaterialTable:
 
 
 __all__ = ["BSDF", "BSDFFlags", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "ClosureSample", "Closures",
-           "ConstantShader", "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Glass", "Lambert", "MAX_CLOSURES", "Material",
+           "ConstantShader", "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Glass", "Lambert", "Material",
            "MaterialTable", "Microfacet", "Mirror", "NODE_BY_NAME", "NODE_PARAMS", "NODE_TYPES", "NodeShader",
            "OrenNayar", "PARAMS", "RoughGlass", "ShaderResult", "Sheen", "Transparent", "Velvet", "eval_closures",
            "flags_of", "has", "reflective", "sample_closures"]

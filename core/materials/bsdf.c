@@ -106,7 +106,6 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
         running += sd->c[k].sample_weight;
         if (running <= pick * total) chosen = k + 1;
     }
-    if (chosen > MAX_CLOSURES - 1) chosen = MAX_CLOSURES - 1;
     out->delta = 0;
     out->kind = -1;
     out->pdf = 0.0;
@@ -140,18 +139,19 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
     if (!(pdf > 0.0)) out->kind = -1;
 }
 
-/* The ShaderResult of a constant material at a hit with shading normal N (sd->storage is left alone). */
+/* The ShaderResult of a constant material at a hit with shading normal N (sd->storage is left alone); its closures
+ * only where sd has room (none where the caller reads only emission and transparency, no_closures). */
 INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResult *sd)
 {
     sd->n = 0;
-    for (int k = 0; k < (int)m->n; k++) {
+    for (int k = 0; k < (int)m->n && sd->n < sd->room; k++) {
         int kind = (int)m->kind[k];
         if (caustics_take(kind, sd->caustics)) continue;      /* ConstantShader.shade's caustics filter */
         Closure *c = sd->c + sd->n++;
         c->kind = kind;
         c->sample_weight = m->sample_weight[k];
-        for (int j = 0; j < 3; j++) { c->weight[j] = m->weight[k][j]; c->N[j] = N[j]; }
-        c->p = m->p[k];
+        for (int j = 0; j < 3; j++) { c->weight[j] = m->weight[3 * k + j]; c->N[j] = N[j]; }
+        c->p = m->p + (int64_t)NODE_PARAMS * k;
     }
     for (int j = 0; j < 3; j++) {
         sd->emission[j] = m->emission[j];
@@ -170,9 +170,10 @@ static void bsdf_rows(int64_t n, const int32_t *kind, const double *weight, cons
 {
     for (int64_t i = 0; i < n; i++) {
         ShaderResult sd;
-        sd.n = 1;
-        sd.storage = NULL;
-        sd.caustics = 0;
+        Closure one;
+        no_closures(&sd);
+        sd.n = sd.room = 1;
+        sd.c = &one;
         Closure *c = sd.c;
         c->kind = kind[i];
         c->sample_weight = fabs((weight[3 * i] + weight[3 * i + 1] + weight[3 * i + 2]) / 3.0);

@@ -5,7 +5,7 @@
  * pdf of its own sampling. */
 
 /* A closure's kind (BSDF_*) and what it is (BSDF_FLAG_*, bsdf_is) come from the table of BSDFs, generated into
- * core/native/boundary.gen.h from core/materials/registry.py, with MAX_CLOSURES, CLOSURE_PARAMS, NODE_PARAMS, the
+ * core/native/boundary.gen.h from core/materials/registry.py, with CLOSURE_PARAMS, NODE_PARAMS, the
  * caustics filter's FILTER_* bits and a material's record (MaterialRecord). */
 
 
@@ -20,11 +20,14 @@ typedef struct {
     const double *p;
 } Closure;
 
-/* A material at one hit (closures.ShaderResult for one hit). storage: MAX_CLOSURES x CLOSURE_PARAMS
- * doubles the hit's shader may write its closures' parameters into (NULL where none is needed). */
+/* A material at one hit (closures.ShaderResult for one hit). Its caller makes the room: c, room closures (as many
+ * as a hit of the scene's materials sets up, ChunkParams.closure_room: no limit of its own), and storage, room x
+ * STORAGE_STRIDE doubles the hit's shader may write its closures' parameters into. Where a caller reads only the
+ * emission, transparency and holdout, it makes none (no_closures): room 0, c and storage NULL. */
 typedef struct {
     int n;
-    Closure c[MAX_CLOSURES];
+    int room;               /* closures c has room for: a shader sets up at most as many (nodes.c closure_add) */
+    Closure *c;
     double emission[3];
     double transparency[3];
     double holdout[3];      /* the Holdout nodes' weight (closures.ShaderResult.holdout; 0: none) */
@@ -34,6 +37,16 @@ typedef struct {
     const double *hit_N;    /* the hit's own normal while a node with its own normal sets up (nodes.c), NULL: N */
     int caustics;           /* FILTER_* bits the caller sets before shading (0: every closure) */
 } ShaderResult;
+
+/* A ShaderResult made to hold only what a material emits and lets through (a shadow ray's, a transparent
+ * surface passed, a texture's emission): no room for closures. */
+INLINE void no_closures(ShaderResult *sd)
+{
+    sd->n = sd->room = 0;
+    sd->c = NULL;
+    sd->storage = NULL;
+    sd->caustics = 0;
+}
 
 /* A direction sampled from one BSDF (base.BsdfSample for one hit). */
 typedef struct {

@@ -1,8 +1,8 @@
 """Closures: what a material is at one hit, a list of weighted BSDFs plus emission, as in Cycles.
 
-A shader (a material's node tree, or a constant material) turns each hit into a ShaderResult: up to
-MAX_CLOSURES closures (a BSDF from the table, its RGB weight, its sampling weight, its own normal and
-its parameters), the emitted radiance, the transparency, and the shading normal. The integrand is
+A shader (a material's node tree, or a constant material) turns each hit into a ShaderResult: as many
+closures as its nodes set up, with no limit (a BSDF from the table, its RGB weight, its sampling weight, its
+own normal and its parameters), the emitted radiance, the transparency, and the shading normal. The integrand is
 the sum over closures of weight x (f cos); one-sample MIS over the closures picks one to sample in
 proportion to its sampling weight, and the combined pdf is the sampling-weighted mean of theirs
 (Cycles' surface_shader.h does the same). core/materials/closures.c is the compiled twin.
@@ -18,9 +18,9 @@ from .base import BSDF, NODE_PARAMS, PARAMS, BsdfSample  # noqa: F401 (PARAMS, N
 from .base import BSDFFlags as F
 from .lambert import Lambert
 
-# At most this many closures per hit (bsdf.h MAX_CLOSURES); PARAMS floats of parameters per closure and NODE_PARAMS
-# per shader node (core/materials/base.py).
-MAX_CLOSURES = schema.constant("MAX_CLOSURES", 8, "closures per hit at most")
+# A hit has as many closures as its material's nodes set up (Node.slots bounds each node's; the compiled kernel
+# makes room for the scene's largest, compiled.closure_room); PARAMS floats of parameters per closure and
+# NODE_PARAMS per shader node (core/materials/base.py).
 # A closure whose sampling weight falls below this is dropped (Cycles' CLOSURE_WEIGHT_CUTOFF).
 WEIGHT_CUTOFF = 1e-5
 # What a hit's shading may leave out (Cycles' caustics switches, Light Paths > Caustics): the bits of a hit's

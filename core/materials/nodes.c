@@ -7,7 +7,6 @@
 
 #define WEIGHT_CUTOFF 1e-5          /* closures.WEIGHT_CUTOFF */
 #define STORAGE_STRIDE 18           /* doubles of a hit's storage per closure (a glass closure's, with a thin film) */
-#define SHADER_STORAGE (MAX_CLOSURES * STORAGE_STRIDE)
 
 /* ggx_tables.lookup_*: linear interpolation between grid points i / (size - 1), clamped to 0..1. */
 INLINE void table_position(double x, int size, int *i, int *j, double *t)
@@ -43,12 +42,13 @@ INLINE double lookup_3d(const double *table, int n, double x, double y, double z
 }
 
 /* ClosureBuilder.add: a closure of `kind` with `weight`; its sampling weight is |mean(allocated)| x factor;
- * none below the cutoff. params (MF_PARAMS doubles, or NULL) go into the hit's storage. */
+ * none below the cutoff. params (MF_PARAMS doubles, or NULL) go into the hit's storage. The caller made room for
+ * every closure the hit's material sets up (ChunkParams.closure_room), or none (no_closures). */
 INLINE void closure_add(ShaderResult *sd, int kind, const double *weight, const double *allocated, double factor,
                         const double *params)
 {
     double sample_weight = fabs((allocated[0] + allocated[1] + allocated[2]) / 3.0);
-    if (!(sample_weight >= WEIGHT_CUTOFF) || sd->n >= MAX_CLOSURES) return;
+    if (!(sample_weight >= WEIGHT_CUTOFF) || sd->n >= sd->room) return;
     Closure *c = sd->c + sd->n;
     c->kind = kind;
     c->sample_weight = sample_weight * factor;
@@ -525,64 +525,63 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
     sd->glossy = NULL;
     sd->hit_N = NULL;
     for (int j = 0; j < 3; j++) { sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0; sd->N[j] = N[j]; }
-    for (int k = 0; k < (int)m->n; k++) setup_node(sd, (int)m->kind[k], mu, wo, backfacing, m->weight[k], m->p[k]);
+    for (int k = 0; k < (int)m->n; k++)
+        setup_node(sd, (int)m->kind[k], mu, wo, backfacing, m->weight + 3 * k, m->p + (int64_t)NODE_PARAMS * k);
     add_transparent(sd);
 }
 
 /* NodeShader.shade with a program: the node graph runs at the hit (graph.c), its outputs replace the
  * nodes' linked inputs, multiply their weights and give them their own normals (graph.apply_outputs);
  * then every node sets up its closures with its normal; sd->N stays the hit's (Cycles' sd->N), which
- * bump shadowing (bsdf.c) compares the closures' normals with. */
+ * bump shadowing (bsdf.c) compares the closures' normals with. One node at a time (each output changes
+ * only its own node), so that a material may have any number of nodes. */
 NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, const ShadingPoint *sp, const double *N,
                         const double *wo, int backfacing, ShaderResult *sd)
 {
-    double reg[MAX_REGISTERS], weight[MAX_CLOSURES][3], p[MAX_CLOSURES][NODE_PARAMS], normal[MAX_CLOSURES][3];
-    int own[MAX_CLOSURES], n = (int)m->n, program = (int)m->graph - 1;
-    for (int k = 0; k < n; k++) {
-        own[k] = 0;
-        for (int j = 0; j < 3; j++) weight[k][j] = m->weight[k][j];
-        for (int j = 0; j < NODE_PARAMS; j++) p[k][j] = m->p[k][j];
-    }
+    double reg[MAX_REGISTERS], weight[3], p[NODE_PARAMS], normal[3], glossy[3];
+    int n = (int)m->n, program = (int)m->graph - 1;
     run_program(G, program, sp, reg);
     const double *info = G->programs + 8 * program;
     const double *outputs = G->outputs + 5 * (int64_t)info[5];
-    for (int64_t o = 0; o < (int64_t)info[6]; o++) {
-        const double *out = outputs + 5 * o;
-        int kind = (int)out[0], k = (int)out[1], slot = (int)out[2], width = (int)out[3];
-        const double *value = reg + (int64_t)out[4];
-        if (kind == OUT_INPUT) {
-            for (int j = 0; j < width; j++) p[k][slot + j] = value[j];
-        } else if (kind == OUT_WEIGHT) {
-            for (int j = 0; j < 3; j++) {
-                double v = value[width == 3 ? j : 0];
-                double f = slot == 0 ? clamp01(v) : (slot == 1 ? 1.0 - clamp01(v) : at_least(v, 0.0));
-                weight[k][j] *= f;
-            }
-        } else if (slot == 0) {
-            own[k] = 1;
-            for (int j = 0; j < 3; j++) normal[k][j] = value[j];
-            safe_normalize3(normal[k]);
-        } else {                                    /* a normal input (Coat Normal) into the row, zero kept zero */
-            double *into = p[k] + slot;
-            for (int j = 0; j < 3; j++) into[j] = value[j];
-            safe_normalize3(into);
-            if (into[0] != 0.0 || into[1] != 0.0 || into[2] != 0.0) valid_reflection(sp->Ng, wo, into);
-        }
-    }
-    double glossy[MAX_CLOSURES][3];
-    for (int k = 0; k < n; k++)
-        if (own[k]) {
-            for (int j = 0; j < 3; j++) glossy[k][j] = normal[k][j];
-            valid_reflection(sp->Ng, wo, glossy[k]);
-        }
     sd->n = 0;
     for (int j = 0; j < 3; j++) sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0;
     for (int k = 0; k < n; k++) {
-        const double *Nk = own[k] ? normal[k] : N, *Gk = own[k] ? glossy[k] : N;
+        int own = 0;
+        for (int j = 0; j < 3; j++) weight[j] = m->weight[3 * k + j];
+        for (int j = 0; j < NODE_PARAMS; j++) p[j] = m->p[(int64_t)NODE_PARAMS * k + j];
+        for (int64_t o = 0; o < (int64_t)info[6]; o++) {
+            const double *out = outputs + 5 * o;
+            if ((int)out[1] != k) continue;
+            int kind = (int)out[0], slot = (int)out[2], width = (int)out[3];
+            const double *value = reg + (int64_t)out[4];
+            if (kind == OUT_INPUT) {
+                for (int j = 0; j < width; j++) p[slot + j] = value[j];
+            } else if (kind == OUT_WEIGHT) {
+                for (int j = 0; j < 3; j++) {
+                    double v = value[width == 3 ? j : 0];
+                    double f = slot == 0 ? clamp01(v) : (slot == 1 ? 1.0 - clamp01(v) : at_least(v, 0.0));
+                    weight[j] *= f;
+                }
+            } else if (slot == 0) {
+                own = 1;
+                for (int j = 0; j < 3; j++) normal[j] = value[j];
+                safe_normalize3(normal);
+            } else {                                /* a normal input (Coat Normal) into the row, zero kept zero */
+                double *into = p + slot;
+                for (int j = 0; j < 3; j++) into[j] = value[j];
+                safe_normalize3(into);
+                if (into[0] != 0.0 || into[1] != 0.0 || into[2] != 0.0) valid_reflection(sp->Ng, wo, into);
+            }
+        }
+        if (own) {
+            for (int j = 0; j < 3; j++) glossy[j] = normal[j];
+            valid_reflection(sp->Ng, wo, glossy);
+        }
+        const double *Nk = own ? normal : N, *Gk = own ? glossy : N;
         for (int j = 0; j < 3; j++) sd->N[j] = Nk[j];
-        sd->glossy = own[k] ? glossy[k] : NULL;
+        sd->glossy = own ? glossy : NULL;
         sd->hit_N = N;
-        setup_node(sd, (int)m->kind[k], dot3(Gk, wo), wo, backfacing, weight[k], p[k]);
+        setup_node(sd, (int)m->kind[k], dot3(Gk, wo), wo, backfacing, weight, p);
     }
     sd->glossy = NULL;
     sd->hit_N = NULL;

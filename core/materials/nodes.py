@@ -263,7 +263,7 @@ class Node:
     blender: ClassVar[Optional[str]] = None
     inputs: ClassVar[tuple] = ()
     defaults: ClassVar[tuple] = ()
-    slots: ClassVar[int] = 1            # at most this many closures
+    slots: ClassVar[int] = 1            # at most this many closures (closures_at_most)
     normal_inputs: ClassVar[tuple] = ()  # inputs a linked normal feeds (unit, valid for reflection; 0: unlinked)
 
     @classmethod
@@ -668,6 +668,13 @@ class SheenNode(Node):
             add_sheen(b, weight, roughness, b.N)
 
 
+def closures_at_most(nodes: list) -> int:
+    """The most closures a hit of a material made of `nodes` ((node class, ...) each) sets up: the nodes' slots and
+    the Transparent closure of the light let through. shade_nodes makes room for as many, and the compiled kernel
+    for the largest of the scene (compiled.closure_room): neither has a limit of its own."""
+    return sum(entry[0].slots for entry in nodes) + 1
+
+
 def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy=None, backfacing=None,
                 caustics=None) -> ShaderResult:
     """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (NODE_PARAMS,)).
@@ -680,7 +687,7 @@ def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy
     (closures.FILTER_*) or None: the closures left out at hits that a diffuse bounce's ray reached.
     """
     n = len(N)
-    b = ClosureBuilder(N, wo, sum(entry[0].slots for entry in nodes) + 1, backfacing, caustics)
+    b = ClosureBuilder(N, wo, closures_at_most(nodes), backfacing, caustics)
     for k, entry in enumerate(nodes):
         cls, weight, p = entry[0], entry[1], entry[2]
         normal = None

@@ -34,8 +34,6 @@
 #define CLOSURE_PARAMS 32
 /* a shader node's inputs, a MaterialRecord's rows (core.materials.base) */
 #define NODE_PARAMS 40
-/* closures per hit at most (core.materials.closures) */
-#define MAX_CLOSURES 8
 /* what a hit's caustics filter takes away (core.materials.closures) */
 #define FILTER_REFLECTIVE 1
 #define FILTER_REFRACTIVE 2
@@ -372,15 +370,16 @@ struct GeometryTables {
 /* One material of the scene's MaterialTable. program 0: a ConstantShader, n closures the same at
  * every hit but for their normal (kind: BSDF_*). program 1: a NodeShader, n shader nodes (kind: NODE_*, weight, p:
  * the node's inputs) set up per hit (nodes.c); graph: 0, or 1 + its node graph's program in the render's
- * GraphTables (graph.c), which overwrites inputs per hit. */
+ * GraphTables (graph.c), which overwrites inputs per hit. Its rows are arrays of n (as many as it has: no limit),
+ * which the record keeps alive. */
 struct MaterialRecord {
     int32_t n;                              /* closures or nodes */
     int32_t program;                        /* 0: closures; 1: shader nodes */
     int32_t graph;                          /* 0, or 1 + its program in GraphTables */
-    int32_t kind[MAX_CLOSURES];             /* BSDF_* (program 0) or NODE_* (program 1) */
-    double weight[MAX_CLOSURES][3];
-    double sample_weight[MAX_CLOSURES];
-    double p[MAX_CLOSURES][NODE_PARAMS];    /* a closure's CLOSURE_PARAMS, or a node's NODE_PARAMS inputs */
+    const int32_t *kind;                    /* (n,) BSDF_* (program 0) or NODE_* (program 1) */
+    const double *weight;                   /* (n, 3) */
+    const double *sample_weight;            /* (n,) a closure's (program 0) */
+    const double *p;                        /* (n, NODE_PARAMS) a closure's CLOSURE_PARAMS, or a node's NODE_PARAMS inputs */
     double emission[3];
     double transparency[3];
     int32_t shadow_opaque;                  /* 1: opaque to shadow rays even where it lets light through (Transparent Shadows off) */
@@ -394,6 +393,7 @@ struct ChunkParams {
     const GeometryTables *geometry;
     const LightRecord *lights;              /* (light_count,) */
     const MaterialRecord *materials;        /* (m + 1,) the MaterialTable's rows */
+    int64_t closure_room;                   /* the most closures a hit of any of them sets up (closure_room): room made per hit */
     const ShadowSettings *shadows;
     void *intersect8;                       /* Embree's packet queries and the RTCScene */
     void *occluded8;
@@ -659,8 +659,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7810907097562677354);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(667361432378423050);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(385801130152938479);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(8541145842328541273);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5921131469672137389);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(5958533739751111163);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
