@@ -18,6 +18,7 @@ from ..core.camera import Camera
 from ..core.lights import World
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
+from ..core.materials import textures as textures_
 from . import lightgroups
 from . import materials as materials_
 
@@ -502,6 +503,11 @@ def _environment(world, background, warnings: list):
             warnings.append(f"the world's Environment Texture reads '{mapping.bl_label}'; Primer uses the direction")
     reader = materials_.NodeReader(world, warnings, kind="world")
     image = materials_.load_image(texture.image, reader, texture)
+    if isinstance(image, textures_.TiledImage):
+        # Cycles' Environment Texture has no tiles: it looks for the file named with the <UDIM> token itself.
+        reader.warn(texture, f"image '{texture.image.name}' is a UDIM image, whose tiles an Environment Texture does "
+                             "not read; Primer renders it magenta, as Cycles does")
+        image = None
     if image is None:
         return None, strength, rotation
     pixels = image.rgba()[:, :, :3]
@@ -711,7 +717,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     camera = export_camera(camera_eval)
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
-    materials_.begin_export()
+    materials_.begin_export(scene.frame_current)
     world = export_world(scene.world, warnings)
     core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world,
                             default_material=DEFAULT_SURFACE)
