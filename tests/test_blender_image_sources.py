@@ -118,6 +118,20 @@ sequence.source = "SEQUENCE"
 emitting_plane(scene, "Second", sequence, -1.0, 2.0, 1.0, offset=10)
 emitting_plane(scene, "Third", sequence, 1.0, 2.0, 1.0, offset=11)
 out["sequence"] = renders(scene, "sequence")
+# ... and the same sequence as the world's Environment Texture, Offset 10: the sky is frame 12.
+scene = empty_scene(8, 8, frame=8)
+world = bpy.data.worlds.new("World")
+scene.world = world
+if world.node_tree is None:
+    world.use_nodes = True
+texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+texture.image = bpy.data.images.load(os.path.join(folder, "seq_011.png"))
+texture.image.source = "SEQUENCE"
+user = texture.image_user
+user.frame_duration, user.frame_start, user.use_cyclic, user.frame_offset = 3, 1, True, 10
+background = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
+world.node_tree.links.new(texture.outputs["Color"], background.inputs["Color"])
+out["world"] = renders(scene, "world")
 
 # 3. A movie of three frames (red, green, blue), made by Blender's own FFmpeg output, shown at its frame 2.
 out["movie"] = {{"ffmpeg": bool(bpy.app.ffmpeg.supported)}}
@@ -186,6 +200,17 @@ def test_a_sequence_shows_the_frame_its_image_user_picks_at_the_scene_frame_as_c
     np.testing.assert_allclose(mine, cycles, atol=2e-3)
     np.testing.assert_allclose(cycles[:, :8], np.broadcast_to(srgb_decoded([40, 220, 40]), (8, 8, 3)), atol=2e-3)
     np.testing.assert_allclose(cycles[:, 8:], np.broadcast_to(srgb_decoded([40, 40, 220]), (8, 8, 3)), atol=2e-3)
+    assert not [w for w in case["warnings"] if "magenta" in w], case["warnings"]
+
+
+def test_a_world_environment_sequence_shows_the_frame_its_image_user_picks_as_cycles(found):
+    """The sequence as the world's Environment Texture (Offset 10, scene frame 8): the sky is frame 12, the 2nd file,
+    in both engines."""
+    case = found["world"]
+    mine, cycles = np.asarray(case["PRIMER"]), np.asarray(case["CYCLES"])
+    print(case["warnings"])
+    np.testing.assert_allclose(mine, cycles, atol=2e-3)
+    np.testing.assert_allclose(cycles, np.broadcast_to(srgb_decoded([40, 220, 40]), cycles.shape), atol=2e-3)
     assert not [w for w in case["warnings"] if "magenta" in w], case["warnings"]
 
 
