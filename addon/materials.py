@@ -356,7 +356,14 @@ def load_image(image, reader: NodeReader, node):
         reader.warn(node, f"image '{image.name}' is in colour space {space}; Primer uses its numbers as linear")
     srgb = space == "sRGB"
     if source == "TILED":
-        tiles = {tile.number: _image_or_warning(image, reader, node, srgb, tile=tile.number) for tile in image.tiles}
+        tiles = {}
+        for tile in image.tiles:
+            if getattr(tile, "is_generated_tile", False):
+                reader.warn(node, f"image '{image.name}' tile {tile.number} is generated (no file), which Primer does "
+                                  "not read; Primer renders it magenta, where Cycles shows the generated tile")
+                tiles[tile.number] = None
+            else:
+                tiles[tile.number] = _image_or_warning(image, reader, node, srgb, tile=tile.number)
         _IMAGES[key] = textures_.TiledImage(tiles, name=image.name) if tiles else None
         if not tiles:
             reader.warn(node, f"image '{image.name}' has no tiles; Primer renders it magenta, as Cycles does")
@@ -470,7 +477,7 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
     if image.source == "TILED":
         packed = next((p for p in image.packed_files if getattr(p, "tile_number", 1001) == tile), None)
         if packed is not None and oiio is not None:
-            return _oiio_read_bytes(oiio, packed.data, os.path.splitext(packed.filepath)[1])
+            return _oiio_read_bytes(oiio, packed.packed_file.data, os.path.splitext(packed.filepath)[1])
         return _oiio_read_file(oiio, tile_path(bpy.path.abspath(image.filepath, library=image.library), tile))
     if image.source == "SEQUENCE":
         return _oiio_read_file(oiio, sequence_path(bpy.path.abspath(image.filepath, library=image.library), frame))
