@@ -18,6 +18,7 @@ from ..core.camera import Camera
 from ..core.lights import World
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
+from ..core.materials import textures as textures_
 from . import lightgroups, unmodelled
 from . import materials as materials_
 
@@ -528,6 +529,11 @@ def _environment(world, background, warnings: list):
             warnings.append(f"the world's Environment Texture reads '{mapping.bl_label}'; Primer uses the direction")
     reader = materials_.NodeReader(world, warnings, kind="world")
     image = materials_.load_image(texture.image, reader, texture)
+    if isinstance(image, textures_.TiledImage):
+        # Cycles' Environment Texture has no tiles: it looks for the file named with the <UDIM> token itself.
+        reader.warn(texture, f"image '{texture.image.name}' is a UDIM image, whose tiles an Environment Texture does "
+                             "not read; Primer renders it magenta, as Cycles does")
+        image = None
     if image is None:
         return None, strength, rotation
     pixels = image.rgba()[:, :, :3]
@@ -737,7 +743,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     camera = export_camera(camera_eval, warnings)
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
-    materials_.begin_export()
+    materials_.begin_export(scene.frame_current)
     # What the scene asks of Cycles that Primer does not render, said once (addon/unmodelled.py).
     warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
     warnings += unmodelled.view_layer_notes(depsgraph.view_layer) + unmodelled.world_notes(scene.world)

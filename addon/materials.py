@@ -349,50 +349,134 @@ def _shown(socket) -> str:
 
 
 def load_image(image, reader: NodeReader, node):
-    """A Blender image as a textures.Image (float32 RGBA, bottom row first), read once per export; None (Cycles'
-    magenta) with a warning when it is missing or cannot be read. Packed images are read from their bytes,
-    external files from disk, with OpenImageIO (Blender's own module inside Blender, else the pip one);
-    without OpenImageIO Blender's pixel buffer is read in bulk."""
+    """A Blender image as Cycles reads it at the scene's frame (set_frame): a textures.Image (pixels as stored,
+    bottom row first), a textures.TiledImage for a UDIM image (every tile of image.tiles), or None (Cycles' magenta)
+    with a warning when it is missing or cannot be read. A sequence gives the file of the frame the node's Image
+    User shows (sequence_frame); a movie cannot be read (its frame is named in the warning). Files are read with
+    OpenImageIO (Blender's own module inside Blender, else the pip one), packed images from their bytes; without
+    OpenImageIO Blender's pixel buffer is read in bulk. Read once per export and file."""
     if image is None:
         reader.warn(node, "has no image; Primer renders it magenta, as Cycles does")
         return None
-    cache = _IMAGES
-    key = image.as_pointer()
-    if key in cache:
-        return cache[key]
+    source = image.source
+    frame = sequence_frame(node.image_user, _FRAME[0]) if source in ("SEQUENCE", "MOVIE") else 0
+    key = (image.as_pointer(), frame)
+    if key in _IMAGES:
+        return _IMAGES[key]
+    if source == "MOVIE":
+        reader.warn(node, f"image '{image.name}' is a movie, whose frames Primer cannot read (OpenImageIO has no "
+                          f"movie reader here, and Blender's Python API gives no frame's pixels); Primer renders it "
+                          f"magenta, where Cycles renders its frame {frame}")
+        _IMAGES[key] = None
+        return None
     space = image.colorspace_settings.name
     if space != "sRGB" and space not in LINEAR_SPACES:
         reader.warn(node, f"image '{image.name}' is in colour space {space}; Primer uses its numbers as linear")
+    srgb = space == "sRGB"
+    if source == "TILED":
+        tiles = {}
+        for tile in image.tiles:
+            if getattr(tile, "is_generated_tile", False):
+                reader.warn(node, f"image '{image.name}' tile {tile.number} is generated (no file), which Primer does "
+                                  "not read; Primer renders it magenta, where Cycles shows the generated tile")
+                tiles[tile.number] = None
+            else:
+                tiles[tile.number] = _image_or_warning(image, reader, node, srgb, tile=tile.number)
+        _IMAGES[key] = textures_.TiledImage(tiles, name=image.name) if tiles else None
+        if not tiles:
+            reader.warn(node, f"image '{image.name}' has no tiles; Primer renders it magenta, as Cycles does")
+        return _IMAGES[key]
+    if source not in ("FILE", "GENERATED", "SEQUENCE"):
+        reader.warn(node, f"image '{image.name}' could not be read (source {source} is not supported); Primer "
+                          "renders it magenta")
+        _IMAGES[key] = None
+        return None
+    _IMAGES[key] = _image_or_warning(image, reader, node, srgb, frame=frame if source == "SEQUENCE" else None)
+    return _IMAGES[key]
+
+
+def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = None, frame: int = None):
+    """One picture of an image (its file; a UDIM image's `tile`; a sequence's `frame`) as a textures.Image, or None
+    with a warning that Primer, as Cycles, renders it magenta."""
+    what = f"image '{image.name}'" + (f" tile {tile}" if tile is not None else "") + \
+        (f" frame {frame}" if frame is not None else "")
     pixels, why = None, ""
-    if image.source in ("FILE", "GENERATED"):
-        try:
-            pixels = _read_pixels(image)
-        except Exception as error:                      # noqa: BLE001 (a corrupt file must not stop the render)
-            why = str(error) or type(error).__name__
-    else:
-        why = f"source {image.source} is not supported"
+    try:
+        pixels = _read_pixels(image, tile=tile, frame=frame)
+    except Exception as error:                      # noqa: BLE001 (a corrupt file must not stop the render)
+        why = str(error) or type(error).__name__
     if pixels is None or pixels.size == 0:
-        reader.warn(node, f"image '{image.name}' could not be read ({why or 'no pixels'}); Primer renders it magenta, "
-                          "as Cycles does")
-        cache[key] = None
+        reader.warn(node, f"{what} could not be read ({why or 'no pixels'}); Primer renders it magenta, as Cycles "
+                          "does")
         return None
     if pixels.dtype.kind == "f":
         bad = ~np.isfinite(pixels)
         if bad.any():
-            reader.warn(node, f"image '{image.name}' has {int(bad.any(axis=-1).sum())} NaN or infinite pixel(s); "
-                              "Primer reads them as 0")
+            reader.warn(node, f"{what} has {int(bad.any(axis=-1).sum())} NaN or infinite pixel(s); Primer reads "
+                              "them as 0")
             pixels = np.where(bad, np.float32(0.0), pixels)
-    cache[key] = textures_.Image(pixels, srgb=space == "sRGB", name=image.name)
-    return cache[key]
+    return textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
 
 
-# Images read in this export (cleared by `begin_export`).
+def sequence_frame(user, scene_frame: int) -> int:
+    """The frame (an int) of a sequence or movie that an Image User shows at `scene_frame`, as Blender's
+    BKE_image_user_frame_get computes it; Cycles calls it with the scene's current frame for every render (the
+    user's own frame_current is updated only with Auto Refresh on, or in a final render's depsgraph). Frames
+    (frame_duration) counted from Start Frame, clamped to 0 .. Frames, or wrapped when Cyclic; then Offset added."""
+    length = int(user.frame_duration)
+    if length == 0:
+        return 0
+    cyclic = bool(user.use_cyclic)
+    frame = int(scene_frame) - int(user.frame_start) + 1
+    if cyclic:
+        frame %= length                             # Python's modulo: 0 .. length - 1 for negative frames too
+        if frame == 0:
+            frame = length
+    frame = min(max(frame, 0), length)
+    return frame + int(user.frame_offset)
+
+
+def sequence_path(path: str, frame: int) -> str:
+    """The file of a sequence's `frame`: the last run of digits in the file name (before its extension) written
+    as `frame` with as many digits, at least (frames below 0 as 0): Blender's BLI_path_sequence_decode and
+    _encode, as BKE_image_user_file_path_ex names a sequence's frame for Cycles."""
+    folder, name = os.path.split(path)
+    stem, dot, extension = name.rpartition(".") if "." in name else (name, "", "")
+    end = len(stem)
+    while end > 0 and not stem[end - 1].isdigit():
+        end -= 1
+    begin = end
+    while begin > 0 and stem[begin - 1].isdigit():
+        begin -= 1
+    digits = end - begin
+    if digits == 0:                                 # no number: the frame goes before the extension ("%.0d" of 0 is "")
+        begin = end = len(stem)
+    number = "%.*d" % (digits, max(0, frame)) if digits or frame else ""
+    return os.path.join(folder, stem[:begin] + number + stem[end:] + dot + extension)
+
+
+def tile_path(path: str, tile: int) -> str:
+    """A UDIM tile's file: the <UDIM> token replaced by the tile's number, <UVTILE> by u<column + 1>_v<row + 1>, as
+    Cycles' ImageManager::add_image names each tile."""
+    u, v = (tile - 1001) % 10, (tile - 1001) // 10
+    return path.replace("<UDIM>", "%04d" % tile).replace("<UVTILE>", f"u{u + 1}_v{v + 1}")
+
+
+# Images read in this export, by (image pointer, frame) (cleared by `begin_export`), and the scene's frame.
 _IMAGES: dict = {}
+_FRAME = [1]
 
 
-def begin_export() -> None:
-    """Forget the images read by an earlier export (a render reads each image once)."""
+def begin_export(frame: int = 1) -> None:
+    """Forget the images read by an earlier export (a render reads each image once); read sequences and movies at
+    the scene's `frame`."""
     _IMAGES.clear()
+    set_frame(frame)
+
+
+def set_frame(frame: int) -> None:
+    """The scene's current frame (int), at which sequences and movies are read (Cycles' b_scene.r.cfra)."""
+    _FRAME[0] = int(frame)
 
 
 def _oiio():
@@ -404,23 +488,23 @@ def _oiio():
         return None
 
 
-def _read_pixels(image) -> np.ndarray:
-    """An image's pixels (h, w, c) float32 bottom row first, its channels as stored (sRGB values of an sRGB
-    image are left encoded)."""
+def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
+    """An image's pixels (h, w, c) as stored (uint8, uint16 or float32) bottom row first, its channels as stored
+    (sRGB values of an sRGB image are left encoded): its file, a UDIM image's `tile`, a sequence's `frame`."""
     oiio = _oiio()
+    if image.source == "TILED":
+        packed = next((p for p in image.packed_files if getattr(p, "tile_number", 1001) == tile), None)
+        if packed is not None and oiio is not None:
+            return _oiio_read_bytes(oiio, packed.packed_file.data, os.path.splitext(packed.filepath)[1])
+        return _oiio_read_file(oiio, tile_path(bpy.path.abspath(image.filepath, library=image.library), tile))
+    if image.source == "SEQUENCE":
+        return _oiio_read_file(oiio, sequence_path(bpy.path.abspath(image.filepath, library=image.library), frame))
     packed = image.packed_file
     if oiio is not None and image.source == "FILE":
         if packed is not None:
-            suffix = os.path.splitext(image.filepath)[1] or "." + image.file_format.lower()
-            with tempfile.TemporaryDirectory() as folder:
-                path = os.path.join(folder, "packed" + suffix)
-                with open(path, "wb") as handle:
-                    handle.write(packed.data)
-                return _oiio_read(oiio, path)
-        path = bpy.path.abspath(image.filepath, library=image.library)
-        if not os.path.isfile(path):
-            raise FileNotFoundError(f"no file {path}")
-        return _oiio_read(oiio, path)
+            return _oiio_read_bytes(oiio, packed.data, os.path.splitext(image.filepath)[1]
+                                    or "." + image.file_format.lower())
+        return _oiio_read_file(oiio, bpy.path.abspath(image.filepath, library=image.library))
     if image.source == "FILE" and packed is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
         if not os.path.isfile(path):
@@ -433,6 +517,26 @@ def _read_pixels(image) -> np.ndarray:
     flat = np.empty(width * height * channels, np.float32)
     image.pixels.foreach_get(flat)
     return flat.reshape(height, width, channels)
+
+
+def _oiio_read_file(oiio, path: str) -> np.ndarray:
+    """An image file's pixels with OpenImageIO (_oiio_read); FileNotFoundError where there is no such file, OSError
+    without OpenImageIO (tiles and sequences are read from their files only)."""
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"no file {path}")
+    if oiio is None:
+        raise OSError("OpenImageIO is not available to read it")
+    return _oiio_read(oiio, path)
+
+
+def _oiio_read_bytes(oiio, data: bytes, suffix: str) -> np.ndarray:
+    """A packed file's pixels (its bytes, its file name's `suffix` such as ".png"), read with OpenImageIO from a
+    temporary file."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "packed" + suffix)
+        with open(path, "wb") as handle:
+            handle.write(data)
+        return _oiio_read(oiio, path)
 
 
 def _oiio_read(oiio, path: str) -> np.ndarray:

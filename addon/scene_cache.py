@@ -192,6 +192,7 @@ class SceneCache:
         """
         # 1. Sort the updates; the first sync counts as every kind of change.
         first = self.scene is None
+        export.materials_.set_frame(depsgraph.scene_eval.frame_current)     # the frame sequences are read at
         self.override = getattr(depsgraph.view_layer_eval, "material_override", None)   # View Layer > Material Override
         changes = classify(depsgraph.updates if updates is None else updates)
         report = SyncReport(scene_changed=changes.scene, camera_changed=changes.camera)

@@ -480,3 +480,86 @@ def test_a_coat_normal_map_renders_the_same_compiled_and_in_numpy():
     for sun in (0.0, 25.0, 60.0):
         np.testing.assert_allclose(shoot(coat_scene(inputs, sun), "compiled"), shoot(coat_scene(inputs, sun), "numpy"),
                                    rtol=1e-9, atol=1e-12)
+
+
+def udim_set(colors: dict, missing=(), plain_first: bool = True) -> textures.TextureSet:
+    """A TextureSet of a plain 1-texel image (row 0, when `plain_first`) and a UDIM image whose tile `number`
+    is a 2 x 2 image of colour colors[number] (RGB), with the tiles in `missing` unreadable (None)."""
+    tiles = {number: textures.Image(np.broadcast_to(np.array([*rgb, 1.0], np.float32), (2, 2, 4)).copy())
+             for number, rgb in colors.items()}
+    tiles.update({number: None for number in missing})
+    images = [textures.Image(np.array([[[0.5, 0.5, 0.5]]], np.float32))] if plain_first else []
+    return textures.TextureSet.of(images + [textures.TiledImage(tiles, "udim")])
+
+
+def test_the_udim_tile_of_a_uv_is_1001_plus_its_column_plus_ten_times_its_row_truncated_as_cycles():
+    """Cycles' svm_node_tex_image: tx = (int)u, ty = (int)v (toward zero), a tile where 0 <= tx < 10 and 0 <= ty:
+    1001 + tx + 10 ty. So -0.5 still lies in column 0, and u = 10 or -1 lie in none."""
+    u = np.array([0.5, 1.5, 9.99, 0.25, 3.5, -0.5, 10.0, -1.0, 2.5, 0.5])
+    v = np.array([0.5, 0.5, 0.0, 1.75, 4.0, 0.5, 0.5, 0.5, -0.25, -1.5])
+    number, tx, ty = textures.tile_of(u, v)
+    np.testing.assert_array_equal(number, [1001, 1002, 1010, 1011, 1044, 1001, -1, -1, 1003, -1])
+    inside = number >= 0
+    np.testing.assert_array_equal(number[inside], 1001 + np.trunc(u[inside]) + 10 * np.trunc(v[inside]))
+    np.testing.assert_array_equal(tx[inside], np.trunc(u[inside]))
+    np.testing.assert_array_equal(ty[inside], np.trunc(v[inside]))
+
+
+@pytest.mark.parametrize("which", ["numpy", "compiled"])
+def test_a_udim_lookup_reads_the_tile_its_uv_names_and_magenta_where_there_is_none(which):
+    """Tiles 1001 (red), 1002 (green), 1011 (blue) and an unreadable 1012: each UV reads its tile's colour, a UV in
+    the unreadable tile, in a tile the image lacks, or outside every tile reads Cycles' missing magenta."""
+    tex = udim_set({1001: (1.0, 0.0, 0.0), 1002: (0.0, 1.0, 0.0), 1011: (0.0, 0.0, 1.0)}, missing=(1012,))
+    u = np.array([0.3, 1.7, 0.5, 1.5, 2.5, 10.5, -1.5])
+    v = np.array([0.6, 0.2, 1.5, 1.5, 0.5, 0.5, 0.5])
+    expected = [(1, 0, 0, 1), (0, 1, 0, 1), (0, 0, 1, 1)] + [textures.MISSING] * 4
+    for interpolation in (0, 1, 2):
+        if which == "numpy":
+            found = tex.lookup(1, u, v, interpolation, textures.EXTENSIONS["REPEAT"])
+        else:
+            found = textures.compiled_lookup(tex, 1, u, v, interpolation, textures.EXTENSIONS["REPEAT"])
+        np.testing.assert_allclose(found, np.array(expected, np.float64), atol=1e-7)
+
+
+def test_a_udim_tile_is_sampled_at_the_fraction_of_the_uv_on_both_kernels_alike():
+    """A tile's lookup is the plain image's at (u - tx, v - ty), in C as in numpy (to float64 rounding), for every
+    interpolation and extension; a plain image in the same set reads as it does alone, bit for bit."""
+    rng = np.random.default_rng(7)
+    tiles = {1001: textures.Image(rng.random((5, 7, 4)).astype(np.float32)),
+             1002: textures.Image(rng.integers(0, 256, (4, 3, 3), dtype=np.uint8), srgb=True),
+             1012: textures.Image(rng.integers(0, 65536, (3, 6, 1), dtype=np.uint16))}
+    plain = textures.Image(rng.random((6, 5, 4)).astype(np.float32))
+    tex = textures.TextureSet.of([plain, textures.TiledImage(dict(tiles), "udim")])
+    alone = textures.TextureSet.of([plain])
+    u = rng.uniform(-1.2, 3.2, 400)
+    v = rng.uniform(-1.2, 2.2, 400)
+    number, tx, ty = textures.tile_of(u, v)
+    for interpolation in (0, 1, 2):
+        for extension in textures.EXTENSIONS.values():
+            reference = tex.lookup(1, u, v, interpolation, extension)
+            compiled = textures.compiled_lookup(tex, 1, u, v, interpolation, extension)
+            np.testing.assert_allclose(compiled, reference, rtol=1e-12, atol=1e-15)
+            for tile, image in tiles.items():
+                here = number == tile
+                one = textures.TextureSet.of([image])
+                np.testing.assert_array_equal(reference[here], one.lookup(0, u[here] - tx[here], v[here] - ty[here],
+                                                                           interpolation, extension))
+            np.testing.assert_array_equal(reference[~np.isin(number, list(tiles))],
+                                          np.broadcast_to(textures.MISSING, (np.sum(~np.isin(number, list(tiles))), 4)))
+            np.testing.assert_array_equal(textures.compiled_lookup(tex, 0, u, v, interpolation, extension),
+                                          textures.compiled_lookup(alone, 0, u, v, interpolation, extension))
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_udim_texture_renders_each_tile_where_the_uvs_reach_it(kernels):
+    """The plane's UVs scaled by a Mapping to span u 0..2: its left half shows tile 1001 (red), its right half tile
+    1002 (green), albedo / pi x E each, on both kernels."""
+    uv = GraphNode("TEXCOORD", {}, {})
+    mapping = GraphNode("MAPPING", {"type": "POINT"}, {"Vector": Link(uv, "UV"), "Scale": (2.0, 1.0, 1.0)})
+    red, green = np.array([0.8, 0.1, 0.1, 1.0], np.float32), np.array([0.1, 0.7, 0.2, 1.0], np.float32)
+    udim = textures.TiledImage({1001: textures.Image(np.broadcast_to(red, (2, 2, 4)).copy()),
+                                1002: textures.Image(np.broadcast_to(green, (2, 2, 4)).copy())}, "udim")
+    material = diffuse_textured(udim, vector=Link(mapping, "Vector"))
+    u, _ = pixel_uv()
+    albedo = np.where((2.0 * u)[..., None] < 1.0, red[:3], green[:3])
+    check_varying(scene_of(material), kernels, albedo / math.pi * E, atol=1e-6)

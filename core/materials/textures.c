@@ -1,7 +1,7 @@
 /* Image textures: core/materials/textures.py. Every image of a render kept as stored (8-bit, 16-bit or float
  * texels, 1 to 4 channels) in one buffer per format, looked up with Cycles' conventions (texel centres at
  * i + 0.5, Closest, Linear, Cubic B-spline; Repeat, Extend, Clip, Mirror); sRGB images decoded after
- * interpolation. */
+ * interpolation. A UDIM image's lookup first picks its tile (texture_tile). */
 
 /* One image as a lookup reads it. */
 typedef struct {
@@ -63,10 +63,29 @@ INLINE void texel_add(const TextureView *image, int64_t ix, int64_t iy, double w
     for (int c = 0; c < 4; c++) out[c] += weight * t[c];
 }
 
+/* textures.tile_of and TextureSet.tiled_lookup's choice: the row of UDIM image `index`'s tile at (*x, *y), whose
+ * integer parts (rounded toward zero, as Cycles' (int) cast) are taken off them; -1 (magenta) where no tile is. */
+INLINE int texture_tile(const TextureTables *T, int index, double *x, double *y)
+{
+    if (!(*x > -1.0 && *x < 10.0 && *y > -1.0 && *y < 1e9)) return -1;
+    int64_t tx = (int64_t)*x, ty = (int64_t)*y;
+    int64_t number = 1001 + tx + 10 * ty, start = T->tile_start[index], end = start + T->tile_count[index];
+    for (int64_t entry = start; entry < end; entry++) {
+        if (T->tile_number[entry] == number) {
+            *x -= (double)tx;
+            *y -= (double)ty;
+            return (int)T->tile_image[entry];
+        }
+    }
+    return -1;
+}
+
 /* TextureSet.lookup for one point: image `index` (-1: missing, magenta) at (x, y) -> RGBA out[4]. */
 INLINE void texture_lookup(const TextureTables *T, int index, double x, double y, int interpolation, int extension,
                            double *out)
 {
+    if (index >= 0 && T != NULL && index < (int)T->count && T->tile_count[index] > 0)
+        index = texture_tile(T, index, &x, &y);
     if (index < 0 || T == NULL || index >= (int)T->count) {
         out[0] = 1.0; out[1] = 0.0; out[2] = 1.0; out[3] = 1.0;
         return;

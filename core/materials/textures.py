@@ -15,6 +15,12 @@ width; Closest takes the texel the point lies in, Linear interpolates the four n
 Cubic weighs the sixteen nearest with the uniform cubic B-spline; Repeat wraps, Extend clamps to the
 edge, Clip is transparent black outside the image, Mirror reflects. core/materials/textures.c is the
 compiled twin.
+
+A UDIM image (TiledImage) is one row of the set with no texels of its own and a list of tiles in the set's tile
+table: numbers 1001, 1002 ... and the rows of the tiles' images. A lookup at (x, y) picks tile 1001 + tx + 10 ty
+with tx, ty the integer parts of x and y (C's truncation, as Cycles' svm_node_tex_image does: -1 < x < 0 is
+tile column 0) and samples it at (x - tx, y - ty); where 0 <= tx < 10 and 0 <= ty fails, or no tile has that
+number, it is Cycles' missing image, magenta. A plain image has no tiles, and its lookup is what it was.
 """
 from __future__ import annotations
 
@@ -67,6 +73,35 @@ class Image:
         return as_rgba(self.pixels).astype(np.float32)
 
 
+@dataclass(eq=False)
+class TiledImage:
+    """A UDIM image: tiles {tile number (1001, 1002 ...): Image, or None for a tile that could not be read
+    (magenta there, as Cycles' missing image)}; looked up at the tile the UV's integer part names."""
+
+    tiles: dict
+    name: str = "Image"
+
+    @property
+    def srgb(self) -> bool:
+        """Whether its tiles are sRGB (all are, or none: one image's colour space)."""
+        return any(tile is not None and tile.srgb for tile in self.tiles.values())
+
+
+# Tile numbers as Cycles reads them: 1001 + column + 10 row, with 10 columns.
+FIRST_TILE, TILE_COLUMNS = 1001, 10
+
+
+def tile_of(x: np.ndarray, y: np.ndarray):
+    """The UDIM tile each point (x, y) (n,) float64 lies in, as Cycles' svm_node_tex_image picks it: (tile number
+    (n,) int64, -1 where there is none; column tx and row ty (n,) int64, the integer parts of x and y rounded toward
+    zero). A tile exists where 0 <= tx < 10 and 0 <= ty, i.e. -1 < x < 10 and -1 < y."""
+    x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+    inside = (x > -1.0) & (x < TILE_COLUMNS) & (y > -1.0) & (y < 1e9)
+    tx = np.trunc(np.where(inside, x, 0.0)).astype(np.int64)
+    ty = np.trunc(np.where(inside, y, 0.0)).astype(np.int64)
+    return np.where(inside, FIRST_TILE + tx + TILE_COLUMNS * ty, -1), tx, ty
+
+
 def as_rgba(texels: np.ndarray) -> np.ndarray:
     """Texels (..., c) of any stored format as float64 RGBA (..., 4): scaled to 0..1 from integers, grey to
     RGB, a missing alpha 1."""
@@ -89,7 +124,10 @@ class TextureSet:
     """Every image of a render in one buffer per storage format (textures.c TextureTables).
 
     floats (a,) float32, shorts (b,) uint16, bytes (c,) uint8: the texels of the images of each format, one after
-    another; format, offset (in values of its buffer), width, height, channels, srgb: (k,) int64 per image
+    another; format, offset (in values of its buffer), width, height, channels, srgb: (k,) int64 per image;
+    tile_count, tile_start (k,) int64: a UDIM image's tiles are entries tile_start .. tile_start + tile_count - 1
+    of tile_number, tile_image (t,) int64 (a tile's number and its image's row, -1 where it could not be read);
+    tile_count is 0 for every other image
     """
 
     floats: np.ndarray = field(default_factory=lambda: np.zeros(4, np.float32))
@@ -101,28 +139,51 @@ class TextureSet:
     height: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     channels: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     srgb: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    tile_count: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    tile_start: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    tile_number: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    tile_image: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @classmethod
     def of(cls, images: list) -> "TextureSet":
-        """The images (Image each) in their formats' buffers, in the order given."""
+        """The images (Image or TiledImage each) in their formats' buffers, row i being images[i]; a TiledImage's
+        tiles are rows after all of them, in the order of their numbers."""
         if not images:
             return cls()
-        buffers = {FORMAT_FLOAT: [], FORMAT_BYTE: [], FORMAT_SHORT: []}
-        offset = []
+        rows = list(images)
+        tile_count, tile_start, tile_number, tile_image = [], [], [], []
         for image in images:
-            parts = buffers[image.format]
+            tiles = sorted(image.tiles.items()) if isinstance(image, TiledImage) else []
+            tile_count.append(len(tiles))
+            tile_start.append(len(tile_number))
+            for number, tile in tiles:
+                tile_number.append(int(number))
+                tile_image.append(-1 if tile is None else len(rows))
+                if tile is not None:
+                    rows.append(tile)
+        buffers = {FORMAT_FLOAT: [], FORMAT_BYTE: [], FORMAT_SHORT: []}
+        offset, form, shape = [], [], []
+        for image in rows:
+            tiled = isinstance(image, TiledImage)           # a row without texels of its own
+            form.append(FORMAT_FLOAT if tiled else image.format)
+            parts = buffers[form[-1]]
             offset.append(sum(len(part) for part in parts))
-            parts.append(image.pixels.reshape(-1))
+            shape.append((0, 0, 0) if tiled else image.pixels.shape)
+            if not tiled:
+                parts.append(image.pixels.reshape(-1))
 
         def joined(form, dtype):
             parts = buffers[form]
             return np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(4, dtype)
 
-        shape = np.array([image.pixels.shape for image in images], np.int64)
+        shape = np.array(shape, np.int64)
+        pad = [0] * (len(rows) - len(images))
         return cls(joined(FORMAT_FLOAT, np.float32), joined(FORMAT_SHORT, np.uint16), joined(FORMAT_BYTE, np.uint8),
-                   np.array([image.format for image in images], np.int64), np.array(offset, np.int64),
+                   np.array(form, np.int64), np.array(offset, np.int64),
                    shape[:, 1].copy(), shape[:, 0].copy(), shape[:, 2].copy(),
-                   np.array([1 if image.srgb else 0 for image in images], np.int64))
+                   np.array([1 if image.srgb else 0 for image in rows], np.int64),
+                   np.array(tile_count + pad, np.int64), np.array(tile_start + pad, np.int64),
+                   np.array(tile_number, np.int64), np.array(tile_image, np.int64))
 
     def texels(self, index: int) -> np.ndarray:
         """Image `index`'s texels (h, w, c) as stored (a view into its format's buffer)."""
@@ -138,6 +199,8 @@ class TextureSet:
         n = len(x)
         if index < 0:
             return np.tile(np.array(MISSING), (n, 1))
+        if len(self.tile_count) and self.tile_count[index] > 0:
+            return self.tiled_lookup(index, x, y, interpolation, extension)
         data = self.texels(index)
         if interpolation == 1:
             rgba = closest(data, x, y, extension)
@@ -148,6 +211,22 @@ class TextureSet:
         if self.srgb[index]:
             rgba[:, :3] = srgb_to_linear(rgba[:, :3])
         return rgba
+
+
+    def tiled_lookup(self, index: int, x: np.ndarray, y: np.ndarray, interpolation: int,
+                     extension: int) -> np.ndarray:
+        """UDIM image `index` at (x, y) (n,) float64 -> RGBA (n, 4) float64: each point's tile (tile_of) looked up at
+        (x - tx, y - ty); magenta where no tile is, or the tile could not be read."""
+        x, y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+        number, tx, ty = tile_of(x, y)
+        out = np.tile(np.array(MISSING), (len(x), 1))
+        start = int(self.tile_start[index])
+        for entry in range(start, start + int(self.tile_count[index])):
+            here = np.flatnonzero(number == self.tile_number[entry])
+            if len(here):
+                out[here] = self.lookup(int(self.tile_image[entry]), x[here] - tx[here], y[here] - ty[here],
+                                        interpolation, extension)
+        return out
 
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
@@ -242,6 +321,10 @@ TextureTablesRecord = schema.record("TextureTables", "A render's images (core/ma
     ("height", ptr(I64), "(k,)"),
     ("channels", ptr(I64), "(k,)"),
     ("srgb", ptr(I64), "(k,) 1: decode the sRGB curve after interpolation"),
+    ("tile_count", ptr(I64), "(k,) a UDIM image's number of tiles, 0 for any other image"),
+    ("tile_start", ptr(I64), "(k,) its first entry in tile_number and tile_image"),
+    ("tile_number", ptr(I64), "(t,) each tile's number, 1001 + column + 10 row"),
+    ("tile_image", ptr(I64), "(t,) each tile's image row, -1 where it could not be read (magenta)"),
     ("count", I64, "k"),
 ])
 
@@ -263,7 +346,8 @@ def texture_tables(textures: TextureSet) -> TextureTablesRecord:
     return TextureTablesRecord(floats=c(textures.floats, np.float32), shorts=c(textures.shorts, np.uint16),
                                bytes=c(textures.bytes, np.uint8), count=len(textures.width),
                                **{name: c(getattr(textures, name), np.int64)
-                                  for name in ("format", "offset", "width", "height", "channels", "srgb")})
+                                  for name in ("format", "offset", "width", "height", "channels", "srgb", "tile_count",
+                                               "tile_start", "tile_number", "tile_image")})
 
 
 def compiled_lookup(textures: TextureSet, index: int, x: np.ndarray, y: np.ndarray, interpolation: int,

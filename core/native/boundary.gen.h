@@ -618,6 +618,10 @@ struct TextureTables {
     const int64_t *height;                  /* (k,) */
     const int64_t *channels;                /* (k,) */
     const int64_t *srgb;                    /* (k,) 1: decode the sRGB curve after interpolation */
+    const int64_t *tile_count;              /* (k,) a UDIM image's number of tiles, 0 for any other image */
+    const int64_t *tile_start;              /* (k,) its first entry in tile_number and tile_image */
+    const int64_t *tile_number;             /* (t,) each tile's number, 1001 + column + 10 row */
+    const int64_t *tile_image;              /* (t,) each tile's image row, -1 where it could not be read (magenta) */
     int64_t count;                          /* k */
 };
 
@@ -673,7 +677,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7667246339315466006);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(7864844278317438599);
-    if (strcmp(name, "TextureTables") == 0) return UINT64_C(4795500325786963411);
+    if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
     return 0;

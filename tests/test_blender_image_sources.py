@@ -1,0 +1,230 @@
+"""UDIM tiles, image sequences and movies, inside real Blender (the bpy module, no mocks), against Cycles.
+
+Issue 31: all three rendered magenta, with a warning that Cycles does the same; Cycles renders the tile or frame.
+Each scene is seen straight down by an orthographic camera: planes whose Emission colour is an Image Texture
+(Closest, texels on whole pixels), so every pixel is one texel's colour, the same in both engines for few samples.
+The images are written here: a 2-tile UDIM image (name.1001.png, name.1002.png) on a plane of three quads whose UVs
+span u 0..3 (the third lies in no tile; each tile has UV corners in it, else Cycles' final render leaves it out,
+ImageTextureNode::cull_tiles); a sequence of three files, numbered 11 to 13, read at scene frame 8 through
+Image Users with Frames 3, Start 1, Cyclic, Offset 10 and 11 (frames 12 and 13: the 2nd and 3rd files); a movie
+rendered by Blender to FFmpeg, which Primer cannot read: the warning must say so and name the frame Cycles shows.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from blender_env import ROOT, run_bpy
+
+pytestmark = [pytest.mark.blender, pytest.mark.slow]
+
+SCRIPT = """
+import os, sys
+import bpy
+import numpy as np
+import OpenImageIO as oiio
+from blender_env import render_pixels, report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+
+primer = load_primer()
+engine_module = sys.modules[primer.__name__ + ".addon.engine"]
+
+
+def write_png(path, texels):
+    # texels (h, w, 3) uint8, top row first (as files store them)
+    spec = oiio.ImageSpec(texels.shape[1], texels.shape[0], 3, oiio.UINT8)
+    out = oiio.ImageOutput.create(path)
+    out.open(path, spec)
+    out.write_image(np.ascontiguousarray(texels))
+    out.close()
+
+
+def emitting_plane(scene, name, image, x, width, u_scale, offset=None):
+    # a plane `width` wide (2 high) centred at x, of one quad per unit of u (UVs 0..u_scale across it), emitting its
+    # image texture's colour
+    columns = max(1, int(round(u_scale)))
+    xs = [x - width / 2.0 + width * i / columns for i in range(columns + 1)]
+    vertices = [(px, py, 0.0) for py in (-1.0, 1.0) for px in xs]
+    faces = [(i, i + 1, columns + 2 + i, columns + 1 + i) for i in range(columns)]
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices, [], faces)
+    uv = mesh.uv_layers.new(name="UVMap")
+    for loop in mesh.loops:
+        px, py, _ = vertices[loop.vertex_index]
+        uv.data[loop.index].uv = ((px - xs[0]) / width * u_scale, (py + 1.0) / 2.0)
+    plane = bpy.data.objects.new(name, mesh)
+    scene.collection.objects.link(plane)
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:
+        material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.clear()
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    emission = tree.nodes.new("ShaderNodeEmission")
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image, texture.interpolation = image, "Closest"
+    if image.source in ("SEQUENCE", "MOVIE"):
+        user = texture.image_user
+        user.frame_duration, user.frame_start, user.use_cyclic = 3, 1, True
+        user.frame_offset = offset or 0
+    tree.links.new(texture.outputs["Color"], emission.inputs["Color"])
+    tree.links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    plane.data.materials.append(material)
+
+
+def empty_scene(width, height, frame=1):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    scene.frame_set(frame)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale = "ORTHO", 2.0 * max(width, height) / height
+    camera.location = (0.0, 0.0, 5.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    return scene
+
+
+def renders(scene, case):
+    found = {{}}
+    for engine, samples in (("PRIMER", 16), ("CYCLES", 16)):
+        found[engine] = render_pixels(scene, engine, os.path.abspath(f"{{case}}_{{engine}}.exr"), samples)[..., :3].tolist()
+    found["warnings"] = list(engine_module.last_render.warnings) if engine_module.last_render else []
+    return found
+
+
+out = {{}}
+folder = os.path.abspath(".")
+# 1. UDIM: tile 1001 a red/blue column pair, tile 1002 green/yellow; u 2..3 lies in no tile.
+tiles = {{1001: [[200, 30, 30], [30, 30, 200]], 1002: [[30, 200, 30], [200, 200, 30]]}}
+for number, colours in tiles.items():
+    write_png(os.path.join(folder, f"udim.{{number}}.png"), np.array([colours, colours], np.uint8))
+scene = empty_scene(24, 8)
+udim = bpy.data.images.load(os.path.join(folder, "udim.1001.png"))
+udim.source = "TILED"
+emitting_plane(scene, "Tiles", udim, 0.0, 6.0, 3.0)
+out["udim"] = renders(scene, "udim")
+out["udim"]["tiles"] = [tile.number for tile in udim.tiles]
+
+# 2. A sequence of three files, frames 11, 12, 13; two nodes at scene frame 8 show frames 12 and 13.
+for frame, colour in ((11, [220, 40, 40]), (12, [40, 220, 40]), (13, [40, 40, 220])):
+    write_png(os.path.join(folder, f"seq_{{frame:03d}}.png"), np.array([[colour, colour]] * 2, np.uint8))
+scene = empty_scene(16, 8, frame=8)
+sequence = bpy.data.images.load(os.path.join(folder, "seq_011.png"))
+sequence.source = "SEQUENCE"
+emitting_plane(scene, "Second", sequence, -1.0, 2.0, 1.0, offset=10)
+emitting_plane(scene, "Third", sequence, 1.0, 2.0, 1.0, offset=11)
+out["sequence"] = renders(scene, "sequence")
+# ... and the same sequence as the world's Environment Texture, Offset 10: the sky is frame 12.
+scene = empty_scene(8, 8, frame=8)
+world = bpy.data.worlds.new("World")
+scene.world = world
+if world.node_tree is None:
+    world.use_nodes = True
+texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+texture.image = bpy.data.images.load(os.path.join(folder, "seq_011.png"))
+texture.image.source = "SEQUENCE"
+user = texture.image_user
+user.frame_duration, user.frame_start, user.use_cyclic, user.frame_offset = 3, 1, True, 10
+background = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
+world.node_tree.links.new(texture.outputs["Color"], background.inputs["Color"])
+out["world"] = renders(scene, "world")
+
+# 3. A movie of three frames (red, green, blue), made by Blender's own FFmpeg output, shown at its frame 2.
+out["movie"] = {{"ffmpeg": bool(bpy.app.ffmpeg.supported)}}
+if bpy.app.ffmpeg.supported:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32, 16, 100
+    scene.frame_start, scene.frame_end = 1, 3
+    scene.view_settings.view_transform = "Standard"
+    strips = scene.sequence_editor_create()
+    strips = strips.strips if hasattr(strips, "strips") else strips.sequences
+    for index, colour in enumerate(((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))):
+        strip = strips.new_effect(name=f"c{{index}}", type="COLOR", channel=1, frame_start=index + 1, length=1)
+        strip.color = colour
+    scene.render.use_sequencer = True
+    if hasattr(scene.render.image_settings, "media_type"):
+        scene.render.image_settings.media_type = "VIDEO"
+    scene.render.image_settings.file_format = "FFMPEG"
+    scene.render.ffmpeg.format, scene.render.ffmpeg.codec = "QUICKTIME", "QTRLE"
+    scene.render.filepath = os.path.join(folder, "movie_")
+    bpy.ops.render.render(animation=True)
+    movie_path = next(os.path.join(folder, f) for f in os.listdir(folder) if f.startswith("movie_"))
+    scene = empty_scene(8, 8, frame=2)
+    movie = bpy.data.images.load(movie_path)
+    emitting_plane(scene, "Movie", movie, 0.0, 2.0, 1.0)
+    out["movie"].update(renders(scene, "movie"))
+    out["movie"]["source"] = movie.source
+primer.unregister()
+report(**out)
+"""
+
+
+@pytest.fixture(scope="module")
+def found(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("image_sources")
+    return run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools")), str(folder))
+
+
+def srgb_decoded(byte) -> np.ndarray:
+    """An 8-bit sRGB value decoded to linear (the exact curve Cycles and Primer apply)."""
+    from core.materials.textures import srgb_to_linear
+    return srgb_to_linear(np.asarray(byte, np.float64) / 255.0)
+
+
+def test_a_udim_plane_shows_each_tile_where_its_uvs_are_as_cycles(found):
+    """u 0..1 shows tile 1001's two texel columns, u 1..2 tile 1002's, u 2..3 (no tile) Cycles' magenta: Primer's
+    pixels are Cycles' (each pixel one texel's emission), and no warning claims magenta."""
+    case = found["udim"]
+    mine, cycles = np.asarray(case["PRIMER"]), np.asarray(case["CYCLES"])
+    print(case["warnings"], case["tiles"])
+    assert case["tiles"] == [1001, 1002]
+    np.testing.assert_allclose(mine, cycles, atol=2e-3)
+    row = cycles[4]                                  # 24 pixels: 8 per tile, 4 per texel column
+    np.testing.assert_allclose(row[:4], np.broadcast_to(srgb_decoded([200, 30, 30]), (4, 3)), atol=2e-3)
+    np.testing.assert_allclose(row[12:16], np.broadcast_to(srgb_decoded([200, 200, 30]), (4, 3)), atol=2e-3)
+    np.testing.assert_allclose(row[16:], np.broadcast_to([1.0, 0.0, 1.0], (8, 3)), atol=2e-3)
+    assert not [w for w in case["warnings"] if "magenta" in w], case["warnings"]
+
+
+def test_a_sequence_shows_the_frame_its_image_user_picks_at_the_scene_frame_as_cycles(found):
+    """At scene frame 8 an Image User of 3 frames from frame 1, cyclic, shows frame 8 mod 3 = 2, plus its Offset: 12
+    (the 2nd file) for Offset 10 and 13 (the 3rd) for Offset 11; two nodes of one image show their own frames."""
+    case = found["sequence"]
+    mine, cycles = np.asarray(case["PRIMER"]), np.asarray(case["CYCLES"])
+    print(case["warnings"])
+    np.testing.assert_allclose(mine, cycles, atol=2e-3)
+    np.testing.assert_allclose(cycles[:, :8], np.broadcast_to(srgb_decoded([40, 220, 40]), (8, 8, 3)), atol=2e-3)
+    np.testing.assert_allclose(cycles[:, 8:], np.broadcast_to(srgb_decoded([40, 40, 220]), (8, 8, 3)), atol=2e-3)
+    assert not [w for w in case["warnings"] if "magenta" in w], case["warnings"]
+
+
+def test_a_world_environment_sequence_shows_the_frame_its_image_user_picks_as_cycles(found):
+    """The sequence as the world's Environment Texture (Offset 10, scene frame 8): the sky is frame 12, the 2nd file,
+    in both engines."""
+    case = found["world"]
+    mine, cycles = np.asarray(case["PRIMER"]), np.asarray(case["CYCLES"])
+    print(case["warnings"])
+    np.testing.assert_allclose(mine, cycles, atol=2e-3)
+    np.testing.assert_allclose(cycles, np.broadcast_to(srgb_decoded([40, 220, 40]), cycles.shape), atol=2e-3)
+    assert not [w for w in case["warnings"] if "magenta" in w], case["warnings"]
+
+
+def test_a_movie_primer_cannot_read_is_magenta_with_a_warning_naming_the_frame_cycles_shows(found):
+    """Cycles reads the movie through Blender (frame 2: green); Primer, without a movie reader, renders magenta and
+    its warning says so, names frame 2, and does not claim Cycles renders magenta too."""
+    case = found["movie"]
+    if not case["ffmpeg"]:
+        pytest.skip("this Blender has no FFmpeg: no movie can be made to test with")
+    mine, cycles = np.asarray(case["PRIMER"]), np.asarray(case["CYCLES"])
+    print(case["warnings"], cycles.mean(axis=(0, 1)))
+    assert case["source"] == "MOVIE"
+    green = cycles.mean(axis=(0, 1))
+    assert green[1] > 0.5 and green[0] < 0.1 and green[2] < 0.1, green
+    np.testing.assert_allclose(mine, np.broadcast_to([1.0, 0.0, 1.0], mine.shape), atol=1e-6)
+    about = [w for w in case["warnings"] if "movie" in w]
+    assert len(about) == 1 and "frame 2" in about[0] and "as Cycles does" not in about[0], case["warnings"]
