@@ -164,7 +164,7 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
     running = np.cumsum(closures.sample_weight, axis=1)
     chosen = np.minimum((running <= (pick * total)[:, None]).sum(axis=1), slots - 1)
     rows = np.arange(n)
-    kind = closures.kind[rows, chosen]
+    kind = np.where(total > 0.0, closures.kind[rows, chosen], -1)      # (no closure to sample: none chosen, as in C)
     # Where `pick` fell inside the chosen closure's share: a third number for a BSDF that chooses between
     # lobes (rough glass: reflect or refract), uniform and independent of the choice of closure.
     share = closures.sample_weight[rows, chosen]
