@@ -690,7 +690,8 @@ def _terminator_offsets(obj) -> tuple:
     for owner in (obj, getattr(obj, "cycles", None)):
         if owner is not None and hasattr(owner, "shadow_terminator_geometry_offset"):
             return (float(owner.shadow_terminator_geometry_offset),
-                    float(getattr(owner, "shadow_terminator_shading_offset", 0.0)))
+                    float(getattr(owner, "shadow_terminator_shading_offset",
+                                  getattr(owner, "shadow_terminator_offset", 0.0))))      # (4.2: its old name)
     return 0.1, 0.0
 
 

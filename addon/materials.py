@@ -23,6 +23,7 @@ from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
 from ..core.materials.graph import GraphNode, Link
+from . import unmodelled
 
 # Principled BSDF sockets -> core/materials/nodes.py PRINCIPLED_INPUTS.
 PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Roughness": "roughness", "IOR": "ior",
@@ -794,6 +795,7 @@ def export_material(material, warnings: list) -> Material:
         method = str(getattr(material, "displacement_method", "BUMP"))
         warnings.append(f"material '{material.name}': its Displacement output is ignored (Cycles uses it"
                         + (" as a bump map" if method == "BUMP" else f", method {method}") + "; Primer does not)")
+    warnings.extend(unmodelled.material_notes(material))
     nodes = shader_nodes(material, warnings)
     if volume is not None and surface_node(material) is None:
         # Cycles: a volume's boundary with no surface shader is not there for rays (they enter the volume).

@@ -13,30 +13,87 @@ UNWRITTEN_PASSES = {"use_pass_mist": "Mist", "use_pass_vector": "Vector", "use_p
                     "use_pass_subsurface_direct": "Subsurface Direct",
                     "use_pass_subsurface_indirect": "Subsurface Indirect",
                     "use_pass_subsurface_color": "Subsurface Color"}
+# Cycles' own passes (View Layer > Passes, view_layer.cycles) that Primer does not write: property -> the pass's name.
+UNWRITTEN_CYCLES_PASSES = {"use_pass_shadow_catcher": "Shadow Catcher", "use_pass_volume_direct": "Volume Direct",
+                           "use_pass_volume_indirect": "Volume Indirect", "use_pass_volume_majorant": "Volume Majorant",
+                           "use_pass_volume_scatter": "Volume Scatter", "use_pass_volume_transmit": "Volume Transmit",
+                           "pass_debug_sample_count": "Debug Sample Count", "pass_render_time": "Render Time"}
 
 
 def render_notes(scene) -> list:
     """Render settings of `scene` that change a Cycles render and that Primer does not model."""
     notes = []
-    if getattr(scene.render, "use_motion_blur", False):
+    render = scene.render
+    if getattr(render, "use_motion_blur", False):
         notes.append("motion blur is on; Primer renders every object at the frame's instant (no motion blur)")
+    if getattr(render, "use_multiview", False):
+        notes.append("Stereoscopy is on; Cycles renders each view from its own eye, Primer renders the scene's camera "
+                     "once, without the views' offsets")
     cycles = getattr(scene, "cycles", None)
+    if cycles is None:
+        return notes
     kind = str(getattr(cycles, "pixel_filter_type", "BOX"))
     width = float(getattr(cycles, "filter_width", 1.0))
-    if cycles is not None and (kind != "BOX" or abs(width - 1.0) > 1e-6):
+    if kind != "BOX" or abs(width - 1.0) > 1e-6:
         notes.append(f"Cycles filters pixels with a {kind.replace('_', '-').title()} filter {width:g} px wide here; "
                      "Primer averages each pixel's own samples (a 1-pixel box): edges and fine detail come out a "
                      "little sharper")
+    exposure = float(getattr(cycles, "film_exposure", 1.0))
+    if abs(exposure - 1.0) > 1e-6:
+        notes.append(f"Cycles scales the image by its Film Exposure {exposure:g}; Primer does not (Color Management's "
+                     "Exposure brightens both alike)")
+    if getattr(render, "film_transparent", False) and getattr(cycles, "film_transparent_glass", False):
+        notes.append("Cycles' Transparent Glass makes glass see-through on the transparent film; Primer's alpha "
+                     "counts glass as any surface")
+    blur = float(getattr(cycles, "blur_glossy", 0.0))
+    if blur > 0.0 and getattr(getattr(scene, "primer", None), "integrator", "DIRECT") == "PATH":
+        notes.append(f"Cycles' Filter Glossy ({blur:g}) blurs glossy light after a rough bounce; Primer follows sharp "
+                     "reflections as they are (a little more noise, no blur)")
+    if getattr(cycles, "use_fast_gi", False):
+        notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
+                     "follows whole paths")
+    culled = [obj.name for obj in scene.objects
+              if (getattr(cycles, "use_camera_cull", False) and _flag(obj, "use_camera_cull"))
+              or (getattr(cycles, "use_distance_cull", False) and _flag(obj, "use_distance_cull"))]
+    if culled:
+        notes.append(f"Cycles culls objects out of view or far away (Simplify > Culling: '{culled[0]}'"
+                     + (" and others" if len(culled) > 1 else "") + "); Primer keeps every object")
+    limit = str(getattr(cycles, "texture_limit_render", "OFF"))
+    scale = float(getattr(cycles, "texture_resolution_render", 1.0))
+    if getattr(render, "use_simplify", False) and (limit != "OFF" or abs(scale - 1.0) > 1e-6):
+        notes.append("Cycles shrinks image textures (Simplify > Texture Limit or Resolution); Primer reads them at "
+                     "full resolution")
     return notes
 
 
 def view_layer_notes(view_layer) -> list:
-    """Passes and collection settings of `view_layer` that Primer does not render."""
+    """Passes, filters and collection settings of `view_layer` that Primer does not render."""
     notes = [f"the {name} pass is not written by Primer (it stays empty)"
              for prop, name in UNWRITTEN_PASSES.items() if getattr(view_layer, prop, False)]
+    cycles = getattr(view_layer, "cycles", None)
+    notes += [f"the {name} pass is not written by Primer (it stays empty)"
+              for prop, name in UNWRITTEN_CYCLES_PASSES.items() if getattr(cycles, prop, False)]
+    scene = view_layer.id_data
+    if getattr(cycles, "denoising_store_passes", False) and not getattr(getattr(scene, "primer", None),
+                                                                       "use_denoising", False):
+        notes.append("the Denoising Data passes are not written by Primer (it writes Denoising Albedo and Normal "
+                     "with its own Denoise on)")
     aovs = [aov.name for aov in getattr(view_layer, "aovs", ())]
     if aovs:
         notes.append(f"shader AOVs ({', '.join(aovs)}) are not written by Primer (they stay empty)")
+    if not getattr(view_layer, "use_pass_combined", True):
+        notes.append("the Combined pass is off in the view layer; Primer writes it anyway")
+    if not getattr(view_layer, "use_sky", True):
+        notes.append("the view layer's Filter leaves the Environment out (Cycles shows no world); Primer renders it")
+    if not getattr(view_layer, "use_solid", True):
+        notes.append("the view layer's Filter leaves Surfaces out (Cycles renders none); Primer renders them")
+    threshold = float(getattr(view_layer, "pass_alpha_threshold", 0.5))
+    if abs(threshold - 0.5) > 1e-6:
+        notes.append(f"the view layer's pass Alpha Threshold is {threshold:g}; Primer's data passes take the first "
+                     "surface at least 0.5 opaque")
+    override = getattr(view_layer, "world_override", None)
+    if override is not None and override != getattr(scene, "world", None):
+        notes.append(f"the view layer's World Override '{override.name}' is not read; Primer renders the scene's world")
     for layer in _layer_collections(view_layer.layer_collection):
         if getattr(layer, "indirect_only", False) and not layer.exclude:
             notes.append(f"collection '{layer.name}' is Indirect Only; Primer renders it as an ordinary collection "
@@ -54,14 +111,18 @@ def holdout_objects(view_layer) -> set:
 
 
 def camera_notes(camera_object) -> list:
-    """Camera settings that Primer does not model (depth of field)."""
+    """Camera settings that Primer does not model: depth of field, a custom (OSL) camera."""
     data = getattr(camera_object, "data", None)
+    notes = []
+    if getattr(data, "type", "PERSP") not in {"PERSP", "ORTHO", "PANO"}:
+        notes.append(f"camera '{camera_object.name}' is a {data.type.title()} camera (a shader of its own in Cycles); "
+                     "Primer renders it as a perspective camera")
     dof = getattr(data, "dof", None)
     if dof is None or not dof.use_dof:
-        return []
+        return notes
     focus = f"object '{dof.focus_object.name}'" if dof.focus_object is not None else f"{dof.focus_distance:g} m"
-    return [f"camera '{camera_object.name}' has depth of field (f/{dof.aperture_fstop:g}, focus {focus}); Primer "
-            "renders through a pinhole: everything in focus"]
+    return notes + [f"camera '{camera_object.name}' has depth of field (f/{dof.aperture_fstop:g}, focus {focus}); "
+                    "Primer renders through a pinhole: everything in focus"]
 
 
 def object_notes(obj) -> list:
@@ -80,6 +141,13 @@ def object_notes(obj) -> list:
         settings = system.settings
         if settings.type == "HAIR" and settings.render_type == "PATH":
             notes.append(f"object '{obj.name}': hair of particle system '{system.name}' is not rendered by Primer")
+    adaptive = any(modifier.type == "SUBSURF" and modifier.show_render and getattr(modifier, "use_adaptive_subdivision",
+                                                                                    False)
+                   for modifier in getattr(obj, "modifiers", ())) \
+        or getattr(getattr(obj, "cycles", None), "use_adaptive_subdivision", False)     # (Blender 4.2 to 4.5)
+    if adaptive:
+        notes.append(f"object '{obj.name}' has adaptive subdivision (Cycles dices it by its size on screen); Primer "
+                     "renders the mesh the modifier evaluates")
     return notes
 
 
@@ -103,13 +171,39 @@ def light_notes(obj) -> list:
 
 
 def world_notes(world) -> list:
-    """World settings that Primer does not model: a volume."""
+    """World settings that Primer does not model: a volume, Cycles' world light settings, Transmission visibility."""
     from .materials import linked_node, node_tree, output_node
     tree = node_tree(world) if world is not None else None
     output = output_node(tree, "ShaderNodeOutputWorld") if tree is not None else None
+    notes = []
     if output is not None and "Volume" in output.inputs and linked_node(output, "Volume") is not None:
-        return ["the world's Volume is not rendered (Primer renders no volumes): no fog"]
+        notes.append("the world's Volume is not rendered (Primer renders no volumes): no fog")
+    cycles = getattr(world, "cycles", None)
+    if cycles is not None:
+        if int(getattr(cycles, "max_bounces", 1024)) < 1024:
+            notes.append(f"the world has Max Bounces {cycles.max_bounces}; Primer lights every bounce with it")
+        if getattr(cycles, "is_caustics_light", False):
+            notes.append("the world is a shadow caustics light; Primer renders no manifold caustics")
+        if not getattr(cycles, "use_shadows", True):
+            notes.append("the world casts no shadows in Cycles; Primer traces the shadow rays of its light")
+    visibility = getattr(world, "cycles_visibility", None)
+    if visibility is not None and not visibility.transmission:
+        notes.append("the world is hidden from Transmission rays (Ray Visibility); Primer shows it through glass")
+    return notes
+
+
+def material_notes(material) -> list:
+    """Material settings that Primer does not model: Cycles' bump map correction switched off."""
+    cycles = getattr(material, "cycles", None)
+    if cycles is not None and not getattr(cycles, "use_bump_map_correction", True):
+        return [f"material '{material.name}' has Bump Map Correction off; Primer always shadows bumped normals as "
+                "Cycles does with it on"]
     return []
+
+
+def _flag(obj, prop: str) -> bool:
+    """An object's Cycles setting `prop` (object.cycles), False where there is none."""
+    return bool(getattr(getattr(obj, "cycles", None), prop, False))
 
 
 def _layer_collections(layer) -> list:
