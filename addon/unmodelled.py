@@ -187,7 +187,8 @@ def world_notes(world) -> list:
         if not getattr(cycles, "use_shadows", True):
             notes.append("the world casts no shadows in Cycles; Primer traces the shadow rays of its light")
     visibility = getattr(world, "cycles_visibility", None)
-    if visibility is not None and not visibility.transmission:
+    if visibility is not None and not visibility.transmission and visibility.diffuse:
+        # (Primer's world lights every ray where Diffuse is on, and none where it is off: export.export_world)
         notes.append("the world is hidden from Transmission rays (Ray Visibility); Primer shows it through glass")
     return notes
 

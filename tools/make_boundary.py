@@ -112,6 +112,14 @@ def records_block(schema) -> str:
               "EXPORT int64_t primer_record_size(const char *name)\n{\n" + sizes + "    return -1;\n}\n")
 
 
+def param_table(prefix: str, table: tuple, param: str) -> str:
+    """The index of parameter `param` in each class's params, by kind (-1 where it has none), as PREFIX_<PARAM>_PARAM."""
+    name = f"{prefix}_{param.upper()}_PARAM"
+    rows = ", ".join(str(cls.params.index(param) if param in cls.params else -1) for cls in table)
+    return (f"/* Where each {prefix.lower()} kind keeps its parameter \"{param}\" (-1: it has none). */\n"
+            f"static const int {name}[{prefix}_COUNT] = {{{rows}}};\n")
+
+
 def boundary_header() -> str:
     """core/native/boundary.gen.h: the constants, the tables' kinds and flags, and the records."""
     from core.lights import LIGHT_TYPES, LightFlags
@@ -124,6 +132,7 @@ def boundary_header() -> str:
                         [cls.c_name() for cls in BSDF_TYPES]),
              flags_block("core/materials/base.py BSDFFlags: what a BSDF is", "BSDF", BSDFFlags),
              flag_table("BSDF", BSDF_TYPES),
+             param_table("BSDF", BSDF_TYPES, "alpha"),
              enum_block("core/materials/registry.py NODE_TYPES: a shader node's kind", "NODE",
                         [cls.name for cls in NODE_TYPES]),
              enum_block("core/lights/__init__.py LIGHT_TYPES: a light's kind", "LIGHT",

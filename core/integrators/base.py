@@ -88,6 +88,7 @@ class Radiance(NamedTuple):
              None where none is asked for
     groups:  (n, G, 3) float64 each ray's light by the group of its source (core/integrators/lightgroups.py), or
              None where no light group is asked for
+    features: (n, 6) float64 each ray's denoising albedo and normal (core/integrators/features.py), or None
     """
 
     L: np.ndarray
@@ -96,6 +97,7 @@ class Radiance(NamedTuple):
     holdout: Optional[np.ndarray] = None
     light: Optional[np.ndarray] = None
     groups: Optional[np.ndarray] = None
+    features: Optional[np.ndarray] = None
 
 
 class Recorder:

@@ -98,7 +98,7 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
                          params->everywhere != 0.0, params->seed, 0,
                          params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHT, NULL, params->graphs,
                          NULL, (int)params->caustics, {params->clamp_direct, params->clamp_indirect},
-                         params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY, 0, 0, NULL, -1};
+                         params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY, 0, 0, NULL, -1, 0};
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
                                params->graphs, (int)params->transparent_bounces};
     if (params->see_through != 0.0) ds.transmitter = &transmitter;
@@ -106,6 +106,7 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
     ds.groups = H->groups != NULL ? H->group_count : 0;
     ds.instance_groups = params->instance_groups;
     ds.world_group = (int64_t)params->world_group;
+    ds.features = params->features != 0.0 && work != NULL;
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH: {
         PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
@@ -128,9 +129,19 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
             for (int64_t k = 0; k < BLOCK; k++)
                 for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
         }
+        if (ds.features) {                          /* (the camera's hits: features.c) */
+            for (int64_t k = 0; k < BLOCK; k++)
+                for (int i = 0; i < FEATURE_CHANNELS; i++) work->features[k][i] = 0.0;
+            for (int64_t h = 0; h < H->m; h++) {
+                H->looking[h] = 1;
+                for (int c = 0; c < 3; c++) { H->feature_tp[3 * h + c] = 1.0; H->found[3 * h + c] = 0.0; }
+            }
+            features_at_vertex(H, work->features);
+        }
         choose_bsdf_rays(H, &ds);
         int64_t rays = direct_light(H, &ds, embree);
         if (ds.bsdf_rays && ds.sampling != SAMPLE_LIGHT) embree[1] += bsdf_rays(H, &ds);
+        if (ds.features) features_found(H, work->features);
         if (ds.light_passes) add_light_passes(H, work);     /* (all of it direct: the camera's hits) */
         return rays;
     }
@@ -208,7 +219,8 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
     double *group_storage = NULL;                   /* the light groups (lightgroups.py): H's, a's, b's, the lanes' */
     H.groups = work_groups(&group_storage, G, 0);
     H.group_count = G;
-    if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || light_passes) {
+    int features = params->features != 0.0 && out->features != NULL;   /* the denoising features (features.c) */
+    if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || light_passes || features) {
         work = (PathWork *)malloc(sizeof(PathWork));
         if (work == NULL) { free(group_storage); return; }   /* (the caller finds no samples counted) */
         work->a.groups = work_groups(&group_storage, G, 1);
@@ -234,6 +246,8 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         if (light_passes)
             for (int i = 0; i < LIGHT_CHANNELS; i++) out->light[LIGHT_CHANNELS * k + i] = 0.0;
         for (int64_t i = 0; i < 3 * G; i++) out->groups[3 * G * k + i] = 0.0;
+        if (features)
+            for (int i = 0; i < FEATURE_CHANNELS; i++) out->features[FEATURE_CHANNELS * k + i] = 0.0;
     }
     /* Whether camera rays can see more than the hit and a constant background: lamps, an image world. */
     int sees_more = params->light_context->world->image != NULL && params->light_context->world->camera != 0.0;
@@ -281,6 +295,12 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
                 for (int c = 0; c < 3; c++) s[c] *= f;
             }
             for (int64_t i = 0; i < 3 * G; i++) groups[i] += seen[i] * f;
+            if (features && b.valid[lane]) {            /* (what the camera sees itself, then its path's) */
+                double *fk = out->features + FEATURE_CHANNELS * k;
+                for (int c = 0; c < 3; c++) fk[c] += s[c];
+                if (is_hit)
+                    for (int i = 0; i < FEATURE_CHANNELS; i++) fk[i] += work->features[lane][i];
+            }
             if (is_hit) {
                 for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];
                 for (int64_t i = 0; i < 3 * G; i++) groups[i] += H.groups[3 * G * h + i];

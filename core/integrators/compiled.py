@@ -20,6 +20,7 @@ from ..materials import NODE_PARAMS, PARAMS
 from ..materials.graph import graph_tables
 from ..native import library, schema
 from ..native.schema import F64, I32, I64, out, ptr
+from . import features as features_
 from . import lightgroups, lightpasses
 from .base import Cancelled, Context
 from .shadows import ShadowSettings
@@ -88,6 +89,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("instance_groups", ptr(I32), "(n,) each Scene.instances entry's light group (-1: none), or NULL"),
     ("world_group", I32, "the world's light group (-1: none)"),
     ("stop", ptr(I32), "(1,) set to 1 when the render is cancelled: the chunk stops before its next block, or NULL"),
+    ("features", I32, "1: sum the denoising features (features.c) into ChunkOut.features"),
 ], tables=("INTEGRATOR",))
 
 ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for the render's statistics.", [
@@ -98,6 +100,7 @@ ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for t
     ("seconds", F64, 3, "inside Embree's nearest-hit queries, its occlusion queries, shading"),
     ("light", out(F64), "(p, LIGHT_CHANNELS) sums of the light passes, or NULL"),
     ("groups", out(F64), "(p, 3 light_groups) sums of the light groups' light, or NULL"),
+    ("features", out(F64), "(p, FEATURE_CHANNELS) sums of the denoising features, or NULL"),
     ("nonfinite", out(I64), "(p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL"),
 ])
 
@@ -220,6 +223,8 @@ class Compiled:
             caustics=caustics_bits(s), clamp_direct=direct_cap, clamp_indirect=indirect_cap,
             light_passes=self.light_passes)
         self.want_squares = bool(s.adaptive)
+        self.features = bool(s.denoising_features)
+        self.params.features = self.features
         self.stop = stop = ctx.extra.get("stop")      # (base.StopFlag: read before each block of samples, chunk.c)
         if stop is not None:
             self.params.stop = stop.flag
@@ -256,6 +261,9 @@ class Compiled:
         if self.light_passes:               # the light passes' sums (core/integrators/lightpasses.py)
             aux[lightpasses.FILM_BUFFER] = light = np.empty((p, lightpasses.FILM_CHANNELS))
             out.light = light
+        if self.features:                   # the denoising features' sums (core/integrators/features.py)
+            aux[features_.FILM_BUFFER] = feature = np.empty((p, features_.FILM_CHANNELS))
+            out.features = feature
         if self.group_count:                # the light groups' sums (core/integrators/lightgroups.py)
             aux[lightgroups.FILM_BUFFER] = groups = np.empty((p, 3 * self.group_count))
             out.groups = groups

@@ -40,6 +40,11 @@ typedef struct {
      * of its source, (BLOCK, group_count, 3) beside the block; NULL: none. */
     double *groups;
     int64_t group_count;
+    /* The denoising features (features.c), where asked for: whether a path still looks for its feature vertex, its
+     * feature throughput, and what the hit's rays found (before the path's throughput). */
+    uint8_t looking[BLOCK];
+    double feature_tp[3 * BLOCK];
+    double found[3 * BLOCK];
 } BlockHits;
 
 /* Make hit h's ShaderResult ready to shade: its room for closures and their parameters in the block's buffers, no
@@ -462,6 +467,7 @@ typedef struct {
     int64_t groups;             /* the light groups (lightgroups.py): hits gather by group into BlockHits.groups */
     const int32_t *instance_groups;   /* each object's group, or NULL */
     int64_t world_group;        /* the world's group (-1: none) */
+    int features;               /* 1: BSDF rays add what they find to BlockHits.found (the denoising features) */
 } DirectSettings;
 
 /* What transparent shadows read (shadows.transmittance): the scene's queries, tables and materials. */
@@ -865,6 +871,8 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             double f = ds->clamping ? clamp_scale(found, H->throughput + 3 * owner[k],
                                                   clamp_limit(H, owner[k], ds->caps), 1.0) : 1.0;
             for (int c = 0; c < 3; c++) L[c] += found[c] * f;
+            if (ds->features)
+                for (int c = 0; c < 3; c++) H->found[3 * owner[k] + c] += found[c] * f;
             if (H->groups != NULL)                 /* (the same weight and cap, by the group of each find) */
                 for (int64_t g = 0; g < ds->groups; g++) {
                     double got[3];

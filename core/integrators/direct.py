@@ -22,7 +22,9 @@ from typing import ClassVar
 import numpy as np
 
 from .. import vectors
+from ..materials import graph as graph_
 from . import clamp as clamp_
+from . import features as features_
 from . import lightgroups, lightpasses
 from .base import Context, Integrator, Radiance, Recorder
 from .rays import camera_hits
@@ -41,14 +43,28 @@ class DirectLighting(Integrator):
         direct_cap = clamp_.limits(ctx.settings)[0]
         groups = lightgroups.tally(ctx, len(O))
         L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups)
+        # The denoising features (features.py): what the camera sees itself, then at its hits.
+        feats = features_.Features(len(O)) if ctx.settings.denoising_features else None
+        if feats is not None:
+            feats.albedo += L_out
         if surface is None:
-            return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L)
+            return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L,
+                            features=None if feats is None else feats.stacked())
         D_hit = vectors.gather(D, hit)
         # 4. The light each hit sends towards the camera (each contribution capped by Clamp Direct).
         parts = lightpasses.FirstHitParts(len(hit)) if lightpasses.wanted(ctx.settings.passes) else None
         hit_groups = lightgroups.tally(ctx, len(hit))
+        emitted, finds = (np.zeros((len(hit), 3)), np.zeros((len(hit), 3))) if feats is not None else (None, None)
+        shader = (ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry, graph_.RAY_CAMERA)
+                  if feats is not None else None)
         L_hit, shadow_rays, _ = shade_vertex(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder,
-                                             PathState(limit=direct_cap), parts=parts, groups=hit_groups)
+                                             PathState(limit=direct_cap), parts=parts, groups=hit_groups,
+                                             shader=shader, emitted=emitted, found=finds)
+        if feats is not None:
+            one = np.ones((len(hit), 3))
+            looking, feature_throughput = features_.at_vertex(feats, hit, np.ones(len(hit), bool), one, one, shader,
+                                                              emitted)
+            features_.found(feats, hit, looking, feature_throughput, finds)
         L_out[hit] += L_hit
         if groups is not None:
             groups.add_rows(hit, hit_groups)
@@ -56,4 +72,5 @@ class DirectLighting(Integrator):
         if parts is not None:                    # the light passes: all of it direct (core/integrators/lightpasses.py)
             light = np.zeros((len(O), len(lightpasses.LIGHT_PASSES), 3))
             light[hit, :lightpasses.KINDS] = parts.gathered
-        return Radiance(L_out, found.hit, shadow_rays, light=light, groups=None if groups is None else groups.L)
+        return Radiance(L_out, found.hit, shadow_rays, light=light, groups=None if groups is None else groups.L,
+                        features=None if feats is None else feats.stacked())

@@ -1,63 +1,47 @@
-"""Denoising features: what a denoiser needs besides the noisy image, as Cycles writes them.
+"""Denoising features: what a denoiser needs besides the noisy image, as Cycles 5.0 writes them.
 
 Intel Open Image Denoise (Blender's compositor Denoise node) is guided by two smooth images of the
 same pixels: each pixel's albedo and normal at the first surface whose look is not a sharp
 reflection. They are cheap and nearly noise-free, and the denoiser keeps the edges and textures
 they show while it smooths the noise of the Combined pass.
 
-Cycles' meaning (kernel/film/denoising_passes.h), followed here along each camera sample's path:
+The integrator writes them along each camera sample's own path, as Cycles does (kernel/film/denoising_passes.h,
+film_write_emission_or_background_pass in light_passes.h), both kernels:
 
+- A path looks for its feature vertex from the camera on, with a feature throughput of 1.
 - At a hit, its closures split into diffuse-like ones (Lambert; glossy or rough glass with alpha >
   ROUGH_ALPHA, Cycles' 0.075) and specular-like ones (mirror, smooth glass, Transparent, and those
   with alpha at most ROUGH_ALPHA). If the diffuse-like closures carry more than a quarter of the sampling weight
   (or there are no closures), the hit is the feature vertex:
-      albedo = throughput * (sum of the diffuse-like closures' weights + the emission seen there),
-      normal = sum of every closure's normal times its sampling weight / the sum of those weights
-               (the shading normal, where it has one closure; 0 where it has none).
-- Otherwise the path goes on in a direction sampled from the closures (a mirror reflects, glass
-  reflects or refracts at random), with throughput *= the sum of the specular-like weights: a
-  mirror shows the albedo and normal of what it reflects, tinted by its colour. After
-  MAX_SPECULAR_VERTICES such vertices the last one is taken as it is.
-- A ray that escapes adds throughput * the world it sees (0 with a transparent film), as Cycles
-  writes the background's colour into the albedo; its normal stays 0.
+      albedo += feature throughput x the sum of the diffuse-like closures' weights,
+      normal  = the closures' normals weighed by their sampling weights (0 where there are none),
+  and the path stops looking. Otherwise the feature throughput is multiplied by the sum of the specular-like
+  weights and the path goes on as it does anyway (its own sampled direction).
+- While a path looks, what it sees emit adds feature throughput x its contribution to Combined (path throughput,
+  MIS weight and cap included): the surface the camera sees emit, what its rays find (lamps, emitters, the world)
+  and, for the camera, the world where it escapes (0 with a transparent film) and the lamps it passes.
+- A path that ends before a feature vertex (a bounce limit, Russian roulette) leaves the features as they are:
+  with Max Bounces 0, a mirror's pixel keeps albedo 0 unless its ray finds a light or the world, as in Cycles
+  (measured: a tinted mirror reflecting a red wall, albedo 0 in Cycles 5.0 at Max Bounces 0, tint x red at 1).
 
-Each pixel's features are the mean over FEATURE_SAMPLES camera samples (fewer when the render takes
-fewer), at the same jittered positions as the render's first samples; pixels without samples (outside
-the region, outside a fisheye's image circle) are 0.
+Each pixel's features are the mean over all its samples (the film's FILM_BUFFER sums).
 
-What Primer approximates: a closure's albedo is its weight (Cycles multiplies a microfacet's weight
-by its Fresnel-averaged reflectance); the normal is in world space, like Primer's Normal pass
-(Cycles writes its Denoising Normal in camera space; Open Image Denoise accepts either, as long as it
-is one space); and the features come from a separate first-hit pass of a few samples per pixel, in
-Python for both kernels (the compiled chunk does not fill them), instead of from every render sample.
+What Primer approximates: a closure's albedo is its weight (Cycles multiplies a microfacet's weight by its
+Fresnel-averaged reflectance); the normal is in world space, like Primer's Normal pass (Cycles writes its
+Denoising Normal in camera space; Open Image Denoise accepts either, as long as it is one space). Whitted's
+tracer writes the features of the camera's hit alone (its two specular branches are not one path).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .. import materials as materials_
-from .. import vectors
-from ..materials import graph as graph_
-from ..sampling import sobol as sampling
-from . import shadows
-from .base import Context, Recorder, check_stop
-from .rays import camera_hits
+from ..native import schema
 
-# Camera samples per pixel the features average (at most the render's samples).
-FEATURE_SAMPLES = 2
 # A glossy closure whose alpha (roughness^2) exceeds this counts as diffuse-like (Cycles' 0.075).
-ROUGH_ALPHA = 0.075
-# Specular vertices followed before the last one is taken as the feature vertex.
-MAX_SPECULAR_VERTICES = 8
-# Sampling dimensions of the direction sampled at specular vertex k: FEATURE_DIMENSION + 2 k, + 1.
-FEATURE_DIMENSION = 96
+ROUGH_ALPHA = schema.constant("ROUGH_ALPHA", 0.075, "the denoising features' diffuse-like alpha (features.py)")
 # The core buffers the features fill (core/render.py RenderResult.aux), 3 channels each.
 FEATURE_BUFFERS = ("denoising_albedo", "denoising_normal")
-
-
-def feature_samples(samples: int) -> int:
-    """Return the camera samples per pixel the features average for a render of `samples` samples."""
-    return max(1, min(int(samples), FEATURE_SAMPLES))
 
 
 def diffuse_like(closures: materials_.Closures) -> np.ndarray:
@@ -96,53 +80,49 @@ def vertex_features(shader) -> tuple:
     return diffuse_albedo, specular_albedo, normal, stops
 
 
-def trace_features(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, pixel: np.ndarray,
-                   sample: np.ndarray) -> tuple:
-    """Return (albedo (n, 3), normal (n, 3)) float64 of camera rays O, D (n, 3) float64 up to t_max (n,):
-    each ray's feature vertex, as the module docstring says. pixel, sample: (n,) int64 random-number keys."""
-    s = ctx.settings
-    n = len(O)
-    albedo, normal = np.zeros((n, 3)), np.zeros((n, 3))
-    owner = np.arange(n)
-    throughput = np.ones((n, 3))
-    recorder = Recorder()
-    for vertex in range(MAX_SPECULAR_VERTICES + 1):
-        check_stop(ctx)
-        # 1. What the rays meet: the world (and lamps with extent) where they escape, else a surface.
-        seen, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder)
-        missed = np.flatnonzero(~found.hit)
-        albedo[owner[missed]] += throughput[missed] * seen[missed]
-        if surface is None:
-            break
-        owner, throughput = owner[hit], throughput[hit]
-        wo = -vectors.gather(D, hit)
-        ray = graph_.RAY_CAMERA if vertex == 0 else graph_.RAY_BOUNCE
-        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, ray)
-        diffuse_albedo, specular_albedo, closure_normal, stops = vertex_features(shader)
-        if vertex == MAX_SPECULAR_VERTICES:
-            stops[:] = True
-        # 2. Feature vertices: their albedo (plus what they emit) and normal.
-        done = np.flatnonzero(stops)
-        albedo[owner[done]] += throughput[done] * (diffuse_albedo[done] + shader.emission[done])
-        normal[owner[done]] = closure_normal[done]
-        # 3. Specular vertices: on along a direction sampled from their closures.
-        on = np.flatnonzero(~stops)
-        if len(on) == 0:
-            break
-        part = materials_.Closures(*(None if array is None else array[on] for array in shader.closures))
-        keys = pixel[owner[on]], sample[owner[on]]
-        u = sampling.sample_2d(s.seed, *keys, dimension=FEATURE_DIMENSION + 2 * vertex)
-        pick = sampling.sample_2d(s.seed, *keys, dimension=FEATURE_DIMENSION + 2 * vertex + 1)[:, 0]
-        bs = materials_.sample_closures(part, wo[on], u, pick)
-        going = np.flatnonzero(bs.pdf > 0.0)
-        rows = on[going]
-        wi = bs.wi[going]
-        O = shadows.spawn_ray(surface.I[rows], surface.Ng[rows], wi, shadows.error_bound(surface.I[rows],
-                                                                                         surface.vertices[rows]))
-        D = wi
-        t_max = np.full(len(rows), np.inf)
-        owner = owner[rows]
-        throughput = throughput[rows] * specular_albedo[rows]
-        if len(rows) == 0:
-            break
-    return albedo, normal
+# The film's buffer of the features' per-pixel sums: albedo RGB, then normal XYZ.
+FILM_BUFFER = "denoising_features"
+FILM_CHANNELS = schema.constant("FEATURE_CHANNELS", 6, "the denoising features' channels: albedo RGB, normal XYZ")
+
+
+class Features:
+    """Each camera ray's denoising features as its path writes them: albedo and normal, (n, 3) float64 each."""
+
+    def __init__(self, n: int):
+        """Nothing written yet for n camera rays."""
+        self.albedo = np.zeros((n, 3))
+        self.normal = np.zeros((n, 3))
+
+    def stacked(self) -> np.ndarray:
+        """(n, FILM_CHANNELS) albedo then normal, as the film sums them."""
+        return np.concatenate([self.albedo, self.normal], axis=1)
+
+
+def at_vertex(features: Features, owner: np.ndarray, looking: np.ndarray, throughput: np.ndarray,
+              feature_throughput: np.ndarray, shader, emission: np.ndarray) -> tuple:
+    """The rule at a path vertex (module docstring) for the hits of camera rays `owner` (m,) int64: where the path
+    still looks (`looking` (m,) bool), the emission it sees there (m, 3) (its contribution: x throughput (m, 3)),
+    then the feature vertex's albedo and normal; returns (looking, feature_throughput (m, 3)) after the vertex."""
+    rows = np.flatnonzero(looking)
+    if len(rows) == 0:
+        return looking, feature_throughput
+    features.albedo[owner[rows]] += feature_throughput[rows] * throughput[rows] * emission[rows]
+    part = shader._replace(closures=type(shader.closures)(*(None if a is None else a[rows]
+                                                              for a in shader.closures)))
+    diffuse_albedo, specular_albedo, normal, stops = vertex_features(part)
+    done = rows[stops]
+    features.albedo[owner[done]] += feature_throughput[done] * diffuse_albedo[stops]
+    features.normal[owner[done]] = normal[stops]
+    looking, feature_throughput = looking.copy(), feature_throughput.copy()
+    looking[done] = False
+    feature_throughput[rows[~stops]] *= specular_albedo[~stops]
+    return looking, feature_throughput
+
+
+def found(features: Features, owner: np.ndarray, looking: np.ndarray, feature_throughput: np.ndarray,
+          contribution: np.ndarray) -> None:
+    """What paths' rays found (contribution (m, 3) to Combined, throughput included) adds feature throughput x
+    contribution to the albedo of the camera rays `owner` (m,) whose paths still look (`looking` (m,) bool)."""
+    rows = np.flatnonzero(looking)
+    if len(rows):
+        features.albedo[owner[rows]] += feature_throughput[rows] * contribution[rows]

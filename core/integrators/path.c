@@ -18,6 +18,7 @@ typedef struct {
     double light[BLOCK][LIGHT_CHANNELS];       /* each camera lane's light passes (lightpasses.c), where asked for */
     double *groups;                            /* (BLOCK, G, 3) each camera lane's light groups from vertices after
                                                 * the first (lightgroups.py), or NULL */
+    double features[BLOCK][FEATURE_CHANNELS];  /* each camera lane's denoising features (features.c), where asked for */
 } PathWork;
 
 /* path.bounce_kind: whether a sampled closure makes a diffuse, a glossy or a transmission bounce (through the
@@ -123,6 +124,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
                 through_transparent(r, clear, limits, ds, H->throughput + 3 * h, cap, found,
                                     H->groups != NULL ? H->groups + 3 * h * H->group_count : NULL);
                 for (int c = 0; c < 3; c++) H->L[3 * h + c] += found[c];
+                if (ds->features)
+                    for (int c = 0; c < 3; c++) H->found[3 * h + c] += found[c];
                 if (ds->light_passes && H->bounce[h] == 0) add_split(H->parts[h], found, &r->shares[0][0]);
             }
             continue;
@@ -175,6 +178,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->mis_pdf[m] = r->pdf;
         for (int c = 0; c < 3; c++) { next->mis_origin[3 * m + c] = r->mis_O[c]; next->mis_n[3 * m + c] = r->mis_N[c]; }
         next->bounce[m] = bounces;
+        next->looking[m] = H->looking[h];
+        for (int c = 0; c < 3; c++) next->feature_tp[3 * m + c] = H->feature_tp[3 * h + c];
         if (ds->light_passes) {
             /* A path's shares are those of its first real bounce's ray, kept from then on. */
             const double *from = H->bounce[h] == 0 && !see_through ? &r->shares[0][0] : &H->shares[h][0][0];
@@ -216,6 +221,9 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
     for (int64_t k = 0; k < BLOCK; k++) work->extra[k][0] = work->extra[k][1] = work->extra[k][2] = 0.0;
     if (work->groups != NULL)
         for (int64_t i = 0; i < BLOCK * 3 * ds->groups; i++) work->groups[i] = 0.0;
+    if (ds->features)
+        for (int64_t k = 0; k < BLOCK; k++)
+            for (int i = 0; i < FEATURE_CHANNELS; i++) work->features[k][i] = 0.0;
     if (ds->light_passes)
         for (int64_t k = 0; k < BLOCK; k++)
             for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
@@ -225,6 +233,8 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         H->mis_pdf[h] = INFINITY;
         for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;
+        H->looking[h] = 1;
+        H->feature_tp[3 * h] = H->feature_tp[3 * h + 1] = H->feature_tp[3 * h + 2] = 1.0;
         if (ds->light_passes)
             for (int p = 0; p < PASS_KINDS; p++) H->shares[h][p][0] = H->shares[h][p][1] = H->shares[h][p][2] = 0.0;
     }
@@ -235,12 +245,17 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         choose_bsdf_rays(current, ds);
         for (int64_t h = 0; h < current->m; h++) current->traced[h] = 1;
         if (ds->light_passes) clear_parts(current);
+        if (ds->features) {                         /* (the emission seen here, the feature vertex: features.c) */
+            features_at_vertex(current, work->features);
+            for (int64_t i = 0; i < 3 * current->m; i++) current->found[i] = 0.0;
+        }
         shadow_rays += direct_light(current, ds, embree);
         work->rays.n = 0;
         ds->continuing = &work->rays;
         embree[1] += bsdf_rays(current, ds);
         /* b. Where the paths go on (ended ones add the light behind transparent surfaces to their vertex's). */
         next_vertices(current, &work->rays, vertex, limits, ds, next, H->held);
+        if (ds->features) features_found(current, work->features);
         if (vertex > 0)
             for (int64_t h = 0; h < current->m; h++) {
                 for (int c = 0; c < 3; c++)

@@ -53,6 +53,7 @@ from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from .base import Context, Integrator, Radiance, Recorder, check_stop
 from . import clamp as clamp_
+from . import features as features_
 from . import lightgroups, lightpasses
 from . import shadows
 from .rays import camera_hits, goes_through, nearest_seen
@@ -199,8 +200,13 @@ class PathTracing(Integrator):
         direct_cap, indirect_cap = clamp_.limits(s)
         groups = lightgroups.tally(ctx, len(O))
         L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups)
+        # The denoising features (features.py): what the camera sees itself, then along each path.
+        feats = features_.Features(len(O)) if s.denoising_features else None
+        if feats is not None:
+            feats.albedo += L_out
         if surface is None:
-            return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L)
+            return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L,
+                            features=None if feats is None else feats.stacked())
         D_hit = vectors.gather(D, hit)
         held = np.zeros(len(O))                      # each camera ray's alpha that holdouts take away
         holdouts = ctx.geometry.hides(HOLDOUT) or bool(ctx.materials.holds_out.any())
@@ -226,6 +232,8 @@ class PathTracing(Integrator):
         # path's shares by closure kind, set at its first real bounce.
         light = np.zeros((len(O), len(lightpasses.LIGHT_PASSES), 3)) if lightpasses.wanted(s.passes) else None
         shares = np.zeros((len(hit), lightpasses.KINDS, 3))
+        looking = np.ones(len(hit), bool)            # which paths still look for their feature vertex
+        feature_throughput = np.ones((len(hit), 3))
         while len(owner):
             check_stop(ctx)
             # a. What the vertex gathers: its emission (camera hits only; later ones were found by the ray
@@ -245,12 +253,19 @@ class PathTracing(Integrator):
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
                               carried_origin=mis_origin, carried_N=mis_normal)
             vertex_groups = lightgroups.tally(ctx, len(owner))
+            emitted, finds = (np.zeros((len(owner), 3)), np.zeros((len(owner), 3))) if feats is not None else (None, None)
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,
-                                               trace_all=True, shader=shader, parts=parts, groups=vertex_groups)
+                                               trace_all=True, shader=shader, parts=parts, groups=vertex_groups,
+                                               emitted=emitted, found=finds)
             shadow_rays += rays
             L_out[owner] += throughput * L_vertex
             if groups is not None:
                 groups.add_rows(owner, vertex_groups, throughput)
+            if feats is not None:
+                # The emission seen here, the feature vertex; then what this vertex's BSDF ray found.
+                looking, feature_throughput = features_.at_vertex(feats, owner, looking, throughput, feature_throughput,
+                                                                  shader, emitted)
+                features_.found(feats, owner, looking, feature_throughput, throughput * finds)
             if light is not None:
                 # Direct: what the first hits gather (not their emission); indirect: all later vertices gather.
                 if parts is not None:
@@ -283,6 +298,9 @@ class PathTracing(Integrator):
                 L_out[owner[ray.rows[ended]]] += behind
                 if groups is not None:
                     groups.add_rows(owner[ray.rows[ended]], behind_groups)
+                if feats is not None:
+                    features_.found(feats, owner[ray.rows[ended]], looking[ray.rows[ended]],
+                                    feature_throughput[ray.rows[ended]], behind)
                 if light is not None:
                     self.light_behind(light, owner[ray.rows[ended]], behind, bounce[ray.rows[ended]] == 0,
                                       parts.ray_shares[ended] if parts is not None else None, shares[ray.rows[ended]])
@@ -301,6 +319,7 @@ class PathTracing(Integrator):
             if len(keep) == 0:
                 break
             seen_by = ray.seen_as[keep]
+            looking, feature_throughput = looking[ray.rows][keep], feature_throughput[ray.rows][keep]
             if light is not None:
                 # A path's shares are those of its first real bounce's ray, kept from then on.
                 sets = (bounce[ray.rows] == 0) & ~is_transparent
@@ -325,7 +344,7 @@ class PathTracing(Integrator):
             wo = -D_next
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
-                        None if groups is None else groups.L)
+                        None if groups is None else groups.L, None if feats is None else feats.stacked())
 
     @staticmethod
     def light_behind(light: np.ndarray, owner: np.ndarray, value: np.ndarray, first: np.ndarray, ray_shares,

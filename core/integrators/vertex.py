@@ -78,7 +78,7 @@ def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sample: np.ndarray, recorder: Recorder,
                  path: Optional["PathState"] = None, trace_all: bool = False, light_samples_only: bool = False,
-                 shader=None, parts=None, groups=None):
+                 shader=None, parts=None, groups=None, emitted=None, found=None):
     """Return (the radiance (m, 3) float64 each hit sends towards wo, shadow rays traced, the BsdfRay
     each traced hit sent out, or None).
 
@@ -99,7 +99,9 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     and the BSDF ray's contributions split by closure kind, and the BSDF rays' shares (the light passes), or None.
     carried_pdf, carried_origin, carried_N: (m,), (m, 3), (m, 3) the pdf, ray origin and light-tree normal of each
     path's last real bounce (bsdf_ray), or None. groups: a lightgroups.GroupLight of the m hits that receives
-    everything L_out does, by the group of its source (core/integrators/lightgroups.py), or None.
+    everything L_out does, by the group of its source (core/integrators/lightgroups.py), or None. emitted, found:
+    (m, 3) arrays that receive the hits' own emission (vertex 0) and what their BSDF rays find, as L_out receives
+    them (the denoising features, core/integrators/features.py), or None.
     """
     s = ctx.settings
     m = len(surface.I)
@@ -119,6 +121,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
         L_out = clamp_.clamped(L_out, throughput, limit)
     if groups is not None and vertex == 0:
         groups.add(np.arange(m), L_out, groups.groups.of_prims(ctx.geometry, surface.prim))
+    if emitted is not None and vertex == 0:
+        emitted += L_out
     shadow_rays = 0
     offsets = shadows.error_bound(surface.I, surface.vertices) if s.shadow_method == "robust" else None
     # Which hits trace a BSDF ray (every hit where emitters or the world light the scene, glossy hits
@@ -206,21 +210,23 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                                                  and traced.any())):
         gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
         ray_groups = None if groups is None else type(groups)(groups.groups, m)
-        found, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
+        finds, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N,
                               carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups)
         if clamping:
-            f = clamp_.scale(found, throughput, limit)
-            found = found * f[:, None]
+            f = clamp_.scale(finds, throughput, limit)
+            finds = finds * f[:, None]
             if ray_groups is not None:
                 ray_groups.scale(f)
-        L_out += found
+        L_out += finds
         if groups is not None:
             groups.L += ray_groups.L
+        if found is not None:
+            found += finds
         if parts is not None and ray is not None:
             c = materials_.Closures(*(None if array is None else array[ray.rows] for array in shader.closures))
             parts.ray_shares = lightpasses.sample_shares(c, wo[ray.rows], ray.D, ray.kind, ray.delta, ray.transmit)
-            parts.gathered[ray.rows] += lightpasses.split(found[ray.rows], parts.ray_shares)
+            parts.gathered[ray.rows] += lightpasses.split(finds[ray.rows], parts.ray_shares)
     return L_out, shadow_rays, ray
 
 

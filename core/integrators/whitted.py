@@ -30,6 +30,7 @@ from ..geometry.surface import surface_at_hits
 from ..materials import glass as glass_
 from ..materials import graph as graph_
 from ..materials import microfacet as mf
+from . import features as features_
 from . import lightgroups, shadows
 from .base import Context, Integrator, Radiance, Recorder, check_stop
 from .rays import lamps_seen, nearest_seen
@@ -68,6 +69,7 @@ class WhittedTracing(Integrator):
         world = ctx.extra.get("world_light")
         depth = 0
         groups = lightgroups.tally(ctx, n)          # each ray's light by source (core/integrators/lightgroups.py)
+        feats = features_.Features(n) if s.denoising_features else None     # (of the camera's hits alone)
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
         while len(owner):
             check_stop(ctx)
@@ -93,6 +95,8 @@ class WhittedTracing(Integrator):
             np.add.at(L_out, owner, throughput * lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), seen))
             if groups is not None:
                 groups.add_rows(owner, seen, throughput)
+            if feats is not None and depth == 0:
+                feats.albedo += L_out                   # what the camera sees itself
             hit = np.flatnonzero(found.hit)
             if len(hit) == 0:
                 break
@@ -115,6 +119,9 @@ class WhittedTracing(Integrator):
             # 3. The specular closures' rays: a mirror's reflection, glass's reflection and refraction.
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry,
                                          graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE)
+            if feats is not None and depth == 0:
+                one = np.ones((len(hit), 3))
+                features_.at_vertex(feats, rows, np.ones(len(hit), bool), one, one, shader, shader.emission)
             children = self.specular_rays(s, surface, shader, wo, throughput[hit], glossy[hit], transmission[hit])
             if children is None or depth + 1 > s.max_bounces:
                 break
@@ -123,7 +130,8 @@ class WhittedTracing(Integrator):
             owner = rows[index]
             t_max = np.full(len(owner), np.inf)
             depth += 1
-        return Radiance(L_out, camera_hit, shadow_rays, groups=None if groups is None else groups.L)
+        return Radiance(L_out, camera_hit, shadow_rays, groups=None if groups is None else groups.L,
+                        features=None if feats is None else feats.stacked())
 
     def specular_rays(self, s, surface, shader, wo, throughput, glossy, transmission):
         """The child rays of every perfectly specular (singular) reflection and smooth glass closure: (hit index (k,), O (k, 3), D (k, 3), throughput

@@ -17,6 +17,10 @@
 #define SAMPLE_MIS 0
 #define SAMPLE_LIGHT 1
 #define SAMPLE_BSDF 2
+/* the denoising features' diffuse-like alpha (features.py) (core.integrators.features) */
+#define ROUGH_ALPHA 0.075
+/* the denoising features' channels: albedo RGB, normal XYZ (core.integrators.features) */
+#define FEATURE_CHANNELS 6
 /* the most light groups the compiled chunk splits light into (core.integrators.lightgroups) */
 #define MAX_LIGHT_GROUPS 64
 /* the light passes' kinds of closure (core.integrators.lightpasses) */
@@ -126,6 +130,9 @@ INLINE int bsdf_is(int kind, int flags)
 {
     return kind >= 0 && kind < BSDF_COUNT && (BSDF_FLAGS[kind] & flags) != 0;
 }
+
+/* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
+static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1};
 
 /* core/materials/registry.py NODE_TYPES: a shader node's kind */
 enum {
@@ -428,6 +435,7 @@ struct ChunkParams {
     const int32_t *instance_groups;         /* (n,) each Scene.instances entry's light group (-1: none), or NULL */
     int32_t world_group;                    /* the world's light group (-1: none) */
     const int32_t *stop;                    /* (1,) set to 1 when the render is cancelled: the chunk stops before its next block, or NULL */
+    int32_t features;                       /* 1: sum the denoising features (features.c) into ChunkOut.features */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -439,6 +447,7 @@ struct ChunkOut {
     double seconds[3];                      /* inside Embree's nearest-hit queries, its occlusion queries, shading */
     double *light;                          /* (p, LIGHT_CHANNELS) sums of the light passes, or NULL */
     double *groups;                         /* (p, 3 light_groups) sums of the light groups' light, or NULL */
+    double *features;                       /* (p, FEATURE_CHANNELS) sums of the denoising features, or NULL */
     int64_t *nonfinite;                     /* (p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL */
 };
 
@@ -664,8 +673,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7810907097562677354);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(8541145842328541273);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5921131469672137389);
-    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(5958533739751111163);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4888334846629488926);
+    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2116233128416529668);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(4369246942035671920);

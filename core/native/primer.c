@@ -25,6 +25,7 @@
 #include "../integrators/shadows.c"
 #include "../integrators/lightpasses.c"
 #include "../integrators/direct.c"
+#include "../integrators/features.c"
 #include "../integrators/path.c"
 #include "../integrators/chunk.c"
 #include "exports.gen.c"               /* what Python calls: one record of arguments each (tools/make_boundary.py) */

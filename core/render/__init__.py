@@ -69,7 +69,6 @@ class RenderStats:
     samples_per_pixel: Optional[np.ndarray] = None   # (H, W) int32 camera samples each pixel received
     warnings: list = field(default_factory=list)
     kernels: str = ""               # "compiled", or "numpy" and why (core/integrators/compiled.py)
-    feature_seconds: float = 0.0    # the denoising features' first-hit pass (core/integrators/features.py)
     pass_seconds: float = 0.0       # the first-hit render passes (core/integrators/passes.py)
 
     @property
@@ -197,40 +196,6 @@ def camera_rays(ctx: Context, s: RenderSettings, pixel: np.ndarray, sample: np.n
                                  tuple(s.pixel_aspect))
 
 
-def feature_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> tuple[np.ndarray, np.ndarray]:
-    """Return the denoising features of `pixels` (p,) int64: (albedo, normal), each (p, 3) float64, the mean
-    over samples 0 .. spp - 1 of each pixel (core/integrators/features.py; 0 where a sample traced nothing)."""
-    s = ctx.settings
-    p = len(pixels)
-    pixel, sample = sample_keys(pixels, spp, None)
-    rays = camera_rays(ctx, s, pixel, sample, spp)
-    traced = np.flatnonzero(rays.valid)
-    albedo, normal = np.zeros((len(pixel), 3)), np.zeros((len(pixel), 3))
-    if len(traced):
-        albedo[traced], normal[traced] = features.trace_features(
-            ctx, vectors.gather(rays.origins, traced), vectors.gather(rays.directions, traced), rays.t_max[traced],
-            pixel[traced], sample[traced])
-    return albedo.reshape(p, spp, 3).mean(axis=1), normal.reshape(p, spp, 3).mean(axis=1)
-
-
-def feature_images(ctx: Context, region: np.ndarray, run: Callable, threads: int) -> dict:
-    """Return the denoising feature buffers of the pixels `region` (p,) int64: name -> (H, W, 3) float32,
-    0 outside the region (features.FEATURE_BUFFERS), computed in chunks by run(chunks, work, store) (on the pool)."""
-    s = ctx.settings
-    spp = features.feature_samples(s.samples)
-    size = s.width * s.height
-    albedo, normal = np.zeros((size, 3)), np.zeros((size, 3))
-    per_chunk = max(1, min(-(-len(region) // max(1, threads)), s.chunk_size // spp))
-    parts = [region[i:i + per_chunk] for i in range(0, len(region), per_chunk)]
-    def store(part, found):
-        albedo[part], normal[part] = found
-
-    run(parts, lambda part: feature_chunk(ctx, part, spp), store)
-    shape = (s.height, s.width, 3)
-    return {"denoising_albedo": albedo.astype(np.float32).reshape(shape),
-            "denoising_normal": normal.astype(np.float32).reshape(shape)}
-
-
 def pass_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> dict:
     """Return the first-hit passes ctx.settings.passes of `pixels` (p,) int64: name -> (p, c) float64, the
     mean over samples 0 .. spp - 1 of each pixel, or sample 0's value (passes.FIRST_SAMPLE_ONLY)."""
@@ -297,6 +262,17 @@ def light_pass_images(film: Film, first_hit: dict, wanted) -> dict:
     return lightpasses.divide_by_color(sums, film.noise.count.reshape(H, W).astype(np.float64), first_hit, wanted)
 
 
+def feature_images(film: Film) -> dict:
+    """Return the denoising features' buffers from the film's sums (features.FEATURE_BUFFERS): name -> (H, W, 3)
+    float32, each pixel's mean over its samples (0 where it has none)."""
+    H, W = film.height, film.width
+    count = film.noise.count.reshape(H, W, 1).astype(np.float64)
+    sums = film.aux[features.FILM_BUFFER].reshape(H, W, features.FILM_CHANNELS)
+    mean = np.divide(sums, count, out=np.zeros_like(sums), where=count > 0)
+    return {name: np.ascontiguousarray(mean[..., 3 * k:3 * k + 3], np.float32)
+            for k, name in enumerate(features.FEATURE_BUFFERS)}
+
+
 def light_group_images(film: Film, names) -> dict:
     """Return each light group's pass, from the film's sums: lightgroups.BUFFER_PREFIX + name -> (H, W, 3) float32,
     the mean over each pixel's samples (0 where it has none)."""
@@ -356,6 +332,10 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
         light = np.zeros((n, lightpasses.FILM_CHANNELS))
         light[traced] = found.light.reshape(len(traced), -1)
         aux[lightpasses.FILM_BUFFER] = light.reshape(p, spp, -1).sum(axis=1)
+    if found.features is not None:               # the denoising features' sums (core/integrators/features.py)
+        feature = np.zeros((n, features.FILM_CHANNELS))
+        feature[traced] = found.features
+        aux[features.FILM_BUFFER] = feature.reshape(p, spp, -1).sum(axis=1)
     if found.groups is not None:                 # the light groups' sums (core/integrators/lightgroups.py)
         groups = np.zeros((n, found.groups.shape[1] * 3))
         groups[traced] = found.groups.reshape(len(traced), -1)
@@ -516,6 +496,8 @@ def render(scene: Scene, settings: RenderSettings,
         film_sums[lightpasses.FILM_BUFFER] = lightpasses.FILM_CHANNELS
     if settings.light_groups:
         film_sums[lightgroups.FILM_BUFFER] = 3 * len(settings.light_groups)
+    if settings.denoising_features:
+        film_sums[features.FILM_BUFFER] = features.FILM_CHANNELS
     film = Film(W, H, film_sums, compiled=compiled is not None, keep_estimates=len(passes) > 1)
     region = region_pixels(settings)
     outside = camera_.outside_image_circle(scene.camera, W, H, region, tuple(settings.pixel_aspect))
@@ -574,13 +556,8 @@ def render(scene: Scene, settings: RenderSettings,
             stats.passes += 1
             if cancelled:
                 break
-        # c. The denoising features, from a few first-hit samples per pixel (core/integrators/features.py).
+        # c. The denoising features are the film's (the integrator writes them as it goes: features.py).
         features_ = {}
-        if settings.denoising_features and not cancelled:
-            started = time.perf_counter()
-            features_ = feature_images(ctx, region_pixels(settings), run, threads)
-            stats.feature_seconds = time.perf_counter() - started
-            cancelled = bool(stop)
         # d. The first-hit render passes asked for (core/integrators/passes.py).
         #    With light passes, also the colour passes they are divided by (core/integrators/lightpasses.py).
         first_hit = lightpasses.first_hit_passes(settings.passes)
@@ -604,6 +581,8 @@ def render(scene: Scene, settings: RenderSettings,
     aux.update(features_)
     if settings.light_groups:
         aux.update(light_group_images(film, settings.light_groups))
+    if settings.denoising_features:
+        aux.update(feature_images(film))
     stats.samples_per_pixel = film.noise.count.reshape(H, W).astype(np.int32)
     stats.seconds = time.perf_counter() - start
     # Embree's share: the shadow rays' queries ran inside shading, so they move from there to trace.
