@@ -109,3 +109,17 @@ def test_a_sample_beyond_the_float32_film_goes_in_as_zero_counted_and_located(ke
     assert len(notes) == 1 and "the first at pixel x" in notes[0]
     count = int(notes[0].split()[0])
     assert 0 < count <= 16 * 12 * 4
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_the_auxiliary_buffers_take_a_sample_beyond_the_film_as_zero_too(kernels):
+    """The 1e300 W lamp again, with the light passes, a light group and the denoising features asked for: every
+    buffer stays finite (each sample's channel beyond the film goes in as 0, as in the image)."""
+    from core.integrators.lightpasses import LIGHT_PASSES
+    scene = plane_scene(lights=[PointLight(position=np.array([0.0, 0.0, 1.0]), power=1e300)])
+    scene.lightgroups = {"lights": ["lamp"], "instances": [""] * len(scene.instances), "world": ""}
+    result = render(scene, RenderSettings(width=16, height=12, samples=4, kernels=kernels, integrator="path",
+                                          passes=LIGHT_PASSES, light_groups=("lamp",), denoising_features=True))
+    assert result.stats.kernels.startswith(kernels)
+    for name in (*LIGHT_PASSES, "lightgroup:lamp", "denoising_albedo", "denoising_normal"):
+        assert np.isfinite(result.aux[name]).all(), name

@@ -6,6 +6,12 @@
 /* The largest float32 (film.py FILM_MAX): the image is float32, so a sample beyond it is infinite there. */
 #define FILM_MAX 3.4028234663852886e38
 
+/* x, or 0 where it is NaN or beyond the float32 film (a sample's channel of an auxiliary sum, as film.py's). */
+INLINE double finite_or_zero(double x)
+{
+    return fabs(x) <= FILM_MAX ? x : 0.0;
+}
+
 /* Add a sample's RGBA s to its pixel's sums: sum (4,), and its squared luminance and alpha to
  * squares (2,) unless squares is NULL. */
 INLINE void add_sample(const double *s, const double *luminance, double *sum, double *squares)

@@ -294,22 +294,23 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
                 f = clamp_scale(s, one, params->clamp_direct, 1.0);
                 for (int c = 0; c < 3; c++) s[c] *= f;
             }
-            for (int64_t i = 0; i < 3 * G; i++) groups[i] += seen[i] * f;
+            /* (the auxiliary sums take each sample's channel that is NaN or beyond the film as 0, as the image) */
+            for (int64_t i = 0; i < 3 * G; i++) seen[i] *= f;
             if (features && b.valid[lane]) {            /* (what the camera sees itself, then its path's) */
                 double *fk = out->features + FEATURE_CHANNELS * k;
-                for (int c = 0; c < 3; c++) fk[c] += s[c];
-                if (is_hit)
-                    for (int i = 0; i < FEATURE_CHANNELS; i++) fk[i] += work->features[lane][i];
+                for (int i = 0; i < FEATURE_CHANNELS; i++)
+                    fk[i] += finite_or_zero((i < 3 ? s[i] : 0.0) + (is_hit ? work->features[lane][i] : 0.0));
             }
             if (is_hit) {
                 for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];
-                for (int64_t i = 0; i < 3 * G; i++) groups[i] += H.groups[3 * G * h + i];
+                for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
                 if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0)) {
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];
-                    for (int64_t i = 0; i < 3 * G; i++) groups[i] += work->groups[3 * G * lane + i];
+                    for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->groups[3 * G * lane + i];
                 }
                 if (light_passes)
-                    for (int i = 0; i < LIGHT_CHANNELS; i++) out->light[LIGHT_CHANNELS * k + i] += work->light[lane][i];
+                    for (int i = 0; i < LIGHT_CHANNELS; i++)
+                        out->light[LIGHT_CHANNELS * k + i] += finite_or_zero(work->light[lane][i]);
                 s[3] = 1.0 - H.held[lane];          /* the holes holdout objects make (path.hold_out) */
                 h++;
                 out->hits[k]++;
@@ -319,6 +320,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
                 s[0] = s[1] = s[2] = 0.0;   /* outside a fisheye's image circle: opaque black */
                 s[3] = 1.0;
             }
+            for (int64_t i = 0; i < 3 * G; i++) groups[i] += finite_or_zero(seen[i]);
             /* A channel that is NaN or beyond the float32 film goes in as 0, counted (film.py finite_samples). */
             int bad = 0;
             for (int c = 0; c < 4; c++)

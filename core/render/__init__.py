@@ -328,21 +328,16 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     if isinstance(recorder, debug.DebugRecorder):
         traced_per_pixel = rays.valid.reshape(p, spp).sum(axis=1).astype(np.float64)
         aux = recorder.pixel_sums(hit // spp, traced_per_pixel)
-    if found.light is not None:                  # the light passes' sums (core/integrators/lightpasses.py)
-        light = np.zeros((n, lightpasses.FILM_CHANNELS))
-        light[traced] = found.light.reshape(len(traced), -1)
-        aux[lightpasses.FILM_BUFFER] = light.reshape(p, spp, -1).sum(axis=1)
-    if found.features is not None:               # the denoising features' sums (core/integrators/features.py)
-        feature = np.zeros((n, features.FILM_CHANNELS))
-        feature[traced] = found.features
-        aux[features.FILM_BUFFER] = feature.reshape(p, spp, -1).sum(axis=1)
-    if found.groups is not None:                 # the light groups' sums (core/integrators/lightgroups.py)
-        groups = np.zeros((n, found.groups.shape[1] * 3))
-        groups[traced] = found.groups.reshape(len(traced), -1)
-        aux[lightgroups.FILM_BUFFER] = groups.reshape(p, spp, -1).sum(axis=1)
-    for name in (lightpasses.FILM_BUFFER, lightgroups.FILM_BUFFER):
-        if name in aux:
-            aux[name][~(np.abs(aux[name]) <= FILM_MAX)] = 0.0
+    # The light passes', denoising features' and light groups' sums (lightpasses.py, features.py, lightgroups.py),
+    # each sample's channel that is NaN or beyond the film's range as 0, as in the image.
+    for name, values in ((lightpasses.FILM_BUFFER, found.light), (features.FILM_BUFFER, found.features),
+                         (lightgroups.FILM_BUFFER, found.groups)):
+        if values is None:
+            continue
+        values = values.reshape(len(traced), -1)
+        per_sample = np.zeros((n, values.shape[1]))
+        per_sample[traced] = np.where(np.abs(values) <= FILM_MAX, values, 0.0)
+        aux[name] = per_sample.reshape(p, spp, -1).sum(axis=1)
     return ChunkSums(per_pixel, squares, hits, aux, len(traced), found.shadow_rays, spp,
                      shading_seconds=shading_seconds, nonfinite=nonfinite)
 
