@@ -52,11 +52,11 @@ PYTHONS = ("3.11", "3.13")
 
 # Top-level entries never copied into the staging folder: version control, virtual environments and
 # build output (large, or the staging folder itself). Everything else is filtered by the manifest.
-STAGING_SKIP = (".git", ".venv*", "dist", "out", ".pytest_cache", "__pycache__")
+STAGING_SKIP = (".git", ".venv*", "dist", "out", ".pytest_cache", ".hypothesis", "__pycache__")
 
 # What the zip must never contain (development files) and must always contain.
 FORBIDDEN_PREFIXES = ("tests/", "sample_scenes/", "tools/", "docs/", "bench/", ".ci/", ".git", ".venv",
-                      "dist/", "out/", "Makefile", "pyproject.toml", "requirements", ".pytest_cache")
+                      "dist/", "out/", "Makefile", "pyproject.toml", "requirements", ".pytest_cache", ".hypothesis")
 REQUIRED_FILES = ("blender_manifest.toml", "__init__.py", "addon/__init__.py", "addon/engine.py",
                   "core/render/__init__.py", "core/geometry/intersect.py")
 
