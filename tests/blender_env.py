@@ -379,6 +379,18 @@ def render_pixels(scene, engine: str, path: str, samples: int):
     return pixels
 
 
+def empty_material(name: str):
+    """A new material whose node tree holds its Material Output alone: (material, tree, output node)."""
+    import bpy
+    material = bpy.data.materials.new(name)
+    if material.node_tree is None:                  # Blender 4.x: node trees are opt-in
+        material.use_nodes = True
+    tree = material.node_tree
+    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        tree.nodes.remove(node)
+    return material, tree, next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+
+
 def diffuse_material(name: str = "Diffuse", albedo=(0.8, 0.8, 0.8)):
     """A material that Cycles and Primer both render as a Lambert surface of `albedo`: a Diffuse BSDF
     (Blender 4.x without nodes: its viewport colour, which Cycles renders the same way)."""

@@ -21,7 +21,7 @@ SCRIPT = """
 import json, os, sys
 import bpy
 import numpy as np
-from blender_env import render_pixels, report
+from blender_env import empty_material, render_pixels, report
 sys.path.insert(0, {tools!r})
 from render import load_primer
 
@@ -37,13 +37,7 @@ scene.primer.use_adaptive_sampling = False
 
 
 def material(name, build):
-    m = bpy.data.materials.new(name)
-    if m.node_tree is None:
-        m.use_nodes = True
-    tree = m.node_tree
-    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
-        tree.nodes.remove(node)
-    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    m, tree, output = empty_material(name)
     tree.links.new(build(tree).outputs[0], output.inputs["Surface"])
     return m
 

@@ -45,19 +45,13 @@ report(shader=shader.node.bl_idname)
 EXPORT = """
 import sys
 import bpy
-from blender_env import report
+from blender_env import empty_material, report
 sys.path.insert(0, {tools!r})
 from render import load_primer
 primer = load_primer()
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
 bpy.ops.wm.read_factory_settings(use_empty=True)
-m = bpy.data.materials.new("Held")
-if m.node_tree is None:
-    m.use_nodes = True
-tree = m.node_tree
-for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
-    tree.nodes.remove(node)
-output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+m, tree, output = empty_material("Held")
 mix, diffuse, holdout = (tree.nodes.new(kind) for kind in ("ShaderNodeMixShader", "ShaderNodeBsdfDiffuse",
                                                              "ShaderNodeHoldout"))
 mix.inputs["Fac"].default_value = {fac!r}

@@ -20,7 +20,7 @@ SCRIPT = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import render_pixels, report
+from blender_env import empty_material, render_pixels, report
 sys.path.insert(0, {tools!r})
 from render import load_primer
 
@@ -29,13 +29,7 @@ materials_ = sys.modules[primer.__name__ + ".addon.materials"]
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 16, 12, 100
-material = bpy.data.materials.new("Sheet")
-if material.node_tree is None:
-    material.use_nodes = True
-tree = material.node_tree
-for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
-    tree.nodes.remove(node)
-output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+material, tree, output = empty_material("Sheet")
 sheet_bsdf = tree.nodes.new("ShaderNodeBsdfTranslucent")
 sheet_bsdf.inputs["Color"].default_value = (*{albedo!r}, 1.0)
 tree.links.new(sheet_bsdf.outputs[0], output.inputs["Surface"])

@@ -14,7 +14,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 from render import load_primer  # noqa: E402
 
-from blender_env import render_pixels  # noqa: E402
+from blender_env import empty_material, render_pixels  # noqa: E402
 
 pytestmark = [pytest.mark.blender]
 
@@ -26,13 +26,7 @@ def primer():
 
 def material(name: str, surface=None, volume=None, displacement=False):
     """A material whose output has the given Surface node type, Volume node type, and a Displacement."""
-    m = bpy.data.materials.new(name)
-    if m.node_tree is None:
-        m.use_nodes = True
-    tree = m.node_tree
-    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
-        tree.nodes.remove(node)
-    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    m, tree, output = empty_material(name)
     for kind, socket in ((surface, "Surface"), (volume, "Volume")):
         if kind is not None:
             tree.links.new(tree.nodes.new(kind).outputs[0], output.inputs[socket])
