@@ -123,3 +123,23 @@ def test_the_auxiliary_buffers_take_a_sample_beyond_the_film_as_zero_too(kernels
     assert result.stats.kernels.startswith(kernels)
     for name in (*LIGHT_PASSES, "lightgroup:lamp", "denoising_albedo", "denoising_normal"):
         assert np.isfinite(result.aux[name]).all(), name
+
+
+# An input out of its range and the value Cycles clamps it to (kernel/svm/closure.h: saturatef, fmaxf(ior, 1e-5)).
+CLAMPED = [("PRINCIPLED", {"roughness": -0.5}, {"roughness": 0.0}),
+           ("PRINCIPLED", {"roughness": 2.0}, {"roughness": 1.0}),
+           ("GLOSSY", {"roughness": -1.0, "color": (0.8, 0.8, 0.8)}, {"roughness": 0.0, "color": (0.8, 0.8, 0.8)}),
+           ("PRINCIPLED", {"ior": -1.0, "transmission": 1.0}, {"ior": 1e-5, "transmission": 1.0}),
+           ("GLASS", {"ior": 0.0}, {"ior": 1e-5})]
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+@pytest.mark.parametrize("node,bad,clamped", CLAMPED)
+def test_an_input_out_of_range_renders_as_the_value_cycles_clamps_it_to(kernels, node, bad, clamped):
+    """Negative or above-1 roughness, an IOR of 0 or below: the same image as the clamped value, bit for bit."""
+    def image(inputs):
+        return rendered(plane_scene(nodes=[(node, (1.0, 1.0, 1.0), inputs)],
+                                    lights=[PointLight(position=np.array([0.5, -0.5, 2.0]), power=200.0)]), kernels)[0]
+    out_of_range = image(bad)
+    assert np.isfinite(out_of_range).all()
+    np.testing.assert_array_equal(out_of_range, image(clamped))
