@@ -91,22 +91,23 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
  * shadow rays; embree[0] += ticks in occlusion queries, embree[1] in the BSDF rays' nearest hits. */
 INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work, uint64_t *embree)
 {
-    DirectSettings ds = {params->shadows, params->lights, (int64_t)params->light_count, params->light_context,
-                         (Occluded8)params->occluded8, (Intersect8)params->intersect8, params->scene,
-                         params->geometry, params->materials, (int)params->sampling == SAMPLE_MIS && params->bsdf_rays != 0.0,
-                         (int)params->sampling, params->bsdf_rays != 0.0, params->emissive != 0.0,
-                         params->everywhere != 0.0, params->seed, 0,
-                         params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHT, NULL, params->graphs,
-                         NULL, (int)params->caustics, {params->clamp_direct, params->clamp_indirect},
-                         params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY, 0, 0, NULL, -1, 0};
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
                                params->graphs, (int)params->transparent_bounces};
-    if (params->see_through != 0.0) ds.transmitter = &transmitter;
-    ds.light_passes = params->light_passes != 0.0 && work != NULL;
-    ds.groups = H->groups != NULL ? H->group_count : 0;
-    ds.instance_groups = params->instance_groups;
-    ds.world_group = (int64_t)params->world_group;
-    ds.features = params->features != 0.0 && work != NULL;
+    DirectSettings ds = {
+        .shadows = params->shadows, .lights = params->lights, .n_lights = (int64_t)params->light_count,
+        .context = params->light_context, .occluded = (Occluded8)params->occluded8,
+        .intersect = (Intersect8)params->intersect8, .scene = params->scene, .geometry = params->geometry,
+        .materials = params->materials, .mis = (int)params->sampling == SAMPLE_MIS && params->bsdf_rays != 0.0,
+        .sampling = (int)params->sampling, .bsdf_rays = params->bsdf_rays != 0.0, .emissive = params->emissive != 0.0,
+        .everywhere = params->everywhere != 0.0, .seed = params->seed, .dimension = 0,
+        .gather = params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHT, .continuing = NULL,
+        .graphs = params->graphs, .transmitter = params->see_through != 0.0 ? &transmitter : NULL,
+        .caustics = (int)params->caustics, .caps = {params->clamp_direct, params->clamp_indirect},
+        .clamping = params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY,
+        .light_passes = params->light_passes != 0.0 && work != NULL,
+        .groups = H->groups != NULL ? H->group_count : 0, .instance_groups = params->instance_groups,
+        .world_group = (int64_t)params->world_group, .features = params->features != 0.0 && work != NULL,
+    };
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH: {
         PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,

@@ -694,20 +694,33 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
     return (int64_t)mesh->first_prim + instance * (int64_t)mesh->triangle_count + prim;
 }
 
-/* direct.gather_light for one ray O + t D that ends at its hit (geometry, prim, instance; t_limit) or escapes
- * (hit 0): lamps with extent in front of the hit (they never block), the emission of the surface hit, or the
- * world, each weighed by MIS against that light's own samples (where use_mis) with pdf_b, the pdf of the
- * bounce that sent the ray (a constant world with weight 1); added to light_L. camera: 1 for a camera path's ray
- * (a holdout it hits emits nothing). N: the normal the light tree weighed the emitters by at P (NULL: unknown).
- * P: where the light samples MIS weighs against were taken (the last real bounce's ray origin; NULL: O): a ray
- * straight on through transparent surfaces from there finds a light at |O + t D - P| from P (Cycles' mis_origin);
- * an emitter's radiance is the actual hit's; a lamp is met where the line from P meets it past O (the disk facing
- * P for a round lamp with soft falloff, as its light samples there saw it). groups_L: (ds->groups, 3) what it adds
- * by the group of each source (lightgroups.py), added to, or NULL. */
-NOINLINE static void gather_light(const DirectSettings *ds, const double *O, const double *N, const double *D, int hit,
-                         double t_limit, int64_t geometry, int64_t prim, int64_t instance, double pdf_b, int use_mis,
-                         int camera, double *light_L, const double *P, double *groups_L)
+/* A ray that brings back the light it finds (direct.gather_light's): from O along the unit D, ending at its hit
+ * (geometry, prim, instance) at t, or escaping (hit 0); what it finds is weighed by MIS against each light's own
+ * samples (where use_mis) with pdf, the pdf of the bounce that sent it. camera: 1 for a camera path's ray (a holdout
+ * it hits emits nothing). P: where the light samples MIS weighs against were taken (the last real bounce's ray
+ * origin; NULL: O), N the normal the light tree weighed the emitters by there (NULL: unknown). */
+typedef struct {
+    const double *O, *D;
+    int hit;
+    double t;
+    int64_t geometry, prim, instance;
+    double pdf;
+    int use_mis, camera;
+    const double *P, *N;
+} FindingRay;
+
+/* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
+ * the surface hit, or the world, each weighed by MIS (a constant world with weight 1); added to light_L. A ray
+ * straight on through transparent surfaces from P finds a light at |O + t D - P| from P (Cycles' mis_origin); an
+ * emitter's radiance is the actual hit's; a lamp is met where the line from P meets it past O (the disk facing P for
+ * a round lamp with soft falloff, as its light samples there saw it). groups_L: (ds->groups, 3) what it adds by the
+ * group of each source (lightgroups.py), added to, or NULL. */
+NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ray, double *light_L, double *groups_L)
 {
+    const double *O = ray->O, *D = ray->D, *P = ray->P, *N = ray->N;
+    int hit = ray->hit, use_mis = ray->use_mis, camera = ray->camera;
+    double t_limit = ray->t, pdf_b = ray->pdf;
+    int64_t geometry = ray->geometry, prim = ray->prim, instance = ray->instance;
     const LightContext *ctx = ds->context;
     int away = P != NULL && (P[0] != O[0] || P[1] != O[1] || P[2] != O[2]);
     double t_mis = t_limit, t_start = 0.0;      /* from P: how far the ray's end (inf: none) and its start O are */
@@ -863,9 +876,9 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             if (!ds->gather) continue;
             double groups_L[3 * MAX_LIGHT_GROUPS];
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
-            gather_light(ds, O, N, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
-                         instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, light_L, P,
-                         H->groups != NULL ? groups_L : NULL);
+            FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
+                                  instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N};
+            gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];
             double f = ds->clamping ? clamp_scale(found, H->throughput + 3 * owner[k],
