@@ -55,8 +55,7 @@ class DirectLighting(Integrator):
         parts = lightpasses.FirstHitParts(len(hit)) if lightpasses.wanted(ctx.settings.passes) else None
         hit_groups = lightgroups.tally(ctx, len(hit))
         emitted, finds = (np.zeros((len(hit), 3)), np.zeros((len(hit), 3))) if feats is not None else (None, None)
-        shader = (ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry, graph_.RAY_CAMERA)
-                  if feats is not None else None)
+        shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry, graph_.RAY_CAMERA)
         L_hit, shadow_rays, _ = shade_vertex(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder,
                                              PathState(limit=direct_cap), parts=parts, groups=hit_groups,
                                              shader=shader, emitted=emitted, found=finds)

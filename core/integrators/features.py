@@ -62,10 +62,9 @@ def diffuse_like(closures: materials_.Closures) -> np.ndarray:
     return out
 
 
-def vertex_features(shader) -> tuple:
+def vertex_features(closures: materials_.Closures) -> tuple:
     """Return (diffuse albedo (m, 3), specular albedo (m, 3), normal (m, 3), is the feature vertex (m,) bool)
-    of hits with the ShaderResult `shader` (module docstring: Cycles' rule)."""
-    closures = shader.closures
+    of hits with the `closures` (module docstring: Cycles' rule)."""
     present = closures.kind >= 0
     weight = np.where(present[..., None], closures.weight, 0.0)
     sample_weight = np.where(present, closures.sample_weight, 0.0)
@@ -107,9 +106,7 @@ def at_vertex(features: Features, owner: np.ndarray, looking: np.ndarray, throug
     if len(rows) == 0:
         return looking, feature_throughput
     features.albedo[owner[rows]] += feature_throughput[rows] * throughput[rows] * emission[rows]
-    part = shader._replace(closures=type(shader.closures)(*(None if a is None else a[rows]
-                                                              for a in shader.closures)))
-    diffuse_albedo, specular_albedo, normal, stops = vertex_features(part)
+    diffuse_albedo, specular_albedo, normal, stops = vertex_features(shader.closures.rows(rows))
     done = rows[stops]
     features.albedo[owner[done]] += feature_throughput[done] * diffuse_albedo[stops]
     features.normal[owner[done]] = normal[stops]

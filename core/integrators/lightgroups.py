@@ -78,10 +78,8 @@ class LightGroups:
 
     def of_prims(self, geometry, prim: np.ndarray) -> np.ndarray:
         """The group (k,) int64 of the objects the triangles `prim` (k,) int64 belong to."""
-        owner = geometry.owners(np.asarray(prim, np.int64))
-        known = (owner >= 0) & (owner < len(self.instances))
-        return np.where(known, self.instances[np.clip(owner, 0, max(0, len(self.instances) - 1))]
-                        if len(self.instances) else NONE, NONE)
+        # (an owner of -1, no object, reads the NONE appended last)
+        return np.append(self.instances, NONE)[geometry.owners(np.asarray(prim, np.int64))]
 
     def of_sample(self, geometry, index: int, light, ls):
         """The group of light `index`'s samples `ls`: its own (int), or for the emissive meshes each sample's
@@ -96,12 +94,12 @@ class LightGroups:
 
 
 class GroupLight:
-    """The light of m rows (hits or rays) split by group: L (m, count, 3) float64, or nothing without groups."""
+    """The light of m rows (hits or rays) split by group: L (m, count, 3) float64."""
 
-    def __init__(self, groups: Optional[LightGroups], m: int):
+    def __init__(self, groups: LightGroups, m: int):
         """Start with nothing gathered by m rows."""
         self.groups = groups
-        self.L = np.zeros((m, groups.count if groups is not None else 0, 3))
+        self.L = np.zeros((m, groups.count, 3))
 
     def add(self, rows, value: np.ndarray, group) -> None:
         """Add value (k, 3) to the rows `rows` (k,) int64 in their groups `group` (int or (k,) int; NONE: nowhere)."""
@@ -112,27 +110,17 @@ class GroupLight:
             np.add.at(self.L, (rows[kept], group[kept]), np.asarray(value)[kept])
 
     def scale(self, factor: np.ndarray) -> None:
-        """Multiply every row by factor (m,) or (m, 3) (clamping's caps, a path's throughput)."""
-        factor = np.asarray(factor, np.float64)
-        self.L *= factor[:, None, None] if factor.ndim == 1 else factor[:, None, :]
+        """Multiply each row by its factor (m,) (clamping's cap)."""
+        self.L *= np.asarray(factor, np.float64)[:, None, None]
 
     def add_rows(self, rows, other: "GroupLight", factor=None) -> None:
-        """Add the rows of `other` (k rows) into the rows `rows` (k,) int64, each times factor (k,) or (k, 3)."""
-        if self.L.shape[1] == 0:
-            return
-        values = other.L
-        if factor is not None:
-            factor = np.asarray(factor, np.float64)
-            values = values * (factor[:, None, None] if factor.ndim == 1 else factor[:, None, :])
+        """Add the rows of `other` (k rows) into the rows `rows` (k,) int64, each times factor (k, 3) (a throughput,
+        a BSDF weight) or 1."""
+        values = other.L if factor is None else other.L * np.asarray(factor, np.float64)[:, None, :]
         np.add.at(self.L, np.asarray(rows, np.int64), values)
 
 
-def wanted(ctx) -> Optional[LightGroups]:
-    """The render's LightGroups (Context.extra["light_groups"]), or None where none is asked for."""
-    return ctx.extra.get("light_groups")
-
-
 def tally(ctx, m: int) -> Optional[GroupLight]:
-    """A GroupLight of m rows where the render splits light by group, else None."""
-    groups = wanted(ctx)
+    """A GroupLight of m rows where the render splits light by group (Context.extra["light_groups"]), else None."""
+    groups = ctx.extra.get("light_groups")
     return GroupLight(groups, m) if groups is not None else None

@@ -1,7 +1,8 @@
 """First-hit render passes: what compositing setups made for Cycles read besides Combined.
 
-Like the denoising features (features.py), these come from a separate, cheap pass of camera rays after
-the render, computed only for the passes a scene asks for. Cycles' meaning (kernel/film/data_passes.h,
+Unlike the denoising features, light passes and light groups (which the integrator writes as it goes), these
+still come from a separate, cheap pass of camera rays after the render, computed only for the passes a scene asks
+for. Cycles' meaning (kernel/film/data_passes.h,
 kernel/film/light_passes.h, kernel/integrator/shade_surface.h), followed along each camera sample:
 
 - A camera ray goes on through transparent surfaces (a Transparent BSDF, a Principled BSDF's Alpha) with
@@ -70,7 +71,7 @@ FIRST_SAMPLE_ONLY = ("position", "object_index", "material_index")
 PASS_SAMPLES = 16
 # A surface at least this opaque (1 - mean transparency) holds the data passes (Cycles' pass_alpha_threshold).
 ALPHA_THRESHOLD = 0.5
-# Sampling dimension of the ambient occlusion ray's direction (features.py uses 96 .. 113).
+# Sampling dimension of the ambient occlusion ray's direction.
 AO_DIMENSION = 120
 # The UV map the UV pass reads: the mesh's active render map (core/scene Mesh.attributes).
 UV_ATTRIBUTE = "uv:"

@@ -30,7 +30,7 @@ from ..sampling import sobol as sampling
 from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION,
                           HOLDOUT)
 from . import clamp as clamp_
-from . import lightpasses
+from . import lightgroups, lightpasses
 from . import shadows
 from .base import Context, Recorder, check_stop
 from .rays import nearest_seen, ray_kind
@@ -181,7 +181,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             shadow_rays += len(rows)
             # d. What gets through: f cos (the closures at L) E_normal / count, coloured by the
             #    light, weighed against BSDF sampling where a BSDF ray could find this light.
-            part = materials_.Closures(*(array[rows] for array in shader.closures))
+            part = shader.closures.rows(rows)
             left_out = None if ls.hidden is None else closures_left_out(part.kind, ls.hidden[rows])
             f_cos, pdf_bsdf = materials_.eval_closures(part, wo[rows], ls.L[rows],
                                                        signed_cosine=not s.clamp_n_dot_l, left_out=left_out)
@@ -209,7 +209,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     if not light_samples_only and (trace_all or (ctx.extra.get("bsdf_rays", False) and s.light_sampling != "light"
                                                  and traced.any())):
         gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
-        ray_groups = None if groups is None else type(groups)(groups.groups, m)
+        ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, m)
         finds, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N,
                               carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups)
@@ -224,7 +224,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
         if found is not None:
             found += finds
         if parts is not None and ray is not None:
-            c = materials_.Closures(*(None if array is None else array[ray.rows] for array in shader.closures))
+            c = shader.closures.rows(ray.rows)
             parts.ray_shares = lightpasses.sample_shares(c, wo[ray.rows], ray.D, ray.kind, ray.delta, ray.transmit)
             parts.gathered[ray.rows] += lightpasses.split(finds[ray.rows], parts.ray_shares)
     return L_out, shadow_rays, ray
@@ -282,7 +282,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         return found, ray
     use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
     holdouts = ctx.geometry.hides(HOLDOUT)
-    ray_groups = None if groups is None else type(groups)(groups.groups, len(go))
+    ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, len(go))
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
                                              mis_O=mis_O, groups=ray_groups)

@@ -53,6 +53,10 @@ class Closures(NamedTuple):
         return cls(np.full((n, slots), -1, np.int32), np.zeros((n, slots, 3)), np.zeros((n, slots)),
                    np.zeros((n, slots, 3)), np.zeros((n, slots, PARAMS)), np.zeros((n, slots, 3)))
 
+    def rows(self, rows) -> "Closures":
+        """The closures of the hits `rows` (an index array or a mask over the n hits)."""
+        return Closures(*(None if array is None else array[rows] for array in self))
+
 
 class ShaderResult(NamedTuple):
     """What a material is at n hits.
@@ -191,7 +195,7 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
             pdf[at] = s.pdf                         # (replaced by the combined pdf below)
     smooth = np.flatnonzero(~delta & (pdf > 0))
     if len(smooth):
-        part = Closures(*(None if array is None else array[smooth] for array in closures))
+        part = closures.rows(smooth)
         f_cos, combined = eval_closures(part, wo[smooth], wi[smooth])
         weight[smooth] = np.divide(f_cos, combined[:, None], out=np.zeros_like(f_cos), where=combined[:, None] > 0)
         pdf[smooth] = combined

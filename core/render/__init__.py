@@ -262,26 +262,14 @@ def light_pass_images(film: Film, first_hit: dict, wanted) -> dict:
     return lightpasses.divide_by_color(sums, film.noise.count.reshape(H, W).astype(np.float64), first_hit, wanted)
 
 
-def feature_images(film: Film) -> dict:
-    """Return the denoising features' buffers from the film's sums (features.FEATURE_BUFFERS): name -> (H, W, 3)
-    float32, each pixel's mean over its samples (0 where it has none)."""
+def rgb_means(film: Film, buffer: str, names) -> dict:
+    """Return the film's sums `buffer` (3 channels per name) as images: name -> (H, W, 3) float32, each pixel's mean
+    over its samples (0 where it has none). The denoising features and the light groups come out this way."""
     H, W = film.height, film.width
     count = film.noise.count.reshape(H, W, 1).astype(np.float64)
-    sums = film.aux[features.FILM_BUFFER].reshape(H, W, features.FILM_CHANNELS)
+    sums = film.aux[buffer].reshape(H, W, -1)
     mean = np.divide(sums, count, out=np.zeros_like(sums), where=count > 0)
-    return {name: np.ascontiguousarray(mean[..., 3 * k:3 * k + 3], np.float32)
-            for k, name in enumerate(features.FEATURE_BUFFERS)}
-
-
-def light_group_images(film: Film, names) -> dict:
-    """Return each light group's pass, from the film's sums: lightgroups.BUFFER_PREFIX + name -> (H, W, 3) float32,
-    the mean over each pixel's samples (0 where it has none)."""
-    H, W = film.height, film.width
-    count = film.noise.count.reshape(H, W, 1).astype(np.float64)
-    sums = film.aux[lightgroups.FILM_BUFFER].reshape(H, W, len(names), 3)
-    mean = np.divide(sums, count[..., None], out=np.zeros_like(sums), where=count[..., None] > 0)
-    return {lightgroups.BUFFER_PREFIX + name: np.ascontiguousarray(mean[:, :, k], np.float32)
-            for k, name in enumerate(names)}
+    return {name: np.ascontiguousarray(mean[..., 3 * k:3 * k + 3], np.float32) for k, name in enumerate(names)}
 
 
 def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
@@ -551,11 +539,11 @@ def render(scene: Scene, settings: RenderSettings,
             stats.passes += 1
             if cancelled:
                 break
-        # c. The denoising features are the film's (the integrator writes them as it goes: features.py).
-        features_ = {}
-        # d. The first-hit render passes asked for (core/integrators/passes.py).
+        # c. The first-hit render passes asked for (core/integrators/passes.py), from a pass of their own (the
+        #    denoising features, light passes and light groups are the film's: the integrator writes them).
         #    With light passes, also the colour passes they are divided by (core/integrators/lightpasses.py).
         first_hit = lightpasses.first_hit_passes(settings.passes)
+        pass_buffers = {}
         if first_hit and not cancelled:
             started = time.perf_counter()
             hit_ctx = dataclasses.replace(ctx, settings=dataclasses.replace(settings, passes=first_hit))
@@ -563,7 +551,7 @@ def render(scene: Scene, settings: RenderSettings,
             cancelled = bool(stop)
             if light_passes:
                 found.update(light_pass_images(film, found, settings.passes))
-            features_.update({name: image for name, image in found.items() if name in settings.passes})
+            pass_buffers = {name: image for name, image in found.items() if name in settings.passes}
             stats.pass_seconds = time.perf_counter() - started
     if progress is not None and not cancelled:
         progress(1.0, stats)
@@ -573,11 +561,12 @@ def render(scene: Scene, settings: RenderSettings,
     if note is not None:
         stats.warnings.append(note)
     aux = debug.aux_images(film.aux, film.hits, settings.aux, H, W)
-    aux.update(features_)
+    aux.update(pass_buffers)
     if settings.light_groups:
-        aux.update(light_group_images(film, settings.light_groups))
+        aux.update(rgb_means(film, lightgroups.FILM_BUFFER,
+                             [lightgroups.BUFFER_PREFIX + name for name in settings.light_groups]))
     if settings.denoising_features:
-        aux.update(feature_images(film))
+        aux.update(rgb_means(film, features.FILM_BUFFER, features.FEATURE_BUFFERS))
     stats.samples_per_pixel = film.noise.count.reshape(H, W).astype(np.int32)
     stats.seconds = time.perf_counter() - start
     # Embree's share: the shadow rays' queries ran inside shading, so they move from there to trace.
