@@ -104,10 +104,12 @@ class Film:
     hits:   (H W,) int64 samples that hit a surface
     aux:    name -> (H W, c) float64 sums of debug values
     compiled: add chunks and resolve the image in C (film.c), with noise `estimates` kept when given
+    merge:  name -> function(film's rows, chunk's rows) -> new rows, for the aux buffers a chunk does not add to
+            but merges into (Cryptomatte's slots)
     """
 
     def __init__(self, width: int, height: int, aux_channels: dict, compiled: bool = False,
-                 keep_estimates: bool = False):
+                 keep_estimates: bool = False, merge: Optional[dict] = None):
         size = width * height
         self.width, self.height = width, height
         self.noise = adaptive.PixelNoise(np.zeros((size, 4)), np.zeros((size, 2)), np.zeros(size, np.int64))
@@ -116,6 +118,7 @@ class Film:
         self.compiled = compiled
         self.estimates = NoiseEstimates.empty(size) if compiled and keep_estimates else None
         self.nonfinite = np.zeros(size, np.int64)     # samples whose NaN or infinite value became 0, per pixel
+        self.merge = merge or {}
 
     def add(self, pixels: np.ndarray, sums: ChunkSums, estimates: bool = True) -> None:
         """Add a chunk's per-pixel sums: pixels (p,) int64 distinct flat indices.
@@ -137,7 +140,11 @@ class Film:
             self.noise.count[chosen] += sums.samples
             self.hits[chosen] += sums.hits
         for name, values in sums.aux.items():
-            self.aux[name][_selector(pixels)] += values
+            if name in self.merge:
+                chosen = _selector(pixels)
+                self.aux[name][chosen] = self.merge[name](self.aux[name][chosen], values)
+            else:
+                self.aux[name][_selector(pixels)] += values
 
     def nonfinite_note(self) -> Optional[str]:
         """The warning that some samples were NaN or infinite and went in as 0 (the first pixel named), or None."""

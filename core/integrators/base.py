@@ -89,6 +89,7 @@ class Radiance(NamedTuple):
     groups:  (n, G, 3) float64 each ray's light by the group of its source (core/integrators/lightgroups.py), or
              None where no light group is asked for
     features: (n, 6) float64 each ray's denoising albedo and normal (core/integrators/features.py), or None
+    passes:  each ray's first-hit passes (core/integrators/passes.py DataPasses), or None where none is asked for
     """
 
     L: np.ndarray
@@ -98,6 +99,7 @@ class Radiance(NamedTuple):
     light: Optional[np.ndarray] = None
     groups: Optional[np.ndarray] = None
     features: Optional[np.ndarray] = None
+    passes: Optional[object] = None
 
 
 class Recorder:

@@ -166,6 +166,8 @@ def why_not(settings) -> str:
         return "jitter is off"
     if abs(settings.seed) >= 2 ** 53:
         return "the seed does not fit a double"
+    if lightpasses.first_hit_passes(settings.passes):
+        return "TEMPORARY: first-hit passes"
     if len(settings.light_groups) > lightgroups.MAX_GROUPS:
         return f"more than {lightgroups.MAX_GROUPS} light groups"
     return ""

@@ -115,35 +115,60 @@ def pass_count(depth: int) -> int:
     return max(1, (int(depth) + 1) // 2)
 
 
-def rank(pixel: np.ndarray, ids: np.ndarray, weight: np.ndarray, pixels: int, samples: int,
-         depth: int) -> np.ndarray:
-    """The ranked (id, coverage) pairs of `pixels` pixels: (pixels, 4 * pass_count(depth)) float32.
+def slot_count(depth: int) -> int:
+    """The (id, weight) slots a pixel keeps per kind of matte for `depth` ranks: two per RGBA pass, as Cycles."""
+    return 2 * pass_count(depth)
 
-    pixel: (m,) int64 the pixel (0 .. pixels - 1) of each contribution; ids: (m,) float32 ids; weight: (m,)
-    float64 coverage of one sample; samples: the samples each pixel took (coverage = sum / samples). Per pixel
-    the ids come in order of falling coverage (equal coverage: smaller id first), `depth` of them at most; the
-    rest of the row is 0 (no id, no coverage). Cycles keeps the first `depth` ids a pixel meets and ranks those:
-    the same unless a pixel sees more than `depth` ids.
-    """
-    out = np.zeros((pixels, 2 * 2 * pass_count(depth)), np.float32)
+
+def fill_slots(pixel: np.ndarray, ids: np.ndarray, weight: np.ndarray, pixels: int, slots: int) -> np.ndarray:
+    """Each pixel's slots after its entries went in one by one, in their order, by Cycles' rule
+    (film_write_cryptomatte_slots): an entry adds its weight to the slot of its id, or takes the first empty
+    slot, or, all slots taken, adds to the last; entries of weight 0 take no slot. pixel (m,) int64 in 0 ..
+    pixels - 1, ids (m,) float32 (never 0, the empty id), weight (m,) float64, in order.
+    Returns (pixels, slots, 2) float64: per slot the id (a float32's value; 0: empty) and the summed weight."""
+    out = np.zeros((pixels, slots, 2))
     keep = weight > 0.0
     if not keep.any():
         return out
-    pixel, bits, weight = pixel[keep], ids[keep].view(np.uint32), weight[keep]
-    # 1. Sum each (pixel, id)'s coverage over the samples.
+    order = np.flatnonzero(keep)
+    pixel, bits, weight = pixel[keep], np.asarray(ids, np.float32)[keep].view(np.uint32), weight[keep]
+    # 1. Each (pixel, id): its summed weight and where it first came.
     key = (pixel.astype(np.uint64) << np.uint64(32)) | bits.astype(np.uint64)
-    unique, inverse = np.unique(key, return_inverse=True)
-    coverage = np.bincount(inverse, weights=weight) / max(1, samples)
+    unique, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    total = np.bincount(inverse.reshape(-1), weights=weight)
     where = (unique >> np.uint64(32)).astype(np.int64)
     ident = (unique & np.uint64(0xFFFFFFFF)).astype(np.uint32)
-    # 2. Rank within each pixel: by pixel, then by falling coverage, then by id.
-    order = np.lexsort((ident, -coverage, where))
-    where, ident, coverage = where[order], ident[order], coverage[order]
-    first = np.searchsorted(where, where, side="left")
-    place = np.arange(len(where)) - first
-    kept = place < depth
-    # 3. Write (id, coverage) into each pixel's slots.
-    rows, slots = where[kept], place[kept]
-    out[rows, 2 * slots] = ident[kept].view(np.float32)
-    out[rows, 2 * slots + 1] = coverage[kept]
+    # 2. Within a pixel, the ids in order of first coming: their slots, the late ones sharing the last.
+    arrival = order[first]
+    by_arrival = np.lexsort((arrival, where))
+    where, ident, total = where[by_arrival], ident[by_arrival], total[by_arrival]
+    rank = np.arange(len(where)) - np.searchsorted(where, where, side="left")
+    slot = np.minimum(rank, slots - 1)
+    np.add.at(out[:, :, 1], (where, slot), total)
+    own = rank < slots
+    out[where[own], slot[own], 0] = ident[own].view(np.float32)
+    return out
+
+
+def merge_slots(film: np.ndarray, chunk: np.ndarray) -> np.ndarray:
+    """The film's slots (p, slots, 2) after a chunk's slots (p, slots, 2) of the same pixels went in, in order, as
+    entries (fill_slots): (p, slots, 2) float64."""
+    p, slots, _ = film.shape
+    both = np.concatenate([film, chunk], axis=1)
+    pixel = np.repeat(np.arange(p), 2 * slots)
+    return fill_slots(pixel, both[:, :, 0].reshape(-1).astype(np.float32), both[:, :, 1].reshape(-1), p, slots)
+
+
+def ranked(slots: np.ndarray, count: np.ndarray, depth: int) -> np.ndarray:
+    """A Cryptomatte pass from each pixel's slots (p, slots, 2) and samples `count` (p,): (p, 4 pass_count(depth))
+    float32, the (id, coverage) pairs in order of falling coverage (equal ones in slot order, as Cycles' sort), the
+    coverage the slot's weight over the pixel's samples; empty slots (0, 0)."""
+    p, n, _ = slots.shape
+    out = np.zeros((p, 2 * 2 * pass_count(depth)), np.float32)
+    order = np.argsort(-slots[:, :, 1], axis=1, kind="stable")
+    ordered = np.take_along_axis(slots, order[:, :, None], axis=1)
+    samples = np.maximum(np.asarray(count, np.float64), 1.0)[:, None]
+    pairs = min(n, out.shape[1] // 2)
+    out[:, 0:2 * pairs:2] = ordered[:, :pairs, 0].astype(np.float32)
+    out[:, 1:2 * pairs:2] = (ordered[:, :pairs, 1] / samples).astype(np.float32)
     return out

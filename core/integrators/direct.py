@@ -26,6 +26,7 @@ from ..materials import graph as graph_
 from . import clamp as clamp_
 from . import features as features_
 from . import lightgroups, lightpasses
+from . import passes as passes_
 from .base import Context, Integrator, Radiance, Recorder
 from .rays import camera_hits
 from .vertex import PathState, shade_vertex
@@ -47,9 +48,14 @@ class DirectLighting(Integrator):
         feats = features_.Features(len(O)) if ctx.settings.denoising_features else None
         if feats is not None:
             feats.albedo += L_out
+        # The first-hit passes (passes.py): what the camera rays pass and escape to, then at their hits.
+        data = passes_.DataPasses.of(ctx, sample)
+        if data is not None:
+            passes_.along_ray(ctx, data, np.arange(len(O)), np.ones((len(O), 3)), O, D, found.hit,
+                              np.where(found.hit, found.t, t_max))
         if surface is None:
             return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L,
-                            features=None if feats is None else feats.stacked())
+                            features=None if feats is None else feats.stacked(), passes=data)
         D_hit = vectors.gather(D, hit)
         # 4. The light each hit sends towards the camera (each contribution capped by Clamp Direct).
         parts = lightpasses.FirstHitParts(len(hit)) if lightpasses.wanted(ctx.settings.passes) else None
@@ -64,6 +70,9 @@ class DirectLighting(Integrator):
             looking, feature_throughput = features_.at_vertex(feats, hit, np.ones(len(hit), bool), one, one, shader,
                                                               emitted)
             features_.found(feats, hit, looking, feature_throughput, finds)
+        if data is not None:
+            passes_.at_vertex(ctx, data, np.arange(len(hit)), hit, 0, surface, shader, -D_hit, np.ones((len(hit), 3)),
+                              pixel[hit], sample[hit])
         L_out[hit] += L_hit
         if groups is not None:
             groups.add_rows(hit, hit_groups)
@@ -72,4 +81,4 @@ class DirectLighting(Integrator):
             light = np.zeros((len(O), len(lightpasses.LIGHT_PASSES), 3))
             light[hit, :lightpasses.KINDS] = parts.gathered
         return Radiance(L_out, found.hit, shadow_rays, light=light, groups=None if groups is None else groups.L,
-                        features=None if feats is None else feats.stacked())
+                        features=None if feats is None else feats.stacked(), passes=data)

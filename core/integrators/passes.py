@@ -1,80 +1,82 @@
 """First-hit render passes: what compositing setups made for Cycles read besides Combined.
 
-Unlike the denoising features, light passes and light groups (which the integrator writes as it goes), these
-still come from a separate, cheap pass of camera rays after the render, computed only for the passes a scene asks
-for. Cycles' meaning (kernel/film/data_passes.h,
-kernel/film/light_passes.h, kernel/integrator/shade_surface.h), followed along each camera sample:
+The integrator writes them along each camera sample's own path, as Cycles does (kernel/film/data_passes.h,
+light_passes.h, integrator/shade_surface.h), both kernels (the compiled twin is passes.c). A path's *camera
+chain* is the camera ray and the rays it sends straight on through Transparent closures (a Transparent BSDF, a
+Principled BSDF's Alpha): the vertices a path meets before its first real bounce, each seen with the path's
+throughput there (the product of the transparent bounces' weights).
 
-- A camera ray goes on through transparent surfaces (a Transparent BSDF, a Principled BSDF's Alpha) with
-  its throughput times their transparency, up to transparent_max_bounces of them.
-- The data passes come from the first surface whose alpha (1 - the mean transparency) is at least
-  ALPHA_THRESHOLD (Cycles' Alpha Threshold, 0.5):
+- The data passes come from the first vertex of the chain whose alpha (1 - the mean transparency) is at least
+  ALPHA_THRESHOLD (Cycles' Alpha Threshold, 0.5); until then each vertex overwrites the sample-0 ones:
     position        the world-space hit point, of sample 0 only (not anti-aliased, as in Cycles)
     object_index    the object's Pass Index, of sample 0 only
     material_index  the material's Pass Index, of sample 0 only
-    z_depth         the hit's distance along the camera's forward axis (Blender's Depth pass), the mean over
-                    the samples that hit, MISS_DEPTH where none did (Cycles keeps sample 0's)
+    z_depth         the hit's distance along the camera's forward axis (Blender's Depth pass), of sample 0 only;
+                    MISS_DEPTH where sample 0 met no surface
     average_normal  the closures' normals weighed by their mean weight, normalised (the shading normal where
                     no closure says otherwise: normal maps and bump included), world space, the mean over
                     samples (Cycles' Normal pass, surface_shader_average_normal)
     uv              (u, v, 1) of the object's active render UV map, the mean over samples: the third channel
-                    is the share of samples that hit a surface (0 where they all missed)
-- The colour passes add, at every surface the ray meets before it scatters, throughput times the sum over
-  the closures of their weight times their albedo (Cycles' bsdf_albedo): Lambert's albedo is 1; a
-  microfacet's is its Fresnel reflectance at the view angle (Cycles reads a roughness-averaged table for
-  some Fresnel models; Primer's closures do not keep it); glass splits into its reflected share
-  (glossy) and transmitted share (transmission); a smooth glossy lobe, stored as a mirror whose weight
-  already holds its Fresnel reflectance, counts with albedo 1:
-    diffuse_color, glossy_color, transmission_color
-- emission      throughput times what the surfaces the camera sees emit, plus the lamps with extent it
-                sees (Cycles writes directly seen lights there too)
-- environment   throughput times the world where the camera ray escapes, also with a transparent film
-                (Cycles keeps it for compositing the background back in)
-- ambient_occlusion  throughput times whether a cosine-distributed ray from the first opaque surface
-                (around its shading normal) escapes within ao_distance: 1 open, 0 occluded (grey, 3 channels)
-- crypto_object, crypto_material, crypto_asset  Cryptomatte (cryptomatte.py): at every surface the ray
-                meets, mean(throughput) x (1 - mean(transparency)) for the surface's object, material or asset
-                id; ranked per pixel into settings.cryptomatte_depth (id, coverage) pairs
+                    is the share of samples that found such a surface
+  A chain that escapes before its opaque vertex leaves the sample-0 passes 0 (Cycles' background data passes).
+- At every vertex of the chain:
+    diffuse_color, glossy_color, transmission_color   throughput times the sum over the closures of their weight
+                    times their albedo (Cycles' bsdf_albedo; each BSDF class's `albedo`): Lambert's albedo is 1;
+                    a microfacet's is its Fresnel reflectance at the view angle (Cycles reads a roughness-averaged
+                    table for some Fresnel models; Primer's closures do not keep it); glass splits into its
+                    reflected share (glossy) and transmitted share (transmission); a smooth glossy lobe, stored as
+                    a mirror whose weight already holds its Fresnel reflectance, counts with albedo 1
+    emission        throughput times what the surface emits
+    ambient_occlusion  throughput times its alpha times what a cosine-distributed ray about the shading normal
+                    carries back through transparent surfaces within ao_distance (1 open, 0 occluded; Cycles'
+                    AO pass)
+    crypto_object, crypto_material, crypto_asset  Cryptomatte (cryptomatte.py): mean(throughput) x alpha for the
+                    surface's object, material or asset id, into the pixel's slots
+- Along the chain's rays:
+    emission        throughput times the lamps with extent the camera sees that the ray passes
+    environment     throughput times the world where the ray escapes, also with a transparent film (Cycles
+                    keeps it for compositing the background back in)
 
-Each pass is the mean over PASS_SAMPLES camera samples (fewer when the render takes fewer), at the same
-jittered positions as the render's first samples, with Primer's 1-pixel box filter (Cycles uses its pixel
-filter, 1.5 pixels Blackman-Harris by default: anti-aliased edges differ); pixels without samples are 0.
+Each pass is the mean over all of a pixel's samples (the film's sums divided by its count), but for the
+sample-0 ones (FIRST_SAMPLE_ONLY), with the render's pixel filter (Primer's 1-pixel box; Cycles' default is
+1.5 pixels Blackman-Harris: anti-aliased edges differ).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .. import materials as materials_
-from .. import vectors
-from ..geometry.surface import hit_attributes, hit_owners, surface_at_hits
-from ..materials import graph as graph_
+from ..geometry.surface import hit_attributes, hit_owners
 from ..materials.closures import each_kind
 from ..materials.lambert import Lambert
+from ..native import schema
+from ..native.schema import F64, I32, I64, ptr
 from ..sampling import sobol as sampling
 from . import cryptomatte, shadows
-from .base import Context, check_stop
-from .rays import lamps_seen, nearest_seen
+from .rays import lamps_seen
 
-# Channels of each pass buffer (core/render.py RenderResult.aux).
+# Channels of each pass (core/render.py RenderResult.aux), in the order the film keeps them (PASS_* in C).
 PASS_CHANNELS = {
     "position": 3, "uv": 3, "object_index": 1, "material_index": 1, "z_depth": 1, "average_normal": 3,
     "diffuse_color": 3, "glossy_color": 3, "transmission_color": 3,
     "emission": 3, "environment": 3, "ambient_occlusion": 3,
 }
+PASS = schema.constants("PASS", tuple(PASS_CHANNELS), "the first-hit passes, in the film's order (passes.py)")
 # Cryptomatte's passes: core buffer -> matte kind (cryptomatte.KINDS); their channels follow the depth.
 CRYPTO_PASSES = {"crypto_object": "object", "crypto_material": "material", "crypto_asset": "asset"}
-# Passes averaged over the samples that hit (the others do not count), with their value where none hit.
-HIT_MEAN = {"z_depth": 1e10}
 # Passes Cycles takes from sample 0 alone (overwritten, not averaged).
-FIRST_SAMPLE_ONLY = ("position", "object_index", "material_index")
-# Camera samples per pixel the passes average (at most the render's samples).
-PASS_SAMPLES = 16
+FIRST_SAMPLE_ONLY = ("position", "object_index", "material_index", "z_depth")
+# A Depth pixel whose sample 0 met no surface (Cycles' value for no depth).
+MISS_DEPTH = 1e10
 # A surface at least this opaque (1 - mean transparency) holds the data passes (Cycles' pass_alpha_threshold).
-ALPHA_THRESHOLD = 0.5
-# Sampling dimension of the ambient occlusion ray's direction.
-AO_DIMENSION = 120
+ALPHA_THRESHOLD = schema.constant("ALPHA_THRESHOLD", 0.5, "the data passes' opaque-enough alpha (passes.py)")
+# Sampling dimension of the ambient occlusion ray's direction (before the vertex's shift).
+AO_DIMENSION = schema.constant("AO_DIMENSION", 120, "the ambient occlusion ray's sampling dimension")
 # The UV map the UV pass reads: the mesh's active render map (core/scene Mesh.attributes).
 UV_ATTRIBUTE = "uv:"
+# The film's buffers of the passes' per-pixel sums, and of the Cryptomatte slots.
+FILM_BUFFER = "data_passes"
+MATTE_BUFFER = "cryptomatte"
 
 
 def pass_channels(name: str, depth: int) -> int:
@@ -82,26 +84,55 @@ def pass_channels(name: str, depth: int) -> int:
     return 4 * cryptomatte.pass_count(depth) if name in CRYPTO_PASSES else PASS_CHANNELS[name]
 
 
-def pass_samples(samples: int) -> int:
-    """Return the camera samples per pixel the passes average for a render of `samples` samples."""
-    return max(1, min(int(samples), PASS_SAMPLES))
+class PassLayout:
+    """Where the passes a render asks for sit in the film: names (in PASS_CHANNELS' order), offset name -> first
+    channel, channels in all; the Cryptomatte kinds asked for (mattes: pass names, kinds: cryptomatte.KINDS
+    indices) with `slots` (id, weight) slots each."""
+
+    def __init__(self, wanted, depth: int):
+        """The layout of the passes `wanted` (names of PASS_CHANNELS and CRYPTO_PASSES), Cryptomatte `depth`."""
+        self.names = [name for name in PASS_CHANNELS if name in wanted]
+        self.offset, self.channels = {}, 0
+        for name in self.names:
+            self.offset[name] = self.channels
+            self.channels += PASS_CHANNELS[name]
+        self.mattes = [name for name in CRYPTO_PASSES if name in wanted]
+        self.kinds = [cryptomatte.KINDS.index(CRYPTO_PASSES[name]) for name in self.mattes]
+        self.slots = cryptomatte.slot_count(depth)
+
+    def __bool__(self) -> bool:
+        return bool(self.names or self.mattes)
+
+    def has(self, name: str) -> bool:
+        """Whether the pass `name` is asked for."""
+        return name in self.offset
+
+    def merge_mattes(self, film: np.ndarray, chunk: np.ndarray) -> np.ndarray:
+        """A film's Cryptomatte slots (p, kinds slots 2) float64 after a chunk's of the same pixels went in, kind by
+        kind (cryptomatte.merge_slots)."""
+        p, kinds = len(film), len(self.mattes)
+        film, chunk = film.reshape(p, kinds, self.slots, 2), chunk.reshape(p, kinds, self.slots, 2)
+        return np.stack([cryptomatte.merge_slots(film[:, k], chunk[:, k]) for k in range(kinds)], axis=1).reshape(p, -1)
+
+    def channels_of(self, name: str) -> slice:
+        """The film channels of the pass `name`."""
+        return slice(self.offset[name], self.offset[name] + PASS_CHANNELS[name])
 
 
-def closure_albedos(shader) -> tuple:
-    """Return (diffuse, glossy, transmission) colours (m, 3) float64 of hits with the ShaderResult `shader`:
+def closure_albedos(closures, wo: np.ndarray) -> tuple:
+    """Return (diffuse, glossy, transmission) colours (m, 3) float64 of hits with `closures` seen from wo (m, 3):
     each the sum of its closures' weight x albedo (module docstring), by closure type (BSDFFlags.*_TYPE): the
     diffuse type's reflection to Diffuse, the glossy type's to Glossy, the transmission type's transmission to
     Transmission, and glass's reflection and transmission to Glossy and Transmission."""
     F = materials_.BSDFFlags
-    c = shader.closures
-    m = len(c.kind)
+    m = len(closures.kind)
     diffuse, glossy, transmission = np.zeros((m, 3)), np.zeros((m, 3)), np.zeros((m, 3))
-    for slot in range(c.kind.shape[1]):
-        for bsdf, rows in each_kind(c, slot):
+    for slot in range(closures.kind.shape[1]):
+        for bsdf, rows in each_kind(closures, slot):
             if not bsdf.is_(F.DIFFUSE_TYPE | F.GLOSSY_TYPE | F.TRANSMISSION_TYPE | F.GLASS_TYPE):
                 continue
-            weight = c.weight[rows, slot]
-            R, T = bsdf.albedo(c.params[rows, slot], c.N[rows, slot], shader.wo[rows])
+            weight = closures.weight[rows, slot]
+            R, T = bsdf.albedo(closures.params[rows, slot], closures.N[rows, slot], wo[rows])
             if bsdf.is_(F.DIFFUSE_TYPE):
                 diffuse[rows] += weight * R
             if bsdf.is_(F.GLOSSY_TYPE | F.GLASS_TYPE):
@@ -111,155 +142,220 @@ def closure_albedos(shader) -> tuple:
     return diffuse, glossy, transmission
 
 
-class _Shaded:
-    """A ShaderResult with the view direction each hit was seen from (wo (m, 3) float64)."""
-
-    def __init__(self, shader, wo: np.ndarray):
-        self.closures, self.emission, self.transparency, self.wo = (shader.closures, shader.emission,
-                                                                    shader.transparency, wo)
-
-
-def trace_passes(ctx: Context, wanted: tuple, O: np.ndarray, D: np.ndarray, t_max: np.ndarray,
-                 pixel: np.ndarray, sample: np.ndarray) -> dict:
-    """Return name -> (n, c) float64 of the passes `wanted` (PASS_CHANNELS' names) for camera rays O, D (n, 3)
-    float64 up to t_max (n,), as the module docstring says. pixel, sample: (n,) int64 random-number keys."""
-    s = ctx.settings
-    n = len(O)
-    out = {name: np.zeros((n, PASS_CHANNELS[name] + (name in HIT_MEAN))) for name in wanted if name in PASS_CHANNELS}
-    mattes = [name for name in wanted if name in CRYPTO_PASSES]
-    matte_parts = []                            # (camera sample, object, material, instance, coverage) per surface
-    data = [name for name in ("position", "uv", "object_index", "material_index", "ambient_occlusion", "z_depth",
-                              "average_normal") if name in wanted]
-    colours = [name for name in ("diffuse_color", "glossy_color", "transmission_color") if name in wanted]
-    owner = np.arange(n)
-    throughput = np.ones((n, 3))
-    pending = np.ones(n, bool)                  # the data passes are not written yet
-    world = ctx.extra.get("world_light")
-    geometry = ctx.geometry
-    for bounce in range(max(0, int(s.transparent_max_bounces)) + 1):
-        check_stop(ctx)
-        # 1. What the rays meet: the world where they escape (lamps with extent in front of what they hit).
-        found = nearest_seen(ctx, O, D, t_max)
-        hit = np.flatnonzero(found.hit)
-        missed = np.flatnonzero(~found.hit)
-        if "environment" in wanted and world is not None and world.camera and len(missed):
-            out["environment"][owner[missed]] += throughput[missed] * world.radiance(D[missed])
-        if "emission" in wanted:
-            out["emission"][owner] += throughput * lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max))
-        if len(hit) == 0:
-            break
-        surface = surface_at_hits(geometry, found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit),
-                                  vectors.gather(D, hit), found.t[hit], flat_only=not s.smooth_normals)
-        owner, throughput, pending = owner[hit], throughput[hit], pending[hit]
-        wo = -vectors.gather(D, hit)
-        ray = graph_.RAY_CAMERA if bounce == 0 else graph_.RAY_BOUNCE
-        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, geometry, ray)
-        # 2. Emission and the closures' colours, seen through what the ray passed.
-        if "emission" in wanted:
-            out["emission"][owner] += throughput * shader.emission
-        if colours:
-            albedos = dict(zip(("diffuse_color", "glossy_color", "transmission_color"),
-                               closure_albedos(_Shaded(shader, wo))))
-            for name in colours:
-                out[name][owner] += throughput * albedos[name]
-        # 3. The data passes, at the first surface opaque enough.
-        transparency = np.clip(shader.transparency, 0.0, None)
-        opaque = pending & (1.0 - transparency.mean(axis=1) >= ALPHA_THRESHOLD)
-        if mattes:
-            coverage = throughput.mean(axis=1) * (1.0 - transparency.mean(axis=1))
-            _, instance, _ = hit_owners(geometry, surface.prim)
-            matte_parts.append((owner, instance, surface.material, coverage))
-        if data and opaque.any():
-            rows = np.flatnonzero(opaque)
-            write_data_passes(ctx, out, data, rows, owner[rows], surface, shader, throughput[rows], pixel, sample)
-        pending &= ~opaque
-        # 4. On through the transparent part.
-        through = np.flatnonzero(transparency.max(axis=1) > 0.0)
-        if len(through) == 0:
-            break
-        step = shadows.error_bound(surface.I[through], surface.vertices[through])
-        O = surface.I[through] - step[:, None] * surface.Ng[through]
-        D = -wo[through]
-        t_max = np.full(len(through), np.inf)
-        owner, pending = owner[through], pending[through]
-        throughput = throughput[through] * transparency[through]
-    if mattes:
-        out["cryptomatte"] = matte_ids(ctx, mattes, matte_parts)
-    return out
-
-
-def matte_ids(ctx: Context, mattes: list, parts: list) -> dict:
-    """Return {"sample": (m,) int64 camera samples, "coverage": (m,) float64, name: (m,) float32 ids for each
-    Cryptomatte pass in `mattes`} of the surfaces `parts` (trace_passes' (sample, instance, material,
-    coverage) tuples), with the names cryptomatte.py's docstring gives (their ids hashed once per render,
-    ctx.extra["crypto_ids"], else here)."""
-    if parts:
-        sample, instance, material, coverage = (np.concatenate(column) for column in zip(*parts))
-    else:
-        sample = instance = material = np.zeros(0, np.int64)
-        coverage = np.zeros(0)
-    out = {"sample": sample, "coverage": coverage}
-    tables = ctx.extra.get("crypto_ids") or cryptomatte.id_tables(ctx.scene)
-    for name in mattes:
-        kind = CRYPTO_PASSES[name]
-        table = tables[kind]
-        index = material if kind == "material" else instance
-        out[name] = table[np.clip(np.asarray(index, np.int64), 0, len(table) - 1)]
-    return out
-
-
-def write_data_passes(ctx: Context, out: dict, data: list, rows: np.ndarray, owner: np.ndarray, surface, shader,
-                      throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray) -> None:
-    """Write the data passes `data` of the hits `rows` (k,) int64 (of `surface`, `shader`) into `out`'s rows
-    `owner` (k,) int64 (the camera samples they belong to); throughput (k, 3) float64 weighs the AO pass."""
-    geometry = ctx.geometry
-    prim = surface.prim[rows]
-    attribute_rows, instance, _ = hit_owners(geometry, prim)
-    if "position" in data:
-        out["position"][owner] = surface.I[rows] + geometry.origin
-    if "object_index" in data:
-        indices = np.array([float(getattr(i, "pass_index", 0)) for i in ctx.scene.instances] or [0.0])
-        out["object_index"][owner, 0] = indices[np.clip(instance, 0, len(indices) - 1)]
-    if "material_index" in data:
-        table = [float(getattr(m, "pass_index", 0)) for m in ctx.scene.materials]
-        indices = np.array(table + [float(getattr(ctx.scene.default_material, "pass_index", 0))])
-        out["material_index"][owner, 0] = indices[np.clip(surface.material[rows], 0, len(indices) - 1)]
-    if "uv" in data:
-        uv = np.zeros((len(rows), 3))
-        uv[:, 2] = 1.0
-        layout = geometry.attribute_layout.get(UV_ATTRIBUTE)
-        if layout is not None:
-            values, _, _ = hit_attributes(geometry, attribute_rows, surface.u[rows], surface.v[rows])
-            uv[:, :2] = values[:, layout[0]:layout[0] + 2]
-        out["uv"][owner] = uv
-    if "z_depth" in data:            # a last channel counts the samples that hit (HIT_MEAN)
-        camera = surface.I[rows] + ctx.extra["camera_offset"]
-        out["z_depth"][owner] = np.stack([camera @ ctx.extra["forward"], np.ones(len(rows))], axis=-1)
-    if "average_normal" in data:
-        out["average_normal"][owner] = average_normal(shader.closures, shader.N, rows)
-    if "ambient_occlusion" in data:
-        out["ambient_occlusion"][owner] += throughput * ambient_occlusion(
-            ctx, surface.I[rows], surface.Ng[rows], surface.vertices[rows], shader.N[rows], pixel[owner],
-            sample[owner])[:, None]
-
-
-def average_normal(closures, N: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """Return the unit normals (k, 3) float64 of the hits `rows` (k,) int64: their closures' normals weighed by
-    |mean(weight)| (the Transparent BSDF left out), or the shading normal N (m, 3) where they have none."""
-    kind, weight, normals = closures.kind[rows], closures.weight[rows], closures.N[rows]
+def average_normal(closures, N: np.ndarray) -> np.ndarray:
+    """Return the unit normals (k, 3) float64 of hits with `closures`: their closures' normals weighed by
+    |mean(weight)| (the Transparent BSDF left out), or the shading normal N (k, 3) where they have none."""
+    kind, weight, normals = closures.kind, closures.weight, closures.N
     w = np.where((kind >= 0) & ~materials_.has(kind, materials_.BSDFFlags.STRAIGHT), np.abs(weight.mean(axis=-1)), 0.0)
     total = np.einsum("nk,nkj->nj", w, normals)
     length = np.linalg.norm(total, axis=-1, keepdims=True)
-    return np.where(length > 0.0, total / np.where(length > 0.0, length, 1.0), N[rows])
+    return np.where(length > 0.0, total / np.where(length > 0.0, length, 1.0), N)
 
 
-def ambient_occlusion(ctx: Context, I: np.ndarray, Ng: np.ndarray, vertices: np.ndarray, N: np.ndarray,
-                      pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
-    """Return 1 where a cosine-distributed ray about N (k, 3) from the hit points I (k, 3) float64 escapes
-    within ctx.settings.ao_distance, else 0: (k,) float64. Ng: (k, 3) face normals; vertices (k, 3, 3)."""
-    u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=AO_DIMENSION)
+PassTables = schema.record("PassTables", """What the compiled kernel writes the first-hit passes with (passes.py,
+passes.c): where each sits in a pixel's channels, and the scene's tables they read.""", [
+    ("offset", I32, len(PASS_CHANNELS), "each PASS_*'s first channel, -1: not asked for"),
+    ("channels", I64, "the passes' channels in all"),
+    ("object_index", ptr(F64), "(n,) each Scene.instances entry's Pass Index"),
+    ("material_index", ptr(F64), "(m + 1,) each material's Pass Index, then the default material's"),
+    ("object_ids", ptr(F64), "(n,) each Scene.instances entry's Cryptomatte object id (a float32's value)"),
+    ("asset_ids", ptr(F64), "(n,) its asset id"),
+    ("material_ids", ptr(F64), "(m + 1,) each material's id, then the default surface's"),
+    ("matte_count", I32, "the Cryptomatte kinds asked for (0: none)"),
+    ("matte_kind", I32, 3, "each one's kind: 0 object, 1 material, 2 asset (cryptomatte.KINDS)"),
+    ("slots", I64, "(id, weight) slots per kind and pixel"),
+    ("origin", F64, 3, "the geometry's origin: a camera-relative point + origin is in the world"),
+    ("camera_offset", F64, 3, "a camera-relative point + camera_offset is relative to the camera"),
+    ("forward", F64, 3, "the camera's unit forward axis"),
+    ("ao_distance", F64, "the ambient occlusion ray's length"),
+    ("uv_offset", I32, "the UV map's first attribute float, -1: none"),
+    ("world_camera", I32, "1: the camera sees the world (the environment pass)"),
+])
+
+
+def pass_tables(ctx, layout: PassLayout):
+    """The PassTables record of a render's `layout` (the arrays it points at kept alive by the record)."""
+    scene, geometry = ctx.scene, ctx.geometry
+    offset = np.full(len(PASS_CHANNELS), -1, np.int32)
+    for name in layout.names:
+        offset[PASS[name]] = layout.offset[name]
+    ids = ctx.extra.get("crypto_ids") or cryptomatte.id_tables(scene)
+    kinds = np.zeros(3, np.int32)
+    kinds[:len(layout.kinds)] = layout.kinds
+    world = ctx.extra.get("world_light")
+    uv = geometry.attribute_layout.get(UV_ATTRIBUTE)
+    return PassTables(
+        offset=offset, channels=layout.channels,
+        object_index=object_indices(scene), material_index=material_indices(scene),
+        object_ids=ids["object"].astype(np.float64), asset_ids=ids["asset"].astype(np.float64),
+        material_ids=ids["material"].astype(np.float64), matte_count=len(layout.kinds), matte_kind=kinds,
+        slots=layout.slots, origin=np.asarray(geometry.origin, np.float64),
+        camera_offset=np.asarray(ctx.extra["camera_offset"], np.float64),
+        forward=np.asarray(ctx.extra["forward"], np.float64), ao_distance=float(ctx.settings.ao_distance),
+        uv_offset=-1 if uv is None else int(uv[0]), world_camera=world is not None and bool(world.camera))
+
+
+def object_indices(scene) -> np.ndarray:
+    """Each Scene.instances entry's Pass Index: (n,) float64 (one 0 without instances)."""
+    return np.array([float(getattr(i, "pass_index", 0)) for i in scene.instances] or [0.0])
+
+
+def material_indices(scene) -> np.ndarray:
+    """Each material's Pass Index, then the default material's: (m + 1,) float64."""
+    return np.array([float(getattr(m, "pass_index", 0)) for m in scene.materials]
+                    + [float(getattr(scene.default_material, "pass_index", 0))])
+
+
+class DataPasses:
+    """Each camera ray's first-hit passes as its path writes them (module docstring).
+
+    values: (n, layout.channels) float64 its sums; done: (n,) bool its chain met its opaque-enough vertex; first:
+    (n,) bool it is sample 0 of its pixel; mattes: its Cryptomatte entries as (owner (k,) int64, vertex int, ids
+    (k, kinds) float64, weight (k,) float64) tuples, in the order the path met them.
+    """
+
+    def __init__(self, ctx, layout: PassLayout, sample: np.ndarray):
+        """Nothing written yet for the camera rays of samples `sample` (n,) int64."""
+        n = len(sample)
+        self.layout = layout
+        self.values = np.zeros((n, layout.channels))
+        self.done = np.zeros(n, bool)
+        self.first = np.asarray(sample) == 0
+        self.mattes = []
+        self.ids = (ctx.extra.get("crypto_ids") or cryptomatte.id_tables(ctx.scene)) if layout.mattes else None
+
+    @classmethod
+    def of(cls, ctx, sample: np.ndarray):
+        """The DataPasses of a batch of camera rays, or None where the render asks for no first-hit pass."""
+        layout = ctx.extra.get("pass_layout")
+        return cls(ctx, layout, sample) if layout else None
+
+    def add(self, name: str, owner: np.ndarray, value: np.ndarray) -> None:
+        """Add value (k, c) to the pass `name` of the camera rays `owner` (k,) int64 (distinct), if it is asked for."""
+        if self.layout.has(name) and len(owner):
+            self.values[owner, self.layout.channels_of(name)] += value
+
+    def set(self, name: str, owner: np.ndarray, value) -> None:
+        """Overwrite the pass `name` of the camera rays `owner` (k,) int64 with value (k, c), if it is asked for."""
+        if self.layout.has(name) and len(owner):
+            self.values[owner, self.layout.channels_of(name)] = value
+
+
+def at_vertex(ctx, dp: DataPasses, rows: np.ndarray, owner: np.ndarray, vertex: int, surface, shader,
+              wo: np.ndarray, throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int = 0) -> None:
+    """The passes at the hits `rows` (k,) int64 of a batch of m path vertices that lie on camera chains (module
+    docstring): owner (m,) int64 each hit's camera ray (distinct), vertex their number along the path; surface,
+    shader, wo (m, 3) and throughput (m, 3) of the m hits; pixel, sample (m,) int64 random-number keys; dimension:
+    the vertex's shift of the sampling dimensions."""
+    if len(rows) == 0:
+        return
+    geometry = ctx.geometry
+    at = owner[rows]
+    I, prim, material = surface.I[rows], surface.prim[rows], surface.material[rows]
+    T = throughput[rows]
+    transparency = np.clip(shader.transparency[rows], 0.0, None)
+    alpha = 1.0 - transparency
+    open_ = ~dp.done[at]
+    # 1. Until the chain's opaque-enough vertex: sample 0's position, ids and depth, overwritten at each vertex.
+    _, instance, _ = hit_owners(geometry, prim)
+    first = np.flatnonzero(open_ & dp.first[at])
+    if len(first):
+        dp.set("position", at[first], I[first] + geometry.origin)
+        indices = object_indices(ctx.scene)
+        dp.set("object_index", at[first], indices[np.clip(instance[first], 0, len(indices) - 1)][:, None])
+        indices = material_indices(ctx.scene)
+        dp.set("material_index", at[first], indices[np.clip(material[first], 0, len(indices) - 1)][:, None])
+        dp.set("z_depth", at[first], ((I[first] + ctx.extra["camera_offset"]) @ ctx.extra["forward"])[:, None])
+    # 2. The opaque-enough vertex: the normal and UV, summed over samples; the chain's data passes are done.
+    opaque = np.flatnonzero(open_ & (alpha.mean(axis=1) >= ALPHA_THRESHOLD))
+    if len(opaque):
+        if dp.layout.has("average_normal"):
+            dp.add("average_normal", at[opaque], average_normal(shader.closures.rows(rows[opaque]),
+                                                                shader.N[rows[opaque]]))
+        if dp.layout.has("uv"):
+            dp.add("uv", at[opaque], uv_at(geometry, surface, rows[opaque]))
+        dp.done[at[opaque]] = True
+    # 3. Cryptomatte: this surface's share of the pixel, for its object, material and asset.
+    if dp.layout.mattes:
+        weight = T.mean(axis=1) * (1.0 - transparency.mean(axis=1))
+        table = {"object": dp.ids["object"][np.clip(instance, 0, len(dp.ids["object"]) - 1)],
+                 "asset": dp.ids["asset"][np.clip(instance, 0, len(dp.ids["asset"]) - 1)],
+                 "material": dp.ids["material"][np.clip(material, 0, len(dp.ids["material"]) - 1)]}
+        ids = np.stack([table[CRYPTO_PASSES[name]].astype(np.float64) for name in dp.layout.mattes], axis=1)
+        dp.mattes.append((at, vertex, ids, weight))
+    # 4. The closures' colours, the emission, and the ambient occlusion, seen through the chain.
+    if any(dp.layout.has(name) for name in ("diffuse_color", "glossy_color", "transmission_color")):
+        for name, albedo in zip(("diffuse_color", "glossy_color", "transmission_color"),
+                                closure_albedos(shader.closures.rows(rows), wo[rows])):
+            dp.add(name, at, T * albedo)
+    dp.add("emission", at, T * shader.emission[rows])
+    if dp.layout.has("ambient_occlusion"):
+        dp.add("ambient_occlusion", at, T * alpha * ambient_occlusion(
+            ctx, I, surface.Ng[rows], surface.vertices[rows], surface.N[rows], pixel[rows], sample[rows], dimension))
+
+
+def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O: np.ndarray, D: np.ndarray,
+              hit: np.ndarray, t: np.ndarray) -> None:
+    """What rays of camera chains meet before their end: owner (k,) int64 the camera rays (distinct), throughput
+    (k, 3) the chains' there, rays O, D (k, 3) that end at t (k,) (their hit where hit (k,) bool, else where they
+    escape): the lamps with extent they pass (emission), the world where they escape (environment), and where they
+    escape with the data passes not done, sample 0's position, ids and depth back to 0."""
+    if len(owner) == 0:
+        return
+    if dp.layout.has("emission"):
+        dp.add("emission", owner, throughput * lamps_seen(ctx, O, D, t))
+    missed = np.flatnonzero(~hit)
+    world = ctx.extra.get("world_light")
+    if dp.layout.has("environment") and world is not None and world.camera and len(missed):
+        dp.add("environment", owner[missed], throughput[missed] * world.radiance(D[missed]))
+    gone = owner[missed][~dp.done[owner[missed]] & dp.first[owner[missed]]]
+    for name in ("position", "object_index", "material_index", "z_depth"):
+        dp.set(name, gone, 0.0)
+
+
+def uv_at(geometry, surface, rows: np.ndarray) -> np.ndarray:
+    """(u, v, 1) of the active render UV map at the hits `rows` of `surface`: (k, 3) float64 ((0, 0, 1) without one)."""
+    uv = np.zeros((len(rows), 3))
+    uv[:, 2] = 1.0
+    layout = geometry.attribute_layout.get(UV_ATTRIBUTE)
+    if layout is not None:
+        attribute_rows, _, _ = hit_owners(geometry, surface.prim[rows])
+        values, _, _ = hit_attributes(geometry, attribute_rows, surface.u[rows], surface.v[rows])
+        uv[:, :2] = values[:, layout[0]:layout[0] + 2]
+    return uv
+
+
+def ambient_occlusion(ctx, I: np.ndarray, Ng: np.ndarray, vertices: np.ndarray, N: np.ndarray, pixel: np.ndarray,
+                      sample: np.ndarray, dimension: int = 0) -> np.ndarray:
+    """What a cosine-distributed ray about N (k, 3) from the hit points I (k, 3) float64 carries back within
+    ctx.settings.ao_distance: (k, 3) float64, 1 where it escapes, the transparency of the surfaces it passes
+    (shadows.transmittance), 0 where it meets an opaque one or leaves below the face. Ng: (k, 3) face normals;
+    vertices (k, 3, 3); dimension: the vertex's shift of the sampling dimensions."""
+    u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=AO_DIMENSION + dimension)
     wi = Lambert.sample(None, N, None, u).wi
-    below = np.einsum("ij,ij->i", Ng, wi) < 0.0      # a direction under the surface sees nothing: occluded
+    above = np.einsum("ij,ij->i", Ng, wi) > 0.0      # a direction under the surface sees nothing: occluded
     origin = shadows.spawn_ray(I, Ng, wi, shadows.error_bound(I, vertices))
-    blocked = ctx.geometry.tracer.occluded(origin, wi, np.full(len(I), float(ctx.settings.ao_distance)))
-    return np.where(blocked | below, 0.0, 1.0)
+    rays = shadows.ShadowRays(origin, wi, np.full(len(I), float(ctx.settings.ao_distance)))
+    T = shadows.transmittance(ctx, rays, ctx.settings.transparent_max_bounces)
+    return np.where(above[:, None], T, 0.0)
+
+
+def images(sums: dict, count: np.ndarray, layout: PassLayout, depth: int, height: int, width: int) -> dict:
+    """The pass images from the film's sums (FILM_BUFFER (H W, channels), MATTE_BUFFER (H W, kinds slots 2)) and
+    the samples per pixel count (H W,): name -> (H, W, c) float32. Each pass is its sum over the count, the sample-0
+    ones their sum (a Depth of 0, no surface, is MISS_DEPTH); Cryptomatte's slots ranked by coverage."""
+    out = {}
+    values = sums.get(FILM_BUFFER)
+    n = count.astype(np.float64)[:, None]
+    for name in layout.names:
+        v = values[:, layout.channels_of(name)]
+        if name not in FIRST_SAMPLE_ONLY:
+            v = np.divide(v, n, out=np.zeros_like(v), where=n > 0)
+        elif name == "z_depth":
+            v = np.where(v == 0.0, MISS_DEPTH, v)
+        out[name] = v.astype(np.float32).reshape(height, width, -1)
+    if layout.mattes:
+        slots = sums[MATTE_BUFFER].reshape(len(count), len(layout.mattes), layout.slots, 2)
+        for k, name in enumerate(layout.mattes):
+            out[name] = cryptomatte.ranked(slots[:, k], count, depth).reshape(height, width, -1)
+    return out

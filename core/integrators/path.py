@@ -55,6 +55,7 @@ from .base import Context, Integrator, Radiance, Recorder, check_stop
 from . import clamp as clamp_
 from . import features as features_
 from . import lightgroups, lightpasses
+from . import passes as passes_
 from . import shadows
 from .rays import camera_hits, goes_through, nearest_seen
 from .shadows import spawn_ray
@@ -204,9 +205,14 @@ class PathTracing(Integrator):
         feats = features_.Features(len(O)) if s.denoising_features else None
         if feats is not None:
             feats.albedo += L_out
+        # The first-hit passes (passes.py): what the camera rays pass and escape to, then along their camera chains.
+        data = passes_.DataPasses.of(ctx, sample)
+        if data is not None:
+            passes_.along_ray(ctx, data, np.arange(len(O)), np.ones((len(O), 3)), O, D, found.hit,
+                              np.where(found.hit, found.t, t_max))
         if surface is None:
             return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L,
-                            features=None if feats is None else feats.stacked())
+                            features=None if feats is None else feats.stacked(), passes=data)
         D_hit = vectors.gather(D, hit)
         held = np.zeros(len(O))                      # each camera ray's alpha that holdouts take away
         holdouts = ctx.geometry.hides(HOLDOUT) or bool(ctx.materials.holds_out.any())
@@ -249,6 +255,9 @@ class PathTracing(Integrator):
                 shader, weight = hold_out(ctx, surface, shader, bounce == 0)
                 np.add.at(held, owner, (throughput * weight).mean(axis=1))
             first = bounce == 0
+            if data is not None:                     # (the vertices of camera chains: no real bounce yet)
+                passes_.at_vertex(ctx, data, np.flatnonzero(first), owner, vertex, surface, shader, wo, throughput,
+                                  pixel[owner], sample[owner], dimension)
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
                               carried_origin=mis_origin, carried_N=mis_normal)
@@ -287,6 +296,12 @@ class PathTracing(Integrator):
             within = ((bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
                       & (tr <= s.transmission_bounces))
             going = ray.hits.hit & within & (tp <= s.transparent_max_bounces)
+            if data is not None:
+                # A camera chain's ray straight on through a transparent surface: what it passes and escapes to.
+                chain = np.flatnonzero((bounce[ray.rows] == 0) & is_transparent & (tp <= s.transparent_max_bounces))
+                passes_.along_ray(ctx, data, owner[ray.rows[chain]], throughput[ray.rows[chain]] * ray.weight[chain],
+                                  ray.O[chain], ray.D[chain], ray.hits.hit[chain],
+                                  np.where(ray.hits.hit[chain], ray.hits.t[chain], np.inf))
             # A path past its bounce limits still looks through the transparent surfaces its last ray meets, to
             # the light behind them (Cycles' terminate-after-transparent): no more bounces, only clear ones.
             ended = np.flatnonzero(ray.hits.hit & ~within & (tp <= s.transparent_max_bounces))
@@ -344,7 +359,7 @@ class PathTracing(Integrator):
             wo = -D_next
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
-                        None if groups is None else groups.L, None if feats is None else feats.stacked())
+                        None if groups is None else groups.L, None if feats is None else feats.stacked(), data)
 
     @staticmethod
     def light_behind(light: np.ndarray, owner: np.ndarray, value: np.ndarray, first: np.ndarray, ray_shares,

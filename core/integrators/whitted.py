@@ -32,6 +32,7 @@ from ..materials import graph as graph_
 from ..materials import microfacet as mf
 from . import features as features_
 from . import lightgroups, shadows
+from . import passes as passes_
 from .base import Context, Integrator, Radiance, Recorder, check_stop
 from .rays import lamps_seen, nearest_seen
 from .shadows import spawn_ray
@@ -70,6 +71,7 @@ class WhittedTracing(Integrator):
         depth = 0
         groups = lightgroups.tally(ctx, n)          # each ray's light by source (core/integrators/lightgroups.py)
         feats = features_.Features(n) if s.denoising_features else None     # (of the camera's hits alone)
+        data = passes_.DataPasses.of(ctx, sample)       # the first-hit passes (passes.py): of the camera's rays alone
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
         while len(owner):
             check_stop(ctx)
@@ -97,6 +99,8 @@ class WhittedTracing(Integrator):
                 groups.add_rows(owner, seen, throughput)
             if feats is not None and depth == 0:
                 feats.albedo += L_out                   # what the camera sees itself
+            if data is not None and depth == 0:
+                passes_.along_ray(ctx, data, owner, np.ones((n, 3)), O, D, found.hit, np.where(found.hit, found.t, t_max))
             hit = np.flatnonzero(found.hit)
             if len(hit) == 0:
                 break
@@ -122,6 +126,9 @@ class WhittedTracing(Integrator):
             if feats is not None and depth == 0:
                 one = np.ones((len(hit), 3))
                 features_.at_vertex(feats, rows, np.ones(len(hit), bool), one, one, shader, shader.emission)
+            if data is not None and depth == 0:
+                passes_.at_vertex(ctx, data, np.arange(len(hit)), rows, 0, surface, shader, wo,
+                                  np.ones((len(hit), 3)), pixel[rows], sample[rows])
             children = self.specular_rays(s, surface, shader, wo, throughput[hit], glossy[hit], transmission[hit])
             if children is None or depth + 1 > s.max_bounces:
                 break
@@ -131,7 +138,7 @@ class WhittedTracing(Integrator):
             t_max = np.full(len(owner), np.inf)
             depth += 1
         return Radiance(L_out, camera_hit, shadow_rays, groups=None if groups is None else groups.L,
-                        features=None if feats is None else feats.stacked())
+                        features=None if feats is None else feats.stacked(), passes=data)
 
     def specular_rays(self, s, surface, shader, wo, throughput, glossy, transmission):
         """The child rays of every perfectly specular (singular) reflection and smooth glass closure: (hit index (k,), O (k, 3), D (k, 3), throughput

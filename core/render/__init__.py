@@ -69,7 +69,6 @@ class RenderStats:
     samples_per_pixel: Optional[np.ndarray] = None   # (H, W) int32 camera samples each pixel received
     warnings: list = field(default_factory=list)
     kernels: str = ""               # "compiled", or "numpy" and why (core/integrators/compiled.py)
-    pass_seconds: float = 0.0       # the first-hit render passes (core/integrators/passes.py)
 
     @property
     def rays(self) -> int:
@@ -135,6 +134,12 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     ctx.extra["stop"] = StopFlag()      # set when the render is cancelled: every chunk reads it as it works
     ctx.extra["emitters"] = emitters
     ctx.extra["world_sampler"] = sampler
+    # The first-hit passes the integrator writes (passes.py): those asked for, and the colour passes the light passes
+    # are divided by; the Cryptomatte ids hashed once.
+    ctx.extra["pass_layout"] = passes_.PassLayout(lightpasses.first_hit_passes(settings.passes),
+                                                  settings.cryptomatte_depth)
+    if ctx.extra["pass_layout"].mattes:
+        ctx.extra["crypto_ids"] = cryptomatte.id_tables(scene)
     # The light groups asked for: which group each light, object and the world belongs to (lightgroups.py).
     ctx.extra["light_groups"] = lightgroups.LightGroups.of(scene, settings.light_groups, lamps, lights)
     # Which lights BSDF-sampled rays can find (weighed by MIS), which the camera sees, and whether a
@@ -194,64 +199,6 @@ def camera_rays(ctx: Context, s: RenderSettings, pixel: np.ndarray, sample: np.n
         offset = sampling.stratum_centres(sample, spp)
     return camera_.generate_rays(ctx.extra["camera"], W, H, (pixel % W) + offset[:, 0], (pixel // W) + offset[:, 1],
                                  tuple(s.pixel_aspect))
-
-
-def pass_chunk(ctx: Context, pixels: np.ndarray, spp: int) -> dict:
-    """Return the first-hit passes ctx.settings.passes of `pixels` (p,) int64: name -> (p, c) float64, the
-    mean over samples 0 .. spp - 1 of each pixel, or sample 0's value (passes.FIRST_SAMPLE_ONLY)."""
-    s = ctx.settings
-    p = len(pixels)
-    wanted = tuple(s.passes)
-    mattes = [name for name in wanted if name in passes_.CRYPTO_PASSES]
-    pixel, sample = sample_keys(pixels, spp, None)
-    rays = camera_rays(ctx, s, pixel, sample, spp)
-    traced = np.flatnonzero(rays.valid)
-    values = {name: np.zeros((len(pixel), passes_.PASS_CHANNELS[name] + (name in passes_.HIT_MEAN)))
-              for name in wanted if name not in mattes}
-    found = {}
-    if len(traced):
-        found = passes_.trace_passes(ctx, wanted, vectors.gather(rays.origins, traced),
-                                     vectors.gather(rays.directions, traced), rays.t_max[traced],
-                                     pixel[traced], sample[traced])
-        for name in values:
-            values[name][traced] = found[name]
-    out = {}
-    for name, v in values.items():
-        v = v.reshape(p, spp, -1)
-        if name in passes_.HIT_MEAN:            # the mean over the samples that hit: the last channel counts them
-            count = v[..., -1].sum(axis=1)[:, None]
-            out[name] = np.where(count > 0, v[..., :-1].sum(axis=1) / np.maximum(count, 1), passes_.HIT_MEAN[name])
-        else:
-            out[name] = v[:, 0] if name in passes_.FIRST_SAMPLE_ONLY else v.mean(axis=1)
-    # Cryptomatte: each surface's coverage goes to its pixel (camera sample // spp), ranked per pixel.
-    ids = found.get("cryptomatte")
-    for name in mattes:
-        if ids is None:
-            out[name] = np.zeros((p, passes_.pass_channels(name, s.cryptomatte_depth)), np.float32)
-            continue
-        out[name] = cryptomatte.rank(traced[ids["sample"]] // spp, ids[name], ids["coverage"], p, spp,
-                                     s.cryptomatte_depth)
-    return out
-
-
-def pass_images(ctx: Context, region: np.ndarray, run: Callable, threads: int) -> dict:
-    """Return the first-hit pass buffers of the pixels `region` (p,) int64: name -> (H, W, c) float32, 0
-    outside the region, computed in chunks by run(chunks, work, store) (on the pool)."""
-    s = ctx.settings
-    spp = passes_.pass_samples(s.samples)
-    size = s.width * s.height
-    if any(name in passes_.CRYPTO_PASSES for name in s.passes):
-        ctx.extra["crypto_ids"] = cryptomatte.id_tables(ctx.scene)      # hashed once, not per chunk
-    images = {name: np.zeros((size, passes_.pass_channels(name, s.cryptomatte_depth)),
-                             np.float32 if name in passes_.CRYPTO_PASSES else np.float64) for name in s.passes}
-    per_chunk = max(1, min(-(-len(region) // max(1, threads)), s.chunk_size // spp))
-    parts = [region[i:i + per_chunk] for i in range(0, len(region), per_chunk)]
-    def store(part, values):
-        for name, v in values.items():
-            images[name][part] = v
-
-    run(parts, lambda part: pass_chunk(ctx, part, spp), store)
-    return {name: v.astype(np.float32).reshape(s.height, s.width, -1) for name, v in images.items()}
 
 
 def light_pass_images(film: Film, first_hit: dict, wanted) -> dict:
@@ -318,16 +265,39 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
         aux = recorder.pixel_sums(hit // spp, traced_per_pixel)
     # The light passes', denoising features' and light groups' sums (lightpasses.py, features.py, lightgroups.py),
     # each sample's channel that is NaN or beyond the film's range as 0, as in the image.
+    data = found.passes
     for name, values in ((lightpasses.FILM_BUFFER, found.light), (features.FILM_BUFFER, found.features),
-                         (lightgroups.FILM_BUFFER, found.groups)):
+                         (lightgroups.FILM_BUFFER, found.groups),
+                         (passes_.FILM_BUFFER, data.values if data is not None and data.layout.names else None)):
         if values is None:
             continue
         values = values.reshape(len(traced), -1)
         per_sample = np.zeros((n, values.shape[1]))
         per_sample[traced] = np.where(np.abs(values) <= FILM_MAX, values, 0.0)
         aux[name] = per_sample.reshape(p, spp, -1).sum(axis=1)
+    if data is not None and data.layout.mattes:
+        aux[passes_.MATTE_BUFFER] = matte_slots(data, traced // spp, p)
     return ChunkSums(per_pixel, squares, hits, aux, len(traced), found.shadow_rays, spp,
                      shading_seconds=shading_seconds, nonfinite=nonfinite)
+
+
+def matte_slots(data, pixel_of: np.ndarray, p: int) -> np.ndarray:
+    """The Cryptomatte slots (p, kinds slots 2) float64 of a chunk's p pixels from its camera rays' entries
+    (passes.DataPasses.mattes; pixel_of (n,) int64 each camera ray's pixel), in the order each pixel's samples met
+    them: sample by sample, along each sample's path (cryptomatte.fill_slots)."""
+    layout = data.layout
+    out = np.zeros((p, len(layout.mattes), layout.slots, 2))
+    if not data.mattes:
+        return out.reshape(p, -1)
+    owner = np.concatenate([entry[0] for entry in data.mattes])
+    vertex = np.concatenate([np.full(len(entry[0]), entry[1]) for entry in data.mattes])
+    ids = np.concatenate([entry[2] for entry in data.mattes])
+    weight = np.concatenate([entry[3] for entry in data.mattes])
+    order = np.lexsort((vertex, owner))
+    for k in range(len(layout.mattes)):
+        out[:, k] = cryptomatte.fill_slots(pixel_of[owner[order]], ids[order, k].astype(np.float32), weight[order], p,
+                                           layout.slots)
+    return out.reshape(p, -1)
 
 
 def timed_reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
@@ -481,7 +451,14 @@ def render(scene: Scene, settings: RenderSettings,
         film_sums[lightgroups.FILM_BUFFER] = 3 * len(settings.light_groups)
     if settings.denoising_features:
         film_sums[features.FILM_BUFFER] = features.FILM_CHANNELS
-    film = Film(W, H, film_sums, compiled=compiled is not None, keep_estimates=len(passes) > 1)
+    layout = ctx.extra["pass_layout"]
+    merge = {}
+    if layout.names:
+        film_sums[passes_.FILM_BUFFER] = layout.channels
+    if layout.mattes:               # (Cryptomatte's slots are not summed: a chunk's go into the pixel's in order)
+        film_sums[passes_.MATTE_BUFFER] = len(layout.mattes) * layout.slots * 2
+        merge[passes_.MATTE_BUFFER] = layout.merge_mattes
+    film = Film(W, H, film_sums, compiled=compiled is not None, keep_estimates=len(passes) > 1, merge=merge)
     region = region_pixels(settings)
     outside = camera_.outside_image_circle(scene.camera, W, H, region, tuple(settings.pixel_aspect))
     if outside.any():
@@ -500,10 +477,6 @@ def render(scene: Scene, settings: RenderSettings,
     cancelled = False
     stop = ctx.extra["stop"]
     with memory.temporaries_from_the_heap(keep_memory), ThreadPoolExecutor(max_workers=threads) as pool:
-        def run(chunks: list, work: Callable, store: Callable) -> bool:
-            """A first-hit pass's chunks on the pool, as cancellable as the render's (no progress of their own)."""
-            return _run_chunks(pool, 2 * threads, chunks, work, store, cancel, lambda f: None, stats, start, stop)
-
         pixels = region
         for index, spp in enumerate(passes):
             # a. Which pixels still need samples: all of them at first, then the noisy ones.
@@ -539,20 +512,6 @@ def render(scene: Scene, settings: RenderSettings,
             stats.passes += 1
             if cancelled:
                 break
-        # c. The first-hit render passes asked for (core/integrators/passes.py), from a pass of their own (the
-        #    denoising features, light passes and light groups are the film's: the integrator writes them).
-        #    With light passes, also the colour passes they are divided by (core/integrators/lightpasses.py).
-        first_hit = lightpasses.first_hit_passes(settings.passes)
-        pass_buffers = {}
-        if first_hit and not cancelled:
-            started = time.perf_counter()
-            hit_ctx = dataclasses.replace(ctx, settings=dataclasses.replace(settings, passes=first_hit))
-            found = pass_images(hit_ctx, region_pixels(settings), run, threads)
-            cancelled = bool(stop)
-            if light_passes:
-                found.update(light_pass_images(film, found, settings.passes))
-            pass_buffers = {name: image for name, image in found.items() if name in settings.passes}
-            stats.pass_seconds = time.perf_counter() - started
     if progress is not None and not cancelled:
         progress(1.0, stats)
     # 4. The image: each pixel's mean over all its samples; debug buffers as debug.aux_images makes them.
@@ -561,7 +520,12 @@ def render(scene: Scene, settings: RenderSettings,
     if note is not None:
         stats.warnings.append(note)
     aux = debug.aux_images(film.aux, film.hits, settings.aux, H, W)
-    aux.update(pass_buffers)
+    # The first-hit passes (passes.py), and the light passes divided by their colour passes (lightpasses.py).
+    if layout:
+        first_hit = passes_.images(film.aux, film.noise.count, layout, settings.cryptomatte_depth, H, W)
+        if light_passes:
+            first_hit.update(light_pass_images(film, first_hit, settings.passes))
+        aux.update({name: image for name, image in first_hit.items() if name in settings.passes})
     if settings.light_groups:
         aux.update(rgb_means(film, lightgroups.FILM_BUFFER,
                              [lightgroups.BUFFER_PREFIX + name for name in settings.light_groups]))
