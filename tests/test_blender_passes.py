@@ -204,20 +204,26 @@ def test_passes_not_asked_for_are_neither_registered_nor_computed(primer, tmp_pa
     scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
     bpy.ops.render.render(write_still=True)
     assert not set(read_channels(path)) & set(CYCLES_NAMES)
-    assert engine.last_render.stats.pass_seconds == 0.0
+    assert engine.last_render.stats.first_hit == ()
 
 
 @pytest.mark.parametrize("scene", SCENES + ("materials_textures",))
 def test_depth_and_normal_equal_cycles_inside_objects_normal_maps_included(renders, scene):
-    """Depth: the distance along the camera's axis; Normal: the closures' normals (a normal map's, on
-    materials_textures' bumpy sphere) averaged as Cycles does. Inside objects within 0.1 % and 2 degrees;
-    inside the background (no object in the pixel or its neighbours) 1e10 and 0 in both."""
+    """Depth: the distance along the camera's axis at sample 0's point, as Cycles (each engine's sample 0 lies
+    elsewhere in the pixel: inside objects 95 % of pixels within the depth's change to the next pixel in Cycles'
+    image, the median within 1 %); Normal: the closures' normals (a normal map's, on materials_textures' bumpy
+    sphere) averaged as Cycles does, within 2 degrees; inside the background (no object in the pixel or its
+    neighbours) 1e10 and 0 in both."""
     mine, cycles = renders[scene]
     mask = inside(mine, cycles)
     background = mask & (cycles["Object Index"][1][..., 0] == 0)
     objects = mask & ~background
     a, b = mine["Depth"][1][..., 0], cycles["Depth"][1][..., 0]
-    assert np.median(np.abs(a[objects] - b[objects]) / b[objects]) < 1e-3
+    padded = np.pad(b, 1, mode="edge")
+    step = np.max([np.abs(padded[1 + dy:1 + dy + b.shape[0], 1 + dx:1 + dx + b.shape[1]] - b)
+                   for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+    assert (np.abs(a - b)[objects] <= step[objects] + 1e-6 * b[objects]).mean() > 0.95
+    assert np.median(np.abs(a[objects] - b[objects]) / b[objects]) < 1e-2
     assert background.any() and np.all(a[background] == 1e10) and np.all(b[background] == 1e10)
     N, M = mine["Normal"][1][objects], cycles["Normal"][1][objects]
     cosine = np.einsum("ij,ij->i", N, M) / (np.linalg.norm(N, axis=-1) * np.linalg.norm(M, axis=-1))

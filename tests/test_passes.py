@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from core import render
+from core import materials, render
 from core.camera import Camera
 from core.geometry import primitives
 from core.integrators.passes import PASS_CHANNELS
@@ -66,10 +66,47 @@ def test_only_the_passes_asked_for_are_returned():
     none = dataclasses.replace(settings, passes=())
     result = render.render(scene, none)
     assert not set(result.aux) & set(PASS_CHANNELS)
-    assert not render.prepare(scene, none).extra["pass_layout"]        # the integrator writes none
+    assert result.stats.first_hit == () and not render.prepare(scene, none).extra["pass_layout"]   # none written
 
 
 def test_an_unknown_pass_name_is_refused():
     scene, settings = floor_scene()
     with pytest.raises(ValueError, match="unknown render passes"):
         render.render(scene, dataclasses.replace(settings, passes=("shadow",)))
+
+
+def chain_scene() -> Scene:
+    """The light passes' scene of many materials (tests/test_passes_light.py sum_scene) with a sheet in front that lets
+    60 % through (a Transparent BSDF mixed with a Diffuse: camera chains through it) and an area lamp the camera sees."""
+    from test_passes_light import sum_scene
+    from core.lights import AreaLight
+    scene = sum_scene()
+    scene.materials.append(materials.Material(name="veil", nodes=[("TRANSPARENT", (0.6, 0.6, 0.6), {}),
+                                                                  ("DIFFUSE", (0.4, 0.3, 0.2), {})]))
+    scene.add_mesh(primitives.plane(1.5, center=(0.3, -2.5, 1.2)), materials=np.array([len(scene.materials) - 1]),
+                   name="Veil")
+    scene.instances[-1].pass_index = 3
+    scene.materials[-1].pass_index = 7
+    scene.lights.append(AreaLight(center=np.array([-0.8, 1.0, 2.2]), axis_u=np.array([0.6, 0.0, 0.0]),
+                                  axis_v=np.array([0.0, 0.0, 0.4]), direction=np.array([0.0, -1.0, 0.0]), power=40.0))
+    return scene
+
+
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_the_compiled_first_hit_passes_follow_the_reference(integrator):
+    """The C kernels write every first-hit pass from the same samples as the Python reference (the images' tolerance
+    of tests/test_compiled.py, relative to each pass's largest value; Cryptomatte's ids exactly)."""
+    from test_compiled import IMAGE_ATOL, IMAGE_RTOL
+    everything = tuple(PASS_CHANNELS) + ("crypto_object", "crypto_material", "crypto_asset")
+    settings = RenderSettings(width=40, height=30, samples=4, integrator=integrator, max_bounces=2, passes=everything)
+    compiled = render.render(chain_scene(), dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(chain_scene(), dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled"
+    for name in everything:
+        a, b = compiled.aux[name], reference.aux[name]
+        assert a.shape == b.shape and np.abs(b).max() > 0.0, name
+        if name.startswith("crypto"):
+            assert np.array_equal(a[..., 0::2], b[..., 0::2]), name
+            a, b = a[..., 1::2], b[..., 1::2]
+        np.testing.assert_allclose(a, b, rtol=IMAGE_RTOL, atol=IMAGE_ATOL * max(1.0, float(np.abs(b).max())),
+                                   err_msg=name)

@@ -7,7 +7,7 @@ schema.py). From those this script writes:
 - core/native/boundary.gen.h: the shared constants, the kinds and flags of every table as C enums with their
   flag tables, and every record as a C struct, with the layout hash each record checks before it crosses;
 - core/native/exports.gen.c: every function the library exports, taking one record of arguments;
-- core/materials/bsdfs.gen.c: each BSDF's C file, and bsdf_eval / bsdf_sample switching on a closure's kind;
+- core/materials/bsdfs.gen.c: each BSDF's C file, and bsdf_eval / bsdf_sample / bsdf_albedo switching on a closure's kind;
 - core/materials/nodes.gen.c: setup_node switching on a shader node's kind;
 - core/lights/lights.gen.c: each light's C file, and sample_light / light_hit switching on a light's kind.
 
@@ -120,6 +120,14 @@ def param_table(prefix: str, table: tuple, param: str) -> str:
             f"static const int {name}[{prefix}_COUNT] = {{{rows}}};\n")
 
 
+def pass_widths() -> str:
+    """The channels of each first-hit pass (core/integrators/passes.py PASS_CHANNELS), by PASS_*."""
+    from core.integrators.passes import PASS_CHANNELS
+    rows = ", ".join(str(width) for width in PASS_CHANNELS.values())
+    return ("/* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */\n"
+            f"static const int PASS_WIDTH[{len(PASS_CHANNELS)}] = {{{rows}}};\n")
+
+
 def boundary_header() -> str:
     """core/native/boundary.gen.h: the constants, the tables' kinds and flags, and the records."""
     from core.lights import LIGHT_TYPES, LightFlags
@@ -133,6 +141,7 @@ def boundary_header() -> str:
              flags_block("core/materials/base.py BSDFFlags: what a BSDF is", "BSDF", BSDFFlags),
              flag_table("BSDF", BSDF_TYPES),
              param_table("BSDF", BSDF_TYPES, "alpha"),
+             pass_widths(),
              enum_block("core/materials/registry.py NODE_TYPES: a shader node's kind", "NODE",
                         [cls.name for cls in NODE_TYPES]),
              enum_block("core/lights/__init__.py LIGHT_TYPES: a light's kind", "LIGHT",
@@ -161,6 +170,9 @@ def bsdf_table() -> str:
                     for cls in BSDF_TYPES)
     samples = "".join(f"    case BSDF_{c_identifier(cls.c_name())}: {cls.c_name()}_sample(c, wo, u, out); return;\n"
                       for cls in BSDF_TYPES)
+    from core.materials.base import BSDF
+    albedos = "".join(f"    case BSDF_{c_identifier(cls.c_name())}: {cls.c_name()}_albedo(c, wo, R, T); return;\n"
+                      for cls in BSDF_TYPES if cls.albedo is not BSDF.albedo)
     return (NOTICE.format(source="core/materials/registry.py BSDF_TYPES")
             + "\n/* Each BSDF's C file (its <name>_eval and <name>_sample). */\n" + includes
             + "\n/* BSDF.eval through the table: f cos of closure c for light from wi towards wo, and its pdf. A kind\n"
@@ -172,7 +184,12 @@ def bsdf_table() -> str:
               "INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, BsdfSample *out)\n"
               "{\n    switch (c->kind) {\n" + samples + "    default: break;\n    }\n"
               "    out->wi[0] = out->wi[1] = out->wi[2] = 0.0;\n"
-              "    out->weight[0] = out->weight[1] = out->weight[2] = 0.0;\n    out->pdf = 0.0;\n}\n")
+              "    out->weight[0] = out->weight[1] = out->weight[2] = 0.0;\n    out->pdf = 0.0;\n}\n"
+            + "\n/* BSDF.albedo through the table: what closure c reflects (R) and lets through (T) of light seen from wo,\n"
+              " * per unit weight (the colour passes): the <name>_albedo of a BSDF whose class has its own, else 1 and 0. */\n"
+              "INLINE void bsdf_albedo(const Closure *c, const double *wo, double *R, double *T)\n"
+              "{\n    switch (c->kind) {\n" + albedos + "    default: break;\n    }\n"
+              "    R[0] = R[1] = R[2] = 1.0;\n    T[0] = T[1] = T[2] = 0.0;\n}\n")
 
 
 def node_table() -> str:

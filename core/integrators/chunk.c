@@ -53,6 +53,11 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             surface_at(O, D, (double)packet.ray.tfar[k], (double)packet.hit.u[k], (double)packet.hit.v[k], &tri,
                        lift, H->s + h);
             for (int c = 0; c < 3; c++) H->wo[3 * h + c] = -D[c];
+            H->geometry[h] = (int64_t)packet.hit.geomID[k];
+            H->prim[h] = (int64_t)packet.hit.primID[k];
+            H->instance[h] = instance_of(&packet.hit, k);
+            H->bary[2 * h] = (double)packet.hit.u[k];
+            H->bary[2 * h + 1] = (double)packet.hit.v[k];
             /* (a camera path's origin: where its rays through clear surfaces meet lamps from, path.py's mis_origin) */
             for (int c = 0; c < 3; c++) H->mis_origin[3 * h + c] = O[c];
             hit_closures(H, h);
@@ -89,7 +94,8 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
 
 /* The integrator at the block's hits: the radiance each sends towards the camera, into H->L. Returns the
  * shadow rays; embree[0] += ticks in occlusion queries, embree[1] in the BSDF rays' nearest hits. */
-INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work, uint64_t *embree)
+INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work, LanePasses *passes,
+                         uint64_t *embree)
 {
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
                                params->graphs, (int)params->transparent_bounces};
@@ -107,7 +113,9 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
         .light_passes = params->light_passes != 0.0 && work != NULL,
         .groups = H->groups != NULL ? H->group_count : 0, .instance_groups = params->instance_groups,
         .world_group = (int64_t)params->world_group, .features = params->features != 0.0 && work != NULL,
+        .passes = passes,
     };
+    if (passes != NULL) passes_clear(passes);
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH: {
         PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
@@ -139,6 +147,8 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
             }
             features_at_vertex(H, work->features);
         }
+        if (passes != NULL)                         /* (the camera's hits: passes.c) */
+            for (int64_t h = 0; h < H->m; h++) passes_at_vertex(passes, &ds, H, h, 0);
         choose_bsdf_rays(H, &ds);
         int64_t rays = direct_light(H, &ds, embree);
         if (ds.bsdf_rays && ds.sampling != SAMPLE_LIGHT) embree[1] += bsdf_rays(H, &ds);
@@ -183,6 +193,14 @@ INLINE double *work_groups(double **storage, int64_t G, int part)
     return *storage != NULL ? *storage + part * BLOCK * 3 * G : NULL;
 }
 
+/* Free a chunk's LanePasses (NULL: none). */
+INLINE void free_passes(LanePasses *passes)
+{
+    if (passes == NULL) return;
+    free(passes->mattes);
+    free(passes);
+}
+
 /* Give `count` blocks of hits their room for closures, `room` per hit, in one allocation (*closures, then their
  * parameters; free it with free(*closures)). Returns 0 without memory. */
 INLINE int block_closures(BlockHits **blocks, int count, int64_t room, Closure **closures)
@@ -221,15 +239,28 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
     H.groups = work_groups(&group_storage, G, 0);
     H.group_count = G;
     int features = params->features != 0.0 && out->features != NULL;   /* the denoising features (features.c) */
+    LanePasses *passes = NULL;                      /* the first-hit passes (passes.c) */
+    if (params->passes != NULL && (out->passes != NULL || out->mattes != NULL)) {
+        passes = (LanePasses *)malloc(sizeof(LanePasses));
+        if (passes == NULL) { free(group_storage); return; }
+        passes->tables = params->passes;
+        passes->transparent_bounces = (int)params->transparent_bounces;
+        passes->room = (int64_t)params->transparent_bounces + 1;
+        passes->mattes = (double *)malloc((size_t)(BLOCK * passes->room * 4) * sizeof(double));
+        Transmitter ao = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
+                          params->graphs, (int)params->transparent_bounces};
+        passes->ao = ao;
+        if (passes->mattes == NULL) { free(passes); free(group_storage); return; }
+    }
     if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || light_passes || features) {
         work = (PathWork *)malloc(sizeof(PathWork));
-        if (work == NULL) { free(group_storage); return; }   /* (the caller finds no samples counted) */
+        if (work == NULL) { free(group_storage); free_passes(passes); return; }   /* (the caller finds no samples counted) */
         work->a.groups = work_groups(&group_storage, G, 1);
         work->b.groups = work_groups(&group_storage, G, 2);
         work->groups = work_groups(&group_storage, G, 3);
         work->a.group_count = work->b.group_count = G;
     }
-    if (G > 0 && group_storage == NULL) { free(work); return; }
+    if (G > 0 && group_storage == NULL) { free(work); free_passes(passes); return; }
     /* Room for every closure a hit of the scene's materials sets up (no limit of their own). */
     BlockHits *blocks[3] = {&H, work != NULL ? &work->a : NULL, work != NULL ? &work->b : NULL};
     Closure *closures = NULL;
@@ -237,6 +268,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
                         &closures)) {
         free(work);
         free(group_storage);
+        free_passes(passes);
         return;
     }
     for (int64_t k = 0; k < p; k++) {
@@ -249,6 +281,11 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         for (int64_t i = 0; i < 3 * G; i++) out->groups[3 * G * k + i] = 0.0;
         if (features)
             for (int i = 0; i < FEATURE_CHANNELS; i++) out->features[FEATURE_CHANNELS * k + i] = 0.0;
+        if (passes != NULL && out->passes != NULL)
+            for (int64_t i = 0; i < params->passes->channels; i++) out->passes[params->passes->channels * k + i] = 0.0;
+        if (passes != NULL && out->mattes != NULL)
+            for (int64_t i = 0; i < 2 * params->passes->matte_count * params->passes->slots; i++)
+                out->mattes[2 * params->passes->matte_count * params->passes->slots * k + i] = 0.0;
     }
     /* Whether camera rays can see more than the hit and a constant background: lamps, an image world. */
     int sees_more = params->light_context->world->image != NULL && params->light_context->world->camera != 0.0;
@@ -268,7 +305,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         block_hits(params, &b, &H, &traced, spent);
         /* 3. The light each hit sends towards the camera. */
         uint64_t embree[2] = {0, 0};
-        shadow_rays += integrate(params, &H, work, embree);
+        shadow_rays += integrate(params, &H, work, passes, embree);
         spent[1] += embree[0];
         spent[0] += embree[1];
         spent[2] += (ticks() - begin) - (spent[0] - before);      /* (occlusion queries included, as before) */
@@ -302,6 +339,16 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
                 for (int i = 0; i < FEATURE_CHANNELS; i++)
                     fk[i] += finite_or_zero((i < 3 ? s[i] : 0.0) + (is_hit ? work->features[lane][i] : 0.0));
             }
+            if (passes != NULL && b.valid[lane]) {      /* (what the camera ray passes and escapes to, then its chain's) */
+                double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
+                double one[3] = {1.0, 1.0, 1.0};
+                DirectSettings seen = {.lights = params->lights, .n_lights = (int64_t)params->light_count,
+                                       .context = params->light_context};
+                passes_along_ray(passes, &seen, lane, (int64_t)b.index[lane], one, O, D, is_hit, H.t[lane]);
+                int64_t width = 2 * params->passes->matte_count * params->passes->slots;
+                passes_to_pixel(passes, lane, out->passes != NULL ? out->passes + params->passes->channels * k : NULL,
+                                out->mattes != NULL ? out->mattes + width * k : NULL);
+            }
             if (is_hit) {
                 for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];
                 for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
@@ -333,6 +380,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
     free(work);
     free(group_storage);
     free(closures);
+    free_passes(passes);
     out->counts[0] += traced;
     out->counts[1] += shadow_rays;
     double scale = seconds_per_tick(started);

@@ -22,6 +22,7 @@ from ..native import library, schema
 from ..native.schema import F64, I32, I64, out, ptr
 from . import features as features_
 from . import lightgroups, lightpasses
+from . import passes as passes_
 from .base import Cancelled, Context
 from .shadows import ShadowSettings
 
@@ -90,6 +91,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("world_group", I32, "the world's light group (-1: none)"),
     ("stop", ptr(I32), "(1,) set to 1 when the render is cancelled: the chunk stops before its next block, or NULL"),
     ("features", I32, "1: sum the denoising features (features.c) into ChunkOut.features"),
+    ("passes", ptr("PassTables"), "the first-hit passes asked for (passes.c), or NULL"),
 ], tables=("INTEGRATOR",))
 
 ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for the render's statistics.", [
@@ -102,6 +104,8 @@ ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for t
     ("groups", out(F64), "(p, 3 light_groups) sums of the light groups' light, or NULL"),
     ("features", out(F64), "(p, FEATURE_CHANNELS) sums of the denoising features, or NULL"),
     ("nonfinite", out(I64), "(p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL"),
+    ("passes", out(F64), "(p, PassTables.channels) sums of the first-hit passes, or NULL"),
+    ("mattes", out(F64), "(p, matte_count, slots, 2) each pixel's Cryptomatte slots (id, weight), or NULL"),
 ])
 
 ChunkArgs = schema.function("primer_render_chunk", "render_chunk", schema.record("ChunkArgs", "primer_render_chunk's arguments: spp samples in each of p pixels.", [
@@ -166,8 +170,6 @@ def why_not(settings) -> str:
         return "jitter is off"
     if abs(settings.seed) >= 2 ** 53:
         return "the seed does not fit a double"
-    if lightpasses.first_hit_passes(settings.passes):
-        return "TEMPORARY: first-hit passes"
     if len(settings.light_groups) > lightgroups.MAX_GROUPS:
         return f"more than {lightgroups.MAX_GROUPS} light groups"
     return ""
@@ -227,6 +229,11 @@ class Compiled:
         self.want_squares = bool(s.adaptive)
         self.features = bool(s.denoising_features)
         self.params.features = self.features
+        # The first-hit passes (core/integrators/passes.py): their layout and the scene's tables they read.
+        self.layout = ctx.extra.get("pass_layout") or passes_.PassLayout((), 1)
+        if self.layout:
+            self.pass_tables = passes_.pass_tables(ctx, self.layout)
+            self.params.passes = self.pass_tables
         self.stop = stop = ctx.extra.get("stop")      # (base.StopFlag: read before each block of samples, chunk.c)
         if stop is not None:
             self.params.stop = stop.flag
@@ -269,6 +276,12 @@ class Compiled:
         if self.group_count:                # the light groups' sums (core/integrators/lightgroups.py)
             aux[lightgroups.FILM_BUFFER] = groups = np.empty((p, 3 * self.group_count))
             out.groups = groups
+        if self.layout.names:               # the first-hit passes' sums and Cryptomatte's slots (passes.py)
+            aux[passes_.FILM_BUFFER] = values = np.empty((p, self.layout.channels))
+            out.passes = values
+        if self.layout.mattes:
+            aux[passes_.MATTE_BUFFER] = mattes = np.empty((p, len(self.layout.mattes) * self.layout.slots * 2))
+            out.mattes = mattes
         library.call("primer_render_chunk", ChunkArgs(params=params, pixels=pixels, first=first, p=p, spp=int(spp),
                                                       out=out))
         if self.stop is not None and self.stop.flag[0]:

@@ -123,11 +123,11 @@ def slot_count(depth: int) -> int:
 def fill_slots(pixel: np.ndarray, ids: np.ndarray, weight: np.ndarray, pixels: int, slots: int) -> np.ndarray:
     """Each pixel's slots after its entries went in one by one, in their order, by Cycles' rule
     (film_write_cryptomatte_slots): an entry adds its weight to the slot of its id, or takes the first empty
-    slot, or, all slots taken, adds to the last; entries of weight 0 take no slot. pixel (m,) int64 in 0 ..
+    slot, or, all slots taken, adds to the last; entries of weight 0 (or not finite) take no slot. pixel (m,) int64 in 0 ..
     pixels - 1, ids (m,) float32 (never 0, the empty id), weight (m,) float64, in order.
     Returns (pixels, slots, 2) float64: per slot the id (a float32's value; 0: empty) and the summed weight."""
     out = np.zeros((pixels, slots, 2))
-    keep = weight > 0.0
+    keep = (weight > 0.0) & np.isfinite(weight)
     if not keep.any():
         return out
     order = np.flatnonzero(keep)

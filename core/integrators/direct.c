@@ -45,6 +45,9 @@ typedef struct {
     uint8_t looking[BLOCK];
     double feature_tp[3 * BLOCK];
     double found[3 * BLOCK];
+    /* Where it is: Embree's geometry, primitive and placement, and the barycentrics (the first-hit passes). */
+    int64_t geometry[BLOCK], prim[BLOCK], instance[BLOCK];
+    double bary[2 * BLOCK];
 } BlockHits;
 
 /* Make hit h's ShaderResult ready to shade: its room for closures and their parameters in the block's buffers, no
@@ -344,6 +347,9 @@ static void bsdf_block(SampleBlock *restrict b, const BlockHits *restrict H, int
     }
 }
 
+/* The first-hit passes of a block's camera lanes (passes.c). */
+typedef struct LanePasses LanePasses;
+
 /* Step 4: the rays that can carry light go into packets, Embree answers each packet of 8, and what
  * gets through, (weight colour) f cos, is added to its hit's radiance in ray order. Returns the rays traced. */
 typedef struct Transmitter Transmitter;
@@ -468,7 +474,12 @@ typedef struct {
     const int32_t *instance_groups;   /* each object's group, or NULL */
     int64_t world_group;        /* the world's group (-1: none) */
     int features;               /* 1: BSDF rays add what they find to BlockHits.found (the denoising features) */
+    LanePasses *passes;         /* the first-hit passes (passes.c) the camera chains write, or NULL */
 } DirectSettings;
+
+/* path.py: a camera chain's ray from hit h straight on through a transparent surface (passes.c). */
+INLINE void passes_straight_on(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h,
+                               const double *weight, const double *O, const double *D, int hit, double t);
 
 /* What transparent shadows read (shadows.transmittance): the scene's queries, tables and materials. */
 struct Transmitter {
@@ -873,6 +884,8 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                     for (int p = 0; p < PASS_KINDS; p++)
                         for (int c = 0; c < 3; c++) r->shares[p][c] = shares[p][c];
             }
+            if (ds->passes != NULL && H->bounce[owner[k]] == 0 && bsdf_is(s->kind, BSDF_FLAG_STRAIGHT))
+                passes_straight_on(ds->passes, ds, H, owner[k], s->weight, O, D, hit, t_limit);
             if (!ds->gather) continue;
             double groups_L[3 * MAX_LIGHT_GROUPS];
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;

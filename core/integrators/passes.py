@@ -62,6 +62,7 @@ PASS_CHANNELS = {
     "emission": 3, "environment": 3, "ambient_occlusion": 3,
 }
 PASS = schema.constants("PASS", tuple(PASS_CHANNELS), "the first-hit passes, in the film's order (passes.py)")
+schema.constant("PASS_CHANNELS_MAX", sum(PASS_CHANNELS.values()), "the first-hit passes' channels in all")
 # Cryptomatte's passes: core buffer -> matte kind (cryptomatte.KINDS); their channels follow the depth.
 CRYPTO_PASSES = {"crypto_object": "object", "crypto_material": "material", "crypto_asset": "asset"}
 # Passes Cycles takes from sample 0 alone (overwritten, not averaged).

@@ -146,6 +146,11 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
         hit_triangle(ds->geometry, r->geometry, r->prim, r->instance, 1, &tri);
         surface_at(r->O, r->D, r->t, r->u, r->v, &tri, lift, next->s + m);
+        next->geometry[m] = r->geometry;
+        next->prim[m] = r->prim;
+        next->instance[m] = r->instance;
+        next->bary[2 * m] = r->u;
+        next->bary[2 * m + 1] = r->v;
         for (int c = 0; c < 3; c++) {
             next->wo[3 * m + c] = -r->D[c];
             next->L[3 * m + c] = 0.0;
@@ -245,6 +250,9 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         choose_bsdf_rays(current, ds);
         for (int64_t h = 0; h < current->m; h++) current->traced[h] = 1;
         if (ds->light_passes) clear_parts(current);
+        if (ds->passes != NULL)                     /* (the vertices of camera chains: no real bounce yet; passes.c) */
+            for (int64_t h = 0; h < current->m; h++)
+                if (current->bounce[h] == 0) passes_at_vertex(ds->passes, ds, current, h, vertex);
         if (ds->features) {                         /* (the emission seen here, the feature vertex: features.c) */
             features_at_vertex(current, work->features);
             for (int64_t i = 0; i < 3 * current->m; i++) current->found[i] = 0.0;

@@ -53,3 +53,17 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     out->weight[0] = out->weight[1] = out->weight[2] = 0.0;
     out->pdf = 0.0;
 }
+
+/* BSDF.albedo through the table: what closure c reflects (R) and lets through (T) of light seen from wo,
+ * per unit weight (the colour passes): the <name>_albedo of a BSDF whose class has its own, else 1 and 0. */
+INLINE void bsdf_albedo(const Closure *c, const double *wo, double *R, double *T)
+{
+    switch (c->kind) {
+    case BSDF_MICROFACET: microfacet_albedo(c, wo, R, T); return;
+    case BSDF_GLASS: glass_albedo(c, wo, R, T); return;
+    case BSDF_ROUGH_GLASS: rough_glass_albedo(c, wo, R, T); return;
+    default: break;
+    }
+    R[0] = R[1] = R[2] = 1.0;
+    T[0] = T[1] = T[2] = 0.0;
+}

@@ -22,6 +22,12 @@ INLINE void glass_shares(const double *p, double cos_i, double *R, double *T)
     }
 }
 
+/* Glass.albedo: the colour passes' albedo, its reflected and transmitted shares of light arriving at N.wo. */
+INLINE void glass_albedo(const Closure *c, const double *wo, double *R, double *T)
+{
+    glass_shares(c->p, clamp01(dot3(c->N, wo)), R, T);
+}
+
 INLINE void glass_sample(const Closure *c, const double *wo, const double *u, BsdfSample *out)
 {
     const double *N = c->N, *p = c->p;

@@ -46,6 +46,13 @@ INLINE void microfacet_fresnel(const double *p, double cos_HI, double *F)
     }
 }
 
+/* Microfacet.albedo: the colour passes' albedo, its Fresnel at N.wo (no transmission). */
+INLINE void microfacet_albedo(const Closure *c, const double *wo, double *R, double *T)
+{
+    microfacet_fresnel(c->p, clamp01(dot3(c->N, wo)), R);
+    T[0] = T[1] = T[2] = 0.0;
+}
+
 /* Smith's Lambda for GGX at `cosine`, and the GGX distribution at cos_NH. */
 INLINE double lambda_ggx(double alpha2, double cosine)
 {

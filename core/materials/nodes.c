@@ -193,8 +193,8 @@ INLINE void glass_params(double *g, int backfacing, double ior, int mode, const 
     }
 }
 
-/* nodes.glass_albedo: the mean of the reflected and transmitted shares at the view angle. */
-INLINE double glass_albedo(const double *g, double mu)
+/* nodes.glass_share_mean: the mean of the reflected and transmitted shares at the view angle. */
+INLINE double glass_share_mean(const double *g, double mu)
 {
     double R[3], T[3];
     glass_shares(g, clamp01(mu), R, T);
@@ -217,7 +217,7 @@ INLINE void glass_add(ShaderResult *sd, double mu, const double *weight, double 
     double rough = clamp01(roughness), eta = g[MF_IOR];
     g[MF_ALPHA] = rough * rough;
     int smooth = g[MF_ALPHA] * g[MF_ALPHA] <= ROUGHNESS_SQ_THRESHOLD || fabs(eta - 1.0) < 1e-4;
-    double factor = glass_albedo(g, mu), w[3] = {weight[0], weight[1], weight[2]};
+    double factor = glass_share_mean(g, mu), w[3] = {weight[0], weight[1], weight[2]};
     if (Fss != NULL) {
         double E_avg, E = glass_E(rough, mu, eta, &E_avg);
         double missing = smooth ? 0.0 : (1.0 - at_least(E, 1e-6)) / at_least(E, 1e-6);

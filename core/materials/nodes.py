@@ -594,7 +594,7 @@ def glass_params(n: int, backfacing: np.ndarray, ior: float, mode: int, f0, f90,
     return p
 
 
-def glass_albedo(p: np.ndarray, mu: np.ndarray) -> np.ndarray:
+def glass_share_mean(p: np.ndarray, mu: np.ndarray) -> np.ndarray:
     """The mean of reflected plus transmitted shares at the view angle (the closure's sampling weight factor)."""
     R, T = glass_shares(p, np.clip(mu, 0.0, 1.0))
     return (R + T).mean(axis=1)
@@ -609,7 +609,7 @@ def add_glass(b: ClosureBuilder, weight: np.ndarray, glass: np.ndarray, roughnes
     glass[:, mf.ALPHA] = rough * rough
     eta = glass[:, mf.IOR]
     smooth = (glass[:, mf.ALPHA] ** 2 <= mf.ROUGHNESS_SQ_THRESHOLD) | (np.abs(eta - 1.0) < 1e-4)
-    factor = glass_albedo(glass, b.mu)
+    factor = glass_share_mean(glass, b.mu)
     allocated = weight
     if Fss is not None:
         E, E_avg = tables.glass_E(rough, b.mu, eta)

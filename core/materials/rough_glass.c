@@ -11,6 +11,12 @@ INLINE double rough_glass_half_vector(const double *wo, const double *wi, double
     return length;
 }
 
+/* RoughGlass.albedo: the colour passes' albedo, its reflected and transmitted shares of light arriving at N.wo. */
+INLINE void rough_glass_albedo(const Closure *c, const double *wo, double *R, double *T)
+{
+    glass_shares(c->p, clamp01(dot3(c->N, wo)), R, T);
+}
+
 /* How often the sampler reflects at a microfacet with shares R, T (1 where neither carries light). */
 INLINE double rough_glass_p_reflect(const double *R, const double *T, double *total)
 {

@@ -30,6 +30,25 @@
 #define PASS_KINDS 3
 /* the light passes' channels: 6 passes x RGB (core.integrators.lightpasses) */
 #define LIGHT_CHANNELS 18
+/* the first-hit passes, in the film's order (passes.py) (core.integrators.passes) */
+#define PASS_POSITION 0
+#define PASS_UV 1
+#define PASS_OBJECT_INDEX 2
+#define PASS_MATERIAL_INDEX 3
+#define PASS_Z_DEPTH 4
+#define PASS_AVERAGE_NORMAL 5
+#define PASS_DIFFUSE_COLOR 6
+#define PASS_GLOSSY_COLOR 7
+#define PASS_TRANSMISSION_COLOR 8
+#define PASS_EMISSION 9
+#define PASS_ENVIRONMENT 10
+#define PASS_AMBIENT_OCCLUSION 11
+/* the first-hit passes' channels in all (core.integrators.passes) */
+#define PASS_CHANNELS_MAX 30
+/* the data passes' opaque-enough alpha (passes.py) (core.integrators.passes) */
+#define ALPHA_THRESHOLD 0.5
+/* the ambient occlusion ray's sampling dimension (core.integrators.passes) */
+#define AO_DIMENSION 120
 /* each path vertex's shift of the sampling dimensions (core.integrators.path) */
 #define VERTEX_DIMENSIONS 65536
 /* Russian roulette's dimension at a vertex (core.integrators.path) */
@@ -134,6 +153,9 @@ INLINE int bsdf_is(int kind, int flags)
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
 static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1};
 
+/* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
+static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
+
 /* core/materials/registry.py NODE_TYPES: a shader node's kind */
 enum {
     NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
@@ -183,6 +205,7 @@ typedef struct MaterialRecord MaterialRecord;
 typedef struct ChunkParams ChunkParams;
 typedef struct ChunkOut ChunkOut;
 typedef struct ChunkArgs ChunkArgs;
+typedef struct PassTables PassTables;
 typedef struct ShadowSettings ShadowSettings;
 typedef struct LightRecord LightRecord;
 typedef struct LightContext LightContext;
@@ -436,6 +459,7 @@ struct ChunkParams {
     int32_t world_group;                    /* the world's light group (-1: none) */
     const int32_t *stop;                    /* (1,) set to 1 when the render is cancelled: the chunk stops before its next block, or NULL */
     int32_t features;                       /* 1: sum the denoising features (features.c) into ChunkOut.features */
+    const PassTables *passes;               /* the first-hit passes asked for (passes.c), or NULL */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -449,6 +473,8 @@ struct ChunkOut {
     double *groups;                         /* (p, 3 light_groups) sums of the light groups' light, or NULL */
     double *features;                       /* (p, FEATURE_CHANNELS) sums of the denoising features, or NULL */
     int64_t *nonfinite;                     /* (p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL */
+    double *passes;                         /* (p, PassTables.channels) sums of the first-hit passes, or NULL */
+    double *mattes;                         /* (p, matte_count, slots, 2) each pixel's Cryptomatte slots (id, weight), or NULL */
 };
 
 /* primer_render_chunk's arguments: spp samples in each of p pixels. */
@@ -459,6 +485,27 @@ struct ChunkArgs {
     int64_t p;
     int64_t spp;
     ChunkOut *out;                          /* the sums (zeroed first), the counts and seconds (added to) */
+};
+
+/* What the compiled kernel writes the first-hit passes with (passes.py,
+ * passes.c): where each sits in a pixel's channels, and the scene's tables they read. */
+struct PassTables {
+    int32_t offset[12];                     /* each PASS_*'s first channel, -1: not asked for */
+    int64_t channels;                       /* the passes' channels in all */
+    const double *object_index;             /* (n,) each Scene.instances entry's Pass Index */
+    const double *material_index;           /* (m + 1,) each material's Pass Index, then the default material's */
+    const double *object_ids;               /* (n,) each Scene.instances entry's Cryptomatte object id (a float32's value) */
+    const double *asset_ids;                /* (n,) its asset id */
+    const double *material_ids;             /* (m + 1,) each material's id, then the default surface's */
+    int32_t matte_count;                    /* the Cryptomatte kinds asked for (0: none) */
+    int32_t matte_kind[3];                  /* each one's kind: 0 object, 1 material, 2 asset (cryptomatte.KINDS) */
+    int64_t slots;                          /* (id, weight) slots per kind and pixel */
+    double origin[3];                       /* the geometry's origin: a camera-relative point + origin is in the world */
+    double camera_offset[3];                /* a camera-relative point + camera_offset is relative to the camera */
+    double forward[3];                      /* the camera's unit forward axis */
+    double ao_distance;                     /* the ambient occlusion ray's length */
+    int32_t uv_offset;                      /* the UV map's first attribute float, -1: none */
+    int32_t world_camera;                   /* 1: the camera sees the world (the environment pass) */
 };
 
 /* How shadow rays leave the surface (RenderSettings' shadow settings). */
@@ -673,9 +720,10 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7810907097562677354);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(8541145842328541273);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4888334846629488926);
-    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2116233128416529668);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3574520478765727059);
+    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
+    if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(4369246942035671920);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
@@ -711,6 +759,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "ChunkParams") == 0) return (int64_t)sizeof(ChunkParams);
     if (strcmp(name, "ChunkOut") == 0) return (int64_t)sizeof(ChunkOut);
     if (strcmp(name, "ChunkArgs") == 0) return (int64_t)sizeof(ChunkArgs);
+    if (strcmp(name, "PassTables") == 0) return (int64_t)sizeof(PassTables);
     if (strcmp(name, "ShadowSettings") == 0) return (int64_t)sizeof(ShadowSettings);
     if (strcmp(name, "LightRecord") == 0) return (int64_t)sizeof(LightRecord);
     if (strcmp(name, "LightContext") == 0) return (int64_t)sizeof(LightContext);

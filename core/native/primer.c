@@ -26,6 +26,7 @@
 #include "../integrators/lightpasses.c"
 #include "../integrators/direct.c"
 #include "../integrators/features.c"
+#include "../integrators/passes.c"
 #include "../integrators/path.c"
 #include "../integrators/chunk.c"
 #include "exports.gen.c"               /* what Python calls: one record of arguments each (tools/make_boundary.py) */

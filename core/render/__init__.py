@@ -69,6 +69,7 @@ class RenderStats:
     samples_per_pixel: Optional[np.ndarray] = None   # (H, W) int32 camera samples each pixel received
     warnings: list = field(default_factory=list)
     kernels: str = ""               # "compiled", or "numpy" and why (core/integrators/compiled.py)
+    first_hit: tuple = ()           # the first-hit passes the integrator wrote (core/integrators/passes.py)
 
     @property
     def rays(self) -> int:
@@ -452,6 +453,7 @@ def render(scene: Scene, settings: RenderSettings,
     if settings.denoising_features:
         film_sums[features.FILM_BUFFER] = features.FILM_CHANNELS
     layout = ctx.extra["pass_layout"]
+    stats.first_hit = tuple(layout.names + layout.mattes)
     merge = {}
     if layout.names:
         film_sums[passes_.FILM_BUFFER] = layout.channels

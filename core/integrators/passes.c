@@ -1,0 +1,248 @@
+/* First-hit render passes: core/integrators/passes.py, along the compiled chunk's camera chains (chunk.c, path.c,
+ * direct.c's BSDF rays).
+ *
+ * A camera chain is the camera ray and the rays it sends straight on through Transparent closures. At each of its
+ * vertices the data passes (sample 0's position, ids and depth until the first opaque-enough vertex, whose normal and
+ * UV are summed), the closures' colours, the emission, the ambient occlusion and Cryptomatte's entries; along its
+ * rays the lamps the camera sees and the world where they escape. ALPHA_THRESHOLD, AO_DIMENSION, PASS_* and the
+ * PassTables record come from passes.py (core/native/boundary.gen.h). */
+
+/* Each camera lane's first-hit passes in a block (passes.DataPasses), where asked for. */
+struct LanePasses {
+    const PassTables *tables;
+    double values[BLOCK][PASS_CHANNELS_MAX];    /* the passes' sums, in tables->offset's channels */
+    uint8_t done[BLOCK];                        /* 1: the chain met its opaque-enough vertex */
+    int64_t entries[BLOCK];                     /* Cryptomatte entries met so far */
+    double *mattes;                             /* (BLOCK, room, 4): weight, then the id of each kind asked for */
+    int64_t room;                               /* entries a lane keeps at most: its chain's vertices */
+    int transparent_bounces;                    /* a chain's transparent bounces at most */
+    Transmitter ao;                             /* the ambient occlusion ray's way through transparent surfaces */
+};
+
+/* Start a block: nothing written for any lane. */
+INLINE void passes_clear(LanePasses *lp)
+{
+    for (int64_t k = 0; k < BLOCK; k++) {
+        for (int64_t i = 0; i < lp->tables->channels; i++) lp->values[k][i] = 0.0;
+        lp->done[k] = 0;
+        lp->entries[k] = 0;
+    }
+}
+
+/* DataPasses.add / set for one lane: value (the pass's channels) times `scale` into pass `pass`, if asked for. */
+INLINE void pass_add(LanePasses *lp, int64_t lane, int pass, const double *value, const double *scale)
+{
+    int at = (int)lp->tables->offset[pass];
+    if (at < 0) return;
+    for (int c = 0; c < PASS_WIDTH[pass]; c++) lp->values[lane][at + c] += value[c] * (scale != NULL ? scale[c] : 1.0);
+}
+
+INLINE void pass_set(LanePasses *lp, int64_t lane, int pass, const double *value)
+{
+    int at = (int)lp->tables->offset[pass];
+    if (at < 0) return;
+    for (int c = 0; c < PASS_WIDTH[pass]; c++) lp->values[lane][at + c] = value != NULL ? value[c] : 0.0;
+}
+
+/* passes.closure_albedos for one hit seen from wo: its closures' weight x albedo by closure type. */
+INLINE void closure_albedos(const ShaderResult *sd, const double *wo, double *diffuse, double *glossy,
+                            double *transmission)
+{
+    for (int c = 0; c < 3; c++) diffuse[c] = glossy[c] = transmission[c] = 0.0;
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *cl = sd->c + k;
+        if (cl->kind < 0 || !bsdf_is(cl->kind, BSDF_FLAG_DIFFUSE_TYPE | BSDF_FLAG_GLOSSY_TYPE
+                                                | BSDF_FLAG_TRANSMISSION_TYPE | BSDF_FLAG_GLASS_TYPE))
+            continue;
+        double R[3], T[3];
+        bsdf_albedo(cl, wo, R, T);
+        for (int c = 0; c < 3; c++) {
+            if (bsdf_is(cl->kind, BSDF_FLAG_DIFFUSE_TYPE)) diffuse[c] += cl->weight[c] * R[c];
+            if (bsdf_is(cl->kind, BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_GLASS_TYPE)) glossy[c] += cl->weight[c] * R[c];
+            if (bsdf_is(cl->kind, BSDF_FLAG_TRANSMISSION_TYPE | BSDF_FLAG_GLASS_TYPE))
+                transmission[c] += cl->weight[c] * T[c];
+        }
+    }
+}
+
+/* passes.average_normal for one hit: its closures' normals weighed by |mean weight| (Transparent left out),
+ * normalised; the shading normal where they have none. */
+INLINE void average_normal(const ShaderResult *sd, double *out)
+{
+    double total[3] = {0.0, 0.0, 0.0};
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *cl = sd->c + k;
+        if (cl->kind < 0 || bsdf_is(cl->kind, BSDF_FLAG_STRAIGHT)) continue;
+        double w = fabs((cl->weight[0] + cl->weight[1] + cl->weight[2]) / 3.0);
+        for (int c = 0; c < 3; c++) total[c] += w * cl->N[c];
+    }
+    double length = sqrt(dot3(total, total));
+    for (int c = 0; c < 3; c++) out[c] = length > 0.0 ? total[c] / length : sd->N[c];
+}
+
+/* passes.uv_at for one hit (Embree's geometry, prim at barycentrics u, v): (u, v, 1) of the UV map at float
+ * `offset` of the attributes ((0, 0, 1) without one). */
+INLINE void uv_at(const GeometryTables *g, int64_t geometry, int64_t prim, double u, double v, int offset, double *out)
+{
+    out[0] = out[1] = 0.0;
+    out[2] = 1.0;
+    if (offset < 0 || g->attributes == NULL) return;
+    int64_t row = 0;
+    if (geometry <= 0) row = g->attribute_row != NULL ? (int64_t)g->attribute_row[prim] : 0;
+    else if (g->meshes[geometry - 1].attribute_row != NULL) row = (int64_t)g->meshes[geometry - 1].attribute_row[prim];
+    int64_t width = (int64_t)g->attribute_width;
+    const float *corner = g->attributes + 3 * width * row;
+    double w = 1.0 - u - v;
+    for (int c = 0; c < 2; c++)
+        out[c] = (w * (double)corner[offset + c] + u * (double)corner[width + offset + c])
+                 + v * (double)corner[2 * width + offset + c];
+}
+
+/* passes.ambient_occlusion for one hit: what a cosine-distributed ray about N carries back through transparent
+ * surfaces within ao_distance (out, 3), 0 where it leaves below the face. */
+INLINE void ambient_occlusion(const LanePasses *lp, const Surface *s, int64_t pixel, int64_t sample, double seed,
+                              int64_t dimension, double *out)
+{
+    double u[2];
+    sample_2d(stream_of((int64_t)seed, AO_DIMENSION + dimension), pixel, sample, u);
+    Closure around = {0, {1.0, 1.0, 1.0}, 1.0, {s->N[0], s->N[1], s->N[2]}, NULL};
+    BsdfSample b;
+    lambert_sample(&around, NULL, u, &b);
+    out[0] = out[1] = out[2] = 0.0;
+    if (!(dot3(s->Ng, b.wi) > 0.0)) return;
+    double O[1][3], D[1][3] = {{b.wi[0], b.wi[1], b.wi[2]}}, T[1][3], t = lp->tables->ao_distance;
+    spawn_ray(s->I, s->Ng, b.wi, s->offset, O[0]);
+    transmit_packet(&lp->ao, 1, O, D, &t, T);
+    for (int c = 0; c < 3; c++) out[c] = T[0][c];
+}
+
+/* passes.at_vertex for hit h of H, on a camera chain (no real bounce yet), the chain's `vertex`-th. */
+INLINE void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h, int vertex)
+{
+    const PassTables *pt = lp->tables;
+    const GeometryTables *g = ds->geometry;
+    const ShaderResult *sd = H->sd + h;
+    const Surface *s = H->s + h;
+    const double *tp = H->throughput + 3 * h;
+    int64_t lane = H->lane[h];
+    double transparency[3], alpha[3];
+    for (int c = 0; c < 3; c++) { transparency[c] = at_least(sd->transparency[c], 0.0); alpha[c] = 1.0 - transparency[c]; }
+    int64_t object = owner_of(g, H->geometry[h], H->prim[h], H->instance[h]);
+    /* 1. Until the chain's opaque-enough vertex: sample 0's position, ids and depth, overwritten at each vertex. */
+    if (!lp->done[lane] && H->sample[h] == 0) {
+        double P[3], camera[3], one[1];
+        for (int c = 0; c < 3; c++) { P[c] = s->I[c] + pt->origin[c]; camera[c] = s->I[c] + pt->camera_offset[c]; }
+        pass_set(lp, lane, PASS_POSITION, P);
+        one[0] = pt->object_index[object];
+        pass_set(lp, lane, PASS_OBJECT_INDEX, one);
+        one[0] = pt->material_index[s->material];
+        pass_set(lp, lane, PASS_MATERIAL_INDEX, one);
+        one[0] = (camera[0] * pt->forward[0] + camera[1] * pt->forward[1]) + camera[2] * pt->forward[2];
+        pass_set(lp, lane, PASS_Z_DEPTH, one);
+    }
+    /* 2. The opaque-enough vertex: the normal and UV, summed over samples; the chain's data passes are done. */
+    if (!lp->done[lane] && (alpha[0] + alpha[1] + alpha[2]) / 3.0 >= ALPHA_THRESHOLD) {
+        double value[3];
+        average_normal(sd, value);
+        pass_add(lp, lane, PASS_AVERAGE_NORMAL, value, NULL);
+        uv_at(g, H->geometry[h], H->prim[h], H->bary[2 * h], H->bary[2 * h + 1], (int)pt->uv_offset, value);
+        pass_add(lp, lane, PASS_UV, value, NULL);
+        lp->done[lane] = 1;
+    }
+    /* 3. Cryptomatte: this surface's share of the pixel, for its object, material and asset. */
+    if (pt->matte_count > 0 && lp->entries[lane] < lp->room) {
+        double *entry = lp->mattes + 4 * (lane * lp->room + lp->entries[lane]++);
+        entry[0] = ((tp[0] + tp[1] + tp[2]) / 3.0) * (1.0 - (transparency[0] + transparency[1] + transparency[2]) / 3.0);
+        for (int k = 0; k < pt->matte_count; k++) {
+            int kind = (int)pt->matte_kind[k];
+            entry[1 + k] = kind == 1 ? pt->material_ids[s->material] : (kind == 2 ? pt->asset_ids : pt->object_ids)[object];
+        }
+    }
+    /* 4. The closures' colours, the emission, and the ambient occlusion, seen through the chain. */
+    if (pt->offset[PASS_DIFFUSE_COLOR] >= 0 || pt->offset[PASS_GLOSSY_COLOR] >= 0 || pt->offset[PASS_TRANSMISSION_COLOR] >= 0) {
+        double diffuse[3], glossy[3], transmission[3];
+        closure_albedos(sd, H->wo + 3 * h, diffuse, glossy, transmission);
+        pass_add(lp, lane, PASS_DIFFUSE_COLOR, diffuse, tp);
+        pass_add(lp, lane, PASS_GLOSSY_COLOR, glossy, tp);
+        pass_add(lp, lane, PASS_TRANSMISSION_COLOR, transmission, tp);
+    }
+    pass_add(lp, lane, PASS_EMISSION, sd->emission, tp);
+    if (pt->offset[PASS_AMBIENT_OCCLUSION] >= 0) {
+        double open[3];
+        ambient_occlusion(lp, s, H->pixel[h], H->sample[h], ds->seed, (int64_t)vertex * VERTEX_DIMENSIONS, open);
+        for (int c = 0; c < 3; c++) open[c] *= tp[c] * alpha[c];
+        pass_add(lp, lane, PASS_AMBIENT_OCCLUSION, open, NULL);
+    }
+}
+
+/* passes.along_ray for one ray of lane `lane`'s camera chain, with the chain's throughput there: from O along the
+ * unit D to t (its hit where `hit`, else where it escapes): the lamps with extent the camera sees that it passes, the
+ * world where it escapes, and where it escapes with the data passes not done, sample 0's back to 0. */
+INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t lane, int64_t sample,
+                             const double *throughput, const double *O, const double *D, int hit, double t)
+{
+    const PassTables *pt = lp->tables;
+    if (pt->offset[PASS_EMISSION] >= 0) {
+        double seen[3] = {0.0, 0.0, 0.0};
+        for (int64_t l = 0; l < ds->n_lights; l++) {
+            const LightRecord *light = ds->lights + l;
+            if (light->hittable == 0.0 || light->camera == 0.0
+                || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA))
+                continue;
+            LightHit lh;
+            if (light_hit(light, O, D, t, &lh))
+                for (int c = 0; c < 3; c++) seen[c] += lh.radiance[c];
+        }
+        pass_add(lp, lane, PASS_EMISSION, seen, throughput);
+    }
+    if (hit) return;
+    if (pt->offset[PASS_ENVIRONMENT] >= 0 && pt->world_camera != 0.0) {
+        double L[3];
+        world_radiance(ds->context->world, D, L);
+        pass_add(lp, lane, PASS_ENVIRONMENT, L, throughput);
+    }
+    if (!lp->done[lane] && sample == 0) {
+        pass_set(lp, lane, PASS_POSITION, NULL);
+        pass_set(lp, lane, PASS_OBJECT_INDEX, NULL);
+        pass_set(lp, lane, PASS_MATERIAL_INDEX, NULL);
+        pass_set(lp, lane, PASS_Z_DEPTH, NULL);
+    }
+}
+
+/* path.py: the ray of hit h of H, on a camera chain, straight on through a transparent surface with weight (3), from
+ * O along D to t (its hit where `hit`): passes.along_ray with the chain's throughput past the surface, within the
+ * transparent-bounce limit. */
+INLINE void passes_straight_on(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h,
+                               const double *weight, const double *O, const double *D, int hit, double t)
+{
+    if (H->transparent[h] + 1 > lp->transparent_bounces) return;
+    double tp[3];
+    for (int c = 0; c < 3; c++) tp[c] = H->throughput[3 * h + c] * weight[c];
+    passes_along_ray(lp, ds, H->lane[h], H->sample[h], tp, O, D, hit, t);
+}
+
+/* cryptomatte.fill_slots for one entry: id (a float32's value, never 0) of weight into a pixel's slots (slots, 2). */
+INLINE void matte_slot(double *slot, int64_t slots, double id, double weight)
+{
+    if (weight == 0.0) return;
+    for (int64_t k = 0; k < slots; k++) {
+        if (slot[2 * k] == 0.0) { slot[2 * k] = id; slot[2 * k + 1] = weight; return; }
+        if (slot[2 * k] == id || k == slots - 1) { slot[2 * k + 1] += weight; return; }
+    }
+}
+
+/* A lane's first-hit passes into its pixel's sums: values (channels) added (each channel NaN or beyond the film as
+ * 0), its Cryptomatte entries into the pixel's slots (matte_count, slots, 2) in the order met. */
+INLINE void passes_to_pixel(const LanePasses *lp, int64_t lane, double *values, double *mattes)
+{
+    const PassTables *pt = lp->tables;
+    if (values != NULL)
+        for (int64_t i = 0; i < pt->channels; i++) values[i] += finite_or_zero(lp->values[lane][i]);
+    if (mattes == NULL) return;
+    for (int64_t e = 0; e < lp->entries[lane]; e++) {
+        const double *entry = lp->mattes + 4 * (lane * lp->room + e);
+        if (!(entry[0] > 0.0) || !isfinite(entry[0])) continue;
+        for (int k = 0; k < pt->matte_count; k++)
+            matte_slot(mattes + 2 * k * pt->slots, pt->slots, entry[1 + k], entry[0]);
+    }
+}
