@@ -88,9 +88,9 @@ def test_primer_writes_the_light_passes_under_cycles_names_and_channels(renders)
 
 @pytest.mark.parametrize("scene", SCENES)
 def test_light_passes_times_colours_plus_emission_and_environment_make_combined(renders, scene):
-    """Cycles' sum rule, as Cycles keeps it: in Primer's passes to float precision (the passes share out the very
-    samples of Combined, and the colour passes see the same first samples; here a render of more samples than
-    the colour passes' PASS_SAMPLES, so to their noise), and in Cycles' to its own."""
+    """Cycles' sum rule, as Cycles keeps it: in Primer's passes to float precision (the light passes share out the
+    very samples of Combined, and the colour passes they are divided by come from the same samples), and in Cycles'
+    to its own."""
     for passes in renders[scene][:3]:
         total = passes["Emission"][1] + passes["Environment"][1] + sum(light(passes, name) for name in LIGHT)
         combined = passes["Combined"][1][..., :3]

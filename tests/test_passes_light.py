@@ -124,7 +124,7 @@ def sum_scene() -> Scene:
 @pytest.mark.parametrize("integrator, bounces", [("path", 4), ("direct", 0)])
 def test_light_passes_times_colours_plus_emission_and_environment_make_combined(integrator, bounces, kernels):
     """The sum rule, per pixel: the passes are shares of the very samples Combined adds up (the first-hit passes
-    take the render's samples when it has at most PASS_SAMPLES), so it holds to float precision."""
+    come from the render's own samples), so it holds to float precision."""
     scene = sum_scene()
     wanted = LIGHT_PASSES + ("diffuse_color", "glossy_color", "transmission_color", "emission", "environment")
     settings = RenderSettings(width=40, height=30, samples=8, integrator=integrator, max_bounces=bounces,

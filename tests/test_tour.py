@@ -226,7 +226,7 @@ def test_hit_distance_is_t_along_the_unit_ray(primer, tmp_path):
     """I = O + tD: t over the depth along the view axis is |P - O| for the screen point P at distance 1,
     in every pixel that hits; the Hit Distance view shows t from white (nearest) to black (farthest)."""
     scene = open_scene("light_point")
-    scene.primer.use_adaptive_sampling = False     # the Depth pass averages the first 16 samples: these same ones
+    scene.primer.use_adaptive_sampling = False     # the Depth pass is sample 0's: the same one
     passes = render(primer, scene, str(tmp_path / "t.exr"), view="HIT_DISTANCE", passes=("Depth", "Primer"))
     save("hit_distance", passes["Combined"])
     position, V, D, length = lecture_camera(scene, TARGETS["light_point"])

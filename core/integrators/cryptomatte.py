@@ -2,15 +2,18 @@
 
 A matte for compositing without render layers (Friedman and Jones, "Fully automatic ID mattes with support
 for motion blur and transparency", 2015). Each name becomes a 32-bit id by MurmurHash3 (seed 0), stored as
-the float32 with the same bits; a pixel keeps its `depth` ids of largest coverage, ranked, as (id, coverage)
-pairs: two pairs per RGBA pass (CryptoObject00, CryptoObject01, ...). A compositor finds the ids by name
-again through the manifest (name -> hex id) stored in the image's metadata.
+the float32 with the same bits; a pixel's ids go in (id, coverage) pairs, two per RGBA pass (CryptoObject00,
+CryptoObject01, ...), ranked by coverage. A compositor finds the ids by name again through the manifest
+(name -> hex id) stored in the image's metadata.
 
-Coverage follows Cycles (kernel/film/data_passes.h): along each camera sample, every surface the ray meets
-(through transparent surfaces, up to the transparent bounce limit) adds mean(throughput) x (1 -
-mean(transparency)) to its id, the one opaque enough for the data passes (passes.ALPHA_THRESHOLD) and those
-behind it alike; the pixel's value is the sum over its samples divided by their count. So an object behind a
-60 % transparent plane covers 0.6 of the pixel and the plane 0.4, and the background covers nothing.
+Coverage follows Cycles (kernel/film/data_passes.h, cryptomatte_passes.h): along each camera sample's chain
+(passes.py: the camera ray and its rays straight on through Transparent closures) every surface adds
+mean(throughput) x (1 - mean(transparency)) to its id, the one opaque enough for the data passes
+(passes.ALPHA_THRESHOLD) and those behind it alike; the pixel's value is the sum over its samples divided by their
+count. So an object behind a plane letting 60 % through covers 0.6 of the pixel in the mean and the plane 0.4, and
+the background covers nothing. A pixel keeps slot_count(depth) slots per kind, filled as its samples meet the ids
+(fill_slots: Cycles' rule, no eviction; the late ids of a full pixel add to the last slot); a chunk's slots go
+into the film's in order (merge_slots), and the image ranks them (ranked).
 
 Names, as Cycles gives them (checked against Cycles' own manifest): the object is the object's name (an
 instanced object's own name, not its instancer's); the asset is its topmost parent's name (the object itself
