@@ -139,7 +139,8 @@ COVERAGE = {
               "use_light_tree": "light_sampling",
               "use_denoising denoiser denoising_input_passes denoising_prefilter denoising_quality denoising_use_gpu":
                   "use_denoising: Primer's Denoise (the compositor's Denoise node, its own settings)"},
-        REPORTED: {"pixel_filter_type filter_width film_exposure film_transparent_glass blur_glossy use_fast_gi "
+        READ: {"pixel_filter_type filter_width": "export.pixel_filter: each camera sample drawn from the filter"},
+        REPORTED: {"film_exposure film_transparent_glass blur_glossy use_fast_gi "
                    "fast_gi_method ao_bounces_render use_camera_cull camera_cull_margin use_distance_cull "
                    "distance_cull_margin texture_limit_render texture_resolution_render*": "unmodelled.render_notes",
                    "film_transparent_roughness rolling_shutter_duration rolling_shutter_type":

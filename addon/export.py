@@ -599,6 +599,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         samples=int(props.samples), seed=int(props.seed) + (scene.frame_current if props.animate_seed else 0),
         region=(x, height - (y + h), x + w, height - y),       # core counts rows from the top
         pixel_aspect=(float(render.pixel_aspect_x), float(render.pixel_aspect_y)),
+        **pixel_filter(scene),
         light_samples=int(props.light_samples),
         shadow_method=props.shadow_method.lower(), epsilon=float(props.epsilon),
         terminator_fix=bool(props.terminator_fix),
@@ -628,6 +629,19 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         passes=tuple(passes),
         ao_distance=_ao_distance(scene),
     )
+
+
+def pixel_filter(scene) -> dict:
+    """Return the pixel filter Cycles renders `scene` with, as RenderSettings' pixel_filter and filter_width.
+
+    Render > Film > Pixel Filter (scene.cycles.pixel_filter_type, filter_width), read as Cycles' Blender sync
+    reads it: a Box is always 1 pixel wide, whatever the width says. (scene.render.filter_size is EEVEE's and
+    Workbench's.) Without Cycles' settings, Cycles' defaults: Blackman-Harris, 1.5 pixels.
+    """
+    cycles = getattr(scene, "cycles", None)
+    kind = str(getattr(cycles, "pixel_filter_type", "BLACKMAN_HARRIS"))
+    width = 1.0 if kind == "BOX" else float(getattr(cycles, "filter_width", 1.5))
+    return {"pixel_filter": kind, "filter_width": width}
 
 
 def _ao_distance(scene) -> float:

@@ -32,12 +32,6 @@ def render_notes(scene) -> list:
     cycles = getattr(scene, "cycles", None)
     if cycles is None:
         return notes
-    kind = str(getattr(cycles, "pixel_filter_type", "BOX"))
-    width = float(getattr(cycles, "filter_width", 1.0))
-    if kind != "BOX" or abs(width - 1.0) > 1e-6:
-        notes.append(f"Cycles filters pixels with a {kind.replace('_', '-').title()} filter {width:g} px wide here; "
-                     "Primer averages each pixel's own samples (a 1-pixel box): edges and fine detail come out a "
-                     "little sharper")
     exposure = float(getattr(cycles, "film_exposure", 1.0))
     if abs(exposure - 1.0) > 1e-6:
         notes.append(f"Cycles scales the image by its Film Exposure {exposure:g}; Primer does not (Color Management's "

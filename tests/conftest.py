@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 
 import numpy as np
 import pytest
@@ -73,3 +74,11 @@ def pytest_xdist_make_scheduler(config, log):
             return "one worker" if os.path.basename(nodeid.split("::", 1)[0]) in ONE_WORKER else nodeid
 
     return OneWorkerForTheCheckoutsWriters(config, log)
+
+
+def pytest_runtest_setup(item) -> None:
+    """Once a test module has imported bpy, give the scenes Blender loads the 1-pixel box filter
+    (blender_env.keep_box_filter): the Blender tests' closed forms and Cycles references are a box's."""
+    if "bpy" in sys.modules:
+        from blender_env import keep_box_filter
+        keep_box_filter()

@@ -12,7 +12,7 @@ bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else _
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
 from render import configure_output, load_primer  # noqa: E402
 
-from blender_env import diffuse_material, notes  # noqa: E402
+from blender_env import diffuse_material  # noqa: E402
 
 from core.film.compare import relative_mse_of_blocks  # noqa: E402
 
@@ -114,7 +114,7 @@ def test_denoising_passes_hold_the_plane_albedo_and_normal_with_cycles_channels(
     channels, normal = passes["Denoising Normal"]
     assert channels == ["X", "Y", "Z"]
     np.testing.assert_allclose(normal, np.broadcast_to([0.0, 0.0, 1.0], normal.shape), atol=1e-5)
-    assert notes(addon(primer, "engine").last_render.warnings) == []
+    assert addon(primer, "engine").last_render.warnings == []
 
 
 def test_denoising_passes_are_only_written_when_denoise_is_on(primer, tmp_path):
@@ -179,7 +179,7 @@ def test_denoised_low_sample_render_is_closer_to_a_converged_one(primer, tmp_pat
     noisy = render_image(scene, str(tmp_path / "noisy.exr"))
     scene.primer.use_denoising = True
     denoised = render_image(scene, str(tmp_path / "denoised.exr"))
-    assert notes(addon(primer, "engine").last_render.warnings) == []
+    assert addon(primer, "engine").last_render.warnings == []
     pixel_noisy, pixel_denoised = relative_mse_of_blocks(noisy, reference, 1), relative_mse_of_blocks(denoised, reference, 1)
     block_noisy, block_denoised = relative_mse_of_blocks(noisy, reference), relative_mse_of_blocks(denoised, reference)
     assert pixel_denoised < 0.3 * pixel_noisy, (pixel_noisy, pixel_denoised)
@@ -199,7 +199,7 @@ def test_a_file_saved_with_denoise_renders_denoised_when_opened_again(primer, tm
     reopened = bpy.context.scene
     assert reopened.primer.use_denoising
     denoised = render_image(reopened, str(tmp_path / "reopened.exr"))
-    assert notes(addon(primer, "engine").last_render.warnings) == []
+    assert addon(primer, "engine").last_render.warnings == []
     # The Denoise node ran: the composited image is smoother than the raw one (less pixel-to-pixel change).
     def roughness(image):
         return float(np.abs(np.diff(image[..., :3], axis=1)).mean())

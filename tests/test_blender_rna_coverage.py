@@ -1,6 +1,6 @@
 """Never silently wrong, checked against the running Blender's RNA (the bpy module, no mocks): every property of
 every struct Primer reads is in addon/coverage.py's table, read where it says, reported by the function it names,
-and those notes appear when their settings are set, never in a factory default scene (but the pixel filter's)."""
+and those notes appear when their settings are set, never in a factory default scene."""
 from __future__ import annotations
 
 import importlib
@@ -186,8 +186,8 @@ def test_a_reported_setting_is_noted_when_set(addon, case):
     assert len(found) == 1, notes(names[argument])
 
 
-def test_a_factory_scene_has_no_notes_but_the_pixel_filter(addon):
-    """Blender's factory default scene gets none of unmodelled.py's notes, but Cycles' default pixel filter's."""
+def test_a_factory_scene_has_no_notes(addon):
+    """Blender's factory default scene gets none of unmodelled.py's notes (Cycles' default pixel filter is followed)."""
     unmodelled = module(addon, "unmodelled")
     names = factory_scene()
     notes = (unmodelled.render_notes(names["scene"]) + unmodelled.view_layer_notes(names["view_layer"])
@@ -195,4 +195,4 @@ def test_a_factory_scene_has_no_notes_but_the_pixel_filter(addon):
              + unmodelled.material_notes(names["material"]))
     for obj in names["scene"].objects:
         notes += unmodelled.object_notes(obj) + (unmodelled.light_notes(obj) if obj.type == "LIGHT" else [])
-    assert len(notes) == 1 and "filter" in notes[0], notes
+    assert notes == [], notes

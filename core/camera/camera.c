@@ -5,7 +5,7 @@ typedef struct {
     int64_t n;
     uint32_t pixel[BLOCK], index[BLOCK];
     double column[BLOCK], row[BLOCK];            /* the pixel's x and y on the image */
-    double u[2][BLOCK];                          /* the sample's point inside its pixel */
+    double u[2][BLOCK];                          /* the sample's point in (or, filtered, around) its pixel */
     double O[3][BLOCK], D[3][BLOCK], t[BLOCK];
     uint8_t valid[BLOCK];                        /* 0 outside a fisheye's image circle: no ray */
 } CameraBlock;
@@ -98,6 +98,18 @@ SIMD_CLONES NOINLINE static void camera_block(CameraBlock *restrict b, const Cam
     }
 }
 
+/* Where the pixel filter puts a sample with the uniform number u: Cycles' table lookup, linear between
+ * neighbouring entries of the filter's inverse CDF (core/camera/filter.py offsets, the same arithmetic). */
+static double filter_position(const double *table, double u)
+{
+    double x = (u < 0.0 ? 0.0 : (u > 1.0 ? 1.0 : u)) * (double)(FILTER_TABLE_SIZE - 1);
+    int64_t index = (int64_t)x;
+    if (index > FILTER_TABLE_SIZE - 1) index = FILTER_TABLE_SIZE - 1;
+    int64_t following = index + 1 < FILTER_TABLE_SIZE ? index + 1 : FILTER_TABLE_SIZE - 1;
+    double t = x - (double)index;
+    return t == 0.0 ? table[index] : (1.0 - t) * table[index] + t * table[following];
+}
+
 /* The camera rays of samples start .. start + BLOCK - 1 of p pixels' spp samples each (sample j of
  * pixel k is sample first[k] + j of its pattern): their keys, points and rays, into b. */
 INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t stream, int64_t width,
@@ -121,6 +133,11 @@ INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t 
         }
     }
     sample_lanes(b->n, stream, b->pixel, b->index, b->u[0], b->u[1]);
+    if (camera->filter_table)                  /* NULL for a 1-pixel box: the points stay where they are drawn */
+        for (int64_t lane = 0; lane < b->n; lane++) {
+            b->u[0][lane] = filter_position(camera->filter_table, b->u[0][lane]);
+            b->u[1][lane] = filter_position(camera->filter_table, b->u[1][lane]);
+        }
     camera_block(b, camera, width, height);
 }
 

@@ -48,13 +48,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 
 from .. import vectors
 from ..native import schema
 from ..native.schema import F64, I32, I64, U8, out, ptr
+from .filter import PixelFilter
 
 __all__ = [
     "Camera",
@@ -406,20 +407,21 @@ def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspec
 
 
 def outside_image_circle(camera: Camera, width: int, height: int, pixels: np.ndarray,
-                         pixel_aspect: tuple[float, float] = (1.0, 1.0)) -> np.ndarray:
+                         pixel_aspect: tuple[float, float] = (1.0, 1.0), reach: float = 0.0) -> np.ndarray:
     """Return which pixels lie wholly outside a fisheye's image circle: (p,) bool, all False for other cameras.
 
     Such pixels are opaque black whatever is sampled in them, so a render need not sample them.
-    A pixel is an axis-aligned rectangle on the fisheye's image plane (u and v are affine in the
-    raster position, see _fisheye_rays); it lies outside when the rectangle's point nearest the
-    circle's centre does. pixels: (p,) int64 flat indices, row 0 at the top.
+    A pixel's samples land in an axis-aligned rectangle on the fisheye's image plane (u and v are
+    affine in the raster position, see _fisheye_rays): the pixel grown by `reach` pixels on every
+    side (how far its pixel filter sends them, core/camera/filter.py); the pixel lies outside when the
+    rectangle's point nearest the circle's centre does. pixels: (p,) int64 flat indices, row 0 at the top.
     """
     pixels = np.asarray(pixels, dtype=np.int64)
     if camera.type != "PANO" or len(pixels) == 0:
         return np.zeros(len(pixels), bool)
-    x, y = pixels % width, pixels // width
-    u0, v0 = _panorama_uv(camera, width, height, x.astype(np.float64), (y + 1).astype(np.float64))
-    u1, v1 = _panorama_uv(camera, width, height, (x + 1).astype(np.float64), y.astype(np.float64))
+    x, y = (pixels % width).astype(np.float64), (pixels // width).astype(np.float64)
+    u0, v0 = _panorama_uv(camera, width, height, x - reach, y + 1.0 + reach)
+    u1, v1 = _panorama_uv(camera, width, height, x + 1.0 + reach, y - reach)
     scale_x, scale_y, limit = _fisheye_plane(camera, width, height, pixel_aspect)
     # The rectangle's point nearest the centre (0, 0) of the image plane.
     nearest_x = np.clip(0.0, (u0 - 0.5) * scale_x, (u1 - 0.5) * scale_x)
@@ -494,6 +496,8 @@ CameraRecord = schema.record("CameraRecord", "The camera, prepared by core/camer
     ("limit", F64, "fisheye: the image circle's radius on that plane"),
     ("fisheye_fov", F64, ""),
     ("fisheye_lens", F64, ""),
+    ("filter_table", ptr(F64), "(FILTER_TABLE_SIZE,) the pixel filter's inverse CDF (core/camera/filter.py); "
+                               "NULL for a 1-pixel box: the sample's point stays where it is drawn"),
 ])
 # The camera types camera.c knows: CAMERA_PERSP, ...
 _KINDS = schema.constants("CAMERA", ("PERSP", "ORTHO", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"), "camera.c's camera types")
@@ -514,10 +518,12 @@ CameraRaysArgs = schema.function("primer_camera_rays", "camera_rays", schema.rec
 ]))
 
 
-def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, origin: np.ndarray):
+def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, origin: np.ndarray,
+                  pixel_filter: Optional[PixelFilter] = None):
     """Return the camera's C record: everything generate_rays needs that does not depend on the sample.
 
-    origin: (3,) float64 the geometry's origin, subtracted from the camera's position (camera-relative).
+    origin: (3,) float64 the geometry's origin, subtracted from the camera's position (camera-relative);
+    pixel_filter: where samples land around their pixel (None: a 1-pixel box).
     """
     record = CameraRecord(kind=_KINDS[camera.type if camera.type != "PANO" else camera.panorama_type])
     if camera.type in ("PERSP", "ORTHO"):
@@ -531,6 +537,8 @@ def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, 
     record.rotation = rotation.ravel()
     record.eye = np.asarray(camera.matrix_world, np.float64)[:3, 3] - origin
     record.renormalize = not _is_rotation(rotation)
+    if pixel_filter is not None and not pixel_filter.is_identity:
+        record.filter_table = pixel_filter.table()
     return record
 
 

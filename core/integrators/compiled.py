@@ -189,7 +189,8 @@ class Compiled:
         geometry = ctx.geometry
         self.tracer = geometry.tracer
         packets = self.tracer.packets
-        self.camera = camera_.camera_record(ctx.scene.camera, s.width, s.height, tuple(s.pixel_aspect), geometry.origin)
+        self.camera = camera_.camera_record(ctx.scene.camera, s.width, s.height, tuple(s.pixel_aspect), geometry.origin,
+                                            s.filter)
         self.tables = GeometryTables(geometry)
         self.lights = (LightRecord * max(1, len(ctx.lights)))(
             *[light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)])

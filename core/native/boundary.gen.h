@@ -10,6 +10,8 @@
 #define CAMERA_ORTHO 1
 #define CAMERA_FISHEYE_EQUIDISTANT 2
 #define CAMERA_FISHEYE_EQUISOLID 3
+/* entries of the pixel filter's table (Cycles' size) (core.camera.filter) */
+#define FILTER_TABLE_SIZE 1024
 /* the integrators with a compiled twin (core.integrators.compiled) */
 #define INTEGRATOR_DIRECT 0
 #define INTEGRATOR_PATH 1
@@ -239,6 +241,7 @@ struct CameraRecord {
     double limit;                           /* fisheye: the image circle's radius on that plane */
     double fisheye_fov;
     double fisheye_lens;
+    const double *filter_table;             /* (FILTER_TABLE_SIZE,) the pixel filter's inverse CDF (core/camera/filter.py); NULL for a 1-pixel box: the sample's point stays where it is drawn */
 };
 
 /* primer_camera_rays' arguments: the camera rays of spp samples in each of p pixels. */
@@ -707,7 +710,7 @@ struct Sample2dArgs {
  * Record.check compares with Python's before a record crosses. */
 EXPORT uint64_t primer_layout(const char *name)
 {
-    if (strcmp(name, "CameraRecord") == 0) return UINT64_C(1330438574755293738);
+    if (strcmp(name, "CameraRecord") == 0) return UINT64_C(1758794328605527704);
     if (strcmp(name, "CameraRaysArgs") == 0) return UINT64_C(4853653911338869771);
     if (strcmp(name, "AscendingArgs") == 0) return UINT64_C(8778812495168971938);
     if (strcmp(name, "UnconvergedArgs") == 0) return UINT64_C(333743641446770115);

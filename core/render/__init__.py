@@ -192,12 +192,14 @@ def sample_keys(pixels: np.ndarray, spp: int, first: Optional[np.ndarray]) -> tu
 def camera_rays(ctx: Context, s: RenderSettings, pixel: np.ndarray, sample: np.ndarray, spp: int):
     """Return the camera rays (core/camera Rays, camera-relative) of samples `sample` of pixels `pixel`:
     both (n,) int64; the positions in the pixel are the samples' jittered points (dimension 0 of the
-    pattern), or without jitter the centres of a grid of spp cells."""
+    pattern), or without jitter the centres of a grid of spp cells, moved by the pixel filter
+    (core/camera/filter.py: drawn from its density, as Cycles does)."""
     W, H = s.width, s.height
     if s.jitter:
         offset = sampling.sample_2d(s.seed, pixel, sample, dimension=0)
     else:
         offset = sampling.stratum_centres(sample, spp)
+    offset = s.filter.positions(offset)
     return camera_.generate_rays(ctx.extra["camera"], W, H, (pixel % W) + offset[:, 0], (pixel // W) + offset[:, 1],
                                  tuple(s.pixel_aspect))
 
@@ -462,7 +464,8 @@ def render(scene: Scene, settings: RenderSettings,
         merge[passes_.MATTE_BUFFER] = layout.merge_mattes
     film = Film(W, H, film_sums, compiled=compiled is not None, keep_estimates=len(passes) > 1, merge=merge)
     region = region_pixels(settings)
-    outside = camera_.outside_image_circle(scene.camera, W, H, region, tuple(settings.pixel_aspect))
+    outside = camera_.outside_image_circle(scene.camera, W, H, region, tuple(settings.pixel_aspect),
+                                           settings.filter.reach)
     if outside.any():
         film.noise.total[region[outside], 3] = 1.0
         region = region[~outside]

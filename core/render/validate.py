@@ -36,6 +36,7 @@ def validate(scene, settings) -> None:
         raise ValueError(f"adaptive min samples must be >= 0, got {settings.adaptive_min_samples}")
     if not all(math.isfinite(a) and a > 0 for a in settings.pixel_aspect):
         raise ValueError(f"pixel aspect must be two finite numbers > 0, got {settings.pixel_aspect}")
+    settings.filter  # noqa: B018  (a known pixel filter of a positive width, or a ValueError saying so)
     if settings.integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {settings.integrator!r}")
     for name in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",

@@ -26,6 +26,10 @@ class RenderSettings:
         weighed by multiple importance sampling, as Cycles), "light" (light samples alone) or "bsdf"
         (BSDF-sampled rays alone; lights without extent keep their light samples).
 
+    pixel_filter, filter_width: where a camera sample lands around its pixel's centre, as Cycles draws it from
+        the filter (core/camera/filter.py): "BOX" (Blender gives it the width 1: the pixel), "GAUSSIAN",
+        "BLACKMAN_HARRIS" (Cycles' default, 1.5 px); the width in pixels (Render > Film > Pixel Filter).
+
     region: (x0, y0, x1, y1) pixel rectangle to render, y from the top row, or None for all.
     shadow_method: "robust" (error-bound offset, no user epsilon) or "epsilon" (the lecture's).
     aux: names of auxiliary buffers to return, from core.integrators.debug.AUX_BUFFERS.
@@ -85,6 +89,8 @@ class RenderSettings:
     seed: int = 0
     region: Optional[tuple] = None
     pixel_aspect: tuple = (1.0, 1.0)
+    pixel_filter: str = "BOX"
+    filter_width: float = 1.0
     jitter: bool = True
     light_samples: int = 4
     shadow_method: str = "robust"
@@ -112,6 +118,12 @@ class RenderSettings:
     ao_distance: float = 10.0
     cryptomatte_depth: int = 6
     light_groups: Sequence[str] = ()
+
+    @property
+    def filter(self):
+        """The pixel filter (core/camera/filter.py PixelFilter) of pixel_filter and filter_width."""
+        from ..camera.filter import PixelFilter
+        return PixelFilter(self.pixel_filter, float(self.filter_width))
 
     def is_lecture_default(self) -> bool:
         """Whether every lecture switch is at the lecture's choice (a fast path may then stand in)."""
