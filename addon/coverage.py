@@ -259,9 +259,9 @@ COVERAGE = {
         READ: {"clip_end clip_start fisheye_fov fisheye_lens lens ortho_scale panorama_type sensor_fit sensor_height "
                "sensor_width shift_x shift_y": "export.export_camera",
                "type": "export.export_camera (a Custom camera: unmodelled.camera_notes)",
+               "dof": "export.depth_of_field (a panorama's: unmodelled.camera_notes)",
                "animation_data": DEPSGRAPH},
-        REPORTED: {"dof": "unmodelled.camera_notes",
-                   "central_cylindrical_radius* central_cylindrical_range_u_max* central_cylindrical_range_u_min* "
+        REPORTED: {"central_cylindrical_radius* central_cylindrical_range_u_max* central_cylindrical_range_u_min* "
                    "central_cylindrical_range_v_max* central_cylindrical_range_v_min* fisheye_polynomial_k0 "
                    "fisheye_polynomial_k1 fisheye_polynomial_k2 fisheye_polynomial_k3 fisheye_polynomial_k4 "
                    "latitude_max latitude_min longitude_max longitude_min": "export.export_camera (a panorama "
@@ -278,8 +278,8 @@ COVERAGE = {
                         VIEWPORT},
     },
     "CameraDOFSettings": {
-        REPORTED: {"aperture_blades aperture_fstop aperture_ratio aperture_rotation focus_distance focus_object "
-                   "focus_subtarget* use_dof": "unmodelled.camera_notes"},
+        READ: {"aperture_blades aperture_fstop aperture_ratio aperture_rotation focus_distance focus_object "
+               "focus_subtarget* use_dof": "export.depth_of_field (a panorama's: unmodelled.camera_notes)"},
     },
     "CameraStereoData": {
         REPORTED: {"convergence_distance convergence_mode interocular_distance pivot pole_merge_angle_from "

@@ -416,7 +416,32 @@ def export_camera(camera_object, warnings: list = None) -> Camera:
         panorama_type=panorama if kind == "PANO" else "FISHEYE_EQUIDISTANT",
         fisheye_fov=float(getattr(data, "fisheye_fov", math.pi)),
         fisheye_lens=float(getattr(data, "fisheye_lens", 10.5)),
+        **depth_of_field(camera_object, kind),
     )
+
+
+def depth_of_field(camera_object, kind: str) -> dict:
+    """The Camera fields of a camera's Depth of Field, as Cycles reads them (intern/cycles/blender/camera.cpp): the
+    aperture's radius is the focal length over twice the f-stop (1 / (2 f-stop) for an orthographic camera); the focus
+    distance is the Focus Distance, or with a Focus Object (a bone of it with a Focus Bone) its distance from the camera
+    along the view axis. {} without depth of field (a pinhole); panoramas keep theirs (unmodelled.camera_notes)."""
+    dof = getattr(camera_object.data, "dof", None)
+    if dof is None or not dof.use_dof or kind == "PANO":
+        return {}
+    fstop = max(float(dof.aperture_fstop), 1e-5)
+    size = 1.0 / (2.0 * fstop) if kind == "ORTHO" else float(camera_object.data.lens) * 1e-3 / (2.0 * fstop)
+    distance = float(dof.focus_distance)
+    target = dof.focus_object
+    if target is not None:
+        where = np.array(target.matrix_world, np.float64)
+        bone = getattr(dof, "focus_subtarget", "")
+        if bone and getattr(target, "pose", None) is not None and bone in target.pose.bones:
+            where = where @ np.array(target.pose.bones[bone].matrix, np.float64)
+        camera = np.array(camera_object.matrix_world, np.float64)
+        axis = camera[:3, 2] / max(np.linalg.norm(camera[:3, 2]), 1e-300)
+        distance = abs(float(axis @ (camera[:3, 3] - where[:3, 3])))
+    return dict(aperture_size=size, focus_distance=max(distance, 1e-5), aperture_blades=int(dof.aperture_blades),
+                aperture_rotation=float(dof.aperture_rotation), aperture_ratio=float(dof.aperture_ratio))
 
 
 # Cycles' camera for a scene camera that is no camera object (intern/cycles/blender/camera.cpp, BlenderCamera's

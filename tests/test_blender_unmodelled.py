@@ -41,7 +41,9 @@ def scene_with_everything():
     scene = bpy.context.scene
     layer = scene.view_layers[0]
     scene.render.use_motion_blur = True
-    scene.camera.data.dof.use_dof = True
+    scene.camera.data.dof.use_dof = True                # (a panorama's: Primer renders those through a pinhole)
+    scene.camera.data.type = "PANO"
+    scene.camera.data.panorama_type = "FISHEYE_EQUIDISTANT"
     cube, light = scene.objects["Cube"], scene.objects["Light"]
     cube.is_shadow_catcher = True
     cube.data.materials.clear()

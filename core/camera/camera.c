@@ -6,9 +6,37 @@ typedef struct {
     uint32_t pixel[BLOCK], index[BLOCK];
     double column[BLOCK], row[BLOCK];            /* the pixel's x and y on the image */
     double u[2][BLOCK];                          /* the sample's point in (or, filtered, around) its pixel */
+    double lens[2][BLOCK];                       /* its point on the aperture (depth of field only), uniform */
     double O[3][BLOCK], D[3][BLOCK], t[BLOCK];
     uint8_t valid[BLOCK];                        /* 0 outside a fisheye's image circle: no ray */
 } CameraBlock;
+
+/* camera.aperture_points for one lane: the point (2) on the aperture of the uniform numbers u (2), scene units. */
+INLINE void aperture_point(const CameraRecord *camera, double u0, double u1, double *out)
+{
+    double x, y;
+    if (camera->aperture_blades < 3) {
+        /* camera.uniform_disk: the concentric map of the square onto the disk */
+        double a = 2.0 * u0 - 1.0, b = 2.0 * u1 - 1.0, r, phi;
+        if (a == 0.0 && b == 0.0) { out[0] = out[1] = 0.0; return; }
+        if (a * a > b * b) { r = a; phi = (PI / 4.0) * (b / a); }
+        else { r = b; phi = PI / 2.0 - (PI / 4.0) * (a / b); }
+        x = r * cos(phi);
+        y = r * sin(phi);
+    } else {
+        /* camera.regular_polygon: a corner's triangle, uniform in its area, turned into place */
+        double corners = (double)camera->aperture_blades, t = u0 * corners, corner = floor(t);
+        double s = sqrt(t - corner), v = u1 * s;
+        s = 1.0 - s;
+        double half = PI / corners;
+        double px = (s + v) * cos(half), py = (s - v) * sin(half);
+        double turn = camera->aperture_rotation + corner * 2.0 * half, c = cos(turn), n = sin(turn);
+        x = c * px - n * py;
+        y = n * px + c * py;
+    }
+    out[0] = x / camera->aperture_ratio * camera->aperture_size;
+    out[1] = y * camera->aperture_size;
+}
 
 /* One camera ray per lane (inlined once per camera kind, so that the loop has no branch). */
 INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict record, int64_t width,
@@ -25,7 +53,30 @@ INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict r
             /* 1. The sample's position on the image plane (row 0 is the top of the image). */
             double plane_x = camera.left + (raster_x / (double)width) * (camera.right - camera.left);
             double plane_y = camera.top - (raster_y / (double)height) * (camera.top - camera.bottom);
-            if (kind == CAMERA_PERSP) {
+            if (camera.aperture_size > 0.0) {
+                /* 2''. A thin lens (camera._perspective_rays, _orthographic_rays with a lens): from the aperture's
+                 * point towards where the pinhole's (or the parallel) ray meets the plane in focus. */
+                double at[2], towards[3];
+                aperture_point(&camera, b->lens[0][k], b->lens[1][k], at);
+                if (kind == CAMERA_PERSP) {
+                    double length = sqrt(plane_x * plane_x + plane_y * plane_y + 1.0), cos_to_axis = 1.0 / length;
+                    towards[0] = plane_x * camera.focus_distance - at[0];
+                    towards[1] = plane_y * camera.focus_distance - at[1];
+                    towards[2] = -camera.focus_distance;
+                    double norm = sqrt(dot3(towards, towards));
+                    for (int c = 0; c < 3; c++) d[c] = towards[c] / norm;
+                    double start = camera.clip_start / cos_to_axis;
+                    o[0] = at[0] + d[0] * start; o[1] = at[1] + d[1] * start; o[2] = d[2] * start;
+                    t = (camera.clip_end - camera.clip_start) / cos_to_axis;
+                } else {
+                    towards[0] = -at[0]; towards[1] = -at[1]; towards[2] = -camera.focus_distance;
+                    double norm = sqrt(dot3(towards, towards));
+                    for (int c = 0; c < 3; c++) d[c] = towards[c] / norm;
+                    double start = camera.clip_start / -d[2];
+                    o[0] = plane_x + at[0] + d[0] * start; o[1] = plane_y + at[1] + d[1] * start; o[2] = d[2] * start;
+                    t = camera.clip_end - camera.clip_start;
+                }
+            } else if (kind == CAMERA_PERSP) {
                 /* 2. A pinhole: the point on the plane at distance 1 is the direction; planar clipping. */
                 double length = sqrt(plane_x * plane_x + plane_y * plane_y + 1.0);
                 d[0] = plane_x / length; d[1] = plane_y / length; d[2] = -1.0 / length;
@@ -111,10 +162,11 @@ static double filter_position(const double *table, double u)
 }
 
 /* The camera rays of samples start .. start + BLOCK - 1 of p pixels' spp samples each (sample j of
- * pixel k is sample first[k] + j of its pattern): their keys, points and rays, into b. */
-INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t stream, int64_t width,
-                           int64_t height, const int64_t *pixels, const int64_t *first, int64_t spp, int64_t start,
-                           int64_t total)
+ * pixel k is sample first[k] + j of its pattern): their keys, points and rays, into b. stream, lens_stream: the
+ * patterns of their points in the pixel and on the lens (LENS_DIMENSION). */
+INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t stream, uint32_t lens_stream,
+                           int64_t width, int64_t height, const int64_t *pixels, const int64_t *first, int64_t spp,
+                           int64_t start, int64_t total)
 {
     b->n = total - start < BLOCK ? total - start : BLOCK;
     int64_t k = start / spp, j = start % spp;
@@ -138,6 +190,8 @@ INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t 
             b->u[0][lane] = filter_position(camera->filter_table, b->u[0][lane]);
             b->u[1][lane] = filter_position(camera->filter_table, b->u[1][lane]);
         }
+    if (camera->aperture_size > 0.0)           /* depth of field: each ray's point on the lens */
+        sample_lanes(b->n, lens_stream, b->pixel, b->index, b->lens[0], b->lens[1]);
     camera_block(b, camera, width, height);
 }
 
@@ -147,11 +201,11 @@ static void camera_rays(const CameraRecord *camera, int64_t seed, int64_t width,
                                const int64_t *pixels, const int64_t *first, int64_t p, int64_t spp,
                                double *origins, double *directions, double *t_max, uint8_t *valid)
 {
-    uint32_t stream = stream_of(seed, 0);
+    uint32_t stream = stream_of(seed, 0), lens_stream = stream_of(seed, LENS_DIMENSION);
     int64_t total = p * spp;
     CameraBlock b;
     for (int64_t start = 0; start < total; start += BLOCK) {
-        camera_samples(&b, camera, stream, width, height, pixels, first, spp, start, total);
+        camera_samples(&b, camera, stream, lens_stream, width, height, pixels, first, spp, start, total);
         for (int64_t lane = 0; lane < b.n; lane++) {
             int64_t i = start + lane;
             for (int c = 0; c < 3; c++) { origins[3 * i + c] = b.O[c][lane]; directions[3 * i + c] = b.D[c][lane]; }

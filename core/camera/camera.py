@@ -36,6 +36,12 @@ translates between the two:
 * Panoramic fisheye cameras (equidistant and equisolid) map the image to
   directions the way Cycles does; pixels outside the lens' image circle are
   black.
+* Depth of field replaces the pinhole by a thin lens, as Cycles' camera does: a
+  ray leaves a random point of the aperture (radius ``aperture_size``: the
+  focal length over twice the f-stop; a disk, or a polygon of blades, narrowed
+  by the anamorphic ratio) towards the point the pinhole ray meets at
+  ``focus_distance`` along the axis, so that what lies at that depth is sharp
+  and the rest blurs in proportion to its distance from it.
 
 Conventions used below: *points* are positions (names ending in ``_point(s)``
 or ``origins``), *directions* are vectors (``_direction(s)``, ``forward``,
@@ -128,6 +134,14 @@ class Camera:
     panorama_type: str = "FISHEYE_EQUIDISTANT"   # | "FISHEYE_EQUISOLID" (PANO)
     fisheye_fov: float = math.pi                 # radians: full angle of the image circle
     fisheye_lens: float = 10.5                   # mm (equisolid)
+    # Depth of field (a thin lens, as Cycles'): the aperture's radius in scene units (0: a pinhole, all in focus),
+    # the distance in focus along the view axis, the aperture's blades (fewer than 3: round), their rotation
+    # (radians) and the anamorphic ratio (the aperture's height over its width).
+    aperture_size: float = 0.0
+    focus_distance: float = 10.0
+    aperture_blades: int = 0
+    aperture_rotation: float = 0.0
+    aperture_ratio: float = 1.0
 
     def __post_init__(self) -> None:
         """Check the enums and store matrix_world as a read-only, scale-free (4, 4) float64 array."""
@@ -311,9 +325,62 @@ def _raster_to_plane(camera: Camera, width: int, height: int, raster_x: np.ndarr
 # Ray generation, one function per camera type (all in camera-local space)
 # ---------------------------------------------------------------------------
 
-def _perspective_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
-    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for a pinhole camera."""
+def has_depth_of_field(camera: Camera) -> bool:
+    """Whether the camera's rays leave from a lens of some size (perspective and orthographic cameras)."""
+    return camera.aperture_size > 0.0 and camera.type in ("PERSP", "ORTHO")
+
+
+def uniform_disk(u: np.ndarray) -> np.ndarray:
+    """Points (n, 2) of the unit disk from uniform numbers u (n, 2), by Shirley and Chiu's concentric map (the
+    square's rings to the disk's, as Cycles' sample_uniform_disk)."""
+    a, b = 2.0 * u[:, 0] - 1.0, 2.0 * u[:, 1] - 1.0
+    wide = a * a > b * b
+    r = np.where(wide, a, b)
+    safe_a, safe_b = np.where(a == 0.0, 1.0, a), np.where(b == 0.0, 1.0, b)
+    phi = np.where(wide, (math.pi / 4.0) * (b / safe_a), math.pi / 2.0 - (math.pi / 4.0) * (a / safe_b))
+    centre = (a == 0.0) & (b == 0.0)
+    return np.where(centre[:, None], 0.0, np.stack([r * np.cos(phi), r * np.sin(phi)], axis=1))
+
+
+def regular_polygon(u: np.ndarray, corners: int, rotation: float) -> np.ndarray:
+    """Points (n, 2) of the regular polygon with `corners` corners inscribed in the unit circle, turned by `rotation`,
+    uniform in its area, from uniform numbers u (n, 2): a corner's triangle (the first number picks it, the rest of it
+    and the second are the point's triangle coordinates), as Cycles' regular_polygon_sample."""
+    x = u[:, 0] * corners
+    corner = np.floor(x)
+    s = np.sqrt(x - corner)
+    t = u[:, 1] * s
+    s = 1.0 - s
+    half = math.pi / corners
+    px, py = (s + t) * math.cos(half), (s - t) * math.sin(half)
+    turn = rotation + corner * 2.0 * half
+    c, n = np.cos(turn), np.sin(turn)
+    return np.stack([c * px - n * py, n * px + c * py], axis=1)
+
+
+def aperture_points(camera: Camera, u: np.ndarray) -> np.ndarray:
+    """Points (n, 2) on the camera's aperture (camera-local x right, y up, scene units) from uniform numbers u (n, 2):
+    its disk or polygon of blades, narrowed across by the anamorphic ratio, times the aperture's radius."""
+    blades = int(camera.aperture_blades)
+    bokeh = uniform_disk(u) if blades < 3 else regular_polygon(u, blades, camera.aperture_rotation)
+    bokeh[:, 0] /= camera.aperture_ratio
+    return bokeh * camera.aperture_size
+
+
+def _perspective_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect, lens=None):
+    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for a pinhole camera, or with
+    lens (n, 2) uniform numbers a thin lens: each ray leaves its point of the aperture towards the point the
+    pinhole ray meets at the focus distance (the plane in focus), clipped where the pinhole ray would be."""
     plane_x, plane_y = _raster_to_plane(camera, width, height, raster_x, raster_y, pixel_aspect)
+    if lens is not None and has_depth_of_field(camera):
+        pinhole = vectors.rows(plane_x, plane_y, -np.ones_like(plane_x))          # depth 1 along the axis
+        cos_to_axis = 1.0 / np.linalg.norm(pinhole, axis=1)
+        at = aperture_points(camera, lens)
+        start = vectors.rows(at[:, 0], at[:, 1], np.zeros(len(at)))
+        directions = _normalize_rows(pinhole * camera.focus_distance - start)
+        origins = start + directions * (camera.clip_start / cos_to_axis)[:, None]
+        t_max = (camera.clip_end - camera.clip_start) / cos_to_axis
+        return origins, directions, t_max, np.ones(len(plane_x), dtype=bool)
     # The point on the image plane at distance 1 is also the (unnormalised) direction.
     directions = _normalize_rows(vectors.rows(plane_x, plane_y, -np.ones_like(plane_x)))
     # Planar clipping: a ray at angle a to the axis reaches depth d after d / cos(a).
@@ -324,10 +391,19 @@ def _perspective_rays(camera: Camera, width, height, raster_x, raster_y, pixel_a
     return origins, directions, t_max, valid
 
 
-def _orthographic_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
-    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for parallel rays along -Z."""
+def _orthographic_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect, lens=None):
+    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for parallel rays along -Z, or with
+    lens (n, 2) uniform numbers rays from the aperture's point (around the pixel's) that meet the pixel's parallel
+    ray at the focus distance, started where they cross the near clip plane."""
     plane_x, plane_y = _raster_to_plane(camera, width, height, raster_x, raster_y, pixel_aspect)
     n = len(plane_x)
+    if lens is not None and has_depth_of_field(camera):
+        at = aperture_points(camera, lens)
+        offset = vectors.rows(at[:, 0], at[:, 1], np.zeros(n))
+        directions = _normalize_rows(np.array([0.0, 0.0, -camera.focus_distance]) - offset)
+        origins = (vectors.rows(plane_x, plane_y, np.zeros(n)) + offset
+                   + directions * (camera.clip_start / -directions[:, 2])[:, None])
+        return origins, directions, np.full(n, camera.clip_end - camera.clip_start), np.ones(n, dtype=bool)
     origins = vectors.rows(plane_x, plane_y, np.full(n, -camera.clip_start))
     directions = vectors.rows(np.zeros(n), np.zeros(n), np.full(n, -1.0))
     t_max = np.full(n, camera.clip_end - camera.clip_start)
@@ -431,12 +507,14 @@ def outside_image_circle(camera: Camera, width: int, height: int, pixels: np.nda
 
 
 def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray, raster_y: np.ndarray,
-                  pixel_aspect: tuple[float, float] = (1.0, 1.0)) -> CameraRays:
+                  pixel_aspect: tuple[float, float] = (1.0, 1.0), lens: Optional[np.ndarray] = None) -> CameraRays:
     """Return the world-space primary rays (CameraRays of n rays) through the given raster positions.
 
     raster_x, raster_y: (n,) float64 raster positions, x in [0, width) from the left,
     y in [0, height) from the TOP row (row 0 is the top of the image); pixel centres at +0.5.
     pixel_aspect: (x, y) as Blender's render pixel aspect; it changes the image's shape.
+    lens: (n, 2) float64 uniform numbers picking each ray's point on the aperture (depth of field), or None:
+    through the pinhole.
     """
     raster_x = np.atleast_1d(np.asarray(raster_x, dtype=np.float64))
     raster_y = np.atleast_1d(np.asarray(raster_y, dtype=np.float64))
@@ -444,9 +522,9 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
     raster_x, raster_y = raster_x.ravel(), raster_y.ravel()
 
     if camera.type == "PERSP":
-        local = _perspective_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
+        local = _perspective_rays(camera, width, height, raster_x, raster_y, pixel_aspect, lens)
     elif camera.type == "ORTHO":
-        local = _orthographic_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
+        local = _orthographic_rays(camera, width, height, raster_x, raster_y, pixel_aspect, lens)
     else:
         local = _fisheye_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
     local_origins, local_directions, t_max, valid = local
@@ -498,7 +576,14 @@ CameraRecord = schema.record("CameraRecord", "The camera, prepared by core/camer
     ("fisheye_lens", F64, ""),
     ("filter_table", ptr(F64), "(FILTER_TABLE_SIZE,) the pixel filter's inverse CDF (core/camera/filter.py); "
                                "NULL for a 1-pixel box: the sample's point stays where it is drawn"),
+    ("aperture_size", F64, "depth of field (PERSP, ORTHO): the aperture's radius, 0 for a pinhole"),
+    ("focus_distance", F64, ""),
+    ("aperture_blades", I32, "fewer than 3: a round aperture"),
+    ("aperture_rotation", F64, ""),
+    ("aperture_ratio", F64, ""),
 ])
+# The sampling dimension of a camera ray's point on the aperture (depth of field).
+LENS_DIMENSION = schema.constant("LENS_DIMENSION", 1, "the sampling dimension of a camera ray's point on the lens")
 # The camera types camera.c knows: CAMERA_PERSP, ...
 _KINDS = schema.constants("CAMERA", ("PERSP", "ORTHO", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"), "camera.c's camera types")
 
@@ -533,6 +618,10 @@ def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, 
         record.scale_x, record.scale_y, record.limit = _fisheye_plane(camera, width, height, pixel_aspect)
         record.fisheye_fov, record.fisheye_lens = camera.fisheye_fov, camera.fisheye_lens
     record.clip_start, record.clip_end = camera.clip_start, camera.clip_end
+    if has_depth_of_field(camera):
+        record.aperture_size, record.focus_distance = camera.aperture_size, camera.focus_distance
+        record.aperture_blades, record.aperture_rotation = int(camera.aperture_blades), camera.aperture_rotation
+        record.aperture_ratio = camera.aperture_ratio
     rotation = np.asarray(camera.matrix_world, np.float64)[:3, :3]
     record.rotation = rotation.ravel()
     record.eye = np.asarray(camera.matrix_world, np.float64)[:3, 3] - origin

@@ -225,7 +225,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
                                 int64_t spp, ChunkOut *out)
 {
     int64_t width = (int64_t)params->width, height = (int64_t)params->height, total = p * spp;
-    uint32_t stream = stream_of((int64_t)params->seed, 0);
+    uint32_t stream = stream_of((int64_t)params->seed, 0), lens_stream = stream_of((int64_t)params->seed, LENS_DIMENSION);
     Stopwatch started = stopwatch();
     uint64_t spent[3] = {0, 0, 0};        /* ticks: nearest hits, occlusion, shading (as out->seconds) */
     int64_t traced = 0, shadow_rays = 0;
@@ -298,7 +298,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         /* 0. A cancelled render stops here (render.py drops the chunk). */
         if (params->stop != NULL && *(volatile const int32_t *)params->stop != 0) break;
         /* 1. The block's camera rays (camera.c). */
-        camera_samples(&b, params->camera, stream, width, height, pixels, first, spp, start, total);
+        camera_samples(&b, params->camera, stream, lens_stream, width, height, pixels, first, spp, start, total);
         /* 2. Their nearest hits and the surfaces there. */
         uint64_t begin = ticks();
         uint64_t before = spent[0];

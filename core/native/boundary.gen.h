@@ -5,6 +5,8 @@
 
 #include <string.h>
 
+/* the sampling dimension of a camera ray's point on the lens (core.camera.camera) */
+#define LENS_DIMENSION 1
 /* camera.c's camera types (core.camera.camera) */
 #define CAMERA_PERSP 0
 #define CAMERA_ORTHO 1
@@ -242,6 +244,11 @@ struct CameraRecord {
     double fisheye_fov;
     double fisheye_lens;
     const double *filter_table;             /* (FILTER_TABLE_SIZE,) the pixel filter's inverse CDF (core/camera/filter.py); NULL for a 1-pixel box: the sample's point stays where it is drawn */
+    double aperture_size;                   /* depth of field (PERSP, ORTHO): the aperture's radius, 0 for a pinhole */
+    double focus_distance;
+    int32_t aperture_blades;                /* fewer than 3: a round aperture */
+    double aperture_rotation;
+    double aperture_ratio;
 };
 
 /* primer_camera_rays' arguments: the camera rays of spp samples in each of p pixels. */
@@ -710,7 +717,7 @@ struct Sample2dArgs {
  * Record.check compares with Python's before a record crosses. */
 EXPORT uint64_t primer_layout(const char *name)
 {
-    if (strcmp(name, "CameraRecord") == 0) return UINT64_C(1758794328605527704);
+    if (strcmp(name, "CameraRecord") == 0) return UINT64_C(5532156267203622868);
     if (strcmp(name, "CameraRaysArgs") == 0) return UINT64_C(4853653911338869771);
     if (strcmp(name, "AscendingArgs") == 0) return UINT64_C(8778812495168971938);
     if (strcmp(name, "UnconvergedArgs") == 0) return UINT64_C(333743641446770115);

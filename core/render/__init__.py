@@ -200,8 +200,11 @@ def camera_rays(ctx: Context, s: RenderSettings, pixel: np.ndarray, sample: np.n
     else:
         offset = sampling.stratum_centres(sample, spp)
     offset = s.filter.positions(offset)
-    return camera_.generate_rays(ctx.extra["camera"], W, H, (pixel % W) + offset[:, 0], (pixel // W) + offset[:, 1],
-                                 tuple(s.pixel_aspect))
+    camera = ctx.extra["camera"]
+    lens = (sampling.sample_2d(s.seed, pixel, sample, dimension=camera_.LENS_DIMENSION)
+            if camera_.has_depth_of_field(camera) else None)       # (depth of field: each ray's point on the lens)
+    return camera_.generate_rays(camera, W, H, (pixel % W) + offset[:, 0], (pixel // W) + offset[:, 1],
+                                 tuple(s.pixel_aspect), lens)
 
 
 def light_pass_images(film: Film, first_hit: dict, wanted) -> dict:
