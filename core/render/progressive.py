@@ -49,10 +49,9 @@ class View:
     def signature(self) -> tuple:
         """Return a hashable summary; two views with equal signatures render the same image."""
         c = self.camera
+        lens = tuple(getattr(c, f.name) for f in dataclasses.fields(c) if f.name != "matrix_world")   # (every other field)
         return (self.width, self.height, tuple(self.film), tuple(self.pixel_aspect),
-                tuple(np.round(c.matrix_world, 12).ravel()), c.type, c.lens, c.sensor_width, c.sensor_height,
-                c.sensor_fit, c.shift_x, c.shift_y, c.clip_start, c.clip_end, c.ortho_scale, c.panorama_type,
-                c.fisheye_fov, c.fisheye_lens)
+                tuple(np.round(c.matrix_world, 12).ravel())) + lens
 
 
 def region_view(view_matrix, window_matrix, width: int, height: int) -> View:
