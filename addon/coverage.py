@@ -260,13 +260,12 @@ COVERAGE = {
                "sensor_width shift_x shift_y": "export.export_camera",
                "type": "export.export_camera (a Custom camera: unmodelled.camera_notes)",
                "dof": "export.depth_of_field (a panorama's: unmodelled.camera_notes)",
+               "central_cylindrical_radius* central_cylindrical_range_u_max* central_cylindrical_range_u_min* "
+               "central_cylindrical_range_v_max* central_cylindrical_range_v_min* fisheye_polynomial_k0 "
+               "fisheye_polynomial_k1 fisheye_polynomial_k2 fisheye_polynomial_k3 fisheye_polynomial_k4 "
+               "latitude_max latitude_min longitude_max longitude_min": "export.panorama_settings",
                "animation_data": DEPSGRAPH},
-        REPORTED: {"central_cylindrical_radius* central_cylindrical_range_u_max* central_cylindrical_range_u_min* "
-                   "central_cylindrical_range_v_max* central_cylindrical_range_v_min* fisheye_polynomial_k0 "
-                   "fisheye_polynomial_k1 fisheye_polynomial_k2 fisheye_polynomial_k3 fisheye_polynomial_k4 "
-                   "latitude_max latitude_min longitude_max longitude_min": "export.export_camera (a panorama "
-                   "other than a fisheye stops the render with its name)",
-                   "custom_bytecode* custom_bytecode_hash* custom_filepath* custom_mode* custom_shader* cycles_custom*":
+        REPORTED: {"custom_bytecode* custom_bytecode_hash* custom_filepath* custom_mode* custom_shader* cycles_custom*":
                        "unmodelled.camera_notes (a Custom camera)",
                    "stereo": "unmodelled.render_notes (Stereoscopy)"},
         NO_EFFECT: {"angle angle_x angle_y lens_unit": "the lens in other units: Primer reads lens and sensor",

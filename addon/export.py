@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core import scene as core_scene
 from ..core.camera import Camera
+from ..core.camera.camera import PANORAMA_TYPES
 from ..core.lights import World
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
@@ -404,8 +405,8 @@ def export_camera(camera_object, warnings: list = None) -> Camera:
         return _object_camera(camera_object, warnings)
     kind = data.type if data.type in {"PERSP", "ORTHO", "PANO"} else "PERSP"
     panorama = getattr(data, "panorama_type", "FISHEYE_EQUIDISTANT")
-    if kind == "PANO" and panorama not in {"FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"}:
-        raise ExportError(f"Primer renders fisheye panoramas only; camera '{camera_object.name}' is {panorama}")
+    if kind == "PANO" and panorama not in PANORAMA_TYPES:
+        raise ExportError(f"camera '{camera_object.name}' is a {panorama} panorama, which Primer does not know")
     return Camera(
         matrix_world=np.array(camera_object.matrix_world, np.float64),
         type=kind, lens=float(data.lens), sensor_width=float(data.sensor_width),
@@ -416,8 +417,26 @@ def export_camera(camera_object, warnings: list = None) -> Camera:
         panorama_type=panorama if kind == "PANO" else "FISHEYE_EQUIDISTANT",
         fisheye_fov=float(getattr(data, "fisheye_fov", math.pi)),
         fisheye_lens=float(getattr(data, "fisheye_lens", 10.5)),
+        **panorama_settings(data, panorama if kind == "PANO" else ""),
         **depth_of_field(camera_object, kind),
     )
+
+
+def panorama_settings(data, panorama: str) -> dict:
+    """The Camera fields of an equirectangular, polynomial-fisheye or central-cylindrical panorama (their spans and
+    coefficients, as Blender names them); {} for the others."""
+    if panorama == "EQUIRECTANGULAR":
+        return dict(longitude_min=float(data.longitude_min), longitude_max=float(data.longitude_max),
+                    latitude_min=float(data.latitude_min), latitude_max=float(data.latitude_max))
+    if panorama == "FISHEYE_LENS_POLYNOMIAL":
+        return dict(fisheye_polynomial=tuple(float(getattr(data, f"fisheye_polynomial_k{k}")) for k in range(5)))
+    if panorama == "CENTRAL_CYLINDRICAL":
+        return dict(cylinder_u_min=float(data.central_cylindrical_range_u_min),
+                    cylinder_u_max=float(data.central_cylindrical_range_u_max),
+                    cylinder_v_min=float(data.central_cylindrical_range_v_min),
+                    cylinder_v_max=float(data.central_cylindrical_range_v_max),
+                    cylinder_radius=max(float(data.central_cylindrical_radius), 1e-6))
+    return {}
 
 
 def depth_of_field(camera_object, kind: str) -> dict:

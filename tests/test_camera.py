@@ -508,7 +508,7 @@ def test_unknown_settings_are_rejected():
     with pytest.raises(ValueError):
         Camera(matrix_world=np.eye(4), sensor_fit="DIAGONAL")
     with pytest.raises(ValueError):
-        Camera(matrix_world=np.eye(4), type="PANO", panorama_type="EQUIRECTANGULAR")
+        Camera(matrix_world=np.eye(4), type="PANO", panorama_type="STEREOGRAPHIC")
     with pytest.raises(ValueError):
         Camera(matrix_world=np.eye(4), type="ORTHO").screen_corners(10, 10)
 
@@ -529,3 +529,45 @@ def test_only_an_orthonormal_camera_frame_keeps_ray_directions_unit():
     broken = rotation.copy()
     broken[2, 2] = np.nan
     assert not camera_module._is_rotation(broken)
+
+
+def test_panoramas_map_the_image_to_their_directions_in_closed_form():
+    """Cycles' panoramas, in the camera's frame (looking down -Z, +Y up, +X right): the equirectangular image spans
+    its longitudes (angles to the right) left to right and its latitudes bottom to top; a mirror ball's centre
+    looks forward and its rim backward, nothing outside the ball; a cube-map face spans 90 degrees; the central
+    cylinder puts height v on a cylinder of its radius; a polynomial fisheye's angle from the axis is its polynomial
+    of the radius on the sensor."""
+    def look(camera, u, v, width=64, height=32):
+        x, y = np.asarray(u, float) * width, (1.0 - np.asarray(v, float)) * height
+        return generate_rays(camera, width, height, x, y)
+
+    pano = Camera(matrix_world=np.eye(4), type="PANO", panorama_type="EQUIRECTANGULAR", longitude_min=-1.0,
+                  longitude_max=0.5, latitude_min=-0.4, latitude_max=0.8)
+    rays = look(pano, [0.0, 1.0, 0.5, 0.5], [0.5, 0.5, 1.0, 0.0])
+    D = rays.directions
+    longitude = np.arctan2(D[:, 0], -D[:, 2])           # 0 straight ahead, positive to the right
+    latitude = np.arcsin(D[:, 1])
+    np.testing.assert_allclose(longitude[:2], [-1.0, 0.5], atol=1e-12)
+    np.testing.assert_allclose(latitude[2:], [0.8, -0.4], atol=1e-12)
+    ball = Camera(matrix_world=np.eye(4), type="PANO", panorama_type="MIRRORBALL")
+    rays = look(ball, [0.5, 0.5, 0.999, 0.9], [0.5, 0.9999999, 0.5, 0.9], width=32, height=32)
+    np.testing.assert_allclose(rays.directions[0], [0.0, 0.0, -1.0], atol=1e-12)
+    assert rays.directions[1, 2] > 0.999 and rays.directions[2, 2] > 0.99      # the rim sees behind
+    assert list(rays.valid) == [True, True, True, False]                          # (0.9, 0.9) is off the ball
+    face = Camera(matrix_world=np.eye(4), type="PANO", panorama_type="EQUIANGULAR_CUBEMAP_FACE")
+    rays = look(face, [0.0, 1.0], [0.5, 0.5])
+    np.testing.assert_allclose(rays.directions, [[-math.sqrt(0.5), 0.0, -math.sqrt(0.5)],
+                                                 [math.sqrt(0.5), 0.0, -math.sqrt(0.5)]], atol=1e-12)
+    cylinder = Camera(matrix_world=np.eye(4), type="PANO", panorama_type="CENTRAL_CYLINDRICAL", cylinder_u_min=-1.0,
+                      cylinder_u_max=1.0, cylinder_v_min=-0.5, cylinder_v_max=1.5, cylinder_radius=2.0)
+    rays = look(cylinder, [0.5, 0.5, 0.0], [1.0, 0.0, 0.5])
+    D = rays.directions
+    np.testing.assert_allclose(D[0] / -D[0, 2], [0.0, 0.75, -1.0], atol=1e-12)       # height 1.5 / radius 2
+    np.testing.assert_allclose(D[1] / -D[1, 2], [0.0, -0.25, -1.0], atol=1e-12)
+    np.testing.assert_allclose(np.arctan2(D[2, 0], -D[2, 2]), -1.0, atol=1e-12)      # u 0: u_min to the right
+    k = (0.0, -0.03, 0.0, 0.0, 0.0)
+    poly = Camera(matrix_world=np.eye(4), type="PANO", panorama_type="FISHEYE_LENS_POLYNOMIAL", fisheye_polynomial=k,
+                  fisheye_fov=math.radians(100), sensor_width=36.0)
+    rays = look(poly, [0.75], [0.5])                   # 9 mm right of the centre on a 36 mm wide sensor
+    np.testing.assert_allclose(math.acos(-rays.directions[0, 2]), 0.27, atol=1e-12)
+    assert rays.directions[0, 0] > 0.0 and abs(rays.directions[0, 1]) < 1e-12

@@ -63,8 +63,18 @@ CAMERAS = [
 ]
 
 
+CAMERAS += [dataclasses.replace(Camera.look_at((0.3, -4.0, 2.0), (0.0, 0.0, 0.5)), type="PANO", panorama_type=kind,
+                                shift_y=0.03, fisheye_fov=math.radians(120), **settings)
+            for kind, settings in (("EQUIRECTANGULAR", dict(longitude_min=-2.0, longitude_max=1.5, latitude_max=1.2)),
+                                   ("EQUIANGULAR_CUBEMAP_FACE", {}), ("MIRRORBALL", {}),
+                                   ("FISHEYE_LENS_POLYNOMIAL", dict(fisheye_polynomial=(0.0, -0.05, 0.0, 1e-5, 0.0))),
+                                   ("CENTRAL_CYLINDRICAL", dict(cylinder_u_min=-1.2, cylinder_v_max=1.4,
+                                                                cylinder_radius=1.3)))]
+
+
 @pytest.mark.parametrize("camera", CAMERAS, ids=["persp", "persp_shift_vertical", "ortho_shift", "equidistant",
-                                                 "equisolid"])
+                                                 "equisolid", "equirectangular", "cubemap_face", "mirrorball",
+                                                 "polynomial_fisheye", "central_cylindrical"])
 def test_camera_rays_agree(camera):
     """camera.c's rays are generate_rays' for every camera type, camera-relative, the image circle included."""
     W, H, spp, seed = 37, 23, 5, 11

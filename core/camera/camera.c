@@ -38,6 +38,47 @@ INLINE void aperture_point(const CameraRecord *camera, double u0, double u1, dou
     out[1] = y * camera->aperture_size;
 }
 
+/* camera.panorama_directions for one (u, v) of the panoramas other than the two fisheyes: the direction (3) in Cycles'
+ * panorama frame (x forward, y left, z up); returns 0 where none exists. */
+INLINE int panorama_direction(const CameraRecord *camera, int kind, double u, double v, double *c)
+{
+    const double *range = camera->range;
+    c[0] = c[1] = c[2] = 0.0;
+    if (kind == CAMERA_EQUIRECTANGULAR) {
+        double phi = (range[0] - range[1]) * u - range[0];
+        double theta = (range[2] - range[3]) * v - range[2] + PI / 2.0;
+        c[0] = sin(theta) * cos(phi); c[1] = sin(theta) * sin(phi); c[2] = cos(theta);
+        return 1;
+    }
+    if (kind == CAMERA_EQUIANGULAR_CUBEMAP_FACE) {
+        double y = tan((0.5 - u) * PI / 2.0), z = tan((v - 0.5) * PI / 2.0), length = sqrt(1.0 + y * y + z * z);
+        c[0] = 1.0 / length; c[1] = y / length; c[2] = z / length;
+        return 1;
+    }
+    if (kind == CAMERA_MIRRORBALL) {
+        double x = 2.0 * u - 1.0, z = 2.0 * v - 1.0;
+        if (!(x * x + z * z <= 1.0)) return 0;
+        double y = -sqrt(at_least(1.0 - x * x - z * z, 0.0));
+        c[0] = -2.0 * y * x; c[1] = 1.0 - 2.0 * y * y; c[2] = -2.0 * y * z;
+        return 1;
+    }
+    if (kind == CAMERA_CENTRAL_CYLINDRICAL) {
+        double theta = -range[0] + (range[0] - range[1]) * u;
+        c[0] = cos(theta); c[1] = sin(theta); c[2] = range[2] + (range[3] - range[2]) * v;
+        return 1;
+    }
+    /* FISHEYE_LENS_POLYNOMIAL: the angle from the axis a polynomial of the radius on the sensor. */
+    double x = (u - 0.5) * camera->scale_x, y = (v - 0.5) * camera->scale_y, r = sqrt(x * x + y * y);
+    const double *k = camera->polynomial;
+    double theta = -(k[0] + k[1] * r + k[2] * r * r + k[3] * (r * r * r) + k[4] * (r * r * r * r));
+    if (!(fabs(theta) <= 0.5 * camera->fisheye_fov)) return 0;
+    double cos_phi = r != 0.0 ? x / r : 0.0;
+    cos_phi = cos_phi < -1.0 ? -1.0 : (cos_phi > 1.0 ? 1.0 : cos_phi);
+    double sin_phi = sqrt(1.0 - cos_phi * cos_phi) * (y < 0.0 ? -1.0 : 1.0);
+    c[0] = cos(theta); c[1] = -cos_phi * sin(theta); c[2] = sin_phi * sin(theta);
+    return 1;
+}
+
 /* One camera ray per lane (inlined once per camera kind, so that the loop has no branch). */
 INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict record, int64_t width,
                          int64_t height, int kind, int renormalize)
@@ -90,6 +131,20 @@ INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict r
                 d[0] = 0.0; d[1] = 0.0; d[2] = -1.0;
                 t = camera.clip_end - camera.clip_start;
             }
+        } else if (kind != CAMERA_FISHEYE_EQUIDISTANT && kind != CAMERA_FISHEYE_EQUISOLID) {
+            /* 1. Another panorama (camera._panorama_rays): its (u, v), its direction in Cycles' panorama frame, turned
+             * into the camera's (a mirror ball looks down its y axis, the others down x); spherical clipping. */
+            double u = raster_x / (double)width + camera.shift_x;
+            double v = ((double)height - raster_y) / (double)height + camera.shift_y;
+            double c[3];
+            valid = panorama_direction(&camera, kind, u, v, c);
+            if (kind == CAMERA_MIRRORBALL) { d[0] = c[0]; d[1] = c[2]; d[2] = c[1]; }
+            else { d[0] = -c[1]; d[1] = c[2]; d[2] = -c[0]; }
+            double length = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            if (valid) { d[0] /= length; d[1] /= length; d[2] /= length; }
+            else { d[0] = 0.0; d[1] = 0.0; d[2] = -1.0; }
+            o[0] = d[0] * camera.clip_start; o[1] = d[1] * camera.clip_start; o[2] = d[2] * camera.clip_start;
+            t = camera.clip_end - camera.clip_start;
         } else {
             /* 1. A fisheye: the panorama's (u, v), v from the bottom, onto its image plane. */
             double u = raster_x / (double)width + camera.shift_x;

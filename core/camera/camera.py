@@ -75,7 +75,10 @@ __all__ = [
 
 CAMERA_TYPES = ("PERSP", "ORTHO", "PANO")
 SENSOR_FITS = ("AUTO", "HORIZONTAL", "VERTICAL")
-PANORAMA_TYPES = ("FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID")
+PANORAMA_TYPES = ("FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID", "EQUIRECTANGULAR", "EQUIANGULAR_CUBEMAP_FACE",
+                  "MIRRORBALL", "FISHEYE_LENS_POLYNOMIAL", "CENTRAL_CYLINDRICAL")
+# Blender's default polynomial fisheye (k0 .. k4: the angle from the axis as a polynomial of the radius on the sensor).
+POLYNOMIAL_DEFAULT = (-1.1735143712967577e-05, -0.019988736, -3.3525322e-06, 3.0994753e-06, -2.6165266e-08)
 
 
 # ---------------------------------------------------------------------------
@@ -134,6 +137,16 @@ class Camera:
     panorama_type: str = "FISHEYE_EQUIDISTANT"   # | "FISHEYE_EQUISOLID" (PANO)
     fisheye_fov: float = math.pi                 # radians: full angle of the image circle
     fisheye_lens: float = 10.5                   # mm (equisolid)
+    longitude_min: float = -math.pi              # radians (EQUIRECTANGULAR): the image's span of longitude,
+    longitude_max: float = math.pi               # and of latitude
+    latitude_min: float = -math.pi / 2.0
+    latitude_max: float = math.pi / 2.0
+    fisheye_polynomial: tuple = POLYNOMIAL_DEFAULT   # k0 .. k4 (FISHEYE_LENS_POLYNOMIAL)
+    cylinder_u_min: float = -math.pi             # radians (CENTRAL_CYLINDRICAL): the span around the axis,
+    cylinder_u_max: float = math.pi
+    cylinder_v_min: float = -1.0                 # and the height on the cylinder of `cylinder_radius`
+    cylinder_v_max: float = 1.0
+    cylinder_radius: float = 1.0
     # Depth of field (a thin lens, as Cycles'): the aperture's radius in scene units (0: a pinhole, all in focus),
     # the distance in focus along the view axis, the aperture's blades (fewer than 3: round), their rotation
     # (radians) and the anamorphic ratio (the aperture's height over its width).
@@ -452,6 +465,64 @@ def _fisheye_plane(camera: Camera, width, height, pixel_aspect) -> tuple[float, 
     return sensor_width, sensor_height, 2.0 * camera.fisheye_lens * math.sin(0.25 * camera.fisheye_fov)
 
 
+def panorama_directions(camera: Camera, u: np.ndarray, v: np.ndarray, sensor: tuple) -> tuple:
+    """Directions (n, 3) in Cycles' panorama frame (x forward, y left, z up; not unit for the central cylindrical
+    one) of the panorama (u, v) (n,) of the camera's panorama_type, as Cycles' panorama_to_direction, and which
+    exist (n,) bool (outside a mirror ball's circle or a polynomial fisheye's field of view none does). sensor: the
+    (width, height) in mm the polynomial fisheye measures its radius on."""
+    kind = camera.panorama_type
+    n = len(u)
+    valid = np.ones(n, bool)
+    if kind == "EQUIRECTANGULAR":
+        phi = (camera.longitude_min - camera.longitude_max) * u - camera.longitude_min
+        theta = (camera.latitude_min - camera.latitude_max) * v - camera.latitude_min + math.pi / 2.0
+        return vectors.rows(np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)), valid
+    if kind == "EQUIANGULAR_CUBEMAP_FACE":
+        return _normalize_rows(vectors.rows(np.ones(n), np.tan((0.5 - u) * math.pi / 2.0),
+                                            np.tan((v - 0.5) * math.pi / 2.0))), valid
+    if kind == "MIRRORBALL":
+        # The ball's point seen straight along -y (the camera looks down the ball's y axis), and the view reflected.
+        x, z = 2.0 * u - 1.0, 2.0 * v - 1.0
+        valid = x * x + z * z <= 1.0
+        y = -np.sqrt(np.maximum(1.0 - x * x - z * z, 0.0))
+        return np.where(valid[:, None], vectors.rows(-2.0 * y * x, 1.0 - 2.0 * y * y, -2.0 * y * z), 0.0), valid
+    if kind == "CENTRAL_CYLINDRICAL":
+        theta = -camera.cylinder_u_min + (camera.cylinder_u_min - camera.cylinder_u_max) * u
+        z_min, z_max = camera.cylinder_v_min / camera.cylinder_radius, camera.cylinder_v_max / camera.cylinder_radius
+        return vectors.rows(np.cos(theta), np.sin(theta), z_min + (z_max - z_min) * v), valid
+    # FISHEYE_LENS_POLYNOMIAL: the angle from the axis a polynomial of the radius on the sensor.
+    x, y = (u - 0.5) * sensor[0], (v - 0.5) * sensor[1]
+    r = np.sqrt(x * x + y * y)
+    k = camera.fisheye_polynomial
+    theta = -(k[0] + k[1] * r + k[2] * r * r + k[3] * r ** 3 + k[4] * r ** 4)
+    valid = np.abs(theta) <= 0.5 * camera.fisheye_fov
+    cos_phi = np.clip(np.divide(x, r, out=np.zeros(n), where=r != 0.0), -1.0, 1.0)
+    sin_phi = np.sqrt(1.0 - cos_phi * cos_phi) * np.where(y < 0.0, -1.0, 1.0)
+    c = vectors.rows(np.cos(theta), -cos_phi * np.sin(theta), sin_phi * np.sin(theta))
+    return np.where(valid[:, None], c, 0.0), valid
+
+
+def panorama_to_local(camera: Camera, c: np.ndarray) -> np.ndarray:
+    """Cycles' panorama frame to the camera's local one (Blender's: x right, y up, looking down -z): the frame
+    its blender_camera_matrix turns panoramas by (a mirror ball looks down its y axis, the others down x). c (n, 3)."""
+    if camera.panorama_type == "MIRRORBALL":
+        return vectors.rows(c[:, 0], c[:, 2], c[:, 1])
+    return vectors.rows(-c[:, 1], c[:, 2], -c[:, 0])
+
+
+def _panorama_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
+    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for an equirectangular, cube-map face,
+    mirror-ball, polynomial-fisheye or central-cylindrical panorama (panorama_directions); spherical clipping.
+    Where no direction exists the ray looks forward and is not valid (opaque black, as Cycles)."""
+    u, v = _panorama_uv(camera, width, height, raster_x, raster_y)
+    c, valid = panorama_directions(camera, u, v, _panorama_sensor(camera, width, height, pixel_aspect))
+    local = panorama_to_local(camera, c)
+    local[~valid] = (0.0, 0.0, -1.0)
+    directions = _normalize_rows(local)
+    origins = directions * camera.clip_start
+    return origins, directions, np.full(len(u), camera.clip_end - camera.clip_start), valid
+
+
 def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
     """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for a fisheye camera.
 
@@ -493,8 +564,8 @@ def outside_image_circle(camera: Camera, width: int, height: int, pixels: np.nda
     rectangle's point nearest the circle's centre does. pixels: (p,) int64 flat indices, row 0 at the top.
     """
     pixels = np.asarray(pixels, dtype=np.int64)
-    if camera.type != "PANO" or len(pixels) == 0:
-        return np.zeros(len(pixels), bool)
+    if camera.type != "PANO" or camera.panorama_type not in ("FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID") or not len(pixels):
+        return np.zeros(len(pixels), bool)      # (other panoramas: their rays say where no direction exists)
     x, y = (pixels % width).astype(np.float64), (pixels // width).astype(np.float64)
     u0, v0 = _panorama_uv(camera, width, height, x - reach, y + 1.0 + reach)
     u1, v1 = _panorama_uv(camera, width, height, x + 1.0 + reach, y - reach)
@@ -525,8 +596,10 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
         local = _perspective_rays(camera, width, height, raster_x, raster_y, pixel_aspect, lens)
     elif camera.type == "ORTHO":
         local = _orthographic_rays(camera, width, height, raster_x, raster_y, pixel_aspect, lens)
-    else:
+    elif camera.panorama_type in ("FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"):
         local = _fisheye_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
+    else:
+        local = _panorama_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
     local_origins, local_directions, t_max, valid = local
 
     # Camera-local to world: points get rotation and translation, directions rotation only.
@@ -576,6 +649,9 @@ CameraRecord = schema.record("CameraRecord", "The camera, prepared by core/camer
     ("fisheye_lens", F64, ""),
     ("filter_table", ptr(F64), "(FILTER_TABLE_SIZE,) the pixel filter's inverse CDF (core/camera/filter.py); "
                                "NULL for a 1-pixel box: the sample's point stays where it is drawn"),
+    ("range", F64, 4, "panorama_directions' spans: EQUIRECTANGULAR longitude min, max, latitude min, max; "
+                      "CENTRAL_CYLINDRICAL u min, max, v min / radius, v max / radius"),
+    ("polynomial", F64, 5, "FISHEYE_LENS_POLYNOMIAL: k0 .. k4"),
     ("aperture_size", F64, "depth of field (PERSP, ORTHO): the aperture's radius, 0 for a pinhole"),
     ("focus_distance", F64, ""),
     ("aperture_blades", I32, "fewer than 3: a round aperture"),
@@ -585,7 +661,7 @@ CameraRecord = schema.record("CameraRecord", "The camera, prepared by core/camer
 # The sampling dimension of a camera ray's point on the aperture (depth of field).
 LENS_DIMENSION = schema.constant("LENS_DIMENSION", 1, "the sampling dimension of a camera ray's point on the lens")
 # The camera types camera.c knows: CAMERA_PERSP, ...
-_KINDS = schema.constants("CAMERA", ("PERSP", "ORTHO", "FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"), "camera.c's camera types")
+_KINDS = schema.constants("CAMERA", ("PERSP", "ORTHO") + PANORAMA_TYPES, "camera.c's camera types")
 
 CameraRaysArgs = schema.function("primer_camera_rays", "camera_rays", schema.record("CameraRaysArgs", "primer_camera_rays' arguments: the camera rays of spp samples in each of p pixels.", [
     ("camera", ptr("CameraRecord"), ""),
@@ -617,6 +693,14 @@ def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, 
         record.shift_x, record.shift_y = camera.shift_x, camera.shift_y
         record.scale_x, record.scale_y, record.limit = _fisheye_plane(camera, width, height, pixel_aspect)
         record.fisheye_fov, record.fisheye_lens = camera.fisheye_fov, camera.fisheye_lens
+        if camera.panorama_type == "EQUIRECTANGULAR":
+            record.range = np.array([camera.longitude_min, camera.longitude_max, camera.latitude_min,
+                                     camera.latitude_max], np.float64)
+        elif camera.panorama_type == "CENTRAL_CYLINDRICAL":
+            record.range = np.array([camera.cylinder_u_min, camera.cylinder_u_max,
+                                     camera.cylinder_v_min / camera.cylinder_radius,
+                                     camera.cylinder_v_max / camera.cylinder_radius], np.float64)
+        record.polynomial = np.asarray(camera.fisheye_polynomial, np.float64)
     record.clip_start, record.clip_end = camera.clip_start, camera.clip_end
     if has_depth_of_field(camera):
         record.aperture_size, record.focus_distance = camera.aperture_size, camera.focus_distance

@@ -12,6 +12,11 @@
 #define CAMERA_ORTHO 1
 #define CAMERA_FISHEYE_EQUIDISTANT 2
 #define CAMERA_FISHEYE_EQUISOLID 3
+#define CAMERA_EQUIRECTANGULAR 4
+#define CAMERA_EQUIANGULAR_CUBEMAP_FACE 5
+#define CAMERA_MIRRORBALL 6
+#define CAMERA_FISHEYE_LENS_POLYNOMIAL 7
+#define CAMERA_CENTRAL_CYLINDRICAL 8
 /* entries of the pixel filter's table (Cycles' size) (core.camera.filter) */
 #define FILTER_TABLE_SIZE 1024
 /* the integrators with a compiled twin (core.integrators.compiled) */
@@ -244,6 +249,8 @@ struct CameraRecord {
     double fisheye_fov;
     double fisheye_lens;
     const double *filter_table;             /* (FILTER_TABLE_SIZE,) the pixel filter's inverse CDF (core/camera/filter.py); NULL for a 1-pixel box: the sample's point stays where it is drawn */
+    double range[4];                        /* panorama_directions' spans: EQUIRECTANGULAR longitude min, max, latitude min, max; CENTRAL_CYLINDRICAL u min, max, v min / radius, v max / radius */
+    double polynomial[5];                   /* FISHEYE_LENS_POLYNOMIAL: k0 .. k4 */
     double aperture_size;                   /* depth of field (PERSP, ORTHO): the aperture's radius, 0 for a pinhole */
     double focus_distance;
     int32_t aperture_blades;                /* fewer than 3: a round aperture */
@@ -717,7 +724,7 @@ struct Sample2dArgs {
  * Record.check compares with Python's before a record crosses. */
 EXPORT uint64_t primer_layout(const char *name)
 {
-    if (strcmp(name, "CameraRecord") == 0) return UINT64_C(5532156267203622868);
+    if (strcmp(name, "CameraRecord") == 0) return UINT64_C(6156310121610777981);
     if (strcmp(name, "CameraRaysArgs") == 0) return UINT64_C(4853653911338869771);
     if (strcmp(name, "AscendingArgs") == 0) return UINT64_C(8778812495168971938);
     if (strcmp(name, "UnconvergedArgs") == 0) return UINT64_C(333743641446770115);
