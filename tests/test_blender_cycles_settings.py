@@ -127,3 +127,44 @@ def test_a_cycles_file_renders_with_its_cycles_settings(primer, tmp_path):
     render(scene, "PRIMER", str(tmp_path / "denoised.exr"))
     notes = [w for w in addon(primer, "engine").last_render.warnings if "Cycles denoises" in w]
     assert len(notes) == 1, addon(primer, "engine").last_render.warnings
+
+
+class Layout:
+    """A stand-in for a panel's layout (no window here): keeps each drawn property as (owner's RNA, name, text)."""
+
+    def __init__(self, drawn: list):
+        """Collect into `drawn`."""
+        self.drawn, self.use_property_split, self.active = drawn, False, True
+
+    def column(self, **_kw):
+        """A sub-layout that collects into the same list."""
+        return Layout(self.drawn)
+
+    row = column
+
+    def label(self, **_kw) -> None:
+        """A label: nothing to check."""
+
+    def prop(self, owner, name: str, **kw) -> None:
+        """Check that `owner` has the property `name`, and keep it."""
+        assert name in owner.bl_rna.properties.keys(), (owner.bl_rna.identifier, name)
+        self.drawn.append((owner.bl_rna.identifier, name, kw.get("text")))
+
+
+@pytest.mark.parametrize("source", ["CYCLES", "PRIMER"])
+def test_the_panels_show_the_settings_the_render_reads(primer, source):
+    """Sampling and Light Paths draw samples, bounces, clamping and caustics from scene.cycles when the scene follows
+    Cycles and from scene.primer otherwise; Light Samples and Denoise are Primer's in both."""
+    ui = addon(primer, "ui")
+    scene = corner_scene()
+    scene.primer.settings_source = source
+    drawn = []
+    for panel in (ui.RENDER_PT_primer_sampling, ui.RENDER_PT_primer_light_paths):
+        panel.draw(type("Panel", (), {"layout": Layout(drawn)})(), type("Context", (), {"scene": scene})())
+    owners = {name: owner for owner, name, _text in drawn}
+    followed = addon(primer, "cycles_settings").FOLLOWED
+    wanted = "CyclesRenderSettings" if source == "CYCLES" else "PrimerSettings"
+    for name in followed:
+        key = followed[name] if source == "CYCLES" else name
+        assert owners.get(key) == wanted, (name, owners)
+    assert owners["light_samples"] == owners["use_denoising"] == "PrimerSettings"
