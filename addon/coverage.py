@@ -129,17 +129,15 @@ COVERAGE = {
                      "full-resolution pixels; whether a .tx file exists is the file system's, not yet noted"},
     },
     "CyclesRenderSettings": {
-        OWN: {"samples": "samples", "seed": "seed", "use_animated_seed": "animate_seed",
-              "max_bounces": "max_bounces", "diffuse_bounces": "diffuse_bounces", "glossy_bounces": "glossy_bounces",
-              "transmission_bounces": "transmission_bounces", "transparent_max_bounces": "transparent_bounces",
-              "min_light_bounces": "min_light_bounces", "caustics_reflective": "caustics_reflective",
-              "caustics_refractive": "caustics_refractive", "sample_clamp_direct": "sample_clamp_direct",
-              "sample_clamp_indirect": "sample_clamp_indirect", "use_adaptive_sampling": "use_adaptive_sampling",
-              "adaptive_threshold": "adaptive_threshold", "adaptive_min_samples": "adaptive_min_samples",
-              "use_light_tree": "light_sampling",
+        OWN: {"use_light_tree": "light_sampling",
               "use_denoising denoiser denoising_input_passes denoising_prefilter denoising_quality denoising_use_gpu":
                   "use_denoising: Primer's Denoise (the compositor's Denoise node, its own settings)"},
-        READ: {"pixel_filter_type filter_width": "export.pixel_filter: each camera sample drawn from the filter"},
+        READ: {"pixel_filter_type filter_width": "export.pixel_filter: each camera sample drawn from the filter",
+               "samples seed use_animated_seed max_bounces diffuse_bounces glossy_bounces transmission_bounces "
+               "transparent_max_bounces min_light_bounces caustics_reflective caustics_refractive sample_clamp_direct "
+               "sample_clamp_indirect use_adaptive_sampling adaptive_threshold adaptive_min_samples":
+                   "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
+                   "else Primer's own of the same meaning"},
         REPORTED: {"film_exposure film_transparent_glass blur_glossy use_fast_gi "
                    "fast_gi_method ao_bounces_render use_camera_cull camera_cull_margin use_distance_cull "
                    "distance_cull_margin texture_limit_render texture_resolution_render*": "unmodelled.render_notes",

@@ -20,7 +20,7 @@ from ..core.lights import World
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
-from . import lightgroups, unmodelled
+from . import cycles_settings, lightgroups, unmodelled
 from . import materials as materials_
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
@@ -635,7 +635,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
     aux: the core buffers to compute (core.debug.AUX_BUFFERS), only those the passes and debug view need;
     passes: the render passes to compute (core/integrators/passes.py PASS_CHANNELS, lightpasses.py LIGHT_PASSES).
     """
-    props = scene.primer
+    props = cycles_settings.effective(scene)        # a file made for Cycles: its Cycles settings
     render = scene.render
     x, y, w, h = border
     return core_scene.RenderSettings(

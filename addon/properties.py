@@ -37,6 +37,14 @@ def _denoising_toggled(settings, context) -> None:
 class PrimerSettings(bpy.types.PropertyGroup):
     """Render settings of the Primer engine."""
 
+    settings_source: EnumProperty(
+        name="Settings", default="AUTOMATIC",
+        items=(("AUTOMATIC", "Automatic", "Cycles' settings for a scene that has none of Primer's own (a file made "
+                                          "for Cycles, or a new one), Primer's once one of them was set", 0),
+               ("CYCLES", "Cycles", "The scene's Cycles settings (samples, noise threshold, seed, bounces, "
+                                    "clamping, caustics) and path tracing, as Cycles renders the file", 1),
+               ("PRIMER", "Primer", "Primer's own settings below: the lecture's integrators and switches", 2)),
+        description="Where samples, seed, bounces, clamping and caustics come from (addon/cycles_settings.py)")
     integrator: EnumProperty(
         name="Integrator", default="DIRECT",
         # (Explicit numbers: a .blend file stores the number, so an item keeps its number forever.)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import bpy
 
+from . import cycles_settings
 from .engine import PrimerRenderEngine
 
 ENGINE = PrimerRenderEngine.bl_idname
@@ -25,8 +26,31 @@ class PrimerPanel(PrimerOnly):
     bl_region_type = "WINDOW"
 
 
+class Followed:
+    """Draws a followed setting (addon/cycles_settings.py FOLLOWED) from where the render reads it: scene.cycles
+    when the scene follows Cycles (editing it edits Cycles' setting), else scene.primer."""
+
+    def __init__(self, scene):
+        """Read the scene's choice once per draw."""
+        self.primer = scene.primer
+        self.cycles = scene.cycles if cycles_settings.follows_cycles(scene) else None
+
+    def value(self, name: str):
+        """The setting's value where the render reads it."""
+        if self.cycles is None:
+            return getattr(self.primer, name)
+        return getattr(self.cycles, cycles_settings.FOLLOWED[name])
+
+    def prop(self, layout, name: str, **kw) -> None:
+        """Draw the setting `name` (Primer's name) where the render reads it."""
+        if self.cycles is None:
+            layout.prop(self.primer, name, **kw)
+        else:
+            layout.prop(self.cycles, cycles_settings.FOLLOWED[name], **kw)
+
+
 class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
-    """Samples per pixel and per light."""
+    """Where the settings come from; samples per pixel and per light."""
 
     bl_label = "Sampling"
     bl_context = "render"
@@ -35,18 +59,23 @@ class RENDER_PT_primer_sampling(PrimerPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         props = context.scene.primer
+        followed = Followed(context.scene)
         col = layout.column()
-        col.prop(props, "samples", text="Max Samples" if props.use_adaptive_sampling else "Samples")
+        col.prop(props, "settings_source")
+        if followed.cycles is not None:
+            col.label(text="Samples, seed, bounces, clamping, caustics: Cycles' (path tracing)", icon="INFO")
+        adaptive = followed.value("use_adaptive_sampling")
+        followed.prop(col, "samples", text="Max Samples" if adaptive else "Samples")
         col.prop(props, "viewport_samples")
         col.prop(props, "light_samples")
-        col.prop(props, "use_adaptive_sampling")
+        followed.prop(col, "use_adaptive_sampling", text="Adaptive Sampling")
         sub = col.column(align=True)
-        sub.active = props.use_adaptive_sampling
-        sub.prop(props, "adaptive_threshold", text="Noise Threshold")
-        sub.prop(props, "adaptive_min_samples", text="Min Samples")
+        sub.active = adaptive
+        followed.prop(sub, "adaptive_threshold", text="Noise Threshold")
+        followed.prop(sub, "adaptive_min_samples", text="Min Samples")
         col.prop(props, "use_denoising")
-        col.prop(props, "seed")
-        col.prop(props, "animate_seed")
+        followed.prop(col, "seed", text="Seed")
+        followed.prop(col, "animate_seed", text="Animate Seed")
         # Blender keeps the engine between frames: Primer then reads only the meshes that changed.
         col.prop(context.scene.render, "use_persistent_data", text="Persistent Data")
         col.prop(props, "threads")
@@ -64,27 +93,32 @@ class RENDER_PT_primer_light_paths(PrimerPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         props = context.scene.primer
+        followed = Followed(context.scene)
+        integrator = "PATH" if followed.cycles is not None else props.integrator
         col = layout.column()
-        col.prop(props, "integrator")
+        row = col.row()
+        row.active = followed.cycles is None                # following Cycles: path tracing
+        row.prop(props, "integrator")
         sub = col.column(align=True, heading="Max Bounces")
-        sub.active = props.integrator != "DIRECT"
-        for name in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces"):
-            sub.prop(props, name)
-        col.prop(props, "transparent_bounces", text="Transparent Bounces")
+        sub.active = integrator != "DIRECT"
+        for name, text in (("max_bounces", "Total"), ("diffuse_bounces", "Diffuse"), ("glossy_bounces", "Glossy"),
+                           ("transmission_bounces", "Transmission")):
+            followed.prop(sub, name, text=text)
+        followed.prop(col, "transparent_bounces", text="Transparent Bounces")
         row = col.row()
-        row.active = props.integrator == "PATH"
-        row.prop(props, "min_light_bounces")
+        row.active = integrator == "PATH"
+        followed.prop(row, "min_light_bounces", text="Min Light Bounces")
         row = col.row()
-        row.active = props.integrator == "WHITTED"
+        row.active = integrator == "WHITTED"
         row.prop(props, "fresnel")
         sub = col.column(align=True, heading="Clamping")
-        sub.active = props.integrator != "WHITTED"
-        sub.prop(props, "sample_clamp_direct")
-        sub.prop(props, "sample_clamp_indirect")
+        sub.active = integrator != "WHITTED"
+        followed.prop(sub, "sample_clamp_direct", text="Direct Light")
+        followed.prop(sub, "sample_clamp_indirect", text="Indirect Light")
         sub = col.column(align=True, heading="Caustics")
-        sub.active = props.integrator == "PATH"
-        sub.prop(props, "caustics_reflective", text="Reflective")
-        sub.prop(props, "caustics_refractive", text="Refractive")
+        sub.active = integrator == "PATH"
+        followed.prop(sub, "caustics_reflective", text="Reflective")
+        followed.prop(sub, "caustics_refractive", text="Refractive")
 
 
 class RENDER_PT_primer_shadows(PrimerPanel, bpy.types.Panel):

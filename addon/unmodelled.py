@@ -8,6 +8,8 @@ renders a scene with each setting and checks its note).
 """
 from __future__ import annotations
 
+from . import cycles_settings
+
 # View Layer > Passes that Primer does not write: property -> the pass's name in Blender.
 UNWRITTEN_PASSES = {"use_pass_mist": "Mist", "use_pass_vector": "Vector", "use_pass_shadow": "Shadow Catcher",
                     "use_pass_subsurface_direct": "Subsurface Direct",
@@ -40,9 +42,14 @@ def render_notes(scene) -> list:
         notes.append("Cycles' Transparent Glass makes glass see-through on the transparent film; Primer's alpha "
                      "counts glass as any surface")
     blur = float(getattr(cycles, "blur_glossy", 0.0))
-    if blur > 0.0 and getattr(getattr(scene, "primer", None), "integrator", "DIRECT") == "PATH":
+    if blur > 0.0 and _integrator(scene) == "PATH":
         notes.append(f"Cycles' Filter Glossy ({blur:g}) blurs glossy light after a rough bounce; Primer follows sharp "
                      "reflections as they are (a little more noise, no blur)")
+    if (getattr(scene, "primer", None) is not None and cycles_settings.follows_cycles(scene)
+            and getattr(cycles, "use_denoising", False) and not scene.primer.use_denoising):
+        notes.append("Cycles denoises this scene (Render > Sampling > Denoise); Primer follows its Cycles settings "
+                     "but denoises only with its own Denoise (Render > Sampling), which is off: the image keeps its "
+                     "noise")
     if getattr(cycles, "use_fast_gi", False):
         notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
                      "follows whole paths")
@@ -58,6 +65,15 @@ def render_notes(scene) -> list:
         notes.append("Cycles shrinks image textures (Simplify > Texture Limit or Resolution); Primer reads them at "
                      "full resolution")
     return notes
+
+
+def _integrator(scene) -> str:
+    """The integrator `scene` renders with: path tracing where it follows Cycles, else Primer's own ("DIRECT" without
+    Primer's settings)."""
+    primer = getattr(scene, "primer", None)
+    if primer is None:
+        return "DIRECT"
+    return cycles_settings.effective(scene).integrator
 
 
 def view_layer_notes(view_layer) -> list:

@@ -11,6 +11,7 @@ pixels, and hand results back to the test as one JSON line.
 """
 from __future__ import annotations
 
+import atexit
 import json
 import os
 import subprocess
@@ -47,6 +48,9 @@ def keep_box_filter() -> None:
                 cycles.filter_width = 1.0
 
     bpy.app.handlers.load_post.append(_box_filter)
+    # bpy 4.2 crashes at exit with a Python handler still in place (as with a registered RenderEngine).
+    atexit.register(lambda: _box_filter in bpy.app.handlers.load_post
+                    and bpy.app.handlers.load_post.remove(_box_filter))
 
 
 def isolated_env(folder: str) -> dict:

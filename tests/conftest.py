@@ -11,6 +11,12 @@ import pytest
 from core.camera import camera as camera_
 from core.camera import Camera
 
+# The Blender tests set Primer's settings piecemeal (samples here, the integrator there) and hold them to closed forms
+# and to Cycles set up as Primer's reference: Render > Settings' Automatic takes Primer's own settings for them
+# (addon/cycles_settings.py), in this process and in the Blender processes it starts. A test of following Cycles
+# chooses CYCLES on its scene.
+os.environ.setdefault("PRIMER_SETTINGS_SOURCE", "PRIMER")
+
 
 def ortho_down(center=(0.0, 0.0, 0.0), height: float = 1.0, scale: float = 2.0, **kw) -> Camera:
     """Return an orthographic camera `height` above `center`, looking straight down (-Z), image +x = world +x."""

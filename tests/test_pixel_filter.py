@@ -136,3 +136,21 @@ def test_an_unknown_filter_is_refused():
         render.render(scene, RenderSettings(width=4, height=4, pixel_filter="MITCHELL"))
     with pytest.raises(ValueError, match="width"):
         render.render(scene, RenderSettings(width=4, height=4, pixel_filter="GAUSSIAN", filter_width=0.0))
+
+
+def test_a_fisheye_skips_only_pixels_whose_filtered_samples_all_miss_the_image_circle():
+    """With Blackman-Harris 1.5 px, samples of a pixel just outside the image circle land inside it: such a pixel is
+    rendered (not taken as black), and every pixel taken as black has no sample inside the circle."""
+    camera = Camera(type="PANO", panorama_type="FISHEYE_EQUIDISTANT", fisheye_fov=math.pi)
+    W, H = 24, 16
+    pixels = np.arange(W * H, dtype=np.int64)
+    pixel_filter = PixelFilter("BLACKMAN_HARRIS", 1.5)
+    skipped = camera_.outside_image_circle(camera, W, H, pixels, reach=pixel_filter.reach)
+    unfiltered = camera_.outside_image_circle(camera, W, H, pixels)
+    assert skipped.sum() < unfiltered.sum() and not (skipped & ~unfiltered).any()
+    pixel, sample = render.sample_keys(pixels, 256, None)
+    offset = pixel_filter.positions(sampling.sample_2d(1, pixel, sample, 0))
+    rays = camera_.generate_rays(camera, W, H, pixel % W + offset[:, 0], pixel // W + offset[:, 1])
+    any_inside = rays.valid.reshape(W * H, 256).any(axis=1)
+    assert not (skipped & any_inside).any()
+    assert (unfiltered & any_inside).any()                  # the pixels the box's test would wrongly leave black

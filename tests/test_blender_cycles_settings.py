@@ -1,0 +1,170 @@
+"""A file made for Cycles renders in Primer with its own Cycles settings (addon/cycles_settings.py), in real Blender
+(the bpy module). No mocks.
+
+Render > Settings: Cycles (samples, seed, bounces, clamping, caustics read from scene.cycles, path tracing), Primer
+(scene.primer's own), Automatic (Cycles' until one of Primer's own is set). The scene: a diffuse corner (floor and
+two walls) under an area light, where the light after one bounce is a large share of the image.
+"""
+from __future__ import annotations
+
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+from render import load_primer  # noqa: E402
+
+from blender_env import diffuse_material  # noqa: E402
+from test_blender_denoise import addon, render_image  # noqa: E402
+from core.film.compare import relative_mse_of_blocks  # noqa: E402
+
+pytestmark = pytest.mark.blender
+
+
+@pytest.fixture(scope="module")
+def primer():
+    """Primer registered from this checkout, as tools/render.py does."""
+    return load_primer()
+
+
+def quad(name: str, corners, material) -> None:
+    """Link a one-quad mesh object with `corners` (4 points) and `material` into the scene."""
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(corners, [], [(0, 1, 2, 3)])
+    mesh.materials.append(material)
+    bpy.context.scene.collection.objects.link(bpy.data.objects.new(name, mesh))
+
+
+def corner_scene():
+    """A floor and two walls (diffuse, albedo 0.8) under an area light, 40 x 30; Cycles settings of a file made for
+    Cycles: 64 samples, no adaptive sampling, one bounce, no denoising."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 40, 30
+    scene.render.resolution_percentage = 100
+    white = diffuse_material("White", (0.8, 0.8, 0.8))
+    quad("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], white)
+    quad("Back", [(-2, 2, 0), (2, 2, 0), (2, 2, 3), (-2, 2, 3)], white)
+    quad("Side", [(-2, -2, 0), (-2, 2, 0), (-2, 2, 3), (-2, -2, 3)], white)
+    light = bpy.data.objects.new("Area", bpy.data.lights.new("Area", "AREA"))
+    light.data.energy, light.data.size = 300.0, 1.0
+    light.location = (0.5, 0.0, 2.5)
+    scene.collection.objects.link(light)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location, camera.rotation_euler = (3.5, -5.0, 2.5), (math.radians(70), 0.0, math.radians(35))
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.world = None
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples, cycles.use_adaptive_sampling, cycles.use_denoising = 64, False, False
+    cycles.max_bounces, cycles.diffuse_bounces = 1, 1
+    cycles.seed = 3
+    return scene
+
+
+def render(scene, engine: str, path: str) -> np.ndarray:
+    """The scene rendered by `engine` with the settings it has: (H, W, 3)."""
+    scene.render.engine = engine
+    return render_image(scene, path)[..., :3]
+
+
+def test_the_automatic_choice_follows_cycles_until_a_primer_setting_is_set(primer, monkeypatch):
+    """Automatic: a scene with none of Primer's own settings follows Cycles; once scene.primer.samples is set, Primer's
+    own apply; an explicit Cycles or Primer wins either way."""
+    monkeypatch.delenv("PRIMER_SETTINGS_SOURCE", raising=False)
+    cycles_settings = addon(primer, "cycles_settings")
+    scene = corner_scene()
+    assert scene.primer.settings_source == "AUTOMATIC" and cycles_settings.follows_cycles(scene)
+    settings = cycles_settings.effective(scene)
+    assert (settings.samples, settings.max_bounces, settings.integrator, settings.seed) == (64, 1, "PATH", 3)
+    assert settings.sample_clamp_indirect == scene.cycles.sample_clamp_indirect == 10.0     # Cycles' default
+    scene.primer.samples = 5
+    assert not cycles_settings.follows_cycles(scene)
+    assert cycles_settings.effective(scene).samples == 5
+    assert cycles_settings.effective(scene).integrator == scene.primer.integrator
+    scene.primer.settings_source = "CYCLES"
+    assert cycles_settings.effective(scene).samples == 64
+    monkeypatch.setenv("PRIMER_SETTINGS_SOURCE", "PRIMER")                   # decides for Automatic only
+    assert cycles_settings.follows_cycles(scene)
+    scene.primer.settings_source = "AUTOMATIC"
+    assert not cycles_settings.follows_cycles(scene)
+
+
+def test_a_cycles_file_renders_with_its_cycles_settings(primer, tmp_path):
+    """Following Cycles, Primer renders the file's 64 samples with path tracing and its one bounce: the image is
+    Cycles' own render of the file (4x4 block relMSE within a few times Cycles' own 64-sample noise), where Primer's
+    own settings (direct light, 16 samples) miss the bounced light; and with Cycles' Denoise on, a note says Primer
+    does not denoise."""
+    scene = corner_scene()
+    scene.primer.settings_source = "CYCLES"
+    mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
+    record = addon(primer, "engine").last_render
+    assert not record.error, record.error
+    assert (record.stats.samples_per_pixel == 64).all()
+    assert not [w for w in record.warnings if "denoise" in w.lower()], record.warnings
+    cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
+    scene.cycles.seed = 4
+    cycles_again = render(scene, "CYCLES", str(tmp_path / "cycles_again.exr"))
+    scene.primer.settings_source = "PRIMER"
+    own = render(scene, "PRIMER", str(tmp_path / "own.exr"))
+    noise = relative_mse_of_blocks(cycles_again, cycles)
+    error = relative_mse_of_blocks(mine, cycles)
+    wrong = relative_mse_of_blocks(own, cycles)
+    print(f"block relMSE: Primer following Cycles {error:.2e}, Cycles seed 3 vs 4 {noise:.2e}, Primer's own "
+          f"settings {wrong:.2e}; mean ratio {mine.mean() / cycles.mean():.4f}")
+    assert error < max(4.0 * noise, 2e-4), (error, noise)
+    assert wrong > 20.0 * error
+    assert mine.mean() == pytest.approx(cycles.mean(), rel=0.02)
+    scene.primer.settings_source = "CYCLES"
+    scene.cycles.use_denoising = True
+    scene.cycles.samples = 4
+    render(scene, "PRIMER", str(tmp_path / "denoised.exr"))
+    notes = [w for w in addon(primer, "engine").last_render.warnings if "Cycles denoises" in w]
+    assert len(notes) == 1, addon(primer, "engine").last_render.warnings
+
+
+class Layout:
+    """A stand-in for a panel's layout (no window here): keeps each drawn property as (owner's RNA, name, text)."""
+
+    def __init__(self, drawn: list):
+        """Collect into `drawn`."""
+        self.drawn, self.use_property_split, self.active = drawn, False, True
+
+    def column(self, **_kw):
+        """A sub-layout that collects into the same list."""
+        return Layout(self.drawn)
+
+    row = column
+
+    def label(self, **_kw) -> None:
+        """A label: nothing to check."""
+
+    def prop(self, owner, name: str, **kw) -> None:
+        """Check that `owner` has the property `name`, and keep it."""
+        assert name in owner.bl_rna.properties.keys(), (owner.bl_rna.identifier, name)
+        self.drawn.append((owner.bl_rna.identifier, name, kw.get("text")))
+
+
+@pytest.mark.parametrize("source", ["CYCLES", "PRIMER"])
+def test_the_panels_show_the_settings_the_render_reads(primer, source):
+    """Sampling and Light Paths draw samples, bounces, clamping and caustics from scene.cycles when the scene follows
+    Cycles and from scene.primer otherwise; Light Samples and Denoise are Primer's in both."""
+    ui = addon(primer, "ui")
+    scene = corner_scene()
+    scene.primer.settings_source = source
+    drawn = []
+    for panel in (ui.RENDER_PT_primer_sampling, ui.RENDER_PT_primer_light_paths):
+        panel.draw(type("Panel", (), {"layout": Layout(drawn)})(), type("Context", (), {"scene": scene})())
+    owners = {name: owner for owner, name, _text in drawn}
+    followed = addon(primer, "cycles_settings").FOLLOWED
+    wanted = "CyclesRenderSettings" if source == "CYCLES" else "PrimerSettings"
+    for name in followed:
+        key = followed[name] if source == "CYCLES" else name
+        assert owners.get(key) == wanted, (name, owners)
+    assert owners["light_samples"] == owners["use_denoising"] == "PrimerSettings"
