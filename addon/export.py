@@ -429,7 +429,9 @@ def panorama_settings(data, panorama: str) -> dict:
         return dict(longitude_min=float(data.longitude_min), longitude_max=float(data.longitude_max),
                     latitude_min=float(data.latitude_min), latitude_max=float(data.latitude_max))
     if panorama == "FISHEYE_LENS_POLYNOMIAL":
-        return dict(fisheye_polynomial=tuple(float(getattr(data, f"fisheye_polynomial_k{k}")) for k in range(5)))
+        return dict(fisheye_polynomial=tuple(float(k) for k in (
+            data.fisheye_polynomial_k0, data.fisheye_polynomial_k1, data.fisheye_polynomial_k2,
+            data.fisheye_polynomial_k3, data.fisheye_polynomial_k4)))
     if panorama == "CENTRAL_CYLINDRICAL":
         return dict(cylinder_u_min=float(data.central_cylindrical_range_u_min),
                     cylinder_u_max=float(data.central_cylindrical_range_u_max),
