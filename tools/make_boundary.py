@@ -6,7 +6,8 @@ schema.py). From those this script writes:
 
 - core/native/boundary.gen.h: the shared constants, the kinds and flags of every table as C enums with their
   flag tables, and every record as a C struct, with the layout hash each record checks before it crosses;
-- core/native/exports.gen.c: every function the library exports, taking one record of arguments;
+- core/native/exports.gen.c: every function the library exports, taking one record of arguments and handing it to
+  the C function that does the work;
 - core/materials/bsdfs.gen.c: each BSDF's C file, and bsdf_eval / bsdf_sample / bsdf_albedo switching on a closure's kind;
 - core/materials/nodes.gen.c: setup_node switching on a shader node's kind;
 - core/lights/lights.gen.c: each light's C file, and sample_light / light_hit switching on a light's kind.
@@ -157,8 +158,8 @@ def exports() -> str:
     """core/native/exports.gen.c: each function the library exports, taking one record of arguments."""
     schema = described()
     return (NOTICE.format(source="the functions described through core/native/schema.py")
-            + "\n/* What Python calls (core/native/library.py call): each takes its arguments as one record and passes\n"
-              " * them, in the record's order, to the C function that does the work. */\n\n"
+            + "\n/* What Python calls (core/native/library.py call): each takes its arguments as one record and hands it\n"
+              " * to the C function that does the work, which reads the fields it needs. */\n\n"
             + "\n".join(schema.c_export(name) for name in schema.in_order(schema.FUNCTIONS)))
 
 

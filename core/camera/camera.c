@@ -252,20 +252,22 @@ INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t 
 
 /* The camera rays of `spp` samples in each of `p` pixels, camera-relative (for the tests).
  * pixels, first: (p,) int64; out: origins, directions (p spp, 3), t_max (p spp,) float64, valid (p spp,) uint8. */
-static void camera_rays(const CameraRecord *camera, int64_t seed, int64_t width, int64_t height,
-                               const int64_t *pixels, const int64_t *first, int64_t p, int64_t spp,
-                               double *origins, double *directions, double *t_max, uint8_t *valid)
+static void camera_rays(const CameraRaysArgs *a)
 {
-    uint32_t stream = stream_of(seed, 0), lens_stream = stream_of(seed, LENS_DIMENSION);
-    int64_t total = p * spp;
+    uint32_t stream = stream_of(a->seed, 0), lens_stream = stream_of(a->seed, LENS_DIMENSION);
+    int64_t total = a->p * a->spp;
     CameraBlock b;
     for (int64_t start = 0; start < total; start += BLOCK) {
-        camera_samples(&b, camera, stream, lens_stream, width, height, pixels, first, spp, start, total);
+        camera_samples(&b, a->camera, stream, lens_stream, a->width, a->height, a->pixels, a->first, a->spp, start,
+                       total);
         for (int64_t lane = 0; lane < b.n; lane++) {
             int64_t i = start + lane;
-            for (int c = 0; c < 3; c++) { origins[3 * i + c] = b.O[c][lane]; directions[3 * i + c] = b.D[c][lane]; }
-            t_max[i] = b.t[lane];
-            valid[i] = b.valid[lane];
+            for (int c = 0; c < 3; c++) {
+                a->origins[3 * i + c] = b.O[c][lane];
+                a->directions[3 * i + c] = b.D[c][lane];
+            }
+            a->t_max[i] = b.t[lane];
+            a->valid[i] = b.valid[lane];
         }
     }
 }

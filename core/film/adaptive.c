@@ -12,11 +12,12 @@ INLINE int64_t first_at_least(const int64_t *pixels, int64_t p, int64_t i)
 }
 
 /* Whether pixels (p,) int64 are distinct flat indices of an image of `size` pixels, ascending. */
-SIMD_CLONES NOINLINE static int64_t ascending(const int64_t *pixels, int64_t p, int64_t size)
+SIMD_CLONES NOINLINE static int64_t ascending(const AscendingArgs *a)
 {
-    if (p == 0) return 1;
-    int64_t ascending = pixels[0] >= 0 && pixels[p - 1] < size;
-    for (int64_t k = 1; k < p; k++) ascending &= pixels[k] > pixels[k - 1];
+    const int64_t *pixels = a->pixels;
+    if (a->p == 0) return 1;
+    int64_t ascending = pixels[0] >= 0 && pixels[a->p - 1] < a->size;
+    for (int64_t k = 1; k < a->p; k++) ascending &= pixels[k] > pixels[k - 1];
     return ascending;
 }
 
@@ -56,17 +57,17 @@ INLINE void raise_to(int64_t n, double *restrict e, const double *restrict c)
  * noisy and grown uint8; row (W,) float64. Out: wanted (at most p) int64; returns how many.
  * Where the window's pixels are all of one run (a first pass over every pixel), the loops run over
  * the run itself instead of the list, in SIMD lanes. */
-SIMD_CLONES NOINLINE static int64_t unconverged(int64_t width, int64_t height, int64_t y0, int64_t y1,
-                                              const double *total, const double *squares, const int64_t *count,
-                                              const double *weights, const int64_t *pixels, int64_t p,
-                                              double threshold, int64_t first, const double *known_error,
-                                              const double *known_mean, double *error, double *mean,
-                                              uint8_t *noisy, uint8_t *grown, double *row, int64_t *wanted)
+SIMD_CLONES NOINLINE static int64_t unconverged(const UnconvergedArgs *args)
 {
+    /* (what the loops below read, once: the flags they write as bytes could be any field to the compiler) */
+    const int64_t width = args->width, height = args->height, p = args->p, first = args->first;
+    const int64_t *pixels = args->pixels, *count = args->count;
+    const double threshold = args->threshold;
+    double *error = args->error, *row = args->row;
+    uint8_t *noisy = args->noisy, *grown = args->grown;
     /* 0. The window (rows a .. b - 1, pixels base .. base + size - 1) and the region's pixels in it;
      *    scratch is indexed from base. */
-    y0 = y0 > 0 ? y0 : 0;
-    y1 = y1 < height ? y1 : height;
+    int64_t y0 = args->y0 > 0 ? args->y0 : 0, y1 = args->y1 < height ? args->y1 : height;
     int64_t a = y0 - 2 > 0 ? y0 - 2 : 0, b = y1 + 2 < height ? y1 + 2 : height;
     int64_t base = a * width, size = (b - a) * width;
     int64_t k0 = first_at_least(pixels, p, base), k1 = first_at_least(pixels, p, base + size);
@@ -76,11 +77,12 @@ SIMD_CLONES NOINLINE static int64_t unconverged(int64_t width, int64_t height, i
     int run = hi - lo == k1 - k0;
     /* 1. Noisy pixels of the region: their noise as kept, or worked out (every pixel from the first
      *    to the last at once); the same for the window's means. noise_of and mean_of start at base. */
-    const double *noise_of = known_error != NULL ? known_error + base : error;
-    const double *mean_of = known_mean != NULL ? known_mean + base : mean;
-    if (known_error == NULL)
-        noise_lanes(pixels[k0], pixels[k1 - 1] + 1, total, squares, count, weights, error + lo);
-    if (first > 0 && known_mean == NULL) mean_lanes(base, base + size, total, count, weights, mean);
+    const double *noise_of = args->known_error != NULL ? args->known_error + base : error;
+    const double *mean_of = args->known_mean != NULL ? args->known_mean + base : args->mean;
+    if (args->known_error == NULL)
+        noise_lanes(pixels[k0], pixels[k1 - 1] + 1, args->total, args->squares, count, args->weights, error + lo);
+    if (first > 0 && args->known_mean == NULL)
+        mean_lanes(base, base + size, args->total, count, args->weights, args->mean);
     for (int64_t i = 0; i < size; i++) noisy[i] = 0;
     if (run)
         for (int64_t i = lo; i < hi; i++) noisy[i] = noise_of[i] > threshold;
@@ -132,13 +134,13 @@ SIMD_CLONES NOINLINE static int64_t unconverged(int64_t width, int64_t height, i
     int64_t r = 0, from = y0 * width - base, to = y1 * width - base;
     if (run) {
         for (int64_t i = lo > from ? lo : from; i < (hi < to ? hi : to); i++) {
-            wanted[r] = base + i;
+            args->wanted[r] = base + i;
             r += noisy[i];
         }
         return r;
     }
     for (int64_t k = first_at_least(pixels, p, y0 * width); k < p && pixels[k] < y1 * width; k++)
-        if (noisy[pixels[k] - base]) wanted[r++] = pixels[k];
+        if (noisy[pixels[k] - base]) args->wanted[r++] = pixels[k];
     return r;
 }
 

@@ -88,41 +88,41 @@ SIMD_CLONES NOINLINE static void mean_lanes(int64_t lo, int64_t hi, const double
  * and mean (H W,) float64 (else NULL), also the pixels' new pixel_error and pixel_mean, which the
  * noise test between passes then reads instead of working them out for every pixel itself. The
  * chunks of a pass have pixels of their own, so the threads rendering them may add at the same time. */
-static void add_pixels(int64_t p, const int64_t *pixels, int64_t spp, const double *rgba, const double *squares,
-                              const int64_t *hits, double *total, double *squares_sum, int64_t *count, int64_t *hits_sum,
-                              const double *weights, double *error, double *mean)
+static void add_pixels(const AddPixelsArgs *a)
 {
+    int64_t p = a->p;
+    const int64_t *pixels = a->pixels;
     for (int64_t k = 0; k < p; k++) {
         int64_t i = pixels[k];
-        for (int c = 0; c < 4; c++) total[4 * i + c] += rgba[4 * k + c];
-        squares_sum[2 * i] += squares[2 * k];
-        squares_sum[2 * i + 1] += squares[2 * k + 1];
-        count[i] += spp;
-        hits_sum[i] += hits[k];
+        for (int c = 0; c < 4; c++) a->total[4 * i + c] += a->rgba[4 * k + c];
+        a->squares_sum[2 * i] += a->squares[2 * k];
+        a->squares_sum[2 * i + 1] += a->squares[2 * k + 1];
+        a->count[i] += a->spp;
+        a->hits_sum[i] += a->hits[k];
     }
-    if (error == NULL || mean == NULL || p == 0) return;
+    if (a->error == NULL || a->mean == NULL || p == 0) return;
     /* A run of neighbouring pixels (a first pass's chunk) in SIMD lanes; any others one by one. */
     int64_t run = 1;
     while (run < p && pixels[run] == pixels[0] + run) run++;
     if (run == p) {
-        noise_lanes(pixels[0], pixels[0] + p, total, squares_sum, count, weights, error + pixels[0]);
-        mean_lanes(pixels[0], pixels[0] + p, total, count, weights, mean + pixels[0]);
+        noise_lanes(pixels[0], pixels[0] + p, a->total, a->squares_sum, a->count, a->weights, a->error + pixels[0]);
+        mean_lanes(pixels[0], pixels[0] + p, a->total, a->count, a->weights, a->mean + pixels[0]);
         return;
     }
-    double w[3] = {weights[0], weights[1], weights[2]};
+    double w[3] = {a->weights[0], a->weights[1], a->weights[2]};
     for (int64_t k = 0; k < p; k++) {
-        error[pixels[k]] = pixel_error(pixels[k], total, squares_sum, count, w);
-        mean[pixels[k]] = pixel_mean(pixels[k], total, count, w);
+        a->error[pixels[k]] = pixel_error(pixels[k], a->total, a->squares_sum, a->count, w);
+        a->mean[pixels[k]] = pixel_mean(pixels[k], a->total, a->count, w);
     }
 }
 
 /* The image from the running sums: each pixel's mean over max(count, 1) samples (Film.image's
  * box filter). total (n, 4) float64, count (n,) int64 -> out (n, 4) float32. */
-static void resolve_rows(int64_t n, const double *total, const int64_t *count, float *out)
+static void resolve_rows(const ResolveArgs *a)
 {
-    for (int64_t i = 0; i < n; i++) {
-        double samples = (double)(count[i] > 1 ? count[i] : 1);
-        for (int c = 0; c < 4; c++) out[4 * i + c] = (float)(total[4 * i + c] / samples);
+    for (int64_t i = 0; i < a->n; i++) {
+        double samples = (double)(a->count[i] > 1 ? a->count[i] : 1);
+        for (int c = 0; c < 4; c++) a->out[4 * i + c] = (float)(a->total[4 * i + c] / samples);
     }
 }
 

@@ -77,23 +77,22 @@ INLINE int64_t instance_of(const HitPacket *hit, int k)
 /* Whether anything lies on each ray within (0, t_max): Tracer.occluded.
  * origins, directions (n, 3), t_max (n,) float32 -> blocked (n,) uint8. Embree marks an occluded ray
  * by setting its tfar to -inf, as embreex reads it. */
-static void occluded_rays(void *function, void *scene, int64_t n, const float *origins, const float *directions,
-                            const float *t_max, uint8_t *blocked)
+static void occluded_rays(const OccludedArgs *a)
 {
-    Occluded8 occluded8 = (Occluded8)function;
+    Occluded8 occluded8 = (Occluded8)a->function;
     RayPacket ray;
     int valid[PACKET] ALIGNED(32);
-    for (int64_t first = 0; first < n; first += PACKET) {
-        int lanes = n - first < PACKET ? (int)(n - first) : PACKET;
+    for (int64_t first = 0; first < a->n; first += PACKET) {
+        int lanes = a->n - first < PACKET ? (int)(a->n - first) : PACKET;
         for (int k = 0; k < lanes; k++) {
-            int64_t i = first + k;
-            double o[3] = {origins[3 * i], origins[3 * i + 1], origins[3 * i + 2]};
-            double d[3] = {directions[3 * i], directions[3 * i + 1], directions[3 * i + 2]};
-            set_lane(&ray, k, o, d, (double)t_max[i]);
+            const float *origin = a->origins + 3 * (first + k), *direction = a->directions + 3 * (first + k);
+            double o[3] = {origin[0], origin[1], origin[2]};
+            double d[3] = {direction[0], direction[1], direction[2]};
+            set_lane(&ray, k, o, d, (double)a->t_max[first + k]);
         }
         close_packet(&ray, valid, lanes);
-        occluded8(valid, scene, &ray, NULL);
-        for (int k = 0; k < lanes; k++) blocked[first + k] = ray.tfar[k] < 0.0f;
+        occluded8(valid, a->scene, &ray, NULL);
+        for (int k = 0; k < lanes; k++) a->blocked[first + k] = ray.tfar[k] < 0.0f;
     }
 }
 
@@ -101,29 +100,28 @@ static void occluded_rays(void *function, void *scene, int64_t n, const float *o
  * origins, directions (n, 3), t_max (n,) float64 (rounded to float32 here) -> t (n,) float64 (inf where
  * missed), prim (n,) int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed),
  * u, v (n,) float64, instance (n,) int64 the placement hit in an instance array (-1: a copied triangle). */
-static void intersect_rays(void *function, void *scene, int64_t n, const double *origins, const double *directions,
-                             const double *t_max, double *t, int64_t *prim, int32_t *geometry, double *u, double *v,
-                             int64_t *instance)
+static void intersect_rays(const IntersectArgs *a)
 {
-    Intersect8 intersect8 = (Intersect8)function;
+    Intersect8 intersect8 = (Intersect8)a->function;
     RayHitPacket packet;
     int valid[PACKET] ALIGNED(32);
-    for (int64_t first = 0; first < n; first += PACKET) {
-        int lanes = n - first < PACKET ? (int)(n - first) : PACKET;
+    for (int64_t first = 0; first < a->n; first += PACKET) {
+        int lanes = a->n - first < PACKET ? (int)(a->n - first) : PACKET;
         for (int k = 0; k < lanes; k++)
-            set_lane(&packet.ray, k, origins + 3 * (first + k), directions + 3 * (first + k), t_max[first + k]);
+            set_lane(&packet.ray, k, a->origins + 3 * (first + k), a->directions + 3 * (first + k),
+                     a->t_max[first + k]);
         close_packet(&packet.ray, valid, lanes);
         clear_hits(&packet);
-        intersect8(valid, scene, &packet, NULL);
+        intersect8(valid, a->scene, &packet, NULL);
         for (int k = 0; k < lanes; k++) {
             int64_t i = first + k;
             int hit = packet.hit.geomID[k] != INVALID_ID;
-            t[i] = hit ? (double)packet.ray.tfar[k] : INFINITY;
-            prim[i] = hit ? (int64_t)packet.hit.primID[k] : -1;
-            geometry[i] = hit ? (int32_t)packet.hit.geomID[k] : -1;
-            u[i] = hit ? (double)packet.hit.u[k] : 0.0;
-            v[i] = hit ? (double)packet.hit.v[k] : 0.0;
-            instance[i] = hit ? instance_of(&packet.hit, k) : -1;
+            a->t[i] = hit ? (double)packet.ray.tfar[k] : INFINITY;
+            a->prim[i] = hit ? (int64_t)packet.hit.primID[k] : -1;
+            a->geometry[i] = hit ? (int32_t)packet.hit.geomID[k] : -1;
+            a->u[i] = hit ? (double)packet.hit.u[k] : 0.0;
+            a->v[i] = hit ? (double)packet.hit.v[k] : 0.0;
+            a->instance[i] = hit ? instance_of(&packet.hit, k) : -1;
         }
     }
 }

@@ -228,34 +228,33 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
 /* normals.face_normals: each triangle's unit normal (e1 x e2 normalised, zero where degenerate) and
  * area (0.5 |e1 x e2|, 0 where not finite). vertices (v, 3) float64, triangles (t, 3) int64 ->
  * normals (t, 3), area (t,) float64. */
-static void face_normals_rows(int64_t t, const double *vertices, const int64_t *triangles, double *normals,
-                                double *area)
+static void face_normals_rows(const FaceNormalsArgs *a)
 {
-    for (int64_t i = 0; i < t; i++) {
-        const double *p0 = vertices + 3 * triangles[3 * i], *p1 = vertices + 3 * triangles[3 * i + 1];
-        const double *p2 = vertices + 3 * triangles[3 * i + 2];
-        double a[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-        double b[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+    for (int64_t i = 0; i < a->t; i++) {
+        const int64_t *corner = a->triangles + 3 * i;
+        const double *p0 = a->vertices + 3 * corner[0], *p1 = a->vertices + 3 * corner[1];
+        const double *p2 = a->vertices + 3 * corner[2];
+        double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+        double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
         double n[3];
-        cross3(a, b, n);
+        cross3(e1, e2, n);
         double half = 0.5 * sqrt((n[0] * n[0] + n[1] * n[1]) + n[2] * n[2]);      /* (np.linalg.norm's order) */
-        area[i] = isfinite(half) ? half : 0.0;
-        unit_or_zero(n, normals + 3 * i);
+        a->area[i] = isfinite(half) ? half : 0.0;
+        unit_or_zero(n, a->normals + 3 * i);
     }
 }
 
 /* geometry._place_copies' corner normals turned by the inverse transpose, N' = N M^-1 (row vectors),
  * normalised. corners (., 3, 3) float64, rows (n,) int64 the triangles' rows in it; inverse (p, 3, 3)
  * float64, placement (n,) int64 -> out (n, 3, 3) float64. */
-static void turn_normals_rows(int64_t n, const double *corners, const int64_t *rows, const double *inverse,
-                                const int64_t *placement, double *out)
+static void turn_normals_rows(const TurnNormalsArgs *a)
 {
-    for (int64_t i = 0; i < n; i++) {
-        const double *A = corners + 9 * rows[i], *B = inverse + 9 * placement[i];
+    for (int64_t i = 0; i < a->n; i++) {
+        const double *A = a->corners + 9 * a->rows[i], *B = a->inverse + 9 * a->placement[i];
         for (int r = 0; r < 3; r++) {
             double v[3];
             for (int c = 0; c < 3; c++) v[c] = A[3 * r] * B[c] + A[3 * r + 1] * B[3 + c] + A[3 * r + 2] * B[6 + c];
-            unit_or_zero(v, out + 9 * i + 3 * r);
+            unit_or_zero(v, a->out + 9 * i + 3 * r);
         }
     }
 }

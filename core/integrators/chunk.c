@@ -221,10 +221,11 @@ INLINE int block_closures(BlockHits **blocks, int count, int64_t room, Closure *
 /* Render spp samples in each of p pixels: samples first[k] .. first[k] + spp - 1 of pixel k's pattern.
  * pixels, first: (p,) int64. Out: the pixels' sums (out->rgba, squares, hits, zeroed here first) and
  * the chunk's counts and seconds (added to). */
-static void render_chunk(const ChunkParams *params, const int64_t *pixels, const int64_t *first, int64_t p,
-                                int64_t spp, ChunkOut *out)
+static void render_chunk(const ChunkArgs *a)
 {
-    int64_t width = (int64_t)params->width, height = (int64_t)params->height, total = p * spp;
+    const ChunkParams *params = a->params;
+    ChunkOut *out = a->out;
+    int64_t width = (int64_t)params->width, height = (int64_t)params->height, total = a->p * a->spp;
     uint32_t stream = stream_of((int64_t)params->seed, 0), lens_stream = stream_of((int64_t)params->seed, LENS_DIMENSION);
     Stopwatch started = stopwatch();
     uint64_t spent[3] = {0, 0, 0};        /* ticks: nearest hits, occlusion, shading (as out->seconds) */
@@ -271,7 +272,7 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         free_passes(passes);
         return;
     }
-    for (int64_t k = 0; k < p; k++) {
+    for (int64_t k = 0; k < a->p; k++) {
         for (int c = 0; c < 4; c++) out->rgba[4 * k + c] = 0.0;
         if (out->squares != NULL) out->squares[2 * k] = out->squares[2 * k + 1] = 0.0;
         out->hits[k] = 0;
@@ -298,7 +299,8 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         /* 0. A cancelled render stops here (render.py drops the chunk). */
         if (params->stop != NULL && *(volatile const int32_t *)params->stop != 0) break;
         /* 1. The block's camera rays (camera.c). */
-        camera_samples(&b, params->camera, stream, lens_stream, width, height, pixels, first, spp, start, total);
+        camera_samples(&b, params->camera, stream, lens_stream, width, height, a->pixels, a->first, a->spp, start,
+                       total);
         /* 2. Their nearest hits and the surfaces there. */
         uint64_t begin = ticks();
         uint64_t before = spent[0];
@@ -310,9 +312,9 @@ static void render_chunk(const ChunkParams *params, const int64_t *pixels, const
         spent[0] += embree[1];
         spent[2] += (ticks() - begin) - (spent[0] - before);      /* (occlusion queries included, as before) */
         /* 4. Every sample of the block into its pixel's sums (film.c), in sample order. */
-        int64_t h = 0, k = start / spp, j = start % spp;
+        int64_t h = 0, k = start / a->spp, j = start % a->spp;
         for (int64_t lane = 0; lane < b.n; lane++, j++) {
-            if (j == spp) { j = 0; k++; }
+            if (j == a->spp) { j = 0; k++; }
             double s[4] = {0.0, 0.0, 0.0, 0.0}, seen[3 * MAX_LIGHT_GROUPS];
             double *groups = G > 0 ? out->groups + 3 * G * k : NULL;      /* (the pixel's light groups) */
             for (int64_t i = 0; i < 3 * G; i++) seen[i] = 0.0;

@@ -312,20 +312,16 @@ INLINE int64_t emitter_of_prim(const EmitterTables *e, int64_t prim)
 
 /* LightTree.pick over arrays (for the tests): points, normals (n, 3), u (n,) -> index (n,) int64,
  * probability (n,) float64. */
-static void emitter_pick_rows(const EmitterTables *e, int64_t n, const double *points, const double *normals,
-                              const double *u, int64_t *index, double *probability)
+static void emitter_pick_rows(const EmitterPickArgs *a)
 {
-    for (int64_t k = 0; k < n; k++)
-        index[k] = emitter_pick(e, points + 3 * k, normals + 3 * k, u[k], probability + k);
+    for (int64_t k = 0; k < a->n; k++)
+        a->index[k] = emitter_pick(a->emitters, a->points + 3 * k, a->normals + 3 * k, a->u[k], a->probability + k);
 }
 
 /* LightTree.pick_probability over arrays (for the tests): points, normals (n, 3), index (n,) int64 ->
  * probability (n,) float64. */
-static void emitter_pick_probability_rows(const EmitterTables *e, int64_t n, const double *points,
-                                          const double *normals, const double *u, const int64_t *index,
-                                          double *probability)
+static void emitter_pick_probability_rows(const EmitterPickArgs *a)
 {
-    (void)u;
-    for (int64_t k = 0; k < n; k++)
-        probability[k] = emitter_pick_probability(e, index[k], points + 3 * k, normals + 3 * k);
+    for (int64_t k = 0; k < a->n; k++)
+        a->probability[k] = emitter_pick_probability(a->emitters, a->index[k], a->points + 3 * k, a->normals + 3 * k);
 }

@@ -164,26 +164,25 @@ INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResul
 /* eval and sample of one closure per row (for the tests): kind (n,) int32; weight, N, wo, wi (n, 3),
  * params (n, PARAMS), u (n, 2), pick (n,) float64 -> f_cos (n, 3), pdf (n,), and a sample from the
  * single closure: sampled wi (n, 3), weight (n, 3), sampled pdf (n,). */
-static void bsdf_rows(int64_t n, const int32_t *kind, const double *weight, const double *N, const double *params,
-                        const double *wo, const double *wi, const double *u, double *f_cos, double *pdf,
-                        double *sampled, double *sampled_weight, double *sampled_pdf)
+static void bsdf_rows(const BsdfArgs *a)
 {
-    for (int64_t i = 0; i < n; i++) {
+    for (int64_t i = 0; i < a->n; i++) {
+        const double *weight = a->weight + 3 * i, *N = a->N + 3 * i, *wo = a->wo + 3 * i;
         ShaderResult sd;
         Closure one;
         no_closures(&sd);
         sd.n = sd.room = 1;
         sd.c = &one;
         Closure *c = sd.c;
-        c->kind = kind[i];
-        c->sample_weight = fabs((weight[3 * i] + weight[3 * i + 1] + weight[3 * i + 2]) / 3.0);
-        for (int j = 0; j < 3; j++) { c->weight[j] = weight[3 * i + j]; c->N[j] = N[3 * i + j]; sd.N[j] = N[3 * i + j]; }
-        c->p = params + CLOSURE_PARAMS * i;
-        pdf[i] = shader_eval(&sd, wo + 3 * i, wi + 3 * i, f_cos + 3 * i);
+        c->kind = a->kind[i];
+        c->sample_weight = fabs((weight[0] + weight[1] + weight[2]) / 3.0);
+        for (int j = 0; j < 3; j++) { c->weight[j] = weight[j]; c->N[j] = N[j]; sd.N[j] = N[j]; }
+        c->p = a->params + CLOSURE_PARAMS * i;
+        a->pdf[i] = shader_eval(&sd, wo, a->wi + 3 * i, a->f_cos + 3 * i);
         ClosureSample s;
-        shader_sample(&sd, wo + 3 * i, u + 2 * i, 0.5, &s);
-        for (int j = 0; j < 3; j++) { sampled[3 * i + j] = s.wi[j]; sampled_weight[3 * i + j] = s.weight[j]; }
-        sampled_pdf[i] = s.pdf;
+        shader_sample(&sd, wo, a->u + 2 * i, 0.5, &s);
+        for (int j = 0; j < 3; j++) { a->sampled[3 * i + j] = s.wi[j]; a->sampled_weight[3 * i + j] = s.weight[j]; }
+        a->sampled_pdf[i] = s.pdf;
     }
 }
 

@@ -134,10 +134,10 @@ decode:
         for (int c = 0; c < 3; c++) out[c] = srgb_to_linear(out[c]);
 }
 
-/* textures.compiled_lookup: n lookups of one image, for the tests. out (n, 4). */
-static void texture_lookup_rows(const TextureTables *T, int64_t index, int interpolation, int extension,
-                                  int64_t n, const double *x, const double *y, double *out)
+/* textures.compiled_lookup: n lookups of image `index` at x, y (n,), for the tests -> rgba (n, 4). */
+static void texture_lookup_rows(const TextureLookupArgs *a)
 {
-    for (int64_t i = 0; i < n; i++)
-        texture_lookup(T, (int)index, x[i], y[i], (int)interpolation, (int)extension, out + 4 * i);
+    for (int64_t i = 0; i < a->n; i++)
+        texture_lookup(a->textures, (int)a->index, a->x[i], a->y[i], (int)a->interpolation, (int)a->extension,
+                       a->rgba + 4 * i);
 }

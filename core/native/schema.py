@@ -105,7 +105,7 @@ class Field:
 # ----------------------------------------------------------------------------
 
 RECORDS: dict = {}          # name -> the record's ctypes class
-FUNCTIONS: dict = {}        # exported name -> (the C function it calls, its arguments' record, the result's field)
+FUNCTIONS: dict = {}        # exported name -> (the C function it hands its record to, the record, the result's field)
 CONSTANTS: dict = {}        # C name -> (Constant (or float), its group's comment)
 TABLES: dict = {}           # a kind field's table name -> callable giving its C names by kind (for the hashes)
 # Where each name above was described: (the describing module, the order there), so that the generated C lists
@@ -312,9 +312,10 @@ def record(name: str, doc: str, fields: list, tables: tuple = ()) -> type:
 
 
 def function(name: str, calls: str, args: type, result: Optional[str] = None) -> type:
-    """Describe the C function `name` the library exports: it takes one record of arguments (`args`) and calls the
-    C function `calls` with the record's fields in their order (storing what it returns in the field `result`);
-    tools/make_boundary.py writes it. Returns `args`. Python calls it with core/native/library.py's `call`."""
+    """Describe the C function `name` the library exports: it takes one record of arguments (`args`) and hands it
+    to the C function `calls`, which reads the fields itself (`static void calls(const Args *a)`; with `result`,
+    it returns what goes into that field); tools/make_boundary.py writes it. Returns `args`. Python calls it with
+    core/native/library.py's `call`."""
     if name in FUNCTIONS:
         raise ValueError(f"function {name} is described twice")
     FUNCTIONS[name] = (calls, args, result)
@@ -344,10 +345,9 @@ def c_struct(cls: type) -> str:
 
 
 def c_export(name: str) -> str:
-    """The exported C function `name`: one record of arguments, passed on field by field to the function it calls."""
+    """The exported C function `name`: one record of arguments, handed as it is to the function it calls."""
     calls, args, result = FUNCTIONS[name]
-    passed = ", ".join(f"a->{f.name}" for f in args._description if f.name != result)
-    body = f"a->{result} = {calls}({passed});" if result else f"{calls}({passed});"
+    body = f"a->{result} = {calls}(a);" if result else f"{calls}(a);"
     return f"EXPORT void {name}({args.__name__} *a)\n{{\n    {body}\n}}\n"
 
 

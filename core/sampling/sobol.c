@@ -76,10 +76,9 @@ SIMD_CLONES NOINLINE static void sample_lanes(int64_t n, uint32_t stream, const 
 }
 
 /* sobol.sample_2d over arrays: pixel, index (n,) int64 -> out (n, 2) float64 (for the tests). */
-static void sample_2d_rows(int64_t seed, const int64_t *pixel, const int64_t *index, int64_t dimension,
-                             int64_t n, double *out)
+static void sample_2d_rows(const Sample2dArgs *a)
 {
-    uint32_t stream = stream_of(seed, dimension);
-    for (int64_t i = 0; i < n; i++)
-        sample_2d(stream, pixel[i], index[i], out + 2 * i);
+    uint32_t stream = stream_of(a->seed, a->dimension);
+    for (int64_t i = 0; i < a->n; i++)
+        sample_2d(stream, a->pixel[i], a->index[i], a->out + 2 * i);
 }
