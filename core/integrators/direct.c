@@ -661,15 +661,15 @@ INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim
     return (int64_t)mesh->first_prim + instance * (int64_t)mesh->triangle_count + prim;
 }
 
-/* direct.lights_itself: an emitter's light samples on the very triangle they light, towards the side it is lit
+/* vertex.lights_itself: an emitter's light samples on the very triangle they light, towards the side it is lit
  * from (Ng.L > 0; Ng.L < 0 for light through it from behind), carry nothing, as Cycles skips them. */
 INLINE void skip_own_triangle(SampleBlock *b, const BlockHits *H, const DirectSettings *ds)
 {
     const EmitterTables *e = ds->context->emitters;
     for (int64_t k = 0; k < b->n; k++) {
         int64_t h = b->hit[k];
-        if (b->emitter[k] < 0 || e->prim[b->emitter[k]] != flat_prim(ds->geometry, H->geometry[h], H->prim[h], H->instance[h]))
-            continue;
+        int64_t own = flat_prim(ds->geometry, H->geometry[h], H->prim[h], H->instance[h]);
+        if (b->emitter[k] < 0 || e->prim[b->emitter[k]] != own) continue;
         double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
         double n[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, ng[3] = {b->Ng[0][k], b->Ng[1][k], b->Ng[2][k]};
         double NgL = dot3(ng, L);
