@@ -201,3 +201,26 @@ def test_a_textured_emitter_lights_a_floor_by_each_texels_form_factor(strategy, 
     left = 4.0 * rectangle_factor(q, y)
     right = 2.0 * (rectangle_factor(3.0 * q, y) - rectangle_factor(q, y))
     assert image[..., :3].mean() == pytest.approx(rho * (a * left + b * right), rel=0.01)
+
+
+def turned_about_x(angle: float) -> np.ndarray:
+    """The 4 x 4 rotation by `angle` (radians) about +X."""
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[1.0, 0.0, 0.0, 0.0], [0.0, c, -s, 0.0], [0.0, s, c, 0.0], [0.0, 0.0, 0.0, 1.0]])
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+@pytest.mark.parametrize("tilt", [1e-3, 0.3, math.pi + 1e-3, math.pi + 0.3])
+def test_a_glowing_diffuse_sheet_alone_in_the_dark_reflects_none_of_its_own_light(tilt, integrator, kernels):
+    """A flat emitter of radiance 1 that also reflects (albedo 0.5), alone in the dark, tilted and seen from the
+    front or from behind: each of its points sees the sheet edge-on, so nothing lights it and it shows L_e = 1
+    exactly, whatever the bounces. A hit on a tilted sheet lies a rounding error off its plane, from where its own
+    triangle fills a hemisphere: Cycles skips a light sample on the triangle it lights, and Primer once lit the
+    sheet by its own emission (up to 1.35 here; the OBJ Cornell box's lamp lit its back so, issue 34)."""
+    scene = Scene(camera=ortho_down(center=(0.0, 0.0, 0.0), height=1.0, scale=0.8))
+    scene.materials.append(Material(np.full(3, 0.5), "Glowing sheet", emission=np.ones(3)))
+    scene.add_mesh(primitives.plane(2.0), matrix=turned_about_x(tilt), materials=np.array([0]))
+    settings = RenderSettings(width=8, height=8, samples=16, integrator=integrator, max_bounces=3, kernels=kernels)
+    image = render.render(scene, settings).image[..., :3]
+    np.testing.assert_allclose(image, 1.0, rtol=1e-9)

@@ -653,6 +653,30 @@ INLINE void choose_bsdf_rays(BlockHits *H, const DirectSettings *ds)
     }
 }
 
+/* WorldGeometry's flat triangle index of an Embree hit (copied, or a placement of an instanced mesh). */
+INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
+{
+    if (geometry <= 0) return prim;
+    const InstancedTables *mesh = g->meshes + (geometry - 1);
+    return (int64_t)mesh->first_prim + instance * (int64_t)mesh->triangle_count + prim;
+}
+
+/* vertex.lights_itself: an emitter's light samples on the very triangle they light, towards the side it is lit
+ * from (Ng.L > 0; Ng.L < 0 for light through it from behind), carry nothing, as Cycles skips them. */
+INLINE void skip_own_triangle(SampleBlock *b, const BlockHits *H, const DirectSettings *ds)
+{
+    const EmitterTables *e = ds->context->emitters;
+    for (int64_t k = 0; k < b->n; k++) {
+        int64_t h = b->hit[k];
+        int64_t own = flat_prim(ds->geometry, H->geometry[h], H->prim[h], H->instance[h]);
+        if (b->emitter[k] < 0 || e->prim[b->emitter[k]] != own) continue;
+        double L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
+        double n[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, ng[3] = {b->Ng[0][k], b->Ng[1][k], b->Ng[2][k]};
+        double NgL = dot3(ng, L);
+        if ((dot3(n, L) < 0.0 ? -NgL : NgL) > 0.0) b->strength[k] = 0.0;
+    }
+}
+
 INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *embree_ticks)
 {
     const ShadowSettings *settings = ds->shadows;
@@ -681,6 +705,7 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
             light_block(&b, light, ds->context);
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && ds->context->emitters->textured != NULL)
                 textured_block(&b, ds);
+            if (light_is((int)light->kind, LIGHT_FLAG_EMITTER)) skip_own_triangle(&b, H, ds);
             ray_block(&b, settings, lift, (double)count);
             bsdf_block(&b, H, weighed);
             if (weighed)
@@ -695,14 +720,6 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
     }
     embree_ticks[0] += embree;
     return rays;
-}
-
-/* WorldGeometry's flat triangle index of an Embree hit (copied, or a placement of an instanced mesh). */
-INLINE int64_t flat_prim(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
-{
-    if (geometry <= 0) return prim;
-    const InstancedTables *mesh = g->meshes + (geometry - 1);
-    return (int64_t)mesh->first_prim + instance * (int64_t)mesh->triangle_count + prim;
 }
 
 /* A ray that brings back the light it finds (direct.gather_light's): from O along the unit D, ending at its hit

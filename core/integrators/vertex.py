@@ -165,6 +165,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             if s.shadow_rays_for_backfacing:
                 lit[:] = True                     # cast them anyway, to count what the lecture saves
             lit &= ls.strength > 0.0
+            if ls.emitter is not None:
+                lit &= ~lights_itself(surface, light, ls, NL, NgL)
             recorder.light_sample(index, count, ls, NL, NgL, cosine, face_allows, lit)
             rows = np.flatnonzero(lit)
             if len(rows) == 0:
@@ -290,6 +292,15 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
     return found, ray
+
+
+def lights_itself(surface, emitters, ls, NL: np.ndarray, NgL: np.ndarray) -> np.ndarray:
+    """(m,) bool: the emitters' light samples on the very triangle they light, towards the side they are lit from."""
+    # Cycles skips them (shade_surface.h, integrate_surface_direct_light): a point on its own triangle sees it
+    # edge-on, yet the triangle's sample from there covers a hemisphere, so that a reflective emitter's back
+    # (or front) would reflect its own emission. Ng.L > 0 for reflection, Ng.L < 0 for light through it from behind.
+    own = emitters.prim[ls.emitter] == surface.prim
+    return own & (np.where(NL < 0.0, -NgL, NgL) > 0.0)
 
 
 def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.ndarray, offsets,
