@@ -7,7 +7,7 @@ from .base import F32, TextureNode, as_f32
 
 
 class CheckerTexture(TextureNode):
-    """Fac 1 (Color1) where floor(x) + floor(y) + floor(z) of the scaled point is even, 0 (Color2) where odd; the
+    """Fac 1 (Color1) where floor(x) + floor(y) + floor(z) of the scaled point is odd, 0 (Color2) where even; the
     point nudged by (p + 1e-6) x 0.999999 first, as Cycles does, so that unit coordinates fall one way."""
 
     kind = "TEX_CHECKER"
