@@ -121,18 +121,25 @@ scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
 warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
 images = {{engine: render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), 1)[::-1, :, :3]
           for engine in ("PRIMER", "CYCLES")}}
+checker = bpy.data.materials["Checker"].node_tree.nodes["Checker Texture"]
+checker.texture_mapping.scale[0] = 2.0
+mapped = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
 np.save("primer.npy", images["PRIMER"])
 np.save("cycles.npy", images["CYCLES"])
 primer.unregister()
-report(cases=cases, warnings=warnings, version=list(bpy.app.version))
+report(cases=cases, warnings=warnings, mapped=mapped, version=list(bpy.app.version))
 """
 
 
 def test_procedural_textures_render_cycles_values_pixel_for_pixel(tmp_path):
     """Every texture, setting and dimension: Primer's pixels are Cycles' (White Noise, Gradient, Checker exactly;
-    Noise within float32 rounding), and the export warns of nothing but the pixel filter."""
+    Noise within float32 rounding), and the export warns of nothing but the pixel filter, until a node's Texture
+    Mapping is changed."""
     result = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), pixels=PIXELS, columns=COLUMNS), str(tmp_path))
     assert notes(result["warnings"]) == []
+    # A node's own Texture Mapping is not applied: said, naming material and node.
+    assert notes(result["mapped"]) == ["material 'Checker', node 'Checker Texture': its Texture Mapping (node "
+                                       "properties) is not applied; Primer maps the vector as it comes"]
     primer, cycles = np.load(tmp_path / "primer.npy"), np.load(tmp_path / "cycles.npy")
     assert primer.shape == cycles.shape
     worst = {}

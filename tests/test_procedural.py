@@ -36,10 +36,12 @@ M = 0xFFFFFFFF
 # ------------------------------------------------------------------------------------------------
 
 def rot(x: int, k: int) -> int:
+    """x rotated left by k bits, 32-bit."""
     return ((x << k) | (x >> (32 - k))) & M
 
 
 def final(a: int, b: int, c: int) -> int:
+    """lookup3's final(a, b, c); returns c."""
     c ^= b; c = (c - rot(b, 14)) & M
     a ^= c; a = (a - rot(c, 11)) & M
     b ^= a; b = (b - rot(a, 25)) & M
@@ -51,6 +53,7 @@ def final(a: int, b: int, c: int) -> int:
 
 
 def mix(a: int, b: int, c: int) -> tuple:
+    """lookup3's mix(a, b, c)."""
     a = (a - c) & M; a ^= rot(c, 4); c = (c + b) & M
     b = (b - a) & M; b ^= rot(a, 6); a = (a + c) & M
     c = (c - b) & M; c ^= rot(b, 8); b = (b + a) & M

@@ -74,6 +74,7 @@ def perlin(p: np.ndarray) -> np.ndarray:
     faded = fade(frac)
 
     def corner(offset: tuple) -> np.ndarray:
+        """The gradient's dot product at the lattice corner cell + offset (d zeros and ones)."""
         h = HASHES[d](*(cell[:, k] + offset[k] for k in range(d)))
         return gradient(h, [frac[:, k] - F32(offset[k]) if offset[k] else frac[:, k] for k in range(d)])
 
