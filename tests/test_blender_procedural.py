@@ -1,13 +1,14 @@
 """Procedural textures against Cycles' own render, pixel for pixel: Noise (every fractal, 1D to 4D, fractional
-detail, distortion, Color), White Noise (1D to 4D), Gradient (all seven types) and Checker, each the colour of an
-emitting plane seen by an orthographic camera, exported by addon/materials.py with real Blender.
+detail, distortion, Color), Voronoi (every feature and metric, 1D to 4D, fractal detail, normalized), White Noise (1D
+to 4D), Gradient (all seven types) and Checker, each the colour of an emitting plane seen by an orthographic camera,
+exported by addon/materials.py with real Blender.
 
 A rendered pixel is the mean of its samples, and Primer's samples fall elsewhere in the pixel than Cycles'. So that
 the two images can agree to float precision, each texture reads the Generated coordinate snapped to its pixel's
 centre ((floor(32 x) + 0.5) / 32, then x 4 - 2: every step exact in float32 and float64), one value per pixel
 whatever the sample; the Checker also reads the unlinked (default Generated) vector at a scale whose squares end on
 pixel edges. Then a pixel differs only by float32 rounding: White Noise, Gradient and Checker render exactly
-Cycles' values, Noise within a few float32 ulps (Cycles' x86 kernels fuse some multiply-adds and order some
+Cycles' values, Voronoi within a few ulps, Noise within a few float32 ulps (Cycles' x86 kernels fuse some multiply-adds and order some
 sums differently).
 """
 from __future__ import annotations
@@ -28,7 +29,7 @@ if importlib.util.find_spec("bpy") is None:
     raise ImportError("tests/test_blender_procedural.py needs bpy (Blender as a Python module): pip install bpy")
 
 PIXELS = 32               # pixels across each plane
-COLUMNS = 6               # planes per row of the grid
+COLUMNS = 8               # planes per row of the grid
 
 SCRIPT = """
 import sys, os
@@ -106,6 +107,17 @@ for dimensions in ("1D", "2D", "3D", "4D"):
          [("W", 0.25)])
 for kind in ("LINEAR", "QUADRATIC", "EASING", "DIAGONAL", "SPHERICAL", "QUADRATIC_SPHERE", "RADIAL"):
     case(f"Gradient {{kind}}", "ShaderNodeTexGradient", "Fac", [("gradient_type", kind)])
+for dimensions in ("1D", "2D", "3D", "4D"):
+    for feature, metric, output, normalize, inputs in (
+            ("F1", "EUCLIDEAN", "Color", False, [("Detail", 1.5), ("Randomness", 0.8)]),
+            ("F2", "MANHATTAN", "Distance", True, [("Detail", 0.0)]),
+            ("SMOOTH_F1", "CHEBYCHEV", "Distance", False, [("Smoothness", 0.6), ("Detail", 1.0)]),
+            ("F1", "MINKOWSKI", "Distance", True, [("Exponent", 1.5)]),
+            ("DISTANCE_TO_EDGE", "EUCLIDEAN", "Distance", True, [("Detail", 2.3)]),
+            ("N_SPHERE_RADIUS", "EUCLIDEAN", "Radius", False, [])):
+        case(f"Voronoi {{dimensions}} {{feature}} {{metric}}", "ShaderNodeTexVoronoi", output,
+             [("voronoi_dimensions", dimensions), ("feature", feature), ("distance", metric),
+              ("normalize", normalize)], [("W", 0.7), ("Scale", 1.5)] + inputs)
 case("Checker", "ShaderNodeTexChecker", "Color", inputs=[("Scale", 1.7), ("Color1", (1.0, 0.5, 0.25, 1.0))])
 case("Checker default vector", "ShaderNodeTexChecker", "Fac", inputs=[("Scale", 4.0)], snap=False)
 
@@ -151,9 +163,13 @@ def test_procedural_textures_render_cycles_values_pixel_for_pixel(tmp_path):
         worst[label] = float(np.abs(ours - theirs).max())
     print("largest difference per texture:", worst)
     # White Noise, Checker and the Gradients but Radial: Cycles' float32 values exactly. Radial: atan2 rounded in
-    # double here, atan2f in Cycles, an ulp apart at most.
-    exact = {label: d for label, d in worst.items() if not label.startswith("Noise") and d > TOLERANCE.get(label, 0.0)}
+    # double here, atan2f in Cycles, an ulp apart at most. Voronoi: its colours exactly, its distances within a few
+    # ulps (measured <= 5.7e-7: Distance to Edge's normalized bisectors, Smooth F1's sums, Minkowski's powf).
+    exact = {label: d for label, d in worst.items() if not label.startswith(("Noise", "Voronoi"))
+             and d > TOLERANCE.get(label, 0.0)}
     assert exact == {}, exact
+    cells = {label: d for label, d in worst.items() if label.startswith("Voronoi") and d > 1e-6}
+    assert cells == {}, cells
     # Noise: a few float32 ulps of the sum of octaves (measured <= 1.6e-6); with Distortion, which moves the point
     # by a noise value, the ulps grow with the noise's slope (measured <= 1.7e-5).
     noisy = {label: d for label, d in worst.items()

@@ -1,7 +1,8 @@
-"""Procedural textures (core/materials/procedural): Cycles' hashes against lookup3 written out on Python integers,
-and each texture against its closed form on both kernels: White Noise is the hash of the point's float32 bits,
-the Checker's squares alternate by the parity of floor(x) + floor(y) + floor(z), the Gradients are their formulas,
-Perlin noise is 0 on the integer lattice and within [-1, 1], a fractional Detail blends two octave counts.
+"""Procedural textures (core/materials/procedural): Cycles' hashes against lookup3 and PCG written out on Python
+integers, and each texture against its closed form on both kernels: White Noise is the hash of the point's float32
+bits, the Checker's squares alternate by the parity of floor(x) + floor(y) + floor(z), the Gradients are their
+formulas, Perlin noise is 0 on the integer lattice and within [-1, 1], a fractional Detail blends two octave counts,
+Voronoi without randomness measures to the integer lattice.
 The compiled twin renders every texture, dimension and fractal bit for bit as the numpy reference does.
 
 The scenes look straight down at a 2 x 2 plane whose Generated coordinates run 0..1 across it (z = 0.3); a texture
@@ -95,6 +96,38 @@ def test_a_hash_becomes_a_float_in_0_1_with_0_and_the_largest_word_at_the_ends()
     """uint_to_float_incl: (float)h x 2^-32; 0 -> 0, 0xFFFFFFFF rounds to 2^32 in float32 -> exactly 1."""
     values = hash_.uint_to_float(np.array([0, 1 << 31, M], np.uint32))
     np.testing.assert_array_equal(values, np.array([0.0, 0.5, 1.0], np.float32))
+
+
+def pcg(words: list) -> list:
+    """Cycles' hash_pcg2d_i .. 4d_i on Python integers: signed 32-bit words, wrapping, an arithmetic shift by 16."""
+    signed = lambda x: ((x & M) ^ 0x80000000) - 0x80000000          # noqa: E731
+    v = [signed(w * 1664525 + 1013904223) for w in words]
+    d = len(v)
+
+    def rounds(v):
+        if d == 2:
+            v[0] = signed(v[0] + v[1] * 1664525); v[1] = signed(v[1] + v[0] * 1664525)
+        else:
+            pairs = ((1, 2), (2, 0), (0, 1)) if d == 3 else ((1, 3), (2, 0), (0, 1), (1, 2))
+            for j, (a, b) in enumerate(pairs):
+                v[j] = signed(v[j] + v[a] * v[b])
+        return v
+
+    v = rounds(v)
+    v = [signed(x ^ (x >> 16)) for x in v]
+    v = rounds(v)
+    return [x & 0x7FFFFFFF for x in v]
+
+
+def test_the_voronoi_hashes_are_pcg_of_the_signed_cell_words():
+    """Cycles' hash_int2_to_float2 .. hash_int4_to_float4: PCG (Jarzynski and Olano) of the cell, (float)h x 2^-31."""
+    rng = np.random.default_rng(11)
+    for d in (2, 3, 4):
+        cells = rng.integers(-2**31, 2**31, (40, d))
+        expected = np.array([pcg([int(c) for c in row]) for row in cells], np.int64)
+        np.testing.assert_array_equal(hash_.hash_pcg(cells), expected)
+        np.testing.assert_array_equal(hash_.hash_int_to_float(cells),
+                                      expected.astype(np.float32) * np.float32(2.0**-31))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -217,6 +250,38 @@ def test_a_fractional_detail_blends_the_normalized_fbm_of_the_octave_counts_eith
     assert np.abs(high - low).max() > 0.01
 
 
+def voronoi(feature: str, metric: str, output: str, **inputs) -> np.ndarray:
+    """A 2D Voronoi's `output` at the snapped points x 1.3, Randomness 0 (each cell's point at its lower corner)."""
+    node = GraphNode("TEX_VORONOI", {"dimensions": "2D", "feature": feature, "metric": metric},
+                     {"Vector": snapped_vector(), "Scale": 1.3, "Randomness": 0.0, **inputs})
+    return Link(node, output)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_voronoi_without_randomness_measures_to_the_integer_lattice(kernels):
+    """Randomness 0 puts the points on the integer lattice: F1 is the distance to the rounded point (Euclidean,
+    Manhattan, Chebychev; Minkowski with exponent 1 and 2 is Manhattan and Euclidean), F2 the next lattice point's
+    (sqrt(a^2 + (1 - b)^2) for offsets a <= b from the nearest), Distance to Edge 1/2 - the larger offset, the
+    N-Sphere Radius 1/2."""
+    p = snapped_points()[..., :2].astype(np.float64) * np.float32(1.3).astype(np.float64)
+    offset = np.abs(p - np.round(p))
+    small, large = offset.min(axis=2), offset.max(axis=2)
+    expected = {
+        ("F1", "EUCLIDEAN", "Distance", 1.0): np.hypot(offset[..., 0], offset[..., 1]),
+        ("F1", "MANHATTAN", "Distance", 1.0): offset.sum(axis=2),
+        ("F1", "CHEBYCHEV", "Distance", 1.0): large,
+        ("F1", "MINKOWSKI", "Distance", 1.0): offset.sum(axis=2),
+        ("F1", "MINKOWSKI", "Distance", 2.0): np.hypot(offset[..., 0], offset[..., 1]),
+        ("F2", "EUCLIDEAN", "Distance", 1.0): np.hypot(small, 1.0 - large),
+        ("DISTANCE_TO_EDGE", "EUCLIDEAN", "Distance", 1.0): 0.5 - large,
+        ("N_SPHERE_RADIUS", "EUCLIDEAN", "Radius", 1.0): np.full(small.shape, 0.5),
+    }
+    assert (np.abs(offset - 0.5) > 1e-3).all()          # no point halfway between two lattice points
+    for (feature, metric, output, exponent), value in expected.items():
+        image = shoot(voronoi(feature, metric, output, Exponent=exponent), kernels)[..., 0]
+        np.testing.assert_allclose(image, value, atol=1e-6, err_msg=f"{feature} {metric} {exponent}")
+
+
 def all_textures() -> list:
     """A link of every texture, dimension, fractal and gradient type, fed by UV-dependent inputs."""
     uv = Link(GraphNode("TEXCOORD", {}, {}), "UV")
@@ -243,6 +308,20 @@ def all_textures() -> list:
                                                     "Vector")}), "Color"))
     links.append(Link(GraphNode("TEX_CHECKER", {}, {"Vector": stretched, "Scale": y, "Color1": (0.9, 0.1, 0.4)}),
                       "Color"))
+    outputs = {"F1": "Color", "F2": "Position", "SMOOTH_F1": "W", "DISTANCE_TO_EDGE": "Distance",
+               "N_SPHERE_RADIUS": "Radius"}
+    for dimensions in ("1D", "2D", "3D", "4D"):
+        for feature, output in outputs.items():
+            metrics = ("EUCLIDEAN",) if dimensions == "1D" else ("EUCLIDEAN", "MANHATTAN", "CHEBYCHEV", "MINKOWSKI")
+            if feature == "SMOOTH_F1" and dimensions == "4D":
+                metrics = ("MINKOWSKI",)            # (5^4 cells an octave: slow in numpy)
+            for metric in metrics:
+                links.append(Link(GraphNode("TEX_VORONOI", {"dimensions": dimensions, "feature": feature,
+                                                            "metric": metric, "normalize": metric != "MANHATTAN"},
+                                            {"Vector": stretched, "W": x, "Detail": Link(GraphNode(
+                                                "MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 3.0}), "Value"),
+                                             "Smoothness": y, "Exponent": 1.7, "Randomness": 0.9, "Scale": 0.7}),
+                                  output))
     links.append(Link(GraphNode("TEX_CHECKER", {}, {}), "Fac"))
     return links
 
@@ -260,7 +339,7 @@ def test_the_compiled_textures_compute_what_the_reference_computes_bit_for_bit()
         uv = mesh.attributes["uv:"]
         mesh.attributes["generated"] = np.concatenate([uv[..., :2], np.full(uv.shape[:2] + (1,), 0.3)], axis=2)
         scene.add_mesh(mesh, materials=np.array([index]), name=f"T{index}")
-    settings = RenderSettings(width=96, height=96, samples=2)
+    settings = RenderSettings(width=80, height=80, samples=1)
     compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
     reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
     assert compiled.stats.kernels == "compiled"

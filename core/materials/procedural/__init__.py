@@ -1,4 +1,5 @@
-"""Procedural texture nodes (Cycles' Noise, White Noise, Gradient and Checker textures), one class and one C file each.
+"""Procedural texture nodes (Cycles' Noise, Voronoi, White Noise, Gradient and Checker textures), one class and one C
+file each.
 
 Adding a texture node is one class (a `base.TextureNode`: its Blender node, inputs, outputs, settings and numpy
 `evaluate`), one C file beside it (`<c_name>.c` with `<c_name>_texture`, the op at one hit), and one entry in
@@ -14,9 +15,10 @@ from .base import TextureNode
 from .checker import CheckerTexture
 from .gradient import GradientTexture
 from .noise import NoiseTexture
+from .voronoi import VoronoiTexture
 from .white_noise import WhiteNoiseTexture
 
-TEXTURE_TYPES = (CheckerTexture, GradientTexture, WhiteNoiseTexture, NoiseTexture)
+TEXTURE_TYPES = (CheckerTexture, GradientTexture, WhiteNoiseTexture, NoiseTexture, VoronoiTexture)
 # The C headers every texture's C file may use, included first.
 SHARED_C = ("hash.h", "perlin.h")
 

@@ -71,3 +71,34 @@ INLINE float hash_float4(float x, float y, float z, float w)
 {
     return hash_to_float(hash_uint4(float_bits(x), float_bits(y), float_bits(z), float_bits(w)));
 }
+
+/* hash.py hash_pcg: PCG on d = 2..4 words, wrapping at 32 bits, the shift by 16 sign-extending; then [0, 2^31). */
+INLINE void hash_pcg(const int *k, int d, uint32_t *v)
+{
+    for (int j = 0; j < d; j++) v[j] = (uint32_t)k[j] * 1664525u + 1013904223u;
+    for (int round = 0; round < 2; round++) {
+        if (d == 2) { v[0] += v[1] * 1664525u; v[1] += v[0] * 1664525u; }
+        else if (d == 3) { v[0] += v[1] * v[2]; v[1] += v[2] * v[0]; v[2] += v[0] * v[1]; }
+        else { v[0] += v[1] * v[3]; v[1] += v[2] * v[0]; v[2] += v[0] * v[1]; v[3] += v[1] * v[2]; }
+        if (round == 0)
+            for (int j = 0; j < d; j++) v[j] ^= (uint32_t)((int32_t)v[j] >> 16);
+    }
+    for (int j = 0; j < d; j++) v[j] &= 0x7FFFFFFFu;
+}
+
+/* hash.py hash_int_to_float: out (d) in [0, 1]. */
+INLINE void hash_int_to_float(const int *k, int d, float *out)
+{
+    uint32_t v[4];
+    hash_pcg(k, d, v);
+    for (int j = 0; j < d; j++) out[j] = (float)v[j] * (1.0f / 2147483648.0f);
+}
+
+/* hash.py hash_int_to_float3 */
+INLINE void hash_int_to_float3(const int *k, int d, float *out)
+{
+    int k3[4] = {k[0], k[1], d > 2 ? k[2] : 0, d > 3 ? k[3] : 0};
+    float f[4];
+    hash_int_to_float(k3, d == 2 ? 3 : d, f);
+    out[0] = f[0]; out[1] = f[1]; out[2] = f[2];
+}

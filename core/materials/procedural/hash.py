@@ -135,3 +135,51 @@ def hash_float3_to_float3(x, y, z) -> np.ndarray:
 def hash_float4_to_float3(x, y, z, w) -> np.ndarray:
     """Cycles' hash_float4_to_float3: (n, 3) float32 (the words in the orders xyzw, zxwy, wzyx)."""
     return np.stack([hash_float4(x, y, z, w), hash_float4(z, x, w, y), hash_float4(w, z, y, x)], axis=-1)
+
+
+def _i32(x: np.ndarray) -> np.ndarray:
+    """uint32 bits read as int32."""
+    return x.view(np.int32)
+
+
+def hash_pcg(k: np.ndarray) -> np.ndarray:
+    """Cycles' hash_pcg2d_i .. hash_pcg4d_i (PCG, "Hash Functions for GPU Rendering", signed so that OSL has it too):
+    k (n, d) integers, d 2 to 4 -> (n, d) int64 in [0, 2^31). The arithmetic wraps at 32 bits; the shift by 16 is
+    an arithmetic (sign-extending) shift of the signed words."""
+    v = [_u32(k[:, j]).copy() for j in range(k.shape[1])]
+    d = len(v)
+    with np.errstate(over="ignore"):
+        v = [x * U32(1664525) + U32(1013904223) for x in v]
+
+        def rounds(v):
+            if d == 2:
+                v[0] = v[0] + v[1] * U32(1664525)
+                v[1] = v[1] + v[0] * U32(1664525)
+            elif d == 3:
+                v[0] = v[0] + v[1] * v[2]
+                v[1] = v[1] + v[2] * v[0]
+                v[2] = v[2] + v[0] * v[1]
+            else:
+                v[0] = v[0] + v[1] * v[3]
+                v[1] = v[1] + v[2] * v[0]
+                v[2] = v[2] + v[0] * v[1]
+                v[3] = v[3] + v[1] * v[2]
+            return v
+
+        v = rounds(v)
+        v = [x ^ (_i32(x) >> np.int32(16)).view(U32) for x in v]
+        v = rounds(v)
+    return np.stack([(x & U32(0x7FFFFFFF)).astype(np.int64) for x in v], axis=1)
+
+
+def hash_int_to_float(k: np.ndarray) -> np.ndarray:
+    """Cycles' hash_int2_to_float2 .. hash_int4_to_float4: (n, d) float32 in [0, 1], (float)h x 2^-31."""
+    return hash_pcg(k).astype(np.uint32).astype(F32) * F32(1.0 / 2147483648.0)
+
+
+def hash_int_to_float3(k: np.ndarray) -> np.ndarray:
+    """Cycles' hash_int2_to_float3 (the 3D hash of (x, y, 0)), hash_int3_to_float3, hash_int4_to_float3 (the first
+    three of the 4D hash): (n, 3) float32."""
+    if k.shape[1] == 2:
+        k = np.concatenate([k, np.zeros((len(k), 1), k.dtype)], axis=1)
+    return hash_int_to_float(k)[:, :3]

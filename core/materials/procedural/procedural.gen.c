@@ -7,6 +7,7 @@
 #include "gradient.c"
 #include "white_noise.c"
 #include "noise.c"
+#include "voronoi.c"
 
 /* A texture's op at one hit (graph.run_program's ops past its own): a[0] the output block, then the
  * input registers and the numbers, as the class describes them. 0 for an op code that is no texture's. */
@@ -17,6 +18,7 @@ INLINE int procedural_op(int code, const int *a, double *reg)
     case OP_TEX_GRADIENT: gradient_texture(a, reg); return 1;
     case OP_TEX_WHITE_NOISE: white_noise_texture(a, reg); return 1;
     case OP_TEX_NOISE: noise_texture(a, reg); return 1;
+    case OP_TEX_VORONOI: voronoi_texture(a, reg); return 1;
     default: return 0;
     }
 }
