@@ -350,7 +350,8 @@ class GraphReader:
     def texture(self, node, path: tuple, texture, warn) -> tuple:
         """A procedural texture's settings and inputs (core/materials/procedural): each setting from the bpy
         attribute its class names, the inputs by name (an unlinked Vector left out: the class's texture coordinate);
-        a warning for a Texture Mapping other than the identity, which Primer does not apply."""
+        a warning for a Texture Mapping other than the identity, which Primer does not apply, and where this
+        Blender's Cycles computes the texture otherwise than Cycles 5.0 (`differs_in`)."""
         props = {name: getattr(node, attribute) for name, (attribute, _, _) in texture.settings.items()}
         for name, (attribute, choices, default) in texture.settings.items():
             if choices is not None and props[name] not in choices:
@@ -360,6 +361,9 @@ class GraphReader:
         for name, _, default in texture.inputs:
             if isinstance(default, str) and name in inputs and not isinstance(inputs[name], Link):
                 del inputs[name]
+        note = texture.differs_in(props, tuple(bpy.app.version))
+        if note is not None:
+            warn(note)
         mapping = getattr(node, "texture_mapping", None)
         if mapping is not None and not _identity_mapping(mapping):
             warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")

@@ -345,3 +345,13 @@ def test_the_compiled_textures_compute_what_the_reference_computes_bit_for_bit()
     assert compiled.stats.kernels == "compiled"
     np.testing.assert_array_equal(compiled.image, reference.image)
     assert np.isfinite(reference.image).all() and reference.image[..., :3].std() > 0.1
+
+
+def test_voronoi_warns_on_blenders_whose_cycles_hashed_its_cells_otherwise():
+    """Cycles before Blender 5.0 placed 2D to 4D Voronoi points by lookup3 of float cells: the add-on says so there
+    (1D, and Blender 5.0 on, need no note); the other textures are Cycles 4.2's too."""
+    from core.materials.procedural import TEXTURE_TYPES, VoronoiTexture
+    assert "before 5.0" in VoronoiTexture.differs_in({"dimensions": "2D"}, (4, 2, 0))
+    assert VoronoiTexture.differs_in({"dimensions": "1D"}, (4, 2, 0)) is None
+    assert VoronoiTexture.differs_in({"dimensions": "4D"}, (5, 0, 0)) is None
+    assert [cls for cls in TEXTURE_TYPES if cls.differs_in({}, (4, 2, 0))] == [VoronoiTexture]

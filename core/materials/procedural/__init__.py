@@ -27,4 +27,5 @@ TEXTURE_BY_BLENDER = {cls.blender: cls for cls in TEXTURE_TYPES}
 if len(TEXTURE_BY_KIND) != len(TEXTURE_TYPES) or len(TEXTURE_BY_BLENDER) != len(TEXTURE_TYPES):
     raise ValueError("two texture classes share a kind or a Blender node")
 
-__all__ = ["TextureNode", "TEXTURE_TYPES", "TEXTURE_BY_KIND", "TEXTURE_BY_BLENDER", "SHARED_C"]
+__all__ = ["TextureNode", "TEXTURE_TYPES", "TEXTURE_BY_KIND", "TEXTURE_BY_BLENDER", "SHARED_C", "CheckerTexture",
+           "GradientTexture", "NoiseTexture", "VoronoiTexture", "WhiteNoiseTexture"]

@@ -59,6 +59,12 @@ class TextureNode:
         return [cls.setting(props, name) for name in cls.settings]
 
     @classmethod
+    def differs_in(cls, props: dict, version: tuple):
+        """What the Cycles of Blender `version` (major, minor, patch) computes otherwise for these settings, as a note
+        for the add-on's warning, or None: Primer follows Cycles 5.0."""
+        return None
+
+    @classmethod
     def evaluate(cls, inputs: list, numbers: list) -> np.ndarray:
         """The op at n hits: inputs, one (n, width) float64 array per input; numbers, the op's integers ->
         (n, cls.width()) float64, the outputs side by side."""

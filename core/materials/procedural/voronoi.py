@@ -339,6 +339,15 @@ class VoronoiTexture(TextureNode):
                 "metric": ("distance", METRICS, "EUCLIDEAN"), "normalize": ("normalize", None, False)}
 
     @classmethod
+    def differs_in(cls, props: dict, version: tuple):
+        """Before Blender 5.0, Cycles placed the 2D to 4D points by lookup3 of the float cell (and F1 measured every
+        point in full): other cells than 5.0's PCG ones."""
+        if tuple(version[:2]) < (5, 0) and props.get("dimensions", "3D") != "1D":
+            return ("the Cycles of Blender before 5.0 places 2D to 4D Voronoi points with other hashes; Primer "
+                    "places them as Cycles 5.0 does, so its cells differ from this Blender's")
+        return None
+
+    @classmethod
     def evaluate(cls, inputs: list, numbers: list) -> np.ndarray:
         """Distance, Color, Position, W, Radius side by side (n, 9)."""
         vector, w, scale, detail, roughness, lacunarity, smoothness, exponent, randomness = (as_f32(x) for x in inputs)
