@@ -346,7 +346,6 @@ class GraphReader:
             inputs = self.inputs(node, path, ["Value", "From Min", "From Max", "To Min", "To Max", "Steps"])
         return GraphNode(kind, props, inputs, node.name)
 
-
     def texture(self, node, path: tuple, texture, warn) -> tuple:
         """A procedural texture's settings and inputs (core/materials/procedural): each setting from the bpy
         attribute its class names, the inputs by name (an unlinked Vector left out: the class's texture coordinate);

@@ -1,5 +1,5 @@
 """Procedural textures against Cycles' own render, pixel for pixel: Noise (every fractal, 1D to 4D, fractional
-detail, distortion, Color), Voronoi (every feature and metric, 1D to 4D, fractal detail, normalized), White Noise (1D
+detail, distortion, Color), Voronoi (every feature, every metric, 1D to 4D, fractal detail), White Noise (1D
 to 4D), Gradient (all seven types) and Checker, each the colour of an emitting plane seen by an orthographic camera,
 exported by addon/materials.py with real Blender.
 
@@ -8,8 +8,8 @@ the two images can agree to float precision, each texture reads the Generated co
 centre ((floor(32 x) + 0.5) / 32, then x 4 - 2: every step exact in float32 and float64), one value per pixel
 whatever the sample; the Checker also reads the unlinked (default Generated) vector at a scale whose squares end on
 pixel edges. Then a pixel differs only by float32 rounding: White Noise, Gradient and Checker render exactly
-Cycles' values, Voronoi within a few ulps, Noise within a few float32 ulps (Cycles' x86 kernels fuse some multiply-adds and order some
-sums differently).
+Cycles' values, Voronoi and Noise within a few float32 ulps (Cycles' x86 kernels fuse some multiply-adds and order
+some sums differently).
 """
 from __future__ import annotations
 

@@ -159,7 +159,8 @@ def snapped_vector(z: float = 0.375) -> Link:
     ends = []
     for axis in ("X", "Y"):
         value = Link(separate, axis)
-        for operation, b in (("MULTIPLY", SIZE), ("FLOOR", 0.0), ("ADD", 0.5), ("MULTIPLY", 4.0 / SIZE), ("SUBTRACT", 2.0)):
+        steps = (("MULTIPLY", SIZE), ("FLOOR", 0.0), ("ADD", 0.5), ("MULTIPLY", 4.0 / SIZE), ("SUBTRACT", 2.0))
+        for operation, b in steps:
             value = Link(GraphNode("MATH", {"operation": operation}, {"0": value, "1": b}), "Value")
         ends.append(value)
     return Link(GraphNode("COMBINE_XYZ", {}, {"X": ends[0], "Y": ends[1], "Z": z}), "Vector")
