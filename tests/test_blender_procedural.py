@@ -70,7 +70,7 @@ def snapped(tree):
 cases = []
 
 
-def case(label, idname, output, settings=(), inputs=(), snap=True):
+def case(label, idname, output, settings=(), inputs=(), snap=True, absolute=False):
     material, tree, out = empty_material(label)
     node = tree.nodes.new(idname)
     for name, value in settings:
@@ -85,7 +85,17 @@ def case(label, idname, output, settings=(), inputs=(), snap=True):
         else:                                               # 1D: W is the snapped x
             tree.links.new(x, available["W"])
     emission = tree.nodes.new("ShaderNodeEmission")
-    tree.links.new(next(s for s in node.outputs if s.identifier == output), emission.inputs["Color"])
+    socket = next(s for s in node.outputs if s.identifier == output)
+    if absolute:                                            # |x| of a vector or float that may be negative
+        if socket.type == "VECTOR":
+            separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+            tree.links.new(socket, separate.inputs["Vector"])
+            socket = separate.outputs["X"]
+        math = tree.nodes.new("ShaderNodeMath")
+        math.operation = "ABSOLUTE"
+        tree.links.new(socket, math.inputs[0])
+        socket = math.outputs[0]
+    tree.links.new(socket, emission.inputs["Color"])
     tree.links.new(emission.outputs[0], out.inputs["Surface"])
     index = len(cases)
     bpy.ops.mesh.primitive_plane_add(size=1.0, location=(index % COLUMNS + 0.5, -(index // COLUMNS) - 0.5, 0.0))
@@ -118,6 +128,11 @@ for dimensions in ("1D", "2D", "3D", "4D"):
         case(f"Voronoi {{dimensions}} {{feature}} {{metric}}", "ShaderNodeTexVoronoi", output,
              [("voronoi_dimensions", dimensions), ("feature", feature), ("distance", metric),
               ("normalize", normalize)], [("W", 0.7), ("Scale", 1.5)] + inputs)
+for dimensions, feature, output in (("1D", "F1", "W"), ("3D", "F1", "Position"), ("4D", "F2", "Position"),
+                                    ("4D", "SMOOTH_F1", "W")):
+    case(f"Voronoi {{dimensions}} {{feature}} {{output}}", "ShaderNodeTexVoronoi", output,
+         [("voronoi_dimensions", dimensions), ("feature", feature)], [("W", 0.7), ("Scale", 1.5), ("Detail", 1.5)],
+         absolute=True)
 case("Checker", "ShaderNodeTexChecker", "Color", inputs=[("Scale", 1.7), ("Color1", (1.0, 0.5, 0.25, 1.0))])
 case("Checker default vector", "ShaderNodeTexChecker", "Fac", inputs=[("Scale", 4.0)], snap=False)
 
