@@ -13,7 +13,7 @@ INLINE void noise_random_offset(float seed, int d, float *out)
 INLINE float noise_at_offset(const float *p, int d, float seed, int kind, float detail, float roughness,
                              float lacunarity, float offset, float gain, int normalize)
 {
-    float shift[4], q[4];
+    float shift[4] = {0.0f, 0.0f, 0.0f, 0.0f}, q[4] = {0.0f, 0.0f, 0.0f, 0.0f};
     noise_random_offset(seed, d, shift);
     for (int k = 0; k < d; k++) q[k] = p[k] + shift[k];
     return perlin_fractal(kind, q, d, detail, roughness, lacunarity, offset, gain, normalize);
@@ -27,12 +27,12 @@ NOINLINE static void noise_texture(const int *a, double *reg)
     float distortion = (float)reg[a[9]];
     detail = detail < 0.0f ? 0.0f : (detail > 15.0f ? 15.0f : detail);
     roughness = roughness > 0.0f ? roughness : 0.0f;
-    float v[3], w = (float)reg[a[2]] * scale, p[4];
+    float v[3], w = (float)reg[a[2]] * scale, p[4] = {0.0f, 0.0f, 0.0f, 0.0f};
     for (int k = 0; k < 3; k++) v[k] = (float)reg[a[1] + k] * scale;
     if (d == 1) p[0] = w;
     else { for (int k = 0; k < d && k < 3; k++) p[k] = v[k]; if (d == 4) p[3] = w; }
     if (distortion != 0.0f) {
-        float shift[4], q[4], moved[4];
+        float shift[4] = {0.0f, 0.0f, 0.0f, 0.0f}, q[4] = {0.0f, 0.0f, 0.0f, 0.0f}, moved[4] = {0.0f, 0.0f, 0.0f, 0.0f};
         for (int j = 0; j < d; j++) {
             noise_random_offset((float)j, d, shift);
             for (int k = 0; k < d; k++) q[k] = p[k] + shift[k];
