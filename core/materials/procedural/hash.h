@@ -89,7 +89,7 @@ INLINE void hash_pcg(const int *k, int d, uint32_t *v)
 /* hash.py hash_int_to_float: out (d) in [0, 1]. */
 INLINE void hash_int_to_float(const int *k, int d, float *out)
 {
-    uint32_t v[4];
+    uint32_t v[4] = {0u, 0u, 0u, 0u};
     hash_pcg(k, d, v);
     for (int j = 0; j < d; j++) out[j] = (float)v[j] * (1.0f / 2147483648.0f);
 }
@@ -98,7 +98,7 @@ INLINE void hash_int_to_float(const int *k, int d, float *out)
 INLINE void hash_int_to_float3(const int *k, int d, float *out)
 {
     int k3[4] = {k[0], k[1], d > 2 ? k[2] : 0, d > 3 ? k[3] : 0};
-    float f[4];
+    float f[4] = {0.0f, 0.0f, 0.0f, 0.0f};
     hash_int_to_float(k3, d == 2 ? 3 : d, f);
     out[0] = f[0]; out[1] = f[1]; out[2] = f[2];
 }

@@ -85,8 +85,8 @@ INLINE void voronoi_cell_point(const int *cell, const float *cell_f, const int *
         point[0] = o + hash_float(cell_f[0] + o) * randomness;
         return;
     }
-    int k[4];
-    float h[4];
+    int k[4] = {0};
+    float h[4] = {0.0f};
     for (int j = 0; j < d; j++) k[j] = cell[j] + offset[j];
     hash_int_to_float(k, d, h);
     for (int j = 0; j < d; j++) point[j] = (float)offset[j] + h[j] * randomness;
@@ -100,7 +100,7 @@ INLINE void voronoi_cell_color(const int *cell, const float *cell_f, const int *
         color[0] = hash_float(x); color[1] = hash_float2(x, 1.0f); color[2] = hash_float2(x, 2.0f);
         return;
     }
-    int k[4];
+    int k[4] = {0};
     for (int j = 0; j < d; j++) k[j] = cell[j] + offset[j];
     hash_int_to_float3(k, d, color);
 }
@@ -111,8 +111,8 @@ typedef struct VoronoiOctave { float distance, color[3], position[4]; } VoronoiO
 /* voronoi.py f1 */
 INLINE void voronoi_f1(const float *coord, int d, const VoronoiParams *P, VoronoiOctave *out)
 {
-    int cell[4], offset[4], target[4] = {0, 0, 0, 0};
-    float cell_f[4], local[4], point[4], position[4] = {0, 0, 0, 0}, best = FLT_MAX;
+    int cell[4] = {0}, offset[4] = {0}, target[4] = {0, 0, 0, 0};
+    float cell_f[4] = {0.0f}, local[4] = {0.0f}, point[4] = {0.0f}, position[4] = {0, 0, 0, 0}, best = FLT_MAX;
     voronoi_split(coord, d, cell, cell_f, local);
     int count = d == 1 ? 3 : d == 2 ? 9 : d == 3 ? 27 : 81;
     for (int index = 0; index < count; index++) {
@@ -132,8 +132,9 @@ INLINE void voronoi_f1(const float *coord, int d, const VoronoiParams *P, Vorono
 /* voronoi.py f2 */
 INLINE void voronoi_f2(const float *coord, int d, const VoronoiParams *P, VoronoiOctave *out)
 {
-    int cell[4], offset[4], o1[4] = {0, 0, 0, 0}, o2[4] = {0, 0, 0, 0};
-    float cell_f[4], local[4], point[4], p1[4] = {0, 0, 0, 0}, p2[4] = {0, 0, 0, 0}, d1 = FLT_MAX, d2 = FLT_MAX;
+    int cell[4] = {0}, offset[4] = {0}, o1[4] = {0, 0, 0, 0}, o2[4] = {0, 0, 0, 0};
+    float cell_f[4] = {0.0f}, local[4] = {0.0f}, point[4] = {0.0f};
+    float p1[4] = {0, 0, 0, 0}, p2[4] = {0, 0, 0, 0}, d1 = FLT_MAX, d2 = FLT_MAX;
     voronoi_split(coord, d, cell, cell_f, local);
     int count = d == 1 ? 3 : d == 2 ? 9 : d == 3 ? 27 : 81;
     for (int index = 0; index < count; index++) {
@@ -159,8 +160,8 @@ INLINE float voronoi_smoothstep(float x) { return x < 0.0f ? 0.0f : (x >= 1.0f ?
 /* voronoi.py smooth_f1 */
 INLINE void voronoi_smooth_f1(const float *coord, int d, const VoronoiParams *P, VoronoiOctave *out)
 {
-    int cell[4], offset[4];
-    float cell_f[4], local[4], point[4], color[3];
+    int cell[4] = {0}, offset[4] = {0};
+    float cell_f[4] = {0.0f}, local[4] = {0.0f}, point[4] = {0.0f}, color[3] = {0.0f};
     float sd = 0.0f, sc[3] = {0, 0, 0}, sp[4] = {0, 0, 0, 0}, h = -1.0f, s = P->smoothness;
     voronoi_split(coord, d, cell, cell_f, local);
     int count = d == 1 ? 5 : d == 2 ? 25 : d == 3 ? 125 : 625;
@@ -184,8 +185,9 @@ INLINE void voronoi_smooth_f1(const float *coord, int d, const VoronoiParams *P,
 /* voronoi.py distance_to_edge */
 INLINE float voronoi_distance_to_edge(const float *coord, int d, float randomness)
 {
-    int cell[4], offset[4];
-    float cell_f[4], local[4], point[4], to_point[4], closest[4] = {0, 0, 0, 0}, best = FLT_MAX;
+    int cell[4] = {0}, offset[4] = {0};
+    float cell_f[4] = {0.0f}, local[4] = {0.0f}, point[4] = {0.0f}, to_point[4] = {0.0f};
+    float closest[4] = {0, 0, 0, 0}, best = FLT_MAX;
     voronoi_split(coord, d, cell, cell_f, local);
     if (d == 1) {
         float x = local[0], mid = hash_float(cell_f[0]) * randomness;
@@ -206,7 +208,7 @@ INLINE float voronoi_distance_to_edge(const float *coord, int d, float randomnes
     for (int index = 0; index < count; index++) {
         voronoi_offset(index, d, 1, offset);
         voronoi_cell_point(cell, cell_f, offset, d, randomness, point);
-        float across[4], unit[4], middle[4];
+        float across[4] = {0.0f}, unit[4] = {0.0f}, middle[4] = {0.0f};
         for (int k = 0; k < d; k++) { to_point[k] = point[k] - local[k]; across[k] = to_point[k] - closest[k]; }
         if (voronoi_dot(across, across, d) > 0.0001f) {
             float length = sqrtf(voronoi_dot(across, across, d)), inverse = 1.0f / length;
@@ -224,8 +226,9 @@ INLINE float voronoi_distance_to_edge(const float *coord, int d, float randomnes
 /* voronoi.py n_sphere_radius */
 INLINE float voronoi_n_sphere_radius(const float *coord, int d, float randomness)
 {
-    int cell[4], offset[4], closest_offset[4] = {0, 0, 0, 0};
-    float cell_f[4], local[4], point[4], gap[4], closest[4] = {0, 0, 0, 0}, other[4] = {0, 0, 0, 0}, best = FLT_MAX;
+    int cell[4] = {0}, offset[4] = {0}, closest_offset[4] = {0, 0, 0, 0};
+    float cell_f[4] = {0.0f}, local[4] = {0.0f}, point[4] = {0.0f}, gap[4] = {0.0f};
+    float closest[4] = {0, 0, 0, 0}, other[4] = {0, 0, 0, 0}, best = FLT_MAX;
     voronoi_split(coord, d, cell, cell_f, local);
     int count = d == 1 ? 3 : d == 2 ? 9 : d == 3 ? 27 : 81;
     for (int index = 0; index < count; index++) {
@@ -241,7 +244,7 @@ INLINE float voronoi_n_sphere_radius(const float *coord, int d, float randomness
     best = FLT_MAX;
     for (int index = 0; index < count; index++) {
         voronoi_offset(index, d, 1, offset);
-        int any = 0, moved[4];
+        int any = 0, moved[4] = {0};
         for (int k = 0; k < d; k++) { any |= offset[k] != 0; moved[k] = closest_offset[k] + offset[k]; }
         if (!any) continue;
         voronoi_cell_point(cell, cell_f, moved, d, randomness, point);
@@ -257,7 +260,7 @@ INLINE float voronoi_n_sphere_radius(const float *coord, int d, float randomness
 /* voronoi.py fractal */
 INLINE void voronoi_fractal(const float *coord, int d, const VoronoiParams *P, VoronoiOctave *out)
 {
-    float amplitude = 1.0f, max_amplitude = 0.0f, scale = 1.0f, p[4], moved[4], inverse;
+    float amplitude = 1.0f, max_amplitude = 0.0f, scale = 1.0f, p[4] = {0.0f}, moved[4] = {0.0f}, inverse;
     int zero_input = P->detail == 0.0f || P->roughness == 0.0f;
     out->distance = 0.0f;
     for (int k = 0; k < 3; k++) out->color[k] = 0.0f;
@@ -307,7 +310,7 @@ INLINE void voronoi_fractal(const float *coord, int d, const VoronoiParams *P, V
 /* voronoi.py fractal_distance_to_edge */
 INLINE float voronoi_fractal_distance_to_edge(const float *coord, int d, const VoronoiParams *P)
 {
-    float amplitude = 1.0f, max_amplitude = P->max_distance, scale = 1.0f, distance = 8.0f, p[4];
+    float amplitude = 1.0f, max_amplitude = P->max_distance, scale = 1.0f, distance = 8.0f, p[4] = {0.0f};
     int zero_input = P->detail == 0.0f || P->roughness == 0.0f;
     for (int i = 0; i <= ceilf(P->detail); i++) {
         for (int k = 0; k < d; k++) p[k] = coord[k] * scale;
@@ -347,7 +350,7 @@ NOINLINE static void voronoi_texture(const int *a, double *reg)
     P.roughness = P.roughness < 0.0f ? 0.0f : (P.roughness > 1.0f ? 1.0f : P.roughness);
     P.randomness = P.randomness < 0.0f ? 0.0f : (P.randomness > 1.0f ? 1.0f : P.randomness);
     P.smoothness = P.smoothness < 0.0f ? 0.0f : (P.smoothness > 0.5f ? 0.5f : P.smoothness);
-    float coord[4], v[3], w = (float)reg[a[2]] * P.scale;
+    float coord[4] = {0.0f}, v[3] = {0.0f}, w = (float)reg[a[2]] * P.scale;
     for (int k = 0; k < 3; k++) v[k] = (float)reg[a[1] + k] * P.scale;
     if (d == 1) coord[0] = w;
     else { for (int k = 0; k < d && k < 3; k++) coord[k] = v[k]; if (d == 4) coord[3] = w; }
