@@ -23,6 +23,7 @@ from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
 from ..core.materials.graph import GraphNode, Link
+from ..core.materials.procedural import TEXTURE_BY_BLENDER, TEXTURE_BY_KIND
 from . import unmodelled
 
 # Principled BSDF sockets -> core/materials/nodes.py PRINCIPLED_INPUTS.
@@ -152,9 +153,10 @@ GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", 
                "ShaderNodeSeparateColor": "SEPARATE_COLOR", "ShaderNodeSeparateRGB": "SEPARATE_COLOR",
                "ShaderNodeSeparateXYZ": "SEPARATE_XYZ", "ShaderNodeCombineColor": "COMBINE_COLOR",
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
-               "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT"}
+               "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
+               **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # Legacy socket names -> the core's.
-RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac"}
+RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac", "Factor": "Fac"}
 # Colour spaces whose numbers are used as they are (no decoding); sRGB is decoded after lookup.
 LINEAR_SPACES = {"Non-Color", "Linear Rec.709", "Linear", "Raw", "Linear CIE-XYZ E", "Linear CIE-XYZ D65",
                  "Linear Rec.2020", "Linear FilmLight E-Gamut", "Generic Data", "Scene Linear"}
@@ -335,12 +337,44 @@ class GraphReader:
         elif kind == "CLAMP":
             props = {"clamp_type": node.clamp_type}
             inputs = self.inputs(node, path, ["Value", "Min", "Max"])
+        elif kind in TEXTURE_BY_KIND:
+            props, inputs = self.texture(node, path, TEXTURE_BY_KIND[kind], warn)
         elif kind == "MAP_RANGE":
             if node.data_type != "FLOAT":
                 warn("only the Float Map Range is supported; Primer maps the vector's average")
             props = {"interpolation_type": node.interpolation_type, "clamp": bool(node.clamp)}
             inputs = self.inputs(node, path, ["Value", "From Min", "From Max", "To Min", "To Max", "Steps"])
         return GraphNode(kind, props, inputs, node.name)
+
+    def texture(self, node, path: tuple, texture, warn) -> tuple:
+        """A procedural texture's settings and inputs (core/materials/procedural): each setting from the bpy
+        attribute its class names, the inputs by name (an unlinked Vector left out: the class's texture coordinate);
+        a warning for a Texture Mapping other than the identity, which Primer does not apply, and where this
+        Blender's Cycles computes the texture otherwise than Cycles 5.0 (`differs_in`)."""
+        props = {name: getattr(node, attribute) for name, (attribute, _, _) in texture.settings.items()}
+        for name, (attribute, choices, default) in texture.settings.items():
+            if choices is not None and props[name] not in choices:
+                warn(f"{attribute} {props[name]} is not supported; Primer uses {default}")
+                props[name] = default
+        inputs = self.inputs(node, path, [name for name, _, _ in texture.inputs])
+        for name, _, default in texture.inputs:
+            if isinstance(default, str) and name in inputs and not isinstance(inputs[name], Link):
+                del inputs[name]
+        note = texture.differs_in(props, tuple(bpy.app.version))
+        if note is not None:
+            warn(note)
+        mapping = getattr(node, "texture_mapping", None)
+        if mapping is not None and not _identity_mapping(mapping):
+            warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
+        return props, inputs
+
+
+def _identity_mapping(mapping) -> bool:
+    """Whether a texture node's TexMapping changes nothing (Cycles' TextureMapping::skip)."""
+    return (tuple(mapping.translation) == (0.0, 0.0, 0.0) and tuple(mapping.rotation) == (0.0, 0.0, 0.0)
+            and tuple(mapping.scale) == (1.0, 1.0, 1.0)
+            and (mapping.mapping_x, mapping.mapping_y, mapping.mapping_z) == ("X", "Y", "Z")
+            and not mapping.use_min and not mapping.use_max)
 
 
 def _shown(socket) -> str:

@@ -10,6 +10,8 @@ schema.py). From those this script writes:
   the C function that does the work;
 - core/materials/bsdfs.gen.c: each BSDF's C file, and bsdf_eval / bsdf_sample / bsdf_albedo switching on a closure's kind;
 - core/materials/nodes.gen.c: setup_node switching on a shader node's kind;
+- core/materials/procedural/procedural.gen.c: the textures' shared headers and C files, and procedural_op switching
+  on a texture's op code;
 - core/lights/lights.gen.c: each light's C file, and sample_light / light_hit switching on a light's kind.
 
 Usage: python tools/make_boundary.py [--check]   (--check: exit 1, naming the files, when one is out of date)
@@ -213,6 +215,22 @@ def node_table() -> str:
             + "    default: return;\n    }\n}\n")
 
 
+def procedural_table() -> str:
+    """core/materials/procedural/procedural.gen.c: the shared headers, every texture's C file, and the switch on a
+    texture's op code."""
+    from core.materials.procedural import SHARED_C, TEXTURE_TYPES
+    includes = "".join(f'#include "{name}"\n' for name in SHARED_C)
+    includes += "".join(f'#include "{cls.c_name}.c"\n' for cls in TEXTURE_TYPES)
+    cases = "".join(f"    case OP_{c_identifier(cls.kind)}: {cls.c_name}_texture(a, reg); return 1;\n"
+                    for cls in TEXTURE_TYPES)
+    return (NOTICE.format(source="core/materials/procedural/__init__.py TEXTURE_TYPES")
+            + "\n/* The shared hashes and noise, and each texture's C file (its <c_name>_texture). */\n" + includes
+            + "\n/* A texture's op at one hit (graph.run_program's ops past its own): a[0] the output block, then the\n"
+              " * input registers and the numbers, as the class describes them. 0 for an op code that is no texture's. */\n"
+              "INLINE int procedural_op(int code, const int *a, double *reg)\n"
+              "{\n    switch (code) {\n" + cases + "    default: return 0;\n    }\n}\n")
+
+
 def light_table() -> str:
     """core/lights/lights.gen.c: every light's C file, and the switches on a light's kind."""
     from core.lights import LIGHT_TYPES
@@ -244,6 +262,7 @@ def generated() -> dict:
         "core/native/exports.gen.c": exports(),
         "core/materials/bsdfs.gen.c": bsdf_table(),
         "core/materials/nodes.gen.c": node_table(),
+        "core/materials/procedural/procedural.gen.c": procedural_table(),
         "core/lights/lights.gen.c": light_table(),
     }
 

@@ -18,6 +18,7 @@
 #include "../materials/thin_film.c"
 #include "../materials/bsdf.c"          /* every BSDF's C file, through the generated table bsdfs.gen.c */
 #include "../materials/textures.c"
+#include "../materials/procedural/procedural.gen.c"   /* the procedural textures' C files (tools/make_boundary.py) */
 #include "../materials/graph.c"
 #include "../materials/nodes.c"
 #include "../film/film.c"
