@@ -19,7 +19,7 @@ import os
 import numpy as np
 import pytest
 
-from blender_env import ROOT, notes, run_bpy
+from blender_env import ROOT, run_bpy
 
 pytestmark = pytest.mark.blender
 
@@ -163,9 +163,9 @@ def test_procedural_textures_render_cycles_values_pixel_for_pixel(tmp_path):
     Noise within float32 rounding), and the export warns of nothing but the pixel filter, until a node's Texture
     Mapping is changed."""
     result = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), pixels=PIXELS, columns=COLUMNS), str(tmp_path))
-    assert notes(result["warnings"]) == []
+    assert result["warnings"] == []
     # A node's own Texture Mapping is not applied: said, naming material and node.
-    assert notes(result["mapped"]) == ["material 'Checker', node 'Checker Texture': its Texture Mapping (node "
+    assert result["mapped"] == ["material 'Checker', node 'Checker Texture': its Texture Mapping (node "
                                        "properties) is not applied; Primer maps the vector as it comes"]
     primer, cycles = np.load(tmp_path / "primer.npy"), np.load(tmp_path / "cycles.npy")
     assert primer.shape == cycles.shape
