@@ -183,6 +183,7 @@ scene.primer.integrator = {integrator!r}
 scene.primer.light_samples = 1
 scene.primer.terminator_fix = True          # Cycles lifts smooth shadow rays by each object's offset (0.1)
 scene.primer.use_adaptive_sampling = False
+scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0   # Primer reads it; Cycles' reference has it
 render.engine = "PRIMER"
 bpy.ops.wm.save_as_mainfile(filepath={out!r}, copy=True)
 print("RIG " + ", ".join(notes))
