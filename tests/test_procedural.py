@@ -78,8 +78,6 @@ def test_the_hashes_are_lookup3_of_the_words_with_cycles_initial_value():
         got = function(*(words[:, k] for k in range(count)))
         expected = [final_of(count, [int(w) for w in row[:count]]) for row in words]
         np.testing.assert_array_equal(got, np.array(expected, np.uint32))
-    from core.materials.graph import hash_uint2
-    assert int(hash_.hash_uint2(12345, 678)) == hash_uint2(12345, 678)
 
 
 def final_of(count: int, words: list) -> int:

@@ -32,6 +32,7 @@ from ..native import library, schema
 from ..native.schema import F64, I64, ptr
 from . import textures as textures_
 from .procedural import TEXTURE_BY_KIND, TEXTURE_TYPES
+from .procedural import hash as hash_
 
 # Op codes (graph.c's OP_*), and the width of one op's record: the code and up to OP_ARGS arguments. The
 # procedural textures' ops (core/materials/procedural TEXTURE_TYPES, one per class) follow graph.c's own.
@@ -125,29 +126,12 @@ def object_random(name: str) -> float:
     for byte in name.encode("utf-8"):
         c = byte - 256 if byte > 127 else byte           # C's signed char, widened to uint
         h = (h * 37 + c) & 0xFFFFFFFF
-    return random_from_id(hash_uint2(h, 0))
+    return random_from_id(int(hash_.hash_uint2(h, 0)))
 
 
 def random_from_id(random_id: int) -> float:
     """Cycles' object random number from a 32-bit random id: float(id) x (1 / 0xFFFFFFFF), in float32."""
     return float(np.float32(np.float32(random_id & 0xFFFFFFFF) * np.float32(1.0 / 0xFFFFFFFF)))
-
-
-def hash_uint2(kx: int, ky: int) -> int:
-    """Bob Jenkins' lookup3 final mix of two 32-bit words (Cycles' hash_uint2)."""
-    M = 0xFFFFFFFF
-    rot = lambda x, k: ((x << k) | (x >> (32 - k))) & M          # noqa: E731
-    a = b = c = (0xDEADBEEF + (2 << 2) + 13) & M
-    b = (b + ky) & M
-    a = (a + kx) & M
-    c ^= b; c = (c - rot(b, 14)) & M
-    a ^= c; a = (a - rot(c, 11)) & M
-    b ^= a; b = (b - rot(a, 25)) & M
-    c ^= b; c = (c - rot(b, 16)) & M
-    a ^= c; a = (a - rot(c, 4)) & M
-    b ^= a; b = (b - rot(a, 14)) & M
-    c ^= b; c = (c - rot(b, 24)) & M
-    return c
 
 
 class Program(NamedTuple):
