@@ -211,7 +211,7 @@ class DataPasses:
     """Each camera ray's first-hit passes as its path writes them (module docstring).
 
     values: (n, layout.channels) float64 its sums; done: (n,) bool its chain met its opaque-enough vertex; first:
-    (n,) bool it is sample 0 of its pixel; mattes: its Cryptomatte entries as (owner (k,) int64, vertex int, ids
+    (n,) bool it is sample 0 of its pixel; object_index, material_index: the scene's Pass Indices (read once); mattes: its Cryptomatte entries as (owner (k,) int64, vertex int, ids
     (k, kinds) float64, weight (k,) float64) tuples, in the order the path met them.
     """
 
@@ -224,6 +224,7 @@ class DataPasses:
         self.first = np.asarray(sample) == 0
         self.mattes = []
         self.ids = (ctx.extra.get("crypto_ids") or cryptomatte.id_tables(ctx.scene)) if layout.mattes else None
+        self.object_index, self.material_index = object_indices(ctx.scene), material_indices(ctx.scene)
 
     @classmethod
     def of(cls, ctx, sample: np.ndarray):
@@ -262,9 +263,9 @@ def at_vertex(ctx, dp: DataPasses, rows: np.ndarray, owner: np.ndarray, vertex: 
     first = np.flatnonzero(open_ & dp.first[at])
     if len(first):
         dp.set("position", at[first], I[first] + geometry.origin)
-        indices = object_indices(ctx.scene)
+        indices = dp.object_index
         dp.set("object_index", at[first], indices[np.clip(instance[first], 0, len(indices) - 1)][:, None])
-        indices = material_indices(ctx.scene)
+        indices = dp.material_index
         dp.set("material_index", at[first], indices[np.clip(material[first], 0, len(indices) - 1)][:, None])
         dp.set("z_depth", at[first], ((I[first] + ctx.extra["camera_offset"]) @ ctx.extra["forward"])[:, None])
     # 2. The opaque-enough vertex: the normal and UV, summed over samples; the chain's data passes are done.
