@@ -35,7 +35,7 @@ PYTEST_JOBS ?= 2
 # tests/conftest.py's pytest_xdist_make_scheduler keeps the tests that write into the checkout on one worker.
 XDIST := $(if $(filter-out 0 1,$(PYTEST_JOBS)),-n $(PYTEST_JOBS))
 
-.PHONY: demo test test-setup test-run venv venv42 venv52 kernels platforms extension scenes references clean
+.PHONY: demo test test-setup test-run venv venv42 venv52 kernels platforms platforms-check extension scenes references clean
 
 # Create a virtual environment $(1) with Python $(2) and install the pinned dependencies $(3) (once, or
 # when they change).
@@ -101,6 +101,11 @@ scenes: venv42
 platforms: $(VENV)/.platforms-installed
 	$(PY) tools/build_kernels.py --all-platforms
 
+# The same five unoptimised (-O0, into dist/kernels-check/): what the tests check (format, exports, loading), built
+# in a fifth of the time.
+platforms-check: $(VENV)/.platforms-installed
+	$(PY) tools/build_kernels.py --all-platforms --check
+
 # Build dist/primer-<version>.zip, the Blender extension, with embreex wheels and kernels for every platform.
 extension: venv $(VENV)/.platforms-installed
 	$(PY) tools/build_extension.py
@@ -110,14 +115,14 @@ extension: venv $(VENV)/.platforms-installed
 # personal Blender setup (preferences, installed extensions) cannot change the results; tests that install
 # Primer use their own (tests/blender_env.py).
 # First the set-up, up to three jobs at once: the environments, this machine's kernels (GCC, one core) and every
-# platform's (Zig, two at a time), so that no test waits for a compiler; then the three runs, the two large ones on
-# both cores (pytest-xdist); last, the whole suite's time.
+# platform's (Zig, two at a time, unoptimised: `make platforms-check`), so that no test waits for a compiler; then
+# the three runs, the two large ones on both cores (pytest-xdist); last, the whole suite's time.
 test:
 	@start=$$(date +%s); \
 	$(MAKE) --no-print-directory -j3 test-setup && $(MAKE) --no-print-directory test-run; status=$$?; \
 	took=$$(( $$(date +%s) - start )); echo "make test: $$((took / 60))m$$((took % 60))s"; exit $$status
 
-test-setup: venv venv42 venv52 kernels platforms
+test-setup: venv venv42 venv52 kernels platforms-check
 
 test-run:
 	rm -rf $(BLENDER_USER) && mkdir -p $(BLENDER_USER)

@@ -1,7 +1,8 @@
 """Primer as a user gets it: the extension zip of `make extension`, installed into real Blender (bpy).
 
 The zip is built once per session by tools/build_extension.py (its embreex wheels are cached in
-dist/wheels/, so only the first build downloads). Each Blender test runs in its own process with
+dist/wheels/, so only the first build downloads), with the unoptimised kernels the tests build quickly
+(`--check-kernels`, into dist/check/): the same sources and files as `make extension`'s zip, compiled at -O0. Each Blender test runs in its own process with
 empty user folders (tests/blender_env.py): it installs the zip the way Blender's "Install from Disk"
 does, with bpy.ops.extensions.package_install_files, and never imports Primer from this checkout.
 """
@@ -24,12 +25,12 @@ MODULE = "bl_ext.user_default.primer"      # where Blender imports an extension 
 
 @pytest.fixture(scope="session")
 def extension_zip() -> str:
-    """Build dist/primer-<version>.zip with tools/build_extension.py (wheels from the cache) and return its path."""
-    completed = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "build_extension.py")],
+    """Build the tests' zip, dist/check/primer-<version>.zip, with tools/build_extension.py (wheels from the cache,
+    the unoptimised check kernels) and return its path."""
+    completed = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "build_extension.py"), "--check-kernels"],
                                capture_output=True, text=True, timeout=1800)
     assert completed.returncode == 0, completed.stdout + completed.stderr
-    manifest = build_extension.read_manifest()
-    path = os.path.join(ROOT, "dist", f"{manifest['id']}-{manifest['version']}.zip")
+    path = build_extension.output_zip(check_kernels=True)
     assert os.path.isfile(path)
     return path
 

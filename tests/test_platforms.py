@@ -45,11 +45,11 @@ def c_exports() -> set:
 
 @pytest.fixture(scope="module")
 def libraries() -> dict:
-    """The kernels of every platform the extension zip ships (dist/kernels/, built where older than a C file, as
-    `make extension` builds them): {platform: path}."""
+    """The kernels of every platform the extension zip ships, as the test suite builds them: unoptimised, into
+    dist/kernels-check/ (where older than a C file; `make test` builds them first): {platform: path}."""
     if not HAS_ZIG:
         pytest.skip("ziglang is not installed (pip install -r requirements-platforms.txt)")
-    return build_kernels.cross_build()
+    return build_kernels.cross_build(build_kernels.CHECK_FOLDER, check=True)
 
 
 def test_the_python_side_declares_the_functions_the_c_side_exports():

@@ -1,7 +1,7 @@
 """Build Primer's Blender extension: dist/primer-<version>.zip, with embreex wheels and compiled kernels for every platform.
 
 Usage:
-    .venv/bin/python tools/build_extension.py [--dist dist] [--offline] [--blender-ext PATH]
+    .venv/bin/python tools/build_extension.py [--dist dist] [--offline] [--blender-ext PATH] [--check-kernels]
 
 Steps:
 1. Download the embreex wheels (the version pinned in requirements.txt) for each Blender platform and
@@ -15,6 +15,10 @@ Steps:
 4. Build the zip with Blender's own extension builder (`blender_ext.py build`, shipped inside the bpy
    module), which applies the manifest's [build] paths_exclude_pattern, then check it with
    `blender_ext.py validate` and with a listing check of its own.
+
+With --check-kernels the zip is the test suite's (tests/test_extension.py): its kernels are the unoptimised check
+builds of dist/kernels-check/ (quick to compile, slow to render), and it is written to dist/check/, never where a
+release zip goes.
 
 Only embreex is bundled: numpy comes with Blender, and OpenImageIO (used by core/film/image_io.py, never by
 the add-on) is Blender's own copy when anything inside Blender needs it.
@@ -223,10 +227,18 @@ def check_contents(zip_path: str, wheel_paths: list, kernels: list = ()) -> list
     return names
 
 
-def build(dist: str = os.path.join(ROOT, "dist"), offline: bool = False, blender_ext: str | None = None) -> str:
-    """Build and validate dist/<id>-<version>.zip; return its path."""
+def output_zip(dist: str = os.path.join(ROOT, "dist"), check_kernels: bool = False) -> str:
+    """Return where `build` writes the zip: dist/<id>-<version>.zip, or dist/check/... for the tests' zip."""
     manifest = read_manifest()
-    zip_path = os.path.join(dist, f"{manifest['id']}-{manifest['version']}.zip")
+    return os.path.join(dist, "check" if check_kernels else "", f"{manifest['id']}-{manifest['version']}.zip")
+
+
+def build(dist: str = os.path.join(ROOT, "dist"), offline: bool = False, blender_ext: str | None = None,
+          check_kernels: bool = False) -> str:
+    """Build and validate the zip (with the tests' unoptimised kernels if `check_kernels`); return its path."""
+    manifest = read_manifest()
+    zip_path = output_zip(dist, check_kernels)
+    os.makedirs(os.path.dirname(zip_path), exist_ok=True)
     tool = find_blender_ext(blender_ext)
     print(f"embreex wheels (cache {os.path.relpath(os.path.join(dist, 'wheels'), ROOT)}):")
     wheels_by_platform, missing = collect_wheels(os.path.join(dist, "wheels"), offline)
@@ -235,7 +247,8 @@ def build(dist: str = os.path.join(ROOT, "dist"), offline: bool = False, blender
     if not wheels_by_platform:
         raise BuildError("no embreex wheel at all" + (" in the cache (--offline)" if offline else ""))
     try:
-        kernels = build_kernels.cross_build(os.path.join(dist, "kernels"))
+        kernels = build_kernels.cross_build(os.path.join(dist, "kernels-check" if check_kernels else "kernels"),
+                                            check=check_kernels)
     except build_kernels.ToolchainError as error:
         raise BuildError(str(error)) from error
     for platform, library in kernels.items():
@@ -261,9 +274,11 @@ def main(argv=None) -> int:
     parser.add_argument("--offline", action="store_true", help="use cached wheels only, never download")
     parser.add_argument("--blender-ext", default=os.environ.get("BLENDER_EXT"),
                         help="path of Blender's blender_ext.py (default: the one inside the installed bpy)")
+    parser.add_argument("--check-kernels", action="store_true",
+                        help="the tests' zip: unoptimised kernels (quick to build), written to dist/check/")
     args = parser.parse_args(argv)
     try:
-        build(os.path.abspath(args.dist), args.offline, args.blender_ext)
+        build(os.path.abspath(args.dist), args.offline, args.blender_ext, args.check_kernels)
     except BuildError as error:
         print(f"build failed: {error}", file=sys.stderr)
         return 1
