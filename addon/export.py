@@ -16,7 +16,7 @@ import numpy as np
 from ..core import scene as core_scene
 from ..core.camera import Camera
 from ..core.camera.camera import PANORAMA_TYPES
-from ..core.lights import World
+from ..core.lights import World, world_graph
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
@@ -526,12 +526,41 @@ def export_world(world, warnings: list) -> World:
             # (a NaN or infinite strength or colour: core/lights/world.py finite_world reads it as Cycles renders it)
             color = materials_.own_value(node.inputs["Color"]) * materials_.own_value(node.inputs["Strength"])
         else:
-            warnings.append("the world shader is not a plain Background colour or an Environment Texture; Primer "
-                            "uses the world's viewport colour")
+            baked = _baked_world(world, node, warnings)
+            if isinstance(baked, np.ndarray) and baked.ndim == 3:
+                return World(color=np.zeros(3), image=baked, strength=1.0, camera=camera, lights=diffuse)
+            color = color if baked is None else baked
     if (color < 0.0).any():
         warnings.append(NEGATIVE_WORLD.format(float(color.min())))
         color = np.maximum(color, 0.0)
     return World(color=color, camera=camera, lights=diffuse)
+
+
+def _baked_world(world, node, warnings: list):
+    """The world's Background (or Emission) with linked inputs, evaluated as Cycles does: its colour (3,) where it
+    does not vary with the direction, else its radiance baked into an equirectangular image (H, W, 3) float32
+    (core/lights/world_graph.py); None, with a warning, for a world shader Primer does not read."""
+    if node.bl_idname not in ("ShaderNodeBackground", "ShaderNodeEmission"):
+        warnings.append(f"the world shader is a '{node.bl_label}' node, not a Background; Primer uses the world's "
+                        "viewport colour")
+        return None
+    reader = materials_.NodeReader(world, warnings, kind="world")
+    color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
+    links = [value for value in (color, strength) if isinstance(value, graph_.Link)]
+    if not links:
+        return np.asarray(color, np.float64)[:3] * float(strength)
+    nodes = [(None, 1.0, {"color": color, "strength": strength})]
+    if any(link.node.kind == "LIGHT_PATH" for link in graph_.links_under(nodes)):
+        warnings.append("the world's node graph reads a Light Path node; Primer evaluates it for the rays that light "
+                        "the scene (Is Camera Ray 0), and the camera sees that world too")
+    baked = world_graph.bake(color, strength)
+    flat = baked.reshape(-1, 3)
+    if np.isfinite(flat).all() and (flat == flat[0]).all():
+        return flat[0].astype(np.float64)           # the same everywhere: a constant world, not sampled as a light
+    if (flat < 0.0).any():
+        warnings.append(NEGATIVE_WORLD.format(float(np.nanmin(flat))))
+        baked = np.maximum(baked, np.float32(0.0))
+    return baked
 
 
 # What Cycles shows for an image it cannot read (core/materials/textures.py MISSING): magenta.

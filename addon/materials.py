@@ -154,6 +154,7 @@ GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", 
                "ShaderNodeSeparateXYZ": "SEPARATE_XYZ", "ShaderNodeCombineColor": "COMBINE_COLOR",
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
+               "ShaderNodeTexEnvironment": "ENVIRONMENT",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # Legacy socket names -> the core's.
 RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac", "Factor": "Fac"}
@@ -254,6 +255,17 @@ class GraphReader:
             inputs = self.inputs(node, path, ["Vector"])
             if not node.inputs["Vector"].is_linked:
                 inputs = {}
+        elif kind == "ENVIRONMENT":
+            if self.reader.kind != "world":
+                warn("an Environment Texture is evaluated in world shaders only; Primer uses the input's own value")
+                return None
+            if node.projection != "EQUIRECTANGULAR":
+                warn(f"projection {node.projection} is not supported; Primer reads the image as equirectangular")
+            props = {"image": load_image(node.image, self.reader, node), "interpolation": node.interpolation}
+            inputs = self.inputs(node, path, ["Vector"]) if node.inputs["Vector"].is_linked else {}
+            mapping = getattr(node, "texture_mapping", None)
+            if mapping is not None and not _identity_mapping(mapping):
+                warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
         elif kind == "TEXCOORD":
             pass
         elif kind == "UVMAP":

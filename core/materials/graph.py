@@ -102,7 +102,7 @@ NODE_OUTPUTS = {
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "OBJECT_INFO": {"Random": (1, "float")},
     "LIGHT_PATH": {"Is Camera Ray": (1, "float"), "Is Shadow Ray": (1, "float")},
-    "IMAGE": {"Color": (3, "color"), "Alpha": (1, "float")},
+    "IMAGE": {"Color": (3, "color"), "Alpha": (1, "float")}, "ENVIRONMENT": {"Color": (3, "color"), "Alpha": (1, "float")},
     "MAPPING": {"Vector": (3, "vector")}, "NORMAL_MAP": {"Normal": (3, "vector")}, "BUMP": {"Normal": (3, "vector")},
     "MATH": {"Value": (1, "float")}, "MIX": {"Result": (3, "color")},
     "RAMP": {"Color": (3, "color"), "Alpha": (1, "float")}, "INVERT": {"Color": (3, "color")},
@@ -203,10 +203,11 @@ def links_under(nodes: list):
 
 
 def images_of(nodes: list) -> list:
-    """The textures.Image objects (or None for missing ones) of every IMAGE node under a material's links."""
+    """The textures.Image objects (or None for missing ones) of every image node (IMAGE, ENVIRONMENT) under a
+    material's links."""
     found, seen = [], set()
     for link in links_under(nodes):
-        if link.node.kind == "IMAGE" and id(link.node) not in seen:
+        if link.node.kind in ("IMAGE", "ENVIRONMENT") and id(link.node) not in seen:
             seen.add(id(link.node))
             found.append(link.node.props.get("image"))
     return found
@@ -369,6 +370,8 @@ class Compiler:
             self.emit("IMAGE", out, vector, index, textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0),
                       textures_.EXTENSIONS.get(props.get("extension", "REPEAT"), 0))
             return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
+        if kind == "ENVIRONMENT":
+            return self.environment(inp, props, output)
         if kind == "MAPPING":
             args = [self.value(inp.get(name), 3, default) for name, default in
                     (("Vector", 0.0), ("Location", 0.0), ("Rotation", 0.0), ("Scale", 1.0))]
@@ -482,6 +485,31 @@ class Compiler:
         if kind in TEXTURE_BY_KIND:
             return self.texture(TEXTURE_BY_KIND[kind], inp, props, output)
         raise ValueError(f"material '{self.material}': Primer cannot evaluate node kind {kind!r}")
+
+    def math(self, operation: str, a: int, b: int = None, c: int = None) -> int:
+        """A new register holding the Math node's `operation` of registers a, b, c (b, c default to a)."""
+        out = self.temporary(1)
+        b = a if b is None else b
+        self.emit("MATH", out, MATH_OPS.index(operation), a, b, b if c is None else c, 0)
+        return out
+
+    def environment(self, inp: dict, props: dict, output: str) -> tuple:
+        """Emit an equirectangular Environment Texture as Cycles looks it up: the direction (its Vector, else the
+        Generated coordinates: in a world, the ray's direction) to u = 1/2 - atan2(y, x) / 2 pi,
+        v = 1/2 + atan2(z, |(x, y)|) / pi, then the IMAGE op there; return (register, width, type) of `output`."""
+        d = self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link) else self.attribute("generated")
+        x, y, z = (shift(d, k) for k in range(3))
+        uv = self.temporary(3)
+        u = self.math("MULTIPLY_ADD", self.math("ARCTAN2", y, x), self.constant([-0.5 / np.pi]), self.constant([0.5]))
+        across = self.math("SQRT", self.math("MULTIPLY_ADD", y, y, self.math("MULTIPLY", x, x)))
+        v = self.math("MULTIPLY_ADD", self.math("ARCTAN2", z, across), self.constant([1.0 / np.pi]),
+                      self.constant([0.5]))
+        for k, register in enumerate((u, v, self.constant([0.0]))):
+            self.emit("COPY", shift(uv, k), register, 1)
+        out = self.temporary(4)
+        self.emit("IMAGE", out, uv, self.image_index(props.get("image")),
+                  textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0), textures_.EXTENSIONS["REPEAT"])
+        return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
 
     def texture(self, texture, inp: dict, props: dict, output: str) -> tuple:
         """Emit a procedural texture's op (core/materials/procedural): its input registers in the class's order (an

@@ -1,0 +1,185 @@
+"""A world made of shader nodes (core/lights/world_graph.py, addon/export.py `_baked_world`) against Cycles' render
+and closed forms: a sky from the Generated direction through Map Range and Color Ramp with a Noise Texture for its
+strength, an Environment Texture through Hue/Saturation multiplied by that sky, each seen by an equirectangular
+camera and lighting a Lambert floor; an RGB node into the Background is the constant world it is.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+
+import pytest
+
+from blender_env import ROOT, run_bpy
+
+pytestmark = pytest.mark.blender
+
+if importlib.util.find_spec("bpy") is None:
+    if os.environ.get("PRIMER_ALLOW_NO_BPY"):
+        pytest.skip("bpy (Blender as a Python module) is not installed", allow_module_level=True)
+    raise ImportError("tests/test_blender_world_nodes.py needs bpy (Blender as a Python module): pip install bpy")
+
+SCRIPT = """
+import sys, os
+import bpy
+import numpy as np
+from blender_env import report, render_pixels, diffuse_material
+sys.path.insert(0, {tools!r})
+from render import load_primer
+primer = load_primer()
+export = sys.modules[primer.__name__ + ".addon.export"]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+world = bpy.data.worlds.new("Sky")
+scene.world = world
+world.use_nodes = True
+tree = world.node_tree
+background = tree.nodes["Background"]
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+scene.camera = camera
+bpy.ops.mesh.primitive_plane_add(size=8.0)
+floor = bpy.context.view_layer.objects.active
+floor.data.materials.append(diffuse_material(albedo=(0.5, 0.5, 0.5)))
+
+
+def sky():
+    # Generated (in a world: the direction) -> Z -> Map Range from [-0.3, 1] -> an orange-to-blue Color Ramp.
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(coords.outputs["Generated"], separate.inputs["Vector"])
+    remap = tree.nodes.new("ShaderNodeMapRange")
+    remap.inputs["From Min"].default_value = -0.3
+    tree.links.new(separate.outputs["Z"], remap.inputs["Value"])
+    ramp = tree.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (1.0, 0.5, 0.2, 1.0)
+    ramp.color_ramp.elements[1].color = (0.2, 0.4, 1.0, 1.0)
+    tree.links.new(remap.outputs[0], ramp.inputs["Fac"])
+    return ramp.outputs["Color"]
+
+
+def clear():
+    for node in [n for n in tree.nodes if n not in (background, tree.nodes["World Output"])]:
+        tree.nodes.remove(node)
+    background.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    background.inputs["Strength"].default_value = 1.0
+
+
+def view(panorama):
+    # An equirectangular camera sees the whole sky (the floor hidden from it); a perspective one the lit floor.
+    floor.visible_camera = not panorama
+    if panorama:
+        camera.data.type, camera.data.panorama_type = "PANO", "EQUIRECTANGULAR"
+        camera.location, camera.rotation_euler = (0.0, 0.0, 0.0), (np.pi / 2, 0.0, 0.0)
+        scene.render.resolution_x, scene.render.resolution_y = 64, 32
+    else:
+        camera.data.type = "PERSP"
+        camera.location, camera.rotation_euler = (0.0, -6.0, 1.0), (np.radians(80.0), 0.0, 0.0)
+        scene.render.resolution_x, scene.render.resolution_y = 48, 32
+
+
+def render(name, panorama):
+    view(panorama)
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    for engine in ("PRIMER", "CYCLES"):
+        np.save(f"{{name}}_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 64)[..., :3])
+    return warnings
+
+
+results = {{}}
+noise = tree.nodes.new("ShaderNodeTexNoise")
+noise.inputs["Scale"].default_value = 3.0
+tree.links.new(sky(), background.inputs["Color"])
+tree.links.new(noise.outputs["Fac"], background.inputs["Strength"])
+results["noise sky seen"] = render("noise_sky_seen", True)
+results["noise sky lighting"] = render("noise_sky_lighting", False)
+
+clear()
+image = bpy.data.images.new("Grid", 64, 32, float_buffer=True)
+image.generated_type = "COLOR_GRID"
+environment = tree.nodes.new("ShaderNodeTexEnvironment")
+environment.image = image
+saturation = tree.nodes.new("ShaderNodeHueSaturation")
+saturation.inputs["Saturation"].default_value = 0.5
+tree.links.new(environment.outputs["Color"], saturation.inputs["Color"])
+multiply = tree.nodes.new("ShaderNodeMix")
+multiply.data_type, multiply.blend_type = "RGBA", "MULTIPLY"
+multiply.inputs["Factor"].default_value = 1.0
+tree.links.new(saturation.outputs["Color"], multiply.inputs["A"])
+tree.links.new(sky(), multiply.inputs["B"])
+tree.links.new(multiply.outputs["Result"], background.inputs["Color"])
+results["graded environment seen"] = render("graded_environment_seen", True)
+
+clear()
+rgb = tree.nodes.new("ShaderNodeRGB")
+rgb.outputs[0].default_value = (0.2, 0.6, 0.9, 1.0)
+tree.links.new(rgb.outputs[0], background.inputs["Color"])
+background.inputs["Strength"].default_value = 2.0
+view(False)
+exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+results["rgb"] = exported.warnings
+rgb_world = exported.scene.world
+np.save("rgb_primer.npy", render_pixels(scene, "PRIMER", os.path.abspath("out.exr"), 4)[..., :3])
+
+light_path = tree.nodes.new("ShaderNodeLightPath")
+tree.links.new(light_path.outputs["Is Camera Ray"], background.inputs["Strength"])
+results["light path"] = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+primer.unregister()
+report(warnings=results, rgb_color=list(map(float, rgb_world.color)), rgb_image=rgb_world.image is not None)
+"""
+
+
+def block_rel_mse(primer, cycles):
+    """The project's error measure: relative MSE of 4x4-pixel block means."""
+    h, w = primer.shape[0] // 4 * 4, primer.shape[1] // 4 * 4
+    blocks = lambda x: x[:h, :w].reshape(h // 4, 4, w // 4, 4, -1).mean(axis=(1, 3))     # noqa: E731
+    p, c = blocks(primer), blocks(cycles)
+    return float(((p - c) ** 2 / (c ** 2 + 0.01)).mean())
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    """The world variants rendered by Primer and Cycles (64 samples): (report, folder)."""
+    folder = tmp_path_factory.mktemp("world_nodes")
+    return run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools")), str(folder)), folder
+
+
+def noted(warnings):
+    """The warnings about the world (the scene's other notes, the Cycles settings', left out)."""
+    return [w for w in warnings if "world" in w]
+
+
+@pytest.mark.parametrize("name", ["noise_sky_seen", "noise_sky_lighting", "graded_environment_seen"])
+def test_a_world_node_graph_renders_as_cycles_seen_and_lighting_a_floor(rendered, name):
+    """The sky's colour and strength, and the graded environment, as the camera sees them and as they light a Lambert
+    floor: Cycles' image within noise (64 samples each; measured 2026-11-27 at 256 samples: 3.0e-6, 7.7e-7, 1.9e-5),
+    with nothing noted about the world; the viewport colour Primer used before is far off."""
+    import numpy as np
+    result, folder = rendered
+    primer, cycles = np.load(folder / f"{name}_primer.npy"), np.load(folder / f"{name}_cycles.npy")
+    assert cycles.std() > 0.02                              # the world varies across the image
+    error = block_rel_mse(primer, cycles)
+    print(name, "block relMSE", error)
+    assert error < 2e-4, error
+    assert abs(primer.mean() / cycles.mean() - 1.0) < 0.01
+    assert block_rel_mse(np.full_like(cycles, 0.05), cycles) > 0.1      # (what a grey viewport colour would score)
+    label = name.replace("_", " ")
+    assert noted(result["warnings"][label]) == [], result["warnings"][label]
+
+
+def test_an_rgb_node_into_the_background_is_a_constant_world_of_colour_times_strength(rendered):
+    """An RGB node (0.2, 0.6, 0.9) x Strength 2 is a constant world, not an image: a Lambert floor of albedo 0.5
+    under it, seeing nothing but sky, shows 0.5 L = (0.2, 0.6, 0.9) exactly."""
+    import numpy as np
+    result, folder = rendered
+    assert result["rgb_image"] is False
+    assert np.allclose(result["rgb_color"], [0.4, 1.2, 1.8])
+    assert noted(result["warnings"]["rgb"]) == []
+    floor = np.load(folder / "rgb_primer.npy")[:8]          # the floor's pixels (rows bottom first), below the horizon
+    assert np.allclose(floor, [0.2, 0.6, 0.9], rtol=2e-3), floor.reshape(-1, 3)[:3]
+
+
+def test_a_world_reading_light_path_is_reported(rendered):
+    """A Light Path node in the world is evaluated for lighting rays; the camera seeing it differently is said."""
+    result, _ = rendered
+    assert any("Light Path" in w for w in noted(result["warnings"]["light path"])), result["warnings"]["light path"]
