@@ -510,8 +510,8 @@ def export_world(world, warnings: list) -> World:
                        and n.target in {"ALL", "CYCLES"}), None)
         if output is None or not output.inputs["Surface"].is_linked:
             return World(color=np.zeros(3), camera=True, lights=False)
-        node = output.inputs["Surface"].links[0].from_node
-        environment = _environment(world, node, warnings)
+        node = materials_.linked_node(output)
+        environment = _environment(world, node, warnings) if node is not None else None
         if environment is not None:
             image, strength, rotation = environment
             if strength < 0.0:
@@ -521,6 +521,8 @@ def export_world(world, warnings: list) -> World:
                 return World(color=np.array(MISSING_RGB) * strength, camera=camera, lights=diffuse)
             return World(color=np.zeros(3), image=image, strength=strength, rotation=rotation, camera=camera,
                          lights=diffuse)
+        if node is None:
+            return World(color=np.zeros(3), camera=True, lights=False)
         if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
                 and not node.inputs["Strength"].is_linked:
             # (a NaN or infinite strength or colour: core/lights/world.py finite_world reads it as Cycles renders it)
@@ -537,23 +539,19 @@ def export_world(world, warnings: list) -> World:
 
 
 def _baked_world(world, node, warnings: list):
-    """The world's Background (or Emission) with linked inputs, evaluated as Cycles does: its colour (3,) where it
-    does not vary with the direction, else its radiance baked into an equirectangular image (H, W, 3) float32
+    """The world's shader with linked inputs, evaluated as Cycles does: its colour (3,) where it does not vary with
+    the direction, else its radiance baked into an equirectangular image (H, W, 3) float32
     (core/lights/world_graph.py); None, with a warning, for a world shader Primer does not read."""
-    if node.bl_idname not in ("ShaderNodeBackground", "ShaderNodeEmission"):
-        warnings.append(f"the world shader is a '{node.bl_label}' node, not a Background; Primer uses the world's "
-                        "viewport colour")
-        return None
     reader = materials_.NodeReader(world, warnings, kind="world")
-    color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
-    links = [value for value in (color, strength) if isinstance(value, graph_.Link)]
-    if not links:
-        return np.asarray(color, np.float64)[:3] * float(strength)
-    nodes = [(None, 1.0, {"color": color, "strength": strength})]
-    if any(link.node.kind == "LIGHT_PATH" for link in graph_.links_under(nodes)):
+    radiance = _world_radiance(reader, node)
+    if radiance is None:
+        return None
+    if not isinstance(radiance, graph_.Link):
+        return radiance
+    if any(link.node.kind == "LIGHT_PATH" for link in graph_.links_under([(None, 1.0, {"radiance": radiance})])):
         warnings.append("the world's node graph reads a Light Path node; Primer evaluates it for the rays that light "
                         "the scene (Is Camera Ray 0), and the camera sees that world too")
-    baked = world_graph.bake(color, strength)
+    baked = world_graph.bake(radiance, 1.0)
     flat = baked.reshape(-1, 3)
     if np.isfinite(flat).all() and (flat == flat[0]).all():
         return flat[0].astype(np.float64)           # the same everywhere: a constant world, not sampled as a light
@@ -561,6 +559,39 @@ def _baked_world(world, node, warnings: list):
         warnings.append(NEGATIVE_WORLD.format(float(np.nanmin(flat))))
         baked = np.maximum(baked, np.float32(0.0))
     return baked
+
+
+def _world_radiance(reader, node):
+    """The radiance a world shader node gives, as Cycles adds its closures up: a Background's (or Emission's)
+    Color x Strength, a Mix Shader's (1 - Fac) A + Fac B (Fac clamped to [0, 1]), an Add Shader's A + B; a constant
+    (3,) float64 where every input is one, else a graph.Link into a node tree that computes it; None (warned) for
+    any other shader."""
+    kind = node.bl_idname
+    if kind in ("ShaderNodeBackground", "ShaderNodeEmission"):
+        color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
+        if isinstance(color, graph_.Link) or isinstance(strength, graph_.Link):
+            return graph_.Link(graph_.GraphNode("SCALE", {}, {"Color": color, "Factor": strength}, node.name), "Color")
+        return np.asarray(color, np.float64)[:3] * float(strength)
+    if kind in ("ShaderNodeMixShader", "ShaderNodeAddShader"):
+        shaders = [socket for socket in node.inputs if socket.type == "SHADER"]
+        parts = []
+        for socket in shaders[:2]:
+            inner = materials_.linked_node_of(socket)
+            part = np.zeros(3) if inner is None else _world_radiance(reader, inner)
+            if part is None:
+                return None
+            parts.append(part)
+        factor = reader.input(node, "Fac", 0.5) if kind == "ShaderNodeMixShader" else 1.0
+        if not any(isinstance(value, graph_.Link) for value in (*parts, factor)):
+            t = float(np.clip(factor, 0.0, 1.0)) if kind == "ShaderNodeMixShader" else 1.0
+            return (1.0 - t) * parts[0] + t * parts[1] if kind == "ShaderNodeMixShader" else parts[0] + parts[1]
+        blend = "MIX" if kind == "ShaderNodeMixShader" else "ADD"
+        props = {"data_type": "RGBA", "blend_type": blend, "clamp_factor": True, "clamp_result": False}
+        return graph_.Link(graph_.GraphNode("MIX", props, {"Factor": factor, "A": parts[0], "B": parts[1]},
+                                            node.name), "Result")
+    reader.warnings.append(f"the world shader is a '{node.bl_label}' node, not a Background or a mix of them; Primer "
+                           "uses the world's viewport colour")
+    return None
 
 
 # What Cycles shows for an image it cannot read (core/materials/textures.py MISSING): magenta.
@@ -573,35 +604,37 @@ NEGATIVE_WORLD = ("the world's Background is negative ({:g}); Primer reads it as
 
 
 def _environment(world, background, warnings: list):
-    """An equirectangular Environment Texture at the Background's Color, as (image (H, W, 3) float32 linear, or None
-    where it is missing or cannot be read (a warning says so); strength, world-to-texture rotation (3, 3)), or None
-    where the world is something else. A Mapping node between (Texture Coordinate Generated or none) gives the
-    rotation; scale and location are noted."""
-    if background.bl_idname != "ShaderNodeBackground" or not background.inputs["Color"].is_linked:
+    """A Background of constant Strength showing an equirectangular Environment Texture at the direction (through
+    nothing, a Texture Coordinate or a Mapping node's rotation alone), as (image (H, W, 3) float32 linear, or None
+    where it is missing or cannot be read (a warning says so); strength, world-to-texture rotation (3, 3)): the
+    image itself, rendered at its own resolution. None for any other world (`_baked_world` evaluates it)."""
+    if background.bl_idname != "ShaderNodeBackground" or background.inputs["Strength"].is_linked:
         return None
-    texture = background.inputs["Color"].links[0].from_node
-    if texture.bl_idname != "ShaderNodeTexEnvironment":
+    texture = materials_.linked_node_of(background.inputs["Color"])
+    if texture is None or texture.bl_idname != "ShaderNodeTexEnvironment" or texture.outputs["Color"] not in \
+            [link.from_socket for link in background.inputs["Color"].links]:
         return None
-    if background.inputs["Strength"].is_linked:
-        warnings.append("the world's Background Strength is linked; Primer uses its own value")
-    strength = materials_.own_value(background.inputs["Strength"])
     if getattr(texture, "projection", "EQUIRECTANGULAR") != "EQUIRECTANGULAR":
         warnings.append(f"the world's Environment Texture uses projection {texture.projection}; Primer reads it "
                         "as equirectangular")
+    mapping = getattr(texture, "texture_mapping", None)
+    if mapping is not None and not materials_.identity_mapping(mapping):
+        return None
+    strength = materials_.own_value(background.inputs["Strength"])
     rotation = np.eye(3)
-    vector = texture.inputs["Vector"]
-    if vector.is_linked:
-        mapping = vector.links[0].from_node
-        if mapping.bl_idname == "ShaderNodeMapping":
-            angles = np.array(mapping.inputs["Rotation"].default_value[:3], np.float64)
-            rotation = _euler_xyz(angles)
-            scale = np.array(mapping.inputs["Scale"].default_value[:3])
-            if mapping.inputs["Location"].is_linked or mapping.inputs["Rotation"].is_linked \
-                    or not np.allclose(scale, 1.0) or getattr(mapping, "vector_type", "POINT") not in ("POINT", "VECTOR"):
-                warnings.append("the world's Mapping node has scale, links or a type Primer does not read; Primer "
-                                "uses its rotation only")
-        elif mapping.bl_idname != "ShaderNodeTexCoord":
-            warnings.append(f"the world's Environment Texture reads '{mapping.bl_label}'; Primer uses the direction")
+    source = materials_.linked_node_of(texture.inputs["Vector"])
+    if source is not None:
+        if source.bl_idname != "ShaderNodeMapping":
+            return None
+        angles = np.array(source.inputs["Rotation"].default_value[:3], np.float64)
+        scale = np.array(source.inputs["Scale"].default_value[:3])
+        coordinates = materials_.linked_node_of(source.inputs["Vector"])
+        if any(source.inputs[name].is_linked for name in ("Location", "Rotation", "Scale")) \
+                or not np.allclose(scale, 1.0) or getattr(source, "vector_type", "POINT") not in ("POINT", "VECTOR") \
+                or coordinates is None or coordinates.bl_idname != "ShaderNodeTexCoord" \
+                or not any(link.from_socket.name in ("Generated", "Object") for link in source.inputs["Vector"].links):
+            return None
+        rotation = _euler_xyz(angles)
     reader = materials_.NodeReader(world, warnings, kind="world")
     image = materials_.load_image(texture.image, reader, texture)
     if isinstance(image, textures_.TiledImage):

@@ -66,9 +66,12 @@ def output_node(tree, idname: str):
 
 def linked_node(output, socket: str = "Surface"):
     """Return the node linked to `output`'s `socket` (through reroutes), or None where nothing is."""
-    if output is None or not output.inputs[socket].is_linked:
-        return None
-    return _follow(output.inputs[socket].links[0].from_node)
+    return None if output is None else linked_node_of(output.inputs[socket])
+
+
+def linked_node_of(socket):
+    """Return the node linked into an input `socket` (through reroutes), or None where nothing is."""
+    return _follow(socket.links[0].from_node) if socket.is_linked and socket.links else None
 
 
 def surface_node(material):
@@ -264,7 +267,7 @@ class GraphReader:
             props = {"image": load_image(node.image, self.reader, node), "interpolation": node.interpolation}
             inputs = self.inputs(node, path, ["Vector"]) if node.inputs["Vector"].is_linked else {}
             mapping = getattr(node, "texture_mapping", None)
-            if mapping is not None and not _identity_mapping(mapping):
+            if mapping is not None and not identity_mapping(mapping):
                 warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
         elif kind == "TEXCOORD":
             pass
@@ -376,12 +379,12 @@ class GraphReader:
         if note is not None:
             warn(note)
         mapping = getattr(node, "texture_mapping", None)
-        if mapping is not None and not _identity_mapping(mapping):
+        if mapping is not None and not identity_mapping(mapping):
             warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
         return props, inputs
 
 
-def _identity_mapping(mapping) -> bool:
+def identity_mapping(mapping) -> bool:
     """Whether a texture node's TexMapping changes nothing (Cycles' TextureMapping::skip)."""
     return (tuple(mapping.translation) == (0.0, 0.0, 0.0) and tuple(mapping.rotation) == (0.0, 0.0, 0.0)
             and tuple(mapping.scale) == (1.0, 1.0, 1.0)

@@ -1,7 +1,8 @@
 """A world made of shader nodes (core/lights/world_graph.py, addon/export.py `_baked_world`) against Cycles' render
 and closed forms: a sky from the Generated direction through Map Range and Color Ramp with a Noise Texture for its
 strength, an Environment Texture through Hue/Saturation multiplied by that sky, each seen by an equirectangular
-camera and lighting a Lambert floor; an RGB node into the Background is the constant world it is.
+camera and lighting a Lambert floor; a Mix Shader of Backgrounds; an RGB node into the Background is the constant world it
+is.
 """
 from __future__ import annotations
 
@@ -59,7 +60,7 @@ def sky():
 
 
 def clear():
-    for node in [n for n in tree.nodes if n not in (background, tree.nodes["World Output"])]:
+    for node in [n for n in tree.nodes if n.name not in (background.name, "World Output")]:
         tree.nodes.remove(node)
     background.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
     background.inputs["Strength"].default_value = 1.0
@@ -110,6 +111,31 @@ tree.links.new(sky(), multiply.inputs["B"])
 tree.links.new(multiply.outputs["Result"], background.inputs["Color"])
 results["graded environment seen"] = render("graded_environment_seen", True)
 
+# Mix Shader (Fac from a Noise Texture) of the sky's Background and an Add Shader of a red Background and the
+# environment's through a Mapping that scales the direction (which only a graph can evaluate).
+clear()
+tree.links.new(sky(), background.inputs["Color"])
+mix, add = tree.nodes.new("ShaderNodeMixShader"), tree.nodes.new("ShaderNodeAddShader")
+red, grid = tree.nodes.new("ShaderNodeBackground"), tree.nodes.new("ShaderNodeBackground")
+red.inputs["Color"].default_value = (0.9, 0.1, 0.1, 1.0)
+grid.inputs["Strength"].default_value = 0.5
+environment = tree.nodes.new("ShaderNodeTexEnvironment")
+environment.image = image
+mapping = tree.nodes.new("ShaderNodeMapping")
+mapping.inputs["Scale"].default_value = (2.0, 1.0, 1.0)
+tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["Generated"], mapping.inputs["Vector"])
+tree.links.new(mapping.outputs["Vector"], environment.inputs["Vector"])
+tree.links.new(environment.outputs["Color"], grid.inputs["Color"])
+tree.links.new(red.outputs[0], add.inputs[0])
+tree.links.new(grid.outputs[0], add.inputs[1])
+noise = tree.nodes.new("ShaderNodeTexNoise")
+tree.links.new(noise.outputs["Fac"], mix.inputs["Fac"])
+tree.links.new(background.outputs[0], mix.inputs[1])
+tree.links.new(add.outputs[0], mix.inputs[2])
+tree.links.new(mix.outputs[0], tree.nodes["World Output"].inputs["Surface"])
+results["mixed backgrounds seen"] = render("mixed_backgrounds_seen", True)
+tree.links.new(background.outputs[0], tree.nodes["World Output"].inputs["Surface"])
+
 clear()
 rgb = tree.nodes.new("ShaderNodeRGB")
 rgb.outputs[0].default_value = (0.2, 0.6, 0.9, 1.0)
@@ -149,11 +175,12 @@ def noted(warnings):
     return [w for w in warnings if "world" in w]
 
 
-@pytest.mark.parametrize("name", ["noise_sky_seen", "noise_sky_lighting", "graded_environment_seen"])
+@pytest.mark.parametrize("name", ["noise_sky_seen", "noise_sky_lighting", "graded_environment_seen",
+                                  "mixed_backgrounds_seen"])
 def test_a_world_node_graph_renders_as_cycles_seen_and_lighting_a_floor(rendered, name):
-    """The sky's colour and strength, and the graded environment, as the camera sees them and as they light a Lambert
-    floor: Cycles' image within noise (64 samples each; measured 2026-11-27 at 256 samples: 3.0e-6, 7.7e-7, 1.9e-5),
-    with nothing noted about the world; the viewport colour Primer used before is far off."""
+    """The sky's colour and strength, the graded environment, and a Mix Shader of Backgrounds with a scaled Mapping,
+    as the camera sees them and as they light a Lambert floor: Cycles' image within noise (64 samples each), with
+    nothing noted about the world; the viewport colour Primer used before is far off."""
     import numpy as np
     result, folder = rendered
     primer, cycles = np.load(folder / f"{name}_primer.npy"), np.load(folder / f"{name}_cycles.npy")
