@@ -25,6 +25,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from core import render  # noqa: E402
 from core.camera import Camera  # noqa: E402
+from core.film.compare import relative_mse_of_blocks  # noqa: E402
 from core.geometry import primitives  # noqa: E402
 from core.lights import emitters as emitters_  # noqa: E402
 from core.scene import Material, Mesh, RenderSettings, Scene  # noqa: E402
@@ -79,17 +80,6 @@ def render_with(scene: Scene, settings: RenderSettings, by_power: bool, repeat: 
         emitters_.from_geometry = original
 
 
-def block_rel_mse(image: np.ndarray, reference: np.ndarray, block: int = 4) -> float:
-    """relMSE of the 4x4 block means: mean((B(P) - B(R))^2 / (B(R)^2 + 0.01))."""
-    H, W = (s - s % block for s in image.shape[:2])
-
-    def means(x):
-        return x[:H, :W].reshape(H // block, block, W // block, block, -1).mean(axis=(1, 3))
-
-    P, R = means(image), means(reference)
-    return float(np.mean((P - R) ** 2 / (R * R + 0.01)))
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=128)
@@ -111,12 +101,12 @@ def main() -> None:
         image, seconds = render_with(scene, settings(args.samples, 1), by_power, repeat=5)
         times[by_power] = seconds
         print(f"{name:10s}: {args.samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, "
-              f"relMSE {block_rel_mse(image, reference):.5f}")
+              f"relMSE {relative_mse_of_blocks(image, reference):.5f}")
     # Equal time: the power CDF with as many more samples as the tree's time buys it.
     samples = max(args.samples, round(args.samples * times[False] / times[True]))
     image, seconds = render_with(scene, settings(samples, 1), True, repeat=5)
     print(f"power CDF : {samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, "
-          f"relMSE {block_rel_mse(image, reference):.5f} (equal time)")
+          f"relMSE {relative_mse_of_blocks(image, reference):.5f} (equal time)")
 
 
 if __name__ == "__main__":

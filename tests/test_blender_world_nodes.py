@@ -13,6 +13,8 @@ import pytest
 
 from blender_env import ROOT, run_bpy
 
+from core.film.compare import relative_mse_of_blocks
+
 pytestmark = pytest.mark.blender
 
 if importlib.util.find_spec("bpy") is None:
@@ -155,14 +157,6 @@ report(warnings=results, rgb_color=list(map(float, rgb_world.color)), rgb_image=
 """
 
 
-def block_rel_mse(primer, cycles):
-    """The project's error measure: relative MSE of 4x4-pixel block means."""
-    h, w = primer.shape[0] // 4 * 4, primer.shape[1] // 4 * 4
-    blocks = lambda x: x[:h, :w].reshape(h // 4, 4, w // 4, 4, -1).mean(axis=(1, 3))     # noqa: E731
-    p, c = blocks(primer), blocks(cycles)
-    return float(((p - c) ** 2 / (c ** 2 + 0.01)).mean())
-
-
 @pytest.fixture(scope="module")
 def rendered(tmp_path_factory):
     """The world variants rendered by Primer and Cycles (64 samples): (report, folder)."""
@@ -185,11 +179,11 @@ def test_a_world_node_graph_renders_as_cycles_seen_and_lighting_a_floor(rendered
     result, folder = rendered
     primer, cycles = np.load(folder / f"{name}_primer.npy"), np.load(folder / f"{name}_cycles.npy")
     assert cycles.std() > 0.02                              # the world varies across the image
-    error = block_rel_mse(primer, cycles)
+    error = relative_mse_of_blocks(primer, cycles)
     print(name, "block relMSE", error)
     assert error < 2e-4, error
     assert abs(primer.mean() / cycles.mean() - 1.0) < 0.01
-    assert block_rel_mse(np.full_like(cycles, 0.05), cycles) > 0.1      # (what a grey viewport colour would score)
+    assert relative_mse_of_blocks(np.full_like(cycles, 0.05), cycles) > 0.1      # (what a grey viewport colour would score)
     label = name.replace("_", " ")
     assert noted(result["warnings"][label]) == [], result["warnings"][label]
 
