@@ -817,8 +817,20 @@ def _terminator_offsets(obj) -> tuple:
     return 0.1, 0.0
 
 
-def _terminator_notes(offsets: dict, fix: bool, cutoff: float) -> list:
-    """Return warnings where Cycles' terminator offsets of smooth objects differ from Primer's setting.
+def _cycles_terminator(offsets: dict) -> tuple:
+    """Cycles' shadow terminator as Primer's one setting, (terminator_fix, terminator_offset): the Geometry Offset most
+    smooth objects have (Cycles lifts each object's shadow rays by its own; `_terminator_notes` names the others),
+    off where that is 0. offsets: object name -> (geometry, shading) offsets of objects with smooth triangles."""
+    values = [round(geometry, 6) for geometry, _ in offsets.values()]
+    if not values:
+        return False, 0.1
+    cutoff = max(sorted(set(values)), key=values.count)
+    return cutoff > 0.0, cutoff if cutoff > 0.0 else 0.1
+
+
+def _terminator_notes(offsets: dict, fix: bool, cutoff: float, follows: bool = False) -> list:
+    """Return warnings where Cycles' terminator offsets of smooth objects differ from Primer's setting (`follows`:
+    the setting was taken from the objects themselves, as a file made for Cycles renders).
 
     offsets: object name -> (geometry, shading) offsets of objects with smooth triangles.
     """
@@ -831,8 +843,14 @@ def _terminator_notes(offsets: dict, fix: bool, cutoff: float) -> list:
         wanted = "0, as Primer's Shadow Terminator Fix is off"
     if differ:
         shown = ", ".join(f"'{name}'" for name in differ[:3]) + (" and others" if len(differ) > 3 else "")
-        notes.append(f"Cycles lifts shadow rays on smooth {shown} by a different Shadow Terminator Geometry "
-                     f"Offset; set it to {wanted}, to compare like with like")
+        if follows:
+            notes.append(f"Cycles lifts shadow rays on smooth {shown} by their own Shadow Terminator Geometry Offset; "
+                         f"Primer lifts every smooth object by one, {cutoff:g} (the one most have)" if fix else
+                         f"Cycles lifts shadow rays on smooth {shown} by a Shadow Terminator Geometry Offset; "
+                         "Primer lifts none (most smooth objects have 0)")
+        else:
+            notes.append(f"Cycles lifts shadow rays on smooth {shown} by a different Shadow Terminator Geometry "
+                         f"Offset; set it to {wanted}, to compare like with like")
     shading = sorted(name for name, (_, offset) in offsets.items() if offset > 0.0)
     if shading:
         notes.append(f"Primer ignores Cycles' Shadow Terminator Shading Offset of '{shading[0]}'"
@@ -957,7 +975,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     settings.cryptomatte_depth = int(getattr(depsgraph.view_layer, "pass_cryptomatte_depth", 6))
     settings.light_groups = tuple(lightgroups.group_names(depsgraph.view_layer))
     core.lightgroups = groups
-    warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset)
+    follows = cycles_settings.effective(scene).follows_cycles
+    if follows:                                     # a file made for Cycles: Cycles' terminator, as its objects ask
+        settings.terminator_fix, settings.terminator_offset = _cycles_terminator(terminator_offsets)
+    warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset, follows)
     for group in lightgroups.empty_groups(settings.light_groups, groups):
         warnings.append(f"light group '{group}' has no light, emissive object or world in it: its pass is black")
     return Export(core, settings, (width, height), border, warnings, meshes_read)

@@ -168,3 +168,56 @@ def test_the_panels_show_the_settings_the_render_reads(primer, source):
         key = followed[name] if source == "CYCLES" else name
         assert owners.get(key) == wanted, (name, owners)
     assert owners["light_samples"] == owners["use_denoising"] == "PrimerSettings"
+
+
+def terminator_scene():
+    """A 12-segment smooth sphere (Cycles' default Shadow Terminator Geometry Offset, 0.1) under a low sun, its
+    terminator across the image, and a smooth cube with its own offset 0.3; 48 x 36, direct light, 64 samples."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 48, 36
+    scene.render.resolution_percentage = 100
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, radius=1.0)
+    bpy.ops.object.shade_smooth()
+    sphere = bpy.context.view_layer.objects.active
+    sphere.data.materials.append(diffuse_material("White", (0.8, 0.8, 0.8)))
+    bpy.ops.mesh.primitive_cube_add(size=0.5, location=(0.0, 0.0, -3.0))
+    bpy.ops.object.shade_smooth()
+    bpy.context.view_layer.objects.active.shadow_terminator_geometry_offset = 0.3
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 3.0, 0.0
+    sun.rotation_euler = (math.radians(75.0), 0.0, math.radians(90.0))
+    scene.collection.objects.link(sun)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location, camera.rotation_euler = (0.0, -4.0, 0.0), (math.radians(90.0), 0.0, 0.0)
+    camera.data.lens = 40.0
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.world = None
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples, cycles.use_adaptive_sampling, cycles.use_denoising = 64, False, False
+    cycles.max_bounces = 0
+    return scene
+
+
+def test_a_cycles_file_lifts_shadow_rays_on_smooth_meshes_as_cycles_does(primer, tmp_path):
+    """Following Cycles, Primer's Shadow Terminator Fix is on with the Geometry Offset most smooth objects have (0.1):
+    the faceted sphere's terminator is Cycles' (block relMSE within Cycles' own noise), where the lecture's raw
+    shadow rays (Primer's own settings, the fix off) darken whole facets; the cube with its own 0.3 is named."""
+    scene = terminator_scene()
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    scene.primer.settings_source = "CYCLES"
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    assert exported.settings.terminator_fix and exported.settings.terminator_offset == pytest.approx(0.1)
+    notes = [w for w in exported.warnings if "Terminator" in w]
+    assert len(notes) == 1 and "'Cube'" in notes[0] and "'Sphere'" not in notes[0], notes
+    bpy.data.objects["Cube"].hide_render = True
+    mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
+    cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
+    scene.primer.settings_source = "PRIMER"
+    scene.primer.samples = 64
+    raw = render(scene, "PRIMER", str(tmp_path / "raw.exr"))
+    error, wrong = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(raw, cycles)
+    print(f"block relMSE: following Cycles {error:.2e}, the fix off {wrong:.2e}")
+    assert error < 5e-4 and wrong > 10.0 * error, (error, wrong)
