@@ -527,6 +527,8 @@ def export_world(world, warnings: list) -> World:
                 and not node.inputs["Strength"].is_linked:
             # (a NaN or infinite strength or colour: core/lights/world.py finite_world reads it as Cycles renders it)
             color = materials_.own_value(node.inputs["Color"]) * materials_.own_value(node.inputs["Strength"])
+        elif not (camera or diffuse):
+            return World(color=np.zeros(3), camera=False, lights=False)     # seen by no ray: nothing to evaluate
         else:
             baked = _baked_world(world, node, warnings)
             if isinstance(baked, np.ndarray) and baked.ndim == 3:
