@@ -226,6 +226,100 @@ def test_each_gradient_is_its_formula_clamped_to_0_1(kind, kernels):
     np.testing.assert_allclose(image[..., 0], expected, atol=3e-7)
 
 
+WAVES = {   # (wave type, bands direction, rings direction) -> the wave's argument n of the nudged point
+    ("BANDS", "X", "X"): lambda x, y, z: 20 * x,
+    ("BANDS", "Y", "X"): lambda x, y, z: 20 * y,
+    ("BANDS", "Z", "X"): lambda x, y, z: 20 * z,
+    ("BANDS", "DIAGONAL", "X"): lambda x, y, z: 10 * (x + y + z),
+    ("RINGS", "X", "X"): lambda x, y, z: 20 * np.sqrt(y * y + z * z),
+    ("RINGS", "X", "Y"): lambda x, y, z: 20 * np.sqrt(x * x + z * z),
+    ("RINGS", "X", "Z"): lambda x, y, z: 20 * np.sqrt(x * x + y * y),
+    ("RINGS", "X", "SPHERICAL"): lambda x, y, z: 20 * np.sqrt(x * x + y * y + z * z),
+}
+PROFILES = {
+    "SIN": lambda n: 0.5 - 0.5 * np.cos(n),
+    "SAW": lambda n: n / (2 * np.pi) - np.floor(n / (2 * np.pi)),
+    "TRI": lambda n: 2 * np.abs(n / (2 * np.pi) - np.floor(n / (2 * np.pi) + 0.5)),
+}
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("profile", list(PROFILES))
+@pytest.mark.parametrize("waves", list(WAVES))
+def test_wave_bands_and_rings_are_their_profile_of_20_times_the_distance_along_or_from_the_axis(waves, profile,
+                                                                                                kernels):
+    """Without distortion the wave is the profile (sine 1/2 - cos(n)/2, saw n/2pi mod 1, triangle twice the distance
+    of n/2pi to the nearest integer) of n + Phase Offset: n 20 x the coordinate (10 x (x + y + z) diagonally) or 20
+    x the distance from the rings' axis (or the origin), at the point x Scale nudged to (p + 1e-6) x 0.999999."""
+    wave_type, bands, rings = waves
+    link = Link(GraphNode("TEX_WAVE", {"wave_type": wave_type, "bands_direction": bands, "rings_direction": rings,
+                                       "wave_profile": profile},
+                          {"Vector": snapped_vector(0.2), "Scale": 0.125, "Phase Offset": 0.3}), "Fac")
+    image = shoot(link, kernels)[..., 0]
+    p = (snapped_points(0.2).astype(np.float64) * 0.125 + 1e-6) * 0.999999
+    expected = PROFILES[profile](WAVES[waves](p[..., 0], p[..., 1], p[..., 2]) + 0.3)
+    assert expected.std() > 0.05 or (wave_type, bands) == ("BANDS", "Z")     # (Z bands: one value at z = 0.2)
+    # (a saw's or triangle's seam is not on a pixel centre: the nearest lies 2e-3 away in n / 2pi)
+    np.testing.assert_allclose(image, expected, atol=2e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_wave_distortion_adds_distortion_times_twice_the_normalized_fbm_less_one(kernels):
+    """Distortion d moves n by d (2 fBM(p x Detail Scale) - 1), fBM at lacunarity 2 normalized to [0, 1]: with a
+    saw profile (n / 2pi mod 1) and no Detail, the bands shift by d (2 (snoise / 2 + 1/2) - 1) / 2pi = d snoise /
+    2pi, snoise 0 on the integer lattice of p x Detail Scale, so integer points are not moved."""
+    settings = {"wave_type": "BANDS", "bands_direction": "X", "wave_profile": "SAW"}
+    plain = shoot(Link(GraphNode("TEX_WAVE", settings, {"Vector": snapped_vector(0.2), "Scale": 0.125}), "Fac"),
+                  kernels)[..., 0]
+    moved = shoot(Link(GraphNode("TEX_WAVE", settings, {"Vector": snapped_vector(0.2), "Scale": 0.125,
+                                                        "Distortion": 0.5, "Detail": 0.0, "Detail Scale": 3.0}),
+                       "Fac"), kernels)[..., 0]
+    p = (snapped_points(0.2) * np.float32(0.125) + np.float32(1e-6)) * np.float32(0.999999)
+    shift = 0.5 * perlin.snoise(p.reshape(-1, 3) * np.float32(3.0)).reshape(SIZE, SIZE) / (2 * np.pi)
+    assert np.abs(shift).max() > 0.01
+    np.testing.assert_allclose((moved - plain + 0.5) % 1.0 - 0.5, shift, atol=1e-5)
+
+
+def magic(p: np.ndarray, scale: float, depth: int, distortion: float) -> np.ndarray:
+    """Cycles' svm_magic written out in float64: (n, 3) points -> (n, 3) colours."""
+    px, py, pz = (np.fmod(p[:, k], 2 * np.pi) for k in range(3))
+    x = np.sin((px + py + pz) * 5 * scale)
+    y = np.cos((-px + py - pz) * 5 * scale)
+    z = -np.cos((-px - py + pz) * 5 * scale)
+    if depth > 0:
+        x, y, z = x * distortion, y * distortion, z * distortion
+        y = -np.cos(x - y + z) * distortion
+    steps = [lambda x, y, z: (np.cos(x - y - z) * distortion, y, z),
+             lambda x, y, z: (x, y, np.sin(-x - y - z) * distortion),
+             lambda x, y, z: (-np.cos(-x + y - z) * distortion, y, z),
+             lambda x, y, z: (x, -np.sin(-x + y + z) * distortion, z),
+             lambda x, y, z: (x, -np.cos(-x + y + z) * distortion, z),
+             lambda x, y, z: (np.cos(x + y + z) * distortion, y, z),
+             lambda x, y, z: (x, y, np.sin(x + y - z) * distortion),
+             lambda x, y, z: (-np.cos(-x - y + z) * distortion, y, z),
+             lambda x, y, z: (x, -np.sin(x - y + z) * distortion, z)]
+    for step in steps[:max(depth - 1, 0)]:
+        x, y, z = step(x, y, z)
+    if distortion != 0:
+        x, y, z = x / (2 * distortion), y / (2 * distortion), z / (2 * distortion)
+    return np.stack([0.5 - x, 0.5 - y, 0.5 - z], axis=1)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("depth", [0, 1, 2, 5, 10])
+def test_magic_is_its_folded_sines_and_cosines_and_fac_their_average(depth, kernels):
+    """Depth 0: (1/2 - sin(5s(x + y + z)), 1/2 - cos(5s(-x + y - z)), 1/2 + cos(5s(-x - y + z))) / (2 Distortion)
+    about 1/2; each further level replaces one component by a sine or cosine of a signed sum of all three; Fac is
+    the average of the colour."""
+    inputs = {"Vector": snapped_vector(0.2), "Scale": 0.4, "Distortion": 1.3}
+    color = shoot(Link(GraphNode("TEX_MAGIC", {"depth": depth}, inputs), "Color"), kernels)
+    fac = shoot(Link(GraphNode("TEX_MAGIC", {"depth": depth}, inputs), "Fac"), kernels)[..., 0]
+    expected = magic(snapped_points(0.2).reshape(-1, 3).astype(np.float64), 0.4, depth, 1.3).reshape(SIZE, SIZE, 3)
+    assert expected.std() > 0.05
+    np.testing.assert_allclose(color, expected, atol=2e-5)
+    np.testing.assert_allclose(fac, expected.mean(axis=2), atol=2e-5)
+
+
 def test_perlin_noise_is_zero_on_the_integer_lattice_and_within_minus_one_one():
     """At integer points every corner's offset is 0 or the fade is 0: snoise is exactly 0, in 1 to 4 dimensions;
     at 10^5 random points it stays within [-1, 1] (the OSL scales' purpose)."""
@@ -321,6 +415,22 @@ def all_textures() -> list:
                                                 "MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 3.0}), "Value"),
                                              "Smoothness": y, "Exponent": 1.7, "Randomness": 0.9, "Scale": 0.7}),
                                   output))
+    wide = Link(GraphNode("MAPPING", {"type": "POINT"}, {"Vector": uv, "Location": (-0.5, -0.5, 0.3),
+                                                         "Scale": (0.6, 0.6, 1.0)}), "Vector")
+    for wave_type, direction in (("BANDS", "X"), ("BANDS", "Y"), ("BANDS", "Z"), ("BANDS", "DIAGONAL"),
+                                 ("RINGS", "X"), ("RINGS", "Y"), ("RINGS", "Z"), ("RINGS", "SPHERICAL")):
+        for profile in ("SIN", "SAW", "TRI"):
+            settings = {"wave_type": wave_type, "wave_profile": profile,
+                        ("bands_direction" if wave_type == "BANDS" else "rings_direction"): direction}
+            links.append(Link(GraphNode("TEX_WAVE", settings, {
+                "Vector": wide, "Distortion": Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 4.0}),
+                                                   "Value"),
+                "Detail": Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": x, "1": 5.0}), "Value"),
+                "Detail Scale": 1.7, "Detail Roughness": 0.6, "Phase Offset": x}), "Fac"))
+    for depth in range(11):
+        links.append(Link(GraphNode("TEX_MAGIC", {"depth": depth}, {
+            "Vector": stretched, "Scale": 0.3, "Distortion": Link(GraphNode(
+                "MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 3.0}), "Value")}), "Color"))
     links.append(Link(GraphNode("TEX_CHECKER", {}, {}), "Fac"))
     return links
 
