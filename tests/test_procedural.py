@@ -2,7 +2,8 @@
 integers, and each texture against its closed form on both kernels: White Noise is the hash of the point's float32
 bits, the Checker's squares alternate by the parity of floor(x) + floor(y) + floor(z), the Gradients are their
 formulas, Perlin noise is 0 on the integer lattice and within [-1, 1], a fractional Detail blends two octave counts,
-Voronoi without randomness measures to the integer lattice.
+Voronoi without randomness measures to the integer lattice, Wave bands and rings are their profile of 20 x the
+distance along or from the axis and Distortion adds the fBM, Magic is its folded sines and cosines.
 The compiled twin renders every texture, dimension and fractal bit for bit as the numpy reference does.
 
 The scenes look straight down at a 2 x 2 plane whose Generated coordinates run 0..1 across it (z = 0.3); a texture
@@ -464,3 +465,13 @@ def test_voronoi_warns_on_blenders_whose_cycles_hashed_its_cells_otherwise():
     assert VoronoiTexture.differs_in({"dimensions": "1D"}, (4, 2, 0)) is None
     assert VoronoiTexture.differs_in({"dimensions": "4D"}, (5, 0, 0)) is None
     assert [cls for cls in TEXTURE_TYPES if cls.differs_in({}, (4, 2, 0))] == [VoronoiTexture]
+
+
+def test_magic_warns_on_blenders_whose_cycles_wraps_the_scaled_point():
+    """Cycles of Blender 5.2 wraps the point x Scale every 2pi where 5.0 (and 4.2) wrap the point: said there; no
+    other texture differs between 5.0 and 5.2."""
+    from core.materials.procedural import TEXTURE_TYPES, MagicTexture
+    assert "5.2" in MagicTexture.differs_in({"depth": 2}, (5, 2, 0))
+    assert MagicTexture.differs_in({"depth": 2}, (5, 0, 1)) is None
+    assert MagicTexture.differs_in({"depth": 2}, (4, 2, 0)) is None
+    assert [cls for cls in TEXTURE_TYPES if cls.differs_in({}, (5, 2, 0))] == [MagicTexture]

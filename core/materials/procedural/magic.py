@@ -41,6 +41,16 @@ class MagicTexture(TextureNode):
     settings = {"depth": ("turbulence_depth", DEPTHS, 2)}
 
     @classmethod
+    def differs_in(cls, props: dict, version: tuple):
+        """From Blender 5.2 Cycles wraps the point x Scale every 2pi (as OSL and EEVEE), where 5.0 wraps the point
+        and scales afterwards: another pattern wherever a coordinate or its product with Scale passes 2pi."""
+        if tuple(version[:2]) >= (5, 2):
+            return ("the Cycles of Blender 5.2 wraps the Magic Texture's point x Scale every 2pi, Cycles 5.0 the point "
+                    "before scaling; Primer wraps as Cycles 5.0 does, so its pattern differs from this Blender's "
+                    "where a coordinate or its product with Scale passes 2pi")
+        return None
+
+    @classmethod
     def evaluate(cls, inputs: list, numbers: list) -> np.ndarray:
         """Colour (n, 3) and Fac (n, 1) side by side."""
         vector, scale, distortion = (as_f32(v) for v in inputs)
