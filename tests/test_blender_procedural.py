@@ -1,7 +1,8 @@
 """Procedural textures against Cycles' own render, pixel for pixel: Noise (every fractal, 1D to 4D, fractional
 detail, distortion, Color), Voronoi (every feature, every metric, 1D to 4D, fractal detail), White Noise (1D
-to 4D), Gradient (all seven types) and Checker, each the colour of an emitting plane seen by an orthographic camera,
-exported by addon/materials.py with real Blender.
+to 4D), Gradient (all seven types), Checker, Wave (bands and rings in every direction, every profile, Distortion)
+and Magic (depth 0 to 10), each the colour of an emitting plane seen by an orthographic camera, exported by
+addon/materials.py with real Blender.
 
 A rendered pixel is the mean of its samples, and Primer's samples fall elsewhere in the pixel than Cycles'. So that
 the two images can agree to float precision, each texture reads the Generated coordinate snapped to its pixel's
