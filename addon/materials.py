@@ -348,7 +348,8 @@ class GraphReader:
 
     def texture(self, node, path: tuple, texture, warn) -> tuple:
         """A procedural texture's settings and inputs (core/materials/procedural): each setting from the bpy
-        attribute its class names, the inputs by name (an unlinked Vector left out: the class's texture coordinate);
+        attribute its class names, the inputs by name (an unlinked Vector left out: the class's texture coordinate),
+        the float properties its class reads as inputs (`properties`);
         a warning for a Texture Mapping other than the identity, which Primer does not apply, and where this
         Blender's Cycles computes the texture otherwise than Cycles 5.0 (`differs_in`)."""
         props = {name: getattr(node, attribute) for name, (attribute, _, _) in texture.settings.items()}
@@ -356,7 +357,8 @@ class GraphReader:
             if choices is not None and props[name] not in choices:
                 warn(f"{attribute} {props[name]} is not supported; Primer uses {default}")
                 props[name] = default
-        inputs = self.inputs(node, path, [name for name, _, _ in texture.inputs])
+        inputs = self.inputs(node, path, [name for name, _, _ in texture.inputs if name not in texture.properties])
+        inputs.update({name: float(getattr(node, attribute)) for name, attribute in texture.properties.items()})
         for name, _, default in texture.inputs:
             if isinstance(default, str) and name in inputs and not isinstance(inputs[name], Link):
                 del inputs[name]

@@ -321,6 +321,42 @@ def test_magic_is_its_folded_sines_and_cosines_and_fac_their_average(depth, kern
     np.testing.assert_allclose(fac, expected.mean(axis=2), atol=2e-5)
 
 
+def brick_noise(n: int) -> float:
+    """Cycles' brick_noise on Python integers: the low 31 bits of n + 1013, xor-shifted by 13, through
+    n (60493 n^2 + 19990303) + 1376312589, over 2^31."""
+    n = (n + 1013) & 0x7FFFFFFF
+    n = (n >> 13) ^ n
+    return 0.5 * (((n * (n * n * 60493 + 19990303) + 1376312589) & 0x7FFFFFFF) / 2.0**30)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_bricks_are_tinted_by_the_hash_of_row_and_column_within_mortar_lines(kernels):
+    """Rows of 0.7, bricks of 0.9 (x 1.3 on rows divisible by 3), rows divisible by 2 shifted by 0.4 x the width:
+    a point in brick (column, row) has Color1 mixed to Color2 by brick_noise((row << 16) + (column & 0xFFFF)) + Bias,
+    or the Mortar colour within Mortar Size of the brick's edge (Mortar Smooth 0: a hard line)."""
+    color1, color2, mortar = np.array([0.9, 0.5, 0.1]), np.array([0.1, 0.3, 0.8]), np.array([0.0, 0.05, 0.1])
+    link = Link(GraphNode("TEX_BRICK", {"offset_frequency": 2, "squash_frequency": 3}, {
+        "Vector": snapped_vector(0.2), "Color1": tuple(color1), "Color2": tuple(color2), "Mortar": tuple(mortar),
+        "Scale": 1.0, "Mortar Size": 0.09, "Mortar Smooth": 0.0, "Bias": 0.1, "Brick Width": 0.9,
+        "Row Height": 0.7, "Offset": 0.4, "Squash": 1.3}), "Color")
+    image = shoot(link, kernels)
+    expected = np.zeros((SIZE, SIZE, 3))
+    points = snapped_points(0.2).astype(np.float64)
+    for i in range(SIZE):
+        for j in range(SIZE):
+            x, y = points[i, j, 0], points[i, j, 1]
+            row = int(np.floor(y / 0.7))
+            width = 0.9 * (1.3 if row % 3 == 0 else 1.0)
+            shift = 0.4 * width if row % 2 == 0 else 0.0
+            column = int(np.floor((x + shift) / width))
+            u, v = x + shift - width * column, y - 0.7 * row
+            tint = min(max(brick_noise(((row << 16) + (column & 0xFFFF)) & 0xFFFFFFFF) + 0.1, 0.0), 1.0)
+            inside = min(u, v, width - u, 0.7 - v) >= 0.09
+            expected[i, j] = (1 - tint) * color1 + tint * color2 if inside else mortar
+    assert (expected == mortar).all(axis=2).any() and expected.std() > 0.05
+    np.testing.assert_allclose(image, expected, atol=1e-6)
+
+
 def test_perlin_noise_is_zero_on_the_integer_lattice_and_within_minus_one_one():
     """At integer points every corner's offset is 0 or the fade is 0: snoise is exactly 0, in 1 to 4 dimensions;
     at 10^5 random points it stays within [-1, 1] (the OSL scales' purpose)."""
@@ -432,6 +468,15 @@ def all_textures() -> list:
         links.append(Link(GraphNode("TEX_MAGIC", {"depth": depth}, {
             "Vector": stretched, "Scale": 0.3, "Distortion": Link(GraphNode(
                 "MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 3.0}), "Value")}), "Color"))
+    for offset_frequency, squash_frequency, smooth in ((2, 2, 0.3), (1, 3, 0.0), (3, 1, 1.0)):
+        links.append(Link(GraphNode("TEX_BRICK", {"offset_frequency": offset_frequency,
+                                                  "squash_frequency": squash_frequency}, {
+            "Vector": stretched, "Color1": (0.9, 0.5, 0.1), "Color2": (0.1, 0.3, 0.8), "Mortar": (0.0, 0.05, 0.1),
+            "Scale": 0.6, "Mortar Size": Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 0.2}),
+                                              "Value"),
+            "Mortar Smooth": smooth, "Bias": Link(GraphNode("MATH", {"operation": "SUBTRACT"}, {"0": x, "1": 0.5}),
+                                                  "Value"),
+            "Brick Width": 0.7, "Row Height": 0.3, "Offset": 0.35, "Squash": 1.6}), "Color"))
     links.append(Link(GraphNode("TEX_CHECKER", {}, {}), "Fac"))
     return links
 

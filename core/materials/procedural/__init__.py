@@ -1,5 +1,5 @@
-"""Procedural texture nodes (Cycles' Noise, Voronoi, White Noise, Gradient, Checker, Wave and Magic textures), one
-class and one C file each.
+"""Procedural texture nodes (Cycles' Noise, Voronoi, White Noise, Gradient, Checker, Wave, Magic and Brick textures),
+one class and one C file each.
 
 Adding a texture node is one class (a `base.TextureNode`: its Blender node, inputs, outputs, settings and numpy
 `evaluate`), one C file beside it (`<c_name>.c` with `<c_name>_texture`, the op at one hit), and one entry in
@@ -12,6 +12,7 @@ uint32 as Cycles does, so that a texture's pattern is Cycles' own.
 from __future__ import annotations
 
 from .base import TextureNode
+from .brick import BrickTexture
 from .checker import CheckerTexture
 from .gradient import GradientTexture
 from .magic import MagicTexture
@@ -21,7 +22,7 @@ from .wave import WaveTexture
 from .white_noise import WhiteNoiseTexture
 
 TEXTURE_TYPES = (CheckerTexture, GradientTexture, WhiteNoiseTexture, NoiseTexture, VoronoiTexture, WaveTexture,
-                 MagicTexture)
+                 MagicTexture, BrickTexture)
 # The C headers every texture's C file may use, included first.
 SHARED_C = ("hash.h", "perlin.h")
 
@@ -30,5 +31,6 @@ TEXTURE_BY_BLENDER = {cls.blender: cls for cls in TEXTURE_TYPES}
 if len(TEXTURE_BY_KIND) != len(TEXTURE_TYPES) or len(TEXTURE_BY_BLENDER) != len(TEXTURE_TYPES):
     raise ValueError("two texture classes share a kind or a Blender node")
 
-__all__ = ["TextureNode", "TEXTURE_TYPES", "TEXTURE_BY_KIND", "TEXTURE_BY_BLENDER", "SHARED_C", "CheckerTexture",
-           "GradientTexture", "MagicTexture", "NoiseTexture", "VoronoiTexture", "WaveTexture", "WhiteNoiseTexture"]
+__all__ = ["TextureNode", "TEXTURE_TYPES", "TEXTURE_BY_KIND", "TEXTURE_BY_BLENDER", "SHARED_C", "BrickTexture",
+           "CheckerTexture", "GradientTexture", "MagicTexture", "NoiseTexture", "VoronoiTexture", "WaveTexture",
+           "WhiteNoiseTexture"]
