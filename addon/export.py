@@ -559,6 +559,9 @@ def _environment(world, background, warnings: list):
     if getattr(texture, "projection", "EQUIRECTANGULAR") != "EQUIRECTANGULAR":
         warnings.append(f"the world's Environment Texture uses projection {texture.projection}; Primer reads it "
                         "as equirectangular")
+    if not materials_.identity_mapping(texture.texture_mapping):
+        warnings.append("the world's Environment Texture has a Texture Mapping (node properties), which Primer does "
+                        "not apply; Primer looks the direction up as it comes")
     rotation = np.eye(3)
     vector = texture.inputs["Vector"]
     if vector.is_linked:
