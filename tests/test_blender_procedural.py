@@ -1,8 +1,8 @@
 """Procedural textures against Cycles' own render, pixel for pixel: Noise (every fractal, 1D to 4D, fractional
 detail, distortion, Color), Voronoi (every feature, every metric, 1D to 4D, fractal detail), White Noise (1D
-to 4D), Gradient (all seven types), Checker, Wave (bands and rings in every direction, every profile, Distortion)
-and Magic (depth 0 to 10), each the colour of an emitting plane seen by an orthographic camera, exported by
-addon/materials.py with real Blender.
+to 4D), Gradient (all seven types), Checker, Wave (bands and rings in every direction, every profile, Distortion),
+Magic (depth 0 to 10), Brick, Gabor (2D and 3D, every output) and a node's own Texture Mapping, each the colour of an
+emitting plane seen by an orthographic camera, exported by addon/materials.py with real Blender.
 
 A rendered pixel is the mean of its samples, and Primer's samples fall elsewhere in the pixel than Cycles'. So that
 the two images can agree to float precision, each texture reads the Generated coordinate snapped to its pixel's
@@ -80,7 +80,7 @@ def case(label, idname, output, settings=(), inputs=(), snap=True, absolute=Fals
     for name, value in mapping:                             # the node's own Texture Mapping
         setattr(node.texture_mapping, name, value)
     for name, value in inputs:
-        next(s for s in node.inputs if s.name == name).default_value = value     # (unavailable ones too)
+        next(s for s in node.inputs if name in (s.identifier, s.name)).default_value = value  # (unavailable too)
     if snap:
         vector, x = snapped(tree)
         available = {{s.name: s for s in node.inputs if s.enabled}}
@@ -156,6 +156,11 @@ for output, smooth, frequencies in (("Color", 0.3, (2, 3)), ("Fac", 0.0, (3, 1))
          [("Color1", (0.9, 0.5, 0.1, 1.0)), ("Color2", (0.1, 0.3, 0.8, 1.0)), ("Mortar", (0.0, 0.05, 0.1, 1.0)),
           ("Scale", 1.0), ("Mortar Size", 0.07), ("Mortar Smooth", smooth), ("Bias", 0.1), ("Brick Width", 0.45),
           ("Row Height", 0.3)])
+for dimensions, output, anisotropy in (("2D", "Value", 0.3), ("2D", "Phase", 1.0), ("2D", "Intensity", 0.0),
+                                      ("3D", "Value", 0.5), ("3D", "Intensity", 1.0)):
+    case(f"Gabor {{dimensions}} {{output}}", "ShaderNodeTexGabor", output, [("gabor_type", dimensions)],
+         [("Scale", 1.5), ("Frequency", 2.5), ("Anisotropy", anisotropy), ("Orientation 2D", 0.4),
+          ("Orientation 3D", (0.3, -0.5, 0.8))])
 case("Checker", "ShaderNodeTexChecker", "Color", inputs=[("Scale", 1.7), ("Color1", (1.0, 0.5, 0.25, 1.0))])
 case("Checker default vector", "ShaderNodeTexChecker", "Fac", inputs=[("Scale", 4.0)], snap=False)
 case("Mapped Checker default vector", "ShaderNodeTexChecker", "Fac", inputs=[("Scale", 4.0)], snap=False,
@@ -221,7 +226,7 @@ def test_procedural_textures_render_cycles_values_pixel_for_pixel(tmp_path):
     print("largest difference per texture:", worst)
     print("largest per family:", {family: max(d for label, d in worst.items() if label.startswith(family))
                                   for family in ("Noise", "Voronoi", "White", "Gradient", "Checker", "Wave", "Magic",
-                                                 "Brick", "Mapped")})
+                                                 "Brick", "Mapped", "Gabor")})
     # White Noise, Checker, the Gradients but Radial and the hard-mortared Brick: Cycles' float32 values exactly.
     # Radial: atan2 rounded in double here, atan2f in Cycles, an ulp apart at most. Voronoi: its colours exactly, its
     # distances within a few ulps (measured <= 5.7e-7: Distance to Edge's normalized bisectors, Smooth F1's sums,
@@ -231,7 +236,7 @@ def test_procedural_textures_render_cycles_values_pixel_for_pixel(tmp_path):
     if result["version"][:2] >= [5, 2]:
         tolerance.update({label: 5e-6 for label in ("Brick Color 0.3", "Brick Fac 0.6")})
     exact = {label: d for label, d in worst.items()
-             if not label.startswith(("Noise", "Voronoi", "Wave", "Magic", "Mapped"))
+             if not label.startswith(("Noise", "Voronoi", "Wave", "Magic", "Mapped", "Gabor"))
              and d > tolerance.get(label, 0.0)}
     assert exact == {}, exact
     cells = {label: d for label, d in worst.items() if label.startswith("Voronoi") and d > 1e-6}
@@ -255,6 +260,10 @@ def test_procedural_textures_render_cycles_values_pixel_for_pixel(tmp_path):
     # Min and Max are set: Cycles does not read them, nor does Primer).
     mapped = {label: d for label, d in worst.items() if label.startswith("Mapped") and d > 5e-6}
     assert mapped == {}, mapped
+    # Gabor: sums of 72 (2D) or 216 (3D) kernels, each an ulp or so from Cycles' expf, cosf and sinf: Value and
+    # Intensity measured <= 1.3e-7; Phase, atan2 of the sum, <= 1.4e-6.
+    gabor = {label: d for label, d in worst.items() if label.startswith("Gabor") and d > 5e-6}
+    assert gabor == {}, gabor
     waves = {label: d for label, d in worst.items() if label.startswith(("Wave", "Magic"))
              and d > (5e-6 if label.startswith("Wave") else magic)}
     assert waves == {}, waves

@@ -1,5 +1,5 @@
-"""Procedural texture nodes (Cycles' Noise, Voronoi, White Noise, Gradient, Checker, Wave, Magic and Brick textures),
-one class and one C file each.
+"""Procedural texture nodes (Cycles' Noise, Voronoi, White Noise, Gradient, Checker, Wave, Magic, Brick and Gabor
+textures), one class and one C file each.
 
 Adding a texture node is one class (a `base.TextureNode`: its Blender node, inputs, outputs, settings and numpy
 `evaluate`), one C file beside it (`<c_name>.c` with `<c_name>_texture`, the op at one hit), and one entry in
@@ -14,6 +14,7 @@ from __future__ import annotations
 from .base import TextureNode
 from .brick import BrickTexture
 from .checker import CheckerTexture
+from .gabor import GaborTexture
 from .gradient import GradientTexture
 from .magic import MagicTexture
 from .noise import NoiseTexture
@@ -22,7 +23,7 @@ from .wave import WaveTexture
 from .white_noise import WhiteNoiseTexture
 
 TEXTURE_TYPES = (CheckerTexture, GradientTexture, WhiteNoiseTexture, NoiseTexture, VoronoiTexture, WaveTexture,
-                 MagicTexture, BrickTexture)
+                 MagicTexture, BrickTexture, GaborTexture)
 # The C headers every texture's C file may use, included first.
 SHARED_C = ("hash.h", "perlin.h")
 
@@ -32,5 +33,5 @@ if len(TEXTURE_BY_KIND) != len(TEXTURE_TYPES) or len(TEXTURE_BY_BLENDER) != len(
     raise ValueError("two texture classes share a kind or a Blender node")
 
 __all__ = ["TextureNode", "TEXTURE_TYPES", "TEXTURE_BY_KIND", "TEXTURE_BY_BLENDER", "SHARED_C", "BrickTexture",
-           "CheckerTexture", "GradientTexture", "MagicTexture", "NoiseTexture", "VoronoiTexture", "WaveTexture",
+           "CheckerTexture", "GaborTexture", "GradientTexture", "MagicTexture", "NoiseTexture", "VoronoiTexture", "WaveTexture",
            "WhiteNoiseTexture"]

@@ -11,6 +11,7 @@
 #include "wave.c"
 #include "magic.c"
 #include "brick.c"
+#include "gabor.c"
 
 /* A texture's op at one hit (graph.run_program's ops past its own): a[0] the output block, then the
  * input registers and the numbers, as the class describes them. 0 for an op code that is no texture's. */
@@ -25,6 +26,7 @@ INLINE int procedural_op(int code, const int *a, double *reg)
     case OP_TEX_WAVE: wave_texture(a, reg); return 1;
     case OP_TEX_MAGIC: magic_texture(a, reg); return 1;
     case OP_TEX_BRICK: brick_texture(a, reg); return 1;
+    case OP_TEX_GABOR: gabor_texture(a, reg); return 1;
     default: return 0;
     }
 }
