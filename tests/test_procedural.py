@@ -3,7 +3,8 @@ integers, and each texture against its closed form on both kernels: White Noise 
 bits, the Checker's squares alternate by the parity of floor(x) + floor(y) + floor(z), the Gradients are their
 formulas, Perlin noise is 0 on the integer lattice and within [-1, 1], a fractional Detail blends two octave counts,
 Voronoi without randomness measures to the integer lattice, Wave bands and rings are their profile of 20 x the
-distance along or from the axis and Distortion adds the fBM, Magic is its folded sines and cosines.
+distance along or from the axis and Distortion adds the fBM, Magic is its folded sines and cosines, Bricks are tinted
+by the hash of row and column, Gabor noise is the sum of its cells' windowed kernels.
 The compiled twin renders every texture, dimension and fractal bit for bit as the numpy reference does.
 
 The scenes look straight down at a 2 x 2 plane whose Generated coordinates run 0..1 across it (z = 0.3); a texture
@@ -357,6 +358,46 @@ def test_bricks_are_tinted_by_the_hash_of_row_and_column_within_mortar_lines(ker
     np.testing.assert_allclose(image, expected, atol=1e-6)
 
 
+def gabor_2d(x: float, y: float, frequency: float, angle: float) -> complex:
+    """Cycles' 2D Gabor noise without anisotropy's randomness, in float64: over the 3 x 3 cells about (x, y), 8
+    kernels each at the centre (h(cx, cy, 3k + 1), h(3k + 1, cx, cy)) with sign -1 where h(cx, cy, 3k + 2) < 1/2,
+    each e^(-pi d^2) (1/2 + cos(pi d^2) / 2) e^(2 pi i f (cos a, sin a) . offset) within distance 1."""
+    h = lambda *words: float(hash_.hash_float3(*(np.float32(w) for w in words)))     # noqa: E731
+    total = 0j
+    for j in (-1, 0, 1):
+        for i in (-1, 0, 1):
+            cx, cy = np.floor(x) + i, np.floor(y) + j
+            for k in range(8):
+                ox, oy = x - cx - h(cx, cy, 3 * k + 1), y - cy - h(3 * k + 1, cx, cy)
+                d2 = ox * ox + oy * oy
+                if d2 < 1.0:
+                    sign = -1.0 if h(cx, cy, 3 * k + 2) < 0.5 else 1.0
+                    window = np.exp(-np.pi * d2) * (0.5 + 0.5 * np.cos(np.pi * d2))
+                    total += sign * window * np.exp(2j * np.pi * frequency * (ox * np.cos(angle) + oy * np.sin(angle)))
+    return total
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_gabor_noise_is_the_sum_of_its_cells_windowed_kernels_and_its_outputs_one_phasor(kernels):
+    """Anisotropy 1 (every kernel along Orientation): Value is Im / 6 / 2 + 1/2 and Intensity |sum| / 6 of the
+    kernels written out in float64 (2D: sigma 1); Phase is (arg + pi) / 2pi, so 2 Value - 1 = -Intensity x
+    sin(2pi Phase) on both dimensions."""
+    inputs = {"Vector": snapped_vector(0.2), "Scale": 1.3, "Frequency": 1.7, "Anisotropy": 1.0,
+              "Orientation 2D": 0.6, "Orientation 3D": (0.2, 0.4, 0.9)}
+    points = snapped_points(0.2).astype(np.float64) * np.float64(np.float32(1.3))
+    expected = np.array([[gabor_2d(np.float32(p[0]), np.float32(p[1]), 1.7, 0.6) for p in row] for row in points])
+    outputs = {}
+    for dimensions in ("2D", "3D"):
+        for output in ("Value", "Phase", "Intensity"):
+            link = Link(GraphNode("TEX_GABOR", {"gabor_type": dimensions}, inputs), output)
+            outputs[dimensions, output] = shoot(link, kernels)[..., 0]
+        value, phase, intensity = (outputs[dimensions, name] for name in ("Value", "Phase", "Intensity"))
+        assert intensity.std() > 0.01
+        np.testing.assert_allclose(2 * value - 1, -intensity * np.sin(2 * np.pi * phase), atol=1e-5)
+    np.testing.assert_allclose(outputs["2D", "Value"], expected.imag / 6 / 2 + 0.5, atol=1e-5)
+    np.testing.assert_allclose(outputs["2D", "Intensity"], np.abs(expected) / 6, atol=1e-5)
+
+
 def test_perlin_noise_is_zero_on_the_integer_lattice_and_within_minus_one_one():
     """At integer points every corner's offset is 0 or the fade is 0: snoise is exactly 0, in 1 to 4 dimensions;
     at 10^5 random points it stays within [-1, 1] (the OSL scales' purpose)."""
@@ -477,6 +518,12 @@ def all_textures() -> list:
             "Mortar Smooth": smooth, "Bias": Link(GraphNode("MATH", {"operation": "SUBTRACT"}, {"0": x, "1": 0.5}),
                                                   "Value"),
             "Brick Width": 0.7, "Row Height": 0.3, "Offset": 0.35, "Squash": 1.6}), "Color"))
+    for dimensions in ("2D", "3D"):
+        for output in ("Value", "Phase", "Intensity"):
+            links.append(Link(GraphNode("TEX_GABOR", {"gabor_type": dimensions}, {
+                "Vector": stretched, "Scale": 0.4, "Frequency": Link(GraphNode(
+                    "MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 4.0}), "Value"),
+                "Anisotropy": x, "Orientation 2D": 0.3, "Orientation 3D": (0.3, -0.5, 0.8)}), output))
     links.append(Link(GraphNode("TEX_CHECKER", {}, {}), "Fac"))
     return links
 
