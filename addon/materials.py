@@ -258,6 +258,8 @@ class GraphReader:
             inputs = self.inputs(node, path, ["Vector"])
             if not node.inputs["Vector"].is_linked:
                 inputs = {}
+            if not identity_mapping(node.texture_mapping):
+                inputs["Vector"] = mapped_vector(node.texture_mapping, inputs.get("Vector"), "UV", warn)
         elif kind == "ENVIRONMENT":
             if self.reader.kind != "world":
                 warn("an Environment Texture is evaluated in world shaders only; Primer uses the input's own value")
@@ -266,9 +268,8 @@ class GraphReader:
                 warn(f"projection {node.projection} is not supported; Primer reads the image as equirectangular")
             props = {"image": load_image(node.image, self.reader, node), "interpolation": node.interpolation}
             inputs = self.inputs(node, path, ["Vector"]) if node.inputs["Vector"].is_linked else {}
-            mapping = getattr(node, "texture_mapping", None)
-            if mapping is not None and not identity_mapping(mapping):
-                warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
+            if not identity_mapping(node.texture_mapping):
+                inputs["Vector"] = mapped_vector(node.texture_mapping, inputs.get("Vector"), "Generated", warn)
         elif kind == "TEXCOORD":
             pass
         elif kind == "UVMAP":
@@ -363,15 +364,17 @@ class GraphReader:
 
     def texture(self, node, path: tuple, texture, warn) -> tuple:
         """A procedural texture's settings and inputs (core/materials/procedural): each setting from the bpy
-        attribute its class names, the inputs by name (an unlinked Vector left out: the class's texture coordinate);
-        a warning for a Texture Mapping other than the identity, which Primer does not apply, and where this
-        Blender's Cycles computes the texture otherwise than Cycles 5.0 (`differs_in`)."""
+        attribute its class names, the inputs by name (an unlinked Vector left out: the class's texture coordinate),
+        the float properties its class reads as inputs (`properties`);
+        the node's Texture Mapping applied to the vector (`mapped_vector`), and a warning where this Blender's Cycles
+        computes the texture otherwise than Cycles 5.0 (`differs_in`)."""
         props = {name: getattr(node, attribute) for name, (attribute, _, _) in texture.settings.items()}
         for name, (attribute, choices, default) in texture.settings.items():
             if choices is not None and props[name] not in choices:
                 warn(f"{attribute} {props[name]} is not supported; Primer uses {default}")
                 props[name] = default
-        inputs = self.inputs(node, path, [name for name, _, _ in texture.inputs])
+        inputs = self.inputs(node, path, [name for name, _, _ in texture.inputs if name not in texture.properties])
+        inputs.update({name: float(getattr(node, attribute)) for name, attribute in texture.properties.items()})
         for name, _, default in texture.inputs:
             if isinstance(default, str) and name in inputs and not isinstance(inputs[name], Link):
                 del inputs[name]
@@ -380,16 +383,40 @@ class GraphReader:
             warn(note)
         mapping = getattr(node, "texture_mapping", None)
         if mapping is not None and not identity_mapping(mapping):
-            warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
+            vector = inputs.get("Vector")
+            inputs["Vector"] = mapped_vector(mapping, vector if isinstance(vector, Link) else None, "Generated", warn)
         return props, inputs
 
 
+def mapped_vector(mapping, vector, coordinate: str, warn) -> Link:
+    """A texture node's Texture Mapping (node properties) applied to its vector as Cycles does (TextureMapping): the
+    axes mapping_x/y/z pick, then the Mapping of vector_type with its translation, rotation and scale (Texture and
+    Normal keep each |scale| at least 1e-5). Its Min and Max clamps change nothing: Cycles' Blender sync does not read
+    them. `vector` is the input's Link, or None for the node's default coordinate, the Texture Coordinate output
+    `coordinate`; returns the mapped vector's Link."""
+    if vector is None:
+        vector = Link(GraphNode("TEXCOORD", {}, {}), coordinate)
+    axes = (mapping.mapping_x, mapping.mapping_y, mapping.mapping_z)
+    if axes != ("X", "Y", "Z"):
+        separate = GraphNode("SEPARATE_XYZ", {}, {"Vector": vector})
+        picked = {key: Link(separate, axis) if axis != "NONE" else 0.0 for key, axis in zip("XYZ", axes)}
+        vector = Link(GraphNode("COMBINE_XYZ", {}, picked), "Vector")
+    kind = mapping.vector_type
+    scale = tuple(float(x) for x in mapping.scale)
+    if kind in ("TEXTURE", "NORMAL"):
+        scale = tuple((-1e-5 if x < 0.0 else 1e-5) if abs(x) < 1e-5 else x for x in scale)
+    vector = Link(GraphNode("MAPPING", {"type": kind}, {
+        "Vector": vector, "Location": tuple(float(x) for x in mapping.translation),
+        "Rotation": tuple(float(x) for x in mapping.rotation), "Scale": scale}), "Vector")
+    return vector
+
+
 def identity_mapping(mapping) -> bool:
-    """Whether a texture node's TexMapping changes nothing (Cycles' TextureMapping::skip)."""
+    """Whether a texture node's TexMapping changes nothing (Cycles' TextureMapping::skip; Min and Max, which Cycles'
+    Blender sync leaves unread, aside)."""
     return (tuple(mapping.translation) == (0.0, 0.0, 0.0) and tuple(mapping.rotation) == (0.0, 0.0, 0.0)
             and tuple(mapping.scale) == (1.0, 1.0, 1.0)
-            and (mapping.mapping_x, mapping.mapping_y, mapping.mapping_z) == ("X", "Y", "Z")
-            and not mapping.use_min and not mapping.use_max)
+            and (mapping.mapping_x, mapping.mapping_y, mapping.mapping_z) == ("X", "Y", "Z"))
 
 
 def _shown(socket) -> str:

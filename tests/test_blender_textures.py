@@ -68,6 +68,7 @@ mat, tree, output = material("Textured")
 image = tree.nodes.new("ShaderNodeTexImage")
 image.image = bpy.data.images.load(path)
 image.image.colorspace_settings.name = "Non-Color"
+image.texture_mapping.scale = (2.0, 1.0, 1.0)           # its own Texture Mapping, on the default UV
 packed = bpy.data.images.load(path)
 packed.name = "Packed"
 packed.pack()
@@ -111,7 +112,7 @@ emission = tree2.nodes.new("ShaderNodeEmission")
 tree2.links.new(node.outputs["Color"], emission.inputs["Color"])
 tree2.links.new(emission.outputs[0], output2.inputs["Surface"])
 noisy, tree3, output3 = material("Noisy")
-noise = tree3.nodes.new("ShaderNodeTexMagic")            # a texture Primer does not evaluate
+noise = tree3.nodes.new("ShaderNodeTexIES")              # a texture Primer does not evaluate
 noise.name = "Some Noise"
 principled = tree3.nodes.new("ShaderNodeBsdfPrincipled")
 principled.inputs["Roughness"].default_value = 0.25
@@ -147,7 +148,9 @@ report(warnings=exported.warnings,
        dtypes=[None if n.props["image"] is None else n.props["image"].pixels.dtype.name for n in images],
        srgb=[None if n.props["image"] is None else n.props["image"].srgb for n in images],
        inverts=len(inverts), missing=[n.props["image"] is None for n in missing_nodes],
-       roughness=float(roughness), uv=[sorted(m.attributes) for m in exported.scene.meshes])
+       roughness=float(roughness), uv=[sorted(m.attributes) for m in exported.scene.meshes],
+       mapped=[[n.inputs["Vector"].node.kind, list(n.inputs["Vector"].node.inputs["Scale"]),
+                n.inputs["Vector"].node.inputs["Vector"].output] for n in images if "Vector" in n.inputs])
 """
 
 
@@ -164,6 +167,8 @@ def test_images_from_files_and_packed_bytes_groups_and_warnings(tmp_path):
     assert result["missing"] == [True]
     assert result["roughness"] == pytest.approx(0.25)      # the unknown node's input keeps its own value
     assert ["uv:"] in result["uv"]
+    # The file's node's Texture Mapping (scale 2 along x) is a Point Mapping of the default UV before the lookup.
+    assert result["mapped"] == [["MAPPING", [2.0, 1.0, 1.0], "UV"]]
     warnings = "\n".join(result["warnings"])
     assert "material 'Missing', node 'Lost Image'" in warnings and "magenta" in warnings
     assert "material 'Noisy', node 'Some Noise'" in warnings and "own value 0.25" in warnings
@@ -264,6 +269,7 @@ if bpy.app.version < (5, 0, 0):
     world.use_nodes = True
 environment = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
 environment.image = bpy.data.images.load(paths[2])
+environment.texture_mapping.rotation = (0.0, 0.0, 0.5)   # not applied to the world's lookup: said
 background = next(n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeBackground")
 world.node_tree.links.new(environment.outputs["Color"], background.inputs["Color"])
 camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
@@ -294,7 +300,8 @@ report(warnings=exported.warnings, images=images, finite=bool(np.isfinite(result
 def test_images_keep_their_stored_precision_and_bad_texels_are_read_as_zero(tmp_path):
     """An 8-bit 16384-texel-wide image stays bytes (a quarter of floats' memory), a 16-bit grey one 16-bit and
     one channel, read as value / maximum; NaN and infinite texels of a float image (a texture and the world's
-    HDRI) are read as 0 with a warning, and the render has no NaN pixel."""
+    HDRI) are read as 0 with a warning, and the render has no NaN pixel; the HDRI's own Texture Mapping is applied
+    (the world baked from its node graph), not warned about."""
     result = run_bpy(STORED.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
     wide, grey, broken = (result["images"][f"Image {i}"] for i in range(3))
     assert wide[:2] == ["uint8", [4, 16384, 3]]
@@ -306,6 +313,7 @@ def test_images_keep_their_stored_precision_and_bad_texels_are_read_as_zero(tmp_
     assert broken[2][0][0] == [0.5, 0.5, 0.5]
     warnings = "\n".join(result["warnings"])
     assert "NaN or infinite" in warnings and "broken.exr" in warnings
+    assert "Texture Mapping" not in warnings
     assert result["finite"] and result["world_finite"]
 
 

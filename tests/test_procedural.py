@@ -2,7 +2,9 @@
 integers, and each texture against its closed form on both kernels: White Noise is the hash of the point's float32
 bits, the Checker's squares alternate by the parity of floor(x) + floor(y) + floor(z), the Gradients are their
 formulas, Perlin noise is 0 on the integer lattice and within [-1, 1], a fractional Detail blends two octave counts,
-Voronoi without randomness measures to the integer lattice.
+Voronoi without randomness measures to the integer lattice, Wave bands and rings are their profile of 20 x the
+distance along or from the axis and Distortion adds the fBM, Magic is its folded sines and cosines, Bricks are tinted
+by the hash of row and column, Gabor noise is the sum of its cells' windowed kernels.
 The compiled twin renders every texture, dimension and fractal bit for bit as the numpy reference does.
 
 The scenes look straight down at a 2 x 2 plane whose Generated coordinates run 0..1 across it (z = 0.3); a texture
@@ -226,6 +228,176 @@ def test_each_gradient_is_its_formula_clamped_to_0_1(kind, kernels):
     np.testing.assert_allclose(image[..., 0], expected, atol=3e-7)
 
 
+WAVES = {   # (wave type, bands direction, rings direction) -> the wave's argument n of the nudged point
+    ("BANDS", "X", "X"): lambda x, y, z: 20 * x,
+    ("BANDS", "Y", "X"): lambda x, y, z: 20 * y,
+    ("BANDS", "Z", "X"): lambda x, y, z: 20 * z,
+    ("BANDS", "DIAGONAL", "X"): lambda x, y, z: 10 * (x + y + z),
+    ("RINGS", "X", "X"): lambda x, y, z: 20 * np.sqrt(y * y + z * z),
+    ("RINGS", "X", "Y"): lambda x, y, z: 20 * np.sqrt(x * x + z * z),
+    ("RINGS", "X", "Z"): lambda x, y, z: 20 * np.sqrt(x * x + y * y),
+    ("RINGS", "X", "SPHERICAL"): lambda x, y, z: 20 * np.sqrt(x * x + y * y + z * z),
+}
+PROFILES = {
+    "SIN": lambda n: 0.5 - 0.5 * np.cos(n),
+    "SAW": lambda n: n / (2 * np.pi) - np.floor(n / (2 * np.pi)),
+    "TRI": lambda n: 2 * np.abs(n / (2 * np.pi) - np.floor(n / (2 * np.pi) + 0.5)),
+}
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("profile", list(PROFILES))
+@pytest.mark.parametrize("waves", list(WAVES))
+def test_wave_bands_and_rings_are_their_profile_of_20_times_the_distance_along_or_from_the_axis(waves, profile,
+                                                                                                kernels):
+    """Without distortion the wave is the profile (sine 1/2 - cos(n)/2, saw n/2pi mod 1, triangle twice the distance
+    of n/2pi to the nearest integer) of n + Phase Offset: n 20 x the coordinate (10 x (x + y + z) diagonally) or 20
+    x the distance from the rings' axis (or the origin), at the point x Scale nudged to (p + 1e-6) x 0.999999."""
+    wave_type, bands, rings = waves
+    link = Link(GraphNode("TEX_WAVE", {"wave_type": wave_type, "bands_direction": bands, "rings_direction": rings,
+                                       "wave_profile": profile},
+                          {"Vector": snapped_vector(0.2), "Scale": 0.125, "Phase Offset": 0.3}), "Fac")
+    image = shoot(link, kernels)[..., 0]
+    p = (snapped_points(0.2).astype(np.float64) * 0.125 + 1e-6) * 0.999999
+    expected = PROFILES[profile](WAVES[waves](p[..., 0], p[..., 1], p[..., 2]) + 0.3)
+    assert expected.std() > 0.05 or (wave_type, bands) == ("BANDS", "Z")     # (Z bands: one value at z = 0.2)
+    # (a saw's or triangle's seam is not on a pixel centre: the nearest lies 2e-3 away in n / 2pi)
+    np.testing.assert_allclose(image, expected, atol=2e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_wave_distortion_adds_distortion_times_twice_the_normalized_fbm_less_one(kernels):
+    """Distortion d moves n by d (2 fBM(p x Detail Scale) - 1), fBM at lacunarity 2 normalized to [0, 1]: with a
+    saw profile (n / 2pi mod 1) and no Detail, the bands shift by d (2 (snoise / 2 + 1/2) - 1) / 2pi = d snoise /
+    2pi, snoise 0 on the integer lattice of p x Detail Scale, so integer points are not moved."""
+    settings = {"wave_type": "BANDS", "bands_direction": "X", "wave_profile": "SAW"}
+    plain = shoot(Link(GraphNode("TEX_WAVE", settings, {"Vector": snapped_vector(0.2), "Scale": 0.125}), "Fac"),
+                  kernels)[..., 0]
+    moved = shoot(Link(GraphNode("TEX_WAVE", settings, {"Vector": snapped_vector(0.2), "Scale": 0.125,
+                                                        "Distortion": 0.5, "Detail": 0.0, "Detail Scale": 3.0}),
+                       "Fac"), kernels)[..., 0]
+    p = (snapped_points(0.2) * np.float32(0.125) + np.float32(1e-6)) * np.float32(0.999999)
+    shift = 0.5 * perlin.snoise(p.reshape(-1, 3) * np.float32(3.0)).reshape(SIZE, SIZE) / (2 * np.pi)
+    assert np.abs(shift).max() > 0.01
+    np.testing.assert_allclose((moved - plain + 0.5) % 1.0 - 0.5, shift, atol=1e-5)
+
+
+def magic(p: np.ndarray, scale: float, depth: int, distortion: float) -> np.ndarray:
+    """Cycles' svm_magic written out in float64: (n, 3) points -> (n, 3) colours."""
+    px, py, pz = (np.fmod(p[:, k], 2 * np.pi) for k in range(3))
+    x = np.sin((px + py + pz) * 5 * scale)
+    y = np.cos((-px + py - pz) * 5 * scale)
+    z = -np.cos((-px - py + pz) * 5 * scale)
+    if depth > 0:
+        x, y, z = x * distortion, y * distortion, z * distortion
+        y = -np.cos(x - y + z) * distortion
+    steps = [lambda x, y, z: (np.cos(x - y - z) * distortion, y, z),
+             lambda x, y, z: (x, y, np.sin(-x - y - z) * distortion),
+             lambda x, y, z: (-np.cos(-x + y - z) * distortion, y, z),
+             lambda x, y, z: (x, -np.sin(-x + y + z) * distortion, z),
+             lambda x, y, z: (x, -np.cos(-x + y + z) * distortion, z),
+             lambda x, y, z: (np.cos(x + y + z) * distortion, y, z),
+             lambda x, y, z: (x, y, np.sin(x + y - z) * distortion),
+             lambda x, y, z: (-np.cos(-x - y + z) * distortion, y, z),
+             lambda x, y, z: (x, -np.sin(x - y + z) * distortion, z)]
+    for step in steps[:max(depth - 1, 0)]:
+        x, y, z = step(x, y, z)
+    if distortion != 0:
+        x, y, z = x / (2 * distortion), y / (2 * distortion), z / (2 * distortion)
+    return np.stack([0.5 - x, 0.5 - y, 0.5 - z], axis=1)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("depth", [0, 1, 2, 5, 10])
+def test_magic_is_its_folded_sines_and_cosines_and_fac_their_average(depth, kernels):
+    """Depth 0: (1/2 - sin(5s(x + y + z)), 1/2 - cos(5s(-x + y - z)), 1/2 + cos(5s(-x - y + z))) / (2 Distortion)
+    about 1/2; each further level replaces one component by a sine or cosine of a signed sum of all three; Fac is
+    the average of the colour."""
+    inputs = {"Vector": snapped_vector(0.2), "Scale": 0.4, "Distortion": 1.3}
+    color = shoot(Link(GraphNode("TEX_MAGIC", {"depth": depth}, inputs), "Color"), kernels)
+    fac = shoot(Link(GraphNode("TEX_MAGIC", {"depth": depth}, inputs), "Fac"), kernels)[..., 0]
+    expected = magic(snapped_points(0.2).reshape(-1, 3).astype(np.float64), 0.4, depth, 1.3).reshape(SIZE, SIZE, 3)
+    assert expected.std() > 0.05
+    np.testing.assert_allclose(color, expected, atol=2e-5)
+    np.testing.assert_allclose(fac, expected.mean(axis=2), atol=2e-5)
+
+
+def brick_noise(n: int) -> float:
+    """Cycles' brick_noise on Python integers: the low 31 bits of n + 1013, xor-shifted by 13, through
+    n (60493 n^2 + 19990303) + 1376312589, over 2^31."""
+    n = (n + 1013) & 0x7FFFFFFF
+    n = (n >> 13) ^ n
+    return 0.5 * (((n * (n * n * 60493 + 19990303) + 1376312589) & 0x7FFFFFFF) / 2.0**30)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_bricks_are_tinted_by_the_hash_of_row_and_column_within_mortar_lines(kernels):
+    """Rows of 0.7, bricks of 0.9 (x 1.3 on rows divisible by 3), rows divisible by 2 shifted by 0.4 x the width:
+    a point in brick (column, row) has Color1 mixed to Color2 by brick_noise((row << 16) + (column & 0xFFFF)) + Bias,
+    or the Mortar colour within Mortar Size of the brick's edge (Mortar Smooth 0: a hard line)."""
+    color1, color2, mortar = np.array([0.9, 0.5, 0.1]), np.array([0.1, 0.3, 0.8]), np.array([0.0, 0.05, 0.1])
+    link = Link(GraphNode("TEX_BRICK", {"offset_frequency": 2, "squash_frequency": 3}, {
+        "Vector": snapped_vector(0.2), "Color1": tuple(color1), "Color2": tuple(color2), "Mortar": tuple(mortar),
+        "Scale": 1.0, "Mortar Size": 0.09, "Mortar Smooth": 0.0, "Bias": 0.1, "Brick Width": 0.9,
+        "Row Height": 0.7, "Offset": 0.4, "Squash": 1.3}), "Color")
+    image = shoot(link, kernels)
+    expected = np.zeros((SIZE, SIZE, 3))
+    points = snapped_points(0.2).astype(np.float64)
+    for i in range(SIZE):
+        for j in range(SIZE):
+            x, y = points[i, j, 0], points[i, j, 1]
+            row = int(np.floor(y / 0.7))
+            width = 0.9 * (1.3 if row % 3 == 0 else 1.0)
+            shift = 0.4 * width if row % 2 == 0 else 0.0
+            column = int(np.floor((x + shift) / width))
+            u, v = x + shift - width * column, y - 0.7 * row
+            tint = min(max(brick_noise(((row << 16) + (column & 0xFFFF)) & 0xFFFFFFFF) + 0.1, 0.0), 1.0)
+            inside = min(u, v, width - u, 0.7 - v) >= 0.09
+            expected[i, j] = (1 - tint) * color1 + tint * color2 if inside else mortar
+    assert (expected == mortar).all(axis=2).any() and expected.std() > 0.05
+    np.testing.assert_allclose(image, expected, atol=1e-6)
+
+
+def gabor_2d(x: float, y: float, frequency: float, angle: float) -> complex:
+    """Cycles' 2D Gabor noise without anisotropy's randomness, in float64: over the 3 x 3 cells about (x, y), 8
+    kernels each at the centre (h(cx, cy, 3k + 1), h(3k + 1, cx, cy)) with sign -1 where h(cx, cy, 3k + 2) < 1/2,
+    each e^(-pi d^2) (1/2 + cos(pi d^2) / 2) e^(2 pi i f (cos a, sin a) . offset) within distance 1."""
+    h = lambda *words: float(hash_.hash_float3(*(np.float32(w) for w in words)))     # noqa: E731
+    total = 0j
+    for j in (-1, 0, 1):
+        for i in (-1, 0, 1):
+            cx, cy = np.floor(x) + i, np.floor(y) + j
+            for k in range(8):
+                ox, oy = x - cx - h(cx, cy, 3 * k + 1), y - cy - h(3 * k + 1, cx, cy)
+                d2 = ox * ox + oy * oy
+                if d2 < 1.0:
+                    sign = -1.0 if h(cx, cy, 3 * k + 2) < 0.5 else 1.0
+                    window = np.exp(-np.pi * d2) * (0.5 + 0.5 * np.cos(np.pi * d2))
+                    total += sign * window * np.exp(2j * np.pi * frequency * (ox * np.cos(angle) + oy * np.sin(angle)))
+    return total
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_gabor_noise_is_the_sum_of_its_cells_windowed_kernels_and_its_outputs_one_phasor(kernels):
+    """Anisotropy 1 (every kernel along Orientation): Value is Im / 6 / 2 + 1/2 and Intensity |sum| / 6 of the
+    kernels written out in float64 (2D: sigma 1); Phase is (arg + pi) / 2pi, so 2 Value - 1 = -Intensity x
+    sin(2pi Phase) on both dimensions."""
+    inputs = {"Vector": snapped_vector(0.2), "Scale": 1.3, "Frequency": 1.7, "Anisotropy": 1.0,
+              "Orientation 2D": 0.6, "Orientation 3D": (0.2, 0.4, 0.9)}
+    points = snapped_points(0.2).astype(np.float64) * np.float64(np.float32(1.3))
+    expected = np.array([[gabor_2d(np.float32(p[0]), np.float32(p[1]), 1.7, 0.6) for p in row] for row in points])
+    outputs = {}
+    for dimensions in ("2D", "3D"):
+        for output in ("Value", "Phase", "Intensity"):
+            link = Link(GraphNode("TEX_GABOR", {"gabor_type": dimensions}, inputs), output)
+            outputs[dimensions, output] = shoot(link, kernels)[..., 0]
+        value, phase, intensity = (outputs[dimensions, name] for name in ("Value", "Phase", "Intensity"))
+        assert intensity.std() > 0.01
+        np.testing.assert_allclose(2 * value - 1, -intensity * np.sin(2 * np.pi * phase), atol=1e-5)
+    np.testing.assert_allclose(outputs["2D", "Value"], expected.imag / 6 / 2 + 0.5, atol=1e-5)
+    np.testing.assert_allclose(outputs["2D", "Intensity"], np.abs(expected) / 6, atol=1e-5)
+
+
 def test_perlin_noise_is_zero_on_the_integer_lattice_and_within_minus_one_one():
     """At integer points every corner's offset is 0 or the fade is 0: snoise is exactly 0, in 1 to 4 dimensions;
     at 10^5 random points it stays within [-1, 1] (the OSL scales' purpose)."""
@@ -321,6 +493,37 @@ def all_textures() -> list:
                                                 "MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 3.0}), "Value"),
                                              "Smoothness": y, "Exponent": 1.7, "Randomness": 0.9, "Scale": 0.7}),
                                   output))
+    wide = Link(GraphNode("MAPPING", {"type": "POINT"}, {"Vector": uv, "Location": (-0.5, -0.5, 0.3),
+                                                         "Scale": (0.6, 0.6, 1.0)}), "Vector")
+    for wave_type, direction in (("BANDS", "X"), ("BANDS", "Y"), ("BANDS", "Z"), ("BANDS", "DIAGONAL"),
+                                 ("RINGS", "X"), ("RINGS", "Y"), ("RINGS", "Z"), ("RINGS", "SPHERICAL")):
+        for profile in ("SIN", "SAW", "TRI"):
+            settings = {"wave_type": wave_type, "wave_profile": profile,
+                        ("bands_direction" if wave_type == "BANDS" else "rings_direction"): direction}
+            links.append(Link(GraphNode("TEX_WAVE", settings, {
+                "Vector": wide, "Distortion": Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 4.0}),
+                                                   "Value"),
+                "Detail": Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": x, "1": 5.0}), "Value"),
+                "Detail Scale": 1.7, "Detail Roughness": 0.6, "Phase Offset": x}), "Fac"))
+    for depth in range(11):
+        links.append(Link(GraphNode("TEX_MAGIC", {"depth": depth}, {
+            "Vector": stretched, "Scale": 0.3, "Distortion": Link(GraphNode(
+                "MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 3.0}), "Value")}), "Color"))
+    for offset_frequency, squash_frequency, smooth in ((2, 2, 0.3), (1, 3, 0.0), (3, 1, 1.0)):
+        links.append(Link(GraphNode("TEX_BRICK", {"offset_frequency": offset_frequency,
+                                                  "squash_frequency": squash_frequency}, {
+            "Vector": stretched, "Color1": (0.9, 0.5, 0.1), "Color2": (0.1, 0.3, 0.8), "Mortar": (0.0, 0.05, 0.1),
+            "Scale": 0.6, "Mortar Size": Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 0.2}),
+                                              "Value"),
+            "Mortar Smooth": smooth, "Bias": Link(GraphNode("MATH", {"operation": "SUBTRACT"}, {"0": x, "1": 0.5}),
+                                                  "Value"),
+            "Brick Width": 0.7, "Row Height": 0.3, "Offset": 0.35, "Squash": 1.6}), "Color"))
+    for dimensions in ("2D", "3D"):
+        for output in ("Value", "Phase", "Intensity"):
+            links.append(Link(GraphNode("TEX_GABOR", {"gabor_type": dimensions}, {
+                "Vector": stretched, "Scale": 0.4, "Frequency": Link(GraphNode(
+                    "MATH", {"operation": "MULTIPLY"}, {"0": y, "1": 4.0}), "Value"),
+                "Anisotropy": x, "Orientation 2D": 0.3, "Orientation 3D": (0.3, -0.5, 0.8)}), output))
     links.append(Link(GraphNode("TEX_CHECKER", {}, {}), "Fac"))
     return links
 
@@ -354,3 +557,13 @@ def test_voronoi_warns_on_blenders_whose_cycles_hashed_its_cells_otherwise():
     assert VoronoiTexture.differs_in({"dimensions": "1D"}, (4, 2, 0)) is None
     assert VoronoiTexture.differs_in({"dimensions": "4D"}, (5, 0, 0)) is None
     assert [cls for cls in TEXTURE_TYPES if cls.differs_in({}, (4, 2, 0))] == [VoronoiTexture]
+
+
+def test_magic_warns_on_blenders_whose_cycles_wraps_the_scaled_point():
+    """Cycles of Blender 5.2 wraps the point x Scale every 2pi where 5.0 (and 4.2) wrap the point: said there; no
+    other texture differs between 5.0 and 5.2."""
+    from core.materials.procedural import TEXTURE_TYPES, MagicTexture
+    assert "5.2" in MagicTexture.differs_in({"depth": 2}, (5, 2, 0))
+    assert MagicTexture.differs_in({"depth": 2}, (5, 0, 1)) is None
+    assert MagicTexture.differs_in({"depth": 2}, (4, 2, 0)) is None
+    assert [cls for cls in TEXTURE_TYPES if cls.differs_in({}, (5, 2, 0))] == [MagicTexture]

@@ -45,7 +45,7 @@ schema.table("OP", lambda: list(OPS))
 # that went on through transparent surfaces from it), any other ray of a path, a shadow ray.
 RAY_CAMERA, RAY_BOUNCE, RAY_SHADOW = schema.constants("RAY", ("camera", "bounce", "shadow"),
                                                       "the kind of ray a hit was found by").values()
-OP_ARGS = 14
+OP_ARGS = 15
 schema.constant("OP_WIDTH", 1 + OP_ARGS, "one op's record: the code and its arguments")
 # At most this many registers per program, attribute floats per hit.
 MAX_REGISTERS = schema.constant("MAX_REGISTERS", 512, "a program's registers at most")

@@ -95,12 +95,16 @@
 #define OP_TEX_WHITE_NOISE 22
 #define OP_TEX_NOISE 23
 #define OP_TEX_VORONOI 24
+#define OP_TEX_WAVE 25
+#define OP_TEX_MAGIC 26
+#define OP_TEX_BRICK 27
+#define OP_TEX_GABOR 28
 /* the kind of ray a hit was found by (core.materials.graph) */
 #define RAY_CAMERA 0
 #define RAY_BOUNCE 1
 #define RAY_SHADOW 2
 /* one op's record: the code and its arguments (core.materials.graph) */
-#define OP_WIDTH 15
+#define OP_WIDTH 16
 /* a program's registers at most (core.materials.graph) */
 #define MAX_REGISTERS 512
 /* attribute floats per hit at most (core.materials.graph) */
@@ -755,7 +759,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7667246339315466006);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(1518900236801499817);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(682550945524873360);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);

@@ -1,5 +1,5 @@
-"""Procedural texture nodes (Cycles' Noise, Voronoi, White Noise, Gradient and Checker textures), one class and one C
-file each.
+"""Procedural texture nodes (Cycles' Noise, Voronoi, White Noise, Gradient, Checker, Wave, Magic, Brick and Gabor
+textures), one class and one C file each.
 
 Adding a texture node is one class (a `base.TextureNode`: its Blender node, inputs, outputs, settings and numpy
 `evaluate`), one C file beside it (`<c_name>.c` with `<c_name>_texture`, the op at one hit), and one entry in
@@ -12,13 +12,18 @@ uint32 as Cycles does, so that a texture's pattern is Cycles' own.
 from __future__ import annotations
 
 from .base import TextureNode
+from .brick import BrickTexture
 from .checker import CheckerTexture
+from .gabor import GaborTexture
 from .gradient import GradientTexture
+from .magic import MagicTexture
 from .noise import NoiseTexture
 from .voronoi import VoronoiTexture
+from .wave import WaveTexture
 from .white_noise import WhiteNoiseTexture
 
-TEXTURE_TYPES = (CheckerTexture, GradientTexture, WhiteNoiseTexture, NoiseTexture, VoronoiTexture)
+TEXTURE_TYPES = (CheckerTexture, GradientTexture, WhiteNoiseTexture, NoiseTexture, VoronoiTexture, WaveTexture,
+                 MagicTexture, BrickTexture, GaborTexture)
 # The C headers every texture's C file may use, included first.
 SHARED_C = ("hash.h", "perlin.h")
 
@@ -27,5 +32,6 @@ TEXTURE_BY_BLENDER = {cls.blender: cls for cls in TEXTURE_TYPES}
 if len(TEXTURE_BY_KIND) != len(TEXTURE_TYPES) or len(TEXTURE_BY_BLENDER) != len(TEXTURE_TYPES):
     raise ValueError("two texture classes share a kind or a Blender node")
 
-__all__ = ["TextureNode", "TEXTURE_TYPES", "TEXTURE_BY_KIND", "TEXTURE_BY_BLENDER", "SHARED_C", "CheckerTexture",
-           "GradientTexture", "NoiseTexture", "VoronoiTexture", "WhiteNoiseTexture"]
+__all__ = ["TextureNode", "TEXTURE_TYPES", "TEXTURE_BY_KIND", "TEXTURE_BY_BLENDER", "SHARED_C", "BrickTexture",
+           "CheckerTexture", "GaborTexture", "GradientTexture", "MagicTexture", "NoiseTexture", "VoronoiTexture", "WaveTexture",
+           "WhiteNoiseTexture"]

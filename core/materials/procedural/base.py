@@ -6,7 +6,9 @@ A `TextureNode` subclass describes one of Cycles' texture nodes once. The node-g
 coordinate: Cycles' default Generated coordinates), then the integers `numbers` makes of its settings. The op writes
 all of its outputs, in the order of `outputs`, into one block of registers. `evaluate` is the op for n hits at once
 in numpy; the C file `<c_name>.c` beside it holds `<c_name>_texture`, the op at one hit. The add-on
-(addon/materials.py) reads `blender`'s inputs by name and each setting from the bpy attribute `settings` names.
+(addon/materials.py) reads `blender`'s inputs by name and each setting from the bpy attribute `settings` names; a
+float property that is no socket (the Brick's Offset and Squash) is an input too, which the add-on reads from the
+bpy attribute `properties` names, as a constant.
 """
 from __future__ import annotations
 
@@ -29,6 +31,8 @@ class TextureNode:
     outputs: ClassVar[dict] = {}
     # setting -> (the bpy attribute of Blender's node, its choices in the op's numbering or None for a bool, default)
     settings: ClassVar[dict] = {}
+    # input -> the bpy attribute of a float node property (no socket) read as that input's constant (Brick's Offset)
+    properties: ClassVar[dict] = {}
 
     @classmethod
     def width(cls) -> int:

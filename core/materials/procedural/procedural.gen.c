@@ -8,6 +8,10 @@
 #include "white_noise.c"
 #include "noise.c"
 #include "voronoi.c"
+#include "wave.c"
+#include "magic.c"
+#include "brick.c"
+#include "gabor.c"
 
 /* A texture's op at one hit (graph.run_program's ops past its own): a[0] the output block, then the
  * input registers and the numbers, as the class describes them. 0 for an op code that is no texture's. */
@@ -19,6 +23,10 @@ INLINE int procedural_op(int code, const int *a, double *reg)
     case OP_TEX_WHITE_NOISE: white_noise_texture(a, reg); return 1;
     case OP_TEX_NOISE: noise_texture(a, reg); return 1;
     case OP_TEX_VORONOI: voronoi_texture(a, reg); return 1;
+    case OP_TEX_WAVE: wave_texture(a, reg); return 1;
+    case OP_TEX_MAGIC: magic_texture(a, reg); return 1;
+    case OP_TEX_BRICK: brick_texture(a, reg); return 1;
+    case OP_TEX_GABOR: gabor_texture(a, reg); return 1;
     default: return 0;
     }
 }
