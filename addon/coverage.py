@@ -286,8 +286,7 @@ COVERAGE = {
         READ: {"color exposure* temperature_color* use_temperature*": "export._light_color",
                "temperature*": "export._light_color (as `temperature_color`, Blender's colour of it)",
                "normalize* type": "export._export_light", "node_tree use_nodes": "export.light_node_factor",
-               "animation_data": DEPSGRAPH},
-        REPORTED: {"use_shadow": "export._export_light"},
+               "use_shadow": "export.export_light", "animation_data": DEPSGRAPH},
         NO_EFFECT: {"cutoff_distance diffuse_factor specular_factor transmission_factor use_custom_distance "
                     "volume_factor": EEVEE,
                     "cycles": POINTER},

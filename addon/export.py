@@ -335,6 +335,7 @@ def export_light(obj, matrix: np.ndarray, warnings: list):
     core = _export_light(obj, matrix, warnings)
     if core is not None:
         core.camera = bool(getattr(obj, "visible_camera", True))
+        core.cast_shadow = bool(getattr(obj.data, "use_shadow", True))    # Cast Shadow (Cycles: no shadow rays)
     return core
 
 
@@ -345,8 +346,6 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
         return None
     if light.type == "AREA" and getattr(getattr(light, "cycles", None), "is_portal", False):
         return None
-    if not getattr(light, "use_shadow", True):
-        warnings.append(f"light '{obj.name}' casts no shadows in Cycles; Primer always traces its shadow rays")
     emission = light_node_factor(obj, warnings)
     if not emission.any():
         return None                     # Cycles leaves out a light whose shader emits nothing

@@ -373,7 +373,7 @@ INLINE double clamp_limit(const BlockHits *H, int64_t h, const double *caps)
 
 INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *scene, double *L_out,
                              const Transmitter *transmitter, const BlockHits *H, const double *caps, double count,
-                             double (*parts)[PASS_KINDS][3])
+                             double (*parts)[PASS_KINDS][3], int cast_shadow)
 {
     RayPacket ray;
     int valid[PACKET] ALIGNED(32);
@@ -397,7 +397,15 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             if (++lanes < PACKET) continue;
         }
         if (lanes == 0) continue;
-        if (transmitter != NULL) {
+        if (!cast_shadow) {
+            /* A lamp with Cast Shadow off: no shadow ray, its light passes whatever stands in the way. */
+            for (int lane = 0; lane < lanes; lane++) {
+                T[lane][0] = T[lane][1] = T[lane][2] = 1.0;
+                double *e = L_out + 3 * owner[lane];
+                for (int c = 0; c < 3; c++) e[c] += value[lane][c];
+                add_to_group(H->groups, H->group_count, owner[lane], b->group[sample_of[lane]], value[lane], 1.0);
+            }
+        } else if (transmitter != NULL) {
             /* Transparent shadows: each ray carries the product of the transparencies it passes. */
             transmit_packet(transmitter, lanes, O, D, t, T);
             for (int lane = 0; lane < lanes; lane++) {
@@ -427,7 +435,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
                 add_split(parts[h], got, &shares[0][0]);
             }
         }
-        rays += lanes;
+        rays += cast_shadow ? lanes : 0;
         lanes = 0;
     }
     return rays;
@@ -714,7 +722,8 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
                         b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
             uint64_t start = ticks();
             rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter, H,
-                                  ds->clamping ? ds->caps : NULL, (double)count, ds->light_passes ? H->parts : NULL);
+                                  ds->clamping ? ds->caps : NULL, (double)count, ds->light_passes ? H->parts : NULL,
+                                  light->cast_shadow != 0);
             embree += ticks() - start;
         }
     }

@@ -173,14 +173,18 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 continue
             # c. One shadow ray per lit sample, from a point safely off the surface.
             rays = aim_shadow_rays(s, surface, rows, ls, NL, NgL, offsets, refracts[rows] & (NgL[rows] < 0.0))
-            if ctx.extra.get("transparent", False):
+            if not light.cast_shadow:
+                # A lamp with Cast Shadow off (Cycles' light.use_shadow): no shadow ray, nothing blocks it.
+                seen = np.ones(len(rows), bool)
+                through = np.ones((len(rows), 1))
+            elif ctx.extra.get("transparent", False):
                 through = shadows.transmittance(ctx, rays, s.transparent_max_bounces)
                 seen = through.any(axis=1)
             else:
                 seen = shadows.visible(ctx.geometry.tracer, rays)
                 through = seen[:, None].astype(np.float64)
             recorder.shadow_rays(index, count, rows, rays, seen)
-            shadow_rays += len(rows)
+            shadow_rays += len(rows) if light.cast_shadow else 0
             # d. What gets through: f cos (the closures at L) E_normal / count, coloured by the
             #    light, weighed against BSDF sampling where a BSDF ray could find this light.
             part = shader.closures.rows(rows)

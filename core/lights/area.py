@@ -68,6 +68,7 @@ class AreaLight(Light):
     spread: float = math.pi
     name: str = "Area"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
+    cast_shadow: bool = True              # its light is stopped by what stands in the way (Blender: Cast Shadow)
 
     flags: ClassVar[LightFlags] = LightFlags.AREA
     blender_type: ClassVar[str] = "AREA"

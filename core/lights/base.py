@@ -108,6 +108,8 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("delta", I32, "1: no extent (exact, one direction)"),
     ("hittable", I32, "1: rays can meet it (it has extent): BSDF rays find it, weighed by MIS"),
     ("camera", I32, "1: camera rays see it (Ray Visibility > Camera)"),
+    ("cast_shadow", I32, "1: shadow rays test what stands between it and a shading point; 0: none are traced (its light\n"
+                         "passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow)"),
     ("color", F64, 3, "RGB"),
     ("position", F64, 3, "point and spot: the centre; area: the centre"),
     ("direction", F64, 3, "spot: unit axis; sun: unit direction towards the sun; area: unit normal"),
@@ -177,6 +179,8 @@ class Light:
     flags: ClassVar[LightFlags] = LightFlags(0)
     types: ClassVar[tuple] = ()     # every light class by kind (core/lights/__init__.py fills it)
     blender_type: ClassVar[str] = ""
+    # Whether objects block its light (Cycles' Cast Shadow): a lamp's dataclass field, always for the others.
+    cast_shadow: bool = True
 
     @classmethod
     def is_(cls, flags: LightFlags) -> bool:
@@ -205,7 +209,7 @@ class Light:
     def finite(self) -> bool:
         """Whether every parameter is a finite number."""
         values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
-                  if f.name not in ("name", "shape", "camera") and getattr(self, f.name) is not None]
+                  if f.name not in ("name", "shape", "camera", "cast_shadow") and getattr(self, f.name) is not None]
         return all(np.isfinite(x).all() for x in values)
 
     def moved(self, origin: np.ndarray) -> "Light":
@@ -258,7 +262,8 @@ class Light:
         record = LightRecord(kind=self.kind, delta=self.delta, samples=1 if self.delta else max(1, int(light_samples)),
                              dimension=light_dimension(index), numbers=self.random_numbers,
                              color=np.asarray(self.color, np.float64)[:3], hittable=self.hittable,
-                             camera=bool(getattr(self, "camera", True)), group=-1)
+                             camera=bool(getattr(self, "camera", True)), cast_shadow=bool(self.cast_shadow),
+                             group=-1)
         self.pack_fields(record)
         return record
 

@@ -132,6 +132,7 @@ class PointLight(RoundLight):
     soft_falloff: bool = True
     name: str = "Point"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
+    cast_shadow: bool = True              # its light is stopped by what stands in the way (Blender: Cast Shadow)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "POINT"

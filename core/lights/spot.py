@@ -34,6 +34,7 @@ class SpotLight(RoundLight):
     frame: Optional[np.ndarray] = None
     name: str = "Spot"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
+    cast_shadow: bool = True              # its light is stopped by what stands in the way (Blender: Cast Shadow)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "SPOT"

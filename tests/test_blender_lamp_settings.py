@@ -1,0 +1,113 @@
+"""Cycles' per-lamp settings read from Blender and rendered as Cycles renders them (the bpy module, no mocks).
+
+One bpy process builds a small scene (a grey floor, an occluder over part of it, a lamp), changes one setting per
+case, and renders each case with Primer and with Cycles (24 x 16 pixels, Primer 32 samples, Cycles 128); each case
+reports the lamp's exported fields, the export's warnings and the relative MSE of 4 x 4-pixel block means,
+mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)), the project's measure (tests/test_blender_scenes.py).
+"""
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from blender_env import ROOT, run_bpy
+
+pytestmark = pytest.mark.blender
+
+PRIMER_SAMPLES, CYCLES_SAMPLES = 32, 128
+BLOCK_TOLERANCE = 2e-3
+
+SCRIPT = """
+import math, os, sys
+import bpy
+import numpy as np
+from blender_env import diffuse_material, render_pixels, report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+
+primer = load_primer()
+export = sys.modules[primer.__name__ + ".addon.export"]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 24, 16, 100
+material = diffuse_material("Floor", (0.8, 0.8, 0.8))
+
+
+def plane(name, corners):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(corners, [], [(0, 1, 2, 3)])
+    mesh.materials.append(material)
+    obj = bpy.data.objects.new(name, mesh)
+    scene.collection.objects.link(obj)
+    return obj
+
+
+plane("Floor", [(-6, -6, 0), (6, -6, 0), (6, 6, 0), (-6, 6, 0)])
+plane("Occluder", [(0.5, -4, 0.6), (1.5, -4, 0.6), (1.5, 4, 0.6), (0.5, 4, 0.6)])
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.data.type, camera.data.ortho_scale = "ORTHO", 6.0
+camera.location = (0.0, 0.0, 5.0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+
+
+def lamp(kind, location, energy, **settings):
+    obj = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", kind))
+    obj.location = location
+    obj.data.energy = energy
+    for name, value in settings.items():
+        target = obj
+        for part in name.split(".")[:-1]:
+            target = getattr(target, part)
+        setattr(target, name.split(".")[-1], value)
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def blocks(image):
+    h, w = image.shape[0] // 4 * 4, image.shape[1] // 4 * 4
+    return image[:h, :w].reshape(h // 4, 4, w // 4, 4, -1).mean(axis=(1, 3))
+
+
+def case(name, kind, location, energy, **settings):
+    obj = lamp(kind, location, energy, **settings)
+    warnings = []
+    core = export.export_light(bpy.context.evaluated_depsgraph_get().objects[obj.name],
+                               np.array(obj.matrix_world, np.float64), warnings)
+    fields = dict() if core is None else {{k: v for k, v in vars(core).items() if isinstance(v, (bool, int, float))}}
+    p = render_pixels(scene, "PRIMER", os.path.abspath(name + "_primer.exr"), {primer_samples})[..., :3]
+    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), {cycles_samples})[..., :3]
+    bp, bc = blocks(p), blocks(c)
+    cases[name] = dict(fields=fields, warnings=warnings, rel_mse=float(np.mean((bp - bc) ** 2 / (bc ** 2 + 0.01))),
+                       primer_mean=float(p.mean()), cycles_mean=float(c.mean()))
+    bpy.data.objects.remove(obj)
+
+
+cases = {{}}
+for name in {cases!r}:
+    if name == "cast shadow off":
+        case(name, "POINT", (2.0, 0.0, 1.2), 300.0, **{{"data.use_shadow": False, "data.shadow_soft_size": 0.2}})
+    elif name == "cast shadow on":
+        case(name, "POINT", (2.0, 0.0, 1.2), 300.0, **{{"data.shadow_soft_size": 0.2}})
+primer.unregister()             # bpy 4.2 crashes at exit while a Python RenderEngine is registered
+report(cases=cases)
+"""
+
+
+def run_cases(tmp_path, names):
+    """Render each named case with Primer and Cycles; return {name: its report}."""
+    return run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), primer_samples=PRIMER_SAMPLES,
+                                 cycles_samples=CYCLES_SAMPLES, cases=list(names)), str(tmp_path))["cases"]
+
+
+def test_cast_shadow_off_is_read_without_a_warning_and_renders_as_cycles(tmp_path):
+    """A point lamp with Cast Shadow off lights the floor under the occluder: Primer's image is Cycles' (block
+    relMSE below the tolerance) and brighter than with the shadow cast; the export reads it with no warning."""
+    cases = run_cases(tmp_path, ["cast shadow off", "cast shadow on"])
+    off, on = cases["cast shadow off"], cases["cast shadow on"]
+    print({name: c["rel_mse"] for name, c in cases.items()})
+    assert off["fields"]["cast_shadow"] is False and on["fields"]["cast_shadow"] is True
+    assert off["warnings"] == [] and on["warnings"] == []
+    assert off["rel_mse"] < BLOCK_TOLERANCE and on["rel_mse"] < BLOCK_TOLERANCE
+    assert off["cycles_mean"] > 1.1 * on["cycles_mean"]

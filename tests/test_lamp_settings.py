@@ -1,0 +1,51 @@
+"""Cycles' per-lamp settings in both kernels, held to closed forms: Cast Shadow.
+
+A floor of albedo rho under a point lamp of power P lit at distance r and angle theta has radiance
+(rho / pi) P / (4 pi r^2) cos theta; an occluder between them takes it all away unless the lamp casts no shadow
+(Cycles' light.use_shadow off: no shadow ray is traced, so its light passes through everything).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from test_lights import (EXACT, ortho_camera_looking_down, pixel_centre_points, plane_scene,
+                         point_light_radiance)
+
+from core.render import render
+from core.scene import Mesh, PointLight
+
+KERNELS = ["numpy", "compiled"]
+
+
+def occluded_floor(light):
+    """A floor (albedo 0.5) with a 1 x 6 occluder at z = 0.5 over x in [0.5, 1.5], and `light`; with the lamp at
+    (2, 0, 1) the occluder's shadow covers the floor's x in [-1, 1], of which x < 0.5 is seen from above."""
+    camera = ortho_camera_looking_down(5.0, 4.0)
+    scene = plane_scene(camera, (0.5, 0.5, 0.5), [light])
+    scene.add_mesh(Mesh(np.array([[0.5, -3.0, 0.5], [1.5, -3.0, 0.5], [1.5, 3.0, 0.5], [0.5, 3.0, 0.5]]),
+                        np.array([[0, 1, 2], [0, 2, 3]])))
+    return camera, scene
+
+
+# Columns of the 16 x 16 image over x in [-2, 2] whose floor is in the occluder's shadow and not under it.
+SHADOWED_COLUMNS = slice(5, 10)          # pixel centres x = -0.625 .. 0.375
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_lamp_without_cast_shadow_lights_the_floor_behind_an_occluder_fully(kernels):
+    """Cast Shadow off: the floor in the occluder's shadow gets the full (rho / pi) P / (4 pi r^2) cos theta; with
+    it on, nothing (the same pixels: the test can tell the two apart)."""
+    position, power = np.array([2.0, 0.0, 1.0]), 400.0
+    settings = dataclasses.replace(EXACT, kernels=kernels)
+    camera, scene = occluded_floor(PointLight(position=position, power=power, cast_shadow=False))
+    image = render(scene, settings).image[..., :3]
+    points = pixel_centre_points(camera, 16, 16, lambda x, y: np.zeros_like(x))
+    expected = point_light_radiance((0.5, 0.5, 0.5), (1.0, 1.0, 1.0), power, position, points)
+    np.testing.assert_allclose(image[:, SHADOWED_COLUMNS], expected[:, SHADOWED_COLUMNS], rtol=1e-5)
+    assert expected[:, SHADOWED_COLUMNS].min() > 0.1
+    camera, scene = occluded_floor(PointLight(position=position, power=power))
+    shadowed = render(scene, settings).image[..., :3]
+    np.testing.assert_array_equal(shadowed[:, SHADOWED_COLUMNS], 0.0)
