@@ -20,6 +20,7 @@ from ..core.lights import World
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
+from ..core.visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
 from . import cycles_settings, lightgroups, unmodelled
 from . import materials as materials_
 
@@ -327,23 +328,33 @@ def ray_visibility_notes(obj) -> list:
     return []
 
 
-def export_light(obj, matrix: np.ndarray, warnings: list):
-    """Return the core light of a Blender light object placed by `matrix` (4, 4), or None if it sends no diffuse light.
+LAMP_RAY_VISIBILITY = (("visible_diffuse", HIDDEN_FROM_DIFFUSE), ("visible_glossy", HIDDEN_FROM_GLOSSY),
+                       ("visible_transmission", HIDDEN_FROM_TRANSMISSION))
 
-    A light with size is seen by camera rays, as in Cycles, unless its Ray Visibility > Camera is off.
+
+def lamp_hidden(obj) -> int:
+    """The HIDDEN_FROM_* bits of the bounces a lamp object hides from (its Ray Visibility, as Cycles' light shader's
+    SHADER_EXCLUDE_* flags): its light samples leave out the closures of those kinds, and such rays pass it."""
+    return sum(bit for name, bit in LAMP_RAY_VISIBILITY if not getattr(obj, name, True))
+
+
+def export_light(obj, matrix: np.ndarray, warnings: list):
+    """Return the core light of a Blender light object placed by `matrix` (4, 4), or None if it sends no light.
+
+    A light with size is seen by camera rays, as in Cycles, unless its Ray Visibility > Camera is off; its other
+    Ray Visibility switches hide it from diffuse, glossy and transmission bounces (lamp_hidden).
     """
     core = _export_light(obj, matrix, warnings)
     if core is not None:
         core.camera = bool(getattr(obj, "visible_camera", True))
         core.cast_shadow = bool(getattr(obj.data, "use_shadow", True))    # Cast Shadow (Cycles: no shadow rays)
+        core.hidden = lamp_hidden(obj)
     return core
 
 
 def _export_light(obj, matrix: np.ndarray, warnings: list):
     """export_light's work."""
     light = obj.data
-    if not getattr(obj, "visible_diffuse", True):
-        return None
     if light.type == "AREA" and getattr(getattr(light, "cycles", None), "is_portal", False):
         return None
     emission = light_node_factor(obj, warnings)

@@ -32,6 +32,9 @@ bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 24, 16, 100
 material = diffuse_material("Floor", (0.8, 0.8, 0.8))
+principled = bpy.data.materials.new("Principled")      # Blender's default surface: diffuse and a glossy layer
+principled.use_nodes = True
+principled.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.3
 
 
 def plane(name, corners):
@@ -70,8 +73,10 @@ def blocks(image):
     return image[:h, :w].reshape(h // 4, 4, w // 4, 4, -1).mean(axis=(1, 3))
 
 
-def case(name, kind, location, energy, **settings):
+def case(name, kind, location, energy, surface=None, **settings):
     obj = lamp(kind, location, energy, **settings)
+    floor = bpy.data.objects["Floor"]
+    floor.data.materials[0] = surface or material
     warnings = []
     core = export.export_light(bpy.context.evaluated_depsgraph_get().objects[obj.name],
                                np.array(obj.matrix_world, np.float64), warnings)
@@ -90,6 +95,13 @@ for name in {cases!r}:
         case(name, "POINT", (2.0, 0.0, 1.2), 300.0, **{{"data.use_shadow": False, "data.shadow_soft_size": 0.2}})
     elif name == "cast shadow on":
         case(name, "POINT", (2.0, 0.0, 1.2), 300.0, **{{"data.shadow_soft_size": 0.2}})
+    elif name.startswith("hidden from "):
+        kind = name.split()[-1]
+        case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
+             **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0), "visible_" + kind: False}})
+    elif name == "seen by all":
+        case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
+             **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0)}})
 primer.unregister()             # bpy 4.2 crashes at exit while a Python RenderEngine is registered
 report(cases=cases)
 """
@@ -111,3 +123,19 @@ def test_cast_shadow_off_is_read_without_a_warning_and_renders_as_cycles(tmp_pat
     assert off["warnings"] == [] and on["warnings"] == []
     assert off["rel_mse"] < BLOCK_TOLERANCE and on["rel_mse"] < BLOCK_TOLERANCE
     assert off["cycles_mean"] > 1.1 * on["cycles_mean"]
+
+
+def test_a_lamps_ray_visibility_is_read_without_a_warning_and_renders_as_cycles(tmp_path):
+    """An area lamp over a Principled floor (diffuse under a glossy layer, roughness 0.3) hidden from diffuse,
+    glossy or camera rays: the export reads the bits with no warning, and Primer's image is Cycles' in each case
+    (diffuse and glossy differ from the lamp seen by all, so the test can tell)."""
+    names = ["seen by all", "hidden from diffuse", "hidden from glossy", "hidden from camera"]
+    cases = run_cases(tmp_path, names)
+    print({name: (c["rel_mse"], c["cycles_mean"]) for name, c in cases.items()})
+    assert [cases[name]["fields"]["hidden"] for name in names] == [0, 4, 8, 0]
+    assert cases["hidden from camera"]["fields"]["camera"] is False
+    for name in names:
+        assert cases[name]["warnings"] == []
+        assert cases[name]["rel_mse"] < BLOCK_TOLERANCE, name
+    for name in names[1:3]:
+        assert cases[name]["cycles_mean"] < 0.97 * cases["seen by all"]["cycles_mean"]

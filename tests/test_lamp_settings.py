@@ -1,4 +1,4 @@
-"""Cycles' per-lamp settings in both kernels, held to closed forms: Cast Shadow.
+"""Cycles' per-lamp settings in both kernels, held to closed forms: Cast Shadow, Ray Visibility.
 
 A floor of albedo rho under a point lamp of power P lit at distance r and angle theta has radiance
 (rho / pi) P / (4 pi r^2) cos theta; an occluder between them takes it all away unless the lamp casts no shadow
@@ -11,11 +11,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from test_lights import (EXACT, ortho_camera_looking_down, pixel_centre_points, plane_scene,
+from test_lights import (EXACT, ground_plane, ortho_camera_looking_down, pixel_centre_points, plane_scene,
                          point_light_radiance)
 
 from core.render import render
-from core.scene import Mesh, PointLight
+from core.scene import AreaLight, Mesh, PointLight, Scene
+from core.visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY
 
 KERNELS = ["numpy", "compiled"]
 
@@ -49,3 +50,37 @@ def test_a_lamp_without_cast_shadow_lights_the_floor_behind_an_occluder_fully(ke
     camera, scene = occluded_floor(PointLight(position=position, power=power))
     shadowed = render(scene, settings).image[..., :3]
     np.testing.assert_array_equal(shadowed[:, SHADOWED_COLUMNS], 0.0)
+
+
+def lamp_over_floor(bsdf, light):
+    """A 4 x 4 view from z = 5 of a floor (albedo 0.5, `bsdf`: "DIFFUSE" or "MIRROR") under `light`."""
+    camera = ortho_camera_looking_down(5.0, 4.0)
+    scene = Scene(camera=camera)
+    scene.add_material((0.5, 0.5, 0.5), bsdf=bsdf)
+    scene.add_mesh(ground_plane())
+    scene.lights.append(light)
+    return scene
+
+
+def large_square_lamp(**settings):
+    """A 3 x 3 square lamp 1 unit above the floor, facing down, of 100 W."""
+    return AreaLight(center=np.array([0.0, 0.0, 1.0]), axis_u=np.array([3.0, 0.0, 0.0]),
+                     axis_v=np.array([0.0, 3.0, 0.0]), direction=np.array([0.0, 0.0, -1.0]), power=100.0,
+                     shape="SQUARE", **settings)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_lamp_hidden_from_a_kind_of_bounce_lights_no_closure_of_that_kind(kernels):
+    """Ray Visibility of a lamp (Cycles' SHADER_EXCLUDE_*): hidden from diffuse rays, it lights no Lambert floor
+    (exactly 0) yet a mirror still shows it; hidden from glossy rays, a mirror shows nothing (the BSDF ray passes
+    it) and the Lambert floor gets exactly what it gets from a lamp seen by all."""
+    settings = dataclasses.replace(EXACT, samples=4, light_samples=4, kernels=kernels, jitter=True)
+    images = {(bsdf, hidden): render(lamp_over_floor(bsdf, large_square_lamp(hidden=hidden, camera=False)),
+                                     settings).image[..., :3]
+              for bsdf in ("DIFFUSE", "MIRROR") for hidden in (0, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY)}
+    for bsdf in ("DIFFUSE", "MIRROR"):
+        assert images[bsdf, 0].mean() > 0.05
+    np.testing.assert_array_equal(images["DIFFUSE", HIDDEN_FROM_DIFFUSE], 0.0)
+    np.testing.assert_array_equal(images["DIFFUSE", HIDDEN_FROM_GLOSSY], images["DIFFUSE", 0])
+    np.testing.assert_array_equal(images["MIRROR", HIDDEN_FROM_GLOSSY], 0.0)
+    np.testing.assert_array_equal(images["MIRROR", HIDDEN_FROM_DIFFUSE], images["MIRROR", 0])

@@ -711,6 +711,8 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
                 for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = b.u2[k] = 0.0;
             }
             light_block(&b, light, ds->context);
+            if (light->hidden != 0)                      /* a lamp's Ray Visibility: closures it leaves out */
+                for (int64_t k = 0; k < b.n; k++) b.hidden[k] |= (int)light->hidden;
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && ds->context->emitters->textured != NULL)
                 textured_block(&b, ds);
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER)) skip_own_triangle(&b, H, ds);
@@ -744,6 +746,7 @@ typedef struct {
     double pdf;
     int use_mis, camera;
     const double *P, *N;
+    int seen_as;            /* the ray's kind (HIDDEN_FROM_* bit): it passes lamps hidden from that kind */
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -780,6 +783,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         const LightRecord *light = ds->lights + l;
         if (light->hittable == 0.0 || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_DISTANT | LIGHT_FLAG_AREA))
             continue;                                   /* (emitters and the world are found below) */
+        if (((int)light->hidden & ray->seen_as) != 0) continue;     /* a lamp's Ray Visibility */
         LightHit lh;
         if (away) {
             /* The lamp as the light samples at P see it (a round lamp with soft falloff: the disk facing P), met
@@ -916,7 +920,8 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             double groups_L[3 * MAX_LIGHT_GROUPS];
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
             FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
-                                  instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N};
+                                  instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
+                                  kinds[k]};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

@@ -151,6 +151,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 ls = textured_samples(ctx, light, surface.I, ls)
             if not s.distance_attenuation:
                 ls = light.without_attenuation(ls, surface.I)
+            if light.hidden and ls.hidden is None:
+                ls = ls._replace(hidden=np.full(m, light.unseen_by, np.int64))   # a lamp's Ray Visibility
             # b. The lecture's two tests: N.L > 0 (shading normal, the clamp) and Ng.L > 0 (the
             #    face normal decides whether the light can be visible; `visibility_normal`
             #    switches it). The terminator fix lifts smooth points onto the curved surface,
@@ -291,7 +293,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, len(go))
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
-                                             mis_O=mis_O, groups=ray_groups)
+                                             mis_O=mis_O, groups=ray_groups, seen_as=seen_as)
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -329,7 +331,7 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
 
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
-                 camera=None, N=None, mis_O=None, groups=None) -> np.ndarray:
+                 camera=None, N=None, mis_O=None, groups=None, seen_as=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -342,7 +344,9 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     distance t from O is at |O + t D - mis_O| from there (Cycles' mis_origin); an emitter's radiance is the actual
     hit's; a lamp is met where the line from mis_O meets it past O (the same point, but for a round lamp with soft
     falloff: the disk facing mis_O, the one its light samples there saw), with the radiance it sends along D.
-    groups: a lightgroups.GroupLight of the k rays that receives each find by the group of its source, or None."""
+    groups: a lightgroups.GroupLight of the k rays that receives each find by the group of its source, or None.
+    seen_as: (k,) int each ray's kind (HIDDEN_FROM_* bit, ray_kind), or None: a lamp hidden from a kind of ray
+    (its Ray Visibility) is passed by rays of that kind."""
     light_L = np.zeros((len(O), 3))
     t_limit = np.where(hits.hit, hits.t, np.inf)
     away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
@@ -360,6 +364,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             continue
         lh = light.hit(O, D, t_limit)
         found, radiance, pdf_l = lh.hit, lh.radiance, lh.pdf
+        sees = np.ones(len(O), bool) if seen_as is None else (np.asarray(seen_as) & light.unseen_by) == 0
         if len(moved):
             # The lamp as the light samples at mis_O see it (a round lamp with soft falloff is a disk facing that
             # point), met on this stretch of the line, past O: its pdf from there, the radiance it sends along D.
@@ -369,6 +374,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             found[moved] = past
             radiance[moved] = np.where(past[:, None], seen.radiance, 0.0)
             pdf_l[moved] = np.where(past, seen.pdf, 0.0)
+        found = found & sees
+        radiance = np.where(sees[:, None], radiance, 0.0)
         if not found.any():
             continue
         w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * pdf_l), 1.0)

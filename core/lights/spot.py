@@ -35,6 +35,7 @@ class SpotLight(RoundLight):
     name: str = "Spot"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
     cast_shadow: bool = True              # its light is stopped by what stands in the way (Blender: Cast Shadow)
+    hidden: int = 0                       # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "SPOT"

@@ -26,6 +26,7 @@ class SunLight(Light):
     name: str = "Sun"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
     cast_shadow: bool = True              # its light is stopped by what stands in the way (Blender: Cast Shadow)
+    hidden: int = 0                       # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
 
     flags: ClassVar[LightFlags] = LightFlags.DISTANT
     blender_type: ClassVar[str] = "SUN"
