@@ -321,8 +321,9 @@ COVERAGE = {
                     "shadow_soft_size": "a point or spot lamp's radius: Cycles sizes an area lamp by its size"},
     },
     "CyclesLightSettings": {
-        READ: {"is_portal": "export._export_light (a portal sends no light of its own)"},
-        REPORTED: {"is_caustics_light max_bounces use_multiple_importance_sampling": "unmodelled.light_notes"},
+        READ: {"is_portal": "export._export_light (a portal sends no light of its own)",
+               "use_multiple_importance_sampling": "export.export_light"},
+        REPORTED: {"is_caustics_light max_bounces": "unmodelled.light_notes"},
     },
     "World": {
         READ: {"color node_tree use_nodes": "export.export_world", "lightgroup": "lightgroups.source_group",

@@ -348,7 +348,9 @@ def export_light(obj, matrix: np.ndarray, warnings: list):
     if core is not None:
         core.camera = bool(getattr(obj, "visible_camera", True))
         core.cast_shadow = bool(getattr(obj.data, "use_shadow", True))    # Cast Shadow (Cycles: no shadow rays)
-        core.hidden = lamp_hidden(obj)
+        core.hidden_from = lamp_hidden(obj)
+        cycles = getattr(getattr(getattr(obj, "original", obj), "data", obj.data), "cycles", None)   # (as the user set it)
+        core.use_mis = bool(getattr(cycles, "use_multiple_importance_sampling", True))
     return core
 
 

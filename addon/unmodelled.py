@@ -170,9 +170,6 @@ def light_notes(obj) -> list:
         notes.append(f"light '{obj.name}' has a negative power; Cycles takes its light away from the scene, Primer "
                      "leaves the light out")
     if cycles is not None:
-        if not getattr(cycles, "use_multiple_importance_sampling", True):
-            notes.append(f"light '{obj.name}' has Multiple Importance off; Primer weighs it by MIS as every light "
-                         "(the same image, with other noise)")
         if int(getattr(cycles, "max_bounces", 1024)) < 1024:
             notes.append(f"light '{obj.name}' has Max Bounces {cycles.max_bounces}; Primer lights every bounce with it")
         if getattr(cycles, "is_caustics_light", False):

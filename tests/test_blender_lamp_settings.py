@@ -99,6 +99,9 @@ for name in {cases!r}:
         kind = name.split()[-1]
         case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
              **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0), "visible_" + kind: False}})
+    elif name == "mis off":
+        case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
+             **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0), "data.cycles.use_multiple_importance_sampling": False}})
     elif name == "seen by all":
         case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
              **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0)}})
@@ -132,10 +135,19 @@ def test_a_lamps_ray_visibility_is_read_without_a_warning_and_renders_as_cycles(
     names = ["seen by all", "hidden from diffuse", "hidden from glossy", "hidden from camera"]
     cases = run_cases(tmp_path, names)
     print({name: (c["rel_mse"], c["cycles_mean"]) for name, c in cases.items()})
-    assert [cases[name]["fields"]["hidden"] for name in names] == [0, 4, 8, 0]
+    assert [cases[name]["fields"]["hidden_from"] for name in names] == [0, 4, 8, 0]
     assert cases["hidden from camera"]["fields"]["camera"] is False
     for name in names:
         assert cases[name]["warnings"] == []
         assert cases[name]["rel_mse"] < BLOCK_TOLERANCE, name
     for name in names[1:3]:
         assert cases[name]["cycles_mean"] < 0.97 * cases["seen by all"]["cycles_mean"]
+
+
+def test_multiple_importance_off_is_read_without_a_warning_and_renders_as_cycles(tmp_path):
+    """An area lamp with Multiple Importance off over the Principled floor: read with no warning, and Primer's image
+    (light samples alone) is Cycles'."""
+    case = run_cases(tmp_path, ["mis off"])["mis off"]
+    print(case["rel_mse"])
+    assert case["fields"]["use_mis"] is False and case["warnings"] == []
+    assert case["rel_mse"] < BLOCK_TOLERANCE

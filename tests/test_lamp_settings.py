@@ -1,4 +1,5 @@
-"""Cycles' per-lamp settings in both kernels, held to closed forms: Cast Shadow, Ray Visibility.
+"""Cycles' per-lamp settings in both kernels, held to closed forms: Cast Shadow, Ray Visibility,
+Multiple Importance.
 
 A floor of albedo rho under a point lamp of power P lit at distance r and angle theta has radiance
 (rho / pi) P / (4 pi r^2) cos theta; an occluder between them takes it all away unless the lamp casts no shadow
@@ -11,11 +12,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from test_lights import (EXACT, ground_plane, ortho_camera_looking_down, pixel_centre_points, plane_scene,
-                         point_light_radiance)
+from test_lights import (EXACT, expected_area_light_image, ground_plane, ortho_camera_looking_down,
+                         pixel_centre_points, plane_scene, point_light_radiance, square_light_over_plane)
 
 from core.render import render
-from core.scene import AreaLight, Mesh, PointLight, Scene
+from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene
 from core.visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY
 
 KERNELS = ["numpy", "compiled"]
@@ -75,7 +76,7 @@ def test_a_lamp_hidden_from_a_kind_of_bounce_lights_no_closure_of_that_kind(kern
     (exactly 0) yet a mirror still shows it; hidden from glossy rays, a mirror shows nothing (the BSDF ray passes
     it) and the Lambert floor gets exactly what it gets from a lamp seen by all."""
     settings = dataclasses.replace(EXACT, samples=4, light_samples=4, kernels=kernels, jitter=True)
-    images = {(bsdf, hidden): render(lamp_over_floor(bsdf, large_square_lamp(hidden=hidden, camera=False)),
+    images = {(bsdf, hidden): render(lamp_over_floor(bsdf, large_square_lamp(hidden_from=hidden, camera=False)),
                                      settings).image[..., :3]
               for bsdf in ("DIFFUSE", "MIRROR") for hidden in (0, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY)}
     for bsdf in ("DIFFUSE", "MIRROR"):
@@ -84,3 +85,18 @@ def test_a_lamp_hidden_from_a_kind_of_bounce_lights_no_closure_of_that_kind(kern
     np.testing.assert_array_equal(images["DIFFUSE", HIDDEN_FROM_GLOSSY], images["DIFFUSE", 0])
     np.testing.assert_array_equal(images["MIRROR", HIDDEN_FROM_GLOSSY], 0.0)
     np.testing.assert_array_equal(images["MIRROR", HIDDEN_FROM_DIFFUSE], images["MIRROR", 0])
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_an_area_lamp_without_multiple_importance_converges_to_the_same_irradiance(kernels):
+    """Multiple Importance off (Cycles: the lamp is found by its light samples alone, at weight 1; bounces pass it):
+    a path-traced Lambert floor under a square lamp still shows (rho / pi) E from the polygon formula at every
+    pixel, as with MIS (where BSDF rays find the lamp too); the two differ in their noise only."""
+    camera = ortho_camera_looking_down(5.0, 2.0)
+    settings = RenderSettings(width=8, height=8, samples=16, light_samples=64, jitter=False, seed=7,
+                              integrator="path", max_bounces=0, kernels=kernels)
+    expected = expected_area_light_image(camera, square_light_over_plane(), 0.5, 8, 8, sub=4)
+    for use_mis in (True, False):
+        light = dataclasses.replace(square_light_over_plane(), use_mis=use_mis)
+        image = render(plane_scene(camera, (0.5, 0.5, 0.5), [light]), settings).image
+        np.testing.assert_allclose(image[..., 0], expected, rtol=1e-2)

@@ -694,8 +694,9 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
     int lift = settings->terminator_fix != 0.0;
     for (int64_t l = 0; l < ds->n_lights; l++) {
         const LightRecord *light = ds->lights + l;
-        int weighed = ds->mis && light->delta == 0.0 && light->hittable != 0.0;
-        if (ds->sampling == SAMPLE_BSDF && light->delta == 0.0 && light->hittable != 0.0) continue;
+        int weighed = ds->mis && light->delta == 0.0 && light->hittable != 0.0 && light->use_mis != 0;
+        if (ds->sampling == SAMPLE_BSDF && light->delta == 0.0 && light->hittable != 0.0 && light->use_mis != 0)
+            continue;
         int64_t count = (int64_t)light->samples, total = H->m * count;
         for (int64_t first = 0; first < total; first += BLOCK) {
             gather_block(&b, H, first, total - first < BLOCK ? total - first : BLOCK, count, lift);
@@ -784,6 +785,9 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         if (light->hittable == 0.0 || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_DISTANT | LIGHT_FLAG_AREA))
             continue;                                   /* (emitters and the world are found below) */
         if (((int)light->hidden & ray->seen_as) != 0) continue;     /* a lamp's Ray Visibility */
+        /* Multiple Importance off: light samples alone find it; camera rays still see a lamp (not a sun disk) */
+        if (light->use_mis == 0 && (ray->seen_as != HIDDEN_FROM_CAMERA || light_is((int)light->kind, LIGHT_FLAG_DISTANT)))
+            continue;
         LightHit lh;
         if (away) {
             /* The lamp as the light samples at P see it (a round lamp with soft falloff: the disk facing P), met

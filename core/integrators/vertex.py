@@ -24,7 +24,7 @@ import numpy as np
 
 from .. import materials as materials_
 from ..geometry.surface import surface_at_hits
-from ..lights.base import LAMP
+from ..lights.base import LAMP, LightFlags
 from ..materials import graph as graph_
 from ..sampling import sobol as sampling
 from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION,
@@ -136,7 +136,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     tree_N = tree_normals(s, surface, refracts)
     for index, light in enumerate(ctx.lights):
         check_stop(ctx)
-        if (s.light_sampling == "bsdf" and not light_samples_only and not light.delta
+        if (s.light_sampling == "bsdf" and not light_samples_only and not light.delta and light.use_mis
                 and index in ctx.extra.get("hittable", ())):
             continue                      # found by BSDF rays alone
         count = light_count(ctx, light)
@@ -151,7 +151,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 ls = textured_samples(ctx, light, surface.I, ls)
             if not s.distance_attenuation:
                 ls = light.without_attenuation(ls, surface.I)
-            if light.hidden and ls.hidden is None:
+            if light.hidden_from and ls.hidden is None:
                 ls = ls._replace(hidden=np.full(m, light.unseen_by, np.int64))   # a lamp's Ray Visibility
             # b. The lecture's two tests: N.L > 0 (shading normal, the clamp) and Ng.L > 0 (the
             #    face normal decides whether the light can be visible; `visibility_normal`
@@ -195,7 +195,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                                                        signed_cosine=not s.clamp_n_dot_l, left_out=left_out)
             weight = ls.strength[rows] * (1.0 / count)
             mis_weight = np.ones(len(rows))
-            if not light.delta and index in ctx.extra["hittable"] and mis[rows].any():
+            if not light.delta and light.use_mis and index in ctx.extra["hittable"] and mis[rows].any():
                 mis_weight = np.where(mis[rows], power_heuristic(count * ls.pdf[rows], pdf_bsdf), 1.0)
                 weight = weight * mis_weight
             color = ls.color if ls.color.ndim == 1 else ls.color[rows]
@@ -364,7 +364,10 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             continue
         lh = light.hit(O, D, t_limit)
         found, radiance, pdf_l = lh.hit, lh.radiance, lh.pdf
-        sees = np.ones(len(O), bool) if seen_as is None else (np.asarray(seen_as) & light.unseen_by) == 0
+        kind = np.zeros(len(O), np.int64) if seen_as is None else np.asarray(seen_as, np.int64)
+        sees = (kind & light.unseen_by) == 0
+        if not light.use_mis:             # Multiple Importance off: light samples alone find it, the camera sees it
+            sees &= (kind == HIDDEN_FROM_CAMERA) & (not light.is_(LightFlags.DISTANT))
         if len(moved):
             # The lamp as the light samples at mis_O see it (a round lamp with soft falloff is a disk facing that
             # point), met on this stretch of the line, past O: its pdf from there, the radiance it sends along D.

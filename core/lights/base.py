@@ -111,6 +111,8 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("camera", I32, "1: camera rays see it (Ray Visibility > Camera)"),
     ("hidden", I32, "the HIDDEN_FROM_* bits (core/visibility.py) of the rays that do not see it (Ray Visibility): its light\n"
                     "samples leave out the closures those rays serve, and such rays pass it"),
+    ("use_mis", I32, "1: bounces find it (Light.hit) and MIS weighs the two ways; 0: light samples alone, weight 1 (Cycles'\n"
+                     "Multiple Importance off; camera rays still see it)"),
     ("cast_shadow", I32, "1: shadow rays test what stands between it and a shading point; 0: none are traced (its light\n"
                          "passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow)"),
     ("color", F64, 3, "RGB"),
@@ -185,7 +187,9 @@ class Light:
     # Whether objects block its light (Cycles' Cast Shadow): a lamp's dataclass field, always for the others.
     cast_shadow: bool = True
     # The HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility): a lamp's dataclass field, else 0.
-    hidden: int = 0
+    hidden_from: int = 0
+    # Whether bounces find it and MIS weighs the two ways (Cycles' Multiple Importance): a lamp's field, else always.
+    use_mis: bool = True
 
     @classmethod
     def is_(cls, flags: LightFlags) -> bool:
@@ -214,7 +218,7 @@ class Light:
     def finite(self) -> bool:
         """Whether every parameter is a finite number."""
         values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
-                  if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden") and getattr(self, f.name) is not None]
+                  if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden_from", "use_mis") and getattr(self, f.name) is not None]
         return all(np.isfinite(x).all() for x in values)
 
     def moved(self, origin: np.ndarray) -> "Light":
@@ -253,8 +257,8 @@ class Light:
 
     @property
     def unseen_by(self) -> int:
-        """The HIDDEN_FROM_* bits of the rays that do not see the light: `hidden`, and the camera's where it is off."""
-        return int(self.hidden) | (0 if getattr(self, "camera", True) else HIDDEN_FROM_CAMERA)
+        """The HIDDEN_FROM_* bits of the rays that do not see the light: `hidden_from`, and the camera's where it is off."""
+        return int(self.hidden_from) | (0 if getattr(self, "camera", True) else HIDDEN_FROM_CAMERA)
 
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """Return the sample with its 1/r^2 falloff undone (the lecture switch "distance attenuation" off).
@@ -273,7 +277,7 @@ class Light:
                              dimension=light_dimension(index), numbers=self.random_numbers,
                              color=np.asarray(self.color, np.float64)[:3], hittable=self.hittable,
                              camera=bool(getattr(self, "camera", True)), cast_shadow=bool(self.cast_shadow),
-                             hidden=self.unseen_by, group=-1)
+                             hidden=self.unseen_by, use_mis=bool(self.use_mis), group=-1)
         self.pack_fields(record)
         return record
 

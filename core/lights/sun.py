@@ -26,7 +26,8 @@ class SunLight(Light):
     name: str = "Sun"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
     cast_shadow: bool = True              # its light is stopped by what stands in the way (Blender: Cast Shadow)
-    hidden: int = 0                       # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
+    hidden_from: int = 0                  # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
+    use_mis: bool = True                  # BSDF rays find it too, weighed by MIS (Blender: Multiple Importance)
 
     flags: ClassVar[LightFlags] = LightFlags.DISTANT
     blender_type: ClassVar[str] = "SUN"
