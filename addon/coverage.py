@@ -322,8 +322,8 @@ COVERAGE = {
     },
     "CyclesLightSettings": {
         READ: {"is_portal": "export._export_light (a portal sends no light of its own)",
-               "use_multiple_importance_sampling": "export.export_light"},
-        REPORTED: {"is_caustics_light max_bounces": "unmodelled.light_notes"},
+               "max_bounces use_multiple_importance_sampling": "export.export_light"},
+        REPORTED: {"is_caustics_light": "unmodelled.light_notes"},
     },
     "World": {
         READ: {"color node_tree use_nodes": "export.export_world", "lightgroup": "lightgroups.source_group",
@@ -342,7 +342,8 @@ COVERAGE = {
         REPORTED: {"depth falloff height intensity start use_mist": "unmodelled.view_layer_notes (the Mist pass)"},
     },
     "CyclesWorldSettings": {
-        REPORTED: {"is_caustics_light max_bounces use_shadows*": "unmodelled.world_notes",
+        READ: {"max_bounces use_shadows*": "export.world_light_settings"},
+        REPORTED: {"is_caustics_light": "unmodelled.world_notes",
                    "homogeneous_volume* volume_interpolation volume_sampling volume_step_size": VOLUMES},
         NO_EFFECT: {"sample_map_resolution sampling_method": NOISE},
     },

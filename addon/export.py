@@ -351,6 +351,7 @@ def export_light(obj, matrix: np.ndarray, warnings: list):
         core.hidden_from = lamp_hidden(obj)
         cycles = getattr(getattr(getattr(obj, "original", obj), "data", obj.data), "cycles", None)   # (as the user set it)
         core.use_mis = bool(getattr(cycles, "use_multiple_importance_sampling", True))
+        core.max_bounces = int(getattr(cycles, "max_bounces", 1024))
     return core
 
 
@@ -544,6 +545,15 @@ def export_world(world, warnings: list) -> World:
         warnings.append(NEGATIVE_WORLD.format(float(color.min())))
         color = np.maximum(color, 0.0)
     return World(color=color, camera=camera, lights=diffuse)
+
+
+def world_light_settings(world, core: World) -> World:
+    """The core world with the Blender world's Cycles light settings (Max Bounces, Shadows) read into it."""
+    cycles = getattr(world, "cycles", None)
+    if cycles is None:
+        return core
+    return dataclasses.replace(core, max_bounces=int(getattr(cycles, "max_bounces", 1024)),
+                               cast_shadow=bool(getattr(cycles, "use_shadows", True)))
 
 
 # What Cycles shows for an image it cannot read (core/materials/textures.py MISSING): magenta.
@@ -821,7 +831,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
     warnings += unmodelled.view_layer_notes(depsgraph.view_layer) + unmodelled.world_notes(scene.world)
     holdouts = unmodelled.holdout_objects(depsgraph.view_layer)
-    world = export_world(scene.world, warnings)
+    world = world_light_settings(scene.world, export_world(scene.world, warnings))
     core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world,
                             default_material=DEFAULT_SURFACE)
     materials = MaterialTable()

@@ -170,8 +170,6 @@ def light_notes(obj) -> list:
         notes.append(f"light '{obj.name}' has a negative power; Cycles takes its light away from the scene, Primer "
                      "leaves the light out")
     if cycles is not None:
-        if int(getattr(cycles, "max_bounces", 1024)) < 1024:
-            notes.append(f"light '{obj.name}' has Max Bounces {cycles.max_bounces}; Primer lights every bounce with it")
         if getattr(cycles, "is_caustics_light", False):
             notes.append(f"light '{obj.name}' is a shadow caustics light; Primer renders no manifold caustics")
     return notes
@@ -187,12 +185,8 @@ def world_notes(world) -> list:
         notes.append("the world's Volume is not rendered (Primer renders no volumes): no fog")
     cycles = getattr(world, "cycles", None)
     if cycles is not None:
-        if int(getattr(cycles, "max_bounces", 1024)) < 1024:
-            notes.append(f"the world has Max Bounces {cycles.max_bounces}; Primer lights every bounce with it")
         if getattr(cycles, "is_caustics_light", False):
             notes.append("the world is a shadow caustics light; Primer renders no manifold caustics")
-        if not getattr(cycles, "use_shadows", True):
-            notes.append("the world casts no shadows in Cycles; Primer traces the shadow rays of its light")
     visibility = getattr(world, "cycles_visibility", None)
     if visibility is not None and not visibility.transmission and visibility.diffuse:
         # (Primer's world lights every ray where Diffuse is on, and none where it is off: export.export_world)

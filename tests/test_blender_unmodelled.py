@@ -59,8 +59,6 @@ def scene_with_everything():
     receivers = bpy.data.collections.new("Receivers")
     light.light_linking.receiver_collection = receivers
     light.light_linking.blocker_collection = receivers
-    light.data.cycles.use_multiple_importance_sampling = False
-    light.data.cycles.max_bounces = 3
     bpy.ops.object.light_add(type="POINT", location=(0, 3, 3))
     bpy.context.object.data.energy = -100.0
     bpy.context.object.name = "Sink"
@@ -79,14 +77,14 @@ def scene_with_everything():
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
-    """Depth of field, motion blur, shadow catcher, light and shadow linking, a lamp's Max Bounces, a
+    """Depth of field, motion blur, shadow catcher, light and shadow linking, a
     negative lamp, a material's Volume and Displacement, Principled Dispersion, a world volume, Mist, Vector and
     AOV passes, an Indirect Only collection, particle hair: each named in one warning."""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     expected = ["depth of field", "motion blur", "shadow catcher", "uses light linking", "uses shadow linking",
-                "Max Bounces 3", "'Sink' has a negative power", "Volume output",
+                "'Sink' has a negative power", "Volume output",
                 "Displacement output", "world's Volume", "Mist pass", "Vector pass",
                 "AOVs (Mask)", "Indirect Only", "hair of particle system"]
     if any(node.inputs.get("Dispersion") is not None for node in bpy.data.materials["Displaced"].node_tree.nodes):

@@ -100,3 +100,25 @@ def test_an_area_lamp_without_multiple_importance_converges_to_the_same_irradian
         light = dataclasses.replace(square_light_over_plane(), use_mis=use_mis)
         image = render(plane_scene(camera, (0.5, 0.5, 0.5), [light]), settings).image
         np.testing.assert_allclose(image[..., 0], expected, rtol=1e-2)
+
+
+def floor_and_wall(light):
+    """The floor (albedo 0.5) of `occluded_floor` with its occluder, whose underside sends light back down (a second
+    bounce): a path tracer sees more than the direct light."""
+    return occluded_floor(light)[1]
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_point_lamp_with_max_bounces_0_lights_only_directly(kernels):
+    """A point lamp with Max Bounces 0 (Cycles: no light samples past the camera's hits; a point is never met by a
+    bounce) path-traced with 3 bounces gives exactly the direct light: the render with Max Bounces 0 for the whole
+    path; the same lamp with Max Bounces 1024 adds the light from the occluder's underside."""
+    position, power = np.array([2.0, 0.0, 0.3]), 400.0
+    path = dataclasses.replace(EXACT, integrator="path", samples=4, max_bounces=3, diffuse_bounces=3,
+                               min_light_bounces=3, kernels=kernels)
+    direct = dataclasses.replace(path, max_bounces=0)
+    limited = render(floor_and_wall(PointLight(position=position, power=power, max_bounces=0)), path).image
+    only_direct = render(floor_and_wall(PointLight(position=position, power=power)), direct).image
+    every = render(floor_and_wall(PointLight(position=position, power=power)), path).image
+    np.testing.assert_allclose(limited, only_direct, rtol=1e-12, atol=1e-15)
+    assert every[..., :3].mean() > 1.01 * limited[..., :3].mean()

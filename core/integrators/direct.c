@@ -717,6 +717,9 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && ds->context->emitters->textured != NULL)
                 textured_block(&b, ds);
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER)) skip_own_triangle(&b, H, ds);
+            if (light->max_bounces < 1024)              /* a light's Max Bounces: no samples at later hits */
+                for (int64_t k = 0; k < b.n; k++)
+                    if (H->bounce[b.hit[k]] > light->max_bounces) b.strength[k] = 0.0;
             ray_block(&b, settings, lift, (double)count);
             bsdf_block(&b, H, weighed);
             if (weighed)

@@ -52,6 +52,8 @@ class PathState(NamedTuple):
                goes on as that kind (rays.ray_kind)
     carried_pdf, carried_origin, carried_N: (m,), (m, 3), (m, 3) the pdf, ray origin and light-tree normal of each
                path's last real bounce (bsdf_ray), or None: a camera ray's
+    bounce:    the real bounces each path made before the hits (0: the camera's hits; int or (m,)): a light takes no
+               light samples at hits past its max_bounces
     """
 
     dimension: int = 0
@@ -64,6 +66,7 @@ class PathState(NamedTuple):
     carried_pdf: Optional[np.ndarray] = None
     carried_origin: Optional[np.ndarray] = None
     carried_N: Optional[np.ndarray] = None
+    bounce: object = 0
 
 
 def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -167,6 +170,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             if s.shadow_rays_for_backfacing:
                 lit[:] = True                     # cast them anyway, to count what the lecture saves
             lit &= ls.strength > 0.0
+            if light.max_bounces < 1024:
+                lit &= np.asarray(path.bounce) <= light.max_bounces    # a light's Max Bounces (Cycles: per light)
             if ls.emitter is not None:
                 lit &= ~lights_itself(surface, light, ls, NL, NgL)
             recorder.light_sample(index, count, ls, NL, NgL, cosine, face_allows, lit)

@@ -113,6 +113,8 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
                     "samples leave out the closures those rays serve, and such rays pass it"),
     ("use_mis", I32, "1: bounces find it (Light.hit) and MIS weighs the two ways; 0: light samples alone, weight 1 (Cycles'\n"
                      "Multiple Importance off; camera rays still see it)"),
+    ("max_bounces", I32, "its light samples are taken at a path's vertices up to this bounce (0: the camera's hits); bounces\n"
+                         "still find it beyond (Cycles' per-light Max Bounces, light_select_reached_max_bounces)"),
     ("cast_shadow", I32, "1: shadow rays test what stands between it and a shading point; 0: none are traced (its light\n"
                          "passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow)"),
     ("color", F64, 3, "RGB"),
@@ -190,6 +192,8 @@ class Light:
     hidden_from: int = 0
     # Whether bounces find it and MIS weighs the two ways (Cycles' Multiple Importance): a lamp's field, else always.
     use_mis: bool = True
+    # The last bounce at which its light is sampled (Cycles' per-light Max Bounces): a lamp's field, else 1024.
+    max_bounces: int = 1024
 
     @classmethod
     def is_(cls, flags: LightFlags) -> bool:
@@ -218,7 +222,7 @@ class Light:
     def finite(self) -> bool:
         """Whether every parameter is a finite number."""
         values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
-                  if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden_from", "use_mis") and getattr(self, f.name) is not None]
+                  if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden_from", "use_mis", "max_bounces") and getattr(self, f.name) is not None]
         return all(np.isfinite(x).all() for x in values)
 
     def moved(self, origin: np.ndarray) -> "Light":
@@ -277,7 +281,8 @@ class Light:
                              dimension=light_dimension(index), numbers=self.random_numbers,
                              color=np.asarray(self.color, np.float64)[:3], hittable=self.hittable,
                              camera=bool(getattr(self, "camera", True)), cast_shadow=bool(self.cast_shadow),
-                             hidden=self.unseen_by, use_mis=bool(self.use_mis), group=-1)
+                             hidden=self.unseen_by, use_mis=bool(self.use_mis),
+                             max_bounces=int(min(self.max_bounces, 1 << 30)), group=-1)
         self.pack_fields(record)
         return record
 
