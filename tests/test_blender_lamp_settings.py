@@ -102,6 +102,10 @@ for name in {cases!r}:
     elif name == "mis off":
         case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
              **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0), "data.cycles.use_multiple_importance_sampling": False}})
+    elif name.startswith("max bounces"):
+        scene.primer.integrator, scene.primer.max_bounces, scene.primer.diffuse_bounces = "PATH", 2, 2
+        case(name, "POINT", (2.0, 0.0, 0.4), 300.0, **{{"data.cycles.max_bounces": int(name.split()[-1])}})
+        scene.primer.integrator = "DIRECT"
     elif name == "seen by all":
         case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
              **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0)}})
@@ -151,3 +155,17 @@ def test_multiple_importance_off_is_read_without_a_warning_and_renders_as_cycles
     print(case["rel_mse"])
     assert case["fields"]["use_mis"] is False and case["warnings"] == []
     assert case["rel_mse"] < BLOCK_TOLERANCE
+
+
+def test_max_bounces_is_read_without_a_warning_and_renders_as_cycles(tmp_path):
+    """A point lamp beside the occluder, path-traced with 2 bounces: with its Max Bounces 0 it lights the floor
+    directly only (the occluder's underside sends nothing back), as in Cycles, and the image is darker than with
+    Max Bounces 1024 (the test can tell)."""
+    cases = run_cases(tmp_path, ["max bounces 0", "max bounces 1024"])
+    print({name: (c["rel_mse"], c["primer_mean"], c["cycles_mean"]) for name, c in cases.items()})
+    limited, every = cases["max bounces 0"], cases["max bounces 1024"]
+    assert limited["fields"]["max_bounces"] == 0 and limited["warnings"] == []
+    assert limited["rel_mse"] < BLOCK_TOLERANCE
+    # (With every bounce lit the 32-sample path-traced floor is noisy: its blocks within 1e-2, its mean within 2%.)
+    assert every["rel_mse"] < 1e-2 and abs(every["primer_mean"] / every["cycles_mean"] - 1.0) < 0.02
+    assert limited["cycles_mean"] < 0.97 * every["cycles_mean"]
