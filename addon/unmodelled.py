@@ -162,13 +162,10 @@ def object_notes(obj) -> list:
 
 
 def light_notes(obj) -> list:
-    """Lamp settings that Primer does not model: a negative power, Cycles' per-lamp sampling settings."""
+    """Lamp settings that Primer does not model: a shadow caustics light (Cycles' manifold next-event estimation)."""
     light = obj.data
     cycles = getattr(getattr(getattr(obj, "original", obj), "data", light), "cycles", None)    # (as the user set it)
     notes = []
-    if float(getattr(light, "energy", 0.0)) < 0.0:
-        notes.append(f"light '{obj.name}' has a negative power; Cycles takes its light away from the scene, Primer "
-                     "leaves the light out")
     if cycles is not None:
         if getattr(cycles, "is_caustics_light", False):
             notes.append(f"light '{obj.name}' is a shadow caustics light; Primer renders no manifold caustics")

@@ -106,6 +106,10 @@ for name in {cases!r}:
         scene.primer.integrator, scene.primer.max_bounces, scene.primer.diffuse_bounces = "PATH", 2, 2
         case(name, "POINT", (2.0, 0.0, 0.4), 300.0, **{{"data.cycles.max_bounces": int(name.split()[-1])}})
         scene.primer.integrator = "DIRECT"
+    elif name == "negative lamp":
+        sun = lamp("SUN", (0.0, 0.0, 3.0), 3.0)
+        case(name, "AREA", (0.0, 0.0, 1.5), -30.0, surface=principled, **{{"data.size": 2.0}})
+        bpy.data.objects.remove(sun)
     elif name == "seen by all":
         case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
              **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0)}})
@@ -169,3 +173,12 @@ def test_max_bounces_is_read_without_a_warning_and_renders_as_cycles(tmp_path):
     # (With every bounce lit the 32-sample path-traced floor is noisy: its blocks within 1e-2, its mean within 2%.)
     assert every["rel_mse"] < 1e-2 and abs(every["primer_mean"] / every["cycles_mean"] - 1.0) < 0.02
     assert limited["cycles_mean"] < 0.97 * every["cycles_mean"]
+
+
+def test_a_negative_lamp_is_read_without_a_warning_and_renders_as_cycles(tmp_path):
+    """An area lamp of power -30 W under a sun of strength 3 over the Principled floor: Cycles subtracts its light,
+    and so does Primer (block relMSE below the tolerance), with no warning."""
+    case = run_cases(tmp_path, ["negative lamp"])["negative lamp"]
+    print(case["rel_mse"], case["primer_mean"], case["cycles_mean"])
+    assert case["fields"]["power"] == -30.0 and case["warnings"] == []
+    assert case["rel_mse"] < BLOCK_TOLERANCE

@@ -122,3 +122,20 @@ def test_a_point_lamp_with_max_bounces_0_lights_only_directly(kernels):
     every = render(floor_and_wall(PointLight(position=position, power=power)), path).image
     np.testing.assert_allclose(limited, only_direct, rtol=1e-12, atol=1e-15)
     assert every[..., :3].mean() > 1.01 * limited[..., :3].mean()
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_negative_point_lamp_takes_away_what_its_positive_twin_adds(kernels):
+    """A point lamp of power -P (Cycles renders it: its light is subtracted) beside one of power 2P at the same
+    place gives exactly (rho / pi) P / (4 pi r^2) cos theta, the closed form of one lamp of power P."""
+    camera = ortho_camera_looking_down(5.0, 4.0)
+    position, power = np.array([0.3, -0.2, 1.5]), 300.0
+    scene = plane_scene(camera, (0.5, 0.5, 0.5), [PointLight(position=position, power=2.0 * power),
+                                                   PointLight(position=position, power=-power)])
+    image = render(scene, dataclasses.replace(EXACT, kernels=kernels)).image[..., :3]
+    points = pixel_centre_points(camera, 16, 16, lambda x, y: np.zeros_like(x))
+    expected = point_light_radiance((0.5, 0.5, 0.5), (1.0, 1.0, 1.0), power, position, points)
+    np.testing.assert_allclose(image, expected, rtol=1e-6)
+    alone = plane_scene(camera, (0.5, 0.5, 0.5), [PointLight(position=position, power=-power)])
+    np.testing.assert_allclose(render(alone, dataclasses.replace(EXACT, kernels=kernels)).image[..., :3], -expected,
+                               rtol=1e-6)

@@ -304,7 +304,8 @@ INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict se
         int through = b->through[k] != 0.0, behind = through & (NgL < 0.0);
         double cosine = through ? fabs(NL) : at_least(NL, 0.0);
         int face_allows = (NgL > 0.0) | ((fix * b->smooth[k]) != 0.0) | through;
-        b->keep[k] = ((cosine != 0.0) & face_allows & (b->strength[k] > 0.0)) ? 1.0 : 0.0;
+        /* (a negative lamp takes light away, as in Cycles) */
+        b->keep[k] = ((cosine != 0.0) & face_allows & ((b->strength[k] > 0.0) | (b->strength[k] < 0.0))) ? 1.0 : 0.0;
         if (behind) for (int c = 0; c < 3; c++) ng[c] = -ng[c];
         /* b. The ray, from I or the terminator fix's blend towards the lifted point (amount 0 elsewhere). */
         double amount = (lifting * b->smooth[k]) != 0.0 && !behind ? terminator_amount(NL, NgL, cutoff) : 0.0;

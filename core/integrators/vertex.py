@@ -169,7 +169,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             lit = (cosine != 0.0) & face_allows
             if s.shadow_rays_for_backfacing:
                 lit[:] = True                     # cast them anyway, to count what the lecture saves
-            lit &= ls.strength > 0.0
+            lit &= (ls.strength > 0.0) | (ls.strength < 0.0)      # (a negative lamp takes light away, as in Cycles)
             if light.max_bounces < 1024:
                 lit &= np.asarray(path.bounce) <= light.max_bounces    # a light's Max Bounces (Cycles: per light)
             if ls.emitter is not None:

@@ -216,8 +216,9 @@ class Light:
         return False
 
     def emits(self) -> bool:
-        """Whether the light sends any light (positive colour and output)."""
-        return float(np.max(np.asarray(self.color, np.float64))) > 0 and float(getattr(self, self.output_field)) > 0
+        """Whether the light sends any light or takes any away (a colour and an output other than 0: Cycles renders a
+        lamp of negative power, whose light is subtracted)."""
+        return bool(np.any(np.asarray(self.color, np.float64) * float(getattr(self, self.output_field)) != 0.0))
 
     def finite(self) -> bool:
         """Whether every parameter is a finite number."""
