@@ -35,6 +35,10 @@ material = diffuse_material("Floor", (0.8, 0.8, 0.8))
 principled = bpy.data.materials.new("Principled")      # Blender's default surface: diffuse and a glossy layer
 principled.use_nodes = True
 principled.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.3
+metal = bpy.data.materials.new("Metal")                 # a smooth metal: a mirror of the lamps
+metal.use_nodes = True
+metal.node_tree.nodes["Principled BSDF"].inputs["Metallic"].default_value = 1.0
+metal.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.0
 
 
 def plane(name, corners):
@@ -110,6 +114,13 @@ for name in {cases!r}:
         sun = lamp("SUN", (0.0, 0.0, 3.0), 3.0)
         case(name, "AREA", (0.0, 0.0, 1.5), -30.0, surface=principled, **{{"data.size": 2.0}})
         bpy.data.objects.remove(sun)
+    elif name == "metal spot":
+        case(name, "SPOT", (0.3, 0.0, 2.0), 500.0, surface=metal,
+             **{{"data.shadow_soft_size": 0.6, "data.spot_size": 1.0, "rotation_euler": (0.0, 0.5, 0.0)}})
+    elif name == "metal point":
+        case(name, "POINT", (0.3, 0.0, 2.0), 500.0, surface=metal, **{{"data.shadow_soft_size": 0.6}})
+    elif name == "metal sun":
+        case(name, "SUN", (0.0, 0.0, 3.0), 3.0, surface=metal, **{{"data.angle": 0.3, "rotation_euler": (0.05, 0.0, 0.0)}})
     elif name == "seen by all":
         case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
              **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0)}})
@@ -182,3 +193,13 @@ def test_a_negative_lamp_is_read_without_a_warning_and_renders_as_cycles(tmp_pat
     print(case["rel_mse"], case["primer_mean"], case["cycles_mean"])
     assert case["fields"]["power"] == -30.0 and case["warnings"] == []
     assert case["rel_mse"] < BLOCK_TOLERANCE
+
+
+def test_a_smooth_metal_shows_point_spot_and_sun_lamps_as_cycles(tmp_path):
+    """A smooth metal floor (Principled, Metallic 1, Roughness 0) mirrors a round point lamp, a round spot lamp whose
+    cone cuts its disk, and a sun disk of 0.3 rad seen straight up: Primer's images are Cycles' (direct light)."""
+    cases = run_cases(tmp_path, ["metal point", "metal spot", "metal sun"])
+    print({name: (c["rel_mse"], c["primer_mean"], c["cycles_mean"]) for name, c in cases.items()})
+    for name, case in cases.items():
+        assert case["warnings"] == [] and case["cycles_mean"] > 0.0, name
+        assert case["rel_mse"] < BLOCK_TOLERANCE, name
