@@ -101,6 +101,20 @@ def test_a_default_scene_says_nothing_of_these(primer):
     assert not [w for w in warnings if "Primer" in w], warnings
 
 
+def test_lamps_as_many_as_the_transparent_bounces_are_noted(primer):
+    """Cycles ends a ray at its Transparent Max Bounces-th lamp with a size (shade_light.h): the default scene's
+    point lamp with a radius and Transparent Max Bounces 1 is noted once; with the default 8 nothing is said."""
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    bpy.context.scene.objects["Light"].data.shadow_soft_size = 0.5
+    phrase = "as a transparent bounce"
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    assert not [w for w in warnings if phrase in w]
+    bpy.context.scene.cycles.transparent_max_bounces = 1
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    assert len([w for w in warnings if phrase in w]) == 1
+
+
 @pytest.mark.slow
 def test_a_holdout_collection_and_a_volume_only_box_render_as_in_cycles(primer, tmp_path):
     """A sphere in a Holdout collection cuts a hole in the film (alpha 0), and a cube whose material has only a
