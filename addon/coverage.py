@@ -342,8 +342,8 @@ COVERAGE = {
         REPORTED: {"depth falloff height intensity start use_mist": "unmodelled.view_layer_notes (the Mist pass)"},
     },
     "CyclesWorldSettings": {
-        READ: {"max_bounces use_shadows*": "export.world_light_settings"},
-        REPORTED: {"is_caustics_light": "unmodelled.world_notes",
+        READ: {"max_bounces": "export.world_light_settings"},
+        REPORTED: {"is_caustics_light use_shadows*": "unmodelled.world_notes",
                    "homogeneous_volume* volume_interpolation volume_sampling volume_step_size": VOLUMES},
         NO_EFFECT: {"sample_map_resolution sampling_method": NOISE},
     },

@@ -200,6 +200,8 @@ def world_notes(world) -> list:
     if cycles is not None:
         if getattr(cycles, "is_caustics_light", False):
             notes.append("the world is a shadow caustics light; Primer renders no manifold caustics")
+        if not getattr(cycles, "use_shadows", True):
+            notes.append("the world casts no shadows in Cycles; Primer traces the shadow rays of its light")
     visibility = getattr(world, "cycles_visibility", None)
     if visibility is not None and not visibility.transmission and visibility.diffuse:
         # (Primer's world lights every ray where Diffuse is on, and none where it is off: export.export_world)

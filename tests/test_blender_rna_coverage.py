@@ -152,6 +152,7 @@ CASES = [
     ("ObjectLightLinking", "light.light_linking", "receiver_collection", new_collection, [], "object_notes", "light",
      "light linking"),
     ("CyclesWorldSettings", "world.cycles", "is_caustics_light", True, [], "world_notes", "world", "shadow caustics"),
+    ("CyclesWorldSettings", "world.cycles", "use_shadows", False, [], "world_notes", "world", "casts no shadows"),
     ("CyclesVisibilitySettings", "world.cycles_visibility", "transmission", False, [], "world_notes", "world",
      "Transmission rays"),
     ("CyclesMaterialSettings", "material.cycles", "use_bump_map_correction", False, [], "material_notes", "material",

@@ -39,9 +39,10 @@ class World:
     rotation: (3, 3) float64 world-to-texture rotation (the Mapping node's), applied before (u, v)
     camera:   whether camera rays see it (Ray Visibility > Camera)
     lights:   whether it lights surfaces (Ray Visibility > Diffuse / Glossy)
-    max_bounces, cast_shadow: the world's Cycles light settings (Max Bounces, Shadows): an image world's light samples
-              stop after that bounce, and without shadows they trace no shadow ray. A constant world has no light
-              samples, in Cycles as in Primer (it is found by the rays that escape), so neither changes it.
+    max_bounces, cast_shadow: an image world's light samples stop after that bounce (Cycles' world Max Bounces), and
+              without shadows they trace no shadow ray (the add-on does not read Blender 5.2's world Shadows: noted).
+              A constant world has no light samples, in Cycles as in Primer (it is found by the rays that escape),
+              so neither changes it.
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
