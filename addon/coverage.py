@@ -286,8 +286,7 @@ COVERAGE = {
         READ: {"color exposure* temperature_color* use_temperature*": "export._light_color",
                "temperature*": "export._light_color (as `temperature_color`, Blender's colour of it)",
                "normalize* type": "export._export_light", "node_tree use_nodes": "export.light_node_factor",
-               "animation_data": DEPSGRAPH},
-        REPORTED: {"use_shadow": "export._export_light"},
+               "use_shadow": "export.export_light", "animation_data": DEPSGRAPH},
         NO_EFFECT: {"cutoff_distance diffuse_factor specular_factor transmission_factor use_custom_distance "
                     "volume_factor": EEVEE,
                     "cycles": POINTER},
@@ -322,8 +321,9 @@ COVERAGE = {
                     "shadow_soft_size": "a point or spot lamp's radius: Cycles sizes an area lamp by its size"},
     },
     "CyclesLightSettings": {
-        READ: {"is_portal": "export._export_light (a portal sends no light of its own)"},
-        REPORTED: {"is_caustics_light max_bounces use_multiple_importance_sampling": "unmodelled.light_notes"},
+        READ: {"is_portal": "export._export_light (a portal sends no light of its own)",
+               "max_bounces use_multiple_importance_sampling": "export.export_light"},
+        REPORTED: {"is_caustics_light": "unmodelled.light_notes"},
     },
     "World": {
         READ: {"color node_tree use_nodes": "export.export_world", "lightgroup": "lightgroups.source_group",
@@ -342,7 +342,8 @@ COVERAGE = {
         REPORTED: {"depth falloff height intensity start use_mist": "unmodelled.view_layer_notes (the Mist pass)"},
     },
     "CyclesWorldSettings": {
-        REPORTED: {"is_caustics_light max_bounces use_shadows*": "unmodelled.world_notes",
+        READ: {"max_bounces": "export.world_light_settings"},
+        REPORTED: {"is_caustics_light use_shadows*": "unmodelled.world_notes",
                    "homogeneous_volume* volume_interpolation volume_sampling volume_step_size": VOLUMES},
         NO_EFFECT: {"sample_map_resolution sampling_method": NOISE},
     },

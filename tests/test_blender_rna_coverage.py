@@ -151,8 +151,6 @@ CASES = [
      "camera", "depth of field"),
     ("ObjectLightLinking", "light.light_linking", "receiver_collection", new_collection, [], "object_notes", "light",
      "light linking"),
-    ("CyclesLightSettings", "light.data.cycles", "max_bounces", 3, [], "light_notes", "light", "Max Bounces 3"),
-    ("CyclesWorldSettings", "world.cycles", "max_bounces", 2, [], "world_notes", "world", "Max Bounces 2"),
     ("CyclesWorldSettings", "world.cycles", "is_caustics_light", True, [], "world_notes", "world", "shadow caustics"),
     ("CyclesWorldSettings", "world.cycles", "use_shadows", False, [], "world_notes", "world", "casts no shadows"),
     ("CyclesVisibilitySettings", "world.cycles_visibility", "transmission", False, [], "world_notes", "world",

@@ -59,11 +59,6 @@ def scene_with_everything():
     receivers = bpy.data.collections.new("Receivers")
     light.light_linking.receiver_collection = receivers
     light.light_linking.blocker_collection = receivers
-    light.data.cycles.use_multiple_importance_sampling = False
-    light.data.cycles.max_bounces = 3
-    bpy.ops.object.light_add(type="POINT", location=(0, 3, 3))
-    bpy.context.object.data.energy = -100.0
-    bpy.context.object.name = "Sink"
     world = scene.world
     tree = world.node_tree
     out = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld")
@@ -79,14 +74,13 @@ def scene_with_everything():
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
-    """Depth of field, motion blur, shadow catcher, light and shadow linking, a lamp's MIS and Max Bounces, a
-    negative lamp, a material's Volume and Displacement, Principled Dispersion, a world volume, Mist, Vector and
-    AOV passes, an Indirect Only collection, particle hair: each named in one warning."""
+    """Depth of field, motion blur, shadow catcher, light and shadow linking, a material's Volume and Displacement,
+    Principled Dispersion, a world volume, Mist, Vector and AOV passes, an Indirect Only collection, particle hair: each named in one warning."""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     expected = ["depth of field", "motion blur", "shadow catcher", "uses light linking", "uses shadow linking",
-                "Multiple Importance off", "Max Bounces 3", "'Sink' has a negative power", "Volume output",
+                "Volume output",
                 "Displacement output", "world's Volume", "Mist pass", "Vector pass",
                 "AOVs (Mask)", "Indirect Only", "hair of particle system"]
     if any(node.inputs.get("Dispersion") is not None for node in bpy.data.materials["Displaced"].node_tree.nodes):
@@ -105,6 +99,20 @@ def test_a_default_scene_says_nothing_of_these(primer):
     bpy.context.scene.cycles.filter_width = 1.5
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     assert not [w for w in warnings if "Primer" in w], warnings
+
+
+def test_lamps_as_many_as_the_transparent_bounces_are_noted(primer):
+    """Cycles ends a ray at its Transparent Max Bounces-th lamp with a size (shade_light.h): the default scene's
+    point lamp with a radius and Transparent Max Bounces 1 is noted once; with the default 8 nothing is said."""
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    bpy.context.scene.objects["Light"].data.shadow_soft_size = 0.5
+    phrase = "as a transparent bounce"
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    assert not [w for w in warnings if phrase in w]
+    bpy.context.scene.cycles.transparent_max_bounces = 1
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    assert len([w for w in warnings if phrase in w]) == 1
 
 
 @pytest.mark.slow

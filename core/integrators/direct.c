@@ -304,7 +304,8 @@ INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict se
         int through = b->through[k] != 0.0, behind = through & (NgL < 0.0);
         double cosine = through ? fabs(NL) : at_least(NL, 0.0);
         int face_allows = (NgL > 0.0) | ((fix * b->smooth[k]) != 0.0) | through;
-        b->keep[k] = ((cosine != 0.0) & face_allows & (b->strength[k] > 0.0)) ? 1.0 : 0.0;
+        /* (a negative lamp takes light away, as in Cycles) */
+        b->keep[k] = ((cosine != 0.0) & face_allows & ((b->strength[k] > 0.0) | (b->strength[k] < 0.0))) ? 1.0 : 0.0;
         if (behind) for (int c = 0; c < 3; c++) ng[c] = -ng[c];
         /* b. The ray, from I or the terminator fix's blend towards the lifted point (amount 0 elsewhere). */
         double amount = (lifting * b->smooth[k]) != 0.0 && !behind ? terminator_amount(NL, NgL, cutoff) : 0.0;
@@ -373,7 +374,7 @@ INLINE double clamp_limit(const BlockHits *H, int64_t h, const double *caps)
 
 INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *scene, double *L_out,
                              const Transmitter *transmitter, const BlockHits *H, const double *caps, double count,
-                             double (*parts)[PASS_KINDS][3])
+                             double (*parts)[PASS_KINDS][3], int cast_shadow)
 {
     RayPacket ray;
     int valid[PACKET] ALIGNED(32);
@@ -397,7 +398,15 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             if (++lanes < PACKET) continue;
         }
         if (lanes == 0) continue;
-        if (transmitter != NULL) {
+        if (!cast_shadow) {
+            /* A lamp with Cast Shadow off: no shadow ray, its light passes whatever stands in the way. */
+            for (int lane = 0; lane < lanes; lane++) {
+                T[lane][0] = T[lane][1] = T[lane][2] = 1.0;
+                double *e = L_out + 3 * owner[lane];
+                for (int c = 0; c < 3; c++) e[c] += value[lane][c];
+                add_to_group(H->groups, H->group_count, owner[lane], b->group[sample_of[lane]], value[lane], 1.0);
+            }
+        } else if (transmitter != NULL) {
             /* Transparent shadows: each ray carries the product of the transparencies it passes. */
             transmit_packet(transmitter, lanes, O, D, t, T);
             for (int lane = 0; lane < lanes; lane++) {
@@ -427,7 +436,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
                 add_split(parts[h], got, &shares[0][0]);
             }
         }
-        rays += lanes;
+        rays += cast_shadow ? lanes : 0;
         lanes = 0;
     }
     return rays;
@@ -686,8 +695,9 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
     int lift = settings->terminator_fix != 0.0;
     for (int64_t l = 0; l < ds->n_lights; l++) {
         const LightRecord *light = ds->lights + l;
-        int weighed = ds->mis && light->delta == 0.0 && light->hittable != 0.0;
-        if (ds->sampling == SAMPLE_BSDF && light->delta == 0.0 && light->hittable != 0.0) continue;
+        int weighed = ds->mis && light->delta == 0.0 && light->hittable != 0.0 && light->use_mis != 0;
+        if (ds->sampling == SAMPLE_BSDF && light->delta == 0.0 && light->hittable != 0.0 && light->use_mis != 0)
+            continue;
         int64_t count = (int64_t)light->samples, total = H->m * count;
         for (int64_t first = 0; first < total; first += BLOCK) {
             gather_block(&b, H, first, total - first < BLOCK ? total - first : BLOCK, count, lift);
@@ -703,9 +713,14 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
                 for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = b.u2[k] = 0.0;
             }
             light_block(&b, light, ds->context);
+            if (light->hidden != 0)                      /* a lamp's Ray Visibility: closures it leaves out */
+                for (int64_t k = 0; k < b.n; k++) b.hidden[k] |= (int)light->hidden;
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && ds->context->emitters->textured != NULL)
                 textured_block(&b, ds);
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER)) skip_own_triangle(&b, H, ds);
+            if (light->max_bounces < 1024)              /* a light's Max Bounces: no samples at later hits */
+                for (int64_t k = 0; k < b.n; k++)
+                    if (H->bounce[b.hit[k]] > light->max_bounces) b.strength[k] = 0.0;
             ray_block(&b, settings, lift, (double)count);
             bsdf_block(&b, H, weighed);
             if (weighed)
@@ -714,7 +729,8 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
                         b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
             uint64_t start = ticks();
             rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter, H,
-                                  ds->clamping ? ds->caps : NULL, (double)count, ds->light_passes ? H->parts : NULL);
+                                  ds->clamping ? ds->caps : NULL, (double)count, ds->light_passes ? H->parts : NULL,
+                                  light->cast_shadow != 0);
             embree += ticks() - start;
         }
     }
@@ -735,6 +751,7 @@ typedef struct {
     double pdf;
     int use_mis, camera;
     const double *P, *N;
+    int seen_as;            /* the ray's kind (HIDDEN_FROM_* bit): it passes lamps hidden from that kind */
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -771,6 +788,10 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         const LightRecord *light = ds->lights + l;
         if (light->hittable == 0.0 || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_DISTANT | LIGHT_FLAG_AREA))
             continue;                                   /* (emitters and the world are found below) */
+        if (((int)light->hidden & ray->seen_as) != 0) continue;     /* a lamp's Ray Visibility */
+        /* Multiple Importance off: light samples alone find it; camera rays still see a lamp (not a sun disk) */
+        if (light->use_mis == 0 && (ray->seen_as != HIDDEN_FROM_CAMERA || light_is((int)light->kind, LIGHT_FLAG_DISTANT)))
+            continue;
         LightHit lh;
         if (away) {
             /* The lamp as the light samples at P see it (a round lamp with soft falloff: the disk facing P), met
@@ -907,7 +928,8 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             double groups_L[3 * MAX_LIGHT_GROUPS];
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
             FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
-                                  instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N};
+                                  instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
+                                  kinds[k]};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

@@ -144,7 +144,8 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
-                                        N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups)
+                                        N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
+                                        seen_as=ray.seen_as[rows][alive])
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         found[alive] += light * f[:, None]
         if groups is not None:
@@ -260,7 +261,7 @@ class PathTracing(Integrator):
                                   pixel[owner], sample[owner], dimension)
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
-                              carried_origin=mis_origin, carried_N=mis_normal)
+                              carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce)
             vertex_groups = lightgroups.tally(ctx, len(owner))
             emitted, finds = (np.zeros((len(owner), 3)), np.zeros((len(owner), 3))) if feats is not None else (None, None)
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,

@@ -24,7 +24,7 @@ import numpy as np
 
 from .. import materials as materials_
 from ..geometry.surface import surface_at_hits
-from ..lights.base import LAMP
+from ..lights.base import LAMP, LightFlags
 from ..materials import graph as graph_
 from ..sampling import sobol as sampling
 from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION,
@@ -52,6 +52,8 @@ class PathState(NamedTuple):
                goes on as that kind (rays.ray_kind)
     carried_pdf, carried_origin, carried_N: (m,), (m, 3), (m, 3) the pdf, ray origin and light-tree normal of each
                path's last real bounce (bsdf_ray), or None: a camera ray's
+    bounce:    the real bounces each path made before the hits (0: the camera's hits; int or (m,)): a light takes no
+               light samples at hits past its max_bounces
     """
 
     dimension: int = 0
@@ -64,6 +66,7 @@ class PathState(NamedTuple):
     carried_pdf: Optional[np.ndarray] = None
     carried_origin: Optional[np.ndarray] = None
     carried_N: Optional[np.ndarray] = None
+    bounce: object = 0
 
 
 def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -136,7 +139,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     tree_N = tree_normals(s, surface, refracts)
     for index, light in enumerate(ctx.lights):
         check_stop(ctx)
-        if (s.light_sampling == "bsdf" and not light_samples_only and not light.delta
+        if (s.light_sampling == "bsdf" and not light_samples_only and not light.delta and light.use_mis
                 and index in ctx.extra.get("hittable", ())):
             continue                      # found by BSDF rays alone
         count = light_count(ctx, light)
@@ -151,6 +154,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 ls = textured_samples(ctx, light, surface.I, ls)
             if not s.distance_attenuation:
                 ls = light.without_attenuation(ls, surface.I)
+            if light.hidden_from and ls.hidden is None:
+                ls = ls._replace(hidden=np.full(m, light.unseen_by, np.int64))   # a lamp's Ray Visibility
             # b. The lecture's two tests: N.L > 0 (shading normal, the clamp) and Ng.L > 0 (the
             #    face normal decides whether the light can be visible; `visibility_normal`
             #    switches it). The terminator fix lifts smooth points onto the curved surface,
@@ -164,7 +169,9 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             lit = (cosine != 0.0) & face_allows
             if s.shadow_rays_for_backfacing:
                 lit[:] = True                     # cast them anyway, to count what the lecture saves
-            lit &= ls.strength > 0.0
+            lit &= (ls.strength > 0.0) | (ls.strength < 0.0)      # (a negative lamp takes light away, as in Cycles)
+            if light.max_bounces < 1024:
+                lit &= np.asarray(path.bounce) <= light.max_bounces    # a light's Max Bounces (Cycles: per light)
             if ls.emitter is not None:
                 lit &= ~lights_itself(surface, light, ls, NL, NgL)
             recorder.light_sample(index, count, ls, NL, NgL, cosine, face_allows, lit)
@@ -173,14 +180,18 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 continue
             # c. One shadow ray per lit sample, from a point safely off the surface.
             rays = aim_shadow_rays(s, surface, rows, ls, NL, NgL, offsets, refracts[rows] & (NgL[rows] < 0.0))
-            if ctx.extra.get("transparent", False):
+            if not light.cast_shadow:
+                # A lamp with Cast Shadow off (Cycles' light.use_shadow): no shadow ray, nothing blocks it.
+                seen = np.ones(len(rows), bool)
+                through = np.ones((len(rows), 1))
+            elif ctx.extra.get("transparent", False):
                 through = shadows.transmittance(ctx, rays, s.transparent_max_bounces)
                 seen = through.any(axis=1)
             else:
                 seen = shadows.visible(ctx.geometry.tracer, rays)
                 through = seen[:, None].astype(np.float64)
             recorder.shadow_rays(index, count, rows, rays, seen)
-            shadow_rays += len(rows)
+            shadow_rays += len(rows) if light.cast_shadow else 0
             # d. What gets through: f cos (the closures at L) E_normal / count, coloured by the
             #    light, weighed against BSDF sampling where a BSDF ray could find this light.
             part = shader.closures.rows(rows)
@@ -189,7 +200,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                                                        signed_cosine=not s.clamp_n_dot_l, left_out=left_out)
             weight = ls.strength[rows] * (1.0 / count)
             mis_weight = np.ones(len(rows))
-            if not light.delta and index in ctx.extra["hittable"] and mis[rows].any():
+            if not light.delta and light.use_mis and index in ctx.extra["hittable"] and mis[rows].any():
                 mis_weight = np.where(mis[rows], power_heuristic(count * ls.pdf[rows], pdf_bsdf), 1.0)
                 weight = weight * mis_weight
             color = ls.color if ls.color.ndim == 1 else ls.color[rows]
@@ -287,7 +298,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, len(go))
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
-                                             mis_O=mis_O, groups=ray_groups)
+                                             mis_O=mis_O, groups=ray_groups, seen_as=seen_as)
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -325,7 +336,7 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
 
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
-                 camera=None, N=None, mis_O=None, groups=None) -> np.ndarray:
+                 camera=None, N=None, mis_O=None, groups=None, seen_as=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -338,7 +349,9 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     distance t from O is at |O + t D - mis_O| from there (Cycles' mis_origin); an emitter's radiance is the actual
     hit's; a lamp is met where the line from mis_O meets it past O (the same point, but for a round lamp with soft
     falloff: the disk facing mis_O, the one its light samples there saw), with the radiance it sends along D.
-    groups: a lightgroups.GroupLight of the k rays that receives each find by the group of its source, or None."""
+    groups: a lightgroups.GroupLight of the k rays that receives each find by the group of its source, or None.
+    seen_as: (k,) int each ray's kind (HIDDEN_FROM_* bit, ray_kind), or None: a lamp hidden from a kind of ray
+    (its Ray Visibility) is passed by rays of that kind."""
     light_L = np.zeros((len(O), 3))
     t_limit = np.where(hits.hit, hits.t, np.inf)
     away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
@@ -356,6 +369,10 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             continue
         lh = light.hit(O, D, t_limit)
         found, radiance, pdf_l = lh.hit, lh.radiance, lh.pdf
+        kind = np.zeros(len(O), np.int64) if seen_as is None else np.asarray(seen_as, np.int64)
+        sees = (kind & light.unseen_by) == 0
+        if not light.use_mis:             # Multiple Importance off: light samples alone find it, the camera sees it
+            sees &= (kind == HIDDEN_FROM_CAMERA) & (not light.is_(LightFlags.DISTANT))
         if len(moved):
             # The lamp as the light samples at mis_O see it (a round lamp with soft falloff is a disk facing that
             # point), met on this stretch of the line, past O: its pdf from there, the radiance it sends along D.
@@ -365,6 +382,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             found[moved] = past
             radiance[moved] = np.where(past[:, None], seen.radiance, 0.0)
             pdf_l[moved] = np.where(past, seen.pdf, 0.0)
+        found = found & sees
+        radiance = np.where(sees[:, None], radiance, 0.0)
         if not found.any():
             continue
         w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * pdf_l), 1.0)

@@ -111,7 +111,8 @@ class WhittedTracing(Integrator):
             # 2. Emission and direct light at every hit (light samples only: no BSDF rays, no MIS).
             wo = -D[hit]
             rows = owner[hit]
-            state = PathState(dimension=depth * (1 << 16), ray=graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE)
+            state = PathState(dimension=depth * (1 << 16), ray=graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE,
+                              bounce=depth)
             hit_groups = lightgroups.tally(ctx, len(hit))
             L_hit, rays, _ = shade_vertex(ctx, surface, wo, pixel[rows], sample[rows], recorder, state,
                                           light_samples_only=True, groups=hit_groups)

@@ -68,6 +68,10 @@ class AreaLight(Light):
     spread: float = math.pi
     name: str = "Area"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
+    cast_shadow: bool = True              # its light is stopped by what stands in the way (Blender: Cast Shadow)
+    hidden_from: int = 0                  # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
+    use_mis: bool = True                  # BSDF rays find it too, weighed by MIS (Blender: Multiple Importance)
+    max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
 
     flags: ClassVar[LightFlags] = LightFlags.AREA
     blender_type: ClassVar[str] = "AREA"

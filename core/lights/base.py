@@ -29,6 +29,7 @@ from typing import ClassVar, NamedTuple, Optional
 import numpy as np
 
 from .. import vectors
+from ..visibility import HIDDEN_FROM_CAMERA
 from ..native import library, schema
 from ..native.schema import F64, I32, I64, ptr
 
@@ -108,6 +109,14 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("delta", I32, "1: no extent (exact, one direction)"),
     ("hittable", I32, "1: rays can meet it (it has extent): BSDF rays find it, weighed by MIS"),
     ("camera", I32, "1: camera rays see it (Ray Visibility > Camera)"),
+    ("hidden", I32, "the HIDDEN_FROM_* bits (core/visibility.py) of the rays that do not see it (Ray Visibility): its light\n"
+                    "samples leave out the closures those rays serve, and such rays pass it"),
+    ("use_mis", I32, "1: bounces find it (Light.hit) and MIS weighs the two ways; 0: light samples alone, weight 1 (Cycles'\n"
+                     "Multiple Importance off; camera rays still see it)"),
+    ("max_bounces", I32, "its light samples are taken at a path's vertices up to this bounce (0: the camera's hits); bounces\n"
+                         "still find it beyond (Cycles' per-light Max Bounces, light_select_reached_max_bounces)"),
+    ("cast_shadow", I32, "1: shadow rays test what stands between it and a shading point; 0: none are traced (its light\n"
+                         "passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow)"),
     ("color", F64, 3, "RGB"),
     ("position", F64, 3, "point and spot: the centre; area: the centre"),
     ("direction", F64, 3, "spot: unit axis; sun: unit direction towards the sun; area: unit normal"),
@@ -177,6 +186,14 @@ class Light:
     flags: ClassVar[LightFlags] = LightFlags(0)
     types: ClassVar[tuple] = ()     # every light class by kind (core/lights/__init__.py fills it)
     blender_type: ClassVar[str] = ""
+    # Whether objects block its light (Cycles' Cast Shadow): a lamp's dataclass field, always for the others.
+    cast_shadow: bool = True
+    # The HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility): a lamp's dataclass field, else 0.
+    hidden_from: int = 0
+    # Whether bounces find it and MIS weighs the two ways (Cycles' Multiple Importance): a lamp's field, else always.
+    use_mis: bool = True
+    # The last bounce at which its light is sampled (Cycles' per-light Max Bounces): a lamp's field, else 1024.
+    max_bounces: int = 1024
 
     @classmethod
     def is_(cls, flags: LightFlags) -> bool:
@@ -199,13 +216,14 @@ class Light:
         return False
 
     def emits(self) -> bool:
-        """Whether the light sends any light (positive colour and output)."""
-        return float(np.max(np.asarray(self.color, np.float64))) > 0 and float(getattr(self, self.output_field)) > 0
+        """Whether the light sends any light or takes any away (a colour and an output other than 0: Cycles renders a
+        lamp of negative power, whose light is subtracted)."""
+        return bool(np.any(np.asarray(self.color, np.float64) * float(getattr(self, self.output_field)) != 0.0))
 
     def finite(self) -> bool:
         """Whether every parameter is a finite number."""
         values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
-                  if f.name not in ("name", "shape", "camera") and getattr(self, f.name) is not None]
+                  if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden_from", "use_mis", "max_bounces") and getattr(self, f.name) is not None]
         return all(np.isfinite(x).all() for x in values)
 
     def moved(self, origin: np.ndarray) -> "Light":
@@ -242,6 +260,11 @@ class Light:
         then find it too, and multiple importance sampling weighs the two ways."""
         return False
 
+    @property
+    def unseen_by(self) -> int:
+        """The HIDDEN_FROM_* bits of the rays that do not see the light: `hidden_from`, and the camera's where it is off."""
+        return int(self.hidden_from) | (0 if getattr(self, "camera", True) else HIDDEN_FROM_CAMERA)
+
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """Return the sample with its 1/r^2 falloff undone (the lecture switch "distance attenuation" off).
 
@@ -258,7 +281,9 @@ class Light:
         record = LightRecord(kind=self.kind, delta=self.delta, samples=1 if self.delta else max(1, int(light_samples)),
                              dimension=light_dimension(index), numbers=self.random_numbers,
                              color=np.asarray(self.color, np.float64)[:3], hittable=self.hittable,
-                             camera=bool(getattr(self, "camera", True)), group=-1)
+                             camera=bool(getattr(self, "camera", True)), cast_shadow=bool(self.cast_shadow),
+                             hidden=self.unseen_by, use_mis=bool(self.use_mis),
+                             max_bounces=int(min(self.max_bounces, 1 << 30)), group=-1)
         self.pack_fields(record)
         return record
 

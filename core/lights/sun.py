@@ -25,6 +25,10 @@ class SunLight(Light):
     angle: float = 0.0
     name: str = "Sun"
     camera: bool = True                   # seen by camera rays (Blender: Ray Visibility > Camera)
+    cast_shadow: bool = True              # its light is stopped by what stands in the way (Blender: Cast Shadow)
+    hidden_from: int = 0                  # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
+    use_mis: bool = True                  # BSDF rays find it too, weighed by MIS (Blender: Multiple Importance)
+    max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
 
     flags: ClassVar[LightFlags] = LightFlags.DISTANT
     blender_type: ClassVar[str] = "SUN"

@@ -13,6 +13,8 @@ The equirectangular mapping, as Cycles and Blender's Environment Texture use it:
 """
 from __future__ import annotations
 
+import dataclasses
+
 import math
 from dataclasses import dataclass, field
 from typing import ClassVar, Optional
@@ -37,6 +39,10 @@ class World:
     rotation: (3, 3) float64 world-to-texture rotation (the Mapping node's), applied before (u, v)
     camera:   whether camera rays see it (Ray Visibility > Camera)
     lights:   whether it lights surfaces (Ray Visibility > Diffuse / Glossy)
+    max_bounces, cast_shadow: an image world's light samples stop after that bounce (Cycles' world Max Bounces), and
+              without shadows they trace no shadow ray (the add-on does not read Blender 5.2's world Shadows: noted).
+              A constant world has no light samples, in Cycles as in Primer (it is found by the rays that escape),
+              so neither changes it.
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -46,6 +52,8 @@ class World:
     camera: bool = True
     lights: bool = True
     name: str = "World"
+    max_bounces: int = 1024
+    cast_shadow: bool = True
 
     @property
     def varying(self) -> bool:
@@ -81,8 +89,7 @@ def finite_world(world: World, warnings: Optional[list] = None) -> World:
     if warnings is not None:
         warnings.append(f"the world's {' and '.join(what)} NaN or infinite; Primer reads it as 0, as Cycles renders it "
                         "(its film drops every non-finite contribution)")
-    return World(color=color, image=image, strength=0.0 if bad_strength else strength, rotation=world.rotation,
-                 camera=world.camera, lights=world.lights, name=world.name)
+    return dataclasses.replace(world, color=color, image=image, strength=0.0 if bad_strength else strength)
 
 
 def direction_to_uv(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -141,6 +148,16 @@ class WorldLight(Light):
     @property
     def color(self) -> np.ndarray:
         return np.ones(3)
+
+    @property
+    def max_bounces(self) -> int:
+        """The world's Max Bounces: its light samples stop after that bounce."""
+        return self.world.max_bounces
+
+    @property
+    def cast_shadow(self) -> bool:
+        """The world's Shadows: without them its light samples trace no shadow ray."""
+        return self.world.cast_shadow
 
     @property
     def hittable(self) -> bool:

@@ -552,6 +552,14 @@ struct LightRecord {
     int32_t delta;                          /* 1: no extent (exact, one direction) */
     int32_t hittable;                       /* 1: rays can meet it (it has extent): BSDF rays find it, weighed by MIS */
     int32_t camera;                         /* 1: camera rays see it (Ray Visibility > Camera) */
+    int32_t hidden;                         /* the HIDDEN_FROM_* bits (core/visibility.py) of the rays that do not see it (Ray Visibility): its light
+samples leave out the closures those rays serve, and such rays pass it */
+    int32_t use_mis;                        /* 1: bounces find it (Light.hit) and MIS weighs the two ways; 0: light samples alone, weight 1 (Cycles'
+Multiple Importance off; camera rays still see it) */
+    int32_t max_bounces;                    /* its light samples are taken at a path's vertices up to this bounce (0: the camera's hits); bounces
+still find it beyond (Cycles' per-light Max Bounces, light_select_reached_max_bounces) */
+    int32_t cast_shadow;                    /* 1: shadow rays test what stands between it and a shading point; 0: none are traced (its light
+passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow) */
     double color[3];                        /* RGB */
     double position[3];                     /* point and spot: the centre; area: the centre */
     double direction[3];                    /* spot: unit axis; sun: unit direction towards the sun; area: unit normal */
@@ -751,7 +759,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(4369246942035671920);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(3586661397483700900);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);

@@ -1,0 +1,141 @@
+"""Cycles' per-lamp settings in both kernels, held to closed forms: Cast Shadow, Ray Visibility,
+Multiple Importance.
+
+A floor of albedo rho under a point lamp of power P lit at distance r and angle theta has radiance
+(rho / pi) P / (4 pi r^2) cos theta; an occluder between them takes it all away unless the lamp casts no shadow
+(Cycles' light.use_shadow off: no shadow ray is traced, so its light passes through everything).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from test_lights import (EXACT, expected_area_light_image, ground_plane, ortho_camera_looking_down,
+                         pixel_centre_points, plane_scene, point_light_radiance, square_light_over_plane)
+
+from core.render import render
+from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene
+from core.visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY
+
+KERNELS = ["numpy", "compiled"]
+
+
+def occluded_floor(light):
+    """A floor (albedo 0.5) with a 1 x 6 occluder at z = 0.5 over x in [0.5, 1.5], and `light`; with the lamp at
+    (2, 0, 1) the occluder's shadow covers the floor's x in [-1, 1], of which x < 0.5 is seen from above."""
+    camera = ortho_camera_looking_down(5.0, 4.0)
+    scene = plane_scene(camera, (0.5, 0.5, 0.5), [light])
+    scene.add_mesh(Mesh(np.array([[0.5, -3.0, 0.5], [1.5, -3.0, 0.5], [1.5, 3.0, 0.5], [0.5, 3.0, 0.5]]),
+                        np.array([[0, 1, 2], [0, 2, 3]])))
+    return camera, scene
+
+
+# Columns of the 16 x 16 image over x in [-2, 2] whose floor is in the occluder's shadow and not under it.
+SHADOWED_COLUMNS = slice(5, 10)          # pixel centres x = -0.625 .. 0.375
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_lamp_without_cast_shadow_lights_the_floor_behind_an_occluder_fully(kernels):
+    """Cast Shadow off: the floor in the occluder's shadow gets the full (rho / pi) P / (4 pi r^2) cos theta; with
+    it on, nothing (the same pixels: the test can tell the two apart)."""
+    position, power = np.array([2.0, 0.0, 1.0]), 400.0
+    settings = dataclasses.replace(EXACT, kernels=kernels)
+    camera, scene = occluded_floor(PointLight(position=position, power=power, cast_shadow=False))
+    image = render(scene, settings).image[..., :3]
+    points = pixel_centre_points(camera, 16, 16, lambda x, y: np.zeros_like(x))
+    expected = point_light_radiance((0.5, 0.5, 0.5), (1.0, 1.0, 1.0), power, position, points)
+    np.testing.assert_allclose(image[:, SHADOWED_COLUMNS], expected[:, SHADOWED_COLUMNS], rtol=1e-5)
+    assert expected[:, SHADOWED_COLUMNS].min() > 0.1
+    camera, scene = occluded_floor(PointLight(position=position, power=power))
+    shadowed = render(scene, settings).image[..., :3]
+    np.testing.assert_array_equal(shadowed[:, SHADOWED_COLUMNS], 0.0)
+
+
+def lamp_over_floor(bsdf, light):
+    """A 4 x 4 view from z = 5 of a floor (albedo 0.5, `bsdf`: "DIFFUSE" or "MIRROR") under `light`."""
+    camera = ortho_camera_looking_down(5.0, 4.0)
+    scene = Scene(camera=camera)
+    scene.add_material((0.5, 0.5, 0.5), bsdf=bsdf)
+    scene.add_mesh(ground_plane())
+    scene.lights.append(light)
+    return scene
+
+
+def large_square_lamp(**settings):
+    """A 3 x 3 square lamp 1 unit above the floor, facing down, of 100 W."""
+    return AreaLight(center=np.array([0.0, 0.0, 1.0]), axis_u=np.array([3.0, 0.0, 0.0]),
+                     axis_v=np.array([0.0, 3.0, 0.0]), direction=np.array([0.0, 0.0, -1.0]), power=100.0,
+                     shape="SQUARE", **settings)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_lamp_hidden_from_a_kind_of_bounce_lights_no_closure_of_that_kind(kernels):
+    """Ray Visibility of a lamp (Cycles' SHADER_EXCLUDE_*): hidden from diffuse rays, it lights no Lambert floor
+    (exactly 0) yet a mirror still shows it; hidden from glossy rays, a mirror shows nothing (the BSDF ray passes
+    it) and the Lambert floor gets exactly what it gets from a lamp seen by all."""
+    settings = dataclasses.replace(EXACT, samples=4, light_samples=4, kernels=kernels, jitter=True)
+    images = {(bsdf, hidden): render(lamp_over_floor(bsdf, large_square_lamp(hidden_from=hidden, camera=False)),
+                                     settings).image[..., :3]
+              for bsdf in ("DIFFUSE", "MIRROR") for hidden in (0, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY)}
+    for bsdf in ("DIFFUSE", "MIRROR"):
+        assert images[bsdf, 0].mean() > 0.05
+    np.testing.assert_array_equal(images["DIFFUSE", HIDDEN_FROM_DIFFUSE], 0.0)
+    np.testing.assert_array_equal(images["DIFFUSE", HIDDEN_FROM_GLOSSY], images["DIFFUSE", 0])
+    np.testing.assert_array_equal(images["MIRROR", HIDDEN_FROM_GLOSSY], 0.0)
+    np.testing.assert_array_equal(images["MIRROR", HIDDEN_FROM_DIFFUSE], images["MIRROR", 0])
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_an_area_lamp_without_multiple_importance_converges_to_the_same_irradiance(kernels):
+    """Multiple Importance off (Cycles: the lamp is found by its light samples alone, at weight 1; bounces pass it):
+    a path-traced Lambert floor under a square lamp still shows (rho / pi) E from the polygon formula at every
+    pixel, as with MIS (where BSDF rays find the lamp too); the two differ in their noise only."""
+    camera = ortho_camera_looking_down(5.0, 2.0)
+    settings = RenderSettings(width=8, height=8, samples=16, light_samples=64, jitter=False, seed=7,
+                              integrator="path", max_bounces=0, kernels=kernels)
+    expected = expected_area_light_image(camera, square_light_over_plane(), 0.5, 8, 8, sub=4)
+    for use_mis in (True, False):
+        light = dataclasses.replace(square_light_over_plane(), use_mis=use_mis)
+        image = render(plane_scene(camera, (0.5, 0.5, 0.5), [light]), settings).image
+        np.testing.assert_allclose(image[..., 0], expected, rtol=1e-2)
+
+
+def floor_and_wall(light):
+    """The floor (albedo 0.5) of `occluded_floor` with its occluder, whose underside sends light back down (a second
+    bounce): a path tracer sees more than the direct light."""
+    return occluded_floor(light)[1]
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_point_lamp_with_max_bounces_0_lights_only_directly(kernels):
+    """A point lamp with Max Bounces 0 (Cycles: no light samples past the camera's hits; a point is never met by a
+    bounce) path-traced with 3 bounces gives exactly the direct light: the render with Max Bounces 0 for the whole
+    path; the same lamp with Max Bounces 1024 adds the light from the occluder's underside."""
+    position, power = np.array([2.0, 0.0, 0.3]), 400.0
+    path = dataclasses.replace(EXACT, integrator="path", samples=4, max_bounces=3, diffuse_bounces=3,
+                               min_light_bounces=3, kernels=kernels)
+    direct = dataclasses.replace(path, max_bounces=0)
+    limited = render(floor_and_wall(PointLight(position=position, power=power, max_bounces=0)), path).image
+    only_direct = render(floor_and_wall(PointLight(position=position, power=power)), direct).image
+    every = render(floor_and_wall(PointLight(position=position, power=power)), path).image
+    np.testing.assert_allclose(limited, only_direct, rtol=1e-12, atol=1e-15)
+    assert every[..., :3].mean() > 1.01 * limited[..., :3].mean()
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_negative_point_lamp_takes_away_what_its_positive_twin_adds(kernels):
+    """A point lamp of power -P (Cycles renders it: its light is subtracted) beside one of power 2P at the same
+    place gives exactly (rho / pi) P / (4 pi r^2) cos theta, the closed form of one lamp of power P."""
+    camera = ortho_camera_looking_down(5.0, 4.0)
+    position, power = np.array([0.3, -0.2, 1.5]), 300.0
+    scene = plane_scene(camera, (0.5, 0.5, 0.5), [PointLight(position=position, power=2.0 * power),
+                                                   PointLight(position=position, power=-power)])
+    image = render(scene, dataclasses.replace(EXACT, kernels=kernels)).image[..., :3]
+    points = pixel_centre_points(camera, 16, 16, lambda x, y: np.zeros_like(x))
+    expected = point_light_radiance((0.5, 0.5, 0.5), (1.0, 1.0, 1.0), power, position, points)
+    np.testing.assert_allclose(image, expected, rtol=1e-6)
+    alone = plane_scene(camera, (0.5, 0.5, 0.5), [PointLight(position=position, power=-power)])
+    np.testing.assert_allclose(render(alone, dataclasses.replace(EXACT, kernels=kernels)).image[..., :3], -expected,
+                               rtol=1e-6)
