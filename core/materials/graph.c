@@ -351,7 +351,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_CONVERT: {
             const double *s = reg + a[1];
-            if (a[2] == 0) out[0] = 0.2126729 * s[0] + 0.7151522 * s[1] + 0.0721750 * s[2];
+            if (a[2] == 0) out[0] = ((double)RGB_TO_Y[0] * s[0] + (double)RGB_TO_Y[1] * s[1]) + (double)RGB_TO_Y[2] * s[2];
             else if (a[2] == 1) out[0] = (s[0] + s[1] + s[2]) * (1.0 / 3.0);
             else { double v = s[0]; out[0] = out[1] = out[2] = v; }
             break;

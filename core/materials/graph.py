@@ -32,6 +32,7 @@ from ..native import library, schema
 from ..native.schema import F64, I64, ptr
 from . import textures as textures_
 from .converters import CONVERTER_BY_KIND, CONVERTER_TYPES
+from .converters.colorspace import RGB_TO_Y
 from .procedural import TEXTURE_BY_KIND, TEXTURE_TYPES
 from .procedural import hash as hash_
 
@@ -58,8 +59,9 @@ MAX_REGISTERS = schema.constant("MAX_REGISTERS", 512, "a program's registers at 
 MAX_ATTRIBUTES = schema.constant("MAX_ATTRIBUTES", 64, "attribute floats per hit at most")
 # The bump's finite-difference step, as a fraction of the triangle's edges.
 BUMP_STEP = schema.constant("BUMP_STEP", 1e-3, "the bump's finite-difference step, a fraction of the edges")
-# Luminance of scene-linear Rec.709 (Cycles' rgb_to_y: colour to float conversions).
-LUMINANCE = (0.2126729, 0.7151522, 0.0721750)
+# Luminance of scene linear (Cycles' rgb_to_y with Blender's colour configuration, as float32: colour to float
+# conversions; graph.c reads the same table, RGB_TO_Y).
+LUMINANCE = tuple(float(np.float32(v)) for v in RGB_TO_Y)
 
 MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT", "INVERSE_SQRT",
             "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN", "GREATER_THAN", "SIGN", "COMPARE", "ROUND",
