@@ -147,7 +147,8 @@ def blender_float(value):
 
 
 # Texture and colour nodes Primer evaluates: Blender's node -> core/materials/graph.py kind.
-GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", "ShaderNodeUVMap": "UVMAP",
+GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items()},   # (the Map Range's below)
+               "ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", "ShaderNodeUVMap": "UVMAP",
                "ShaderNodeAttribute": "ATTRIBUTE", "ShaderNodeVertexColor": "ATTRIBUTE",
                "ShaderNodeObjectInfo": "OBJECT_INFO", "ShaderNodeLightPath": "LIGHT_PATH", "ShaderNodeMapping": "MAPPING", "ShaderNodeNormalMap": "NORMAL_MAP",
                "ShaderNodeBump": "BUMP", "ShaderNodeMath": "MATH", "ShaderNodeMix": "MIX", "ShaderNodeMixRGB": "MIX",
@@ -155,8 +156,7 @@ GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", 
                "ShaderNodeSeparateRGB": "SEPARATE_COLOR", "ShaderNodeSeparateXYZ": "SEPARATE_XYZ",
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
-               **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()},
-               **{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items()}}
+               **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
 CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
 # Legacy socket names -> the core's.
@@ -343,9 +343,10 @@ class GraphReader:
             props, inputs = self.texture(node, path, graph_.DESCRIBED_BY_KIND[kind], warn)
             if node.bl_idname in CURVES_BAKED:
                 props["table"] = baked_curves(node.mapping, CURVES_BAKED[node.bl_idname])
+        elif kind == "MAP_RANGE" and node.data_type == "FLOAT_VECTOR":
+            kind = "MAP_RANGE_VECTOR"                               # core/materials/converters/map_range_vector.py
+            props, inputs = self.texture(node, path, graph_.DESCRIBED_BY_KIND[kind], warn)
         elif kind == "MAP_RANGE":
-            if node.data_type != "FLOAT":
-                warn("only the Float Map Range is supported; Primer maps the vector's average")
             props = {"interpolation_type": node.interpolation_type, "clamp": bool(node.clamp)}
             inputs = self.inputs(node, path, ["Value", "From Min", "From Max", "To Min", "To Max", "Steps"])
         return GraphNode(kind, props, inputs, node.name)

@@ -1,6 +1,6 @@
 """Converter and colour nodes against Cycles' own render, pixel for pixel: Vector Math (every operation), Vector Rotate
 (every type, inverted or not), Gamma, Brightness/Contrast, RGB to BW, Blackbody, Wavelength, Separate and Combine
-Color (RGB, HSV, HSL), RGB Curves, Vector Curves and Float Curve (extrapolated and horizontal), each the colour of an
+Color (RGB, HSV, HSL), the vector Map Range (every interpolation), RGB Curves, Vector Curves and Float Curve (extrapolated and horizontal), each the colour of an
 emitting plane seen by an orthographic camera, exported by addon/materials.py with real Blender.
 
 As in tests/test_blender_procedural.py, each node reads the Generated coordinate snapped to its pixel's centre
@@ -25,7 +25,7 @@ if importlib.util.find_spec("bpy") is None:
     raise ImportError("tests/test_blender_converters.py needs bpy (Blender as a Python module): pip install bpy")
 
 PIXELS = 16               # pixels across each plane
-COLUMNS = 8               # planes per row of the grid
+COLUMNS = 12              # planes per row of the grid (more than rows: the camera's ortho_scale spans the width)
 
 SCRIPT = """
 import sys, os
@@ -141,6 +141,11 @@ for mode in ("RGB", "HSV", "HSL"):
          [("Red", ("x", 0.25, 0.5)), ("Green", ("y", 0.25, 0.5))], absolute=True)
 case("A colour read as a float", "ShaderNodeCombineColor", "Color", values=[("Blue", 0.8)],
      links=[("Red", ("x", 0.25, 0.5)), ("Green", ("y", 0.25, 0.5))], absolute=True, as_float=True)
+for kind in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP"):
+    case(f"Map Range vector {{kind}}", "ShaderNodeMapRange", "Vector", [("data_type", "FLOAT_VECTOR"),
+         ("interpolation_type", kind)], [("From_Min_FLOAT3", (-1.5, -1.0, 0.0)), ("From_Max_FLOAT3", (1.0, 2.0, 0.5)),
+         ("To_Min_FLOAT3", (0.2, 0.9, 0.1)), ("To_Max_FLOAT3", (0.8, 0.1, 0.7)), ("Steps_FLOAT3", (3.0, 5.0, 2.0))],
+         [("Vector", "v")])
 
 
 def rgb_curves(extend):

@@ -131,6 +131,23 @@ def test_separating_and_combining_a_colour_in_one_mode_returns_it(mode, kernels)
         np.testing.assert_allclose(shoot(Link(separate, "Green"), kernels)[..., 0], expected[..., 1], atol=1e-7)
 
 
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_the_vector_map_range_maps_ranges_linearly_and_clamps_to_the_target(kernels):
+    """Linear: from [-2, 2] to [0, 1] is (p + 2) / 4 per component; clamped to [0, 1] from a narrower source range;
+    Smoothstep is 3 f^2 - 2 f^3 of the clamped factor."""
+    p = snapped_points().astype(np.float64)
+    v = snapped_vector()
+    wide = node("MAP_RANGE_VECTOR", "Vector", {"clamp": False}, Vector=v, From_Min_FLOAT3=(-2.0, -2.0, -2.0),
+                From_Max_FLOAT3=(2.0, 2.0, 2.0))
+    np.testing.assert_allclose(shoot(wide, kernels), (p + 2.0) / 4.0, atol=1e-7)
+    narrow = node("MAP_RANGE_VECTOR", "Vector", {"clamp": True}, Vector=v, From_Min_FLOAT3=(-1.0, -1.0, -1.0))
+    np.testing.assert_allclose(shoot(narrow, kernels), np.clip((p + 1.0) / 2.0, 0.0, 1.0), atol=1e-7)
+    smooth = node("MAP_RANGE_VECTOR", "Vector", {"interpolation_type": "SMOOTHSTEP"}, Vector=v,
+                  From_Min_FLOAT3=(-1.0, -1.0, -1.0))
+    f = np.clip((p + 1.0) / 2.0, 0.0, 1.0)
+    np.testing.assert_allclose(shoot(smooth, kernels), 3 * f ** 2 - 2 * f ** 3, atol=3e-7)
+
+
 def identity_table(columns: int, extrapolate: bool, lo: float = 0.0, hi: float = 1.0) -> np.ndarray:
     """A curve op's table of `columns` identity curves baked over [lo, hi]."""
     x = lo + np.arange(CURVE_TABLE_SIZE) / (CURVE_TABLE_SIZE - 1) * (hi - lo)
@@ -185,6 +202,10 @@ def all_converters() -> list:
         for channel in ("Red", "Green", "Blue"):
             links.append(node("SEPARATE_COLOR_MODE", channel, {"mode": mode}, Color=b))
         links.append(node("COMBINE_COLOR_MODE", "Color", {"mode": mode}, Red=x, Green=y, Blue=0.7))
+    for kind in ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP"):
+        links.append(node("MAP_RANGE_VECTOR", "Vector", {"interpolation_type": kind, "clamp": kind == "LINEAR"}, Vector=a,
+                          From_Min_FLOAT3=(-1.0, 0.5, 0.0), From_Max_FLOAT3=b, To_Max_FLOAT3=(2.0, -1.0, 0.5),
+                          Steps_FLOAT3=(3.0, 0.0, 2.5)))
     rng = np.random.default_rng(3)
     for kind, columns, fac, value in (("RGB_CURVES", 3, "Fac", "Color"), ("VECTOR_CURVES", 3, "Fac", "Vector"),
                                       ("FLOAT_CURVE", 1, "Factor", "Value")):

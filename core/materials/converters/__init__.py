@@ -1,5 +1,6 @@
 """Converter and colour nodes (Cycles' Vector Math, Vector Rotate, Gamma, Brightness/Contrast, RGB to BW, Blackbody,
-Wavelength, Separate and Combine Color in RGB, HSV and HSL, RGB Curves, Vector Curves, Float Curve), one class and one
+Wavelength, Separate and Combine Color in RGB, HSV and HSL, RGB Curves, Vector Curves, Float Curve, the vector Map
+Range), one class and one
 C file each, described as the procedural textures are (core/materials/procedural).
 
 Adding one is one class (a `base.ConverterNode`: its Blender node, inputs, outputs, settings, numpy `evaluate` in
@@ -17,6 +18,7 @@ from .bright_contrast import BrightContrast
 from .combine_color import CombineColor
 from .float_curve import FloatCurve
 from .gamma import Gamma
+from .map_range_vector import MapRangeVector
 from .rgb_curves import RGBCurves
 from .rgb_to_bw import RGBToBW
 from .separate_color import SeparateColor
@@ -26,7 +28,7 @@ from .vector_rotate import VectorRotate
 from .wavelength import Wavelength
 
 CONVERTER_TYPES = (VectorMath, VectorRotate, Gamma, BrightContrast, RGBToBW, Blackbody, Wavelength, SeparateColor,
-                   CombineColor, RGBCurves, VectorCurves, FloatCurve)
+                   CombineColor, RGBCurves, VectorCurves, FloatCurve, MapRangeVector)
 # The C headers the converters' C files share, included first.
 SHARED_C = ("color.h", "curves.h")
 

@@ -26,6 +26,7 @@ static const float XYZ_TO_RGB[9] = {3.2409701347351074f, -1.5373845100402832f, -
 #include "rgb_curves.c"
 #include "vector_curves.c"
 #include "float_curve.c"
+#include "map_range_vector.c"
 
 /* A converter's op at one hit (graph.run_program's ops past its own and the textures'): a[0] the output
  * block, then the input registers and the numbers, as the class describes them; tables: the program's
@@ -46,6 +47,7 @@ INLINE int converter_op(int code, const int *a, double *reg, const double *table
     case OP_RGB_CURVES: rgb_curves_texture(a, reg, tables); return 1;
     case OP_VECTOR_CURVES: vector_curves_texture(a, reg, tables); return 1;
     case OP_FLOAT_CURVE: float_curve_texture(a, reg, tables); return 1;
+    case OP_MAP_RANGE_VECTOR: map_range_vector_texture(a, reg); return 1;
     default: return 0;
     }
 }
