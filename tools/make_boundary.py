@@ -241,9 +241,9 @@ def converter_table() -> str:
     tables = []
     for cls in CONVERTER_TYPES:
         for name, values in cls.c_tables.items():
-            floats = np.asarray(values, np.float32).reshape(-1)
-            body = ", ".join(f"{float(x)!r}f" for x in floats)
-            tables.append(f"static const float {name}[{len(floats)}] = {{{body}}};   /* {cls.__name__} */\n")
+            floats = [f"{float(x)!r}f" for x in np.asarray(values, np.float32).reshape(-1)]
+            body = ",\n".join("    " + ", ".join(floats[k:k + 4]) for k in range(0, len(floats), 4))
+            tables.append(f"static const float {name}[{len(floats)}] = {{   /* {cls.__name__} */\n{body}\n}};\n")
     includes = "".join(f'#include "{name}"\n' for name in SHARED_C)
     includes += "".join(f'#include "{cls.c_name}.c"\n' for cls in CONVERTER_TYPES)
     cases = "".join(f"    case OP_{c_identifier(cls.kind)}: {cls.c_name}_texture(a, reg{', tables' if cls.table else ''}); "

@@ -26,12 +26,6 @@ class ConverterNode(TextureNode):
     # tools/make_boundary.py from the class, so that C and Python hold one copy.
     c_tables: ClassVar[dict] = {}
 
-    @classmethod
-    def evaluate_with(cls, inputs: list, numbers: list, tables: np.ndarray) -> np.ndarray:
-        """The op at n hits given the program's table floats (n, width) float64; a node without a table ignores
-        them."""
-        return cls.evaluate(inputs, numbers, tables) if cls.table else cls.evaluate(inputs, numbers)
-
 
 def f32_call(function, *arrays) -> np.ndarray:
     """A libm function of float32 arrays computed in double and rounded to float32 (as the C twin does: both

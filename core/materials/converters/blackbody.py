@@ -43,7 +43,8 @@ def blackbody(t: np.ndarray) -> np.ndarray:
         inv = F32(1.0) / t
         out = np.stack([(r[:, 0] * inv + r[:, 1] * t) + r[:, 2], (g[:, 0] * inv + g[:, 1] * t) + g[:, 2],
                         ((b[:, 0] * t + b[:, 1]) * t + b[:, 2]) * t + b[:, 3]], axis=1)
-    out = np.where((t >= F32(12000.0))[:, None], BLACKBODY_HOT, np.where((t < F32(800.0))[:, None], BLACKBODY_COLD, out))
+    hot, cold = (t >= F32(12000.0))[:, None], (t < F32(800.0))[:, None]
+    out = np.where(hot, BLACKBODY_HOT, np.where(cold, BLACKBODY_COLD, out))
     return np.maximum(out, F32(0.0))
 
 

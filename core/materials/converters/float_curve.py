@@ -1,12 +1,12 @@
-"""Cycles' Float Curve node (kernel/svm/ramp.h): the value through the curve, blended by the factor (curves.py)."""
+"""Cycles' Float Curve node (kernel/svm/ramp.h svm_node_curve), in float32 (curves.py)."""
 from __future__ import annotations
 
 from .curves import CurveNode
 
 
 class FloatCurve(CurveNode):
-    """The value through the curve; positions outside the baked range extrapolated from the end segments where the mapping
-    extends so, clamped otherwise; then (1 - factor) value + factor curve."""
+    """The value through the curve; positions outside the baked range extrapolated from the end segments where
+    the mapping extends so, held at the ends' values otherwise; then (1 - factor) value + factor curve."""
 
     kind = "FLOAT_CURVE"
     blender = "ShaderNodeFloatCurve"

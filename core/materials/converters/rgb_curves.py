@@ -1,12 +1,13 @@
-"""Cycles' RGB Curves node (kernel/svm/ramp.h): each channel through its own curve after the combined (C) one, as Blender bakes them, blended by the factor (curves.py)."""
+"""Cycles' RGB Curves node (kernel/svm/ramp.h svm_node_curves), in float32 (curves.py)."""
 from __future__ import annotations
 
 from .curves import CurveNode
 
 
 class RGBCurves(CurveNode):
-    """Each channel through its own curve after the combined (C) one, as Blender bakes them; positions outside the baked range extrapolated from the end segments where the mapping
-    extends so, clamped otherwise; then (1 - factor) value + factor curve."""
+    """Each channel through its own curve, of the combined (C) curve's value, as Blender bakes them; positions
+    outside the baked range extrapolated from the end segments where the mapping extends so, held at the ends'
+    values otherwise; then (1 - factor) value + factor curve."""
 
     kind = "RGB_CURVES"
     blender = "ShaderNodeRGBCurve"

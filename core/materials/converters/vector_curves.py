@@ -1,12 +1,13 @@
-"""Cycles' Vector Curves node (kernel/svm/ramp.h): X, Y and Z each through its own curve, blended by the factor (curves.py)."""
+"""Cycles' Vector Curves node (kernel/svm/ramp.h svm_node_curves), in float32 (curves.py)."""
 from __future__ import annotations
 
 from .curves import CurveNode
 
 
 class VectorCurves(CurveNode):
-    """X, Y and Z each through its own curve; positions outside the baked range extrapolated from the end segments where the mapping
-    extends so, clamped otherwise; then (1 - factor) value + factor curve."""
+    """X, Y and Z each through its own curve; positions outside the baked range extrapolated from the end
+    segments where the mapping extends so, held at the ends' values otherwise; then (1 - factor) value + factor
+    curve."""
 
     kind = "VECTOR_CURVES"
     blender = "ShaderNodeVectorCurve"
