@@ -23,7 +23,9 @@ from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
 from ..core.materials.graph import GraphNode, Link
-from ..core.materials.procedural import TEXTURE_BY_BLENDER, TEXTURE_BY_KIND
+from ..core.materials.converters import CONVERTER_BY_BLENDER
+from ..core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
+from ..core.materials.procedural import TEXTURE_BY_BLENDER
 from . import unmodelled
 
 # Principled BSDF sockets -> core/materials/nodes.py PRINCIPLED_INPUTS.
@@ -148,17 +150,19 @@ def blender_float(value):
 
 
 # Texture and colour nodes Primer evaluates: Blender's node -> core/materials/graph.py kind.
-GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", "ShaderNodeUVMap": "UVMAP",
+GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items()},   # (the Map Range's below)
+               "ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", "ShaderNodeUVMap": "UVMAP",
                "ShaderNodeAttribute": "ATTRIBUTE", "ShaderNodeVertexColor": "ATTRIBUTE",
                "ShaderNodeObjectInfo": "OBJECT_INFO", "ShaderNodeLightPath": "LIGHT_PATH", "ShaderNodeMapping": "MAPPING", "ShaderNodeNormalMap": "NORMAL_MAP",
                "ShaderNodeBump": "BUMP", "ShaderNodeMath": "MATH", "ShaderNodeMix": "MIX", "ShaderNodeMixRGB": "MIX",
                "ShaderNodeValToRGB": "RAMP", "ShaderNodeInvert": "INVERT", "ShaderNodeHueSaturation": "HSV",
-               "ShaderNodeSeparateColor": "SEPARATE_COLOR", "ShaderNodeSeparateRGB": "SEPARATE_COLOR",
-               "ShaderNodeSeparateXYZ": "SEPARATE_XYZ", "ShaderNodeCombineColor": "COMBINE_COLOR",
+               "ShaderNodeSeparateRGB": "SEPARATE_COLOR", "ShaderNodeSeparateXYZ": "SEPARATE_XYZ",
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
                "ShaderNodeTexEnvironment": "ENVIRONMENT",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
+# How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
+CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
 # Legacy socket names -> the core's.
 RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac", "Factor": "Fac"}
 # Colour spaces whose numbers are used as they are (no decoding); sRGB is decoded after lookup.
@@ -339,9 +343,7 @@ class GraphReader:
             inputs = self.inputs(node, path, ["Fac", "Color"])
         elif kind == "HSV":
             inputs = self.inputs(node, path, ["Hue", "Saturation", "Value", "Fac", "Color"])
-        elif kind in ("SEPARATE_COLOR", "COMBINE_COLOR"):
-            if getattr(node, "mode", "RGB") != "RGB":
-                warn(f"mode {node.mode} is not supported; Primer reads RGB")
+        elif kind in ("SEPARATE_COLOR", "COMBINE_COLOR"):      # the legacy RGB nodes (Separate/Combine Color: converters)
             if kind == "SEPARATE_COLOR":
                 inputs = self.inputs(node, path, ["Color"], legacy={"Color": "Image"})
             else:
@@ -353,11 +355,14 @@ class GraphReader:
         elif kind == "CLAMP":
             props = {"clamp_type": node.clamp_type}
             inputs = self.inputs(node, path, ["Value", "Min", "Max"])
-        elif kind in TEXTURE_BY_KIND:
-            props, inputs = self.texture(node, path, TEXTURE_BY_KIND[kind], warn)
+        elif kind in graph_.DESCRIBED_BY_KIND:
+            props, inputs = self.texture(node, path, graph_.DESCRIBED_BY_KIND[kind], warn)
+            if node.bl_idname in CURVES_BAKED:
+                props["table"] = baked_curves(node.mapping, CURVES_BAKED[node.bl_idname])
+        elif kind == "MAP_RANGE" and node.data_type == "FLOAT_VECTOR":
+            kind = "MAP_RANGE_VECTOR"                               # core/materials/converters/map_range_vector.py
+            props, inputs = self.texture(node, path, graph_.DESCRIBED_BY_KIND[kind], warn)
         elif kind == "MAP_RANGE":
-            if node.data_type != "FLOAT":
-                warn("only the Float Map Range is supported; Primer maps the vector's average")
             props = {"interpolation_type": node.interpolation_type, "clamp": bool(node.clamp)}
             inputs = self.inputs(node, path, ["Value", "From Min", "From Max", "To Min", "To Max", "Steps"])
         return GraphNode(kind, props, inputs, node.name)
@@ -386,6 +391,29 @@ class GraphReader:
             vector = inputs.get("Vector")
             inputs["Vector"] = mapped_vector(mapping, vector if isinstance(vector, Link) else None, "Generated", warn)
         return props, inputs
+
+
+def baked_curves(mapping, count: int) -> np.ndarray:
+    """A curve mapping's table as Cycles' Blender sync bakes it (curvemapping_color_to_array, curvemapping_float_to_array):
+    the first `count` curves evaluated by Blender at CURVE_TABLE_SIZE points from the smallest first point's x to the
+    largest last point's x (in float32); with 4 (RGB Curves) each channel's curve of the combined curve's value; one
+    column per channel (R, G, B or X, Y, Z; one for a Float Curve). -> converters.curves.curve_table."""
+    f32 = np.float32
+    mapping.update()
+    mapping.initialize()
+    curves = list(mapping.curves)[:count]
+    min_x = min(f32(c.points[0].location[0]) for c in curves)
+    max_x = max(f32(c.points[len(c.points) - 1].location[0]) for c in curves)
+    size = CURVE_TABLE_SIZE - 1
+    rows = []
+    for i in range(CURVE_TABLE_SIZE):
+        t = float(f32(min_x + (f32(i) / f32(size)) * f32(max_x - min_x)))
+        if count == 4:
+            c = mapping.evaluate(curves[3], t)
+            rows.append([mapping.evaluate(curve, c) for curve in curves[:3]])
+        else:
+            rows.append([mapping.evaluate(curve, t) for curve in curves])
+    return curve_table(float(min_x), float(max_x), mapping.extend == "EXTRAPOLATED", rows)
 
 
 def mapped_vector(mapping, vector, coordinate: str, warn) -> Link:

@@ -10,6 +10,8 @@ schema.py). From those this script writes:
   the C function that does the work;
 - core/materials/bsdfs.gen.c: each BSDF's C file, and bsdf_eval / bsdf_sample / bsdf_albedo switching on a closure's kind;
 - core/materials/nodes.gen.c: setup_node switching on a shader node's kind;
+- core/materials/converters/converters.gen.c: the converters' constant tables, shared headers and C files, and
+  converter_op switching on a converter's op code;
 - core/materials/procedural/procedural.gen.c: the textures' shared headers and C files, and procedural_op switching
   on a texture's op code;
 - core/lights/lights.gen.c: each light's C file, and sample_light / light_hit switching on a light's kind.
@@ -231,6 +233,31 @@ def procedural_table() -> str:
               "{\n    switch (code) {\n" + cases + "    default: return 0;\n    }\n}\n")
 
 
+def converter_table() -> str:
+    """core/materials/converters/converters.gen.c: the converters' constant tables (`c_tables`, float32), the shared
+    headers, every converter's C file, and the switch on a converter's op code."""
+    import numpy as np
+    from core.materials.converters import CONVERTER_TYPES, SHARED_C
+    tables = []
+    for cls in CONVERTER_TYPES:
+        for name, values in cls.c_tables.items():
+            floats = [f"{float(x)!r}f" for x in np.asarray(values, np.float32).reshape(-1)]
+            body = ",\n".join("    " + ", ".join(floats[k:k + 4]) for k in range(0, len(floats), 4))
+            tables.append(f"static const float {name}[{len(floats)}] = {{   /* {cls.__name__} */\n{body}\n}};\n")
+    includes = "".join(f'#include "{name}"\n' for name in SHARED_C)
+    includes += "".join(f'#include "{cls.c_name}.c"\n' for cls in CONVERTER_TYPES)
+    cases = "".join(f"    case OP_{c_identifier(cls.kind)}: {cls.c_name}_texture(a, reg{', tables' if cls.table else ''}); "
+                    "return 1;\n" for cls in CONVERTER_TYPES)
+    return (NOTICE.format(source="core/materials/converters/__init__.py CONVERTER_TYPES")
+            + "\n/* The converters' constant tables (each class's c_tables). */\n" + "".join(tables)
+            + "\n/* The shared headers, and each converter's C file (its <c_name>_texture). */\n" + includes
+            + "\n/* A converter's op at one hit (graph.run_program's ops past its own and the textures'): a[0] the output\n"
+              " * block, then the input registers and the numbers, as the class describes them; tables: the program's\n"
+              " * table floats. 0 for an op code that is no converter's. */\n"
+              "INLINE int converter_op(int code, const int *a, double *reg, const double *tables)\n"
+              "{\n    (void)tables;\n    switch (code) {\n" + cases + "    default: return 0;\n    }\n}\n")
+
+
 def light_table() -> str:
     """core/lights/lights.gen.c: every light's C file, and the switches on a light's kind."""
     from core.lights import LIGHT_TYPES
@@ -263,6 +290,7 @@ def generated() -> dict:
         "core/materials/bsdfs.gen.c": bsdf_table(),
         "core/materials/nodes.gen.c": node_table(),
         "core/materials/procedural/procedural.gen.c": procedural_table(),
+        "core/materials/converters/converters.gen.c": converter_table(),
         "core/lights/lights.gen.c": light_table(),
     }
 

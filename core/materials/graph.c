@@ -351,14 +351,16 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_CONVERT: {
             const double *s = reg + a[1];
-            if (a[2] == 0) out[0] = 0.2126729 * s[0] + 0.7151522 * s[1] + 0.0721750 * s[2];
+            if (a[2] == 0) out[0] = ((double)RGB_TO_Y[0] * s[0] + (double)RGB_TO_Y[1] * s[1]) + (double)RGB_TO_Y[2] * s[2];
             else if (a[2] == 1) out[0] = (s[0] + s[1] + s[2]) * (1.0 / 3.0);
             else { double v = s[0]; out[0] = out[1] = out[2] = v; }
             break;
         }
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
-        default: procedural_op((int)op[0], a, reg); break;     /* the procedural textures (procedural.gen.c) */
+        default:     /* the procedural textures (procedural.gen.c), then the converters (converters.gen.c) */
+            if (!procedural_op((int)op[0], a, reg)) converter_op((int)op[0], a, reg, ramps);
+            break;
         }
     }
 }

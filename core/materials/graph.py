@@ -31,14 +31,21 @@ import numpy as np
 from ..native import library, schema
 from ..native.schema import F64, I64, ptr
 from . import textures as textures_
+from .converters import CONVERTER_BY_KIND, CONVERTER_TYPES
+from .converters.colorspace import RGB_TO_Y
 from .procedural import TEXTURE_BY_KIND, TEXTURE_TYPES
 from .procedural import hash as hash_
 
+# The described nodes (one class each: core/materials/procedural's textures, core/materials/converters' converter and
+# colour nodes): compiled from their description (Compiler.texture), one op each.
+DESCRIBED = TEXTURE_TYPES + CONVERTER_TYPES
+DESCRIBED_BY_KIND = {**TEXTURE_BY_KIND, **CONVERTER_BY_KIND}
+
 # Op codes (graph.c's OP_*), and the width of one op's record: the code and up to OP_ARGS arguments. The
-# procedural textures' ops (core/materials/procedural TEXTURE_TYPES, one per class) follow graph.c's own.
+# described nodes' ops (DESCRIBED: the procedural textures, then the converters; one per class) follow graph.c's own.
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
-       "TANGENT") + tuple(cls.kind for cls in TEXTURE_TYPES)
+       "TANGENT") + tuple(cls.kind for cls in DESCRIBED)
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
@@ -52,8 +59,9 @@ MAX_REGISTERS = schema.constant("MAX_REGISTERS", 512, "a program's registers at 
 MAX_ATTRIBUTES = schema.constant("MAX_ATTRIBUTES", 64, "attribute floats per hit at most")
 # The bump's finite-difference step, as a fraction of the triangle's edges.
 BUMP_STEP = schema.constant("BUMP_STEP", 1e-3, "the bump's finite-difference step, a fraction of the edges")
-# Luminance of scene-linear Rec.709 (Cycles' rgb_to_y: colour to float conversions).
-LUMINANCE = (0.2126729, 0.7151522, 0.0721750)
+# Luminance of scene linear (Cycles' rgb_to_y with Blender's colour configuration, as float32: colour to float
+# conversions; graph.c reads the same table, RGB_TO_Y).
+LUMINANCE = tuple(float(np.float32(v)) for v in RGB_TO_Y)
 
 MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT", "INVERSE_SQRT",
             "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN", "GREATER_THAN", "SIGN", "COMPARE", "ROUND",
@@ -112,7 +120,7 @@ NODE_OUTPUTS = {
     "COMBINE_COLOR": {"Color": (3, "color")}, "COMBINE_XYZ": {"Vector": (3, "vector")},
     "CLAMP": {"Result": (1, "float")}, "MAP_RANGE": {"Result": (1, "float")}, "SCALE": {"Color": (3, "color")},
     "TANGENT": {"Tangent": (3, "vector")},
-    **{cls.kind: dict(cls.outputs) for cls in TEXTURE_TYPES},
+    **{cls.kind: dict(cls.outputs) for cls in DESCRIBED},
 }
 # The Tangent node's directions and axes (props "direction", "axis"), as Blender names them.
 TANGENT_DIRECTIONS = ("RADIAL", "UV_MAP")
@@ -232,8 +240,8 @@ def attributes_of(nodes: list) -> set:
                       else "tangent:" + node.props.get("map", ""))
         elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("uv:")
-        elif node.kind in TEXTURE_BY_KIND:
-            texture = TEXTURE_BY_KIND[node.kind]
+        elif node.kind in DESCRIBED_BY_KIND:
+            texture = DESCRIBED_BY_KIND[node.kind]
             names.update(default for name, _, default in texture.inputs
                          if isinstance(default, str) and not isinstance(node.inputs.get(name), Link))
     return names
@@ -482,8 +490,8 @@ class Compiler:
             out = self.temporary(3)
             self.emit("SCALE", out, color, factor)
             return out, 3, "color"
-        if kind in TEXTURE_BY_KIND:
-            return self.texture(TEXTURE_BY_KIND[kind], inp, props, output)
+        if kind in DESCRIBED_BY_KIND:
+            return self.texture(DESCRIBED_BY_KIND[kind], inp, props, output)
         raise ValueError(f"material '{self.material}': Primer cannot evaluate node kind {kind!r}")
 
     def math(self, operation: str, a: int, b: int = None, c: int = None) -> int:
@@ -512,9 +520,10 @@ class Compiler:
         return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
 
     def texture(self, texture, inp: dict, props: dict, output: str) -> tuple:
-        """Emit a procedural texture's op (core/materials/procedural): its input registers in the class's order (an
-        unlinked input whose default names a texture coordinate reads that attribute), then its numbers; return
-        (register, width, type) of `output` within the op's block."""
+        """Emit a described node's op (a procedural texture or a converter): its input registers in the class's order
+        (an unlinked input whose default names a texture coordinate reads that attribute), then its numbers (first,
+        for a node with a baked table, the table's start among the program's table floats, props["table"] appended to
+        them); return (register, width, type) of `output` within the op's block."""
         registers = []
         for name, width, default in texture.inputs:
             if isinstance(default, str):
@@ -522,8 +531,12 @@ class Compiler:
                 registers.append(self.value(source, width) if isinstance(source, Link) else self.attribute(default, width))
             else:
                 registers.append(self.value(inp.get(name), width, default))
+        numbers = texture.numbers(props, output)
+        if getattr(texture, "table", False):
+            numbers = [sum(len(r) for r in self.ramps)] + numbers
+            self.ramps.append(np.asarray(props["table"], np.float64).reshape(-1))
         out = self.temporary(texture.width())
-        self.emit(texture.kind, out, *registers, *texture.numbers(props, output))
+        self.emit(texture.kind, out, *registers, *numbers)
         offset, width, vtype = texture.output(output)
         return shift(out, offset), width, vtype
 
@@ -576,7 +589,7 @@ REGISTER_ARGS = {
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "RAY": {0}, "TANGENT": {0, 1},
-    **{cls.kind: set(range(1 + len(cls.inputs))) for cls in TEXTURE_TYPES},
+    **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
 
@@ -826,11 +839,14 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = R(1, 3) * reg[:, i[2]:i[2] + 1]
         elif name == "TANGENT":
             reg[:, i[0]:i[0] + 3] = tangent(R(1, 3), i[2], i[3], sp)
-        elif name in TEXTURE_BY_KIND:
-            texture = TEXTURE_BY_KIND[name]
+        elif name in DESCRIBED_BY_KIND:
+            texture = DESCRIBED_BY_KIND[name]
             k = len(texture.inputs)
             inputs = [R(1 + j, width) for j, (_, width, _) in enumerate(texture.inputs)]
-            reg[:, i[0]:i[0] + texture.width()] = texture.evaluate(inputs, i[1 + k:])
+            numbers = i[1 + k:]
+            reg[:, i[0]:i[0] + texture.width()] = (texture.evaluate(inputs, numbers, program.ramps)
+                                                   if getattr(texture, "table", False) else
+                                                   texture.evaluate(inputs, numbers))
     return reg
 
 

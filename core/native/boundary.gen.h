@@ -69,6 +69,8 @@
 /* what a hit's caustics filter takes away (core.materials.closures) */
 #define FILTER_REFLECTIVE 1
 #define FILTER_REFRACTIVE 2
+/* the points of a baked curve mapping (core.materials.converters.curves) */
+#define CURVE_TABLE_SIZE 257
 /* a node-graph program's op codes (core.materials.graph) */
 #define OP_ATTR 0
 #define OP_RANDOM 1
@@ -99,6 +101,19 @@
 #define OP_TEX_MAGIC 26
 #define OP_TEX_BRICK 27
 #define OP_TEX_GABOR 28
+#define OP_VECTOR_MATH 29
+#define OP_VECTOR_ROTATE 30
+#define OP_GAMMA 31
+#define OP_BRIGHT_CONTRAST 32
+#define OP_RGB_TO_BW 33
+#define OP_BLACKBODY 34
+#define OP_WAVELENGTH 35
+#define OP_SEPARATE_COLOR_MODE 36
+#define OP_COMBINE_COLOR_MODE 37
+#define OP_RGB_CURVES 38
+#define OP_VECTOR_CURVES 39
+#define OP_FLOAT_CURVE 40
+#define OP_MAP_RANGE_VECTOR 41
 /* the kind of ray a hit was found by (core.materials.graph) */
 #define RAY_CAMERA 0
 #define RAY_BOUNCE 1
@@ -767,7 +782,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7667246339315466006);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(682550945524873360);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(1395212270346354495);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);

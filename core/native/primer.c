@@ -19,6 +19,7 @@
 #include "../materials/bsdf.c"          /* every BSDF's C file, through the generated table bsdfs.gen.c */
 #include "../materials/textures.c"
 #include "../materials/procedural/procedural.gen.c"   /* the procedural textures' C files (tools/make_boundary.py) */
+#include "../materials/converters/converters.gen.c"   /* the converter and colour nodes' C files (tools/make_boundary.py) */
 #include "../materials/graph.c"
 #include "../materials/nodes.c"
 #include "../film/film.c"
