@@ -154,6 +154,7 @@ GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", 
                "ShaderNodeSeparateXYZ": "SEPARATE_XYZ", "ShaderNodeCombineColor": "COMBINE_COLOR",
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
+               "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # Legacy socket names -> the core's.
 RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac", "Factor": "Fac"}
@@ -277,6 +278,10 @@ class GraphReader:
                 warn(f"space {node.space} is not supported; Primer reads the colour as a tangent-space normal")
             props = {"map": node.uv_map}
             inputs = self.inputs(node, path, ["Strength", "Color"])
+        elif kind in ("FRESNEL", "LAYER_WEIGHT"):
+            inputs = self.inputs(node, path, ["IOR" if kind == "FRESNEL" else "Blend", "Normal"])
+            if not node.inputs["Normal"].is_linked:
+                inputs.pop("Normal", None)                # unlinked: the shading normal, as in Cycles
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}
         elif kind == "BUMP":

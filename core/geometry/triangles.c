@@ -178,6 +178,7 @@ typedef struct {
     double dPdu[3], dPdv[3];
     double Ng[3];       /* the face normal, facing the viewer */
     double ray;         /* which kind of ray found the hit (graph.RAY_*): the Light Path node asks */
+    double I[3];        /* back along that ray (the material's wo): the Fresnel and Layer Weight nodes ask */
 } ShadingPoint;
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with

@@ -233,6 +233,8 @@ class NodeShader:
         if program is None:
             return nodes_.shade_nodes(self.nodes, N, wo, backfacing=backfacing, caustics=caustics)
         n = len(N)
+        if point.I is None and wo is not None:
+            point = point._replace(I=wo)                  # the view direction (the Fresnel and Layer Weight nodes)
         registers = graph_.run(program, point, textures)
         weights = [np.broadcast_to(weight, (n, 3)).astype(np.float64) for _, weight, _ in self.nodes]
         rows = [np.tile(p, (n, 1)) for _, _, p in self.nodes]
@@ -419,7 +421,9 @@ class MaterialTable:
                     point = self.shading_point(surface, geometry, N)
                     if ray is not None:                       # which ray found the hits (the Light Path node)
                         point = point._replace(ray=np.broadcast_to(np.asarray(ray, np.float64), (n,)).copy())
-                part = type(point)(*(array[rows] for array in point))
+                    if wo is not None:                        # the view direction (Fresnel, Layer Weight)
+                        point = point._replace(I=np.asarray(wo, np.float64))
+                part = type(point)(*(None if array is None else array[rows] for array in point))
                 results.append(shader.shade(N[rows], wo[rows], part, self.program(int(row), layout), self.textures,
                                             backfacing=None if backfacing is None else backfacing[rows],
                                             caustics=None if caustics is None else caustics[rows]))

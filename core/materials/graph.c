@@ -194,6 +194,41 @@ INLINE void tangent_node(const double *source, int uv_map, int axis, const Shadi
     cross3(sp->N, u, out);
 }
 
+/* graph.fresnel_cos: Cycles' fresnel_dielectric_cos, the reflectance of relative index eta at |cos_i|; 1 under
+ * total internal reflection. */
+INLINE double fresnel_cos(double cos_i, double eta)
+{
+    double c = fabs(cos_i), g2 = eta * eta - 1.0 + c * c;
+    if (!(g2 > 0.0)) return 1.0;
+    double g = sqrt(g2), A = (g - c) / (g + c), B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return 0.5 * A * A * (1.0 + B * B);
+}
+
+/* graph.view_cosine: I.normal, the shading normal where the Normal input is unlinked. */
+INLINE double view_cosine(const double *normal, const ShadingPoint *sp)
+{
+    return dot3(sp->I, normal != NULL ? normal : sp->N);
+}
+
+/* graph.fresnel: Cycles' Fresnel node. */
+INLINE double fresnel_node(double ior, const double *normal, const ShadingPoint *sp)
+{
+    double eta = ior > 1e-5 ? ior : 1e-5;
+    if (sp->side < 0.0) eta = 1.0 / eta;
+    return fresnel_cos(view_cosine(normal, sp), eta);
+}
+
+/* graph.layer_weight: Cycles' Layer Weight node, out[0] Fresnel and out[1] Facing. */
+INLINE void layer_weight(double blend, const double *normal, const ShadingPoint *sp, double *out)
+{
+    double cos_i = view_cosine(normal, sp), eta = 1.0 - blend > 1e-5 ? 1.0 - blend : 1e-5;
+    if (!(sp->side < 0.0)) eta = 1.0 / eta;
+    double f = fabs(cos_i), b = blend < 0.0 ? 0.0 : (blend > 1.0 - 1e-5 ? 1.0 - 1e-5 : blend);
+    if (blend != 0.5) f = pow(f, b < 0.5 ? 2.0 * b : 0.5 / (1.0 - b));
+    out[0] = fresnel_cos(cos_i, eta);
+    out[1] = 1.0 - f;
+}
+
 /* graph.bump */
 INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
                  int invert, const ShadingPoint *sp, double *out)
@@ -358,6 +393,8 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_FRESNEL: out[0] = fresnel_node(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp); break;
+        case OP_LAYER_WEIGHT: { double r[2]; layer_weight(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp, r); out[0] = r[0]; out[1] = r[1]; break; }
         default: procedural_op((int)op[0], a, reg); break;     /* the procedural textures (procedural.gen.c) */
         }
     }

@@ -38,7 +38,7 @@ from .procedural import hash as hash_
 # procedural textures' ops (core/materials/procedural TEXTURE_TYPES, one per class) follow graph.c's own.
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
-       "TANGENT") + tuple(cls.kind for cls in TEXTURE_TYPES)
+       "TANGENT") + tuple(cls.kind for cls in TEXTURE_TYPES) + ("FRESNEL", "LAYER_WEIGHT")
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
@@ -112,6 +112,7 @@ NODE_OUTPUTS = {
     "COMBINE_COLOR": {"Color": (3, "color")}, "COMBINE_XYZ": {"Vector": (3, "vector")},
     "CLAMP": {"Result": (1, "float")}, "MAP_RANGE": {"Result": (1, "float")}, "SCALE": {"Color": (3, "color")},
     "TANGENT": {"Tangent": (3, "vector")},
+    "FRESNEL": {"Fac": (1, "float")}, "LAYER_WEIGHT": {"Fresnel": (1, "float"), "Facing": (1, "float")},
     **{cls.kind: dict(cls.outputs) for cls in TEXTURE_TYPES},
 }
 # The Tangent node's directions and axes (props "direction", "axis"), as Blender names them.
@@ -158,7 +159,8 @@ class ShadingPoint(NamedTuple):
     the object's random number; N: (n, 3) the shading normal facing the viewer; side: (n,) +1 where the
     front was hit, -1 the back; linear: (n, 3, 3) the object's linear transform (for tangents);
     dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0; Ng: (n, 3) the face normal facing the viewer;
-    ray: (n,) which kind of ray found the hit (RAY_*; None: camera rays).
+    ray: (n,) which kind of ray found the hit (RAY_*; None: camera rays); I: (n, 3) the unit direction from the
+    hit back along the ray that found it (Cycles' sd->wi, the material's wo; None: N, a head-on view).
     """
 
     attributes: np.ndarray
@@ -172,6 +174,7 @@ class ShadingPoint(NamedTuple):
     dPdv: np.ndarray
     Ng: np.ndarray
     ray: np.ndarray = None     # (n,) float64 RAY_CAMERA, RAY_BOUNCE or RAY_SHADOW: which ray found the hit
+    I: np.ndarray = None       # (n, 3) float64 towards where the ray came from (the Fresnel and Layer Weight nodes)
 
 
 def has_links(nodes: list) -> bool:
@@ -361,6 +364,13 @@ class Compiler:
             out = self.temporary(1)
             self.emit("RAY", out, RAY_SHADOW if output == "Is Shadow Ray" else RAY_CAMERA)
             return out, 1, "float"
+        if kind in ("FRESNEL", "LAYER_WEIGHT"):
+            amount = (self.value(inp.get("IOR"), 1, 1.5) if kind == "FRESNEL" else
+                      self.value(inp.get("Blend"), 1, 0.5))
+            normal = self.value(inp["Normal"], 3) if isinstance(inp.get("Normal"), Link) else None
+            out = self.temporary(1 if kind == "FRESNEL" else 2)
+            self.emit(kind, out, amount, normal)
+            return shift(out, list(NODE_OUTPUTS[kind]).index(output)), 1, "float"
         if kind == "IMAGE":
             vector = (self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link)
                       else self.attribute("uv:"))
@@ -547,7 +557,7 @@ REGISTER_ARGS = {
     "MIX_COLOR": {0, 2, 3, 4}, "MIX_FLOAT": {0, 1, 2, 3}, "RAMP": {0, 1}, "INVERT": {0, 1, 2},
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
-    "RAY": {0}, "TANGENT": {0, 1},
+    "RAY": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in TEXTURE_TYPES},
 }
 
@@ -798,12 +808,60 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = R(1, 3) * reg[:, i[2]:i[2] + 1]
         elif name == "TANGENT":
             reg[:, i[0]:i[0] + 3] = tangent(R(1, 3), i[2], i[3], sp)
+        elif name == "FRESNEL":
+            reg[:, i[0]] = fresnel(reg[:, i[1]], None if i[2] < 0 else R(2, 3), sp)
+        elif name == "LAYER_WEIGHT":
+            reg[:, i[0]:i[0] + 2] = layer_weight(reg[:, i[1]], None if i[2] < 0 else R(2, 3), sp)
         elif name in TEXTURE_BY_KIND:
             texture = TEXTURE_BY_KIND[name]
             k = len(texture.inputs)
             inputs = [R(1 + j, width) for j, (_, width, _) in enumerate(texture.inputs)]
             reg[:, i[0]:i[0] + texture.width()] = texture.evaluate(inputs, i[1 + k:])
     return reg
+
+
+def fresnel_cos(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """Cycles' fresnel_dielectric_cos: the unpolarized reflectance (n,) of a dielectric of relative index eta (n,)
+    seen at cos_i (n,) (its sign ignored), written without the refracted direction; 1 under total internal
+    reflection."""
+    c = np.abs(cos_i)
+    g2 = eta * eta - 1.0 + c * c
+    g = np.sqrt(np.maximum(g2, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        A = (g - c) / (g + c)
+        B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    return np.where(g2 > 0.0, 0.5 * A * A * (1.0 + B * B), 1.0)
+
+
+def view_cosine(normal: Optional[np.ndarray], sp: ShadingPoint) -> np.ndarray:
+    """I.normal (n,): the cosine between the direction back along the ray and a node's Normal input (n, 3), or the
+    shading normal where it is unlinked (None), as Cycles' dot(sd->wi, N)."""
+    N = sp.N if normal is None else normal
+    I = sp.N if sp.I is None else sp.I
+    return np.einsum("ij,ij->i", I, N)
+
+
+def fresnel(ior: np.ndarray, normal: Optional[np.ndarray], sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Fresnel node (svm_node_fresnel) (n,): the dielectric reflectance for index max(IOR, 1e-5) at the
+    view cosine, the index inverted where the back of the face was hit (light leaving the object)."""
+    eta = np.maximum(ior, 1e-5)
+    eta = np.where(sp.side < 0.0, 1.0 / eta, eta)
+    return fresnel_cos(view_cosine(normal, sp), eta)
+
+
+def layer_weight(blend: np.ndarray, normal: Optional[np.ndarray], sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Layer Weight node (svm_node_layer_weight) (n, 2): Fresnel, the reflectance for the index
+    1 / max(1 - Blend, 1e-5) (its inverse where the back was hit), and Facing, 1 - |I.N| raised to the power
+    2 Blend (Blend < 0.5) or 0.5 / (1 - Blend), with Blend clamped to [0, 1 - 1e-5] and no power at 0.5."""
+    cos_i = view_cosine(normal, sp)
+    eta = np.maximum(1.0 - blend, 1e-5)
+    eta = np.where(sp.side < 0.0, eta, 1.0 / eta)
+    f = np.abs(cos_i)
+    b = np.clip(blend, 0.0, 1.0 - 1e-5)
+    power = np.where(b < 0.5, 2.0 * b, 0.5 / (1.0 - b))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        facing = np.where(blend != 0.5, np.power(f, power), f)
+    return np.stack([fresnel_cos(cos_i, eta), 1.0 - facing], axis=1)
 
 
 def tangent(source: np.ndarray, uv_map: int, axis: int, sp: ShadingPoint) -> np.ndarray:

@@ -1,0 +1,145 @@
+"""Cycles' input nodes in the node-graph compiler (core/materials/graph.py, graph.c): Fresnel and Layer Weight,
+each checked against a closed form on both kernels (the compiled C and the numpy reference), and the two kernels
+against each other.
+
+The scenes look straight down (an orthographic camera, so every ray has the same direction) at a large plane tilted
+by an angle theta about x, its front towards the camera or, flipped, its back; the plane's Emission shows the node's
+output, so a pixel is the output's value.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from conftest import ortho_down
+from core import render
+from core.geometry import primitives
+from core.materials import Material
+from core.materials.graph import GraphNode, Link
+from core.scene import RenderSettings, Scene
+
+KERNELS = ["compiled", "numpy"]
+SIZE = 4
+
+
+def fresnel_closed_form(cos_i: float, eta: float) -> float:
+    """The unpolarized reflectance of light meeting a dielectric of relative index eta at cos_i, from Snell's law
+    and the s and p amplitudes written out; 1 under total internal reflection."""
+    sin_t = math.sqrt(max(0.0, 1.0 - cos_i * cos_i)) / eta
+    if sin_t >= 1.0:
+        return 1.0
+    cos_t = math.sqrt(1.0 - sin_t * sin_t)
+    r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    return 0.5 * (r_s * r_s + r_p * r_p)
+
+
+def tilted_scene(link: Link, degrees: float = 0.0, flipped: bool = False) -> Scene:
+    """A 12 x 12 plane through the origin tilted `degrees` about x (its back to the camera where `flipped`),
+    emitting the value of `link`, under an orthographic camera looking down -z."""
+    scene = Scene(camera=ortho_down(height=10.0, scale=2.0))
+    scene.materials.append(Material(name="Input", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": link})]))
+    mesh = primitives.plane(12.0)
+    a = math.radians(degrees)
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]])
+    mesh.vertices = mesh.vertices @ turn.T
+    if flipped:
+        mesh.triangles = mesh.triangles[:, ::-1].copy()
+    lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+    mesh.attributes = {"generated": ((mesh.vertices - lo) / np.where(hi > lo, hi - lo, 1.0))[mesh.triangles]}
+    scene.add_mesh(mesh, materials=np.array([0]))
+    return scene
+
+
+def shoot(scene: Scene, kernels: str) -> np.ndarray:
+    """The rendered red channel (SIZE, SIZE), two samples per pixel."""
+    result = render.render(scene, RenderSettings(width=SIZE, height=SIZE, samples=2, kernels=kernels))
+    assert result.stats.kernels.startswith(kernels)
+    return result.image[..., 0]
+
+
+def fresnel(ior, normal=None) -> Link:
+    """A Fresnel node's Fac."""
+    return Link(GraphNode("FRESNEL", {}, {"IOR": ior, **({} if normal is None else {"Normal": normal})}), "Fac")
+
+
+def layer_weight(blend, output: str) -> Link:
+    """A Layer Weight node's Fresnel or Facing."""
+    return Link(GraphNode("LAYER_WEIGHT", {}, {"Blend": blend}), output)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("ior", [1.5, 2.4])
+def test_fresnel_at_normal_incidence_is_the_squared_index_ratio(kernels, ior):
+    image = shoot(tilted_scene(fresnel(ior)), kernels)
+    np.testing.assert_allclose(image, ((ior - 1.0) / (ior + 1.0)) ** 2, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("degrees", [30.0, 60.0, 80.0])
+def test_fresnel_follows_the_dielectric_reflectance_with_the_angle_of_view(kernels, degrees):
+    image = shoot(tilted_scene(fresnel(1.5), degrees), kernels)
+    np.testing.assert_allclose(image, fresnel_closed_form(math.cos(math.radians(degrees)), 1.5), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_fresnel_seen_from_behind_is_light_leaving_the_object_and_reflects_totally_past_the_critical_angle(kernels):
+    # From behind, light goes from glass to air: relative index 1 / 1.5, critical angle asin(1 / 1.5) = 41.8 deg.
+    below = shoot(tilted_scene(fresnel(1.5), 30.0, flipped=True), kernels)
+    np.testing.assert_allclose(below, fresnel_closed_form(math.cos(math.radians(30.0)), 1.0 / 1.5), rtol=1e-6)
+    past = shoot(tilted_scene(fresnel(1.5), 60.0, flipped=True), kernels)
+    np.testing.assert_allclose(past, 1.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_fresnel_with_a_linked_normal_uses_that_normal_for_the_angle(kernels):
+    # A normal straight up, towards the camera, on a plane tilted 60 degrees: normal incidence.
+    up = Link(GraphNode("COMBINE_XYZ", {}, {"X": 0.0, "Y": 0.0, "Z": 1.0}), "Vector")
+    image = shoot(tilted_scene(fresnel(1.5, up), 60.0), kernels)
+    np.testing.assert_allclose(image, 0.04, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("degrees", [0.0, 60.0, 75.0])
+def test_layer_weight_facing_with_blend_one_half_is_one_minus_the_view_cosine(kernels, degrees):
+    image = shoot(tilted_scene(layer_weight(0.5, "Facing"), degrees), kernels)
+    np.testing.assert_allclose(image, 1.0 - math.cos(math.radians(degrees)), atol=1e-7)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("blend, power", [(0.25, 0.5), (0.8, 2.5), (0.0, 0.0)])
+def test_layer_weight_facing_raises_the_view_cosine_to_a_power_set_by_the_blend(kernels, blend, power):
+    # Blend below 1/2: power 2 Blend; above: 1 / (2 (1 - Blend)).
+    image = shoot(tilted_scene(layer_weight(blend, "Facing"), 60.0), kernels)
+    np.testing.assert_allclose(image, 1.0 - 0.5 ** power, atol=1e-7)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_layer_weight_fresnel_is_the_reflectance_of_index_one_over_one_minus_blend_inverted_from_behind(kernels):
+    front = shoot(tilted_scene(layer_weight(0.3, "Fresnel"), 50.0), kernels)
+    np.testing.assert_allclose(front, fresnel_closed_form(math.cos(math.radians(50.0)), 1.0 / 0.7), rtol=1e-6)
+    back = shoot(tilted_scene(layer_weight(0.3, "Fresnel"), 20.0, flipped=True), kernels)
+    np.testing.assert_allclose(back, fresnel_closed_form(math.cos(math.radians(20.0)), 0.7), rtol=1e-6)
+
+
+def test_the_compiled_input_nodes_compute_what_the_reference_computes():
+    # Indices, blends and linked normals varying across the plane (Generated x), seen from both sides.
+    uv = GraphNode("TEXCOORD", {}, {})
+    x = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(uv, "Generated")}), "X")
+    tilted = Link(GraphNode("COMBINE_XYZ", {}, {"X": 0.2, "Y": 0.3, "Z": x}), "Vector")
+    index = Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": x, "1": 2.0, "2": 0.5}), "Value")
+    links = [fresnel(index), fresnel(1.33, tilted), layer_weight(x, "Fresnel"), layer_weight(x, "Facing"),
+             Link(GraphNode("LAYER_WEIGHT", {}, {"Blend": 0.7, "Normal": tilted}), "Facing")]
+    for link in links:
+        for flipped in (False, True):
+            scene = tilted_scene(link, 35.0, flipped)
+            scene.camera = ortho_down(height=10.0, scale=10.0)
+            settings = RenderSettings(width=16, height=16, samples=2)
+            compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+            reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+            assert compiled.stats.kernels == "compiled"
+            np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+            assert reference.image[..., 0].std() > 1e-3
