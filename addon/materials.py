@@ -154,7 +154,7 @@ GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", 
                "ShaderNodeSeparateXYZ": "SEPARATE_XYZ", "ShaderNodeCombineColor": "COMBINE_COLOR",
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
-               "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT",
+               "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT", "ShaderNodeNewGeometry": "GEOMETRY",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # Legacy socket names -> the core's.
 RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac", "Factor": "Fac"}

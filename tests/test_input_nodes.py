@@ -17,7 +17,7 @@ import pytest
 from conftest import ortho_down
 from core import render
 from core.geometry import primitives
-from core.materials import Material
+from core.materials import Material, graph
 from core.materials.graph import GraphNode, Link
 from core.scene import RenderSettings, Scene
 
@@ -133,6 +133,11 @@ def test_the_compiled_input_nodes_compute_what_the_reference_computes():
     index = Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": x, "1": 2.0, "2": 0.5}), "Value")
     links = [fresnel(index), fresnel(1.33, tilted), layer_weight(x, "Fresnel"), layer_weight(x, "Facing"),
              Link(GraphNode("LAYER_WEIGHT", {}, {"Blend": 0.7, "Normal": tilted}), "Facing")]
+    links += [Link(GraphNode("GEOMETRY", {}, {}), output) for output in graph.NODE_OUTPUTS["GEOMETRY"]]
+    for output in ("Position", "Parametric"):           # read at the bump's offset points too
+        height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": component(geometry(output), "Y")}), "Value")
+        links.append(Link(GraphNode("BUMP", {}, {"Height": height, "Distance": 3.0}), "Normal"))
+    spread = []
     for link in links:
         for flipped in (False, True):
             scene = tilted_scene(link, 35.0, flipped)
@@ -142,4 +147,68 @@ def test_the_compiled_input_nodes_compute_what_the_reference_computes():
             reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
             assert compiled.stats.kernels == "compiled"
             np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
-            assert reference.image[..., 0].std() > 1e-3
+            assert np.isfinite(reference.image).all()
+            spread.append(reference.image[..., :3].std())
+    assert min(spread[:5]) > 1e-3 and min(spread[-2:]) > 1e-3      # (some Geometry outputs are one value here)
+
+
+def geometry(output: str) -> Link:
+    """A Geometry node's output."""
+    return Link(GraphNode("GEOMETRY", {}, {}), output)
+
+
+def component(link: Link, axis: str) -> Link:
+    """One component (X, Y or Z) of a vector."""
+    return Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": link}), axis)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_geometry_position_is_the_world_point_where_each_pixel_centre_ray_meets_the_plane(kernels):
+    # A plane at z = 0.7 under a camera 10 above (3, 2, 0): Position is world space, not camera-relative.
+    scene = tilted_scene(component(geometry("Position"), "Z"))
+    scene.meshes[0].vertices = scene.meshes[0].vertices + [3.0, 2.0, 0.7]
+    scene.camera = ortho_down(center=(3.0, 2.0, 0.0), height=10.0, scale=2.0)
+    np.testing.assert_allclose(shoot(scene, kernels), 0.7, rtol=1e-6)
+    scene.materials[0] = Material(name="X", nodes=[("EMISSION", (1.0, 1.0, 1.0),
+                                                    {"emission": component(geometry("Position"), "X")})])
+    # Unjittered (the reference), each pixel's ray goes through its centre: x = 2 + (column + 0.5) / 2.
+    image = render.render(scene, RenderSettings(width=SIZE, height=SIZE, samples=1, kernels="numpy",
+                                                jitter=False)).image[..., 0]
+    np.testing.assert_allclose(image, np.tile(2.0 + (np.arange(SIZE) + 0.5) * 2.0 / SIZE, (SIZE, 1)), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("output", ["Normal", "True Normal"])
+def test_geometry_normals_of_a_tilted_plane_are_its_turned_up_axis(kernels, output):
+    for axis, expected in (("Z", math.cos(math.radians(40.0))), ("X", 0.0)):
+        image = shoot(tilted_scene(component(geometry(output), axis), 40.0), kernels)
+        np.testing.assert_allclose(image, expected, rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_geometry_normals_seen_from_behind_turn_towards_the_viewer_and_backfacing_is_one(kernels):
+    flipped = shoot(tilted_scene(component(geometry("Normal"), "Z"), 40.0, flipped=True), kernels)
+    np.testing.assert_allclose(flipped, math.cos(math.radians(40.0)), rtol=1e-6)
+    np.testing.assert_allclose(shoot(tilted_scene(geometry("Backfacing"), 40.0, flipped=True), kernels), 1.0)
+    np.testing.assert_allclose(shoot(tilted_scene(geometry("Backfacing"), 40.0), kernels), 0.0)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_geometry_incoming_points_back_along_the_camera_rays(kernels):
+    np.testing.assert_allclose(shoot(tilted_scene(component(geometry("Incoming"), "Z"), 40.0), kernels), 1.0,
+                               rtol=1e-6)
+
+
+def test_geometry_parametric_is_the_barycentric_weights_of_the_first_two_corners():
+    # The 12 x 12 plane's triangles (V0, V1, V2) = ((-6, -6), (6, -6), (6, 6)) below its diagonal and
+    # ((-6, -6), (6, 6), (-6, 6)) above: a point's weight of V1 is u = (x - y) / 12 below, (x + 6) / 12 above, and of
+    # V0 1 - u - v. Unjittered (the reference) rays through pixel centres, the camera moved off the diagonal.
+    scene = tilted_scene(component(geometry("Parametric"), "Y"))
+    scene.camera = ortho_down(center=(0.1, 0.0, 0.0), height=10.0, scale=2.0)
+    image = render.render(scene, RenderSettings(width=SIZE, height=SIZE, samples=1, kernels="numpy",
+                                                jitter=False)).image[..., 0]
+    x, y = np.meshgrid(0.1 - 1.0 + (np.arange(SIZE) + 0.5) * 2.0 / SIZE, 1.0 - (np.arange(SIZE) + 0.5) * 2.0 / SIZE)
+    np.testing.assert_allclose(image, np.where(y < x, (x - y) / 12.0, (x + 6.0) / 12.0), rtol=1e-6)
+    scene.materials[0] = Material(name="Z", nodes=[("EMISSION", (1.0, 1.0, 1.0),
+                                                    {"emission": component(geometry("Parametric"), "Z")})])
+    np.testing.assert_allclose(shoot(scene, "compiled"), 0.0)

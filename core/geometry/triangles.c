@@ -179,6 +179,8 @@ typedef struct {
     double Ng[3];       /* the face normal, facing the viewer */
     double ray;         /* which kind of ray found the hit (graph.RAY_*): the Light Path node asks */
     double I[3];        /* back along that ray (the material's wo): the Fresnel and Layer Weight nodes ask */
+    double P[3];        /* the world point (camera-relative I plus the origin): the Geometry node's Position */
+    double u, v;        /* the barycentrics: its Parametric */
 } ShadingPoint;
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with
@@ -219,7 +221,10 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
         sp->Ng[c] = s->Ng[c];
         sp->dPdu[c] = tri->V[3 + c] - tri->V[c];
         sp->dPdv[c] = tri->V[6 + c] - tri->V[c];
+        sp->P[c] = s->I[c] + (g->origin != NULL ? g->origin[c] : 0.0);
     }
+    sp->u = u;
+    sp->v = v;
 }
 
 /* ------------------------------------------------------------------------------------------------

@@ -229,6 +229,21 @@ INLINE void layer_weight(double blend, const double *normal, const ShadingPoint 
     out[1] = 1.0 - f;
 }
 
+/* graph.geometry: Cycles' Geometry node output `output` (graph.GEOMETRY_OUTPUTS) at the hit (where 0) or the bump's
+ * point along V1 - V0 (1) or V2 - V0 (2). */
+INLINE void geometry_node(int output, int where, const ShadingPoint *sp, double *out)
+{
+    double du = where == 1 ? BUMP_STEP : 0.0, dv = where == 2 ? BUMP_STEP : 0.0;
+    switch (output) {
+    case GEOM_POSITION: for (int j = 0; j < 3; j++) out[j] = (sp->P[j] + du * sp->dPdu[j]) + dv * sp->dPdv[j]; break;
+    case GEOM_NORMAL: for (int j = 0; j < 3; j++) out[j] = sp->N[j]; break;
+    case GEOM_TRUE_NORMAL: for (int j = 0; j < 3; j++) out[j] = sp->Ng[j]; break;
+    case GEOM_INCOMING: for (int j = 0; j < 3; j++) out[j] = sp->I[j]; break;
+    case GEOM_PARAMETRIC: { double u = sp->u + du, v = sp->v + dv; out[0] = 1.0 - u - v; out[1] = u; out[2] = 0.0; break; }
+    default: out[0] = sp->side < 0.0 ? 1.0 : 0.0; break;
+    }
+}
+
 /* graph.bump */
 INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
                  int invert, const ShadingPoint *sp, double *out)
@@ -262,6 +277,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
     for (int64_t k = 0; k < n_constants; k++) reg[k] = constants[k];
     double offset_attr[MAX_ATTRIBUTES];
     const double *attributes = sp->attributes;
+    int where = 0;                      /* the bump's evaluation point (OFFSET) */
     for (int64_t o = 0; o < n_ops; o++) {
         const double *op = ops + OP_WIDTH * o;
         int a[OP_WIDTH - 1];
@@ -274,6 +290,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_RANDOM: out[0] = sp->random; break;
         case OP_RAY: out[0] = sp->ray == (double)a[1] ? 1.0 : 0.0; break;
         case OP_OFFSET:
+            where = a[0];
             if (a[0] == 0) { attributes = sp->attributes; break; }
             for (int j = 0; j < sp->width; j++)
                 offset_attr[j] = sp->attributes[j] + BUMP_STEP * (a[0] == 1 ? sp->d_du[j] : sp->d_dv[j]);
@@ -393,6 +410,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_GEOMETRY: { double r[3]; geometry_node(a[1], where, sp, r); for (int j = 0; j < (a[1] == GEOM_BACKFACING ? 1 : 3); j++) out[j] = r[j]; break; }
         case OP_FRESNEL: out[0] = fresnel_node(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp); break;
         case OP_LAYER_WEIGHT: { double r[2]; layer_weight(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp, r); out[0] = r[0]; out[1] = r[1]; break; }
         default: procedural_op((int)op[0], a, reg); break;     /* the procedural textures (procedural.gen.c) */

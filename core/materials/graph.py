@@ -38,7 +38,7 @@ from .procedural import hash as hash_
 # procedural textures' ops (core/materials/procedural TEXTURE_TYPES, one per class) follow graph.c's own.
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
-       "TANGENT") + tuple(cls.kind for cls in TEXTURE_TYPES) + ("FRESNEL", "LAYER_WEIGHT")
+       "TANGENT") + tuple(cls.kind for cls in TEXTURE_TYPES) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY")
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
@@ -113,8 +113,14 @@ NODE_OUTPUTS = {
     "CLAMP": {"Result": (1, "float")}, "MAP_RANGE": {"Result": (1, "float")}, "SCALE": {"Color": (3, "color")},
     "TANGENT": {"Tangent": (3, "vector")},
     "FRESNEL": {"Fac": (1, "float")}, "LAYER_WEIGHT": {"Fresnel": (1, "float"), "Facing": (1, "float")},
+    "GEOMETRY": {"Position": (3, "vector"), "Normal": (3, "vector"), "Tangent": (3, "vector"),
+                 "True Normal": (3, "vector"), "Incoming": (3, "vector"), "Parametric": (3, "vector"),
+                 "Backfacing": (1, "float")},
     **{cls.kind: dict(cls.outputs) for cls in TEXTURE_TYPES},
 }
+# The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
+GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing")
+schema.constants("GEOM", [name.replace(" ", "_") for name in GEOMETRY_OUTPUTS], "the Geometry node's outputs")
 # The Tangent node's directions and axes (props "direction", "axis"), as Blender names them.
 TANGENT_DIRECTIONS = ("RADIAL", "UV_MAP")
 TANGENT_AXES = ("X", "Y", "Z")
@@ -160,7 +166,8 @@ class ShadingPoint(NamedTuple):
     front was hit, -1 the back; linear: (n, 3, 3) the object's linear transform (for tangents);
     dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0; Ng: (n, 3) the face normal facing the viewer;
     ray: (n,) which kind of ray found the hit (RAY_*; None: camera rays); I: (n, 3) the unit direction from the
-    hit back along the ray that found it (Cycles' sd->wi, the material's wo; None: N, a head-on view).
+    hit back along the ray that found it (Cycles' sd->wi, the material's wo; None: N, a head-on view);
+    P: (n, 3) the hit in world space (not camera-relative); uv: (n, 2) its barycentrics u, v (corner 1, corner 2).
     """
 
     attributes: np.ndarray
@@ -175,6 +182,8 @@ class ShadingPoint(NamedTuple):
     Ng: np.ndarray
     ray: np.ndarray = None     # (n,) float64 RAY_CAMERA, RAY_BOUNCE or RAY_SHADOW: which ray found the hit
     I: np.ndarray = None       # (n, 3) float64 towards where the ray came from (the Fresnel and Layer Weight nodes)
+    P: np.ndarray = None       # (n, 3) float64 the world point (the Geometry node's Position)
+    uv: np.ndarray = None      # (n, 2) float64 the barycentrics (its Parametric)
 
 
 def has_links(nodes: list) -> bool:
@@ -232,6 +241,8 @@ def attributes_of(nodes: list) -> set:
         elif node.kind == "TANGENT":
             names.add("generated" if node.props.get("direction", "RADIAL") == "RADIAL"
                       else "tangent:" + node.props.get("map", ""))
+        elif node.kind == "GEOMETRY" and link.output == "Tangent":
+            names.add("generated")
         elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("uv:")
         elif node.kind in TEXTURE_BY_KIND:
@@ -371,6 +382,15 @@ class Compiler:
             out = self.temporary(1 if kind == "FRESNEL" else 2)
             self.emit(kind, out, amount, normal)
             return shift(out, list(NODE_OUTPUTS[kind]).index(output)), 1, "float"
+        if kind == "GEOMETRY":
+            if output == "Tangent":                     # Cycles' primitive_tangent: radial about Z of Generated
+                source = self.attribute("generated", 3)
+                out = self.temporary(3)
+                self.emit("TANGENT", out, source, 0, TANGENT_AXES.index("Z"))
+                return out, 3, "vector"
+            out = self.temporary(width)
+            self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
+            return out, width, vtype
         if kind == "IMAGE":
             vector = (self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link)
                       else self.attribute("uv:"))
@@ -558,6 +578,7 @@ REGISTER_ARGS = {
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "RAY": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
+    "GEOMETRY": {0},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in TEXTURE_TYPES},
 }
 
@@ -708,7 +729,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
     reg = np.zeros((n, max(1, program.registers)))
     c = len(program.constants)
     reg[:, :c] = program.constants
-    attributes = sp.attributes
+    attributes, where = sp.attributes, 0
     for row in program.ops:
         code, a = int(row[0]), row[1:]
         name = OPS[code]
@@ -726,6 +747,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             ray = np.full(n, float(RAY_CAMERA)) if sp.ray is None else sp.ray
             reg[:, i[0]] = (ray == i[1]).astype(np.float64)
         elif name == "OFFSET":
+            where = i[0]
             attributes = sp.attributes + (BUMP_STEP * sp.d_du if i[0] == 1 else BUMP_STEP * sp.d_dv if i[0] == 2
                                           else 0.0)
         elif name == "IMAGE":
@@ -808,6 +830,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = R(1, 3) * reg[:, i[2]:i[2] + 1]
         elif name == "TANGENT":
             reg[:, i[0]:i[0] + 3] = tangent(R(1, 3), i[2], i[3], sp)
+        elif name == "GEOMETRY":
+            reg[:, i[0]:i[0] + (1 if GEOMETRY_OUTPUTS[i[1]] == "Backfacing" else 3)] = geometry(i[1], where, sp)
         elif name == "FRESNEL":
             reg[:, i[0]] = fresnel(reg[:, i[1]], None if i[2] < 0 else R(2, 3), sp)
         elif name == "LAYER_WEIGHT":
@@ -818,6 +842,31 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             inputs = [R(1 + j, width) for j, (_, width, _) in enumerate(texture.inputs)]
             reg[:, i[0]:i[0] + texture.width()] = texture.evaluate(inputs, i[1 + k:])
     return reg
+
+
+def geometry(output: int, where: int, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Geometry node (svm_node_geometry) output GEOMETRY_OUTPUTS[output], (n, 3) or Backfacing (n, 1), at the
+    hit (where 0) or at the bump's point a step along the edge V1 - V0 (1) or V2 - V0 (2), as Cycles moves Position and
+    Parametric for a bump's height: Position the world point, Normal the shading normal and True Normal the face's
+    (both towards the viewer), Incoming the direction back along the ray, Parametric (1 - u - v, u, 0), Backfacing
+    1 where the back of the face was hit."""
+    name = GEOMETRY_OUTPUTS[output]
+    n = len(sp.N)
+    du, dv = (BUMP_STEP if where == 1 else 0.0), (BUMP_STEP if where == 2 else 0.0)
+    if name == "Position":
+        P = np.zeros((n, 3)) if sp.P is None else sp.P
+        return P + du * sp.dPdu + dv * sp.dPdv
+    if name == "Normal":
+        return sp.N
+    if name == "True Normal":
+        return sp.Ng
+    if name == "Incoming":
+        return sp.N if sp.I is None else sp.I
+    if name == "Parametric":
+        uv = np.zeros((n, 2)) if sp.uv is None else sp.uv
+        u, v = uv[:, 0] + du, uv[:, 1] + dv
+        return np.stack([1.0 - u - v, u, np.zeros(n)], axis=1)
+    return (sp.side < 0.0).astype(np.float64)[:, None]
 
 
 def fresnel_cos(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
