@@ -16,7 +16,7 @@ import pytest
 
 from conftest import ortho_down
 from core import render
-from core.geometry import primitives
+from core.geometry import pointiness, primitives
 from core.materials import Material, graph
 from core.materials.graph import GraphNode, Link
 from core.scene import RenderSettings, Scene
@@ -212,3 +212,28 @@ def test_geometry_parametric_is_the_barycentric_weights_of_the_first_two_corners
     scene.materials[0] = Material(name="Z", nodes=[("EMISSION", (1.0, 1.0, 1.0),
                                                     {"emission": component(geometry("Parametric"), "Z")})])
     np.testing.assert_allclose(shoot(scene, "compiled"), 0.0)
+
+
+def test_pointiness_is_one_half_on_a_flat_grid_and_the_corner_angle_on_a_cube():
+    # A 3 x 3 grid of vertices: every edge lies in the plane, at right angles to the normal.
+    grid = np.array([[x, y, 0.0] for y in range(3) for x in range(3)], np.float64)
+    edges = [(i, i + 1) for i in range(9) if i % 3 < 2] + [(i, i + 3) for i in range(6)]
+    np.testing.assert_allclose(pointiness.pointiness(grid, np.tile([0.0, 0.0, 1.0], (9, 1)), edges), 0.5)
+    # A cube's corner: normal (1, 1, 1) / sqrt 3, edges (-1, 0, 0), (0, -1, 0), (0, 0, -1): acos(-1 / sqrt 3) / pi at
+    # every corner, so the blur keeps it; each corner given twice (split faces) is welded into one.
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], np.float64)
+    cube_edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if np.abs(corners[i] - corners[j]).sum() == 1]
+    doubled = np.concatenate([corners, corners])
+    normals = (doubled - 0.5) / np.linalg.norm(doubled - 0.5, axis=1)[:, None]
+    split = [(i + 8 * (k % 2), j + 8 * (k % 2)) for k, (i, j) in enumerate(cube_edges)]
+    np.testing.assert_allclose(pointiness.pointiness(doubled, normals, split), math.acos(-1.0 / math.sqrt(3.0)) / math.pi)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_geometry_pointiness_reads_the_meshs_per_vertex_curvature(kernels):
+    scene = tilted_scene(geometry("Pointiness"))
+    mesh = scene.meshes[0]
+    edges = [(0, 1), (1, 2), (2, 3), (3, 0)]            # the quad's own edges (the diagonal is none)
+    values = pointiness.pointiness(mesh.vertices, np.tile([0.0, 0.0, 1.0], (4, 1)), edges)
+    mesh.attributes["pointiness"] = values[mesh.triangles][..., None]
+    np.testing.assert_allclose(shoot(scene, kernels), 0.5, rtol=1e-6)
