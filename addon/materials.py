@@ -155,6 +155,7 @@ GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", 
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
                "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT", "ShaderNodeNewGeometry": "GEOMETRY",
+               "ShaderNodeCameraData": "CAMERA_DATA",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # Legacy socket names -> the core's.
 RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac", "Factor": "Fac"}
@@ -256,7 +257,10 @@ class GraphReader:
             if not node.inputs["Vector"].is_linked:
                 inputs = {}
         elif kind == "TEXCOORD":
-            pass
+            if node.object is not None:                   # Object: in that object's frame
+                props = {"object_matrix": np.array(node.object.matrix_world, np.float64)}
+            if getattr(node, "from_instancer", False):
+                warn("From Instancer is not supported; Primer reads the object's own coordinates")
         elif kind == "UVMAP":
             props = {"map": node.uv_map}
         elif kind == "ATTRIBUTE":

@@ -62,9 +62,11 @@ def absolute(tree, socket, snap=False):
     return combine.outputs["Vector"]
 
 
-def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, monkey=False):
+def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, monkey=False, settings=()):
     material, tree, out = empty_material(label)
     node = tree.nodes.new(idname)
+    for name, value in settings:
+        setattr(node, name, value)
     for name, value in inputs:
         node.inputs[name].default_value = value
     emission = tree.nodes.new("ShaderNodeEmission")
@@ -100,6 +102,17 @@ for output in ("Normal", "Tangent", "True Normal", "Incoming", "Parametric"):
     case("Geometry " + output, "ShaderNodeNewGeometry", output, vector=True)
 case("Geometry Backfacing + 0.25", "ShaderNodeNewGeometry", "Backfacing", add=0.25)
 case("Geometry Pointiness", "ShaderNodeNewGeometry", "Pointiness", monkey=True)
+for output in ("Normal", "Reflection"):
+    case("Texture Coordinate " + output, "ShaderNodeTexCoord", output, vector=True)
+case("Texture Coordinate Camera", "ShaderNodeTexCoord", "Camera", vector=True, snap=True)
+empty = bpy.data.objects.new("Empty", None)                # its frame: moved by a whole number of pixels
+empty.location = (0.25, 0.5, 0.0)
+scene.collection.objects.link(empty)
+case("Texture Coordinate Object (Empty)", "ShaderNodeTexCoord", "Object", vector=True, snap=True,
+     settings=[("object", empty)])
+case("Camera Data View Vector", "ShaderNodeCameraData", "View Vector", vector=True)
+case("Camera Data View Z Depth - 4", "ShaderNodeCameraData", "View Z Depth", add=-4.0)
+case("Camera Data View Distance - 4", "ShaderNodeCameraData", "View Distance", add=-4.0)
 for output in ("Random Per Island",):                      # not read: a warning
     material, tree, out = empty_material(output)
     node, emission = tree.nodes.new("ShaderNodeNewGeometry"), tree.nodes.new("ShaderNodeEmission")
@@ -152,7 +165,7 @@ def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_p
             block = (slice(row * PIXELS, (row + 1) * PIXELS), slice(column * PIXELS, (column + 1) * PIXELS))
             # Values that vary inside a face (Position snapped to the pixel, Parametric): every covered pixel;
             # the others: the pixels inside a face.
-            varying = label in ("Geometry Position",) + SAMPLED
+            varying = label in ("Geometry Position",) + SNAPPED + SAMPLED
             face = covered[block] & (inside[block] | varying)
             counted[label, view] = int(face.sum())
             difference = np.abs(primer[block] - cycles[block])[face]
@@ -161,9 +174,13 @@ def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_p
     print("mean difference per output:", mean)
     assert min(counted.values()) >= 40, counted
     assert cycles[:PIXELS].std() > 0.01, "the spheres' faces should show many values"
-    # Constant on a face: Cycles' values to float32 rounding (measured <= 3.0e-7).
-    far = {key: d for key, d in worst.items() if d > 5e-7 and key[0] not in SAMPLED}
+    # Constant on a face: Cycles' values to float32 rounding (measured <= 3.0e-7; Reflection's 2 (I.N) N - I 7.7e-7).
+    far = {key: d for key, d in worst.items() if d > 1e-6 and key[0] not in SAMPLED + SNAPPED}
     assert far == {}, far
+    # A point snapped to its pixel's centre in another frame: Cycles' float32 transform puts a sample within an ulp of
+    # a pixel's edge on the other side now and then (measured: one sample of 16 in a few pixels, 1 / 32 / 16).
+    snapped = {key: d for key, d in worst.items() if key[0] in SNAPPED and (d > 1.0 / 32 / 16 + 1e-6 or mean[key] > 1e-5)}
+    assert snapped == {}, snapped
     # Parametric, Tangent and Pointiness (Suzanne's) vary across each pixel, whose samples fall elsewhere in Primer than
     # in Cycles: the mean difference of their pixels is sampling noise (measured <= 2.5e-3 at 16 samples, 1.8e-2 at
     # 2; Pointiness 2.1e-4).
@@ -171,4 +188,6 @@ def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_p
     assert noisy == {}, noisy
 
 
-SAMPLED = ("Geometry Parametric", "Geometry Tangent", "Geometry Pointiness")
+SNAPPED = ("Texture Coordinate Camera", "Texture Coordinate Object (Empty)")
+SAMPLED = ("Geometry Parametric", "Geometry Tangent", "Geometry Pointiness", "Camera Data View Vector",
+           "Camera Data View Z Depth - 4", "Camera Data View Distance - 4")

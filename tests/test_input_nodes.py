@@ -126,7 +126,8 @@ def test_layer_weight_fresnel_is_the_reflectance_of_index_one_over_one_minus_ble
 
 
 def test_the_compiled_input_nodes_compute_what_the_reference_computes():
-    # Indices, blends and linked normals varying across the plane (Generated x), seen from both sides.
+    # Indices, blends and linked normals varying across the plane (Generated x), every Geometry, Texture Coordinate
+    # and Camera Data output, seen from both sides.
     uv = GraphNode("TEXCOORD", {}, {})
     x = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(uv, "Generated")}), "X")
     tilted = Link(GraphNode("COMBINE_XYZ", {}, {"X": 0.2, "Y": 0.3, "Z": x}), "Vector")
@@ -134,6 +135,10 @@ def test_the_compiled_input_nodes_compute_what_the_reference_computes():
     links = [fresnel(index), fresnel(1.33, tilted), layer_weight(x, "Fresnel"), layer_weight(x, "Facing"),
              Link(GraphNode("LAYER_WEIGHT", {}, {"Blend": 0.7, "Normal": tilted}), "Facing")]
     links += [Link(GraphNode("GEOMETRY", {}, {}), output) for output in graph.NODE_OUTPUTS["GEOMETRY"]]
+    turned = np.array([[0.0, -1.0, 0.0, 0.5], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 2.0, -1.0], [0.0, 0.0, 0.0, 1.0]])
+    links += [Link(GraphNode("TEXCOORD", {}, {}), output) for output in ("Normal", "Camera", "Reflection")]
+    links += [Link(GraphNode("TEXCOORD", {"object_matrix": turned}, {}), "Object")]
+    links += [Link(GraphNode("CAMERA_DATA", {}, {}), output) for output in graph.NODE_OUTPUTS["CAMERA_DATA"]]
     for output in ("Position", "Parametric"):           # read at the bump's offset points too
         height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": component(geometry(output), "Y")}), "Value")
         links.append(Link(GraphNode("BUMP", {}, {"Height": height, "Distance": 3.0}), "Normal"))
@@ -237,3 +242,58 @@ def test_geometry_pointiness_reads_the_meshs_per_vertex_curvature(kernels):
     values = pointiness.pointiness(mesh.vertices, np.tile([0.0, 0.0, 1.0], (4, 1)), edges)
     mesh.attributes["pointiness"] = values[mesh.triangles][..., None]
     np.testing.assert_allclose(shoot(scene, kernels), 0.5, rtol=1e-6)
+
+
+def texcoord(output: str, props=None) -> Link:
+    """A Texture Coordinate node's output."""
+    return Link(GraphNode("TEXCOORD", props or {}, {}), output)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_camera_data_z_depth_and_distance_of_a_plane_at_a_known_distance(kernels):
+    # The camera 10 above a plane at z = 0 looks straight down: every point is 10 deep along the view, and (orthographic)
+    # sqrt(10^2 + x^2 + y^2) away from the camera's own point, its view vector z = 10 / that distance.
+    depth = shoot(tilted_scene(Link(GraphNode("CAMERA_DATA", {}, {}), "View Z Depth")), kernels)
+    np.testing.assert_allclose(depth, 10.0, rtol=1e-6)
+    scene = tilted_scene(Link(GraphNode("CAMERA_DATA", {}, {}), "View Distance"))
+    image = render.render(scene, RenderSettings(width=SIZE, height=SIZE, samples=1, kernels="numpy",
+                                                jitter=False)).image[..., 0]
+    x, y = np.meshgrid(-1.0 + (np.arange(SIZE) + 0.5) * 2.0 / SIZE, 1.0 - (np.arange(SIZE) + 0.5) * 2.0 / SIZE)
+    np.testing.assert_allclose(image, np.sqrt(100.0 + x * x + y * y), rtol=1e-6)
+    vector = shoot(tilted_scene(component(Link(GraphNode("CAMERA_DATA", {}, {}), "View Vector"), "Z")), kernels)
+    assert ((vector > 10.0 / math.sqrt(102.0)) & (vector <= 1.0)).all()
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_texture_coordinate_camera_is_the_point_in_the_cameras_frame_z_along_the_view(kernels):
+    np.testing.assert_allclose(shoot(tilted_scene(component(texcoord("Camera"), "Z")), kernels), 10.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_texture_coordinate_reflection_mirrors_the_view_about_the_normal(kernels):
+    # Looking straight down at a plane tilted 30 degrees about x: the view (0, 0, 1) mirrored about
+    # (0, -sin 30, cos 30) is (0, -sin 60, cos 60).
+    image = shoot(tilted_scene(component(texcoord("Reflection"), "Z"), 30.0), kernels)
+    np.testing.assert_allclose(image, 0.5, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_texture_coordinate_normal_is_the_object_space_normal(kernels):
+    # The plane flat in its object, placed by a matrix turning it 40 degrees: its object normal is +z.
+    scene = tilted_scene(component(texcoord("Normal"), "Z"))
+    a = math.radians(40.0)
+    scene.instances[0].matrix = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a), 0.0],
+                                          [0.0, math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(shoot(scene, kernels), 1.0, rtol=1e-6)
+    scene.materials[0] = Material(name="World Z", nodes=[("EMISSION", (1.0, 1.0, 1.0),
+                                                          {"emission": component(geometry("Normal"), "Z")})])
+    np.testing.assert_allclose(shoot(scene, kernels), math.cos(a), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_texture_coordinate_object_with_an_object_is_the_point_in_that_objects_frame(kernels):
+    # An empty at z = -3 scaled by 2: a point of the plane z = 0 is at z = 3 / 2 in its frame.
+    matrix = np.diag([2.0, 2.0, 2.0, 1.0])
+    matrix[2, 3] = -3.0
+    image = shoot(tilted_scene(component(texcoord("Object", {"object_matrix": matrix}), "Z")), kernels)
+    np.testing.assert_allclose(image, 1.5, rtol=1e-6)

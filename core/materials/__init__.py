@@ -212,14 +212,15 @@ class NodeShader:
                 return True
         return False
 
-    def program(self, layout: dict, image_index, name: str = ""):
-        """Its graph compiled for an attribute layout (core/materials/graph.py), once; None without links."""
+    def program(self, layout: dict, image_index, name: str = "", view=None):
+        """Its graph compiled for an attribute layout and the camera's world-to-camera transform `view` ((3, 4) or
+        None: the identity) (core/materials/graph.py), once for each; None without links."""
         from . import graph as graph_
         if self.graph is None:
             return None
-        key = tuple(sorted(layout.items()))
+        key = (tuple(sorted(layout.items())), None if view is None else tuple(np.asarray(view).ravel()))
         if key not in self.programs:
-            self.programs[key] = graph_.Compiler(layout, image_index, material=name).compile(self.graph)
+            self.programs[key] = graph_.Compiler(layout, image_index, material=name, view=view).compile(self.graph)
         return self.programs[key]
 
     def shade(self, N: np.ndarray, wo: np.ndarray, point=None, program=None, textures=None,
@@ -344,6 +345,9 @@ class MaterialTable:
             for image in graph_.images_of(shader.graph) if getattr(shader, "graph", None) else ():
                 self.image_index(image)
         self.textures = TextureSet.of(self.images)
+        # The camera's world-to-camera transform (3, 4) the graphs' Camera coordinates read (set by render.prepare;
+        # None: the identity).
+        self.view: Optional[np.ndarray] = None
         self._has_graphs = any(getattr(shader, "graph", None) is not None for shader in shaders)
         # Which rows' emission their node graph gives (a texture, a linked factor), evaluated where a light sample
         # or a BSDF ray lands rather than taken from `emission`: (m + 1,) bool.
@@ -366,7 +370,8 @@ class MaterialTable:
     def program(self, row: int, layout: dict):
         """The compiled graph of material `row` for an attribute layout, or None (no links)."""
         shader = self.shaders[row]
-        return shader.program(layout, self.image_index, self.names[row]) if hasattr(shader, "program") else None
+        return (shader.program(layout, self.image_index, self.names[row], self.view)
+                if hasattr(shader, "program") else None)
 
     @classmethod
     def of(cls, materials: list, default: Optional[Material] = None, warnings: Optional[list] = None) -> "MaterialTable":

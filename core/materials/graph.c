@@ -239,6 +239,15 @@ INLINE void geometry_node(int output, int where, const ShadingPoint *sp, double 
     case GEOM_NORMAL: for (int j = 0; j < 3; j++) out[j] = sp->N[j]; break;
     case GEOM_TRUE_NORMAL: for (int j = 0; j < 3; j++) out[j] = sp->Ng[j]; break;
     case GEOM_INCOMING: for (int j = 0; j < 3; j++) out[j] = sp->I[j]; break;
+    case GEOM_OBJECT_NORMAL:
+        for (int i = 0; i < 3; i++) out[i] = (sp->L[i] * sp->N[0] + sp->L[3 + i] * sp->N[1]) + sp->L[6 + i] * sp->N[2];
+        safe_normalize3(out);
+        break;
+    case GEOM_REFLECTION: {
+        double IN = 2.0 * dot3(sp->I, sp->N);
+        for (int j = 0; j < 3; j++) out[j] = IN * sp->N[j] - sp->I[j];
+        break;
+    }
     case GEOM_PARAMETRIC: { double u = sp->u + du, v = sp->v + dv; out[0] = 1.0 - u - v; out[1] = u; out[2] = 0.0; break; }
     default: out[0] = sp->side < 0.0 ? 1.0 : 0.0; break;
     }
@@ -411,6 +420,22 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_GEOMETRY: { double r[3]; geometry_node(a[1], where, sp, r); for (int j = 0; j < (a[1] == GEOM_BACKFACING ? 1 : 3); j++) out[j] = r[j]; break; }
+        case OP_TRANSFORM: {
+            const double *M = reg + a[2], *p = reg + a[1];
+            double r[3];
+            for (int i = 0; i < 3; i++) r[i] = ((p[0] * M[4 * i] + p[1] * M[4 * i + 1]) + p[2] * M[4 * i + 2]) + M[4 * i + 3];
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            break;
+        }
+        case OP_CAMERA_DATA: {
+            const double *p = reg + a[1];
+            double r[3] = {p[0], p[1], p[2]}, depth = p[2], distance = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+            safe_normalize3(r);
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            out[3] = depth;
+            out[4] = distance;
+            break;
+        }
         case OP_FRESNEL: out[0] = fresnel_node(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp); break;
         case OP_LAYER_WEIGHT: { double r[2]; layer_weight(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp, r); out[0] = r[0]; out[1] = r[1]; break; }
         default: procedural_op((int)op[0], a, reg); break;     /* the procedural textures (procedural.gen.c) */

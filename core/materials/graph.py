@@ -38,7 +38,8 @@ from .procedural import hash as hash_
 # procedural textures' ops (core/materials/procedural TEXTURE_TYPES, one per class) follow graph.c's own.
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
-       "TANGENT") + tuple(cls.kind for cls in TEXTURE_TYPES) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY")
+       "TANGENT") + tuple(cls.kind for cls in TEXTURE_TYPES) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
+                                                                   "CAMERA_DATA")
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
@@ -97,7 +98,9 @@ class Link:
 # Each kind's outputs: name -> (width, type); type decides how a colour or vector becomes a float.
 NODE_OUTPUTS = {
     "RGB": {"Color": (3, "color")}, "VALUE": {"Value": (1, "float")},
-    "TEXCOORD": {"UV": (3, "vector"), "Generated": (3, "vector"), "Object": (3, "vector")},
+    "TEXCOORD": {"UV": (3, "vector"), "Generated": (3, "vector"), "Object": (3, "vector"), "Normal": (3, "vector"),
+                 "Camera": (3, "vector"), "Reflection": (3, "vector")},
+    "CAMERA_DATA": {"View Vector": (3, "vector"), "View Z Depth": (1, "float"), "View Distance": (1, "float")},
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "OBJECT_INFO": {"Random": (1, "float")},
@@ -119,7 +122,8 @@ NODE_OUTPUTS = {
     **{cls.kind: dict(cls.outputs) for cls in TEXTURE_TYPES},
 }
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
-GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing")
+GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
+                    "Reflection")
 schema.constants("GEOM", [name.replace(" ", "_") for name in GEOMETRY_OUTPUTS], "the Geometry node's outputs")
 # The Tangent node's directions and axes (props "direction", "axis"), as Blender names them.
 TANGENT_DIRECTIONS = ("RADIAL", "UV_MAP")
@@ -230,8 +234,9 @@ def attributes_of(nodes: list) -> set:
     names = set()
     for link in links_under(nodes):
         node = link.node
-        if node.kind == "TEXCOORD":
-            names.add({"UV": "uv:", "Generated": "generated", "Object": "object"}.get(link.output, "uv:"))
+        if node.kind == "TEXCOORD" and (link.output in ("UV", "Generated")
+                                        or link.output == "Object" and node.props.get("object_matrix") is None):
+            names.add({"UV": "uv:", "Generated": "generated", "Object": "object"}[link.output])
         elif node.kind == "UVMAP":
             names.add("uv:" + node.props.get("map", ""))
         elif node.kind == "ATTRIBUTE":
@@ -273,8 +278,9 @@ def layout_of(names) -> dict:
 class Compiler:
     """Turns one material's links into a Program (`compile`): registers, ops, outputs."""
 
-    def __init__(self, layout: dict, image_index, warnings: Optional[list] = None, material: str = ""):
+    def __init__(self, layout: dict, image_index, warnings: Optional[list] = None, material: str = "", view=None):
         self.layout = layout
+        self.view = np.eye(4)[:3] if view is None else np.asarray(view, np.float64).reshape(3, 4)   # world -> camera
         self.image_index = image_index          # textures.Image or None -> index in the render's TextureSet
         self.constants: list = []
         self.ops: list = []
@@ -341,6 +347,19 @@ class Compiler:
         self.emit("ATTR", out, offset, min(width, stored), width)
         return out
 
+    def geometry(self, output: str) -> int:
+        """A register (3 floats) holding the Geometry op's `output` (GEOMETRY_OUTPUTS)."""
+        out = self.temporary(3)
+        self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
+        return out
+
+    def transform(self, point: int, matrix: np.ndarray) -> int:
+        """A register holding the point in register `point` moved by the (3, 4) affine `matrix` (its 12 floats
+        constants, row by row)."""
+        out = self.temporary(3)
+        self.emit("TRANSFORM", out, point, self.constant(np.asarray(matrix, np.float64).reshape(12)))
+        return out
+
     def compile_node(self, node: GraphNode, output: str) -> tuple:
         """Emit a node's ops; return (register, width, type) of `output`."""
         kind, inp, props = node.kind, node.inputs, node.props
@@ -350,8 +369,18 @@ class Compiler:
         if kind == "VALUE":
             return self.constant([float(props["value"])]), 1, "float"
         if kind == "TEXCOORD":
+            if output in ("Normal", "Reflection"):       # the object-space normal; the mirrored view (world space)
+                return self.geometry("Object Normal" if output == "Normal" else "Reflection"), 3, "vector"
+            if output == "Camera":                      # the world point in the camera's frame
+                return self.transform(self.geometry("Position"), self.view), 3, "vector"
+            if output == "Object" and props.get("object_matrix") is not None:     # in another object's frame
+                return self.transform(self.geometry("Position"), np.linalg.inv(props["object_matrix"])[:3]), 3, "vector"
             name = {"UV": "uv:", "Generated": "generated", "Object": "object"}[output]
             return self.attribute(name), 3, "vector"
+        if kind == "CAMERA_DATA":
+            out = self.temporary(5)
+            self.emit("CAMERA_DATA", out, self.transform(self.geometry("Position"), self.view))
+            return shift(out, {"View Vector": 0, "View Z Depth": 3, "View Distance": 4}[output]), width, vtype
         if kind == "UVMAP":
             return self.attribute("uv:" + props.get("map", "")), 3, "vector"
         if kind == "ATTRIBUTE":
@@ -580,7 +609,7 @@ REGISTER_ARGS = {
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "RAY": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
-    "GEOMETRY": {0},
+    "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in TEXTURE_TYPES},
 }
 
@@ -834,6 +863,12 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = tangent(R(1, 3), i[2], i[3], sp)
         elif name == "GEOMETRY":
             reg[:, i[0]:i[0] + (1 if GEOMETRY_OUTPUTS[i[1]] == "Backfacing" else 3)] = geometry(i[1], where, sp)
+        elif name == "TRANSFORM":
+            M = reg[0, i[2]:i[2] + 12].reshape(3, 4)
+            p = R(1, 3)
+            reg[:, i[0]:i[0] + 3] = (p[:, 0:1] * M[:, 0] + p[:, 1:2] * M[:, 1]) + p[:, 2:3] * M[:, 2] + M[:, 3]
+        elif name == "CAMERA_DATA":
+            reg[:, i[0]:i[0] + 5] = camera_data(R(1, 3))
         elif name == "FRESNEL":
             reg[:, i[0]] = fresnel(reg[:, i[1]], None if i[2] < 0 else R(2, 3), sp)
         elif name == "LAYER_WEIGHT":
@@ -864,11 +899,23 @@ def geometry(output: int, where: int, sp: ShadingPoint) -> np.ndarray:
         return sp.Ng
     if name == "Incoming":
         return sp.N if sp.I is None else sp.I
+    if name == "Object Normal":                 # Cycles' object_inverse_normal_transform: L^T N, normalised
+        return safe_normalize(np.einsum("nji,nj->ni", sp.linear, sp.N))
+    if name == "Reflection":                    # -reflect(I, N) = 2 (I.N) N - I
+        I = sp.N if sp.I is None else sp.I
+        return 2.0 * np.einsum("ij,ij->i", I, sp.N)[:, None] * sp.N - I
     if name == "Parametric":
         uv = np.zeros((n, 2)) if sp.uv is None else sp.uv
         u, v = uv[:, 0] + du, uv[:, 1] + dv
         return np.stack([1.0 - u - v, u, np.zeros(n)], axis=1)
     return (sp.side < 0.0).astype(np.float64)[:, None]
+
+
+def camera_data(P: np.ndarray) -> np.ndarray:
+    """Cycles' Camera Data (svm_node_camera) (n, 5) of points P (n, 3) in the camera's frame: the View Vector
+    P / |P|, the View Z Depth P.z, the View Distance |P|."""
+    distance = np.sqrt(np.einsum("ij,ij->i", P, P))
+    return np.concatenate([safe_normalize(P), P[:, 2:3], distance[:, None]], axis=1)
 
 
 def fresnel_cos(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
