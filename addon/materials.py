@@ -155,7 +155,7 @@ GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", 
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
                "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT", "ShaderNodeNewGeometry": "GEOMETRY",
-               "ShaderNodeCameraData": "CAMERA_DATA",
+               "ShaderNodeCameraData": "CAMERA_DATA", "ShaderNodeWireframe": "WIREFRAME",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # Legacy socket names -> the core's.
 RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac", "Factor": "Fac"}
@@ -286,6 +286,10 @@ class GraphReader:
             inputs = self.inputs(node, path, ["IOR" if kind == "FRESNEL" else "Blend", "Normal"])
             if not node.inputs["Normal"].is_linked:
                 inputs.pop("Normal", None)                # unlinked: the shading normal, as in Cycles
+        elif kind == "WIREFRAME":
+            if node.use_pixel_size:
+                warn("Pixel Size needs ray differentials, which Primer does not trace; Primer reads Size in world units")
+            inputs = self.inputs(node, path, ["Size"])
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}
         elif kind == "BUMP":

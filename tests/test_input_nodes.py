@@ -127,7 +127,7 @@ def test_layer_weight_fresnel_is_the_reflectance_of_index_one_over_one_minus_ble
 
 def test_the_compiled_input_nodes_compute_what_the_reference_computes():
     # Indices, blends and linked normals varying across the plane (Generated x), every Geometry, Texture Coordinate
-    # and Camera Data output, seen from both sides.
+    # and Camera Data output, Wireframe, seen from both sides.
     uv = GraphNode("TEXCOORD", {}, {})
     x = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(uv, "Generated")}), "X")
     tilted = Link(GraphNode("COMBINE_XYZ", {}, {"X": 0.2, "Y": 0.3, "Z": x}), "Vector")
@@ -139,6 +139,7 @@ def test_the_compiled_input_nodes_compute_what_the_reference_computes():
     links += [Link(GraphNode("TEXCOORD", {}, {}), output) for output in ("Normal", "Camera", "Reflection")]
     links += [Link(GraphNode("TEXCOORD", {"object_matrix": turned}, {}), "Object")]
     links += [Link(GraphNode("CAMERA_DATA", {}, {}), output) for output in graph.NODE_OUTPUTS["CAMERA_DATA"]]
+    links += [Link(GraphNode("WIREFRAME", {}, {"Size": index}), "Fac")]
     for output in ("Position", "Parametric"):           # read at the bump's offset points too
         height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": component(geometry(output), "Y")}), "Value")
         links.append(Link(GraphNode("BUMP", {}, {"Height": height, "Distance": 3.0}), "Normal"))
@@ -297,3 +298,14 @@ def test_texture_coordinate_object_with_an_object_is_the_point_in_that_objects_f
     matrix[2, 3] = -3.0
     image = shoot(tilted_scene(component(texcoord("Object", {"object_matrix": matrix}), "Z")), kernels)
     np.testing.assert_allclose(image, 1.5, rtol=1e-6)
+
+
+def test_wireframe_lights_the_points_within_half_its_size_of_a_triangle_edge():
+    # The plane's two triangles meet on the diagonal y = x (its outer edges lie far outside the view): unjittered rays
+    # through the pixel centres see 1 within 0.4 of it, |x - y| / sqrt 2 < 0.4, else 0.
+    scene = tilted_scene(Link(GraphNode("WIREFRAME", {}, {"Size": 0.8}), "Fac"))
+    image = render.render(scene, RenderSettings(width=SIZE, height=SIZE, samples=1, kernels="numpy",
+                                                jitter=False)).image[..., 0]
+    x, y = np.meshgrid(-1.0 + (np.arange(SIZE) + 0.5) * 2.0 / SIZE, 1.0 - (np.arange(SIZE) + 0.5) * 2.0 / SIZE)
+    np.testing.assert_array_equal(image, (np.abs(x - y) / math.sqrt(2.0) < 0.4).astype(np.float32))
+    assert 0 < image.sum() < SIZE * SIZE

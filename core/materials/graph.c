@@ -253,6 +253,26 @@ INLINE void geometry_node(int output, int where, const ShadingPoint *sp, double 
     }
 }
 
+/* graph.wireframe: Cycles' Wireframe node in world units, from corner 0 of the triangle. */
+INLINE double wireframe(double size, int where, const ShadingPoint *sp)
+{
+    double u = sp->u + (where == 1 ? BUMP_STEP : 0.0), v = sp->v + (where == 2 ? BUMP_STEP : 0.0);
+    double P[3], corners[3][3], width = (0.5 * size) * (0.5 * size);
+    for (int j = 0; j < 3; j++) {
+        P[j] = u * sp->dPdu[j] + v * sp->dPdv[j];
+        corners[0][j] = 0.0;
+        corners[1][j] = sp->dPdu[j];
+        corners[2][j] = sp->dPdv[j];
+    }
+    for (int k = 0; k < 3; k++) {
+        const double *a = corners[k], *b = corners[k ? k - 1 : 2];
+        double edge[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]}, dir[3] = {P[0] - a[0], P[1] - a[1], P[2] - a[2]}, c[3];
+        cross3(edge, dir, c);
+        if (dot3(c, c) < dot3(edge, edge) * width) return 1.0;
+    }
+    return 0.0;
+}
+
 /* graph.bump */
 INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
                  int invert, const ShadingPoint *sp, double *out)
@@ -427,6 +447,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             for (int j = 0; j < 3; j++) out[j] = r[j];
             break;
         }
+        case OP_WIREFRAME: out[0] = wireframe(reg[a[1]], where, sp); break;
         case OP_CAMERA_DATA: {
             const double *p = reg + a[1];
             double r[3] = {p[0], p[1], p[2]}, depth = p[2], distance = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);

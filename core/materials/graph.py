@@ -39,7 +39,7 @@ from .procedural import hash as hash_
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
        "TANGENT") + tuple(cls.kind for cls in TEXTURE_TYPES) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
-                                                                   "CAMERA_DATA")
+                                                                   "CAMERA_DATA", "WIREFRAME")
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
@@ -101,6 +101,7 @@ NODE_OUTPUTS = {
     "TEXCOORD": {"UV": (3, "vector"), "Generated": (3, "vector"), "Object": (3, "vector"), "Normal": (3, "vector"),
                  "Camera": (3, "vector"), "Reflection": (3, "vector")},
     "CAMERA_DATA": {"View Vector": (3, "vector"), "View Z Depth": (1, "float"), "View Distance": (1, "float")},
+    "WIREFRAME": {"Fac": (1, "float")},
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "OBJECT_INFO": {"Random": (1, "float")},
@@ -377,6 +378,10 @@ class Compiler:
                 return self.transform(self.geometry("Position"), np.linalg.inv(props["object_matrix"])[:3]), 3, "vector"
             name = {"UV": "uv:", "Generated": "generated", "Object": "object"}[output]
             return self.attribute(name), 3, "vector"
+        if kind == "WIREFRAME":                         # (Pixel Size: addon/materials.py warns; world units here)
+            out = self.temporary(1)
+            self.emit("WIREFRAME", out, self.value(inp.get("Size"), 1, 0.01))
+            return out, 1, "float"
         if kind == "CAMERA_DATA":
             out = self.temporary(5)
             self.emit("CAMERA_DATA", out, self.transform(self.geometry("Position"), self.view))
@@ -609,7 +614,7 @@ REGISTER_ARGS = {
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "RAY": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
-    "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1},
+    "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in TEXTURE_TYPES},
 }
 
@@ -867,6 +872,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             M = reg[0, i[2]:i[2] + 12].reshape(3, 4)
             p = R(1, 3)
             reg[:, i[0]:i[0] + 3] = (p[:, 0:1] * M[:, 0] + p[:, 1:2] * M[:, 1]) + p[:, 2:3] * M[:, 2] + M[:, 3]
+        elif name == "WIREFRAME":
+            reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
         elif name == "CAMERA_DATA":
             reg[:, i[0]:i[0] + 5] = camera_data(R(1, 3))
         elif name == "FRESNEL":
@@ -909,6 +916,24 @@ def geometry(output: int, where: int, sp: ShadingPoint) -> np.ndarray:
         u, v = uv[:, 0] + du, uv[:, 1] + dv
         return np.stack([1.0 - u - v, u, np.zeros(n)], axis=1)
     return (sp.side < 0.0).astype(np.float64)[:, None]
+
+
+def wireframe(size: np.ndarray, where: int, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Wireframe node (svm_node_wireframe) with Size in world units (n,): 1 where the hit (or the bump's point
+    `where`) lies within Size / 2 of a line through an edge of its triangle, else 0. Measured from corner 0: the point
+    u (V1 - V0) + v (V2 - V0), the corners 0, V1 - V0, V2 - V0; |edge x (P - corner)|^2 < |edge|^2 (Size / 2)^2."""
+    uv = np.zeros((len(size), 2)) if sp.uv is None else sp.uv
+    u = uv[:, 0:1] + (BUMP_STEP if where == 1 else 0.0)
+    v = uv[:, 1:2] + (BUMP_STEP if where == 2 else 0.0)
+    P = u * sp.dPdu + v * sp.dPdv
+    corners = (np.zeros_like(P), sp.dPdu, sp.dPdv)
+    width = (0.5 * size) ** 2
+    near = np.zeros(len(size), bool)
+    for k in range(3):
+        edge = corners[k] - corners[k - 1]
+        crossed = np.cross(edge, P - corners[k])
+        near |= np.einsum("ij,ij->i", crossed, crossed) < np.einsum("ij,ij->i", edge, edge) * width
+    return near.astype(np.float64)
 
 
 def camera_data(P: np.ndarray) -> np.ndarray:
