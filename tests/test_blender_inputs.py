@@ -114,6 +114,7 @@ case("Camera Data View Vector", "ShaderNodeCameraData", "View Vector", vector=Tr
 case("Camera Data View Z Depth - 4", "ShaderNodeCameraData", "View Z Depth", add=-4.0)
 case("Camera Data View Distance - 4", "ShaderNodeCameraData", "View Distance", add=-4.0)
 case("Wireframe 0.05", "ShaderNodeWireframe", "Fac", [("Size", 0.05)], add=0.25)
+case("Light Path Ray Length - 4", "ShaderNodeLightPath", "Ray Length", add=-4.0)
 for output in ("Random Per Island",):                      # not read: a warning
     material, tree, out = empty_material(output)
     node, emission = tree.nodes.new("ShaderNodeNewGeometry"), tree.nodes.new("ShaderNodeEmission")
@@ -209,4 +210,4 @@ def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_p
 
 SNAPPED = ("Texture Coordinate Camera", "Texture Coordinate Object (Empty)")
 SAMPLED = ("Wireframe 0.05", "Geometry Parametric", "Geometry Tangent", "Geometry Pointiness", "Camera Data View Vector",
-           "Camera Data View Z Depth - 4", "Camera Data View Distance - 4")
+           "Camera Data View Z Depth - 4", "Camera Data View Distance - 4", "Light Path Ray Length - 4")

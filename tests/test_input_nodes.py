@@ -19,6 +19,7 @@ from core import render
 from core.geometry import pointiness, primitives
 from core.materials import Material, graph
 from core.materials.graph import GraphNode, Link
+from core.camera import Camera
 from core.scene import RenderSettings, Scene
 
 KERNELS = ["compiled", "numpy"]
@@ -139,7 +140,7 @@ def test_the_compiled_input_nodes_compute_what_the_reference_computes():
     links += [Link(GraphNode("TEXCOORD", {}, {}), output) for output in ("Normal", "Camera", "Reflection")]
     links += [Link(GraphNode("TEXCOORD", {"object_matrix": turned}, {}), "Object")]
     links += [Link(GraphNode("CAMERA_DATA", {}, {}), output) for output in graph.NODE_OUTPUTS["CAMERA_DATA"]]
-    links += [Link(GraphNode("WIREFRAME", {}, {"Size": index}), "Fac")]
+    links += [Link(GraphNode("WIREFRAME", {}, {"Size": index}), "Fac"), Link(GraphNode("LIGHT_PATH", {}, {}), "Ray Length")]
     for output in ("Position", "Parametric"):           # read at the bump's offset points too
         height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": component(geometry(output), "Y")}), "Value")
         links.append(Link(GraphNode("BUMP", {}, {"Height": height, "Distance": 3.0}), "Normal"))
@@ -309,3 +310,19 @@ def test_wireframe_lights_the_points_within_half_its_size_of_a_triangle_edge():
     x, y = np.meshgrid(-1.0 + (np.arange(SIZE) + 0.5) * 2.0 / SIZE, 1.0 - (np.arange(SIZE) + 0.5) * 2.0 / SIZE)
     np.testing.assert_array_equal(image, (np.abs(x - y) / math.sqrt(2.0) < 0.4).astype(np.float32))
     assert 0 < image.sum() < SIZE * SIZE
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_light_path_ray_length_of_camera_rays_is_the_distance_from_the_near_clipping_plane(kernels):
+    # A perspective camera 10 above the plane, clipping at 2: each camera ray starts on the near plane (as Cycles'),
+    # so it goes 8 / cos(angle off axis) to the hit: 0.8 of the eye's distance (the Camera Data node's View Distance).
+    length = Link(GraphNode("LIGHT_PATH", {}, {}), "Ray Length")
+    distance = Link(GraphNode("CAMERA_DATA", {}, {}), "View Distance")
+    scaled = Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": distance, "1": 0.8}), "Value")
+    scene = tilted_scene(Link(GraphNode("MATH", {"operation": "SUBTRACT"}, {"0": length, "1": scaled}), "Value"))
+    scene.camera = Camera.look_at((0.0, 0.0, 10.0), (0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0), fov=math.radians(20.0),
+                                  clip_start=2.0)
+    np.testing.assert_allclose(shoot(scene, kernels), 0.0, atol=2e-5)
+    scene.materials[0] = Material(name="Length", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": length})])
+    image = shoot(scene, kernels)
+    assert (image >= 8.0 - 1e-5).all() and (image <= 8.0 / math.cos(math.radians(15.0))).all() and image.std() > 1e-3

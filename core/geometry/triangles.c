@@ -114,6 +114,7 @@ typedef struct {
     int smooth;
     int32_t material;
     int backfacing;     /* 1: the ray hit the triangle from behind (leaves a closed object) */
+    double t;           /* Embree's distance along the ray (the Light Path node's Ray Length) */
 } Surface;
 
 /* The surface of one hit: surface.hit_points, surface_at_hits, shadows.error_bound and, for the
@@ -123,6 +124,7 @@ INLINE void surface_at(const double *O, const double *D, double t, double u, dou
 {
     const double *V = tri->V;
     double w = 1.0 - u - v;
+    s->t = t;
     s->smooth = tri->smooth;
     s->material = tri->material;
     /* 1. I: the float64 ray meets the triangle's plane, unless that disagrees with Embree's t. */
@@ -181,6 +183,7 @@ typedef struct {
     double I[3];        /* back along that ray (the material's wo): the Fresnel and Layer Weight nodes ask */
     double P[3];        /* the world point (camera-relative I plus the origin): the Geometry node's Position */
     double u, v;        /* the barycentrics: its Parametric */
+    double t;           /* the distance along the ray: the Light Path node's Ray Length */
 } ShadingPoint;
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with
@@ -225,6 +228,7 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
     }
     sp->u = u;
     sp->v = v;
+    sp->t = s->t;
 }
 
 /* ------------------------------------------------------------------------------------------------

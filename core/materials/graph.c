@@ -249,6 +249,7 @@ INLINE void geometry_node(int output, int where, const ShadingPoint *sp, double 
         break;
     }
     case GEOM_PARAMETRIC: { double u = sp->u + du, v = sp->v + dv; out[0] = 1.0 - u - v; out[1] = u; out[2] = 0.0; break; }
+    case GEOM_RAY_LENGTH: out[0] = sp->t; break;
     default: out[0] = sp->side < 0.0 ? 1.0 : 0.0; break;
     }
 }
@@ -439,7 +440,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
-        case OP_GEOMETRY: { double r[3]; geometry_node(a[1], where, sp, r); for (int j = 0; j < (a[1] == GEOM_BACKFACING ? 1 : 3); j++) out[j] = r[j]; break; }
+        case OP_GEOMETRY: { double r[3]; geometry_node(a[1], where, sp, r); for (int j = 0; j < (a[1] == GEOM_BACKFACING || a[1] == GEOM_RAY_LENGTH ? 1 : 3); j++) out[j] = r[j]; break; }
         case OP_TRANSFORM: {
             const double *M = reg + a[2], *p = reg + a[1];
             double r[3];

@@ -105,7 +105,7 @@ NODE_OUTPUTS = {
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "OBJECT_INFO": {"Random": (1, "float")},
-    "LIGHT_PATH": {"Is Camera Ray": (1, "float"), "Is Shadow Ray": (1, "float")},
+    "LIGHT_PATH": {"Is Camera Ray": (1, "float"), "Is Shadow Ray": (1, "float"), "Ray Length": (1, "float")},
     "IMAGE": {"Color": (3, "color"), "Alpha": (1, "float")},
     "MAPPING": {"Vector": (3, "vector")}, "NORMAL_MAP": {"Normal": (3, "vector")}, "BUMP": {"Normal": (3, "vector")},
     "MATH": {"Value": (1, "float")}, "MIX": {"Result": (3, "color")},
@@ -124,7 +124,8 @@ NODE_OUTPUTS = {
 }
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
 GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
-                    "Reflection")
+                    "Reflection", "Ray Length")
+SCALAR_OUTPUTS = ("Backfacing", "Ray Length")          # one float; the others three
 schema.constants("GEOM", [name.replace(" ", "_") for name in GEOMETRY_OUTPUTS], "the Geometry node's outputs")
 # The Tangent node's directions and axes (props "direction", "axis"), as Blender names them.
 TANGENT_DIRECTIONS = ("RADIAL", "UV_MAP")
@@ -172,7 +173,8 @@ class ShadingPoint(NamedTuple):
     dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0; Ng: (n, 3) the face normal facing the viewer;
     ray: (n,) which kind of ray found the hit (RAY_*; None: camera rays); I: (n, 3) the unit direction from the
     hit back along the ray that found it (Cycles' sd->wi, the material's wo; None: N, a head-on view);
-    P: (n, 3) the hit in world space (not camera-relative); uv: (n, 2) its barycentrics u, v (corner 1, corner 2).
+    P: (n, 3) the hit in world space (not camera-relative); uv: (n, 2) its barycentrics u, v (corner 1, corner 2);
+    t: (n,) the distance the ray went to the hit (Cycles' ray_length).
     """
 
     attributes: np.ndarray
@@ -189,6 +191,7 @@ class ShadingPoint(NamedTuple):
     I: np.ndarray = None       # (n, 3) float64 towards where the ray came from (the Fresnel and Layer Weight nodes)
     P: np.ndarray = None       # (n, 3) float64 the world point (the Geometry node's Position)
     uv: np.ndarray = None      # (n, 2) float64 the barycentrics (its Parametric)
+    t: np.ndarray = None       # (n,) float64 the distance along the ray to the hit (the Light Path node's Ray Length)
 
 
 def has_links(nodes: list) -> bool:
@@ -404,6 +407,10 @@ class Compiler:
         if kind == "OBJECT_INFO":
             out = self.temporary(1)
             self.emit("RANDOM", out)
+            return out, 1, "float"
+        if kind == "LIGHT_PATH" and output == "Ray Length":     # the distance the ray went to the hit
+            out = self.temporary(1)
+            self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
             return out, 1, "float"
         if kind == "LIGHT_PATH":
             out = self.temporary(1)
@@ -867,7 +874,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "TANGENT":
             reg[:, i[0]:i[0] + 3] = tangent(R(1, 3), i[2], i[3], sp)
         elif name == "GEOMETRY":
-            reg[:, i[0]:i[0] + (1 if GEOMETRY_OUTPUTS[i[1]] == "Backfacing" else 3)] = geometry(i[1], where, sp)
+            reg[:, i[0]:i[0] + (1 if GEOMETRY_OUTPUTS[i[1]] in SCALAR_OUTPUTS else 3)] = geometry(i[1], where, sp)
         elif name == "TRANSFORM":
             M = reg[0, i[2]:i[2] + 12].reshape(3, 4)
             p = R(1, 3)
@@ -915,6 +922,8 @@ def geometry(output: int, where: int, sp: ShadingPoint) -> np.ndarray:
         uv = np.zeros((n, 2)) if sp.uv is None else sp.uv
         u, v = uv[:, 0] + du, uv[:, 1] + dv
         return np.stack([1.0 - u - v, u, np.zeros(n)], axis=1)
+    if name == "Ray Length":                    # (the Light Path node's)
+        return (np.zeros(n) if sp.t is None else sp.t)[:, None]
     return (sp.side < 0.0).astype(np.float64)[:, None]
 
 

@@ -126,6 +126,7 @@
 #define GEOM_BACKFACING 5
 #define GEOM_OBJECT_NORMAL 6
 #define GEOM_REFLECTION 7
+#define GEOM_RAY_LENGTH 8
 /* an image node's interpolation (INTERPOLATIONS) (core.materials.textures) */
 #define TEX_LINEAR 0
 #define TEX_CLOSEST 1
