@@ -1,11 +1,15 @@
-"""Cycles' input nodes against Cycles' own render: each output the colour of an Emission shader, rendered by Cycles
-and by Primer (exported by addon/materials.py with real Blender) and compared pixel for pixel.
+"""Cycles' input nodes against Cycles' own render: Fresnel, Layer Weight, Geometry, Texture Coordinate, Camera Data,
+Wireframe and Light Path's Ray Length, each output the colour of an Emission shader, rendered by Cycles and by Primer
+(exported by addon/materials.py with real Blender) and compared pixel for pixel.
 
 An orthographic camera sends every ray in one direction, so a flat face shows one value of a view-dependent output
-(Fresnel, Layer Weight, Geometry's normals) wherever it is hit: each case is a column of a flat-shaded icosphere
-(faces at every angle, seen from the front; Suzanne for Pointiness) above two planes turned away from the camera, their backs seen at 30 and 60 degrees. Pixels
-whose 3 x 3 neighbourhood Cycles renders as one value lie inside a face; there the two renders differ only by
-float32 rounding (Cycles computes in float, Primer's graph in double).
+(Fresnel, Layer Weight, the normals, Reflection) wherever it is hit: each case is a column of a flat-shaded icosphere
+(faces at every angle, seen from the front; Suzanne for Pointiness) above two planes turned away from the camera,
+their backs seen at 30 and 60 degrees. Pixels whose 3 x 3 neighbourhood Cycles renders as one value lie inside a
+face; there the two renders differ only by float32 rounding (Cycles computes in float, Primer's graph in double).
+Points are snapped to their pixel's centre (Position, Camera, Object), so that they are one value per pixel too;
+outputs that vary inside a pixel (Parametric, Tangent, Pointiness, Camera Data, Ray Length, Wireframe) are compared by
+their pixels' mean difference, which is sampling noise.
 """
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Cycles' input nodes in the node-graph compiler (core/materials/graph.py, graph.c): Fresnel and Layer Weight,
+"""Cycles' input nodes in the node-graph compiler (core/materials/graph.py, graph.c): Fresnel, Layer Weight, Geometry
+(and Pointiness, core/geometry/pointiness.py), Texture Coordinate, Camera Data, Wireframe and Light Path's Ray Length,
 each checked against a closed form on both kernels (the compiled C and the numpy reference), and the two kernels
 against each other.
 
