@@ -141,7 +141,8 @@ def test_the_compiled_input_nodes_compute_what_the_reference_computes():
     links += [Link(GraphNode("TEXCOORD", {}, {}), output) for output in ("Normal", "Camera", "Reflection")]
     links += [Link(GraphNode("TEXCOORD", {"object_matrix": turned}, {}), "Object")]
     links += [Link(GraphNode("CAMERA_DATA", {}, {}), output) for output in graph.NODE_OUTPUTS["CAMERA_DATA"]]
-    links += [Link(GraphNode("WIREFRAME", {}, {"Size": index}), "Fac"), Link(GraphNode("LIGHT_PATH", {}, {}), "Ray Length")]
+    links += [Link(GraphNode("WIREFRAME", {}, {"Size": index}), "Fac"),
+              Link(GraphNode("LIGHT_PATH", {}, {}), "Ray Length")]
     for output in ("Position", "Parametric"):           # read at the bump's offset points too
         height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": component(geometry(output), "Y")}), "Value")
         links.append(Link(GraphNode("BUMP", {}, {"Height": height, "Distance": 3.0}), "Normal"))
@@ -234,7 +235,8 @@ def test_pointiness_is_one_half_on_a_flat_grid_and_the_corner_angle_on_a_cube():
     doubled = np.concatenate([corners, corners])
     normals = (doubled - 0.5) / np.linalg.norm(doubled - 0.5, axis=1)[:, None]
     split = [(i + 8 * (k % 2), j + 8 * (k % 2)) for k, (i, j) in enumerate(cube_edges)]
-    np.testing.assert_allclose(pointiness.pointiness(doubled, normals, split), math.acos(-1.0 / math.sqrt(3.0)) / math.pi)
+    np.testing.assert_allclose(pointiness.pointiness(doubled, normals, split),
+                               math.acos(-1.0 / math.sqrt(3.0)) / math.pi)
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
@@ -254,8 +256,8 @@ def texcoord(output: str, props=None) -> Link:
 
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_camera_data_z_depth_and_distance_of_a_plane_at_a_known_distance(kernels):
-    # The camera 10 above a plane at z = 0 looks straight down: every point is 10 deep along the view, and (orthographic)
-    # sqrt(10^2 + x^2 + y^2) away from the camera's own point, its view vector z = 10 / that distance.
+    # The camera 10 above a plane at z = 0 looks straight down: every point is 10 deep along the view, and
+    # (orthographic) sqrt(10^2 + x^2 + y^2) away from the camera's own point, its view vector z = 10 / that distance.
     depth = shoot(tilted_scene(Link(GraphNode("CAMERA_DATA", {}, {}), "View Z Depth")), kernels)
     np.testing.assert_allclose(depth, 10.0, rtol=1e-6)
     scene = tilted_scene(Link(GraphNode("CAMERA_DATA", {}, {}), "View Distance"))
