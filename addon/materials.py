@@ -259,6 +259,9 @@ class GraphReader:
         elif kind == "TEXCOORD":
             if node.object is not None:                   # Object: in that object's frame
                 props = {"object_matrix": np.array(node.object.matrix_world, np.float64)}
+            camera = bpy.context.scene.camera
+            if node.outputs["Window"].is_linked and camera is not None and getattr(camera.data, "type", "") == "PANO":
+                warn("Window for a panoramic camera is not supported; Primer reads (0, 0, 0)")
             if getattr(node, "from_instancer", False):
                 warn("From Instancer is not supported; Primer reads the object's own coordinates")
         elif kind == "UVMAP":

@@ -109,6 +109,7 @@ case("Geometry Pointiness", "ShaderNodeNewGeometry", "Pointiness", monkey=True)
 for output in ("Normal", "Reflection"):
     case("Texture Coordinate " + output, "ShaderNodeTexCoord", output, vector=True)
 case("Texture Coordinate Camera", "ShaderNodeTexCoord", "Camera", vector=True, snap=True)
+case("Texture Coordinate Window", "ShaderNodeTexCoord", "Window", vector=True)
 empty = bpy.data.objects.new("Empty", None)                # its frame: moved by a whole number of pixels
 empty.location = (0.25, 0.5, 0.0)
 scene.collection.objects.link(empty)
@@ -215,6 +216,6 @@ def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_p
 
 
 SNAPPED = ("Texture Coordinate Camera", "Texture Coordinate Object (Empty)")
-SAMPLED = ("Wireframe 0.05", "Geometry Parametric", "Geometry Tangent", "Geometry Pointiness",
+SAMPLED = ("Wireframe 0.05", "Texture Coordinate Window", "Geometry Parametric", "Geometry Tangent", "Geometry Pointiness",
            "Camera Data View Vector",
            "Camera Data View Z Depth - 4", "Camera Data View Distance - 4", "Light Path Ray Length - 4")

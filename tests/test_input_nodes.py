@@ -138,7 +138,7 @@ def test_the_compiled_input_nodes_compute_what_the_reference_computes():
              Link(GraphNode("LAYER_WEIGHT", {}, {"Blend": 0.7, "Normal": tilted}), "Facing")]
     links += [Link(GraphNode("GEOMETRY", {}, {}), output) for output in graph.NODE_OUTPUTS["GEOMETRY"]]
     turned = np.array([[0.0, -1.0, 0.0, 0.5], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 2.0, -1.0], [0.0, 0.0, 0.0, 1.0]])
-    links += [Link(GraphNode("TEXCOORD", {}, {}), output) for output in ("Normal", "Camera", "Reflection")]
+    links += [Link(GraphNode("TEXCOORD", {}, {}), output) for output in ("Normal", "Camera", "Window", "Reflection")]
     links += [Link(GraphNode("TEXCOORD", {"object_matrix": turned}, {}), "Object")]
     links += [Link(GraphNode("CAMERA_DATA", {}, {}), output) for output in graph.NODE_OUTPUTS["CAMERA_DATA"]]
     links += [Link(GraphNode("WIREFRAME", {}, {"Size": index}), "Fac"),
@@ -329,3 +329,20 @@ def test_light_path_ray_length_of_camera_rays_is_the_distance_from_the_near_clip
     scene.materials[0] = Material(name="Length", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": length})])
     image = shoot(scene, kernels)
     assert (image >= 8.0 - 1e-5).all() and (image <= 8.0 / math.cos(math.radians(15.0))).all() and image.std() > 1e-3
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_texture_coordinate_window_runs_from_zero_to_one_across_the_image(kernels):
+    # An orthographic camera 2 wide: x = -1 .. 1 on the plane is Window x 0 .. 1; unjittered, pixel centres.
+    scene = tilted_scene(texcoord("Window"))
+    image = render.render(scene, RenderSettings(width=SIZE, height=SIZE, samples=1, kernels="numpy",
+                                                jitter=False)).image[..., :3]
+    x, y = np.meshgrid((np.arange(SIZE) + 0.5) / SIZE, 1.0 - (np.arange(SIZE) + 0.5) / SIZE)
+    np.testing.assert_allclose(image, np.stack([x, y, np.zeros_like(x)], axis=2), rtol=1e-6)
+    # Perspective: the point straight ahead is the image's centre; the corners' rays end at the frame's corners.
+    scene.camera = Camera.look_at((0.0, 0.0, 10.0), (0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0), fov=math.radians(20.0))
+    scene.materials[0] = Material(name="W", nodes=[("EMISSION", (1.0, 1.0, 1.0),
+                                                    {"emission": component(texcoord("Window"), "X")})])
+    image = render.render(scene, RenderSettings(width=SIZE, height=SIZE, samples=1, kernels=kernels,
+                                                jitter=False)).image[..., 0]
+    np.testing.assert_allclose(image, np.tile((np.arange(SIZE) + 0.5) / SIZE, (SIZE, 1)), rtol=1e-5)

@@ -212,15 +212,17 @@ class NodeShader:
                 return True
         return False
 
-    def program(self, layout: dict, image_index, name: str = "", view=None):
-        """Its graph compiled for an attribute layout and the camera's world-to-camera transform `view` ((3, 4) or
-        None: the identity) (core/materials/graph.py), once for each; None without links."""
+    def program(self, layout: dict, image_index, name: str = "", view=None, window=None):
+        """Its graph compiled for an attribute layout, the camera's world-to-camera transform `view` ((3, 4) or
+        None: the identity) and its frame `window` (MaterialTable.window) (core/materials/graph.py), once for each;
+        None without links."""
         from . import graph as graph_
         if self.graph is None:
             return None
-        key = (tuple(sorted(layout.items())), None if view is None else tuple(np.asarray(view).ravel()))
+        key = (tuple(sorted(layout.items())), None if view is None else tuple(np.asarray(view).ravel()), window)
         if key not in self.programs:
-            self.programs[key] = graph_.Compiler(layout, image_index, material=name, view=view).compile(self.graph)
+            self.programs[key] = graph_.Compiler(layout, image_index, material=name, view=view,
+                                                 window=window).compile(self.graph)
         return self.programs[key]
 
     def shade(self, N: np.ndarray, wo: np.ndarray, point=None, program=None, textures=None,
@@ -348,6 +350,9 @@ class MaterialTable:
         # The camera's world-to-camera transform (3, 4) the graphs' Camera coordinates read (set by render.prepare;
         # None: the identity).
         self.view: Optional[np.ndarray] = None
+        # The camera's frame on screen (left, right, bottom, top, 1 perspective / 0 orthographic) the Window
+        # coordinates read (set by render.prepare; None: a panoramic camera, whose Window Primer does not compute).
+        self.window: Optional[tuple] = None
         self._has_graphs = any(getattr(shader, "graph", None) is not None for shader in shaders)
         # Which rows' emission their node graph gives (a texture, a linked factor), evaluated where a light sample
         # or a BSDF ray lands rather than taken from `emission`: (m + 1,) bool.
@@ -370,7 +375,7 @@ class MaterialTable:
     def program(self, row: int, layout: dict):
         """The compiled graph of material `row` for an attribute layout, or None (no links)."""
         shader = self.shaders[row]
-        return (shader.program(layout, self.image_index, self.names[row], self.view)
+        return (shader.program(layout, self.image_index, self.names[row], self.view, self.window)
                 if hasattr(shader, "program") else None)
 
     @classmethod

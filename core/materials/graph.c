@@ -448,6 +448,14 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             for (int j = 0; j < 3; j++) out[j] = r[j];
             break;
         }
+        case OP_WINDOW: {
+            const double *p = reg + a[1], *f = reg + a[2];
+            double x = f[4] != 0.0 ? safe_div(p[0], p[2]) : p[0], y = f[4] != 0.0 ? safe_div(p[1], p[2]) : p[1];
+            out[0] = (x - f[0]) / (f[1] - f[0]);
+            out[1] = (y - f[2]) / (f[3] - f[2]);
+            out[2] = 0.0;
+            break;
+        }
         case OP_WIREFRAME: out[0] = wireframe(reg[a[1]], where, sp); break;
         case OP_CAMERA_DATA: {
             const double *p = reg + a[1];

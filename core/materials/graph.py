@@ -39,7 +39,7 @@ from .procedural import hash as hash_
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
        "TANGENT") + tuple(cls.kind for cls in TEXTURE_TYPES) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
-                                                                   "CAMERA_DATA", "WIREFRAME")
+                                                                   "CAMERA_DATA", "WIREFRAME", "WINDOW")
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
@@ -99,7 +99,7 @@ class Link:
 NODE_OUTPUTS = {
     "RGB": {"Color": (3, "color")}, "VALUE": {"Value": (1, "float")},
     "TEXCOORD": {"UV": (3, "vector"), "Generated": (3, "vector"), "Object": (3, "vector"), "Normal": (3, "vector"),
-                 "Camera": (3, "vector"), "Reflection": (3, "vector")},
+                 "Camera": (3, "vector"), "Window": (3, "vector"), "Reflection": (3, "vector")},
     "CAMERA_DATA": {"View Vector": (3, "vector"), "View Z Depth": (1, "float"), "View Distance": (1, "float")},
     "WIREFRAME": {"Fac": (1, "float")},
     "UVMAP": {"UV": (3, "vector")},
@@ -282,9 +282,11 @@ def layout_of(names) -> dict:
 class Compiler:
     """Turns one material's links into a Program (`compile`): registers, ops, outputs."""
 
-    def __init__(self, layout: dict, image_index, warnings: Optional[list] = None, material: str = "", view=None):
+    def __init__(self, layout: dict, image_index, warnings: Optional[list] = None, material: str = "", view=None,
+                 window=None):
         self.layout = layout
         self.view = np.eye(4)[:3] if view is None else np.asarray(view, np.float64).reshape(3, 4)   # world -> camera
+        self.window = window                    # the camera's frame on screen (MaterialTable.window) or None
         self.image_index = image_index          # textures.Image or None -> index in the render's TextureSet
         self.constants: list = []
         self.ops: list = []
@@ -377,6 +379,13 @@ class Compiler:
                 return self.geometry("Object Normal" if output == "Normal" else "Reflection"), 3, "vector"
             if output == "Camera":                      # the world point in the camera's frame
                 return self.transform(self.geometry("Position"), self.view), 3, "vector"
+            if output == "Window":                      # where on the frame the point shows, 0..1 across it
+                if self.window is None:                 # (a panoramic camera: addon/materials.py warns)
+                    return self.constant([0.0, 0.0, 0.0]), 3, "vector"
+                out = self.temporary(3)
+                self.emit("WINDOW", out, self.transform(self.geometry("Position"), self.view),
+                          self.constant(self.window))
+                return out, 3, "vector"
             if output == "Object" and props.get("object_matrix") is not None:     # in another object's frame
                 return self.transform(self.geometry("Position"), np.linalg.inv(props["object_matrix"])[:3]), 3, "vector"
             name = {"UV": "uv:", "Generated": "generated", "Object": "object"}[output]
@@ -621,7 +630,7 @@ REGISTER_ARGS = {
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "RAY": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
-    "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1},
+    "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in TEXTURE_TYPES},
 }
 
@@ -879,6 +888,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             M = reg[0, i[2]:i[2] + 12].reshape(3, 4)
             p = R(1, 3)
             reg[:, i[0]:i[0] + 3] = (p[:, 0:1] * M[:, 0] + p[:, 1:2] * M[:, 1]) + p[:, 2:3] * M[:, 2] + M[:, 3]
+        elif name == "WINDOW":
+            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 5])
         elif name == "WIREFRAME":
             reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
         elif name == "CAMERA_DATA":
@@ -943,6 +954,16 @@ def wireframe(size: np.ndarray, where: int, sp: ShadingPoint) -> np.ndarray:
         crossed = np.cross(edge, P - corners[k])
         near |= np.einsum("ij,ij->i", crossed, crossed) < np.einsum("ij,ij->i", edge, edge) * width
     return near.astype(np.float64)
+
+
+def window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """Cycles' Window coordinates (camera_world_to_ndc) (n, 3) of points P (n, 3) in the camera's frame: where on the
+    image they show, 0 .. 1 from its left and bottom edges, z 0; frame: (left, right, bottom, top, perspective), the
+    camera's viewplane (core/camera viewplane: on the plane at depth 1 for a perspective camera, whose points are
+    divided by their depth first)."""
+    left, right, bottom, top, perspective = frame
+    x, y = (safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2])) if perspective else (P[:, 0], P[:, 1])
+    return np.stack([(x - left) / (right - left), (y - bottom) / (top - bottom), np.zeros(len(P))], axis=1)
 
 
 def camera_data(P: np.ndarray) -> np.ndarray:
