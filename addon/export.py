@@ -16,6 +16,7 @@ import numpy as np
 from ..core import scene as core_scene
 from ..core.camera import Camera
 from ..core.camera.camera import PANORAMA_TYPES
+from ..core.geometry import pointiness as pointiness_
 from ..core.lights import World, world_graph
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
@@ -162,7 +163,7 @@ def _corner_loops(mesh) -> np.ndarray:
 def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> None:
     """Add to `core_mesh` the per-corner attributes `names` it lacks (graph.attributes_of's names), read in
     bulk: UV maps, colour attributes, MikkTSpace tangents (mesh.calc_tangents), generated and object
-    coordinates. A missing map or attribute stays zeros (as in Cycles), with a warning."""
+    coordinates, Cycles' pointiness (core/geometry/pointiness.py). A missing map or attribute stays zeros (as in Cycles), with a warning."""
     missing = [name for name in sorted(names) if name not in core_mesh.attributes]
     if not missing or len(core_mesh.triangles) == 0:
         return
@@ -174,7 +175,7 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
     corner_vertex = _corner_vertices(mesh)
     for name in missing:
         kind, _, layer = name.partition(":")
-        values = np.zeros((t, 3, 4 if kind in ("color", "tangent") else 3))
+        values = np.zeros((t, 3, graph_.attribute_width(name)))
         if kind == "uv":
             uv = mesh.uv_layers.get(layer) if layer else _active_render(mesh.uv_layers)
             if uv is None:
@@ -223,6 +224,13 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
             except (RuntimeError, ValueError) as error:
                 warnings.append(f"mesh '{mesh.name}': no tangents for UV map '{layer or '(active)'}' ({error}); "
                                 "normal maps there keep the surface's normal")
+        elif kind == "pointiness":                                          # Cycles' curvature per vertex
+            normals = np.empty(len(mesh.vertices) * 3, np.float32)
+            mesh.vertices.foreach_get("normal", normals)
+            edges = np.empty(len(mesh.edges) * 2, np.int32)
+            mesh.edges.foreach_get("vertices", edges)
+            per_vertex = pointiness_.pointiness(co, normals.reshape(-1, 3).astype(np.float64), edges.reshape(-1, 2))
+            values[:, :, 0] = per_vertex[corner_vertex[loops]]
         elif kind in ("generated", "object"):
             points = co[corner_vertex[loops]]                                   # (t, 3, 3)
             if kind == "generated":

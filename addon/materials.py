@@ -160,6 +160,8 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
                "ShaderNodeTexEnvironment": "ENVIRONMENT",
+               "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT", "ShaderNodeNewGeometry": "GEOMETRY",
+               "ShaderNodeCameraData": "CAMERA_DATA", "ShaderNodeWireframe": "WIREFRAME",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
 CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
@@ -275,7 +277,13 @@ class GraphReader:
             if not identity_mapping(node.texture_mapping):
                 inputs["Vector"] = mapped_vector(node.texture_mapping, inputs.get("Vector"), "Generated", warn)
         elif kind == "TEXCOORD":
-            pass
+            if node.object is not None:                   # Object: in that object's frame
+                props = {"object_matrix": np.array(node.object.matrix_world, np.float64)}
+            camera = bpy.context.scene.camera
+            if node.outputs["Window"].is_linked and camera is not None and getattr(camera.data, "type", "") == "PANO":
+                warn("Window for a panoramic camera is not supported; Primer reads (0, 0, 0)")
+            if getattr(node, "from_instancer", False):
+                warn("From Instancer is not supported; Primer reads the object's own coordinates")
         elif kind == "UVMAP":
             props = {"map": node.uv_map}
         elif kind == "ATTRIBUTE":
@@ -297,6 +305,14 @@ class GraphReader:
                 warn(f"space {node.space} is not supported; Primer reads the colour as a tangent-space normal")
             props = {"map": node.uv_map}
             inputs = self.inputs(node, path, ["Strength", "Color"])
+        elif kind in ("FRESNEL", "LAYER_WEIGHT"):
+            inputs = self.inputs(node, path, ["IOR" if kind == "FRESNEL" else "Blend", "Normal"])
+            if not node.inputs["Normal"].is_linked:
+                inputs.pop("Normal", None)                # unlinked: the shading normal, as in Cycles
+        elif kind == "WIREFRAME":
+            if node.use_pixel_size:
+                warn("Pixel Size needs ray differentials, which Primer does not trace; Primer reads Size in world units")
+            inputs = self.inputs(node, path, ["Size"])
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}
         elif kind == "BUMP":

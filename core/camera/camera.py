@@ -104,6 +104,13 @@ def _clear_scale(matrix: np.ndarray) -> np.ndarray:
     return result
 
 
+def world_to_camera(camera: "Camera") -> np.ndarray:
+    """Cycles' worldtocamera (3, 4) float64: world points to the camera's frame, x right, y up and z forward along the
+    view (the inverse of its scale-cleared matrix with z flipped)."""
+    to_world = _clear_scale(np.asarray(camera.matrix_world, np.float64)) @ np.diag([1.0, 1.0, -1.0, 1.0])
+    return np.linalg.inv(to_world)[:3]
+
+
 def lens_from_fov(fov: float, sensor_size: float = 36.0) -> float:
     """Return the focal length (mm) whose sensor of `sensor_size` mm spans the angle `fov` (radians)."""
     return 0.5 * sensor_size / math.tan(0.5 * fov)

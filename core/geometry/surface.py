@@ -101,7 +101,7 @@ def shading_point(geometry, surface: Surface):
     """What a material's node graph reads at each hit (core/materials/graph.py ShadingPoint): the mesh
     attributes interpolated with the barycentrics (w = 1 - u - v at corner 0, u at 1, v at 2) and their
     changes along u and v, the object's random number and linear transform, the side that was hit, the
-    triangle's edges."""
+    triangle's edges, the world point, the barycentrics and the distance along the ray."""
     from ..materials import graph as graph_
     prim = surface.prim
     n = len(prim)
@@ -112,7 +112,8 @@ def shading_point(geometry, surface: Surface):
     side = np.where(np.einsum("ij,ij->i", front, surface.Ng) < 0.0, -1.0, 1.0)
     V = surface.vertices
     return graph_.ShadingPoint(attributes, d_du, d_dv, random, surface.N, side, linear, V[:, 1] - V[:, 0],
-                               V[:, 2] - V[:, 0], surface.Ng)
+                               V[:, 2] - V[:, 0], surface.Ng, P=surface.I + geometry.origin,
+                               uv=np.stack([surface.u, surface.v], axis=1), t=np.asarray(surface.t, np.float64))
 
 
 def hit_owners(geometry, prim: np.ndarray) -> tuple:

@@ -43,6 +43,7 @@ GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (c
     ("instance_linear", ptr(F64), "(n, 3, 3) each instance's linear transform"),
     ("attribute_width", I64, "A"),
     ("hidden", ptr(U8), "(n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides"),
+    ("origin", ptr(F64), "(3,) the world point the vertices are relative to (the Geometry node's Position adds it)"),
 ])
 
 
@@ -79,7 +80,8 @@ class GeometryTables:
             instance=c(geometry.instance, np.int32) if len(geometry.instance) else None,
             instance_random=c(geometry.instance_random, np.float64) if len(geometry.instance_random) else None,
             instance_linear=c(geometry.instance_linear, np.float64) if len(geometry.instance_linear) else None,
-            attribute_width=geometry.attributes.shape[2] if geometry.attributes is not None else 0)
+            attribute_width=geometry.attributes.shape[2] if geometry.attributes is not None else 0,
+            origin=c(np.asarray(geometry.origin, np.float64).reshape(3), np.float64))
         # Which rays each instance hides from, where some object hides (Ray Visibility); the copied triangles'
         # instances are needed to find a hit's object then.
         if len(geometry.instance_hidden):

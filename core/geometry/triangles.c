@@ -114,6 +114,7 @@ typedef struct {
     int smooth;
     int32_t material;
     int backfacing;     /* 1: the ray hit the triangle from behind (leaves a closed object) */
+    double t;           /* Embree's distance along the ray (the Light Path node's Ray Length) */
 } Surface;
 
 /* The surface of one hit: surface.hit_points, surface_at_hits, shadows.error_bound and, for the
@@ -123,6 +124,7 @@ INLINE void surface_at(const double *O, const double *D, double t, double u, dou
 {
     const double *V = tri->V;
     double w = 1.0 - u - v;
+    s->t = t;
     s->smooth = tri->smooth;
     s->material = tri->material;
     /* 1. I: the float64 ray meets the triangle's plane, unless that disagrees with Embree's t. */
@@ -178,6 +180,10 @@ typedef struct {
     double dPdu[3], dPdv[3];
     double Ng[3];       /* the face normal, facing the viewer */
     double ray;         /* which kind of ray found the hit (graph.RAY_*): the Light Path node asks */
+    double I[3];        /* back along that ray (the material's wo): the Fresnel and Layer Weight nodes ask */
+    double P[3];        /* the world point (camera-relative I plus the origin): the Geometry node's Position */
+    double u, v;        /* the barycentrics: its Parametric */
+    double t;           /* the distance along the ray: the Light Path node's Ray Length */
 } ShadingPoint;
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with
@@ -218,7 +224,11 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
         sp->Ng[c] = s->Ng[c];
         sp->dPdu[c] = tri->V[3 + c] - tri->V[c];
         sp->dPdv[c] = tri->V[6 + c] - tri->V[c];
+        sp->P[c] = s->I[c] + (g->origin != NULL ? g->origin[c] : 0.0);
     }
+    sp->u = u;
+    sp->v = v;
+    sp->t = s->t;
 }
 
 /* ------------------------------------------------------------------------------------------------

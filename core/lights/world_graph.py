@@ -61,8 +61,9 @@ def register_number(compiler: "graph_.Compiler", register: int) -> int:
 
 
 def world_point(D: np.ndarray, layout: dict) -> "graph_.ShadingPoint":
-    """The shading point of the world seen along directions D (n, 3) float64, as Cycles sets it up: the Generated and
-    Object coordinates D, the normal -D; a bounce ray (Light Path: not a camera ray)."""
+    """The shading point of the world seen along directions D (n, 3) float64, as Cycles sets it up
+    (shader_setup_from_background): P and the Generated and Object coordinates D, the normal and the incoming
+    direction -D, the ray's length FLT_MAX; a bounce ray (Light Path: not a camera ray)."""
     n = len(D)
     width = sum(w for _, w in layout.values())
     point = graph_.empty_point(n, width)
@@ -70,4 +71,5 @@ def world_point(D: np.ndarray, layout: dict) -> "graph_.ShadingPoint":
     for name in ("generated", "object"):
         offset, w = layout[name]
         attributes[:, offset:offset + w] = D
-    return point._replace(attributes=attributes, N=-D, Ng=-D, ray=np.full(n, float(graph_.RAY_BOUNCE)))
+    return point._replace(attributes=attributes, N=-D, Ng=-D, ray=np.full(n, float(graph_.RAY_BOUNCE)), I=-D, P=D,
+                          uv=np.zeros((n, 2)), t=np.full(n, np.finfo(np.float32).max))

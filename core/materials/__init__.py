@@ -212,14 +212,17 @@ class NodeShader:
                 return True
         return False
 
-    def program(self, layout: dict, image_index, name: str = ""):
-        """Its graph compiled for an attribute layout (core/materials/graph.py), once; None without links."""
+    def program(self, layout: dict, image_index, name: str = "", view=None, window=None):
+        """Its graph compiled for an attribute layout, the camera's world-to-camera transform `view` ((3, 4) or
+        None: the identity) and its frame `window` (MaterialTable.window) (core/materials/graph.py), once for each;
+        None without links."""
         from . import graph as graph_
         if self.graph is None:
             return None
-        key = tuple(sorted(layout.items()))
+        key = (tuple(sorted(layout.items())), None if view is None else tuple(np.asarray(view).ravel()), window)
         if key not in self.programs:
-            self.programs[key] = graph_.Compiler(layout, image_index, material=name).compile(self.graph)
+            self.programs[key] = graph_.Compiler(layout, image_index, material=name, view=view,
+                                                 window=window).compile(self.graph)
         return self.programs[key]
 
     def shade(self, N: np.ndarray, wo: np.ndarray, point=None, program=None, textures=None,
@@ -233,6 +236,8 @@ class NodeShader:
         if program is None:
             return nodes_.shade_nodes(self.nodes, N, wo, backfacing=backfacing, caustics=caustics)
         n = len(N)
+        if point.I is None and wo is not None:
+            point = point._replace(I=wo)                  # the view direction (the Fresnel and Layer Weight nodes)
         registers = graph_.run(program, point, textures)
         weights = [np.broadcast_to(weight, (n, 3)).astype(np.float64) for _, weight, _ in self.nodes]
         rows = [np.tile(p, (n, 1)) for _, _, p in self.nodes]
@@ -342,6 +347,12 @@ class MaterialTable:
             for image in graph_.images_of(shader.graph) if getattr(shader, "graph", None) else ():
                 self.image_index(image)
         self.textures = TextureSet.of(self.images)
+        # The camera's world-to-camera transform (3, 4) the graphs' Camera coordinates read (set by render.prepare;
+        # None: the identity).
+        self.view: Optional[np.ndarray] = None
+        # The camera's frame on screen (left, right, bottom, top, 1 perspective / 0 orthographic) the Window
+        # coordinates read (set by render.prepare; None: a panoramic camera, whose Window Primer does not compute).
+        self.window: Optional[tuple] = None
         self._has_graphs = any(getattr(shader, "graph", None) is not None for shader in shaders)
         # Which rows' emission their node graph gives (a texture, a linked factor), evaluated where a light sample
         # or a BSDF ray lands rather than taken from `emission`: (m + 1,) bool.
@@ -364,7 +375,8 @@ class MaterialTable:
     def program(self, row: int, layout: dict):
         """The compiled graph of material `row` for an attribute layout, or None (no links)."""
         shader = self.shaders[row]
-        return shader.program(layout, self.image_index, self.names[row]) if hasattr(shader, "program") else None
+        return (shader.program(layout, self.image_index, self.names[row], self.view, self.window)
+                if hasattr(shader, "program") else None)
 
     @classmethod
     def of(cls, materials: list, default: Optional[Material] = None, warnings: Optional[list] = None) -> "MaterialTable":
@@ -419,7 +431,9 @@ class MaterialTable:
                     point = self.shading_point(surface, geometry, N)
                     if ray is not None:                       # which ray found the hits (the Light Path node)
                         point = point._replace(ray=np.broadcast_to(np.asarray(ray, np.float64), (n,)).copy())
-                part = type(point)(*(array[rows] for array in point))
+                    if wo is not None:                        # the view direction (Fresnel, Layer Weight)
+                        point = point._replace(I=np.asarray(wo, np.float64))
+                part = type(point)(*(None if array is None else array[rows] for array in point))
                 results.append(shader.shade(N[rows], wo[rows], part, self.program(int(row), layout), self.textures,
                                             backfacing=None if backfacing is None else backfacing[rows],
                                             caustics=None if caustics is None else caustics[rows]))

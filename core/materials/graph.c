@@ -194,6 +194,86 @@ INLINE void tangent_node(const double *source, int uv_map, int axis, const Shadi
     cross3(sp->N, u, out);
 }
 
+/* graph.fresnel_cos: Cycles' fresnel_dielectric_cos, the reflectance of relative index eta at |cos_i|; 1 under
+ * total internal reflection. */
+INLINE double fresnel_cos(double cos_i, double eta)
+{
+    double c = fabs(cos_i), g2 = eta * eta - 1.0 + c * c;
+    if (!(g2 > 0.0)) return 1.0;
+    double g = sqrt(g2), A = (g - c) / (g + c), B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return 0.5 * A * A * (1.0 + B * B);
+}
+
+/* graph.view_cosine: I.normal, the shading normal where the Normal input is unlinked. */
+INLINE double view_cosine(const double *normal, const ShadingPoint *sp)
+{
+    return dot3(sp->I, normal != NULL ? normal : sp->N);
+}
+
+/* graph.fresnel: Cycles' Fresnel node. */
+INLINE double fresnel_node(double ior, const double *normal, const ShadingPoint *sp)
+{
+    double eta = ior > 1e-5 ? ior : 1e-5;
+    if (sp->side < 0.0) eta = 1.0 / eta;
+    return fresnel_cos(view_cosine(normal, sp), eta);
+}
+
+/* graph.layer_weight: Cycles' Layer Weight node, out[0] Fresnel and out[1] Facing. */
+INLINE void layer_weight(double blend, const double *normal, const ShadingPoint *sp, double *out)
+{
+    double cos_i = view_cosine(normal, sp), eta = 1.0 - blend > 1e-5 ? 1.0 - blend : 1e-5;
+    if (!(sp->side < 0.0)) eta = 1.0 / eta;
+    double f = fabs(cos_i), b = blend < 0.0 ? 0.0 : (blend > 1.0 - 1e-5 ? 1.0 - 1e-5 : blend);
+    if (blend != 0.5) f = pow(f, b < 0.5 ? 2.0 * b : 0.5 / (1.0 - b));
+    out[0] = fresnel_cos(cos_i, eta);
+    out[1] = 1.0 - f;
+}
+
+/* graph.geometry: Cycles' Geometry node output `output` (graph.GEOMETRY_OUTPUTS) at the hit (where 0) or the bump's
+ * point along V1 - V0 (1) or V2 - V0 (2). */
+INLINE void geometry_node(int output, int where, const ShadingPoint *sp, double *out)
+{
+    double du = where == 1 ? BUMP_STEP : 0.0, dv = where == 2 ? BUMP_STEP : 0.0;
+    switch (output) {
+    case GEOM_POSITION: for (int j = 0; j < 3; j++) out[j] = (sp->P[j] + du * sp->dPdu[j]) + dv * sp->dPdv[j]; break;
+    case GEOM_NORMAL: for (int j = 0; j < 3; j++) out[j] = sp->N[j]; break;
+    case GEOM_TRUE_NORMAL: for (int j = 0; j < 3; j++) out[j] = sp->Ng[j]; break;
+    case GEOM_INCOMING: for (int j = 0; j < 3; j++) out[j] = sp->I[j]; break;
+    case GEOM_OBJECT_NORMAL:
+        for (int i = 0; i < 3; i++) out[i] = (sp->L[i] * sp->N[0] + sp->L[3 + i] * sp->N[1]) + sp->L[6 + i] * sp->N[2];
+        safe_normalize3(out);
+        break;
+    case GEOM_REFLECTION: {
+        double IN = 2.0 * dot3(sp->I, sp->N);
+        for (int j = 0; j < 3; j++) out[j] = IN * sp->N[j] - sp->I[j];
+        break;
+    }
+    case GEOM_PARAMETRIC: { double u = sp->u + du, v = sp->v + dv; out[0] = 1.0 - u - v; out[1] = u; out[2] = 0.0; break; }
+    case GEOM_RAY_LENGTH: out[0] = sp->t; break;
+    default: out[0] = sp->side < 0.0 ? 1.0 : 0.0; break;
+    }
+}
+
+/* graph.wireframe: Cycles' Wireframe node in world units, from corner 0 of the triangle. */
+INLINE double wireframe(double size, int where, const ShadingPoint *sp)
+{
+    double u = sp->u + (where == 1 ? BUMP_STEP : 0.0), v = sp->v + (where == 2 ? BUMP_STEP : 0.0);
+    double P[3], corners[3][3], width = (0.5 * size) * (0.5 * size);
+    for (int j = 0; j < 3; j++) {
+        P[j] = u * sp->dPdu[j] + v * sp->dPdv[j];
+        corners[0][j] = 0.0;
+        corners[1][j] = sp->dPdu[j];
+        corners[2][j] = sp->dPdv[j];
+    }
+    for (int k = 0; k < 3; k++) {
+        const double *a = corners[k], *b = corners[k ? k - 1 : 2];
+        double edge[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]}, dir[3] = {P[0] - a[0], P[1] - a[1], P[2] - a[2]}, c[3];
+        cross3(edge, dir, c);
+        if (dot3(c, c) < dot3(edge, edge) * width) return 1.0;
+    }
+    return 0.0;
+}
+
 /* graph.bump */
 INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
                  int invert, const ShadingPoint *sp, double *out)
@@ -227,6 +307,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
     for (int64_t k = 0; k < n_constants; k++) reg[k] = constants[k];
     double offset_attr[MAX_ATTRIBUTES];
     const double *attributes = sp->attributes;
+    int where = 0;                      /* the bump's evaluation point (OFFSET) */
     for (int64_t o = 0; o < n_ops; o++) {
         const double *op = ops + OP_WIDTH * o;
         int a[OP_WIDTH - 1];
@@ -239,6 +320,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_RANDOM: out[0] = sp->random; break;
         case OP_RAY: out[0] = sp->ray == (double)a[1] ? 1.0 : 0.0; break;
         case OP_OFFSET:
+            where = a[0];
             if (a[0] == 0) { attributes = sp->attributes; break; }
             for (int j = 0; j < sp->width; j++)
                 offset_attr[j] = sp->attributes[j] + BUMP_STEP * (a[0] == 1 ? sp->d_du[j] : sp->d_dv[j]);
@@ -358,6 +440,34 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_GEOMETRY: { double r[3]; geometry_node(a[1], where, sp, r); for (int j = 0; j < (a[1] == GEOM_BACKFACING || a[1] == GEOM_RAY_LENGTH ? 1 : 3); j++) out[j] = r[j]; break; }
+        case OP_TRANSFORM: {
+            const double *M = reg + a[2], *p = reg + a[1];
+            double r[3];
+            for (int i = 0; i < 3; i++) r[i] = ((p[0] * M[4 * i] + p[1] * M[4 * i + 1]) + p[2] * M[4 * i + 2]) + M[4 * i + 3];
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            break;
+        }
+        case OP_WINDOW: {
+            const double *p = reg + a[1], *f = reg + a[2];
+            double x = f[4] != 0.0 ? safe_div(p[0], p[2]) : p[0], y = f[4] != 0.0 ? safe_div(p[1], p[2]) : p[1];
+            out[0] = (x - f[0]) / (f[1] - f[0]);
+            out[1] = (y - f[2]) / (f[3] - f[2]);
+            out[2] = 0.0;
+            break;
+        }
+        case OP_WIREFRAME: out[0] = wireframe(reg[a[1]], where, sp); break;
+        case OP_CAMERA_DATA: {
+            const double *p = reg + a[1];
+            double r[3] = {p[0], p[1], p[2]}, depth = p[2], distance = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+            safe_normalize3(r);
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            out[3] = depth;
+            out[4] = distance;
+            break;
+        }
+        case OP_FRESNEL: out[0] = fresnel_node(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp); break;
+        case OP_LAYER_WEIGHT: { double r[2]; layer_weight(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp, r); out[0] = r[0]; out[1] = r[1]; break; }
         default:     /* the procedural textures (procedural.gen.c), then the converters (converters.gen.c) */
             if (!procedural_op((int)op[0], a, reg)) converter_op((int)op[0], a, reg, ramps);
             break;

@@ -45,7 +45,8 @@ DESCRIBED_BY_KIND = {**TEXTURE_BY_KIND, **CONVERTER_BY_KIND}
 # described nodes' ops (DESCRIBED: the procedural textures, then the converters; one per class) follow graph.c's own.
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
-       "TANGENT") + tuple(cls.kind for cls in DESCRIBED)
+       "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
+                                                               "CAMERA_DATA", "WIREFRAME", "WINDOW")
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
@@ -105,11 +106,14 @@ class Link:
 # Each kind's outputs: name -> (width, type); type decides how a colour or vector becomes a float.
 NODE_OUTPUTS = {
     "RGB": {"Color": (3, "color")}, "VALUE": {"Value": (1, "float")},
-    "TEXCOORD": {"UV": (3, "vector"), "Generated": (3, "vector"), "Object": (3, "vector")},
+    "TEXCOORD": {"UV": (3, "vector"), "Generated": (3, "vector"), "Object": (3, "vector"), "Normal": (3, "vector"),
+                 "Camera": (3, "vector"), "Window": (3, "vector"), "Reflection": (3, "vector")},
+    "CAMERA_DATA": {"View Vector": (3, "vector"), "View Z Depth": (1, "float"), "View Distance": (1, "float")},
+    "WIREFRAME": {"Fac": (1, "float")},
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "OBJECT_INFO": {"Random": (1, "float")},
-    "LIGHT_PATH": {"Is Camera Ray": (1, "float"), "Is Shadow Ray": (1, "float")},
+    "LIGHT_PATH": {"Is Camera Ray": (1, "float"), "Is Shadow Ray": (1, "float"), "Ray Length": (1, "float")},
     "IMAGE": {"Color": (3, "color"), "Alpha": (1, "float")}, "ENVIRONMENT": {"Color": (3, "color"), "Alpha": (1, "float")},
     "MAPPING": {"Vector": (3, "vector")}, "NORMAL_MAP": {"Normal": (3, "vector")}, "BUMP": {"Normal": (3, "vector")},
     "MATH": {"Value": (1, "float")}, "MIX": {"Result": (3, "color")},
@@ -120,8 +124,17 @@ NODE_OUTPUTS = {
     "COMBINE_COLOR": {"Color": (3, "color")}, "COMBINE_XYZ": {"Vector": (3, "vector")},
     "CLAMP": {"Result": (1, "float")}, "MAP_RANGE": {"Result": (1, "float")}, "SCALE": {"Color": (3, "color")},
     "TANGENT": {"Tangent": (3, "vector")},
+    "FRESNEL": {"Fac": (1, "float")}, "LAYER_WEIGHT": {"Fresnel": (1, "float"), "Facing": (1, "float")},
+    "GEOMETRY": {"Position": (3, "vector"), "Normal": (3, "vector"), "Tangent": (3, "vector"),
+                 "True Normal": (3, "vector"), "Incoming": (3, "vector"), "Parametric": (3, "vector"),
+                 "Backfacing": (1, "float"), "Pointiness": (1, "float")},
     **{cls.kind: dict(cls.outputs) for cls in DESCRIBED},
 }
+# The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
+GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
+                    "Reflection", "Ray Length")
+SCALAR_OUTPUTS = ("Backfacing", "Ray Length")          # one float; the others three
+schema.constants("GEOM", [name.replace(" ", "_") for name in GEOMETRY_OUTPUTS], "the Geometry node's outputs")
 # The Tangent node's directions and axes (props "direction", "axis"), as Blender names them.
 TANGENT_DIRECTIONS = ("RADIAL", "UV_MAP")
 TANGENT_AXES = ("X", "Y", "Z")
@@ -166,7 +179,10 @@ class ShadingPoint(NamedTuple):
     the object's random number; N: (n, 3) the shading normal facing the viewer; side: (n,) +1 where the
     front was hit, -1 the back; linear: (n, 3, 3) the object's linear transform (for tangents);
     dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0; Ng: (n, 3) the face normal facing the viewer;
-    ray: (n,) which kind of ray found the hit (RAY_*; None: camera rays).
+    ray: (n,) which kind of ray found the hit (RAY_*; None: camera rays); I: (n, 3) the unit direction from the
+    hit back along the ray that found it (Cycles' sd->wi, the material's wo; None: N, a head-on view);
+    P: (n, 3) the hit in world space (not camera-relative); uv: (n, 2) its barycentrics u, v (corner 1, corner 2);
+    t: (n,) the distance the ray went to the hit (Cycles' ray_length).
     """
 
     attributes: np.ndarray
@@ -180,6 +196,10 @@ class ShadingPoint(NamedTuple):
     dPdv: np.ndarray
     Ng: np.ndarray
     ray: np.ndarray = None     # (n,) float64 RAY_CAMERA, RAY_BOUNCE or RAY_SHADOW: which ray found the hit
+    I: np.ndarray = None       # (n, 3) float64 towards where the ray came from (the Fresnel and Layer Weight nodes)
+    P: np.ndarray = None       # (n, 3) float64 the world point (the Geometry node's Position)
+    uv: np.ndarray = None      # (n, 2) float64 the barycentrics (its Parametric)
+    t: np.ndarray = None       # (n,) float64 the distance along the ray to the hit (the Light Path node's Ray Length)
 
 
 def has_links(nodes: list) -> bool:
@@ -223,12 +243,13 @@ def images_of(nodes: list) -> list:
 
 def attributes_of(nodes: list) -> set:
     """The mesh attribute names a material's links read ("uv:NAME", "color:NAME", "tangent:NAME",
-    "generated", "object"; an empty NAME is the mesh's active one)."""
+    "generated", "object", "pointiness"; an empty NAME is the mesh's active one)."""
     names = set()
     for link in links_under(nodes):
         node = link.node
-        if node.kind == "TEXCOORD":
-            names.add({"UV": "uv:", "Generated": "generated", "Object": "object"}.get(link.output, "uv:"))
+        if node.kind == "TEXCOORD" and (link.output in ("UV", "Generated")
+                                        or link.output == "Object" and node.props.get("object_matrix") is None):
+            names.add({"UV": "uv:", "Generated": "generated", "Object": "object"}[link.output])
         elif node.kind == "UVMAP":
             names.add("uv:" + node.props.get("map", ""))
         elif node.kind == "ATTRIBUTE":
@@ -238,6 +259,8 @@ def attributes_of(nodes: list) -> set:
         elif node.kind == "TANGENT":
             names.add("generated" if node.props.get("direction", "RADIAL") == "RADIAL"
                       else "tangent:" + node.props.get("map", ""))
+        elif node.kind == "GEOMETRY" and link.output in ("Tangent", "Pointiness"):
+            names.add("generated" if link.output == "Tangent" else "pointiness")
         elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("uv:")
         elif node.kind in DESCRIBED_BY_KIND:
@@ -248,7 +271,7 @@ def attributes_of(nodes: list) -> set:
 
 
 # The widths of the mesh attributes by name prefix.
-ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3}
+ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1}
 
 
 def attribute_width(name: str) -> int:
@@ -268,8 +291,11 @@ def layout_of(names) -> dict:
 class Compiler:
     """Turns one material's links into a Program (`compile`): registers, ops, outputs."""
 
-    def __init__(self, layout: dict, image_index, warnings: Optional[list] = None, material: str = ""):
+    def __init__(self, layout: dict, image_index, warnings: Optional[list] = None, material: str = "", view=None,
+                 window=None):
         self.layout = layout
+        self.view = np.eye(4)[:3] if view is None else np.asarray(view, np.float64).reshape(3, 4)   # world -> camera
+        self.window = window                    # the camera's frame on screen (MaterialTable.window) or None
         self.image_index = image_index          # textures.Image or None -> index in the render's TextureSet
         self.constants: list = []
         self.ops: list = []
@@ -336,6 +362,19 @@ class Compiler:
         self.emit("ATTR", out, offset, min(width, stored), width)
         return out
 
+    def geometry(self, output: str) -> int:
+        """A register (3 floats) holding the Geometry op's `output` (GEOMETRY_OUTPUTS)."""
+        out = self.temporary(3)
+        self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
+        return out
+
+    def transform(self, point: int, matrix: np.ndarray) -> int:
+        """A register holding the point in register `point` moved by the (3, 4) affine `matrix` (its 12 floats
+        constants, row by row)."""
+        out = self.temporary(3)
+        self.emit("TRANSFORM", out, point, self.constant(np.asarray(matrix, np.float64).reshape(12)))
+        return out
+
     def compile_node(self, node: GraphNode, output: str) -> tuple:
         """Emit a node's ops; return (register, width, type) of `output`."""
         kind, inp, props = node.kind, node.inputs, node.props
@@ -345,8 +384,29 @@ class Compiler:
         if kind == "VALUE":
             return self.constant([float(props["value"])]), 1, "float"
         if kind == "TEXCOORD":
+            if output in ("Normal", "Reflection"):       # the object-space normal; the mirrored view (world space)
+                return self.geometry("Object Normal" if output == "Normal" else "Reflection"), 3, "vector"
+            if output == "Camera":                      # the world point in the camera's frame
+                return self.transform(self.geometry("Position"), self.view), 3, "vector"
+            if output == "Window":                      # where on the frame the point shows, 0..1 across it
+                if self.window is None:                 # (a panoramic camera: addon/materials.py warns)
+                    return self.constant([0.0, 0.0, 0.0]), 3, "vector"
+                out = self.temporary(3)
+                self.emit("WINDOW", out, self.transform(self.geometry("Position"), self.view),
+                          self.constant(self.window))
+                return out, 3, "vector"
+            if output == "Object" and props.get("object_matrix") is not None:     # in another object's frame
+                return self.transform(self.geometry("Position"), np.linalg.inv(props["object_matrix"])[:3]), 3, "vector"
             name = {"UV": "uv:", "Generated": "generated", "Object": "object"}[output]
             return self.attribute(name), 3, "vector"
+        if kind == "WIREFRAME":                         # (Pixel Size: addon/materials.py warns; world units here)
+            out = self.temporary(1)
+            self.emit("WIREFRAME", out, self.value(inp.get("Size"), 1, 0.01))
+            return out, 1, "float"
+        if kind == "CAMERA_DATA":
+            out = self.temporary(5)
+            self.emit("CAMERA_DATA", out, self.transform(self.geometry("Position"), self.view))
+            return shift(out, {"View Vector": 0, "View Z Depth": 3, "View Distance": 4}[output]), width, vtype
         if kind == "UVMAP":
             return self.attribute("uv:" + props.get("map", "")), 3, "vector"
         if kind == "ATTRIBUTE":
@@ -366,10 +426,32 @@ class Compiler:
             out = self.temporary(1)
             self.emit("RANDOM", out)
             return out, 1, "float"
+        if kind == "LIGHT_PATH" and output == "Ray Length":     # the distance the ray went to the hit
+            out = self.temporary(1)
+            self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
+            return out, 1, "float"
         if kind == "LIGHT_PATH":
             out = self.temporary(1)
             self.emit("RAY", out, RAY_SHADOW if output == "Is Shadow Ray" else RAY_CAMERA)
             return out, 1, "float"
+        if kind in ("FRESNEL", "LAYER_WEIGHT"):
+            amount = (self.value(inp.get("IOR"), 1, 1.5) if kind == "FRESNEL" else
+                      self.value(inp.get("Blend"), 1, 0.5))
+            normal = self.value(inp["Normal"], 3) if isinstance(inp.get("Normal"), Link) else None
+            out = self.temporary(1 if kind == "FRESNEL" else 2)
+            self.emit(kind, out, amount, normal)
+            return shift(out, list(NODE_OUTPUTS[kind]).index(output)), 1, "float"
+        if kind == "GEOMETRY":
+            if output == "Tangent":                     # Cycles' primitive_tangent: radial about Z of Generated
+                source = self.attribute("generated", 3)
+                out = self.temporary(3)
+                self.emit("TANGENT", out, source, 0, TANGENT_AXES.index("Z"))
+                return out, 3, "vector"
+            if output == "Pointiness":                  # a per-vertex attribute (core/geometry/pointiness.py)
+                return self.attribute("pointiness", 1), 1, "float"
+            out = self.temporary(width)
+            self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
+            return out, width, vtype
         if kind == "IMAGE":
             vector = (self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link)
                       else self.attribute("uv:"))
@@ -588,7 +670,8 @@ REGISTER_ARGS = {
     "MIX_COLOR": {0, 2, 3, 4}, "MIX_FLOAT": {0, 1, 2, 3}, "RAMP": {0, 1}, "INVERT": {0, 1, 2},
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
-    "RAY": {0}, "TANGENT": {0, 1},
+    "RAY": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
+    "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -739,7 +822,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
     reg = np.zeros((n, max(1, program.registers)))
     c = len(program.constants)
     reg[:, :c] = program.constants
-    attributes = sp.attributes
+    attributes, where = sp.attributes, 0
     for row in program.ops:
         code, a = int(row[0]), row[1:]
         name = OPS[code]
@@ -757,6 +840,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             ray = np.full(n, float(RAY_CAMERA)) if sp.ray is None else sp.ray
             reg[:, i[0]] = (ray == i[1]).astype(np.float64)
         elif name == "OFFSET":
+            where = i[0]
             attributes = sp.attributes + (BUMP_STEP * sp.d_du if i[0] == 1 else BUMP_STEP * sp.d_dv if i[0] == 2
                                           else 0.0)
         elif name == "IMAGE":
@@ -839,6 +923,22 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = R(1, 3) * reg[:, i[2]:i[2] + 1]
         elif name == "TANGENT":
             reg[:, i[0]:i[0] + 3] = tangent(R(1, 3), i[2], i[3], sp)
+        elif name == "GEOMETRY":
+            reg[:, i[0]:i[0] + (1 if GEOMETRY_OUTPUTS[i[1]] in SCALAR_OUTPUTS else 3)] = geometry(i[1], where, sp)
+        elif name == "TRANSFORM":
+            M = reg[0, i[2]:i[2] + 12].reshape(3, 4)
+            p = R(1, 3)
+            reg[:, i[0]:i[0] + 3] = (p[:, 0:1] * M[:, 0] + p[:, 1:2] * M[:, 1]) + p[:, 2:3] * M[:, 2] + M[:, 3]
+        elif name == "WINDOW":
+            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 5])
+        elif name == "WIREFRAME":
+            reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
+        elif name == "CAMERA_DATA":
+            reg[:, i[0]:i[0] + 5] = camera_data(R(1, 3))
+        elif name == "FRESNEL":
+            reg[:, i[0]] = fresnel(reg[:, i[1]], None if i[2] < 0 else R(2, 3), sp)
+        elif name == "LAYER_WEIGHT":
+            reg[:, i[0]:i[0] + 2] = layer_weight(reg[:, i[1]], None if i[2] < 0 else R(2, 3), sp)
         elif name in DESCRIBED_BY_KIND:
             texture = DESCRIBED_BY_KIND[name]
             k = len(texture.inputs)
@@ -848,6 +948,117 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
                                                    if getattr(texture, "table", False) else
                                                    texture.evaluate(inputs, numbers))
     return reg
+
+
+def geometry(output: int, where: int, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Geometry node (svm_node_geometry) output GEOMETRY_OUTPUTS[output], (n, 3) or Backfacing (n, 1), at the
+    hit (where 0) or at the bump's point a step along the edge V1 - V0 (1) or V2 - V0 (2), as Cycles moves Position and
+    Parametric for a bump's height: Position the world point, Normal the shading normal and True Normal the face's
+    (both towards the viewer), Incoming the direction back along the ray, Parametric (1 - u - v, u, 0), Backfacing
+    1 where the back of the face was hit."""
+    name = GEOMETRY_OUTPUTS[output]
+    n = len(sp.N)
+    du, dv = (BUMP_STEP if where == 1 else 0.0), (BUMP_STEP if where == 2 else 0.0)
+    if name == "Position":
+        P = np.zeros((n, 3)) if sp.P is None else sp.P
+        return P + du * sp.dPdu + dv * sp.dPdv
+    if name == "Normal":
+        return sp.N
+    if name == "True Normal":
+        return sp.Ng
+    if name == "Incoming":
+        return sp.N if sp.I is None else sp.I
+    if name == "Object Normal":                 # Cycles' object_inverse_normal_transform: L^T N, normalised
+        return safe_normalize(np.einsum("nji,nj->ni", sp.linear, sp.N))
+    if name == "Reflection":                    # -reflect(I, N) = 2 (I.N) N - I
+        I = sp.N if sp.I is None else sp.I
+        return 2.0 * np.einsum("ij,ij->i", I, sp.N)[:, None] * sp.N - I
+    if name == "Parametric":
+        uv = np.zeros((n, 2)) if sp.uv is None else sp.uv
+        u, v = uv[:, 0] + du, uv[:, 1] + dv
+        return np.stack([1.0 - u - v, u, np.zeros(n)], axis=1)
+    if name == "Ray Length":                    # (the Light Path node's)
+        return (np.zeros(n) if sp.t is None else sp.t)[:, None]
+    return (sp.side < 0.0).astype(np.float64)[:, None]
+
+
+def wireframe(size: np.ndarray, where: int, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Wireframe node (svm_node_wireframe) with Size in world units (n,): 1 where the hit (or the bump's point
+    `where`) lies within Size / 2 of a line through an edge of its triangle, else 0. Measured from corner 0: the point
+    u (V1 - V0) + v (V2 - V0), the corners 0, V1 - V0, V2 - V0; |edge x (P - corner)|^2 < |edge|^2 (Size / 2)^2."""
+    uv = np.zeros((len(size), 2)) if sp.uv is None else sp.uv
+    u = uv[:, 0:1] + (BUMP_STEP if where == 1 else 0.0)
+    v = uv[:, 1:2] + (BUMP_STEP if where == 2 else 0.0)
+    P = u * sp.dPdu + v * sp.dPdv
+    corners = (np.zeros_like(P), sp.dPdu, sp.dPdv)
+    width = (0.5 * size) ** 2
+    near = np.zeros(len(size), bool)
+    for k in range(3):
+        edge = corners[k] - corners[k - 1]
+        crossed = np.cross(edge, P - corners[k])
+        near |= np.einsum("ij,ij->i", crossed, crossed) < np.einsum("ij,ij->i", edge, edge) * width
+    return near.astype(np.float64)
+
+
+def window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """Cycles' Window coordinates (camera_world_to_ndc) (n, 3) of points P (n, 3) in the camera's frame: where on the
+    image they show, 0 .. 1 from its left and bottom edges, z 0; frame: (left, right, bottom, top, perspective), the
+    camera's viewplane (core/camera viewplane: on the plane at depth 1 for a perspective camera, whose points are
+    divided by their depth first)."""
+    left, right, bottom, top, perspective = frame
+    x, y = (safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2])) if perspective else (P[:, 0], P[:, 1])
+    return np.stack([(x - left) / (right - left), (y - bottom) / (top - bottom), np.zeros(len(P))], axis=1)
+
+
+def camera_data(P: np.ndarray) -> np.ndarray:
+    """Cycles' Camera Data (svm_node_camera) (n, 5) of points P (n, 3) in the camera's frame: the View Vector
+    P / |P|, the View Z Depth P.z, the View Distance |P|."""
+    distance = np.sqrt(np.einsum("ij,ij->i", P, P))
+    return np.concatenate([safe_normalize(P), P[:, 2:3], distance[:, None]], axis=1)
+
+
+def fresnel_cos(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """Cycles' fresnel_dielectric_cos: the unpolarized reflectance (n,) of a dielectric of relative index eta (n,)
+    seen at cos_i (n,) (its sign ignored), written without the refracted direction; 1 under total internal
+    reflection."""
+    c = np.abs(cos_i)
+    g2 = eta * eta - 1.0 + c * c
+    g = np.sqrt(np.maximum(g2, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        A = (g - c) / (g + c)
+        B = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    return np.where(g2 > 0.0, 0.5 * A * A * (1.0 + B * B), 1.0)
+
+
+def view_cosine(normal: Optional[np.ndarray], sp: ShadingPoint) -> np.ndarray:
+    """I.normal (n,): the cosine between the direction back along the ray and a node's Normal input (n, 3), or the
+    shading normal where it is unlinked (None), as Cycles' dot(sd->wi, N)."""
+    N = sp.N if normal is None else normal
+    I = sp.N if sp.I is None else sp.I
+    return np.einsum("ij,ij->i", I, N)
+
+
+def fresnel(ior: np.ndarray, normal: Optional[np.ndarray], sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Fresnel node (svm_node_fresnel) (n,): the dielectric reflectance for index max(IOR, 1e-5) at the
+    view cosine, the index inverted where the back of the face was hit (light leaving the object)."""
+    eta = np.maximum(ior, 1e-5)
+    eta = np.where(sp.side < 0.0, 1.0 / eta, eta)
+    return fresnel_cos(view_cosine(normal, sp), eta)
+
+
+def layer_weight(blend: np.ndarray, normal: Optional[np.ndarray], sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Layer Weight node (svm_node_layer_weight) (n, 2): Fresnel, the reflectance for the index
+    1 / max(1 - Blend, 1e-5) (its inverse where the back was hit), and Facing, 1 - |I.N| raised to the power
+    2 Blend (Blend < 0.5) or 0.5 / (1 - Blend), with Blend clamped to [0, 1 - 1e-5] and no power at 0.5."""
+    cos_i = view_cosine(normal, sp)
+    eta = np.maximum(1.0 - blend, 1e-5)
+    eta = np.where(sp.side < 0.0, eta, 1.0 / eta)
+    f = np.abs(cos_i)
+    b = np.clip(blend, 0.0, 1.0 - 1e-5)
+    power = np.where(b < 0.5, 2.0 * b, 0.5 / (1.0 - b))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        facing = np.where(blend != 0.5, np.power(f, power), f)
+    return np.stack([fresnel_cos(cos_i, eta), 1.0 - facing], axis=1)
 
 
 def tangent(source: np.ndarray, uv_map: int, axis: int, sp: ShadingPoint) -> np.ndarray:

@@ -610,5 +610,6 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
     ShadingPoint sp;
     shading_point_at(g, geometry, prim, instance, tri, s, u, v, &sp);
     sp.ray = ray;
+    for (int c = 0; c < 3; c++) sp.I[c] = wo[c];
     shade_graph(G, m, &sp, s->N, wo, s->backfacing, sd);
 }

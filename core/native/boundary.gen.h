@@ -114,6 +114,13 @@
 #define OP_VECTOR_CURVES 39
 #define OP_FLOAT_CURVE 40
 #define OP_MAP_RANGE_VECTOR 41
+#define OP_FRESNEL 42
+#define OP_LAYER_WEIGHT 43
+#define OP_GEOMETRY 44
+#define OP_TRANSFORM 45
+#define OP_CAMERA_DATA 46
+#define OP_WIREFRAME 47
+#define OP_WINDOW 48
 /* the kind of ray a hit was found by (core.materials.graph) */
 #define RAY_CAMERA 0
 #define RAY_BOUNCE 1
@@ -130,6 +137,16 @@
 #define OUT_INPUT 0
 #define OUT_WEIGHT 1
 #define OUT_NORMAL 2
+/* the Geometry node's outputs (core.materials.graph) */
+#define GEOM_POSITION 0
+#define GEOM_NORMAL 1
+#define GEOM_TRUE_NORMAL 2
+#define GEOM_INCOMING 3
+#define GEOM_PARAMETRIC 4
+#define GEOM_BACKFACING 5
+#define GEOM_OBJECT_NORMAL 6
+#define GEOM_REFLECTION 7
+#define GEOM_RAY_LENGTH 8
 /* an image node's interpolation (INTERPOLATIONS) (core.materials.textures) */
 #define TEX_LINEAR 0
 #define TEX_CLOSEST 1
@@ -436,6 +453,7 @@ struct GeometryTables {
     const double *instance_linear;          /* (n, 3, 3) each instance's linear transform */
     int64_t attribute_width;                /* A */
     const uint8_t *hidden;                  /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
+    const double *origin;                   /* (3,) the world point the vertices are relative to (the Geometry node's Position adds it) */
 };
 
 /* One material of the scene's MaterialTable. program 0: a ConstantShader, n closures the same at
@@ -767,7 +785,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
-    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7810907097562677354);
+    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7970075878531503461);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(8541145842328541273);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3574520478765727059);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
@@ -782,7 +800,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7667246339315466006);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(1395212270346354495);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(6196929927593898055);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);

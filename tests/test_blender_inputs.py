@@ -1,0 +1,221 @@
+"""Cycles' input nodes against Cycles' own render: Fresnel, Layer Weight, Geometry, Texture Coordinate, Camera Data,
+Wireframe and Light Path's Ray Length, each output the colour of an Emission shader, rendered by Cycles and by Primer
+(exported by addon/materials.py with real Blender) and compared pixel for pixel.
+
+An orthographic camera sends every ray in one direction, so a flat face shows one value of a view-dependent output
+(Fresnel, Layer Weight, the normals, Reflection) wherever it is hit: each case is a column of a flat-shaded icosphere
+(faces at every angle, seen from the front; Suzanne for Pointiness) above two planes turned away from the camera,
+their backs seen at 30 and 60 degrees. Pixels whose 3 x 3 neighbourhood Cycles renders as one value lie inside a
+face; there the two renders differ only by float32 rounding (Cycles computes in float, Primer's graph in double).
+Points are snapped to their pixel's centre (Position, Camera, Object), so that they are one value per pixel too;
+outputs that vary inside a pixel (Parametric, Tangent, Pointiness, Camera Data, Ray Length, Wireframe) are compared by
+their pixels' mean difference, which is sampling noise.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+
+import numpy as np
+import pytest
+
+from blender_env import ROOT, run_bpy
+
+pytestmark = pytest.mark.blender
+
+if importlib.util.find_spec("bpy") is None:
+    if os.environ.get("PRIMER_ALLOW_NO_BPY"):
+        pytest.skip("bpy (Blender as a Python module) is not installed", allow_module_level=True)
+    raise ImportError("tests/test_blender_inputs.py needs bpy (Blender as a Python module): pip install bpy")
+
+PIXELS = 32               # pixels across each cell
+ROWS = 3                  # the icosphere, the back at 30 degrees, the back at 60 degrees
+SAMPLES = 16
+
+SCRIPT = """
+import sys, os, math
+import bpy
+import numpy as np
+from blender_env import report, render_pixels, empty_material
+sys.path.insert(0, {tools!r})
+from render import load_primer
+primer = load_primer()
+export = sys.modules[primer.__name__ + ".addon.export"]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+PIXELS, ROWS, SAMPLES = {pixels}, {rows}, {samples}
+cases = []
+
+
+def absolute(tree, socket, snap=False):
+    # A vector's components as |x|, |y|, |z| (Emission takes no negative colour); snapped: x and y at the pixel's
+    # centre, (floor(32 x) + 0.5) / 32 (every step exact), and z left out.
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(socket, separate.inputs["Vector"])
+    combine = tree.nodes.new("ShaderNodeCombineXYZ")
+    for axis in ("X", "Y") if snap else ("X", "Y", "Z"):
+        end = separate.outputs[axis]
+        steps = [("MULTIPLY", PIXELS), ("FLOOR", 0.0), ("ADD", 0.5), ("DIVIDE", PIXELS)] if snap else []
+        for operation, value in steps + [("ABSOLUTE", 0.0)]:
+            math_node = tree.nodes.new("ShaderNodeMath")
+            math_node.operation = operation
+            math_node.inputs[1].default_value = value
+            tree.links.new(end, math_node.inputs[0])
+            end = math_node.outputs[0]
+        tree.links.new(end, combine.inputs[axis])
+    return combine.outputs["Vector"]
+
+
+def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, monkey=False, settings=()):
+    material, tree, out = empty_material(label)
+    node = tree.nodes.new(idname)
+    for name, value in settings:
+        setattr(node, name, value)
+    for name, value in inputs:
+        node.inputs[name].default_value = value
+    emission = tree.nodes.new("ShaderNodeEmission")
+    socket = node.outputs[output]
+    if add:                                                 # (so that 0 is told from the black background)
+        math_node = tree.nodes.new("ShaderNodeMath")
+        math_node.inputs[1].default_value = add
+        tree.links.new(socket, math_node.inputs[0])
+        socket = math_node.outputs[0]
+    tree.links.new(absolute(tree, socket, snap) if vector else socket, emission.inputs["Color"])
+    tree.links.new(emission.outputs[0], out.inputs["Surface"])
+    column = len(cases)
+    if monkey:                                              # a mesh of many curvatures (Pointiness)
+        bpy.ops.mesh.primitive_monkey_add(size=0.7, location=(column + 0.5, -0.5, 0.0))
+    else:
+        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.45, location=(column + 0.5, -0.5, 0.0))
+    bpy.context.view_layer.objects.active.data.materials.append(material)
+    for row, degrees in ((1, 150.0), (2, 120.0)):      # backs to the camera, seen at 30 and 60 degrees
+        bpy.ops.mesh.primitive_plane_add(size=0.9, location=(column + 0.5, -row - 0.5, 0.0),
+                                         rotation=(math.radians(degrees), 0.0, 0.0))
+        bpy.context.view_layer.objects.active.data.materials.append(material)
+    cases.append(label)
+
+
+case("Fresnel IOR 1.45", "ShaderNodeFresnel", "Fac", [("IOR", 1.45)])
+case("Fresnel IOR 2.4", "ShaderNodeFresnel", "Fac", [("IOR", 2.4)])
+case("Layer Weight Fresnel 0.3", "ShaderNodeLayerWeight", "Fresnel", [("Blend", 0.3)])
+case("Layer Weight Facing 0.5", "ShaderNodeLayerWeight", "Facing", [("Blend", 0.5)])
+case("Layer Weight Facing 0.2", "ShaderNodeLayerWeight", "Facing", [("Blend", 0.2)])
+case("Layer Weight Facing 0.8", "ShaderNodeLayerWeight", "Facing", [("Blend", 0.8)])
+case("Geometry Position", "ShaderNodeNewGeometry", "Position", vector=True, snap=True)
+for output in ("Normal", "Tangent", "True Normal", "Incoming", "Parametric"):
+    case("Geometry " + output, "ShaderNodeNewGeometry", output, vector=True)
+case("Geometry Backfacing + 0.25", "ShaderNodeNewGeometry", "Backfacing", add=0.25)
+case("Geometry Pointiness", "ShaderNodeNewGeometry", "Pointiness", monkey=True)
+for output in ("Normal", "Reflection"):
+    case("Texture Coordinate " + output, "ShaderNodeTexCoord", output, vector=True)
+case("Texture Coordinate Camera", "ShaderNodeTexCoord", "Camera", vector=True, snap=True)
+case("Texture Coordinate Window", "ShaderNodeTexCoord", "Window", vector=True)
+empty = bpy.data.objects.new("Empty", None)                # its frame: moved by a whole number of pixels
+empty.location = (0.25, 0.5, 0.0)
+scene.collection.objects.link(empty)
+case("Texture Coordinate Object (Empty)", "ShaderNodeTexCoord", "Object", vector=True, snap=True,
+     settings=[("object", empty)])
+case("Camera Data View Vector", "ShaderNodeCameraData", "View Vector", vector=True)
+case("Camera Data View Z Depth - 4", "ShaderNodeCameraData", "View Z Depth", add=-4.0)
+case("Camera Data View Distance - 4", "ShaderNodeCameraData", "View Distance", add=-4.0)
+case("Wireframe 0.05", "ShaderNodeWireframe", "Fac", [("Size", 0.05)], add=0.25)
+case("Light Path Ray Length - 4", "ShaderNodeLightPath", "Ray Length", add=-4.0)
+for output in ("Random Per Island",):                      # not read: a warning
+    material, tree, out = empty_material(output)
+    node, emission = tree.nodes.new("ShaderNodeNewGeometry"), tree.nodes.new("ShaderNodeEmission")
+    tree.links.new(node.outputs[output], emission.inputs["Color"])
+    tree.links.new(emission.outputs[0], out.inputs["Surface"])
+    bpy.ops.mesh.primitive_plane_add(size=0.1, location=(0.5, -0.5, -1.0))
+    bpy.context.view_layer.objects.active.data.materials.append(material)
+material, tree, out = empty_material("Pixel Size")         # Pixel Size: Size read in world units, with a warning
+wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
+wire.use_pixel_size = True
+tree.links.new(wire.outputs["Fac"], emission.inputs["Color"])
+tree.links.new(emission.outputs[0], out.inputs["Surface"])
+bpy.ops.mesh.primitive_plane_add(size=0.1, location=(1.5, -0.5, -1.0))
+bpy.context.view_layer.objects.active.data.materials.append(material)
+
+columns = len(cases)
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.data.type = "ORTHO"
+camera.data.ortho_scale = float(columns)
+camera.location = (columns / 2, -ROWS / 2, 5.0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+scene.render.resolution_x, scene.render.resolution_y = columns * PIXELS, ROWS * PIXELS
+scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
+warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+images = {{engine: render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), SAMPLES)[::-1, :, :3]
+          for engine in ("PRIMER", "CYCLES")}}
+np.save("primer.npy", images["PRIMER"])
+np.save("cycles.npy", images["CYCLES"])
+primer.unregister()
+report(cases=cases, warnings=warnings)
+"""
+
+
+def interior(image: np.ndarray) -> np.ndarray:
+    """Pixels (H, W) bool whose 3 x 3 neighbourhood holds one value in every channel (inside a flat face)."""
+    h, w = image.shape[:2]
+    padded = np.pad(image, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    windows = np.stack([padded[i:i + h, j:j + w] for i in range(3) for j in range(3)])
+    return (np.ptp(windows, axis=0) == 0.0).all(axis=2)
+
+
+def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_path):
+    """Every face of a sphere seen from the front and two planes seen from behind (past the critical angle for
+    Fresnel at 60 degrees): Primer's pixels are Cycles' values to float32 rounding where they are one value in a
+    pixel, within sampling noise where they vary across it; what Primer does not read is warned of."""
+    script = SCRIPT.format(tools=os.path.join(ROOT, "tools"), pixels=PIXELS, rows=ROWS, samples=SAMPLES)
+    result = run_bpy(script, str(tmp_path))
+    assert sorted(result["warnings"]) == sorted([
+        f"material '{name}', node 'Geometry': output '{name}' is not one Primer evaluates; for 'Color' of 'Emission' "
+        "it uses that input's own value (1, 1, 1)" for name in ("Random Per Island",)] + [
+        "material 'Pixel Size', node 'Wireframe': Pixel Size needs ray differentials, which Primer does not trace; "
+        "Primer reads Size in world units"])
+    primer, cycles = np.load(tmp_path / "primer.npy"), np.load(tmp_path / "cycles.npy")
+    assert primer.shape == cycles.shape
+    inside, covered = interior(cycles), interior((cycles.max(axis=2, keepdims=True) > 0.0).astype(np.float64))
+    worst, mean, counted = {}, {}, {}
+    for column, label in enumerate(result["cases"]):
+        for row, view in enumerate(("front", "back 30", "back 60")):
+            block = (slice(row * PIXELS, (row + 1) * PIXELS), slice(column * PIXELS, (column + 1) * PIXELS))
+            # Values that vary inside a face (Position snapped to the pixel, Parametric): every covered pixel;
+            # the others: the pixels inside a face.
+            varying = label in ("Geometry Position",) + SNAPPED + SAMPLED
+            face = covered[block] & (inside[block] | varying)
+            counted[label, view] = int(face.sum())
+            difference = np.abs(primer[block] - cycles[block])[face]
+            worst[label, view], mean[label, view] = float(difference.max()), float(difference.mean())
+    print("largest difference per output:", worst)
+    print("mean difference per output:", mean)
+    assert min(counted.values()) >= 40, counted
+    assert cycles[:PIXELS].std() > 0.01, "the spheres' faces should show many values"
+    # Constant on a face: Cycles' values to float32 rounding (measured <= 3.0e-7; Reflection's 2 (I.N) N - I 7.7e-7).
+    far = {key: d for key, d in worst.items() if d > 1e-6 and key[0] not in SAMPLED + SNAPPED}
+    assert far == {}, far
+    # A point snapped to its pixel's centre in another frame: Cycles' float32 transform puts a sample within an ulp of
+    # a pixel's edge on the other side now and then (measured: one sample of 16 in a few pixels, 1 / 32 / 16).
+    snapped = {key: d for key, d in worst.items()
+               if key[0] in SNAPPED and (d > 1.0 / PIXELS / SAMPLES + 1e-6 or mean[key] > 1e-5)}
+    assert snapped == {}, snapped
+    # Parametric, Tangent and Pointiness (Suzanne's) vary across each pixel, whose samples fall elsewhere in Primer than
+    # in Cycles: the mean difference of their pixels is sampling noise (measured <= 2.5e-3 at 16 samples, 1.8e-2 at
+    # 2; Pointiness 2.1e-4).
+    noisy = {key: d for key, d in mean.items() if d > 5e-3 and not key[0].startswith("Wireframe")}
+    assert noisy == {}, noisy
+    # Wireframe: 1 on the wires, 0 elsewhere, the edges' pixels each a share of 16 samples: the wires' area (the sum
+    # of Fac over the pixels inside the silhouettes) within 10% of Cycles' (measured: front +1.7%, the backs +7.1% and
+    # -3.8%, of either sign: the wires' edge pixels hold a share of 16 samples each, placed otherwise than Cycles').
+    for row, view in enumerate(("front", "back 30", "back 60")):
+        column = result["cases"].index("Wireframe 0.05")
+        block = (slice(row * PIXELS, (row + 1) * PIXELS), slice(column * PIXELS, (column + 1) * PIXELS))
+        lit = [(image[block][..., 0] - 0.25)[covered[block]].sum() for image in (primer, cycles)]
+        print("wires' area", view, lit[0] / lit[1] - 1.0)
+        assert abs(lit[0] / lit[1] - 1.0) < 0.1, (view, lit)
+
+
+SNAPPED = ("Texture Coordinate Camera", "Texture Coordinate Object (Empty)")
+SAMPLED = ("Wireframe 0.05", "Texture Coordinate Window", "Geometry Parametric", "Geometry Tangent", "Geometry Pointiness",
+           "Camera Data View Vector",
+           "Camera Data View Z Depth - 4", "Camera Data View Distance - 4", "Light Path Ray Length - 4")
