@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
+from ..core.materials import sky as sky_
 from ..core.materials import textures as textures_
 from ..core.materials.graph import GraphNode, Link
 from ..core.materials.procedural import TEXTURE_BY_BLENDER, TEXTURE_BY_KIND
@@ -157,7 +158,7 @@ GRAPH_KINDS = {"ShaderNodeTexImage": "IMAGE", "ShaderNodeTexCoord": "TEXCOORD", 
                "ShaderNodeSeparateXYZ": "SEPARATE_XYZ", "ShaderNodeCombineColor": "COMBINE_COLOR",
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
-               "ShaderNodeTexEnvironment": "ENVIRONMENT",
+               "ShaderNodeTexEnvironment": "ENVIRONMENT", "ShaderNodeTexSky": "SKY",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # Legacy socket names -> the core's.
 RENAMED = {"R": "Red", "G": "Green", "B": "Blue", "Image": "Color", "Fac": "Fac", "Factor": "Fac"}
@@ -225,6 +226,33 @@ class GraphReader:
             return own_value(consumer)
         return Link(graph_node, name)
 
+    def sky(self, node, warn):
+        """A Sky Texture's props {"sky": core/materials/sky.py Sky}, precomputed as Cycles 5.0 does (Blender 4.x's
+        NISHITA is Cycles 5.0's SINGLE_SCATTERING, its Dust its Aerosol); None, with a warning, where Primer cannot
+        evaluate it (a surface material; Hosek / Wilkie)."""
+        if self.reader.kind != "world":
+            warn("a Sky Texture is evaluated in world shaders only; Primer uses the input's own value")
+            return None
+        kind = {"NISHITA": "SINGLE_SCATTERING"}.get(node.sky_type, node.sky_type)
+        if kind not in sky_.SKY_TYPES:
+            warn(f"sky type {node.sky_type} needs Hosek and Wilkie's fitted dataset, which Primer does not carry; "
+                 "Primer uses the input's own value")
+            return None
+        if node.sky_type == "NISHITA":
+            warn("Blender 4.x's Nishita sky is computed as Cycles 5.0's Single Scattering sky, which may differ from "
+                 "this Blender's Cycles")
+        mapping = getattr(node, "texture_mapping", None)
+        if mapping is not None and not identity_mapping(mapping):
+            warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
+        if _vector_linked(node) and kind != "PREETHAM" and node.sun_disc:
+            warn("its Vector is linked: Primer leaves its sun disc out (it lights the scene with the sun of a Sky "
+                 "Texture that reads the ray's direction)")
+        aerosol = getattr(node, "aerosol_density", getattr(node, "dust_density", 1.0))
+        return {"sky": sky_.precompute(
+            kind, float(node.sun_elevation), float(node.sun_rotation), float(node.sun_size),
+            float(node.sun_intensity), bool(node.sun_disc), float(node.altitude), float(node.air_density),
+            float(aerosol), float(node.ozone_density), tuple(node.sun_direction), float(node.turbidity))}
+
     def node(self, node, path: tuple):
         """The GraphNode of a Blender node (made once per group path), or None when Primer cannot read it."""
         key = (tuple(g.as_pointer() for g in path), node.as_pointer())
@@ -269,6 +297,11 @@ class GraphReader:
             mapping = getattr(node, "texture_mapping", None)
             if mapping is not None and not identity_mapping(mapping):
                 warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
+        elif kind == "SKY":
+            props = self.sky(node, warn)
+            if props is None:
+                return None
+            inputs = self.inputs(node, path, ["Vector"]) if _vector_linked(node) else {}
         elif kind == "TEXCOORD":
             pass
         elif kind == "UVMAP":
@@ -382,6 +415,12 @@ class GraphReader:
         if mapping is not None and not identity_mapping(mapping):
             warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
         return props, inputs
+
+
+def _vector_linked(node) -> bool:
+    """Whether a node's Vector input is there, enabled and linked (a Sky Texture's is hidden: unavailable in Blender)."""
+    socket = next((s for s in node.inputs if s.identifier == "Vector"), None)
+    return socket is not None and getattr(socket, "enabled", True) and socket.is_linked
 
 
 def identity_mapping(mapping) -> bool:

@@ -37,6 +37,8 @@ class World:
     rotation: (3, 3) float64 world-to-texture rotation (the Mapping node's), applied before (u, v)
     camera:   whether camera rays see it (Ray Visibility > Camera)
     lights:   whether it lights surfaces (Ray Visibility > Diffuse / Glossy)
+    suns:     the sun lamps it brings (a Sky Texture's sun disc, core/lights/world_graph.py sky_suns), which the
+              scene's lights take in when it lights surfaces
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -46,6 +48,7 @@ class World:
     camera: bool = True
     lights: bool = True
     name: str = "World"
+    suns: list = field(default_factory=list)
 
     @property
     def varying(self) -> bool:

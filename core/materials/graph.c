@@ -358,7 +358,10 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
-        default: procedural_op((int)op[0], a, reg); break;     /* the procedural textures (procedural.gen.c) */
+        default:                /* the procedural textures (procedural.gen.c); any other op (a world-only one,
+                                   which graph_tables refuses) poisons its output rather than leaving it stale */
+            if (!procedural_op((int)op[0], a, reg)) out[0] = NAN;
+            break;
         }
     }
 }
