@@ -30,6 +30,18 @@ sys.path.insert(0, {tools!r})
 from render import load_primer
 primer = load_primer()
 export = sys.modules[primer.__name__ + ".addon.export"]
+exports = []
+export_scene = export.export_scene
+
+
+def recording(*args, **kwargs):
+    # Keep what Primer's render exported (its warnings and lights), rather than export the scene a second time.
+    exported = export_scene(*args, **kwargs)
+    exports.append(exported)
+    return exported
+
+
+export.export_scene = recording
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 world = bpy.data.worlds.new("Sky")
@@ -65,9 +77,9 @@ def render(name, kind, elevation, disc, panorama):
     sky.sun_elevation, sky.sun_rotation, sky.sun_disc = math.radians(elevation), math.radians(-130.0), disc
     sky.sun_direction = (0.5, -0.4, math.sin(math.radians(elevation)))
     view(panorama)
-    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
     for engine in ("PRIMER", "CYCLES"):
         np.save(f"{{name}}_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 64)[..., :3])
+    exported = exports[-1]
     return {{"warnings": exported.warnings, "lights": [light.name for light in exported.scene.lights]}}
 
 
