@@ -239,8 +239,9 @@ class GraphReader:
                  "Primer uses the input's own value")
             return None
         if node.sky_type == "NISHITA":
-            warn("Blender 4.x's Nishita sky is computed as Cycles 5.0's Single Scattering sky, which may differ from "
-                 "this Blender's Cycles")
+            warn("Blender 4.x's Nishita sky: Primer computes Cycles 5.0's Single Scattering sky, which this "
+                 "Blender's Cycles draws slightly differently (its sun disc hides the sky behind it, and it reads its "
+                 "table and fades the ground below the horizon its own way)")
         mapping = getattr(node, "texture_mapping", None)
         if mapping is not None and not identity_mapping(mapping):
             warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
