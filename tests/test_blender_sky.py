@@ -86,6 +86,14 @@ def render(name, kind, elevation, disc, panorama):
 results = {{}}
 for name, kind, elevation, disc, panorama in {cases!r}:
     results[name] = render(name, kind, elevation, disc, panorama)
+# Hosek / Wilkie (no dataset in Primer), and a Sky Texture in a surface material: exported only, for their notes.
+sky.sky_type = "HOSEK_WILKIE"
+results["hosek"] = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+material = floor.data.materials[0]
+surface = material.node_tree.nodes.new("ShaderNodeTexSky")
+diffuse = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfDiffuse")
+material.node_tree.links.new(surface.outputs["Color"], diffuse.inputs["Color"])
+results["surface"] = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
 primer.unregister()
 report(results=results)
 """
@@ -126,3 +134,12 @@ def test_a_sky_texture_renders_as_cycles_seen_and_lighting_a_floor_with_its_sun(
     assert warnings == [], warnings
     suns = [light for light in result["results"][name]["lights"] if "Sky Texture" in light]
     assert len(suns) == (1 if case[3] and case[1] != "PREETHAM" else 0), suns
+
+
+def test_a_sky_primer_cannot_evaluate_is_noted(rendered):
+    """Hosek / Wilkie (its fitted dataset is not in Primer) and a Sky Texture in a surface material (evaluated in
+    world shaders only) are each noted, naming the node."""
+    result, _ = rendered
+    assert any("HOSEK_WILKIE" in w and "Sky Texture" in w for w in result["results"]["hosek"]), result["results"]["hosek"]
+    assert any("world shaders only" in w and "Sky Texture" in w for w in result["results"]["surface"]), \
+        result["results"]["surface"]

@@ -137,3 +137,14 @@ def test_a_sky_op_is_refused_before_the_compiled_kernel():
 
     with pytest.raises(ValueError, match="world-only"):
         graph.graph_tables(Table(), graph.layout_of({"generated"}))
+
+
+def test_nodes_that_do_not_scale_the_skys_colour_are_noted_for_its_sun():
+    """The sky multiplied by itself (a Mix Multiply of A = B = sky) does not scale with its colour: the lamp then
+    carries the light those nodes give the disc's mean radiance, and the add-on is told so."""
+    model = sky.precompute("SINGLE_SCATTERING", math.radians(30.0), 0.7)
+    color = Link(GraphNode("SKY", {"sky": model}, {}, "Sky Texture"), "Color")
+    props = {"data_type": "RGBA", "blend_type": "MULTIPLY", "clamp_factor": True, "clamp_result": False}
+    squared = Link(GraphNode("MIX", props, {"Factor": 1.0, "A": color, "B": color}, "Multiply"), "Result")
+    lamps, notes = world_graph.sky_suns(squared, 1.0)
+    assert len(lamps) == 1 and len(notes) == 1 and "Sky Texture" in notes[0], notes
