@@ -148,3 +148,33 @@ def test_nodes_that_do_not_scale_the_skys_colour_are_noted_for_its_sun():
     squared = Link(GraphNode("MIX", props, {"Factor": 1.0, "A": color, "B": color}, "Multiply"), "Result")
     lamps, notes = world_graph.sky_suns(squared, 1.0)
     assert len(lamps) == 1 and len(notes) == 1 and "Sky Texture" in notes[0], notes
+
+
+def test_the_discs_mean_radiance_times_its_solid_angle_is_its_radiance_integrated_over_the_sky():
+    """The disc at 30 degrees of elevation (bottom and top differ) integrated by brute force over a fine grid of the
+    sky around it (directions on the tangent plane, weighted by the solid angle of each cell, cos^3 of its offset)
+    equals its mean radiance times the cone's solid angle 2 pi (1 - cos(size / 2))."""
+    elevation, rotation, size = math.radians(30.0), 0.9, 0.0095
+    bottom, top = np.array([1.0, 2.0, 4.0]), np.array([3.0, 2.0, 1.0])
+    sun = sky.sun_towards(elevation, rotation)
+    t = np.cross([0.0, 0.0, 1.0], sun)
+    t /= np.linalg.norm(t)
+    b = np.cross(sun, t)
+    n, reach = 801, 0.6 * size
+    a = np.linspace(-reach, reach, n)
+    x, y = (g.ravel() for g in np.meshgrid(a, a))
+    D = sun + x[:, None] * t + y[:, None] * b
+    length = np.linalg.norm(D, axis=1)
+    D /= length[:, None]
+    cell = (a[1] - a[0]) ** 2 / length ** 3
+    integral = cell @ sky.disc_xyz(D, elevation, rotation, size, 1.0, bottom, top, -1.0)
+    expected = sky.disc_mean_xyz(elevation, rotation, size, 1.0, bottom, top, -1.0) * 2.0 * math.pi \
+        * (1.0 - math.cos(0.5 * size))
+    assert np.allclose(integral, expected, rtol=2e-3), (integral, expected)
+
+
+def test_the_xyz_matrix_takes_d65_white_to_rgb_white():
+    """Cycles' XYZ to scene-linear matrix (Blender's configuration: XYZ with a D65 white to Linear Rec.709) takes the
+    D65 white point (chromaticity x 0.3127, y 0.3290; luminance 1) to (1, 1, 1)."""
+    x, y = 0.3127, 0.3290
+    assert np.allclose(sky.XYZ_TO_RGB @ [x / y, 1.0, (1.0 - x - y) / y], 1.0, atol=1e-6)
