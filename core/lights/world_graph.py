@@ -8,6 +8,9 @@ environment: the same light, importance-sampled from the same map, on both kerne
 interpolates linearly where Cycles evaluates the graph itself: a smooth sky or a blurred HDRI matches, a pattern
 finer than a texel seen straight by the camera is softened (docs/blender.md gives the measured error).
 
+A Sky Texture's sun disc, about 0.5 degrees wide and very bright, would get its light wrong by tens of percent at
+texel centres 0.18 degrees apart: the bake leaves it out, and `sky_suns` makes it a sun lamp of the world's.
+
 Only the rays that light the scene are baked: a Light Path node is evaluated as for a bounce ray (Is Camera Ray 0),
 so a world that shows the camera something else is reported by the add-on.
 """
@@ -92,6 +95,7 @@ def sky_suns(color, strength) -> tuple:
     the nodes after the Sky Texture are linear in its colour, noted where they are not). A Sky Texture whose Vector is
     linked lights nothing with its sun (the add-on says so).
     """
+    # 1. The Sky Textures with a disc, each once, that read the ray's direction.
     nodes = [(None, 1.0, {"color": color, "strength": strength})]
     skies = [link.node for link in graph_.links_under(nodes) if link.node.kind == "SKY"]
     skies = [node for k, node in enumerate(skies) if all(node is not other for other in skies[:k])
@@ -101,15 +105,19 @@ def sky_suns(color, strength) -> tuple:
     world = compile_world(color, strength)
     lamps, notes = [], []
     for node in skies:
+        # 2. The disc's mean XYZ radiance and where it is.
         model = node.props["sky"]
-        mean = model.disc_mean_xyz()
+        mean_xyz = model.disc_mean_xyz()
         towards = sky_.sun_towards(model.elevation, model.rotation)
+        # 3. The world's radiance at the sun with 0, half and all of it added to the sky's (the op's probe XYZ).
         start = world.sky_starts[id(model)]
         probes = []
         for scale in (0.0, 0.5, 1.0):
             ramps = world.program.ramps.copy()
-            ramps[start + sky_.PROBE.start:start + sky_.PROBE.stop] = scale * mean
+            ramps[start + sky_.PROBE.start:start + sky_.PROBE.stop] = scale * mean_xyz
             probes.append(radiance_along(world, towards[None, :], world.program._replace(ramps=ramps))[0])
+        # 4. The disc's radiance through the nodes (noted where half of it does not give half), as a sun lamp's
+        #    strength S = radiance x pi sin^2(angle / 2) (core/lights/sun.py).
         radiance = probes[2] - probes[0]
         if not np.allclose(2.0 * (probes[1] - probes[0]), radiance, rtol=1e-3, atol=1e-9 * max(1.0, radiance.max())):
             notes.append(f"the world's nodes after Sky Texture '{node.name}' do not scale with its colour: Primer's "
