@@ -8,8 +8,9 @@ environment: the same light, importance-sampled from the same map, on both kerne
 interpolates linearly where Cycles evaluates the graph itself: a smooth sky or a blurred HDRI matches, a pattern
 finer than a texel seen straight by the camera is softened (docs/blender.md gives the measured error).
 
-A Sky Texture's sun disc, about 0.5 degrees wide and very bright, would get its light wrong by tens of percent at
-texel centres 0.18 degrees apart: the bake leaves it out, and `sky_suns` makes it a sun lamp of the world's.
+A Sky Texture's sun disc, about 0.5 degrees wide and very bright, covers only some 7 texel centres 0.18 degrees apart:
+summed there its light comes out 0.8 to 1.04 times the disc's (by where the centres fall). The bake leaves it out, and
+`sky_suns` makes it a sun lamp of the world's.
 
 Only the rays that light the scene are baked: a Light Path node is evaluated as for a bounce ray (Is Camera Ray 0),
 so a world that shows the camera something else is reported by the add-on.
