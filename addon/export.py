@@ -551,9 +551,9 @@ def export_world(world, warnings: list) -> World:
         elif not (camera or diffuse):
             return World(color=np.zeros(3), camera=False, lights=False)     # seen by no ray: nothing to evaluate
         else:
-            baked = _baked_world(world, node, warnings)
+            baked, suns = _baked_world(world, node, warnings)
             if isinstance(baked, np.ndarray) and baked.ndim == 3:
-                return World(color=np.zeros(3), image=baked, strength=1.0, camera=camera, lights=diffuse)
+                return World(color=np.zeros(3), image=baked, strength=1.0, camera=camera, lights=diffuse, suns=suns)
             color = color if baked is None else baked
     if (color < 0.0).any():
         warnings.append(NEGATIVE_WORLD.format(float(color.min())))
@@ -562,26 +562,29 @@ def export_world(world, warnings: list) -> World:
 
 
 def _baked_world(world, node, warnings: list):
-    """The world's shader with linked inputs, evaluated as Cycles does: its colour (3,) where it does not vary with
-    the direction, else its radiance baked into an equirectangular image (H, W, 3) float32
-    (core/lights/world_graph.py); None, with a warning, for a world shader Primer does not read."""
+    """The world's shader with linked inputs, evaluated as Cycles does, and the sun lamps of its Sky Textures' discs
+    (core/lights/world_graph.py sky_suns, left out of the bake): (its colour (3,) where it does not vary with the
+    direction, else its radiance baked into an equirectangular image (H, W, 3) float32, or None, with a warning, for a
+    world shader Primer does not read; [SunLight])."""
     reader = materials_.NodeReader(world, warnings, kind="world")
     radiance = _world_radiance(reader, node)
     if radiance is None:
-        return None
+        return None, []
     if not isinstance(radiance, graph_.Link):
-        return radiance
+        return radiance, []
+    suns, notes = world_graph.sky_suns(radiance, 1.0)
+    warnings.extend(notes)
     if any(link.node.kind == "LIGHT_PATH" for link in graph_.links_under([(None, 1.0, {"radiance": radiance})])):
         warnings.append("the world's node graph reads a Light Path node; Primer evaluates it for the rays that light "
                         "the scene (Is Camera Ray 0), and the camera sees that world too")
     baked = world_graph.bake(radiance, 1.0)
     flat = baked.reshape(-1, 3)
-    if np.isfinite(flat).all() and (flat == flat[0]).all():
-        return flat[0].astype(np.float64)           # the same everywhere: a constant world, not sampled as a light
+    if np.isfinite(flat).all() and (flat == flat[0]).all() and not suns:
+        return flat[0].astype(np.float64), []       # the same everywhere: a constant world, not sampled as a light
     if (flat < 0.0).any():
         warnings.append(NEGATIVE_WORLD.format(float(np.nanmin(flat))))
         baked = np.maximum(baked, np.float32(0.0))
-    return baked
+    return baked, suns
 
 
 def _world_radiance(reader, node):
@@ -997,6 +1000,11 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     if mesh_cache is not None:
         mesh_cache.end()
     core.materials = materials.materials
+    if world.lights:                    # a Sky Texture's sun disc, a lamp of the world's (in the world's light group)
+        for sun in world.suns:
+            sun.camera = world.camera
+            core.lights.append(sun)
+            groups["lights"].append(groups["world"])
     world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0)
     emits = any(float(np.max(m.emission)) > 0.0 or m.nodes for m in core.materials)
     if not core.lights and not world_lights and not emits:

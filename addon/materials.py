@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
+from ..core.materials import sky as sky_
 from ..core.materials import textures as textures_
 from ..core.materials.graph import GraphNode, Link
 from ..core.materials.converters import CONVERTER_BY_BLENDER
@@ -159,7 +160,7 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeSeparateRGB": "SEPARATE_COLOR", "ShaderNodeSeparateXYZ": "SEPARATE_XYZ",
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
-               "ShaderNodeTexEnvironment": "ENVIRONMENT",
+               "ShaderNodeTexEnvironment": "ENVIRONMENT", "ShaderNodeTexSky": "SKY",
                "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT", "ShaderNodeNewGeometry": "GEOMETRY",
                "ShaderNodeCameraData": "CAMERA_DATA", "ShaderNodeWireframe": "WIREFRAME",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
@@ -231,6 +232,34 @@ class GraphReader:
             return own_value(consumer)
         return Link(graph_node, name)
 
+    def sky(self, node, warn):
+        """A Sky Texture's props {"sky": core/materials/sky.py Sky}, precomputed as Cycles 5.0 does (Blender 4.x's
+        NISHITA is Cycles 5.0's SINGLE_SCATTERING, its Dust its Aerosol); None, with a warning, where Primer cannot
+        evaluate it (a surface material; Hosek / Wilkie)."""
+        if self.reader.kind != "world":
+            warn("a Sky Texture is evaluated in world shaders only; Primer uses the input's own value")
+            return None
+        kind = {"NISHITA": "SINGLE_SCATTERING"}.get(node.sky_type, node.sky_type)
+        if kind not in sky_.SKY_TYPES:
+            warn(f"sky type {node.sky_type} needs Hosek and Wilkie's fitted dataset, which Primer does not carry; "
+                 "Primer uses the input's own value")
+            return None
+        if node.sky_type == "NISHITA":
+            warn("Blender 4.x's Nishita sky: Primer computes Cycles 5.0's Single Scattering sky, which this "
+                 "Blender's Cycles draws slightly differently (its sun disc hides the sky behind it, and it reads its "
+                 "table and fades the ground below the horizon its own way)")
+        mapping = getattr(node, "texture_mapping", None)
+        if mapping is not None and not identity_mapping(mapping):
+            warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
+        if _vector_linked(node) and kind != "PREETHAM" and node.sun_disc:
+            warn("its Vector is linked: Primer leaves its sun disc out (it lights the scene with the sun of a Sky "
+                 "Texture that reads the ray's direction)")
+        aerosol = getattr(node, "aerosol_density", getattr(node, "dust_density", 1.0))
+        return {"sky": sky_.precompute(
+            kind, float(node.sun_elevation), float(node.sun_rotation), float(node.sun_size),
+            float(node.sun_intensity), bool(node.sun_disc), float(node.altitude), float(node.air_density),
+            float(aerosol), float(node.ozone_density), tuple(node.sun_direction), float(node.turbidity))}
+
     def node(self, node, path: tuple):
         """The GraphNode of a Blender node (made once per group path), or None when Primer cannot read it."""
         key = (tuple(g.as_pointer() for g in path), node.as_pointer())
@@ -276,6 +305,11 @@ class GraphReader:
             inputs = self.inputs(node, path, ["Vector"]) if node.inputs["Vector"].is_linked else {}
             if not identity_mapping(node.texture_mapping):
                 inputs["Vector"] = mapped_vector(node.texture_mapping, inputs.get("Vector"), "Generated", warn)
+        elif kind == "SKY":
+            props = self.sky(node, warn)
+            if props is None:
+                return None
+            inputs = self.inputs(node, path, ["Vector"]) if _vector_linked(node) else {}
         elif kind == "TEXCOORD":
             if node.object is not None:                   # Object: in that object's frame
                 props = {"object_matrix": np.array(node.object.matrix_world, np.float64)}
@@ -453,6 +487,12 @@ def mapped_vector(mapping, vector, coordinate: str, warn) -> Link:
         "Vector": vector, "Location": tuple(float(x) for x in mapping.translation),
         "Rotation": tuple(float(x) for x in mapping.rotation), "Scale": scale}), "Vector")
     return vector
+
+
+def _vector_linked(node) -> bool:
+    """Whether a node's Vector input is there, enabled and linked (a Sky Texture's is hidden: unavailable in Blender)."""
+    socket = next((s for s in node.inputs if s.identifier == "Vector"), None)
+    return socket is not None and getattr(socket, "enabled", True) and socket.is_linked
 
 
 def identity_mapping(mapping) -> bool:

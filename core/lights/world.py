@@ -43,6 +43,8 @@ class World:
               without shadows they trace no shadow ray (the add-on does not read Blender 5.2's world Shadows: noted).
               A constant world has no light samples, in Cycles as in Primer (it is found by the rays that escape),
               so neither changes it.
+    suns:     the sun lamps it brings (a Sky Texture's sun disc, core/lights/world_graph.py sky_suns), which the
+              scene's lights take in when it lights surfaces
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -54,6 +56,7 @@ class World:
     name: str = "World"
     max_bounces: int = 1024
     cast_shadow: bool = True
+    suns: list = field(default_factory=list)
 
     @property
     def varying(self) -> bool:

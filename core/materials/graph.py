@@ -30,6 +30,7 @@ import numpy as np
 
 from ..native import library, schema
 from ..native.schema import F64, I64, ptr
+from . import sky as sky_
 from . import textures as textures_
 from .converters import CONVERTER_BY_KIND, CONVERTER_TYPES
 from .converters.colorspace import RGB_TO_Y
@@ -46,7 +47,10 @@ DESCRIBED_BY_KIND = {**TEXTURE_BY_KIND, **CONVERTER_BY_KIND}
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
-                                                               "CAMERA_DATA", "WIREFRAME", "WINDOW")
+                                                               "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY")
+# Ops of world shaders only, which the Python reference alone evaluates (world graphs are baked at export,
+# core/lights/world_graph.py): graph_tables refuses a program holding one, and graph.c has no case for them.
+WORLD_OPS = ("SKY",)
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
 # The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
@@ -115,6 +119,7 @@ NODE_OUTPUTS = {
     "OBJECT_INFO": {"Random": (1, "float")},
     "LIGHT_PATH": {"Is Camera Ray": (1, "float"), "Is Shadow Ray": (1, "float"), "Ray Length": (1, "float")},
     "IMAGE": {"Color": (3, "color"), "Alpha": (1, "float")}, "ENVIRONMENT": {"Color": (3, "color"), "Alpha": (1, "float")},
+    "SKY": {"Color": (3, "color")},
     "MAPPING": {"Vector": (3, "vector")}, "NORMAL_MAP": {"Normal": (3, "vector")}, "BUMP": {"Normal": (3, "vector")},
     "MATH": {"Value": (1, "float")}, "MIX": {"Result": (3, "color")},
     "RAMP": {"Color": (3, "color"), "Alpha": (1, "float")}, "INVERT": {"Color": (3, "color")},
@@ -301,6 +306,7 @@ class Compiler:
         self.ops: list = []
         self.outputs: list = []
         self.ramps: list = []
+        self.sky_starts: dict = {}
         self.next = 0                           # registers after the constants are numbered at the end
         self.memo: dict = {}
         self.offset = 0                         # the bump's evaluation point: 0 the hit, 1 along u, 2 along v
@@ -462,6 +468,8 @@ class Compiler:
             return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
         if kind == "ENVIRONMENT":
             return self.environment(inp, props, output)
+        if kind == "SKY":
+            return self.sky(inp, props)
         if kind == "MAPPING":
             args = [self.value(inp.get(name), 3, default) for name, default in
                     (("Vector", 0.0), ("Location", 0.0), ("Rotation", 0.0), ("Scale", 1.0))]
@@ -601,6 +609,19 @@ class Compiler:
                   textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0), textures_.EXTENSIONS["REPEAT"])
         return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
 
+    def sky(self, inp: dict, props: dict) -> tuple:
+        """Emit a Sky Texture (props["sky"]: a precomputed core/materials/sky.py Sky) at its Vector, else the Generated
+        coordinates (in a world: the ray's direction): its floats go to the program's float tables (the ramps), their
+        start kept in `sky_starts` by the Sky's id; return (register, width, type) of its Color."""
+        d = self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link) else self.attribute("generated")
+        floats = props["sky"].floats()
+        start = sum(len(r) for r in self.ramps)
+        self.ramps.append(floats)
+        self.sky_starts[id(props["sky"])] = start
+        out = self.temporary(3)
+        self.emit("SKY", out, d, start, len(floats))
+        return out, 3, "color"
+
     def texture(self, texture, inp: dict, props: dict, output: str) -> tuple:
         """Emit a described node's op (a procedural texture or a converter): its input registers in the class's order
         (an unlinked input whose default names a texture coordinate reads that attribute), then its numbers (first,
@@ -671,7 +692,7 @@ REGISTER_ARGS = {
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "RAY": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
-    "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2},
+    "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -939,6 +960,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]] = fresnel(reg[:, i[1]], None if i[2] < 0 else R(2, 3), sp)
         elif name == "LAYER_WEIGHT":
             reg[:, i[0]:i[0] + 2] = layer_weight(reg[:, i[1]], None if i[2] < 0 else R(2, 3), sp)
+        elif name == "SKY":
+            reg[:, i[0]:i[0] + 3] = sky_.evaluate(program.ramps[i[2]:i[2] + i[3]], R(1, 3))
         elif name in DESCRIBED_BY_KIND:
             texture = DESCRIBED_BY_KIND[name]
             k = len(texture.inputs)
@@ -1220,6 +1243,10 @@ class GraphTables:
         programs, self.rows = [], {}
         for row in range(len(table.shaders)):
             program = table.program(row, layout)
+            world_ops = {OPS[int(code)] for code in program.ops[:, 0]} & set(WORLD_OPS) if program is not None else ()
+            if world_ops:
+                raise ValueError(f"a surface material's program holds the world-only op(s) {sorted(world_ops)}, "
+                                 "which the compiled kernel does not evaluate")
             if program is not None:
                 self.rows[row] = len(programs)
                 programs.append(program)

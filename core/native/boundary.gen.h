@@ -121,6 +121,7 @@
 #define OP_CAMERA_DATA 46
 #define OP_WIREFRAME 47
 #define OP_WINDOW 48
+#define OP_SKY 49
 /* the kind of ray a hit was found by (core.materials.graph) */
 #define RAY_CAMERA 0
 #define RAY_BOUNCE 1
@@ -800,7 +801,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7667246339315466006);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(6196929927593898055);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(2011846935204343166);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);

@@ -1,0 +1,180 @@
+"""Cycles' Sky Texture (core/materials/sky.py) and its sun lamp (core/lights/world_graph.py sky_suns): closed forms of
+an empty atmosphere, of the sky's symmetry about the sun, of the sun disc's mean radiance and of Preetham's zenith;
+a Sky Texture in a surface material's program is refused before the compiled kernel sees it."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core.lights import world_graph
+from core.materials import sky
+from core.materials.graph import GraphNode, Link
+
+
+def test_an_empty_atmosphere_transmits_everything_and_scatters_nothing():
+    """Air, aerosol and ozone 0: the transmittance to the top of the atmosphere is 1 at every altitude and angle, the
+    sky black, and the sun's edges the sun's spectral irradiance over the disc's solid angle, to XYZ."""
+    atmosphere = sky.Atmosphere(0.0, 0.0, 0.0)
+    cos_zenith, altitude = np.linspace(-1.0, 1.0, 7), np.linspace(0.0, 1.0, 7)
+    assert np.array_equal(atmosphere.transmittance(cos_zenith, altitude), np.ones((7, 4)))
+    assert not sky.multiple_scattering_table(0.3, 100.0, 0.0, 0.0, 0.0, width=16, height=8).any()
+    size = 0.01
+    bottom, top = sky.multiple_scattering_sun(0.3, size, 100.0, 0.0, 0.0, 0.0)
+    expected = sky.MS_SUN @ sky.MS_TO_XYZ / (2.0 * math.pi * (1.0 - math.cos(0.5 * size)))
+    assert np.allclose(bottom, expected, rtol=1e-12) and np.allclose(top, expected, rtol=1e-12)
+
+
+def test_an_atmosphere_dims_the_sun_more_near_the_horizon():
+    """Earth's atmosphere: the sun's light is dimmed, and more through the longer path at a low elevation."""
+    atmosphere = sky.Atmosphere(1.0, 1.0, 1.0)
+    low, high = atmosphere.transmittance(np.array([0.1, 0.9]), np.zeros(2))
+    assert (high < 1.0).all() and (low < high).all()
+
+
+@pytest.mark.parametrize("kind", ["MULTIPLE_SCATTERING", "SINGLE_SCATTERING", "PREETHAM"])
+def test_the_sky_is_symmetric_about_the_suns_vertical_plane(kind):
+    """Directions mirrored in the vertical plane through the sun (the tables compute one half and mirror it; the
+    lookup turns by the sun's rotation) see the same sky, for a sun rotated by an odd angle. (Single scattering's
+    texels sit at longitudes 2 pi x / W - pi, half a texel off the lookup's centres, as in Cycles: symmetric to
+    within that half texel, 0.35 degrees at its 512 columns; multiple scattering's exactly, here at 128 columns.)"""
+    elevation, rotation = math.radians(20.0), math.radians(-130.0)
+    if kind == "MULTIPLE_SCATTERING":
+        e, r = sky.wrapped_sun(elevation, rotation)
+        model = sky.Sky(kind, e, r, table=sky.multiple_scattering_table(e, 100.0, 1.0, 1.0, 1.0, 128, 64))
+    else:
+        model = sky.precompute(kind, elevation, rotation, sun_direction=(0.3, -0.5, 0.4))
+    sun = sky.sun_towards(model.elevation, model.rotation) if kind != "PREETHAM" else \
+        np.array([0.3, -0.5, 0.4]) / np.linalg.norm([0.3, -0.5, 0.4])
+    rng = np.random.default_rng(3)
+    D = rng.normal(size=(200, 3))
+    D /= np.linalg.norm(D, axis=1, keepdims=True)
+    normal = np.cross([0.0, 0.0, 1.0], sun)
+    normal /= np.linalg.norm(normal)
+    mirrored = D - 2.0 * (D @ normal)[:, None] * normal
+    floats = model.floats()
+    tolerance = 2e-3 if kind == "SINGLE_SCATTERING" else 1e-9
+    assert np.allclose(sky.evaluate(floats, D), sky.evaluate(floats, mirrored), rtol=tolerance, atol=1e-9)
+
+
+def test_the_sun_is_where_the_wrapped_angles_put_it():
+    """An elevation past the zenith (100 degrees) is the sun at 80 degrees seen from the other side (rotation + 180);
+    rotation turns the sun clockwise seen from above (Cycles' 2 pi - rotation): from +Y at 0 to +X at 90 degrees."""
+    over = sky.sun_towards(*sky.wrapped_sun(math.radians(100.0), 0.4))
+    under = sky.sun_towards(*sky.wrapped_sun(math.radians(80.0), 0.4 + math.pi))
+    assert np.allclose(over, under, atol=1e-6)
+    assert np.allclose(sky.sun_towards(*sky.wrapped_sun(0.0, 0.5 * math.pi)), [1.0, 0.0, 0.0], atol=1e-6)
+    assert np.allclose(sky.sun_towards(*sky.wrapped_sun(0.0, 0.0)), [0.0, 1.0, 0.0], atol=1e-6)
+
+
+def test_the_sun_discs_mean_radiance_is_its_limb_darkened_centre_colour():
+    """A small disc of radiance linear from bottom to top times 1 - 0.6 (1 - sqrt(1 - r^2)) averages, over its
+    cone, 0.8 (the limb darkening's mean over a disc: 1 - 0.6 / 3) times the mean of bottom and top (at the horizon,
+    where the disc's elevations are symmetric about its centre's; higher up to second order in its size)."""
+    bottom, top = np.array([1.0, 2.0, 3.0]), np.array([3.0, 2.0, 1.0])
+    mean = sky.disc_mean_xyz(0.0, 1.0, 0.0095, 2.0, bottom, top, -1.0)
+    assert np.allclose(mean, 2.0 * 0.8 * 0.5 * (bottom + top), rtol=1e-5), mean
+    assert np.allclose(sky.disc_mean_xyz(0.5, 1.0, 0.0095, 2.0, bottom, top, -1.0), mean, rtol=5e-4)
+
+
+def test_the_sky_suns_lamp_gives_the_irradiance_of_the_disc_through_the_worlds_strength():
+    """The lamp of a Sky Texture times Strength 0.5: it shines from the disc's direction with the disc's angle and the
+    irradiance of its radiance over the cone: 0.5 x RGB(disc's mean XYZ) x solid angle (Primer's sun: radiance
+    S / (pi sin^2 a/2), integrated over 2 pi (1 - cos a/2))."""
+    model = sky.precompute("SINGLE_SCATTERING", math.radians(30.0), 0.7)
+    node = GraphNode("SKY", {"sky": model}, {}, "Sky Texture")
+    lamps, notes = world_graph.sky_suns(Link(node, "Color"), 0.5)
+    assert notes == [] and len(lamps) == 1
+    lamp = lamps[0]
+    assert np.allclose(-lamp.direction, sky.sun_towards(model.elevation, model.rotation))
+    assert lamp.angle == pytest.approx(model.size)
+    rgb = 0.5 * sky.xyz_to_rgb_clamped(model.disc_mean_xyz()[None, :])[0]
+    half = 0.5 * model.size
+    shines = lamp.strength * np.asarray(lamp.color) / (math.pi * math.sin(half) ** 2) * 2.0 * math.pi \
+        * (1.0 - math.cos(half))
+    assert np.allclose(shines, rgb * 2.0 * math.pi * (1.0 - math.cos(half)), rtol=1e-6)
+
+
+def test_a_sky_without_its_disc_brings_no_lamp():
+    """sun_disc off: Cycles draws no disc, so no lamp; the bake still holds the sky."""
+    model = sky.precompute("SINGLE_SCATTERING", math.radians(30.0), 0.7, sun_disc=False)
+    lamps, _ = world_graph.sky_suns(Link(GraphNode("SKY", {"sky": model}, {}, "Sky"), "Color"), 1.0)
+    assert lamps == []
+
+
+def test_preethams_sky_at_the_zenith_is_the_zenith_colour():
+    """Straight up (theta 0, gamma the sun's zenith angle) Perez' function equals its normalisation, so the sky is
+    Preetham's zenith luminance Y_z = 0.06 ((4.0453 T - 4.9710) tan chi - 0.2155 T + 2.4192) and chromaticity
+    (x_z, y_z), chi = (4/9 - T/120)(pi - 2 theta_s), as XYZ = (x/y Y, Y, (1 - x - y)/y Y)."""
+    T, theta = 3.0, math.radians(40.0)
+    numbers = sky.preetham(np.array([0.0, math.sin(theta), math.cos(theta)]), T)
+    chi = (4.0 / 9.0 - T / 120.0) * (math.pi - 2.0 * theta)
+    Y = 0.06 * ((4.0453 * T - 4.9710) * math.tan(chi) - 0.2155 * T + 2.4192)
+    t3, t2, t1 = theta ** 3, theta ** 2, theta
+    x = ((0.00166 * t3 - 0.00375 * t2 + 0.00209 * t1) * T * T
+         + (-0.02903 * t3 + 0.06377 * t2 - 0.03202 * t1 + 0.00394) * T
+         + (0.11693 * t3 - 0.21196 * t2 + 0.06052 * t1 + 0.25886))
+    y = ((0.00275 * t3 - 0.00610 * t2 + 0.00317 * t1) * T * T
+         + (-0.04214 * t3 + 0.08970 * t2 - 0.04153 * t1 + 0.00516) * T
+         + (0.15346 * t3 - 0.26756 * t2 + 0.06670 * t1 + 0.26688))
+    xyz = sky.preetham_xyz(numbers, np.array([[0.0, 0.0, 1.0]]))[0]
+    assert np.allclose(xyz, [x / y * Y, Y, (1.0 - x - y) / y * Y], rtol=1e-12)
+
+
+def test_a_sky_op_is_refused_before_the_compiled_kernel():
+    """graph.c has no case for a world-only op: graph_tables refuses a program that holds one."""
+    from core.materials import graph
+
+    class Table:
+        shaders = [None]
+        has_graphs = True
+
+        def program(self, row, layout):
+            compiler = graph.Compiler(layout, lambda image: -1, material="m")
+            compiler.value(Link(GraphNode("SKY", {"sky": sky.precompute("PREETHAM")}, {}, "Sky"), "Color"), 3)
+            return compiler.compile([])
+
+    with pytest.raises(ValueError, match="world-only"):
+        graph.graph_tables(Table(), graph.layout_of({"generated"}))
+
+
+def test_nodes_that_do_not_scale_the_skys_colour_are_noted_for_its_sun():
+    """The sky multiplied by itself (a Mix Multiply of A = B = sky) does not scale with its colour: the lamp then
+    carries the light those nodes give the disc's mean radiance, and the add-on is told so."""
+    model = sky.precompute("SINGLE_SCATTERING", math.radians(30.0), 0.7)
+    color = Link(GraphNode("SKY", {"sky": model}, {}, "Sky Texture"), "Color")
+    props = {"data_type": "RGBA", "blend_type": "MULTIPLY", "clamp_factor": True, "clamp_result": False}
+    squared = Link(GraphNode("MIX", props, {"Factor": 1.0, "A": color, "B": color}, "Multiply"), "Result")
+    lamps, notes = world_graph.sky_suns(squared, 1.0)
+    assert len(lamps) == 1 and len(notes) == 1 and "Sky Texture" in notes[0], notes
+
+
+def test_the_discs_mean_radiance_times_its_solid_angle_is_its_radiance_integrated_over_the_sky():
+    """The disc at 30 degrees of elevation (bottom and top differ) integrated by brute force over a fine grid of the
+    sky around it (directions on the tangent plane, weighted by the solid angle of each cell, cos^3 of its offset)
+    equals its mean radiance times the cone's solid angle 2 pi (1 - cos(size / 2))."""
+    elevation, rotation, size = math.radians(30.0), 0.9, 0.0095
+    bottom, top = np.array([1.0, 2.0, 4.0]), np.array([3.0, 2.0, 1.0])
+    sun = sky.sun_towards(elevation, rotation)
+    t = np.cross([0.0, 0.0, 1.0], sun)
+    t /= np.linalg.norm(t)
+    b = np.cross(sun, t)
+    n, reach = 801, 0.6 * size
+    a = np.linspace(-reach, reach, n)
+    x, y = (g.ravel() for g in np.meshgrid(a, a))
+    D = sun + x[:, None] * t + y[:, None] * b
+    length = np.linalg.norm(D, axis=1)
+    D /= length[:, None]
+    cell = (a[1] - a[0]) ** 2 / length ** 3
+    integral = cell @ sky.disc_xyz(D, elevation, rotation, size, 1.0, bottom, top, -1.0)
+    expected = sky.disc_mean_xyz(elevation, rotation, size, 1.0, bottom, top, -1.0) * 2.0 * math.pi \
+        * (1.0 - math.cos(0.5 * size))
+    assert np.allclose(integral, expected, rtol=2e-4), (integral, expected)
+
+
+def test_the_xyz_matrix_takes_d65_white_to_rgb_white():
+    """Cycles' XYZ to scene-linear matrix (Blender's configuration: XYZ with a D65 white to Linear Rec.709) takes the
+    D65 white point (chromaticity x 0.3127, y 0.3290; luminance 1) to (1, 1, 1)."""
+    x, y = 0.3127, 0.3290
+    assert np.allclose(sky.XYZ_TO_RGB @ [x / y, 1.0, (1.0 - x - y) / y], 1.0, atol=1e-6)
