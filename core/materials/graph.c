@@ -86,38 +86,6 @@ INLINE double mix_channel(int blend, double t, double c1, double c2)
     }
 }
 
-/* graph.rgb_to_hsv, hsv_to_rgb */
-INLINE void rgb_to_hsv(const double *rgb, double *hsv)
-{
-    double cmax = rgb[0] > rgb[1] ? rgb[0] : rgb[1];
-    cmax = rgb[2] > cmax ? rgb[2] : cmax;
-    double cmin = rgb[0] < rgb[1] ? rgb[0] : rgb[1];
-    cmin = rgb[2] < cmin ? rgb[2] : cmin;
-    double delta = cmax - cmin, s = cmax != 0.0 ? safe_div(delta, cmax) : 0.0, h = 0.0;
-    if (s != 0.0) {
-        double c[3];
-        for (int j = 0; j < 3; j++) c[j] = safe_div(cmax - rgb[j], delta);
-        if (rgb[0] == cmax) h = c[2] - c[1];
-        else if (rgb[1] == cmax) h = 2.0 + c[0] - c[2];
-        else h = 4.0 + c[1] - c[0];
-        h /= 6.0;
-        if (h < 0.0) h += 1.0;
-    }
-    hsv[0] = h; hsv[1] = s; hsv[2] = cmax;
-}
-
-INLINE void hsv_to_rgb(const double *hsv, double *rgb)
-{
-    double h = hsv[0], s = hsv[1], v = hsv[2];
-    if (s == 0.0) { rgb[0] = rgb[1] = rgb[2] = v; return; }
-    h = (h == 1.0 ? 0.0 : h) * 6.0;
-    double i = floor(h), f = h - i;
-    double p = v * (1.0 - s), q = v * (1.0 - s * f), t = v * (1.0 - s * (1.0 - f));
-    double out[6][3] = {{v, t, p}, {q, v, p}, {p, v, t}, {p, q, v}, {t, p, v}, {v, p, q}};
-    int k = (i >= 0.0 && i < 5.0) ? (int)i : 5;
-    for (int j = 0; j < 3; j++) rgb[j] = out[k][j];
-}
-
 /* graph.safe_normalize: v / |v| in place, 0 where |v| is 0. */
 INLINE void safe_normalize3(double *v)
 {
@@ -397,20 +365,20 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             for (int j = 0; j < 3; j++) out[j] = r[j];
             break;
         }
-        case OP_HSV: {
-            const double *color = reg + a[5];
-            double hsv[3], rgb[3], fac = reg[a[4]];
-            rgb_to_hsv(color, hsv);
-            hsv[0] = hsv[0] + reg[a[1]] + 0.5;
-            hsv[0] -= floor(hsv[0]);
-            hsv[1] = clamp01(hsv[1] * reg[a[2]]);
-            hsv[2] = hsv[2] * reg[a[3]];
-            hsv_to_rgb(hsv, rgb);
+        case OP_HSV: {          /* Cycles' svm_node_hsv, in float32 (the colour model of converters/color.h) */
+            float color[3], hsv[3], rgb[3], fac = (float)reg[a[4]];
+            for (int j = 0; j < 3; j++) color[j] = (float)reg[a[5] + j];
+            rgb_to_hsv_f(color, hsv);
+            float h = hsv[0] + (float)reg[a[1]] + 0.5f;
+            hsv[0] = h - floorf(h);
+            float s = hsv[1] * (float)reg[a[2]];
+            hsv[1] = s < 0.0f ? 0.0f : s > 1.0f ? 1.0f : s;
+            hsv[2] = hsv[2] * (float)reg[a[3]];
+            hsv_to_rgb_f(hsv, rgb);
             for (int j = 0; j < 3; j++) {
-                double v = fac * rgb[j] + (1.0 - fac) * color[j];
-                rgb[j] = v > 0.0 ? v : 0.0;
+                float v = fac * rgb[j] + (1.0f - fac) * color[j];
+                out[j] = v > 0.0f ? v : 0.0f;
             }
-            for (int j = 0; j < 3; j++) out[j] = rgb[j];
             break;
         }
         case OP_COPY: { double r[3]; for (int j = 0; j < a[2]; j++) r[j] = reg[a[1] + j]; for (int j = 0; j < a[2]; j++) out[j] = r[j]; break; }

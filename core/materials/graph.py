@@ -33,9 +33,11 @@ from ..native.schema import F64, I64, ptr
 from . import sky as sky_
 from . import textures as textures_
 from .converters import CONVERTER_BY_KIND, CONVERTER_TYPES
+from .converters import color as color_
 from .converters.colorspace import RGB_TO_Y
 from .procedural import TEXTURE_BY_KIND, TEXTURE_TYPES
 from .procedural import hash as hash_
+from .procedural.base import F32
 
 # The described nodes (one class each: core/materials/procedural's textures, core/materials/converters' converter and
 # colour nodes): compiled from their description (Compiler.texture), one op each.
@@ -795,33 +797,6 @@ def mix_color(blend: int, t: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.n
     raise ValueError(name)
 
 
-def rgb_to_hsv(rgb: np.ndarray) -> np.ndarray:
-    """Cycles' rgb_to_hsv for (n, 3)."""
-    cmax, cmin = rgb.max(axis=1), rgb.min(axis=1)
-    delta = cmax - cmin
-    s = np.where(cmax != 0.0, safe_divide(delta, cmax), 0.0)
-    c = safe_divide(cmax[:, None] - rgb, delta[:, None])
-    h = np.where(rgb[:, 0] == cmax, c[:, 2] - c[:, 1],
-                 np.where(rgb[:, 1] == cmax, 2.0 + c[:, 0] - c[:, 2], 4.0 + c[:, 1] - c[:, 0])) / 6.0
-    h = np.where(h < 0.0, h + 1.0, h)
-    h = np.where(s != 0.0, h, 0.0)
-    return np.stack([h, s, cmax], axis=1)
-
-
-def hsv_to_rgb(hsv: np.ndarray) -> np.ndarray:
-    """Cycles' hsv_to_rgb for (n, 3)."""
-    h, s, v = hsv[:, 0], hsv[:, 1], hsv[:, 2]
-    h = np.where(h == 1.0, 0.0, h) * 6.0
-    i = np.floor(h)
-    f = h - i
-    p, q, t = v * (1.0 - s), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f))
-    choices = [np.stack(x, axis=1) for x in ((v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q))]
-    out = choices[5].copy()
-    for k in range(5):
-        out = np.where((i == k)[:, None], choices[k], out)
-    return np.where((s != 0.0)[:, None], out, np.stack([v, v, v], axis=1))
-
-
 def euler_matrix(r: np.ndarray) -> np.ndarray:
     """Cycles' euler_to_transform: the rotation (n, 3, 3) of XYZ Euler angles (n, 3), Rz Ry Rx."""
     cx, cy, cz = np.cos(r[:, 0]), np.cos(r[:, 1]), np.cos(r[:, 2])
@@ -907,15 +882,16 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "INVERT":
             fac, color = reg[:, i[1]:i[1] + 1], R(2, 3)
             reg[:, i[0]:i[0] + 3] = fac * (1.0 - color) + (1.0 - fac) * color
-        elif name == "HSV":
-            color = R(5, 3)
-            hsv = rgb_to_hsv(color)
-            hsv[:, 0] = hsv[:, 0] + reg[:, i[1]] + 0.5
-            hsv[:, 0] -= np.floor(hsv[:, 0])
-            hsv[:, 1] = np.clip(hsv[:, 1] * reg[:, i[2]], 0.0, 1.0)
-            hsv[:, 2] = hsv[:, 2] * reg[:, i[3]]
-            fac = reg[:, i[4]:i[4] + 1]
-            reg[:, i[0]:i[0] + 3] = np.maximum(fac * hsv_to_rgb(hsv) + (1.0 - fac) * color, 0.0)
+        elif name == "HSV":                     # Cycles' svm_node_hsv, in float32
+            color = R(5, 3).astype(F32)
+            hue, saturation, value, fac = (reg[:, i[k]].astype(F32) for k in (1, 2, 3, 4))
+            hsv = color_.rgb_to_hsv(color)
+            h = hsv[:, 0] + hue + F32(0.5)
+            hsv[:, 0] = h - np.floor(h)
+            hsv[:, 1] = np.clip(hsv[:, 1] * saturation, F32(0.0), F32(1.0))
+            hsv[:, 2] = hsv[:, 2] * value
+            rgb = color_.hsv_to_rgb(hsv)
+            reg[:, i[0]:i[0] + 3] = np.maximum(fac[:, None] * rgb + (F32(1.0) - fac)[:, None] * color, F32(0.0))
         elif name == "COPY":
             reg[:, i[0]:i[0] + i[2]] = R(1, i[2])
         elif name == "CLAMP":
