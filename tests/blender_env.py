@@ -436,3 +436,60 @@ def lambert_everywhere(scene, albedo=(0.8, 0.8, 0.8)):
     Override (Cycles' default surface is a Principled BSDF, whose specular layer the lecture's closed forms
     leave out)."""
     scene.view_layers[0].material_override = diffuse_material("Lecture Lambert", albedo)
+
+
+def primer_in_blender():
+    """Inside Blender: Primer registered from this checkout as tools/render.py loads it, and its add-on's export
+    module: (the primer package, addon.export)."""
+    sys.path.insert(0, os.path.join(ROOT, "tools"))
+    from render import load_primer
+    primer = load_primer()
+    return primer, sys.modules[primer.__name__ + ".addon.export"]
+
+
+def snapped_generated(tree, pixels: int):
+    """Inside Blender: Math nodes in `tree` giving the Generated coordinate snapped to its pixel's centre and mapped
+    to -2..2, (floor(pixels g) + 0.5) / pixels x 4 - 2 (every step exact in float32 and float64), so that every sample
+    of a pixel reads the same value whichever renderer places it: (the Vector socket (x, y, 0.375), the x socket, the
+    y socket)."""
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(coords.outputs["Generated"], separate.inputs["Vector"])
+    combine = tree.nodes.new("ShaderNodeCombineXYZ")
+    combine.inputs["Z"].default_value = 0.375
+    ends = []
+    for axis in ("X", "Y"):
+        steps = [("MULTIPLY", pixels), ("FLOOR", 0.0), ("ADD", 0.5), ("MULTIPLY", 4.0 / pixels), ("SUBTRACT", 2.0)]
+        socket = separate.outputs[axis]
+        for operation, value in steps:
+            math = tree.nodes.new("ShaderNodeMath")
+            math.operation = operation
+            math.inputs[1].default_value = value
+            tree.links.new(socket, math.inputs[0])
+            socket = math.outputs[0]
+        tree.links.new(socket, combine.inputs[axis])
+        ends.append(socket)
+    return combine.outputs["Vector"], ends[0], ends[1]
+
+
+def render_plane_grid(scene, export, columns: int, pixels: int, count: int) -> list:
+    """Inside Blender: `count` unit planes laid out `columns` to a row (plane k centred at (k % columns + 1/2,
+    -(k // columns) - 1/2, 0)) seen from above by an orthographic camera, `pixels` pixels across each, rendered at
+    one sample by Primer and by Cycles into primer.npy and cycles.npy (rows top first, RGB); returns the export's
+    warnings."""
+    import bpy
+    import numpy as np
+    rows = -(-count // columns)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type = "ORTHO"
+    camera.data.ortho_scale = float(columns)
+    camera.location = (columns / 2, -rows / 2, 5.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.resolution_x, scene.render.resolution_y = columns * pixels, rows * pixels
+    scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    for engine in ("PRIMER", "CYCLES"):
+        image = render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), 1)[::-1, :, :3]
+        np.save(engine.lower() + ".npy", image)
+    return warnings

@@ -15,7 +15,7 @@ import os
 import numpy as np
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 
 pytestmark = pytest.mark.blender
 
@@ -31,36 +31,11 @@ SCRIPT = """
 import sys, os
 import bpy
 import numpy as np
-from blender_env import report, render_pixels, empty_material
-sys.path.insert(0, {tools!r})
-from render import load_primer
-primer = load_primer()
-export = sys.modules[primer.__name__ + ".addon.export"]
+from blender_env import report, render_pixels, empty_material, primer_in_blender, snapped_generated, render_plane_grid
+primer, export = primer_in_blender()
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 PIXELS, COLUMNS = {pixels}, {columns}
-
-
-def snapped(tree):
-    # The Generated coordinate snapped to the pixel centre, mapped to -2..2: (floor(P g) + 0.5) / P x 4 - 2.
-    coords = tree.nodes.new("ShaderNodeTexCoord")
-    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
-    tree.links.new(coords.outputs["Generated"], separate.inputs["Vector"])
-    combine = tree.nodes.new("ShaderNodeCombineXYZ")
-    combine.inputs["Z"].default_value = 0.375
-    ends = []
-    for axis in ("X", "Y"):
-        steps = [("MULTIPLY", PIXELS), ("FLOOR", 0.0), ("ADD", 0.5), ("MULTIPLY", 4.0 / PIXELS), ("SUBTRACT", 2.0)]
-        socket = separate.outputs[axis]
-        for operation, value in steps:
-            math = tree.nodes.new("ShaderNodeMath")
-            math.operation = operation
-            math.inputs[1].default_value = value
-            tree.links.new(socket, math.inputs[0])
-            socket = math.outputs[0]
-        tree.links.new(socket, combine.inputs[axis])
-        ends.append(socket)
-    return combine.outputs["Vector"], ends[0], ends[1]
 
 
 def affine(tree, socket, scale, offset):
@@ -86,7 +61,7 @@ def case(label, idname, output, settings=(), values=(), links=(), setup=None, ab
         setattr(node, name, value)
     for identifier, value in values:
         next(s for s in node.inputs if s.identifier == identifier).default_value = value
-    v, x, y = snapped(tree)
+    v, x, y = snapped_generated(tree, PIXELS)
     sources = {{"v": v, "x": x, "y": y}}
     for identifier, source in links:
         socket = affine(tree, sources[source[0]], source[1], source[2]) if isinstance(source, tuple) else sources[source]
@@ -184,20 +159,7 @@ case("Vector Curves", "ShaderNodeVectorCurve", "Vector", values=[("Fac", 0.9)], 
 case("Float Curve", "ShaderNodeFloatCurve", "Value", links=[("Value", ("x", 0.4, 0.5))], setup=float_curve,
      absolute=True)
 
-rows = -(-len(cases) // COLUMNS)
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.data.type = "ORTHO"
-camera.data.ortho_scale = float(COLUMNS)
-camera.location = (COLUMNS / 2, -rows / 2, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
-scene.render.resolution_x, scene.render.resolution_y = COLUMNS * PIXELS, rows * PIXELS
-scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
-warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
-images = {{engine: render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), 1)[::-1, :, :3]
-          for engine in ("PRIMER", "CYCLES")}}
-np.save("primer.npy", images["PRIMER"])
-np.save("cycles.npy", images["CYCLES"])
+warnings = render_plane_grid(scene, export, COLUMNS, PIXELS, len(cases))
 primer.unregister()
 report(cases=cases, warnings=warnings, version=list(bpy.app.version))
 """
@@ -205,7 +167,7 @@ report(cases=cases, warnings=warnings, version=list(bpy.app.version))
 
 def worst_per_node(tmp_path) -> tuple:
     """Render every case with Primer and Cycles: (label -> largest absolute difference, the report)."""
-    result = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), pixels=PIXELS, columns=COLUMNS), str(tmp_path))
+    result = run_bpy(SCRIPT.format(pixels=PIXELS, columns=COLUMNS), str(tmp_path))
     primer, cycles = np.load(tmp_path / "primer.npy"), np.load(tmp_path / "cycles.npy")
     assert primer.shape == cycles.shape
     worst = {}

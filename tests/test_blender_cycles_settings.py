@@ -40,13 +40,33 @@ def quad(name: str, corners, material) -> None:
     bpy.context.scene.collection.objects.link(bpy.data.objects.new(name, mesh))
 
 
+def new_cycles_file(width: int, height: int):
+    """An empty scene as a file made for Cycles would set it: width x height pixels, Cycles on the CPU at 64 samples,
+    no adaptive sampling, no denoising, no world."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = width, height
+    scene.render.resolution_percentage = 100
+    scene.world = None
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples, cycles.use_adaptive_sampling, cycles.use_denoising = 64, False, False
+    return scene
+
+
+def add_camera(scene, location, rotation, lens: float = 50.0) -> None:
+    """Link a perspective camera at `location` turned by Euler `rotation` (radians) and make it the scene's."""
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location, camera.rotation_euler = location, rotation
+    camera.data.lens = lens
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+
+
 def corner_scene():
     """A floor and two walls (diffuse, albedo 0.8) under an area light, 40 x 30; Cycles settings of a file made for
     Cycles: 64 samples, no adaptive sampling, one bounce, no denoising."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = 40, 30
-    scene.render.resolution_percentage = 100
+    scene = new_cycles_file(40, 30)
     white = diffuse_material("White", (0.8, 0.8, 0.8))
     quad("Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], white)
     quad("Back", [(-2, 2, 0), (2, 2, 0), (2, 2, 3), (-2, 2, 3)], white)
@@ -55,16 +75,9 @@ def corner_scene():
     light.data.energy, light.data.size = 300.0, 1.0
     light.location = (0.5, 0.0, 2.5)
     scene.collection.objects.link(light)
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.location, camera.rotation_euler = (3.5, -5.0, 2.5), (math.radians(70), 0.0, math.radians(35))
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    scene.world = None
-    cycles = scene.cycles
-    cycles.device = "CPU"
-    cycles.samples, cycles.use_adaptive_sampling, cycles.use_denoising = 64, False, False
-    cycles.max_bounces, cycles.diffuse_bounces = 1, 1
-    cycles.seed = 3
+    add_camera(scene, (3.5, -5.0, 2.5), (math.radians(70), 0.0, math.radians(35)))
+    scene.cycles.max_bounces, scene.cycles.diffuse_bounces = 1, 1
+    scene.cycles.seed = 3
     return scene
 
 
@@ -173,10 +186,7 @@ def test_the_panels_show_the_settings_the_render_reads(primer, source):
 def terminator_scene():
     """A 12-segment smooth sphere (Cycles' default Shadow Terminator Geometry Offset, 0.1) under a low sun, its
     terminator across the image, and a smooth cube with its own offset 0.3; 48 x 36, direct light, 64 samples."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = 48, 36
-    scene.render.resolution_percentage = 100
+    scene = new_cycles_file(48, 36)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, radius=1.0)
     bpy.ops.object.shade_smooth()
     sphere = bpy.context.view_layer.objects.active
@@ -188,16 +198,8 @@ def terminator_scene():
     sun.data.energy, sun.data.angle = 3.0, 0.0
     sun.rotation_euler = (math.radians(75.0), 0.0, math.radians(90.0))
     scene.collection.objects.link(sun)
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.location, camera.rotation_euler = (0.0, -4.0, 0.0), (math.radians(90.0), 0.0, 0.0)
-    camera.data.lens = 40.0
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    scene.world = None
-    cycles = scene.cycles
-    cycles.device = "CPU"
-    cycles.samples, cycles.use_adaptive_sampling, cycles.use_denoising = 64, False, False
-    cycles.max_bounces = 0
+    add_camera(scene, (0.0, -4.0, 0.0), (math.radians(90.0), 0.0, 0.0), lens=40.0)
+    scene.cycles.max_bounces = 0
     return scene
 
 

@@ -19,7 +19,7 @@ import os
 import numpy as np
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 
 pytestmark = pytest.mark.blender
 
@@ -36,11 +36,8 @@ SCRIPT = """
 import sys, os, math
 import bpy
 import numpy as np
-from blender_env import report, render_pixels, empty_material
-sys.path.insert(0, {tools!r})
-from render import load_primer
-primer = load_primer()
-export = sys.modules[primer.__name__ + ".addon.export"]
+from blender_env import report, render_pixels, empty_material, primer_in_blender
+primer, export = primer_in_blender()
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 PIXELS, ROWS, SAMPLES = {pixels}, {rows}, {samples}
@@ -166,7 +163,7 @@ def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_p
     """Every face of a sphere seen from the front and two planes seen from behind (past the critical angle for
     Fresnel at 60 degrees): Primer's pixels are Cycles' values to float32 rounding where they are one value in a
     pixel, within sampling noise where they vary across it; what Primer does not read is warned of."""
-    script = SCRIPT.format(tools=os.path.join(ROOT, "tools"), pixels=PIXELS, rows=ROWS, samples=SAMPLES)
+    script = SCRIPT.format(pixels=PIXELS, rows=ROWS, samples=SAMPLES)
     result = run_bpy(script, str(tmp_path))
     assert sorted(result["warnings"]) == sorted([
         f"material '{name}', node 'Geometry': output '{name}' is not one Primer evaluates; for 'Color' of 'Emission' "

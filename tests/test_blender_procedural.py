@@ -20,7 +20,7 @@ import os
 import numpy as np
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 from core.materials.procedural import MagicTexture
 
 pytestmark = pytest.mark.blender
@@ -37,36 +37,11 @@ SCRIPT = """
 import sys, os
 import bpy
 import numpy as np
-from blender_env import report, render_pixels, empty_material
-sys.path.insert(0, {tools!r})
-from render import load_primer
-primer = load_primer()
-export = sys.modules[primer.__name__ + ".addon.export"]
+from blender_env import report, render_pixels, empty_material, primer_in_blender, snapped_generated, render_plane_grid
+primer, export = primer_in_blender()
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 PIXELS, COLUMNS = {pixels}, {columns}
-
-
-def snapped(tree):
-    # The Generated coordinate snapped to the pixel centre, mapped to -2..2: (floor(32 g) + 0.5) / 32 x 4 - 2.
-    coords = tree.nodes.new("ShaderNodeTexCoord")
-    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
-    tree.links.new(coords.outputs["Generated"], separate.inputs["Vector"])
-    combine = tree.nodes.new("ShaderNodeCombineXYZ")
-    combine.inputs["Z"].default_value = 0.375
-    ends = []
-    for axis in ("X", "Y"):
-        steps = [("MULTIPLY", PIXELS), ("FLOOR", 0.0), ("ADD", 0.5), ("MULTIPLY", 4.0 / PIXELS), ("SUBTRACT", 2.0)]
-        socket = separate.outputs[axis]
-        for operation, value in steps:
-            math = tree.nodes.new("ShaderNodeMath")
-            math.operation = operation
-            math.inputs[1].default_value = value
-            tree.links.new(socket, math.inputs[0])
-            socket = math.outputs[0]
-        tree.links.new(socket, combine.inputs[axis])
-        ends.append(socket)
-    return combine.outputs["Vector"], ends[0]
 
 
 cases = []
@@ -82,7 +57,7 @@ def case(label, idname, output, settings=(), inputs=(), snap=True, absolute=Fals
     for name, value in inputs:
         next(s for s in node.inputs if name in (s.identifier, s.name)).default_value = value  # (unavailable too)
     if snap:
-        vector, x = snapped(tree)
+        vector, x, _ = snapped_generated(tree, PIXELS)
         available = {{s.name: s for s in node.inputs if s.enabled}}
         if "Vector" in available:
             tree.links.new(vector, available["Vector"])
@@ -176,20 +151,7 @@ case("Mapped Wave vector max", "ShaderNodeTexWave", "Fac", [("wave_type", "RINGS
      mapping=[("vector_type", "VECTOR"), ("translation", (5.0, 5.0, 5.0)), ("rotation", (0.3, 0.0, 0.0)),
               ("scale", (1.0, 2.0, 1.0)), ("use_max", True), ("max", (1.0, 1.5, 1.0))])
 
-rows = -(-len(cases) // COLUMNS)
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.data.type = "ORTHO"
-camera.data.ortho_scale = float(COLUMNS)
-camera.location = (COLUMNS / 2, -rows / 2, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
-scene.render.resolution_x, scene.render.resolution_y = COLUMNS * PIXELS, rows * PIXELS
-scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
-warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
-images = {{engine: render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), 1)[::-1, :, :3]
-          for engine in ("PRIMER", "CYCLES")}}
-np.save("primer.npy", images["PRIMER"])
-np.save("cycles.npy", images["CYCLES"])
+warnings = render_plane_grid(scene, export, COLUMNS, PIXELS, len(cases))
 primer.unregister()
 report(cases=cases, warnings=warnings, version=list(bpy.app.version))
 """
@@ -199,7 +161,7 @@ def test_procedural_textures_render_cycles_values_pixel_for_pixel(tmp_path):
     """Every texture, setting and dimension, and a node's own Texture Mapping of each type: Primer's pixels are
     Cycles' (White Noise, Gradient, Checker exactly; Noise, Voronoi, Wave, Magic, Brick and the mapped ones within
     float32 rounding), and the export warns of nothing (but Blender 5.2's Magic)."""
-    result = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), pixels=PIXELS, columns=COLUMNS), str(tmp_path))
+    result = run_bpy(SCRIPT.format(pixels=PIXELS, columns=COLUMNS), str(tmp_path))
     # Blender 5.2's Cycles wraps the Magic Texture's point otherwise (the same pattern here, where no coordinate
     # nor its product with Scale passes 2pi): said once per Magic node there, nothing else anywhere.
     magics = [label for label in result["cases"] if label.startswith("Magic")]

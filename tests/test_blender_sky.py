@@ -10,7 +10,7 @@ import os
 
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 
 from core.film.compare import relative_mse_of_blocks
 
@@ -25,11 +25,8 @@ SCRIPT = """
 import sys, os, math
 import bpy
 import numpy as np
-from blender_env import report, render_pixels, diffuse_material
-sys.path.insert(0, {tools!r})
-from render import load_primer
-primer = load_primer()
-export = sys.modules[primer.__name__ + ".addon.export"]
+from blender_env import report, render_pixels, diffuse_material, primer_in_blender
+primer, export = primer_in_blender()
 exports = []
 export_scene = export.export_scene
 
@@ -114,7 +111,7 @@ CASES = [
 def rendered(tmp_path_factory):
     """Every case rendered by Primer and Cycles (64 samples): (report, folder)."""
     folder = tmp_path_factory.mktemp("sky")
-    return run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), cases=CASES), str(folder)), folder
+    return run_bpy(SCRIPT.format(cases=CASES), str(folder)), folder
 
 
 @pytest.mark.parametrize("name", [case[0] for case in CASES])

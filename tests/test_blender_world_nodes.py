@@ -11,7 +11,7 @@ import os
 
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 
 from core.film.compare import relative_mse_of_blocks
 
@@ -26,11 +26,8 @@ SCRIPT = """
 import sys, os
 import bpy
 import numpy as np
-from blender_env import report, render_pixels, diffuse_material
-sys.path.insert(0, {tools!r})
-from render import load_primer
-primer = load_primer()
-export = sys.modules[primer.__name__ + ".addon.export"]
+from blender_env import report, render_pixels, diffuse_material, primer_in_blender
+primer, export = primer_in_blender()
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
 world = bpy.data.worlds.new("Sky")
@@ -161,7 +158,7 @@ report(warnings=results, rgb_color=list(map(float, rgb_world.color)), rgb_image=
 def rendered(tmp_path_factory):
     """The world variants rendered by Primer and Cycles (64 samples): (report, folder)."""
     folder = tmp_path_factory.mktemp("world_nodes")
-    return run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools")), str(folder)), folder
+    return run_bpy(SCRIPT.format(), str(folder)), folder
 
 
 def noted(warnings):

@@ -10,21 +10,13 @@ their input inside and (extrapolated) outside the baked range.
 """
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
-from conftest import ortho_down
-from core import render
-from core.geometry import primitives
-from core.materials import Material
 from core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
 from core.materials.graph import GraphNode, Link
-from core.scene import RenderSettings, Scene
 
-from test_procedural import shoot, snapped_points, snapped_vector
-from test_textures import plane_attributes
+from test_procedural import assert_both_kernels_agree, shoot, snapped_points, snapped_vector
 
 KERNELS = ["compiled", "numpy"]
 F32_EPS = 1.2e-7
@@ -217,18 +209,4 @@ def all_converters() -> list:
 
 def test_the_compiled_converters_compute_what_the_reference_computes_bit_for_bit():
     """Every converter, operation and mode on both kernels, the same rays and samples: the same values, to the bit."""
-    links = all_converters()
-    columns = 8
-    rows = -(-len(links) // columns)
-    scene = Scene(camera=ortho_down(center=(columns / 2, rows / 2, 0.0), height=2.0, scale=float(max(columns, rows))))
-    for index, link in enumerate(links):
-        scene.materials.append(Material(name=f"C{index}", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": link})]))
-        mesh = primitives.plane(1.0, center=(index % columns + 0.5, index // columns + 0.5, 0.0))
-        mesh.attributes = plane_attributes(mesh)
-        scene.add_mesh(mesh, materials=np.array([index]), name=f"C{index}")
-    settings = RenderSettings(width=80, height=80, samples=1)
-    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
-    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
-    assert compiled.stats.kernels == "compiled"
-    np.testing.assert_array_equal(compiled.image, reference.image)
-    assert np.isfinite(reference.image).all() and reference.image[..., :3].std() > 0.1
+    assert_both_kernels_agree(all_converters())

@@ -528,25 +528,32 @@ def all_textures() -> list:
     return links
 
 
-def test_the_compiled_textures_compute_what_the_reference_computes_bit_for_bit():
-    """Every texture on both kernels, the same rays and samples: the same float32 values, to the bit."""
-    links = all_textures()
+def assert_both_kernels_agree(links: list, generated: bool = False) -> None:
+    """Each link as the emission of its own unit plane in a grid of 8 columns seen from above, rendered at one sample
+    on both kernels: the same values to the bit, finite and varying (`generated`: each plane's Generated coordinates
+    its UV, at z = 0.3)."""
     columns = 8
     rows = -(-len(links) // columns)
     scene = Scene(camera=ortho_down(center=(columns / 2, rows / 2, 0.0), height=2.0, scale=float(max(columns, rows))))
     for index, link in enumerate(links):
-        scene.materials.append(Material(name=f"T{index}", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": link})]))
+        scene.materials.append(Material(name=f"P{index}", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": link})]))
         mesh = primitives.plane(1.0, center=(index % columns + 0.5, index // columns + 0.5, 0.0))
         mesh.attributes = plane_attributes(mesh)
-        uv = mesh.attributes["uv:"]
-        mesh.attributes["generated"] = np.concatenate([uv[..., :2], np.full(uv.shape[:2] + (1,), 0.3)], axis=2)
-        scene.add_mesh(mesh, materials=np.array([index]), name=f"T{index}")
+        if generated:
+            uv = mesh.attributes["uv:"]
+            mesh.attributes["generated"] = np.concatenate([uv[..., :2], np.full(uv.shape[:2] + (1,), 0.3)], axis=2)
+        scene.add_mesh(mesh, materials=np.array([index]), name=f"P{index}")
     settings = RenderSettings(width=80, height=80, samples=1)
     compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
     reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
     assert compiled.stats.kernels == "compiled"
     np.testing.assert_array_equal(compiled.image, reference.image)
     assert np.isfinite(reference.image).all() and reference.image[..., :3].std() > 0.1
+
+
+def test_the_compiled_textures_compute_what_the_reference_computes_bit_for_bit():
+    """Every texture on both kernels, the same rays and samples: the same float32 values, to the bit."""
+    assert_both_kernels_agree(all_textures(), generated=True)
 
 
 def test_voronoi_warns_on_blenders_whose_cycles_hashed_its_cells_otherwise():
