@@ -472,14 +472,13 @@ def snapped_generated(tree, pixels: int):
     return combine.outputs["Vector"], ends[0], ends[1]
 
 
-def render_plane_grid(scene, export, columns: int, pixels: int, count: int) -> list:
-    """Inside Blender: `count` unit planes laid out `columns` to a row (plane k centred at (k % columns + 1/2,
+def render_plane_grid(scene, export, columns: int, rows: int, pixels: int, samples: int = 1) -> list:
+    """Inside Blender: a grid of `columns` x `rows` unit cells (cell k centred at (k % columns + 1/2,
     -(k // columns) - 1/2, 0)) seen from above by an orthographic camera, `pixels` pixels across each, rendered at
-    one sample by Primer and by Cycles into primer.npy and cycles.npy (rows top first, RGB); returns the export's
-    warnings."""
+    `samples` samples by Primer and by Cycles into primer.npy and cycles.npy (rows top first, RGB); returns the
+    export's warnings."""
     import bpy
     import numpy as np
-    rows = -(-count // columns)
     camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     camera.data.type = "ORTHO"
     camera.data.ortho_scale = float(columns)
@@ -490,6 +489,6 @@ def render_plane_grid(scene, export, columns: int, pixels: int, count: int) -> l
     scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     for engine in ("PRIMER", "CYCLES"):
-        image = render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), 1)[::-1, :, :3]
+        image = render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), samples)[::-1, :, :3]
         np.save(engine.lower() + ".npy", image)
     return warnings

@@ -159,7 +159,7 @@ case("Vector Curves", "ShaderNodeVectorCurve", "Vector", values=[("Fac", 0.9)], 
 case("Float Curve", "ShaderNodeFloatCurve", "Value", links=[("Value", ("x", 0.4, 0.5))], setup=float_curve,
      absolute=True)
 
-warnings = render_plane_grid(scene, export, COLUMNS, PIXELS, len(cases))
+warnings = render_plane_grid(scene, export, COLUMNS, -(-len(cases) // COLUMNS), PIXELS)
 primer.unregister()
 report(cases=cases, warnings=warnings, version=list(bpy.app.version))
 """

@@ -36,7 +36,7 @@ SCRIPT = """
 import sys, os, math
 import bpy
 import numpy as np
-from blender_env import report, render_pixels, empty_material, primer_in_blender
+from blender_env import report, render_pixels, empty_material, primer_in_blender, render_plane_grid
 primer, export = primer_in_blender()
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
@@ -132,20 +132,7 @@ tree.links.new(emission.outputs[0], out.inputs["Surface"])
 bpy.ops.mesh.primitive_plane_add(size=0.1, location=(1.5, -0.5, -1.0))
 bpy.context.view_layer.objects.active.data.materials.append(material)
 
-columns = len(cases)
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.data.type = "ORTHO"
-camera.data.ortho_scale = float(columns)
-camera.location = (columns / 2, -ROWS / 2, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
-scene.render.resolution_x, scene.render.resolution_y = columns * PIXELS, ROWS * PIXELS
-scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
-warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
-images = {{engine: render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), SAMPLES)[::-1, :, :3]
-          for engine in ("PRIMER", "CYCLES")}}
-np.save("primer.npy", images["PRIMER"])
-np.save("cycles.npy", images["CYCLES"])
+warnings = render_plane_grid(scene, export, len(cases), ROWS, PIXELS, SAMPLES)
 primer.unregister()
 report(cases=cases, warnings=warnings)
 """

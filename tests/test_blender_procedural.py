@@ -151,7 +151,7 @@ case("Mapped Wave vector max", "ShaderNodeTexWave", "Fac", [("wave_type", "RINGS
      mapping=[("vector_type", "VECTOR"), ("translation", (5.0, 5.0, 5.0)), ("rotation", (0.3, 0.0, 0.0)),
               ("scale", (1.0, 2.0, 1.0)), ("use_max", True), ("max", (1.0, 1.5, 1.0))])
 
-warnings = render_plane_grid(scene, export, COLUMNS, PIXELS, len(cases))
+warnings = render_plane_grid(scene, export, COLUMNS, -(-len(cases) // COLUMNS), PIXELS)
 primer.unregister()
 report(cases=cases, warnings=warnings, version=list(bpy.app.version))
 """
