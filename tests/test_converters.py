@@ -36,7 +36,8 @@ def vector_math(operation: str, output: str = "Vector", **inputs) -> Link:
 def test_vector_math_identities_hold_at_every_pixel(kernels):
     """A x A = 0; A.A = |A|^2 (within float32 rounding); Distance(A, A) = 0; the projection of A on A is A; A reflected
     twice about B is A; Refract at IOR 1 through a normal facing A passes A on; Faceforward flips A where C.B >= 0;
-    Wrap lands in [min, max); Snap lands on multiples of the increment; Multiply Add is A B + C."""
+    Wrap lands in [min, max); Snap lands on multiples of the increment; Multiply Add is A B + C; Round (Blender 5.1
+    and later) is the nearest integer, halves up."""
     p = snapped_points().astype(np.float64)
     v = snapped_vector()
     b = (0.3, -0.5, 0.8)
@@ -62,6 +63,8 @@ def test_vector_math_identities_hold_at_every_pixel(kernels):
     np.testing.assert_allclose(snapped, np.floor(p / 0.3) * 0.3, atol=1e-6)
     fused = vector_math("MULTIPLY_ADD", Vector=v, Vector_001=(2.0, 3.0, 4.0), Vector_002=(5.0, 5.0, 5.0))
     np.testing.assert_allclose(shoot(fused, kernels), p * (2.0, 3.0, 4.0) + 5.0, rtol=F32_EPS)
+    rounded = shoot(vector_math("ROUND", Vector=vector_math("SCALE", Vector=v, Scale=2.5)), kernels)   # Blender 5.1+
+    np.testing.assert_array_equal(rounded, np.floor(p.astype(np.float32) * np.float32(2.5) + np.float32(0.5)))
 
 
 @pytest.mark.parametrize("kernels", KERNELS)

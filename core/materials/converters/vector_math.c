@@ -77,7 +77,8 @@ INLINE void vector_math_texture(const int *a, double *reg)
     case 25: for (int k = 0; k < 3; k++) v[k] = floorf(B[k] != 0.0f ? A[k] / B[k] : 0.0f) * B[k]; break;
     case 26: for (int k = 0; k < 3; k++) v[k] = (float)sin((double)A[k]); break;
     case 27: for (int k = 0; k < 3; k++) v[k] = (float)cos((double)A[k]); break;
-    default: for (int k = 0; k < 3; k++) v[k] = (float)tan((double)A[k]); break;
+    case 28: for (int k = 0; k < 3; k++) v[k] = (float)tan((double)A[k]); break;
+    default: for (int k = 0; k < 3; k++) v[k] = floorf(A[k] + 0.5f); break;     /* Round */
     }
     double *out = reg + a[0];
     out[0] = v[0]; out[1] = v[1]; out[2] = v[2]; out[3] = value;

@@ -9,7 +9,7 @@ from .base import F32, ConverterNode, as_f32, f32_call
 VECTOR_MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "CROSS_PRODUCT", "PROJECT", "REFLECT",
                    "REFRACT", "FACEFORWARD", "DOT_PRODUCT", "DISTANCE", "LENGTH", "SCALE", "NORMALIZE", "ABSOLUTE",
                    "POWER", "SIGN", "MINIMUM", "MAXIMUM", "FLOOR", "CEIL", "FRACTION", "MODULO", "WRAP", "SNAP", "SINE",
-                   "COSINE", "TANGENT")
+                   "COSINE", "TANGENT", "ROUND")          # (Round: Blender 5.1 and later)
 # The operations whose result is the Value output (the Vector output is then 0), and Cycles leaves Value 0 otherwise.
 VALUE_OPS = ("DOT_PRODUCT", "DISTANCE", "LENGTH")
 ZERO = F32(0.0)
@@ -95,7 +95,8 @@ def vector_math(name: str, a: np.ndarray, b: np.ndarray, c: np.ndarray, scale: n
         elif name == "SNAP": v = np.floor(safe_divide(a, b)) * b
         elif name == "SINE": v = f32_call(np.sin, a)
         elif name == "COSINE": v = f32_call(np.cos, a)
-        else: v = f32_call(np.tan, a)
+        elif name == "TANGENT": v = f32_call(np.tan, a)
+        else: v = np.floor(a + F32(0.5))
     return v.astype(F32), value.astype(F32)
 
 
