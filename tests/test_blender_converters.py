@@ -189,5 +189,9 @@ def test_converter_nodes_render_cycles_values_pixel_for_pixel(tmp_path):
     worst, result = worst_per_node(tmp_path)
     print("largest difference per node (relative to the block's largest value where above 1):", worst)
     assert result["warnings"] == []
-    far = {label: d for label, d in worst.items() if d > 3e-7}
+    # Blender 5.2's Cycles turns the Blackbody's Rec.709 colour into its scene-linear space by a matrix a little off
+    # the identity (measured 1.6e-4 at most); Primer follows 5.0's, where it is the identity.
+    newer = tuple(result["version"][:2]) >= (5, 2)
+    far = {label: d for label, d in worst.items()
+           if d > (2e-4 if newer and label.startswith("Blackbody") else 3e-7)}
     assert far == {}, far
