@@ -66,18 +66,22 @@ def rng():
 # dist/check/primer-<version>.zip (once per worker that runs it), test_platforms.py dist/kernels-check/ (when older
 # than a C file), and test_tour.py writes docs/images/tour/ (two of its tests the same picture).
 ONE_WORKER = {"test_extension.py", "test_platforms.py", "test_tour.py"}
+# Test files whose tests share one expensive module fixture (Primer's and Cycles' renders of every case): each file's
+# tests on one worker, so that the fixture renders once, not once per worker.
+SHARED_RENDERS = {"test_blender_world_nodes.py", "test_blender_sky.py", "test_blender_lightgroups.py"}
 
 
 @pytest.hookimpl(optionalhook=True)         # a hook of pytest-xdist, which .venv42 does not install
 def pytest_xdist_make_scheduler(config, log):
     """pytest-xdist's scheduling: every test on its own (as --dist load), but the tests of ONE_WORKER's files
-    together on one worker. (xdist 3.8's --dist loadgroup groups nothing under pytest 9.2, which no longer reads
+    together on one worker, and each SHARED_RENDERS file's on one worker. (xdist 3.8's --dist loadgroup groups nothing under pytest 9.2, which no longer reads
     the node id xdist changes to mark a group.)"""
     from xdist.scheduler import LoadScopeScheduling
 
     class OneWorkerForTheCheckoutsWriters(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
-            return "one worker" if os.path.basename(nodeid.split("::", 1)[0]) in ONE_WORKER else nodeid
+            name = os.path.basename(nodeid.split("::", 1)[0])
+            return "one worker" if name in ONE_WORKER else name if name in SHARED_RENDERS else nodeid
 
     return OneWorkerForTheCheckoutsWriters(config, log)
 
