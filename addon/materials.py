@@ -161,6 +161,7 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeCombineRGB": "COMBINE_COLOR", "ShaderNodeCombineXYZ": "COMBINE_XYZ", "ShaderNodeClamp": "CLAMP",
                "ShaderNodeMapRange": "MAP_RANGE", "ShaderNodeTangent": "TANGENT",
                "ShaderNodeTexEnvironment": "ENVIRONMENT", "ShaderNodeTexSky": "SKY",
+               "ShaderNodeVectorTransform": "VECTOR_TRANSFORM",
                "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT", "ShaderNodeNewGeometry": "GEOMETRY",
                "ShaderNodeCameraData": "CAMERA_DATA", "ShaderNodeWireframe": "WIREFRAME",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
@@ -310,6 +311,12 @@ class GraphReader:
             if props is None:
                 return None
             inputs = self.inputs(node, path, ["Vector"]) if _vector_linked(node) else {}
+        elif kind == "VECTOR_TRANSFORM":
+            props = {"type": node.vector_type, "from": node.convert_from, "to": node.convert_to}
+            if "OBJECT" in (node.convert_from, node.convert_to) and node.convert_from != node.convert_to:
+                warn("a Vector Transform to or from Object space is not evaluated; Primer passes the vector on as it "
+                     "comes")
+            inputs = self.inputs(node, path, ["Vector"])
         elif kind == "TEXCOORD":
             if node.object is not None:                   # Object: in that object's frame
                 props = {"object_matrix": np.array(node.object.matrix_world, np.float64)}

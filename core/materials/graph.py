@@ -132,6 +132,7 @@ NODE_OUTPUTS = {
     "CLAMP": {"Result": (1, "float")}, "MAP_RANGE": {"Result": (1, "float")}, "SCALE": {"Color": (3, "color")},
     "TANGENT": {"Tangent": (3, "vector")},
     "FRESNEL": {"Fac": (1, "float")}, "LAYER_WEIGHT": {"Fresnel": (1, "float"), "Facing": (1, "float")},
+    "VECTOR_TRANSFORM": {"Vector": (3, "vector")},
     "GEOMETRY": {"Position": (3, "vector"), "Normal": (3, "vector"), "Tangent": (3, "vector"),
                  "True Normal": (3, "vector"), "Incoming": (3, "vector"), "Parametric": (3, "vector"),
                  "Backfacing": (1, "float"), "Pointiness": (1, "float")},
@@ -383,6 +384,28 @@ class Compiler:
         self.emit("TRANSFORM", out, point, self.constant(np.asarray(matrix, np.float64).reshape(12)))
         return out
 
+    def vector_transform(self, v: int, kind: str, source: str, target: str) -> int:
+        """A register holding the vector in register `v` (a POINT, VECTOR or NORMAL) taken from world to camera space
+        or back as Cycles' Vector Transform does (svm_node_vector_transform: a normal through the other transform's
+        transposed linear part, then normalised); unchanged between equal spaces. (Object space: the add-on warns.)"""
+        if source == target or "OBJECT" in (source, target):
+            return v
+        to_camera = self.view
+        to_world = np.linalg.inv(np.vstack([to_camera, [0.0, 0.0, 0.0, 1.0]]))[:3]
+        forward, back = (to_camera, to_world) if target == "CAMERA" else (to_world, to_camera)
+        if kind == "POINT":
+            return self.transform(v, forward)
+        if kind == "VECTOR":
+            return self.transform(v, np.hstack([forward[:, :3], np.zeros((3, 1))]))
+        n = self.transform(v, np.hstack([back[:, :3].T, np.zeros((3, 1))]))
+        x, y, z = (shift(n, k) for k in range(3))
+        inverse_length = self.math("DIVIDE", self.constant([1.0]), self.math(
+            "SQRT", self.math("MULTIPLY_ADD", z, z, self.math("MULTIPLY_ADD", y, y, self.math("MULTIPLY", x, x)))))
+        out = self.temporary(3)
+        for k, component in enumerate((x, y, z)):
+            self.emit("COPY", shift(out, k), self.math("MULTIPLY", component, inverse_length), 1)
+        return out
+
     def compile_node(self, node: GraphNode, output: str) -> tuple:
         """Emit a node's ops; return (register, width, type) of `output`."""
         kind, inp, props = node.kind, node.inputs, node.props
@@ -407,6 +430,10 @@ class Compiler:
                 return self.transform(self.geometry("Position"), np.linalg.inv(props["object_matrix"])[:3]), 3, "vector"
             name = {"UV": "uv:", "Generated": "generated", "Object": "object"}[output]
             return self.attribute(name), 3, "vector"
+        if kind == "VECTOR_TRANSFORM":
+            v = self.value(inp.get("Vector"), 3, 0.5)
+            return self.vector_transform(v, props.get("type", "VECTOR"), props.get("from", "WORLD"),
+                                         props.get("to", "OBJECT")), 3, "vector"
         if kind == "WIREFRAME":                         # (Pixel Size: addon/materials.py warns; world units here)
             out = self.temporary(1)
             self.emit("WIREFRAME", out, self.value(inp.get("Size"), 1, 0.01))
