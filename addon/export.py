@@ -21,7 +21,7 @@ from ..core.lights import World, world_graph
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
-from ..core.visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
+from ..core.visibility import RAY_VISIBILITY, hidden_bits
 from . import cycles_settings, lightgroups, unmodelled
 from . import materials as materials_
 
@@ -322,8 +322,7 @@ UNREAD_RAY_VISIBILITY = (("visible_volume_scatter", "Volume Scatter"),)
 def ray_visibility(obj) -> dict:
     """An object's Object > Visibility settings Primer reads, as core Instance keywords (visible_camera, ...,
     is_holdout: bool)."""
-    names = ("visible_camera", "visible_shadow", "visible_diffuse", "visible_glossy", "visible_transmission")
-    seen = {name: bool(getattr(obj, name, True)) for name in names}
+    seen = {name: bool(getattr(obj, name, True)) for name, _ in RAY_VISIBILITY}
     return dict(seen, is_holdout=bool(getattr(obj, "is_holdout", False)))
 
 
@@ -336,14 +335,14 @@ def ray_visibility_notes(obj) -> list:
     return []
 
 
-LAMP_RAY_VISIBILITY = (("visible_diffuse", HIDDEN_FROM_DIFFUSE), ("visible_glossy", HIDDEN_FROM_GLOSSY),
-                       ("visible_transmission", HIDDEN_FROM_TRANSMISSION))
+# The Ray Visibility switches of a lamp object that hide it from bounces (camera visibility is read on its own).
+LAMP_RAY_VISIBILITY = ("visible_diffuse", "visible_glossy", "visible_transmission")
 
 
 def lamp_hidden(obj) -> int:
     """The HIDDEN_FROM_* bits of the bounces a lamp object hides from (its Ray Visibility, as Cycles' light shader's
     SHADER_EXCLUDE_* flags): its light samples leave out the closures of those kinds, and such rays pass it."""
-    return sum(bit for name, bit in LAMP_RAY_VISIBILITY if not getattr(obj, name, True))
+    return hidden_bits(obj, LAMP_RAY_VISIBILITY)
 
 
 def export_light(obj, matrix: np.ndarray, warnings: list):

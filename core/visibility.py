@@ -15,3 +15,14 @@ from .native import schema
  HOLDOUT) = (schema.constant(name, value, "the rays an object hides from (Ray Visibility), and the holdout flag")
              for name, value in (("HIDDEN_FROM_CAMERA", 1), ("HIDDEN_FROM_SHADOW", 2), ("HIDDEN_FROM_DIFFUSE", 4),
                                  ("HIDDEN_FROM_GLOSSY", 8), ("HIDDEN_FROM_TRANSMISSION", 16), ("HOLDOUT", 32)))
+# Ray Visibility's switches (Blender's object properties, the core Instance's fields of the same names) and the bit
+# each sets when it is off.
+RAY_VISIBILITY = (("visible_camera", HIDDEN_FROM_CAMERA), ("visible_shadow", HIDDEN_FROM_SHADOW),
+                  ("visible_diffuse", HIDDEN_FROM_DIFFUSE), ("visible_glossy", HIDDEN_FROM_GLOSSY),
+                  ("visible_transmission", HIDDEN_FROM_TRANSMISSION))
+
+
+def hidden_bits(owner, names=tuple(name for name, _ in RAY_VISIBILITY)) -> int:
+    """The HIDDEN_FROM_* bits of the Ray Visibility switches `names` that `owner` (a Blender object or a core
+    Instance) has off (a switch it lacks counts as on)."""
+    return sum(bit for name, bit in RAY_VISIBILITY if name in names and not getattr(owner, name, True))

@@ -33,8 +33,7 @@ from .intersect import Tracer
 from ..scene import Scene
 from ..materials import graph as graph_
 # The rays an object may hide from, and holdouts: WorldGeometry.instance_hidden's bits (core/visibility.py).
-from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_SHADOW,
-                          HIDDEN_FROM_TRANSMISSION, HOLDOUT)
+from ..visibility import HOLDOUT, hidden_bits
 
 
 # Scenes up to this many triangles keep a per-triangle table of corner coordinates (WorldGeometry.corner_points).
@@ -461,10 +460,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
 def hidden_flags(instances: list) -> np.ndarray:
     """(n,) uint8 the rays each instance hides from (HIDDEN_FROM_* bits) and whether it is a holdout (HOLDOUT);
     empty when no instance does either."""
-    flags = np.array([(0 if i.visible_camera else HIDDEN_FROM_CAMERA) | (0 if i.visible_shadow else HIDDEN_FROM_SHADOW)
-                      | (0 if i.visible_diffuse else HIDDEN_FROM_DIFFUSE) | (0 if i.visible_glossy else HIDDEN_FROM_GLOSSY)
-                      | (0 if i.visible_transmission else HIDDEN_FROM_TRANSMISSION) | (HOLDOUT if i.is_holdout else 0)
-                      for i in instances], np.uint8)
+    flags = np.array([hidden_bits(i) | (HOLDOUT if i.is_holdout else 0) for i in instances], np.uint8)
     return flags if flags.any() else np.zeros(0, np.uint8)
 
 
