@@ -21,7 +21,7 @@ from ..core.lights import World, world_graph
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
-from ..core.visibility import RAY_VISIBILITY, hidden_bits
+from ..core.visibility import hidden_bits
 from . import cycles_settings, lightgroups, unmodelled
 from . import materials as materials_
 
@@ -322,7 +322,8 @@ UNREAD_RAY_VISIBILITY = (("visible_volume_scatter", "Volume Scatter"),)
 def ray_visibility(obj) -> dict:
     """An object's Object > Visibility settings Primer reads, as core Instance keywords (visible_camera, ...,
     is_holdout: bool)."""
-    seen = {name: bool(getattr(obj, name, True)) for name, _ in RAY_VISIBILITY}
+    names = ("visible_camera", "visible_shadow", "visible_diffuse", "visible_glossy", "visible_transmission")
+    seen = {name: bool(getattr(obj, name, True)) for name in names}
     return dict(seen, is_holdout=bool(getattr(obj, "is_holdout", False)))
 
 
