@@ -27,6 +27,7 @@ from ..core.materials.graph import GraphNode, Link
 from ..core.materials.converters import CONVERTER_BY_BLENDER
 from ..core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
 from ..core.materials.procedural import TEXTURE_BY_BLENDER
+from . import movie as movie_
 from . import unmodelled
 
 # Principled BSDF sockets -> core/materials/nodes.py PRINCIPLED_INPUTS.
@@ -520,7 +521,7 @@ def load_image(image, reader: NodeReader, node):
     """A Blender image as Cycles reads it at the scene's frame (set_frame): a textures.Image (pixels as stored,
     bottom row first), a textures.TiledImage for a UDIM image (every tile of image.tiles), or None (Cycles' magenta)
     with a warning when it is missing or cannot be read. A sequence gives the file of the frame the node's Image
-    User shows (sequence_frame); a movie cannot be read (its frame is named in the warning). Files are read with
+    User shows (sequence_frame); a movie, that frame decoded by Blender (addon/movie.py). Files are read with
     OpenImageIO (Blender's own module inside Blender, else the pip one), packed images from their bytes; without
     OpenImageIO Blender's pixel buffer is read in bulk. Read once per export and file."""
     if image is None:
@@ -531,13 +532,10 @@ def load_image(image, reader: NodeReader, node):
     key = (image.as_pointer(), frame)
     if key in _IMAGES:
         return _IMAGES[key]
-    if source == "MOVIE":
-        reader.warn(node, f"image '{image.name}' is a movie, whose frames Primer cannot read (OpenImageIO has no "
-                          f"movie reader here, and Blender's Python API gives no frame's pixels); Primer renders it "
-                          f"magenta, where Cycles renders its frame {frame}")
-        _IMAGES[key] = None
-        return None
     space = image.colorspace_settings.name
+    if source == "MOVIE":                           # decoded by Blender into scene-linear values (addon/movie.py)
+        _IMAGES[key] = _image_or_warning(image, reader, node, False, frame=frame)
+        return _IMAGES[key]
     if space != "sRGB" and space not in LINEAR_SPACES:
         reader.warn(node, f"image '{image.name}' is in colour space {space}; Primer uses its numbers as linear")
     srgb = space == "sRGB"
@@ -658,7 +656,8 @@ def _oiio():
 
 def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
     """An image's pixels (h, w, c) as stored (uint8, uint16 or float32) bottom row first, its channels as stored
-    (sRGB values of an sRGB image are left encoded): its file, a UDIM image's `tile`, a sequence's `frame`."""
+    (sRGB values of an sRGB image are left encoded; a movie's are scene-linear): its file, a UDIM image's `tile`, a
+    sequence's or a movie's `frame`."""
     oiio = _oiio()
     if image.source == "TILED":
         packed = next((p for p in image.packed_files if getattr(p, "tile_number", 1001) == tile), None)
@@ -667,6 +666,13 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
         return _oiio_read_file(oiio, tile_path(bpy.path.abspath(image.filepath, library=image.library), tile))
     if image.source == "SEQUENCE":
         return _oiio_read_file(oiio, sequence_path(bpy.path.abspath(image.filepath, library=image.library), frame))
+    if image.source == "MOVIE":
+        width, height = image.size
+        if width * height == 0:
+            raise ValueError("Blender cannot open the movie")
+        return _oiio_read_file(oiio, movie_.frame_file(bpy.path.abspath(image.filepath, library=image.library), frame,
+                                                       width, height, image.colorspace_settings.name,
+                                                       bpy.app.binary_path))
     packed = image.packed_file
     if oiio is not None and image.source == "FILE":
         if packed is not None:

@@ -1,13 +1,14 @@
 """UDIM tiles, image sequences and movies, inside real Blender (the bpy module, no mocks), against Cycles.
 
 Issue 31: all three rendered magenta, with a warning that Cycles does the same; Cycles renders the tile or frame.
+Now each renders as in Cycles.
 Each scene is seen straight down by an orthographic camera: planes whose Emission colour is an Image Texture
 (Closest, texels on whole pixels), so every pixel is one texel's colour, the same in both engines for few samples.
 The images are written here: a 2-tile UDIM image (name.1001.png, name.1002.png) on a plane of three quads whose UVs
 span u 0..3 (the third lies in no tile; each tile has UV corners in it, else Cycles' final render leaves it out,
 ImageTextureNode::cull_tiles); a sequence of three files, numbered 11 to 13, read at scene frame 8 through
 Image Users with Frames 3, Start 1, Cyclic, Offset 10 and 11 (frames 12 and 13: the 2nd and 3rd files); a movie
-rendered by Blender to FFmpeg, which Primer cannot read: the warning must say so and name the frame Cycles shows.
+rendered by Blender to FFmpeg, shown at its frame 2.
 """
 from __future__ import annotations
 
@@ -214,17 +215,15 @@ def test_a_world_environment_sequence_shows_the_frame_its_image_user_picks_as_cy
     assert not [w for w in case["warnings"] if "magenta" in w], case["warnings"]
 
 
-def test_a_movie_primer_cannot_read_is_magenta_with_a_warning_naming_the_frame_cycles_shows(found):
-    """Cycles reads the movie through Blender (frame 2: green); Primer, without a movie reader, renders magenta and
-    its warning says so, names frame 2, and does not claim Cycles renders magenta too."""
+def test_a_movie_shows_the_frame_cycles_shows_decoded_by_blender(found):
+    """Cycles reads the movie through Blender (frame 2 of red, green, blue: green); Primer has a second Blender decode
+    that frame (addon/movie.py) and shows the same pixels, with no warning."""
     case = found["movie"]
     if not case["ffmpeg"]:
         pytest.skip("this Blender has no FFmpeg: no movie can be made to test with")
     mine, cycles = np.asarray(case["PRIMER"]), np.asarray(case["CYCLES"])
-    print(case["warnings"], cycles.mean(axis=(0, 1)))
+    print(case["warnings"], cycles.mean(axis=(0, 1)), mine.mean(axis=(0, 1)))
     assert case["source"] == "MOVIE"
-    green = cycles.mean(axis=(0, 1))
-    assert green[1] > 0.5 and green[0] < 0.1 and green[2] < 0.1, green
-    np.testing.assert_allclose(mine, np.broadcast_to([1.0, 0.0, 1.0], mine.shape), atol=1e-6)
-    about = [w for w in case["warnings"] if "movie" in w]
-    assert len(about) == 1 and "frame 2" in about[0] and "as Cycles does" not in about[0], case["warnings"]
+    np.testing.assert_allclose(cycles, np.broadcast_to([0.0, 1.0, 0.0], cycles.shape), atol=2e-3)
+    np.testing.assert_allclose(mine, cycles, atol=2e-3)
+    assert not [w for w in case["warnings"] if "movie" in w], case["warnings"]
