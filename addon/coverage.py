@@ -203,8 +203,7 @@ COVERAGE = {
     },
     "LayerCollection": {
         READ: {"holdout": "unmodelled.holdout_objects", "children collection": "unmodelled._layer_collections",
-               "exclude": DEPSGRAPH},
-        REPORTED: {"indirect_only": "unmodelled.view_layer_notes"},
+               "exclude": DEPSGRAPH, "indirect_only": "export.indirect_only (hidden from camera rays, as in Cycles)"},
         NO_EFFECT: {"hide_viewport is_visible name": VIEWPORT},
     },
     "Object": {

@@ -327,6 +327,17 @@ def ray_visibility(obj) -> dict:
     return dict(seen, is_holdout=bool(getattr(obj, "is_holdout", False)))
 
 
+def indirect_only(instance, view_layer) -> bool:
+    """Whether a depsgraph object instance lies in an Indirect Only collection of `view_layer` (an instance: its
+    instancer does), which Cycles renders hidden from camera rays only; Blender keeps the flag on the original
+    object's base (the evaluated copy reads False)."""
+    owner = instance.parent if instance.is_instance and instance.parent is not None else instance.object
+    try:
+        return bool(owner.original.indirect_only_get(view_layer=view_layer))
+    except (AttributeError, RuntimeError, TypeError):  # (an object outside the view layer: no base to ask)
+        return False
+
+
 def ray_visibility_notes(obj) -> list:
     """The warnings for what an object's Ray Visibility asks that Primer does not do."""
     hidden = [label for name, label in UNREAD_RAY_VISIBILITY if not getattr(obj, name, True)]
@@ -992,6 +1003,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
         visibility = ray_visibility(obj)          # (a Holdout collection makes its objects holdouts, as in Cycles)
         visibility["is_holdout"] |= obj.name in holdouts
+        if not visibility["is_holdout"] and indirect_only(instance, depsgraph.view_layer):
+            visibility["visible_camera"] = False  # (an Indirect Only collection: Cycles clears camera visibility)
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
                                                   int(getattr(obj, "pass_index", 0)), **visibility,
                                                   asset=topmost_parent(obj).name))

@@ -104,10 +104,6 @@ def view_layer_notes(view_layer) -> list:
     override = getattr(view_layer, "world_override", None)
     if override is not None and override != getattr(scene, "world", None):
         notes.append(f"the view layer's World Override '{override.name}' is not read; Primer renders the scene's world")
-    for layer in _layer_collections(view_layer.layer_collection):
-        if getattr(layer, "indirect_only", False) and not layer.exclude:
-            notes.append(f"collection '{layer.name}' is Indirect Only; Primer renders it as an ordinary collection "
-                         "(seen by the camera too)")
     return notes
 
 

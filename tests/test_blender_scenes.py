@@ -88,7 +88,8 @@ CYCLES_CHOICES = {"shading_visibility": {"primer.visibility_normal": "SHADING"}}
 @dataclass(frozen=True)
 class Variant:
     """A sample scene with some settings changed ("render.x", "camera.x", "lights.x", "objects.x" (every mesh
-    object), "object:NAME.x" (one object), "nodes.INPUT" (that input of every material's shader nodes),
+    object), "object:NAME.x" (one object), "collection:NAME.x" (the layer collection of a new collection that holds
+    object NAME alone), "nodes.INPUT" (that input of every material's shader nodes),
     "primer.x")."""
 
     id: str
@@ -142,6 +143,8 @@ VARIANTS = [
     Variant("holdout_sphere", "light_point", {"object:Sphere.is_holdout": True}, 64, 256),
     Variant("holdout_sphere_transparent_film", "light_point",
             {"object:Sphere.is_holdout": True, "render.film_transparent": True}, 64, 256),
+    # An Indirect Only collection: the sphere hidden from the camera (the floor seen through it), its shadow kept.
+    Variant("indirect_only_sphere", "light_point", {"collection:Sphere.indirect_only": True}, 64, 256),
     # Rough diffuse: every Diffuse BSDF's Roughness and the Principled BSDF's Diffuse Roughness at 1 (Oren-Nayar).
     Variant("rough_diffuse", "light_point", {"nodes.Roughness": 1.0, "nodes.Diffuse Roughness": 1.0}, 64, 256),
     # Microfiber sheen: the Principled sphere with Sheen Weight 1, an orange tint and Sheen Roughness 0.5.
@@ -177,6 +180,14 @@ for source, target, settings in json.loads({jobs!r}):
             changed = [o.data if kind == "LIGHT" else o for o in scene.objects if o.type == kind]
         elif owner.startswith("object:"):
             changed = [scene.objects[owner[len("object:"):]]]
+        elif owner.startswith("collection:"):   # a new collection holding the object alone: its layer collection
+            obj = scene.objects[owner[len("collection:"):]]
+            collection = bpy.data.collections.new(obj.name + " Collection")
+            scene.collection.children.link(collection)
+            for old in list(obj.users_collection):
+                old.objects.unlink(obj)
+            collection.objects.link(obj)
+            changed = [bpy.context.view_layer.layer_collection.children[collection.name]]
         elif owner == "nodes":                  # the input `name` of every shader node that has one
             changed = []
             for material in bpy.data.materials:
