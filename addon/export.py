@@ -16,6 +16,7 @@ import numpy as np
 from ..core import scene as core_scene
 from ..core.camera import Camera
 from ..core.camera.camera import PANORAMA_TYPES
+from ..core.geometry import islands as islands_
 from ..core.geometry import pointiness as pointiness_
 from ..core.lights import World, world_graph
 from ..core.materials import DEFAULT_SURFACE
@@ -163,7 +164,8 @@ def _corner_loops(mesh) -> np.ndarray:
 def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> None:
     """Add to `core_mesh` the per-corner attributes `names` it lacks (graph.attributes_of's names), read in
     bulk: UV maps, colour attributes, MikkTSpace tangents (mesh.calc_tangents), generated and object
-    coordinates, Cycles' pointiness (core/geometry/pointiness.py). A missing map or attribute stays zeros (as in Cycles), with a warning."""
+    coordinates, Cycles' pointiness (core/geometry/pointiness.py) and Random Per Island (core/geometry/islands.py).
+    A missing map or attribute stays zeros (as in Cycles), with a warning."""
     missing = [name for name in sorted(names) if name not in core_mesh.attributes]
     if not missing or len(core_mesh.triangles) == 0:
         return
@@ -231,6 +233,11 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
             mesh.edges.foreach_get("vertices", edges)
             per_vertex = pointiness_.pointiness(co, normals.reshape(-1, 3).astype(np.float64), edges.reshape(-1, 2))
             values[:, :, 0] = per_vertex[corner_vertex[loops]]
+        elif kind == "island":                                              # Cycles' Random Per Island
+            edges = np.empty(len(mesh.edges) * 2, np.int32)
+            mesh.edges.foreach_get("vertices", edges)
+            values[:, :, 0] = islands_.random_per_island(len(mesh.vertices), edges,
+                                                         corner_vertex[loops][:, 0])[:, None]
         elif kind in ("generated", "object"):
             points = co[corner_vertex[loops]]                                   # (t, 3, 3)
             if kind == "generated":

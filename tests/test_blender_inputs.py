@@ -4,7 +4,8 @@ Wireframe and Light Path's Ray Length, each output the colour of an Emission sha
 
 An orthographic camera sends every ray in one direction, so a flat face shows one value of a view-dependent output
 (Fresnel, Layer Weight, the normals, Reflection) wherever it is hit: each case is a column of a flat-shaded icosphere
-(faces at every angle, seen from the front; Suzanne for Pointiness) above two planes turned away from the camera,
+(faces at every angle, seen from the front; Suzanne for Pointiness; every face an island of its own for Random Per
+Island) above two planes turned away from the camera,
 their backs seen at 30 and 60 degrees. Pixels whose 3 x 3 neighbourhood Cycles renders as one value lie inside a
 face; there the two renders differ only by float32 rounding (Cycles computes in float, Primer's graph in double).
 Points are snapped to their pixel's centre (Position, Camera, Object), so that they are one value per pixel too;
@@ -63,7 +64,8 @@ def absolute(tree, socket, snap=False):
     return combine.outputs["Vector"]
 
 
-def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, monkey=False, settings=()):
+def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, monkey=False, settings=(),
+         islands=False):
     material, tree, out = empty_material(label)
     node = tree.nodes.new(idname)
     for name, value in settings:
@@ -84,6 +86,9 @@ def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, mo
         bpy.ops.mesh.primitive_monkey_add(size=0.7, location=(column + 0.5, -0.5, 0.0))
     else:
         bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1, radius=0.45, location=(column + 0.5, -0.5, 0.0))
+    if islands:                                             # every face an island of its own (Random Per Island)
+        split = bpy.context.view_layer.objects.active.modifiers.new("Split", "EDGE_SPLIT")
+        split.split_angle = 0.0
     bpy.context.view_layer.objects.active.data.materials.append(material)
     for row, degrees in ((1, 150.0), (2, 120.0)):      # backs to the camera, seen at 30 and 60 degrees
         bpy.ops.mesh.primitive_plane_add(size=0.9, location=(column + 0.5, -row - 0.5, 0.0),
@@ -117,13 +122,7 @@ case("Camera Data View Z Depth - 4", "ShaderNodeCameraData", "View Z Depth", add
 case("Camera Data View Distance - 4", "ShaderNodeCameraData", "View Distance", add=-4.0)
 case("Wireframe 0.05", "ShaderNodeWireframe", "Fac", [("Size", 0.05)], add=0.25)
 case("Light Path Ray Length - 4", "ShaderNodeLightPath", "Ray Length", add=-4.0)
-for output in ("Random Per Island",):                      # not read: a warning
-    material, tree, out = empty_material(output)
-    node, emission = tree.nodes.new("ShaderNodeNewGeometry"), tree.nodes.new("ShaderNodeEmission")
-    tree.links.new(node.outputs[output], emission.inputs["Color"])
-    tree.links.new(emission.outputs[0], out.inputs["Surface"])
-    bpy.ops.mesh.primitive_plane_add(size=0.1, location=(0.5, -0.5, -1.0))
-    bpy.context.view_layer.objects.active.data.materials.append(material)
+case("Geometry Random Per Island", "ShaderNodeNewGeometry", "Random Per Island", islands=True)
 material, tree, out = empty_material("Pixel Size")         # Pixel Size: Size read in world units, with a warning
 wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
 wire.use_pixel_size = True
@@ -152,11 +151,9 @@ def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_p
     pixel, within sampling noise where they vary across it; what Primer does not read is warned of."""
     script = SCRIPT.format(pixels=PIXELS, rows=ROWS, samples=SAMPLES)
     result = run_bpy(script, str(tmp_path))
-    assert sorted(result["warnings"]) == sorted([
-        f"material '{name}', node 'Geometry': output '{name}' is not one Primer evaluates; for 'Color' of 'Emission' "
-        "it uses that input's own value (1, 1, 1)" for name in ("Random Per Island",)] + [
+    assert sorted(result["warnings"]) == [
         "material 'Pixel Size', node 'Wireframe': Pixel Size needs ray differentials, which Primer does not trace; "
-        "Primer reads Size in world units"])
+        "Primer reads Size in world units"]
     primer, cycles = np.load(tmp_path / "primer.npy"), np.load(tmp_path / "cycles.npy")
     assert primer.shape == cycles.shape
     inside, covered = interior(cycles), interior((cycles.max(axis=2, keepdims=True) > 0.0).astype(np.float64))

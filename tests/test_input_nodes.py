@@ -346,3 +346,18 @@ def test_texture_coordinate_window_runs_from_zero_to_one_across_the_image(kernel
     image = render.render(scene, RenderSettings(width=SIZE, height=SIZE, samples=1, kernels=kernels,
                                                 jitter=False)).image[..., 0]
     np.testing.assert_allclose(image, np.tile((np.arange(SIZE) + 0.5) / SIZE, (SIZE, 1)), rtol=1e-5)
+
+
+def test_random_per_island_is_one_hash_per_island_of_the_root_that_union_by_rank_elects():
+    """Edges (0,1), (1,2), (3,4) and a lone vertex 5: joining 0 and 1 (equal ranks) makes 0 the root, 2 joins 0's
+    higher-ranked set, 4 joins 3. Each triangle gets hash_uint_to_float of its island's root: 0, 3 and 5 (Cycles'
+    attr_create_random_per_island), the same for every triangle of an island whichever vertex it names."""
+    from core.geometry import islands
+    from core.materials.procedural.hash import hash_uint, uint_to_float
+    edges = np.array([[0, 1], [1, 2], [3, 4]])
+    assert islands.island_roots(6, edges).tolist() == [0, 0, 0, 3, 3, 5]
+    values = islands.random_per_island(6, edges, np.array([2, 1, 4, 3, 5]))
+    expected = uint_to_float(hash_uint(np.array([0, 0, 3, 3, 5], np.uint32)))
+    assert values.dtype == np.float32
+    np.testing.assert_array_equal(values, expected)
+    assert len(set(values.tolist())) == 3 and all(0.0 <= v <= 1.0 for v in values)

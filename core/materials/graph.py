@@ -135,7 +135,7 @@ NODE_OUTPUTS = {
     "VECTOR_TRANSFORM": {"Vector": (3, "vector")},
     "GEOMETRY": {"Position": (3, "vector"), "Normal": (3, "vector"), "Tangent": (3, "vector"),
                  "True Normal": (3, "vector"), "Incoming": (3, "vector"), "Parametric": (3, "vector"),
-                 "Backfacing": (1, "float"), "Pointiness": (1, "float")},
+                 "Backfacing": (1, "float"), "Pointiness": (1, "float"), "Random Per Island": (1, "float")},
     **{cls.kind: dict(cls.outputs) for cls in DESCRIBED},
 }
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
@@ -251,7 +251,7 @@ def images_of(nodes: list) -> list:
 
 def attributes_of(nodes: list) -> set:
     """The mesh attribute names a material's links read ("uv:NAME", "color:NAME", "tangent:NAME",
-    "generated", "object", "pointiness"; an empty NAME is the mesh's active one)."""
+    "generated", "object", "pointiness", "island" (Random Per Island); an empty NAME is the mesh's active one)."""
     names = set()
     for link in links_under(nodes):
         node = link.node
@@ -267,8 +267,8 @@ def attributes_of(nodes: list) -> set:
         elif node.kind == "TANGENT":
             names.add("generated" if node.props.get("direction", "RADIAL") == "RADIAL"
                       else "tangent:" + node.props.get("map", ""))
-        elif node.kind == "GEOMETRY" and link.output in ("Tangent", "Pointiness"):
-            names.add("generated" if link.output == "Tangent" else "pointiness")
+        elif node.kind == "GEOMETRY" and link.output in ("Tangent", "Pointiness", "Random Per Island"):
+            names.add({"Tangent": "generated", "Pointiness": "pointiness", "Random Per Island": "island"}[link.output])
         elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("uv:")
         elif node.kind in DESCRIBED_BY_KIND:
@@ -279,7 +279,7 @@ def attributes_of(nodes: list) -> set:
 
 
 # The widths of the mesh attributes by name prefix.
-ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1}
+ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1}
 
 
 def attribute_width(name: str) -> int:
@@ -484,6 +484,8 @@ class Compiler:
                 return out, 3, "vector"
             if output == "Pointiness":                  # a per-vertex attribute (core/geometry/pointiness.py)
                 return self.attribute("pointiness", 1), 1, "float"
+            if output == "Random Per Island":           # a per-triangle attribute (core/geometry/islands.py)
+                return self.attribute("island", 1), 1, "float"
             out = self.temporary(width)
             self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
             return out, width, vtype
