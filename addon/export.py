@@ -1021,8 +1021,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         mesh_cache.end()
     core.materials = materials.materials
     if world.lights:                    # a Sky Texture's sun disc, a lamp of the world's (in the world's light group)
-        for sun in world.suns:
-            sun.camera = world.camera
+        for sun in world.suns:          # (seen where the world is: not on a transparent film, unlike a sun lamp)
+            sun.camera = world.camera and not scene.render.film_transparent
             core.lights.append(sun)
             groups["lights"].append(groups["world"])
     world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0)

@@ -153,6 +153,16 @@ for name in {cases!r}:
         scene.primer.integrator, scene.primer.max_bounces, scene.primer.diffuse_bounces = "PATH", 2, 2
         world_case(name, max_bounces=int(name.split()[-1]))
         scene.primer.integrator = "DIRECT"
+    elif name == "sun seen by camera":
+        # A perspective camera looking down past the floor and occluder (hidden from it) at a sun's disc below.
+        camera.data.type = "PERSP"
+        for obj in (bpy.data.objects["Floor"], bpy.data.objects["Occluder"]):
+            obj.visible_camera = False
+        case(name, "SUN", (0.0, 0.0, 3.0), 3.0, **{{"data.angle": 0.3, "rotation_euler": (math.pi + 0.08, 0.05, 0.0),
+                                              "visible_camera": True}})
+        for obj in (bpy.data.objects["Floor"], bpy.data.objects["Occluder"]):
+            obj.visible_camera = True
+        camera.data.type = "ORTHO"
     elif name == "seen by all":
         case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
              **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0)}})
@@ -249,3 +259,14 @@ def test_the_worlds_max_bounces_is_read_and_renders_near_cycles(tmp_path):
     assert limited["rel_mse"] < BLOCK_TOLERANCE and every["rel_mse"] < BLOCK_TOLERANCE
     assert abs(limited["primer_mean"] / limited["cycles_mean"] - 1.0) < 0.02
     assert limited["cycles_mean"] < every["cycles_mean"] and limited["primer_mean"] < every["primer_mean"]
+
+
+def test_a_sun_disc_is_seen_by_camera_rays_that_escape_as_in_cycles(tmp_path):
+    """A sun of angle 0.3 below a camera whose view passes the floor (hidden from the camera): its disc fills part of
+    the image with radiance S / (pi sin^2(angle / 2)), as Cycles adds distant lights to escaping camera rays."""
+    sun = run_cases(tmp_path, ["sun seen by camera"])["sun seen by camera"]
+    print(sun)
+    assert sun["warnings"] == []
+    assert sun["cycles_mean"] > 1.0
+    assert sun["rel_mse"] < BLOCK_TOLERANCE
+    assert abs(sun["primer_mean"] / sun["cycles_mean"] - 1.0) < 0.03

@@ -8,6 +8,7 @@ A floor of albedo rho under a point lamp of power P lit at distance r and angle 
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from test_lights import (EXACT, expected_area_light_image, ground_plane, ortho_c
                          pixel_centre_points, plane_scene, point_light_radiance, square_light_over_plane)
 
 from core.render import render
-from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene
+from core.scene import AreaLight, Mesh, PointLight, RenderSettings, Scene, SunLight
 from core.visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY
 
 KERNELS = ["numpy", "compiled"]
@@ -139,3 +140,33 @@ def test_a_negative_point_lamp_takes_away_what_its_positive_twin_adds(kernels):
     alone = plane_scene(camera, (0.5, 0.5, 0.5), [PointLight(position=position, power=-power)])
     np.testing.assert_allclose(render(alone, dataclasses.replace(EXACT, kernels=kernels)).image[..., :3], -expected,
                                rtol=1e-6)
+
+
+def sun_below_half_a_floor(**settings):
+    """An orthographic camera looking down on a black floor over x < 0 only, and a 10-degree sun straight below
+    (direction +Z, as seen from everywhere: down), tilted by `tilt` degrees about Y: the rays over x > 0 escape
+    towards it."""
+    tilt = math.radians(settings.pop("tilt", 0.0))
+    camera = ortho_camera_looking_down(5.0, 4.0)
+    scene = Scene(camera=camera)
+    scene.add_material((0.0, 0.0, 0.0))
+    scene.add_mesh(Mesh(np.array([[-3.0, -3.0, 0.0], [0.0, -3.0, 0.0], [0.0, 3.0, 0.0], [-3.0, 3.0, 0.0]]),
+                        np.array([[0, 1, 2], [0, 2, 3]])))
+    scene.lights.append(SunLight(direction=np.array([math.sin(tilt), 0.0, math.cos(tilt)]), strength=3.0,
+                                 color=np.array([1.0, 0.5, 0.25]), angle=math.radians(10.0), **settings))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_camera_ray_that_escapes_into_a_suns_disc_sees_its_radiance(kernels):
+    """Rays that escape inside the disc see S / (pi sin^2(angle / 2)) x colour (Cycles' shade_background adds distant
+    lights to escaping camera rays); rays that hit the floor see none of it; a disc tilted past its half angle, a sun
+    hidden from the camera, or one with Multiple Importance off (Cycles' distant_light_sample_from_intersection), is
+    not seen."""
+    settings = dataclasses.replace(EXACT, kernels=kernels)
+    image = render(sun_below_half_a_floor(tilt=4.0), settings).image[..., :3]
+    radiance = 3.0 / (math.pi * math.sin(math.radians(5.0)) ** 2) * np.array([1.0, 0.5, 0.25])
+    np.testing.assert_allclose(image[:, 8:], np.broadcast_to(radiance, (16, 8, 3)), rtol=1e-6)
+    np.testing.assert_array_equal(image[:, :8], 0.0)
+    for hidden in ({"tilt": 6.0}, {"camera": False}, {"use_mis": False}):
+        np.testing.assert_array_equal(render(sun_below_half_a_floor(**hidden), settings).image[..., :3], 0.0)

@@ -160,7 +160,8 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
 }
 
 /* What a camera ray brings back besides its hit: the world where it escapes (when the camera sees it and
- * the film is not transparent), and the lamps with extent it passes before t (direct.lamps_seen). groups: (G, 3)
+ * the film is not transparent), the lamps with extent it passes before t and the suns' discs where it escapes
+ * (rays.lamps_seen). groups: (G, 3)
  * the same by the group of each source (lightgroups.py), added to, or NULL. */
 INLINE void camera_sees(const ChunkParams *params, const double *O, const double *D, double t, int hit, double *out,
                         double *groups)
@@ -173,11 +174,8 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
     }
     for (int64_t l = 0; l < (int64_t)params->light_count; l++) {
         const LightRecord *light = params->lights + l;
-        if (light->hittable == 0.0 || light->camera == 0.0
-            || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA))
-            continue;
         LightHit lh;
-        if (light_hit(light, O, D, t, &lh)) {
+        if (camera_sees_lamp(light, O, D, t, hit, &lh)) {
             for (int c = 0; c < 3; c++) out[c] += lh.radiance[c];
             add_to_group(groups, params->light_groups, 0, light->group, lh.radiance, 1.0);
         }
@@ -293,7 +291,7 @@ static void render_chunk(const ChunkArgs *a)
     for (int64_t l = 0; l < (int64_t)params->light_count; l++) {
         const LightRecord *light = params->lights + l;
         sees_more |= light->hittable != 0.0 && light->camera != 0.0
-                     && light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA);
+                     && light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA | LIGHT_FLAG_DISTANT);
     }
     for (int64_t start = 0; start < total; start += BLOCK) {
         /* 0. A cancelled render stops here (render.py drops the chunk). */

@@ -185,12 +185,8 @@ INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t l
     if (pt->offset[PASS_EMISSION] >= 0) {
         double seen[3] = {0.0, 0.0, 0.0};
         for (int64_t l = 0; l < ds->n_lights; l++) {
-            const LightRecord *light = ds->lights + l;
-            if (light->hittable == 0.0 || light->camera == 0.0
-                || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA))
-                continue;
             LightHit lh;
-            if (light_hit(light, O, D, t, &lh))
+            if (camera_sees_lamp(ds->lights + l, O, D, t, hit, &lh))
                 for (int c = 0; c < 3; c++) seen[c] += lh.radiance[c];
         }
         pass_add(lp, lane, PASS_EMISSION, seen, throughput);

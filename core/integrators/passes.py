@@ -305,7 +305,7 @@ def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O:
     if len(owner) == 0:
         return
     if dp.layout.has("emission"):
-        dp.add("emission", owner, throughput * lamps_seen(ctx, O, D, t))
+        dp.add("emission", owner, throughput * lamps_seen(ctx, O, D, t, escaped=~hit))
     missed = np.flatnonzero(~hit)
     world = ctx.extra.get("world_light")
     if dp.layout.has("environment") and world is not None and world.camera and len(missed):

@@ -12,6 +12,7 @@ import numpy as np
 from .. import materials as materials_
 from .. import vectors
 from ..geometry.surface import surface_at_hits
+from ..lights import LightFlags
 from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
 from . import clamp as clamp_
 from . import shadows
@@ -36,8 +37,8 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
         L_out[missed] = world.radiance(D[missed])
         if groups is not None:
             groups.add(missed, L_out[missed], groups.groups.world)
-    # 3. Lamps seen by the camera in front of what it hits (area lights, round lights).
-    L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), groups)
+    # 3. Lamps seen by the camera in front of what it hits (area lights, round lights), suns where it escapes.
+    L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), groups, escaped=~found.hit)
     # What the camera sees itself is a direct contribution (Clamp Direct).
     if np.isfinite(limit):
         f = clamp_.scale(L_out, None, limit)
@@ -102,12 +103,18 @@ def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
     return np.where(materials_.has(kind, F.STRAIGHT), previous, bounced).astype(np.int64)
 
 
-def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, groups=None) -> np.ndarray:
-    """The radiance (n, 3) of lamps with extent that camera rays meet before t_max (lamps never block); groups: a
-    lightgroups.GroupLight of the n rays that receives it by each lamp's group, or None."""
+def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, groups=None,
+               escaped=None) -> np.ndarray:
+    """The radiance (n, 3) of the lamps camera rays see: lamps with extent they meet before t_max (lamps never
+    block), and the discs of suns where they escape (escaped (n,) bool: the rays that hit nothing; Cycles'
+    shade_background adds distant lights there). groups: a lightgroups.GroupLight of the n rays that receives it by
+    each lamp's group, or None."""
     seen = np.zeros((len(O), 3))
+    escaped = np.zeros(len(O), bool) if escaped is None else escaped
     for index in ctx.extra.get("camera_lamps", ()):
-        radiance = ctx.lights[index].hit(O, D, t_max).radiance
+        light = ctx.lights[index]
+        reach = np.where(escaped, np.inf, -1.0) if light.is_(LightFlags.DISTANT) else t_max
+        radiance = light.hit(O, D, reach).radiance
         seen += radiance
         if groups is not None:
             groups.add(np.arange(len(O)), radiance, groups.groups.lights[index])

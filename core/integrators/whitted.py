@@ -94,7 +94,8 @@ class WhittedTracing(Integrator):
                 np.add.at(L_out, owner[missed], throughput[missed] * L_world)
                 if seen is not None:
                     seen.add(missed, L_world, seen.groups.world)
-            np.add.at(L_out, owner, throughput * lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), seen))
+            lamps = lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), seen, escaped=~found.hit)
+            np.add.at(L_out, owner, throughput * lamps)
             if groups is not None:
                 groups.add_rows(owner, seen, throughput)
             if feats is not None and depth == 0:

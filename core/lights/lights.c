@@ -2,6 +2,18 @@
  * from core/lights/__init__.py's LIGHT_TYPES by tools/make_boundary.py). */
 #include "lights.gen.c"
 
+/* rays.lamps_seen for one lamp and one camera ray O, D that ends at t (its hit, where `hit`, else where it escapes):
+ * whether the ray sees the lamp (hittable and visible to the camera: a lamp with extent before t, a sun's disc only
+ * where the ray escapes, as Cycles' shade_background adds distant lights, unless its Multiple Importance is off),
+ * its radiance in *lh. */
+INLINE int camera_sees_lamp(const LightRecord *light, const double *O, const double *D, double t, int hit, LightHit *lh)
+{
+    if (light->hittable == 0.0 || light->camera == 0.0) return 0;
+    if (light_is((int)light->kind, LIGHT_FLAG_DISTANT))                 /* (with Multiple Importance off: no disc) */
+        return !hit && light->use_mis != 0 && light_hit(light, O, D, INFINITY, lh);
+    return light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA) && light_hit(light, O, D, t, lh);
+}
+
 /* Light.sample over arrays (for the tests): points (n, 3), u (n, 3) float64 -> L (n, 3), distance,
  * strength, pdf (n,), position (n, 3), color (n, 3) float64. */
 static void sample_light_rows(const SampleLightArgs *a)

@@ -151,7 +151,9 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # BSDF ray is worth tracing at all (not for scenes lit by lights without extent alone).
     ctx.extra["hittable"] = {index for index, light in enumerate(lights) if light.hittable}
     ctx.extra["camera_lamps"] = [index for index, light in enumerate(lights)
-                                 if light.hittable and light.is_(lights_.LightFlags.POSITION | lights_.LightFlags.AREA) and light.camera]
+                                 if light.hittable and (light.is_(lights_.LightFlags.POSITION | lights_.LightFlags.AREA)
+                                                        or light.is_(lights_.LightFlags.DISTANT) and light.use_mis)
+                                 and light.camera]
     world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0)
     ctx.extra["emissive"] = bool(materials.emissive.any() or materials.graph_emits.any())
     # Shadow rays go on through surfaces: transparent ones, and objects hidden from shadow rays.
