@@ -344,3 +344,16 @@ def test_the_inspector_shows_the_uv_the_texel_the_tangent_frame_and_the_closures
         titles = dict(panel_sections(record))
         assert any(label.startswith("Texel") for label, _ in titles["Material"])
         assert ("Name", "Textured") in titles["Material"]
+
+
+def test_a_lamp_without_cast_shadow_traces_no_shadow_ray_and_lights_the_point_behind_a_blocker():
+    """Cast Shadow off (Cycles' light.use_shadow): the inspector shows no shadow ray (cast False, occluded None, the
+    reason named) and the floor point behind the blocker gets the lamp's unblocked share, as the render does."""
+    scene = floor_scene()
+    I = floor_point(scene, 8, 6)
+    scene.lights.append(PointLight(I + np.array([2.0, 0.0, 1.0]), power=100.0, name="Lamp", cast_shadow=False))
+    scene.add_mesh(primitives.plane(0.2, center=I + np.array([1.0, 0.0, 0.5])), name="Blocker")
+    (light,) = inspector.inspect_pixel(scene, settings(), 8, 6).lights
+    assert not light.cast and light.reason == inspector.NO_SHADOW
+    assert light.occluded is None and light.shadow_origin is None
+    assert light.contribution.min() > 0.0

@@ -190,8 +190,9 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             else:
                 seen = shadows.visible(ctx.geometry.tracer, rays)
                 through = seen[:, None].astype(np.float64)
-            recorder.shadow_rays(index, count, rows, rays, seen)
-            shadow_rays += len(rows) if light.cast_shadow else 0
+            if light.cast_shadow:                 # (no shadow ray to show where none was traced)
+                recorder.shadow_rays(index, count, rows, rays, seen)
+                shadow_rays += len(rows)
             # d. What gets through: f cos (the closures at L) E_normal / count, coloured by the
             #    light, weighed against BSDF sampling where a BSDF ray could find this light.
             part = shader.closures.rows(rows)

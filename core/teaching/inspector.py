@@ -42,6 +42,7 @@ CAST = "cast"
 BEHIND_N = "light behind N (N.L <= 0)"
 BEHIND_FACE = "light behind the face (Ng.L <= 0)"
 NO_LIGHT = "the light sends nothing here"
+NO_SHADOW = "the lamp casts no shadow (Cast Shadow off): nothing can block it"
 
 
 class LightRecord(NamedTuple):
@@ -58,7 +59,7 @@ class LightRecord(NamedTuple):
     inverse_square:  1 / r^2 for point, spot and area lights; None for the sun
     irradiance:      (3,) float64 E_normal, irradiance at normal incidence (W/m^2, RGB)
     cast:            whether a shadow ray was traced
-    reason:          why it was or was not cast (CAST, BEHIND_N, BEHIND_FACE, NO_LIGHT)
+    reason:          why it was or was not cast (CAST, BEHIND_N, BEHIND_FACE, NO_LIGHT, NO_SHADOW)
     occluded:        whether the shadow ray was blocked; None when none was cast
     shadow_origin:   (3,) float64 the shadow ray's origin (offset off the surface); None when not cast
     shadow_end:      (3,) float64 where the shadow ray stops (origin + t_max D); None when not cast
@@ -289,11 +290,12 @@ class InspectorRecorder(Recorder):
             with np.errstate(invalid="ignore"):
                 shadow_end = shadow_origin + shadow_t_max * rays.directions[0]
         is_sun = not np.isfinite(r)
+        reason = NO_SHADOW if kept["reason"] == CAST and not getattr(light, "cast_shadow", True) else kept["reason"]
         return LightRecord(
             name=light.name, kind=light.blender_type, sampled=not light.delta, L=sample.L[0].copy(), distance=r,
             light_point=None if is_sun else sample.position[0] + origin, n_dot_l=kept["NL"], ng_dot_l=kept["NgL"],
             inverse_square=None if is_sun else (1.0 / (r * r) if r > 0 else math.inf), irradiance=kept["E_normal"],
-            cast=kept["reason"] == CAST, reason=kept["reason"], occluded=occluded, shadow_origin=shadow_origin,
+            cast=reason == CAST, reason=reason, occluded=occluded, shadow_origin=shadow_origin,
             shadow_end=shadow_end, shadow_t_max=shadow_t_max, contribution=kept["value"], pdf=kept["pdf"],
             mis_weight=kept["mis"])
 
