@@ -56,7 +56,7 @@ ANIMATION = "animation playback, keying and timeline tools: the frame's evaluate
 DEPSGRAPH = "depsgraph: Blender applies it to the evaluated scene Primer reads, as for Cycles"
 VOLUMES = "materials.export_material, unmodelled.world_notes: Primer renders no volumes and notes every volume"
 MOTION = "unmodelled.render_notes: motion blur is noted as not rendered"
-HAIR = "export.export_scene, unmodelled.object_notes: curves and particle hair are noted as not rendered"
+HAIR = "unmodelled.object_notes: particle hair is noted as not rendered (Curves objects are tubes: export.curves_mesh)"
 
 COVERAGE = {
     "ID": {
@@ -166,7 +166,9 @@ COVERAGE = {
                     "bake_type": BAKE},
     },
     "CyclesCurveRenderSettings": {
-        REPORTED: {"shape subdivisions": HAIR},
+        READ: {"shape": "export.curves_mesh (Thick and Thick Linear as tubes; Ribbons as round tubes, noted)"},
+        REPORTED: {"subdivisions": "export.curves_mesh's Ribbons note (how finely Embree tessellates Cycles' ribbons; "
+                                   "Primer's tubes have their own rings)"},
     },
     "ViewLayer": {
         READ: {"use_pass_ambient_occlusion use_pass_diffuse_color use_pass_diffuse_direct use_pass_diffuse_indirect "

@@ -16,6 +16,7 @@ import numpy as np
 from ..core import scene as core_scene
 from ..core.camera import Camera
 from ..core.camera.camera import PANORAMA_TYPES
+from ..core.geometry import curves as curves_
 from ..core.geometry import islands as islands_
 from ..core.geometry import pointiness as pointiness_
 from ..core.lights import World, world_graph
@@ -30,7 +31,7 @@ from . import materials as materials_
 # Blender sync). Curves, text, surfaces and metaballs are skipped themselves: the depsgraph hands
 # their evaluated meshes to render engines as separate instances of type MESH (Blender 4.2 and 5.0).
 # Types Cycles renders that Primer does not (it traces triangles only):
-UNSUPPORTED_GEOMETRY = {"CURVES", "POINTCLOUD", "VOLUME"}
+UNSUPPORTED_GEOMETRY = {"POINTCLOUD", "VOLUME"}
 
 
 class ExportError(Exception):
@@ -83,6 +84,61 @@ def _corner_vertices(mesh) -> np.ndarray:
     else:
         mesh.loops.foreach_get("vertex_index", corners)
     return corners
+
+
+# Cycles' radius of a curve point without a radius attribute (blender/curves.cpp).
+CURVE_RADIUS = 0.005
+# How finely curves become tubes: sides of each ring and rings per span of the spline; past CURVE_TRIANGLES triangles
+# in one object, the coarse pair (a warning says so).
+CURVE_TESSELLATION, CURVE_TESSELLATION_COARSE, CURVE_TRIANGLES = (12, 8), (6, 3), 4_000_000
+
+
+def curves_mesh(curves, scene, warnings: list) -> core_scene.Mesh:
+    """A hair Curves datablock as a core Mesh of tubes around its Catmull-Rom splines (core/geometry/curves.py), read
+    in bulk: its points' positions and radius attribute (Cycles' 0.005 without one), its curves' offsets and material
+    index. Cycles' Thick Linear shape gives straight tubes between the points; its Ribbons (Blender 5's default) and
+    Blender's Bezier, NURBS and poly curve types are rendered as round Catmull-Rom tubes, with a warning."""
+    points, count = len(curves.points), len(curves.curves)
+    positions = np.empty(points * 3, np.float32)
+    curves.position_data.foreach_get("vector", positions)
+    radius = np.full(points, CURVE_RADIUS, np.float32)
+    attribute = curves.attributes.get("radius")
+    if attribute is not None and attribute.domain == "POINT" and attribute.data_type == "FLOAT":
+        attribute.data.foreach_get("value", radius)
+    offsets = np.empty(count + 1, np.int32)
+    curves.curve_offset_data.foreach_get("value", offsets)
+    first, counts = offsets[:-1].astype(np.int64), np.diff(offsets).astype(np.int64)
+    material = np.zeros(count, np.int32)
+    attribute = curves.attributes.get("material_index")
+    if attribute is not None and attribute.domain == "CURVE":
+        attribute.data.foreach_get("value", material)
+    kinds = curves.attributes.get("curve_type")
+    if kinds is not None and attribute_values(kinds, np.int32).any():
+        warnings.append(f"curves '{curves.name}' have Bezier, NURBS or poly curves: Primer renders each as Cycles "
+                        "renders Catmull-Rom curves, through its control points")
+    shape = getattr(getattr(scene, "cycles_curves", None), "shape", "RIBBONS")
+    if shape == "RIBBONS":
+        warnings.append(f"curves '{curves.name}': Cycles' Ribbons (flat strips facing each ray, shaded as round) are "
+                        "rendered as round tubes (3D Curves): the same outline and shading to within a few pixels' "
+                        "noise")
+    sides, steps = CURVE_TESSELLATION
+    linear = shape == "THICK_LINEAR"                    # (straight tubes between the points: one ring per point)
+    spans = int(np.maximum(counts - 1, 0).sum())
+    if 2 * sides * steps * spans > CURVE_TRIANGLES:
+        sides, steps = CURVE_TESSELLATION_COARSE
+        warnings.append(f"curves '{curves.name}': {count} curves are made tubes of {sides} sides and {steps} rings per "
+                        "span, coarser than Primer's usual 12 and 8")
+    tubes = curves_.tubes(positions.reshape(-1, 3), radius, first, counts, sides, 1 if linear else steps,
+                          name=curves.name, linear=linear)
+    tubes.mesh.material_indices = material[tubes.curve].astype(np.int64)
+    return tubes.mesh
+
+
+def attribute_values(attribute, dtype) -> np.ndarray:
+    """A Blender attribute's values (n,) of `dtype`, read in bulk."""
+    values = np.empty(len(attribute.data), dtype)
+    attribute.data.foreach_get("value", values)
+    return values
 
 
 def _mesh_arrays(mesh) -> core_scene.Mesh:
@@ -978,13 +1034,15 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                 unsupported_noted.add(obj.name)
                 warnings.append(f"object '{obj.name}' is of type {obj.type}, which Primer does not render")
             continue
-        if obj.type != "MESH" or obj.data is None:
+        if obj.type not in ("MESH", "CURVES") or obj.data is None:
             continue
         # A mesh shared by several instances is exported once (keyed by its evaluated data): linked
         # duplicates, collection and geometry-nodes instances share it; modifiers make a mesh of its own.
         key = obj.data.as_pointer()
         if key not in mesh_index:
-            if mesh_cache is not None:
+            if obj.type == "CURVES":                # hair curves: tubes (core/geometry/curves.py)
+                mesh = curves_mesh(obj.data, scene, warnings)
+            elif mesh_cache is not None:
                 mesh = mesh_cache.mesh(obj, meshes_read)
             else:
                 mesh = _mesh_arrays(obj.data)
@@ -996,7 +1054,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             mesh_index[key] = len(core.meshes) - 1
         if mesh_index[key] is None:
             continue
-        if obj.name not in terminator_offsets and core.meshes[mesh_index[key]].smooth.any():
+        if obj.name not in terminator_offsets and obj.type == "MESH" and core.meshes[mesh_index[key]].smooth.any():
             terminator_offsets[obj.name] = _terminator_offsets(obj)
         slots = materials.slot_map(obj, warnings, override)
         # The attributes its materials' node graphs read, and Cycles' random number of an instance.
@@ -1005,7 +1063,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             wanted |= graph_.attributes_of(materials.materials[slot].nodes)
         if "uv" in passes and len(obj.data.uv_layers):
             wanted.add("uv:")
-        if wanted:
+        if wanted and obj.type == "CURVES":
+            warnings.append(f"object '{obj.name}': its materials read {', '.join(sorted(wanted))}, which Primer does "
+                            "not carry on curves; they read 0")
+        elif wanted:
             mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
         visibility = ray_visibility(obj)          # (a Holdout collection makes its objects holdouts, as in Cycles)
