@@ -19,6 +19,7 @@ from ..core.camera.camera import PANORAMA_TYPES
 from ..core.geometry import curves as curves_
 from ..core.geometry import islands as islands_
 from ..core.geometry import pointiness as pointiness_
+from ..core.geometry import points as points_
 from ..core.lights import World, world_graph
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
@@ -31,7 +32,7 @@ from . import materials as materials_
 # Blender sync). Curves, text, surfaces and metaballs are skipped themselves: the depsgraph hands
 # their evaluated meshes to render engines as separate instances of type MESH (Blender 4.2 and 5.0).
 # Types Cycles renders that Primer does not (it traces triangles only):
-UNSUPPORTED_GEOMETRY = {"POINTCLOUD", "VOLUME"}
+UNSUPPORTED_GEOMETRY = {"VOLUME"}
 
 
 class ExportError(Exception):
@@ -132,6 +133,32 @@ def curves_mesh(curves, scene, warnings: list) -> core_scene.Mesh:
                           name=curves.name, linear=linear)
     tubes.mesh.material_indices = material[tubes.curve].astype(np.int64)
     return tubes.mesh
+
+
+# Cycles' radius of a point without a radius attribute (blender/pointcloud.cpp), and the icosphere a point becomes:
+# its subdivisions by how many points the object has (at most POINT_TRIANGLES triangles), the finest first.
+POINT_RADIUS, POINT_TRIANGLES = 0.01, 4_000_000
+
+
+def points_mesh(cloud, warnings: list) -> core_scene.Mesh:
+    """A PointCloud datablock as a core Mesh of icospheres (core/geometry/points.py): its points' positions, radius
+    attribute (Cycles' 0.01 without one) and material index, read in bulk."""
+    count = len(cloud.points)
+    positions = np.empty(count * 3, np.float32)
+    radius = np.full(count, POINT_RADIUS, np.float32)
+    material = np.zeros(count, np.int32)
+    for name, values, kind in (("position", positions, "vector"), ("radius", radius, "value"),
+                               ("material_index", material, "value")):
+        attribute = cloud.attributes.get(name)
+        if attribute is not None and attribute.domain == "POINT" and len(attribute.data) == count:
+            attribute.data.foreach_get(kind, values)
+    subdivisions = next((n for n in (2, 1) if 20 * 4 ** n * count <= POINT_TRIANGLES), 0)
+    if subdivisions < 2:
+        warnings.append(f"point cloud '{cloud.name}': its {count} points are spheres of {20 * 4 ** subdivisions} "
+                        "triangles, coarser than Primer's usual 320")
+    mesh, point = points_.spheres(positions.reshape(-1, 3), radius, subdivisions, name=cloud.name)
+    mesh.material_indices = material[point].astype(np.int64)
+    return mesh
 
 
 def attribute_values(attribute, dtype) -> np.ndarray:
@@ -1034,7 +1061,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                 unsupported_noted.add(obj.name)
                 warnings.append(f"object '{obj.name}' is of type {obj.type}, which Primer does not render")
             continue
-        if obj.type not in ("MESH", "CURVES") or obj.data is None:
+        if obj.type not in ("MESH", "CURVES", "POINTCLOUD") or obj.data is None:
             continue
         # A mesh shared by several instances is exported once (keyed by its evaluated data): linked
         # duplicates, collection and geometry-nodes instances share it; modifiers make a mesh of its own.
@@ -1042,6 +1069,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         if key not in mesh_index:
             if obj.type == "CURVES":                # hair curves: tubes (core/geometry/curves.py)
                 mesh = curves_mesh(obj.data, scene, warnings)
+            elif obj.type == "POINTCLOUD":          # points: spheres (core/geometry/points.py)
+                mesh = points_mesh(obj.data, warnings)
             elif mesh_cache is not None:
                 mesh = mesh_cache.mesh(obj, meshes_read)
             else:
@@ -1063,9 +1092,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             wanted |= graph_.attributes_of(materials.materials[slot].nodes)
         if "uv" in passes and len(obj.data.uv_layers):
             wanted.add("uv:")
-        if wanted and obj.type == "CURVES":
+        if wanted and obj.type != "MESH":
             warnings.append(f"object '{obj.name}': its materials read {', '.join(sorted(wanted))}, which Primer does "
-                            "not carry on curves; they read 0")
+                            f"not carry on {obj.type.lower()} objects; they read 0")
         elif wanted:
             mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
