@@ -56,7 +56,6 @@ ANIMATION = "animation playback, keying and timeline tools: the frame's evaluate
 DEPSGRAPH = "depsgraph: Blender applies it to the evaluated scene Primer reads, as for Cycles"
 VOLUMES = "materials.export_material, unmodelled.world_notes: Primer renders no volumes and notes every volume"
 MOTION = "unmodelled.render_notes: motion blur is noted as not rendered"
-HAIR = "unmodelled.object_notes: particle hair is noted as not rendered (Curves objects are tubes: export.curves_mesh)"
 
 COVERAGE = {
     "ID": {
@@ -179,13 +178,14 @@ COVERAGE = {
                "use_pass_cryptomatte_asset use_pass_cryptomatte_material use_pass_cryptomatte_object "
                "pass_cryptomatte_depth": "engine.py, export.export_scene (Cryptomatte)",
                "lightgroups": "lightgroups.group_names", "material_override": "export.export_scene",
+               "use_strand": "export.export_scene (Filter > Strands off: no curves nor particle hair, as in Cycles)",
                "layer_collection": "unmodelled.holdout_objects (Holdout), unmodelled.view_layer_notes",
                "name": "engine.py (the render layer written)",
                "depsgraph objects use": DEPSGRAPH},
         REPORTED: {"use_pass_mist use_pass_vector use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
                    "use_pass_subsurface_indirect aovs use_pass_combined use_sky use_solid pass_alpha_threshold "
                    "world_override*": "unmodelled.view_layer_notes",
-                   "use_motion_blur": MOTION, "use_strand": HAIR, "use_volumes": VOLUMES,
+                   "use_motion_blur": MOTION, "use_volumes": VOLUMES,
                    "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},
         NO_EFFECT: {"active_aov active_aov_index active_layer_collection active_lightgroup active_lightgroup_index "
                     "has_export_collections": VIEWPORT,

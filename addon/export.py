@@ -117,11 +117,7 @@ def curves_mesh(curves, scene, warnings: list) -> core_scene.Mesh:
     if kinds is not None and attribute_values(kinds, np.int32).any():
         warnings.append(f"curves '{curves.name}' have Bezier, NURBS or poly curves: Primer renders each as Cycles "
                         "renders Catmull-Rom curves, through its control points")
-    shape = getattr(getattr(scene, "cycles_curves", None), "shape", "RIBBONS")
-    if shape == "RIBBONS":
-        warnings.append(f"curves '{curves.name}': Cycles' Ribbons (flat strips facing each ray, shaded as round) are "
-                        "rendered as round tubes (3D Curves): the same outline and shading to within a few pixels' "
-                        "noise")
+    shape = curve_shape(scene, f"curves '{curves.name}'", warnings)
     sides, steps = CURVE_TESSELLATION
     linear = shape == "THICK_LINEAR"                    # (straight tubes between the points: one ring per point)
     spans = int(np.maximum(counts - 1, 0).sum())
@@ -159,6 +155,88 @@ def points_mesh(cloud, warnings: list) -> core_scene.Mesh:
     mesh, point = points_.spheres(positions.reshape(-1, 3), radius, subdivisions, name=cloud.name)
     mesh.material_indices = material[point].astype(np.int64)
     return mesh
+
+
+def curve_shape(scene, what: str, warnings: list) -> str:
+    """Cycles' curve shape for the scene's curves (Render > Curves > Shape), with the note for Ribbons (rendered as
+    round tubes) about `what` (e.g. "curves 'Hair'")."""
+    shape = getattr(getattr(scene, "cycles_curves", None), "shape", "RIBBONS")
+    if shape == "RIBBONS":
+        warnings.append(f"{what}: Cycles' Ribbons (flat strips facing each ray, shaded as round) are rendered as "
+                        "round tubes (3D Curves): the same outline and shading to within a few pixels' noise")
+    return shape
+
+
+def rendered_hair(obj) -> list:
+    """The particle systems of `obj` that Cycles renders as hair: Hair type, rendered as Path, their modifier on
+    for renders."""
+    on = {modifier.particle_system.name for modifier in obj.modifiers
+          if modifier.type == "PARTICLE_SYSTEM" and modifier.show_render}
+    return [system for system in obj.particle_systems
+            if system.name in on and system.settings.type == "HAIR" and system.settings.render_type == "PATH"]
+
+
+def hair_radius(settings, time: np.ndarray) -> np.ndarray:
+    """A hair's radius at `time` (...,) float64, the share of its length from the root, as Cycles' particle sync
+    shapes it: radius_scale / 2 x (the diameters at root and tip, blended by (1 - time) to the power 1 + shape
+    below 0, 1 / (1 - shape) above)."""
+    scale = 0.5 * float(settings.radius_scale)
+    root, tip, shape = scale * float(settings.root_radius), scale * float(settings.tip_radius), float(settings.shape)
+    fall = 1.0 - time
+    if shape < 0.0:
+        fall = fall ** (1.0 + shape)
+    elif shape > 0.0:
+        fall = fall ** (1.0 / (1.0 - shape))
+    return fall * (root - tip) + tip
+
+
+# Particle hair's tubes: sides and rings per span between the path cache's keys (the coarse pair past CURVE_TRIANGLES).
+HAIR_TESSELLATION, HAIR_TESSELLATION_COARSE = (8, 2), (4, 1)
+
+
+def particle_hair_mesh(obj, system, render: bool, matrix: np.ndarray, warnings: list, shape: str = "THICK"):
+    """The hair of particle system `system` of the evaluated object `obj` as a core Mesh of tubes in the object's
+    space (core/geometry/curves.py), or None without strands. As Cycles' sync: the parents, or only the children
+    where the system has some; 2^(render or display steps) + 1 keys each (co_hair, in world space), repeated keys
+    left out; the radius by hair_radius along each strand's length, 0 at the tip with Close Tip; the material of
+    the system's slot; straight between the keys for Cycles' Thick Linear `shape`."""
+    settings = system.settings
+    parents, children = len(system.particles), len(system.child_particles)
+    if not render:
+        children = int(children * settings.display_percentage / 100.0)
+    start = parents if settings.child_type != "NONE" and children > 0 else 0
+    steps = (1 << int(settings.render_step if render else settings.display_step)) + 1
+    if settings.kink == "SPIRAL":
+        steps += int(settings.kink_extra_steps)
+    strands = np.arange(start, parents + children)
+    if len(strands) == 0:
+        return None
+    keys = np.array([[system.co_hair(obj, particle_no=int(k), step=step)[:] for step in range(steps)]
+                     for k in strands], np.float64)                                   # (c, steps, 3) world
+    inverse = np.linalg.inv(matrix)
+    keys = keys @ inverse[:3, :3].T + inverse[:3, 3]
+    step = np.linalg.norm(np.diff(keys, axis=1), axis=2)                                # (c, steps - 1)
+    kept = np.concatenate([np.ones((len(keys), 1), bool), step > 0.0], axis=1)
+    length = np.concatenate([np.zeros((len(keys), 1)), np.cumsum(step, axis=1)], axis=1)
+    total = length[:, -1:]
+    time = np.divide(length, total, out=np.zeros_like(length), where=total > 0.0)
+    radius = hair_radius(settings, time)
+    if settings.use_close_tip:
+        last = np.where(kept, np.arange(steps)[None, :], -1).max(axis=1)
+        radius[np.arange(len(keys)), last] = 0.0
+    counts = kept.sum(axis=1)
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    sides, rings = HAIR_TESSELLATION                # (the keys are the path cache's, already close together)
+    if 2 * sides * rings * int((counts - 1).sum()) > CURVE_TRIANGLES:
+        sides, rings = HAIR_TESSELLATION_COARSE
+        warnings.append(f"object '{obj.name}': the {len(strands)} strands of particle system '{system.name}' are "
+                        f"made tubes of {sides} sides and {rings} ring per key, coarser than Primer's usual "
+                        f"{HAIR_TESSELLATION[0]} and {HAIR_TESSELLATION[1]}")
+    tubes = curves_.tubes(keys[kept], radius[kept], first, counts, sides, rings, name=f"{obj.name} {system.name}",
+                          linear=shape == "THICK_LINEAR")
+    slot = max(int(settings.material) - 1, 0)
+    tubes.mesh.material_indices[:] = min(slot, max(len(obj.material_slots) - 1, 0))
+    return tubes.mesh
 
 
 def attribute_values(attribute, dtype) -> np.ndarray:
@@ -1031,6 +1109,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     materials = MaterialTable()
     override = getattr(depsgraph.view_layer_eval, "material_override", None)
     mesh_index: dict = {}
+    strands = bool(getattr(depsgraph.view_layer, "use_strand", True))   # (Filter > Strands: curves and hair)
     groups = {"lights": [], "instances": [], "world": lightgroups.source_group(scene.world)}
     ray_visibility_noted: set = set()
     unsupported_noted: set = set()
@@ -1054,6 +1133,16 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                 core.lights.append(light)
                 groups["lights"].append(lightgroups.source_group(obj))
             continue
+        if obj.type == "MESH" and not instance.is_instance and instance.show_particles and strands:
+            for system in rendered_hair(obj):       # particle hair: tubes placed with their emitter
+                hair = particle_hair_mesh(obj, system, depsgraph.mode == "RENDER", matrix, warnings,
+                                          curve_shape(scene, f"object '{obj.name}' hair '{system.name}'", warnings))
+                if hair is not None:
+                    core.meshes.append(hair)
+                    core.instances.append(core_scene.Instance(
+                        len(core.meshes) - 1, matrix, materials.slot_map(obj, warnings, override), obj.name,
+                        None, int(getattr(obj, "pass_index", 0)), **ray_visibility(obj), asset=topmost_parent(obj).name))
+                    groups["instances"].append(lightgroups.source_group(obj))
         if not instance.show_self:
             continue                    # e.g. a particle emitter that is not rendered itself
         if obj.type in UNSUPPORTED_GEOMETRY:
@@ -1061,7 +1150,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                 unsupported_noted.add(obj.name)
                 warnings.append(f"object '{obj.name}' is of type {obj.type}, which Primer does not render")
             continue
-        if obj.type not in ("MESH", "CURVES", "POINTCLOUD") or obj.data is None:
+        if obj.type not in ("MESH", "CURVES", "POINTCLOUD") or obj.data is None or obj.type == "CURVES" and not strands:
             continue
         # A mesh shared by several instances is exported once (keyed by its evaluated data): linked
         # duplicates, collection and geometry-nodes instances share it; modifiers make a mesh of its own.

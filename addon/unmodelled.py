@@ -132,7 +132,7 @@ def camera_notes(camera_object) -> list:
 
 
 def object_notes(obj) -> list:
-    """Object settings that Primer does not model: shadow catcher, light and shadow linking, particle hair."""
+    """Object settings that Primer does not model: shadow catcher, light and shadow linking, adaptive subdivision."""
     notes = []
     if obj.type != "LIGHT" and getattr(obj, "is_shadow_catcher", False):     # (lamps read True; Cycles ignores it)
         notes.append(f"object '{obj.name}' is a shadow catcher in Cycles; Primer renders it as an ordinary object")
@@ -143,10 +143,6 @@ def object_notes(obj) -> list:
             if collection is not None:
                 notes.append(f"object '{obj.name}' uses {what} (collection '{collection.name}'); Primer lets it light "
                              "(and shadow) everything")
-    for system in getattr(obj, "particle_systems", ()):
-        settings = system.settings
-        if settings.type == "HAIR" and settings.render_type == "PATH":
-            notes.append(f"object '{obj.name}': hair of particle system '{system.name}' is not rendered by Primer")
     adaptive = any(modifier.type == "SUBSURF" and modifier.show_render and getattr(modifier, "use_adaptive_subdivision",
                                                                                     False)
                    for modifier in getattr(obj, "modifiers", ())) \

@@ -4,7 +4,8 @@ Cycles renders each curve as a round tube along the Catmull-Rom spline through i
 triangles around the same spline (core/geometry/curves.py). A few thick wavy curves of a red diffuse material, with a
 radius that tapers, lie over a grey floor under a sun, seen from above by an orthographic camera: the strands, their
 shading and their shadows on the floor, held to the project's measure (the relative MSE of 4 x 4-pixel block means);
-the same with twelve points of growing radius made by geometry nodes (Cycles' spheres; Primer's icospheres).
+the same with twelve points of growing radius made by geometry nodes (Cycles' spheres; Primer's icospheres), and
+with thirty tapering particle hairs grown sideways from an upright emitter.
 """
 from __future__ import annotations
 
@@ -39,7 +40,18 @@ hair.position_data.foreach_set("vector", np.array(positions, np.float32).ravel()
 radius = hair.attributes.new("radius", "FLOAT", "POINT")
 radius.data.foreach_set("value", np.tile(np.linspace(0.12, 0.04, 6), 5).astype(np.float32))
 red = diffuse_material("Red", (0.8, 0.1, 0.1))
-if {points}:
+if {case!r} == "particle_hair":
+    # Thirty particle hairs (Hair type, rendered as Path) 1.5 long, root diameter 0.08 tapering to 0, grown
+    # sideways from an upright emitter plane in its second material slot (red).
+    bpy.ops.mesh.primitive_plane_add(size=3.0, location=(0.0, 1.6, 0.6), rotation=(math.pi / 2, 0.0, 0.0))
+    emitter = bpy.context.view_layer.objects.active
+    emitter.data.materials.append(diffuse_material("Grey Emitter", (0.5, 0.5, 0.5)))
+    emitter.data.materials.append(red)
+    emitter.modifiers.new("Hair", "PARTICLE_SYSTEM")
+    settings = emitter.particle_systems[0].settings
+    settings.type, settings.count, settings.hair_length = "HAIR", 30, 1.5
+    settings.radius_scale, settings.root_radius, settings.tip_radius, settings.material = 0.08, 1.0, 0.0, 2
+elif {case!r} == "point_cloud":
     # Twelve points of radius 0.1 to 0.32 made by geometry nodes (Mesh to Points), red.
     cloud = bpy.data.meshes.new("Cloud")
     cloud.from_pydata([(-2.4 + 0.45 * k, 1.4 * math.sin(1.3 * k), 0.4) for k in range(12)], [], [])
@@ -86,12 +98,12 @@ def blocks(image: np.ndarray) -> np.ndarray:
     return image[:h, :w].reshape(h // 4, 4, w // 4, 4, -1).mean(axis=(1, 3))
 
 
-@pytest.mark.parametrize("points", [False, True], ids=["hair_curves", "point_cloud"])
-def test_curves_and_points_render_as_cycles_round_strands_and_spheres_with_their_shadows(points, tmp_path):
+@pytest.mark.parametrize("case", ["hair_curves", "point_cloud", "particle_hair"])
+def test_curves_and_points_render_as_cycles_round_strands_and_spheres_with_their_shadows(case, tmp_path):
     """The strands (or a point cloud's spheres) cover the same pixels with the same shading and cast the same
     shadows as in Cycles: block relMSE within Cycles' own noise at these samples, red where they are, and no warning
     that they are not rendered."""
-    report = run_bpy(SCRIPT.format(primer=PRIMER_SAMPLES, cycles=CYCLES_SAMPLES, points=points), str(tmp_path))
+    report = run_bpy(SCRIPT.format(primer=PRIMER_SAMPLES, cycles=CYCLES_SAMPLES, case=case), str(tmp_path))
     print(report["warnings"])
     assert not [w for w in report["warnings"] if "of type" in w or "not render" in w], report["warnings"]
     primer, cycles = np.load(tmp_path / "primer.npy"), np.load(tmp_path / "cycles.npy")

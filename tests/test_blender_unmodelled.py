@@ -65,21 +65,19 @@ def scene_with_everything():
     tree.links.new(tree.nodes.new("ShaderNodeVolumeScatter").outputs[0], out.inputs["Volume"])
     layer.use_pass_mist = layer.use_pass_vector = True
     layer.aovs.add().name = "Mask"
-    cube.modifiers.new("Hair", "PARTICLE_SYSTEM")
-    cube.particle_systems[0].settings.type = "HAIR"
     return scene
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
     """Depth of field, motion blur, shadow catcher, light and shadow linking, a material's Volume and Displacement,
-    Principled Dispersion, a world volume, Mist, Vector and AOV passes, particle hair: each named in one warning."""
+    Principled Dispersion, a world volume, Mist, Vector and AOV passes: each named in one warning."""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     expected = ["depth of field", "motion blur", "shadow catcher", "uses light linking", "uses shadow linking",
                 "Volume output",
                 "Displacement output", "world's Volume", "Mist pass", "Vector pass",
-                "AOVs (Mask)", "hair of particle system"]
+                "AOVs (Mask)"]
     if any(node.inputs.get("Dispersion") is not None for node in bpy.data.materials["Displaced"].node_tree.nodes):
         expected.append("'Dispersion' is above 0")
     for phrase in expected:
