@@ -35,6 +35,7 @@ import numpy as np
 from .. import lights as lights_
 from .. import memory, vectors
 from ..camera import camera as camera_
+from ..camera import motion
 from ..film import adaptive
 from ..film.film import FILM_MAX, ChunkSums, Film, finite_samples, pixel_sums
 from ..geometry import instancing
@@ -197,7 +198,8 @@ def camera_rays(ctx: Context, s: RenderSettings, pixel: np.ndarray, sample: np.n
     """Return the camera rays (core/camera Rays, camera-relative) of samples `sample` of pixels `pixel`:
     both (n,) int64; the positions in the pixel are the samples' jittered points (dimension 0 of the
     pattern), or without jitter the centres of a grid of spp cells, moved by the pixel filter
-    (core/camera/filter.py: drawn from its density, as Cycles does)."""
+    (core/camera/filter.py: drawn from its density, as Cycles does); with motion blur each ray's time in the shutter
+    (core/camera/motion.py, TIME_DIMENSION)."""
     W, H = s.width, s.height
     if s.jitter:
         offset = sampling.sample_2d(s.seed, pixel, sample, dimension=0)
@@ -207,8 +209,12 @@ def camera_rays(ctx: Context, s: RenderSettings, pixel: np.ndarray, sample: np.n
     camera = ctx.extra["camera"]
     lens = (sampling.sample_2d(s.seed, pixel, sample, dimension=camera_.LENS_DIMENSION)
             if camera_.has_depth_of_field(camera) else None)       # (depth of field: each ray's point on the lens)
+    time = None                                                     # (motion blur: each ray's time in the shutter)
+    if camera.shutter is not None:
+        u = sampling.sample_2d(s.seed, pixel, sample, dimension=motion.TIME_DIMENSION)[:, 0]
+        time = motion.ray_times(camera.shutter, u, pixel // W, H)
     return camera_.generate_rays(camera, W, H, (pixel % W) + offset[:, 0], (pixel // W) + offset[:, 1],
-                                 tuple(s.pixel_aspect), lens)
+                                 tuple(s.pixel_aspect), lens, time)
 
 
 def light_pass_images(film: Film, first_hit: dict, wanted) -> dict:
