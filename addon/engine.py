@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core.integrators import cryptomatte
 from ..core.integrators import debug
-from . import compositor, export, lightgroups, viewport
+from . import compositor, export, lightgroups, motion, viewport
 
 log = logging.getLogger("primer")
 
@@ -398,6 +398,10 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
         exported = export.export_scene(depsgraph, engine.camera_override, cancelled,
                                        requested_buffers(scene.primer, depsgraph.view_layer),
                                        requested_passes(depsgraph.view_layer), mesh_cache)
+        # Motion blur: the camera read over the shutter (the scene moved there and back), the moving objects noted.
+        camera_object = engine.camera_override or scene.camera
+        exported.scene.camera = motion.sample_shutter(engine, depsgraph, camera_object, exported.scene.camera,
+                                                      export.export_camera, exported.warnings)
         record.export_seconds = time.perf_counter() - start
         record.meshes_read = exported.meshes_read
         record.warnings = animation_notes(scene, bool(getattr(engine, "is_animation", False)))

@@ -6,7 +6,7 @@ placing the camera where it is at that time. Primer does the same, in both kerne
 
 * **The time** is a sampling dimension of its own (TIME_DIMENSION), drawn through the **shutter curve**: Render >
   Motion Blur > Shutter Curve says how open the shutter is over its time (a box: fully open throughout). Cycles turns
-  the curve (256 values) into the table of its inverse CDF (`scene/camera.cpp` shutter_table, `util/math_cdf.*`,
+  the curve (257 values) into the table of its inverse CDF (`scene/camera.cpp` shutter_table, `util/math_cdf.*`,
   SHUTTER_TABLE_SIZE entries) and reads it at the uniform number by linear interpolation, as the pixel filter's table
   (core/camera/filter.py `offsets`). The table is built here the way Cycles builds it, in float32, with one of its
   quirks kept because it is what Cycles renders: its curve lookup reads the entry *before* the curve at time 0, which
@@ -46,8 +46,9 @@ __all__ = ["SHUTTER_TABLE_SIZE", "TIME_DIMENSION", "MOTION_STRIDE", "Shutter", "
 SHUTTER_TABLE_SIZE = schema.constant("SHUTTER_TABLE_SIZE", 256, "entries of the shutter curve's table (Cycles' size)")
 TIME_DIMENSION = schema.constant("TIME_DIMENSION", 4, "the sampling dimension of a camera ray's time in the shutter")
 MOTION_STRIDE = schema.constant("MOTION_STRIDE", 16, "numbers of one decomposed camera transform (motion.decompose)")
-# The number of the curve's values Cycles reads (RAMP_TABLE_SIZE), sampled at i / (CURVE_POINTS - 1).
-CURVE_POINTS = 256
+# The number of the curve's values Cycles reads (RAMP_TABLE_SIZE + 1: Blender's sync, curvemapping_to_array, evaluates
+# the curve at i / RAMP_TABLE_SIZE for i = 0 .. RAMP_TABLE_SIZE), sampled at i / (CURVE_POINTS - 1).
+CURVE_POINTS = 257
 
 _F32 = np.float32
 
