@@ -6,9 +6,10 @@ camera.cpp `sync_camera_motion`) reads the camera at the times of its motion ste
 long, centred on the frame (Position Center), starting at it (Start) or ending at it (End); step k of n lies at the
 relative time 2k / (n - 1) - 1 of the shutter's half-length around its centre, and n = 2^steps + 1 for the camera
 object's Motion Steps (Object > Motion Blur; 0 when its Motion Blur is off: it stands still). For a Start or End
-shutter the camera at the shutter's centre is the one the render uses otherwise (its position for the camera-relative
-frame, the Camera texture coordinates). A perspective camera whose field of view differs at the shutter's open or
-close gets it too (Cycles' perspective motion). The add-on moves the scene there with RenderEngine.frame_set(frame,
+shutter the camera at the shutter's centre gives the render's camera its matrix (its position for the camera-relative
+frame, the Camera texture coordinates) and field of view, its other settings staying the frame's, as in Cycles. A
+perspective camera whose field of view differs at the shutter's open or close gets it too (Cycles' perspective
+motion). The add-on moves the scene there with RenderEngine.frame_set(frame,
 subframe), reads, and sets the frame back. Only a final render does this: Cycles' viewport renders no motion blur.
 
 Primer does not blur objects (Embree's time steps are not wired): each object whose transform differs at the shutter's
@@ -162,10 +163,19 @@ def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warn
     note = moving_objects_note(states[-1.0], states[1.0], *note_frames)
     if note:
         warnings.append(note)
-    centre = cameras.get(0.0, camera) if centre_offset(scene.render) != 0.0 else camera
+    centre = camera
+    if centre_offset(scene.render) != 0.0:
+        # Cycles keeps the frame's camera but for its matrix and field of view, which it takes at the shutter's centre.
+        middle = cameras[0.0]
+        view = dict(lens=middle.lens, sensor_width=middle.sensor_width, sensor_height=middle.sensor_height)
+        centre = dataclasses.replace(camera, matrix_world=middle.matrix_world, **(view if camera.type == "PERSP" else {}))
     matrices = tuple(np.asarray(cameras[2.0 * k / (steps - 1) - 1.0].matrix_world) for k in range(steps))
+    if not all(np.isfinite(m).all() for m in matrices):
+        warnings.append(f"motion blur: camera '{camera_object.name}' has an invalid (NaN or infinite) transform during "
+                        "the shutter; Primer renders it still")
+        matrices = ()
     fov = ()
     if centre.type == "PERSP" and steps:
-        middle = _fov_tangent(centre)
-        fov = (_fov_tangent(cameras[-1.0]) / middle, _fov_tangent(cameras[1.0]) / middle)
+        middle_tangent = _fov_tangent(centre)
+        fov = (_fov_tangent(cameras[-1.0]) / middle_tangent, _fov_tangent(cameras[1.0]) / middle_tangent)
     return dataclasses.replace(centre, shutter=shutter(scene), motion=matrices, fov_motion=fov)
