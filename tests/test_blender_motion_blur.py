@@ -2,13 +2,13 @@
 rendered by Cycles and by Primer with Render > Motion Blur on, blurs the same way. No mocks.
 
 The scene: a plane whose emission is a Checker texture (strength 1, so no lamp and no lighting noise), a perspective
-camera 4 above it whose location and rotation are keyframed linearly from frame 0 to 2 and rendered at frame 1, a
-black world, Cycles' 1-pixel box filter in both. The error measure is the relative MSE of 4 x 4-pixel block means,
-mean((P - C)^2 / (C^2 + 0.01)); its threshold is set against Cycles' own noise: Cycles rendered again with another
-seed differs from itself by about as much (measured below), while the still camera's image is 70 to 800 times
-further from the blurred one. Each part is needed: with a box curve in place of the ramp Primer measures 4.5e-3, without
-the zoom 6.0e-3, with the shutter centred on the frame instead of starting at it 0.11, without the rolling shutter 0.25
-(all more than 10 times the tolerance).
+camera (or an equisolid fisheye) 4 above it whose location and rotation are keyframed linearly from frame 0 to 2 and
+rendered at frame 1, a black world, Cycles' 1-pixel box filter in both. The error measure is the relative MSE of
+4 x 4-pixel block means, mean((P - C)^2 / (C^2 + 0.01)); its threshold is set against Cycles' own noise: Cycles
+rendered again with another seed differs from itself by about as much (measured below), while the still camera's
+image is 30 to 600 times the tolerance away from the blurred one. Each part is needed: with a box curve in place of
+the ramp Primer measures 4.5e-3, without the zoom 6.0e-3, with the shutter centred on the frame instead of starting
+at it 0.11, without the rolling shutter 0.25 (all 9 times the tolerance or more).
 """
 from __future__ import annotations
 
@@ -32,8 +32,9 @@ pytestmark = pytest.mark.blender
 WIDTH, HEIGHT = 32, 24
 SAMPLES = 256
 # Block relative MSE within which Primer matches Cycles: Cycles against itself with another seed measures 1.1e-4 to
-# 1.5e-4 on these images (256 samples), Primer against Cycles 6.9e-5 to 1.2e-4; the still camera 0.027 to 0.32.
-BLOCK_TOLERANCE = 4e-4
+# 2.7e-4 on these images (256 samples; the fisheye's the most), Primer against Cycles 6.9e-5 to 2.3e-4; the still
+# camera 0.015 to 0.32.
+BLOCK_TOLERANCE = 5e-4
 
 
 @pytest.fixture(scope="module")
@@ -78,7 +79,7 @@ def keyframe_linearly(obj, path: str, values: dict) -> None:
             point.interpolation = "LINEAR"
 
 
-def moving_camera_scene(zoom: bool = False):
+def moving_camera_scene(zoom: bool = False, kind: str = "PERSP"):
     """The checker plane under a camera that slides 1.2 along x, turns 0.5 rad about its axis and tilts 0.2 rad
     between frames 0 and 2 (rendered at frame 1); with zoom its lens also goes from 40 to 60 mm. Black world."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -89,6 +90,10 @@ def moving_camera_scene(zoom: bool = False):
     camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     scene.collection.objects.link(camera)
     scene.camera = camera
+    camera.data.type = kind
+    if kind == "PANO":
+        camera.data.panorama_type = "FISHEYE_EQUISOLID"
+        camera.data.fisheye_fov = math.radians(150.0)
     keyframe_linearly(camera, "location", {0: (-0.6, 0.0, 4.0), 2: (0.6, 0.1, 4.0)})
     keyframe_linearly(camera, "rotation_euler", {0: (-0.1, 0.0, -0.25), 2: (0.1, 0.0, 0.25)})
     if zoom:
@@ -119,6 +124,7 @@ SHUTTERS = {
     "centre, shutter 1.0": dict(shutter=1.0),
     "start, shutter 1.0, a ramp curve and a zoom": dict(shutter=1.0, position="START", ramp=True, zoom=True),
     "rolling shutter, duration 0.3": dict(shutter=1.0, rolling=0.3),
+    "equisolid fisheye, end, shutter 1.0": dict(shutter=1.0, position="END", kind="PANO"),
 }
 
 
@@ -127,7 +133,7 @@ def test_a_moving_camera_blurs_as_in_cycles(primer, tmp_path, case):
     """Primer's blurred image is Cycles' within Cycles' own noise (block relative MSE), far from the still camera's,
     and the render says nothing about motion blur (no object moves)."""
     options = SHUTTERS[case]
-    scene = moving_camera_scene(zoom=options.get("zoom", False))
+    scene = moving_camera_scene(zoom=options.get("zoom", False), kind=options.get("kind", "PERSP"))
     scene.render.motion_blur_shutter = options["shutter"]
     scene.render.motion_blur_position = options.get("position", "CENTER")
     if options.get("ramp"):
