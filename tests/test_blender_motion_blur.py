@@ -189,3 +189,17 @@ def test_moving_objects_are_named_and_still_ones_are_not(primer, tmp_path):
     scene.render.use_motion_blur = False
     render_with(scene, "PRIMER", str(tmp_path / "off.exr"))
     assert not [w for w in addon(primer, "engine").last_render.warnings if "motion blur" in w]
+
+
+def test_the_shutter_time_view_shows_each_rows_time_with_a_rolling_shutter(primer, tmp_path):
+    """Debug View > Shutter Time with a rolling shutter of Duration 0: row r of H (from the top) shows (r + 1) / H,
+    as Cycles reads its rows."""
+    scene = moving_camera_scene()
+    scene.cycles.rolling_shutter_type = "TOP"
+    scene.cycles.rolling_shutter_duration = 0.0
+    scene.render.engine = "PRIMER"
+    scene.primer.samples = 2
+    scene.primer.debug_view = "SHUTTER_TIME"
+    picture = render_image(scene, str(tmp_path / "time.exr"))[..., 0]
+    expected = np.broadcast_to(((np.arange(HEIGHT) + 1.0) / HEIGHT)[:, None], (HEIGHT, WIDTH))
+    np.testing.assert_allclose(picture, expected, atol=1e-6)

@@ -305,6 +305,7 @@ class CameraRays(NamedTuple):
     directions: np.ndarray  # (n, 3) float64 unit directions
     t_max: np.ndarray       # (n,) float64 distance from origin to the far clip plane along the ray
     valid: np.ndarray       # (n,) bool, False outside a fisheye's image circle (black pixels)
+    time: Optional[np.ndarray] = None   # (n,) float64 each ray's time in the shutter (motion blur), or None
 
 
 # ---------------------------------------------------------------------------
@@ -654,7 +655,7 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
         linear, eye_points = motion_.interpolate(motion_.decompose(camera.motion), time)
         origins = vectors.apply_each(linear, local_origins, eye_points)
         directions = _normalize_rows(vectors.apply_each(linear, local_directions, np.zeros_like(eye_points)))
-        return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid)
+        return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid, time=time)
     # Camera-local to world: points get rotation and translation, directions rotation only.
     rotation = camera.matrix_world[:3, :3]
     eye_point = camera.matrix_world[:3, 3]
@@ -665,7 +666,9 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
     if not _is_rotation(rotation):
         # A sheared parent leaves the axes unit but not orthogonal: directions lose unit length.
         directions = _normalize_rows(directions)
-    return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid)
+    if time is not None:
+        time = np.broadcast_to(np.asarray(time, np.float64), raster_x.shape)
+    return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid, time=time)
 
 
 def _is_rotation(matrix: np.ndarray) -> bool:

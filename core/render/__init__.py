@@ -279,6 +279,7 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     if isinstance(recorder, debug.DebugRecorder):
         traced_per_pixel = rays.valid.reshape(p, spp).sum(axis=1).astype(np.float64)
         aux = recorder.pixel_sums(hit // spp, traced_per_pixel)
+        aux.update(debug.camera_ray_sums(s.aux, rays, p, spp))
     # The light passes', denoising features' and light groups' sums (lightpasses.py, features.py, lightgroups.py),
     # each sample's channel that is NaN or beyond the film's range as 0, as in the image.
     data = found.passes
