@@ -42,6 +42,10 @@ translates between the two:
   by the anamorphic ratio) towards the point the pinhole ray meets at
   ``focus_distance`` along the axis, so that what lies at that depth is sharp
   and the rest blurs in proportion to its distance from it.
+* Motion blur gives each ray a time in the shutter and places the camera
+  where it is then (core/camera/motion.py: its transforms at its motion
+  steps, interpolated as Cycles does; a perspective camera's field of view
+  too).
 
 Conventions used below: *points* are positions (names ending in ``_point(s)``
 or ``origins``), *directions* are vectors (``_direction(s)``, ``forward``,
