@@ -131,9 +131,10 @@ def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, fr
         return shown + (f" and {len(names) - NAMED} more" if len(names) > NAMED else "")
     parts = ([f"{named(moved)} move{'s' if len(moved) == 1 else ''}"] if moved else []) + \
             ([f"{named(deformed)} deform{'s' if len(deformed) == 1 else ''}"] if deformed else [])
+    them, they = ("it", "it is") if len(moved) + len(deformed) == 1 else ("them", "they are")
     return (f"motion blur: {' and '.join(parts)} during the shutter (frames {start[0] + start[1]:g} to "
-            f"{end[0] + end[1]:g}); Cycles blurs them, Primer blurs only the camera and renders them still where "
-            f"they are at frame {frame:g}")
+            f"{end[0] + end[1]:g}); Cycles blurs {them}, Primer blurs only the camera and renders {them} still where "
+            f"{they} at frame {frame:g}")
 
 
 def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warnings: list):
