@@ -92,42 +92,51 @@ def _fov_tangent(camera) -> float:
     return float(np.float32(0.5 * sensor / camera.lens))
 
 
+# The object types Cycles renders (and so blurs): an Empty, an armature or a lattice moves nothing that is seen.
+RENDERED_TYPES = ("MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD", "VOLUME")
+
+
 def _object_state(depsgraph) -> dict:
-    """Each evaluated object's world matrix, and for meshes that may deform (modifiers or shape keys, Deformation on,
-    not too large) its vertex positions: name -> (matrix (4, 4) float64, positions (v, 3) float32 or None)."""
+    """Where each rendered object and instance is: its world matrix, and for a mesh object that may deform (modifiers
+    or shape keys, Deformation on, not too large) its vertex positions. -> (its name in a note, persistent id) ->
+    (matrix (4, 4) float64, positions (3 v,) float32 or None); the name quoted, an instance's with its instancer's.
+    An instance counts when its object's and its instancer's Motion Blur are on (Cycles' object_motion_steps)."""
     state = {}
-    for obj in depsgraph.objects:
-        if obj.type in ("CAMERA", "LIGHT", "LIGHT_PROBE") or motion_steps(obj) == 0:
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        parent = instance.parent if instance.is_instance else None
+        if obj.type not in RENDERED_TYPES or motion_steps(obj) == 0 or (parent is not None and not motion_steps(parent)):
             continue
+        name = f"'{obj.name}'" + ("" if parent is None else f" (instanced by '{parent.name}')")
         positions = None
-        mesh = obj.data if obj.type == "MESH" else None
+        mesh = obj.data if obj.type == "MESH" and parent is None else None
         deforms = bool(getattr(getattr(obj, "cycles", None), "use_deform_motion", True))
         if (mesh is not None and deforms and (len(obj.modifiers) or getattr(mesh, "shape_keys", None) is not None)
                 and len(mesh.vertices) <= DEFORM_CHECK_VERTICES):
             positions = np.empty(3 * len(mesh.vertices), np.float32)
             mesh.vertices.foreach_get("co", positions)
-        state[obj.name] = (np.array(obj.matrix_world, np.float64), positions)
+        state[(name, tuple(instance.persistent_id))] = (np.array(instance.matrix_world, np.float64), positions)
     return state
 
 
 def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, frame: float) -> Optional[str]:
     """The note naming the objects that move or deform between the shutter's open and close (_object_state at
     each), or None; start, end: the shutter's (frame, subframe); frame: the frame rendered."""
-    moved, deformed = [], []
-    for name, (matrix, positions) in opened.items():
-        if name not in closed:
+    moved, deformed = set(), set()
+    for key, (matrix, positions) in opened.items():
+        if key not in closed:
             continue
-        other_matrix, other_positions = closed[name]
+        other_matrix, other_positions = closed[key]
         if not np.array_equal(matrix, other_matrix):
-            moved.append(name)
+            moved.add(key[0])
         elif positions is not None and (other_positions is None or positions.shape != other_positions.shape
                                         or not np.array_equal(positions, other_positions)):
-            deformed.append(name)
+            deformed.add(key[0])
     if not moved and not deformed:
         return None
 
     def named(names):
-        shown = ", ".join(f"'{n}'" for n in sorted(names)[:NAMED])
+        shown = ", ".join(sorted(names)[:NAMED])
         return shown + (f" and {len(names) - NAMED} more" if len(names) > NAMED else "")
     parts = ([f"{named(moved)} move{'s' if len(moved) == 1 else ''}"] if moved else []) + \
             ([f"{named(deformed)} deform{'s' if len(deformed) == 1 else ''}"] if deformed else [])

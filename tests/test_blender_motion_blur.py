@@ -160,8 +160,9 @@ def test_a_moving_camera_blurs_as_in_cycles(primer, tmp_path, case):
 
 
 def test_moving_objects_are_named_and_still_ones_are_not(primer, tmp_path):
-    """A cube keyframed across the shutter and a mesh deformed by an animated shape key are named in the note; the
-    plane that stands still and an object whose Motion Blur is off are not; without motion blur nothing is said."""
+    """A cube keyframed across the shutter, a collection instanced by a moving Empty and a mesh deformed by an
+    animated shape key are named in the note; the plane that stands still, an Empty and an object whose Motion Blur is
+    off are not; without motion blur nothing is said."""
     scene = moving_camera_scene()
     scene.render.motion_blur_shutter = 0.5
     bpy.ops.mesh.primitive_cube_add(size=0.2, location=(0.0, 0.0, 1.0))
@@ -180,12 +181,23 @@ def test_moving_objects_are_named_and_still_ones_are_not(primer, tmp_path):
     key = sheet.shape_key_add(name="Wave")
     key.data[0].co = (0.0, 0.0, 0.5)
     keyframe_linearly(key, "value", {0: 0.0, 2: 1.0})
+    props = bpy.data.collections.new("Props")
+    prop = bpy.data.objects.new("Prop", bpy.data.meshes.new("Prop"))
+    prop.data.from_pydata([(0, 0, 0), (0.1, 0, 0), (0, 0.1, 0)], [], [(0, 1, 2)])
+    props.objects.link(prop)
+    mover = bpy.data.objects.new("Mover", None)
+    mover.instance_type, mover.instance_collection = "COLLECTION", props
+    scene.collection.objects.link(mover)
+    keyframe_linearly(mover, "location", {0: (0.0, -1.0, 1.0), 2: (0.0, -0.5, 1.0)})
+    scene.collection.objects.link(bpy.data.objects.new("Still empty", None))
     scene.frame_set(1)
     render_with(scene, "PRIMER", str(tmp_path / "objects.exr"))
     notes = [w for w in addon(primer, "engine").last_render.warnings if "motion blur" in w]
     assert len(notes) == 1, notes
-    assert "'Flying cube' moves" in notes[0] and "'Waving sheet' deforms" in notes[0], notes
-    assert "Unblurred" not in notes[0] and "Checker" not in notes[0] and "frames 0.75 to 1.25" in notes[0]
+    assert "'Flying cube', 'Prop' (instanced by 'Mover') move" in notes[0], notes
+    assert "'Waving sheet' deforms" in notes[0], notes
+    assert "Unblurred" not in notes[0] and "Checker" not in notes[0] and "empty" not in notes[0]
+    assert "frames 0.75 to 1.25" in notes[0]
     scene.render.use_motion_blur = False
     render_with(scene, "PRIMER", str(tmp_path / "off.exr"))
     assert not [w for w in addon(primer, "engine").last_render.warnings if "motion blur" in w]
