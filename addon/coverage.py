@@ -55,7 +55,8 @@ POINTER = "a pointer to a struct whose own settings are listed under it in this 
 ANIMATION = "animation playback, keying and timeline tools: the frame's evaluated scene does not depend on it"
 DEPSGRAPH = "depsgraph: Blender applies it to the evaluated scene Primer reads, as for Cycles"
 VOLUMES = "materials.export_material, unmodelled.world_notes: Primer renders no volumes and notes every volume"
-MOTION = "unmodelled.render_notes: motion blur is noted as not rendered"
+MOTION = ("motion.sample_shutter: the camera blurred over the shutter; objects that move or deform during it named "
+          "in motion.moving_objects_note")
 
 COVERAGE = {
     "ID": {
@@ -97,10 +98,9 @@ COVERAGE = {
                "engine use_persistent_data": "engine.py",
                "use_compositing": "compositor.problems (Primer's Denoise runs in the compositor)",
                "frame_map_new frame_map_old use_simplify simplify_child_particles_render simplify_subdivision_render":
-                   DEPSGRAPH},
-        REPORTED: {"use_motion_blur motion_blur_position motion_blur_shutter motion_blur_shutter_curve":
-                       "unmodelled.render_notes",
-                   "use_multiview views views_format stereo_views use_spherical_stereo": "unmodelled.render_notes",
+                   DEPSGRAPH,
+               "use_motion_blur motion_blur_position motion_blur_shutter motion_blur_shutter_curve": MOTION},
+        REPORTED: {"use_multiview views views_format stereo_views use_spherical_stereo": "unmodelled.render_notes",
                    "simplify_volumes": VOLUMES},
         NO_EFFECT: {"bake bake_bias* bake_margin* bake_margin_type* bake_samples* bake_type* bake_user_scale* "
                     "use_bake_clear* use_bake_lores_mesh* use_bake_multires* use_bake_selected_to_active* "
@@ -132,6 +132,7 @@ COVERAGE = {
               "use_denoising denoiser denoising_input_passes denoising_prefilter denoising_quality denoising_use_gpu":
                   "use_denoising: Primer's Denoise (the compositor's Denoise node, its own settings)"},
         READ: {"pixel_filter_type filter_width": "export.pixel_filter: each camera sample drawn from the filter",
+               "rolling_shutter_type rolling_shutter_duration": "motion.shutter: each row's time, top to bottom",
                "samples seed use_animated_seed max_bounces diffuse_bounces glossy_bounces transmission_bounces "
                "transparent_max_bounces min_light_bounces caustics_reflective caustics_refractive sample_clamp_direct "
                "sample_clamp_indirect use_adaptive_sampling adaptive_threshold adaptive_min_samples":
@@ -140,8 +141,7 @@ COVERAGE = {
         REPORTED: {"film_exposure film_transparent_glass blur_glossy use_fast_gi "
                    "fast_gi_method ao_bounces_render use_camera_cull camera_cull_margin use_distance_cull "
                    "distance_cull_margin texture_limit_render texture_resolution_render*": "unmodelled.render_notes",
-                   "film_transparent_roughness rolling_shutter_duration rolling_shutter_type":
-                       "unmodelled.render_notes (through Transparent Glass and motion blur)",
+                   "film_transparent_roughness": "unmodelled.render_notes (through Transparent Glass)",
                    "dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
                        "unmodelled.object_notes (adaptive subdivision)",
                    "volume_biased* volume_bounces volume_max_steps volume_step_rate": VOLUMES},
@@ -181,11 +181,12 @@ COVERAGE = {
                "use_strand": "export.export_scene (Filter > Strands off: no curves nor particle hair, as in Cycles)",
                "layer_collection": "unmodelled.holdout_objects (Holdout), unmodelled.view_layer_notes",
                "name": "engine.py (the render layer written)",
+               "use_motion_blur": "motion.blurs (with Render > Motion Blur)",
                "depsgraph objects use": DEPSGRAPH},
         REPORTED: {"use_pass_mist use_pass_vector use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
                    "use_pass_subsurface_indirect aovs use_pass_combined use_sky use_solid pass_alpha_threshold "
                    "world_override*": "unmodelled.view_layer_notes",
-                   "use_motion_blur": MOTION, "use_volumes": VOLUMES,
+                   "use_volumes": VOLUMES,
                    "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},
         NO_EFFECT: {"active_aov active_aov_index active_layer_collection active_lightgroup active_lightgroup_index "
                     "has_export_collections": VIEWPORT,
@@ -244,12 +245,14 @@ COVERAGE = {
     },
     "CyclesObjectSettings": {
         READ: {"shadow_terminator_geometry_offset shadow_terminator_offset": "export._terminator_offsets "
-               "(Blender 4.2 to 4.5 keep them here)"},
+               "(Blender 4.2 to 4.5 keep them here)",
+               "motion_steps use_motion_blur": "motion.motion_steps (the camera's transforms over the shutter; an "
+                                               "object's motion is noted, motion.moving_objects_note)"},
         REPORTED: {"use_adaptive_subdivision* dicing_rate*": "unmodelled.object_notes",
                    "use_camera_cull use_distance_cull": "unmodelled.render_notes",
                    "is_caustics_caster is_caustics_receiver": "unmodelled.light_notes (shadow caustics lights)",
                    "ao_distance": "unmodelled.render_notes (Fast GI)",
-                   "motion_steps use_deform_motion use_motion_blur": MOTION},
+                   "use_deform_motion": "motion.moving_objects_note (a mesh that deforms during the shutter)"},
     },
     "ObjectLightLinking": {
         REPORTED: {"blocker_collection receiver_collection": "unmodelled.object_notes"},
@@ -398,4 +401,4 @@ def own_properties(rna) -> list:
 def functions(text: str) -> list:
     """The "module.function" names (of addon/) that a REPORTED or READ text names, in order."""
     import re
-    return re.findall(r"\b(export|materials|unmodelled|lightgroups|compositor)\.([A-Za-z_][A-Za-z_.]*[A-Za-z_])", text)
+    return re.findall(r"\b(export|materials|unmodelled|lightgroups|compositor|motion)\.([A-Za-z_][A-Za-z_.]*[A-Za-z_])", text)

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core.integrators import cryptomatte
 from ..core.integrators import debug
-from . import compositor, export, lightgroups, viewport
+from . import compositor, export, lightgroups, motion, viewport
 
 log = logging.getLogger("primer")
 
@@ -118,12 +118,13 @@ DEBUG_PASSES = {
     "Primer Acne": ("acne", 1, "X", "VALUE"),                        # fraction of shadow rays
     "Primer Rays": ("rays", 1, "X", "VALUE"),                        # rays per pixel
     "Primer Time": ("time", 1, "X", "VALUE"),                        # seconds per pixel
+    "Primer Shutter Time": ("shutter_time", 1, "X", "VALUE"),        # 0 the shutter opens, 1 it closes
 }
 # The core buffer each debug view shows (properties.DEBUG_VIEWS).
 VIEW_BUFFERS = {
     "NORMAL": "normal", "FACE_NORMAL": "face_normal", "NORMAL_ANGLE": "normal_angle", "BARYCENTRIC": "barycentric",
     "HIT_DISTANCE": "hit_distance", "DEPTH": "depth", "N_DOT_L": "n_dot_l", "VISIBILITY": "visibility",
-    "ACNE": "acne", "RAYS": "rays", "TIME": "time",
+    "ACNE": "acne", "RAYS": "rays", "TIME": "time", "SHUTTER_TIME": "shutter_time",
 }
 # Buffers with one channel per light; their passes show the chosen light, or the mean over all lights.
 PER_LIGHT = ("n_dot_l", "visibility")
@@ -214,7 +215,7 @@ def debug_image(view: str, image: np.ndarray, buffers: dict, channels: list) -> 
         out[..., :3] = _heat_of_maximum(values[..., 0])
     elif view == "N_DOT_L":             # grey levels; blue where N.L < 0 (Clamp N.L off)
         out[..., :3] = debug.signed_grey(values[..., 0])
-    else:                               # VISIBILITY: grey levels
+    else:                               # VISIBILITY, SHUTTER_TIME: grey levels
         out[..., :3] = values
     return out
 
@@ -398,6 +399,10 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
         exported = export.export_scene(depsgraph, engine.camera_override, cancelled,
                                        requested_buffers(scene.primer, depsgraph.view_layer),
                                        requested_passes(depsgraph.view_layer), mesh_cache)
+        # Motion blur: the camera read over the shutter (the scene moved there and back), the moving objects noted.
+        camera_object = engine.camera_override or scene.camera
+        exported.scene.camera = motion.sample_shutter(engine, depsgraph, camera_object, exported.scene.camera,
+                                                      export.export_camera, exported.warnings)
         record.export_seconds = time.perf_counter() - start
         record.meshes_read = exported.meshes_read
         record.warnings = animation_notes(scene, bool(getattr(engine, "is_animation", False)))

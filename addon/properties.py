@@ -20,6 +20,8 @@ DEBUG_VIEWS = (
     ("RAYS", "Rays per Pixel", "Camera and shadow rays cast per pixel, heat map up to the image's maximum"),
     ("TIME", "Time per Pixel", "Seconds per pixel (each run of 64 pixels timed, shared by rays), heat map up to "
                                "the image's maximum"),
+    ("SHUTTER_TIME", "Shutter Time", "The mean time in the shutter of the pixel's camera rays, black when it opens, "
+                                     "white when it closes (grey without motion blur; rows with a rolling shutter)"),
 )
 
 

@@ -139,6 +139,75 @@ class RENDER_PT_primer_shadows(PrimerPanel, bpy.types.Panel):
         col.prop(props, "terminator_fix")
 
 
+class RENDER_PT_primer_motion_blur(PrimerPanel, bpy.types.Panel):
+    """Render > Motion Blur as Cycles reads it: the camera blurred over the shutter (addon/motion.py)."""
+
+    bl_label = "Motion Blur"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.render, "use_motion_blur", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        scene = context.scene
+        layout.active = scene.render.use_motion_blur
+        col = layout.column()
+        col.prop(scene.render, "motion_blur_position", text="Position")
+        col.prop(scene.render, "motion_blur_shutter")
+        cycles = getattr(scene, "cycles", None)
+        if cycles is not None:
+            col.separator()
+            col.prop(cycles, "rolling_shutter_type", text="Rolling Shutter")
+            sub = col.column()
+            sub.active = cycles.rolling_shutter_type != "NONE"
+            sub.prop(cycles, "rolling_shutter_duration")
+        layout.label(text="Primer blurs the camera; moving objects are named in a warning", icon="INFO")
+
+
+class RENDER_PT_primer_motion_blur_curve(PrimerPanel, bpy.types.Panel):
+    """The shutter curve: how open the shutter is over its time."""
+
+    bl_label = "Shutter Curve"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_primer_motion_blur"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        render = context.scene.render
+        self.layout.active = render.use_motion_blur
+        self.layout.template_curve_mapping(render, "motion_blur_shutter_curve")
+
+
+class OBJECT_PT_primer_motion_blur(PrimerPanel, bpy.types.Panel):
+    """An object's Motion Blur and Steps, as Cycles reads them (a camera's steps: its transforms over the shutter)."""
+
+    bl_label = "Motion Blur"
+    bl_context = "object"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return super().poll(context) and obj is not None and getattr(obj, "cycles", None) is not None
+
+    def draw_header(self, context):
+        self.layout.active = context.scene.render.use_motion_blur
+        self.layout.prop(context.object.cycles, "use_motion_blur", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        obj = context.object
+        layout.active = context.scene.render.use_motion_blur and obj.cycles.use_motion_blur
+        col = layout.column()
+        col.prop(obj.cycles, "motion_steps", text="Steps")
+        if obj.type != "CAMERA":
+            col.prop(obj.cycles, "use_deform_motion", text="Deformation")
+
+
 class RENDER_PT_primer_debug(PrimerPanel, bpy.types.Panel):
     """The tracer's intermediate quantities ("use that debug output")."""
 
@@ -242,10 +311,13 @@ classes = (
     RENDER_PT_primer_sampling,
     RENDER_PT_primer_light_paths,
     RENDER_PT_primer_shadows,
+    RENDER_PT_primer_motion_blur,
+    RENDER_PT_primer_motion_blur_curve,
     RENDER_PT_primer_debug,
     RENDER_PT_primer_lecture,
     DATA_PT_primer_light,
     DATA_PT_primer_spot,
+    OBJECT_PT_primer_motion_blur,
 )
 
 # Blender's own panels that also describe what Primer renders: every panel Workbench uses

@@ -26,8 +26,6 @@ def render_notes(scene) -> list:
     """Render settings of `scene` that change a Cycles render and that Primer does not model."""
     notes = lamp_crossing_notes(scene)
     render = scene.render
-    if getattr(render, "use_motion_blur", False):
-        notes.append("motion blur is on; Primer renders every object at the frame's instant (no motion blur)")
     if getattr(render, "use_multiview", False):
         notes.append("Stereoscopy is on; Cycles renders each view from its own eye, Primer renders the scene's camera "
                      "once, without the views' offsets")

@@ -215,7 +215,8 @@ def test_blender_panels_are_shown_for_primer(primer):
         assert "PRIMER" in panels[name].COMPAT_ENGINES, name
     for name in ("DATA_PT_light", "DATA_PT_spot", "EEVEE_MATERIAL_PT_thickness"):
         assert "PRIMER" not in panels[name].COMPAT_ENGINES, name
-    for name in ("RENDER_PT_primer_sampling", "RENDER_PT_primer_shadows", "DATA_PT_primer_light"):
+    for name in ("RENDER_PT_primer_sampling", "RENDER_PT_primer_shadows", "DATA_PT_primer_light",
+                 "RENDER_PT_primer_motion_blur", "OBJECT_PT_primer_motion_blur"):
         assert hasattr(bpy.types, name), name
 
 

@@ -124,7 +124,6 @@ def new_collection():
 # (struct, its path, property, value (or a function making it), settings it needs first [(path, property, value)],
 #  the unmodelled.py function, what it is called with, a phrase of its note). The table must say REPORTED by it.
 CASES = [
-    ("RenderSettings", "scene.render", "use_motion_blur", True, [], "render_notes", "scene", "motion blur"),
     ("RenderSettings", "scene.render", "use_multiview", True, [], "render_notes", "scene", "Stereoscopy"),
     ("CyclesRenderSettings", "scene.cycles", "film_exposure", 2.0, [], "render_notes", "scene", "Film Exposure 2"),
     ("CyclesRenderSettings", "scene.cycles", "use_fast_gi", True, [], "render_notes", "scene", "Fast GI"),

@@ -69,12 +69,12 @@ def scene_with_everything():
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
-    """Depth of field, motion blur, shadow catcher, light and shadow linking, a material's Volume and Displacement,
+    """Depth of field, shadow catcher, light and shadow linking, a material's Volume and Displacement,
     Principled Dispersion, a world volume, Mist, Vector and AOV passes: each named in one warning."""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
-    expected = ["depth of field", "motion blur", "shadow catcher", "uses light linking", "uses shadow linking",
+    expected = ["depth of field", "shadow catcher", "uses light linking", "uses shadow linking",
                 "Volume output",
                 "Displacement output", "world's Volume", "Mist pass", "Vector pass",
                 "AOVs (Mask)"]

@@ -1,6 +1,7 @@
 """Debug buffers ("use that debug output"): each one against its closed form on a scene built by hand."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -267,3 +268,21 @@ def test_debug_buffers_render_where_bsdf_rays_find_lights():
     path = dataclasses.replace(settings, integrator="path", max_bounces=2)
     traced = render.render(scene, dataclasses.replace(path, aux=tuple(AUX_BUFFERS)))
     np.testing.assert_allclose(traced.image, render.render(scene, path).image, rtol=1e-6, atol=1e-7)
+
+
+def test_shutter_time_is_each_rows_share_with_a_rolling_shutter_and_one_half_without_blur():
+    """The Shutter Time view is the mean time of a pixel's camera rays: with a rolling shutter of Duration 0 row r of
+    H is read at (r + 1) / H, hit or not; over a box shutter the mean of many rays is 1/2; without motion blur 1/2."""
+    from core.camera import motion
+    still = ortho_down(height=3.0, scale=2.0)
+    scene = Scene(camera=dataclasses.replace(still, shutter=motion.Shutter.box(rolling=True, rolling_duration=0.0),
+                                             motion=(still.matrix_world,) * 3))
+    scene.add_mesh(primitives.plane(1.0))                       # (half the pixels see nothing)
+    rows = render.render(scene, exact(8, 6, ("shutter_time",))).aux["shutter_time"][..., 0]
+    np.testing.assert_allclose(rows, np.broadcast_to(((np.arange(6) + 1.0) / 6)[:, None], (6, 8)), atol=1e-15)
+    scene.camera = dataclasses.replace(scene.camera, shutter=motion.Shutter.box())
+    box = render.render(scene, RenderSettings(width=8, height=6, samples=256, aux=("shutter_time",), adaptive=False))
+    assert box.aux["shutter_time"].mean() == pytest.approx(0.5, abs=2e-3)
+    scene.camera = still
+    plain = render.render(scene, exact(8, 6, ("shutter_time",))).aux["shutter_time"]
+    np.testing.assert_array_equal(plain, 0.5)

@@ -7,6 +7,7 @@ typedef struct {
     double column[BLOCK], row[BLOCK];            /* the pixel's x and y on the image */
     double u[2][BLOCK];                          /* the sample's point in (or, filtered, around) its pixel */
     double lens[2][BLOCK];                       /* its point on the aperture (depth of field only), uniform */
+    double time[BLOCK];                          /* its time in the shutter (motion blur only, else 1/2) */
     double O[3][BLOCK], D[3][BLOCK], t[BLOCK];
     uint8_t valid[BLOCK];                        /* 0 outside a fisheye's image circle: no ray */
 } CameraBlock;
@@ -36,6 +37,45 @@ INLINE void aperture_point(const CameraRecord *camera, double u0, double u1, dou
     }
     out[0] = x / camera->aperture_ratio * camera->aperture_size;
     out[1] = y * camera->aperture_size;
+}
+
+/* motion.interpolate for one lane: the camera's linear part L (3 x 3, row-major) and position eye (3) at `time`,
+ * from its decomposed transforms (MOTION_STRIDE numbers a step: quaternion, translation and the scale with shear). */
+INLINE void camera_at(const CameraRecord *camera, double time, double *L, double *eye)
+{
+    int64_t last = (int64_t)camera->motion_steps - 1;
+    int64_t step = (int64_t)(time * (double)last);
+    if (step > last - 1) step = last - 1;
+    double t = time * (double)last - (double)step;
+    const double *a = camera->motion + step * MOTION_STRIDE, *b = a + MOTION_STRIDE;
+    /* 1. The rotation: spherical interpolation, or linear and renormalised where the two nearly agree. */
+    double cos_ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3], q[4];
+    if (cos_ab > 0.9995) {
+        double length = 0.0;
+        for (int c = 0; c < 4; c++) { q[c] = (1.0 - t) * a[c] + t * b[c]; length += q[c] * q[c]; }
+        length = sqrt(length);
+        for (int c = 0; c < 4; c++) q[c] /= length;
+    } else {
+        double theta = acos(cos_ab < -1.0 ? -1.0 : (cos_ab > 1.0 ? 1.0 : cos_ab)), across[4], length = 0.0;
+        for (int c = 0; c < 4; c++) { across[c] = b[c] - a[c] * cos_ab; length += across[c] * across[c]; }
+        length = length > 0.0 ? sqrt(length) : 1.0;
+        double ca = cos(theta * t), sa = sin(theta * t);
+        for (int c = 0; c < 4; c++) q[c] = a[c] * ca + across[c] / length * sa;
+    }
+    /* 2. The translation, scale and shear: linear. */
+    double rest[12];
+    for (int c = 0; c < 12; c++) rest[c] = (1.0 - t) * a[4 + c] + t * b[4 + c];
+    /* 3. Composed: the quaternion's rotation times the upper-triangular scale with shear. */
+    const double root2 = 1.4142135623730951;             /* (math.sqrt(2.0)) */
+    double x = root2 * q[0], y = root2 * q[1], z = root2 * q[2], w = root2 * q[3];
+    double R[9] = {1.0 - y * y - z * z, -w * z + x * y, w * y + x * z,
+                   w * z + x * y, 1.0 - x * x - z * z, -w * x + y * z,
+                   -w * y + x * z, w * x + y * z, 1.0 - x * x - y * y};
+    double S[9] = {rest[3], rest[4], rest[5], 0.0, rest[7], rest[8], 0.0, 0.0, rest[11]};
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            L[3 * r + c] = R[3 * r] * S[c] + R[3 * r + 1] * S[3 + c] + R[3 * r + 2] * S[6 + c];
+    eye[0] = rest[0]; eye[1] = rest[1]; eye[2] = rest[2];
 }
 
 /* camera.panorama_directions for one (u, v) of the panoramas other than the two fisheyes: the direction (3) in Cycles'
@@ -94,6 +134,14 @@ INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict r
             /* 1. The sample's position on the image plane (row 0 is the top of the image). */
             double plane_x = camera.left + (raster_x / (double)width) * (camera.right - camera.left);
             double plane_y = camera.top - (raster_y / (double)height) * (camera.top - camera.bottom);
+            if (kind == CAMERA_PERSP && camera.fov_motion) {
+                /* 1'. The field of view at the ray's time (motion.plane_scales). */
+                double time = b->time[k];
+                double scale = time < 0.5 ? camera.fov_pre + (1.0 - camera.fov_pre) * (time * 2.0)
+                                          : 1.0 + (camera.fov_post - 1.0) * ((time - 0.5) * 2.0);
+                plane_x *= scale;
+                plane_y *= scale;
+            }
             if (camera.aperture_size > 0.0) {
                 /* 2''. A thin lens (camera._perspective_rays, _orthographic_rays with a lens): from the aperture's
                  * point towards where the pinhole's (or the parallel) ray meets the plane in focus. */
@@ -170,13 +218,19 @@ INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict r
             o[0] = d[0] * camera.clip_start; o[1] = d[1] * camera.clip_start; o[2] = d[2] * camera.clip_start;
             t = camera.clip_end - camera.clip_start;
         }
-        /* 3. Into the camera-relative world frame. */
-        double O[3], D[3];
-        for (int c = 0; c < 3; c++) {
-            O[c] = R[3 * c] * o[0] + R[3 * c + 1] * o[1] + R[3 * c + 2] * o[2] + camera.eye[c];
-            D[c] = R[3 * c] * d[0] + R[3 * c + 1] * d[1] + R[3 * c + 2] * d[2];
+        /* 3. Into the camera-relative world frame (where the camera is at the ray's time, when it moves). */
+        double O[3], D[3], moved[9], moved_eye[3];
+        const double *M = R, *eye = camera.eye;
+        if (camera.motion_steps >= 2) {
+            camera_at(&camera, b->time[k], moved, moved_eye);
+            M = moved;
+            eye = moved_eye;
         }
-        if (renormalize) {
+        for (int c = 0; c < 3; c++) {
+            O[c] = M[3 * c] * o[0] + M[3 * c + 1] * o[1] + M[3 * c + 2] * o[2] + eye[c];
+            D[c] = M[3 * c] * d[0] + M[3 * c + 1] * d[1] + M[3 * c + 2] * d[2];
+        }
+        if (renormalize || camera.motion_steps >= 2) {
             double length = sqrt(dot3(D, D));
             D[0] /= length; D[1] /= length; D[2] /= length;
         }
@@ -204,24 +258,30 @@ SIMD_CLONES NOINLINE static void camera_block(CameraBlock *restrict b, const Cam
     }
 }
 
-/* Where the pixel filter puts a sample with the uniform number u: Cycles' table lookup, linear between
- * neighbouring entries of the filter's inverse CDF (core/camera/filter.py offsets, the same arithmetic). */
-static double filter_position(const double *table, double u)
+/* Cycles' lookup_table_read: the entry at u in [0, 1] of a table of `size`, linear between neighbouring entries
+ * (core/camera/filter.py offsets, the same arithmetic; the pixel filter's and the shutter's inverse CDFs). */
+static double table_lookup(const double *table, int64_t size, double u)
 {
-    double x = (u < 0.0 ? 0.0 : (u > 1.0 ? 1.0 : u)) * (double)(FILTER_TABLE_SIZE - 1);
+    double x = (u < 0.0 ? 0.0 : (u > 1.0 ? 1.0 : u)) * (double)(size - 1);
     int64_t index = (int64_t)x;
-    if (index > FILTER_TABLE_SIZE - 1) index = FILTER_TABLE_SIZE - 1;
-    int64_t following = index + 1 < FILTER_TABLE_SIZE ? index + 1 : FILTER_TABLE_SIZE - 1;
+    if (index > size - 1) index = size - 1;
+    int64_t following = index + 1 < size ? index + 1 : size - 1;
     double t = x - (double)index;
     return t == 0.0 ? table[index] : (1.0 - t) * table[index] + t * table[following];
+}
+
+/* Where the pixel filter puts a sample with the uniform number u (table_lookup in its table). */
+static double filter_position(const double *table, double u)
+{
+    return table_lookup(table, FILTER_TABLE_SIZE, u);
 }
 
 /* The camera rays of samples start .. start + BLOCK - 1 of p pixels' spp samples each (sample j of
  * pixel k is sample first[k] + j of its pattern): their keys, points and rays, into b. stream, lens_stream: the
  * patterns of their points in the pixel and on the lens (LENS_DIMENSION). */
 INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t stream, uint32_t lens_stream,
-                           int64_t width, int64_t height, const int64_t *pixels, const int64_t *first, int64_t spp,
-                           int64_t start, int64_t total)
+                           uint32_t time_stream, int64_t width, int64_t height, const int64_t *pixels,
+                           const int64_t *first, int64_t spp, int64_t start, int64_t total)
 {
     b->n = total - start < BLOCK ? total - start : BLOCK;
     int64_t k = start / spp, j = start % spp;
@@ -247,19 +307,34 @@ INLINE void camera_samples(CameraBlock *b, const CameraRecord *camera, uint32_t 
         }
     if (camera->aperture_size > 0.0)           /* depth of field: each ray's point on the lens */
         sample_lanes(b->n, lens_stream, b->pixel, b->index, b->lens[0], b->lens[1]);
+    if (camera->shutter_table) {               /* motion blur: each ray's time (motion.ray_times) */
+        double unused[BLOCK];
+        sample_lanes(b->n, time_stream, b->pixel, b->index, b->time, unused);
+        for (int64_t lane = 0; lane < b->n; lane++) {
+            double time = table_lookup(camera->shutter_table, SHUTTER_TABLE_SIZE, b->time[lane]);
+            if (camera->rolling) {
+                double row_time = (b->row[lane] + 1.0) / (double)height;
+                time = camera->rolling_duration == 0.0 ? row_time
+                       : (time - 0.5) * camera->rolling_duration + (row_time - 0.5) * (1.0 - camera->rolling_duration) + 0.5;
+            }
+            b->time[lane] = time;
+        }
+    } else
+        for (int64_t lane = 0; lane < b->n; lane++) b->time[lane] = 0.5;
     camera_block(b, camera, width, height);
 }
 
 /* The camera rays of `spp` samples in each of `p` pixels, camera-relative (for the tests).
- * pixels, first: (p,) int64; out: origins, directions (p spp, 3), t_max (p spp,) float64, valid (p spp,) uint8. */
+ * pixels, first: (p,) int64; out: origins, directions (p spp, 3), t_max, time (p spp,) float64, valid (p spp,) uint8. */
 static void camera_rays(const CameraRaysArgs *a)
 {
     uint32_t stream = stream_of(a->seed, 0), lens_stream = stream_of(a->seed, LENS_DIMENSION);
+    uint32_t time_stream = stream_of(a->seed, TIME_DIMENSION);
     int64_t total = a->p * a->spp;
     CameraBlock b;
     for (int64_t start = 0; start < total; start += BLOCK) {
-        camera_samples(&b, a->camera, stream, lens_stream, a->width, a->height, a->pixels, a->first, a->spp, start,
-                       total);
+        camera_samples(&b, a->camera, stream, lens_stream, time_stream, a->width, a->height, a->pixels, a->first,
+                       a->spp, start, total);
         for (int64_t lane = 0; lane < b.n; lane++) {
             int64_t i = start + lane;
             for (int c = 0; c < 3; c++) {
@@ -268,6 +343,7 @@ static void camera_rays(const CameraRaysArgs *a)
             }
             a->t_max[i] = b.t[lane];
             a->valid[i] = b.valid[lane];
+            a->time[i] = b.time[lane];
         }
     }
 }

@@ -42,6 +42,10 @@ translates between the two:
   by the anamorphic ratio) towards the point the pinhole ray meets at
   ``focus_distance`` along the axis, so that what lies at that depth is sharp
   and the rest blurs in proportion to its distance from it.
+* Motion blur gives each ray a time in the shutter and places the camera
+  where it is then (core/camera/motion.py: its transforms at its motion
+  steps, interpolated as Cycles does; a perspective camera's field of view
+  too).
 
 Conventions used below: *points* are positions (names ending in ``_point(s)``
 or ``origins``), *directions* are vectors (``_direction(s)``, ``forward``,
@@ -61,6 +65,7 @@ import numpy as np
 from .. import vectors
 from ..native import schema
 from ..native.schema import F64, I32, I64, U8, out, ptr
+from . import motion as motion_
 from .filter import PixelFilter
 
 __all__ = [
@@ -162,15 +167,31 @@ class Camera:
     aperture_blades: int = 0
     aperture_rotation: float = 0.0
     aperture_ratio: float = 1.0
+    # Motion blur (core/camera/motion.py): the shutter (None: no motion blur, every ray at time 1/2), the camera's
+    # matrices at its motion steps evenly over the shutter (fewer than 2: it stands still), and for a perspective
+    # camera whose field of view changes, tan(fov / 2) at the shutter's open and close over at its middle.
+    shutter: Optional[motion_.Shutter] = None
+    motion: tuple = ()
+    fov_motion: tuple = ()
 
     def __post_init__(self) -> None:
-        """Check the enums and store matrix_world as a read-only, scale-free (4, 4) float64 array."""
+        """Check the enums and store matrix_world (and the motion steps' matrices) as read-only, scale-free (4, 4)
+        float64 arrays."""
         matrix = np.asarray(self.matrix_world, dtype=np.float64)
         if matrix.shape != (4, 4):
             raise ValueError(f"matrix_world must be (4, 4), got {matrix.shape}")
         matrix = _clear_scale(matrix)
         matrix.setflags(write=False)
         object.__setattr__(self, "matrix_world", matrix)
+        steps = []
+        for step in self.motion:
+            step = np.asarray(step, dtype=np.float64)
+            if step.shape != (4, 4):
+                raise ValueError(f"each motion step must be (4, 4), got {step.shape}")
+            step = _clear_scale(step)
+            step.setflags(write=False)
+            steps.append(step)
+        object.__setattr__(self, "motion", tuple(steps))
         if self.type not in CAMERA_TYPES:
             raise ValueError(f"type must be one of {CAMERA_TYPES}, got {self.type!r}")
         if self.sensor_fit not in SENSOR_FITS:
@@ -202,9 +223,23 @@ class Camera:
 
     def moved(self, origin: np.ndarray) -> "Camera":
         """Return the camera with `origin` subtracted from its position (camera-relative rendering)."""
+        origin = np.asarray(origin, np.float64)
         matrix = np.array(self.matrix_world)
-        matrix[:3, 3] = matrix[:3, 3] - np.asarray(origin, np.float64)
-        return dataclasses.replace(self, matrix_world=matrix)
+        matrix[:3, 3] = matrix[:3, 3] - origin
+        steps = [np.array(step) for step in self.motion]
+        for step in steps:
+            step[:3, 3] = step[:3, 3] - origin
+        return dataclasses.replace(self, matrix_world=matrix, motion=tuple(steps))
+
+    @property
+    def moves(self) -> bool:
+        """Whether its rays see it move over the shutter (motion blur on and matrices that differ, or a perspective
+        camera's field of view that changes)."""
+        if self.shutter is None:
+            return False
+        turns = any(np.any(step != self.motion[0]) for step in self.motion[1:])
+        zooms = self.type == "PERSP" and bool(self.fov_motion) and tuple(self.fov_motion) != (1.0, 1.0)
+        return turns or zooms
 
     # --- the lecture's camera model ---------------------------------------
 
@@ -274,6 +309,7 @@ class CameraRays(NamedTuple):
     directions: np.ndarray  # (n, 3) float64 unit directions
     t_max: np.ndarray       # (n,) float64 distance from origin to the far clip plane along the ray
     valid: np.ndarray       # (n,) bool, False outside a fisheye's image circle (black pixels)
+    time: Optional[np.ndarray] = None   # (n,) float64 each ray's time in the shutter (motion blur), or None
 
 
 # ---------------------------------------------------------------------------
@@ -387,11 +423,14 @@ def aperture_points(camera: Camera, u: np.ndarray) -> np.ndarray:
     return bokeh * camera.aperture_size
 
 
-def _perspective_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect, lens=None):
+def _perspective_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect, lens=None, scale=None):
     """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for a pinhole camera, or with
     lens (n, 2) uniform numbers a thin lens: each ray leaves its point of the aperture towards the point the
-    pinhole ray meets at the focus distance (the plane in focus), clipped where the pinhole ray would be."""
+    pinhole ray meets at the focus distance (the plane in focus), clipped where the pinhole ray would be.
+    scale: (n,) float64 each ray's image plane scaled by its field of view at its time (motion.plane_scales), or None."""
     plane_x, plane_y = _raster_to_plane(camera, width, height, raster_x, raster_y, pixel_aspect)
+    if scale is not None:
+        plane_x, plane_y = plane_x * scale, plane_y * scale
     if lens is not None and has_depth_of_field(camera):
         pinhole = vectors.rows(plane_x, plane_y, -np.ones_like(plane_x))          # depth 1 along the axis
         cos_to_axis = 1.0 / np.linalg.norm(pinhole, axis=1)
@@ -585,7 +624,8 @@ def outside_image_circle(camera: Camera, width: int, height: int, pixels: np.nda
 
 
 def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray, raster_y: np.ndarray,
-                  pixel_aspect: tuple[float, float] = (1.0, 1.0), lens: Optional[np.ndarray] = None) -> CameraRays:
+                  pixel_aspect: tuple[float, float] = (1.0, 1.0), lens: Optional[np.ndarray] = None,
+                  time: Optional[np.ndarray] = None) -> CameraRays:
     """Return the world-space primary rays (CameraRays of n rays) through the given raster positions.
 
     raster_x, raster_y: (n,) float64 raster positions, x in [0, width) from the left,
@@ -593,14 +633,19 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
     pixel_aspect: (x, y) as Blender's render pixel aspect; it changes the image's shape.
     lens: (n, 2) float64 uniform numbers picking each ray's point on the aperture (depth of field), or None:
     through the pinhole.
+    time: (n,) float64 each ray's time in the shutter (motion.ray_times), or None: the camera where matrix_world says.
     """
     raster_x = np.atleast_1d(np.asarray(raster_x, dtype=np.float64))
     raster_y = np.atleast_1d(np.asarray(raster_y, dtype=np.float64))
     raster_x, raster_y = np.broadcast_arrays(raster_x, raster_y)
     raster_x, raster_y = raster_x.ravel(), raster_y.ravel()
+    moving = time is not None and camera.moves
+    if moving:
+        time = np.broadcast_to(np.asarray(time, np.float64), raster_x.shape)
 
     if camera.type == "PERSP":
-        local = _perspective_rays(camera, width, height, raster_x, raster_y, pixel_aspect, lens)
+        scale = (motion_.plane_scales(camera.fov_motion, time) if moving and camera.fov_motion else None)
+        local = _perspective_rays(camera, width, height, raster_x, raster_y, pixel_aspect, lens, scale)
     elif camera.type == "ORTHO":
         local = _orthographic_rays(camera, width, height, raster_x, raster_y, pixel_aspect, lens)
     elif camera.panorama_type in ("FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"):
@@ -609,6 +654,12 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
         local = _panorama_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
     local_origins, local_directions, t_max, valid = local
 
+    if moving and len(camera.motion) >= 2:
+        # The camera where it is at each ray's time (motion.interpolate); its linear part may shear: renormalise.
+        linear, eye_points = motion_.interpolate(motion_.decompose(camera.motion), time)
+        origins = vectors.apply_each(linear, local_origins, eye_points)
+        directions = _normalize_rows(vectors.apply_each(linear, local_directions, np.zeros_like(eye_points)))
+        return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid, time=time)
     # Camera-local to world: points get rotation and translation, directions rotation only.
     rotation = camera.matrix_world[:3, :3]
     eye_point = camera.matrix_world[:3, 3]
@@ -619,7 +670,9 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
     if not _is_rotation(rotation):
         # A sheared parent leaves the axes unit but not orthogonal: directions lose unit length.
         directions = _normalize_rows(directions)
-    return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid)
+    if time is not None:
+        time = np.broadcast_to(np.asarray(time, np.float64), raster_x.shape)
+    return CameraRays(origins=origins, directions=directions, t_max=t_max, valid=valid, time=time)
 
 
 def _is_rotation(matrix: np.ndarray) -> bool:
@@ -664,6 +717,14 @@ CameraRecord = schema.record("CameraRecord", "The camera, prepared by core/camer
     ("aperture_blades", I32, "fewer than 3: a round aperture"),
     ("aperture_rotation", F64, ""),
     ("aperture_ratio", F64, ""),
+    ("shutter_table", ptr(F64), "(SHUTTER_TABLE_SIZE,) motion.shutter_table; NULL without motion blur (time 1/2)"),
+    ("rolling", I32, "1: a rolling shutter, the top row first (motion.rolling_times)"),
+    ("rolling_duration", F64, ""),
+    ("motion_steps", I32, "the camera's transforms over the shutter; 0: it stands still"),
+    ("motion", ptr(F64), "(motion_steps, MOTION_STRIDE) motion.decompose, translations minus the geometry's origin"),
+    ("fov_motion", I32, "1: a perspective camera's image plane scales over the shutter (motion.plane_scales)"),
+    ("fov_pre", F64, "tan(fov / 2) at the shutter's open over at its middle"),
+    ("fov_post", F64, "... at its close"),
 ])
 # The sampling dimension of a camera ray's point on the aperture (depth of field).
 LENS_DIMENSION = schema.constant("LENS_DIMENSION", 1, "the sampling dimension of a camera ray's point on the lens")
@@ -683,6 +744,7 @@ CameraRaysArgs = schema.function("primer_camera_rays", "camera_rays", schema.rec
     ("directions", out(F64), "(p spp, 3)"),
     ("t_max", out(F64), "(p spp,)"),
     ("valid", out(U8), "(p spp,)"),
+    ("time", out(F64), "(p spp,) each ray's time in the shutter"),
 ]))
 
 
@@ -719,19 +781,34 @@ def camera_record(camera: Camera, width: int, height: int, pixel_aspect: tuple, 
     record.renormalize = not _is_rotation(rotation)
     if pixel_filter is not None and not pixel_filter.is_identity:
         record.filter_table = pixel_filter.table()
+    if camera.shutter is not None:                  # motion blur: each ray's time, and the camera then
+        record.shutter_table = np.ascontiguousarray(camera.shutter.table, np.float64)
+        record.rolling, record.rolling_duration = int(camera.shutter.rolling), float(camera.shutter.rolling_duration)
+        if camera.moves and len(camera.motion) >= 2:
+            steps = motion_.decompose([np.asarray(m) for m in camera.motion])
+            steps[:, 4:7] -= origin
+            record.motion_steps, record.motion = len(steps), np.ascontiguousarray(steps.ravel())
+        if camera.moves and camera.type == "PERSP" and camera.fov_motion:
+            record.fov_motion = 1
+            record.fov_pre, record.fov_post = (float(v) for v in camera.fov_motion)
     return record
 
 
-def compiled_rays(record, seed: int, width: int, height: int, pixels: np.ndarray, first: np.ndarray, spp: int):
+def compiled_rays(record, seed: int, width: int, height: int, pixels: np.ndarray, first: np.ndarray, spp: int,
+                  times: bool = False):
     """The camera rays of spp samples in each pixel, camera-relative, from camera.c (for the tests).
 
-    pixels, first: (p,) int64 -> origins, directions (p spp, 3) float64, t_max (p spp,) float64, valid (p spp,) bool
+    pixels, first: (p,) int64 -> origins, directions (p spp, 3) float64, t_max (p spp,) float64, valid (p spp,) bool,
+    and with times=True each ray's time (p spp,) float64 after them
     """
     from ..native import library
     pixels, first = library.contiguous(pixels, np.int64), library.contiguous(first, np.int64)
     n = len(pixels) * spp
     origins, directions, t_max, valid = np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n, np.uint8)
+    time = np.empty(n)
     library.call("primer_camera_rays", CameraRaysArgs(
         camera=record, seed=int(seed), width=int(width), height=int(height), pixels=pixels, first=first,
-        p=len(pixels), spp=int(spp), origins=origins, directions=directions, t_max=t_max, valid=valid))
+        p=len(pixels), spp=int(spp), origins=origins, directions=directions, t_max=t_max, valid=valid, time=time))
+    if times:
+        return origins, directions, t_max, valid.astype(bool), time
     return origins, directions, t_max, valid.astype(bool)

@@ -225,6 +225,7 @@ static void render_chunk(const ChunkArgs *a)
     ChunkOut *out = a->out;
     int64_t width = (int64_t)params->width, height = (int64_t)params->height, total = a->p * a->spp;
     uint32_t stream = stream_of((int64_t)params->seed, 0), lens_stream = stream_of((int64_t)params->seed, LENS_DIMENSION);
+    uint32_t time_stream = stream_of((int64_t)params->seed, TIME_DIMENSION);
     Stopwatch started = stopwatch();
     uint64_t spent[3] = {0, 0, 0};        /* ticks: nearest hits, occlusion, shading (as out->seconds) */
     int64_t traced = 0, shadow_rays = 0;
@@ -297,7 +298,7 @@ static void render_chunk(const ChunkArgs *a)
         /* 0. A cancelled render stops here (render.py drops the chunk). */
         if (params->stop != NULL && *(volatile const int32_t *)params->stop != 0) break;
         /* 1. The block's camera rays (camera.c). */
-        camera_samples(&b, params->camera, stream, lens_stream, width, height, a->pixels, a->first, a->spp, start,
+        camera_samples(&b, params->camera, stream, lens_stream, time_stream, width, height, a->pixels, a->first, a->spp, start,
                        total);
         /* 2. Their nearest hits and the surfaces there. */
         uint64_t begin = ticks();

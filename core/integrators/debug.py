@@ -146,11 +146,16 @@ AUX_BUFFERS = {
     "acne": 1,          # fraction of the pixel's shadow rays that hit the surface they left
     "rays": 1,          # camera rays plus shadow rays cast for the pixel
     "time": 1,          # seconds spent on the pixel (an estimate: share_time)
+    "shutter_time": 1,  # the mean time in the shutter of the pixel's camera rays (0 open, 1 closed; 1/2 without blur)
 }
 MISS_DEPTH = 1e10
 # Buffers that are per-pixel totals, not means over the hit samples; and the hidden denominator of "acne".
 TOTAL_BUFFERS = ("rays", "time")
 ACNE_CAST = "acne cast"
+# Buffers of the camera rays themselves (hit or not): the render loop sums them (camera_ray_sums), and each pixel shows
+# their mean over its traced rays (the hidden denominator CAMERA_RAYS).
+CAMERA_RAY_BUFFERS = ("shutter_time",)
+CAMERA_RAYS = "camera rays"
 
 
 def aux_channels(names, lights: int) -> dict:
@@ -158,7 +163,23 @@ def aux_channels(names, lights: int) -> dict:
     channels = {name: (lights if AUX_BUFFERS[name] == "lights" else AUX_BUFFERS[name]) for name in names}
     if "acne" in channels:
         channels[ACNE_CAST] = 1
+    if any(name in channels for name in CAMERA_RAY_BUFFERS):
+        channels[CAMERA_RAYS] = 1
     return channels
+
+
+def camera_ray_sums(names, rays, p: int, spp: int) -> dict:
+    """The camera-ray buffers among `names` summed per pixel over its traced rays, with their count: name -> (p, 1)
+    float64. rays: the chunk's CameraRays (p spp of them, pixel by pixel); a ray without a time is at 1/2."""
+    wanted = [name for name in names if name in CAMERA_RAY_BUFFERS]
+    if not wanted:
+        return {}
+    traced = rays.valid.reshape(p, spp)
+    time = rays.time if rays.time is not None else np.full(len(rays.valid), 0.5)
+    sums = {CAMERA_RAYS: traced.sum(axis=1).astype(np.float64)[:, None]}
+    if "shutter_time" in wanted:
+        sums["shutter_time"] = np.where(traced, time.reshape(p, spp), 0.0).sum(axis=1)[:, None]
+    return sums
 
 
 class DebugRecorder(Recorder):
@@ -249,7 +270,8 @@ class DebugRecorder(Recorder):
 
         hit = self.surface is not None
         sums = {}
-        for name in self.wanted - {"time"}:              # "time" is measured around the chunk
+        for name in self.wanted - {"time", *CAMERA_RAY_BUFFERS}:   # ("time" is measured around the chunk, the
+            # camera rays' own buffers summed by the render loop: camera_ray_sums)
             if name == "rays":
                 sums[name] = (traced_per_pixel + (total(self.shadow_ray_count)[:, 0] if hit else 0.0))[:, None]
             elif name == "acne":
@@ -278,6 +300,9 @@ def aux_images(sums: dict, hits: np.ndarray, names, height: int, width: int) -> 
         elif name == "acne":
             cast = sums[ACNE_CAST]
             image = np.where(cast > 0, values / np.maximum(cast, 1.0), 0.0).astype(np.float32)
+        elif name in CAMERA_RAY_BUFFERS:
+            rays = sums[CAMERA_RAYS]
+            image = np.where(rays > 0, values / np.maximum(rays, 1.0), 0.0).astype(np.float32)
         else:
             image = np.full(values.shape, MISS_DEPTH if name in ("depth", "hit_distance") else 0.0, np.float32)
             image[covered] = values[covered] / hits[covered, None]

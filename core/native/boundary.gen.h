@@ -19,6 +19,12 @@
 #define CAMERA_CENTRAL_CYLINDRICAL 8
 /* entries of the pixel filter's table (Cycles' size) (core.camera.filter) */
 #define FILTER_TABLE_SIZE 1024
+/* entries of the shutter curve's table (Cycles' size) (core.camera.motion) */
+#define SHUTTER_TABLE_SIZE 256
+/* the sampling dimension of a camera ray's time in the shutter (core.camera.motion) */
+#define TIME_DIMENSION 4
+/* numbers of one decomposed camera transform (motion.decompose) (core.camera.motion) */
+#define MOTION_STRIDE 16
 /* the integrators with a compiled twin (core.integrators.compiled) */
 #define INTEGRATOR_DIRECT 0
 #define INTEGRATOR_PATH 1
@@ -298,6 +304,14 @@ struct CameraRecord {
     int32_t aperture_blades;                /* fewer than 3: a round aperture */
     double aperture_rotation;
     double aperture_ratio;
+    const double *shutter_table;            /* (SHUTTER_TABLE_SIZE,) motion.shutter_table; NULL without motion blur (time 1/2) */
+    int32_t rolling;                        /* 1: a rolling shutter, the top row first (motion.rolling_times) */
+    double rolling_duration;
+    int32_t motion_steps;                   /* the camera's transforms over the shutter; 0: it stands still */
+    const double *motion;                   /* (motion_steps, MOTION_STRIDE) motion.decompose, translations minus the geometry's origin */
+    int32_t fov_motion;                     /* 1: a perspective camera's image plane scales over the shutter (motion.plane_scales) */
+    double fov_pre;                         /* tan(fov / 2) at the shutter's open over at its middle */
+    double fov_post;                        /* ... at its close */
 };
 
 /* primer_camera_rays' arguments: the camera rays of spp samples in each of p pixels. */
@@ -314,6 +328,7 @@ struct CameraRaysArgs {
     double *directions;                     /* (p spp, 3) */
     double *t_max;                          /* (p spp,) */
     uint8_t *valid;                         /* (p spp,) */
+    double *time;                           /* (p spp,) each ray's time in the shutter */
 };
 
 /* primer_ascending's arguments: whether p pixels are distinct flat indices below size, ascending. */
@@ -775,8 +790,8 @@ struct Sample2dArgs {
  * Record.check compares with Python's before a record crosses. */
 EXPORT uint64_t primer_layout(const char *name)
 {
-    if (strcmp(name, "CameraRecord") == 0) return UINT64_C(6156310121610777981);
-    if (strcmp(name, "CameraRaysArgs") == 0) return UINT64_C(4853653911338869771);
+    if (strcmp(name, "CameraRecord") == 0) return UINT64_C(1044589299288100319);
+    if (strcmp(name, "CameraRaysArgs") == 0) return UINT64_C(8278503245335778024);
     if (strcmp(name, "AscendingArgs") == 0) return UINT64_C(8778812495168971938);
     if (strcmp(name, "UnconvergedArgs") == 0) return UINT64_C(333743641446770115);
     if (strcmp(name, "AddPixelsArgs") == 0) return UINT64_C(5374307677316731809);

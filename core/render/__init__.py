@@ -35,6 +35,7 @@ import numpy as np
 from .. import lights as lights_
 from .. import memory, vectors
 from ..camera import camera as camera_
+from ..camera import motion
 from ..film import adaptive
 from ..film.film import FILM_MAX, ChunkSums, Film, finite_samples, pixel_sums
 from ..geometry import instancing
@@ -199,7 +200,8 @@ def camera_rays(ctx: Context, s: RenderSettings, pixel: np.ndarray, sample: np.n
     """Return the camera rays (core/camera Rays, camera-relative) of samples `sample` of pixels `pixel`:
     both (n,) int64; the positions in the pixel are the samples' jittered points (dimension 0 of the
     pattern), or without jitter the centres of a grid of spp cells, moved by the pixel filter
-    (core/camera/filter.py: drawn from its density, as Cycles does)."""
+    (core/camera/filter.py: drawn from its density, as Cycles does); with motion blur each ray's time in the shutter
+    (core/camera/motion.py, TIME_DIMENSION)."""
     W, H = s.width, s.height
     if s.jitter:
         offset = sampling.sample_2d(s.seed, pixel, sample, dimension=0)
@@ -209,8 +211,12 @@ def camera_rays(ctx: Context, s: RenderSettings, pixel: np.ndarray, sample: np.n
     camera = ctx.extra["camera"]
     lens = (sampling.sample_2d(s.seed, pixel, sample, dimension=camera_.LENS_DIMENSION)
             if camera_.has_depth_of_field(camera) else None)       # (depth of field: each ray's point on the lens)
+    time = None                                                     # (motion blur: each ray's time in the shutter)
+    if camera.shutter is not None:
+        u = sampling.sample_2d(s.seed, pixel, sample, dimension=motion.TIME_DIMENSION)[:, 0]
+        time = motion.ray_times(camera.shutter, u, pixel // W, H)
     return camera_.generate_rays(camera, W, H, (pixel % W) + offset[:, 0], (pixel // W) + offset[:, 1],
-                                 tuple(s.pixel_aspect), lens)
+                                 tuple(s.pixel_aspect), lens, time)
 
 
 def light_pass_images(film: Film, first_hit: dict, wanted) -> dict:
@@ -275,6 +281,7 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     if isinstance(recorder, debug.DebugRecorder):
         traced_per_pixel = rays.valid.reshape(p, spp).sum(axis=1).astype(np.float64)
         aux = recorder.pixel_sums(hit // spp, traced_per_pixel)
+        aux.update(debug.camera_ray_sums(s.aux, rays, p, spp))
     # The light passes', denoising features' and light groups' sums (lightpasses.py, features.py, lightgroups.py),
     # each sample's channel that is NaN or beyond the film's range as 0, as in the image.
     data = found.passes

@@ -1,0 +1,191 @@
+"""Motion blur: the camera read over the shutter as Cycles' Blender sync reads it, and the objects that move noted.
+
+With Render > Motion Blur on (and the view layer's Motion Blur), Cycles renders the camera where it is at each ray's
+time in the shutter (core/camera/motion.py). Its Blender sync (intern/cycles/blender/sync.cpp `sync_motion`,
+camera.cpp `sync_camera_motion`) reads the camera at the times of its motion steps: the shutter is Shutter frames
+long, centred on the frame (Position Center), starting at it (Start) or ending at it (End); step k of n lies at the
+relative time 2k / (n - 1) - 1 of the shutter's half-length around its centre, and n = 2^steps + 1 for the camera
+object's Motion Steps (Object > Motion Blur; 0 when its Motion Blur is off: it stands still). For a Start or End
+shutter the camera at the shutter's centre gives the render's camera its matrix (its position for the camera-relative
+frame, the Camera texture coordinates) and field of view, its other settings staying the frame's, as in Cycles. A
+perspective camera whose field of view differs at the shutter's open or close gets it too (Cycles' perspective
+motion). The add-on moves the scene there with RenderEngine.frame_set(frame,
+subframe), reads, and sets the frame back. Only a final render does this: Cycles' viewport renders no motion blur.
+
+Primer does not blur objects (Embree's time steps are not wired): each object whose transform differs at the shutter's
+open and close, or whose mesh deforms between them, with its own Motion Blur on (and Deformation for the mesh), gets
+a note naming it, and is rendered still where it is at the frame.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Optional
+
+import numpy as np
+
+from ..core.camera import motion as core_motion
+
+# Objects named in a note before "and N more".
+NAMED = 3
+# A mesh is compared vertex by vertex for deformation up to this many vertices (more: not checked, to stay cheap).
+DEFORM_CHECK_VERTICES = 200_000
+
+
+def blurs(scene, view_layer=None) -> bool:
+    """Whether a Cycles render of `scene` has motion blur: Render > Motion Blur and the view layer's Motion Blur."""
+    if not getattr(scene.render, "use_motion_blur", False):
+        return False
+    return view_layer is None or bool(getattr(view_layer, "use_motion_blur", True))
+
+
+def shutter_curve(render) -> np.ndarray:
+    """The shutter curve's values as Cycles' sync reads them (curvemapping_to_array): the first curve of
+    motion_blur_shutter_curve evaluated by Blender at i / 256, i = 0 .. 256 -> (257,) float32."""
+    mapping = render.motion_blur_shutter_curve
+    mapping.update()
+    mapping.initialize()
+    curve = mapping.curves[0]
+    size = core_motion.CURVE_POINTS - 1
+    return np.array([mapping.evaluate(curve, float(np.float32(i) / np.float32(size))) for i in range(size + 1)],
+                    np.float32)
+
+
+def shutter(scene) -> core_motion.Shutter:
+    """The scene's shutter for the camera's rays: its curve's table, and Cycles' rolling shutter (Top to Bottom with
+    its Duration; scene.cycles' rolling_shutter_type and rolling_shutter_duration)."""
+    cycles = getattr(scene, "cycles", None)
+    rolling = str(getattr(cycles, "rolling_shutter_type", "NONE")) == "TOP"
+    duration = float(getattr(cycles, "rolling_shutter_duration", 0.1))
+    return core_motion.Shutter(table=core_motion.shutter_table(shutter_curve(scene.render)), rolling=rolling,
+                               rolling_duration=duration)
+
+
+def motion_steps(obj) -> int:
+    """Cycles' object_motion_steps: 2^steps + 1 transforms over the shutter for an object's Motion Steps, 0 with its
+    Motion Blur off (object.cycles' use_motion_blur and motion_steps)."""
+    settings = getattr(obj, "cycles", None)
+    if settings is None or not getattr(settings, "use_motion_blur", True):
+        return 0
+    return (2 << (max(1, int(getattr(settings, "motion_steps", 1))) - 1)) + 1
+
+
+def centre_offset(render) -> float:
+    """Frames from the frame to the shutter's centre: 0 for Center, +Shutter / 2 for Start, -Shutter / 2 for End
+    (motion_blur_position, motion_blur_shutter)."""
+    half = 0.5 * float(render.motion_blur_shutter)
+    return {"START": half, "END": -half}.get(str(render.motion_blur_position), 0.0)
+
+
+def frame_of(scene, relative: float) -> tuple[int, float]:
+    """The (frame, subframe) of a relative time in [-1, 1] of the shutter, as Cycles' sync_motion computes it."""
+    render = scene.render
+    time = (scene.frame_current + scene.frame_subframe + centre_offset(render)
+            + relative * float(render.motion_blur_shutter) * 0.5)
+    frame = math.floor(time)
+    return int(frame), float(time - frame)
+
+
+def _fov_tangent(camera) -> float:
+    """tan(fov / 2) of a core perspective camera up to the image's aspect, which does not change over the shutter."""
+    sensor = camera.sensor_height if camera.sensor_fit == "VERTICAL" else camera.sensor_width
+    return float(np.float32(0.5 * sensor / camera.lens))
+
+
+# The object types Cycles renders (and so blurs): an Empty, an armature or a lattice moves nothing that is seen.
+RENDERED_TYPES = ("MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD", "VOLUME")
+
+
+def _object_state(depsgraph) -> dict:
+    """Where each rendered object and instance is: its world matrix, and for a mesh object that may deform (modifiers
+    or shape keys, Deformation on, not too large) its vertex positions. -> (its name in a note, persistent id) ->
+    (matrix (4, 4) float64, positions (3 v,) float32 or None); the name quoted, an instance's with its instancer's.
+    An instance counts when its object's and its instancer's Motion Blur are on (Cycles' object_motion_steps)."""
+    state = {}
+    for instance in depsgraph.object_instances:
+        obj = instance.object
+        parent = instance.parent if instance.is_instance else None
+        if obj.type not in RENDERED_TYPES or motion_steps(obj) == 0 or (parent is not None and not motion_steps(parent)):
+            continue
+        name = f"'{obj.name}'" + ("" if parent is None else f" (instanced by '{parent.name}')")
+        positions = None
+        mesh = obj.data if obj.type == "MESH" and parent is None else None
+        deforms = bool(getattr(getattr(obj, "cycles", None), "use_deform_motion", True))
+        if (mesh is not None and deforms and (len(obj.modifiers) or getattr(mesh, "shape_keys", None) is not None)
+                and len(mesh.vertices) <= DEFORM_CHECK_VERTICES):
+            positions = np.empty(3 * len(mesh.vertices), np.float32)
+            mesh.vertices.foreach_get("co", positions)
+        state[(name, tuple(instance.persistent_id))] = (np.array(instance.matrix_world, np.float64), positions)
+    return state
+
+
+def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, frame: float) -> Optional[str]:
+    """The note naming the objects that move or deform between the shutter's open and close (_object_state at
+    each), or None; start, end: the shutter's (frame, subframe); frame: the frame rendered."""
+    moved, deformed = set(), set()
+    for key, (matrix, positions) in opened.items():
+        if key not in closed:
+            continue
+        other_matrix, other_positions = closed[key]
+        if not np.array_equal(matrix, other_matrix):
+            moved.add(key[0])
+        elif positions is not None and (other_positions is None or positions.shape != other_positions.shape
+                                        or not np.array_equal(positions, other_positions)):
+            deformed.add(key[0])
+    if not moved and not deformed:
+        return None
+
+    def named(names):
+        shown = ", ".join(sorted(names)[:NAMED])
+        return shown + (f" and {len(names) - NAMED} more" if len(names) > NAMED else "")
+    parts = ([f"{named(moved)} move{'s' if len(moved) == 1 else ''}"] if moved else []) + \
+            ([f"{named(deformed)} deform{'s' if len(deformed) == 1 else ''}"] if deformed else [])
+    them, they = ("it", "it is") if len(moved) + len(deformed) == 1 else ("them", "they are")
+    return (f"motion blur: {' and '.join(parts)} during the shutter (frames {start[0] + start[1]:g} to "
+            f"{end[0] + end[1]:g}); Cycles blurs {them}, Primer blurs only the camera and renders {them} still where "
+            f"{they} at frame {frame:g}")
+
+
+def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warnings: list):
+    """The exported core camera with its motion over the shutter (Camera.shutter, motion, fov_motion), read by moving
+    the scene with engine.frame_set to each time Cycles reads; the note about moving objects added to `warnings`.
+    export_camera: the exporter's function from an evaluated camera object to a core Camera. The scene is set back to
+    its frame before returning. Without motion blur the camera is returned as it is."""
+    scene = depsgraph.scene
+    if not blurs(scene, depsgraph.view_layer):
+        return camera
+    steps = motion_steps(camera_object)
+    relative = sorted({2.0 * k / (steps - 1) - 1.0 for k in range(steps)} | {-1.0, 1.0}
+                      | ({0.0} if centre_offset(scene.render) != 0.0 else set()))
+    frame, subframe = scene.frame_current, scene.frame_subframe
+    frames = {time: frame_of(scene, time) for time in relative}     # (before frame_set moves the scene's frame)
+    note_frames = frame_of(scene, -1.0), frame_of(scene, 1.0), frame + subframe
+    cameras, states = {}, {}
+    try:
+        for time in relative:
+            engine.frame_set(*frames[time])
+            evaluated = camera_object.evaluated_get(depsgraph)
+            cameras[time] = export_camera(evaluated, [])
+            if time in (-1.0, 1.0):
+                states[time] = _object_state(depsgraph)
+    finally:
+        engine.frame_set(frame, subframe)
+    note = moving_objects_note(states[-1.0], states[1.0], *note_frames)
+    if note:
+        warnings.append(note)
+    centre = camera
+    if centre_offset(scene.render) != 0.0:
+        # Cycles keeps the frame's camera but for its matrix and field of view, which it takes at the shutter's centre.
+        middle = cameras[0.0]
+        view = dict(lens=middle.lens, sensor_width=middle.sensor_width, sensor_height=middle.sensor_height)
+        centre = dataclasses.replace(camera, matrix_world=middle.matrix_world, **(view if camera.type == "PERSP" else {}))
+    matrices = tuple(np.asarray(cameras[2.0 * k / (steps - 1) - 1.0].matrix_world) for k in range(steps))
+    if not all(np.isfinite(m).all() for m in matrices):
+        warnings.append(f"motion blur: camera '{camera_object.name}' has an invalid (NaN or infinite) transform during "
+                        "the shutter; Primer renders it still")
+        matrices = ()
+    fov = ()
+    if centre.type == "PERSP" and steps:
+        middle_tangent = _fov_tangent(centre)
+        fov = (_fov_tangent(cameras[-1.0]) / middle_tangent, _fov_tangent(cameras[1.0]) / middle_tangent)
+    return dataclasses.replace(centre, shutter=shutter(scene), motion=matrices, fov_motion=fov)
