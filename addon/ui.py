@@ -322,12 +322,14 @@ classes = (
 
 # Blender's own panels that also describe what Primer renders: every panel Workbench uses
 # ("BLENDER_RENDER": camera, output, object, mesh data...), minus those Primer replaces or has
-# no use for, plus the material slot and surface panels of EEVEE.
+# no use for, plus the material slot and surface panels of EEVEE and the camera's Depth of Field (which Primer renders
+# with the settings Cycles reads there).
 _EXCLUDED_PANELS = {
-    "DATA_PT_light", "DATA_PT_spot", "DATA_PT_preview", "DATA_PT_camera_dof",
+    "DATA_PT_light", "DATA_PT_spot", "DATA_PT_preview",
     "RENDER_PT_freestyle", "RENDER_PT_simplify", "RENDER_PT_simplify_viewport", "RENDER_PT_simplify_render",
 }
-_MATERIAL_PANELS = {"EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface"}
+_MATERIAL_PANELS = {"EEVEE_MATERIAL_PT_context_material", "EEVEE_MATERIAL_PT_surface", "DATA_PT_camera_dof",
+                    "DATA_PT_camera_dof_aperture"}
 
 
 def _compatible_panels():

@@ -208,10 +208,12 @@ def test_ctrl_c_stops_a_headless_render_promptly(tmp_path):
 
 
 def test_blender_panels_are_shown_for_primer(primer):
-    """Camera, output and material panels list Primer; the light panels Primer replaces do not."""
+    """Camera (its Depth of Field too), output and material panels list Primer; the light panels Primer replaces do
+    not."""
     panels = {p.__name__: p for p in bpy.types.Panel.__subclasses__()}
     for name in ("DATA_PT_lens", "RENDER_PT_format", "EEVEE_MATERIAL_PT_surface",
-                 "EEVEE_MATERIAL_PT_context_material", "OBJECT_PT_visibility"):
+                 "EEVEE_MATERIAL_PT_context_material", "OBJECT_PT_visibility", "DATA_PT_camera_dof",
+                 "DATA_PT_camera_dof_aperture"):
         assert "PRIMER" in panels[name].COMPAT_ENGINES, name
     for name in ("DATA_PT_light", "DATA_PT_spot", "EEVEE_MATERIAL_PT_thickness"):
         assert "PRIMER" not in panels[name].COMPAT_ENGINES, name
