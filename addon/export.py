@@ -645,9 +645,9 @@ def depth_of_field(camera_object, kind: str) -> dict:
     """The Camera fields of a camera's Depth of Field, as Cycles reads them (intern/cycles/blender/camera.cpp): the
     aperture's radius is the focal length over twice the f-stop (1 / (2 f-stop) for an orthographic camera); the focus
     distance is the Focus Distance, or with a Focus Object (a bone of it with a Focus Bone) its distance from the camera
-    along the view axis. {} without depth of field (a pinhole); panoramas keep theirs (unmodelled.camera_notes)."""
+    along the view axis (a panorama's too, with its Lens's focal length). {} without depth of field (a pinhole)."""
     dof = getattr(camera_object.data, "dof", None)
-    if dof is None or not dof.use_dof or kind == "PANO":
+    if dof is None or not dof.use_dof:
         return {}
     fstop = max(float(dof.aperture_fstop), 1e-5)
     size = 1.0 / (2.0 * fstop) if kind == "ORTHO" else float(camera_object.data.lens) * 1e-3 / (2.0 * fstop)

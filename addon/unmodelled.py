@@ -115,18 +115,13 @@ def holdout_objects(view_layer) -> set:
 
 
 def camera_notes(camera_object) -> list:
-    """Camera settings that Primer does not model: a panorama's depth of field, a custom (OSL) camera."""
+    """Camera settings that Primer does not model: a custom (OSL) camera."""
     data = getattr(camera_object, "data", None)
     notes = []
     if getattr(data, "type", "PERSP") not in {"PERSP", "ORTHO", "PANO"}:
         notes.append(f"camera '{camera_object.name}' is a {data.type.title()} camera (a shader of its own in Cycles); "
                      "Primer renders it as a perspective camera")
-    dof = getattr(data, "dof", None)
-    if dof is None or not dof.use_dof or getattr(data, "type", "PERSP") != "PANO":
-        return notes                    # (perspective and orthographic depth of field: export.depth_of_field)
-    focus = f"object '{dof.focus_object.name}'" if dof.focus_object is not None else f"{dof.focus_distance:g} m"
-    return notes + [f"panoramic camera '{camera_object.name}' has depth of field (f/{dof.aperture_fstop:g}, focus "
-                    f"{focus}); Primer renders panoramas through a pinhole: everything in focus"]
+    return notes                        # (depth of field, panoramas' too: export.depth_of_field)
 
 
 def object_notes(obj) -> list:

@@ -41,9 +41,6 @@ def scene_with_everything():
     scene = bpy.context.scene
     layer = scene.view_layers[0]
     scene.render.use_motion_blur = True
-    scene.camera.data.dof.use_dof = True                # (a panorama's: Primer renders those through a pinhole)
-    scene.camera.data.type = "PANO"
-    scene.camera.data.panorama_type = "FISHEYE_EQUIDISTANT"
     cube, light = scene.objects["Cube"], scene.objects["Light"]
     cube.is_shadow_catcher = True
     cube.data.materials.clear()
@@ -69,12 +66,12 @@ def scene_with_everything():
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
-    """Depth of field, shadow catcher, light and shadow linking, a material's Volume and Displacement,
+    """Shadow catcher, light and shadow linking, a material's Volume and Displacement,
     Principled Dispersion, a world volume, Mist, Vector and AOV passes: each named in one warning."""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
-    expected = ["depth of field", "shadow catcher", "uses light linking", "uses shadow linking",
+    expected = ["shadow catcher", "uses light linking", "uses shadow linking",
                 "Volume output",
                 "Displacement output", "world's Volume", "Mist pass", "Vector pass",
                 "AOVs (Mask)"]

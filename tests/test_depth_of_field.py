@@ -123,3 +123,54 @@ def test_compiled_lens_rays_follow_the_reference(kind, blades):
     np.testing.assert_allclose(O, rays.origins, rtol=0, atol=1e-13)
     np.testing.assert_allclose(D, rays.directions, rtol=0, atol=1e-14)
     np.testing.assert_allclose(t, rays.t_max, rtol=1e-15, atol=0)
+
+
+def along(rays, pinhole, z: float) -> np.ndarray:
+    """Where the rays cross the plane at distance z along the pinhole ray, across it (n, 3) from its point there."""
+    D = pinhole.directions[0]
+    t = (z - rays.origins @ D) / (rays.directions @ D)
+    return rays.origins + t[:, None] * rays.directions - z * D
+
+
+@pytest.mark.parametrize("panorama", ["EQUIRECTANGULAR", "FISHEYE_EQUIDISTANT", "MIRRORBALL"])
+def test_a_panoramas_rays_meet_at_the_focus_distance_along_the_pinhole_ray_and_blur_by_the_circle_of_confusion(
+        panorama):
+    """Cycles' panorama lens: each ray leaves its aperture point on the plane across the pinhole ray through the
+    camera, towards the pinhole ray's point at the focus distance; on the plane across that ray at distance z they
+    fill a disk of radius A |1 - z / f| about its point, and they start clip_start along themselves."""
+    camera = dataclasses.replace(lens_camera("PANO"), panorama_type=panorama, fisheye_fov=math.radians(170.0))
+    rays = rays_of_one_point(camera, raster=(12.3, 6.6))
+    pinhole = camera_.generate_rays(dataclasses.replace(camera, aperture_size=0.0), 32, 16, [12.3], [6.6])
+    assert rays.valid.all() and pinhole.valid.all()
+    assert np.abs(along(rays, pinhole, FOCUS)).max() < 1e-12
+    for z in (1.0, 2.5, 9.0):
+        radius = np.linalg.norm(along(rays, pinhole, z), axis=1)
+        expected = APERTURE * abs(1.0 - z / FOCUS)
+        assert expected * 0.98 < radius.max() <= expected * (1 + 1e-9), (z, radius.max(), expected)
+    start = rays.origins - 0.1 * rays.directions                       # the aperture's points
+    np.testing.assert_allclose(start @ pinhole.directions[0], 0.0, atol=1e-15)
+    assert np.linalg.norm(start, axis=1).max() <= APERTURE * (1 + 1e-12)
+
+
+@pytest.mark.parametrize("panorama", ["EQUIRECTANGULAR", "FISHEYE_EQUISOLID", "MIRRORBALL"])
+def test_compiled_panorama_lens_rays_follow_the_reference(panorama):
+    """camera.c's panorama rays with depth of field are generate_rays' with the same lens numbers."""
+    camera = dataclasses.replace(Camera.look_at((0.3, -4.0, 2.0), (0.0, 0.0, 0.5)), type="PANO",
+                                 panorama_type=panorama, aperture_size=0.08, focus_distance=3.5, aperture_blades=5,
+                                 aperture_rotation=0.4, aperture_ratio=1.3)
+    W, H, spp, seed = 37, 23, 3, 11
+    pixels = np.arange(0, W * H, 2, dtype=np.int64)
+    first = (pixels % 4).astype(np.int64)
+    origin = np.array([0.5, -0.25, 2.0])
+    record = camera_.camera_record(camera, W, H, (1.0, 1.0), origin)
+    O, D, t, valid = camera_.compiled_rays(record, seed, W, H, pixels, first, spp)
+    pixel, sample = render.sample_keys(pixels, spp, first)
+    offset = sampling.sample_2d(seed, pixel, sample, 0)
+    lens = sampling.sample_2d(seed, pixel, sample, camera_.LENS_DIMENSION)
+    rays = camera_.generate_rays(camera.moved(origin), W, H, pixel % W + offset[:, 0], pixel // W + offset[:, 1],
+                                 (1.0, 1.0), lens)
+    seen = rays.valid.astype(bool)
+    assert seen.sum() > 100
+    np.testing.assert_array_equal(valid.astype(bool), seen)
+    np.testing.assert_allclose(O[seen], rays.origins[seen], rtol=0, atol=1e-13)
+    np.testing.assert_allclose(D[seen], rays.directions[seen], rtol=0, atol=1e-14)

@@ -120,6 +120,36 @@ INLINE int panorama_direction(const CameraRecord *camera, int kind, double u, do
 }
 
 /* One camera ray per lane (inlined once per camera kind, so that the loop has no branch). */
+/* camera._panorama_lens for one ray: the local unit direction d through the thin lens of the uniform numbers u0, u1,
+ * worked in Cycles' panorama frame (x forward; a mirror ball's own); o becomes the aperture's point past clip_start
+ * along the new d. */
+INLINE void panorama_lens(const CameraRecord *camera, int kind, double u0, double u1, double *o, double *d)
+{
+    /* 1. The pinhole ray in the panorama frame, and the frame across it. */
+    double D[3], U[3], V[3], at[2], P[3], F[3];
+    if (kind == CAMERA_MIRRORBALL) { D[0] = d[0]; D[1] = d[2]; D[2] = d[1]; }
+    else { D[0] = -d[2]; D[1] = -d[0]; D[2] = d[1]; }
+    for (int c = 0; c < 3; c++) U[c] = (c == 0 ? 1.0 : 0.0) - D[0] * D[c];
+    double length = sqrt(dot3(U, U));
+    if (length > 1e-12) for (int c = 0; c < 3; c++) U[c] /= length;
+    else { U[0] = 0.0; U[1] = 1.0; U[2] = 0.0; }             /* (straight ahead: any direction across) */
+    V[0] = D[1] * U[2] - D[2] * U[1]; V[1] = D[2] * U[0] - D[0] * U[2]; V[2] = D[0] * U[1] - D[1] * U[0];
+    length = sqrt(dot3(V, V));
+    for (int c = 0; c < 3; c++) V[c] /= length;
+    /* 2. From the aperture's point towards the pinhole ray's point in focus. */
+    aperture_point(camera, u0, u1, at);
+    for (int c = 0; c < 3; c++) {
+        P[c] = U[c] * at[0] + V[c] * at[1];
+        F[c] = D[c] * camera->focus_distance - P[c];
+    }
+    length = sqrt(dot3(F, F));
+    for (int c = 0; c < 3; c++) F[c] /= length;
+    double Pl[3];
+    if (kind == CAMERA_MIRRORBALL) { Pl[0] = P[0]; Pl[1] = P[2]; Pl[2] = P[1]; d[0] = F[0]; d[1] = F[2]; d[2] = F[1]; }
+    else { Pl[0] = -P[1]; Pl[1] = P[2]; Pl[2] = -P[0]; d[0] = -F[1]; d[1] = F[2]; d[2] = -F[0]; }
+    for (int c = 0; c < 3; c++) o[c] = Pl[c] + d[c] * camera->clip_start;
+}
+
 INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict record, int64_t width,
                          int64_t height, int kind, int renormalize)
 {
@@ -218,6 +248,8 @@ INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict r
             o[0] = d[0] * camera.clip_start; o[1] = d[1] * camera.clip_start; o[2] = d[2] * camera.clip_start;
             t = camera.clip_end - camera.clip_start;
         }
+        if (kind != CAMERA_PERSP && kind != CAMERA_ORTHO && camera.aperture_size > 0.0 && valid)
+            panorama_lens(&camera, kind, b->lens[0][k], b->lens[1][k], o, d);
         /* 3. Into the camera-relative world frame (where the camera is at the ray's time, when it moves). */
         double O[3], D[3], moved[9], moved_eye[3];
         const double *M = R, *eye = camera.eye;

@@ -382,8 +382,8 @@ def _raster_to_plane(camera: Camera, width: int, height: int, raster_x: np.ndarr
 # ---------------------------------------------------------------------------
 
 def has_depth_of_field(camera: Camera) -> bool:
-    """Whether the camera's rays leave from a lens of some size (perspective and orthographic cameras)."""
-    return camera.aperture_size > 0.0 and camera.type in ("PERSP", "ORTHO")
+    """Whether the camera's rays leave from a lens of some size."""
+    return camera.aperture_size > 0.0
 
 
 def uniform_disk(u: np.ndarray) -> np.ndarray:
@@ -548,6 +548,35 @@ def panorama_directions(camera: Camera, u: np.ndarray, v: np.ndarray, sensor: tu
     return np.where(valid[:, None], c, 0.0), valid
 
 
+def local_to_panorama(camera: Camera, d: np.ndarray) -> np.ndarray:
+    """The camera's local frame to Cycles' panorama frame (panorama_to_local undone). d (n, 3)."""
+    if camera.panorama_type == "MIRRORBALL":
+        return vectors.rows(d[:, 0], d[:, 2], d[:, 1])
+    return vectors.rows(-d[:, 2], -d[:, 0], d[:, 1])
+
+
+def _panorama_lens(camera: Camera, directions: np.ndarray, valid: np.ndarray, lens: np.ndarray) -> tuple:
+    """A panorama's rays (local unit directions (n, 3)) through a thin lens, as Cycles' camera_sample_panorama: in
+    the panorama frame (x forward) each ray leaves its aperture point (lens (n, 2) uniform numbers, aperture_points)
+    on the plane across the pinhole ray made by U = (x - D_x D) normalised and V = D x U, towards where the pinhole
+    ray is at the focus distance. Returns local (origins (n, 3) past clip_start along the ray, directions (n, 3));
+    invalid rays keep theirs."""
+    # 1. The pinhole ray in the panorama frame, and the frame across it.
+    D = local_to_panorama(camera, directions)
+    U = np.array([1.0, 0.0, 0.0]) - D[:, :1] * D
+    length = np.linalg.norm(U, axis=1, keepdims=True)
+    U = np.where(length > 1e-12, U / np.maximum(length, 1e-300), [[0.0, 1.0, 0.0]])  # (straight ahead: any across)
+    V = _normalize_rows(np.cross(D, U))
+    # 2. From the aperture's point towards the pinhole ray's point in focus.
+    at = aperture_points(camera, lens)
+    P = U * at[:, :1] + V * at[:, 1:]
+    focused = _normalize_rows(D * camera.focus_distance - P)
+    origins, new = panorama_to_local(camera, P), panorama_to_local(camera, focused)
+    new = np.where(valid[:, None], new, directions)
+    origins = np.where(valid[:, None], origins, 0.0) + new * camera.clip_start
+    return origins, new
+
+
 def panorama_to_local(camera: Camera, c: np.ndarray) -> np.ndarray:
     """Cycles' panorama frame to the camera's local one (Blender's: x right, y up, looking down -z): the frame
     its blender_camera_matrix turns panoramas by (a mirror ball looks down its y axis, the others down x). c (n, 3)."""
@@ -653,6 +682,8 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
     else:
         local = _panorama_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
     local_origins, local_directions, t_max, valid = local
+    if camera.type == "PANO" and lens is not None and has_depth_of_field(camera):
+        local_origins, local_directions = _panorama_lens(camera, local_directions, valid, lens)
 
     if moving and len(camera.motion) >= 2:
         # The camera where it is at each ray's time (motion.interpolate); its linear part may shear: renormalise.
