@@ -1193,7 +1193,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             visibility["visible_camera"] = False  # (an Indirect Only collection: Cycles clears camera visibility)
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
                                                   int(getattr(obj, "pass_index", 0)), **visibility,
-                                                  asset=topmost_parent(obj).name))
+                                                  asset=topmost_parent(obj).name, color=tuple(obj.color)))
         groups["instances"].append(lightgroups.source_group(obj))
 
     if mesh_cache is not None:

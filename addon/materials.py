@@ -337,8 +337,8 @@ class GraphReader:
                 name = node.attribute_name
                 uv = any(name in mesh.uv_layers for mesh in bpy.data.meshes)
                 props = {"attribute": ("uv:" if uv else "color:") + name}
-        elif kind == "OBJECT_INFO":
-            pass
+        elif kind == "OBJECT_INFO":             # (its Material Index: this material's pass index, a constant)
+            props = {"material_index": float(getattr(self.reader.material, "pass_index", 0))}
         elif kind == "MAPPING":
             props = {"type": node.vector_type}
             inputs = self.inputs(node, path, ["Vector", "Location", "Rotation", "Scale"])

@@ -65,7 +65,7 @@ def absolute(tree, socket, snap=False):
 
 
 def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, monkey=False, settings=(),
-         islands=False):
+         islands=False, color=None, pass_index=0):
     material, tree, out = empty_material(label)
     node = tree.nodes.new(idname)
     for name, value in settings:
@@ -90,10 +90,17 @@ def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, mo
         split = bpy.context.view_layer.objects.active.modifiers.new("Split", "EDGE_SPLIT")
         split.split_angle = 0.0
     bpy.context.view_layer.objects.active.data.materials.append(material)
+    made = [bpy.context.view_layer.objects.active]
     for row, degrees in ((1, 150.0), (2, 120.0)):      # backs to the camera, seen at 30 and 60 degrees
         bpy.ops.mesh.primitive_plane_add(size=0.9, location=(column + 0.5, -row - 0.5, 0.0),
                                          rotation=(math.radians(degrees), 0.0, 0.0))
         bpy.context.view_layer.objects.active.data.materials.append(material)
+        made.append(bpy.context.view_layer.objects.active)
+    for k, obj in enumerate(made):                          # (Object Info: each object's own colour and index)
+        if color is not None:
+            obj.color = tuple(c * (1.0 - 0.25 * k) for c in color[:3]) + (color[3],)
+        obj.pass_index = pass_index + k
+    material.pass_index = pass_index
     cases.append(label)
 
 
@@ -123,6 +130,11 @@ case("Camera Data View Distance - 4", "ShaderNodeCameraData", "View Distance", a
 case("Wireframe 0.05", "ShaderNodeWireframe", "Fac", [("Size", 0.05)], add=0.25)
 case("Light Path Ray Length - 4", "ShaderNodeLightPath", "Ray Length", add=-4.0)
 case("Geometry Random Per Island", "ShaderNodeNewGeometry", "Random Per Island", islands=True)
+case("Object Info Location", "ShaderNodeObjectInfo", "Location", vector=True)
+case("Object Info Color", "ShaderNodeObjectInfo", "Color", color=(0.9, 0.4, 0.2, 0.7))
+case("Object Info Alpha", "ShaderNodeObjectInfo", "Alpha", color=(0.9, 0.4, 0.2, 0.7))
+case("Object Info Object Index", "ShaderNodeObjectInfo", "Object Index", pass_index=3)
+case("Object Info Material Index", "ShaderNodeObjectInfo", "Material Index", pass_index=5)
 material, tree, out = empty_material("Pixel Size")         # Pixel Size: Size read in world units, with a warning
 wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
 wire.use_pixel_size = True

@@ -62,6 +62,7 @@ class WorldGeometry:
                     mesh has any
     attribute_row:  (t,) int32 row of `attributes` per copied triangle (instanced meshes keep their own)
     instance_random: (n,) float64 the Object Info Random of each Scene.instances entry
+    instance_info: (n, OBJECT_INFO_WIDTH) float64 each instance's other Object Info outputs (instance_info)
     instance_linear: (n, 3, 3) float64 each instance's linear transform (tangents turn with it)
     instance_hidden: (n,) uint8 the rays each Scene.instances entry hides from (HIDDEN_FROM_* bits, Ray
                     Visibility) and whether it is a holdout (HOLDOUT), or an empty array when no object does either
@@ -83,6 +84,7 @@ class WorldGeometry:
     attribute_layout: dict = field(default_factory=dict)
     attribute_row: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     instance_random: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    instance_info: np.ndarray = field(default_factory=lambda: np.zeros((0, OBJECT_INFO_WIDTH)))
     instance_linear: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
     instance_hidden: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
 
@@ -453,8 +455,25 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_random=np.array([graph_.object_random(i.name) if i.random is None else float(i.random)
                                   for i in scene.instances], np.float64),
         instance_linear=all_matrices[:, :3, :3].copy(),
+        instance_info=instance_info(scene.instances),
         instance_hidden=hidden_flags(scene.instances),
     )
+
+
+# The Object Info node's outputs an instance carries (graph.OBJECT_INFO_OUTPUTS, their columns): its world location,
+# its colour and alpha, its pass index.
+OBJECT_INFO_WIDTH = 8
+
+
+def instance_info(instances: list) -> np.ndarray:
+    """Each instance's Object Info (n, OBJECT_INFO_WIDTH) float64: Location (its matrix's translation, world
+    space), Color and Alpha (Object > Viewport Display > Color), Object Index (its pass index)."""
+    info = np.zeros((len(instances), OBJECT_INFO_WIDTH))
+    for row, instance in enumerate(instances):
+        info[row, 0:3] = instance.matrix[:3, 3]
+        info[row, 3:7] = np.asarray(instance.color, np.float64)[:4]
+        info[row, 7] = float(instance.pass_index)
+    return info
 
 
 def hidden_flags(instances: list) -> np.ndarray:

@@ -107,13 +107,15 @@ def shading_point(geometry, surface: Surface):
     n = len(prim)
     rows, owner, linear = hit_owners(geometry, prim)
     random = geometry.instance_random[owner] if len(geometry.instance_random) else np.zeros(n)
+    info = geometry.instance_info[owner] if len(geometry.instance_info) else np.zeros((n, 8))
     attributes, d_du, d_dv = hit_attributes(geometry, rows, surface.u, surface.v)
     front = geometry.triangle_data(prim, smooth=False).Ng
     side = np.where(np.einsum("ij,ij->i", front, surface.Ng) < 0.0, -1.0, 1.0)
     V = surface.vertices
     return graph_.ShadingPoint(attributes, d_du, d_dv, random, surface.N, side, linear, V[:, 1] - V[:, 0],
                                V[:, 2] - V[:, 0], surface.Ng, P=surface.I + geometry.origin,
-                               uv=np.stack([surface.u, surface.v], axis=1), t=np.asarray(surface.t, np.float64))
+                               uv=np.stack([surface.u, surface.v], axis=1), t=np.asarray(surface.t, np.float64),
+                               info=info)
 
 
 def hit_owners(geometry, prim: np.ndarray) -> tuple:

@@ -286,6 +286,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             for (int j = 0; j < a[3]; j++) out[j] = (a[1] >= 0 && j < a[2]) ? attributes[a[1] + j] : 0.0;
             break;
         case OP_RANDOM: out[0] = sp->random; break;
+        case OP_OBJECT_INFO: for (int j = 0; j < a[2]; j++) out[j] = sp->info[a[1] + j]; break;
         case OP_RAY: out[0] = sp->ray == (double)a[1] ? 1.0 : 0.0; break;
         case OP_OFFSET:
             where = a[0];

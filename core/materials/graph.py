@@ -49,7 +49,8 @@ DESCRIBED_BY_KIND = {**TEXTURE_BY_KIND, **CONVERTER_BY_KIND}
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
-                                                               "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY")
+                                                               "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
+                                                               "OBJECT_INFO")
 # Ops of world shaders only, which the Python reference alone evaluates (world graphs are baked at export,
 # core/lights/world_graph.py): graph_tables refuses a program holding one, and graph.c has no case for them.
 WORLD_OPS = ("SKY",)
@@ -118,7 +119,8 @@ NODE_OUTPUTS = {
     "WIREFRAME": {"Fac": (1, "float")},
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
-    "OBJECT_INFO": {"Random": (1, "float")},
+    "OBJECT_INFO": {"Location": (3, "vector"), "Color": (3, "color"), "Alpha": (1, "float"),
+                    "Object Index": (1, "float"), "Material Index": (1, "float"), "Random": (1, "float")},
     "LIGHT_PATH": {"Is Camera Ray": (1, "float"), "Is Shadow Ray": (1, "float"), "Ray Length": (1, "float")},
     "IMAGE": {"Color": (3, "color"), "Alpha": (1, "float")}, "ENVIRONMENT": {"Color": (3, "color"), "Alpha": (1, "float")},
     "SKY": {"Color": (3, "color")},
@@ -138,6 +140,8 @@ NODE_OUTPUTS = {
                  "Backfacing": (1, "float"), "Pointiness": (1, "float"), "Random Per Island": (1, "float")},
     **{cls.kind: dict(cls.outputs) for cls in DESCRIBED},
 }
+# The Object Info outputs an OBJECT_INFO op copies from the instance's info (geometry.instance_info): (start, width).
+OBJECT_INFO_COLUMNS = {"Location": (0, 3), "Color": (3, 3), "Alpha": (6, 1), "Object Index": (7, 1)}
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
 GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
                     "Reflection", "Ray Length")
@@ -208,6 +212,7 @@ class ShadingPoint(NamedTuple):
     P: np.ndarray = None       # (n, 3) float64 the world point (the Geometry node's Position)
     uv: np.ndarray = None      # (n, 2) float64 the barycentrics (its Parametric)
     t: np.ndarray = None       # (n,) float64 the distance along the ray to the hit (the Light Path node's Ray Length)
+    info: np.ndarray = None    # (n, 8) float64 the object's Object Info: location, colour, alpha, pass index
 
 
 def has_links(nodes: list) -> bool:
@@ -458,9 +463,16 @@ class Compiler:
             self.emit("CONVERT", out, reg, 1)            # Fac: the average
             return out, 1, "float"
         if kind == "OBJECT_INFO":
-            out = self.temporary(1)
-            self.emit("RANDOM", out)
-            return out, 1, "float"
+            if output == "Material Index":              # the material's own pass index: one number per program
+                return self.constant(float(props.get("material_index", 0.0))), 1, "float"
+            if output == "Random":
+                out = self.temporary(1)
+                self.emit("RANDOM", out)
+                return out, 1, "float"
+            start, width = OBJECT_INFO_COLUMNS[output]   # the instance's (geometry.instance_info)
+            out = self.temporary(width)
+            self.emit("OBJECT_INFO", out, start, width)
+            return out, width, NODE_OUTPUTS[kind][output][1]
         if kind == "LIGHT_PATH" and output == "Ray Length":     # the distance the ray went to the hit
             out = self.temporary(1)
             self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
@@ -718,7 +730,7 @@ def shift(register: int, by: int) -> int:
 
 # Which arguments of each op are registers (renumbered when the program is done); the rest are numbers.
 REGISTER_ARGS = {
-    "ATTR": {0}, "RANDOM": {0}, "IMAGE": {0, 1}, "MAPPING": {0, 1, 2, 3, 4}, "MATH": {0, 2, 3, 4},
+    "ATTR": {0}, "RANDOM": {0}, "OBJECT_INFO": {0}, "IMAGE": {0, 1}, "MAPPING": {0, 1, 2, 3, 4}, "MATH": {0, 2, 3, 4},
     "MIX_COLOR": {0, 2, 3, 4}, "MIX_FLOAT": {0, 1, 2, 3}, "RAMP": {0, 1}, "INVERT": {0, 1, 2},
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
@@ -861,6 +873,9 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
                 reg[:, i[0]:i[0] + i[3]] = 0.0
         elif name == "RANDOM":
             reg[:, i[0]] = sp.random
+        elif name == "OBJECT_INFO":
+            reg[:, i[0]:i[0] + i[2]] = (np.zeros((n, i[2])) if sp.info is None
+                                        else sp.info[:, i[1]:i[1] + i[2]])
         elif name == "RAY":
             ray = np.full(n, float(RAY_CAMERA)) if sp.ray is None else sp.ray
             reg[:, i[0]] = (ray == i[1]).astype(np.float64)

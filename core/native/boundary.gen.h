@@ -128,6 +128,7 @@
 #define OP_WIREFRAME 47
 #define OP_WINDOW 48
 #define OP_SKY 49
+#define OP_OBJECT_INFO 50
 /* the kind of ray a hit was found by (core.materials.graph) */
 #define RAY_CAMERA 0
 #define RAY_BOUNCE 1
@@ -466,6 +467,7 @@ struct GeometryTables {
     const int32_t *attribute_row;           /* (t,) row of `attributes` per copied triangle */
     const int32_t *instance;                /* (t,) Scene.instances index per copied triangle */
     const double *instance_random;          /* (n,) each instance's random number */
+    const double *instance_info;            /* (n, OBJECT_INFO_WIDTH) each instance's Object Info: location, colour, pass index */
     const double *instance_linear;          /* (n, 3, 3) each instance's linear transform */
     int64_t attribute_width;                /* A */
     const uint8_t *hidden;                  /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
@@ -801,7 +803,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
-    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7970075878531503461);
+    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(4200718952662301897);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(8541145842328541273);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3574520478765727059);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
@@ -816,7 +818,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7667246339315466006);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(2011846935204343166);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(8490095668302539336);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);

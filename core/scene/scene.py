@@ -77,6 +77,7 @@ class Instance:
     is_holdout: Object > Visibility > Holdout: where camera rays (also through Transparent surfaces) meet the
                object the film is clear (colour 0, alpha 0); every other ray sees it as usual
     asset:     the name of the object's topmost parent (Cryptomatte's asset); "" for the object's own name
+    color:     Object > Viewport Display > Color, RGBA (the Object Info node's Color and Alpha)
     """
 
     mesh: int
@@ -92,6 +93,7 @@ class Instance:
     visible_transmission: bool = True
     is_holdout: bool = False
     asset: str = ""
+    color: tuple = (1.0, 1.0, 1.0, 1.0)
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
