@@ -48,7 +48,7 @@ from .. import materials as materials_
 from ..native import schema
 from ..materials import graph as graph_
 from ..materials.closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE
-from .. import vectors
+from .. import vectors, volumes
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from .base import Context, Integrator, Radiance, Recorder, check_stop
@@ -57,7 +57,7 @@ from . import features as features_
 from . import lightgroups, lightpasses
 from . import passes as passes_
 from . import shadows
-from .rays import camera_hits, goes_through, nearest_seen
+from .rays import camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
 from .vertex import PathState, gather_light, shade_vertex
 from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
@@ -127,13 +127,19 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
     prim, u, v, t = ray.hits.prim[rows], ray.hits.u[rows], ray.hits.v[rows], ray.hits.t[rows]
     T, passed = weight.copy(), passed.copy()
     mis = (s.light_sampling == "mis") and bool(ctx.extra.get("bsdf_rays", False))
+    media = ctx.extra.get("media") if ray.inside is not None else None
+    inside = None if media is None else ray.inside[rows]
     alive = np.arange(len(rows))
     while len(alive):
         # 1. The surface met: what it lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, prim, u, v, O, D, t)
         shader = ctx.materials.shade(surface.material, surface.N, -D, surface, ctx.geometry, graph_.RAY_BOUNCE)
         T[alive] *= shader.transparency
-        passed[alive] += 1
+        boundary = False if media is None else media.boundary[surface.material]
+        passed[alive] += ~boundary
+        if media is not None:                    # (straight through the surface: into or out of its medium)
+            inside[alive] = media.crossed(inside[alive], surface.material, surface.backfacing,
+                                          np.ones(len(alive), bool))
         go = ((T[alive] > 0.0).any(axis=1) & (passed[alive] <= s.transparent_max_bounces)
               & ctx.materials.may_pass[surface.material])
         alive, I, Ng, D = alive[go], surface.I[go], surface.Ng[go], D[go]
@@ -143,9 +149,12 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
         hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
+        sigma = None if media is None else media.extinction(inside[alive])
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
-                                        seen_as=ray.seen_as[rows][alive])
+                                        seen_as=ray.seen_as[rows][alive], sigma=sigma)
+        if media is not None:                    # (and what reaches the next surface)
+            T[alive] *= volumes.transmittance(sigma, np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         found[alive] += light * f[:, None]
         if groups is not None:
@@ -201,7 +210,11 @@ class PathTracing(Integrator):
         # 1. The camera rays: what they hit, the world where they escape, the lamps they pass.
         direct_cap, indirect_cap = clamp_.limits(s)
         groups = lightgroups.tally(ctx, len(O))
-        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups)
+        # The media the camera rays start in (core/volumes): the world's, and those of the meshes around the camera.
+        media = ctx.extra.get("media")
+        inside = None if media is None else camera_media(ctx, O, D)
+        sigma = None if media is None else media.extinction(inside)
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, sigma)
         # The denoising features (features.py): what the camera sees itself, then along each path.
         feats = features_.Features(len(O)) if s.denoising_features else None
         if feats is not None:
@@ -220,6 +233,9 @@ class PathTracing(Integrator):
         # 2. The path's vertices, one batch per bounce: the camera's hits first.
         owner = hit                                  # the camera ray each path belongs to
         throughput = np.ones((len(hit), 3))
+        if media is not None:                        # (what the media let through to the camera's hits)
+            inside = inside[hit]
+            throughput = volumes.transmittance(sigma[hit], surface.t)
         diffuse = np.zeros(len(hit), np.int64)
         glossy = np.zeros(len(hit), np.int64)
         transmission = np.zeros(len(hit), np.int64)
@@ -261,7 +277,7 @@ class PathTracing(Integrator):
                                   pixel[owner], sample[owner], dimension)
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
-                              carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce)
+                              carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce, inside=inside)
             vertex_groups = lightgroups.tally(ctx, len(owner))
             emitted, finds = (np.zeros((len(owner), 3)), np.zeros((len(owner), 3))) if feats is not None else (None, None)
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,
@@ -293,7 +309,9 @@ class PathTracing(Integrator):
             d = diffuse[ray.rows] + is_diffuse
             g = glossy[ray.rows] + is_glossy
             tr = transmission[ray.rows] + is_transmission
-            tp = transparent[ray.rows] + is_transparent
+            # (a volume-only boundary is no transparent bounce: Cycles counts those crossings apart, up to 1024)
+            boundary = False if media is None else media.boundary[surface.material[ray.rows]]
+            tp = transparent[ray.rows] + (is_transparent & ~boundary)
             within = ((bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
                       & (tr <= s.transmission_bounces))
             going = ray.hits.hit & within & (tp <= s.transparent_max_bounces)
@@ -357,6 +375,7 @@ class PathTracing(Integrator):
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
             mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]
+            inside = None if media is None else ray.inside[keep]
             wo = -D_next
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
