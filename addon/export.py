@@ -509,7 +509,19 @@ def _object_camera(obj, warnings) -> Camera:
 
 
 def export_world(world, warnings: list) -> World:
-    """Return the world as Cycles shows and uses it: its Background colour x strength, seen by camera
+    """Return the world as Cycles shows and uses it: its surface (world_surface) and the homogeneous medium of its
+    Volume output, everywhere no mesh's medium is (core/volumes)."""
+    surface = world_surface(world, warnings)
+    if world is None or materials_.node_tree(world) is None:
+        return surface
+    tree = materials_.node_tree(world)
+    output = materials_.output_node(tree, "ShaderNodeOutputWorld")
+    volume = materials_.volume_of(world, output, warnings, kind="world")
+    return dataclasses.replace(surface, volume=volume) if volume else surface
+
+
+def world_surface(world, warnings: list) -> World:
+    """Return the world's surface as Cycles shows and uses it: its Background colour x strength, seen by camera
     rays (Ray Visibility > Camera) and lighting surfaces (Ray Visibility > Diffuse or Glossy).
 
     A world without nodes is its viewport colour (Cycles makes a Background of it); other world shaders

@@ -189,13 +189,9 @@ def light_notes(obj) -> list:
 
 
 def world_notes(world) -> list:
-    """World settings that Primer does not model: a volume, Cycles' world light settings, Transmission visibility."""
-    from .materials import linked_node, node_tree, output_node
-    tree = node_tree(world) if world is not None else None
-    output = output_node(tree, "ShaderNodeOutputWorld") if tree is not None else None
+    """World settings that Primer does not model: Cycles' world light settings, Transmission visibility (its Volume
+    is read: addon/export.py export_world)."""
     notes = []
-    if output is not None and "Volume" in output.inputs and linked_node(output, "Volume") is not None:
-        notes.append("the world's Volume is not rendered (Primer renders no volumes): no fog")
     cycles = getattr(world, "cycles", None)
     if cycles is not None:
         if getattr(cycles, "is_caustics_light", False):

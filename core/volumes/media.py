@@ -131,8 +131,25 @@ class PrincipledVolume(VolumeClosure):
         return Coefficients(sigma_a, sigma_s, emission, g)
 
 
+class VolumeCoefficients(VolumeClosure):
+    """Blender 5.0's Volume Coefficients: the medium's coefficients given directly (absorption, scattering, emission,
+    per channel), each times the Mix and Add Shaders' weight, as Cycles' svm_node_volume_coefficients."""
+
+    name: ClassVar[str] = "COEFFICIENTS"
+    blender: ClassVar[str] = "ShaderNodeVolumeCoefficients"
+    flags: ClassVar[VolumeFlags] = VolumeFlags.ABSORBS | VolumeFlags.SCATTERS | VolumeFlags.EMITS
+
+    @staticmethod
+    def coefficients(weight: float, inputs: dict) -> Coefficients:
+        """weight x each of Absorption, Scatter and Emission Coefficients; g clamped as Volume Scatter's."""
+        g = float(inputs.get("anisotropy", 0.0))
+        g = float(np.sign(g) * min(abs(g), 1.0 - 1e-3))
+        read = lambda key: float(weight) * np.asarray(inputs.get(key, np.zeros(3)), np.float64)[:3]
+        return Coefficients(read("absorption"), read("scatter"), read("emission"), g)
+
+
 # The table of volume closures: a material's volume entries name one by `name`; the add-on reads `blender` nodes.
-VOLUME_TYPES = (VolumeAbsorption, VolumeScatter, PrincipledVolume)
+VOLUME_TYPES = (VolumeAbsorption, VolumeScatter, PrincipledVolume, VolumeCoefficients)
 VOLUME_BY_NAME = {cls.name: cls for cls in VOLUME_TYPES}
 VOLUME_BY_BLENDER = {cls.blender: cls for cls in VOLUME_TYPES}
 ABSORPTION = VolumeAbsorption.name
