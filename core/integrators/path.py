@@ -57,6 +57,7 @@ from . import features as features_
 from . import lightgroups, lightpasses
 from . import passes as passes_
 from . import shadows
+from . import volume as volume_
 from .rays import camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
 from .vertex import PathState, gather_light, shade_vertex
@@ -149,12 +150,12 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
         hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
-        sigma = None if media is None else media.extinction(inside[alive])
+        stretch = None if media is None else media.along(inside[alive])
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
-                                        seen_as=ray.seen_as[rows][alive], sigma=sigma)
+                                        seen_as=ray.seen_as[rows][alive], stretch=stretch)
         if media is not None:                    # (and what reaches the next surface)
-            T[alive] *= volumes.transmittance(sigma, np.where(hits.hit, hits.t, np.inf))
+            T[alive] *= volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         found[alive] += light * f[:, None]
         if groups is not None:
@@ -213,8 +214,16 @@ class PathTracing(Integrator):
         # The media the camera rays start in (core/volumes): the world's, and those of the meshes around the camera.
         media = ctx.extra.get("media")
         inside = None if media is None else camera_media(ctx, O, D)
-        sigma = None if media is None else media.extinction(inside)
-        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, sigma)
+        stretch = None if media is None else media.along(inside)
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, stretch)
+        shadow_rays = 0
+        scatters = media is not None and media.scatters
+        if scatters:
+            # The light the media scatter towards the camera along its rays (core/integrators/volume.py).
+            scattered, shadow_rays = volume_.in_scattering(ctx, O, D, np.where(found.hit, found.t, t_max), inside,
+                                                           np.ones((len(O), 3)), pixel, sample, 0, 0,
+                                                           through_transparent)
+            L_out += scattered
         # The denoising features (features.py): what the camera sees itself, then along each path.
         feats = features_.Features(len(O)) if s.denoising_features else None
         if feats is not None:
@@ -235,7 +244,7 @@ class PathTracing(Integrator):
         throughput = np.ones((len(hit), 3))
         if media is not None:                        # (what the media let through to the camera's hits)
             inside = inside[hit]
-            throughput = volumes.transmittance(sigma[hit], surface.t)
+            throughput = volumes.transmittance(stretch.sigma_t[hit], surface.t)
         diffuse = np.zeros(len(hit), np.int64)
         glossy = np.zeros(len(hit), np.int64)
         transmission = np.zeros(len(hit), np.int64)
@@ -249,7 +258,6 @@ class PathTracing(Integrator):
         seen_by = np.full(len(hit), HIDDEN_FROM_CAMERA)   # the kind of ray that reached each vertex (ray_kind)
         max_bounces = 0 if self.direct_only else s.max_bounces
         wo = -D_hit
-        shadow_rays = 0
         vertex = 0
         # The light passes (core/integrators/lightpasses.py): each camera ray's contributions by pass, and each
         # path's shares by closure kind, set at its first real bounce.
@@ -305,6 +313,8 @@ class PathTracing(Integrator):
             # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.
             is_diffuse, is_glossy, is_transmission, is_transparent, labelled_diffuse = bounce_kind(ray.kind,
                                                                                                    ray.transmit)
+            # Each ray's weight f cos / pdf, times what the media it crosses let through to its hit.
+            weight = ray.weight if ray.attenuation is None else ray.weight * ray.attenuation
             bounces = bounce[ray.rows] + ~is_transparent
             d = diffuse[ray.rows] + is_diffuse
             g = glossy[ray.rows] + is_glossy
@@ -327,7 +337,7 @@ class PathTracing(Integrator):
             ended = ended[ctx.materials.may_pass[hit_materials(ctx, ray, ended)]] if len(ended) else ended
             if len(ended):
                 behind_groups = lightgroups.tally(ctx, len(ended))
-                behind = through_transparent(ctx, ray, ended, throughput[ray.rows[ended]] * ray.weight[ended],
+                behind = through_transparent(ctx, ray, ended, throughput[ray.rows[ended]] * weight[ended],
                                              tp[ended], cap[ray.rows[ended]], behind_groups)
                 L_out[owner[ray.rows[ended]]] += behind
                 if groups is not None:
@@ -338,9 +348,10 @@ class PathTracing(Integrator):
                 if light is not None:
                     self.light_behind(light, owner[ray.rows[ended]], behind, bounce[ray.rows[ended]] == 0,
                                       parts.ray_shares[ended] if parts is not None else None, shares[ray.rows[ended]])
-            next_throughput = throughput[ray.rows] * ray.weight
+            next_throughput = throughput[ray.rows] * weight
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
             played = (bounces >= roulette_from(s)) & ~is_transparent
+            survived, q = np.ones(len(bounces), bool), np.ones(len(bounces))
             if played.any():
                 q = np.where(played, np.minimum(np.sqrt(np.abs(next_throughput).max(axis=1)), 1.0), 1.0)
                 u = sampling.sample_2d(s.seed, pixel[owner[ray.rows]], sample[owner[ray.rows]],
@@ -349,6 +360,18 @@ class PathTracing(Integrator):
                 recorder.roulette(vertex + 1, owner[ray.rows], q, survived & going)
                 going &= survived
                 next_throughput = next_throughput / np.where(going, q, 1.0)[:, None]
+            if scatters:
+                # The light the media scatter towards this bounce's rays, where the path may still bounce on them.
+                live = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived)
+                if len(live):
+                    path_rows = owner[ray.rows[live]]
+                    carried = throughput[ray.rows[live]] * ray.weight[live] / q[live, None]
+                    scattered, count = volume_.in_scattering(
+                        ctx, ray.O[live], ray.D[live], np.where(ray.hits.hit[live], ray.hits.t[live], np.inf),
+                        ray.inside[live], carried, pixel[path_rows], sample[path_rows],
+                        (vertex + 1) * VERTEX_DIMENSIONS, bounces[live], through_transparent)
+                    L_out[path_rows] += carried * scattered
+                    shadow_rays += count
             keep = np.flatnonzero(going & np.isfinite(next_throughput).all(axis=1))
             if len(keep) == 0:
                 break

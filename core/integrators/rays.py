@@ -19,13 +19,14 @@ from .base import Context, Recorder
 
 
 def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, recorder: Recorder,
-                limit=np.inf, groups=None, sigma=None) -> tuple:
+                limit=np.inf, groups=None, stretch=None) -> tuple:
     """What camera rays O, D (n, 3) up to t_max (n,) meet: (L (n, 3) the world where they escape, where the
     camera sees it, plus the lamps with extent they pass, each ray's capped at `limit` (sample clamping); the
     tracer's hits; the hit rows (m,) int64; the hits' Surface, or None when nothing was hit). groups: a
-    lightgroups.GroupLight of the n rays that receives L split by source, or None. sigma: (n, 3) the extinction of
-    the media the rays start in (core/volumes), or None: the world and lamps they see keep exp(-sigma t) of their
-    light over their distance t (inf for the world)."""
+    lightgroups.GroupLight of the n rays that receives L split by source, or None. stretch: the media the rays start
+    in (core/volumes Stretch), or None: the world and lamps they see keep exp(-sigma_t t) of their light over their
+    distance t (inf for the world), and L includes the media's emission up to the hit."""
+    sigma = None if stretch is None else stretch.sigma_t
     s = ctx.settings
     # 1. The nearest hit of each camera ray (t), past objects hidden from the camera.
     found = nearest_seen(ctx, O, D, t_max)
@@ -42,6 +43,8 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
             groups.add(missed, L_out[missed], groups.groups.world)
     # 3. Lamps seen by the camera in front of what it hits (area lights, round lights).
     L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), groups, sigma)
+    if stretch is not None:
+        L_out += volumes.emitted(stretch, np.where(found.hit, found.t, t_max))
     # What the camera sees itself is a direct contribution (Clamp Direct).
     if np.isfinite(limit):
         f = clamp_.scale(L_out, None, limit)

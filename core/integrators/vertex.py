@@ -295,16 +295,15 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         if carried_origin is not None:
             mis_O = np.where(clear[:, None], carried_origin[go], O)
             mis_N = np.where(clear[:, None], carried_N[go], mis_N)
-    ray_inside = sigma = None
-    weight = bs.weight[go]
+    ray_inside = stretch = attenuation = None
     t_hit = np.where(hits.hit, hits.t, np.inf)
     if inside is not None:
         # The ray's media (the hit's own where it went through the surface), and what they let through to its hit.
         ray_inside = media_beyond(ctx, surface, go, inside[go], goes_through(bs.kind[go], transmit))
-        sigma = ctx.extra["media"].extinction(ray_inside)
-        weight = weight * volumes.transmittance(sigma, t_hit)
-    ray = BsdfRay(go, O, D, hits, weight, bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
-                  ray_inside)
+        stretch = ctx.extra["media"].along(ray_inside)
+        attenuation = volumes.transmittance(stretch.sigma_t, t_hit)
+    ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
+                  ray_inside, attenuation)
     for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
         if mask.any():
             recorder.rays(kind, O[mask], D[mask], t_hit[mask])
@@ -316,7 +315,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, len(go))
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
-                                             mis_O=mis_O, groups=ray_groups, seen_as=seen_as, sigma=sigma)
+                                             mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch)
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -361,7 +360,7 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
 
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
-                 camera=None, N=None, mis_O=None, groups=None, seen_as=None, sigma=None) -> np.ndarray:
+                 camera=None, N=None, mis_O=None, groups=None, seen_as=None, stretch=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -376,9 +375,13 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     falloff: the disk facing mis_O, the one its light samples there saw), with the radiance it sends along D.
     groups: a lightgroups.GroupLight of the k rays that receives each find by the group of its source, or None.
     seen_as: (k,) int each ray's kind (HIDDEN_FROM_* bit, ray_kind), or None: a lamp hidden from a kind of ray
-    (its Ray Visibility) is passed by rays of that kind. sigma: (k, 3) the extinction of the media the rays cross,
-    or None (none): each find keeps exp(-sigma t) of its light over its distance t from O (inf for the world)."""
+    (its Ray Visibility) is passed by rays of that kind. stretch: the media the rays cross (core/volumes Stretch),
+    or None (none): each find keeps exp(-sigma_t t) of its light over its distance t from O (inf for the world), and
+    the media's emission along the ray up to its hit is found too (not weighed: no light sample finds it)."""
     light_L = np.zeros((len(O), 3))
+    sigma = None if stretch is None else stretch.sigma_t
+    if stretch is not None:
+        light_L += volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
     t_limit = np.where(hits.hit, hits.t, np.inf)
     away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
     # From mis_O: how far each ray's end (inf: none) and its start O are.
@@ -525,7 +528,7 @@ class BsdfRay(NamedTuple):
     HIDDEN_FROM_* bit of the objects it passes (ray_kind); mis_O, mis_N (k, 3) the origin and light-tree normal
     that MIS measures the light pdfs from (those of the path's last real bounce: O and its tree normal, unless the
     ray went straight through a transparent surface); inside (k, V) the media the ray is in (None: no media), and
-    then weight includes what they let through to the hit
+    attenuation (k, 3) what they let through to the hit (None: 1)
     """
 
     rows: np.ndarray
@@ -541,6 +544,7 @@ class BsdfRay(NamedTuple):
     mis_O: np.ndarray = None
     mis_N: np.ndarray = None
     inside: np.ndarray = None
+    attenuation: np.ndarray = None
 
 
 def closures_left_out(kind: np.ndarray, hidden: np.ndarray) -> np.ndarray:

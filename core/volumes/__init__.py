@@ -17,7 +17,7 @@ face, left through a back face: Cycles' volume stack, `Media.crossed`), or all s
 from .media import (ABSORPTION, Coefficients, Media, PrincipledVolume, VolumeAbsorption, VolumeClosure, VolumeFlags,
                     VolumeCoefficients, VolumeScatter, VOLUME_BY_BLENDER, VOLUME_BY_NAME, VOLUME_TYPES)
 from .phase import HenyeyGreenstein
-from .media import transmittance
+from .media import Stretch, emitted, transmittance
 
 __all__ = ["ABSORPTION", "Coefficients", "HenyeyGreenstein", "Media", "PrincipledVolume", "VolumeAbsorption", "VolumeClosure",
-           "VolumeCoefficients", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "transmittance"]
+           "VolumeCoefficients", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "Stretch", "emitted", "transmittance"]

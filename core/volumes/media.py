@@ -218,6 +218,18 @@ class Media:
         as the ray is in it (overlapping media add, as in Cycles' volume stack)."""
         return self.world.sigma_t + inside.astype(np.float64) @ self.sigma_t
 
+    def along(self, inside: np.ndarray) -> "Stretch":
+        """What rays with stacks inside (n, V) cross: the sums of their media's coefficients (the world's included)
+        and the anisotropy of their scattering (the sigma_s-weighted mean where media of different g overlap)."""
+        weights = inside.astype(np.float64)
+        sigma_s = self.world.sigma_s + weights @ self.sigma_s
+        scattering = self.world.sigma_s.sum() * self.world.g + weights @ (self.sigma_s.sum(axis=1) * self.g)
+        total = sigma_s.sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            g = np.where(total > 0.0, scattering / total, 0.0)
+        return Stretch(self.world.sigma_t + weights @ self.sigma_t, sigma_s,
+                       self.world.emission + weights @ self.emission, g)
+
     def crossed(self, inside: np.ndarray, material: np.ndarray, backfacing: np.ndarray,
                 crossing: np.ndarray) -> np.ndarray:
         """The stacks (k, V) of rays that cross (crossing (k,) bool) surfaces of `material` (k,) rows: entering the
@@ -231,6 +243,35 @@ class Media:
             np.add.at(inside, (rows, column[rows]), step)
             np.maximum(inside, 0, out=inside)
         return inside
+
+
+class Stretch(NamedTuple):
+    """The media n rays cross (Media.along): sigma_t, sigma_s, emission (n, 3) float64, g (n,) float64."""
+
+    sigma_t: np.ndarray
+    sigma_s: np.ndarray
+    emission: np.ndarray
+    g: np.ndarray
+
+    def rows(self, index) -> "Stretch":
+        """The stretch of the rays `index`."""
+        return Stretch(self.sigma_t[index], self.sigma_s[index], self.emission[index], self.g[index])
+
+    @property
+    def scatters(self) -> np.ndarray:
+        """Which rays cross a medium that scatters: (n,) bool."""
+        return (self.sigma_s > 0.0).any(axis=1)
+
+
+def emitted(stretch: Stretch, t: np.ndarray) -> np.ndarray:
+    """The light (n, 3) float64 a homogeneous medium's emission sends along rays over distances t (n,), as it arrives
+    at their start: the integral of exp(-sigma_t s) emission over 0 <= s < t, emission (1 - exp(-sigma_t t)) /
+    sigma_t (emission t where nothing is in the way; 0 where nothing is emitted)."""
+    t = np.asarray(t, np.float64)[:, None]
+    e, sigma = stretch.emission, stretch.sigma_t
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        value = np.where(sigma > 0.0, e * -np.expm1(-sigma * t) / np.where(sigma > 0.0, sigma, 1.0), e * t)
+    return np.where(e != 0.0, value, 0.0)
 
 
 def transmittance(sigma_t: np.ndarray, t: np.ndarray) -> np.ndarray:
