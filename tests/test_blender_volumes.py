@@ -98,3 +98,94 @@ def test_absorbing_cubes_in_front_of_an_emitter_let_through_exp_of_minus_sigma_d
     expected[2:6, 10:14] = through * 0.81
     np.testing.assert_allclose(mine, expected, rtol=1e-5)
     np.testing.assert_allclose(cycles, expected, rtol=1e-5)
+
+
+def relative_mse(primer_image, cycles_image) -> float:
+    """The project's error measure (core/film/compare.py): relative MSE of 4 x 4 block means."""
+    from importlib import import_module
+    compare = import_module(load_primer().__name__ + ".core.film.compare")
+    return compare.relative_mse_of_blocks(primer_image, cycles_image)
+
+
+def lamp(scene, name: str, kind: str, location, energy: float):
+    """A lamp of `kind` with no radius (a point, or a sun with no angle) at `location`."""
+    obj = bpy.data.objects.new(name, bpy.data.lights.new(name, kind))
+    scene.collection.objects.link(obj)
+    obj.location = location
+    obj.data.energy = energy
+    if kind == "SUN":
+        obj.data.angle = 0.0
+    else:
+        obj.data.shadow_soft_size = 0.0
+    return obj
+
+
+def perspective_scene(width: int, height: int):
+    """An empty scene, a black world, a grey floor at z = -1 and a camera looking down at the origin."""
+    from blender_env import diffuse_material
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.world = bpy.data.worlds.new("World")
+    scene.world.color = (0.0, 0.0, 0.0)
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location, camera.rotation_euler = (0.0, -6.0, 2.5), (1.2, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    bpy.ops.mesh.primitive_plane_add(size=20.0, location=(0.0, 0.0, -1.0))
+    bpy.context.object.data.materials.append(diffuse_material("Floor"))
+    scene.primer.integrator = "PATH"
+    return scene
+
+
+def test_scattering_cubes_under_a_point_lamp_render_as_in_cycles(primer, tmp_path):
+    """A Volume Scatter cube (coloured, forward-scattering, g 0.3) and a Principled Volume cube (absorption colour,
+    emission, g -0.2) over a floor, lit by a point lamp, path traced: single scattering (Volume Bounces 0, Cycles'
+    default), transmittance on camera, bounce and shadow rays, volume emission. Primer 256 samples against Cycles
+    1024 on 32 x 24: block relative MSE 1.1e-5 measured (Cycles 256 against its own 2048: 1.6e-5); the means of
+    each channel within 0.5%."""
+    scene = perspective_scene(32, 24)
+    scatter, _ = volume_material("Fog", "ShaderNodeVolumeScatter", Color=(0.8, 0.6, 0.4), Density=1.5,
+                                 Anisotropy=0.3)
+    smoke, _ = volume_material("Smoke", "ShaderNodeVolumePrincipled", Color=(0.4, 0.7, 0.9), Density=2.0,
+                               Anisotropy=-0.2, Absorption_Color=(0.5, 0.2, 0.1), Emission_Strength=0.3,
+                               Emission_Color=(1.0, 0.4, 0.1))
+    box("Fog", (-1.2, 0.0, 0.3), (1.6, 1.6, 1.6), scatter)
+    box("Smoke", (1.2, 0.5, 0.0), (1.4, 1.4, 1.4), smoke)
+    lamp(scene, "Lamp", "POINT", (1.5, -1.0, 2.5), 300.0)
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
+    error = relative_mse(mine, cycles)
+    print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
+    assert error < 6e-5
+    np.testing.assert_allclose(mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=5e-3)
+
+
+def test_a_world_fog_scatters_a_point_lamp_and_blocks_the_sun_as_in_cycles(primer, tmp_path):
+    """A world Volume Scatter (density 0.08) around a floor, a diffuse cube, a point lamp and a sun: the fog glows
+    around the lamp, and the sun, whose shadow rays cross infinitely much fog (exp(-sigma_t inf) = 0), lights
+    nothing, in Primer as in Cycles. Primer 256 samples against Cycles 1024 on 32 x 24: block relative MSE below
+    6e-5 (measured 1.9e-5)."""
+    from blender_env import diffuse_material
+    scene = perspective_scene(32, 24)
+    tree = scene.world.node_tree if scene.world.node_tree is not None else None
+    if tree is None:
+        scene.world.use_nodes = True
+        tree = scene.world.node_tree
+    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld")
+    background = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeBackground"), None)
+    if background is not None:
+        background.inputs["Strength"].default_value = 0.0
+    fog = tree.nodes.new("ShaderNodeVolumeScatter")
+    fog.inputs["Density"].default_value = 0.08
+    fog.inputs["Color"].default_value = (0.9, 0.8, 0.7, 1.0)
+    tree.links.new(fog.outputs[0], output.inputs["Volume"])
+    box("Cube", (0.0, 0.5, 0.0), (1.5, 1.5, 1.5), diffuse_material("Cube", (0.5, 0.6, 0.8)))
+    lamp(scene, "Lamp", "POINT", (-1.5, 0.0, 2.3), 200.0)             # (above the frame: its own pixel is no test)
+    lamp(scene, "Sun", "SUN", (0.0, 0.0, 5.0), 3.0)
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
+    error = relative_mse(mine, cycles)
+    print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
+    assert error < 6e-5
+    np.testing.assert_allclose(mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=5e-3)

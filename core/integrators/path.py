@@ -353,7 +353,10 @@ class PathTracing(Integrator):
             played = (bounces >= roulette_from(s)) & ~is_transparent
             survived, q = np.ones(len(bounces), bool), np.ones(len(bounces))
             if played.any():
-                q = np.where(played, np.minimum(np.sqrt(np.abs(next_throughput).max(axis=1)), 1.0), 1.0)
+                # (q from the throughput before the media along the ray: a ray into fog that lets nothing through to
+                #  its end still gathers the light scattered along it, as Cycles decides before the volume)
+                carried = next_throughput if ray.attenuation is None else throughput[ray.rows] * ray.weight
+                q = np.where(played, np.minimum(np.sqrt(np.abs(carried).max(axis=1)), 1.0), 1.0)
                 u = sampling.sample_2d(s.seed, pixel[owner[ray.rows]], sample[owner[ray.rows]],
                                        dimension=ROULETTE_DIMENSION + (vertex + 1) * VERTEX_DIMENSIONS)[:, 0]
                 survived = ~played | (u < q)

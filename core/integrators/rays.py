@@ -142,6 +142,8 @@ def camera_media(ctx: Context, O: np.ndarray, D: np.ndarray) -> np.ndarray:
 def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:
     """camera_media's walk for rays O, D (n, 3): the stacks (n, V) int16 they start in."""
     inside = media.start(len(O))
+    if inside.shape[1] == 0:
+        return inside                               # (the world's medium alone: no mesh to be inside)
     entered = media.start(len(O))                   # front faces met along the way, not yet left
     O = O.copy()
     alive = np.arange(len(O))

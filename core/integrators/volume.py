@@ -44,32 +44,66 @@ from .vertex import BsdfRay, gather_light, light_count, light_numbers, power_heu
 # path.VERTEX_DIMENSIONS to each).
 DISTANCE_DIMENSION = 8
 PHASE_DIMENSION = 9
+EQUIANGULAR_DIMENSION = 1 << 14            # + the light's index: the equi-angular distance towards each lamp
 LIGHT_SHIFT = 1 << 15
 
 
-def scatter_distance(stretch, throughput: np.ndarray, t: np.ndarray, u: np.ndarray) -> tuple:
-    """Free-flight sampling on [0, t): (the distances s (k,) float64, their pdf (k,) float64) for stretches (k rows
-    of volumes.Stretch) carrying `throughput` (k, 3), from numbers u (k, 2): u[:, 1] picks a channel in proportion to
-    |throughput| x albedo, u[:, 0] the distance from that channel's exponential truncated at t (t may be inf). The
-    pdf is the channels' mixture, so T(s) sigma_s / pdf is unbiased in every channel. pdf 0: nothing to sample."""
+def channel_odds(stretch, throughput: np.ndarray) -> np.ndarray:
+    """The probabilities (k, 3) float64 with which free-flight sampling picks each colour channel of stretches (k
+    rows of volumes.Stretch) carrying `throughput` (k, 3): in proportion to |throughput| x albedo (sigma_s /
+    sigma_t), as Cycles' volume_sample_channel; zero rows where nothing would scatter."""
     sigma = stretch.sigma_t
     positive = sigma > 0.0
     with np.errstate(invalid="ignore", divide="ignore"):
         albedo = np.where(positive, stretch.sigma_s / np.where(positive, sigma, 1.0), 0.0)
     share = np.abs(throughput) * albedo
     total = share.sum(axis=1)
-    p = np.where(total[:, None] > 0.0, share / np.where(total > 0.0, total, 1.0)[:, None], 0.0)
-    channel = np.minimum((u[:, 1:2] >= np.cumsum(p, axis=1)).sum(axis=1), 2)
+    return np.where(total[:, None] > 0.0, share / np.where(total > 0.0, total, 1.0)[:, None], 0.0)
+
+
+def distance_pdf(stretch, odds: np.ndarray, t: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The density (k,) float64 of free-flight sampling choosing the distances s (k,) on stretches of length t (k,):
+    the mixture over channels (odds (k, 3)) of each channel's exponential sigma exp(-sigma s), truncated at t."""
+    sigma = stretch.sigma_t
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        reach = -np.expm1(-sigma * np.asarray(t, np.float64)[:, None])   # (k, 3) each channel's chance before t
+        each = np.where(odds > 0.0, odds * sigma * np.exp(-sigma * s[:, None]) / np.where(reach > 0.0, reach, 1.0),
+                        0.0)
+    return each.sum(axis=1)
+
+
+def scatter_distance(stretch, throughput: np.ndarray, t: np.ndarray, u: np.ndarray) -> tuple:
+    """Free-flight sampling on [0, t): (the distances s (k,) float64, their pdf (k,) float64, the channel odds (k,
+    3)) for stretches (k rows of volumes.Stretch) carrying `throughput` (k, 3), from numbers u (k, 2): u[:, 1] picks
+    a channel by channel_odds, u[:, 0] the distance from that channel's exponential truncated at t (t may be inf).
+    The pdf is the channels' mixture, so T(s) sigma_s / pdf is unbiased in every channel. pdf 0: nothing sampled."""
+    sigma = stretch.sigma_t
+    odds = channel_odds(stretch, throughput)
+    channel = np.minimum((u[:, 1:2] >= np.cumsum(odds, axis=1)).sum(axis=1), 2)
     rows = np.arange(len(t))
-    sigma_c = np.where(positive[rows, channel], sigma[rows, channel], 1.0)
-    t_col = np.asarray(t, np.float64)[:, None]
+    sigma_c = np.where(sigma[rows, channel] > 0.0, sigma[rows, channel], 1.0)
     with np.errstate(over="ignore", invalid="ignore"):
-        reach = -np.expm1(-sigma * t_col)               # (k, 3) each channel's chance to scatter before t
-    s = -np.log1p(-u[:, 0] * reach[rows, channel]) / sigma_c
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        each = np.where(p > 0.0, p * sigma * np.exp(-sigma * s[:, None]) / np.where(reach > 0.0, reach, 1.0), 0.0)
-    pdf = np.where(total > 0.0, each.sum(axis=1), 0.0)
-    return np.where(pdf > 0.0, s, 0.0), pdf
+        reach = -np.expm1(-sigma_c * np.asarray(t, np.float64))
+    s = -np.log1p(-u[:, 0] * reach) / sigma_c
+    pdf = np.where(odds.sum(axis=1) > 0.0, distance_pdf(stretch, odds, t, s), 0.0)
+    return np.where(pdf > 0.0, s, 0.0), pdf, odds
+
+
+def equiangular(O: np.ndarray, D: np.ndarray, t: np.ndarray, X: np.ndarray, u=None, s=None) -> tuple:
+    """Equi-angular sampling (Kulla and Fajardo 2012) of a distance on rays O + s D (k, 3), 0 <= s < t (k,), towards
+    a light at X (3,): the density of s is proportional to 1 / |O + s D - X|^2, the light's own falloff, so points
+    near the lamp, where free flight rarely lands, are found. With numbers u (k,): (s (k,), its pdf (k,)); with
+    distances s (k,): (s, the pdf of choosing them)."""
+    delta = np.einsum("ij,ij->i", X[None, :] - O, D)       # how far along each ray the lamp is passed closest
+    h = np.linalg.norm(X[None, :] - O - delta[:, None] * D, axis=1)
+    h = np.maximum(h, 1e-9 * np.maximum(np.abs(delta), 1.0))
+    a = np.arctan2(-delta, h)
+    b = np.where(np.isfinite(t), np.arctan2(np.where(np.isfinite(t), t, 0.0) - delta, h), 0.5 * np.pi)
+    if s is None:
+        s = np.clip(delta + h * np.tan(a + u * (b - a)), 0.0, np.where(np.isfinite(t), t, np.inf))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pdf = np.where(b > a, h / ((b - a) * (h * h + (s - delta) ** 2)), 0.0)
+    return s, pdf
 
 
 def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
@@ -90,26 +124,63 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     part = stretch.rows(rows)
     # 1. Where each ray scatters, and its weight T(s) sigma_s / pdf(s).
     u = sampling.sample_2d(ctx.settings.seed, pixel[rows], sample[rows], dimension=DISTANCE_DIMENSION + dimension)
-    s, pdf = scatter_distance(part, throughput[rows], t[rows], u)
+    s, pdf, odds = scatter_distance(part, throughput[rows], t[rows], u)
     sampled = pdf > 0.0
-    rows, s, pdf, part = rows[sampled], s[sampled], pdf[sampled], part.rows(sampled)
+    rows, s, pdf, odds, part = rows[sampled], s[sampled], pdf[sampled], odds[sampled], part.rows(sampled)
     if len(rows) == 0:
         return L, 0
     weight = volumes.transmittance(part.sigma_t, s) * part.sigma_s / pdf[:, None]
-    # 2. The light scattered there towards the ray's start.
-    P = O[rows] + s[:, None] * D[rows]
+    # 2. The light scattered there towards the ray's start; each lamp's light samples weighed against the same
+    #    lamp's equi-angular points (3.), by the balance heuristic on the two densities of s.
+    o, d, length = O[rows], D[rows], np.asarray(t, np.float64)[rows]
+    P = o + s[:, None] * d
     bounces = np.broadcast_to(np.asarray(bounce), (len(O),))[rows]
-    scattered, shadow_rays = scattered_light(ctx, P, -D[rows], part.g, inside[rows], pixel[rows], sample[rows],
-                                             dimension, bounces, behind)
+    lamps = equiangular_lamps(ctx)
+    share = {index: pdf / (pdf + equiangular(o, d, length, X, s=s)[1]) for index, X in lamps.items()}
+    scattered, shadow_rays = scattered_light(ctx, P, -d, part.g, inside[rows], pixel[rows], sample[rows],
+                                             dimension, bounces, behind, share)
     L[rows] = weight * scattered
+    # 3. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
+    for index, X in lamps.items():
+        u = sampling.sample_2d(ctx.settings.seed, pixel[rows], sample[rows],
+                               dimension=EQUIANGULAR_DIMENSION + index + dimension)[:, 0]
+        s_e, pdf_e = equiangular(o, d, length, X, u=u)
+        chosen = pdf_e > 0.0
+        if not chosen.any():
+            continue
+        at = rows[chosen]
+        w = pdf_e[chosen] / (pdf_e[chosen] + distance_pdf(part.rows(chosen), odds[chosen], length[chosen],
+                                                              s_e[chosen]))
+        T = volumes.transmittance(part.sigma_t[chosen], s_e[chosen]) * part.sigma_s[chosen]
+        lit, count = scattered_light(ctx, o[chosen] + s_e[chosen, None] * d[chosen], -d[chosen], part.g[chosen],
+                                     inside[at], pixel[at], sample[at], dimension, bounces[chosen], behind,
+                                     only=index)
+        L[at] += T * (w / pdf_e[chosen])[:, None] * lit
+        shadow_rays += count
     return L, shadow_rays
 
 
+def equiangular_lamps(ctx: Context) -> dict:
+    """The lights that equi-angular sampling aims at, by their index: the lamps with a position (point, spot:
+    their position; area: their centre), as Cycles aims at a light's position."""
+    from ..lights.base import LightFlags
+    out = {}
+    for index, light in enumerate(ctx.lights):
+        if light.is_(LightFlags.POSITION):
+            out[index] = np.asarray(light.position, np.float64)
+        elif light.is_(LightFlags.AREA):
+            out[index] = np.asarray(light.center, np.float64)
+    return out
+
+
 def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, inside: np.ndarray,
-                    pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray, behind) -> tuple:
+                    pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray, behind,
+                    share: dict = None, only: int = None) -> tuple:
     """The light (m, 3) float64 that scattering points P (m, 3) with Henyey-Greenstein anisotropies g (m,) send
     towards wo (m, 3) per unit sigma_s (the integral of p L over the sphere), and the shadow rays traced: light
-    samples with shadow rays through the media `inside` (m, V), and one phase-sampled ray, weighed by MIS."""
+    samples with shadow rays through the media `inside` (m, V), and one phase-sampled ray, weighed by MIS.
+    share: light index -> (m,) the weight of its light samples here (their point's share against equi-angular
+    points), or None; only: a light's index: its light samples alone (an equi-angular point), no phase ray."""
     s = ctx.settings
     m = len(P)
     phase = HenyeyGreenstein(g)
@@ -121,6 +192,8 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
     # 1. Light samples, each with its shadow ray through the media.
     for index, light in enumerate(ctx.lights):
         check_stop(ctx)
+        if only is not None and index != only:
+            continue
         hittable = index in ctx.extra.get("hittable", ())
         if s.light_sampling == "bsdf" and not light.delta and light.use_mis and hittable:
             continue                                     # found by phase rays alone
@@ -148,12 +221,14 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
                 through = np.ones((len(rows), 3))
             p = HenyeyGreenstein(g[rows]).eval(wo[rows], ls.L[rows])
             w = ls.strength[rows] * (1.0 / count)
+            if share is not None and index in share:
+                w = w * share[index][rows]
             if not light.delta and light.use_mis and hittable and mis:
                 w = w * power_heuristic(count * ls.pdf[rows], p)
             color = ls.color if ls.color.ndim == 1 else ls.color[rows]
             L[rows] += (w * p)[:, None] * color * through
     # 2. One phase-sampled direction: the light its ray finds (its weight p / pdf is 1).
-    if bsdf_rays or media_emit(ctx):
+    if only is None and (bsdf_rays or media_emit(ctx)):
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=PHASE_DIMENSION + dimension)
         ps = phase.sample(wo, u)
         kind = np.zeros(m, np.int64)                     # (a volume's ray: no Ray Visibility bit of its own)
