@@ -1012,6 +1012,11 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     if mesh_cache is not None:
         mesh_cache.end()
     core.materials = materials.materials
+    if not getattr(depsgraph.view_layer, "use_volumes", True):
+        # View Layer > Filter > Volumes off: Cycles renders no media (the boundaries of volume-only materials stay
+        # invisible).
+        core.materials = [dataclasses.replace(m, volume=[]) for m in core.materials]
+        core.world = dataclasses.replace(core.world, volume=[])
     if world.lights:                    # a Sky Texture's sun disc, a lamp of the world's (in the world's light group)
         for sun in world.suns:
             sun.camera = world.camera

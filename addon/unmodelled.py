@@ -50,6 +50,10 @@ def render_notes(scene) -> list:
         notes.append("Cycles denoises this scene (Render > Sampling > Denoise); Primer follows its Cycles settings "
                      "but denoises only with its own Denoise (Render > Sampling), which is off: the image keeps its "
                      "noise")
+    volume_bounces = int(getattr(cycles, "volume_bounces", 0))
+    if volume_bounces > 0:
+        notes.append(f"Cycles scatters light up to {volume_bounces + 1} times in media (Volume Bounces "
+                     f"{volume_bounces}); Primer scatters it once, as with Volume Bounces 0: its media are darker")
     if getattr(cycles, "use_fast_gi", False):
         notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
                      "follows whole paths")
@@ -199,6 +203,8 @@ def world_notes(world) -> list:
         if not getattr(cycles, "use_shadows", True):
             notes.append("the world casts no shadows in Cycles; Primer traces the shadow rays of its light")
     visibility = getattr(world, "cycles_visibility", None)
+    if visibility is not None and not getattr(visibility, "scatter", True) and visibility.diffuse:
+        notes.append("the world is hidden from Volume Scatter rays (Ray Visibility); Primer's media scatter its light")
     if visibility is not None and not visibility.transmission and visibility.diffuse:
         # (Primer's world lights every ray where Diffuse is on, and none where it is off: export.export_world)
         notes.append("the world is hidden from Transmission rays (Ray Visibility); Primer shows it through glass")
