@@ -228,7 +228,7 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
             color = ls.color if ls.color.ndim == 1 else ls.color[rows]
             L[rows] += (w * p)[:, None] * color * through
     # 2. One phase-sampled direction: the light its ray finds (its weight p / pdf is 1).
-    if only is None and (bsdf_rays or media_emit(ctx)):
+    if only is None and (bsdf_rays or ctx.extra["media"].emits):
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=PHASE_DIMENSION + dimension)
         ps = phase.sample(wo, u)
         kind = np.zeros(m, np.int64)                     # (a volume's ray: no Ray Visibility bit of its own)
@@ -250,8 +250,3 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
             L += volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
     return L, shadow_rays
 
-
-def media_emit(ctx: Context) -> bool:
-    """Whether some medium of the scene emits light (then phase rays gather it even where nothing else lights)."""
-    media = ctx.extra["media"]
-    return bool((media.emission != 0.0).any() or (media.world.emission != 0.0).any())

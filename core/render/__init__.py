@@ -165,13 +165,14 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
                                 or media is not None)
-    ctx.extra["bsdf_rays"] = bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
+    ctx.extra["bsdf_rays"] = (bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
+                              or (media is not None and media.emits))
     # Where BSDF rays are traced: at every hit where emitters or the world light the scene (only BSDF rays
     # find a constant world, and MIS is what samples emitters well); where only lamps with extent do, at
     # glossy hits alone: a diffuse surface's light samples of a lamp need no help, so a BSDF ray there
     # would cost a ray and change little (the choice is made per hit from its closures: unbiased).
     ctx.extra["bsdf_everywhere"] = (world_lights or ctx.extra["emissive"] or emitters is not None
-                                    or settings.light_sampling == "bsdf")
+                                    or settings.light_sampling == "bsdf" or (media is not None and media.emits))
     background = np.asarray(world.color, np.float64)[:3] if world.camera else np.zeros(3)
     ctx.extra["world"] = background
     ctx.extra["camera"] = scene.camera.moved(geometry.origin)      # its rays come out camera-relative

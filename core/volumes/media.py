@@ -209,6 +209,11 @@ class Media:
         return bool((self.sigma_s > 0.0).any() or (self.emission > 0.0).any()
                     or (self.world.sigma_s > 0.0).any() or (self.world.emission > 0.0).any())
 
+    @property
+    def emits(self) -> bool:
+        """Whether some medium emits light (then every ray gathers what it finds: media emission is found by rays)."""
+        return bool((self.emission != 0.0).any() or (self.world.emission != 0.0).any())
+
     def start(self, n: int) -> np.ndarray:
         """The stacks (n, V) int16 of rays that start in no mesh's medium (the world's is always there)."""
         return np.zeros((n, len(self.g)), np.int16)
