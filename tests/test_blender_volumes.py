@@ -189,3 +189,38 @@ def test_a_world_fog_scatters_a_point_lamp_and_blocks_the_sun_as_in_cycles(prime
     print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < 6e-5
     np.testing.assert_allclose(mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=5e-3)
+
+
+def test_volume_closures_are_read_through_mixes_and_what_is_not_modelled_is_said(primer):
+    """A Mix Shader (factor 0.25) of a Volume Absorption and a Volume Scatter reads as both closures with weights 0.75
+    and 0.25; a Volume Scatter with the Rayleigh phase, a Principled Volume with Blackbody Intensity and a density fed
+    by a Noise Texture (heterogeneous: left out) are each named in one warning; Volume Bounces 1 is noted."""
+    import importlib
+    materials_ = importlib.import_module(primer.__name__ + ".addon.materials")
+    export = importlib.import_module(primer.__name__ + ".addon.export")
+    scene = ortho_scene(4, 4, 4.0)
+    m, tree, output = empty_material("Mixed")
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = 0.25
+    absorb, scatter = tree.nodes.new("ShaderNodeVolumeAbsorption"), tree.nodes.new("ShaderNodeVolumeScatter")
+    tree.links.new(absorb.outputs[0], mix.inputs[1])
+    tree.links.new(scatter.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], output.inputs["Volume"])
+    warnings = []
+    closures = materials_.export_material(m, warnings).volume
+    assert [(name, weight) for name, weight, _ in closures] == [("ABSORPTION", 0.75), ("SCATTER", 0.25)]
+    assert warnings == []
+    rayleigh, node = volume_material("Rayleigh", "ShaderNodeVolumeScatter")
+    node.phase = "RAYLEIGH"
+    flame, _ = volume_material("Flame", "ShaderNodeVolumePrincipled", Blackbody_Intensity=1.0)
+    cloud, node = volume_material("Cloud", "ShaderNodeVolumeScatter")
+    cloud.node_tree.links.new(cloud.node_tree.nodes.new("ShaderNodeTexNoise").outputs["Fac"], node.inputs["Density"])
+    for name, obj_material in (("A", rayleigh), ("B", flame), ("C", cloud)):
+        box(name, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), obj_material)
+    scene.cycles.volume_bounces = 1
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    for phrase in ("phase function RAYLEIGH", "Blackbody Intensity is not modelled", "heterogeneous medium",
+                   "Volume Bounces 1"):
+        assert len([w for w in exported.warnings if phrase in w]) == 1, (phrase, exported.warnings)
+    volumes = {material.name: material.volume for material in exported.scene.materials}
+    assert volumes["Cloud"] == [] and volumes["Rayleigh"][0][0] == "SCATTER"

@@ -445,6 +445,13 @@ def volume_reason(ctx: Context, warnings: list) -> str:
                 "(the same image, slower)")
     if note not in warnings:
         warnings.append(note)
+    media = ctx.extra["media"]
+    s = ctx.settings
+    if (media.scatters or media.emits) and (lightpasses.wanted(s.passes) or s.light_groups or s.denoising_features):
+        note = ("volumes: the light media scatter and emit goes to Combined only, not to the light passes, light "
+                "groups or denoising features (Cycles writes it to its Volume passes)")
+        if note not in warnings:
+            warnings.append(note)
     return "the scene has volumes, which the compiled kernel does not render yet"
 
 
