@@ -948,9 +948,9 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
 VOLUME_SOCKETS = {"Color": "color", "Density": "density", "Anisotropy": "anisotropy",
                   "Absorption Color": "absorption_color", "Emission Strength": "emission_strength",
                   "Emission Color": "emission_color", "Absorption Coefficients": "absorption",
-                  "Scatter Coefficients": "scatter", "Emission Coefficients": "emission"}
-# Inputs a volume node has that Primer does not read, with the value at which they change nothing.
-VOLUME_LEFT_OUT = {"Blackbody Intensity": 0.0}
+                  "Scatter Coefficients": "scatter", "Emission Coefficients": "emission", "Strength": "strength",
+                  "Blackbody Intensity": "blackbody_intensity", "Blackbody Tint": "blackbody_tint",
+                  "Temperature": "temperature"}
 
 
 def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list = None) -> list:
@@ -1001,10 +1001,6 @@ def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list =
                     linked.append(socket)
                 else:
                     inputs[key] = value
-        for socket, neutral in VOLUME_LEFT_OUT.items():
-            if socket in node.inputs and (node.inputs[socket].is_linked
-                                          or float(node.inputs[socket].default_value) != neutral):
-                reader.warn(node, f"its {socket} is not modelled (Primer leaves that emission out)")
         if linked:
             reader.warn(node, f"its {', '.join(linked)} {'is' if len(linked) == 1 else 'are'} fed by a link: a "
                               "heterogeneous medium, which Primer does not render yet (issue 35's next slice); "

@@ -229,6 +229,19 @@ def test_the_media_table_reads_each_closure_as_cycles_does():
                                media.emission[1] / (media.sigma_a[1] + media.sigma_s[1]))
 
 
+def test_a_principled_volumes_black_body_emits_stefan_boltzmanns_radiance_in_its_colour():
+    """Blackbody Intensity 1 at 1500 K, tinted (1, 0.5, 0.25): emission = tint x 5.670373e-14 / pi x 1500^4 x the
+    fit's colour of 1500 K, unclipped as Cycles uses it there; at intensity 0.5 the mix of 1 and T^4 halfway; at 0
+    nothing."""
+    from core.materials.converters.blackbody import blackbody
+    tint, t = np.array([1.0, 0.5, 0.25]), 1500.0
+    color = blackbody(np.array([t], np.float32), clip=False)[0].astype(np.float64)      # (its blue is below 0)
+    for amount, factor in ((1.0, t ** 4), (0.5, 0.5 + 0.5 * t ** 4), (0.0, 0.0)):
+        media = Media.of([Material(volume=[("PRINCIPLED_VOLUME", 1.0, {"density": 0.0, "blackbody_intensity": amount,
+                                                                       "blackbody_tint": tint, "temperature": t})])])
+        np.testing.assert_allclose(media.emission[0], tint * 5.670373e-14 / math.pi * factor * color, rtol=1e-12)
+
+
 def test_a_scene_with_media_renders_through_the_reference_and_says_so_once():
     """The compiled kernel has no media yet: a render with one runs the Python reference, with one warning."""
     scene = Scene(camera=camera_above())

@@ -10,14 +10,14 @@ per channel. A medium fills the inside of a closed mesh whose material has a Vol
 face, left through a back face: Cycles' volume stack, `Media.crossed`), or all space where the world has one.
 
 - `media.py`: the volume closures as classes with their flags (Volume Absorption, Volume Scatter, Principled
-  Volume, Volume Coefficients), read into one `Media` table per render: each volume material's coefficients, and the world's.
+  Volume, Volume Coefficients, an Emission node at a Volume output), read into one `Media` table per render: each volume material's coefficients, and the world's.
   `Media.crossed` keeps which media a ray is in (a count per volume material), `transmittance` what it lets through.
 - `phase.py`: phase functions (Henyey-Greenstein), the volume's BSDF: eval, sample, pdf.
 """
 from .media import (ABSORPTION, Coefficients, Media, PrincipledVolume, VolumeAbsorption, VolumeClosure, VolumeFlags,
-                    VolumeCoefficients, VolumeScatter, VOLUME_BY_BLENDER, VOLUME_BY_NAME, VOLUME_TYPES)
+                    VolumeCoefficients, VolumeEmission, VolumeScatter, VOLUME_BY_BLENDER, VOLUME_BY_NAME, VOLUME_TYPES)
 from .phase import HenyeyGreenstein
 from .media import Stretch, emitted, transmittance
 
 __all__ = ["ABSORPTION", "Coefficients", "HenyeyGreenstein", "Media", "PrincipledVolume", "VolumeAbsorption", "VolumeClosure",
-           "VolumeCoefficients", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "Stretch", "emitted", "transmittance"]
+           "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "Stretch", "emitted", "transmittance"]

@@ -7,7 +7,10 @@ do (src/kernel/svm/closure.h):
 - Volume Absorption: sigma_a = density x (1 - colour): the colour is what a unit of density lets through;
 - Volume Scatter:    sigma_s = density x colour, with a phase function (Henyey-Greenstein of anisotropy g);
 - Principled Volume: sigma_s = density x colour (HG of its Anisotropy), sigma_a = density x max(1 - colour, 0) x
-  max(1 - sqrt(Absorption Color), 0), emission = Emission Color x Emission Strength (+ blackbody, not yet read).
+  max(1 - sqrt(Absorption Color), 0), emission = Emission Color x Emission Strength + a black body's (Blackbody
+  Intensity mixes Stefan-Boltzmann's sigma T^4 / pi in, tinted, in the colour of core/materials' Blackbody node);
+- Volume Coefficients: the three coefficients as given; an Emission node at a Volume output: emission = colour x
+  strength.
 
 A Mix or Add Shader above them weighs each closure (the add-on multiplies the weights out), and closures add:
 sigma_a, sigma_s and emission sum; the phase functions mix by their scattering (one g per medium here: the
@@ -128,7 +131,29 @@ class PrincipledVolume(VolumeClosure):
         strength = float(inputs.get("emission_strength", 0.0))
         emission = (float(weight) * strength * np.asarray(inputs.get("emission_color", np.ones(3)), np.float64)[:3]
                     if strength > 0.0 else np.zeros(3))
-        return Coefficients(sigma_a, sigma_s, emission, g)
+        return Coefficients(sigma_a, sigma_s, emission + float(weight) * black_body(inputs), g)
+
+
+# Stefan-Boltzmann's constant (W / (m^2 K^4)) over pi, scaled by 1e-6 as Cycles scales it (a radiance per unit length
+# that a flame of a few thousand kelvin keeps near 1).
+STEFAN_BOLTZMANN = 5.670373e-8 * 1e-6 / np.pi
+
+
+def black_body(inputs: dict) -> np.ndarray:
+    """The Principled Volume's black-body emission (3,) float64 (Cycles: svm_node_principled_volume): intensity =
+    sigma mix(1, T^4, Blackbody Intensity), times Blackbody Tint and the Rec.709 colour of T, unclipped (negative
+    outside Rec.709's gamut, as Cycles uses it here; scene linear is Rec.709 in Blender's configuration); nothing
+    where Blackbody Intensity is 0."""
+    from ..materials.converters.blackbody import blackbody
+    amount = float(inputs.get("blackbody_intensity", 0.0))
+    if amount <= 0.0:
+        return np.zeros(3)
+    t = max(float(inputs.get("temperature", 1000.0)), 0.0)
+    intensity = STEFAN_BOLTZMANN * (1.0 + amount * (t ** 4 - 1.0))
+    if intensity <= 0.0:
+        return np.zeros(3)
+    tint = np.asarray(inputs.get("blackbody_tint", np.ones(3)), np.float64)[:3]
+    return tint * intensity * blackbody(np.array([t], np.float32), clip=False)[0].astype(np.float64)
 
 
 class VolumeCoefficients(VolumeClosure):
@@ -148,8 +173,23 @@ class VolumeCoefficients(VolumeClosure):
         return Coefficients(read("absorption"), read("scatter"), read("emission"), g)
 
 
+class VolumeEmission(VolumeClosure):
+    """An Emission node at a Volume output: the medium emits Color x Strength per unit length (Cycles'
+    emission_setup in a volume shader); it neither absorbs nor scatters."""
+
+    name: ClassVar[str] = "EMISSION"
+    blender: ClassVar[str] = "ShaderNodeEmission"
+    flags: ClassVar[VolumeFlags] = VolumeFlags.EMITS
+
+    @staticmethod
+    def coefficients(weight: float, inputs: dict) -> Coefficients:
+        """emission = weight x strength x colour."""
+        color = np.asarray(inputs.get("color", np.ones(3)), np.float64)[:3]
+        return Coefficients(np.zeros(3), np.zeros(3), float(weight) * float(inputs.get("strength", 1.0)) * color, 0.0)
+
+
 # The table of volume closures: a material's volume entries name one by `name`; the add-on reads `blender` nodes.
-VOLUME_TYPES = (VolumeAbsorption, VolumeScatter, PrincipledVolume, VolumeCoefficients)
+VOLUME_TYPES = (VolumeAbsorption, VolumeScatter, PrincipledVolume, VolumeCoefficients, VolumeEmission)
 VOLUME_BY_NAME = {cls.name: cls for cls in VOLUME_TYPES}
 VOLUME_BY_BLENDER = {cls.blender: cls for cls in VOLUME_TYPES}
 ABSORPTION = VolumeAbsorption.name
