@@ -170,7 +170,8 @@ def test_a_world_fog_scatters_a_point_lamp_and_blocks_the_sun_as_in_cycles(prime
     around the lamp, and the sun, whose shadow rays cross infinitely much fog (exp(-sigma_t inf) = 0), lights
     nothing, in Primer as in Cycles. Primer 256 samples against Cycles 1024 on 32 x 24: block relative MSE 3.1e-5
     measured, below Cycles' own noise (Cycles 1024 against its 4096: 4.0e-5; Primer 1024 against Cycles 4096:
-    1.3e-5, each channel's mean within 0.05%); the bound 6e-5 is 1.5 times Cycles' noise at 1024 samples. (A point
+    1.3e-5, each channel's mean within 0.05%; on Blender 5.2: 9.1e-5, Cycles 1024 against its 4096 7.4e-5, Primer
+    1024 against Cycles 4096 8.7e-6); the bound is the issue's measure 1.5e-4, twice Cycles' own noise. (A point
     lamp's own pixel in fog is left out of the frame: the light scattered right at a lamp has an estimate of
     unbounded variance in both renderers, 1 / the ray's distance to the lamp.)"""
     from blender_env import diffuse_material
@@ -194,7 +195,7 @@ def test_a_world_fog_scatters_a_point_lamp_and_blocks_the_sun_as_in_cycles(prime
     cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
     error = relative_mse(mine, cycles)
     print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
-    assert error < 6e-5
+    assert error < 1.5e-4
     np.testing.assert_allclose(mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=5e-3)
 
 
@@ -238,9 +239,10 @@ def test_volume_closures_are_read_through_mixes_and_what_is_not_modelled_is_said
 def test_emitting_media_glow_as_in_cycles(primer, tmp_path):
     """Over black, seen from above: a Principled Volume of black Color (absorbing, not scattering) with Emission and a
     black body at 1500 K, and a volume-only cube whose Volume is an Emission node mixed half and half with a Volume
-    Absorption. Each glows e (1 - exp(-sigma_a d)) / sigma_a, as Cycles renders them, pixel for pixel within 1e-4
-    relative (measured 1.4e-6: Cycles integrates a homogeneous medium's emission in closed form too; the black
-    body's colour unclipped, its blue below 0 at 1500 K, as Cycles uses it there)."""
+    Absorption. Each glows e (1 - exp(-sigma_a d)) / sigma_a, as Cycles renders them, pixel for pixel within 2e-4
+    relative (measured on Blender 5.0 1.4e-6: Cycles integrates a homogeneous medium's emission in closed form too;
+    the black body's colour unclipped, its blue below 0 at 1500 K, as Cycles uses it there; on 5.2 the black body's
+    red differs by 1.2e-4)."""
     scene = ortho_scene(16, 8, 4.0)
     flame, _ = volume_material("Flame", "ShaderNodeVolumePrincipled", Color=(0.0, 0.0, 0.0), Density=2.0,
                                Emission_Strength=0.5, Emission_Color=(0.2, 0.4, 1.0), Blackbody_Intensity=1.0,
@@ -260,4 +262,4 @@ def test_emitting_media_glow_as_in_cycles(primer, tmp_path):
     sigma = 0.5 * 3.0 * 0.5
     glow_expected = 0.5 * np.array([2.0, 1.2, 0.4]) * (1.0 - np.exp(-sigma * 0.8)) / sigma
     np.testing.assert_allclose(mine[2:6, 10:14], np.broadcast_to(glow_expected, (4, 4, 3)), rtol=1e-5)
-    np.testing.assert_allclose(mine, cycles, rtol=1e-4, atol=1e-7)
+    np.testing.assert_allclose(mine, cycles, rtol=2e-4, atol=1e-7)
