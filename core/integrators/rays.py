@@ -134,9 +134,34 @@ def camera_media(ctx: Context, O: np.ndarray, D: np.ndarray) -> np.ndarray:
     to its end, a back face of a volume material whose front face the walk has not met first is a medium the ray
     started in (Cycles' integrator_intersect_volume_stack). Rays from one point (a perspective camera) walk once."""
     media = ctx.extra["media"]
+    if not may_start_inside(ctx, O):
+        return media.start(len(O))                  # (no ray starts within a mesh medium's bounds: no walk)
     if len(O) and (O == O[0]).all():
         return np.repeat(camera_media(ctx, O[:1], D[:1]), len(O), axis=0) if len(O) > 1 else _walk(ctx, media, O, D)
     return _walk(ctx, media, O, D)
+
+
+def may_start_inside(ctx: Context, O: np.ndarray) -> bool:
+    """Whether some of the points O (n, 3) lie within the bounding box of the triangles whose material has a medium
+    (as Cycles walks camera rays only where the camera may be inside a volume): render.prepare finds the box once
+    (media_bounds)."""
+    low, high = ctx.extra["media_bounds"] if "media_bounds" in ctx.extra else media_bounds(ctx.geometry,
+                                                                                             ctx.extra["media"])
+    return bool(len(O)) and bool(((O >= low) & (O <= high)).all(axis=1).any())
+
+
+def media_bounds(geometry, media) -> tuple:
+    """The bounding box (low (3,), high (3,) float64, camera-relative) of the triangles whose material has a medium
+    (core/volumes Media.column); an empty box (inf, -inf) where none has."""
+    low, high = np.full(3, np.inf), np.full(3, -np.inf)
+    for start in range(0, geometry.triangle_count, 1 << 20):
+        triangles = geometry.triangle_data(np.arange(start, min(start + (1 << 20), geometry.triangle_count)),
+                                           smooth=False)
+        inside = media.column[triangles.material] >= 0
+        if inside.any():
+            corners = triangles.corners[inside].reshape(-1, 3)
+            low, high = np.minimum(low, corners.min(axis=0)), np.maximum(high, corners.max(axis=0))
+    return low, high
 
 
 def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:

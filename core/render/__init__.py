@@ -49,6 +49,7 @@ from ..sampling import sobol as sampling
 from ..scene import RenderSettings, Scene
 from .validate import validate
 from ..integrators import debug
+from ..integrators import rays as rays_
 
 AUX_BUFFERS = debug.AUX_BUFFERS
 # With the "time" buffer, each chunk is rendered and timed in runs of this many pixels.
@@ -162,6 +163,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # through the boundaries, and every stretch of a ray in a medium loses what Beer-Lambert says.
     media = volumes.Media.of(list(scene.materials) + [scene.default_material or Material()], world.volume)
     ctx.extra["media"] = media
+    if media is not None:                  # (where camera rays may start inside a mesh's medium)
+        ctx.extra["media_bounds"] = rays_.media_bounds(geometry, media)
     ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
                                 or media is not None)
