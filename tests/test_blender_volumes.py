@@ -263,3 +263,21 @@ def test_emitting_media_glow_as_in_cycles(primer, tmp_path):
     glow_expected = 0.5 * np.array([2.0, 1.2, 0.4]) * (1.0 - np.exp(-sigma * 0.8)) / sigma
     np.testing.assert_allclose(mine[2:6, 10:14], np.broadcast_to(glow_expected, (4, 4, 3)), rtol=1e-5)
     np.testing.assert_allclose(mine, cycles, rtol=2e-4, atol=1e-7)
+
+
+def test_a_glass_sphere_holding_an_absorbing_medium_renders_as_in_cycles(primer, tmp_path):
+    """A smooth Glass sphere (IOR 1.45) whose material's Volume absorbs, over an emitter: the rays refracted into it
+    enter its medium and leave it where they refract out (the volume stack follows transmission, not only clear
+    surfaces). Primer 256 samples against Cycles 1024 on 16 x 8: block relative MSE 6.1e-6 measured; bound 6e-5."""
+    scene = ortho_scene(16, 8, 4.0)
+    bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, 0.0))
+    bpy.context.object.data.materials.append(emitting_material("Glow", (1.0, 0.8, 0.5)))
+    glass, _ = volume_material("Glass", "ShaderNodeVolumeAbsorption", "ShaderNodeBsdfGlass", Color=(0.3, 0.6, 0.9),
+                               Density=1.2)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.8, location=(0.0, 0.0, 1.5))
+    bpy.ops.object.shade_smooth()
+    bpy.context.object.data.materials.append(glass)
+    scene.primer.integrator = "PATH"
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
+    assert relative_mse(mine, cycles) < 6e-5
