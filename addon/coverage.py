@@ -182,7 +182,7 @@ COVERAGE = {
                "use_pass_cryptomatte_asset use_pass_cryptomatte_material use_pass_cryptomatte_object "
                "pass_cryptomatte_depth": "engine.py, export.export_scene (Cryptomatte)",
                "lightgroups": "lightgroups.group_names", "material_override": "export.export_scene",
-               "use_volumes": "export.export_scene (off: no media)",
+               "use_volumes": "export.media_of_layer (off: no media)",
                "layer_collection": "unmodelled.holdout_objects (Holdout), unmodelled.view_layer_notes",
                "name": "engine.py (the render layer written)",
                "depsgraph objects use": DEPSGRAPH},

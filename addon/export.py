@@ -508,6 +508,14 @@ def _object_camera(obj, warnings) -> Camera:
     return Camera(matrix_world=np.array(obj.matrix_world, np.float64), **settings)
 
 
+def media_of_layer(use_volumes: bool, materials: list, world: World) -> tuple:
+    """(materials, world) as the view layer renders them: with View Layer > Filter > Volumes (`use_volumes`) off,
+    Cycles renders no media, so their volumes are dropped (the boundaries of volume-only materials stay invisible)."""
+    if use_volumes:
+        return materials, world
+    return [dataclasses.replace(m, volume=[]) for m in materials], dataclasses.replace(world, volume=[])
+
+
 def export_world(world, warnings: list) -> World:
     """Return the world as Cycles shows and uses it: its surface (world_surface) and the homogeneous medium of its
     Volume output, everywhere no mesh's medium is (core/volumes)."""
@@ -1011,12 +1019,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
 
     if mesh_cache is not None:
         mesh_cache.end()
-    core.materials = materials.materials
-    if not getattr(depsgraph.view_layer, "use_volumes", True):
-        # View Layer > Filter > Volumes off: Cycles renders no media (the boundaries of volume-only materials stay
-        # invisible).
-        core.materials = [dataclasses.replace(m, volume=[]) for m in core.materials]
-        core.world = dataclasses.replace(core.world, volume=[])
+    core.materials, core.world = media_of_layer(bool(getattr(depsgraph.view_layer, "use_volumes", True)),
+                                                materials.materials, core.world)
     if world.lights:                    # a Sky Texture's sun disc, a lamp of the world's (in the world's light group)
         for sun in world.suns:
             sun.camera = world.camera

@@ -203,7 +203,7 @@ def test_volume_closures_are_read_through_mixes_and_what_is_not_modelled_is_said
     """A Mix Shader (factor 0.25) of a Volume Absorption and a Volume Scatter reads as both closures with weights 0.75
     and 0.25; a Volume Scatter with the Rayleigh phase and a density fed by a Noise Texture (heterogeneous: left
     out) are each named in one warning, a Principled Volume's Blackbody Intensity is read; Volume Bounces 1 is
-    noted."""
+    noted; with the view layer's Volumes off no material keeps a medium."""
     import importlib
     materials_ = importlib.import_module(primer.__name__ + ".addon.materials")
     export = importlib.import_module(primer.__name__ + ".addon.export")
@@ -234,6 +234,9 @@ def test_volume_closures_are_read_through_mixes_and_what_is_not_modelled_is_said
     volumes = {material.name: material.volume for material in exported.scene.materials}
     assert volumes["Cloud"] == [] and volumes["Rayleigh"][0][0] == "SCATTER"
     assert volumes["Flame"][0][2]["blackbody_intensity"] == 1.0 and not [w for w in exported.warnings if "Flame" in w]
+    bpy.context.view_layer.use_volumes = False                   # View Layer > Filter > Volumes off: no media
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    assert all(material.volume == [] for material in exported.scene.materials)
 
 
 def test_emitting_media_glow_as_in_cycles(primer, tmp_path):
