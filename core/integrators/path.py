@@ -34,6 +34,12 @@ hidden from that kind (Ray Visibility). A holdout object met by a camera path is
 (hold_out): its colour is not added and the pixel's alpha loses the share the object covers; a Holdout shader
 node is such a hole in proportion to its weight, the rest of the material shading as usual.
 
+Through participating media (core/volumes) every stretch of a path keeps exp(-sigma_t t) of its light (Beer-Lambert),
+each ray carrying its volume stack (the media it is in, changed where it goes through a surface with a medium), and
+the media's scattering adds, on each stretch the path may still bounce on, one single-scattering estimate
+(core/integrators/volume.py: free-flight and equi-angular points, light samples and a phase-sampled ray), as Cycles
+renders with Volume Bounces 0; volume-only boundaries are crossed without counting a transparent bounce.
+
 With max_bounces = 0 a path is the direct-lighting tracer at the camera's hit, except that every hit
 traces its BSDF ray (the direct tracer skips it where light samples alone do well).
 Its compiled twin is the same loop in core/integrators/chunk.c (INTEGRATOR_PATH).
@@ -65,6 +71,9 @@ from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
 
 # Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
 VERTEX_DIMENSIONS = schema.constant("VERTEX_DIMENSIONS", 1 << 16, "each path vertex's shift of the sampling dimensions")
+# The most volume-only boundaries a path or a shadow ray crosses (Cycles' VOLUME_BOUNDS_MAX: a guard against a ray
+# caught crossing the same boundary, as those crossings count as no transparent bounce).
+VOLUME_BOUNDS_MAX = shadows.VOLUME_BOUNDS_MAX
 # The dimension of Russian roulette's number at a vertex (before the shift).
 ROULETTE_DIMENSION = schema.constant("ROULETTE_DIMENSION", 6, "Russian roulette's dimension at a vertex")
 
@@ -249,6 +258,7 @@ class PathTracing(Integrator):
         glossy = np.zeros(len(hit), np.int64)
         transmission = np.zeros(len(hit), np.int64)
         transparent = np.zeros(len(hit), np.int64)
+        bounds = np.zeros(len(hit), np.int64)         # volume-only boundaries crossed (Cycles' volume_bounds_bounce)
         bounce = np.zeros(len(hit), np.int64)
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
         mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (vertex.BsdfRay.mis_O):
@@ -322,9 +332,10 @@ class PathTracing(Integrator):
             # (a volume-only boundary is no transparent bounce: Cycles counts those crossings apart, up to 1024)
             boundary = False if media is None else media.boundary[surface.material[ray.rows]]
             tp = transparent[ray.rows] + (is_transparent & ~boundary)
+            vb = bounds[ray.rows] + (is_transparent & boundary)
             within = ((bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
                       & (tr <= s.transmission_bounces))
-            going = ray.hits.hit & within & (tp <= s.transparent_max_bounces)
+            going = ray.hits.hit & within & (tp <= s.transparent_max_bounces) & (vb <= VOLUME_BOUNDS_MAX)
             if data is not None:
                 # A camera chain's ray straight on through a transparent surface: what it passes and escapes to.
                 chain = np.flatnonzero((bounce[ray.rows] == 0) & is_transparent & (tp <= s.transparent_max_bounces))
@@ -395,7 +406,7 @@ class PathTracing(Integrator):
                                       D_next, hits.t[keep], flat_only=not s.smooth_normals)
             owner = owner[rows]
             throughput = next_throughput[keep]
-            diffuse, glossy, transmission, transparent = d[keep], g[keep], tr[keep], tp[keep]
+            diffuse, glossy, transmission, transparent, bounds = d[keep], g[keep], tr[keep], tp[keep], vb[keep]
             # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
             after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], labelled_diffuse)[keep]
             bounce = bounces[keep]

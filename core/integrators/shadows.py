@@ -50,6 +50,10 @@ from ..native.schema import F64, I32
 FLOAT32_EPSILON = 2.0 ** -24
 ROBUST_ULPS = 8.0
 
+# The most volume-only boundaries a shadow ray (or a path, path.py) crosses, as Cycles' VOLUME_BOUNDS_MAX: those
+# crossings count as no transparent bounce, so this guards against a ray caught crossing the same boundary.
+VOLUME_BOUNDS_MAX = 1024
+
 # How shadow rays leave the surface, for the compiled kernels (shadows.c).
 ShadowSettings = schema.record("ShadowSettings", "How shadow rays leave the surface (RenderSettings' shadow settings).", [
     ("robust", I32, "1: robust offsets (robust_rays); 0: the lecture's epsilon"),
@@ -192,6 +196,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None) -> np.ndarray:
     finite = np.isfinite(rays.t_max)
     ends = rays.origins + np.where(finite, rays.t_max, 0.0)[:, None] * rays.directions
     passed = np.zeros(n, np.int64)
+    crossed = np.zeros(n, np.int64)                 # volume-only boundaries passed
     media = ctx.extra.get("media") if inside is not None else None
     inside = None if media is None else inside.copy()
     alive = np.arange(n)
@@ -210,6 +215,8 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None) -> np.ndarray:
         over = ~hidden & ~boundary & (passed[rows] >= limit)
         T[rows[over]] = 0.0
         passed[rows] += ~hidden & ~boundary
+        crossed[rows] += boundary
+        T[rows[crossed[rows] > VOLUME_BOUNDS_MAX]] = 0.0
         # The surface the ray passes: what its material lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
