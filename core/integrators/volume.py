@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import volumes
+from ..lights.base import LightFlags
 from ..sampling import sobol as sampling
 from ..volumes.phase import HenyeyGreenstein
 from . import shadows
@@ -163,7 +164,6 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
 def equiangular_lamps(ctx: Context) -> dict:
     """The lights that equi-angular sampling aims at, by their index: the lamps with a position (point, spot:
     their position; area: their centre), as Cycles aims at a light's position."""
-    from ..lights.base import LightFlags
     out = {}
     for index, light in enumerate(ctx.lights):
         if light.is_(LightFlags.POSITION):
