@@ -54,7 +54,11 @@ BAKE = "baking only, not a render"
 POINTER = "a pointer to a struct whose own settings are listed under it in this table"
 ANIMATION = "animation playback, keying and timeline tools: the frame's evaluated scene does not depend on it"
 DEPSGRAPH = "depsgraph: Blender applies it to the evaluated scene Primer reads, as for Cycles"
-VOLUMES = "materials.export_material, unmodelled.world_notes: Primer renders no volumes and notes every volume"
+VOLUMES = ("materials.volume_closures: homogeneous media are rendered; a heterogeneous one (a linked input) is noted and "
+           "left out")
+HETEROGENEOUS = ("how Cycles steps through heterogeneous media (ray marching, interpolation, step sizes): Primer renders "
+                 "homogeneous media, which no step changes, and notes and leaves out heterogeneous ones "
+                 "(materials.volume_closures)")
 MOTION = ("motion.sample_shutter: the camera blurred over the shutter; objects that move or deform during it named "
           "in motion.moving_objects_note")
 
@@ -101,7 +105,7 @@ COVERAGE = {
                    DEPSGRAPH,
                "use_motion_blur motion_blur_position motion_blur_shutter motion_blur_shutter_curve": MOTION},
         REPORTED: {"use_multiview views views_format stereo_views use_spherical_stereo": "unmodelled.render_notes",
-                   "simplify_volumes": VOLUMES},
+                   "simplify_volumes": "export.export_scene (Volume objects are noted as not rendered)"},
         NO_EFFECT: {"bake bake_bias* bake_margin* bake_margin_type* bake_samples* bake_type* bake_user_scale* "
                     "use_bake_clear* use_bake_lores_mesh* use_bake_multires* use_bake_selected_to_active* "
                     "use_bake_user_scale*": BAKE,
@@ -144,7 +148,7 @@ COVERAGE = {
                    "film_transparent_roughness": "unmodelled.render_notes (through Transparent Glass)",
                    "dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
                        "unmodelled.object_notes (adaptive subdivision)",
-                   "volume_biased* volume_bounces volume_max_steps volume_step_rate": VOLUMES},
+                   "volume_bounces": "unmodelled.render_notes (Primer scatters once, as with Volume Bounces 0)"},
         NO_EFFECT: {"auto_scrambling_distance direct_light_sampling_type guiding_directional_sampling_type "
                     "guiding_distribution_type guiding_roughness_threshold guiding_training_samples "
                     "light_sampling_threshold min_transparent_bounces sample_offset sample_subset_length* "
@@ -152,6 +156,7 @@ COVERAGE = {
                     "use_deterministic_guiding use_guiding use_guiding_direct_light use_guiding_mis_weights "
                     "use_layer_samples use_sample_subset* use_surface_guiding use_volume_guiding "
                     "volume_guiding_probability use_pixel_jitter*": NOISE,
+                    "volume_biased* volume_max_steps volume_step_rate": HETEROGENEOUS,
                     "ao_bounces preview_adaptive_min_samples preview_adaptive_threshold preview_denoiser "
                     "preview_denoising_input_passes preview_denoising_prefilter preview_denoising_quality "
                     "preview_denoising_start_sample preview_denoising_use_gpu preview_dicing_rate preview_pause "
@@ -179,6 +184,7 @@ COVERAGE = {
                "pass_cryptomatte_depth": "engine.py, export.export_scene (Cryptomatte)",
                "lightgroups": "lightgroups.group_names", "material_override": "export.export_scene",
                "use_strand": "export.export_scene (Filter > Strands off: no curves nor particle hair, as in Cycles)",
+               "use_volumes": "export.media_of_layer (off: no media)",
                "layer_collection": "unmodelled.holdout_objects (Holdout), unmodelled.view_layer_notes",
                "name": "engine.py (the render layer written)",
                "use_motion_blur": "motion.blurs (with Render > Motion Blur)",
@@ -186,7 +192,6 @@ COVERAGE = {
         REPORTED: {"use_pass_mist use_pass_vector use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
                    "use_pass_subsurface_indirect aovs use_pass_combined use_sky use_solid pass_alpha_threshold "
                    "world_override*": "unmodelled.view_layer_notes",
-                   "use_volumes": VOLUMES,
                    "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},
         NO_EFFECT: {"active_aov active_aov_index active_layer_collection active_lightgroup active_lightgroup_index "
                     "has_export_collections": VIEWPORT,
@@ -280,7 +285,7 @@ COVERAGE = {
     },
     "CameraDOFSettings": {
         READ: {"aperture_blades aperture_fstop aperture_ratio aperture_rotation focus_distance focus_object "
-               "focus_subtarget* use_dof": "export.depth_of_field (a panorama's: unmodelled.camera_notes)"},
+               "focus_subtarget* use_dof": "export.depth_of_field (panoramas' too)"},
     },
     "CameraStereoData": {
         REPORTED: {"convergence_distance convergence_mode interocular_distance pivot pole_merge_angle_from "
@@ -347,13 +352,13 @@ COVERAGE = {
     },
     "CyclesWorldSettings": {
         READ: {"max_bounces": "export.world_light_settings"},
-        REPORTED: {"is_caustics_light use_shadows*": "unmodelled.world_notes",
-                   "homogeneous_volume* volume_interpolation volume_sampling volume_step_size": VOLUMES},
-        NO_EFFECT: {"sample_map_resolution sampling_method": NOISE},
+        REPORTED: {"is_caustics_light use_shadows*": "unmodelled.world_notes"},
+        NO_EFFECT: {"sample_map_resolution sampling_method volume_sampling": NOISE,
+                    "homogeneous_volume* volume_interpolation volume_step_size": HETEROGENEOUS},
     },
     "CyclesVisibilitySettings": {
         READ: {"camera diffuse glossy": "export.export_world"},
-        REPORTED: {"transmission": "unmodelled.world_notes", "scatter": VOLUMES},
+        REPORTED: {"transmission scatter": "unmodelled.world_notes"},
         NO_EFFECT: {"shadow": "not read by Cycles for the world (its Ray Visibility panel has no Shadow)"},
     },
     "Material": {
@@ -373,8 +378,9 @@ COVERAGE = {
     },
     "CyclesMaterialSettings": {
         READ: {"emission_sampling": "materials.export_material"},
-        REPORTED: {"use_bump_map_correction": "unmodelled.material_notes",
-                   "homogeneous_volume* volume_interpolation volume_sampling volume_step_rate": VOLUMES},
+        REPORTED: {"use_bump_map_correction": "unmodelled.material_notes"},
+        NO_EFFECT: {"volume_sampling": NOISE,
+                    "homogeneous_volume* volume_interpolation volume_step_rate": HETEROGENEOUS},
     },
 }
 

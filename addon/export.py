@@ -687,8 +687,28 @@ def _object_camera(obj, warnings) -> Camera:
     return Camera(matrix_world=np.array(obj.matrix_world, np.float64), **settings)
 
 
+def media_of_layer(use_volumes: bool, materials: list, world: World) -> tuple:
+    """(materials, world) as the view layer renders them: with View Layer > Filter > Volumes (`use_volumes`) off,
+    Cycles renders no media, so their volumes are dropped (the boundaries of volume-only materials stay invisible)."""
+    if use_volumes:
+        return materials, world
+    return [dataclasses.replace(m, volume=[]) for m in materials], dataclasses.replace(world, volume=[])
+
+
 def export_world(world, warnings: list) -> World:
-    """Return the world as Cycles shows and uses it: its Background colour x strength, seen by camera
+    """Return the world as Cycles shows and uses it: its surface (world_surface) and the homogeneous medium of its
+    Volume output, everywhere no mesh's medium is (core/volumes)."""
+    surface = world_surface(world, warnings)
+    if world is None or materials_.node_tree(world) is None:
+        return surface
+    tree = materials_.node_tree(world)
+    output = materials_.output_node(tree, "ShaderNodeOutputWorld")
+    volume = materials_.volume_of(world, output, warnings, kind="world")
+    return dataclasses.replace(surface, volume=volume) if volume else surface
+
+
+def world_surface(world, warnings: list) -> World:
+    """Return the world's surface as Cycles shows and uses it: its Background colour x strength, seen by camera
     rays (Ray Visibility > Camera) and lighting surfaces (Ray Visibility > Diffuse or Glossy).
 
     A world without nodes is its viewport colour (Cycles makes a Background of it); other world shaders
@@ -1198,7 +1218,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
 
     if mesh_cache is not None:
         mesh_cache.end()
-    core.materials = materials.materials
+    core.materials, core.world = media_of_layer(bool(getattr(depsgraph.view_layer, "use_volumes", True)),
+                                                materials.materials, core.world)
     if world.lights:                    # a Sky Texture's sun disc, a lamp of the world's (in the world's light group)
         for sun in world.suns:          # (seen where the world is: not on a transparent film, unlike a sun lamp)
             sun.camera = world.camera and not scene.render.film_transparent

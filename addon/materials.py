@@ -27,6 +27,7 @@ from ..core.materials.graph import GraphNode, Link
 from ..core.materials.converters import CONVERTER_BY_BLENDER
 from ..core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
 from ..core.materials.procedural import TEXTURE_BY_BLENDER
+from ..core.volumes import VOLUME_BY_BLENDER
 from . import movie as movie_
 from . import unmodelled
 
@@ -938,8 +939,8 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             out.append((ONE_CLOSURE_NODES[kind], weight * np.maximum(color, 0.0), inputs, list(factors)))
     elif kind.startswith("ShaderNodeVolume"):
         # A volume closure at a Surface socket: Cycles renders nothing of it on the surface.
-        reader.warn(node, f"'{node.bl_label}' is a volume shader; at a surface it adds nothing (as in Cycles), and "
-                          "Primer renders no volumes")
+        reader.warn(node, f"'{node.bl_label}' is a volume shader at a Surface output; it adds nothing there (as in "
+                          "Cycles)")
     else:
         color = node.inputs.get("Color") or node.inputs.get("Base Color")
         reader.warn(node, f"'{node.bl_label}' is not a shader node Primer knows; "
@@ -947,6 +948,82 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         if color is not None:
             out.append(("DIFFUSE", weight * np.maximum(np.array(color.default_value[:3], np.float64), 0.0), {},
                         list(factors)))
+
+
+# A volume node's inputs, by socket name, as core/volumes' closures read them (`inputs` keys).
+VOLUME_SOCKETS = {"Color": "color", "Density": "density", "Anisotropy": "anisotropy",
+                  "Absorption Color": "absorption_color", "Emission Strength": "emission_strength",
+                  "Emission Color": "emission_color", "Absorption Coefficients": "absorption",
+                  "Scatter Coefficients": "scatter", "Emission Coefficients": "emission", "Strength": "strength",
+                  "Blackbody Intensity": "blackbody_intensity", "Blackbody Tint": "blackbody_tint",
+                  "Temperature": "temperature"}
+
+
+def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list = None) -> list:
+    """The homogeneous volume closures under `node` (a Volume output's link) as core/volumes reads them:
+    [(name in VOLUME_BY_NAME, weight float, inputs dict)], the Mix and Add Shaders' constant factors multiplied out.
+    A closure with an input fed by a link is a heterogeneous medium, which Primer does not render yet: it is left out
+    with a warning; so are volume nodes and phase functions Primer does not know."""
+    out = [] if out is None else out
+    node = _follow(node)
+    if node is None or weight == 0.0:
+        return out
+    kind = node.bl_idname
+    if kind == "ShaderNodeMixShader":
+        fac = reader.input(node, "Fac", 0.5)
+        if _linked(fac):
+            reader.warn(node, "a linked factor mixes volumes per point: a heterogeneous medium, which Primer does not "
+                              "render yet; it mixes them half and half")
+            fac = 0.5
+        fac = float(np.clip(np.mean(fac), 0.0, 1.0))
+        for socket, share in ((node.inputs[1], 1.0 - fac), (node.inputs[2], fac)):
+            if socket.is_linked:
+                volume_closures(reader, socket.links[0].from_node, weight * share, out)
+    elif kind == "ShaderNodeAddShader":
+        for socket in (node.inputs[0], node.inputs[1]):
+            if socket.is_linked:
+                volume_closures(reader, socket.links[0].from_node, weight, out)
+    elif kind == "ShaderNodeGroup" and node.node_tree is not None:
+        outputs = [n for n in node.node_tree.nodes if n.bl_idname == "NodeGroupOutput"]
+        inner = next((n for n in outputs if getattr(n, "is_active_output", False)), outputs[0] if outputs else None)
+        socket = next((s for s in inner.inputs if s.type == "SHADER" and s.is_linked), None) if inner else None
+        if socket is not None:
+            reader.path += (node,)
+            try:
+                volume_closures(reader, socket.links[0].from_node, weight, out)
+            finally:
+                reader.path = reader.path[:-1]
+    elif kind in VOLUME_BY_BLENDER:
+        name = VOLUME_BY_BLENDER[kind].name
+        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+        if phase != "HENYEY_GREENSTEIN":
+            reader.warn(node, f"phase function {phase} is not modelled; Primer scatters with Henyey-Greenstein of "
+                              "the node's Anisotropy")
+        inputs, linked = {}, []
+        for socket, key in VOLUME_SOCKETS.items():
+            if socket in node.inputs:
+                value = reader.input(node, socket, None)
+                if _linked(value):
+                    linked.append(socket)
+                else:
+                    inputs[key] = value
+        if linked:
+            reader.warn(node, f"its {', '.join(linked)} {'is' if len(linked) == 1 else 'are'} fed by a link: a "
+                              "heterogeneous medium, which Primer does not render yet (issue 35's next slice); "
+                              "this volume closure is left out")
+            return out
+        out.append((name, float(weight), inputs))
+    else:
+        reader.warn(node, f"'{node.bl_label}' at a Volume output is not a volume shader Primer renders; it is left out")
+    return out
+
+
+def volume_of(datablock, output, warnings: list, kind: str = "material") -> list:
+    """The closures of `output`'s Volume socket (a material's or world's): [] where nothing is linked."""
+    node = linked_node(output, "Volume") if output is not None and "Volume" in output.inputs else None
+    if node is None:
+        return []
+    return volume_closures(NodeReader(datablock, warnings, kind), node)
 
 
 def export_material(material, warnings: list) -> Material:
@@ -960,10 +1037,7 @@ def export_material(material, warnings: list) -> Material:
                         transparent_shadows=shadows)
     output = output_node(node_tree(material), "ShaderNodeOutputMaterial")
     volume = linked_node(output, "Volume") if output is not None and "Volume" in output.inputs else None
-    if volume is not None:
-        warnings.append(f"material '{material.name}': its Volume output is not rendered (Primer renders no volumes)"
-                        + ("; with no Surface, its surface lets light through, as in Cycles"
-                           if surface_node(material) is None else ""))
+    medium = volume_of(material, output, warnings) if volume is not None else []
     if output is not None and "Displacement" in output.inputs and linked_node(output, "Displacement") is not None:
         method = str(getattr(material, "displacement_method", "BUMP"))
         warnings.append(f"material '{material.name}': its Displacement output is ignored (Cycles uses it"
@@ -971,12 +1045,15 @@ def export_material(material, warnings: list) -> Material:
     warnings.extend(unmodelled.material_notes(material))
     nodes = shader_nodes(material, warnings)
     if volume is not None and surface_node(material) is None:
-        # Cycles: a volume's boundary with no surface shader is not there for rays (they enter the volume).
+        # Cycles: a volume's boundary with no surface shader is not there for rays (they enter the volume, and a
+        # crossing counts as no transparent bounce).
         return Material(np.zeros(3), material.name, nodes=[("TRANSPARENT", np.ones(3), {}, [])],
-                        emission_sampling=sampling, transparent_shadows=True)
+                        emission_sampling=sampling, transparent_shadows=True, volume=medium, volume_only=True)
     if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes) and "roughness" not in nodes[0][2]:
         return Material(np.clip(nodes[0][1], 0.0, None), material.name, emission_sampling=sampling,
-                        transparent_shadows=shadows)
+                        transparent_shadows=shadows, volume=medium)
     if not nodes:
-        return Material(np.zeros(3), material.name, emission_sampling=sampling, transparent_shadows=shadows)
-    return Material(np.zeros(3), material.name, nodes=nodes, emission_sampling=sampling, transparent_shadows=shadows)
+        return Material(np.zeros(3), material.name, emission_sampling=sampling, transparent_shadows=shadows,
+                        volume=medium)
+    return Material(np.zeros(3), material.name, nodes=nodes, emission_sampling=sampling, transparent_shadows=shadows,
+                    volume=medium)

@@ -183,6 +183,7 @@ class SceneCache:
         self.totals = SyncReport()         # summed over all syncs
         self.instancing = "auto"           # RenderSettings.instancing the BVH was built with
         self.override = None               # the view layer's Material Override
+        self.use_volumes = True            # the view layer's Filter > Volumes
 
     def sync(self, depsgraph, origin=None, updates=None) -> SyncReport:
         """Bring the cached scene up to date with `depsgraph`; return what was read and rebuilt.
@@ -194,6 +195,7 @@ class SceneCache:
         first = self.scene is None
         export.materials_.set_frame(depsgraph.scene_eval.frame_current)     # the frame sequences are read at
         self.override = getattr(depsgraph.view_layer_eval, "material_override", None)   # View Layer > Material Override
+        self.use_volumes = bool(getattr(depsgraph.view_layer, "use_volumes", True))   # View Layer > Filter > Volumes
         changes = classify(depsgraph.updates if updates is None else updates)
         report = SyncReport(scene_changed=changes.scene, camera_changed=changes.camera)
         walk = first or changes.scene or changes.lights or bool(changes.objects)
@@ -320,9 +322,12 @@ class SceneCache:
     def _core_scene(self) -> core_scene.Scene:
         """Return a new core Scene from the cache (meshes shared, lists fresh, so running renders keep theirs)."""
         world = self.world
+        materials = list(self.material_table.materials)
+        if world is not None:
+            materials, world = export.media_of_layer(self.use_volumes, materials, world)
         scene = core_scene.Scene(camera=core_scene.Camera(),
                                  world_color=np.array(world.color if world is not None and world.camera else np.zeros(3)),
-                                 world=world, lights=list(self.lights), materials=list(self.material_table.materials),
+                                 world=world, lights=list(self.lights), materials=materials,
                                  default_material=DEFAULT_SURFACE)
         mesh_index: dict = {}
         for placement in self.placements.values():

@@ -48,6 +48,10 @@ def render_notes(scene) -> list:
         notes.append("Cycles denoises this scene (Render > Sampling > Denoise); Primer follows its Cycles settings "
                      "but denoises only with its own Denoise (Render > Sampling), which is off: the image keeps its "
                      "noise")
+    volume_bounces = int(getattr(cycles, "volume_bounces", 0))
+    if volume_bounces > 0:
+        notes.append(f"Cycles scatters light up to {volume_bounces + 1} times in media (Volume Bounces "
+                     f"{volume_bounces}); Primer scatters it once, as with Volume Bounces 0: its media are darker")
     if getattr(cycles, "use_fast_gi", False):
         notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
                      "follows whole paths")
@@ -174,13 +178,9 @@ def light_notes(obj) -> list:
 
 
 def world_notes(world) -> list:
-    """World settings that Primer does not model: a volume, Cycles' world light settings, Transmission visibility."""
-    from .materials import linked_node, node_tree, output_node
-    tree = node_tree(world) if world is not None else None
-    output = output_node(tree, "ShaderNodeOutputWorld") if tree is not None else None
+    """World settings that Primer does not model: Cycles' world light settings, Transmission visibility (its Volume
+    is read: addon/export.py export_world)."""
     notes = []
-    if output is not None and "Volume" in output.inputs and linked_node(output, "Volume") is not None:
-        notes.append("the world's Volume is not rendered (Primer renders no volumes): no fog")
     cycles = getattr(world, "cycles", None)
     if cycles is not None:
         if getattr(cycles, "is_caustics_light", False):
@@ -188,6 +188,8 @@ def world_notes(world) -> list:
         if not getattr(cycles, "use_shadows", True):
             notes.append("the world casts no shadows in Cycles; Primer traces the shadow rays of its light")
     visibility = getattr(world, "cycles_visibility", None)
+    if visibility is not None and not getattr(visibility, "scatter", True) and visibility.diffuse:
+        notes.append("the world is hidden from Volume Scatter rays (Ray Visibility); Primer's media scatter its light")
     if visibility is not None and not visibility.transmission and visibility.diffuse:
         # (Primer's world lights every ray where Diffuse is on, and none where it is off: export.export_world)
         notes.append("the world is hidden from Transmission rays (Ray Visibility); Primer shows it through glass")

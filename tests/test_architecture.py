@@ -18,7 +18,7 @@ CORE = os.path.join(ROOT, "core")
 LAYERS = (
     ("native", "vectors", "visibility", "memory"),     # the C library's loader, row vectors, ray visibility bits
     ("sampling", "camera", "film"),                     # where samples go, the rays they start, the sums they end in
-    ("materials",),                                     # what a surface does with light
+    ("materials", "volumes"),                           # what a surface and a medium do with light
     ("lights",),                                        # what sends it
     ("scene",),                                         # plain records of all the above
     ("geometry",),                                      # the scene's meshes placed in the world, traced by Embree

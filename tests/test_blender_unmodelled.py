@@ -1,6 +1,7 @@
 """What Primer does not render is said, inside real Blender (the bpy module, no mocks): each setting of issue 31's list
 ("ignored without a word") gets its note in the render's warnings, once; and the two it now renders as Cycles do
-(a Holdout collection, a material with a Volume and no Surface) match Cycles' image."""
+(a Holdout collection, a material with a Volume and no Surface) match Cycles' image. (Homogeneous media are rendered:
+tests/test_blender_volumes.py.)"""
 from __future__ import annotations
 
 import os
@@ -66,20 +67,20 @@ def scene_with_everything():
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
-    """Shadow catcher, light and shadow linking, a material's Volume and Displacement,
-    Principled Dispersion, a world volume, Mist, Vector and AOV passes: each named in one warning."""
+    """Shadow catcher, light and shadow linking, a material's Displacement, Principled Dispersion, Mist, Vector and
+    AOV passes: each named in one warning. (The Volumes of the material and the world are homogeneous media Primer
+    renders: no warning.)"""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     expected = ["shadow catcher", "uses light linking", "uses shadow linking",
-                "Volume output",
-                "Displacement output", "world's Volume", "Mist pass", "Vector pass",
-                "AOVs (Mask)"]
+                "Displacement output", "Mist pass", "Vector pass", "AOVs (Mask)"]
     if any(node.inputs.get("Dispersion") is not None for node in bpy.data.materials["Displaced"].node_tree.nodes):
         expected.append("'Dispersion' is above 0")
     for phrase in expected:
         found = [w for w in warnings if phrase in w]
         assert len(found) == 1, (phrase, warnings)
+    assert not [w for w in warnings if "Volume" in w and "Ray Visibility" not in w], warnings
 
 
 def test_a_default_scene_says_nothing_of_these(primer):
@@ -110,7 +111,7 @@ def test_lamps_as_many_as_the_transparent_bounces_are_noted(primer):
 @pytest.mark.slow
 def test_a_holdout_collection_and_a_volume_only_box_render_as_in_cycles(primer, tmp_path):
     """A sphere in a Holdout collection cuts a hole in the film (alpha 0), and a cube whose material has only a
-    Volume lets the camera see through it (Primer renders no volume; the scatter is faint), as Cycles renders both."""
+    Volume (an absorption of density 0) lets the camera see through it, as Cycles renders both."""
     bpy.ops.wm.read_factory_settings(use_empty=False)
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32, 24, 100

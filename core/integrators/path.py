@@ -34,6 +34,12 @@ hidden from that kind (Ray Visibility). A holdout object met by a camera path is
 (hold_out): its colour is not added and the pixel's alpha loses the share the object covers; a Holdout shader
 node is such a hole in proportion to its weight, the rest of the material shading as usual.
 
+Through participating media (core/volumes) every stretch of a path keeps exp(-sigma_t t) of its light (Beer-Lambert),
+each ray carrying its volume stack (the media it is in, changed where it goes through a surface with a medium), and
+the media's scattering adds, on each stretch the path may still bounce on, one single-scattering estimate
+(core/integrators/volume.py: free-flight and equi-angular points, light samples and a phase-sampled ray), as Cycles
+renders with Volume Bounces 0; volume-only boundaries are crossed without counting a transparent bounce.
+
 With max_bounces = 0 a path is the direct-lighting tracer at the camera's hit, except that every hit
 traces its BSDF ray (the direct tracer skips it where light samples alone do well).
 Its compiled twin is the same loop in core/integrators/chunk.c (INTEGRATOR_PATH).
@@ -48,7 +54,7 @@ from .. import materials as materials_
 from ..native import schema
 from ..materials import graph as graph_
 from ..materials.closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE
-from .. import vectors
+from .. import vectors, volumes
 from ..geometry.surface import surface_at_hits
 from ..sampling import sobol as sampling
 from .base import Context, Integrator, Radiance, Recorder, check_stop
@@ -57,13 +63,17 @@ from . import features as features_
 from . import lightgroups, lightpasses
 from . import passes as passes_
 from . import shadows
-from .rays import camera_hits, goes_through, nearest_seen
+from . import volume as volume_
+from .rays import camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
 from .vertex import PathState, gather_light, shade_vertex
 from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
 
 # Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
 VERTEX_DIMENSIONS = schema.constant("VERTEX_DIMENSIONS", 1 << 16, "each path vertex's shift of the sampling dimensions")
+# The most volume-only boundaries a path or a shadow ray crosses (Cycles' VOLUME_BOUNDS_MAX: a guard against a ray
+# caught crossing the same boundary, as those crossings count as no transparent bounce).
+VOLUME_BOUNDS_MAX = shadows.VOLUME_BOUNDS_MAX
 # The dimension of Russian roulette's number at a vertex (before the shift).
 ROULETTE_DIMENSION = schema.constant("ROULETTE_DIMENSION", 6, "Russian roulette's dimension at a vertex")
 
@@ -127,13 +137,19 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
     prim, u, v, t = ray.hits.prim[rows], ray.hits.u[rows], ray.hits.v[rows], ray.hits.t[rows]
     T, passed = weight.copy(), passed.copy()
     mis = (s.light_sampling == "mis") and bool(ctx.extra.get("bsdf_rays", False))
+    media = ctx.extra.get("media") if ray.inside is not None else None
+    inside = None if media is None else ray.inside[rows]
     alive = np.arange(len(rows))
     while len(alive):
         # 1. The surface met: what it lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, prim, u, v, O, D, t)
         shader = ctx.materials.shade(surface.material, surface.N, -D, surface, ctx.geometry, graph_.RAY_BOUNCE)
         T[alive] *= shader.transparency
-        passed[alive] += 1
+        boundary = False if media is None else media.boundary[surface.material]
+        passed[alive] += ~boundary
+        if media is not None:                    # (straight through the surface: into or out of its medium)
+            inside[alive] = media.crossed(inside[alive], surface.material, surface.backfacing,
+                                          np.ones(len(alive), bool))
         go = ((T[alive] > 0.0).any(axis=1) & (passed[alive] <= s.transparent_max_bounces)
               & ctx.materials.may_pass[surface.material])
         alive, I, Ng, D = alive[go], surface.I[go], surface.Ng[go], D[go]
@@ -143,9 +159,12 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
         hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
+        stretch = None if media is None else media.along(inside[alive])
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
-                                        seen_as=ray.seen_as[rows][alive])
+                                        seen_as=ray.seen_as[rows][alive], stretch=stretch)
+        if media is not None:                    # (and what reaches the next surface)
+            T[alive] *= volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         found[alive] += light * f[:, None]
         if groups is not None:
@@ -201,7 +220,19 @@ class PathTracing(Integrator):
         # 1. The camera rays: what they hit, the world where they escape, the lamps they pass.
         direct_cap, indirect_cap = clamp_.limits(s)
         groups = lightgroups.tally(ctx, len(O))
-        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups)
+        # The media the camera rays start in (core/volumes): the world's, and those of the meshes around the camera.
+        media = ctx.extra.get("media")
+        inside = None if media is None else camera_media(ctx, O, D)
+        stretch = None if media is None else media.along(inside)
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, stretch)
+        shadow_rays = 0
+        scatters = media is not None and media.scatters
+        if scatters:
+            # The light the media scatter towards the camera along its rays (core/integrators/volume.py).
+            scattered, shadow_rays = volume_.in_scattering(ctx, O, D, np.where(found.hit, found.t, t_max), inside,
+                                                           np.ones((len(O), 3)), pixel, sample, 0, 0,
+                                                           through_transparent)
+            L_out += scattered
         # The denoising features (features.py): what the camera sees itself, then along each path.
         feats = features_.Features(len(O)) if s.denoising_features else None
         if feats is not None:
@@ -220,10 +251,14 @@ class PathTracing(Integrator):
         # 2. The path's vertices, one batch per bounce: the camera's hits first.
         owner = hit                                  # the camera ray each path belongs to
         throughput = np.ones((len(hit), 3))
+        if media is not None:                        # (what the media let through to the camera's hits)
+            inside = inside[hit]
+            throughput = volumes.transmittance(stretch.sigma_t[hit], surface.t)
         diffuse = np.zeros(len(hit), np.int64)
         glossy = np.zeros(len(hit), np.int64)
         transmission = np.zeros(len(hit), np.int64)
         transparent = np.zeros(len(hit), np.int64)
+        bounds = np.zeros(len(hit), np.int64)         # volume-only boundaries crossed (Cycles' volume_bounds_bounce)
         bounce = np.zeros(len(hit), np.int64)
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
         mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (vertex.BsdfRay.mis_O):
@@ -233,7 +268,6 @@ class PathTracing(Integrator):
         seen_by = np.full(len(hit), HIDDEN_FROM_CAMERA)   # the kind of ray that reached each vertex (ray_kind)
         max_bounces = 0 if self.direct_only else s.max_bounces
         wo = -D_hit
-        shadow_rays = 0
         vertex = 0
         # The light passes (core/integrators/lightpasses.py): each camera ray's contributions by pass, and each
         # path's shares by closure kind, set at its first real bounce.
@@ -261,7 +295,7 @@ class PathTracing(Integrator):
                                   pixel[owner], sample[owner], dimension)
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
-                              carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce)
+                              carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce, inside=inside)
             vertex_groups = lightgroups.tally(ctx, len(owner))
             emitted, finds = (np.zeros((len(owner), 3)), np.zeros((len(owner), 3))) if feats is not None else (None, None)
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,
@@ -289,14 +323,19 @@ class PathTracing(Integrator):
             # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.
             is_diffuse, is_glossy, is_transmission, is_transparent, labelled_diffuse = bounce_kind(ray.kind,
                                                                                                    ray.transmit)
+            # Each ray's weight f cos / pdf, times what the media it crosses let through to its hit.
+            weight = ray.weight if ray.attenuation is None else ray.weight * ray.attenuation
             bounces = bounce[ray.rows] + ~is_transparent
             d = diffuse[ray.rows] + is_diffuse
             g = glossy[ray.rows] + is_glossy
             tr = transmission[ray.rows] + is_transmission
-            tp = transparent[ray.rows] + is_transparent
+            # (a volume-only boundary is no transparent bounce: Cycles counts those crossings apart, up to 1024)
+            boundary = False if media is None else media.boundary[surface.material[ray.rows]]
+            tp = transparent[ray.rows] + (is_transparent & ~boundary)
+            vb = bounds[ray.rows] + (is_transparent & boundary)
             within = ((bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
                       & (tr <= s.transmission_bounces))
-            going = ray.hits.hit & within & (tp <= s.transparent_max_bounces)
+            going = ray.hits.hit & within & (tp <= s.transparent_max_bounces) & (vb <= VOLUME_BOUNDS_MAX)
             if data is not None:
                 # A camera chain's ray straight on through a transparent surface: what it passes and escapes to.
                 chain = np.flatnonzero((bounce[ray.rows] == 0) & is_transparent & (tp <= s.transparent_max_bounces))
@@ -309,7 +348,7 @@ class PathTracing(Integrator):
             ended = ended[ctx.materials.may_pass[hit_materials(ctx, ray, ended)]] if len(ended) else ended
             if len(ended):
                 behind_groups = lightgroups.tally(ctx, len(ended))
-                behind = through_transparent(ctx, ray, ended, throughput[ray.rows[ended]] * ray.weight[ended],
+                behind = through_transparent(ctx, ray, ended, throughput[ray.rows[ended]] * weight[ended],
                                              tp[ended], cap[ray.rows[ended]], behind_groups)
                 L_out[owner[ray.rows[ended]]] += behind
                 if groups is not None:
@@ -320,17 +359,33 @@ class PathTracing(Integrator):
                 if light is not None:
                     self.light_behind(light, owner[ray.rows[ended]], behind, bounce[ray.rows[ended]] == 0,
                                       parts.ray_shares[ended] if parts is not None else None, shares[ray.rows[ended]])
-            next_throughput = throughput[ray.rows] * ray.weight
+            next_throughput = throughput[ray.rows] * weight
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
             played = (bounces >= roulette_from(s)) & ~is_transparent
+            survived, q = np.ones(len(bounces), bool), np.ones(len(bounces))
             if played.any():
-                q = np.where(played, np.minimum(np.sqrt(np.abs(next_throughput).max(axis=1)), 1.0), 1.0)
+                # (q from the throughput before the media along the ray: a ray into fog that lets nothing through to
+                #  its end still gathers the light scattered along it, as Cycles decides before the volume)
+                carried = next_throughput if ray.attenuation is None else throughput[ray.rows] * ray.weight
+                q = np.where(played, np.minimum(np.sqrt(np.abs(carried).max(axis=1)), 1.0), 1.0)
                 u = sampling.sample_2d(s.seed, pixel[owner[ray.rows]], sample[owner[ray.rows]],
                                        dimension=ROULETTE_DIMENSION + (vertex + 1) * VERTEX_DIMENSIONS)[:, 0]
                 survived = ~played | (u < q)
                 recorder.roulette(vertex + 1, owner[ray.rows], q, survived & going)
                 going &= survived
                 next_throughput = next_throughput / np.where(going, q, 1.0)[:, None]
+            if scatters:
+                # The light the media scatter towards this bounce's rays, where the path may still bounce on them.
+                live = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived)
+                if len(live):
+                    path_rows = owner[ray.rows[live]]
+                    carried = throughput[ray.rows[live]] * ray.weight[live] / q[live, None]
+                    scattered, count = volume_.in_scattering(
+                        ctx, ray.O[live], ray.D[live], np.where(ray.hits.hit[live], ray.hits.t[live], np.inf),
+                        ray.inside[live], carried, pixel[path_rows], sample[path_rows],
+                        (vertex + 1) * VERTEX_DIMENSIONS, bounces[live], through_transparent)
+                    L_out[path_rows] += carried * scattered
+                    shadow_rays += count
             keep = np.flatnonzero(going & np.isfinite(next_throughput).all(axis=1))
             if len(keep) == 0:
                 break
@@ -351,12 +406,13 @@ class PathTracing(Integrator):
                                       D_next, hits.t[keep], flat_only=not s.smooth_normals)
             owner = owner[rows]
             throughput = next_throughput[keep]
-            diffuse, glossy, transmission, transparent = d[keep], g[keep], tr[keep], tp[keep]
+            diffuse, glossy, transmission, transparent, bounds = d[keep], g[keep], tr[keep], tp[keep], vb[keep]
             # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
             after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], labelled_diffuse)[keep]
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
             mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]
+            inside = None if media is None else ray.inside[keep]
             wo = -D_next
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import materials as materials_
-from .. import vectors
+from .. import vectors, volumes
 from ..geometry.surface import surface_at_hits
 from ..lights import LightFlags
 from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
@@ -20,11 +20,14 @@ from .base import Context, Recorder
 
 
 def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, recorder: Recorder,
-                limit=np.inf, groups=None) -> tuple:
+                limit=np.inf, groups=None, stretch=None) -> tuple:
     """What camera rays O, D (n, 3) up to t_max (n,) meet: (L (n, 3) the world where they escape, where the
     camera sees it, plus the lamps with extent they pass, each ray's capped at `limit` (sample clamping); the
     tracer's hits; the hit rows (m,) int64; the hits' Surface, or None when nothing was hit). groups: a
-    lightgroups.GroupLight of the n rays that receives L split by source, or None."""
+    lightgroups.GroupLight of the n rays that receives L split by source, or None. stretch: the media the rays start
+    in (core/volumes Stretch), or None: the world and lamps they see keep exp(-sigma_t t) of their light over their
+    distance t (inf for the world), and L includes the media's emission up to the hit."""
+    sigma = None if stretch is None else stretch.sigma_t
     s = ctx.settings
     # 1. The nearest hit of each camera ray (t), past objects hidden from the camera.
     found = nearest_seen(ctx, O, D, t_max)
@@ -35,10 +38,14 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
     if world is not None and world.camera and not s.transparent_background:
         missed = np.flatnonzero(~found.hit)
         L_out[missed] = world.radiance(D[missed])
+        if sigma is not None:
+            L_out[missed] *= volumes.transmittance(sigma[missed], np.full(len(missed), np.inf))
         if groups is not None:
             groups.add(missed, L_out[missed], groups.groups.world)
     # 3. Lamps seen by the camera in front of what it hits (area lights, round lights), suns where it escapes.
-    L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), groups, escaped=~found.hit)
+    L_out += lamps_seen(ctx, O, D, np.where(found.hit, found.t, t_max), groups, escaped=~found.hit, sigma=sigma)
+    if stretch is not None:
+        L_out += volumes.emitted(stretch, np.where(found.hit, found.t, t_max))
     # What the camera sees itself is a direct contribution (Clamp Direct).
     if np.isfinite(limit):
         f = clamp_.scale(L_out, None, limit)
@@ -104,18 +111,90 @@ def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
 
 
 def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, groups=None,
-               escaped=None) -> np.ndarray:
+               escaped=None, sigma=None) -> np.ndarray:
     """The radiance (n, 3) of the lamps camera rays see: lamps with extent they meet before t_max (lamps never
     block), and the discs of suns where they escape (escaped (n,) bool: the rays that hit nothing; Cycles'
     shade_background adds distant lights there). groups: a lightgroups.GroupLight of the n rays that receives it by
-    each lamp's group, or None."""
+    each lamp's group, or None; sigma (n, 3) the extinction of the media the rays cross, or None: each lamp's light
+    keeps exp(-sigma t) over its distance t."""
     seen = np.zeros((len(O), 3))
     escaped = np.zeros(len(O), bool) if escaped is None else escaped
     for index in ctx.extra.get("camera_lamps", ()):
         light = ctx.lights[index]
         reach = np.where(escaped, np.inf, -1.0) if light.is_(LightFlags.DISTANT) else t_max
-        radiance = light.hit(O, D, reach).radiance
+        met = light.hit(O, D, reach)
+        radiance = met.radiance
+        if sigma is not None:
+            radiance = radiance * volumes.transmittance(sigma, np.where(met.hit, met.t, 0.0))
         seen += radiance
         if groups is not None:
             groups.add(np.arange(len(O)), radiance, groups.groups.lights[index])
     return seen
+
+
+# The most surfaces camera_media walks past along a ray (Cycles' volume stack init stops at its stack size too).
+CAMERA_MEDIA_HITS = 256
+
+
+def camera_media(ctx: Context, O: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """The media (n, V) int16 camera rays O, D (n, 3) start in (core/volumes Media.crossed): walking along each ray
+    to its end, a back face of a volume material whose front face the walk has not met first is a medium the ray
+    started in (Cycles' integrator_intersect_volume_stack). Rays from one point (a perspective camera) walk once."""
+    media = ctx.extra["media"]
+    if not may_start_inside(ctx, O):
+        return media.start(len(O))                  # (no ray starts within a mesh medium's bounds: no walk)
+    if len(O) and (O == O[0]).all():
+        return np.repeat(camera_media(ctx, O[:1], D[:1]), len(O), axis=0) if len(O) > 1 else _walk(ctx, media, O, D)
+    return _walk(ctx, media, O, D)
+
+
+def may_start_inside(ctx: Context, O: np.ndarray) -> bool:
+    """Whether some of the points O (n, 3) lie within the bounding box of the triangles whose material has a medium
+    (as Cycles walks camera rays only where the camera may be inside a volume): render.prepare finds the box once
+    (media_bounds)."""
+    low, high = ctx.extra["media_bounds"] if "media_bounds" in ctx.extra else media_bounds(ctx.geometry,
+                                                                                             ctx.extra["media"])
+    return bool(len(O)) and bool(((O >= low) & (O <= high)).all(axis=1).any())
+
+
+def media_bounds(geometry, media) -> tuple:
+    """The bounding box (low (3,), high (3,) float64, camera-relative) of the triangles whose material has a medium
+    (core/volumes Media.column); an empty box (inf, -inf) where none has."""
+    low, high = np.full(3, np.inf), np.full(3, -np.inf)
+    for start in range(0, geometry.triangle_count, 1 << 20):
+        triangles = geometry.triangle_data(np.arange(start, min(start + (1 << 20), geometry.triangle_count)),
+                                           smooth=False)
+        inside = media.column[triangles.material] >= 0
+        if inside.any():
+            corners = triangles.corners[inside].reshape(-1, 3)
+            low, high = np.minimum(low, corners.min(axis=0)), np.maximum(high, corners.max(axis=0))
+    return low, high
+
+
+def _walk(ctx: Context, media, O: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """camera_media's walk for rays O, D (n, 3): the stacks (n, V) int16 they start in."""
+    inside = media.start(len(O))
+    if inside.shape[1] == 0:
+        return inside                               # (the world's medium alone: no mesh to be inside)
+    entered = media.start(len(O))                   # front faces met along the way, not yet left
+    O = O.copy()
+    alive = np.arange(len(O))
+    for _ in range(CAMERA_MEDIA_HITS):
+        found = ctx.geometry.tracer.intersect(O[alive], D[alive], np.full(len(alive), np.inf))
+        hit = np.flatnonzero(found.hit)
+        if len(hit) == 0:
+            break
+        rows = alive[hit]
+        surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
+                                  found.t[hit])
+        column = media.column[surface.material]
+        has = column >= 0
+        back, front = has & surface.backfacing, has & ~surface.backfacing
+        np.add.at(entered, (rows[front], column[front]), 1)
+        left = back & (entered[rows, np.maximum(column, 0)] > 0)
+        np.add.at(entered, (rows[left], column[left]), -1)
+        started = back & ~left
+        np.add.at(inside, (rows[started], column[started]), 1)
+        O[rows] = shadows.spawn_ray(surface.I, surface.Ng, D[rows], shadows.error_bound(surface.I, surface.vertices))
+        alive = rows
+    return inside

@@ -39,6 +39,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .. import volumes
 from ..native import schema
 from ..native.schema import F64, I32
 
@@ -48,6 +49,10 @@ from ..native.schema import F64, I32
 # keeping the offset ~1e-6 of the coordinates, far below any modelled thickness.
 FLOAT32_EPSILON = 2.0 ** -24
 ROBUST_ULPS = 8.0
+
+# The most volume-only boundaries a shadow ray (or a path, path.py) crosses, as Cycles' VOLUME_BOUNDS_MAX: those
+# crossings count as no transparent bounce, so this guards against a ray caught crossing the same boundary.
+VOLUME_BOUNDS_MAX = 1024
 
 # How shadow rays leave the surface, for the compiled kernels (shadows.c).
 ShadowSettings = schema.record("ShadowSettings", "How shadow rays leave the surface (RenderSettings' shadow settings).", [
@@ -171,7 +176,7 @@ def visible(tracer, rays: ShadowRays) -> np.ndarray:
     return ~tracer.occluded(rays.origins, rays.directions, rays.t_max)
 
 
-def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
+def transmittance(ctx, rays: ShadowRays, limit: int, inside=None) -> np.ndarray:
     """The share of light (n, 3) float64 a shadow ray carries through transparent surfaces (Cycles'
     transparent shadows): the product of the transparency of each surface it passes, 0 where an opaque
     surface blocks it or where it would pass more than `limit` of them. Objects hidden from shadow rays
@@ -191,23 +196,35 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
     finite = np.isfinite(rays.t_max)
     ends = rays.origins + np.where(finite, rays.t_max, 0.0)[:, None] * rays.directions
     passed = np.zeros(n, np.int64)
+    crossed = np.zeros(n, np.int64)                 # volume-only boundaries passed
+    media = ctx.extra.get("media") if inside is not None else None
+    inside = None if media is None else inside.copy()
     alive = np.arange(n)
     while len(alive):
         found = ctx.geometry.tracer.intersect(O[alive], D[alive], t[alive])
+        if media is not None:
+            # The stretch up to the surface met (or to the light): what its media let through.
+            T[alive] *= volumes.transmittance(media.extinction(inside[alive]), np.where(found.hit, found.t, t[alive]))
         hit = np.flatnonzero(found.hit)
         if len(hit) == 0:
             break
         rows = alive[hit]
         hidden = ctx.geometry.hidden(found.prim[hit], HIDDEN_FROM_SHADOW)
-        over = ~hidden & (passed[rows] >= limit)
+        boundary = (np.zeros(len(hit), bool) if media is None
+                    else media.boundary[ctx.geometry.triangle_data(found.prim[hit], smooth=False).material])
+        over = ~hidden & ~boundary & (passed[rows] >= limit)
         T[rows[over]] = 0.0
-        passed[rows] += ~hidden
+        passed[rows] += ~hidden & ~boundary
+        crossed[rows] += boundary
+        T[rows[crossed[rows] > VOLUME_BOUNDS_MAX]] = 0.0
         # The surface the ray passes: what its material lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
         shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, graph_.RAY_SHADOW)
         through = np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
         T[rows] *= np.where(hidden[:, None], 1.0, through)
+        if media is not None:
+            inside[rows] = media.crossed(inside[rows], surface.material, surface.backfacing, ~hidden)
         # On from just past that surface, for what is left of the way to the light: towards the ray's end.
         O[rows] = spawn_ray(surface.I, surface.Ng, D[rows], error_bound(surface.I, surface.vertices))
         w = ends[rows] - O[rows]

@@ -27,13 +27,14 @@ from ..geometry.surface import surface_at_hits
 from ..lights.base import LAMP, LightFlags
 from ..materials import graph as graph_
 from ..sampling import sobol as sampling
+from .. import volumes
 from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION,
                           HOLDOUT)
 from . import clamp as clamp_
 from . import lightgroups, lightpasses
 from . import shadows
 from .base import Context, Recorder, check_stop
-from .rays import nearest_seen, ray_kind
+from .rays import goes_through, nearest_seen, ray_kind
 from .shadows import spawn_ray
 
 
@@ -54,6 +55,8 @@ class PathState(NamedTuple):
                path's last real bounce (bsdf_ray), or None: a camera ray's
     bounce:    the real bounces each path made before the hits (0: the camera's hits; int or (m,)): a light takes no
                light samples at hits past its max_bounces
+    inside:    (m, V) int16 the media the rays that reached the hits were in (core/volumes Media.crossed), or None:
+               no media. Rays leaving a hit to the other side of its surface enter or leave its material's medium.
     """
 
     dimension: int = 0
@@ -67,6 +70,7 @@ class PathState(NamedTuple):
     carried_origin: Optional[np.ndarray] = None
     carried_N: Optional[np.ndarray] = None
     bounce: object = 0
+    inside: Optional[np.ndarray] = None
 
 
 def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -185,7 +189,10 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 seen = np.ones(len(rows), bool)
                 through = np.ones((len(rows), 1))
             elif ctx.extra.get("transparent", False):
-                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces)
+                # (a light behind the surface, N.L < 0, is reached through it: into or out of its medium)
+                start = None if path.inside is None else media_beyond(ctx, surface, rows, path.inside[rows],
+                                                                      NL[rows] < 0.0)
+                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, start)
                 seen = through.any(axis=1)
             else:
                 seen = shadows.visible(ctx.geometry.tracer, rays)
@@ -226,7 +233,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
         ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, m)
         finds, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N,
-                              carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups)
+                              carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups,
+                              inside=path.inside)
         if clamping:
             f = clamp_.scale(finds, throughput, limit)
             finds = finds * f[:, None]
@@ -246,7 +254,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
 
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
              recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
-             *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None):
+             *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, inside=None):
     """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
     The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -259,7 +267,9 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     the ray origin and light-tree normal of the path's last real bounce (with carried_pdf): a ray straight through
     a transparent surface weighs what it finds with the pdfs the light samples at that bounce would have given
     its direction, measured from there (Cycles' mis_origin), not from the transparent surface. groups: a
-    lightgroups.GroupLight of the m hits that receives the light found by the group of its source, or None."""
+    lightgroups.GroupLight of the m hits that receives the light found by the group of its source, or None.
+    inside: (m, V) the media the rays that reached the hits were in, or None (no media): a ray through the surface
+    enters or leaves its medium, and what it finds, and its weight for the path beyond, keep exp(-sigma_t t)."""
     s = ctx.settings
     m = len(surface.I)
     u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
@@ -286,8 +296,15 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         if carried_origin is not None:
             mis_O = np.where(clear[:, None], carried_origin[go], O)
             mis_N = np.where(clear[:, None], carried_N[go], mis_N)
-    ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N)
+    ray_inside = stretch = attenuation = None
     t_hit = np.where(hits.hit, hits.t, np.inf)
+    if inside is not None:
+        # The ray's media (the hit's own where it went through the surface), and what they let through to its hit.
+        ray_inside = media_beyond(ctx, surface, go, inside[go], goes_through(bs.kind[go], transmit))
+        stretch = ctx.extra["media"].along(ray_inside)
+        attenuation = volumes.transmittance(stretch.sigma_t, t_hit)
+    ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
+                  ray_inside, attenuation)
     for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
         if mask.any():
             recorder.rays(kind, O[mask], D[mask], t_hit[mask])
@@ -299,11 +316,18 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, len(go))
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
-                                             mis_O=mis_O, groups=ray_groups, seen_as=seen_as)
+                                             mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch)
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
     return found, ray
+
+
+def media_beyond(ctx: Context, surface, rows: np.ndarray, inside: np.ndarray, through: np.ndarray) -> np.ndarray:
+    """The media (k, V) of rays leaving the hits `rows` (k,) of `surface` from the media `inside` (k, V) they were
+    reached in: where a ray goes `through` (k,) bool the surface, it enters the hit material's medium through a front
+    face or leaves it through a back face (Cycles' volume_stack_enter_exit, for a transmission's label)."""
+    return ctx.extra["media"].crossed(inside, surface.material[rows], surface.backfacing[rows], through)
 
 
 def lights_itself(surface, emitters, ls, NL: np.ndarray, NgL: np.ndarray) -> np.ndarray:
@@ -337,7 +361,7 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
 
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
-                 camera=None, N=None, mis_O=None, groups=None, seen_as=None) -> np.ndarray:
+                 camera=None, N=None, mis_O=None, groups=None, seen_as=None, stretch=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -352,8 +376,13 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     falloff: the disk facing mis_O, the one its light samples there saw), with the radiance it sends along D.
     groups: a lightgroups.GroupLight of the k rays that receives each find by the group of its source, or None.
     seen_as: (k,) int each ray's kind (HIDDEN_FROM_* bit, ray_kind), or None: a lamp hidden from a kind of ray
-    (its Ray Visibility) is passed by rays of that kind."""
+    (its Ray Visibility) is passed by rays of that kind. stretch: the media the rays cross (core/volumes Stretch),
+    or None (none): each find keeps exp(-sigma_t t) of its light over its distance t from O (inf for the world), and
+    the media's emission along the ray up to its hit is found too (not weighed: no light sample finds it)."""
     light_L = np.zeros((len(O), 3))
+    sigma = None if stretch is None else stretch.sigma_t
+    if stretch is not None:
+        light_L += volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
     t_limit = np.where(hits.hit, hits.t, np.inf)
     away = np.zeros(len(O), bool) if mis_O is None else (mis_O != O).any(axis=1)
     # From mis_O: how far each ray's end (inf: none) and its start O are.
@@ -385,6 +414,11 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             pdf_l[moved] = np.where(past, seen.pdf, 0.0)
         found = found & sees
         radiance = np.where(sees[:, None], radiance, 0.0)
+        if sigma is not None:
+            t_lamp = lh.t.copy()
+            if len(moved):
+                t_lamp[moved] = np.where(past, seen.t - t_start, np.inf)
+            radiance = radiance * volumes.transmittance(sigma, np.where(found, t_lamp, 0.0))
         if not found.any():
             continue
         w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * pdf_l), 1.0)
@@ -420,6 +454,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
                                                     N=None if N is None else N[struck][known])
             n_l = light_count(ctx, emitters)
         w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
+        if sigma is not None:
+            emitted = emitted * volumes.transmittance(sigma[struck], hits.t[struck])
         light_L[struck] += emitted * w[:, None]
         if groups is not None:
             groups.add(struck, emitted * w[:, None], groups.groups.of_prims(ctx.geometry, hits.prim[struck]))
@@ -428,6 +464,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     missed = np.flatnonzero(~hits.hit)
     if world is not None and world.lights and len(missed):
         L_world = world.radiance(D[missed])
+        if sigma is not None:
+            L_world = L_world * volumes.transmittance(sigma[missed], np.full(len(missed), np.inf))
         w = np.ones(len(missed))
         sampler = ctx.extra.get("world_sampler")
         if sampler is not None:
@@ -490,7 +528,8 @@ class BsdfRay(NamedTuple):
     pdf (k,) the pdf MIS weighs what the ray finds with (inf: none); seen_as (k,) int64 the ray's kind, the
     HIDDEN_FROM_* bit of the objects it passes (ray_kind); mis_O, mis_N (k, 3) the origin and light-tree normal
     that MIS measures the light pdfs from (those of the path's last real bounce: O and its tree normal, unless the
-    ray went straight through a transparent surface)
+    ray went straight through a transparent surface); inside (k, V) the media the ray is in (None: no media), and
+    attenuation (k, 3) what they let through to the hit (None: 1)
     """
 
     rows: np.ndarray
@@ -505,6 +544,8 @@ class BsdfRay(NamedTuple):
     seen_as: np.ndarray = None
     mis_O: np.ndarray = None
     mis_N: np.ndarray = None
+    inside: np.ndarray = None
+    attenuation: np.ndarray = None
 
 
 def closures_left_out(kind: np.ndarray, hidden: np.ndarray) -> np.ndarray:

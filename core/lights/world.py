@@ -45,6 +45,7 @@ class World:
               so neither changes it.
     suns:     the sun lamps it brings (a Sky Texture's sun disc, core/lights/world_graph.py sky_suns), which the
               scene's lights take in when it lights surfaces
+    volume:   the closures of its Volume output (as Material.volume): a medium everywhere (core/volumes); empty: none
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -57,6 +58,7 @@ class World:
     max_bounces: int = 1024
     cast_shadow: bool = True
     suns: list = field(default_factory=list)
+    volume: list = field(default_factory=list)
 
     @property
     def varying(self) -> bool:

@@ -49,6 +49,10 @@ class Material:
                 Map, Bump). When given, the nodes decide the surface and its emission; base_color, bsdf and
                 emission are ignored.
     pass_index: Blender's Material > Settings > Pass Index, what the Material Index pass shows
+    volume:     the closures of its Volume output, [(name in core/volumes VOLUME_BY_NAME, weight float, inputs
+                dict)], the medium inside its closed meshes (core/volumes); empty: none
+    volume_only: a Volume and no Surface: its surface is a boundary rays pass through without counting a bounce
+                (Cycles' SD_HAS_ONLY_VOLUME); `nodes` then holds one white Transparent node
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
@@ -59,6 +63,8 @@ class Material:
     nodes: list = field(default_factory=list)
     transparent_shadows: bool = True
     pass_index: int = 0
+    volume: list = field(default_factory=list)
+    volume_only: bool = False
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).

@@ -44,11 +44,13 @@ from ..integrators import Cancelled, Context, Recorder, StopFlag, for_render
 from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
 from ..integrators import cryptomatte, features, lightgroups, lightpasses, passes as passes_, vertex
 from ..integrators.compiled import Compiled, why_not
-from ..materials import MaterialTable
+from ..materials import Material, MaterialTable
+from .. import volumes
 from ..sampling import sobol as sampling
 from ..scene import RenderSettings, Scene
 from .validate import validate
 from ..integrators import debug
+from ..integrators import rays as rays_
 
 AUX_BUFFERS = debug.AUX_BUFFERS
 # With the "time" buffer, each chunk is rendered and timed in runs of this many pixels.
@@ -160,15 +162,23 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # Shadow rays go on through surfaces: transparent ones, and objects hidden from shadow rays.
     # (and holdouts, objects or Holdout nodes, which the path tracer's loop handles, as the camera's paths through
     # transparent surfaces)
+    # The media (core/volumes): inside closed meshes whose material has a Volume, and the world's; their rays go on
+    # through the boundaries, and every stretch of a ray in a medium loses what Beer-Lambert says.
+    media = volumes.Media.of(list(scene.materials) + [scene.default_material or Material()], world.volume)
+    ctx.extra["media"] = media
+    if media is not None:                  # (where camera rays may start inside a mesh's medium)
+        ctx.extra["media_bounds"] = rays_.media_bounds(geometry, media)
     ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)
-                                or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any()))
-    ctx.extra["bsdf_rays"] = bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
+                                or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
+                                or media is not None)
+    ctx.extra["bsdf_rays"] = (bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
+                              or (media is not None and media.emits))
     # Where BSDF rays are traced: at every hit where emitters or the world light the scene (only BSDF rays
     # find a constant world, and MIS is what samples emitters well); where only lamps with extent do, at
     # glossy hits alone: a diffuse surface's light samples of a lamp need no help, so a BSDF ray there
     # would cost a ray and change little (the choice is made per hit from its closures: unbiased).
     ctx.extra["bsdf_everywhere"] = (world_lights or ctx.extra["emissive"] or emitters is not None
-                                    or settings.light_sampling == "bsdf")
+                                    or settings.light_sampling == "bsdf" or (media is not None and media.emits))
     background = np.asarray(world.color, np.float64)[:3] if world.camera else np.zeros(3)
     ctx.extra["world"] = background
     ctx.extra["camera"] = scene.camera.moved(geometry.origin)      # its rays come out camera-relative
@@ -435,6 +445,28 @@ def _usable_cores() -> int:
         return os.cpu_count() or 1
 
 
+def volume_reason(ctx: Context, warnings: list) -> str:
+    """Why a scene with media takes the Python reference ('' without media): the compiled kernel has no volumes yet.
+    Says so once in `warnings`, and that Whitted's tracer renders no media."""
+    if ctx.extra.get("media") is None:
+        return ""
+    if ctx.settings.integrator == "whitted":
+        note = "volumes: Whitted's tracer renders no media (the path and direct tracers do); they are left out"
+    else:
+        note = ("volumes: the compiled kernel has no media yet, so this render runs the Python reference "
+                "(the same image, slower)")
+    if note not in warnings:
+        warnings.append(note)
+    media = ctx.extra["media"]
+    s = ctx.settings
+    if (media.scatters or media.emits) and (lightpasses.wanted(s.passes) or s.light_groups or s.denoising_features):
+        note = ("volumes: the light media scatter and emit goes to Combined only, not to the light passes, light "
+                "groups or denoising features (Cycles writes it to its Volume passes)")
+        if note not in warnings:
+            warnings.append(note)
+    return "the scene has volumes, which the compiled kernel does not render yet"
+
+
 def render(scene: Scene, settings: RenderSettings,
            progress: Optional[Callable[[float, RenderStats], None]] = None,
            cancel: Optional[Callable[[], bool]] = None,
@@ -455,7 +487,9 @@ def render(scene: Scene, settings: RenderSettings,
     stats.geometry_seconds = time.perf_counter() - start
     stats.triangles = geometry.triangle_count
     W, H = settings.width, settings.height
-    numpy_because = why_not(settings) or ("" if Compiled.applies(ctx) else "Embree's packet queries are unavailable")
+    volumes_because = volume_reason(ctx, stats.warnings)
+    numpy_because = (why_not(settings) or volumes_because
+                     or ("" if Compiled.applies(ctx) else "Embree's packet queries are unavailable"))
     compiled = Compiled(ctx, ctx.extra["background"]) if not numpy_because else None
     stats.kernels = "compiled" if compiled else f"numpy ({numpy_because})"
     # 2. The passes, and the pixels to render (wholly outside a fisheye's image circle: opaque black).

@@ -35,8 +35,9 @@ BLACKBODY_HOT = np.array([0.8262954810464208, 0.9945080501520986, 1.566307710274
 BLACKBODY_COLD = np.array([5.413294490189271, -0.20319390035873933, -0.0822535242887164], np.float32)
 
 
-def blackbody(t: np.ndarray) -> np.ndarray:
-    """(n, 3) float32 Rec.709 colour of temperatures t (n,) float32, negative channels clipped to 0."""
+def blackbody(t: np.ndarray, clip: bool = True) -> np.ndarray:
+    """(n, 3) float32 Rec.709 colour of temperatures t (n,) float32, negative channels clipped to 0 (the node's; the
+    fit itself, negative outside Rec.709's gamut, with clip False: the Principled Volume's black body)."""
     i = np.clip(np.searchsorted(BLACKBODY_STARTS, t, side="right") - 1, 0, 6)
     r, g, b = BLACKBODY_R[i], BLACKBODY_G[i], BLACKBODY_B[i]
     with np.errstate(all="ignore"):
@@ -45,7 +46,7 @@ def blackbody(t: np.ndarray) -> np.ndarray:
                         ((b[:, 0] * t + b[:, 1]) * t + b[:, 2]) * t + b[:, 3]], axis=1)
     hot, cold = (t >= F32(12000.0))[:, None], (t < F32(800.0))[:, None]
     out = np.where(hot, BLACKBODY_HOT, np.where(cold, BLACKBODY_COLD, out))
-    return np.maximum(out, F32(0.0))
+    return np.maximum(out, F32(0.0)) if clip else out
 
 
 class Blackbody(ConverterNode):

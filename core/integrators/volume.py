@@ -1,0 +1,252 @@
+"""Light that a medium scatters towards a ray: single scattering, as Cycles renders it with Volume Bounces 0.
+
+Along a ray that crosses a homogeneous medium (core/volumes) over a distance t, the light arriving at its start is
+
+    L = T(t) L_surface  +  integral over 0 <= s < t of T(s) (sigma_s L_s(s) + emission) ds,   T(s) = exp(-sigma_t s)
+
+where L_s(s) is the light scattered at the point s along the ray towards its start: the light arriving there from
+every direction, weighed by the phase function p (core/volumes/phase.py). The first term is the surface behind
+(the path goes on there, its throughput times T(t)); the emission's integral has a closed form (volumes.emitted,
+added where the ray's light is gathered); and the scattering integral is estimated here by one point per ray:
+
+1. **Free-flight sampling**: a distance s with a density proportional to exp(-sigma s) on [0, t), for one colour
+   channel's sigma_t, picked with the probability of its share of throughput x albedo (sigma_s / sigma_t); the
+   density of s is the mixture of the three channels' (spectral MIS, one-sample), so every channel is unbiased:
+   weight = T(s) sigma_s / pdf(s).
+2. **The light scattered at s** (`scattered_light`), as at a surface vertex (core/integrators/vertex.py) with the
+   phase function in place of f cos: a light sample per light with its shadow ray through the media (their
+   transmittance), weighed by MIS against the phase function's own sampling; and one direction sampled from the
+   phase function, whose ray gathers the lamps, emitters, world and media emission it finds (and those behind the
+   transparent surfaces it meets), weighed by MIS against the lights' samples.
+
+With Cycles' default Volume Bounces 0 a path scatters at most once and ends there, its last (phase) ray still
+finding light; so every stretch of a path (the camera ray, each bounce's ray the path goes on with) adds its one
+scattering estimate here and the path goes on to the surface: the same mean as Cycles' paths, which choose between
+the two, with less noise. Only stretches the path may still bounce on scatter (Cycles: a ray past its bounce
+limits only absorbs and emits). Cycles also samples the distance towards each lamp (equi-angular sampling) and mixes
+it with this one: the noise differs, not the mean. Light scattered more than once (Volume Bounces > 0) is left out,
+with a warning.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import volumes
+from ..lights.base import LightFlags
+from ..sampling import sobol as sampling
+from ..volumes.phase import HenyeyGreenstein
+from . import shadows
+from .base import Context, check_stop
+from .rays import nearest_seen
+from .vertex import BsdfRay, gather_light, light_count, light_numbers, power_heuristic, textured_samples
+
+# The sampling dimensions of a stretch's scattering point (distance, channel) and of its phase direction, and the
+# shift of its light samples' dimensions from the vertex's own (core/sampling; a path's vertex k adds k x
+# path.VERTEX_DIMENSIONS to each).
+DISTANCE_DIMENSION = 8
+PHASE_DIMENSION = 9
+EQUIANGULAR_DIMENSION = 1 << 14            # + the light's index: the equi-angular distance towards each lamp
+LIGHT_SHIFT = 1 << 15
+
+
+def channel_odds(stretch, throughput: np.ndarray) -> np.ndarray:
+    """The probabilities (k, 3) float64 with which free-flight sampling picks each colour channel of stretches (k
+    rows of volumes.Stretch) carrying `throughput` (k, 3): in proportion to |throughput| x albedo (sigma_s /
+    sigma_t), as Cycles' volume_sample_channel; zero rows where nothing would scatter."""
+    sigma = stretch.sigma_t
+    positive = sigma > 0.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        albedo = np.where(positive, stretch.sigma_s / np.where(positive, sigma, 1.0), 0.0)
+    share = np.abs(throughput) * albedo
+    total = share.sum(axis=1)
+    return np.where(total[:, None] > 0.0, share / np.where(total > 0.0, total, 1.0)[:, None], 0.0)
+
+
+def distance_pdf(stretch, odds: np.ndarray, t: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The density (k,) float64 of free-flight sampling choosing the distances s (k,) on stretches of length t (k,):
+    the mixture over channels (odds (k, 3)) of each channel's exponential sigma exp(-sigma s), truncated at t."""
+    sigma = stretch.sigma_t
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        reach = -np.expm1(-sigma * np.asarray(t, np.float64)[:, None])   # (k, 3) each channel's chance before t
+        each = np.where(odds > 0.0, odds * sigma * np.exp(-sigma * s[:, None]) / np.where(reach > 0.0, reach, 1.0),
+                        0.0)
+    return each.sum(axis=1)
+
+
+def scatter_distance(stretch, throughput: np.ndarray, t: np.ndarray, u: np.ndarray) -> tuple:
+    """Free-flight sampling on [0, t): (the distances s (k,) float64, their pdf (k,) float64, the channel odds (k,
+    3)) for stretches (k rows of volumes.Stretch) carrying `throughput` (k, 3), from numbers u (k, 2): u[:, 1] picks
+    a channel by channel_odds, u[:, 0] the distance from that channel's exponential truncated at t (t may be inf).
+    The pdf is the channels' mixture, so T(s) sigma_s / pdf is unbiased in every channel. pdf 0: nothing sampled."""
+    sigma = stretch.sigma_t
+    odds = channel_odds(stretch, throughput)
+    channel = np.minimum((u[:, 1:2] >= np.cumsum(odds, axis=1)).sum(axis=1), 2)
+    rows = np.arange(len(t))
+    sigma_c = np.where(sigma[rows, channel] > 0.0, sigma[rows, channel], 1.0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        reach = -np.expm1(-sigma_c * np.asarray(t, np.float64))
+    s = -np.log1p(-u[:, 0] * reach) / sigma_c
+    pdf = np.where(odds.sum(axis=1) > 0.0, distance_pdf(stretch, odds, t, s), 0.0)
+    return np.where(pdf > 0.0, s, 0.0), pdf, odds
+
+
+def equiangular(O: np.ndarray, D: np.ndarray, t: np.ndarray, X: np.ndarray, u=None, s=None) -> tuple:
+    """Equi-angular sampling (Kulla and Fajardo 2012) of a distance on rays O + s D (k, 3), 0 <= s < t (k,), towards
+    a light at X (3,): the density of s is proportional to 1 / |O + s D - X|^2, the light's own falloff, so points
+    near the lamp, where free flight rarely lands, are found. With numbers u (k,): (s (k,), its pdf (k,)); with
+    distances s (k,): (s, the pdf of choosing them)."""
+    delta = np.einsum("ij,ij->i", X[None, :] - O, D)       # how far along each ray the lamp is passed closest
+    h = np.linalg.norm(X[None, :] - O - delta[:, None] * D, axis=1)
+    h = np.maximum(h, 1e-9 * np.maximum(np.abs(delta), 1.0))
+    a = np.arctan2(-delta, h)
+    b = np.where(np.isfinite(t), np.arctan2(np.where(np.isfinite(t), t, 0.0) - delta, h), 0.5 * np.pi)
+    if s is None:
+        s = np.clip(delta + h * np.tan(a + u * (b - a)), 0.0, np.where(np.isfinite(t), t, np.inf))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pdf = np.where(b > a, h / ((b - a) * (h * h + (s - delta) ** 2)), 0.0)
+    return s, pdf
+
+
+def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
+                  throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce,
+                  behind) -> tuple:
+    """The light (k, 3) float64 that the media scatter towards the starts of rays O, D (k, 3) over distances t (k,)
+    (inf: to the world), seen through each path's `throughput` (k, 3) (not included), and the shadow rays traced.
+
+    inside: (k, V) the rays' media (core/volumes Media.crossed); pixel, sample: (k,) the keys of their random
+    numbers; dimension: the vertex's shift of the sampling dimensions; bounce: (k,) or int the real bounces the paths
+    made before the stretch (a light's Max Bounces); behind: path.through_transparent, for the phase rays."""
+    media = ctx.extra["media"]
+    stretch = media.along(inside)
+    L = np.zeros((len(O), 3))
+    rows = np.flatnonzero(stretch.scatters)
+    if len(rows) == 0:
+        return L, 0
+    part = stretch.rows(rows)
+    # 1. Where each ray scatters, and its weight T(s) sigma_s / pdf(s).
+    u = sampling.sample_2d(ctx.settings.seed, pixel[rows], sample[rows], dimension=DISTANCE_DIMENSION + dimension)
+    s, pdf, odds = scatter_distance(part, throughput[rows], t[rows], u)
+    sampled = pdf > 0.0
+    rows, s, pdf, odds, part = rows[sampled], s[sampled], pdf[sampled], odds[sampled], part.rows(sampled)
+    if len(rows) == 0:
+        return L, 0
+    weight = volumes.transmittance(part.sigma_t, s) * part.sigma_s / pdf[:, None]
+    # 2. The light scattered there towards the ray's start; each lamp's light samples weighed against the same
+    #    lamp's equi-angular points (3.), by the balance heuristic on the two densities of s.
+    o, d, length = O[rows], D[rows], np.asarray(t, np.float64)[rows]
+    P = o + s[:, None] * d
+    bounces = np.broadcast_to(np.asarray(bounce), (len(O),))[rows]
+    lamps = equiangular_lamps(ctx)
+    share = {index: pdf / (pdf + equiangular(o, d, length, X, s=s)[1]) for index, X in lamps.items()}
+    scattered, shadow_rays = scattered_light(ctx, P, -d, part.g, inside[rows], pixel[rows], sample[rows],
+                                             dimension, bounces, behind, share)
+    L[rows] = weight * scattered
+    # 3. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
+    for index, X in lamps.items():
+        u = sampling.sample_2d(ctx.settings.seed, pixel[rows], sample[rows],
+                               dimension=EQUIANGULAR_DIMENSION + index + dimension)[:, 0]
+        s_e, pdf_e = equiangular(o, d, length, X, u=u)
+        chosen = pdf_e > 0.0
+        if not chosen.any():
+            continue
+        at = rows[chosen]
+        w = pdf_e[chosen] / (pdf_e[chosen] + distance_pdf(part.rows(chosen), odds[chosen], length[chosen],
+                                                              s_e[chosen]))
+        T = volumes.transmittance(part.sigma_t[chosen], s_e[chosen]) * part.sigma_s[chosen]
+        lit, count = scattered_light(ctx, o[chosen] + s_e[chosen, None] * d[chosen], -d[chosen], part.g[chosen],
+                                     inside[at], pixel[at], sample[at], dimension, bounces[chosen], behind,
+                                     only=index)
+        L[at] += T * (w / pdf_e[chosen])[:, None] * lit
+        shadow_rays += count
+    return L, shadow_rays
+
+
+def equiangular_lamps(ctx: Context) -> dict:
+    """The lights that equi-angular sampling aims at, by their index: the lamps with a position (point, spot:
+    their position; area: their centre), as Cycles aims at a light's position."""
+    out = {}
+    for index, light in enumerate(ctx.lights):
+        if light.is_(LightFlags.POSITION):
+            out[index] = np.asarray(light.position, np.float64)
+        elif light.is_(LightFlags.AREA):
+            out[index] = np.asarray(light.center, np.float64)
+    return out
+
+
+def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, inside: np.ndarray,
+                    pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray, behind,
+                    share: dict = None, only: int = None) -> tuple:
+    """The light (m, 3) float64 that scattering points P (m, 3) with Henyey-Greenstein anisotropies g (m,) send
+    towards wo (m, 3) per unit sigma_s (the integral of p L over the sphere), and the shadow rays traced: light
+    samples with shadow rays through the media `inside` (m, V), and one phase-sampled ray, weighed by MIS.
+    share: light index -> (m,) the weight of its light samples here (their point's share against equi-angular
+    points), or None; only: a light's index: its light samples alone (an equi-angular point), no phase ray."""
+    s = ctx.settings
+    m = len(P)
+    phase = HenyeyGreenstein(g)
+    L = np.zeros((m, 3))
+    shadow_rays = 0
+    unknown = np.zeros((m, 3))                           # no normal: light from every side
+    bsdf_rays = bool(ctx.extra.get("bsdf_rays", False))
+    mis = s.light_sampling == "mis" and bsdf_rays
+    # 1. Light samples, each with its shadow ray through the media.
+    for index, light in enumerate(ctx.lights):
+        check_stop(ctx)
+        if only is not None and index != only:
+            continue
+        hittable = index in ctx.extra.get("hittable", ())
+        if s.light_sampling == "bsdf" and not light.delta and light.use_mis and hittable:
+            continue                                     # found by phase rays alone
+        count = light_count(ctx, light)
+        cone = light.cone(P)
+        for j in range(count):
+            u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension + LIGHT_SHIFT)
+            ls = light.sample(P, u, cone, N=unknown)
+            if getattr(light, "textured", None) is not None:
+                ls = textured_samples(ctx, light, P, ls)
+            if not s.distance_attenuation:
+                ls = light.without_attenuation(ls, P)
+            lit = (ls.strength > 0.0) | (ls.strength < 0.0)
+            if light.max_bounces < 1024:
+                lit &= bounce <= light.max_bounces
+            rows = np.flatnonzero(lit)
+            if len(rows) == 0:
+                continue
+            rays = shadows.robust_rays(P[rows], unknown[rows], np.zeros(len(rows)), ls.position[rows], ls.L[rows],
+                                       ls.distance[rows], s.reduce_t_max)
+            if light.cast_shadow:
+                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, inside[rows])
+                shadow_rays += len(rows)
+            else:
+                through = np.ones((len(rows), 3))
+            p = HenyeyGreenstein(g[rows]).eval(wo[rows], ls.L[rows])
+            w = ls.strength[rows] * (1.0 / count)
+            if share is not None and index in share:
+                w = w * share[index][rows]
+            if not light.delta and light.use_mis and hittable and mis:
+                w = w * power_heuristic(count * ls.pdf[rows], p)
+            color = ls.color if ls.color.ndim == 1 else ls.color[rows]
+            L[rows] += (w * p)[:, None] * color * through
+    # 2. One phase-sampled direction: the light its ray finds (its weight p / pdf is 1).
+    if only is None and (bsdf_rays or ctx.extra["media"].emits):
+        u = sampling.sample_2d(s.seed, pixel, sample, dimension=PHASE_DIMENSION + dimension)
+        ps = phase.sample(wo, u)
+        kind = np.zeros(m, np.int64)                     # (a volume's ray: no Ray Visibility bit of its own)
+        hits = nearest_seen(ctx, P, ps.wi, np.full(m, np.inf), kind)
+        stretch = ctx.extra["media"].along(inside)
+        gather = bsdf_rays and s.light_sampling != "light"
+        if gather:
+            L += gather_light(ctx, P, ps.wi, hits, ps.pdf, np.full(m, mis), N=unknown, seen_as=kind, stretch=stretch)
+            # Straight on through the transparent surfaces it meets, to the light behind them.
+            T = volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
+            ray = BsdfRay(np.arange(m), P, ps.wi, hits, np.ones((m, 3)), np.full(m, -1), np.zeros(m, bool),
+                          np.zeros(m, bool), ps.pdf, kind, P, unknown, inside, T)
+            rows = np.flatnonzero(hits.hit)
+            if len(rows):
+                rows = rows[ctx.materials.may_pass[ctx.geometry.triangle_data(hits.prim[rows], smooth=False).material]]
+            if len(rows):
+                L[rows] += behind(ctx, ray, rows, T[rows], np.zeros(len(rows), np.int64))
+        else:
+            L += volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
+    return L, shadow_rays
+

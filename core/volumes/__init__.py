@@ -1,0 +1,23 @@
+"""Participating media: light absorbed (and, later slices, scattered and emitted) along the way between surfaces.
+
+A homogeneous medium has the same coefficients at every point: sigma_a (absorption) and sigma_s (scattering) per
+unit length, per colour channel, and sigma_t = sigma_a + sigma_s (extinction). Light that crosses a distance t
+through it keeps the share
+
+    T(t) = exp(-sigma_t t)          (Beer-Lambert)
+
+per channel. A medium fills the inside of a closed mesh whose material has a Volume output (entered through a front
+face, left through a back face: Cycles' volume stack, `Media.crossed`), or all space where the world has one.
+
+- `media.py`: the volume closures as classes with their flags (Volume Absorption, Volume Scatter, Principled
+  Volume, Volume Coefficients, an Emission node at a Volume output), read into one `Media` table per render: each volume material's coefficients, and the world's.
+  `Media.crossed` keeps which media a ray is in (a count per volume material), `transmittance` what it lets through.
+- `phase.py`: phase functions (Henyey-Greenstein), the volume's BSDF: eval, sample, pdf.
+"""
+from .media import (ABSORPTION, Coefficients, Media, PrincipledVolume, VolumeAbsorption, VolumeClosure, VolumeFlags,
+                    VolumeCoefficients, VolumeEmission, VolumeScatter, VOLUME_BY_BLENDER, VOLUME_BY_NAME, VOLUME_TYPES)
+from .phase import HenyeyGreenstein
+from .media import Stretch, emitted, transmittance
+
+__all__ = ["ABSORPTION", "Coefficients", "HenyeyGreenstein", "Media", "PrincipledVolume", "VolumeAbsorption", "VolumeClosure",
+           "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "Stretch", "emitted", "transmittance"]

@@ -1,0 +1,327 @@
+"""The volume closures a material's (or the world's) Volume output sets up, and the render's table of media.
+
+Each volume shader node is a class that says what it is (VolumeFlags: it absorbs, scatters, emits) and turns its
+constant inputs into a medium's coefficients, as Cycles' `svm_node_closure_volume` and `svm_node_principled_volume`
+do (src/kernel/svm/closure.h):
+
+- Volume Absorption: sigma_a = density x (1 - colour): the colour is what a unit of density lets through;
+- Volume Scatter:    sigma_s = density x colour, with a phase function (Henyey-Greenstein of anisotropy g);
+- Principled Volume: sigma_s = density x colour (HG of its Anisotropy), sigma_a = density x max(1 - colour, 0) x
+  max(1 - sqrt(Absorption Color), 0), emission = Emission Color x Emission Strength + a black body's (Blackbody
+  Intensity mixes Stefan-Boltzmann's sigma T^4 / pi in, tinted, in the colour of core/materials' Blackbody node);
+- Volume Coefficients: the three coefficients as given; an Emission node at a Volume output: emission = colour x
+  strength.
+
+A Mix or Add Shader above them weighs each closure (the add-on multiplies the weights out), and closures add:
+sigma_a, sigma_s and emission sum; the phase functions mix by their scattering (one g per medium here: the
+sigma_s-weighted mean when closures of different g meet, noted by the add-on).
+
+`Media` is one table per render: a column per material with a volume, the world's medium, and which materials are
+volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME).
+"""
+from __future__ import annotations
+
+import enum
+from typing import ClassVar, NamedTuple, Optional
+
+import numpy as np
+
+
+class VolumeFlags(enum.IntFlag):
+    """What a volume closure does to light along a ray: ABSORBS (sigma_a > 0 takes light away), SCATTERS (sigma_s:
+    light leaves the ray and arrives from other directions, by its phase function), EMITS (light added along it)."""
+
+    ABSORBS = 1 << 0
+    SCATTERS = 1 << 1
+    EMITS = 1 << 2
+
+
+class Coefficients(NamedTuple):
+    """A homogeneous medium: sigma_a, sigma_s, emission (3,) float64 per unit length; g the HG anisotropy."""
+
+    sigma_a: np.ndarray
+    sigma_s: np.ndarray
+    emission: np.ndarray
+    g: float = 0.0
+
+    @property
+    def sigma_t(self) -> np.ndarray:
+        """The extinction sigma_a + sigma_s (3,) float64."""
+        return self.sigma_a + self.sigma_s
+
+    def __add__(self, other: "Coefficients") -> "Coefficients":
+        """Two closures together: their coefficients add, their anisotropies mix by their scattering."""
+        s1, s2 = float(np.sum(self.sigma_s)), float(np.sum(other.sigma_s))
+        g = (self.g * s1 + other.g * s2) / (s1 + s2) if s1 + s2 > 0.0 else self.g
+        return Coefficients(self.sigma_a + other.sigma_a, self.sigma_s + other.sigma_s,
+                            self.emission + other.emission, g)
+
+
+NOTHING = Coefficients(np.zeros(3), np.zeros(3), np.zeros(3), 0.0)
+
+
+class VolumeClosure:
+    """A volume shader node: its name in the material's volume list, the Blender node it reads, its flags, and
+    `coefficients(weight, inputs)`: the medium it sets up with the Mix and Add Shaders' `weight` (float) above it."""
+
+    name: ClassVar[str] = ""
+    blender: ClassVar[str] = ""
+    flags: ClassVar[VolumeFlags] = VolumeFlags(0)
+
+    @staticmethod
+    def coefficients(weight: float, inputs: dict) -> Coefficients:
+        """The homogeneous medium (Coefficients) this closure sets up."""
+        raise NotImplementedError
+
+
+def _density(weight: float, inputs: dict) -> float:
+    """The node's density times its weight, never negative (Cycles: mix_weight x max(density, 0))."""
+    return float(weight) * max(float(inputs.get("density", 1.0)), 0.0)
+
+
+class VolumeAbsorption(VolumeClosure):
+    """Cycles' Volume Absorption: sigma_a = density x (1 - Color); nothing scattered, nothing emitted."""
+
+    name: ClassVar[str] = "ABSORPTION"
+    blender: ClassVar[str] = "ShaderNodeVolumeAbsorption"
+    flags: ClassVar[VolumeFlags] = VolumeFlags.ABSORBS
+
+    @staticmethod
+    def coefficients(weight: float, inputs: dict) -> Coefficients:
+        """sigma_a = weight x max(density, 0) x (1 - colour), per channel (Cycles: one_spectrum() - weight)."""
+        color = np.asarray(inputs.get("color", np.full(3, 0.8)), np.float64)[:3]
+        return Coefficients(_density(weight, inputs) * (1.0 - color), np.zeros(3), np.zeros(3), 0.0)
+
+
+class VolumeScatter(VolumeClosure):
+    """Cycles' Volume Scatter (Henyey-Greenstein phase): sigma_s = density x Color, anisotropy g."""
+
+    name: ClassVar[str] = "SCATTER"
+    blender: ClassVar[str] = "ShaderNodeVolumeScatter"
+    flags: ClassVar[VolumeFlags] = VolumeFlags.SCATTERS
+
+    @staticmethod
+    def coefficients(weight: float, inputs: dict) -> Coefficients:
+        """sigma_s = weight x max(density, 0) x colour; g clamped to |g| <= 1 - 1e-3 (Cycles' HG setup)."""
+        color = np.asarray(inputs.get("color", np.full(3, 0.8)), np.float64)[:3]
+        g = float(inputs.get("anisotropy", 0.0))
+        g = float(np.sign(g) * min(abs(g), 1.0 - 1e-3))
+        return Coefficients(np.zeros(3), _density(weight, inputs) * color, np.zeros(3), g)
+
+
+class PrincipledVolume(VolumeClosure):
+    """Cycles' Principled Volume with constant inputs: scattering of Color, absorption of what Color and Absorption
+    Color leave, and emission (Emission Color x Emission Strength)."""
+
+    name: ClassVar[str] = "PRINCIPLED_VOLUME"
+    blender: ClassVar[str] = "ShaderNodeVolumePrincipled"
+    flags: ClassVar[VolumeFlags] = VolumeFlags.ABSORBS | VolumeFlags.SCATTERS | VolumeFlags.EMITS
+
+    @staticmethod
+    def coefficients(weight: float, inputs: dict) -> Coefficients:
+        """As svm_node_principled_volume: sigma_s = d colour, sigma_a = d max(1 - colour, 0) max(1 - sqrt(absorption
+        colour), 0), emission = weight x strength x emission colour (d = weight x max(density, 0))."""
+        d = _density(weight, inputs)
+        color = np.asarray(inputs.get("color", np.full(3, 0.5)), np.float64)[:3]
+        absorption = np.sqrt(np.maximum(np.asarray(inputs.get("absorption_color", np.zeros(3)), np.float64)[:3], 0.0))
+        g = float(inputs.get("anisotropy", 0.0))
+        g = float(np.sign(g) * min(abs(g), 1.0 - 1e-3))
+        sigma_a = (np.maximum(1.0 - color, 0.0) * np.maximum(1.0 - absorption, 0.0) * d if d > 0.0 else np.zeros(3))
+        sigma_s = color * d if d > 0.0 else np.zeros(3)
+        strength = float(inputs.get("emission_strength", 0.0))
+        emission = (float(weight) * strength * np.asarray(inputs.get("emission_color", np.ones(3)), np.float64)[:3]
+                    if strength > 0.0 else np.zeros(3))
+        return Coefficients(sigma_a, sigma_s, emission + float(weight) * black_body(inputs), g)
+
+
+# Stefan-Boltzmann's constant (W / (m^2 K^4)) over pi, scaled by 1e-6 as Cycles scales it (a radiance per unit length
+# that a flame of a few thousand kelvin keeps near 1).
+STEFAN_BOLTZMANN = 5.670373e-8 * 1e-6 / np.pi
+
+
+def black_body(inputs: dict) -> np.ndarray:
+    """The Principled Volume's black-body emission (3,) float64 (Cycles: svm_node_principled_volume): intensity =
+    sigma mix(1, T^4, Blackbody Intensity), times Blackbody Tint and the Rec.709 colour of T, unclipped (negative
+    outside Rec.709's gamut, as Cycles uses it here; scene linear is Rec.709 in Blender's configuration); nothing
+    where Blackbody Intensity is 0."""
+    from ..materials.converters.blackbody import blackbody
+    amount = float(inputs.get("blackbody_intensity", 0.0))
+    if amount <= 0.0:
+        return np.zeros(3)
+    t = max(float(inputs.get("temperature", 1000.0)), 0.0)
+    intensity = STEFAN_BOLTZMANN * (1.0 + amount * (t ** 4 - 1.0))
+    if intensity <= 0.0:
+        return np.zeros(3)
+    tint = np.asarray(inputs.get("blackbody_tint", np.ones(3)), np.float64)[:3]
+    return tint * intensity * blackbody(np.array([t], np.float32), clip=False)[0].astype(np.float64)
+
+
+class VolumeCoefficients(VolumeClosure):
+    """Blender 5.0's Volume Coefficients: the medium's coefficients given directly (absorption, scattering, emission,
+    per channel), each times the Mix and Add Shaders' weight, as Cycles' svm_node_volume_coefficients."""
+
+    name: ClassVar[str] = "COEFFICIENTS"
+    blender: ClassVar[str] = "ShaderNodeVolumeCoefficients"
+    flags: ClassVar[VolumeFlags] = VolumeFlags.ABSORBS | VolumeFlags.SCATTERS | VolumeFlags.EMITS
+
+    @staticmethod
+    def coefficients(weight: float, inputs: dict) -> Coefficients:
+        """weight x each of Absorption, Scatter and Emission Coefficients; g clamped as Volume Scatter's."""
+        g = float(inputs.get("anisotropy", 0.0))
+        g = float(np.sign(g) * min(abs(g), 1.0 - 1e-3))
+        read = lambda key: float(weight) * np.asarray(inputs.get(key, np.zeros(3)), np.float64)[:3]
+        return Coefficients(read("absorption"), read("scatter"), read("emission"), g)
+
+
+class VolumeEmission(VolumeClosure):
+    """An Emission node at a Volume output: the medium emits Color x Strength per unit length (Cycles'
+    emission_setup in a volume shader); it neither absorbs nor scatters."""
+
+    name: ClassVar[str] = "EMISSION"
+    blender: ClassVar[str] = "ShaderNodeEmission"
+    flags: ClassVar[VolumeFlags] = VolumeFlags.EMITS
+
+    @staticmethod
+    def coefficients(weight: float, inputs: dict) -> Coefficients:
+        """emission = weight x strength x colour."""
+        color = np.asarray(inputs.get("color", np.ones(3)), np.float64)[:3]
+        return Coefficients(np.zeros(3), np.zeros(3), float(weight) * float(inputs.get("strength", 1.0)) * color, 0.0)
+
+
+# The table of volume closures: a material's volume entries name one by `name`; the add-on reads `blender` nodes.
+VOLUME_TYPES = (VolumeAbsorption, VolumeScatter, PrincipledVolume, VolumeCoefficients, VolumeEmission)
+VOLUME_BY_NAME = {cls.name: cls for cls in VOLUME_TYPES}
+VOLUME_BY_BLENDER = {cls.blender: cls for cls in VOLUME_TYPES}
+ABSORPTION = VolumeAbsorption.name
+
+
+def medium_of(entries: list) -> Coefficients:
+    """The homogeneous medium of a Volume output's closures [(name, weight float, inputs dict)]: their sum."""
+    total = NOTHING
+    for name, weight, inputs in entries:
+        if name not in VOLUME_BY_NAME:
+            raise ValueError(f"unknown volume closure {name!r}: one of {sorted(VOLUME_BY_NAME)}")
+        total = total + VOLUME_BY_NAME[name].coefficients(weight, inputs)
+    return total
+
+
+class Media:
+    """The render's media: a column per material with a volume, and the world's medium.
+
+    column:   (m + 1,) int64 each material row's column, -1 where it has no volume
+    sigma_a, sigma_s, emission: (V, 3) float64 each column's coefficients; g (V,) float64 its anisotropy
+    world:    the world's Coefficients (zero where the world has no volume)
+    boundary: (m + 1,) bool the material rows that are volume-only boundaries (a Volume and no Surface)
+    """
+
+    def __init__(self, media: list, boundary, world: Optional[Coefficients] = None):
+        """media: one Coefficients or None per material row; boundary: (m + 1,) bool; world: Coefficients or None."""
+        rows = [i for i, medium in enumerate(media) if medium is not None]
+        self.column = np.full(len(media), -1, np.int64)
+        self.column[rows] = np.arange(len(rows))
+        pick = [media[i] for i in rows]
+        self.sigma_a = np.array([c.sigma_a for c in pick], np.float64).reshape(-1, 3)
+        self.sigma_s = np.array([c.sigma_s for c in pick], np.float64).reshape(-1, 3)
+        self.emission = np.array([c.emission for c in pick], np.float64).reshape(-1, 3)
+        self.g = np.array([c.g for c in pick], np.float64)
+        self.world = NOTHING if world is None else world
+        self.boundary = np.asarray(boundary, bool)
+
+    @classmethod
+    def of(cls, materials: list, world_volume: Optional[list] = None) -> Optional["Media"]:
+        """The media of a scene's material records (each with `volume`, a list of closures, and `volume_only`), the
+        default material last, and the world's Volume closures; None when no medium is anywhere."""
+        media = [medium_of(m.volume) if getattr(m, "volume", None) else None for m in materials]
+        world = medium_of(world_volume) if world_volume else None
+        boundary = [bool(getattr(m, "volume_only", False)) for m in materials]
+        if all(medium is None for medium in media) and world is None:
+            return None
+        return cls(media, boundary, world)
+
+    @property
+    def sigma_t(self) -> np.ndarray:
+        """Each column's extinction (V, 3) float64."""
+        return self.sigma_a + self.sigma_s
+
+    @property
+    def scatters(self) -> bool:
+        """Whether some medium scatters or emits (absorption alone needs no scattering events)."""
+        return bool((self.sigma_s > 0.0).any() or (self.emission > 0.0).any()
+                    or (self.world.sigma_s > 0.0).any() or (self.world.emission > 0.0).any())
+
+    @property
+    def emits(self) -> bool:
+        """Whether some medium emits light (then every ray gathers what it finds: media emission is found by rays)."""
+        return bool((self.emission != 0.0).any() or (self.world.emission != 0.0).any())
+
+    def start(self, n: int) -> np.ndarray:
+        """The stacks (n, V) int16 of rays that start in no mesh's medium (the world's is always there)."""
+        return np.zeros((n, len(self.g)), np.int16)
+
+    def extinction(self, inside: np.ndarray) -> np.ndarray:
+        """sigma_t (n, 3) float64 of rays with stacks inside (n, V): the world's plus each medium's as many times
+        as the ray is in it (overlapping media add, as in Cycles' volume stack)."""
+        return self.world.sigma_t + inside.astype(np.float64) @ self.sigma_t
+
+    def along(self, inside: np.ndarray) -> "Stretch":
+        """What rays with stacks inside (n, V) cross: the sums of their media's coefficients (the world's included)
+        and the anisotropy of their scattering (the sigma_s-weighted mean where media of different g overlap)."""
+        weights = inside.astype(np.float64)
+        sigma_s = self.world.sigma_s + weights @ self.sigma_s
+        scattering = self.world.sigma_s.sum() * self.world.g + weights @ (self.sigma_s.sum(axis=1) * self.g)
+        total = sigma_s.sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            g = np.where(total > 0.0, scattering / total, 0.0)
+        return Stretch(self.world.sigma_t + weights @ self.sigma_t, sigma_s,
+                       self.world.emission + weights @ self.emission, g)
+
+    def crossed(self, inside: np.ndarray, material: np.ndarray, backfacing: np.ndarray,
+                crossing: np.ndarray) -> np.ndarray:
+        """The stacks (k, V) of rays that cross (crossing (k,) bool) surfaces of `material` (k,) rows: entering the
+        material's medium through a front face, leaving it through a back face (backfacing (k,) bool); a copy.
+        Leaving a medium the ray is not in changes nothing (Cycles' volume_stack_enter_exit)."""
+        inside = inside.copy()
+        column = self.column[material]
+        rows = np.flatnonzero(crossing & (column >= 0))
+        if len(rows):
+            step = np.where(backfacing[rows], -1, 1).astype(np.int16)
+            np.add.at(inside, (rows, column[rows]), step)
+            np.maximum(inside, 0, out=inside)
+        return inside
+
+
+class Stretch(NamedTuple):
+    """The media n rays cross (Media.along): sigma_t, sigma_s, emission (n, 3) float64, g (n,) float64."""
+
+    sigma_t: np.ndarray
+    sigma_s: np.ndarray
+    emission: np.ndarray
+    g: np.ndarray
+
+    def rows(self, index) -> "Stretch":
+        """The stretch of the rays `index`."""
+        return Stretch(self.sigma_t[index], self.sigma_s[index], self.emission[index], self.g[index])
+
+    @property
+    def scatters(self) -> np.ndarray:
+        """Which rays cross a medium that scatters: (n,) bool."""
+        return (self.sigma_s > 0.0).any(axis=1)
+
+
+def emitted(stretch: Stretch, t: np.ndarray) -> np.ndarray:
+    """The light (n, 3) float64 a homogeneous medium's emission sends along rays over distances t (n,), as it arrives
+    at their start: the integral of exp(-sigma_t s) emission over 0 <= s < t, emission (1 - exp(-sigma_t t)) /
+    sigma_t (emission t where nothing is in the way; 0 where nothing is emitted)."""
+    t = np.asarray(t, np.float64)[:, None]
+    e, sigma = stretch.emission, stretch.sigma_t
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        value = np.where(sigma > 0.0, e * -np.expm1(-sigma * t) / np.where(sigma > 0.0, sigma, 1.0), e * t)
+    return np.where(e != 0.0, value, 0.0)
+
+
+def transmittance(sigma_t: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Beer-Lambert: the share exp(-sigma_t t) (n, 3) float64 of light that crosses distances t (n,) (inf: a ray
+    that escapes) through extinctions sigma_t (n, 3); 1 where sigma_t is 0, whatever the distance."""
+    t = np.asarray(t, np.float64)[:, None]
+    with np.errstate(invalid="ignore", over="ignore"):
+        return np.where(sigma_t > 0.0, np.exp(-sigma_t * t), 1.0)

@@ -1,0 +1,286 @@
+"""Homogeneous media read from Blender and rendered as Cycles renders them (issue 35's first slice): an absorbing
+cube in front of an emitter, a scattering cube under a lamp, a world's fog under a sun, each against Cycles' image;
+and the volume closures read from the node tree with what Primer does not model said."""
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+from render import load_primer  # noqa: E402
+
+from blender_env import empty_material, render_pixels  # noqa: E402
+
+pytestmark = [pytest.mark.blender]
+
+
+@pytest.fixture(scope="module")
+def primer():
+    return load_primer()
+
+
+def volume_material(name: str, kind: str, surface: str = None, **inputs):
+    """A material whose Volume output is a `kind` node with `inputs` (socket name with spaces as underscores ->
+    value) and whose Surface is a `surface` node, or nothing."""
+    m, tree, output = empty_material(name)
+    node = tree.nodes.new(kind)
+    for key, value in inputs.items():
+        socket = node.inputs[key.replace("_", " ")]
+        socket.default_value = (*value, 1.0) if isinstance(value, tuple) and len(value) == 3 else value
+    tree.links.new(node.outputs[0], output.inputs["Volume"])
+    if surface is not None:
+        tree.links.new(tree.nodes.new(surface).outputs[0], output.inputs["Surface"])
+    return m, node
+
+
+def emitting_material(name: str, color, strength: float = 1.0):
+    """A material that only emits color x strength."""
+    m, tree, output = empty_material(name)
+    node = tree.nodes.new("ShaderNodeEmission")
+    node.inputs["Color"].default_value = (*color, 1.0)
+    node.inputs["Strength"].default_value = strength
+    tree.links.new(node.outputs[0], output.inputs["Surface"])
+    return m
+
+
+def box(name: str, location, size, material):
+    """A cube object of edge lengths `size` at `location` with `material`."""
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=location)
+    obj = bpy.context.object
+    obj.name = name
+    obj.scale = size
+    obj.data.materials.append(material)
+    return obj
+
+
+def ortho_scene(width: int, height: int, scale: float):
+    """An empty scene with a black world and an orthographic camera 6 above the origin looking down."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.world = bpy.data.worlds.new("World")
+    scene.world.color = (0.0, 0.0, 0.0)
+    for node in scene.world.node_tree.nodes if scene.world.node_tree is not None else ():
+        if node.bl_idname == "ShaderNodeBackground":      # (Blender 5's new worlds have a grey Background node)
+            node.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale = "ORTHO", scale
+    camera.location = (0.0, 0.0, 6.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    return scene
+
+
+def test_absorbing_cubes_in_front_of_an_emitter_let_through_exp_of_minus_sigma_d_as_in_cycles(primer, tmp_path):
+    """An emitting plane seen from above through two absorbing cubes 0.8 thick: one whose material has only a Volume
+    (its surface is no surface), one with a Transparent surface of 0.9 around the same medium. Each pixel behind
+    them is the plane's emission x exp(-density (1 - colour) 0.8) (x 0.9^2 through the two transparent faces), per
+    channel, in Primer and in Cycles (both to float32 rounding: no noise without scattering)."""
+    scene = ortho_scene(16, 8, 4.0)
+    glow = np.array([1.0, 0.8, 0.5])
+    bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, 0.0))
+    bpy.context.object.data.materials.append(emitting_material("Glow", glow))
+    color, density, depth = (0.3, 0.6, 0.9), 1.2, 0.8
+    fog, _ = volume_material("Fog", "ShaderNodeVolumeAbsorption", Color=color, Density=density)
+    glass, _ = volume_material("Clear", "ShaderNodeVolumeAbsorption", "ShaderNodeBsdfTransparent", Color=color,
+                               Density=density)
+    glass.node_tree.nodes["Transparent BSDF"].inputs["Color"].default_value = (0.9, 0.9, 0.9, 1.0)
+    box("Fog", (-1.0, 0.0, 1.5), (1.0, 1.0, depth), fog)           # (edges on pixel edges: every pixel one value)
+    box("Clear", (1.0, 0.0, 1.5), (1.0, 1.0, depth), glass)
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16)[..., :3]
+    through = glow * np.exp(-density * (1.0 - np.array(color)) * depth)
+    # (rows bottom first; pixel (row, column) centres: x = -2 + (c + 0.5) / 4, y = -1 + (r + 0.5) / 4)
+    expected = np.broadcast_to(glow, mine.shape).copy()
+    expected[2:6, 2:6] = through
+    expected[2:6, 10:14] = through * 0.81
+    np.testing.assert_allclose(mine, expected, rtol=1e-5)
+    np.testing.assert_allclose(cycles, expected, rtol=1e-5)
+
+
+def relative_mse(primer_image, cycles_image) -> float:
+    """The project's error measure (core/film/compare.py): relative MSE of 4 x 4 block means."""
+    from importlib import import_module
+    compare = import_module(load_primer().__name__ + ".core.film.compare")
+    return compare.relative_mse_of_blocks(primer_image, cycles_image)
+
+
+def lamp(scene, name: str, kind: str, location, energy: float):
+    """A lamp of `kind` with no radius (a point, or a sun with no angle) at `location`."""
+    obj = bpy.data.objects.new(name, bpy.data.lights.new(name, kind))
+    scene.collection.objects.link(obj)
+    obj.location = location
+    obj.data.energy = energy
+    if kind == "SUN":
+        obj.data.angle = 0.0
+    else:
+        obj.data.shadow_soft_size = 0.0
+    return obj
+
+
+def perspective_scene(width: int, height: int):
+    """An empty scene, a black world, a grey floor at z = -1 and a camera looking down at the origin."""
+    from blender_env import diffuse_material
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.world = bpy.data.worlds.new("World")
+    scene.world.color = (0.0, 0.0, 0.0)
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location, camera.rotation_euler = (0.0, -6.0, 2.5), (1.2, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    bpy.ops.mesh.primitive_plane_add(size=20.0, location=(0.0, 0.0, -1.0))
+    bpy.context.object.data.materials.append(diffuse_material("Floor"))
+    scene.primer.integrator = "PATH"
+    return scene
+
+
+def test_scattering_cubes_under_a_point_lamp_render_as_in_cycles(primer, tmp_path):
+    """A Volume Scatter cube (coloured, forward-scattering, g 0.3) and a Principled Volume cube (absorption colour,
+    emission, g -0.2) over a floor, lit by a point lamp, path traced: single scattering (Volume Bounces 0, Cycles'
+    default), transmittance on camera, bounce and shadow rays, volume emission. Primer 256 samples against Cycles
+    1024 on 32 x 24: block relative MSE 2.4e-6 measured, below Cycles' own noise (Cycles 256 against its 2048:
+    6.0e-6; Primer 1024 against Cycles 2048: 1.5e-6, each channel's mean within 0.03%); the bound 6e-5 is ten times
+    Cycles' noise at 256 samples, the channels' means within 0.5%."""
+    scene = perspective_scene(32, 24)
+    scatter, _ = volume_material("Fog", "ShaderNodeVolumeScatter", Color=(0.8, 0.6, 0.4), Density=1.5,
+                                 Anisotropy=0.3)
+    smoke, _ = volume_material("Smoke", "ShaderNodeVolumePrincipled", Color=(0.4, 0.7, 0.9), Density=2.0,
+                               Anisotropy=-0.2, Absorption_Color=(0.5, 0.2, 0.1), Emission_Strength=0.3,
+                               Emission_Color=(1.0, 0.4, 0.1))
+    box("Fog", (-1.2, 0.0, 0.3), (1.6, 1.6, 1.6), scatter)
+    box("Smoke", (1.2, 0.5, 0.0), (1.4, 1.4, 1.4), smoke)
+    lamp(scene, "Lamp", "POINT", (1.5, -1.0, 2.5), 300.0)
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
+    error = relative_mse(mine, cycles)
+    print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
+    assert error < 6e-5
+    np.testing.assert_allclose(mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=5e-3)
+
+
+def test_a_world_fog_scatters_a_point_lamp_and_blocks_the_sun_as_in_cycles(primer, tmp_path):
+    """A world Volume Scatter (density 0.08) around a floor, a diffuse cube, a point lamp and a sun: the fog glows
+    around the lamp, and the sun, whose shadow rays cross infinitely much fog (exp(-sigma_t inf) = 0), lights
+    nothing, in Primer as in Cycles. Primer 256 samples against Cycles 1024 on 32 x 24: block relative MSE 3.1e-5
+    measured, below Cycles' own noise (Cycles 1024 against its 4096: 4.0e-5; Primer 1024 against Cycles 4096:
+    1.3e-5, each channel's mean within 0.05%; on Blender 5.2: 9.1e-5, Cycles 1024 against its 4096 7.4e-5, Primer
+    1024 against Cycles 4096 8.7e-6); the bound is the issue's measure 1.5e-4, twice Cycles' own noise. (A point
+    lamp's own pixel in fog is left out of the frame: the light scattered right at a lamp has an estimate of
+    unbounded variance in both renderers, 1 / the ray's distance to the lamp.)"""
+    from blender_env import diffuse_material
+    scene = perspective_scene(32, 24)
+    tree = scene.world.node_tree if scene.world.node_tree is not None else None
+    if tree is None:
+        scene.world.use_nodes = True
+        tree = scene.world.node_tree
+    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld")
+    background = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeBackground"), None)
+    if background is not None:
+        background.inputs["Strength"].default_value = 0.0
+    fog = tree.nodes.new("ShaderNodeVolumeScatter")
+    fog.inputs["Density"].default_value = 0.08
+    fog.inputs["Color"].default_value = (0.9, 0.8, 0.7, 1.0)
+    tree.links.new(fog.outputs[0], output.inputs["Volume"])
+    box("Cube", (0.0, 0.5, 0.0), (1.5, 1.5, 1.5), diffuse_material("Cube", (0.5, 0.6, 0.8)))
+    lamp(scene, "Lamp", "POINT", (-1.5, 0.0, 2.3), 200.0)             # (above the frame: its own pixel is no test)
+    lamp(scene, "Sun", "SUN", (0.0, 0.0, 5.0), 3.0)
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
+    error = relative_mse(mine, cycles)
+    print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
+    assert error < 1.5e-4
+    np.testing.assert_allclose(mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=5e-3)
+
+
+def test_volume_closures_are_read_through_mixes_and_what_is_not_modelled_is_said(primer):
+    """A Mix Shader (factor 0.25) of a Volume Absorption and a Volume Scatter reads as both closures with weights 0.75
+    and 0.25; a Volume Scatter with the Rayleigh phase and a density fed by a Noise Texture (heterogeneous: left
+    out) are each named in one warning, a Principled Volume's Blackbody Intensity is read; Volume Bounces 1 is
+    noted; with the view layer's Volumes off no material keeps a medium."""
+    import importlib
+    materials_ = importlib.import_module(primer.__name__ + ".addon.materials")
+    export = importlib.import_module(primer.__name__ + ".addon.export")
+    scene = ortho_scene(4, 4, 4.0)
+    m, tree, output = empty_material("Mixed")
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = 0.25
+    absorb, scatter = tree.nodes.new("ShaderNodeVolumeAbsorption"), tree.nodes.new("ShaderNodeVolumeScatter")
+    tree.links.new(absorb.outputs[0], mix.inputs[1])
+    tree.links.new(scatter.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], output.inputs["Volume"])
+    warnings = []
+    closures = materials_.export_material(m, warnings).volume
+    assert [(name, weight) for name, weight, _ in closures] == [("ABSORPTION", 0.75), ("SCATTER", 0.25)]
+    assert warnings == []
+    rayleigh, node = volume_material("Rayleigh", "ShaderNodeVolumeScatter")
+    node.phase = "RAYLEIGH"
+    flame, _ = volume_material("Flame", "ShaderNodeVolumePrincipled", Blackbody_Intensity=1.0)
+    cloud, node = volume_material("Cloud", "ShaderNodeVolumeScatter")
+    cloud.node_tree.links.new(cloud.node_tree.nodes.new("ShaderNodeTexNoise").outputs["Fac"], node.inputs["Density"])
+    for name, obj_material in (("A", rayleigh), ("B", flame), ("C", cloud)):
+        box(name, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), obj_material)
+    scene.cycles.volume_bounces = 1
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    for phrase in ("phase function RAYLEIGH", "heterogeneous medium",
+                   "Volume Bounces 1"):
+        assert len([w for w in exported.warnings if phrase in w]) == 1, (phrase, exported.warnings)
+    volumes = {material.name: material.volume for material in exported.scene.materials}
+    assert volumes["Cloud"] == [] and volumes["Rayleigh"][0][0] == "SCATTER"
+    assert volumes["Flame"][0][2]["blackbody_intensity"] == 1.0 and not [w for w in exported.warnings if "Flame" in w]
+    bpy.context.view_layer.use_volumes = False                   # View Layer > Filter > Volumes off: no media
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    assert all(material.volume == [] for material in exported.scene.materials)
+
+
+def test_emitting_media_glow_as_in_cycles(primer, tmp_path):
+    """Over black, seen from above: a Principled Volume of black Color (absorbing, not scattering) with Emission and a
+    black body at 1500 K, and a volume-only cube whose Volume is an Emission node mixed half and half with a Volume
+    Absorption. Each glows e (1 - exp(-sigma_a d)) / sigma_a, as Cycles renders them, pixel for pixel within 2e-4
+    relative (measured on Blender 5.0 1.4e-6: Cycles integrates a homogeneous medium's emission in closed form too;
+    the black body's colour unclipped, its blue below 0 at 1500 K, as Cycles uses it there; on 5.2 the black body's
+    red differs by 1.2e-4)."""
+    scene = ortho_scene(16, 8, 4.0)
+    flame, _ = volume_material("Flame", "ShaderNodeVolumePrincipled", Color=(0.0, 0.0, 0.0), Density=2.0,
+                               Emission_Strength=0.5, Emission_Color=(0.2, 0.4, 1.0), Blackbody_Intensity=1.0,
+                               Temperature=1500.0)
+    box("Flame", (-1.0, 0.0, 1.5), (1.0, 1.0, 0.8), flame)
+    m, tree, output = empty_material("Glow")
+    mix, glow = tree.nodes.new("ShaderNodeMixShader"), tree.nodes.new("ShaderNodeEmission")
+    glow.inputs["Color"].default_value, glow.inputs["Strength"].default_value = (1.0, 0.6, 0.2, 1.0), 2.0
+    absorb = tree.nodes.new("ShaderNodeVolumeAbsorption")
+    absorb.inputs["Color"].default_value, absorb.inputs["Density"].default_value = (0.5, 0.5, 0.5, 1.0), 3.0
+    tree.links.new(glow.outputs[0], mix.inputs[1])
+    tree.links.new(absorb.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], output.inputs["Volume"])
+    box("Glow", (1.0, 0.0, 1.5), (1.0, 1.0, 0.8), m)
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16)[..., :3]
+    sigma = 0.5 * 3.0 * 0.5
+    glow_expected = 0.5 * np.array([2.0, 1.2, 0.4]) * (1.0 - np.exp(-sigma * 0.8)) / sigma
+    np.testing.assert_allclose(mine[2:6, 10:14], np.broadcast_to(glow_expected, (4, 4, 3)), rtol=1e-5)
+    np.testing.assert_allclose(mine, cycles, rtol=2e-4, atol=1e-7)
+
+
+def test_a_glass_sphere_holding_an_absorbing_medium_renders_as_in_cycles(primer, tmp_path):
+    """A smooth Glass sphere (IOR 1.45) whose material's Volume absorbs, over an emitter: the rays refracted into it
+    enter its medium and leave it where they refract out (the volume stack follows transmission, not only clear
+    surfaces). Primer 256 samples against Cycles 1024 on 16 x 8: block relative MSE 6.1e-6 measured; bound 6e-5."""
+    scene = ortho_scene(16, 8, 4.0)
+    bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, 0.0))
+    bpy.context.object.data.materials.append(emitting_material("Glow", (1.0, 0.8, 0.5)))
+    glass, _ = volume_material("Glass", "ShaderNodeVolumeAbsorption", "ShaderNodeBsdfGlass", Color=(0.3, 0.6, 0.9),
+                               Density=1.2)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.8, location=(0.0, 0.0, 1.5))
+    bpy.ops.object.shade_smooth()
+    bpy.context.object.data.materials.append(glass)
+    scene.primer.integrator = "PATH"
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
+    assert relative_mse(mine, cycles) < 6e-5
