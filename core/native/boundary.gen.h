@@ -173,7 +173,7 @@
 enum {
     BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4,
     BSDF_ROUGH_GLASS = 5, BSDF_OREN_NAYAR = 6, BSDF_SHEEN = 7, BSDF_VELVET = 8, BSDF_TRANSLUCENT = 9,
-    BSDF_COUNT = 10
+    BSDF_BECKMANN = 10, BSDF_BECKMANN_GLASS = 11, BSDF_ASHIKHMIN_SHIRLEY = 12, BSDF_COUNT = 13
 };
 
 /* core/materials/base.py BSDFFlags: what a BSDF is */
@@ -194,6 +194,9 @@ static const int BSDF_FLAGS[BSDF_COUNT] = {
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* Sheen */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_GLOSSY_TYPE,   /* Velvet */
     BSDF_FLAG_TRANSMISSION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* Translucent */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* Beckmann */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLASS_TYPE,   /* BeckmannGlass */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* AshikhminShirley */
 };
 /* Whether a bsdf of kind `kind` has any of `flags` (0 for kind -1: none). */
 INLINE int bsdf_is(int kind, int flags)
@@ -202,7 +205,7 @@ INLINE int bsdf_is(int kind, int flags)
 }
 
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
-static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1};
+static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
@@ -787,7 +790,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7970075878531503461);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(8541145842328541273);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7540884240984156999);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3574520478765727059);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
@@ -800,7 +803,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(2679673540171007921);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
-    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7667246339315466006);
+    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(4598671514434913230);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(2011846935204343166);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
