@@ -148,6 +148,10 @@
 #define GEOM_OBJECT_NORMAL 6
 #define GEOM_REFLECTION 7
 #define GEOM_RAY_LENGTH 8
+/* a Glossy, Glass or Refraction node's microfacet distribution (nodes.DISTRIBUTIONS) (core.materials.nodes) */
+#define DISTRIBUTION_GGX 0
+#define DISTRIBUTION_BECKMANN 1
+#define DISTRIBUTION_ASHIKHMIN_SHIRLEY 2
 /* an image node's interpolation (INTERPOLATIONS) (core.materials.textures) */
 #define TEX_LINEAR 0
 #define TEX_CLOSEST 1
