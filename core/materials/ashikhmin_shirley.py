@@ -89,16 +89,17 @@ class AshikhminShirley(BSDF):
         return np.repeat(f_cos[:, None], 3, axis=1), pdf
 
     @staticmethod
-    def sample(params, N, wo, u):
+    def half_vectors(params: np.ndarray, N: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Half vectors H (m, 3) drawn from p(H) with u (m, 2), around N (m, 3) (before `sample` turns those facing
+        away from the view)."""
         ax, ay, aniso = alphas(params)
-        cos_NI = mf.dot(N, wo)
         n_x, n_y = exponent(np.maximum(ax, 1e-300)), exponent(np.maximum(ay, 1e-300))
         # 1. The frame: the tangent's where anisotropic.
         t, b = vectors.orthonormal_frame(N)
         if aniso.any():
             X, Y = mf.tangent_frame(N, np.where(aniso[:, None], params[:, mf.TANGENT:mf.TANGENT + 3], [1.0, 0.0, 0.0]))
             t, b = np.where(aniso[:, None], X, t), np.where(aniso[:, None], Y, b)
-        # 2. The half vector's angles: phi uniform and the isotropic exponent, or a quadrant's phi and its exponent.
+        # 2. The angles: phi uniform and the isotropic exponent, or a quadrant's phi and its exponent.
         phi, cos_theta = 2.0 * math.pi * u[:, 0], u[:, 1] ** (1.0 / (n_x + 1.0))
         if aniso.any():
             quadrant = np.minimum((u[:, 0] * 4.0).astype(np.int64), 3)
@@ -106,16 +107,20 @@ class AshikhminShirley(BSDF):
             q_phi, q_cos = first_quadrant(n_x, n_y, u0, u[:, 1])
             q_phi = np.choose(quadrant, [q_phi, math.pi - q_phi, math.pi + q_phi, 2.0 * math.pi - q_phi])
             phi, cos_theta = np.where(aniso, q_phi, phi), np.where(aniso, q_cos, cos_theta)
-        # 3. The half vector, turned to face wo, and the direction made from it (Cycles' arithmetic).
         sin_theta = np.sqrt(np.maximum(1.0 - cos_theta * cos_theta, 0.0))
         cos_phi, sin_phi = np.cos(phi), np.sin(phi)
-        H = t * (sin_theta * cos_phi)[:, None] + b * (sin_theta * sin_phi)[:, None] + N * cos_theta[:, None]
+        return t * (sin_theta * cos_phi)[:, None] + b * (sin_theta * sin_phi)[:, None] + N * cos_theta[:, None]
+
+    @staticmethod
+    def sample(params, N, wo, u):
+        # 1. A half vector, turned to face wo, and the direction made from it (Cycles' arithmetic).
+        H = AshikhminShirley.half_vectors(params, N, u)
         cos_HI = mf.dot(H, wo)
         H = np.where((cos_HI < 0.0)[:, None], -H, H)
         wi = 2.0 * cos_HI[:, None] * H - wo
         wi /= np.maximum(np.sqrt(mf.dot(wi, wi)), 1e-300)[:, None]
-        # 4. Its value and pdf, from eval.
+        # 2. Its value and pdf, from eval.
         f_cos, pdf = AshikhminShirley.eval(params, N, wo, wi)
-        pdf = np.where(cos_NI > 0.0, pdf, 0.0)
+        pdf = np.where(mf.dot(N, wo) > 0.0, pdf, 0.0)
         weight = np.divide(f_cos, pdf[:, None], out=np.zeros_like(f_cos), where=pdf[:, None] > 0.0)
         return BsdfSample(wi, weight, pdf)
