@@ -88,18 +88,20 @@ INLINE void ashikhmin_shirley_sample(const Closure *c, const double *wo, const d
         as_first_quadrant(n_x, n_y, u0, u[1], &q_phi, &cos_theta);
         phi = quadrant == 0 ? q_phi : quadrant == 1 ? PI - q_phi : quadrant == 2 ? PI + q_phi : 2.0 * PI - q_phi;
     }
-    /* 3. The half vector, turned to face wo, and the direction made from it (Cycles' arithmetic), normalised. */
+    /* 3. The half vector, turned to face wo, and the direction made from it (Cycles' arithmetic). */
     double sin_theta = sqrt(at_least(1.0 - cos_theta * cos_theta, 0.0));
     double cos_phi = cos(phi), sin_phi = sin(phi), H[3];
     for (int k = 0; k < 3; k++) H[k] = (t[k] * (sin_theta * cos_phi) + b[k] * (sin_theta * sin_phi)) + N[k] * cos_theta;
     double cos_HI = dot3(H, wo);
     if (cos_HI < 0.0) for (int k = 0; k < 3; k++) H[k] = -H[k];
-    for (int k = 0; k < 3; k++) out->wi[k] = 2.0 * cos_HI * H[k] - wo[k];
-    double length = at_least(sqrt(dot3(out->wi, out->wi)), 1e-300);
-    for (int k = 0; k < 3; k++) out->wi[k] /= length;
-    /* 4. Its value and pdf, from eval. */
+    double raw[3];
+    for (int k = 0; k < 3; k++) raw[k] = 2.0 * cos_HI * H[k] - wo[k];
+    /* 4. Its value and pdf from eval at that vector as it is (longer than 1 where H was turned, as Cycles
+     *    evaluates it), and the direction made unit for the ray. */
     double f_cos[3];
-    ashikhmin_shirley_eval(c, wo, out->wi, f_cos, &out->pdf);
+    ashikhmin_shirley_eval(c, wo, raw, f_cos, &out->pdf);
+    double length = at_least(sqrt(dot3(raw, raw)), 1e-300);
+    for (int k = 0; k < 3; k++) out->wi[k] = raw[k] / length;
     if (!(cos_NI > 0.0)) out->pdf = 0.0;
     for (int k = 0; k < 3; k++) out->weight[k] = out->pdf > 0.0 ? f_cos[k] / out->pdf : 0.0;
 }

@@ -12,8 +12,11 @@ cosine at least 1e-6),
 
 so f cos / pdf = N.wi / max(N.wo, N.wi): no masking term, and sampling the half vector from p(H) (phi uniform,
 or per quadrant from the exponents' ratio; cos theta = u^(1 / (n + 1)) with n the exponent at phi) cancels most of
-it. A half vector facing away from wo is turned round, and the direction made from it as Cycles does (wi =
-2 (H.wo) H' - wo with H' the turned normal: not a mirror direction, only at grazing views; Primer normalises it).
+it. A half vector H facing away from wo is turned round, and the direction made from it as Cycles does:
+2 (H.wo) (-H) - wo, not the mirror direction and longer than 1; its weight and pdf are eval's at that long vector
+(so N.wi in them is longer too, and the half vector eval finds is H again), and the ray goes along it made unit,
+as Cycles' does. That sampler's directions are not distributed as eval's pdf says (a few percent of the samples
+at grazing views and broad lobes); matching it keeps Primer within Cycles' noise (tests/test_blender_distributions.py).
 Roughness below 0.01 (both alphas at the clamp) is a perfect mirror, which the node's setup gives instead.
 """
 from __future__ import annotations
@@ -55,6 +58,7 @@ class AshikhminShirley(BSDF):
     name: ClassVar[str] = "ASHIKHMIN_SHIRLEY"
     flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE
     params: ClassVar[tuple] = mf.Microfacet.params
+    sample_is_eval: ClassVar[bool] = False       # turned half vectors (module docstring)
 
     @staticmethod
     def singular(params: np.ndarray) -> np.ndarray:
@@ -117,10 +121,11 @@ class AshikhminShirley(BSDF):
         H = AshikhminShirley.half_vectors(params, N, u)
         cos_HI = mf.dot(H, wo)
         H = np.where((cos_HI < 0.0)[:, None], -H, H)
-        wi = 2.0 * cos_HI[:, None] * H - wo
-        wi /= np.maximum(np.sqrt(mf.dot(wi, wi)), 1e-300)[:, None]
-        # 2. Its value and pdf, from eval.
-        f_cos, pdf = AshikhminShirley.eval(params, N, wo, wi)
+        raw = 2.0 * cos_HI[:, None] * H - wo
+        # 2. Its value and pdf, from eval at that direction as it is (a turned one is longer than 1: Cycles
+        #    evaluates it so), and the direction made unit for the ray.
+        f_cos, pdf = AshikhminShirley.eval(params, N, wo, raw)
+        wi = raw / np.maximum(np.sqrt(mf.dot(raw, raw)), 1e-300)[:, None]
         pdf = np.where(mf.dot(N, wo) > 0.0, pdf, 0.0)
         weight = np.divide(f_cos, pdf[:, None], out=np.zeros_like(f_cos), where=pdf[:, None] > 0.0)
         return BsdfSample(wi, weight, pdf)

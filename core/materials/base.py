@@ -92,6 +92,8 @@ class BSDF:
     name:   the name a Material uses to choose it
     flags:  what it is (BSDFFlags)
     params: the names of its parameters, in their slots of a closure's parameter row
+    sample_is_eval: whether `sample`'s weight and pdf are always eval's at the direction it returns (not so for
+            Ashikhmin-Shirley, whose sampler, as Cycles', weighs some directions by eval at a longer vector)
     Arguments: params (m, PARAMS) float64; N, wo, wi (m, 3) float64 unit; u (m, 2) or (m, 3) float64 in
     [0, 1): two numbers for the direction, and a third for a BSDF that chooses between lobes (rough glass).
     """
@@ -100,6 +102,7 @@ class BSDF:
     name: ClassVar[str] = ""
     flags: ClassVar[BSDFFlags] = BSDFFlags(0)
     params: ClassVar[tuple] = ()
+    sample_is_eval: ClassVar[bool] = True
     # The table (core/materials/registry.py fills it): every BSDF class by kind, and their flags by kind.
     types: ClassVar[tuple] = ()
     flag_table: ClassVar[np.ndarray] = np.zeros(1, np.int64)
