@@ -56,9 +56,8 @@ class AshikhminShirley(BSDF):
     """Ashikhmin-Shirley reflection (module docstring); params: Microfacet's slots (alpha, alpha_y, tangent)."""
 
     name: ClassVar[str] = "ASHIKHMIN_SHIRLEY"
-    flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE
+    flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE | F.OWN_WEIGHT      # (turned half vectors)
     params: ClassVar[tuple] = mf.Microfacet.params
-    sample_is_eval: ClassVar[bool] = False       # turned half vectors (module docstring)
 
     @staticmethod
     def singular(params: np.ndarray) -> np.ndarray:

@@ -58,6 +58,11 @@ class BSDFFlags(enum.IntFlag):
     _TRANSMISSION, CLOSURE_IS_GLASS): which light passes and colour passes its light goes to, whether bump shadowing
     darkens it, and which closures a light hidden from some kinds of ray leaves out (core/integrators/direct.py).
     A closure may be labelled diffuse but be of the glossy family (the Ashikhmin velvet), as in Cycles.
+
+    OWN_WEIGHT    its `sample` weighs some directions otherwise than `eval` does at them (Ashikhmin-Shirley's half
+                  vectors turned to face the view, as Cycles' sampler does): where it is the sampled closure, the
+                  closure mixture keeps its own sampled f cos and pdf and adds the others' eval, as Cycles does
+                  for every sampled closure (closures.sample_closures)
     """
 
     REFLECTION = 1 << 0
@@ -70,6 +75,7 @@ class BSDFFlags(enum.IntFlag):
     GLOSSY_TYPE = 1 << 7
     TRANSMISSION_TYPE = 1 << 8
     GLASS_TYPE = 1 << 9
+    OWN_WEIGHT = 1 << 10
 
 
 class BsdfSample(NamedTuple):
@@ -92,8 +98,6 @@ class BSDF:
     name:   the name a Material uses to choose it
     flags:  what it is (BSDFFlags)
     params: the names of its parameters, in their slots of a closure's parameter row
-    sample_is_eval: whether `sample`'s weight and pdf are always eval's at the direction it returns (not so for
-            Ashikhmin-Shirley, whose sampler, as Cycles', weighs some directions by eval at a longer vector)
     Arguments: params (m, PARAMS) float64; N, wo, wi (m, 3) float64 unit; u (m, 2) or (m, 3) float64 in
     [0, 1): two numbers for the direction, and a third for a BSDF that chooses between lobes (rough glass).
     """
@@ -102,7 +106,6 @@ class BSDF:
     name: ClassVar[str] = ""
     flags: ClassVar[BSDFFlags] = BSDFFlags(0)
     params: ClassVar[tuple] = ()
-    sample_is_eval: ClassVar[bool] = True
     # The table (core/materials/registry.py fills it): every BSDF class by kind, and their flags by kind.
     types: ClassVar[tuple] = ()
     flag_table: ClassVar[np.ndarray] = np.zeros(1, np.int64)
