@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
+from ..core.materials import nodes as nodes_
 from ..core.materials import sky as sky_
 from ..core.materials import textures as textures_
 from ..core.materials.graph import GraphNode, Link
@@ -44,6 +45,10 @@ PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Rough
 PRINCIPLED_LEFT_OUT = {"Subsurface Weight": "approximates subsurface scattering by diffuse reflection",
                       "Dispersion": "refracts every wavelength alike (no dispersion)"}
 GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
+# A Glossy, Glass or Refraction node's distribution as the closure's `distribution` input (Multiscatter GGX is GGX
+# with `multiscatter`); the Glass and Refraction nodes offer all but Ashikhmin-Shirley.
+DISTRIBUTIONS = {"GGX": nodes_.GGX, "MULTI_GGX": nodes_.GGX, "BECKMANN": nodes_.BECKMANN,
+                 "ASHIKHMIN_SHIRLEY": nodes_.ASHIKHMIN_SHIRLEY}
 # Blender's nodes that add one closure of a BSDF, read alike: bl_idname -> core/materials node name (Node.blender).
 ONE_CLOSURE_NODES = {cls.blender: cls.name for cls in NODE_TYPES if cls.blender is not None}
 
@@ -885,11 +890,12 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             out.append(("DIFFUSE", weight * np.maximum(color, 0.0), inputs, list(factors)))
     elif kind in GLOSSY_IDS:
         distribution = getattr(node, "distribution", "GGX")
-        if distribution not in {"GGX", "MULTI_GGX"}:
-            reader.warn(node, f"distribution {distribution} is not GGX; Primer uses GGX")
+        if distribution not in DISTRIBUTIONS:
+            reader.warn(node, f"distribution {distribution} is not modelled; Primer uses GGX")
         color = reader.input(node, "Color", np.full(3, 0.8))
         inputs = {"roughness": reader.input(node, "Roughness", 0.5),
-                  "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0}
+                  "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0,
+                  "distribution": float(DISTRIBUTIONS.get(distribution, 0))}
         for socket, key in (("Anisotropy", "anisotropy"), ("Rotation", "rotation")):
             if node.inputs.get(socket) is not None:
                 inputs[key] = reader.input(node, socket, 0.0)
@@ -905,14 +911,15 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
     elif kind in ("ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction"):
         roughness = reader.input(node, "Roughness", 0.0)
         distribution = getattr(node, "distribution", "GGX")
-        if distribution not in {"GGX", "MULTI_GGX"} and (_linked(roughness) or float(np.max(roughness)) > 0.0):
-            reader.warn(node, f"distribution {distribution} is not GGX; Primer uses GGX")
+        if distribution not in DISTRIBUTIONS.keys() - {"ASHIKHMIN_SHIRLEY"}:
+            reader.warn(node, f"distribution {distribution} is not modelled; Primer uses GGX")
         # Colour and IOR as Cycles reads them, per hit where linked (the node clamps: colour >= 0, IOR >= 1e-5).
         color, ior = reader.input(node, "Color", np.ones(3)), reader.input(node, "IOR", 1.5)
         inputs = {"color": color if _linked(color) else np.maximum(color, 0.0),
                   "ior": ior if _linked(ior) else float(np.asarray(ior, np.float64).reshape(-1)[0]),
                   "refraction_only": 1.0 if kind == "ShaderNodeBsdfRefraction" else 0.0,
-                  "roughness": roughness, "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0}
+                  "roughness": roughness, "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0,
+                  "distribution": float(DISTRIBUTIONS.get(distribution, 0))}
         _normal(reader, node, inputs)
         out.append(("GLASS", weight, inputs, list(factors)))
     elif kind == "ShaderNodeEmission":

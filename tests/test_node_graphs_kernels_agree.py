@@ -41,7 +41,8 @@ def random_inputs(rng: np.random.Generator, name: str) -> tuple:
     if name == "DIFFUSE":
         return {"roughness": float(rng.choice([0.0, rng.uniform(0.0, 1.0)])), "color": color}, color
     if name == "GLOSSY":
-        return {"roughness": rough, "multiscatter": float(rng.integers(2)), "color": color}, color
+        return {"roughness": rough, "multiscatter": float(rng.integers(2)), "color": color,
+                "distribution": float(rng.integers(3))}, color
     if name == "PRINCIPLED":
         return {"base_color": color, "metallic": float(rng.choice([0.0, rng.uniform()])), "roughness": rough,
                 "ior": float(rng.uniform(1.1, 2.0)), "alpha": float(rng.choice([1.0, rng.uniform()])),
@@ -51,7 +52,8 @@ def random_inputs(rng: np.random.Generator, name: str) -> tuple:
                 "thin_film_thickness": float(rng.choice([0.0, 300.0]))}, np.ones(3)
     if name == "GLASS":
         return {"color": color, "ior": float(rng.uniform(1.1, 2.0)), "roughness": rough,
-                "refraction_only": float(rng.integers(2)), "multiscatter": float(rng.integers(2))}, np.ones(3)
+                "refraction_only": float(rng.integers(2)), "multiscatter": float(rng.integers(2)),
+                "distribution": float(rng.integers(2))}, np.ones(3)
     if name == "SHEEN":
         return {"roughness": float(rng.uniform(0.05, 1.0)), "velvet": float(rng.integers(2))}, color
     return {}, color if name in ("TRANSPARENT", "TRANSLUCENT", "MIRROR") else np.ones(3)

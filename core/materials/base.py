@@ -58,6 +58,11 @@ class BSDFFlags(enum.IntFlag):
     _TRANSMISSION, CLOSURE_IS_GLASS): which light passes and colour passes its light goes to, whether bump shadowing
     darkens it, and which closures a light hidden from some kinds of ray leaves out (core/integrators/direct.py).
     A closure may be labelled diffuse but be of the glossy family (the Ashikhmin velvet), as in Cycles.
+
+    OWN_WEIGHT    its `sample` weighs some directions otherwise than `eval` does at them (Ashikhmin-Shirley's half
+                  vectors turned to face the view, as Cycles' sampler does): where it is the sampled closure, the
+                  closure mixture keeps its own sampled f cos and pdf and adds the others' eval, as Cycles does
+                  for every sampled closure (closures.sample_closures)
     """
 
     REFLECTION = 1 << 0
@@ -70,6 +75,7 @@ class BSDFFlags(enum.IntFlag):
     GLOSSY_TYPE = 1 << 7
     TRANSMISSION_TYPE = 1 << 8
     GLASS_TYPE = 1 << 9
+    OWN_WEIGHT = 1 << 10
 
 
 class BsdfSample(NamedTuple):

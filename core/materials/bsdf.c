@@ -96,7 +96,7 @@ typedef struct {
 } ClosureSample;
 
 /* closures.sample_closures for one hit: pick a closure by sampling weight, sample it; unless a delta,
- * weight and pdf from all closures at that direction. */
+ * weight and pdf from all closures at that direction (an OWN_WEIGHT closure its own sampled share of them). */
 INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double *u, double pick, ClosureSample *out)
 {
     double total = 0.0, running = 0.0;
@@ -134,6 +134,18 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
     if (!(s.pdf > 0.0)) { out->kind = -1; return; }
     double f_cos[3];
     double pdf = shader_eval(sd, wo, out->wi, f_cos);
+    if (bsdf_is(c->kind, BSDF_FLAG_OWN_WEIGHT)) {       /* closures.own_weight: its sample's share, not its eval's */
+        double f_e[3], pdf_e, f_s[3], pdf_s = s.pdf;
+        bsdf_eval(c, wo, out->wi, f_e, &pdf_e);
+        for (int j = 0; j < 3; j++) f_s[j] = s.weight[j] * s.pdf;
+        if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
+            double term = bump_shadowing(sd->N, c->N, out->wi, bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE));
+            for (int j = 0; j < 3; j++) { f_e[j] *= term; f_s[j] *= term; }
+            if (term == 0.0) { pdf_e = 0.0; pdf_s = 0.0; }
+        }
+        for (int j = 0; j < 3; j++) f_cos[j] += c->weight[j] * (f_s[j] - f_e[j]);
+        pdf += c->sample_weight * (pdf_s - pdf_e) / total;
+    }
     for (int j = 0; j < 3; j++) out->weight[j] = pdf > 0.0 ? f_cos[j] / pdf : 0.0;
     out->pdf = pdf;
     if (!(pdf > 0.0)) out->kind = -1;

@@ -11,6 +11,9 @@
 #include "sheen.c"
 #include "velvet.c"
 #include "translucent.c"
+#include "beckmann.c"
+#include "beckmann_glass.c"
+#include "ashikhmin_shirley.c"
 
 /* BSDF.eval through the table: f cos of closure c for light from wi towards wo, and its pdf. A kind
  * outside the table (which core/materials refuses before C sees it) reflects nothing. */
@@ -27,6 +30,9 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
     case BSDF_SHEEN: sheen_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_VELVET: velvet_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_TRANSLUCENT: translucent_eval(c, wo, wi, f_cos, pdf); return;
+    case BSDF_BECKMANN: beckmann_eval(c, wo, wi, f_cos, pdf); return;
+    case BSDF_BECKMANN_GLASS: beckmann_glass_eval(c, wo, wi, f_cos, pdf); return;
+    case BSDF_ASHIKHMIN_SHIRLEY: ashikhmin_shirley_eval(c, wo, wi, f_cos, pdf); return;
     default: break;
     }
     f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
@@ -47,6 +53,9 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     case BSDF_SHEEN: sheen_sample(c, wo, u, out); return;
     case BSDF_VELVET: velvet_sample(c, wo, u, out); return;
     case BSDF_TRANSLUCENT: translucent_sample(c, wo, u, out); return;
+    case BSDF_BECKMANN: beckmann_sample(c, wo, u, out); return;
+    case BSDF_BECKMANN_GLASS: beckmann_glass_sample(c, wo, u, out); return;
+    case BSDF_ASHIKHMIN_SHIRLEY: ashikhmin_shirley_sample(c, wo, u, out); return;
     default: break;
     }
     out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
@@ -62,6 +71,8 @@ INLINE void bsdf_albedo(const Closure *c, const double *wo, double *R, double *T
     case BSDF_MICROFACET: microfacet_albedo(c, wo, R, T); return;
     case BSDF_GLASS: glass_albedo(c, wo, R, T); return;
     case BSDF_ROUGH_GLASS: rough_glass_albedo(c, wo, R, T); return;
+    case BSDF_BECKMANN: beckmann_albedo(c, wo, R, T); return;
+    case BSDF_BECKMANN_GLASS: beckmann_glass_albedo(c, wo, R, T); return;
     default: break;
     }
     R[0] = R[1] = R[2] = 1.0;

@@ -159,10 +159,36 @@ class ClosureSample(NamedTuple):
     kind: np.ndarray = None
 
 
+def own_weight(closures: Closures, wo: np.ndarray, wi: np.ndarray, total: np.ndarray, own: list, smooth: np.ndarray,
+               f_cos: np.ndarray, pdf: np.ndarray) -> tuple:
+    """The mixture's (f cos (m, 3), pdf (m,)) at the sampled directions of the rows `smooth` (m,), with each sampled
+    OWN_WEIGHT closure's eval there (own: (bsdf, rows, slots, sample) per kind) replaced by its sample's f cos and pdf
+    (BSDFFlags.OWN_WEIGHT), bump shadowing as eval_closures applies it."""
+    if not own:
+        return f_cos, pdf
+    f_cos, pdf = f_cos.copy(), pdf.copy()
+    place = np.full(len(wo), -1)
+    place[smooth] = np.arange(len(smooth))
+    for bsdf, at, c, s in own:
+        mine = place[at] >= 0
+        at, c, s_weight, s_pdf = at[mine], c[mine], s.weight[mine], s.pdf[mine]
+        f_e, pdf_e = bsdf.eval(closures.params[at, c], closures.N[at, c], wo[at], wi[at])
+        f_s = s_weight * s_pdf[:, None]
+        if closures.Ns is not None:
+            term = bump_shadowing(closures.Ns[at, c], closures.N[at, c], wi[at], bsdf.is_(F.DIFFUSE_TYPE))
+            if term is not None:
+                f_e, f_s = f_e * term[:, None], f_s * term[:, None]
+                pdf_e, s_pdf = np.where(term == 0.0, 0.0, pdf_e), np.where(term == 0.0, 0.0, s_pdf)
+        rows = place[at]
+        f_cos[rows] += closures.weight[at, c] * (f_s - f_e)
+        pdf[rows] += closures.sample_weight[at, c] * (s_pdf - pdf_e) / total[at]
+    return f_cos, pdf
+
+
 def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.ndarray) -> ClosureSample:
     """Sample a direction: choose a closure in proportion to its sampling weight (pick (n,) in [0, 1)),
     sample it with u (n, 2); then, unless it is a delta, weight and pdf from all closures at that
-    direction (one-sample MIS with the balance heuristic)."""
+    direction (one-sample MIS with the balance heuristic); an OWN_WEIGHT closure its own sampled share of them."""
     n, slots = closures.kind.shape
     total = closures.sample_weight.sum(axis=1)
     running = np.cumsum(closures.sample_weight, axis=1)
@@ -177,6 +203,7 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
     u = np.column_stack([u[:, 0], u[:, 1], np.clip(within, 0.0, np.nextafter(1.0, 0.0))])
     wi, weight, pdf = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
     delta = np.zeros(n, bool)
+    own = []                                        # OWN_WEIGHT closures sampled: (bsdf, rows, slots, sample)
     for k in np.unique(kind):
         if k < 0:
             continue
@@ -193,10 +220,13 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
             delta[at] = True
         else:
             pdf[at] = s.pdf                         # (replaced by the combined pdf below)
+            if bsdf.is_(F.OWN_WEIGHT):
+                own.append((bsdf, at, c, s))
     smooth = np.flatnonzero(~delta & (pdf > 0))
     if len(smooth):
         part = closures.rows(smooth)
         f_cos, combined = eval_closures(part, wo[smooth], wi[smooth])
+        f_cos, combined = own_weight(closures, wo, wi, total, own, smooth, f_cos, combined)
         weight[smooth] = np.divide(f_cos, combined[:, None], out=np.zeros_like(f_cos), where=combined[:, None] > 0)
         pdf[smooth] = combined
     return ClosureSample(wi, weight, pdf, delta, np.where(pdf > 0.0, kind, -1).astype(np.int32))

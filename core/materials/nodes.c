@@ -120,9 +120,11 @@ INLINE double table_roughness(const double *p)
     return mf_is_anisotropic(p) ? sqrt(sqrt(p[MF_ALPHA] * p[MF_ALPHA_Y])) : sqrt(p[MF_ALPHA]);
 }
 
-/* GlossyLobe.add: append the closure (albedo: its Fresnel estimate or NULL; Fss: multiscatter's average
- * Fresnel or NULL for none); `weight` becomes the closure's weight after darkening. */
-INLINE void lobe_add(ShaderResult *sd, double mu, double *weight, double *p, const double *albedo, const double *Fss)
+/* GlossyLobe.add: append the closure of BSDF `kind` (BSDF_MICROFACET: GGX, BSDF_BECKMANN, BSDF_ASHIKHMIN_SHIRLEY;
+ * albedo: its Fresnel estimate or NULL; Fss: multiscatter's average Fresnel or NULL for none); `weight` becomes the
+ * closure's weight after darkening. */
+INLINE void lobe_add_as(ShaderResult *sd, double mu, double *weight, double *p, const double *albedo, const double *Fss,
+                        int kind)
 {
     double rough = table_roughness(p);
     double allocated[3] = {weight[0], weight[1], weight[2]};
@@ -143,8 +145,11 @@ INLINE void lobe_add(ShaderResult *sd, double mu, double *weight, double *p, con
         }
     }
     double closure_weight[3] = {weight[0], weight[1], weight[2]};
-    int kind = BSDF_MICROFACET;
-    if ((mf_is_anisotropic(p) ? p[MF_ALPHA] * p[MF_ALPHA_Y] : p[MF_ALPHA] * p[MF_ALPHA]) <= ROUGHNESS_SQ_THRESHOLD) {
+    double ax, ay;
+    as_alphas(p, &ax, &ay);
+    int singular = kind == BSDF_ASHIKHMIN_SHIRLEY ? at_least(ax, ay) <= AS_ALPHA_MIN
+                 : (mf_is_anisotropic(p) ? p[MF_ALPHA] * p[MF_ALPHA_Y] : p[MF_ALPHA] * p[MF_ALPHA]) <= ROUGHNESS_SQ_THRESHOLD;
+    if (singular) {
         double F[3];
         microfacet_fresnel(p, clamp01(mu), F);
         for (int j = 0; j < 3; j++) closure_weight[j] *= F[j] * p[MF_ENERGY];
@@ -158,6 +163,11 @@ INLINE void lobe_add(ShaderResult *sd, double mu, double *weight, double *p, con
         return;
     }
     closure_add(sd, kind, closure_weight, allocated, factor, p);
+}
+
+INLINE void lobe_add(ShaderResult *sd, double mu, double *weight, double *p, const double *albedo, const double *Fss)
+{
+    lobe_add_as(sd, mu, weight, p, albedo, Fss, BSDF_MICROFACET);
 }
 
 /* nodes.dielectric_albedo: estimated albedo of a lobe with the dielectric curve remapped from f0 to 1. */
@@ -210,9 +220,11 @@ INLINE double glass_E(double rough, double mu, double eta, double *E_avg)
     return lookup_3d(eta < 1.0 ? GGX_GLASS_INV_E : GGX_GLASS_E, 16, rough, mu, z);
 }
 
-/* nodes.add_glass: smooth glass below the roughness threshold (or at index 1), else rough glass; with Fss
- * (Multiscatter GGX) its energy restored from the glass tables and darkened by Fss. g: glass_params. */
-INLINE void glass_add(ShaderResult *sd, double mu, const double *weight, double *g, double roughness, const double *Fss)
+/* nodes.add_glass: smooth glass below the roughness threshold (or at index 1), else rough glass of BSDF
+ * `rough_kind` (BSDF_ROUGH_GLASS: GGX, or BSDF_BECKMANN_GLASS); with Fss (Multiscatter GGX) its energy restored from
+ * the glass tables and darkened by Fss. g: glass_params. */
+INLINE void glass_add_as(ShaderResult *sd, double mu, const double *weight, double *g, double roughness,
+                         const double *Fss, int rough_kind)
 {
     double rough = clamp01(roughness), eta = g[MF_IOR];
     g[MF_ALPHA] = rough * rough;
@@ -232,7 +244,12 @@ INLINE void glass_add(ShaderResult *sd, double mu, const double *weight, double 
             factor *= (darkening[0] + darkening[1] + darkening[2]) / 3.0;
         }
     }
-    closure_add(sd, smooth ? BSDF_GLASS : BSDF_ROUGH_GLASS, w, weight, factor, g);
+    closure_add(sd, smooth ? BSDF_GLASS : rough_kind, w, weight, factor, g);
+}
+
+INLINE void glass_add(ShaderResult *sd, double mu, const double *weight, double *g, double roughness, const double *Fss)
+{
+    glass_add_as(sd, mu, weight, g, roughness, Fss, BSDF_ROUGH_GLASS);
 }
 
 /* nodes.add_diffuse: Lambert below the roughness cutoff, else Oren-Nayar with that roughness and colour. */
@@ -438,12 +455,20 @@ INLINE void glossy_node(ShaderResult *sd, double mu, const double *wo, int backf
     double Fss[3] = {at_least(p[2], 0.0), at_least(p[3], 0.0), at_least(p[4], 0.0)};
     lobe_params(lobe, p[0], FRESNEL_NONE, 1.0, one, one);
     double a = p[5] < -0.99 ? -0.99 : (p[5] > 0.99 ? 0.99 : p[5]);
-    if (fabs(a) > 1e-4 && (p[7] != 0.0 || p[8] != 0.0 || p[9] != 0.0)) {   /* nodes.GlossyNode: anisotropic */
+    int on = fabs(a) > 1e-4 && (p[7] != 0.0 || p[8] != 0.0 || p[9] != 0.0);
+    if (on) {                                                                /* nodes.GlossyNode: anisotropic */
         double T[3] = {p[7], p[8], p[9]}, r = lobe[MF_ALPHA];
         if (p[6] != 0.0) rotate_around_axis(p + 7, sd->glossy != NULL ? sd->glossy : sd->N, p[6] * 2.0 * PI, T);
         anisotropic_lobe(lobe, a < 0.0 ? r / (1.0 + a) : r * (1.0 - a), a < 0.0 ? r * (1.0 + a) : r / (1.0 - a), T);
     }
-    lobe_add(sd, mu, w, lobe, NULL, p[1] != 0.0 ? Fss : NULL);
+    int distribution = (int)p[10];
+    int kind = distribution == DISTRIBUTION_BECKMANN ? BSDF_BECKMANN
+             : distribution == DISTRIBUTION_ASHIKHMIN_SHIRLEY ? BSDF_ASHIKHMIN_SHIRLEY : BSDF_MICROFACET;
+    if (kind == BSDF_ASHIKHMIN_SHIRLEY) {                 /* alphas raised to the model's least */
+        lobe[MF_ALPHA] = at_least(lobe[MF_ALPHA], AS_ALPHA_MIN);
+        if (on) lobe[MF_ALPHA_Y] = at_least(lobe[MF_ALPHA_Y], AS_ALPHA_MIN);
+    }
+    lobe_add_as(sd, mu, w, lobe, NULL, p[1] != 0.0 && distribution == DISTRIBUTION_GGX ? Fss : NULL, kind);
 }
 
 INLINE void sheen_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
@@ -476,7 +501,9 @@ INLINE void glass_node(ShaderResult *sd, double mu, const double *wo, int backfa
     if (refraction_only ? !refractive : !(reflective || refractive)) return;
     if (refraction_only) glass_params(g, backfacing, ior, FRESNEL_SCHLICK_IOR, zero, zero, zero, transmit_tint);
     else glass_params(g, backfacing, ior, FRESNEL_DIELECTRIC, zero, zero, reflect_tint, transmit_tint);
-    glass_add(sd, mu, weight, g, p[5], p[6] != 0.0 && !refraction_only ? transmit_tint : NULL);
+    int beckmann = (int)p[7] == DISTRIBUTION_BECKMANN;
+    glass_add_as(sd, mu, weight, g, p[5], p[6] != 0.0 && !refraction_only && !beckmann ? transmit_tint : NULL,
+                 beckmann ? BSDF_BECKMANN_GLASS : BSDF_ROUGH_GLASS);
 }
 
 INLINE void emission_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,

@@ -21,7 +21,12 @@ import numpy as np
 from . import ggx_tables as tables
 from . import microfacet as mf
 from . import thin_film
+from ..native import schema
+from .ashikhmin_shirley import ALPHA_MIN as AS_ALPHA_MIN
+from .ashikhmin_shirley import AshikhminShirley
 from .base import NODE_PARAMS, PARAMS
+from .beckmann import Beckmann
+from .beckmann_glass import BeckmannGlass
 from .closures import FILTER_REFLECTIVE, FILTER_REFRACTIVE, WEIGHT_CUTOFF, Closures, ShaderResult
 from .glass import REFLECT_TINT, TRANSMIT_TINT, Glass
 from .glass import shares as glass_shares
@@ -195,10 +200,12 @@ class GlossyLobe:
         return p
 
     @staticmethod
-    def add(b: ClosureBuilder, weight: np.ndarray, p: np.ndarray, albedo=None, Fss=None, keep=None) -> np.ndarray:
+    def add(b: ClosureBuilder, weight: np.ndarray, p: np.ndarray, albedo=None, Fss=None, keep=None,
+            kind=None) -> np.ndarray:
         """Append the closure (only at the hits `keep` (n,) bool, default all); with Fss (3,) or (n, 3)
         restore the energy of multiple scattering (Multiscatter GGX, Cycles' microfacet_ggx_preserve_energy).
-        Returns the closure's weight after darkening (n, 3).
+        Returns the closure's weight after darkening (n, 3). kind: the lobe's BSDF kind (n,) int (default
+        Microfacet's: GGX; Beckmann's, Ashikhmin-Shirley's), each with its own rule for a mirror (`singular`).
 
         A lobe smoother than the threshold is a mirror reflecting F(mu) of the light. An anisotropic lobe reads
         the tables at sqrt(sqrt(alpha_x alpha_y)) (table_roughness)."""
@@ -218,12 +225,9 @@ class GlossyLobe:
                 darkening = np.where(dark[:, None], darkening, 1.0)
                 weight = weight * darkening
                 factor = darkening.mean(axis=1) if factor is None else factor * darkening.mean(axis=1)
-        alpha2 = p[:, mf.ALPHA] ** 2
-        aniso = mf.is_anisotropic(p)
-        if aniso.any():
-            alpha2 = np.where(aniso, p[:, mf.ALPHA] * p[:, mf.ALPHA_Y], alpha2)
-        singular = alpha2 <= mf.ROUGHNESS_SQ_THRESHOLD
-        kind = np.where(singular, Mirror.kind, Microfacet.kind)
+        kind = np.full(len(p), Microfacet.kind) if kind is None else np.broadcast_to(kind, (len(p),))
+        singular = np.where(kind == AshikhminShirley.kind, AshikhminShirley.singular(p), Microfacet.singular(p))
+        kind = np.where(singular, Mirror.kind, kind)
         closure_weight = weight
         if singular.any():
             at_mu = mf.fresnel(p, np.clip(b.mu, 0.0, 1.0)) * p[:, mf.ENERGY][:, None]
@@ -284,6 +288,12 @@ class Node:
             raise NotImplementedError(f"{cls.__name__} sets up no closures")
         b.add(cls.bsdf.kind, weight, keep=b.kept(cls.bsdf.kind))
 
+
+# A Glossy, Glass or Refraction node's microfacet distribution (its `distribution` input; Multiscatter GGX is GGX
+# with `multiscatter` 1): Cycles' closure types MICROFACET_GGX, MICROFACET_BECKMANN and ASHIKHMIN_SHIRLEY.
+DISTRIBUTIONS = schema.constants("DISTRIBUTION", ("ggx", "beckmann", "ashikhmin_shirley"),
+                                 "a Glossy, Glass or Refraction node's microfacet distribution (nodes.DISTRIBUTIONS)")
+GGX, BECKMANN, ASHIKHMIN_SHIRLEY = (DISTRIBUTIONS[name] for name in ("ggx", "beckmann", "ashikhmin_shirley"))
 
 # Below this roughness Cycles sets a Diffuse BSDF up as Lambert's, and Oren-Nayar's above it.
 DIFFUSE_ROUGHNESS_CUTOFF = 1e-5
@@ -349,14 +359,16 @@ class MirrorNode(Node):
 
 
 class GlossyNode(Node):
-    """Glossy BSDF (GGX or Multiscatter GGX): one microfacet closure without Fresnel, weighted by its colour;
-    anisotropic (Cycles' svm_node_closure_bsdf) where |Anisotropy| > 1e-4 and the Tangent is not zero: with
-    r = roughness^2 and a = Anisotropy clipped to +-0.99, alpha_x = r (1 - a), alpha_y = r / (1 - a) for a >= 0,
-    alpha_x = r / (1 + a), alpha_y = r (1 + a) below; the tangent turned by Rotation x 2 pi about the normal."""
+    """Glossy BSDF (GGX, Multiscatter GGX, Beckmann or Ashikhmin-Shirley: `distribution`, nodes.DISTRIBUTIONS):
+    one microfacet closure without Fresnel, weighted by its colour; anisotropic (Cycles' svm_node_closure_bsdf)
+    where |Anisotropy| > 1e-4 and the Tangent is not zero: with r = roughness^2 and a = Anisotropy clipped to
+    +-0.99, alpha_x = r (1 - a), alpha_y = r / (1 - a) for a >= 0, alpha_x = r / (1 + a), alpha_y = r (1 + a)
+    below; the tangent turned by Rotation x 2 pi about the normal. Alphas are clipped to 1, and for
+    Ashikhmin-Shirley raised to 1e-4 (both there: a mirror)."""
 
     name = "GLOSSY"
-    inputs = ("roughness", "multiscatter", "color", "anisotropy", "rotation", "tangent")
-    defaults = (0.5, 1.0, (1.0, 1.0, 1.0), 0.0, 0.0, (0.0, 0.0, 0.0))
+    inputs = ("roughness", "multiscatter", "color", "anisotropy", "rotation", "tangent", "distribution")
+    defaults = (0.5, 1.0, (1.0, 1.0, 1.0), 0.0, 0.0, (0.0, 0.0, 0.0), GGX)
 
     @staticmethod
     def setup(b, weight, p):
@@ -371,7 +383,16 @@ class GlossyNode(Node):
             alpha_x = np.where(a < 0.0, r / (1.0 + a), r * (1.0 - a))
             alpha_y = np.where(a < 0.0, r * (1.0 + a), r / (1.0 - a))
             anisotropic_lobe(lobe, alpha_x, alpha_y, turned, on)
-        GlossyLobe.add(b, weight, lobe, Fss=np.maximum(p[:, 2:5], 0.0) if p[0, 1] else None, keep=b.reflective)
+        distribution = p[:, 10]
+        kind = np.select([distribution == BECKMANN, distribution == ASHIKHMIN_SHIRLEY],
+                         [Beckmann.kind, AshikhminShirley.kind], Microfacet.kind)
+        phong = distribution == ASHIKHMIN_SHIRLEY
+        if phong.any():
+            lobe[:, mf.ALPHA] = np.where(phong, np.maximum(lobe[:, mf.ALPHA], AS_ALPHA_MIN), lobe[:, mf.ALPHA])
+            lobe[:, mf.ALPHA_Y] = np.where(phong & on, np.maximum(lobe[:, mf.ALPHA_Y], AS_ALPHA_MIN), lobe[:, mf.ALPHA_Y])
+        multiscatter = p[0, 1] != 0.0 and distribution[0] == GGX
+        GlossyLobe.add(b, weight, lobe, Fss=np.maximum(p[:, 2:5], 0.0) if multiscatter else None, keep=b.reflective,
+                       kind=kind)
 
 
 class EmissionNode(Node):
@@ -600,9 +621,11 @@ def glass_share_mean(p: np.ndarray, mu: np.ndarray) -> np.ndarray:
     return (R + T).mean(axis=1)
 
 
-def add_glass(b: ClosureBuilder, weight: np.ndarray, glass: np.ndarray, roughness, Fss=None, keep=None) -> None:
+def add_glass(b: ClosureBuilder, weight: np.ndarray, glass: np.ndarray, roughness, Fss=None, keep=None,
+              rough_kind=None) -> None:
     """Append a glass closure with the parameters `glass` (n, PARAMS): smooth glass where roughness (n,) is
-    below the threshold (or the index is 1: light goes straight through), else rough glass; with Fss (n, 3)
+    below the threshold (or the index is 1: light goes straight through), else rough glass (GGX's, or
+    `rough_kind` (n,) int: Beckmann's); with Fss (n, 3)
     (Multiscatter GGX) its energy restored from the glass albedo tables and darkened by Fss, as Cycles'
     microfacet_ggx_preserve_energy does for glass."""
     rough = np.clip(roughness, 0.0, 1.0)
@@ -622,17 +645,19 @@ def add_glass(b: ClosureBuilder, weight: np.ndarray, glass: np.ndarray, roughnes
             darkening = np.where(dark[:, None], (1.0 + Fms * missing[:, None]) / glass[:, mf.ENERGY][:, None], 1.0)
             weight = weight * darkening
             factor = factor * darkening.mean(axis=1)
-    b.add(np.where(smooth, Glass.kind, RoughGlass.kind), weight, glass, allocated, factor=factor, keep=keep)
+    rough_kind = RoughGlass.kind if rough_kind is None else rough_kind
+    b.add(np.where(smooth, Glass.kind, rough_kind), weight, glass, allocated, factor=factor, keep=keep)
 
 
 class GlassNode(Node):
     """Glass BSDF (reflection and refraction, tinted by its colour) and Refraction BSDF (refraction only,
-    no Fresnel loss), smooth or rough (GGX; Multiscatter GGX restores the energy of the Glass BSDF's
-    microfacets, its darkening by the colour, as Cycles assumes the transmission makes most of it)."""
+    no Fresnel loss), smooth or rough (GGX or Beckmann: `distribution`; Multiscatter GGX restores the energy of
+    the Glass BSDF's GGX microfacets, its darkening by the colour, as Cycles assumes the transmission makes most
+    of it)."""
 
     name = "GLASS"
-    inputs = ("color", "ior", "refraction_only", "roughness", "multiscatter")
-    defaults = ((1.0, 1.0, 1.0), 1.5, 0.0, 0.0, 0.0)
+    inputs = ("color", "ior", "refraction_only", "roughness", "multiscatter", "distribution")
+    defaults = ((1.0, 1.0, 1.0), 1.5, 0.0, 0.0, 0.0, GGX)
 
     @staticmethod
     def setup(b, weight, p):
@@ -647,9 +672,11 @@ class GlassNode(Node):
                          glass_params(n, b.backfacing, ior, mf.FRESNEL_SCHLICK_IOR, zero, zero, zero, transmit_tint),
                          glass_params(n, b.backfacing, ior, mf.FRESNEL_DIELECTRIC, zero, zero, reflect_tint,
                                       transmit_tint))
-        multiscatter = (p[0, 6] != 0.0) and not refraction_only.all()
+        beckmann = p[:, 7] == BECKMANN
+        multiscatter = (p[0, 6] != 0.0) and not refraction_only.all() and not beckmann.all()
         keep = np.where(refraction_only, b.refractive, b.reflective | b.refractive)
-        add_glass(b, weight, glass, p[:, 5], transmit_tint if multiscatter else None, keep=keep)
+        add_glass(b, weight, glass, p[:, 5], transmit_tint if multiscatter else None, keep=keep,
+                  rough_kind=np.where(beckmann, BeckmannGlass.kind, RoughGlass.kind))
 
 
 class SheenNode(Node):

@@ -11,7 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..native import schema
+from .ashikhmin_shirley import AshikhminShirley
 from .base import BSDF
+from .beckmann import Beckmann
+from .beckmann_glass import BeckmannGlass
 from .glass import Glass
 from .lambert import Lambert
 from .microfacet import Microfacet
@@ -25,7 +28,8 @@ from .translucent import Translucent, TranslucentNode
 from .transparent import Transparent
 from .velvet import Velvet
 
-BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet, Translucent)
+BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet, Translucent,
+              Beckmann, BeckmannGlass, AshikhminShirley)
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
               SheenNode, HoldoutNode, TranslucentNode)
 

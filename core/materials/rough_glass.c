@@ -25,7 +25,9 @@ INLINE double rough_glass_p_reflect(const double *R, const double *T, double *to
     return *total > 0.0 ? mean_R / *total : 1.0;
 }
 
-INLINE void rough_glass_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
+/* RoughGlass.eval with GGX's distribution, or Beckmann's where `beckmann` (beckmann_glass.c). */
+INLINE void rough_glass_eval_with(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf,
+                                  int beckmann)
 {
     const double *N = c->N, *p = c->p;
     double alpha2 = p[MF_ALPHA] * p[MF_ALPHA], eta = p[MF_IOR];
@@ -47,14 +49,20 @@ INLINE void rough_glass_eval(const Closure *c, const double *wo, const double *w
     double lobe = transmit ? 1.0 - p_reflect : p_reflect;
     /* 4. D times the Jacobian from H to wi, over N.wo; then masking and shadowing. */
     double jacobian = transmit ? eta * eta * fabs(cos_HO * cos_HI) / (length * length) : 0.25;
-    double common = D_ggx(alpha2, dot3(N, H)) / cos_NO * jacobian;
-    double lambda_O = lambda_ggx(alpha2, cos_NO), lambda_I = lambda_ggx(alpha2, fabs(cos_NI));
+    double common = mf_D(beckmann, alpha2, dot3(N, H)) / cos_NO * jacobian;
+    double lambda_O = mf_lambda(beckmann, alpha2, cos_NO), lambda_I = mf_lambda(beckmann, alpha2, fabs(cos_NI));
     *pdf = common * lobe / (1.0 + lambda_O);
     double scale = common / (1.0 + lambda_O + lambda_I) * p[MF_ENERGY];
     for (int k = 0; k < 3; k++) f_cos[k] = (transmit ? T[k] : R[k]) * scale;
 }
 
-INLINE void rough_glass_sample(const Closure *c, const double *wo, const double *u, BsdfSample *out)
+INLINE void rough_glass_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
+{
+    rough_glass_eval_with(c, wo, wi, f_cos, pdf, 0);
+}
+
+/* RoughGlass.sample with GGX's visible normals, or Beckmann's where `beckmann`. */
+INLINE void rough_glass_sample_with(const Closure *c, const double *wo, const double *u, BsdfSample *out, int beckmann)
 {
     const double *N = c->N, *p = c->p;
     double eta = p[MF_IOR];
@@ -64,7 +72,8 @@ INLINE void rough_glass_sample(const Closure *c, const double *wo, const double 
     double local[3] = {dot3(t, wo), dot3(b, wo), dot3(N, wo)};
     if (!(local[2] > 0.0)) { local[0] = 0.0; local[1] = 0.0; local[2] = 1.0; }
     double h[3], H[3];
-    sample_visible_normal(local, p[MF_ALPHA], p[MF_ALPHA], u, h);
+    if (beckmann) sample_visible_normal_beckmann(local, p[MF_ALPHA], p[MF_ALPHA], u, h);
+    else sample_visible_normal(local, p[MF_ALPHA], p[MF_ALPHA], u, h);
     for (int k = 0; k < 3; k++) H[k] = (t[k] * h[0] + b[k] * h[1]) + N[k] * h[2];
     /* 2. Reflect or refract at it, in proportion to what it reflects and refracts. */
     double cos_HO = dot3(H, wo), R[3], T[3], total;
@@ -75,8 +84,13 @@ INLINE void rough_glass_sample(const Closure *c, const double *wo, const double 
         out->wi[k] = reflect ? 2.0 * cos_HO * H[k] - wo[k] : -wo[k] / eta + (cos_HO / eta - cos_t) * H[k];
     /* 3. Its value and pdf, from eval (a direction on the wrong side of N is no sample). */
     double f_cos[3];
-    rough_glass_eval(c, wo, out->wi, f_cos, &out->pdf);
+    rough_glass_eval_with(c, wo, out->wi, f_cos, &out->pdf, beckmann);
     double cos_NI = dot3(N, out->wi);
     if (!(total > 0.0 && (reflect ? cos_NI > 0.0 : cos_NI < 0.0))) out->pdf = 0.0;
     for (int k = 0; k < 3; k++) out->weight[k] = out->pdf > 0.0 ? f_cos[k] / out->pdf : 0.0;
+}
+
+INLINE void rough_glass_sample(const Closure *c, const double *wo, const double *u, BsdfSample *out)
+{
+    rough_glass_sample_with(c, wo, u, out, 0);
 }

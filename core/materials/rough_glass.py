@@ -65,14 +65,23 @@ class RoughGlass(BSDF):
     params: ClassVar[tuple] = ("alpha", "fresnel", "ior", "f0_r", "f0_g", "f0_b", "f90_r", "f90_g", "f90_b",
                                "energy_scale", "reflect_r", "reflect_g", "reflect_b",
                                "transmit_r", "transmit_g", "transmit_b")
+    beckmann: ClassVar[bool] = False          # Beckmann's D, Lambda and visible normals (beckmann_glass.py)
+
+    @classmethod
+    def distribution(cls) -> tuple:
+        """Its (D, Lambda, visible-normal sampler): GGX's, or Beckmann's."""
+        if cls.beckmann:
+            return mf.D_beckmann, mf.lambda_beckmann, mf.sample_visible_normal_beckmann
+        return mf.D_ggx, mf.lambda_ggx, mf.sample_visible_normal
 
     @staticmethod
     def albedo(params, N, wo):
         """The colour passes' albedo: its reflected and transmitted shares of light arriving at N.wo."""
         return shares(params, np.clip(np.einsum("ij,ij->i", N, wo), 0.0, 1.0))
 
-    @staticmethod
-    def eval(params, N, wo, wi):
+    @classmethod
+    def eval(cls, params, N, wo, wi):
+        D, lambda_, _ = cls.distribution()
         alpha2 = params[:, mf.ALPHA] ** 2
         eta = params[:, mf.IOR]
         cos_NO, cos_NI = np.einsum("ij,ij->i", N, wo), np.einsum("ij,ij->i", N, wi)
@@ -91,20 +100,21 @@ class RoughGlass(BSDF):
         # 4. D times the Jacobian from H to wi, over N.wo; then masking and shadowing.
         safe_NO = np.where(valid, cos_NO, 1.0)
         jacobian = np.where(transmit, eta * eta * np.abs(cos_HO * cos_HI) / (length * length), 0.25)
-        common = mf.D_ggx(alpha2, np.einsum("ij,ij->i", N, H)) / safe_NO * jacobian
-        lambda_O = mf.lambda_ggx(alpha2, safe_NO)
-        lambda_I = mf.lambda_ggx(alpha2, np.where(valid, np.abs(cos_NI), 1.0))
+        safe_alpha2 = np.where(valid, alpha2, 1.0)
+        common = D(safe_alpha2, mf.dot(N, H)) / safe_NO * jacobian
+        lambda_O = lambda_(safe_alpha2, safe_NO)
+        lambda_I = lambda_(safe_alpha2, np.where(valid, np.abs(cos_NI), 1.0))
         pdf = np.where(valid, common * lobe / (1.0 + lambda_O), 0.0)
         scale = np.where(valid, common / (1.0 + lambda_O + lambda_I) * params[:, mf.ENERGY], 0.0)
         return np.where(transmit[:, None], T, R) * scale[:, None], pdf
 
-    @staticmethod
-    def sample(params, N, wo, u):
+    @classmethod
+    def sample(cls, params, N, wo, u):
         # 1. A microfacet normal the viewer sees.
         t, b = vectors.orthonormal_frame(N)
         local = np.stack([np.einsum("ij,ij->i", t, wo), np.einsum("ij,ij->i", b, wo), np.einsum("ij,ij->i", N, wo)],
                          axis=1)
-        h = mf.sample_visible_normal(np.where(local[:, 2:] > 0.0, local, [0.0, 0.0, 1.0]), params[:, mf.ALPHA], u)
+        h = cls.distribution()[2](np.where(local[:, 2:] > 0.0, local, [0.0, 0.0, 1.0]), params[:, mf.ALPHA], u)
         H = t * h[:, 0:1] + b * h[:, 1:2] + N * h[:, 2:3]
         # 2. Reflect or refract at it, in proportion to what it reflects and refracts.
         cos_HO = np.einsum("ij,ij->i", H, wo)
@@ -116,7 +126,7 @@ class RoughGlass(BSDF):
         refracted, _ = refract(wo, H, params[:, mf.IOR])
         wi = np.where(reflect[:, None], 2.0 * cos_HO[:, None] * H - wo, refracted)
         # 3. Its value and pdf, from eval (a direction on the wrong side of N is no sample).
-        f_cos, pdf = RoughGlass.eval(params, N, wo, wi)
+        f_cos, pdf = cls.eval(params, N, wo, wi)
         cos_NI = np.einsum("ij,ij->i", N, wi)
         ok = (pdf > 0.0) & np.where(reflect, cos_NI > 0.0, cos_NI < 0.0) & (total > 0.0)
         pdf = np.where(ok, pdf, 0.0)

@@ -155,6 +155,10 @@
 #define GEOM_OBJECT_NORMAL 6
 #define GEOM_REFLECTION 7
 #define GEOM_RAY_LENGTH 8
+/* a Glossy, Glass or Refraction node's microfacet distribution (nodes.DISTRIBUTIONS) (core.materials.nodes) */
+#define DISTRIBUTION_GGX 0
+#define DISTRIBUTION_BECKMANN 1
+#define DISTRIBUTION_ASHIKHMIN_SHIRLEY 2
 /* an image node's interpolation (INTERPOLATIONS) (core.materials.textures) */
 #define TEX_LINEAR 0
 #define TEX_CLOSEST 1
@@ -180,14 +184,15 @@
 enum {
     BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4,
     BSDF_ROUGH_GLASS = 5, BSDF_OREN_NAYAR = 6, BSDF_SHEEN = 7, BSDF_VELVET = 8, BSDF_TRANSLUCENT = 9,
-    BSDF_COUNT = 10
+    BSDF_BECKMANN = 10, BSDF_BECKMANN_GLASS = 11, BSDF_ASHIKHMIN_SHIRLEY = 12, BSDF_COUNT = 13
 };
 
 /* core/materials/base.py BSDFFlags: what a BSDF is */
 enum {
     BSDF_FLAG_REFLECTION = 1, BSDF_FLAG_TRANSMISSION = 2, BSDF_FLAG_DIFFUSE = 4, BSDF_FLAG_GLOSSY = 8,
     BSDF_FLAG_SINGULAR = 16, BSDF_FLAG_STRAIGHT = 32, BSDF_FLAG_DIFFUSE_TYPE = 64,
-    BSDF_FLAG_GLOSSY_TYPE = 128, BSDF_FLAG_TRANSMISSION_TYPE = 256, BSDF_FLAG_GLASS_TYPE = 512
+    BSDF_FLAG_GLOSSY_TYPE = 128, BSDF_FLAG_TRANSMISSION_TYPE = 256, BSDF_FLAG_GLASS_TYPE = 512,
+    BSDF_FLAG_OWN_WEIGHT = 1024
 };
 
 static const int BSDF_FLAGS[BSDF_COUNT] = {
@@ -201,6 +206,9 @@ static const int BSDF_FLAGS[BSDF_COUNT] = {
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* Sheen */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_GLOSSY_TYPE,   /* Velvet */
     BSDF_FLAG_TRANSMISSION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* Translucent */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* Beckmann */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLASS_TYPE,   /* BeckmannGlass */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* AshikhminShirley */
 };
 /* Whether a bsdf of kind `kind` has any of `flags` (0 for kind -1: none). */
 INLINE int bsdf_is(int kind, int flags)
@@ -209,7 +217,7 @@ INLINE int bsdf_is(int kind, int flags)
 }
 
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
-static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1};
+static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
@@ -804,7 +812,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(4200718952662301897);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(8541145842328541273);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7540884240984156999);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3574520478765727059);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
@@ -817,7 +825,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(2679673540171007921);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
-    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(7667246339315466006);
+    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(4598671514434913230);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(8490095668302539336);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
