@@ -320,9 +320,6 @@ class GraphReader:
             inputs = self.inputs(node, path, ["Vector"]) if _vector_linked(node) else {}
         elif kind == "VECTOR_TRANSFORM":
             props = {"type": node.vector_type, "from": node.convert_from, "to": node.convert_to}
-            if "OBJECT" in (node.convert_from, node.convert_to) and node.convert_from != node.convert_to:
-                warn("a Vector Transform to or from Object space is not evaluated; Primer passes the vector on as it "
-                     "comes")
             inputs = self.inputs(node, path, ["Vector"])
         elif kind == "TEXCOORD":
             if node.object is not None:                   # Object: in that object's frame

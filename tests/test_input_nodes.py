@@ -361,3 +361,55 @@ def test_random_per_island_is_one_hash_per_island_of_the_root_that_union_by_rank
     assert values.dtype == np.float32
     np.testing.assert_array_equal(values, expected)
     assert len(set(values.tolist())) == 3 and all(0.0 <= v <= 1.0 for v in values)
+
+
+def placed_plane(link: Link, matrix: np.ndarray, color=(1.0, 1.0, 1.0, 1.0), pass_index: int = 0) -> Scene:
+    """A 4 x 4 plane placed by `matrix` (its own transform: turned about z, scaled, moved), emitting `link`, under an
+    orthographic camera looking down -z at its middle."""
+    scene = Scene(camera=ortho_down(center=matrix[:3, 3], height=10.0, scale=1.0))
+    scene.materials.append(Material(name="Input", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": link})]))
+    scene.add_mesh(primitives.plane(4.0), matrix=matrix, materials=np.array([0]))
+    scene.instances[-1].color, scene.instances[-1].pass_index = color, pass_index
+    return scene
+
+
+def turned_scaled_moved() -> np.ndarray:
+    """An object transform (4, 4): turned 0.7 rad about z, scaled (0.9, 0.6, 1.4), moved to (2, -1, 0.5)."""
+    c, s = math.cos(0.7), math.sin(0.7)
+    matrix = np.diag([0.9, 0.6, 1.4, 1.0]) @ np.eye(4)
+    matrix[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.diag([0.9, 0.6, 1.4])
+    matrix[:3, 3] = [2.0, -1.0, 0.5]
+    return matrix
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("kind, source, target", [("VECTOR", "OBJECT", "WORLD"), ("POINT", "OBJECT", "WORLD"),
+                                                  ("POINT", "WORLD", "OBJECT"), ("NORMAL", "OBJECT", "WORLD"),
+                                                  ("NORMAL", "WORLD", "OBJECT")])
+def test_vector_transform_in_object_space_is_the_objects_affine_map(kernels, kind, source, target):
+    """Object to world: a point goes by M p, a vector by its linear part L v, a normal by L^-T n normalised; world to
+    object the inverses (a normal by L^T n normalised): the emitted red is that vector's x."""
+    M = turned_scaled_moved()
+    L, t = M[:3, :3], M[:3, 3]
+    v = np.array([0.3, 0.2, 0.8])
+    node = GraphNode("VECTOR_TRANSFORM", {"type": kind, "from": source, "to": target}, {"Vector": tuple(v)})
+    inverse = np.linalg.inv(L)
+    expected = {("VECTOR", "OBJECT"): L @ v, ("POINT", "OBJECT"): L @ v + t, ("POINT", "WORLD"): inverse @ (v - t),
+                ("NORMAL", "OBJECT"): inverse.T @ v, ("NORMAL", "WORLD"): L.T @ v}[kind, source]
+    if kind == "NORMAL":
+        expected = expected / np.linalg.norm(expected)
+    red = shoot(placed_plane(Link(node, "Vector"), M), kernels)
+    np.testing.assert_allclose(red, expected[0], rtol=1e-6, atol=1e-7)
+    assert np.abs(expected - v).max() > 0.05               # (the transform changed the vector)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_object_info_gives_the_objects_location_colour_alpha_and_index(kernels):
+    """Object Info of a placed object: Location its matrix's translation, Color and Alpha its colour, Object Index
+    its pass index, Material Index the material's: each output's first channel emitted."""
+    M = turned_scaled_moved()
+    values = {"Location": 2.0, "Color": 0.35, "Alpha": 0.6, "Object Index": 7.0, "Material Index": 4.0}
+    for output, expected in values.items():
+        node = GraphNode("OBJECT_INFO", {"material_index": 4.0}, {})
+        red = shoot(placed_plane(Link(node, output), M, color=(0.35, 0.5, 0.25, 0.6), pass_index=7), kernels)
+        np.testing.assert_allclose(red, expected, rtol=1e-6, err_msg=output)

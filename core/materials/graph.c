@@ -266,6 +266,34 @@ INLINE void bump(const double *normal, double strength, double distance, double 
 }
 
 /* graph.run for one hit: reg holds the program's registers afterwards. */
+/* graph.object_matrices for one hit: the 3 x 4 transform (12 floats, row by row) of `mode` (0 object to world, 1
+ * world to object, 2 and 3 their linear parts alone, 4 the inverse's linear part transposed, 5 the linear part
+ * transposed) from the object's linear part sp->L (row-major) and its location sp->info[0..2]. */
+INLINE void object_matrix(const ShadingPoint *sp, int mode, double *out)
+{
+    const double *L = sp->L, *loc = sp->info;
+    double inv[9];
+    double det = L[0] * (L[4] * L[8] - L[5] * L[7]) - L[1] * (L[3] * L[8] - L[5] * L[6])
+                 + L[2] * (L[3] * L[7] - L[4] * L[6]);
+    if (det != 0.0) {
+        inv[0] = (L[4] * L[8] - L[5] * L[7]) / det; inv[1] = (L[2] * L[7] - L[1] * L[8]) / det;
+        inv[2] = (L[1] * L[5] - L[2] * L[4]) / det; inv[3] = (L[5] * L[6] - L[3] * L[8]) / det;
+        inv[4] = (L[0] * L[8] - L[2] * L[6]) / det; inv[5] = (L[2] * L[3] - L[0] * L[5]) / det;
+        inv[6] = (L[3] * L[7] - L[4] * L[6]) / det; inv[7] = (L[1] * L[6] - L[0] * L[7]) / det;
+        inv[8] = (L[0] * L[4] - L[1] * L[3]) / det;
+    } else {
+        for (int k = 0; k < 9; k++) inv[k] = (k % 4 == 0) ? 1.0 : 0.0;
+    }
+    const double *M = (mode == 0 || mode == 2) ? L : inv;
+    int transposed = mode >= 4;
+    if (mode == 5) M = L;
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) out[4 * i + j] = transposed ? M[3 * j + i] : M[3 * i + j];
+        out[4 * i + 3] = mode == 0 ? loc[i] : mode == 1 ? -(inv[3 * i] * loc[0] + inv[3 * i + 1] * loc[1]
+                                                            + inv[3 * i + 2] * loc[2]) : 0.0;
+    }
+}
+
 NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *sp, double *reg)
 {
     const double *info = G->programs + 8 * program;
@@ -287,6 +315,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             break;
         case OP_RANDOM: out[0] = sp->random; break;
         case OP_OBJECT_INFO: for (int j = 0; j < a[2]; j++) out[j] = sp->info[a[1] + j]; break;
+        case OP_OBJECT_MATRIX: object_matrix(sp, a[1], out); break;
         case OP_RAY: out[0] = sp->ray == (double)a[1] ? 1.0 : 0.0; break;
         case OP_OFFSET:
             where = a[0];

@@ -50,7 +50,7 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
-                                                               "OBJECT_INFO")
+                                                               "OBJECT_INFO", "OBJECT_MATRIX")
 # Ops of world shaders only, which the Python reference alone evaluates (world graphs are baked at export,
 # core/lights/world_graph.py): graph_tables refuses a program holding one, and graph.c has no case for them.
 WORLD_OPS = ("SKY",)
@@ -213,6 +213,20 @@ class ShadingPoint(NamedTuple):
     uv: np.ndarray = None      # (n, 2) float64 the barycentrics (its Parametric)
     t: np.ndarray = None       # (n,) float64 the distance along the ray to the hit (the Light Path node's Ray Length)
     info: np.ndarray = None    # (n, 8) float64 the object's Object Info: location, colour, alpha, pass index
+
+
+def object_matrices(sp: ShadingPoint, mode: int) -> np.ndarray:
+    """The hit objects' transforms for OBJECT_MATRIX, (n, 12) float64 3 x 4 row by row: mode 0 object to world (its
+    linear part and location), 1 world to object, 2 and 3 their linear parts alone, 4 the inverse's linear part
+    transposed (normals to world), 5 the linear part transposed (normals to object)."""
+    n = len(sp.linear)
+    L = np.asarray(sp.linear, np.float64).reshape(n, 3, 3)
+    location = np.zeros((n, 3)) if sp.info is None else sp.info[:, :3]
+    with np.errstate(all="ignore"):
+        inverse = np.linalg.inv(np.where(np.abs(np.linalg.det(L))[:, None, None] > 0.0, L, np.eye(3)))
+    linear = {0: L, 1: inverse, 2: L, 3: inverse, 4: np.swapaxes(inverse, 1, 2), 5: np.swapaxes(L, 1, 2)}[mode]
+    move = {0: location, 1: -np.einsum("nij,nj->ni", inverse, location)}.get(mode, np.zeros((n, 3)))
+    return np.concatenate([linear, move[:, :, None]], axis=2).reshape(n, 12)
 
 
 def has_links(nodes: list) -> bool:
@@ -390,19 +404,39 @@ class Compiler:
         return out
 
     def vector_transform(self, v: int, kind: str, source: str, target: str) -> int:
-        """A register holding the vector in register `v` (a POINT, VECTOR or NORMAL) taken from world to camera space
-        or back as Cycles' Vector Transform does (svm_node_vector_transform: a normal through the other transform's
-        transposed linear part, then normalised); unchanged between equal spaces. (Object space: the add-on warns.)"""
-        if source == target or "OBJECT" in (source, target):
+        """A register holding the vector in register `v` (a POINT, VECTOR or NORMAL) taken between world, camera and
+        object space as Cycles' Vector Transform does (svm_node_vector_transform): through world space, a point by the
+        affine transform, a vector by its linear part, a normal by the other direction's transposed linear part, then
+        normalised; object space is the hit object's (OBJECT_MATRIX); unchanged between equal spaces."""
+        if source == target:
             return v
+        if source != "WORLD":
+            v = self.space_step(v, kind, source, to_world=True)
+        return v if target == "WORLD" else self.space_step(v, kind, target, to_world=False)
+
+    def space_step(self, v: int, kind: str, space: str, to_world: bool) -> int:
+        """A register holding the vector in register `v` taken from camera or object `space` to world space, or back
+        (vector_transform's steps)."""
+        if space == "OBJECT":
+            # The hit object's 3 x 4 transform, or its inverse; a normal takes the other's transposed linear part.
+            mode = {("POINT", True): 0, ("POINT", False): 1, ("VECTOR", True): 2, ("VECTOR", False): 3,
+                    ("NORMAL", True): 4, ("NORMAL", False): 5}[kind, to_world]
+            matrix = self.temporary(12)
+            self.emit("OBJECT_MATRIX", matrix, mode)
+            out = self.temporary(3)
+            self.emit("TRANSFORM", out, v, matrix)
+            return out if kind != "NORMAL" else self.normalized(out)
         to_camera = self.view
-        to_world = np.linalg.inv(np.vstack([to_camera, [0.0, 0.0, 0.0, 1.0]]))[:3]
-        forward, back = (to_camera, to_world) if target == "CAMERA" else (to_world, to_camera)
+        to_world_matrix = np.linalg.inv(np.vstack([to_camera, [0.0, 0.0, 0.0, 1.0]]))[:3]
+        forward, back = (to_world_matrix, to_camera) if to_world else (to_camera, to_world_matrix)
         if kind == "POINT":
             return self.transform(v, forward)
         if kind == "VECTOR":
             return self.transform(v, np.hstack([forward[:, :3], np.zeros((3, 1))]))
-        n = self.transform(v, np.hstack([back[:, :3].T, np.zeros((3, 1))]))
+        return self.normalized(self.transform(v, np.hstack([back[:, :3].T, np.zeros((3, 1))])))
+
+    def normalized(self, n: int) -> int:
+        """A register holding the vector in register `n` divided by its length (as Cycles' normalize)."""
         x, y, z = (shift(n, k) for k in range(3))
         inverse_length = self.math("DIVIDE", self.constant([1.0]), self.math(
             "SQRT", self.math("MULTIPLY_ADD", z, z, self.math("MULTIPLY_ADD", y, y, self.math("MULTIPLY", x, x)))))
@@ -730,7 +764,7 @@ def shift(register: int, by: int) -> int:
 
 # Which arguments of each op are registers (renumbered when the program is done); the rest are numbers.
 REGISTER_ARGS = {
-    "ATTR": {0}, "RANDOM": {0}, "OBJECT_INFO": {0}, "IMAGE": {0, 1}, "MAPPING": {0, 1, 2, 3, 4}, "MATH": {0, 2, 3, 4},
+    "ATTR": {0}, "RANDOM": {0}, "OBJECT_INFO": {0}, "OBJECT_MATRIX": {0}, "IMAGE": {0, 1}, "MAPPING": {0, 1, 2, 3, 4}, "MATH": {0, 2, 3, 4},
     "MIX_COLOR": {0, 2, 3, 4}, "MIX_FLOAT": {0, 1, 2, 3}, "RAMP": {0, 1}, "INVERT": {0, 1, 2},
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
@@ -873,6 +907,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
                 reg[:, i[0]:i[0] + i[3]] = 0.0
         elif name == "RANDOM":
             reg[:, i[0]] = sp.random
+        elif name == "OBJECT_MATRIX":
+            reg[:, i[0]:i[0] + 12] = object_matrices(sp, i[1])
         elif name == "OBJECT_INFO":
             reg[:, i[0]:i[0] + i[2]] = (np.zeros((n, i[2])) if sp.info is None
                                         else sp.info[:, i[1]:i[1] + i[2]])

@@ -129,6 +129,7 @@
 #define OP_WINDOW 48
 #define OP_SKY 49
 #define OP_OBJECT_INFO 50
+#define OP_OBJECT_MATRIX 51
 /* the kind of ray a hit was found by (core.materials.graph) */
 #define RAY_CAMERA 0
 #define RAY_BOUNCE 1
@@ -826,7 +827,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(4598671514434913230);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(8490095668302539336);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(7935174862465839157);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
