@@ -127,11 +127,13 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
     prim, u, v, t = ray.hits.prim[rows], ray.hits.u[rows], ray.hits.v[rows], ray.hits.t[rows]
     T, passed = weight.copy(), passed.copy()
     mis = (s.light_sampling == "mis") and bool(ctx.extra.get("bsdf_rays", False))
+    paths = graph_.paths_at(ray.path, rows)       # (each surface passed: one more transparent one)
     alive = np.arange(len(rows))
     while len(alive):
         # 1. The surface met: what it lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, prim, u, v, O, D, t)
-        shader = ctx.materials.shade(surface.material, surface.N, -D, surface, ctx.geometry, graph_.RAY_BOUNCE)
+        path = graph_.paths_at(paths, alive)._replace(transparent=passed[alive])
+        shader = ctx.materials.shade(surface.material, surface.N, -D, surface, ctx.geometry, path)
         T[alive] *= shader.transparency
         passed[alive] += 1
         go = ((T[alive] > 0.0).any(axis=1) & (passed[alive] <= s.transparent_max_bounces)
@@ -145,7 +147,8 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
-                                        seen_as=ray.seen_as[rows][alive])
+                                        seen_as=ray.seen_as[rows][alive],
+                                        paths=graph_.paths_at(paths, alive)._replace(transparent=passed[alive]))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         found[alive] += light * f[:, None]
         if groups is not None:
@@ -225,6 +228,7 @@ class PathTracing(Integrator):
         transmission = np.zeros(len(hit), np.int64)
         transparent = np.zeros(len(hit), np.int64)
         bounce = np.zeros(len(hit), np.int64)
+        flags = np.full(len(hit), graph_.PATH_CAMERA, np.int64)   # the Light Path flags of the ray that got there
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
         mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (vertex.BsdfRay.mis_O):
         #                                              the camera's, from where a camera path sees lamps past clear panes
@@ -248,7 +252,7 @@ class PathTracing(Integrator):
             #    Light the camera's hit gathers is direct, later light indirect (sample clamping).
             dimension = vertex * VERTEX_DIMENSIONS
             cap = np.where(bounce == 0, direct_cap, indirect_cap)
-            light_path = np.where(bounce == 0, graph_.RAY_CAMERA, graph_.RAY_BOUNCE)
+            light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent)
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
                                          caustics_filter(s, after_diffuse))
             if holdouts:
@@ -287,13 +291,10 @@ class PathTracing(Integrator):
             if ray is None:
                 break
             # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.
-            is_diffuse, is_glossy, is_transmission, is_transparent, labelled_diffuse = bounce_kind(ray.kind,
-                                                                                                   ray.transmit)
-            bounces = bounce[ray.rows] + ~is_transparent
-            d = diffuse[ray.rows] + is_diffuse
-            g = glossy[ray.rows] + is_glossy
-            tr = transmission[ray.rows] + is_transmission
-            tp = transparent[ray.rows] + is_transparent
+            #    (each ray's path past the bounce counts it: vertex.bsdf_ray, rays.path_after)
+            *_, is_transparent, labelled_diffuse = bounce_kind(ray.kind, ray.transmit)
+            bounces, d, g, tr, tp = ray.path.bounce, ray.path.diffuse, ray.path.glossy, ray.path.transmission, \
+                ray.path.transparent
             within = ((bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
                       & (tr <= s.transmission_bounces))
             going = ray.hits.hit & within & (tp <= s.transparent_max_bounces)
@@ -352,6 +353,7 @@ class PathTracing(Integrator):
             owner = owner[rows]
             throughput = next_throughput[keep]
             diffuse, glossy, transmission, transparent = d[keep], g[keep], tr[keep], tp[keep]
+            flags = ray.path.flags[keep]
             # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
             after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], labelled_diffuse)[keep]
             bounce = bounces[keep]

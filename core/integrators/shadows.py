@@ -171,7 +171,7 @@ def visible(tracer, rays: ShadowRays) -> np.ndarray:
     return ~tracer.occluded(rays.origins, rays.directions, rays.t_max)
 
 
-def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
+def transmittance(ctx, rays: ShadowRays, limit: int, paths=None) -> np.ndarray:
     """The share of light (n, 3) float64 a shadow ray carries through transparent surfaces (Cycles'
     transparent shadows): the product of the transparency of each surface it passes, 0 where an opaque
     surface blocks it or where it would pass more than `limit` of them. Objects hidden from shadow rays
@@ -181,7 +181,11 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
     (short of the light by robust_rays' margin), which stays where it was: Cycles moves only the start of its
     one shadow ray. (Going on along the old direction for the old length less the distance gained along it
     would move the end by the step off the surface across the ray, onto the light's own surface when the
-    surface faces the light; a sun's ray, with no end, keeps its direction.)"""
+    surface faces the light; a sun's ray, with no end, keeps its direction.)
+
+    paths: the graph.LightPaths the n rays carry (SHADOW, and the counts of the path at their origins), which the
+    surfaces' shaders read (the Light Path node), each surface passed one more transparent one; None: a shadow ray
+    from a camera ray's hit."""
     from ..visibility import HIDDEN_FROM_SHADOW
     from ..geometry.surface import surface_at_hits
     from ..materials import graph as graph_
@@ -191,6 +195,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
     finite = np.isfinite(rays.t_max)
     ends = rays.origins + np.where(finite, rays.t_max, 0.0)[:, None] * rays.directions
     passed = np.zeros(n, np.int64)
+    paths = graph_.light_paths(n, flags=graph_.PATH_SHADOW) if paths is None else paths
     alive = np.arange(n)
     while len(alive):
         found = ctx.geometry.tracer.intersect(O[alive], D[alive], t[alive])
@@ -205,7 +210,9 @@ def transmittance(ctx, rays: ShadowRays, limit: int) -> np.ndarray:
         # The surface the ray passes: what its material lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
-        shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, graph_.RAY_SHADOW)
+        path = graph_.paths_at(paths, rows)
+        path = path._replace(transparent=path.transparent + passed[rows] - 1)
+        shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, path)
         through = np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
         T[rows] *= np.where(hidden[:, None], 1.0, through)
         # On from just past that surface, for what is left of the way to the light: towards the ray's end.
