@@ -8,10 +8,12 @@ rendered path traced by Primer and by Cycles (tiny images, one Blender process).
   still a camera ray, three transparent bounces. Exact as well.
 - A pane that lets through 0.5 x Ray Depth of a sun's light (and all of the camera's, Is Camera Ray): the floor under it
   is lit through a shadow ray one bounce deeper than the floor (depth 1). Exact: a sun without extent.
-- A lamp (an emitting plane) that shines 1 to light samples and 5 to diffuse rays (strength 1 + 4 x Is Diffuse Ray) over
-  a diffuse floor: Cycles shades a light sample's emitter with PATH_RAY_EMISSION alone (not diffuse), a diffuse BSDF ray's
-  with PATH_RAY_DIFFUSE, and weighs the two by MIS; the floor's block means against Cycles' (their noise measured from
-  two seeds), beside the same lamp shining 1 to every ray.
+- Lamps that Light Path shows otherwise to light samples and BSDF rays, over a floor: one shining 1 to light samples and
+  5 to diffuse rays (strength 1 + 4 x Is Diffuse Ray) over a diffuse floor, the same shining 1 to all, and one hidden
+  from glossy rays (a Mix Shader of Emission and Transparent by Is Glossy Ray) over a rough Glossy floor. Cycles shades a
+  light sample's emitter with PATH_RAY_EMISSION alone (neither diffuse nor glossy), a BSDF ray's with that ray's flags,
+  and weighs the two by MIS: so Primer takes one light sample per vertex here, as Cycles does, for the same weights.
+  The floor's mean and block means against the mean of Cycles' renders at two seeds.
 """
 from __future__ import annotations
 
@@ -152,8 +154,10 @@ sun.data.angle = 0.0
 scene.collection.objects.link(sun)
 both(scene, "shadow", 4)
 
-# 4. A lamp that shines 1 to light samples and 5 to diffuse rays over a diffuse floor.
+# 4. A lamp that shines 1 to light samples and 5 to diffuse rays over a diffuse floor (one light sample per vertex, as
+#    Cycles takes: MIS weighs the two strategies as Cycles does).
 scene = fresh(4.0, height=3.0)
+scene.primer.light_samples = 1
 floor, _, _ = shader_material("Grey", "ShaderNodeBsdfDiffuse", Color=(0.8, 0.8, 0.8, 1.0), Roughness=0.0)
 plane(scene, "Floor", 40.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), floor)
 lamp, tree, emission = shader_material("Lamp", "ShaderNodeEmission", Color=(1.0, 1.0, 1.0, 1.0))
@@ -166,8 +170,24 @@ tree.links.new(path.outputs["Is Diffuse Ray"], boost.inputs[0])
 tree.links.new(boost.outputs[0], emission.inputs["Strength"])
 plane(scene, "Lamp", 1.0, (1.5, 0.0, 1.0), (math.radians(180.0), 0.0, 0.0), lamp)
 both(scene, "lamp", 256, seeds=(0, 1))
-boost.inputs[1].default_value = 0.0                 # the same lamp shining 1 to every ray: Primer's own bias there
+boost.inputs[1].default_value = 0.0                 # the same lamp shining 1 to every ray
 both(scene, "constant", 256, seeds=(0, 1))
+
+# 5. A lamp invisible to glossy rays (Mix Shader: Emission, or Transparent where Is Glossy Ray) over a rough Glossy floor.
+scene = fresh(4.0, height=3.0)
+scene.primer.light_samples = 1
+glossy, _, _ = shader_material("Rough", "ShaderNodeBsdfGlossy", Color=(0.8, 0.8, 0.8, 1.0), Roughness=0.3)
+plane(scene, "Floor", 40.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), glossy)
+lamp, tree, mix = shader_material("Hidden Lamp", "ShaderNodeMixShader")
+path = tree.nodes.new("ShaderNodeLightPath")
+emission = tree.nodes.new("ShaderNodeEmission")
+emission.inputs["Strength"].default_value = 2.0
+clear = tree.nodes.new("ShaderNodeBsdfTransparent")
+tree.links.new(path.outputs["Is Glossy Ray"], mix.inputs[0])
+tree.links.new(emission.outputs[0], mix.inputs[1])
+tree.links.new(clear.outputs[0], mix.inputs[2])
+plane(scene, "Lamp", 1.0, (1.5, 0.0, 1.0), (math.radians(180.0), 0.0, 0.0), lamp)
+both(scene, "hidden", 256, seeds=(0, 1))
 report(warnings=[w for w in warnings if "Light Path" in w or "light path" in w])
 """
 
@@ -196,24 +216,27 @@ def test_light_path_outputs_seen_in_a_mirror_through_clear_planes_and_in_shadow_
     np.testing.assert_allclose(primer, cycles, atol=2e-6, rtol=1e-6)
 
 
-def test_a_lamp_brighter_to_diffuse_rays_lights_a_floor_as_cycles_light_samples_and_bsdf_rays_see_it(rendered):
-    """The floor lit by a lamp shining 1 to light samples and 5 to diffuse rays: 4 x 4 block means within 6% of
-    Cycles' (measured: 4.2% at most, 0.9% darker over the image; Cycles' own noise, the RMS difference of its block
-    means at two seeds, 0.2%). A light sample shaded as a diffuse ray would make it several times brighter. The
-    difference is MIS, not the Light Path node: the BSDF rays' mean weight w_b is about 0.0025 in Cycles and 0.0002 in
-    Primer here (from the brightening 4 x w_b), which a lamp of one strength for all rays cannot show: that one,
-    `constant`, is Cycles' within 0.3% per block (noise 0.05%), 4e-5 over the image."""
+# The largest relative difference of a 4 x 4 block mean allowed (measured 0.86%, 0.89% and 3.3%: the blocks by the
+# lamp's edge, where Primer's samples fall elsewhere than Cycles'; Cycles' own noise 0.12%, 0.10% and 0.49%).
+BLOCK_BOUND = {"lamp": 0.012, "constant": 0.012, "hidden": 0.045}
+
+
+@pytest.mark.parametrize("label", list(BLOCK_BOUND))
+def test_lamps_that_light_path_shows_otherwise_to_light_samples_and_bsdf_rays_light_a_floor_as_in_cycles(rendered,
+                                                                                                        label):
+    """The floor's mean within 0.3% of Cycles' (measured: 0.07% for the lamp brighter to diffuse rays, 0.009% for the
+    same lamp shining 1 to every ray, 0.15% for the lamp hidden from glossy rays; a light sample shaded as a diffuse
+    ray would be several times brighter, one shaded as a glossy ray would leave the glossy floor black), and its 4 x 4
+    block means within BLOCK_BOUND; against the mean of Cycles' renders at two seeds."""
     folder, _ = rendered
-    blocks = {}
-    for label in ("lamp", "constant"):
-        primer = pixels(folder, label, "primer").mean(axis=2)
-        cycles = [pixels(folder, label, f"cycles{seed}").mean(axis=2) for seed in (0, 1)]
-        blocks[label] = [image.reshape(4, 4, 4, 4).mean(axis=(1, 3)) for image in (primer, *cycles)]
-    for label, bound in (("lamp", 0.06), ("constant", 0.01)):
-        ours, first, second = blocks[label]
-        reference = 0.5 * (first + second)
-        noise = np.sqrt(np.mean((first - second) ** 2)) / reference.mean()
-        difference = np.abs(ours / reference - 1.0).max()
-        print(label, "largest relative difference of the block means", difference, "Cycles' noise", noise)
-        assert difference <= bound
-    assert blocks["lamp"][1].mean() < 1.1 * blocks["constant"][1].mean()      # (Cycles: light samples see 1)
+    primer = pixels(folder, label, "primer").mean(axis=2)
+    cycles = [pixels(folder, label, f"cycles{seed}").mean(axis=2) for seed in (0, 1)]
+    ours, first, second = (image.reshape(4, 4, 4, 4).mean(axis=(1, 3)) for image in (primer, *cycles))
+    reference = 0.5 * (first + second)
+    noise = np.sqrt(np.mean((first / reference - second / reference) ** 2))
+    difference = np.abs(ours / reference - 1.0)
+    overall = ours.mean() / reference.mean() - 1.0
+    print(label, "block means: largest relative difference", difference.max(), "image", overall, "Cycles' noise", noise)
+    assert reference.mean() > 0.01
+    assert abs(overall) <= 0.003
+    assert difference.max() <= BLOCK_BOUND[label]
