@@ -80,6 +80,12 @@ def test_an_emitter_seen_in_a_mirror_is_shaded_for_a_singular_glossy_reflection_
     np.testing.assert_array_equal(image, np.float32(MIRRORED[output]))
 
 
+@pytest.mark.parametrize("output", ["Is Camera Ray", "Is Glossy Ray", "Is Singular Ray", "Ray Depth", "Glossy Depth"])
+def test_whitteds_mirror_rays_are_singular_glossy_reflections_too(output):
+    """The lecture's Whitted tracer (the reference kernel alone) hands the same path to what its mirror rays meet."""
+    np.testing.assert_array_equal(shoot(mirror_scene(output), "numpy", "whitted"), np.float32(MIRRORED[output]))
+
+
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_an_emitter_seen_in_a_mirror_reads_the_reflected_rays_length(kernels):
     """Each pixel's ray meets the mirror at z = y (the 45-degree plane) and goes on along +y to the wall at y = 3: its
