@@ -156,6 +156,18 @@ def test_a_pane_in_a_shadow_ray_is_shaded_for_that_shadow_ray(kernels, output, s
     np.testing.assert_allclose(image, expected, rtol=1e-6, atol=1e-7)
 
 
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_shadow_rays_length_at_each_pane_is_measured_from_where_it_left_the_floor(kernels):
+    """Two panes at heights 1 and 2, each letting Ray Length / 4 of the shadow ray through (and all of the camera's):
+    Cycles measures every hit of its one shadow ray from its start, so the floor gets 1/4 x 2/4 of the sun's light."""
+    pane = math_node("MAXIMUM", light_path("Is Camera Ray"), math_node("MULTIPLY", light_path("Ray Length"), 0.25))
+    scene = shadow_scene(pane)
+    scene.add_mesh(primitives.plane(40.0, center=(0.0, 0.0, 2.0)), materials=np.array([1]))
+    scene.camera = ortho_down(height=4.0, scale=1.0)
+    image = shoot(scene, kernels, max_bounces=0)
+    np.testing.assert_allclose(image, 0.25 * 0.5, atol=1e-5)      # (the ray starts a robust offset off the floor)
+
+
 def test_every_output_of_cycles_light_path_node_is_evaluated():
     """The node's outputs in Blender 5.0 and 5.2, all compiled (addon/materials.py warns of none)."""
     assert set(LIGHT_PATH_OUTPUTS) == {
