@@ -11,8 +11,8 @@ rendered path traced by Primer and by Cycles (tiny images, one Blender process).
   shadow ray's length measured from the floor at both. Exact: a sun without extent.
 - Lamps that Light Path shows otherwise to light samples and BSDF rays, over a floor: one shining 1 to light samples and
   5 to diffuse rays (strength 1 + 4 x Is Diffuse Ray) over a diffuse floor, the same shining 1 to all, and one hidden
-  from glossy rays (a Mix Shader of Emission and Transparent by Is Glossy Ray) over a rough Glossy floor. Cycles shades a
-  light sample's emitter with PATH_RAY_EMISSION alone (neither diffuse nor glossy), a BSDF ray's with that ray's flags,
+  from glossy rays (a Mix Shader of Emission and Transparent by Is Glossy Ray) over a rough Glossy floor. Cycles shades
+  a light sample's emitter with PATH_RAY_EMISSION alone (neither diffuse nor glossy), a BSDF ray's with that ray's flags,
   and weighs the two by MIS: so Primer takes one light sample per vertex here, as Cycles does, for the same weights.
   The floor's mean and block means against the mean of Cycles' renders at two seeds.
 """
@@ -181,7 +181,8 @@ both(scene, "lamp", 256, seeds=(0, 1))
 boost.inputs[1].default_value = 0.0                 # the same lamp shining 1 to every ray
 both(scene, "constant", 256, seeds=(0, 1))
 
-# 5. A lamp invisible to glossy rays (Mix Shader: Emission, or Transparent where Is Glossy Ray) over a rough Glossy floor.
+# 5. A lamp invisible to glossy rays (Mix Shader: Emission, or Transparent where Is Glossy Ray) over a rough Glossy
+#    floor.
 scene = fresh(4.0, height=3.0)
 scene.primer.light_samples = 1
 glossy, _, _ = shader_material("Rough", "ShaderNodeBsdfGlossy", Color=(0.8, 0.8, 0.8, 1.0), Roughness=0.3)
@@ -221,8 +222,8 @@ def test_light_path_outputs_seen_in_a_mirror_through_clear_planes_and_in_shadow_
     assert result["warnings"] == []
     primer, cycles = pixels(folder, label, "primer"), pixels(folder, label, "cycles0")
     assert cycles.max() > 0.1, "the scene should show its outputs"
-    # (Ray Length in a shadow ray: Primer's starts a robust offset off the floor (float32 ulps of the coordinates), where
-    # Cycles' starts on it and skips its own triangle: measured 2.7e-6 darker)
+    # (Ray Length in a shadow ray: Primer's starts a robust offset off the floor (float32 ulps of the coordinates),
+    # where Cycles' starts on it and skips its own triangle: measured 2.7e-6 darker)
     np.testing.assert_allclose(primer, cycles, atol=5e-6 if label == "shadow_length" else 2e-6, rtol=1e-6)
 
 

@@ -101,7 +101,8 @@ def stack_scene(output: str, planes: int) -> Scene:
     """`planes` white Transparent planes at z = 1, 2, ... above a floor at z = 0 that emits the Light Path output
     `output`, under an orthographic camera looking down."""
     scene = Scene(camera=ortho_down(height=planes + 2.0, scale=1.0))
-    scene.materials += [Material(name="Clear", nodes=[("TRANSPARENT", (1.0, 1.0, 1.0), {})]), emitter(light_path(output))]
+    clear = Material(name="Clear", nodes=[("TRANSPARENT", (1.0, 1.0, 1.0), {})])
+    scene.materials += [clear, emitter(light_path(output))]
     for k in range(planes):
         scene.add_mesh(primitives.plane(4.0, center=(0.0, 0.0, 1.0 + k)), materials=np.array([0]))
     scene.add_mesh(primitives.plane(4.0), materials=np.array([1]))

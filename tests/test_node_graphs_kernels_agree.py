@@ -4,7 +4,8 @@ A material's node tree (closure nodes under Mix and Add Shaders, as addon/materi
 up any number of closures at a hit: a Principled BSDF alone sets up to six. The compiled kernel must keep every
 one, as the Python reference does (issue 31: past eight closures per hit it dropped them, past eight nodes the
 render failed). Random trees, deep mixes and many closures, constant inputs and Mix factors fed by a node graph (the
-object's coordinates, or a Light Path output: the path state both kernels hand the shaders), are rendered tiny with both kernels and both integrators; the images agree within tests/test_compiled.py's
+object's coordinates, or a Light Path output: the path state both kernels hand the shaders), are rendered tiny
+with both kernels and both integrators; the images agree within tests/test_compiled.py's
 tolerance. hypothesis draws the trees' seeds (derandomized: the same examples every run, and a failing one is
 printed with its seed and integrator); numpy's default_rng grows a tree from its seed.
 """

@@ -575,7 +575,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 no_closures(&sd);                   /* (only what it lets through counts) */
                 LightPath path = paths[l];
                 path.transparent += passed[l] - 1;
-                /* (Ray Length: the distance from the shadow ray's start, as Cycles measures every hit of its one ray) */
+                /* (Ray Length: the distance from the shadow ray's start: Cycles measures each hit of its one ray) */
                 double gone[3] = {s.I[0] - O[l][0], s.I[1] - O[l][1], s.I[2] - O[l][2]};
                 s.t = sqrt(dot3(gone, gone));
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,

@@ -122,7 +122,8 @@ def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarr
     labels = (np.where(through, P["transmit"], P["reflect"])
               | np.where(diffuse, P["diffuse"], np.where(singular, P["glossy"] | P["singular"], P["glossy"])))
     return graph_.LightPaths(flags=np.where(straight, paths.flags, labels), bounce=paths.bounce + ~straight,
-                             diffuse=paths.diffuse + (reflected & diffuse), glossy=paths.glossy + (reflected & ~diffuse),
+                             diffuse=paths.diffuse + (reflected & diffuse),
+                             glossy=paths.glossy + (reflected & ~diffuse),
                              transmission=paths.transmission + through, transparent=paths.transparent + straight)
 
 

@@ -214,7 +214,8 @@ def transmittance(ctx, rays: ShadowRays, limit: int, paths=None) -> np.ndarray:
         path = path._replace(transparent=path.transparent + passed[rows] - 1)
         # (Ray Length: the distance from the shadow ray's start, as Cycles measures every hit of its one ray)
         gone = surface.I - rays.origins[rows]
-        surface = surface._replace(t=np.sqrt((gone[:, 0] * gone[:, 0] + gone[:, 1] * gone[:, 1]) + gone[:, 2] * gone[:, 2]))
+        length = np.sqrt((gone[:, 0] * gone[:, 0] + gone[:, 1] * gone[:, 1]) + gone[:, 2] * gone[:, 2])
+        surface = surface._replace(t=length)
         shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, path)
         through = np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
         T[rows] *= np.where(hidden[:, None], 1.0, through)

@@ -186,8 +186,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 seen = np.ones(len(rows), bool)
                 through = np.ones((len(rows), 1))
             elif ctx.extra.get("transparent", False):
-                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces,
-                                                graph_.paths_at(graph_.with_flags(light_path, graph_.PATH_SHADOW), rows))
+                shadow_paths = graph_.paths_at(graph_.with_flags(light_path, graph_.PATH_SHADOW), rows)
+                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, shadow_paths)
                 seen = through.any(axis=1)
             else:
                 seen = shadows.visible(ctx.geometry.tracer, rays)
@@ -455,7 +455,8 @@ def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None)
     rows = np.flatnonzero(emitters.textured[ls.emitter] & (ls.strength > 0.0))
     if len(rows):
         color[rows] = graph_emission(ctx.geometry, ctx.materials, emitters.prim[ls.emitter[rows]], points[rows],
-                                     ls.L[rows], ls.distance[rows], None if paths is None else graph_.paths_at(paths, rows))
+                                     ls.L[rows], ls.distance[rows],
+                                     None if paths is None else graph_.paths_at(paths, rows))
     return ls._replace(color=color)
 
 

@@ -68,11 +68,11 @@ PATH = schema.constants("PATH", {name: 1 << index for index, name in enumerate(P
 PATH_CAMERA, PATH_SHADOW, PATH_EMISSION = PATH["camera"], PATH["shadow"], PATH["emission"]
 LightPath = schema.record("LightPath", "What a shader knows of the path that reached a hit (the Light Path node).", [
     ("flags", I32, "PATH_* bits: the kind of ray that found the hit"),
-    ("bounce", I32, "the path's real bounces so far (Cycles' bounce; a shadow ray's: its vertex's)"),
+    ("bounce", I32, "the path's real bounces so far (Cycles' bounce)"),
     ("diffuse", I32, "of those, diffuse reflections"),
     ("glossy", I32, "glossy and mirror reflections"),
     ("transmission", I32, "bounces through the surface"),
-    ("transparent", I32, "transparent surfaces passed straight through, the whole path's (a shadow ray's too)"),
+    ("transparent", I32, "transparent surfaces passed straight through, the whole path's"),
 ])
 # The same fields, one (n,) int64 array each, for n hits at once (ShadingPoint.path).
 LightPaths = namedtuple("LightPaths", [f.name for f in LightPath._description])
@@ -88,7 +88,8 @@ LIGHT_PATH_FLAG_OF = {"Is Camera Ray": "camera", "Is Shadow Ray": "shadow", "Is 
                       "Is Transmission Ray": "transmit", "Is Volume Scatter Ray": "volume_scatter"}
 
 
-def light_paths(n: int, flags=PATH_CAMERA, bounce=0, diffuse=0, glossy=0, transmission=0, transparent=0) -> "LightPaths":
+def light_paths(n: int, flags=PATH_CAMERA, bounce=0, diffuse=0, glossy=0, transmission=0,
+                transparent=0) -> "LightPaths":
     """n hits' LightPaths, each field (n,) int64 from a scalar or an (n,) array (the default: camera rays)."""
     values = (flags, bounce, diffuse, glossy, transmission, transparent)
     return LightPaths(*(np.broadcast_to(np.asarray(v, np.int64), (n,)).copy() for v in values))

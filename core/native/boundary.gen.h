@@ -743,11 +743,11 @@ struct BsdfArgs {
 /* What a shader knows of the path that reached a hit (the Light Path node). */
 struct LightPath {
     int32_t flags;                          /* PATH_* bits: the kind of ray that found the hit */
-    int32_t bounce;                         /* the path's real bounces so far (Cycles' bounce; a shadow ray's: its vertex's) */
+    int32_t bounce;                         /* the path's real bounces so far (Cycles' bounce) */
     int32_t diffuse;                        /* of those, diffuse reflections */
     int32_t glossy;                         /* glossy and mirror reflections */
     int32_t transmission;                   /* bounces through the surface */
-    int32_t transparent;                    /* transparent surfaces passed straight through, the whole path's (a shadow ray's too) */
+    int32_t transparent;                    /* transparent surfaces passed straight through, the whole path's */
 };
 
 /* Every program of a render's materials (core/materials/graph.py). ops: (k, OP_WIDTH) the op code and its
