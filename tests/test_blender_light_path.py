@@ -8,7 +8,8 @@ rendered path traced by Primer and by Cycles (tiny images, one Blender process).
   still a camera ray, three transparent bounces. Exact as well.
 - A pane that lets through 0.5 x Ray Depth of a sun's light (and all of the camera's, Is Camera Ray): the floor under it
   is lit through a shadow ray one bounce deeper than the floor (depth 1); two panes letting Ray Length / 4 through, the
-  shadow ray's length measured from the floor at both. Exact: a sun without extent.
+  shadow ray's length measured from the floor at both; two clear panes under Transparent Max Bounces 3 and 4, the
+  shadow rays passing only what the camera path left of the limit. Exact: a sun without extent.
 - Lamps that Light Path shows otherwise to light samples and BSDF rays, over a floor: one shining 1 to light samples and
   5 to diffuse rays (strength 1 + 4 x Is Diffuse Ray) over a diffuse floor, the same shining 1 to all, and one hidden
   from glossy rays (a Mix Shader of Emission and Transparent by Is Glossy Ray) over a rough Glossy floor. Cycles shades
@@ -162,6 +163,15 @@ plane(scene, "Upper Pane", 40.0, (10.0, 0.0, 2.0), (0.0, 0.0, 0.0), pane)
 scene.camera.location = (0.0, 0.0, 4.0)
 both(scene, "shadow_length", 4)
 
+# 3c. The floor seen and lit through two clear panes with Transparent Max Bounces 3 and 4: the camera ray passes both
+#     panes either way, its shadow rays only what the path left of the limit (one, then two).
+for limit in (3, 4):
+    clear_pane, _, _ = shader_material("Clear Pane %d" % limit, "ShaderNodeBsdfTransparent", Color=(1.0, 1.0, 1.0, 1.0))
+    for obj in (bpy.data.objects["Pane"], bpy.data.objects["Upper Pane"]):
+        obj.data.materials[0] = clear_pane
+    scene.primer.transparent_bounces = limit
+    both(scene, "shadow_limit_%d" % limit, 4)
+
 # 4. A lamp that shines 1 to light samples and 5 to diffuse rays over a diffuse floor (one light sample per vertex, as
 #    Cycles takes: MIS weighs the two strategies as Cycles does).
 scene = fresh(4.0, height=3.0)
@@ -225,6 +235,16 @@ def test_light_path_outputs_seen_in_a_mirror_through_clear_planes_and_in_shadow_
     # (Ray Length in a shadow ray: Primer's starts a robust offset off the floor (float32 ulps of the coordinates),
     # where Cycles' starts on it and skips its own triangle: measured 2.7e-6 darker)
     np.testing.assert_allclose(primer, cycles, atol=5e-6 if label == "shadow_length" else 2e-6, rtol=1e-6)
+
+
+def test_a_shadow_ray_passes_what_its_path_left_of_the_transparent_bounce_limit_as_in_cycles(rendered):
+    """Seen and lit through two clear panes: black with Transparent Max Bounces 3 (the shadow ray has one pass left),
+    lit with 4 (1 / pi x pi = 1), in both renderers alike."""
+    folder, _ = rendered
+    for limit, lit in ((3, 0.0), (4, 1.0)):
+        primer, cycles = (pixels(folder, f"shadow_limit_{limit}", engine) for engine in ("primer", "cycles0"))
+        np.testing.assert_allclose(cycles, lit, atol=1e-5)
+        np.testing.assert_allclose(primer, cycles, atol=2e-5)
 
 
 # The largest relative difference of a 4 x 4 block mean allowed (measured 0.86%, 0.89% and 3.3%: the blocks by the

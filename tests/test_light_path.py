@@ -131,12 +131,13 @@ def test_an_emitter_seen_through_glass_of_index_one_is_shaded_for_a_singular_tra
     np.testing.assert_array_equal(shoot(scene, kernels), np.float32(expected))
 
 
-def shadow_scene(transparency: Link) -> Scene:
+def shadow_scene(transparency) -> Scene:
     """A white diffuse floor at z = 0 under a plane at z = 1 that lets `transparency` through (a Transparent BSDF's
-    colour), lit straight down by a sun of strength pi; the camera looks down through the plane."""
+    colour, a Link; None: all), lit straight down by a sun of strength pi; the camera looks down through the plane."""
     scene = Scene(camera=ortho_down(height=3.0, scale=1.0))
     scene.materials += [Material(name="Floor", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {"roughness": 0.0})]),
-                        Material(name="Pane", nodes=[("TRANSPARENT", (1.0, 1.0, 1.0), {}, [(transparency, "color")])])]
+                        Material(name="Pane", nodes=[("TRANSPARENT", (1.0, 1.0, 1.0), {},
+                                                      [] if transparency is None else [(transparency, "color")])])]
     scene.add_mesh(primitives.plane(40.0), materials=np.array([0]))
     scene.add_mesh(primitives.plane(40.0, center=(0.0, 0.0, 1.0)), materials=np.array([1]))
     scene.lights = [SunLight(np.array([0.0, 0.0, -1.0]), strength=math.pi)]
@@ -167,6 +168,19 @@ def test_a_shadow_rays_length_at_each_pane_is_measured_from_where_it_left_the_fl
     scene.camera = ortho_down(height=4.0, scale=1.0)
     image = shoot(scene, kernels, max_bounces=0)
     np.testing.assert_allclose(image, 0.25 * 0.5, atol=1e-5)      # (the ray starts a robust offset off the floor)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("limit, lit", [(3, 0.0), (4, 1.0)])
+def test_a_shadow_ray_passes_only_what_its_path_left_of_the_transparent_bounce_limit(kernels, limit, lit):
+    """The camera sees the floor through two clear panes, and the sun lights it through the same two: with
+    Transparent Max Bounces 3 the camera ray passes both (2 < 3) but its shadow rays have one pass left, and the
+    floor is black, as in Cycles (integrate_shadow_max_transparent_hits); with 4 both get through (albedo 1 / pi x pi)."""
+    scene = shadow_scene(None)
+    scene.add_mesh(primitives.plane(40.0, center=(0.0, 0.0, 2.0)), materials=np.array([1]))
+    scene.camera = ortho_down(height=4.0, scale=1.0)
+    image = shoot(scene, kernels, max_bounces=0, transparent_max_bounces=limit)
+    np.testing.assert_allclose(image, lit, atol=1e-5)
 
 
 def test_every_output_of_cycles_light_path_node_is_evaluated():

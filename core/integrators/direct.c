@@ -530,9 +530,9 @@ struct Transmitter {
 };
 
 /* shadows.transmittance for up to 8 shadow rays (O, D0, t: float64 origins, directions, lengths; paths: the
- * LightPath each carries, whose Transparent Depth grows by each surface passed): T, the
- * share of light each carries through the transparent surfaces it passes (0 where something opaque, or
- * more than tr->limit surfaces, is in the way); objects hidden from shadow rays are passed as if not there.
+ * LightPath each carries, whose Transparent Depth grows by each surface passed): T, the share of light each carries
+ * through the transparent surfaces it passes (0 where something opaque, or more than tr->limit surfaces less those
+ * its path passed, is in the way); objects hidden from shadow rays are passed as if not there.
  * Past a surface each ray goes on towards its own end point O + t D0 (short of the light), which stays put. */
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D0[][3], const double *t,
                             const LightPath *paths, double T[][3])
@@ -561,7 +561,12 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             int64_t geometry = (int64_t)packet.hit.geomID[k], prim = (int64_t)packet.hit.primID[k];
             int64_t instance = instance_of(&packet.hit, k);
             int hidden = hidden_from(tr->geometry, geometry, prim, instance, HIDDEN_FROM_SHADOW);
-            if (!hidden && passed[l] == tr->limit) { T[l][0] = T[l][1] = T[l][2] = 0.0; alive[l] = 0; continue; }
+            /* (Cycles: a shadow ray passes what is left of the path's transparent bounces, the limit less its count) */
+            if (!hidden && passed[l] >= tr->limit - paths[l].transparent) {
+                T[l][0] = T[l][1] = T[l][2] = 0.0;
+                alive[l] = 0;
+                continue;
+            }
             passed[l] += !hidden;
             /* The surface passed: what its material lets through, seen along the ray. */
             double u = (double)packet.hit.u[k], v = (double)packet.hit.v[k];

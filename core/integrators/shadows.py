@@ -174,8 +174,9 @@ def visible(tracer, rays: ShadowRays) -> np.ndarray:
 def transmittance(ctx, rays: ShadowRays, limit: int, paths=None) -> np.ndarray:
     """The share of light (n, 3) float64 a shadow ray carries through transparent surfaces (Cycles'
     transparent shadows): the product of the transparency of each surface it passes, 0 where an opaque
-    surface blocks it or where it would pass more than `limit` of them. Objects hidden from shadow rays
-    (Ray Visibility > Shadow off) are passed as if they were not there.
+    surface blocks it or where it would pass more than what is left of `limit` (less the transparent surfaces its
+    path passed before, `paths.transparent`, as Cycles' integrate_shadow_max_transparent_hits). Objects hidden from
+    shadow rays (Ray Visibility > Shadow off) are passed as if they were not there.
 
     Past each surface the ray goes on from just off it towards its own end point, origin + t_max direction
     (short of the light by robust_rays' margin), which stays where it was: Cycles moves only the start of its
@@ -204,7 +205,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int, paths=None) -> np.ndarray:
             break
         rows = alive[hit]
         hidden = ctx.geometry.hidden(found.prim[hit], HIDDEN_FROM_SHADOW)
-        over = ~hidden & (passed[rows] >= limit)
+        over = ~hidden & (passed[rows] >= limit - paths.transparent[rows])     # (what the path has left of the limit)
         T[rows[over]] = 0.0
         passed[rows] += ~hidden
         # The surface the ray passes: what its material lets through, seen along the ray.
