@@ -3,8 +3,9 @@
 A material's node tree (closure nodes under Mix and Add Shaders, as addon/materials.py multiplies it out) may set
 up any number of closures at a hit: a Principled BSDF alone sets up to six. The compiled kernel must keep every
 one, as the Python reference does (issue 31: past eight closures per hit it dropped them, past eight nodes the
-render failed). Random trees, deep mixes and many closures, constant inputs and Mix factors fed by a node graph,
-are rendered tiny with both kernels and both integrators; the images agree within tests/test_compiled.py's
+render failed). Random trees, deep mixes and many closures, constant inputs and Mix factors fed by a node graph (the
+object's coordinates, or a Light Path output: the path state both kernels hand the shaders), are rendered tiny
+with both kernels and both integrators; the images agree within tests/test_compiled.py's
 tolerance. hypothesis draws the trees' seeds (derandomized: the same examples every run, and a failing one is
 printed with its seed and integrator); numpy's default_rng grows a tree from its seed.
 """
@@ -20,7 +21,7 @@ from hypothesis import strategies as st
 from core import materials, render
 from core.camera import Camera
 from core.geometry import primitives
-from core.materials.graph import GraphNode, Link
+from core.materials.graph import LIGHT_PATH_OUTPUTS, GraphNode, Link
 from core.scene import PointLight, RenderSettings, Scene, SunLight
 
 from test_compiled import assert_same_render, compare_paths
@@ -79,9 +80,14 @@ def random_tree(rng: np.random.Generator, depth: int, weight: np.ndarray, factor
         random_tree(rng, depth - 1, weight * (1.0 - fac), factors, out)
         random_tree(rng, depth - 1, weight * fac, factors, out)
     else:
-        # A factor that changes across the surface: the object coordinate's x, through a Separate XYZ.
+        # A factor that changes across the surface: the object coordinate's x, through a Separate XYZ; or along the
+        # path: a Light Path output (the ray's kind, a bounce count, a third of its length).
         coords = GraphNode("TEXCOORD", {}, {})
         x = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(coords, "Object")}), "X")
+        if rng.uniform() < 0.5:
+            output = str(rng.choice(LIGHT_PATH_OUTPUTS))
+            x = Link(GraphNode("MATH", {"operation": "MULTIPLY"},
+                               {"0": Link(GraphNode("LIGHT_PATH", {}, {}), output), "1": 1.0 / 3.0}), "Value")
         random_tree(rng, depth - 1, weight, factors + ((x, "one_minus"),), out)
         random_tree(rng, depth - 1, weight, factors + ((x, "fac"),), out)
 

@@ -179,7 +179,7 @@ typedef struct {
     double L[9];        /* the object's linear transform, row-major */
     double dPdu[3], dPdv[3];
     double Ng[3];       /* the face normal, facing the viewer */
-    double ray;         /* which kind of ray found the hit (graph.RAY_*): the Light Path node asks */
+    LightPath path;     /* the path that reached the hit (graph.LightPath): the Light Path node asks */
     double I[3];        /* back along that ray (the material's wo): the Fresnel and Layer Weight nodes ask */
     double P[3];        /* the world point (camera-relative I plus the origin): the Geometry node's Position */
     double u, v;        /* the barycentrics: its Parametric */

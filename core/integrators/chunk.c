@@ -61,9 +61,15 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             /* (a camera path's origin: where its rays through clear surfaces meet lamps from, path.py's mis_origin) */
             for (int c = 0; c < 3; c++) H->mis_origin[3 * h + c] = O[c];
             hit_closures(H, h);
+            /* (what clamping and the Light Path node read: a path's throughput and bounces, 1 and 0 at the camera's
+             * hit, and its camera ray's flags) */
+            for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
+            H->bounce[h] = H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = 0;
+            H->flags[h] = PATH_CAMERA;
+            LightPath camera = path_at(H, h, PATH_CAMERA);
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
-                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, RAY_CAMERA, H->sd + h);
+                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, &camera, H->sd + h);
             H->seen_by[h] = HIDDEN_FROM_CAMERA;
             double weight[3];                   /* a holdout object or node: a hole in the film (path.hold_out) */
             if (hold_out(H->sd + h, hidden_from(params->geometry, (int64_t)packet.hit.geomID[k],
@@ -74,9 +80,6 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];
             for (int c = 0; c < 3; c++) H->L[3 * h + c] = H->sd[h].emission[c];
-            /* (what clamping reads: a path's throughput and bounces, 1 and 0 at the camera's hit) */
-            for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
-            H->bounce[h] = 0;
             if (params->clamp_direct < INFINITY) {
                 double f = clamp_scale(H->L + 3 * h, H->throughput + 3 * h, params->clamp_direct, 1.0);
                 for (int c = 0; c < 3; c++) H->L[3 * h + c] *= f;

@@ -26,6 +26,7 @@ typedef struct {
     double throughput[3 * BLOCK];                /* a path's throughput at the hit (path.c; 1 at the camera's) */
     int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse, glossy and transmission bounces so far */
     int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
+    int32_t flags[BLOCK];                        /* the PATH_* bits of the ray that found it (graph.LightPath) */
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
     double mis_origin[3 * BLOCK];                /* its ray origin, and its light-tree normal (0: unknown), from which */
     double mis_n[3 * BLOCK];                     /* MIS measures the light pdfs (direct.BsdfRay.mis_O, mis_N) */
@@ -49,6 +50,13 @@ typedef struct {
     int64_t geometry[BLOCK], prim[BLOCK], instance[BLOCK];
     double bary[2 * BLOCK];
 } BlockHits;
+
+/* The LightPath (graph.py) of the path at hit h of H, with the flags `flags` (its own: H->flags[h]). */
+INLINE LightPath path_at(const BlockHits *H, int64_t h, int flags)
+{
+    LightPath p = {flags, H->bounce[h], H->diffuse[h], H->glossy[h], H->transmission[h], H->transparent[h]};
+    return p;
+}
 
 /* Make hit h's ShaderResult ready to shade: its room for closures and their parameters in the block's buffers, no
  * caustics filter. */
@@ -91,6 +99,7 @@ typedef struct {
     double pdf;                                  /* the pdf MIS weighs what it finds with (inf: none) */
     double mis_O[3], mis_N[3];                   /* where MIS measures the light pdfs from (the last real bounce) */
     int seen_as;                                 /* its kind: the HIDDEN_FROM_* bit of objects it passes */
+    LightPath path;                              /* the path it carries past the bounce (rays.path_after) */
     double shares[PASS_KINDS][3];                /* its pass kinds' shares (lightpasses.c; light passes only) */
 } PathRay;
 
@@ -146,6 +155,24 @@ INLINE int ray_kind(int kind, int transmit, int previous)
     if (bsdf_is(kind, BSDF_FLAG_STRAIGHT)) return previous;
     if (goes_through(kind, transmit)) return HIDDEN_FROM_TRANSMISSION;
     return bsdf_is(kind, BSDF_FLAG_DIFFUSE) ? HIDDEN_FROM_DIFFUSE : HIDDEN_FROM_GLOSSY;
+}
+
+/* rays.path_after: the path a bounce's ray carries on from `p` (Cycles' path_state_next), the sampled closure of
+ * kind `kind` through the face (transmit) or not, a delta (singular) or not. Straight through a Transparent closure:
+ * one more transparent surface, the flags kept; any other closure: one more bounce of its kind, and the flags its
+ * labels give (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR). */
+INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular)
+{
+    if (bsdf_is(kind, BSDF_FLAG_STRAIGHT)) { p.transparent++; return p; }
+    int through = goes_through(kind, transmit), diffuse = bsdf_is(kind, BSDF_FLAG_DIFFUSE);
+    singular = singular || bsdf_is(kind, BSDF_FLAG_SINGULAR);
+    p.bounce++;
+    p.transmission += through;
+    p.diffuse += !through && diffuse;
+    p.glossy += !through && !diffuse;
+    p.flags = (through ? PATH_TRANSMIT : PATH_REFLECT)
+              | (diffuse ? PATH_DIFFUSE : (singular ? PATH_GLOSSY | PATH_SINGULAR : PATH_GLOSSY));
+    return p;
 }
 
 /* path.hold_out for one hit of a camera path; object: 1 on a holdout object. Returns whether the hit holds out
@@ -355,7 +382,7 @@ typedef struct LanePasses LanePasses;
  * gets through, (weight colour) f cos, is added to its hit's radiance in ray order. Returns the rays traced. */
 typedef struct Transmitter Transmitter;
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D[][3], const double *t,
-                            double T[][3]);
+                            const LightPath *paths, double T[][3]);
 
 /* clamp.scale: the factor that caps a contribution value x throughput x count (channel sum) at limit (inf: none). */
 INLINE double clamp_scale(const double *value, const double *throughput, double limit, double count)
@@ -380,6 +407,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
     int valid[PACKET] ALIGNED(32);
     int64_t owner[PACKET], sample_of[PACKET], rays = 0;
     double value[PACKET][3], O[PACKET][3], D[PACKET][3], t[PACKET], T[PACKET][3];
+    LightPath paths[PACKET];
     int lanes = 0;
     for (int64_t k = 0; k <= b->n; k++) {
         if (k < b->n) {
@@ -388,6 +416,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             t[lanes] = b->t[k];
             set_lane(&ray, lanes, O[lanes], D[lanes], b->t[k]);
             owner[lanes] = b->hit[k];
+            paths[lanes] = path_at(H, b->hit[k], PATH_SHADOW);      /* (a shadow ray: SHADOW alone) */
             sample_of[lanes] = k;
             for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * b->color[c][k]) * b->f[c][k];
             if (caps != NULL) {
@@ -408,7 +437,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             }
         } else if (transmitter != NULL) {
             /* Transparent shadows: each ray carries the product of the transparencies it passes. */
-            transmit_packet(transmitter, lanes, O, D, t, T);
+            transmit_packet(transmitter, lanes, O, D, t, paths, T);
             for (int lane = 0; lane < lanes; lane++) {
                 double *e = L_out + 3 * owner[lane], got[3];
                 for (int c = 0; c < 3; c++) { got[c] = value[lane][c] * T[lane][c]; e[c] += got[c]; }
@@ -500,12 +529,13 @@ struct Transmitter {
     int limit;                  /* the most transparent surfaces a shadow ray passes */
 };
 
-/* shadows.transmittance for up to 8 shadow rays (O, D0, t: float64 origins, directions, lengths): T, the
- * share of light each carries through the transparent surfaces it passes (0 where something opaque, or
- * more than tr->limit surfaces, is in the way); objects hidden from shadow rays are passed as if not there.
+/* shadows.transmittance for up to 8 shadow rays (O, D0, t: float64 origins, directions, lengths; paths: the
+ * LightPath each carries, whose Transparent Depth grows by each surface passed): T, the share of light each carries
+ * through the transparent surfaces it passes (0 where something opaque, or more than tr->limit surfaces less those
+ * its path passed, is in the way); objects hidden from shadow rays are passed as if not there.
  * Past a surface each ray goes on towards its own end point O + t D0 (short of the light), which stays put. */
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D0[][3], const double *t,
-                            double T[][3])
+                            const LightPath *paths, double T[][3])
 {
     double origin[PACKET][3], left[PACKET], D[PACKET][3], end[PACKET][3];
     int alive[PACKET], passed[PACKET];
@@ -531,7 +561,12 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             int64_t geometry = (int64_t)packet.hit.geomID[k], prim = (int64_t)packet.hit.primID[k];
             int64_t instance = instance_of(&packet.hit, k);
             int hidden = hidden_from(tr->geometry, geometry, prim, instance, HIDDEN_FROM_SHADOW);
-            if (!hidden && passed[l] == tr->limit) { T[l][0] = T[l][1] = T[l][2] = 0.0; alive[l] = 0; continue; }
+            /* (Cycles: a shadow ray passes what is left of the path's transparent bounces, the limit less its count) */
+            if (!hidden && passed[l] >= tr->limit - paths[l].transparent) {
+                T[l][0] = T[l][1] = T[l][2] = 0.0;
+                alive[l] = 0;
+                continue;
+            }
             passed[l] += !hidden;
             /* The surface passed: what its material lets through, seen along the ray. */
             double u = (double)packet.hit.u[k], v = (double)packet.hit.v[k];
@@ -543,8 +578,13 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 double wo[3] = {-D[l][0], -D[l][1], -D[l][2]};
                 ShaderResult sd;
                 no_closures(&sd);                   /* (only what it lets through counts) */
+                LightPath path = paths[l];
+                path.transparent += passed[l] - 1;
+                /* (Ray Length: the distance from the shadow ray's start: Cycles measures each hit of its one ray) */
+                double gone[3] = {s.I[0] - O[l][0], s.I[1] - O[l][1], s.I[2] - O[l][2]};
+                s.t = sqrt(dot3(gone, gone));
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
-                          v, wo, RAY_SHADOW, &sd);
+                          v, wo, &path, &sd);
                 double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
                 for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
             }
@@ -577,24 +617,24 @@ INLINE void point_barycentrics(const double *V, const double *P, double *u, doub
 }
 
 /* The surface s and material sd (its emission, transparency and holdout: no closures, no_closures) of triangle tri
- * (Embree's geometry, prim, instance) where the ray O + t D meets it at barycentrics (u, v), for a ray other than
- * the camera's. */
+ * (Embree's geometry, prim, instance) where the ray O + t D, carrying the path `path`, meets it at barycentrics
+ * (u, v). */
 INLINE void shade_along(const DirectSettings *ds, const Triangle *tri, int64_t geometry, int64_t prim,
                         int64_t instance, const double *O, const double *D, double t, double u, double v,
-                        Surface *s, ShaderResult *sd)
+                        const LightPath *path, Surface *s, ShaderResult *sd)
 {
     surface_at(O, D, t, u, v, tri, 0, s);
     double wo[3] = {-D[0], -D[1], -D[2]};
     no_closures(sd);
     shade_hit(ds->graphs, ds->geometry, ds->materials + tri->material, tri, s, geometry, prim, instance, u, v, wo,
-              RAY_BOUNCE, sd);
+              path, sd);
 }
 
 /* direct.graph_emission for one point O + t D on triangle (geometry, prim, instance): what its material's node
- * graph emits back along -D (a texture's emission), for a ray other than the camera's; the barycentrics come
- * from the point. */
+ * graph emits back along -D (a texture's emission) to a ray carrying the path `path`; the barycentrics come from
+ * the point. */
 NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, int64_t prim, int64_t instance,
-                           const double *O, const double *D, double t, double *out)
+                           const double *O, const double *D, double t, const LightPath *path, double *out)
 {
     Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
     hit_triangle(ds->geometry, geometry, prim, instance, 1, &tri);
@@ -602,7 +642,7 @@ NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, 
     point_barycentrics(tri.V, P, &u, &v);
     Surface s;
     ShaderResult sd;
-    shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &s, &sd);
+    shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, path, &s, &sd);
     for (int c = 0; c < 3; c++) out[c] = sd.emission[c];
 }
 
@@ -623,8 +663,9 @@ INLINE void unflat_prim(const GeometryTables *g, int64_t flat, int64_t *geometry
 }
 
 /* direct.textured_samples: the emitters' samples in the block that landed on a textured triangle bring what its
- * node graph emits there, in place of the triangle's estimate. */
-static void textured_block(SampleBlock *b, const DirectSettings *ds)
+ * node graph emits there, in place of the triangle's estimate; the light's shading carries EMISSION alone and the
+ * counts of the path at the lit hit (Cycles' light_sample_shader_eval). */
+static void textured_block(SampleBlock *b, const BlockHits *H, const DirectSettings *ds)
 {
     const EmitterTables *e = ds->context->emitters;
     for (int64_t k = 0; k < b->n; k++) {
@@ -632,7 +673,8 @@ static void textured_block(SampleBlock *b, const DirectSettings *ds)
         int64_t geometry, prim, instance;
         unflat_prim(ds->geometry, e->prim[b->emitter[k]], &geometry, &prim, &instance);
         double O[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, D[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, out[3];
-        graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], out);
+        LightPath path = path_at(H, b->hit[k], PATH_EMISSION);
+        graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], &path, out);
         for (int c = 0; c < 3; c++) b->color[c][k] = out[c];
     }
 }
@@ -716,7 +758,7 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
             if (light->hidden != 0)                      /* a lamp's Ray Visibility: closures it leaves out */
                 for (int64_t k = 0; k < b.n; k++) b.hidden[k] |= (int)light->hidden;
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && ds->context->emitters->textured != NULL)
-                textured_block(&b, ds);
+                textured_block(&b, H, ds);
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER)) skip_own_triangle(&b, H, ds);
             if (light->max_bounces < 1024)              /* a light's Max Bounces: no samples at later hits */
                 for (int64_t k = 0; k < b.n; k++)
@@ -752,6 +794,7 @@ typedef struct {
     int use_mis, camera;
     const double *P, *N;
     int seen_as;            /* the ray's kind (HIDDEN_FROM_* bit): it passes lamps hidden from that kind */
+    const LightPath *path;  /* the path it carries (the emitter it hits is shaded for it) */
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -810,7 +853,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         const double *emitted = ds->materials[tri.material].emission;
         double textured[3];
         if (ds->materials[tri.material].graph_emits != 0.0) {     /* a texture's emission, where the ray landed */
-            graph_emission(ds, geometry, prim, instance, O, D, t_limit, textured);
+            graph_emission(ds, geometry, prim, instance, O, D, t_limit, ray->path, textured);
             emitted = textured;
         }
         int64_t index = emitters_index >= 0
@@ -849,6 +892,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
     ClosureSample sampled[PACKET];
     double origin[PACKET][3];
     int kinds[PACKET];
+    LightPath after[PACKET];
     int lanes = 0;
     for (int64_t h = 0; h <= H->m; h++) {
         if (h < H->m) {
@@ -877,6 +921,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             const ClosureSample *s = sampled + k;
             int transmit = dot3(H->s[owner[k]].Ng, s->wi) < 0.0;
             kinds[k] = ray_kind(s->kind, transmit, H->seen_by[owner[k]]);
+            after[k] = path_after(path_at(H, owner[k], H->flags[owner[k]]), s->kind, transmit, s->delta);
             if (packet.hit.geomID[k] != INVALID_ID && ds->geometry->hidden != NULL)
                 see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, k, origin[k], s->wi, INFINITY,
                                 kinds[k]);
@@ -916,6 +961,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->transmit = dot3(H->s[owner[k]].Ng, D) < 0.0;
                 r->pdf = pdf_b;
                 r->seen_as = kinds[k];
+                r->path = after[k];
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
                 for (int c = 0; c < 3; c++) { r->mis_O[c] = P[c]; r->mis_N[c] = N != NULL ? N[c] : 0.0; }
                 if (first)
@@ -929,7 +975,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
             FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                                   instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
-                                  kinds[k]};
+                                  kinds[k], after + k};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

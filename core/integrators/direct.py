@@ -22,7 +22,6 @@ from typing import ClassVar
 import numpy as np
 
 from .. import vectors
-from ..materials import graph as graph_
 from . import clamp as clamp_
 from . import features as features_
 from . import lightgroups, lightpasses
@@ -61,7 +60,7 @@ class DirectLighting(Integrator):
         parts = lightpasses.FirstHitParts(len(hit)) if lightpasses.wanted(ctx.settings.passes) else None
         hit_groups = lightgroups.tally(ctx, len(hit))
         emitted, finds = (np.zeros((len(hit), 3)), np.zeros((len(hit), 3))) if feats is not None else (None, None)
-        shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry, graph_.RAY_CAMERA)
+        shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry)   # (camera rays)
         L_hit, shadow_rays, _ = shade_vertex(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder,
                                              PathState(limit=direct_cap), parts=parts, groups=hit_groups,
                                              shader=shader, emitted=emitted, found=finds)

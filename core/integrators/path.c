@@ -21,22 +21,10 @@ typedef struct {
     double features[BLOCK][FEATURE_CHANNELS];  /* each camera lane's denoising features (features.c), where asked for */
 } PathWork;
 
-/* path.bounce_kind: whether a sampled closure makes a diffuse, a glossy or a transmission bounce (through the
- * surface by direct.goes_through), or a transparent one (no bounce); and whether it was labelled diffuse. */
+/* path.bounce_kind: whether a sampled closure makes a transparent bounce (no bounce), and whether it was labelled
+ * diffuse; the counts of each kind of bounce are the ray's path (PathRay.path, direct.c path_after). */
 INLINE int is_labelled_diffuse(int kind) { return bsdf_is(kind, BSDF_FLAG_DIFFUSE); }
 INLINE int is_transparent_bounce(int kind) { return bsdf_is(kind, BSDF_FLAG_STRAIGHT); }
-INLINE int is_diffuse_bounce(int kind, int transmit)
-{
-    return kind >= 0 && is_labelled_diffuse(kind) && !goes_through(kind, transmit) && !is_transparent_bounce(kind);
-}
-INLINE int is_glossy_bounce(int kind, int transmit)
-{
-    return kind >= 0 && !is_labelled_diffuse(kind) && !goes_through(kind, transmit) && !is_transparent_bounce(kind);
-}
-INLINE int is_transmission_bounce(int kind, int transmit)
-{
-    return kind >= 0 && goes_through(kind, transmit) && !is_transparent_bounce(kind);
-}
 
 /* path.through_transparent for one ray r of hit h whose path has ended at its bounce limits, after `clear`
  * transparent surfaces: the light behind the transparent surfaces it meets (each multiplies by its
@@ -52,6 +40,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
     const double *D = r->D;
     int64_t geometry = r->geometry, prim = r->prim, instance = r->instance;
     double u = r->u, v = r->v, t = r->t;
+    LightPath path = r->path;                   /* (each surface passed: one more transparent one) */
     int use_mis = ds->mis && isfinite(r->pdf);
     for (;;) {
         /* 1. The surface met: what it lets through, seen along the ray. */
@@ -61,8 +50,9 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         if (material->may_pass == 0.0) return;
         Surface s;
         ShaderResult sd;
-        shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &s, &sd);
+        shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &path, &s, &sd);
         for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
+        path.transparent++;
         if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0) || ++clear > limits->transparent_bounces) return;
         /* 2. On from just past it, straight ahead, gathering what the ray finds. */
         spawn_ray(s.I, s.Ng, D, s.offset, O);
@@ -82,7 +72,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         prim = (int64_t)packet.hit.primID[0];
         instance = instance_of(&packet.hit, 0);
         FindingRay finding = {O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O, r->mis_N,
-                              (int)r->seen_as};
+                              (int)r->seen_as, &path};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         double f = clamp_scale(light_L, throughput, cap, 1.0);
@@ -109,10 +99,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         const PathRay *r = rays->r + i;
         int64_t h = r->h;
         /* a. The bounce limits. */
-        int d = H->diffuse[h] + is_diffuse_bounce(r->kind, r->transmit), g = H->glossy[h] + is_glossy_bounce(r->kind, r->transmit);
-        int tr = H->transmission[h] + is_transmission_bounce(r->kind, r->transmit);
-        int see_through = is_transparent_bounce(r->kind), clear = H->transparent[h] + see_through;
-        int bounces = H->bounce[h] + !see_through;
+        int d = r->path.diffuse, g = r->path.glossy, tr = r->path.transmission, clear = r->path.transparent;
+        int see_through = is_transparent_bounce(r->kind), bounces = r->path.bounce;
         if (clear > limits->transparent_bounces) continue;
         if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces
             || tr > limits->transmission_bounces) {
@@ -165,8 +153,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->after_diffuse[m] = (uint8_t)after_diffuse;
         next->sd[m].caustics = after_diffuse ? ds->caustics : 0;
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
-                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m,
-                  bounces == 0 ? RAY_CAMERA : RAY_BOUNCE, next->sd + m);   /* (through clear surfaces: still the camera's) */
+                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, next->sd + m);
+        next->flags[m] = r->path.flags;             /* (through clear surfaces: still the camera's) */
         next->seen_by[m] = r->seen_as;
         if (bounces == 0) {
             /* A camera path through clear surfaces meets a holdout object or node: a hole in the film (path.hold_out). */
@@ -236,6 +224,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
     for (int64_t h = 0; h < H->m; h++) {
         H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
+        H->flags[h] = PATH_CAMERA;
         H->mis_pdf[h] = INFINITY;
         for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;

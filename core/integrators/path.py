@@ -139,11 +139,13 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
     mis = (s.light_sampling == "mis") and bool(ctx.extra.get("bsdf_rays", False))
     media = ctx.extra.get("media") if ray.inside is not None else None
     inside = None if media is None else ray.inside[rows]
+    paths = graph_.paths_at(ray.path, rows)       # (each surface passed: one more transparent one)
     alive = np.arange(len(rows))
     while len(alive):
         # 1. The surface met: what it lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, prim, u, v, O, D, t)
-        shader = ctx.materials.shade(surface.material, surface.N, -D, surface, ctx.geometry, graph_.RAY_BOUNCE)
+        path = graph_.paths_at(paths, alive)._replace(transparent=passed[alive])
+        shader = ctx.materials.shade(surface.material, surface.N, -D, surface, ctx.geometry, path)
         T[alive] *= shader.transparency
         boundary = False if media is None else media.boundary[surface.material]
         passed[alive] += ~boundary
@@ -162,7 +164,8 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         stretch = None if media is None else media.along(inside[alive])
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
-                                        seen_as=ray.seen_as[rows][alive], stretch=stretch)
+                                        seen_as=ray.seen_as[rows][alive], stretch=stretch,
+                                        paths=graph_.paths_at(paths, alive)._replace(transparent=passed[alive]))
         if media is not None:                    # (and what reaches the next surface)
             T[alive] *= volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
@@ -260,6 +263,7 @@ class PathTracing(Integrator):
         transparent = np.zeros(len(hit), np.int64)
         bounds = np.zeros(len(hit), np.int64)         # volume-only boundaries crossed (Cycles' volume_bounds_bounce)
         bounce = np.zeros(len(hit), np.int64)
+        flags = np.full(len(hit), graph_.PATH_CAMERA, np.int64)   # the Light Path flags of the ray that got there
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
         mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (vertex.BsdfRay.mis_O):
         #                                              the camera's, from where a camera path sees lamps past clear panes
@@ -282,7 +286,7 @@ class PathTracing(Integrator):
             #    Light the camera's hit gathers is direct, later light indirect (sample clamping).
             dimension = vertex * VERTEX_DIMENSIONS
             cap = np.where(bounce == 0, direct_cap, indirect_cap)
-            light_path = np.where(bounce == 0, graph_.RAY_CAMERA, graph_.RAY_BOUNCE)
+            light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent)
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
                                          caustics_filter(s, after_diffuse))
             if holdouts:
@@ -321,17 +325,14 @@ class PathTracing(Integrator):
             if ray is None:
                 break
             # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.
-            is_diffuse, is_glossy, is_transmission, is_transparent, labelled_diffuse = bounce_kind(ray.kind,
-                                                                                                   ray.transmit)
+            #    (each ray's path past the bounce counts it: vertex.bsdf_ray, rays.path_after)
+            *_, is_transparent, labelled_diffuse = bounce_kind(ray.kind, ray.transmit)
             # Each ray's weight f cos / pdf, times what the media it crosses let through to its hit.
             weight = ray.weight if ray.attenuation is None else ray.weight * ray.attenuation
-            bounces = bounce[ray.rows] + ~is_transparent
-            d = diffuse[ray.rows] + is_diffuse
-            g = glossy[ray.rows] + is_glossy
-            tr = transmission[ray.rows] + is_transmission
             # (a volume-only boundary is no transparent bounce: Cycles counts those crossings apart, up to 1024)
             boundary = False if media is None else media.boundary[surface.material[ray.rows]]
-            tp = transparent[ray.rows] + (is_transparent & ~boundary)
+            bounces, d, g, tr = ray.path.bounce, ray.path.diffuse, ray.path.glossy, ray.path.transmission
+            tp = ray.path.transparent - (is_transparent & boundary)
             vb = bounds[ray.rows] + (is_transparent & boundary)
             within = ((bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
                       & (tr <= s.transmission_bounces))
@@ -407,6 +408,7 @@ class PathTracing(Integrator):
             owner = owner[rows]
             throughput = next_throughput[keep]
             diffuse, glossy, transmission, transparent, bounds = d[keep], g[keep], tr[keep], tp[keep], vb[keep]
+            flags = ray.path.flags[keep]
             # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
             after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], labelled_diffuse)[keep]
             bounce = bounces[keep]

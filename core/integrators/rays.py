@@ -3,7 +3,8 @@
 Every integrator starts its rays the same ways, so they live here once: a ray off a surface starts a safe distance
 off it, on the side it goes to (shadows.spawn_ray); a ray of one kind passes the objects hidden from that kind
 (`nearest_seen`, Object > Visibility > Ray Visibility); a bounce's ray is a diffuse, glossy or transmission ray by
-what the BSDF that sent it is (`ray_kind`); camera rays see the world and the lamps they pass (`camera_hits`).
+what the BSDF that sent it is (`ray_kind`), and carries on the path's flags and bounce counts (`path_after`, what
+the Light Path node reads); camera rays see the world and the lamps they pass (`camera_hits`).
 """
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numpy as np
 
 from .. import materials as materials_
 from .. import vectors, volumes
+from ..materials import graph as graph_
 from ..geometry.surface import surface_at_hits
 from ..lights import LightFlags
 from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
@@ -108,6 +110,29 @@ def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
     reflected = np.where(materials_.has(kind, F.DIFFUSE), HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY)
     bounced = np.where(goes_through(kind, transmit), HIDDEN_FROM_TRANSMISSION, reflected)
     return np.where(materials_.has(kind, F.STRAIGHT), previous, bounced).astype(np.int64)
+
+
+def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarray):
+    """The paths (graph.LightPaths of k rows) the rays of k bounces carry on from `paths` (Cycles' path_state_next).
+
+    Straight through a Transparent closure: one more transparent surface, the flags kept (a camera ray stays one).
+    Any other closure: one more bounce, of its kind (diffuse or glossy reflection, or through the surface:
+    goes_through), and the flags of its labels: REFLECT or TRANSMIT, and DIFFUSE (a diffuse closure), GLOSSY and
+    SINGULAR (a delta: singular (k,) bool, or a SINGULAR closure) or GLOSSY. kind: (k,) int the sampled closures'
+    BSDF kinds; transmit: (k,) bool whether each ray left through the face."""
+    F = materials_.BSDFFlags
+    P = graph_.PATH
+    straight = materials_.has(kind, F.STRAIGHT)
+    through = goes_through(kind, transmit) & ~straight
+    diffuse = materials_.has(kind, F.DIFFUSE)
+    reflected = ~through & ~straight
+    singular = np.asarray(singular, bool) | materials_.has(kind, F.SINGULAR)
+    labels = (np.where(through, P["transmit"], P["reflect"])
+              | np.where(diffuse, P["diffuse"], np.where(singular, P["glossy"] | P["singular"], P["glossy"])))
+    return graph_.LightPaths(flags=np.where(straight, paths.flags, labels), bounce=paths.bounce + ~straight,
+                             diffuse=paths.diffuse + (reflected & diffuse),
+                             glossy=paths.glossy + (reflected & ~diffuse),
+                             transmission=paths.transmission + through, transparent=paths.transparent + straight)
 
 
 def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, groups=None,

@@ -176,17 +176,24 @@ def visible(tracer, rays: ShadowRays) -> np.ndarray:
     return ~tracer.occluded(rays.origins, rays.directions, rays.t_max)
 
 
-def transmittance(ctx, rays: ShadowRays, limit: int, inside=None) -> np.ndarray:
+def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None) -> np.ndarray:
     """The share of light (n, 3) float64 a shadow ray carries through transparent surfaces (Cycles'
     transparent shadows): the product of the transparency of each surface it passes, 0 where an opaque
-    surface blocks it or where it would pass more than `limit` of them. Objects hidden from shadow rays
-    (Ray Visibility > Shadow off) are passed as if they were not there.
+    surface blocks it or where it would pass more than what is left of `limit` (less the transparent surfaces its
+    path passed before, `paths.transparent`, as Cycles' integrate_shadow_max_transparent_hits). Objects hidden from
+    shadow rays (Ray Visibility > Shadow off) are passed as if they were not there.
 
     Past each surface the ray goes on from just off it towards its own end point, origin + t_max direction
     (short of the light by robust_rays' margin), which stays where it was: Cycles moves only the start of its
     one shadow ray. (Going on along the old direction for the old length less the distance gained along it
     would move the end by the step off the surface across the ray, onto the light's own surface when the
-    surface faces the light; a sun's ray, with no end, keeps its direction.)"""
+    surface faces the light; a sun's ray, with no end, keeps its direction.)
+
+    paths: the graph.LightPaths the n rays carry (SHADOW, and the counts of the path at their origins), which the
+    surfaces' shaders read (the Light Path node), each surface passed one more transparent one; None: a shadow ray
+    from a camera ray's hit. inside: (n, V) the media (core/volumes Media) the rays start in, or None: without media;
+    each stretch keeps what its media let through, volume-only boundaries pass (not counted against `limit`, at most
+    VOLUME_BOUNDS_MAX)."""
     from ..visibility import HIDDEN_FROM_SHADOW
     from ..geometry.surface import surface_at_hits
     from ..materials import graph as graph_
@@ -199,6 +206,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None) -> np.ndarray:
     crossed = np.zeros(n, np.int64)                 # volume-only boundaries passed
     media = ctx.extra.get("media") if inside is not None else None
     inside = None if media is None else inside.copy()
+    paths = graph_.light_paths(n, flags=graph_.PATH_SHADOW) if paths is None else paths
     alive = np.arange(n)
     while len(alive):
         found = ctx.geometry.tracer.intersect(O[alive], D[alive], t[alive])
@@ -212,7 +220,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None) -> np.ndarray:
         hidden = ctx.geometry.hidden(found.prim[hit], HIDDEN_FROM_SHADOW)
         boundary = (np.zeros(len(hit), bool) if media is None
                     else media.boundary[ctx.geometry.triangle_data(found.prim[hit], smooth=False).material])
-        over = ~hidden & ~boundary & (passed[rows] >= limit)
+        over = ~hidden & ~boundary & (passed[rows] >= limit - paths.transparent[rows])   # (what the path left)
         T[rows[over]] = 0.0
         passed[rows] += ~hidden & ~boundary
         crossed[rows] += boundary
@@ -220,7 +228,13 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None) -> np.ndarray:
         # The surface the ray passes: what its material lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
                                   found.t[hit])
-        shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, graph_.RAY_SHADOW)
+        path = graph_.paths_at(paths, rows)
+        path = path._replace(transparent=path.transparent + passed[rows] - 1)
+        # (Ray Length: the distance from the shadow ray's start, as Cycles measures every hit of its one ray)
+        gone = surface.I - rays.origins[rows]
+        length = np.sqrt((gone[:, 0] * gone[:, 0] + gone[:, 1] * gone[:, 1]) + gone[:, 2] * gone[:, 2])
+        surface = surface._replace(t=length)
+        shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, path)
         through = np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
         T[rows] *= np.where(hidden[:, None], 1.0, through)
         if media is not None:

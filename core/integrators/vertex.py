@@ -34,7 +34,7 @@ from . import clamp as clamp_
 from . import lightgroups, lightpasses
 from . import shadows
 from .base import Context, Recorder, check_stop
-from .rays import goes_through, nearest_seen, ray_kind
+from .rays import goes_through, nearest_seen, path_after, ray_kind
 from .shadows import spawn_ray
 
 
@@ -43,8 +43,8 @@ class PathState(NamedTuple):
 
     dimension: the shift of every sampling dimension at this vertex (path.VERTEX_DIMENSIONS per vertex)
     vertex:    0 at the camera's hits, which add their own emission; later hits leave it to the ray that found them
-    ray:       which kind of ray found the hits (graph.RAY_*; None: the camera's at vertex 0, else a bounce's),
-               for the Light Path node
+    light_path: the paths that reached the hits (graph.LightPaths of m rows: the flags of the rays that found them
+               and the bounces so far), for the Light Path node; None: camera rays
     throughput: (m, 3) what the path carries so far, or None (1)
     limit:     the cap on each contribution seen through the throughput (sample clamping, clamp.py; inf: none),
                scalar or (m,)
@@ -61,7 +61,7 @@ class PathState(NamedTuple):
 
     dimension: int = 0
     vertex: int = 0
-    ray: object = None
+    light_path: object = None
     throughput: Optional[np.ndarray] = None
     limit: object = np.inf
     caustics: Optional[np.ndarray] = None
@@ -95,8 +95,10 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     (core/integrators/path.py) calls it at every vertex:
     `dimension` shifts its random numbers, vertices after the first leave their emission to the
     ray that found them (vertex > 0), and every hit traces its BSDF ray (trace_all). Whitted's tracer
-    lights every hit by light samples alone (light_samples_only: no BSDF ray, no MIS). ray: which kind of ray
-    found the hits (graph.RAY_*, scalar or (m,); default: the camera's at vertex 0), for the Light Path node.
+    lights every hit by light samples alone (light_samples_only: no BSDF ray, no MIS). light_path: the paths
+    that reached the hits (graph.LightPaths; default: camera rays), which their shaders read (the Light Path node)
+    as do the shadow rays' transparent surfaces, the textured emitters their light samples land on and the
+    surfaces their BSDF rays hit.
     caustics: (m,) int the closures a caustics filter takes away (closures.FILTER_*), or None. throughput
     (m, 3) or None (1) and limit (scalar or (m,), inf: none): each contribution the hits gather is capped at
     `limit` seen through its path's throughput (sample clamping, core/integrators/clamp.py). shader: the
@@ -113,14 +115,13 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     s = ctx.settings
     m = len(surface.I)
     path = PathState() if path is None else path
-    dimension, vertex, ray, throughput, limit = path.dimension, path.vertex, path.ray, path.throughput, path.limit
+    dimension, vertex, throughput, limit = path.dimension, path.vertex, path.throughput, path.limit
     caustics, seen_by = path.caustics, path.seen_by
     carried_pdf, carried_origin, carried_N = path.carried_pdf, path.carried_origin, path.carried_N
     # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
-    if ray is None:
-        ray = graph_.RAY_CAMERA if vertex == 0 else graph_.RAY_BOUNCE
+    light_path = graph_.light_paths(m) if path.light_path is None else path.light_path
     if shader is None:
-        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, ray, caustics)
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path, caustics)
     recorder.shader(shader)
     clamping = np.any(np.isfinite(limit))
     L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
@@ -155,7 +156,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension)
             ls = light.sample(surface.I, u, cone, N=tree_N)
             if getattr(light, "textured", None) is not None:
-                ls = textured_samples(ctx, light, surface.I, ls)
+                ls = textured_samples(ctx, light, surface.I, ls, graph_.with_flags(light_path, graph_.PATH_EMISSION))
             if not s.distance_attenuation:
                 ls = light.without_attenuation(ls, surface.I)
             if light.hidden_from and ls.hidden is None:
@@ -192,7 +193,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 # (a light behind the surface, N.L < 0, is reached through it: into or out of its medium)
                 start = None if path.inside is None else media_beyond(ctx, surface, rows, path.inside[rows],
                                                                       NL[rows] < 0.0)
-                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, start)
+                shadow_paths = graph_.paths_at(graph_.with_flags(light_path, graph_.PATH_SHADOW), rows)
+                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, start, shadow_paths)
                 seen = through.any(axis=1)
             else:
                 seen = shadows.visible(ctx.geometry.tracer, rays)
@@ -232,7 +234,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
         gather = s.light_sampling != "light" and ctx.extra.get("bsdf_rays", False)
         ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, m)
         finds, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
-                              dimension, gather, carried_pdf, seen_by, tree_N=tree_N,
+                              dimension, gather, carried_pdf, seen_by, tree_N=tree_N, light_path=light_path,
                               carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups,
                               inside=path.inside)
         if clamping:
@@ -254,7 +256,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
 
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
              recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
-             *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, inside=None):
+             *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, light_path=None, inside=None):
     """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
     The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -268,10 +270,12 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     a transparent surface weighs what it finds with the pdfs the light samples at that bounce would have given
     its direction, measured from there (Cycles' mis_origin), not from the transparent surface. groups: a
     lightgroups.GroupLight of the m hits that receives the light found by the group of its source, or None.
+    light_path: the graph.LightPaths of the m hits (None: camera rays); each ray carries on its own (path_after).
     inside: (m, V) the media the rays that reached the hits were in, or None (no media): a ray through the surface
     enters or leaves its medium, and what it finds, and its weight for the path beyond, keep exp(-sigma_t t)."""
     s = ctx.settings
     m = len(surface.I)
+    light_path = graph_.light_paths(m) if light_path is None else light_path
     u = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + dimension)
     pick = sampling.sample_2d(s.seed, pixel, sample, dimension=BSDF_DIMENSION + 1 + dimension)[:, 0]
     bs = materials_.sample_closures(shader.closures, wo, u, pick)
@@ -296,6 +300,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         if carried_origin is not None:
             mis_O = np.where(clear[:, None], carried_origin[go], O)
             mis_N = np.where(clear[:, None], carried_N[go], mis_N)
+    after = path_after(graph_.paths_at(light_path, go), bs.kind[go], transmit, bs.delta[go])
     ray_inside = stretch = attenuation = None
     t_hit = np.where(hits.hit, hits.t, np.inf)
     if inside is not None:
@@ -304,7 +309,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         stretch = ctx.extra["media"].along(ray_inside)
         attenuation = volumes.transmittance(stretch.sigma_t, t_hit)
     ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
-                  ray_inside, attenuation)
+                  after, ray_inside, attenuation)
     for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
         if mask.any():
             recorder.rays(kind, O[mask], D[mask], t_hit[mask])
@@ -316,7 +321,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, len(go))
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
-                                             mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch)
+                                             mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch,
+                                             paths=after)
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -361,7 +367,8 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
 
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
-                 camera=None, N=None, mis_O=None, groups=None, seen_as=None, stretch=None) -> np.ndarray:
+                 camera=None, N=None, mis_O=None, groups=None, seen_as=None, stretch=None,
+                 paths=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -378,7 +385,9 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     seen_as: (k,) int each ray's kind (HIDDEN_FROM_* bit, ray_kind), or None: a lamp hidden from a kind of ray
     (its Ray Visibility) is passed by rays of that kind. stretch: the media the rays cross (core/volumes Stretch),
     or None (none): each find keeps exp(-sigma_t t) of its light over its distance t from O (inf for the world), and
-    the media's emission along the ray up to its hit is found too (not weighed: no light sample finds it)."""
+    the media's emission along the ray up to its hit is found too (not weighed: no light sample finds it).
+    paths: the graph.LightPaths the k rays carry, which a textured emitter they hit is shaded for (None: a ray other
+    than the camera's, with no bounces counted)."""
     light_L = np.zeros((len(O), 3))
     sigma = None if stretch is None else stretch.sigma_t
     if stretch is not None:
@@ -439,7 +448,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             rows = np.flatnonzero(textured)
             emitted = emitted.copy()
             emitted[rows] = graph_emission(ctx.geometry, ctx.materials, hits.prim[struck][rows], O[struck][rows],
-                                           D[struck][rows], hits.t[struck][rows])
+                                           D[struck][rows], hits.t[struck][rows],
+                                           None if paths is None else graph_.paths_at(paths, struck[rows]))
         if camera is not None and camera[struck].any():
             emitted = np.where((camera[struck] & ctx.geometry.hidden(hits.prim[struck], HOLDOUT))[:, None], 0.0,
                                emitted)
@@ -477,20 +487,25 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     return light_L
 
 
-def textured_samples(ctx: Context, emitters, points: np.ndarray, ls):
+def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None):
     """The emitters' samples `ls` of points (n, 3), with what each textured triangle emits where its sample
-    landed (its node graph evaluated there) in place of the triangle's estimate: a LightSample with (n, 3) colour."""
+    landed (its node graph evaluated there) in place of the triangle's estimate: a LightSample with (n, 3) colour.
+    paths: the graph.LightPaths the light is shaded for (Cycles' light_sample_shader_eval: EMISSION alone, and the
+    counts of the path at each point), or None."""
     color = np.array(np.broadcast_to(ls.color, (len(points), 3)))
     rows = np.flatnonzero(emitters.textured[ls.emitter] & (ls.strength > 0.0))
     if len(rows):
         color[rows] = graph_emission(ctx.geometry, ctx.materials, emitters.prim[ls.emitter[rows]], points[rows],
-                                     ls.L[rows], ls.distance[rows])
+                                     ls.L[rows], ls.distance[rows],
+                                     None if paths is None else graph_.paths_at(paths, rows))
     return ls._replace(color=color)
 
 
-def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.ndarray, t: np.ndarray) -> np.ndarray:
+def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.ndarray, t: np.ndarray,
+                   paths=None) -> np.ndarray:
     """What the surfaces at O + t D on triangles prim (n,) int64 emit back along -D (n, 3) float64, by their
-    materials' node graphs (a texture's emission), for a ray other than the camera's (graph.RAY_BOUNCE).
+    materials' node graphs (a texture's emission), to rays carrying the paths `paths` (graph.LightPaths of n rows;
+    None: a ray other than the camera's with no bounces counted, as the emitters' estimates take it).
 
     The barycentrics come from the point itself (a light sample's point has no ray hit of its own), as in the
     C twin (direct.c graph_emission)."""
@@ -499,7 +514,8 @@ def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.n
     V = geometry.triangle_data(prim, smooth=False).corners
     u, v = barycentrics(V, O + t[:, None] * D)
     where = surface_at_hits(geometry, prim, u, v, O, D, t)
-    return materials.shade(where.material, where.N, -D, where, geometry, graph_.RAY_BOUNCE).emission
+    paths = graph_.light_paths(len(prim), flags=0) if paths is None else paths
+    return materials.shade(where.material, where.N, -D, where, geometry, paths).emission
 
 
 def barycentrics(V: np.ndarray, P: np.ndarray) -> tuple:
@@ -528,8 +544,9 @@ class BsdfRay(NamedTuple):
     pdf (k,) the pdf MIS weighs what the ray finds with (inf: none); seen_as (k,) int64 the ray's kind, the
     HIDDEN_FROM_* bit of the objects it passes (ray_kind); mis_O, mis_N (k, 3) the origin and light-tree normal
     that MIS measures the light pdfs from (those of the path's last real bounce: O and its tree normal, unless the
-    ray went straight through a transparent surface); inside (k, V) the media the ray is in (None: no media), and
-    attenuation (k, 3) what they let through to the hit (None: 1)
+    ray went straight through a transparent surface); path: the graph.LightPaths each ray carries on (path_after);
+    inside (k, V) the media the ray is in (None: no media), and attenuation (k, 3) what they let through to the hit
+    (None: 1)
     """
 
     rows: np.ndarray
@@ -544,6 +561,7 @@ class BsdfRay(NamedTuple):
     seen_as: np.ndarray = None
     mis_O: np.ndarray = None
     mis_N: np.ndarray = None
+    path: object = None
     inside: np.ndarray = None
     attenuation: np.ndarray = None
 

@@ -33,6 +33,7 @@ import numpy as np
 
 from .. import volumes
 from ..lights.base import LightFlags
+from ..materials import graph as graph_
 from ..sampling import sobol as sampling
 from ..volumes.phase import HenyeyGreenstein
 from . import shadows
@@ -173,6 +174,13 @@ def equiangular_lamps(ctx: Context) -> dict:
     return out
 
 
+def scatter_paths(m: int, bounce) -> "graph_.LightPaths":
+    """The Light Path of m phase-sampled rays from scattering points after `bounce` (m,) or int real bounces: a volume
+    scatter ray, one bounce deeper (Cycles' path_state_next for LABEL_VOLUME_SCATTER; the paths' diffuse, glossy,
+    transmission and transparent counts are not carried into media: 0)."""
+    return graph_.light_paths(m, flags=graph_.PATH["volume_scatter"], bounce=np.asarray(bounce) + 1)
+
+
 def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, inside: np.ndarray,
                     pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray, behind,
                     share: dict = None, only: int = None) -> tuple:
@@ -240,7 +248,8 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
             # Straight on through the transparent surfaces it meets, to the light behind them.
             T = volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
             ray = BsdfRay(np.arange(m), P, ps.wi, hits, np.ones((m, 3)), np.full(m, -1), np.zeros(m, bool),
-                          np.zeros(m, bool), ps.pdf, kind, P, unknown, inside, T)
+                          np.zeros(m, bool), ps.pdf, kind, P, unknown, inside=inside, attenuation=T,
+                          path=scatter_paths(m, bounce))
             rows = np.flatnonzero(hits.hit)
             if len(rows):
                 rows = rows[ctx.materials.may_pass[ctx.geometry.triangle_data(hits.prim[rows], smooth=False).material]]

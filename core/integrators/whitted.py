@@ -112,8 +112,12 @@ class WhittedTracing(Integrator):
             # 2. Emission and direct light at every hit (light samples only: no BSDF rays, no MIS).
             wo = -D[hit]
             rows = owner[hit]
-            state = PathState(dimension=depth * (1 << 16), ray=graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE,
-                              bounce=depth)
+            # (the Light Path node: a camera ray, or a mirror's or glass's singular ray, reflected or through)
+            P = graph_.PATH
+            flags = (P["camera"] if depth == 0 else
+                     np.where(crossing[hit], P["transmit"], P["reflect"]) | P["glossy"] | P["singular"])
+            light_path = graph_.light_paths(len(hit), flags, depth, 0, glossy[hit], transmission[hit])
+            state = PathState(dimension=depth * (1 << 16), light_path=light_path, bounce=depth)
             hit_groups = lightgroups.tally(ctx, len(hit))
             L_hit, rays, _ = shade_vertex(ctx, surface, wo, pixel[rows], sample[rows], recorder, state,
                                           light_samples_only=True, groups=hit_groups)
@@ -123,8 +127,7 @@ class WhittedTracing(Integrator):
                 groups.add_rows(rows, hit_groups, throughput[hit])
             recorder.path_vertex(depth, rows, surface, throughput[hit], L_hit)
             # 3. The specular closures' rays: a mirror's reflection, glass's reflection and refraction.
-            shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry,
-                                         graph_.RAY_CAMERA if depth == 0 else graph_.RAY_BOUNCE)
+            shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path)
             if feats is not None and depth == 0:
                 one = np.ones((len(hit), 3))
                 features_.at_vertex(feats, rows, np.ones(len(hit), bool), one, one, shader, shader.emission)

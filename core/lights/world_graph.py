@@ -148,5 +148,5 @@ def world_point(D: np.ndarray, layout: dict) -> "graph_.ShadingPoint":
     for name in ("generated", "object"):
         offset, w = layout[name]
         attributes[:, offset:offset + w] = D
-    return point._replace(attributes=attributes, N=-D, Ng=-D, ray=np.full(n, float(graph_.RAY_BOUNCE)), I=-D, P=D,
+    return point._replace(attributes=attributes, N=-D, Ng=-D, path=graph_.light_paths(n, flags=0), I=-D, P=D,
                           uv=np.zeros((n, 2)), t=np.full(n, np.finfo(np.float32).max))

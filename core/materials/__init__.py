@@ -405,14 +405,15 @@ class MaterialTable:
 
 
     def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None,
-              geometry=None, ray=None, caustics=None) -> ShaderResult:
+              geometry=None, path=None, caustics=None) -> ShaderResult:
         """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3).
 
         surface, geometry: the hits' Surface and the WorldGeometry (core/geometry), which materials with node
-        graphs read their attributes from (without them, every attribute reads 0). ray: which ray found the
-        hits (graph.RAY_*, for the Light Path node); caustics: (n,) int the closures a caustics filter takes
-        away at each hit (closures.FILTER_*), or None.
+        graphs read their attributes from (without them, every attribute reads 0). path: the paths that reached
+        the hits (a graph.LightPaths of n rows or of scalars, for the Light Path node; None: camera rays); caustics:
+        (n,) int the closures a caustics filter takes away at each hit (closures.FILTER_*), or None.
         """
+        from . import graph as graph_
         n = len(material)
         backfacing = getattr(surface, "backfacing", None)
         if caustics is not None:
@@ -435,11 +436,13 @@ class MaterialTable:
                 layout = geometry.attribute_layout if geometry is not None else {}
                 if point is None:
                     point = self.shading_point(surface, geometry, N)
-                    if ray is not None:                       # which ray found the hits (the Light Path node)
-                        point = point._replace(ray=np.broadcast_to(np.asarray(ray, np.float64), (n,)).copy())
+                    if path is not None:                      # the paths that reached the hits (the Light Path node)
+                        point = point._replace(path=graph_.LightPaths(*(np.broadcast_to(np.asarray(f, np.int64), (n,))
+                                                                          for f in path)))
                     if wo is not None:                        # the view direction (Fresnel, Layer Weight)
                         point = point._replace(I=np.asarray(wo, np.float64))
-                part = type(point)(*(None if array is None else array[rows] for array in point))
+                part = type(point)(*(None if array is None else graph_.paths_at(array, rows)
+                                     if isinstance(array, graph_.LightPaths) else array[rows] for array in point))
                 results.append(shader.shade(N[rows], wo[rows], part, self.program(int(row), layout), self.textures,
                                             backfacing=None if backfacing is None else backfacing[rows],
                                             caustics=None if caustics is None else caustics[rows]))

@@ -1,8 +1,8 @@
 /* Node graphs: core/materials/graph.py. A material's compiled program (ops on numbered registers) run
  * at one hit; its outputs overwrite the shader nodes' inputs, weights and normals before the setups. */
 
-/* The op codes (OP_*), the kinds of ray (RAY_*), the outputs (OUT_*), OP_WIDTH, MAX_REGISTERS and BUMP_STEP come from
- * core/materials/graph.py (core/native/boundary.gen.h). */
+/* The op codes (OP_*), the path's flags (PATH_*) and record (LightPath), the Light Path outputs (LP_*), the outputs
+ * (OUT_*), OP_WIDTH, MAX_REGISTERS and BUMP_STEP come from core/materials/graph.py (core/native/boundary.gen.h). */
 
 /* The ShadingPoint a program reads: core/geometry/triangles.c. */
 
@@ -217,8 +217,30 @@ INLINE void geometry_node(int output, int where, const ShadingPoint *sp, double 
         break;
     }
     case GEOM_PARAMETRIC: { double u = sp->u + du, v = sp->v + dv; out[0] = 1.0 - u - v; out[1] = u; out[2] = 0.0; break; }
-    case GEOM_RAY_LENGTH: out[0] = sp->t; break;
     default: out[0] = sp->side < 0.0 ? 1.0 : 0.0; break;
+    }
+}
+
+/* graph.light_path_output: the Light Path node's output `output` (LP_*) at the hit, from the path that reached it. */
+INLINE double light_path_output(int output, const ShadingPoint *sp)
+{
+    const LightPath *p = &sp->path;
+    switch (output) {
+    case LP_IS_CAMERA_RAY: return (p->flags & PATH_CAMERA) != 0;
+    case LP_IS_SHADOW_RAY: return (p->flags & PATH_SHADOW) != 0;
+    case LP_IS_DIFFUSE_RAY: return (p->flags & PATH_DIFFUSE) != 0;
+    case LP_IS_GLOSSY_RAY: return (p->flags & PATH_GLOSSY) != 0;
+    case LP_IS_SINGULAR_RAY: return (p->flags & PATH_SINGULAR) != 0;
+    case LP_IS_REFLECTION_RAY: return (p->flags & PATH_REFLECT) != 0;
+    case LP_IS_TRANSMISSION_RAY: return (p->flags & PATH_TRANSMIT) != 0;
+    case LP_IS_VOLUME_SCATTER_RAY: return (p->flags & PATH_VOLUME_SCATTER) != 0;
+    case LP_RAY_LENGTH: return sp->t;
+    case LP_RAY_DEPTH: return (double)p->bounce + ((p->flags & (PATH_SHADOW | PATH_EMISSION)) != 0);
+    case LP_DIFFUSE_DEPTH: return (double)p->diffuse;
+    case LP_GLOSSY_DEPTH: return (double)p->glossy;
+    case LP_TRANSPARENT_DEPTH: return (double)p->transparent;
+    case LP_TRANSMISSION_DEPTH: return (double)p->transmission;
+    default: return 0.0;                /* Portal Depth: Primer has no Ray Portal BSDF */
     }
 }
 
@@ -316,7 +338,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_RANDOM: out[0] = sp->random; break;
         case OP_OBJECT_INFO: for (int j = 0; j < a[2]; j++) out[j] = sp->info[a[1] + j]; break;
         case OP_OBJECT_MATRIX: object_matrix(sp, a[1], out); break;
-        case OP_RAY: out[0] = sp->ray == (double)a[1] ? 1.0 : 0.0; break;
+        case OP_LIGHT_PATH: out[0] = light_path_output(a[1], sp); break;
         case OP_OFFSET:
             where = a[0];
             if (a[0] == 0) { attributes = sp->attributes; break; }
@@ -438,7 +460,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
-        case OP_GEOMETRY: { double r[3]; geometry_node(a[1], where, sp, r); for (int j = 0; j < (a[1] == GEOM_BACKFACING || a[1] == GEOM_RAY_LENGTH ? 1 : 3); j++) out[j] = r[j]; break; }
+        case OP_GEOMETRY: { double r[3]; geometry_node(a[1], where, sp, r); for (int j = 0; j < (a[1] == GEOM_BACKFACING ? 1 : 3); j++) out[j] = r[j]; break; }
         case OP_TRANSFORM: {
             const double *M = reg + a[2], *p = reg + a[1];
             double r[3];

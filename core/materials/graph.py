@@ -23,13 +23,14 @@ than a pixel's footprint, where Cycles' differences average more).
 """
 from __future__ import annotations
 
+from collections import namedtuple
 from dataclasses import dataclass, field
 from typing import NamedTuple, Optional
 
 import numpy as np
 
 from ..native import library, schema
-from ..native.schema import F64, I64, ptr
+from ..native.schema import F64, I32, I64, ptr
 from . import sky as sky_
 from . import textures as textures_
 from .converters import CONVERTER_BY_KIND, CONVERTER_TYPES
@@ -47,7 +48,7 @@ DESCRIBED_BY_KIND = {**TEXTURE_BY_KIND, **CONVERTER_BY_KIND}
 # Op codes (graph.c's OP_*), and the width of one op's record: the code and up to OP_ARGS arguments. The
 # described nodes' ops (DESCRIBED: the procedural textures, then the converters; one per class) follow graph.c's own.
 OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "RAMP", "INVERT", "HSV",
-       "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "RAY",
+       "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "LIGHT_PATH",
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
                                                                "OBJECT_INFO", "OBJECT_MATRIX")
@@ -56,10 +57,72 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
 WORLD_OPS = ("SKY",)
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
-# The kinds of ray a hit was found by (ShadingPoint.ray; the Light Path node asks): a camera ray (or one
-# that went on through transparent surfaces from it), any other ray of a path, a shadow ray.
-RAY_CAMERA, RAY_BOUNCE, RAY_SHADOW = schema.constants("RAY", ("camera", "bounce", "shadow"),
-                                                      "the kind of ray a hit was found by").values()
+# What a shader knows of the path that reached a hit (Cycles' path_flag and bounce counters; the Light Path node
+# reads it): which kind of ray found the hit, as bits, and the path's bounces so far. A camera ray, and one that
+# went on from it straight through transparent surfaces, carries CAMERA; after a real bounce the ray carries that
+# bounce's labels (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR), and a transparent bounce keeps
+# them (path_state_next). A shadow ray through a transparent surface carries SHADOW alone, a light sample landing
+# on an emitter EMISSION alone (both are one bounce further: Ray Depth adds one). VOLUME_SCATTER is for volumes.
+PATH_FLAGS = ("camera", "shadow", "diffuse", "glossy", "singular", "reflect", "transmit", "volume_scatter", "emission")
+PATH = schema.constants("PATH", {name: 1 << index for index, name in enumerate(PATH_FLAGS)},
+                        "the bits of a LightPath's flags (Cycles' PATH_RAY_*)")
+PATH_CAMERA, PATH_SHADOW, PATH_EMISSION = PATH["camera"], PATH["shadow"], PATH["emission"]
+LightPath = schema.record("LightPath", "What a shader knows of the path that reached a hit (the Light Path node).", [
+    ("flags", I32, "PATH_* bits: the kind of ray that found the hit"),
+    ("bounce", I32, "the path's real bounces so far (Cycles' bounce)"),
+    ("diffuse", I32, "of those, diffuse reflections"),
+    ("glossy", I32, "glossy and mirror reflections"),
+    ("transmission", I32, "bounces through the surface"),
+    ("transparent", I32, "transparent surfaces passed straight through, the whole path's"),
+])
+# The same fields, one (n,) int64 array each, for n hits at once (ShadingPoint.path).
+LightPaths = namedtuple("LightPaths", [f.name for f in LightPath._description])
+LightPaths.__doc__ = "A LightPath per hit: each field (n,) int64 (or a scalar for all)."
+# The Light Path node's outputs, in the LIGHT_PATH op's numbering (LP_*): Cycles' svm_node_light_path.
+LIGHT_PATH_OUTPUTS = ("Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray", "Is Singular Ray",
+                      "Is Reflection Ray", "Is Transmission Ray", "Is Volume Scatter Ray", "Ray Length", "Ray Depth",
+                      "Diffuse Depth", "Glossy Depth", "Transparent Depth", "Transmission Depth", "Portal Depth")
+schema.constants("LP", [name.replace(" ", "_") for name in LIGHT_PATH_OUTPUTS], "the Light Path node's outputs")
+# Which flag each "Is ... Ray" output reads (its flag's bit), in output order.
+LIGHT_PATH_FLAG_OF = {"Is Camera Ray": "camera", "Is Shadow Ray": "shadow", "Is Diffuse Ray": "diffuse",
+                      "Is Glossy Ray": "glossy", "Is Singular Ray": "singular", "Is Reflection Ray": "reflect",
+                      "Is Transmission Ray": "transmit", "Is Volume Scatter Ray": "volume_scatter"}
+
+
+def light_paths(n: int, flags=PATH_CAMERA, bounce=0, diffuse=0, glossy=0, transmission=0,
+                transparent=0) -> "LightPaths":
+    """n hits' LightPaths, each field (n,) int64 from a scalar or an (n,) array (the default: camera rays)."""
+    values = (flags, bounce, diffuse, glossy, transmission, transparent)
+    return LightPaths(*(np.broadcast_to(np.asarray(v, np.int64), (n,)).copy() for v in values))
+
+
+def paths_at(paths: "LightPaths", rows) -> "LightPaths":
+    """The LightPaths of the hits `rows` (an index array or a mask) of `paths`."""
+    return LightPaths(*(np.asarray(f)[rows] for f in paths))
+
+
+def with_flags(paths: "LightPaths", flags: int) -> "LightPaths":
+    """The same paths' counts with every ray's flags `flags` (a shadow ray's SHADOW, a light's EMISSION)."""
+    return paths._replace(flags=np.full(len(paths.flags), flags, np.int64))
+
+
+def light_path_output(output: int, path: "LightPaths", t: np.ndarray) -> np.ndarray:
+    """The Light Path node's output number `output` (LIGHT_PATH_OUTPUTS) at n hits: (n,) float64. path: their
+    LightPaths; t: (n,) the ray lengths."""
+    name = LIGHT_PATH_OUTPUTS[output]
+    if name in LIGHT_PATH_FLAG_OF:
+        return ((path.flags & PATH[LIGHT_PATH_FLAG_OF[name]]) != 0).astype(np.float64)
+    if name == "Ray Length":
+        return np.asarray(t, np.float64)
+    if name == "Ray Depth":                       # a shadow ray and a light's own shading: one bounce further
+        return (path.bounce + ((path.flags & (PATH_SHADOW | PATH_EMISSION)) != 0)).astype(np.float64)
+    if name == "Portal Depth":                    # (Primer has no Ray Portal BSDF: no portal is ever passed)
+        return np.zeros(len(path.flags))
+    field = {"Diffuse Depth": "diffuse", "Glossy Depth": "glossy", "Transparent Depth": "transparent",
+             "Transmission Depth": "transmission"}[name]
+    return getattr(path, field).astype(np.float64)
+
+
 OP_ARGS = 15
 schema.constant("OP_WIDTH", 1 + OP_ARGS, "one op's record: the code and its arguments")
 # At most this many registers per program, attribute floats per hit.
@@ -121,7 +184,7 @@ NODE_OUTPUTS = {
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "OBJECT_INFO": {"Location": (3, "vector"), "Color": (3, "color"), "Alpha": (1, "float"),
                     "Object Index": (1, "float"), "Material Index": (1, "float"), "Random": (1, "float")},
-    "LIGHT_PATH": {"Is Camera Ray": (1, "float"), "Is Shadow Ray": (1, "float"), "Ray Length": (1, "float")},
+    "LIGHT_PATH": {name: (1, "float") for name in LIGHT_PATH_OUTPUTS},
     "IMAGE": {"Color": (3, "color"), "Alpha": (1, "float")}, "ENVIRONMENT": {"Color": (3, "color"), "Alpha": (1, "float")},
     "SKY": {"Color": (3, "color")},
     "MAPPING": {"Vector": (3, "vector")}, "NORMAL_MAP": {"Normal": (3, "vector")}, "BUMP": {"Normal": (3, "vector")},
@@ -144,8 +207,8 @@ NODE_OUTPUTS = {
 OBJECT_INFO_COLUMNS = {"Location": (0, 3), "Color": (3, 3), "Alpha": (6, 1), "Object Index": (7, 1)}
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
 GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
-                    "Reflection", "Ray Length")
-SCALAR_OUTPUTS = ("Backfacing", "Ray Length")          # one float; the others three
+                    "Reflection")
+SCALAR_OUTPUTS = ("Backfacing",)                        # one float; the others three
 schema.constants("GEOM", [name.replace(" ", "_") for name in GEOMETRY_OUTPUTS], "the Geometry node's outputs")
 # The Tangent node's directions and axes (props "direction", "axis"), as Blender names them.
 TANGENT_DIRECTIONS = ("RADIAL", "UV_MAP")
@@ -191,10 +254,11 @@ class ShadingPoint(NamedTuple):
     the object's random number; N: (n, 3) the shading normal facing the viewer; side: (n,) +1 where the
     front was hit, -1 the back; linear: (n, 3, 3) the object's linear transform (for tangents);
     dPdu, dPdv: (n, 3) the triangle's edges V1 - V0, V2 - V0; Ng: (n, 3) the face normal facing the viewer;
-    ray: (n,) which kind of ray found the hit (RAY_*; None: camera rays); I: (n, 3) the unit direction from the
+    path: the LightPaths of the rays that found the hits (None: camera rays); I: (n, 3) the unit direction from the
     hit back along the ray that found it (Cycles' sd->wi, the material's wo; None: N, a head-on view);
     P: (n, 3) the hit in world space (not camera-relative); uv: (n, 2) its barycentrics u, v (corner 1, corner 2);
-    t: (n,) the distance the ray went to the hit (Cycles' ray_length).
+    t: (n,) the distance the ray went to the hit (Cycles' ray_length); info: (n, 8) the object's Object Info
+    (geometry.instance_info: location, colour, alpha, pass index).
     """
 
     attributes: np.ndarray
@@ -207,7 +271,7 @@ class ShadingPoint(NamedTuple):
     dPdu: np.ndarray
     dPdv: np.ndarray
     Ng: np.ndarray
-    ray: np.ndarray = None     # (n,) float64 RAY_CAMERA, RAY_BOUNCE or RAY_SHADOW: which ray found the hit
+    path: "LightPaths" = None  # the paths that found the hits (the Light Path node)
     I: np.ndarray = None       # (n, 3) float64 towards where the ray came from (the Fresnel and Layer Weight nodes)
     P: np.ndarray = None       # (n, 3) float64 the world point (the Geometry node's Position)
     uv: np.ndarray = None      # (n, 2) float64 the barycentrics (its Parametric)
@@ -507,13 +571,9 @@ class Compiler:
             out = self.temporary(width)
             self.emit("OBJECT_INFO", out, start, width)
             return out, width, NODE_OUTPUTS[kind][output][1]
-        if kind == "LIGHT_PATH" and output == "Ray Length":     # the distance the ray went to the hit
+        if kind == "LIGHT_PATH":                        # the path that reached the hit (ShadingPoint.path)
             out = self.temporary(1)
-            self.emit("GEOMETRY", out, GEOMETRY_OUTPUTS.index(output))
-            return out, 1, "float"
-        if kind == "LIGHT_PATH":
-            out = self.temporary(1)
-            self.emit("RAY", out, RAY_SHADOW if output == "Is Shadow Ray" else RAY_CAMERA)
+            self.emit("LIGHT_PATH", out, LIGHT_PATH_OUTPUTS.index(output))
             return out, 1, "float"
         if kind in ("FRESNEL", "LAYER_WEIGHT"):
             amount = (self.value(inp.get("IOR"), 1, 1.5) if kind == "FRESNEL" else
@@ -764,11 +824,12 @@ def shift(register: int, by: int) -> int:
 
 # Which arguments of each op are registers (renumbered when the program is done); the rest are numbers.
 REGISTER_ARGS = {
-    "ATTR": {0}, "RANDOM": {0}, "OBJECT_INFO": {0}, "OBJECT_MATRIX": {0}, "IMAGE": {0, 1}, "MAPPING": {0, 1, 2, 3, 4}, "MATH": {0, 2, 3, 4},
+    "ATTR": {0}, "RANDOM": {0}, "OBJECT_INFO": {0}, "OBJECT_MATRIX": {0}, "IMAGE": {0, 1}, "MAPPING": {0, 1, 2, 3, 4},
+    "MATH": {0, 2, 3, 4},
     "MIX_COLOR": {0, 2, 3, 4}, "MIX_FLOAT": {0, 1, 2, 3}, "RAMP": {0, 1}, "INVERT": {0, 1, 2},
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
-    "RAY": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
+    "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
@@ -912,9 +973,9 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "OBJECT_INFO":
             reg[:, i[0]:i[0] + i[2]] = (np.zeros((n, i[2])) if sp.info is None
                                         else sp.info[:, i[1]:i[1] + i[2]])
-        elif name == "RAY":
-            ray = np.full(n, float(RAY_CAMERA)) if sp.ray is None else sp.ray
-            reg[:, i[0]] = (ray == i[1]).astype(np.float64)
+        elif name == "LIGHT_PATH":
+            path = light_paths(n) if sp.path is None else sp.path
+            reg[:, i[0]] = light_path_output(i[1], path, np.zeros(n) if sp.t is None else sp.t)
         elif name == "OFFSET":
             where = i[0]
             attributes = sp.attributes + (BUMP_STEP * sp.d_du if i[0] == 1 else BUMP_STEP * sp.d_dv if i[0] == 2
@@ -1056,8 +1117,6 @@ def geometry(output: int, where: int, sp: ShadingPoint) -> np.ndarray:
         uv = np.zeros((n, 2)) if sp.uv is None else sp.uv
         u, v = uv[:, 0] + du, uv[:, 1] + dv
         return np.stack([1.0 - u - v, u, np.zeros(n)], axis=1)
-    if name == "Ray Length":                    # (the Light Path node's)
-        return (np.zeros(n) if sp.t is None else sp.t)[:, None]
     return (sp.side < 0.0).astype(np.float64)[:, None]
 
 

@@ -625,10 +625,11 @@ INLINE void shade_material(const MaterialRecord *m, const double *N, const doubl
 }
 
 /* The material at a hit as the chunk shades it: a material with a node graph reads the hit's
- * ShadingPoint (triangles.c) and runs its program; any other material as shade_material. */
+ * ShadingPoint (triangles.c), with `path` the path that reached it, and runs its program; any other material as
+ * shade_material (it reads no path). */
 INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const MaterialRecord *m, const Triangle *tri,
                       const Surface *s, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
-                      const double *wo, double ray, ShaderResult *sd)
+                      const double *wo, const LightPath *path, ShaderResult *sd)
 {
     if (m->graph == 0.0 || G == NULL) {
         shade_material(m, s->N, wo, s->backfacing, sd);
@@ -636,7 +637,7 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
     }
     ShadingPoint sp;
     shading_point_at(g, geometry, prim, instance, tri, s, u, v, &sp);
-    sp.ray = ray;
+    sp.path = *path;
     for (int c = 0; c < 3; c++) sp.I[c] = wo[c];
     shade_graph(G, m, &sp, s->N, wo, s->backfacing, sd);
 }

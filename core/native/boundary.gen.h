@@ -96,7 +96,7 @@
 #define OP_OFFSET 15
 #define OP_CONVERT 16
 #define OP_SCALE 17
-#define OP_RAY 18
+#define OP_LIGHT_PATH 18
 #define OP_TANGENT 19
 #define OP_TEX_CHECKER 20
 #define OP_TEX_GRADIENT 21
@@ -130,10 +130,32 @@
 #define OP_SKY 49
 #define OP_OBJECT_INFO 50
 #define OP_OBJECT_MATRIX 51
-/* the kind of ray a hit was found by (core.materials.graph) */
-#define RAY_CAMERA 0
-#define RAY_BOUNCE 1
-#define RAY_SHADOW 2
+/* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
+#define PATH_CAMERA 1
+#define PATH_SHADOW 2
+#define PATH_DIFFUSE 4
+#define PATH_GLOSSY 8
+#define PATH_SINGULAR 16
+#define PATH_REFLECT 32
+#define PATH_TRANSMIT 64
+#define PATH_VOLUME_SCATTER 128
+#define PATH_EMISSION 256
+/* the Light Path node's outputs (core.materials.graph) */
+#define LP_IS_CAMERA_RAY 0
+#define LP_IS_SHADOW_RAY 1
+#define LP_IS_DIFFUSE_RAY 2
+#define LP_IS_GLOSSY_RAY 3
+#define LP_IS_SINGULAR_RAY 4
+#define LP_IS_REFLECTION_RAY 5
+#define LP_IS_TRANSMISSION_RAY 6
+#define LP_IS_VOLUME_SCATTER_RAY 7
+#define LP_RAY_LENGTH 8
+#define LP_RAY_DEPTH 9
+#define LP_DIFFUSE_DEPTH 10
+#define LP_GLOSSY_DEPTH 11
+#define LP_TRANSPARENT_DEPTH 12
+#define LP_TRANSMISSION_DEPTH 13
+#define LP_PORTAL_DEPTH 14
 /* one op's record: the code and its arguments (core.materials.graph) */
 #define OP_WIDTH 16
 /* a program's registers at most (core.materials.graph) */
@@ -155,7 +177,6 @@
 #define GEOM_BACKFACING 5
 #define GEOM_OBJECT_NORMAL 6
 #define GEOM_REFLECTION 7
-#define GEOM_RAY_LENGTH 8
 /* a Glossy, Glass or Refraction node's microfacet distribution (nodes.DISTRIBUTIONS) (core.materials.nodes) */
 #define DISTRIBUTION_GGX 0
 #define DISTRIBUTION_BECKMANN 1
@@ -282,6 +303,7 @@ typedef struct EmitterTables EmitterTables;
 typedef struct EmitterPickArgs EmitterPickArgs;
 typedef struct WorldTables WorldTables;
 typedef struct BsdfArgs BsdfArgs;
+typedef struct LightPath LightPath;
 typedef struct GraphTables GraphTables;
 typedef struct TextureTables TextureTables;
 typedef struct TextureLookupArgs TextureLookupArgs;
@@ -744,6 +766,16 @@ struct BsdfArgs {
     double *sampled_pdf;                    /* (n,) */
 };
 
+/* What a shader knows of the path that reached a hit (the Light Path node). */
+struct LightPath {
+    int32_t flags;                          /* PATH_* bits: the kind of ray that found the hit */
+    int32_t bounce;                         /* the path's real bounces so far (Cycles' bounce) */
+    int32_t diffuse;                        /* of those, diffuse reflections */
+    int32_t glossy;                         /* glossy and mirror reflections */
+    int32_t transmission;                   /* bounces through the surface */
+    int32_t transparent;                    /* transparent surfaces passed straight through, the whole path's */
+};
+
 /* Every program of a render's materials (core/materials/graph.py). ops: (k, OP_WIDTH) the op code and its
  * arguments; programs: (p, 8) first op, op count, first constant, constant count, registers, first output, output
  * count, first ramp float. (Numbers that index stay doubles here: one row type for codes, registers and constants.) */
@@ -827,7 +859,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(4598671514434913230);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(7935174862465839157);
+    if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(7599303753976581442);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
@@ -863,6 +896,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "EmitterPickArgs") == 0) return (int64_t)sizeof(EmitterPickArgs);
     if (strcmp(name, "WorldTables") == 0) return (int64_t)sizeof(WorldTables);
     if (strcmp(name, "BsdfArgs") == 0) return (int64_t)sizeof(BsdfArgs);
+    if (strcmp(name, "LightPath") == 0) return (int64_t)sizeof(LightPath);
     if (strcmp(name, "GraphTables") == 0) return (int64_t)sizeof(GraphTables);
     if (strcmp(name, "TextureTables") == 0) return (int64_t)sizeof(TextureTables);
     if (strcmp(name, "TextureLookupArgs") == 0) return (int64_t)sizeof(TextureLookupArgs);
