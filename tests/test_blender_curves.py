@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from blender_env import run_bpy
+from core.film.compare import relative_mse_of_blocks
 
 pytestmark = pytest.mark.blender
 
@@ -92,12 +93,6 @@ report(warnings=warnings)
 """
 
 
-def blocks(image: np.ndarray) -> np.ndarray:
-    """The 4 x 4-pixel block means of an (H, W, 3) image."""
-    h, w = image.shape[0] // 4 * 4, image.shape[1] // 4 * 4
-    return image[:h, :w].reshape(h // 4, 4, w // 4, 4, -1).mean(axis=(1, 3))
-
-
 @pytest.mark.parametrize("case", ["hair_curves", "point_cloud", "particle_hair"])
 def test_curves_and_points_render_as_cycles_round_strands_and_spheres_with_their_shadows(case, tmp_path):
     """The strands (or a point cloud's spheres) cover the same pixels with the same shading and cast the same
@@ -110,7 +105,6 @@ def test_curves_and_points_render_as_cycles_round_strands_and_spheres_with_their
     strands = (cycles[..., 0] > 1.5 * cycles[..., 1]) & (cycles[..., 0] > 0.05)
     print("strand pixels", strands.mean(), "Primer", (primer[..., 0] > 1.5 * primer[..., 1]).mean())
     assert 0.03 < strands.mean() < 0.5
-    bp, bc = blocks(primer), blocks(cycles)
-    error = float(np.mean((bp - bc) ** 2 / (bc ** 2 + 0.01)))
+    error = relative_mse_of_blocks(primer, cycles)
     print("block relMSE", error, "means", primer.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < 1e-3
