@@ -162,7 +162,8 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         stretch = None if media is None else media.along(inside[alive])
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
-                                        seen_as=ray.seen_as[rows][alive], stretch=stretch)
+                                        seen_as=ray.seen_as[rows][alive], stretch=stretch,
+                                        receiver=None if ray.receiver is None else ray.receiver[rows][alive])
         if media is not None:                    # (and what reaches the next surface)
             T[alive] *= volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])

@@ -1,0 +1,101 @@
+"""Light linking and shadow linking (core/lights/linking.py) in both kernels, held to closed forms.
+
+A floor of albedo rho under point lamps of power P at distance r and angle theta has radiance
+(rho / pi) P / (4 pi r^2) cos theta per lamp. A lamp whose receiver sets leave out the floor's set adds nothing to it
+(Light Linking); a lamp whose blocker sets leave out an occluder's set lights the floor behind the occluder fully
+(Shadow Linking); the sets are tested bit by bit as Cycles tests them.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from test_lamp_settings import SHADOWED_COLUMNS, occluded_floor
+from test_lights import EXACT, ortho_camera_looking_down, pixel_centre_points, plane_scene, point_light_radiance
+
+from core.lights.linking import ALL_SETS, in_sets
+from core.render import render
+from core.scene import AreaLight, Mesh, PointLight, RenderSettings
+
+KERNELS = ["numpy", "compiled"]
+FLOOR = 0.5
+
+
+def floor_points(camera):
+    """The floor points (16, 16, 3) the pixel centres see."""
+    return pixel_centre_points(camera, 16, 16, lambda x, y: np.zeros_like(x))
+
+
+def test_a_set_is_in_a_membership_where_its_bit_is_set():
+    """Bit s of the 64-bit membership: set 0 and set 63 at the ends, every set in ALL_SETS."""
+    membership = np.array([1, 1 << 63, ALL_SETS, 0b1010], np.uint64)
+    assert in_sets(membership, np.array([0, 63, 17, 1])).tolist() == [True, True, True, True]
+    assert in_sets(membership, np.array([1, 62, 0, 2])).tolist() == [False, False, True, False]
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_lamp_linked_to_another_object_adds_nothing_to_the_floor(kernels):
+    """Two lamps over a floor in receiver set 1; one lights set 1 (and the default set), the other only set 2 (a
+    plane elsewhere): the floor is the first lamp's closed form alone, and with both linked to it the sum."""
+    settings = dataclasses.replace(EXACT, kernels=kernels)
+    camera = ortho_camera_looking_down(5.0, 4.0)
+    a, b = np.array([1.0, 0.5, 1.5]), np.array([-1.0, -0.5, 1.0])
+    lamps = [PointLight(position=a, power=300.0, light_membership=0b11),
+             PointLight(position=b, power=500.0, light_membership=0b100)]
+    scene = plane_scene(camera, (FLOOR,) * 3, lamps)
+    scene.instances[0].light_set = 1
+    image = render(scene, settings).image[..., :3]
+    points = floor_points(camera)
+    only_a = point_light_radiance((FLOOR,) * 3, (1.0,) * 3, 300.0, a, points)
+    np.testing.assert_allclose(image, only_a, rtol=1e-5)
+    scene.lights[1] = dataclasses.replace(lamps[1], light_membership=0b110)
+    both = render(scene, settings).image[..., :3]
+    np.testing.assert_allclose(both, only_a + point_light_radiance((FLOOR,) * 3, (1.0,) * 3, 500.0, b, points),
+                               rtol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_blocker_outside_a_lamps_blocker_sets_casts_none_of_its_shadow(kernels):
+    """The occluder in blocker set 1; a lamp whose shadows only set 2 casts lights the floor behind it with the full
+    (rho / pi) P / (4 pi r^2) cos theta; one whose shadows set 1 casts leaves it dark."""
+    position, power = np.array([2.0, 0.0, 1.0]), 400.0
+    settings = dataclasses.replace(EXACT, kernels=kernels)
+    camera, scene = occluded_floor(PointLight(position=position, power=power, shadow_membership=0b101))
+    scene.instances[1].shadow_set = 1
+    image = render(scene, settings).image[..., :3]
+    expected = point_light_radiance((FLOOR,) * 3, (1.0,) * 3, power, position, floor_points(camera))
+    np.testing.assert_allclose(image[:, SHADOWED_COLUMNS], expected[:, SHADOWED_COLUMNS], rtol=1e-5)
+    assert expected[:, SHADOWED_COLUMNS].min() > 0.1
+    scene.lights[0] = dataclasses.replace(scene.lights[0], shadow_membership=0b10)
+    shadowed = render(scene, settings).image[..., :3]
+    np.testing.assert_array_equal(shadowed[:, SHADOWED_COLUMNS], 0.0)
+
+
+def emitting_square(scene, z, size, strength):
+    """Add a square emitter of `size` at height z facing down, emitting `strength` (white): its instance index."""
+    h = 0.5 * size
+    material = scene.add_material((0.0, 0.0, 0.0))
+    scene.materials[material].emission = np.full(3, float(strength))
+    scene.add_mesh(Mesh(np.array([[-h, -h, z], [-h, h, z], [h, h, z], [h, -h, z]]), np.array([[0, 1, 2], [0, 2, 3]])),
+                   materials=np.array([material]))
+    return len(scene.instances) - 1
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_an_emitting_mesh_linked_to_another_object_lights_the_floor_with_neither_strategy(kernels):
+    """An emitting square over the floor, by light samples and BSDF rays (MIS): linked to another set it adds nothing
+    to the floor (0 exactly), while the camera still sees it; linked to the floor's set it lights it."""
+    settings = RenderSettings(width=8, height=8, samples=16, seed=5, kernels=kernels, integrator="direct")
+    camera = ortho_camera_looking_down(5.0, 3.0)
+    scene = plane_scene(camera, (FLOOR,) * 3, [])
+    emitter = emitting_square(scene, 1.0, 1.0, 4.0)
+    scene.instances[0].light_set = 1
+    scene.instances[emitter].light_membership = 0b100
+    image = render(scene, settings).image[..., :3]
+    np.testing.assert_array_equal(image[0], 0.0)              # (the floor beside the square)
+    assert np.allclose(image[3:5, 3:5], 4.0)                  # (the camera sees the square itself)
+    scene.instances[emitter].light_membership = 0b10
+    lit = render(scene, settings).image[..., :3]
+    assert lit[0].min() > 0.01
