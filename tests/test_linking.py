@@ -23,6 +23,18 @@ KERNELS = ["numpy", "compiled"]
 FLOOR = 0.5
 
 
+def kernel_settings(kernels, samples=4):
+    """16 x 16 pixels on `kernels`: jittered (the compiled kernel renders jittered samples only), a few samples."""
+    return RenderSettings(width=16, height=16, samples=samples, seed=3, kernels=kernels)
+
+
+def rendered(scene, settings):
+    """The image (H, W, 3) of `scene`, checking that the kernel asked for rendered it."""
+    result = render(scene, settings)
+    assert result.stats.kernels.startswith(settings.kernels)
+    return result.image[..., :3]
+
+
 def floor_points(camera):
     """The floor points (16, 16, 3) the pixel centres see."""
     return pixel_centre_points(camera, 16, 16, lambda x, y: np.zeros_like(x))
@@ -38,38 +50,48 @@ def test_a_set_is_in_a_membership_where_its_bit_is_set():
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_a_lamp_linked_to_another_object_adds_nothing_to_the_floor(kernels):
     """Two lamps over a floor in receiver set 1; one lights set 1 (and the default set), the other only set 2 (a
-    plane elsewhere): the floor is the first lamp's closed form alone, and with both linked to it the sum."""
-    settings = dataclasses.replace(EXACT, kernels=kernels)
+    plane elsewhere): the floor is the first lamp's closed form alone (at the pixel centres, and every jittered sample
+    as the first lamp alone renders it), and with both linked to it the sum."""
+    settings = kernel_settings(kernels)
     camera = ortho_camera_looking_down(5.0, 4.0)
     a, b = np.array([1.0, 0.5, 1.5]), np.array([-1.0, -0.5, 1.0])
     lamps = [PointLight(position=a, power=300.0, light_membership=0b11),
              PointLight(position=b, power=500.0, light_membership=0b100)]
     scene = plane_scene(camera, (FLOOR,) * 3, lamps)
     scene.instances[0].light_set = 1
-    image = render(scene, settings).image[..., :3]
     points = floor_points(camera)
     only_a = point_light_radiance((FLOOR,) * 3, (1.0,) * 3, 300.0, a, points)
-    np.testing.assert_allclose(image, only_a, rtol=1e-5)
-    scene.lights[1] = dataclasses.replace(lamps[1], light_membership=0b110)
-    both = render(scene, settings).image[..., :3]
-    np.testing.assert_allclose(both, only_a + point_light_radiance((FLOOR,) * 3, (1.0,) * 3, 500.0, b, points),
+    np.testing.assert_allclose(render(scene, dataclasses.replace(EXACT, kernels="numpy")).image[..., :3], only_a,
                                rtol=1e-5)
+    image = rendered(scene, settings)
+    np.testing.assert_allclose(image, only_a, rtol=0.03)
+    alone = plane_scene(camera, (FLOOR,) * 3, lamps[:1])
+    np.testing.assert_allclose(image, rendered(alone, settings), rtol=1e-6)
+    scene.lights[1] = dataclasses.replace(lamps[1], light_membership=0b110)
+    both = rendered(scene, settings)
+    np.testing.assert_allclose(both, only_a + point_light_radiance((FLOOR,) * 3, (1.0,) * 3, 500.0, b, points),
+                               rtol=0.03)
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_a_blocker_outside_a_lamps_blocker_sets_casts_none_of_its_shadow(kernels):
     """The occluder in blocker set 1; a lamp whose shadows only set 2 casts lights the floor behind it with the full
-    (rho / pi) P / (4 pi r^2) cos theta; one whose shadows set 1 casts leaves it dark."""
+    (rho / pi) P / (4 pi r^2) cos theta (at the pixel centres, and every jittered sample as the lamp with Cast Shadow
+    off renders it); one whose shadows set 1 casts leaves it dark."""
     position, power = np.array([2.0, 0.0, 1.0]), 400.0
-    settings = dataclasses.replace(EXACT, kernels=kernels)
+    settings = kernel_settings(kernels)
     camera, scene = occluded_floor(PointLight(position=position, power=power, shadow_membership=0b101))
     scene.instances[1].shadow_set = 1
-    image = render(scene, settings).image[..., :3]
     expected = point_light_radiance((FLOOR,) * 3, (1.0,) * 3, power, position, floor_points(camera))
-    np.testing.assert_allclose(image[:, SHADOWED_COLUMNS], expected[:, SHADOWED_COLUMNS], rtol=1e-5)
+    exact = render(scene, dataclasses.replace(EXACT, kernels="numpy")).image[..., :3]
+    np.testing.assert_allclose(exact[:, SHADOWED_COLUMNS], expected[:, SHADOWED_COLUMNS], rtol=1e-5)
     assert expected[:, SHADOWED_COLUMNS].min() > 0.1
+    image = rendered(scene, settings)
+    _, unshadowed = occluded_floor(PointLight(position=position, power=power, cast_shadow=False))
+    np.testing.assert_allclose(image[:, SHADOWED_COLUMNS], rendered(unshadowed, settings)[:, SHADOWED_COLUMNS],
+                               rtol=1e-6)
     scene.lights[0] = dataclasses.replace(scene.lights[0], shadow_membership=0b10)
-    shadowed = render(scene, settings).image[..., :3]
+    shadowed = rendered(scene, settings)
     np.testing.assert_array_equal(shadowed[:, SHADOWED_COLUMNS], 0.0)
 
 
@@ -87,15 +109,36 @@ def emitting_square(scene, z, size, strength):
 def test_an_emitting_mesh_linked_to_another_object_lights_the_floor_with_neither_strategy(kernels):
     """An emitting square over the floor, by light samples and BSDF rays (MIS): linked to another set it adds nothing
     to the floor (0 exactly), while the camera still sees it; linked to the floor's set it lights it."""
-    settings = RenderSettings(width=8, height=8, samples=16, seed=5, kernels=kernels, integrator="direct")
+    settings = RenderSettings(width=8, height=8, samples=16, seed=5, kernels=kernels)
     camera = ortho_camera_looking_down(5.0, 3.0)
     scene = plane_scene(camera, (FLOOR,) * 3, [])
     emitter = emitting_square(scene, 1.0, 1.0, 4.0)
     scene.instances[0].light_set = 1
     scene.instances[emitter].light_membership = 0b100
-    image = render(scene, settings).image[..., :3]
+    image = rendered(scene, settings)
     np.testing.assert_array_equal(image[0], 0.0)              # (the floor beside the square)
     assert np.allclose(image[3:5, 3:5], 4.0)                  # (the camera sees the square itself)
     scene.instances[emitter].light_membership = 0b10
-    lit = render(scene, settings).image[..., :3]
+    lit = rendered(scene, settings)
     assert lit[0].min() > 0.01
+
+
+def test_the_kernels_agree_on_a_scene_with_every_kind_of_link():
+    """A floor in receiver set 1 and an occluder in blocker set 1 under a point lamp that lights set 1 and whose shadows
+    only set 2 casts, an area lamp whose shadows set 1 casts, and an emitting square that lights only set 2: the
+    compiled kernel renders every pixel as the Python reference does (the same samples, to float rounding)."""
+    position = np.array([2.0, 0.0, 1.0])
+    camera, scene = occluded_floor(PointLight(position=position, power=400.0, light_membership=0b10,
+                                              shadow_membership=0b100))
+    scene.lights.append(AreaLight(center=np.array([-1.0, 0.0, 2.0]), axis_u=np.array([1.0, 0.0, 0.0]),
+                                  axis_v=np.array([0.0, 1.0, 0.0]), direction=np.array([0.0, 0.0, -1.0]), power=200.0,
+                                  shape="SQUARE", shadow_membership=0b10))
+    scene.instances[0].light_set = 1
+    scene.instances[1].shadow_set = 1
+    emitter = emitting_square(scene, 3.0, 0.5, 8.0)
+    scene.instances[emitter].light_membership = 0b100
+    settings = RenderSettings(width=16, height=16, samples=8, seed=7, integrator="path", max_bounces=2)
+    python = rendered(scene, dataclasses.replace(settings, kernels="numpy"))
+    compiled = rendered(scene, dataclasses.replace(settings, kernels="compiled"))
+    np.testing.assert_allclose(compiled, python, rtol=1e-6, atol=4e-7)
+    assert python[:, SHADOWED_COLUMNS].mean() > 0.05

@@ -82,7 +82,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         prim = (int64_t)packet.hit.primID[0];
         instance = instance_of(&packet.hit, 0);
         FindingRay finding = {O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O, r->mis_N,
-                              (int)r->seen_as};
+                              (int)r->seen_as, r->receiver};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         double f = clamp_scale(light_L, throughput, cap, 1.0);
