@@ -38,7 +38,7 @@ from typing import Optional
 import bpy
 import numpy as np
 
-from . import export
+from . import export, linking
 from ..core import scene as core_scene
 from ..core.geometry import instancing
 from ..core.geometry.geometry import WorldGeometry, build_geometry
@@ -179,6 +179,7 @@ class SceneCache:
         self.placements: dict = {}
         self.material_table = _MaterialTable()
         self.lights: list = []
+        self.links: dict = {}                 # object name -> its Light and Shadow Linking fields (addon/linking.py)
         self.world = None                  # core World (its colour, visibility)
         self.totals = SyncReport()         # summed over all syncs
         self.instancing = "auto"           # RenderSettings.instancing the BVH was built with
@@ -237,6 +238,8 @@ class SceneCache:
         lights, placements = [], {}
         moved = changes.geometry | changes.transform
         unsupported_noted: set = set()
+        links = linking.LinkSets.of(depsgraph)          # Light and Shadow Linking's sets, read again each sync
+        self.links = {}
         for instance in depsgraph.object_instances:
             obj = instance.object
             # 2. Lights: export them all again when any may have changed.
@@ -244,8 +247,9 @@ class SceneCache:
                 if relight:
                     light = export.export_light(obj, np.array(instance.matrix_world, np.float64), self.warnings)
                     if light is not None:
-                        lights.append(light)
+                        lights.append(links.lamp(light, obj))
                 continue
+            self.links[obj.name] = links.of_object(obj)
             if not instance.show_self:
                 continue
             if obj.type in export.UNSUPPORTED_GEOMETRY:
@@ -339,7 +343,8 @@ class SceneCache:
                 mesh_index[placement.mesh_key] = len(scene.meshes) - 1
             scene.instances.append(core_scene.Instance(mesh_index[placement.mesh_key], placement.matrix,
                                                        placement.materials, placement.name,
-                                                       **dict(placement.visible)))
+                                                       **dict(placement.visible),
+                                                       **self.links.get(placement.name, {})))
         return scene
 
     def _add_to_totals(self, report: SyncReport) -> None:

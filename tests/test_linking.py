@@ -125,8 +125,9 @@ def test_an_emitting_mesh_linked_to_another_object_lights_the_floor_with_neither
 
 def test_the_kernels_agree_on_a_scene_with_every_kind_of_link():
     """A floor in receiver set 1 and an occluder in blocker set 1 under a point lamp that lights set 1 and whose shadows
-    only set 2 casts, an area lamp whose shadows set 1 casts, and an emitting square that lights only set 2: the
-    compiled kernel renders every pixel as the Python reference does (the same samples, to float rounding)."""
+    only set 2 casts, an area lamp whose shadows set 1 casts, an emitting square that lights only set 2 and one that
+    lights set 1 with shadows set 2 casts: the compiled kernel renders every pixel as the Python reference does (the
+    same samples, to float rounding)."""
     position = np.array([2.0, 0.0, 1.0])
     camera, scene = occluded_floor(PointLight(position=position, power=400.0, light_membership=0b10,
                                               shadow_membership=0b100))
@@ -137,6 +138,9 @@ def test_the_kernels_agree_on_a_scene_with_every_kind_of_link():
     scene.instances[1].shadow_set = 1
     emitter = emitting_square(scene, 3.0, 0.5, 8.0)
     scene.instances[emitter].light_membership = 0b100
+    shadowed = emitting_square(scene, 2.0, 0.5, 8.0)
+    scene.instances[-1].matrix = np.array([[1.0, 0, 0, 1.0], [0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
+    scene.instances[shadowed].light_membership, scene.instances[shadowed].shadow_membership = 0b10, 0b100
     settings = RenderSettings(width=16, height=16, samples=8, seed=7, integrator="path", max_bounces=2)
     python = rendered(scene, dataclasses.replace(settings, kernels="numpy"))
     compiled = rendered(scene, dataclasses.replace(settings, kernels="compiled"))
