@@ -146,3 +146,25 @@ def test_the_kernels_agree_on_a_scene_with_every_kind_of_link():
     compiled = rendered(scene, dataclasses.replace(settings, kernels="compiled"))
     np.testing.assert_allclose(compiled, python, rtol=1e-6, atol=4e-7)
     assert python[:, SHADOWED_COLUMNS].mean() > 0.05
+
+
+def test_a_medium_receives_as_the_default_set():
+    """A scattering slab under a sun (the Python reference's media): a sun that lights the default set 0 scatters
+    sigma_s p E (1 - exp(-sigma d k)) / (sigma k) towards the camera (within 2%), one that lights only set 1 nothing."""
+    import math
+    from test_volumes import camera_above, fog
+    from core.geometry import primitives
+    from core.scene import Scene, SunLight
+    from core.volumes.phase import henyey_greenstein
+    scene = Scene(camera=camera_above())
+    sigma, g, d, E, e = np.array([0.5, 1.0, 2.0]), 0.4, 0.6, 3.0, math.radians(50.0)
+    scene.materials.append(fog(closure="SCATTER", color=sigma, density=1.0, anisotropy=g))
+    scene.add_mesh(primitives.box((40.0, 40.0, d), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+    scene.lights.append(SunLight(direction=-np.array([math.cos(e), 0.0, math.sin(e)]), strength=E,
+                                 light_membership=0b11))
+    settings = RenderSettings(width=4, height=4, samples=128, integrator="path")
+    k = 1.0 + 1.0 / math.sin(e)
+    expected = sigma * henyey_greenstein(-math.sin(e), g) * E * (1.0 - np.exp(-sigma * d * k)) / (sigma * k)
+    np.testing.assert_allclose(render(scene, settings).image[..., :3].mean(axis=(0, 1)), expected, rtol=2e-2)
+    scene.lights[0] = dataclasses.replace(scene.lights[0], light_membership=0b10)
+    np.testing.assert_array_equal(render(scene, settings).image[..., :3], 0.0)
