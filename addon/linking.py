@@ -129,7 +129,8 @@ class LinkSets:
     def of_object(self, obj) -> dict:
         """core Instance fields of object `obj`: its receiver and blocker sets, its memberships as an emitter."""
         original = getattr(obj, "original", obj)
-        return {"light_set": self.light.sets.get(original.name, 0), "shadow_set": self.shadow.sets.get(original.name, 0),
+        return {"light_set": self.light.sets.get(original.name, 0),
+                "shadow_set": self.shadow.sets.get(original.name, 0),
                 "light_membership": self.light.membership(original, "receiver_collection"),
                 "shadow_membership": self.shadow.membership(original, "blocker_collection")}
 

@@ -44,8 +44,8 @@ GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (c
     ("instance_linear", ptr(F64), "(n, 3, 3) each instance's linear transform"),
     ("attribute_width", I64, "A"),
     ("hidden", ptr(U8), "(n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides"),
-    ("links", ptr(U64), "(n, 4) each instance's light set, shadow set, light and shadow membership (WorldGeometry.\n"
-                        "instance_links), NULL: nothing is linked"),
+    ("links", ptr(U64), "(n, 4) each instance's light set, shadow set, light and shadow membership\n"
+                        "(WorldGeometry.instance_links), NULL: nothing is linked"),
     ("origin", ptr(F64), "(3,) the world point the vertices are relative to (the Geometry node's Position adds it)"),
 ])
 

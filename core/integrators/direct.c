@@ -942,7 +942,8 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             }
             double light_L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];
             int first = ds->light_passes && H->bounce[owner[k]] == 0;
-            uint64_t receiver = links_of(ds->geometry, H->geometry[owner[k]], H->prim[owner[k]], H->instance[owner[k]], 0);
+            int64_t h = owner[k];
+            uint64_t receiver = links_of(ds->geometry, H->geometry[h], H->prim[h], H->instance[h], 0);
             if (first)
                 sample_shares(H->sd + owner[k], H->wo + 3 * owner[k], s, dot3(H->s[owner[k]].Ng, D) < 0.0, shares);
             if (hit && ds->continuing != NULL) {

@@ -422,7 +422,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             found[moved] = past
             radiance[moved] = np.where(past[:, None], seen.radiance, 0.0)
             pdf_l[moved] = np.where(past, seen.pdf, 0.0)
-        if receiver is not None and ctx.geometry.linked | (light.light_membership != linking.ALL_SETS):
+        if receiver is not None and (ctx.geometry.linked or light.light_membership != linking.ALL_SETS):
             sees &= (kind == HIDDEN_FROM_CAMERA) | linking.in_sets(light.light_membership,
                                                                    ctx.geometry.links(receiver, 0))
         found = found & sees

@@ -141,7 +141,7 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("spread_tan_half", F64, ""),
     ("spread_norm", F64, ""),
     ("group", I32, "its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group)"),
-    ("light_membership", U64, "the receiver light sets it lights (core/lights/linking.py); emitters: by object"),
+    ("light_membership", U64, "the receiver sets it lights (core/lights/linking.py; emitters: by object)"),
     ("shadow_membership", U64, "the blocker shadow sets that cast its shadows; emitters: by object"),
 ], tables=("LIGHT",))
 

@@ -479,8 +479,8 @@ struct GeometryTables {
     const double *instance_linear;          /* (n, 3, 3) each instance's linear transform */
     int64_t attribute_width;                /* A */
     const uint8_t *hidden;                  /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
-    const uint64_t *links;                  /* (n, 4) each instance's light set, shadow set, light and shadow membership (WorldGeometry.
-instance_links), NULL: nothing is linked */
+    const uint64_t *links;                  /* (n, 4) each instance's light set, shadow set, light and shadow membership
+(WorldGeometry.instance_links), NULL: nothing is linked */
     const double *origin;                   /* (3,) the world point the vertices are relative to (the Geometry node's Position adds it) */
 };
 
@@ -644,7 +644,7 @@ passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow) 
     double spread_tan_half;
     double spread_norm;
     int32_t group;                          /* its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group) */
-    uint64_t light_membership;              /* the receiver light sets it lights (core/lights/linking.py); emitters: by object */
+    uint64_t light_membership;              /* the receiver sets it lights (core/lights/linking.py; emitters: by object) */
     uint64_t shadow_membership;             /* the blocker shadow sets that cast its shadows; emitters: by object */
 };
 
