@@ -29,6 +29,7 @@ typedef struct {
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
     double mis_origin[3 * BLOCK];                /* its ray origin, and its light-tree normal (0: unknown), from which */
     double mis_n[3 * BLOCK];                     /* MIS measures the light pdfs (direct.BsdfRay.mis_O, mis_N) */
+    uint64_t mis_receiver[BLOCK];                /* and the light set of its object (Cycles' mis_ray_object) */
     uint8_t after_diffuse[BLOCK];                /* 1: that bounce was diffuse (the caustics switches) */
     int32_t seen_by[BLOCK];                      /* the kind of ray that reached it (HIDDEN_FROM_*, direct.ray_kind) */
     double held[BLOCK];                          /* per camera lane: the alpha holdouts take away (path.hold_out) */
@@ -933,17 +934,18 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             /* The light-tree normal as its light samples had it (zero: unknown), and where MIS measures from. */
             const double *N = H->through[owner[k]] ? NULL : H->s[owner[k]].N;
             const double *P = O;
+            int64_t h = owner[k];
+            uint64_t receiver = links_of(ds->geometry, H->geometry[h], H->prim[h], H->instance[h], 0);
             if (bsdf_is(s->kind, BSDF_FLAG_STRAIGHT) && ds->continuing != NULL) {
                 /* Straight through a transparent surface: still the last real bounce's ray (direct.bsdf_ray). */
                 pdf_b = H->mis_pdf[owner[k]];
                 use_mis = ds->mis && isfinite(pdf_b);
                 P = H->mis_origin + 3 * owner[k];
                 N = H->mis_n + 3 * owner[k];
+                receiver = H->mis_receiver[owner[k]];    /* (Light Linking: the last real bounce's object) */
             }
             double light_L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];
             int first = ds->light_passes && H->bounce[owner[k]] == 0;
-            int64_t h = owner[k];
-            uint64_t receiver = links_of(ds->geometry, H->geometry[h], H->prim[h], H->instance[h], 0);
             if (first)
                 sample_shares(H->sd + owner[k], H->wo + 3 * owner[k], s, dot3(H->s[owner[k]].Ng, D) < 0.0, shares);
             if (hit && ds->continuing != NULL) {

@@ -182,6 +182,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->transmission[m] = tr;
         next->transparent[m] = clear;
         next->mis_pdf[m] = r->pdf;
+        next->mis_receiver[m] = r->receiver;
         for (int c = 0; c < 3; c++) { next->mis_origin[3 * m + c] = r->mis_O[c]; next->mis_n[3 * m + c] = r->mis_N[c]; }
         next->bounce[m] = bounces;
         next->looking[m] = H->looking[h];
@@ -237,6 +238,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
         H->mis_pdf[h] = INFINITY;
+        H->mis_receiver[h] = 0;                   /* (the camera's: it sees every emitter) */
         for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;
         H->looking[h] = 1;

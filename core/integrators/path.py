@@ -265,6 +265,7 @@ class PathTracing(Integrator):
         mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (vertex.BsdfRay.mis_O):
         #                                              the camera's, from where a camera path sees lamps past clear panes
         mis_normal = np.zeros((len(hit), 3))
+        mis_receiver = np.full(len(hit), -1, np.int64)   # and its triangle (-1: the camera's), for Light Linking
         after_diffuse = np.zeros(len(hit), bool)     # whether that bounce was diffuse (the caustics switches)
         seen_by = np.full(len(hit), HIDDEN_FROM_CAMERA)   # the kind of ray that reached each vertex (ray_kind)
         max_bounces = 0 if self.direct_only else s.max_bounces
@@ -296,7 +297,8 @@ class PathTracing(Integrator):
                                   pixel[owner], sample[owner], dimension)
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
-                              carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce, inside=inside)
+                              carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce, inside=inside,
+                              carried_receiver=mis_receiver)
             vertex_groups = lightgroups.tally(ctx, len(owner))
             emitted, finds = (np.zeros((len(owner), 3)), np.zeros((len(owner), 3))) if feats is not None else (None, None)
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,
@@ -413,6 +415,7 @@ class PathTracing(Integrator):
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
             mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]
+            mis_receiver = ray.receiver[keep]
             inside = None if media is None else ray.inside[keep]
             wo = -D_next
             vertex += 1

@@ -56,6 +56,9 @@ class PathState(NamedTuple):
                path's last real bounce (bsdf_ray), or None: a camera ray's
     bounce:    the real bounces each path made before the hits (0: the camera's hits; int or (m,)): a light takes no
                light samples at hits past its max_bounces
+    carried_receiver: (m,) int64 the triangle of each path's last real bounce (-1: the camera's), or None: a ray
+               straight on through a transparent surface finds the emitters that light its object (Light Linking,
+               Cycles' mis_ray_object)
     inside:    (m, V) int16 the media the rays that reached the hits were in (core/volumes Media.crossed), or None:
                no media. Rays leaving a hit to the other side of its surface enter or leave its material's medium.
     """
@@ -72,6 +75,7 @@ class PathState(NamedTuple):
     carried_N: Optional[np.ndarray] = None
     bounce: object = 0
     inside: Optional[np.ndarray] = None
+    carried_receiver: Optional[np.ndarray] = None
 
 
 def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -239,7 +243,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
         finds, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N,
                               carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups,
-                              inside=path.inside)
+                              inside=path.inside, carried_receiver=path.carried_receiver)
         if clamping:
             f = clamp_.scale(finds, throughput, limit)
             finds = finds * f[:, None]
@@ -259,7 +263,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
 
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
              recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
-             *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, inside=None):
+             *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, inside=None,
+             carried_receiver=None):
     """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
     The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -296,6 +301,9 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
     clear = materials_.has(bs.kind[go], materials_.BSDFFlags.STRAIGHT)
     mis_O, mis_N = O, tree_N[go]
+    receiver = surface.prim[go]                   # (Light Linking: the object the ray left, or the last real bounce's)
+    if carried_receiver is not None and clear.any():
+        receiver = np.where(clear, carried_receiver[go], receiver)
     if carried_pdf is not None and clear.any():
         pdf_b = np.where(clear, carried_pdf[go], pdf_b)
         if carried_origin is not None:
@@ -309,7 +317,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         stretch = ctx.extra["media"].along(ray_inside)
         attenuation = volumes.transmittance(stretch.sigma_t, t_hit)
     ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
-                  ray_inside, attenuation, surface.prim[go])
+                  ray_inside, attenuation, receiver)
     for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
         if mask.any():
             recorder.rays(kind, O[mask], D[mask], t_hit[mask])
@@ -322,7 +330,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
                                              mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch,
-                                             receiver=surface.prim[go])
+                                             receiver=receiver)
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
