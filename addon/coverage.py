@@ -33,6 +33,7 @@ STRUCTS = {
     "ViewLayer": "view_layer", "CyclesRenderLayerSettings": "view_layer.cycles",
     "LayerCollection": "view_layer.layer_collection",
     "Object": "object", "CyclesObjectSettings": "object.cycles", "ObjectLightLinking": "object.light_linking",
+    "CollectionLightLinking": "collection.collection_objects[i].light_linking (and collection_children[i]'s)",
     "Camera": "camera.data", "CameraDOFSettings": "camera.data.dof", "CameraStereoData": "camera.data.stereo",
     "Light": "light.data", "PointLight": "light.data", "SpotLight": "light.data", "SunLight": "light.data",
     "AreaLight": "light.data", "CyclesLightSettings": "light.data.cycles",
@@ -216,6 +217,7 @@ COVERAGE = {
     },
     "Object": {
         READ: {"type": "export.export_scene", "material_slots": "export.MaterialTable.slot_map",
+               "light_linking": "linking.LinkSets.of (Light and Shadow Linking)",
                "pass_index": "export.export_scene (Object Index pass)", "lightgroup": "lightgroups.source_group",
                "is_holdout visible_camera visible_diffuse visible_glossy visible_shadow visible_transmission":
                    "export.ray_visibility",
@@ -230,7 +232,7 @@ COVERAGE = {
                "show_instancer_for_render show_only_shape_key soft_body track_axis up_axis "
                "use_instance_faces_scale use_instance_vertices_rotation use_parent_final_indices* "
                "use_simulation_cache vertex_groups": DEPSGRAPH},
-        REPORTED: {"is_shadow_catcher light_linking": "unmodelled.object_notes",
+        REPORTED: {"is_shadow_catcher": "unmodelled.object_notes",
                    "visible_volume_scatter": "export.ray_visibility_notes",
                    "color": "materials.GraphReader.output (an Object Info output Primer does not evaluate is noted)",
                    "visible_raycast*": "materials.GraphReader.output (a Raycast node is noted as not evaluated)"},
@@ -259,8 +261,12 @@ COVERAGE = {
                    "ao_distance": "unmodelled.render_notes (Fast GI)",
                    "use_deform_motion": "motion.moving_objects_note (a mesh that deforms during the shutter)"},
     },
+    "CollectionLightLinking": {
+        READ: {"link_state": "linking.reached (Include or Exclude, for an object or everything in a child collection)"},
+    },
     "ObjectLightLinking": {
-        REPORTED: {"blocker_collection receiver_collection": "unmodelled.object_notes"},
+        READ: {"blocker_collection receiver_collection": "linking.LinkSets.of (the sets and memberships of Light and "
+                                                         "Shadow Linking, as Blender's depsgraph makes them)"},
     },
     "Camera": {
         READ: {"clip_end clip_start fisheye_fov fisheye_lens lens ortho_scale panorama_type sensor_fit sensor_height "

@@ -25,7 +25,7 @@ from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
 from ..core.visibility import hidden_bits
-from . import cycles_settings, lightgroups, unmodelled
+from . import cycles_settings, lightgroups, linking, unmodelled
 from . import materials as materials_
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
@@ -1138,6 +1138,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     if mesh_cache is not None:
         mesh_cache.begin(depsgraph.updates)
 
+    links = linking.LinkSets.of(depsgraph)          # Light and Shadow Linking's sets (addon/linking.py)
+    warnings.extend(links.notes)
     for instance in depsgraph.object_instances:
         if is_cancelled():
             break
@@ -1150,7 +1152,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         if obj.type == "LIGHT":
             light = export_light(obj, matrix, warnings)
             if light is not None:
-                core.lights.append(light)
+                core.lights.append(links.lamp(light, obj))
                 groups["lights"].append(lightgroups.source_group(obj))
             continue
         if obj.type == "MESH" and not instance.is_instance and instance.show_particles and strands:
@@ -1161,7 +1163,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                     core.meshes.append(hair)
                     core.instances.append(core_scene.Instance(
                         len(core.meshes) - 1, matrix, materials.slot_map(obj, warnings, override), obj.name,
-                        None, int(getattr(obj, "pass_index", 0)), **ray_visibility(obj), asset=topmost_parent(obj).name))
+                        None, int(getattr(obj, "pass_index", 0)), **ray_visibility(obj), asset=topmost_parent(obj).name,
+                        **links.of_object(obj)))
                     groups["instances"].append(lightgroups.source_group(obj))
         if not instance.show_self:
             continue                    # e.g. a particle emitter that is not rendered itself
@@ -1213,7 +1216,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             visibility["visible_camera"] = False  # (an Indirect Only collection: Cycles clears camera visibility)
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
                                                   int(getattr(obj, "pass_index", 0)), **visibility,
-                                                  asset=topmost_parent(obj).name, color=tuple(obj.color)))
+                                                  asset=topmost_parent(obj).name, color=tuple(obj.color),
+                                                  **links.of_object(obj)))
         groups["instances"].append(lightgroups.source_group(obj))
 
     if mesh_cache is not None:

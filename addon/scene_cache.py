@@ -38,10 +38,10 @@ from typing import Optional
 import bpy
 import numpy as np
 
-from . import export
+from . import export, linking
 from ..core import scene as core_scene
 from ..core.geometry import instancing
-from ..core.geometry.geometry import WorldGeometry, build_geometry
+from ..core.geometry.geometry import WorldGeometry, build_geometry, link_table
 from ..core.materials import DEFAULT_SURFACE
 
 
@@ -179,6 +179,8 @@ class SceneCache:
         self.placements: dict = {}
         self.material_table = _MaterialTable()
         self.lights: list = []
+        self.links: dict = {}                 # object name -> its Light and Shadow Linking fields (addon/linking.py)
+        self.link_sets = None                 # the LinkSets they came from (a lamp's memberships: read again on change)
         self.world = None                  # core World (its colour, visibility)
         self.totals = SyncReport()         # summed over all syncs
         self.instancing = "auto"           # RenderSettings.instancing the BVH was built with
@@ -209,9 +211,13 @@ class SceneCache:
         placements_changed = False
         if walk:
             report.walked = True
+            links = self.links
             placements_changed = self._walk(depsgraph, changes, first, report)
+            relinked = self.links != links                 # (Light Linking's sets changed, alone or not)
+        else:
+            relinked = False
         # 4. Rebuild the scene (cheap lists) and, when placements changed, the BVH.
-        if first or placements_changed or report.lights or report.materials or report.world:
+        if first or placements_changed or report.lights or report.materials or report.world or relinked:
             self.scene = self._core_scene()
         mode = _instancing_mode(depsgraph)
         if first or placements_changed or mode != self.instancing:
@@ -222,6 +228,8 @@ class SceneCache:
             self.geometry = build_geometry(self.scene, np.asarray(origin, np.float64),
                                            instancing.instance_triangles(mode))
             report.bvh = True
+        elif relinked:                                      # (the same placements: only their sets are new)
+            self.geometry.instance_links = link_table(self.scene.instances)
         self.warnings = list(dict.fromkeys(self.warnings))       # each note once
         self._add_to_totals(report)
         return report
@@ -233,10 +241,13 @@ class SceneCache:
             del self.meshes[key]
         # Lights are few: read them all again when any changed, and when anything moved (a light in an
         # instanced collection moves with its instancer, and only the instancer is tagged).
-        relight = first or changes.lights or changes.scene or bool(changes.transform)
+        links = linking.LinkSets.of(depsgraph)          # Light and Shadow Linking's sets, read again each walk
+        relight = first or changes.lights or changes.scene or bool(changes.transform) or links != self.link_sets
+        self.link_sets = links
         lights, placements = [], {}
         moved = changes.geometry | changes.transform
         unsupported_noted: set = set()
+        self.links = {}
         for instance in depsgraph.object_instances:
             obj = instance.object
             # 2. Lights: export them all again when any may have changed.
@@ -244,8 +255,9 @@ class SceneCache:
                 if relight:
                     light = export.export_light(obj, np.array(instance.matrix_world, np.float64), self.warnings)
                     if light is not None:
-                        lights.append(light)
+                        lights.append(links.lamp(light, obj))
                 continue
+            self.links[obj.name] = links.of_object(obj)
             if not instance.show_self:
                 continue
             if obj.type in export.UNSUPPORTED_GEOMETRY:
@@ -339,7 +351,8 @@ class SceneCache:
                 mesh_index[placement.mesh_key] = len(scene.meshes) - 1
             scene.instances.append(core_scene.Instance(mesh_index[placement.mesh_key], placement.matrix,
                                                        placement.materials, placement.name,
-                                                       **dict(placement.visible)))
+                                                       **dict(placement.visible),
+                                                       **self.links.get(placement.name, {})))
         return scene
 
     def _add_to_totals(self, report: SyncReport) -> None:

@@ -129,17 +129,11 @@ def camera_notes(camera_object) -> list:
 
 
 def object_notes(obj) -> list:
-    """Object settings that Primer does not model: shadow catcher, light and shadow linking, adaptive subdivision."""
+    """Object settings that Primer does not model: shadow catcher, adaptive subdivision. (Light and shadow linking are
+    modelled: addon/linking.py.)"""
     notes = []
     if obj.type != "LIGHT" and getattr(obj, "is_shadow_catcher", False):     # (lamps read True; Cycles ignores it)
         notes.append(f"object '{obj.name}' is a shadow catcher in Cycles; Primer renders it as an ordinary object")
-    linking = getattr(obj, "light_linking", None)
-    if linking is not None:
-        for prop, what in (("receiver_collection", "light linking"), ("blocker_collection", "shadow linking")):
-            collection = getattr(linking, prop, None)
-            if collection is not None:
-                notes.append(f"object '{obj.name}' uses {what} (collection '{collection.name}'); Primer lets it light "
-                             "(and shadow) everything")
     adaptive = any(modifier.type == "SUBSURF" and modifier.show_render and getattr(modifier, "use_adaptive_subdivision",
                                                                                     False)
                    for modifier in getattr(obj, "modifiers", ())) \

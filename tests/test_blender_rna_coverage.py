@@ -116,11 +116,6 @@ def new_world():
     return bpy.data.worlds.new("Other")
 
 
-def new_collection():
-    """An empty collection (for light linking)."""
-    return bpy.data.collections.new("Receivers")
-
-
 # (struct, its path, property, value (or a function making it), settings it needs first [(path, property, value)],
 #  the unmodelled.py function, what it is called with, a phrase of its note). The table must say REPORTED by it.
 CASES = [
@@ -147,8 +142,6 @@ CASES = [
     ("CyclesRenderLayerSettings", "view_layer.cycles", "denoising_store_passes", True, [], "view_layer_notes",
      "view_layer", "Denoising Data passes"),
     ("Camera", "camera.data", "type", "CUSTOM", [], "camera_notes", "camera", "Custom camera"),
-    ("ObjectLightLinking", "light.light_linking", "receiver_collection", new_collection, [], "object_notes", "light",
-     "light linking"),
     ("CyclesWorldSettings", "world.cycles", "is_caustics_light", True, [], "world_notes", "world", "shadow caustics"),
     ("CyclesWorldSettings", "world.cycles", "use_shadows", False, [], "world_notes", "world", "casts no shadows"),
     ("CyclesVisibilitySettings", "world.cycles_visibility", "transmission", False, [], "world_notes", "world",

@@ -67,13 +67,13 @@ def scene_with_everything():
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
-    """Shadow catcher, light and shadow linking, a material's Displacement, Principled Dispersion, Mist, Vector and
+    """Shadow catcher, a material's Displacement, Principled Dispersion, Mist, Vector and
     AOV passes: each named in one warning. (The Volumes of the material and the world are homogeneous media Primer
     renders: no warning.)"""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
-    expected = ["shadow catcher", "uses light linking", "uses shadow linking",
+    expected = ["shadow catcher",
                 "Displacement output", "Mist pass", "Vector pass", "AOVs (Mask)"]
     if any(node.inputs.get("Dispersion") is not None for node in bpy.data.materials["Displaced"].node_tree.nodes):
         expected.append("'Dispersion' is above 0")

@@ -346,6 +346,20 @@ def test_the_inspector_shows_the_uv_the_texel_the_tangent_frame_and_the_closures
         assert ("Name", "Textured") in titles["Material"]
 
 
+def test_a_lamp_not_linked_to_the_object_traces_no_shadow_ray_and_says_why():
+    """Light Linking: a lamp that lights only receiver set 1 at a floor point in the default set 0 casts no shadow ray
+    (the reason named) and brings nothing; linked to set 0, it lights the point."""
+    scene = floor_scene()
+    I = floor_point(scene, 8, 6)
+    scene.lights.append(PointLight(I + np.array([0.5, 0.0, 1.0]), power=100.0, name="Lamp", light_membership=0b10))
+    (light,) = inspector.inspect_pixel(scene, settings(), 8, 6).lights
+    assert not light.cast and light.reason == inspector.SKIPPED
+    assert light.contribution.max() == 0.0
+    scene.lights[0].light_membership = 0b1
+    (linked,) = inspector.inspect_pixel(scene, settings(), 8, 6).lights
+    assert linked.cast and linked.contribution.min() > 0.0
+
+
 def test_a_lamp_without_cast_shadow_traces_no_shadow_ray_and_lights_the_point_behind_a_blocker():
     """Cast Shadow off (Cycles' light.use_shadow): the inspector shows no shadow ray (cast False, occluded None, the
     reason named) and the floor point behind the blocker gets the lamp's unblocked share, as the render does."""

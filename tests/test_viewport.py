@@ -337,3 +337,28 @@ def test_ray_visibility_and_holdout_reach_the_traced_scene(session_in_scene):
     recorder.change(edit)
     geometry = session.cache.geometry
     assert geometry.hides(HIDDEN_FROM_DIFFUSE) and geometry.hides(HOLDOUT) and not geometry.hides(HIDDEN_FROM_GLOSSY)
+
+
+def test_light_linking_reaches_the_traced_scene_and_follows_a_link_state_change(session_in_scene):
+    """A lamp whose receiver collection Includes one cube: the viewport's traced scene has that cube in a set of its
+    own that the lamp lights and the default set it does not; switching the cube to Exclude makes the lamp light the
+    default set and not the cube's."""
+    from core.lights.linking import in_sets
+    _, session, recorder, _ = session_in_scene
+    lamp = next(obj for obj in bpy.data.objects if obj.type == "LIGHT")
+    cube = bpy.data.objects["Cube B"]
+    receivers = bpy.data.collections.new("Receivers")
+    receivers.objects.link(cube)
+    recorder.change(lambda: setattr(lamp.light_linking, "receiver_collection", receivers))
+    cube_set = session.cache.links["Cube B"]["light_set"]
+    membership = next(light for light in session.cache.scene.lights if light.name == lamp.name).light_membership
+    assert cube_set != 0 and in_sets(membership, cube_set) and not in_sets(membership, 0)
+    assert (session.cache.geometry.instance_links[:, 0] == cube_set).sum() >= 1
+
+    def exclude():
+        receivers.collection_objects[0].light_linking.link_state = "EXCLUDE"
+
+    recorder.change(exclude)
+    cube_set = session.cache.links["Cube B"]["light_set"]
+    membership = next(light for light in session.cache.scene.lights if light.name == lamp.name).light_membership
+    assert in_sets(membership, 0) and not in_sets(membership, cube_set)

@@ -34,6 +34,7 @@ from ..scene import Scene
 from ..materials import graph as graph_
 # The rays an object may hide from, and holdouts: WorldGeometry.instance_hidden's bits (core/visibility.py).
 from ..visibility import HOLDOUT, hidden_bits
+from ..lights.linking import ALL_SETS
 
 
 # Scenes up to this many triangles keep a per-triangle table of corner coordinates (WorldGeometry.corner_points).
@@ -66,6 +67,8 @@ class WorldGeometry:
     instance_linear: (n, 3, 3) float64 each instance's linear transform (tangents turn with it)
     instance_hidden: (n,) uint8 the rays each Scene.instances entry hides from (HIDDEN_FROM_* bits, Ray
                     Visibility) and whether it is a holdout (HOLDOUT), or an empty array when no object does either
+    instance_links: (n, 4) uint64 each Scene.instances entry's light set, shadow set, light membership and shadow
+                    membership (core/lights/linking.py), or an empty array when nothing is linked
     The arrays above hold the copied triangles only; ask `triangle_data` for any triangle.
     """
 
@@ -87,6 +90,7 @@ class WorldGeometry:
     instance_info: np.ndarray = field(default_factory=lambda: np.zeros((0, OBJECT_INFO_WIDTH)))
     instance_linear: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
     instance_hidden: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
+    instance_links: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.uint64))
 
     @property
     def has_smooth(self) -> bool:
@@ -176,6 +180,25 @@ class WorldGeometry:
             return np.zeros(len(prim), bool)
         owner = self.owners(prim)
         return (owner >= 0) & ((self.instance_hidden[np.maximum(owner, 0)] & bit) != 0)
+
+    @property
+    def linked(self) -> bool:
+        """Whether some object is light- or shadow-linked (instance_links)."""
+        return len(self.instance_links) > 0
+
+    @property
+    def shadow_linked(self) -> bool:
+        """Whether some emitter object's shadows are cast by a blocker set only (its shadow membership is not all)."""
+        return self.linked and bool((self.instance_links[:, 3] != np.uint64(ALL_SETS)).any())
+
+    def links(self, prim: np.ndarray, column: int) -> np.ndarray:
+        """Column `column` of instance_links (0 light set, 1 shadow set, 2 light membership, 3 shadow membership) of the
+        object of each triangle `prim` (k,) int64: (k,) uint64 (the unlinked defaults for triangles of no object)."""
+        default = np.array([0, 0, ALL_SETS, ALL_SETS], np.uint64)[column]
+        if not self.linked:
+            return np.full(len(prim), default, np.uint64)
+        owner = self.owners(np.asarray(prim, np.int64))
+        return np.where(owner >= 0, self.instance_links[np.maximum(owner, 0), column], default)
 
     def owners(self, prim: np.ndarray) -> np.ndarray:
         """The index into Scene.instances of the object each triangle `prim` (k,) int64 belongs to, -1 for none."""
@@ -457,6 +480,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_linear=all_matrices[:, :3, :3].copy(),
         instance_info=instance_info(scene.instances),
         instance_hidden=hidden_flags(scene.instances),
+        instance_links=link_table(scene.instances),
     )
 
 
@@ -481,6 +505,15 @@ def hidden_flags(instances: list) -> np.ndarray:
     empty when no instance does either."""
     flags = np.array([hidden_bits(i) | (HOLDOUT if i.is_holdout else 0) for i in instances], np.uint8)
     return flags if flags.any() else np.zeros(0, np.uint8)
+
+
+def link_table(instances: list) -> np.ndarray:
+    """(n, 4) uint64 each instance's light set, shadow set, light membership and shadow membership (Light and Shadow
+    Linking, core/lights/linking.py); empty when no instance is linked."""
+    table = np.array([(i.light_set, i.shadow_set, i.light_membership, i.shadow_membership) for i in instances],
+                     np.uint64).reshape(-1, 4)
+    unlinked = (table[:, 0] == 0) & (table[:, 1] == 0) & (table[:, 2] == ALL_SETS) & (table[:, 3] == ALL_SETS)
+    return table if not unlinked.all() else np.zeros((0, 4), np.uint64)
 
 
 def attribute_table(meshes: list) -> tuple:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..native import library, schema
-from ..native.schema import F32, F64, I32, I64, U8, ptr
+from ..native.schema import F32, F64, I32, I64, U8, U64, ptr
 
 InstancedRecord = schema.record("InstancedTables", "One instanced mesh (core/geometry/instancing.py InstancedMesh), as core/geometry/tables.py lays it out.", [
     ("vertices", ptr(F32), "(v, 3) object-space points"),
@@ -44,6 +44,8 @@ GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (c
     ("instance_linear", ptr(F64), "(n, 3, 3) each instance's linear transform"),
     ("attribute_width", I64, "A"),
     ("hidden", ptr(U8), "(n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides"),
+    ("links", ptr(U64), "(n, 4) each instance's light set, shadow set, light and shadow membership\n"
+                        "(WorldGeometry.instance_links), NULL: nothing is linked"),
     ("origin", ptr(F64), "(3,) the world point the vertices are relative to (the Geometry node's Position adds it)"),
 ])
 
@@ -88,4 +90,8 @@ class GeometryTables:
         # instances are needed to find a hit's object then.
         if len(geometry.instance_hidden):
             self.record.hidden = c(geometry.instance_hidden, np.uint8)
+            self.record.instance = c(geometry.instance, np.int32) if len(geometry.instance) else None
+        # Light and shadow linking: each instance's sets and memberships, where some object is linked.
+        if len(geometry.instance_links):
+            self.record.links = c(geometry.instance_links, np.uint64)
             self.record.instance = c(geometry.instance, np.int32) if len(geometry.instance) else None

@@ -104,6 +104,24 @@ INLINE int hidden_from(const GeometryTables *g, int64_t geometry, int64_t prim, 
     return owner >= 0 && (g->hidden[owner] & bit) != 0;
 }
 
+/* Every light or shadow set (core/lights/linking.py ALL_SETS): the membership of an emitter that is not linked. */
+#define ALL_SETS UINT64_MAX
+
+/* WorldGeometry.links for one Embree hit: column `column` of its object's instance_links (0 light set, 1 shadow set,
+ * 2 light membership, 3 shadow membership), or the unlinked default. */
+INLINE uint64_t links_of(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance, int column)
+{
+    int64_t owner = g->links == NULL ? -1 : owner_of(g, geometry, prim, instance);
+    if (owner < 0) return column < 2 ? 0 : ALL_SETS;
+    return g->links[4 * owner + column];
+}
+
+/* linking.in_sets: whether bit `set` of `membership` is set. */
+INLINE int in_sets(uint64_t membership, uint64_t set)
+{
+    return ((membership >> set) & 1u) != 0;
+}
+
 /* A hit's surface (core/geometry/surface.py), with what its shadow rays need. */
 typedef struct {
     double I[3];        /* the hit point */

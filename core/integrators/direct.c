@@ -30,6 +30,7 @@ typedef struct {
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
     double mis_origin[3 * BLOCK];                /* its ray origin, and its light-tree normal (0: unknown), from which */
     double mis_n[3 * BLOCK];                     /* MIS measures the light pdfs (direct.BsdfRay.mis_O, mis_N) */
+    uint64_t mis_receiver[BLOCK];                /* and the light set of its object (Cycles' mis_ray_object) */
     uint8_t after_diffuse[BLOCK];                /* 1: that bounce was diffuse (the caustics switches) */
     int32_t seen_by[BLOCK];                      /* the kind of ray that reached it (HIDDEN_FROM_*, direct.ray_kind) */
     double held[BLOCK];                          /* per camera lane: the alpha holdouts take away (path.hold_out) */
@@ -100,6 +101,7 @@ typedef struct {
     double mis_O[3], mis_N[3];                   /* where MIS measures the light pdfs from (the last real bounce) */
     int seen_as;                                 /* its kind: the HIDDEN_FROM_* bit of objects it passes */
     LightPath path;                              /* the path it carries past the bounce (rays.path_after) */
+    uint64_t receiver;                           /* the light set of the object it left (Light Linking) */
     double shares[PASS_KINDS][3];                /* its pass kinds' shares (lightpasses.c; light passes only) */
 } PathRay;
 
@@ -222,6 +224,7 @@ typedef struct {
     int hidden[BLOCK];                           /* the HIDDEN_FROM_* bits of the sample's object (emitters) */
     int64_t emitter[BLOCK];                      /* the emissive triangle sampled (emitters) */
     int32_t group[BLOCK];                        /* the light group of its source (lightgroups.py; -1: none) */
+    uint64_t blockers[BLOCK];                    /* its source's shadow membership (Shadow Linking; ALL_SETS: any) */
 } SampleBlock;
 
 /* Step 0: samples first .. first + n - 1 of a light with `count` samples per hit (sample s is sample
@@ -382,7 +385,7 @@ typedef struct LanePasses LanePasses;
  * gets through, (weight colour) f cos, is added to its hit's radiance in ray order. Returns the rays traced. */
 typedef struct Transmitter Transmitter;
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D[][3], const double *t,
-                            const LightPath *paths, double T[][3]);
+                            const LightPath *paths, const uint64_t *blockers, double T[][3]);
 
 /* clamp.scale: the factor that caps a contribution value x throughput x count (channel sum) at limit (inf: none). */
 INLINE double clamp_scale(const double *value, const double *throughput, double limit, double count)
@@ -406,6 +409,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
     RayPacket ray;
     int valid[PACKET] ALIGNED(32);
     int64_t owner[PACKET], sample_of[PACKET], rays = 0;
+    uint64_t blockers[PACKET];
     double value[PACKET][3], O[PACKET][3], D[PACKET][3], t[PACKET], T[PACKET][3];
     LightPath paths[PACKET];
     int lanes = 0;
@@ -418,6 +422,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             owner[lanes] = b->hit[k];
             paths[lanes] = path_at(H, b->hit[k], PATH_SHADOW);      /* (a shadow ray: SHADOW alone) */
             sample_of[lanes] = k;
+            blockers[lanes] = b->blockers[k];
             for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * b->color[c][k]) * b->f[c][k];
             if (caps != NULL) {
                 /* Sample clamping: the sample as the one-sample estimate it stands for (x count). */
@@ -437,7 +442,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             }
         } else if (transmitter != NULL) {
             /* Transparent shadows: each ray carries the product of the transparencies it passes. */
-            transmit_packet(transmitter, lanes, O, D, t, paths, T);
+            transmit_packet(transmitter, lanes, O, D, t, paths, blockers, T);
             for (int lane = 0; lane < lanes; lane++) {
                 double *e = L_out + 3 * owner[lane], got[3];
                 for (int c = 0; c < 3; c++) { got[c] = value[lane][c] * T[lane][c]; e[c] += got[c]; }
@@ -532,10 +537,11 @@ struct Transmitter {
 /* shadows.transmittance for up to 8 shadow rays (O, D0, t: float64 origins, directions, lengths; paths: the
  * LightPath each carries, whose Transparent Depth grows by each surface passed): T, the share of light each carries
  * through the transparent surfaces it passes (0 where something opaque, or more than tr->limit surfaces less those
- * its path passed, is in the way); objects hidden from shadow rays are passed as if not there.
+ * its path passed, is in the way); objects hidden from shadow rays are passed as if not there, and objects outside
+ * the blocker sets of each ray's light (blockers: per lane, its shadow membership; NULL: all block).
  * Past a surface each ray goes on towards its own end point O + t D0 (short of the light), which stays put. */
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D0[][3], const double *t,
-                            const LightPath *paths, double T[][3])
+                            const LightPath *paths, const uint64_t *blockers, double T[][3])
 {
     double origin[PACKET][3], left[PACKET], D[PACKET][3], end[PACKET][3];
     int alive[PACKET], passed[PACKET];
@@ -561,6 +567,8 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             int64_t geometry = (int64_t)packet.hit.geomID[k], prim = (int64_t)packet.hit.primID[k];
             int64_t instance = instance_of(&packet.hit, k);
             int hidden = hidden_from(tr->geometry, geometry, prim, instance, HIDDEN_FROM_SHADOW);
+            if (blockers != NULL && blockers[l] != ALL_SETS)      /* Shadow Linking: only its blocker sets stop it */
+                hidden |= !in_sets(blockers[l], links_of(tr->geometry, geometry, prim, instance, 1));
             /* (Cycles: a shadow ray passes what is left of the path's transparent bounces, the limit less its count) */
             if (!hidden && passed[l] >= tr->limit - paths[l].transparent) {
                 T[l][0] = T[l][1] = T[l][2] = 0.0;
@@ -728,6 +736,27 @@ INLINE void skip_own_triangle(SampleBlock *b, const BlockHits *H, const DirectSe
     }
 }
 
+/* Light and shadow linking (core/lights/linking.py, vertex.py): each sample's source's shadow membership into
+ * b->blockers, and no light from a source that does not light its hit's object (linking.lights_receivers). */
+INLINE void link_block(SampleBlock *b, const BlockHits *H, const DirectSettings *ds, const LightRecord *light)
+{
+    const GeometryTables *g = ds->geometry;
+    int emitter = light_is((int)light->kind, LIGHT_FLAG_EMITTER);
+    for (int64_t k = 0; k < b->n; k++) {
+        uint64_t lights = light->light_membership, shadows = light->shadow_membership;
+        if (emitter && g->links != NULL && b->emitter[k] >= 0) {
+            int64_t geometry, prim, instance;
+            unflat_prim(g, ds->context->emitters->prim[b->emitter[k]], &geometry, &prim, &instance);
+            lights = links_of(g, geometry, prim, instance, 2);
+            shadows = links_of(g, geometry, prim, instance, 3);
+        }
+        b->blockers[k] = shadows;
+        int64_t h = b->hit[k];
+        if (lights != ALL_SETS && !in_sets(lights, links_of(g, H->geometry[h], H->prim[h], H->instance[h], 0)))
+            b->strength[k] = 0.0;
+    }
+}
+
 INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *embree_ticks)
 {
     const ShadowSettings *settings = ds->shadows;
@@ -760,6 +789,7 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && ds->context->emitters->textured != NULL)
                 textured_block(&b, H, ds);
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER)) skip_own_triangle(&b, H, ds);
+            link_block(&b, H, ds, light);
             if (light->max_bounces < 1024)              /* a light's Max Bounces: no samples at later hits */
                 for (int64_t k = 0; k < b.n; k++)
                     if (H->bounce[b.hit[k]] > light->max_bounces) b.strength[k] = 0.0;
@@ -767,7 +797,7 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
             bsdf_block(&b, H, weighed);
             if (weighed)
                 for (int64_t k = 0; k < b.n; k++)
-                    if (H->traced[b.hit[k]])
+                    if (H->traced[b.hit[k]] && b.blockers[k] == ALL_SETS)   /* (shadow-linked: samples alone) */
                         b.weight[k] = b.weight[k] * power_heuristic((double)count * b.pdf[k], b.pdf_bsdf[k]);
             uint64_t start = ticks();
             rays += occlude_block(&b, ds->occluded, ds->scene, H->L, ds->transmitter, H,
@@ -795,6 +825,7 @@ typedef struct {
     const double *P, *N;
     int seen_as;            /* the ray's kind (HIDDEN_FROM_* bit): it passes lamps hidden from that kind */
     const LightPath *path;  /* the path it carries (the emitter it hits is shaded for it) */
+    uint64_t receiver;      /* the light set of the object the ray left: it finds only emitters that light it */
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -803,6 +834,14 @@ typedef struct {
  * emitter's radiance is the actual hit's; a lamp is met where the line from P meets it past O (the disk facing P for
  * a round lamp with soft falloff, as its light samples there saw it). groups_L: (ds->groups, 3) what it adds by the
  * group of each source (lightgroups.py), added to, or NULL. */
+/* vertex.unlinked_finds' opposite for a ray other than the camera's: whether the emitter object it hit lights the
+ * object the ray left (Light Linking) and has no blocker sets (Shadow Linking: its light samples alone find it). */
+INLINE int finds_emitter(const GeometryTables *g, const FindingRay *ray)
+{
+    return in_sets(links_of(g, ray->geometry, ray->prim, ray->instance, 2), ray->receiver)
+           && links_of(g, ray->geometry, ray->prim, ray->instance, 3) == ALL_SETS;
+}
+
 NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ray, double *light_L, double *groups_L)
 {
     const double *O = ray->O, *D = ray->D, *P = ray->P, *N = ray->N;
@@ -832,6 +871,8 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         if (light->hittable == 0.0 || !light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_DISTANT | LIGHT_FLAG_AREA))
             continue;                                   /* (emitters and the world are found below) */
         if (((int)light->hidden & ray->seen_as) != 0) continue;     /* a lamp's Ray Visibility */
+        if (ray->seen_as != HIDDEN_FROM_CAMERA && !in_sets(light->light_membership, ray->receiver))
+            continue;                                               /* Light Linking (camera rays see it) */
         /* Multiple Importance off: light samples alone find it; camera rays still see a lamp (not a sun disk) */
         if (light->use_mis == 0 && (ray->seen_as != HIDDEN_FROM_CAMERA || light_is((int)light->kind, LIGHT_FLAG_DISTANT)))
             continue;
@@ -847,7 +888,8 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     }
     /* b. An emissive surface the ray hits, weighed against the emitters' own samples. */
     /* (a camera path's ray, through Transparent closures, finds a holdout emitting nothing: a hole, path.hold_out) */
-    if (hit && ds->emissive && !(camera && hidden_from(ds->geometry, geometry, prim, instance, HOLDOUT))) {
+    if (hit && ds->emissive && !(camera && hidden_from(ds->geometry, geometry, prim, instance, HOLDOUT))
+        && (ray->seen_as == HIDDEN_FROM_CAMERA || ds->geometry->links == NULL || finds_emitter(ds->geometry, ray))) {
         Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
         hit_triangle(ds->geometry, geometry, prim, instance, 0, &tri);
         const double *emitted = ds->materials[tri.material].emission;
@@ -937,12 +979,15 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             /* The light-tree normal as its light samples had it (zero: unknown), and where MIS measures from. */
             const double *N = H->through[owner[k]] ? NULL : H->s[owner[k]].N;
             const double *P = O;
+            int64_t h = owner[k];
+            uint64_t receiver = links_of(ds->geometry, H->geometry[h], H->prim[h], H->instance[h], 0);
             if (bsdf_is(s->kind, BSDF_FLAG_STRAIGHT) && ds->continuing != NULL) {
                 /* Straight through a transparent surface: still the last real bounce's ray (direct.bsdf_ray). */
                 pdf_b = H->mis_pdf[owner[k]];
                 use_mis = ds->mis && isfinite(pdf_b);
                 P = H->mis_origin + 3 * owner[k];
                 N = H->mis_n + 3 * owner[k];
+                receiver = H->mis_receiver[owner[k]];    /* (Light Linking: the last real bounce's object) */
             }
             double light_L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];
             int first = ds->light_passes && H->bounce[owner[k]] == 0;
@@ -962,6 +1007,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->pdf = pdf_b;
                 r->seen_as = kinds[k];
                 r->path = after[k];
+                r->receiver = receiver;
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
                 for (int c = 0; c < 3; c++) { r->mis_O[c] = P[c]; r->mis_N[c] = N != NULL ? N[c] : 0.0; }
                 if (first)
@@ -975,7 +1021,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
             FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                                   instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
-                                  kinds[k], after + k};
+                                  kinds[k], after + k, receiver};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

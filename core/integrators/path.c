@@ -72,7 +72,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         prim = (int64_t)packet.hit.primID[0];
         instance = instance_of(&packet.hit, 0);
         FindingRay finding = {O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O, r->mis_N,
-                              (int)r->seen_as, &path};
+                              (int)r->seen_as, &path, r->receiver};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         double f = clamp_scale(light_L, throughput, cap, 1.0);
@@ -170,6 +170,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->transmission[m] = tr;
         next->transparent[m] = clear;
         next->mis_pdf[m] = r->pdf;
+        next->mis_receiver[m] = r->receiver;
         for (int c = 0; c < 3; c++) { next->mis_origin[3 * m + c] = r->mis_O[c]; next->mis_n[3 * m + c] = r->mis_N[c]; }
         next->bounce[m] = bounces;
         next->looking[m] = H->looking[h];
@@ -226,6 +227,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
         H->flags[h] = PATH_CAMERA;
         H->mis_pdf[h] = INFINITY;
+        H->mis_receiver[h] = 0;                   /* (the camera's: it sees every emitter) */
         for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;
         H->looking[h] = 1;

@@ -165,7 +165,8 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
                                         seen_as=ray.seen_as[rows][alive], stretch=stretch,
-                                        paths=graph_.paths_at(paths, alive)._replace(transparent=passed[alive]))
+                                        paths=graph_.paths_at(paths, alive)._replace(transparent=passed[alive]),
+                                        receiver=None if ray.receiver is None else ray.receiver[rows][alive])
         if media is not None:                    # (and what reaches the next surface)
             T[alive] *= volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
@@ -268,6 +269,7 @@ class PathTracing(Integrator):
         mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (vertex.BsdfRay.mis_O):
         #                                              the camera's, from where a camera path sees lamps past clear panes
         mis_normal = np.zeros((len(hit), 3))
+        mis_receiver = np.full(len(hit), -1, np.int64)   # and its triangle (-1: the camera's), for Light Linking
         after_diffuse = np.zeros(len(hit), bool)     # whether that bounce was diffuse (the caustics switches)
         seen_by = np.full(len(hit), HIDDEN_FROM_CAMERA)   # the kind of ray that reached each vertex (ray_kind)
         max_bounces = 0 if self.direct_only else s.max_bounces
@@ -299,7 +301,8 @@ class PathTracing(Integrator):
                                   pixel[owner], sample[owner], dimension)
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
-                              carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce, inside=inside)
+                              carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce, inside=inside,
+                              carried_receiver=mis_receiver)
             vertex_groups = lightgroups.tally(ctx, len(owner))
             emitted, finds = (np.zeros((len(owner), 3)), np.zeros((len(owner), 3))) if feats is not None else (None, None)
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,
@@ -414,6 +417,7 @@ class PathTracing(Integrator):
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
             mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]
+            mis_receiver = ray.receiver[keep]
             inside = None if media is None else ray.inside[keep]
             wo = -D_next
             vertex += 1

@@ -40,6 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import volumes
+from ..lights.linking import in_sets
 from ..native import schema
 from ..native.schema import F64, I32
 
@@ -176,12 +177,14 @@ def visible(tracer, rays: ShadowRays) -> np.ndarray:
     return ~tracer.occluded(rays.origins, rays.directions, rays.t_max)
 
 
-def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None) -> np.ndarray:
+def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None, blockers=None) -> np.ndarray:
     """The share of light (n, 3) float64 a shadow ray carries through transparent surfaces (Cycles'
     transparent shadows): the product of the transparency of each surface it passes, 0 where an opaque
     surface blocks it or where it would pass more than what is left of `limit` (less the transparent surfaces its
     path passed before, `paths.transparent`, as Cycles' integrate_shadow_max_transparent_hits). Objects hidden from
-    shadow rays (Ray Visibility > Shadow off) are passed as if they were not there.
+    shadow rays (Ray Visibility > Shadow off) are passed as if they were not there, and so are objects outside a
+    shadow-linked light's blocker sets: blockers (n,) uint64 each ray's light's shadow membership
+    (core/lights/linking.py), or None.
 
     Past each surface the ray goes on from just off it towards its own end point, origin + t_max direction
     (short of the light by robust_rays' margin), which stays where it was: Cycles moves only the start of its
@@ -218,6 +221,8 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None) ->
             break
         rows = alive[hit]
         hidden = ctx.geometry.hidden(found.prim[hit], HIDDEN_FROM_SHADOW)
+        if blockers is not None:              # (Shadow Linking: only the light's blocker sets stop its rays)
+            hidden |= ~in_sets(blockers[rows], ctx.geometry.links(found.prim[hit], 1))
         boundary = (np.zeros(len(hit), bool) if media is None
                     else media.boundary[ctx.geometry.triangle_data(found.prim[hit], smooth=False).material])
         over = ~hidden & ~boundary & (passed[rows] >= limit - paths.transparent[rows])   # (what the path left)

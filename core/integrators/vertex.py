@@ -24,6 +24,7 @@ import numpy as np
 
 from .. import materials as materials_
 from ..geometry.surface import surface_at_hits
+from ..lights import linking
 from ..lights.base import LAMP, LightFlags
 from ..materials import graph as graph_
 from ..sampling import sobol as sampling
@@ -55,6 +56,9 @@ class PathState(NamedTuple):
                path's last real bounce (bsdf_ray), or None: a camera ray's
     bounce:    the real bounces each path made before the hits (0: the camera's hits; int or (m,)): a light takes no
                light samples at hits past its max_bounces
+    carried_receiver: (m,) int64 the triangle of each path's last real bounce (-1: the camera's), or None: a ray
+               straight on through a transparent surface finds the emitters that light its object (Light Linking,
+               Cycles' mis_ray_object)
     inside:    (m, V) int16 the media the rays that reached the hits were in (core/volumes Media.crossed), or None:
                no media. Rays leaving a hit to the other side of its surface enter or leave its material's medium.
     """
@@ -71,6 +75,7 @@ class PathState(NamedTuple):
     carried_N: Optional[np.ndarray] = None
     bounce: object = 0
     inside: Optional[np.ndarray] = None
+    carried_receiver: Optional[np.ndarray] = None
 
 
 def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -179,12 +184,15 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 lit &= np.asarray(path.bounce) <= light.max_bounces    # a light's Max Bounces (Cycles: per light)
             if ls.emitter is not None:
                 lit &= ~lights_itself(surface, light, ls, NL, NgL)
+            if ctx.geometry.linked or light.light_membership != linking.ALL_SETS:
+                lit &= linking.lights_receivers(ctx.geometry, light, ls, surface.prim)    # Light Linking
             recorder.light_sample(index, count, ls, NL, NgL, cosine, face_allows, lit)
             rows = np.flatnonzero(lit)
             if len(rows) == 0:
                 continue
             # c. One shadow ray per lit sample, from a point safely off the surface.
             rays = aim_shadow_rays(s, surface, rows, ls, NL, NgL, offsets, refracts[rows] & (NgL[rows] < 0.0))
+            blockers = shadow_blockers(ctx, light, ls, rows)
             if not light.cast_shadow:
                 # A lamp with Cast Shadow off (Cycles' light.use_shadow): no shadow ray, nothing blocks it.
                 seen = np.ones(len(rows), bool)
@@ -194,7 +202,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 start = None if path.inside is None else media_beyond(ctx, surface, rows, path.inside[rows],
                                                                       NL[rows] < 0.0)
                 shadow_paths = graph_.paths_at(graph_.with_flags(light_path, graph_.PATH_SHADOW), rows)
-                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, start, shadow_paths)
+                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, start, shadow_paths, blockers)
                 seen = through.any(axis=1)
             else:
                 seen = shadows.visible(ctx.geometry.tracer, rays)
@@ -211,7 +219,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             weight = ls.strength[rows] * (1.0 / count)
             mis_weight = np.ones(len(rows))
             if not light.delta and light.use_mis and index in ctx.extra["hittable"] and mis[rows].any():
-                mis_weight = np.where(mis[rows], power_heuristic(count * ls.pdf[rows], pdf_bsdf), 1.0)
+                weighed = mis[rows] if blockers is None else mis[rows] & (blockers == np.uint64(linking.ALL_SETS))
+                mis_weight = np.where(weighed, power_heuristic(count * ls.pdf[rows], pdf_bsdf), 1.0)
                 weight = weight * mis_weight
             color = ls.color if ls.color.ndim == 1 else ls.color[rows]
             value = (weight[:, None] * color) * f_cos * through
@@ -236,7 +245,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
         finds, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N, light_path=light_path,
                               carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups,
-                              inside=path.inside)
+                              inside=path.inside, carried_receiver=path.carried_receiver)
         if clamping:
             f = clamp_.scale(finds, throughput, limit)
             finds = finds * f[:, None]
@@ -256,7 +265,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
 
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
              recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
-             *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, light_path=None, inside=None):
+             *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, light_path=None, inside=None,
+             carried_receiver=None):
     """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
     The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -295,6 +305,9 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
     clear = materials_.has(bs.kind[go], materials_.BSDFFlags.STRAIGHT)
     mis_O, mis_N = O, tree_N[go]
+    receiver = surface.prim[go]                   # (Light Linking: the object the ray left, or the last real bounce's)
+    if carried_receiver is not None and clear.any():
+        receiver = np.where(clear, carried_receiver[go], receiver)
     if carried_pdf is not None and clear.any():
         pdf_b = np.where(clear, carried_pdf[go], pdf_b)
         if carried_origin is not None:
@@ -309,7 +322,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         stretch = ctx.extra["media"].along(ray_inside)
         attenuation = volumes.transmittance(stretch.sigma_t, t_hit)
     ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
-                  after, ray_inside, attenuation)
+                  after, ray_inside, attenuation, receiver)
     for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
         if mask.any():
             recorder.rays(kind, O[mask], D[mask], t_hit[mask])
@@ -322,7 +335,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
                                              mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch,
-                                             paths=after)
+                                             paths=after, receiver=receiver)
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -368,7 +381,7 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
                  camera=None, N=None, mis_O=None, groups=None, seen_as=None, stretch=None,
-                 paths=None) -> np.ndarray:
+                 paths=None, receiver=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -387,7 +400,10 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     or None (none): each find keeps exp(-sigma_t t) of its light over its distance t from O (inf for the world), and
     the media's emission along the ray up to its hit is found too (not weighed: no light sample finds it).
     paths: the graph.LightPaths the k rays carry, which a textured emitter they hit is shaded for (None: a ray other
-    than the camera's, with no bounces counted)."""
+    than the camera's, with no bounces counted).
+    receiver: (k,) int64 the triangle each ray left, or None (no linking): a ray other than the camera's finds no
+    emitter that does not light the receiver's object (Light Linking), and no emitter object whose shadows a blocker
+    set casts (Shadow Linking: its light samples alone find it, linking.found_by_bounces)."""
     light_L = np.zeros((len(O), 3))
     sigma = None if stretch is None else stretch.sigma_t
     if stretch is not None:
@@ -421,6 +437,9 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             found[moved] = past
             radiance[moved] = np.where(past[:, None], seen.radiance, 0.0)
             pdf_l[moved] = np.where(past, seen.pdf, 0.0)
+        if receiver is not None and (ctx.geometry.linked or light.light_membership != linking.ALL_SETS):
+            sees &= (kind == HIDDEN_FROM_CAMERA) | linking.in_sets(light.light_membership,
+                                                                   ctx.geometry.links(receiver, 0))
         found = found & sees
         radiance = np.where(sees[:, None], radiance, 0.0)
         if sigma is not None:
@@ -453,6 +472,10 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         if camera is not None and camera[struck].any():
             emitted = np.where((camera[struck] & ctx.geometry.hidden(hits.prim[struck], HOLDOUT))[:, None], 0.0,
                                emitted)
+        if receiver is not None and ctx.geometry.linked:
+            emitted = np.where(unlinked_finds(ctx, hits.prim[struck], receiver[struck],
+                                              None if seen_as is None else np.asarray(seen_as)[struck])[:, None],
+                               0.0, emitted)
         pdf_l, n_l = np.zeros(len(struck)), 1
         if emitters is not None:
             index = emitters.index_of_prim(hits.prim[struck])
@@ -485,6 +508,27 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         if groups is not None:
             groups.add(missed, L_world * w[:, None], groups.groups.world)
     return light_L
+
+
+def shadow_blockers(ctx: Context, light, ls, rows: np.ndarray):
+    """The shadow membership (r,) uint64 of the samples `rows` of `light` (the blocker sets that cast its shadows,
+    Shadow Linking), or None where nothing in the render is shadow-linked."""
+    if not (ctx.geometry.shadow_linked or linking.shadow_linked(light)):
+        return None
+    return linking.memberships(ctx.geometry, light, ls, 3)[rows]
+
+
+def unlinked_finds(ctx: Context, prim: np.ndarray, receiver: np.ndarray, seen_as) -> np.ndarray:
+    """Which emissive triangles `prim` (k,) that rays from triangles `receiver` (k,) hit send them nothing: (k,)
+    bool. For rays other than the camera's (seen_as (k,) int, None: a bounce's): an emitter object that does not
+    light the receiver's object (Light Linking), or whose shadows a blocker set casts (its light samples alone find
+    it, as linking.found_by_bounces)."""
+    geometry = ctx.geometry
+    unlinked = ~linking.in_sets(geometry.links(prim, 2), geometry.links(receiver, 0))
+    unlinked |= geometry.links(prim, 3) != np.uint64(linking.ALL_SETS)
+    if seen_as is not None:
+        unlinked &= seen_as != HIDDEN_FROM_CAMERA
+    return unlinked
 
 
 def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None):
@@ -546,7 +590,8 @@ class BsdfRay(NamedTuple):
     that MIS measures the light pdfs from (those of the path's last real bounce: O and its tree normal, unless the
     ray went straight through a transparent surface); path: the graph.LightPaths each ray carries on (path_after);
     inside (k, V) the media the ray is in (None: no media), and attenuation (k, 3) what they let through to the hit
-    (None: 1)
+    (None: 1); receiver (k,) int64 the triangle each ray left, whose object decides which emitters its finds may
+    light (Light Linking)
     """
 
     rows: np.ndarray
@@ -564,6 +609,7 @@ class BsdfRay(NamedTuple):
     path: object = None
     inside: np.ndarray = None
     attenuation: np.ndarray = None
+    receiver: np.ndarray = None
 
 
 def closures_left_out(kind: np.ndarray, hidden: np.ndarray) -> np.ndarray:

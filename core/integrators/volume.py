@@ -33,13 +33,15 @@ import numpy as np
 
 from .. import volumes
 from ..lights.base import LightFlags
+from ..lights import linking
 from ..materials import graph as graph_
 from ..sampling import sobol as sampling
 from ..volumes.phase import HenyeyGreenstein
 from . import shadows
 from .base import Context, check_stop
 from .rays import nearest_seen
-from .vertex import BsdfRay, gather_light, light_count, light_numbers, power_heuristic, textured_samples
+from .vertex import (BsdfRay, gather_light, light_count, light_numbers, power_heuristic, shadow_blockers,
+                     textured_samples)
 
 # The sampling dimensions of a stretch's scattering point (distance, channel) and of its phase direction, and the
 # shift of its light samples' dimensions from the vertex's own (core/sampling; a path's vertex k adds k x
@@ -195,6 +197,7 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
     L = np.zeros((m, 3))
     shadow_rays = 0
     unknown = np.zeros((m, 3))                           # no normal: light from every side
+    nowhere = np.full(m, -1, np.int64)                   # no object: a medium receives as the default set (linking)
     bsdf_rays = bool(ctx.extra.get("bsdf_rays", False))
     mis = s.light_sampling == "mis" and bsdf_rays
     # 1. Light samples, each with its shadow ray through the media.
@@ -217,13 +220,16 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
             lit = (ls.strength > 0.0) | (ls.strength < 0.0)
             if light.max_bounces < 1024:
                 lit &= bounce <= light.max_bounces
+            if ctx.geometry.linked or light.light_membership != linking.ALL_SETS:
+                lit &= linking.lights_receivers(ctx.geometry, light, ls, nowhere)    # (a medium: the default set)
             rows = np.flatnonzero(lit)
             if len(rows) == 0:
                 continue
             rays = shadows.robust_rays(P[rows], unknown[rows], np.zeros(len(rows)), ls.position[rows], ls.L[rows],
                                        ls.distance[rows], s.reduce_t_max)
+            blockers = shadow_blockers(ctx, light, ls, rows)
             if light.cast_shadow:
-                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, inside[rows])
+                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, inside[rows], blockers)
                 shadow_rays += len(rows)
             else:
                 through = np.ones((len(rows), 3))
@@ -232,7 +238,8 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
             if share is not None and index in share:
                 w = w * share[index][rows]
             if not light.delta and light.use_mis and hittable and mis:
-                w = w * power_heuristic(count * ls.pdf[rows], p)
+                weighed = True if blockers is None else blockers == np.uint64(linking.ALL_SETS)
+                w = w * np.where(weighed, power_heuristic(count * ls.pdf[rows], p), 1.0)
             color = ls.color if ls.color.ndim == 1 else ls.color[rows]
             L[rows] += (w * p)[:, None] * color * through
     # 2. One phase-sampled direction: the light its ray finds (its weight p / pdf is 1).
@@ -244,12 +251,13 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
         stretch = ctx.extra["media"].along(inside)
         gather = bsdf_rays and s.light_sampling != "light"
         if gather:
-            L += gather_light(ctx, P, ps.wi, hits, ps.pdf, np.full(m, mis), N=unknown, seen_as=kind, stretch=stretch)
+            L += gather_light(ctx, P, ps.wi, hits, ps.pdf, np.full(m, mis), N=unknown, seen_as=kind, stretch=stretch,
+                              receiver=nowhere)
             # Straight on through the transparent surfaces it meets, to the light behind them.
             T = volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
             ray = BsdfRay(np.arange(m), P, ps.wi, hits, np.ones((m, 3)), np.full(m, -1), np.zeros(m, bool),
                           np.zeros(m, bool), ps.pdf, kind, P, unknown, inside=inside, attenuation=T,
-                          path=scatter_paths(m, bounce))
+                          path=scatter_paths(m, bounce), receiver=nowhere)
             rows = np.flatnonzero(hits.hit)
             if len(rows):
                 rows = rows[ctx.materials.may_pass[ctx.geometry.triangle_data(hits.prim[rows], smooth=False).material]]

@@ -6,6 +6,7 @@ it (core/lights/lights.gen.c), dispatches on the same tag. To add a light type, 
 """
 from __future__ import annotations
 
+from . import linking  # noqa: F401 (Light and Shadow Linking's sets)
 from .area import AreaLight
 from .base import LAMP, Light, LightFlags, LightHit, LightRecord, LightSample
 from .emitters import MeshEmitters

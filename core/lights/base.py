@@ -31,7 +31,8 @@ import numpy as np
 from .. import vectors
 from ..visibility import HIDDEN_FROM_CAMERA
 from ..native import library, schema
-from ..native.schema import F64, I32, I64, ptr
+from ..native.schema import F64, I32, I64, U64, ptr
+from .linking import ALL_SETS
 
 INV_4PI = 1.0 / (4.0 * math.pi)
 
@@ -140,6 +141,8 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("spread_tan_half", F64, ""),
     ("spread_norm", F64, ""),
     ("group", I32, "its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group)"),
+    ("light_membership", U64, "the receiver sets it lights (core/lights/linking.py; emitters: by object)"),
+    ("shadow_membership", U64, "the blocker shadow sets that cast its shadows; emitters: by object"),
 ], tables=("LIGHT",))
 
 
@@ -194,6 +197,10 @@ class Light:
     use_mis: bool = True
     # The last bounce at which its light is sampled (Cycles' per-light Max Bounces): a lamp's field, else 1024.
     max_bounces: int = 1024
+    # The receiver light sets it lights and the blocker shadow sets that cast its shadows (core/lights/linking.py):
+    # a lamp's fields; emitters carry them per object (WorldGeometry.instance_links), the world is never linked.
+    light_membership: int = ALL_SETS
+    shadow_membership: int = ALL_SETS
 
     @classmethod
     def is_(cls, flags: LightFlags) -> bool:
@@ -223,7 +230,8 @@ class Light:
     def finite(self) -> bool:
         """Whether every parameter is a finite number."""
         values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
-                  if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden_from", "use_mis", "max_bounces") and getattr(self, f.name) is not None]
+                  if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden_from", "use_mis", "max_bounces",
+                                 "light_membership", "shadow_membership") and getattr(self, f.name) is not None]
         return all(np.isfinite(x).all() for x in values)
 
     def moved(self, origin: np.ndarray) -> "Light":
@@ -283,7 +291,8 @@ class Light:
                              color=np.asarray(self.color, np.float64)[:3], hittable=self.hittable,
                              camera=bool(getattr(self, "camera", True)), cast_shadow=bool(self.cast_shadow),
                              hidden=self.unseen_by, use_mis=bool(self.use_mis),
-                             max_bounces=int(min(self.max_bounces, 1 << 30)), group=-1)
+                             max_bounces=int(min(self.max_bounces, 1 << 30)), group=-1,
+                             light_membership=int(self.light_membership), shadow_membership=int(self.shadow_membership))
         self.pack_fields(record)
         return record
 

@@ -10,6 +10,7 @@ import numpy as np
 from ..vectors import orthonormal_frame
 from .base import (INV_4PI, Cone, Light, LightFlags, LightHit, LightSample, cone_pdf, delta_pdf, direction_to,
                    sample_cone)
+from .linking import ALL_SETS
 
 
 def sphere_radiance(power: float, radius: float) -> float:
@@ -136,6 +137,8 @@ class PointLight(RoundLight):
     hidden_from: int = 0                  # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
     use_mis: bool = True                  # BSDF rays find it too, weighed by MIS (Blender: Multiple Importance)
     max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
+    light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
+    shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "POINT"

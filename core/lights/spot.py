@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import vectors
 from .base import Cone, LightFlags, LightSample
+from .linking import ALL_SETS
 from .point import RoundLight
 
 
@@ -38,6 +39,8 @@ class SpotLight(RoundLight):
     hidden_from: int = 0                  # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
     use_mis: bool = True                  # BSDF rays find it too, weighed by MIS (Blender: Multiple Importance)
     max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
+    light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
+    shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "SPOT"

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..vectors import orthonormal_frame
 from .base import Cone, Light, LightFlags, LightHit, LightSample, cone_pdf, delta_pdf, sample_cone
+from .linking import ALL_SETS
 
 
 @dataclass
@@ -29,6 +30,8 @@ class SunLight(Light):
     hidden_from: int = 0                  # HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility)
     use_mis: bool = True                  # BSDF rays find it too, weighed by MIS (Blender: Multiple Importance)
     max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
+    light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
+    shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
 
     flags: ClassVar[LightFlags] = LightFlags.DISTANT
     blender_type: ClassVar[str] = "SUN"

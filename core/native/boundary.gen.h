@@ -502,6 +502,8 @@ struct GeometryTables {
     const double *instance_linear;          /* (n, 3, 3) each instance's linear transform */
     int64_t attribute_width;                /* A */
     const uint8_t *hidden;                  /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
+    const uint64_t *links;                  /* (n, 4) each instance's light set, shadow set, light and shadow membership
+(WorldGeometry.instance_links), NULL: nothing is linked */
     const double *origin;                   /* (3,) the world point the vertices are relative to (the Geometry node's Position adds it) */
 };
 
@@ -665,6 +667,8 @@ passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow) 
     double spread_tan_half;
     double spread_norm;
     int32_t group;                          /* its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group) */
+    uint64_t light_membership;              /* the receiver sets it lights (core/lights/linking.py; emitters: by object) */
+    uint64_t shadow_membership;             /* the blocker shadow sets that cast its shadows; emitters: by object */
 };
 
 /* What the lights a render makes of its scene need besides their records. */
@@ -844,14 +848,14 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
-    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(4200718952662301897);
+    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7938006114360240799);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7540884240984156999);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3574520478765727059);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(3586661397483700900);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(8185173706297726934);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);

@@ -50,6 +50,7 @@ class Scalar:
 F64 = Scalar("double", ctypes.c_double, np.float64)
 F32 = Scalar("float", ctypes.c_float, np.float32)
 I64 = Scalar("int64_t", ctypes.c_int64, np.int64)
+U64 = Scalar("uint64_t", ctypes.c_uint64, np.uint64)
 I32 = Scalar("int32_t", ctypes.c_int32, np.int32)
 U32 = Scalar("uint32_t", ctypes.c_uint32, np.uint32)
 U16 = Scalar("uint16_t", ctypes.c_uint16, np.uint16)

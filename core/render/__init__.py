@@ -125,7 +125,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
         geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing))
     warnings.extend(w for w in geometry.warnings if w not in warnings)
     lamps = lights_.usable(scene.lights, warnings)
-    lights = [light.moved(geometry.origin) for light in lamps]
+    lights = [lights_.linking.found_by_bounces(light.moved(geometry.origin)) for light in lamps]
     materials = MaterialTable.of(scene.materials, scene.default_material, warnings)
     materials.view = camera_.world_to_camera(scene.camera)     # (the Camera coordinates and Camera Data nodes)
     if scene.camera.type in ("PERSP", "ORTHO"):                  # (the Window coordinates: the frame on screen)
@@ -170,6 +170,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
         ctx.extra["media_bounds"] = rays_.media_bounds(geometry, media)
     ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
+                                or ctx.geometry.shadow_linked or any(map(lights_.linking.shadow_linked, lights))
                                 or media is not None)
     ctx.extra["bsdf_rays"] = (bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
                               or (media is not None and media.emits))

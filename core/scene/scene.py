@@ -20,6 +20,7 @@ import numpy as np
 from ..camera.camera import Camera
 from ..lights import AreaLight, Light, PointLight, SpotLight, SunLight, World  # noqa: F401 (the scene's light records)
 from ..materials import DEFAULT_BASE_COLOR, Material  # noqa: F401 (the scene's material record)
+from ..lights.linking import ALL_SETS
 
 
 @dataclass
@@ -78,6 +79,10 @@ class Instance:
                object the film is clear (colour 0, alpha 0); every other ray sees it as usual
     asset:     the name of the object's topmost parent (Cryptomatte's asset); "" for the object's own name
     color:     Object > Viewport Display > Color, RGBA (the Object Info node's Color and Alpha)
+    light_set, shadow_set: its receiver light set and blocker shadow set (0..63, core/lights/linking.py): which
+               emitters light it, and for which emitters it casts shadows
+    light_membership, shadow_membership: as an emitter (an emissive material), the receiver sets it lights and the
+               blocker sets that cast its shadows (64-bit masks; ALL_SETS: not linked)
     """
 
     mesh: int
@@ -94,6 +99,10 @@ class Instance:
     is_holdout: bool = False
     asset: str = ""
     color: tuple = (1.0, 1.0, 1.0, 1.0)
+    light_set: int = 0
+    shadow_set: int = 0
+    light_membership: int = ALL_SETS
+    shadow_membership: int = ALL_SETS
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).

@@ -43,6 +43,7 @@ BEHIND_N = "light behind N (N.L <= 0)"
 BEHIND_FACE = "light behind the face (Ng.L <= 0)"
 NO_LIGHT = "the light sends nothing here"
 NO_SHADOW = "the lamp casts no shadow (Cast Shadow off): nothing can block it"
+SKIPPED = "the light skips this point (Light Linking: it does not light this object; or an emitter's own triangle)"
 
 
 class LightRecord(NamedTuple):
@@ -59,7 +60,7 @@ class LightRecord(NamedTuple):
     inverse_square:  1 / r^2 for point, spot and area lights; None for the sun
     irradiance:      (3,) float64 E_normal, irradiance at normal incidence (W/m^2, RGB)
     cast:            whether a shadow ray was traced
-    reason:          why it was or was not cast (CAST, BEHIND_N, BEHIND_FACE, NO_LIGHT, NO_SHADOW)
+    reason:          why it was or was not cast (CAST, BEHIND_N, BEHIND_FACE, NO_LIGHT, NO_SHADOW, SKIPPED)
     occluded:        whether the shadow ray was blocked; None when none was cast
     shadow_origin:   (3,) float64 the shadow ray's origin (offset off the surface); None when not cast
     shadow_end:      (3,) float64 where the shadow ray stops (origin + t_max D); None when not cast
@@ -240,6 +241,8 @@ class InspectorRecorder(Recorder):
             reason = BEHIND_FACE
         elif E_normal.max() <= 0.0:
             reason = NO_LIGHT
+        elif not lit[0]:
+            reason = SKIPPED
         else:
             reason = CAST
         self.lights[light] = dict(sample=sample, NL=float(NL[0]), NgL=float(NgL[0]), reason=reason,
