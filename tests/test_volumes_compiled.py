@@ -1,0 +1,139 @@
+"""The compiled kernel's media (core/volumes/media.c) held to the Python reference: the same scenes, seeds and samples
+render to the same pixels (a few float32 ulps, as tests/test_compiled.py holds the twins) with both integrators:
+absorbing and emitting media behind volume-only boundaries and inside Glass and Transparent surfaces, overlapping
+media, a camera inside a medium, shadow rays and bounces through media, the world's medium; and where each render
+goes (the reference for scattering media, with one warning)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core.camera import Camera
+from core.geometry import primitives
+from core.lights import AreaLight, PointLight, SunLight, World
+from core.materials import Material
+from core.render import render
+from core.scene import RenderSettings, Scene
+
+COLOR = np.array([0.2, 0.5, 0.8])
+
+
+def fog(name: str = "Fog", closure: str = "ABSORPTION", surface=None, **inputs) -> Material:
+    """A material with a Volume of one closure and either no Surface (a volume-only boundary) or `surface` nodes."""
+    volume = [(closure, 1.0, inputs)]
+    if surface is None:
+        return Material(np.zeros(3), name, nodes=[("TRANSPARENT", np.ones(3), {})], volume=volume, volume_only=True)
+    return Material(np.zeros(3), name, nodes=surface, volume=volume)
+
+
+def room(camera: Camera) -> Scene:
+    """A grey floor (material 0) and a red wall (material 1), an area lamp above and a point lamp to the side."""
+    scene = Scene(camera=camera)
+    scene.materials.append(Material(np.full(3, 0.7), "Floor"))
+    scene.materials.append(Material(np.array([0.8, 0.2, 0.1]), "Wall"))
+    scene.add_mesh(primitives.plane(12.0), materials=np.array([0]))
+    scene.add_mesh(primitives.box((0.2, 8.0, 4.0), center=(-2.5, 0.0, 2.0)), materials=np.array([1]))
+    scene.lights.append(AreaLight(center=np.array([0.5, 0.0, 3.5]), axis_u=np.array([1.0, 0.0, 0.0]),
+                                  axis_v=np.array([0.0, 1.0, 0.0]), direction=np.array([0.0, 0.0, -1.0]),
+                                  power=400.0))
+    scene.lights.append(PointLight(position=np.array([2.0, -2.0, 2.0]), power=300.0))
+    return scene
+
+
+def looking() -> Camera:
+    """A perspective camera looking down at the room's middle."""
+    return Camera.look_at((4.0, -5.0, 3.0), (0.0, 0.0, 0.8))
+
+
+def absorbing_box(scene: Scene) -> None:
+    """A volume-only absorbing box standing on the floor."""
+    scene.materials.append(fog("Box", color=COLOR, density=1.2))
+    scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)), materials=np.array([len(scene.materials) - 1]))
+
+
+def glass_ball(scene: Scene) -> None:
+    """A smooth Glass sphere holding an absorbing medium."""
+    scene.materials.append(fog("Ball", surface=[("GLASS", np.ones(3), {"ior": 1.45})], color=np.array([0.9, 0.4, 0.2]),
+                               density=2.0))
+    scene.add_mesh(primitives.uv_sphere(0.7, 24, 12, center=(1.0, 1.0, 0.7)),
+                   materials=np.array([len(scene.materials) - 1]))
+
+
+def emitting_shell(scene: Scene) -> None:
+    """A Transparent shell (0.8) around a medium that absorbs and emits (Volume Coefficients), overlapping the box."""
+    scene.materials.append(fog("Glow", closure="COEFFICIENTS", surface=[("TRANSPARENT", np.full(3, 0.8), {})],
+                               absorption=np.array([0.6, 0.3, 0.9]), scatter=np.zeros(3),
+                               emission=np.array([0.4, 0.2, 0.8])))
+    scene.add_mesh(primitives.box((1.0, 3.0, 1.0), center=(0.5, 0.0, 1.2)), materials=np.array([len(scene.materials) - 1]))
+
+
+def both(scene: Scene, **settings) -> tuple:
+    """The scene rendered by the Python reference and the compiled kernel: (numpy RGBA, compiled RGBA, compiled
+    RenderResult's stats)."""
+    settings = {"width": 12, "height": 9, "samples": 3, "integrator": "path", "max_bounces": 4, **settings}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    return reference.image, compiled.image, compiled.stats
+
+
+def assert_same_pixels(reference: np.ndarray, compiled: np.ndarray) -> None:
+    """Every pixel within 4e-7 absolute and 1e-6 relative (a few float32 ulps), and something to see."""
+    assert reference[..., :3].max() > 0.01
+    np.testing.assert_allclose(compiled, reference, rtol=1e-6, atol=4e-7)
+
+
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_both_kernels_render_absorbing_and_emitting_media_in_a_lit_room_to_the_same_pixels(integrator):
+    """An absorbing box (a volume-only boundary), a Glass ball holding a medium, and a Transparent shell around an
+    emitting medium overlapping the box, under an area and a point lamp: camera rays, light samples' shadow rays,
+    BSDF rays and bounces all cross media, enter and leave them."""
+    scene = room(looking())
+    absorbing_box(scene)
+    glass_ball(scene)
+    emitting_shell(scene)
+    reference, compiled, stats = both(scene, integrator=integrator)
+    assert stats.kernels == "compiled"
+    assert_same_pixels(reference, compiled)
+
+
+def test_both_kernels_see_from_a_camera_inside_a_medium_to_the_same_pixels():
+    """A perspective camera inside an absorbing volume-only box that holds the whole room: its rays start in the
+    medium (the walk along the first ray), and every ray of every path stays in it."""
+    scene = room(Camera.look_at((2.0, -3.0, 2.0), (0.0, 0.0, 0.8)))
+    scene.materials.append(fog("Air", color=np.array([0.9, 0.8, 0.7]), density=0.3))
+    scene.add_mesh(primitives.box((10.0, 10.0, 6.0), center=(0.0, 0.0, 2.5)), materials=np.array([2]))
+    glass_ball(scene)
+    reference, compiled, stats = both(scene)
+    assert stats.kernels == "compiled"
+    assert_same_pixels(reference, compiled)
+
+
+def test_both_kernels_render_a_world_medium_that_absorbs_and_emits_to_the_same_pixels():
+    """The world's medium absorbing and emitting everywhere, with a world colour that no escaping ray reaches, and a
+    sun whose light it blocks: the lamps' light and the medium's glow through it."""
+    scene = room(looking())
+    absorbing_box(scene)
+    scene.lights.append(SunLight(direction=np.array([0.3, 0.2, -1.0]) / math.sqrt(1.13), strength=2.0))
+    scene.world = World(color=np.array([0.3, 0.4, 0.5]),
+                        volume=[("COEFFICIENTS", 1.0, {"absorption": np.array([0.05, 0.08, 0.1]),
+                                                       "emission": np.array([0.01, 0.02, 0.01])})])
+    reference, compiled, stats = both(scene)
+    assert stats.kernels == "compiled"
+    assert_same_pixels(reference, compiled)
+
+
+def test_a_scattering_medium_renders_through_the_reference_and_says_so_once():
+    """The compiled kernel has no scattering yet: a scene with a Volume Scatter runs the Python reference, with one
+    warning; an absorbing one renders compiled, with none."""
+    scene = room(looking())
+    absorbing_box(scene)
+    settings = RenderSettings(width=4, height=4, samples=1, integrator="path")
+    result = render(scene, settings)
+    assert result.stats.kernels == "compiled" and not result.stats.warnings
+    scene.materials.append(fog("Smoke", closure="SCATTER", color=np.full(3, 0.5), density=0.5))
+    scene.add_mesh(primitives.box((1.0, 1.0, 1.0), center=(1.0, -1.0, 0.5)), materials=np.array([len(scene.materials) - 1]))
+    result = render(scene, settings)
+    assert "scattering" in result.stats.kernels
+    assert len([w for w in result.stats.warnings if "volumes" in w]) == 1
