@@ -1,8 +1,9 @@
 """The compiled kernel's media (core/volumes/media.c) held to the Python reference: the same scenes, seeds and samples
 render to the same pixels (a few float32 ulps, as tests/test_compiled.py holds the twins) with both integrators:
 absorbing and emitting media behind volume-only boundaries and inside Glass and Transparent surfaces, overlapping
-media, a camera inside a medium, shadow rays and bounces through media, the world's medium; and where each render
-goes (the reference for scattering media, with one warning)."""
+media, a camera inside a medium, shadow rays and bounces through media, the world's medium, single scattering (free
+flight, equi-angular points, light samples and phase rays) with every light-sampling mode; and where a render goes
+(the reference where the compiled volume stack is too small, with one warning)."""
 from __future__ import annotations
 
 import math
@@ -124,16 +125,56 @@ def test_both_kernels_render_a_world_medium_that_absorbs_and_emits_to_the_same_p
     assert_same_pixels(reference, compiled)
 
 
-def test_a_scattering_medium_renders_through_the_reference_and_says_so_once():
-    """The compiled kernel has no scattering yet: a scene with a Volume Scatter runs the Python reference, with one
-    warning; an absorbing one renders compiled, with none."""
+def smoke(scene: Scene, closure: str = "SCATTER", **inputs) -> None:
+    """A volume-only box of a scattering medium standing on the floor beside the absorbing one's place."""
+    inputs = {"color": np.array([0.5, 0.6, 0.7]), "density": 0.8, "anisotropy": 0.3, **inputs}
+    scene.materials.append(fog("Smoke", closure=closure, **inputs))
+    scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)), materials=np.array([len(scene.materials) - 1]))
+
+
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_both_kernels_scatter_light_in_a_smoke_box_to_the_same_pixels(integrator):
+    """A Volume Scatter box (g 0.3) under an area and a point lamp: free-flight and equi-angular points on camera and
+    bounce rays, light samples through the media weighed against phase-sampled rays, the balance heuristic between
+    the two distances; the same shadow rays traced."""
     scene = room(looking())
-    absorbing_box(scene)
+    smoke(scene)
+    settings = {"width": 12, "height": 9, "samples": 3, "integrator": integrator, "max_bounces": 4}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    assert_same_pixels(reference.image, compiled.image)
+
+
+@pytest.mark.parametrize("light_sampling", ["mis", "light", "bsdf"])
+def test_both_kernels_render_a_world_fog_under_lamps_and_a_sun_to_the_same_pixels(light_sampling):
+    """A world fog (scattering and absorbing everywhere) under an area lamp, a point lamp and a sun it blocks, with a
+    back-scattering Principled Volume box and a Glass ball holding an absorbing medium: media inside media."""
+    scene = room(looking())
+    smoke(scene, "PRINCIPLED_VOLUME", anisotropy=-0.2, absorption_color=np.array([0.2, 0.3, 0.1]))
+    glass_ball(scene)
+    scene.lights.append(SunLight(direction=np.array([0.3, 0.2, -1.0]) / math.sqrt(1.13), strength=2.0))
+    scene.world = World(color=np.array([0.3, 0.4, 0.5]),
+                        volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8), "density": 0.05, "anisotropy": 0.5})])
+    reference, compiled, stats = both(scene, light_sampling=light_sampling, light_samples=2)
+    assert stats.kernels == "compiled"
+    assert_same_pixels(reference, compiled)
+
+
+def test_more_media_than_the_compiled_stack_holds_render_through_the_reference_and_say_so_once():
+    """MAX_MEDIA volume materials fit the compiled kernel's volume stack; one more takes the Python reference, with
+    one warning."""
+    from core.volumes import MAX_MEDIA
+    scene = room(looking())
     settings = RenderSettings(width=4, height=4, samples=1, integrator="path")
+    for index in range(int(MAX_MEDIA) + 1):
+        if index == int(MAX_MEDIA):
+            result = render(scene, settings)
+            assert result.stats.kernels == "compiled" and not result.stats.warnings
+        scene.materials.append(fog(f"Fog {index}", color=COLOR, density=0.1))
+        scene.add_mesh(primitives.box((0.2, 0.2, 0.2), center=(0.3 * index - 2.0, 2.0, 0.1)),
+                       materials=np.array([len(scene.materials) - 1]))
     result = render(scene, settings)
-    assert result.stats.kernels == "compiled" and not result.stats.warnings
-    scene.materials.append(fog("Smoke", closure="SCATTER", color=np.full(3, 0.5), density=0.5))
-    scene.add_mesh(primitives.box((1.0, 1.0, 1.0), center=(1.0, -1.0, 0.5)), materials=np.array([len(scene.materials) - 1]))
-    result = render(scene, settings)
-    assert "scattering" in result.stats.kernels
+    assert "volume stack" in result.stats.kernels
     assert len([w for w in result.stats.warnings if "volumes" in w]) == 1

@@ -117,10 +117,11 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
     }
 }
 
-/* The integrator at the block's hits: the radiance each sends towards the camera, into H->L. Returns the
- * shadow rays; embree[0] += ticks in occlusion queries, embree[1] in the BSDF rays' nearest hits. */
-INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work, LanePasses *passes,
-                         uint64_t *embree)
+/* The integrator at the block's hits: the radiance each sends towards the camera, into H->L, and what media
+ * scatter along each camera ray of block b into H->lane_scattered. Returns the shadow rays; embree[0] += ticks in
+ * occlusion queries, embree[1] in the BSDF rays' nearest hits. */
+INLINE int64_t integrate(const ChunkParams *params, const CameraBlock *b, BlockHits *H, PathWork *work,
+                         LanePasses *passes, uint64_t *embree)
 {
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
                                params->graphs, (int)params->transparent_bounces, params->media};
@@ -141,20 +142,33 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
         .passes = passes, .media = params->media,
     };
     if (passes != NULL) passes_clear(passes);
-    switch ((int)params->integrator) {
-    case INTEGRATOR_PATH: {
-        PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
-                             (int)params->transmission_bounces, (int)params->transparent_bounces,
-                             (int)params->roulette_from};
+    /* The path tracer's bounce limits; the direct tracer's through transparent surfaces: no bounces but those. */
+    PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
+                         (int)params->transmission_bounces, (int)params->transparent_bounces,
+                         (int)params->roulette_from};
+    PathLimits clear_only = {0, 0, 0, 0, (int)params->transparent_bounces, (int)params->roulette_from};
+    int64_t scattering_rays = 0;
+    if (params->media != NULL && params->media->scatters != 0 && work != NULL) {
+        /* The light the media scatter towards the camera along its rays (volume.c), lane by lane. */
+        double one[3] = {1.0, 1.0, 1.0};
         ds.everywhere = 1;
-        return trace_paths(H, &ds, &limits, work, embree);
+        for (int64_t lane = 0; lane < b->n; lane++) {
+            H->lane_scattered[lane][0] = H->lane_scattered[lane][1] = H->lane_scattered[lane][2] = 0.0;
+            if (!b->valid[lane]) continue;
+            double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]}, D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
+            scattering_rays += in_scattering(&ds, (int)params->integrator == INTEGRATOR_PATH ? &limits : &clear_only,
+                                             O, D, H->t[lane], H->lane_inside + lane, one, (int64_t)b->pixel[lane],
+                                             (int64_t)b->index[lane], 0, 0, H->lane_scattered[lane]);
+        }
     }
+    switch ((int)params->integrator) {
+    case INTEGRATOR_PATH:
+        ds.everywhere = 1;
+        return scattering_rays + trace_paths(H, &ds, &limits, work, embree);
     case INTEGRATOR_DIRECT:
         if (params->see_through != 0.0) {
-            /* Through transparent surfaces: the path tracer with no bounces but transparent ones. */
-            PathLimits limits = {0, 0, 0, 0, (int)params->transparent_bounces, (int)params->roulette_from};
             ds.everywhere = 1;
-            return trace_paths(H, &ds, &limits, work, embree);
+            return scattering_rays + trace_paths(H, &ds, &clear_only, work, embree);
         }
         /* fall through */
     default: {
@@ -342,7 +356,7 @@ static void render_chunk(const ChunkArgs *a)
         block_hits(params, &b, &H, &traced, spent);
         /* 3. The light each hit sends towards the camera. */
         uint64_t embree[2] = {0, 0};
-        shadow_rays += integrate(params, &H, work, passes, embree);
+        shadow_rays += integrate(params, &b, &H, work, passes, embree);
         spent[1] += embree[0];
         spent[0] += embree[1];
         spent[2] += (ticks() - begin) - (spent[0] - before);      /* (occlusion queries included, as before) */
@@ -369,6 +383,7 @@ static void render_chunk(const ChunkArgs *a)
             if (sigma != NULL && b.valid[lane])         /* the media's emission along the camera ray */
                 add_media_emission(sigma, H.lane_emission[lane], H.t[lane], s);
             double f = 1.0;
+            int scattering = params->media != NULL && params->media->scatters != 0 && work != NULL && b.valid[lane];
             if (params->clamp_direct < INFINITY) {      /* what the camera sees itself: a direct contribution */
                 double one[3] = {1.0, 1.0, 1.0};
                 f = clamp_scale(s, one, params->clamp_direct, 1.0);
@@ -381,6 +396,8 @@ static void render_chunk(const ChunkArgs *a)
                 for (int i = 0; i < FEATURE_CHANNELS; i++)
                     fk[i] += finite_or_zero((i < 3 ? s[i] : 0.0) + (is_hit ? work->features[lane][i] : 0.0));
             }
+            if (scattering)                             /* what its media scatter towards it (not clamped) */
+                for (int c = 0; c < 3; c++) s[c] += H.lane_scattered[lane][c];
             if (passes != NULL && b.valid[lane]) {      /* (what the camera ray passes and escapes to, then its chain's) */
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
                 double one[3] = {1.0, 1.0, 1.0};

@@ -55,6 +55,7 @@ typedef struct {
     int32_t bounds[BLOCK];
     VolumeStack lane_inside[BLOCK];
     double lane_sigma[BLOCK][3], lane_emission[BLOCK][3];
+    double lane_scattered[BLOCK][3];             /* what the media scatter towards each camera lane (volume.c) */
 } BlockHits;
 
 /* Make hit h's ShaderResult ready to shade: its room for closures and their parameters in the block's buffers, no
@@ -90,6 +91,7 @@ INLINE int64_t group_of_hit(const int32_t *instance_groups, const GeometryTables
 /* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */
 typedef struct {
     int64_t h;
+    int hit;                                     /* 1: it hit a surface (a ray that escapes is kept where media scatter) */
     double O[3], D[3], t, u, v;
     int64_t geometry, prim, instance;
     double weight[3];                            /* f cos / pdf of the sampled closures */
@@ -977,9 +979,10 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             }
             if (first)
                 sample_shares(H->sd + owner[k], H->wo + 3 * owner[k], s, dot3(H->s[owner[k]].Ng, D) < 0.0, shares);
-            if (hit && ds->continuing != NULL) {
+            if ((hit || (ds->media != NULL && ds->media->scatters != 0)) && ds->continuing != NULL) {
                 PathRay *r = ds->continuing->r + ds->continuing->n++;
                 r->h = owner[k];
+                r->hit = hit;
                 r->t = t_limit;
                 r->u = (double)packet.hit.u[k];
                 r->v = (double)packet.hit.v[k];

@@ -120,6 +120,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
     for (int64_t i = 0; i < rays->n; i++) {
         const PathRay *r = rays->r + i;
         int64_t h = r->h;
+        if (!r->hit) continue;                  /* (kept for the media's scattering along it alone: volume.c) */
         /* a. The bounce limits. */
         int d = H->diffuse[h] + is_diffuse_bounce(r->kind, r->transmit), g = H->glossy[h] + is_glossy_bounce(r->kind, r->transmit);
         int tr = H->transmission[h] + is_transmission_bounce(r->kind, r->transmit);
@@ -240,6 +241,9 @@ INLINE void add_light_passes(const BlockHits *H, PathWork *work)
     }
 }
 
+static int64_t bounce_scattering(const BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
+                                 const DirectSettings *ds, PathWork *work);
+
 /* The paths of a block's camera hits H: vertex 0 is lit into H->L (the film adds it), later vertices add
  * throughput x their light into work->extra per camera lane. Returns the shadow rays traced. */
 INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *limits, PathWork *work,
@@ -286,6 +290,8 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         embree[1] += bsdf_rays(current, ds);
         /* b. Where the paths go on (ended ones add the light behind transparent surfaces to their vertex's). */
         next_vertices(current, &work->rays, vertex, limits, ds, next, H->held);
+        if (ds->media != NULL && ds->media->scatters != 0)      /* (the light media scatter along those rays: volume.c) */
+            shadow_rays += bounce_scattering(current, &work->rays, vertex, limits, ds, work);
         if (ds->features) features_found(current, work->features);
         if (vertex > 0)
             for (int64_t h = 0; h < current->m; h++) {

@@ -33,6 +33,7 @@ import numpy as np
 
 from .. import volumes
 from ..lights.base import LightFlags
+from ..native import schema
 from ..sampling import sobol as sampling
 from ..volumes.phase import HenyeyGreenstein
 from . import shadows
@@ -43,10 +44,11 @@ from .vertex import BsdfRay, gather_light, light_count, light_numbers, power_heu
 # The sampling dimensions of a stretch's scattering point (distance, channel) and of its phase direction, and the
 # shift of its light samples' dimensions from the vertex's own (core/sampling; a path's vertex k adds k x
 # path.VERTEX_DIMENSIONS to each).
-DISTANCE_DIMENSION = 8
-PHASE_DIMENSION = 9
-EQUIANGULAR_DIMENSION = 1 << 14            # + the light's index: the equi-angular distance towards each lamp
-LIGHT_SHIFT = 1 << 15
+DISTANCE_DIMENSION = schema.constant("DISTANCE_DIMENSION", 8, "a stretch's free-flight distance and channel")
+PHASE_DIMENSION = schema.constant("PHASE_DIMENSION", 9, "a scattering point's phase-sampled direction")
+EQUIANGULAR_DIMENSION = schema.constant("EQUIANGULAR_DIMENSION", 1 << 14,
+                                        "+ the light's index: the equi-angular distance towards each lamp")
+LIGHT_SHIFT = schema.constant("LIGHT_SHIFT", 1 << 15, "a scattering point's light samples' shift of dimensions")
 
 
 def channel_odds(stretch, throughput: np.ndarray) -> np.ndarray:

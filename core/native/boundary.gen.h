@@ -72,6 +72,14 @@
 #define CAMERA_MEDIA_HITS 256
 /* the most volume-only boundaries a ray crosses (core.integrators.shadows) */
 #define VOLUME_BOUNDS_MAX 1024
+/* a stretch's free-flight distance and channel (core.integrators.volume) */
+#define DISTANCE_DIMENSION 8
+/* a scattering point's phase-sampled direction (core.integrators.volume) */
+#define PHASE_DIMENSION 9
+/* + the light's index: the equi-angular distance towards each lamp (core.integrators.volume) */
+#define EQUIANGULAR_DIMENSION 16384
+/* a scattering point's light samples' shift of dimensions (core.integrators.volume) */
+#define LIGHT_SHIFT 32768
 /* a closure's parameters (core/materials/base.py PARAMS) (core.materials.base) */
 #define CLOSURE_PARAMS 32
 /* a shader node's inputs, a MaterialRecord's rows (core.materials.base) */
@@ -809,10 +817,16 @@ struct MediaTables {
     int64_t count;                          /* V: the volume materials (columns), at most MAX_MEDIA */
     const double *sigma_t;                  /* (V, 3) each column's extinction sigma_a + sigma_s */
     const double *emission;                 /* (V, 3) each column's emission per unit length */
+    const double *sigma_s;                  /* (V, 3) each column's scattering coefficient */
+    const double *g;                        /* (V,) each column's Henyey-Greenstein anisotropy */
     const int32_t *column;                  /* (m + 1,) each material row's column, -1 where it has no volume */
     const int32_t *boundary;                /* (m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface) */
     double world_sigma_t[3];                /* the world's medium's extinction (0: none) */
     double world_emission[3];               /* and its emission */
+    double world_sigma_s[3];                /* and its scattering */
+    double world_g;                         /* and its anisotropy */
+    int32_t emits;                          /* 1: some medium emits (Media.emits: phase rays gather what they find) */
+    int32_t scatters;                       /* 1: some medium scatters (Media.scattering: paths gather single scattering, volume.c) */
     double low[3];                          /* the box of the triangles with a medium (camera rays starting inside it walk, camera_media) */
     double high[3];
 };
@@ -851,7 +865,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(8716622174111916451);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(9081307359214230946);
     return 0;
 }
 

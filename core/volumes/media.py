@@ -270,9 +270,12 @@ class Media:
                                                                if np.size(array) else np.zeros(1, dtype))
         return MediaTablesRecord(
             count=len(self.g), sigma_t=contiguous(self.sigma_t, np.float64),
-            emission=contiguous(self.emission, np.float64), column=contiguous(self.column, np.int32),
+            emission=contiguous(self.emission, np.float64), sigma_s=contiguous(self.sigma_s, np.float64),
+            g=contiguous(self.g, np.float64), column=contiguous(self.column, np.int32),
             boundary=contiguous(self.boundary, np.int32), world_sigma_t=np.asarray(self.world.sigma_t, np.float64),
             world_emission=np.asarray(self.world.emission, np.float64),
+            world_sigma_s=np.asarray(self.world.sigma_s, np.float64), world_g=float(self.world.g), emits=self.emits,
+            scatters=self.scattering,
             low=np.asarray(bounds[0], np.float64), high=np.asarray(bounds[1], np.float64))
 
     def start(self, n: int) -> np.ndarray:
@@ -319,10 +322,16 @@ MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media
     ("count", I64, "V: the volume materials (columns), at most MAX_MEDIA"),
     ("sigma_t", ptr(F64), "(V, 3) each column's extinction sigma_a + sigma_s"),
     ("emission", ptr(F64), "(V, 3) each column's emission per unit length"),
+    ("sigma_s", ptr(F64), "(V, 3) each column's scattering coefficient"),
+    ("g", ptr(F64), "(V,) each column's Henyey-Greenstein anisotropy"),
     ("column", ptr(I32), "(m + 1,) each material row's column, -1 where it has no volume"),
     ("boundary", ptr(I32), "(m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface)"),
     ("world_sigma_t", F64, 3, "the world's medium's extinction (0: none)"),
     ("world_emission", F64, 3, "and its emission"),
+    ("world_sigma_s", F64, 3, "and its scattering"),
+    ("world_g", F64, "and its anisotropy"),
+    ("emits", I32, "1: some medium emits (Media.emits: phase rays gather what they find)"),
+    ("scatters", I32, "1: some medium scatters (Media.scattering: paths gather single scattering, volume.c)"),
     ("low", F64, 3, "the box of the triangles with a medium (camera rays starting inside it walk, camera_media)"),
     ("high", F64, 3, ""),
 ])
