@@ -162,6 +162,29 @@ def test_both_kernels_render_a_world_fog_under_lamps_and_a_sun_to_the_same_pixel
     assert_same_pixels(reference, compiled)
 
 
+@pytest.mark.parametrize("medium", ["absorbing", "scattering"])
+def test_both_kernels_write_the_passes_light_groups_and_features_of_media_scenes_alike(medium):
+    """With media, the light passes, the colour and first-hit passes, the denoising features and the light groups
+    come out of both kernels alike (the media's own light in Combined alone, in both, with the same warning)."""
+    from core.integrators.lightpasses import LIGHT_PASSES
+    scene = room(looking())
+    glass_ball(scene)
+    absorbing_box(scene) if medium == "absorbing" else smoke(scene)
+    scene.lightgroups = {"lights": ["Area", "Point"], "instances": [""] * len(scene.instances), "world": ""}
+    settings = {"width": 12, "height": 9, "samples": 3, "integrator": "path", "max_bounces": 4,
+                "light_groups": ("Area", "Point"), "denoising_features": True,
+                "passes": tuple(LIGHT_PASSES) + ("diffuse_color", "glossy_color", "transmission_color", "z_depth",
+                                                 "average_normal", "emission", "environment", "ambient_occlusion")}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert compiled.stats.warnings == reference.stats.warnings
+    assert_same_pixels(reference.image, compiled.image)
+    assert len(reference.aux) >= 18
+    for name, buffer in reference.aux.items():
+        np.testing.assert_allclose(compiled.aux[name], buffer, rtol=1e-6, atol=4e-7, err_msg=name)
+
+
 def test_more_media_than_the_compiled_stack_holds_render_through_the_reference_and_say_so_once():
     """MAX_MEDIA volume materials fit the compiled kernel's volume stack; one more takes the Python reference, with
     one warning."""

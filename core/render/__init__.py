@@ -448,8 +448,8 @@ def _usable_cores() -> int:
 def volume_reason(ctx: Context, warnings: list) -> str:
     """Why a scene with media takes the Python reference ('' where the compiled kernel renders it, and without media).
     The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c); more volume
-    materials than its stack holds, or the passes media do not reach there yet, take the reference, said once in
-    `warnings`; so is that Whitted's tracer renders no media."""
+    materials than its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
+    no media, and that the media's light goes to Combined only."""
     media = ctx.extra.get("media")
     if media is None:
         return ""
@@ -464,13 +464,9 @@ def volume_reason(ctx: Context, warnings: list) -> str:
                 "groups or denoising features (Cycles writes it to its Volume passes)")
         if note not in warnings:
             warnings.append(note)
-    if len(media.g) > volumes.MAX_MEDIA:
-        reason = f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
-    elif (lightpasses.wanted(s.passes) or s.light_groups or s.denoising_features
-          or bool(ctx.extra.get("pass_layout"))):
-        reason = "the compiled kernel's media do not reach the passes, light groups or denoising features yet"
-    else:
+    if len(media.g) <= volumes.MAX_MEDIA:
         return ""
+    reason = f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
     note = f"volumes: {reason}, so this render runs the Python reference (the same image, slower)"
     if note not in warnings:
         warnings.append(note)
