@@ -143,7 +143,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
             if (!(ls.strength > 0.0 || ls.strength < 0.0)) continue;
             if (light->max_bounces < 1024 && bounce > light->max_bounces) continue;
             double T[1][3] = {{1.0, 1.0, 1.0}};
-            if (light->cast_shadow != 0) {
+            if (light->cast_shadow != 0 && ds->transmitter != NULL) {   /* (media make every render's shadows transparent) */
                 double origin[1][3], D[1][3], t;
                 shadow_ray(P, zero, P, 0.0, 0.0, ls.L, ls.distance, ls.position, 1, 0.0, origin[0], D[0], &t);
                 transmit_packet(ds->transmitter, 1, origin, D, &t, inside, T);
