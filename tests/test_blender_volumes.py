@@ -15,6 +15,7 @@ sys.path.insert(0, os.path.join(ROOT, "tools"))
 from render import load_primer  # noqa: E402
 
 from blender_env import empty_material, render_pixels  # noqa: E402
+from test_blender_denoise import addon  # noqa: E402
 
 pytestmark = [pytest.mark.blender]
 
@@ -93,6 +94,7 @@ def test_absorbing_cubes_in_front_of_an_emitter_let_through_exp_of_minus_sigma_d
     box("Fog", (-1.0, 0.0, 1.5), (1.0, 1.0, depth), fog)           # (edges on pixel edges: every pixel one value)
     box("Clear", (1.0, 0.0, 1.5), (1.0, 1.0, depth), glass)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
+    assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
     cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16)[..., :3]
     through = glow * np.exp(-density * (1.0 - np.array(color)) * depth)
     # (rows bottom first; pixel (row, column) centres: x = -2 + (c + 0.5) / 4, y = -1 + (r + 0.5) / 4)
@@ -158,6 +160,7 @@ def test_scattering_cubes_under_a_point_lamp_render_as_in_cycles(primer, tmp_pat
     box("Smoke", (1.2, 0.5, 0.0), (1.4, 1.4, 1.4), smoke)
     lamp(scene, "Lamp", "POINT", (1.5, -1.0, 2.5), 300.0)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
+    assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
     cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
     error = relative_mse(mine, cycles)
     print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
@@ -192,6 +195,7 @@ def test_a_world_fog_scatters_a_point_lamp_and_blocks_the_sun_as_in_cycles(prime
     lamp(scene, "Lamp", "POINT", (-1.5, 0.0, 2.3), 200.0)             # (above the frame: its own pixel is no test)
     lamp(scene, "Sun", "SUN", (0.0, 0.0, 5.0), 3.0)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
+    assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
     cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
     error = relative_mse(mine, cycles)
     print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
@@ -261,6 +265,7 @@ def test_emitting_media_glow_as_in_cycles(primer, tmp_path):
     tree.links.new(mix.outputs[0], output.inputs["Volume"])
     box("Glow", (1.0, 0.0, 1.5), (1.0, 1.0, 0.8), m)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
+    assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
     cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16)[..., :3]
     sigma = 0.5 * 3.0 * 0.5
     glow_expected = 0.5 * np.array([2.0, 1.2, 0.4]) * (1.0 - np.exp(-sigma * 0.8)) / sigma
@@ -282,5 +287,6 @@ def test_a_glass_sphere_holding_an_absorbing_medium_renders_as_in_cycles(primer,
     bpy.context.object.data.materials.append(glass)
     scene.primer.integrator = "PATH"
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
+    assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
     cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
     assert relative_mse(mine, cycles) < 6e-5

@@ -240,14 +240,3 @@ def test_a_principled_volumes_black_body_emits_stefan_boltzmanns_radiance_in_its
         media = Media.of([Material(volume=[("PRINCIPLED_VOLUME", 1.0, {"density": 0.0, "blackbody_intensity": amount,
                                                                        "blackbody_tint": tint, "temperature": t})])])
         np.testing.assert_allclose(media.emission[0], tint * 5.670373e-14 / math.pi * factor * color, rtol=1e-12)
-
-
-def test_a_scene_with_media_renders_through_the_reference_and_says_so_once():
-    """The compiled kernel has no media yet: a render with one runs the Python reference, with one warning."""
-    scene = Scene(camera=camera_above())
-    glowing_floor(scene)
-    scene.materials.append(fog(color=COLOR, density=1.5))
-    scene.add_mesh(primitives.box((4.0, 4.0, 0.7), center=(0.0, 0.0, 1.0)), materials=np.array([1]))
-    result = render(scene, RenderSettings(width=4, height=4, samples=1, integrator="path"))
-    assert "volumes" in result.stats.kernels
-    assert len([w for w in result.stats.warnings if "media" in w]) == 1

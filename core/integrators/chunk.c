@@ -4,6 +4,25 @@
  * of spp samples each, BLOCK camera samples at a time: each block's rays, hits, surfaces and shadow
  * rays live in the cache and on the stack, and its samples go straight into their pixels' sums. */
 
+/* The media each camera lane of block b starts in (rays.camera_media), into H->lane_inside, with the extinction and
+ * emission along it (H->lane_sigma, lane_emission). Rays from the point the last walk started at take its stack (a
+ * perspective camera walks once per block). */
+static void camera_lane_media(const ChunkParams *params, const CameraBlock *b, BlockHits *H)
+{
+    double walked[3] = {NAN, NAN, NAN};
+    VolumeStack stack;
+    stack_empty(&stack);
+    for (int64_t k = 0; k < b->n; k++) {
+        double O[3] = {b->O[0][k], b->O[1][k], b->O[2][k]}, D[3] = {b->D[0][k], b->D[1][k], b->D[2][k]};
+        if (b->valid[k] && !(O[0] == walked[0] && O[1] == walked[1] && O[2] == walked[2])) {
+            camera_media(params->media, params->geometry, (Intersect8)params->intersect8, params->scene, O, D, &stack);
+            for (int c = 0; c < 3; c++) walked[c] = O[c];
+        }
+        H->lane_inside[k] = stack;
+        medium_along(params->media, &stack, H->lane_sigma[k], H->lane_emission[k]);
+    }
+}
+
 /* Step 2: the block's nearest hits, 8 rays at a time; the rays that hit kept, with their surfaces. */
 INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHits *H, int64_t *traced,
                        uint64_t *embree)
@@ -15,6 +34,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
     int64_t lane_of[PACKET];
     H->m = 0;
     for (int64_t k = 0; k < b->n; k++) { H->t[k] = b->t[k]; H->held[k] = 0.0; }
+    if (params->media != NULL) camera_lane_media(params, b, H);
     for (int64_t at = 0; at < b->n; at += PACKET) {
         /* a. The next 8 camera rays that have a ray (a fisheye's samples outside its circle have none). */
         int lanes = 0;
@@ -80,6 +100,14 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             H->pixel[h] = (int64_t)b->pixel[lane];
             H->sample[h] = (int64_t)b->index[lane];
             for (int c = 0; c < 3; c++) H->L[3 * h + c] = H->sd[h].emission[c];
+            /* (what clamping reads: a path's throughput and bounces at the camera's hit: what the media let through
+             *  to it, 1 without media, and 0) */
+            for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
+            if (params->media != NULL) {
+                H->inside[h] = H->lane_inside[lane];
+                beer_lambert(H->lane_sigma[lane], H->t[lane], H->throughput + 3 * h);
+            }
+            H->bounce[h] = 0;
             if (params->clamp_direct < INFINITY) {
                 double f = clamp_scale(H->L + 3 * h, H->throughput + 3 * h, params->clamp_direct, 1.0);
                 for (int c = 0; c < 3; c++) H->L[3 * h + c] *= f;
@@ -95,13 +123,14 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
     }
 }
 
-/* The integrator at the block's hits: the radiance each sends towards the camera, into H->L. Returns the
- * shadow rays; embree[0] += ticks in occlusion queries, embree[1] in the BSDF rays' nearest hits. */
-INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work, LanePasses *passes,
-                         uint64_t *embree)
+/* The integrator at the block's hits: the radiance each sends towards the camera, into H->L, and what media
+ * scatter along each camera ray of block b into H->lane_scattered. Returns the shadow rays; embree[0] += ticks in
+ * occlusion queries, embree[1] in the BSDF rays' nearest hits. */
+INLINE int64_t integrate(const ChunkParams *params, const CameraBlock *b, BlockHits *H, PathWork *work,
+                         LanePasses *passes, uint64_t *embree)
 {
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
-                               params->graphs, (int)params->transparent_bounces};
+                               params->graphs, (int)params->transparent_bounces, params->media};
     DirectSettings ds = {
         .shadows = params->shadows, .lights = params->lights, .n_lights = (int64_t)params->light_count,
         .context = params->light_context, .occluded = (Occluded8)params->occluded8,
@@ -116,23 +145,36 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
         .light_passes = params->light_passes != 0.0 && work != NULL,
         .groups = H->groups != NULL ? H->group_count : 0, .instance_groups = params->instance_groups,
         .world_group = (int64_t)params->world_group, .features = params->features != 0.0 && work != NULL,
-        .passes = passes,
+        .passes = passes, .media = params->media,
     };
     if (passes != NULL) passes_clear(passes);
-    switch ((int)params->integrator) {
-    case INTEGRATOR_PATH: {
-        PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
-                             (int)params->transmission_bounces, (int)params->transparent_bounces,
-                             (int)params->roulette_from};
+    /* The path tracer's bounce limits; the direct tracer's through transparent surfaces: no bounces but those. */
+    PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
+                         (int)params->transmission_bounces, (int)params->transparent_bounces,
+                         (int)params->roulette_from};
+    PathLimits clear_only = {0, 0, 0, 0, (int)params->transparent_bounces, (int)params->roulette_from};
+    int64_t scattering_rays = 0;
+    if (params->media != NULL && params->media->scatters != 0 && work != NULL) {
+        /* The light the media scatter towards the camera along its rays (volume.c), lane by lane. */
+        double one[3] = {1.0, 1.0, 1.0};
         ds.everywhere = 1;
-        return trace_paths(H, &ds, &limits, work, embree);
+        for (int64_t lane = 0; lane < b->n; lane++) {
+            H->lane_scattered[lane][0] = H->lane_scattered[lane][1] = H->lane_scattered[lane][2] = 0.0;
+            if (!b->valid[lane]) continue;
+            double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]}, D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
+            scattering_rays += in_scattering(&ds, (int)params->integrator == INTEGRATOR_PATH ? &limits : &clear_only,
+                                             O, D, H->t[lane], H->lane_inside + lane, one, (int64_t)b->pixel[lane],
+                                             (int64_t)b->index[lane], 0, 0, H->lane_scattered[lane]);
+        }
     }
+    switch ((int)params->integrator) {
+    case INTEGRATOR_PATH:
+        ds.everywhere = 1;
+        return scattering_rays + trace_paths(H, &ds, &limits, work, embree);
     case INTEGRATOR_DIRECT:
         if (params->see_through != 0.0) {
-            /* Through transparent surfaces: the path tracer with no bounces but transparent ones. */
-            PathLimits limits = {0, 0, 0, 0, (int)params->transparent_bounces, (int)params->roulette_from};
             ds.everywhere = 1;
-            return trace_paths(H, &ds, &limits, work, embree);
+            return scattering_rays + trace_paths(H, &ds, &clear_only, work, embree);
         }
         /* fall through */
     default: {
@@ -165,20 +207,31 @@ INLINE int64_t integrate(const ChunkParams *params, BlockHits *H, PathWork *work
 /* What a camera ray brings back besides its hit: the world where it escapes (when the camera sees it and
  * the film is not transparent), the lamps with extent it passes before t and the suns' discs where it escapes
  * (rays.lamps_seen). groups: (G, 3)
- * the same by the group of each source (lightgroups.py), added to, or NULL. */
+ * the same by the group of each source (lightgroups.py), added to, or NULL. sigma: the extinction (3) of the media
+ * the ray crosses, or NULL: each keeps exp(-sigma t) of its light over its distance (inf: the world). */
 INLINE void camera_sees(const ChunkParams *params, const double *O, const double *D, double t, int hit, double *out,
-                        double *groups)
+                        double *groups, const double *sigma)
 {
     out[0] = out[1] = out[2] = 0.0;
     const WorldTables *world = params->light_context->world;
     if (!hit && world->camera != 0.0 && params->transparent == 0.0) {
         world_radiance(world, D, out);
+        if (sigma != NULL) {
+            double kept[3];
+            beer_lambert(sigma, INFINITY, kept);
+            for (int c = 0; c < 3; c++) out[c] *= kept[c];
+        }
         add_to_group(groups, params->light_groups, 0, params->world_group, out, 1.0);
     }
     for (int64_t l = 0; l < (int64_t)params->light_count; l++) {
         const LightRecord *light = params->lights + l;
         LightHit lh;
         if (camera_sees_lamp(light, O, D, t, hit, &lh)) {
+            if (sigma != NULL) {
+                double kept[3];
+                beer_lambert(sigma, lh.t, kept);
+                for (int c = 0; c < 3; c++) lh.radiance[c] *= kept[c];
+            }
             for (int c = 0; c < 3; c++) out[c] += lh.radiance[c];
             add_to_group(groups, params->light_groups, 0, light->group, lh.radiance, 1.0);
         }
@@ -251,7 +304,7 @@ static void render_chunk(const ChunkArgs *a)
         passes->room = (int64_t)params->transparent_bounces + 1;
         passes->mattes = (double *)malloc((size_t)(BLOCK * passes->room * 4) * sizeof(double));
         Transmitter ao = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
-                          params->graphs, (int)params->transparent_bounces};
+                          params->graphs, (int)params->transparent_bounces, NULL};
         passes->ao = ao;
         if (passes->mattes == NULL) { free(passes); free(group_storage); return; }
     }
@@ -309,7 +362,7 @@ static void render_chunk(const ChunkArgs *a)
         block_hits(params, &b, &H, &traced, spent);
         /* 3. The light each hit sends towards the camera. */
         uint64_t embree[2] = {0, 0};
-        shadow_rays += integrate(params, &H, work, passes, embree);
+        shadow_rays += integrate(params, &b, &H, work, passes, embree);
         spent[1] += embree[0];
         spent[0] += embree[1];
         spent[2] += (ticks() - begin) - (spent[0] - before);      /* (occlusion queries included, as before) */
@@ -321,16 +374,22 @@ static void render_chunk(const ChunkArgs *a)
             double *groups = G > 0 ? out->groups + 3 * G * k : NULL;      /* (the pixel's light groups) */
             for (int64_t i = 0; i < 3 * G; i++) seen[i] = 0.0;
             int is_hit = h < H.m && H.lane[h] == lane;
+            const double *sigma = params->media != NULL ? H.lane_sigma[lane] : NULL;
             if (b.valid[lane] && sees_more) {
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
-                camera_sees(params, O, D, H.t[lane], is_hit, s, groups != NULL ? seen : NULL);
+                camera_sees(params, O, D, H.t[lane], is_hit, s, groups != NULL ? seen : NULL, sigma);
             } else if (b.valid[lane] && !is_hit) {
-                for (int c = 0; c < 3; c++) s[c] = params->background[c];
+                double kept[3] = {1.0, 1.0, 1.0};
+                if (sigma != NULL) beer_lambert(sigma, INFINITY, kept);
+                for (int c = 0; c < 3; c++) s[c] = params->background[c] * kept[c];
                 if (params->world_group >= 0 && groups != NULL && params->transparent == 0.0
                     && params->light_context->world->camera != 0.0)
                     add_to_group(seen, G, 0, params->world_group, s, 1.0);
             }
+            if (sigma != NULL && b.valid[lane])         /* the media's emission along the camera ray */
+                add_media_emission(sigma, H.lane_emission[lane], H.t[lane], s);
             double f = 1.0;
+            int scattering = params->media != NULL && params->media->scatters != 0 && work != NULL && b.valid[lane];
             if (params->clamp_direct < INFINITY) {      /* what the camera sees itself: a direct contribution */
                 double one[3] = {1.0, 1.0, 1.0};
                 f = clamp_scale(s, one, params->clamp_direct, 1.0);
@@ -343,6 +402,8 @@ static void render_chunk(const ChunkArgs *a)
                 for (int i = 0; i < FEATURE_CHANNELS; i++)
                     fk[i] += finite_or_zero((i < 3 ? s[i] : 0.0) + (is_hit ? work->features[lane][i] : 0.0));
             }
+            if (scattering)                             /* what its media scatter towards it (not clamped) */
+                for (int c = 0; c < 3; c++) s[c] += H.lane_scattered[lane][c];
             if (passes != NULL && b.valid[lane]) {      /* (what the camera ray passes and escapes to, then its chain's) */
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
                 double one[3] = {1.0, 1.0, 1.0};
@@ -354,7 +415,9 @@ static void render_chunk(const ChunkArgs *a)
                                 out->mattes != NULL ? out->mattes + width * k : NULL);
             }
             if (is_hit) {
-                for (int c = 0; c < 3; c++) s[c] += H.L[3 * h + c];
+                /* (the camera's hit's light, through what the media let through to it: 1 without media) */
+                for (int c = 0; c < 3; c++) s[c] += params->media != NULL ? H.throughput[3 * h + c] * H.L[3 * h + c]
+                                                                          : H.L[3 * h + c];
                 for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
                 if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0)) {
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];

@@ -92,6 +92,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("stop", ptr(I32), "(1,) set to 1 when the render is cancelled: the chunk stops before its next block, or NULL"),
     ("features", I32, "1: sum the denoising features (features.c) into ChunkOut.features"),
     ("passes", ptr("PassTables"), "the first-hit passes asked for (passes.c), or NULL"),
+    ("media", ptr("MediaTables"), "the render's homogeneous media (core/volumes/media.c), or NULL: none"),
 ], tables=("INTEGRATOR",))
 
 ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for the render's statistics.", [
@@ -235,6 +236,11 @@ class Compiled:
         if self.layout:
             self.pass_tables = passes_.pass_tables(ctx, self.layout)
             self.params.passes = self.pass_tables
+        # The media (core/volumes): their coefficients, and which materials hold or bound them.
+        media = ctx.extra.get("media")
+        if media is not None:
+            self.media_tables = media.tables(ctx.extra["media_bounds"])
+            self.params.media = self.media_tables
         self.stop = stop = ctx.extra.get("stop")      # (base.StopFlag: read before each block of samples, chunk.c)
         if stop is not None:
             self.params.stop = stop.flag

@@ -50,6 +50,14 @@ typedef struct {
     /* Where it is: Embree's geometry, primitive and placement, and the barycentrics (the first-hit passes). */
     int64_t geometry[BLOCK], prim[BLOCK], instance[BLOCK];
     double bary[2 * BLOCK];
+    /* Participating media (core/volumes/media.c), where the render has some: the volume stack of the ray that reached
+     * each hit, a path's volume-only boundaries crossed (no transparent bounce), and per camera lane the stack its
+     * ray starts in with the extinction and emission along it. */
+    VolumeStack inside[BLOCK];
+    int32_t bounds[BLOCK];
+    VolumeStack lane_inside[BLOCK];
+    double lane_sigma[BLOCK][3], lane_emission[BLOCK][3];
+    double lane_scattered[BLOCK][3];             /* what the media scatter towards each camera lane (volume.c) */
 } BlockHits;
 
 /* The LightPath (graph.py) of the path at hit h of H, with the flags `flags` (its own: H->flags[h]). */
@@ -92,6 +100,7 @@ INLINE int64_t group_of_hit(const int32_t *instance_groups, const GeometryTables
 /* A BSDF ray that hit a surface: where a path may go on from hit h (path.c). */
 typedef struct {
     int64_t h;
+    int hit;                                     /* 1: it hit a surface (a ray that escapes is kept where media scatter) */
     double O[3], D[3], t, u, v;
     int64_t geometry, prim, instance;
     double weight[3];                            /* f cos / pdf of the sampled closures */
@@ -103,6 +112,8 @@ typedef struct {
     LightPath path;                              /* the path it carries past the bounce (rays.path_after) */
     uint64_t receiver;                           /* the light set of the object it left (Light Linking) */
     double shares[PASS_KINDS][3];                /* its pass kinds' shares (lightpasses.c; light passes only) */
+    VolumeStack inside;                          /* the media it crosses (media.c; with media only) */
+    double attenuation[3];                       /* what they let through to its hit (1 without media) */
 } PathRay;
 
 /* direct.nearest_seen for lane k of a packet whose rays are of the kind `bit` (HIDDEN_FROM_*): while the lane's
@@ -384,8 +395,19 @@ typedef struct LanePasses LanePasses;
 /* Step 4: the rays that can carry light go into packets, Embree answers each packet of 8, and what
  * gets through, (weight colour) f cos, is added to its hit's radiance in ray order. Returns the rays traced. */
 typedef struct Transmitter Transmitter;
+/* What transparent shadows read (shadows.transmittance): the scene's queries, tables and materials. */
+struct Transmitter {
+    Intersect8 intersect;
+    void *scene;
+    const GeometryTables *geometry;
+    const MaterialRecord *materials;
+    const GraphTables *graphs;
+    int limit;                  /* the most transparent surfaces a shadow ray passes */
+    const MediaTables *media;   /* the media shadow rays cross (media.c), or NULL: none */
+};
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D[][3], const double *t,
-                            const LightPath *paths, const uint64_t *blockers, double T[][3]);
+                            const LightPath *paths, const uint64_t *blockers, const VolumeStack *stacks,
+                            double T[][3]);
 
 /* clamp.scale: the factor that caps a contribution value x throughput x count (channel sum) at limit (inf: none). */
 INLINE double clamp_scale(const double *value, const double *throughput, double limit, double count)
@@ -412,6 +434,8 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
     uint64_t blockers[PACKET];
     double value[PACKET][3], O[PACKET][3], D[PACKET][3], t[PACKET], T[PACKET][3];
     LightPath paths[PACKET];
+    VolumeStack stacks[PACKET];
+    const MediaTables *media = transmitter != NULL ? transmitter->media : NULL;
     int lanes = 0;
     for (int64_t k = 0; k <= b->n; k++) {
         if (k < b->n) {
@@ -423,6 +447,13 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             paths[lanes] = path_at(H, b->hit[k], PATH_SHADOW);      /* (a shadow ray: SHADOW alone) */
             sample_of[lanes] = k;
             blockers[lanes] = b->blockers[k];
+            if (media != NULL) {
+                /* The media the shadow ray starts in: the hit's, into or out of its own where the light is behind it. */
+                const Surface *sf = H->s + b->hit[k];
+                double N[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
+                stacks[lanes] = H->inside[b->hit[k]];
+                stack_cross(media, stacks + lanes, sf->material, sf->backfacing, dot3(N, L) < 0.0);
+            }
             for (int c = 0; c < 3; c++) value[lanes][c] = (b->weight[k] * b->color[c][k]) * b->f[c][k];
             if (caps != NULL) {
                 /* Sample clamping: the sample as the one-sample estimate it stands for (x count). */
@@ -442,7 +473,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             }
         } else if (transmitter != NULL) {
             /* Transparent shadows: each ray carries the product of the transparencies it passes. */
-            transmit_packet(transmitter, lanes, O, D, t, paths, blockers, T);
+            transmit_packet(transmitter, lanes, O, D, t, paths, blockers, media != NULL ? stacks : NULL, T);
             for (int lane = 0; lane < lanes; lane++) {
                 double *e = L_out + 3 * owner[lane], got[3];
                 for (int c = 0; c < 3; c++) { got[c] = value[lane][c] * T[lane][c]; e[c] += got[c]; }
@@ -507,6 +538,7 @@ typedef struct {
     int64_t dimension;          /* a path's later vertices shift every sampling dimension by this */
     int gather;                 /* 1: BSDF rays add the light they find (lamps, emitters, the world) */
     PathRays *continuing;       /* where BSDF rays that hit a surface are kept for a path, or NULL */
+    const MediaTables *media;   /* the render's media (core/volumes/media.c), or NULL: none */
     const GraphTables *graphs;  /* the materials' node-graph programs, or NULL (a path shades its vertices) */
     const Transmitter *transmitter;   /* transparent shadows, where some material lets light through; or NULL */
     int caustics;               /* the FILTER_* bits of hits a diffuse bounce's ray reached (path.caustics_bits) */
@@ -524,28 +556,27 @@ typedef struct {
 INLINE void passes_straight_on(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h,
                                const double *weight, const double *O, const double *D, int hit, double t);
 
-/* What transparent shadows read (shadows.transmittance): the scene's queries, tables and materials. */
-struct Transmitter {
-    Intersect8 intersect;
-    void *scene;
-    const GeometryTables *geometry;
-    const MaterialRecord *materials;
-    const GraphTables *graphs;
-    int limit;                  /* the most transparent surfaces a shadow ray passes */
-};
 
 /* shadows.transmittance for up to 8 shadow rays (O, D0, t: float64 origins, directions, lengths; paths: the
  * LightPath each carries, whose Transparent Depth grows by each surface passed): T, the share of light each carries
  * through the transparent surfaces it passes (0 where something opaque, or more than tr->limit surfaces less those
  * its path passed, is in the way); objects hidden from shadow rays are passed as if not there, and objects outside
  * the blocker sets of each ray's light (blockers: per lane, its shadow membership; NULL: all block).
- * Past a surface each ray goes on towards its own end point O + t D0 (short of the light), which stays put. */
+ * Past a surface each ray goes on towards its own end point O + t D0 (short of the light), which stays put.
+ * stacks: (lanes,) the media each ray starts in, or NULL (none): every stretch keeps exp(-sigma_t t) of the light,
+ * volume-only boundaries count as no surface passed (VOLUME_BOUNDS_MAX at most), and each surface the ray goes
+ * through changes its media. */
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D0[][3], const double *t,
-                            const LightPath *paths, const uint64_t *blockers, double T[][3])
+                            const LightPath *paths, const uint64_t *blockers, const VolumeStack *stacks,
+                            double T[][3])
 {
     double origin[PACKET][3], left[PACKET], D[PACKET][3], end[PACKET][3];
-    int alive[PACKET], passed[PACKET];
+    int alive[PACKET], passed[PACKET], crossed[PACKET];
+    VolumeStack inside[PACKET];
+    const MediaTables *media = stacks != NULL ? tr->media : NULL;
     for (int l = 0; l < lanes; l++) {
+        crossed[l] = 0;
+        if (media != NULL) inside[l] = stacks[l];
         for (int c = 0; c < 3; c++) { T[l][c] = 1.0; origin[l][c] = O[l][c]; D[l][c] = D0[l][c]; }
         for (int c = 0; c < 3; c++) end[l][c] = O[l][c] + (isfinite(t[l]) ? t[l] : 0.0) * D0[l][c];
         left[l] = t[l];
@@ -563,23 +594,32 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
         tr->intersect(valid, tr->scene, &packet, NULL);
         for (int k = 0; k < n; k++) {
             int l = lane_of[k];
-            if (packet.hit.geomID[k] == INVALID_ID) { alive[l] = 0; continue; }
+            int met = packet.hit.geomID[k] != INVALID_ID;
+            if (media != NULL) {
+                /* The stretch up to the surface met (or to the light): what its media let through. */
+                double sigma[3], e[3], kept[3];
+                medium_along(media, inside + l, sigma, e);
+                beer_lambert(sigma, met ? (double)packet.ray.tfar[k] : left[l], kept);
+                for (int c = 0; c < 3; c++) T[l][c] *= kept[c];
+            }
+            if (!met) { alive[l] = 0; continue; }
             int64_t geometry = (int64_t)packet.hit.geomID[k], prim = (int64_t)packet.hit.primID[k];
             int64_t instance = instance_of(&packet.hit, k);
             int hidden = hidden_from(tr->geometry, geometry, prim, instance, HIDDEN_FROM_SHADOW);
             if (blockers != NULL && blockers[l] != ALL_SETS)      /* Shadow Linking: only its blocker sets stop it */
                 hidden |= !in_sets(blockers[l], links_of(tr->geometry, geometry, prim, instance, 1));
-            /* (Cycles: a shadow ray passes what is left of the path's transparent bounces, the limit less its count) */
-            if (!hidden && passed[l] >= tr->limit - paths[l].transparent) {
-                T[l][0] = T[l][1] = T[l][2] = 0.0;
-                alive[l] = 0;
-                continue;
-            }
-            passed[l] += !hidden;
-            /* The surface passed: what its material lets through, seen along the ray. */
-            double u = (double)packet.hit.u[k], v = (double)packet.hit.v[k];
             Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
             hit_triangle(tr->geometry, geometry, prim, instance, 1, &tri);
+            int boundary = is_boundary(media, tri.material);
+            /* (Cycles: a shadow ray passes what is left of the path's transparent bounces, the limit less its count) */
+            if (!hidden && !boundary && passed[l] >= tr->limit - paths[l].transparent) {
+                T[l][0] = T[l][1] = T[l][2] = 0.0; alive[l] = 0; continue;
+            }
+            passed[l] += !hidden && !boundary;
+            crossed[l] += boundary;
+            if (crossed[l] > VOLUME_BOUNDS_MAX) { T[l][0] = T[l][1] = T[l][2] = 0.0; alive[l] = 0; continue; }
+            /* The surface passed: what its material lets through, seen along the ray. */
+            double u = (double)packet.hit.u[k], v = (double)packet.hit.v[k];
             Surface s;
             surface_at(origin[l], D[l], (double)packet.ray.tfar[k], u, v, &tri, 0, &s);
             if (!hidden) {
@@ -596,6 +636,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
                 for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
             }
+            if (media != NULL) stack_cross(media, inside + l, s.material, s.backfacing, !hidden);
             /* On from just past that surface, for what is left of the way to the light: towards the ray's own
              * end point, so that the step off the surface (along its normal) does not carry the end onto the
              * light (Cycles moves only the start of its one shadow ray). A sun's ray keeps its direction. */
@@ -826,6 +867,7 @@ typedef struct {
     int seen_as;            /* the ray's kind (HIDDEN_FROM_* bit): it passes lamps hidden from that kind */
     const LightPath *path;  /* the path it carries (the emitter it hits is shaded for it) */
     uint64_t receiver;      /* the light set of the object the ray left: it finds only emitters that light it */
+    const double *sigma, *emission;   /* the extinction and emission (3) of the media it crosses, or NULL: none */
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -849,6 +891,9 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     double t_limit = ray->t, pdf_b = ray->pdf;
     int64_t geometry = ray->geometry, prim = ray->prim, instance = ray->instance;
     const LightContext *ctx = ds->context;
+    const double *sigma = ray->sigma;
+    /* The media's emission along the ray up to its hit (no light sample finds it: not weighed). */
+    if (sigma != NULL) add_media_emission(sigma, ray->emission, hit ? t_limit : INFINITY, light_L);
     int away = P != NULL && (P[0] != O[0] || P[1] != O[1] || P[2] != O[2]);
     double t_mis = t_limit, t_start = 0.0;      /* from P: how far the ray's end (inf: none) and its start O are */
     if (away) {
@@ -882,6 +927,11 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
              * on this stretch of the line, past O: its pdf from P, the radiance it sends along D. */
             if (!light_hit(light, P, D, t_mis, &lh) || !(lh.t > t_start)) continue;
         } else if (!light_hit(light, O, D, t_limit, &lh)) continue;
+        if (sigma != NULL) {                            /* (what the media let through from the lamp) */
+            double kept[3];
+            beer_lambert(sigma, away ? lh.t - t_start : lh.t, kept);
+            for (int c = 0; c < 3; c++) lh.radiance[c] *= kept[c];
+        }
         double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
         for (int c = 0; c < 3; c++) light_L[c] += lh.radiance[c] * w;
         add_to_group(groups_L, ds->groups, 0, light->group, lh.radiance, w);
@@ -903,6 +953,13 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, away ? P : O, N, D, t_mis) : 0.0;
         double n_l = emitters_index >= 0 ? ds->lights[emitters_index].samples : 1.0;
         double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
+        double through[3];
+        if (sigma != NULL) {                            /* (what the media let through from the surface) */
+            double kept[3];
+            beer_lambert(sigma, t_limit, kept);
+            for (int c = 0; c < 3; c++) through[c] = emitted[c] * kept[c];
+            emitted = through;
+        }
         for (int c = 0; c < 3; c++) light_L[c] += emitted[c] * w;
         if (groups_L != NULL)
             add_to_group(groups_L, ds->groups, 0, group_of_hit(ds->instance_groups, ds->geometry, geometry, prim, instance),
@@ -912,6 +969,11 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     if (!hit && ctx->world->lights != 0.0) {
         double L_world[3];
         world_radiance(ctx->world, D, L_world);
+        if (sigma != NULL) {                            /* (an escaping ray through a medium keeps exp(-sigma inf)) */
+            double kept[3];
+            beer_lambert(sigma, INFINITY, kept);
+            for (int c = 0; c < 3; c++) L_world[c] *= kept[c];
+        }
         double w = 1.0;
         if (world_index >= 0 && use_mis)
             w = power_heuristic(pdf_b, ds->lights[world_index].samples * world_pdf(ctx->world, D));
@@ -991,11 +1053,24 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             }
             double light_L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];
             int first = ds->light_passes && H->bounce[owner[k]] == 0;
+            /* The ray's media (the hit's own where it went through the surface), and what they let through to its
+             * hit (direct.bsdf_ray's media_beyond). */
+            VolumeStack inside;
+            double sigma[3] = {0.0, 0.0, 0.0}, emission[3] = {0.0, 0.0, 0.0}, attenuation[3] = {1.0, 1.0, 1.0};
+            if (ds->media != NULL) {
+                const Surface *sf = H->s + owner[k];
+                inside = H->inside[owner[k]];
+                stack_cross(ds->media, &inside, sf->material, sf->backfacing,
+                            goes_through(s->kind, dot3(sf->Ng, D) < 0.0));
+                medium_along(ds->media, &inside, sigma, emission);
+                beer_lambert(sigma, t_limit, attenuation);
+            }
             if (first)
                 sample_shares(H->sd + owner[k], H->wo + 3 * owner[k], s, dot3(H->s[owner[k]].Ng, D) < 0.0, shares);
-            if (hit && ds->continuing != NULL) {
+            if ((hit || (ds->media != NULL && ds->media->scatters != 0)) && ds->continuing != NULL) {
                 PathRay *r = ds->continuing->r + ds->continuing->n++;
                 r->h = owner[k];
+                r->hit = hit;
                 r->t = t_limit;
                 r->u = (double)packet.hit.u[k];
                 r->v = (double)packet.hit.v[k];
@@ -1010,6 +1085,8 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->receiver = receiver;
                 for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
                 for (int c = 0; c < 3; c++) { r->mis_O[c] = P[c]; r->mis_N[c] = N != NULL ? N[c] : 0.0; }
+                for (int c = 0; c < 3; c++) r->attenuation[c] = attenuation[c];
+                if (ds->media != NULL) r->inside = inside;
                 if (first)
                     for (int p = 0; p < PASS_KINDS; p++)
                         for (int c = 0; c < 3; c++) r->shares[p][c] = shares[p][c];
@@ -1021,7 +1098,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
             FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                                   instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
-                                  kinds[k], after + k, receiver};
+                                  kinds[k], after + k, receiver, ds->media != NULL ? sigma : NULL, emission};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

@@ -30,13 +30,16 @@ INLINE int is_transparent_bounce(int kind) { return bsdf_is(kind, BSDF_FLAG_STRA
  * transparent surfaces: the light behind the transparent surfaces it meets (each multiplies by its
  * transparency; the ray goes straight on and gathers as a BSDF ray does, weighed by MIS with the pdf of the
  * path's last real bounce and the light pdfs measured from there, r->mis_O and r->mis_N), up to the
- * transparent-bounce limit; added to found (r's weight included, each find capped at `cap` seen through the
+ * transparent-bounce limit (volume-only boundaries not counted; each surface passed changes the ray's media, whose
+ * stretches keep exp(-sigma_t t) and add their emission); added to found (r's weight included, each find capped at `cap` seen through the
  * path's throughput at h). The caller calls it only where BSDF rays gather (not with light samples alone).
  * groups: (ds->groups, 3) the same by the group of each source, added to, or NULL. */
 NOINLINE static void through_transparent(const PathRay *r, int clear, const PathLimits *limits, const DirectSettings *ds,
                                 const double *throughput, double cap, double *found, double *groups)
 {
-    double T[3] = {r->weight[0], r->weight[1], r->weight[2]}, O[3] = {r->O[0], r->O[1], r->O[2]};
+    double T[3], O[3] = {r->O[0], r->O[1], r->O[2]};
+    for (int c = 0; c < 3; c++) T[c] = r->weight[c] * r->attenuation[c];
+    VolumeStack inside = r->inside;
     const double *D = r->D;
     int64_t geometry = r->geometry, prim = r->prim, instance = r->instance;
     double u = r->u, v = r->v, t = r->t;
@@ -52,8 +55,10 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         ShaderResult sd;
         shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &path, &s, &sd);
         for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
-        path.transparent++;
-        if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0) || ++clear > limits->transparent_bounces) return;
+        clear += !is_boundary(ds->media, tri.material);
+        path.transparent = clear;
+        if (ds->media != NULL) stack_cross(ds->media, &inside, tri.material, s.backfacing, 1);
+        if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0) || clear > limits->transparent_bounces) return;
         /* 2. On from just past it, straight ahead, gathering what the ray finds. */
         spawn_ray(s.I, s.Ng, D, s.offset, O);
         RayHitPacket packet;
@@ -71,10 +76,17 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         geometry = (int64_t)packet.hit.geomID[0];
         prim = (int64_t)packet.hit.primID[0];
         instance = instance_of(&packet.hit, 0);
+        double sigma[3] = {0.0, 0.0, 0.0}, emission[3] = {0.0, 0.0, 0.0};
+        if (ds->media != NULL) medium_along(ds->media, &inside, sigma, emission);
         FindingRay finding = {O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O, r->mis_N,
-                              (int)r->seen_as, &path, r->receiver};
+                              (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
+        if (ds->media != NULL) {                    /* (and what reaches the next surface) */
+            double kept[3];
+            beer_lambert(sigma, t, kept);
+            for (int c = 0; c < 3; c++) T[c] *= kept[c];
+        }
         double f = clamp_scale(light_L, throughput, cap, 1.0);
         for (int c = 0; c < 3; c++) found[c] += light_L[c] * f;
         if (groups != NULL)
@@ -98,9 +110,13 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
     for (int64_t i = 0; i < rays->n; i++) {
         const PathRay *r = rays->r + i;
         int64_t h = r->h;
+        if (!r->hit) continue;                  /* (kept for the media's scattering along it alone: volume.c) */
         /* a. The bounce limits. */
-        int d = r->path.diffuse, g = r->path.glossy, tr = r->path.transmission, clear = r->path.transparent;
+        int d = r->path.diffuse, g = r->path.glossy, tr = r->path.transmission;
         int see_through = is_transparent_bounce(r->kind), bounces = r->path.bounce;
+        /* (a volume-only boundary is no transparent bounce: Cycles counts those crossings apart) */
+        int boundary = see_through && is_boundary(ds->media, H->s[h].material);
+        int clear = r->path.transparent - boundary, crossed = H->bounds[h] + boundary;
         if (clear > limits->transparent_bounces) continue;
         if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces
             || tr > limits->transmission_bounces) {
@@ -119,11 +135,16 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
             }
             continue;
         }
-        /* b. The throughput, and Russian roulette. */
-        double tp[3];
-        for (int c = 0; c < 3; c++) tp[c] = H->throughput[3 * h + c] * r->weight[c];
+        if (crossed > VOLUME_BOUNDS_MAX) continue;
+        /* b. The throughput (times what the media let through to the hit), and Russian roulette, which decides from
+         *    the throughput before the media (path.py). */
+        double tp[3], carried[3];
+        for (int c = 0; c < 3; c++) {
+            carried[c] = H->throughput[3 * h + c] * r->weight[c];
+            tp[c] = H->throughput[3 * h + c] * (r->weight[c] * r->attenuation[c]);
+        }
         if (bounces >= limits->roulette_from && !see_through) {
-            double largest = at_least(fabs(tp[0]), at_least(fabs(tp[1]), fabs(tp[2])));
+            double largest = at_least(fabs(carried[0]), at_least(fabs(carried[1]), fabs(carried[2])));
             double q = at_most(sqrt(largest), 1.0), u[2];
             sample_2d(roulette, H->pixel[h], H->sample[h], u);
             if (!(u[0] < q)) continue;
@@ -169,6 +190,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->glossy[m] = g;
         next->transmission[m] = tr;
         next->transparent[m] = clear;
+        next->bounds[m] = crossed;
+        if (ds->media != NULL) next->inside[m] = r->inside;
         next->mis_pdf[m] = r->pdf;
         next->mis_receiver[m] = r->receiver;
         for (int c = 0; c < 3; c++) { next->mis_origin[3 * m + c] = r->mis_O[c]; next->mis_n[3 * m + c] = r->mis_N[c]; }
@@ -207,6 +230,9 @@ INLINE void add_light_passes(const BlockHits *H, PathWork *work)
     }
 }
 
+static int64_t bounce_scattering(const BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
+                                 const DirectSettings *ds, PathWork *work);
+
 /* The paths of a block's camera hits H: vertex 0 is lit into H->L (the film adds it), later vertices add
  * throughput x their light into work->extra per camera lane. Returns the shadow rays traced. */
 INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *limits, PathWork *work,
@@ -223,8 +249,8 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         for (int64_t k = 0; k < BLOCK; k++)
             for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
     for (int64_t h = 0; h < H->m; h++) {
-        H->throughput[3 * h] = H->throughput[3 * h + 1] = H->throughput[3 * h + 2] = 1.0;
-        H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = 0;
+        /* (the throughput: what the media let through to the camera's hit, 1 without media: chunk.c block_hits) */
+        H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = H->bounds[h] = 0;
         H->flags[h] = PATH_CAMERA;
         H->mis_pdf[h] = INFINITY;
         H->mis_receiver[h] = 0;                   /* (the camera's: it sees every emitter) */
@@ -255,6 +281,8 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         embree[1] += bsdf_rays(current, ds);
         /* b. Where the paths go on (ended ones add the light behind transparent surfaces to their vertex's). */
         next_vertices(current, &work->rays, vertex, limits, ds, next, H->held);
+        if (ds->media != NULL && ds->media->scatters != 0)      /* (the light media scatter along those rays: volume.c) */
+            shadow_rays += bounce_scattering(current, &work->rays, vertex, limits, ds, work);
         if (ds->features) features_found(current, work->features);
         if (vertex > 0)
             for (int64_t h = 0; h < current->m; h++) {

@@ -13,6 +13,7 @@ import numpy as np
 from .. import materials as materials_
 from .. import vectors, volumes
 from ..materials import graph as graph_
+from ..native import schema
 from ..geometry.surface import surface_at_hits
 from ..lights import LightFlags
 from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
@@ -158,7 +159,7 @@ def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, gr
 
 
 # The most surfaces camera_media walks past along a ray (Cycles' volume stack init stops at its stack size too).
-CAMERA_MEDIA_HITS = 256
+CAMERA_MEDIA_HITS = schema.constant("CAMERA_MEDIA_HITS", 256, "the most surfaces a camera ray's walk for its media passes")
 
 
 def camera_media(ctx: Context, O: np.ndarray, D: np.ndarray) -> np.ndarray:

@@ -53,7 +53,7 @@ ROBUST_ULPS = 8.0
 
 # The most volume-only boundaries a shadow ray (or a path, path.py) crosses, as Cycles' VOLUME_BOUNDS_MAX: those
 # crossings count as no transparent bounce, so this guards against a ray caught crossing the same boundary.
-VOLUME_BOUNDS_MAX = 1024
+VOLUME_BOUNDS_MAX = schema.constant("VOLUME_BOUNDS_MAX", 1024, "the most volume-only boundaries a ray crosses")
 
 # How shadow rays leave the surface, for the compiled kernels (shadows.c).
 ShadowSettings = schema.record("ShadowSettings", "How shadow rays leave the surface (RenderSettings' shadow settings).", [

@@ -35,6 +35,7 @@ from .. import volumes
 from ..lights.base import LightFlags
 from ..lights import linking
 from ..materials import graph as graph_
+from ..native import schema
 from ..sampling import sobol as sampling
 from ..volumes.phase import HenyeyGreenstein
 from . import shadows
@@ -46,10 +47,11 @@ from .vertex import (BsdfRay, gather_light, light_count, light_numbers, power_he
 # The sampling dimensions of a stretch's scattering point (distance, channel) and of its phase direction, and the
 # shift of its light samples' dimensions from the vertex's own (core/sampling; a path's vertex k adds k x
 # path.VERTEX_DIMENSIONS to each).
-DISTANCE_DIMENSION = 8
-PHASE_DIMENSION = 9
-EQUIANGULAR_DIMENSION = 1 << 14            # + the light's index: the equi-angular distance towards each lamp
-LIGHT_SHIFT = 1 << 15
+DISTANCE_DIMENSION = schema.constant("DISTANCE_DIMENSION", 8, "a stretch's free-flight distance and channel")
+PHASE_DIMENSION = schema.constant("PHASE_DIMENSION", 9, "a scattering point's phase-sampled direction")
+EQUIANGULAR_DIMENSION = schema.constant("EQUIANGULAR_DIMENSION", 1 << 14,
+                                        "+ the light's index: the equi-angular distance towards each lamp")
+LIGHT_SHIFT = schema.constant("LIGHT_SHIFT", 1 << 15, "a scattering point's light samples' shift of dimensions")
 
 
 def channel_odds(stretch, throughput: np.ndarray) -> np.ndarray:
@@ -214,7 +216,8 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
             u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension + LIGHT_SHIFT)
             ls = light.sample(P, u, cone, N=unknown)
             if getattr(light, "textured", None) is not None:
-                ls = textured_samples(ctx, light, P, ls)
+                ls = textured_samples(ctx, light, P, ls, graph_.light_paths(
+                    m, flags=graph_.PATH_EMISSION, bounce=np.broadcast_to(np.asarray(bounce), (m,))))
             if not s.distance_attenuation:
                 ls = light.without_attenuation(ls, P)
             lit = (ls.strength > 0.0) | (ls.strength < 0.0)
@@ -229,7 +232,10 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
                                        ls.distance[rows], s.reduce_t_max)
             blockers = shadow_blockers(ctx, light, ls, rows)
             if light.cast_shadow:
-                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, inside[rows], blockers)
+                shadow_paths = graph_.light_paths(len(rows), flags=graph_.PATH_SHADOW,
+                                                  bounce=np.broadcast_to(np.asarray(bounce), (m,))[rows])
+                through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, inside[rows], shadow_paths,
+                                                blockers)
                 shadow_rays += len(rows)
             else:
                 through = np.ones((len(rows), 3))

@@ -68,6 +68,18 @@
 #define VERTEX_DIMENSIONS 65536
 /* Russian roulette's dimension at a vertex (core.integrators.path) */
 #define ROULETTE_DIMENSION 6
+/* the most surfaces a camera ray's walk for its media passes (core.integrators.rays) */
+#define CAMERA_MEDIA_HITS 256
+/* the most volume-only boundaries a ray crosses (core.integrators.shadows) */
+#define VOLUME_BOUNDS_MAX 1024
+/* a stretch's free-flight distance and channel (core.integrators.volume) */
+#define DISTANCE_DIMENSION 8
+/* a scattering point's phase-sampled direction (core.integrators.volume) */
+#define PHASE_DIMENSION 9
+/* + the light's index: the equi-angular distance towards each lamp (core.integrators.volume) */
+#define EQUIANGULAR_DIMENSION 16384
+/* a scattering point's light samples' shift of dimensions (core.integrators.volume) */
+#define LIGHT_SHIFT 32768
 /* a closure's parameters (core/materials/base.py PARAMS) (core.materials.base) */
 #define CLOSURE_PARAMS 32
 /* a shader node's inputs, a MaterialRecord's rows (core.materials.base) */
@@ -201,6 +213,8 @@
 #define HIDDEN_FROM_GLOSSY 8
 #define HIDDEN_FROM_TRANSMISSION 16
 #define HOLDOUT 32
+/* the most volume materials the compiled kernel's volume stack holds (core.volumes.media) */
+#define MAX_MEDIA 16
 
 /* core/materials/registry.py BSDF_TYPES: a closure's kind */
 enum {
@@ -308,6 +322,7 @@ typedef struct GraphTables GraphTables;
 typedef struct TextureTables TextureTables;
 typedef struct TextureLookupArgs TextureLookupArgs;
 typedef struct Sample2dArgs Sample2dArgs;
+typedef struct MediaTables MediaTables;
 
 /* The camera, prepared by core/camera/camera.py (`camera_record`). */
 struct CameraRecord {
@@ -570,6 +585,7 @@ struct ChunkParams {
     const int32_t *stop;                    /* (1,) set to 1 when the render is cancelled: the chunk stops before its next block, or NULL */
     int32_t features;                       /* 1: sum the denoising features (features.c) into ChunkOut.features */
     const PassTables *passes;               /* the first-hit passes asked for (passes.c), or NULL */
+    const MediaTables *media;               /* the render's homogeneous media (core/volumes/media.c), or NULL: none */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -833,6 +849,25 @@ struct Sample2dArgs {
     double *out;                            /* (n, 2) */
 };
 
+/* The render's homogeneous media (core/volumes/media.py Media.tables), for media.c. */
+struct MediaTables {
+    int64_t count;                          /* V: the volume materials (columns), at most MAX_MEDIA */
+    const double *sigma_t;                  /* (V, 3) each column's extinction sigma_a + sigma_s */
+    const double *emission;                 /* (V, 3) each column's emission per unit length */
+    const double *sigma_s;                  /* (V, 3) each column's scattering coefficient */
+    const double *g;                        /* (V,) each column's Henyey-Greenstein anisotropy */
+    const int32_t *column;                  /* (m + 1,) each material row's column, -1 where it has no volume */
+    const int32_t *boundary;                /* (m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface) */
+    double world_sigma_t[3];                /* the world's medium's extinction (0: none) */
+    double world_emission[3];               /* and its emission */
+    double world_sigma_s[3];                /* and its scattering */
+    double world_g;                         /* and its anisotropy */
+    int32_t emits;                          /* 1: some medium emits (Media.emits: phase rays gather what they find) */
+    int32_t scatters;                       /* 1: some medium scatters (Media.scattering: paths gather single scattering, volume.c) */
+    double low[3];                          /* the box of the triangles with a medium (camera rays starting inside it walk, camera_media) */
+    double high[3];
+};
+
 /* Each record's layout hash (core/native/schema.py Record.layout_hash), 0 for a name it does not know: what
  * Record.check compares with Python's before a record crosses. */
 EXPORT uint64_t primer_layout(const char *name)
@@ -850,7 +885,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7938006114360240799);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7540884240984156999);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3574520478765727059);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5755748365903746207);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
@@ -868,6 +903,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(9081307359214230946);
     return 0;
 }
 
@@ -905,6 +941,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "TextureTables") == 0) return (int64_t)sizeof(TextureTables);
     if (strcmp(name, "TextureLookupArgs") == 0) return (int64_t)sizeof(TextureLookupArgs);
     if (strcmp(name, "Sample2dArgs") == 0) return (int64_t)sizeof(Sample2dArgs);
+    if (strcmp(name, "MediaTables") == 0) return (int64_t)sizeof(MediaTables);
     return -1;
 }
 

@@ -12,6 +12,7 @@
 #include "../camera/camera.c"
 #include "../geometry/embree.c"
 #include "../geometry/triangles.c"
+#include "../volumes/media.c"           /* homogeneous media: the volume stack, Beer-Lambert, media emission */
 #include "../lights/lights.h"
 #include "../lights/lights.c"           /* every light's C file, through the generated table lights.gen.c */
 #include "../materials/bsdf.h"
@@ -30,5 +31,6 @@
 #include "../integrators/features.c"
 #include "../integrators/passes.c"
 #include "../integrators/path.c"
+#include "../integrators/volume.c"      /* single scattering along the paths' rays */
 #include "../integrators/chunk.c"
 #include "exports.gen.c"               /* what Python calls: one record of arguments each (tools/make_boundary.py) */

@@ -447,25 +447,31 @@ def _usable_cores() -> int:
 
 
 def volume_reason(ctx: Context, warnings: list) -> str:
-    """Why a scene with media takes the Python reference ('' without media): the compiled kernel has no volumes yet.
-    Says so once in `warnings`, and that Whitted's tracer renders no media."""
-    if ctx.extra.get("media") is None:
+    """Why a scene with media takes the Python reference ('' where the compiled kernel renders it, and without media).
+    The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c); more volume
+    materials than its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
+    no media, and that the media's light goes to Combined only."""
+    media = ctx.extra.get("media")
+    if media is None:
         return ""
-    if ctx.settings.integrator == "whitted":
-        note = "volumes: Whitted's tracer renders no media (the path and direct tracers do); they are left out"
-    else:
-        note = ("volumes: the compiled kernel has no media yet, so this render runs the Python reference "
-                "(the same image, slower)")
-    if note not in warnings:
-        warnings.append(note)
-    media = ctx.extra["media"]
     s = ctx.settings
+    if s.integrator == "whitted":
+        note = "volumes: Whitted's tracer renders no media (the path and direct tracers do); they are left out"
+        if note not in warnings:
+            warnings.append(note)
+        return ""
     if (media.scatters or media.emits) and (lightpasses.wanted(s.passes) or s.light_groups or s.denoising_features):
         note = ("volumes: the light media scatter and emit goes to Combined only, not to the light passes, light "
                 "groups or denoising features (Cycles writes it to its Volume passes)")
         if note not in warnings:
             warnings.append(note)
-    return "the scene has volumes, which the compiled kernel does not render yet"
+    if len(media.g) <= volumes.MAX_MEDIA:
+        return ""
+    reason = f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
+    note = f"volumes: {reason}, so this render runs the Python reference (the same image, slower)"
+    if note not in warnings:
+        warnings.append(note)
+    return reason
 
 
 def render(scene: Scene, settings: RenderSettings,

@@ -12,12 +12,13 @@ face, left through a back face: Cycles' volume stack, `Media.crossed`), or all s
 - `media.py`: the volume closures as classes with their flags (Volume Absorption, Volume Scatter, Principled
   Volume, Volume Coefficients, an Emission node at a Volume output), read into one `Media` table per render: each volume material's coefficients, and the world's.
   `Media.crossed` keeps which media a ray is in (a count per volume material), `transmittance` what it lets through.
+  `Media.tables` packs them for the compiled kernel's twin, `media.c` (the volume stack, Beer-Lambert, emission).
 - `phase.py`: phase functions (Henyey-Greenstein), the volume's BSDF: eval, sample, pdf.
 """
 from .media import (ABSORPTION, Coefficients, Media, PrincipledVolume, VolumeAbsorption, VolumeClosure, VolumeFlags,
                     VolumeCoefficients, VolumeEmission, VolumeScatter, VOLUME_BY_BLENDER, VOLUME_BY_NAME, VOLUME_TYPES)
 from .phase import HenyeyGreenstein
-from .media import Stretch, emitted, transmittance
+from .media import MAX_MEDIA, MediaTablesRecord, Stretch, emitted, transmittance
 
 __all__ = ["ABSORPTION", "Coefficients", "HenyeyGreenstein", "Media", "PrincipledVolume", "VolumeAbsorption", "VolumeClosure",
-           "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "Stretch", "emitted", "transmittance"]
+           "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "MAX_MEDIA", "MediaTablesRecord", "Stretch", "emitted", "transmittance"]

@@ -26,6 +26,9 @@ from typing import ClassVar, NamedTuple, Optional
 
 import numpy as np
 
+from ..native import schema
+from ..native.schema import F64, I32, I64, ptr
+
 
 class VolumeFlags(enum.IntFlag):
     """What a volume closure does to light along a ray: ABSORBS (sigma_a > 0 takes light away), SCATTERS (sigma_s:
@@ -254,6 +257,27 @@ class Media:
         """Whether some medium emits light (then every ray gathers what it finds: media emission is found by rays)."""
         return bool((self.emission != 0.0).any() or (self.world.emission != 0.0).any())
 
+    @property
+    def scattering(self) -> bool:
+        """Whether some medium scatters light (sigma_s > 0): a scattering event, not absorption and emission alone."""
+        return bool((self.sigma_s > 0.0).any() or (self.world.sigma_s > 0.0).any())
+
+    def tables(self, bounds: tuple) -> "MediaTablesRecord":
+        """The C record (MediaTables) of the media: each column's extinction and emission, each material row's
+        column and whether it is a boundary, the world's medium, and `bounds` (low (3,), high (3,)), the box of the
+        triangles with a medium (core/integrators/rays.media_bounds). The record keeps its arrays alive."""
+        contiguous = lambda array, dtype: np.ascontiguousarray(np.asarray(array, dtype).reshape(-1)
+                                                               if np.size(array) else np.zeros(1, dtype))
+        return MediaTablesRecord(
+            count=len(self.g), sigma_t=contiguous(self.sigma_t, np.float64),
+            emission=contiguous(self.emission, np.float64), sigma_s=contiguous(self.sigma_s, np.float64),
+            g=contiguous(self.g, np.float64), column=contiguous(self.column, np.int32),
+            boundary=contiguous(self.boundary, np.int32), world_sigma_t=np.asarray(self.world.sigma_t, np.float64),
+            world_emission=np.asarray(self.world.emission, np.float64),
+            world_sigma_s=np.asarray(self.world.sigma_s, np.float64), world_g=float(self.world.g), emits=self.emits,
+            scatters=self.scattering,
+            low=np.asarray(bounds[0], np.float64), high=np.asarray(bounds[1], np.float64))
+
     def start(self, n: int) -> np.ndarray:
         """The stacks (n, V) int16 of rays that start in no mesh's medium (the world's is always there)."""
         return np.zeros((n, len(self.g)), np.int16)
@@ -288,6 +312,29 @@ class Media:
             np.add.at(inside, (rows, column[rows]), step)
             np.maximum(inside, 0, out=inside)
         return inside
+
+
+# The most media (volume materials) a render's compiled kernel keeps a stack of per ray (core/volumes/media.c): a
+# scene with more renders through the Python reference.
+MAX_MEDIA = schema.constant("MAX_MEDIA", 16, "the most volume materials the compiled kernel's volume stack holds")
+
+MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media (core/volumes/media.py Media.tables), for media.c.", [
+    ("count", I64, "V: the volume materials (columns), at most MAX_MEDIA"),
+    ("sigma_t", ptr(F64), "(V, 3) each column's extinction sigma_a + sigma_s"),
+    ("emission", ptr(F64), "(V, 3) each column's emission per unit length"),
+    ("sigma_s", ptr(F64), "(V, 3) each column's scattering coefficient"),
+    ("g", ptr(F64), "(V,) each column's Henyey-Greenstein anisotropy"),
+    ("column", ptr(I32), "(m + 1,) each material row's column, -1 where it has no volume"),
+    ("boundary", ptr(I32), "(m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface)"),
+    ("world_sigma_t", F64, 3, "the world's medium's extinction (0: none)"),
+    ("world_emission", F64, 3, "and its emission"),
+    ("world_sigma_s", F64, 3, "and its scattering"),
+    ("world_g", F64, "and its anisotropy"),
+    ("emits", I32, "1: some medium emits (Media.emits: phase rays gather what they find)"),
+    ("scatters", I32, "1: some medium scatters (Media.scattering: paths gather single scattering, volume.c)"),
+    ("low", F64, 3, "the box of the triangles with a medium (camera rays starting inside it walk, camera_media)"),
+    ("high", F64, 3, ""),
+])
 
 
 class Stretch(NamedTuple):

@@ -1,0 +1,310 @@
+/* Single scattering along a path's rays: core/integrators/volume.py, one ray at a time.
+ *
+ * On each stretch of a ray through a scattering medium, one point drawn by free flight (a channel picked by
+ * throughput x albedo, an exponential distance truncated at the stretch's end) gathers light samples with shadow rays
+ * through the media, weighed by MIS against one phase-sampled ray; towards each lamp with a position a second point
+ * drawn by equi-angular sampling gathers that lamp's light; the two points are weighed by the balance heuristic on
+ * their densities of the distance. The same sampling dimensions as the Python, so the kernels agree to rounding. */
+
+/* The scattering of a stretch's media (Media.along): sigma_s (3) and the sigma_s-weighted mean anisotropy *g. */
+INLINE void medium_scattering(const MediaTables *media, const VolumeStack *stack, double *sigma_s, double *g)
+{
+    double sum[3] = {0.0, 0.0, 0.0}, weighted = 0.0;
+    for (int64_t v = 0; v < (int64_t)media->count; v++) {
+        double n = (double)stack->count[v];
+        const double *s = media->sigma_s + 3 * v;
+        for (int c = 0; c < 3; c++) sum[c] += n * s[c];
+        weighted += n * (((s[0] + s[1]) + s[2]) * media->g[v]);
+    }
+    const double *w = media->world_sigma_s;
+    double scattering = ((w[0] + w[1]) + w[2]) * media->world_g + weighted;
+    for (int c = 0; c < 3; c++) sigma_s[c] = w[c] + sum[c];
+    double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
+    *g = total > 0.0 ? scattering / total : 0.0;
+}
+
+/* phase.henyey_greenstein: (1 - g^2) / (4 pi (1 + g^2 - 2 g cos theta)^1.5). */
+INLINE double henyey_greenstein(double cos_theta, double g)
+{
+    double denom = 1.0 + g * g - 2.0 * g * cos_theta;
+    return (1.0 - g * g) / (4.0 * PI * denom * sqrt(denom));
+}
+
+/* HenyeyGreenstein.sample: a direction wi (3) for a viewer along wo (3) from numbers u (2), its pdf returned. */
+INLINE double sample_henyey_greenstein(const double *wo, double g, const double *u, double *wi)
+{
+    double cos_theta;
+    if (fabs(g) < 1e-3) cos_theta = 1.0 - 2.0 * u[0];
+    else {
+        double s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u[0]);
+        cos_theta = (1.0 + g * g - s * s) / (2.0 * g);
+    }
+    cos_theta = cos_theta < -1.0 ? -1.0 : (cos_theta > 1.0 ? 1.0 : cos_theta);
+    double sin_theta = sqrt(at_least(1.0 - cos_theta * cos_theta, 0.0)), phi = 2.0 * PI * u[1];
+    double axis[3] = {-wo[0], -wo[1], -wo[2]}, T[3], B[3];
+    orthonormal_frame(axis, T, B);
+    double a = sin_theta * cos(phi), b = sin_theta * sin(phi);
+    for (int c = 0; c < 3; c++) wi[c] = (a * T[c] + b * B[c]) + cos_theta * axis[c];
+    return henyey_greenstein(cos_theta, g);
+}
+
+/* volume.channel_odds: the chance (3) free flight picks each channel, by |throughput| x albedo. */
+INLINE void channel_odds(const double *sigma_t, const double *sigma_s, const double *throughput, double *odds)
+{
+    double share[3];
+    for (int c = 0; c < 3; c++) share[c] = fabs(throughput[c]) * (sigma_t[c] > 0.0 ? sigma_s[c] / sigma_t[c] : 0.0);
+    double total = (share[0] + share[1]) + share[2];
+    for (int c = 0; c < 3; c++) odds[c] = total > 0.0 ? share[c] / total : 0.0;
+}
+
+/* volume.distance_pdf: the density of free flight choosing s on a stretch of length t (the channels' mixture). */
+INLINE double distance_pdf(const double *sigma_t, const double *odds, double t, double s)
+{
+    double each[3];
+    for (int c = 0; c < 3; c++) {
+        double reach = -expm1(-sigma_t[c] * t);
+        each[c] = odds[c] > 0.0 ? odds[c] * sigma_t[c] * exp(-sigma_t[c] * s) / (reach > 0.0 ? reach : 1.0) : 0.0;
+    }
+    return (each[0] + each[1]) + each[2];
+}
+
+/* volume.equiangular for one ray O + s D, 0 <= s < t, towards X: with u >= 0 the distance it draws goes to *s; its
+ * pdf (0: none) returned for *s. */
+INLINE double equiangular(const double *O, const double *D, double t, const double *X, double u, double *s)
+{
+    double w[3], off[3];
+    for (int c = 0; c < 3; c++) w[c] = X[c] - O[c];
+    double delta = dot3(w, D);
+    for (int c = 0; c < 3; c++) off[c] = w[c] - delta * D[c];
+    double h = sqrt(dot3(off, off));
+    h = at_least(h, 1e-9 * at_least(fabs(delta), 1.0));
+    double a = atan2(-delta, h), b = isfinite(t) ? atan2(t - delta, h) : 0.5 * PI;
+    if (u >= 0.0) {
+        double x = delta + h * tan(a + u * (b - a));
+        *s = x < 0.0 ? 0.0 : (x > t ? t : x);
+    }
+    return b > a ? h / ((b - a) * (h * h + (*s - delta) * (*s - delta))) : 0.0;
+}
+
+/* Whether light l is aimed at by equi-angular sampling (volume.equiangular_lamps: a position or an area lamp). */
+INLINE int equiangular_lamp(const LightRecord *light)
+{
+    return light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA);
+}
+
+/* A stretch's free-flight point (in_scattering): the ray O, D over [0, t), its distance s and that distance's pdf. */
+typedef struct {
+    const double *O, *D;
+    double t, s, pdf;
+} FreeFlight;
+
+/* volume.scattered_light at one point P (3) of anisotropy g in the media `inside`, seen along wo (3): the light per
+ * unit sigma_s into L (3, zeroed here). flight: the free-flight point P is (each equi-angular lamp's light samples
+ * there weighed against that lamp's equi-angular points by the balance heuristic), or NULL; only: a light's index (an equi-angular point: its samples alone, no phase ray), or
+ * -1. Returns the shadow rays traced. */
+static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limits, const double *P, const double *wo,
+                               double g, const VolumeStack *inside, int64_t pixel, int64_t sample, int64_t dimension,
+                               int bounce, const FreeFlight *flight, int64_t only, double *L)
+{
+    int64_t rays = 0;
+    double zero[3] = {0.0, 0.0, 0.0};
+    L[0] = L[1] = L[2] = 0.0;
+    /* 1. Light samples, each with its shadow ray through the media. */
+    for (int64_t l = 0; l < ds->n_lights; l++) {
+        const LightRecord *light = ds->lights + l;
+        if (only >= 0 && l != only) continue;
+        int hittable = light->hittable != 0.0, extent = light->delta == 0.0;
+        if (ds->sampling == SAMPLE_BSDF && extent && light->use_mis != 0 && hittable) continue;
+        int64_t count = (int64_t)light->samples;
+        for (int64_t j = 0; j < count; j++) {
+            double u[3] = {0.0, 0.0, 0.0};
+            if (extent) {
+                int64_t number = sample * count + j;
+                sample_2d(stream_of((int64_t)ds->seed, (int64_t)light->dimension + dimension + LIGHT_SHIFT), pixel,
+                          number, u);
+                if (light->numbers == 3) {
+                    double pick[2];
+                    sample_2d(stream_of((int64_t)ds->seed, (int64_t)light->dimension + 2 + dimension + LIGHT_SHIFT),
+                              pixel, number, pick);
+                    u[2] = pick[0];
+                }
+            }
+            LightSample ls;
+            ls.emitter = -1;
+            sample_light(light, ds->context, P, zero, u, &ls);
+            const EmitterTables *e = ds->context->emitters;
+            if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && e->textured != NULL && ls.strength > 0.0
+                && e->textured[ls.emitter]) {
+                /* (a textured emitter: what its node graph emits where the sample landed) */
+                int64_t geometry, prim, instance;
+                unflat_prim(ds->geometry, e->prim[ls.emitter], &geometry, &prim, &instance);
+                LightPath emitted = {PATH_EMISSION, bounce, 0, 0, 0, 0};   /* (a light's own shading) */
+                graph_emission(ds, geometry, prim, instance, P, ls.L, ls.distance, &emitted, ls.color);
+            }
+            if (!(ls.strength > 0.0 || ls.strength < 0.0)) continue;
+            if (light->max_bounces < 1024 && bounce > light->max_bounces) continue;
+            /* (Light and Shadow Linking: a medium receives as the default set 0; an emitter links by its object) */
+            uint64_t lights = light->light_membership, blockers = light->shadow_membership;
+            if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && ds->geometry->links != NULL && ls.emitter >= 0) {
+                int64_t geometry, prim, instance;
+                unflat_prim(ds->geometry, e->prim[ls.emitter], &geometry, &prim, &instance);
+                lights = links_of(ds->geometry, geometry, prim, instance, 2);
+                blockers = links_of(ds->geometry, geometry, prim, instance, 3);
+            }
+            if (lights != ALL_SETS && !in_sets(lights, 0)) continue;
+            double T[1][3] = {{1.0, 1.0, 1.0}};
+            if (light->cast_shadow != 0 && ds->transmitter != NULL) {   /* (media make every render's shadows transparent) */
+                double origin[1][3], D[1][3], t;
+                LightPath shadow = {PATH_SHADOW, bounce, 0, 0, 0, 0};   /* (Ray Depth: one deeper, as a shadow ray's) */
+                shadow_ray(P, zero, P, 0.0, 0.0, ls.L, ls.distance, ls.position, 1, 0.0, origin[0], D[0], &t);
+                transmit_packet(ds->transmitter, 1, origin, D, &t, &shadow, &blockers, inside, T);
+                rays++;
+            }
+            double p = henyey_greenstein(-wo[0] * ls.L[0] + -wo[1] * ls.L[1] + -wo[2] * ls.L[2], g);
+            double w = ls.strength * (1.0 / (double)count);
+            if (flight != NULL && equiangular_lamp(light)) {
+                double s = flight->s;
+                w = w * (flight->pdf / (flight->pdf + equiangular(flight->O, flight->D, flight->t, light->position, -1.0,
+                                                                  &s)));
+            }
+            if (extent && light->use_mis != 0 && hittable && ds->mis && blockers == ALL_SETS)
+                w = w * power_heuristic((double)count * ls.pdf, p);   /* (shadow-linked: light samples alone) */
+            for (int c = 0; c < 3; c++) L[c] += (w * p) * ls.color[c] * T[0][c];
+        }
+    }
+    /* 2. One phase-sampled direction: the light its ray finds (its weight p / pdf is 1). */
+    if (only >= 0 || !(ds->bsdf_rays || ds->media->emits != 0)) return rays;
+    double u[2], wi[3];
+    sample_2d(stream_of((int64_t)ds->seed, PHASE_DIMENSION + dimension), pixel, sample, u);
+    double pdf = sample_henyey_greenstein(wo, g, u, wi);
+    RayHitPacket packet;
+    int valid[PACKET] ALIGNED(32);
+    set_lane(&packet.ray, 0, P, wi, INFINITY);
+    close_packet(&packet.ray, valid, 1);
+    clear_hits(&packet);
+    ds->intersect(valid, ds->scene, &packet, NULL);
+    int hit = packet.hit.geomID[0] != INVALID_ID;
+    double t = hit ? (double)packet.ray.tfar[0] : INFINITY, sigma_t[3], emission[3];
+    medium_along(ds->media, inside, sigma_t, emission);
+    if (!ds->gather) {
+        add_media_emission(sigma_t, emission, t, L);
+        return rays;
+    }
+    double light_L[3] = {0.0, 0.0, 0.0};
+    LightPath scatter = {PATH_VOLUME_SCATTER, bounce + 1, 0, 0, 0, 0};   /* (volume.scatter_paths) */
+    FindingRay finding = {P, wi, hit, t, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
+                          instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, 0, &scatter, 0, sigma_t, emission};
+    gather_light(ds, &finding, light_L, NULL);
+    for (int c = 0; c < 3; c++) L[c] += light_L[c];
+    if (!hit || ds->transmitter == NULL) return rays;
+    /* Straight on through the transparent surfaces it meets, to the light behind them. */
+    PathRay r;
+    r.h = 0;
+    r.t = t;
+    r.u = (double)packet.hit.u[0];
+    r.v = (double)packet.hit.v[0];
+    r.geometry = (int64_t)packet.hit.geomID[0];
+    r.prim = (int64_t)packet.hit.primID[0];
+    r.instance = instance_of(&packet.hit, 0);
+    r.pdf = pdf;
+    r.seen_as = 0;
+    r.kind = -1;
+    r.transmit = 0;
+    r.inside = *inside;
+    r.path = scatter;
+    r.receiver = 0;                                      /* (a medium receives as the default set: Light Linking) */
+    beer_lambert(sigma_t, t, r.attenuation);
+    for (int c = 0; c < 3; c++) { r.O[c] = P[c]; r.D[c] = wi[c]; r.weight[c] = 1.0; r.mis_O[c] = P[c]; r.mis_N[c] = 0.0; }
+    double behind[3] = {0.0, 0.0, 0.0};
+    through_transparent(&r, 0, limits, ds, r.weight, INFINITY, behind, NULL);
+    for (int c = 0; c < 3; c++) L[c] += behind[c];
+    return rays;
+}
+
+/* volume.in_scattering for one ray O, D (3) over [0, t) (inf: to the world) in the media `inside`, carrying
+ * `throughput` (3, not included): the light its media scatter towards O, into L (3, zeroed here). dimension: the
+ * vertex's shift of the sampling dimensions; bounce: the real bounces the path made (a light's Max Bounces).
+ * Returns the shadow rays traced. */
+static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits, const double *O, const double *D,
+                             double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
+                             int64_t sample, int64_t dimension, int bounce, double *L)
+{
+    const MediaTables *media = ds->media;
+    double sigma_t[3], emission[3], sigma_s[3], g;
+    L[0] = L[1] = L[2] = 0.0;
+    medium_along(media, inside, sigma_t, emission);
+    medium_scattering(media, inside, sigma_s, &g);
+    if (!(sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0)) return 0;
+    /* 1. Where the ray scatters (free flight), and its weight T(s) sigma_s / pdf(s). */
+    double u[2], odds[3];
+    sample_2d(stream_of((int64_t)ds->seed, DISTANCE_DIMENSION + dimension), pixel, sample, u);
+    channel_odds(sigma_t, sigma_s, throughput, odds);
+    int channel = (u[1] >= odds[0]) + (u[1] >= odds[0] + odds[1]) + (u[1] >= (odds[0] + odds[1]) + odds[2]);
+    channel = channel > 2 ? 2 : channel;
+    double sigma_c = sigma_t[channel] > 0.0 ? sigma_t[channel] : 1.0;
+    double s = -log1p(-u[0] * -expm1(-sigma_c * t)) / sigma_c;
+    double pdf = ((odds[0] + odds[1]) + odds[2]) > 0.0 ? distance_pdf(sigma_t, odds, t, s) : 0.0;
+    if (!(pdf > 0.0)) return 0;
+    double weight[3], kept[3], P[3], wo[3] = {-D[0], -D[1], -D[2]};
+    beer_lambert(sigma_t, s, kept);
+    for (int c = 0; c < 3; c++) { weight[c] = kept[c] * sigma_s[c] / pdf; P[c] = O[c] + s * D[c]; }
+    /* 2. The light scattered there, each lamp's samples weighed against its equi-angular points (3.). */
+    FreeFlight flight = {O, D, t, s, pdf};
+    double scattered[3];
+    int64_t rays = scattered_light(ds, limits, P, wo, g, inside, pixel, sample, dimension, bounce, &flight, -1,
+                                   scattered);
+    for (int c = 0; c < 3; c++) L[c] = weight[c] * scattered[c];
+    /* 3. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
+    for (int64_t l = 0; l < ds->n_lights; l++) {
+        const LightRecord *light = ds->lights + l;
+        if (!equiangular_lamp(light)) continue;
+        double v[2], s_e = 0.0;
+        sample_2d(stream_of((int64_t)ds->seed, EQUIANGULAR_DIMENSION + l + dimension), pixel, sample, v);
+        double pdf_e = equiangular(O, D, t, light->position, v[0], &s_e);
+        if (!(pdf_e > 0.0)) continue;
+        double w = pdf_e / (pdf_e + distance_pdf(sigma_t, odds, t, s_e)), X[3], lit[3];
+        beer_lambert(sigma_t, s_e, kept);
+        for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
+        rays += scattered_light(ds, limits, X, wo, g, inside, pixel, sample, dimension, bounce, NULL, l, lit);
+        for (int c = 0; c < 3; c++) L[c] += kept[c] * sigma_s[c] * (w / pdf_e) * lit[c];
+    }
+    return rays;
+}
+
+/* path.py's scattering on a vertex block's BSDF rays (rays of H): each ray the path may still bounce on (within its
+ * bounce limits, past Russian roulette, hit or not) adds its media's single scattering, seen through the path's
+ * throughput x the ray's weight / q, to its camera lane's light in work->extra. Returns the shadow rays traced. */
+static int64_t bounce_scattering(const BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
+                                 const DirectSettings *ds, PathWork *work)
+{
+    uint32_t roulette = stream_of((int64_t)ds->seed, ROULETTE_DIMENSION + (int64_t)(vertex + 1) * VERTEX_DIMENSIONS);
+    int64_t shadow_rays = 0;
+    for (int64_t i = 0; i < rays->n; i++) {
+        const PathRay *r = rays->r + i;
+        int64_t h = r->h;
+        /* a. The bounce limits, as next_vertices counts them. */
+        int see_through = is_transparent_bounce(r->kind);
+        int boundary = see_through && is_boundary(ds->media, H->s[h].material);
+        int clear = r->path.transparent - boundary, bounces = r->path.bounce;
+        if (clear > limits->transparent_bounces || bounces > limits->max_bounces
+            || r->path.diffuse > limits->diffuse_bounces || r->path.glossy > limits->glossy_bounces
+            || r->path.transmission > limits->transmission_bounces)
+            continue;
+        /* b. Russian roulette, from the throughput before the media. */
+        double carried[3], q = 1.0;
+        for (int c = 0; c < 3; c++) carried[c] = H->throughput[3 * h + c] * r->weight[c];
+        if (bounces >= limits->roulette_from && !see_through) {
+            double largest = at_least(fabs(carried[0]), at_least(fabs(carried[1]), fabs(carried[2]))), u[2];
+            q = at_most(sqrt(largest), 1.0);
+            sample_2d(roulette, H->pixel[h], H->sample[h], u);
+            if (!(u[0] < q)) continue;
+        }
+        for (int c = 0; c < 3; c++) carried[c] = carried[c] / q;
+        /* c. The light its media scatter towards it. */
+        double L[3];
+        shadow_rays += in_scattering(ds, limits, r->O, r->D, r->hit ? r->t : INFINITY, &r->inside, carried,
+                                     H->pixel[h], H->sample[h], (int64_t)(vertex + 1) * VERTEX_DIMENSIONS, bounces, L);
+        for (int c = 0; c < 3; c++) work->extra[H->lane[h]][c] += carried[c] * L[c];
+    }
+    return shadow_rays;
+}

@@ -1,0 +1,107 @@
+/* Homogeneous media: core/volumes/media.py's Media table, a ray's volume stack, Beer-Lambert and media emission.
+ *
+ * A ray's volume stack is a count per volume material (MAX_MEDIA of them, int16, as Media.crossed keeps them): one
+ * more where it went through a front face of that material's mesh, one less through a back face. What a stretch of
+ * the ray crosses is the world's medium plus each stacked medium as many times as the ray is in it. */
+
+/* A ray's volume stack (Media.crossed's row): a count per column of the MediaTables. */
+typedef struct { int16_t count[MAX_MEDIA]; } VolumeStack;
+
+/* Media.start: the stack of a ray in no mesh's medium. */
+INLINE void stack_empty(VolumeStack *stack)
+{
+    for (int v = 0; v < MAX_MEDIA; v++) stack->count[v] = 0;
+}
+
+/* Media.along for one stack: the extinction sigma_t (3) and emission (3) of what the ray crosses, the world's plus
+ * each medium's as many times as it is in it (the counts' weighted sum first, then the world's, as Python adds). */
+INLINE void medium_along(const MediaTables *media, const VolumeStack *stack, double *sigma_t, double *emission)
+{
+    double sigma[3] = {0.0, 0.0, 0.0}, e[3] = {0.0, 0.0, 0.0};
+    for (int64_t v = 0; v < (int64_t)media->count; v++) {
+        double n = (double)stack->count[v];
+        for (int c = 0; c < 3; c++) {
+            sigma[c] += n * media->sigma_t[3 * v + c];
+            e[c] += n * media->emission[3 * v + c];
+        }
+    }
+    for (int c = 0; c < 3; c++) {
+        sigma_t[c] = media->world_sigma_t[c] + sigma[c];
+        emission[c] = media->world_emission[c] + e[c];
+    }
+}
+
+/* volumes.transmittance (Beer-Lambert) over distance t (inf: a ray that escapes) through extinction sigma_t (3):
+ * T (3) = exp(-sigma_t t), 1 where sigma_t is 0 whatever the distance. */
+INLINE void beer_lambert(const double *sigma_t, double t, double *T)
+{
+    for (int c = 0; c < 3; c++) T[c] = sigma_t[c] > 0.0 ? exp(-sigma_t[c] * t) : 1.0;
+}
+
+/* volumes.emitted: the light (3) a medium of extinction sigma_t (3) and emission e (3) sends along a ray over
+ * distance t (inf: to the world), as it arrives at the ray's start: e (1 - exp(-sigma_t t)) / sigma_t, e t where
+ * nothing is in the way, 0 where nothing is emitted; added to out. */
+INLINE void add_media_emission(const double *sigma_t, const double *e, double t, double *out)
+{
+    for (int c = 0; c < 3; c++) {
+        if (e[c] == 0.0) continue;
+        out[c] += sigma_t[c] > 0.0 ? e[c] * -expm1(-sigma_t[c] * t) / sigma_t[c] : e[c] * t;
+    }
+}
+
+/* Media.crossed for one ray that goes through (crossing) a surface of material row `material`: into its medium
+ * through a front face, out of it through a back face (never below 0); no change for a material with no medium. */
+INLINE void stack_cross(const MediaTables *media, VolumeStack *stack, int64_t material, int backfacing, int crossing)
+{
+    int32_t v = media->column[material];
+    if (!crossing || v < 0) return;
+    int next = (int)stack->count[v] + (backfacing ? -1 : 1);
+    stack->count[v] = (int16_t)(next < 0 ? 0 : next);
+}
+
+/* Whether material row `material` is a volume-only boundary (rays pass it without counting a transparent bounce). */
+INLINE int is_boundary(const MediaTables *media, int64_t material)
+{
+    return media != NULL && media->boundary[material] != 0;
+}
+
+/* rays.camera_media for one camera ray from O along D: the stack it starts in. Walking along the ray to its end
+ * (past every surface, CAMERA_MEDIA_HITS at most), a back face of a volume material whose front face the walk has
+ * not met first is a medium the ray started in (Cycles' integrator_intersect_volume_stack). A ray from outside the
+ * box of the media's triangles starts in none. */
+static void camera_media(const MediaTables *media, const GeometryTables *geometry, Intersect8 intersect, void *scene,
+                         const double *O, const double *D, VolumeStack *stack)
+{
+    stack_empty(stack);
+    if (media->count == 0) return;
+    for (int c = 0; c < 3; c++)
+        if (!(O[c] >= media->low[c] && O[c] <= media->high[c])) return;
+    VolumeStack entered;
+    stack_empty(&entered);
+    double P[3] = {O[0], O[1], O[2]};
+    for (int step = 0; step < CAMERA_MEDIA_HITS; step++) {
+        /* a. The next surface along the ray. */
+        RayHitPacket packet;
+        int valid[PACKET] ALIGNED(32);
+        set_lane(&packet.ray, 0, P, D, INFINITY);
+        close_packet(&packet.ray, valid, 1);
+        clear_hits(&packet);
+        intersect(valid, scene, &packet, NULL);
+        if (packet.hit.geomID[0] == INVALID_ID) return;
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+        hit_triangle(geometry, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
+                     instance_of(&packet.hit, 0), 0, &tri);
+        Surface s;
+        surface_at(P, D, (double)packet.ray.tfar[0], (double)packet.hit.u[0], (double)packet.hit.v[0], &tri, 0, &s);
+        /* b. A front face entered; a back face left if entered on the way, else a medium the ray started in. */
+        int32_t v = media->column[s.material];
+        if (v >= 0) {
+            if (!s.backfacing) entered.count[v]++;
+            else if (entered.count[v] > 0) entered.count[v]--;
+            else stack->count[v]++;
+        }
+        /* c. On from just past it (shadows.spawn_ray: off the surface along Ng, on the side D goes to). */
+        double side = dot3(s.Ng, D) < 0.0 ? -1.0 : 1.0;
+        for (int c = 0; c < 3; c++) P[c] = s.I[c] + (s.offset * side) * s.Ng[c];
+    }
+}

@@ -1,0 +1,203 @@
+"""The compiled kernel's media (core/volumes/media.c) held to the Python reference: the same scenes, seeds and samples
+render to the same pixels (a few float32 ulps, as tests/test_compiled.py holds the twins) with both integrators:
+absorbing and emitting media behind volume-only boundaries and inside Glass and Transparent surfaces, overlapping
+media, a camera inside a medium, shadow rays and bounces through media, the world's medium, single scattering (free
+flight, equi-angular points, light samples and phase rays) with every light-sampling mode; and where a render goes
+(the reference where the compiled volume stack is too small, with one warning)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core.camera import Camera
+from core.geometry import primitives
+from core.lights import AreaLight, PointLight, SunLight, World
+from core.materials import Material
+from core.render import render
+from core.scene import RenderSettings, Scene
+
+COLOR = np.array([0.2, 0.5, 0.8])
+
+
+def fog(name: str = "Fog", closure: str = "ABSORPTION", surface=None, **inputs) -> Material:
+    """A material with a Volume of one closure and either no Surface (a volume-only boundary) or `surface` nodes."""
+    volume = [(closure, 1.0, inputs)]
+    if surface is None:
+        return Material(np.zeros(3), name, nodes=[("TRANSPARENT", np.ones(3), {})], volume=volume, volume_only=True)
+    return Material(np.zeros(3), name, nodes=surface, volume=volume)
+
+
+def room(camera: Camera) -> Scene:
+    """A grey floor (material 0) and a red wall (material 1), an area lamp above and a point lamp to the side."""
+    scene = Scene(camera=camera)
+    scene.materials.append(Material(np.full(3, 0.7), "Floor"))
+    scene.materials.append(Material(np.array([0.8, 0.2, 0.1]), "Wall"))
+    scene.add_mesh(primitives.plane(12.0), materials=np.array([0]))
+    scene.add_mesh(primitives.box((0.2, 8.0, 4.0), center=(-2.5, 0.0, 2.0)), materials=np.array([1]))
+    scene.lights.append(AreaLight(center=np.array([0.5, 0.0, 3.5]), axis_u=np.array([1.0, 0.0, 0.0]),
+                                  axis_v=np.array([0.0, 1.0, 0.0]), direction=np.array([0.0, 0.0, -1.0]),
+                                  power=400.0))
+    scene.lights.append(PointLight(position=np.array([2.0, -2.0, 2.0]), power=300.0))
+    return scene
+
+
+def looking() -> Camera:
+    """A perspective camera looking down at the room's middle."""
+    return Camera.look_at((4.0, -5.0, 3.0), (0.0, 0.0, 0.8))
+
+
+def absorbing_box(scene: Scene) -> None:
+    """A volume-only absorbing box standing on the floor."""
+    scene.materials.append(fog("Box", color=COLOR, density=1.2))
+    scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)), materials=np.array([len(scene.materials) - 1]))
+
+
+def glass_ball(scene: Scene) -> None:
+    """A smooth Glass sphere holding an absorbing medium."""
+    scene.materials.append(fog("Ball", surface=[("GLASS", np.ones(3), {"ior": 1.45})], color=np.array([0.9, 0.4, 0.2]),
+                               density=2.0))
+    scene.add_mesh(primitives.uv_sphere(0.7, 24, 12, center=(1.0, 1.0, 0.7)),
+                   materials=np.array([len(scene.materials) - 1]))
+
+
+def emitting_shell(scene: Scene) -> None:
+    """A Transparent shell (0.8) around a medium that absorbs and emits (Volume Coefficients), overlapping the box."""
+    scene.materials.append(fog("Glow", closure="COEFFICIENTS", surface=[("TRANSPARENT", np.full(3, 0.8), {})],
+                               absorption=np.array([0.6, 0.3, 0.9]), scatter=np.zeros(3),
+                               emission=np.array([0.4, 0.2, 0.8])))
+    scene.add_mesh(primitives.box((1.0, 3.0, 1.0), center=(0.5, 0.0, 1.2)), materials=np.array([len(scene.materials) - 1]))
+
+
+def both(scene: Scene, **settings) -> tuple:
+    """The scene rendered by the Python reference and the compiled kernel: (numpy RGBA, compiled RGBA, compiled
+    RenderResult's stats)."""
+    settings = {"width": 12, "height": 9, "samples": 3, "integrator": "path", "max_bounces": 4, **settings}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    return reference.image, compiled.image, compiled.stats
+
+
+def assert_same_pixels(reference: np.ndarray, compiled: np.ndarray) -> None:
+    """Every pixel within 4e-7 absolute and 1e-6 relative (a few float32 ulps), and something to see."""
+    assert reference[..., :3].max() > 0.01
+    np.testing.assert_allclose(compiled, reference, rtol=1e-6, atol=4e-7)
+
+
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_both_kernels_render_absorbing_and_emitting_media_in_a_lit_room_to_the_same_pixels(integrator):
+    """An absorbing box (a volume-only boundary), a Glass ball holding a medium, and a Transparent shell around an
+    emitting medium overlapping the box, under an area and a point lamp: camera rays, light samples' shadow rays,
+    BSDF rays and bounces all cross media, enter and leave them."""
+    scene = room(looking())
+    absorbing_box(scene)
+    glass_ball(scene)
+    emitting_shell(scene)
+    reference, compiled, stats = both(scene, integrator=integrator)
+    assert stats.kernels == "compiled"
+    assert_same_pixels(reference, compiled)
+
+
+def test_both_kernels_see_from_a_camera_inside_a_medium_to_the_same_pixels():
+    """A perspective camera inside an absorbing volume-only box that holds the whole room: its rays start in the
+    medium (the walk along the first ray), and every ray of every path stays in it."""
+    scene = room(Camera.look_at((2.0, -3.0, 2.0), (0.0, 0.0, 0.8)))
+    scene.materials.append(fog("Air", color=np.array([0.9, 0.8, 0.7]), density=0.3))
+    scene.add_mesh(primitives.box((10.0, 10.0, 6.0), center=(0.0, 0.0, 2.5)), materials=np.array([2]))
+    glass_ball(scene)
+    reference, compiled, stats = both(scene)
+    assert stats.kernels == "compiled"
+    assert_same_pixels(reference, compiled)
+
+
+def test_both_kernels_render_a_world_medium_that_absorbs_and_emits_to_the_same_pixels():
+    """The world's medium absorbing and emitting everywhere, with a world colour that no escaping ray reaches, and a
+    sun whose light it blocks: the lamps' light and the medium's glow through it."""
+    scene = room(looking())
+    absorbing_box(scene)
+    scene.lights.append(SunLight(direction=np.array([0.3, 0.2, -1.0]) / math.sqrt(1.13), strength=2.0))
+    scene.world = World(color=np.array([0.3, 0.4, 0.5]),
+                        volume=[("COEFFICIENTS", 1.0, {"absorption": np.array([0.05, 0.08, 0.1]),
+                                                       "emission": np.array([0.01, 0.02, 0.01])})])
+    reference, compiled, stats = both(scene)
+    assert stats.kernels == "compiled"
+    assert_same_pixels(reference, compiled)
+
+
+def smoke(scene: Scene, closure: str = "SCATTER", **inputs) -> None:
+    """A volume-only box of a scattering medium standing on the floor beside the absorbing one's place."""
+    inputs = {"color": np.array([0.5, 0.6, 0.7]), "density": 0.8, "anisotropy": 0.3, **inputs}
+    scene.materials.append(fog("Smoke", closure=closure, **inputs))
+    scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)), materials=np.array([len(scene.materials) - 1]))
+
+
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_both_kernels_scatter_light_in_a_smoke_box_to_the_same_pixels(integrator):
+    """A Volume Scatter box (g 0.3) under an area and a point lamp: free-flight and equi-angular points on camera and
+    bounce rays, light samples through the media weighed against phase-sampled rays, the balance heuristic between
+    the two distances; the same shadow rays traced."""
+    scene = room(looking())
+    smoke(scene)
+    settings = {"width": 12, "height": 9, "samples": 3, "integrator": integrator, "max_bounces": 4}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    assert_same_pixels(reference.image, compiled.image)
+
+
+@pytest.mark.parametrize("light_sampling", ["mis", "light", "bsdf"])
+def test_both_kernels_render_a_world_fog_under_lamps_and_a_sun_to_the_same_pixels(light_sampling):
+    """A world fog (scattering and absorbing everywhere) under an area lamp, a point lamp and a sun it blocks, with a
+    back-scattering Principled Volume box and a Glass ball holding an absorbing medium: media inside media."""
+    scene = room(looking())
+    smoke(scene, "PRINCIPLED_VOLUME", anisotropy=-0.2, absorption_color=np.array([0.2, 0.3, 0.1]))
+    glass_ball(scene)
+    scene.lights.append(SunLight(direction=np.array([0.3, 0.2, -1.0]) / math.sqrt(1.13), strength=2.0))
+    scene.world = World(color=np.array([0.3, 0.4, 0.5]),
+                        volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8), "density": 0.05, "anisotropy": 0.5})])
+    reference, compiled, stats = both(scene, light_sampling=light_sampling, light_samples=2)
+    assert stats.kernels == "compiled"
+    assert_same_pixels(reference, compiled)
+
+
+@pytest.mark.parametrize("medium", ["absorbing", "scattering"])
+def test_both_kernels_write_the_passes_light_groups_and_features_of_media_scenes_alike(medium):
+    """With media, the light passes, the colour and first-hit passes, the denoising features and the light groups
+    come out of both kernels alike (the media's own light in Combined alone, in both, with the same warning)."""
+    from core.integrators.lightpasses import LIGHT_PASSES
+    scene = room(looking())
+    glass_ball(scene)
+    absorbing_box(scene) if medium == "absorbing" else smoke(scene)
+    scene.lightgroups = {"lights": ["Area", "Point"], "instances": [""] * len(scene.instances), "world": ""}
+    settings = {"width": 12, "height": 9, "samples": 3, "integrator": "path", "max_bounces": 4,
+                "light_groups": ("Area", "Point"), "denoising_features": True,
+                "passes": tuple(LIGHT_PASSES) + ("diffuse_color", "glossy_color", "transmission_color", "z_depth",
+                                                 "average_normal", "emission", "environment", "ambient_occlusion")}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert compiled.stats.warnings == reference.stats.warnings
+    assert_same_pixels(reference.image, compiled.image)
+    assert len(reference.aux) >= 18
+    for name, buffer in reference.aux.items():
+        np.testing.assert_allclose(compiled.aux[name], buffer, rtol=1e-6, atol=4e-7, err_msg=name)
+
+
+def test_more_media_than_the_compiled_stack_holds_render_through_the_reference_and_say_so_once():
+    """MAX_MEDIA volume materials fit the compiled kernel's volume stack; one more takes the Python reference, with
+    one warning."""
+    from core.volumes import MAX_MEDIA
+    scene = room(looking())
+    settings = RenderSettings(width=4, height=4, samples=1, integrator="path")
+    for index in range(int(MAX_MEDIA) + 1):
+        if index == int(MAX_MEDIA):
+            result = render(scene, settings)
+            assert result.stats.kernels == "compiled" and not result.stats.warnings
+        scene.materials.append(fog(f"Fog {index}", color=COLOR, density=0.1))
+        scene.add_mesh(primitives.box((0.2, 0.2, 0.2), center=(0.3 * index - 2.0, 2.0, 0.1)),
+                       materials=np.array([len(scene.materials) - 1]))
+    result = render(scene, settings)
+    assert "volume stack" in result.stats.kernels
+    assert len([w for w in result.stats.warnings if "volumes" in w]) == 1
