@@ -126,5 +126,10 @@ def test_beckmann_and_ashikhmin_shirley_match_cycles_within_its_noise(primer, tm
             # The known gap (docs/blender.md): lit at grazing from behind, 1.8 % darker than Cycles at 4,096 samples.
             assert sphere_error < 1e-3 and ratio == pytest.approx(0.982, abs=0.01), (name, sphere_error, ratio)
             continue
-        assert sphere_error < max(4.0 * noise[name][0], 1e-4), name
-        assert ratio == pytest.approx(1.0, abs=max(0.03, 3.0 * abs(noise[name][1] - 1.0))), name
+        if bpy.app.version >= (5, 1, 0) and name in ("Beckmann glass 0.2", "Beckmann refraction 0.2"):
+            # Blender 5.2's Cycles draws these otherwise than 5.0's, which Primer follows: the same mean, block relMSE
+            # 1.3e-4 and 5.2e-4 at 256 / 512 samples (Cycles' own noise 1.6e-5, 3.3e-5; docs/blender.md).
+            assert sphere_error < 1e-3, name
+        else:
+            assert sphere_error < max(4.0 * noise[name][0], 1e-4), name
+        assert ratio == pytest.approx(1.0, abs=max(0.03, 3.0 * abs(float(noise[name][1]) - 1.0))), name
