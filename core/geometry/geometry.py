@@ -478,7 +478,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_random=np.array([graph_.object_random(i.name) if i.random is None else float(i.random)
                                   for i in scene.instances], np.float64),
         instance_linear=all_matrices[:, :3, :3].copy(),
-        instance_info=instance_info(scene.instances),
+        instance_info=instance_info(scene.instances, all_matrices),
         instance_hidden=hidden_flags(scene.instances),
         instance_links=link_table(scene.instances),
     )
@@ -489,14 +489,15 @@ def build_geometry(scene: Scene, origin: np.ndarray,
 OBJECT_INFO_WIDTH = 8
 
 
-def instance_info(instances: list) -> np.ndarray:
-    """Each instance's Object Info (n, OBJECT_INFO_WIDTH) float64: Location (its matrix's translation, world
-    space), Color and Alpha (Object > Viewport Display > Color), Object Index (its pass index)."""
+def instance_info(instances: list, matrices: np.ndarray) -> np.ndarray:
+    """Each instance's Object Info (n, OBJECT_INFO_WIDTH) float64: Location (the translation of its matrix in
+    `matrices` (n, 4, 4), world space), Color and Alpha (Object > Viewport Display > Color), Object Index (its pass
+    index); filled column by column (10^5 instances cost one array each, not one per instance)."""
     info = np.zeros((len(instances), OBJECT_INFO_WIDTH))
-    for row, instance in enumerate(instances):
-        info[row, 0:3] = instance.matrix[:3, 3]
-        info[row, 3:7] = np.asarray(instance.color, np.float64)[:4]
-        info[row, 7] = float(instance.pass_index)
+    if len(instances):
+        info[:, 0:3] = matrices[:, :3, 3]
+        info[:, 3:7] = np.array([instance.color for instance in instances], np.float64).reshape(-1, 4)
+        info[:, 7] = [instance.pass_index for instance in instances]
     return info
 
 
