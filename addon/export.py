@@ -94,6 +94,16 @@ CURVE_RADIUS = 0.005
 CURVE_TESSELLATION, CURVE_TESSELLATION_COARSE, CURVE_TRIANGLES = (12, 8), (6, 3), 4_000_000
 
 
+def tube_resolution(spans: int, fine: tuple, coarse: tuple, what: str, unit: str, warnings: list) -> tuple:
+    """The (sides, rings per `unit`) of tubes over `spans` spans: `fine`, or `coarse` with a warning about `what`
+    where fine ones would pass CURVE_TRIANGLES triangles."""
+    if 2 * fine[0] * fine[1] * spans <= CURVE_TRIANGLES:
+        return fine
+    warnings.append(f"{what} are made tubes of {coarse[0]} sides and {coarse[1]} rings per {unit}, coarser than "
+                    f"Primer's usual {fine[0]} and {fine[1]}")
+    return coarse
+
+
 def curves_mesh(curves, scene, warnings: list) -> core_scene.Mesh:
     """A hair Curves datablock as a core Mesh of tubes around its Catmull-Rom splines (core/geometry/curves.py), read
     in bulk: its points' positions and radius attribute (Cycles' 0.005 without one), its curves' offsets and material
@@ -118,13 +128,10 @@ def curves_mesh(curves, scene, warnings: list) -> core_scene.Mesh:
         warnings.append(f"curves '{curves.name}' have Bezier, NURBS or poly curves: Primer renders each as Cycles "
                         "renders Catmull-Rom curves, through its control points")
     shape = curve_shape(scene, f"curves '{curves.name}'", warnings)
-    sides, steps = CURVE_TESSELLATION
     linear = shape == "THICK_LINEAR"                    # (straight tubes between the points: one ring per point)
-    spans = int(np.maximum(counts - 1, 0).sum())
-    if 2 * sides * steps * spans > CURVE_TRIANGLES:
-        sides, steps = CURVE_TESSELLATION_COARSE
-        warnings.append(f"curves '{curves.name}': {count} curves are made tubes of {sides} sides and {steps} rings per "
-                        "span, coarser than Primer's usual 12 and 8")
+    sides, steps = tube_resolution(int(np.maximum(counts - 1, 0).sum()), CURVE_TESSELLATION,
+                                   CURVE_TESSELLATION_COARSE, f"curves '{curves.name}': {count} curves", "span",
+                                   warnings)
     tubes = curves_.tubes(positions.reshape(-1, 3), radius, first, counts, sides, 1 if linear else steps,
                           name=curves.name, linear=linear)
     tubes.mesh.material_indices = material[tubes.curve].astype(np.int64)
@@ -226,12 +233,9 @@ def particle_hair_mesh(obj, system, render: bool, matrix: np.ndarray, warnings: 
         radius[np.arange(len(keys)), last] = 0.0
     counts = kept.sum(axis=1)
     first = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    sides, rings = HAIR_TESSELLATION                # (the keys are the path cache's, already close together)
-    if 2 * sides * rings * int((counts - 1).sum()) > CURVE_TRIANGLES:
-        sides, rings = HAIR_TESSELLATION_COARSE
-        warnings.append(f"object '{obj.name}': the {len(strands)} strands of particle system '{system.name}' are "
-                        f"made tubes of {sides} sides and {rings} ring per key, coarser than Primer's usual "
-                        f"{HAIR_TESSELLATION[0]} and {HAIR_TESSELLATION[1]}")
+    sides, rings = tube_resolution(int((counts - 1).sum()), HAIR_TESSELLATION, HAIR_TESSELLATION_COARSE,
+                                   f"object '{obj.name}': the {len(strands)} strands of particle system "
+                                   f"'{system.name}'", "key", warnings)   # (keys: the path cache's, close together)
     tubes = curves_.tubes(keys[kept], radius[kept], first, counts, sides, rings, name=f"{obj.name} {system.name}",
                           linear=shape == "THICK_LINEAR")
     slot = max(int(settings.material) - 1, 0)
