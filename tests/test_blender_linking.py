@@ -100,20 +100,27 @@ def test_the_sets_are_blenders(primer):
     assert [blocks(lamp_b, o) for o in (floor, cube, sphere)] == [True, False, True]
 
 
-def test_a_scene_with_light_and_shadow_links_renders_as_in_cycles(primer, tmp_path):
-    """The linked scene: Primer 256 samples against Cycles 1024, block relMSE within three times Cycles 256's own
-    against its 1024, and the mean within 1%; the same scene unlinked is far from it (the test can tell)."""
-    scene = linked_scene()
-    compare = importlib.import_module(primer.__name__ + ".core.film.compare")
+def assert_renders_as_cycles(scene, tmp_path, compare, label: str) -> tuple:
+    """Primer at 256 samples against Cycles at 1024: block relMSE within three times Cycles 256's own against its
+    1024, and the mean within 1%; returns (Cycles' 1024-sample pixels, its own 256-vs-1024 error)."""
     p = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
     c = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
     c_low = render_pixels(scene, "CYCLES", str(tmp_path / "cycles_low.exr"), 256)[..., :3]
     error = compare.relative_mse_of_blocks(p, c)
     own = compare.relative_mse_of_blocks(c_low, c)
-    print(f"linking: Primer 256 vs Cycles 1024 {error:.3g}; Cycles 256 vs 1024 {own:.3g}; means {p.mean():.5f} "
+    print(f"{label}: Primer 256 vs Cycles 1024 {error:.3g}; Cycles 256 vs 1024 {own:.3g}; means {p.mean():.5f} "
           f"{c.mean():.5f}")
     assert error < 3.0 * own + 1e-6
     assert abs(p.mean() / c.mean() - 1.0) < 0.01
+    return c, own
+
+
+def test_a_scene_with_light_and_shadow_links_renders_as_in_cycles(primer, tmp_path):
+    """The linked scene: Primer 256 samples against Cycles 1024, block relMSE within three times Cycles 256's own
+    against its 1024, and the mean within 1%; the same scene unlinked is far from it (the test can tell)."""
+    scene = linked_scene()
+    compare = importlib.import_module(primer.__name__ + ".core.film.compare")
+    c, own = assert_renders_as_cycles(scene, tmp_path, compare, "linking")
     for obj in bpy.data.objects:
         if obj.light_linking is not None:
             obj.light_linking.receiver_collection = obj.light_linking.blocker_collection = None
@@ -138,12 +145,4 @@ def test_path_traced_links_with_an_area_lamp_and_a_glossy_floor_render_as_in_cyc
     tree.links.new(principled.outputs[0], output.inputs["Surface"])
     bpy.data.objects["Floor"].data.materials[0] = m
     compare = importlib.import_module(primer.__name__ + ".core.film.compare")
-    p = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
-    c = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
-    c_low = render_pixels(scene, "CYCLES", str(tmp_path / "cycles_low.exr"), 256)[..., :3]
-    error = compare.relative_mse_of_blocks(p, c)
-    own = compare.relative_mse_of_blocks(c_low, c)
-    print(f"linking, path traced: Primer 256 vs Cycles 1024 {error:.3g}; Cycles 256 vs 1024 {own:.3g}; means "
-          f"{p.mean():.5f} {c.mean():.5f}")
-    assert error < 3.0 * own + 1e-6
-    assert abs(p.mean() / c.mean() - 1.0) < 0.01
+    assert_renders_as_cycles(scene, tmp_path, compare, "linking, path traced")
