@@ -12,8 +12,9 @@ Light Bounces, clamping and caustics (FOLLOWED: Primer's name -> Cycles'), and t
              sets scene.primer.samples). The environment variable PRIMER_SETTINGS_SOURCE (CYCLES or PRIMER) decides
              for Automatic instead, for scripts and test suites that configure scene.primer piecemeal.
 
-Following Cycles also turns Primer's Shadow Terminator Fix on with the Geometry Offset most smooth objects have
-(export._cycles_terminator: Cycles lifts the shadow rays of smooth meshes by each object's offset, 0.1 by default).
+Following Cycles also turns Primer's Shadow Terminator Fix on where some object has a Shadow Terminator offset
+(export._cycles_terminator: Cycles lifts the shadow rays of smooth meshes by each object's Geometry Offset, 0.1 by
+default, and bends shading by its Shading Offset; with the fix on Primer does the same, object by object).
 The rest of Primer's settings (Light Samples, Viewport Samples, Denoise, shadow offsets, the other lecture
 switches, threads, kernels) are Primer's own in every case; the pixel filter is always Cycles' (export.pixel_filter). What
 Cycles would do with a followed scene that Primer does not (Cycles' Denoise) is said by unmodelled.render_notes.

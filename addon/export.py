@@ -499,6 +499,20 @@ def ray_visibility(obj) -> dict:
     return dict(seen, is_holdout=bool(getattr(obj, "is_holdout", False)))
 
 
+def terminator_keywords(obj) -> dict:
+    """An object's Object > Shading > Shadow Terminator offsets, as core Instance keywords (terminator_offset,
+    terminator_shading): Cycles lifts the shadow rays of each object's smooth triangles, and bends its closures'
+    light, by the object's own."""
+    geometry, shading = _terminator_offsets(obj)
+    return {"terminator_offset": geometry, "terminator_shading": shading}
+
+
+def instance_keywords(obj) -> dict:
+    """What a core Instance reads of an object besides its mesh and materials: Ray Visibility, Holdout and the shadow
+    terminator offsets (ray_visibility, terminator_keywords)."""
+    return {**ray_visibility(obj), **terminator_keywords(obj)}
+
+
 def indirect_only(instance, view_layer) -> bool:
     """Whether a depsgraph object instance lies in an Indirect Only collection of `view_layer` (an instance: its
     instancer does), which Cycles renders hidden from camera rays only; Blender keeps the flag on the original
@@ -1055,44 +1069,30 @@ def _terminator_offsets(obj) -> tuple:
     return 0.1, 0.0
 
 
-def _cycles_terminator(offsets: dict) -> tuple:
-    """Cycles' shadow terminator as Primer's one setting, (terminator_fix, terminator_offset): the Geometry Offset most
-    smooth objects have (Cycles lifts each object's shadow rays by its own; `_terminator_notes` names the others),
-    off where that is 0. offsets: object name -> (geometry, shading) offsets of objects with smooth triangles."""
-    values = [round(geometry, 6) for geometry, _ in offsets.values()]
-    if not values:
-        return False, 0.1
-    cutoff = max(sorted(set(values)), key=values.count)
-    return cutoff > 0.0, cutoff if cutoff > 0.0 else 0.1
+def _cycles_terminator(offsets: dict) -> bool:
+    """Cycles' shadow terminator as Primer's switch: on where some smooth object has a Geometry Offset or some object a
+    Shading Offset (each object then takes its own, core Instance.terminator_offset and terminator_shading), off where
+    none has (the lecture's raw shadow rays are then Cycles'). offsets: object name -> (geometry, shading, smooth)."""
+    return any((geometry > 0.0 and smooth) or shading > 0.0 for geometry, shading, smooth in offsets.values())
 
 
-def _terminator_notes(offsets: dict, fix: bool, cutoff: float, follows: bool = False) -> list:
-    """Return warnings where Cycles' terminator offsets of smooth objects differ from Primer's setting (`follows`:
-    the setting was taken from the objects themselves, as a file made for Cycles renders).
+def _terminator_notes(offsets: dict, fix: bool) -> list:
+    """Return warnings where Cycles' shadow terminator changes objects that Primer, with its Shadow Terminator Fix off,
+    leaves raw (with the fix on every object takes its own offsets, as in Cycles).
 
-    offsets: object name -> (geometry, shading) offsets of objects with smooth triangles.
+    offsets: object name -> (geometry, shading, smooth) of each mesh object.
     """
-    notes = []
     if fix:
-        differ = sorted(name for name, (geometry, _) in offsets.items() if abs(geometry - cutoff) > 1e-6)
-        wanted = f"{cutoff:g}, as Primer's Shadow Terminator Fix uses"
-    else:
-        differ = sorted(name for name, (geometry, _) in offsets.items() if geometry > 0.0)
-        wanted = "0, as Primer's Shadow Terminator Fix is off"
-    if differ:
-        shown = ", ".join(f"'{name}'" for name in differ[:3]) + (" and others" if len(differ) > 3 else "")
-        if follows:
-            notes.append(f"Cycles lifts shadow rays on smooth {shown} by their own Shadow Terminator Geometry Offset; "
-                         f"Primer lifts every smooth object by one, {cutoff:g} (the one most have)" if fix else
-                         f"Cycles lifts shadow rays on smooth {shown} by a Shadow Terminator Geometry Offset; "
-                         "Primer lifts none (most smooth objects have 0)")
-        else:
-            notes.append(f"Cycles lifts shadow rays on smooth {shown} by a different Shadow Terminator Geometry "
-                         f"Offset; set it to {wanted}, to compare like with like")
-    shading = sorted(name for name, (_, offset) in offsets.items() if offset > 0.0)
-    if shading:
-        notes.append(f"Primer ignores Cycles' Shadow Terminator Shading Offset of '{shading[0]}'"
-                     + (" and others" if len(shading) > 1 else ""))
+        return []
+    notes = []
+    lifted = sorted(name for name, (geometry, _, smooth) in offsets.items() if geometry > 0.0 and smooth)
+    bent = sorted(name for name, (_, shading, _) in offsets.items() if shading > 0.0)
+    for names, what in ((lifted, "lifts shadow rays on smooth {} by a Shadow Terminator Geometry Offset"),
+                        (bent, "bends the shading of {} by a Shadow Terminator Shading Offset")):
+        if names:
+            shown = ", ".join(f"'{name}'" for name in names[:3]) + (" and others" if len(names) > 3 else "")
+            notes.append(f"Cycles {what.format(shown)}; Primer's Shadow Terminator Fix is off (the lecture's raw "
+                         "shadow rays): turn it on to render as Cycles")
     return notes
 
 
@@ -1167,8 +1167,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                     core.meshes.append(hair)
                     core.instances.append(core_scene.Instance(
                         len(core.meshes) - 1, matrix, materials.slot_map(obj, warnings, override), obj.name,
-                        None, int(getattr(obj, "pass_index", 0)), **ray_visibility(obj), asset=topmost_parent(obj).name,
-                        **links.of_object(obj)))
+                        None, int(getattr(obj, "pass_index", 0)), **instance_keywords(obj),
+                        asset=topmost_parent(obj).name, **links.of_object(obj)))
                     groups["instances"].append(lightgroups.source_group(obj))
         if not instance.show_self:
             continue                    # e.g. a particle emitter that is not rendered itself
@@ -1199,8 +1199,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             mesh_index[key] = len(core.meshes) - 1
         if mesh_index[key] is None:
             continue
-        if obj.name not in terminator_offsets and obj.type == "MESH" and core.meshes[mesh_index[key]].smooth.any():
-            terminator_offsets[obj.name] = _terminator_offsets(obj)
+        if obj.name not in terminator_offsets and obj.type == "MESH":
+            terminator_offsets[obj.name] = (*_terminator_offsets(obj), bool(core.meshes[mesh_index[key]].smooth.any()))
         slots = materials.slot_map(obj, warnings, override)
         # The attributes its materials' node graphs read, and Cycles' random number of an instance.
         wanted = set()
@@ -1214,7 +1214,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         elif wanted:
             mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
-        visibility = ray_visibility(obj)          # (a Holdout collection makes its objects holdouts, as in Cycles)
+        visibility = instance_keywords(obj)       # (a Holdout collection makes its objects holdouts, as in Cycles)
         visibility["is_holdout"] |= obj.name in holdouts
         if not visibility["is_holdout"] and indirect_only(instance, depsgraph.view_layer):
             visibility["visible_camera"] = False  # (an Indirect Only collection: Cycles clears camera visibility)
@@ -1245,8 +1245,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     core.lightgroups = groups
     follows = cycles_settings.effective(scene).follows_cycles
     if follows:                                     # a file made for Cycles: Cycles' terminator, as its objects ask
-        settings.terminator_fix, settings.terminator_offset = _cycles_terminator(terminator_offsets)
-    warnings += _terminator_notes(terminator_offsets, settings.terminator_fix, settings.terminator_offset, follows)
+        settings.terminator_fix = _cycles_terminator(terminator_offsets)
+    warnings += _terminator_notes(terminator_offsets, settings.terminator_fix)
     for group in lightgroups.empty_groups(settings.light_groups, groups):
         warnings.append(f"light group '{group}' has no light, emissive object or world in it: its pass is black")
     return Export(core, settings, (width, height), border, warnings, meshes_read)

@@ -129,8 +129,9 @@ class PrimerSettings(bpy.types.PropertyGroup):
                            description="The lecture's shadow-ray offset in scene units: too small leaves acne, "
                                        "too large loses contact shadows")
     terminator_fix: BoolProperty(name="Shadow Terminator Fix", default=False,
-                                 description="Lift shadow rays on smooth low-poly meshes onto the surface the "
-                                             "normals describe (Hanika 2021), hiding faceted terminators")
+                                 description="Cycles' shadow terminator: lift shadow rays on smooth low-poly meshes "
+                                             "onto the surface the normals describe (Hanika 2021) by each object's "
+                                             "Geometry Offset, and bend its shading by its Shading Offset")
     threads: IntProperty(name="Threads", default=0, min=0, max=1024,
                          description="Threads tracing rays; 0 uses every core")
     instancing: EnumProperty(

@@ -41,7 +41,7 @@ import numpy as np
 from . import export, linking
 from ..core import scene as core_scene
 from ..core.geometry import instancing
-from ..core.geometry.geometry import WorldGeometry, build_geometry, link_table
+from ..core.geometry.geometry import WorldGeometry, build_geometry, link_table, terminator_table
 from ..core.materials import DEFAULT_SURFACE
 
 
@@ -135,7 +135,7 @@ class _Placement:
     name: str
     owner: int          # original object's session uid
     parent: int         # the instancer's session uid (the owner itself when not instanced)
-    visible: tuple = ()             # export.ray_visibility's items: Ray Visibility and Holdout
+    visible: tuple = ()             # export.instance_keywords' items: Ray Visibility, Holdout, terminator offsets
 
     def same_as(self, other: "_Placement") -> bool:
         """Whether `other` places the same mesh at the same spot with the same materials and visibility."""
@@ -217,7 +217,8 @@ class SceneCache:
         else:
             relinked = False
         # 4. Rebuild the scene (cheap lists) and, when placements changed, the BVH.
-        if first or placements_changed or report.lights or report.materials or report.world or relinked:
+        rebuilt = first or placements_changed or report.lights or report.materials or report.world or relinked
+        if rebuilt:
             self.scene = self._core_scene()
         mode = _instancing_mode(depsgraph)
         if first or placements_changed or mode != self.instancing:
@@ -228,8 +229,11 @@ class SceneCache:
             self.geometry = build_geometry(self.scene, np.asarray(origin, np.float64),
                                            instancing.instance_triangles(mode))
             report.bvh = True
-        elif relinked:                                      # (the same placements: only their sets are new)
-            self.geometry.instance_links = link_table(self.scene.instances)
+        else:                                               # (the same placements: their sets, offsets may be new)
+            if relinked:
+                self.geometry.instance_links = link_table(self.scene.instances)
+            if rebuilt:
+                self.geometry.instance_terminator = terminator_table(self.scene.instances)
         self.warnings = list(dict.fromkeys(self.warnings))       # each note once
         self._add_to_totals(report)
         return report
@@ -274,7 +278,7 @@ class SceneCache:
             old = self.placements.get(key)
             # (Object > Visibility changes tag no transform nor geometry: compared here, they are few and cheap.)
             if old is not None and not first and owner not in moved and parent not in moved \
-                    and old.mesh_key in self.meshes and old.visible == tuple(export.ray_visibility(obj).items()):
+                    and old.mesh_key in self.meshes and old.visible == tuple(export.instance_keywords(obj).items()):
                 placements[key] = old
                 if owner in changes.shading:
                     # Shading updates (materials edited, objects added) may re-link material slots.
@@ -309,7 +313,7 @@ class SceneCache:
         slots = self.material_table.slot_map(obj, self.warnings, self.override)
         self._read_attributes(obj, mesh_key, slots)
         return _Placement(mesh_key, np.array(instance.matrix_world, np.float64), slots, obj.name, owner,
-                          key[1] or owner, tuple(export.ray_visibility(obj).items()))
+                          key[1] or owner, tuple(export.instance_keywords(obj).items()))
 
     def _read_attributes(self, obj, mesh_key, slots: np.ndarray) -> None:
         """Read into the cached mesh the per-corner attributes its materials' node graphs use (export.mesh_attributes)."""

@@ -184,42 +184,50 @@ def test_the_panels_show_the_settings_the_render_reads(primer, source):
 
 
 def terminator_scene():
-    """A 12-segment smooth sphere (Cycles' default Shadow Terminator Geometry Offset, 0.1) under a low sun, its
-    terminator across the image, and a smooth cube with its own offset 0.3; 48 x 36, direct light, 64 samples."""
-    scene = new_cycles_file(48, 36)
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, radius=1.0)
-    bpy.ops.object.shade_smooth()
-    sphere = bpy.context.view_layer.objects.active
-    sphere.data.materials.append(diffuse_material("White", (0.8, 0.8, 0.8)))
-    bpy.ops.mesh.primitive_cube_add(size=0.5, location=(0.0, 0.0, -3.0))
-    bpy.ops.object.shade_smooth()
-    bpy.context.view_layer.objects.active.shadow_terminator_geometry_offset = 0.3
+    """Two 12-segment smooth spheres under a low sun, their terminators across the image: the left one with Cycles'
+    default Shadow Terminator offsets (Geometry 0.1, Shading 0), the right one with its own (Geometry 0.5, Shading
+    0.6: its shading bends towards 0 before the terminator); 64 x 32, direct light."""
+    scene = new_cycles_file(64, 32)
+    for x, geometry, shading in ((-1.1, 0.1, 0.0), (1.1, 0.5, 0.6)):
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, radius=1.0, location=(x, 0.0, 0.0))
+        bpy.ops.object.shade_smooth()
+        sphere = bpy.context.view_layer.objects.active
+        sphere.data.materials.append(diffuse_material("White", (0.8, 0.8, 0.8)))
+        sphere.shadow_terminator_geometry_offset, sphere.shadow_terminator_shading_offset = geometry, shading
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     sun.data.energy, sun.data.angle = 3.0, 0.0
     sun.rotation_euler = (math.radians(75.0), 0.0, math.radians(90.0))
     scene.collection.objects.link(sun)
-    add_camera(scene, (0.0, -4.0, 0.0), (math.radians(90.0), 0.0, 0.0), lens=40.0)
+    add_camera(scene, (0.0, -6.0, 0.0), (math.radians(90.0), 0.0, 0.0), lens=40.0)
     scene.cycles.max_bounces = 0
     return scene
 
 
-def test_a_cycles_file_lifts_shadow_rays_on_smooth_meshes_as_cycles_does(primer, tmp_path):
-    """Following Cycles, Primer's Shadow Terminator Fix is on with the Geometry Offset most smooth objects have (0.1):
-    the faceted sphere's terminator is Cycles' (block relMSE within Cycles' own noise), where the lecture's raw
-    shadow rays (Primer's own settings, the fix off) darken whole facets; the cube with its own 0.3 is named."""
+def test_a_cycles_file_lifts_and_bends_each_object_by_its_own_terminator_offsets(primer, tmp_path):
+    """Following Cycles, Primer's Shadow Terminator Fix is on and each object takes its own Shadow Terminator
+    Geometry Offset (how far its shadow rays are lifted) and Shading Offset (how its shading fades before the
+    terminator): both spheres' terminators are Cycles' (block relMSE within Cycles' own noise), where the lecture's
+    raw shadow rays (Primer's own settings, the fix off) darken whole facets and do not bend the shading."""
     scene = terminator_scene()
     export = sys.modules[primer.__name__ + ".addon.export"]
     scene.primer.settings_source = "CYCLES"
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
-    assert exported.settings.terminator_fix and exported.settings.terminator_offset == pytest.approx(0.1)
-    notes = [w for w in exported.warnings if "Terminator" in w]
-    assert len(notes) == 1 and "'Cube'" in notes[0] and "'Sphere'" not in notes[0], notes
-    bpy.data.objects["Cube"].hide_render = True
+    assert exported.settings.terminator_fix
+    assert not [w for w in exported.warnings if "Terminator" in w], exported.warnings
+    offsets = sorted((i.terminator_offset, i.terminator_shading) for i in exported.scene.instances)
+    assert offsets == [(pytest.approx(0.1), 0.0), (pytest.approx(0.5), pytest.approx(0.6))], offsets
     mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
     cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
     scene.primer.settings_source = "PRIMER"
     scene.primer.samples = 64
+    scene.update_tag()                                   # (the evaluated scene the export reads)
+    bpy.context.view_layer.update()
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    notes = [w for w in exported.warnings if "Terminator" in w]
+    assert len(notes) == 2 and "'Sphere.001'" in notes[1] and "Shading Offset" in notes[1], notes
     raw = render(scene, "PRIMER", str(tmp_path / "raw.exr"))
+    right = (slice(None), slice(32, None))
     error, wrong = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(raw, cycles)
-    print(f"block relMSE: following Cycles {error:.2e}, the fix off {wrong:.2e}")
-    assert error < 5e-4 and wrong > 10.0 * error, (error, wrong)
+    bent_error = relative_mse_of_blocks(mine[right], cycles[right])
+    print(f"block relMSE: following Cycles {error:.2e} (the bent sphere {bent_error:.2e}), the fix off {wrong:.2e}")
+    assert error < 5e-4 and bent_error < 5e-4 and wrong > 10.0 * error, (error, bent_error, wrong)

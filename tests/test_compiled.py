@@ -507,3 +507,37 @@ def test_light_found_through_a_pane_is_weighed_from_the_last_real_bounce_on_both
                               light_sampling=strategy)
     compiled, reference = compare_paths(scene, settings)
     assert_same_render(compiled, reference)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("offset", [0.25, 1.0])
+def test_a_shading_offset_bends_lamberts_cosine_to_zero_before_the_terminator(kernels, offset):
+    """Cycles' Shading Offset s: a Lambert plane of albedo rho under a sun of irradiance E at angle theta from its
+    normal is L = rho / pi E max(cos(m theta), 0), m = 1 / (1 - s / 2), in both kernels (at theta = 50 degrees: 0.83
+    of the unbent light for s = 0.25, none for s = 1)."""
+    theta, rho, E = math.radians(50.0), 0.5, 3.0
+    scene = Scene(camera=Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.001, 0.0), fov=math.radians(30)))
+    scene.add_material((rho, rho, rho))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.instances[0].terminator_shading = offset
+    scene.lights = [SunLight(np.array([-math.sin(theta), 0.0, -math.cos(theta)]), strength=E)]
+    settings = RenderSettings(width=8, height=8, samples=1, terminator_fix=True, kernels=kernels)
+    image = render.render(scene, settings).image[..., :3]
+    m = 1.0 / (1.0 - 0.5 * offset)
+    np.testing.assert_allclose(image, rho / math.pi * E * max(math.cos(m * theta), 0.0), rtol=1e-6, atol=1e-9)
+    unbent = render.render(scene, dataclasses.replace(settings, terminator_fix=False)).image[..., :3]
+    np.testing.assert_allclose(unbent, rho / math.pi * E * math.cos(theta), rtol=1e-6)
+
+
+@pytest.mark.parametrize("instancing", ["never", "always"])
+def test_each_objects_own_terminator_offsets_render_alike_in_both_kernels(instancing):
+    """The spheres of a row, each with its own Geometry Offset (0: its shadow rays are not lifted) and Shading Offset,
+    copied or instanced: the compiled kernel renders what the reference does."""
+    scene = with_a_row_of_spheres(lit_scene(LIGHTS["several"]))
+    for k, instance in enumerate(scene.instances[1:]):
+        instance.terminator_offset = (0.0, 0.05, 0.3, 0.9)[k % 4]
+        instance.terminator_shading = (0.0, 0.5, 0.2)[k % 3]
+    settings = RenderSettings(width=48, height=32, samples=4, light_samples=2, instancing=instancing,
+                              terminator_fix=True)
+    compiled, reference = compare_paths(scene, settings)
+    assert_same_render(compiled, reference)

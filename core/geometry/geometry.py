@@ -69,6 +69,9 @@ class WorldGeometry:
                     Visibility) and whether it is a holdout (HOLDOUT), or an empty array when no object does either
     instance_links: (n, 4) uint64 each Scene.instances entry's light set, shadow set, light membership and shadow
                     membership (core/lights/linking.py), or an empty array when nothing is linked
+    instance_terminator: (n, 2) float64 each Scene.instances entry's shadow terminator (terminator_table): its
+                    Geometry Offset (-1: the render's) and its Shading Offset as Cycles' frequency multiplier, or an
+                    empty array when every object takes the render's offset and bends no cosine
     The arrays above hold the copied triangles only; ask `triangle_data` for any triangle.
     """
 
@@ -91,6 +94,7 @@ class WorldGeometry:
     instance_linear: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
     instance_hidden: np.ndarray = field(default_factory=lambda: np.zeros(0, np.uint8))
     instance_links: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.uint64))
+    instance_terminator: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
     @property
     def has_smooth(self) -> bool:
@@ -199,6 +203,23 @@ class WorldGeometry:
             return np.full(len(prim), default, np.uint64)
         owner = self.owners(np.asarray(prim, np.int64))
         return np.where(owner >= 0, self.instance_links[np.maximum(owner, 0), column], default)
+
+    def terminator_offsets(self, prim: np.ndarray, fallback: float) -> np.ndarray:
+        """The Shadow Terminator Geometry Offset (k,) float64 of the object of each triangle `prim` (k,) int64:
+        its own, or `fallback` (the render's) for objects without one and triangles of no object."""
+        if not len(self.instance_terminator):
+            return np.full(len(prim), float(fallback))
+        owner = self.owners(np.asarray(prim, np.int64))
+        own = np.where(owner >= 0, self.instance_terminator[np.maximum(owner, 0), 0], -1.0)
+        return np.where(own >= 0.0, own, float(fallback))
+
+    def terminator_multipliers(self, prim: np.ndarray):
+        """Cycles' frequency multiplier (k,) float64 of the Shading Offset of the object of each triangle `prim`
+        (k,) int64 (1: none), or None where no object has one."""
+        if not len(self.instance_terminator) or not (self.instance_terminator[:, 1] > 1.0).any():
+            return None
+        owner = self.owners(np.asarray(prim, np.int64))
+        return np.where(owner >= 0, self.instance_terminator[np.maximum(owner, 0), 1], 1.0)
 
     def owners(self, prim: np.ndarray) -> np.ndarray:
         """The index into Scene.instances of the object each triangle `prim` (k,) int64 belongs to, -1 for none."""
@@ -481,6 +502,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_info=instance_info(scene.instances, all_matrices),
         instance_hidden=hidden_flags(scene.instances),
         instance_links=link_table(scene.instances),
+        instance_terminator=terminator_table(scene.instances),
     )
 
 
@@ -515,6 +537,17 @@ def link_table(instances: list) -> np.ndarray:
                      np.uint64).reshape(-1, 4)
     unlinked = (table[:, 0] == 0) & (table[:, 1] == 0) & (table[:, 2] == ALL_SETS) & (table[:, 3] == ALL_SETS)
     return table if not unlinked.all() else np.zeros((0, 4), np.uint64)
+
+
+def terminator_table(instances: list) -> np.ndarray:
+    """(n, 2) float64 each instance's shadow terminator: its Geometry Offset (-1: the render's
+    RenderSettings.terminator_offset) and its Shading Offset s as Cycles' frequency multiplier 1 / (1 - s / 2) (1:
+    none); empty when every instance takes the render's offset and has no Shading Offset."""
+    table = np.array([(-1.0 if i.terminator_offset is None else max(float(i.terminator_offset), 0.0),
+                       1.0 / (1.0 - 0.5 * min(max(float(i.terminator_shading), 0.0), 1.0))) for i in instances],
+                     np.float64).reshape(-1, 2)
+    plain = (table[:, 0] < 0.0) & (table[:, 1] == 1.0)
+    return table if not plain.all() else np.zeros((0, 2))
 
 
 def attribute_table(meshes: list) -> tuple:

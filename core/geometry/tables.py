@@ -46,6 +46,8 @@ GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (c
     ("hidden", ptr(U8), "(n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides"),
     ("links", ptr(U64), "(n, 4) each instance's light set, shadow set, light and shadow membership\n"
                         "(WorldGeometry.instance_links), NULL: nothing is linked"),
+    ("terminator", ptr(F64), "(n, 2) each instance's Shadow Terminator Geometry Offset (-1: the render's) and Shading\n"
+                             "Offset multiplier (WorldGeometry.instance_terminator), NULL: none has its own"),
     ("origin", ptr(F64), "(3,) the world point the vertices are relative to (the Geometry node's Position adds it)"),
 ])
 
@@ -94,4 +96,8 @@ class GeometryTables:
         # Light and shadow linking: each instance's sets and memberships, where some object is linked.
         if len(geometry.instance_links):
             self.record.links = c(geometry.instance_links, np.uint64)
+            self.record.instance = c(geometry.instance, np.int32) if len(geometry.instance) else None
+        # The objects' own shadow terminator offsets, where some object has one (the terminator fix).
+        if len(geometry.instance_terminator):
+            self.record.terminator = c(geometry.instance_terminator, np.float64)
             self.record.instance = c(geometry.instance, np.int32) if len(geometry.instance) else None

@@ -116,6 +116,23 @@ INLINE uint64_t links_of(const GeometryTables *g, int64_t geometry, int64_t prim
     return g->links[4 * owner + column];
 }
 
+/* WorldGeometry.terminator_offsets for one Embree hit: its object's Shadow Terminator Geometry Offset, or
+ * `fallback` (the render's) where it has none. */
+INLINE double terminator_offset_of(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance,
+                                   double fallback)
+{
+    int64_t owner = g->terminator == NULL ? -1 : owner_of(g, geometry, prim, instance);
+    double own = owner < 0 ? -1.0 : g->terminator[2 * owner];
+    return own >= 0.0 ? own : fallback;
+}
+
+/* WorldGeometry.terminator_multipliers for one Embree hit: its object's Shading Offset multiplier (1: none). */
+INLINE double terminator_multiplier_of(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance)
+{
+    int64_t owner = g->terminator == NULL ? -1 : owner_of(g, geometry, prim, instance);
+    return owner < 0 ? 1.0 : g->terminator[2 * owner + 1];
+}
+
 /* linking.in_sets: whether bit `set` of `membership` is set. */
 INLINE int in_sets(uint64_t membership, uint64_t set)
 {

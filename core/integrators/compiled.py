@@ -193,6 +193,8 @@ class Compiled:
         self.camera = camera_.camera_record(ctx.scene.camera, s.width, s.height, tuple(s.pixel_aspect), geometry.origin,
                                             s.filter)
         self.tables = GeometryTables(geometry)
+        if not s.terminator_fix:                   # (the lecture's raw rays: no object's terminator offsets)
+            self.tables.record.terminator = None
         self.lights = (LightRecord * max(1, len(ctx.lights)))(
             *[light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)])
         # (the records keep their rows' arrays alive; the C array holds copies of the records' pointers)

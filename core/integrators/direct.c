@@ -20,7 +20,8 @@ typedef struct {
     double L[3 * BLOCK];                         /* the radiance it sends towards the viewer */
     double t[BLOCK];                             /* each camera lane's ray length: its hit, or its t_max */
     uint8_t traced[BLOCK];                       /* 1: the hit traces a BSDF ray (direct.wants_bsdf_ray) */
-    uint8_t lambert[BLOCK];                      /* 1: its material is one Lambert closure on the shading normal */
+    uint8_t lambert[BLOCK];                      /* 1: its material is one Lambert closure on the shading normal
+                                                  * (and no Shading Offset bends it) */
     uint8_t through[BLOCK];                      /* 1: a closure refracts light from behind (direct.lets_light_through) */
     double albedo[3 * BLOCK];                    /* and that closure's weight */
     double throughput[3 * BLOCK];                /* a path's throughput at the hit (path.c; 1 at the camera's) */
@@ -50,6 +51,7 @@ typedef struct {
     /* Where it is: Embree's geometry, primitive and placement, and the barycentrics (the first-hit passes). */
     int64_t geometry[BLOCK], prim[BLOCK], instance[BLOCK];
     double bary[2 * BLOCK];
+    double cutoff[BLOCK];                        /* its object's Shadow Terminator Geometry Offset (direct_light) */
     /* Participating media (core/volumes/media.c), where the render has some: the volume stack of the ray that reached
      * each hit, a path's volume-only boundaries crossed (no transparent bounce), and per camera lane the stack its
      * ray starts in with the extinction and emission along it. */
@@ -77,6 +79,7 @@ INLINE void hit_closures(BlockHits *H, int64_t h)
     sd->c = H->closures + h * H->room;
     sd->storage = H->storage + h * H->room * STORAGE_STRIDE;
     sd->caustics = 0;
+    sd->terminator = 1.0;
 }
 
 /* lightgroups.GroupLight.add for one contribution: value (3) x scale to row `row` of a (rows, count, 3) group
@@ -224,7 +227,7 @@ typedef struct {
     uint32_t pixel[BLOCK], index[BLOCK];         /* its random-number keys */
     double u[2][BLOCK];                          /* its point in the unit square */
     double P[3][BLOCK], N[3][BLOCK], Ng[3][BLOCK], lifted[3][BLOCK];
-    double offset[BLOCK], smooth[BLOCK], through[BLOCK];
+    double offset[BLOCK], smooth[BLOCK], through[BLOCK], cutoff[BLOCK];
     double albedo[3][BLOCK], lambert[BLOCK];     /* the hit's one Lambert closure, where it has just that */
     double u2[BLOCK];                            /* a third number (an emitter's pick) */
     double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK], color[3][BLOCK], pdf[BLOCK];
@@ -257,6 +260,7 @@ SIMD_CLONES NOINLINE static void gather_block(SampleBlock *b, const BlockHits *H
             b->lifted[c][k] = lift && s->smooth ? s->lifted[c] : s->I[c];
         }
         b->offset[k] = s->offset;
+        b->cutoff[k] = lift ? H->cutoff[i] : 0.0;
         b->smooth[k] = s->smooth ? 1.0 : 0.0;
         b->through[k] = H->through[i] ? 1.0 : 0.0;
         b->lambert[k] = H->lambert[i] ? 1.0 : 0.0;
@@ -330,10 +334,11 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
 INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict settings, int lift, double samples,
                       int robust)
 {
-    double lifting = lift && settings->terminator_offset > 0.0 ? 1.0 : 0.0;
+    double lifting = lift ? 1.0 : 0.0;
     double fix = settings->terminator_fix != 0.0 ? 1.0 : 0.0;
-    double cutoff = settings->terminator_offset, epsilon = settings->epsilon;
+    double epsilon = settings->epsilon;
     for (int64_t k = 0; k < b->n; k++) {
+        double cutoff = b->cutoff[k];
         double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, L[3] = {b->L[0][k], b->L[1][k], b->L[2][k]};
         double n[3] = {b->N[0][k], b->N[1][k], b->N[2][k]}, ng[3] = {b->Ng[0][k], b->Ng[1][k], b->Ng[2][k]};
         double lifted[3] = {b->lifted[0][k], b->lifted[1][k], b->lifted[2][k]};
@@ -349,7 +354,8 @@ INLINE void ray_lanes(SampleBlock *restrict b, const ShadowSettings *restrict se
         b->keep[k] = ((cosine != 0.0) & face_allows & ((b->strength[k] > 0.0) | (b->strength[k] < 0.0))) ? 1.0 : 0.0;
         if (behind) for (int c = 0; c < 3; c++) ng[c] = -ng[c];
         /* b. The ray, from I or the terminator fix's blend towards the lifted point (amount 0 elsewhere). */
-        double amount = (lifting * b->smooth[k]) != 0.0 && !behind ? terminator_amount(NL, NgL, cutoff) : 0.0;
+        double amount = (lifting * b->smooth[k]) != 0.0 && cutoff > 0.0 && !behind ? terminator_amount(NL, NgL, cutoff)
+                                                                                   : 0.0;
         double origin[3], D[3], t;
         shadow_ray(P, ng, lifted, b->offset[k], amount, L, b->distance[k], position, robust, epsilon, origin, D, &t);
         for (int c = 0; c < 3; c++) { b->origin[c][k] = origin[c]; b->D[c][k] = D[c]; }
@@ -748,7 +754,7 @@ INLINE void choose_bsdf_rays(BlockHits *H, const DirectSettings *ds)
         /* The common material, one Lambert closure on the shading normal, as columns bsdf_block reads. */
         const Closure *c = sd->c;
         H->lambert[h] = (uint8_t)((sd->n == 1) & (c->kind == BSDF_LAMBERT) & (c->sample_weight > 0.0)
-                                  & (c->N[0] == H->s[h].N[0]) & (c->N[1] == H->s[h].N[1]) & (c->N[2] == H->s[h].N[2]));
+                                  & (sd->terminator <= 1.0) & (c->N[0] == H->s[h].N[0]) & (c->N[1] == H->s[h].N[1]) & (c->N[2] == H->s[h].N[2]));
         for (int j = 0; j < 3; j++) H->albedo[3 * h + j] = c->weight[j];
     }
 }
@@ -805,6 +811,10 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
     int64_t rays = 0;
     uint64_t embree = 0;
     int lift = settings->terminator_fix != 0.0;
+    if (lift)                                    /* (each hit's object's own offset, or the render's) */
+        for (int64_t h = 0; h < H->m; h++)
+            H->cutoff[h] = terminator_offset_of(ds->geometry, H->geometry[h], H->prim[h], H->instance[h],
+                                                settings->terminator_offset);
     for (int64_t l = 0; l < ds->n_lights; l++) {
         const LightRecord *light = ds->lights + l;
         int weighed = ds->mis && light->delta == 0.0 && light->hittable != 0.0 && light->use_mis != 0;

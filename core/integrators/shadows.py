@@ -161,10 +161,10 @@ def terminator_points(points: np.ndarray, triangle_vertices: np.ndarray, corner_
     return np.einsum("nc,ncj->nj", weights, triangle_vertices + projected)
 
 
-def terminator_amount(NL: np.ndarray, NgL: np.ndarray, cutoff: float) -> np.ndarray:
+def terminator_amount(NL: np.ndarray, NgL: np.ndarray, cutoff) -> np.ndarray:
     """Return how much of the terminator lift to apply, 0..1, as Cycles blends it.
 
-    Only points where the light is near grazing (N.L or Ng.L below `cutoff`) move,
+    Only points where the light is near grazing (N.L or Ng.L below `cutoff`, (n,) or one for all) move,
     with a smooth transition to zero above it. NL, NgL: (n,) float64 -> (n,) float64
     """
     return np.where(NL < cutoff,
@@ -257,16 +257,18 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None, bl
     return T
 
 
-def lift_terminator(surface, rows: np.ndarray, NL: np.ndarray, NgL: np.ndarray, cutoff: float) -> np.ndarray:
+def lift_terminator(surface, rows: np.ndarray, NL: np.ndarray, NgL: np.ndarray, cutoff) -> np.ndarray:
     """Return shadow-ray origins for the hits `rows`, lifted by the terminator fix on smooth triangles.
 
-    surface: core/geometry/surface.py Surface; NL, NgL: (r,) float64 N.L and Ng.L of those hits.
+    surface: core/geometry/surface.py Surface; NL, NgL: (r,) float64 N.L and Ng.L of those hits; cutoff: the
+    Geometry Offset (r,) float64 of each hit's object (or one for all); 0 lifts nothing.
     """
     I = surface.I[rows].copy()
-    smooth = surface.smooth[rows]
-    if not smooth.any() or cutoff <= 0.0:
+    cutoff = np.broadcast_to(np.asarray(cutoff, np.float64), (len(rows),))
+    smooth = surface.smooth[rows] & (cutoff > 0.0)
+    if not smooth.any():
         return I
-    amount = terminator_amount(NL[smooth], NgL[smooth], cutoff)
+    amount = terminator_amount(NL[smooth], NgL[smooth], cutoff[smooth])
     chosen = rows[smooth]
     lifted = terminator_points(surface.I[chosen], surface.vertices[chosen], surface.corners[chosen],
                                surface.u[chosen], surface.v[chosen])

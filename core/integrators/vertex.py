@@ -127,6 +127,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     light_path = graph_.light_paths(m) if path.light_path is None else path.light_path
     if shader is None:
         shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path, caustics)
+    shader = terminator_bent(ctx, surface, shader)
     recorder.shader(shader)
     clamping = np.any(np.isfinite(limit))
     L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
@@ -191,7 +192,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             if len(rows) == 0:
                 continue
             # c. One shadow ray per lit sample, from a point safely off the surface.
-            rays = aim_shadow_rays(s, surface, rows, ls, NL, NgL, offsets, refracts[rows] & (NgL[rows] < 0.0))
+            rays = aim_shadow_rays(s, surface, rows, ls, NL, NgL, offsets, refracts[rows] & (NgL[rows] < 0.0),
+                                   ctx.geometry)
             blockers = shadow_blockers(ctx, light, ls, rows)
             if not light.cast_shadow:
                 # A lamp with Cast Shadow off (Cycles' light.use_shadow): no shadow ray, nothing blocks it.
@@ -358,14 +360,27 @@ def lights_itself(surface, emitters, ls, NL: np.ndarray, NgL: np.ndarray) -> np.
     return own & (np.where(NL < 0.0, -NgL, NgL) > 0.0)
 
 
+def terminator_bent(ctx: Context, surface, shader):
+    """The shader with each hit's object's Shading Offset multiplier on its closures (closures.terminator_term),
+    where the terminator fix is on and some object has one."""
+    if not ctx.settings.terminator_fix or ctx.geometry is None:
+        return shader
+    multipliers = ctx.geometry.terminator_multipliers(surface.prim)
+    if multipliers is None:
+        return shader
+    return shader._replace(closures=shader.closures._replace(terminator=multipliers))
+
+
 def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.ndarray, offsets,
-                behind=None) -> shadows.ShadowRays:
+                behind=None, geometry=None) -> shadows.ShadowRays:
     """Return the shadow rays of the hits `rows` towards their light samples (robust or epsilon offsets);
     behind (r,) bool: lights behind the face of a surface that lets light through, reached from its back."""
     I = surface.I[rows]
     Ng = surface.Ng[rows]
     if s.terminator_fix:
-        I = shadows.lift_terminator(surface, rows, NL[rows], NgL[rows], s.terminator_offset)
+        cutoff = (np.full(len(rows), s.terminator_offset) if geometry is None
+                  else geometry.terminator_offsets(surface.prim[rows], s.terminator_offset))
+        I = shadows.lift_terminator(surface, rows, NL[rows], NgL[rows], cutoff)
     elif s.shadow_rays_for_backfacing or s.visibility_normal != "face":
         # Switches that cast rays towards lights behind the face: offset to the light's side.
         Ng = Ng * np.where(NgL[rows] < 0.0, -1.0, 1.0)[:, None]

@@ -43,8 +43,18 @@ INLINE double bump_shadowing(const double *Ns, const double *N, const double *wi
     return 2.0 / (1.0 + sqrt(1.0 + alpha2 * tan2_i));
 }
 
+/* closures.terminator_term: Cycles' Shading Offset bend of a closure's light arriving at cosine cos_in to its
+ * normal, with the object's frequency multiplier (> 1). */
+INLINE double terminator_term(double cos_in, double multiplier)
+{
+    if (cos_in > 1.0) cos_in = 1.0;
+    double bent = cos(acos(cos_in) * multiplier);
+    return bent > 0.0 && cos_in > 0.0 ? bent / cos_in : 0.0;
+}
+
 /* closures.eval_closures for one hit: f cos = sum of weight x f cos; pdf = sampling-weighted mean. A closure
- * whose normal is not the hit's (sd->N) is shadowed by bump_shadowing. */
+ * whose normal is not the hit's (sd->N) is shadowed by bump_shadowing; the light of every closure is bent by the
+ * object's Shading Offset (terminator_term) where it arrives in front of the closure's normal. */
 /* direct.closures_left_out for one closure: whether a light sample on an object hidden from the rays `hidden`
  * (HIDDEN_FROM_* bits) leaves closure kind `kind` out, by its closure type (diffuse, glossy, transmission; glass
  * only if hidden from both glossy and transmission rays). */
@@ -73,6 +83,10 @@ INLINE double shader_eval_seen(const ShaderResult *sd, const double *wo, const d
             double term = bump_shadowing(sd->N, c->N, wi, bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE));
             for (int j = 0; j < 3; j++) value[j] *= term;
             if (term == 0.0) pdf = 0.0;
+        }
+        if (sd->terminator > 1.0) {
+            double cos_in = dot3(wi, c->N);
+            if (cos_in >= 0.0) for (int j = 0; j < 3; j++) value[j] *= terminator_term(cos_in, sd->terminator);
         }
         for (int j = 0; j < 3; j++) f_cos[j] += c->weight[j] * value[j];
         numerator += c->sample_weight * pdf;
@@ -142,6 +156,11 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
             double term = bump_shadowing(sd->N, c->N, out->wi, bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE));
             for (int j = 0; j < 3; j++) { f_e[j] *= term; f_s[j] *= term; }
             if (term == 0.0) { pdf_e = 0.0; pdf_s = 0.0; }
+        }
+        double cos_in = dot3(out->wi, c->N);
+        if (sd->terminator > 1.0 && cos_in >= 0.0) {
+            double bend = terminator_term(cos_in, sd->terminator);
+            for (int j = 0; j < 3; j++) { f_e[j] *= bend; f_s[j] *= bend; }
         }
         for (int j = 0; j < 3; j++) f_cos[j] += c->weight[j] * (f_s[j] - f_e[j]);
         pdf += c->sample_weight * (pdf_s - pdf_e) / total;

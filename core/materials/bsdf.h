@@ -36,6 +36,8 @@ typedef struct {
     const double *glossy;   /* the normal glossy lobes get while a node sets up (nodes.c), NULL: N */
     const double *hit_N;    /* the hit's own normal while a node with its own normal sets up (nodes.c), NULL: N */
     int caustics;           /* FILTER_* bits the caller sets before shading (0: every closure) */
+    double terminator;      /* the object's Shadow Terminator Shading Offset multiplier (closures.terminator_term;
+                             * shade_hit sets it, 1 or less: none) */
 } ShaderResult;
 
 /* A ShaderResult made to hold only what a material emits and lets through (a shadow ray's, a transparent
@@ -46,6 +48,7 @@ INLINE void no_closures(ShaderResult *sd)
     sd->c = NULL;
     sd->storage = NULL;
     sd->caustics = 0;
+    sd->terminator = 1.0;
 }
 
 /* A direction sampled from one BSDF (base.BsdfSample for one hit). */

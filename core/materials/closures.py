@@ -37,7 +37,8 @@ class Closures(NamedTuple):
     kind (n, K) int32; weight (n, K, 3) float64; sample_weight (n, K) float64; N (n, K, 3) float64
     unit normals on the viewer's side; params (n, K, PARAMS) float64; Ns (n, K, 3) float64 the hit's
     smooth shading normal (Cycles' sd->N) beside each closure, or None: where a closure's own normal differs
-    (a Normal Map, a Bump), its light is shadowed by `bump_shadowing`
+    (a Normal Map, a Bump), its light is shadowed by `bump_shadowing`; terminator (n,) float64 the Shading Offset
+    multiplier of each hit's object (`terminator_term`; 1: none), or None: no object bends its light
     """
 
     kind: np.ndarray
@@ -46,6 +47,7 @@ class Closures(NamedTuple):
     N: np.ndarray
     params: np.ndarray
     Ns: Optional[np.ndarray] = None
+    terminator: Optional[np.ndarray] = None
 
     @classmethod
     def empty(cls, n: int, slots: int = 1) -> "Closures":
@@ -108,6 +110,8 @@ def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cos
                 if term is not None:
                     value = value * term[:, None]
                     pdf = np.where(term == 0.0, 0.0, pdf)
+            if closures.terminator is not None:
+                value = value * terminator_bend(closures.terminator[rows], closures.N[rows, k], wi[rows])[:, None]
             if left_out is not None:
                 kept = ~left_out[rows, k]
                 value, pdf = value * kept[:, None], pdf * kept
@@ -116,6 +120,23 @@ def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cos
     total = closures.sample_weight.sum(axis=1)
     pdf = np.divide(numerator, total, out=np.zeros(n), where=total > 0)
     return f_cos, pdf
+
+
+def terminator_term(cos_in: np.ndarray, multiplier: np.ndarray) -> np.ndarray:
+    """Cycles' Shading Offset (kernel/closure/bsdf.h, after Appleseed): light arriving at cosine cos_in (m,) to a
+    closure's normal is weighted by max(cos(theta x multiplier), 0) / cos(theta), so that it fades out before the
+    terminator; multiplier (m,) = 1 / (1 - offset / 2), offset the object's Shading Offset (0..1)."""
+    cos_in = np.minimum(cos_in, 1.0)
+    bent = np.cos(np.arccos(np.clip(cos_in, -1.0, 1.0)) * multiplier)
+    return np.divide(bent, cos_in, out=np.zeros_like(cos_in), where=(bent > 0.0) & (cos_in > 0.0))
+
+
+def terminator_bend(multiplier: np.ndarray, N: np.ndarray, wi: np.ndarray) -> np.ndarray:
+    """The factor (m,) by which each closure of normal N (m, 3) passes light from wi (m, 3): terminator_term where
+    the object bends (multiplier (m,) > 1) and the light arrives in front of N, 1 elsewhere (as Cycles' bsdf_eval)."""
+    cos_in = np.einsum("ij,ij->i", N, wi)
+    bends = (multiplier > 1.0) & (cos_in >= 0.0)
+    return np.where(bends, terminator_term(cos_in, multiplier), 1.0)
 
 
 def bump_shadowing(Ns: np.ndarray, N: np.ndarray, wi: np.ndarray, diffuse: bool):
@@ -179,6 +200,9 @@ def own_weight(closures: Closures, wo: np.ndarray, wi: np.ndarray, total: np.nda
             if term is not None:
                 f_e, f_s = f_e * term[:, None], f_s * term[:, None]
                 pdf_e, s_pdf = np.where(term == 0.0, 0.0, pdf_e), np.where(term == 0.0, 0.0, s_pdf)
+        if closures.terminator is not None:
+            bend = terminator_bend(closures.terminator[at], closures.N[at, c], wi[at])[:, None]
+            f_e, f_s = f_e * bend, f_s * bend
         rows = place[at]
         f_cos[rows] += closures.weight[at, c] * (f_s - f_e)
         pdf[rows] += closures.sample_weight[at, c] * (s_pdf - pdf_e) / total[at]
@@ -261,7 +285,8 @@ def concatenate(results: list, order: np.ndarray, n: int) -> ShaderResult:
     for result, rows in zip(results, order):
         k = result.closures.kind.shape[1]
         for mine, theirs in zip(out.closures, result.closures):
-            mine[rows, :k] = theirs
+            if mine is not None and theirs is not None:
+                mine[rows, :k] = theirs
         out.emission[rows], out.transparency[rows], out.N[rows] = result.emission, result.transparency, result.N
         if result.holdout is not None:
             out.holdout[rows] = result.holdout

@@ -631,6 +631,8 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
                       const Surface *s, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
                       const double *wo, const LightPath *path, ShaderResult *sd)
 {
+    /* (the object's Shading Offset bends the cosine of every closure's light: closures.terminator_term) */
+    sd->terminator = terminator_multiplier_of(g, geometry, prim, instance);
     if (m->graph == 0.0 || G == NULL) {
         shade_material(m, s->N, wo, s->backfacing, sd);
         return;

@@ -117,7 +117,7 @@ class ClosureBuilder:
         if self.transparency.any():
             self.add(Transparent.kind, self.transparency)
         k = max(1, self.count)
-        closures = Closures(*(array[:, :k] for array in self.closures))
+        closures = Closures(*(None if array is None else array[:, :k] for array in self.closures))
         return ShaderResult(closures, self.emission, self.transparency, self.shading_N, self.holdout)
 
 

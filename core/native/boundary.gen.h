@@ -519,6 +519,8 @@ struct GeometryTables {
     const uint8_t *hidden;                  /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
     const uint64_t *links;                  /* (n, 4) each instance's light set, shadow set, light and shadow membership
 (WorldGeometry.instance_links), NULL: nothing is linked */
+    const double *terminator;               /* (n, 2) each instance's Shadow Terminator Geometry Offset (-1: the render's) and Shading
+Offset multiplier (WorldGeometry.instance_terminator), NULL: none has its own */
     const double *origin;                   /* (3,) the world point the vertices are relative to (the Geometry node's Position adds it) */
 };
 
@@ -883,7 +885,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
-    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7938006114360240799);
+    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(585873237046210989);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7540884240984156999);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5755748365903746207);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);

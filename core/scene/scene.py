@@ -83,6 +83,12 @@ class Instance:
                emitters light it, and for which emitters it casts shadows
     light_membership, shadow_membership: as an emitter (an emissive material), the receiver sets it lights and the
                blocker sets that cast its shadows (64-bit masks; ALL_SETS: not linked)
+    terminator_offset: Object > Shading > Shadow Terminator > Geometry Offset: how far (0..1 of the way, by how
+               grazing the light is) Cycles lifts the shadow rays of its smooth triangles towards the curved surface
+               their normals describe; None: the render's RenderSettings.terminator_offset
+    terminator_shading: Shadow Terminator > Shading Offset (0..1): Cycles bends the cosine of the light its closures
+               reflect so that it reaches 0 before the terminator (core/materials/closures.py terminator_term)
+    (Both only with RenderSettings.terminator_fix, the lecture's switch for Cycles' shadow terminator.)
     """
 
     mesh: int
@@ -103,6 +109,8 @@ class Instance:
     shadow_set: int = 0
     light_membership: int = ALL_SETS
     shadow_membership: int = ALL_SETS
+    terminator_offset: Optional[float] = None
+    terminator_shading: float = 0.0
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
