@@ -455,14 +455,23 @@ def _light_color(light) -> np.ndarray:
     return color
 
 
+# The node kinds whose outputs depend on their inputs alone (no coordinates, no texture, no path): a lamp's Emission
+# fed only by them is a constant, which Primer evaluates once (light_node_factor).
+CONSTANT_KINDS = frozenset({"RGB", "VALUE", "MATH", "MIX", "RAMP", "INVERT", "HSV", "SEPARATE_COLOR", "SEPARATE_XYZ",
+                            "COMBINE_COLOR", "COMBINE_XYZ", "CLAMP", "MAP_RANGE", "SCALE"}
+                           | {cls.kind for cls in graph_.CONVERTER_TYPES})
+
+
 def light_node_factor(obj, warnings: list) -> np.ndarray:
     """Return what the light's node tree multiplies its colour by: (3,) linear RGB.
 
     Cycles renders a light as its colour x power x the emission of its shader. Without a node tree that
     shader is an Emission node, white, strength 1; Blender 5.2 gives every light such a tree (4.2 and 5.0
     use one only with Use Nodes on). Primer reads an Emission node at the Light Output as Cycles does, its
-    Color x Strength, so a default tree changes nothing. Nothing at the output: Cycles' light sends no
-    light (zeros, noted). Another shader there, or a node linked into the Emission's inputs, is warned about,
+    Color x Strength, so a default tree changes nothing; inputs fed by nodes that depend on nothing but constants
+    (a Blackbody, a Math, a Mix of colours...: CONSTANT_KINDS) are evaluated once, by the node-graph program the
+    materials use. Nothing at the output: Cycles' light sends no light (zeros, noted). Another shader there, or an
+    input fed by a node that varies over the lamp (a texture, texture coordinates, a Light Path) is warned about,
     naming the light and the node, and Primer uses the light's colour and power (or the input's own value).
     """
     tree = materials_.node_tree(obj.data)
@@ -478,11 +487,20 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
         reader.warn(node, f"'{node.bl_label}' at the Light Output is not an Emission node; Primer uses the "
                           "light's colour and power")
         return np.ones(3)
-    for name in ("Color", "Strength"):
-        socket = node.inputs.get(name)
-        if socket is not None and socket.is_linked:
+    linked = [name for name in ("Color", "Strength") if node.inputs.get(name) is not None
+              and node.inputs[name].is_linked]
+    if linked:
+        color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
+        feeding = graph_.links_under([(None, 1.0, {"color": color, "strength": strength})])
+        varying = [link.node for link in feeding if link.node.kind not in CONSTANT_KINDS]
+        if not varying:
+            value = world_graph.radiance_along(world_graph.compile_world(color, strength), np.array([[0.0, 0.0, 1.0]]))
+            return np.nan_to_num(value[0], nan=0.0, posinf=0.0, neginf=0.0)
+        for name in linked:
+            socket = node.inputs[name]
             reader.warn(node, f"input '{name}' is linked to '{socket.links[0].from_node.name}', which Primer does "
-                              "not evaluate for lights; it uses the input's own value")
+                              "not evaluate for lights (it varies over the lamp: "
+                              f"'{varying[0].name or varying[0].kind}'); it uses the input's own value")
     return reader.value(node, "Color", np.ones(3)) * reader.value(node, "Strength", 1.0)
 
 

@@ -163,6 +163,28 @@ for name in {cases!r}:
         for obj in (bpy.data.objects["Floor"], bpy.data.objects["Occluder"]):
             obj.visible_camera = True
         camera.data.type = "ORTHO"
+    elif name.startswith("lamp nodes"):
+        # The lamp's Emission fed by nodes: constant ones (a Blackbody colour, a Math strength), or a varying one.
+        data = bpy.data.lights.new("Lamp with nodes", "POINT")
+        data.energy, data.shadow_soft_size = 300.0, 0.2
+        if hasattr(data, "use_nodes"):
+            data.use_nodes = True
+        tree = data.node_tree
+        emission = next(node for node in tree.nodes if node.bl_idname == "ShaderNodeEmission")
+        if name.endswith("constant"):
+            blackbody = tree.nodes.new("ShaderNodeBlackbody")
+            blackbody.inputs["Temperature"].default_value = 3200.0
+            math_node = tree.nodes.new("ShaderNodeMath")
+            math_node.operation = "MULTIPLY"
+            math_node.inputs[0].default_value, math_node.inputs[1].default_value = 2.0, 0.75
+            tree.links.new(blackbody.outputs["Color"], emission.inputs["Color"])
+            tree.links.new(math_node.outputs["Value"], emission.inputs["Strength"])
+        else:
+            coordinates = tree.nodes.new("ShaderNodeTexCoord")
+            separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+            tree.links.new(coordinates.outputs["Normal"], separate.inputs["Vector"])
+            tree.links.new(separate.outputs["Z"], emission.inputs["Strength"])
+        case(name, "POINT", (2.0, 0.0, 1.2), 300.0, **{{"data": data}})
     elif name == "seen by all":
         case(name, "AREA", (0.0, 0.0, 1.5), 200.0, surface=principled,
              **{{"data.size": 2.0, "rotation_euler": (0.3, 0.0, 0.0)}})
@@ -270,3 +292,15 @@ def test_a_sun_disc_is_seen_by_camera_rays_that_escape_as_in_cycles(tmp_path):
     assert sun["cycles_mean"] > 1.0
     assert sun["rel_mse"] < BLOCK_TOLERANCE
     assert abs(sun["primer_mean"] / sun["cycles_mean"] - 1.0) < 0.03
+
+
+def test_a_lamps_emission_fed_by_constant_nodes_renders_as_cycles(tmp_path):
+    """A point lamp whose Emission takes a Blackbody colour (3200 K) and a Math strength (2 x 0.75): Primer evaluates
+    the nodes once, as the materials' node-graph program does, and lights the floor as Cycles does (no warning); a
+    strength fed by the lamp's texture coordinates, which vary over it, is still named."""
+    cases = run_cases(tmp_path, ["lamp nodes constant", "lamp nodes varying"])
+    case = cases["lamp nodes constant"]
+    print(case["rel_mse"], case["primer_mean"], case["cycles_mean"])
+    assert case["warnings"] == [] and case["rel_mse"] < BLOCK_TOLERANCE
+    varying = cases["lamp nodes varying"]["warnings"]
+    assert len(varying) == 1 and "Strength" in varying[0] and "Separate XYZ" in varying[0], varying
