@@ -1023,6 +1023,43 @@ def test_motion_blur_is_the_mean_of_still_images_over_the_shutter(primer, tmp_pa
     assert max(rows.values()) < 0.003        # (measured 8e-4 at most, a row along an edge)
 
 
+def test_a_thin_lens_image_is_the_mean_of_pinhole_images_over_its_aperture(primer, tmp_path):
+    """A thin lens of aperture radius A focused at distance s: each camera ray starts at its own point of the lens and
+    passes the point of the focal plane its pixel sees. So the image is the mean of pinhole images taken from the
+    points of the lens, each shifted (by -f o / (s S) of the sensor S for a lens point o) so that the focal plane stays
+    where it was: 32 pinholes spread evenly over the aperture (a sunflower spiral) agree with the lens within the
+    noise, and the pinhole at the lens's centre does not."""
+    scene = open_scene("light_point", samples=64)
+    scene.primer.use_adaptive_sampling = False
+    camera = scene.camera
+    lens, sensor = camera.data.lens, camera.data.sensor_width
+    target = np.array(TARGETS["light_point"])
+    R = np.array(camera.matrix_world, np.float64)[:3, :3]
+    origin = np.array(camera.matrix_world.translation, np.float64)
+    s = float(-(R[:, 2] @ (target - origin)))            # the focal plane's distance along the view axis
+    A = 1.0                                              # the aperture's radius, metres (a wide lens: a big blur)
+    camera.data.dof.use_dof = True
+    camera.data.dof.focus_distance = s
+    camera.data.dof.aperture_fstop = lens * 1e-3 / (2.0 * A)
+    camera.data.dof.aperture_blades = 0
+    thin_lens = save("thin_lens", render(primer, scene, str(tmp_path / "lens.exr"))["Combined"])
+    camera.data.dof.use_dof = False
+    pinhole = save("thin_lens_pinhole", render(primer, scene, str(tmp_path / "pinhole.exr"))["Combined"])
+    scene.primer.samples = 16
+    images, count = [], 32
+    for k in range(count):                               # lens points o on the aperture, a sunflower spiral
+        r, phi = A * math.sqrt((k + 0.5) / count), k * math.pi * (3.0 - math.sqrt(5.0))
+        o = np.array([r * math.cos(phi), r * math.sin(phi)])
+        camera.location = origin + R[:, :2] @ o
+        camera.data.shift_x, camera.data.shift_y = -lens * o[0] / (s * sensor), -lens * o[1] / (s * sensor)
+        images.append(render(primer, scene, str(tmp_path / f"hole{k}.exr"))["Combined"])
+    mean = np.mean(images, axis=0)
+    error, centre = relative_mse_of_blocks(thin_lens, mean), relative_mse_of_blocks(thin_lens, pinhole)
+    print(f"thin lens vs the mean of {count} pinholes {error:.2e}, vs the pinhole at its centre {centre:.2e}")
+    assert centre > 10 * error
+    assert error < 1e-4
+
+
 def test_every_picture_the_tour_shows_exists():
     """Each docs/images/tour/*.png that docs/tour.md links to is there (this module's tests write them)."""
     with open(TOUR, encoding="utf-8") as fh:
