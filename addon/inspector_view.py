@@ -159,6 +159,8 @@ def panel_sections(record, height: Optional[int] = None) -> list:
     if height is not None:
         pixel.append(("Blender Y", f"{height - 1 - record.y} (row from the bottom)"))
     camera = pixel + [("Ray origin", vector(record.origin)), ("D", vector(record.direction))]
+    if getattr(record, "lens", None) is not None:
+        camera.insert(len(pixel), ("Lens point", vector(record.lens) + " on the aperture (depth of field)"))
     if not record.valid:
         return [("Camera ray", camera + [("Hit", "outside the fisheye's image circle: black")])]
     if not record.hit:

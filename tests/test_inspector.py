@@ -371,3 +371,22 @@ def test_a_lamp_without_cast_shadow_traces_no_shadow_ray_and_lights_the_point_be
     assert not light.cast and light.reason == inspector.NO_SHADOW
     assert light.occluded is None and light.shadow_origin is None
     assert light.contribution.min() > 0.0
+
+
+def test_with_depth_of_field_the_inspected_ray_leaves_its_lens_point_for_the_focal_plane():
+    """A camera 3 above the floor with a lens of radius 0.4 focused on the floor: the inspected ray leaves from a
+    point within the aperture, the render's sample-0 lens point (offset from the eye by it, across the view), and
+    still meets the floor where the pinhole ray through the pixel's centre does (the floor is the focal plane)."""
+    pinhole = Camera.look_at((0.0, 0.0, CAMERA_HEIGHT), (0.0, 0.001, 0.0), fov=math.radians(40))
+    lens = Camera.look_at((0.0, 0.0, CAMERA_HEIGHT), (0.0, 0.001, 0.0), fov=math.radians(40), aperture_size=0.4,
+                          focus_distance=CAMERA_HEIGHT)
+    sharp = inspector.inspect_pixel(floor_scene(camera=pinhole), settings(), 5, 4)
+    record = inspector.inspect_pixel(floor_scene(camera=lens), settings(), 5, 4)
+    assert sharp.lens is None and record.lens is not None
+    assert 0.0 < np.linalg.norm(record.lens) <= 0.4
+    R = np.asarray(lens.matrix_world, np.float64)[:3, :3]
+    start = record.origin - record.camera_point                 # (the ray starts at the clip distance: back along it
+    on_lens = start - (start @ R[:, 2]) / (record.direction @ R[:, 2]) * record.direction   # to the lens plane)
+    np.testing.assert_allclose(on_lens, R[:, :2] @ record.lens, atol=1e-9)
+    np.testing.assert_allclose(record.I, sharp.I, atol=1e-5)
+    assert not np.allclose(record.direction, sharp.direction)

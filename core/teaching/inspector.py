@@ -35,6 +35,7 @@ from .. import render as render_
 from ..camera import camera as camera_
 from ..geometry.geometry import WorldGeometry
 from ..integrators import Recorder, for_render
+from ..sampling import sobol as sampling
 from ..scene import RenderSettings, Scene
 
 # Why a shadow ray was or was not cast (LightRecord.reason).
@@ -158,6 +159,9 @@ class PixelRecord(NamedTuple):
     emission:       (3,) float64 the light the hit surface emits itself; None when missed
     material:       MaterialRecord: the hit's material inputs (UV, tangent frame, texels) and closures; None
                     when missed
+    lens:           (2,) float64 with depth of field, the ray's point on the aperture (camera-local x right, y
+                    up, scene units: sample 0's lens numbers, as the render draws them); the ray leaves from there
+                    towards the focal plane. None for a pinhole
     warnings:       notes about the scene (lights skipped, geometry dropped)
     """
 
@@ -186,6 +190,7 @@ class PixelRecord(NamedTuple):
     emission: Optional[np.ndarray] = None
     path: tuple = ()
     material: Optional[MaterialRecord] = None
+    lens: Optional[np.ndarray] = None
 
 
 class PathVertex(NamedTuple):
@@ -325,10 +330,16 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     camera_point = np.asarray(cam.matrix_world, np.float64)[:3, 3].copy()
     # 2. The primary ray through the pixel centre.
     origin = ctx.geometry.origin
-    rays = camera_.generate_rays(ctx.extra["camera"], W, H, np.array([x + 0.5]), np.array([y + 0.5]),
-                                 tuple(settings.pixel_aspect))
+    camera = ctx.extra["camera"]
+    lens = None
+    if camera_.has_depth_of_field(camera):      # (the lens point of the render's sample 0 of this pixel)
+        lens = sampling.sample_2d(settings.seed, np.array([y * W + x]), np.zeros(1, np.int64),
+                                  dimension=camera_.LENS_DIMENSION)
+    rays = camera_.generate_rays(camera, W, H, np.array([x + 0.5]), np.array([y + 0.5]),
+                                 tuple(settings.pixel_aspect), lens)
     O_world, D = rays.origins[0] + origin, rays.directions[0]
     miss = dict(x=x, y=y, camera_point=camera_point, origin=O_world.copy(), direction=D.copy(),
+                lens=None if lens is None else camera_.aperture_points(camera, lens)[0],
                 valid=bool(rays.valid[0]), hit=False, t=math.inf, I=None, Ng=None, N=None, smooth=False,
                 u=0.0, v=0.0, triangle=-1, object_name="", albedo=None, shadow_method=settings.shadow_method,
                 lights=(), warnings=tuple(warnings))
