@@ -1060,6 +1060,53 @@ def test_a_thin_lens_image_is_the_mean_of_pinhole_images_over_its_aperture(prime
     assert error < 1e-4
 
 
+def box_chords(position, D, lo, hi) -> np.ndarray:
+    """The length of each ray from `position` along D (..., 3) inside the box [lo, hi] (0 where it misses)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a, b = (np.asarray(lo) - position) / D, (np.asarray(hi) - position) / D
+    t_in = np.maximum(np.minimum(a, b).max(axis=-1), 0.0)
+    t_out = np.maximum(a, b).min(axis=-1)
+    return np.maximum(t_out - t_in, 0.0)
+
+
+def test_a_medium_lets_through_exp_of_minus_its_absorption_along_the_chord(primer, tmp_path):
+    """Beer-Lambert: a cube of Volume Absorption (density d, colour c: sigma_a = d (1 - c)) in front of the camera
+    dims what is seen through it by T = exp(-sigma_a x), x the camera ray's chord through the cube, channel by
+    channel (tinted by what c lets through), and changes nothing around it."""
+    scene = open_scene("light_point", samples=16)
+    scene.primer.use_adaptive_sampling = False
+    position, V, D, _ = lecture_camera(scene, TARGETS["light_point"])
+    clear = render(primer, scene, str(tmp_path / "clear.exr"))["Combined"][..., :3]
+    centre, half = position + 3.0 * V, 0.6
+    bpy.ops.mesh.primitive_cube_add(size=2 * half, location=tuple(centre))
+    cube = bpy.context.view_layer.objects.active
+    material = bpy.data.materials.new("Smoke")
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    absorption = tree.nodes.new("ShaderNodeVolumeAbsorption")
+    density, colour = 1.5, np.array([0.2, 0.5, 0.8])
+    absorption.inputs["Color"].default_value = (*colour, 1.0)
+    absorption.inputs["Density"].default_value = density
+    tree.links.new(absorption.outputs["Volume"], tree.nodes["Material Output"].inputs["Volume"])
+    cube.data.materials.append(material)
+    foggy = save("medium_absorption", render(primer, scene, str(tmp_path / "foggy.exr"))["Combined"])[..., :3]
+    # Pixels wholly inside the cube's outline (all four corners' rays cross it), against the closed form.
+    corners = [lecture_camera(scene, TARGETS["light_point"], raster_offset=o)[2] for o in ((0, 0), (1, 0), (0, 1), (1, 1))]
+    inside = np.all([box_chords(position, d, centre - half, centre + half) > 0.0 for d in corners], axis=0)
+    outside = ~np.any([box_chords(position, d, centre - half, centre + half) > 0.0 for d in corners], axis=0)
+    x = box_chords(position, D, centre - half, centre + half)
+    T = np.exp(-density * (1.0 - colour) * x[..., None])
+    seen = inside & (luminance(clear) > 0.02)
+    ratio = foggy[seen] / np.maximum(clear[seen], 1e-6)
+    print(f"{seen.sum()} pixels through the cube: measured / closed-form transmittance "
+          f"{np.median(ratio / T[seen], axis=0)}, chords {x[seen].min():.2f}..{x[seen].max():.2f}")
+    assert seen.sum() > 300 and x[seen].max() > 1.0
+    np.testing.assert_allclose(np.median(ratio / T[seen], axis=0), 1.0, atol=0.01)
+    assert np.percentile(np.abs(ratio / T[seen] - 1.0), 90) < 0.03
+    np.testing.assert_allclose(foggy[outside], clear[outside], atol=1e-6)
+
+
 def test_every_picture_the_tour_shows_exists():
     """Each docs/images/tour/*.png that docs/tour.md links to is there (this module's tests write them)."""
     with open(TOUR, encoding="utf-8") as fh:
