@@ -1223,7 +1223,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         # The attributes its materials' node graphs read, and Cycles' random number of an instance.
         wanted = set()
         for slot in slots[slots >= 0].tolist():
-            wanted |= graph_.attributes_of(materials.materials[slot].nodes)
+            wanted |= graph_.attributes_of(graph_.with_normal(materials.materials[slot].nodes,
+                                                                materials.materials[slot].normal))
         if "uv" in passes and len(obj.data.uv_layers):
             wanted.add("uv:")
         if wanted and obj.type != "MESH":

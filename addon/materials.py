@@ -222,6 +222,8 @@ class GraphReader:
             group = path[-1]
             socket = next((s for s in group.inputs if s.identifier == out.identifier), None)
             return self.socket(socket, path[:-1]) if socket is not None else own_value(consumer)
+        if kind == "ShaderNodeDisplacement":
+            return self.displacement(node, path)
         if kind == "ShaderNodeRGB":
             return np.array(out.default_value[:3], np.float64)
         if kind == "ShaderNodeValue":
@@ -239,6 +241,26 @@ class GraphReader:
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
             return own_value(consumer)
         return Link(graph_node, name)
+
+    def displacement(self, node, path: tuple):
+        """A Displacement node's offset, as Cycles' svm_node_displacement computes it, from nodes Primer evaluates:
+        (Height - Midlevel) x Scale along its Normal (the shading normal where unlinked), in world space or (its
+        default) in object space: the normal taken into the object's frame, scaled, and the offset brought back, so
+        that the object's scale scales it."""
+        inputs = self.inputs(node, path, ["Height", "Midlevel", "Scale", "Normal"])
+        normal = inputs["Normal"] if _linked(inputs.get("Normal")) else Link(GraphNode("GEOMETRY", {}, {}, node.name),
+                                                                             "Normal")
+        amount = _math("MULTIPLY", _math("SUBTRACT", inputs.get("Height", 0.0), inputs.get("Midlevel", 0.5)),
+                       inputs.get("Scale", 1.0))
+        if getattr(node, "space", "OBJECT") == "OBJECT":
+            normal = Link(GraphNode("VECTOR_TRANSFORM", {"type": "NORMAL", "from": "WORLD", "to": "OBJECT"},
+                                    {"Vector": normal}, node.name), "Vector")
+        offset = Link(GraphNode("VECTOR_MATH", {"operation": "SCALE"}, {"Vector": normal, "Scale": amount}, node.name),
+                      "Vector")
+        if getattr(node, "space", "OBJECT") == "OBJECT":
+            offset = Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
+                                    {"Vector": offset}, node.name), "Vector")
+        return offset
 
     def sky(self, node, warn):
         """A Sky Texture's props {"sky": core/materials/sky.py Sky}, precomputed as Cycles 5.0 does (Blender 4.x's
@@ -743,6 +765,29 @@ def shader_nodes(material, warnings: list) -> list:
     return out
 
 
+def _math(operation: str, a, b):
+    """A Math node's result of a and b (constants or Links): a number when both are, else a MATH node's Link."""
+    if not _linked(a) and not _linked(b):
+        a, b = float(np.asarray(a).reshape(-1)[0]), float(np.asarray(b).reshape(-1)[0])
+        return a - b if operation == "SUBTRACT" else a * b
+    return Link(GraphNode("MATH", {"operation": operation, "clamp": False}, {"0": a, "1": b}), "Value")
+
+
+def displacement_bump(reader: NodeReader, output):
+    """A material's Displacement output as Cycles renders it with Displacement Method Bump Only (its default; also
+    the bump part of Displacement and Bump): the offset's height along the shading normal fed to a Bump node of
+    Strength 1 and Distance 1, whose normal becomes the material's (ShaderGraph::bump_from_displacement). Returns
+    the Bump's Link, or None where the output does not vary per hit."""
+    offset = reader.input(output, "Displacement", np.zeros(3))
+    if not _linked(offset):
+        return None
+    normal = Link(GraphNode("GEOMETRY", {}, {}, output.name), "Normal")
+    height = Link(GraphNode("VECTOR_MATH", {"operation": "DOT_PRODUCT"}, {"Vector": offset, "Vector_001": normal},
+                            output.name), "Value")
+    return Link(GraphNode("BUMP", {"invert": False}, {"Strength": 1.0, "Distance": 1.0, "Height": height},
+                          output.name), "Normal")
+
+
 def _linked(value) -> bool:
     """Whether an input's value is a graph.Link (fed per hit) rather than a constant."""
     return isinstance(value, Link)
@@ -1042,22 +1087,31 @@ def export_material(material, warnings: list) -> Material:
     output = output_node(node_tree(material), "ShaderNodeOutputMaterial")
     volume = linked_node(output, "Volume") if output is not None and "Volume" in output.inputs else None
     medium = volume_of(material, output, warnings) if volume is not None else []
-    if output is not None and "Displacement" in output.inputs and linked_node(output, "Displacement") is not None:
-        method = str(getattr(material, "displacement_method", "BUMP"))
-        warnings.append(f"material '{material.name}': its Displacement output is ignored (Cycles uses it"
-                        + (" as a bump map" if method == "BUMP" else f", method {method}") + "; Primer does not)")
     warnings.extend(unmodelled.material_notes(material))
     nodes = shader_nodes(material, warnings)
+    normal = None
+    if output is not None and "Displacement" in output.inputs and linked_node(output, "Displacement") is not None:
+        method = str(getattr(material, "displacement_method", getattr(getattr(material, "cycles", None),
+                                                                      "displacement_method", "BUMP")))
+        if method == "DISPLACEMENT":
+            warnings.append(f"material '{material.name}': its Displacement output moves the surface (Displacement "
+                            "Only); Primer does not displace geometry and ignores it")
+        elif nodes and surface_node(material) is not None:
+            if method == "BOTH":
+                warnings.append(f"material '{material.name}': Displacement and Bump: Primer renders the bump part "
+                                "only, not the moved surface")
+            normal = displacement_bump(NodeReader(material, warnings), output)
     if volume is not None and surface_node(material) is None:
         # Cycles: a volume's boundary with no surface shader is not there for rays (they enter the volume, and a
         # crossing counts as no transparent bounce).
         return Material(np.zeros(3), material.name, nodes=[("TRANSPARENT", np.ones(3), {}, [])],
                         emission_sampling=sampling, transparent_shadows=True, volume=medium, volume_only=True)
-    if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes) and "roughness" not in nodes[0][2]:
+    if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes) and "roughness" not in nodes[0][2] \
+            and normal is None:
         return Material(np.clip(nodes[0][1], 0.0, None), material.name, emission_sampling=sampling,
                         transparent_shadows=shadows, volume=medium)
     if not nodes:
         return Material(np.zeros(3), material.name, emission_sampling=sampling, transparent_shadows=shadows,
                         volume=medium)
     return Material(np.zeros(3), material.name, nodes=nodes, emission_sampling=sampling, transparent_shadows=shadows,
-                    volume=medium)
+                    volume=medium, normal=normal)

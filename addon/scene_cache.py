@@ -322,7 +322,8 @@ class SceneCache:
             return
         wanted = set()
         for slot in slots[slots >= 0].tolist():
-            wanted |= export.graph_.attributes_of(self.material_table.materials[slot].nodes)
+            material = self.material_table.materials[slot]
+            wanted |= export.graph_.attributes_of(export.graph_.with_normal(material.nodes, material.normal))
         if wanted:
             export.mesh_attributes(obj.data, entry.mesh, wanted, self.warnings)
 

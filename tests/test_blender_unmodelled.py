@@ -31,8 +31,10 @@ def material(name: str, surface=None, volume=None, displacement=False):
     for kind, socket in ((surface, "Surface"), (volume, "Volume")):
         if kind is not None:
             tree.links.new(tree.nodes.new(kind).outputs[0], output.inputs[socket])
-    if displacement:
+    if displacement:                    # (true displacement, which Primer does not do; Bump Only it renders)
         tree.links.new(tree.nodes.new("ShaderNodeDisplacement").outputs[0], output.inputs["Displacement"])
+        owner = m if hasattr(m, "displacement_method") else m.cycles
+        owner.displacement_method = "DISPLACEMENT"
     return m
 
 
@@ -67,7 +69,7 @@ def scene_with_everything():
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
-    """Shadow catcher, a material's Displacement, Principled Dispersion, Mist, Vector and
+    """Shadow catcher, a material's true Displacement, Principled Dispersion, Mist, Vector and
     AOV passes: each named in one warning. (The Volumes of the material and the world are homogeneous media Primer
     renders: no warning.)"""
     scene = scene_with_everything()

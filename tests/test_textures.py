@@ -208,6 +208,31 @@ def test_a_bump_of_a_sloped_height_tilts_the_normal_by_the_slope(kernels):
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("tilt", [0.0, 70.0])
+def test_a_set_normal_bump_is_the_hits_own_normal_with_no_bump_shadowing(kernels, tilt):
+    """Cycles' Set Normal (a Displacement output as bump: Material.normal): the sloped bump's normal N' =
+    normalize(-d/2, 0, 1) becomes the hit's own, so a Lambert plane under a sun from direction l is rho / pi E N'.l
+    exactly, also with the sun 70 degrees from the plane's normal, where the same bump on the node's Normal alone
+    (N' beside the hit's normal) is darker by bump shadowing."""
+    distance = 0.8
+    uv = GraphNode("TEXCOORD", {}, {})
+    height = GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(uv, "UV")})
+    bump = Link(GraphNode("BUMP", {}, {"Height": Link(height, "X"), "Distance": distance, "Strength": 1.0}), "Normal")
+    t = math.radians(tilt)
+    towards = np.array([-math.sin(t), 0.0, math.cos(t)])         # towards the sun, leaning to the bump's side
+    scenes = []
+    for material in (Material(name="Set", nodes=[("DIFFUSE", (0.5, 0.5, 0.5), {})], normal=bump),
+                     Material(name="Node", nodes=[("DIFFUSE", (0.5, 0.5, 0.5), {"normal": bump})])):
+        scene = scene_of(material)
+        scene.lights = [SunLight(-towards, strength=E)]
+        scenes.append(shoot(scene, kernels))
+    N = np.array([-distance / 2.0, 0.0, 1.0]) / math.sqrt(1.0 + distance ** 2 / 4.0)
+    np.testing.assert_allclose(scenes[0], 0.5 / math.pi * E * float(N @ towards), rtol=1e-6)
+    if tilt > 0.0:
+        assert scenes[1].mean() < 0.99 * scenes[0].mean()
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
 def test_vertex_colours_are_interpolated_across_each_triangle(kernels):
     corners = [[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]]
     attribute = GraphNode("ATTRIBUTE", {"attribute": "color:"})

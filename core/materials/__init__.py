@@ -51,6 +51,9 @@ class Material:
     pass_index: Blender's Material > Settings > Pass Index, what the Material Index pass shows
     volume:     the closures of its Volume output, [(name in core/volumes VOLUME_BY_NAME, weight float, inputs
                 dict)], the medium inside its closed meshes (core/volumes); empty: none
+    normal:     a graph.Link or None: Cycles' Set Normal, the hit's shading normal (sd->N) from the graph, which every
+                node's closures default to and bump shadowing compares with (a Displacement output rendered as bump,
+                addon/materials.py displacement_bump); None: the hit's interpolated normal
     volume_only: a Volume and no Surface: its surface is a boundary rays pass through without counting a bounce
                 (Cycles' SD_HAS_ONLY_VOLUME); `nodes` then holds one white Transparent node
     """
@@ -65,6 +68,7 @@ class Material:
     pass_index: int = 0
     volume: list = field(default_factory=list)
     volume_only: bool = False
+    normal: Optional[object] = None
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).
@@ -146,7 +150,8 @@ class NodeShader:
     emission, transparency (3,): what it emits and lets through seen head-on with the inputs' own values
     (the emitters' power and the `emissive` flag use it); emission_sides as ConstantShader's;
     graph: the nodes with their links [(node class, weight, inputs, factors)], None when nothing is linked
-    (then the nodes are the same at every hit); programs: its compiled graph per attribute layout.
+    (then the nodes are the same at every hit); programs: its compiled graph per attribute layout; normal: the
+    Material's `normal` (a Link: the hit's shading normal from the graph) or None.
     """
 
     nodes: list
@@ -156,6 +161,7 @@ class NodeShader:
     graph: Optional[list] = None
     programs: dict = field(default_factory=dict)
     graph_emits: bool = False
+    normal: Optional[object] = None
 
     @classmethod
     def of(cls, material: Material, notes: Optional[list] = None) -> "NodeShader":
@@ -190,15 +196,16 @@ class NodeShader:
             lit = [(node, weight * factor, p) for (node, weight, p), factor in zip(rows, factors)]
             emitted = nodes_.shade_nodes(lit, np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]])).emission[0]
         emission = np.maximum(emitted, 0.0)
-        graph = linked if graph_.has_links(material.nodes) else None
-        estimate = graph_emission_estimate(linked, rows) if graph is not None else None
+        normal = material.normal if isinstance(material.normal, graph_.Link) else None
+        graph = linked if graph_.has_links(material.nodes) or normal is not None else None
+        estimate = graph_emission_estimate(linked, rows) if graph_.has_links(material.nodes) else None
         if estimate is None:
             return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission),
-                       graph)
+                       graph, normal=normal)
         # Its emission comes from the graph (a texture, a linked factor): light samples and BSDF rays evaluate it
         # where they land, and Emission Sampling Auto decides on Cycles' estimate of it.
         return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, estimate),
-                   graph, graph_emits=True)
+                   graph, graph_emits=True, normal=normal)
 
     @property
     def closures_at_most(self) -> int:
@@ -228,7 +235,7 @@ class NodeShader:
         key = (tuple(sorted(layout.items())), None if view is None else tuple(np.asarray(view).ravel()), window)
         if key not in self.programs:
             self.programs[key] = graph_.Compiler(layout, image_index, material=name, view=view,
-                                                 window=window).compile(self.graph)
+                                                 window=window).compile(self.graph, self.normal)
         return self.programs[key]
 
     def shade(self, N: np.ndarray, wo: np.ndarray, point=None, program=None, textures=None,
@@ -248,7 +255,9 @@ class NodeShader:
         weights = [np.broadcast_to(weight, (n, 3)).astype(np.float64) for _, weight, _ in self.nodes]
         rows = [np.tile(p, (n, 1)) for _, _, p in self.nodes]
         normals = [None] * len(self.nodes)
-        graph_.apply_outputs(program, registers, weights, rows, normals, point.Ng, wo)
+        hit_normal = graph_.apply_outputs(program, registers, weights, rows, normals, point.Ng, wo)
+        if hit_normal is not None:                    # (Set Normal: the hit's own normal, where the graph gives one)
+            N = np.where(np.any(hit_normal != 0.0, axis=1)[:, None], hit_normal, N)
         glossy = [None if normal is None else graph_.valid_reflection(point.Ng, wo, normal) for normal in normals]
         return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing,
                                   caustics=caustics)
@@ -350,7 +359,8 @@ class MaterialTable:
         self.images: list = []
         self._image_rows: dict = {}
         for shader in shaders:
-            for image in graph_.images_of(shader.graph) if getattr(shader, "graph", None) else ():
+            graph = getattr(shader, "graph", None)
+            for image in graph_.images_of(graph_.with_normal(graph, shader.normal)) if graph else ():
                 self.image_index(image)
         self.textures = TextureSet.of(self.images)
         # The camera's world-to-camera transform (3, 4) the graphs' Camera coordinates read (set by render.prepare;

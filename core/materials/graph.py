@@ -321,6 +321,12 @@ def links_under(nodes: list):
             stack.extend(value.node.inputs.values())
 
 
+def with_normal(nodes: list, normal) -> list:
+    """A material's nodes with its Set Normal Link (Material.normal) as one more entry, for what walks its links
+    (links_under, images_of, attributes_of); the nodes alone where it has none."""
+    return list(nodes) + [(None, 1.0, {"normal": normal})] if isinstance(normal, Link) else list(nodes)
+
+
 def images_of(nodes: list) -> list:
     """The textures.Image objects (or None for missing ones) of every image node (IMAGE, ENVIRONMENT) under a
     material's links."""
@@ -780,10 +786,13 @@ class Compiler:
         offset, width, vtype = texture.output(output)
         return shift(out, offset), width, vtype
 
-    def compile(self, nodes: list) -> Program:
+    def compile(self, nodes: list, hit_normal=None) -> Program:
         """The program of a material's shader nodes [(node class, weight, inputs dict, factors), ...]:
         linked inputs overwrite their slots, factors multiply the weight, "normal" replaces the normal; a linked
-        input in cls.normal_inputs (the Principled's "coat_normal") is a normal written into its slots."""
+        input in cls.normal_inputs (the Principled's "coat_normal") is a normal written into its slots; a
+        `hit_normal` Link (Cycles' Set Normal) is the hit's own normal, an OUT_NORMAL output to node -1."""
+        if isinstance(hit_normal, Link):
+            self.outputs.append([OUT_NORMAL, -1, 0, 3, self.value(hit_normal, 3)])
         for k, entry in enumerate(nodes):
             cls, inputs = entry[0], entry[2]
             factors = entry[3] if len(entry) > 3 else ()
@@ -1281,10 +1290,14 @@ def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, 
     """Overwrite the shader nodes' per-hit weights (n, 3), rows (n, NODE_PARAMS) and normals ((n, 3) or None)
     with the program's outputs (lists indexed by shader node, changed in place); a normal output to slot > 0
     (a node's normal input, e.g. Coat Normal) goes to the row, unit and, given Ng and wo (n, 3), corrected by
-    valid_reflection."""
+    valid_reflection. Returns the hit's own normal (n, 3) from a normal output to node -1 (Set Normal; zero
+    where it has none), or None."""
+    hit_normal = None
     for kind, node, slot, width, register in program.outputs.astype(np.int64):
         value = reg[:, register:register + width]
-        if kind == OUT_INPUT:
+        if node < 0:
+            hit_normal = safe_normalize(value)
+        elif kind == OUT_INPUT:
             rows[node][:, slot:slot + width] = value
         elif kind == OUT_WEIGHT:
             if slot == 0:
@@ -1301,6 +1314,7 @@ def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, 
             if Ng is not None:                      # (zero stays zero: the node reads it as unlinked)
                 unit = np.where(np.any(unit != 0.0, axis=1)[:, None], valid_reflection(Ng, wo, unit), 0.0)
             rows[node][:, slot:slot + 3] = unit
+    return hit_normal
 
 
 def empty_point(n: int, width: int) -> ShadingPoint:

@@ -559,17 +559,25 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
 
 /* NodeShader.shade with a program: the node graph runs at the hit (graph.c), its outputs replace the
  * nodes' linked inputs, multiply their weights and give them their own normals (graph.apply_outputs);
- * then every node sets up its closures with its normal; sd->N stays the hit's (Cycles' sd->N), which
- * bump shadowing (bsdf.c) compares the closures' normals with. One node at a time (each output changes
+ * then every node sets up its closures with its normal; sd->N stays the hit's (Cycles' sd->N: a Set Normal output
+ * replaces it), which bump shadowing (bsdf.c) compares the closures' normals with. One node at a time (each output changes
  * only its own node), so that a material may have any number of nodes. */
 NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, const ShadingPoint *sp, const double *N,
                         const double *wo, int backfacing, ShaderResult *sd)
 {
-    double reg[MAX_REGISTERS], weight[3], p[NODE_PARAMS], normal[3], glossy[3];
+    double reg[MAX_REGISTERS], weight[3], p[NODE_PARAMS], normal[3], glossy[3], hit[3];
     int n = (int)m->n, program = (int)m->graph - 1;
     run_program(G, program, sp, reg);
     const double *info = G->programs + 8 * program;
     const double *outputs = G->outputs + 5 * (int64_t)info[5];
+    /* Set Normal (a normal output to node -1): the hit's own normal from here on, where the graph gives one. */
+    for (int64_t o = 0; o < (int64_t)info[6]; o++) {
+        const double *out = outputs + 5 * o;
+        if ((int)out[1] >= 0) continue;
+        for (int j = 0; j < 3; j++) hit[j] = reg[(int64_t)out[4] + j];
+        safe_normalize3(hit);
+        if (hit[0] != 0.0 || hit[1] != 0.0 || hit[2] != 0.0) N = hit;
+    }
     sd->n = 0;
     for (int j = 0; j < 3; j++) sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0;
     for (int k = 0; k < n; k++) {

@@ -1,0 +1,82 @@
+"""A material's Displacement output rendered as Cycles renders it with Displacement Method Bump Only (its default):
+the Displacement node's offset along the normal, as a height, bumps the shading normal of every closure
+(addon/materials.py displacement_bump), in object space (the object's scale scales it) or world space; against
+Cycles 5.x on a plane of wave bands under a low sun."""
+from __future__ import annotations
+
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else __import__("bpy")
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
+from render import load_primer  # noqa: E402
+
+from test_blender_cycles_settings import add_camera, new_cycles_file, render  # noqa: E402
+from core.film.compare import relative_mse_of_blocks  # noqa: E402
+
+pytestmark = pytest.mark.blender
+
+
+@pytest.fixture(scope="module")
+def primer():
+    """Primer registered from this checkout, as tools/render.py does."""
+    return load_primer()
+
+
+def wavy_plane(space: str, scale: float):
+    """A 4 x 4 plane (object scale `scale`, so 4 x scale wide) whose Diffuse material is displaced by wave bands
+    (Height: a Wave Texture, Midlevel 0.5, Scale 0.15, `space`), under a sun 25 degrees above the horizon; an
+    orthographic camera looks straight down; 48 x 48 pixels, direct light."""
+    scene = new_cycles_file(48, 48)
+    bpy.ops.mesh.primitive_plane_add(size=4.0 / scale)
+    plane = bpy.context.view_layer.objects.active
+    plane.scale = (scale, scale, scale)
+    material = bpy.data.materials.new("Wavy")
+    material.use_nodes = True
+    tree = material.node_tree
+    principled = tree.nodes["Principled BSDF"]
+    tree.nodes.remove(principled)
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    output = tree.nodes["Material Output"]
+    tree.links.new(diffuse.outputs["BSDF"], output.inputs["Surface"])
+    wave = tree.nodes.new("ShaderNodeTexWave")
+    wave.inputs["Scale"].default_value = 1.5
+    wave.inputs["Distortion"].default_value = 0.0
+    displacement = tree.nodes.new("ShaderNodeDisplacement")
+    displacement.space = space
+    displacement.inputs["Scale"].default_value = 0.15
+    tree.links.new(wave.outputs["Fac"], displacement.inputs["Height"])
+    tree.links.new(displacement.outputs["Displacement"], output.inputs["Displacement"])
+    plane.data.materials.append(material)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 3.0, 0.0
+    sun.rotation_euler = (math.radians(65.0), 0.0, math.radians(30.0))
+    scene.collection.objects.link(sun)
+    add_camera(scene, (0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 3.6
+    scene.cycles.max_bounces = 0
+    scene.cycles.samples = 16
+    scene.primer.settings_source = "CYCLES"
+    return scene, material
+
+
+@pytest.mark.parametrize("space, scale", [("OBJECT", 2.0), ("WORLD", 1.0)])
+def test_a_displacement_output_bumps_the_shading_as_cycles_bump_only(primer, tmp_path, space, scale):
+    """Bump Only: Primer's image of the displaced plane is Cycles' (block relMSE below 1e-3) and far from the flat
+    plane's; no warning names the Displacement."""
+    scene, material = wavy_plane(space, scale)
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    assert not [w for w in warnings if "Displacement" in w], warnings
+    mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
+    cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
+    tree = material.node_tree
+    tree.links.remove(tree.nodes["Material Output"].inputs["Displacement"].links[0])
+    flat = render(scene, "PRIMER", str(tmp_path / "flat.exr"))
+    error, unbumped = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(flat, cycles)
+    print(f"{space} x{scale:g}: block relMSE {error:.2e}, the flat plane {unbumped:.2e}; means {mine.mean():.4f} {cycles.mean():.4f}; worst {np.abs(mine - cycles).max():.3f}")
+    assert error < 1e-3 and unbumped > 10.0 * error, (error, unbumped)
