@@ -9,6 +9,7 @@ Phases, in order (each Blender job in its own process, with empty Blender user f
   profile    Primer's time per phase on every scene
   rays       Primer's rays per second against embreex's on the same rays
   scaling    time and peak memory against triangles, pixels, lights and instances (core alone)
+  memory     peak memory of a million-triangle mesh rendered in Blender, Primer against Cycles (bench/memory.py)
   stability  the hard cases of tests/hard_cases.py with both shadow offsets
 Then bench/report.py writes bench/REPORT.md, the plots in docs/images/bench/ and the "## Benchmark"
 section of docs/performance.md. --quick measures a little of everything in a few minutes and writes
@@ -30,7 +31,7 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
-PHASES = ("scenes", "denoise", "integrators", "profile", "rays", "scaling", "stability")
+PHASES = ("scenes", "denoise", "integrators", "profile", "rays", "scaling", "memory", "stability")
 # The path-traced sample scenes, where each integrator's cost is set against its error (the integrators phase).
 INTEGRATOR_SCENES = ("cornell_box", "materials_glass")
 RAYS_SCENES = ("modifiers_instances", "light_area", "cornell_box")
@@ -140,6 +141,32 @@ def run_scaling(quick: bool) -> dict:
     return {"points": points, "notes": notes, "defaults": DEFAULTS, "baseline_mb": baseline}
 
 
+MEMORY_TRIANGLES = 1_000_000      # the memory phase's mesh (--quick: a tenth)
+MEMORY_REPEATS = 2                 # each engine's process, alternating; the smaller peak of each is kept
+
+
+def run_memory(quick: bool) -> dict:
+    """Peak memory of Primer's and Cycles' render of the same million-triangle grid, each in fresh Blender processes
+    (bench/memory.py) with empty user folders, alternating; per engine the run of the smaller peak."""
+    from blender_env import isolated_env          # tests/blender_env.py: empty HOME and Blender user folders
+
+    triangles = MEMORY_TRIANGLES // (10 if quick else 1)
+    env = isolated_env(os.path.join(common.OUT, "blender-home"))
+    runs: dict = {"PRIMER": [], "CYCLES": []}
+    for _ in range(MEMORY_REPEATS):
+        for engine in runs:
+            command = [sys.executable, os.path.join(common.BENCH, "memory.py"), engine, str(triangles)]
+            done = subprocess.run(command, cwd=common.ROOT, env=env, capture_output=True, text=True)
+            if done.returncode != 0:
+                raise RuntimeError(f"bench/memory.py {engine} failed:\n" + "\n".join(done.stderr.splitlines()[-20:]))
+            runs[engine].append(json.loads(done.stdout.strip().splitlines()[-1]))
+    best = {engine: min(points, key=lambda p: p["peak_mb"]) for engine, points in runs.items()}
+    for engine, point in best.items():
+        print(f"  {engine}: peak {point['peak_mb']:.0f} MB (mesh built {point['built_mb']:.0f} MB), "
+              f"{point['seconds']:.1f} s", flush=True)
+    return {"triangles": triangles, "engines": best, "runs": runs}
+
+
 def run_stability() -> list:
     """Run every hard case with both shadow offsets; return the table rows."""
     import hard_cases            # tests/hard_cases.py, shared with tests/test_hard_cases.py
@@ -202,17 +229,23 @@ def main(argv=None) -> int:
                 results[phase].append(common.read_json(os.path.join(common.OUT, f"rays_{name}.json")))
         elif phase == "scaling":
             results[phase] = run_scaling(plan.quick)
+        elif phase == "memory":
+            results[phase] = run_memory(plan.quick)
         else:
             results[phase] = run_stability()
         results.setdefault("phase_seconds", {})[phase] = time.perf_counter() - start
         results.setdefault("load", {})[phase] = os.getloadavg()[0]
         print(f"  ({time.perf_counter() - start:.0f} s)", flush=True)
     results["machine"]["total_minutes"] = (time.perf_counter() - started) / 60.0
-    references = results["scenes"].get("references", {}).values()
-    fresh = [r for r in references if r.get("rendered_now")]
-    results["machine"]["reference_note"] = (
-        f"{len(fresh)} Cycles reference(s) rendered in this run, {sum(r['seconds'] for r in fresh) / 60:.1f} "
-        f"minutes of it" if fresh else "the Cycles references came from the bench/refs/ cache")
+    if "scenes" in args.skip:                     # (the scenes' numbers, and the scenes measured again alone, are
+        results["machine"]["reference_note"] = ""     # the last run's: no reference was rendered in this one)
+        results["machine"]["scene_commits"] = previous.get("machine", {}).get("scene_commits", {})
+    else:
+        references = results["scenes"].get("references", {}).values()
+        fresh = [r for r in references if r.get("rendered_now")]
+        results["machine"]["reference_note"] = (
+            f"{len(fresh)} Cycles reference(s) rendered in this run, {sum(r['seconds'] for r in fresh) / 60:.1f} "
+            f"minutes of it" if fresh else "the Cycles references came from the bench/refs/ cache")
     common.write_json(results_path, results)
     import report
 
