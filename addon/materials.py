@@ -224,6 +224,8 @@ class GraphReader:
             return self.socket(socket, path[:-1]) if socket is not None else own_value(consumer)
         if kind == "ShaderNodeDisplacement":
             return self.displacement(node, path)
+        if kind == "ShaderNodeVectorDisplacement":
+            return self.vector_displacement(node, path, consumer)
         if kind == "ShaderNodeRGB":
             return np.array(out.default_value[:3], np.float64)
         if kind == "ShaderNodeValue":
@@ -258,6 +260,30 @@ class GraphReader:
         offset = Link(GraphNode("VECTOR_MATH", {"operation": "SCALE"}, {"Vector": normal, "Scale": amount}, node.name),
                       "Vector")
         if getattr(node, "space", "OBJECT") == "OBJECT":
+            offset = Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
+                                    {"Vector": offset}, node.name), "Vector")
+        return offset
+
+    def vector_displacement(self, node, path: tuple, consumer):
+        """A Vector Displacement node's offset as Cycles' svm_node_vector_displacement computes it: (Vector -
+        Midlevel) x Scale, in world space or (brought into the world) object space; tangent space is named, and the
+        consumer's own value used."""
+        space = getattr(node, "space", "TANGENT")
+        if space not in ("OBJECT", "WORLD"):
+            self.reader.warn(node, f"{space.lower()} space is not evaluated (object and world space are); for "
+                                   f"'{consumer.name}' Primer uses that input's own value {_shown(consumer)}")
+            return own_value(consumer)
+        inputs = self.inputs(node, path, ["Vector", "Midlevel", "Scale"])
+        midlevel = inputs.get("Midlevel", 0.0)
+        middle = (np.full(3, float(midlevel)) if not _linked(midlevel)
+                  else Link(GraphNode("COMBINE_XYZ", {}, {"X": midlevel, "Y": midlevel, "Z": midlevel}, node.name),
+                            "Vector"))
+        offset = Link(GraphNode("VECTOR_MATH", {"operation": "SUBTRACT"},
+                                {"Vector": inputs.get("Vector", np.zeros(3)), "Vector_001": middle}, node.name), "Vector")
+        offset = Link(GraphNode("VECTOR_MATH", {"operation": "SCALE"}, {"Vector": offset,
+                                                                       "Scale": inputs.get("Scale", 1.0)}, node.name),
+                      "Vector")
+        if space == "OBJECT":
             offset = Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
                                     {"Vector": offset}, node.name), "Vector")
         return offset
