@@ -231,3 +231,34 @@ def test_a_cycles_file_lifts_and_bends_each_object_by_its_own_terminator_offsets
     bent_error = relative_mse_of_blocks(mine[right], cycles[right])
     print(f"block relMSE: following Cycles {error:.2e} (the bent sphere {bent_error:.2e}), the fix off {wrong:.2e}")
     assert error < 5e-4 and bent_error < 5e-4 and wrong > 10.0 * error, (error, bent_error, wrong)
+
+
+def test_the_surface_after_the_last_transparent_bounce_ends_the_camera_path_as_in_cycles(primer, tmp_path):
+    """Four clear sheets (Transparent BSDF of 0.5) before an orange world, seen straight through: with Transparent Max
+    Bounces 3 the fourth sheet ends the path (black), with 4 the camera sees the world through all four
+    (1/16 of it), in Cycles (its mean: it plays Russian roulette on transparent bounces) and in Primer alike."""
+    scene = new_cycles_file(8, 8)
+    world = bpy.data.worlds.new("Orange")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (1.0, 0.5, 0.25, 1.0)
+    scene.world = world
+    material = bpy.data.materials.new("Clear")
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    clear = tree.nodes.new("ShaderNodeBsdfTransparent")
+    clear.inputs["Color"].default_value = (0.5, 0.5, 0.5, 1.0)
+    tree.links.new(clear.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    for k in range(4):
+        bpy.ops.mesh.primitive_plane_add(size=40.0, location=(0.0, 0.0, -float(k)))
+        bpy.context.view_layer.objects.active.data.materials.append(material)
+    add_camera(scene, (0.0, 0.0, 3.0), (0.0, 0.0, 0.0))
+    scene.cycles.samples = 64
+    scene.primer.settings_source = "CYCLES"
+    for limit, expected in ((3, np.zeros(3)), (4, np.array([1.0, 0.5, 0.25]) / 16.0)):
+        scene.cycles.transparent_max_bounces = limit
+        mine = render(scene, "PRIMER", str(tmp_path / f"primer{limit}.exr"))
+        np.testing.assert_allclose(mine, np.broadcast_to(expected, mine.shape), atol=1e-6)
+        # (Cycles plays Russian roulette on transparent bounces past Min Transparent Bounces, 0: noisy, unbiased)
+        cycles = render(scene, "CYCLES", str(tmp_path / f"cycles{limit}.exr"))
+        np.testing.assert_allclose(cycles.mean(axis=(0, 1)), expected, rtol=0.05, atol=1e-9)

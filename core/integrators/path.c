@@ -117,7 +117,10 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         /* (a volume-only boundary is no transparent bounce: Cycles counts those crossings apart) */
         int boundary = see_through && is_boundary(ds->media, H->s[h].material);
         int clear = r->path.transparent - boundary, crossed = H->bounds[h] + boundary;
-        if (clear > limits->transparent_bounces) continue;
+        /* (the surface after the last transparent bounce allowed ends the path: Cycles' terminate-on-next-surface,
+         *  its emission already gathered by the ray) */
+        if (clear > limits->transparent_bounces || (see_through && !boundary && clear >= limits->transparent_bounces))
+            continue;
         if (bounces > limits->max_bounces || d > limits->diffuse_bounces || g > limits->glossy_bounces
             || tr > limits->transmission_bounces) {
             /* Past its bounce limits the path still looks through the transparent surfaces its ray meets. */

@@ -339,7 +339,11 @@ class PathTracing(Integrator):
             vb = bounds[ray.rows] + (is_transparent & boundary)
             within = ((bounces <= max_bounces) & (d <= s.diffuse_bounces) & (g <= s.glossy_bounces)
                       & (tr <= s.transmission_bounces))
-            going = ray.hits.hit & within & (tp <= s.transparent_max_bounces) & (vb <= VOLUME_BOUNDS_MAX)
+            # (the surface after the last transparent bounce allowed ends the path, Cycles' terminate-on-next-surface:
+            #  the ray gathered its emission, nothing more)
+            last_clear = is_transparent & ~boundary & (tp >= s.transparent_max_bounces)
+            going = (ray.hits.hit & within & (tp <= s.transparent_max_bounces) & ~last_clear
+                     & (vb <= VOLUME_BOUNDS_MAX))
             if data is not None:
                 # A camera chain's ray straight on through a transparent surface: what it passes and escapes to.
                 chain = np.flatnonzero((bounce[ray.rows] == 0) & is_transparent & (tp <= s.transparent_max_bounces))
