@@ -161,14 +161,14 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
         hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
-        stretch = None if media is None else media.along(inside[alive])
+        stretch = None if media is None else media.along(inside[alive], O, D)
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
                                         seen_as=ray.seen_as[rows][alive], stretch=stretch,
                                         paths=graph_.paths_at(paths, alive)._replace(transparent=passed[alive]),
                                         receiver=None if ray.receiver is None else ray.receiver[rows][alive])
         if media is not None:                    # (and what reaches the next surface)
-            T[alive] *= volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
+            T[alive] *= stretch.transmittance(np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         found[alive] += light * f[:, None]
         if groups is not None:
@@ -227,7 +227,7 @@ class PathTracing(Integrator):
         # The media the camera rays start in (core/volumes): the world's, and those of the meshes around the camera.
         media = ctx.extra.get("media")
         inside = None if media is None else camera_media(ctx, O, D)
-        stretch = None if media is None else media.along(inside)
+        stretch = None if media is None else media.along(inside, O, D)
         L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, stretch)
         shadow_rays = 0
         scatters = media is not None and media.scatters
@@ -257,7 +257,7 @@ class PathTracing(Integrator):
         throughput = np.ones((len(hit), 3))
         if media is not None:                        # (what the media let through to the camera's hits)
             inside = inside[hit]
-            throughput = volumes.transmittance(stretch.sigma_t[hit], surface.t)
+            throughput = stretch.rows(hit).transmittance(surface.t)
         diffuse = np.zeros(len(hit), np.int64)
         glossy = np.zeros(len(hit), np.int64)
         transmission = np.zeros(len(hit), np.int64)

@@ -122,11 +122,21 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     numbers; dimension: the vertex's shift of the sampling dimensions; bounce: (k,) or int the real bounces the paths
     made before the stretch (a light's Max Bounces); behind: path.through_transparent, for the phase rays."""
     media = ctx.extra["media"]
-    stretch = media.along(inside)
+    stretch = media.along(inside, O, D)
     L = np.zeros((len(O), 3))
     rows = np.flatnonzero(stretch.scatters)
+    bounces = np.broadcast_to(np.asarray(bounce), (len(O),))
+    # (Rays in a heterogeneous medium: the same on the pieces of its march.)
+    marched = rows[stretch.varying[rows]]
+    rows = rows[~stretch.varying[rows]]
+    shadow_rays = 0
+    if len(marched):
+        L[marched], shadow_rays = marched_scattering(ctx, stretch.rows(marched), O[marched], D[marched],
+                                                     np.asarray(t, np.float64)[marched], inside[marched],
+                                                     throughput[marched], pixel[marched], sample[marched], dimension,
+                                                     bounces[marched], behind)
     if len(rows) == 0:
-        return L, 0
+        return L, shadow_rays
     part = stretch.rows(rows)
     # 1. Where each ray scatters, and its weight T(s) sigma_s / pdf(s).
     u = sampling.sample_2d(ctx.settings.seed, pixel[rows], sample[rows], dimension=DISTANCE_DIMENSION + dimension)
@@ -134,18 +144,19 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     sampled = pdf > 0.0
     rows, s, pdf, odds, part = rows[sampled], s[sampled], pdf[sampled], odds[sampled], part.rows(sampled)
     if len(rows) == 0:
-        return L, 0
+        return L, shadow_rays
     weight = volumes.transmittance(part.sigma_t, s) * part.sigma_s / pdf[:, None]
     # 2. The light scattered there towards the ray's start; each lamp's light samples weighed against the same
     #    lamp's equi-angular points (3.), by the balance heuristic on the two densities of s.
     o, d, length = O[rows], D[rows], np.asarray(t, np.float64)[rows]
     P = o + s[:, None] * d
-    bounces = np.broadcast_to(np.asarray(bounce), (len(O),))[rows]
+    bounces = bounces[rows]
     lamps = equiangular_lamps(ctx)
     share = {index: pdf / (pdf + equiangular(o, d, length, X, s=s)[1]) for index, X in lamps.items()}
-    scattered, shadow_rays = scattered_light(ctx, P, -d, part.g, inside[rows], pixel[rows], sample[rows],
-                                             dimension, bounces, behind, share)
+    scattered, count = scattered_light(ctx, P, -d, part.g, inside[rows], pixel[rows], sample[rows],
+                                       dimension, bounces, behind, share)
     L[rows] = weight * scattered
+    shadow_rays += count
     # 3. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
     for index, X in lamps.items():
         u = sampling.sample_2d(ctx.settings.seed, pixel[rows], sample[rows],
@@ -162,6 +173,51 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
                                      inside[at], pixel[at], sample[at], dimension, bounces[chosen], behind,
                                      only=index)
         L[at] += T * (w / pdf_e[chosen])[:, None] * lit
+        shadow_rays += count
+    return L, shadow_rays
+
+
+def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
+                       throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
+                       bounce: np.ndarray, behind) -> tuple:
+    """in_scattering for k rays in a heterogeneous medium (stretch: their volumes.Stretch): the same estimate on the
+    pieces of their march (core/volumes/field.py): free flight inverting the optical depth of a channel picked by
+    throughput x the rays' albedo (their optical depths' ratio), weight T(s) sigma_s(s) / pdf(s), and each lamp's
+    equi-angular point weighed against it by the balance heuristic. Returns (L (k, 3), shadow rays)."""
+    k = len(O)
+    L = np.zeros((k, 3))
+    march = stretch.march(t, np.arange(k))
+    tau_t, tau_s = march.totals()
+    odds = channel_odds(volumes.Stretch(tau_t, tau_s, np.zeros((k, 3)), np.zeros(k)), throughput)
+    # 1. The free-flight point, its weight T(s) sigma_s(s) / pdf(s).
+    u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=DISTANCE_DIMENSION + dimension)
+    s, pdf = march.free_flight(odds, u)
+    _, sigma_s, g = march.at(s)
+    ok = np.flatnonzero(pdf > 0.0)
+    shadow_rays = 0
+    lamps = equiangular_lamps(ctx)
+    if len(ok):
+        weight = march.transmittance(s)[ok] * sigma_s[ok] / pdf[ok, None]
+        share = {index: pdf[ok] / (pdf[ok] + equiangular(O[ok], D[ok], t[ok], X, s=s[ok])[1])
+                 for index, X in lamps.items()}
+        scattered, shadow_rays = scattered_light(ctx, O[ok] + s[ok, None] * D[ok], -D[ok], g[ok], inside[ok],
+                                                 pixel[ok], sample[ok], dimension, bounce[ok], behind, share)
+        L[ok] = weight * scattered
+    # 2. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
+    for index, X in lamps.items():
+        u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=EQUIANGULAR_DIMENSION + index + dimension)
+        s_e, pdf_e = equiangular(O, D, t, X, u=u[:, 0])
+        chosen = np.flatnonzero(pdf_e > 0.0)
+        if len(chosen) == 0:
+            continue
+        at = np.where(pdf_e > 0.0, s_e, 0.0)
+        w = pdf_e / (pdf_e + march.pdf(odds, at))
+        _, sigma_e, g_e = march.at(at)
+        T = march.transmittance(at) * sigma_e
+        lit, count = scattered_light(ctx, O[chosen] + s_e[chosen, None] * D[chosen], -D[chosen], g_e[chosen],
+                                     inside[chosen], pixel[chosen], sample[chosen], dimension, bounce[chosen], behind,
+                                     only=index)
+        L[chosen] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
         shadow_rays += count
     return L, shadow_rays
 
@@ -254,13 +310,13 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
         ps = phase.sample(wo, u)
         kind = np.zeros(m, np.int64)                     # (a volume's ray: no Ray Visibility bit of its own)
         hits = nearest_seen(ctx, P, ps.wi, np.full(m, np.inf), kind)
-        stretch = ctx.extra["media"].along(inside)
+        stretch = ctx.extra["media"].along(inside, P, ps.wi)
         gather = bsdf_rays and s.light_sampling != "light"
         if gather:
             L += gather_light(ctx, P, ps.wi, hits, ps.pdf, np.full(m, mis), N=unknown, seen_as=kind, stretch=stretch,
                               receiver=nowhere)
             # Straight on through the transparent surfaces it meets, to the light behind them.
-            T = volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
+            T = stretch.transmittance(np.where(hits.hit, hits.t, np.inf))
             ray = BsdfRay(np.arange(m), P, ps.wi, hits, np.ones((m, 3)), np.full(m, -1), np.zeros(m, bool),
                           np.zeros(m, bool), ps.pdf, kind, P, unknown, inside=inside, attenuation=T,
                           path=scatter_paths(m, bounce), receiver=nowhere)
