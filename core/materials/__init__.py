@@ -53,6 +53,9 @@ class Material:
                 dict)], the medium inside its closed meshes (core/volumes); empty: none
     volume_only: a Volume and no Surface: its surface is a boundary rays pass through without counting a bounce
                 (Cycles' SD_HAS_ONLY_VOLUME); `nodes` then holds one white Transparent node
+    volume_space: for a heterogeneous medium (a volume input fed by a link), the space its graph reads at a point:
+                (world-to-object (3, 4) float64, texture space location (3,), size (3,)) of the object that holds it
+                (its Object and Generated coordinates); None: the world's (core/volumes/field.py)
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
@@ -65,6 +68,7 @@ class Material:
     pass_index: int = 0
     volume: list = field(default_factory=list)
     volume_only: bool = False
+    volume_space: Optional[tuple] = None
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).

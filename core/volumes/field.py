@@ -42,7 +42,8 @@ LAYOUT = {"generated": (0, 3), "object": (3, 3)}
 def linked(entries: list) -> bool:
     """Whether a Volume output's closures [(name, weight, inputs)] have an input fed by a link (a graph.Link)."""
     from ..materials.graph import Link
-    return any(isinstance(value, Link) for _, _, inputs in entries for value in inputs.values())
+    return any(isinstance(value, Link) or (key == "factors" and value) for _, _, inputs in entries
+               for key, value in inputs.items())
 
 
 class Sample(NamedTuple):
@@ -118,7 +119,7 @@ class Field:
             keys = tuple(key for key, value in inputs.items() if isinstance(value, graph_.Link))
             shim = type("VolumeInputs", (), {"inputs": keys, "defaults": tuple(np.zeros(INPUT_WIDTHS[key])
                                                                                 for key in keys)})
-            nodes.append((shim, weight, {key: inputs[key] for key in keys}, ()))
+            nodes.append((shim, weight, {key: inputs[key] for key in keys}, list(inputs.get("factors", ()))))
             self.slots.append(keys)
         self.program = graph_.Compiler(LAYOUT, lambda image: -1, material="volume").compile(nodes)
 
@@ -149,8 +150,13 @@ class Field:
         point = graph_.empty_point(n, 6)._replace(attributes=self.coordinates(P), P=P + self.origin,
                                                   path=graph_.light_paths(n, flags=graph_.PATH["volume_scatter"]))
         registers = graph_.run(self.program, point, None)
-        found = {(int(node), int(slot)): (int(width), int(register))
-                 for _, node, slot, width, register in self.program.outputs.astype(np.int64)}
+        found, factors = {}, {}
+        for kind, node, slot, width, register in self.program.outputs.astype(np.int64):
+            if kind == graph_.OUT_WEIGHT:               # (a Mix Shader's linked factor above the closure)
+                value = np.clip(registers[:, register], 0.0, 1.0)
+                factors[node] = factors.get(node, 1.0) * (value if slot == 0 else 1.0 - value)
+            else:
+                found[(int(node), int(slot))] = (int(width), int(register))
         total = Sample(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n))
         for k, (name, weight, inputs) in enumerate(self.entries):
             values, slot = {}, 0
@@ -165,6 +171,10 @@ class Field:
                     value = np.repeat(value[:1], width) if len(value) < width else value[:width]
                     values[key] = np.broadcast_to(value, (n, width))
             part = closure_at(name, float(weight), values)
+            if k in factors:
+                f = factors[k]
+                part = Sample(part.sigma_a * f[:, None], part.sigma_s * f[:, None], part.emission * f[:, None],
+                              part.gs * f)
             total = Sample(*(a + b for a, b in zip(total, part)))
         return total
 
