@@ -240,6 +240,46 @@ class March:
             depth = np.where(self.sigma_t > 0.0, self.sigma_t * width[:, :, None], 0.0)
         self.tau = np.concatenate([np.zeros((n, 1, 3)), np.cumsum(depth, axis=1)], axis=1)
 
+    @classmethod
+    def uniform(cls, sigma_t: np.ndarray, sigma_s: np.ndarray, emission: np.ndarray, g: np.ndarray,
+                t: np.ndarray) -> "March":
+        """The one-piece march of n rays over [0, t) (n,) through homogeneous media of coefficients (n, 3) each and
+        anisotropies g (n,)."""
+        march = cls.__new__(cls)
+        n = len(t)
+        march.edges = np.stack([np.zeros(n), np.asarray(t, np.float64)], axis=1)
+        march.sigma_t, march.sigma_s, march.emission = sigma_t[:, None], sigma_s[:, None], emission[:, None]
+        march.gs = (g * sigma_s.sum(axis=1))[:, None]
+        with np.errstate(invalid="ignore"):
+            depth = np.where(sigma_t > 0.0, sigma_t * march.edges[:, 1:2], 0.0)
+        march.tau = np.stack([np.zeros((n, 3)), depth], axis=1)
+        return march
+
+    def collision(self, odds: np.ndarray, u: np.ndarray) -> tuple:
+        """Free flight untruncated, as a path that scatters or goes on decides (Cycles' distance sampling): a channel
+        picked by `odds` (n, 3) with u[:, 1], an optical depth -log(1 - u[:, 0]) of it. Returns (s (n,) the
+        distances, pdf (n,) their density (the channels' mixture of sigma(s) exp(-tau(s))), passed (n,) bool the
+        rays whose depth lies past their end (no collision), p_pass (n,) the probability of that (the mixture of
+        exp(-tau(end))))."""
+        n = len(u)
+        rows = np.arange(n)
+        channel = np.minimum((u[:, 1:2] >= np.cumsum(odds, axis=1)).sum(axis=1), 2)
+        tau = self.tau[rows, :, channel]
+        target = -np.log1p(-np.minimum(u[:, 0], 1.0 - 1e-16))
+        passed = target >= tau[:, -1]
+        k = np.minimum((tau[:, 1:] <= target[:, None]).sum(axis=1), self.sigma_t.shape[1] - 1)
+        sigma = self.sigma_t[rows, k, channel]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s = self.edges[rows, k] + np.where(sigma > 0.0, (target - tau[rows, k]) / np.where(sigma > 0.0, sigma, 1.0),
+                                               0.0)
+        s = np.where(passed, self.edges[:, -1], s)
+        at = np.where(passed, 0.0, s)
+        sigma_t, _, _ = self.at(at)
+        with np.errstate(invalid="ignore", over="ignore"):
+            pdf = (odds * sigma_t * np.exp(-self.depth(at))).sum(axis=1)
+            p_pass = (odds * np.exp(-self.tau[:, -1])).sum(axis=1)
+        return s, np.where(passed, 0.0, pdf), passed, p_pass
+
     def piece(self, s: np.ndarray) -> np.ndarray:
         """The piece (n,) int64 each ray's distance s (n,) lies in (the last piece at or past the end)."""
         index = (self.edges[:, 1:-1] <= s[:, None]).sum(axis=1)
