@@ -993,7 +993,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         min_light_bounces=int(props.min_light_bounces), fresnel=props.fresnel.lower(),
         caustics_reflective=bool(props.caustics_reflective), caustics_refractive=bool(props.caustics_refractive),
         sample_clamp_direct=float(props.sample_clamp_direct), sample_clamp_indirect=float(props.sample_clamp_indirect),
-        transparent_max_bounces=int(props.transparent_bounces),
+        transparent_max_bounces=int(props.transparent_bounces), volume_bounces=int(props.volume_bounces),
         adaptive=bool(props.use_adaptive_sampling),
         adaptive_threshold=float(props.adaptive_threshold),
         adaptive_min_samples=int(props.adaptive_min_samples),

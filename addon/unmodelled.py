@@ -48,10 +48,9 @@ def render_notes(scene) -> list:
         notes.append("Cycles denoises this scene (Render > Sampling > Denoise); Primer follows its Cycles settings "
                      "but denoises only with its own Denoise (Render > Sampling), which is off: the image keeps its "
                      "noise")
-    volume_bounces = int(getattr(cycles, "volume_bounces", 0))
-    if volume_bounces > 0:
-        notes.append(f"Cycles scatters light up to {volume_bounces + 1} times in media (Volume Bounces "
-                     f"{volume_bounces}); Primer scatters it once, as with Volume Bounces 0: its media are darker")
+    if getattr(cycles, "volume_biased", False):
+        notes.append("Cycles' Biased volume rendering ray-marches heterogeneous media at its Step Rate; Primer renders "
+                     "their unbiased mean, as Cycles' default (its own march finer than Cycles' steps)")
     if getattr(cycles, "use_fast_gi", False):
         notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
                      "follows whole paths")

@@ -389,6 +389,27 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
         with np.errstate(invalid="ignore", divide="ignore"):
             through[group] = np.where(passed[:, None], through[group] / np.where(p_pass > 0.0, p_pass, 1.0)[:, None],
                                       0.0)
+        # Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone, weighed against the
+        # collisions by the balance heuristic (as in_scattering weighs it against its free flight).
+        lamps = equiangular_lamps(ctx)
+        o, d, length = O[group], D[group], t[group]
+        for index, X in lamps.items():
+            v = sampling.sample_2d(ctx.settings.seed, pixel[group], sample[group],
+                                   dimension=EQUIANGULAR_DIMENSION + index + dimension)[:, 0]
+            s_e, pdf_e = equiangular(o, d, length, X, u=v)
+            chosen = np.flatnonzero(pdf_e > 0.0)
+            if len(chosen) == 0:
+                continue
+            at = np.where(pdf_e > 0.0, s_e, 0.0)
+            w = pdf_e / (pdf_e + march.collision_pdf(odds, at))
+            _, sigma_e, g_e = march.at(at)
+            T = march.transmittance(at) * sigma_e
+            rows_e = group[chosen]
+            lit, count = scattered_light(ctx, O[rows_e] + s_e[chosen, None] * D[rows_e], -D[rows_e], g_e[chosen],
+                                         inside[rows_e], pixel[rows_e], sample[rows_e], dimension,
+                                         np.asarray(bounce)[rows_e], None, only=index)
+            L[rows_e] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
+            shadow_rays += count
         hit = np.flatnonzero(~passed)
         if len(hit) == 0:
             continue
@@ -397,10 +418,12 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
         weight = (march.transmittance(at) * sigma_s)[hit] / pdf[hit, None]
         here = group[hit]
         P = O[here] + s[hit, None] * D[here]
+        share = {index: pdf[hit] / (pdf[hit] + equiangular(O[here], D[here], t[here], X, s=s[hit])[1])
+                 for index, X in lamps.items()}
         phase = {}
         light, count = scattered_light(ctx, P, -D[here], g[hit], inside[here], pixel[here], sample[here], dimension,
-                                       np.asarray(bounce)[here], None, phase_out=phase)
-        L[here] = weight * light
+                                       np.asarray(bounce)[here], None, share, phase_out=phase)
+        L[here] += weight * light
         shadow_rays += count
         onward.append(dict(rows=here, O=P, D=phase["wi"], hits=phase["hits"], pdf=phase["pdf"], weight=weight))
     if not onward:

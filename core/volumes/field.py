@@ -274,11 +274,17 @@ class March:
                                                0.0)
         s = np.where(passed, self.edges[:, -1], s)
         at = np.where(passed, 0.0, s)
-        sigma_t, _, _ = self.at(at)
+        pdf = self.collision_pdf(odds, at)
         with np.errstate(invalid="ignore", over="ignore"):
-            pdf = (odds * sigma_t * np.exp(-self.depth(at))).sum(axis=1)
             p_pass = (odds * np.exp(-self.tau[:, -1])).sum(axis=1)
         return s, np.where(passed, 0.0, pdf), passed, p_pass
+
+    def collision_pdf(self, odds: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """The density (n,) of `collision` drawing distances s (n,) (before the rays' ends): the channels' mixture
+        of sigma(s) exp(-tau(s))."""
+        sigma_t, _, _ = self.at(s)
+        with np.errstate(invalid="ignore", over="ignore"):
+            return (odds * sigma_t * np.exp(-self.depth(s))).sum(axis=1)
 
     def piece(self, s: np.ndarray) -> np.ndarray:
         """The piece (n,) int64 each ray's distance s (n,) lies in (the last piece at or past the end)."""
