@@ -1036,7 +1036,18 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
     node = linked_node(output, "Volume") if output is not None and "Volume" in output.inputs else None
     if node is None:
         return []
-    return volume_closures(NodeReader(datablock, warnings, kind), node)
+    entries = volume_closures(NodeReader(datablock, warnings, kind), node)
+    # A heterogeneous medium's graph runs at points inside it: no image, no mesh attribute there.
+    nodes = [(name, weight, {k: v for k, v in inputs.items() if k != "factors"}, inputs.get("factors", ()))
+             for name, weight, inputs in entries]
+    if graph_.images_of(nodes):
+        warnings.append(f"{kind} '{datablock.name}': its volume reads an image texture, which Primer does not "
+                        "evaluate inside media (it reads as a missing image)")
+    unread = sorted(graph_.attributes_of(nodes) - {"generated", "object"})
+    if unread:
+        warnings.append(f"{kind} '{datablock.name}': its volume reads {', '.join(unread)}, which points inside a "
+                        "medium do not carry in Primer (they read 0)")
+    return entries
 
 
 def export_material(material, warnings: list) -> Material:
