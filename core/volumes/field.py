@@ -7,7 +7,7 @@ sd->P, moved into the object's space, and into its texture space for Generated, 
 the closure's formulas (media.py) turn the inputs found there into sigma_a, sigma_s and emission.
 
 Along a ray such a medium is **marched** (`March`): the stretch of the ray inside the media's box is cut into pieces
-of at most `step` (the box's diagonal / STEPS_ACROSS, times the material's Step Rate), at most MAX_PIECES, and each
+of at most `step` (the box's diagonal / STEPS_ACROSS), at most MAX_PIECES, and each
 piece takes the coefficients at its midpoint; before and after the box only the homogeneous media remain. On those
 pieces every closed form of the homogeneous case holds piece by piece: the optical depth tau(s) is piecewise linear,
 T(s) = exp(-tau(s)), the emission sums e (1 - exp(-sigma d)) / sigma exp(-tau) over the pieces, and free flight
@@ -22,10 +22,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-# How many pieces a ray crossing a heterogeneous medium's box along its diagonal is cut into (at Step Rate 1), and
-# the most pieces one stretch of a ray is cut into.
+# How many pieces a ray crossing a heterogeneous medium's box along its diagonal is cut into, and the most pieces one
+# stretch of a ray is cut into.
 STEPS_ACROSS = 100
 MAX_PIECES = 256
+# The most points a heterogeneous medium's graph runs at in one go (its registers: points x the program's registers).
+POINTS_AT_ONCE = 1 << 16
 
 # Each volume input's width (floats): colours and coefficients 3, the rest 1.
 INPUT_WIDTHS = {"color": 3, "absorption_color": 3, "emission_color": 3, "absorption": 3, "scatter": 3,
@@ -100,9 +102,9 @@ class Field:
     space: (world-to-object (3, 4) float64, texture space location (3,), size (3,)) of the object that holds it (its
     object and generated coordinates; None: the identity and the unit box around the origin); origin: (3,) the
     world point the render's coordinates are relative to (geometry.origin); bounds: (low (3,), high (3,)) the
-    camera-relative box of its triangles; step_rate: the material's Step Rate (the march's pieces scale with it)."""
+    camera-relative box of its triangles (the march's extent and step)."""
 
-    def __init__(self, entries: list, space=None, origin=None, bounds=None, step_rate: float = 1.0):
+    def __init__(self, entries: list, space=None, origin=None, bounds=None):
         from ..materials import graph as graph_
         self.entries = entries
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
@@ -112,7 +114,7 @@ class Field:
         self.low, self.high = ((np.full(3, -np.inf), np.full(3, np.inf)) if bounds is None
                                else (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64)))
         diagonal = float(np.linalg.norm(self.high - self.low)) if np.isfinite(self.high - self.low).all() else 1.0
-        self.step = max(diagonal, 1e-6) / STEPS_ACROSS * max(float(step_rate), 1e-3)
+        self.step = max(diagonal, 1e-6) / STEPS_ACROSS
         # One shader "node" per closure, its linked inputs the slots the program writes (graph.Compiler.compile).
         self.slots, nodes = [], []
         for k, (name, weight, inputs) in enumerate(entries):
@@ -221,12 +223,14 @@ class March:
                 some = np.flatnonzero(count > 0.0)
                 if len(some) == 0:
                     continue
-                found = field.at(P[some])
-                r, c, w = rows[some], cols[some], count[some]
-                sig_a[r, c] += w[:, None] * found.sigma_a
-                sig_s[r, c] += w[:, None] * found.sigma_s
-                emit[r, c] += w[:, None] * found.emission
-                gs[r, c] += w * found.gs
+                for start in range(0, len(some), POINTS_AT_ONCE):        # (the graph's registers stay small)
+                    part = some[start:start + POINTS_AT_ONCE]
+                    found = field.at(P[part])
+                    r, c, w = rows[part], cols[part], count[part]
+                    sig_a[r, c] += w[:, None] * found.sigma_a
+                    sig_s[r, c] += w[:, None] * found.sigma_s
+                    emit[r, c] += w[:, None] * found.emission
+                    gs[r, c] += w * found.gs
         # 3. The homogeneous media all along, the pieces' optical depths.
         hom_t, hom_s, hom_e, hom_g = homogeneous
         hom_gs = hom_g * hom_s.sum(axis=1)

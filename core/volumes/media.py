@@ -239,7 +239,7 @@ class Media:
     @classmethod
     def of(cls, materials: list, world_volume: Optional[list] = None, geometry=None) -> Optional["Media"]:
         """The media of a scene's material records (each with `volume`, a list of closures, `volume_only`, and for a
-        heterogeneous medium `volume_space`, `volume_step_rate`), the default material last, and the world's Volume
+        heterogeneous medium `volume_space`), the default material last, and the world's Volume
         closures; None when no medium is anywhere. geometry: the render's (its origin and each heterogeneous
         medium's box of triangles), or None."""
         from . import field as field_
@@ -249,8 +249,7 @@ class Media:
             if entries and field_.linked(entries):
                 fields[row] = field_.Field(entries, getattr(m, "volume_space", None),
                                            None if geometry is None else geometry.origin,
-                                           None if geometry is None else material_bounds(geometry, row),
-                                           getattr(m, "volume_step_rate", 1.0))
+                                           None if geometry is None else material_bounds(geometry, row))
         media = [(NOTHING if row in fields else medium_of(m.volume)) if getattr(m, "volume", None) else None
                  for row, m in enumerate(materials)]
         world = medium_of(world_volume) if world_volume else None
