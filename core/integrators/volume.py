@@ -24,8 +24,12 @@ finding light; so every stretch of a path (the camera ray, each bounce's ray the
 scattering estimate here and the path goes on to the surface: the same mean as Cycles' paths, which choose between
 the two, with less noise. Only stretches the path may still bounce on scatter (Cycles: a ray past its bounce
 limits only absorbs and emits). Cycles also samples the distance towards each lamp (equi-angular sampling) and mixes
-it with this one: the noise differs, not the mean. Light scattered more than once (Volume Bounces > 0) is left out,
-with a warning.
+it with this one: the noise differs, not the mean.
+
+Heterogeneous media (core/volumes/field.py) take the same estimate on the pieces of their march
+(`marched_scattering`). With Volume Bounces N > 0 a path goes on from where it scatters, N times
+(`multiple_scattering`): on a stretch of a path with volume bounces left, untruncated free flight decides whether it
+collides (and goes on along its phase ray from there) or passes to the surface behind (`scatter_or_pass`).
 """
 from __future__ import annotations
 
@@ -426,16 +430,22 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
         L[here] += weight * light
         shadow_rays += count
         onward.append(dict(rows=here, O=P, D=phase["wi"], hits=phase["hits"], pdf=phase["pdf"], weight=weight))
-    if not onward:
-        return L, shadow_rays, through, None
-    if len(onward) == 1:
-        return L, shadow_rays, through, onward[0]
-    a, b = onward
-    hits = type(a["hits"])(*(np.concatenate([x, y]) for x, y in zip(a["hits"], b["hits"])))
-    return L, shadow_rays, through, dict(rows=np.concatenate([a["rows"], b["rows"]]), O=np.concatenate([a["O"], b["O"]]),
-                                         D=np.concatenate([a["D"], b["D"]]), hits=hits,
-                                         pdf=np.concatenate([a["pdf"], b["pdf"]]),
-                                         weight=np.concatenate([a["weight"], b["weight"]]))
+    return L, shadow_rays, through, joined(onward)
+
+
+def joined(parts: list):
+    """The dicts of arrays `parts` (each the same keys; "hits" a Hits) joined row-wise into one; None for none."""
+    if not parts:
+        return None
+    if len(parts) == 1:
+        return parts[0]
+    out = {}
+    for key in parts[0]:
+        if key == "hits":
+            out[key] = type(parts[0][key])(*(np.concatenate(columns) for columns in zip(*(p[key] for p in parts))))
+        else:
+            out[key] = np.concatenate([p[key] for p in parts])
+    return out
 
 
 def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
@@ -504,13 +514,4 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
                       D=after["D"], hits=after["hits"], pdf=after["pdf"],
                       counts={name: value[rows] for name, value in state.items()})
         step += 1
-    if not arrivals:
-        return L, shadow_rays, through, None
-    merged = {}
-    for key in arrivals[0]:
-        if key == "hits":
-            merged[key] = type(arrivals[0]["hits"])(*(np.concatenate(parts) for parts in
-                                                      zip(*(a["hits"] for a in arrivals))))
-        else:
-            merged[key] = np.concatenate([a[key] for a in arrivals])
-    return L, shadow_rays, through, merged
+    return L, shadow_rays, through, joined(arrivals)

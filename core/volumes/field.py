@@ -363,6 +363,6 @@ class March:
         tau = self.depth(s)
         reach = -np.expm1(-self.tau[:, -1])
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            each = np.where((odds > 0.0) & (reach > 0.0), odds * sigma * np.exp(-tau) / np.where(reach > 0.0, reach, 1.0),
-                            0.0)
+            each = np.where((odds > 0.0) & (reach > 0.0),
+                            odds * sigma * np.exp(-tau) / np.where(reach > 0.0, reach, 1.0), 0.0)
         return each.sum(axis=1)

@@ -17,7 +17,9 @@ sigma_a, sigma_s and emission sum; the phase functions mix by their scattering (
 sigma_s-weighted mean when closures of different g meet, noted by the add-on).
 
 `Media` is one table per render: a column per material with a volume, the world's medium, and which materials are
-volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME).
+volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME). A material
+whose closures have inputs fed by links is a heterogeneous medium (field.py Field): its column's constant
+coefficients are zero and its rays are marched (`Stretch.march`, `Stretch.transmittance`).
 """
 from __future__ import annotations
 
