@@ -385,9 +385,10 @@ COVERAGE = {
     },
     "CyclesMaterialSettings": {
         READ: {"emission_sampling": "materials.export_material"},
-        REPORTED: {"use_bump_map_correction": "unmodelled.material_notes"},
+        REPORTED: {"use_bump_map_correction": "unmodelled.material_notes",
+                   "homogeneous_volume*": "unmodelled.material_notes (with a Volume)"},
         NO_EFFECT: {"volume_sampling": NOISE,
-                    "homogeneous_volume* volume_interpolation volume_step_rate": HETEROGENEOUS},
+                    "volume_interpolation volume_step_rate": HETEROGENEOUS},
     },
 }
 

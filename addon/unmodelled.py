@@ -190,12 +190,20 @@ def world_notes(world) -> list:
 
 
 def material_notes(material) -> list:
-    """Material settings that Primer does not model: Cycles' bump map correction switched off."""
+    """Material settings that Primer does not model: Cycles' bump map correction switched off; Blender 4's
+    Homogeneous Volume on a material with a Volume (Cycles evaluates the medium once per ray then)."""
     cycles = getattr(material, "cycles", None)
+    notes = []
     if cycles is not None and not getattr(cycles, "use_bump_map_correction", True):
-        return [f"material '{material.name}' has Bump Map Correction off; Primer always shadows bumped normals as "
-                "Cycles does with it on"]
-    return []
+        notes.append(f"material '{material.name}' has Bump Map Correction off; Primer always shadows bumped normals "
+                     "as Cycles does with it on")
+    tree = getattr(material, "node_tree", None)
+    output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"), None) if tree else None
+    volume = output is not None and "Volume" in output.inputs and output.inputs["Volume"].is_linked
+    if cycles is not None and getattr(cycles, "homogeneous_volume", False) and volume:
+        notes.append(f"material '{material.name}' has Homogeneous Volume on: Cycles evaluates its medium once per "
+                     "ray; Primer evaluates a medium fed by nodes point by point")
+    return notes
 
 
 def _flag(obj, prop: str) -> bool:
