@@ -1,6 +1,7 @@
-"""Homogeneous media read from Blender and rendered as Cycles renders them (issue 35's first slice): an absorbing
-cube in front of an emitter, a scattering cube under a lamp, a world's fog under a sun, each against Cycles' image;
-and the volume closures read from the node tree with what Primer does not model said."""
+"""Media read from Blender and rendered as Cycles renders them (issue 35): an absorbing cube in front of an emitter, a
+scattering cube under a lamp, a world's fog under a sun; heterogeneous media (a Gradient of Generated coordinates, a
+cube of Noise-driven smoke under a sun) and a fog room with Volume Bounces 2, each against Cycles' image; and the
+volume closures read from the node tree with what Primer does not model said."""
 from __future__ import annotations
 
 import os
