@@ -1,7 +1,7 @@
 """Heterogeneous media (core/volumes/field.py: a volume input fed by nodes, marched along each ray) held to closed
 forms: an absorbing slab whose density grows linearly with height keeps exp(-its integral) on camera and shadow
 rays; a graph that is constant renders the homogeneous medium's image; an emitting slab of linear emission sends
-its integral; the march's free flight draws distances by its own density."""
+its integral; a Mix Shader's linked factor weighs its closures point by point."""
 from __future__ import annotations
 
 import numpy as np
@@ -96,3 +96,45 @@ def test_an_emitting_slab_of_linear_emission_sends_its_integral():
                        emission=(0.0, 0.0, 0.0))
     expected = np.array([1.0, 0.5, 0.25]) * 2.5
     np.testing.assert_allclose(image(scene), np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
+
+
+def test_a_mix_shaders_linked_factor_weighs_its_closures_point_by_point():
+    """Two absorptions under a Mix Shader whose factor is the point's height - 0.5 (0 to 1 across the slab from
+    z = 0.5 to 1.5): density 2 of colour COLOR weighed by the factor, density 4 of grey 0.5 by 1 - factor; each
+    integrates to half its density across the slab: exp(-(2 (1 - colour) + 4 x 0.5) x 0.5) per channel."""
+    factor = height(1.0, -0.5)
+    entries = [("ABSORPTION", 1.0, {"color": COLOR, "density": 2.0, "factors": [(factor, "fac")]}),
+               ("ABSORPTION", 1.0, {"color": np.full(3, 0.5), "density": 4.0, "factors": [(factor, "one_minus")]})]
+    material = Material(np.zeros(3), "Mixed", nodes=[("TRANSPARENT", np.ones(3), {})], volume=entries,
+                        volume_only=True)
+    expected = np.array([1.0, 2.0, 0.5]) * np.exp(-(2.0 * (1.0 - COLOR) + 4.0 * 0.5) * 0.5)
+    np.testing.assert_allclose(image(scene_with(material)), np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
+
+
+def test_the_marchs_free_flight_and_collisions_draw_distances_by_their_densities():
+    """On a ray up through a slab of density 2 z + 0.5 (z from 0.5 to 1.5, scattering): free flight truncated at the
+    ray's end draws distances whose histogram is its pdf's integral per bin (within 4 standard deviations), and
+    untruncated collisions pass the slab as often as exp(-optical depth 2.5) says."""
+    from core.volumes.field import Field, March
+    field = Field([("SCATTER", 1.0, {"color": np.ones(3), "density": height(2.0, 0.5)})],
+                  bounds=(np.array([-1.0, -1.0, 0.5]), np.array([1.0, 1.0, 1.5])))
+    n = 10000
+    O, D = np.zeros((n, 3)), np.tile([0.0, 0.0, 1.0], (n, 1))
+    zero = np.zeros((n, 3))
+    march = March([field], np.ones((n, 1)), (zero, zero, zero, np.zeros(n)), O, D, np.full(n, 2.0))
+    odds = np.tile([1.0, 0.0, 0.0], (n, 1))
+    rng = np.random.default_rng(7)
+    u = rng.random((n, 2))
+    s, pdf = march.free_flight(odds, u)
+    bins = np.linspace(0.5, 1.5, 11)
+    counts, _ = np.histogram(s, bins)
+    grid = np.linspace(0.5, 1.5, 2001)
+    mids = 0.5 * (grid[1:] + grid[:-1])
+    small = March([field], np.ones((len(mids), 1)), (np.zeros((len(mids), 3)),) * 3 + (np.zeros(len(mids)),),
+                  np.zeros((len(mids), 3)), np.tile([0.0, 0.0, 1.0], (len(mids), 1)), np.full(len(mids), 2.0))
+    f = small.pdf(np.tile([1.0, 0.0, 0.0], (len(mids), 1)), mids) * np.diff(grid)
+    expected = np.array([f[(mids >= a) & (mids < b)].sum() for a, b in zip(bins[:-1], bins[1:])])
+    np.testing.assert_allclose(counts / n, expected, atol=4.0 * np.sqrt(0.25 / n))
+    s, pdf, passed, p_pass = march.collision(odds, u)
+    np.testing.assert_allclose(passed.mean(), np.exp(-2.5), atol=4.0 * np.sqrt(np.exp(-2.5) / n))
+    np.testing.assert_allclose(p_pass[0], np.exp(-2.5), rtol=1e-6)
