@@ -133,9 +133,19 @@ class Field:
 
     @property
     def emits(self) -> bool:
-        """Whether some closure of it may emit."""
-        from .media import VOLUME_BY_NAME, VolumeFlags
-        return any(VOLUME_BY_NAME[name].flags & VolumeFlags.EMITS for name, _, _ in self.entries)
+        """Whether some closure of it may emit: an input that sets its emission fed by a link or not 0 (a Principled
+        Volume's Emission Strength or Blackbody Intensity, an Emission's Strength, the Emission Coefficients)."""
+        from ..materials import graph as graph_
+        may = lambda value: isinstance(value, graph_.Link) or np.any(np.asarray(value) != 0.0)   # noqa: E731
+        for name, _, inputs in self.entries:
+            if name == "PRINCIPLED_VOLUME" and (may(inputs.get("emission_strength", 0.0))
+                                                 or may(inputs.get("blackbody_intensity", 0.0))):
+                return True
+            if name == "EMISSION" and may(inputs.get("strength", 1.0)):
+                return True
+            if name == "COEFFICIENTS" and may(inputs.get("emission", 0.0)):
+                return True
+        return False
 
     def coordinates(self, P: np.ndarray) -> np.ndarray:
         """The generated and object coordinates (n, 6) float64 of camera-relative points P (n, 3)."""

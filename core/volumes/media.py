@@ -433,8 +433,8 @@ def emitted(stretch: Stretch, t: np.ndarray) -> np.ndarray:
         value = np.where(sigma > 0.0, e * -np.expm1(-sigma * t) / np.where(sigma > 0.0, sigma, 1.0), e * t)
     value = np.where(e != 0.0, value, 0.0)
     rows = np.flatnonzero(stretch.varying)
-    if len(rows):                                     # (heterogeneous media: summed over the march's pieces)
-        value[rows] = stretch.march(t[rows, 0], rows).emitted()
+    if len(rows) and (any(f.emits for f in stretch.fields) or (stretch.emission[rows] != 0.0).any()):
+        value[rows] = stretch.march(t[rows, 0], rows).emitted()   # (heterogeneous media: summed over the pieces)
     return value
 
 
