@@ -1043,7 +1043,9 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
     if graph_.images_of(nodes):
         warnings.append(f"{kind} '{datablock.name}': its volume reads an image texture, which Primer does not "
                         "evaluate inside media (it reads as a missing image)")
-    unread = sorted(graph_.attributes_of(nodes) - {"generated", "object"})
+    unread = sorted((graph_.attributes_of(nodes) - {"generated", "object"})
+                    | {f"Object Info's {link.output}" for link in graph_.links_under(nodes)
+                       if link.node.kind == "OBJECT_INFO" and link.output != "Location"})
     if unread:
         warnings.append(f"{kind} '{datablock.name}': its volume reads {', '.join(unread)}, which points inside a "
                         "medium do not carry in Primer (they read 0)")

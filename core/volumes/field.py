@@ -111,6 +111,9 @@ class Field:
         matrix, location, size = space if space is not None else (np.eye(4)[:3], np.zeros(3), np.ones(3))
         self.matrix = np.asarray(matrix, np.float64).reshape(3, 4)
         self.location, self.size = np.asarray(location, np.float64), np.asarray(size, np.float64)
+        # (and object to world: the Vector Transform's and Object Info's Location, graph.object_matrices)
+        placed = np.linalg.inv(np.vstack([self.matrix, [0.0, 0.0, 0.0, 1.0]]))[:3]
+        self.linear, self.placement = placed[:, :3], placed[:, 3]
         self.low, self.high = ((np.full(3, -np.inf), np.full(3, np.inf)) if bounds is None
                                else (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64)))
         diagonal = float(np.linalg.norm(self.high - self.low)) if np.isfinite(self.high - self.low).all() else 1.0
@@ -159,8 +162,11 @@ class Field:
         """The medium's coefficients at camera-relative points P (n, 3) float64."""
         from ..materials import graph as graph_
         n = len(P)
+        info = np.zeros((n, 8))
+        info[:, :3] = self.placement
         point = graph_.empty_point(n, 6)._replace(attributes=self.coordinates(P), P=P + self.origin,
-                                                  path=graph_.light_paths(n, flags=graph_.PATH["volume_scatter"]))
+                                                  path=graph_.light_paths(n, flags=graph_.PATH["volume_scatter"]),
+                                                  linear=np.broadcast_to(self.linear, (n, 3, 3)), info=info)
         registers = graph_.run(self.program, point, None)
         found, factors = {}, {}
         for kind, node, slot, width, register in self.program.outputs.astype(np.int64):
