@@ -83,3 +83,15 @@ def test_a_medium_that_absorbs_nothing_stays_white_under_a_white_world_with_enou
     scene.add_mesh(primitives.box((2.0, 2.0, 2.0)), materials=np.array([0]))
     np.testing.assert_allclose(rendered(scene, 64), np.ones(3), rtol=1e-5)
     assert (rendered(scene, 0) < 0.9).all()
+
+
+@pytest.mark.parametrize("max_bounces", [0, 1, 2])
+def test_each_scattering_event_is_a_bounce_that_max_bounces_caps(max_bounces):
+    """Volume Bounces 3 under Max Bounces 0, 1, 2: a scattering event counts a bounce (Cycles' path_state_next), so
+    the infinite medium sends 1 + a + ... + a^(min(3, Max Bounces) + 1)."""
+    scene = Scene(camera=camera())
+    scene.world = glowing_fog(np.ones(3))
+    settings = RenderSettings(width=4, height=4, samples=16, integrator="path", volume_bounces=3,
+                              max_bounces=max_bounces)
+    expected = sum(0.8 ** k for k in range(min(3, max_bounces) + 2))
+    np.testing.assert_allclose(render(scene, settings).image[..., :3], expected, rtol=1e-5)

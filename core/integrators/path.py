@@ -265,7 +265,7 @@ class PathTracing(Integrator):
         # With Volume Bounces, paths go on from where they scatter (volume.multiple_scattering).
         onward = scatters and s.volume_bounces > 0 and not self.direct_only
         camera_through = arrivals = None
-        if onward:
+        if onward and volume_.volume_bounces_left(ctx, 0, 0):
             zero = np.zeros(len(O), np.int64)
             counters = {name: zero for name in COUNTERS}
             scattered, shadow_rays, camera_through, arrivals = volume_.multiple_scattering(
