@@ -297,7 +297,6 @@ class PathTracing(Integrator):
         owner = hit                                  # the camera ray each path belongs to
         throughput = np.ones((len(hit), 3))
         if media is not None:                        # (what the media let through to the camera's hits)
-            camera_inside = inside
             inside = inside[hit]
             throughput = (stretch.rows(hit).transmittance(surface.t) if camera_through is None
                           else camera_through[hit])
