@@ -362,7 +362,8 @@ def test_a_fog_room_with_volume_bounces_renders_as_in_cycles(primer, tmp_path):
     between the walls and the fog, as Cycles renders it (Primer: the Python reference, the compiled kernel
     scattering once). 16 x 12, a noisy scene in both renderers: block relative MSE of Primer 512 against Cycles 1024
     2.9e-3 measured (Primer 4096 against Cycles 4096: 5.7e-4, means within 0.05%; Cycles' own 1024 against 4096:
-    4.4e-4); with Volume Bounces 0 the room is four times darker. Bound 5e-3, means within 1.5%."""
+    4.4e-4; on Blender 5.2 3.1e-3, its red mean 1.4% from Cycles' at 1024, which is that far from its own at 4096);
+    with Volume Bounces 0 the room is four times darker. Bound 5e-3, means within 3%."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.world = bpy.data.worlds.new("World")
@@ -388,7 +389,7 @@ def test_a_fog_room_with_volume_bounces_renders_as_in_cycles(primer, tmp_path):
     error = relative_mse(mine, cycles)
     print("fog room block relMSE", error, took, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < 5e-3
-    np.testing.assert_allclose(mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=1.5e-2)
+    np.testing.assert_allclose(mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=3e-2)
 
 
 ROOM_SAMPLES = int(os.environ.get("PRIMER_ROOM_SAMPLES", 512))
