@@ -1040,9 +1040,6 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
     # A heterogeneous medium's graph runs at points inside it: no image, no mesh attribute there.
     nodes = [(name, weight, {k: v for k, v in inputs.items() if k != "factors"}, inputs.get("factors", ()))
              for name, weight, inputs in entries]
-    if graph_.images_of(nodes):
-        warnings.append(f"{kind} '{datablock.name}': its volume reads an image texture, which Primer does not "
-                        "evaluate inside media (it reads as a missing image)")
     unread = sorted((graph_.attributes_of(nodes) - {"generated", "object"})
                     | {f"Object Info's {link.output}" for link in graph_.links_under(nodes)
                        if link.node.kind == "OBJECT_INFO" and link.output != "Location"})

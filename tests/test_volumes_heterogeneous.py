@@ -138,3 +138,17 @@ def test_the_marchs_free_flight_and_collisions_draw_distances_by_their_densities
     s, pdf, passed, p_pass = march.collision(odds, u)
     np.testing.assert_allclose(passed.mean(), np.exp(-2.5), atol=4.0 * np.sqrt(np.exp(-2.5) / n))
     np.testing.assert_allclose(p_pass[0], np.exp(-2.5), rtol=1e-6)
+
+
+def test_an_image_texture_sets_the_density_texel_by_texel():
+    """Density read from a 2 x 1 grey image (texels 1 and 3, Closest, repeated) at the points' object x: pixel
+    columns alternate between exp(-(1 - colour)) and exp(-3 (1 - colour)) through the slab 1 deep."""
+    from core.materials.textures import Image
+    picture = Image(np.array([[[1.0, 1.0, 1.0], [3.0, 3.0, 3.0]]], np.float32))
+    coords = GraphNode("TEXCOORD")
+    texel = Link(GraphNode("IMAGE", {"image": picture, "interpolation": "Closest", "extension": "REPEAT"},
+                           {"Vector": Link(coords, "Object")}), "Color")
+    scene = scene_with(slab(color=COLOR, density=texel))
+    columns = np.exp(-np.array([1.0, 3.0, 1.0, 3.0])[:, None] * (1.0 - COLOR))
+    expected = np.array([1.0, 2.0, 0.5]) * np.broadcast_to(columns, (4, 4, 3))
+    np.testing.assert_allclose(image(scene), expected, rtol=1e-5)

@@ -126,7 +126,13 @@ class Field:
                                                                                 for key in keys)})
             nodes.append((shim, weight, {key: inputs[key] for key in keys}, list(inputs.get("factors", ()))))
             self.slots.append(keys)
-        self.program = graph_.Compiler(LAYOUT, lambda image: -1, material="volume").compile(nodes)
+        # The images its graph reads, in a TextureSet of its own (a missing one: -1, magenta).
+        from ..materials.textures import TextureSet
+        images = [image for image in graph_.images_of(nodes) if image is not None]
+        rows = {id(image): row for row, image in enumerate(images)}
+        self.textures = TextureSet.of(images)
+        self.program = graph_.Compiler(LAYOUT, lambda image: rows.get(id(image), -1),
+                                       material="volume").compile(nodes)
 
     @property
     def scatters(self) -> bool:
@@ -167,7 +173,7 @@ class Field:
         point = graph_.empty_point(n, 6)._replace(attributes=self.coordinates(P), P=P + self.origin,
                                                   path=graph_.light_paths(n, flags=graph_.PATH["volume_scatter"]),
                                                   linear=np.broadcast_to(self.linear, (n, 3, 3)), info=info)
-        registers = graph_.run(self.program, point, None)
+        registers = graph_.run(self.program, point, self.textures)
         found, factors = {}, {}
         for kind, node, slot, width, register in self.program.outputs.astype(np.int64):
             if kind == graph_.OUT_WEIGHT:               # (a Mix Shader's linked factor above the closure)
