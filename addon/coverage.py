@@ -55,11 +55,11 @@ BAKE = "baking only, not a render"
 POINTER = "a pointer to a struct whose own settings are listed under it in this table"
 ANIMATION = "animation playback, keying and timeline tools: the frame's evaluated scene does not depend on it"
 DEPSGRAPH = "depsgraph: Blender applies it to the evaluated scene Primer reads, as for Cycles"
-VOLUMES = ("materials.volume_closures: homogeneous media are rendered; a heterogeneous one (a linked input) is noted and "
-           "left out")
-HETEROGENEOUS = ("how Cycles steps through heterogeneous media (ray marching, interpolation, step sizes): Primer renders "
-                 "homogeneous media, which no step changes, and notes and leaves out heterogeneous ones "
-                 "(materials.volume_closures)")
+VOLUMES = ("materials.volume_closures: homogeneous media and a material's heterogeneous ones (an input fed by nodes) "
+           "are rendered; a world's heterogeneous one is noted and left out")
+HETEROGENEOUS = ("how Cycles samples heterogeneous media (null scattering's majorant octree and step sizes, Max Steps, "
+                 "voxel interpolation of Volume objects): its unbiased mean does not depend on them; Primer marches "
+                 "them at its own step (core/volumes/field.py)")
 MOTION = ("motion.sample_shutter: the camera blurred over the shutter; objects that move or deform during it named "
           "in motion.moving_objects_note")
 
@@ -139,7 +139,8 @@ COVERAGE = {
         READ: {"pixel_filter_type filter_width": "export.pixel_filter: each camera sample drawn from the filter",
                "rolling_shutter_type rolling_shutter_duration": "motion.shutter: each row's time, top to bottom",
                "samples seed use_animated_seed max_bounces diffuse_bounces glossy_bounces transmission_bounces "
-               "transparent_max_bounces min_light_bounces caustics_reflective caustics_refractive sample_clamp_direct "
+               "transparent_max_bounces volume_bounces min_light_bounces caustics_reflective caustics_refractive "
+               "sample_clamp_direct "
                "sample_clamp_indirect use_adaptive_sampling adaptive_threshold adaptive_min_samples":
                    "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
                    "else Primer's own of the same meaning"},
@@ -149,7 +150,7 @@ COVERAGE = {
                    "film_transparent_roughness": "unmodelled.render_notes (through Transparent Glass)",
                    "dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
                        "unmodelled.object_notes (adaptive subdivision)",
-                   "volume_bounces": "unmodelled.render_notes (Primer scatters once, as with Volume Bounces 0)"},
+                   "volume_biased*": "unmodelled.render_notes (Primer renders heterogeneous media's unbiased mean)"},
         NO_EFFECT: {"auto_scrambling_distance direct_light_sampling_type guiding_directional_sampling_type "
                     "guiding_distribution_type guiding_roughness_threshold guiding_training_samples "
                     "light_sampling_threshold min_transparent_bounces sample_offset sample_subset_length* "
@@ -157,7 +158,7 @@ COVERAGE = {
                     "use_deterministic_guiding use_guiding use_guiding_direct_light use_guiding_mis_weights "
                     "use_layer_samples use_sample_subset* use_surface_guiding use_volume_guiding "
                     "volume_guiding_probability use_pixel_jitter*": NOISE,
-                    "volume_biased* volume_max_steps volume_step_rate": HETEROGENEOUS,
+                    "volume_max_steps volume_step_rate": HETEROGENEOUS,
                     "ao_bounces preview_adaptive_min_samples preview_adaptive_threshold preview_denoiser "
                     "preview_denoising_input_passes preview_denoising_prefilter preview_denoising_quality "
                     "preview_denoising_start_sample preview_denoising_use_gpu preview_dicing_rate preview_pause "
@@ -384,9 +385,10 @@ COVERAGE = {
     },
     "CyclesMaterialSettings": {
         READ: {"emission_sampling": "materials.export_material"},
-        REPORTED: {"use_bump_map_correction": "unmodelled.material_notes"},
+        REPORTED: {"use_bump_map_correction": "unmodelled.material_notes",
+                   "homogeneous_volume*": "unmodelled.material_notes (with a Volume)"},
         NO_EFFECT: {"volume_sampling": NOISE,
-                    "homogeneous_volume* volume_interpolation volume_step_rate": HETEROGENEOUS},
+                    "volume_interpolation volume_step_rate": HETEROGENEOUS},
     },
 }
 

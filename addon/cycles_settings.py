@@ -30,6 +30,7 @@ FOLLOWED = {
     "adaptive_min_samples": "adaptive_min_samples",
     "max_bounces": "max_bounces", "diffuse_bounces": "diffuse_bounces", "glossy_bounces": "glossy_bounces",
     "transmission_bounces": "transmission_bounces", "transparent_bounces": "transparent_max_bounces",
+    "volume_bounces": "volume_bounces",
     "min_light_bounces": "min_light_bounces",
     "caustics_reflective": "caustics_reflective", "caustics_refractive": "caustics_refractive",
     "sample_clamp_direct": "sample_clamp_direct", "sample_clamp_indirect": "sample_clamp_indirect",

@@ -723,6 +723,32 @@ def _object_camera(obj, warnings) -> Camera:
     return Camera(matrix_world=np.array(obj.matrix_world, np.float64), **settings)
 
 
+def note_volume_space(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, spaces: dict,
+                      warnings: list) -> None:
+    """Keep in `spaces` (material index -> Material.volume_space) the object space of each heterogeneous medium
+    (a volume input fed by a link) among the materials `slots` (k,) of object `obj` placed by `matrix` (4, 4): its
+    graph reads the points' Object and Generated coordinates there. One space per material: a second object of
+    another placement holding the same one is warned of (Primer reads its medium in the first one's space)."""
+    from ..core.volumes import field as field_
+    for slot in sorted(set(slots[slots >= 0].tolist())):
+        volume = materials[slot].volume
+        if not volume or not field_.linked(volume):
+            continue
+        inverse = np.linalg.inv(np.asarray(matrix, np.float64))[:3]
+        data = obj.data
+        location = np.array(getattr(data, "texspace_location", (0.0, 0.0, 0.0)), np.float64)
+        size = np.array(getattr(data, "texspace_size", (1.0, 1.0, 1.0)), np.float64)
+        space = (inverse, location, size)
+        if slot not in spaces:
+            spaces[slot] = space
+        elif not all(np.allclose(a, b) for a, b in zip(spaces[slot], space)):
+            note = (f"material '{materials[slot].name}': its heterogeneous volume is held by objects of different "
+                    f"placements or texture spaces; Primer reads its coordinates in the first object's, also in "
+                    f"'{obj.name}'")
+            if note not in warnings:
+                warnings.append(note)
+
+
 def media_of_layer(use_volumes: bool, materials: list, world: World) -> tuple:
     """(materials, world) as the view layer renders them: with View Layer > Filter > Volumes (`use_volumes`) off,
     Cycles renders no media, so their volumes are dropped (the boundaries of volume-only materials stay invisible)."""
@@ -999,7 +1025,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         min_light_bounces=int(props.min_light_bounces), fresnel=props.fresnel.lower(),
         caustics_reflective=bool(props.caustics_reflective), caustics_refractive=bool(props.caustics_refractive),
         sample_clamp_direct=float(props.sample_clamp_direct), sample_clamp_indirect=float(props.sample_clamp_indirect),
-        transparent_max_bounces=int(props.transparent_bounces),
+        transparent_max_bounces=int(props.transparent_bounces), volume_bounces=int(props.volume_bounces),
         adaptive=bool(props.use_adaptive_sampling),
         adaptive_threshold=float(props.adaptive_threshold),
         adaptive_min_samples=int(props.adaptive_min_samples),
@@ -1151,6 +1177,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     materials = MaterialTable()
     override = getattr(depsgraph.view_layer_eval, "material_override", None)
     mesh_index: dict = {}
+    volume_spaces: dict = {}                   # material index -> its heterogeneous medium's space (note_volume_space)
     strands = bool(getattr(depsgraph.view_layer, "use_strand", True))   # (Filter > Strands: curves and hair)
     groups = {"lights": [], "instances": [], "world": lightgroups.source_group(scene.world)}
     ray_visibility_noted: set = set()
@@ -1220,6 +1247,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         if obj.name not in terminator_offsets and obj.type == "MESH":
             terminator_offsets[obj.name] = (*_terminator_offsets(obj), bool(core.meshes[mesh_index[key]].smooth.any()))
         slots = materials.slot_map(obj, warnings, override)
+        note_volume_space(obj, matrix, slots, materials.materials, volume_spaces, warnings)
         # The attributes its materials' node graphs read, and Cycles' random number of an instance.
         wanted = set()
         for slot in slots[slots >= 0].tolist():
@@ -1246,7 +1274,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     if mesh_cache is not None:
         mesh_cache.end()
     core.materials, core.world = media_of_layer(bool(getattr(depsgraph.view_layer, "use_volumes", True)),
-                                                materials.materials, core.world)
+                                                [dataclasses.replace(m, volume_space=volume_spaces[i])
+                                                 if i in volume_spaces else m
+                                                 for i, m in enumerate(materials.materials)], core.world)
     if world.lights:                    # a Sky Texture's sun disc, a lamp of the world's (in the world's light group)
         for sun in world.suns:          # (seen where the world is: not on a transparent film, unlike a sun lamp)
             sun.camera = world.camera and not scene.render.film_transparent

@@ -1034,30 +1034,38 @@ VOLUME_SOCKETS = {"Color": "color", "Density": "density", "Anisotropy": "anisotr
                   "Temperature": "temperature"}
 
 
-def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list = None) -> list:
-    """The homogeneous volume closures under `node` (a Volume output's link) as core/volumes reads them:
-    [(name in VOLUME_BY_NAME, weight float, inputs dict)], the Mix and Add Shaders' constant factors multiplied out.
-    A closure with an input fed by a link is a heterogeneous medium, which Primer does not render yet: it is left out
-    with a warning; so are volume nodes and phase functions Primer does not know."""
+def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list = None, factors: tuple = ()) -> list:
+    """The volume closures under `node` (a Volume output's link) as core/volumes reads them: [(name in
+    VOLUME_BY_NAME, weight float, inputs dict)], the Mix and Add Shaders' constant factors multiplied out.
+    A material's closure may have inputs fed by links (graph.Link: a heterogeneous medium, core/volumes/field.py), and
+    a Mix Shader's linked factor weighs the closures under it per point (inputs["factors"]: [(Link, "fac" |
+    "one_minus")], as a surface's); the world's medium stays homogeneous: a world closure with a linked input is left
+    out with a warning. Volume nodes and phase functions Primer does not know are warned of."""
     out = [] if out is None else out
     node = _follow(node)
     if node is None or weight == 0.0:
         return out
     kind = node.bl_idname
+    varying = reader.kind == "material"                 # (a mesh's medium may vary; the world's is homogeneous)
     if kind == "ShaderNodeMixShader":
         fac = reader.input(node, "Fac", 0.5)
+        if _linked(fac) and varying:
+            for socket, mode in ((node.inputs[1], "one_minus"), (node.inputs[2], "fac")):
+                if socket.is_linked:
+                    volume_closures(reader, socket.links[0].from_node, weight, out, factors + ((fac, mode),))
+            return out
         if _linked(fac):
-            reader.warn(node, "a linked factor mixes volumes per point: a heterogeneous medium, which Primer does not "
-                              "render yet; it mixes them half and half")
+            reader.warn(node, "a linked factor mixes the world's volumes per point: a heterogeneous world medium, "
+                              "which Primer does not render; it mixes them half and half")
             fac = 0.5
         fac = float(np.clip(np.mean(fac), 0.0, 1.0))
         for socket, share in ((node.inputs[1], 1.0 - fac), (node.inputs[2], fac)):
             if socket.is_linked:
-                volume_closures(reader, socket.links[0].from_node, weight * share, out)
+                volume_closures(reader, socket.links[0].from_node, weight * share, out, factors)
     elif kind == "ShaderNodeAddShader":
         for socket in (node.inputs[0], node.inputs[1]):
             if socket.is_linked:
-                volume_closures(reader, socket.links[0].from_node, weight, out)
+                volume_closures(reader, socket.links[0].from_node, weight, out, factors)
     elif kind == "ShaderNodeGroup" and node.node_tree is not None:
         outputs = [n for n in node.node_tree.nodes if n.bl_idname == "NodeGroupOutput"]
         inner = next((n for n in outputs if getattr(n, "is_active_output", False)), outputs[0] if outputs else None)
@@ -1065,7 +1073,7 @@ def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list =
         if socket is not None:
             reader.path += (node,)
             try:
-                volume_closures(reader, socket.links[0].from_node, weight, out)
+                volume_closures(reader, socket.links[0].from_node, weight, out, factors)
             finally:
                 reader.path = reader.path[:-1]
     elif kind in VOLUME_BY_BLENDER:
@@ -1080,13 +1088,14 @@ def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list =
                 value = reader.input(node, socket, None)
                 if _linked(value):
                     linked.append(socket)
-                else:
-                    inputs[key] = value
-        if linked:
+                inputs[key] = value
+        if linked and not varying:
             reader.warn(node, f"its {', '.join(linked)} {'is' if len(linked) == 1 else 'are'} fed by a link: a "
-                              "heterogeneous medium, which Primer does not render yet (issue 35's next slice); "
-                              "this volume closure is left out")
+                              "heterogeneous world medium, which Primer does not render; this volume closure is left "
+                              "out")
             return out
+        if factors:
+            inputs["factors"] = list(factors)
         out.append((name, float(weight), inputs))
     else:
         reader.warn(node, f"'{node.bl_label}' at a Volume output is not a volume shader Primer renders; it is left out")
@@ -1098,7 +1107,17 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
     node = linked_node(output, "Volume") if output is not None and "Volume" in output.inputs else None
     if node is None:
         return []
-    return volume_closures(NodeReader(datablock, warnings, kind), node)
+    entries = volume_closures(NodeReader(datablock, warnings, kind), node)
+    # A heterogeneous medium's graph runs at points inside it: no image, no mesh attribute there.
+    nodes = [(name, weight, {k: v for k, v in inputs.items() if k != "factors"}, inputs.get("factors", ()))
+             for name, weight, inputs in entries]
+    unread = sorted((graph_.attributes_of(nodes) - {"generated", "object"})
+                    | {f"Object Info's {link.output}" for link in graph_.links_under(nodes)
+                       if link.node.kind == "OBJECT_INFO" and link.output != "Location"})
+    if unread:
+        warnings.append(f"{kind} '{datablock.name}': its volume reads {', '.join(unread)}, which points inside a "
+                        "medium do not carry in Primer (they read 0)")
+    return entries
 
 
 def export_material(material, warnings: list) -> Material:

@@ -65,6 +65,9 @@ class PrimerSettings(bpy.types.PropertyGroup):
                                 description="Most glossy and mirror bounces a path makes (Cycles' Max Bounces > Glossy)")
     transmission_bounces: IntProperty(name="Transmission", default=12, min=0, max=1024, soft_max=64,
                                       description="Most refractions a path makes (Cycles' Max Bounces > Transmission)")
+    volume_bounces: IntProperty(name="Volume", default=0, min=0, max=1024, soft_max=64,
+                                description="How many times a path goes on from where it scatters in a medium "
+                                            "(Cycles' Max Bounces > Volume; 0: light scattered once)")
     transparent_bounces: IntProperty(name="Transparent", default=8, min=0, max=1024, soft_max=64,
                                      description="Most transparent surfaces (Transparent BSDF, alpha) a ray passes, "
                                                  "with every integrator (Cycles' Max Bounces > Transparent)")

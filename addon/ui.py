@@ -102,7 +102,7 @@ class RENDER_PT_primer_light_paths(PrimerPanel, bpy.types.Panel):
         sub = col.column(align=True, heading="Max Bounces")
         sub.active = integrator != "DIRECT"
         for name, text in (("max_bounces", "Total"), ("diffuse_bounces", "Diffuse"), ("glossy_bounces", "Glossy"),
-                           ("transmission_bounces", "Transmission")):
+                           ("transmission_bounces", "Transmission"), ("volume_bounces", "Volume")):
             followed.prop(sub, name, text=text)
         followed.prop(col, "transparent_bounces", text="Transparent Bounces")
         row = col.row()

@@ -48,10 +48,9 @@ def render_notes(scene) -> list:
         notes.append("Cycles denoises this scene (Render > Sampling > Denoise); Primer follows its Cycles settings "
                      "but denoises only with its own Denoise (Render > Sampling), which is off: the image keeps its "
                      "noise")
-    volume_bounces = int(getattr(cycles, "volume_bounces", 0))
-    if volume_bounces > 0:
-        notes.append(f"Cycles scatters light up to {volume_bounces + 1} times in media (Volume Bounces "
-                     f"{volume_bounces}); Primer scatters it once, as with Volume Bounces 0: its media are darker")
+    if getattr(cycles, "volume_biased", False):
+        notes.append("Cycles' Biased volume rendering ray-marches heterogeneous media at its Step Rate; Primer renders "
+                     "their unbiased mean, as Cycles' default (its own march finer than Cycles' steps)")
     if getattr(cycles, "use_fast_gi", False):
         notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
                      "follows whole paths")
@@ -191,12 +190,20 @@ def world_notes(world) -> list:
 
 
 def material_notes(material) -> list:
-    """Material settings that Primer does not model: Cycles' bump map correction switched off."""
+    """Material settings that Primer does not model: Cycles' bump map correction switched off; Blender 4's
+    Homogeneous Volume on a material with a Volume (Cycles evaluates the medium once per ray then)."""
     cycles = getattr(material, "cycles", None)
+    notes = []
     if cycles is not None and not getattr(cycles, "use_bump_map_correction", True):
-        return [f"material '{material.name}' has Bump Map Correction off; Primer always shadows bumped normals as "
-                "Cycles does with it on"]
-    return []
+        notes.append(f"material '{material.name}' has Bump Map Correction off; Primer always shadows bumped normals "
+                     "as Cycles does with it on")
+    tree = getattr(material, "node_tree", None)
+    output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"), None) if tree else None
+    volume = output is not None and "Volume" in output.inputs and output.inputs["Volume"].is_linked
+    if cycles is not None and getattr(cycles, "homogeneous_volume", False) and volume:
+        notes.append(f"material '{material.name}' has Homogeneous Volume on: Cycles evaluates its medium once per "
+                     "ray; Primer evaluates a medium fed by nodes point by point")
+    return notes
 
 
 def _flag(obj, prop: str) -> bool:

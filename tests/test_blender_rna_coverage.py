@@ -122,7 +122,7 @@ CASES = [
     ("RenderSettings", "scene.render", "use_multiview", True, [], "render_notes", "scene", "Stereoscopy"),
     ("CyclesRenderSettings", "scene.cycles", "film_exposure", 2.0, [], "render_notes", "scene", "Film Exposure 2"),
     ("CyclesRenderSettings", "scene.cycles", "use_fast_gi", True, [], "render_notes", "scene", "Fast GI"),
-    ("CyclesRenderSettings", "scene.cycles", "volume_bounces", 2, [], "render_notes", "scene", "Volume Bounces 2"),
+    ("CyclesRenderSettings", "scene.cycles", "volume_biased", True, [], "render_notes", "scene", "Biased volume"),
     ("CyclesRenderSettings", "scene.cycles", "film_transparent_glass", True,
      [("scene.render", "film_transparent", True)], "render_notes", "scene", "Transparent Glass"),
     ("CyclesRenderSettings", "scene.cycles", "blur_glossy", 0.5, [("scene.primer", "integrator", "PATH")],

@@ -64,6 +64,7 @@ def configure_cycles_reference(scene, samples: int) -> None:
         cycles.diffuse_bounces = primer.diffuse_bounces
         cycles.glossy_bounces = primer.glossy_bounces
         cycles.transmission_bounces = getattr(primer, "transmission_bounces", 12)
+        cycles.volume_bounces = getattr(primer, "volume_bounces", 0)
         cycles.min_light_bounces = primer.min_light_bounces
         cycles.caustics_reflective = bool(getattr(primer, "caustics_reflective", True))
         cycles.caustics_refractive = bool(getattr(primer, "caustics_refractive", True))

@@ -83,6 +83,37 @@ def roulette_from(settings) -> int:
     return settings.min_light_bounces + 2
 
 
+# A path's counters that volume.multiple_scattering carries along the chains of scattering events it follows.
+COUNTERS = ("bounce", "volume", "diffuse", "glossy", "transmission", "transparent", "bounds")
+
+
+def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner_of: np.ndarray) -> tuple:
+    """The next vertices' path state `state` (name -> (k, ...) array: owner, throughput, the counters, flags, the
+    MIS origin...) with the paths that scattered in media and reached a surface (volume.multiple_scattering's
+    `arrivals`, whose origin rows owner_of (r,) maps to camera rays) appended, and the Surface of them all.
+    where: (prim, u, v, O, D, t) of the k hits the state has."""
+    a = len(arrivals["origin"])
+    extra = dict(owner=owner_of[arrivals["origin"]], throughput=arrivals["throughput"],
+                 flags=np.full(a, graph_.PATH["volume_scatter"], np.int64), mis_pdf=arrivals["pdf"],
+                 mis_origin=arrivals["O"], mis_normal=np.zeros((a, 3)), mis_receiver=np.full(a, -1, np.int64),
+                 after_diffuse=np.zeros(a, bool), seen_by=np.zeros(a, np.int64), inside=arrivals["inside"],
+                 looking=np.zeros(a, bool), feature_throughput=np.ones((a, 3)), wo=-arrivals["D"],
+                 **{name: arrivals[name] for name in COUNTERS})
+    out = {}
+    for name, value in state.items():
+        if value is None:
+            out[name] = None
+        elif name == "shares":
+            out[name] = np.concatenate([value, np.zeros((a,) + value.shape[1:])])
+        else:
+            out[name] = np.concatenate([np.asarray(value), np.asarray(extra[name]).astype(np.asarray(value).dtype)])
+    hits = arrivals["hits"]
+    prim, u, v, O, D, t = (np.concatenate([x, y]) for x, y in zip(where, (hits.prim, hits.u, hits.v, arrivals["O"],
+                                                                          arrivals["D"], hits.t)))
+    surface = surface_at_hits(ctx.geometry, prim, u, v, O, D, t, flat_only=not ctx.settings.smooth_normals)
+    return out, surface
+
+
 def bounce_kind(kind: np.ndarray, transmit: np.ndarray) -> tuple:
     """Which bounces are diffuse, glossy (a rough or mirror reflection), transmission (through the surface:
     rays.goes_through) and transparent (straight through a Transparent closure, not counted as a bounce), as
@@ -161,14 +192,14 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
         hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
-        stretch = None if media is None else media.along(inside[alive])
+        stretch = None if media is None else media.along(inside[alive], O, D)
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
                                         N=mis_N[alive], mis_O=mis_O[alive], groups=found_groups,
                                         seen_as=ray.seen_as[rows][alive], stretch=stretch,
                                         paths=graph_.paths_at(paths, alive)._replace(transparent=passed[alive]),
                                         receiver=None if ray.receiver is None else ray.receiver[rows][alive])
         if media is not None:                    # (and what reaches the next surface)
-            T[alive] *= volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
+            T[alive] *= stretch.transmittance(np.where(hits.hit, hits.t, np.inf))
         f = clamp_.scale(light, None, limit if np.ndim(limit) == 0 else limit[alive])
         found[alive] += light * f[:, None]
         if groups is not None:
@@ -227,11 +258,21 @@ class PathTracing(Integrator):
         # The media the camera rays start in (core/volumes): the world's, and those of the meshes around the camera.
         media = ctx.extra.get("media")
         inside = None if media is None else camera_media(ctx, O, D)
-        stretch = None if media is None else media.along(inside)
+        stretch = None if media is None else media.along(inside, O, D)
         L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, stretch)
         shadow_rays = 0
         scatters = media is not None and media.scatters
-        if scatters:
+        # With Volume Bounces, paths go on from where they scatter (volume.multiple_scattering).
+        onward = scatters and s.volume_bounces > 0 and not self.direct_only
+        camera_through = arrivals = None
+        if onward and volume_.volume_bounces_left(ctx, 0, 0):
+            zero = np.zeros(len(O), np.int64)
+            counters = {name: zero for name in COUNTERS}
+            scattered, shadow_rays, camera_through, arrivals = volume_.multiple_scattering(
+                ctx, O, D, np.where(found.hit, found.t, t_max), inside, np.ones((len(O), 3)), pixel, sample, 0,
+                counters, through_transparent)
+            L_out += scattered
+        elif scatters:
             # The light the media scatter towards the camera along its rays (core/integrators/volume.py).
             scattered, shadow_rays = volume_.in_scattering(ctx, O, D, np.where(found.hit, found.t, t_max), inside,
                                                            np.ones((len(O), 3)), pixel, sample, 0, 0,
@@ -246,7 +287,7 @@ class PathTracing(Integrator):
         if data is not None:
             passes_.along_ray(ctx, data, np.arange(len(O)), np.ones((len(O), 3)), O, D, found.hit,
                               np.where(found.hit, found.t, t_max))
-        if surface is None:
+        if surface is None and arrivals is None:
             return Radiance(L_out, found.hit, 0, groups=None if groups is None else groups.L,
                             features=None if feats is None else feats.stacked(), passes=data)
         D_hit = vectors.gather(D, hit)
@@ -257,7 +298,8 @@ class PathTracing(Integrator):
         throughput = np.ones((len(hit), 3))
         if media is not None:                        # (what the media let through to the camera's hits)
             inside = inside[hit]
-            throughput = volumes.transmittance(stretch.sigma_t[hit], surface.t)
+            throughput = (stretch.rows(hit).transmittance(surface.t) if camera_through is None
+                          else camera_through[hit])
         diffuse = np.zeros(len(hit), np.int64)
         glossy = np.zeros(len(hit), np.int64)
         transmission = np.zeros(len(hit), np.int64)
@@ -281,6 +323,19 @@ class PathTracing(Integrator):
         shares = np.zeros((len(hit), lightpasses.KINDS, 3))
         looking = np.ones(len(hit), bool)            # which paths still look for their feature vertex
         feature_throughput = np.ones((len(hit), 3))
+        volume = np.zeros(len(hit), np.int64)      # each path's scattering events in media so far (Volume Bounces)
+        if arrivals is not None:
+            # Paths that scattered along the camera rays and went on: their next vertices join the camera's hits.
+            state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
+                         transmission=transmission, transparent=transparent, bounds=bounds, bounce=bounce, flags=flags,
+                         mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal, mis_receiver=mis_receiver,
+                         after_diffuse=after_diffuse, seen_by=seen_by, inside=inside, looking=looking,
+                         feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo)
+            where = (found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit), D_hit, found.t[hit])
+            state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)))
+            (owner, throughput, diffuse, glossy, transmission, transparent, bounds, bounce, flags, mis_pdf, mis_origin,
+             mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput, shares, volume,
+             wo) = state.values()
         while len(owner):
             check_stop(ctx)
             # a. What the vertex gathers: its emission (camera hits only; later ones were found by the ray
@@ -382,9 +437,29 @@ class PathTracing(Integrator):
                 recorder.roulette(vertex + 1, owner[ray.rows], q, survived & going)
                 going &= survived
                 next_throughput = next_throughput / np.where(going, q, 1.0)[:, None]
+            vertex_arrivals = None
             if scatters:
                 # The light the media scatter towards this bounce's rays, where the path may still bounce on them.
                 live = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived)
+                if onward and len(live):
+                    # Paths with Volume Bounces left scatter or go on (volume.multiple_scattering).
+                    multi = live[volume_.volume_bounces_left(ctx, volume[ray.rows[live]], bounces[live])]
+                    live = np.setdiff1d(live, multi)
+                    if len(multi):
+                        carried = throughput[ray.rows[multi]] * ray.weight[multi] / q[multi, None]
+                        counters = dict(bounce=bounces[multi], volume=volume[ray.rows[multi]], diffuse=d[multi],
+                                        glossy=g[multi], transmission=tr[multi], transparent=tp[multi],
+                                        bounds=vb[multi])
+                        path_rows = owner[ray.rows[multi]]
+                        scattered, count, passing, vertex_arrivals = volume_.multiple_scattering(
+                            ctx, ray.O[multi], ray.D[multi], np.where(ray.hits.hit[multi], ray.hits.t[multi], np.inf),
+                            ray.inside[multi], carried, pixel[path_rows], sample[path_rows],
+                            (vertex + 1) * VERTEX_DIMENSIONS, counters, through_transparent)
+                        L_out[path_rows] += scattered
+                        shadow_rays += count
+                        next_throughput[multi] = carried * passing
+                        going[multi] &= (passing != 0.0).any(axis=1)
+                        arrival_owners = path_rows
                 if len(live):
                     path_rows = owner[ray.rows[live]]
                     carried = throughput[ray.rows[live]] * ray.weight[live] / q[live, None]
@@ -395,7 +470,7 @@ class PathTracing(Integrator):
                     L_out[path_rows] += carried * scattered
                     shadow_rays += count
             keep = np.flatnonzero(going & np.isfinite(next_throughput).all(axis=1))
-            if len(keep) == 0:
+            if len(keep) == 0 and vertex_arrivals is None:
                 break
             seen_by = ray.seen_as[keep]
             looking, feature_throughput = looking[ray.rows][keep], feature_throughput[ray.rows][keep]
@@ -424,6 +499,20 @@ class PathTracing(Integrator):
             mis_receiver = ray.receiver[keep]
             inside = None if media is None else ray.inside[keep]
             wo = -D_next
+            volume = volume[ray.rows][keep]
+            if vertex_arrivals is not None:
+                # Paths that scattered along this bounce's rays and went on: their next vertices join the others.
+                state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
+                             transmission=transmission, transparent=transparent, bounds=bounds, bounce=bounce,
+                             flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
+                             mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
+                             looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume,
+                             wo=wo)
+                where = (hits.prim[keep], hits.u[keep], hits.v[keep], ray.O[keep], D_next, hits.t[keep])
+                state, surface = with_arrivals(ctx, state, where, vertex_arrivals, arrival_owners)
+                (owner, throughput, diffuse, glossy, transmission, transparent, bounds, bounce, flags, mis_pdf,
+                 mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
+                 shares, volume, wo) = state.values()
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
                         None if groups is None else groups.L, None if feats is None else feats.stacked(), data)

@@ -30,7 +30,7 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
     lightgroups.GroupLight of the n rays that receives L split by source, or None. stretch: the media the rays start
     in (core/volumes Stretch), or None: the world and lamps they see keep exp(-sigma_t t) of their light over their
     distance t (inf for the world), and L includes the media's emission up to the hit."""
-    sigma = None if stretch is None else stretch.sigma_t
+    sigma = stretch
     s = ctx.settings
     # 1. The nearest hit of each camera ray (t), past objects hidden from the camera.
     found = nearest_seen(ctx, O, D, t_max)
@@ -42,7 +42,7 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
         missed = np.flatnonzero(~found.hit)
         L_out[missed] = world.radiance(D[missed])
         if sigma is not None:
-            L_out[missed] *= volumes.transmittance(sigma[missed], np.full(len(missed), np.inf))
+            L_out[missed] *= sigma.rows(missed).transmittance(np.full(len(missed), np.inf))
         if groups is not None:
             groups.add(missed, L_out[missed], groups.groups.world)
     # 3. Lamps seen by the camera in front of what it hits (area lights, round lights), suns where it escapes.
@@ -141,8 +141,8 @@ def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, gr
     """The radiance (n, 3) of the lamps camera rays see: lamps with extent they meet before t_max (lamps never
     block), and the discs of suns where they escape (escaped (n,) bool: the rays that hit nothing; Cycles'
     shade_background adds distant lights there). groups: a lightgroups.GroupLight of the n rays that receives it by
-    each lamp's group, or None; sigma (n, 3) the extinction of the media the rays cross, or None: each lamp's light
-    keeps exp(-sigma t) over its distance t."""
+    each lamp's group, or None; sigma: the media the rays cross (core/volumes Stretch), or None: each lamp's light
+    keeps what they let through over its distance t."""
     seen = np.zeros((len(O), 3))
     escaped = np.zeros(len(O), bool) if escaped is None else escaped
     for index in ctx.extra.get("camera_lamps", ()):
@@ -151,7 +151,7 @@ def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, gr
         met = light.hit(O, D, reach)
         radiance = met.radiance
         if sigma is not None:
-            radiance = radiance * volumes.transmittance(sigma, np.where(met.hit, met.t, 0.0))
+            radiance = radiance * sigma.transmittance(np.where(met.hit, met.t, 0.0))
         seen += radiance
         if groups is not None:
             groups.add(np.arange(len(O)), radiance, groups.groups.lights[index])

@@ -215,7 +215,8 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None, bl
         found = ctx.geometry.tracer.intersect(O[alive], D[alive], t[alive])
         if media is not None:
             # The stretch up to the surface met (or to the light): what its media let through.
-            T[alive] *= volumes.transmittance(media.extinction(inside[alive]), np.where(found.hit, found.t, t[alive]))
+            T[alive] *= media.along(inside[alive], O[alive], D[alive]).transmittance(np.where(found.hit, found.t,
+                                                                                                t[alive]))
         hit = np.flatnonzero(found.hit)
         if len(hit) == 0:
             break

@@ -321,8 +321,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     if inside is not None:
         # The ray's media (the hit's own where it went through the surface), and what they let through to its hit.
         ray_inside = media_beyond(ctx, surface, go, inside[go], goes_through(bs.kind[go], transmit))
-        stretch = ctx.extra["media"].along(ray_inside)
-        attenuation = volumes.transmittance(stretch.sigma_t, t_hit)
+        stretch = ctx.extra["media"].along(ray_inside, O, D)
+        attenuation = stretch.transmittance(t_hit)
     ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
                   after, ray_inside, attenuation, receiver)
     for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
@@ -420,7 +420,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     emitter that does not light the receiver's object (Light Linking), and no emitter object whose shadows a blocker
     set casts (Shadow Linking: its light samples alone find it, linking.found_by_bounces)."""
     light_L = np.zeros((len(O), 3))
-    sigma = None if stretch is None else stretch.sigma_t
+    sigma = stretch
     if stretch is not None:
         light_L += volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
     t_limit = np.where(hits.hit, hits.t, np.inf)
@@ -461,7 +461,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             t_lamp = lh.t.copy()
             if len(moved):
                 t_lamp[moved] = np.where(past, seen.t - t_start, np.inf)
-            radiance = radiance * volumes.transmittance(sigma, np.where(found, t_lamp, 0.0))
+            radiance = radiance * sigma.transmittance(np.where(found, t_lamp, 0.0))
         if not found.any():
             continue
         w = np.where(use_mis, power_heuristic(pdf_b, light_count(ctx, light) * pdf_l), 1.0)
@@ -503,7 +503,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             n_l = light_count(ctx, emitters)
         w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
         if sigma is not None:
-            emitted = emitted * volumes.transmittance(sigma[struck], hits.t[struck])
+            emitted = emitted * sigma.rows(struck).transmittance(hits.t[struck])
         light_L[struck] += emitted * w[:, None]
         if groups is not None:
             groups.add(struck, emitted * w[:, None], groups.groups.of_prims(ctx.geometry, hits.prim[struck]))
@@ -513,7 +513,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     if world is not None and world.lights and len(missed):
         L_world = world.radiance(D[missed])
         if sigma is not None:
-            L_world = L_world * volumes.transmittance(sigma[missed], np.full(len(missed), np.inf))
+            L_world = L_world * sigma.rows(missed).transmittance(np.full(len(missed), np.inf))
         w = np.ones(len(missed))
         sampler = ctx.extra.get("world_sampler")
         if sampler is not None:

@@ -24,8 +24,12 @@ finding light; so every stretch of a path (the camera ray, each bounce's ray the
 scattering estimate here and the path goes on to the surface: the same mean as Cycles' paths, which choose between
 the two, with less noise. Only stretches the path may still bounce on scatter (Cycles: a ray past its bounce
 limits only absorbs and emits). Cycles also samples the distance towards each lamp (equi-angular sampling) and mixes
-it with this one: the noise differs, not the mean. Light scattered more than once (Volume Bounces > 0) is left out,
-with a warning.
+it with this one: the noise differs, not the mean.
+
+Heterogeneous media (core/volumes/field.py) take the same estimate on the pieces of their march
+(`marched_scattering`). With Volume Bounces N > 0 a path goes on from where it scatters, N times
+(`multiple_scattering`): on a stretch of a path with volume bounces left, untruncated free flight decides whether it
+collides (and goes on along its phase ray from there) or passes to the surface behind (`scatter_or_pass`).
 """
 from __future__ import annotations
 
@@ -122,11 +126,21 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     numbers; dimension: the vertex's shift of the sampling dimensions; bounce: (k,) or int the real bounces the paths
     made before the stretch (a light's Max Bounces); behind: path.through_transparent, for the phase rays."""
     media = ctx.extra["media"]
-    stretch = media.along(inside)
+    stretch = media.along(inside, O, D)
     L = np.zeros((len(O), 3))
     rows = np.flatnonzero(stretch.scatters)
+    bounces = np.broadcast_to(np.asarray(bounce), (len(O),))
+    # (Rays in a heterogeneous medium: the same on the pieces of its march.)
+    marched = rows[stretch.varying[rows]]
+    rows = rows[~stretch.varying[rows]]
+    shadow_rays = 0
+    if len(marched):
+        L[marched], shadow_rays = marched_scattering(ctx, stretch.rows(marched), O[marched], D[marched],
+                                                     np.asarray(t, np.float64)[marched], inside[marched],
+                                                     throughput[marched], pixel[marched], sample[marched], dimension,
+                                                     bounces[marched], behind)
     if len(rows) == 0:
-        return L, 0
+        return L, shadow_rays
     part = stretch.rows(rows)
     # 1. Where each ray scatters, and its weight T(s) sigma_s / pdf(s).
     u = sampling.sample_2d(ctx.settings.seed, pixel[rows], sample[rows], dimension=DISTANCE_DIMENSION + dimension)
@@ -134,18 +148,19 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     sampled = pdf > 0.0
     rows, s, pdf, odds, part = rows[sampled], s[sampled], pdf[sampled], odds[sampled], part.rows(sampled)
     if len(rows) == 0:
-        return L, 0
+        return L, shadow_rays
     weight = volumes.transmittance(part.sigma_t, s) * part.sigma_s / pdf[:, None]
     # 2. The light scattered there towards the ray's start; each lamp's light samples weighed against the same
     #    lamp's equi-angular points (3.), by the balance heuristic on the two densities of s.
     o, d, length = O[rows], D[rows], np.asarray(t, np.float64)[rows]
     P = o + s[:, None] * d
-    bounces = np.broadcast_to(np.asarray(bounce), (len(O),))[rows]
+    bounces = bounces[rows]
     lamps = equiangular_lamps(ctx)
     share = {index: pdf / (pdf + equiangular(o, d, length, X, s=s)[1]) for index, X in lamps.items()}
-    scattered, shadow_rays = scattered_light(ctx, P, -d, part.g, inside[rows], pixel[rows], sample[rows],
-                                             dimension, bounces, behind, share)
+    scattered, count = scattered_light(ctx, P, -d, part.g, inside[rows], pixel[rows], sample[rows],
+                                       dimension, bounces, behind, share)
     L[rows] = weight * scattered
+    shadow_rays += count
     # 3. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
     for index, X in lamps.items():
         u = sampling.sample_2d(ctx.settings.seed, pixel[rows], sample[rows],
@@ -162,6 +177,51 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
                                      inside[at], pixel[at], sample[at], dimension, bounces[chosen], behind,
                                      only=index)
         L[at] += T * (w / pdf_e[chosen])[:, None] * lit
+        shadow_rays += count
+    return L, shadow_rays
+
+
+def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
+                       throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
+                       bounce: np.ndarray, behind) -> tuple:
+    """in_scattering for k rays in a heterogeneous medium (stretch: their volumes.Stretch): the same estimate on the
+    pieces of their march (core/volumes/field.py): free flight inverting the optical depth of a channel picked by
+    throughput x the rays' albedo (their optical depths' ratio), weight T(s) sigma_s(s) / pdf(s), and each lamp's
+    equi-angular point weighed against it by the balance heuristic. Returns (L (k, 3), shadow rays)."""
+    k = len(O)
+    L = np.zeros((k, 3))
+    march = stretch.march(t, np.arange(k))
+    tau_t, tau_s = march.totals()
+    odds = channel_odds(volumes.Stretch(tau_t, tau_s, np.zeros((k, 3)), np.zeros(k)), throughput)
+    # 1. The free-flight point, its weight T(s) sigma_s(s) / pdf(s).
+    u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=DISTANCE_DIMENSION + dimension)
+    s, pdf = march.free_flight(odds, u)
+    _, sigma_s, g = march.at(s)
+    ok = np.flatnonzero(pdf > 0.0)
+    shadow_rays = 0
+    lamps = equiangular_lamps(ctx)
+    if len(ok):
+        weight = march.transmittance(s)[ok] * sigma_s[ok] / pdf[ok, None]
+        share = {index: pdf[ok] / (pdf[ok] + equiangular(O[ok], D[ok], t[ok], X, s=s[ok])[1])
+                 for index, X in lamps.items()}
+        scattered, shadow_rays = scattered_light(ctx, O[ok] + s[ok, None] * D[ok], -D[ok], g[ok], inside[ok],
+                                                 pixel[ok], sample[ok], dimension, bounce[ok], behind, share)
+        L[ok] = weight * scattered
+    # 2. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
+    for index, X in lamps.items():
+        u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=EQUIANGULAR_DIMENSION + index + dimension)
+        s_e, pdf_e = equiangular(O, D, t, X, u=u[:, 0])
+        chosen = np.flatnonzero(pdf_e > 0.0)
+        if len(chosen) == 0:
+            continue
+        at = np.where(pdf_e > 0.0, s_e, 0.0)
+        w = pdf_e / (pdf_e + march.pdf(odds, at))
+        _, sigma_e, g_e = march.at(at)
+        T = march.transmittance(at) * sigma_e
+        lit, count = scattered_light(ctx, O[chosen] + s_e[chosen, None] * D[chosen], -D[chosen], g_e[chosen],
+                                     inside[chosen], pixel[chosen], sample[chosen], dimension, bounce[chosen], behind,
+                                     only=index)
+        L[chosen] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
         shadow_rays += count
     return L, shadow_rays
 
@@ -187,12 +247,14 @@ def scatter_paths(m: int, bounce) -> "graph_.LightPaths":
 
 def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, inside: np.ndarray,
                     pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray, behind,
-                    share: dict = None, only: int = None) -> tuple:
+                    share: dict = None, only: int = None, phase_out: dict = None) -> tuple:
     """The light (m, 3) float64 that scattering points P (m, 3) with Henyey-Greenstein anisotropies g (m,) send
     towards wo (m, 3) per unit sigma_s (the integral of p L over the sphere), and the shadow rays traced: light
     samples with shadow rays through the media `inside` (m, V), and one phase-sampled ray, weighed by MIS.
     share: light index -> (m,) the weight of its light samples here (their point's share against equi-angular
-    points), or None; only: a light's index: its light samples alone (an equi-angular point), no phase ray."""
+    points), or None; only: a light's index: its light samples alone (an equi-angular point), no phase ray.
+    phase_out: a dict that receives the phase ray ("wi" (m, 3), "pdf" (m,), "hits") where the path goes on along it
+    (Volume Bounces left: the light behind the transparent surfaces it meets is then the path's to find), or None."""
     s = ctx.settings
     m = len(P)
     phase = HenyeyGreenstein(g)
@@ -249,18 +311,21 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
             color = ls.color if ls.color.ndim == 1 else ls.color[rows]
             L[rows] += (w * p)[:, None] * color * through
     # 2. One phase-sampled direction: the light its ray finds (its weight p / pdf is 1).
-    if only is None and (bsdf_rays or ctx.extra["media"].emits):
+    if only is None and (bsdf_rays or ctx.extra["media"].emits or phase_out is not None):
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=PHASE_DIMENSION + dimension)
         ps = phase.sample(wo, u)
         kind = np.zeros(m, np.int64)                     # (a volume's ray: no Ray Visibility bit of its own)
         hits = nearest_seen(ctx, P, ps.wi, np.full(m, np.inf), kind)
-        stretch = ctx.extra["media"].along(inside)
+        stretch = ctx.extra["media"].along(inside, P, ps.wi)
         gather = bsdf_rays and s.light_sampling != "light"
+        if phase_out is not None:                        # (the path goes on along this ray: multiple scattering)
+            phase_out.update(wi=ps.wi, pdf=ps.pdf, hits=hits)
         if gather:
             L += gather_light(ctx, P, ps.wi, hits, ps.pdf, np.full(m, mis), N=unknown, seen_as=kind, stretch=stretch,
                               receiver=nowhere)
+        if gather and phase_out is None:
             # Straight on through the transparent surfaces it meets, to the light behind them.
-            T = volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
+            T = stretch.transmittance(np.where(hits.hit, hits.t, np.inf))
             ray = BsdfRay(np.arange(m), P, ps.wi, hits, np.ones((m, 3)), np.full(m, -1), np.zeros(m, bool),
                           np.zeros(m, bool), ps.pdf, kind, P, unknown, inside=inside, attenuation=T,
                           path=scatter_paths(m, bounce), receiver=nowhere)
@@ -269,7 +334,184 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
                 rows = rows[ctx.materials.may_pass[ctx.geometry.triangle_data(hits.prim[rows], smooth=False).material]]
             if len(rows):
                 L[rows] += behind(ctx, ray, rows, T[rows], np.zeros(len(rows), np.int64))
-        else:
+        elif not gather:
             L += volumes.emitted(stretch, np.where(hits.hit, hits.t, np.inf))
     return L, shadow_rays
 
+
+
+# The shift of the sampling dimensions of each further scattering event along one stretch's chain (Volume Bounces):
+# the k-th event after the stretch's own draws its numbers k x CHAIN_SHIFT past them.
+CHAIN_SHIFT = 1 << 17
+
+
+def volume_bounces_left(ctx: Context, volume: np.ndarray, bounce: np.ndarray) -> np.ndarray:
+    """Which paths (k,) bool, having scattered `volume` (k,) times in media and bounced `bounce` (k,) times, go on
+    from their next scattering event (Cycles' path_state_next: a volume scatter counts a bounce and a volume bounce;
+    past Volume Bounces or Max Bounces the path ends after it, its phase ray still finding light)."""
+    s = ctx.settings
+    return (np.asarray(volume) < s.volume_bounces) & (np.asarray(bounce) + 1 <= s.max_bounces)
+
+
+def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
+                    throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
+                    bounce: np.ndarray) -> tuple:
+    """A stretch of rays O, D (k, 3) over [0, t) (k,) whose paths go on from where they scatter: free flight decides
+    whether each scatters in its media (a distance drawn without truncation, by a channel picked by throughput (k, 3)
+    x albedo) or goes on to its end. Returns (L (k, 3) the light gathered at the scattering points per unit
+    throughput (light samples and the phase ray's finds, weighed by MIS), shadow rays, through (k, 3) what a path
+    that goes on to the end carries on: T(t) / P(no collision), 0 where it scattered, and the onward rays: None or
+    a dict of rows (c,) (the rays that scattered), O (c, 3) their scattering points, D (c, 3) their phase
+    directions, hits, pdf (c,) the phase pdf, weight (c, 3) T(s) sigma_s(s) / pdf(s))."""
+    from ..volumes.field import March
+    media = ctx.extra["media"]
+    k = len(O)
+    t = np.asarray(t, np.float64)
+    stretch = media.along(inside, O, D)
+    through = stretch.transmittance(t)
+    L = np.zeros((k, 3))
+    shadow_rays = 0
+    onward = []
+    rows = np.flatnonzero(stretch.scatters)
+    varying = stretch.varying[rows]
+    for group, is_varying in ((rows[~varying], False), (rows[varying], True)):
+        if len(group) == 0:
+            continue
+        part = stretch.rows(group)
+        if is_varying:
+            march = stretch.march(t[group], group)
+            tau_t, tau_s = march.totals()
+            odds = channel_odds(volumes.Stretch(tau_t, tau_s, part.emission, part.g), throughput[group])
+        else:
+            march = March.uniform(part.sigma_t, part.sigma_s, part.emission, part.g, t[group])
+            odds = channel_odds(part, throughput[group])
+        u = sampling.sample_2d(ctx.settings.seed, pixel[group], sample[group],
+                               dimension=DISTANCE_DIMENSION + dimension)
+        s, pdf, passed, p_pass = march.collision(odds, u)
+        none = odds.sum(axis=1) <= 0.0
+        passed, p_pass = passed | none | ~(pdf > 0.0), np.where(none, 1.0, p_pass)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            through[group] = np.where(passed[:, None], through[group] / np.where(p_pass > 0.0, p_pass, 1.0)[:, None],
+                                      0.0)
+        # Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone, weighed against the
+        # collisions by the balance heuristic (as in_scattering weighs it against its free flight).
+        lamps = equiangular_lamps(ctx)
+        o, d, length = O[group], D[group], t[group]
+        for index, X in lamps.items():
+            v = sampling.sample_2d(ctx.settings.seed, pixel[group], sample[group],
+                                   dimension=EQUIANGULAR_DIMENSION + index + dimension)[:, 0]
+            s_e, pdf_e = equiangular(o, d, length, X, u=v)
+            chosen = np.flatnonzero(pdf_e > 0.0)
+            if len(chosen) == 0:
+                continue
+            at = np.where(pdf_e > 0.0, s_e, 0.0)
+            w = pdf_e / (pdf_e + march.collision_pdf(odds, at))
+            _, sigma_e, g_e = march.at(at)
+            T = march.transmittance(at) * sigma_e
+            rows_e = group[chosen]
+            lit, count = scattered_light(ctx, O[rows_e] + s_e[chosen, None] * D[rows_e], -D[rows_e], g_e[chosen],
+                                         inside[rows_e], pixel[rows_e], sample[rows_e], dimension,
+                                         np.asarray(bounce)[rows_e], None, only=index)
+            L[rows_e] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
+            shadow_rays += count
+        hit = np.flatnonzero(~passed)
+        if len(hit) == 0:
+            continue
+        at = np.where(passed, 0.0, s)
+        _, sigma_s, g = march.at(at)
+        weight = (march.transmittance(at) * sigma_s)[hit] / pdf[hit, None]
+        here = group[hit]
+        P = O[here] + s[hit, None] * D[here]
+        share = {index: pdf[hit] / (pdf[hit] + equiangular(O[here], D[here], t[here], X, s=s[hit])[1])
+                 for index, X in lamps.items()}
+        phase = {}
+        light, count = scattered_light(ctx, P, -D[here], g[hit], inside[here], pixel[here], sample[here], dimension,
+                                       np.asarray(bounce)[here], None, share, phase_out=phase)
+        L[here] += weight * light
+        shadow_rays += count
+        onward.append(dict(rows=here, O=P, D=phase["wi"], hits=phase["hits"], pdf=phase["pdf"], weight=weight))
+    return L, shadow_rays, through, joined(onward)
+
+
+def joined(parts: list):
+    """The dicts of arrays `parts` (each the same keys; "hits" a Hits) joined row-wise into one; None for none."""
+    if not parts:
+        return None
+    if len(parts) == 1:
+        return parts[0]
+    out = {}
+    for key in parts[0]:
+        if key == "hits":
+            out[key] = type(parts[0][key])(*(np.concatenate(columns) for columns in zip(*(p[key] for p in parts))))
+        else:
+            out[key] = np.concatenate([p[key] for p in parts])
+    return out
+
+
+def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
+                        throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
+                        counts: dict, behind) -> tuple:
+    """The stretches of rays O, D (k, 3) over [0, t) whose paths have Volume Bounces left (volume_bounces_left),
+    carrying `throughput` (k, 3): each scatters or goes on (scatter_or_pass); a path that scattered goes on along
+    its phase ray, whose own stretch scatters or goes on again while it has bounces left, and otherwise gathers its
+    single scattering (in_scattering, `behind`: path.through_transparent) and goes on to its hit.
+
+    counts: the paths' counters, each (k,) int64: "bounce", "volume" (scattering events so far), and any others
+    (diffuse, glossy...) carried unchanged. Returns (L (k, 3) the light found, throughput included; shadow rays;
+    through (k, 3) what a path going on to its own ray's end carries on (0 where it scattered); arrivals: None or a
+    dict of the scattered paths that reach a surface: origin (a,) the ray each came from, throughput (a, 3), O, D
+    (a, 3) their last ray, hits, pdf (a,) its phase pdf, inside (a, V), and each counter of `counts`)."""
+    k = len(O)
+    L = np.zeros((k, 3))
+    light, shadow_rays, through, onward = scatter_or_pass(ctx, O, D, t, inside, throughput, pixel, sample, dimension,
+                                                          counts["bounce"])
+    L += throughput * light
+    arrivals = []
+    step = 1
+    while onward is not None and len(onward["weight"]):
+        check_stop(ctx)
+        origin = onward["rows"] if step == 1 else onward["origin"]
+        carried = (throughput[origin] if step == 1 else onward["throughput"]) * onward["weight"]
+        state = ({name: np.asarray(value)[origin] for name, value in counts.items()} if step == 1
+                 else onward["counts"])
+        state = {**state, "bounce": state["bounce"] + 1, "volume": state["volume"] + 1}
+        P, wi, hits = onward["O"], onward["D"], onward["hits"]
+        reach = np.where(hits.hit, hits.t, np.inf)
+        dim = dimension + step * CHAIN_SHIFT
+        stack = inside[origin]
+        going = volume_bounces_left(ctx, state["volume"], state["bounce"])
+        carry = np.zeros((len(origin), 3))
+        # a. Paths that end at their next scattering event: their single scattering, and on to the hit with T.
+        last = np.flatnonzero(~going)
+        if len(last):
+            found, count = in_scattering(ctx, P[last], wi[last], reach[last], stack[last], carried[last],
+                                         pixel[origin[last]], sample[origin[last]], dim, state["bounce"][last],
+                                         behind)
+            np.add.at(L, origin[last], carried[last] * found)
+            shadow_rays += count
+            stretch = ctx.extra["media"].along(stack[last], P[last], wi[last])
+            carry[last] = carried[last] * stretch.transmittance(reach[last])
+        # b. The others scatter again or go on.
+        more = np.flatnonzero(going)
+        after = None
+        if len(more):
+            light, count, passing, after = scatter_or_pass(ctx, P[more], wi[more], reach[more], stack[more],
+                                                           carried[more], pixel[origin[more]], sample[origin[more]],
+                                                           dim, state["bounce"][more])
+            np.add.at(L, origin[more], carried[more] * light)
+            shadow_rays += count
+            carry[more] = carried[more] * passing
+        # c. Those that reach a surface arrive there, the next vertex of their paths.
+        arrive = np.flatnonzero(hits.hit & (carry != 0.0).any(axis=1))
+        if len(arrive):
+            arrivals.append(dict(origin=origin[arrive], throughput=carry[arrive], O=P[arrive], D=wi[arrive],
+                                 hits=type(hits)(*(np.asarray(x)[arrive] for x in hits)), pdf=onward["pdf"][arrive],
+                                 inside=stack[arrive], **{name: value[arrive] for name, value in state.items()}))
+        if after is None:
+            break
+        rows = more[after["rows"]]
+        onward = dict(origin=origin[rows], throughput=carried[rows], weight=after["weight"], O=after["O"],
+                      D=after["D"], hits=after["hits"], pdf=after["pdf"],
+                      counts={name: value[rows] for name, value in state.items()})
+        step += 1
+    return L, shadow_rays, through, joined(arrivals)

@@ -56,6 +56,9 @@ class Material:
                 addon/materials.py displacement_bump); None: the hit's interpolated normal
     volume_only: a Volume and no Surface: its surface is a boundary rays pass through without counting a bounce
                 (Cycles' SD_HAS_ONLY_VOLUME); `nodes` then holds one white Transparent node
+    volume_space: for a heterogeneous medium (a volume input fed by a link), the space its graph reads at a point:
+                (world-to-object (3, 4) float64, texture space location (3,), size (3,)) of the object that holds it
+                (its Object and Generated coordinates); None: the world's (core/volumes/field.py)
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
@@ -69,6 +72,7 @@ class Material:
     volume: list = field(default_factory=list)
     volume_only: bool = False
     normal: Optional[object] = None
+    volume_space: Optional[tuple] = None
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).

@@ -164,7 +164,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # transparent surfaces)
     # The media (core/volumes): inside closed meshes whose material has a Volume, and the world's; their rays go on
     # through the boundaries, and every stretch of a ray in a medium loses what Beer-Lambert says.
-    media = volumes.Media.of(list(scene.materials) + [scene.default_material or Material()], world.volume)
+    media = volumes.Media.of(list(scene.materials) + [scene.default_material or Material()], world.volume, geometry)
     ctx.extra["media"] = media
     if media is not None:                  # (where camera rays may start inside a mesh's medium)
         ctx.extra["media_bounds"] = rays_.media_bounds(geometry, media)
@@ -448,8 +448,8 @@ def _usable_cores() -> int:
 
 def volume_reason(ctx: Context, warnings: list) -> str:
     """Why a scene with media takes the Python reference ('' where the compiled kernel renders it, and without media).
-    The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c); more volume
-    materials than its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
+    The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c) scattering once;
+    heterogeneous media, Volume Bounces > 0 and more volume materials than its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
     no media, and that the media's light goes to Combined only."""
     media = ctx.extra.get("media")
     if media is None:
@@ -465,9 +465,14 @@ def volume_reason(ctx: Context, warnings: list) -> str:
                 "groups or denoising features (Cycles writes it to its Volume passes)")
         if note not in warnings:
             warnings.append(note)
-    if len(media.g) <= volumes.MAX_MEDIA:
+    bounces = media.scattering and s.volume_bounces > 0 and s.integrator == "path"
+    if len(media.g) <= volumes.MAX_MEDIA and not media.heterogeneous and not bounces:
         return ""
-    reason = f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
+    reason = (f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
+              if len(media.g) > volumes.MAX_MEDIA else
+              "a heterogeneous medium (a volume input fed by nodes), which the compiled kernel does not march yet"
+              if media.heterogeneous else
+              f"Volume Bounces {s.volume_bounces}: the compiled kernel scatters once (Volume Bounces 0)")
     note = f"volumes: {reason}, so this render runs the Python reference (the same image, slower)"
     if note not in warnings:
         warnings.append(note)

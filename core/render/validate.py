@@ -40,7 +40,7 @@ def validate(scene, settings) -> None:
     if settings.integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {settings.integrator!r}")
     for name in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
-                 "transparent_max_bounces", "min_light_bounces"):
+                 "transparent_max_bounces", "volume_bounces", "min_light_bounces"):
         value = getattr(settings, name)
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= MAX_BOUNCES:
             raise ValueError(f"{name.replace('_', ' ')} must be a whole number from 0 to {MAX_BOUNCES}, got {value!r}")

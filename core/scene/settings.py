@@ -14,7 +14,9 @@ class RenderSettings:
     max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, transparent_max_bounces: a path's
         bounce limits, with Cycles' meaning and defaults (Light Paths > Max Bounces); "direct" is a path
         with max_bounces 0. min_light_bounces: Russian roulette spares a path's first min_light_bounces + 1
-        bounces (Cycles' Min Light Bounces).
+        bounces (Cycles' Min Light Bounces). volume_bounces: how many times a path goes on from where it
+        scatters in a medium (Cycles' Light Paths > Max Bounces > Volume; 0: it scatters once, its phase ray
+        finding light, and ends there; each event is a bounce too).
     caustics_reflective, caustics_refractive: whether light reaches a diffuse surface by a glossy reflection
         or a refraction after it (Cycles' Light Paths > Caustics; off: those closures are left out at hits that
         a diffuse bounce's ray reaches; a path tracer's switches, core/integrators/path.py).
@@ -77,6 +79,7 @@ class RenderSettings:
     glossy_bounces: int = 4
     transmission_bounces: int = 12
     transparent_max_bounces: int = 8
+    volume_bounces: int = 0
     min_light_bounces: int = 0
     caustics_reflective: bool = True
     caustics_refractive: bool = True

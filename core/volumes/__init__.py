@@ -14,6 +14,9 @@ face, left through a back face: Cycles' volume stack, `Media.crossed`), or all s
   `Media.crossed` keeps which media a ray is in (a count per volume material), `transmittance` what it lets through.
   `Media.tables` packs them for the compiled kernel's twin, `media.c` (the volume stack, Beer-Lambert, emission).
 - `phase.py`: phase functions (Henyey-Greenstein), the volume's BSDF: eval, sample, pdf.
+- `field.py`: heterogeneous media: a Volume output whose inputs are fed by nodes (`Field`, its node graph run at
+  points inside the medium), and the march of a ray through them (`March`: pieces of constant coefficients, on
+  which Beer-Lambert, emission and free flight hold piece by piece).
 """
 from .media import (ABSORPTION, Coefficients, Media, PrincipledVolume, VolumeAbsorption, VolumeClosure, VolumeFlags,
                     VolumeCoefficients, VolumeEmission, VolumeScatter, VOLUME_BY_BLENDER, VOLUME_BY_NAME, VOLUME_TYPES)

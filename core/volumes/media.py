@@ -17,7 +17,9 @@ sigma_a, sigma_s and emission sum; the phase functions mix by their scattering (
 sigma_s-weighted mean when closures of different g meet, noted by the add-on).
 
 `Media` is one table per render: a column per material with a volume, the world's medium, and which materials are
-volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME).
+volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME). A material
+whose closures have inputs fed by links is a heterogeneous medium (field.py Field): its column's constant
+coefficients are zero and its rays are marched (`Stretch.march`, `Stretch.transmittance`).
 """
 from __future__ import annotations
 
@@ -217,9 +219,15 @@ class Media:
     boundary: (m + 1,) bool the material rows that are volume-only boundaries (a Volume and no Surface)
     """
 
-    def __init__(self, media: list, boundary, world: Optional[Coefficients] = None):
-        """media: one Coefficients or None per material row; boundary: (m + 1,) bool; world: Coefficients or None."""
+    def __init__(self, media: list, boundary, world: Optional[Coefficients] = None, fields: Optional[dict] = None):
+        """media: one Coefficients or None per material row; boundary: (m + 1,) bool; world: Coefficients or None;
+        fields: material row -> its heterogeneous medium (core/volumes/field.py Field; that row's Coefficients are
+        then zero), or None."""
         rows = [i for i, medium in enumerate(media) if medium is not None]
+        fields = fields or {}
+        # The heterogeneous media: each Field and its column.
+        self.fields = [fields[i] for i in rows if i in fields]
+        self.field_columns = np.array([k for k, i in enumerate(rows) if i in fields], np.int64)
         self.column = np.full(len(media), -1, np.int64)
         self.column[rows] = np.arange(len(rows))
         pick = [media[i] for i in rows]
@@ -231,15 +239,31 @@ class Media:
         self.boundary = np.asarray(boundary, bool)
 
     @classmethod
-    def of(cls, materials: list, world_volume: Optional[list] = None) -> Optional["Media"]:
-        """The media of a scene's material records (each with `volume`, a list of closures, and `volume_only`), the
-        default material last, and the world's Volume closures; None when no medium is anywhere."""
-        media = [medium_of(m.volume) if getattr(m, "volume", None) else None for m in materials]
+    def of(cls, materials: list, world_volume: Optional[list] = None, geometry=None) -> Optional["Media"]:
+        """The media of a scene's material records (each with `volume`, a list of closures, `volume_only`, and for a
+        heterogeneous medium `volume_space`), the default material last, and the world's Volume
+        closures; None when no medium is anywhere. geometry: the render's (its origin and each heterogeneous
+        medium's box of triangles), or None."""
+        from . import field as field_
+        fields = {}
+        for row, m in enumerate(materials):
+            entries = getattr(m, "volume", None)
+            if entries and field_.linked(entries):
+                fields[row] = field_.Field(entries, getattr(m, "volume_space", None),
+                                           None if geometry is None else geometry.origin,
+                                           None if geometry is None else material_bounds(geometry, row))
+        media = [(NOTHING if row in fields else medium_of(m.volume)) if getattr(m, "volume", None) else None
+                 for row, m in enumerate(materials)]
         world = medium_of(world_volume) if world_volume else None
         boundary = [bool(getattr(m, "volume_only", False)) for m in materials]
         if all(medium is None for medium in media) and world is None:
             return None
-        return cls(media, boundary, world)
+        return cls(media, boundary, world, fields)
+
+    @property
+    def heterogeneous(self) -> bool:
+        """Whether some medium varies from point to point (a Field)."""
+        return len(self.fields) > 0
 
     @property
     def sigma_t(self) -> np.ndarray:
@@ -250,17 +274,20 @@ class Media:
     def scatters(self) -> bool:
         """Whether some medium scatters or emits (absorption alone needs no scattering events)."""
         return bool((self.sigma_s > 0.0).any() or (self.emission > 0.0).any()
-                    or (self.world.sigma_s > 0.0).any() or (self.world.emission > 0.0).any())
+                    or (self.world.sigma_s > 0.0).any() or (self.world.emission > 0.0).any()
+                    or any(f.scatters or f.emits for f in self.fields))
 
     @property
     def emits(self) -> bool:
         """Whether some medium emits light (then every ray gathers what it finds: media emission is found by rays)."""
-        return bool((self.emission != 0.0).any() or (self.world.emission != 0.0).any())
+        return bool((self.emission != 0.0).any() or (self.world.emission != 0.0).any()
+                    or any(f.emits for f in self.fields))
 
     @property
     def scattering(self) -> bool:
         """Whether some medium scatters light (sigma_s > 0): a scattering event, not absorption and emission alone."""
-        return bool((self.sigma_s > 0.0).any() or (self.world.sigma_s > 0.0).any())
+        return bool((self.sigma_s > 0.0).any() or (self.world.sigma_s > 0.0).any()
+                    or any(f.scatters for f in self.fields))
 
     def tables(self, bounds: tuple) -> "MediaTablesRecord":
         """The C record (MediaTables) of the media: each column's extinction and emission, each material row's
@@ -287,17 +314,21 @@ class Media:
         as the ray is in it (overlapping media add, as in Cycles' volume stack)."""
         return self.world.sigma_t + inside.astype(np.float64) @ self.sigma_t
 
-    def along(self, inside: np.ndarray) -> "Stretch":
+    def along(self, inside: np.ndarray, O: Optional[np.ndarray] = None, D: Optional[np.ndarray] = None) -> "Stretch":
         """What rays with stacks inside (n, V) cross: the sums of their media's coefficients (the world's included)
-        and the anisotropy of their scattering (the sigma_s-weighted mean where media of different g overlap)."""
+        and the anisotropy of their scattering (the sigma_s-weighted mean where media of different g overlap); with
+        the rays O, D (n, 3), the heterogeneous media they are in, marched where asked (Stretch.march)."""
         weights = inside.astype(np.float64)
         sigma_s = self.world.sigma_s + weights @ self.sigma_s
         scattering = self.world.sigma_s.sum() * self.world.g + weights @ (self.sigma_s.sum(axis=1) * self.g)
         total = sigma_s.sum(axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
             g = np.where(total > 0.0, scattering / total, 0.0)
+        counts = None
+        if self.fields and O is not None:
+            counts = inside[:, self.field_columns].astype(np.float64)
         return Stretch(self.world.sigma_t + weights @ self.sigma_t, sigma_s,
-                       self.world.emission + weights @ self.emission, g)
+                       self.world.emission + weights @ self.emission, g, O, D, counts, self.fields or None)
 
     def crossed(self, inside: np.ndarray, material: np.ndarray, backfacing: np.ndarray,
                 crossing: np.ndarray) -> np.ndarray:
@@ -338,21 +369,58 @@ MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media
 
 
 class Stretch(NamedTuple):
-    """The media n rays cross (Media.along): sigma_t, sigma_s, emission (n, 3) float64, g (n,) float64."""
+    """The media n rays cross (Media.along): sigma_t, sigma_s, emission (n, 3) float64, g (n,) float64 of the
+    homogeneous ones; for heterogeneous ones (core/volumes/field.py), the rays O, D (n, 3), counts (n, F) how many
+    times each ray is in each Field of `fields` (None: no ray is in one)."""
 
     sigma_t: np.ndarray
     sigma_s: np.ndarray
     emission: np.ndarray
     g: np.ndarray
+    O: Optional[np.ndarray] = None
+    D: Optional[np.ndarray] = None
+    counts: Optional[np.ndarray] = None
+    fields: Optional[list] = None
 
     def rows(self, index) -> "Stretch":
         """The stretch of the rays `index`."""
-        return Stretch(self.sigma_t[index], self.sigma_s[index], self.emission[index], self.g[index])
+        pick = lambda x: None if x is None else x[index]                   # noqa: E731
+        return Stretch(self.sigma_t[index], self.sigma_s[index], self.emission[index], self.g[index],
+                       pick(self.O), pick(self.D), pick(self.counts), self.fields)
+
+    @property
+    def varying(self) -> np.ndarray:
+        """Which rays are in a heterogeneous medium: (n,) bool."""
+        if self.counts is None:
+            return np.zeros(len(self.g), bool)
+        return (self.counts > 0.0).any(axis=1)
 
     @property
     def scatters(self) -> np.ndarray:
-        """Which rays cross a medium that scatters: (n,) bool."""
-        return (self.sigma_s > 0.0).any(axis=1)
+        """Which rays cross a medium that scatters (or may: a heterogeneous one that scatters): (n,) bool."""
+        scatters = (self.sigma_s > 0.0).any(axis=1)
+        if self.counts is not None:
+            for f, field in enumerate(self.fields):
+                if field.scatters:
+                    scatters = scatters | (self.counts[:, f] > 0.0)
+        return scatters
+
+    def march(self, t: np.ndarray, rows: np.ndarray) -> "March":
+        """The march (core/volumes/field.py March) of the rays `rows` (k,) int64 (in a heterogeneous medium) over
+        distances t (k,)."""
+        from .field import March
+        homogeneous = (self.sigma_t[rows], self.sigma_s[rows], self.emission[rows], self.g[rows])
+        return March(self.fields, self.counts[rows], homogeneous, self.O[rows], self.D[rows], t)
+
+    def transmittance(self, t: np.ndarray) -> np.ndarray:
+        """What the media let through (n, 3) float64 over distances t (n,) (inf: a ray that escapes): Beer-Lambert,
+        marched through heterogeneous media."""
+        T = transmittance(self.sigma_t, t)
+        rows = np.flatnonzero(self.varying)
+        if len(rows):
+            t = np.broadcast_to(np.asarray(t, np.float64), (len(self.g),))
+            T[rows] = self.march(t[rows], rows).transmittance(t[rows])
+        return T
 
 
 def emitted(stretch: Stretch, t: np.ndarray) -> np.ndarray:
@@ -363,7 +431,27 @@ def emitted(stretch: Stretch, t: np.ndarray) -> np.ndarray:
     e, sigma = stretch.emission, stretch.sigma_t
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
         value = np.where(sigma > 0.0, e * -np.expm1(-sigma * t) / np.where(sigma > 0.0, sigma, 1.0), e * t)
-    return np.where(e != 0.0, value, 0.0)
+    value = np.where(e != 0.0, value, 0.0)
+    rows = np.flatnonzero(stretch.varying)
+    if len(rows) and (any(f.emits for f in stretch.fields) or (stretch.emission[rows] != 0.0).any()):
+        value[rows] = stretch.march(t[rows, 0], rows).emitted()   # (heterogeneous media: summed over the pieces)
+    return value
+
+
+def material_bounds(geometry, row: int) -> tuple:
+    """The camera-relative box (low (3,), high (3,) float64) of the triangles of material `row`; the whole scene's
+    box where none has it."""
+    low, high = np.full(3, np.inf), np.full(3, -np.inf)
+    for start in range(0, geometry.triangle_count, 1 << 20):
+        triangles = geometry.triangle_data(np.arange(start, min(start + (1 << 20), geometry.triangle_count)),
+                                           smooth=False)
+        mine = triangles.material == row
+        if mine.any():
+            corners = triangles.corners[mine].reshape(-1, 3)
+            low, high = np.minimum(low, corners.min(axis=0)), np.maximum(high, corners.max(axis=0))
+    if not np.isfinite(low).all():
+        return geometry.bounds()
+    return low, high
 
 
 def transmittance(sigma_t: np.ndarray, t: np.ndarray) -> np.ndarray:

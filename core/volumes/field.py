@@ -1,0 +1,390 @@
+"""Heterogeneous media: a medium whose coefficients a node graph sets point by point, and the march along a ray.
+
+A volume closure whose Density, Color, Absorption or Emission is fed by a link (a Noise Texture, a Gradient of the
+object's coordinates, a Math node...) sets up a different medium at every point: its node graph runs at points
+inside the medium (`Field.at`), reading the point's object and generated coordinates (Cycles' volume shading point:
+sd->P, moved into the object's space, and into its texture space for Generated, volume_normalized_position), and
+the closure's formulas (media.py) turn the inputs found there into sigma_a, sigma_s and emission.
+
+Along a ray such a medium is **marched** (`March`): the stretch of the ray inside the media's box is cut into pieces
+of at most `step` (the box's diagonal / STEPS_ACROSS), at most MAX_PIECES, and each
+piece takes the coefficients at its midpoint; before and after the box only the homogeneous media remain. On those
+pieces every closed form of the homogeneous case holds piece by piece: the optical depth tau(s) is piecewise linear,
+T(s) = exp(-tau(s)), the emission sums e (1 - exp(-sigma d)) / sigma exp(-tau) over the pieces, and free flight
+inverts tau exactly. The midpoint rule integrates a density linear along the ray exactly, and a smooth one to second
+order in the step. (Cycles 5.0 samples these media without bias by null scattering with a majorant from an octree;
+its mean is the exact integral, which the march approaches as the steps shrink: its Step Rate and Max Steps change
+Cycles' noise, not its mean.)
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+# How many pieces a ray crossing a heterogeneous medium's box along its diagonal is cut into, and the most pieces one
+# stretch of a ray is cut into.
+STEPS_ACROSS = 100
+MAX_PIECES = 256
+# The most points a heterogeneous medium's graph runs at in one go (its registers: points x the program's registers).
+POINTS_AT_ONCE = 1 << 16
+
+# Each volume input's width (floats): colours and coefficients 3, the rest 1.
+INPUT_WIDTHS = {"color": 3, "absorption_color": 3, "emission_color": 3, "absorption": 3, "scatter": 3,
+                "emission": 3, "blackbody_tint": 3, "density": 1, "anisotropy": 1, "emission_strength": 1,
+                "strength": 1, "blackbody_intensity": 1, "temperature": 1}
+# The closures' defaults (media.py), where an input is missing.
+DEFAULTS = {"ABSORPTION": {"color": 0.8, "density": 1.0}, "SCATTER": {"color": 0.8, "density": 1.0},
+            "PRINCIPLED_VOLUME": {"color": 0.5, "density": 1.0, "absorption_color": 0.0, "emission_color": 1.0},
+            "COEFFICIENTS": {}, "EMISSION": {"color": 1.0, "strength": 1.0}}
+# The coordinates a volume point offers its graph (the attribute layout its program is compiled for).
+LAYOUT = {"generated": (0, 3), "object": (3, 3)}
+
+
+def linked(entries: list) -> bool:
+    """Whether a Volume output's closures [(name, weight, inputs)] have an input fed by a link (a graph.Link)."""
+    from ..materials.graph import Link
+    return any(isinstance(value, Link) or (key == "factors" and value) for _, _, inputs in entries
+               for key, value in inputs.items())
+
+
+class Sample(NamedTuple):
+    """A heterogeneous medium's coefficients at n points: sigma_a, sigma_s, emission (n, 3) float64, and gs (n,)
+    float64 the sum of each closure's anisotropy times its scattering (sum over channels): g = gs / sum(sigma_s)."""
+
+    sigma_a: np.ndarray
+    sigma_s: np.ndarray
+    emission: np.ndarray
+    gs: np.ndarray
+
+
+def closure_at(name: str, weight: float, inputs: dict) -> Sample:
+    """One closure's coefficients at n points, its inputs (n, width) float64 each (media.py's formulas, per point)."""
+    from .media import STEFAN_BOLTZMANN
+    get = lambda key: inputs[key]                                        # noqa: E731
+    n = len(next(iter(inputs.values())))
+    zero = np.zeros((n, 3))
+    clamp_g = lambda g: np.sign(g) * np.minimum(np.abs(g), 1.0 - 1e-3)  # noqa: E731
+    if name == "COEFFICIENTS":
+        sigma_s = weight * get("scatter")
+        return Sample(weight * get("absorption"), sigma_s, weight * get("emission"),
+                      clamp_g(get("anisotropy")[:, 0]) * sigma_s.sum(axis=1))
+    if name == "EMISSION":
+        return Sample(zero, zero, weight * get("strength") * get("color"), np.zeros(n))
+    d = weight * np.maximum(get("density"), 0.0)                        # (n, 1)
+    color = get("color")
+    if name == "ABSORPTION":
+        return Sample(d * (1.0 - color), zero, zero, np.zeros(n))
+    g = clamp_g(get("anisotropy")[:, 0])
+    if name == "SCATTER":
+        sigma_s = d * color
+        return Sample(zero, sigma_s, zero, g * sigma_s.sum(axis=1))
+    # Principled Volume (svm_node_principled_volume).
+    absorption = np.sqrt(np.maximum(get("absorption_color"), 0.0))
+    sigma_s = np.where(d > 0.0, color * d, 0.0)
+    sigma_a = np.where(d > 0.0, np.maximum(1.0 - color, 0.0) * np.maximum(1.0 - absorption, 0.0) * d, 0.0)
+    strength = get("emission_strength")
+    emission = np.where(strength > 0.0, weight * strength * get("emission_color"), 0.0)
+    amount, t = get("blackbody_intensity")[:, 0], np.maximum(get("temperature")[:, 0], 0.0)
+    if (amount > 0.0).any():
+        from ..materials.converters.blackbody import blackbody
+        intensity = STEFAN_BOLTZMANN * (1.0 + amount * (t ** 4 - 1.0))
+        glow = (get("blackbody_tint") * intensity[:, None]
+                * blackbody(t.astype(np.float32), clip=False).astype(np.float64).reshape(n, 3))
+        emission = emission + weight * np.where(((amount > 0.0) & (intensity > 0.0))[:, None], glow, 0.0)
+    return Sample(sigma_a, sigma_s, emission, g * sigma_s.sum(axis=1))
+
+
+class Field:
+    """A heterogeneous medium: a material's Volume closures [(name, weight, inputs)] with linked inputs, evaluated
+    point by point (`at`).
+
+    space: (world-to-object (3, 4) float64, texture space location (3,), size (3,)) of the object that holds it (its
+    object and generated coordinates; None: the identity and the unit box around the origin); origin: (3,) the
+    world point the render's coordinates are relative to (geometry.origin); bounds: (low (3,), high (3,)) the
+    camera-relative box of its triangles (the march's extent and step)."""
+
+    def __init__(self, entries: list, space=None, origin=None, bounds=None):
+        from ..materials import graph as graph_
+        self.entries = entries
+        self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
+        matrix, location, size = space if space is not None else (np.eye(4)[:3], np.zeros(3), np.ones(3))
+        self.matrix = np.asarray(matrix, np.float64).reshape(3, 4)
+        self.location, self.size = np.asarray(location, np.float64), np.asarray(size, np.float64)
+        # (and object to world: the Vector Transform's and Object Info's Location, graph.object_matrices)
+        placed = np.linalg.inv(np.vstack([self.matrix, [0.0, 0.0, 0.0, 1.0]]))[:3]
+        self.linear, self.placement = placed[:, :3], placed[:, 3]
+        self.low, self.high = ((np.full(3, -np.inf), np.full(3, np.inf)) if bounds is None
+                               else (np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64)))
+        diagonal = float(np.linalg.norm(self.high - self.low)) if np.isfinite(self.high - self.low).all() else 1.0
+        self.step = max(diagonal, 1e-6) / STEPS_ACROSS
+        # One shader "node" per closure, its linked inputs the slots the program writes (graph.Compiler.compile).
+        self.slots, nodes = [], []
+        for k, (name, weight, inputs) in enumerate(entries):
+            keys = tuple(key for key, value in inputs.items() if isinstance(value, graph_.Link))
+            shim = type("VolumeInputs", (), {"inputs": keys, "defaults": tuple(np.zeros(INPUT_WIDTHS[key])
+                                                                                for key in keys)})
+            nodes.append((shim, weight, {key: inputs[key] for key in keys}, list(inputs.get("factors", ()))))
+            self.slots.append(keys)
+        # The images its graph reads, in a TextureSet of its own (a missing one: -1, magenta).
+        from ..materials.textures import TextureSet
+        images = [image for image in graph_.images_of(nodes) if image is not None]
+        rows = {id(image): row for row, image in enumerate(images)}
+        self.textures = TextureSet.of(images)
+        self.program = graph_.Compiler(LAYOUT, lambda image: rows.get(id(image), -1),
+                                       material="volume").compile(nodes)
+
+    @property
+    def scatters(self) -> bool:
+        """Whether some closure of it may scatter."""
+        from .media import VOLUME_BY_NAME, VolumeFlags
+        return any(VOLUME_BY_NAME[name].flags & VolumeFlags.SCATTERS for name, _, _ in self.entries)
+
+    @property
+    def emits(self) -> bool:
+        """Whether some closure of it may emit: an input that sets its emission fed by a link or not 0 (a Principled
+        Volume's Emission Strength or Blackbody Intensity, an Emission's Strength, the Emission Coefficients)."""
+        from ..materials import graph as graph_
+        may = lambda value: isinstance(value, graph_.Link) or np.any(np.asarray(value) != 0.0)   # noqa: E731
+        for name, _, inputs in self.entries:
+            if name == "PRINCIPLED_VOLUME" and (may(inputs.get("emission_strength", 0.0))
+                                                 or may(inputs.get("blackbody_intensity", 0.0))):
+                return True
+            if name == "EMISSION" and may(inputs.get("strength", 1.0)):
+                return True
+            if name == "COEFFICIENTS" and may(inputs.get("emission", 0.0)):
+                return True
+        return False
+
+    def coordinates(self, P: np.ndarray) -> np.ndarray:
+        """The generated and object coordinates (n, 6) float64 of camera-relative points P (n, 3)."""
+        world = P + self.origin
+        local = world @ self.matrix[:, :3].T + self.matrix[:, 3]
+        generated = np.divide(local - self.location, 2.0 * self.size, out=np.zeros_like(local),
+                              where=self.size != 0.0) + 0.5
+        return np.concatenate([generated, local], axis=1)
+
+    def at(self, P: np.ndarray) -> Sample:
+        """The medium's coefficients at camera-relative points P (n, 3) float64."""
+        from ..materials import graph as graph_
+        n = len(P)
+        info = np.zeros((n, 8))
+        info[:, :3] = self.placement
+        point = graph_.empty_point(n, 6)._replace(attributes=self.coordinates(P), P=P + self.origin,
+                                                  path=graph_.light_paths(n, flags=graph_.PATH["volume_scatter"]),
+                                                  linear=np.broadcast_to(self.linear, (n, 3, 3)), info=info)
+        registers = graph_.run(self.program, point, self.textures)
+        found, factors = {}, {}
+        for kind, node, slot, width, register in self.program.outputs.astype(np.int64):
+            if kind == graph_.OUT_WEIGHT:               # (a Mix Shader's linked factor above the closure)
+                value = np.clip(registers[:, register], 0.0, 1.0)
+                factors[node] = factors.get(node, 1.0) * (value if slot == 0 else 1.0 - value)
+            else:
+                found[(int(node), int(slot))] = (int(width), int(register))
+        total = Sample(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n))
+        for k, (name, weight, inputs) in enumerate(self.entries):
+            values, slot = {}, 0
+            for key in self.slots[k]:
+                width, register = found[(k, slot)]
+                values[key] = registers[:, register:register + width]
+                slot += INPUT_WIDTHS[key]
+            for key, width in INPUT_WIDTHS.items():
+                if key not in values:
+                    value = inputs.get(key, DEFAULTS.get(name, {}).get(key, 0.0))
+                    value = np.atleast_1d(np.asarray(value, np.float64)).reshape(-1)
+                    value = np.repeat(value[:1], width) if len(value) < width else value[:width]
+                    values[key] = np.broadcast_to(value, (n, width))
+            part = closure_at(name, float(weight), values)
+            if k in factors:
+                f = factors[k]
+                part = Sample(part.sigma_a * f[:, None], part.sigma_s * f[:, None], part.emission * f[:, None],
+                              part.gs * f)
+            total = Sample(*(a + b for a, b in zip(total, part)))
+        return total
+
+
+class March:
+    """The pieces of n rays O + s D over [0, t) through heterogeneous media (`Media.fields`, counts (n, F) in each)
+    and homogeneous ones (a Stretch's constant part): piece 0 before the media's box, pieces 1..K inside it (each of
+    its midpoint's coefficients), the last one after it.
+
+    edges: (n, K + 3) float64 the pieces' ends (the last may be inf); sigma_t, sigma_s, emission: (n, K + 2, 3) each
+    piece's coefficients; gs: (n, K + 2) its anisotropy-weighted scattering; tau: (n, K + 3, 3) the optical depth at
+    each edge."""
+
+    def __init__(self, fields: list, counts: np.ndarray, homogeneous, O: np.ndarray, D: np.ndarray, t: np.ndarray):
+        n = len(O)
+        t = np.asarray(t, np.float64)
+        low = np.min([f.low for f in fields], axis=0)
+        high = np.max([f.high for f in fields], axis=0)
+        step = min(f.step for f in fields)
+        # 1. Where the rays are in the media's box: [a, b) within [0, t).
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inverse = 1.0 / D
+            t0, t1 = (low - O) * inverse, (high - O) * inverse
+        near = np.nan_to_num(np.minimum(t0, t1), nan=-np.inf).max(axis=1)
+        far = np.nan_to_num(np.maximum(t0, t1), nan=np.inf).min(axis=1)
+        a = np.clip(near, 0.0, t)
+        b = np.clip(far, a, t)
+        b = np.where(np.isfinite(b), b, a)
+        # 2. The pieces inside the box, their midpoints' coefficients.
+        pieces = np.clip(np.ceil((b - a) / step), 1, MAX_PIECES).astype(np.int64)
+        K = int(pieces.max()) if n else 1
+        j = np.arange(K)
+        length = (b - a) / pieces
+        within = j[None, :] < pieces[:, None]
+        inner = np.where(within, a[:, None] + length[:, None] * j[None, :], b[:, None])
+        self.edges = np.concatenate([np.zeros((n, 1)), inner, b[:, None], t[:, None]], axis=1)
+        sig_a, sig_s, emit, gs = (np.zeros((n, K, 3)), np.zeros((n, K, 3)), np.zeros((n, K, 3)), np.zeros((n, K)))
+        rows, cols = np.nonzero(within & (b > a)[:, None])
+        if len(rows):
+            mid = a[rows] + length[rows] * (cols + 0.5)
+            P = O[rows] + mid[:, None] * D[rows]
+            for f, field in enumerate(fields):
+                count = counts[rows, f].astype(np.float64)
+                some = np.flatnonzero(count > 0.0)
+                if len(some) == 0:
+                    continue
+                for start in range(0, len(some), POINTS_AT_ONCE):        # (the graph's registers stay small)
+                    part = some[start:start + POINTS_AT_ONCE]
+                    found = field.at(P[part])
+                    r, c, w = rows[part], cols[part], count[part]
+                    sig_a[r, c] += w[:, None] * found.sigma_a
+                    sig_s[r, c] += w[:, None] * found.sigma_s
+                    emit[r, c] += w[:, None] * found.emission
+                    gs[r, c] += w * found.gs
+        # 3. The homogeneous media all along, the pieces' optical depths.
+        hom_t, hom_s, hom_e, hom_g = homogeneous
+        hom_gs = hom_g * hom_s.sum(axis=1)
+        pad = lambda x, h: np.concatenate([h[:, None], h[:, None] + x, h[:, None]], axis=1)   # noqa: E731
+        self.sigma_t = pad(sig_a + sig_s, hom_t)
+        self.sigma_s = pad(sig_s, hom_s)
+        self.emission = pad(emit, hom_e)
+        self.gs = np.concatenate([hom_gs[:, None], hom_gs[:, None] + gs, hom_gs[:, None]], axis=1)
+        width = np.diff(self.edges, axis=1)                             # (n, K + 2), the last may be inf
+        with np.errstate(invalid="ignore"):
+            depth = np.where(self.sigma_t > 0.0, self.sigma_t * width[:, :, None], 0.0)
+        self.tau = np.concatenate([np.zeros((n, 1, 3)), np.cumsum(depth, axis=1)], axis=1)
+
+    @classmethod
+    def uniform(cls, sigma_t: np.ndarray, sigma_s: np.ndarray, emission: np.ndarray, g: np.ndarray,
+                t: np.ndarray) -> "March":
+        """The one-piece march of n rays over [0, t) (n,) through homogeneous media of coefficients (n, 3) each and
+        anisotropies g (n,)."""
+        march = cls.__new__(cls)
+        n = len(t)
+        march.edges = np.stack([np.zeros(n), np.asarray(t, np.float64)], axis=1)
+        march.sigma_t, march.sigma_s, march.emission = sigma_t[:, None], sigma_s[:, None], emission[:, None]
+        march.gs = (g * sigma_s.sum(axis=1))[:, None]
+        with np.errstate(invalid="ignore"):
+            depth = np.where(sigma_t > 0.0, sigma_t * march.edges[:, 1:2], 0.0)
+        march.tau = np.stack([np.zeros((n, 3)), depth], axis=1)
+        return march
+
+    def collision(self, odds: np.ndarray, u: np.ndarray) -> tuple:
+        """Free flight untruncated, as a path that scatters or goes on decides (Cycles' distance sampling): a channel
+        picked by `odds` (n, 3) with u[:, 1], an optical depth -log(1 - u[:, 0]) of it. Returns (s (n,) the
+        distances, pdf (n,) their density (the channels' mixture of sigma(s) exp(-tau(s))), passed (n,) bool the
+        rays whose depth lies past their end (no collision), p_pass (n,) the probability of that (the mixture of
+        exp(-tau(end))))."""
+        n = len(u)
+        rows = np.arange(n)
+        channel = np.minimum((u[:, 1:2] >= np.cumsum(odds, axis=1)).sum(axis=1), 2)
+        tau = self.tau[rows, :, channel]
+        target = -np.log1p(-np.minimum(u[:, 0], 1.0 - 1e-16))
+        passed = target >= tau[:, -1]
+        k = np.minimum((tau[:, 1:] <= target[:, None]).sum(axis=1), self.sigma_t.shape[1] - 1)
+        sigma = self.sigma_t[rows, k, channel]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s = self.edges[rows, k] + np.where(sigma > 0.0, (target - tau[rows, k]) / np.where(sigma > 0.0, sigma, 1.0),
+                                               0.0)
+        s = np.where(passed, self.edges[:, -1], s)
+        at = np.where(passed, 0.0, s)
+        pdf = self.collision_pdf(odds, at)
+        with np.errstate(invalid="ignore", over="ignore"):
+            p_pass = (odds * np.exp(-self.tau[:, -1])).sum(axis=1)
+        return s, np.where(passed, 0.0, pdf), passed, p_pass
+
+    def collision_pdf(self, odds: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """The density (n,) of `collision` drawing distances s (n,) (before the rays' ends): the channels' mixture
+        of sigma(s) exp(-tau(s))."""
+        sigma_t, _, _ = self.at(s)
+        with np.errstate(invalid="ignore", over="ignore"):
+            return (odds * sigma_t * np.exp(-self.depth(s))).sum(axis=1)
+
+    def piece(self, s: np.ndarray) -> np.ndarray:
+        """The piece (n,) int64 each ray's distance s (n,) lies in (the last piece at or past the end)."""
+        index = (self.edges[:, 1:-1] <= s[:, None]).sum(axis=1)
+        return np.minimum(index, self.sigma_t.shape[1] - 1)
+
+    def depth(self, s: np.ndarray) -> np.ndarray:
+        """The optical depth tau (n, 3) float64 from each ray's start to its distance s (n,) (inf: to its end)."""
+        k = self.piece(s)
+        rows = np.arange(len(s))
+        start = self.edges[rows, k]
+        sigma = self.sigma_t[rows, k]
+        with np.errstate(invalid="ignore"):
+            more = np.where(sigma > 0.0, sigma * (s - start)[:, None], 0.0)
+        return self.tau[rows, k] + more
+
+    def transmittance(self, s: np.ndarray) -> np.ndarray:
+        """exp(-tau(s)) (n, 3) float64."""
+        return np.exp(-self.depth(s))
+
+    def at(self, s: np.ndarray) -> tuple:
+        """(sigma_t, sigma_s (n, 3), g (n,)) of the pieces at distances s (n,)."""
+        k = self.piece(s)
+        rows = np.arange(len(s))
+        sigma_s = self.sigma_s[rows, k]
+        total = sigma_s.sum(axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            g = np.where(total > 0.0, self.gs[rows, k] / total, 0.0)
+        return self.sigma_t[rows, k], sigma_s, g
+
+    def emitted(self) -> np.ndarray:
+        """The light (n, 3) float64 the pieces' emission sends to the rays' starts: the sum over pieces of
+        e (1 - exp(-sigma d)) / sigma (e d where sigma is 0) times exp(-tau) at the piece's start."""
+        width = np.diff(self.edges, axis=1)[:, :, None]
+        e, sigma = self.emission, self.sigma_t
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            each = np.where(sigma > 0.0, e * -np.expm1(-sigma * width) / np.where(sigma > 0.0, sigma, 1.0), e * width)
+            each = np.where(e != 0.0, each, 0.0) * np.exp(-self.tau[:, :-1])
+        return np.nan_to_num(each, nan=0.0).sum(axis=1)
+
+    def totals(self) -> tuple:
+        """(tau_t, tau_s) (n, 3): the optical depths of extinction and of scattering over the whole rays (finite
+        parts), for picking a channel in proportion to albedo."""
+        width = np.diff(self.edges, axis=1)
+        width = np.where(np.isfinite(width), width, 0.0)[:, :, None]
+        return (self.sigma_t * width).sum(axis=1), (self.sigma_s * width).sum(axis=1)
+
+    def free_flight(self, odds: np.ndarray, u: np.ndarray) -> tuple:
+        """Free-flight sampling on the pieces: (s (n,), pdf (n,)) from numbers u (n, 2) (u[:, 1] the channel by
+        `odds` (n, 3), u[:, 0] the distance, inverting tau of that channel truncated at the end); pdf 0: none."""
+        n = len(u)
+        rows = np.arange(n)
+        channel = np.minimum((u[:, 1:2] >= np.cumsum(odds, axis=1)).sum(axis=1), 2)
+        tau = self.tau[rows, :, channel]                                # (n, K + 3)
+        end = tau[:, -1]
+        with np.errstate(over="ignore", invalid="ignore"):
+            target = -np.log1p(-u[:, 0] * -np.expm1(-end))
+        k = np.minimum(np.maximum((tau[:, 1:] <= target[:, None]).sum(axis=1), 0), self.sigma_t.shape[1] - 1)
+        sigma = self.sigma_t[rows, k, channel]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s = self.edges[rows, k] + np.where(sigma > 0.0, (target - tau[rows, k]) / np.where(sigma > 0.0, sigma, 1.0),
+                                               0.0)
+        s = np.minimum(s, self.edges[:, -1])
+        pdf = self.pdf(odds, s)
+        ok = (odds.sum(axis=1) > 0.0) & (end > 0.0) & np.isfinite(s) & (pdf > 0.0)
+        return np.where(ok, s, 0.0), np.where(ok, pdf, 0.0)
+
+    def pdf(self, odds: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """The density (n,) of free-flight sampling choosing distances s (n,): the channels' mixture of
+        sigma(s) exp(-tau(s)) / (1 - exp(-tau(end)))."""
+        sigma, _, _ = self.at(s)
+        tau = self.depth(s)
+        reach = -np.expm1(-self.tau[:, -1])
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            each = np.where((odds > 0.0) & (reach > 0.0),
+                            odds * sigma * np.exp(-tau) / np.where(reach > 0.0, reach, 1.0), 0.0)
+        return each.sum(axis=1)

@@ -1,0 +1,154 @@
+"""Heterogeneous media (core/volumes/field.py: a volume input fed by nodes, marched along each ray) held to closed
+forms: an absorbing slab whose density grows linearly with height keeps exp(-its integral) on camera and shadow
+rays; a graph that is constant renders the homogeneous medium's image; an emitting slab of linear emission sends
+its integral; a Mix Shader's linked factor weighs its closures point by point."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.camera import Camera
+from core.geometry import primitives
+from core.lights import SunLight
+from core.materials import Material
+from core.materials.graph import GraphNode, Link
+from core.render import render
+from core.scene import RenderSettings, Scene
+from core.volumes import Media, field as field_
+
+COLOR = np.array([0.2, 0.5, 0.8])
+
+
+def camera_above(height: float = 3.0) -> Camera:
+    """An orthographic camera `height` above the origin, looking straight down."""
+    matrix = np.eye(4)
+    matrix[2, 3] = height
+    return Camera(matrix_world=matrix, type="ORTHO", ortho_scale=2.0, clip_start=0.1, clip_end=20.0)
+
+
+def height(scale: float = 1.0, offset: float = 0.0) -> Link:
+    """A graph: scale x (the point's object z) + offset (Texture Coordinate > Object > Z, Multiply Add)."""
+    coords = GraphNode("TEXCOORD")
+    z = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(coords, "Object")}), "Z")
+    return Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": z, "1": scale, "2": offset}), "Value")
+
+
+def slab(closure: str = "ABSORPTION", **inputs) -> Material:
+    """A volume-only material of one closure."""
+    return Material(np.zeros(3), "Slab", nodes=[("TRANSPARENT", np.ones(3), {})], volume=[(closure, 1.0, inputs)],
+                    volume_only=True)
+
+
+def scene_with(material: Material, emission=(1.0, 2.0, 0.5), low: float = 0.5, high: float = 1.5) -> Scene:
+    """An emitting floor at z = 0 under a volume-only box from z = low to z = high holding `material`'s medium."""
+    scene = Scene(camera=camera_above())
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=np.asarray(emission, np.float64)))
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    scene.materials.append(material)
+    scene.add_mesh(primitives.box((4.0, 4.0, high - low), center=(0.0, 0.0, 0.5 * (low + high))),
+                   materials=np.array([1]))
+    return scene
+
+
+def image(scene: Scene, **settings) -> np.ndarray:
+    """The scene rendered at 4 x 4 (RGB (4, 4, 3)) by the path tracer."""
+    settings = {"width": 4, "height": 4, "samples": 2, "integrator": "path", **settings}
+    return render(scene, RenderSettings(**settings)).image[..., :3]
+
+
+def test_a_slab_whose_density_grows_linearly_keeps_exp_of_minus_its_integral():
+    """Density 2 z + 0.5 from z = 0.5 to 1.5 (its integral 2.5): each channel keeps exp(-2.5 (1 - colour)) of the
+    floor's light (the march's midpoints integrate a linear density exactly)."""
+    scene = scene_with(slab(color=COLOR, density=height(2.0, 0.5)))
+    expected = np.array([1.0, 2.0, 0.5]) * np.exp(-2.5 * (1.0 - COLOR))
+    np.testing.assert_allclose(image(scene), np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
+
+
+def test_a_sun_through_a_linear_slab_at_an_angle_keeps_exp_of_the_integral_along_its_slanted_path():
+    """A white floor lit by a sun 60 degrees up through density 2 z + 0.5 (integral 2.5 vertically): the camera sees
+    albedo / pi x E exp(-2.5 (1 - colour) (1 + 1 / sin 60))."""
+    scene = scene_with(slab(color=COLOR, density=height(2.0, 0.5)))
+    scene.materials[0] = Material(np.full(3, 0.8), "Floor")
+    elevation = np.radians(60.0)
+    direction = np.array([np.cos(elevation), 0.0, np.sin(elevation)])
+    scene.lights.append(SunLight(direction=-direction, strength=3.0))
+    sigma = 2.5 * (1.0 - COLOR)
+    expected = 0.8 / np.pi * 3.0 * np.sin(elevation) * np.exp(-sigma * (1.0 + 1.0 / np.sin(elevation)))
+    np.testing.assert_allclose(image(scene), np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
+
+
+def test_a_constant_graph_renders_the_homogeneous_medium():
+    """A Scatter whose density is a graph of constant value 1.3 renders as the homogeneous Scatter of density 1.3
+    under a sun (single scattering), within the noise of 64 samples."""
+    sun = SunLight(direction=-np.array([0.3, 0.0, 1.0]) / np.linalg.norm([0.3, 0.0, 1.0]), strength=2.0)
+    images = []
+    for density in (height(0.0, 1.3), 1.3):
+        scene = scene_with(slab("SCATTER", color=COLOR, density=density, anisotropy=0.3), emission=(0.0, 0.0, 0.0))
+        scene.lights.append(sun)
+        images.append(image(scene, samples=64))
+    mean = [im.reshape(-1, 3).mean(axis=0) for im in images]
+    np.testing.assert_allclose(mean[0], mean[1], rtol=0.03)
+
+
+def test_an_emitting_slab_of_linear_emission_sends_its_integral():
+    """An Emission volume of strength 2 z + 0.5 between z = 0.5 and 1.5 over a black floor: emission x 2.5."""
+    scene = scene_with(slab("EMISSION", color=np.array([1.0, 0.5, 0.25]), strength=height(2.0, 0.5)),
+                       emission=(0.0, 0.0, 0.0))
+    expected = np.array([1.0, 0.5, 0.25]) * 2.5
+    np.testing.assert_allclose(image(scene), np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
+
+
+def test_a_mix_shaders_linked_factor_weighs_its_closures_point_by_point():
+    """Two absorptions under a Mix Shader whose factor is the point's height - 0.5 (0 to 1 across the slab from
+    z = 0.5 to 1.5): density 2 of colour COLOR weighed by the factor, density 4 of grey 0.5 by 1 - factor; each
+    integrates to half its density across the slab: exp(-(2 (1 - colour) + 4 x 0.5) x 0.5) per channel."""
+    factor = height(1.0, -0.5)
+    entries = [("ABSORPTION", 1.0, {"color": COLOR, "density": 2.0, "factors": [(factor, "fac")]}),
+               ("ABSORPTION", 1.0, {"color": np.full(3, 0.5), "density": 4.0, "factors": [(factor, "one_minus")]})]
+    material = Material(np.zeros(3), "Mixed", nodes=[("TRANSPARENT", np.ones(3), {})], volume=entries,
+                        volume_only=True)
+    expected = np.array([1.0, 2.0, 0.5]) * np.exp(-(2.0 * (1.0 - COLOR) + 4.0 * 0.5) * 0.5)
+    np.testing.assert_allclose(image(scene_with(material)), np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)
+
+
+def test_the_marchs_free_flight_and_collisions_draw_distances_by_their_densities():
+    """On a ray up through a slab of density 2 z + 0.5 (z from 0.5 to 1.5, scattering): free flight truncated at the
+    ray's end draws distances whose histogram is its pdf's integral per bin (within 4 standard deviations), and
+    untruncated collisions pass the slab as often as exp(-optical depth 2.5) says."""
+    from core.volumes.field import Field, March
+    field = Field([("SCATTER", 1.0, {"color": np.ones(3), "density": height(2.0, 0.5)})],
+                  bounds=(np.array([-1.0, -1.0, 0.5]), np.array([1.0, 1.0, 1.5])))
+    n = 10000
+    O, D = np.zeros((n, 3)), np.tile([0.0, 0.0, 1.0], (n, 1))
+    zero = np.zeros((n, 3))
+    march = March([field], np.ones((n, 1)), (zero, zero, zero, np.zeros(n)), O, D, np.full(n, 2.0))
+    odds = np.tile([1.0, 0.0, 0.0], (n, 1))
+    rng = np.random.default_rng(7)
+    u = rng.random((n, 2))
+    s, pdf = march.free_flight(odds, u)
+    bins = np.linspace(0.5, 1.5, 11)
+    counts, _ = np.histogram(s, bins)
+    grid = np.linspace(0.5, 1.5, 2001)
+    mids = 0.5 * (grid[1:] + grid[:-1])
+    small = March([field], np.ones((len(mids), 1)), (np.zeros((len(mids), 3)),) * 3 + (np.zeros(len(mids)),),
+                  np.zeros((len(mids), 3)), np.tile([0.0, 0.0, 1.0], (len(mids), 1)), np.full(len(mids), 2.0))
+    f = small.pdf(np.tile([1.0, 0.0, 0.0], (len(mids), 1)), mids) * np.diff(grid)
+    expected = np.array([f[(mids >= a) & (mids < b)].sum() for a, b in zip(bins[:-1], bins[1:])])
+    np.testing.assert_allclose(counts / n, expected, atol=4.0 * np.sqrt(0.25 / n))
+    s, pdf, passed, p_pass = march.collision(odds, u)
+    np.testing.assert_allclose(passed.mean(), np.exp(-2.5), atol=4.0 * np.sqrt(np.exp(-2.5) / n))
+    np.testing.assert_allclose(p_pass[0], np.exp(-2.5), rtol=1e-6)
+
+
+def test_an_image_texture_sets_the_density_texel_by_texel():
+    """Density read from a 2 x 1 grey image (texels 1 and 3, Closest, repeated) at the points' object x: pixel
+    columns alternate between exp(-(1 - colour)) and exp(-3 (1 - colour)) through the slab 1 deep."""
+    from core.materials.textures import Image
+    picture = Image(np.array([[[1.0, 1.0, 1.0], [3.0, 3.0, 3.0]]], np.float32))
+    coords = GraphNode("TEXCOORD")
+    texel = Link(GraphNode("IMAGE", {"image": picture, "interpolation": "Closest", "extension": "REPEAT"},
+                           {"Vector": Link(coords, "Object")}), "Color")
+    scene = scene_with(slab(color=COLOR, density=texel))
+    columns = np.exp(-np.array([1.0, 3.0, 1.0, 3.0])[:, None] * (1.0 - COLOR))
+    expected = np.array([1.0, 2.0, 0.5]) * np.broadcast_to(columns, (4, 4, 3))
+    np.testing.assert_allclose(image(scene), expected, rtol=1e-5)
