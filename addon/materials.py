@@ -413,6 +413,12 @@ class GraphReader:
             inputs = self.inputs(node, path, ["Vector"])
         elif kind == "COMBINE_XYZ":
             inputs = self.inputs(node, path, ["X", "Y", "Z"])
+        elif kind == "AO":                                      # rays traced per hit: core/integrators/shader_rays.py
+            props = {"samples": int(node.samples), "inside": bool(node.inside), "only_local": bool(node.only_local)}
+            inputs = self.inputs(node, path, ["Color", "Distance", "Normal"])
+        elif kind == "BEVEL":
+            props = {"samples": int(node.samples)}
+            inputs = self.inputs(node, path, ["Radius", "Normal"])
         elif kind == "CLAMP":
             props = {"clamp_type": node.clamp_type}
             inputs = self.inputs(node, path, ["Value", "Min", "Max"])

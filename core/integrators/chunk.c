@@ -29,6 +29,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
 {
     Intersect8 intersect = (Intersect8)params->intersect8;
     int lift = params->shadows->terminator_fix != 0.0;
+    ShaderRays rays = {intersect, (Occluded8)params->occluded8, params->scene, params->geometry, params->seed};
     RayHitPacket packet;
     int valid[PACKET] ALIGNED(32);
     int64_t lane_of[PACKET];
@@ -89,7 +90,8 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             LightPath camera = path_at(H, h, PATH_CAMERA);
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
-                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, &camera, H->sd + h);
+                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, &camera, &rays,
+                      (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, H->sd + h);
             H->seen_by[h] = HIDDEN_FROM_CAMERA;
             double weight[3];                   /* a holdout object or node: a hole in the film (path.hold_out) */
             if (hold_out(H->sd + h, hidden_from(params->geometry, (int64_t)packet.hit.geomID[k],

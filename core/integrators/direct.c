@@ -632,7 +632,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 double gone[3] = {s.I[0] - O[l][0], s.I[1] - O[l][1], s.I[2] - O[l][2]};
                 s.t = sqrt(dot3(gone, gone));
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
-                          v, wo, &path, &sd);
+                          v, wo, &path, NULL, 0, 0, 0, &sd);
                 double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
                 for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
             }
@@ -676,7 +676,7 @@ INLINE void shade_along(const DirectSettings *ds, const Triangle *tri, int64_t g
     double wo[3] = {-D[0], -D[1], -D[2]};
     no_closures(sd);
     shade_hit(ds->graphs, ds->geometry, ds->materials + tri->material, tri, s, geometry, prim, instance, u, v, wo,
-              path, sd);
+              path, NULL, 0, 0, 0, sd);
 }
 
 /* direct.graph_emission for one point O + t D on triangle (geometry, prim, instance): what its material's node

@@ -106,6 +106,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
 {
     int lift = ds->shadows->terminator_fix != 0.0;
     uint32_t roulette = stream_of((int64_t)ds->seed, ROULETTE_DIMENSION + (int64_t)(vertex + 1) * VERTEX_DIMENSIONS);
+    ShaderRays traced = {ds->intersect, ds->occluded, ds->scene, ds->geometry, ds->seed};
     next->m = 0;
     for (int64_t i = 0; i < rays->n; i++) {
         const PathRay *r = rays->r + i;
@@ -174,7 +175,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->after_diffuse[m] = (uint8_t)after_diffuse;
         next->sd[m].caustics = after_diffuse ? ds->caustics : 0;
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
-                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, next->sd + m);
+                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, &traced, H->pixel[h], H->sample[h],
+                  (int64_t)(vertex + 1) * VERTEX_DIMENSIONS, next->sd + m);
         next->flags[m] = r->path.flags;             /* (through clear surfaces: still the camera's) */
         next->seen_by[m] = r->seen_as;
         if (bounces == 0) {

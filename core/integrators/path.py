@@ -60,7 +60,7 @@ from ..sampling import sobol as sampling
 from .base import Context, Integrator, Radiance, Recorder, check_stop
 from . import clamp as clamp_
 from . import features as features_
-from . import lightgroups, lightpasses
+from . import lightgroups, lightpasses, shader_rays
 from . import passes as passes_
 from . import shadows
 from . import volume as volume_
@@ -290,7 +290,9 @@ class PathTracing(Integrator):
             cap = np.where(bounce == 0, direct_cap, indirect_cap)
             light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent)
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
-                                         caustics_filter(s, after_diffuse))
+                                         caustics_filter(s, after_diffuse),
+                                         shader_rays.for_hits(ctx, surface, pixel[owner], sample[owner], dimension,
+                                                              light_path))
             if holdouts:
                 # A camera path (no real bounce yet) that meets a holdout object or node: a hole in the film.
                 shader, weight = hold_out(ctx, surface, shader, bounce == 0)

@@ -33,7 +33,7 @@ from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_G
                           HOLDOUT)
 from . import clamp as clamp_
 from . import lightgroups, lightpasses
-from . import shadows
+from . import shader_rays, shadows
 from .base import Context, Recorder, check_stop
 from .rays import goes_through, nearest_seen, path_after, ray_kind
 from .shadows import spawn_ray
@@ -126,7 +126,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
     light_path = graph_.light_paths(m) if path.light_path is None else path.light_path
     if shader is None:
-        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path, caustics)
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path, caustics,
+                                     shader_rays.for_hits(ctx, surface, pixel, sample, dimension, light_path))
     recorder.shader(shader)
     clamping = np.any(np.isfinite(limit))
     L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))
