@@ -39,22 +39,28 @@ def compared(scene, tmp_path, compare, label: str, samples: int = 64) -> tuple:
 
 
 def test_an_ambient_occlusion_dirt_mask_renders_as_in_cycles(primer, tmp_path):
-    """A cube on a floor, both emitting their Ambient Occlusion (8 samples, Distance 1): dark in the corner where they
-    meet, as in Cycles (block relMSE within 3 x Cycles' own noise at 64 samples, mean within 1%); the node's
-    Only Local (the floor no longer sees the cube) is far from it."""
+    """A cube on a floor emitting their Ambient Occlusion (8 samples, Distance 1; the floor its AO, the cube its
+    Color output of an orange Color): dark in the corner where they meet, as in Cycles (block relMSE within 3 x Cycles'
+    own noise at 64 samples, mean within 1%); the node's Only Local (the floor no longer sees the cube) is far from
+    it."""
     scene = ortho_scene(32, 24, 4.0)
     scene.primer.integrator = "DIRECT"
-    material, tree, output = empty_material("Dirt")
-    ao = tree.nodes.new("ShaderNodeAmbientOcclusion")
-    ao.samples = 8
-    ao.inputs["Distance"].default_value = 1.0
-    emission = tree.nodes.new("ShaderNodeEmission")
-    tree.links.new(ao.outputs["AO"], emission.inputs["Color"])
-    tree.links.new(emission.outputs[0], output.inputs["Surface"])
-    bpy.ops.mesh.primitive_plane_add(size=8.0)
-    bpy.context.object.data.materials.append(material)
-    bpy.ops.mesh.primitive_cube_add(size=1.2, location=(-0.4, 0.2, 0.6), rotation=(0.0, 0.0, 0.5))
-    bpy.context.object.data.materials.append(material)
+    scene.primer.use_adaptive_sampling = False           # (every pixel its samples, as Cycles here)
+    nodes = []
+    for name, socket in (("Dirt", "AO"), ("Tinted dirt", "Color")):
+        material, tree, output = empty_material(name)
+        ao = tree.nodes.new("ShaderNodeAmbientOcclusion")
+        ao.samples = 8
+        ao.inputs["Distance"].default_value = 1.0
+        ao.inputs["Color"].default_value = (1.0, 0.6, 0.2, 1.0)
+        emission = tree.nodes.new("ShaderNodeEmission")
+        tree.links.new(ao.outputs[socket], emission.inputs["Color"])
+        tree.links.new(emission.outputs[0], output.inputs["Surface"])
+        bpy.ops.mesh.primitive_plane_add(size=8.0) if socket == "AO" else bpy.ops.mesh.primitive_cube_add(
+            size=1.2, location=(-0.4, 0.2, 0.6), rotation=(0.0, 0.0, 0.5))
+        bpy.context.object.data.materials.append(material)
+        nodes.append(ao)
+    ao = nodes[0]
     compare = importlib.import_module(primer.__name__ + ".core.film.compare")
     error, own, ratio, cycles = compared(scene, tmp_path, compare, "ambient occlusion")
     assert error < 3.0 * own
@@ -72,6 +78,7 @@ def test_a_bevelled_cube_under_a_sun_renders_as_in_cycles(primer, tmp_path):
     the sharp cube is far from it."""
     scene = ortho_scene(32, 32, 2.6)
     scene.primer.integrator = "DIRECT"
+    scene.primer.use_adaptive_sampling = False           # (every pixel its samples, as Cycles here)
     material, tree, output = empty_material("Bevelled")
     bevel = tree.nodes.new("ShaderNodeBevel")
     bevel.samples = 8
