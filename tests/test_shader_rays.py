@@ -18,6 +18,7 @@ import pytest
 from conftest import ortho_down, pixel_points_on_plane
 from core import render
 from core.geometry import primitives
+from core.lights import PointLight
 from core.materials import Material, MaterialTable
 from core.materials.graph import GraphNode, Link
 from core.scene import RenderSettings, Scene
@@ -152,6 +153,33 @@ def test_both_kernels_trace_the_same_rays():
         assert compiled.stats.kernels == "compiled"
         np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-5, atol=1e-6)
         assert reference.image[..., 0].std() > 0.01
+
+
+def test_a_bevelled_box_seen_in_a_mirror_is_bevelled_and_after_a_diffuse_bounce_is_not():
+    # A lit white box whose Diffuse normal is its Bevel, over a floor that is a perfect mirror or a white diffuse
+    # floor, the box hidden from the camera: the mirror's bounce has an infinite pdf, so the reflected box shows its
+    # bevelled edges (unlike the sharp box); a diffuse bounce's pdf is below 8, so the light the diffuse floor gathers
+    # from the box is the sharp box's, to the bit (Cycles' min_ray_pdf rule). Both kernels alike.
+    images = {}
+    for floor in ("MIRROR", "DIFFUSE"):
+        for normal in ({"normal": bevel(0.3, 8)}, {}):
+            scene = Scene(camera=ortho_down(height=10.0, scale=4.0))
+            scene.materials.append(Material(name="Box", nodes=[("DIFFUSE", (1.0, 1.0, 1.0),
+                                                                {"color": (1.0, 1.0, 1.0), **normal})]))
+            scene.materials.append(Material(name="Floor", nodes=[(floor, (1.0, 1.0, 1.0), {"color": (1.0, 1.0, 1.0)}
+                                                                 if floor == "DIFFUSE" else {})]))
+            scene.add_mesh(primitives.plane(40.0), materials=np.array([1]))
+            scene.add_mesh(primitives.box((2.0, 2.0, 0.2), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+            scene.instances[-1].visible_camera = False
+            scene.lights = [PointLight(np.array([1.5, 0.4, 0.4]), power=100.0)]
+            settings = RenderSettings(width=8, height=8, samples=4, integrator="path", max_bounces=1)
+            compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+            reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+            np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-5, atol=1e-6)
+            images[floor, bool(normal)] = reference.image[..., :3]
+    assert np.abs(images["MIRROR", True] - images["MIRROR", False]).max() > 0.01
+    np.testing.assert_array_equal(images["DIFFUSE", True], images["DIFFUSE", False])
+    assert images["DIFFUSE", True].max() > 0.0
 
 
 def test_materials_without_such_nodes_trace_nothing():

@@ -210,6 +210,7 @@ typedef struct {
     const Surface *surface;   /* the hit's surface (camera-relative point, robust offset), with `rays` only */
     int64_t geometry, prim, instance;   /* Embree's answer for the hit (its object), with `rays` only */
     int64_t pixel, sample, dimension;   /* the keys of its random numbers, with `rays` only */
+    int blurry;                         /* 1: its path bounced with a pdf below BEVEL_MIN_PDF (Bevel keeps N) */
 } ShadingPoint;
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with
@@ -262,6 +263,7 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
     sp->prim = prim;
     sp->instance = instance;
     sp->pixel = sp->sample = sp->dimension = 0;
+    sp->blurry = 0;
 }
 
 /* ------------------------------------------------------------------------------------------------

@@ -91,7 +91,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
                       (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, &camera, &rays,
-                      (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, H->sd + h);
+                      (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0, H->sd + h);
             H->seen_by[h] = HIDDEN_FROM_CAMERA;
             double weight[3];                   /* a holdout object or node: a hole in the film (path.hold_out) */
             if (hold_out(H->sd + h, hidden_from(params->geometry, (int64_t)packet.hit.geomID[k],

@@ -28,6 +28,7 @@ typedef struct {
     int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
     int32_t flags[BLOCK];                        /* the PATH_* bits of the ray that found it (graph.LightPath) */
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
+    double min_pdf[BLOCK];                       /* the smallest pdf of its real bounces (Cycles' min_ray_pdf; the Bevel) */
     double mis_origin[3 * BLOCK];                /* its ray origin, and its light-tree normal (0: unknown), from which */
     double mis_n[3 * BLOCK];                     /* MIS measures the light pdfs (direct.BsdfRay.mis_O, mis_N) */
     uint64_t mis_receiver[BLOCK];                /* and the light set of its object (Cycles' mis_ray_object) */
@@ -632,7 +633,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 double gone[3] = {s.I[0] - O[l][0], s.I[1] - O[l][1], s.I[2] - O[l][2]};
                 s.t = sqrt(dot3(gone, gone));
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
-                          v, wo, &path, NULL, 0, 0, 0, &sd);
+                          v, wo, &path, NULL, 0, 0, 0, 0, &sd);
                 double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
                 for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
             }
@@ -676,7 +677,7 @@ INLINE void shade_along(const DirectSettings *ds, const Triangle *tri, int64_t g
     double wo[3] = {-D[0], -D[1], -D[2]};
     no_closures(sd);
     shade_hit(ds->graphs, ds->geometry, ds->materials + tri->material, tri, s, geometry, prim, instance, u, v, wo,
-              path, NULL, 0, 0, 0, sd);
+              path, NULL, 0, 0, 0, 0, sd);
 }
 
 /* direct.graph_emission for one point O + t D on triangle (geometry, prim, instance): what its material's node

@@ -174,9 +174,11 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         int after_diffuse = see_through ? H->after_diffuse[h] : is_labelled_diffuse(r->kind);
         next->after_diffuse[m] = (uint8_t)after_diffuse;
         next->sd[m].caustics = after_diffuse ? ds->caustics : 0;
+        /* (Cycles' min_ray_pdf: the smallest pdf of the path's real bounces; the Bevel node reads it) */
+        next->min_pdf[m] = see_through || !(r->pdf < H->min_pdf[h]) ? H->min_pdf[h] : r->pdf;
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
                   r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, &traced, H->pixel[h], H->sample[h],
-                  (int64_t)(vertex + 1) * VERTEX_DIMENSIONS, next->sd + m);
+                  (int64_t)(vertex + 1) * VERTEX_DIMENSIONS, next->min_pdf[m] < BEVEL_MIN_PDF, next->sd + m);
         next->flags[m] = r->path.flags;             /* (through clear surfaces: still the camera's) */
         next->seen_by[m] = r->seen_as;
         if (bounces == 0) {
@@ -254,7 +256,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         /* (the throughput: what the media let through to the camera's hit, 1 without media: chunk.c block_hits) */
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = H->bounds[h] = 0;
         H->flags[h] = PATH_CAMERA;
-        H->mis_pdf[h] = INFINITY;
+        H->mis_pdf[h] = H->min_pdf[h] = INFINITY;
         H->mis_receiver[h] = 0;                   /* (the camera's: it sees every emitter) */
         for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;

@@ -266,6 +266,7 @@ class PathTracing(Integrator):
         bounce = np.zeros(len(hit), np.int64)
         flags = np.full(len(hit), graph_.PATH_CAMERA, np.int64)   # the Light Path flags of the ray that got there
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
+        min_pdf = np.full(len(hit), np.inf)          # the smallest pdf of its real bounces (Cycles' min_ray_pdf)
         mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (vertex.BsdfRay.mis_O):
         #                                              the camera's, from where a camera path sees lamps past clear panes
         mis_normal = np.zeros((len(hit), 3))
@@ -292,7 +293,7 @@ class PathTracing(Integrator):
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
                                          caustics_filter(s, after_diffuse),
                                          shader_rays.for_hits(ctx, surface, pixel[owner], sample[owner], dimension,
-                                                              light_path))
+                                                              min_pdf))
             if holdouts:
                 # A camera path (no real bounce yet) that meets a holdout object or node: a hole in the film.
                 shader, weight = hold_out(ctx, surface, shader, bounce == 0)
@@ -418,6 +419,7 @@ class PathTracing(Integrator):
             after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], labelled_diffuse)[keep]
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
+            min_pdf = np.where(is_transparent, min_pdf[ray.rows], np.minimum(min_pdf[ray.rows], ray.pdf))[keep]
             mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]
             mis_receiver = ray.receiver[keep]
             inside = None if media is None else ray.inside[keep]

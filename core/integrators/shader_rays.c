@@ -116,13 +116,13 @@ INLINE double bevel_cubic_root(double xi)
 
 /* ShaderRays.bevel for one hit: the object's smooth normals within `radius` averaged as Cycles' svm_bevel weighs
  * them, turned to the side the hit was seen from; the shading normal where nothing was found, radius <= 0,
- * samples < 1, or after a diffuse or glossy bounce. */
+ * samples < 1, or where the path bounced with a pdf below BEVEL_MIN_PDF (sp->blurry). */
 static void shader_bevel(const ShadingPoint *sp, double radius, int samples, double *out)
 {
     const ShaderRays *rays = sp->rays;
     const Surface *s = sp->surface;
     for (int c = 0; c < 3; c++) out[c] = sp->N[c];
-    if (samples < 1 || !(radius > 0.0) || sp->path.diffuse > 0 || sp->path.glossy > 0) return;
+    if (samples < 1 || !(radius > 0.0) || sp->blurry) return;
     int64_t owner = owner_of(rays->geometry, sp->geometry, sp->prim, sp->instance);
     uint32_t stream = stream_of((int64_t)rays->seed, BEVEL_DIMENSION + sp->dimension);
     double T0[3], B0[3], total[3] = {0.0, 0.0, 0.0};

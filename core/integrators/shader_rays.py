@@ -34,25 +34,25 @@ BEVEL_DIMENSION = schema.constant("BEVEL_DIMENSION", 122, "the Bevel node's prob
 BEVEL_MAX_HITS = schema.constant("BEVEL_MAX_HITS", 4, "the hits of its object a Bevel probe counts (LOCAL_MAX_HITS)")
 # How many surfaces of other objects (or beyond the hits counted) a local ray steps past before it gives up.
 LOCAL_STEPS = schema.constant("LOCAL_STEPS", 16, "how many surfaces a ray looking for its own object's steps past")
+# A path that bounced with a pdf below this somewhere (Cycles' min_ray_pdf: a diffuse or rough bounce) bevels nothing.
+BEVEL_MIN_PDF = schema.constant("BEVEL_MIN_PDF", 8.0, "the smallest bounce pdf after which Bevel still traces")
 
 
-def for_hits(ctx, surface, pixel: np.ndarray, sample: np.ndarray, dimension: int = 0, paths=None):
-    """The ShaderRays of the hits `surface` (pixel, sample (k,) int64, the vertex's dimension shift; paths: the
-    graph.LightPaths that reached them, None for camera rays) where some material traces rays
+def for_hits(ctx, surface, pixel: np.ndarray, sample: np.ndarray, dimension: int = 0, min_pdf=None):
+    """The ShaderRays of the hits `surface` (pixel, sample (k,) int64, the vertex's dimension shift; min_pdf (k,) the
+    smallest pdf of each path's real bounces so far, None: none, a camera ray's hits) where some material traces rays
     (MaterialTable.traces), else None."""
     if not getattr(ctx.materials, "traces", False) or surface is None:
         return None
-    k = len(surface.I)
-    blurry = (np.zeros(k, bool) if paths is None else
-              np.broadcast_to((np.asarray(paths.diffuse) > 0) | (np.asarray(paths.glossy) > 0), (k,)).copy())
+    blurry = None if min_pdf is None else np.asarray(min_pdf) < BEVEL_MIN_PDF
     return ShaderRays(ctx, surface, pixel, sample, dimension, blurry=blurry)
 
 
 class ShaderRays:
     """The rays the shaders of k hits may trace: the context's geometry and seed, the hits (camera-relative points I,
     face normals Ng facing the viewer, corners, triangles prim) and their random numbers' keys pixel, sample (k,)
-    int64 and the vertex's dimension shift; blurry (k,) bool the hits a path reached after a diffuse or glossy bounce,
-    where Bevel keeps the shading normal (Cycles bevels only where the path's smallest bounce pdf is 8 or more).
+    int64 and the vertex's dimension shift; blurry (k,) bool the hits a path reached after a bounce of pdf below
+    BEVEL_MIN_PDF (a diffuse or rough one), where Bevel keeps the shading normal, as Cycles does.
     Indexing by rows gives the ShaderRays of those hits."""
 
     def __init__(self, ctx, surface, pixel: np.ndarray, sample: np.ndarray, dimension: int = 0, rows=None,

@@ -127,7 +127,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     light_path = graph_.light_paths(m) if path.light_path is None else path.light_path
     if shader is None:
         shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path, caustics,
-                                     shader_rays.for_hits(ctx, surface, pixel, sample, dimension, light_path))
+                                     shader_rays.for_hits(ctx, surface, pixel, sample, dimension))
     recorder.shader(shader)
     clamping = np.any(np.isfinite(limit))
     L_out = shader.emission.copy() if vertex == 0 else np.zeros((m, 3))

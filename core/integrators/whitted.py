@@ -128,8 +128,7 @@ class WhittedTracing(Integrator):
             recorder.path_vertex(depth, rows, surface, throughput[hit], L_hit)
             # 3. The specular closures' rays: a mirror's reflection, glass's reflection and refraction.
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
-                                         rays=shader_rays.for_hits(ctx, surface, pixel[rows], sample[rows], depth * (1 << 16),
-                                                                   light_path))
+                                         rays=shader_rays.for_hits(ctx, surface, pixel[rows], sample[rows], depth * (1 << 16)))
             if feats is not None and depth == 0:
                 one = np.ones((len(hit), 3))
                 features_.at_vertex(feats, rows, np.ones(len(hit), bool), one, one, shader, shader.emission)

@@ -627,12 +627,12 @@ INLINE void shade_material(const MaterialRecord *m, const double *N, const doubl
 /* The material at a hit as the chunk shades it: a material with a node graph reads the hit's
  * ShadingPoint (triangles.c), with `path` the path that reached it, and runs its program; any other material as
  * shade_material (it reads no path). rays: the scene its Ambient Occlusion and Bevel nodes trace, with the hit's
- * pixel, sample and the vertex's dimension shift as their random numbers' keys; NULL where shaders trace nothing
- * (shadow rays, light samples: as Cycles). */
+ * pixel, sample and the vertex's dimension shift as their random numbers' keys, and blurry 1 where the path bounced
+ * with a pdf below BEVEL_MIN_PDF (no Bevel); NULL where shaders trace nothing (shadow rays, light samples: as Cycles). */
 INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const MaterialRecord *m, const Triangle *tri,
                       const Surface *s, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
                       const double *wo, const LightPath *path, const ShaderRays *rays, int64_t pixel, int64_t sample,
-                      int64_t dimension, ShaderResult *sd)
+                      int64_t dimension, int blurry, ShaderResult *sd)
 {
     if (m->graph == 0.0 || G == NULL) {
         shade_material(m, s->N, wo, s->backfacing, sd);
@@ -646,5 +646,6 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
     sp.pixel = pixel;
     sp.sample = sample;
     sp.dimension = dimension;
+    sp.blurry = blurry;
     shade_graph(G, m, &sp, s->N, wo, s->backfacing, sd);
 }

@@ -78,6 +78,8 @@
 #define BEVEL_MAX_HITS 4
 /* how many surfaces a ray looking for its own object's steps past (core.integrators.shader_rays) */
 #define LOCAL_STEPS 16
+/* the smallest bounce pdf after which Bevel still traces (core.integrators.shader_rays) */
+#define BEVEL_MIN_PDF 8.0
 /* the most volume-only boundaries a ray crosses (core.integrators.shadows) */
 #define VOLUME_BOUNDS_MAX 1024
 /* a stretch's free-flight distance and channel (core.integrators.volume) */
