@@ -182,6 +182,26 @@ def test_a_bevelled_box_seen_in_a_mirror_is_bevelled_and_after_a_diffuse_bounce_
     assert images["DIFFUSE", True].max() > 0.0
 
 
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_ambient_occlusion_seen_in_a_mirror_is_the_emitters_own(kernels):
+    # A plane at height 1 facing down onto a mirror floor, emitting its ambient occlusion (Distance 3), hidden from the
+    # camera above: the camera sees it only in the mirror, where the BSDF ray's find is shaded as the surface it hits
+    # (as Cycles shades the next vertex): the floor 1 below blocks all but (1/3)^2 of its rays.
+    scene = Scene(camera=ortho_down(height=10.0, scale=2.0))
+    scene.materials.append(Material(name="Glow", nodes=[("EMISSION", (1.0, 1.0, 1.0),
+                                                         {"emission": ao(samples=16, distance=3.0)})]))
+    scene.materials.append(Material(name="Mirror", nodes=[("MIRROR", (1.0, 1.0, 1.0), {})]))
+    scene.add_mesh(primitives.plane(100.0), materials=np.array([1]))
+    glow = primitives.plane(100.0, center=(0.0, 0.0, 1.0))
+    glow.triangles = glow.triangles[:, ::-1].copy()
+    scene.add_mesh(glow, materials=np.array([0]))
+    scene.instances[-1].visible_camera = False
+    result = render.render(scene, RenderSettings(width=8, height=8, samples=16, kernels=kernels, integrator="path",
+                                                 max_bounces=1))
+    assert result.stats.kernels.startswith(kernels)
+    assert abs(result.image[..., 0].mean() - 1.0 / 9.0) < 0.01
+
+
 def test_materials_without_such_nodes_trace_nothing():
     plain = Material(name="Plain", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": Link(GraphNode(
         "GEOMETRY", {}, {}), "Normal")})])

@@ -190,6 +190,14 @@ INLINE void surface_at(const double *O, const double *D, double t, double u, dou
 /* The scene a shader's Ambient Occlusion and Bevel nodes trace (core/integrators/shader_rays.c). */
 typedef struct ShaderRays ShaderRays;
 
+/* What those nodes trace with at one hit: the scene, the keys of their random numbers (the hit's pixel and sample,
+ * its vertex's dimension shift) and whether its path bounced with a pdf below BEVEL_MIN_PDF (then Bevel keeps N). */
+typedef struct {
+    const ShaderRays *rays;
+    int64_t pixel, sample, dimension;
+    int blurry;
+} ShaderKeys;
+
 /* What a material's node graph reads at one hit (core/materials/graph.py ShadingPoint). */
 typedef struct {
     double attributes[MAX_ATTRIBUTES], d_du[MAX_ATTRIBUTES], d_dv[MAX_ATTRIBUTES];

@@ -66,11 +66,9 @@ from . import shadows
 from . import volume as volume_
 from .rays import camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
-from .vertex import PathState, gather_light, shade_vertex
+from .vertex import VERTEX_DIMENSIONS, PathState, gather_light, shade_vertex
 from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
 
-# Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
-VERTEX_DIMENSIONS = schema.constant("VERTEX_DIMENSIONS", 1 << 16, "each path vertex's shift of the sampling dimensions")
 # The most volume-only boundaries a path or a shadow ray crosses (Cycles' VOLUME_BOUNDS_MAX: a guard against a ray
 # caught crossing the same boundary, as those crossings count as no transparent bounce).
 VOLUME_BOUNDS_MAX = shadows.VOLUME_BOUNDS_MAX
@@ -305,7 +303,7 @@ class PathTracing(Integrator):
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
                               carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce, inside=inside,
-                              carried_receiver=mis_receiver)
+                              carried_receiver=mis_receiver, min_pdf=min_pdf)
             vertex_groups = lightgroups.tally(ctx, len(owner))
             emitted, finds = (np.zeros((len(owner), 3)), np.zeros((len(owner), 3))) if feats is not None else (None, None)
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,

@@ -626,13 +626,11 @@ INLINE void shade_material(const MaterialRecord *m, const double *N, const doubl
 
 /* The material at a hit as the chunk shades it: a material with a node graph reads the hit's
  * ShadingPoint (triangles.c), with `path` the path that reached it, and runs its program; any other material as
- * shade_material (it reads no path). rays: the scene its Ambient Occlusion and Bevel nodes trace, with the hit's
- * pixel, sample and the vertex's dimension shift as their random numbers' keys, and blurry 1 where the path bounced
- * with a pdf below BEVEL_MIN_PDF (no Bevel); NULL where shaders trace nothing (shadow rays, light samples: as Cycles). */
+ * shade_material (it reads no path). keys: what its Ambient Occlusion and Bevel nodes trace with (triangles.c
+ * ShaderKeys), or NULL where shaders trace nothing (shadow rays, light samples: as Cycles). */
 INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const MaterialRecord *m, const Triangle *tri,
                       const Surface *s, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
-                      const double *wo, const LightPath *path, const ShaderRays *rays, int64_t pixel, int64_t sample,
-                      int64_t dimension, int blurry, ShaderResult *sd)
+                      const double *wo, const LightPath *path, const ShaderKeys *keys, ShaderResult *sd)
 {
     if (m->graph == 0.0 || G == NULL) {
         shade_material(m, s->N, wo, s->backfacing, sd);
@@ -642,10 +640,12 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
     shading_point_at(g, geometry, prim, instance, tri, s, u, v, &sp);
     sp.path = *path;
     for (int c = 0; c < 3; c++) sp.I[c] = wo[c];
-    sp.rays = rays;
-    sp.pixel = pixel;
-    sp.sample = sample;
-    sp.dimension = dimension;
-    sp.blurry = blurry;
+    if (keys != NULL) {
+        sp.rays = keys->rays;
+        sp.pixel = keys->pixel;
+        sp.sample = keys->sample;
+        sp.dimension = keys->dimension;
+        sp.blurry = keys->blurry;
+    }
     shade_graph(G, m, &sp, s->N, wo, s->backfacing, sd);
 }

@@ -64,8 +64,6 @@
 #define ALPHA_THRESHOLD 0.5
 /* the ambient occlusion ray's sampling dimension (core.integrators.passes) */
 #define AO_DIMENSION 120
-/* each path vertex's shift of the sampling dimensions (core.integrators.path) */
-#define VERTEX_DIMENSIONS 65536
 /* Russian roulette's dimension at a vertex (core.integrators.path) */
 #define ROULETTE_DIMENSION 6
 /* the most surfaces a camera ray's walk for its media passes (core.integrators.rays) */
@@ -82,6 +80,8 @@
 #define BEVEL_MIN_PDF 8.0
 /* the most volume-only boundaries a ray crosses (core.integrators.shadows) */
 #define VOLUME_BOUNDS_MAX 1024
+/* each path vertex's shift of the sampling dimensions (core.integrators.vertex) */
+#define VERTEX_DIMENSIONS 65536
 /* a stretch's free-flight distance and channel (core.integrators.volume) */
 #define DISTANCE_DIMENSION 8
 /* a scattering point's phase-sampled direction (core.integrators.volume) */
