@@ -153,7 +153,8 @@ static void shader_bevel(const ShadingPoint *sp, double radius, int samples, dou
             double N[3] = {tri.Ng[0], tri.Ng[1], tri.Ng[2]};
             if (tri.smooth) {
                 double w = 1.0 - hu[k] - hv[k], n[3];
-                for (int c = 0; c < 3; c++) n[c] = w * tri.normals[c] + hu[k] * tri.normals[3 + c] + hv[k] * tri.normals[6 + c];
+                for (int c = 0; c < 3; c++)
+                    n[c] = w * tri.normals[c] + hu[k] * tri.normals[3 + c] + hv[k] * tri.normals[6 + c];
                 double length = sqrt(dot3(n, n));
                 if (isfinite(length) && length > 0.0) for (int c = 0; c < 3; c++) N[c] = n[c] / length;
             }
