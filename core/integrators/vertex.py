@@ -339,7 +339,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, len(go))
     # (the surface it hits is the next vertex, whose Ambient Occlusion and Bevel nodes trace with its keys)
     keys = None
-    if ctx.materials.traces:
+    if getattr(ctx.materials, "traces", False):
         below = np.full(len(go), np.inf) if min_pdf is None else min_pdf[go]
         keys = (pixel[go], sample[go], dimension + VERTEX_DIMENSIONS, np.where(clear, below, np.minimum(below, pdf_b)))
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
