@@ -38,7 +38,7 @@ def compared(scene, tmp_path, compare, label: str, samples: int = 64) -> tuple:
     return error, own, p.mean() / c_high.mean(), c_high
 
 
-def test_an_ambient_occlusion_dirt_mask_renders_as_in_cycles(primer, tmp_path):
+def test_an_ambient_occlusion_dirt_mask_renders_as_in_cycles(primer, tmp_path, caplog):
     """A cube on a floor emitting their Ambient Occlusion (8 samples, Distance 1; the floor its AO, the cube its
     Color output of an orange Color): dark in the corner where they meet, as in Cycles (block relMSE within 3 x Cycles'
     own noise at 64 samples, mean within 1%); the node's Only Local (the floor no longer sees the cube) is far from
@@ -63,6 +63,7 @@ def test_an_ambient_occlusion_dirt_mask_renders_as_in_cycles(primer, tmp_path):
     ao = nodes[0]
     compare = importlib.import_module(primer.__name__ + ".core.film.compare")
     error, own, ratio, cycles = compared(scene, tmp_path, compare, "ambient occlusion")
+    assert not [r.message for r in caplog.records if "Ambient Occlusion" in r.message]      # (read, not reported)
     assert error < 3.0 * own
     assert abs(ratio - 1.0) < 0.01
     ao.only_local = True
@@ -72,7 +73,7 @@ def test_an_ambient_occlusion_dirt_mask_renders_as_in_cycles(primer, tmp_path):
     assert wrong > 20.0 * own
 
 
-def test_a_bevelled_cube_under_a_sun_renders_as_in_cycles(primer, tmp_path):
+def test_a_bevelled_cube_under_a_sun_renders_as_in_cycles(primer, tmp_path, caplog):
     """A turned cube whose Diffuse BSDF reads its Normal from a Bevel node (radius 0.15, 8 samples), lit by a sun:
     its rounded edges shade as in Cycles (block relMSE within 3 x Cycles' own noise at 64 samples, mean within 1%);
     the sharp cube is far from it."""
@@ -95,6 +96,7 @@ def test_a_bevelled_cube_under_a_sun_renders_as_in_cycles(primer, tmp_path):
     scene.collection.objects.link(sun)
     compare = importlib.import_module(primer.__name__ + ".core.film.compare")
     error, own, ratio, cycles = compared(scene, tmp_path, compare, "bevel")
+    assert not [r.message for r in caplog.records if "Bevel" in r.message]
     assert error < 3.0 * own
     assert abs(ratio - 1.0) < 0.01
     tree.links.remove(diffuse.inputs["Normal"].links[0])
