@@ -171,6 +171,7 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeVectorTransform": "VECTOR_TRANSFORM",
                "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT", "ShaderNodeNewGeometry": "GEOMETRY",
                "ShaderNodeCameraData": "CAMERA_DATA", "ShaderNodeWireframe": "WIREFRAME",
+               "ShaderNodeAmbientOcclusion": "AO", "ShaderNodeBevel": "BEVEL",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
 CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
@@ -461,6 +462,12 @@ class GraphReader:
             inputs = self.inputs(node, path, ["Vector"])
         elif kind == "COMBINE_XYZ":
             inputs = self.inputs(node, path, ["X", "Y", "Z"])
+        elif kind == "AO":                                      # rays traced per hit: core/integrators/shader_rays.py
+            props = {"samples": int(node.samples), "inside": bool(node.inside), "only_local": bool(node.only_local)}
+            inputs = self.inputs(node, path, ["Color", "Distance", "Normal"])
+        elif kind == "BEVEL":
+            props = {"samples": int(node.samples)}
+            inputs = self.inputs(node, path, ["Radius", "Normal"])
         elif kind == "CLAMP":
             props = {"clamp_type": node.clamp_type}
             inputs = self.inputs(node, path, ["Value", "Min", "Max"])

@@ -204,6 +204,17 @@ INLINE void surface_at(const double *O, const double *D, double t, double u, dou
 }
 
 
+/* The scene a shader's Ambient Occlusion and Bevel nodes trace (core/integrators/shader_rays.c). */
+typedef struct ShaderRays ShaderRays;
+
+/* What those nodes trace with at one hit: the scene, the keys of their random numbers (the hit's pixel and sample,
+ * its vertex's dimension shift) and whether its path bounced with a pdf below BEVEL_MIN_PDF (then Bevel keeps N). */
+typedef struct {
+    const ShaderRays *rays;
+    int64_t pixel, sample, dimension;
+    int blurry;
+} ShaderKeys;
+
 /* What a material's node graph reads at one hit (core/materials/graph.py ShadingPoint). */
 typedef struct {
     double attributes[MAX_ATTRIBUTES], d_du[MAX_ATTRIBUTES], d_dv[MAX_ATTRIBUTES];
@@ -220,6 +231,11 @@ typedef struct {
     double u, v;        /* the barycentrics: its Parametric */
     double t;           /* the distance along the ray: the Light Path node's Ray Length */
     double info[8];     /* the object's Object Info (geometry.instance_info): location, colour, alpha, pass index */
+    const ShaderRays *rays;   /* the scene to trace (Ambient Occlusion, Bevel), or NULL: they trace nothing */
+    const Surface *surface;   /* the hit's surface (camera-relative point, robust offset), with `rays` only */
+    int64_t geometry, prim, instance;   /* Embree's answer for the hit (its object), with `rays` only */
+    int64_t pixel, sample, dimension;   /* the keys of its random numbers, with `rays` only */
+    int blurry;                         /* 1: its path bounced with a pdf below BEVEL_MIN_PDF (Bevel keeps N) */
 } ShadingPoint;
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with
@@ -266,6 +282,13 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
     sp->u = u;
     sp->v = v;
     sp->t = s->t;
+    sp->rays = NULL;
+    sp->surface = s;
+    sp->geometry = geometry;
+    sp->prim = prim;
+    sp->instance = instance;
+    sp->pixel = sp->sample = sp->dimension = 0;
+    sp->blurry = 0;
 }
 
 /* ------------------------------------------------------------------------------------------------

@@ -29,6 +29,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
 {
     Intersect8 intersect = (Intersect8)params->intersect8;
     int lift = params->shadows->terminator_fix != 0.0;
+    ShaderRays rays = {intersect, (Occluded8)params->occluded8, params->scene, params->geometry, params->seed};
     RayHitPacket packet;
     int valid[PACKET] ALIGNED(32);
     int64_t lane_of[PACKET];
@@ -86,10 +87,13 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
             H->bounce[h] = H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = 0;
             H->flags[h] = PATH_CAMERA;
+            H->min_pdf[h] = INFINITY;           /* (no bounce yet: Cycles' min_ray_pdf, which the Bevel node reads) */
             LightPath camera = path_at(H, h, PATH_CAMERA);
+            ShaderKeys keys = {&rays, (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0};
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
-                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, &camera, H->sd + h);
+                      (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, &camera, &keys,
+                      H->sd + h);
             H->seen_by[h] = HIDDEN_FROM_CAMERA;
             double weight[3];                   /* a holdout object or node: a hole in the film (path.hold_out) */
             if (hold_out(H->sd + h, hidden_from(params->geometry, (int64_t)packet.hit.geomID[k],

@@ -29,6 +29,7 @@ typedef struct {
     int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
     int32_t flags[BLOCK];                        /* the PATH_* bits of the ray that found it (graph.LightPath) */
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
+    double min_pdf[BLOCK];                       /* the smallest pdf of its real bounces (Cycles' min_ray_pdf; the Bevel) */
     double mis_origin[3 * BLOCK];                /* its ray origin, and its light-tree normal (0: unknown), from which */
     double mis_n[3 * BLOCK];                     /* MIS measures the light pdfs (direct.BsdfRay.mis_O, mis_N) */
     uint64_t mis_receiver[BLOCK];                /* and the light set of its object (Cycles' mis_ray_object) */
@@ -638,7 +639,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 double gone[3] = {s.I[0] - O[l][0], s.I[1] - O[l][1], s.I[2] - O[l][2]};
                 s.t = sqrt(dot3(gone, gone));
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
-                          v, wo, &path, &sd);
+                          v, wo, &path, NULL, &sd);
                 double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
                 for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
             }
@@ -676,20 +677,21 @@ INLINE void point_barycentrics(const double *V, const double *P, double *u, doub
  * (u, v). */
 INLINE void shade_along(const DirectSettings *ds, const Triangle *tri, int64_t geometry, int64_t prim,
                         int64_t instance, const double *O, const double *D, double t, double u, double v,
-                        const LightPath *path, Surface *s, ShaderResult *sd)
+                        const LightPath *path, const ShaderKeys *keys, Surface *s, ShaderResult *sd)
 {
     surface_at(O, D, t, u, v, tri, 0, s);
     double wo[3] = {-D[0], -D[1], -D[2]};
     no_closures(sd);
     shade_hit(ds->graphs, ds->geometry, ds->materials + tri->material, tri, s, geometry, prim, instance, u, v, wo,
-              path, sd);
+              path, keys, sd);
 }
 
 /* direct.graph_emission for one point O + t D on triangle (geometry, prim, instance): what its material's node
  * graph emits back along -D (a texture's emission) to a ray carrying the path `path`; the barycentrics come from
  * the point. */
 NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, int64_t prim, int64_t instance,
-                           const double *O, const double *D, double t, const LightPath *path, double *out)
+                           const double *O, const double *D, double t, const LightPath *path, const ShaderKeys *keys,
+                           double *out)
 {
     Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
     hit_triangle(ds->geometry, geometry, prim, instance, 1, &tri);
@@ -697,7 +699,7 @@ NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, 
     point_barycentrics(tri.V, P, &u, &v);
     Surface s;
     ShaderResult sd;
-    shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, path, &s, &sd);
+    shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, path, keys, &s, &sd);
     for (int c = 0; c < 3; c++) out[c] = sd.emission[c];
 }
 
@@ -729,7 +731,7 @@ static void textured_block(SampleBlock *b, const BlockHits *H, const DirectSetti
         unflat_prim(ds->geometry, e->prim[b->emitter[k]], &geometry, &prim, &instance);
         double O[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, D[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, out[3];
         LightPath path = path_at(H, b->hit[k], PATH_EMISSION);
-        graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], &path, out);
+        graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], &path, NULL, out);
         for (int c = 0; c < 3; c++) b->color[c][k] = out[c];
     }
 }
@@ -878,6 +880,9 @@ typedef struct {
     const LightPath *path;  /* the path it carries (the emitter it hits is shaded for it) */
     uint64_t receiver;      /* the light set of the object the ray left: it finds only emitters that light it */
     const double *sigma, *emission;   /* the extinction and emission (3) of the media it crosses, or NULL: none */
+    /* What the Ambient Occlusion and Bevel nodes of a textured emitter it hits trace with (the next vertex's keys), or
+     * NULL: they trace nothing. */
+    const ShaderKeys *keys;
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -955,7 +960,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         const double *emitted = ds->materials[tri.material].emission;
         double textured[3];
         if (ds->materials[tri.material].graph_emits != 0.0) {     /* a texture's emission, where the ray landed */
-            graph_emission(ds, geometry, prim, instance, O, D, t_limit, ray->path, textured);
+            graph_emission(ds, geometry, prim, instance, O, D, t_limit, ray->path, ray->keys, textured);
             emitted = textured;
         }
         int64_t index = emitters_index >= 0
@@ -1000,6 +1005,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
     uint32_t stream = stream_of((int64_t)ds->seed, 2 + ds->dimension);
     uint32_t pick_stream = stream_of((int64_t)ds->seed, 3 + ds->dimension);
     uint64_t embree = 0;
+    ShaderRays traced = {ds->intersect, ds->occluded, ds->scene, ds->geometry, ds->seed};
     RayHitPacket packet;
     int valid[PACKET] ALIGNED(32);
     int64_t owner[PACKET];
@@ -1106,9 +1112,14 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             if (!ds->gather) continue;
             double groups_L[3 * MAX_LIGHT_GROUPS];
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
+            /* (the surface it hits is the next vertex: its Ambient Occlusion and Bevel nodes trace with its keys) */
+            int clear = bsdf_is(s->kind, BSDF_FLAG_STRAIGHT);
+            double below = H->min_pdf[h], next_min = clear || !(pdf_b < below) ? below : pdf_b;
+            ShaderKeys next = {&traced, H->pixel[h], H->sample[h], ds->dimension + VERTEX_DIMENSIONS,
+                               next_min < BEVEL_MIN_PDF};
             FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                                   instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
-                                  kinds[k], after + k, receiver, ds->media != NULL ? sigma : NULL, emission};
+                                  kinds[k], after + k, receiver, ds->media != NULL ? sigma : NULL, emission, &next};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

@@ -24,7 +24,7 @@ import numpy as np
 from .. import vectors
 from . import clamp as clamp_
 from . import features as features_
-from . import lightgroups, lightpasses
+from . import lightgroups, lightpasses, shader_rays
 from . import passes as passes_
 from .base import Context, Integrator, Radiance, Recorder
 from .rays import camera_hits
@@ -60,7 +60,8 @@ class DirectLighting(Integrator):
         parts = lightpasses.FirstHitParts(len(hit)) if lightpasses.wanted(ctx.settings.passes) else None
         hit_groups = lightgroups.tally(ctx, len(hit))
         emitted, finds = (np.zeros((len(hit), 3)), np.zeros((len(hit), 3))) if feats is not None else (None, None)
-        shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry)   # (camera rays)
+        shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry,   # (camera rays)
+                                     rays=shader_rays.for_hits(ctx, surface, pixel[hit], sample[hit]))
         L_hit, shadow_rays, _ = shade_vertex(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder,
                                              PathState(limit=direct_cap), parts=parts, groups=hit_groups,
                                              shader=shader, emitted=emitted, found=finds)

@@ -53,7 +53,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         if (material->may_pass == 0.0) return;
         Surface s;
         ShaderResult sd;
-        shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &path, &s, &sd);
+        shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &path, NULL, &s, &sd);
         for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
         clear += !is_boundary(ds->media, tri.material);
         path.transparent = clear;
@@ -79,7 +79,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         double sigma[3] = {0.0, 0.0, 0.0}, emission[3] = {0.0, 0.0, 0.0};
         if (ds->media != NULL) medium_along(ds->media, &inside, sigma, emission);
         FindingRay finding = {O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O, r->mis_N,
-                              (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission};
+                              (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission, NULL};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         if (ds->media != NULL) {                    /* (and what reaches the next surface) */
@@ -106,6 +106,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
 {
     int lift = ds->shadows->terminator_fix != 0.0;
     uint32_t roulette = stream_of((int64_t)ds->seed, ROULETTE_DIMENSION + (int64_t)(vertex + 1) * VERTEX_DIMENSIONS);
+    ShaderRays traced = {ds->intersect, ds->occluded, ds->scene, ds->geometry, ds->seed};
     next->m = 0;
     for (int64_t i = 0; i < rays->n; i++) {
         const PathRay *r = rays->r + i;
@@ -176,8 +177,12 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         int after_diffuse = see_through ? H->after_diffuse[h] : is_labelled_diffuse(r->kind);
         next->after_diffuse[m] = (uint8_t)after_diffuse;
         next->sd[m].caustics = after_diffuse ? ds->caustics : 0;
+        /* (Cycles' min_ray_pdf: the smallest pdf of the path's real bounces; the Bevel node reads it) */
+        next->min_pdf[m] = see_through || !(r->pdf < H->min_pdf[h]) ? H->min_pdf[h] : r->pdf;
+        ShaderKeys keys = {&traced, H->pixel[h], H->sample[h], (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,
+                           next->min_pdf[m] < BEVEL_MIN_PDF};
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
-                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, next->sd + m);
+                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, &keys, next->sd + m);
         next->flags[m] = r->path.flags;             /* (through clear surfaces: still the camera's) */
         next->seen_by[m] = r->seen_as;
         if (bounces == 0) {
@@ -255,7 +260,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         /* (the throughput: what the media let through to the camera's hit, 1 without media: chunk.c block_hits) */
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = H->bounds[h] = 0;
         H->flags[h] = PATH_CAMERA;
-        H->mis_pdf[h] = INFINITY;
+        H->mis_pdf[h] = H->min_pdf[h] = INFINITY;
         H->mis_receiver[h] = 0;                   /* (the camera's: it sees every emitter) */
         for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;

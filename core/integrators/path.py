@@ -60,17 +60,15 @@ from ..sampling import sobol as sampling
 from .base import Context, Integrator, Radiance, Recorder, check_stop
 from . import clamp as clamp_
 from . import features as features_
-from . import lightgroups, lightpasses
+from . import lightgroups, lightpasses, shader_rays
 from . import passes as passes_
 from . import shadows
 from . import volume as volume_
 from .rays import camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
-from .vertex import PathState, gather_light, shade_vertex
+from .vertex import VERTEX_DIMENSIONS, PathState, gather_light, shade_vertex
 from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
 
-# Each vertex's random numbers are its own: vertex k shifts every sampling dimension by k x this.
-VERTEX_DIMENSIONS = schema.constant("VERTEX_DIMENSIONS", 1 << 16, "each path vertex's shift of the sampling dimensions")
 # The most volume-only boundaries a path or a shadow ray crosses (Cycles' VOLUME_BOUNDS_MAX: a guard against a ray
 # caught crossing the same boundary, as those crossings count as no transparent bounce).
 VOLUME_BOUNDS_MAX = shadows.VOLUME_BOUNDS_MAX
@@ -308,6 +306,7 @@ class PathTracing(Integrator):
         bounce = np.zeros(len(hit), np.int64)
         flags = np.full(len(hit), graph_.PATH_CAMERA, np.int64)   # the Light Path flags of the ray that got there
         mis_pdf = np.full(len(hit), np.inf)          # the pdf of each path's last real bounce (inf: the camera)
+        min_pdf = np.full(len(hit), np.inf)          # the smallest pdf of its real bounces (Cycles' min_ray_pdf)
         mis_origin = vectors.gather(O, hit)          # its ray origin and light-tree normal (vertex.BsdfRay.mis_O):
         #                                              the camera's, from where a camera path sees lamps past clear panes
         mis_normal = np.zeros((len(hit), 3))
@@ -345,7 +344,9 @@ class PathTracing(Integrator):
             cap = np.where(bounce == 0, direct_cap, indirect_cap)
             light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent)
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
-                                         caustics_filter(s, after_diffuse))
+                                         caustics_filter(s, after_diffuse),
+                                         shader_rays.for_hits(ctx, surface, pixel[owner], sample[owner], dimension,
+                                                              min_pdf))
             if holdouts:
                 # A camera path (no real bounce yet) that meets a holdout object or node: a hole in the film.
                 shader, weight = hold_out(ctx, surface, shader, bounce == 0)
@@ -357,7 +358,7 @@ class PathTracing(Integrator):
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
                               carried_origin=mis_origin, carried_N=mis_normal, bounce=bounce, inside=inside,
-                              carried_receiver=mis_receiver)
+                              carried_receiver=mis_receiver, min_pdf=min_pdf)
             vertex_groups = lightgroups.tally(ctx, len(owner))
             emitted, finds = (np.zeros((len(owner), 3)), np.zeros((len(owner), 3))) if feats is not None else (None, None)
             L_vertex, rays, ray = shade_vertex(ctx, surface, wo, pixel[owner], sample[owner], recorder, state,
@@ -495,6 +496,7 @@ class PathTracing(Integrator):
             after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], labelled_diffuse)[keep]
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
+            min_pdf = np.where(is_transparent, min_pdf[ray.rows], np.minimum(min_pdf[ray.rows], ray.pdf))[keep]
             mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]
             mis_receiver = ray.receiver[keep]
             inside = None if media is None else ray.inside[keep]

@@ -26,6 +26,7 @@ from .. import materials as materials_
 from ..geometry.surface import surface_at_hits
 from ..lights import linking
 from ..lights.base import LAMP, LightFlags
+from ..native import schema
 from ..materials import graph as graph_
 from ..sampling import sobol as sampling
 from .. import volumes
@@ -33,7 +34,7 @@ from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_G
                           HOLDOUT)
 from . import clamp as clamp_
 from . import lightgroups, lightpasses
-from . import shadows
+from . import shader_rays, shadows
 from .base import Context, Recorder, check_stop
 from .rays import goes_through, nearest_seen, path_after, ray_kind
 from .shadows import spawn_ray
@@ -42,7 +43,7 @@ from .shadows import spawn_ray
 class PathState(NamedTuple):
     """What a path brings to the hits it reached (one row per hit, or one value for all).
 
-    dimension: the shift of every sampling dimension at this vertex (path.VERTEX_DIMENSIONS per vertex)
+    dimension: the shift of every sampling dimension at this vertex (VERTEX_DIMENSIONS per vertex)
     vertex:    0 at the camera's hits, which add their own emission; later hits leave it to the ray that found them
     light_path: the paths that reached the hits (graph.LightPaths of m rows: the flags of the rays that found them
                and the bounces so far), for the Light Path node; None: camera rays
@@ -61,6 +62,8 @@ class PathState(NamedTuple):
                Cycles' mis_ray_object)
     inside:    (m, V) int16 the media the rays that reached the hits were in (core/volumes Media.crossed), or None:
                no media. Rays leaving a hit to the other side of its surface enter or leave its material's medium.
+    min_pdf:   (m,) the smallest pdf of each path's real bounces so far (Cycles' min_ray_pdf, which the Bevel node
+               reads), or None: none (a camera ray's)
     """
 
     dimension: int = 0
@@ -76,6 +79,7 @@ class PathState(NamedTuple):
     bounce: object = 0
     inside: Optional[np.ndarray] = None
     carried_receiver: Optional[np.ndarray] = None
+    min_pdf: Optional[np.ndarray] = None
 
 
 def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -126,7 +130,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
     # 1. The material at each hit: its closures (BSDFs with weights) and the light it emits itself.
     light_path = graph_.light_paths(m) if path.light_path is None else path.light_path
     if shader is None:
-        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path, caustics)
+        shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path, caustics,
+                                     shader_rays.for_hits(ctx, surface, pixel, sample, dimension))
     shader = terminator_bent(ctx, surface, shader)
     recorder.shader(shader)
     clamping = np.any(np.isfinite(limit))
@@ -247,7 +252,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
         finds, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N, light_path=light_path,
                               carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups,
-                              inside=path.inside, carried_receiver=path.carried_receiver)
+                              inside=path.inside, carried_receiver=path.carried_receiver, min_pdf=path.min_pdf)
         if clamping:
             f = clamp_.scale(finds, throughput, limit)
             finds = finds * f[:, None]
@@ -268,7 +273,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
              recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
              *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, light_path=None, inside=None,
-             carried_receiver=None):
+             carried_receiver=None, min_pdf=None):
     """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
     The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -334,10 +339,15 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     use_mis = mis[go] & (~bs.delta[go] | (clear & np.isfinite(pdf_b)))
     holdouts = ctx.geometry.hides(HOLDOUT)
     ray_groups = None if groups is None else lightgroups.GroupLight(groups.groups, len(go))
+    # (the surface it hits is the next vertex, whose Ambient Occlusion and Bevel nodes trace with its keys)
+    keys = None
+    if getattr(ctx.materials, "traces", False):
+        below = np.full(len(go), np.inf) if min_pdf is None else min_pdf[go]
+        keys = (pixel[go], sample[go], dimension + VERTEX_DIMENSIONS, np.where(clear, below, np.minimum(below, pdf_b)))
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
                                              mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch,
-                                             paths=after, receiver=receiver)
+                                             paths=after, receiver=receiver, keys=keys)
     if groups is not None:
         groups.add_rows(go, ray_groups, bs.weight[go])
     recorder.bsdf_sample(bs.wi, bs.pdf, found)
@@ -396,7 +406,7 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
 
 def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.ndarray, use_mis: np.ndarray,
                  camera=None, N=None, mis_O=None, groups=None, seen_as=None, stretch=None,
-                 paths=None, receiver=None) -> np.ndarray:
+                 paths=None, receiver=None, keys=None) -> np.ndarray:
     """The light (k, 3) that rays O + t D (k, 3) bring back, ending at `hits` (the tracer's Hits): lamps with
     extent in front of the hit, the emission of the surface hit, or the world where the ray escapes, each
     weighed by MIS (where `use_mis` (k,) bool) with pdf_b (k,), the pdf of the bounce that sent the ray.
@@ -418,7 +428,9 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     than the camera's, with no bounces counted).
     receiver: (k,) int64 the triangle each ray left, or None (no linking): a ray other than the camera's finds no
     emitter that does not light the receiver's object (Light Linking), and no emitter object whose shadows a blocker
-    set casts (Shadow Linking: its light samples alone find it, linking.found_by_bounces)."""
+    set casts (Shadow Linking: its light samples alone find it, linking.found_by_bounces).
+    keys: (pixel, sample (k,) int64, the dimension shift of the vertex the rays reach, min_pdf (k,)) with which a
+    textured emitter's Ambient Occlusion and Bevel nodes trace (shader_rays.for_hits), or None: they trace nothing."""
     light_L = np.zeros((len(O), 3))
     sigma = stretch
     if stretch is not None:
@@ -483,7 +495,9 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
             emitted = emitted.copy()
             emitted[rows] = graph_emission(ctx.geometry, ctx.materials, hits.prim[struck][rows], O[struck][rows],
                                            D[struck][rows], hits.t[struck][rows],
-                                           None if paths is None else graph_.paths_at(paths, struck[rows]))
+                                           None if paths is None else graph_.paths_at(paths, struck[rows]),
+                                           ctx, None if keys is None else tuple(
+                                               key if np.ndim(key) == 0 else key[struck[rows]] for key in keys))
         if camera is not None and camera[struck].any():
             emitted = np.where((camera[struck] & ctx.geometry.hidden(hits.prim[struck], HOLDOUT))[:, None], 0.0,
                                emitted)
@@ -561,20 +575,23 @@ def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None)
 
 
 def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.ndarray, t: np.ndarray,
-                   paths=None) -> np.ndarray:
+                   paths=None, ctx=None, keys=None) -> np.ndarray:
     """What the surfaces at O + t D on triangles prim (n,) int64 emit back along -D (n, 3) float64, by their
     materials' node graphs (a texture's emission), to rays carrying the paths `paths` (graph.LightPaths of n rows;
     None: a ray other than the camera's with no bounces counted, as the emitters' estimates take it).
 
     The barycentrics come from the point itself (a light sample's point has no ray hit of its own), as in the
-    C twin (direct.c graph_emission)."""
+    C twin (direct.c graph_emission). ctx, keys: the context and the (pixel, sample, dimension, min_pdf) of a BSDF
+    ray's next vertex, with which its Ambient Occlusion and Bevel nodes trace (Cycles shades the surface a bounce
+    hits in full), or None: they trace nothing (a light sample's emitter, as Cycles)."""
     if len(prim) == 0:
         return np.zeros((0, 3))
     V = geometry.triangle_data(prim, smooth=False).corners
     u, v = barycentrics(V, O + t[:, None] * D)
     where = surface_at_hits(geometry, prim, u, v, O, D, t)
     paths = graph_.light_paths(len(prim), flags=0) if paths is None else paths
-    return materials.shade(where.material, where.N, -D, where, geometry, paths).emission
+    rays = None if keys is None else shader_rays.for_hits(ctx, where, *keys)
+    return materials.shade(where.material, where.N, -D, where, geometry, paths, rays=rays).emission
 
 
 def barycentrics(V: np.ndarray, P: np.ndarray) -> tuple:
@@ -592,6 +609,8 @@ def barycentrics(V: np.ndarray, P: np.ndarray) -> tuple:
 
 # The sampling dimensions of the BSDF-sampled direction (2D) and of the closure it picks (core/sampling).
 BSDF_DIMENSION = 2
+# Each vertex's random numbers are its own: vertex k of a path shifts every sampling dimension by k x this.
+VERTEX_DIMENSIONS = schema.constant("VERTEX_DIMENSIONS", 1 << 16, "each path vertex's shift of the sampling dimensions")
 
 
 class BsdfRay(NamedTuple):

@@ -50,7 +50,7 @@ from .vertex import (BsdfRay, gather_light, light_count, light_numbers, power_he
 
 # The sampling dimensions of a stretch's scattering point (distance, channel) and of its phase direction, and the
 # shift of its light samples' dimensions from the vertex's own (core/sampling; a path's vertex k adds k x
-# path.VERTEX_DIMENSIONS to each).
+# vertex.VERTEX_DIMENSIONS to each).
 DISTANCE_DIMENSION = schema.constant("DISTANCE_DIMENSION", 8, "a stretch's free-flight distance and channel")
 PHASE_DIMENSION = schema.constant("PHASE_DIMENSION", 9, "a scattering point's phase-sampled direction")
 EQUIANGULAR_DIMENSION = schema.constant("EQUIANGULAR_DIMENSION", 1 << 14,

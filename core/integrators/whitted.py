@@ -31,7 +31,7 @@ from ..materials import glass as glass_
 from ..materials import graph as graph_
 from ..materials import microfacet as mf
 from . import features as features_
-from . import lightgroups, shadows
+from . import lightgroups, shader_rays, shadows
 from . import passes as passes_
 from .base import Context, Integrator, Radiance, Recorder, check_stop
 from .rays import lamps_seen, nearest_seen
@@ -127,7 +127,8 @@ class WhittedTracing(Integrator):
                 groups.add_rows(rows, hit_groups, throughput[hit])
             recorder.path_vertex(depth, rows, surface, throughput[hit], L_hit)
             # 3. The specular closures' rays: a mirror's reflection, glass's reflection and refraction.
-            shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path)
+            shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
+                                         rays=shader_rays.for_hits(ctx, surface, pixel[rows], sample[rows], depth * (1 << 16)))
             if feats is not None and depth == 0:
                 one = np.ones((len(hit), 3))
                 features_.at_vertex(feats, rows, np.ones(len(hit), bool), one, one, shader, shader.emission)

@@ -374,6 +374,10 @@ class MaterialTable:
         # coordinates read (set by render.prepare; None: a panoramic camera, whose Window Primer does not compute).
         self.window: Optional[tuple] = None
         self._has_graphs = any(getattr(shader, "graph", None) is not None for shader in shaders)
+        # Whether some material's graph traces rays (an Ambient Occlusion or Bevel node, graph.RAYTRACE_OPS): then the
+        # integrators hand shade the hits' ShaderRays (core/integrators/shader_rays.py); otherwise they make none.
+        self.traces = any(graph_.traces(graph_.with_normal(shader.graph, shader.normal))
+                          for shader in shaders if getattr(shader, "graph", None))
         # Which rows' emission their node graph gives (a texture, a linked factor), evaluated where a light sample
         # or a BSDF ray lands rather than taken from `emission`: (m + 1,) bool.
         self.graph_emits = np.array([bool(getattr(shader, "graph_emits", False)) for shader in shaders], bool)
@@ -419,13 +423,15 @@ class MaterialTable:
 
 
     def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None,
-              geometry=None, path=None, caustics=None) -> ShaderResult:
+              geometry=None, path=None, caustics=None, rays=None) -> ShaderResult:
         """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3).
 
         surface, geometry: the hits' Surface and the WorldGeometry (core/geometry), which materials with node
         graphs read their attributes from (without them, every attribute reads 0). path: the paths that reached
         the hits (a graph.LightPaths of n rows or of scalars, for the Light Path node; None: camera rays); caustics:
-        (n,) int the closures a caustics filter takes away at each hit (closures.FILTER_*), or None.
+        (n,) int the closures a caustics filter takes away at each hit (closures.FILTER_*), or None. rays: the hits'
+        ShaderRays (core/integrators/shader_rays.py) that Ambient Occlusion and Bevel nodes trace, or None (then they
+        trace nothing: AO 1, Bevel the shading normal, as Cycles' shadow and light-sample shaders).
         """
         from . import graph as graph_
         n = len(material)
@@ -455,6 +461,8 @@ class MaterialTable:
                                                                           for f in path)))
                     if wo is not None:                        # the view direction (Fresnel, Layer Weight)
                         point = point._replace(I=np.asarray(wo, np.float64))
+                    if rays is not None:                      # the scene, for Ambient Occlusion and Bevel
+                        point = point._replace(rays=rays)
                 part = type(point)(*(None if array is None else graph_.paths_at(array, rows)
                                      if isinstance(array, graph_.LightPaths) else array[rows] for array in point))
                 results.append(shader.shade(N[rows], wo[rows], part, self.program(int(row), layout), self.textures,

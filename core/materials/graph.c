@@ -316,6 +316,11 @@ INLINE void object_matrix(const ShadingPoint *sp, int mode, double *out)
     }
 }
 
+/* The nodes that trace rays (graph.RAYTRACE_OPS), defined with the integrators (core/integrators/shader_rays.c):
+ * ShaderRays.ambient_occlusion and ShaderRays.bevel for one hit. */
+static double shader_ao(const ShadingPoint *sp, const double *N, double distance, int samples, int flags);
+static void shader_bevel(const ShadingPoint *sp, double radius, int samples, double *out);
+
 NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *sp, double *reg)
 {
     const double *info = G->programs + 8 * program;
@@ -477,6 +482,27 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             break;
         }
         case OP_WIREFRAME: out[0] = wireframe(reg[a[1]], where, sp); break;
+        case OP_AO: {           /* Color x AO, then AO; 1 where the shader traces nothing (sp->rays NULL) */
+            double normal[3];
+            for (int j = 0; j < 3; j++) normal[j] = a[3] < 0 ? sp->N[j] : reg[a[3] + j];
+            safe_normalize3(normal);
+            double ao = sp->rays == NULL ? 1.0 : shader_ao(sp, normal, reg[a[2]], a[4], a[5]), r[3];
+            for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * ao;
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            out[3] = ao;
+            break;
+        }
+        case OP_BEVEL: {        /* the shading normal where the shader traces nothing; a linked Normal keeps its detail */
+            double r[3];
+            if (sp->rays == NULL) for (int j = 0; j < 3; j++) r[j] = sp->N[j];
+            else shader_bevel(sp, reg[a[1]], a[3], r);
+            if (a[2] >= 0) {
+                for (int j = 0; j < 3; j++) r[j] = reg[a[2] + j] + (r[j] - sp->N[j]);
+                safe_normalize3(r);
+            }
+            for (int j = 0; j < 3; j++) out[j] = r[j];
+            break;
+        }
         case OP_CAMERA_DATA: {
             const double *p = reg + a[1];
             double r[3] = {p[0], p[1], p[2]}, depth = p[2], distance = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);

@@ -51,10 +51,18 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "LIGHT_PATH",
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
-                                                               "OBJECT_INFO", "OBJECT_MATRIX")
+                                                               "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL")
 # Ops of world shaders only, which the Python reference alone evaluates (world graphs are baked at export,
 # core/lights/world_graph.py): graph_tables refuses a program holding one, and graph.c has no case for them.
 WORLD_OPS = ("SKY",)
+# Ops that trace rays into the scene while the shader runs (Cycles' __SHADER_RAYTRACE__ nodes: Ambient Occlusion,
+# Bevel). A program holding one reads ShadingPoint.rays, the integrator's ShaderRays (core/integrators/shader_rays.py)
+# for the hits' pixel samples; where there is none (shadow rays, light samples landing on an emitter: Cycles
+# evaluates those shaders without ray tracing too) Ambient Occlusion gives 1 and Bevel the shading normal.
+RAYTRACE_OPS = ("AO", "BEVEL")
+# The Ambient Occlusion node's options (the AO op's flags; Cycles' NODE_AO_*).
+AO_INSIDE, AO_ONLY_LOCAL = schema.constants("AO", {"INSIDE": 1, "ONLY_LOCAL": 2},
+                                            "the Ambient Occlusion node's option bits").values()
 OP = schema.constants("OP", OPS, "a node-graph program's op codes")
 schema.table("OP", lambda: list(OPS))
 # What a shader knows of the path that reached a hit (Cycles' path_flag and bounce counters; the Light Path node
@@ -180,6 +188,7 @@ NODE_OUTPUTS = {
                  "Camera": (3, "vector"), "Window": (3, "vector"), "Reflection": (3, "vector")},
     "CAMERA_DATA": {"View Vector": (3, "vector"), "View Z Depth": (1, "float"), "View Distance": (1, "float")},
     "WIREFRAME": {"Fac": (1, "float")},
+    "AO": {"Color": (3, "color"), "AO": (1, "float")}, "BEVEL": {"Normal": (3, "vector")},
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "OBJECT_INFO": {"Location": (3, "vector"), "Color": (3, "color"), "Alpha": (1, "float"),
@@ -277,6 +286,7 @@ class ShadingPoint(NamedTuple):
     uv: np.ndarray = None      # (n, 2) float64 the barycentrics (its Parametric)
     t: np.ndarray = None       # (n,) float64 the distance along the ray to the hit (the Light Path node's Ray Length)
     info: np.ndarray = None    # (n, 8) float64 the object's Object Info: location, colour, alpha, pass index
+    rays: object = None        # the integrator's ShaderRays of the n hits (AO, BEVEL ops); None: they trace nothing
 
 
 def object_matrices(sp: ShadingPoint, mode: int) -> np.ndarray:
@@ -323,8 +333,13 @@ def links_under(nodes: list):
 
 def with_normal(nodes: list, normal) -> list:
     """A material's nodes with its Set Normal Link (Material.normal) as one more entry, for what walks its links
-    (links_under, images_of, attributes_of); the nodes alone where it has none."""
+    (links_under, images_of, attributes_of, traces); the nodes alone where it has none."""
     return list(nodes) + [(None, 1.0, {"normal": normal})] if isinstance(normal, Link) else list(nodes)
+
+
+def traces(nodes: list) -> bool:
+    """Whether a material's links reach a node that traces rays (RAYTRACE_OPS: Ambient Occlusion, Bevel)."""
+    return any(link.node.kind in RAYTRACE_OPS for link in links_under(nodes))
 
 
 def images_of(nodes: list) -> list:
@@ -547,6 +562,18 @@ class Compiler:
             out = self.temporary(1)
             self.emit("WIREFRAME", out, self.value(inp.get("Size"), 1, 0.01))
             return out, 1, "float"
+        if kind == "AO":                                # Color x AO, then AO (Cycles' svm_node_ao)
+            out = self.temporary(4)
+            normal = self.value(inp["Normal"], 3) if isinstance(inp.get("Normal"), Link) else None
+            flags = (AO_INSIDE if props.get("inside") else 0) | (AO_ONLY_LOCAL if props.get("only_local") else 0)
+            self.emit("AO", out, self.value(inp.get("Color"), 3, 1.0), self.value(inp.get("Distance"), 1, 1.0),
+                      normal, int(props.get("samples", 16)), flags)
+            return shift(out, 3 if output == "AO" else 0), width, vtype
+        if kind == "BEVEL":                             # the averaged normal of the object within Radius
+            out = self.temporary(3)
+            normal = self.value(inp["Normal"], 3) if isinstance(inp.get("Normal"), Link) else None
+            self.emit("BEVEL", out, self.value(inp.get("Radius"), 1, 0.05), normal, int(props.get("samples", 4)))
+            return out, 3, "vector"
         if kind == "CAMERA_DATA":
             out = self.temporary(5)
             self.emit("CAMERA_DATA", out, self.transform(self.geometry("Position"), self.view))
@@ -840,6 +867,7 @@ REGISTER_ARGS = {
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
+    "AO": {0, 1, 2, 3}, "BEVEL": {0, 1, 2},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1080,6 +1108,17 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 5])
         elif name == "WIREFRAME":
             reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
+        elif name == "AO":
+            normal = sp.N if i[3] < 0 else R(3, 3)
+            ao = (np.ones(n) if sp.rays is None else
+                  sp.rays.ambient_occlusion(safe_normalize(normal), reg[:, i[2]], i[4], i[5]))
+            reg[:, i[0]:i[0] + 3] = R(1, 3) * ao[:, None]
+            reg[:, i[0] + 3] = ao
+        elif name == "BEVEL":
+            bevelled = sp.N if sp.rays is None else sp.rays.bevel(reg[:, i[1]], i[3], sp.N, sp.side)
+            if i[2] >= 0:                               # Cycles keeps a linked Normal's own detail
+                bevelled = safe_normalize(R(2, 3) + (bevelled - sp.N))
+            reg[:, i[0]:i[0] + 3] = bevelled
         elif name == "CAMERA_DATA":
             reg[:, i[0]:i[0] + 5] = camera_data(R(1, 3))
         elif name == "FRESNEL":

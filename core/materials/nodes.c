@@ -634,10 +634,11 @@ INLINE void shade_material(const MaterialRecord *m, const double *N, const doubl
 
 /* The material at a hit as the chunk shades it: a material with a node graph reads the hit's
  * ShadingPoint (triangles.c), with `path` the path that reached it, and runs its program; any other material as
- * shade_material (it reads no path). */
+ * shade_material (it reads no path). keys: what its Ambient Occlusion and Bevel nodes trace with (triangles.c
+ * ShaderKeys), or NULL where shaders trace nothing (shadow rays, light samples: as Cycles). */
 INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const MaterialRecord *m, const Triangle *tri,
                       const Surface *s, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
-                      const double *wo, const LightPath *path, ShaderResult *sd)
+                      const double *wo, const LightPath *path, const ShaderKeys *keys, ShaderResult *sd)
 {
     /* (the object's Shading Offset bends the cosine of every closure's light: closures.terminator_term) */
     sd->terminator = terminator_multiplier_of(g, geometry, prim, instance);
@@ -649,5 +650,12 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
     shading_point_at(g, geometry, prim, instance, tri, s, u, v, &sp);
     sp.path = *path;
     for (int c = 0; c < 3; c++) sp.I[c] = wo[c];
+    if (keys != NULL) {
+        sp.rays = keys->rays;
+        sp.pixel = keys->pixel;
+        sp.sample = keys->sample;
+        sp.dimension = keys->dimension;
+        sp.blurry = keys->blurry;
+    }
     shade_graph(G, m, &sp, s->N, wo, s->backfacing, sd);
 }

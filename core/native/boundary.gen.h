@@ -64,14 +64,24 @@
 #define ALPHA_THRESHOLD 0.5
 /* the ambient occlusion ray's sampling dimension (core.integrators.passes) */
 #define AO_DIMENSION 120
-/* each path vertex's shift of the sampling dimensions (core.integrators.path) */
-#define VERTEX_DIMENSIONS 65536
 /* Russian roulette's dimension at a vertex (core.integrators.path) */
 #define ROULETTE_DIMENSION 6
 /* the most surfaces a camera ray's walk for its media passes (core.integrators.rays) */
 #define CAMERA_MEDIA_HITS 256
+/* the Ambient Occlusion node's rays' sampling dimension (core.integrators.shader_rays) */
+#define AO_NODE_DIMENSION 121
+/* the Bevel node's probes' sampling dimension (core.integrators.shader_rays) */
+#define BEVEL_DIMENSION 122
+/* the hits of its object a Bevel probe counts (LOCAL_MAX_HITS) (core.integrators.shader_rays) */
+#define BEVEL_MAX_HITS 4
+/* how many surfaces a ray looking for its own object's steps past (core.integrators.shader_rays) */
+#define LOCAL_STEPS 16
+/* the smallest bounce pdf after which Bevel still traces (core.integrators.shader_rays) */
+#define BEVEL_MIN_PDF 8.0
 /* the most volume-only boundaries a ray crosses (core.integrators.shadows) */
 #define VOLUME_BOUNDS_MAX 1024
+/* each path vertex's shift of the sampling dimensions (core.integrators.vertex) */
+#define VERTEX_DIMENSIONS 65536
 /* a stretch's free-flight distance and channel (core.integrators.volume) */
 #define DISTANCE_DIMENSION 8
 /* a scattering point's phase-sampled direction (core.integrators.volume) */
@@ -89,6 +99,9 @@
 #define FILTER_REFRACTIVE 2
 /* the points of a baked curve mapping (core.materials.converters.curves) */
 #define CURVE_TABLE_SIZE 257
+/* the Ambient Occlusion node's option bits (core.materials.graph) */
+#define AO_INSIDE 1
+#define AO_ONLY_LOCAL 2
 /* a node-graph program's op codes (core.materials.graph) */
 #define OP_ATTR 0
 #define OP_RANDOM 1
@@ -142,6 +155,8 @@
 #define OP_SKY 49
 #define OP_OBJECT_INFO 50
 #define OP_OBJECT_MATRIX 51
+#define OP_AO 52
+#define OP_BEVEL 53
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -901,7 +916,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(4598671514434913230);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(7599303753976581442);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(6520535643845291720);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);

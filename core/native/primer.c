@@ -26,6 +26,7 @@
 #include "../film/film.c"
 #include "../film/adaptive.c"
 #include "../integrators/shadows.c"
+#include "../integrators/shader_rays.c"  /* the rays Ambient Occlusion and Bevel nodes trace (graph.c calls them) */
 #include "../integrators/lightpasses.c"
 #include "../integrators/direct.c"
 #include "../integrators/features.c"
