@@ -21,6 +21,7 @@ from typing import ClassVar, Optional
 
 import numpy as np
 
+from ..materials import graph as graph_
 from ..native import library, schema
 from ..native.schema import F32, F64, I32, I64, ptr
 from .base import Light, LightFlags, LightHit, LightSample
@@ -46,6 +47,9 @@ class World:
     suns:     the sun lamps it brings (a Sky Texture's sun disc, core/lights/world_graph.py sky_suns), which the
               scene's lights take in when it lights surfaces
     volume:   the closures of its Volume output (as Material.volume): a medium everywhere (core/volumes); empty: none
+    seen:     the world's node graph compiled (core/lights/world_graph.py WorldProgram, holding no world-only op),
+              which camera rays that escape (straight or through transparent surfaces) evaluate per ray with their
+              path, or None: they see `radiance` (the colour or image, which always lights the scene)
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -59,6 +63,7 @@ class World:
     cast_shadow: bool = True
     suns: list = field(default_factory=list)
     volume: list = field(default_factory=list)
+    seen: Optional[object] = None
 
     @property
     def varying(self) -> bool:
@@ -71,6 +76,19 @@ class World:
             return np.broadcast_to(np.asarray(self.color, np.float64)[:3], (len(directions), 3)).copy()
         u, v = direction_to_uv(directions @ np.asarray(self.rotation, np.float64).T)
         return bilinear_equirect(self.image, u, v) * self.strength
+
+    def radiance_seen(self, directions: np.ndarray, paths=None) -> np.ndarray:
+        """The radiance (n, 3) float64 rays along unit `directions` (n, 3) find where they escape, with the
+        graph.LightPaths of their paths (None: camera rays): a camera ray's (its path carries CAMERA) from `seen`
+        evaluated per ray, where the world has a graph, else `radiance`."""
+        L = self.radiance(directions)
+        if self.seen is None or not len(directions):
+            return L
+        paths = graph_.light_paths(len(directions)) if paths is None else paths
+        camera = (np.asarray(paths.flags) & graph_.PATH_CAMERA) != 0
+        if camera.any():
+            L[camera] = self.seen.along(directions[camera], graph_.paths_at(paths, camera))
+        return L
 
 
 def finite_world(world: World, warnings: Optional[list] = None) -> World:
@@ -273,6 +291,7 @@ WorldTablesRecord = schema.record("WorldTables", "The world (core/lights/world.p
     ("rotation", F64, 9, "world to texture, row-major"),
     ("camera", I32, "1: camera rays see it"),
     ("lights", I32, "1: it lights surfaces"),
+    ("seen", ptr("WorldGraph"), "the program camera rays evaluate where they escape (World.seen), or NULL"),
 ])
 
 
@@ -285,6 +304,8 @@ class WorldTables:
         record = WorldTablesRecord(color=np.asarray(world.color, np.float64)[:3], strength=float(world.strength),
                                    rotation=np.asarray(world.rotation, np.float64).ravel(), camera=world.camera,
                                    lights=world.lights)
+        if world.seen is not None:
+            record.seen = world.seen.record()
         if world.image is not None:
             image = c(world.image[..., :3], np.float32)
             record.image, record.height, record.width = image, image.shape[0], image.shape[1]
