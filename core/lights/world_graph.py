@@ -29,6 +29,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+import dataclasses
+import hashlib
 import os
 from concurrent.futures import ThreadPoolExecutor
 
@@ -137,9 +139,39 @@ def bake(color, strength, width: int = BAKE_WIDTH, kernels: str = "compiled") ->
     # 1. Compile both inputs into one program over the attributes a world's shading point has.
     world = compile_world(color, strength)
     height = max(1, width // 2)
-    # 2. Run it at the texel centres' directions: in C in bands of rows on threads, or a batch at a time in numpy.
-    if kernels == "compiled" and world.compiled:
-        return compiled_bake(world, width, height)
+    # 2. The same program baked the same way a moment ago (the add-on exports the scene again for each render and
+    #    each viewport update): that image.
+    compiled = kernels == "compiled" and world.compiled
+    key = (fingerprint(world), width, compiled)
+    if key in _BAKED:
+        return _BAKED[key].copy()
+    # 3. Run it at the texel centres' directions: in C in bands of rows on threads, or a batch at a time in numpy.
+    radiance = compiled_bake(world, width, height) if compiled else reference_bake(world, width, height)
+    _BAKED.clear()                                   # (one image kept: a large one costs 24 MB)
+    _BAKED[key] = radiance
+    return radiance.copy()
+
+
+# The last bake, by (fingerprint, width, compiled).
+_BAKED: dict = {}
+
+
+def fingerprint(world: WorldProgram) -> bytes:
+    """A digest of everything the bake of `world` reads: its program's ops, constants and tables, its registers and
+    attribute layout, and its images' texels and formats."""
+    digest = hashlib.blake2b(digest_size=20)
+    program = world.program
+    for array in (program.ops, program.constants, program.outputs, program.ramps,
+                  *(np.asarray(getattr(world.textures, f.name)) for f in dataclasses.fields(world.textures))):
+        array = np.ascontiguousarray(array)
+        digest.update(str((array.dtype.str, array.shape)).encode())
+        digest.update(array.view(np.uint8).reshape(-1))
+    digest.update(repr((program.registers, world.registers, sorted(world.layout.items()))).encode())
+    return digest.digest()
+
+
+def reference_bake(world: WorldProgram, width: int, height: int) -> np.ndarray:
+    """The bake of `world` (height, width, 3) float32 by the numpy reference (graph.run), a batch at a time."""
     u, v = np.meshgrid((np.arange(width) + 0.5) / width, (np.arange(height) + 0.5) / height)
     directions = uv_to_direction(u.ravel(), v.ravel())
     radiance = np.empty((len(directions), 3), np.float32)
