@@ -138,7 +138,7 @@ tree.links.new(background.outputs[0], tree.nodes["World Output"].inputs["Surface
 
 def camera_or_lighting(lighting, seen):
     # A Mix Shader whose Fac is Is Camera Ray: the camera sees the Background of colour `seen`, the floor is lit by
-    # the one of `lighting` (each a colour or an output socket).
+    # the one of `lighting` (each a colour, or a function making the nodes and returning their output socket).
     clear()
     mix, shown = tree.nodes.new("ShaderNodeMixShader"), tree.nodes.new("ShaderNodeBackground")
     tree.links.new(tree.nodes.new("ShaderNodeLightPath").outputs["Is Camera Ray"], mix.inputs["Fac"])
@@ -146,17 +146,21 @@ def camera_or_lighting(lighting, seen):
         if isinstance(value, tuple):
             target.inputs["Color"].default_value = value + (1.0,)
         else:
-            tree.links.new(value, target.inputs["Color"])
+            tree.links.new(value(), target.inputs["Color"])
     tree.links.new(background.outputs[0], mix.inputs[1])
     tree.links.new(shown.outputs[0], mix.inputs[2])
     tree.links.new(mix.outputs[0], tree.nodes["World Output"].inputs["Surface"])
 
 
-grid = tree.nodes.new("ShaderNodeTexEnvironment")
-grid.image = image
-camera_or_lighting(grid.outputs["Color"], (0.3, 0.3, 0.3))
+def grid():
+    environment = tree.nodes.new("ShaderNodeTexEnvironment")
+    environment.image = image
+    return environment.outputs["Color"]
+
+
+camera_or_lighting(grid, (0.3, 0.3, 0.3))
 results["grey seen grid lighting"] = render("grey_seen_grid_lighting", False)
-camera_or_lighting((0.8, 0.6, 0.4), sky())
+camera_or_lighting((0.8, 0.6, 0.4), sky)
 results["sky seen colour lighting"] = render("sky_seen_colour_lighting", False)
 tree.links.new(background.outputs[0], tree.nodes["World Output"].inputs["Surface"])
 
