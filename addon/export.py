@@ -789,9 +789,10 @@ def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
         warnings.append("the world's node graph reads a Light Path node beside a Sky Texture; Primer evaluates it for "
                         "the rays that light the scene (Is Camera Ray 0), and the camera sees that world too")
     elif read - world_graph.EXACT_FOR_LIGHTING:
-        warnings.append(f"the world's node graph reads the Light Path node's {', '.join(sorted(read - world_graph.EXACT_FOR_LIGHTING))}; "
-                        "Primer evaluates the world per ray with each camera ray's path, but for the rays that light "
-                        "the scene as for a ray of no kind with no bounce (Cycles evaluates it with each ray's path)")
+        depths = ", ".join(sorted(read - world_graph.EXACT_FOR_LIGHTING))
+        warnings.append(f"the world's node graph reads the Light Path node's {depths}; Primer evaluates the world "
+                        "for each ray that escapes with its path, but its light samples read a bake made for the first "
+                        "bounce (Ray Depth 1, the other depths 0), where Cycles gives each its vertex's depths")
     baked = world_graph.bake(radiance, 1.0, kernels=kernels)
     flat = baked.reshape(-1, 3)
     constant = bool(np.isfinite(flat).all() and (flat == flat[0]).all() and not suns)

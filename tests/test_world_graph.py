@@ -158,3 +158,55 @@ def test_a_pattern_finer_than_a_texel_is_seen_per_ray():
     pure = [np.isclose(baked.reshape(-1, 3), c, rtol=1e-3).all(axis=1) for c in ((0.9, 0.2, 0.1), (0.1, 0.3, 0.8))]
     assert (pure[0] | pure[1]).mean() < 0.5, (pure[0] | pure[1]).mean()   # (measured 0.28)
     np.testing.assert_allclose(images["compiled"], images["numpy"], rtol=1e-6)
+
+
+def mix_by(output: str, a, b) -> Link:
+    """A world shader colour: a where the Light Path output `output` is 0, b where it is 1."""
+    factor = Link(GraphNode("LIGHT_PATH", {}, {}, "Light Path"), output)
+    props = {"data_type": "RGBA", "blend_type": "MIX", "clamp_factor": True, "clamp_result": False}
+    return Link(GraphNode("MIX", props, {"Factor": factor, "A": a, "B": b}, "Mix"), "Result")
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_mirrors_rays_find_the_world_as_singular_glossy_reflections(kernels):
+    """A mirror turning every camera ray of an orthographic view towards +y, under Mix(Is Glossy Ray) of LIGHTS_WITH
+    and CAMERA_SEES: the reflected rays escape as glossy rays (Cycles evaluates the world for each with its path) and
+    bring back CAMERA_SEES; the bake (a light sample's view, Is Glossy Ray 0) is LIGHTS_WITH."""
+    import math
+    from conftest import ortho_down
+    from core import render
+    from core.geometry import primitives
+    from core.materials import Material
+    from core.scene import RenderSettings, Scene
+    radiance = mix_by("Is Glossy Ray", LIGHTS_WITH, CAMERA_SEES)
+    assert np.allclose(world_graph.bake(radiance, 1.0, width=8), LIGHTS_WITH)
+    world = World(color=np.asarray(LIGHTS_WITH, np.float64), seen=world_graph.compile_world(radiance, 1.0))
+    scene = Scene(camera=ortho_down(height=5.0, scale=1.0), world=world)
+    scene.materials += [Material(name="Mirror", nodes=[("MIRROR", (1.0, 1.0, 1.0), {})])]
+    mirror = primitives.plane(4.0)
+    a = math.radians(-45.0)
+    mirror.vertices = mirror.vertices @ np.array([[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)],
+                                                  [0.0, math.sin(a), math.cos(a)]]).T
+    scene.add_mesh(mirror, materials=np.array([0]))
+    result = render.render(scene, RenderSettings(width=4, height=4, samples=4, kernels=kernels, integrator="path"))
+    assert result.stats.kernels.startswith(kernels)
+    np.testing.assert_allclose(result.image[..., :3].reshape(-1, 3), np.tile(CAMERA_SEES, (16, 1)), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_a_world_that_shines_on_diffuse_rays_alone_lights_a_floor_by_its_bsdf_rays(kernels, integrator):
+    """A world of white x Is Diffuse Ray: its bake (light samples see EMISSION alone) is black, so, as in Cycles, it
+    has no light samples, but the floor's diffuse BSDF rays find 1 where they escape: a Lambert floor of albedo 0.5
+    shows 0.5, and the camera, whose rays are no diffuse rays, sees black beside it."""
+    from core import render
+    from core.scene import RenderSettings
+    strength = Link(GraphNode("LIGHT_PATH", {}, {}, "Light Path"), "Is Diffuse Ray")
+    assert np.allclose(world_graph.bake((1.0, 1.0, 1.0), strength, width=8), 0.0)
+    scene = camera_or_lighting_scene(False)
+    scene.world = World(color=np.zeros(3), seen=world_graph.compile_world((1.0, 1.0, 1.0), strength))
+    result = render.render(scene, RenderSettings(width=8, height=8, samples=4, kernels=kernels, integrator=integrator))
+    assert result.stats.kernels.startswith(kernels)
+    image = result.image[..., :3]
+    np.testing.assert_array_equal(image[:2], 0.0)
+    np.testing.assert_allclose(image[3:5, 3:5], 0.5, rtol=1e-6)

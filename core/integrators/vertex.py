@@ -496,7 +496,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     world = ctx.extra.get("world_light")
     missed = np.flatnonzero(~hits.hit)
     if world is not None and world.lights and len(missed):
-        L_world = (world.radiance(D[missed]) if paths is None     # (a camera path's: its graph per ray)
+        L_world = (world.radiance(D[missed]) if paths is None     # (a graph world: evaluated for each ray's path)
                    else world.radiance_seen(D[missed], graph_.paths_at(paths, missed)))
         if sigma is not None:
             L_world = L_world * volumes.transmittance(sigma[missed], np.full(len(missed), np.inf))

@@ -258,7 +258,7 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
         gather = bsdf_rays and s.light_sampling != "light"
         if gather:
             L += gather_light(ctx, P, ps.wi, hits, ps.pdf, np.full(m, mis), N=unknown, seen_as=kind, stretch=stretch,
-                              receiver=nowhere)
+                              paths=scatter_paths(m, bounce), receiver=nowhere)
             # Straight on through the transparent surfaces it meets, to the light behind them.
             T = volumes.transmittance(stretch.sigma_t, np.where(hits.hit, hits.t, np.inf))
             ray = BsdfRay(np.arange(m), P, ps.wi, hits, np.ones((m, 3)), np.full(m, -1), np.zeros(m, bool),

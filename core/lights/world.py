@@ -48,8 +48,8 @@ class World:
               scene's lights take in when it lights surfaces
     volume:   the closures of its Volume output (as Material.volume): a medium everywhere (core/volumes); empty: none
     seen:     the world's node graph compiled (core/lights/world_graph.py WorldProgram, holding no world-only op),
-              which camera rays that escape (straight or through transparent surfaces) evaluate per ray with their
-              path, or None: they see `radiance` (the colour or image, which always lights the scene)
+              which every ray that escapes (the camera's, a BSDF's, a volume's phase-sampled) evaluates per ray with
+              its path, or None: they find `radiance`; light samples always read `radiance` (the bake)
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -79,16 +79,11 @@ class World:
 
     def radiance_seen(self, directions: np.ndarray, paths=None) -> np.ndarray:
         """The radiance (n, 3) float64 rays along unit `directions` (n, 3) find where they escape, with the
-        graph.LightPaths of their paths (None: camera rays): a camera ray's (its path carries CAMERA) from `seen`
-        evaluated per ray, where the world has a graph, else `radiance`."""
-        L = self.radiance(directions)
+        graph.LightPaths of their paths (None: camera rays): `seen` evaluated for each ray with its path where the
+        world has a graph (as Cycles evaluates its world for every ray that escapes), else `radiance`."""
         if self.seen is None or not len(directions):
-            return L
-        paths = graph_.light_paths(len(directions)) if paths is None else paths
-        camera = (np.asarray(paths.flags) & graph_.PATH_CAMERA) != 0
-        if camera.any():
-            L[camera] = self.seen.along(directions[camera], graph_.paths_at(paths, camera))
-        return L
+            return self.radiance(directions)
+        return self.seen.along(directions, graph_.light_paths(len(directions)) if paths is None else paths)
 
 
 def finite_world(world: World, warnings: Optional[list] = None) -> World:

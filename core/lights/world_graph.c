@@ -35,12 +35,12 @@ INLINE void world_graph_radiance(const WorldGraph *g, const double *D, const Lig
     for (int c = 0; c < 3; c++) out[c] = reg[g->color + c] * reg[g->strength];
 }
 
-/* World.radiance_seen: what a ray along the unit D that escapes finds, with its path (NULL: not a camera's). A camera
- * ray's (its path carries CAMERA) is the world's program evaluated for it, EMISSION added (WorldProgram.along:
- * negative and non-finite channels 0); any other ray's, or where the world has no program, world_radiance. */
+/* World.radiance_seen: what a ray along the unit D that escapes finds, with its path (NULL: none known, the bake): the
+ * world's program evaluated for it, EMISSION added (WorldProgram.along: negative and non-finite channels 0), where the
+ * world has one, else world_radiance. */
 INLINE void world_seen(const WorldTables *w, const double *D, const LightPath *path, double *out)
 {
-    if (w->seen == NULL || path == NULL || (path->flags & PATH_CAMERA) == 0) {
+    if (w->seen == NULL || path == NULL) {
         world_radiance(w, D, out);
         return;
     }

@@ -1,38 +1,38 @@
 """A world made of shader nodes: compiled once into a program, baked into an equirectangular image of its radiance
-for the rays that light the scene, and evaluated per ray for the rays the camera sees it by.
+for its light samples, and evaluated per ray for every ray that escapes.
 
 Cycles evaluates the world's shader for every ray that leaves the scene, at the ray's direction D (its shading point
-has P = D, N = -D: the Generated and Object coordinates are D), with the ray's path state (the Light Path node), and
-bakes it into a map only to importance-sample it. Primer does both halves of that:
+has P = D, N = -D: the Generated and Object coordinates are D), with the ray's path state (the Light Path node), for
+each light sample of it with EMISSION alone, and bakes it into a map only to importance-sample it. Primer does the same:
 
-- **Lighting** (light samples and BSDF rays weighed by MIS): the program is baked once per render into an
-  equirectangular image at the texel centres of its world lookup (core/lights/world.py: texel centres at
-  (i + 1/2) / W, linear in between), evaluated as for a ray that is not the camera's (Is Camera Ray 0), and rendered
-  as an environment: importance-sampled from the same map, on both kernels. Between texel centres the bake
-  interpolates linearly where Cycles evaluates the graph itself: a smooth sky or a blurred HDRI matches. The bake runs
-  the program with the compiled runner (graph.c, `primer_world_bake`) where the library is available and the program
-  holds no world-only op, else with the numpy reference (`graph.run`); the two agree to float rounding.
-- **Seen by the camera** (`World.seen`): a camera ray that escapes, straight or through transparent surfaces (its
-  path keeps Cycles' PATH_RAY_CAMERA), runs the program per ray with its own path (flags | EMISSION, as Cycles'
-  integrator_eval_background_shader), in both kernels (world_graph.c `world_seen`): exact, also for a pattern finer
-  than a texel and for a graph that shows the camera something else than it lights the scene with (Is Camera Ray).
+- **Light samples** (and the pdf MIS weighs against): the program is baked once per render into an equirectangular
+  image at the texel centres of its world lookup (core/lights/world.py: texel centres at (i + 1/2) / W, linear in
+  between), evaluated as a light sample at the first bounce (EMISSION alone: every "Is ... Ray" 0, Ray Depth 1), and
+  importance-sampled from the same map, on both kernels. Between texel centres the bake interpolates linearly where
+  Cycles evaluates the graph itself: a smooth sky or a blurred HDRI matches. The bake runs the program with the
+  compiled runner (graph.c, `primer_world_bake`) where the library is available and the program holds no world-only
+  op, else with the numpy reference (`graph.run`); the two agree to float rounding.
+- **Rays that escape** (`World.seen`): a camera ray (straight or through transparent surfaces, which keep Cycles'
+  PATH_RAY_CAMERA), a BSDF ray, a volume's phase-sampled ray runs the program for its direction with its own path
+  (flags | EMISSION, as Cycles' integrator_eval_background_shader), in both kernels (world_graph.c `world_seen`):
+  exact, also for a pattern finer than a texel and for a graph that shows the camera something else than it lights
+  the scene with (Is Camera Ray).
 
 A Sky Texture's sun disc, about 0.5 degrees wide and very bright, covers only some 7 texel centres 0.18 degrees apart:
 summed there its light comes out 0.8 to 1.04 times the disc's (by where the centres fall). The bake leaves it out, and
 `sky_suns` makes it a sun lamp of the world's. A world holding a Sky Texture (a world-only op, which graph.c does not
-evaluate) is baked by the reference and not evaluated per ray: the camera sees its bake.
+evaluate) is baked by the reference and not evaluated per ray: every ray finds its bake.
 """
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numpy as np
-
-import dataclasses
-import hashlib
-import os
-from concurrent.futures import ThreadPoolExecutor
 
 from ..materials import graph as graph_
 from ..materials import sky as sky_
@@ -46,11 +46,14 @@ from .world import uv_to_direction
 BAKE_WIDTH = 2048
 # Directions baked per pass of the node-graph program (bounds the registers' memory).
 BAKE_BATCH = 1 << 16
-# The Light Path outputs the lighting bake gives as Cycles does for every ray that lights the scene: Cycles evaluates
-# a world for a light sample with EMISSION alone and for an escaping bounce ray with its path's flags, never CAMERA
-# or SHADOW, and sets its Ray Length to FLT_MAX; Primer has no portals. The others (the ray's kind after a bounce, the
-# depths) depend on the path, which a bake does not have.
-EXACT_FOR_LIGHTING = frozenset({"Is Camera Ray", "Is Shadow Ray", "Ray Length", "Portal Depth"})
+# The Light Path outputs Primer gives as Cycles does wherever the world is evaluated: every ray that escapes evaluates
+# it with its own path (World.seen), and a light sample of it in Cycles sees EMISSION alone, as the bake does (every
+# "Is ... Ray" 0), and a Ray Length of FLT_MAX; Primer has no portals. The depths are exact on the rays that escape
+# and at the first bounce's light samples (the bake's: Ray Depth 1, the others 0), not at deeper bounces' light
+# samples, where Cycles gives each sample its vertex's depths.
+EXACT_FOR_LIGHTING = frozenset({"Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray", "Is Singular Ray",
+                                "Is Reflection Ray", "Is Transmission Ray", "Is Volume Scatter Ray", "Ray Length",
+                                "Portal Depth"})
 
 
 class WorldProgram(NamedTuple):
@@ -121,7 +124,7 @@ def compile_world(color, strength) -> WorldProgram:
 def radiance_along(world: WorldProgram, D: np.ndarray, program=None, paths=None) -> np.ndarray:
     """The world's radiance colour x strength (n, 3) float64 along directions D (n, 3) (`program`: the world's
     program with other float tables, else its own; paths: the rays' graph.LightPaths, None: a ray that lights the
-    scene, no flag set), by the numpy reference."""
+    scene: a light sample at the first bounce, EMISSION alone), by the numpy reference."""
     reg = graph_.run(world.program if program is None else program, world_point(D, world.layout, paths),
                      world.textures)
     c, s = world.registers
@@ -131,7 +134,7 @@ def radiance_along(world: WorldProgram, D: np.ndarray, program=None, paths=None)
 def bake(color, strength, width: int = BAKE_WIDTH, kernels: str = "compiled") -> np.ndarray:
     """The world's radiance color x strength as an equirectangular image (width / 2, width, 3) float32, row 0 at
     the bottom (v = 0), texel (i, j) at the direction of u = (j + 1/2) / width, v = (i + 1/2) / (width / 2), for a
-    ray that lights the scene (no path flag set: Is Camera Ray 0).
+    light sample at the first bounce (EMISSION alone: every Is ... Ray 0, Ray Depth 1).
 
     color, strength: the Background's inputs: a constant ((3,) or a float) or a graph.Link into the world's nodes.
     kernels: "compiled" runs the program in C where it can (WorldProgram.compiled), "numpy" by the reference.
@@ -180,7 +183,7 @@ def reference_bake(world: WorldProgram, width: int, height: int) -> np.ndarray:
     return radiance.reshape(height, width, 3)
 
 
-def compiled_bake(world: WorldProgram, width: int, height: int, flags: int = 0) -> np.ndarray:
+def compiled_bake(world: WorldProgram, width: int, height: int, flags: int = graph_.PATH_EMISSION) -> np.ndarray:
     """The bake of `world` (height, width, 3) float32 by graph.c (world_graph.c world_bake_rows), in bands of rows,
     one per thread (the library lets Python's other threads run while it works); flags: the path's PATH_* bits."""
     radiance = np.empty((height, width, 3), np.float32)
@@ -252,8 +255,8 @@ def register_number(compiler: "graph_.Compiler", register: int) -> int:
 def world_point(D: np.ndarray, layout: dict, paths=None) -> "graph_.ShadingPoint":
     """The shading point of the world seen along directions D (n, 3) float64, as Cycles sets it up
     (shader_setup_from_background): P and the Generated and Object coordinates D, the normal and the incoming
-    direction -D, the ray's length FLT_MAX; the rays' graph.LightPaths `paths` (None: no flag set, a ray that lights
-    the scene)."""
+    direction -D, the ray's length FLT_MAX; the rays' graph.LightPaths `paths` (None: a light sample at the first
+    bounce, EMISSION alone and no bounce counted, as Cycles' light_sample_shader_eval there and its importance bake)."""
     n = len(D)
     width = sum(w for _, w in layout.values())
     point = graph_.empty_point(n, width)
@@ -261,5 +264,5 @@ def world_point(D: np.ndarray, layout: dict, paths=None) -> "graph_.ShadingPoint
     for name in ("generated", "object"):
         offset, w = layout[name]
         attributes[:, offset:offset + w] = D
-    return point._replace(attributes=attributes, N=-D, Ng=-D, path=graph_.light_paths(n, flags=0) if paths is None else paths, I=-D, P=D,
+    return point._replace(attributes=attributes, N=-D, Ng=-D, path=graph_.light_paths(n, flags=graph_.PATH_EMISSION) if paths is None else paths, I=-D, P=D,
                           uv=np.zeros((n, 2)), t=np.full(n, np.finfo(np.float32).max))
