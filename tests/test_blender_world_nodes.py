@@ -162,6 +162,13 @@ camera_or_lighting(grid, (0.3, 0.3, 0.3))
 results["grey seen grid lighting"] = render("grey_seen_grid_lighting", False)
 camera_or_lighting((0.8, 0.6, 0.4), sky)
 results["sky seen colour lighting"] = render("sky_seen_colour_lighting", False)
+
+# The sky's Strength Is Diffuse Ray: no light sample sees it (Cycles' importance map is black), the floor's diffuse
+# BSDF rays do, the camera does not.
+clear()
+tree.links.new(sky(), background.inputs["Color"])
+tree.links.new(tree.nodes.new("ShaderNodeLightPath").outputs["Is Diffuse Ray"], background.inputs["Strength"])
+results["sky on diffuse rays lighting"] = render("sky_on_diffuse_rays_lighting", False)
 tree.links.new(background.outputs[0], tree.nodes["World Output"].inputs["Surface"])
 
 # A Checker of the direction with squares of 0.23 degrees (Scale 250), about a bake texel (0.18 degrees), seen through a
@@ -194,7 +201,7 @@ rgb_world = exported.scene.world
 np.save("rgb_primer.npy", render_pixels(scene, "PRIMER", os.path.abspath("out.exr"), 4)[..., :3])
 
 light_path = tree.nodes.new("ShaderNodeLightPath")
-tree.links.new(light_path.outputs["Is Glossy Ray"], background.inputs["Strength"])
+tree.links.new(light_path.outputs["Ray Depth"], background.inputs["Strength"])
 results["light path"] = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
 primer.unregister()
 report(warnings=results, rgb_color=list(map(float, rgb_world.color)), rgb_image=rgb_world.image is not None)
@@ -214,14 +221,16 @@ def noted(warnings):
 
 
 @pytest.mark.parametrize("name", ["noise_sky_seen", "noise_sky_lighting", "graded_environment_seen",
-                                  "mixed_backgrounds_seen", "grey_seen_grid_lighting", "sky_seen_colour_lighting"])
+                                  "mixed_backgrounds_seen", "grey_seen_grid_lighting", "sky_seen_colour_lighting",
+                                  "sky_on_diffuse_rays_lighting"])
 def test_a_world_node_graph_renders_as_cycles_seen_and_lighting_a_floor(rendered, name):
     """The sky's colour and strength, the graded environment, and a Mix Shader of Backgrounds with a scaled Mapping,
     as the camera sees them and as they light a Lambert floor; a Mix Shader by Is Camera Ray that shows the camera a
     grey Background and lights the floor with the grid image, and one that shows the camera the sky and lights the
-    floor with a colour (Cycles evaluates the world for each ray with its path; Primer too for camera rays, and bakes
-    it for the rest): Cycles' image within noise (64 samples each), with nothing noted about the world; the viewport
-    colour Primer used before is far off."""
+    floor with a colour; the sky shining on diffuse rays alone (Is Diffuse Ray as its Strength: the camera sees black,
+    the floor is lit by its BSDF rays). Cycles evaluates the world for each ray that escapes with its path, and for
+    its light samples with EMISSION alone; so does Primer (the bake is a light sample's): Cycles' image within noise
+    (64 samples each), with nothing noted about the world; the viewport colour Primer used before is far off."""
     import numpy as np
     result, folder = rendered
     primer, cycles = np.load(folder / f"{name}_primer.npy"), np.load(folder / f"{name}_cycles.npy")
@@ -271,7 +280,8 @@ def test_a_pattern_about_a_texel_wide_is_seen_per_ray_as_cycles_sees_it(rendered
 
 
 def test_a_world_reading_light_path_is_reported_where_primer_approximates_it(rendered):
-    """Is Camera Ray is exact (camera rays evaluate the world per ray; the rest see 0, as in Cycles), so the Mix
-    Shaders by it are not reported; Is Glossy Ray, which the bake gives as for no kind of ray, is."""
+    """Is Camera Ray and Is Diffuse Ray are exact (every ray that escapes evaluates the world with its path, the
+    light samples see EMISSION alone, as in Cycles), so the worlds reading them are not reported; Ray Depth, which the
+    light samples read from a bake made for the first bounce, is."""
     result, _ = rendered
-    assert any("Is Glossy Ray" in w for w in noted(result["warnings"]["light path"])), result["warnings"]["light path"]
+    assert any("Ray Depth" in w for w in noted(result["warnings"]["light path"])), result["warnings"]["light path"]
