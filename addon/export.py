@@ -1255,7 +1255,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             sun.camera = world.camera and not scene.render.film_transparent
             core.lights.append(sun)
             groups["lights"].append(groups["world"])
-    world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0)
+    world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0
+                                     or world.seen is not None)     # (a graph: the rays that escape evaluate it)
     emits = any(float(np.max(m.emission)) > 0.0 or m.nodes for m in core.materials)
     if not core.lights and not world_lights and not emits:
         warnings.append("the scene has no lights: only the world colour will be visible")

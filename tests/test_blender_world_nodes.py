@@ -166,6 +166,7 @@ results["sky seen colour lighting"] = render("sky_seen_colour_lighting", False)
 # The sky's Strength Is Diffuse Ray: no light sample sees it (Cycles' importance map is black), the floor's diffuse
 # BSDF rays do, the camera does not.
 clear()
+tree.links.new(background.outputs[0], tree.nodes["World Output"].inputs["Surface"])
 tree.links.new(sky(), background.inputs["Color"])
 tree.links.new(tree.nodes.new("ShaderNodeLightPath").outputs["Is Diffuse Ray"], background.inputs["Strength"])
 results["sky on diffuse rays lighting"] = render("sky_on_diffuse_rays_lighting", False)
