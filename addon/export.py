@@ -767,11 +767,11 @@ def world_surface(world, warnings: list, kernels: str = "compiled") -> World:
 
 
 def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
-    """The world's shader with linked inputs, evaluated as Cycles does: (for the rays that light the scene, its colour
-    (3,) where it does not vary with the direction, else its radiance baked into an equirectangular image (H, W, 3)
-    float32 (core/lights/world_graph.py bake, in C where `kernels` is "compiled"), or None, with a warning, for a
-    world shader Primer does not read; the sun lamps of its Sky Textures' discs (sky_suns, left out of the bake);
-    the program camera rays evaluate per ray (World.seen), or None where they see the bake: a graph that varies or
+    """The world's shader with linked inputs, evaluated as Cycles does: (for its light samples, its colour (3,) where
+    it does not vary with the direction, else its radiance baked into an equirectangular image (H, W, 3) float32
+    (core/lights/world_graph.py bake, in C where `kernels` is "compiled"), or None, with a warning, for a world shader
+    Primer does not read; the sun lamps of its Sky Textures' discs (sky_suns, left out of the bake); the program every
+    ray that escapes evaluates with its path (World.seen), or None where they find the bake: a graph that varies or
     reads the Light Path node, without a Sky Texture (which graph.c does not evaluate))."""
     reader = materials_.NodeReader(world, warnings, kind="world")
     radiance = _world_radiance(reader, node)
@@ -786,8 +786,8 @@ def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
     read = {link.output for link in graph_.links_under([(None, 1.0, {"radiance": radiance})])
             if link.node.kind == "LIGHT_PATH"}
     if read and not per_ray:
-        warnings.append("the world's node graph reads a Light Path node beside a Sky Texture; Primer evaluates it for "
-                        "the rays that light the scene (Is Camera Ray 0), and the camera sees that world too")
+        warnings.append("the world's node graph reads a Light Path node beside a Sky Texture; Primer evaluates it once "
+                        "for every ray, as a light sample sees it (every Is ... Ray 0), and the camera sees that too")
     elif read - world_graph.EXACT_FOR_LIGHTING:
         depths = ", ".join(sorted(read - world_graph.EXACT_FOR_LIGHTING))
         warnings.append(f"the world's node graph reads the Light Path node's {depths}; Primer evaluates the world "
