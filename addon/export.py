@@ -757,10 +757,10 @@ def media_of_layer(use_volumes: bool, materials: list, world: World) -> tuple:
     return [dataclasses.replace(m, volume=[]) for m in materials], dataclasses.replace(world, volume=[])
 
 
-def export_world(world, warnings: list) -> World:
+def export_world(world, warnings: list, kernels: str = "compiled") -> World:
     """Return the world as Cycles shows and uses it: its surface (world_surface) and the homogeneous medium of its
     Volume output, everywhere no mesh's medium is (core/volumes)."""
-    surface = world_surface(world, warnings)
+    surface = world_surface(world, warnings, kernels)
     if world is None or materials_.node_tree(world) is None:
         return surface
     tree = materials_.node_tree(world)
@@ -769,7 +769,7 @@ def export_world(world, warnings: list) -> World:
     return dataclasses.replace(surface, volume=volume) if volume else surface
 
 
-def world_surface(world, warnings: list) -> World:
+def world_surface(world, warnings: list, kernels: str = "compiled") -> World:
     """Return the world's surface as Cycles shows and uses it: its Background colour x strength, seen by camera
     rays (Ray Visibility > Camera) and lighting surfaces (Ray Visibility > Diffuse or Glossy).
 
@@ -786,6 +786,7 @@ def world_surface(world, warnings: list) -> World:
         warnings.append("the world's Diffuse and Glossy ray visibility differ; Primer lets it light every surface "
                         "when Diffuse is on and none when it is off")
     color = materials_.blender_float(np.array(world.color[:3], np.float64))
+    seen = None                 # (a graph world's program, which camera rays evaluate per ray)
     tree = materials_.node_tree(world)
     if tree is not None:
         output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output
@@ -812,40 +813,54 @@ def world_surface(world, warnings: list) -> World:
         elif not (camera or diffuse):
             return World(color=np.zeros(3), camera=False, lights=False)     # seen by no ray: nothing to evaluate
         else:
-            baked, suns = _baked_world(world, node, warnings)
+            baked, suns, seen = _baked_world(world, node, warnings, kernels)
             if isinstance(baked, np.ndarray) and baked.ndim == 3:
-                return World(color=np.zeros(3), image=baked, strength=1.0, camera=camera, lights=diffuse, suns=suns)
+                return World(color=np.zeros(3), image=baked, strength=1.0, camera=camera, lights=diffuse, suns=suns,
+                             seen=seen)
             color = color if baked is None else baked
     if (color < 0.0).any():
         warnings.append(NEGATIVE_WORLD.format(float(color.min())))
         color = np.maximum(color, 0.0)
-    return World(color=color, camera=camera, lights=diffuse)
+    return World(color=color, camera=camera, lights=diffuse, seen=seen)
 
 
-def _baked_world(world, node, warnings: list):
-    """The world's shader with linked inputs, evaluated as Cycles does, and the sun lamps of its Sky Textures' discs
-    (core/lights/world_graph.py sky_suns, left out of the bake): (its colour (3,) where it does not vary with the
-    direction, else its radiance baked into an equirectangular image (H, W, 3) float32, or None, with a warning, for a
-    world shader Primer does not read; [SunLight])."""
+def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
+    """The world's shader with linked inputs, evaluated as Cycles does: (for its light samples, its colour (3,) where
+    it does not vary with the direction, else its radiance baked into an equirectangular image (H, W, 3) float32
+    (core/lights/world_graph.py bake, in C where `kernels` is "compiled"), or None, with a warning, for a world shader
+    Primer does not read; the sun lamps of its Sky Textures' discs (sky_suns, left out of the bake); the program every
+    ray that escapes evaluates with its path (World.seen), or None where they find the bake: a graph that varies or
+    reads the Light Path node, without a Sky Texture (which graph.c does not evaluate))."""
     reader = materials_.NodeReader(world, warnings, kind="world")
     radiance = _world_radiance(reader, node)
     if radiance is None:
-        return None, []
+        return None, [], None
     if not isinstance(radiance, graph_.Link):
-        return radiance, []
+        return radiance, [], None
     suns, notes = world_graph.sky_suns(radiance, 1.0)
     warnings.extend(notes)
-    if any(link.node.kind == "LIGHT_PATH" for link in graph_.links_under([(None, 1.0, {"radiance": radiance})])):
-        warnings.append("the world's node graph reads a Light Path node; Primer evaluates it for the rays that light "
-                        "the scene (Is Camera Ray 0), and the camera sees that world too")
-    baked = world_graph.bake(radiance, 1.0)
+    program = world_graph.compile_world(radiance, 1.0)
+    per_ray = not graph_.world_ops_of(program.program)
+    read = {link.output for link in graph_.links_under([(None, 1.0, {"radiance": radiance})])
+            if link.node.kind == "LIGHT_PATH"}
+    if read and not per_ray:
+        warnings.append("the world's node graph reads a Light Path node beside a Sky Texture; Primer evaluates it once "
+                        "for every ray, as a light sample sees it (every Is ... Ray 0), and the camera sees that too")
+    elif read - world_graph.EXACT_FOR_LIGHTING:
+        depths = ", ".join(sorted(read - world_graph.EXACT_FOR_LIGHTING))
+        warnings.append(f"the world's node graph reads the Light Path node's {depths}; Primer evaluates the world "
+                        "for each ray that escapes with its path, but its light samples read a bake made for the first "
+                        "bounce (Ray Depth 1, the other depths 0), where Cycles gives each its vertex's depths")
+    baked = world_graph.bake(radiance, 1.0, kernels=kernels)
     flat = baked.reshape(-1, 3)
-    if np.isfinite(flat).all() and (flat == flat[0]).all() and not suns:
-        return flat[0].astype(np.float64), []       # the same everywhere: a constant world, not sampled as a light
+    constant = bool(np.isfinite(flat).all() and (flat == flat[0]).all() and not suns)
+    seen = program if per_ray and (read or not constant) else None
+    if constant:
+        return flat[0].astype(np.float64), [], seen   # the same everywhere: a constant world, not sampled as a light
     if (flat < 0.0).any():
         warnings.append(NEGATIVE_WORLD.format(float(np.nanmin(flat))))
         baked = np.maximum(baked, np.float32(0.0))
-    return baked, suns
+    return baked, suns, seen
 
 
 def _world_radiance(reader, node):
@@ -879,6 +894,13 @@ def _world_radiance(reader, node):
     reader.warnings.append(f"the world shader is a '{node.bl_label}' node, not a Background or a mix of them; Primer "
                            "uses the world's viewport colour")
     return None
+
+
+def _kernels(scene) -> str:
+    """The kernels `scene` renders with, "compiled" or "numpy" (Render > Kernels): its world's bake runs on them."""
+    if getattr(scene, "primer", None) is None:
+        return "compiled"
+    return str(cycles_settings.effective(scene).kernels).lower()
 
 
 def world_light_settings(world, core: World) -> World:
@@ -1171,7 +1193,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
     warnings += unmodelled.view_layer_notes(depsgraph.view_layer) + unmodelled.world_notes(scene.world)
     holdouts = unmodelled.holdout_objects(depsgraph.view_layer)
-    world = world_light_settings(scene.world, export_world(scene.world, warnings))
+    world = world_light_settings(scene.world, export_world(scene.world, warnings, _kernels(scene)))
     core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world,
                             default_material=DEFAULT_SURFACE)
     materials = MaterialTable()
@@ -1282,7 +1304,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             sun.camera = world.camera and not scene.render.film_transparent
             core.lights.append(sun)
             groups["lights"].append(groups["world"])
-    world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0)
+    world_lights = world.lights and (world.image is not None or float(np.max(world.color)) > 0.0
+                                     or world.seen is not None)     # (a graph: the rays that escape evaluate it)
     emits = any(float(np.max(m.emission)) > 0.0 or m.nodes for m in core.materials)
     if not core.lights and not world_lights and not emits:
         warnings.append("the scene has no lights: only the world colour will be visible")

@@ -135,6 +135,61 @@ tree.links.new(mix.outputs[0], tree.nodes["World Output"].inputs["Surface"])
 results["mixed backgrounds seen"] = render("mixed_backgrounds_seen", True)
 tree.links.new(background.outputs[0], tree.nodes["World Output"].inputs["Surface"])
 
+
+def camera_or_lighting(lighting, seen):
+    # A Mix Shader whose Fac is Is Camera Ray: the camera sees the Background of colour `seen`, the floor is lit by
+    # the one of `lighting` (each a colour, or a function making the nodes and returning their output socket).
+    clear()
+    mix, shown = tree.nodes.new("ShaderNodeMixShader"), tree.nodes.new("ShaderNodeBackground")
+    tree.links.new(tree.nodes.new("ShaderNodeLightPath").outputs["Is Camera Ray"], mix.inputs["Fac"])
+    for target, value in ((background, lighting), (shown, seen)):
+        if isinstance(value, tuple):
+            target.inputs["Color"].default_value = value + (1.0,)
+        else:
+            tree.links.new(value(), target.inputs["Color"])
+    tree.links.new(background.outputs[0], mix.inputs[1])
+    tree.links.new(shown.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], tree.nodes["World Output"].inputs["Surface"])
+
+
+def grid():
+    environment = tree.nodes.new("ShaderNodeTexEnvironment")
+    environment.image = image
+    return environment.outputs["Color"]
+
+
+camera_or_lighting(grid, (0.3, 0.3, 0.3))
+results["grey seen grid lighting"] = render("grey_seen_grid_lighting", False)
+camera_or_lighting((0.8, 0.6, 0.4), sky)
+results["sky seen colour lighting"] = render("sky_seen_colour_lighting", False)
+
+# The sky's Strength Is Diffuse Ray: no light sample sees it (Cycles' importance map is black), the floor's diffuse
+# BSDF rays do, the camera does not.
+clear()
+tree.links.new(background.outputs[0], tree.nodes["World Output"].inputs["Surface"])
+tree.links.new(sky(), background.inputs["Color"])
+tree.links.new(tree.nodes.new("ShaderNodeLightPath").outputs["Is Diffuse Ray"], background.inputs["Strength"])
+results["sky on diffuse rays lighting"] = render("sky_on_diffuse_rays_lighting", False)
+tree.links.new(background.outputs[0], tree.nodes["World Output"].inputs["Surface"])
+
+# A Checker of the direction with squares of 0.23 degrees (Scale 250), about a bake texel (0.18 degrees), seen through a
+# 5-degree lens at 64 x 64 (0.08 degrees a pixel): a pixel inside a square is that square's colour exactly.
+clear()
+checker = tree.nodes.new("ShaderNodeTexChecker")
+checker.inputs["Scale"].default_value = 250.0
+checker.inputs["Color1"].default_value = (0.9, 0.2, 0.1, 1.0)
+checker.inputs["Color2"].default_value = (0.1, 0.3, 0.8, 1.0)
+tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["Generated"], checker.inputs["Vector"])
+tree.links.new(checker.outputs["Color"], background.inputs["Color"])
+floor.visible_camera = False
+camera.data.type, camera.data.lens, camera.data.sensor_width, camera.data.sensor_fit = "PERSP", 412.0, 36.0, "HORIZONTAL"
+camera.location, camera.rotation_euler = (0.0, 0.0, 0.0), (np.radians(60.0), 0.0, np.radians(30.0))
+scene.render.resolution_x, scene.render.resolution_y = 64, 64
+results["fine checker seen"] = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+for engine in ("PRIMER", "CYCLES"):
+    np.save(f"fine_checker_seen_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 16)[..., :3])
+floor.visible_camera = True
+
 clear()
 rgb = tree.nodes.new("ShaderNodeRGB")
 rgb.outputs[0].default_value = (0.2, 0.6, 0.9, 1.0)
@@ -147,7 +202,7 @@ rgb_world = exported.scene.world
 np.save("rgb_primer.npy", render_pixels(scene, "PRIMER", os.path.abspath("out.exr"), 4)[..., :3])
 
 light_path = tree.nodes.new("ShaderNodeLightPath")
-tree.links.new(light_path.outputs["Is Camera Ray"], background.inputs["Strength"])
+tree.links.new(light_path.outputs["Ray Depth"], background.inputs["Strength"])
 results["light path"] = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
 primer.unregister()
 report(warnings=results, rgb_color=list(map(float, rgb_world.color)), rgb_image=rgb_world.image is not None)
@@ -167,11 +222,16 @@ def noted(warnings):
 
 
 @pytest.mark.parametrize("name", ["noise_sky_seen", "noise_sky_lighting", "graded_environment_seen",
-                                  "mixed_backgrounds_seen"])
+                                  "mixed_backgrounds_seen", "grey_seen_grid_lighting", "sky_seen_colour_lighting",
+                                  "sky_on_diffuse_rays_lighting"])
 def test_a_world_node_graph_renders_as_cycles_seen_and_lighting_a_floor(rendered, name):
     """The sky's colour and strength, the graded environment, and a Mix Shader of Backgrounds with a scaled Mapping,
-    as the camera sees them and as they light a Lambert floor: Cycles' image within noise (64 samples each), with
-    nothing noted about the world; the viewport colour Primer used before is far off."""
+    as the camera sees them and as they light a Lambert floor; a Mix Shader by Is Camera Ray that shows the camera a
+    grey Background and lights the floor with the grid image, and one that shows the camera the sky and lights the
+    floor with a colour; the sky shining on diffuse rays alone (Is Diffuse Ray as its Strength: the camera sees black,
+    the floor is lit by its BSDF rays). Cycles evaluates the world for each ray that escapes with its path, and for
+    its light samples with EMISSION alone; so does Primer (the bake is a light sample's): Cycles' image within noise
+    (64 samples each), with nothing noted about the world; the viewport colour Primer used before is far off."""
     import numpy as np
     result, folder = rendered
     primer, cycles = np.load(folder / f"{name}_primer.npy"), np.load(folder / f"{name}_cycles.npy")
@@ -197,7 +257,32 @@ def test_an_rgb_node_into_the_background_is_a_constant_world_of_colour_times_str
     assert np.allclose(floor, [0.2, 0.6, 0.9], rtol=2e-3), floor.reshape(-1, 3)[:3]
 
 
-def test_a_world_reading_light_path_is_reported(rendered):
-    """A Light Path node in the world is evaluated for lighting rays; the camera seeing it differently is said."""
+def test_a_pattern_about_a_texel_wide_is_seen_per_ray_as_cycles_sees_it(rendered):
+    """A Checker of the direction with squares of 0.23 degrees, about a bake texel, seen at 0.08 degrees a pixel: of
+    the pixels Cycles shows as one square's colour (all its samples in that square), Primer shows nearly all as one
+    square's colour too (it evaluates the world for each camera ray; the bake, interpolated between texel centres 0.18
+    degrees apart, would blend them), the same square's to float rounding; the rest within noise (16 samples; the
+    samples of an edge pixel fall otherwise)."""
+    import numpy as np
+    result, folder = rendered
+    primer, cycles = np.load(folder / "fine_checker_seen_primer.npy"), np.load(folder / "fine_checker_seen_cycles.npy")
+    colours = np.array([[0.9, 0.2, 0.1], [0.1, 0.3, 0.8]], np.float32)
+    square = {name: np.abs(image[:, :, None, :] - colours).max(axis=-1) < 1e-6 for name, image in
+              (("primer", primer), ("cycles", cycles))}
+    pure = {name: which.any(axis=-1) for name, which in square.items()}
+    both = pure["primer"] & pure["cycles"]
+    print("pure pixels: Cycles", pure["cycles"].mean(), "Primer", pure["primer"].mean(), "both", both.mean(),
+          "block relMSE", relative_mse_of_blocks(primer, cycles))
+    assert pure["cycles"].mean() > 0.3 and both.sum() > 0.9 * pure["cycles"].sum()
+    assert (square["primer"][both] == square["cycles"][both]).all()
+    np.testing.assert_allclose(primer[both], cycles[both], atol=1e-6)
+    assert relative_mse_of_blocks(primer, cycles) < 4e-3
+    assert noted(result["warnings"]["fine checker seen"]) == []
+
+
+def test_a_world_reading_light_path_is_reported_where_primer_approximates_it(rendered):
+    """Is Camera Ray and Is Diffuse Ray are exact (every ray that escapes evaluates the world with its path, the
+    light samples see EMISSION alone, as in Cycles), so the worlds reading them are not reported; Ray Depth, which the
+    light samples read from a bake made for the first bounce, is."""
     result, _ = rendered
-    assert any("Light Path" in w for w in noted(result["warnings"]["light path"])), result["warnings"]["light path"]
+    assert any("Ray Depth" in w for w in noted(result["warnings"]["light path"])), result["warnings"]["light path"]

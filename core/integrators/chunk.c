@@ -219,7 +219,8 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
     out[0] = out[1] = out[2] = 0.0;
     const WorldTables *world = params->light_context->world;
     if (!hit && world->camera != 0.0 && params->transparent == 0.0) {
-        world_radiance(world, D, out);
+        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0};
+        world_seen(world, D, &camera, out);                 /* (a world's graph, per ray) */
         if (sigma != NULL) {
             double kept[3];
             beer_lambert(sigma, INFINITY, kept);
@@ -347,8 +348,9 @@ static void render_chunk(const ChunkArgs *a)
             for (int64_t i = 0; i < 2 * params->passes->matte_count * params->passes->slots; i++)
                 out->mattes[2 * params->passes->matte_count * params->passes->slots * k + i] = 0.0;
     }
-    /* Whether camera rays can see more than the hit and a constant background: lamps, an image world. */
-    int sees_more = params->light_context->world->image != NULL && params->light_context->world->camera != 0.0;
+    /* Whether camera rays can see more than the hit and a constant background: lamps, an image or graph world. */
+    int sees_more = (params->light_context->world->image != NULL || params->light_context->world->seen != NULL)
+                    && params->light_context->world->camera != 0.0;
     for (int64_t l = 0; l < (int64_t)params->light_count; l++) {
         const LightRecord *light = params->lights + l;
         sees_more |= light->hittable != 0.0 && light->camera != 0.0

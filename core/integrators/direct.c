@@ -983,7 +983,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     /* c. The world, where the ray escapes: a constant world with weight 1, an image by MIS. */
     if (!hit && ctx->world->lights != 0.0) {
         double L_world[3];
-        world_radiance(ctx->world, D, L_world);
+        world_seen(ctx->world, D, ray->path, L_world);     /* (a camera path's: the world's graph per ray) */
         if (sigma != NULL) {                            /* (an escaping ray through a medium keeps exp(-sigma inf)) */
             double kept[3];
             beer_lambert(sigma, INFINITY, kept);

@@ -195,7 +195,8 @@ INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t l
     if (hit) return;
     if (pt->offset[PASS_ENVIRONMENT] >= 0 && pt->world_camera != 0.0) {
         double L[3];
-        world_radiance(ds->context->world, D, L);
+        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0};
+        world_seen(ds->context->world, D, &camera, L);     /* (a camera chain's ray: a world's graph per ray) */
         pass_add(lp, lane, PASS_ENVIRONMENT, L, throughput);
     }
     if (!lp->done[lane] && sample == 0) {

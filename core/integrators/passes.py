@@ -309,7 +309,7 @@ def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O:
     missed = np.flatnonzero(~hit)
     world = ctx.extra.get("world_light")
     if dp.layout.has("environment") and world is not None and world.camera and len(missed):
-        dp.add("environment", owner[missed], throughput[missed] * world.radiance(D[missed]))
+        dp.add("environment", owner[missed], throughput[missed] * world.radiance_seen(D[missed]))
     gone = owner[missed][~dp.done[owner[missed]] & dp.first[owner[missed]]]
     for name in ("position", "object_index", "material_index", "z_depth"):
         dp.set(name, gone, 0.0)

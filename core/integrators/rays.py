@@ -40,7 +40,7 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
     world = ctx.extra.get("world_light")
     if world is not None and world.camera and not s.transparent_background:
         missed = np.flatnonzero(~found.hit)
-        L_out[missed] = world.radiance(D[missed])
+        L_out[missed] = world.radiance_seen(D[missed])          # (camera rays: a world's graph per ray)
         if sigma is not None:
             L_out[missed] *= sigma.rows(missed).transmittance(np.full(len(missed), np.inf))
         if groups is not None:

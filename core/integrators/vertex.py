@@ -525,7 +525,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     world = ctx.extra.get("world_light")
     missed = np.flatnonzero(~hits.hit)
     if world is not None and world.lights and len(missed):
-        L_world = world.radiance(D[missed])
+        L_world = (world.radiance(D[missed]) if paths is None     # (a graph world: evaluated for each ray's path)
+                   else world.radiance_seen(D[missed], graph_.paths_at(paths, missed)))
         if sigma is not None:
             L_world = L_world * sigma.rows(missed).transmittance(np.full(len(missed), np.inf))
         w = np.ones(len(missed))

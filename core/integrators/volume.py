@@ -322,7 +322,7 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
             phase_out.update(wi=ps.wi, pdf=ps.pdf, hits=hits)
         if gather:
             L += gather_light(ctx, P, ps.wi, hits, ps.pdf, np.full(m, mis), N=unknown, seen_as=kind, stretch=stretch,
-                              receiver=nowhere)
+                              paths=scatter_paths(m, bounce), receiver=nowhere)
         if gather and phase_out is None:
             # Straight on through the transparent surfaces it meets, to the light behind them.
             T = stretch.transmittance(np.where(hits.hit, hits.t, np.inf))

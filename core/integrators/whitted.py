@@ -90,7 +90,11 @@ class WhittedTracing(Integrator):
             missed = np.flatnonzero(~found.hit)
             seen = lightgroups.tally(ctx, len(owner))     # what these rays see, by source
             if world is not None and world.camera and not (depth == 0 and s.transparent_background):
-                L_world = world.radiance(D[missed])
+                P = graph_.PATH                     # (each ray's path: the world's graph is evaluated for it)
+                flags = (P["camera"] if depth == 0 else
+                         np.where(crossing[missed], P["transmit"], P["reflect"]) | P["glossy"] | P["singular"])
+                L_world = world.radiance_seen(D[missed], graph_.light_paths(len(missed), flags, depth, 0,
+                                                                            glossy[missed], transmission[missed]))
                 np.add.at(L_out, owner[missed], throughput[missed] * L_world)
                 if seen is not None:
                     seen.add(missed, L_world, seen.groups.world)

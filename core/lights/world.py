@@ -21,6 +21,7 @@ from typing import ClassVar, Optional
 
 import numpy as np
 
+from ..materials import graph as graph_
 from ..native import library, schema
 from ..native.schema import F32, F64, I32, I64, ptr
 from .base import Light, LightFlags, LightHit, LightSample
@@ -46,6 +47,9 @@ class World:
     suns:     the sun lamps it brings (a Sky Texture's sun disc, core/lights/world_graph.py sky_suns), which the
               scene's lights take in when it lights surfaces
     volume:   the closures of its Volume output (as Material.volume): a medium everywhere (core/volumes); empty: none
+    seen:     the world's node graph compiled (core/lights/world_graph.py WorldProgram, holding no world-only op),
+              which every ray that escapes (the camera's, a BSDF's, a volume's phase-sampled) evaluates per ray with
+              its path, or None: they find `radiance`; light samples always read `radiance` (the bake)
     """
 
     color: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -59,6 +63,7 @@ class World:
     cast_shadow: bool = True
     suns: list = field(default_factory=list)
     volume: list = field(default_factory=list)
+    seen: Optional[object] = None
 
     @property
     def varying(self) -> bool:
@@ -71,6 +76,14 @@ class World:
             return np.broadcast_to(np.asarray(self.color, np.float64)[:3], (len(directions), 3)).copy()
         u, v = direction_to_uv(directions @ np.asarray(self.rotation, np.float64).T)
         return bilinear_equirect(self.image, u, v) * self.strength
+
+    def radiance_seen(self, directions: np.ndarray, paths=None) -> np.ndarray:
+        """The radiance (n, 3) float64 rays along unit `directions` (n, 3) find where they escape, with the
+        graph.LightPaths of their paths (None: camera rays): `seen` evaluated for each ray with its path where the
+        world has a graph (as Cycles evaluates its world for every ray that escapes), else `radiance`."""
+        if self.seen is None or not len(directions):
+            return self.radiance(directions)
+        return self.seen.along(directions, graph_.light_paths(len(directions)) if paths is None else paths)
 
 
 def finite_world(world: World, warnings: Optional[list] = None) -> World:
@@ -273,6 +286,7 @@ WorldTablesRecord = schema.record("WorldTables", "The world (core/lights/world.p
     ("rotation", F64, 9, "world to texture, row-major"),
     ("camera", I32, "1: camera rays see it"),
     ("lights", I32, "1: it lights surfaces"),
+    ("seen", ptr("WorldGraph"), "the program camera rays evaluate where they escape (World.seen), or NULL"),
 ])
 
 
@@ -285,6 +299,8 @@ class WorldTables:
         record = WorldTablesRecord(color=np.asarray(world.color, np.float64)[:3], strength=float(world.strength),
                                    rotation=np.asarray(world.rotation, np.float64).ravel(), camera=world.camera,
                                    lights=world.lights)
+        if world.seen is not None:
+            record.seen = world.seen.record()
         if world.image is not None:
             image = c(world.image[..., :3], np.float32)
             record.image, record.height, record.width = image, image.shape[0], image.shape[1]

@@ -1,23 +1,35 @@
-"""A world made of shader nodes, baked into an equirectangular image of its radiance.
+"""A world made of shader nodes: compiled once into a program, baked into an equirectangular image of its radiance
+for its light samples, and evaluated per ray for every ray that escapes.
 
 Cycles evaluates the world's shader for every ray that leaves the scene, at the ray's direction D (its shading point
-has P = D, N = -D: the Generated and Object coordinates are D), and bakes it into a map only to importance-sample
-it. Primer bakes it once per render into an equirectangular image at the texel centres of its world lookup
-(core/lights/world.py: texel centres at (i + 1/2) / W, linear in between) and then renders that image as an
-environment: the same light, importance-sampled from the same map, on both kernels. Between texel centres the bake
-interpolates linearly where Cycles evaluates the graph itself: a smooth sky or a blurred HDRI matches, a pattern
-finer than a texel seen straight by the camera is softened (docs/blender.md gives the measured error).
+has P = D, N = -D: the Generated and Object coordinates are D), with the ray's path state (the Light Path node), for
+each light sample of it with EMISSION alone, and bakes it into a map only to importance-sample it. Primer does the same:
+
+- **Light samples** (and the pdf MIS weighs against): the program is baked once per render into an equirectangular
+  image at the texel centres of its world lookup (core/lights/world.py: texel centres at (i + 1/2) / W, linear in
+  between), evaluated as a light sample at the first bounce (EMISSION alone: every "Is ... Ray" 0, Ray Depth 1), and
+  importance-sampled from the same map, on both kernels. Between texel centres the bake interpolates linearly where
+  Cycles evaluates the graph itself: a smooth sky or a blurred HDRI matches. The bake runs the program with the
+  compiled runner (graph.c, `primer_world_bake`) where the library is available and the program holds no world-only
+  op, else with the numpy reference (`graph.run`); the two agree to float rounding.
+- **Rays that escape** (`World.seen`): a camera ray (straight or through transparent surfaces, which keep Cycles'
+  PATH_RAY_CAMERA), a BSDF ray, a volume's phase-sampled ray runs the program for its direction with its own path
+  (flags | EMISSION, as Cycles' integrator_eval_background_shader), in both kernels (world_graph.c `world_seen`):
+  exact, also for a pattern finer than a texel and for a graph that shows the camera something else than it lights
+  the scene with (Is Camera Ray).
 
 A Sky Texture's sun disc, about 0.5 degrees wide and very bright, covers only some 7 texel centres 0.18 degrees apart:
 summed there its light comes out 0.8 to 1.04 times the disc's (by where the centres fall). The bake leaves it out, and
-`sky_suns` makes it a sun lamp of the world's.
-
-Only the rays that light the scene are baked: a Light Path node is evaluated as for a bounce ray (Is Camera Ray 0),
-so a world that shows the camera something else is reported by the add-on.
+`sky_suns` makes it a sun lamp of the world's. A world holding a Sky Texture (a world-only op, which graph.c does not
+evaluate) is baked by the reference and not evaluated per ray: every ray finds its bake.
 """
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from typing import NamedTuple
 
 import numpy as np
@@ -25,6 +37,8 @@ import numpy as np
 from ..materials import graph as graph_
 from ..materials import sky as sky_
 from ..materials import textures as textures_
+from ..native import library, schema
+from ..native.schema import F32, I32, I64, out, ptr
 from .sun import SunLight
 from .world import uv_to_direction
 
@@ -32,6 +46,14 @@ from .world import uv_to_direction
 BAKE_WIDTH = 2048
 # Directions baked per pass of the node-graph program (bounds the registers' memory).
 BAKE_BATCH = 1 << 16
+# The Light Path outputs Primer gives as Cycles does wherever the world is evaluated: every ray that escapes evaluates
+# it with its own path (World.seen), and a light sample of it in Cycles sees EMISSION alone, as the bake does (every
+# "Is ... Ray" 0), and a Ray Length of FLT_MAX; Primer has no portals. The depths are exact on the rays that escape
+# and at the first bounce's light samples (the bake's: Ray Depth 1, the others 0), not at deeper bounces' light
+# samples, where Cycles gives each sample its vertex's depths.
+EXACT_FOR_LIGHTING = frozenset({"Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray", "Is Singular Ray",
+                                "Is Reflection Ray", "Is Transmission Ray", "Is Volume Scatter Ray", "Ray Length",
+                                "Portal Depth"})
 
 
 class WorldProgram(NamedTuple):
@@ -44,6 +66,44 @@ class WorldProgram(NamedTuple):
     textures: "textures_.TextureSet"
     layout: dict
     sky_starts: dict
+
+    @property
+    def compiled(self) -> bool:
+        """Whether graph.c can run the program (it holds no world-only op) and the library is there."""
+        return not graph_.world_ops_of(self.program) and library.available()
+
+    def along(self, D: np.ndarray, paths: "graph_.LightPaths") -> np.ndarray:
+        """The radiance (n, 3) float64 rays D (n, 3) that escape find, each evaluated with the path that sent it
+        (its graph.LightPaths; EMISSION added, as Cycles evaluates a background), negative and non-finite channels
+        0 (Cycles shows a negative world black, and its film drops what is not finite)."""
+        L = radiance_along(self, D, paths=paths._replace(flags=paths.flags | graph_.PATH_EMISSION))
+        return np.where(np.isfinite(L), np.maximum(L, 0.0), 0.0)
+
+    def record(self) -> "WorldGraphRecord":
+        """The program as C reads it (WorldGraph), keeping its arrays alive."""
+        return WorldGraphRecord(graph=graph_.program_tables([self.program], self.textures), color=self.registers[0],
+                                strength=self.registers[1], generated=self.layout["generated"][0],
+                                object=self.layout["object"][0], width=sum(w for _, w in self.layout.values()))
+
+
+WorldGraphRecord = schema.record("WorldGraph", "A world's Background compiled into one program (core/lights/world_graph.py WorldProgram).", [
+    ("graph", ptr("GraphTables"), "its one program and the images it reads"),
+    ("color", I32, "the register of the colour (3)"),
+    ("strength", I32, "the register of the strength"),
+    ("generated", I32, "where the Generated coordinates start among a point's attributes"),
+    ("object", I32, "where the Object coordinates start"),
+    ("width", I32, "attribute floats per point"),
+])
+
+WorldBakeArgs = schema.function("primer_world_bake", "world_bake_rows", schema.record("WorldBakeArgs", "primer_world_bake's arguments: rows row_start .. row_end - 1 of the world's bake (world_graph.bake).", [
+    ("world", ptr("WorldGraph"), "the program"),
+    ("width", I64, "the image's W"),
+    ("height", I64, "its H"),
+    ("row_start", I64, "the first row baked"),
+    ("row_end", I64, "past the last"),
+    ("flags", I32, "the path's PATH_* bits the program sees"),
+    ("radiance", out(F32), "(H, W, 3) colour x strength at the texel centres, rows row_start .. row_end - 1 written"),
+]))
 
 
 def compile_world(color, strength) -> WorldProgram:
@@ -61,30 +121,85 @@ def compile_world(color, strength) -> WorldProgram:
     return WorldProgram(program, registers, textures, layout, dict(compiler.sky_starts))
 
 
-def radiance_along(world: WorldProgram, D: np.ndarray, program=None) -> np.ndarray:
+def radiance_along(world: WorldProgram, D: np.ndarray, program=None, paths=None) -> np.ndarray:
     """The world's radiance colour x strength (n, 3) float64 along directions D (n, 3) (`program`: the world's
-    program with other float tables, else its own)."""
-    reg = graph_.run(world.program if program is None else program, world_point(D, world.layout), world.textures)
+    program with other float tables, else its own; paths: the rays' graph.LightPaths, None: a ray that lights the
+    scene: a light sample at the first bounce, EMISSION alone), by the numpy reference."""
+    reg = graph_.run(world.program if program is None else program, world_point(D, world.layout, paths),
+                     world.textures)
     c, s = world.registers
     return reg[:, c:c + 3] * reg[:, s:s + 1]
 
 
-def bake(color, strength, width: int = BAKE_WIDTH) -> np.ndarray:
+def bake(color, strength, width: int = BAKE_WIDTH, kernels: str = "compiled") -> np.ndarray:
     """The world's radiance color x strength as an equirectangular image (width / 2, width, 3) float32, row 0 at
-    the bottom (v = 0), texel (i, j) at the direction of u = (j + 1/2) / width, v = (i + 1/2) / (width / 2).
+    the bottom (v = 0), texel (i, j) at the direction of u = (j + 1/2) / width, v = (i + 1/2) / (width / 2), for a
+    light sample at the first bounce (EMISSION alone: every Is ... Ray 0, Ray Depth 1).
 
     color, strength: the Background's inputs: a constant ((3,) or a float) or a graph.Link into the world's nodes.
+    kernels: "compiled" runs the program in C where it can (WorldProgram.compiled), "numpy" by the reference.
     """
     # 1. Compile both inputs into one program over the attributes a world's shading point has.
     world = compile_world(color, strength)
-    # 2. Run it at the texel centres' directions, a batch at a time.
     height = max(1, width // 2)
+    # 2. The same program baked the same way a moment ago (the add-on exports the scene again for each render and
+    #    each viewport update): that image.
+    compiled = kernels == "compiled" and world.compiled
+    key = (fingerprint(world), width, compiled)
+    if key in _BAKED:
+        return _BAKED[key].copy()
+    # 3. Run it at the texel centres' directions: in C in bands of rows on threads, or a batch at a time in numpy.
+    radiance = compiled_bake(world, width, height) if compiled else reference_bake(world, width, height)
+    _BAKED.clear()                                   # (one image kept: a large one costs 24 MB)
+    _BAKED[key] = radiance
+    return radiance.copy()
+
+
+# The last bake, by (fingerprint, width, compiled).
+_BAKED: dict = {}
+
+
+def fingerprint(world: WorldProgram) -> bytes:
+    """A digest of everything the bake of `world` reads: its program's ops, constants and tables, its registers and
+    attribute layout, and its images' texels and formats."""
+    digest = hashlib.blake2b(digest_size=20)
+    program = world.program
+    for array in (program.ops, program.constants, program.outputs, program.ramps,
+                  *(np.asarray(getattr(world.textures, f.name)) for f in dataclasses.fields(world.textures))):
+        array = np.ascontiguousarray(array)
+        digest.update(str((array.dtype.str, array.shape)).encode())
+        digest.update(array.view(np.uint8).reshape(-1))
+    digest.update(repr((program.registers, world.registers, sorted(world.layout.items()))).encode())
+    return digest.digest()
+
+
+def reference_bake(world: WorldProgram, width: int, height: int) -> np.ndarray:
+    """The bake of `world` (height, width, 3) float32 by the numpy reference (graph.run), a batch at a time."""
     u, v = np.meshgrid((np.arange(width) + 0.5) / width, (np.arange(height) + 0.5) / height)
     directions = uv_to_direction(u.ravel(), v.ravel())
     radiance = np.empty((len(directions), 3), np.float32)
     for start in range(0, len(directions), BAKE_BATCH):
         radiance[start:start + BAKE_BATCH] = radiance_along(world, directions[start:start + BAKE_BATCH])
     return radiance.reshape(height, width, 3)
+
+
+def compiled_bake(world: WorldProgram, width: int, height: int, flags: int = graph_.PATH_EMISSION) -> np.ndarray:
+    """The bake of `world` (height, width, 3) float32 by graph.c (world_graph.c world_bake_rows), in bands of rows,
+    one per thread (the library lets Python's other threads run while it works); flags: the path's PATH_* bits."""
+    radiance = np.empty((height, width, 3), np.float32)
+    record = world.record()
+    threads = max(1, min(os.cpu_count() or 1, height))
+    bounds = np.linspace(0, height, threads + 1).astype(np.int64)
+
+    def band(k: int) -> None:
+        """Rows bounds[k] .. bounds[k + 1] - 1."""
+        library.call("primer_world_bake", WorldBakeArgs(world=record, width=width, height=height,
+                                                        row_start=int(bounds[k]), row_end=int(bounds[k + 1]),
+                                                        flags=flags, radiance=radiance))
+
+    with ThreadPoolExecutor(threads) as pool:
+        list(pool.map(band, range(threads)))
+    return radiance
 
 
 def sky_suns(color, strength) -> tuple:
@@ -137,10 +252,11 @@ def register_number(compiler: "graph_.Compiler", register: int) -> int:
     return len(compiler.constants) - 1 - register if register < 0 else register
 
 
-def world_point(D: np.ndarray, layout: dict) -> "graph_.ShadingPoint":
+def world_point(D: np.ndarray, layout: dict, paths=None) -> "graph_.ShadingPoint":
     """The shading point of the world seen along directions D (n, 3) float64, as Cycles sets it up
     (shader_setup_from_background): P and the Generated and Object coordinates D, the normal and the incoming
-    direction -D, the ray's length FLT_MAX; a bounce ray (Light Path: not a camera ray)."""
+    direction -D, the ray's length FLT_MAX; the rays' graph.LightPaths `paths` (None: a light sample at the first
+    bounce, EMISSION alone and no bounce counted, as Cycles' light_sample_shader_eval there and its importance bake)."""
     n = len(D)
     width = sum(w for _, w in layout.values())
     point = graph_.empty_point(n, width)
@@ -148,5 +264,5 @@ def world_point(D: np.ndarray, layout: dict) -> "graph_.ShadingPoint":
     for name in ("generated", "object"):
         offset, w = layout[name]
         attributes[:, offset:offset + w] = D
-    return point._replace(attributes=attributes, N=-D, Ng=-D, path=graph_.light_paths(n, flags=0), I=-D, P=D,
+    return point._replace(attributes=attributes, N=-D, Ng=-D, path=graph_.light_paths(n, flags=graph_.PATH_EMISSION) if paths is None else paths, I=-D, P=D,
                           uv=np.zeros((n, 2)), t=np.full(n, np.finfo(np.float32).max))

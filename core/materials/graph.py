@@ -1407,32 +1407,42 @@ class GraphTables:
     program index."""
 
     def __init__(self, table, layout: dict):
-        from .textures import texture_tables
         programs, self.rows = [], {}
         for row in range(len(table.shaders)):
             program = table.program(row, layout)
-            world_ops = {OPS[int(code)] for code in program.ops[:, 0]} & set(WORLD_OPS) if program is not None else ()
+            world_ops = world_ops_of(program) if program is not None else ()
             if world_ops:
                 raise ValueError(f"a surface material's program holds the world-only op(s) {sorted(world_ops)}, "
                                  "which the compiled kernel does not evaluate")
             if program is not None:
                 self.rows[row] = len(programs)
                 programs.append(program)
-        info = np.zeros((max(1, len(programs)), 8))
-        starts = np.zeros(4, np.int64)                      # ops, constants, outputs, ramp floats so far
-        for k, p in enumerate(programs):
-            info[k] = [starts[0], len(p.ops), starts[1], len(p.constants), p.registers, starts[2], len(p.outputs),
-                       starts[3]]
-            starts += [len(p.ops), len(p.constants), len(p.outputs), len(p.ramps)]
-        joined = lambda arrays, width: (np.concatenate([a.reshape(-1) for a in arrays]) if arrays   # noqa: E731
-                                        else np.zeros(width))
-        c = library.contiguous
-        self.record = GraphTablesRecord(
-            ops=c(joined([p.ops for p in programs], 1 + OP_ARGS), np.float64),
-            constants=c(joined([p.constants for p in programs], 1), np.float64),
-            outputs=c(joined([p.outputs for p in programs], 5), np.float64),
-            ramps=c(joined([p.ramps for p in programs], 4), np.float64), programs=c(info, np.float64),
-            textures=texture_tables(table.textures), count=len(programs))
+        self.record = program_tables(programs, table.textures)
+
+
+def world_ops_of(program: Program) -> set:
+    """The world-only ops (WORLD_OPS) a program holds, which graph.c does not evaluate: a set of op names."""
+    return {OPS[int(code)] for code in program.ops[:, 0]} & set(WORLD_OPS)
+
+
+def program_tables(programs: list, textures) -> "GraphTablesRecord":
+    """The GraphTables record of `programs` (their ops, constants, outputs and ramps joined, one row of offsets each)
+    reading the images of the TextureSet `textures`."""
+    info = np.zeros((max(1, len(programs)), 8))
+    starts = np.zeros(4, np.int64)                      # ops, constants, outputs, ramp floats so far
+    for k, p in enumerate(programs):
+        info[k] = [starts[0], len(p.ops), starts[1], len(p.constants), p.registers, starts[2], len(p.outputs),
+                   starts[3]]
+        starts += [len(p.ops), len(p.constants), len(p.outputs), len(p.ramps)]
+    joined = lambda arrays, width: (np.concatenate([a.reshape(-1) for a in arrays]) if arrays   # noqa: E731
+                                    else np.zeros(width))
+    c = library.contiguous
+    return GraphTablesRecord(
+        ops=c(joined([p.ops for p in programs], 1 + OP_ARGS), np.float64),
+        constants=c(joined([p.constants for p in programs], 1), np.float64),
+        outputs=c(joined([p.outputs for p in programs], 5), np.float64),
+        ramps=c(joined([p.ramps for p in programs], 4), np.float64), programs=c(info, np.float64),
+        textures=textures_.texture_tables(textures), count=len(programs))
 
 
 def graph_tables(table, layout: dict):

@@ -331,6 +331,8 @@ typedef struct LightHitArgs LightHitArgs;
 typedef struct EmitterTables EmitterTables;
 typedef struct EmitterPickArgs EmitterPickArgs;
 typedef struct WorldTables WorldTables;
+typedef struct WorldGraph WorldGraph;
+typedef struct WorldBakeArgs WorldBakeArgs;
 typedef struct BsdfArgs BsdfArgs;
 typedef struct LightPath LightPath;
 typedef struct GraphTables GraphTables;
@@ -784,6 +786,28 @@ struct WorldTables {
     double rotation[9];                     /* world to texture, row-major */
     int32_t camera;                         /* 1: camera rays see it */
     int32_t lights;                         /* 1: it lights surfaces */
+    const WorldGraph *seen;                 /* the program camera rays evaluate where they escape (World.seen), or NULL */
+};
+
+/* A world's Background compiled into one program (core/lights/world_graph.py WorldProgram). */
+struct WorldGraph {
+    const GraphTables *graph;               /* its one program and the images it reads */
+    int32_t color;                          /* the register of the colour (3) */
+    int32_t strength;                       /* the register of the strength */
+    int32_t generated;                      /* where the Generated coordinates start among a point's attributes */
+    int32_t object;                         /* where the Object coordinates start */
+    int32_t width;                          /* attribute floats per point */
+};
+
+/* primer_world_bake's arguments: rows row_start .. row_end - 1 of the world's bake (world_graph.bake). */
+struct WorldBakeArgs {
+    const WorldGraph *world;                /* the program */
+    int64_t width;                          /* the image's W */
+    int64_t height;                         /* its H */
+    int64_t row_start;                      /* the first row baked */
+    int64_t row_end;                        /* past the last */
+    int32_t flags;                          /* the path's PATH_* bits the program sees */
+    float *radiance;                        /* (H, W, 3) colour x strength at the texel centres, rows row_start .. row_end - 1 written */
 };
 
 /* primer_bsdf's arguments: eval and a sample of one closure per row (bsdf.c), for the tests. */
@@ -913,7 +937,9 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(2679673540171007921);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
-    if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
+    if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
+    if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
+    if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(4598671514434913230);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(6520535643845291720);
@@ -952,6 +978,8 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "EmitterTables") == 0) return (int64_t)sizeof(EmitterTables);
     if (strcmp(name, "EmitterPickArgs") == 0) return (int64_t)sizeof(EmitterPickArgs);
     if (strcmp(name, "WorldTables") == 0) return (int64_t)sizeof(WorldTables);
+    if (strcmp(name, "WorldGraph") == 0) return (int64_t)sizeof(WorldGraph);
+    if (strcmp(name, "WorldBakeArgs") == 0) return (int64_t)sizeof(WorldBakeArgs);
     if (strcmp(name, "BsdfArgs") == 0) return (int64_t)sizeof(BsdfArgs);
     if (strcmp(name, "LightPath") == 0) return (int64_t)sizeof(LightPath);
     if (strcmp(name, "GraphTables") == 0) return (int64_t)sizeof(GraphTables);

@@ -23,6 +23,7 @@
 #include "../materials/converters/converters.gen.c"   /* the converter and colour nodes' C files (tools/make_boundary.py) */
 #include "../materials/graph.c"
 #include "../materials/nodes.c"
+#include "../lights/world_graph.c"       /* the world's program, per texel of its bake and per camera ray */
 #include "../film/film.c"
 #include "../film/adaptive.c"
 #include "../integrators/shadows.c"

@@ -157,7 +157,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                  if light.hittable and (light.is_(lights_.LightFlags.POSITION | lights_.LightFlags.AREA)
                                                         or light.is_(lights_.LightFlags.DISTANT) and light.use_mis)
                                  and light.camera]
-    world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0)
+    world_lights = world.lights and (world.varying or np.asarray(world.color, np.float64).max() > 0.0
+                                     or world.seen is not None)       # (a graph: what BSDF rays find is per ray)
     ctx.extra["emissive"] = bool(materials.emissive.any() or materials.graph_emits.any())
     # Shadow rays go on through surfaces: transparent ones, and objects hidden from shadow rays.
     # (and holdouts, objects or Holdout nodes, which the path tracer's loop handles, as the camera's paths through
