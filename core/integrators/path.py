@@ -96,7 +96,7 @@ def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner
                  mis_origin=arrivals["O"], mis_normal=np.zeros((a, 3)), mis_receiver=np.full(a, -1, np.int64),
                  after_diffuse=np.zeros(a, bool), seen_by=np.zeros(a, np.int64), inside=arrivals["inside"],
                  looking=np.zeros(a, bool), feature_throughput=np.ones((a, 3)), wo=-arrivals["D"],
-                 **{name: arrivals[name] for name in COUNTERS})
+                 min_pdf=arrivals.get("min_pdf", arrivals["pdf"]), **{name: arrivals[name] for name in COUNTERS})
     out = {}
     for name, value in state.items():
         if value is None:
@@ -329,12 +329,12 @@ class PathTracing(Integrator):
                          transmission=transmission, transparent=transparent, bounds=bounds, bounce=bounce, flags=flags,
                          mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal, mis_receiver=mis_receiver,
                          after_diffuse=after_diffuse, seen_by=seen_by, inside=inside, looking=looking,
-                         feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo)
+                         feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo, min_pdf=min_pdf)
             where = (found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit), D_hit, found.t[hit])
             state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)))
             (owner, throughput, diffuse, glossy, transmission, transparent, bounds, bounce, flags, mis_pdf, mis_origin,
              mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput, shares, volume,
-             wo) = state.values()
+             wo, min_pdf) = state.values()
         while len(owner):
             check_stop(ctx)
             # a. What the vertex gathers: its emission (camera hits only; later ones were found by the ray
@@ -496,7 +496,8 @@ class PathTracing(Integrator):
             after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], labelled_diffuse)[keep]
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
-            min_pdf = np.where(is_transparent, min_pdf[ray.rows], np.minimum(min_pdf[ray.rows], ray.pdf))[keep]
+            ray_min_pdf = np.where(is_transparent, min_pdf[ray.rows], np.minimum(min_pdf[ray.rows], ray.pdf))
+            min_pdf = ray_min_pdf[keep]
             mis_origin, mis_normal = ray.mis_O[keep], ray.mis_N[keep]
             mis_receiver = ray.receiver[keep]
             inside = None if media is None else ray.inside[keep]
@@ -509,12 +510,15 @@ class PathTracing(Integrator):
                              flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
                              mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
                              looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume,
-                             wo=wo)
+                             wo=wo, min_pdf=min_pdf)
+                # (a scattering path's smallest pdf so far: its bounce's and its phase function's, Cycles' min_ray_pdf)
+                vertex_arrivals["min_pdf"] = np.minimum(ray_min_pdf[multi][vertex_arrivals["origin"]],
+                                                        vertex_arrivals["pdf"])
                 where = (hits.prim[keep], hits.u[keep], hits.v[keep], ray.O[keep], D_next, hits.t[keep])
                 state, surface = with_arrivals(ctx, state, where, vertex_arrivals, arrival_owners)
                 (owner, throughput, diffuse, glossy, transmission, transparent, bounds, bounce, flags, mis_pdf,
                  mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
-                 shares, volume, wo) = state.values()
+                 shares, volume, wo, min_pdf) = state.values()
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
                         None if groups is None else groups.L, None if feats is None else feats.stacked(), data)
