@@ -919,6 +919,16 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                   "distribution": float(DISTRIBUTIONS.get(distribution, 0))}
         _normal(reader, node, inputs)
         out.append(("GLASS", weight, inputs, list(factors)))
+    elif kind == "ShaderNodeBsdfToon":
+        # core/materials/toon.py: the Diffuse or Glossy component, its Size and Smooth per hit where linked.
+        color = reader.input(node, "Color", np.full(3, 0.8))
+        inputs = {"size": reader.input(node, "Size", 0.5), "smooth": reader.input(node, "Smooth", 0.0),
+                  "glossy": 1.0 if getattr(node, "component", "DIFFUSE") == "GLOSSY" else 0.0}
+        _normal(reader, node, inputs)
+        if _linked(color):
+            out.append(("TOON", weight, inputs, list(factors) + [(color, "color")]))
+        else:
+            out.append(("TOON", weight * np.maximum(color, 0.0), inputs, list(factors)))
     elif kind == "ShaderNodeEmission":
         emission = _scaled(reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0))
         out.append(("EMISSION", weight, {"emission": emission}, list(factors)))
