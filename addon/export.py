@@ -1122,7 +1122,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     camera = export_camera(camera_eval, warnings)
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
-    materials_.begin_export(scene.frame_current)
+    materials_.begin_export(scene.frame_current, depsgraph.view_layer)
     # What the scene asks of Cycles that Primer does not render, said once (addon/unmodelled.py).
     warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
     warnings += unmodelled.view_layer_notes(depsgraph.view_layer) + unmodelled.world_notes(scene.world)
@@ -1168,7 +1168,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                     core.instances.append(core_scene.Instance(
                         len(core.meshes) - 1, matrix, materials.slot_map(obj, warnings, override), obj.name,
                         None, int(getattr(obj, "pass_index", 0)), **ray_visibility(obj), asset=topmost_parent(obj).name,
-                        **links.of_object(obj)))
+                        **links.of_object(obj), attributes=materials_.object_attributes(instance)))
                     groups["instances"].append(lightgroups.source_group(obj))
         if not instance.show_self:
             continue                    # e.g. a particle emitter that is not rendered itself
@@ -1221,11 +1221,13 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
                                                   int(getattr(obj, "pass_index", 0)), **visibility,
                                                   asset=topmost_parent(obj).name, color=tuple(obj.color),
-                                                  **links.of_object(obj)))
+                                                  **links.of_object(obj),
+                                                  attributes=materials_.object_attributes(instance)))
         groups["instances"].append(lightgroups.source_group(obj))
 
     if mesh_cache is not None:
         mesh_cache.end()
+    core.instance_attributes = list(materials_.INSTANCE_ATTRIBUTES)   # (the columns of Instance.attributes)
     core.materials, core.world = media_of_layer(bool(getattr(depsgraph.view_layer, "use_volumes", True)),
                                                 materials.materials, core.world)
     if world.lights:                    # a Sky Texture's sun disc, a lamp of the world's (in the world's light group)

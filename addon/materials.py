@@ -24,6 +24,7 @@ from ..core.materials import graph as graph_
 from ..core.materials import nodes as nodes_
 from ..core.materials import sky as sky_
 from ..core.materials import textures as textures_
+from ..core.geometry.geometry import OBJECT_INFO_WIDTH
 from ..core.materials.graph import GraphNode, Link
 from ..core.materials.converters import CONVERTER_BY_BLENDER
 from ..core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
@@ -226,6 +227,13 @@ class GraphReader:
             return np.array(out.default_value[:3], np.float64)
         if kind == "ShaderNodeValue":
             return float(out.default_value)
+        if kind == "ShaderNodeAttribute" and node.attribute_type == "VIEW_LAYER":     # one value for the whole render
+            f32 = view_layer_attribute(node.attribute_name).astype(np.float32).astype(np.float64)
+            name = RENAMED.get(out.name, out.name)
+            if name in ("Color", "Vector"):
+                return Link(GraphNode("RGB", {"value": f32[:3], "type": name.lower()}), "Color")
+            return Link(GraphNode("VALUE", {"value": float(f32[3]) if name == "Alpha"
+                                            else float((f32[0] + f32[1] + f32[2]) / 3.0)}), "Value")
         name = RENAMED.get(out.name, out.name)
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
@@ -334,9 +342,13 @@ class GraphReader:
         elif kind == "ATTRIBUTE":
             if node.bl_idname == "ShaderNodeVertexColor":
                 props = {"attribute": "color:" + node.layer_name}
+            elif node.attribute_type in ("OBJECT", "INSTANCER"):   # the instance's columns of its Object Info
+                key = f"{node.attribute_type}:{node.attribute_name}"
+                if key not in INSTANCE_ATTRIBUTES:
+                    INSTANCE_ATTRIBUTES.append(key)
+                kind = "INSTANCE_ATTRIBUTE"
+                props = {"column": OBJECT_INFO_WIDTH + 4 * INSTANCE_ATTRIBUTES.index(key)}
             else:
-                if node.attribute_type != "GEOMETRY":
-                    warn(f"attribute type {node.attribute_type} is not supported; Primer reads a mesh attribute")
                 name = node.attribute_name
                 uv = any(name in mesh.uv_layers for mesh in bpy.data.meshes)
                 props = {"attribute": ("uv:" if uv else "color:") + name}
@@ -636,11 +648,88 @@ _IMAGES: dict = {}
 _FRAME = [1]
 
 
-def begin_export(frame: int = 1) -> None:
-    """Forget the images read by an earlier export (a render reads each image once); read sequences and movies at
-    the scene's `frame`."""
+def begin_export(frame: int = 1, view_layer=None) -> None:
+    """Forget the images read by an earlier export (a render reads each image once) and the Object and Instancer
+    attributes its materials read; read sequences and movies at the scene's `frame`, View Layer attributes from
+    `view_layer` (None: the context's)."""
     _IMAGES.clear()
+    INSTANCE_ATTRIBUTES.clear()
+    _VIEW_LAYER[0] = view_layer
     set_frame(frame)
+
+
+# The Attribute node's Object and Instancer attributes this export's materials read, "OBJECT:name" or
+# "INSTANCER:name", in the order of their columns (core/scene Scene.instance_attributes); the view layer whose View
+# Layer attributes they read.
+INSTANCE_ATTRIBUTES: list = []
+_VIEW_LAYER: list = [None]
+
+
+def property_rgba(owner, name: str):
+    """A custom property `name` of `owner` (an ID or a view layer), else the RNA property at path `name`, as RGBA
+    (4,) float64 as Blender's find_property_rgba reads it: a number (float, int, boolean) as (v, v, v, 1), an array of
+    up to 4 floats or ints over (0, 0, 0, 1); None where there is none or it is of another kind."""
+    if owner is None:
+        return None
+    try:
+        keys = owner.keys()
+    except (AttributeError, TypeError):
+        keys = ()
+    if name in keys:
+        value = owner[name]
+    else:
+        try:
+            value = owner.path_resolve(name)
+        except (ValueError, TypeError, AttributeError):
+            return None
+    if isinstance(value, (bool, int, float)) and not isinstance(value, str):
+        v = float(value)
+        return np.array([v, v, v, 1.0])
+    try:
+        items = list(value)
+    except TypeError:
+        return None
+    if not 0 < len(items) <= 4 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in items):
+        return None
+    rgba = np.array([0.0, 0.0, 0.0, 1.0])
+    rgba[:len(items)] = [float(x) for x in items]
+    return rgba
+
+
+def object_attribute(instance, key: str) -> np.ndarray:
+    """The RGBA (4,) of an Object or Instancer attribute `key` ("OBJECT:name", "INSTANCER:name") for a depsgraph
+    object instance, found where Cycles looks (BKE_object_dupli_find_rgba_attribute): for Instancer, on an instance,
+    its particle system's settings and then its instancer; then the object, then its data; 0 where none has it."""
+    kind, name = key.split(":", 1)
+    owners = []
+    if kind == "INSTANCER" and instance.is_instance:
+        system = getattr(instance, "particle_system", None)
+        owners += [system.settings if system is not None else None, instance.parent]
+    owners += [instance.object, getattr(instance.object, "data", None)]
+    for owner in owners:
+        value = property_rgba(owner, name)
+        if value is not None:
+            return value.astype(np.float32).astype(np.float64)       # (Cycles keeps it in float)
+    return np.zeros(4)
+
+
+def object_attributes(instance) -> dict:
+    """Every Object and Instancer attribute read so far (INSTANCE_ATTRIBUTES) for a depsgraph object instance,
+    key -> RGBA (core/scene Instance.attributes), or None when the materials read none."""
+    return {key: object_attribute(instance, key) for key in INSTANCE_ATTRIBUTES} if INSTANCE_ATTRIBUTES else None
+
+
+def view_layer_attribute(name: str) -> np.ndarray:
+    """A View Layer attribute's RGBA (4,): from the view layer, else the scene, else its world (Blender's
+    BKE_view_layer_find_rgba_attribute); 0 where none has it."""
+    layer = _VIEW_LAYER[0] or bpy.context.view_layer
+    scene = getattr(layer, "id_data", None) or bpy.context.scene
+    scene = getattr(scene, "original", scene)          # (an evaluated scene shows no custom properties to Python)
+    for owner in (layer, scene, getattr(scene, "world", None)):
+        value = property_rgba(owner, name)
+        if value is not None:
+            return value
+    return np.zeros(4)
 
 
 def set_frame(frame: int) -> None:

@@ -65,7 +65,7 @@ def absolute(tree, socket, snap=False):
 
 
 def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, monkey=False, settings=(),
-         islands=False, color=None, pass_index=0):
+         islands=False, color=None, pass_index=0, custom=(), instancer=()):
     material, tree, out = empty_material(label)
     node = tree.nodes.new(idname)
     for name, value in settings:
@@ -100,7 +100,20 @@ def case(label, idname, output, inputs=(), vector=False, snap=False, add=0.0, mo
         if color is not None:
             obj.color = tuple(c * (1.0 - 0.25 * k) for c in color[:3]) + (color[3],)
         obj.pass_index = pass_index + k
+        for owner, name, value in custom:                   # custom properties, a value per object (Attribute)
+            target = obj if owner == "object" else obj.data
+            target[name] = tuple(v * (1.0 - 0.25 * k) for v in value) if isinstance(value, tuple) else value * (k + 1)
     material.pass_index = pass_index
+    if instancer:                                           # the three as a collection instanced by an empty
+        collection = bpy.data.collections.new(label)
+        for obj in made:
+            scene.collection.objects.unlink(obj)
+            collection.objects.link(obj)
+        empty = bpy.data.objects.new(label + " instancer", None)
+        empty.instance_type, empty.instance_collection = "COLLECTION", collection
+        for name, value in instancer:
+            empty[name] = value
+        scene.collection.objects.link(empty)
     cases.append(label)
 
 
@@ -135,6 +148,32 @@ case("Object Info Color", "ShaderNodeObjectInfo", "Color", color=(0.9, 0.4, 0.2,
 case("Object Info Alpha", "ShaderNodeObjectInfo", "Alpha", color=(0.9, 0.4, 0.2, 0.7))
 case("Object Info Object Index", "ShaderNodeObjectInfo", "Object Index", pass_index=3)
 case("Object Info Material Index", "ShaderNodeObjectInfo", "Material Index", pass_index=5)
+# The Attribute node's Object, Instancer and View Layer attributes (Cycles' lookup: for Instancer the instancer first,
+# then the object, then its data; for View Layer the view layer, the scene, the world); 0 where none has it.
+TINT = (0.2, 0.5, 0.9)
+case("Attribute Object Color", "ShaderNodeAttribute", "Color", settings=[("attribute_type", "OBJECT"),
+     ("attribute_name", "tint")], custom=[("object", "tint", TINT)])
+case("Attribute Object Fac (mesh data)", "ShaderNodeAttribute", "Fac", settings=[("attribute_type", "OBJECT"),
+     ("attribute_name", "mass")], custom=[("data", "mass", 0.3)])
+case("Attribute Object Alpha (RNA color)", "ShaderNodeAttribute", "Alpha", settings=[("attribute_type", "OBJECT"),
+     ("attribute_name", "color")], color=(0.9, 0.4, 0.2, 0.7))
+case("Attribute Object missing Alpha", "ShaderNodeAttribute", "Alpha", settings=[("attribute_type", "OBJECT"),
+     ("attribute_name", "nothing")], add=0.25)
+case("Attribute Instancer Vector", "ShaderNodeAttribute", "Vector", vector=True,
+     settings=[("attribute_type", "INSTANCER"), ("attribute_name", "tint")], custom=[("object", "tint", TINT)],
+     instancer=[("tint", (0.7, 0.1, 0.4))])
+case("Attribute Instancer from the object", "ShaderNodeAttribute", "Color",
+     settings=[("attribute_type", "INSTANCER"), ("attribute_name", "tint")], custom=[("object", "tint", TINT)],
+     instancer=[("other", 1.0)])
+case("Attribute Object in an instance", "ShaderNodeAttribute", "Color", settings=[("attribute_type", "OBJECT"),
+     ("attribute_name", "tint")], custom=[("object", "tint", TINT)], instancer=[("tint", (0.7, 0.1, 0.4))])
+scene["glow"] = (0.1, 0.6, 0.3)
+bpy.context.view_layer["glow"] = (0.8, 0.3, 0.5)
+scene["scene only"] = 0.45
+case("Attribute View Layer Color", "ShaderNodeAttribute", "Color", settings=[("attribute_type", "VIEW_LAYER"),
+     ("attribute_name", "glow")])
+case("Attribute View Layer Fac (scene)", "ShaderNodeAttribute", "Fac", settings=[("attribute_type", "VIEW_LAYER"),
+     ("attribute_name", "scene only")])
 material, tree, out = empty_material("Pixel Size")         # Pixel Size: Size read in world units, with a warning
 wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
 wire.use_pixel_size = True

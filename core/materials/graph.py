@@ -182,6 +182,7 @@ NODE_OUTPUTS = {
     "WIREFRAME": {"Fac": (1, "float")},
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
+    "INSTANCE_ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "OBJECT_INFO": {"Location": (3, "vector"), "Color": (3, "color"), "Alpha": (1, "float"),
                     "Object Index": (1, "float"), "Material Index": (1, "float"), "Random": (1, "float")},
     "LIGHT_PATH": {name: (1, "float") for name in LIGHT_PATH_OUTPUTS},
@@ -257,8 +258,9 @@ class ShadingPoint(NamedTuple):
     path: the LightPaths of the rays that found the hits (None: camera rays); I: (n, 3) the unit direction from the
     hit back along the ray that found it (Cycles' sd->wi, the material's wo; None: N, a head-on view);
     P: (n, 3) the hit in world space (not camera-relative); uv: (n, 2) its barycentrics u, v (corner 1, corner 2);
-    t: (n,) the distance the ray went to the hit (Cycles' ray_length); info: (n, 8) the object's Object Info
-    (geometry.instance_info: location, colour, alpha, pass index).
+    t: (n,) the distance the ray went to the hit (Cycles' ray_length); info: (n, 8 + 4 k) the object's Object Info
+    (geometry.instance_info: location, colour, alpha, pass index, then the RGBA of its k Object and Instancer
+    attributes).
     """
 
     attributes: np.ndarray
@@ -276,7 +278,7 @@ class ShadingPoint(NamedTuple):
     P: np.ndarray = None       # (n, 3) float64 the world point (the Geometry node's Position)
     uv: np.ndarray = None      # (n, 2) float64 the barycentrics (its Parametric)
     t: np.ndarray = None       # (n,) float64 the distance along the ray to the hit (the Light Path node's Ray Length)
-    info: np.ndarray = None    # (n, 8) float64 the object's Object Info: location, colour, alpha, pass index
+    info: np.ndarray = None    # (n, 8 + 4 k) float64 its Object Info: location, colour, alpha, pass index, attributes
 
 
 def object_matrices(sp: ShadingPoint, mode: int) -> np.ndarray:
@@ -514,7 +516,7 @@ class Compiler:
         kind, inp, props = node.kind, node.inputs, node.props
         width, vtype = NODE_OUTPUTS.get(kind, {}).get(output, (3, "color"))
         if kind == "RGB":
-            return self.constant(np.asarray(props["value"], np.float64)[:3]), 3, "color"
+            return self.constant(np.asarray(props["value"], np.float64)[:3]), 3, props.get("type", "color")
         if kind == "VALUE":
             return self.constant([float(props["value"])]), 1, "float"
         if kind == "TEXCOORD":
@@ -560,6 +562,15 @@ class Compiler:
             out = self.temporary(1)
             self.emit("CONVERT", out, reg, 1)            # Fac: the average
             return out, 1, "float"
+        if kind == "INSTANCE_ATTRIBUTE":               # an Object or Instancer attribute: the instance's RGBA columns
+            start = int(props["column"])                # (geometry.instance_info, Scene.instance_attributes)
+            out = self.temporary(3 if output != "Alpha" else 1)
+            self.emit("OBJECT_INFO", out, start + 3 if output == "Alpha" else start, 1 if output == "Alpha" else 3)
+            if output != "Fac":
+                return out, width, vtype
+            fac = self.temporary(1)
+            self.emit("CONVERT", fac, out, 1)           # Fac: the average of its colour
+            return fac, 1, "float"
         if kind == "OBJECT_INFO":
             if output == "Material Index":              # the material's own pass index: one number per program
                 return self.constant(float(props.get("material_index", 0.0))), 1, "float"

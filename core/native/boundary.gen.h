@@ -516,7 +516,9 @@ struct GeometryTables {
     const int32_t *attribute_row;           /* (t,) row of `attributes` per copied triangle */
     const int32_t *instance;                /* (t,) Scene.instances index per copied triangle */
     const double *instance_random;          /* (n,) each instance's random number */
-    const double *instance_info;            /* (n, OBJECT_INFO_WIDTH) each instance's Object Info: location, colour, pass index */
+    const double *instance_info;            /* (n, info_width) each instance's Object Info: location, colour, pass index, then
+its Object and Instancer attributes (geometry.instance_info) */
+    int64_t info_width;                     /* columns of instance_info */
     const double *instance_linear;          /* (n, 3, 3) each instance's linear transform */
     int64_t attribute_width;                /* A */
     const uint8_t *hidden;                  /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
@@ -886,7 +888,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
-    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(7938006114360240799);
+    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(2724384518031272408);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7842783275623974785);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5755748365903746207);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);

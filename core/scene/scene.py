@@ -83,6 +83,8 @@ class Instance:
                emitters light it, and for which emitters it casts shadows
     light_membership, shadow_membership: as an emitter (an emissive material), the receiver sets it lights and the
                blocker sets that cast its shadows (64-bit masks; ALL_SETS: not linked)
+    attributes: the Attribute node's Object and Instancer attributes of this object, name -> RGBA (4,) (Cycles'
+               object attributes, looked up at export; Scene.instance_attributes orders them), or None: none
     """
 
     mesh: int
@@ -103,6 +105,7 @@ class Instance:
     shadow_set: int = 0
     light_membership: int = ALL_SETS
     shadow_membership: int = ALL_SETS
+    attributes: Optional[dict] = None
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
@@ -126,6 +129,8 @@ class Scene:
     lightgroups: the light group (View Layer > Light Groups) each source belongs to, by name ("" for none):
     {"lights": [one per lights entry], "instances": [one per instances entry], "world": the world's}; the
     groups a render writes are RenderSettings.light_groups (core/integrators/lightgroups.py)
+    instance_attributes: the names of the Attribute node's Object and Instancer attributes the materials read, in the
+    order of their columns of the instances' Object Info (geometry.instance_info; Instance.attributes)
     """
 
     camera: Camera
@@ -137,6 +142,7 @@ class Scene:
     world: Optional[World] = None
     default_material: Material = field(default_factory=Material)
     lightgroups: dict = field(default_factory=lambda: {"lights": [], "instances": [], "world": ""})
+    instance_attributes: list = field(default_factory=list)
 
     def the_world(self) -> World:
         """The world: `world` when given (it lights the scene unless told not to), else a background of
