@@ -367,8 +367,10 @@ class GraphReader:
             if not node.inputs["Normal"].is_linked:
                 inputs.pop("Normal", None)                # unlinked: the shading normal, as in Cycles
         elif kind == "WIREFRAME":
-            if node.use_pixel_size:
-                warn("Pixel Size needs ray differentials, which Primer does not trace; Primer reads Size in world units")
+            camera = bpy.context.scene.camera
+            props = {"pixel_size": bool(node.use_pixel_size)}
+            if node.use_pixel_size and camera is not None and getattr(camera.data, "type", "") == "PANO":
+                warn("Pixel Size under a panoramic camera is not modelled; Primer reads Size in world units")
             inputs = self.inputs(node, path, ["Size"])
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}

@@ -264,6 +264,47 @@ INLINE double wireframe(double size, int where, const ShadingPoint *sp)
     return 0.0;
 }
 
+/* graph.orthonormals: Cycles' make_orthonormals of a unit N. */
+INLINE void make_orthonormals(const double *N, double *a, double *b)
+{
+    int equal = N[0] == N[1] && N[0] == N[2];
+    a[0] = N[2] - N[1];
+    a[1] = equal ? N[0] + N[2] : N[0] - N[2];
+    a[2] = equal ? -N[1] - N[0] : N[1] - N[0];
+    double length = sqrt(dot3(a, a));
+    for (int j = 0; j < 3; j++) a[j] = a[j] / length;
+    cross3(N, a, b);
+}
+
+/* graph.pixel_width: a pixel's width at P (camera frame) as Cycles' Wireframe node measures it for Pixel Size;
+ * f: the window (left, right, bottom, top, perspective, width, height). */
+INLINE double pixel_width(const double *P, const double *f, const ShadingPoint *sp)
+{
+    double sx = (f[1] - f[0]) / f[5], sy = (f[3] - f[2]) / f[6], footprint;
+    if (f[4] != 0.0) {
+        double d[3] = {safe_div(P[0], P[2]), safe_div(P[1], P[2]), 1.0}, unit[3], spread = 0.0;
+        double length = sqrt(dot3(d, d));
+        for (int j = 0; j < 3; j++) unit[j] = d[j] / length;
+        for (int k = 0; k < 2; k++) {
+            double moved[3] = {d[0] + (k == 0 ? sx : 0.0), d[1] + (k == 1 ? sy : 0.0), d[2] + 0.0};
+            double m = sqrt(dot3(moved, moved));
+            for (int j = 0; j < 3; j++) moved[j] = moved[j] / m - unit[j];
+            spread = spread + sqrt(dot3(moved, moved));
+        }
+        footprint = sqrt(dot3(P, P)) * (0.5 * spread);
+    } else {
+        footprint = fabs(sx);
+    }
+    double axes[2][3], across = 0.0;
+    make_orthonormals(sp->Ng, axes[0], axes[1]);
+    for (int k = 0; k < 2; k++) {
+        double along = dot3(axes[k], sp->I), projected[3];
+        for (int j = 0; j < 3; j++) projected[j] = axes[k][j] - along * sp->I[j];
+        across = across + sqrt(dot3(projected, projected));
+    }
+    return footprint * (0.5 * across);
+}
+
 /* graph.bump */
 INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
                  int invert, const ShadingPoint *sp, double *out)
@@ -477,6 +518,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             break;
         }
         case OP_WIREFRAME: out[0] = wireframe(reg[a[1]], where, sp); break;
+        case OP_PIXEL_SIZE: out[0] = reg[a[1]] * pixel_width(reg + a[2], reg + a[3], sp); break;
         case OP_CAMERA_DATA: {
             const double *p = reg + a[1];
             double r[3] = {p[0], p[1], p[2]}, depth = p[2], distance = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);

@@ -51,7 +51,7 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "LIGHT_PATH",
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
-                                                               "OBJECT_INFO", "OBJECT_MATRIX")
+                                                               "OBJECT_INFO", "OBJECT_MATRIX", "PIXEL_SIZE")
 # Ops of world shaders only, which the Python reference alone evaluates (world graphs are baked at export,
 # core/lights/world_graph.py): graph_tables refuses a program holding one, and graph.c has no case for them.
 WORLD_OPS = ("SKY",)
@@ -539,9 +539,15 @@ class Compiler:
             v = self.value(inp.get("Vector"), 3, 0.5)
             return self.vector_transform(v, props.get("type", "VECTOR"), props.get("from", "WORLD"),
                                          props.get("to", "OBJECT")), 3, "vector"
-        if kind == "WIREFRAME":                         # (Pixel Size: addon/materials.py warns; world units here)
-            out = self.temporary(1)
-            self.emit("WIREFRAME", out, self.value(inp.get("Size"), 1, 0.01))
+        if kind == "WIREFRAME":
+            size = self.value(inp.get("Size"), 1, 0.01)
+            if props.get("pixel_size") and self.window is not None:     # Size in pixels at the hit's distance
+                pixels = self.temporary(1)
+                self.emit("PIXEL_SIZE", pixels, size, self.transform(self.geometry("Position"), self.view),
+                          self.constant(self.window))
+                size = pixels
+            out = self.temporary(1)                     # (a panoramic camera's Pixel Size: addon/materials.py warns)
+            self.emit("WIREFRAME", out, size)
             return out, 1, "float"
         if kind == "CAMERA_DATA":
             out = self.temporary(5)
@@ -842,6 +848,7 @@ REGISTER_ARGS = {
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
+    "PIXEL_SIZE": {0, 1, 2, 3},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1082,6 +1089,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 5])
         elif name == "WIREFRAME":
             reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
+        elif name == "PIXEL_SIZE":
+            reg[:, i[0]] = reg[:, i[1]] * pixel_width(R(2, 3), reg[0, i[3]:i[3] + 7], sp)
         elif name == "CAMERA_DATA":
             reg[:, i[0]:i[0] + 5] = camera_data(R(1, 3))
         elif name == "FRESNEL":
@@ -1147,6 +1156,44 @@ def wireframe(size: np.ndarray, where: int, sp: ShadingPoint) -> np.ndarray:
         crossed = np.cross(edge, P - corners[k])
         near |= np.einsum("ij,ij->i", crossed, crossed) < np.einsum("ij,ij->i", edge, edge) * width
     return near.astype(np.float64)
+
+
+def orthonormals(N: np.ndarray) -> tuple:
+    """Cycles' make_orthonormals (n, 3) x 2 of unit normals N (n, 3): a = (1, 1, 1) x N normalised ((-1, 1, 1) x N
+    where N's components are all equal), b = N x a."""
+    equal = (N[:, 0] == N[:, 1]) & (N[:, 0] == N[:, 2])
+    a = np.stack([N[:, 2] - N[:, 1], np.where(equal, N[:, 0] + N[:, 2], N[:, 0] - N[:, 2]),
+                  np.where(equal, -N[:, 1] - N[:, 0], N[:, 1] - N[:, 0])], axis=1)
+    a = a / np.sqrt(np.einsum("ij,ij->i", a, a))[:, None]
+    return a, np.cross(N, a)
+
+
+def pixel_width(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarray:
+    """The width of a pixel at hits P (n, 3) in the camera's frame, as Cycles' Wireframe node measures it for Pixel Size
+    (n,), from a camera ray's differentials: the ray's footprint there, dP (a perspective camera: the distance |P| times
+    the mean of |normalize(d + dx) - normalize(d)| over a pixel step dx, dy on the plane at depth 1, d = P / P.z; an
+    orthographic one: a pixel's width in scene units), spread along two directions a, b across the face
+    (orthonormals of Ng) and each projected onto the plane across the view: dP (|a - (a.I) I| + |b - (b.I) I|) / 2.
+    frame: the window (left, right, bottom, top, perspective, width, height)."""
+    left, right, bottom, top, perspective, width, height = frame
+    sx, sy = (right - left) / width, (top - bottom) / height
+    if perspective:
+        d = np.stack([safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2]), np.ones(len(P))], axis=1)
+        unit = d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
+        spread = 0.0
+        for step in ((sx, 0.0, 0.0), (0.0, sy, 0.0)):
+            moved = d + np.array(step)
+            moved = moved / np.sqrt(np.einsum("ij,ij->i", moved, moved))[:, None] - unit
+            spread = spread + np.sqrt(np.einsum("ij,ij->i", moved, moved))
+        footprint = np.sqrt(np.einsum("ij,ij->i", P, P)) * (0.5 * spread)
+    else:
+        footprint = np.full(len(P), abs(sx))
+    I = sp.N if sp.I is None else sp.I
+    across = 0.0
+    for axis in orthonormals(sp.Ng):
+        projected = axis - np.einsum("ij,ij->i", axis, I)[:, None] * I
+        across = across + np.sqrt(np.einsum("ij,ij->i", projected, projected))
+    return footprint * (0.5 * across)
 
 
 def window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:

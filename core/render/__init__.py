@@ -130,7 +130,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     materials.view = camera_.world_to_camera(scene.camera)     # (the Camera coordinates and Camera Data nodes)
     if scene.camera.type in ("PERSP", "ORTHO"):                  # (the Window coordinates: the frame on screen)
         materials.window = (*camera_.viewplane(scene.camera, settings.width, settings.height,
-                                               tuple(settings.pixel_aspect)), float(scene.camera.type == "PERSP"))
+                                               tuple(settings.pixel_aspect)), float(scene.camera.type == "PERSP"),
+                            float(settings.width), float(settings.height))     # (and Pixel Size's pixel)
     # The lights a render makes of its scene: the emissive meshes, and the world's image (NaN or infinite parts
     # read as 0, as Cycles renders them).
     world = lights_.world.finite_world(scene.the_world(), warnings)
