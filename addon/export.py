@@ -1096,6 +1096,17 @@ def _terminator_notes(offsets: dict, fix: bool, cutoff: float, follows: bool = F
     return notes
 
 
+def from_instancer(instance) -> dict:
+    """An instance's Texture Coordinate From Instancer (core/scene Instance dupli_generated, dupli_uv): the point of
+    its instancer it was placed at, as Cycles reads it (0.5 orco - 0.5, and the UV there); none for an object that is
+    no instance."""
+    if not instance.is_instance:
+        return {}
+    orco = np.array(instance.orco, np.float32)
+    return {"dupli_generated": tuple((np.float32(0.5) * orco - np.float32(0.5)).astype(np.float64)),
+            "dupli_uv": tuple(float(x) for x in instance.uv)}
+
+
 def topmost_parent(obj):
     """Return the object at the top of `obj`'s parent chain (`obj` itself without a parent): Cryptomatte's asset."""
     seen = {obj.name}
@@ -1222,7 +1233,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                                                   int(getattr(obj, "pass_index", 0)), **visibility,
                                                   asset=topmost_parent(obj).name, color=tuple(obj.color),
                                                   **links.of_object(obj),
-                                                  attributes=materials_.object_attributes(instance)))
+                                                  attributes=materials_.object_attributes(instance),
+                                                  **from_instancer(instance)))
         groups["instances"].append(lightgroups.source_group(obj))
 
     if mesh_cache is not None:

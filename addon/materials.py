@@ -335,8 +335,7 @@ class GraphReader:
             camera = bpy.context.scene.camera
             if node.outputs["Window"].is_linked and camera is not None and getattr(camera.data, "type", "") == "PANO":
                 warn("Window for a panoramic camera is not supported; Primer reads (0, 0, 0)")
-            if getattr(node, "from_instancer", False):
-                warn("From Instancer is not supported; Primer reads the object's own coordinates")
+            props["from_instancer"] = bool(getattr(node, "from_instancer", False))  # (UV, Generated: the instance's)
         elif kind == "UVMAP":
             props = {"map": node.uv_map}
         elif kind == "ATTRIBUTE":

@@ -175,6 +175,13 @@ case("Attribute View Layer Color", "ShaderNodeAttribute", "Color", settings=[("a
      ("attribute_name", "glow")])
 case("Attribute View Layer Fac (scene)", "ShaderNodeAttribute", "Fac", settings=[("attribute_type", "VIEW_LAYER"),
      ("attribute_name", "scene only")])
+# From Instancer: an instance's Generated and UV are its instancer's at the point it was placed (Cycles' dupli_generated,
+# 0.5 orco - 0.5, and dupli_uv); an object that is no instance reads 0.
+for output in ("Generated", "UV"):
+    case("Texture Coordinate " + output + " From Instancer", "ShaderNodeTexCoord", output, add=0.25,
+         settings=[("from_instancer", True)], instancer=[("other", 1.0)])
+case("Texture Coordinate Generated From Instancer (no instance)", "ShaderNodeTexCoord", "Generated", add=0.25,
+     settings=[("from_instancer", True)])
 case("Wireframe Pixel Size 3", "ShaderNodeWireframe", "Fac", [("Size", 3.0)], add=0.25,
      settings=[("use_pixel_size", True)])
 

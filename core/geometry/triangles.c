@@ -206,8 +206,8 @@ typedef struct {
                            Object and Instancer attributes (RGBA each) */
 } ShadingPoint;
 
-/* The Object Info of a scene without instances (no hit reads past its 8 columns then). */
-static const double NO_INFO[8] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+/* The Object Info of a scene without instances (no hit reads past its OBJECT_INFO_WIDTH columns then). */
+static const double NO_INFO[OBJECT_INFO_WIDTH] = {0.0};
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with
  * surface `s` at barycentrics (u, v): the attributes interpolated (w at corner 0, u at 1, v at 2) and

@@ -205,7 +205,8 @@ NODE_OUTPUTS = {
     **{cls.kind: dict(cls.outputs) for cls in DESCRIBED},
 }
 # The Object Info outputs an OBJECT_INFO op copies from the instance's info (geometry.instance_info): (start, width).
-OBJECT_INFO_COLUMNS = {"Location": (0, 3), "Color": (3, 3), "Alpha": (6, 1), "Object Index": (7, 1)}
+OBJECT_INFO_COLUMNS = {"Location": (0, 3), "Color": (3, 3), "Alpha": (6, 1), "Object Index": (7, 1),
+                       "From Instancer Generated": (8, 3), "From Instancer UV": (11, 3)}
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
 GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
                     "Reflection")
@@ -340,7 +341,7 @@ def attributes_of(nodes: list) -> set:
     names = set()
     for link in links_under(nodes):
         node = link.node
-        if node.kind == "TEXCOORD" and (link.output in ("UV", "Generated")
+        if node.kind == "TEXCOORD" and (link.output in ("UV", "Generated") and not node.props.get("from_instancer")
                                         or link.output == "Object" and node.props.get("object_matrix") is None):
             names.add({"UV": "uv:", "Generated": "generated", "Object": "object"}[link.output])
         elif node.kind == "UVMAP":
@@ -533,6 +534,10 @@ class Compiler:
                 return out, 3, "vector"
             if output == "Object" and props.get("object_matrix") is not None:     # in another object's frame
                 return self.transform(self.geometry("Position"), np.linalg.inv(props["object_matrix"])[:3]), 3, "vector"
+            if output in ("UV", "Generated") and props.get("from_instancer"):   # the instance's (instance_info)
+                out = self.temporary(3)
+                self.emit("OBJECT_INFO", out, OBJECT_INFO_COLUMNS["From Instancer " + output][0], 3)
+                return out, 3, "vector"
             name = {"UV": "uv:", "Generated": "generated", "Object": "object"}[output]
             return self.attribute(name), 3, "vector"
         if kind == "VECTOR_TRANSFORM":

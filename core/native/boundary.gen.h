@@ -25,6 +25,8 @@
 #define TIME_DIMENSION 4
 /* numbers of one decomposed camera transform (motion.decompose) (core.camera.motion) */
 #define MOTION_STRIDE 16
+/* an instance's Object Info columns before its attributes (core.geometry.geometry) */
+#define OBJECT_INFO_WIDTH 14
 /* the integrators with a compiled twin (core.integrators.compiled) */
 #define INTEGRATOR_DIRECT 0
 #define INTEGRATOR_PATH 1

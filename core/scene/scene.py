@@ -85,6 +85,9 @@ class Instance:
                blocker sets that cast its shadows (64-bit masks; ALL_SETS: not linked)
     attributes: the Attribute node's Object and Instancer attributes of this object, name -> RGBA (4,) (Cycles'
                object attributes, looked up at export; Scene.instance_attributes orders them), or None: none
+    dupli_generated, dupli_uv: an instance's Generated (3,) and UV (2,) From Instancer (the Texture Coordinate node):
+               the point of its instancer it was placed at (Cycles' dupli_generated, 0.5 orco - 0.5, and dupli_uv);
+               None: (0, 0, 0), (0, 0), as for an object that is no instance
     """
 
     mesh: int
@@ -106,6 +109,8 @@ class Instance:
     light_membership: int = ALL_SETS
     shadow_membership: int = ALL_SETS
     attributes: Optional[dict] = None
+    dupli_generated: Optional[tuple] = None
+    dupli_uv: Optional[tuple] = None
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
