@@ -243,6 +243,16 @@ def particle_hair_mesh(obj, system, render: bool, matrix: np.ndarray, warnings: 
     return tubes.mesh
 
 
+def curve_attributes(mesh: core_scene.Mesh, wanted: set) -> set:
+    """Give the tubes `mesh` of curves the Curves Info attributes of `wanted` (its Mesh.curve_info, per vertex, as
+    per-corner attributes); return the names of `wanted` it cannot carry (on other meshes the Curves Info reads 0, as
+    in Cycles off strands)."""
+    for name in wanted & set(mesh.curve_info):
+        if name not in mesh.attributes:
+            mesh.attributes[name] = mesh.curve_info[name][mesh.triangles][:, :, None]
+    return {name for name in wanted - set(mesh.curve_info) if not name.startswith("curve:")}   # (0 off strands)
+
+
 def attribute_values(attribute, dtype) -> np.ndarray:
     """A Blender attribute's values (n,) of `dtype`, read in bulk."""
     values = np.empty(len(attribute.data), dtype)
@@ -1175,6 +1185,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                 hair = particle_hair_mesh(obj, system, depsgraph.mode == "RENDER", matrix, warnings,
                                           curve_shape(scene, f"object '{obj.name}' hair '{system.name}'", warnings))
                 if hair is not None:
+                    slots = materials.slot_map(obj, warnings, override)
+                    curve_attributes(hair, set().union(*(graph_.attributes_of(materials.materials[slot].nodes)
+                                                         for slot in slots[slots >= 0].tolist())))
                     core.meshes.append(hair)
                     core.instances.append(core_scene.Instance(
                         len(core.meshes) - 1, matrix, materials.slot_map(obj, warnings, override), obj.name,
@@ -1220,8 +1233,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         if "uv" in passes and len(obj.data.uv_layers):
             wanted.add("uv:")
         if wanted and obj.type != "MESH":
-            warnings.append(f"object '{obj.name}': its materials read {', '.join(sorted(wanted))}, which Primer does "
-                            f"not carry on {obj.type.lower()} objects; they read 0")
+            wanted = curve_attributes(core.meshes[mesh_index[key]], wanted)
+            if wanted:
+                warnings.append(f"object '{obj.name}': its materials read {', '.join(sorted(wanted))}, which Primer "
+                                f"does not carry on {obj.type.lower()} objects; they read 0")
         elif wanted:
             mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None

@@ -183,6 +183,8 @@ NODE_OUTPUTS = {
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "INSTANCE_ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
+    "CURVES_INFO": {"Is Strand": (1, "float"), "Intercept": (1, "float"), "Length": (1, "float"),
+                    "Thickness": (1, "float"), "Random": (1, "float")},
     "OBJECT_INFO": {"Location": (3, "vector"), "Color": (3, "color"), "Alpha": (1, "float"),
                     "Object Index": (1, "float"), "Material Index": (1, "float"), "Random": (1, "float")},
     "LIGHT_PATH": {name: (1, "float") for name in LIGHT_PATH_OUTPUTS},
@@ -207,6 +209,9 @@ NODE_OUTPUTS = {
 # The Object Info outputs an OBJECT_INFO op copies from the instance's info (geometry.instance_info): (start, width).
 OBJECT_INFO_COLUMNS = {"Location": (0, 3), "Color": (3, 3), "Alpha": (6, 1), "Object Index": (7, 1),
                        "From Instancer Generated": (8, 3), "From Instancer UV": (11, 3)}
+# The Curves Info outputs, each a mesh attribute of the tubes curves become (0 on other meshes, as Cycles' off strands).
+CURVES_INFO_ATTRIBUTES = {"Is Strand": "curve:strand", "Intercept": "curve:intercept", "Length": "curve:length",
+                          "Thickness": "curve:thickness", "Random": "curve:random"}
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
 GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
                     "Reflection")
@@ -350,6 +355,8 @@ def attributes_of(nodes: list) -> set:
             names.add(node.props.get("attribute", "color:"))
         elif node.kind == "NORMAL_MAP":
             names.add("tangent:" + node.props.get("map", ""))
+        elif node.kind == "CURVES_INFO":
+            names.add(CURVES_INFO_ATTRIBUTES[link.output])
         elif node.kind == "TANGENT":
             names.add("generated" if node.props.get("direction", "RADIAL") == "RADIAL"
                       else "tangent:" + node.props.get("map", ""))
@@ -365,7 +372,8 @@ def attributes_of(nodes: list) -> set:
 
 
 # The widths of the mesh attributes by name prefix.
-ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1}
+ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
+                    "curve": 1}
 
 
 def attribute_width(name: str) -> int:
@@ -573,6 +581,8 @@ class Compiler:
             out = self.temporary(1)
             self.emit("CONVERT", out, reg, 1)            # Fac: the average
             return out, 1, "float"
+        if kind == "CURVES_INFO":                       # per vertex of the tubes (core/geometry/curves.py curves_info)
+            return self.attribute(CURVES_INFO_ATTRIBUTES[output], 1), 1, "float"
         if kind == "INSTANCE_ATTRIBUTE":               # an Object or Instancer attribute: the instance's RGBA columns
             start = int(props["column"])                # (geometry.instance_info, Scene.instance_attributes)
             out = self.temporary(3 if output != "Alpha" else 1)

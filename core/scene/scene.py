@@ -34,6 +34,8 @@ class Mesh:
                       derive vertex normals from the geometry (`core.normals.vertex_normals`)
     material_indices: (t,) int64 index into the instance's material list
     attributes:       per-corner data the materials read (core/materials/graph.py): name -> (t, 3, w)
+    curve_info:       the Curves Info node's values per vertex of curves made tubes (core/geometry/curves.py
+                      curves_info): name ("curve:intercept", ...) -> (v,) float64; made attributes where read
                       float64, e.g. "uv:UVMap" (w 3, z 0), "color:Col" (RGBA), "tangent:UVMap" (object-space
                       tangent and bitangent sign), "generated", "object"; an empty name after the colon is the
                       mesh's active map
@@ -46,6 +48,7 @@ class Mesh:
     material_indices: Optional[np.ndarray] = None
     name: str = "Mesh"
     attributes: dict = field(default_factory=dict)
+    curve_info: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.vertices = np.asarray(self.vertices, dtype=np.float64).reshape(-1, 3)
