@@ -29,6 +29,7 @@ from ..core.materials.graph import GraphNode, Link
 from ..core.materials.converters import CONVERTER_BY_BLENDER
 from ..core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
 from ..core.materials.procedural import TEXTURE_BY_BLENDER
+from ..core.materials.procedural import hash as hash_
 from ..core.volumes import VOLUME_BY_BLENDER
 from . import movie as movie_
 from . import unmodelled
@@ -173,6 +174,7 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT", "ShaderNodeNewGeometry": "GEOMETRY",
                "ShaderNodeCameraData": "CAMERA_DATA", "ShaderNodeWireframe": "WIREFRAME",
                "ShaderNodeHairInfo": "CURVES_INFO",
+               "ShaderNodeParticleInfo": "PARTICLE_INFO",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
 CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
@@ -352,6 +354,10 @@ class GraphReader:
                 name = node.attribute_name
                 uv = any(name in mesh.uv_layers for mesh in bpy.data.meshes)
                 props = {"attribute": ("uv:" if uv else "color:") + name}
+        elif kind == "PARTICLE_INFO":           # 16 columns of the instances' Object Info (particle_columns)
+            if "PARTICLE:0" not in INSTANCE_ATTRIBUTES:
+                INSTANCE_ATTRIBUTES.extend(f"PARTICLE:{k}" for k in range(4))
+            props = {"column": OBJECT_INFO_WIDTH + 4 * INSTANCE_ATTRIBUTES.index("PARTICLE:0")}
         elif kind == "OBJECT_INFO":             # (its Material Index: this material's pass index, a constant)
             props = {"material_index": float(getattr(self.reader.material, "pass_index", 0))}
         elif kind == "MAPPING":
@@ -717,8 +723,37 @@ def object_attribute(instance, key: str) -> np.ndarray:
 
 def object_attributes(instance) -> dict:
     """Every Object and Instancer attribute read so far (INSTANCE_ATTRIBUTES) for a depsgraph object instance,
-    key -> RGBA (core/scene Instance.attributes), or None when the materials read none."""
-    return {key: object_attribute(instance, key) for key in INSTANCE_ATTRIBUTES} if INSTANCE_ATTRIBUTES else None
+    key -> RGBA (core/scene Instance.attributes), or None when the materials read none; the Particle Info's four."""
+    if not INSTANCE_ATTRIBUTES:
+        return None
+    values = {key: object_attribute(instance, key) for key in INSTANCE_ATTRIBUTES if not key.startswith("PARTICLE:")}
+    if "PARTICLE:0" in INSTANCE_ATTRIBUTES:
+        columns = particle_columns(instance)
+        values.update({f"PARTICLE:{k}": columns[4 * k:4 * k + 4] for k in range(4)})
+    return values
+
+
+def particle_columns(instance) -> np.ndarray:
+    """The Particle Info of a depsgraph object instance (16,) float64, as Cycles' sync_dupli_particle reads it for an
+    object a particle system instanced (core/materials/graph.py PARTICLE_INFO_COLUMNS): its particle's index, age
+    (the scene's frame less its birth time), lifetime, size, location, Random (hash_uint2_to_float(index, 0)),
+    velocity and angular velocity; Cycles' particle 0 (all 0, Random of index 0) for any other object or a child
+    particle."""
+    columns = np.zeros(16)
+    system = getattr(instance, "particle_system", None) if instance.is_instance else None
+    index = int(instance.persistent_id[0]) if system is not None else -1
+    if system is not None and 0 <= index < len(system.particles):
+        particle = system.particles[index]
+        layer = _VIEW_LAYER[0] or bpy.context.view_layer
+        scene = getattr(getattr(layer, "id_data", None), "original", None) or bpy.context.scene
+        frame = float(scene.frame_current) + float(scene.frame_subframe)
+        columns[0:4] = (index, frame - particle.birth_time, particle.lifetime, particle.size)
+        columns[4:7] = particle.location[:]
+        columns[8:11], columns[12:15] = particle.velocity[:], particle.angular_velocity[:]
+    else:
+        index = 0
+    columns[7] = float(hash_.uint_to_float(hash_.hash_uint2(index, 0)))
+    return columns.astype(np.float32).astype(np.float64)
 
 
 def view_layer_attribute(name: str) -> np.ndarray:

@@ -173,6 +173,10 @@ class Link:
     output: str
 
 
+# The Particle Info outputs in an instance's 16 Particle Info columns (its Object Info's, from props["column"], filled
+# at export: addon/materials.py particle_columns): name -> (offset, width).
+PARTICLE_INFO_COLUMNS = {"Index": (0, 1), "Age": (1, 1), "Lifetime": (2, 1), "Size": (3, 1), "Location": (4, 3),
+                         "Random": (7, 1), "Velocity": (8, 3), "Angular Velocity": (12, 3)}
 # Each kind's outputs: name -> (width, type); type decides how a colour or vector becomes a float.
 NODE_OUTPUTS = {
     "RGB": {"Color": (3, "color")}, "VALUE": {"Value": (1, "float")},
@@ -183,6 +187,8 @@ NODE_OUTPUTS = {
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "INSTANCE_ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
+    "PARTICLE_INFO": {name: (width, "vector" if width == 3 else "float")
+                      for name, (_, width) in PARTICLE_INFO_COLUMNS.items()},
     "CURVES_INFO": {"Is Strand": (1, "float"), "Intercept": (1, "float"), "Length": (1, "float"),
                     "Thickness": (1, "float"), "Random": (1, "float")},
     "OBJECT_INFO": {"Location": (3, "vector"), "Color": (3, "color"), "Alpha": (1, "float"),
@@ -581,6 +587,11 @@ class Compiler:
             out = self.temporary(1)
             self.emit("CONVERT", out, reg, 1)            # Fac: the average
             return out, 1, "float"
+        if kind == "PARTICLE_INFO":                     # the instance's particle (instance_info's columns)
+            offset, size = PARTICLE_INFO_COLUMNS[output]
+            out = self.temporary(size)
+            self.emit("OBJECT_INFO", out, int(props["column"]) + offset, size)
+            return out, width, vtype
         if kind == "CURVES_INFO":                       # per vertex of the tubes (core/geometry/curves.py curves_info)
             return self.attribute(CURVES_INFO_ATTRIBUTES[output], 1), 1, "float"
         if kind == "INSTANCE_ATTRIBUTE":               # an Object or Instancer attribute: the instance's RGBA columns
