@@ -255,3 +255,42 @@ WIRES = ("Wireframe 0.05", "Wireframe Pixel Size 3")
 SAMPLED = WIRES + ("Texture Coordinate Window", "Geometry Parametric", "Geometry Tangent", "Geometry Pointiness",
            "Camera Data View Vector",
            "Camera Data View Z Depth - 4", "Camera Data View Distance - 4", "Light Path Ray Length - 4")
+
+
+PERSPECTIVE_WIRES = """
+import math, os
+import bpy
+import numpy as np
+from blender_env import empty_material, primer_in_blender, render_pixels, report
+primer, export = primer_in_blender()
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 96, 64, 100
+material, tree, out = empty_material("Wire")
+wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
+wire.use_pixel_size = True
+wire.inputs["Size"].default_value = 2.0
+tree.links.new(wire.outputs["Fac"], emission.inputs["Color"])
+tree.links.new(emission.outputs[0], out.inputs["Surface"])
+bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=6.0,
+                                rotation=(math.radians(-55.0), 0.0, math.radians(20.0)))
+bpy.context.view_layer.objects.active.data.materials.append(material)
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.location, camera.rotation_euler = (0.0, -1.0, 7.0), (math.radians(10.0), 0.0, 0.0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+area = {{}}
+for engine in ("PRIMER", "CYCLES"):
+    area[engine] = float(render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), {samples})[..., 0].sum())
+primer.unregister()
+report(primer=area["PRIMER"], cycles=area["CYCLES"])
+"""
+
+
+def test_wireframe_pixel_size_under_a_perspective_camera_is_as_wide_as_cycles(tmp_path):
+    """A grid turned away from a perspective camera, its wires 2 pixels wide at every distance and slant: the wires'
+    area (the sum of Fac) is Cycles' within 2% (measured -0.1% at 16 samples, -0.02% at 32; a wire of Size in world units, or a
+    pixel measured at the wrong distance, changes it by its whole width's ratio)."""
+    result = run_bpy(PERSPECTIVE_WIRES.format(samples=16), str(tmp_path))
+    print("wires' area, Primer / Cycles - 1:", result["primer"] / result["cycles"] - 1.0)
+    assert result["primer"] == pytest.approx(result["cycles"], rel=0.02)
