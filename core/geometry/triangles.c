@@ -204,6 +204,7 @@ typedef struct {
     double t;           /* the distance along the ray: the Light Path node's Ray Length */
     const double *info; /* the object's row of geometry.instance_info: location, colour, alpha, pass index, then its
                            Object and Instancer attributes (RGBA each) */
+    int64_t info_width; /* its columns (a column past them reads 0) */
 } ShadingPoint;
 
 /* The Object Info of a scene without instances (no hit reads past its OBJECT_INFO_WIDTH columns then). */
@@ -230,6 +231,7 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
     }
     sp->random = g->instance_random != NULL ? g->instance_random[object] : 0.0;
     sp->info = g->instance_info != NULL ? g->instance_info + g->info_width * object : NO_INFO;
+    sp->info_width = g->instance_info != NULL ? g->info_width : OBJECT_INFO_WIDTH;
     int width = g->attributes != NULL ? (int)g->attribute_width : 0;
     sp->width = width;
     if (width > 0) {

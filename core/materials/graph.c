@@ -377,7 +377,9 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             for (int j = 0; j < a[3]; j++) out[j] = (a[1] >= 0 && j < a[2]) ? attributes[a[1] + j] : 0.0;
             break;
         case OP_RANDOM: out[0] = sp->random; break;
-        case OP_OBJECT_INFO: for (int j = 0; j < a[2]; j++) out[j] = sp->info[a[1] + j]; break;
+        case OP_OBJECT_INFO:
+            for (int j = 0; j < a[2]; j++) out[j] = a[1] + j < sp->info_width ? sp->info[a[1] + j] : 0.0;
+            break;
         case OP_OBJECT_MATRIX: object_matrix(sp, a[1], out); break;
         case OP_LIGHT_PATH: out[0] = light_path_output(a[1], sp); break;
         case OP_OFFSET:

@@ -1014,9 +1014,12 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]] = sp.random
         elif name == "OBJECT_MATRIX":
             reg[:, i[0]:i[0] + 12] = object_matrices(sp, i[1])
-        elif name == "OBJECT_INFO":
-            reg[:, i[0]:i[0] + i[2]] = (np.zeros((n, i[2])) if sp.info is None
-                                        else sp.info[:, i[1]:i[1] + i[2]])
+        elif name == "OBJECT_INFO":                     # (a column past the instances' reads 0)
+            columns = np.zeros((n, i[2]))
+            if sp.info is not None:
+                found = sp.info[:, i[1]:i[1] + i[2]]
+                columns[:, :found.shape[1]] = found
+            reg[:, i[0]:i[0] + i[2]] = columns
         elif name == "LIGHT_PATH":
             path = light_paths(n) if sp.path is None else sp.path
             reg[:, i[0]] = light_path_output(i[1], path, np.zeros(n) if sp.t is None else sp.t)
