@@ -249,8 +249,9 @@ def curve_attributes(mesh: core_scene.Mesh, wanted: set) -> set:
     in Cycles off strands)."""
     for name in wanted & set(mesh.curve_info):
         if name not in mesh.attributes:
-            mesh.attributes[name] = mesh.curve_info[name][mesh.triangles][:, :, None]
-    return {name for name in wanted - set(mesh.curve_info) if not name.startswith("curve:")}   # (0 off strands)
+            values = mesh.curve_info[name][mesh.triangles]                      # (t, 3) or (t, 3, 3)
+            mesh.attributes[name] = values[:, :, None] if values.ndim == 2 else values
+    return {name for name in wanted - set(mesh.curve_info) if not name.startswith("curve")}   # (0 off strands)
 
 
 def attribute_values(attribute, dtype) -> np.ndarray:

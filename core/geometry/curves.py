@@ -78,7 +78,8 @@ def curves_info(positions: np.ndarray, radius: np.ndarray, first: np.ndarray, co
     """What the Curves Info node reads, as Cycles' Blender sync computes it for each curve (export_hair_curves): per
     control point (p,) Intercept (the length of the polyline through the points up to it over the whole, 0 at the
     root, 1 at the tip) and Thickness (twice the radius); per curve (c,) Length (that polyline's whole length),
-    Random (hash_uint2_to_float(curve, 0)) and Is Strand (1). -> ({name: (p,)}, {name: (c,)}), names "curve:..."."""
+    Random (hash_uint2_to_float(curve, 0)) and Is Strand (1). -> ({name: (p,)}, {name: (c,)}), names "curve:...".
+    (Its Tangent Normal reads the tubes' spline tangent, "curve_tangent", which `tubes` adds.)"""
     positions = np.asarray(positions, np.float64)
     first, counts = np.asarray(first, np.int64), np.asarray(counts, np.int64)
     curve_of = np.repeat(np.arange(len(counts)), counts)
@@ -155,4 +156,6 @@ def tubes(positions: np.ndarray, radius: np.ndarray, first: np.ndarray, counts: 
     mesh.curve_info = {name_: point_rows[:, k] for k, name_ in enumerate(per_point)}
     vertex_curve = np.concatenate([np.repeat(keep, s * sides), np.repeat(keep, 2)])
     mesh.curve_info.update({name_: np.asarray(v, np.float64)[vertex_curve] for name_, v in per_curve.items()})
+    ends_tangent = np.stack([tangent[:, 0], tangent[np.arange(c), last]], axis=1).reshape(2 * c, 3)
+    mesh.curve_info["curve_tangent"] = np.concatenate([np.repeat(tangent.reshape(c * s, 3), sides, axis=0), ends_tangent])
     return Tubes(mesh, curve.astype(np.int64))

@@ -264,6 +264,18 @@ INLINE double wireframe(double size, int where, const ShadingPoint *sp)
     return 0.0;
 }
 
+/* graph.curve_normal: Cycles' Curves Info Tangent Normal from the curve's object-space tangent T. */
+INLINE void curve_normal(const double *t, const ShadingPoint *sp, double *out)
+{
+    double T[3];
+    for (int i = 0; i < 3; i++) T[i] = (sp->L[3 * i] * t[0] + sp->L[3 * i + 1] * t[1]) + sp->L[3 * i + 2] * t[2];
+    double length2 = dot3(T, T);
+    if (!(length2 > 0.0)) { out[0] = out[1] = out[2] = 0.0; return; }
+    double along = dot3(T, sp->I) / length2;
+    for (int i = 0; i < 3; i++) out[i] = sp->I[i] - along * T[i];
+    safe_normalize3(out);
+}
+
 /* graph.orthonormals: Cycles' make_orthonormals of a unit N. */
 INLINE void make_orthonormals(const double *N, double *a, double *b)
 {
@@ -520,6 +532,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             break;
         }
         case OP_WIREFRAME: out[0] = wireframe(reg[a[1]], where, sp); break;
+        case OP_CURVE_NORMAL: { double r[3]; curve_normal(reg + a[1], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_PIXEL_SIZE: out[0] = reg[a[1]] * pixel_width(reg + a[2], reg + a[3], sp); break;
         case OP_CAMERA_DATA: {
             const double *p = reg + a[1];

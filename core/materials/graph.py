@@ -51,7 +51,8 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "LIGHT_PATH",
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
-                                                               "OBJECT_INFO", "OBJECT_MATRIX", "PIXEL_SIZE")
+                                                               "OBJECT_INFO", "OBJECT_MATRIX", "PIXEL_SIZE",
+                                                               "CURVE_NORMAL")
 # Ops of world shaders only, which the Python reference alone evaluates (world graphs are baked at export,
 # core/lights/world_graph.py): graph_tables refuses a program holding one, and graph.c has no case for them.
 WORLD_OPS = ("SKY",)
@@ -190,7 +191,7 @@ NODE_OUTPUTS = {
     "PARTICLE_INFO": {name: (width, "vector" if width == 3 else "float")
                       for name, (_, width) in PARTICLE_INFO_COLUMNS.items()},
     "CURVES_INFO": {"Is Strand": (1, "float"), "Intercept": (1, "float"), "Length": (1, "float"),
-                    "Thickness": (1, "float"), "Random": (1, "float")},
+                    "Thickness": (1, "float"), "Random": (1, "float"), "Tangent Normal": (3, "vector")},
     "OBJECT_INFO": {"Location": (3, "vector"), "Color": (3, "color"), "Alpha": (1, "float"),
                     "Object Index": (1, "float"), "Material Index": (1, "float"), "Random": (1, "float")},
     "LIGHT_PATH": {name: (1, "float") for name in LIGHT_PATH_OUTPUTS},
@@ -217,7 +218,7 @@ OBJECT_INFO_COLUMNS = {"Location": (0, 3), "Color": (3, 3), "Alpha": (6, 1), "Ob
                        "From Instancer Generated": (8, 3), "From Instancer UV": (11, 3)}
 # The Curves Info outputs, each a mesh attribute of the tubes curves become (0 on other meshes, as Cycles' off strands).
 CURVES_INFO_ATTRIBUTES = {"Is Strand": "curve:strand", "Intercept": "curve:intercept", "Length": "curve:length",
-                          "Thickness": "curve:thickness", "Random": "curve:random"}
+                          "Thickness": "curve:thickness", "Random": "curve:random", "Tangent Normal": "curve_tangent"}
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
 GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
                     "Reflection")
@@ -379,7 +380,7 @@ def attributes_of(nodes: list) -> set:
 
 # The widths of the mesh attributes by name prefix.
 ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
-                    "curve": 1}
+                    "curve": 1, "curve_tangent": 3}
 
 
 def attribute_width(name: str) -> int:
@@ -593,6 +594,10 @@ class Compiler:
             self.emit("OBJECT_INFO", out, int(props["column"]) + offset, size)
             return out, width, vtype
         if kind == "CURVES_INFO":                       # per vertex of the tubes (core/geometry/curves.py curves_info)
+            if output == "Tangent Normal":              # the view across the curve's tangent
+                out = self.temporary(3)
+                self.emit("CURVE_NORMAL", out, self.attribute(CURVES_INFO_ATTRIBUTES[output], 3))
+                return out, 3, "vector"
             return self.attribute(CURVES_INFO_ATTRIBUTES[output], 1), 1, "float"
         if kind == "INSTANCE_ATTRIBUTE":               # an Object or Instancer attribute: the instance's RGBA columns
             start = int(props["column"])                # (geometry.instance_info, Scene.instance_attributes)
@@ -874,7 +879,7 @@ REGISTER_ARGS = {
     "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
-    "PIXEL_SIZE": {0, 1, 2, 3},
+    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1118,6 +1123,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 5])
         elif name == "WIREFRAME":
             reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
+        elif name == "CURVE_NORMAL":
+            reg[:, i[0]:i[0] + 3] = curve_normal(R(1, 3), sp)
         elif name == "PIXEL_SIZE":
             reg[:, i[0]] = reg[:, i[1]] * pixel_width(R(2, 3), reg[0, i[3]:i[3] + 7], sp)
         elif name == "CAMERA_DATA":
@@ -1185,6 +1192,18 @@ def wireframe(size: np.ndarray, where: int, sp: ShadingPoint) -> np.ndarray:
         crossed = np.cross(edge, P - corners[k])
         near |= np.einsum("ij,ij->i", crossed, crossed) < np.einsum("ij,ij->i", edge, edge) * width
     return near.astype(np.float64)
+
+
+def curve_normal(T: np.ndarray, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Curves Info Tangent Normal (curve_tangent_normal) (n, 3): the direction towards the viewer I with its
+    part along the curve's tangent taken away, I - T (T.I) / |T|^2, normalised; T (n, 3) the curve's tangent at the
+    hit in object space (turned to world space by the object's linear transform); 0 off strands (T zero)."""
+    T = np.einsum("nij,nj->ni", np.asarray(sp.linear, np.float64).reshape(-1, 3, 3), T)
+    I = sp.N if sp.I is None else sp.I
+    length2 = np.einsum("ij,ij->i", T, T)
+    along = np.divide(np.einsum("ij,ij->i", T, I), length2, out=np.zeros(len(T)), where=length2 > 0.0)
+    across = safe_normalize(I - along[:, None] * T)
+    return np.where((length2 > 0.0)[:, None], across, 0.0)
 
 
 def orthonormals(N: np.ndarray) -> tuple:

@@ -145,6 +145,7 @@
 #define OP_OBJECT_INFO 50
 #define OP_OBJECT_MATRIX 51
 #define OP_PIXEL_SIZE 52
+#define OP_CURVE_NORMAL 53
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -907,7 +908,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(9164586429381941145);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(8196709614173496223);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(7815586950064714838);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(8932814335494144671);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
