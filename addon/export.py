@@ -1256,6 +1256,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     if mesh_cache is not None:
         mesh_cache.end()
     core.instance_attributes = list(materials_.INSTANCE_ATTRIBUTES)   # (the columns of Instance.attributes)
+    warnings.extend(note for note in materials_.ATTRIBUTE_NOTES if note not in warnings)
     core.materials, core.world = media_of_layer(bool(getattr(depsgraph.view_layer, "use_volumes", True)),
                                                 materials.materials, core.world)
     if world.lights:                    # a Sky Texture's sun disc, a lamp of the world's (in the world's light group)

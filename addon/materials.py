@@ -662,6 +662,7 @@ def begin_export(frame: int = 1, view_layer=None) -> None:
     `view_layer` (None: the context's)."""
     _IMAGES.clear()
     INSTANCE_ATTRIBUTES.clear()
+    ATTRIBUTE_NOTES.clear()
     _VIEW_LAYER[0] = view_layer
     set_frame(frame)
 
@@ -671,6 +672,8 @@ def begin_export(frame: int = 1, view_layer=None) -> None:
 # Layer attributes they read.
 INSTANCE_ATTRIBUTES: list = []
 _VIEW_LAYER: list = [None]
+# What the lookups could not read as Cycles does (addon/export.py adds them to the export's warnings).
+ATTRIBUTE_NOTES: list = []
 
 
 def property_rgba(owner, name: str):
@@ -713,6 +716,13 @@ def object_attribute(instance, key: str) -> np.ndarray:
     if kind == "INSTANCER" and instance.is_instance:
         system = getattr(instance, "particle_system", None)
         owners += [system.settings if system is not None else None, instance.parent]
+        parent = instance.parent
+        if system is None and any(m.type == "NODES" for m in getattr(parent, "modifiers", ())):
+            note = (f"Instancer attribute '{name}' of the instances of '{parent.name}': Cycles reads an instance "
+                    "attribute of that name made by geometry nodes first, which Blender's Python API does not show; "
+                    "Primer reads the instancer's and the object's properties only")
+            if note not in ATTRIBUTE_NOTES:
+                ATTRIBUTE_NOTES.append(note)
     owners += [instance.object, getattr(instance.object, "data", None)]
     for owner in owners:
         value = property_rgba(owner, name)

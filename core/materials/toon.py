@@ -97,6 +97,7 @@ class DiffuseToon(BSDF):
 
     @classmethod
     def c_name(cls) -> str:
+        """Its C functions' prefix in toon.c."""
         return "diffuse_toon"
 
     @staticmethod
@@ -120,6 +121,7 @@ class GlossyToon(BSDF):
 
     @classmethod
     def c_name(cls) -> str:
+        """Its C functions' prefix in toon.c."""
         return "glossy_toon"
 
     @staticmethod
@@ -145,6 +147,7 @@ class ToonNode(Node):
 
     @staticmethod
     def setup(b, weight, p):
+        """One closure of the component's class per hit, its Size and Smooth as angles (params_of)."""
         p = per_hit_rows(p, len(weight))
         kind = GlossyToon.kind if p[0, 2] != 0.0 else DiffuseToon.kind
         b.add(kind, weight, params_of(p[:, 0], p[:, 1]), keep=b.kept(kind))
