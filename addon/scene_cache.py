@@ -136,7 +136,7 @@ class _Placement:
     owner: int          # original object's session uid
     parent: int         # the instancer's session uid (the owner itself when not instanced)
     visible: tuple = ()             # export.ray_visibility's items: Ray Visibility and Holdout
-    attributes: Optional[dict] = None   # its Object and Instancer attributes, Particle Info (materials.object_attributes)
+    attributes: Optional[dict] = None   # Object and Instancer attributes, Particle Info (materials.object_attributes)
     dupli: tuple = ()               # export.from_instancer's items: Generated and UV From Instancer
 
     def same_as(self, other: "_Placement") -> bool:

@@ -1,8 +1,8 @@
 """The Curves Info node on hair curves inside real Blender (the bpy module, no mocks), against Cycles' own render.
 
 Two sets of five wavy, tapering hair curves, each an Emission of colours built from the node's outputs: (Intercept,
-Random, Length / 10) and (Thickness x 4, Is Strand / 2, Tangent Normal's z), seen from above by an orthographic camera (64 x 48
-pixels, 16 samples each). Cycles renders round strands, Primer triangle tubes around the same splines (inscribed, 12
+Random, Length / 10) and (Thickness x 4, Is Strand / 2, Tangent Normal's z), seen from above by an orthographic
+camera (64 x 48 pixels, 16 samples each). Cycles renders round strands, Primer triangle tubes around the same splines (inscribed, 12
 sides): the outputs are compared where both renders see a strand, on pixels whose neighbours Cycles also sees as strand.
 """
 from __future__ import annotations

@@ -34,7 +34,8 @@ def catmull_rom(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, 
                   + (3.0 * p1 - p0 - 3.0 * p2 + p3) * t * t * t)
 
 
-def spline_points(keys: np.ndarray, first: np.ndarray, counts: np.ndarray, steps: int, linear_from: int = None) -> tuple:
+def spline_points(keys: np.ndarray, first: np.ndarray, counts: np.ndarray, steps: int,
+                  linear_from: int = None) -> tuple:
     """Each curve's spline sampled `steps` times per span (its ends included): (samples (c, s, k) float64 position
     and radius, padded with each curve's last sample; valid (c, s) bool). keys (p, k) float64 the control points'
     position, radius and any more columns, those from `linear_from` on interpolated linearly between the span's two
@@ -157,5 +158,6 @@ def tubes(positions: np.ndarray, radius: np.ndarray, first: np.ndarray, counts: 
     vertex_curve = np.concatenate([np.repeat(keep, s * sides), np.repeat(keep, 2)])
     mesh.curve_info.update({name_: np.asarray(v, np.float64)[vertex_curve] for name_, v in per_curve.items()})
     ends_tangent = np.stack([tangent[:, 0], tangent[np.arange(c), last]], axis=1).reshape(2 * c, 3)
-    mesh.curve_info["curve_tangent"] = np.concatenate([np.repeat(tangent.reshape(c * s, 3), sides, axis=0), ends_tangent])
+    mesh.curve_info["curve_tangent"] = np.concatenate([np.repeat(tangent.reshape(c * s, 3), sides, axis=0),
+                                                       ends_tangent])
     return Tubes(mesh, curve.astype(np.int64))

@@ -486,15 +486,16 @@ def build_geometry(scene: Scene, origin: np.ndarray,
 
 
 # The Object Info node's outputs an instance carries (graph.OBJECT_INFO_OUTPUTS, their columns): its world location,
-# its colour and alpha, its pass index; the Texture Coordinate's Generated and UV From Instancer (Instance.dupli_generated,
-# dupli_uv); then 4 columns (RGBA) per Object or Instancer attribute (Scene.instance_attributes).
+# its colour and alpha, its pass index; the Texture Coordinate's Generated and UV From Instancer
+# (Instance.dupli_generated, dupli_uv); then 4 columns (RGBA) per Object or Instancer attribute (Scene.instance_attributes).
 OBJECT_INFO_WIDTH = schema.constant("OBJECT_INFO_WIDTH", 14, "an instance's Object Info columns before its attributes")
 
 
 def instance_info(instances: list, matrices: np.ndarray, attributes=()) -> np.ndarray:
     """Each instance's Object Info (n, OBJECT_INFO_WIDTH + 4 k) float64: Location (the translation of its matrix in
     `matrices` (n, 4, 4), world space), Color and Alpha (Object > Viewport Display > Color), Object Index (its pass
-    index), Generated and UV From Instancer (u, v, 0), then the RGBA of each of the k `attributes` (names; Instance.attributes, 0 where it has none); filled
+    index), Generated and UV From Instancer (u, v, 0), then the RGBA of each of the k `attributes` (names;
+    Instance.attributes, 0 where it has none); filled
     column by column (10^5 instances cost one array each, not one per instance)."""
     info = np.zeros((len(instances), OBJECT_INFO_WIDTH + 4 * len(attributes)))
     if len(instances):
