@@ -336,8 +336,10 @@ class GraphReader:
             if node.object is not None:                   # Object: in that object's frame
                 props = {"object_matrix": np.array(node.object.matrix_world, np.float64)}
             camera = bpy.context.scene.camera
-            if node.outputs["Window"].is_linked and camera is not None and getattr(camera.data, "type", "") == "PANO":
-                warn("Window for a panoramic camera is not supported; Primer reads (0, 0, 0)")
+            if (node.outputs["Window"].is_linked and camera is not None and getattr(camera.data, "type", "") == "PANO"
+                    and panorama_type(camera.data) not in graph_.PANORAMA_WINDOWS):
+                warn(f"Window for a {panorama_type(camera.data)} panoramic camera is not supported; Primer reads "
+                     "(0, 0, 0)")
             props["from_instancer"] = bool(getattr(node, "from_instancer", False))  # (UV, Generated: the instance's)
         elif kind == "UVMAP":
             props = {"map": node.uv_map}
@@ -472,6 +474,12 @@ class GraphReader:
             vector = inputs.get("Vector")
             inputs["Vector"] = mapped_vector(mapping, vector if isinstance(vector, Link) else None, "Generated", warn)
         return props, inputs
+
+
+def panorama_type(camera_data) -> str:
+    """A panoramic camera's type: Blender 5's Camera.panorama_type, or 4.x's Cycles setting."""
+    kind = getattr(camera_data, "panorama_type", None)
+    return kind if kind is not None else getattr(getattr(camera_data, "cycles", None), "panorama_type", "")
 
 
 def baked_curves(mapping, count: int) -> np.ndarray:

@@ -264,6 +264,50 @@ INLINE double wireframe(double size, int where, const ShadingPoint *sp)
     return 0.0;
 }
 
+/* graph.panorama_window: Cycles' Window under a panoramic camera of a point p in the camera's frame; f: the type
+ * (2 + its place in graph.PANORAMA_WINDOWS) and its numbers. */
+INLINE void panorama_window(const double *p, const double *f, double *out)
+{
+    double P[3] = {p[0], p[1], p[2]}, D[3], u, v;
+    safe_normalize3(P);
+    int kind = (int)f[4] - 2;
+    if (kind == 2) { D[0] = P[0]; D[1] = -P[2]; D[2] = P[1]; }
+    else { D[0] = P[2]; D[1] = -P[0]; D[2] = P[1]; }
+    if (kind == 0) {                                            /* equirectangular */
+        u = (atan2(D[1], D[0]) - f[1]) / f[0];
+        double c = D[2] / sqrt(dot3(D, D));
+        v = (acos(c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c)) - f[3]) / f[2];
+    } else if (kind == 1) {                                     /* equiangular cube map face */
+        u = 0.5 - atan2(D[1], D[0]) * (2.0 / PI);
+        v = atan2(D[2], D[0]) * (2.0 / PI) + 0.5;
+    } else if (kind == 2) {                                     /* mirror ball */
+        D[1] -= 1.0;
+        double div = 2.0 * sqrt(at_least(-0.5 * D[1], 0.0));
+        if (div > 0.0) for (int j = 0; j < 3; j++) D[j] = D[j] / div;
+        u = 0.5 * (D[0] + 1.0);
+        v = 0.5 * (D[2] + 1.0);
+    } else if (kind == 5) {                                     /* central cylindrical */
+        double z = safe_div(D[2], sqrt(D[0] * D[0] + D[1] * D[1]));
+        u = (atan2(D[1], D[0]) - f[0]) / (f[1] - f[0]);
+        v = (z - f[2]) / (f[3] - f[2]);
+    } else {                                                    /* the fisheyes */
+        double across = sqrt(D[1] * D[1] + D[2] * D[2]), r, width = 1.0, height = 1.0;
+        if (kind == 3) r = atan2(across, D[0]) / f[0];
+        else {
+            double c = D[0] < -1.0 ? -1.0 : (D[0] > 1.0 ? 1.0 : D[0]);
+            r = 2.0 * f[0] * sin(0.5 * acos(c));
+            width = f[1];
+            height = f[2];
+        }
+        double y = safe_div(D[1], across), z = safe_div(D[2], across);
+        u = 0.5 - (r * y) / width;
+        v = (r * z) / height + 0.5;
+    }
+    out[0] = u;
+    out[1] = v;
+    out[2] = 0.0;
+}
+
 /* graph.curve_normal: Cycles' Curves Info Tangent Normal from the curve's object-space tangent T. */
 INLINE void curve_normal(const double *t, const ShadingPoint *sp, double *out)
 {
@@ -525,6 +569,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_WINDOW: {
             const double *p = reg + a[1], *f = reg + a[2];
+            if (f[4] >= 2.0) { panorama_window(p, f, out); break; }
             double x = f[4] != 0.0 ? safe_div(p[0], p[2]) : p[0], y = f[4] != 0.0 ? safe_div(p[1], p[2]) : p[1];
             out[0] = (x - f[0]) / (f[1] - f[0]);
             out[1] = (y - f[2]) / (f[3] - f[2]);

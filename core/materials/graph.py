@@ -23,6 +23,7 @@ than a pixel's footprint, where Cycles' differences average more).
 """
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 from dataclasses import dataclass, field
 from typing import NamedTuple, Optional
@@ -561,7 +562,7 @@ class Compiler:
                                          props.get("to", "OBJECT")), 3, "vector"
         if kind == "WIREFRAME":
             size = self.value(inp.get("Size"), 1, 0.01)
-            if props.get("pixel_size") and self.window is not None:     # Size in pixels at the hit's distance
+            if props.get("pixel_size") and self.window is not None and self.window[4] < 2.0:   # (not panoramic)
                 pixels = self.temporary(1)
                 self.emit("PIXEL_SIZE", pixels, size, self.transform(self.geometry("Position"), self.view),
                           self.constant(self.window))
@@ -1120,7 +1121,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             p = R(1, 3)
             reg[:, i[0]:i[0] + 3] = (p[:, 0:1] * M[:, 0] + p[:, 1:2] * M[:, 1]) + p[:, 2:3] * M[:, 2] + M[:, 3]
         elif name == "WINDOW":
-            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 5])
+            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 7])
         elif name == "WIREFRAME":
             reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
         elif name == "CURVE_NORMAL":
@@ -1249,9 +1250,53 @@ def window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
     image they show, 0 .. 1 from its left and bottom edges, z 0; frame: (left, right, bottom, top, perspective), the
     camera's viewplane (core/camera viewplane: on the plane at depth 1 for a perspective camera, whose points are
     divided by their depth first)."""
-    left, right, bottom, top, perspective = frame
+    left, right, bottom, top, perspective = frame[:5]
+    if perspective >= 2.0:
+        return panorama_window(P, frame)
     x, y = (safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2])) if perspective else (P[:, 0], P[:, 1])
     return np.stack([(x - left) / (right - left), (y - bottom) / (top - bottom), np.zeros(len(P))], axis=1)
+
+
+# A panoramic camera's Window (core/render: MaterialTable.window's fifth number is 2 + the type's place here).
+PANORAMA_WINDOWS = ("EQUIRECTANGULAR", "EQUIANGULAR_CUBEMAP_FACE", "MIRRORBALL", "FISHEYE_EQUIDISTANT",
+                    "FISHEYE_EQUISOLID", "CENTRAL_CYLINDRICAL")
+
+
+def panorama_window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """Cycles' Window under a panoramic camera (camera_world_to_ndc, direction_to_panorama) (n, 3) of points P (n, 3)
+    in the camera's frame (x right, y up, z forward): their direction turned into the panorama's frame (x forward, y
+    left, z up; a mirror ball's y forward) and mapped to its (u, v) as Cycles' direction_to_<type>; z 0. frame: (a, b,
+    c, d, 2 + the type's place in PANORAMA_WINDOWS, e, f): equirectangular and central cylindrical (range x, y, z, w),
+    the equidistant fisheye (fov), the equisolid one (lens, sensor width, sensor height)."""
+    a, b, c, d, code, e, f = frame
+    kind = PANORAMA_WINDOWS[int(code) - 2]
+    P = safe_normalize(P)
+    D = (np.stack([P[:, 0], -P[:, 2], P[:, 1]], axis=1) if kind == "MIRRORBALL"
+         else np.stack([P[:, 2], -P[:, 0], P[:, 1]], axis=1))
+    if kind == "EQUIRECTANGULAR":
+        u = (np.arctan2(D[:, 1], D[:, 0]) - b) / a
+        v = (np.arccos(np.clip(D[:, 2] / np.sqrt(np.einsum("ij,ij->i", D, D)), -1.0, 1.0)) - d) / c
+    elif kind == "EQUIANGULAR_CUBEMAP_FACE":
+        u = 0.5 - np.arctan2(D[:, 1], D[:, 0]) * (2.0 / math.pi)
+        v = np.arctan2(D[:, 2], D[:, 0]) * (2.0 / math.pi) + 0.5
+    elif kind == "MIRRORBALL":
+        D = D - np.array([0.0, 1.0, 0.0])
+        div = 2.0 * np.sqrt(np.maximum(-0.5 * D[:, 1], 0.0))
+        D = np.where((div > 0.0)[:, None], D / np.where(div > 0.0, div, 1.0)[:, None], D)
+        u, v = 0.5 * (D[:, 0] + 1.0), 0.5 * (D[:, 2] + 1.0)
+    elif kind == "CENTRAL_CYLINDRICAL":
+        z = safe_divide(D[:, 2], np.sqrt(D[:, 0] * D[:, 0] + D[:, 1] * D[:, 1]))
+        u = (np.arctan2(D[:, 1], D[:, 0]) - a) / (b - a)
+        v = (z - c) / (d - c)
+    else:                                                           # the fisheyes: a radius towards (y, z)
+        across = np.sqrt(D[:, 1] * D[:, 1] + D[:, 2] * D[:, 2])
+        if kind == "FISHEYE_EQUIDISTANT":
+            r, width, height = np.arctan2(across, D[:, 0]) / a, 1.0, 1.0
+        else:
+            r, width, height = 2.0 * a * np.sin(0.5 * np.arccos(np.clip(D[:, 0], -1.0, 1.0))), b, c
+        y, z = safe_divide(D[:, 1], across), safe_divide(D[:, 2], across)
+        u, v = 0.5 - (r * y) / width, (r * z) / height + 0.5
+    return np.stack([u, v, np.zeros(len(P))], axis=1)
 
 
 def camera_data(P: np.ndarray) -> np.ndarray:
