@@ -243,6 +243,17 @@ def particle_hair_mesh(obj, system, render: bool, matrix: np.ndarray, warnings: 
     return tubes.mesh
 
 
+def curve_attributes(mesh: core_scene.Mesh, wanted: set) -> set:
+    """Give the tubes `mesh` of curves the Curves Info attributes of `wanted` (its Mesh.curve_info, per vertex, as
+    per-corner attributes); return the names of `wanted` it cannot carry (on other meshes the Curves Info reads 0, as
+    in Cycles off strands)."""
+    for name in wanted & set(mesh.curve_info):
+        if name not in mesh.attributes:
+            values = mesh.curve_info[name][mesh.triangles]                      # (t, 3) or (t, 3, 3)
+            mesh.attributes[name] = values[:, :, None] if values.ndim == 2 else values
+    return {name for name in wanted - set(mesh.curve_info) if not name.startswith("curve")}   # (0 off strands)
+
+
 def attribute_values(attribute, dtype) -> np.ndarray:
     """A Blender attribute's values (n,) of `dtype`, read in bulk."""
     values = np.empty(len(attribute.data), dtype)
@@ -1162,6 +1173,17 @@ def _terminator_notes(offsets: dict, fix: bool) -> list:
     return notes
 
 
+def from_instancer(instance) -> dict:
+    """An instance's Texture Coordinate From Instancer (core/scene Instance dupli_generated, dupli_uv): the point of
+    its instancer it was placed at, as Cycles reads it (0.5 orco - 0.5, and the UV there); none for an object that is
+    no instance."""
+    if not instance.is_instance:
+        return {}
+    orco = np.array(instance.orco, np.float32)
+    return {"dupli_generated": tuple((np.float32(0.5) * orco - np.float32(0.5)).astype(np.float64)),
+            "dupli_uv": tuple(float(x) for x in instance.uv)}
+
+
 def topmost_parent(obj):
     """Return the object at the top of `obj`'s parent chain (`obj` itself without a parent): Cryptomatte's asset."""
     seen = {obj.name}
@@ -1188,7 +1210,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     camera = export_camera(camera_eval, warnings)
     if not np.isfinite(np.asarray(camera.matrix_world)).all():
         raise ExportError(f"camera '{camera_object.name}' has an invalid (NaN or infinite) transform")
-    materials_.begin_export(scene.frame_current)
+    materials_.begin_export(scene.frame_current, depsgraph.view_layer)
     # What the scene asks of Cycles that Primer does not render, said once (addon/unmodelled.py).
     warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
     warnings += unmodelled.view_layer_notes(depsgraph.view_layer) + unmodelled.world_notes(scene.world)
@@ -1231,11 +1253,15 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                 hair = particle_hair_mesh(obj, system, depsgraph.mode == "RENDER", matrix, warnings,
                                           curve_shape(scene, f"object '{obj.name}' hair '{system.name}'", warnings))
                 if hair is not None:
+                    slots = materials.slot_map(obj, warnings, override)
+                    curve_attributes(hair, set().union(*(graph_.attributes_of(materials.materials[slot].nodes)
+                                                         for slot in slots[slots >= 0].tolist())))
                     core.meshes.append(hair)
                     core.instances.append(core_scene.Instance(
                         len(core.meshes) - 1, matrix, materials.slot_map(obj, warnings, override), obj.name,
                         None, int(getattr(obj, "pass_index", 0)), **instance_keywords(obj),
-                        asset=topmost_parent(obj).name, **links.of_object(obj)))
+                        asset=topmost_parent(obj).name, **links.of_object(obj),
+                        attributes=materials_.object_attributes(instance)))
                     groups["instances"].append(lightgroups.source_group(obj))
         if not instance.show_self:
             continue                    # e.g. a particle emitter that is not rendered itself
@@ -1278,8 +1304,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         if "uv" in passes and len(obj.data.uv_layers):
             wanted.add("uv:")
         if wanted and obj.type != "MESH":
-            warnings.append(f"object '{obj.name}': its materials read {', '.join(sorted(wanted))}, which Primer does "
-                            f"not carry on {obj.type.lower()} objects; they read 0")
+            wanted = curve_attributes(core.meshes[mesh_index[key]], wanted)
+            if wanted:
+                warnings.append(f"object '{obj.name}': its materials read {', '.join(sorted(wanted))}, which Primer "
+                                f"does not carry on {obj.type.lower()} objects; they read 0")
         elif wanted:
             mesh_attributes(obj.data, core.meshes[mesh_index[key]], wanted, warnings)
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
@@ -1290,11 +1318,15 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
                                                   int(getattr(obj, "pass_index", 0)), **visibility,
                                                   asset=topmost_parent(obj).name, color=tuple(obj.color),
-                                                  **links.of_object(obj)))
+                                                  **links.of_object(obj),
+                                                  attributes=materials_.object_attributes(instance),
+                                                  **from_instancer(instance)))
         groups["instances"].append(lightgroups.source_group(obj))
 
     if mesh_cache is not None:
         mesh_cache.end()
+    core.instance_attributes = list(materials_.INSTANCE_ATTRIBUTES)   # (the columns of Instance.attributes)
+    warnings.extend(note for note in materials_.ATTRIBUTE_NOTES if note not in warnings)
     core.materials, core.world = media_of_layer(bool(getattr(depsgraph.view_layer, "use_volumes", True)),
                                                 [dataclasses.replace(m, volume_space=volume_spaces[i])
                                                  if i in volume_spaces else m

@@ -24,10 +24,12 @@ from ..core.materials import graph as graph_
 from ..core.materials import nodes as nodes_
 from ..core.materials import sky as sky_
 from ..core.materials import textures as textures_
+from ..core.geometry.geometry import OBJECT_INFO_WIDTH
 from ..core.materials.graph import GraphNode, Link
 from ..core.materials.converters import CONVERTER_BY_BLENDER
 from ..core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
 from ..core.materials.procedural import TEXTURE_BY_BLENDER
+from ..core.materials.procedural import hash as hash_
 from ..core.volumes import VOLUME_BY_BLENDER
 from . import movie as movie_
 from . import unmodelled
@@ -172,6 +174,8 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeFresnel": "FRESNEL", "ShaderNodeLayerWeight": "LAYER_WEIGHT", "ShaderNodeNewGeometry": "GEOMETRY",
                "ShaderNodeCameraData": "CAMERA_DATA", "ShaderNodeWireframe": "WIREFRAME",
                "ShaderNodeAmbientOcclusion": "AO", "ShaderNodeBevel": "BEVEL",
+               "ShaderNodeHairInfo": "CURVES_INFO",
+               "ShaderNodeParticleInfo": "PARTICLE_INFO",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
 CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
@@ -231,6 +235,13 @@ class GraphReader:
             return np.array(out.default_value[:3], np.float64)
         if kind == "ShaderNodeValue":
             return float(out.default_value)
+        if kind == "ShaderNodeAttribute" and node.attribute_type == "VIEW_LAYER":     # one value for the whole render
+            f32 = view_layer_attribute(node.attribute_name).astype(np.float32).astype(np.float64)
+            name = RENAMED.get(out.name, out.name)
+            if name in ("Color", "Vector"):
+                return Link(GraphNode("RGB", {"value": f32[:3], "type": name.lower()}), "Color")
+            return Link(GraphNode("VALUE", {"value": float(f32[3]) if name == "Alpha"
+                                            else float((f32[0] + f32[1] + f32[2]) / 3.0)}), "Value")
         name = RENAMED.get(out.name, out.name)
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
@@ -374,21 +385,30 @@ class GraphReader:
             if node.object is not None:                   # Object: in that object's frame
                 props = {"object_matrix": np.array(node.object.matrix_world, np.float64)}
             camera = bpy.context.scene.camera
-            if node.outputs["Window"].is_linked and camera is not None and getattr(camera.data, "type", "") == "PANO":
-                warn("Window for a panoramic camera is not supported; Primer reads (0, 0, 0)")
-            if getattr(node, "from_instancer", False):
-                warn("From Instancer is not supported; Primer reads the object's own coordinates")
+            if (node.outputs["Window"].is_linked and camera is not None and getattr(camera.data, "type", "") == "PANO"
+                    and panorama_type(camera.data) not in graph_.PANORAMA_WINDOWS):
+                warn(f"Window for a {panorama_type(camera.data)} panoramic camera is not supported; Primer reads "
+                     "(0, 0, 0)")
+            props["from_instancer"] = bool(getattr(node, "from_instancer", False))  # (UV, Generated: the instance's)
         elif kind == "UVMAP":
             props = {"map": node.uv_map}
         elif kind == "ATTRIBUTE":
             if node.bl_idname == "ShaderNodeVertexColor":
                 props = {"attribute": "color:" + node.layer_name}
+            elif node.attribute_type in ("OBJECT", "INSTANCER"):   # the instance's columns of its Object Info
+                key = f"{node.attribute_type}:{node.attribute_name}"
+                if key not in INSTANCE_ATTRIBUTES:
+                    INSTANCE_ATTRIBUTES.append(key)
+                kind = "INSTANCE_ATTRIBUTE"
+                props = {"column": OBJECT_INFO_WIDTH + 4 * INSTANCE_ATTRIBUTES.index(key)}
             else:
-                if node.attribute_type != "GEOMETRY":
-                    warn(f"attribute type {node.attribute_type} is not supported; Primer reads a mesh attribute")
                 name = node.attribute_name
                 uv = any(name in mesh.uv_layers for mesh in bpy.data.meshes)
                 props = {"attribute": ("uv:" if uv else "color:") + name}
+        elif kind == "PARTICLE_INFO":           # 16 columns of the instances' Object Info (particle_columns)
+            if "PARTICLE:0" not in INSTANCE_ATTRIBUTES:
+                INSTANCE_ATTRIBUTES.extend(f"PARTICLE:{k}" for k in range(4))
+            props = {"column": OBJECT_INFO_WIDTH + 4 * INSTANCE_ATTRIBUTES.index("PARTICLE:0")}
         elif kind == "OBJECT_INFO":             # (its Material Index: this material's pass index, a constant)
             props = {"material_index": float(getattr(self.reader.material, "pass_index", 0))}
         elif kind == "MAPPING":
@@ -404,8 +424,10 @@ class GraphReader:
             if not node.inputs["Normal"].is_linked:
                 inputs.pop("Normal", None)                # unlinked: the shading normal, as in Cycles
         elif kind == "WIREFRAME":
-            if node.use_pixel_size:
-                warn("Pixel Size needs ray differentials, which Primer does not trace; Primer reads Size in world units")
+            camera = bpy.context.scene.camera
+            props = {"pixel_size": bool(node.use_pixel_size)}
+            if node.use_pixel_size and camera is not None and getattr(camera.data, "type", "") == "PANO":
+                warn("Pixel Size under a panoramic camera is not modelled; Primer reads Size in world units")
             inputs = self.inputs(node, path, ["Size"])
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}
@@ -507,6 +529,12 @@ class GraphReader:
             vector = inputs.get("Vector")
             inputs["Vector"] = mapped_vector(mapping, vector if isinstance(vector, Link) else None, "Generated", warn)
         return props, inputs
+
+
+def panorama_type(camera_data) -> str:
+    """A panoramic camera's type: Blender 5's Camera.panorama_type, or 4.x's Cycles setting."""
+    kind = getattr(camera_data, "panorama_type", None)
+    return kind if kind is not None else getattr(getattr(camera_data, "cycles", None), "panorama_type", "")
 
 
 def baked_curves(mapping, count: int) -> np.ndarray:
@@ -691,11 +719,127 @@ _IMAGES: dict = {}
 _FRAME = [1]
 
 
-def begin_export(frame: int = 1) -> None:
-    """Forget the images read by an earlier export (a render reads each image once); read sequences and movies at
-    the scene's `frame`."""
+def begin_export(frame: int = 1, view_layer=None) -> None:
+    """Forget the images read by an earlier export (a render reads each image once) and the Object and Instancer
+    attributes its materials read; read sequences and movies at the scene's `frame`, View Layer attributes from
+    `view_layer` (None: the context's)."""
     _IMAGES.clear()
+    INSTANCE_ATTRIBUTES.clear()
+    ATTRIBUTE_NOTES.clear()
+    _VIEW_LAYER[0] = view_layer
     set_frame(frame)
+
+
+# The Attribute node's Object and Instancer attributes this export's materials read, "OBJECT:name" or
+# "INSTANCER:name", in the order of their columns (core/scene Scene.instance_attributes); the view layer whose View
+# Layer attributes they read.
+INSTANCE_ATTRIBUTES: list = []
+_VIEW_LAYER: list = [None]
+# What the lookups could not read as Cycles does (addon/export.py adds them to the export's warnings).
+ATTRIBUTE_NOTES: list = []
+
+
+def property_rgba(owner, name: str):
+    """A custom property `name` of `owner` (an ID or a view layer), else the RNA property at path `name`, as RGBA
+    (4,) float64 as Blender's find_property_rgba reads it: a number (float, int, boolean) as (v, v, v, 1), an array of
+    up to 4 floats or ints over (0, 0, 0, 1); None where there is none or it is of another kind."""
+    if owner is None:
+        return None
+    try:
+        keys = owner.keys()
+    except (AttributeError, TypeError):
+        keys = ()
+    if name in keys:
+        value = owner[name]
+    else:
+        try:
+            value = owner.path_resolve(name)
+        except (ValueError, TypeError, AttributeError):
+            return None
+    if isinstance(value, (bool, int, float)) and not isinstance(value, str):
+        v = float(value)
+        return np.array([v, v, v, 1.0])
+    try:
+        items = list(value)
+    except TypeError:
+        return None
+    if not 0 < len(items) <= 4 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in items):
+        return None
+    rgba = np.array([0.0, 0.0, 0.0, 1.0])
+    rgba[:len(items)] = [float(x) for x in items]
+    return rgba
+
+
+def object_attribute(instance, key: str) -> np.ndarray:
+    """The RGBA (4,) of an Object or Instancer attribute `key` ("OBJECT:name", "INSTANCER:name") for a depsgraph
+    object instance, found where Cycles looks (BKE_object_dupli_find_rgba_attribute): for Instancer, on an instance,
+    its particle system's settings and then its instancer; then the object, then its data; 0 where none has it."""
+    kind, name = key.split(":", 1)
+    owners = []
+    if kind == "INSTANCER" and instance.is_instance:
+        system = getattr(instance, "particle_system", None)
+        owners += [system.settings if system is not None else None, instance.parent]
+        parent = instance.parent
+        if system is None and any(m.type == "NODES" for m in getattr(parent, "modifiers", ())):
+            note = (f"Instancer attribute '{name}' of the instances of '{parent.name}': Cycles reads an instance "
+                    "attribute of that name made by geometry nodes first, which Blender's Python API does not show; "
+                    "Primer reads the instancer's and the object's properties only")
+            if note not in ATTRIBUTE_NOTES:
+                ATTRIBUTE_NOTES.append(note)
+    owners += [instance.object, getattr(instance.object, "data", None)]
+    for owner in owners:
+        value = property_rgba(owner, name)
+        if value is not None:
+            return value.astype(np.float32).astype(np.float64)       # (Cycles keeps it in float)
+    return np.zeros(4)
+
+
+def object_attributes(instance) -> dict:
+    """Every Object and Instancer attribute read so far (INSTANCE_ATTRIBUTES) for a depsgraph object instance,
+    key -> RGBA (core/scene Instance.attributes), or None when the materials read none; the Particle Info's four."""
+    if not INSTANCE_ATTRIBUTES:
+        return None
+    values = {key: object_attribute(instance, key) for key in INSTANCE_ATTRIBUTES if not key.startswith("PARTICLE:")}
+    if "PARTICLE:0" in INSTANCE_ATTRIBUTES:
+        columns = particle_columns(instance)
+        values.update({f"PARTICLE:{k}": columns[4 * k:4 * k + 4] for k in range(4)})
+    return values
+
+
+def particle_columns(instance) -> np.ndarray:
+    """The Particle Info of a depsgraph object instance (16,) float64, as Cycles' sync_dupli_particle reads it for an
+    object a particle system instanced (core/materials/graph.py PARTICLE_INFO_COLUMNS): its particle's index, age
+    (the scene's frame less its birth time), lifetime, size, location, Random (hash_uint2_to_float(index, 0)),
+    velocity and angular velocity; Cycles' particle 0 (all 0, Random of index 0) for any other object or a child
+    particle."""
+    columns = np.zeros(16)
+    system = getattr(instance, "particle_system", None) if instance.is_instance else None
+    index = int(instance.persistent_id[0]) if system is not None else -1
+    if system is not None and 0 <= index < len(system.particles):
+        particle = system.particles[index]
+        layer = _VIEW_LAYER[0] or bpy.context.view_layer
+        scene = getattr(getattr(layer, "id_data", None), "original", None) or bpy.context.scene
+        frame = float(scene.frame_current) + float(scene.frame_subframe)
+        columns[0:4] = (index, frame - particle.birth_time, particle.lifetime, particle.size)
+        columns[4:7] = particle.location[:]
+        columns[8:11], columns[12:15] = particle.velocity[:], particle.angular_velocity[:]
+    else:
+        index = 0
+    columns[7] = float(hash_.uint_to_float(hash_.hash_uint2(index, 0)))
+    return columns.astype(np.float32).astype(np.float64)
+
+
+def view_layer_attribute(name: str) -> np.ndarray:
+    """A View Layer attribute's RGBA (4,): from the view layer, else the scene, else its world (Blender's
+    BKE_view_layer_find_rgba_attribute); 0 where none has it."""
+    layer = _VIEW_LAYER[0] or bpy.context.view_layer
+    scene = getattr(layer, "id_data", None) or bpy.context.scene
+    scene = getattr(scene, "original", scene)          # (an evaluated scene shows no custom properties to Python)
+    for owner in (layer, scene, getattr(scene, "world", None)):
+        value = property_rgba(owner, name)
+        if value is not None:
+            return value
+    return np.zeros(4)
 
 
 def set_frame(frame: int) -> None:
@@ -997,6 +1141,16 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                   "distribution": float(DISTRIBUTIONS.get(distribution, 0))}
         _normal(reader, node, inputs)
         out.append(("GLASS", weight, inputs, list(factors)))
+    elif kind == "ShaderNodeBsdfToon":
+        # core/materials/toon.py: the Diffuse or Glossy component, its Size and Smooth per hit where linked.
+        color = reader.input(node, "Color", np.full(3, 0.8))
+        inputs = {"size": reader.input(node, "Size", 0.5), "smooth": reader.input(node, "Smooth", 0.0),
+                  "glossy": 1.0 if getattr(node, "component", "DIFFUSE") == "GLOSSY" else 0.0}
+        _normal(reader, node, inputs)
+        if _linked(color):
+            out.append(("TOON", weight, inputs, list(factors) + [(color, "color")]))
+        else:
+            out.append(("TOON", weight * np.maximum(color, 0.0), inputs, list(factors)))
     elif kind == "ShaderNodeEmission":
         emission = _scaled(reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0))
         out.append(("EMISSION", weight, {"emission": emission}, list(factors)))

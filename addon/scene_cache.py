@@ -136,6 +136,8 @@ class _Placement:
     owner: int          # original object's session uid
     parent: int         # the instancer's session uid (the owner itself when not instanced)
     visible: tuple = ()             # export.instance_keywords' items: Ray Visibility, Holdout, terminator offsets
+    attributes: Optional[dict] = None   # Object and Instancer attributes, Particle Info (materials.object_attributes)
+    dupli: tuple = ()               # export.from_instancer's items: Generated and UV From Instancer
 
     def same_as(self, other: "_Placement") -> bool:
         """Whether `other` places the same mesh at the same spot with the same materials and visibility."""
@@ -313,7 +315,8 @@ class SceneCache:
         slots = self.material_table.slot_map(obj, self.warnings, self.override)
         self._read_attributes(obj, mesh_key, slots)
         return _Placement(mesh_key, np.array(instance.matrix_world, np.float64), slots, obj.name, owner,
-                          key[1] or owner, tuple(export.instance_keywords(obj).items()))
+                          key[1] or owner, tuple(export.instance_keywords(obj).items()),
+                          export.materials_.object_attributes(instance), tuple(export.from_instancer(instance).items()))
 
     def _read_attributes(self, obj, mesh_key, slots: np.ndarray) -> None:
         """Read into the cached mesh the per-corner attributes its materials' node graphs use (export.mesh_attributes)."""
@@ -357,7 +360,9 @@ class SceneCache:
             scene.instances.append(core_scene.Instance(mesh_index[placement.mesh_key], placement.matrix,
                                                        placement.materials, placement.name,
                                                        **dict(placement.visible),
-                                                       **self.links.get(placement.name, {})))
+                                                       **self.links.get(placement.name, {}),
+                                                       attributes=placement.attributes, **dict(placement.dupli)))
+        scene.instance_attributes = list(export.materials_.INSTANCE_ATTRIBUTES)
         return scene
 
     def _add_to_totals(self, report: SyncReport) -> None:

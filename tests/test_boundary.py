@@ -29,14 +29,14 @@ def test_generated_c_files_are_what_the_python_tables_say():
 def test_every_bsdf_says_what_it_is(bsdf):
     """A BSDF's flags say where its light goes (reflection, transmission or both), how its directions count
     (exactly one of diffuse, glossy, singular), and at most one closure type; its kind is its place in the table,
-    and its C file (with <name>_eval and <name>_sample) sits beside its Python."""
+    and its C file (with <name>_eval and <name>_sample) sits beside its Python (one file may hold two BSDFs)."""
     flags = bsdf.flags
     assert flags & (F.REFLECTION | F.TRANSMISSION)
     assert sum(bool(flags & f) for f in (F.DIFFUSE, F.GLOSSY, F.SINGULAR)) == 1 or flags & F.STRAIGHT
     assert sum(bool(flags & f) for f in (F.DIFFUSE_TYPE, F.GLOSSY_TYPE, F.TRANSMISSION_TYPE, F.GLASS_TYPE)) <= 1
     assert not (flags & F.STRAIGHT) or flags & F.SINGULAR, "light straight through is a delta"
     assert BSDF_TYPES[bsdf.kind] is bsdf
-    source = open(os.path.join(ROOT, "core", "materials", bsdf.c_name() + ".c"), encoding="utf-8").read()
+    source = open(os.path.join(ROOT, "core", "materials", bsdf.c_file() + ".c"), encoding="utf-8").read()
     assert f"{bsdf.c_name()}_eval(" in source and f"{bsdf.c_name()}_sample(" in source
 
 

@@ -413,3 +413,28 @@ def test_object_info_gives_the_objects_location_colour_alpha_and_index(kernels):
         node = GraphNode("OBJECT_INFO", {"material_index": 4.0}, {})
         red = shoot(placed_plane(Link(node, output), M, color=(0.35, 0.5, 0.25, 0.6), pass_index=7), kernels)
         np.testing.assert_allclose(red, expected, rtol=1e-6, err_msg=output)
+
+
+@pytest.mark.parametrize("panorama", graph.PANORAMA_WINDOWS)
+def test_window_under_a_panoramic_camera_is_where_each_point_shows_on_both_kernels(panorama):
+    """Under a panoramic camera the Window coordinates of a point are the (u, v) its direction maps to
+    (graph.panorama_window, Cycles' direction_to_panorama): a point seen at a pixel shows that pixel's place on the
+    frame, within the pixel (1 / 8 across here; the middle pixels, inside a fisheye's or mirror ball's circle), and both
+    kernels give the same values to float32 rounding."""
+    camera = Camera(matrix_world=np.eye(4), type="PANO", panorama_type=panorama, clip_start=0.01, clip_end=100.0)
+    scene = Scene(camera=camera)
+    window = Link(GraphNode("TEXCOORD", {}, {}), "Window")
+    scene.materials.append(Material(name="Window", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": window})]))
+    scene.add_mesh(primitives.box((40.0, 40.0, 40.0)), materials=np.array([0]))       # all round the camera
+    images = {}
+    for kernels in KERNELS:
+        result = render.render(scene, RenderSettings(width=8, height=8, samples=4, kernels=kernels))
+        images[kernels] = result.image
+    np.testing.assert_allclose(images["compiled"], images["numpy"], atol=1e-5)
+    seen = np.zeros((8, 8), bool)
+    seen[2:6, 2:6] = True                                  # (pixels whose every sample is inside a fisheye's circle)
+    u = (np.arange(8) + 0.5) / 8.0
+    v = 1.0 - (np.arange(8) + 0.5) / 8.0
+    U, V = np.meshgrid(u, v)
+    assert np.abs(images["numpy"][..., 0] - U)[seen].max() < 1.0 / 8.0 + 1e-6
+    assert np.abs(images["numpy"][..., 1] - V)[seen].max() < 1.0 / 8.0 + 1e-6

@@ -170,7 +170,7 @@ def exports() -> str:
 def bsdf_table() -> str:
     """core/materials/bsdfs.gen.c: every BSDF's C file, and the switches on a closure's kind."""
     from core.materials import BSDF_TYPES
-    includes = "".join(f'#include "{cls.c_name()}.c"\n' for cls in BSDF_TYPES)
+    includes = "".join(f'#include "{name}.c"\n' for name in dict.fromkeys(cls.c_file() for cls in BSDF_TYPES))
     evals = "".join(f"    case BSDF_{c_identifier(cls.c_name())}: {cls.c_name()}_eval(c, wo, wi, f_cos, pdf); return;\n"
                     for cls in BSDF_TYPES)
     samples = "".join(f"    case BSDF_{c_identifier(cls.c_name())}: {cls.c_name()}_sample(c, wo, u, out); return;\n"

@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..materials.procedural import hash as hash_
 from ..scene import Mesh
 
 
@@ -33,10 +34,12 @@ def catmull_rom(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray, 
                   + (3.0 * p1 - p0 - 3.0 * p2 + p3) * t * t * t)
 
 
-def spline_points(keys: np.ndarray, first: np.ndarray, counts: np.ndarray, steps: int) -> tuple:
-    """Each curve's spline sampled `steps` times per span (its ends included): (samples (c, s, 4) float64 position
-    and radius, padded with each curve's last sample; valid (c, s) bool). keys (p, 4) float64 the control points'
-    position and radius; first, counts (c,) int the curves' first key and number of keys (at least 2)."""
+def spline_points(keys: np.ndarray, first: np.ndarray, counts: np.ndarray, steps: int,
+                  linear_from: int = None) -> tuple:
+    """Each curve's spline sampled `steps` times per span (its ends included): (samples (c, s, k) float64 position
+    and radius, padded with each curve's last sample; valid (c, s) bool). keys (p, k) float64 the control points'
+    position, radius and any more columns, those from `linear_from` on interpolated linearly between the span's two
+    points instead of by the spline; first, counts (c,) int the curves' first key and number of keys (at least 2)."""
     spans = counts - 1
     s = int(spans.max()) * steps + 1
     j = np.minimum(np.arange(s)[None, :], spans[:, None] * steps)         # (c, s) the sample along each curve
@@ -44,6 +47,9 @@ def spline_points(keys: np.ndarray, first: np.ndarray, counts: np.ndarray, steps
     t = (j - span * steps) / steps
     index = lambda k: first[:, None] + np.clip(span + k, 0, counts[:, None] - 1)  # noqa: E731 (the 4 keys of a span)
     samples = catmull_rom(keys[index(-1)], keys[index(0)], keys[index(1)], keys[index(2)], t)
+    if linear_from is not None:
+        samples[..., linear_from:] = ((1.0 - t)[..., None] * keys[index(0)][..., linear_from:]
+                                      + t[..., None] * keys[index(1)][..., linear_from:])
     return samples, np.arange(s)[None, :] <= spans[:, None] * steps
 
 
@@ -69,18 +75,50 @@ def frames(centres: np.ndarray) -> tuple:
     return tangent, normal, np.cross(tangent, normal)
 
 
+def curves_info(positions: np.ndarray, radius: np.ndarray, first: np.ndarray, counts: np.ndarray) -> tuple:
+    """What the Curves Info node reads, as Cycles' Blender sync computes it for each curve (export_hair_curves): per
+    control point (p,) Intercept (the length of the polyline through the points up to it over the whole, 0 at the
+    root, 1 at the tip) and Thickness (twice the radius); per curve (c,) Length (that polyline's whole length),
+    Random (hash_uint2_to_float(curve, 0)) and Is Strand (1). -> ({name: (p,)}, {name: (c,)}), names "curve:...".
+    (Its Tangent Normal reads the tubes' spline tangent, "curve_tangent", which `tubes` adds.)"""
+    positions = np.asarray(positions, np.float64)
+    first, counts = np.asarray(first, np.int64), np.asarray(counts, np.int64)
+    curve_of = np.repeat(np.arange(len(counts)), counts)
+    step = np.zeros(len(positions))
+    inner = np.ones(len(positions), bool)
+    inner[first[counts > 0]] = False                                   # (each curve's first point starts at 0)
+    step[1:] = np.linalg.norm(np.diff(positions, axis=0), axis=1)
+    step[~inner] = 0.0
+    along = np.cumsum(step)
+    along -= np.repeat(along[first] if len(first) else np.zeros(0), counts)
+    length = np.zeros(len(counts))
+    np.add.at(length, curve_of, step)
+    total = length[curve_of]
+    intercept = np.divide(along, total, out=along.copy(), where=total > 0.0)
+    random = hash_.uint_to_float(hash_.hash_uint2(np.arange(len(counts)), 0)).astype(np.float64)
+    per_point = {"curve:intercept": intercept, "curve:thickness": 2.0 * np.asarray(radius, np.float64)}
+    per_curve = {"curve:length": length, "curve:random": random, "curve:strand": np.ones(len(counts))}
+    return per_point, per_curve
+
+
 def tubes(positions: np.ndarray, radius: np.ndarray, first: np.ndarray, counts: np.ndarray, sides: int = 12,
-          steps: int = 8, name: str = "Curves", linear: bool = False) -> Tubes:
+          steps: int = 8, name: str = "Curves", linear: bool = False, info: tuple = None) -> Tubes:
     """The curves (control points positions (p, 3), radius (p,); curve k has counts[k] points from first[k]) as
     smooth triangle tubes (module docstring); linear: straight between the points (Cycles' Thick Linear), one ring
-    per point. Curves of fewer than 2 points are left out."""
+    per point. Curves of fewer than 2 points are left out. info: the Curves Info values (curves_info, computed from
+    these points when None), carried per vertex in Mesh.curve_info: a control point's interpolated linearly along
+    each span (as Cycles interpolates a curve key attribute by the segment's u), a curve's the same all along it."""
     # 1. The spline of each curve, and a frame along it.
     keep = np.flatnonzero(counts >= 2)
     keys = np.concatenate([np.asarray(positions, np.float64), np.asarray(radius, np.float64)[:, None]], axis=1)
     if len(keep) == 0:
         return Tubes(Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64), name=name), np.zeros(0, np.int64))
-    samples, valid = spline_points(keys, np.asarray(first)[keep], np.asarray(counts)[keep], 1 if linear else steps)
+    per_point, per_curve = curves_info(positions, radius, first, counts) if info is None else info
+    keys = np.concatenate([keys] + [np.asarray(v, np.float64)[:, None] for v in per_point.values()], axis=1)
+    samples, valid = spline_points(keys, np.asarray(first)[keep], np.asarray(counts)[keep], 1 if linear else steps,
+                                   linear_from=4)
     centres, r = samples[..., :3], np.maximum(samples[..., 3], 0.0)
+    sampled = samples[..., 4:]                                                # (c, s, the per-point values)
     tangent, normal, binormal = frames(centres)
     c, s = valid.shape
     # 2. A ring of vertices around each sample, pointing out of the spline, and a centre at each end for its cap.
@@ -113,4 +151,13 @@ def tubes(positions: np.ndarray, radius: np.ndarray, first: np.ndarray, counts: 
     caps = np.arange(len(triangles)) >= len(side_tris)
     corner_normals[caps] = np.concatenate([end_normals[2 * kk], end_normals[2 * kk + 1]])[:, None, :]
     mesh = Mesh(vertices, triangles, smooth=np.ones(len(triangles), bool), corner_normals=corner_normals, name=name)
+    # 5. The Curves Info values per vertex: a ring's its sample's, a cap centre's its end sample's.
+    ends_of = np.stack([sampled[:, 0], sampled[np.arange(c), last]], axis=1).reshape(2 * c, -1)
+    point_rows = np.concatenate([np.repeat(sampled.reshape(c * s, -1), sides, axis=0), ends_of])
+    mesh.curve_info = {name_: point_rows[:, k] for k, name_ in enumerate(per_point)}
+    vertex_curve = np.concatenate([np.repeat(keep, s * sides), np.repeat(keep, 2)])
+    mesh.curve_info.update({name_: np.asarray(v, np.float64)[vertex_curve] for name_, v in per_curve.items()})
+    ends_tangent = np.stack([tangent[:, 0], tangent[np.arange(c), last]], axis=1).reshape(2 * c, 3)
+    mesh.curve_info["curve_tangent"] = np.concatenate([np.repeat(tangent.reshape(c * s, 3), sides, axis=0),
+                                                       ends_tangent])
     return Tubes(mesh, curve.astype(np.int64))

@@ -26,6 +26,7 @@ import numpy as np
 from . import embree_buffers
 from . import instancing
 from ..native import library
+from ..native import schema
 from . import normals as normals_
 from . import surface as surface_
 from .. import vectors
@@ -499,7 +500,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
         instance_random=np.array([graph_.object_random(i.name) if i.random is None else float(i.random)
                                   for i in scene.instances], np.float64),
         instance_linear=all_matrices[:, :3, :3].copy(),
-        instance_info=instance_info(scene.instances, all_matrices),
+        instance_info=instance_info(scene.instances, all_matrices, getattr(scene, "instance_attributes", ())),
         instance_hidden=hidden_flags(scene.instances),
         instance_links=link_table(scene.instances),
         instance_terminator=terminator_table(scene.instances),
@@ -507,19 +508,28 @@ def build_geometry(scene: Scene, origin: np.ndarray,
 
 
 # The Object Info node's outputs an instance carries (graph.OBJECT_INFO_OUTPUTS, their columns): its world location,
-# its colour and alpha, its pass index.
-OBJECT_INFO_WIDTH = 8
+# its colour and alpha, its pass index; the Texture Coordinate's Generated and UV From Instancer
+# (Instance.dupli_generated, dupli_uv); then 4 columns (RGBA) per Object or Instancer attribute (Scene.instance_attributes).
+OBJECT_INFO_WIDTH = schema.constant("OBJECT_INFO_WIDTH", 14, "an instance's Object Info columns before its attributes")
 
 
-def instance_info(instances: list, matrices: np.ndarray) -> np.ndarray:
-    """Each instance's Object Info (n, OBJECT_INFO_WIDTH) float64: Location (the translation of its matrix in
+def instance_info(instances: list, matrices: np.ndarray, attributes=()) -> np.ndarray:
+    """Each instance's Object Info (n, OBJECT_INFO_WIDTH + 4 k) float64: Location (the translation of its matrix in
     `matrices` (n, 4, 4), world space), Color and Alpha (Object > Viewport Display > Color), Object Index (its pass
-    index); filled column by column (10^5 instances cost one array each, not one per instance)."""
-    info = np.zeros((len(instances), OBJECT_INFO_WIDTH))
+    index), Generated and UV From Instancer (u, v, 0), then the RGBA of each of the k `attributes` (names;
+    Instance.attributes, 0 where it has none); filled
+    column by column (10^5 instances cost one array each, not one per instance)."""
+    info = np.zeros((len(instances), OBJECT_INFO_WIDTH + 4 * len(attributes)))
     if len(instances):
         info[:, 0:3] = matrices[:, :3, 3]
         info[:, 3:7] = np.array([instance.color for instance in instances], np.float64).reshape(-1, 4)
         info[:, 7] = [instance.pass_index for instance in instances]
+        info[:, 8:11] = [getattr(instance, "dupli_generated", None) or (0.0, 0.0, 0.0) for instance in instances]
+        info[:, 11:13] = [getattr(instance, "dupli_uv", None) or (0.0, 0.0) for instance in instances]
+    for k, name in enumerate(attributes):
+        start = OBJECT_INFO_WIDTH + 4 * k
+        info[:, start:start + 4] = [(instance.attributes or {}).get(name, (0.0, 0.0, 0.0, 0.0))
+                                    for instance in instances]
     return info
 
 

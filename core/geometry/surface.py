@@ -107,7 +107,8 @@ def shading_point(geometry, surface: Surface):
     n = len(prim)
     rows, owner, linear = hit_owners(geometry, prim)
     random = geometry.instance_random[owner] if len(geometry.instance_random) else np.zeros(n)
-    info = geometry.instance_info[owner] if len(geometry.instance_info) else np.zeros((n, 8))
+    info = (geometry.instance_info[owner] if len(geometry.instance_info)
+            else np.zeros((n, geometry.instance_info.shape[1])))
     attributes, d_du, d_dv = hit_attributes(geometry, rows, surface.u, surface.v)
     front = geometry.triangle_data(prim, smooth=False).Ng
     side = np.where(np.einsum("ij,ij->i", front, surface.Ng) < 0.0, -1.0, 1.0)

@@ -40,7 +40,9 @@ GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (c
     ("attribute_row", ptr(I32), "(t,) row of `attributes` per copied triangle"),
     ("instance", ptr(I32), "(t,) Scene.instances index per copied triangle"),
     ("instance_random", ptr(F64), "(n,) each instance's random number"),
-    ("instance_info", ptr(F64), "(n, OBJECT_INFO_WIDTH) each instance's Object Info: location, colour, pass index"),
+    ("instance_info", ptr(F64), "(n, info_width) each instance's Object Info: location, colour, pass index, then\n"
+                                "its Object and Instancer attributes (geometry.instance_info)"),
+    ("info_width", I64, "columns of instance_info"),
     ("instance_linear", ptr(F64), "(n, 3, 3) each instance's linear transform"),
     ("attribute_width", I64, "A"),
     ("hidden", ptr(U8), "(n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides"),
@@ -85,6 +87,7 @@ class GeometryTables:
             instance=c(geometry.instance, np.int32) if len(geometry.instance) else None,
             instance_random=c(geometry.instance_random, np.float64) if len(geometry.instance_random) else None,
             instance_info=c(geometry.instance_info, np.float64) if len(geometry.instance_info) else None,
+            info_width=geometry.instance_info.shape[1],
             instance_linear=c(geometry.instance_linear, np.float64) if len(geometry.instance_linear) else None,
             attribute_width=geometry.attributes.shape[2] if geometry.attributes is not None else 0,
             origin=c(np.asarray(geometry.origin, np.float64).reshape(3), np.float64))

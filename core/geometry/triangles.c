@@ -230,13 +230,18 @@ typedef struct {
     double P[3];        /* the world point (camera-relative I plus the origin): the Geometry node's Position */
     double u, v;        /* the barycentrics: its Parametric */
     double t;           /* the distance along the ray: the Light Path node's Ray Length */
-    double info[8];     /* the object's Object Info (geometry.instance_info): location, colour, alpha, pass index */
+    const double *info; /* the object's row of geometry.instance_info: location, colour, alpha, pass index, then its
+                           Object and Instancer attributes (RGBA each) */
+    int64_t info_width; /* its columns (a column past them reads 0) */
     const ShaderRays *rays;   /* the scene to trace (Ambient Occlusion, Bevel), or NULL: they trace nothing */
     const Surface *surface;   /* the hit's surface (camera-relative point, robust offset), with `rays` only */
     int64_t geometry, prim, instance;   /* Embree's answer for the hit (its object), with `rays` only */
     int64_t pixel, sample, dimension;   /* the keys of its random numbers, with `rays` only */
     int blurry;                         /* 1: its path bounced with a pdf below BEVEL_MIN_PDF (Bevel keeps N) */
 } ShadingPoint;
+
+/* The Object Info of a scene without instances (no hit reads past its OBJECT_INFO_WIDTH columns then). */
+static const double NO_INFO[OBJECT_INFO_WIDTH] = {0.0};
 
 /* surface.shading_point for one hit on triangle `tri` (Embree's geometry, primitive, placement) with
  * surface `s` at barycentrics (u, v): the attributes interpolated (w at corner 0, u at 1, v at 2) and
@@ -258,7 +263,8 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
             for (int j = 0; j < 3; j++) sp->L[3 * i + j] = (double)A[4 * i + j];
     }
     sp->random = g->instance_random != NULL ? g->instance_random[object] : 0.0;
-    for (int c = 0; c < 8; c++) sp->info[c] = g->instance_info != NULL ? g->instance_info[8 * object + c] : 0.0;
+    sp->info = g->instance_info != NULL ? g->instance_info + g->info_width * object : NO_INFO;
+    sp->info_width = g->instance_info != NULL ? g->info_width : OBJECT_INFO_WIDTH;
     int width = g->attributes != NULL ? (int)g->attribute_width : 0;
     sp->width = width;
     if (width > 0) {

@@ -17,7 +17,9 @@ INLINE void world_point_at(const WorldGraph *g, const double *D, const LightPath
         sp->dPdv[c] = c == 1;
     }
     for (int c = 0; c < 9; c++) sp->L[c] = c % 4 == 0;
-    for (int c = 0; c < 8; c++) sp->info[c] = 0.0;
+    sp->info = NO_INFO;                                 /* (no object: its Object Info reads 0) */
+    sp->info_width = OBJECT_INFO_WIDTH;
+    sp->rays = NULL;                                    /* (world shaders trace nothing) */
     sp->random = 0.0;
     sp->side = 1.0;
     sp->path = *path;

@@ -120,6 +120,12 @@ class BSDF:
         """The name of its C file and functions: its module's (lambert for core/materials/lambert.py)."""
         return cls.__module__.rsplit(".", 1)[-1]
 
+    @classmethod
+    def c_file(cls) -> str:
+        """The name of its C file (core/materials/<c_file>.c): its module's, which may hold more than one BSDF
+        (toon.py's two components, each with its own c_name)."""
+        return cls.__module__.rsplit(".", 1)[-1]
+
     @staticmethod
     def eval(params: np.ndarray, N: np.ndarray, wo: np.ndarray, wi: np.ndarray):
         """Return (f cos: (m, 3) float64, pdf: (m,) float64) for each pair of directions."""

@@ -264,6 +264,103 @@ INLINE double wireframe(double size, int where, const ShadingPoint *sp)
     return 0.0;
 }
 
+/* graph.panorama_window: Cycles' Window under a panoramic camera of a point p in the camera's frame; f: the type
+ * (2 + its place in graph.PANORAMA_WINDOWS) and its numbers. */
+INLINE void panorama_window(const double *p, const double *f, double *out)
+{
+    double P[3] = {p[0], p[1], p[2]}, D[3], u, v;
+    safe_normalize3(P);
+    int kind = (int)f[4] - 2;
+    if (kind == 2) { D[0] = P[0]; D[1] = -P[2]; D[2] = P[1]; }
+    else { D[0] = P[2]; D[1] = -P[0]; D[2] = P[1]; }
+    if (kind == 0) {                                            /* equirectangular */
+        u = (atan2(D[1], D[0]) - f[1]) / f[0];
+        double c = D[2] / sqrt(dot3(D, D));
+        v = (acos(c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c)) - f[3]) / f[2];
+    } else if (kind == 1) {                                     /* equiangular cube map face */
+        u = 0.5 - atan2(D[1], D[0]) * (2.0 / PI);
+        v = atan2(D[2], D[0]) * (2.0 / PI) + 0.5;
+    } else if (kind == 2) {                                     /* mirror ball */
+        D[1] -= 1.0;
+        double div = 2.0 * sqrt(at_least(-0.5 * D[1], 0.0));
+        if (div > 0.0) for (int j = 0; j < 3; j++) D[j] = D[j] / div;
+        u = 0.5 * (D[0] + 1.0);
+        v = 0.5 * (D[2] + 1.0);
+    } else if (kind == 5) {                                     /* central cylindrical */
+        double z = safe_div(D[2], sqrt(D[0] * D[0] + D[1] * D[1]));
+        u = (atan2(D[1], D[0]) - f[0]) / (f[1] - f[0]);
+        v = (z - f[2]) / (f[3] - f[2]);
+    } else {                                                    /* the fisheyes */
+        double across = sqrt(D[1] * D[1] + D[2] * D[2]), r, width = 1.0, height = 1.0;
+        if (kind == 3) r = atan2(across, D[0]) / f[0];
+        else {
+            double c = D[0] < -1.0 ? -1.0 : (D[0] > 1.0 ? 1.0 : D[0]);
+            r = 2.0 * f[0] * sin(0.5 * acos(c));
+            width = f[1];
+            height = f[2];
+        }
+        double y = safe_div(D[1], across), z = safe_div(D[2], across);
+        u = 0.5 - (r * y) / width;
+        v = (r * z) / height + 0.5;
+    }
+    out[0] = u;
+    out[1] = v;
+    out[2] = 0.0;
+}
+
+/* graph.curve_normal: Cycles' Curves Info Tangent Normal from the curve's object-space tangent T. */
+INLINE void curve_normal(const double *t, const ShadingPoint *sp, double *out)
+{
+    double T[3];
+    for (int i = 0; i < 3; i++) T[i] = (sp->L[3 * i] * t[0] + sp->L[3 * i + 1] * t[1]) + sp->L[3 * i + 2] * t[2];
+    double length2 = dot3(T, T);
+    if (!(length2 > 0.0)) { out[0] = out[1] = out[2] = 0.0; return; }
+    double along = dot3(T, sp->I) / length2;
+    for (int i = 0; i < 3; i++) out[i] = sp->I[i] - along * T[i];
+    safe_normalize3(out);
+}
+
+/* graph.orthonormals: Cycles' make_orthonormals of a unit N. */
+INLINE void make_orthonormals(const double *N, double *a, double *b)
+{
+    int equal = N[0] == N[1] && N[0] == N[2];
+    a[0] = N[2] - N[1];
+    a[1] = equal ? N[0] + N[2] : N[0] - N[2];
+    a[2] = equal ? -N[1] - N[0] : N[1] - N[0];
+    double length = sqrt(dot3(a, a));
+    for (int j = 0; j < 3; j++) a[j] = a[j] / length;
+    cross3(N, a, b);
+}
+
+/* graph.pixel_width: a pixel's width at P (camera frame) as Cycles' Wireframe node measures it for Pixel Size;
+ * f: the window (left, right, bottom, top, perspective, width, height). */
+INLINE double pixel_width(const double *P, const double *f, const ShadingPoint *sp)
+{
+    double sx = (f[1] - f[0]) / f[5], sy = (f[3] - f[2]) / f[6], footprint;
+    if (f[4] != 0.0) {
+        double d[3] = {safe_div(P[0], P[2]), safe_div(P[1], P[2]), 1.0}, unit[3], spread = 0.0;
+        double length = sqrt(dot3(d, d));
+        for (int j = 0; j < 3; j++) unit[j] = d[j] / length;
+        for (int k = 0; k < 2; k++) {
+            double moved[3] = {d[0] + (k == 0 ? sx : 0.0), d[1] + (k == 1 ? sy : 0.0), d[2] + 0.0};
+            double m = sqrt(dot3(moved, moved));
+            for (int j = 0; j < 3; j++) moved[j] = moved[j] / m - unit[j];
+            spread = spread + sqrt(dot3(moved, moved));
+        }
+        footprint = sqrt(dot3(P, P)) * (0.5 * spread);
+    } else {
+        footprint = fabs(sx);
+    }
+    double axes[2][3], across = 0.0;
+    make_orthonormals(sp->Ng, axes[0], axes[1]);
+    for (int k = 0; k < 2; k++) {
+        double along = dot3(axes[k], sp->I), projected[3];
+        for (int j = 0; j < 3; j++) projected[j] = axes[k][j] - along * sp->I[j];
+        across = across + sqrt(dot3(projected, projected));
+    }
+    return footprint * (0.5 * across);
+}
+
 /* graph.bump */
 INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
                  int invert, const ShadingPoint *sp, double *out)
@@ -341,7 +438,9 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             for (int j = 0; j < a[3]; j++) out[j] = (a[1] >= 0 && j < a[2]) ? attributes[a[1] + j] : 0.0;
             break;
         case OP_RANDOM: out[0] = sp->random; break;
-        case OP_OBJECT_INFO: for (int j = 0; j < a[2]; j++) out[j] = sp->info[a[1] + j]; break;
+        case OP_OBJECT_INFO:
+            for (int j = 0; j < a[2]; j++) out[j] = a[1] + j < sp->info_width ? sp->info[a[1] + j] : 0.0;
+            break;
         case OP_OBJECT_MATRIX: object_matrix(sp, a[1], out); break;
         case OP_LIGHT_PATH: out[0] = light_path_output(a[1], sp); break;
         case OP_OFFSET:
@@ -475,6 +574,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_WINDOW: {
             const double *p = reg + a[1], *f = reg + a[2];
+            if (f[4] >= 2.0) { panorama_window(p, f, out); break; }
             double x = f[4] != 0.0 ? safe_div(p[0], p[2]) : p[0], y = f[4] != 0.0 ? safe_div(p[1], p[2]) : p[1];
             out[0] = (x - f[0]) / (f[1] - f[0]);
             out[1] = (y - f[2]) / (f[3] - f[2]);
@@ -503,6 +603,8 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             for (int j = 0; j < 3; j++) out[j] = r[j];
             break;
         }
+        case OP_CURVE_NORMAL: { double r[3]; curve_normal(reg + a[1], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_PIXEL_SIZE: out[0] = reg[a[1]] * pixel_width(reg + a[2], reg + a[3], sp); break;
         case OP_CAMERA_DATA: {
             const double *p = reg + a[1];
             double r[3] = {p[0], p[1], p[2]}, depth = p[2], distance = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);

@@ -23,6 +23,7 @@ than a pixel's footprint, where Cycles' differences average more).
 """
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 from dataclasses import dataclass, field
 from typing import NamedTuple, Optional
@@ -51,7 +52,8 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
        "COPY", "CLAMP", "MAP_RANGE", "NORMAL_MAP", "BUMP", "OFFSET", "CONVERT", "SCALE", "LIGHT_PATH",
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
-                                                               "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL")
+                                                               "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL",
+                                                               "PIXEL_SIZE", "CURVE_NORMAL")
 # Ops of world shaders only, which the Python reference alone evaluates (world graphs are baked at export,
 # core/lights/world_graph.py): graph_tables refuses a program holding one, and graph.c has no case for them.
 WORLD_OPS = ("SKY",)
@@ -181,6 +183,10 @@ class Link:
     output: str
 
 
+# The Particle Info outputs in an instance's 16 Particle Info columns (its Object Info's, from props["column"], filled
+# at export: addon/materials.py particle_columns): name -> (offset, width).
+PARTICLE_INFO_COLUMNS = {"Index": (0, 1), "Age": (1, 1), "Lifetime": (2, 1), "Size": (3, 1), "Location": (4, 3),
+                         "Random": (7, 1), "Velocity": (8, 3), "Angular Velocity": (12, 3)}
 # Each kind's outputs: name -> (width, type); type decides how a colour or vector becomes a float.
 NODE_OUTPUTS = {
     "RGB": {"Color": (3, "color")}, "VALUE": {"Value": (1, "float")},
@@ -191,6 +197,11 @@ NODE_OUTPUTS = {
     "AO": {"Color": (3, "color"), "AO": (1, "float")}, "BEVEL": {"Normal": (3, "vector")},
     "UVMAP": {"UV": (3, "vector")},
     "ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
+    "INSTANCE_ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
+    "PARTICLE_INFO": {name: (width, "vector" if width == 3 else "float")
+                      for name, (_, width) in PARTICLE_INFO_COLUMNS.items()},
+    "CURVES_INFO": {"Is Strand": (1, "float"), "Intercept": (1, "float"), "Length": (1, "float"),
+                    "Thickness": (1, "float"), "Random": (1, "float"), "Tangent Normal": (3, "vector")},
     "OBJECT_INFO": {"Location": (3, "vector"), "Color": (3, "color"), "Alpha": (1, "float"),
                     "Object Index": (1, "float"), "Material Index": (1, "float"), "Random": (1, "float")},
     "LIGHT_PATH": {name: (1, "float") for name in LIGHT_PATH_OUTPUTS},
@@ -213,7 +224,11 @@ NODE_OUTPUTS = {
     **{cls.kind: dict(cls.outputs) for cls in DESCRIBED},
 }
 # The Object Info outputs an OBJECT_INFO op copies from the instance's info (geometry.instance_info): (start, width).
-OBJECT_INFO_COLUMNS = {"Location": (0, 3), "Color": (3, 3), "Alpha": (6, 1), "Object Index": (7, 1)}
+OBJECT_INFO_COLUMNS = {"Location": (0, 3), "Color": (3, 3), "Alpha": (6, 1), "Object Index": (7, 1),
+                       "From Instancer Generated": (8, 3), "From Instancer UV": (11, 3)}
+# The Curves Info outputs, each a mesh attribute of the tubes curves become (0 on other meshes, as Cycles' off strands).
+CURVES_INFO_ATTRIBUTES = {"Is Strand": "curve:strand", "Intercept": "curve:intercept", "Length": "curve:length",
+                          "Thickness": "curve:thickness", "Random": "curve:random", "Tangent Normal": "curve_tangent"}
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
 GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
                     "Reflection")
@@ -266,8 +281,9 @@ class ShadingPoint(NamedTuple):
     path: the LightPaths of the rays that found the hits (None: camera rays); I: (n, 3) the unit direction from the
     hit back along the ray that found it (Cycles' sd->wi, the material's wo; None: N, a head-on view);
     P: (n, 3) the hit in world space (not camera-relative); uv: (n, 2) its barycentrics u, v (corner 1, corner 2);
-    t: (n,) the distance the ray went to the hit (Cycles' ray_length); info: (n, 8) the object's Object Info
-    (geometry.instance_info: location, colour, alpha, pass index).
+    t: (n,) the distance the ray went to the hit (Cycles' ray_length); info: (n, 8 + 4 k) the object's Object Info
+    (geometry.instance_info: location, colour, alpha, pass index, then the RGBA of its k Object and Instancer
+    attributes).
     """
 
     attributes: np.ndarray
@@ -285,7 +301,7 @@ class ShadingPoint(NamedTuple):
     P: np.ndarray = None       # (n, 3) float64 the world point (the Geometry node's Position)
     uv: np.ndarray = None      # (n, 2) float64 the barycentrics (its Parametric)
     t: np.ndarray = None       # (n,) float64 the distance along the ray to the hit (the Light Path node's Ray Length)
-    info: np.ndarray = None    # (n, 8) float64 the object's Object Info: location, colour, alpha, pass index
+    info: np.ndarray = None    # (n, 8 + 4 k) float64 its Object Info: location, colour, alpha, pass index, attributes
     rays: object = None        # the integrator's ShaderRays of the n hits (AO, BEVEL ops); None: they trace nothing
 
 
@@ -359,7 +375,7 @@ def attributes_of(nodes: list) -> set:
     names = set()
     for link in links_under(nodes):
         node = link.node
-        if node.kind == "TEXCOORD" and (link.output in ("UV", "Generated")
+        if node.kind == "TEXCOORD" and (link.output in ("UV", "Generated") and not node.props.get("from_instancer")
                                         or link.output == "Object" and node.props.get("object_matrix") is None):
             names.add({"UV": "uv:", "Generated": "generated", "Object": "object"}[link.output])
         elif node.kind == "UVMAP":
@@ -368,6 +384,8 @@ def attributes_of(nodes: list) -> set:
             names.add(node.props.get("attribute", "color:"))
         elif node.kind == "NORMAL_MAP":
             names.add("tangent:" + node.props.get("map", ""))
+        elif node.kind == "CURVES_INFO":
+            names.add(CURVES_INFO_ATTRIBUTES[link.output])
         elif node.kind == "TANGENT":
             names.add("generated" if node.props.get("direction", "RADIAL") == "RADIAL"
                       else "tangent:" + node.props.get("map", ""))
@@ -383,7 +401,8 @@ def attributes_of(nodes: list) -> set:
 
 
 # The widths of the mesh attributes by name prefix.
-ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1}
+ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
+                    "curve": 1, "curve_tangent": 3}
 
 
 def attribute_width(name: str) -> int:
@@ -535,7 +554,7 @@ class Compiler:
         kind, inp, props = node.kind, node.inputs, node.props
         width, vtype = NODE_OUTPUTS.get(kind, {}).get(output, (3, "color"))
         if kind == "RGB":
-            return self.constant(np.asarray(props["value"], np.float64)[:3]), 3, "color"
+            return self.constant(np.asarray(props["value"], np.float64)[:3]), 3, props.get("type", "color")
         if kind == "VALUE":
             return self.constant([float(props["value"])]), 1, "float"
         if kind == "TEXCOORD":
@@ -552,15 +571,25 @@ class Compiler:
                 return out, 3, "vector"
             if output == "Object" and props.get("object_matrix") is not None:     # in another object's frame
                 return self.transform(self.geometry("Position"), np.linalg.inv(props["object_matrix"])[:3]), 3, "vector"
+            if output in ("UV", "Generated") and props.get("from_instancer"):   # the instance's (instance_info)
+                out = self.temporary(3)
+                self.emit("OBJECT_INFO", out, OBJECT_INFO_COLUMNS["From Instancer " + output][0], 3)
+                return out, 3, "vector"
             name = {"UV": "uv:", "Generated": "generated", "Object": "object"}[output]
             return self.attribute(name), 3, "vector"
         if kind == "VECTOR_TRANSFORM":
             v = self.value(inp.get("Vector"), 3, 0.5)
             return self.vector_transform(v, props.get("type", "VECTOR"), props.get("from", "WORLD"),
                                          props.get("to", "OBJECT")), 3, "vector"
-        if kind == "WIREFRAME":                         # (Pixel Size: addon/materials.py warns; world units here)
-            out = self.temporary(1)
-            self.emit("WIREFRAME", out, self.value(inp.get("Size"), 1, 0.01))
+        if kind == "WIREFRAME":
+            size = self.value(inp.get("Size"), 1, 0.01)
+            if props.get("pixel_size") and self.window is not None and self.window[4] < 2.0:   # (not panoramic)
+                pixels = self.temporary(1)
+                self.emit("PIXEL_SIZE", pixels, size, self.transform(self.geometry("Position"), self.view),
+                          self.constant(self.window))
+                size = pixels
+            out = self.temporary(1)                     # (a panoramic camera's Pixel Size: addon/materials.py warns)
+            self.emit("WIREFRAME", out, size)
             return out, 1, "float"
         if kind == "AO":                                # Color x AO, then AO (Cycles' svm_node_ao)
             out = self.temporary(4)
@@ -593,6 +622,26 @@ class Compiler:
             out = self.temporary(1)
             self.emit("CONVERT", out, reg, 1)            # Fac: the average
             return out, 1, "float"
+        if kind == "PARTICLE_INFO":                     # the instance's particle (instance_info's columns)
+            offset, size = PARTICLE_INFO_COLUMNS[output]
+            out = self.temporary(size)
+            self.emit("OBJECT_INFO", out, int(props["column"]) + offset, size)
+            return out, width, vtype
+        if kind == "CURVES_INFO":                       # per vertex of the tubes (core/geometry/curves.py curves_info)
+            if output == "Tangent Normal":              # the view across the curve's tangent
+                out = self.temporary(3)
+                self.emit("CURVE_NORMAL", out, self.attribute(CURVES_INFO_ATTRIBUTES[output], 3))
+                return out, 3, "vector"
+            return self.attribute(CURVES_INFO_ATTRIBUTES[output], 1), 1, "float"
+        if kind == "INSTANCE_ATTRIBUTE":               # an Object or Instancer attribute: the instance's RGBA columns
+            start = int(props["column"])                # (geometry.instance_info, Scene.instance_attributes)
+            out = self.temporary(3 if output != "Alpha" else 1)
+            self.emit("OBJECT_INFO", out, start + 3 if output == "Alpha" else start, 1 if output == "Alpha" else 3)
+            if output != "Fac":
+                return out, width, vtype
+            fac = self.temporary(1)
+            self.emit("CONVERT", fac, out, 1)           # Fac: the average of its colour
+            return fac, 1, "float"
         if kind == "OBJECT_INFO":
             if output == "Material Index":              # the material's own pass index: one number per program
                 return self.constant(float(props.get("material_index", 0.0))), 1, "float"
@@ -868,6 +917,7 @@ REGISTER_ARGS = {
     "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     "AO": {0, 1, 2, 3}, "BEVEL": {0, 1, 2},
+    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1007,9 +1057,12 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]] = sp.random
         elif name == "OBJECT_MATRIX":
             reg[:, i[0]:i[0] + 12] = object_matrices(sp, i[1])
-        elif name == "OBJECT_INFO":
-            reg[:, i[0]:i[0] + i[2]] = (np.zeros((n, i[2])) if sp.info is None
-                                        else sp.info[:, i[1]:i[1] + i[2]])
+        elif name == "OBJECT_INFO":                     # (a column past the instances' reads 0)
+            columns = np.zeros((n, i[2]))
+            if sp.info is not None:
+                found = sp.info[:, i[1]:i[1] + i[2]]
+                columns[:, :found.shape[1]] = found
+            reg[:, i[0]:i[0] + i[2]] = columns
         elif name == "LIGHT_PATH":
             path = light_paths(n) if sp.path is None else sp.path
             reg[:, i[0]] = light_path_output(i[1], path, np.zeros(n) if sp.t is None else sp.t)
@@ -1105,7 +1158,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             p = R(1, 3)
             reg[:, i[0]:i[0] + 3] = (p[:, 0:1] * M[:, 0] + p[:, 1:2] * M[:, 1]) + p[:, 2:3] * M[:, 2] + M[:, 3]
         elif name == "WINDOW":
-            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 5])
+            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 7])
         elif name == "WIREFRAME":
             reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
         elif name == "AO":
@@ -1119,6 +1172,10 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             if i[2] >= 0:                               # Cycles keeps a linked Normal's own detail
                 bevelled = safe_normalize(R(2, 3) + (bevelled - sp.N))
             reg[:, i[0]:i[0] + 3] = bevelled
+        elif name == "CURVE_NORMAL":
+            reg[:, i[0]:i[0] + 3] = curve_normal(R(1, 3), sp)
+        elif name == "PIXEL_SIZE":
+            reg[:, i[0]] = reg[:, i[1]] * pixel_width(R(2, 3), reg[0, i[3]:i[3] + 7], sp)
         elif name == "CAMERA_DATA":
             reg[:, i[0]:i[0] + 5] = camera_data(R(1, 3))
         elif name == "FRESNEL":
@@ -1186,14 +1243,108 @@ def wireframe(size: np.ndarray, where: int, sp: ShadingPoint) -> np.ndarray:
     return near.astype(np.float64)
 
 
+def curve_normal(T: np.ndarray, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Curves Info Tangent Normal (curve_tangent_normal) (n, 3): the direction towards the viewer I with its
+    part along the curve's tangent taken away, I - T (T.I) / |T|^2, normalised; T (n, 3) the curve's tangent at the
+    hit in object space (turned to world space by the object's linear transform); 0 off strands (T zero)."""
+    T = np.einsum("nij,nj->ni", np.asarray(sp.linear, np.float64).reshape(-1, 3, 3), T)
+    I = sp.N if sp.I is None else sp.I
+    length2 = np.einsum("ij,ij->i", T, T)
+    along = np.divide(np.einsum("ij,ij->i", T, I), length2, out=np.zeros(len(T)), where=length2 > 0.0)
+    across = safe_normalize(I - along[:, None] * T)
+    return np.where((length2 > 0.0)[:, None], across, 0.0)
+
+
+def orthonormals(N: np.ndarray) -> tuple:
+    """Cycles' make_orthonormals (n, 3) x 2 of unit normals N (n, 3): a = (1, 1, 1) x N normalised ((-1, 1, 1) x N
+    where N's components are all equal), b = N x a."""
+    equal = (N[:, 0] == N[:, 1]) & (N[:, 0] == N[:, 2])
+    a = np.stack([N[:, 2] - N[:, 1], np.where(equal, N[:, 0] + N[:, 2], N[:, 0] - N[:, 2]),
+                  np.where(equal, -N[:, 1] - N[:, 0], N[:, 1] - N[:, 0])], axis=1)
+    a = a / np.sqrt(np.einsum("ij,ij->i", a, a))[:, None]
+    return a, np.cross(N, a)
+
+
+def pixel_width(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarray:
+    """The width of a pixel at hits P (n, 3) in the camera's frame, as Cycles' Wireframe node measures it for Pixel Size
+    (n,), from a camera ray's differentials: the ray's footprint there, dP (a perspective camera: the distance |P| times
+    the mean of |normalize(d + dx) - normalize(d)| over a pixel step dx, dy on the plane at depth 1, d = P / P.z; an
+    orthographic one: a pixel's width in scene units), spread along two directions a, b across the face
+    (orthonormals of Ng) and each projected onto the plane across the view: dP (|a - (a.I) I| + |b - (b.I) I|) / 2.
+    frame: the window (left, right, bottom, top, perspective, width, height)."""
+    left, right, bottom, top, perspective, width, height = frame
+    sx, sy = (right - left) / width, (top - bottom) / height
+    if perspective:
+        d = np.stack([safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2]), np.ones(len(P))], axis=1)
+        unit = d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
+        spread = 0.0
+        for step in ((sx, 0.0, 0.0), (0.0, sy, 0.0)):
+            moved = d + np.array(step)
+            moved = moved / np.sqrt(np.einsum("ij,ij->i", moved, moved))[:, None] - unit
+            spread = spread + np.sqrt(np.einsum("ij,ij->i", moved, moved))
+        footprint = np.sqrt(np.einsum("ij,ij->i", P, P)) * (0.5 * spread)
+    else:
+        footprint = np.full(len(P), abs(sx))
+    I = sp.N if sp.I is None else sp.I
+    across = 0.0
+    for axis in orthonormals(sp.Ng):
+        projected = axis - np.einsum("ij,ij->i", axis, I)[:, None] * I
+        across = across + np.sqrt(np.einsum("ij,ij->i", projected, projected))
+    return footprint * (0.5 * across)
+
+
 def window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
     """Cycles' Window coordinates (camera_world_to_ndc) (n, 3) of points P (n, 3) in the camera's frame: where on the
     image they show, 0 .. 1 from its left and bottom edges, z 0; frame: (left, right, bottom, top, perspective), the
     camera's viewplane (core/camera viewplane: on the plane at depth 1 for a perspective camera, whose points are
     divided by their depth first)."""
-    left, right, bottom, top, perspective = frame
+    left, right, bottom, top, perspective = frame[:5]
+    if perspective >= 2.0:
+        return panorama_window(P, frame)
     x, y = (safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2])) if perspective else (P[:, 0], P[:, 1])
     return np.stack([(x - left) / (right - left), (y - bottom) / (top - bottom), np.zeros(len(P))], axis=1)
+
+
+# A panoramic camera's Window (core/render: MaterialTable.window's fifth number is 2 + the type's place here).
+PANORAMA_WINDOWS = ("EQUIRECTANGULAR", "EQUIANGULAR_CUBEMAP_FACE", "MIRRORBALL", "FISHEYE_EQUIDISTANT",
+                    "FISHEYE_EQUISOLID", "CENTRAL_CYLINDRICAL")
+
+
+def panorama_window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """Cycles' Window under a panoramic camera (camera_world_to_ndc, direction_to_panorama) (n, 3) of points P (n, 3)
+    in the camera's frame (x right, y up, z forward): their direction turned into the panorama's frame (x forward, y
+    left, z up; a mirror ball's y forward) and mapped to its (u, v) as Cycles' direction_to_<type>; z 0. frame: (a, b,
+    c, d, 2 + the type's place in PANORAMA_WINDOWS, e, f): equirectangular and central cylindrical (range x, y, z, w),
+    the equidistant fisheye (fov), the equisolid one (lens, sensor width, sensor height)."""
+    a, b, c, d, code, e, f = frame
+    kind = PANORAMA_WINDOWS[int(code) - 2]
+    P = safe_normalize(P)
+    D = (np.stack([P[:, 0], -P[:, 2], P[:, 1]], axis=1) if kind == "MIRRORBALL"
+         else np.stack([P[:, 2], -P[:, 0], P[:, 1]], axis=1))
+    if kind == "EQUIRECTANGULAR":
+        u = (np.arctan2(D[:, 1], D[:, 0]) - b) / a
+        v = (np.arccos(np.clip(D[:, 2] / np.sqrt(np.einsum("ij,ij->i", D, D)), -1.0, 1.0)) - d) / c
+    elif kind == "EQUIANGULAR_CUBEMAP_FACE":
+        u = 0.5 - np.arctan2(D[:, 1], D[:, 0]) * (2.0 / math.pi)
+        v = np.arctan2(D[:, 2], D[:, 0]) * (2.0 / math.pi) + 0.5
+    elif kind == "MIRRORBALL":
+        D = D - np.array([0.0, 1.0, 0.0])
+        div = 2.0 * np.sqrt(np.maximum(-0.5 * D[:, 1], 0.0))
+        D = np.where((div > 0.0)[:, None], D / np.where(div > 0.0, div, 1.0)[:, None], D)
+        u, v = 0.5 * (D[:, 0] + 1.0), 0.5 * (D[:, 2] + 1.0)
+    elif kind == "CENTRAL_CYLINDRICAL":
+        z = safe_divide(D[:, 2], np.sqrt(D[:, 0] * D[:, 0] + D[:, 1] * D[:, 1]))
+        u = (np.arctan2(D[:, 1], D[:, 0]) - a) / (b - a)
+        v = (z - c) / (d - c)
+    else:                                                           # the fisheyes: a radius towards (y, z)
+        across = np.sqrt(D[:, 1] * D[:, 1] + D[:, 2] * D[:, 2])
+        if kind == "FISHEYE_EQUIDISTANT":
+            r, width, height = np.arctan2(across, D[:, 0]) / a, 1.0, 1.0
+        else:
+            r, width, height = 2.0 * a * np.sin(0.5 * np.arccos(np.clip(D[:, 0], -1.0, 1.0))), b, c
+        y, z = safe_divide(D[:, 1], across), safe_divide(D[:, 2], across)
+        u, v = 0.5 - (r * y) / width, (r * z) / height + 0.5
+    return np.stack([u, v, np.zeros(len(P))], axis=1)
 
 
 def camera_data(P: np.ndarray) -> np.ndarray:

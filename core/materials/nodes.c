@@ -529,6 +529,20 @@ INLINE void holdout_node(ShaderResult *sd, double mu, const double *wo, int back
 
 /* Node.setup of a node that adds one closure of BSDF kind `kind` (its `bsdf`), weighted by the node's weight, with
  * the hit's normal, unless the caustics switches take closures of that kind away. */
+/* toon.ToonNode.setup for one hit: a Diffuse or Glossy Toon closure (p: size, smooth, glossy), its Size and Smooth
+ * as angles (toon.params_of); the caustics switches take the Glossy one away as any glossy reflection. */
+INLINE void toon_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                      const double *p)
+{
+    (void)mu; (void)wo; (void)backfacing;
+    int kind = p[2] != 0.0 ? BSDF_GLOSSY_TOON : BSDF_DIFFUSE_TOON;
+    if (caustics_take(kind, sd->caustics)) return;
+    double v[STORAGE_STRIDE] = {0.0};
+    v[TOON_MAX_ANGLE] = (p[0] < 1e-5 ? 1e-5 : (p[0] > 1.0 ? 1.0 : p[0])) * (PI / 2.0);
+    v[TOON_SMOOTH] = clamp01(p[1]) * (PI / 2.0);
+    closure_add(sd, kind, weight, weight, 1.0, v);
+}
+
 INLINE void closure_node(ShaderResult *sd, int kind, const double *weight)
 {
     if (!caustics_take(kind, sd->caustics)) closure_add(sd, kind, weight, weight, 1.0, NULL);

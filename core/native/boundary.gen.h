@@ -25,6 +25,8 @@
 #define TIME_DIMENSION 4
 /* numbers of one decomposed camera transform (motion.decompose) (core.camera.motion) */
 #define MOTION_STRIDE 16
+/* an instance's Object Info columns before its attributes (core.geometry.geometry) */
+#define OBJECT_INFO_WIDTH 14
 /* the integrators with a compiled twin (core.integrators.compiled) */
 #define INTEGRATOR_DIRECT 0
 #define INTEGRATOR_PATH 1
@@ -157,6 +159,8 @@
 #define OP_OBJECT_MATRIX 51
 #define OP_AO 52
 #define OP_BEVEL 53
+#define OP_PIXEL_SIZE 54
+#define OP_CURVE_NORMAL 55
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -235,7 +239,8 @@
 enum {
     BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4,
     BSDF_ROUGH_GLASS = 5, BSDF_OREN_NAYAR = 6, BSDF_SHEEN = 7, BSDF_VELVET = 8, BSDF_TRANSLUCENT = 9,
-    BSDF_BECKMANN = 10, BSDF_BECKMANN_GLASS = 11, BSDF_ASHIKHMIN_SHIRLEY = 12, BSDF_COUNT = 13
+    BSDF_BECKMANN = 10, BSDF_BECKMANN_GLASS = 11, BSDF_ASHIKHMIN_SHIRLEY = 12, BSDF_DIFFUSE_TOON = 13,
+    BSDF_GLOSSY_TOON = 14, BSDF_COUNT = 15
 };
 
 /* core/materials/base.py BSDFFlags: what a BSDF is */
@@ -260,6 +265,8 @@ static const int BSDF_FLAGS[BSDF_COUNT] = {
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* Beckmann */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLASS_TYPE,   /* BeckmannGlass */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* AshikhminShirley */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* DiffuseToon */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* GlossyToon */
 };
 /* Whether a bsdf of kind `kind` has any of `flags` (0 for kind -1: none). */
 INLINE int bsdf_is(int kind, int flags)
@@ -268,7 +275,7 @@ INLINE int bsdf_is(int kind, int flags)
 }
 
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
-static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0};
+static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
@@ -277,7 +284,7 @@ static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
 enum {
     NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
     NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7, NODE_HOLDOUT = 8, NODE_TRANSLUCENT = 9,
-    NODE_COUNT = 10
+    NODE_TOON = 10, NODE_COUNT = 11
 };
 
 /* core/lights/__init__.py LIGHT_TYPES: a light's kind */
@@ -530,7 +537,9 @@ struct GeometryTables {
     const int32_t *attribute_row;           /* (t,) row of `attributes` per copied triangle */
     const int32_t *instance;                /* (t,) Scene.instances index per copied triangle */
     const double *instance_random;          /* (n,) each instance's random number */
-    const double *instance_info;            /* (n, OBJECT_INFO_WIDTH) each instance's Object Info: location, colour, pass index */
+    const double *instance_info;            /* (n, info_width) each instance's Object Info: location, colour, pass index, then
+its Object and Instancer attributes (geometry.instance_info) */
+    int64_t info_width;                     /* columns of instance_info */
     const double *instance_linear;          /* (n, 3, 3) each instance's linear transform */
     int64_t attribute_width;                /* A */
     const uint8_t *hidden;                  /* (n,) the rays each instance hides from (HIDDEN_FROM_*), NULL: none hides */
@@ -924,8 +933,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
-    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(585873237046210989);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7540884240984156999);
+    if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7842783275623974785);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5755748365903746207);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
@@ -940,9 +949,9 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
-    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(4598671514434913230);
+    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(8196709614173496223);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(6520535643845291720);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(2759277909728588366);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);

@@ -24,6 +24,7 @@ cannot be rendered and why) and the viewport's progressive passes (progressive.p
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import time
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
@@ -44,6 +45,7 @@ from ..integrators import Cancelled, Context, Recorder, StopFlag, for_render
 from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
 from ..integrators import cryptomatte, features, lightgroups, lightpasses, passes as passes_, vertex
 from ..integrators.compiled import Compiled, why_not
+from ..materials import graph as graph_
 from ..materials import Material, MaterialTable
 from .. import volumes
 from ..sampling import sobol as sampling
@@ -99,6 +101,26 @@ class RenderResult:
     light_names: list = field(default_factory=list)
 
 
+def panorama_frame(camera, settings) -> tuple:
+    """A panoramic camera's Window for the node graphs (graph.panorama_window): (a, b, c, d, 2 + its type's place in
+    graph.PANORAMA_WINDOWS, e, f) with Cycles' numbers for its type: the equirectangular and central cylindrical
+    ranges, the equidistant fisheye's field of view, the equisolid one's lens and sensor (mm)."""
+    kind = camera.panorama_type
+    code = 2.0 + graph_.PANORAMA_WINDOWS.index(kind)
+    if kind == "EQUIRECTANGULAR":
+        return (camera.longitude_min - camera.longitude_max, -camera.longitude_min,
+                camera.latitude_min - camera.latitude_max, math.pi / 2.0 - camera.latitude_min, code, 0.0, 0.0)
+    if kind == "CENTRAL_CYLINDRICAL":
+        return (-camera.cylinder_u_min, -camera.cylinder_u_max, camera.cylinder_v_min / camera.cylinder_radius,
+                camera.cylinder_v_max / camera.cylinder_radius, code, 0.0, 0.0)
+    if kind == "FISHEYE_EQUIDISTANT":
+        return (camera.fisheye_fov, 0.0, 0.0, 0.0, code, 0.0, 0.0)
+    if kind == "FISHEYE_EQUISOLID":
+        width, height = camera_._panorama_sensor(camera, settings.width, settings.height, tuple(settings.pixel_aspect))
+        return (camera.fisheye_lens, width, height, 0.0, code, 0.0, 0.0)
+    return (0.0, 0.0, 0.0, 0.0, code, 0.0, 0.0)
+
+
 def region_pixels(settings: RenderSettings) -> np.ndarray:
     """Return the flat indices (row-major, row 0 at the top) of the pixels to render: (p,) int64."""
     W, H = settings.width, settings.height
@@ -130,7 +152,10 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     materials.view = camera_.world_to_camera(scene.camera)     # (the Camera coordinates and Camera Data nodes)
     if scene.camera.type in ("PERSP", "ORTHO"):                  # (the Window coordinates: the frame on screen)
         materials.window = (*camera_.viewplane(scene.camera, settings.width, settings.height,
-                                               tuple(settings.pixel_aspect)), float(scene.camera.type == "PERSP"))
+                                               tuple(settings.pixel_aspect)), float(scene.camera.type == "PERSP"),
+                            float(settings.width), float(settings.height))     # (and Pixel Size's pixel)
+    elif scene.camera.type == "PANO" and scene.camera.panorama_type in graph_.PANORAMA_WINDOWS:
+        materials.window = panorama_frame(scene.camera, settings)
     # The lights a render makes of its scene: the emissive meshes, and the world's image (NaN or infinite parts
     # read as 0, as Cycles renders them).
     world = lights_.world.finite_world(scene.the_world(), warnings)

@@ -34,6 +34,8 @@ class Mesh:
                       derive vertex normals from the geometry (`core.normals.vertex_normals`)
     material_indices: (t,) int64 index into the instance's material list
     attributes:       per-corner data the materials read (core/materials/graph.py): name -> (t, 3, w)
+    curve_info:       the Curves Info node's values per vertex of curves made tubes (core/geometry/curves.py
+                      curves_info): name ("curve:intercept", ...) -> (v,) float64; made attributes where read
                       float64, e.g. "uv:UVMap" (w 3, z 0), "color:Col" (RGBA), "tangent:UVMap" (object-space
                       tangent and bitangent sign), "generated", "object"; an empty name after the colon is the
                       mesh's active map
@@ -46,6 +48,7 @@ class Mesh:
     material_indices: Optional[np.ndarray] = None
     name: str = "Mesh"
     attributes: dict = field(default_factory=dict)
+    curve_info: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.vertices = np.asarray(self.vertices, dtype=np.float64).reshape(-1, 3)
@@ -89,6 +92,11 @@ class Instance:
     terminator_shading: Shadow Terminator > Shading Offset (0..1): Cycles bends the cosine of the light its closures
                reflect so that it reaches 0 before the terminator (core/materials/closures.py terminator_term)
     (Both only with RenderSettings.terminator_fix, the lecture's switch for Cycles' shadow terminator.)
+    attributes: the Attribute node's Object and Instancer attributes of this object, name -> RGBA (4,) (Cycles'
+               object attributes, looked up at export; Scene.instance_attributes orders them), or None: none
+    dupli_generated, dupli_uv: an instance's Generated (3,) and UV (2,) From Instancer (the Texture Coordinate node):
+               the point of its instancer it was placed at (Cycles' dupli_generated, 0.5 orco - 0.5, and dupli_uv);
+               None: (0, 0, 0), (0, 0), as for an object that is no instance
     """
 
     mesh: int
@@ -111,6 +119,9 @@ class Instance:
     shadow_membership: int = ALL_SETS
     terminator_offset: Optional[float] = None
     terminator_shading: float = 0.0
+    attributes: Optional[dict] = None
+    dupli_generated: Optional[tuple] = None
+    dupli_uv: Optional[tuple] = None
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
@@ -134,6 +145,8 @@ class Scene:
     lightgroups: the light group (View Layer > Light Groups) each source belongs to, by name ("" for none):
     {"lights": [one per lights entry], "instances": [one per instances entry], "world": the world's}; the
     groups a render writes are RenderSettings.light_groups (core/integrators/lightgroups.py)
+    instance_attributes: the names of the Attribute node's Object and Instancer attributes the materials read, in the
+    order of their columns of the instances' Object Info (geometry.instance_info; Instance.attributes)
     """
 
     camera: Camera
@@ -145,6 +158,7 @@ class Scene:
     world: Optional[World] = None
     default_material: Material = field(default_factory=Material)
     lightgroups: dict = field(default_factory=lambda: {"lights": [], "instances": [], "world": ""})
+    instance_attributes: list = field(default_factory=list)
 
     def the_world(self) -> World:
         """The world: `world` when given (it lights the scene unless told not to), else a background of
