@@ -77,7 +77,8 @@ def test_a_white_base_under_a_white_sheen_keeps_all_the_light():
         result = nodes.shade_nodes([(nodes.PrincipledNode, np.ones(3), row)], UP[None, :], wo[None, :])
         kinds = set(result.closures.kind[0]) - {-1}
         assert kinds == {materials.Sheen.kind, materials.Lambert.kind}
-        closures = materials.Closures(*(np.repeat(array, k, axis=0) for array in result.closures))
+        closures = materials.Closures(*(None if array is None else np.repeat(array, k, axis=0)
+                                        for array in result.closures))
         f_cos, _ = materials.eval_closures(closures, np.tile(wo, (k, 1)), wi)
         np.testing.assert_allclose(f_cos.sum(axis=0) * cell, 1.0, rtol=3e-3)
 
