@@ -397,7 +397,7 @@ class PathTracing(Integrator):
                       & (tr <= s.transmission_bounces))
             # (the surface after the last transparent bounce allowed ends the path, Cycles' terminate-on-next-surface:
             #  the ray gathered its emission, nothing more)
-            last_clear = is_transparent & ~boundary & (tp >= s.transparent_max_bounces)
+            last_clear = is_transparent & np.logical_not(boundary) & (tp >= s.transparent_max_bounces)
             going = (ray.hits.hit & within & (tp <= s.transparent_max_bounces) & ~last_clear
                      & (vb <= VOLUME_BOUNDS_MAX))
             if data is not None:
