@@ -208,22 +208,35 @@ def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: n
                                                  pixel[ok], sample[ok], dimension, bounce[ok], behind, share)
         L[ok] = weight * scattered
     # 2. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
-    for index, X in lamps.items():
+    shadow_rays += equiangular_light(ctx, march, lambda at: march.pdf(odds, at), O, D, t, inside, pixel, sample,
+                                     dimension, bounce, behind, L, np.arange(k))
+    return L, shadow_rays
+
+
+def equiangular_light(ctx: Context, march, distance_pdf, O: np.ndarray, D: np.ndarray, t: np.ndarray,
+                      inside: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray,
+                      behind, L: np.ndarray, rows: np.ndarray) -> int:
+    """Add to L[rows] (rows (r,)) the light r rays O, D (r, 3) over [0, t) (r,) through a marched medium (march:
+    their core/volumes/field.py March) scatter back from each lamp with a position: a point by equi-angular sampling,
+    lit by that lamp alone, weight T(s) sigma_s(s) / pdf, weighed against the distance sampling of density
+    distance_pdf(s) (r,) by the balance heuristic. Returns the shadow rays cast."""
+    shadow_rays = 0
+    for index, X in equiangular_lamps(ctx).items():
         u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=EQUIANGULAR_DIMENSION + index + dimension)
         s_e, pdf_e = equiangular(O, D, t, X, u=u[:, 0])
         chosen = np.flatnonzero(pdf_e > 0.0)
         if len(chosen) == 0:
             continue
         at = np.where(pdf_e > 0.0, s_e, 0.0)
-        w = pdf_e / (pdf_e + march.pdf(odds, at))
+        w = pdf_e / (pdf_e + distance_pdf(at))
         _, sigma_e, g_e = march.at(at)
         T = march.transmittance(at) * sigma_e
         lit, count = scattered_light(ctx, O[chosen] + s_e[chosen, None] * D[chosen], -D[chosen], g_e[chosen],
                                      inside[chosen], pixel[chosen], sample[chosen], dimension, bounce[chosen], behind,
                                      only=index)
-        L[chosen] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
+        L[rows[chosen]] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
         shadow_rays += count
-    return L, shadow_rays
+    return shadow_rays
 
 
 def equiangular_lamps(ctx: Context) -> dict:
@@ -395,25 +408,9 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
                                       0.0)
         # Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone, weighed against the
         # collisions by the balance heuristic (as in_scattering weighs it against its free flight).
-        lamps = equiangular_lamps(ctx)
-        o, d, length = O[group], D[group], t[group]
-        for index, X in lamps.items():
-            v = sampling.sample_2d(ctx.settings.seed, pixel[group], sample[group],
-                                   dimension=EQUIANGULAR_DIMENSION + index + dimension)[:, 0]
-            s_e, pdf_e = equiangular(o, d, length, X, u=v)
-            chosen = np.flatnonzero(pdf_e > 0.0)
-            if len(chosen) == 0:
-                continue
-            at = np.where(pdf_e > 0.0, s_e, 0.0)
-            w = pdf_e / (pdf_e + march.collision_pdf(odds, at))
-            _, sigma_e, g_e = march.at(at)
-            T = march.transmittance(at) * sigma_e
-            rows_e = group[chosen]
-            lit, count = scattered_light(ctx, O[rows_e] + s_e[chosen, None] * D[rows_e], -D[rows_e], g_e[chosen],
-                                         inside[rows_e], pixel[rows_e], sample[rows_e], dimension,
-                                         np.asarray(bounce)[rows_e], None, only=index)
-            L[rows_e] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
-            shadow_rays += count
+        shadow_rays += equiangular_light(ctx, march, lambda at: march.collision_pdf(odds, at), O[group], D[group],
+                                         t[group], inside[group], pixel[group], sample[group], dimension,
+                                         np.asarray(bounce)[group], None, L, group)
         hit = np.flatnonzero(~passed)
         if len(hit) == 0:
             continue
@@ -423,7 +420,7 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
         here = group[hit]
         P = O[here] + s[hit, None] * D[here]
         share = {index: pdf[hit] / (pdf[hit] + equiangular(O[here], D[here], t[here], X, s=s[hit])[1])
-                 for index, X in lamps.items()}
+                 for index, X in equiangular_lamps(ctx).items()}
         phase = {}
         light, count = scattered_light(ctx, P, -D[here], g[hit], inside[here], pixel[here], sample[here], dimension,
                                        np.asarray(bounce)[here], None, share, phase_out=phase)
