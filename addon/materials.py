@@ -266,15 +266,12 @@ class GraphReader:
                                                                              "Normal")
         amount = _math("MULTIPLY", _math("SUBTRACT", inputs.get("Height", 0.0), inputs.get("Midlevel", 0.5)),
                        inputs.get("Scale", 1.0))
-        if getattr(node, "space", "OBJECT") == "OBJECT":
-            normal = Link(GraphNode("VECTOR_TRANSFORM", {"type": "NORMAL", "from": "WORLD", "to": "OBJECT"},
-                                    {"Vector": normal}, node.name), "Vector")
+        in_object = getattr(node, "space", "OBJECT") == "OBJECT"
+        if in_object:
+            normal = _transformed(normal, "NORMAL", "WORLD", "OBJECT", node.name)
         offset = Link(GraphNode("VECTOR_MATH", {"operation": "SCALE"}, {"Vector": normal, "Scale": amount}, node.name),
                       "Vector")
-        if getattr(node, "space", "OBJECT") == "OBJECT":
-            offset = Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
-                                    {"Vector": offset}, node.name), "Vector")
-        return offset
+        return _transformed(offset, "VECTOR", "OBJECT", "WORLD", node.name) if in_object else offset
 
     def vector_displacement(self, node, path: tuple, consumer):
         """A Vector Displacement node's offset as Cycles' svm_node_vector_displacement computes it: (Vector -
@@ -295,10 +292,7 @@ class GraphReader:
         offset = Link(GraphNode("VECTOR_MATH", {"operation": "SCALE"}, {"Vector": offset,
                                                                        "Scale": inputs.get("Scale", 1.0)}, node.name),
                       "Vector")
-        if space == "OBJECT":
-            offset = Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
-                                    {"Vector": offset}, node.name), "Vector")
-        return offset
+        return _transformed(offset, "VECTOR", "OBJECT", "WORLD", node.name) if space == "OBJECT" else offset
 
     def sky(self, node, warn):
         """A Sky Texture's props {"sky": core/materials/sky.py Sky}, precomputed as Cycles 5.0 does (Blender 4.x's
@@ -940,6 +934,12 @@ def shader_nodes(material, warnings: list) -> list:
     out: list = []
     _collect(reader, surface_node(material), np.ones(3), out, ())
     return out
+
+
+def _transformed(vector, kind: str, source: str, target: str, name: str) -> Link:
+    """A Vector Transform node's Link of `vector` (a value or a Link) of type `kind` from space `source` to `target`."""
+    return Link(GraphNode("VECTOR_TRANSFORM", {"type": kind, "from": source, "to": target}, {"Vector": vector}, name),
+                "Vector")
 
 
 def _math(operation: str, a, b):
