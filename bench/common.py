@@ -48,6 +48,28 @@ DENOISE_SCENES = ("light_area", "cornell_box")
 NOT_LIKE_CYCLES = {"shading_visibility"}
 
 
+# The real phase's scenes (issue 34): files made by other people, fetched into tools/real_scenes.py's cache (never
+# committed) and rigged there as its `compare` rigs them, each rendered with direct light and path traced. One per
+# class the issue names that this machine can fetch: a Cornell box lit by its emissive quad, a textured glTF model
+# under an HDRI, and an HDRI still life of metals (98 gold and silver spheres).
+REAL_SCENES = ("cornell_box", "gltf_damaged_helmet", "gltf_metal_rough_spheres")
+REAL_INTEGRATORS = ("direct", "path")
+REAL_SIZE = (240, 180)
+REAL_PREFIX = "real-"
+
+
+def real_name(scene: str, integrator: str) -> str:
+    """The bench's name of a real scene rigged for `integrator`: real-SCENE-INTEGRATOR."""
+    return f"{REAL_PREFIX}{scene}-{integrator}"
+
+
+def blend_of(name: str) -> str:
+    """The .blend a bench scene name stands for: sample_scenes/NAME.blend, or a rigged real scene in bench/out/real/."""
+    if name.startswith(REAL_PREFIX):
+        return os.path.join(OUT, "real", f"{name}.blend")
+    return os.path.join(SCENES_DIR, f"{name}.blend")
+
+
 class Plan:
     """How much `make bench` measures: the full run, or --quick for development."""
 
@@ -65,13 +87,26 @@ class Plan:
         self.scenes = (["light_point", "light_area", "modifiers_instances"] if quick
                        else sorted(f[:-6] for f in os.listdir(SCENES_DIR)
                                    if f.endswith(".blend") and f[:-6] not in NOT_LIKE_CYCLES))
+        # The real phase: its scenes, and shorter ladders with one repeat (a real scene's render takes seconds,
+        # its Cycles reference minutes).
+        self.real_scenes = ([real_name("cornell_box", "path")] if quick else
+                            [real_name(scene, integrator) for scene in REAL_SCENES for integrator in REAL_INTEGRATORS])
+        self.real_primer_ladder = [1, 4, 16, 64] if quick else [1, 2, 4, 8, 16, 32, 64, 128, 256]
+        self.real_repeats = 1
+
+    def ladders(self, name: str) -> tuple:
+        """(Primer's sample counts, Cycles', repeats) of the scene `name`'s ladder."""
+        if name.startswith(REAL_PREFIX):
+            return self.real_primer_ladder, self.cycles_ladder, self.real_repeats
+        return self.primer_ladder, self.cycles_ladder, self.repeats
 
     def as_dict(self) -> dict:
         """Return the plan as plain values, for the results file."""
         return {"quick": self.quick, "reference_samples": self.reference_samples,
                 "primer_ladder": self.primer_ladder, "cycles_ladder": self.cycles_ladder,
                 "repeats": self.repeats, "denoise_ladder": self.denoise_ladder, "rays_rounds": self.rays_rounds,
-                "scenes": self.scenes}
+                "scenes": self.scenes, "real_scenes": self.real_scenes, "real_primer_ladder": self.real_primer_ladder,
+                "real_repeats": self.real_repeats}
 
 
 def digest(*parts) -> str:

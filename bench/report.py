@@ -108,6 +108,45 @@ def denoise_table(results: dict) -> list:
     return lines
 
 
+def real_view(results: dict) -> dict:
+    """The real phase's measurements in the shape headline() and plot_error_vs_time() read (a "scenes" phase and
+    a plan naming its scenes)."""
+    real = results.get("real") or {}
+    names = list(dict.fromkeys(r["scene"] for r in real.get("rows", [])))
+    return {"scenes": {"rows": real.get("rows", []), "references": real.get("references", {})},
+            "plan": {"scenes": names}}
+
+
+def real_label(name: str) -> tuple:
+    """(scene, integrator) of a real phase's name real-SCENE-INTEGRATOR."""
+    scene, integrator = name[len(common.REAL_PREFIX):].rsplit("-", 1)
+    return scene, integrator
+
+
+def real_table(results: dict) -> list:
+    """Return the real phase's headline per scene and integrator, with where Primer's time went at 64 samples."""
+    view = real_view(results)
+    lines = [f"| scene | light | Cycles {common.HEADLINE_SAMPLES} spp: seconds | relMSE | Primer: seconds to the same "
+             "relMSE | **ratio** | ratio by FLIP | Primer 64 spp: wall | export | BVH | render | Embree : shading "
+             "(thread time) |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    marks = {"=": "", "<=": "≤ ", ">": "> "}
+    for h in headline(view):
+        scene, integrator = real_label(h["scene"])
+        m, f = h["relmse"], h["flip"]
+        spent = next((r.get("spent") for r in view["scenes"]["rows"] if r["scene"] == h["scene"]
+                      and r["engine"] == "PRIMER" and r["samples"] == common.HEADLINE_SAMPLES), None) or {}
+        thread = spent.get("embree", 0.0) + spent.get("shading", 0.0)
+        split = (f"{100 * spent['embree'] / thread:.0f} : {100 * spent['shading'] / thread:.0f}" if thread > 0 else "–")
+        lines.append(f"| {scene} | {integrator} | {m['cycles_seconds']:.2f} | {fmt(m['cycles_error'])} | "
+                     f"{marks[m['how']]}{m['primer_seconds']:.2f} | **{marks[m['how']]}{m['ratio']:.2f}** | "
+                     f"{marks[f['how']]}{f['ratio']:.2f} | {fmt(spent.get('wall'))} | {fmt(spent.get('export'))} | "
+                     f"{fmt(spent.get('bvh'))} | {fmt(spent.get('render'))} | {split} |")
+    for name, why in (results.get("real") or {}).get("skipped", []):
+        scene, integrator = real_label(name)
+        lines.append(f"| {scene} | {integrator} | skipped: {why} | | | | | | | | | |")
+    return lines
+
+
 def geometric_mean(values: list) -> float:
     """Return the geometric mean of positive values (nan for none)."""
     values = [v for v in values if v > 0 and math.isfinite(v)]
@@ -570,7 +609,16 @@ def targets_table(results: dict) -> list:
             f"Primer {primer['peak_mb'] / 1024:.2f} GB, Cycles {cycles['peak_mb'] / 1024:.2f} GB (Blender with the "
             f"mesh {primer['built_mb'] / 1024:.2f} GB; the render adds {own['PRIMER']:.0f} MB in Primer, "
             f"{own['CYCLES']:.0f} MB in Cycles)", primer["peak_mb"] <= cycles["peak_mb"])
-    # 7. Growth.
+    # 7. Issue 34: real scenes, direct light and path traced.
+    real = headline(real_view(results))
+    if real:
+        worst = max(real, key=lambda h: h["relmse"]["ratio"] if h["relmse"]["how"] != "<=" else 0.0)
+        row("Issue 34: real scenes (a quad-lit Cornell box, a textured glTF model, an HDRI still life of metals) in "
+            "≤ 0.5× Cycles' time, direct light and path traced (goal 0.25×)",
+            ", ".join(f"{'/'.join(real_label(h['scene']))} {'> ' if h['relmse']['how'] == '>' else ''}"
+                      f"{h['relmse']['ratio']:.2f}" for h in real) + f"; worst {'/'.join(real_label(worst['scene']))}",
+            all(h["relmse"]["ratio"] <= 0.5 and h["relmse"]["how"] != ">" for h in real))
+    # 8. Growth.
     pixels, lights = _slope(points, "pixels"), _slope(points, "lights")
     triangles = _slope(points, "triangles", lambda p: p["seconds"] - p["bvh_seconds"])
     if all(math.isfinite(v) for v in (pixels, lights, triangles)):
@@ -669,6 +717,21 @@ def report_markdown(results: dict, plots: dict) -> str:
              "(closed form or analytic lit/shadowed classification) by more than the case's tolerance; pixels "
              "within a tiny margin of an edge are not judged. The test suite asserts 0% for the robust offset.", ""]
     text += stability_table(results)
+    if (results.get("real") or {}).get("rows") or (results.get("real") or {}).get("skipped"):
+        text += ["", "## Real scenes: direct light and path traced", "",
+                 wrap("Files made by other people (docs/real_scenes.md: their sources and licences; fetched into "
+                      "tools/real_scenes.py's cache, never committed), rigged as `tools/real_scenes.py compare` rigs "
+                      f"them at {common.REAL_SIZE[0]} × {common.REAL_SIZE[1]} pixels, each once with direct light "
+                      "(`max_bounces = 0`) and once path traced (the file's bounce limits in both engines). The "
+                      f"reference is Cycles at {plan['reference_samples']} samples as above; Primer's ladder is "
+                      f"{plan.get('real_primer_ladder')} samples (adaptive sampling off, as the rig sets it), Cycles' "
+                      f"{plan['cycles_ladder']}, {plan.get('real_repeats', 1)} repeat(s). Where Primer's time went at "
+                      "64 samples: export from the depsgraph, BVH build and the render loop are wall seconds; "
+                      "Embree : shading splits the render's thread time between Embree's queries and everything else "
+                      "the kernels do."), ""]
+        text += real_table(results)
+        if plots.get("real"):
+            text += ["", f"![Real scenes: relMSE against time]({plots['real']})"]
     text += ["", "## Findings", ""] + [f"- {f}" for f in findings(results, heads)]
     return "\n".join(text) + "\n"
 
@@ -817,6 +880,9 @@ def build(results: dict, folder: str, plot_folder: str, docs: bool) -> str:
     plot_error_vs_time(results, "flip", "FLIP", paths["flip"])
     plot_profile(results, paths["profile"])
     plot_scaling(results, paths["scaling"])
+    if real_view(results)["plan"]["scenes"]:
+        paths["real"] = os.path.join(plot_folder, "real_error_vs_time.png")
+        plot_error_vs_time(real_view(results), "relmse", "relMSE", paths["real"])
     relative = {k: os.path.relpath(v, folder) for k, v in paths.items()}
     with open(report_path, "w", encoding="utf-8") as fh:
         fh.write(report_markdown(results, relative))

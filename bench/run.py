@@ -11,6 +11,8 @@ Phases, in order (each Blender job in its own process, with empty Blender user f
   scaling    time and peak memory against triangles, pixels, lights and instances (core alone)
   memory     peak memory of a million-triangle mesh rendered in Blender, Primer against Cycles (bench/memory.py)
   stability  the hard cases of tests/hard_cases.py with both shadow offsets
+  real       real scenes made by others (tools/real_scenes.py's cache), direct and path traced: both engines'
+             ladders against a Cycles reference, and where Primer's time goes (skipped for scenes not fetched)
 Then bench/report.py writes bench/REPORT.md, the plots in docs/images/bench/ and the "## Benchmark"
 section of docs/performance.md. --quick measures a little of everything in a few minutes and writes
 its report to bench/out/quick/ instead, leaving the committed report alone. Skipped phases keep their
@@ -31,7 +33,7 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common  # noqa: E402
 
-PHASES = ("scenes", "denoise", "integrators", "profile", "rays", "scaling", "memory", "stability")
+PHASES = ("scenes", "denoise", "integrators", "profile", "rays", "scaling", "memory", "stability", "real")
 # The path-traced sample scenes, where each integrator's cost is set against its error (the integrators phase).
 INTEGRATOR_SCENES = ("cornell_box", "materials_glass")
 RAYS_SCENES = ("modifiers_instances", "light_area", "cornell_box")
@@ -99,6 +101,30 @@ def run_scenes(plan: common.Plan) -> dict:
         references[name] = result["reference"]
         print(f"  {name}: {time.perf_counter() - start:.0f} s", flush=True)
     return {"rows": rows, "references": references}
+
+
+def run_real(plan: common.Plan) -> dict:
+    """Rig each real scene once (bench/out/real/), then render its reference and ladders; return {"rows": [...],
+    "references": {...}, "skipped": [(name, why)]} (a scene not in tools/real_scenes.py's cache is skipped)."""
+    import real_scenes                              # tools/real_scenes.py
+
+    rows, references, skipped = [], {}, []
+    for name in plan.real_scenes:
+        blend = common.blend_of(name)
+        if not os.path.exists(blend):
+            scene, integrator = name[len(common.REAL_PREFIX):].rsplit("-", 1)
+            rigged, notes = real_scenes.rig(scene, integrator, *common.REAL_SIZE, out=blend)
+            if not rigged:
+                skipped.append((name, "; ".join(notes) + ": run `tools/real_scenes.py fetch` (docs/real_scenes.md)"))
+                print(f"  {name}: skipped ({skipped[-1][1]})", flush=True)
+                continue
+        start = time.perf_counter()
+        blender_job("ladder", name, quick=plan.quick)
+        result = common.read_json(os.path.join(common.OUT, "scenes", f"{name}.json"))
+        rows += result["rows"]
+        references[name] = result["reference"]
+        print(f"  {name}: {time.perf_counter() - start:.0f} s", flush=True)
+    return {"rows": rows, "references": references, "skipped": skipped}
 
 
 def run_denoise(plan: common.Plan) -> dict:
@@ -231,6 +257,8 @@ def main(argv=None) -> int:
             results[phase] = run_scaling(plan.quick)
         elif phase == "memory":
             results[phase] = run_memory(plan.quick)
+        elif phase == "real":
+            results[phase] = run_real(plan)
         else:
             results[phase] = run_stability()
         results.setdefault("phase_seconds", {})[phase] = time.perf_counter() - start

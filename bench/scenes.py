@@ -36,11 +36,12 @@ REFERENCE_SEEDS = (1001, 1002)      # never 0: the ladder's Cycles renders use s
 # ----------------------------------------------------------------------------
 
 def open_scene(name: str):
-    """Open sample_scenes/NAME.blend with Primer registered; return the scene, set to write float EXR."""
+    """Open the bench scene NAME (sample_scenes/NAME.blend, or a rigged real scene: common.blend_of) with Primer
+    registered; return the scene, set to write float EXR."""
     import bpy
 
     load_primer()                   # first, so that the file's engine PRIMER exists when it opens
-    bpy.ops.wm.open_mainfile(filepath=os.path.join(common.SCENES_DIR, f"{name}.blend"))
+    bpy.ops.wm.open_mainfile(filepath=common.blend_of(name))
     scene = bpy.context.scene
     configure_output(scene, os.path.join(common.OUT, "unused.exr"))
     return scene
@@ -100,7 +101,7 @@ def reference(name: str, plan: common.Plan) -> tuple:
 
     import numpy as np
 
-    blend = os.path.join(common.SCENES_DIR, f"{name}.blend")
+    blend = common.blend_of(name)
     settings = {"engine": "CYCLES", "samples": plan.reference_samples, "seeds": list(REFERENCE_SEEDS),
                 "light_paths": "the Primer integrator's", "filter": "BOX 1 px", "denoising": False, "adaptive_sampling": False,
                 "view_transform": "Standard", "file": "OpenEXR float32 (linear)",
@@ -121,7 +122,7 @@ def reference(name: str, plan: common.Plan) -> tuple:
     # Var(mean of two) = E[(h1 - h2)^2] / 4 per pixel: the reference's expected squared error.
     noise = (halves[0][..., :3].astype(np.float64) - halves[1][..., :3]) ** 2 / 4.0
     r = image[..., :3].astype(np.float64)
-    meta = {"settings": settings, "bpy": bpy.app.version_string, "blend": f"sample_scenes/{name}.blend",
+    meta = {"settings": settings, "bpy": bpy.app.version_string, "blend": os.path.relpath(blend, common.ROOT),
             "seconds": seconds, "size": list(image.shape[:2]),
             "noise_rmse": float(np.sqrt(noise.mean())),
             "noise_relmse": float(np.mean(noise / (r * r + common.REL_MSE_GUARD)))}
@@ -139,8 +140,10 @@ def reference(name: str, plan: common.Plan) -> tuple:
 # ----------------------------------------------------------------------------
 
 def ladder(name: str, plan: common.Plan) -> dict:
-    """Time Primer and Cycles at every sample count of the plan and measure each image's error."""
+    """Time Primer and Cycles at every sample count of the plan and measure each image's error; Primer's rows
+    also carry where its time went (export, BVH, Embree, shading, write: the render's RenderRecord)."""
     ref, ref_meta, fresh = reference(name, plan)
+    primer_ladder, cycles_ladder, repeats = plan.ladders(name)
     scene = open_scene(name)
     folder = os.path.join(common.OUT, "scenes", name)
     # Warm-up: the first render of each engine in a process loads kernels and modules.
@@ -148,13 +151,13 @@ def ladder(name: str, plan: common.Plan) -> dict:
     render_timed()
     use_cycles(scene, 1)
     render_timed()
-    runs = [("PRIMER", n) for n in plan.primer_ladder] + [("CYCLES", n) for n in plan.cycles_ladder]
+    runs = [("PRIMER", n) for n in primer_ladder] + [("CYCLES", n) for n in cycles_ladder]
     times = {run: [] for run in runs}
-    images = {}
-    for repeat in range(plan.repeats):
+    images, spent = {}, {}
+    for repeat in range(repeats):
         # Alternate the engines: Primer first on even steps, Cycles first on odd ones.
-        pairs = [(("PRIMER", p), ("CYCLES", c)) for p, c in zip(plan.primer_ladder, plan.cycles_ladder)]
-        extra = runs[len(pairs):len(plan.primer_ladder)] + runs[len(plan.primer_ladder) + len(pairs):]
+        pairs = [(("PRIMER", p), ("CYCLES", c)) for p, c in zip(primer_ladder, cycles_ladder)]
+        extra = runs[len(pairs):len(primer_ladder)] + runs[len(primer_ladder) + len(pairs):]
         order = []
         for step, (a, b) in enumerate(pairs):
             order += [a, b] if (step + repeat) % 2 == 0 else [b, a]
@@ -166,11 +169,11 @@ def ladder(name: str, plan: common.Plan) -> dict:
                 use_cycles(scene, samples)
             seconds = render_timed()
             if engine == "PRIMER":
-                primer_record()
+                spent.setdefault(samples, []).append(time_spent(primer_record(), seconds))
             times[(engine, samples)].append(seconds)
             if repeat == 0:
                 images[(engine, samples)] = save_render(scene, os.path.join(folder, f"{engine.lower()}_{samples}.exr"))
-        print(f"{name}: repeat {repeat + 1}/{plan.repeats} done", flush=True)
+        print(f"{name}: repeat {repeat + 1}/{repeats} done", flush=True)
     rows = []
     for engine, samples in runs:
         image = images[(engine, samples)]
@@ -179,7 +182,17 @@ def ladder(name: str, plan: common.Plan) -> dict:
         rows.append({"scene": name, "engine": engine, "samples": samples,
                      "seconds": statistics.median(times[(engine, samples)]), "all_seconds": times[(engine, samples)],
                      **common.errors(image, ref)})
+        if engine == "PRIMER":          # the repeat of median wall time
+            rows[-1]["spent"] = sorted(spent[samples], key=lambda s: s["wall"])[len(spent[samples]) // 2]
     return {"scene": name, "reference": {**ref_meta, "rendered_now": fresh}, "rows": rows}
+
+
+def time_spent(record, wall: float) -> dict:
+    """Where a Primer render's wall time went, from its RenderRecord (addon/engine.py): seconds per part."""
+    stats = record.stats
+    return {"wall": wall, "export": record.export_seconds, "bvh": stats.geometry_seconds,
+            "embree": stats.trace_seconds, "shading": stats.shading_seconds, "render": stats.seconds,
+            "write": record.write_seconds, "rays": stats.rays, "triangles": stats.triangles}
 
 
 def denoise(name: str, plan: common.Plan) -> dict:

@@ -186,7 +186,7 @@ scene.primer.use_adaptive_sampling = False
 scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0   # Primer reads it; Cycles' reference has it
 render.engine = "PRIMER"
 bpy.ops.wm.save_as_mainfile(filepath={out!r}, copy=True)
-print("RIG " + ", ".join(notes))
+print("RIG " + ", ".join(notes or ["as saved"]))
 '''
 
 
@@ -243,6 +243,25 @@ def build(name: str) -> str:
     return out
 
 
+def rig(name: str, integrator: str, width: int, height: int, out: str = "") -> tuple:
+    """Rig a cached scene for `integrator` ("direct" or "path") at width x height into `out` (default: the cache's
+    work folder): a camera and a sun where it has none, Cycles' look, the renderers' shared settings. Return (the
+    rigged .blend's path, the rig's notes), or ("", [why]) when the scene is not in the cache or rigging failed."""
+    source = build(name) if name in BUILT else os.path.join(CACHE, name + ".blend")
+    if not source or not os.path.exists(source):
+        print(f"{name}: not in the cache ({source}); run `fetch` first")
+        return "", [f"{name} is not in the cache {CACHE}"]
+    rigged = out or os.path.join(CACHE, "work", f"{name}_{integrator}.blend")
+    os.makedirs(os.path.dirname(rigged), exist_ok=True)
+    script = RIG.format(tools=os.path.join(ROOT, "tools"), source=source, out=rigged, width=width, height=height,
+                        integrator=integrator.upper())
+    done = run(["-c", script])
+    if done.returncode != 0:
+        print(f"{name}: rigging failed\n{done.stderr[-2000:]}")
+        return "", ["rigging failed"]
+    return rigged, [line[4:] for line in done.stdout.splitlines() if line.startswith("RIG ")]
+
+
 def run(args: list, timeout: float = 1800) -> subprocess.CompletedProcess:
     """Run a Python command of this checkout's venv, returning the finished process."""
     return subprocess.run([sys.executable] + args, capture_output=True, text=True, timeout=timeout, cwd=ROOT)
@@ -254,20 +273,10 @@ def compare(names: list, integrator: str, samples: int, reference: int, width: i
     from core.film import image_io
     rows = []
     work = os.path.join(CACHE, "work")
-    os.makedirs(work, exist_ok=True)
     for name in names:
-        source = build(name) if name in BUILT else os.path.join(CACHE, name + ".blend")
-        if not source or not os.path.exists(source):
-            print(f"{name}: not in the cache ({source}); run `fetch` first")
+        rigged, notes = rig(name, integrator, width, height)
+        if not rigged:
             continue
-        rigged = os.path.join(work, f"{name}_{integrator}.blend")
-        script = RIG.format(tools=os.path.join(ROOT, "tools"), source=source, out=rigged, width=width, height=height,
-                            integrator=integrator.upper())
-        done = run(["-c", script])
-        if done.returncode != 0:
-            print(f"{name}: rigging failed\n{done.stderr[-2000:]}")
-            continue
-        notes = [line[4:] for line in done.stdout.splitlines() if line.startswith("RIG ")]
         images, seconds, warnings = {}, {}, []
         for engine, count in (("PRIMER", samples), ("CYCLES", reference)):
             out = os.path.join(work, f"{name}_{integrator}_{engine.lower()}.exr")
