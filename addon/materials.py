@@ -296,15 +296,12 @@ class GraphReader:
 
     def sky(self, node, warn):
         """A Sky Texture's props {"sky": core/materials/sky.py Sky}, precomputed as Cycles 5.0 does (Blender 4.x's
-        NISHITA is Cycles 5.0's SINGLE_SCATTERING, its Dust its Aerosol); None, with a warning, where Primer cannot
-        evaluate it (a surface material; Hosek / Wilkie)."""
-        if self.reader.kind != "world":
-            warn("a Sky Texture is evaluated in world shaders only; Primer uses the input's own value")
-            return None
+        NISHITA is Cycles 5.0's SINGLE_SCATTERING, its Dust its Aerosol), in a world or a surface material (which
+        draws the sun's disc itself, where a world's is a sun lamp); None, with a warning, for a sky type Primer does
+        not know."""
         kind = {"NISHITA": "SINGLE_SCATTERING"}.get(node.sky_type, node.sky_type)
         if kind not in sky_.SKY_TYPES:
-            warn(f"sky type {node.sky_type} needs Hosek and Wilkie's fitted dataset, which Primer does not carry; "
-                 "Primer uses the input's own value")
+            warn(f"sky type {node.sky_type} is not one Primer computes; Primer uses the input's own value")
             return None
         if node.sky_type == "NISHITA":
             warn("Blender 4.x's Nishita sky: Primer computes Cycles 5.0's Single Scattering sky, which this "
@@ -313,14 +310,16 @@ class GraphReader:
         mapping = getattr(node, "texture_mapping", None)
         if mapping is not None and not identity_mapping(mapping):
             warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
-        if _vector_linked(node) and kind != "PREETHAM" and node.sun_disc:
+        world = self.reader.kind == "world"
+        if world and _vector_linked(node) and kind in ("MULTIPLE_SCATTERING", "SINGLE_SCATTERING") and node.sun_disc:
             warn("its Vector is linked: Primer leaves its sun disc out (it lights the scene with the sun of a Sky "
                  "Texture that reads the ray's direction)")
         aerosol = getattr(node, "aerosol_density", getattr(node, "dust_density", 1.0))
         return {"sky": sky_.precompute(
             kind, float(node.sun_elevation), float(node.sun_rotation), float(node.sun_size),
             float(node.sun_intensity), bool(node.sun_disc), float(node.altitude), float(node.air_density),
-            float(aerosol), float(node.ozone_density), tuple(node.sun_direction), float(node.turbidity))}
+            float(aerosol), float(node.ozone_density), tuple(node.sun_direction), float(node.turbidity),
+            float(node.ground_albedo), disc_drawn=not world)}
 
     def node(self, node, path: tuple):
         """The GraphNode of a Blender node (made once per group path), or None when Primer cannot read it."""
