@@ -390,6 +390,8 @@ def attributes_of(nodes: list) -> set:
             names.add({"Tangent": "generated", "Pointiness": "pointiness", "Random Per Island": "island"}[link.output])
         elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("uv:")
+        elif node.kind in ("SKY", "ENVIRONMENT") and not isinstance(node.inputs.get("Vector"), Link):
+            names.add("generated")                  # (a world's shading point has it always)
         elif node.kind in DESCRIBED_BY_KIND:
             texture = DESCRIBED_BY_KIND[node.kind]
             names.update(default for name, _, default in texture.inputs
