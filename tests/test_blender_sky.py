@@ -93,25 +93,28 @@ from blender_env import empty_material, render_plane_grid
 scene.world = None
 floor.hide_render = True
 surfaces = []
-for kind in ("MULTIPLE_SCATTERING", "SINGLE_SCATTERING", "PREETHAM", "HOSEK_WILKIE"):
-    for disc in ((True, False) if kind.endswith("SCATTERING") else (False,)):
-        label = f"{{kind}} {{'disc' if disc else 'sky'}}"
-        material, tree, out = empty_material(label)
-        node = tree.nodes.new("ShaderNodeTexSky")
-        node.sky_type, node.sun_disc, node.sun_size = kind, disc, math.radians(10.0)
-        node.sun_elevation, node.sun_rotation = math.radians(30.0), math.radians(45.0)
-        node.sun_direction, node.turbidity, node.ground_albedo = (0.6, 0.6, 0.5), 4.5, 0.7
-        emission = tree.nodes.new("ShaderNodeEmission")
-        emission.inputs["Strength"].default_value = 0.5
-        tree.links.new(node.outputs["Color"], emission.inputs["Color"])
-        tree.links.new(emission.outputs[0], out.inputs["Surface"])
-        index = len(surfaces)
-        bpy.ops.mesh.primitive_plane_add(size=1.0, location=(index % 3 + 0.5, -(index // 3) - 0.5, 0.0))
-        plane = bpy.context.view_layer.objects.active
-        plane.name = label
-        plane.data.materials.append(material)
-        surfaces.append(label)
-results["surface"] = render_plane_grid(scene, export, 3, 2, {pixels}, {surface_samples})
+for kind, disc, mapped in (("MULTIPLE_SCATTERING", True, False), ("MULTIPLE_SCATTERING", False, False),
+                           ("SINGLE_SCATTERING", True, False), ("SINGLE_SCATTERING", False, False),
+                           ("PREETHAM", False, False), ("HOSEK_WILKIE", False, False), ("HOSEK_WILKIE", False, True)):
+    label = f"{{kind}} {{'mapped ' if mapped else ''}}{{'disc' if disc else 'sky'}}"
+    material, tree, out = empty_material(label)
+    node = tree.nodes.new("ShaderNodeTexSky")
+    node.sky_type, node.sun_disc, node.sun_size = kind, disc, math.radians(10.0)
+    node.sun_elevation, node.sun_rotation = math.radians(30.0), math.radians(45.0)
+    node.sun_direction, node.turbidity, node.ground_albedo = (0.6, 0.6, 0.5), 4.5, 0.7
+    if mapped:                                      # the node's own Texture Mapping turns the direction
+        node.texture_mapping.rotation, node.texture_mapping.scale = (0.2, -0.3, 0.5), (1.0, 0.8, 1.2)
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 0.5
+    tree.links.new(node.outputs["Color"], emission.inputs["Color"])
+    tree.links.new(emission.outputs[0], out.inputs["Surface"])
+    index = len(surfaces)
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(index % 3 + 0.5, -(index // 3) - 0.5, 0.0))
+    plane = bpy.context.view_layer.objects.active
+    plane.name = label
+    plane.data.materials.append(material)
+    surfaces.append(label)
+results["surface"] = render_plane_grid(scene, export, 3, 3, {pixels}, {surface_samples})
 results["surfaces"] = surfaces
 primer.unregister()
 report(results=results)

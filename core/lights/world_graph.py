@@ -209,13 +209,14 @@ def sky_suns(color, strength) -> tuple:
     XYZ radiance (its limb darkening and its bottom-to-top colour integrated over the disc, core/materials/sky.py
     disc_mean_xyz): the world's radiance at the sun with that XYZ added to the sky's, less without it (exact where
     the nodes after the Sky Texture are linear in its colour, noted where they are not). A Sky Texture whose Vector is
-    linked lights nothing with its sun (the add-on says so).
+    linked or mapped draws its disc itself (Sky.disc_drawn: the add-on says so) and brings no lamp.
     """
     # 1. The Sky Textures with a disc, each once, that read the ray's direction.
     nodes = [(None, 1.0, {"color": color, "strength": strength})]
     skies = [link.node for link in graph_.links_under(nodes) if link.node.kind == "SKY"]
     skies = [node for k, node in enumerate(skies) if all(node is not other for other in skies[:k])
-             and not isinstance(node.inputs.get("Vector"), graph_.Link) and node.props["sky"].size > 0.0]
+             and not isinstance(node.inputs.get("Vector"), graph_.Link) and node.props["sky"].size > 0.0
+             and not node.props["sky"].disc_drawn]
     if not skies:
         return [], []
     world = compile_world(color, strength)

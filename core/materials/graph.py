@@ -390,7 +390,7 @@ def attributes_of(nodes: list) -> set:
             names.add({"Tangent": "generated", "Pointiness": "pointiness", "Random Per Island": "island"}[link.output])
         elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("uv:")
-        elif node.kind in ("SKY", "ENVIRONMENT") and not isinstance(node.inputs.get("Vector"), Link):
+        elif node.kind == "SKY" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("generated")                  # (a world's shading point has it always)
         elif node.kind in DESCRIBED_BY_KIND:
             texture = DESCRIBED_BY_KIND[node.kind]
