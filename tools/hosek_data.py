@@ -46,11 +46,14 @@ def module_text(arrays: dict) -> str:
              f' {TAG}',
              f"{SOURCE}; do not edit).",
              "",
-             "Data: Lukas Hosek and Alexander Wilkie, \"An Analytic Model for Full Spectral Sky-Dome Radiance\" (SIGGRAPH 2012)",
-             "and \"Adding a Solar Radiance Function to the Hosek Skylight Model\" (IEEE CG&A 2013), sample implementation",
+             "Data: Lukas Hosek and Alexander Wilkie, \"An Analytic Model for Full Spectral Sky-Dome Radiance\""
+             " (SIGGRAPH 2012)",
+             "and \"Adding a Solar Radiance Function to the Hosek Skylight Model\" (IEEE CG&A 2013), sample"
+             " implementation",
              "version 1.4a. Copyright (c) 2012-2013 Lukas Hosek and Alexander Wilkie; BSD-3-Clause.",
              "",
-             "CONFIGURATIONS: (3, 2, 10, 6, 9) float64, per X, Y, Z: ground albedo 0 and 1, turbidity 1 .. 10, six Bezier",
+             "CONFIGURATIONS: (3, 2, 10, 6, 9) float64, per X, Y, Z: ground albedo 0 and 1, turbidity 1 .. 10, six"
+             " Bezier",
              "control points over the cube root of the sun's elevation / (pi / 2), the nine parameters A .. I.",
              "RADIANCES: (3, 2, 10, 6) float64, the overall radiance in the same layout.",
              '"""',

@@ -4,6 +4,8 @@
 
 INLINE double sky_clamped_cos(double c) { return c < -1.0 ? -1.0 : c > 1.0 ? 1.0 : c; }
 
+INLINE int64_t sky_clamped_index(int64_t i, int64_t n) { return i < 0 ? 0 : i > n - 1 ? n - 1 : i; }
+
 /* sky.table_xyz: the table's XYZ along D, linear between texel centres, edges clamped (NaN where D is not finite). */
 INLINE void sky_table_xyz(const double *f, const double *D, double *xyz)
 {
@@ -17,9 +19,8 @@ INLINE void sky_table_xyz(const double *f, const double *D, double *xyz)
     if (!isfinite(x) || !isfinite(y)) { xyz[0] = xyz[1] = xyz[2] = NAN; return; }
     double x0 = floor(x), y0 = floor(y), fx = x - x0, fy = y - y0;
     int64_t xi = (int64_t)x0, yi = (int64_t)y0;
-    int64_t xa = xi < 0 ? 0 : xi > width - 1 ? width - 1 : xi, xb = xi + 1 < 0 ? 0 : xi + 1 > width - 1 ? width - 1 : xi + 1;
-    int64_t ya = (yi < 0 ? 0 : yi > height - 1 ? height - 1 : yi) * width;
-    int64_t yb = (yi + 1 < 0 ? 0 : yi + 1 > height - 1 ? height - 1 : yi + 1) * width;
+    int64_t xa = sky_clamped_index(xi, width), xb = sky_clamped_index(xi + 1, width);
+    int64_t ya = sky_clamped_index(yi, height) * width, yb = sky_clamped_index(yi + 1, height) * width;
     for (int c = 0; c < 3; c++) {
         double aa = table[3 * (ya + xa) + c], ab = table[3 * (ya + xb) + c];
         double ba = table[3 * (yb + xa) + c], bb = table[3 * (yb + xb) + c];
@@ -63,7 +64,8 @@ INLINE void sky_angles(const double *n, const double *D, double *theta, double *
     *theta = t < 0.5 * PI - 0.001 ? t : 0.5 * PI - 0.001;
 }
 
-/* sky.preetham_xyz: Preetham's xyY from Perez' function (numbers n: sun phi, theta, zenith Y x y, 3 x 5 lam), to XYZ. */
+/* sky.preetham_xyz: Preetham's xyY from Perez' function (numbers n: sun phi, theta, zenith Y x y, 3 x 5 lam), to
+ * XYZ. */
 INLINE void sky_preetham_xyz(const double *n, const double *D, double *xyz)
 {
     double theta, gamma;

@@ -4,8 +4,8 @@ Its four models:
 
 - MULTIPLE_SCATTERING (Cycles 5.0's default; Fernando Garcia Linan's spectral sky with an approximation of multiple
   scattering) and SINGLE_SCATTERING (Nishita's model, Blender 2.90-4.x's NISHITA) precompute a 512 x 256 table of the
-  sky's CIE XYZ radiance once per node (the elevation squeezed towards the horizon, one half of the azimuths computed and
-  mirrored), which each direction then reads with linear interpolation and clamped edges (Cycles' sky.h
+  sky's CIE XYZ radiance once per node (the elevation squeezed towards the horizon, one half of the azimuths computed
+  and mirrored), which each direction then reads with linear interpolation and clamped edges (Cycles' sky.h
   sky_radiance_nishita). The sun's disc: `sun_disc` gives the two radiances Cycles interpolates across it (its bottom
   and top). In a surface material the op draws it, as Cycles does; in a world the add-on gives the scene a sun lamp
   instead (core/lights/world_graph.py sky_suns) and the op leaves it out (`Sky.disc_drawn`).
