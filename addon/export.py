@@ -839,9 +839,9 @@ def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
     """The world's shader with linked inputs, evaluated as Cycles does: (for its light samples, its colour (3,) where
     it does not vary with the direction, else its radiance baked into an equirectangular image (H, W, 3) float32
     (core/lights/world_graph.py bake, in C where `kernels` is "compiled"), or None, with a warning, for a world shader
-    Primer does not read; the sun lamps of its Sky Textures' discs (sky_suns, left out of the bake); the program every
-    ray that escapes evaluates with its path (World.seen), or None where they find the bake: a graph that varies or
-    reads the Light Path node, without a Sky Texture (which graph.c does not evaluate))."""
+    Primer does not read; the sun lamps of its Sky Textures' discs (sky_suns, left out of the bake and of the rays
+    that escape); the program every ray that escapes evaluates with its path (World.seen), or None where they find
+    the bake: a graph that varies or reads the Light Path node)."""
     reader = materials_.NodeReader(world, warnings, kind="world")
     radiance = _world_radiance(reader, node)
     if radiance is None:
@@ -851,13 +851,9 @@ def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
     suns, notes = world_graph.sky_suns(radiance, 1.0)
     warnings.extend(notes)
     program = world_graph.compile_world(radiance, 1.0)
-    per_ray = not graph_.world_ops_of(program.program)
     read = {link.output for link in graph_.links_under([(None, 1.0, {"radiance": radiance})])
             if link.node.kind == "LIGHT_PATH"}
-    if read and not per_ray:
-        warnings.append("the world's node graph reads a Light Path node beside a Sky Texture; Primer evaluates it once "
-                        "for every ray, as a light sample sees it (every Is ... Ray 0), and the camera sees that too")
-    elif read - world_graph.EXACT_FOR_LIGHTING:
+    if read - world_graph.EXACT_FOR_LIGHTING:
         depths = ", ".join(sorted(read - world_graph.EXACT_FOR_LIGHTING))
         warnings.append(f"the world's node graph reads the Light Path node's {depths}; Primer evaluates the world "
                         "for each ray that escapes with its path, but its light samples read a bake made for the first "
@@ -865,7 +861,7 @@ def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
     baked = world_graph.bake(radiance, 1.0, kernels=kernels)
     flat = baked.reshape(-1, 3)
     constant = bool(np.isfinite(flat).all() and (flat == flat[0]).all() and not suns)
-    seen = program if per_ray and (read or not constant) else None
+    seen = program if read or not constant else None
     if constant:
         return flat[0].astype(np.float64), [], seen   # the same everywhere: a constant world, not sampled as a light
     if (flat < 0.0).any():

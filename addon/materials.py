@@ -296,31 +296,30 @@ class GraphReader:
 
     def sky(self, node, warn):
         """A Sky Texture's props {"sky": core/materials/sky.py Sky}, precomputed as Cycles 5.0 does (Blender 4.x's
-        NISHITA is Cycles 5.0's SINGLE_SCATTERING, its Dust its Aerosol); None, with a warning, where Primer cannot
-        evaluate it (a surface material; Hosek / Wilkie)."""
-        if self.reader.kind != "world":
-            warn("a Sky Texture is evaluated in world shaders only; Primer uses the input's own value")
-            return None
+        NISHITA is Cycles 5.0's SINGLE_SCATTERING, its Dust its Aerosol), in a world or a surface material (which
+        draws the sun's disc itself, as does a world's whose vector is linked or mapped; a world's other sky gives
+        its disc to a sun lamp); None, with a warning, for a sky type Primer does not know."""
         kind = {"NISHITA": "SINGLE_SCATTERING"}.get(node.sky_type, node.sky_type)
         if kind not in sky_.SKY_TYPES:
-            warn(f"sky type {node.sky_type} needs Hosek and Wilkie's fitted dataset, which Primer does not carry; "
-                 "Primer uses the input's own value")
+            warn(f"sky type {node.sky_type} is not one Primer computes; Primer uses the input's own value")
             return None
         if node.sky_type == "NISHITA":
             warn("Blender 4.x's Nishita sky: Primer computes Cycles 5.0's Single Scattering sky, which this "
                  "Blender's Cycles draws slightly differently (its sun disc hides the sky behind it, and it reads its "
                  "table and fades the ground below the horizon its own way)")
+        world = self.reader.kind == "world"
         mapping = getattr(node, "texture_mapping", None)
-        if mapping is not None and not identity_mapping(mapping):
-            warn("its Texture Mapping (node properties) is not applied; Primer maps the vector as it comes")
-        if _vector_linked(node) and kind != "PREETHAM" and node.sun_disc:
-            warn("its Vector is linked: Primer leaves its sun disc out (it lights the scene with the sun of a Sky "
-                 "Texture that reads the ray's direction)")
+        moved = _vector_linked(node) or (mapping is not None and not identity_mapping(mapping))
+        if world and moved and kind in ("MULTIPLE_SCATTERING", "SINGLE_SCATTERING") and node.sun_disc:
+            warn("its Vector is linked or mapped: Primer draws its sun disc in the sky itself rather than as a sun "
+                 "lamp; rays that escape see it exactly, but light samples read it from the world's bake, where its "
+                 "half degree falls on a few texel centres (0.8 to 1.04 times its light, by where they fall)")
         aerosol = getattr(node, "aerosol_density", getattr(node, "dust_density", 1.0))
         return {"sky": sky_.precompute(
             kind, float(node.sun_elevation), float(node.sun_rotation), float(node.sun_size),
             float(node.sun_intensity), bool(node.sun_disc), float(node.altitude), float(node.air_density),
-            float(aerosol), float(node.ozone_density), tuple(node.sun_direction), float(node.turbidity))}
+            float(aerosol), float(node.ozone_density), tuple(node.sun_direction), float(node.turbidity),
+            float(node.ground_albedo), disc_drawn=not world or moved)}
 
     def node(self, node, path: tuple):
         """The GraphNode of a Blender node (made once per group path), or None when Primer cannot read it."""
@@ -372,6 +371,9 @@ class GraphReader:
             if props is None:
                 return None
             inputs = self.inputs(node, path, ["Vector"]) if _vector_linked(node) else {}
+            mapping = getattr(node, "texture_mapping", None)
+            if mapping is not None and not identity_mapping(mapping):
+                inputs["Vector"] = mapped_vector(mapping, inputs.get("Vector"), "Generated", warn)
         elif kind == "VECTOR_TRANSFORM":
             props = {"type": node.vector_type, "from": node.convert_from, "to": node.convert_to}
             inputs = self.inputs(node, path, ["Vector"])

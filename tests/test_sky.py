@@ -1,6 +1,7 @@
 """Cycles' Sky Texture (core/materials/sky.py) and its sun lamp (core/lights/world_graph.py sky_suns): closed forms of
-an empty atmosphere, of the sky's symmetry about the sun, of the sun disc's mean radiance and of Preetham's zenith;
-a Sky Texture in a surface material's program is refused before the compiled kernel sees it."""
+an empty atmosphere, of the sky's symmetry about the sun, of the sun disc's mean radiance, of Preetham's zenith and of
+Hosek / Wilkie's fitted curves at their ends; the compiled op (core/materials/sky.c) against the reference, for every
+model, in a world's bake and on a surface (its disc drawn)."""
 from __future__ import annotations
 
 import math
@@ -33,19 +34,20 @@ def test_an_atmosphere_dims_the_sun_more_near_the_horizon():
     assert (high < 1.0).all() and (low < high).all()
 
 
-@pytest.mark.parametrize("kind", ["MULTIPLE_SCATTERING", "SINGLE_SCATTERING", "PREETHAM"])
+@pytest.mark.parametrize("kind", sky.SKY_TYPES)
 def test_the_sky_is_symmetric_about_the_suns_vertical_plane(kind):
     """Directions mirrored in the vertical plane through the sun (the tables compute one half and mirror it; the
     lookup turns by the sun's rotation) see the same sky, for a sun rotated by an odd angle. (Single scattering's
     texels sit at longitudes 2 pi x / W - pi, half a texel off the lookup's centres, as in Cycles: symmetric to
-    within that half texel, 0.35 degrees at its 512 columns; multiple scattering's exactly, here at 128 columns.)"""
+    within that half texel, 0.35 degrees at its 512 columns; multiple scattering's exactly, here at 128 columns; Hosek /
+    Wilkie's to the float32 rounding of its sun's angles, as Cycles passes them.)"""
     elevation, rotation = math.radians(20.0), math.radians(-130.0)
     if kind == "MULTIPLE_SCATTERING":
         e, r = sky.wrapped_sun(elevation, rotation)
         model = sky.Sky(kind, e, r, table=sky.multiple_scattering_table(e, 100.0, 1.0, 1.0, 1.0, 128, 64))
     else:
         model = sky.precompute(kind, elevation, rotation, sun_direction=(0.3, -0.5, 0.4))
-    sun = sky.sun_towards(model.elevation, model.rotation) if kind != "PREETHAM" else \
+    sun = sky.sun_towards(model.elevation, model.rotation) if kind not in ("PREETHAM", "HOSEK_WILKIE") else \
         np.array([0.3, -0.5, 0.4]) / np.linalg.norm([0.3, -0.5, 0.4])
     rng = np.random.default_rng(3)
     D = rng.normal(size=(200, 3))
@@ -54,7 +56,7 @@ def test_the_sky_is_symmetric_about_the_suns_vertical_plane(kind):
     normal /= np.linalg.norm(normal)
     mirrored = D - 2.0 * (D @ normal)[:, None] * normal
     floats = model.floats()
-    tolerance = 2e-3 if kind == "SINGLE_SCATTERING" else 1e-9
+    tolerance = {"SINGLE_SCATTERING": 2e-3, "HOSEK_WILKIE": 1e-5}.get(kind, 1e-9)
     assert np.allclose(sky.evaluate(floats, D), sky.evaluate(floats, mirrored), rtol=tolerance, atol=1e-9)
 
 
@@ -122,21 +124,80 @@ def test_preethams_sky_at_the_zenith_is_the_zenith_colour():
     assert np.allclose(xyz, [x / y * Y, Y, (1.0 - x - y) / y * Y], rtol=1e-12)
 
 
-def test_a_sky_op_is_refused_before_the_compiled_kernel():
-    """graph.c has no case for a world-only op: graph_tables refuses a program that holds one."""
-    from core.materials import graph
+def hosek_at_zenith(numbers: np.ndarray, channel: int, gamma: float) -> float:
+    """Hosek and Wilkie's radiance of one channel straight up (theta 0), gamma from the sun, written out."""
+    A, B, C, D, E, F, G, H, I = numbers[5 + 9 * channel:14 + 9 * channel]
+    c = math.cos(gamma)
+    mie = (1.0 + c * c) / (1.0 + I * I - 2.0 * I * c) ** 1.5
+    return numbers[2 + channel] * (1.0 + A * math.exp(B / 1.01)) * (C + D * math.exp(E * gamma) + F * c * c + G * mie
+                                                                     + H)
 
-    class Table:
-        shaders = [None]
-        has_graphs = True
 
-        def program(self, row, layout):
-            compiler = graph.Compiler(layout, lambda image: -1, material="m")
-            compiler.value(Link(GraphNode("SKY", {"sky": sky.precompute("PREETHAM")}, {}, "Sky"), "Color"), 3)
-            return compiler.compile([])
+@pytest.mark.parametrize("turbidity, albedo", [(3.0, 0.0), (7.0, 1.0), (2.5, 0.5)])
+def test_hosek_wilkie_at_the_zenith_and_the_horizon_are_the_ends_of_its_fitted_curves(turbidity, albedo):
+    """The Bezier curves over the sun's elevation end at their control points: the sun at the zenith gives each
+    channel's last control point and at the horizon its first, of the dataset's turbidity and albedo (their
+    bilinear blend between them); the sky straight up is then the model's function at theta 0, written out, x 2 pi /
+    683, through the XYZ to RGB matrix."""
+    from core.materials import hosek_data
+    whole, rest = int(turbidity), turbidity - int(turbidity)
+    weights = {(a, t): (albedo if a else 1.0 - albedo) * (rest if t > whole else 1.0 - rest)
+               for a in (0, 1) for t in (whole, whole + 1) if t <= 10}
+    for direction, control in (((0.0, 0.0, 1.0), 5), ((0.0, 1.0, 0.0), 0)):
+        numbers = sky.hosek(np.array(direction), turbidity, albedo)
+        for k in range(3):
+            radiance = sum(w * hosek_data.RADIANCES[k, a, t - 1, control] for (a, t), w in weights.items())
+            parameters = sum(w * hosek_data.CONFIGURATIONS[k, a, t - 1, control] for (a, t), w in weights.items())
+            assert numbers[2 + k] == pytest.approx(radiance, rel=1e-6)
+            assert np.allclose(numbers[5 + 9 * k:14 + 9 * k], parameters, rtol=1e-6, atol=1e-6)
+    sun_theta = math.radians(50.0)
+    numbers = sky.hosek(np.array([0.0, math.sin(sun_theta), math.cos(sun_theta)]), turbidity, albedo)
+    xyz = np.array([hosek_at_zenith(numbers, k, sun_theta) for k in range(3)])
+    floats = sky.Sky("HOSEK_WILKIE", numbers=numbers).floats()
+    expected = np.maximum(sky.XYZ_TO_RGB @ xyz, 0.0) * 2.0 * math.pi / 683.0
+    assert np.allclose(sky.evaluate(floats, np.array([[0.0, 0.0, 1.0]]))[0], expected, rtol=1e-5)
 
-    with pytest.raises(ValueError, match="world-only"):
-        graph.graph_tables(Table(), graph.layout_of({"generated"}))
+
+def test_hosek_wilkie_reads_the_sun_below_the_horizon_at_the_horizon():
+    """Cycles clamps the sun's zenith angle to pi / 2 before cooking the model: a sun below the horizon gives the
+    numbers of the sun on it (its azimuth kept)."""
+    below = sky.hosek(np.array([0.3, 0.8, -0.2]), 4.0, 0.3)
+    on = sky.hosek(np.array([0.3, 0.8, 0.0]), 4.0, 0.3)
+    assert below[1] == pytest.approx(0.5 * math.pi) and np.allclose(below, on, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kind", sky.SKY_TYPES)
+def test_the_compiled_sky_op_bakes_a_world_as_the_reference_does(kind):
+    """A world of each model (the disc left to its lamp) baked by graph.c and by numpy: the same float32 texels."""
+    model = sky.precompute(kind, 0.5, -2.2, sun_direction=(0.5, -0.4, 0.3), turbidity=3.3)
+    color = Link(GraphNode("SKY", {"sky": model}, {}, "Sky"), "Color")
+    compiled = world_graph.bake(color, 1.0, width=128, kernels="compiled")
+    reference = world_graph.bake(color, 1.0, width=128, kernels="numpy")
+    assert reference.max() > 0.01 and reference.std() > 0.0
+    np.testing.assert_allclose(compiled, reference, rtol=1e-6, atol=1e-12)
+
+
+def test_a_sky_texture_on_a_surface_renders_alike_on_both_kernels_its_disc_drawn():
+    """Each model as a plane's emission, read at a vector from the plane's Generated coordinates, (2 u - 1, 2 v - 1,
+    0.3) as it is and normalised, a large sun disc (0.4 rad) among the normalised directions: the two kernels agree to
+    the bit, and the scattering models show the disc towards the sun (brighter than the same sky without it)."""
+    from test_procedural import assert_both_kernels_agree
+    generated = Link(GraphNode("TEXCOORD", {}, {}), "Generated")
+    vector = Link(GraphNode("VECTOR_MATH", {"operation": "MULTIPLY_ADD"},
+                            {"Vector": generated, "Vector_001": (2.0, 2.0, 0.0), "Vector_002": (-1.0, -1.0, 0.3)}),
+                  "Vector")
+    unit = Link(GraphNode("VECTOR_MATH", {"operation": "NORMALIZE"}, {"Vector": vector}), "Vector")
+    links = []
+    for kind in sky.SKY_TYPES:
+        for drawn, direction in ((True, unit), (False, unit), (True, vector)):
+            model = sky.precompute(kind, 0.5, 0.0, sun_size=0.4, sun_direction=(0.2, 0.6, 0.4), disc_drawn=drawn)
+            links.append(Link(GraphNode("SKY", {"sky": model}, {"Vector": direction}, kind), "Color"))
+    assert_both_kernels_agree(links, generated=True)
+    D = sky.sun_towards(*sky.wrapped_sun(0.5, 0.0))[None, :]
+    for kind in ("MULTIPLE_SCATTERING", "SINGLE_SCATTERING"):
+        with_disc, without = (sky.evaluate(sky.precompute(kind, 0.5, 0.0, sun_size=0.4, disc_drawn=d).floats(), D)
+                              for d in (True, False))
+        assert (with_disc > 10.0 * without).all(), (with_disc, without)
 
 
 def test_nodes_that_do_not_scale_the_skys_colour_are_noted_for_its_sun():

@@ -47,7 +47,7 @@ class World:
     suns:     the sun lamps it brings (a Sky Texture's sun disc, core/lights/world_graph.py sky_suns), which the
               scene's lights take in when it lights surfaces
     volume:   the closures of its Volume output (as Material.volume): a medium everywhere (core/volumes); empty: none
-    seen:     the world's node graph compiled (core/lights/world_graph.py WorldProgram, holding no world-only op),
+    seen:     the world's node graph compiled (core/lights/world_graph.py WorldProgram),
               which every ray that escapes (the camera's, a BSDF's, a volume's phase-sampled) evaluates per ray with
               its path, or None: they find `radiance`; light samples always read `radiance` (the bake)
     """

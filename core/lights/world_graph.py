@@ -10,8 +10,8 @@ each light sample of it with EMISSION alone, and bakes it into a map only to imp
   between), evaluated as a light sample at the first bounce (EMISSION alone: every "Is ... Ray" 0, Ray Depth 1), and
   importance-sampled from the same map, on both kernels. Between texel centres the bake interpolates linearly where
   Cycles evaluates the graph itself: a smooth sky or a blurred HDRI matches. The bake runs the program with the
-  compiled runner (graph.c, `primer_world_bake`) where the library is available and the program holds no world-only
-  op, else with the numpy reference (`graph.run`); the two agree to float rounding.
+  compiled runner (graph.c, `primer_world_bake`) where the library is available, else with the numpy reference
+  (`graph.run`); the two agree to float rounding.
 - **Rays that escape** (`World.seen`): a camera ray (straight or through transparent surfaces, which keep Cycles'
   PATH_RAY_CAMERA), a BSDF ray, a volume's phase-sampled ray runs the program for its direction with its own path
   (flags | EMISSION, as Cycles' integrator_eval_background_shader), in both kernels (world_graph.c `world_seen`):
@@ -19,9 +19,9 @@ each light sample of it with EMISSION alone, and bakes it into a map only to imp
   the scene with (Is Camera Ray).
 
 A Sky Texture's sun disc, about 0.5 degrees wide and very bright, covers only some 7 texel centres 0.18 degrees apart:
-summed there its light comes out 0.8 to 1.04 times the disc's (by where the centres fall). The bake leaves it out, and
-`sky_suns` makes it a sun lamp of the world's. A world holding a Sky Texture (a world-only op, which graph.c does not
-evaluate) is baked by the reference and not evaluated per ray: every ray finds its bake.
+summed there its light comes out 0.8 to 1.04 times the disc's (by where the centres fall). The bake and the rays that
+escape leave it out (the op draws no disc in a world, core/materials/sky.py `Sky.disc_drawn`), and `sky_suns` makes
+it a sun lamp of the world's. The sky itself is evaluated per ray like any other graph, in C too (core/materials/sky.c).
 """
 from __future__ import annotations
 
@@ -69,8 +69,8 @@ class WorldProgram(NamedTuple):
 
     @property
     def compiled(self) -> bool:
-        """Whether graph.c can run the program (it holds no world-only op) and the library is there."""
-        return not graph_.world_ops_of(self.program) and library.available()
+        """Whether graph.c can run the program (the library is there)."""
+        return library.available()
 
     def along(self, D: np.ndarray, paths: "graph_.LightPaths") -> np.ndarray:
         """The radiance (n, 3) float64 rays D (n, 3) that escape find, each evaluated with the path that sent it
@@ -209,13 +209,14 @@ def sky_suns(color, strength) -> tuple:
     XYZ radiance (its limb darkening and its bottom-to-top colour integrated over the disc, core/materials/sky.py
     disc_mean_xyz): the world's radiance at the sun with that XYZ added to the sky's, less without it (exact where
     the nodes after the Sky Texture are linear in its colour, noted where they are not). A Sky Texture whose Vector is
-    linked lights nothing with its sun (the add-on says so).
+    linked or mapped draws its disc itself (Sky.disc_drawn: the add-on says so) and brings no lamp.
     """
     # 1. The Sky Textures with a disc, each once, that read the ray's direction.
     nodes = [(None, 1.0, {"color": color, "strength": strength})]
     skies = [link.node for link in graph_.links_under(nodes) if link.node.kind == "SKY"]
     skies = [node for k, node in enumerate(skies) if all(node is not other for other in skies[:k])
-             and not isinstance(node.inputs.get("Vector"), graph_.Link) and node.props["sky"].size > 0.0]
+             and not isinstance(node.inputs.get("Vector"), graph_.Link) and node.props["sky"].size > 0.0
+             and not node.props["sky"].disc_drawn]
     if not skies:
         return [], []
     world = compile_world(color, strength)

@@ -616,9 +616,9 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_FRESNEL: out[0] = fresnel_node(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp); break;
         case OP_LAYER_WEIGHT: { double r[2]; layer_weight(reg[a[1]], a[2] < 0 ? NULL : reg + a[2], sp, r); out[0] = r[0]; out[1] = r[1]; break; }
+        case OP_SKY: { double r[3]; sky_op(ramps + a[2], reg + a[1], r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         default:     /* the procedural textures (procedural.gen.c), then the converters (converters.gen.c); any
-                        other op (a world-only one, which graph_tables refuses) poisons its output rather than
-                        leaving it stale */
+                        other op poisons its output rather than leaving it stale */
             if (!procedural_op((int)op[0], a, reg) && !converter_op((int)op[0], a, reg, ramps)) out[0] = NAN;
             break;
         }

@@ -54,9 +54,6 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
                                                                "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL",
                                                                "PIXEL_SIZE", "CURVE_NORMAL")
-# Ops of world shaders only, which the Python reference alone evaluates (world graphs are baked at export,
-# core/lights/world_graph.py): graph_tables refuses a program holding one, and graph.c has no case for them.
-WORLD_OPS = ("SKY",)
 # Ops that trace rays into the scene while the shader runs (Cycles' __SHADER_RAYTRACE__ nodes: Ambient Occlusion,
 # Bevel). A program holding one reads ShadingPoint.rays, the integrator's ShaderRays (core/integrators/shader_rays.py)
 # for the hits' pixel samples; where there is none (shadow rays, light samples landing on an emitter: Cycles
@@ -393,6 +390,8 @@ def attributes_of(nodes: list) -> set:
             names.add({"Tangent": "generated", "Pointiness": "pointiness", "Random Per Island": "island"}[link.output])
         elif node.kind == "IMAGE" and not isinstance(node.inputs.get("Vector"), Link):
             names.add("uv:")
+        elif node.kind == "SKY" and not isinstance(node.inputs.get("Vector"), Link):
+            names.add("generated")                  # (a world's shading point has it always)
         elif node.kind in DESCRIBED_BY_KIND:
             texture = DESCRIBED_BY_KIND[node.kind]
             names.update(default for name, _, default in texture.inputs
@@ -1561,19 +1560,10 @@ class GraphTables:
         programs, self.rows = [], {}
         for row in range(len(table.shaders)):
             program = table.program(row, layout)
-            world_ops = world_ops_of(program) if program is not None else ()
-            if world_ops:
-                raise ValueError(f"a surface material's program holds the world-only op(s) {sorted(world_ops)}, "
-                                 "which the compiled kernel does not evaluate")
             if program is not None:
                 self.rows[row] = len(programs)
                 programs.append(program)
         self.record = program_tables(programs, table.textures)
-
-
-def world_ops_of(program: Program) -> set:
-    """The world-only ops (WORLD_OPS) a program holds, which graph.c does not evaluate: a set of op names."""
-    return {OPS[int(code)] for code in program.ops[:, 0]} & set(WORLD_OPS)
 
 
 def program_tables(programs: list, textures) -> "GraphTablesRecord":

@@ -1,19 +1,23 @@
-"""Cycles' Sky Texture (ShaderNodeTexSky), as Cycles 5.0 computes it, for world shaders.
+"""Cycles' Sky Texture (ShaderNodeTexSky), as Cycles 5.0 computes it, in worlds and surface materials.
 
-Three of its four models (Hosek / Wilkie needs a large published dataset that Primer does not carry):
+Its four models:
 
 - MULTIPLE_SCATTERING (Cycles 5.0's default; Fernando Garcia Linan's spectral sky with an approximation of multiple
   scattering) and SINGLE_SCATTERING (Nishita's model, Blender 2.90-4.x's NISHITA) precompute a 512 x 256 table of the
-  sky's CIE XYZ radiance once per node (the elevation squeezed towards the horizon, one half of the azimuths computed and
-  mirrored), which each direction then reads with linear interpolation and clamped edges (Cycles' sky.h
-  sky_radiance_nishita). The sun's disc is not in the table: `sun_disc` gives the two radiances Cycles interpolates
-  across it (its bottom and top), with which the add-on gives the scene a sun lamp (`disc_radiance`).
+  sky's CIE XYZ radiance once per node (the elevation squeezed towards the horizon, one half of the azimuths computed
+  and mirrored), which each direction then reads with linear interpolation and clamped edges (Cycles' sky.h
+  sky_radiance_nishita). The sun's disc: `sun_disc` gives the two radiances Cycles interpolates across it (its bottom
+  and top). In a surface material the op draws it, as Cycles does; in a world the add-on gives the scene a sun lamp
+  instead (core/lights/world_graph.py sky_suns) and the op leaves it out (`Sky.disc_drawn`).
 - PREETHAM: Preetham, Shirley and Smits' analytic daylight, a Perez function of the zenith angle and the angle to the
   sun in xyY.
+- HOSEK_WILKIE: Hosek and Wilkie's analytic sky (SIGGRAPH 2012), nine parameters per XYZ channel, each a quintic
+  Bezier curve over the cube root of the sun's elevation, blended linearly in turbidity and ground albedo between the
+  authors' fitted coefficients (core/materials/hosek_data.py, generated from their published data).
 
 Every model ends in XYZ and is turned into scene-linear Rec.709 by the matrix Cycles reads from Blender's colour
-configuration (`XYZ_TO_RGB`), negative channels clamped to 0. Evaluated by core/materials/graph.py's SKY op, in
-Python only: world shaders are baked at export (core/lights/world_graph.py).
+configuration (`XYZ_TO_RGB`), negative channels clamped to 0. Evaluated by core/materials/graph.py's SKY op: here in
+numpy (`evaluate`), and per hit or per escaping ray in C (core/materials/sky.c `sky_op`, the same arithmetic).
 """
 from __future__ import annotations
 
@@ -23,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..native import schema
+
 # Cycles' xyz_to_r/g/b with Blender's OCIO configuration: the aces_interchange role (ACES2065-1) to scene linear,
 # times the inverse of Cycles' own ACES-AP0-to-XYZ-D65 matrix. The two AP0 matrices (OCIO's builtin and Cycles'
 # six-digit copy) cancel to ~1e-6, leaving the configuration's XYZ (D65) to Linear Rec.709 matrix.
@@ -30,12 +36,13 @@ XYZ_TO_RGB = np.array([[3.2409699, -1.5373832, -0.4986108],
                        [-0.9692436, 1.8759675, 0.0415551],
                        [0.0556301, -0.2039770, 1.0569715]])
 
-SKY_TYPES = ("MULTIPLE_SCATTERING", "SINGLE_SCATTERING", "PREETHAM")
+SKY_TYPES = ("MULTIPLE_SCATTERING", "SINGLE_SCATTERING", "PREETHAM", "HOSEK_WILKIE")
+schema.constants("SKY", SKY_TYPES, "the Sky Texture's models (core/materials/sky.py SKY_TYPES)")
 # The table's size (Cycles' SkyLoader), and the smallest sun Cycles draws (SkyTextureNode::get_sun_size).
 LUT_WIDTH, LUT_HEIGHT = 512, 256
 MIN_SUN_SIZE = 0.0005
 # Limb darkening of the sun's disc (sky.h): radiance x (1 - LIMB (1 - sqrt(1 - (angle / half angle)^2))).
-LIMB = 0.6
+LIMB = schema.constant("SKY_LIMB", 0.6, "the sun disc's limb darkening")
 
 
 def xyz_to_rgb_clamped(xyz: np.ndarray) -> np.ndarray:
@@ -492,18 +499,89 @@ def preetham_xyz(numbers: np.ndarray, D: np.ndarray) -> np.ndarray:
     return np.stack([X, Y, Z], axis=1)
 
 
+# --- Hosek / Wilkie ---------------------------------------------------------------------------------------------
+# Cycles scales the model's XYZ (in W / (m^2 sr nm) x the CIE functions) by 2 pi / 683 after the conversion to RGB.
+HOSEK_SCALE = schema.constant("SKY_HOSEK_SCALE", 2.0 * math.pi / 683.0, "Hosek / Wilkie's RGB scale")
+
+
+def hosek_cooked(dataset: np.ndarray, turbidity: float, albedo: float, elevation: float) -> np.ndarray:
+    """One channel's fitted numbers (..., the trailing axes of `dataset` (2, 10, 6, ...)) at a turbidity, ground albedo
+    and solar elevation (radians), as the authors' ArHosekSkyModel_CookConfiguration: the six control points'
+    quintic Bezier curve at s = (elevation / (pi / 2))^(1/3), blended linearly in albedo and in turbidity between
+    the integer turbidities around it (turbidity 10: the last alone; below 1, where the authors' code reads before
+    its data, the first)."""
+    whole = min(max(int(turbidity), 1), 10)
+    rest = turbidity - whole
+    s = (elevation / (0.5 * math.pi)) ** (1.0 / 3.0)
+    bezier = np.array([(1.0 - s) ** 5, 5.0 * (1.0 - s) ** 4 * s, 10.0 * (1.0 - s) ** 3 * s ** 2,
+                       10.0 * (1.0 - s) ** 2 * s ** 3, 5.0 * (1.0 - s) * s ** 4, s ** 5])
+    curve = lambda a, t: np.tensordot(bezier, dataset[a, t - 1], axes=(0, 0))      # noqa: E731
+    cooked = (1.0 - albedo) * (1.0 - rest) * curve(0, whole) + albedo * (1.0 - rest) * curve(1, whole)
+    if whole < 10:
+        cooked = cooked + (1.0 - albedo) * rest * curve(0, whole + 1) + albedo * rest * curve(1, whole + 1)
+    return cooked
+
+
+def hosek(sun_direction: np.ndarray, turbidity: float, albedo: float) -> np.ndarray:
+    """The Hosek / Wilkie sky's numbers (32,) float64 (shader_nodes.cpp sky_texture_precompute_hosek, kept in
+    float32 as Cycles passes them): the sun's (phi, theta) (theta clamped to the horizon), each channel's overall
+    radiance, then its nine parameters A .. I, for X, Y and Z; turbidity clamped to [0, 10]."""
+    from . import hosek_data
+    f = np.float32
+    d = np.asarray(sun_direction, np.float64)
+    d = (d / max(np.linalg.norm(d), 1e-300)).astype(np.float32)
+    theta = min(max(f(math.acos(max(-1.0, min(1.0, float(d[2]))))), f(0.0)), f(0.5 * math.pi))
+    phi = f(math.atan2(float(d[0]), float(d[1])))
+    turbidity = float(min(max(f(turbidity), f(0.0)), f(10.0)))
+    elevation = float(f(f(0.5 * math.pi) - theta))
+    radiances = [hosek_cooked(hosek_data.RADIANCES[c], turbidity, float(albedo), elevation) for c in range(3)]
+    configurations = [hosek_cooked(hosek_data.CONFIGURATIONS[c], turbidity, float(albedo), elevation)
+                      for c in range(3)]
+    numbers = np.concatenate([[phi, theta], radiances, np.ravel(configurations)])
+    return numbers.astype(np.float32).astype(np.float64)
+
+
+def hosek_xyz(numbers: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """The Hosek / Wilkie sky's XYZ (n, 3) along D (n, 3) (sky.h sky_radiance_hosek): theta (clamped just above the
+    horizon) and gamma, the angle to the sun; per channel (1 + A e^(B / (cos theta + 0.01))) (C + D e^(E gamma)
+    + F cos^2 gamma + G (1 + cos^2 gamma) / (1 + I^2 - 2 I cos gamma)^(3/2) + H sqrt(cos theta)) x its radiance."""
+    sun_phi, sun_theta = numbers[0], numbers[1]
+    radiance, config = numbers[2:5], numbers[5:32].reshape(3, 9)
+    theta = np.arccos(np.clip(D[:, 2], -1.0, 1.0))
+    phi = -np.arctan2(D[:, 1], D[:, 0]) + 0.5 * math.pi
+    cos_gamma = np.sin(sun_theta) * np.sin(theta) * np.cos(phi - sun_phi) + np.cos(sun_theta) * np.cos(theta)
+    gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
+    theta = np.minimum(theta, 0.5 * math.pi - 0.001)
+    cos_theta, c = np.cos(theta), np.cos(gamma)
+    xyz = np.empty((len(D), 3))
+    for k in range(3):
+        A, B, C, D_, E, F, G, H, I = config[k]
+        mie = (1.0 + c * c) / (1.0 + I * I - 2.0 * I * c) ** 1.5
+        xyz[:, k] = radiance[k] * (1.0 + A * np.exp(B / (cos_theta + 0.01))) \
+            * (C + D_ * np.exp(E * gamma) + F * c * c + G * mie + H * np.sqrt(cos_theta))
+    return xyz
+
+
 # --- The node: its settings, precomputed once, as the floats the graph's SKY op reads ---------------------------
-# The floats' header: the model (SKY_TYPES index), the kernel's sun rotation, an XYZ added to every direction (0 in
-# the bake; the add-on's probe of the sun's light through the rest of the graph), the table's height and width.
-HEADER = 7
-PROBE = slice(2, 5)
+# The floats' header, where each number sits (SKY_AT_* in C): the model (SKY_TYPES index); the kernel's sun rotation;
+# an XYZ added to every direction (0 in the bake; the add-on's probe of the sun's light through the rest of the graph);
+# the table's height and width; the disc the op draws: the sun's elevation, the disc's size (<= 0: none drawn), its
+# intensity, bottom and top XYZ radiance and the earth's edge; the XYZ to RGB matrix (XYZ_TO_RGB, row-major). Then the
+# payload: the table's XYZ rows, or Preetham's or Hosek / Wilkie's numbers.
+AT = schema.constants("SKY_AT", {"KIND": 0, "ROTATION": 1, "PROBE": 2, "HEIGHT": 5, "WIDTH": 6, "ELEVATION": 7,
+                                 "SIZE": 8, "INTENSITY": 9, "BOTTOM": 10, "TOP": 13, "HORIZON": 16, "XYZ_TO_RGB": 17,
+                                 "PAYLOAD": 26}, "where the Sky op's floats keep each number (core/materials/sky.py)")
+HEADER = int(AT["PAYLOAD"])
+PROBE = slice(int(AT["PROBE"]), int(AT["PROBE"]) + 3)
 
 
 @dataclass
 class Sky:
     """One Sky Texture node, precomputed: `kind` (SKY_TYPES), the sun's wrapped elevation and kernel rotation, its
     disc (size in radians, <= 0 without one; intensity; bottom and top XYZ radiance; the earth's edge `horizon`,
-    radians of elevation), the XYZ table (H, W, 3) float32 of the scattering models or Preetham's numbers (20,)."""
+    radians of elevation), the XYZ table (H, W, 3) float32 of the scattering models or the analytic models' numbers
+    (Preetham's 20, Hosek / Wilkie's 32); `disc_drawn`: whether the op draws the disc (a surface material's Sky
+    Texture, as Cycles; a world's leaves it to a sun lamp)."""
 
     kind: str
     elevation: float = 0.0
@@ -515,12 +593,16 @@ class Sky:
     horizon: float = -0.5 * math.pi
     table: np.ndarray = None
     numbers: np.ndarray = None
+    disc_drawn: bool = False
 
     def floats(self) -> np.ndarray:
         """The op's float table (HEADER + payload,) float64: the header, then the table's XYZ rows or the numbers."""
         payload = self.numbers if self.table is None else self.table.reshape(-1)
         height, width = (0, 0) if self.table is None else self.table.shape[:2]
-        header = [SKY_TYPES.index(self.kind), self.rotation, 0.0, 0.0, 0.0, height, width]
+        drawn = self.disc_drawn and self.size > 0.0 and self.bottom is not None
+        disc = ([self.elevation, self.size, self.intensity, *self.bottom, *self.top, self.horizon] if drawn
+                else [0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        header = [SKY_TYPES.index(self.kind), self.rotation, 0.0, 0.0, 0.0, height, width, *disc, *XYZ_TO_RGB.ravel()]
         return np.concatenate([np.array(header, np.float64), np.asarray(payload, np.float64)])
 
     def disc_mean_xyz(self) -> np.ndarray:
@@ -534,10 +616,13 @@ class Sky:
 def precompute(kind: str, sun_elevation: float = math.radians(15.0), sun_rotation: float = 0.0,
                sun_size: float = 0.009512, sun_intensity: float = 1.0, sun_disc: bool = True, altitude: float = 100.0,
                air: float = 1.0, aerosol: float = 1.0, ozone: float = 1.0, sun_direction=(0.0, 0.0, 1.0),
-               turbidity: float = 2.2) -> Sky:
-    """The node of Blender's settings (angles in radians, altitude in m), precomputed as Cycles 5.0 compiles it."""
+               turbidity: float = 2.2, ground_albedo: float = 0.3, disc_drawn: bool = False) -> Sky:
+    """The node of Blender's settings (angles in radians, altitude in m), precomputed as Cycles 5.0 compiles it
+    (disc_drawn: the op draws the sun's disc, as in a surface material)."""
     if kind == "PREETHAM":
         return Sky(kind, numbers=preetham(np.asarray(sun_direction, np.float64), turbidity))
+    if kind == "HOSEK_WILKIE":
+        return Sky(kind, numbers=hosek(np.asarray(sun_direction, np.float64), turbidity, ground_albedo))
     elevation, rotation = wrapped_sun(sun_elevation, sun_rotation)
     size = max(float(sun_size), MIN_SUN_SIZE)
     if kind == "MULTIPLE_SCATTERING":
@@ -548,7 +633,7 @@ def precompute(kind: str, sun_elevation: float = math.radians(15.0), sun_rotatio
         raise ValueError(f"Primer does not compute sky type {kind!r}")
     table = cached_table(kind, elevation, float(altitude), float(air), float(aerosol), float(ozone))
     return Sky(kind, elevation, rotation, size if sun_disc else -1.0, float(sun_intensity), bottom, top,
-               -earth_intersection_angle(altitude), table)
+               -earth_intersection_angle(altitude), table, disc_drawn=disc_drawn)
 
 
 @functools.lru_cache(maxsize=4)
@@ -562,14 +647,26 @@ def cached_table(kind: str, elevation: float, altitude: float, air: float, aeros
 
 
 def evaluate(floats: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """The sky's scene-linear RGB (n, 3) float64 along directions D (n, 3) (normalised here) from its op's floats:
-    the table's or Preetham's XYZ, plus the header's probe XYZ, to RGB clamped at 0. The disc is not in it."""
+    """The sky's scene-linear RGB (n, 3) float64 along directions D (n, 3) from its op's floats (D as it comes, not
+    normalised, as Cycles reads it): the table's (with the disc where the header draws one), Preetham's or Hosek /
+    Wilkie's XYZ, plus the header's probe XYZ, by the header's matrix to RGB clamped at 0 (Hosek / Wilkie's then
+    x 2 pi / 683)."""
     D = np.asarray(D, np.float64)
-    D = D / np.maximum(np.linalg.norm(D, axis=1, keepdims=True), 1e-300)
-    kind, rotation = SKY_TYPES[int(floats[0])], float(floats[1])
-    height, width = int(floats[5]), int(floats[6])
+    at = {name: int(value) for name, value in AT.items()}
+    kind, rotation = SKY_TYPES[int(floats[at["KIND"]])], float(floats[at["ROTATION"]])
+    height, width = int(floats[at["HEIGHT"]]), int(floats[at["WIDTH"]])
     if kind == "PREETHAM":
         xyz = preetham_xyz(floats[HEADER:HEADER + 20], D)
+    elif kind == "HOSEK_WILKIE":
+        xyz = hosek_xyz(floats[HEADER:HEADER + 32], D)
     else:
         xyz = table_xyz(floats[HEADER:HEADER + height * width * 3].reshape(height, width, 3), D, rotation)
-    return xyz_to_rgb_clamped(xyz + floats[PROBE])
+        size = floats[at["SIZE"]]
+        if size > 0.0:
+            xyz = xyz + disc_xyz(D, floats[at["ELEVATION"]], rotation, size, floats[at["INTENSITY"]],
+                                 floats[at["BOTTOM"]:at["BOTTOM"] + 3], floats[at["TOP"]:at["TOP"] + 3],
+                                 floats[at["HORIZON"]])
+    xyz = xyz + floats[PROBE]
+    matrix = floats[at["XYZ_TO_RGB"]:at["XYZ_TO_RGB"] + 9].reshape(3, 3)
+    rgb = np.maximum(((xyz[:, 0:1] * matrix[:, 0] + xyz[:, 1:2] * matrix[:, 1]) + xyz[:, 2:3] * matrix[:, 2]), 0.0)
+    return rgb * HOSEK_SCALE if kind == "HOSEK_WILKIE" else rgb

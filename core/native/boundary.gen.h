@@ -212,6 +212,29 @@
 #define DISTRIBUTION_GGX 0
 #define DISTRIBUTION_BECKMANN 1
 #define DISTRIBUTION_ASHIKHMIN_SHIRLEY 2
+/* the Sky Texture's models (core/materials/sky.py SKY_TYPES) (core.materials.sky) */
+#define SKY_MULTIPLE_SCATTERING 0
+#define SKY_SINGLE_SCATTERING 1
+#define SKY_PREETHAM 2
+#define SKY_HOSEK_WILKIE 3
+/* the sun disc's limb darkening (core.materials.sky) */
+#define SKY_LIMB 0.6
+/* Hosek / Wilkie's RGB scale (core.materials.sky) */
+#define SKY_HOSEK_SCALE 0.009199392836280507
+/* where the Sky op's floats keep each number (core/materials/sky.py) (core.materials.sky) */
+#define SKY_AT_KIND 0
+#define SKY_AT_ROTATION 1
+#define SKY_AT_PROBE 2
+#define SKY_AT_HEIGHT 5
+#define SKY_AT_WIDTH 6
+#define SKY_AT_ELEVATION 7
+#define SKY_AT_SIZE 8
+#define SKY_AT_INTENSITY 9
+#define SKY_AT_BOTTOM 10
+#define SKY_AT_TOP 13
+#define SKY_AT_HORIZON 16
+#define SKY_AT_XYZ_TO_RGB 17
+#define SKY_AT_PAYLOAD 26
 /* an image node's interpolation (INTERPOLATIONS) (core.materials.textures) */
 #define TEX_LINEAR 0
 #define TEX_CLOSEST 1
