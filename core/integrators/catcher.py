@@ -40,6 +40,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..native import schema
 from ..visibility import EVERY_RAY, SHADOW_CATCHER
 from . import passes as passes_
 from .base import Context, Recorder
@@ -47,7 +48,8 @@ from .rays import nearest_seen
 
 # The film's sums of the shadow catcher (render.Film aux): M rgba, K rgb, B rgb, S per pixel.
 FILM_BUFFER = "shadow_catcher"
-FILM_CHANNELS = 11
+FILM_CHANNELS = schema.constant("CATCHER_CHANNELS", 11, "the shadow catcher's film sums: matte RGBA, catcher-only "
+                                "RGB, background RGB, caught samples")
 PASS_BUFFER = "shadow_catcher"     # the Shadow Catcher pass's image in RenderResult.aux
 
 
