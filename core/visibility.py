@@ -20,7 +20,8 @@ from .native import schema
                         ("SHADOW_CATCHER", 64)))
 # Every kind of ray: an object with all these bits is not there for any ray (the catcher-only scene of
 # core/integrators/catcher.py hides every object that is not a shadow catcher so).
-EVERY_RAY = HIDDEN_FROM_CAMERA | HIDDEN_FROM_SHADOW | HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
+EVERY_RAY = (HIDDEN_FROM_CAMERA | HIDDEN_FROM_SHADOW | HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY
+             | HIDDEN_FROM_TRANSMISSION)
 # Ray Visibility's switches (Blender's object properties, the core Instance's fields of the same names) and the bit
 # each sets when it is off.
 RAY_VISIBILITY = (("visible_camera", HIDDEN_FROM_CAMERA), ("visible_shadow", HIDDEN_FROM_SHADOW),

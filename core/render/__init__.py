@@ -43,7 +43,8 @@ from ..geometry import instancing
 from ..geometry.geometry import WorldGeometry, build_geometry
 from ..integrators import Cancelled, Context, Recorder, StopFlag, for_render
 from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
-from ..integrators import catcher as catcher_, cryptomatte, features, lightgroups, lightpasses, passes as passes_, vertex
+from ..integrators import catcher as catcher_
+from ..integrators import cryptomatte, features, lightgroups, lightpasses, passes as passes_, vertex
 from ..integrators.compiled import Compiled, why_not
 from ..materials import graph as graph_
 from ..materials import Material, MaterialTable
