@@ -13,7 +13,7 @@ import pytest
 from core import materials, render
 from core.camera import Camera
 from core.geometry import primitives
-from core.lights import SunLight
+from core.lights import AreaLight, SunLight
 from core.lights.world import World
 from core.scene import RenderSettings, Scene
 
@@ -163,3 +163,29 @@ def test_the_kernels_agree_on_the_catchers_images(transparent, with_pass):
     np.testing.assert_allclose(images["compiled"][0], images["numpy"][0], rtol=1e-5, atol=4e-6)
     if with_pass:
         np.testing.assert_allclose(images["compiled"][1], images["numpy"][1], rtol=1e-5, atol=4e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_lamp_the_camera_sees_in_front_of_the_catcher_stays_in_combined(kernels):
+    """An area lamp facing the camera above the sunlit catcher floor (it lights nothing below it): on a transparent
+    film its pixels keep its radiance, alpha 0, exactly as where the floor is not seen at all (Cycles writes what the
+    camera sees before a catcher to the matte), and the pass is the one without the lamp, pixel for pixel (within the
+    float32 rounding of Combined, from which the lamp's light is taken away again)."""
+    def scene(hide_floor: bool = False, lamp: bool = True) -> Scene:
+        s = ball_over_catcher()
+        s.instances[0].visible_camera = not hide_floor
+        if lamp:
+            s.lights.append(AreaLight(center=np.array([2.0, 0.3, 1.5]), axis_u=np.array([0.6, 0.0, 0.0]),
+                                      axis_v=np.array([0.0, 0.6, 0.0]), direction=np.array([0.0, 0.0, 1.0]),
+                                      power=20.0))
+        return s
+    settings = RenderSettings(width=24, height=24, samples=4, kernels=kernels, transparent_background=True,
+                              shadow_catcher_pass=True)
+    caught = render.render(scene(), settings)
+    bare = render.render(scene(hide_floor=True), settings)
+    lamp = (bare.image[..., :3] > 0.0).all(axis=-1)
+    assert lamp.sum() >= 9
+    np.testing.assert_allclose(caught.image[lamp], bare.image[lamp], rtol=1e-6)
+    assert (caught.image[lamp][..., 3] == 0.0).all()
+    unlit = render.render(scene(lamp=False), settings)
+    np.testing.assert_allclose(caught.aux["shadow_catcher"], unlit.aux["shadow_catcher"], atol=1e-5)

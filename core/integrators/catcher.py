@@ -11,8 +11,8 @@ film/light_passes.h, film/read.h): a camera sample whose ray meets a catcher fir
 
 Each pixel sums, besides Combined (FILM_CHANNELS):
 
-- M (rgba): the matte, each sample's C where its camera ray does not meet a catcher first, and 0 (alpha 0: a hole)
-  where it does (Cycles' Shadow Catcher Matte);
+- M (rgba): the matte, each sample's C where its camera ray does not meet a catcher first, and where it does the
+  lamps the camera sees in front of the catcher alone (alpha 0: a hole; Cycles' Shadow Catcher Matte);
 - K (rgb): the caught samples' light in the catcher-only scene (Cycles' Shadow Catcher buffer);
 - B (rgb): the world the camera looks at through the caught samples and where it escapes, where the film is not
   transparent (Cycles' Background pass behind the catcher);
@@ -30,7 +30,7 @@ Both kernels follow K's paths the same way: the render's integrator, run again o
 with the catcher-only scene's Context (`catcher_context`; compiled: its ChunkParams, chunk.c), with the same
 random numbers (keyed by pixel and sample, as Cycles' split copies the path's state). Left out: a catcher seen
 through Transparent surfaces (only a camera ray's first hit splits; Cycles splits where the camera's path through
-clear surfaces meets one) and media in the catcher-only scene.
+clear surfaces meets one) and media in the catcher-only scene and in front of a catcher.
 """
 from __future__ import annotations
 
@@ -44,7 +44,8 @@ from ..native import schema
 from ..visibility import EVERY_RAY, SHADOW_CATCHER
 from . import passes as passes_
 from .base import Context, Recorder
-from .rays import nearest_seen
+from . import clamp as clamp_
+from .rays import lamps_seen, nearest_seen
 
 # The film's sums of the shadow catcher (render.Film aux): M rgba, K rgb, B rgb, S per pixel.
 FILM_BUFFER = "shadow_catcher"
@@ -86,10 +87,11 @@ def emitters_hidden(geometry, emitters) -> Optional[np.ndarray]:
 
 
 def caught(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> tuple:
-    """Which camera rays O, D (n, 3) up to t_max (n,) meet a shadow catcher first, and which escape (past objects
-    hidden from the camera): two (n,) bool."""
+    """Which camera rays O, D (n, 3) up to t_max (n,) meet a shadow catcher first, which escape (past objects
+    hidden from the camera), and how far each went: (n,) bool, (n,) bool, (n,) float64."""
     found = nearest_seen(ctx, O, D, t_max)
-    return found.hit & ctx.geometry.hidden(np.where(found.hit, found.prim, 0), SHADOW_CATCHER), ~found.hit
+    first = found.hit & ctx.geometry.hidden(np.where(found.hit, found.prim, 0), SHADOW_CATCHER)
+    return first, ~found.hit, np.where(found.hit, found.t, t_max)
 
 
 def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarray, D: np.ndarray, t_max: np.ndarray,
@@ -103,12 +105,17 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
                                                                     seed=ctx.settings.seed))
     rows = np.zeros((len(rgba), FILM_CHANNELS))
     rows[:, :4] = rgba
-    first, escaped = caught(ctx, O, D, t_max)
+    first, escaped, t = caught(ctx, O, D, t_max)
     held = traced[first]
     rows[held, :4] = 0.0                             # the matte: a hole where the catcher is
     rows[held, 10] = 1.0
     if len(held):
         kept = np.flatnonzero(first)
+        # (the lamps the camera sees in front of the catcher stay in the matte, as Cycles writes them before its
+        #  split; capped by Clamp Direct as the render caps them)
+        front = lamps_seen(ctx, O[kept], D[kept], t[kept])
+        cap = clamp_.limits(ctx.settings)[0]
+        rows[held, :3] = front * clamp_.scale(front, None, cap)[:, None] if np.isfinite(cap) else front
         rows[held, 4:7] = for_render(alone).radiance(alone, O[kept], D[kept], t_max[kept], pixel[kept], sample[kept],
                                                      Recorder()).L
     world = ctx.extra.get("world_light")

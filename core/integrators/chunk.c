@@ -278,15 +278,22 @@ INLINE int block_closures(BlockHits **blocks, int count, int64_t room, Closure *
 }
 
 /* A sample's share of the shadow catchers' matte and background (catcher.py sample_rows) into its pixel's sums
- * row (CATCHER_CHANNELS): its RGBA s where its camera ray did not meet a catcher first, none (and one caught sample)
- * where it did (`caught`); behind: it was caught or escaped, so the world along D is behind it (where the film is
- * not transparent and the camera sees the world). */
-INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught, int behind, const double *D,
-                          double *row)
+ * row (CATCHER_CHANNELS): its RGBA s where its camera ray O, D did not meet a catcher first, where it did
+ * (`caught`, at t) the lamps the camera sees in front of it alone (capped by Clamp Direct) and one caught sample;
+ * behind: it was caught or escaped, so the world along D is behind it (where the film is not transparent and the
+ * camera sees the world). */
+INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught, int behind, const double *O,
+                          const double *D, double t, double *row)
 {
-    if (caught) row[10] += 1.0;
-    else
+    if (caught) {
+        double front[3], one[3] = {1.0, 1.0, 1.0};
+        camera_sees(params, O, D, t, 1, front, NULL, NULL);
+        double f = clamp_scale(front, one, params->clamp_direct, 1.0);
+        for (int c = 0; c < 3; c++) row[c] += finite_or_zero(front[c] * f);
+        row[10] += 1.0;
+    } else {
         for (int c = 0; c < 4; c++) row[c] += s[c];
+    }
     const WorldTables *world = params->light_context->world;
     if (behind && world->camera != 0.0 && params->transparent == 0.0) {
         LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0};
@@ -514,9 +521,9 @@ static void render_chunk(const ChunkArgs *a)
             if (bad && out->nonfinite != NULL) out->nonfinite[k]++;
             add_sample(s, params->luminance, out->rgba + 4 * k, out->squares != NULL ? out->squares + 2 * k : NULL);
             if (catching) {
-                double D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
-                catcher_matte(params, s, caught[lane], b.valid[lane] && (caught[lane] || !is_hit), D,
-                              out->catcher + CATCHER_CHANNELS * k);
+                double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
+                catcher_matte(params, s, caught[lane], b.valid[lane] && (caught[lane] || !is_hit), O, D,
+                              H.t[lane], out->catcher + CATCHER_CHANNELS * k);
             }
         }
         /* 5. The caught samples again, in the catcher-only scene: their light there (catcher.py K). */
