@@ -148,21 +148,26 @@ def test_without_a_catcher_the_pass_is_one_and_combined_unchanged():
 @pytest.mark.parametrize("with_pass", [False, True])
 def test_the_kernels_agree_on_the_catchers_images(transparent, with_pass):
     """A path-traced catcher under a ball, a sun, a grey world and a glowing quad that is no catcher: the compiled
-    kernel's Combined and Shadow Catcher pass are the reference's, within a few float32 ulps."""
+    kernel's Combined, Shadow Catcher pass, light passes and light groups are the reference's, within a few float32
+    ulps."""
     scene = ball_over_catcher(world=0.2)
     lamp = np.array([[1, 0, 0, 3.0], [0, -1, 0, 1.0], [0, 0, -1, 1.0], [0, 0, 0, 1.0]])
     scene.materials.append(materials.Material(name="lamp", nodes=[("EMISSION", (1, 1, 1), {"emission": (4.0,) * 3})]))
     scene.add_mesh(primitives.plane(0.5), lamp, materials=np.array([1]))
+    scene.lightgroups = {"lights": ["S", ""], "instances": ["", "", "S"], "world": "W"}
     images = {}
     for kernels in KERNELS:
         settings = RenderSettings(width=24, height=24, samples=4, kernels=kernels, integrator="path", max_bounces=3,
-                                  transparent_background=transparent, shadow_catcher_pass=with_pass)
+                                  transparent_background=transparent, shadow_catcher_pass=with_pass,
+                                  passes=("diffuse_direct", "diffuse_indirect"), light_groups=("S", "W"))
         result = render.render(scene, settings)
         assert result.stats.kernels.startswith(kernels)
-        images[kernels] = (result.image, result.aux.get("shadow_catcher"))
-    np.testing.assert_allclose(images["compiled"][0], images["numpy"][0], rtol=1e-5, atol=4e-6)
-    if with_pass:
-        np.testing.assert_allclose(images["compiled"][1], images["numpy"][1], rtol=1e-5, atol=4e-6)
+        images[kernels] = result
+    numpy, compiled = images["numpy"], images["compiled"]
+    np.testing.assert_allclose(compiled.image, numpy.image, rtol=1e-5, atol=4e-6)
+    names = ["diffuse_direct", "diffuse_indirect", "lightgroup:S", "lightgroup:W"] + (["shadow_catcher"] * with_pass)
+    for name in names:
+        np.testing.assert_allclose(compiled.aux[name], numpy.aux[name], rtol=1e-5, atol=4e-6, err_msg=name)
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
@@ -189,3 +194,26 @@ def test_a_lamp_the_camera_sees_in_front_of_the_catcher_stays_in_combined(kernel
     assert (caught.image[lamp][..., 3] == 0.0).all()
     unlit = render.render(scene(lamp=False), settings)
     np.testing.assert_allclose(caught.aux["shadow_catcher"], unlit.aux["shadow_catcher"], atol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_path_that_meets_a_catcher_writes_no_light_pass_and_no_light_group(kernels):
+    """As Cycles (film_write_direct_light, film_write_emission_or_background_pass): where the camera sees the catcher,
+    Diffuse Direct and the suns' light group are 0, while Combined's catcher light (the Shadow Catcher pass's
+    numerator) is there; the ball, no catcher, keeps both, as without the catcher."""
+    scene = ball_over_catcher()
+    scene.camera = looking_down(6.0)
+    scene.lightgroups = {"lights": ["S", "S"], "instances": ["", ""], "world": ""}
+    settings = RenderSettings(width=24, height=24, samples=2, kernels=kernels, passes=("diffuse_direct",),
+                              light_groups=("S",), shadow_catcher_pass=True)
+    caught = render.render(scene, settings)
+    scene.instances[0].is_shadow_catcher = False
+    plain = render.render(scene, settings)
+    floor = caught.image[..., 3] == 0.0                   # (the matte's hole: all samples on the catcher)
+    ball = caught.image[..., 3] == 1.0
+    assert floor.sum() >= 100 and ball.sum() >= 9
+    assert (plain.aux["diffuse_direct"][floor] > 0.0).all()
+    np.testing.assert_array_equal(caught.aux["diffuse_direct"][floor], 0.0)
+    np.testing.assert_array_equal(caught.aux["lightgroup:S"][floor], 0.0)
+    np.testing.assert_array_equal(caught.aux["diffuse_direct"][ball], plain.aux["diffuse_direct"][ball])
+    np.testing.assert_array_equal(caught.aux["lightgroup:S"][ball], plain.aux["lightgroup:S"][ball])

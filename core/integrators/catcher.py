@@ -26,7 +26,8 @@ and lays the matte over it); otherwise Cycles' approximation (use_approximate_sh
 the matte's alpha, 1 - mean(pass) where the matte is clear, and on an opaque film lays the matte over the
 background times 1 - that alpha.
 
-Both kernels follow K's paths the same way: the render's integrator, run again on the caught samples' camera rays
+As in Cycles, a sample that met a catcher writes no light passes and no light groups (but for the lamps the camera
+sees in front of it): the catcher's light is in the pass. Both kernels follow K's paths the same way: the render's integrator, run again on the caught samples' camera rays
 with the catcher-only scene's Context (`catcher_context`; compiled: its ChunkParams, chunk.c), with the same
 random numbers (keyed by pixel and sample, as Cycles' split copies the path's state). Left out: a catcher seen
 through Transparent surfaces (only a camera ray's first hit splits; Cycles splits where the camera's path through
@@ -45,6 +46,7 @@ from ..visibility import EVERY_RAY, SHADOW_CATCHER
 from . import passes as passes_
 from .base import Context, Recorder
 from . import clamp as clamp_
+from . import lightgroups
 from .rays import lamps_seen, nearest_seen
 
 # The film's sums of the shadow catcher (render.Film aux): M rgba, K rgb, B rgb, S per pixel.
@@ -95,10 +97,12 @@ def caught(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> tup
 
 
 def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarray, D: np.ndarray, t_max: np.ndarray,
-                pixel: np.ndarray, sample: np.ndarray) -> np.ndarray:
+                pixel: np.ndarray, sample: np.ndarray, light=None, groups=None) -> np.ndarray:
     """Each sample's row (n, FILM_CHANNELS) float64 of the film's shadow catcher sums: M, K, B, S (module
     docstring). rgba: (n, 4) the samples' values (C); traced: (k,) int64 the samples with a camera ray; O, D, t_max,
-    pixel, sample: those rays' (k, 3), (k, 3), (k,), (k,), (k,)."""
+    pixel, sample: those rays' (k, 3), (k, 3), (k,), (k,), (k,). light, groups: those rays' light passes (k, 6, 3)
+    and light groups (k, G, 3), or None: as Cycles writes neither from a path that met a catcher, the caught rays'
+    are set to nothing, but for the lamps the camera sees in front of the catcher in their groups (changed here)."""
     from . import for_render
     alone = ctx.extra["catcher"]                     # (with this chunk's samples and seed)
     alone = dataclasses.replace(alone, settings=dataclasses.replace(alone.settings, samples=ctx.settings.samples,
@@ -113,9 +117,19 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
         kept = np.flatnonzero(first)
         # (the lamps the camera sees in front of the catcher stay in the matte, as Cycles writes them before its
         #  split; capped by Clamp Direct as the render caps them)
-        front = lamps_seen(ctx, O[kept], D[kept], t[kept])
+        tally = lightgroups.tally(ctx, len(kept)) if groups is not None else None
+        front = lamps_seen(ctx, O[kept], D[kept], t[kept], tally)
         cap = clamp_.limits(ctx.settings)[0]
-        rows[held, :3] = front * clamp_.scale(front, None, cap)[:, None] if np.isfinite(cap) else front
+        if np.isfinite(cap):
+            f = clamp_.scale(front, None, cap)
+            front = front * f[:, None]
+            if tally is not None:
+                tally.scale(f)
+        rows[held, :3] = front
+        if light is not None:
+            light[kept] = 0.0
+        if groups is not None:
+            groups[kept] = tally.L
         rows[held, 4:7] = for_render(alone).radiance(alone, O[kept], D[kept], t_max[kept], pixel[kept], sample[kept],
                                                      Recorder()).L
     world = ctx.extra.get("world_light")

@@ -496,12 +496,15 @@ static void render_chunk(const ChunkArgs *a)
                 /* (the camera's hit's light, through what the media let through to it: 1 without media) */
                 for (int c = 0; c < 3; c++) s[c] += params->media != NULL ? H.throughput[3 * h + c] * H.L[3 * h + c]
                                                                           : H.L[3 * h + c];
-                for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
+                /* (a path that met a catcher writes no light groups and no light passes, as in Cycles: catcher.py) */
+                if (!caught[lane])
+                    for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
                 if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0)) {
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];
-                    for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->groups[3 * G * lane + i];
+                    if (!caught[lane])
+                        for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->groups[3 * G * lane + i];
                 }
-                if (light_passes)
+                if (light_passes && !caught[lane])
                     for (int i = 0; i < LIGHT_CHANNELS; i++)
                         out->light[LIGHT_CHANNELS * k + i] += finite_or_zero(work->light[lane][i]);
                 s[3] = 1.0 - H.held[lane];          /* the holes holdout objects make (path.hold_out) */

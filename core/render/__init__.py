@@ -315,9 +315,11 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
         rgba[traced, 3] -= found.holdout         # the holes holdout objects make (Cycles' holdout transparency)
     caught = None
     if ctx.extra.get("catcher") is not None:     # shadow catchers: the matte and the catcher-only light (catcher.py)
+        found = found._replace(light=None if found.light is None else np.array(found.light),
+                               groups=None if found.groups is None else np.array(found.groups))
         caught = catcher_.sample_rows(dataclasses.replace(ctx, settings=s), rgba, traced,
                                       vectors.gather(rays.origins, traced), vectors.gather(rays.directions, traced),
-                                      rays.t_max[traced], pixel[traced], sample[traced])
+                                      rays.t_max[traced], pixel[traced], sample[traced], found.light, found.groups)
     # c. Each pixel's sums (the film divides by the count); a NaN or infinite sample goes in as 0, counted.
     nonfinite = finite_samples(rgba, p, spp)
     per_pixel, squares = pixel_sums(rgba, p, spp, s.adaptive)
