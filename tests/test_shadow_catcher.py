@@ -217,3 +217,16 @@ def test_a_path_that_meets_a_catcher_writes_no_light_pass_and_no_light_group(ker
     np.testing.assert_array_equal(caught.aux["lightgroup:S"][floor], 0.0)
     np.testing.assert_array_equal(caught.aux["diffuse_direct"][ball], plain.aux["diffuse_direct"][ball])
     np.testing.assert_array_equal(caught.aux["lightgroup:S"][ball], plain.aux["lightgroup:S"][ball])
+
+
+def test_a_catcher_seen_through_a_transparent_pane_is_said_to_render_as_an_ordinary_object():
+    """A Transparent pane between the camera and the catcher floor: the floor renders as an ordinary object behind it
+    (Combined the render without any catcher there), and the render says so once."""
+    scene = ball_over_catcher()
+    scene.materials.append(materials.Material(name="pane", nodes=[("TRANSPARENT", (0.5,) * 3, {})]))
+    scene.add_mesh(primitives.plane(8.0, center=(2.0, 0.0, 2.5)), materials=np.array([len(scene.materials) - 1]))
+    settings = RenderSettings(width=16, height=16, samples=2, kernels="numpy")
+    caught = render.render(scene, settings)
+    assert sum("seen through a Transparent surface" in w for w in caught.stats.warnings) == 1
+    scene.instances[0].is_shadow_catcher = False
+    np.testing.assert_allclose(caught.image, render.render(scene, settings).image, rtol=1e-6)

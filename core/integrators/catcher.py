@@ -56,13 +56,24 @@ FILM_CHANNELS = schema.constant("CATCHER_CHANNELS", 11, "the shadow catcher's fi
 PASS_BUFFER = "shadow_catcher"     # the Shadow Catcher pass's image in RenderResult.aux
 
 
-def catcher_context(ctx: Context) -> Optional[Context]:
+def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[Context]:
     """The Context of the catcher-only scene of `ctx` (module docstring), or None where no object is a catcher:
     its geometry hides every other object from every ray, the emitters of those objects light no closure, its
-    integrator writes no passes, light groups or features, its camera rays see no lamps, and it has no media."""
+    integrator writes no passes, light groups or features, its camera rays see no lamps, and it has no media. What
+    it leaves out of Cycles' catchers is said once in `warnings` (where the scene has it)."""
     geometry = ctx.geometry
     if geometry is None or not geometry.hides(SHADOW_CATCHER):
         return None
+    notes = []
+    if ctx.materials.may_pass.any():
+        notes.append("shadow catchers: a catcher seen through a Transparent surface (or an alpha) renders as an "
+                     "ordinary object there (Cycles shows only its shadows behind clear surfaces too)")
+    if ctx.extra.get("media") is not None:
+        notes.append("shadow catchers: the catcher-only light the Shadow Catcher pass divides by leaves the volumes "
+                     "out (Cycles keeps the catchers' media), and volumes in front of a catcher go to it, not the matte")
+    for note in notes:
+        if warnings is not None and note not in warnings:
+            warnings.append(note)
     hidden = geometry.instance_hidden
     view = copy.copy(geometry)
     view.instance_hidden = np.where(hidden & SHADOW_CATCHER, hidden, hidden | EVERY_RAY).astype(np.uint8)

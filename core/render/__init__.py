@@ -220,7 +220,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     ctx.extra["self_hit_distance"] = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry)
                                       if "acne" in settings.aux else 0.0)
     # Shadow catchers (core/integrators/catcher.py): the catcher-only scene their caught samples are followed in.
-    ctx.extra["catcher"] = catcher_.catcher_context(ctx)
+    ctx.extra["catcher"] = catcher_.catcher_context(ctx, warnings)
     return ctx
 
 
