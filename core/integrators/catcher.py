@@ -43,10 +43,10 @@ import numpy as np
 
 from ..native import schema
 from ..visibility import EVERY_RAY, SHADOW_CATCHER
-from . import passes as passes_
-from .base import Context, Recorder
 from . import clamp as clamp_
 from . import lightgroups
+from . import passes as passes_
+from .base import Context, Recorder
 from .rays import lamps_seen, nearest_seen
 
 # The film's sums of the shadow catcher (render.Film aux): M rgba, K rgb, B rgb, S per pixel.
