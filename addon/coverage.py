@@ -207,7 +207,9 @@ COVERAGE = {
     "CyclesRenderLayerSettings": {
         OWN: {"use_denoising denoising_pass_follow_reflections* denoising_pass_use_albedo_roughness_weighting*":
               "use_denoising: Primer's Denoise, for every view layer"},
-        REPORTED: {"denoising_store_passes pass_debug_sample_count pass_render_time* use_pass_shadow_catcher "
+        READ: {"use_pass_shadow_catcher": "export.shadow_catcher_pass (the Shadow Catcher pass; Combined as the "
+                                          "catchers' matte)"},
+        REPORTED: {"denoising_store_passes pass_debug_sample_count pass_render_time* "
                    "use_pass_volume_direct use_pass_volume_indirect use_pass_volume_majorant* use_pass_volume_scatter* "
                    "use_pass_volume_transmit*": "unmodelled.view_layer_notes"},
     },
@@ -220,8 +222,8 @@ COVERAGE = {
         READ: {"type": "export.export_scene", "material_slots": "export.MaterialTable.slot_map",
                "light_linking": "linking.LinkSets.of (Light and Shadow Linking)",
                "pass_index": "export.export_scene (Object Index pass)", "lightgroup": "lightgroups.source_group",
-               "is_holdout visible_camera visible_diffuse visible_glossy visible_shadow visible_transmission":
-                   "export.ray_visibility",
+               "is_holdout is_shadow_catcher visible_camera visible_diffuse visible_glossy visible_shadow "
+               "visible_transmission": "export.ray_visibility",
                "shadow_terminator_geometry_offset* shadow_terminator_shading_offset*": "export._terminator_offsets",
                "particle_systems": "export.export_scene (instances; hair in unmodelled.object_notes)",
                "add_rest_position_attribute animation_data collision constraints data delta_location "
@@ -233,8 +235,7 @@ COVERAGE = {
                "show_instancer_for_render show_only_shape_key soft_body track_axis up_axis "
                "use_instance_faces_scale use_instance_vertices_rotation use_parent_final_indices* "
                "use_simulation_cache vertex_groups": DEPSGRAPH},
-        REPORTED: {"is_shadow_catcher": "unmodelled.object_notes",
-                   "visible_volume_scatter": "export.ray_visibility_notes",
+        REPORTED: {"visible_volume_scatter": "export.ray_visibility_notes",
                    "color": "materials.GraphReader.output (an Object Info output Primer does not evaluate is noted)",
                    "visible_raycast*": "materials.GraphReader.output (a Raycast node is noted as not evaluated)"},
         NO_EFFECT: {"active_material active_material_index active_selection_set active_shape_key "

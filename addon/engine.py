@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..core.integrators import cryptomatte
+from ..core.integrators import catcher, cryptomatte
 from ..core.integrators import debug
 from . import compositor, export, lightgroups, motion, viewport
 
@@ -38,6 +38,8 @@ DENOISING_PASSES = {
     "Denoising Albedo": ("denoising_albedo", 3, "RGB", "COLOR"),
     "Denoising Normal": ("denoising_normal", 3, "XYZ", "VECTOR"),
 }
+# Cycles' Shadow Catcher pass (View Layer > Passes > Light > Shadow Catcher, core/integrators/catcher.py).
+SHADOW_CATCHER_PASS = "Shadow Catcher"
 # Cycles' first-hit passes (core/integrators/passes.py) and light passes: core buffer -> (view layer toggle,
 # Blender 5 name, the name before Blender 5, channels, chan ids, type); written with the view layer's toggle, as
 # Cycles does.
@@ -264,6 +266,8 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
             elif name in crypto_names:
                 buffer, first = crypto_names[name]
                 fill(render_pass, block(buffers[buffer][..., first:first + 4]))
+            elif name == SHADOW_CATCHER_PASS and catcher.PASS_BUFFER in buffers:
+                fill(render_pass, block(buffers[catcher.PASS_BUFFER]))
             elif name.startswith(lightgroups.PASS_PREFIX):
                 group = lightgroups.BUFFER_PREFIX + name[len(lightgroups.PASS_PREFIX):]
                 fill(render_pass, block(buffers[group] if group in buffers else np.zeros((height, width, 3))))
@@ -507,6 +511,8 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
                 self.register_pass(scene, renderlayer, cycles_pass_name(buffer), channels, chan_id, kind)
         for group in lightgroups.group_names(renderlayer):
             self.register_pass(scene, renderlayer, lightgroups.PASS_PREFIX + group, 3, "RGB", "COLOR")
+        if export.shadow_catcher_pass(renderlayer):
+            self.register_pass(scene, renderlayer, SHADOW_CATCHER_PASS, 3, "RGB", "COLOR")
         for buffer, (toggle, _) in CRYPTO_PASSES.items():
             if getattr(renderlayer, toggle, False):
                 for name in crypto_pass_names(buffer, renderlayer.pass_cryptomatte_depth):

@@ -522,10 +522,11 @@ UNREAD_RAY_VISIBILITY = (("visible_volume_scatter", "Volume Scatter"),)
 
 def ray_visibility(obj) -> dict:
     """An object's Object > Visibility settings Primer reads, as core Instance keywords (visible_camera, ...,
-    is_holdout: bool)."""
+    is_holdout, is_shadow_catcher: bool)."""
     names = ("visible_camera", "visible_shadow", "visible_diffuse", "visible_glossy", "visible_transmission")
     seen = {name: bool(getattr(obj, name, True)) for name in names}
-    return dict(seen, is_holdout=bool(getattr(obj, "is_holdout", False)))
+    return dict(seen, is_holdout=bool(getattr(obj, "is_holdout", False)),
+                is_shadow_catcher=bool(getattr(obj, "is_shadow_catcher", False)))
 
 
 def terminator_keywords(obj) -> dict:
@@ -1064,6 +1065,12 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
     )
 
 
+def shadow_catcher_pass(view_layer) -> bool:
+    """Whether `view_layer` writes Cycles' Shadow Catcher pass (view_layer.cycles.use_pass_shadow_catcher; Cycles then
+    shows the shadow catchers' matte as Combined, not its approximation: core/integrators/catcher.py)."""
+    return bool(getattr(getattr(view_layer, "cycles", None), "use_pass_shadow_catcher", False))
+
+
 def pixel_filter(scene) -> dict:
     """Return the pixel filter Cycles renders `scene` with, as RenderSettings' pixel_filter and filter_width.
 
@@ -1309,6 +1316,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         random = graph_.random_from_id(instance.random_id) if instance.is_instance else None
         visibility = instance_keywords(obj)       # (a Holdout collection makes its objects holdouts, as in Cycles)
         visibility["is_holdout"] |= obj.name in holdouts
+        if instance.is_instance and instance.parent is not None:     # (Cycles: the object's or its instancer's)
+            visibility["is_shadow_catcher"] |= bool(getattr(instance.parent, "is_shadow_catcher", False))
         if not visibility["is_holdout"] and indirect_only(instance, depsgraph.view_layer):
             visibility["visible_camera"] = False  # (an Indirect Only collection: Cycles clears camera visibility)
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
@@ -1342,6 +1351,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     settings = render_settings(scene, width, height, border, aux, passes)
     settings.cryptomatte_depth = int(getattr(depsgraph.view_layer, "pass_cryptomatte_depth", 6))
     settings.light_groups = tuple(lightgroups.group_names(depsgraph.view_layer))
+    # (View Layer > Passes > Light > Shadow Catcher: the pass, and Combined as the catchers' matte itself)
+    settings.shadow_catcher_pass = shadow_catcher_pass(depsgraph.view_layer)
     core.lightgroups = groups
     follows = cycles_settings.effective(scene).follows_cycles
     if follows:                                     # a file made for Cycles: Cycles' terminator, as its objects ask

@@ -16,7 +16,7 @@ UNWRITTEN_PASSES = {"use_pass_mist": "Mist", "use_pass_vector": "Vector", "use_p
                     "use_pass_subsurface_indirect": "Subsurface Indirect",
                     "use_pass_subsurface_color": "Subsurface Color"}
 # Cycles' own passes (View Layer > Passes, view_layer.cycles) that Primer does not write: property -> the pass's name.
-UNWRITTEN_CYCLES_PASSES = {"use_pass_shadow_catcher": "Shadow Catcher", "use_pass_volume_direct": "Volume Direct",
+UNWRITTEN_CYCLES_PASSES = {"use_pass_volume_direct": "Volume Direct",
                            "use_pass_volume_indirect": "Volume Indirect", "use_pass_volume_majorant": "Volume Majorant",
                            "use_pass_volume_scatter": "Volume Scatter", "use_pass_volume_transmit": "Volume Transmit",
                            "pass_debug_sample_count": "Debug Sample Count", "pass_render_time": "Render Time"}
@@ -128,11 +128,9 @@ def camera_notes(camera_object) -> list:
 
 
 def object_notes(obj) -> list:
-    """Object settings that Primer does not model: shadow catcher, adaptive subdivision. (Light and shadow linking are
-    modelled: addon/linking.py.)"""
+    """Object settings that Primer does not model: adaptive subdivision. (Light and shadow linking are modelled:
+    addon/linking.py; shadow catchers: export.ray_visibility, core/integrators/catcher.py.)"""
     notes = []
-    if obj.type != "LIGHT" and getattr(obj, "is_shadow_catcher", False):     # (lamps read True; Cycles ignores it)
-        notes.append(f"object '{obj.name}' is a shadow catcher in Cycles; Primer renders it as an ordinary object")
     adaptive = any(modifier.type == "SUBSURF" and modifier.show_render and getattr(modifier, "use_adaptive_subdivision",
                                                                                     False)
                    for modifier in getattr(obj, "modifiers", ())) \

@@ -137,8 +137,6 @@ CASES = [
     ("ViewLayer", "view_layer", "pass_alpha_threshold", 0.25, [], "view_layer_notes", "view_layer",
      "Alpha Threshold is 0.25"),
     ("ViewLayer", "view_layer", "world_override", new_world, [], "view_layer_notes", "view_layer", "World Override"),
-    ("CyclesRenderLayerSettings", "view_layer.cycles", "use_pass_shadow_catcher", True, [], "view_layer_notes",
-     "view_layer", "Shadow Catcher pass"),
     ("CyclesRenderLayerSettings", "view_layer.cycles", "denoising_store_passes", True, [], "view_layer_notes",
      "view_layer", "Denoising Data passes"),
     ("Camera", "camera.data", "type", "CUSTOM", [], "camera_notes", "camera", "Custom camera"),

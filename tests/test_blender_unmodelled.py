@@ -45,7 +45,6 @@ def scene_with_everything():
     layer = scene.view_layers[0]
     scene.render.use_motion_blur = True
     cube, light = scene.objects["Cube"], scene.objects["Light"]
-    cube.is_shadow_catcher = True
     cube.data.materials.clear()
     cube.data.materials.append(material("Smoke", volume="ShaderNodeVolumePrincipled"))
     bpy.ops.mesh.primitive_uv_sphere_add(location=(3, 0, 0))
@@ -69,14 +68,13 @@ def scene_with_everything():
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
-    """Shadow catcher, a material's true Displacement, Principled Dispersion, Mist, Vector and
-    AOV passes: each named in one warning. (The Volumes of the material and the world are homogeneous media Primer
+    """A material's true Displacement, Principled Dispersion, Mist, Vector and AOV passes: each named in one
+    warning. (The Volumes of the material and the world are homogeneous media Primer
     renders: no warning.)"""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
-    expected = ["shadow catcher",
-                "Displacement output", "Mist pass", "Vector pass", "AOVs (Mask)"]
+    expected = ["Displacement output", "Mist pass", "Vector pass", "AOVs (Mask)"]
     if any(node.inputs.get("Dispersion") is not None for node in bpy.data.materials["Displaced"].node_tree.nodes):
         expected.append("'Dispersion' is above 0")
     for phrase in expected:

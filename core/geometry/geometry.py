@@ -34,7 +34,7 @@ from .intersect import Tracer
 from ..scene import Scene
 from ..materials import graph as graph_
 # The rays an object may hide from, and holdouts: WorldGeometry.instance_hidden's bits (core/visibility.py).
-from ..visibility import HOLDOUT, hidden_bits
+from ..visibility import HOLDOUT, SHADOW_CATCHER, hidden_bits
 from ..lights.linking import ALL_SETS
 
 
@@ -67,7 +67,8 @@ class WorldGeometry:
     instance_info: (n, OBJECT_INFO_WIDTH) float64 each instance's other Object Info outputs (instance_info)
     instance_linear: (n, 3, 3) float64 each instance's linear transform (tangents turn with it)
     instance_hidden: (n,) uint8 the rays each Scene.instances entry hides from (HIDDEN_FROM_* bits, Ray
-                    Visibility) and whether it is a holdout (HOLDOUT), or an empty array when no object does either
+                    Visibility), whether it is a holdout (HOLDOUT) and a shadow catcher (SHADOW_CATCHER), or an empty
+                    array when no object has any of them
     instance_links: (n, 4) uint64 each Scene.instances entry's light set, shadow set, light membership and shadow
                     membership (core/lights/linking.py), or an empty array when nothing is linked
     instance_terminator: (n, 2) float64 each Scene.instances entry's shadow terminator (terminator_table): its
@@ -534,9 +535,10 @@ def instance_info(instances: list, matrices: np.ndarray, attributes=()) -> np.nd
 
 
 def hidden_flags(instances: list) -> np.ndarray:
-    """(n,) uint8 the rays each instance hides from (HIDDEN_FROM_* bits) and whether it is a holdout (HOLDOUT);
-    empty when no instance does either."""
-    flags = np.array([hidden_bits(i) | (HOLDOUT if i.is_holdout else 0) for i in instances], np.uint8)
+    """(n,) uint8 the rays each instance hides from (HIDDEN_FROM_* bits), whether it is a holdout (HOLDOUT) and a
+    shadow catcher (SHADOW_CATCHER); empty when no instance has any of them."""
+    flags = np.array([hidden_bits(i) | (HOLDOUT if i.is_holdout else 0)
+                      | (SHADOW_CATCHER if getattr(i, "is_shadow_catcher", False) else 0) for i in instances], np.uint8)
     return flags if flags.any() else np.zeros(0, np.uint8)
 
 

@@ -277,6 +277,68 @@ INLINE int block_closures(BlockHits **blocks, int count, int64_t room, Closure *
     return 1;
 }
 
+/* A sample's share of the shadow catchers' matte and background (catcher.py sample_rows) into its pixel's sums
+ * row (CATCHER_CHANNELS): its RGBA s where its camera ray O, D did not meet a catcher first, where it did
+ * (`caught`, at t) the lamps the camera sees in front of it alone (capped by Clamp Direct) and one caught sample;
+ * behind: it was caught or escaped, so the world along D is behind it (where the film is not transparent and the
+ * camera sees the world). */
+INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught, int behind, const double *O,
+                          const double *D, double t, double *row)
+{
+    if (caught) {
+        double front[3], one[3] = {1.0, 1.0, 1.0};
+        camera_sees(params, O, D, t, 1, front, NULL, NULL);
+        double f = clamp_scale(front, one, params->clamp_direct, 1.0);
+        for (int c = 0; c < 3; c++) row[c] += finite_or_zero(front[c] * f);
+        row[10] += 1.0;
+    } else {
+        for (int c = 0; c < 4; c++) row[c] += s[c];
+    }
+    const WorldTables *world = params->light_context->world;
+    if (behind && world->camera != 0.0 && params->transparent == 0.0) {
+        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0};
+        double seen[3];
+        world_seen(world, D, &camera, seen);
+        for (int c = 0; c < 3; c++) row[7 + c] += finite_or_zero(seen[c]);
+    }
+}
+
+/* The light of block b's caught samples (`caught` per lane) in the catcher-only scene `alone` (its params, with the
+ * chunk's seed): their camera rays traced again there (the objects that are not catchers hidden from every ray) and
+ * followed by its integrator, each lane's light added to its pixel's row of `sums` (channels 4..6, catcher.py K).
+ * H and work are reused (the block's own sums are in already); the light groups are put aside meanwhile. Returns
+ * the shadow rays; traced and spent as render_chunk's. */
+static int64_t catcher_light(const ChunkParams *alone, const ChunkArgs *a, CameraBlock *b, BlockHits *H,
+                             PathWork *work, const uint8_t *caught, int64_t start, int64_t *traced, uint64_t *spent,
+                             double *sums)
+{
+    int any = 0;
+    for (int64_t lane = 0; lane < b->n; lane++) {
+        b->valid[lane] = caught[lane];
+        any |= caught[lane];
+    }
+    if (!any) return 0;
+    double *groups = H->groups;
+    int64_t group_count = H->group_count;
+    H->groups = NULL;
+    H->group_count = 0;
+    uint64_t begin = ticks(), before = spent[0], embree[2] = {0, 0};
+    block_hits(alone, b, H, traced, spent);
+    int64_t rays = integrate(alone, b, H, work, NULL, embree);
+    spent[1] += embree[0];
+    spent[0] += embree[1];
+    spent[2] += (ticks() - begin) - (spent[0] - before);
+    for (int64_t h = 0; h < H->m; h++) {
+        int64_t lane = H->lane[h];
+        double *row = sums + CATCHER_CHANNELS * ((start + lane) / a->spp);
+        for (int c = 0; c < 3; c++)
+            row[4 + c] += finite_or_zero(H->L[3 * h + c] + work->extra[lane][c]);
+    }
+    H->groups = groups;
+    H->group_count = group_count;
+    return rays;
+}
+
 /* Render spp samples in each of p pixels: samples first[k] .. first[k] + spp - 1 of pixel k's pattern.
  * pixels, first: (p,) int64. Out: the pixels' sums (out->rgba, squares, hits, zeroed here first) and
  * the chunk's counts and seconds (added to). */
@@ -313,7 +375,12 @@ static void render_chunk(const ChunkArgs *a)
         passes->ao = ao;
         if (passes->mattes == NULL) { free(passes); free(group_storage); return; }
     }
-    if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || light_passes || features) {
+    /* Shadow catchers (catcher.py): the caught samples are followed again in the catcher-only scene's params. */
+    const ChunkParams *alone = out->catcher != NULL ? (const ChunkParams *)params->catcher : NULL;
+    int catching = alone != NULL;
+    uint8_t caught[BLOCK];
+    if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || light_passes || features
+        || catching) {
         work = (PathWork *)malloc(sizeof(PathWork));
         if (work == NULL) { free(group_storage); free_passes(passes); return; }   /* (the caller finds no samples counted) */
         work->a.groups = work_groups(&group_storage, G, 1);
@@ -347,6 +414,8 @@ static void render_chunk(const ChunkArgs *a)
         if (passes != NULL && out->mattes != NULL)
             for (int64_t i = 0; i < 2 * params->passes->matte_count * params->passes->slots; i++)
                 out->mattes[2 * params->passes->matte_count * params->passes->slots * k + i] = 0.0;
+        if (catching)
+            for (int i = 0; i < CATCHER_CHANNELS; i++) out->catcher[CATCHER_CHANNELS * k + i] = 0.0;
     }
     /* Whether camera rays can see more than the hit and a constant background: lamps, an image or graph world. */
     int sees_more = (params->light_context->world->image != NULL || params->light_context->world->seen != NULL)
@@ -380,6 +449,9 @@ static void render_chunk(const ChunkArgs *a)
             double *groups = G > 0 ? out->groups + 3 * G * k : NULL;      /* (the pixel's light groups) */
             for (int64_t i = 0; i < 3 * G; i++) seen[i] = 0.0;
             int is_hit = h < H.m && H.lane[h] == lane;
+            caught[lane] = (uint8_t)(catching && is_hit
+                                     && hidden_from(params->geometry, H.geometry[h], H.prim[h], H.instance[h],
+                                                    SHADOW_CATCHER));
             const double *sigma = params->media != NULL ? H.lane_sigma[lane] : NULL;
             if (b.valid[lane] && sees_more) {
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
@@ -424,12 +496,15 @@ static void render_chunk(const ChunkArgs *a)
                 /* (the camera's hit's light, through what the media let through to it: 1 without media) */
                 for (int c = 0; c < 3; c++) s[c] += params->media != NULL ? H.throughput[3 * h + c] * H.L[3 * h + c]
                                                                           : H.L[3 * h + c];
-                for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
+                /* (a path that met a catcher writes no light groups and no light passes, as in Cycles: catcher.py) */
+                if (!caught[lane])
+                    for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
                 if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0)) {
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];
-                    for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->groups[3 * G * lane + i];
+                    if (!caught[lane])
+                        for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->groups[3 * G * lane + i];
                 }
-                if (light_passes)
+                if (light_passes && !caught[lane])
                     for (int i = 0; i < LIGHT_CHANNELS; i++)
                         out->light[LIGHT_CHANNELS * k + i] += finite_or_zero(work->light[lane][i]);
                 s[3] = 1.0 - H.held[lane];          /* the holes holdout objects make (path.hold_out) */
@@ -448,7 +523,14 @@ static void render_chunk(const ChunkArgs *a)
                 if (!(fabs(s[c]) <= FILM_MAX)) { s[c] = 0.0; bad = 1; }
             if (bad && out->nonfinite != NULL) out->nonfinite[k]++;
             add_sample(s, params->luminance, out->rgba + 4 * k, out->squares != NULL ? out->squares + 2 * k : NULL);
+            if (catching) {
+                double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
+                catcher_matte(params, s, caught[lane], b.valid[lane] && (caught[lane] || !is_hit), O, D,
+                              H.t[lane], out->catcher + CATCHER_CHANNELS * k);
+            }
         }
+        /* 5. The caught samples again, in the catcher-only scene: their light there (catcher.py K). */
+        if (catching) shadow_rays += catcher_light(alone, a, &b, &H, work, caught, start, &traced, spent, out->catcher);
     }
     free(work);
     free(group_storage);

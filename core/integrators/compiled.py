@@ -21,7 +21,7 @@ from ..materials.graph import graph_tables
 from ..native import library, schema
 from ..native.schema import F64, I32, I64, out, ptr
 from . import features as features_
-from . import lightgroups, lightpasses
+from . import catcher as catcher_, lightgroups, lightpasses
 from . import passes as passes_
 from .base import Cancelled, Context
 from .shadows import ShadowSettings
@@ -93,6 +93,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("features", I32, "1: sum the denoising features (features.c) into ChunkOut.features"),
     ("passes", ptr("PassTables"), "the first-hit passes asked for (passes.c), or NULL"),
     ("media", ptr("MediaTables"), "the render's homogeneous media (core/volumes/media.c), or NULL: none"),
+    ("catcher", ptr(), "the ChunkParams of the shadow catchers' catcher-only scene (catcher.py), or NULL: no catcher"),
 ], tables=("INTEGRATOR",))
 
 ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for the render's statistics.", [
@@ -107,6 +108,8 @@ ChunkOut = schema.record("ChunkOut", "What a chunk adds up: per pixel, and for t
     ("nonfinite", out(I64), "(p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL"),
     ("passes", out(F64), "(p, PassTables.channels) sums of the first-hit passes, or NULL"),
     ("mattes", out(F64), "(p, matte_count, slots, 2) each pixel's Cryptomatte slots (id, weight), or NULL"),
+    ("catcher", out(F64), "(p, CATCHER_CHANNELS) sums of the shadow catchers' matte, catcher-only light, background "
+                          "and caught samples (catcher.py), or NULL"),
 ])
 
 ChunkArgs = schema.function("primer_render_chunk", "render_chunk", schema.record("ChunkArgs", "primer_render_chunk's arguments: spp samples in each of p pixels.", [
@@ -243,6 +246,9 @@ class Compiled:
         if media is not None:
             self.media_tables = media.tables(ctx.extra["media_bounds"])
             self.params.media = self.media_tables
+        # Shadow catchers (catcher.py): the catcher-only scene's records, for the caught samples' second paths.
+        alone = ctx.extra.get("catcher")
+        self.catcher = Compiled(alone, background) if alone is not None else None
         self.stop = stop = ctx.extra.get("stop")      # (base.StopFlag: read before each block of samples, chunk.c)
         if stop is not None:
             self.params.stop = stop.flag
@@ -291,6 +297,12 @@ class Compiled:
         if self.layout.mattes:
             aux[passes_.MATTE_BUFFER] = mattes = np.empty((p, len(self.layout.mattes) * self.layout.slots * 2))
             out.mattes = mattes
+        if self.catcher is not None:        # the shadow catchers' sums, and their catcher-only scene (catcher.py)
+            aux[catcher_.FILM_BUFFER] = caught = np.empty((p, catcher_.FILM_CHANNELS))
+            out.catcher = caught
+            alone = self.catcher.params.copy()
+            alone.seed = int(seed)
+            params.catcher = alone
         library.call("primer_render_chunk", ChunkArgs(params=params, pixels=pixels, first=first, p=p, spp=int(spp),
                                                       out=out))
         if self.stop is not None and self.stop.flag[0]:

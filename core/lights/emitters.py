@@ -331,15 +331,22 @@ def from_geometry(geometry, materials, graph_emission) -> Optional[MeshEmitters]
         radiance[textured] = mean_graph_emission(geometry, materials, prim[textured], graph_emission)
     emitters = MeshEmitters.of(np.concatenate(corners), radiance, sides[material], prim,
                                textured if textured.any() else None)
-    # Ray Visibility > Diffuse, Glossy, Transmission of the emitting objects: as in Cycles, the light samples of an
-    # object hidden from a kind of ray light no closure of that kind (integrators/vertex.py closures_left_out).
+    if emitters is not None:
+        emitters.hidden = hidden_bits_of(geometry, emitters.prim)
+    return emitters
+
+
+def hidden_bits_of(geometry, prim: np.ndarray) -> Optional[np.ndarray]:
+    """Ray Visibility > Diffuse, Glossy, Transmission of the objects of the emissive triangles `prim` (t,) int64: as in
+    Cycles, the light samples of an object hidden from a kind of ray light no closure of that kind
+    (integrators/vertex.py closures_left_out). (t,) uint8 their HIDDEN_FROM_* bits, or None where none is hidden."""
     from ..visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
     bits = HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
-    if emitters is not None and geometry.hides(bits):
-        owner = geometry.owners(emitters.prim)
-        hidden = np.where(owner >= 0, geometry.instance_hidden[np.maximum(owner, 0)] & bits, 0).astype(np.uint8)
-        emitters.hidden = hidden if hidden.any() else None
-    return emitters
+    if not geometry.hides(bits):
+        return None
+    owner = geometry.owners(prim)
+    hidden = np.where(owner >= 0, geometry.instance_hidden[np.maximum(owner, 0)] & bits, 0).astype(np.uint8)
+    return hidden if hidden.any() else None
 
 
 EmitterTablesRecord = schema.record("EmitterTables", "The emissive triangles as one light (core/lights/emitters.py MeshEmitters), camera-relative.", [

@@ -27,6 +27,8 @@
 #define MOTION_STRIDE 16
 /* an instance's Object Info columns before its attributes (core.geometry.geometry) */
 #define OBJECT_INFO_WIDTH 14
+/* the shadow catcher's film sums: matte RGBA, catcher-only RGB, background RGB, caught samples (core.integrators.catcher) */
+#define CATCHER_CHANNELS 11
 /* the integrators with a compiled twin (core.integrators.compiled) */
 #define INTEGRATOR_DIRECT 0
 #define INTEGRATOR_PATH 1
@@ -248,13 +250,14 @@
 #define TEX_FLOAT 0
 #define TEX_BYTE 1
 #define TEX_SHORT 2
-/* the rays an object hides from (Ray Visibility), and the holdout flag (core.visibility) */
+/* the rays an object hides from (Ray Visibility), the holdout and shadow catcher flags (core.visibility) */
 #define HIDDEN_FROM_CAMERA 1
 #define HIDDEN_FROM_SHADOW 2
 #define HIDDEN_FROM_DIFFUSE 4
 #define HIDDEN_FROM_GLOSSY 8
 #define HIDDEN_FROM_TRANSMISSION 16
 #define HOLDOUT 32
+#define SHADOW_CATCHER 64
 /* the most volume materials the compiled kernel's volume stack holds (core.volumes.media) */
 #define MAX_MEDIA 16
 
@@ -637,6 +640,7 @@ struct ChunkParams {
     int32_t features;                       /* 1: sum the denoising features (features.c) into ChunkOut.features */
     const PassTables *passes;               /* the first-hit passes asked for (passes.c), or NULL */
     const MediaTables *media;               /* the render's homogeneous media (core/volumes/media.c), or NULL: none */
+    const void *catcher;                    /* the ChunkParams of the shadow catchers' catcher-only scene (catcher.py), or NULL: no catcher */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -652,6 +656,7 @@ struct ChunkOut {
     int64_t *nonfinite;                     /* (p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL */
     double *passes;                         /* (p, PassTables.channels) sums of the first-hit passes, or NULL */
     double *mattes;                         /* (p, matte_count, slots, 2) each pixel's Cryptomatte slots (id, weight), or NULL */
+    double *catcher;                        /* (p, CATCHER_CHANNELS) sums of the shadow catchers' matte, catcher-only light, background and caught samples (catcher.py), or NULL */
 };
 
 /* primer_render_chunk's arguments: spp samples in each of p pixels. */
@@ -958,8 +963,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7842783275623974785);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5755748365903746207);
-    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4524182106731721234);
+    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);

@@ -43,6 +43,7 @@ from ..geometry import instancing
 from ..geometry.geometry import WorldGeometry, build_geometry
 from ..integrators import Cancelled, Context, Recorder, StopFlag, for_render
 from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
+from ..integrators import catcher as catcher_
 from ..integrators import cryptomatte, features, lightgroups, lightpasses, passes as passes_, vertex
 from ..integrators.compiled import Compiled, why_not
 from ..materials import graph as graph_
@@ -218,6 +219,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # as lying in it (core/integrators/debug.py, self_intersections).
     ctx.extra["self_hit_distance"] = (debug.SELF_HIT_FRACTION * debug.scene_scale(geometry)
                                       if "acne" in settings.aux else 0.0)
+    # Shadow catchers (core/integrators/catcher.py): the catcher-only scene their caught samples are followed in.
+    ctx.extra["catcher"] = catcher_.catcher_context(ctx, warnings)
     return ctx
 
 
@@ -310,6 +313,13 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     rgba[hit, 3] = 1.0
     if found.holdout is not None:
         rgba[traced, 3] -= found.holdout         # the holes holdout objects make (Cycles' holdout transparency)
+    caught = None
+    if ctx.extra.get("catcher") is not None:     # shadow catchers: the matte and the catcher-only light (catcher.py)
+        found = found._replace(light=None if found.light is None else np.array(found.light),
+                               groups=None if found.groups is None else np.array(found.groups))
+        caught = catcher_.sample_rows(dataclasses.replace(ctx, settings=s), rgba, traced,
+                                      vectors.gather(rays.origins, traced), vectors.gather(rays.directions, traced),
+                                      rays.t_max[traced], pixel[traced], sample[traced], found.light, found.groups)
     # c. Each pixel's sums (the film divides by the count); a NaN or infinite sample goes in as 0, counted.
     nonfinite = finite_samples(rgba, p, spp)
     per_pixel, squares = pixel_sums(rgba, p, spp, s.adaptive)
@@ -331,6 +341,8 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
         per_sample = np.zeros((n, values.shape[1]))
         per_sample[traced] = np.where(np.abs(values) <= FILM_MAX, values, 0.0)
         aux[name] = per_sample.reshape(p, spp, -1).sum(axis=1)
+    if caught is not None:
+        aux[catcher_.FILM_BUFFER] = np.where(np.abs(caught) <= FILM_MAX, caught, 0.0).reshape(p, spp, -1).sum(axis=1)
     if data is not None and data.layout.mattes:
         aux[passes_.MATTE_BUFFER] = matte_slots(data, traced // spp, p)
     return ChunkSums(per_pixel, squares, hits, aux, len(traced), found.shadow_rays, spp,
@@ -550,6 +562,8 @@ def render(scene: Scene, settings: RenderSettings,
     if layout.mattes:               # (Cryptomatte's slots are not summed: a chunk's go into the pixel's in order)
         film_sums[passes_.MATTE_BUFFER] = len(layout.mattes) * layout.slots * 2
         merge[passes_.MATTE_BUFFER] = layout.merge_mattes
+    if ctx.extra["catcher"] is not None:
+        film_sums[catcher_.FILM_BUFFER] = catcher_.FILM_CHANNELS
     film = Film(W, H, film_sums, compiled=compiled is not None, keep_estimates=len(passes) > 1, merge=merge)
     region = region_pixels(settings)
     outside = camera_.outside_image_circle(scene.camera, W, H, region, tuple(settings.pixel_aspect),
@@ -613,6 +627,14 @@ def render(scene: Scene, settings: RenderSettings,
     if note is not None:
         stats.warnings.append(note)
     aux = debug.aux_images(film.aux, film.hits, settings.aux, H, W)
+    if ctx.extra["catcher"] is not None:         # shadow catchers: Combined as the matte, the Shadow Catcher pass
+        image, shadow = catcher_.images(film.aux[catcher_.FILM_BUFFER].reshape(H, W, -1), image,
+                                        film.noise.count.reshape(H, W), settings.transparent_background,
+                                        settings.shadow_catcher_pass)
+        if settings.shadow_catcher_pass:
+            aux[catcher_.PASS_BUFFER] = shadow
+    elif settings.shadow_catcher_pass:           # (no catcher: the pass is 1 everywhere, as Cycles writes it)
+        aux[catcher_.PASS_BUFFER] = np.ones((H, W, 3), np.float32)
     # The first-hit passes (passes.py), and the light passes divided by their colour passes (lightpasses.py).
     if layout:
         first_hit = passes_.images(film.aux, film.noise.count, layout, settings.cryptomatte_depth, H, W)

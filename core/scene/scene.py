@@ -80,6 +80,8 @@ class Instance:
                lights no diffuse (glossy, refracting) closure by light samples either, as in Cycles
     is_holdout: Object > Visibility > Holdout: where camera rays (also through Transparent surfaces) meet the
                object the film is clear (colour 0, alpha 0); every other ray sees it as usual
+    is_shadow_catcher: Object > Visibility > Shadow Catcher: the camera sees only the shadows (and light) other
+               objects cast on it, as Cycles shows it (core/integrators/catcher.py); every other ray sees it as usual
     asset:     the name of the object's topmost parent (Cryptomatte's asset); "" for the object's own name
     color:     Object > Viewport Display > Color, RGBA (the Object Info node's Color and Alpha)
     light_set, shadow_set: its receiver light set and blocker shadow set (0..63, core/lights/linking.py): which
@@ -111,6 +113,7 @@ class Instance:
     visible_glossy: bool = True
     visible_transmission: bool = True
     is_holdout: bool = False
+    is_shadow_catcher: bool = False
     asset: str = ""
     color: tuple = (1.0, 1.0, 1.0, 1.0)
     light_set: int = 0

@@ -70,6 +70,9 @@ class RenderSettings:
     light_groups: the light groups whose passes to write (View Layer > Light Groups' names, in order): each the
                       light of the sources in it, from the integrator (core/integrators/lightgroups.py;
                       membership: Scene.lightgroups)
+    shadow_catcher_pass: write the Shadow Catcher pass (RenderResult.aux "shadow_catcher"), and Combined as the
+                      shadow catchers' matte itself rather than Cycles' approximation (core/integrators/catcher.py;
+                      Cycles' View Layer > Passes > Light > Shadow Catcher)
     """
 
     integrator: str = "direct"
@@ -121,6 +124,7 @@ class RenderSettings:
     ao_distance: float = 10.0
     cryptomatte_depth: int = 6
     light_groups: Sequence[str] = ()
+    shadow_catcher_pass: bool = False
 
     @property
     def filter(self):

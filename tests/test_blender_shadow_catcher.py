@@ -1,0 +1,167 @@
+"""Object > Visibility > Shadow Catcher inside real Blender (the bpy module, no mocks), against Cycles' own render:
+a catcher floor under a ball that is out of the frame, lit by two suns, direct light only (tools/render.py's Cycles
+reference). The Shadow Catcher pass, and Combined with and without it, on a transparent film and an opaque one, read
+from each renderer's multilayer EXR."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from blender_env import run_bpy
+
+pytestmark = pytest.mark.blender
+
+SLANT = math.radians(45.0)
+E_SLANT, E_DOWN = 3.0, 1.0
+PRIMER_SAMPLES, CYCLES_SAMPLES = 4, 64
+
+# Build the scene, render it with Primer and Cycles in three setups, report every pass. bpy's Python.
+SCRIPT = """
+import math, os, sys
+import bpy
+import numpy as np
+import OpenImageIO as oiio
+from blender_env import ROOT, diffuse_material, report
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+from render import configure_cycles_reference, load_primer
+primer = load_primer()
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 24, 16, 100
+world = bpy.data.worlds.new("World")
+scene.world = world
+mesh = bpy.data.meshes.new("Floor")
+mesh.from_pydata([(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)], [], [(0, 1, 2, 3)])
+floor = bpy.data.objects.new("Floor", mesh)
+floor.data.materials.append(diffuse_material("Floor", (0.8, 0.8, 0.8)))
+floor.is_shadow_catcher = True
+scene.collection.objects.link(floor)
+bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(0.0, 0.0, 2.0))
+bpy.context.object.data.materials.append(diffuse_material("Ball", (0.5, 0.5, 0.5)))
+for name, energy, tilt in (("Slant", {e_slant!r}, {slant!r}), ("Down", {e_down!r}, 0.0)):
+    sun = bpy.data.objects.new(name, bpy.data.lights.new(name, "SUN"))
+    sun.data.energy, sun.data.angle = energy, 0.0
+    sun.rotation_euler = (0.0, -tilt, 0.0)          # (light travelling towards +x, down)
+    scene.collection.objects.link(sun)
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+camera.location = (2.0, 0.0, 3.0)
+scene.collection.objects.link(camera)
+scene.camera = camera
+
+
+def passes(path):
+    inp = oiio.ImageInput.open(path)
+    found, index = {{}}, 0
+    while inp.seek_subimage(index, 0):
+        spec = inp.spec()
+        pixels = np.asarray(inp.read_image(index, 0, 0, spec.nchannels, "float")).reshape(spec.height, spec.width, -1)
+        for k, name in enumerate(spec.channelnames):
+            layer, _, channel = name.rpartition(".")
+            found.setdefault(layer.split(".")[-1], {{}})[channel] = pixels[..., k].tolist()
+        index += 1
+    inp.close()
+    return found
+
+
+def render(engine, tag):
+    path = os.path.abspath(tag + "_" + engine + ".exr")
+    if engine == "CYCLES":
+        configure_cycles_reference(scene, {cycles_samples!r})
+    else:
+        scene.render.engine = "PRIMER"
+        scene.primer.samples = {primer_samples!r}
+    scene.render.filepath, scene.render.use_file_extension = path, False
+    scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
+    settings = scene.render.image_settings          # (every pass: Blender 5.0 a media type, 4.2 a file format)
+    if hasattr(settings, "media_type"):
+        settings.media_type = "MULTI_LAYER_IMAGE"
+    else:
+        settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.color_depth = "32"
+    bpy.ops.render.render(write_still=True)
+    return passes(path)
+
+
+setups = {{"pass": (True, True, 0.0), "transparent": (False, True, 0.0), "opaque": (False, False, 0.25)}}
+out = {{}}
+for tag, (with_pass, transparent, grey) in setups.items():
+    scene.view_layers[0].cycles.use_pass_shadow_catcher = with_pass
+    scene.render.film_transparent = transparent
+    world.color = (grey, grey, grey)
+    if world.node_tree is not None:
+        world.node_tree.nodes["Background"].inputs["Color"].default_value = (grey, grey, grey, 1.0)
+    out[tag] = {{engine: render(engine, tag) for engine in ("PRIMER", "CYCLES")}}
+primer.unregister()
+report(out=out)
+"""
+
+
+def channels(layers: dict, name: str, keys: str) -> np.ndarray:
+    """The pass `name`'s channels `keys` (e.g. "RGBA") from an EXR's layers: (H, W, len(keys)) float64."""
+    layer = layers[name]
+    return np.stack([np.array(layer[key], np.float64) for key in keys], axis=-1)
+
+
+def inner(mask: np.ndarray) -> np.ndarray:
+    """The pixels of `mask` (H, W) bool whose eight neighbours are in it too (away from a shadow's edge, where the
+    renderers' samples land apart)."""
+    padded = np.pad(mask, 1, constant_values=True)
+    H, W = mask.shape
+    return np.all([padded[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+
+
+@pytest.fixture(scope="module")
+def renders(tmp_path_factory):
+    """Primer's and Cycles' EXR passes of the three setups."""
+    folder = tmp_path_factory.mktemp("shadow_catcher")
+    return run_bpy(SCRIPT.format(e_slant=E_SLANT, e_down=E_DOWN, slant=SLANT, cycles_samples=CYCLES_SAMPLES,
+                                 primer_samples=PRIMER_SAMPLES), str(folder))["out"]
+
+
+def test_the_shadow_catcher_pass_matches_cycles(renders):
+    """Outside the shadow both renderers write exactly 1 (the catcher's light equals its light with the ball); in the
+    slanted sun's shadow Primer writes the other sun's share E_down / (E_slant cos 45 + E_down), and Cycles' mean
+    there (its light tree picks one sun per sample, so its ratio is noisy) is within 6% of it. Combined is the
+    matte, clear everywhere, in both."""
+    share = E_DOWN / (E_SLANT * math.cos(SLANT) + E_DOWN)
+    primer = channels(renders["pass"]["PRIMER"], "Shadow Catcher", "RGB")
+    cycles = channels(renders["pass"]["CYCLES"], "Shadow Catcher", "RGB")
+    lit = inner((primer == 1.0).all(axis=-1))
+    inside = inner(np.isclose(primer, share, rtol=1e-5).all(axis=-1))
+    assert lit.sum() >= 100 and inside.sum() >= 20
+    np.testing.assert_allclose(cycles[lit], 1.0, atol=1e-4)
+    assert abs(cycles[inside].mean() / share - 1.0) < 0.06, (cycles[inside].mean(), share)
+    for engine in ("PRIMER", "CYCLES"):
+        np.testing.assert_allclose(channels(renders["pass"][engine], "Combined", "RGBA"), 0.0, atol=1e-6)
+
+
+def test_a_transparent_film_carries_the_shadow_in_its_alpha_as_in_cycles(renders):
+    """No Shadow Catcher pass, Film > Transparent (Cycles' approximate catcher): black everywhere, alpha 0 where no
+    shadow falls and the blocked sun's share in the shadow, in both; their mean alphas agree within 4%."""
+    blocked = E_SLANT * math.cos(SLANT) / (E_SLANT * math.cos(SLANT) + E_DOWN)
+    primer = channels(renders["transparent"]["PRIMER"], "Combined", "RGBA")
+    cycles = channels(renders["transparent"]["CYCLES"], "Combined", "RGBA")
+    np.testing.assert_allclose(primer[..., :3], 0.0, atol=1e-6)
+    np.testing.assert_allclose(cycles[..., :3], 0.0, atol=1e-6)
+    clear = inner(primer[..., 3] == 0.0)
+    shade = np.isclose(primer[..., 3], blocked, rtol=1e-5)
+    assert clear.sum() >= 100 and shade.sum() >= 20
+    np.testing.assert_allclose(cycles[clear][..., 3], 0.0, atol=1e-4)
+    assert abs(cycles[..., 3].mean() / primer[..., 3].mean() - 1.0) < 0.04
+
+
+def test_on_an_opaque_film_the_catcher_shows_the_world_darkened_by_the_shadow_as_in_cycles(renders):
+    """No pass, an opaque film and a grey world of 0.25 (which lights the floor too): Combined is the world seen
+    through the catcher times the pass's mean, alpha 1; Primer's and Cycles' agree within 3% in mean and in the
+    shadow, and the world shows unchanged (0.25) far from it."""
+    primer = channels(renders["opaque"]["PRIMER"], "Combined", "RGBA")
+    cycles = channels(renders["opaque"]["CYCLES"], "Combined", "RGBA")
+    np.testing.assert_allclose(primer[..., 3], 1.0)
+    np.testing.assert_allclose(cycles[..., 3], 1.0)
+    assert abs(cycles[..., :3].mean() / primer[..., :3].mean() - 1.0) < 0.03
+    dark = inner(primer[..., 0] < 0.2)
+    assert dark.sum() >= 20
+    assert abs(cycles[dark][..., :3].mean() / primer[dark][..., :3].mean() - 1.0) < 0.05
+    assert primer[..., :3].max() <= 0.25 + 1e-6 and (np.abs(primer[..., :3] - 0.25) < 0.01).any()

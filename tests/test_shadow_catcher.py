@@ -1,0 +1,232 @@
+"""Shadow catchers (Object > Visibility > Shadow Catcher, core/integrators/catcher.py), as Cycles shows them, on
+both kernels: the Shadow Catcher pass is the catcher's light with the other objects over its light without them
+(1 outside shadows, the unblocked lights' share inside), and Combined shows only what the objects do to the
+catcher: nothing where nothing shadows it (transparent on a transparent film, the world on an opaque one), the
+shadow in the alpha."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from core import materials, render
+from core.camera import Camera
+from core.geometry import primitives
+from core.lights import AreaLight, SunLight
+from core.lights.world import World
+from core.scene import RenderSettings, Scene
+
+KERNELS = ["numpy", "compiled"]
+SLANT = math.radians(45.0)
+E_SLANT, E_DOWN = 3.0, 1.0               # the suns' irradiance at normal incidence, W/m^2
+
+
+def looking_down(distance: float = 8.0, x: float = 0.0) -> Camera:
+    """A camera `distance` above (x, 0, 0), looking straight down -Z."""
+    return Camera(lens=35.0, matrix_world=np.array([[1, 0, 0, x], [0, 1, 0, 0], [0, 0, 1, distance], [0, 0, 0, 1.0]]))
+
+
+def ball_over_catcher(world: float = 0.0, catcher: bool = True) -> Scene:
+    """A grey catcher floor (albedo 0.5), a ball of radius 0.5 two metres above it, lit by a sun 45 degrees from the
+    zenith (3 W/m^2, the ball's shadow 2 m along +x) and one straight down (1 W/m^2, its shadow under the ball). The
+    camera, 3 m above the slanted sun's shadow, sees the floor alone."""
+    scene = Scene(camera=looking_down(3.0, x=2.0), world=World(color=np.full(3, world)))
+    scene.add_material((0.5, 0.5, 0.5))
+    scene.add_mesh(primitives.plane(40.0), materials=np.array([0]))
+    scene.add_mesh(primitives.uv_sphere(0.5, center=(0.0, 0.0, 2.0)), materials=np.array([0]))
+    scene.instances[0].is_shadow_catcher = catcher
+    scene.lights.append(SunLight(np.array([math.sin(SLANT), 0.0, -math.cos(SLANT)]), strength=E_SLANT))
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=E_DOWN))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_the_shadow_catcher_pass_is_one_in_light_and_the_other_suns_share_in_shadow(kernels, integrator):
+    """Where the slanted sun's shadow falls on the catcher, the pass is the straight-down sun's share of the light,
+    E_down / (E_slant cos 45 + E_down), to float rounding; wherever no shadow falls it is exactly 1; between the two
+    only at the shadow's edge (pixels partly in it)."""
+    share = E_DOWN / (E_SLANT * math.cos(SLANT) + E_DOWN)
+    settings = RenderSettings(width=32, height=32, samples=4, kernels=kernels, integrator=integrator, max_bounces=0,
+                              shadow_catcher_pass=True)
+    result = render.render(ball_over_catcher(), settings)
+    shadow = result.aux["shadow_catcher"]
+    assert shadow.shape == (32, 32, 3)
+    inside = np.isclose(shadow, share, rtol=1e-6).all(axis=-1)
+    lit = (shadow == 1.0).all(axis=-1)
+    assert inside.sum() >= 20 and lit.sum() >= 500
+    assert (shadow >= share - 1e-6).all() and (shadow <= 1.0 + 1e-6).all()
+    assert (inside | lit).sum() >= 0.9 * 32 * 32
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_on_a_transparent_film_the_catcher_is_clear_but_for_its_shadow_in_the_alpha(kernels):
+    """Film > Transparent, no Shadow Catcher pass (Cycles' approximate catcher): where nothing shadows the catcher the
+    pixel is (0, 0, 0, 0); in the slanted sun's shadow it is black with alpha 1 - the pass, the blocked sun's share
+    E_slant cos 45 / (E_slant cos 45 + E_down); with the pass written, Combined is the matte, clear everywhere."""
+    blocked = E_SLANT * math.cos(SLANT) / (E_SLANT * math.cos(SLANT) + E_DOWN)
+    settings = RenderSettings(width=32, height=32, samples=4, kernels=kernels, transparent_background=True)
+    image = render.render(ball_over_catcher(), settings).image
+    np.testing.assert_array_equal(image[..., :3], 0.0)
+    clear = image[..., 3] == 0.0
+    shade = np.isclose(image[..., 3], blocked, rtol=1e-6)
+    assert clear.sum() >= 500 and shade.sum() >= 20
+    matte = render.render(ball_over_catcher(), RenderSettings(width=32, height=32, samples=4, kernels=kernels,
+                                                               transparent_background=True,
+                                                               shadow_catcher_pass=True)).image
+    np.testing.assert_array_equal(matte, 0.0)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_catcher_with_nothing_over_it_is_invisible(kernels):
+    """A catcher floor alone under a sun and a grey world, path traced: on an opaque film every pixel is the world
+    seen through it (0.3, alpha 1), as if the floor were not there; on a transparent film every pixel is clear."""
+    scene = Scene(camera=looking_down(6.0), world=World(color=np.full(3, 0.3)))
+    scene.add_material((0.8, 0.8, 0.8))
+    scene.add_mesh(primitives.plane(40.0), materials=np.array([0]))
+    scene.instances[0].is_shadow_catcher = True
+    scene.lights.append(SunLight(np.array([0.0, 0.6, -0.8]), strength=2.0))
+    settings = RenderSettings(width=16, height=16, samples=4, kernels=kernels, integrator="path", max_bounces=2)
+    opaque = render.render(scene, settings).image
+    np.testing.assert_allclose(opaque[..., :3], 0.3, rtol=1e-6)
+    np.testing.assert_array_equal(opaque[..., 3], 1.0)
+    clear = render.render(scene, RenderSettings(width=16, height=16, samples=4, kernels=kernels, integrator="path",
+                                                max_bounces=2, transparent_background=True)).image
+    np.testing.assert_allclose(clear, 0.0, atol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_objects_other_than_the_catcher_render_as_without_it(kernels):
+    """The ball's own pixels in Combined are those of the same scene with an ordinary floor (the catcher is only a
+    hole where the camera sees it), exactly: the matte holds the ball's samples as the render made them."""
+    settings = RenderSettings(width=32, height=32, samples=4, kernels=kernels, integrator="path", max_bounces=2,
+                              shadow_catcher_pass=True)
+    scene = ball_over_catcher(world=0.2)
+    scene.camera = looking_down(6.0)
+    caught = render.render(scene, settings).image
+    scene.instances[0].is_shadow_catcher = False
+    plain = render.render(scene, settings).image
+    ball = caught[..., 3] == 1.0
+    assert ball.sum() >= 20
+    np.testing.assert_array_equal(caught[ball], plain[ball])
+
+
+def glowing_quad_over_catcher() -> Scene:
+    """A catcher floor lit only by a glowing quad above it that is no catcher."""
+    scene = Scene(camera=looking_down(6.0))
+    scene.materials += [materials.Material(name="floor", nodes=[("DIFFUSE", (0.5,) * 3, {})]),
+                        materials.Material(name="lamp", nodes=[("EMISSION", (1, 1, 1), {"emission": (8.0,) * 3})])]
+    scene.add_mesh(primitives.plane(20.0), materials=np.array([0]))
+    lamp = np.array([[1, 0, 0, 2.5], [0, -1, 0, 0], [0, 0, -1, 1.5], [0, 0, 0, 1.0]])     # facing down, 1.5 up
+    scene.add_mesh(primitives.plane(1.0), lamp, materials=np.array([1]))
+    scene.instances[0].is_shadow_catcher = True
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_an_emitter_that_is_no_catcher_does_not_light_the_catcher_only_scene(kernels):
+    """The floor lit by a glowing quad that is no catcher: in the catcher-only scene it has no light at all (Cycles
+    leaves such emitters out of the catcher's paths), so the pass is 1 (Cycles' division by 0) everywhere."""
+    settings = RenderSettings(width=16, height=16, samples=4, kernels=kernels, integrator="path", max_bounces=1,
+                              shadow_catcher_pass=True)
+    result = render.render(glowing_quad_over_catcher(), settings)
+    np.testing.assert_array_equal(result.aux["shadow_catcher"], 1.0)
+
+
+def test_without_a_catcher_the_pass_is_one_and_combined_unchanged():
+    """No catcher in the scene: the Shadow Catcher pass is 1 everywhere and Combined is the ordinary render."""
+    settings = RenderSettings(width=16, height=16, samples=2, kernels="numpy")
+    plain = render.render(ball_over_catcher(catcher=False), settings)
+    asked = render.render(ball_over_catcher(catcher=False), RenderSettings(width=16, height=16, samples=2,
+                                                                           kernels="numpy", shadow_catcher_pass=True))
+    np.testing.assert_array_equal(asked.aux["shadow_catcher"], 1.0)
+    np.testing.assert_array_equal(asked.image, plain.image)
+
+
+@pytest.mark.parametrize("transparent", [False, True])
+@pytest.mark.parametrize("with_pass", [False, True])
+def test_the_kernels_agree_on_the_catchers_images(transparent, with_pass):
+    """A path-traced catcher under a ball, a sun, a grey world and a glowing quad that is no catcher: the compiled
+    kernel's Combined, Shadow Catcher pass, light passes and light groups are the reference's, within a few float32
+    ulps."""
+    scene = ball_over_catcher(world=0.2)
+    lamp = np.array([[1, 0, 0, 3.0], [0, -1, 0, 1.0], [0, 0, -1, 1.0], [0, 0, 0, 1.0]])
+    scene.materials.append(materials.Material(name="lamp", nodes=[("EMISSION", (1, 1, 1), {"emission": (4.0,) * 3})]))
+    scene.add_mesh(primitives.plane(0.5), lamp, materials=np.array([1]))
+    scene.lightgroups = {"lights": ["S", ""], "instances": ["", "", "S"], "world": "W"}
+    images = {}
+    for kernels in KERNELS:
+        settings = RenderSettings(width=24, height=24, samples=4, kernels=kernels, integrator="path", max_bounces=3,
+                                  transparent_background=transparent, shadow_catcher_pass=with_pass,
+                                  passes=("diffuse_direct", "diffuse_indirect"), light_groups=("S", "W"))
+        result = render.render(scene, settings)
+        assert result.stats.kernels.startswith(kernels)
+        images[kernels] = result
+    numpy, compiled = images["numpy"], images["compiled"]
+    np.testing.assert_allclose(compiled.image, numpy.image, rtol=1e-5, atol=4e-6)
+    names = ["diffuse_direct", "diffuse_indirect", "lightgroup:S", "lightgroup:W"] + (["shadow_catcher"] * with_pass)
+    for name in names:
+        np.testing.assert_allclose(compiled.aux[name], numpy.aux[name], rtol=1e-5, atol=4e-6, err_msg=name)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_lamp_the_camera_sees_in_front_of_the_catcher_stays_in_combined(kernels):
+    """An area lamp facing the camera above the sunlit catcher floor (it lights nothing below it): on a transparent
+    film its pixels keep its radiance, alpha 0, exactly as where the floor is not seen at all (Cycles writes what the
+    camera sees before a catcher to the matte), and the pass is the one without the lamp, pixel for pixel (within the
+    float32 rounding of Combined, from which the lamp's light is taken away again)."""
+    def scene(hide_floor: bool = False, lamp: bool = True) -> Scene:
+        s = ball_over_catcher()
+        s.instances[0].visible_camera = not hide_floor
+        if lamp:
+            s.lights.append(AreaLight(center=np.array([2.0, 0.3, 1.5]), axis_u=np.array([0.6, 0.0, 0.0]),
+                                      axis_v=np.array([0.0, 0.6, 0.0]), direction=np.array([0.0, 0.0, 1.0]),
+                                      power=20.0))
+        return s
+    settings = RenderSettings(width=24, height=24, samples=4, kernels=kernels, transparent_background=True,
+                              shadow_catcher_pass=True)
+    caught = render.render(scene(), settings)
+    bare = render.render(scene(hide_floor=True), settings)
+    lamp = (bare.image[..., :3] > 0.0).all(axis=-1)
+    assert lamp.sum() >= 9
+    np.testing.assert_allclose(caught.image[lamp], bare.image[lamp], rtol=1e-6)
+    assert (caught.image[lamp][..., 3] == 0.0).all()
+    unlit = render.render(scene(lamp=False), settings)
+    np.testing.assert_allclose(caught.aux["shadow_catcher"], unlit.aux["shadow_catcher"], atol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_path_that_meets_a_catcher_writes_no_light_pass_and_no_light_group(kernels):
+    """As Cycles (film_write_direct_light, film_write_emission_or_background_pass): where the camera sees the catcher,
+    Diffuse Direct and the suns' light group are 0, while Combined's catcher light (the Shadow Catcher pass's
+    numerator) is there; the ball, no catcher, keeps both, as without the catcher."""
+    scene = ball_over_catcher()
+    scene.camera = looking_down(6.0)
+    scene.lightgroups = {"lights": ["S", "S"], "instances": ["", ""], "world": ""}
+    settings = RenderSettings(width=24, height=24, samples=2, kernels=kernels, passes=("diffuse_direct",),
+                              light_groups=("S",), shadow_catcher_pass=True)
+    caught = render.render(scene, settings)
+    scene.instances[0].is_shadow_catcher = False
+    plain = render.render(scene, settings)
+    floor = caught.image[..., 3] == 0.0                   # (the matte's hole: all samples on the catcher)
+    ball = caught.image[..., 3] == 1.0
+    assert floor.sum() >= 100 and ball.sum() >= 9
+    assert (plain.aux["diffuse_direct"][floor] > 0.0).all()
+    np.testing.assert_array_equal(caught.aux["diffuse_direct"][floor], 0.0)
+    np.testing.assert_array_equal(caught.aux["lightgroup:S"][floor], 0.0)
+    np.testing.assert_array_equal(caught.aux["diffuse_direct"][ball], plain.aux["diffuse_direct"][ball])
+    np.testing.assert_array_equal(caught.aux["lightgroup:S"][ball], plain.aux["lightgroup:S"][ball])
+
+
+def test_a_catcher_seen_through_a_transparent_pane_is_said_to_render_as_an_ordinary_object():
+    """A Transparent pane between the camera and the catcher floor: the floor renders as an ordinary object behind it
+    (Combined the render without any catcher there), and the render says so once."""
+    scene = ball_over_catcher()
+    scene.materials.append(materials.Material(name="pane", nodes=[("TRANSPARENT", (0.5,) * 3, {})]))
+    scene.add_mesh(primitives.plane(8.0, center=(2.0, 0.0, 2.5)), materials=np.array([len(scene.materials) - 1]))
+    settings = RenderSettings(width=16, height=16, samples=2, kernels="numpy")
+    caught = render.render(scene, settings)
+    assert sum("seen through a Transparent surface" in w for w in caught.stats.warnings) == 1
+    scene.instances[0].is_shadow_catcher = False
+    np.testing.assert_allclose(caught.image, render.render(scene, settings).image, rtol=1e-6)
