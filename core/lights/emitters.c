@@ -87,12 +87,12 @@ INLINE double light_tree_branch_left(const EmitterTables *e, const double *node,
     return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
 }
 
-/* LightTree.pick: the emitter the walk down the tree from P (normal N) with x in [0, 1) reaches, and
- * its probability. */
-INLINE int64_t emitter_pick(const EmitterTables *e, const double *P, const double *N, double x, double *probability)
+/* LightTree.pick: the emitter the walk down the tree from P (normal N) with *u in [0, 1) reaches, and
+ * its probability; *u becomes the number rescaled to [0, 1) within the emitter's share, for reuse. */
+INLINE int64_t emitter_pick(const EmitterTables *e, const double *P, const double *N, double *u, double *probability)
 {
     const double *node = e->nodes;
-    double p = 1.0;
+    double p = 1.0, x = *u;
     while (node[TREE_RIGHT] >= 0.0) {
         double p_left = light_tree_branch_left(e, node, P, N);
         if (x < p_left) {
@@ -108,6 +108,7 @@ INLINE int64_t emitter_pick(const EmitterTables *e, const double *P, const doubl
         x = x > 1.0 - 0x1p-53 ? 1.0 - 0x1p-53 : x;
     }
     *probability = p;
+    *u = x;
     return -1 - (int64_t)node[TREE_LEFT];
 }
 
@@ -239,13 +240,13 @@ INLINE int emitter_spherical(const double *V, double height, double area)
     return longest > delta * delta;
 }
 
-/* MeshEmitters.sample for one point with normal N (NULL or zero: unknown): u (3,) the unit-square point
- * and the pick. */
-INLINE void sample_emitters(const EmitterTables *e, const double *P, const double *N, const double *u,
+/* MeshEmitters.sample for one point with normal N (NULL or zero: unknown): u (2,) the unit-square point,
+ * whose first number also picks the triangle. */
+INLINE void sample_emitters(const EmitterTables *e, const double *P, const double *N, const double *u_in,
                             LightSample *out)
 {
-    double pick;
-    int64_t i = emitter_pick(e, P, N != NULL ? N : UNKNOWN_NORMAL, u[2], &pick);
+    double pick, u[2] = {u_in[0], u_in[1]};
+    int64_t i = emitter_pick(e, P, N != NULL ? N : UNKNOWN_NORMAL, &u[0], &pick);
     const double *V = e->corners + 9 * i, *normal = e->normal + 3 * i;
     double area = e->area[i];
     double to_V[3] = {V[0] - P[0], V[1] - P[1], V[2] - P[2]};
@@ -314,8 +315,10 @@ INLINE int64_t emitter_of_prim(const EmitterTables *e, int64_t prim)
  * probability (n,) float64. */
 static void emitter_pick_rows(const EmitterPickArgs *a)
 {
-    for (int64_t k = 0; k < a->n; k++)
-        a->index[k] = emitter_pick(a->emitters, a->points + 3 * k, a->normals + 3 * k, a->u[k], a->probability + k);
+    for (int64_t k = 0; k < a->n; k++) {
+        double u = a->u[k];
+        a->index[k] = emitter_pick(a->emitters, a->points + 3 * k, a->normals + 3 * k, &u, a->probability + k);
+    }
 }
 
 /* LightTree.pick_probability over arrays (for the tests): points, normals (n, 3), index (n,) int64 ->

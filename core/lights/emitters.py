@@ -71,7 +71,7 @@ class MeshEmitters(Light):
 
     flags: ClassVar[LightFlags] = LightFlags.EMITTER
     blender_type: ClassVar[str] = "MESH"
-    random_numbers: ClassVar[int] = 3          # the direction's two, and a third that picks the triangle
+    random_numbers: ClassVar[int] = 2          # the direction's two; the first also picks the triangle
 
     @property
     def color(self) -> np.ndarray:
@@ -121,9 +121,13 @@ class MeshEmitters(Light):
 
     def sample(self, points: np.ndarray, u: np.ndarray, cone=None, N: Optional[np.ndarray] = None) -> LightSample:
         """One emissive triangle per point, chosen by the light tree from the point and its normal N (n, 3)
-        (zero rows or None: unknown) with u[:, 2], then a direction towards it (u[:, :2])."""
+        (zero rows or None: unknown) with u[:, 0], then a direction towards it from u[:, 0] rescaled within the
+        triangle's share and u[:, 1]: the unit-square points that pick one triangle stay stratified (Cycles draws a
+        third, jointly stratified Sobol dimension for the pick; a separate number would leave each triangle a
+        random subset of the points, and the noise falling only as 1/N)."""
         n = len(points)
-        index, pick = self.tree.pick(points, unknown_normals(points, N), u[:, 2])
+        index, pick, reused = self.tree.pick(points, unknown_normals(points, N), u[:, 0])
+        u = np.stack([reused, u[:, 1]], axis=1)
         V = self.corners[index]
         normal, area = self.normal[index], self.area[index]
         # 1. Which side the point sees, and whether that side is sampled.

@@ -158,8 +158,9 @@ class LightTree:
             by_power = E_left / (E_left + E_right)
         return np.where(total > 0.0, by_importance, by_power)
 
-    def pick(self, P: np.ndarray, N: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """One triangle per point, walking down with u (m,) in [0, 1): (index (m,) int64, probability (m,))."""
+    def pick(self, P: np.ndarray, N: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One triangle per point, walking down with u (m,) in [0, 1): (index (m,) int64, probability (m,), u
+        rescaled to [0, 1) within the triangle's share (m,), uniform again and free to reuse)."""
         m = len(P)
         node, u = np.zeros(m, np.int64), u.astype(np.float64).copy()
         probability = np.ones(m)
@@ -176,7 +177,7 @@ class LightTree:
                 x = np.where(goes_left, x / p_left, (x - p_left) / (1.0 - p_left))
             u[inner_rows] = np.minimum(np.maximum(x, 0.0), 1.0 - 2.0 ** -53)
             node[inner_rows] = np.where(goes_left, self.nodes[at, LEFT], self.nodes[at, RIGHT]).astype(np.int64)
-        return (-1 - self.nodes[node, LEFT]).astype(np.int64), probability
+        return (-1 - self.nodes[node, LEFT]).astype(np.int64), probability, u
 
     def pick_probability(self, P: np.ndarray, N: np.ndarray, index: np.ndarray) -> np.ndarray:
         """The probability that `pick` from P (m, 3), N (m, 3) chooses triangle `index` (m,) int64: (m,) float64,
