@@ -193,7 +193,8 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     double light_L[3] = {0.0, 0.0, 0.0};
     LightPath scatter = {PATH_VOLUME_SCATTER, bounce + 1, 0, 0, 0, 0};   /* (volume.scatter_paths) */
     FindingRay finding = {P, wi, hit, t, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
-                          instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, 0, &scatter, 0, sigma_t, emission, NULL};
+                          instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, 0, &scatter, 0, sigma_t, emission, NULL,
+                          inside};
     gather_light(ds, &finding, light_L, NULL);
     for (int c = 0; c < 3; c++) L[c] += light_L[c];
     if (!hit || ds->transmitter == NULL) return rays;

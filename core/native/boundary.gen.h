@@ -232,6 +232,32 @@
 #define HIDDEN_FROM_GLOSSY 8
 #define HIDDEN_FROM_TRANSMISSION 16
 #define HOLDOUT 32
+/* pieces a march cuts the diagonal of the media's box into (core.volumes.field) */
+#define STEPS_ACROSS 100
+/* the most pieces a march cuts one stretch of a ray into (core.volumes.field) */
+#define MAX_PIECES 256
+/* a volume input's row in VolumeField.inputs (core.volumes.field) */
+#define VOLUME_INPUT_COLOR 0
+#define VOLUME_INPUT_ABSORPTION_COLOR 1
+#define VOLUME_INPUT_EMISSION_COLOR 2
+#define VOLUME_INPUT_ABSORPTION 3
+#define VOLUME_INPUT_SCATTER 4
+#define VOLUME_INPUT_EMISSION 5
+#define VOLUME_INPUT_BLACKBODY_TINT 6
+#define VOLUME_INPUT_DENSITY 7
+#define VOLUME_INPUT_ANISOTROPY 8
+#define VOLUME_INPUT_EMISSION_STRENGTH 9
+#define VOLUME_INPUT_STRENGTH 10
+#define VOLUME_INPUT_BLACKBODY_INTENSITY 11
+#define VOLUME_INPUT_TEMPERATURE 12
+/* the volume inputs a closure reads (core.volumes.field) */
+#define VOLUME_INPUTS 13
+/* a volume closure's kind in VolumeField.kinds (core.volumes.field) */
+#define VOLUME_CLOSURE_ABSORPTION 0
+#define VOLUME_CLOSURE_SCATTER 1
+#define VOLUME_CLOSURE_PRINCIPLED_VOLUME 2
+#define VOLUME_CLOSURE_COEFFICIENTS 3
+#define VOLUME_CLOSURE_EMISSION 4
 /* the most volume materials the compiled kernel's volume stack holds (core.volumes.media) */
 #define MAX_MEDIA 16
 
@@ -346,6 +372,7 @@ typedef struct GraphTables GraphTables;
 typedef struct TextureTables TextureTables;
 typedef struct TextureLookupArgs TextureLookupArgs;
 typedef struct Sample2dArgs Sample2dArgs;
+typedef struct VolumeField VolumeField;
 typedef struct MediaTables MediaTables;
 
 /* The camera, prepared by core/camera/camera.py (`camera_record`). */
@@ -899,6 +926,25 @@ struct Sample2dArgs {
     double *out;                            /* (n, 2) */
 };
 
+/* A heterogeneous medium (core/volumes/field.py Field): its program and closures, for media.c's march. */
+struct VolumeField {
+    const GraphTables *graph;               /* its one program and the images it reads */
+    const VolumeField *next;                /* the render's next heterogeneous medium, or NULL */
+    int32_t column;                         /* its column of the MediaTables (how often a ray is in it: the volume stack's count there) */
+    int32_t closures;                       /* C: its Volume output's closures */
+    const int32_t *kinds;                   /* (C,) each closure's VOLUME_CLOSURE_* */
+    const double *weights;                  /* (C,) the Mix and Add Shaders' weight above each */
+    const double *inputs;                   /* (C, VOLUME_INPUTS, 5) each input's register (-1: its constant), width, constant (3) */
+    const double *factors;                  /* (f, 3) a linked Mix Shader factor: its closure, register, 1 (the factor) or 0 (1 - it) */
+    int32_t factor_count;                   /* f */
+    double matrix[12];                      /* world to object, 3 x 4 row by row */
+    double location[3];                     /* the texture space's location (Generated coordinates) */
+    double size[3];                         /* and its size */
+    double origin[3];                       /* the world point the render's camera-relative coordinates are relative to */
+    double linear[9];                       /* object to world's linear part, row by row (the program's object transform) */
+    double placement[3];                    /* object to world's location (the program's Object Info Location) */
+};
+
 /* The render's homogeneous media (core/volumes/media.py Media.tables), for media.c. */
 struct MediaTables {
     int64_t count;                          /* V: the volume materials (columns), at most MAX_MEDIA */
@@ -916,6 +962,10 @@ struct MediaTables {
     int32_t scatters;                       /* 1: some medium scatters (Media.scattering: paths gather single scattering, volume.c) */
     double low[3];                          /* the box of the triangles with a medium (camera rays starting inside it walk, camera_media) */
     double high[3];
+    const VolumeField *fields;              /* the heterogeneous media (field.py Field), chained; NULL: none */
+    double field_low[3];                    /* the box of all of them (where a march cuts pieces) */
+    double field_high[3];
+    double field_step;                      /* the march's longest piece (the smallest of their boxes' diagonals / STEPS_ACROSS) */
 };
 
 /* Each record's layout hash (core/native/schema.py Record.layout_hash), 0 for a name it does not know: what
@@ -955,7 +1005,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(9081307359214230946);
+    if (strcmp(name, "VolumeField") == 0) return UINT64_C(3152805627824551216);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(8317093212682373212);
     return 0;
 }
 
@@ -995,6 +1046,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "TextureTables") == 0) return (int64_t)sizeof(TextureTables);
     if (strcmp(name, "TextureLookupArgs") == 0) return (int64_t)sizeof(TextureLookupArgs);
     if (strcmp(name, "Sample2dArgs") == 0) return (int64_t)sizeof(Sample2dArgs);
+    if (strcmp(name, "VolumeField") == 0) return (int64_t)sizeof(VolumeField);
     if (strcmp(name, "MediaTables") == 0) return (int64_t)sizeof(MediaTables);
     return -1;
 }

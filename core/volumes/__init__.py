@@ -21,7 +21,8 @@ face, left through a back face: Cycles' volume stack, `Media.crossed`), or all s
 from .media import (ABSORPTION, Coefficients, Media, PrincipledVolume, VolumeAbsorption, VolumeClosure, VolumeFlags,
                     VolumeCoefficients, VolumeEmission, VolumeScatter, VOLUME_BY_BLENDER, VOLUME_BY_NAME, VOLUME_TYPES)
 from .phase import HenyeyGreenstein
+from .field import VolumeFieldRecord
 from .media import MAX_MEDIA, MediaTablesRecord, Stretch, emitted, transmittance
 
 __all__ = ["ABSORPTION", "Coefficients", "HenyeyGreenstein", "Media", "PrincipledVolume", "VolumeAbsorption", "VolumeClosure",
-           "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "MAX_MEDIA", "MediaTablesRecord", "Stretch", "emitted", "transmittance"]
+           "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "MAX_MEDIA", "MediaTablesRecord", "VolumeFieldRecord", "Stretch", "emitted", "transmittance"]

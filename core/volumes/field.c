@@ -1,0 +1,261 @@
+/* Heterogeneous media: core/volumes/field.py, one ray at a time.
+ *
+ * A heterogeneous medium's node graph (graph.c run_program) runs at points inside it (`field_at`: Field.at), and a
+ * ray's stretch through the media is cut into pieces (`march_of`: field.py March): piece 0 before the box of the
+ * heterogeneous media, at most MAX_PIECES pieces of at most field_step inside it (each with its midpoint's
+ * coefficients), the last after it. On those pieces the optical depth is piecewise linear: Beer-Lambert
+ * (`march_transmittance`) and the media's emission (`march_emitted`) hold piece by piece. The same constants
+ * (STEPS_ACROSS, MAX_PIECES) and the same sums as the Python, so the kernels agree to rounding. */
+
+/* The pieces of one ray O + s D over [0, t): `n` pieces (K + 2), their ends edges[0..n], each piece's extinction,
+ * scattering and emission (3) and anisotropy-weighted scattering, and the optical depth tau (3) at each end. */
+typedef struct {
+    int n;
+    double edges[MAX_PIECES + 3];
+    double sigma_t[MAX_PIECES + 2][3], sigma_s[MAX_PIECES + 2][3], emission[MAX_PIECES + 2][3];
+    double gs[MAX_PIECES + 2];
+    double tau[MAX_PIECES + 3][3];
+} March;
+
+/* Field.coordinates and the volume shading point Field.at runs its program at: the camera-relative point P (3) in
+ * world space, its Generated and Object coordinates, a volume-scatter path; info: room for OBJECT_INFO_WIDTH. */
+INLINE void field_point(const VolumeField *f, const double *P, double *info, ShadingPoint *sp)
+{
+    double world[3], local[3];
+    for (int c = 0; c < 3; c++) world[c] = P[c] + f->origin[c];
+    for (int r = 0; r < 3; r++)
+        local[r] = ((world[0] * f->matrix[4 * r] + world[1] * f->matrix[4 * r + 1]) + world[2] * f->matrix[4 * r + 2])
+                   + f->matrix[4 * r + 3];
+    sp->width = 6;
+    for (int k = 0; k < 6; k++) sp->attributes[k] = sp->d_du[k] = sp->d_dv[k] = 0.0;
+    for (int c = 0; c < 3; c++) {
+        sp->attributes[c] = (f->size[c] != 0.0 ? (local[c] - f->location[c]) / (2.0 * f->size[c]) : 0.0) + 0.5;
+        sp->attributes[3 + c] = local[c];
+        sp->N[c] = sp->Ng[c] = sp->I[c] = c == 2;
+        sp->dPdu[c] = c == 0;
+        sp->dPdv[c] = c == 1;
+        sp->P[c] = world[c];
+    }
+    for (int c = 0; c < 9; c++) sp->L[c] = f->linear[c];
+    for (int c = 0; c < OBJECT_INFO_WIDTH; c++) info[c] = c < 3 ? f->placement[c] : 0.0;
+    sp->info = info;
+    sp->info_width = 8;
+    sp->rays = NULL;                                    /* (a medium's graph traces nothing) */
+    sp->random = 0.0;
+    sp->side = 1.0;
+    LightPath path = {PATH_VOLUME_SCATTER, 0, 0, 0, 0, 0};
+    sp->path = path;
+    sp->u = sp->v = 0.0;
+    sp->t = 0.0;
+}
+
+/* One closure's input `row` (VOLUME_INPUT_*) at the point: its register's floats (a narrower register repeated),
+ * else its constant, into v (3). */
+INLINE void field_input(const VolumeField *f, int64_t k, int row, const double *reg, double *v)
+{
+    const double *in = f->inputs + 5 * (VOLUME_INPUTS * k + row);
+    int register_ = (int)in[0], width = (int)in[1];
+    for (int c = 0; c < 3; c++) v[c] = register_ < 0 ? in[2 + c] : reg[register_ + (c < width ? c : 0)];
+}
+
+/* HG's anisotropy as the closures clamp it: |g| <= 1 - 1e-3. */
+INLINE double clamp_anisotropy(double g)
+{
+    double limit = 1.0 - 1e-3, a = fabs(g) < limit ? fabs(g) : limit;
+    return g > 0.0 ? a : (g < 0.0 ? -a : 0.0);
+}
+
+/* Field.at at one camera-relative point P (3): the medium's sigma_a, sigma_s, emission (3) and gs (the closures'
+ * anisotropies times their scattering), each closure as field.closure_at (no black body: field.compiles). */
+static void field_at(const VolumeField *f, const double *P, double *sigma_a, double *sigma_s, double *emission,
+                     double *gs)
+{
+    ShadingPoint sp;
+    double info[OBJECT_INFO_WIDTH], reg[MAX_REGISTERS];
+    field_point(f, P, info, &sp);
+    run_program(f->graph, 0, &sp, reg);
+    for (int c = 0; c < 3; c++) sigma_a[c] = sigma_s[c] = emission[c] = 0.0;
+    *gs = 0.0;
+    for (int64_t k = 0; k < (int64_t)f->closures; k++) {
+        double w = f->weights[k], a[3] = {0.0, 0.0, 0.0}, s[3] = {0.0, 0.0, 0.0}, e[3] = {0.0, 0.0, 0.0}, g = 0.0;
+        double color[3], density[3], x[3], y[3];
+        int kind = f->kinds[k];
+        field_input(f, k, VOLUME_INPUT_COLOR, reg, color);
+        field_input(f, k, VOLUME_INPUT_DENSITY, reg, density);
+        double d = w * (density[0] > 0.0 ? density[0] : 0.0);
+        if (kind == VOLUME_CLOSURE_COEFFICIENTS) {
+            field_input(f, k, VOLUME_INPUT_ABSORPTION, reg, x);
+            field_input(f, k, VOLUME_INPUT_SCATTER, reg, y);
+            field_input(f, k, VOLUME_INPUT_EMISSION, reg, e);
+            for (int c = 0; c < 3; c++) { a[c] = w * x[c]; s[c] = w * y[c]; e[c] = w * e[c]; }
+            field_input(f, k, VOLUME_INPUT_ANISOTROPY, reg, x);
+            g = clamp_anisotropy(x[0]);
+        } else if (kind == VOLUME_CLOSURE_EMISSION) {
+            field_input(f, k, VOLUME_INPUT_STRENGTH, reg, x);
+            for (int c = 0; c < 3; c++) e[c] = (w * x[0]) * color[c];
+        } else if (kind == VOLUME_CLOSURE_ABSORPTION) {
+            for (int c = 0; c < 3; c++) a[c] = d * (1.0 - color[c]);
+        } else if (kind == VOLUME_CLOSURE_SCATTER) {
+            field_input(f, k, VOLUME_INPUT_ANISOTROPY, reg, x);
+            g = clamp_anisotropy(x[0]);
+            for (int c = 0; c < 3; c++) s[c] = d * color[c];
+        } else {                                        /* Principled Volume (svm_node_principled_volume) */
+            field_input(f, k, VOLUME_INPUT_ANISOTROPY, reg, x);
+            g = clamp_anisotropy(x[0]);
+            field_input(f, k, VOLUME_INPUT_ABSORPTION_COLOR, reg, x);
+            for (int c = 0; c < 3; c++) {
+                double absorption = sqrt(x[c] > 0.0 ? x[c] : 0.0);
+                s[c] = d > 0.0 ? color[c] * d : 0.0;
+                a[c] = d > 0.0 ? ((1.0 - color[c] > 0.0 ? 1.0 - color[c] : 0.0)
+                                  * (1.0 - absorption > 0.0 ? 1.0 - absorption : 0.0)) * d : 0.0;
+            }
+            field_input(f, k, VOLUME_INPUT_EMISSION_STRENGTH, reg, x);
+            field_input(f, k, VOLUME_INPUT_EMISSION_COLOR, reg, y);
+            for (int c = 0; c < 3; c++) e[c] = x[0] > 0.0 ? (w * x[0]) * y[c] : 0.0;
+        }
+        double share = 1.0;                             /* (linked Mix Shader factors above it) */
+        for (int64_t j = 0; j < (int64_t)f->factor_count; j++) {
+            const double *row = f->factors + 3 * j;
+            if ((int64_t)row[0] != k) continue;
+            double v = reg[(int)row[1]];
+            v = v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v);
+            share = share * (row[2] != 0.0 ? v : 1.0 - v);
+        }
+        double part = g * ((s[0] + s[1]) + s[2]);
+        for (int c = 0; c < 3; c++) {
+            sigma_a[c] += a[c] * share;
+            sigma_s[c] += s[c] * share;
+            emission[c] += e[c] * share;
+        }
+        *gs += part * share;
+    }
+}
+
+/* Whether a ray with the volume stack `stack` is in a heterogeneous medium (Stretch.varying). */
+INLINE int in_field(const MediaTables *media, const VolumeStack *stack)
+{
+    for (const VolumeField *f = media != NULL ? media->fields : NULL; f != NULL; f = f->next)
+        if (stack->count[f->column] > 0) return 1;
+    return 0;
+}
+
+/* field.py March for one ray O + s D (3 each) over [0, t) (inf: to the world) in the media `stack`, whose
+ * homogeneous part is sigma_t, sigma_s, emission (3) and g (Media.along), into m. */
+static void march_of(const MediaTables *media, const VolumeStack *stack, const double *O, const double *D, double t,
+                     const double *sigma_t, const double *sigma_s, const double *emission, double g, March *m)
+{
+    /* 1. Where the ray is in the media's box: [a, b) within [0, t). */
+    double near = -INFINITY, far = INFINITY;
+    for (int c = 0; c < 3; c++) {
+        double inverse = 1.0 / D[c];
+        double t0 = (media->field_low[c] - O[c]) * inverse, t1 = (media->field_high[c] - O[c]) * inverse;
+        double lo = t0 < t1 ? t0 : t1, hi = t0 > t1 ? t0 : t1;
+        lo = lo != lo ? -INFINITY : lo;
+        hi = hi != hi ? INFINITY : hi;
+        near = lo > near ? lo : near;
+        far = hi < far ? hi : far;
+    }
+    double a = near > 0.0 ? near : 0.0;
+    a = a < t ? a : t;
+    double b = far > a ? far : a;
+    b = b < t ? b : t;
+    b = isfinite(b) ? b : a;
+    /* 2. The pieces inside the box, their midpoints' coefficients (the homogeneous media's added). */
+    double pieces = ceil((b - a) / media->field_step);
+    pieces = pieces < 1.0 ? 1.0 : (pieces > (double)MAX_PIECES ? (double)MAX_PIECES : pieces);
+    pieces = pieces != pieces ? 1.0 : pieces;
+    int K = (int)pieces;
+    double length = (b - a) / pieces, gs_h = g * ((sigma_s[0] + sigma_s[1]) + sigma_s[2]);
+    m->n = K + 2;
+    m->edges[0] = 0.0;
+    for (int j = 0; j < K; j++) m->edges[1 + j] = a + length * (double)j;
+    m->edges[K + 1] = b;
+    m->edges[K + 2] = t;
+    for (int j = 0; j < K + 2; j++) {
+        double sa[3] = {0.0, 0.0, 0.0}, ss[3] = {0.0, 0.0, 0.0}, se[3] = {0.0, 0.0, 0.0}, sg = 0.0;
+        if (j >= 1 && j <= K && b > a) {
+            double mid = a + length * ((double)(j - 1) + 0.5), P[3];
+            for (int c = 0; c < 3; c++) P[c] = O[c] + mid * D[c];
+            for (const VolumeField *f = media->fields; f != NULL; f = f->next) {
+                double count = (double)stack->count[f->column], fa[3], fs[3], fe[3], fg;
+                if (!(count > 0.0)) continue;
+                field_at(f, P, fa, fs, fe, &fg);
+                for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; se[c] += count * fe[c]; }
+                sg += count * fg;
+            }
+        }
+        int inner = j >= 1 && j <= K;
+        for (int c = 0; c < 3; c++) {
+            m->sigma_t[j][c] = inner ? sigma_t[c] + (sa[c] + ss[c]) : sigma_t[c];
+            m->sigma_s[j][c] = inner ? sigma_s[c] + ss[c] : sigma_s[c];
+            m->emission[j][c] = inner ? emission[c] + se[c] : emission[c];
+        }
+        m->gs[j] = inner ? gs_h + sg : gs_h;
+    }
+    /* 3. The optical depth at each end. */
+    for (int c = 0; c < 3; c++) m->tau[0][c] = 0.0;
+    for (int j = 0; j < K + 2; j++) {
+        double width = m->edges[j + 1] - m->edges[j];
+        for (int c = 0; c < 3; c++)
+            m->tau[j + 1][c] = m->tau[j][c] + (m->sigma_t[j][c] > 0.0 ? m->sigma_t[j][c] * width : 0.0);
+    }
+}
+
+/* March.piece: the piece distance s lies in (the last one at or past the end). */
+INLINE int march_piece(const March *m, double s)
+{
+    int k = 0;
+    for (int j = 1; j < m->n; j++) k += m->edges[j] <= s;
+    return k < m->n - 1 ? k : m->n - 1;
+}
+
+/* March.transmittance: exp(-tau(s)) (3) at distance s along the ray (inf: to its end). */
+INLINE void march_transmittance(const March *m, double s, double *T)
+{
+    int k = march_piece(m, s);
+    for (int c = 0; c < 3; c++) {
+        double sigma = m->sigma_t[k][c];
+        T[c] = exp(-(m->tau[k][c] + (sigma > 0.0 ? sigma * (s - m->edges[k]) : 0.0)));
+    }
+}
+
+/* March.emitted: the light (3) the pieces' emission sends to the ray's start, added to out. */
+INLINE void march_emitted(const March *m, double *out)
+{
+    for (int c = 0; c < 3; c++) {
+        double sum = 0.0;
+        for (int j = 0; j < m->n; j++) {
+            double e = m->emission[j][c], sigma = m->sigma_t[j][c], width = m->edges[j + 1] - m->edges[j];
+            if (e == 0.0) continue;
+            double each = (sigma > 0.0 ? e * -expm1(-sigma * width) / sigma : e * width) * exp(-m->tau[j][c]);
+            sum += each != each ? 0.0 : each;
+        }
+        out[c] += sum;
+    }
+}
+
+/* What a stretch of a ray lets through: Beer-Lambert on its homogeneous extinction sigma_t (3), or its march where
+ * it has one (NULL: none) (Stretch.transmittance), over distance s, into T (3). */
+INLINE void stretch_transmittance(const March *m, const double *sigma_t, double s, double *T)
+{
+    if (m != NULL) march_transmittance(m, s, T);
+    else beer_lambert(sigma_t, s, T);
+}
+
+/* volumes.emitted for a stretch of length t: its homogeneous closed form, or its march's sum; added to out. */
+INLINE void stretch_emitted(const March *m, const double *sigma_t, const double *e, double t, double *out)
+{
+    if (m != NULL) march_emitted(m, out);
+    else add_media_emission(sigma_t, e, t, out);
+}
+
+/* The march of a ray O, D over [0, t) in the media `stack` with homogeneous part sigma_t, emission (3), into m where
+ * it is in a heterogeneous medium: m, else NULL (the homogeneous closed forms hold). */
+static const March *stretch_march(const MediaTables *media, const VolumeStack *stack, const double *O,
+                                  const double *D, double t, const double *sigma_t, const double *emission, March *m)
+{
+    if (media == NULL || media->fields == NULL || !in_field(media, stack)) return NULL;
+    double sigma_s[3] = {0.0, 0.0, 0.0}, g = 0.0;      /* (absorbing and emitting media: scattering falls back) */
+    march_of(media, stack, O, D, t, sigma_t, sigma_s, emission, g, m);
+    return m;
+}
