@@ -932,6 +932,7 @@ struct VolumeField {
     const VolumeField *next;                /* the render's next heterogeneous medium, or NULL */
     int32_t column;                         /* its column of the MediaTables (how often a ray is in it: the volume stack's count there) */
     int32_t closures;                       /* C: its Volume output's closures */
+    int32_t scatters;                       /* 1: some closure of it may scatter (Field.scatters) */
     const int32_t *kinds;                   /* (C,) each closure's VOLUME_CLOSURE_* */
     const double *weights;                  /* (C,) the Mix and Add Shaders' weight above each */
     const double *inputs;                   /* (C, VOLUME_INPUTS, 5) each input's register (-1: its constant), width, constant (3) */
@@ -1005,7 +1006,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "VolumeField") == 0) return UINT64_C(3152805627824551216);
+    if (strcmp(name, "VolumeField") == 0) return UINT64_C(3062569251802433246);
     if (strcmp(name, "MediaTables") == 0) return UINT64_C(8317093212682373212);
     return 0;
 }

@@ -255,7 +255,79 @@ static const March *stretch_march(const MediaTables *media, const VolumeStack *s
                                   const double *D, double t, const double *sigma_t, const double *emission, March *m)
 {
     if (media == NULL || media->fields == NULL || !in_field(media, stack)) return NULL;
-    double sigma_s[3] = {0.0, 0.0, 0.0}, g = 0.0;      /* (absorbing and emitting media: scattering falls back) */
+    double sigma_s[3], g;
+    medium_scattering(media, stack, sigma_s, &g);
     march_of(media, stack, O, D, t, sigma_t, sigma_s, emission, g, m);
     return m;
+}
+
+/* March.depth: the optical depth tau (3) from the ray's start to distance s. */
+INLINE void march_depth(const March *m, double s, double *tau)
+{
+    int k = march_piece(m, s);
+    for (int c = 0; c < 3; c++) {
+        double sigma = m->sigma_t[k][c];
+        tau[c] = m->tau[k][c] + (sigma > 0.0 ? sigma * (s - m->edges[k]) : 0.0);
+    }
+}
+
+/* March.at: the extinction and scattering (3) of the piece at distance s, its anisotropy returned. */
+INLINE double march_at(const March *m, double s, double *sigma_t, double *sigma_s)
+{
+    int k = march_piece(m, s);
+    for (int c = 0; c < 3; c++) { sigma_t[c] = m->sigma_t[k][c]; sigma_s[c] = m->sigma_s[k][c]; }
+    double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
+    return total > 0.0 ? m->gs[k] / total : 0.0;
+}
+
+/* March.totals: the optical depths of extinction and of scattering (3 each) over the finite pieces. */
+INLINE void march_totals(const March *m, double *tau_t, double *tau_s)
+{
+    for (int c = 0; c < 3; c++) tau_t[c] = tau_s[c] = 0.0;
+    for (int j = 0; j < m->n; j++) {
+        double width = m->edges[j + 1] - m->edges[j];
+        width = isfinite(width) ? width : 0.0;
+        for (int c = 0; c < 3; c++) { tau_t[c] += m->sigma_t[j][c] * width; tau_s[c] += m->sigma_s[j][c] * width; }
+    }
+}
+
+/* March.pdf: the density of free flight (channels by odds (3)) choosing distance s, truncated at the ray's end. */
+INLINE double march_pdf(const March *m, const double *odds, double s)
+{
+    double sigma[3], scattering[3], tau[3], each[3];
+    march_at(m, s, sigma, scattering);
+    march_depth(m, s, tau);
+    for (int c = 0; c < 3; c++) {
+        double reach = -expm1(-m->tau[m->n][c]);
+        each[c] = odds[c] > 0.0 && reach > 0.0 ? odds[c] * sigma[c] * exp(-tau[c]) / reach : 0.0;
+    }
+    return (each[0] + each[1]) + each[2];
+}
+
+/* March.free_flight: a distance by numbers u (2) (u[1] the channel by odds (3), u[0] inverting that channel's
+ * optical depth truncated at the end) into *s; its pdf returned (0: none, *s 0). */
+INLINE double march_free_flight(const March *m, const double *odds, const double *u, double *s)
+{
+    int channel = (u[1] >= odds[0]) + (u[1] >= odds[0] + odds[1]) + (u[1] >= (odds[0] + odds[1]) + odds[2]);
+    channel = channel > 2 ? 2 : channel;
+    double end = m->tau[m->n][channel], target = -log1p(-u[0] * -expm1(-end));
+    int k = 0;
+    for (int j = 1; j <= m->n; j++) k += m->tau[j][channel] <= target;
+    k = k < m->n - 1 ? k : m->n - 1;
+    double sigma = m->sigma_t[k][channel];
+    double x = m->edges[k] + (sigma > 0.0 ? (target - m->tau[k][channel]) / sigma : 0.0);
+    x = x < m->edges[m->n] ? x : m->edges[m->n];
+    double pdf = march_pdf(m, odds, x);
+    int ok = ((odds[0] + odds[1]) + odds[2]) > 0.0 && end > 0.0 && isfinite(x) && pdf > 0.0;
+    *s = ok ? x : 0.0;
+    return ok ? pdf : 0.0;
+}
+
+/* Stretch.scatters for one ray: whether its media scatter (or may: a heterogeneous one that scatters). */
+INLINE int stretch_scatters(const MediaTables *media, const VolumeStack *stack, const double *sigma_s)
+{
+    if (sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0) return 1;
+    for (const VolumeField *f = media->fields; f != NULL; f = f->next)
+        if (f->scatters != 0 && stack->count[f->column] > 0) return 1;
+    return 0;
 }

@@ -446,7 +446,7 @@ def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRec
     kinds, weights, table, factors = inputs_table(field)
     return VolumeFieldRecord(
         graph=graph_.program_tables([field.program], field.textures), next=following, column=int(column),
-        closures=len(kinds), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
+        closures=len(kinds), scatters=int(field.scatters), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
         factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
         matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
         linear=field.linear.reshape(-1), placement=field.placement)
@@ -457,6 +457,7 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("next", ptr("VolumeField"), "the render's next heterogeneous medium, or NULL"),
     ("column", I32, "its column of the MediaTables (how often a ray is in it: the volume stack's count there)"),
     ("closures", I32, "C: its Volume output's closures"),
+    ("scatters", I32, "1: some closure of it may scatter (Field.scatters)"),
     ("kinds", ptr(I32), "(C,) each closure's VOLUME_CLOSURE_*"),
     ("weights", ptr(F64), "(C,) the Mix and Add Shaders' weight above each"),
     ("inputs", ptr(F64), "(C, VOLUME_INPUTS, 5) each input's register (-1: its constant), width, constant (3)"),
