@@ -911,11 +911,10 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     const LightContext *ctx = ds->context;
     const double *sigma = ray->sigma;
     /* The media's emission along the ray up to its hit (no light sample finds it: not weighed); a heterogeneous
-     * medium's by its march (field.c), which what the media let through below reads too. */
-    March march;
-    const March *marched = sigma != NULL && ray->inside != NULL
-        ? stretch_march(ds->media, ray->inside, O, D, hit ? t_limit : INFINITY, sigma, ray->emission, &march) : NULL;
-    if (sigma != NULL) stretch_emitted(marched, sigma, ray->emission, hit ? t_limit : INFINITY, light_L);
+     * medium's by its march (field.c), built once where something asks for it (what the media let through below). */
+    LazyMarch lazy = {ds->media, ray->inside, O, D, hit ? t_limit : INFINITY, sigma, ray->emission, 0, {0}};
+    if (sigma != NULL && ds->media != NULL && ds->media->emits != 0)
+        stretch_emitted(lazy_march(&lazy), sigma, ray->emission, hit ? t_limit : INFINITY, light_L);
     int away = P != NULL && (P[0] != O[0] || P[1] != O[1] || P[2] != O[2]);
     double t_mis = t_limit, t_start = 0.0;      /* from P: how far the ray's end (inf: none) and its start O are */
     if (away) {
@@ -951,7 +950,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         } else if (!light_hit(light, O, D, t_limit, &lh)) continue;
         if (sigma != NULL) {                            /* (what the media let through from the lamp) */
             double kept[3];
-            stretch_transmittance(marched, sigma, away ? lh.t - t_start : lh.t, kept);
+            stretch_transmittance(lazy_march(&lazy), sigma, away ? lh.t - t_start : lh.t, kept);
             for (int c = 0; c < 3; c++) lh.radiance[c] *= kept[c];
         }
         double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
@@ -978,7 +977,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         double through[3];
         if (sigma != NULL) {                            /* (what the media let through from the surface) */
             double kept[3];
-            stretch_transmittance(marched, sigma, t_limit, kept);
+            stretch_transmittance(lazy_march(&lazy), sigma, t_limit, kept);
             for (int c = 0; c < 3; c++) through[c] = emitted[c] * kept[c];
             emitted = through;
         }
@@ -993,7 +992,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         world_seen(ctx->world, D, ray->path, L_world);     /* (a camera path's: the world's graph per ray) */
         if (sigma != NULL) {                            /* (an escaping ray through a medium keeps exp(-sigma inf)) */
             double kept[3];
-            stretch_transmittance(marched, sigma, INFINITY, kept);
+            stretch_transmittance(lazy_march(&lazy), sigma, INFINITY, kept);
             for (int c = 0; c < 3; c++) L_world[c] *= kept[c];
         }
         double w = 1.0;

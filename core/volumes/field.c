@@ -331,3 +331,24 @@ INLINE int stretch_scatters(const MediaTables *media, const VolumeStack *stack, 
         if (f->scatters != 0 && stack->count[f->column] > 0) return 1;
     return 0;
 }
+
+/* A stretch's march built where first asked for (lazy_march): the ray, its media and their homogeneous part. */
+typedef struct {
+    const MediaTables *media;
+    const VolumeStack *stack;            /* NULL: no media known (no march) */
+    const double *O, *D;
+    double t;
+    const double *sigma_t, *emission;
+    int built;                           /* 0: not yet asked, 1: marched, -1: homogeneous (no march) */
+    March march;
+} LazyMarch;
+
+/* The march of a LazyMarch's stretch (stretch_march), built on the first call; NULL where it needs none. */
+INLINE const March *lazy_march(LazyMarch *lazy)
+{
+    if (lazy->built == 0)
+        lazy->built = lazy->stack != NULL && lazy->sigma_t != NULL
+                      && stretch_march(lazy->media, lazy->stack, lazy->O, lazy->D, lazy->t, lazy->sigma_t,
+                                       lazy->emission, &lazy->march) != NULL ? 1 : -1;
+    return lazy->built > 0 ? &lazy->march : NULL;
+}
