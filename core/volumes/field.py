@@ -15,6 +15,9 @@ inverts tau exactly. The midpoint rule integrates a density linear along the ray
 order in the step. (Cycles 5.0 samples these media without bias by null scattering with a majorant from an octree;
 its mean is the exact integral, which the march approaches as the steps shrink: its Step Rate and Max Steps change
 Cycles' noise, not its mean.)
+
+The compiled twin is field.c: `field_record` packs a Field for it (its program, a table of each closure input's
+register or constant, its linked Mix Shader factors, its placement), and its march cuts the same pieces.
 """
 from __future__ import annotations
 
