@@ -253,13 +253,17 @@ def test_both_kernels_scatter_light_in_a_noise_fed_smoke_to_the_same_pixels(ligh
     assert_same_pixels(reference.image, compiled.image)
 
 
-def test_a_heterogeneous_black_body_renders_through_the_reference_and_says_so_once():
-    """A Principled Volume whose Blackbody Intensity is on and whose density is fed by nodes is not marched by the
-    compiled kernel (graph.c's black body clips its colour): the reference renders it, with one warning."""
-    _, density = noise_density()
+def test_both_kernels_march_a_black_body_whose_temperature_a_noise_sets_to_the_same_pixels():
+    """A Principled Volume glowing as a black body whose Temperature (800 to 2800 K, below and inside the fit's
+    ranges) and density a Noise Texture sets: the fit's unclipped colour (negative outside Rec.709) and
+    Stefan-Boltzmann's intensity per point, in both kernels alike."""
+    from core.materials.graph import GraphNode, Link
+    noise, density = noise_density()
+    kelvin = Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": noise, "1": 2000.0, "2": 800.0}), "Value")
     scene = room(looking())
     noise_box(scene, [("PRINCIPLED_VOLUME", 1.0, {"color": np.zeros(3), "density": density,
-                                                  "blackbody_intensity": 1.0, "temperature": 1500.0})])
-    result = render(scene, RenderSettings(width=4, height=4, samples=1, integrator="path"))
-    assert "black body" in result.stats.kernels
-    assert len([w for w in result.stats.warnings if "volumes" in w]) == 1
+                                                  "blackbody_intensity": 1.0, "temperature": kelvin,
+                                                  "blackbody_tint": np.array([1.0, 0.9, 0.8])})])
+    reference, compiled, stats = both(scene)
+    assert stats.kernels == "compiled" and not stats.warnings
+    assert_same_pixels(reference, compiled)

@@ -258,6 +258,8 @@
 #define VOLUME_CLOSURE_PRINCIPLED_VOLUME 2
 #define VOLUME_CLOSURE_COEFFICIENTS 3
 #define VOLUME_CLOSURE_EMISSION 4
+/* Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission) (core.volumes.media) */
+#define STEFAN_BOLTZMANN 1.8049357842496396e-14
 /* the most volume materials the compiled kernel's volume stack holds (core.volumes.media) */
 #define MAX_MEDIA 16
 

@@ -431,13 +431,8 @@ def inputs_table(field: "Field") -> tuple:
 
 
 def compiles(field: "Field") -> bool:
-    """Whether media.c evaluates the Field: none of its closures may glow as a black body (graph.c's Blackbody clips
-    the colour the Principled Volume's black body leaves unclipped)."""
+    """Whether field.c evaluates the Field: its program holds no world-only op (graph.c runs every other one)."""
     from ..materials import graph as graph_
-    for name, _, inputs in field.entries:
-        amount = inputs.get("blackbody_intensity", 0.0)
-        if name == "PRINCIPLED_VOLUME" and (isinstance(amount, graph_.Link) or np.any(np.asarray(amount) != 0.0)):
-            return False
     return not graph_.world_ops_of(field.program)
 
 

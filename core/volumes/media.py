@@ -141,7 +141,8 @@ class PrincipledVolume(VolumeClosure):
 
 # Stefan-Boltzmann's constant (W / (m^2 K^4)) over pi, scaled by 1e-6 as Cycles scales it (a radiance per unit length
 # that a flame of a few thousand kelvin keeps near 1).
-STEFAN_BOLTZMANN = 5.670373e-8 * 1e-6 / np.pi
+STEFAN_BOLTZMANN = schema.constant("STEFAN_BOLTZMANN", 5.670373e-8 * 1e-6 / np.pi,
+                                   "Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission)")
 
 
 def black_body(inputs: dict) -> np.ndarray:
