@@ -201,3 +201,69 @@ def test_more_media_than_the_compiled_stack_holds_render_through_the_reference_a
     result = render(scene, settings)
     assert "volume stack" in result.stats.kernels
     assert len([w for w in result.stats.warnings if "volumes" in w]) == 1
+
+
+def noise_density(scale: float = 3.0):
+    """A graph: `scale` x a Noise Texture (Scale 2) of the point's object coordinates (a heterogeneous density)."""
+    from core.materials.graph import GraphNode, Link
+    noise = Link(GraphNode("TEX_NOISE", {}, {"Vector": Link(GraphNode("TEXCOORD"), "Object"), "Scale": 2.0}), "Fac")
+    return noise, Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": noise, "1": scale}), "Value")
+
+
+def noise_box(scene: Scene, entries: list) -> None:
+    """A volume-only box standing on the floor whose Volume is the closures `entries` (fed by nodes)."""
+    scene.materials.append(Material(np.zeros(3), "Cloud", nodes=[("TRANSPARENT", np.ones(3), {})], volume=entries,
+                                    volume_only=True))
+    scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)), materials=np.array([len(scene.materials) - 1]))
+
+
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_both_kernels_march_a_noise_fed_absorbing_and_glowing_box_to_the_same_pixels(integrator):
+    """A box whose absorption density and emission strength a Noise Texture sets (core/volumes/field.c: its graph run
+    at each piece's midpoint), beside a Glass ball holding a medium, under the room's lamps: camera rays, shadow rays,
+    BSDF rays and bounces marched through it in both kernels."""
+    noise, density = noise_density()
+    scene = room(looking())
+    noise_box(scene, [("ABSORPTION", 1.0, {"color": COLOR, "density": density}),
+                      ("EMISSION", 1.0, {"strength": noise, "color": np.array([1.0, 0.4, 0.1])})])
+    glass_ball(scene)
+    reference, compiled, stats = both(scene, integrator=integrator)
+    assert stats.kernels == "compiled" and not stats.warnings
+    assert_same_pixels(reference, compiled)
+
+
+@pytest.mark.parametrize("light_sampling", ["mis", "light", "bsdf"])
+def test_both_kernels_scatter_light_in_a_noise_fed_smoke_to_the_same_pixels(light_sampling):
+    """A Principled Volume smoke whose density (and glow) a Noise Texture sets, under an area lamp, a point lamp and
+    a sun: free flight inverting the march's optical depth, equi-angular points weighed by the march's density, phase
+    rays and shadow rays marched; the same shadow rays traced."""
+    noise, density = noise_density()
+    scene = room(looking())
+    noise_box(scene, [("PRINCIPLED_VOLUME", 1.0, {"color": np.array([0.6, 0.7, 0.8]), "density": density,
+                                                  "anisotropy": 0.3, "emission_strength": noise,
+                                                  "emission_color": np.array([1.0, 0.4, 0.1])})])
+    glass_ball(scene)
+    scene.lights.append(SunLight(direction=np.array([0.3, 0.2, -1.0]) / math.sqrt(1.13), strength=2.0))
+    settings = {"width": 12, "height": 9, "samples": 3, "integrator": "path", "max_bounces": 4,
+                "light_sampling": light_sampling}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    assert_same_pixels(reference.image, compiled.image)
+
+
+def test_both_kernels_march_a_black_body_whose_temperature_a_noise_sets_to_the_same_pixels():
+    """A Principled Volume glowing as a black body whose Temperature (800 to 2800 K, below and inside the fit's
+    ranges) and density a Noise Texture sets: the fit's unclipped colour (negative outside Rec.709) and
+    Stefan-Boltzmann's intensity per point, in both kernels alike."""
+    from core.materials.graph import GraphNode, Link
+    noise, density = noise_density()
+    kelvin = Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": noise, "1": 2000.0, "2": 800.0}), "Value")
+    scene = room(looking())
+    noise_box(scene, [("PRINCIPLED_VOLUME", 1.0, {"color": np.zeros(3), "density": density,
+                                                  "blackbody_intensity": 1.0, "temperature": kelvin,
+                                                  "blackbody_tint": np.array([1.0, 0.9, 0.8])})])
+    reference, compiled, stats = both(scene)
+    assert stats.kernels == "compiled" and not stats.warnings
+    assert_same_pixels(reference, compiled)

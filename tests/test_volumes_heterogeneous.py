@@ -152,3 +152,19 @@ def test_an_image_texture_sets_the_density_texel_by_texel():
     columns = np.exp(-np.array([1.0, 3.0, 1.0, 3.0])[:, None] * (1.0 - COLOR))
     expected = np.array([1.0, 2.0, 0.5]) * np.broadcast_to(columns, (4, 4, 3))
     np.testing.assert_allclose(image(scene), expected, rtol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_both_kernels_march_a_linear_slab_to_exp_of_minus_its_integral_on_camera_and_shadow_rays(kernels):
+    """The slanted sun through density 2 z + 0.5 (as above) in the Python reference and in the compiled kernel
+    (core/volumes/field.c, which renders it: no fallback): each keeps the closed form's exp(-integral)."""
+    scene = scene_with(slab(color=COLOR, density=height(2.0, 0.5)))
+    scene.materials[0] = Material(np.full(3, 0.8), "Floor")
+    elevation = np.radians(60.0)
+    direction = np.array([np.cos(elevation), 0.0, np.sin(elevation)])
+    scene.lights.append(SunLight(direction=-direction, strength=3.0))
+    result = render(scene, RenderSettings(width=4, height=4, samples=2, integrator="path", kernels=kernels))
+    assert (result.stats.kernels == "compiled") == (kernels == "compiled")
+    sigma = 2.5 * (1.0 - COLOR)
+    expected = 0.8 / np.pi * 3.0 * np.sin(elevation) * np.exp(-sigma * (1.0 + 1.0 / np.sin(elevation)))
+    np.testing.assert_allclose(result.image[..., :3], np.broadcast_to(expected, (4, 4, 3)), rtol=1e-5)

@@ -109,7 +109,10 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
             for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
             if (params->media != NULL) {
                 H->inside[h] = H->lane_inside[lane];
-                beer_lambert(H->lane_sigma[lane], H->t[lane], H->throughput + 3 * h);
+                March march;                    /* (a heterogeneous medium: marched, field.c) */
+                const March *m = stretch_march(params->media, &H->lane_inside[lane], O, D, H->t[lane],
+                                               H->lane_sigma[lane], H->lane_emission[lane], &march);
+                stretch_transmittance(m, H->lane_sigma[lane], H->t[lane], H->throughput + 3 * h);
             }
             H->bounce[h] = 0;
             if (params->clamp_direct < INFINITY) {
@@ -212,9 +215,10 @@ INLINE int64_t integrate(const ChunkParams *params, const CameraBlock *b, BlockH
  * the film is not transparent), the lamps with extent it passes before t and the suns' discs where it escapes
  * (rays.lamps_seen). groups: (G, 3)
  * the same by the group of each source (lightgroups.py), added to, or NULL. sigma: the extinction (3) of the media
- * the ray crosses, or NULL: each keeps exp(-sigma t) of its light over its distance (inf: the world). */
+ * the ray crosses, or NULL: each keeps exp(-sigma t) of its light over its distance (inf: the world); march: the
+ * ray's march through heterogeneous media (field.c), or NULL. */
 INLINE void camera_sees(const ChunkParams *params, const double *O, const double *D, double t, int hit, double *out,
-                        double *groups, const double *sigma)
+                        double *groups, const double *sigma, const March *march)
 {
     out[0] = out[1] = out[2] = 0.0;
     const WorldTables *world = params->light_context->world;
@@ -223,7 +227,7 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
         world_seen(world, D, &camera, out);                 /* (a world's graph, per ray) */
         if (sigma != NULL) {
             double kept[3];
-            beer_lambert(sigma, INFINITY, kept);
+            stretch_transmittance(march, sigma, INFINITY, kept);
             for (int c = 0; c < 3; c++) out[c] *= kept[c];
         }
         add_to_group(groups, params->light_groups, 0, params->world_group, out, 1.0);
@@ -234,7 +238,7 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
         if (camera_sees_lamp(light, O, D, t, hit, &lh)) {
             if (sigma != NULL) {
                 double kept[3];
-                beer_lambert(sigma, lh.t, kept);
+                stretch_transmittance(march, sigma, lh.t, kept);
                 for (int c = 0; c < 3; c++) lh.radiance[c] *= kept[c];
             }
             for (int c = 0; c < 3; c++) out[c] += lh.radiance[c];
@@ -354,6 +358,7 @@ static void render_chunk(const ChunkArgs *a)
     int64_t traced = 0, shadow_rays = 0;
     CameraBlock b;
     BlockHits H;
+    March lane_march;                    /* (a camera ray's march through heterogeneous media: field.c) */
     PathWork *work = NULL;
     int light_passes = params->light_passes != 0.0 && out->light != NULL;
     int64_t G = out->groups != NULL && params->light_groups > 0 && params->light_groups <= MAX_LIGHT_GROUPS
@@ -453,19 +458,25 @@ static void render_chunk(const ChunkArgs *a)
                                      && hidden_from(params->geometry, H.geometry[h], H.prim[h], H.instance[h],
                                                     SHADOW_CATCHER));
             const double *sigma = params->media != NULL ? H.lane_sigma[lane] : NULL;
+            const March *marched = NULL;                /* (the camera ray's march through heterogeneous media) */
+            if (sigma != NULL && b.valid[lane] && params->media->fields != NULL) {
+                double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
+                marched = stretch_march(params->media, &H.lane_inside[lane], O, D, H.t[lane], sigma,
+                                        H.lane_emission[lane], &lane_march);
+            }
             if (b.valid[lane] && sees_more) {
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
-                camera_sees(params, O, D, H.t[lane], is_hit, s, groups != NULL ? seen : NULL, sigma);
+                camera_sees(params, O, D, H.t[lane], is_hit, s, groups != NULL ? seen : NULL, sigma, marched);
             } else if (b.valid[lane] && !is_hit) {
                 double kept[3] = {1.0, 1.0, 1.0};
-                if (sigma != NULL) beer_lambert(sigma, INFINITY, kept);
+                if (sigma != NULL) stretch_transmittance(marched, sigma, INFINITY, kept);
                 for (int c = 0; c < 3; c++) s[c] = params->background[c] * kept[c];
                 if (params->world_group >= 0 && groups != NULL && params->transparent == 0.0
                     && params->light_context->world->camera != 0.0)
                     add_to_group(seen, G, 0, params->world_group, s, 1.0);
             }
             if (sigma != NULL && b.valid[lane])         /* the media's emission along the camera ray */
-                add_media_emission(sigma, H.lane_emission[lane], H.t[lane], s);
+                stretch_emitted(marched, sigma, H.lane_emission[lane], H.t[lane], s);
             double f = 1.0;
             int scattering = params->media != NULL && params->media->scatters != 0 && work != NULL && b.valid[lane];
             if (params->clamp_direct < INFINITY) {      /* what the camera sees itself: a direct contribution */

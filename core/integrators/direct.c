@@ -604,9 +604,11 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             int met = packet.hit.geomID[k] != INVALID_ID;
             if (media != NULL) {
                 /* The stretch up to the surface met (or to the light): what its media let through. */
-                double sigma[3], e[3], kept[3];
+                double sigma[3], e[3], kept[3], reach = met ? (double)packet.ray.tfar[k] : left[l];
                 medium_along(media, inside + l, sigma, e);
-                beer_lambert(sigma, met ? (double)packet.ray.tfar[k] : left[l], kept);
+                March march;                    /* (through a heterogeneous medium: its march, field.c) */
+                const March *m = stretch_march(media, inside + l, origin[l], D[l], reach, sigma, e, &march);
+                stretch_transmittance(m, sigma, reach, kept);
                 for (int c = 0; c < 3; c++) T[l][c] *= kept[c];
             }
             if (!met) { alive[l] = 0; continue; }
@@ -883,6 +885,7 @@ typedef struct {
     /* What the Ambient Occlusion and Bevel nodes of a textured emitter it hits trace with (the next vertex's keys), or
      * NULL: they trace nothing. */
     const ShaderKeys *keys;
+    const VolumeStack *inside;        /* the media it crosses (with sigma), for a march through heterogeneous ones */
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -907,8 +910,11 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     int64_t geometry = ray->geometry, prim = ray->prim, instance = ray->instance;
     const LightContext *ctx = ds->context;
     const double *sigma = ray->sigma;
-    /* The media's emission along the ray up to its hit (no light sample finds it: not weighed). */
-    if (sigma != NULL) add_media_emission(sigma, ray->emission, hit ? t_limit : INFINITY, light_L);
+    /* The media's emission along the ray up to its hit (no light sample finds it: not weighed); a heterogeneous
+     * medium's by its march (field.c), built once where something asks for it (what the media let through below). */
+    LazyMarch lazy = {ds->media, ray->inside, O, D, hit ? t_limit : INFINITY, sigma, ray->emission, 0, {0}};
+    if (sigma != NULL && ds->media != NULL && ds->media->emits != 0)
+        stretch_emitted(lazy_march(&lazy), sigma, ray->emission, hit ? t_limit : INFINITY, light_L);
     int away = P != NULL && (P[0] != O[0] || P[1] != O[1] || P[2] != O[2]);
     double t_mis = t_limit, t_start = 0.0;      /* from P: how far the ray's end (inf: none) and its start O are */
     if (away) {
@@ -944,7 +950,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         } else if (!light_hit(light, O, D, t_limit, &lh)) continue;
         if (sigma != NULL) {                            /* (what the media let through from the lamp) */
             double kept[3];
-            beer_lambert(sigma, away ? lh.t - t_start : lh.t, kept);
+            stretch_transmittance(lazy_march(&lazy), sigma, away ? lh.t - t_start : lh.t, kept);
             for (int c = 0; c < 3; c++) lh.radiance[c] *= kept[c];
         }
         double w = use_mis ? power_heuristic(pdf_b, light->samples * lh.pdf) : 1.0;
@@ -971,7 +977,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         double through[3];
         if (sigma != NULL) {                            /* (what the media let through from the surface) */
             double kept[3];
-            beer_lambert(sigma, t_limit, kept);
+            stretch_transmittance(lazy_march(&lazy), sigma, t_limit, kept);
             for (int c = 0; c < 3; c++) through[c] = emitted[c] * kept[c];
             emitted = through;
         }
@@ -986,7 +992,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         world_seen(ctx->world, D, ray->path, L_world);     /* (a camera path's: the world's graph per ray) */
         if (sigma != NULL) {                            /* (an escaping ray through a medium keeps exp(-sigma inf)) */
             double kept[3];
-            beer_lambert(sigma, INFINITY, kept);
+            stretch_transmittance(lazy_march(&lazy), sigma, INFINITY, kept);
             for (int c = 0; c < 3; c++) L_world[c] *= kept[c];
         }
         double w = 1.0;
@@ -1079,7 +1085,9 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 stack_cross(ds->media, &inside, sf->material, sf->backfacing,
                             goes_through(s->kind, dot3(sf->Ng, D) < 0.0));
                 medium_along(ds->media, &inside, sigma, emission);
-                beer_lambert(sigma, t_limit, attenuation);
+                March march;                    /* (through a heterogeneous medium: its march, field.c) */
+                stretch_transmittance(stretch_march(ds->media, &inside, O, D, t_limit, sigma, emission, &march), sigma,
+                                      t_limit, attenuation);
             }
             if (first)
                 sample_shares(H->sd + owner[k], H->wo + 3 * owner[k], s, dot3(H->s[owner[k]].Ng, D) < 0.0, shares);
@@ -1119,7 +1127,8 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                                next_min < BEVEL_MIN_PDF};
             FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                                   instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
-                                  kinds[k], after + k, receiver, ds->media != NULL ? sigma : NULL, emission, &next};
+                                  kinds[k], after + k, receiver, ds->media != NULL ? sigma : NULL, emission, &next,
+                                  ds->media != NULL ? &inside : NULL};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

@@ -79,12 +79,14 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         double sigma[3] = {0.0, 0.0, 0.0}, emission[3] = {0.0, 0.0, 0.0};
         if (ds->media != NULL) medium_along(ds->media, &inside, sigma, emission);
         FindingRay finding = {O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O, r->mis_N,
-                              (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission, NULL};
+                              (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission, NULL,
+                              ds->media != NULL ? &inside : NULL};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         if (ds->media != NULL) {                    /* (and what reaches the next surface) */
             double kept[3];
-            beer_lambert(sigma, t, kept);
+            March march;                            /* (through a heterogeneous medium: its march, field.c) */
+            stretch_transmittance(stretch_march(ds->media, &inside, O, D, t, sigma, emission, &march), sigma, t, kept);
             for (int c = 0; c < 3; c++) T[c] *= kept[c];
         }
         double f = clamp_scale(light_L, throughput, cap, 1.0);

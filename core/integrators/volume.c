@@ -6,23 +6,6 @@
  * drawn by equi-angular sampling gathers that lamp's light; the two points are weighed by the balance heuristic on
  * their densities of the distance. The same sampling dimensions as the Python, so the kernels agree to rounding. */
 
-/* The scattering of a stretch's media (Media.along): sigma_s (3) and the sigma_s-weighted mean anisotropy *g. */
-INLINE void medium_scattering(const MediaTables *media, const VolumeStack *stack, double *sigma_s, double *g)
-{
-    double sum[3] = {0.0, 0.0, 0.0}, weighted = 0.0;
-    for (int64_t v = 0; v < (int64_t)media->count; v++) {
-        double n = (double)stack->count[v];
-        const double *s = media->sigma_s + 3 * v;
-        for (int c = 0; c < 3; c++) sum[c] += n * s[c];
-        weighted += n * (((s[0] + s[1]) + s[2]) * media->g[v]);
-    }
-    const double *w = media->world_sigma_s;
-    double scattering = ((w[0] + w[1]) + w[2]) * media->world_g + weighted;
-    for (int c = 0; c < 3; c++) sigma_s[c] = w[c] + sum[c];
-    double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
-    *g = total > 0.0 ? scattering / total : 0.0;
-}
-
 /* phase.henyey_greenstein: (1 - g^2) / (4 pi (1 + g^2 - 2 g cos theta)^1.5). */
 INLINE double henyey_greenstein(double cos_theta, double g)
 {
@@ -186,14 +169,17 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     int hit = packet.hit.geomID[0] != INVALID_ID;
     double t = hit ? (double)packet.ray.tfar[0] : INFINITY, sigma_t[3], emission[3];
     medium_along(ds->media, inside, sigma_t, emission);
+    March march;                                         /* (through a heterogeneous medium: its march, field.c) */
+    const March *marched = stretch_march(ds->media, inside, P, wi, t, sigma_t, emission, &march);
     if (!ds->gather) {
-        add_media_emission(sigma_t, emission, t, L);
+        stretch_emitted(marched, sigma_t, emission, t, L);
         return rays;
     }
     double light_L[3] = {0.0, 0.0, 0.0};
     LightPath scatter = {PATH_VOLUME_SCATTER, bounce + 1, 0, 0, 0, 0};   /* (volume.scatter_paths) */
     FindingRay finding = {P, wi, hit, t, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
-                          instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, 0, &scatter, 0, sigma_t, emission, NULL};
+                          instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, 0, &scatter, 0, sigma_t, emission, NULL,
+                          inside};
     gather_light(ds, &finding, light_L, NULL);
     for (int c = 0; c < 3; c++) L[c] += light_L[c];
     if (!hit || ds->transmitter == NULL) return rays;
@@ -213,7 +199,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     r.inside = *inside;
     r.path = scatter;
     r.receiver = 0;                                      /* (a medium receives as the default set: Light Linking) */
-    beer_lambert(sigma_t, t, r.attenuation);
+    stretch_transmittance(marched, sigma_t, t, r.attenuation);
     for (int c = 0; c < 3; c++) { r.O[c] = P[c]; r.D[c] = wi[c]; r.weight[c] = 1.0; r.mis_O[c] = P[c]; r.mis_N[c] = 0.0; }
     double behind[3] = {0.0, 0.0, 0.0};
     through_transparent(&r, 0, limits, ds, r.weight, INFINITY, behind, NULL);
@@ -227,6 +213,53 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
  * Returns the shadow rays traced. */
 static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits, const double *O, const double *D,
                              double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
+                             int64_t sample, int64_t dimension, int bounce, double *L);
+
+/* volume.marched_scattering: in_scattering for a ray O, D over [0, t) in a heterogeneous medium (its march m,
+ * field.c): free flight inverting the optical depth of a channel picked by throughput x the ray's albedo (its optical
+ * depths' ratio), weight T(s) sigma_s(s) / pdf(s), and each lamp's equi-angular point weighed against it by the
+ * balance heuristic; into L (3, zeroed by the caller). Returns the shadow rays traced. */
+static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *limits, const March *m, const double *O,
+                                  const double *D, double t, const VolumeStack *inside, const double *throughput,
+                                  int64_t pixel, int64_t sample, int64_t dimension, int bounce, double *L)
+{
+    double tau_t[3], tau_s[3], odds[3], u[2], s = 0.0, wo[3] = {-D[0], -D[1], -D[2]};
+    int64_t rays = 0;
+    march_totals(m, tau_t, tau_s);
+    channel_odds(tau_t, tau_s, throughput, odds);
+    /* 1. The free-flight point, its weight T(s) sigma_s(s) / pdf(s). */
+    sample_2d(stream_of((int64_t)ds->seed, DISTANCE_DIMENSION + dimension), pixel, sample, u);
+    double pdf = march_free_flight(m, odds, u, &s);
+    if (pdf > 0.0) {
+        double sigma_t[3], sigma_s[3], kept[3], P[3], scattered[3];
+        double g = march_at(m, s, sigma_t, sigma_s);
+        march_transmittance(m, s, kept);
+        for (int c = 0; c < 3; c++) P[c] = O[c] + s * D[c];
+        FreeFlight flight = {O, D, t, s, pdf};
+        rays += scattered_light(ds, limits, P, wo, g, inside, pixel, sample, dimension, bounce, &flight, -1,
+                                scattered);
+        for (int c = 0; c < 3; c++) L[c] = (kept[c] * sigma_s[c] / pdf) * scattered[c];
+    }
+    /* 2. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
+    for (int64_t l = 0; l < ds->n_lights; l++) {
+        const LightRecord *light = ds->lights + l;
+        if (!equiangular_lamp(light)) continue;
+        double v[2], s_e = 0.0;
+        sample_2d(stream_of((int64_t)ds->seed, EQUIANGULAR_DIMENSION + l + dimension), pixel, sample, v);
+        double pdf_e = equiangular(O, D, t, light->position, v[0], &s_e);
+        if (!(pdf_e > 0.0)) continue;
+        double w = pdf_e / (pdf_e + march_pdf(m, odds, s_e)), sigma_t[3], sigma_s[3], kept[3], X[3], lit[3];
+        double g = march_at(m, s_e, sigma_t, sigma_s);
+        march_transmittance(m, s_e, kept);
+        for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
+        rays += scattered_light(ds, limits, X, wo, g, inside, pixel, sample, dimension, bounce, NULL, l, lit);
+        for (int c = 0; c < 3; c++) L[c] += (kept[c] * sigma_s[c]) * (w / pdf_e) * lit[c];
+    }
+    return rays;
+}
+
+static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits, const double *O, const double *D,
+                             double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
                              int64_t sample, int64_t dimension, int bounce, double *L)
 {
     const MediaTables *media = ds->media;
@@ -234,6 +267,13 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
     L[0] = L[1] = L[2] = 0.0;
     medium_along(media, inside, sigma_t, emission);
     medium_scattering(media, inside, sigma_s, &g);
+    if (media->fields != NULL && in_field(media, inside)) {     /* (a heterogeneous medium: on its march) */
+        if (!stretch_scatters(media, inside, sigma_s)) return 0;
+        March march;
+        march_of(media, inside, O, D, t, sigma_t, sigma_s, emission, g, &march);
+        return marched_scattering(ds, limits, &march, O, D, t, inside, throughput, pixel, sample, dimension, bounce,
+                                  L);
+    }
     if (!(sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0)) return 0;
     /* 1. Where the ray scatters (free flight), and its weight T(s) sigma_s / pdf(s). */
     double u[2], odds[3];

@@ -27,8 +27,6 @@
 #define MOTION_STRIDE 16
 /* an instance's Object Info columns before its attributes (core.geometry.geometry) */
 #define OBJECT_INFO_WIDTH 14
-/* the shadow catcher's film sums: matte RGBA, catcher-only RGB, background RGB, caught samples (core.integrators.catcher) */
-#define CATCHER_CHANNELS 11
 /* the integrators with a compiled twin (core.integrators.compiled) */
 #define INTEGRATOR_DIRECT 0
 #define INTEGRATOR_PATH 1
@@ -214,29 +212,6 @@
 #define DISTRIBUTION_GGX 0
 #define DISTRIBUTION_BECKMANN 1
 #define DISTRIBUTION_ASHIKHMIN_SHIRLEY 2
-/* the Sky Texture's models (core/materials/sky.py SKY_TYPES) (core.materials.sky) */
-#define SKY_MULTIPLE_SCATTERING 0
-#define SKY_SINGLE_SCATTERING 1
-#define SKY_PREETHAM 2
-#define SKY_HOSEK_WILKIE 3
-/* the sun disc's limb darkening (core.materials.sky) */
-#define SKY_LIMB 0.6
-/* Hosek / Wilkie's RGB scale (core.materials.sky) */
-#define SKY_HOSEK_SCALE 0.009199392836280507
-/* where the Sky op's floats keep each number (core/materials/sky.py) (core.materials.sky) */
-#define SKY_AT_KIND 0
-#define SKY_AT_ROTATION 1
-#define SKY_AT_PROBE 2
-#define SKY_AT_HEIGHT 5
-#define SKY_AT_WIDTH 6
-#define SKY_AT_ELEVATION 7
-#define SKY_AT_SIZE 8
-#define SKY_AT_INTENSITY 9
-#define SKY_AT_BOTTOM 10
-#define SKY_AT_TOP 13
-#define SKY_AT_HORIZON 16
-#define SKY_AT_XYZ_TO_RGB 17
-#define SKY_AT_PAYLOAD 26
 /* an image node's interpolation (INTERPOLATIONS) (core.materials.textures) */
 #define TEX_LINEAR 0
 #define TEX_CLOSEST 1
@@ -250,14 +225,41 @@
 #define TEX_FLOAT 0
 #define TEX_BYTE 1
 #define TEX_SHORT 2
-/* the rays an object hides from (Ray Visibility), the holdout and shadow catcher flags (core.visibility) */
+/* the rays an object hides from (Ray Visibility), and the holdout flag (core.visibility) */
 #define HIDDEN_FROM_CAMERA 1
 #define HIDDEN_FROM_SHADOW 2
 #define HIDDEN_FROM_DIFFUSE 4
 #define HIDDEN_FROM_GLOSSY 8
 #define HIDDEN_FROM_TRANSMISSION 16
 #define HOLDOUT 32
-#define SHADOW_CATCHER 64
+/* pieces a march cuts the diagonal of the media's box into (core.volumes.field) */
+#define STEPS_ACROSS 100
+/* the most pieces a march cuts one stretch of a ray into (core.volumes.field) */
+#define MAX_PIECES 256
+/* a volume input's row in VolumeField.inputs (core.volumes.field) */
+#define VOLUME_INPUT_COLOR 0
+#define VOLUME_INPUT_ABSORPTION_COLOR 1
+#define VOLUME_INPUT_EMISSION_COLOR 2
+#define VOLUME_INPUT_ABSORPTION 3
+#define VOLUME_INPUT_SCATTER 4
+#define VOLUME_INPUT_EMISSION 5
+#define VOLUME_INPUT_BLACKBODY_TINT 6
+#define VOLUME_INPUT_DENSITY 7
+#define VOLUME_INPUT_ANISOTROPY 8
+#define VOLUME_INPUT_EMISSION_STRENGTH 9
+#define VOLUME_INPUT_STRENGTH 10
+#define VOLUME_INPUT_BLACKBODY_INTENSITY 11
+#define VOLUME_INPUT_TEMPERATURE 12
+/* the volume inputs a closure reads (core.volumes.field) */
+#define VOLUME_INPUTS 13
+/* a volume closure's kind in VolumeField.kinds (core.volumes.field) */
+#define VOLUME_CLOSURE_ABSORPTION 0
+#define VOLUME_CLOSURE_SCATTER 1
+#define VOLUME_CLOSURE_PRINCIPLED_VOLUME 2
+#define VOLUME_CLOSURE_COEFFICIENTS 3
+#define VOLUME_CLOSURE_EMISSION 4
+/* Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission) (core.volumes.media) */
+#define STEFAN_BOLTZMANN 1.8049357842496396e-14
 /* the most volume materials the compiled kernel's volume stack holds (core.volumes.media) */
 #define MAX_MEDIA 16
 
@@ -372,6 +374,7 @@ typedef struct GraphTables GraphTables;
 typedef struct TextureTables TextureTables;
 typedef struct TextureLookupArgs TextureLookupArgs;
 typedef struct Sample2dArgs Sample2dArgs;
+typedef struct VolumeField VolumeField;
 typedef struct MediaTables MediaTables;
 
 /* The camera, prepared by core/camera/camera.py (`camera_record`). */
@@ -640,7 +643,6 @@ struct ChunkParams {
     int32_t features;                       /* 1: sum the denoising features (features.c) into ChunkOut.features */
     const PassTables *passes;               /* the first-hit passes asked for (passes.c), or NULL */
     const MediaTables *media;               /* the render's homogeneous media (core/volumes/media.c), or NULL: none */
-    const void *catcher;                    /* the ChunkParams of the shadow catchers' catcher-only scene (catcher.py), or NULL: no catcher */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -656,7 +658,6 @@ struct ChunkOut {
     int64_t *nonfinite;                     /* (p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL */
     double *passes;                         /* (p, PassTables.channels) sums of the first-hit passes, or NULL */
     double *mattes;                         /* (p, matte_count, slots, 2) each pixel's Cryptomatte slots (id, weight), or NULL */
-    double *catcher;                        /* (p, CATCHER_CHANNELS) sums of the shadow catchers' matte, catcher-only light, background and caught samples (catcher.py), or NULL */
 };
 
 /* primer_render_chunk's arguments: spp samples in each of p pixels. */
@@ -927,6 +928,26 @@ struct Sample2dArgs {
     double *out;                            /* (n, 2) */
 };
 
+/* A heterogeneous medium (core/volumes/field.py Field): its program and closures, for media.c's march. */
+struct VolumeField {
+    const GraphTables *graph;               /* its one program and the images it reads */
+    const VolumeField *next;                /* the render's next heterogeneous medium, or NULL */
+    int32_t column;                         /* its column of the MediaTables (how often a ray is in it: the volume stack's count there) */
+    int32_t closures;                       /* C: its Volume output's closures */
+    int32_t scatters;                       /* 1: some closure of it may scatter (Field.scatters) */
+    const int32_t *kinds;                   /* (C,) each closure's VOLUME_CLOSURE_* */
+    const double *weights;                  /* (C,) the Mix and Add Shaders' weight above each */
+    const double *inputs;                   /* (C, VOLUME_INPUTS, 5) each input's register (-1: its constant), width, constant (3) */
+    const double *factors;                  /* (f, 3) a linked Mix Shader factor: its closure, register, 1 (the factor) or 0 (1 - it) */
+    int32_t factor_count;                   /* f */
+    double matrix[12];                      /* world to object, 3 x 4 row by row */
+    double location[3];                     /* the texture space's location (Generated coordinates) */
+    double size[3];                         /* and its size */
+    double origin[3];                       /* the world point the render's camera-relative coordinates are relative to */
+    double linear[9];                       /* object to world's linear part, row by row (the program's object transform) */
+    double placement[3];                    /* object to world's location (the program's Object Info Location) */
+};
+
 /* The render's homogeneous media (core/volumes/media.py Media.tables), for media.c. */
 struct MediaTables {
     int64_t count;                          /* V: the volume materials (columns), at most MAX_MEDIA */
@@ -944,6 +965,10 @@ struct MediaTables {
     int32_t scatters;                       /* 1: some medium scatters (Media.scattering: paths gather single scattering, volume.c) */
     double low[3];                          /* the box of the triangles with a medium (camera rays starting inside it walk, camera_media) */
     double high[3];
+    const VolumeField *fields;              /* the heterogeneous media (field.py Field), chained; NULL: none */
+    double field_low[3];                    /* the box of all of them (where a march cuts pieces) */
+    double field_high[3];
+    double field_step;                      /* the march's longest piece (the smallest of their boxes' diagonals / STEPS_ACROSS) */
 };
 
 /* Each record's layout hash (core/native/schema.py Record.layout_hash), 0 for a name it does not know: what
@@ -963,8 +988,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7842783275623974785);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4524182106731721234);
-    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5755748365903746207);
+    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
@@ -983,7 +1008,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(9081307359214230946);
+    if (strcmp(name, "VolumeField") == 0) return UINT64_C(3062569251802433246);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(8317093212682373212);
     return 0;
 }
 
@@ -1023,6 +1049,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "TextureTables") == 0) return (int64_t)sizeof(TextureTables);
     if (strcmp(name, "TextureLookupArgs") == 0) return (int64_t)sizeof(TextureLookupArgs);
     if (strcmp(name, "Sample2dArgs") == 0) return (int64_t)sizeof(Sample2dArgs);
+    if (strcmp(name, "VolumeField") == 0) return (int64_t)sizeof(VolumeField);
     if (strcmp(name, "MediaTables") == 0) return (int64_t)sizeof(MediaTables);
     return -1;
 }

@@ -25,6 +25,7 @@
 #include "../materials/graph.c"
 #include "../materials/nodes.c"
 #include "../lights/world_graph.c"       /* the world's program, per texel of its bake and per camera ray */
+#include "../volumes/field.c"           /* heterogeneous media: a volume graph run at points, the march along a ray */
 #include "../film/film.c"
 #include "../film/adaptive.c"
 #include "../integrators/shadows.c"

@@ -244,8 +244,8 @@ class Record(ctypes.Structure):
         if cls._checked:
             return
         for f in cls._description:
-            if isinstance(f.type, Pointer) and isinstance(f.type.target, str):
-                RECORDS[f.type.target].check()
+            if isinstance(f.type, Pointer) and isinstance(f.type.target, str) and f.type.target != cls.__name__:
+                RECORDS[f.type.target].check()          # (a record that points at its own kind: a chain)
         theirs = library.layout_of(cls.__name__)
         if theirs != cls.layout_hash():
             raise RuntimeError(f"{cls.__name__}'s layout in {library.library_name()} is not the one Python describes "

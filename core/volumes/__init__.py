@@ -16,12 +16,14 @@ face, left through a back face: Cycles' volume stack, `Media.crossed`), or all s
 - `phase.py`: phase functions (Henyey-Greenstein), the volume's BSDF: eval, sample, pdf.
 - `field.py`: heterogeneous media: a Volume output whose inputs are fed by nodes (`Field`, its node graph run at
   points inside the medium), and the march of a ray through them (`March`: pieces of constant coefficients, on
-  which Beer-Lambert, emission and free flight hold piece by piece).
+  which Beer-Lambert, emission and free flight hold piece by piece); its compiled twin `field.c` runs each Field's
+  program at points (its `VolumeField` record, chained from `MediaTables.fields`) and marches rays the same way.
 """
 from .media import (ABSORPTION, Coefficients, Media, PrincipledVolume, VolumeAbsorption, VolumeClosure, VolumeFlags,
                     VolumeCoefficients, VolumeEmission, VolumeScatter, VOLUME_BY_BLENDER, VOLUME_BY_NAME, VOLUME_TYPES)
 from .phase import HenyeyGreenstein
+from .field import VolumeFieldRecord
 from .media import MAX_MEDIA, MediaTablesRecord, Stretch, emitted, transmittance
 
 __all__ = ["ABSORPTION", "Coefficients", "HenyeyGreenstein", "Media", "PrincipledVolume", "VolumeAbsorption", "VolumeClosure",
-           "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "MAX_MEDIA", "MediaTablesRecord", "Stretch", "emitted", "transmittance"]
+           "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "MAX_MEDIA", "MediaTablesRecord", "VolumeFieldRecord", "Stretch", "emitted", "transmittance"]

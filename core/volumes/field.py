@@ -15,6 +15,9 @@ inverts tau exactly. The midpoint rule integrates a density linear along the ray
 order in the step. (Cycles 5.0 samples these media without bias by null scattering with a majorant from an octree;
 its mean is the exact integral, which the march approaches as the steps shrink: its Step Rate and Max Steps change
 Cycles' noise, not its mean.)
+
+The compiled twin is field.c: `field_record` packs a Field for it (its program, a table of each closure input's
+register or constant, its linked Mix Shader factors, its placement), and its march cuts the same pieces.
 """
 from __future__ import annotations
 
@@ -22,10 +25,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..native import schema
+from ..native.schema import F64, I32, ptr
+
 # How many pieces a ray crossing a heterogeneous medium's box along its diagonal is cut into, and the most pieces one
-# stretch of a ray is cut into.
-STEPS_ACROSS = 100
-MAX_PIECES = 256
+# stretch of a ray is cut into (media.c's March reads the same two).
+STEPS_ACROSS = schema.constant("STEPS_ACROSS", 100, "pieces a march cuts the diagonal of the media's box into")
+MAX_PIECES = schema.constant("MAX_PIECES", 256, "the most pieces a march cuts one stretch of a ray into")
 # The most points a heterogeneous medium's graph runs at in one go (its registers: points x the program's registers).
 POINTS_AT_ONCE = 1 << 16
 
@@ -39,6 +45,10 @@ DEFAULTS = {"ABSORPTION": {"color": 0.8, "density": 1.0}, "SCATTER": {"color": 0
             "COEFFICIENTS": {}, "EMISSION": {"color": 1.0, "strength": 1.0}}
 # The coordinates a volume point offers its graph (the attribute layout its program is compiled for).
 LAYOUT = {"generated": (0, 3), "object": (3, 3)}
+# The inputs' order in a VolumeField's table (C: VOLUME_INPUT_COLOR...), and the closures' (C: VOLUME_CLOSURE_...).
+VOLUME_INPUT = schema.constants("VOLUME_INPUT", list(INPUT_WIDTHS), "a volume input's row in VolumeField.inputs")
+VOLUME_INPUTS = schema.constant("VOLUME_INPUTS", len(INPUT_WIDTHS), "the volume inputs a closure reads")
+VOLUME_CLOSURE = schema.constants("VOLUME_CLOSURE", list(DEFAULTS), "a volume closure's kind in VolumeField.kinds")
 
 
 def linked(entries: list) -> bool:
@@ -388,3 +398,73 @@ class March:
             each = np.where((odds > 0.0) & (reach > 0.0),
                             odds * sigma * np.exp(-tau) / np.where(reach > 0.0, reach, 1.0), 0.0)
         return each.sum(axis=1)
+
+
+def inputs_table(field: "Field") -> tuple:
+    """What C reads of a Field's closures (VolumeField): kinds (C,) int32, weights (C,) float64, inputs (C,
+    VOLUME_INPUTS, 5) float64 each input's register (-1: a constant), the register's width, and its constant (3), and
+    factors (f, 3) float64: a linked Mix Shader factor's closure, register, and 1 where the closure takes the factor
+    (0: 1 - it)."""
+    from ..materials import graph as graph_
+    found, factors = {}, []
+    for kind, node, slot, width, register in field.program.outputs.astype(np.int64):
+        if kind == graph_.OUT_WEIGHT:
+            factors.append((float(node), float(register), 1.0 if slot == 0 else 0.0))
+        else:
+            found[(int(node), int(slot))] = (int(width), int(register))
+    C = len(field.entries)
+    kinds = np.array([VOLUME_CLOSURE[name] for name, _, _ in field.entries], np.int32)
+    weights = np.array([float(weight) for _, weight, _ in field.entries], np.float64)
+    table = np.zeros((C, len(INPUT_WIDTHS), 5))
+    for k, (name, _, inputs) in enumerate(field.entries):
+        slot, linked = 0, {}
+        for key in field.slots[k]:
+            linked[key] = found[(k, slot)]
+            slot += INPUT_WIDTHS[key]
+        for row, (key, width) in enumerate(INPUT_WIDTHS.items()):
+            value = inputs.get(key, DEFAULTS.get(name, {}).get(key, 0.0))
+            value = np.atleast_1d(np.asarray(value if key not in linked else 0.0, np.float64)).reshape(-1)
+            value = np.repeat(value[:1], 3) if len(value) < 3 else value[:3]
+            got, register = linked.get(key, (width, -1))
+            table[k, row] = [register, got, *value]
+    return kinds, weights, table, np.array(factors, np.float64).reshape(-1, 3)
+
+
+def compiles(field: "Field") -> bool:
+    """Whether field.c evaluates the Field: its program holds no world-only op (graph.c runs every other one)."""
+    from ..materials import graph as graph_
+    return not graph_.world_ops_of(field.program)
+
+
+def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRecord":
+    """The C record (VolumeField) of a Field whose media column is `column`, followed by the record `following`
+    (None: the last). The record keeps its arrays alive."""
+    from ..materials import graph as graph_
+    c = np.ascontiguousarray
+    kinds, weights, table, factors = inputs_table(field)
+    return VolumeFieldRecord(
+        graph=graph_.program_tables([field.program], field.textures), next=following, column=int(column),
+        closures=len(kinds), scatters=int(field.scatters), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
+        factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
+        matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
+        linear=field.linear.reshape(-1), placement=field.placement)
+
+
+VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/volumes/field.py Field): its program and closures, for media.c's march.", [
+    ("graph", ptr("GraphTables"), "its one program and the images it reads"),
+    ("next", ptr("VolumeField"), "the render's next heterogeneous medium, or NULL"),
+    ("column", I32, "its column of the MediaTables (how often a ray is in it: the volume stack's count there)"),
+    ("closures", I32, "C: its Volume output's closures"),
+    ("scatters", I32, "1: some closure of it may scatter (Field.scatters)"),
+    ("kinds", ptr(I32), "(C,) each closure's VOLUME_CLOSURE_*"),
+    ("weights", ptr(F64), "(C,) the Mix and Add Shaders' weight above each"),
+    ("inputs", ptr(F64), "(C, VOLUME_INPUTS, 5) each input's register (-1: its constant), width, constant (3)"),
+    ("factors", ptr(F64), "(f, 3) a linked Mix Shader factor: its closure, register, 1 (the factor) or 0 (1 - it)"),
+    ("factor_count", I32, "f"),
+    ("matrix", F64, 12, "world to object, 3 x 4 row by row"),
+    ("location", F64, 3, "the texture space's location (Generated coordinates)"),
+    ("size", F64, 3, "and its size"),
+    ("origin", F64, 3, "the world point the render's camera-relative coordinates are relative to"),
+    ("linear", F64, 9, "object to world's linear part, row by row (the program's object transform)"),
+    ("placement", F64, 3, "object to world's location (the program's Object Info Location)"),
+])

@@ -31,6 +31,23 @@ INLINE void medium_along(const MediaTables *media, const VolumeStack *stack, dou
     }
 }
 
+/* The scattering of a stretch's media (Media.along): sigma_s (3) and the sigma_s-weighted mean anisotropy *g. */
+INLINE void medium_scattering(const MediaTables *media, const VolumeStack *stack, double *sigma_s, double *g)
+{
+    double sum[3] = {0.0, 0.0, 0.0}, weighted = 0.0;
+    for (int64_t v = 0; v < (int64_t)media->count; v++) {
+        double n = (double)stack->count[v];
+        const double *s = media->sigma_s + 3 * v;
+        for (int c = 0; c < 3; c++) sum[c] += n * s[c];
+        weighted += n * (((s[0] + s[1]) + s[2]) * media->g[v]);
+    }
+    const double *w = media->world_sigma_s;
+    double scattering = ((w[0] + w[1]) + w[2]) * media->world_g + weighted;
+    for (int c = 0; c < 3; c++) sigma_s[c] = w[c] + sum[c];
+    double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
+    *g = total > 0.0 ? scattering / total : 0.0;
+}
+
 /* volumes.transmittance (Beer-Lambert) over distance t (inf: a ray that escapes) through extinction sigma_t (3):
  * T (3) = exp(-sigma_t t), 1 where sigma_t is 0 whatever the distance. */
 INLINE void beer_lambert(const double *sigma_t, double t, double *T)

@@ -141,7 +141,8 @@ class PrincipledVolume(VolumeClosure):
 
 # Stefan-Boltzmann's constant (W / (m^2 K^4)) over pi, scaled by 1e-6 as Cycles scales it (a radiance per unit length
 # that a flame of a few thousand kelvin keeps near 1).
-STEFAN_BOLTZMANN = 5.670373e-8 * 1e-6 / np.pi
+STEFAN_BOLTZMANN = schema.constant("STEFAN_BOLTZMANN", 5.670373e-8 * 1e-6 / np.pi,
+                                   "Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission)")
 
 
 def black_body(inputs: dict) -> np.ndarray:
@@ -303,7 +304,26 @@ class Media:
             world_emission=np.asarray(self.world.emission, np.float64),
             world_sigma_s=np.asarray(self.world.sigma_s, np.float64), world_g=float(self.world.g), emits=self.emits,
             scatters=self.scattering,
-            low=np.asarray(bounds[0], np.float64), high=np.asarray(bounds[1], np.float64))
+            low=np.asarray(bounds[0], np.float64), high=np.asarray(bounds[1], np.float64), **self.field_tables())
+
+    def field_tables(self) -> dict:
+        """MediaTables' heterogeneous media: their VolumeField records chained (`fields`, None: none), the box that
+        holds them all and the march's step (the smallest of theirs), as field.py March reads them."""
+        from . import field as field_
+        if not self.fields:
+            return dict(fields=None, field_low=np.zeros(3), field_high=np.zeros(3), field_step=1.0)
+        chain = None
+        for field, column in reversed(list(zip(self.fields, self.field_columns))):
+            chain = field_.field_record(field, int(column), chain)
+        return dict(fields=chain, field_low=np.min([f.low for f in self.fields], axis=0),
+                    field_high=np.max([f.high for f in self.fields], axis=0),
+                    field_step=min(f.step for f in self.fields))
+
+    @property
+    def compiled_fields(self) -> bool:
+        """Whether media.c marches every heterogeneous medium (field.py compiles)."""
+        from . import field as field_
+        return all(field_.compiles(f) for f in self.fields)
 
     def start(self, n: int) -> np.ndarray:
         """The stacks (n, V) int16 of rays that start in no mesh's medium (the world's is always there)."""
@@ -365,6 +385,10 @@ MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media
     ("scatters", I32, "1: some medium scatters (Media.scattering: paths gather single scattering, volume.c)"),
     ("low", F64, 3, "the box of the triangles with a medium (camera rays starting inside it walk, camera_media)"),
     ("high", F64, 3, ""),
+    ("fields", ptr("VolumeField"), "the heterogeneous media (field.py Field), chained; NULL: none"),
+    ("field_low", F64, 3, "the box of all of them (where a march cuts pieces)"),
+    ("field_high", F64, 3, ""),
+    ("field_step", F64, "the march's longest piece (the smallest of their boxes' diagonals / STEPS_ACROSS)"),
 ])
 
 

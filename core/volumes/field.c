@@ -1,0 +1,383 @@
+/* Heterogeneous media: core/volumes/field.py, one ray at a time.
+ *
+ * A heterogeneous medium's node graph (graph.c run_program) runs at points inside it (`field_at`: Field.at), and a
+ * ray's stretch through the media is cut into pieces (`march_of`: field.py March): piece 0 before the box of the
+ * heterogeneous media, at most MAX_PIECES pieces of at most field_step inside it (each with its midpoint's
+ * coefficients), the last after it. On those pieces the optical depth is piecewise linear: Beer-Lambert
+ * (`march_transmittance`) and the media's emission (`march_emitted`) hold piece by piece. The same constants
+ * (STEPS_ACROSS, MAX_PIECES) and the same sums as the Python, so the kernels agree to rounding. */
+
+/* The pieces of one ray O + s D over [0, t): `n` pieces (K + 2), their ends edges[0..n], each piece's extinction,
+ * scattering and emission (3) and anisotropy-weighted scattering, and the optical depth tau (3) at each end. */
+typedef struct {
+    int n;
+    double edges[MAX_PIECES + 3];
+    double sigma_t[MAX_PIECES + 2][3], sigma_s[MAX_PIECES + 2][3], emission[MAX_PIECES + 2][3];
+    double gs[MAX_PIECES + 2];
+    double tau[MAX_PIECES + 3][3];
+} March;
+
+/* Field.coordinates and the volume shading point Field.at runs its program at: the camera-relative point P (3) in
+ * world space, its Generated and Object coordinates, a volume-scatter path; info: room for OBJECT_INFO_WIDTH. */
+INLINE void field_point(const VolumeField *f, const double *P, double *info, ShadingPoint *sp)
+{
+    double world[3], local[3];
+    for (int c = 0; c < 3; c++) world[c] = P[c] + f->origin[c];
+    for (int r = 0; r < 3; r++)
+        local[r] = ((world[0] * f->matrix[4 * r] + world[1] * f->matrix[4 * r + 1]) + world[2] * f->matrix[4 * r + 2])
+                   + f->matrix[4 * r + 3];
+    sp->width = 6;
+    for (int k = 0; k < 6; k++) sp->attributes[k] = sp->d_du[k] = sp->d_dv[k] = 0.0;
+    for (int c = 0; c < 3; c++) {
+        sp->attributes[c] = (f->size[c] != 0.0 ? (local[c] - f->location[c]) / (2.0 * f->size[c]) : 0.0) + 0.5;
+        sp->attributes[3 + c] = local[c];
+        sp->N[c] = sp->Ng[c] = sp->I[c] = c == 2;
+        sp->dPdu[c] = c == 0;
+        sp->dPdv[c] = c == 1;
+        sp->P[c] = world[c];
+    }
+    for (int c = 0; c < 9; c++) sp->L[c] = f->linear[c];
+    for (int c = 0; c < OBJECT_INFO_WIDTH; c++) info[c] = c < 3 ? f->placement[c] : 0.0;
+    sp->info = info;
+    sp->info_width = 8;
+    sp->rays = NULL;                                    /* (a medium's graph traces nothing) */
+    sp->random = 0.0;
+    sp->side = 1.0;
+    LightPath path = {PATH_VOLUME_SCATTER, 0, 0, 0, 0, 0};
+    sp->path = path;
+    sp->u = sp->v = 0.0;
+    sp->t = 0.0;
+}
+
+/* One closure's input `row` (VOLUME_INPUT_*) at the point: its register's floats (a narrower register repeated),
+ * else its constant, into v (3). */
+INLINE void field_input(const VolumeField *f, int64_t k, int row, const double *reg, double *v)
+{
+    const double *in = f->inputs + 5 * (VOLUME_INPUTS * k + row);
+    int register_ = (int)in[0], width = (int)in[1];
+    for (int c = 0; c < 3; c++) v[c] = register_ < 0 ? in[2 + c] : reg[register_ + (c < width ? c : 0)];
+}
+
+/* HG's anisotropy as the closures clamp it: |g| <= 1 - 1e-3. */
+INLINE double clamp_anisotropy(double g)
+{
+    double limit = 1.0 - 1e-3, a = fabs(g) < limit ? fabs(g) : limit;
+    return g > 0.0 ? a : (g < 0.0 ? -a : 0.0);
+}
+
+/* converters/blackbody.py blackbody(t, clip=False): the fit's Rec.709 colour of temperature t (float32, as graph.c's
+ * Blackbody computes it) into out (3), unclipped (negative outside the gamut: the Principled Volume's black body). */
+INLINE void blackbody_unclipped(float t, double *out)
+{
+    float c[3];
+    if (t >= 12000.0f) { for (int k = 0; k < 3; k++) c[k] = BLACKBODY_HOT[k]; }
+    else if (t < 800.0f) { for (int k = 0; k < 3; k++) c[k] = BLACKBODY_COLD[k]; }
+    else {
+        int i = 0;
+        while (i < 6 && t >= BLACKBODY_STARTS[i + 1]) i++;
+        const float *r = BLACKBODY_R + 3 * i, *g = BLACKBODY_G + 3 * i, *b = BLACKBODY_B + 4 * i;
+        float inv = 1.0f / t;
+        c[0] = (r[0] * inv + r[1] * t) + r[2];
+        c[1] = (g[0] * inv + g[1] * t) + g[2];
+        c[2] = ((b[0] * t + b[1]) * t + b[2]) * t + b[3];
+    }
+    for (int k = 0; k < 3; k++) out[k] = (double)c[k];
+}
+
+/* Field.at at one camera-relative point P (3): the medium's sigma_a, sigma_s, emission (3) and gs (the closures'
+ * anisotropies times their scattering), each closure as field.closure_at. */
+static void field_at(const VolumeField *f, const double *P, double *sigma_a, double *sigma_s, double *emission,
+                     double *gs)
+{
+    ShadingPoint sp;
+    double info[OBJECT_INFO_WIDTH], reg[MAX_REGISTERS];
+    field_point(f, P, info, &sp);
+    run_program(f->graph, 0, &sp, reg);
+    for (int c = 0; c < 3; c++) sigma_a[c] = sigma_s[c] = emission[c] = 0.0;
+    *gs = 0.0;
+    for (int64_t k = 0; k < (int64_t)f->closures; k++) {
+        double w = f->weights[k], a[3] = {0.0, 0.0, 0.0}, s[3] = {0.0, 0.0, 0.0}, e[3] = {0.0, 0.0, 0.0}, g = 0.0;
+        double color[3], density[3], x[3], y[3];
+        int kind = f->kinds[k];
+        field_input(f, k, VOLUME_INPUT_COLOR, reg, color);
+        field_input(f, k, VOLUME_INPUT_DENSITY, reg, density);
+        double d = w * (density[0] > 0.0 ? density[0] : 0.0);
+        if (kind == VOLUME_CLOSURE_COEFFICIENTS) {
+            field_input(f, k, VOLUME_INPUT_ABSORPTION, reg, x);
+            field_input(f, k, VOLUME_INPUT_SCATTER, reg, y);
+            field_input(f, k, VOLUME_INPUT_EMISSION, reg, e);
+            for (int c = 0; c < 3; c++) { a[c] = w * x[c]; s[c] = w * y[c]; e[c] = w * e[c]; }
+            field_input(f, k, VOLUME_INPUT_ANISOTROPY, reg, x);
+            g = clamp_anisotropy(x[0]);
+        } else if (kind == VOLUME_CLOSURE_EMISSION) {
+            field_input(f, k, VOLUME_INPUT_STRENGTH, reg, x);
+            for (int c = 0; c < 3; c++) e[c] = (w * x[0]) * color[c];
+        } else if (kind == VOLUME_CLOSURE_ABSORPTION) {
+            for (int c = 0; c < 3; c++) a[c] = d * (1.0 - color[c]);
+        } else if (kind == VOLUME_CLOSURE_SCATTER) {
+            field_input(f, k, VOLUME_INPUT_ANISOTROPY, reg, x);
+            g = clamp_anisotropy(x[0]);
+            for (int c = 0; c < 3; c++) s[c] = d * color[c];
+        } else {                                        /* Principled Volume (svm_node_principled_volume) */
+            field_input(f, k, VOLUME_INPUT_ANISOTROPY, reg, x);
+            g = clamp_anisotropy(x[0]);
+            field_input(f, k, VOLUME_INPUT_ABSORPTION_COLOR, reg, x);
+            for (int c = 0; c < 3; c++) {
+                double absorption = sqrt(x[c] > 0.0 ? x[c] : 0.0);
+                s[c] = d > 0.0 ? color[c] * d : 0.0;
+                a[c] = d > 0.0 ? ((1.0 - color[c] > 0.0 ? 1.0 - color[c] : 0.0)
+                                  * (1.0 - absorption > 0.0 ? 1.0 - absorption : 0.0)) * d : 0.0;
+            }
+            field_input(f, k, VOLUME_INPUT_EMISSION_STRENGTH, reg, x);
+            field_input(f, k, VOLUME_INPUT_EMISSION_COLOR, reg, y);
+            for (int c = 0; c < 3; c++) e[c] = x[0] > 0.0 ? (w * x[0]) * y[c] : 0.0;
+            field_input(f, k, VOLUME_INPUT_BLACKBODY_INTENSITY, reg, x);
+            field_input(f, k, VOLUME_INPUT_TEMPERATURE, reg, y);
+            double amount = x[0], t = y[0] > 0.0 ? y[0] : 0.0;
+            double intensity = STEFAN_BOLTZMANN * (1.0 + amount * (pow(t, 4.0) - 1.0));
+            if (amount > 0.0 && intensity > 0.0) {          /* (a black body's glow, tinted) */
+                double tint[3], bb[3];
+                field_input(f, k, VOLUME_INPUT_BLACKBODY_TINT, reg, tint);
+                blackbody_unclipped((float)t, bb);
+                for (int c = 0; c < 3; c++) e[c] = e[c] + w * ((tint[c] * intensity) * bb[c]);
+            }
+        }
+        double share = 1.0;                             /* (linked Mix Shader factors above it) */
+        for (int64_t j = 0; j < (int64_t)f->factor_count; j++) {
+            const double *row = f->factors + 3 * j;
+            if ((int64_t)row[0] != k) continue;
+            double v = reg[(int)row[1]];
+            v = v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v);
+            share = share * (row[2] != 0.0 ? v : 1.0 - v);
+        }
+        double part = g * ((s[0] + s[1]) + s[2]);
+        for (int c = 0; c < 3; c++) {
+            sigma_a[c] += a[c] * share;
+            sigma_s[c] += s[c] * share;
+            emission[c] += e[c] * share;
+        }
+        *gs += part * share;
+    }
+}
+
+/* Whether a ray with the volume stack `stack` is in a heterogeneous medium (Stretch.varying). */
+INLINE int in_field(const MediaTables *media, const VolumeStack *stack)
+{
+    for (const VolumeField *f = media != NULL ? media->fields : NULL; f != NULL; f = f->next)
+        if (stack->count[f->column] > 0) return 1;
+    return 0;
+}
+
+/* field.py March for one ray O + s D (3 each) over [0, t) (inf: to the world) in the media `stack`, whose
+ * homogeneous part is sigma_t, sigma_s, emission (3) and g (Media.along), into m. */
+static void march_of(const MediaTables *media, const VolumeStack *stack, const double *O, const double *D, double t,
+                     const double *sigma_t, const double *sigma_s, const double *emission, double g, March *m)
+{
+    /* 1. Where the ray is in the media's box: [a, b) within [0, t). */
+    double near = -INFINITY, far = INFINITY;
+    for (int c = 0; c < 3; c++) {
+        double inverse = 1.0 / D[c];
+        double t0 = (media->field_low[c] - O[c]) * inverse, t1 = (media->field_high[c] - O[c]) * inverse;
+        double lo = t0 < t1 ? t0 : t1, hi = t0 > t1 ? t0 : t1;
+        lo = lo != lo ? -INFINITY : lo;
+        hi = hi != hi ? INFINITY : hi;
+        near = lo > near ? lo : near;
+        far = hi < far ? hi : far;
+    }
+    double a = near > 0.0 ? near : 0.0;
+    a = a < t ? a : t;
+    double b = far > a ? far : a;
+    b = b < t ? b : t;
+    b = isfinite(b) ? b : a;
+    /* 2. The pieces inside the box, their midpoints' coefficients (the homogeneous media's added). */
+    double pieces = ceil((b - a) / media->field_step);
+    pieces = pieces < 1.0 ? 1.0 : (pieces > (double)MAX_PIECES ? (double)MAX_PIECES : pieces);
+    pieces = pieces != pieces ? 1.0 : pieces;
+    int K = (int)pieces;
+    double length = (b - a) / pieces, gs_h = g * ((sigma_s[0] + sigma_s[1]) + sigma_s[2]);
+    m->n = K + 2;
+    m->edges[0] = 0.0;
+    for (int j = 0; j < K; j++) m->edges[1 + j] = a + length * (double)j;
+    m->edges[K + 1] = b;
+    m->edges[K + 2] = t;
+    for (int j = 0; j < K + 2; j++) {
+        double sa[3] = {0.0, 0.0, 0.0}, ss[3] = {0.0, 0.0, 0.0}, se[3] = {0.0, 0.0, 0.0}, sg = 0.0;
+        if (j >= 1 && j <= K && b > a) {
+            double mid = a + length * ((double)(j - 1) + 0.5), P[3];
+            for (int c = 0; c < 3; c++) P[c] = O[c] + mid * D[c];
+            for (const VolumeField *f = media->fields; f != NULL; f = f->next) {
+                double count = (double)stack->count[f->column], fa[3], fs[3], fe[3], fg;
+                if (!(count > 0.0)) continue;
+                field_at(f, P, fa, fs, fe, &fg);
+                for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; se[c] += count * fe[c]; }
+                sg += count * fg;
+            }
+        }
+        int inner = j >= 1 && j <= K;
+        for (int c = 0; c < 3; c++) {
+            m->sigma_t[j][c] = inner ? sigma_t[c] + (sa[c] + ss[c]) : sigma_t[c];
+            m->sigma_s[j][c] = inner ? sigma_s[c] + ss[c] : sigma_s[c];
+            m->emission[j][c] = inner ? emission[c] + se[c] : emission[c];
+        }
+        m->gs[j] = inner ? gs_h + sg : gs_h;
+    }
+    /* 3. The optical depth at each end. */
+    for (int c = 0; c < 3; c++) m->tau[0][c] = 0.0;
+    for (int j = 0; j < K + 2; j++) {
+        double width = m->edges[j + 1] - m->edges[j];
+        for (int c = 0; c < 3; c++)
+            m->tau[j + 1][c] = m->tau[j][c] + (m->sigma_t[j][c] > 0.0 ? m->sigma_t[j][c] * width : 0.0);
+    }
+}
+
+/* March.piece: the piece distance s lies in (the last one at or past the end). */
+INLINE int march_piece(const March *m, double s)
+{
+    int k = 0;
+    for (int j = 1; j < m->n; j++) k += m->edges[j] <= s;
+    return k < m->n - 1 ? k : m->n - 1;
+}
+
+/* March.transmittance: exp(-tau(s)) (3) at distance s along the ray (inf: to its end). */
+INLINE void march_transmittance(const March *m, double s, double *T)
+{
+    int k = march_piece(m, s);
+    for (int c = 0; c < 3; c++) {
+        double sigma = m->sigma_t[k][c];
+        T[c] = exp(-(m->tau[k][c] + (sigma > 0.0 ? sigma * (s - m->edges[k]) : 0.0)));
+    }
+}
+
+/* March.emitted: the light (3) the pieces' emission sends to the ray's start, added to out. */
+INLINE void march_emitted(const March *m, double *out)
+{
+    for (int c = 0; c < 3; c++) {
+        double sum = 0.0;
+        for (int j = 0; j < m->n; j++) {
+            double e = m->emission[j][c], sigma = m->sigma_t[j][c], width = m->edges[j + 1] - m->edges[j];
+            if (e == 0.0) continue;
+            double each = (sigma > 0.0 ? e * -expm1(-sigma * width) / sigma : e * width) * exp(-m->tau[j][c]);
+            sum += each != each ? 0.0 : each;
+        }
+        out[c] += sum;
+    }
+}
+
+/* What a stretch of a ray lets through: Beer-Lambert on its homogeneous extinction sigma_t (3), or its march where
+ * it has one (NULL: none) (Stretch.transmittance), over distance s, into T (3). */
+INLINE void stretch_transmittance(const March *m, const double *sigma_t, double s, double *T)
+{
+    if (m != NULL) march_transmittance(m, s, T);
+    else beer_lambert(sigma_t, s, T);
+}
+
+/* volumes.emitted for a stretch of length t: its homogeneous closed form, or its march's sum; added to out. */
+INLINE void stretch_emitted(const March *m, const double *sigma_t, const double *e, double t, double *out)
+{
+    if (m != NULL) march_emitted(m, out);
+    else add_media_emission(sigma_t, e, t, out);
+}
+
+/* The march of a ray O, D over [0, t) in the media `stack` with homogeneous part sigma_t, emission (3), into m where
+ * it is in a heterogeneous medium: m, else NULL (the homogeneous closed forms hold). */
+static const March *stretch_march(const MediaTables *media, const VolumeStack *stack, const double *O,
+                                  const double *D, double t, const double *sigma_t, const double *emission, March *m)
+{
+    if (media == NULL || media->fields == NULL || !in_field(media, stack)) return NULL;
+    double sigma_s[3], g;
+    medium_scattering(media, stack, sigma_s, &g);
+    march_of(media, stack, O, D, t, sigma_t, sigma_s, emission, g, m);
+    return m;
+}
+
+/* March.depth: the optical depth tau (3) from the ray's start to distance s. */
+INLINE void march_depth(const March *m, double s, double *tau)
+{
+    int k = march_piece(m, s);
+    for (int c = 0; c < 3; c++) {
+        double sigma = m->sigma_t[k][c];
+        tau[c] = m->tau[k][c] + (sigma > 0.0 ? sigma * (s - m->edges[k]) : 0.0);
+    }
+}
+
+/* March.at: the extinction and scattering (3) of the piece at distance s, its anisotropy returned. */
+INLINE double march_at(const March *m, double s, double *sigma_t, double *sigma_s)
+{
+    int k = march_piece(m, s);
+    for (int c = 0; c < 3; c++) { sigma_t[c] = m->sigma_t[k][c]; sigma_s[c] = m->sigma_s[k][c]; }
+    double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
+    return total > 0.0 ? m->gs[k] / total : 0.0;
+}
+
+/* March.totals: the optical depths of extinction and of scattering (3 each) over the finite pieces. */
+INLINE void march_totals(const March *m, double *tau_t, double *tau_s)
+{
+    for (int c = 0; c < 3; c++) tau_t[c] = tau_s[c] = 0.0;
+    for (int j = 0; j < m->n; j++) {
+        double width = m->edges[j + 1] - m->edges[j];
+        width = isfinite(width) ? width : 0.0;
+        for (int c = 0; c < 3; c++) { tau_t[c] += m->sigma_t[j][c] * width; tau_s[c] += m->sigma_s[j][c] * width; }
+    }
+}
+
+/* March.pdf: the density of free flight (channels by odds (3)) choosing distance s, truncated at the ray's end. */
+INLINE double march_pdf(const March *m, const double *odds, double s)
+{
+    double sigma[3], scattering[3], tau[3], each[3];
+    march_at(m, s, sigma, scattering);
+    march_depth(m, s, tau);
+    for (int c = 0; c < 3; c++) {
+        double reach = -expm1(-m->tau[m->n][c]);
+        each[c] = odds[c] > 0.0 && reach > 0.0 ? odds[c] * sigma[c] * exp(-tau[c]) / reach : 0.0;
+    }
+    return (each[0] + each[1]) + each[2];
+}
+
+/* March.free_flight: a distance by numbers u (2) (u[1] the channel by odds (3), u[0] inverting that channel's
+ * optical depth truncated at the end) into *s; its pdf returned (0: none, *s 0). */
+INLINE double march_free_flight(const March *m, const double *odds, const double *u, double *s)
+{
+    int channel = (u[1] >= odds[0]) + (u[1] >= odds[0] + odds[1]) + (u[1] >= (odds[0] + odds[1]) + odds[2]);
+    channel = channel > 2 ? 2 : channel;
+    double end = m->tau[m->n][channel], target = -log1p(-u[0] * -expm1(-end));
+    int k = 0;
+    for (int j = 1; j <= m->n; j++) k += m->tau[j][channel] <= target;
+    k = k < m->n - 1 ? k : m->n - 1;
+    double sigma = m->sigma_t[k][channel];
+    double x = m->edges[k] + (sigma > 0.0 ? (target - m->tau[k][channel]) / sigma : 0.0);
+    x = x < m->edges[m->n] ? x : m->edges[m->n];
+    double pdf = march_pdf(m, odds, x);
+    int ok = ((odds[0] + odds[1]) + odds[2]) > 0.0 && end > 0.0 && isfinite(x) && pdf > 0.0;
+    *s = ok ? x : 0.0;
+    return ok ? pdf : 0.0;
+}
+
+/* Stretch.scatters for one ray: whether its media scatter (or may: a heterogeneous one that scatters). */
+INLINE int stretch_scatters(const MediaTables *media, const VolumeStack *stack, const double *sigma_s)
+{
+    if (sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0) return 1;
+    for (const VolumeField *f = media->fields; f != NULL; f = f->next)
+        if (f->scatters != 0 && stack->count[f->column] > 0) return 1;
+    return 0;
+}
+
+/* A stretch's march built where first asked for (lazy_march): the ray, its media and their homogeneous part. */
+typedef struct {
+    const MediaTables *media;
+    const VolumeStack *stack;            /* NULL: no media known (no march) */
+    const double *O, *D;
+    double t;
+    const double *sigma_t, *emission;
+    int built;                           /* 0: not yet asked, 1: marched, -1: homogeneous (no march) */
+    March march;
+} LazyMarch;
+
+/* The march of a LazyMarch's stretch (stretch_march), built on the first call; NULL where it needs none. */
+INLINE const March *lazy_march(LazyMarch *lazy)
+{
+    if (lazy->built == 0)
+        lazy->built = lazy->stack != NULL && lazy->sigma_t != NULL
+                      && stretch_march(lazy->media, lazy->stack, lazy->O, lazy->D, lazy->t, lazy->sigma_t,
+                                       lazy->emission, &lazy->march) != NULL ? 1 : -1;
+    return lazy->built > 0 ? &lazy->march : NULL;
+}
