@@ -505,6 +505,37 @@ def volume_reason(ctx: Context, warnings: list) -> str:
     return reason
 
 
+def walks_subsurface(scene: Scene) -> bool:
+    """Whether a material of `scene` has a Principled BSDF whose Subsurface Weight is linked or above 0: a BSSRDF
+    closure the path tracer walks (core/integrators/subsurface.py)."""
+    for material in scene.materials:
+        for node in material.nodes or ():
+            value = node[2].get("subsurface", 0.0) if node[0] == "PRINCIPLED" else 0.0
+            if not isinstance(value, (int, float, np.floating, np.ndarray)) or np.any(np.asarray(value) > 0.0):
+                return True
+    return False
+
+
+def subsurface_reason(scene: Scene, settings: RenderSettings, warnings: list) -> str:
+    """Why the compiled kernel cannot render `scene` for its subsurface scattering ("" when it can), with the
+    warning added to `warnings`: it does not walk BSSRDFs yet, so the render runs the Python reference."""
+    if not walks_subsurface(scene):
+        return ""
+    if settings.integrator != "path":
+        note = (f"subsurface: the {settings.integrator} integrator does not walk subsurface scattering; the Subsurface "
+                f"Weight's share of the surface gets no light (the path integrator walks it, as Cycles)")
+        if note not in warnings:
+            warnings.append(note)
+    if settings.kernels != "compiled" or settings.integrator != "path":
+        return ""
+    reason = "subsurface scattering, which the compiled kernel does not walk yet"
+    note = f"subsurface: the compiled kernel does not walk subsurface scattering yet, so this render runs the Python " \
+           f"reference (the same image, slower)"
+    if note not in warnings:
+        warnings.append(note)
+    return reason
+
+
 def render(scene: Scene, settings: RenderSettings,
            progress: Optional[Callable[[float, RenderStats], None]] = None,
            cancel: Optional[Callable[[], bool]] = None,
@@ -526,7 +557,7 @@ def render(scene: Scene, settings: RenderSettings,
     stats.triangles = geometry.triangle_count
     W, H = settings.width, settings.height
     volumes_because = volume_reason(ctx, stats.warnings)
-    numpy_because = (why_not(settings) or volumes_because
+    numpy_because = (why_not(settings) or volumes_because or subsurface_reason(scene, settings, stats.warnings)
                      or ("" if Compiled.applies(ctx) else "Embree's packet queries are unavailable"))
     compiled = Compiled(ctx, ctx.extra["background"]) if not numpy_because else None
     stats.kernels = "compiled" if compiled else f"numpy ({numpy_because})"
