@@ -34,7 +34,6 @@ from ..native import schema
 from ..sampling import sobol as sampling
 from ..volumes.phase import HenyeyGreenstein, henyey_greenstein
 from .shader_rays import local_hits
-from .shadows import error_bound, spawn_ray
 
 MAX_STEPS = 256                     # Cycles' BSSRDF_MAX_BOUNCES
 SIMILARITY_STEPS = 9                # steps with the real anisotropy, before the isotropic similarity relation
@@ -182,10 +181,13 @@ def walk(ctx, surface, rows: np.ndarray, params: np.ndarray, N: np.ndarray, D: n
         #     opposite side for the backward guiding).
         t = -np.log(1.0 - r0[:, 1]) / sample_sigma
         reach = np.maximum(t, 10.0 / sigma_t.min(axis=1)) if step == 0 else t
-        # (the first from just below the entry, a few float32 ulps: Cycles leaves out the entry's own triangle)
-        origin = (spawn_ray(P[a], surface.Ng[rows[a]], Dw[a], error_bound(P[a], surface.vertices[rows[a]]))
-                  if step == 0 else P[a])
-        count, found = local_hits(geometry, origin, Dw[a], reach, owner[a], 1)
+        # (the first from the entry itself, its own triangle left out, as Cycles' ray.self)
+        origin = P[a]
+        count, found = local_hits(geometry, origin, Dw[a], reach, owner[a], 2 if step == 0 else 1)
+        if step == 0:
+            own = (count > 0) & (found[0][0] == surface.prim[rows[a]])
+            found = [tuple(np.where(own, second, first) for first, second in zip(found[0], found[1]))]
+            count = np.where(own, count - 1, count)
         met = count > 0
         t_hit = np.where(met, found[0][3], np.inf)
         if step == 0:
@@ -194,7 +196,7 @@ def walk(ctx, surface, rows: np.ndarray, params: np.ndarray, N: np.ndarray, D: n
                                                            -N[a]), 0.0)
         leaves = met & (t_hit < t)
         t = np.where(leaves, t_hit, t)
-        P[a] = np.where(step == 0, origin, P[a]) + t[:, None] * Dw[a]
+        P[a] = origin + t[:, None] * Dw[a]
         # 2e. The weight: each channel's flight over the mixture of channels and strategies.
         pdf = flight_pdf(sigma_t, t, leaves)
         T = np.exp(-sigma_t * t[:, None])
