@@ -38,6 +38,7 @@ from .shader_rays import local_hits
 MAX_STEPS = 256                     # Cycles' BSSRDF_MAX_BOUNCES
 SIMILARITY_STEPS = 9                # steps with the real anisotropy, before the isotropic similarity relation
 MIN_ALPHA = 0.2                     # the smallest single-scattering albedo walked (the weight makes up the rest)
+OWN_HITS = 4                        # the first step's hits looked at, to pass its own triangle's
 THROUGHPUT_EPSILON = 1e-6           # a walk whose weight falls below this stops (Cycles' VOLUME_THROUGHPUT_EPSILON)
 # Each step's sampling dimensions (three 2-d points: channel and distance, guiding choices, direction).
 SUBSURFACE_DIMENSION = schema.constant("SUBSURFACE_DIMENSION", 1 << 12,
@@ -97,6 +98,19 @@ def mix(a: np.ndarray, b: np.ndarray, t) -> np.ndarray:
     t = np.asarray(t)
     t = t[:, None] if t.ndim == 1 else t
     return a * (1.0 - t) + b * t
+
+
+def first_other(found: list, count: np.ndarray, own: np.ndarray) -> tuple:
+    """The nearest of local_hits' `found` slots (count (k,) of them met) on a triangle other than `own` (k,): a ray
+    leaving a triangle may meet it again within float32's reach (Cycles leaves it out by its ray.self). Returns
+    ([that slot], how many such (k,), 0 or 1)."""
+    prim, u, v, t = (np.zeros_like(found[0][i]) for i in range(4))
+    chosen = np.zeros(len(own), bool)
+    for slot, (p, uu, vv, tt, ok) in enumerate(found):
+        take = ~chosen & ok & (slot < count) & (p != own)
+        prim, u, v, t = (np.where(take, new, old) for new, old in zip((p, uu, vv, tt), (prim, u, v, t)))
+        chosen |= take
+    return [(prim, u, v, t, chosen)], chosen.astype(np.int64)
 
 
 def walk(ctx, surface, rows: np.ndarray, params: np.ndarray, N: np.ndarray, D: np.ndarray, weight: np.ndarray,
@@ -183,11 +197,9 @@ def walk(ctx, surface, rows: np.ndarray, params: np.ndarray, N: np.ndarray, D: n
         reach = np.maximum(t, 10.0 / sigma_t.min(axis=1)) if step == 0 else t
         # (the first from the entry itself, its own triangle left out, as Cycles' ray.self)
         origin = P[a]
-        count, found = local_hits(geometry, origin, Dw[a], reach, owner[a], 2 if step == 0 else 1)
+        count, found = local_hits(geometry, origin, Dw[a], reach, owner[a], OWN_HITS if step == 0 else 1)
         if step == 0:
-            own = (count > 0) & (found[0][0] == surface.prim[rows[a]])
-            found = [tuple(np.where(own, second, first) for first, second in zip(found[0], found[1]))]
-            count = np.where(own, count - 1, count)
+            found, count = first_other(found, count, surface.prim[rows[a]])
         met = count > 0
         t_hit = np.where(met, found[0][3], np.inf)
         if step == 0:
