@@ -7,8 +7,8 @@ Tangent is unlinked gets Cycles' default tangent: a Tangent node, Radial about Z
 A plain Diffuse BSDF stays the lecture's constant Lambert material. An input fed by a link becomes a
 core/materials/graph.py Link to the sub-graph that feeds it (image textures, texture coordinates, Math, Mix,
 Color Ramp, Tangent ...; reroutes skipped, node groups flattened), evaluated per hit; a linked Mix Shader factor or BSDF colour becomes a
-per-hit factor of the node's weight. Whatever Primer cannot read (a node it does not know, subsurface
-scattering, a missing image) gets a warning that names the material and the node and says what Primer
+per-hit factor of the node's weight. Whatever Primer cannot read (a node it does not know, a missing image)
+gets a warning that names the material and the node and says what Primer
 used instead.
 """
 from __future__ import annotations
@@ -1160,6 +1160,19 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             out.append(("TOON", weight, inputs, list(factors) + [(color, "color")]))
         else:
             out.append(("TOON", weight * np.maximum(color, 0.0), inputs, list(factors)))
+    elif kind == "ShaderNodeSubsurfaceScattering":
+        # core/materials/subsurface.py SubsurfaceNode: the colour is the walk's albedo too, so it stays an input.
+        method = getattr(node, "falloff", "RANDOM_WALK")
+        inputs = {"color": reader.input(node, "Color", np.full(3, 0.8)),
+                  "radius": reader.input(node, "Radius", np.array([1.0, 0.2, 0.1])),
+                  "scale": reader.input(node, "Scale", 0.05), "ior": reader.input(node, "IOR", 1.4),
+                  "roughness": reader.input(node, "Roughness", 1.0),
+                  "anisotropy": reader.input(node, "Anisotropy", 0.0),
+                  "method": subsurface_.METHODS.get(method, subsurface_.RANDOM_WALK)}
+        if method == "BURLEY":
+            reader.warn(node, "Falloff Christensen-Burley (a disk projection in Cycles) is walked as Random Walk")
+        _normal(reader, node, inputs)
+        out.append(("SUBSURFACE", weight, inputs, list(factors)))
     elif kind == "ShaderNodeEmission":
         emission = _scaled(reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0))
         out.append(("EMISSION", weight, {"emission": emission}, list(factors)))

@@ -122,3 +122,21 @@ def test_the_compiled_kernel_hands_subsurface_to_the_reference_with_a_warning():
     assert compiled.stats.kernels.startswith("numpy (subsurface")
     assert any(w.startswith("subsurface: the compiled kernel does not walk") for w in compiled.stats.warnings)
     np.testing.assert_array_equal(compiled.image, reference.image)
+
+
+def test_the_subsurface_scattering_node_sets_up_one_bssrdf_of_its_colour():
+    """Blender's Subsurface Scattering node (Cycles' BSSRDF closure node): weight x Color, the colour as albedo,
+    Radius x Scale / (4 pi) (Random Walk), its own IOR, its Roughness as the entry's alpha (not squared), Anisotropy."""
+    colour = np.array([0.7, 0.4, 0.2])
+    N = np.array([[0.0, 0.0, 1.0]])
+    b = nodes.ClosureBuilder(N, N.copy(), bssrdf.SubsurfaceNode.slots)
+    row = bssrdf.SubsurfaceNode.row({"color": colour, "radius": (2.0, 1.0, 0.5), "scale": 0.1, "ior": 1.3,
+                                     "roughness": 0.4, "anisotropy": 0.3})
+    bssrdf.SubsurfaceNode.setup(b, np.full((1, 3), 0.5), row[None, :])
+    c = b.result().closures
+    assert list(c.kind[0]) == [bssrdf.RandomWalk.kind]
+    np.testing.assert_allclose(c.weight[0, 0], 0.5 * colour)
+    p = c.params[0, 0]
+    np.testing.assert_allclose(p[bssrdf.RADIUS:bssrdf.RADIUS + 3], np.array([2.0, 1.0, 0.5]) * 0.1 / (4.0 * math.pi))
+    np.testing.assert_allclose(p[bssrdf.ALBEDO:bssrdf.ALBEDO + 3], colour)
+    assert (p[bssrdf.IOR], p[bssrdf.ALPHA], p[bssrdf.ANISOTROPY]) == (1.3, 0.4, 0.3)

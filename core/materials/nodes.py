@@ -38,7 +38,6 @@ from .oren_nayar import params_of as oren_nayar_params
 from .rough_glass import RoughGlass
 from .sheen import Sheen
 from .sheen import params_of as sheen_params
-from . import subsurface as subsurface_
 from .velvet import Velvet
 from .velvet import params_of as velvet_params
 from .transparent import Transparent
@@ -440,7 +439,7 @@ PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "sub
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
                        (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.0, 0.0,
                        (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 1.33, (1.0, 0.2, 0.1), 0.05, 1.4, 0.0,
-                       subsurface_.RANDOM_WALK)
+                       1.0)      # (subsurface.RANDOM_WALK)
 
 
 class PrincipledNode(Node):
@@ -595,6 +594,7 @@ class PrincipledNode(Node):
         #    Diffuse Roughness.
         on = subsurface > WEIGHT_CUTOFF
         if on.any():
+            from . import subsurface as subsurface_      # (it imports this module for Node)
             skin = p[:, 46] == subsurface_.RANDOM_WALK_SKIN
             subsurface_.add_subsurface(b, np.where(on[:, None], W * clamped * subsurface[:, None], 0.0),
                                        p[:, 40:43] * p[:, 43:44], clamped, p[:, 45], np.where(skin, p[:, 44], eta),

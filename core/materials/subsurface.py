@@ -31,6 +31,7 @@ from .base import BSDF, BsdfSample
 from .base import BSDFFlags as F
 from .lambert import Lambert
 from .microfacet import sample_visible_normal
+from .nodes import Node, per_hit_rows
 
 # The closure's parameter slots.
 RADIUS, ALBEDO, ANISOTROPY, IOR, ALPHA, SKIN = 0, 3, 6, 7, 8, 9
@@ -136,3 +137,25 @@ def add_subsurface(b, weight: np.ndarray, radius: np.ndarray, albedo: np.ndarray
     # Sampling weight: |mean weight| x the channels it scatters (as Cycles).
     b.add(RandomWalk.kind, kept, p, factor=channels.astype(np.float64), keep=channels > 0,
           N=b.glossy_N)
+
+
+class SubsurfaceNode(Node):
+    """Subsurface Scattering (Blender's ShaderNodeSubsurfaceScattering, Cycles' BSSRDF closure node): one BSSRDF of
+    the node's weight x Color, the colour its albedo (per hit where linked), radius Radius x Scale, IOR, the entry's
+    alpha its Roughness (0..1), Anisotropy, and the node's Falloff as `method` (Christensen-Burley walked as Random
+    Walk, warned by the add-on). Its C setup (nodes.c subsurface_node) is never run: such a render runs the
+    Python reference (core/render subsurface_reason)."""
+
+    name = "SUBSURFACE"
+    inputs = ("color", "radius", "scale", "ior", "roughness", "anisotropy", "method")
+    defaults = ((0.8, 0.8, 0.8), (1.0, 0.2, 0.1), 0.05, 1.4, 1.0, 0.0, RANDOM_WALK)
+    slots = 2
+
+    @staticmethod
+    def setup(b, weight, p):
+        """The BSSRDF closure (add_subsurface) for n hits: weight (n, 3), inputs p (n, NODE_PARAMS)."""
+        from .closures import WEIGHT_CUTOFF
+        p = per_hit_rows(p, len(weight))
+        color = p[:, 0:3]
+        add_subsurface(b, weight * color, p[:, 3:6] * p[:, 6:7], color, p[:, 9], p[:, 7], np.clip(p[:, 8], 0.0, 1.0),
+                       p[:, 10], WEIGHT_CUTOFF)

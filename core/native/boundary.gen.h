@@ -287,7 +287,7 @@ static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
 enum {
     NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
     NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7, NODE_HOLDOUT = 8, NODE_TRANSLUCENT = 9,
-    NODE_TOON = 10, NODE_COUNT = 11
+    NODE_TOON = 10, NODE_SUBSURFACE = 11, NODE_COUNT = 12
 };
 
 /* core/lights/__init__.py LIGHT_TYPES: a light's kind */
@@ -937,7 +937,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(6666935583260520650);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(4904765900158859560);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5755748365903746207);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);

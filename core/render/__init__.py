@@ -506,10 +506,12 @@ def volume_reason(ctx: Context, warnings: list) -> str:
 
 
 def walks_subsurface(scene: Scene) -> bool:
-    """Whether a material of `scene` has a Principled BSDF whose Subsurface Weight is linked or above 0: a BSSRDF
-    closure the path tracer walks (core/integrators/subsurface.py)."""
+    """Whether a material of `scene` has a Subsurface Scattering node, or a Principled BSDF whose Subsurface Weight
+    is linked or above 0: a BSSRDF closure the path tracer walks (core/integrators/subsurface.py)."""
     for material in scene.materials:
         for node in material.nodes or ():
+            if node[0] == "SUBSURFACE":
+                return True
             value = node[2].get("subsurface", 0.0) if node[0] == "PRINCIPLED" else 0.0
             if not isinstance(value, (int, float, np.floating, np.ndarray)) or np.any(np.asarray(value) > 0.0):
                 return True
