@@ -50,6 +50,14 @@ for i, method in enumerate(("RANDOM_WALK", "RANDOM_WALK_SKIN", "NODE")):
     bpy.ops.object.shade_smooth()
     bpy.context.object.data.materials.append(material)
     nodes += [entry[0] for entry in materials_.export_material(material, warnings).nodes]
+# Christensen-Burley (a disk projection in Cycles) is read and walked as Random Walk, with a warning.
+burley, tree, output = empty_material("Burley")
+bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+bsdf.subsurface_method = "BURLEY"
+bsdf.inputs["Subsurface Weight"].default_value = 0.5
+tree.links.new(bsdf.outputs[0], output.inputs["Surface"])
+burley_warnings = []
+burley_nodes = materials_.export_material(burley, burley_warnings).nodes
 sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
 sun.data.energy, sun.data.angle = 3.0, 0.0
 sun.rotation_euler = (math.radians(150.0), 0.0, math.radians(30.0))
@@ -67,18 +75,21 @@ scene.primer.terminator_fix = True
 primer_image = render_pixels(scene, "PRIMER", os.path.abspath("primer.exr"), 128)[..., :3]
 cycles_image = render_pixels(scene, "CYCLES", os.path.abspath("cycles.exr"), 1024)[..., :3]
 primer.unregister()             # bpy 4.2 crashes at exit while a Python RenderEngine is registered
-report(nodes=nodes, warnings=warnings, primer=primer_image.tolist(), cycles=cycles_image.tolist())
+report(nodes=nodes, warnings=warnings, primer=primer_image.tolist(), cycles=cycles_image.tolist(),
+       burley_warnings=burley_warnings, burley_method=float(burley_nodes[0][2]["subsurface_method"]))
 """
 
 
 @pytest.mark.slow
 def test_subsurface_spheres_lit_from_behind_render_as_in_cycles(tmp_path):
-    """Both methods and the Subsurface Scattering node read with no warning; each sphere's mean is Cycles' within 5%
+    """Both methods and the Subsurface Scattering node read with no warning (Christensen-Burley with one); each sphere's mean is Cycles' within 5%
     per channel, and its 3 x 3 pixel blocks within a relMSE of 5e-3 (measured: means within 1.6%, relMSE 7.7e-4,
     5.4e-4 and 6.2e-4; at 32 samples Primer's noise alone reaches 6% on a mean)."""
     report = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
     assert report["warnings"] == []
     assert report["nodes"] == ["PRINCIPLED", "PRINCIPLED", "SUBSURFACE"]
+    assert report["burley_method"] == 0.0 and len(report["burley_warnings"]) == 1
+    assert "Christensen-Burley" in report["burley_warnings"][0] and "Random Walk" in report["burley_warnings"][0]
     primer, cycles = np.array(report["primer"]), np.array(report["cycles"])
     for half in (slice(0, 12), slice(12, 24), slice(24, 36)):
         p, c = primer[:, half], cycles[:, half]

@@ -140,3 +140,11 @@ def test_the_subsurface_scattering_node_sets_up_one_bssrdf_of_its_colour():
     np.testing.assert_allclose(p[bssrdf.RADIUS:bssrdf.RADIUS + 3], np.array([2.0, 1.0, 0.5]) * 0.1 / (4.0 * math.pi))
     np.testing.assert_allclose(p[bssrdf.ALBEDO:bssrdf.ALBEDO + 3], colour)
     assert (p[bssrdf.IOR], p[bssrdf.ALPHA], p[bssrdf.ANISOTROPY]) == (1.3, 0.4, 0.3)
+
+
+def test_the_direct_tracer_warns_that_it_gives_the_bssrdf_no_light():
+    """Only the path tracer walks: the direct-light tracer says that the Subsurface Weight's share gets no light."""
+    scene = sphere_scene({"base_color": (0.8, 0.5, 0.3), "subsurface": 1.0}, 0.2, sun=True)
+    settings = dataclasses.replace(SETTINGS, width=2, height=2, samples=1, integrator="direct")
+    warnings = render.render(scene, settings).stats.warnings
+    assert any(w.startswith("subsurface: the direct integrator does not walk") for w in warnings)

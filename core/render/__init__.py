@@ -559,7 +559,8 @@ def render(scene: Scene, settings: RenderSettings,
     stats.triangles = geometry.triangle_count
     W, H = settings.width, settings.height
     volumes_because = volume_reason(ctx, stats.warnings)
-    numpy_because = (why_not(settings) or volumes_because or subsurface_reason(scene, settings, stats.warnings)
+    subsurface_because = subsurface_reason(scene, settings, stats.warnings)
+    numpy_because = (why_not(settings) or volumes_because or subsurface_because
                      or ("" if Compiled.applies(ctx) else "Embree's packet queries are unavailable"))
     compiled = Compiled(ctx, ctx.extra["background"]) if not numpy_because else None
     stats.kernels = "compiled" if compiled else f"numpy ({numpy_because})"
