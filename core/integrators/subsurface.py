@@ -114,9 +114,10 @@ def first_other(found: list, count: np.ndarray, own: np.ndarray) -> tuple:
 
 
 def walk(ctx, surface, rows: np.ndarray, params: np.ndarray, N: np.ndarray, D: np.ndarray, weight: np.ndarray,
-         pixel: np.ndarray, sample: np.ndarray, dimension: int) -> tuple:
+         pixel: np.ndarray, sample: np.ndarray, dimension: int, carried=None) -> tuple:
     """Walk from the hits `rows` (k,) of `surface` into the mesh along D (k, 3) with the BSSRDF closures' params
-    (k, PARAMS) and normals N (k, 3); weight (k, 3) the path's weight into the walk. Returns (exits (k,) bool, the
+    (k, PARAMS) and normals N (k, 3); weight (k, 3) the closure's weight into the walk; carried (k, 3) what the
+    path carried to the entry (None: 1), which with the walk's weight chooses the colour channels. Returns (exits (k,) bool, the
     exit's (prim, u, v) (k,) each, the walk's last point (k, 3) (the exit), direction (k, 3) and step length (k,),
     the weight (k, 3) after the walk)."""
     k = len(rows)
@@ -156,7 +157,7 @@ def walk(ctx, surface, rows: np.ndarray, params: np.ndarray, N: np.ndarray, D: n
         r1 = sampling.sample_2d(seed, pixel[a], sample[a], dimension=dim + 1)
         r2 = sampling.sample_2d(seed, pixel[a], sample[a], dimension=dim + 2)
         # 2b. The channel, in proportion to weight x alpha (uniform where that is all 0).
-        w = np.abs(throughput[a] * alpha[a])
+        w = np.abs(throughput[a] * alpha[a] * (1.0 if carried is None else carried[a]))
         total = w.sum(axis=1)
         channel_pdf = np.where((total > 0.0)[:, None], w / np.where(total > 0.0, total, 1.0)[:, None], 1.0 / 3.0)
         channel = np.minimum((np.cumsum(channel_pdf, axis=1) <= r0[:, 0:1]).sum(axis=1), 2)

@@ -254,7 +254,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
         finds, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N, light_path=light_path,
                               carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups,
-                              inside=path.inside, carried_receiver=path.carried_receiver, min_pdf=path.min_pdf)
+                              inside=path.inside, carried_receiver=path.carried_receiver, min_pdf=path.min_pdf,
+                              throughput=throughput)
         if clamping:
             f = clamp_.scale(finds, throughput, limit)
             finds = finds * f[:, None]
@@ -275,7 +276,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
              recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
              *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, light_path=None, inside=None,
-             carried_receiver=None, min_pdf=None):
+             carried_receiver=None, min_pdf=None, throughput=None):
     """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
     The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -291,7 +292,9 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     lightgroups.GroupLight of the m hits that receives the light found by the group of its source, or None.
     light_path: the graph.LightPaths of the m hits (None: camera rays); each ray carries on its own (path_after).
     inside: (m, V) the media the rays that reached the hits were in, or None (no media): a ray through the surface
-    enters or leaves its medium, and what it finds, and its weight for the path beyond, keep exp(-sigma_t t)."""
+    enters or leaves its medium, and what it finds, and its weight for the path beyond, keep exp(-sigma_t t).
+    throughput: (m, 3) what the paths carry to the hits, or None (1): a subsurface walk chooses its colour channels
+    by it, as Cycles does."""
     s = ctx.settings
     m = len(surface.I)
     light_path = graph_.light_paths(m) if light_path is None else light_path
@@ -332,7 +335,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         below = np.einsum("ij,ij->i", surface.Ng[at], bs.wi[at]) < 0.0       # (an entry above Ng fails, as Cycles')
         exits, prim_uv, P, last_D, last_t, walked = subsurface_.walk(
             ctx, surface, at, shader.closures.params[at, bs.slot[at]], shader.closures.N[at, bs.slot[at]], bs.wi[at],
-            np.where(below[:, None], bs.weight[at], 0.0), pixel[at], sample[at], dimension)
+            np.where(below[:, None], bs.weight[at], 0.0), pixel[at], sample[at], dimension,
+            None if throughput is None else np.broadcast_to(throughput, (m, 3))[at])
         exits &= below
         O[walks], D[walks], exit_hits = subsurface_.exit_ray(exits, prim_uv, P, last_D, last_t)
         hits = Hits(*(np.array(field) for field in hits))
