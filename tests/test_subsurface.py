@@ -148,3 +148,21 @@ def test_the_direct_tracer_warns_that_it_gives_the_bssrdf_no_light():
     settings = dataclasses.replace(SETTINGS, width=2, height=2, samples=1, integrator="direct")
     warnings = render.render(scene, settings).stats.warnings
     assert any(w.startswith("subsurface: the direct integrator does not walk") for w in warnings)
+
+
+def test_the_exit_is_lit_with_the_bssrdfs_own_normal_only_where_its_normal_is_linked():
+    """Cycles' subsurface_shader_data_setup: a white Lambert at the exit, on sd->N, or on the BSSRDFs' normals
+    weighed by their mean weight where one of them has a linked Normal (SD_HAS_BSSRDF_BUMP)."""
+    from core.integrators import subsurface as walk
+    N = np.array([[0.0, 0.0, 1.0]])
+    tilted = np.array([[0.6, 0.0, 0.8]])
+    for bumped in (False, True):
+        b = nodes.ClosureBuilder(N, N.copy(), 2)
+        if bumped:
+            b.use_normal(tilted)
+        bssrdf.SubsurfaceNode.setup(b, np.ones((1, 3)), bssrdf.SubsurfaceNode.row({})[None, :])
+        exit_shader = walk.subsurface_shader(b.result(), np.array([True]))
+        assert list(exit_shader.closures.kind[0]) == [Lambert.kind]
+        np.testing.assert_allclose(exit_shader.closures.weight[0, 0], 1.0)
+        np.testing.assert_allclose(exit_shader.closures.N[0, 0], tilted[0] if bumped else N[0])
+        np.testing.assert_allclose(exit_shader.emission, 0.0)

@@ -28,6 +28,7 @@ import numpy as np
 from .. import vectors
 from ..geometry.intersect import Hits
 from ..materials import subsurface as bssrdf
+from ..materials.base import BSDFFlags, has
 from ..materials.closures import Closures, ShaderResult
 from ..materials.lambert import Lambert
 from ..native import schema
@@ -242,13 +243,31 @@ def exit_ray(exits: np.ndarray, prim_uv: tuple, P: np.ndarray, D: np.ndarray, t:
     return P + D * back[:, None], -D, Hits(exits, np.where(exits, back, np.inf), np.where(exits, prim, -1), u, v)
 
 
+def exit_normal(shader: ShaderResult) -> np.ndarray:
+    """The normal (n, 3) the walks' exits are lit with: the shading normal, or where a BSSRDF closure there has a
+    linked Normal (its BUMP), the mean of the BSSRDF closures' normals weighed by their mean weight (Cycles'
+    surface_shader_bssrdf_normal)."""
+    c = shader.closures
+    walks = has(c.kind, BSDFFlags.SUBSURFACE)
+    bumped = (walks & (c.params[:, :, bssrdf.BUMP] != 0.0)).any(axis=1)
+    if not bumped.any():
+        return shader.N
+    weights = np.where(walks, np.abs(c.weight.mean(axis=2)), 0.0)
+    total = np.einsum("nk,nkj->nj", weights, c.N)
+    length = np.linalg.norm(total, axis=1)
+    mean = np.divide(total, length[:, None], out=np.zeros_like(total), where=length[:, None] > 0.0)
+    return np.where((bumped & (length > 0.0))[:, None], mean, shader.N)
+
+
 def subsurface_shader(shader: ShaderResult, exiting: np.ndarray) -> ShaderResult:
-    """The shader at walks' exits (`exiting` (n,) bool) replaced by one white Lambert closure on the shading normal,
-    with no emission, transparency or holdout (Cycles' subsurface_shader_data_setup); the others as they are."""
+    """The shader at walks' exits (`exiting` (n,) bool) replaced by one white Lambert closure on the shading normal
+    (exit_normal), with no emission, transparency or holdout (Cycles' subsurface_shader_data_setup); the others as
+    they are."""
     if not exiting.any():
         return shader
     c = shader.closures
     n, slots = c.kind.shape
+    exit_N = exit_normal(shader)
     kind = np.where(exiting[:, None], -1, c.kind)
     kind[exiting, 0] = Lambert.kind
     weight = np.where(exiting[:, None, None], 0.0, c.weight)
@@ -256,7 +275,8 @@ def subsurface_shader(shader: ShaderResult, exiting: np.ndarray) -> ShaderResult
     sample_weight = np.where(exiting[:, None], 0.0, c.sample_weight)
     sample_weight[exiting, 0] = 1.0
     N = c.N.copy()
-    N[exiting, 0] = shader.N[exiting]
+    N[exiting, 0] = exit_N[exiting]
+    # (beside it the hit's own normal, sd->N: a bumped exit normal's light is shadowed as Cycles' bump term does)
     Ns = None if c.Ns is None else np.where(exiting[:, None, None], shader.N[:, None, :], c.Ns)
     closures = Closures(kind.astype(np.int32), weight, sample_weight, N, c.params, Ns, c.terminator)
     keep = ~exiting[:, None]

@@ -34,7 +34,7 @@ from .microfacet import sample_visible_normal
 from .nodes import Node, per_hit_rows
 
 # The closure's parameter slots.
-RADIUS, ALBEDO, ANISOTROPY, IOR, ALPHA, SKIN = 0, 3, 6, 7, 8, 9
+RADIUS, ALBEDO, ANISOTROPY, IOR, ALPHA, SKIN, BUMP = 0, 3, 6, 7, 8, 9, 10
 # Blender's Subsurface Method (the node's subsurface_method) as the node input's number.
 BURLEY, RANDOM_WALK, RANDOM_WALK_SKIN = 0.0, 1.0, 2.0
 METHODS = {"BURLEY": BURLEY, "RANDOM_WALK": RANDOM_WALK, "RANDOM_WALK_SKIN": RANDOM_WALK_SKIN}
@@ -47,11 +47,12 @@ class RandomWalk(BSDF):
     direction into the surface the walk starts along (weight 1, pdf inf: the closure's weight over the chance of
     picking it is the path's, as Cycles' surface_shader_bssrdf_sample_weight). Parameters: radius (3) the mean
     free path per channel, already scaled; albedo (3) the surface colour; anisotropy g; ior; alpha the entry's
-    GGX roughness; skin 1 for Random Walk (Skin)."""
+    GGX roughness; skin 1 for Random Walk (Skin); bump 1 where its node's Normal is linked (the walk's exit is then
+    lit with the BSSRDFs' own normals, Cycles' SD_HAS_BSSRDF_BUMP)."""
 
     name: ClassVar[str] = "SUBSURFACE"
     flags: ClassVar[F] = F.SUBSURFACE | F.DIFFUSE_TYPE
-    params: ClassVar[tuple] = ("radius", "albedo", "anisotropy", "ior", "alpha", "skin")
+    params: ClassVar[tuple] = ("radius", "albedo", "anisotropy", "ior", "alpha", "skin", "bump")
 
     @staticmethod
     def eval(params, N, wo, wi):
@@ -134,6 +135,7 @@ def add_subsurface(b, weight: np.ndarray, radius: np.ndarray, albedo: np.ndarray
     p[:, IOR] = ior
     p[:, ALPHA] = np.where(skin, 1.0, alpha)
     p[:, SKIN] = skin
+    p[:, BUMP] = b.N is not b.smooth_N              # (the node's own Normal input: a linked one)
     # Sampling weight: |mean weight| x the channels it scatters (as Cycles).
     b.add(RandomWalk.kind, kept, p, factor=channels.astype(np.float64), keep=channels > 0,
           N=b.glossy_N)

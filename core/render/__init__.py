@@ -528,6 +528,11 @@ def subsurface_reason(scene: Scene, settings: RenderSettings, warnings: list) ->
                 f"Weight's share of the surface gets no light (the path integrator walks it, as Cycles)")
         if note not in warnings:
             warnings.append(note)
+    if any(material.volume for material in scene.materials):
+        note = ("subsurface: a walk's exit keeps the medium its entry was in (Cycles re-reads the volume stack there, "
+                "for an object inside or holding a volume)")
+        if note not in warnings:
+            warnings.append(note)
     if settings.kernels != "compiled" or settings.integrator != "path":
         return ""
     reason = "subsurface scattering, which the compiled kernel does not walk yet"
