@@ -198,6 +198,9 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
                                 or ctx.geometry.shadow_linked or any(map(lights_.linking.shadow_linked, lights))
                                 or media is not None)
+    # A BSSRDF is walked even with no bounces (Cycles counts no bounce for it): the direct tracer is then the path
+    # tracer with none (integrators.for_render).
+    ctx.extra["subsurface"] = walks_subsurface(scene)
     ctx.extra["bsdf_rays"] = (bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
                               or (media is not None and media.emits))
     # Where BSDF rays are traced: at every hit where emitters or the world light the scene (only BSDF rays
@@ -520,12 +523,13 @@ def walks_subsurface(scene: Scene) -> bool:
 
 def subsurface_reason(scene: Scene, settings: RenderSettings, warnings: list) -> str:
     """Why the compiled kernel cannot render `scene` for its subsurface scattering ("" when it can), with the
-    warning added to `warnings`: it does not walk BSSRDFs yet, so the render runs the Python reference."""
+    warnings added to `warnings`: it does not walk BSSRDFs, so the render runs the Python reference (whose direct
+    tracer walks them as Cycles does at Max Bounces 0); Whitted's tracer gives them no light."""
     if not walks_subsurface(scene):
         return ""
-    if settings.integrator != "path":
-        note = (f"subsurface: the {settings.integrator} integrator does not walk subsurface scattering; the Subsurface "
-                f"Weight's share of the surface gets no light (the path integrator walks it, as Cycles)")
+    if settings.integrator == "whitted":
+        note = ("subsurface: Whitted's tracer does not walk subsurface scattering; the Subsurface Weight's share of "
+                "the surface gets no light (the path and direct tracers walk it, as Cycles)")
         if note not in warnings:
             warnings.append(note)
     if any(material.volume for material in scene.materials):
@@ -533,14 +537,13 @@ def subsurface_reason(scene: Scene, settings: RenderSettings, warnings: list) ->
                 "for an object inside or holding a volume)")
         if note not in warnings:
             warnings.append(note)
-    if settings.kernels != "compiled" or settings.integrator != "path":
+    if settings.kernels != "compiled":
         return ""
-    reason = "subsurface scattering, which the compiled kernel does not walk yet"
-    note = f"subsurface: the compiled kernel does not walk subsurface scattering yet, so this render runs the Python " \
-           f"reference (the same image, slower)"
+    note = ("subsurface: the compiled kernel does not walk subsurface scattering yet, so this render runs the Python "
+            "reference (the same image, slower)")
     if note not in warnings:
         warnings.append(note)
-    return reason
+    return "subsurface scattering, which the compiled kernel does not walk yet"
 
 
 def render(scene: Scene, settings: RenderSettings,
