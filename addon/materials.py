@@ -1076,7 +1076,7 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                                      reader.input(node, "Emission Strength", 0.0))
         inputs["multiscatter"] = 1.0 if getattr(node, "distribution", "MULTI_GGX") == "MULTI_GGX" else 0.0
         method = getattr(node, "subsurface_method", "RANDOM_WALK")
-        inputs["subsurface_method"] = subsurface_.METHODS.get(method, subsurface_.RANDOM_WALK)
+        inputs["subsurface_method"] = subsurface_.method_of(method, tuple(bpy.app.version))
         weight_socket = node.inputs.get("Subsurface Weight")
         if method == "BURLEY" and weight_socket is not None and (
                 weight_socket.is_linked or float(np.max(reader.value(node, "Subsurface Weight", 0.0))) > 0.0):
@@ -1168,7 +1168,7 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                   "scale": reader.input(node, "Scale", 0.05), "ior": reader.input(node, "IOR", 1.4),
                   "roughness": reader.input(node, "Roughness", 1.0),
                   "anisotropy": reader.input(node, "Anisotropy", 0.0),
-                  "method": subsurface_.METHODS.get(method, subsurface_.RANDOM_WALK)}
+                  "method": subsurface_.method_of(method, tuple(bpy.app.version))}
         if method == "BURLEY":
             reader.warn(node, "Falloff Christensen-Burley (a disk projection in Cycles) is walked as Random Walk")
         _normal(reader, node, inputs)

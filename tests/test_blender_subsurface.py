@@ -4,7 +4,8 @@ node (Random Walk, Roughness 0.3), a radius large enough to glow through
 (Subsurface Scale 3 on unit spheres), lit by a sun from behind and a dim world (36 x 12 pixels, path traced with the
 same bounces; Primer 128 samples on the Python reference, Cycles 1024). Today's reader sets up Cycles' BSSRDF closure
 and the path tracer walks it (core/integrators/subsurface.py); the earlier diffuse approximation missed each
-sphere's mean by 6-16% and had a block relMSE of 9e-3 and 1.8e-2."""
+sphere's mean by 6-16% and had a block relMSE of 9e-3 and 1.8e-2. On bpy 5.2, whose Cycles walks Random Walk with
+the radius itself as the mean free path (no 1 / (4 pi)), the add-on asks for that (subsurface.method_of)."""
 from __future__ import annotations
 
 import os
@@ -88,7 +89,7 @@ def test_subsurface_spheres_lit_from_behind_render_as_in_cycles(tmp_path):
     report = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
     assert report["warnings"] == []
     assert report["nodes"] == ["PRINCIPLED", "PRINCIPLED", "SUBSURFACE"]
-    assert report["burley_method"] == 0.0 and len(report["burley_warnings"]) == 1
+    assert report["burley_method"] in (0.0, 3.0) and len(report["burley_warnings"]) == 1  # (3: Blender 5.2's walk)
     assert "Christensen-Burley" in report["burley_warnings"][0] and "Random Walk" in report["burley_warnings"][0]
     primer, cycles = np.array(report["primer"]), np.array(report["cycles"])
     for half in (slice(0, 12), slice(12, 24), slice(24, 36)):

@@ -36,8 +36,20 @@ from .nodes import Node, per_hit_rows
 # The closure's parameter slots.
 RADIUS, ALBEDO, ANISOTROPY, IOR, ALPHA, SKIN, BUMP = 0, 3, 6, 7, 8, 9, 10
 # Blender's Subsurface Method (the node's subsurface_method) as the node input's number.
-BURLEY, RANDOM_WALK, RANDOM_WALK_SKIN = 0.0, 1.0, 2.0
+# RANDOM_WALK_MFP is Random Walk as Blender 5.2's Cycles renders it: the radius is the mean free path itself, not
+# scaled by 1 / (4 pi) (measured: tests/test_blender_subsurface.py on bpy 5.2 matches with it, not without).
+BURLEY, RANDOM_WALK, RANDOM_WALK_SKIN, RANDOM_WALK_MFP = 0.0, 1.0, 2.0, 3.0
 METHODS = {"BURLEY": BURLEY, "RANDOM_WALK": RANDOM_WALK, "RANDOM_WALK_SKIN": RANDOM_WALK_SKIN}
+
+
+def method_of(name: str, blender_version: tuple) -> float:
+    """The `method` number of Blender's Subsurface Method (or Falloff) `name` as the Cycles of `blender_version`
+    (major, minor, ...) renders it: Random Walk (and Christensen-Burley, walked alike) without the 1 / (4 pi) radius
+    scale from Blender 5.2."""
+    method = METHODS.get(name, RANDOM_WALK)
+    if method in (RANDOM_WALK, BURLEY) and tuple(blender_version[:2]) >= (5, 2):
+        return RANDOM_WALK_MFP
+    return method
 # Radii below this scatter as diffuse (Cycles' BSSRDF_MIN_RADIUS).
 MIN_RADIUS = 1e-8
 
@@ -103,14 +115,17 @@ def dipole_alpha_prime(rd: np.ndarray, fourthird_A: np.ndarray) -> np.ndarray:
     return np.where(rd < 1e-4, 0.0, np.where(rd >= 0.995, 0.999999, mid))
 
 
-def scaled_radius(radius: np.ndarray, albedo: np.ndarray, ior: np.ndarray, skin: np.ndarray) -> np.ndarray:
+def scaled_radius(radius: np.ndarray, albedo: np.ndarray, ior: np.ndarray, skin: np.ndarray,
+                  mfp=False) -> np.ndarray:
     """The walk's mean free path (n, 3) from the node's radius (n, 3): x 1 / (4 pi) (Random Walk), or for Skin
-    x sqrt(3 (1 - alpha')) with alpha' the dipole's for the colour and index (bssrdf_setup_radius)."""
+    x sqrt(3 (1 - alpha')) with alpha' the dipole's for the colour and index (bssrdf_setup_radius); the radius itself
+    where `mfp` (n,) bool (RANDOM_WALK_MFP, Blender 5.2)."""
     inv_eta = 1.0 / ior
     F_dr = inv_eta * (-1.440 * inv_eta + 0.710) + 0.668 + 0.0636 * ior
     fourthird_A = ((4.0 / 3.0) * (1.0 + F_dr) / (1.0 - F_dr))[:, None]
     skin_radius = radius * np.sqrt(3.0 * (1.0 - dipole_alpha_prime(albedo, fourthird_A)))
-    return np.where(skin[:, None], skin_radius, radius * (0.25 / math.pi))
+    walk_radius = np.where(np.asarray(mfp)[..., None] if np.ndim(mfp) else mfp, radius, radius * (0.25 / math.pi))
+    return np.where(skin[:, None], skin_radius, walk_radius)
 
 
 def add_subsurface(b, weight: np.ndarray, radius: np.ndarray, albedo: np.ndarray, anisotropy: np.ndarray,
@@ -129,7 +144,8 @@ def add_subsurface(b, weight: np.ndarray, radius: np.ndarray, albedo: np.ndarray
     ior = np.clip(ior, 1.01, 3.8)
     skin = method == RANDOM_WALK_SKIN
     p = np.zeros((len(weight), b.closures.params.shape[2]))
-    p[:, RADIUS:RADIUS + 3] = np.where(small, 0.0, scaled_radius(np.where(small, 1.0, radius), albedo, ior, skin))
+    p[:, RADIUS:RADIUS + 3] = np.where(small, 0.0, scaled_radius(np.where(small, 1.0, radius), albedo, ior, skin,
+                                                                  method == RANDOM_WALK_MFP))
     p[:, ALBEDO:ALBEDO + 3] = albedo
     p[:, ANISOTROPY] = np.clip(anisotropy, 0.0, 0.9)
     p[:, IOR] = ior
