@@ -7,8 +7,8 @@ Tangent is unlinked gets Cycles' default tangent: a Tangent node, Radial about Z
 A plain Diffuse BSDF stays the lecture's constant Lambert material. An input fed by a link becomes a
 core/materials/graph.py Link to the sub-graph that feeds it (image textures, texture coordinates, Math, Mix,
 Color Ramp, Tangent ...; reroutes skipped, node groups flattened), evaluated per hit; a linked Mix Shader factor or BSDF colour becomes a
-per-hit factor of the node's weight. Whatever Primer cannot read (a node it does not know, subsurface
-scattering, a missing image) gets a warning that names the material and the node and says what Primer
+per-hit factor of the node's weight. Whatever Primer cannot read (a node it does not know, a missing image)
+gets a warning that names the material and the node and says what Primer
 used instead.
 """
 from __future__ import annotations
@@ -23,6 +23,7 @@ from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
 from ..core.materials import nodes as nodes_
 from ..core.materials import sky as sky_
+from ..core.materials import subsurface as subsurface_
 from ..core.materials import textures as textures_
 from ..core.geometry.geometry import OBJECT_INFO_WIDTH
 from ..core.materials.graph import GraphNode, Link
@@ -42,10 +43,11 @@ PRINCIPLED_SOCKETS = {"Base Color": "base_color", "Metallic": "metallic", "Rough
                       "Diffuse Roughness": "diffuse_roughness", "Sheen Weight": "sheen",
                       "Sheen Roughness": "sheen_roughness", "Sheen Tint": "sheen_tint", "Anisotropic": "anisotropic",
                       "Anisotropic Rotation": "anisotropic_rotation", "Thin Film Thickness": "thin_film_thickness",
-                      "Thin Film IOR": "thin_film_ior"}
+                      "Thin Film IOR": "thin_film_ior", "Subsurface Radius": "subsurface_radius",
+                      "Subsurface Scale": "subsurface_scale", "Subsurface IOR": "subsurface_ior",
+                      "Subsurface Anisotropy": "subsurface_anisotropy"}
 # Principled inputs Primer leaves out: socket -> what Primer does instead (warned when above 0).
-PRINCIPLED_LEFT_OUT = {"Subsurface Weight": "approximates subsurface scattering by diffuse reflection",
-                      "Dispersion": "refracts every wavelength alike (no dispersion)"}
+PRINCIPLED_LEFT_OUT = {"Dispersion": "refracts every wavelength alike (no dispersion)"}
 GLOSSY_IDS = {"ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic"}
 # A Glossy, Glass or Refraction node's distribution as the closure's `distribution` input (Multiscatter GGX is GGX
 # with `multiscatter`); the Glass and Refraction nodes offer all but Ashikhmin-Shirley.
@@ -1075,6 +1077,13 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         inputs["emission"] = _scaled(reader.input(node, "Emission Color", np.ones(3)),
                                      reader.input(node, "Emission Strength", 0.0))
         inputs["multiscatter"] = 1.0 if getattr(node, "distribution", "MULTI_GGX") == "MULTI_GGX" else 0.0
+        method = getattr(node, "subsurface_method", "RANDOM_WALK")
+        inputs["subsurface_method"] = subsurface_.method_of(method, tuple(bpy.app.version))
+        weight_socket = node.inputs.get("Subsurface Weight")
+        if method == "BURLEY" and weight_socket is not None and (
+                weight_socket.is_linked or float(np.max(reader.value(node, "Subsurface Weight", 0.0))) > 0.0):
+            reader.warn(node, "Subsurface Method Christensen-Burley (a disk projection in Cycles) is walked as "
+                              "Random Walk")
         _normal(reader, node, inputs)
         _tangent(reader, node, inputs, "anisotropic")
         for socket, instead in PRINCIPLED_LEFT_OUT.items():
@@ -1153,6 +1162,19 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             out.append(("TOON", weight, inputs, list(factors) + [(color, "color")]))
         else:
             out.append(("TOON", weight * np.maximum(color, 0.0), inputs, list(factors)))
+    elif kind == "ShaderNodeSubsurfaceScattering":
+        # core/materials/subsurface.py SubsurfaceNode: the colour is the walk's albedo too, so it stays an input.
+        method = getattr(node, "falloff", "RANDOM_WALK")
+        inputs = {"color": reader.input(node, "Color", np.full(3, 0.8)),
+                  "radius": reader.input(node, "Radius", np.array([1.0, 0.2, 0.1])),
+                  "scale": reader.input(node, "Scale", 0.05), "ior": reader.input(node, "IOR", 1.4),
+                  "roughness": reader.input(node, "Roughness", 1.0),
+                  "anisotropy": reader.input(node, "Anisotropy", 0.0),
+                  "method": subsurface_.method_of(method, tuple(bpy.app.version))}
+        if method == "BURLEY":
+            reader.warn(node, "Falloff Christensen-Burley (a disk projection in Cycles) is walked as Random Walk")
+        _normal(reader, node, inputs)
+        out.append(("SUBSURFACE", weight, inputs, list(factors)))
     elif kind == "ShaderNodeEmission":
         emission = _scaled(reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0))
         out.append(("EMISSION", weight, {"emission": emission}, list(factors)))

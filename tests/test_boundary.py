@@ -29,10 +29,13 @@ def test_generated_c_files_are_what_the_python_tables_say():
 def test_every_bsdf_says_what_it_is(bsdf):
     """A BSDF's flags say where its light goes (reflection, transmission or both), how its directions count
     (exactly one of diffuse, glossy, singular), and at most one closure type; its kind is its place in the table,
-    and its C file (with <name>_eval and <name>_sample) sits beside its Python (one file may hold two BSDFs)."""
+    and its C file (with <name>_eval and <name>_sample) sits beside its Python (one file may hold two BSDFs). A
+    BSSRDF (SUBSURFACE) is no BSDF: it only says its closure type."""
     flags = bsdf.flags
-    assert flags & (F.REFLECTION | F.TRANSMISSION)
-    assert sum(bool(flags & f) for f in (F.DIFFUSE, F.GLOSSY, F.SINGULAR)) == 1 or flags & F.STRAIGHT
+    # (a BSSRDF neither reflects nor transmits at its point: its light leaves where the walk does, after no bounce)
+    assert flags & (F.REFLECTION | F.TRANSMISSION) or flags == F.SUBSURFACE | F.DIFFUSE_TYPE
+    assert (sum(bool(flags & f) for f in (F.DIFFUSE, F.GLOSSY, F.SINGULAR)) == 1 or flags & F.STRAIGHT
+            or flags & F.SUBSURFACE)
     assert sum(bool(flags & f) for f in (F.DIFFUSE_TYPE, F.GLOSSY_TYPE, F.TRANSMISSION_TYPE, F.GLASS_TYPE)) <= 1
     assert not (flags & F.STRAIGHT) or flags & F.SINGULAR, "light straight through is a delta"
     assert BSDF_TYPES[bsdf.kind] is bsdf

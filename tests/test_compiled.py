@@ -177,8 +177,9 @@ def test_each_bsdfs_c_file_evaluates_and_samples_what_its_class_does(bsdf):
     # The sampled direction differs from Python's by the float32 cosine (checked above), which a BSDF's weight then
     # inherits (amplified near grazing): so the weight and pdf are checked at the very direction C sampled, where
     # they must be f cos / pdf of Python's closures to float64 rounding; a delta's (and an OWN_WEIGHT BSDF's, whose
-    # sample is not eval at its direction: Ashikhmin-Shirley) against Python's sample.
-    delta = materials.has(kind, materials.BSDFFlags.SINGULAR | materials.BSDFFlags.OWN_WEIGHT)
+    # sample is not eval at its direction: Ashikhmin-Shirley; a BSSRDF's, whose eval is 0) against Python's sample.
+    delta = materials.has(kind, materials.BSDFFlags.SINGULAR | materials.BSDFFlags.OWN_WEIGHT
+                          | materials.BSDFFlags.SUBSURFACE)
     at_f, at_pdf = materials.eval_closures(closures, wo, sampled.wi)
     at_weight = np.divide(at_f, at_pdf[:, None], out=np.zeros_like(at_f), where=at_pdf[:, None] > 0.0)
     np.testing.assert_allclose(sampled.weight, np.where(delta[:, None], expected.weight, at_weight), rtol=1e-9,

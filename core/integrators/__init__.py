@@ -16,9 +16,11 @@ INTEGRATORS = {cls.name: cls for cls in (DirectLighting, WhittedTracing, PathTra
 def for_render(ctx: Context) -> Integrator:
     """The integrator that renders with ctx.settings: the one its `integrator` names, but where rays go on through
     transparent surfaces (ctx.extra["transparent"]) the direct-lighting tracer is the path tracer with no bounces
-    but those (Cycles' transparent bounces, apart from Max Bounces 0)."""
+    but those (Cycles' transparent bounces, apart from Max Bounces 0), and where a material walks subsurface
+    scattering (ctx.extra["subsurface"]) it is the path tracer with no bounces, which walks it (Cycles counts no
+    bounce for the walk)."""
     name = ctx.settings.integrator
-    if name == DirectLighting.name and ctx.extra.get("transparent", False):
+    if name == DirectLighting.name and (ctx.extra.get("transparent", False) or ctx.extra.get("subsurface", False)):
         return PathTracing(direct_only=True)
     return INTEGRATORS[name]()
 

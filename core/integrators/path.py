@@ -63,6 +63,7 @@ from . import features as features_
 from . import lightgroups, lightpasses, shader_rays
 from . import passes as passes_
 from . import shadows
+from . import subsurface as subsurface_
 from . import volume as volume_
 from .rays import camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
@@ -335,6 +336,7 @@ class PathTracing(Integrator):
             (owner, throughput, diffuse, glossy, transmission, transparent, bounds, bounce, flags, mis_pdf, mis_origin,
              mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput, shares, volume,
              wo, min_pdf) = state.values()
+        exiting = np.zeros(len(owner), bool)         # which vertices are subsurface walks' exits (subsurface.py)
         while len(owner):
             check_stop(ctx)
             # a. What the vertex gathers: its emission (camera hits only; later ones were found by the ray
@@ -347,13 +349,15 @@ class PathTracing(Integrator):
                                          caustics_filter(s, after_diffuse),
                                          shader_rays.for_hits(ctx, surface, pixel[owner], sample[owner], dimension,
                                                               min_pdf))
+            # A walk's exit is lit as a white Lambert surface (Cycles' subsurface_shader_data_setup).
+            shader = subsurface_.subsurface_shader(shader, exiting)
             if holdouts:
                 # A camera path (no real bounce yet) that meets a holdout object or node: a hole in the film.
                 shader, weight = hold_out(ctx, surface, shader, bounce == 0)
                 np.add.at(held, owner, (throughput * weight).mean(axis=1))
             first = bounce == 0
             if data is not None:                     # (the vertices of camera chains: no real bounce yet)
-                passes_.at_vertex(ctx, data, np.flatnonzero(first), owner, vertex, surface, shader, wo, throughput,
+                passes_.at_vertex(ctx, data, np.flatnonzero(first & ~exiting), owner, vertex, surface, shader, wo, throughput,
                                   pixel[owner], sample[owner], dimension)
             parts = lightpasses.FirstHitParts(len(owner)) if light is not None and first.any() else None
             state = PathState(dimension, vertex, light_path, throughput, cap, seen_by=seen_by, carried_pdf=mis_pdf,
@@ -386,6 +390,8 @@ class PathTracing(Integrator):
             # b. The bounce: the paths whose ray hit a surface and may still bounce there go on.
             #    (each ray's path past the bounce counts it: vertex.bsdf_ray, rays.path_after)
             *_, is_transparent, labelled_diffuse = bounce_kind(ray.kind, ray.transmit)
+            # (a walk into a BSSRDF counts no bounce and plays no roulette; the path keeps its kind of bounce)
+            walked = materials_.has(ray.kind, materials_.BSDFFlags.SUBSURFACE)
             # Each ray's weight f cos / pdf, times what the media it crosses let through to its hit.
             weight = ray.weight if ray.attenuation is None else ray.weight * ray.attenuation
             # (a volume-only boundary is no transparent bounce: Cycles counts those crossings apart, up to 1024)
@@ -425,7 +431,7 @@ class PathTracing(Integrator):
                                       parts.ray_shares[ended] if parts is not None else None, shares[ray.rows[ended]])
             next_throughput = throughput[ray.rows] * weight
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
-            played = (bounces >= roulette_from(s)) & ~is_transparent
+            played = (bounces >= roulette_from(s)) & ~is_transparent & ~walked
             survived, q = np.ones(len(bounces), bool), np.ones(len(bounces))
             if played.any():
                 # (q from the throughput before the media along the ray: a ray into fog that lets nothing through to
@@ -493,7 +499,8 @@ class PathTracing(Integrator):
             diffuse, glossy, transmission, transparent, bounds = d[keep], g[keep], tr[keep], tp[keep], vb[keep]
             flags = ray.path.flags[keep]
             # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
-            after_diffuse = np.where(is_transparent, after_diffuse[ray.rows], labelled_diffuse)[keep]
+            after_diffuse = np.where(is_transparent | walked, after_diffuse[ray.rows], labelled_diffuse)[keep]
+            exiting = walked[keep]
             bounce = bounces[keep]
             mis_pdf = ray.pdf[keep]
             ray_min_pdf = np.where(is_transparent, min_pdf[ray.rows], np.minimum(min_pdf[ray.rows], ray.pdf))
@@ -505,6 +512,7 @@ class PathTracing(Integrator):
             volume = volume[ray.rows][keep]
             if vertex_arrivals is not None:
                 # Paths that scattered along this bounce's rays and went on: their next vertices join the others.
+                exiting = np.concatenate([exiting, np.zeros(len(vertex_arrivals["origin"]), bool)])
                 state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
                              transmission=transmission, transparent=transparent, bounds=bounds, bounce=bounce,
                              flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,

@@ -130,10 +130,16 @@ def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarr
     singular = np.asarray(singular, bool) | materials_.has(kind, F.SINGULAR)
     labels = (np.where(through, P["transmit"], P["reflect"])
               | np.where(diffuse, P["diffuse"], np.where(singular, P["glossy"] | P["singular"], P["glossy"])))
-    return graph_.LightPaths(flags=np.where(straight, paths.flags, labels), bounce=paths.bounce + ~straight,
+    # Into a subsurface walk: no bounce counted, the flags kept but the camera's (Cycles' subsurface_bounce).
+    walk = materials_.has(kind, F.SUBSURFACE)
+    straight = straight | walk
+    through, reflected = through & ~walk, reflected & ~walk
+    flags = np.where(walk, paths.flags & ~P["camera"], np.where(straight, paths.flags, labels))
+    return graph_.LightPaths(flags=flags, bounce=paths.bounce + ~straight,
                              diffuse=paths.diffuse + (reflected & diffuse),
                              glossy=paths.glossy + (reflected & ~diffuse),
-                             transmission=paths.transmission + through, transparent=paths.transparent + straight)
+                             transmission=paths.transmission + through,
+                             transparent=paths.transparent + (straight & ~walk))
 
 
 def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, groups=None,

@@ -23,6 +23,7 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from .. import materials as materials_
+from ..geometry.intersect import Hits
 from ..geometry.surface import surface_at_hits
 from ..lights import linking
 from ..lights.base import LAMP, LightFlags
@@ -36,6 +37,7 @@ from . import clamp as clamp_
 from . import lightgroups, lightpasses
 from . import shader_rays, shadows
 from .base import Context, Recorder, check_stop
+from . import subsurface as subsurface_
 from .rays import goes_through, nearest_seen, path_after, ray_kind
 from .shadows import spawn_ray
 
@@ -252,7 +254,8 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
         finds, ray = bsdf_ray(ctx, surface, shader, wo, pixel, sample, offsets, mis, traced, recorder,
                               dimension, gather, carried_pdf, seen_by, tree_N=tree_N, light_path=light_path,
                               carried_origin=carried_origin, carried_N=carried_N, groups=ray_groups,
-                              inside=path.inside, carried_receiver=path.carried_receiver, min_pdf=path.min_pdf)
+                              inside=path.inside, carried_receiver=path.carried_receiver, min_pdf=path.min_pdf,
+                              throughput=throughput)
         if clamping:
             f = clamp_.scale(finds, throughput, limit)
             finds = finds * f[:, None]
@@ -273,7 +276,7 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
 def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.ndarray, traced: np.ndarray,
              recorder: Recorder, dimension: int = 0, gather: bool = True, carried_pdf=None, seen_by=HIDDEN_FROM_CAMERA,
              *, tree_N: np.ndarray, carried_origin=None, carried_N=None, groups=None, light_path=None, inside=None,
-             carried_receiver=None, min_pdf=None):
+             carried_receiver=None, min_pdf=None, throughput=None):
     """Return (the light (m, 3) one direction sampled from each hit's closures finds, the BsdfRay).
 
     The light: a lamp with extent in front of what the ray hits, an emissive surface it hits, or the
@@ -289,7 +292,9 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     lightgroups.GroupLight of the m hits that receives the light found by the group of its source, or None.
     light_path: the graph.LightPaths of the m hits (None: camera rays); each ray carries on its own (path_after).
     inside: (m, V) the media the rays that reached the hits were in, or None (no media): a ray through the surface
-    enters or leaves its medium, and what it finds, and its weight for the path beyond, keep exp(-sigma_t t)."""
+    enters or leaves its medium, and what it finds, and its weight for the path beyond, keep exp(-sigma_t t).
+    throughput: (m, 3) what the paths carry to the hits, or None (1): a subsurface walk chooses its colour channels
+    by it, as Cycles does."""
     s = ctx.settings
     m = len(surface.I)
     light_path = graph_.light_paths(m) if light_path is None else light_path
@@ -321,6 +326,25 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
             mis_O = np.where(clear[:, None], carried_origin[go], O)
             mis_N = np.where(clear[:, None], carried_N[go], mis_N)
     after = path_after(graph_.paths_at(light_path, go), bs.kind[go], transmit, bs.delta[go])
+    # Into a BSSRDF: a walk inside the mesh, and a ray that reaches its exit from outside instead of the one traced.
+    walks = np.flatnonzero(materials_.has(bs.kind[go], materials_.BSDFFlags.SUBSURFACE))
+    weight = bs.weight[go]
+    if len(walks):
+        at = go[walks]
+        weight = weight.copy()
+        below = np.einsum("ij,ij->i", surface.Ng[at], bs.wi[at]) < 0.0       # (an entry above Ng fails, as Cycles')
+        exits, prim_uv, P, last_D, last_t, walked = subsurface_.walk(
+            ctx, surface, at, shader.closures.params[at, bs.slot[at]], shader.closures.N[at, bs.slot[at]], bs.wi[at],
+            np.where(below[:, None], bs.weight[at], 0.0), pixel[at], sample[at], dimension,
+            None if throughput is None else np.broadcast_to(throughput, (m, 3))[at])
+        exits &= below
+        O[walks], D[walks], exit_hits = subsurface_.exit_ray(exits, prim_uv, P, last_D, last_t)
+        hits = Hits(*(np.array(field) for field in hits))
+        for field, value in zip(hits, exit_hits):
+            field[walks] = value
+        weight[walks] = walked
+        transmit[walks] = False
+        seen_as[walks] = np.broadcast_to(np.asarray(seen_by, np.int64), (m,))[at]
     ray_inside = stretch = attenuation = None
     t_hit = np.where(hits.hit, hits.t, np.inf)
     if inside is not None:
@@ -328,7 +352,9 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         ray_inside = media_beyond(ctx, surface, go, inside[go], goes_through(bs.kind[go], transmit))
         stretch = ctx.extra["media"].along(ray_inside, O, D)
         attenuation = stretch.transmittance(t_hit)
-    ray = BsdfRay(go, O, D, hits, bs.weight[go], bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
+        if len(walks):
+            attenuation[walks] = 1.0                     # (the walk's ray is no ray through the medium outside)
+    ray = BsdfRay(go, O, D, hits, weight, bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
                   after, ray_inside, attenuation, receiver)
     for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
         if mask.any():
@@ -344,6 +370,24 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     if getattr(ctx.materials, "traces", False):
         below = np.full(len(go), np.inf) if min_pdf is None else min_pdf[go]
         keys = (pixel[go], sample[go], dimension + VERTEX_DIMENSIONS, np.where(clear, below, np.minimum(below, pdf_b)))
+    if len(walks):
+        # A walk's exit gathers nothing on the way (its light samples and bounce come at the next vertex).
+        traced_rays = np.setdiff1d(np.arange(len(go)), walks)
+        found[go[walks]] = 0.0
+        if ray_groups is not None:
+            ray_groups = lightgroups.GroupLight(groups.groups, len(traced_rays))
+        pick = lambda x: None if x is None else x[traced_rays]          # noqa: E731
+        keys = None if keys is None else (pick(keys[0]), pick(keys[1]), keys[2], pick(keys[3]))
+        found[go[traced_rays]] = bs.weight[go[traced_rays]] * gather_light(
+            ctx, O[traced_rays], D[traced_rays], Hits(*(field[traced_rays] for field in hits)), pdf_b[traced_rays],
+            use_mis[traced_rays], pick(seen_as == HIDDEN_FROM_CAMERA) if holdouts else None, N=pick(mis_N),
+            mis_O=pick(mis_O), groups=ray_groups, seen_as=pick(seen_as),
+            stretch=None if stretch is None else stretch.rows(traced_rays),
+            paths=graph_.paths_at(after, traced_rays), receiver=pick(receiver), keys=keys)
+        if groups is not None:
+            groups.add_rows(go[traced_rays], ray_groups, bs.weight[go[traced_rays]])
+        recorder.bsdf_sample(bs.wi, bs.pdf, found)
+        return found, ray
     found[go] = bs.weight[go] * gather_light(ctx, O, D, hits, pdf_b, use_mis,
                                              seen_as == HIDDEN_FROM_CAMERA if holdouts else None, N=mis_N,
                                              mis_O=mis_O, groups=ray_groups, seen_as=seen_as, stretch=stretch,

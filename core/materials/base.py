@@ -38,7 +38,7 @@ from ..native import schema
 # A closure's parameters beyond its normal and weight: a row of PARAMS floats, whose slots each BSDF class names
 # in `params`; a shader node's inputs: a row of NODE_PARAMS floats (core/materials/nodes.py).
 PARAMS = schema.constant("CLOSURE_PARAMS", 32, "a closure's parameters (core/materials/base.py PARAMS)")
-NODE_PARAMS = schema.constant("NODE_PARAMS", 40, "a shader node's inputs, a MaterialRecord's rows")
+NODE_PARAMS = schema.constant("NODE_PARAMS", 48, "a shader node's inputs, a MaterialRecord's rows")
 
 
 class BSDFFlags(enum.IntFlag):
@@ -63,6 +63,10 @@ class BSDFFlags(enum.IntFlag):
                   vectors turned to face the view, as Cycles' sampler does): where it is the sampled closure, the
                   closure mixture keeps its own sampled f cos and pdf and adds the others' eval, as Cycles does
                   for every sampled closure (closures.sample_closures)
+    SUBSURFACE    a BSSRDF, not a BSDF (Cycles' CLOSURE_IS_BSSRDF): eval is 0 (light samples skip it, its sampling
+                  weight still counts in the mixture's pdf), and where it is the sampled closure the ray it gives
+                  goes into the surface and walks inside the mesh (core/integrators/subsurface.py); the path goes
+                  on from where the walk leaves, with no bounce counted for the walk itself
     """
 
     REFLECTION = 1 << 0
@@ -76,6 +80,7 @@ class BSDFFlags(enum.IntFlag):
     TRANSMISSION_TYPE = 1 << 8
     GLASS_TYPE = 1 << 9
     OWN_WEIGHT = 1 << 10
+    SUBSURFACE = 1 << 11
 
 
 class BsdfSample(NamedTuple):

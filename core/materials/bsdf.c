@@ -3,7 +3,8 @@
 #include "bsdfs.gen.c"
 
 /* Whether closures of kind `kind` are deltas: only their sampled directions carry light. */
-INLINE int bsdf_is_delta(int kind) { return bsdf_is(kind, BSDF_FLAG_SINGULAR); }
+/* (a BSSRDF's sample counts as a delta's: its weight over the chance of picking it, closures.sample_closures) */
+INLINE int bsdf_is_delta(int kind) { return bsdf_is(kind, BSDF_FLAG_SINGULAR | BSDF_FLAG_SUBSURFACE); }
 
 /* Whether closures of kind `kind` are glossy or mirror reflections, what the Reflective Caustics switch takes away
  * (materials.reflective: labelled glossy or singular, reflection only). */

@@ -170,7 +170,8 @@ class ClosureSample(NamedTuple):
     wi (n, 3); weight (n, 3) the path throughput factor f cos / pdf (closure weights included);
     pdf (n,) the combined pdf (inf when a delta closure was sampled, 0 when nothing was);
     delta (n,) bool whether the sampled closure was a delta (a mirror: no MIS);
-    kind (n,) int32 the BSDF kind of the sampled closure (-1 where none): a path counts its bounces by it
+    kind (n,) int32 the BSDF kind of the sampled closure (-1 where none): a path counts its bounces by it;
+    slot (n,) int64 the sampled closure's slot (a BSSRDF's walk reads its parameters there), or None
     """
 
     wi: np.ndarray
@@ -178,6 +179,7 @@ class ClosureSample(NamedTuple):
     pdf: np.ndarray
     delta: np.ndarray
     kind: np.ndarray = None
+    slot: np.ndarray = None
 
 
 def own_weight(closures: Closures, wo: np.ndarray, wi: np.ndarray, total: np.ndarray, own: list, smooth: np.ndarray,
@@ -236,8 +238,9 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
         c = chosen[at]
         s = bsdf.sample(closures.params[at, c], closures.N[at, c], wo[at], u[at])
         wi[at] = s.wi
-        if bsdf.is_(F.SINGULAR):
-            # The closure's weight, over the probability of choosing it.
+        if bsdf.is_(F.SINGULAR | F.SUBSURFACE):
+            # The closure's weight, over the probability of choosing it (a BSSRDF's: the walk's start,
+            # core/integrators/subsurface.py).
             probability = closures.sample_weight[at, c] / total[at]
             weight[at] = closures.weight[at, c] * s.weight / np.maximum(probability, 1e-300)[:, None]
             pdf[at] = s.pdf
@@ -253,7 +256,7 @@ def sample_closures(closures: Closures, wo: np.ndarray, u: np.ndarray, pick: np.
         f_cos, combined = own_weight(closures, wo, wi, total, own, smooth, f_cos, combined)
         weight[smooth] = np.divide(f_cos, combined[:, None], out=np.zeros_like(f_cos), where=combined[:, None] > 0)
         pdf[smooth] = combined
-    return ClosureSample(wi, weight, pdf, delta, np.where(pdf > 0.0, kind, -1).astype(np.int32))
+    return ClosureSample(wi, weight, pdf, delta, np.where(pdf > 0.0, kind, -1).astype(np.int32), chosen)
 
 
 def constant_result(n: int, N: np.ndarray, kinds: np.ndarray, weights: np.ndarray, sample_weights: np.ndarray,

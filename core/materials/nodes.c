@@ -543,6 +543,17 @@ INLINE void toon_node(ShaderResult *sd, double mu, const double *wo, int backfac
     closure_add(sd, kind, weight, weight, 1.0, v);
 }
 
+/* subsurface.SubsurfaceNode: never run (a render with a BSSRDF runs the Python reference, which walks it); were it
+   run, its weight x Color would be a Lambert closure, the diffuse look of radius 0. */
+INLINE void subsurface_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                            const double *p)
+{
+    (void)mu; (void)wo; (void)backfacing;
+    double w[3];
+    for (int k = 0; k < 3; k++) w[k] = weight[k] * p[k];
+    closure_add(sd, BSDF_LAMBERT, w, w, 1.0, NULL);
+}
+
 INLINE void closure_node(ShaderResult *sd, int kind, const double *weight)
 {
     if (!caustics_take(kind, sd->caustics)) closure_add(sd, kind, weight, weight, 1.0, NULL);

@@ -434,10 +434,12 @@ PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "sub
                      "specular_tint", "coat", "coat_roughness", "coat_ior", "coat_tint", "emission",
                      "transmission", "multiscatter", "diffuse_roughness", "sheen", "sheen_roughness", "sheen_tint",
                      "coat_follows_normal", "anisotropic", "anisotropic_rotation", "tangent", "coat_normal",
-                     "thin_film_thickness", "thin_film_ior")
+                     "thin_film_thickness", "thin_film_ior", "subsurface_radius", "subsurface_scale",
+                     "subsurface_ior", "subsurface_anisotropy", "subsurface_method")
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
                        (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.0, 0.0,
-                       (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 1.33)
+                       (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 1.33, (1.0, 0.2, 0.1), 0.05, 1.4, 0.0,
+                       1.0)      # (subsurface.RANDOM_WALK)
 
 
 class PrincipledNode(Node):
@@ -459,8 +461,10 @@ class PrincipledNode(Node):
        what follows;
     6. specular: a dielectric GGX layer whose F0 the Specular IOR Level scales and the Specular Tint
        colours; below it, what it does not reflect;
-    7. diffuse: Lambert with the base colour, or Oren-Nayar's with Diffuse Roughness (subsurface scattering
-       approximated by it, with a warning).
+    7. subsurface and diffuse: Subsurface Weight of the clamped base colour goes to a BSSRDF closure
+       (core/materials/subsurface.py: radius x scale, the colour as albedo, the specular index (Skin: Subsurface
+       IOR), roughness^2, Subsurface Anisotropy), the rest to Lambert with the base colour, or Oren-Nayar's with
+       Diffuse Roughness.
     A thin film (Thin Film Thickness > 0.1 nm, of Thin Film IOR) makes the metal's, the specular layer's and
     the glass's Fresnel iridescent (core/materials/thin_film.py; the specular layer is then set up even at
     index 1; the metal's and specular's albedo estimates are the film's reflectance at mu, as Cycles').
@@ -472,7 +476,7 @@ class PrincipledNode(Node):
     name = "PRINCIPLED"
     inputs, defaults = PRINCIPLED_INPUTS, PRINCIPLED_DEFAULTS
     normal_inputs = ("coat_normal",)
-    slots = 6
+    slots = 8
 
     @staticmethod
     def setup(b, weight, p):
@@ -586,10 +590,16 @@ class PrincipledNode(Node):
             Fss = f0_tinted + (1.0 - f0_tinted) * s[:, None]
             specular_weight = GlossyLobe.add(b, W, lobe, reflect, Fss=Fss if multiscatter else None, keep=on)
             W = np.where(on[:, None], layering_weight(specular_weight * reflect, W), W)
-        # 7. Diffuse, Oren-Nayar's with Diffuse Roughness (and subsurface, approximated by a diffuse of the
-        #    clamped colour).
-        ss = subsurface[:, None]
-        add_diffuse(b, W * (base * (1.0 - ss) + clamped * ss), np.clip(p[:, 23], 0.0, 1.0), base, WEIGHT_CUTOFF)
+        # 7. Subsurface (a BSSRDF of the clamped colour, Cycles' bssrdf_setup), then the diffuse, Oren-Nayar's with
+        #    Diffuse Roughness.
+        on = subsurface > WEIGHT_CUTOFF
+        if on.any():
+            from . import subsurface as subsurface_      # (it imports this module for Node)
+            skin = p[:, 46] == subsurface_.RANDOM_WALK_SKIN
+            subsurface_.add_subsurface(b, np.where(on[:, None], W * clamped * subsurface[:, None], 0.0),
+                                       p[:, 40:43] * p[:, 43:44], clamped, p[:, 45], np.where(skin, p[:, 44], eta),
+                                       roughness * roughness, p[:, 46], WEIGHT_CUTOFF)
+        add_diffuse(b, W * base * (1.0 - subsurface)[:, None], np.clip(p[:, 23], 0.0, 1.0), base, WEIGHT_CUTOFF)
 
 
 def thin_film_slots(p: np.ndarray, film: np.ndarray, thickness: np.ndarray, film_ior: np.ndarray,

@@ -24,15 +24,16 @@ from .nodes import (DiffuseNode, EmissionNode, GlassNode, GlossyNode, HoldoutNod
 from .oren_nayar import OrenNayar
 from .rough_glass import RoughGlass
 from .sheen import Sheen
+from .subsurface import RandomWalk, SubsurfaceNode
 from .toon import DiffuseToon, GlossyToon, ToonNode
 from .translucent import Translucent, TranslucentNode
 from .transparent import Transparent
 from .velvet import Velvet
 
 BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet, Translucent,
-              Beckmann, BeckmannGlass, AshikhminShirley, DiffuseToon, GlossyToon)
+              Beckmann, BeckmannGlass, AshikhminShirley, DiffuseToon, GlossyToon, RandomWalk)
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
-              SheenNode, HoldoutNode, TranslucentNode, ToonNode)
+              SheenNode, HoldoutNode, TranslucentNode, ToonNode, SubsurfaceNode)
 
 
 def _number(table: tuple, base: type) -> None:

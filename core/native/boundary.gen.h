@@ -82,6 +82,8 @@
 #define BEVEL_MIN_PDF 8.0
 /* the most volume-only boundaries a ray crosses (core.integrators.shadows) */
 #define VOLUME_BOUNDS_MAX 1024
+/* a subsurface walk's first sampling dimension at a vertex (3 a step) (core.integrators.subsurface) */
+#define SUBSURFACE_DIMENSION 4096
 /* each path vertex's shift of the sampling dimensions (core.integrators.vertex) */
 #define VERTEX_DIMENSIONS 65536
 /* a stretch's free-flight distance and channel (core.integrators.volume) */
@@ -95,7 +97,7 @@
 /* a closure's parameters (core/materials/base.py PARAMS) (core.materials.base) */
 #define CLOSURE_PARAMS 32
 /* a shader node's inputs, a MaterialRecord's rows (core.materials.base) */
-#define NODE_PARAMS 40
+#define NODE_PARAMS 48
 /* what a hit's caustics filter takes away (core.materials.closures) */
 #define FILTER_REFLECTIVE 1
 #define FILTER_REFRACTIVE 2
@@ -268,7 +270,7 @@ enum {
     BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4,
     BSDF_ROUGH_GLASS = 5, BSDF_OREN_NAYAR = 6, BSDF_SHEEN = 7, BSDF_VELVET = 8, BSDF_TRANSLUCENT = 9,
     BSDF_BECKMANN = 10, BSDF_BECKMANN_GLASS = 11, BSDF_ASHIKHMIN_SHIRLEY = 12, BSDF_DIFFUSE_TOON = 13,
-    BSDF_GLOSSY_TOON = 14, BSDF_COUNT = 15
+    BSDF_GLOSSY_TOON = 14, BSDF_SUBSURFACE = 15, BSDF_COUNT = 16
 };
 
 /* core/materials/base.py BSDFFlags: what a BSDF is */
@@ -276,7 +278,7 @@ enum {
     BSDF_FLAG_REFLECTION = 1, BSDF_FLAG_TRANSMISSION = 2, BSDF_FLAG_DIFFUSE = 4, BSDF_FLAG_GLOSSY = 8,
     BSDF_FLAG_SINGULAR = 16, BSDF_FLAG_STRAIGHT = 32, BSDF_FLAG_DIFFUSE_TYPE = 64,
     BSDF_FLAG_GLOSSY_TYPE = 128, BSDF_FLAG_TRANSMISSION_TYPE = 256, BSDF_FLAG_GLASS_TYPE = 512,
-    BSDF_FLAG_OWN_WEIGHT = 1024
+    BSDF_FLAG_OWN_WEIGHT = 1024, BSDF_FLAG_SUBSURFACE = 2048
 };
 
 static const int BSDF_FLAGS[BSDF_COUNT] = {
@@ -295,6 +297,7 @@ static const int BSDF_FLAGS[BSDF_COUNT] = {
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* AshikhminShirley */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* DiffuseToon */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* GlossyToon */
+    BSDF_FLAG_DIFFUSE_TYPE | BSDF_FLAG_SUBSURFACE,   /* RandomWalk */
 };
 /* Whether a bsdf of kind `kind` has any of `flags` (0 for kind -1: none). */
 INLINE int bsdf_is(int kind, int flags)
@@ -303,7 +306,7 @@ INLINE int bsdf_is(int kind, int flags)
 }
 
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
-static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1};
+static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1, 4};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
@@ -312,7 +315,7 @@ static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
 enum {
     NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
     NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7, NODE_HOLDOUT = 8, NODE_TRANSLUCENT = 9,
-    NODE_TOON = 10, NODE_COUNT = 11
+    NODE_TOON = 10, NODE_SUBSURFACE = 11, NODE_COUNT = 12
 };
 
 /* core/lights/__init__.py LIGHT_TYPES: a light's kind */
@@ -987,7 +990,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7842783275623974785);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(4904765900158859560);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5755748365903746207);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
@@ -1002,7 +1005,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
-    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(8196709614173496223);
+    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(702866454435317549);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(2759277909728588366);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);

@@ -199,6 +199,9 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
                                 or ctx.geometry.shadow_linked or any(map(lights_.linking.shadow_linked, lights))
                                 or media is not None)
+    # A BSSRDF is walked even with no bounces (Cycles counts no bounce for it): the direct tracer is then the path
+    # tracer with none (integrators.for_render).
+    ctx.extra["subsurface"] = walks_subsurface(scene)
     ctx.extra["bsdf_rays"] = (bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
                               or (media is not None and media.emits))
     # Where BSDF rays are traced: at every hit where emitters or the world light the scene (only BSDF rays
@@ -520,6 +523,44 @@ def volume_reason(ctx: Context, warnings: list) -> str:
     return reason
 
 
+def walks_subsurface(scene: Scene) -> bool:
+    """Whether a material of `scene` has a Subsurface Scattering node, or a Principled BSDF whose Subsurface Weight
+    is linked or above 0: a BSSRDF closure the path tracer walks (core/integrators/subsurface.py)."""
+    for material in scene.materials:
+        for node in material.nodes or ():
+            if node[0] == "SUBSURFACE":
+                return True
+            value = node[2].get("subsurface", 0.0) if node[0] == "PRINCIPLED" else 0.0
+            if not isinstance(value, (int, float, np.floating, np.ndarray)) or np.any(np.asarray(value) > 0.0):
+                return True
+    return False
+
+
+def subsurface_reason(scene: Scene, settings: RenderSettings, warnings: list) -> str:
+    """Why the compiled kernel cannot render `scene` for its subsurface scattering ("" when it can), with the
+    warnings added to `warnings`: it does not walk BSSRDFs, so the render runs the Python reference (whose direct
+    tracer walks them as Cycles does at Max Bounces 0); Whitted's tracer gives them no light."""
+    if not walks_subsurface(scene):
+        return ""
+    if settings.integrator == "whitted":
+        note = ("subsurface: Whitted's tracer does not walk subsurface scattering; the Subsurface Weight's share of "
+                "the surface gets no light (the path and direct tracers walk it, as Cycles)")
+        if note not in warnings:
+            warnings.append(note)
+    if any(material.volume for material in scene.materials):
+        note = ("subsurface: a walk's exit keeps the medium its entry was in (Cycles re-reads the volume stack there, "
+                "for an object inside or holding a volume)")
+        if note not in warnings:
+            warnings.append(note)
+    if settings.kernels != "compiled":
+        return ""
+    note = ("subsurface: the compiled kernel does not walk subsurface scattering yet, so this render runs the Python "
+            "reference (the same image, slower)")
+    if note not in warnings:
+        warnings.append(note)
+    return "subsurface scattering, which the compiled kernel does not walk yet"
+
+
 def render(scene: Scene, settings: RenderSettings,
            progress: Optional[Callable[[float, RenderStats], None]] = None,
            cancel: Optional[Callable[[], bool]] = None,
@@ -541,7 +582,8 @@ def render(scene: Scene, settings: RenderSettings,
     stats.triangles = geometry.triangle_count
     W, H = settings.width, settings.height
     volumes_because = volume_reason(ctx, stats.warnings)
-    numpy_because = (why_not(settings) or volumes_because
+    subsurface_because = subsurface_reason(scene, settings, stats.warnings)
+    numpy_because = (why_not(settings) or volumes_because or subsurface_because
                      or ("" if Compiled.applies(ctx) else "Embree's packet queries are unavailable"))
     compiled = Compiled(ctx, ctx.extra["background"]) if not numpy_because else None
     stats.kernels = "compiled" if compiled else f"numpy ({numpy_because})"

@@ -1,0 +1,188 @@
+"""Subsurface scattering as Cycles' Random Walk (core/materials/subsurface.py, core/integrators/subsurface.py), held to
+closed forms: Cycles' closure set-up (bssrdf_setup), a white object in a white world that keeps all its light where the
+walk is short, radius 0 as the diffuse look, and the compiled kernel's fallback to the reference with a warning. The
+comparison with Cycles' own render is tests/test_blender_subsurface.py."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from core import render
+from core.camera import Camera
+from core.geometry import primitives
+from core.lights.world import World
+from core.materials import Material, nodes
+from core.materials import subsurface as bssrdf
+from core.materials.base import BSDFFlags, has
+from core.materials.lambert import Lambert
+from core.scene import RenderSettings, Scene, SunLight
+
+
+def sphere_scene(inputs: dict, world: float, sun: bool) -> Scene:
+    """A smooth sphere of a Principled BSDF with `inputs` in front of the camera, in a world of radiance `world`,
+    with a sun or without."""
+    scene = Scene(camera=Camera.look_at((0.0, -4.0, 0.0), (0.0, 0.0, 0.0), fov=math.radians(30)),
+                  world=World(color=np.full(3, world)))
+    scene.materials = [Material(name="Wax", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0), inputs)])]
+    scene.add_mesh(primitives.uv_sphere(0.8, 32, 16, smooth=True), materials=np.array([0]))
+    if sun:
+        scene.lights = [SunLight(np.array([0.5, 0.6, -0.4]), strength=3.0)]
+    return scene
+
+
+SETTINGS = RenderSettings(width=12, height=12, samples=32, integrator="path", max_bounces=64, diffuse_bounces=64,
+                          kernels="numpy")
+
+
+def principled_closures(inputs: dict):
+    """The closures one Principled BSDF node of `inputs` sets up at a hit seen head-on (normal +z)."""
+    N = np.array([[0.0, 0.0, 1.0]])
+    b = nodes.ClosureBuilder(N, N.copy(), nodes.PrincipledNode.slots)
+    nodes.PrincipledNode.setup(b, np.ones((1, 3)), nodes.PrincipledNode.row(inputs)[None, :])
+    return b.result().closures
+
+
+def test_the_principled_sets_up_cycles_bssrdf_with_its_radius_scaled_and_three_channels_of_sampling_weight():
+    """Subsurface Weight 1: one BSSRDF closure of the clamped colour (under the specular layer), sampling weight 3 x its mean (one per channel
+    it walks), radius x scale / (4 pi), the colour as albedo, the specular index (IOR at Specular IOR Level 0.5; at
+    level 0 it is remapped to 1, clamped to 1.01, as Cycles passes it); no diffuse closure."""
+    colour, radius, scale = np.array([0.8, 0.5, 0.3]), np.array([1.0, 0.2, 0.1]), 0.05
+    inputs = {"base_color": colour, "subsurface": 1.0, "subsurface_radius": radius, "subsurface_scale": scale,
+              "ior": 1.45}
+    c = principled_closures(inputs)
+    walks = np.flatnonzero(has(c.kind[0], BSDFFlags.SUBSURFACE))
+    assert len(walks) == 1 and not (c.kind[0] == Lambert.kind).any()
+    k = walks[0]
+    # (the colour below what the specular layer reflects: one factor for all channels)
+    np.testing.assert_allclose(c.weight[0, k] / colour, (c.weight[0, k] / colour)[0])
+    np.testing.assert_allclose(c.sample_weight[0, k], 3.0 * c.weight[0, k].mean())
+    p = c.params[0, k]
+    np.testing.assert_allclose(p[bssrdf.RADIUS:bssrdf.RADIUS + 3], radius * scale / (4.0 * math.pi))
+    np.testing.assert_allclose(p[bssrdf.ALBEDO:bssrdf.ALBEDO + 3], colour)
+    assert p[bssrdf.IOR] == 1.45 and p[bssrdf.SKIN] == 0.0
+    level_0 = principled_closures(dict(inputs, specular_ior_level=0.0))
+    assert level_0.params[0, np.flatnonzero(has(level_0.kind[0], BSDFFlags.SUBSURFACE))[0], bssrdf.IOR] == 1.01
+
+
+def test_a_channel_without_radius_scatters_as_a_lambert_of_its_share():
+    """bssrdf_setup: a channel whose radius is 0 goes to a Lambert closure of that channel's weight; the BSSRDF keeps
+    the other two, with a sampling weight of 2 x its mean."""
+    colour = np.array([0.8, 0.5, 0.3])
+    c = principled_closures({"base_color": colour, "subsurface": 1.0, "subsurface_radius": (1.0, 0.0, 0.1),
+                             "specular_ior_level": 0.0})
+    walk = np.flatnonzero(has(c.kind[0], BSDFFlags.SUBSURFACE))[0]
+    lambert = np.flatnonzero(c.kind[0] == Lambert.kind)[0]
+    np.testing.assert_allclose(c.weight[0, lambert], [0.0, 0.5, 0.0])
+    np.testing.assert_allclose(c.weight[0, walk], [0.8, 0.0, 0.3])
+    np.testing.assert_allclose(c.sample_weight[0, walk], 2.0 * (0.8 + 0.3) / 3.0)
+
+
+def test_skin_shrinks_the_radius_by_the_dipole_of_its_colour_and_index():
+    """Random Walk (Skin): radius x sqrt(3 (1 - alpha')), alpha' the single-scattering albedo whose dipole (index
+    Subsurface IOR) reflects the colour: the dipole of the alpha' found reflects the colour again."""
+    colour = np.array([[0.8, 0.5, 0.3]])
+    ior = np.array([1.4])
+    scaled = bssrdf.scaled_radius(np.ones((1, 3)), colour, ior, np.array([True]))
+    alpha_prime = 1.0 - scaled ** 2 / 3.0
+    inv = 1.0 / ior
+    F_dr = inv * (-1.440 * inv + 0.710) + 0.668 + 0.0636 * ior
+    np.testing.assert_allclose(bssrdf.dipole_Rd(alpha_prime, (4.0 / 3.0) * (1.0 + F_dr) / (1.0 - F_dr)), colour,
+                               rtol=1e-2)          # (Cycles bisects 12 times: alpha' to 2^-12)
+
+
+def test_a_white_subsurface_sphere_in_a_white_world_keeps_all_its_light_where_the_walk_is_short():
+    """White furnace: colour 1 (alpha -> 1, nothing absorbed), no specular layer, a radius as large as the sphere
+    (the walks leave within far fewer than Cycles' 256 steps): every pixel on the sphere sees the world's 1."""
+    scene = sphere_scene({"base_color": (1.0, 1.0, 1.0), "subsurface": 1.0, "subsurface_scale": 10.0,
+                          "specular_ior_level": 0.0}, 1.0, sun=False)
+    image = render.render(scene, dataclasses.replace(SETTINGS, samples=64)).image[..., :3]
+    centre = image[3:9, 3:9]                        # all on the sphere
+    np.testing.assert_allclose(centre.mean(axis=(0, 1)), 1.0, atol=0.03)
+
+
+def test_radius_zero_is_exactly_the_diffuse_look():
+    """Radius 0 in every channel: bssrdf_setup makes the whole weight a Lambert closure of the clamped colour, the
+    image of Subsurface Weight 0 (lit by a sun and the world, the same samples)."""
+    inputs = {"base_color": (0.8, 0.5, 0.3), "subsurface_radius": (0.0, 0.0, 0.0)}
+    settings = dataclasses.replace(SETTINGS, samples=4, max_bounces=4)
+    walked = render.render(sphere_scene(dict(inputs, subsurface=1.0), 0.2, sun=True), settings).image
+    diffuse = render.render(sphere_scene(dict(inputs, subsurface=0.0), 0.2, sun=True), settings).image
+    np.testing.assert_allclose(walked, diffuse, rtol=1e-12, atol=1e-12)
+
+
+def test_the_compiled_kernel_hands_subsurface_to_the_reference_with_a_warning():
+    """The compiled kernel does not walk: a render with a subsurface material runs the Python reference, says so,
+    and gives the reference's image."""
+    scene = sphere_scene({"base_color": (0.8, 0.5, 0.3), "subsurface": 1.0}, 0.2, sun=True)
+    settings = dataclasses.replace(SETTINGS, width=4, height=4, samples=1, max_bounces=2)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, settings)
+    assert compiled.stats.kernels.startswith("numpy (subsurface")
+    assert any(w.startswith("subsurface: the compiled kernel does not walk") for w in compiled.stats.warnings)
+    np.testing.assert_array_equal(compiled.image, reference.image)
+
+
+def test_the_subsurface_scattering_node_sets_up_one_bssrdf_of_its_colour():
+    """Blender's Subsurface Scattering node (Cycles' BSSRDF closure node): weight x Color, the colour as albedo,
+    Radius x Scale / (4 pi) (Random Walk), its own IOR, its Roughness as the entry's alpha (not squared), Anisotropy."""
+    colour = np.array([0.7, 0.4, 0.2])
+    N = np.array([[0.0, 0.0, 1.0]])
+    b = nodes.ClosureBuilder(N, N.copy(), bssrdf.SubsurfaceNode.slots)
+    row = bssrdf.SubsurfaceNode.row({"color": colour, "radius": (2.0, 1.0, 0.5), "scale": 0.1, "ior": 1.3,
+                                     "roughness": 0.4, "anisotropy": 0.3})
+    bssrdf.SubsurfaceNode.setup(b, np.full((1, 3), 0.5), row[None, :])
+    c = b.result().closures
+    assert list(c.kind[0]) == [bssrdf.RandomWalk.kind]
+    np.testing.assert_allclose(c.weight[0, 0], 0.5 * colour)
+    p = c.params[0, 0]
+    np.testing.assert_allclose(p[bssrdf.RADIUS:bssrdf.RADIUS + 3], np.array([2.0, 1.0, 0.5]) * 0.1 / (4.0 * math.pi))
+    np.testing.assert_allclose(p[bssrdf.ALBEDO:bssrdf.ALBEDO + 3], colour)
+    assert (p[bssrdf.IOR], p[bssrdf.ALPHA], p[bssrdf.ANISOTROPY]) == (1.3, 0.4, 0.3)
+
+
+def test_the_direct_tracer_walks_as_the_path_tracer_with_no_bounces():
+    """Cycles counts no bounce for the walk: the direct-light tracer renders a subsurface sphere as the path tracer at
+    Max Bounces 0 (the walk, then the exit's light samples), the same image; Whitted's tracer warns it gives the
+    BSSRDF no light."""
+    scene = sphere_scene({"base_color": (0.8, 0.5, 0.3), "subsurface": 1.0}, 0.2, sun=True)
+    settings = dataclasses.replace(SETTINGS, width=4, height=4, samples=2)
+    direct = render.render(scene, dataclasses.replace(settings, integrator="direct"))
+    path = render.render(scene, dataclasses.replace(settings, max_bounces=0))
+    np.testing.assert_array_equal(direct.image, path.image)
+    assert direct.image[..., :3].max() > 0.05
+    whitted = render.render(scene, dataclasses.replace(settings, integrator="whitted")).stats.warnings
+    assert any(w.startswith("subsurface: Whitted's tracer does not walk") for w in whitted)
+
+
+
+def test_the_exit_is_lit_with_the_bssrdfs_own_normal_only_where_its_normal_is_linked():
+    """Cycles' subsurface_shader_data_setup: a white Lambert at the exit, on sd->N, or on the BSSRDFs' normals
+    weighed by their mean weight where one of them has a linked Normal (SD_HAS_BSSRDF_BUMP)."""
+    from core.integrators import subsurface as walk
+    N = np.array([[0.0, 0.0, 1.0]])
+    tilted = np.array([[0.6, 0.0, 0.8]])
+    for bumped in (False, True):
+        b = nodes.ClosureBuilder(N, N.copy(), 2)
+        if bumped:
+            b.use_normal(tilted)
+        bssrdf.SubsurfaceNode.setup(b, np.ones((1, 3)), bssrdf.SubsurfaceNode.row({})[None, :])
+        exit_shader = walk.subsurface_shader(b.result(), np.array([True]))
+        assert list(exit_shader.closures.kind[0]) == [Lambert.kind]
+        np.testing.assert_allclose(exit_shader.closures.weight[0, 0], 1.0)
+        np.testing.assert_allclose(exit_shader.closures.N[0, 0], tilted[0] if bumped else N[0])
+        np.testing.assert_allclose(exit_shader.emission, 0.0)
+
+
+def test_blender_5_2_walks_random_walk_with_the_radius_itself_as_the_mean_free_path():
+    """Blender 5.0's and 5.1's Cycles scale Random Walk's radius by 1 / (4 pi); 5.2's does not (measured against
+    its render, tests/test_blender_subsurface.py): method_of asks for RANDOM_WALK_MFP there, Skin stays."""
+    assert bssrdf.method_of("RANDOM_WALK", (5, 0, 1)) == bssrdf.RANDOM_WALK
+    assert bssrdf.method_of("RANDOM_WALK", (5, 2, 0)) == bssrdf.RANDOM_WALK_MFP
+    assert bssrdf.method_of("BURLEY", (5, 2, 0)) == bssrdf.RANDOM_WALK_MFP
+    assert bssrdf.method_of("RANDOM_WALK_SKIN", (5, 2, 0)) == bssrdf.RANDOM_WALK_SKIN
+    c = principled_closures({"subsurface": 1.0, "subsurface_radius": (1.0, 0.2, 0.1), "subsurface_scale": 0.5,
+                             "subsurface_method": bssrdf.RANDOM_WALK_MFP})
+    k = np.flatnonzero(has(c.kind[0], BSDFFlags.SUBSURFACE))[0]
+    np.testing.assert_allclose(c.params[0, k, bssrdf.RADIUS:bssrdf.RADIUS + 3], [0.5, 0.1, 0.05])
