@@ -291,7 +291,7 @@ INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught
 {
     if (caught) {
         double front[3], one[3] = {1.0, 1.0, 1.0};
-        camera_sees(params, O, D, t, 1, front, NULL, NULL);
+        camera_sees(params, O, D, t, 1, front, NULL, NULL, NULL);
         double f = clamp_scale(front, one, params->clamp_direct, 1.0);
         for (int c = 0; c < 3; c++) row[c] += finite_or_zero(front[c] * f);
         row[10] += 1.0;

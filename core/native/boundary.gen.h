@@ -27,6 +27,8 @@
 #define MOTION_STRIDE 16
 /* an instance's Object Info columns before its attributes (core.geometry.geometry) */
 #define OBJECT_INFO_WIDTH 14
+/* the shadow catcher's film sums: matte RGBA, catcher-only RGB, background RGB, caught samples (core.integrators.catcher) */
+#define CATCHER_CHANNELS 11
 /* the integrators with a compiled twin (core.integrators.compiled) */
 #define INTEGRATOR_DIRECT 0
 #define INTEGRATOR_PATH 1
@@ -214,6 +216,29 @@
 #define DISTRIBUTION_GGX 0
 #define DISTRIBUTION_BECKMANN 1
 #define DISTRIBUTION_ASHIKHMIN_SHIRLEY 2
+/* the Sky Texture's models (core/materials/sky.py SKY_TYPES) (core.materials.sky) */
+#define SKY_MULTIPLE_SCATTERING 0
+#define SKY_SINGLE_SCATTERING 1
+#define SKY_PREETHAM 2
+#define SKY_HOSEK_WILKIE 3
+/* the sun disc's limb darkening (core.materials.sky) */
+#define SKY_LIMB 0.6
+/* Hosek / Wilkie's RGB scale (core.materials.sky) */
+#define SKY_HOSEK_SCALE 0.009199392836280507
+/* where the Sky op's floats keep each number (core/materials/sky.py) (core.materials.sky) */
+#define SKY_AT_KIND 0
+#define SKY_AT_ROTATION 1
+#define SKY_AT_PROBE 2
+#define SKY_AT_HEIGHT 5
+#define SKY_AT_WIDTH 6
+#define SKY_AT_ELEVATION 7
+#define SKY_AT_SIZE 8
+#define SKY_AT_INTENSITY 9
+#define SKY_AT_BOTTOM 10
+#define SKY_AT_TOP 13
+#define SKY_AT_HORIZON 16
+#define SKY_AT_XYZ_TO_RGB 17
+#define SKY_AT_PAYLOAD 26
 /* an image node's interpolation (INTERPOLATIONS) (core.materials.textures) */
 #define TEX_LINEAR 0
 #define TEX_CLOSEST 1
@@ -227,13 +252,14 @@
 #define TEX_FLOAT 0
 #define TEX_BYTE 1
 #define TEX_SHORT 2
-/* the rays an object hides from (Ray Visibility), and the holdout flag (core.visibility) */
+/* the rays an object hides from (Ray Visibility), the holdout and shadow catcher flags (core.visibility) */
 #define HIDDEN_FROM_CAMERA 1
 #define HIDDEN_FROM_SHADOW 2
 #define HIDDEN_FROM_DIFFUSE 4
 #define HIDDEN_FROM_GLOSSY 8
 #define HIDDEN_FROM_TRANSMISSION 16
 #define HOLDOUT 32
+#define SHADOW_CATCHER 64
 /* pieces a march cuts the diagonal of the media's box into (core.volumes.field) */
 #define STEPS_ACROSS 100
 /* the most pieces a march cuts one stretch of a ray into (core.volumes.field) */
@@ -646,6 +672,7 @@ struct ChunkParams {
     int32_t features;                       /* 1: sum the denoising features (features.c) into ChunkOut.features */
     const PassTables *passes;               /* the first-hit passes asked for (passes.c), or NULL */
     const MediaTables *media;               /* the render's homogeneous media (core/volumes/media.c), or NULL: none */
+    const void *catcher;                    /* the ChunkParams of the shadow catchers' catcher-only scene (catcher.py), or NULL: no catcher */
 };
 
 /* What a chunk adds up: per pixel, and for the render's statistics. */
@@ -661,6 +688,7 @@ struct ChunkOut {
     int64_t *nonfinite;                     /* (p,) samples whose value was NaN or beyond the float32 film (replaced by 0), or NULL */
     double *passes;                         /* (p, PassTables.channels) sums of the first-hit passes, or NULL */
     double *mattes;                         /* (p, matte_count, slots, 2) each pixel's Cryptomatte slots (id, weight), or NULL */
+    double *catcher;                        /* (p, CATCHER_CHANNELS) sums of the shadow catchers' matte, catcher-only light, background and caught samples (catcher.py), or NULL */
 };
 
 /* primer_render_chunk's arguments: spp samples in each of p pixels. */
@@ -991,8 +1019,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(4904765900158859560);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(5755748365903746207);
-    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(2080484997135844564);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4524182106731721234);
+    if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
