@@ -90,12 +90,12 @@ def blender_job(*args: str, quick: bool) -> None:
         raise RuntimeError(f"bench/scenes.py {' '.join(args)} failed ({done.returncode}):\n{tail}")
 
 
-def run_scenes(plan: common.Plan) -> dict:
-    """Render the references and ladders of every scene; return {"rows": [...], "references": {...}}."""
+def run_ladders(names: list, quick: bool) -> dict:
+    """Render the references and ladders of the scenes `names`; return {"rows": [...], "references": {...}}."""
     rows, references = [], {}
-    for name in plan.scenes:
+    for name in names:
         start = time.perf_counter()
-        blender_job("ladder", name, quick=plan.quick)
+        blender_job("ladder", name, quick=quick)
         result = common.read_json(os.path.join(common.OUT, "scenes", f"{name}.json"))
         rows += result["rows"]
         references[name] = result["reference"]
@@ -103,12 +103,17 @@ def run_scenes(plan: common.Plan) -> dict:
     return {"rows": rows, "references": references}
 
 
+def run_scenes(plan: common.Plan) -> dict:
+    """Render the references and ladders of every sample scene; return {"rows": [...], "references": {...}}."""
+    return run_ladders(plan.scenes, plan.quick)
+
+
 def run_real(plan: common.Plan) -> dict:
     """Rig each real scene once (bench/out/real/), then render its reference and ladders; return {"rows": [...],
     "references": {...}, "skipped": [(name, why)]} (a scene not in tools/real_scenes.py's cache is skipped)."""
     import real_scenes                              # tools/real_scenes.py
 
-    rows, references, skipped = [], {}, []
+    ready, skipped = [], []
     for name in plan.real_scenes:
         blend = common.blend_of(name)
         if not os.path.exists(blend):
@@ -118,13 +123,8 @@ def run_real(plan: common.Plan) -> dict:
                 skipped.append((name, "; ".join(notes) + ": run `tools/real_scenes.py fetch` (docs/real_scenes.md)"))
                 print(f"  {name}: skipped ({skipped[-1][1]})", flush=True)
                 continue
-        start = time.perf_counter()
-        blender_job("ladder", name, quick=plan.quick)
-        result = common.read_json(os.path.join(common.OUT, "scenes", f"{name}.json"))
-        rows += result["rows"]
-        references[name] = result["reference"]
-        print(f"  {name}: {time.perf_counter() - start:.0f} s", flush=True)
-    return {"rows": rows, "references": references, "skipped": skipped}
+        ready.append(name)
+    return {**run_ladders(ready, plan.quick), "skipped": skipped}
 
 
 def run_denoise(plan: common.Plan) -> dict:
