@@ -508,14 +508,10 @@ def volume_reason(ctx: Context, warnings: list) -> str:
         if note not in warnings:
             warnings.append(note)
     bounces = media.scattering and s.volume_bounces > 0 and s.integrator == "path"
-    # (heterogeneous media: the compiled kernel marches them, but for a graph holding a world-only op)
-    marched = not media.heterogeneous or media.compiled_fields
-    if len(media.g) <= volumes.MAX_MEDIA and marched and not bounces:
+    if len(media.g) <= volumes.MAX_MEDIA and not bounces:
         return ""
     reason = (f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
               if len(media.g) > volumes.MAX_MEDIA else
-              "a heterogeneous medium whose graph holds an op the compiled kernel does not run"
-              if not marched else
               f"Volume Bounces {s.volume_bounces}: the compiled kernel scatters once (Volume Bounces 0)")
     note = f"volumes: {reason}, so this render runs the Python reference (the same image, slower)"
     if note not in warnings:

@@ -430,12 +430,6 @@ def inputs_table(field: "Field") -> tuple:
     return kinds, weights, table, np.array(factors, np.float64).reshape(-1, 3)
 
 
-def compiles(field: "Field") -> bool:
-    """Whether field.c evaluates the Field: its program holds no world-only op (graph.c runs every other one)."""
-    from ..materials import graph as graph_
-    return not graph_.world_ops_of(field.program)
-
-
 def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRecord":
     """The C record (VolumeField) of a Field whose media column is `column`, followed by the record `following`
     (None: the last). The record keeps its arrays alive."""

@@ -319,12 +319,6 @@ class Media:
                     field_high=np.max([f.high for f in self.fields], axis=0),
                     field_step=min(f.step for f in self.fields))
 
-    @property
-    def compiled_fields(self) -> bool:
-        """Whether media.c marches every heterogeneous medium (field.py compiles)."""
-        from . import field as field_
-        return all(field_.compiles(f) for f in self.fields)
-
     def start(self, n: int) -> np.ndarray:
         """The stacks (n, V) int16 of rays that start in no mesh's medium (the world's is always there)."""
         return np.zeros((n, len(self.g)), np.int16)
