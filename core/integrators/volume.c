@@ -215,6 +215,41 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
                              double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
                              int64_t sample, int64_t dimension, int bounce, double *L);
 
+/* volume.equiangular_light: each lamp with a position adds the light scattered at its equi-angular point on O, D
+ * over [0, t), lit by that lamp alone and weighed by the balance heuristic against free flight (odds), into L (3):
+ * in a heterogeneous medium m (its march gives the coefficients and transmittance there) or, m NULL, in the
+ * homogeneous one of sigma_t, sigma_s (3) and g. Returns the shadow rays traced. */
+static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *limits, const March *m,
+                                 const double *sigma_t, const double *sigma_s, double g, const double *odds,
+                                 const double *O, const double *D, double t, const VolumeStack *inside,
+                                 int64_t pixel, int64_t sample, int64_t dimension, int bounce, double *L)
+{
+    double wo[3] = {-D[0], -D[1], -D[2]};
+    int64_t rays = 0;
+    for (int64_t l = 0; l < ds->n_lights; l++) {
+        const LightRecord *light = ds->lights + l;
+        if (!equiangular_lamp(light)) continue;
+        double v[2], s_e = 0.0;
+        sample_2d(stream_of((int64_t)ds->seed, EQUIANGULAR_DIMENSION + l + dimension), pixel, sample, v);
+        double pdf_e = equiangular(O, D, t, light->position, v[0], &s_e);
+        if (!(pdf_e > 0.0)) continue;
+        double w, g_e = g, at_t[3], at_s[3], kept[3], X[3], lit[3];
+        if (m != NULL) {
+            w = pdf_e / (pdf_e + march_pdf(m, odds, s_e));
+            g_e = march_at(m, s_e, at_t, at_s);
+            march_transmittance(m, s_e, kept);
+        } else {
+            w = pdf_e / (pdf_e + distance_pdf(sigma_t, odds, t, s_e));
+            for (int c = 0; c < 3; c++) at_s[c] = sigma_s[c];
+            beer_lambert(sigma_t, s_e, kept);
+        }
+        for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
+        rays += scattered_light(ds, limits, X, wo, g_e, inside, pixel, sample, dimension, bounce, NULL, l, lit);
+        for (int c = 0; c < 3; c++) L[c] += (kept[c] * at_s[c]) * (w / pdf_e) * lit[c];
+    }
+    return rays;
+}
+
 /* volume.marched_scattering: in_scattering for a ray O, D over [0, t) in a heterogeneous medium (its march m,
  * field.c): free flight inverting the optical depth of a channel picked by throughput x the ray's albedo (its optical
  * depths' ratio), weight T(s) sigma_s(s) / pdf(s), and each lamp's equi-angular point weighed against it by the
@@ -241,20 +276,8 @@ static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *li
         for (int c = 0; c < 3; c++) L[c] = (kept[c] * sigma_s[c] / pdf) * scattered[c];
     }
     /* 2. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
-    for (int64_t l = 0; l < ds->n_lights; l++) {
-        const LightRecord *light = ds->lights + l;
-        if (!equiangular_lamp(light)) continue;
-        double v[2], s_e = 0.0;
-        sample_2d(stream_of((int64_t)ds->seed, EQUIANGULAR_DIMENSION + l + dimension), pixel, sample, v);
-        double pdf_e = equiangular(O, D, t, light->position, v[0], &s_e);
-        if (!(pdf_e > 0.0)) continue;
-        double w = pdf_e / (pdf_e + march_pdf(m, odds, s_e)), sigma_t[3], sigma_s[3], kept[3], X[3], lit[3];
-        double g = march_at(m, s_e, sigma_t, sigma_s);
-        march_transmittance(m, s_e, kept);
-        for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
-        rays += scattered_light(ds, limits, X, wo, g, inside, pixel, sample, dimension, bounce, NULL, l, lit);
-        for (int c = 0; c < 3; c++) L[c] += (kept[c] * sigma_s[c]) * (w / pdf_e) * lit[c];
-    }
+    rays += equiangular_lamps(ds, limits, m, NULL, NULL, 0.0, odds, O, D, t, inside, pixel, sample, dimension, bounce,
+                              L);
     return rays;
 }
 
@@ -295,19 +318,8 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
                                    scattered);
     for (int c = 0; c < 3; c++) L[c] = weight[c] * scattered[c];
     /* 3. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
-    for (int64_t l = 0; l < ds->n_lights; l++) {
-        const LightRecord *light = ds->lights + l;
-        if (!equiangular_lamp(light)) continue;
-        double v[2], s_e = 0.0;
-        sample_2d(stream_of((int64_t)ds->seed, EQUIANGULAR_DIMENSION + l + dimension), pixel, sample, v);
-        double pdf_e = equiangular(O, D, t, light->position, v[0], &s_e);
-        if (!(pdf_e > 0.0)) continue;
-        double w = pdf_e / (pdf_e + distance_pdf(sigma_t, odds, t, s_e)), X[3], lit[3];
-        beer_lambert(sigma_t, s_e, kept);
-        for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
-        rays += scattered_light(ds, limits, X, wo, g, inside, pixel, sample, dimension, bounce, NULL, l, lit);
-        for (int c = 0; c < 3; c++) L[c] += kept[c] * sigma_s[c] * (w / pdf_e) * lit[c];
-    }
+    rays += equiangular_lamps(ds, limits, NULL, sigma_t, sigma_s, g, odds, O, D, t, inside, pixel, sample, dimension,
+                              bounce, L);
     return rays;
 }
 

@@ -65,24 +65,6 @@ INLINE double clamp_anisotropy(double g)
     return g > 0.0 ? a : (g < 0.0 ? -a : 0.0);
 }
 
-/* converters/blackbody.py blackbody(t, clip=False): the fit's Rec.709 colour of temperature t (float32, as graph.c's
- * Blackbody computes it) into out (3), unclipped (negative outside the gamut: the Principled Volume's black body). */
-INLINE void blackbody_unclipped(float t, double *out)
-{
-    float c[3];
-    if (t >= 12000.0f) { for (int k = 0; k < 3; k++) c[k] = BLACKBODY_HOT[k]; }
-    else if (t < 800.0f) { for (int k = 0; k < 3; k++) c[k] = BLACKBODY_COLD[k]; }
-    else {
-        int i = 0;
-        while (i < 6 && t >= BLACKBODY_STARTS[i + 1]) i++;
-        const float *r = BLACKBODY_R + 3 * i, *g = BLACKBODY_G + 3 * i, *b = BLACKBODY_B + 4 * i;
-        float inv = 1.0f / t;
-        c[0] = (r[0] * inv + r[1] * t) + r[2];
-        c[1] = (g[0] * inv + g[1] * t) + g[2];
-        c[2] = ((b[0] * t + b[1]) * t + b[2]) * t + b[3];
-    }
-    for (int k = 0; k < 3; k++) out[k] = (double)c[k];
-}
 
 /* Field.at at one camera-relative point P (3): the medium's sigma_a, sigma_s, emission (3) and gs (the closures'
  * anisotropies times their scattering), each closure as field.closure_at. */
