@@ -24,7 +24,7 @@ static void camera_lane_media(const ChunkParams *params, const CameraBlock *b, B
 }
 
 /* Step 2: the block's nearest hits, 8 rays at a time; the rays that hit kept, with their surfaces. */
-INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHits *H, int64_t *traced,
+NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHits *H, int64_t *traced,
                        uint64_t *embree)
 {
     Intersect8 intersect = (Intersect8)params->intersect8;
@@ -133,7 +133,7 @@ INLINE void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHit
 /* The integrator at the block's hits: the radiance each sends towards the camera, into H->L, and what media
  * scatter along each camera ray of block b into H->lane_scattered. Returns the shadow rays; embree[0] += ticks in
  * occlusion queries, embree[1] in the BSDF rays' nearest hits. */
-INLINE int64_t integrate(const ChunkParams *params, const CameraBlock *b, BlockHits *H, PathWork *work,
+NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *b, BlockHits *H, PathWork *work,
                          LanePasses *passes, uint64_t *embree)
 {
     Transmitter transmitter = {(Intersect8)params->intersect8, params->scene, params->geometry, params->materials,
