@@ -482,16 +482,22 @@ def preetham(sun_direction: np.ndarray, turbidity: float) -> np.ndarray:
     return np.concatenate([[phi, theta], zenith, coefficients.ravel()])
 
 
+def sky_angles(sun_phi: float, sun_theta: float, D: np.ndarray) -> tuple:
+    """(theta, gamma) (n,) of unit directions D (n, 3) under a sun at (sun_phi, sun_theta) (sky.c sky_angles): the
+    zenith angle, clamped just above the horizon, and the angle to the sun (from the unclamped zenith angle)."""
+    theta = np.arccos(np.clip(D[:, 2], -1.0, 1.0))
+    phi = -np.arctan2(D[:, 1], D[:, 0]) + 0.5 * math.pi
+    cos_gamma = np.sin(sun_theta) * np.sin(theta) * np.cos(phi - sun_phi) + np.cos(sun_theta) * np.cos(theta)
+    gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
+    return np.minimum(theta, 0.5 * math.pi - 0.001), gamma
+
+
 def preetham_xyz(numbers: np.ndarray, D: np.ndarray) -> np.ndarray:
     """The Preetham sky's XYZ (n, 3) along unit D (n, 3) (sky.h sky_radiance_preetham): theta clamped just above
     the horizon, gamma the angle to the sun, xyY from Perez' function, to XYZ."""
     sun_phi, sun_theta = numbers[0], numbers[1]
     zenith, lam = numbers[2:5], numbers[5:20].reshape(3, 5)
-    theta = np.arccos(np.clip(D[:, 2], -1.0, 1.0))
-    phi = -np.arctan2(D[:, 1], D[:, 0]) + 0.5 * math.pi
-    cos_gamma = np.sin(sun_theta) * np.sin(theta) * np.cos(phi - sun_phi) + np.cos(sun_theta) * np.cos(theta)
-    gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
-    theta = np.minimum(theta, 0.5 * math.pi - 0.001)
+    theta, gamma = sky_angles(sun_phi, sun_theta, D)
     Y, x, y = (zenith[k] * perez(lam[k], theta, gamma) for k in range(3))
     safe_y = np.where(y != 0.0, y, 1.0)
     X = np.where(y != 0.0, x / safe_y * Y, 0.0)
@@ -547,11 +553,7 @@ def hosek_xyz(numbers: np.ndarray, D: np.ndarray) -> np.ndarray:
     + F cos^2 gamma + G (1 + cos^2 gamma) / (1 + I^2 - 2 I cos gamma)^(3/2) + H sqrt(cos theta)) x its radiance."""
     sun_phi, sun_theta = numbers[0], numbers[1]
     radiance, config = numbers[2:5], numbers[5:32].reshape(3, 9)
-    theta = np.arccos(np.clip(D[:, 2], -1.0, 1.0))
-    phi = -np.arctan2(D[:, 1], D[:, 0]) + 0.5 * math.pi
-    cos_gamma = np.sin(sun_theta) * np.sin(theta) * np.cos(phi - sun_phi) + np.cos(sun_theta) * np.cos(theta)
-    gamma = np.arccos(np.clip(cos_gamma, -1.0, 1.0))
-    theta = np.minimum(theta, 0.5 * math.pi - 0.001)
+    theta, gamma = sky_angles(sun_phi, sun_theta, D)
     cos_theta, c = np.cos(theta), np.cos(gamma)
     xyz = np.empty((len(D), 3))
     for k in range(3):
