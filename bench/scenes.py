@@ -190,7 +190,7 @@ def ladder(name: str, plan: common.Plan) -> dict:
 def time_spent(record, wall: float) -> dict:
     """Where a Primer render's wall time went, from its RenderRecord (addon/engine.py): seconds per part."""
     stats = record.stats
-    return {"wall": wall, "export": record.export_seconds, "bvh": stats.geometry_seconds,
+    return {"wall": wall, "primer": record.seconds, "export": record.export_seconds, "bvh": stats.geometry_seconds,
             "embree": stats.trace_seconds, "shading": stats.shading_seconds, "render": stats.seconds,
             "write": record.write_seconds, "rays": stats.rays, "triangles": stats.triangles}
 
@@ -239,12 +239,7 @@ def profile(plan: common.Plan, samples: int = 16) -> dict:
             runs = []
             for _ in range(plan.repeats):
                 wall = render_timed()
-                record = primer_record()
-                stats = record.stats
-                runs.append({"wall": wall, "primer": record.seconds, "export": record.export_seconds,
-                             "bvh": stats.geometry_seconds, "embree": stats.trace_seconds,
-                             "shading": stats.shading_seconds, "write": record.write_seconds,
-                             "render": stats.seconds, "rays": stats.rays, "triangles": stats.triangles})
+                runs.append(time_spent(primer_record(), wall))
             runs.sort(key=lambda r: r["wall"])
             entry["one_thread" if threads == 1 else "all_cores"] = runs[len(runs) // 2]    # the median run
         out[name] = entry
