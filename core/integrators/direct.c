@@ -912,7 +912,8 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     const double *sigma = ray->sigma;
     /* The media's emission along the ray up to its hit (no light sample finds it: not weighed); a heterogeneous
      * medium's by its march (field.c), built once where something asks for it (what the media let through below). */
-    LazyMarch lazy = {ds->media, ray->inside, O, D, hit ? t_limit : INFINITY, sigma, ray->emission, 0, {0}};
+    LazyMarch lazy;
+    lazy_march_start(&lazy, ds->media, ray->inside, O, D, hit ? t_limit : INFINITY, sigma, ray->emission);
     if (sigma != NULL && ds->media != NULL && ds->media->emits != 0)
         stretch_emitted(lazy_march(&lazy), sigma, ray->emission, hit ? t_limit : INFINITY, light_L);
     int away = P != NULL && (P[0] != O[0] || P[1] != O[1] || P[2] != O[2]);

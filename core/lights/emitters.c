@@ -134,31 +134,26 @@ INLINE double emitter_pick_probability(const EmitterTables *e, int64_t i, const 
 
 static const double UNKNOWN_NORMAL[3] = {0.0, 0.0, 0.0};
 
-/* emitters.solid_angle: the solid angle of triangle V seen from P (Van Oosterom and Strackee). */
+/* The solid angle of the spherical triangle of unit vectors A, B, C (Van Oosterom and Strackee). */
+INLINE double unit_triangle_solid_angle(const double *A, const double *B, const double *C)
+{
+    double bc[3];
+    cross_product(B, C, bc);
+    double triple = fabs(dot3(A, bc));
+    return 2.0 * atan2(triple, 1.0 + dot3(A, B) + dot3(B, C) + dot3(C, A));
+}
+
+/* emitters.solid_angle: the solid angle of triangle V seen from P. */
 INLINE double triangle_solid_angle(const double *P, const double *V)
 {
-    double A[3], B[3], C[3], w[3], bc[3];
+    double A[3], B[3], C[3], w[3];
     for (int c = 0; c < 3; c++) w[c] = V[c] - P[c];
     unit3(w, A);
     for (int c = 0; c < 3; c++) w[c] = V[3 + c] - P[c];
     unit3(w, B);
     for (int c = 0; c < 3; c++) w[c] = V[6 + c] - P[c];
     unit3(w, C);
-    cross_product(B, C, bc);
-    double triple = fabs(dot3(A, bc));
-    return 2.0 * atan2(triple, 1.0 + dot3(A, B) + dot3(B, C) + dot3(C, A));
-}
-
-/* The angle at x of the spherical triangle (x, y, z): between the great circles x-y and x-z. */
-INLINE double vertex_angle(const double *x, const double *y, const double *z)
-{
-    double n1[3], n2[3];
-    cross_product(x, y, n1);
-    cross_product(x, z, n2);
-    double l1 = at_least(sqrt(dot3(n1, n1)), 1e-300), l2 = at_least(sqrt(dot3(n2, n2)), 1e-300);
-    for (int c = 0; c < 3; c++) { n1[c] /= l1; n2[c] /= l2; }
-    double cosine = dot3(n1, n2);
-    return acos(cosine < -1.0 ? -1.0 : (cosine > 1.0 ? 1.0 : cosine));
+    return unit_triangle_solid_angle(A, B, C);
 }
 
 /* emitters.spherical_triangle_sample for one point: the direction L, the distance to the plane along
@@ -173,12 +168,23 @@ INLINE void spherical_triangle_sample(const double *P, const double *V, const do
     unit3(w, B);
     for (int c = 0; c < 3; c++) w[c] = V[6 + c] - P[c];
     unit3(w, C);
-    double alpha = vertex_angle(A, B, C), beta = vertex_angle(B, C, A), gamma = vertex_angle(C, A, B);
-    double omega = alpha + beta + gamma - PI;
-    /* 1. A sub-triangle of area u0 Omega, its third vertex C' on the arc from A to C. */
+    /* The solid angle Omega, and the angle alpha at A as its cosine and sine from the unit normals of the great
+     * circles A-B and A-C (their cross product is parallel to A): no inverse trigonometry. */
+    double omega = unit_triangle_solid_angle(A, B, C);
+    double n1[3], n2[3], n12[3];
+    cross_product(A, B, n1);
+    cross_product(A, C, n2);
+    double l1 = at_least(sqrt(dot3(n1, n1)), 1e-300), l2 = at_least(sqrt(dot3(n2, n2)), 1e-300);
+    for (int c = 0; c < 3; c++) { n1[c] /= l1; n2[c] /= l2; }
+    cross_product(n1, n2, n12);
+    double cos_alpha = dot3(n1, n2), sin_alpha = fabs(dot3(A, n12));
+    cos_alpha = cos_alpha < -1.0 ? -1.0 : (cos_alpha > 1.0 ? 1.0 : cos_alpha);
+    /* 1. A sub-triangle of area u0 Omega, its third vertex C' on the arc from A to C: s, tt the sine and
+     * cosine of (u0 Omega - alpha) by the angle-difference identities. */
     double area_hat = u[0] * omega;
-    double s = sin(area_hat - alpha), tt = cos(area_hat - alpha);
-    double cos_c = dot3(A, B), cos_alpha = cos(alpha), sin_alpha = sin(alpha);
+    double sin_hat = sin(area_hat), cos_hat = cos(area_hat);
+    double s = sin_hat * cos_alpha - cos_hat * sin_alpha, tt = cos_hat * cos_alpha + sin_hat * sin_alpha;
+    double cos_c = dot3(A, B);
     double uu = tt - cos_alpha, vv = s + sin_alpha * cos_c;
     double q = ((vv * tt - uu * s) * cos_alpha - vv) / ((vv * s + uu * tt) * sin_alpha);
     q = q != q ? 1.0 : (q < -1.0 ? -1.0 : (q > 1.0 ? 1.0 : q));

@@ -262,19 +262,21 @@ def spherical_triangle_sample(P: np.ndarray, V: np.ndarray, u: np.ndarray):
     """A direction uniform over the spherical triangle V (n, 3, 3) subtends from P (Arvo 1995), and the
     distance to the planar triangle along it: (L (n, 3), t (n,), pdf (n,) = 1 / Omega)."""
     A, B, C = (vectors_unit(V[:, k] - P) for k in range(3))
-    # The spherical triangle's angles at A, B, C from the great-circle normals.
-    def angle(x, y, z):
-        n1, n2 = vectors.cross(x, y), vectors.cross(x, z)
-        n1 = n1 / np.maximum(np.sqrt(np.einsum("ij,ij->i", n1, n1)), 1e-300)[:, None]
-        n2 = n2 / np.maximum(np.sqrt(np.einsum("ij,ij->i", n2, n2)), 1e-300)[:, None]
-        return np.arccos(np.clip(np.einsum("ij,ij->i", n1, n2), -1.0, 1.0))
-    alpha, beta, gamma = angle(A, B, C), angle(B, C, A), angle(C, A, B)
-    omega = alpha + beta + gamma - math.pi
-    # 1. A sub-triangle of area u0 Omega, fixing the third vertex C' on the arc from A to C.
+    # The solid angle Omega (Van Oosterom and Strackee), and the angle alpha at A as its cosine and sine, from the
+    # unit normals of the great circles A-B and A-C (n1 x n2 is parallel to A): no inverse trigonometry.
+    omega = solid_angle(P, V)
+    n1, n2 = vectors.cross(A, B), vectors.cross(A, C)
+    n1 = n1 / np.maximum(np.sqrt(np.einsum("ij,ij->i", n1, n1)), 1e-300)[:, None]
+    n2 = n2 / np.maximum(np.sqrt(np.einsum("ij,ij->i", n2, n2)), 1e-300)[:, None]
+    cos_alpha = np.clip(np.einsum("ij,ij->i", n1, n2), -1.0, 1.0)
+    sin_alpha = np.abs(np.einsum("ij,ij->i", A, vectors.cross(n1, n2)))
+    # 1. A sub-triangle of area u0 Omega, fixing the third vertex C' on the arc from A to C:
+    #    s, t_ = sin and cos of (u0 Omega - alpha), by the angle-difference identities.
     area_hat = u[:, 0] * omega
-    s, t_ = np.sin(area_hat - alpha), np.cos(area_hat - alpha)
+    sin_hat, cos_hat = np.sin(area_hat), np.cos(area_hat)
+    s = sin_hat * cos_alpha - cos_hat * sin_alpha
+    t_ = cos_hat * cos_alpha + sin_hat * sin_alpha
     cos_c = np.einsum("ij,ij->i", A, B)
-    cos_alpha, sin_alpha = np.cos(alpha), np.sin(alpha)
     uu = t_ - cos_alpha
     vv = s + sin_alpha * cos_c
     with np.errstate(divide="ignore", invalid="ignore"):

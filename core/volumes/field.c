@@ -354,6 +354,22 @@ typedef struct {
     March march;
 } LazyMarch;
 
+/* A LazyMarch of the stretch O + s D over [0, t) through the media `stack` (NULL: none) of extinction sigma_t and
+ * emission (3 each, or NULL), not yet marched. Its fields are set one by one: an initialiser would zero the march's
+ * tables (tens of kilobytes) on every call, marched or not. */
+INLINE void lazy_march_start(LazyMarch *lazy, const MediaTables *media, const VolumeStack *stack, const double *O,
+                             const double *D, double t, const double *sigma_t, const double *emission)
+{
+    lazy->media = media;
+    lazy->stack = stack;
+    lazy->O = O;
+    lazy->D = D;
+    lazy->t = t;
+    lazy->sigma_t = sigma_t;
+    lazy->emission = emission;
+    lazy->built = 0;
+}
+
 /* The march of a LazyMarch's stretch (stretch_march), built on the first call; NULL where it needs none. */
 INLINE const March *lazy_march(LazyMarch *lazy)
 {
