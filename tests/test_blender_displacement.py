@@ -88,3 +88,45 @@ def test_a_displacement_output_bumps_the_shading_as_cycles_bump_only(primer, tmp
     error, unbumped = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(flat, cycles)
     print(f"{space} x{scale:g}: block relMSE {error:.2e}, the flat plane {unbumped:.2e}")
     assert error < 1e-3 and unbumped > 10.0 * error, (error, unbumped)
+
+
+def normal_readers(material):
+    """The wavy plane's surface made an Emission whose colour reads the normal three ways: red the Fresnel (IOR
+    1.45), green the Layer Weight's Facing (Blend 0.5), blue 0.5 + 0.5 x the X of Texture Coordinate's Normal."""
+    tree = material.node_tree
+    tree.nodes.remove(tree.nodes["Diffuse BSDF"])
+    emission = tree.nodes.new("ShaderNodeEmission")
+    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    tree.links.new(combine.outputs["Color"], emission.inputs["Color"])
+    fresnel = tree.nodes.new("ShaderNodeFresnel")
+    fresnel.inputs["IOR"].default_value = 1.45
+    tree.links.new(fresnel.outputs["Fac"], combine.inputs["Red"])
+    layer = tree.nodes.new("ShaderNodeLayerWeight")
+    layer.inputs["Blend"].default_value = 0.5
+    tree.links.new(layer.outputs["Facing"], combine.inputs["Green"])
+    coordinates = tree.nodes.new("ShaderNodeTexCoord")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(coordinates.outputs["Normal"], separate.inputs["Vector"])
+    scaled = tree.nodes.new("ShaderNodeMath")
+    scaled.operation = "MULTIPLY_ADD"
+    scaled.inputs[1].default_value = scaled.inputs[2].default_value = 0.5
+    tree.links.new(separate.outputs["X"], scaled.inputs[0])
+    tree.links.new(scaled.outputs["Value"], combine.inputs["Blue"])
+
+
+def test_nodes_that_read_the_normal_see_the_displacements_bump_as_in_cycles(primer, tmp_path):
+    """Cycles evaluates the surface after its Set Normal: Fresnel, Layer Weight and Texture Coordinate's Normal read
+    the bumped normal. Primer's image of the wavy plane's emission coloured by them is Cycles' (block relMSE below
+    1e-3), far from what the unbumped normal gives (the plane without its Displacement)."""
+    scene, material = wavy_plane("OBJECT", 2.0)
+    material.node_tree.nodes["Displacement"].inputs["Scale"].default_value = 0.3
+    normal_readers(material)
+    mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
+    cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
+    tree = material.node_tree
+    tree.links.remove(tree.nodes["Material Output"].inputs["Displacement"].links[0])
+    flat = render(scene, "PRIMER", str(tmp_path / "flat.exr"))
+    error, unbumped = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(flat, cycles)
+    print(f"normal readers: block relMSE {error:.2e}, the unbumped normal {unbumped:.2e}")
+    assert error < 1e-3 and unbumped > 10.0 * error, (error, unbumped)

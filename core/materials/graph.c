@@ -418,8 +418,10 @@ INLINE void object_matrix(const ShadingPoint *sp, int mode, double *out)
 static double shader_ao(const ShadingPoint *sp, const double *N, double distance, int samples, int flags);
 static void shader_bevel(const ShadingPoint *sp, double radius, int samples, double *out);
 
-NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *sp, double *reg)
+NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *hit, double *reg)
 {
+    const ShadingPoint *sp = hit;       /* after a SET_NORMAL: `bumped`, the hit with Set Normal's normal */
+    ShadingPoint bumped;
     const double *info = G->programs + 8 * program;
     const double *ops = G->ops + OP_WIDTH * (int64_t)info[0], *ramps = G->ramps + (int64_t)info[7];
     int64_t n_ops = (int64_t)info[1], n_constants = (int64_t)info[3];
@@ -548,7 +550,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_MAP_RANGE:
             out[0] = map_range(a[7], a[8], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], reg[a[6]]);
             break;
-        case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], sp, attributes, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], hit, attributes, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_BUMP: {
             double r[3];
             bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7], sp, r);
@@ -601,6 +603,14 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
                 safe_normalize3(r);
             }
             for (int j = 0; j < 3; j++) out[j] = r[j];
+            break;
+        }
+        case OP_SET_NORMAL: {           /* graph.py run: unit, the hit's own where it is zero */
+            double n[3] = {reg[a[0]], reg[a[0] + 1], reg[a[0] + 2]};
+            safe_normalize3(n);
+            bumped = *sp;
+            if (n[0] != 0.0 || n[1] != 0.0 || n[2] != 0.0) for (int j = 0; j < 3; j++) bumped.N[j] = n[j];
+            sp = &bumped;
             break;
         }
         case OP_CURVE_NORMAL: { double r[3]; curve_normal(reg + a[1], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }

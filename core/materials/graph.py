@@ -53,7 +53,7 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
                                                                "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL",
-                                                               "PIXEL_SIZE", "CURVE_NORMAL")
+                                                               "PIXEL_SIZE", "CURVE_NORMAL", "SET_NORMAL")
 # Ops that trace rays into the scene while the shader runs (Cycles' __SHADER_RAYTRACE__ nodes: Ambient Occlusion,
 # Bevel). A program holding one reads ShadingPoint.rays, the integrator's ShaderRays (core/integrators/shader_rays.py)
 # for the hits' pixel samples; where there is none (shadow rays, light samples landing on an emitter: Cycles
@@ -867,7 +867,12 @@ class Compiler:
         input in cls.normal_inputs (the Principled's "coat_normal") is a normal written into its slots; a
         `hit_normal` Link (Cycles' Set Normal) is the hit's own normal, an OUT_NORMAL output to node -1."""
         if isinstance(hit_normal, Link):
-            self.outputs.append([OUT_NORMAL, -1, 0, 3, self.value(hit_normal, 3)])
+            normal = self.value(hit_normal, 3)
+            self.outputs.append([OUT_NORMAL, -1, 0, 3, normal])
+            # Cycles runs the rest of the graph after its Set Normal: what reads the normal sees the bumped one,
+            # each node evaluated anew (ShaderGraph::bump_from_displacement copies the displacement's nodes).
+            self.emit("SET_NORMAL", normal)
+            self.memo.clear()
         for k, entry in enumerate(nodes):
             cls, inputs = entry[0], entry[2]
             factors = entry[3] if len(entry) > 3 else ()
@@ -916,7 +921,7 @@ REGISTER_ARGS = {
     "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     "AO": {0, 1, 2, 3}, "BEVEL": {0, 1, 2},
-    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1},
+    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1}, "SET_NORMAL": {0},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1041,6 +1046,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
     c = len(program.constants)
     reg[:, :c] = program.constants
     attributes, where = sp.attributes, 0
+    hit = sp                                            # (the Normal Map reads the mesh's normal, never Set Normal's)
     for row in program.ops:
         code, a = int(row[0]), row[1:]
         name = OPS[code]
@@ -1132,7 +1138,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "MAP_RANGE":
             reg[:, i[0]] = map_range(i[7], i[8], *(reg[:, i[k]] for k in range(1, 7)))
         elif name == "NORMAL_MAP":
-            reg[:, i[0]:i[0] + 3] = normal_map(R(1, 3), reg[:, i[2]], i[3], sp, attributes)
+            reg[:, i[0]:i[0] + 3] = normal_map(R(1, 3), reg[:, i[2]], i[3], hit, attributes)
         elif name == "BUMP":
             normal = sp.N if i[6] < 0 else R(6, 3)
             reg[:, i[0]:i[0] + 3] = bump(normal, reg[:, i[1]], reg[:, i[2]], reg[:, i[3]], reg[:, i[4]],
@@ -1173,6 +1179,9 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = bevelled
         elif name == "CURVE_NORMAL":
             reg[:, i[0]:i[0] + 3] = curve_normal(R(1, 3), sp)
+        elif name == "SET_NORMAL":                      # the ops after it see this normal as the hit's (unit; kept
+            unit = safe_normalize(R(0, 3))              # where it is zero, as apply_outputs does)
+            sp = sp._replace(N=np.where(np.any(unit != 0.0, axis=1)[:, None], unit, sp.N))
         elif name == "PIXEL_SIZE":
             reg[:, i[0]] = reg[:, i[1]] * pixel_width(R(2, 3), reg[0, i[3]:i[3] + 7], sp)
         elif name == "CAMERA_DATA":
