@@ -30,7 +30,7 @@ def primer():
 def wavy_plane(space: str, scale: float):
     """A 4 x 4 plane (object scale `scale`, so 4 x scale wide) whose Diffuse material is displaced by wave bands
     (Height: a Wave Texture, Midlevel 0.5, Scale 0.15, `space`; "VECTOR <space>": a Vector Displacement node of the
-    wave along Z, Midlevel 0), under a sun 25 degrees above the horizon; an
+    wave along Z, Midlevel 0; "VECTOR TANGENT": the wave along Y, the normal, and 1 - the wave along X), under a sun 25 degrees above the horizon; an
     orthographic camera looks straight down; 48 x 48 pixels, direct light."""
     scene = new_cycles_file(48, 48)
     bpy.ops.mesh.primitive_plane_add(size=4.0 / scale)
@@ -51,7 +51,15 @@ def wavy_plane(space: str, scale: float):
         displacement = tree.nodes.new("ShaderNodeVectorDisplacement")
         displacement.space = space.split()[1]
         combine = tree.nodes.new("ShaderNodeCombineXYZ")
-        tree.links.new(wave.outputs["Fac"], combine.inputs["Z"])
+        if displacement.space == "TANGENT":             # (Y along the normal; 1 - the wave along the tangent)
+            tree.links.new(wave.outputs["Fac"], combine.inputs["Y"])
+            invert = tree.nodes.new("ShaderNodeMath")
+            invert.operation = "SUBTRACT"
+            invert.inputs[0].default_value = 1.0
+            tree.links.new(wave.outputs["Fac"], invert.inputs[1])
+            tree.links.new(invert.outputs["Value"], combine.inputs["X"])
+        else:
+            tree.links.new(wave.outputs["Fac"], combine.inputs["Z"])
         tree.links.new(combine.outputs["Vector"], displacement.inputs["Vector"])
     else:
         displacement = tree.nodes.new("ShaderNodeDisplacement")
@@ -72,7 +80,8 @@ def wavy_plane(space: str, scale: float):
     return scene, material
 
 
-@pytest.mark.parametrize("space, scale", [("OBJECT", 2.0), ("WORLD", 1.0), ("VECTOR OBJECT", 2.0)])
+@pytest.mark.parametrize("space, scale", [("OBJECT", 2.0), ("WORLD", 1.0), ("VECTOR OBJECT", 2.0),
+                                          ("VECTOR TANGENT", 2.0)])
 def test_a_displacement_output_bumps_the_shading_as_cycles_bump_only(primer, tmp_path, space, scale):
     """Bump Only: Primer's image of the displaced plane is Cycles' (block relMSE below 1e-3) and far from the flat
     plane's; no warning names the Displacement."""

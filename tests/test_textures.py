@@ -252,6 +252,15 @@ def test_the_nodes_after_a_set_normal_read_its_normal(kernels):
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
+def test_a_tangent_space_vector_goes_x_along_the_tangent_y_along_the_normal_z_along_the_bitangent(kernels):
+    """Cycles' tangent-space Vector Displacement frame: on the plane (tangent +x, sign 1, normal +z, so the
+    bitangent N x T = +y) the vector (1, 2, 3) is 1 T + 2 N + 3 B = (1, 3, 2) in object space."""
+    frame = GraphNode("TANGENT_SPACE", {"map": ""}, {"Vector": (1.0, 2.0, 3.0)})
+    image = shoot(scene_of(emitting(Link(frame, "Vector")), tangent=True, sun=False), kernels)
+    np.testing.assert_allclose(image, np.broadcast_to([1.0, 3.0, 2.0], image.shape), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
 def test_vertex_colours_are_interpolated_across_each_triangle(kernels):
     corners = [[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]]
     attribute = GraphNode("ATTRIBUTE", {"attribute": "color:"})

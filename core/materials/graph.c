@@ -144,6 +144,23 @@ INLINE void normal_map(const double *color, double strength, int tangent, const 
     if (ok && !zero) for (int i = 0; i < 3; i++) out[i] = v[i];
 }
 
+/* graph.tangent_space: a tangent-space Vector Displacement offset (x along T, y along N, z along the bitangent) in
+ * object space; T the mesh's tangent, or dPdu normalised where it has none. */
+INLINE void tangent_space(const double *v, int tangent, const ShadingPoint *sp, double *out)
+{
+    double normal[3], T[3], B[3], stored[4] = {0.0, 0.0, 0.0, 0.0};
+    for (int i = 0; i < 3; i++) normal[i] = (sp->L[i] * sp->N[0] + sp->L[3 + i] * sp->N[1]) + sp->L[6 + i] * sp->N[2];
+    safe_normalize3(normal);
+    if (tangent >= 0) for (int j = 0; j < 4; j++) stored[j] = sp->attributes[tangent + j];
+    int missing = stored[0] == 0.0 && stored[1] == 0.0 && stored[2] == 0.0 && stored[3] == 0.0;
+    for (int j = 0; j < 3; j++) T[j] = missing ? sp->dPdu[j] : stored[j];
+    if (missing) safe_normalize3(T);
+    cross3(normal, T, B);
+    safe_normalize3(B);
+    double sign = missing ? 1.0 : stored[3];
+    for (int j = 0; j < 3; j++) out[j] = (T[j] * v[0] + normal[j] * v[1]) + B[j] * sign * v[2];
+}
+
 /* graph.tangent: Cycles' Tangent node, radial about an axis of Generated (uv_map 0) or a UV map's tangent, in
  * world space as a normal is (cofactor of the object's linear transform), then N x normalize(T x N). */
 INLINE void tangent_node(const double *source, int uv_map, int axis, const ShadingPoint *sp, double *out)
@@ -605,6 +622,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             for (int j = 0; j < 3; j++) out[j] = r[j];
             break;
         }
+        case OP_TANGENT_SPACE: { double r[3]; tangent_space(reg + a[1], a[2], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SET_NORMAL: {           /* graph.py run: unit, the hit's own where it is zero */
             double n[3] = {reg[a[0]], reg[a[0] + 1], reg[a[0] + 2]};
             safe_normalize3(n);

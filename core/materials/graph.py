@@ -53,7 +53,8 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
                                                                "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL",
-                                                               "PIXEL_SIZE", "CURVE_NORMAL", "SET_NORMAL")
+                                                               "PIXEL_SIZE", "CURVE_NORMAL", "SET_NORMAL",
+                                                               "TANGENT_SPACE")
 # Ops that trace rays into the scene while the shader runs (Cycles' __SHADER_RAYTRACE__ nodes: Ambient Occlusion,
 # Bevel). A program holding one reads ShadingPoint.rays, the integrator's ShaderRays (core/integrators/shader_rays.py)
 # for the hits' pixel samples; where there is none (shadow rays, light samples landing on an emitter: Cycles
@@ -212,7 +213,7 @@ NODE_OUTPUTS = {
     "SEPARATE_XYZ": {"X": (1, "float"), "Y": (1, "float"), "Z": (1, "float")},
     "COMBINE_COLOR": {"Color": (3, "color")}, "COMBINE_XYZ": {"Vector": (3, "vector")},
     "CLAMP": {"Result": (1, "float")}, "MAP_RANGE": {"Result": (1, "float")}, "SCALE": {"Color": (3, "color")},
-    "TANGENT": {"Tangent": (3, "vector")},
+    "TANGENT": {"Tangent": (3, "vector")}, "TANGENT_SPACE": {"Vector": (3, "vector")},
     "FRESNEL": {"Fac": (1, "float")}, "LAYER_WEIGHT": {"Fresnel": (1, "float"), "Facing": (1, "float")},
     "VECTOR_TRANSFORM": {"Vector": (3, "vector")},
     "GEOMETRY": {"Position": (3, "vector"), "Normal": (3, "vector"), "Tangent": (3, "vector"),
@@ -379,7 +380,7 @@ def attributes_of(nodes: list) -> set:
             names.add("uv:" + node.props.get("map", ""))
         elif node.kind == "ATTRIBUTE":
             names.add(node.props.get("attribute", "color:"))
-        elif node.kind == "NORMAL_MAP":
+        elif node.kind in ("NORMAL_MAP", "TANGENT_SPACE"):
             names.add("tangent:" + node.props.get("map", ""))
         elif node.kind == "CURVES_INFO":
             names.add(CURVES_INFO_ATTRIBUTES[link.output])
@@ -701,6 +702,12 @@ class Compiler:
             offset, _ = self.layout.get("tangent:" + props.get("map", ""), (-1, 4))
             self.emit("NORMAL_MAP", out, color, strength, offset)
             return out, 3, "vector"
+        if kind == "TANGENT_SPACE":                     # a tangent-space offset in object space (tangent_space)
+            vector = self.value(inp.get("Vector"), 3)
+            out = self.temporary(3)
+            offset, _ = self.layout.get("tangent:" + props.get("map", ""), (-1, 4))
+            self.emit("TANGENT_SPACE", out, vector, offset)
+            return out, 3, "vector"
         if kind == "TANGENT":
             radial = props.get("direction", "RADIAL") == "RADIAL"
             source = self.attribute("generated" if radial else "tangent:" + props.get("map", ""), 3)
@@ -921,7 +928,7 @@ REGISTER_ARGS = {
     "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     "AO": {0, 1, 2, 3}, "BEVEL": {0, 1, 2},
-    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1}, "SET_NORMAL": {0},
+    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1}, "SET_NORMAL": {0}, "TANGENT_SPACE": {0, 1},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1179,6 +1186,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = bevelled
         elif name == "CURVE_NORMAL":
             reg[:, i[0]:i[0] + 3] = curve_normal(R(1, 3), sp)
+        elif name == "TANGENT_SPACE":
+            reg[:, i[0]:i[0] + 3] = tangent_space(R(1, 3), i[2], sp)
         elif name == "SET_NORMAL":                      # the ops after it see this normal as the hit's (unit; kept
             unit = safe_normalize(R(0, 3))              # where it is zero, as apply_outputs does)
             sp = sp._replace(N=np.where(np.any(unit != 0.0, axis=1)[:, None], unit, sp.N))
@@ -1466,6 +1475,20 @@ def normal_map(color: np.ndarray, strength: np.ndarray, tangent_offset: int, sp:
     out = safe_normalize(c[:, 0:1] * T + c[:, 1:2] * B + c[:, 2:3] * n) * sp.side[:, None]
     bad = ~np.isfinite(out).all(axis=1) | (np.abs(out).sum(axis=1) == 0.0)
     return np.where(bad[:, None], sp.N, out)
+
+
+def tangent_space(v: np.ndarray, tangent_offset: int, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Vector Displacement in tangent space (svm_node_vector_displacement) before its object-to-world step:
+    v (n, 3) along the mesh's interpolated tangent T (object space; where the mesh has none, the triangle's edge
+    dPdu normalised), the shading normal N taken into object space and the bitangent sign x normalize(N x T), in
+    that order (x along T, y along N, z along the bitangent): (n, 3) in object space."""
+    n = len(v)
+    normal = safe_normalize(np.einsum("nji,nj->ni", sp.linear, sp.N))
+    stored = (sp.attributes[:, tangent_offset:tangent_offset + 4] if tangent_offset >= 0 else np.zeros((n, 4)))
+    missing = ~np.any(stored != 0.0, axis=1)[:, None]
+    T = np.where(missing, safe_normalize(sp.dPdu), stored[:, :3])
+    B = safe_normalize(np.cross(normal, T)) * np.where(missing, 1.0, stored[:, 3:4])
+    return (T * v[:, 0:1] + normal * v[:, 1:2]) + B * v[:, 2:3]
 
 
 def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, sp: ShadingPoint) -> np.ndarray:

@@ -166,6 +166,7 @@
 #define OP_PIXEL_SIZE 54
 #define OP_CURVE_NORMAL 55
 #define OP_SET_NORMAL 56
+#define OP_TANGENT_SPACE 57
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -1036,7 +1037,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(702866454435317549);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(3803355553999206993);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(5201075736430934965);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
