@@ -765,6 +765,11 @@ passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow) 
     double sun_t[3];                        /* sun disk: the cone's frame and half-angle */
     double sun_b[3];
     double sun_cos_max;
+    int32_t limb;                           /* sun: 1 for a Sky Texture's disc (SunLight.limb): rays that meet it see Cycles' limb-darkened radiance,
+bottom to top, where the others see `radiance` x color */
+    double limb_bottom[3];                  /* sun with limb: the RGB radiance at the disc's bottom and top edges (sky.disc_xyz's) */
+    double limb_top[3];
+    double limb_sun[5];                     /* sun with limb: the sky's sun elevation, rotation, disc size and earth's edge (radians), and 0 */
     int32_t spot_frame;                     /* 1: the spot has a (scaled) frame: use spot_inverse */
     double spot_inverse[9];                 /* world to spot-local, row-major */
     double spot_cos_half;
@@ -1026,7 +1031,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(8185173706297726934);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(2719243675526165675);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
