@@ -303,6 +303,19 @@ INLINE void panorama_window(const double *p, const double *f, double *out)
         if (div > 0.0) for (int j = 0; j < 3; j++) D[j] = D[j] / div;
         u = 0.5 * (D[0] + 1.0);
         v = 0.5 * (D[2] + 1.0);
+    } else if (kind == 6) {                                     /* the polynomial fisheye: graph.polynomial_radius */
+        double c = D[0] < -1.0 ? -1.0 : (D[0] > 1.0 ? 1.0 : D[0]), theta = -acos(c), r = (theta - f[0]) / f[1];
+        for (int step = 0; step < POLYNOMIAL_STEPS; step++) {
+            double r2 = r * r;
+            double F = theta - (f[0] + (((f[1] * r + f[2] * r2) + f[3] * (r2 * r)) + f[5] * (r2 * r2)));
+            double dF = ((f[1] + 2.0 * f[2] * r) + 3.0 * f[3] * r2) + 4.0 * f[5] * (r2 * r);
+            double moved = F / dF;
+            r = r + moved;
+            if (fabs(moved) < POLYNOMIAL_STOP) break;
+        }
+        double across = sqrt(D[1] * D[1] + D[2] * D[2]);
+        u = 0.5 - (r * safe_div(D[1], across)) / f[6];
+        v = (r * safe_div(D[2], across)) / f[7] + 0.5;
     } else if (kind == 5) {                                     /* central cylindrical */
         double z = safe_div(D[2], sqrt(D[0] * D[0] + D[1] * D[1]));
         u = (atan2(D[1], D[0]) - f[0]) / (f[1] - f[0]);

@@ -1170,7 +1170,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             p = R(1, 3)
             reg[:, i[0]:i[0] + 3] = (p[:, 0:1] * M[:, 0] + p[:, 1:2] * M[:, 1]) + p[:, 2:3] * M[:, 2] + M[:, 3]
         elif name == "WINDOW":
-            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 7])
+            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 8])
         elif name == "WIREFRAME":
             reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
         elif name == "AO":
@@ -1192,7 +1192,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             unit = safe_normalize(R(0, 3))              # where it is zero, as apply_outputs does)
             sp = sp._replace(N=np.where(np.any(unit != 0.0, axis=1)[:, None], unit, sp.N))
         elif name == "PIXEL_SIZE":
-            reg[:, i[0]] = reg[:, i[1]] * pixel_width(R(2, 3), reg[0, i[3]:i[3] + 7], sp)
+            reg[:, i[0]] = reg[:, i[1]] * pixel_width(R(2, 3), reg[0, i[3]:i[3] + 8], sp)
         elif name == "CAMERA_DATA":
             reg[:, i[0]:i[0] + 5] = camera_data(R(1, 3))
         elif name == "FRESNEL":
@@ -1324,16 +1324,21 @@ def window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
 
 # A panoramic camera's Window (core/render: MaterialTable.window's fifth number is 2 + the type's place here).
 PANORAMA_WINDOWS = ("EQUIRECTANGULAR", "EQUIANGULAR_CUBEMAP_FACE", "MIRRORBALL", "FISHEYE_EQUIDISTANT",
-                    "FISHEYE_EQUISOLID", "CENTRAL_CYLINDRICAL")
+                    "FISHEYE_EQUISOLID", "CENTRAL_CYLINDRICAL", "FISHEYE_LENS_POLYNOMIAL")
+# The polynomial fisheye's radius for a direction: Newton's steps from the linear term's root, at most this many, until
+# a step moves it less than POLYNOMIAL_STOP (Cycles' direction_to_fisheye_lens_polynomial).
+POLYNOMIAL_STEPS = schema.constant("POLYNOMIAL_STEPS", 20, "the polynomial fisheye Window's Newton steps, at most")
+POLYNOMIAL_STOP = schema.constant("POLYNOMIAL_STOP", 1e-6, "the polynomial fisheye Window's Newton steps stop below")
 
 
 def panorama_window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
     """Cycles' Window under a panoramic camera (camera_world_to_ndc, direction_to_panorama) (n, 3) of points P (n, 3)
     in the camera's frame (x right, y up, z forward): their direction turned into the panorama's frame (x forward, y
     left, z up; a mirror ball's y forward) and mapped to its (u, v) as Cycles' direction_to_<type>; z 0. frame: (a, b,
-    c, d, 2 + the type's place in PANORAMA_WINDOWS, e, f): equirectangular and central cylindrical (range x, y, z, w),
-    the equidistant fisheye (fov), the equisolid one (lens, sensor width, sensor height)."""
-    a, b, c, d, code, e, f = frame
+    c, d, 2 + the type's place in PANORAMA_WINDOWS, e, f, g): equirectangular and central cylindrical (range x, y, z,
+    w), the equidistant fisheye (fov), the equisolid one (lens, sensor width, sensor height), the polynomial one (k0 ..
+    k3, then k4, sensor width, sensor height)."""
+    a, b, c, d, code, e, f, g = frame
     kind = PANORAMA_WINDOWS[int(code) - 2]
     P = safe_normalize(P)
     D = (np.stack([P[:, 0], -P[:, 2], P[:, 1]], axis=1) if kind == "MIRRORBALL"
@@ -1357,11 +1362,32 @@ def panorama_window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
         across = np.sqrt(D[:, 1] * D[:, 1] + D[:, 2] * D[:, 2])
         if kind == "FISHEYE_EQUIDISTANT":
             r, width, height = np.arctan2(across, D[:, 0]) / a, 1.0, 1.0
+        elif kind == "FISHEYE_LENS_POLYNOMIAL":
+            r, width, height = polynomial_radius(-np.arccos(np.clip(D[:, 0], -1.0, 1.0)), (a, b, c, d, e)), f, g
         else:
             r, width, height = 2.0 * a * np.sin(0.5 * np.arccos(np.clip(D[:, 0], -1.0, 1.0))), b, c
         y, z = safe_divide(D[:, 1], across), safe_divide(D[:, 2], across)
         u, v = 0.5 - (r * y) / width, (r * z) / height + 0.5
     return np.stack([u, v, np.zeros(len(P))], axis=1)
+
+
+def polynomial_radius(theta: np.ndarray, k: tuple) -> np.ndarray:
+    """The radius r (n,) on the sensor where the polynomial fisheye's angle k0 + k1 r + k2 r^2 + k3 r^3 + k4 r^4 is
+    theta (n,) (Cycles' direction_to_fisheye_lens_polynomial): Newton's method from (theta - k0) / k1, each radius
+    stopping once a step moves it less than POLYNOMIAL_STOP, POLYNOMIAL_STEPS steps at most."""
+    k0, k1, k2, k3, k4 = (float(x) for x in k)
+    r = (theta - k0) / k1
+    moving = np.ones(len(theta), bool)
+    for _ in range(POLYNOMIAL_STEPS):
+        r2 = r * r
+        F = theta - (k0 + (((k1 * r + k2 * r2) + k3 * (r2 * r)) + k4 * (r2 * r2)))
+        dF = ((k1 + 2.0 * k2 * r) + 3.0 * k3 * r2) + 4.0 * k4 * (r2 * r)
+        step = np.where(moving, F / dF, 0.0)
+        r = r + step
+        moving &= np.abs(step) >= POLYNOMIAL_STOP
+        if not moving.any():
+            break
+    return r
 
 
 def camera_data(P: np.ndarray) -> np.ndarray:

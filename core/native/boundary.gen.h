@@ -214,6 +214,10 @@
 #define GEOM_BACKFACING 5
 #define GEOM_OBJECT_NORMAL 6
 #define GEOM_REFLECTION 7
+/* the polynomial fisheye Window's Newton steps, at most (core.materials.graph) */
+#define POLYNOMIAL_STEPS 20
+/* the polynomial fisheye Window's Newton steps stop below (core.materials.graph) */
+#define POLYNOMIAL_STOP 1e-06
 /* a Glossy, Glass or Refraction node's microfacet distribution (nodes.DISTRIBUTIONS) (core.materials.nodes) */
 #define DISTRIBUTION_GGX 0
 #define DISTRIBUTION_BECKMANN 1
