@@ -1289,7 +1289,7 @@ def pixel_width(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarra
     orthographic one: a pixel's width in scene units), spread along two directions a, b across the face
     (orthonormals of Ng) and each projected onto the plane across the view: dP (|a - (a.I) I| + |b - (b.I) I|) / 2.
     frame: the window (left, right, bottom, top, perspective, width, height)."""
-    left, right, bottom, top, perspective, width, height = frame
+    left, right, bottom, top, perspective, width, height = frame[:7]
     sx, sy = (right - left) / width, (top - bottom) / height
     if perspective:
         d = np.stack([safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2]), np.ones(len(P))], axis=1)
