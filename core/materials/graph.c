@@ -124,9 +124,9 @@ INLINE double map_range(int kind, int clamp, double value, double from_min, doub
 
 /* graph.normal_map */
 INLINE void normal_map(const double *color, double strength, int tangent, const ShadingPoint *sp,
-                       const double *attributes, double *out)
+                       const double *attributes, const double *fallback, double *out)
 {
-    for (int j = 0; j < 3; j++) out[j] = sp->N[j];
+    for (int j = 0; j < 3; j++) out[j] = fallback[j];
     if (tangent < 0) return;
     double c[3] = {2.0 * (color[0] - 0.5) * strength, 2.0 * (color[1] - 0.5) * strength, 0.0};
     c[2] = 1.0 + clamp01(strength) * (2.0 * (color[2] - 0.5) - 1.0);
@@ -580,7 +580,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_MAP_RANGE:
             out[0] = map_range(a[7], a[8], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], reg[a[6]]);
             break;
-        case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], hit, attributes, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], hit, attributes, sp->N, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_BUMP: {
             double r[3];
             bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7], sp, r);

@@ -1053,7 +1053,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
     c = len(program.constants)
     reg[:, :c] = program.constants
     attributes, where = sp.attributes, 0
-    hit = sp                                            # (the Normal Map reads the mesh's normal, never Set Normal's)
+    hit = sp                                    # (the Normal Map's frame: the mesh's normal, never Set Normal's)
     for row in program.ops:
         code, a = int(row[0]), row[1:]
         name = OPS[code]
@@ -1145,7 +1145,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "MAP_RANGE":
             reg[:, i[0]] = map_range(i[7], i[8], *(reg[:, i[k]] for k in range(1, 7)))
         elif name == "NORMAL_MAP":
-            reg[:, i[0]:i[0] + 3] = normal_map(R(1, 3), reg[:, i[2]], i[3], hit, attributes)
+            reg[:, i[0]:i[0] + 3] = normal_map(R(1, 3), reg[:, i[2]], i[3], hit, attributes, sp.N)
         elif name == "BUMP":
             normal = sp.N if i[6] < 0 else R(6, 3)
             reg[:, i[0]:i[0] + 3] = bump(normal, reg[:, i[1]], reg[:, i[2]], reg[:, i[3]], reg[:, i[4]],
@@ -1484,12 +1484,14 @@ def map_range(kind: int, clamp: int, value, from_min, from_max, to_min, to_max, 
 
 
 def normal_map(color: np.ndarray, strength: np.ndarray, tangent_offset: int, sp: ShadingPoint,
-               attributes: np.ndarray) -> np.ndarray:
+               attributes: np.ndarray, fallback: Optional[np.ndarray] = None) -> np.ndarray:
     """Cycles' tangent-space Normal Map (svm_node_normal_map), in world space: the mesh's interpolated
     tangent turned by the object's linear transform, the bitangent sign x N x T, strength applied in
-    tangent space; the unperturbed normal where the mesh has no tangents."""
+    tangent space; the hit's normal `fallback` (n, 3) (after a Set Normal, its normal; None: sp.N) where the mesh
+    has no tangents."""
+    fallback = sp.N if fallback is None else fallback
     if tangent_offset < 0:
-        return sp.N.copy()
+        return fallback.copy()
     c = 2.0 * (color - 0.5)
     s = strength[:, None]
     c = np.concatenate([c[:, :2] * s, (1.0 + np.clip(s, 0.0, 1.0) * (c[:, 2:3] - 1.0))], axis=1)
@@ -1500,7 +1502,7 @@ def normal_map(color: np.ndarray, strength: np.ndarray, tangent_offset: int, sp:
     B = sign[:, None] * np.cross(n, T)
     out = safe_normalize(c[:, 0:1] * T + c[:, 1:2] * B + c[:, 2:3] * n) * sp.side[:, None]
     bad = ~np.isfinite(out).all(axis=1) | (np.abs(out).sum(axis=1) == 0.0)
-    return np.where(bad[:, None], sp.N, out)
+    return np.where(bad[:, None], fallback, out)
 
 
 def tangent_space(v: np.ndarray, tangent_offset: int, sp: ShadingPoint) -> np.ndarray:
