@@ -1,7 +1,9 @@
 """A material's Displacement output rendered as Cycles renders it with Displacement Method Bump Only (its default):
 the Displacement node's offset along the normal, as a height, bumps the shading normal of every closure
-(addon/materials.py displacement_bump), in object space (the object's scale scales it) or world space; against
-Cycles 5.x on a plane of wave bands under a low sun."""
+(addon/materials.py displacement_bump), in object space (the object's scale scales it) or world space, and the Vector
+Displacement node's in object, world and tangent space; the surface's nodes that read the normal (Fresnel, Layer
+Weight, Texture Coordinate's Normal) see the bumped one, as after Cycles' Set Normal; against Cycles 5.x on a plane of
+wave bands under a low sun."""
 from __future__ import annotations
 
 import math
