@@ -32,8 +32,8 @@ def primer():
 def wavy_plane(space: str, scale: float):
     """A 4 x 4 plane (object scale `scale`, so 4 x scale wide) whose Diffuse material is displaced by wave bands
     (Height: a Wave Texture, Midlevel 0.5, Scale 0.15, `space`; "VECTOR <space>": a Vector Displacement node of the
-    wave along Z, Midlevel 0; "VECTOR TANGENT": the wave along Y, the normal, and 1 - the wave along X), under a sun 25 degrees above the horizon; an
-    orthographic camera looks straight down; 48 x 48 pixels, direct light."""
+    wave along Z, Midlevel 0; "VECTOR TANGENT": the wave along Y, the normal, and 1 - the wave along X), under a sun
+    25 degrees above the horizon; an orthographic camera looks straight down; 48 x 48 pixels, direct light."""
     scene = new_cycles_file(48, 48)
     bpy.ops.mesh.primitive_plane_add(size=4.0 / scale)
     plane = bpy.context.view_layer.objects.active

@@ -28,7 +28,8 @@ INLINE void sun_limb(const LightRecord *light, const double *D, double *out)
     if (!(angle < half && e > light->limb_sun[3])) return;
     double y = (e - elevation) / size + 0.5, r = angle / half, under = 1.0 - r * r;
     double darkening = 1.0 - SKY_LIMB * (1.0 - sqrt(under > 0.0 ? under : 0.0));
-    for (int c = 0; c < 3; c++) out[c] = ((1.0 - y) * light->limb_bottom[c] + y * light->limb_top[c]) * (1.0 * darkening);
+    for (int c = 0; c < 3; c++)
+        out[c] = ((1.0 - y) * light->limb_bottom[c] + y * light->limb_top[c]) * (1.0 * darkening);
 }
 
 /* SunLight.hit: a ray that escapes the scene (t_max inf) inside the sun's disk sees S / (pi sin^2 a) (a Sky

@@ -210,8 +210,9 @@ def sky_suns(color, strength) -> tuple:
     disc_mean_xyz): the world's radiance at the sun with that XYZ added to the sky's, less without it (exact where
     the nodes after the Sky Texture are linear in its colour, noted where they are not). Rays that meet the lamp
     (the camera's, a mirror's, a glossy bounce's) see the disc itself, limb-darkened and bottom to top, through the
-    nodes' XYZ-to-RGB found the same way (SunLight.limb): its mean is the lamp's, so MIS weighs the same light. A Sky Texture whose Vector is
-    linked or mapped draws its disc itself (Sky.disc_drawn: the add-on says so) and brings no lamp.
+    nodes' XYZ-to-RGB found the same way (SunLight.limb): its mean is the lamp's, so MIS weighs the same light. A
+    Sky Texture whose Vector is linked or mapped draws its disc itself (Sky.disc_drawn: the add-on says so) and
+    brings no lamp.
     """
     # 1. The Sky Textures with a disc, each once, that read the ray's direction.
     nodes = [(None, 1.0, {"color": color, "strength": strength})]

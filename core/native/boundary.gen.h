@@ -769,11 +769,11 @@ passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow) 
     double sun_t[3];                        /* sun disk: the cone's frame and half-angle */
     double sun_b[3];
     double sun_cos_max;
-    int32_t limb;                           /* sun: 1 for a Sky Texture's disc (SunLight.limb): rays that meet it see Cycles' limb-darkened radiance,
-bottom to top, where the others see `radiance` x color */
+    int32_t limb;                           /* sun: 1 for a Sky Texture's disc (SunLight.limb): rays that meet it see Cycles' limb-darkened
+radiance, bottom to top, where the others see `radiance` x color */
     double limb_bottom[3];                  /* sun with limb: the RGB radiance at the disc's bottom and top edges (sky.disc_xyz's) */
     double limb_top[3];
-    double limb_sun[5];                     /* sun with limb: the sky's sun elevation, rotation, disc size and earth's edge (radians), and 0 */
+    double limb_sun[5];                     /* sun with limb: the sky's sun elevation, rotation, disc size, earth's edge (radians); 0 */
     int32_t spot_frame;                     /* 1: the spot has a (scaled) frame: use spot_inverse */
     double spot_inverse[9];                 /* world to spot-local, row-major */
     double spot_cos_half;
