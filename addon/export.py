@@ -401,7 +401,8 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
                 values[:, :, 3] = sign[loops]
             except (RuntimeError, ValueError) as error:
                 warnings.append(f"mesh '{mesh.name}': no tangents for UV map '{layer or '(active)'}' ({error}); "
-                                "normal maps there keep the surface's normal")
+                                "normal maps there keep the surface's normal, and a tangent-space Vector "
+                                "Displacement takes the triangle's edge for its tangent, as Cycles does")
         elif kind == "pointiness":                                          # Cycles' curvature per vertex
             normals = np.empty(len(mesh.vertices) * 3, np.float32)
             mesh.vertices.foreach_get("normal", normals)

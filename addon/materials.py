@@ -232,7 +232,7 @@ class GraphReader:
         if kind == "ShaderNodeDisplacement":
             return self.displacement(node, path)
         if kind == "ShaderNodeVectorDisplacement":
-            return self.vector_displacement(node, path, consumer)
+            return self.vector_displacement(node, path)
         if kind == "ShaderNodeRGB":
             return np.array(out.default_value[:3], np.float64)
         if kind == "ShaderNodeValue":
@@ -275,15 +275,12 @@ class GraphReader:
                       "Vector")
         return _transformed(offset, "VECTOR", "OBJECT", "WORLD", node.name) if in_object else offset
 
-    def vector_displacement(self, node, path: tuple, consumer):
+    def vector_displacement(self, node, path: tuple):
         """A Vector Displacement node's offset as Cycles' svm_node_vector_displacement computes it: (Vector -
-        Midlevel) x Scale, in world space or (brought into the world) object space; tangent space is named, and the
-        consumer's own value used."""
+        Midlevel) x Scale, in world space, or (brought into the world) object space, or tangent space (its default:
+        x along the active UV map's tangent, y along the normal, z along the bitangent, graph.tangent_space, then
+        as object space)."""
         space = getattr(node, "space", "TANGENT")
-        if space not in ("OBJECT", "WORLD"):
-            self.reader.warn(node, f"{space.lower()} space is not evaluated (object and world space are); for "
-                                   f"'{consumer.name}' Primer uses that input's own value {_shown(consumer)}")
-            return own_value(consumer)
         inputs = self.inputs(node, path, ["Vector", "Midlevel", "Scale"])
         midlevel = inputs.get("Midlevel", 0.0)
         middle = (np.full(3, float(midlevel)) if not _linked(midlevel)
@@ -294,7 +291,9 @@ class GraphReader:
         offset = Link(GraphNode("VECTOR_MATH", {"operation": "SCALE"}, {"Vector": offset,
                                                                        "Scale": inputs.get("Scale", 1.0)}, node.name),
                       "Vector")
-        return _transformed(offset, "VECTOR", "OBJECT", "WORLD", node.name) if space == "OBJECT" else offset
+        if space == "TANGENT":
+            offset = Link(GraphNode("TANGENT_SPACE", {"map": ""}, {"Vector": offset}, node.name), "Vector")
+        return offset if space == "WORLD" else _transformed(offset, "VECTOR", "OBJECT", "WORLD", node.name)
 
     def sky(self, node, warn):
         """A Sky Texture's props {"sky": core/materials/sky.py Sky}, precomputed as Cycles 5.0 does (Blender 4.x's

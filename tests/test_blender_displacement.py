@@ -1,7 +1,9 @@
 """A material's Displacement output rendered as Cycles renders it with Displacement Method Bump Only (its default):
 the Displacement node's offset along the normal, as a height, bumps the shading normal of every closure
-(addon/materials.py displacement_bump), in object space (the object's scale scales it) or world space; against
-Cycles 5.x on a plane of wave bands under a low sun."""
+(addon/materials.py displacement_bump), in object space (the object's scale scales it) or world space, and the Vector
+Displacement node's in object, world and tangent space; the surface's nodes that read the normal (Fresnel, Layer
+Weight, Texture Coordinate's Normal) see the bumped one, as after Cycles' Set Normal; against Cycles 5.x on a plane of
+wave bands under a low sun."""
 from __future__ import annotations
 
 import math
@@ -30,8 +32,8 @@ def primer():
 def wavy_plane(space: str, scale: float):
     """A 4 x 4 plane (object scale `scale`, so 4 x scale wide) whose Diffuse material is displaced by wave bands
     (Height: a Wave Texture, Midlevel 0.5, Scale 0.15, `space`; "VECTOR <space>": a Vector Displacement node of the
-    wave along Z, Midlevel 0), under a sun 25 degrees above the horizon; an
-    orthographic camera looks straight down; 48 x 48 pixels, direct light."""
+    wave along Z, Midlevel 0; "VECTOR TANGENT": the wave along Y, the normal, and 1 - the wave along X), under a sun
+    25 degrees above the horizon; an orthographic camera looks straight down; 48 x 48 pixels, direct light."""
     scene = new_cycles_file(48, 48)
     bpy.ops.mesh.primitive_plane_add(size=4.0 / scale)
     plane = bpy.context.view_layer.objects.active
@@ -51,7 +53,15 @@ def wavy_plane(space: str, scale: float):
         displacement = tree.nodes.new("ShaderNodeVectorDisplacement")
         displacement.space = space.split()[1]
         combine = tree.nodes.new("ShaderNodeCombineXYZ")
-        tree.links.new(wave.outputs["Fac"], combine.inputs["Z"])
+        if displacement.space == "TANGENT":             # (Y along the normal; 1 - the wave along the tangent)
+            tree.links.new(wave.outputs["Fac"], combine.inputs["Y"])
+            invert = tree.nodes.new("ShaderNodeMath")
+            invert.operation = "SUBTRACT"
+            invert.inputs[0].default_value = 1.0
+            tree.links.new(wave.outputs["Fac"], invert.inputs[1])
+            tree.links.new(invert.outputs["Value"], combine.inputs["X"])
+        else:
+            tree.links.new(wave.outputs["Fac"], combine.inputs["Z"])
         tree.links.new(combine.outputs["Vector"], displacement.inputs["Vector"])
     else:
         displacement = tree.nodes.new("ShaderNodeDisplacement")
@@ -72,7 +82,8 @@ def wavy_plane(space: str, scale: float):
     return scene, material
 
 
-@pytest.mark.parametrize("space, scale", [("OBJECT", 2.0), ("WORLD", 1.0), ("VECTOR OBJECT", 2.0)])
+@pytest.mark.parametrize("space, scale", [("OBJECT", 2.0), ("WORLD", 1.0), ("VECTOR OBJECT", 2.0),
+                                          ("VECTOR TANGENT", 2.0)])
 def test_a_displacement_output_bumps_the_shading_as_cycles_bump_only(primer, tmp_path, space, scale):
     """Bump Only: Primer's image of the displaced plane is Cycles' (block relMSE below 1e-3) and far from the flat
     plane's; no warning names the Displacement."""
@@ -87,4 +98,46 @@ def test_a_displacement_output_bumps_the_shading_as_cycles_bump_only(primer, tmp
     flat = render(scene, "PRIMER", str(tmp_path / "flat.exr"))
     error, unbumped = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(flat, cycles)
     print(f"{space} x{scale:g}: block relMSE {error:.2e}, the flat plane {unbumped:.2e}")
+    assert error < 1e-3 and unbumped > 10.0 * error, (error, unbumped)
+
+
+def normal_readers(material):
+    """The wavy plane's surface made an Emission whose colour reads the normal three ways: red the Fresnel (IOR
+    1.45), green the Layer Weight's Facing (Blend 0.5), blue 0.5 + 0.5 x the X of Texture Coordinate's Normal."""
+    tree = material.node_tree
+    tree.nodes.remove(tree.nodes["Diffuse BSDF"])
+    emission = tree.nodes.new("ShaderNodeEmission")
+    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    tree.links.new(combine.outputs["Color"], emission.inputs["Color"])
+    fresnel = tree.nodes.new("ShaderNodeFresnel")
+    fresnel.inputs["IOR"].default_value = 1.45
+    tree.links.new(fresnel.outputs["Fac"], combine.inputs["Red"])
+    layer = tree.nodes.new("ShaderNodeLayerWeight")
+    layer.inputs["Blend"].default_value = 0.5
+    tree.links.new(layer.outputs["Facing"], combine.inputs["Green"])
+    coordinates = tree.nodes.new("ShaderNodeTexCoord")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(coordinates.outputs["Normal"], separate.inputs["Vector"])
+    scaled = tree.nodes.new("ShaderNodeMath")
+    scaled.operation = "MULTIPLY_ADD"
+    scaled.inputs[1].default_value = scaled.inputs[2].default_value = 0.5
+    tree.links.new(separate.outputs["X"], scaled.inputs[0])
+    tree.links.new(scaled.outputs["Value"], combine.inputs["Blue"])
+
+
+def test_nodes_that_read_the_normal_see_the_displacements_bump_as_in_cycles(primer, tmp_path):
+    """Cycles evaluates the surface after its Set Normal: Fresnel, Layer Weight and Texture Coordinate's Normal read
+    the bumped normal. Primer's image of the wavy plane's emission coloured by them is Cycles' (block relMSE below
+    1e-3), far from what the unbumped normal gives (the plane without its Displacement)."""
+    scene, material = wavy_plane("OBJECT", 2.0)
+    material.node_tree.nodes["Displacement"].inputs["Scale"].default_value = 0.3
+    normal_readers(material)
+    mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
+    cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
+    tree = material.node_tree
+    tree.links.remove(tree.nodes["Material Output"].inputs["Displacement"].links[0])
+    flat = render(scene, "PRIMER", str(tmp_path / "flat.exr"))
+    error, unbumped = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(flat, cycles)
+    print(f"normal readers: block relMSE {error:.2e}, the unbumped normal {unbumped:.2e}")
     assert error < 1e-3 and unbumped > 10.0 * error, (error, unbumped)

@@ -1,8 +1,8 @@
 """Cycles' Sky Texture (core/materials/sky.py, core/materials/sky.c, core/lights/world_graph.py sky_suns) against
 Cycles 5.0's render: in a world, each model (Multiple Scattering, Single Scattering, Preetham, Hosek / Wilkie) seen by
-a small equirectangular camera (the sun disc off: Primer's sun lamp is not seen by camera rays) and lighting a Lambert
-floor with its sun (direct light, 64 samples), the sun at 15 and 60 degrees; on surfaces, each model as an emitting
-plane's colour at the plane's Generated coordinates (the Vector socket is unavailable in Blender 5.0), with and
+a small equirectangular camera (the sun disc off; tests/test_blender_sky_disc.py looks at the disc) and lighting a
+Lambert floor with its sun (direct light, 64 samples), the sun at 15 and 60 degrees; on surfaces, each model as an
+emitting plane's colour at the plane's Generated coordinates (the Vector socket is unavailable in Blender 5.0), with and
 without the sun disc, which a surface's Sky Texture draws itself.
 """
 from __future__ import annotations

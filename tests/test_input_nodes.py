@@ -438,3 +438,16 @@ def test_window_under_a_panoramic_camera_is_where_each_point_shows_on_both_kerne
     U, V = np.meshgrid(u, v)
     assert np.abs(images["numpy"][..., 0] - U)[seen].max() < 1.0 / 8.0 + 1e-6
     assert np.abs(images["numpy"][..., 1] - V)[seen].max() < 1.0 / 8.0 + 1e-6
+
+
+def test_the_polynomial_fisheyes_window_radius_is_the_root_of_its_angle_polynomial():
+    """graph.polynomial_radius inverts k0 + k1 r + ... + k4 r^4 = theta: exactly (r = (theta - k0) / k1) for a linear
+    polynomial, and for Blender's default lens its r (growing with the angle) gives theta back to 1e-6 across a 180
+    degree field of view."""
+    from core.camera.camera import POLYNOMIAL_DEFAULT
+    theta = -np.linspace(0.0, 0.5 * math.pi, 50)
+    linear = (0.01, -0.05, 0.0, 0.0, 0.0)
+    np.testing.assert_allclose(graph.polynomial_radius(theta, linear), (theta - 0.01) / -0.05, rtol=1e-12)
+    k = POLYNOMIAL_DEFAULT
+    r = graph.polynomial_radius(theta, k)
+    assert np.all(np.diff(r) > 0.0) and np.abs(np.polynomial.polynomial.polyval(r, k) - theta).max() < 1e-6

@@ -98,6 +98,38 @@ def test_the_sky_suns_lamp_gives_the_irradiance_of_the_disc_through_the_worlds_s
     assert np.allclose(shines, rgb * 2.0 * math.pi * (1.0 - math.cos(half)), rtol=1e-6)
 
 
+@pytest.mark.parametrize("kind, degrees", [("SINGLE_SCATTERING", 30.0), ("MULTIPLE_SCATTERING", 0.2)])
+def test_rays_that_meet_the_sky_suns_lamp_see_the_limb_darkened_disc_whose_light_is_the_lamps(kind, degrees):
+    """A ray that meets the lamp of a Sky Texture (times Strength 0.5; a 2 degree disc, at 30 degrees, and at 0.2
+    degrees, the earth's edge cutting it) sees the disc as the op draws it, 0.5 x RGB(disc_xyz) (limb-darkened,
+    bottom to top), on both kernels; over a fine grid of the sky around it that radiance integrates to the lamp's
+    irradiance, so its light samples and the rays that meet it carry the same light (MIS weighs one light)."""
+    from core.lights.base import compiled_hit
+    model = sky.precompute(kind, math.radians(degrees), 0.7, sun_size=math.radians(2.0))
+    lamps, notes = world_graph.sky_suns(Link(GraphNode("SKY", {"sky": model}, {}, "Sky Texture"), "Color"), 0.5)
+    lamp = lamps[0]
+    sun = sky.sun_towards(model.elevation, model.rotation)
+    t = np.cross([0.0, 0.0, 1.0], sun)
+    t /= np.linalg.norm(t)
+    b = np.cross(sun, t)
+    a = np.linspace(-0.6 * model.size, 0.6 * model.size, 601)
+    x, y = (g.ravel() for g in np.meshgrid(a, a))
+    D = sun + x[:, None] * t + y[:, None] * b
+    length = np.linalg.norm(D, axis=1)
+    D /= length[:, None]
+    escaping = (np.zeros((len(D), 3)), D, np.full(len(D), np.inf))
+    seen, compiled = lamp.hit(*escaping), compiled_hit(lamp, *escaping)
+    drawn = 0.5 * sky.xyz_to_rgb_clamped(sky.disc_xyz(D, model.elevation, model.rotation, model.size, model.intensity,
+                                                      model.bottom, model.top, model.horizon))
+    assert notes == [] and np.allclose(seen.radiance, drawn, rtol=1e-9, atol=1e-12 * drawn.max())
+    assert np.array_equal(compiled.hit, seen.hit) and np.allclose(compiled.radiance, seen.radiance, rtol=1e-12)
+    integral = ((a[1] - a[0]) ** 2 / length ** 3) @ seen.radiance
+    irradiance = lamp.strength * np.asarray(lamp.color)
+    assert np.allclose(integral, irradiance, rtol=1e-3, atol=1e-9 * irradiance.max()), (integral, irradiance)
+    assert drawn[np.argmax(drawn[:, 1])].max() > 1.1 * irradiance.max() / (2.0 * math.pi * (1.0 - math.cos(
+        0.5 * model.size)))                                  # (the centre brighter than the mean: not uniform)
+
+
 def test_a_sky_without_its_disc_brings_no_lamp():
     """sun_disc off: Cycles draws no disc, so no lamp; the bake still holds the sky."""
     model = sky.precompute("SINGLE_SCATTERING", math.radians(30.0), 0.7, sun_disc=False)

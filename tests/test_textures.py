@@ -233,6 +233,34 @@ def test_a_set_normal_bump_is_the_hits_own_normal_with_no_bump_shadowing(kernels
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
+def test_the_nodes_after_a_set_normal_read_its_normal(kernels):
+    """Cycles runs a material's surface after its Set Normal: the Geometry node's Normal there is the sloped bump's
+    N' = normalize(-d/2, 0, 1) (an Emission coloured |N'|: (d/2, 0, 1) / sqrt(1 + d^2/4)), and a Bump node in the
+    surface starts from N' (its Height constant: N' again), not the plane's (0, 0, 1)."""
+    distance = 0.8
+    uv = GraphNode("TEXCOORD", {}, {})
+    height = GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(uv, "UV")})
+    bump = Link(GraphNode("BUMP", {}, {"Height": Link(height, "X"), "Distance": distance, "Strength": 1.0}), "Normal")
+    flat = GraphNode("BUMP", {}, {"Height": 0.0, "Distance": 1.0, "Strength": 1.0})
+    expected = np.array([distance / 2.0, 0.0, 1.0]) / math.sqrt(1.0 + distance ** 2 / 4.0)
+    for normal in (Link(GraphNode("GEOMETRY", {}, {}), "Normal"), Link(flat, "Normal")):
+        absolute = GraphNode("VECTOR_MATH", {"operation": "ABSOLUTE"}, {"Vector": normal})
+        material = emitting(Link(absolute, "Vector"))
+        material.normal = bump
+        image = shoot(scene_of(material, sun=False), kernels)
+        np.testing.assert_allclose(image, np.broadcast_to(expected, image.shape), rtol=1e-6, atol=1e-12)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_tangent_space_vector_goes_x_along_the_tangent_y_along_the_normal_z_along_the_bitangent(kernels):
+    """Cycles' tangent-space Vector Displacement frame: on the plane (tangent +x, sign 1, normal +z, so the
+    bitangent N x T = +y) the vector (1, 2, 3) is 1 T + 2 N + 3 B = (1, 3, 2) in object space."""
+    frame = GraphNode("TANGENT_SPACE", {"map": ""}, {"Vector": (1.0, 2.0, 3.0)})
+    image = shoot(scene_of(emitting(Link(frame, "Vector")), tangent=True, sun=False), kernels)
+    np.testing.assert_allclose(image, np.broadcast_to([1.0, 3.0, 2.0], image.shape), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
 def test_vertex_colours_are_interpolated_across_each_triangle(kernels):
     corners = [[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]]
     attribute = GraphNode("ATTRIBUTE", {"attribute": "color:"})

@@ -133,6 +133,11 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("sun_t", F64, 3, "sun disk: the cone's frame and half-angle"),
     ("sun_b", F64, 3, ""),
     ("sun_cos_max", F64, ""),
+    ("limb", I32, "sun: 1 for a Sky Texture's disc (SunLight.limb): rays that meet it see Cycles' limb-darkened\n"
+                  "radiance, bottom to top, where the others see `radiance` x color"),
+    ("limb_bottom", F64, 3, "sun with limb: the RGB radiance at the disc's bottom and top edges (sky.disc_xyz's)"),
+    ("limb_top", F64, 3, ""),
+    ("limb_sun", F64, 5, "sun with limb: the sky's sun elevation, rotation, disc size, earth's edge (radians); 0"),
     ("spot_frame", I32, "1: the spot has a (scaled) frame: use spot_inverse"),
     ("spot_inverse", F64, 9, "world to spot-local, row-major"),
     ("spot_cos_half", F64, ""),

@@ -32,6 +32,11 @@ class SunLight(Light):
     max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
     light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
+    # A Sky Texture's disc (core/lights/world_graph.py sky_suns): (9,) float64 the sky's sun elevation, rotation and
+    # earth's edge, then the RGB radiance at the disc's bottom and at its top, as core/materials/sky.py disc_xyz takes
+    # them (the disc's size is `angle`). Rays that meet the lamp see that limb-darkened, bottom-to-top radiance,
+    # Cycles' disc; its light samples carry its mean (strength, color).
+    limb: Optional[np.ndarray] = None
 
     flags: ClassVar[LightFlags] = LightFlags.DISTANT
     blender_type: ClassVar[str] = "SUN"
@@ -89,7 +94,13 @@ class SunLight(Light):
         radiance = np.where(inside, self.strength / (math.pi * math.sin(half) ** 2), 0.0)
         pdf = np.where(inside, cone_pdf(np.full(n, math.cos(half))), 0.0)
         color = np.asarray(self.color, np.float64)[:3]
-        return LightHit(inside, np.where(inside, np.inf, np.inf), radiance[:, None] * color, pdf)
+        seen = radiance[:, None] * color
+        if self.limb is not None:                   # (a Sky Texture's disc: Cycles' limb darkening, bottom to top)
+            from ..materials.sky import disc_xyz
+            limb = np.asarray(self.limb, np.float64)
+            seen = np.where(inside[:, None], disc_xyz(directions, limb[0], limb[1], self.angle, 1.0, limb[3:6],
+                                                      limb[6:9], limb[2]), 0.0)
+        return LightHit(inside, np.where(inside, np.inf, np.inf), seen, pdf)
 
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """A sun has no falloff to undo."""
@@ -106,3 +117,8 @@ class SunLight(Light):
             record.sun_t[:], record.sun_b[:] = t[0].tolist(), b[0].tolist()
             record.sun_cos_max = math.cos(0.5 * self.angle)
             record.radiance = self.strength / (math.pi * math.sin(0.5 * self.angle) ** 2)
+        if self.limb is not None and not self.delta:
+            limb = np.asarray(self.limb, np.float64)
+            record.limb = 1
+            record.limb_bottom[:], record.limb_top[:] = limb[3:6].tolist(), limb[6:9].tolist()
+            record.limb_sun[:] = [float(limb[0]), float(limb[1]), float(self.angle), float(limb[2]), 0.0]

@@ -208,8 +208,11 @@ def sky_suns(color, strength) -> tuple:
     Each lamp shines from the disc's centre with its angle, with the radiance the world's nodes give the disc's mean
     XYZ radiance (its limb darkening and its bottom-to-top colour integrated over the disc, core/materials/sky.py
     disc_mean_xyz): the world's radiance at the sun with that XYZ added to the sky's, less without it (exact where
-    the nodes after the Sky Texture are linear in its colour, noted where they are not). A Sky Texture whose Vector is
-    linked or mapped draws its disc itself (Sky.disc_drawn: the add-on says so) and brings no lamp.
+    the nodes after the Sky Texture are linear in its colour, noted where they are not). Rays that meet the lamp
+    (the camera's, a mirror's, a glossy bounce's) see the disc itself, limb-darkened and bottom to top, through the
+    nodes' XYZ-to-RGB found the same way (SunLight.limb): its mean is the lamp's, so MIS weighs the same light. A
+    Sky Texture whose Vector is linked or mapped draws its disc itself (Sky.disc_drawn: the add-on says so) and
+    brings no lamp.
     """
     # 1. The Sky Textures with a disc, each once, that read the ray's direction.
     nodes = [(None, 1.0, {"color": color, "strength": strength})]
@@ -226,15 +229,23 @@ def sky_suns(color, strength) -> tuple:
         model = node.props["sky"]
         mean_xyz = model.disc_mean_xyz()
         towards = sky_.sun_towards(model.elevation, model.rotation)
-        # 3. The world's radiance at the sun with 0, half and all of it added to the sky's (the op's probe XYZ).
+        # 3. The world's radiance at the sun with 0, half and all of it added to the sky's (the op's probe XYZ), and
+        #    with a hundredth of the mean's largest more of X, Y, Z each: the nodes' XYZ to RGB about the disc's
+        #    colour, column by column (about it: the op clamps negative RGB, which X, Y or Z alone would give).
         start = world.sky_starts[id(model)]
-        probes = []
-        for scale in (0.0, 0.5, 1.0):
+
+        def probe(xyz: np.ndarray) -> np.ndarray:
+            """The world's RGB radiance towards the sun with `xyz` added to its Sky Texture's XYZ there."""
             ramps = world.program.ramps.copy()
-            ramps[start + sky_.PROBE.start:start + sky_.PROBE.stop] = scale * mean_xyz
-            probes.append(radiance_along(world, towards[None, :], world.program._replace(ramps=ramps))[0])
+            ramps[start + sky_.PROBE.start:start + sky_.PROBE.stop] = xyz
+            return radiance_along(world, towards[None, :], world.program._replace(ramps=ramps))[0]
+
+        probes = [probe(scale * mean_xyz) for scale in (0.0, 0.5, 1.0)]
+        step = max(float(np.max(np.abs(mean_xyz))), 1e-30) * 1e-2
+        to_rgb = np.stack([(probe(mean_xyz + step * axis) - probes[2]) / step for axis in np.eye(3)], axis=1)
         # 4. The disc's radiance through the nodes (noted where half of it does not give half), as a sun lamp's
-        #    strength S = radiance x pi sin^2(angle / 2) (core/lights/sun.py).
+        #    strength S = radiance x pi sin^2(angle / 2) (core/lights/sun.py); rays that meet it see Cycles' disc,
+        #    its bottom and top radiance through the same nodes (SunLight.limb).
         radiance = probes[2] - probes[0]
         if not np.allclose(2.0 * (probes[1] - probes[0]), radiance, rtol=1e-3, atol=1e-9 * max(1.0, radiance.max())):
             notes.append(f"the world's nodes after Sky Texture '{node.name}' do not scale with its colour: Primer's "
@@ -242,8 +253,11 @@ def sky_suns(color, strength) -> tuple:
         irradiance = np.maximum(radiance, 0.0) * math.pi * math.sin(0.5 * model.size) ** 2
         if irradiance.max() <= 0.0:
             continue
+        limb = np.concatenate([[model.elevation, model.rotation, model.horizon],
+                               to_rgb @ (model.intensity * np.asarray(model.bottom, np.float64)),
+                               to_rgb @ (model.intensity * np.asarray(model.top, np.float64))])
         lamps.append(SunLight(-towards, float(irradiance.max()), irradiance / irradiance.max(), model.size,
-                              name=f"Sky Texture '{node.name}' sun"))
+                              name=f"Sky Texture '{node.name}' sun", limb=limb))
     return lamps, notes
 
 

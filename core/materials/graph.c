@@ -124,9 +124,9 @@ INLINE double map_range(int kind, int clamp, double value, double from_min, doub
 
 /* graph.normal_map */
 INLINE void normal_map(const double *color, double strength, int tangent, const ShadingPoint *sp,
-                       const double *attributes, double *out)
+                       const double *attributes, const double *fallback, double *out)
 {
-    for (int j = 0; j < 3; j++) out[j] = sp->N[j];
+    for (int j = 0; j < 3; j++) out[j] = fallback[j];
     if (tangent < 0) return;
     double c[3] = {2.0 * (color[0] - 0.5) * strength, 2.0 * (color[1] - 0.5) * strength, 0.0};
     c[2] = 1.0 + clamp01(strength) * (2.0 * (color[2] - 0.5) - 1.0);
@@ -142,6 +142,23 @@ INLINE void normal_map(const double *color, double strength, int tangent, const 
     int ok = 1, zero = 1;
     for (int i = 0; i < 3; i++) { v[i] *= sp->side; ok &= isfinite(v[i]) != 0; zero &= v[i] == 0.0; }
     if (ok && !zero) for (int i = 0; i < 3; i++) out[i] = v[i];
+}
+
+/* graph.tangent_space: a tangent-space Vector Displacement offset (x along T, y along N, z along the bitangent) in
+ * object space; T the mesh's tangent, or dPdu normalised where it has none. */
+INLINE void tangent_space(const double *v, int tangent, const ShadingPoint *sp, double *out)
+{
+    double normal[3], T[3], B[3], stored[4] = {0.0, 0.0, 0.0, 0.0};
+    for (int i = 0; i < 3; i++) normal[i] = (sp->L[i] * sp->N[0] + sp->L[3 + i] * sp->N[1]) + sp->L[6 + i] * sp->N[2];
+    safe_normalize3(normal);
+    if (tangent >= 0) for (int j = 0; j < 4; j++) stored[j] = sp->attributes[tangent + j];
+    int missing = stored[0] == 0.0 && stored[1] == 0.0 && stored[2] == 0.0 && stored[3] == 0.0;
+    for (int j = 0; j < 3; j++) T[j] = missing ? sp->dPdu[j] : stored[j];
+    if (missing) safe_normalize3(T);
+    cross3(normal, T, B);
+    safe_normalize3(B);
+    double sign = missing ? 1.0 : stored[3];
+    for (int j = 0; j < 3; j++) out[j] = (T[j] * v[0] + normal[j] * v[1]) + B[j] * sign * v[2];
 }
 
 /* graph.tangent: Cycles' Tangent node, radial about an axis of Generated (uv_map 0) or a UV map's tangent, in
@@ -286,6 +303,19 @@ INLINE void panorama_window(const double *p, const double *f, double *out)
         if (div > 0.0) for (int j = 0; j < 3; j++) D[j] = D[j] / div;
         u = 0.5 * (D[0] + 1.0);
         v = 0.5 * (D[2] + 1.0);
+    } else if (kind == 6) {                                     /* the polynomial fisheye: graph.polynomial_radius */
+        double c = D[0] < -1.0 ? -1.0 : (D[0] > 1.0 ? 1.0 : D[0]), theta = -acos(c), r = (theta - f[0]) / f[1];
+        for (int step = 0; step < POLYNOMIAL_STEPS; step++) {
+            double r2 = r * r;
+            double F = theta - (f[0] + (((f[1] * r + f[2] * r2) + f[3] * (r2 * r)) + f[5] * (r2 * r2)));
+            double dF = ((f[1] + 2.0 * f[2] * r) + 3.0 * f[3] * r2) + 4.0 * f[5] * (r2 * r);
+            double moved = F / dF;
+            r = r + moved;
+            if (fabs(moved) < POLYNOMIAL_STOP) break;
+        }
+        double across = sqrt(D[1] * D[1] + D[2] * D[2]);
+        u = 0.5 - (r * safe_div(D[1], across)) / f[6];
+        v = (r * safe_div(D[2], across)) / f[7] + 0.5;
     } else if (kind == 5) {                                     /* central cylindrical */
         double z = safe_div(D[2], sqrt(D[0] * D[0] + D[1] * D[1]));
         u = (atan2(D[1], D[0]) - f[0]) / (f[1] - f[0]);
@@ -418,8 +448,10 @@ INLINE void object_matrix(const ShadingPoint *sp, int mode, double *out)
 static double shader_ao(const ShadingPoint *sp, const double *N, double distance, int samples, int flags);
 static void shader_bevel(const ShadingPoint *sp, double radius, int samples, double *out);
 
-NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *sp, double *reg)
+NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *hit, double *reg)
 {
+    const ShadingPoint *sp = hit;       /* after a SET_NORMAL: `bumped`, the hit with Set Normal's normal */
+    ShadingPoint bumped;
     const double *info = G->programs + 8 * program;
     const double *ops = G->ops + OP_WIDTH * (int64_t)info[0], *ramps = G->ramps + (int64_t)info[7];
     int64_t n_ops = (int64_t)info[1], n_constants = (int64_t)info[3];
@@ -548,7 +580,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_MAP_RANGE:
             out[0] = map_range(a[7], a[8], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], reg[a[6]]);
             break;
-        case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], sp, attributes, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], hit, attributes, sp->N, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_BUMP: {
             double r[3];
             bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7], sp, r);
@@ -601,6 +633,15 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
                 safe_normalize3(r);
             }
             for (int j = 0; j < 3; j++) out[j] = r[j];
+            break;
+        }
+        case OP_TANGENT_SPACE: { double r[3]; tangent_space(reg + a[1], a[2], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_SET_NORMAL: {           /* graph.py run: unit, the hit's own where it is zero */
+            double n[3] = {reg[a[0]], reg[a[0] + 1], reg[a[0] + 2]};
+            safe_normalize3(n);
+            bumped = *sp;
+            if (n[0] != 0.0 || n[1] != 0.0 || n[2] != 0.0) for (int j = 0; j < 3; j++) bumped.N[j] = n[j];
+            sp = &bumped;
             break;
         }
         case OP_CURVE_NORMAL: { double r[3]; curve_normal(reg + a[1], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }

@@ -53,7 +53,8 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
        "TANGENT") + tuple(cls.kind for cls in DESCRIBED) + ("FRESNEL", "LAYER_WEIGHT", "GEOMETRY", "TRANSFORM",
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
                                                                "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL",
-                                                               "PIXEL_SIZE", "CURVE_NORMAL")
+                                                               "PIXEL_SIZE", "CURVE_NORMAL", "SET_NORMAL",
+                                                               "TANGENT_SPACE")
 # Ops that trace rays into the scene while the shader runs (Cycles' __SHADER_RAYTRACE__ nodes: Ambient Occlusion,
 # Bevel). A program holding one reads ShadingPoint.rays, the integrator's ShaderRays (core/integrators/shader_rays.py)
 # for the hits' pixel samples; where there is none (shadow rays, light samples landing on an emitter: Cycles
@@ -212,7 +213,7 @@ NODE_OUTPUTS = {
     "SEPARATE_XYZ": {"X": (1, "float"), "Y": (1, "float"), "Z": (1, "float")},
     "COMBINE_COLOR": {"Color": (3, "color")}, "COMBINE_XYZ": {"Vector": (3, "vector")},
     "CLAMP": {"Result": (1, "float")}, "MAP_RANGE": {"Result": (1, "float")}, "SCALE": {"Color": (3, "color")},
-    "TANGENT": {"Tangent": (3, "vector")},
+    "TANGENT": {"Tangent": (3, "vector")}, "TANGENT_SPACE": {"Vector": (3, "vector")},
     "FRESNEL": {"Fac": (1, "float")}, "LAYER_WEIGHT": {"Fresnel": (1, "float"), "Facing": (1, "float")},
     "VECTOR_TRANSFORM": {"Vector": (3, "vector")},
     "GEOMETRY": {"Position": (3, "vector"), "Normal": (3, "vector"), "Tangent": (3, "vector"),
@@ -379,7 +380,7 @@ def attributes_of(nodes: list) -> set:
             names.add("uv:" + node.props.get("map", ""))
         elif node.kind == "ATTRIBUTE":
             names.add(node.props.get("attribute", "color:"))
-        elif node.kind == "NORMAL_MAP":
+        elif node.kind in ("NORMAL_MAP", "TANGENT_SPACE"):
             names.add("tangent:" + node.props.get("map", ""))
         elif node.kind == "CURVES_INFO":
             names.add(CURVES_INFO_ATTRIBUTES[link.output])
@@ -701,6 +702,12 @@ class Compiler:
             offset, _ = self.layout.get("tangent:" + props.get("map", ""), (-1, 4))
             self.emit("NORMAL_MAP", out, color, strength, offset)
             return out, 3, "vector"
+        if kind == "TANGENT_SPACE":                     # a tangent-space offset in object space (tangent_space)
+            vector = self.value(inp.get("Vector"), 3)
+            out = self.temporary(3)
+            offset, _ = self.layout.get("tangent:" + props.get("map", ""), (-1, 4))
+            self.emit("TANGENT_SPACE", out, vector, offset)
+            return out, 3, "vector"
         if kind == "TANGENT":
             radial = props.get("direction", "RADIAL") == "RADIAL"
             source = self.attribute("generated" if radial else "tangent:" + props.get("map", ""), 3)
@@ -867,7 +874,12 @@ class Compiler:
         input in cls.normal_inputs (the Principled's "coat_normal") is a normal written into its slots; a
         `hit_normal` Link (Cycles' Set Normal) is the hit's own normal, an OUT_NORMAL output to node -1."""
         if isinstance(hit_normal, Link):
-            self.outputs.append([OUT_NORMAL, -1, 0, 3, self.value(hit_normal, 3)])
+            normal = self.value(hit_normal, 3)
+            self.outputs.append([OUT_NORMAL, -1, 0, 3, normal])
+            # Cycles runs the rest of the graph after its Set Normal: what reads the normal sees the bumped one,
+            # each node evaluated anew (ShaderGraph::bump_from_displacement copies the displacement's nodes).
+            self.emit("SET_NORMAL", normal)
+            self.memo.clear()
         for k, entry in enumerate(nodes):
             cls, inputs = entry[0], entry[2]
             factors = entry[3] if len(entry) > 3 else ()
@@ -916,7 +928,7 @@ REGISTER_ARGS = {
     "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     "AO": {0, 1, 2, 3}, "BEVEL": {0, 1, 2},
-    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1},
+    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1}, "SET_NORMAL": {0}, "TANGENT_SPACE": {0, 1},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1041,6 +1053,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
     c = len(program.constants)
     reg[:, :c] = program.constants
     attributes, where = sp.attributes, 0
+    hit = sp                                    # (the Normal Map's frame: the mesh's normal, never Set Normal's)
     for row in program.ops:
         code, a = int(row[0]), row[1:]
         name = OPS[code]
@@ -1132,7 +1145,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "MAP_RANGE":
             reg[:, i[0]] = map_range(i[7], i[8], *(reg[:, i[k]] for k in range(1, 7)))
         elif name == "NORMAL_MAP":
-            reg[:, i[0]:i[0] + 3] = normal_map(R(1, 3), reg[:, i[2]], i[3], sp, attributes)
+            reg[:, i[0]:i[0] + 3] = normal_map(R(1, 3), reg[:, i[2]], i[3], hit, attributes, sp.N)
         elif name == "BUMP":
             normal = sp.N if i[6] < 0 else R(6, 3)
             reg[:, i[0]:i[0] + 3] = bump(normal, reg[:, i[1]], reg[:, i[2]], reg[:, i[3]], reg[:, i[4]],
@@ -1157,7 +1170,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             p = R(1, 3)
             reg[:, i[0]:i[0] + 3] = (p[:, 0:1] * M[:, 0] + p[:, 1:2] * M[:, 1]) + p[:, 2:3] * M[:, 2] + M[:, 3]
         elif name == "WINDOW":
-            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 7])
+            reg[:, i[0]:i[0] + 3] = window(R(1, 3), reg[0, i[2]:i[2] + 8])
         elif name == "WIREFRAME":
             reg[:, i[0]] = wireframe(reg[:, i[1]], where, sp)
         elif name == "AO":
@@ -1173,8 +1186,13 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = bevelled
         elif name == "CURVE_NORMAL":
             reg[:, i[0]:i[0] + 3] = curve_normal(R(1, 3), sp)
+        elif name == "TANGENT_SPACE":
+            reg[:, i[0]:i[0] + 3] = tangent_space(R(1, 3), i[2], sp)
+        elif name == "SET_NORMAL":                      # the ops after it see this normal as the hit's (unit; kept
+            unit = safe_normalize(R(0, 3))              # where it is zero, as apply_outputs does)
+            sp = sp._replace(N=np.where(np.any(unit != 0.0, axis=1)[:, None], unit, sp.N))
         elif name == "PIXEL_SIZE":
-            reg[:, i[0]] = reg[:, i[1]] * pixel_width(R(2, 3), reg[0, i[3]:i[3] + 7], sp)
+            reg[:, i[0]] = reg[:, i[1]] * pixel_width(R(2, 3), reg[0, i[3]:i[3] + 8], sp)
         elif name == "CAMERA_DATA":
             reg[:, i[0]:i[0] + 5] = camera_data(R(1, 3))
         elif name == "FRESNEL":
@@ -1271,7 +1289,7 @@ def pixel_width(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarra
     orthographic one: a pixel's width in scene units), spread along two directions a, b across the face
     (orthonormals of Ng) and each projected onto the plane across the view: dP (|a - (a.I) I| + |b - (b.I) I|) / 2.
     frame: the window (left, right, bottom, top, perspective, width, height)."""
-    left, right, bottom, top, perspective, width, height = frame
+    left, right, bottom, top, perspective, width, height = frame[:7]
     sx, sy = (right - left) / width, (top - bottom) / height
     if perspective:
         d = np.stack([safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2]), np.ones(len(P))], axis=1)
@@ -1306,16 +1324,21 @@ def window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
 
 # A panoramic camera's Window (core/render: MaterialTable.window's fifth number is 2 + the type's place here).
 PANORAMA_WINDOWS = ("EQUIRECTANGULAR", "EQUIANGULAR_CUBEMAP_FACE", "MIRRORBALL", "FISHEYE_EQUIDISTANT",
-                    "FISHEYE_EQUISOLID", "CENTRAL_CYLINDRICAL")
+                    "FISHEYE_EQUISOLID", "CENTRAL_CYLINDRICAL", "FISHEYE_LENS_POLYNOMIAL")
+# The polynomial fisheye's radius for a direction: Newton's steps from the linear term's root, at most this many, until
+# a step moves it less than POLYNOMIAL_STOP (Cycles' direction_to_fisheye_lens_polynomial).
+POLYNOMIAL_STEPS = schema.constant("POLYNOMIAL_STEPS", 20, "the polynomial fisheye Window's Newton steps, at most")
+POLYNOMIAL_STOP = schema.constant("POLYNOMIAL_STOP", 1e-6, "the polynomial fisheye Window's Newton steps stop below")
 
 
 def panorama_window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
     """Cycles' Window under a panoramic camera (camera_world_to_ndc, direction_to_panorama) (n, 3) of points P (n, 3)
     in the camera's frame (x right, y up, z forward): their direction turned into the panorama's frame (x forward, y
     left, z up; a mirror ball's y forward) and mapped to its (u, v) as Cycles' direction_to_<type>; z 0. frame: (a, b,
-    c, d, 2 + the type's place in PANORAMA_WINDOWS, e, f): equirectangular and central cylindrical (range x, y, z, w),
-    the equidistant fisheye (fov), the equisolid one (lens, sensor width, sensor height)."""
-    a, b, c, d, code, e, f = frame
+    c, d, 2 + the type's place in PANORAMA_WINDOWS, e, f, g): equirectangular and central cylindrical (range x, y, z,
+    w), the equidistant fisheye (fov), the equisolid one (lens, sensor width, sensor height), the polynomial one (k0 ..
+    k3, then k4, sensor width, sensor height)."""
+    a, b, c, d, code, e, f, g = frame
     kind = PANORAMA_WINDOWS[int(code) - 2]
     P = safe_normalize(P)
     D = (np.stack([P[:, 0], -P[:, 2], P[:, 1]], axis=1) if kind == "MIRRORBALL"
@@ -1339,11 +1362,32 @@ def panorama_window(P: np.ndarray, frame: np.ndarray) -> np.ndarray:
         across = np.sqrt(D[:, 1] * D[:, 1] + D[:, 2] * D[:, 2])
         if kind == "FISHEYE_EQUIDISTANT":
             r, width, height = np.arctan2(across, D[:, 0]) / a, 1.0, 1.0
+        elif kind == "FISHEYE_LENS_POLYNOMIAL":
+            r, width, height = polynomial_radius(-np.arccos(np.clip(D[:, 0], -1.0, 1.0)), (a, b, c, d, e)), f, g
         else:
             r, width, height = 2.0 * a * np.sin(0.5 * np.arccos(np.clip(D[:, 0], -1.0, 1.0))), b, c
         y, z = safe_divide(D[:, 1], across), safe_divide(D[:, 2], across)
         u, v = 0.5 - (r * y) / width, (r * z) / height + 0.5
     return np.stack([u, v, np.zeros(len(P))], axis=1)
+
+
+def polynomial_radius(theta: np.ndarray, k: tuple) -> np.ndarray:
+    """The radius r (n,) on the sensor where the polynomial fisheye's angle k0 + k1 r + k2 r^2 + k3 r^3 + k4 r^4 is
+    theta (n,) (Cycles' direction_to_fisheye_lens_polynomial): Newton's method from (theta - k0) / k1, each radius
+    stopping once a step moves it less than POLYNOMIAL_STOP, POLYNOMIAL_STEPS steps at most."""
+    k0, k1, k2, k3, k4 = (float(x) for x in k)
+    r = (theta - k0) / k1
+    moving = np.ones(len(theta), bool)
+    for _ in range(POLYNOMIAL_STEPS):
+        r2 = r * r
+        F = theta - (k0 + (((k1 * r + k2 * r2) + k3 * (r2 * r)) + k4 * (r2 * r2)))
+        dF = ((k1 + 2.0 * k2 * r) + 3.0 * k3 * r2) + 4.0 * k4 * (r2 * r)
+        step = np.where(moving, F / dF, 0.0)
+        r = r + step
+        moving &= np.abs(step) >= POLYNOMIAL_STOP
+        if not moving.any():
+            break
+    return r
 
 
 def camera_data(P: np.ndarray) -> np.ndarray:
@@ -1440,12 +1484,14 @@ def map_range(kind: int, clamp: int, value, from_min, from_max, to_min, to_max, 
 
 
 def normal_map(color: np.ndarray, strength: np.ndarray, tangent_offset: int, sp: ShadingPoint,
-               attributes: np.ndarray) -> np.ndarray:
+               attributes: np.ndarray, fallback: Optional[np.ndarray] = None) -> np.ndarray:
     """Cycles' tangent-space Normal Map (svm_node_normal_map), in world space: the mesh's interpolated
     tangent turned by the object's linear transform, the bitangent sign x N x T, strength applied in
-    tangent space; the unperturbed normal where the mesh has no tangents."""
+    tangent space; the hit's normal `fallback` (n, 3) (after a Set Normal, its normal; None: sp.N) where the mesh
+    has no tangents."""
+    fallback = sp.N if fallback is None else fallback
     if tangent_offset < 0:
-        return sp.N.copy()
+        return fallback.copy()
     c = 2.0 * (color - 0.5)
     s = strength[:, None]
     c = np.concatenate([c[:, :2] * s, (1.0 + np.clip(s, 0.0, 1.0) * (c[:, 2:3] - 1.0))], axis=1)
@@ -1456,7 +1502,21 @@ def normal_map(color: np.ndarray, strength: np.ndarray, tangent_offset: int, sp:
     B = sign[:, None] * np.cross(n, T)
     out = safe_normalize(c[:, 0:1] * T + c[:, 1:2] * B + c[:, 2:3] * n) * sp.side[:, None]
     bad = ~np.isfinite(out).all(axis=1) | (np.abs(out).sum(axis=1) == 0.0)
-    return np.where(bad[:, None], sp.N, out)
+    return np.where(bad[:, None], fallback, out)
+
+
+def tangent_space(v: np.ndarray, tangent_offset: int, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Vector Displacement in tangent space (svm_node_vector_displacement) before its object-to-world step:
+    v (n, 3) along the mesh's interpolated tangent T (object space; where the mesh has none, the triangle's edge
+    dPdu normalised), the shading normal N taken into object space and the bitangent sign x normalize(N x T), in
+    that order (x along T, y along N, z along the bitangent): (n, 3) in object space."""
+    n = len(v)
+    normal = safe_normalize(np.einsum("nji,nj->ni", sp.linear, sp.N))
+    stored = (sp.attributes[:, tangent_offset:tangent_offset + 4] if tangent_offset >= 0 else np.zeros((n, 4)))
+    missing = ~np.any(stored != 0.0, axis=1)[:, None]
+    T = np.where(missing, safe_normalize(sp.dPdu), stored[:, :3])
+    B = safe_normalize(np.cross(normal, T)) * np.where(missing, 1.0, stored[:, 3:4])
+    return (T * v[:, 0:1] + normal * v[:, 1:2]) + B * v[:, 2:3]
 
 
 def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, sp: ShadingPoint) -> np.ndarray:

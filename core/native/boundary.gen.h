@@ -165,6 +165,8 @@
 #define OP_BEVEL 53
 #define OP_PIXEL_SIZE 54
 #define OP_CURVE_NORMAL 55
+#define OP_SET_NORMAL 56
+#define OP_TANGENT_SPACE 57
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -212,6 +214,10 @@
 #define GEOM_BACKFACING 5
 #define GEOM_OBJECT_NORMAL 6
 #define GEOM_REFLECTION 7
+/* the polynomial fisheye Window's Newton steps, at most (core.materials.graph) */
+#define POLYNOMIAL_STEPS 20
+/* the polynomial fisheye Window's Newton steps stop below (core.materials.graph) */
+#define POLYNOMIAL_STOP 1e-06
 /* a Glossy, Glass or Refraction node's microfacet distribution (nodes.DISTRIBUTIONS) (core.materials.nodes) */
 #define DISTRIBUTION_GGX 0
 #define DISTRIBUTION_BECKMANN 1
@@ -763,6 +769,11 @@ passes through everything: Blender's Cast Shadow off, Cycles' light.use_shadow) 
     double sun_t[3];                        /* sun disk: the cone's frame and half-angle */
     double sun_b[3];
     double sun_cos_max;
+    int32_t limb;                           /* sun: 1 for a Sky Texture's disc (SunLight.limb): rays that meet it see Cycles' limb-darkened
+radiance, bottom to top, where the others see `radiance` x color */
+    double limb_bottom[3];                  /* sun with limb: the RGB radiance at the disc's bottom and top edges (sky.disc_xyz's) */
+    double limb_top[3];
+    double limb_sun[5];                     /* sun with limb: the sky's sun elevation, rotation, disc size, earth's edge (radians); 0 */
     int32_t spot_frame;                     /* 1: the spot has a (scaled) frame: use spot_inverse */
     double spot_inverse[9];                 /* world to spot-local, row-major */
     double spot_cos_half;
@@ -1024,7 +1035,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(8185173706297726934);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(2719243675526165675);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
@@ -1035,7 +1046,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(702866454435317549);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(2759277909728588366);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(5201075736430934965);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);

@@ -104,22 +104,26 @@ class RenderResult:
 
 def panorama_frame(camera, settings) -> tuple:
     """A panoramic camera's Window for the node graphs (graph.panorama_window): (a, b, c, d, 2 + its type's place in
-    graph.PANORAMA_WINDOWS, e, f) with Cycles' numbers for its type: the equirectangular and central cylindrical
-    ranges, the equidistant fisheye's field of view, the equisolid one's lens and sensor (mm)."""
+    graph.PANORAMA_WINDOWS, e, f, g) with Cycles' numbers for its type: the equirectangular and central cylindrical
+    ranges, the equidistant fisheye's field of view, the equisolid one's lens and sensor (mm), the polynomial one's
+    k0 .. k3, then k4 and the sensor."""
     kind = camera.panorama_type
     code = 2.0 + graph_.PANORAMA_WINDOWS.index(kind)
     if kind == "EQUIRECTANGULAR":
         return (camera.longitude_min - camera.longitude_max, -camera.longitude_min,
-                camera.latitude_min - camera.latitude_max, math.pi / 2.0 - camera.latitude_min, code, 0.0, 0.0)
+                camera.latitude_min - camera.latitude_max, math.pi / 2.0 - camera.latitude_min, code, 0.0, 0.0, 0.0)
     if kind == "CENTRAL_CYLINDRICAL":
         return (-camera.cylinder_u_min, -camera.cylinder_u_max, camera.cylinder_v_min / camera.cylinder_radius,
-                camera.cylinder_v_max / camera.cylinder_radius, code, 0.0, 0.0)
+                camera.cylinder_v_max / camera.cylinder_radius, code, 0.0, 0.0, 0.0)
     if kind == "FISHEYE_EQUIDISTANT":
-        return (camera.fisheye_fov, 0.0, 0.0, 0.0, code, 0.0, 0.0)
+        return (camera.fisheye_fov, 0.0, 0.0, 0.0, code, 0.0, 0.0, 0.0)
+    width, height = camera_._panorama_sensor(camera, settings.width, settings.height, tuple(settings.pixel_aspect))
     if kind == "FISHEYE_EQUISOLID":
-        width, height = camera_._panorama_sensor(camera, settings.width, settings.height, tuple(settings.pixel_aspect))
-        return (camera.fisheye_lens, width, height, 0.0, code, 0.0, 0.0)
-    return (0.0, 0.0, 0.0, 0.0, code, 0.0, 0.0)
+        return (camera.fisheye_lens, width, height, 0.0, code, 0.0, 0.0, 0.0)
+    if kind == "FISHEYE_LENS_POLYNOMIAL":
+        k = tuple(float(x) for x in camera.fisheye_polynomial)
+        return (*k[:4], code, k[4], width, height)
+    return (0.0, 0.0, 0.0, 0.0, code, 0.0, 0.0, 0.0)
 
 
 def region_pixels(settings: RenderSettings) -> np.ndarray:
@@ -154,7 +158,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     if scene.camera.type in ("PERSP", "ORTHO"):                  # (the Window coordinates: the frame on screen)
         materials.window = (*camera_.viewplane(scene.camera, settings.width, settings.height,
                                                tuple(settings.pixel_aspect)), float(scene.camera.type == "PERSP"),
-                            float(settings.width), float(settings.height))     # (and Pixel Size's pixel)
+                            float(settings.width), float(settings.height), 0.0)     # (and Pixel Size's pixel)
     elif scene.camera.type == "PANO" and scene.camera.panorama_type in graph_.PANORAMA_WINDOWS:
         materials.window = panorama_frame(scene.camera, settings)
     # The lights a render makes of its scene: the emissive meshes, and the world's image (NaN or infinite parts
