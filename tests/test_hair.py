@@ -206,8 +206,9 @@ def hair_scene(node: tuple) -> Scene:
 
 NODES = {"chiang_melanin": ("PRINCIPLED_HAIR", np.ones(3), {k: v for k, v in MELANIN.items()}),
          "chiang_direct": ("PRINCIPLED_HAIR", np.ones(3), {"color": (0.6, 0.3, 0.1), "random_roughness": 0.5}),
-         "hair_reflection": ("HAIR", np.array([0.8, 0.6, 0.4]), {"roughness_u": 0.2, "roughness_v": 0.3, "offset": 0.05}),
-         "hair_transmission": ("HAIR", np.array([0.8, 0.6, 0.4]), {"transmission": 1.0})}
+         "hair_reflection": ("HAIR", np.ones(3), {"roughness_u": 0.2, "roughness_v": 0.3, "offset": 0.05,
+                                                  "color": (0.8, 0.6, 0.4)}),
+         "hair_transmission": ("HAIR", np.ones(3), {"transmission": 1.0, "color": (0.8, 0.6, 0.4)})}
 
 
 @pytest.mark.parametrize("name", list(NODES))

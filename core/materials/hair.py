@@ -491,24 +491,27 @@ class PrincipledHairNode(Node):
     its `tangent` is the curve's (curve_links), its `random` Curves Info's Random unless the socket is linked."""
 
     name = "PRINCIPLED_HAIR"
+    lets_light_through = True           # (from inside its tube: through_own_fibre)
     inputs, defaults = PRINCIPLED_HAIR_INPUTS, PRINCIPLED_HAIR_DEFAULTS
 
     @staticmethod
     def setup(b, weight, p):
         """One ChiangHair closure per hit (chiang_params), its normal the hit's."""
         p = per_hit_rows(p, len(weight))
-        b.add(ChiangHair.kind, weight, chiang_params(p, b.N, b.wo))
+        b.add(ChiangHair.kind, through_own_fibre(b, weight), chiang_params(p, b.N, b.wo))
 
 
 class HairNode(Node):
     """Hair BSDF (Blender's ShaderNodeBsdfHair): one HairReflection or HairTransmission closure (`transmission`, the
-    node's Component) of the node's weight (its colour), RoughnessU and RoughnessV clipped to 0.001..1, minus the
+    node's Component) of the node's weight times its Color (an input: a ray passing its own tube from inside is not
+    tinted by it), RoughnessU and RoughnessV clipped to 0.001..1, minus the
     Offset, and its Tangent: the linked one, else the curve's (curve_links); off curves (no tangent) Cycles takes
     the surface's dPdv and no offset: Primer a tangent across the normal of its own choosing."""
 
     name = "HAIR"
-    inputs = ("offset", "roughness_u", "roughness_v", "tangent", "transmission")
-    defaults = (0.0, 0.2, 0.2, (0.0, 0.0, 0.0), 0.0)
+    lets_light_through = True
+    inputs = ("offset", "roughness_u", "roughness_v", "tangent", "transmission", "color")
+    defaults = (0.0, 0.2, 0.2, (0.0, 0.0, 0.0), 0.0, (0.8, 0.8, 0.8))
 
     @staticmethod
     def setup(b, weight, p):
@@ -525,7 +528,16 @@ class HairNode(Node):
         if none.any():
             T = np.where(none[:, None], vectors.orthonormal_frame(b.N)[0], T)
         out[:, HAIR_TANGENT:HAIR_TANGENT + 3] = T
-        b.add(kind, weight, out)
+        b.add(kind, through_own_fibre(b, weight) * np.maximum(p[:, 7:10], 0.0), out)
+
+
+def through_own_fibre(b, weight: np.ndarray) -> np.ndarray:
+    """The hair closure's weight (n, 3): 0 where the ray met the tube from inside, whose light (the node's weight,
+    its share of the surface) goes on straight through instead (b.transparency): a ray leaving a strand passes its own tube, as Cycles' rays leaving a curve
+    pass its segment (the fibre is the BSDF's, not the tube's)."""
+    inside = b.backfacing[:, None]
+    b.transparency += np.where(inside, weight, 0.0)
+    return np.where(inside, 0.0, weight)
 
 
 def curve_links() -> dict:

@@ -576,7 +576,11 @@ INLINE double hair_clip(double x) { return x < 0.001 ? 0.001 : (x > 1.0 ? 1.0 : 
 INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
                                  const double *p)
 {
-    (void)mu; (void)backfacing;
+    (void)mu;
+    if (backfacing) {       /* hair.through_own_fibre: from inside its tube a ray goes on straight through */
+        for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
+        return;
+    }
     static const double eumelanin[3] = {0.506, 0.841, 1.653}, pheomelanin[3] = {0.343, 0.733, 1.924};
     double v[STORAGE_STRIDE] = {0.0};
     double random = p[16];
@@ -620,7 +624,11 @@ INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, 
 INLINE void hair_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
                       const double *p)
 {
-    (void)mu; (void)wo; (void)backfacing;
+    (void)mu; (void)wo;
+    if (backfacing) {       /* hair.through_own_fibre */
+        for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
+        return;
+    }
     double v[STORAGE_STRIDE] = {0.0}, T[3];
     hair_normalize(p + 3, T);
     int none = T[0] == 0.0 && T[1] == 0.0 && T[2] == 0.0;
@@ -632,7 +640,9 @@ INLINE void hair_node(ShaderResult *sd, double mu, const double *wo, int backfac
         orthonormal_frame(sd->N, T, b);
     }
     for (int k = 0; k < 3; k++) v[HAIR_T + k] = T[k];
-    closure_add(sd, p[6] != 0.0 ? BSDF_HAIR_TRANSMISSION : BSDF_HAIR_REFLECTION, weight, weight, 1.0, v);
+    double w[3];
+    for (int k = 0; k < 3; k++) w[k] = weight[k] * at_least(p[7 + k], 0.0);
+    closure_add(sd, p[6] != 0.0 ? BSDF_HAIR_TRANSMISSION : BSDF_HAIR_REFLECTION, w, w, 1.0, v);
 }
 
 INLINE void closure_node(ShaderResult *sd, int kind, const double *weight)
