@@ -18,7 +18,7 @@ from core.film.compare import relative_mse_of_blocks
 
 pytestmark = pytest.mark.blender
 
-PRIMER_SAMPLES, CYCLES_SAMPLES = 128, 512
+PRIMER_SAMPLES, CYCLES_SAMPLES = 64, 256
 CASES = ("chiang_melanin", "chiang_color", "chiang_absorption", "hair_reflection", "hair_transmission", "huang",
          "front_chiang_melanin", "front_chiang_color")
 
