@@ -133,6 +133,16 @@ def test_the_colour_parametrisations_give_cycles_absorption():
     np.testing.assert_allclose(p[0, :3], [0.1, 0.2, 0.3])
 
 
+def test_its_colour_pass_albedo_is_cycles_estimate():
+    """Cycles' albedo estimate: exp(-sqrt(sigma) x scale(v)) + Fresnel's f; with no absorption 1 + f."""
+    params = fibre(1, 0.3, **WHITE)
+    X = np.array([1.0, 0.0, 0.0])
+    f = hair.fresnel_cos(np.array([math.sqrt(1.0 - VIEW.dot(X) ** 2) * math.sqrt(1.0 - 0.09)]), params[:, hair.ETA])
+    R, T = ChiangHair.albedo(params, rows(1, Z), rows(1, VIEW))
+    np.testing.assert_allclose(R[0], 1.0 + f[0], rtol=1e-12)
+    assert not T.any()
+
+
 def test_random_roughness_scales_both_roughnesses_by_one_plus_twice_the_randoms_offset_from_a_half():
     """Random Roughness k with Random x: roughness x (1 + 2 (x - 1/2) k), so Random 1/2 changes nothing."""
     base = fibre(1, 0.0, roughness=0.4, radial_roughness=0.5)
@@ -213,8 +223,14 @@ NODES = {"chiang_melanin": ("PRINCIPLED_HAIR", np.ones(3), {k: v for k, v in MEL
 
 @pytest.mark.parametrize("name", list(NODES))
 def test_both_kernels_render_hair_on_curves_alike(name):
-    """Strands of each hair closure, path traced with 3 bounces: the compiled kernel's image is the reference's."""
-    settings = RenderSettings(width=32, height=24, samples=4, integrator="path", max_bounces=3)
+    """Strands of each hair closure, path traced with 3 bounces: the compiled kernel's image is the reference's, and
+    so is its Glossy Color pass (each closure's albedo, Chiang's Cycles' estimate)."""
+    settings = RenderSettings(width=32, height=24, samples=4, integrator="path", max_bounces=3,
+                              passes=("glossy_color", "transmission_color"))
     compiled, reference = compare_paths(hair_scene(NODES[name]), settings)
     assert reference.image.max() > 0.01
     assert_same_render(compiled, reference)
+    kind = "transmission_color" if name == "hair_transmission" else "glossy_color"
+    assert reference.aux[kind].max() > 0.1
+    for pass_ in ("glossy_color", "transmission_color"):
+        np.testing.assert_allclose(compiled.aux[pass_], reference.aux[pass_], rtol=1e-5, atol=1e-6)

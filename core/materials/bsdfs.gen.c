@@ -88,6 +88,8 @@ INLINE void bsdf_albedo(const Closure *c, const double *wo, double *R, double *T
     case BSDF_ROUGH_GLASS: rough_glass_albedo(c, wo, R, T); return;
     case BSDF_BECKMANN: beckmann_albedo(c, wo, R, T); return;
     case BSDF_BECKMANN_GLASS: beckmann_glass_albedo(c, wo, R, T); return;
+    case BSDF_CHIANG_HAIR: chiang_hair_albedo(c, wo, R, T); return;
+    case BSDF_HAIR_TRANSMISSION: hair_transmission_albedo(c, wo, R, T); return;
     default: break;
     }
     R[0] = R[1] = R[2] = 1.0;

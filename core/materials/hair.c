@@ -178,6 +178,19 @@ INLINE double fibre_scatter(const Fibre *f, double sin_i, double cos_i, double p
     return pdf;
 }
 
+/* ChiangHair.albedo: Cycles' estimate, exp(-sqrt(sigma) scale(v)) + f, all reflected. */
+INLINE void chiang_hair_albedo(const Closure *c, const double *wo, double *R, double *T)
+{
+    const double *p = c->p;
+    double X[3];
+    hair_normalize(p + HAIR_X, X);
+    double cos_o = hair_cos_from_sin(dot3(wo, X));
+    double f = hair_fresnel(cos_o * hair_cos_from_sin(p[HAIR_H]), p[HAIR_ETA]);
+    double x = p[HAIR_V];
+    double scale = (((((0.245 * x) + 5.574) * x - 10.73) * x + 2.532) * x - 0.215) * x + 5.969;
+    for (int k = 0; k < 3; k++) { R[k] = exp(-sqrt(at_least(p[HAIR_SIGMA + k], 0.0)) * scale) + f; T[k] = 0.0; }
+}
+
 INLINE void chiang_hair_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
 {
     Fibre f;
@@ -294,6 +307,13 @@ INLINE void hair_reflection_sample(const Closure *c, const double *wo, const dou
     hair_direction(p, locy, theta_i, phi, out->wi);
     out->pdf = pdf;
     for (int k = 0; k < 3; k++) out->weight[k] = pdf > 0.0 ? 1.0 : 0.0;
+}
+
+/* HairTransmission.albedo: all transmitted. */
+INLINE void hair_transmission_albedo(const Closure *c, const double *wo, double *R, double *T)
+{
+    (void)c; (void)wo;
+    for (int k = 0; k < 3; k++) { R[k] = 0.0; T[k] = 1.0; }
 }
 
 INLINE void hair_transmission_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)

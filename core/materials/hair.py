@@ -256,6 +256,19 @@ class ChiangHair(BSDF):
         return "chiang_hair"
 
     @staticmethod
+    def albedo(params, N, wo):
+        """The colour passes' albedo, Cycles' estimate (bsdf_hair_chiang_albedo): exp(-sqrt(sigma) scale(v)) plus
+        Fresnel's f at cos theta_o cos gamma_o, all as reflection (scale: Chiang's polynomial, read at the closure's
+        longitudinal variance as Cycles does)."""
+        X = safe_normalize(params[:, TANGENT:TANGENT + 3])
+        cos_o = cos_from_sin(vectors.dot(wo, X))
+        f = fresnel_cos(cos_o * cos_from_sin(params[:, H]), params[:, ETA])
+        x = params[:, V]
+        scale = (((((0.245 * x) + 5.574) * x - 10.73) * x + 2.532) * x - 0.215) * x + 5.969
+        R = np.exp(-np.sqrt(np.maximum(params[:, SIGMA:SIGMA + 3], 0.0)) * scale[:, None]) + f[:, None]
+        return R, np.zeros_like(R)
+
+    @staticmethod
     def eval(params, N, wo, wi):
         fibre = Fibre(params, wo)
         sin_i = vectors.dot(wi, fibre.X)
@@ -392,6 +405,11 @@ class HairTransmission(BSDF):
     def c_name(cls) -> str:
         """Its C functions' prefix in hair.c."""
         return "hair_transmission"
+
+    @staticmethod
+    def albedo(params, N, wo):
+        """The colour passes' albedo: all of its weight, transmitted (Cycles' weight, a transmission closure's)."""
+        return np.zeros((len(wo), 3)), np.ones((len(wo), 3))
 
     @staticmethod
     def eval(params, N, wo, wi):
