@@ -58,7 +58,8 @@ for name in {cases!r}:
     front = name.startswith("front_")
     case = name[len("front_"):] if front else name
     # Front: the sun shines along the view and the world is black, so every lit point is lit from outside its strand.
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0) if front else (0.25, 0.25, 0.3, 1.0)
+    background = world.node_tree.nodes["Background"].inputs["Color"]
+    background.default_value = (0.0, 0.0, 0.0, 1.0) if front else (0.25, 0.25, 0.3, 1.0)
     sun.rotation_euler = (0.0, 0.0, 0.0) if front else (0.6, 0.3, 0.4)
     material, tree, output = empty_material(name)
     if case.startswith("hair_"):
@@ -129,7 +130,9 @@ def test_hair_strands_render_as_cycles(case, renders):
     primer, cycles = np.load(folder / f"{case}_primer.npy"), np.load(folder / f"{case}_cycles.npy")
     error = relative_mse_of_blocks(primer, cycles)
     strands = np.abs(cycles - cycles[0, 0]).max(axis=2) > 0.005
-    inner = strands & np.roll(strands, 1, 0) & np.roll(strands, -1, 0) & np.roll(strands, 1, 1) & np.roll(strands, -1, 1)
+    inner = strands.copy()
+    for axis in (0, 1):
+        inner &= np.roll(strands, 1, axis) & np.roll(strands, -1, axis)
     ratio = primer[inner].mean(axis=0) / cycles[inner].mean(axis=0)
     print(case, "block relMSE", error, "strand pixels", strands.mean(), "inner mean ratio", ratio,
           warnings[case])

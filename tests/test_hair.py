@@ -9,7 +9,6 @@ import math
 import numpy as np
 import pytest
 
-from core import render
 from core.camera import Camera
 from core.geometry import curves
 from core.materials import Material
@@ -171,8 +170,9 @@ def test_the_hair_bsdfs_samples_have_its_evals_pdf_which_integrates_to_the_share
     """Hair BSDF: eval's pdf is the density its sampler draws with: integrated over the directions the sampler
     reaches it is the share of samples eval keeps (in front of N for Reflection, behind it for Transmission), and
     Transmission's samples carry it. (Transmission's sampler reaches azimuths within pi / 2 of the far side only,
-    where its Cauchy lobe is normalised; its eval, as Cycles', goes on beyond, 7 % more here.) (Reflection's sampler, as Cycles', reports cos(phi / 2) / (4 RoughnessV) where its density, and its eval,
-    is cos(phi / (2 RoughnessV)) / (4 RoughnessV): its samples keep their own weight, 1, so only MIS sees it.)"""
+    where its Cauchy lobe is normalised; its eval, as Cycles', goes on beyond, 7 % more here. Reflection's sampler,
+    as Cycles', reports cos(phi / 2) / (4 RoughnessV) where its density, and its eval, is
+    cos(phi / (2 RoughnessV)) / (4 RoughnessV): its samples keep their own weight, 1, so only MIS sees it.)"""
     rng = np.random.default_rng(7)
     n = 100000
     p = np.zeros((n, 32))

@@ -551,8 +551,8 @@ class HairNode(Node):
 
 def through_own_fibre(b, weight: np.ndarray) -> np.ndarray:
     """The hair closure's weight (n, 3): 0 where the ray met the tube from inside, whose light (the node's weight,
-    its share of the surface) goes on straight through instead (b.transparency): a ray leaving a strand passes its own tube, as Cycles' rays leaving a curve
-    pass its segment (the fibre is the BSDF's, not the tube's)."""
+    its share of the surface) goes on straight through instead (b.transparency): a ray leaving a strand passes its
+    own tube, as Cycles' rays leaving a curve pass its segment (the fibre is the BSDF's, not the tube's)."""
     inside = b.backfacing[:, None]
     b.transparency += np.where(inside, weight, 0.0)
     return np.where(inside, 0.0, weight)
