@@ -354,6 +354,10 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
     for name in missing:
         kind, _, layer = name.partition(":")
         values = np.zeros((t, 3, graph_.attribute_width(name)))
+        if name == "curve_tangent":         # (a hair BSDF's fibre direction: only curves' tubes carry it)
+            warnings.append(f"mesh '{mesh.name}' has a hair BSDF, which reads a curve's tangent: Primer takes a tangent "
+                            "across the normal of its own choosing where Cycles takes the surface's dPdu (dPdv), and "
+                            "lets light through where the mesh is met from behind (as from inside a strand)")
         if kind == "uv":
             uv = mesh.uv_layers.get(layer) if layer else _active_render(mesh.uv_layers)
             if uv is None:

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
+from ..core.materials import hair as hair_
 from ..core.materials import nodes as nodes_
 from ..core.materials import sky as sky_
 from ..core.materials import subsurface as subsurface_
@@ -1161,6 +1162,21 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             out.append(("TOON", weight, inputs, list(factors) + [(color, "color")]))
         else:
             out.append(("TOON", weight * np.maximum(color, 0.0), inputs, list(factors)))
+    elif kind == "ShaderNodeBsdfHairPrincipled":
+        # core/materials/hair.py: Chiang's model (its closure weight is the Mix weights alone: the colour is absorption).
+        _principled_hair(reader, node, weight, out, factors)
+    elif kind == "ShaderNodeBsdfHair":
+        # core/materials/hair.py HairNode: the Reflection or Transmission component, the colour an input (it tints
+        # the closure, not the light passing the strand's own tube); an unlinked Tangent is the curve's (Cycles' dPdu).
+        color = reader.input(node, "Color", np.full(3, 0.8))
+        inputs = {"offset": reader.input(node, "Offset", 0.0), "roughness_u": reader.input(node, "RoughnessU", 0.1),
+                  "roughness_v": reader.input(node, "RoughnessV", 1.0),
+                  "transmission": 1.0 if getattr(node, "component", "Reflection") == "Transmission" else 0.0}
+        tangent = node.inputs.get("Tangent")
+        inputs["tangent"] = reader.input(node, "Tangent", np.zeros(3)) if tangent is not None and tangent.is_linked \
+            else hair_.curve_links()["tangent"]
+        inputs["color"] = color if _linked(color) else np.maximum(np.asarray(color, np.float64)[:3], 0.0)
+        out.append(("HAIR", weight, inputs, list(factors)))
     elif kind == "ShaderNodeSubsurfaceScattering":
         # core/materials/subsurface.py SubsurfaceNode: the colour is the walk's albedo too, so it stays an input.
         method = getattr(node, "falloff", "RANDOM_WALK")
@@ -1207,6 +1223,36 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         if color is not None:
             out.append(("DIFFUSE", weight * np.maximum(np.array(color.default_value[:3], np.float64), 0.0), {},
                         list(factors)))
+
+
+# The Principled Hair BSDF's sockets, as core/materials/hair.py's PrincipledHairNode names its inputs.
+HAIR_SOCKETS = {"Color": "color", "Melanin": "melanin", "Melanin Redness": "melanin_redness", "Tint": "tint",
+                "Absorption Coefficient": "absorption", "Roughness": "roughness", "Radial Roughness": "radial_roughness",
+                "Coat": "coat", "IOR": "ior", "Offset": "offset", "Random Color": "random_color",
+                "Random Roughness": "random_roughness"}
+HAIR_PARAMETRIZATIONS = {"COLOR": "direct_coloring", "MELANIN": "melanin", "ABSORPTION": "absorption"}
+
+
+def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
+    """Append the Principled Hair BSDF (Chiang's model, hair.PrincipledHairNode): its sockets per hit where linked, the
+    curve's tangent, Random from Curves Info's Random unless linked (as Cycles); the Huang model rendered as Chiang's,
+    with a warning."""
+    inputs = {key: reader.input(node, socket, None) for socket, key in HAIR_SOCKETS.items()}
+    inputs = {key: value for key, value in inputs.items() if value is not None}
+    parametrization = HAIR_PARAMETRIZATIONS.get(getattr(node, "parametrization", "COLOR"), "direct_coloring")
+    inputs["parametrization"] = float(hair_.PARAMETRIZATIONS[parametrization])
+    random = node.inputs.get("Random")
+    inputs.update(hair_.curve_links())
+    if random is not None and random.is_linked:
+        inputs["random"] = reader.input(node, "Random", 0.0)
+    if getattr(node, "model", "CHIANG") == "HUANG":
+        # Cycles' Huang model reads Roughness for both directions and has no Coat.
+        inputs["radial_roughness"] = inputs.get("roughness", 0.3)
+        inputs["coat"] = 0.0
+        reader.warn(node, "the Huang model is rendered with Chiang's (hair.py): Huang's elliptical fibres (Aspect "
+                          "Ratio), its Reflection / Transmission / Secondary Reflection lobe scales and its near-field "
+                          "camera-ray model are not modelled; Roughness serves as Radial Roughness too")
+    out.append(("PRINCIPLED_HAIR", weight, inputs, list(factors)))
 
 
 # A volume node's inputs, by socket name, as core/volumes' closures read them (`inputs` keys).

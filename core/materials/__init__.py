@@ -220,12 +220,13 @@ class NodeShader:
 
     @property
     def may_let_light_through(self) -> bool:
-        """Whether some hit may let light through: a Transparent node, or an alpha below 1 or fed by a link."""
+        """Whether some hit may let light through: a Transparent node, a node that passes light somewhere
+        (Node.lets_light_through: hair, from inside its tube), or an alpha below 1 or fed by a link."""
         from . import graph as graph_
         if np.asarray(self.transparency).any():
             return True
         for node, _, inputs, _ in (self.graph or ()):
-            if node.name == "TRANSPARENT" or isinstance(inputs.get("alpha"), graph_.Link):
+            if node.name == "TRANSPARENT" or node.lets_light_through or isinstance(inputs.get("alpha"), graph_.Link):
                 return True
         return False
 

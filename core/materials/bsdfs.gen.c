@@ -16,6 +16,7 @@
 #include "ashikhmin_shirley.c"
 #include "toon.c"
 #include "subsurface.c"
+#include "hair.c"
 
 /* BSDF.eval through the table: f cos of closure c for light from wi towards wo, and its pdf. A kind
  * outside the table (which core/materials refuses before C sees it) reflects nothing. */
@@ -38,6 +39,9 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
     case BSDF_DIFFUSE_TOON: diffuse_toon_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_GLOSSY_TOON: glossy_toon_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_SUBSURFACE: subsurface_eval(c, wo, wi, f_cos, pdf); return;
+    case BSDF_CHIANG_HAIR: chiang_hair_eval(c, wo, wi, f_cos, pdf); return;
+    case BSDF_HAIR_REFLECTION: hair_reflection_eval(c, wo, wi, f_cos, pdf); return;
+    case BSDF_HAIR_TRANSMISSION: hair_transmission_eval(c, wo, wi, f_cos, pdf); return;
     default: break;
     }
     f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
@@ -64,6 +68,9 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     case BSDF_DIFFUSE_TOON: diffuse_toon_sample(c, wo, u, out); return;
     case BSDF_GLOSSY_TOON: glossy_toon_sample(c, wo, u, out); return;
     case BSDF_SUBSURFACE: subsurface_sample(c, wo, u, out); return;
+    case BSDF_CHIANG_HAIR: chiang_hair_sample(c, wo, u, out); return;
+    case BSDF_HAIR_REFLECTION: hair_reflection_sample(c, wo, u, out); return;
+    case BSDF_HAIR_TRANSMISSION: hair_transmission_sample(c, wo, u, out); return;
     default: break;
     }
     out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
@@ -81,6 +88,8 @@ INLINE void bsdf_albedo(const Closure *c, const double *wo, double *R, double *T
     case BSDF_ROUGH_GLASS: rough_glass_albedo(c, wo, R, T); return;
     case BSDF_BECKMANN: beckmann_albedo(c, wo, R, T); return;
     case BSDF_BECKMANN_GLASS: beckmann_glass_albedo(c, wo, R, T); return;
+    case BSDF_CHIANG_HAIR: chiang_hair_albedo(c, wo, R, T); return;
+    case BSDF_HAIR_TRANSMISSION: hair_transmission_albedo(c, wo, R, T); return;
     default: break;
     }
     R[0] = R[1] = R[2] = 1.0;

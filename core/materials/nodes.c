@@ -554,6 +554,97 @@ INLINE void subsurface_node(ShaderResult *sd, double mu, const double *wo, int b
     closure_add(sd, BSDF_LAMBERT, w, w, 1.0, NULL);
 }
 
+/* hair.sigma_from_reflectance for one channel. */
+INLINE double hair_sigma_from_reflectance(double color, double radial)
+{
+    double x = radial;
+    double scale = (((((0.245 * x) + 5.574) * x - 10.73) * x + 2.532) * x - 0.215) * x + 5.969;
+    double sigma = log(color > 1e-30 ? color : 1e-30) / scale;
+    return sigma * sigma;
+}
+
+INLINE double hair_variance_of(double r)
+{
+    double a = 0.726 * r + 0.812 * r * r + 3.7 * pow(r, 20);
+    return a * a;
+}
+
+INLINE double hair_clip(double x) { return x < 0.001 ? 0.001 : (x > 1.0 ? 1.0 : x); }
+
+/* hair.PrincipledHairNode.setup (hair.chiang_params) for one hit: a Chiang closure of the node's weight; h from the
+ * hit's normal sd->N (Cycles' Ng of a thick curve), the curve's tangent and the view. */
+INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                                 const double *p)
+{
+    (void)mu;
+    if (backfacing) {       /* hair.through_own_fibre: from inside its tube a ray goes on straight through */
+        for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
+        return;
+    }
+    static const double eumelanin[3] = {0.506, 0.841, 1.653}, pheomelanin[3] = {0.343, 0.733, 1.924};
+    double v[STORAGE_STRIDE] = {0.0};
+    double random = p[16];
+    double factor = 1.0 + 2.0 * (random - 0.5) * p[14];
+    double roughness = p[9] * factor, radial = p[10] * factor;
+    int kind = (int)p[0];
+    double melanin = p[4] * (1.0 + 2.0 * (random - 0.5) * clamp01(p[15]));
+    melanin = -log(at_least(1.0 - melanin, 0.0001));
+    double eu = melanin * (1.0 - p[5]), pheo = melanin * p[5];
+    for (int k = 0; k < 3; k++) {
+        double pigment = (eu * eumelanin[k] + pheo * pheomelanin[k]) + hair_sigma_from_reflectance(p[6 + k], radial);
+        v[HAIR_SIGMA + k] = kind == HAIR_PARAMETRIZATION_ABSORPTION ? p[17 + k]
+                            : (kind == HAIR_PARAMETRIZATION_MELANIN ? pigment
+                               : hair_sigma_from_reflectance(p[1 + k], radial));
+    }
+    double rv = hair_clip(roughness), rs = hair_clip(radial);
+    double m0 = hair_clip((1.0 - clamp01(p[11])) * rv);
+    double X[3], Y[3], Z[3], c[3];
+    hair_normalize(p + 20, X);
+    if (X[0] == 0.0 && X[1] == 0.0 && X[2] == 0.0) {     /* (not a curve: a tangent across the normal) */
+        double b[3];
+        orthonormal_frame(sd->N, X, b);
+    }
+    cross3(X, wo, c);
+    hair_normalize(c, Y);
+    cross3(X, Y, c);
+    hair_normalize(c, Z);
+    v[HAIR_V] = hair_variance_of(rv);
+    v[HAIR_S] = (0.265 * rs + 1.194 * rs * rs + 5.372 * pow(rs, 22)) * HAIR_SQRT_PI_8;
+    v[HAIR_M0] = hair_variance_of(m0);
+    v[HAIR_ALPHA] = -p[13];
+    v[HAIR_ETA] = p[12];
+    cross3(sd->N, X, c);
+    v[HAIR_H] = dot3(c, Z);
+    for (int k = 0; k < 3; k++) v[HAIR_X + k] = X[k];
+    closure_add(sd, BSDF_CHIANG_HAIR, weight, weight, 1.0, v);
+}
+
+/* hair.HairNode.setup for one hit: a Reflection or Transmission closure (p: offset, roughness_u, roughness_v,
+ * tangent, transmission) of the node's weight. */
+INLINE void hair_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                      const double *p)
+{
+    (void)mu; (void)wo;
+    if (backfacing) {       /* hair.through_own_fibre */
+        for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
+        return;
+    }
+    double v[STORAGE_STRIDE] = {0.0}, T[3];
+    hair_normalize(p + 3, T);
+    int none = T[0] == 0.0 && T[1] == 0.0 && T[2] == 0.0;
+    v[HAIR_RU] = hair_clip(p[1]);
+    v[HAIR_RV] = hair_clip(p[2]);
+    v[HAIR_OFFSET] = none ? 0.0 : -p[0];
+    if (none) {
+        double b[3];
+        orthonormal_frame(sd->N, T, b);
+    }
+    for (int k = 0; k < 3; k++) v[HAIR_T + k] = T[k];
+    double w[3];
+    for (int k = 0; k < 3; k++) w[k] = weight[k] * at_least(p[7 + k], 0.0);
+    closure_add(sd, p[6] != 0.0 ? BSDF_HAIR_TRANSMISSION : BSDF_HAIR_REFLECTION, w, w, 1.0, v);
+}
+
 INLINE void closure_node(ShaderResult *sd, int kind, const double *weight)
 {
     if (!caustics_take(kind, sd->caustics)) closure_add(sd, kind, weight, weight, 1.0, NULL);

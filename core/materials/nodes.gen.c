@@ -19,6 +19,8 @@ INLINE void setup_node(ShaderResult *sd, int kind, double mu, const double *wo, 
     case NODE_TRANSLUCENT: closure_node(sd, BSDF_TRANSLUCENT, weight); return;   /* one Translucent closure */
     case NODE_TOON: toon_node(sd, mu, wo, backfacing, weight, p); return;
     case NODE_SUBSURFACE: subsurface_node(sd, mu, wo, backfacing, weight, p); return;
+    case NODE_PRINCIPLED_HAIR: principled_hair_node(sd, mu, wo, backfacing, weight, p); return;
+    case NODE_HAIR: hair_node(sd, mu, wo, backfacing, weight, p); return;
     default: return;
     }
 }

@@ -269,6 +269,7 @@ class Node:
     defaults: ClassVar[tuple] = ()
     slots: ClassVar[int] = 1            # at most this many closures (closures_at_most)
     normal_inputs: ClassVar[tuple] = ()  # inputs a linked normal feeds (unit, valid for reflection; 0: unlinked)
+    lets_light_through: ClassVar[bool] = False  # it may let light straight through at some hits (hair.through_own_fibre)
 
     @classmethod
     def row(cls, values: dict) -> np.ndarray:

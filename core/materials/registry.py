@@ -16,6 +16,7 @@ from .base import BSDF
 from .beckmann import Beckmann
 from .beckmann_glass import BeckmannGlass
 from .glass import Glass
+from .hair import ChiangHair, HairNode, HairReflection, HairTransmission, PrincipledHairNode
 from .lambert import Lambert
 from .microfacet import Microfacet
 from .mirror import Mirror
@@ -31,9 +32,11 @@ from .transparent import Transparent
 from .velvet import Velvet
 
 BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet, Translucent,
-              Beckmann, BeckmannGlass, AshikhminShirley, DiffuseToon, GlossyToon, RandomWalk)
+              Beckmann, BeckmannGlass, AshikhminShirley, DiffuseToon, GlossyToon, RandomWalk, ChiangHair,
+              HairReflection, HairTransmission)
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
-              SheenNode, HoldoutNode, TranslucentNode, ToonNode, SubsurfaceNode)
+              SheenNode, HoldoutNode, TranslucentNode, ToonNode, SubsurfaceNode,
+              PrincipledHairNode, HairNode)
 
 
 def _number(table: tuple, base: type) -> None:

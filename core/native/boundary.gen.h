@@ -218,6 +218,16 @@
 #define POLYNOMIAL_STEPS 20
 /* the polynomial fisheye Window's Newton steps stop below (core.materials.graph) */
 #define POLYNOMIAL_STOP 1e-06
+/* the luminance of a hair path's colour (hair.GRAY) (core.materials.hair) */
+#define HAIR_GRAY_R 0.21263909464917768
+#define HAIR_GRAY_G 0.7151691212828695
+#define HAIR_GRAY_B 0.07219275243927319
+/* a Principled Hair BSDF's colour parametrisation (hair.PARAMETRIZATIONS) (core.materials.hair) */
+#define HAIR_PARAMETRIZATION_DIRECT_COLORING 0
+#define HAIR_PARAMETRIZATION_MELANIN 1
+#define HAIR_PARAMETRIZATION_ABSORPTION 2
+/* sqrt(pi / 8), the azimuthal scale's factor (core.materials.hair) */
+#define HAIR_SQRT_PI_8 0.6266570686577501
 /* a Glossy, Glass or Refraction node's microfacet distribution (nodes.DISTRIBUTIONS) (core.materials.nodes) */
 #define DISTRIBUTION_GGX 0
 #define DISTRIBUTION_BECKMANN 1
@@ -302,7 +312,8 @@ enum {
     BSDF_LAMBERT = 0, BSDF_MIRROR = 1, BSDF_MICROFACET = 2, BSDF_GLASS = 3, BSDF_TRANSPARENT = 4,
     BSDF_ROUGH_GLASS = 5, BSDF_OREN_NAYAR = 6, BSDF_SHEEN = 7, BSDF_VELVET = 8, BSDF_TRANSLUCENT = 9,
     BSDF_BECKMANN = 10, BSDF_BECKMANN_GLASS = 11, BSDF_ASHIKHMIN_SHIRLEY = 12, BSDF_DIFFUSE_TOON = 13,
-    BSDF_GLOSSY_TOON = 14, BSDF_SUBSURFACE = 15, BSDF_COUNT = 16
+    BSDF_GLOSSY_TOON = 14, BSDF_SUBSURFACE = 15, BSDF_CHIANG_HAIR = 16, BSDF_HAIR_REFLECTION = 17,
+    BSDF_HAIR_TRANSMISSION = 18, BSDF_COUNT = 19
 };
 
 /* core/materials/base.py BSDFFlags: what a BSDF is */
@@ -330,6 +341,9 @@ static const int BSDF_FLAGS[BSDF_COUNT] = {
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* DiffuseToon */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* GlossyToon */
     BSDF_FLAG_DIFFUSE_TYPE | BSDF_FLAG_SUBSURFACE,   /* RandomWalk */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* ChiangHair */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HairReflection */
+    BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_TRANSMISSION_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HairTransmission */
 };
 /* Whether a bsdf of kind `kind` has any of `flags` (0 for kind -1: none). */
 INLINE int bsdf_is(int kind, int flags)
@@ -338,7 +352,7 @@ INLINE int bsdf_is(int kind, int flags)
 }
 
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
-static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1, 4};
+static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1, 4, 6, -1, -1};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
@@ -347,7 +361,7 @@ static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
 enum {
     NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
     NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7, NODE_HOLDOUT = 8, NODE_TRANSLUCENT = 9,
-    NODE_TOON = 10, NODE_SUBSURFACE = 11, NODE_COUNT = 12
+    NODE_TOON = 10, NODE_SUBSURFACE = 11, NODE_PRINCIPLED_HAIR = 12, NODE_HAIR = 13, NODE_COUNT = 14
 };
 
 /* core/lights/__init__.py LIGHT_TYPES: a light's kind */
@@ -1029,7 +1043,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(4904765900158859560);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(1522061265499507200);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4524182106731721234);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
@@ -1044,7 +1058,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
-    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(702866454435317549);
+    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(5130133816351125659);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(5201075736430934965);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
