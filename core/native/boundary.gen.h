@@ -526,6 +526,7 @@ struct OccludedArgs {
     const float *origins;                   /* (n, 3) */
     const float *directions;                /* (n, 3) */
     const float *t_max;                     /* (n,) */
+    const double *time;                     /* (n,) each ray's time in the shutter (object motion blur), or NULL: 0 */
     uint8_t *blocked;                       /* (n,) */
 };
 
@@ -537,6 +538,7 @@ struct IntersectArgs {
     const double *origins;                  /* (n, 3) */
     const double *directions;               /* (n, 3) */
     const double *t_max;                    /* (n,) */
+    const double *time;                     /* (n,) each ray's time in the shutter (object motion blur), or NULL: 0 */
     double *t;                              /* (n,) inf where missed */
     int64_t *prim;                          /* (n,) -1 where missed */
     int32_t *geometry;                      /* (n,) Embree's geomID, -1 where missed */
@@ -1012,8 +1014,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "UnconvergedArgs") == 0) return UINT64_C(333743641446770115);
     if (strcmp(name, "AddPixelsArgs") == 0) return UINT64_C(5374307677316731809);
     if (strcmp(name, "ResolveArgs") == 0) return UINT64_C(8401302776227392664);
-    if (strcmp(name, "OccludedArgs") == 0) return UINT64_C(2447490079638648240);
-    if (strcmp(name, "IntersectArgs") == 0) return UINT64_C(5192238851033394190);
+    if (strcmp(name, "OccludedArgs") == 0) return UINT64_C(296484575987595059);
+    if (strcmp(name, "IntersectArgs") == 0) return UINT64_C(6440816817218738002);
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
