@@ -397,7 +397,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     motion_blur: each instance that moves over the shutter (Instance.motion) becomes an Embree instance of its own,
     which the queries place at each ray's time (Tracer.intersect's `times`) and shading with it
     (WorldGeometry.triangle_data's `times`); False, or without Embree instancing, it is placed still at its matrix
-    (with a warning when it moves).
+    (with a warning when Embree's instancing is missing).
     """
     origin = np.asarray(origin, dtype=np.float64)
     if instance_triangles is None:
@@ -429,9 +429,9 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     copies: list = []           # (mesh, its placements' indices into scene.instances): placed as copies
     moving_owners = [index for index, instance in enumerate(scene.instances) if instance.motion and moves(instance)]
     blurred = motion_blur and embree_buffers.instancing_supported()
-    if moving_owners and not blurred:
-        warnings.append(f"{len(moving_owners)} moving object(s) rendered still where they are at the frame (object "
-                        "motion blur is not traced here)")
+    if moving_owners and motion_blur and not blurred:
+        warnings.append(f"motion blur: {len(moving_owners)} moving object(s) rendered still where they are at the "
+                        "frame (Embree's instances cannot be made here)")
     for owners in by_mesh:
         mesh = scene.meshes[int(mesh_of[owners[0]])]
         if len(mesh.triangles) == 0 or len(mesh.vertices) == 0:

@@ -36,6 +36,8 @@ class Hits(NamedTuple):
     t:    (n,) float64 distance along the (unit) direction, inf where missed
     prim: (n,) int64 triangle index, -1 where missed
     u, v: (n,) float64 barycentric coordinates of the hit: I = (1-u-v) V0 + u V1 + v V2
+    time: (n,) float64 the rays' times in the shutter, where moving objects were met (the integrators' nearest_seen
+          keeps them with the hits), or None: no object moves
     """
 
     hit: np.ndarray
@@ -43,6 +45,7 @@ class Hits(NamedTuple):
     prim: np.ndarray
     u: np.ndarray
     v: np.ndarray
+    time: Optional[np.ndarray] = None
 
 
 def _f32_rays(origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray):

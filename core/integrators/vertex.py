@@ -311,7 +311,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     O = spawn_ray(surface.I[go], surface.Ng[go], D, offsets[go] if offsets is not None else np.full(len(go), s.epsilon))
     transmit = np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0
     seen_as = ray_kind(bs.kind[go], transmit, np.broadcast_to(np.asarray(seen_by, np.int64), (m,))[go])
-    hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as)
+    hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as, None if surface.time is None else surface.time[go])
     pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
     # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
     # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
@@ -339,7 +339,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
             None if throughput is None else np.broadcast_to(throughput, (m, 3))[at])
         exits &= below
         O[walks], D[walks], exit_hits = subsurface_.exit_ray(exits, prim_uv, P, last_D, last_t)
-        hits = Hits(*(np.array(field) for field in hits))
+        hits = Hits(*(None if field is None else np.array(field) for field in hits))
         for field, value in zip(hits, exit_hits):
             field[walks] = value
         weight[walks] = walked
@@ -379,7 +379,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         pick = lambda x: None if x is None else x[traced_rays]          # noqa: E731
         keys = None if keys is None else (pick(keys[0]), pick(keys[1]), keys[2], pick(keys[3]))
         found[go[traced_rays]] = bs.weight[go[traced_rays]] * gather_light(
-            ctx, O[traced_rays], D[traced_rays], Hits(*(field[traced_rays] for field in hits)), pdf_b[traced_rays],
+            ctx, O[traced_rays], D[traced_rays], Hits(*(None if field is None else field[traced_rays] for field in hits)), pdf_b[traced_rays],
             use_mis[traced_rays], pick(seen_as == HIDDEN_FROM_CAMERA) if holdouts else None, N=pick(mis_N),
             mis_O=pick(mis_O), groups=ray_groups, seen_as=pick(seen_as),
             stretch=None if stretch is None else stretch.rows(traced_rays),
@@ -442,9 +442,12 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
         I = np.where(behind[:, None], surface.I[rows], I)
         Ng = np.where(behind[:, None], -surface.Ng[rows], Ng)
     if s.shadow_method == "robust":
-        return shadows.robust_rays(I, Ng, offsets[rows], ls.position[rows], ls.L[rows], ls.distance[rows],
+        rays = shadows.robust_rays(I, Ng, offsets[rows], ls.position[rows], ls.L[rows], ls.distance[rows],
                                    s.reduce_t_max)
-    return shadows.epsilon_rays(I, ls.L[rows], ls.distance[rows], s.epsilon, s.reduce_t_max)
+    else:
+        rays = shadows.epsilon_rays(I, ls.L[rows], ls.distance[rows], s.epsilon, s.reduce_t_max)
+    # (a shadow ray carries its path's time: where moving objects block it)
+    return rays if surface.time is None else rays._replace(time=surface.time[rows])
 
 
 
@@ -529,7 +532,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     emitters = ctx.extra.get("emitters")
     if len(struck) and ctx.extra.get("emissive", False):
         where = surface_at_hits(ctx.geometry, hits.prim[struck], hits.u[struck], hits.v[struck], O[struck],
-                                D[struck], hits.t[struck])
+                                D[struck], hits.t[struck], times=None if hits.time is None else hits.time[struck])
         # (Each material's emission as its light samples see it: head-on, so that both strategies of
         #  MIS weigh the same radiance; a coat tint's change with angle is seen by the camera only.)
         emitted = ctx.materials.emission[where.material]
