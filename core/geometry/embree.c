@@ -45,6 +45,9 @@ INLINE void set_lane(RayPacket *ray, int k, const double *o, const double *d, do
     ray->flags[k] = 0;
 }
 
+/* The time of rays in a scene where nothing moves (and of media's rays: a render with media blurs no object). */
+static const double STILL_TIME = 0.0;
+
 /* Lane k's time in the shutter, 0 to 1 (object motion blur: where a moving instance is; a still scene ignores it). */
 INLINE void set_time(RayPacket *ray, int k, double time)
 {

@@ -544,7 +544,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
                                            D[struck][rows], hits.t[struck][rows],
                                            None if paths is None else graph_.paths_at(paths, struck[rows]),
                                            ctx, None if keys is None else tuple(
-                                               key if np.ndim(key) == 0 else key[struck[rows]] for key in keys))
+                                               key if np.ndim(key) == 0 else key[struck[rows]] for key in keys),
+                                           None if hits.time is None else hits.time[struck][rows])
         if camera is not None and camera[struck].any():
             emitted = np.where((camera[struck] & ctx.geometry.hidden(hits.prim[struck], HOLDOUT))[:, None], 0.0,
                                emitted)
@@ -623,7 +624,7 @@ def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None)
 
 
 def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.ndarray, t: np.ndarray,
-                   paths=None, ctx=None, keys=None) -> np.ndarray:
+                   paths=None, ctx=None, keys=None, times=None) -> np.ndarray:
     """What the surfaces at O + t D on triangles prim (n,) int64 emit back along -D (n, 3) float64, by their
     materials' node graphs (a texture's emission), to rays carrying the paths `paths` (graph.LightPaths of n rows;
     None: a ray other than the camera's with no bounces counted, as the emitters' estimates take it).
@@ -631,12 +632,13 @@ def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.n
     The barycentrics come from the point itself (a light sample's point has no ray hit of its own), as in the
     C twin (direct.c graph_emission). ctx, keys: the context and the (pixel, sample, dimension, min_pdf) of a BSDF
     ray's next vertex, with which its Ambient Occlusion and Bevel nodes trace (Cycles shades the surface a bounce
-    hits in full), or None: they trace nothing (a light sample's emitter, as Cycles)."""
+    hits in full), or None: they trace nothing (a light sample's emitter, as Cycles). times: (n,) the rays' times
+    in the shutter, where a moving emitter is met, or None."""
     if len(prim) == 0:
         return np.zeros((0, 3))
-    V = geometry.triangle_data(prim, smooth=False).corners
+    V = geometry.triangle_data(prim, smooth=False, times=times).corners
     u, v = barycentrics(V, O + t[:, None] * D)
-    where = surface_at_hits(geometry, prim, u, v, O, D, t)
+    where = surface_at_hits(geometry, prim, u, v, O, D, t, times=times)
     paths = graph_.light_paths(len(prim), flags=0) if paths is None else paths
     rays = None if keys is None else shader_rays.for_hits(ctx, where, *keys)
     return materials.shade(where.material, where.N, -D, where, geometry, paths, rays=rays).emission

@@ -605,8 +605,7 @@ def render(scene: Scene, settings: RenderSettings,
     volumes_because = volume_reason(ctx, stats.warnings)
     subsurface_because = subsurface_reason(scene, settings, stats.warnings)
     numpy_because = (why_not(settings) or volumes_because or subsurface_because
-                     or ("" if Compiled.applies(ctx) else "Embree's packet queries are unavailable")
-                     or ("objects move (object motion blur has no compiled twin yet)" if geometry.tracer.moving else ""))
+                     or ("" if Compiled.applies(ctx) else "Embree's packet queries are unavailable"))
     compiled = Compiled(ctx, ctx.extra["background"]) if not numpy_because else None
     stats.kernels = "compiled" if compiled else f"numpy ({numpy_because})"
     # 2. The passes, and the pixels to render (wholly outside a fisheye's image circle: opaque black).
