@@ -1264,6 +1264,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                     curve_attributes(hair, set().union(*(graph_.attributes_of(materials.materials[slot].nodes)
                                                          for slot in slots[slots >= 0].tolist())))
                     core.meshes.append(hair)
+                    instance_keys[len(core.instances)] = motion.placement_key(instance)   # (it moves with its emitter)
                     core.instances.append(core_scene.Instance(
                         len(core.meshes) - 1, matrix, materials.slot_map(obj, warnings, override), obj.name,
                         None, int(getattr(obj, "pass_index", 0)), **instance_keywords(obj),

@@ -17,7 +17,7 @@ whose transform differs over the shutter gets its matrices at its own motion ste
 evenly spaced from open to close: Cycles' object motion), Instance.motion, and the render places it where it is at
 each ray's time (core/geometry/geometry.py). A mesh that deforms (Deformation on: modifiers or shape keys) is not
 blurred by its deformation: a note names it, and its vertices are where they are at the frame; so is an object that
-moves but is no mesh instance Primer places (particle hair).
+moves but whose motion cannot be read at each of its steps.
 """
 from __future__ import annotations
 

@@ -428,10 +428,11 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     attributes, layout, first_row = attribute_table(scene.meshes)
     copies: list = []           # (mesh, its placements' indices into scene.instances): placed as copies
     moving_owners = [index for index, instance in enumerate(scene.instances) if instance.motion and moves(instance)]
-    blurred = motion_blur and embree_buffers.instancing_supported()
+    # (the queries carry times in the compiled library's packets: embreex's own carry none)
+    blurred = motion_blur and embree_buffers.instancing_supported() and library.available()
     if moving_owners and motion_blur and not blurred:
         warnings.append(f"motion blur: {len(moving_owners)} moving object(s) rendered still where they are at the "
-                        "frame (Embree's instances cannot be made here)")
+                        "frame (Embree's instances or packet queries are unavailable here)")
     for owners in by_mesh:
         mesh = scene.meshes[int(mesh_of[owners[0]])]
         if len(mesh.triangles) == 0 or len(mesh.vertices) == 0:

@@ -48,9 +48,6 @@ INLINE void copied_triangle(const GeometryTables *g, int64_t f, int want_smooth,
         for (int c = 0; c < 9; c++) out->normals[c] = (double)g->corner_normals[9 * (int64_t)row + c];
 }
 
-/* Triangle `local` of placement j of an instanced mesh (WorldGeometry._instanced_data): the corners
- * placed by [L | T], the normal of the placed corners (turned back for a mirroring placement), the
- * corner normals turned by L's cofactor matrix (N' = cof(L) N, the sign of det L kept). */
 /* InstancedMesh.placements: placement j's [L | T] (3 x 4, row-major), a moving one's at `time`. */
 INLINE void placement_at(const InstancedTables *mesh, int64_t j, double time, double *M)
 {
@@ -67,6 +64,9 @@ INLINE void placement_at(const InstancedTables *mesh, int64_t j, double time, do
     }
 }
 
+/* Triangle `local` of placement j of an instanced mesh (WorldGeometry._instanced_data), a moving one's at `time`:
+ * the corners placed by [L | T], the normal of the placed corners (turned back for a mirroring placement), the
+ * corner normals turned by L's cofactor matrix (N' = cof(L) N, the sign of det L kept). */
 INLINE void instanced_triangle(const InstancedTables *mesh, int64_t j, int64_t local, int want_smooth, double time,
                                Triangle *out)
 {
