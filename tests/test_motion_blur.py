@@ -24,6 +24,8 @@ from core.camera import camera as camera_
 from core.camera import motion
 from core.geometry import primitives
 from core.geometry.geometry import build_geometry
+from core.lights import PointLight
+from core.materials.graph import GraphNode, Link
 from core.sampling import sobol as sampling
 from core.scene import Material, RenderSettings, Scene, SunLight
 
@@ -376,3 +378,31 @@ def test_both_kernels_render_moving_objects_alike(integrator):
     np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
     still = render.render(dataclasses.replace(scene, camera=dataclasses.replace(camera, shutter=None)), settings)
     assert np.abs(still.image - compiled.image).max() > 0.1          # (the motion is seen)
+
+
+def test_both_kernels_trace_shader_rays_and_transparent_shadows_at_the_paths_time():
+    """A floor whose emission is its Ambient Occlusion, a box with a Bevel normal sliding and turning over it and a
+    half-transparent sheet sliding through a point light's rays: the AO and Bevel rays, the transparent shadows and
+    the bounces meet the moving objects where they are at each path's time, the same in both kernels."""
+    occlusion = Link(GraphNode("AO", {"samples": 4}, {"Distance": 1.5}), "AO")
+    bevelled = Link(GraphNode("BEVEL", {"samples": 4}, {"Radius": 0.2}), "Normal")
+    camera = Camera(matrix_world=down_at(0.0), lens=20.0, clip_start=0.1, clip_end=100.0, shutter=motion.Shutter.box())
+    scene = Scene(camera=camera)
+    scene.materials.append(Material(name="Floor", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {"color": (0.8, 0.8, 0.8)}),
+                                                         ("EMISSION", (1.0, 1.0, 1.0), {"emission": occlusion})]))
+    scene.materials.append(Material(name="Box", nodes=[("DIFFUSE", (1.0, 1.0, 1.0),
+                                                        {"color": (0.9, 0.9, 0.9), "normal": bevelled})]))
+    scene.materials.append(Material(name="Sheet", nodes=[("TRANSPARENT", (0.5, 0.5, 0.5), {})]))
+    scene.add_mesh(primitives.plane(16.0, 16.0), materials=np.array([0]))
+    scene.add_mesh(primitives.box((1.0, 1.0, 1.0), center=(0.0, 0.0, 0.5)), materials=np.array([1]))
+    scene.add_mesh(primitives.plane(1.0, 4.0, center=(0.0, 0.0, 2.5)), materials=np.array([2]))
+    scene.instances[1].motion = tuple(placed(x, a) for x, a in zip(np.linspace(-2.0, 2.0, 3), (-0.4, 0.0, 0.4)))
+    scene.instances[2].motion = tuple(placed(x) for x in np.linspace(1.5, -1.5, 3))
+    scene.lights = [PointLight(np.array([0.5, 0.3, 4.0]), power=300.0)]
+    settings = RenderSettings(width=W, height=H, samples=8, adaptive=False, integrator="path", max_bounces=2)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled" and not compiled.stats.warnings
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-5, atol=1e-6)
+    still = render.render(dataclasses.replace(scene, camera=dataclasses.replace(camera, shutter=None)), settings)
+    assert np.abs(still.image - compiled.image).max() > 0.1
