@@ -407,7 +407,8 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
         camera_object = engine.camera_override or scene.camera
         exported.scene.camera = motion.sample_shutter(engine, depsgraph, camera_object, exported.scene.camera,
                                                       export.export_camera, exported.warnings,
-                                                      exported.scene.instances, exported.instance_keys)
+                                                      exported.scene.instances, exported.instance_keys,
+                                                      exported.scene.meshes)
         record.export_seconds = time.perf_counter() - start
         record.meshes_read = exported.meshes_read
         record.warnings = animation_notes(scene, bool(getattr(engine, "is_animation", False)))

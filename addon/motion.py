@@ -15,9 +15,11 @@ subframe), reads, and sets the frame back. Only a final render does this: Cycles
 The objects are read the same way: each rendered object and instance with its Motion Blur on (and its instancer's)
 whose transform differs over the shutter gets its matrices at its own motion steps (2^steps + 1 of its Motion Steps,
 evenly spaced from open to close: Cycles' object motion), Instance.motion, and the render places it where it is at
-each ray's time (core/geometry/geometry.py). A mesh that deforms (Deformation on: modifiers or shape keys) is not
-blurred by its deformation: a note names it, and its vertices are where they are at the frame; so is an object that
-moves but whose motion cannot be read at each of its steps.
+each ray's time (core/geometry/geometry.py). A mesh object that deforms (Deformation on: modifiers or shape keys, up
+to DEFORM_CHECK_VERTICES vertices) gets its vertex positions there too, Instance.deformation (Cycles' motion
+vertices), as long as its vertex count stays the exported mesh's; its smooth normals stay the frame's (a note says
+so; Cycles interpolates them). An object that moves or deforms and cannot be read so is named in a note and rendered
+where it is at the frame.
 """
 from __future__ import annotations
 
@@ -136,10 +138,12 @@ def step_times(steps: int) -> list:
 
 
 def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, frame: float,
-                        blurred=frozenset()) -> Optional[str]:
+                        blurred=frozenset(), reshaped=frozenset(), smooth=frozenset()) -> Optional[str]:
     """The note naming the objects that move or deform between the shutter's open and close (_object_state at
-    each), or None; start, end: the shutter's (frame, subframe); frame: the frame rendered; blurred: the keys of the
-    moving objects the render blurs (Instance.motion), named only if they also deform."""
+    each) but are not blurred, and the deforming ones blurred whose smooth normals stay the frame's, or None; start,
+    end: the shutter's (frame, subframe); frame: the frame rendered; blurred, reshaped: the keys of the objects the
+    render blurs by their transform (Instance.motion) and by their deformation (Instance.deformation); smooth: those
+    of reshaped whose faces are smooth."""
     moved, deformed = set(), set()
     for key, (matrix, positions, _) in opened.items():
         if key not in closed:
@@ -147,11 +151,18 @@ def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, fr
         other_matrix, other_positions, _ = closed[key]
         if not np.array_equal(matrix, other_matrix) and key not in blurred:
             moved.add(key[0])
-        elif positions is not None and (other_positions is None or positions.shape != other_positions.shape
-                                        or not np.array_equal(positions, other_positions)):
+        elif key not in reshaped and positions is not None and (
+                other_positions is None or positions.shape != other_positions.shape
+                or not np.array_equal(positions, other_positions)):
             deformed.add(key[0])
+    normals = sorted(key[0] for key in smooth)
     if not moved and not deformed:
-        return None
+        if not normals:
+            return None
+        shown = ", ".join(normals[:NAMED]) + (f" and {len(normals) - NAMED} more" if len(normals) > NAMED else "")
+        return (f"motion blur: {shown} deform{'s' if len(normals) == 1 else ''} during the shutter; Primer blurs "
+                f"{'its' if len(normals) == 1 else 'their'} vertices but keeps {'its' if len(normals) == 1 else 'their'}"
+                f" smooth normals as they are at frame {frame:g} (Cycles interpolates them too)")
 
     def named(names):
         shown = ", ".join(sorted(names)[:NAMED])
@@ -161,16 +172,20 @@ def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, fr
     them, they = ("it", "it is") if len(moved) + len(deformed) == 1 else ("them", "they are")
     moving = ("" if not moved else f"; Primer blurs the camera and the moving meshes, and renders "
               f"{named(moved)} still where {'it is' if len(moved) == 1 else 'they are'} at frame {frame:g}")
-    shaped = ("" if not deformed else f"; Primer blurs no deformation: {named(deformed)} "
-              f"{'has its' if len(deformed) == 1 else 'have their'} vertices where they are at frame {frame:g}")
+    shaped = ("" if not deformed else f"; Primer blurs no deformation of {named(deformed)}: "
+              f"{'its' if len(deformed) == 1 else 'their'} vertices are where they are at frame {frame:g} (their "
+              f"vertex count changes over the shutter, or they are too many to compare)")
     return (f"motion blur: {' and '.join(parts)} during the shutter (frames {start[0] + start[1]:g} to "
             f"{end[0] + end[1]:g}); Cycles blurs {them}{moving}{shaped}")
 
 
-def give_motion(instances, instance_keys: dict, states: dict) -> set:
-    """Give each exported instance that moves over the shutter its matrices at its motion steps (Instance.motion),
-    from the object states read at each relative time (time -> _object_state); return the keys of those given."""
-    blurred = set()
+def give_motion(instances, instance_keys: dict, states: dict, meshes=()) -> tuple:
+    """Give each exported instance that moves over the shutter its matrices at its motion steps (Instance.motion), and
+    each whose mesh deforms its vertex positions there (Instance.deformation, where the vertices stay the exported
+    mesh's: meshes, the core Scene.meshes), from the object states read at each relative time (time ->
+    _object_state); return the keys of those that move, of those that deform, and of the deforming ones with smooth
+    faces (whose normals stay the frame's): three sets."""
+    moved, deformed, smooth = set(), set(), set()
     for index, key in instance_keys.items():
         if key not in states[-1.0] or index >= len(instances):
             continue
@@ -178,19 +193,30 @@ def give_motion(instances, instance_keys: dict, states: dict) -> set:
         if not all(key in states.get(time, {}) for time in times):
             continue
         matrices = tuple(states[time][key][0] for time in times)
-        if all(np.array_equal(m, matrices[0]) for m in matrices[1:]) or not all(np.isfinite(m).all() for m in matrices):
+        if not all(np.isfinite(m).all() for m in matrices):
             continue
-        instances[index].motion = matrices
-        blurred.add(key)
-    return blurred
+        if not all(np.array_equal(m, matrices[0]) for m in matrices[1:]):
+            instances[index].motion = matrices
+            moved.add(key)
+        shapes = [states[time][key][1] for time in times]
+        mesh = meshes[instances[index].mesh] if instances[index].mesh < len(meshes) else None
+        if (mesh is None or any(p is None or p.size != np.size(mesh.vertices) or not np.isfinite(p).all() for p in shapes)
+                or all(np.array_equal(p, shapes[0]) for p in shapes[1:])):
+            continue
+        instances[index].deformation = tuple(p.reshape(-1, 3).astype(np.float64) for p in shapes)
+        deformed.add(key)
+        if np.asarray(mesh.smooth).any():
+            smooth.add(key)
+    return moved, deformed, smooth
 
 
 def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warnings: list, instances=(),
-                   instance_keys=None):
+                   instance_keys=None, meshes=()):
     """The exported core camera with its motion over the shutter (Camera.shutter, motion, fov_motion), read by moving
     the scene with engine.frame_set to each time Cycles reads; the exported instances (core Scene.instances, with
-    their placement_key by index in `instance_keys`) that move given their Instance.motion; the note about the
-    objects that deform, or move but are not blurred, added to `warnings`. export_camera: the exporter's function
+    their placement_key by index in `instance_keys`; meshes: the core Scene.meshes) that move given their
+    Instance.motion, those that deform their Instance.deformation (give_motion); the note about the objects that
+    move or deform but are not blurred so, added to `warnings`. export_camera: the exporter's function
     from an evaluated camera object to a core Camera. The scene is set back to its frame before returning. Without
     motion blur the camera is returned as it is."""
     scene = depsgraph.scene
@@ -212,8 +238,9 @@ def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warn
             states[time] = _object_state(depsgraph)
     finally:
         engine.frame_set(frame, subframe)
-    blurred = give_motion(instances, instance_keys or {}, states)
-    note = moving_objects_note(states[-1.0], states[1.0], *note_frames, blurred=blurred)
+    moved, deformed, smooth = give_motion(instances, instance_keys or {}, states, meshes)
+    note = moving_objects_note(states[-1.0], states[1.0], *note_frames, blurred=moved, reshaped=deformed,
+                               smooth=smooth)
     if note:
         warnings.append(note)
     centre = camera

@@ -406,3 +406,60 @@ def test_both_kernels_trace_shader_rays_and_transparent_shadows_at_the_paths_tim
     np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-5, atol=1e-6)
     still = render.render(dataclasses.replace(scene, camera=dataclasses.replace(camera, shutter=None)), settings)
     assert np.abs(still.image - compiled.image).max() > 0.1
+
+
+def test_a_square_whose_vertices_slide_smears_as_a_sliding_square():
+    """Deformation motion: a 1-unit emitter whose four vertices (not its transform) slide by SLIDE over the shutter
+    (Instance.deformation, interpolated linearly as Cycles' motion vertices) smears into the sliding emitter's streak:
+    uniform at 1 / travel inside, rows adding up to its width; both kernels alike, and a ray at time t meets it where
+    the interpolated vertices put it."""
+    first, last = box_span()
+    travel = SLIDE * (last - first)
+    scene = emitter_scene(dataclasses.replace(sliding_camera(), motion=()), 1.0, 1.0)
+    square = np.asarray(scene.meshes[0].vertices, np.float64)
+    scene.instances[0].deformation = tuple(square + [x, 0.0, 0.0] for x in np.linspace(-0.5 * SLIDE, 0.5 * SLIDE, 3))
+    settings = RenderSettings(width=W, height=H, samples=1024, adaptive=False)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled" and not compiled.stats.warnings
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+    rows = compiled.image[2:6, :, 0]
+    left = -0.5 * SCALE + PIXEL * np.arange(W)
+    interior = (left >= -0.5 * travel + 0.5) & (left + PIXEL <= 0.5 * travel - 0.5)
+    assert rows[:, interior].mean() == pytest.approx(1.0 / travel, rel=0.02)
+    np.testing.assert_allclose(rows.sum(axis=1), 1.0 / PIXEL, rtol=0.02)
+    geometry = build_geometry(scene, np.zeros(3), motion_blur=True)
+    rng = np.random.default_rng(2)
+    x, time = rng.uniform(-3.0, 3.0, 2000), rng.uniform(0.0, 1.0, 2000)
+    O = np.stack([x, np.zeros(2000), np.full(2000, 5.0)], axis=1)
+    hits = geometry.tracer.intersect(O, np.tile([0.0, 0.0, -1.0], (2000, 1)), np.full(2000, np.inf), time)
+    inside = np.abs(x - (4.0 * time - 2.0))
+    clear = np.abs(inside - 0.5) > 1e-5
+    np.testing.assert_array_equal(hits.hit[clear], (inside < 0.5)[clear])
+
+
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_both_kernels_render_a_moving_and_deforming_object_alike(integrator):
+    """A box sliding over five steps while its top face is sheared by its vertices (transform and deformation motion
+    together, the shear over three steps), under a sun over a white floor: the compiled render is the reference's."""
+    camera = Camera(matrix_world=down_at(0.0), lens=20.0, clip_start=0.1, clip_end=100.0, shutter=motion.Shutter.box())
+    scene = Scene(camera=camera)
+    scene.materials.append(Material(np.full(3, 0.8), "White"))
+    scene.add_mesh(primitives.plane(16.0, 16.0), materials=np.array([0]))
+    box = primitives.box((1.0, 1.0, 1.0), center=(0.0, 0.0, 0.5))
+    scene.add_mesh(box, materials=np.array([0]))
+    points = np.asarray(box.vertices, np.float64)
+    top = points[:, 2] > 0.75
+    scene.instances[1].motion = tuple(placed(x) for x in np.linspace(-1.5, 1.5, 5))
+    scene.instances[1].deformation = tuple(points + np.where(top[:, None], [s, 0.5 * s, 0.0], 0.0)
+                                           for s in (-0.8, 0.0, 0.8))
+    travel = np.array([0.3, 0.2, -1.0])
+    scene.lights.append(SunLight(travel / np.linalg.norm(travel), strength=2.0))
+    settings = RenderSettings(width=W, height=H, samples=16, adaptive=False, integrator=integrator)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled"
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+    rigid = dataclasses.replace(scene.instances[1], deformation=())
+    unsheared = render.render(dataclasses.replace(scene, instances=[scene.instances[0], rigid]), settings)
+    assert np.abs(unsheared.image - compiled.image).max() > 0.05        # (the deformation is seen)

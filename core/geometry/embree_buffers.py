@@ -182,10 +182,12 @@ def _check_buffer(array: np.ndarray, dtype, columns: int) -> None:
         raise ValueError(f"shared buffers must be C-contiguous (n, {columns}) {np.dtype(dtype).name} arrays")
 
 
-def _triangle_geometry(library, device: int, vertices: np.ndarray, triangles: np.ndarray) -> int:
+def _triangle_geometry(library, device: int, vertices: np.ndarray, triangles: np.ndarray, steps=()) -> int:
     """Return a committed triangle geometry reading `vertices` and `triangles` in place (0 if Embree refused them).
 
-    vertices: (v + 1, 3) float32 and triangles: (t + 1, 3) uint32, both from `padded`.
+    vertices: (v + 1, 3) float32 and triangles: (t + 1, 3) uint32, both from `padded`; steps: for a mesh that
+    deforms over the shutter, its vertices at each of its s >= 2 time steps (each like `vertices`), which Embree
+    interpolates linearly at each ray's time, in place of `vertices`.
     """
     _check_buffer(vertices, np.float32, 3)
     _check_buffer(triangles, np.uint32, 3)
@@ -194,8 +196,12 @@ def _triangle_geometry(library, device: int, vertices: np.ndarray, triangles: np
     if not geometry:
         return 0
     # 12-byte rows; the padding row is not an item.
-    library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                       vertices.ctypes.data, 0, 12, len(vertices) - 1)
+    if len(steps):
+        library.rtcSetGeometryTimeStepCount(geometry, len(steps))
+    for slot, points in enumerate(steps if len(steps) else [vertices]):
+        _check_buffer(points, np.float32, 3)
+        library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, slot, RTC_FORMAT_FLOAT3,
+                                           points.ctypes.data, 0, 12, len(points) - 1)
     library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                        triangles.ctypes.data, 0, 12, len(triangles) - 1)
     library.rtcCommitGeometry(geometry)
@@ -269,20 +275,21 @@ def attach_instances(scene, device, vertices: np.ndarray, triangles: np.ndarray,
 
 
 def attach_motion_instance(scene, device, vertices: np.ndarray, triangles: np.ndarray, steps: np.ndarray,
-                           geometry_id: int) -> bool:
+                           geometry_id: int, vertex_steps=()) -> bool:
     """Place one triangle mesh once in an embreex scene, moving over the shutter; return success.
 
     As attach_instances, but one instance whose transform Embree interpolates at each ray's time (the packets' time
     field, 0 at the shutter's open, 1 at its close) between len(steps) evenly spaced motion steps: steps (s, 16)
     float32 C-contiguous, each Embree's RTCQuaternionDecomposition (motion.embree_steps). All arrays must outlive
-    the scene (Embree copies the steps, but the prototype reads the mesh in place). False: nothing was attached.
+    the scene (Embree copies the steps, but the prototype reads the mesh in place). vertex_steps: a deforming mesh's
+    vertices at its own time steps (_triangle_geometry's `steps`), or (). False: nothing was attached.
     """
     handles = scene_handles(scene, device)
     if handles is None:
         return False
     library = embree_library()
     _check_buffer(steps, np.float32, 16)
-    geometry = _triangle_geometry(library, handles.device, vertices, triangles)
+    geometry = _triangle_geometry(library, handles.device, vertices, triangles, vertex_steps)
     if not geometry:
         return False
     prototype = library.rtcNewScene(handles.device)

@@ -384,6 +384,14 @@ def moves(instance) -> bool:
     return len(steps) >= 2 and any(not np.array_equal(np.asarray(m), np.asarray(steps[0])) for m in steps[1:])
 
 
+def deforms(instance, mesh) -> bool:
+    """Whether a Scene instance's mesh deforms over the shutter: two or more vertex steps (Instance.deformation) of
+    its mesh's vertex count, not all equal."""
+    steps = instance.deformation
+    return (len(steps) >= 2 and all(np.shape(p) == np.shape(mesh.vertices) for p in steps)
+            and any(not np.array_equal(np.asarray(p), np.asarray(steps[0])) for p in steps[1:]))
+
+
 def build_geometry(scene: Scene, origin: np.ndarray,
                    instance_triangles: Optional[int] = None, motion_blur: bool = False) -> WorldGeometry:
     """Place every instance in the world relative to `origin` and build the BVH.
@@ -427,7 +435,9 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     # The meshes' per-corner attributes, each mesh's triangles once (rows first_row[id(mesh)] ..).
     attributes, layout, first_row = attribute_table(scene.meshes)
     copies: list = []           # (mesh, its placements' indices into scene.instances): placed as copies
-    moving_owners = [index for index, instance in enumerate(scene.instances) if instance.motion and moves(instance)]
+    moving_owners = [index for index, instance in enumerate(scene.instances)
+                     if (instance.motion and moves(instance))
+                     or (instance.deformation and deforms(instance, scene.meshes[instance.mesh]))]
     # (the queries carry times in the compiled library's packets: embreex's own carry none)
     blurred = motion_blur and embree_buffers.instancing_supported() and library.available()
     if moving_owners and motion_blur and not blurred:
@@ -445,7 +455,14 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                 for key, value in found.items():
                     counts[key] += value
                 if record is not None:
-                    record.motion = _motion_steps(scene.instances[index].motion, origin)
+                    placement = scene.instances[index]
+                    rigid = placement.motion if moves(placement) else (placement.matrix, placement.matrix)
+                    record.motion = _motion_steps(rigid, origin)
+                    if deforms(placement, mesh):
+                        with np.errstate(invalid="ignore", over="ignore"):
+                            steps = np.stack([np.asarray(p, np.float64) for p in placement.deformation])
+                            steps = steps.astype(np.float32)
+                        record.vertex_steps = np.where(np.isfinite(steps), steps, np.float32(0.0))
                     instanced.append(record)
             owners = owners[~moving]
             if len(owners) == 0:

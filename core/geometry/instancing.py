@@ -177,7 +177,11 @@ class InstancedMesh:
     motion:         for one placement that moves over the shutter (object motion blur): (s, MOTION_STRIDE) float64
                     its camera-relative transforms at s evenly spaced times, decomposed (core/camera/motion.py
                     `decompose`), where Embree and shading place it at each ray's time; `transforms` then holds
-                    it at the shutter's middle. None: still.
+                    it at the frame. None: still.
+    vertex_steps:   for one placement whose mesh deforms over the shutter (deformation motion blur): (s, v, 3)
+                    float32 its object-space points at s evenly spaced times, which Embree and shading interpolate
+                    linearly at each ray's time (Cycles' motion vertices); `vertices` then holds them at the frame.
+                    None: rigid.
     """
 
     name: str
@@ -194,6 +198,7 @@ class InstancedMesh:
     locator: InstanceLocator
     attribute_row: Optional[np.ndarray] = None
     motion: Optional[np.ndarray] = None
+    vertex_steps: Optional[np.ndarray] = None
 
     @property
     def triangle_count(self) -> int:
@@ -218,10 +223,23 @@ class InstancedMesh:
         linear, translation = motion.interpolate(self.motion, times)
         return np.concatenate([linear, translation[:, :, None]], axis=2)
 
+    def object_corners(self, local: np.ndarray, times: Optional[np.ndarray] = None) -> np.ndarray:
+        """Return the object-space corners of prototype triangles `local` (n,) -> (n, 3, 3) float64; a deforming
+        mesh's at each hit's `times` (n,): linear between the two vertex steps around it, as Embree and Cycles."""
+        if self.vertex_steps is None or times is None:
+            return self.vertices[self.triangles[local]].astype(np.float64)
+        last = len(self.vertex_steps) - 1
+        times = np.asarray(times, np.float64)
+        step = np.minimum((times * last).astype(np.int64), last - 1)
+        t = (times * last - step)[:, None, None]
+        a = self.vertex_steps[step[:, None], self.triangles[local]].astype(np.float64)
+        b = self.vertex_steps[step[:, None] + 1, self.triangles[local]].astype(np.float64)
+        return (1.0 - t) * a + t * b
+
     def corner_points(self, j: np.ndarray, local: np.ndarray, times: Optional[np.ndarray] = None) -> np.ndarray:
         """Return the world corners of triangle `local` of instance `j`: (n,), (n,) -> (n, 3, 3) float64; a moving
-        instance placed at each hit's `times` (n,)."""
-        corners = self.vertices[self.triangles[local]].astype(np.float64)            # (n, 3, 3)
+        instance placed at each hit's `times` (n,), a deforming one's corners where they are then."""
+        corners = self.object_corners(local, times)                                  # (n, 3, 3)
         A = self.placements(j, times)                                                # (n, 3, 4)
         return np.einsum("nij,nkj->nki", A[:, :, :3], corners) + A[:, None, :, 3]
 

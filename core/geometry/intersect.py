@@ -162,9 +162,12 @@ class Tracer:
         indices = embree_buffers.padded(mesh.triangles, np.uint32)
         if mesh.motion is not None:
             steps = motion.embree_steps(mesh.motion)
-            if not embree_buffers.attach_motion_instance(self._scene, self._device, points, indices, steps, geometry_id):
+            shapes = ([] if mesh.vertex_steps is None
+                      else [embree_buffers.padded(points_k, np.float32) for points_k in mesh.vertex_steps])
+            if not embree_buffers.attach_motion_instance(self._scene, self._device, points, indices, steps, geometry_id,
+                                                         shapes):
                 raise RuntimeError(f"Embree refused the motion of mesh '{mesh.name}'")
-            self._buffers += [points, indices, steps]
+            self._buffers += [points, indices, steps] + shapes
             return
         transforms = mesh.embree_transforms()
         if not embree_buffers.attach_instances(self._scene, self._device, points, indices, transforms, geometry_id):

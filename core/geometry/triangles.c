@@ -64,6 +64,24 @@ INLINE void placement_at(const InstancedTables *mesh, int64_t j, double time, do
     }
 }
 
+/* InstancedMesh.object_corners for one vertex: its object-space point, a deforming mesh's at `time` (linear between
+ * the two vertex steps around it). */
+INLINE void object_point(const InstancedTables *mesh, int64_t vertex, double time, double *p)
+{
+    if (mesh->vertex_steps == NULL) {
+        const float *P = mesh->vertices + 3 * vertex;
+        for (int c = 0; c < 3; c++) p[c] = (double)P[c];
+        return;
+    }
+    int64_t last = (int64_t)mesh->vertex_step_count - 1;
+    int64_t step = (int64_t)(time * (double)last);
+    if (step > last - 1) step = last - 1;
+    double t = time * (double)last - (double)step;
+    int64_t stride = 3 * (int64_t)mesh->vertex_count;
+    const float *a = mesh->vertex_steps + step * stride + 3 * vertex, *b = a + stride;
+    for (int c = 0; c < 3; c++) p[c] = (1.0 - t) * (double)a[c] + t * (double)b[c];
+}
+
 /* Triangle `local` of placement j of an instanced mesh (WorldGeometry._instanced_data), a moving one's at `time`:
  * the corners placed by [L | T], the normal of the placed corners (turned back for a mirroring placement), the
  * corner normals turned by L's cofactor matrix (N' = cof(L) N, the sign of det L kept). */
@@ -73,8 +91,8 @@ INLINE void instanced_triangle(const InstancedTables *mesh, int64_t j, int64_t l
     double M[12];
     placement_at(mesh, j, time, M);
     for (int k = 0; k < 3; k++) {
-        const float *P = mesh->vertices + 3 * (int64_t)mesh->triangles[3 * local + k];
-        double p[3] = {(double)P[0], (double)P[1], (double)P[2]};
+        double p[3];
+        object_point(mesh, (int64_t)mesh->triangles[3 * local + k], time, p);
         for (int i = 0; i < 3; i++) out->V[3 * k + i] = (M[4 * i] * p[0] + M[4 * i + 1] * p[1] + M[4 * i + 2] * p[2]) + M[4 * i + 3];
     }
     double e1[3], e2[3], n[3];

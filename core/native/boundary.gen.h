@@ -584,6 +584,10 @@ struct InstancedTables {
     const double *motion;                   /* (s, MOTION_STRIDE) a moving placement's decomposed transforms over the shutter
 (InstancedMesh.motion), or NULL: still */
     int64_t motion_steps;                   /* s (0: still) */
+    const float *vertex_steps;              /* (r, v, 3) a deforming mesh's object-space points over the shutter
+(InstancedMesh.vertex_steps), or NULL: rigid */
+    int64_t vertex_step_count;              /* r (0: rigid) */
+    int64_t vertex_count;                   /* v */
 };
 
 /* Every triangle of the scene (core/geometry/tables.py). */
@@ -1021,7 +1025,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "IntersectArgs") == 0) return UINT64_C(6440816817218738002);
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
-    if (strcmp(name, "InstancedTables") == 0) return UINT64_C(7241367648112790341);
+    if (strcmp(name, "InstancedTables") == 0) return UINT64_C(8791688880110937372);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(4904765900158859560);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4524182106731721234);

@@ -526,9 +526,11 @@ def volume_reason(ctx: Context, warnings: list) -> str:
 
 
 def object_blur_reason(scene: Scene, settings: RenderSettings) -> str:
-    """Why a render of `scene` with motion blur places its moving objects (Instance.motion) still, or '' where the
-    path tracer places them at each ray's time (every ray of a path, as Cycles: build_geometry's motion_blur)."""
-    if not any(geometry_.moves(instance) for instance in scene.instances):
+    """Why a render of `scene` with motion blur places its moving and deforming objects (Instance.motion,
+    Instance.deformation) still, or '' where the integrator places them at each ray's time (every ray of a path, as
+    Cycles: build_geometry's motion_blur)."""
+    if not any(geometry_.moves(instance) or geometry_.deforms(instance, scene.meshes[instance.mesh])
+               for instance in scene.instances):
         return "no object moves"
     if settings.integrator not in ("path", "direct"):
         return f"the {settings.integrator} integrator does not carry the rays' times"

@@ -102,6 +102,9 @@ class Instance:
     motion:    its object-to-world matrices (4, 4) at s >= 2 evenly spaced times over the shutter (Cycles' object
                motion steps, open to close), when it moves over it; () still. A moving instance is traced as an Embree
                instance of its own placed at each ray's time (core/geometry/geometry.py build_geometry).
+    deformation: its mesh's object-space vertex positions (v, 3) at s >= 2 evenly spaced times over the shutter
+               (Cycles' deformation motion: the same vertices, moved by modifiers or shape keys), when they move;
+               () rigid. Traced as an instance of its own whose vertices Embree interpolates at each ray's time.
     """
 
     mesh: int
@@ -129,6 +132,7 @@ class Instance:
     dupli_generated: Optional[tuple] = None
     dupli_uv: Optional[tuple] = None
     motion: tuple = ()
+    deformation: tuple = ()
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
