@@ -160,9 +160,10 @@ def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, fr
         if not normals:
             return None
         shown = ", ".join(normals[:NAMED]) + (f" and {len(normals) - NAMED} more" if len(normals) > NAMED else "")
+        its = "its" if len(normals) == 1 else "their"
         return (f"motion blur: {shown} deform{'s' if len(normals) == 1 else ''} during the shutter; Primer blurs "
-                f"{'its' if len(normals) == 1 else 'their'} vertices but keeps {'its' if len(normals) == 1 else 'their'}"
-                f" smooth normals as they are at frame {frame:g} (Cycles interpolates them too)")
+                f"{its} vertices but keeps {its} smooth normals as they are at frame {frame:g} (Cycles interpolates "
+                "them too)")
 
     def named(names):
         shown = ", ".join(sorted(names)[:NAMED])
@@ -200,8 +201,9 @@ def give_motion(instances, instance_keys: dict, states: dict, meshes=()) -> tupl
             moved.add(key)
         shapes = [states[time][key][1] for time in times]
         mesh = meshes[instances[index].mesh] if instances[index].mesh < len(meshes) else None
-        if (mesh is None or any(p is None or p.size != np.size(mesh.vertices) or not np.isfinite(p).all() for p in shapes)
-                or all(np.array_equal(p, shapes[0]) for p in shapes[1:])):
+        unusable = mesh is None or any(p is None or p.size != np.size(mesh.vertices) or not np.isfinite(p).all()
+                                       for p in shapes)
+        if unusable or all(np.array_equal(p, shapes[0]) for p in shapes[1:]):
             continue
         instances[index].deformation = tuple(p.reshape(-1, 3).astype(np.float64) for p in shapes)
         deformed.add(key)

@@ -280,7 +280,7 @@ def test_a_turning_square_is_met_where_cycles_interpolation_places_it():
     hits = geometry.tracer.intersect(O, D, np.full(n, np.inf), time)
     angle = -0.6 + 1.2 * time
     c, s = np.cos(-angle), np.sin(-angle)
-    local = np.stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]], axis=1)   # the ray in the square's frame
+    local = np.stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]], axis=1)   # (in the square's frame)
     inside = np.abs(local).max(axis=1)
     clear = np.abs(inside - 0.5) > 1e-4
     np.testing.assert_array_equal(hits.hit[clear], (inside < 0.5)[clear])
@@ -367,7 +367,8 @@ def test_both_kernels_render_moving_objects_alike(integrator):
     scene.add_mesh(primitives.plane(16.0, 16.0), materials=np.array([0]))
     scene.add_mesh(primitives.box((1.0, 1.0, 1.0), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
     scene.add_mesh(primitives.plane(0.5, 3.0, center=(0.0, 0.0, 2.0)), materials=np.array([1]))
-    scene.instances[1].motion = tuple(placed(x, a) for x, a in zip(np.linspace(-2.0, 2.0, 5), np.linspace(-0.5, 0.5, 5)))
+    turns = zip(np.linspace(-2.0, 2.0, 5), np.linspace(-0.5, 0.5, 5))
+    scene.instances[1].motion = tuple(placed(x, a) for x, a in turns)
     scene.instances[2].motion = tuple(placed(x) for x in np.linspace(1.0, -1.0, 3))
     travel = np.array([0.3, 0.2, -1.0])
     scene.lights.append(SunLight(travel / np.linalg.norm(travel), strength=2.0))

@@ -120,7 +120,8 @@ class WorldGeometry:
             return np.zeros(3), np.zeros(3)
         return np.min(lows, axis=0), np.max(highs, axis=0)
 
-    def triangle_data(self, prim: np.ndarray, smooth: bool = True, times: Optional[np.ndarray] = None) -> "TriangleData":
+    def triangle_data(self, prim: np.ndarray, smooth: bool = True,
+                      times: Optional[np.ndarray] = None) -> "TriangleData":
         """Return what shading needs of the triangles `prim` (flat indices, copied or instanced): (n,) int64.
 
         smooth: False skips the interpolated normals (all triangles then count as flat); times: (n,) float64 each

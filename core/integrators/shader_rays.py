@@ -200,7 +200,8 @@ def local_hits(geometry, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, owner:
     """The hits of rays O + t D, t in (0, t_max) (k,), on triangles of the objects `owner` (k,) int64 (Cycles'
     scene_intersect_local): (how many it met (k,) int64, capped at `most` + 1 past which it stops looking; a list of
     `most` (prim, u, v, t, found) the nearest first, each (k,) arrays). Other objects' triangles are stepped past,
-    up to LOCAL_STEPS surfaces in all. times: (k,) the rays' times in the shutter (where moving objects are), or None."""
+    up to LOCAL_STEPS surfaces in all. times: (k,) the rays' times in the shutter (where moving objects are), or
+    None."""
     k = len(O)
     count = np.zeros(k, np.int64)
     hits = [(np.zeros(k, np.int64), np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k, bool)) for _ in range(most)]

@@ -311,7 +311,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     O = spawn_ray(surface.I[go], surface.Ng[go], D, offsets[go] if offsets is not None else np.full(len(go), s.epsilon))
     transmit = np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0
     seen_as = ray_kind(bs.kind[go], transmit, np.broadcast_to(np.asarray(seen_by, np.int64), (m,))[go])
-    hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as, None if surface.time is None else surface.time[go])
+    hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as,
+                        None if surface.time is None else surface.time[go])
     pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
     # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
     # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
@@ -379,8 +380,9 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         pick = lambda x: None if x is None else x[traced_rays]          # noqa: E731
         keys = None if keys is None else (pick(keys[0]), pick(keys[1]), keys[2], pick(keys[3]))
         found[go[traced_rays]] = bs.weight[go[traced_rays]] * gather_light(
-            ctx, O[traced_rays], D[traced_rays], Hits(*(None if field is None else field[traced_rays] for field in hits)), pdf_b[traced_rays],
-            use_mis[traced_rays], pick(seen_as == HIDDEN_FROM_CAMERA) if holdouts else None, N=pick(mis_N),
+            ctx, O[traced_rays], D[traced_rays], Hits(*(None if field is None else field[traced_rays] for field in hits)),
+            pdf_b[traced_rays], use_mis[traced_rays], pick(seen_as == HIDDEN_FROM_CAMERA) if holdouts else None,
+            N=pick(mis_N),
             mis_O=pick(mis_O), groups=ray_groups, seen_as=pick(seen_as),
             stretch=None if stretch is None else stretch.rows(traced_rays),
             paths=graph_.paths_at(after, traced_rays), receiver=pick(receiver), keys=keys)

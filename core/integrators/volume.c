@@ -122,7 +122,8 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                 int64_t geometry, prim, instance;
                 unflat_prim(ds->geometry, e->prim[ls.emitter], &geometry, &prim, &instance);
                 LightPath emitted = {PATH_EMISSION, bounce, 0, 0, 0, 0};   /* (a light's own shading) */
-                graph_emission(ds, geometry, prim, instance, P, ls.L, ls.distance, STILL_TIME, &emitted, NULL, ls.color);
+                graph_emission(ds, geometry, prim, instance, P, ls.L, ls.distance, STILL_TIME, &emitted, NULL,
+                               ls.color);
             }
             if (!(ls.strength > 0.0 || ls.strength < 0.0)) continue;
             if (light->max_bounces < 1024 && bounce > light->max_bounces) continue;

@@ -502,7 +502,8 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
         arrive = np.flatnonzero(hits.hit & (carry != 0.0).any(axis=1))
         if len(arrive):
             arrivals.append(dict(origin=origin[arrive], throughput=carry[arrive], O=P[arrive], D=wi[arrive],
-                                 hits=type(hits)(*(None if x is None else np.asarray(x)[arrive] for x in hits)), pdf=onward["pdf"][arrive],
+                                 hits=type(hits)(*(None if x is None else np.asarray(x)[arrive] for x in hits)),
+                                 pdf=onward["pdf"][arrive],
                                  inside=stack[arrive], **{name: value[arrive] for name, value in state.items()}))
         if after is None:
             break

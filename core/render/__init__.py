@@ -147,7 +147,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
               else np.zeros(3))
     blur_because = object_blur_reason(scene, settings) if scene.camera.shutter is not None else "no motion blur"
     if blur_because not in ("", "no object moves", "no motion blur"):
-        warnings.append(f"motion blur: the moving objects are rendered still where they are at the frame ({blur_because})")
+        warnings.append("motion blur: the moving objects are rendered still where they are at the frame "
+                        f"({blur_because})")
     if geometry is None:
         geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing),
                                   motion_blur=not blur_because)
