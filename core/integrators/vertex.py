@@ -341,7 +341,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         exits &= below
         O[walks], D[walks], exit_hits = subsurface_.exit_ray(exits, prim_uv, P, last_D, last_t)
         hits = Hits(*(None if field is None else np.array(field) for field in hits))
-        for field, value in zip(hits, exit_hits):
+        for field, value in zip(hits[:5], exit_hits[:5]):        # (hit, t, prim, u, v: a walk carries no time)
             field[walks] = value
         weight[walks] = walked
         transmit[walks] = False

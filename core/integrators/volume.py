@@ -439,7 +439,8 @@ def joined(parts: list):
     out = {}
     for key in parts[0]:
         if key == "hits":
-            out[key] = type(parts[0][key])(*(np.concatenate(columns) for columns in zip(*(p[key] for p in parts))))
+            out[key] = type(parts[0][key])(*(None if any(c is None for c in columns) else np.concatenate(columns)
+                                             for columns in zip(*(p[key] for p in parts))))
         else:
             out[key] = np.concatenate([p[key] for p in parts])
     return out
