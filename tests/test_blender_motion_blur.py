@@ -9,6 +9,10 @@ rendered again with another seed differs from itself by about as much (measured 
 image is 30 to 600 times the tolerance away from the blurred one. Each part is needed: with a box curve in place of
 the ramp Primer measures 4.5e-3, without the zoom 6.0e-3, with the shutter centred on the frame instead of starting
 at it 0.11, without the rolling shutter 0.25 (all 9 times the tolerance or more).
+
+Objects blur too (under a still camera, same measure): a cube flying and turning in the sun (its shadow smeared with
+it), a bar spinning a quarter turn with Motion Steps 2 and a sheet folding by a shape key (deformation motion) match
+Cycles within its own noise (1.1e-5, 4.5e-5, 2.6e-5), the still objects 1.1e-2 to 1.6e-2 away.
 """
 from __future__ import annotations
 
