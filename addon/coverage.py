@@ -60,8 +60,8 @@ VOLUMES = ("materials.volume_closures: homogeneous media and a material's hetero
 HETEROGENEOUS = ("how Cycles samples heterogeneous media (null scattering's majorant octree and step sizes, Max Steps, "
                  "voxel interpolation of Volume objects): its unbiased mean does not depend on them; Primer marches "
                  "them at its own step (core/volumes/field.py)")
-MOTION = ("motion.sample_shutter: the camera blurred over the shutter; objects that move or deform during it named "
-          "in motion.moving_objects_note")
+MOTION = ("motion.sample_shutter: the camera and the moving and deforming meshes blurred over the shutter "
+          "(motion.give_motion); what is not blurred named in motion.moving_objects_note")
 
 COVERAGE = {
     "ID": {
@@ -255,13 +255,14 @@ COVERAGE = {
     "CyclesObjectSettings": {
         READ: {"shadow_terminator_geometry_offset shadow_terminator_offset": "export._terminator_offsets "
                "(Blender 4.2 to 4.5 keep them here)",
-               "motion_steps use_motion_blur": "motion.motion_steps (the camera's transforms over the shutter; an "
-                                               "object's motion is noted, motion.moving_objects_note)"},
+               "motion_steps use_motion_blur": "motion.motion_steps (the camera's and each object's transforms over "
+                                               "the shutter, motion.give_motion)",
+               "use_deform_motion": "motion._object_state (a deforming mesh's vertices over the shutter, "
+                                    "motion.give_motion)"},
         REPORTED: {"use_adaptive_subdivision* dicing_rate*": "unmodelled.object_notes",
                    "use_camera_cull use_distance_cull": "unmodelled.render_notes",
                    "is_caustics_caster is_caustics_receiver": "unmodelled.light_notes (shadow caustics lights)",
-                   "ao_distance": "unmodelled.render_notes (Fast GI)",
-                   "use_deform_motion": "motion.moving_objects_note (a mesh that deforms during the shutter)"},
+                   "ao_distance": "unmodelled.render_notes (Fast GI)"},
     },
     "CollectionLightLinking": {
         READ: {"link_state": "linking.reached (Include or Exclude, for an object or everything in a child collection)"},

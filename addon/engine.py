@@ -403,10 +403,12 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
         exported = export.export_scene(depsgraph, engine.camera_override, cancelled,
                                        requested_buffers(scene.primer, depsgraph.view_layer),
                                        requested_passes(depsgraph.view_layer), mesh_cache)
-        # Motion blur: the camera read over the shutter (the scene moved there and back), the moving objects noted.
+        # Motion blur: the camera and the moving objects read over the shutter (the scene moved there and back).
         camera_object = engine.camera_override or scene.camera
         exported.scene.camera = motion.sample_shutter(engine, depsgraph, camera_object, exported.scene.camera,
-                                                      export.export_camera, exported.warnings)
+                                                      export.export_camera, exported.warnings,
+                                                      exported.scene.instances, exported.instance_keys,
+                                                      exported.scene.meshes)
         record.export_seconds = time.perf_counter() - start
         record.meshes_read = exported.meshes_read
         record.warnings = animation_notes(scene, bool(getattr(engine, "is_animation", False)))

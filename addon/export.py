@@ -25,7 +25,7 @@ from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
 from ..core.visibility import hidden_bits
-from . import cycles_settings, lightgroups, linking, unmodelled
+from . import cycles_settings, lightgroups, linking, motion, unmodelled
 from . import materials as materials_
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
@@ -51,6 +51,9 @@ class Export:
                                 # with engine.begin_result(0, 0, width, height)
     warnings: list = field(default_factory=list)
     meshes_read: list = field(default_factory=list)     # objects whose meshes were read from Blender (not kept)
+    # Each mesh instance's key among the depsgraph's object instances (index into scene.instances ->
+    # motion.placement_key), by which addon/motion.py gives the ones that move their motion over the shutter.
+    instance_keys: dict = field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------
@@ -1236,6 +1239,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     unsupported_noted: set = set()
     terminator_offsets: dict = {}
     meshes_read: list = []
+    instance_keys: dict = {}
     if mesh_cache is not None:
         mesh_cache.begin(depsgraph.updates)
 
@@ -1265,6 +1269,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                     curve_attributes(hair, set().union(*(graph_.attributes_of(materials.materials[slot].nodes)
                                                          for slot in slots[slots >= 0].tolist())))
                     core.meshes.append(hair)
+                    instance_keys[len(core.instances)] = motion.placement_key(instance)   # (it moves with its emitter)
                     core.instances.append(core_scene.Instance(
                         len(core.meshes) - 1, matrix, materials.slot_map(obj, warnings, override), obj.name,
                         None, int(getattr(obj, "pass_index", 0)), **instance_keywords(obj),
@@ -1325,6 +1330,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             visibility["is_shadow_catcher"] |= bool(getattr(instance.parent, "is_shadow_catcher", False))
         if not visibility["is_holdout"] and indirect_only(instance, depsgraph.view_layer):
             visibility["visible_camera"] = False  # (an Indirect Only collection: Cycles clears camera visibility)
+        instance_keys[len(core.instances)] = motion.placement_key(instance)
         core.instances.append(core_scene.Instance(mesh_index[key], matrix, slots, obj.name, random,
                                                   int(getattr(obj, "pass_index", 0)), **visibility,
                                                   asset=topmost_parent(obj).name, color=tuple(obj.color),
@@ -1365,4 +1371,4 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix)
     for group in lightgroups.empty_groups(settings.light_groups, groups):
         warnings.append(f"light group '{group}' has no light, emissive object or world in it: its pass is black")
-    return Export(core, settings, (width, height), border, warnings, meshes_read)
+    return Export(core, settings, (width, height), border, warnings, meshes_read, instance_keys)

@@ -12,9 +12,14 @@ perspective camera whose field of view differs at the shutter's open or close ge
 motion). The add-on moves the scene there with RenderEngine.frame_set(frame,
 subframe), reads, and sets the frame back. Only a final render does this: Cycles' viewport renders no motion blur.
 
-Primer does not blur objects (Embree's time steps are not wired): each object whose transform differs at the shutter's
-open and close, or whose mesh deforms between them, with its own Motion Blur on (and Deformation for the mesh), gets
-a note naming it, and is rendered still where it is at the frame.
+The objects are read the same way: each rendered object and instance with its Motion Blur on (and its instancer's)
+whose transform differs over the shutter gets its matrices at its own motion steps (2^steps + 1 of its Motion Steps,
+evenly spaced from open to close: Cycles' object motion), Instance.motion, and the render places it where it is at
+each ray's time (core/geometry/geometry.py). A mesh object that deforms (Deformation on: modifiers or shape keys, up
+to DEFORM_CHECK_VERTICES vertices) gets its vertex positions there too, Instance.deformation (Cycles' motion
+vertices), as long as its vertex count stays the exported mesh's; its smooth normals stay the frame's (a note says
+so; Cycles interpolates them). An object that moves or deforms and cannot be read so is named in a note and rendered
+where it is at the frame.
 """
 from __future__ import annotations
 
@@ -96,18 +101,26 @@ def _fov_tangent(camera) -> float:
 RENDERED_TYPES = ("MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD", "VOLUME")
 
 
+def placement_key(instance) -> tuple:
+    """A depsgraph object instance's key from one time of the shutter to the next: (its name in a note, quoted, an
+    instance's with its instancer's; its persistent id)."""
+    obj = instance.object
+    parent = instance.parent if instance.is_instance else None
+    name = f"'{obj.name}'" + ("" if parent is None else f" (instanced by '{parent.name}')")
+    return name, tuple(instance.persistent_id)
+
+
 def _object_state(depsgraph) -> dict:
-    """Where each rendered object and instance is: its world matrix, and for a mesh object that may deform (modifiers
-    or shape keys, Deformation on, not too large) its vertex positions. -> (its name in a note, persistent id) ->
-    (matrix (4, 4) float64, positions (3 v,) float32 or None); the name quoted, an instance's with its instancer's.
-    An instance counts when its object's and its instancer's Motion Blur are on (Cycles' object_motion_steps)."""
+    """Where each rendered object and instance is: its world matrix, its motion steps, and for a mesh object that may
+    deform (modifiers or shape keys, Deformation on, not too large) its vertex positions. -> placement_key ->
+    (matrix (4, 4) float64, positions (3 v,) float32 or None, steps). An instance counts when its object's and its
+    instancer's Motion Blur are on (Cycles' object_motion_steps)."""
     state = {}
     for instance in depsgraph.object_instances:
         obj = instance.object
         parent = instance.parent if instance.is_instance else None
         if obj.type not in RENDERED_TYPES or motion_steps(obj) == 0 or (parent is not None and not motion_steps(parent)):
             continue
-        name = f"'{obj.name}'" + ("" if parent is None else f" (instanced by '{parent.name}')")
         positions = None
         mesh = obj.data if obj.type == "MESH" and parent is None else None
         deforms = bool(getattr(getattr(obj, "cycles", None), "use_deform_motion", True))
@@ -115,25 +128,42 @@ def _object_state(depsgraph) -> dict:
                 and len(mesh.vertices) <= DEFORM_CHECK_VERTICES):
             positions = np.empty(3 * len(mesh.vertices), np.float32)
             mesh.vertices.foreach_get("co", positions)
-        state[(name, tuple(instance.persistent_id))] = (np.array(instance.matrix_world, np.float64), positions)
+        state[placement_key(instance)] = (np.array(instance.matrix_world, np.float64), positions, motion_steps(obj))
     return state
 
 
-def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, frame: float) -> Optional[str]:
+def step_times(steps: int) -> list:
+    """The relative times in [-1, 1] of the shutter of `steps` motion steps, evenly spaced from open to close."""
+    return [2.0 * k / (steps - 1) - 1.0 for k in range(steps)]
+
+
+def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, frame: float,
+                        blurred=frozenset(), reshaped=frozenset(), smooth=frozenset()) -> Optional[str]:
     """The note naming the objects that move or deform between the shutter's open and close (_object_state at
-    each), or None; start, end: the shutter's (frame, subframe); frame: the frame rendered."""
+    each) but are not blurred, and the deforming ones blurred whose smooth normals stay the frame's, or None; start,
+    end: the shutter's (frame, subframe); frame: the frame rendered; blurred, reshaped: the keys of the objects the
+    render blurs by their transform (Instance.motion) and by their deformation (Instance.deformation); smooth: those
+    of reshaped whose faces are smooth."""
     moved, deformed = set(), set()
-    for key, (matrix, positions) in opened.items():
+    for key, (matrix, positions, _) in opened.items():
         if key not in closed:
             continue
-        other_matrix, other_positions = closed[key]
-        if not np.array_equal(matrix, other_matrix):
+        other_matrix, other_positions, _ = closed[key]
+        if not np.array_equal(matrix, other_matrix) and key not in blurred:
             moved.add(key[0])
-        elif positions is not None and (other_positions is None or positions.shape != other_positions.shape
-                                        or not np.array_equal(positions, other_positions)):
+        elif key not in reshaped and positions is not None and (
+                other_positions is None or positions.shape != other_positions.shape
+                or not np.array_equal(positions, other_positions)):
             deformed.add(key[0])
+    normals = sorted(key[0] for key in smooth)
     if not moved and not deformed:
-        return None
+        if not normals:
+            return None
+        shown = ", ".join(normals[:NAMED]) + (f" and {len(normals) - NAMED} more" if len(normals) > NAMED else "")
+        its = "its" if len(normals) == 1 else "their"
+        return (f"motion blur: {shown} deform{'s' if len(normals) == 1 else ''} during the shutter; Primer blurs "
+                f"{its} vertices but keeps {its} smooth normals as they are at frame {frame:g} (Cycles interpolates "
+                "them too)")
 
     def named(names):
         shown = ", ".join(sorted(names)[:NAMED])
@@ -141,21 +171,62 @@ def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, fr
     parts = ([f"{named(moved)} move{'s' if len(moved) == 1 else ''}"] if moved else []) + \
             ([f"{named(deformed)} deform{'s' if len(deformed) == 1 else ''}"] if deformed else [])
     them, they = ("it", "it is") if len(moved) + len(deformed) == 1 else ("them", "they are")
+    moving = ("" if not moved else f"; Primer blurs the camera and the moving meshes, and renders "
+              f"{named(moved)} still where {'it is' if len(moved) == 1 else 'they are'} at frame {frame:g}")
+    shaped = ("" if not deformed else f"; Primer blurs no deformation of {named(deformed)}: "
+              f"{'its' if len(deformed) == 1 else 'their'} vertices are where they are at frame {frame:g} (their "
+              f"vertex count changes over the shutter, or they are too many to compare)")
     return (f"motion blur: {' and '.join(parts)} during the shutter (frames {start[0] + start[1]:g} to "
-            f"{end[0] + end[1]:g}); Cycles blurs {them}, Primer blurs only the camera and renders {them} still where "
-            f"{they} at frame {frame:g}")
+            f"{end[0] + end[1]:g}); Cycles blurs {them}{moving}{shaped}")
 
 
-def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warnings: list):
+def give_motion(instances, instance_keys: dict, states: dict, meshes=()) -> tuple:
+    """Give each exported instance that moves over the shutter its matrices at its motion steps (Instance.motion), and
+    each whose mesh deforms its vertex positions there (Instance.deformation, where the vertices stay the exported
+    mesh's: meshes, the core Scene.meshes), from the object states read at each relative time (time ->
+    _object_state); return the keys of those that move, of those that deform, and of the deforming ones with smooth
+    faces (whose normals stay the frame's): three sets."""
+    moved, deformed, smooth = set(), set(), set()
+    for index, key in instance_keys.items():
+        if key not in states[-1.0] or index >= len(instances):
+            continue
+        times = step_times(states[-1.0][key][2])
+        if not all(key in states.get(time, {}) for time in times):
+            continue
+        matrices = tuple(states[time][key][0] for time in times)
+        if not all(np.isfinite(m).all() for m in matrices):
+            continue
+        if not all(np.array_equal(m, matrices[0]) for m in matrices[1:]):
+            instances[index].motion = matrices
+            moved.add(key)
+        shapes = [states[time][key][1] for time in times]
+        mesh = meshes[instances[index].mesh] if instances[index].mesh < len(meshes) else None
+        unusable = mesh is None or any(p is None or p.size != np.size(mesh.vertices) or not np.isfinite(p).all()
+                                       for p in shapes)
+        if unusable or all(np.array_equal(p, shapes[0]) for p in shapes[1:]):
+            continue
+        instances[index].deformation = tuple(p.reshape(-1, 3).astype(np.float64) for p in shapes)
+        deformed.add(key)
+        if np.asarray(mesh.smooth).any():
+            smooth.add(key)
+    return moved, deformed, smooth
+
+
+def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warnings: list, instances=(),
+                   instance_keys=None, meshes=()):
     """The exported core camera with its motion over the shutter (Camera.shutter, motion, fov_motion), read by moving
-    the scene with engine.frame_set to each time Cycles reads; the note about moving objects added to `warnings`.
-    export_camera: the exporter's function from an evaluated camera object to a core Camera. The scene is set back to
-    its frame before returning. Without motion blur the camera is returned as it is."""
+    the scene with engine.frame_set to each time Cycles reads; the exported instances (core Scene.instances, with
+    their placement_key by index in `instance_keys`; meshes: the core Scene.meshes) that move given their
+    Instance.motion, those that deform their Instance.deformation (give_motion); the note about the objects that
+    move or deform but are not blurred so, added to `warnings`. export_camera: the exporter's function
+    from an evaluated camera object to a core Camera. The scene is set back to its frame before returning. Without
+    motion blur the camera is returned as it is."""
     scene = depsgraph.scene
     if not blurs(scene, depsgraph.view_layer):
         return camera
     steps = motion_steps(camera_object)
-    relative = sorted({2.0 * k / (steps - 1) - 1.0 for k in range(steps)} | {-1.0, 1.0}
+    object_steps = {motion_steps(obj) for obj in scene.objects if obj.type in RENDERED_TYPES} - {0}
+    relative = sorted({time for count in object_steps | {steps} - {0} for time in step_times(count)} | {-1.0, 1.0}
                       | ({0.0} if centre_offset(scene.render) != 0.0 else set()))
     frame, subframe = scene.frame_current, scene.frame_subframe
     frames = {time: frame_of(scene, time) for time in relative}     # (before frame_set moves the scene's frame)
@@ -166,11 +237,12 @@ def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warn
             engine.frame_set(*frames[time])
             evaluated = camera_object.evaluated_get(depsgraph)
             cameras[time] = export_camera(evaluated, [])
-            if time in (-1.0, 1.0):
-                states[time] = _object_state(depsgraph)
+            states[time] = _object_state(depsgraph)
     finally:
         engine.frame_set(frame, subframe)
-    note = moving_objects_note(states[-1.0], states[1.0], *note_frames)
+    moved, deformed, smooth = give_motion(instances, instance_keys or {}, states, meshes)
+    note = moving_objects_note(states[-1.0], states[1.0], *note_frames, blurred=moved, reshaped=deformed,
+                               smooth=smooth)
     if note:
         warnings.append(note)
     centre = camera

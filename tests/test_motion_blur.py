@@ -5,6 +5,10 @@ is placed where it is at that time (its transforms decomposed and interpolated a
 sideways at constant speed over a small emitter smears it into a streak as long as the slide plus the emitter, of
 uniform brightness (a box shutter) that adds up to the emitter's own; a rolling shutter reads row r of H at
 (r + 1) / H; a turn about the view axis interpolates to the rotation by the angle's share of the shutter.
+
+Objects that move (Instance.motion) are traced as Embree motion instances at each ray's time: a ray at time t meets a
+sliding square where it is then, a turning one where Cycles' interpolation puts it; a small emitter sliding under a
+still camera smears as the camera's slide smeared it; the shadow of a sliding blocker is its time-averaged shadow.
 """
 from __future__ import annotations
 
@@ -19,8 +23,11 @@ from core.camera import Camera
 from core.camera import camera as camera_
 from core.camera import motion
 from core.geometry import primitives
+from core.geometry.geometry import build_geometry
+from core.lights import PointLight
+from core.materials.graph import GraphNode, Link
 from core.sampling import sobol as sampling
-from core.scene import Material, RenderSettings, Scene
+from core.scene import Material, RenderSettings, Scene, SunLight
 
 # u on a fine regular grid: what the table does to the uniform numbers, free of noise.
 GRID = (np.arange(1 << 18) + 0.5) / (1 << 18)
@@ -217,3 +224,243 @@ def test_both_kernels_render_a_moving_camera_alike():
     reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
     assert compiled.stats.kernels == "compiled" and reference.stats.kernels.startswith("numpy")
     np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+
+
+def placed(x: float, angle: float = 0.0) -> np.ndarray:
+    """An object-to-world matrix: turned by `angle` about z, then moved to (x, 0, 0)."""
+    c, s = math.cos(angle), math.sin(angle)
+    matrix = np.eye(4)
+    matrix[:2, :2] = [[c, -s], [s, c]]
+    matrix[0, 3] = x
+    return matrix
+
+
+def moving_square_geometry(steps) -> object:
+    """The WorldGeometry of a unit square at z = 0 moving through the matrices `steps` over the shutter."""
+    scene = Scene(camera=Camera())
+    scene.materials.append(Material(np.ones(3), "White"))
+    scene.add_mesh(primitives.plane(1.0, 1.0), materials=np.array([0]))
+    scene.instances[0].motion = tuple(steps)
+    return build_geometry(scene, np.zeros(3), motion_blur=True)
+
+
+def test_a_ray_meets_a_sliding_square_where_it_is_at_the_rays_time():
+    """A unit square sliding from x = -2 to 2 over the shutter (three steps): a ray straight down at x and time t hits
+    it exactly where |x - (4 t - 2)| < 1/2, at distance 5; its surface is the square placed at that time."""
+    geometry = moving_square_geometry([placed(-2.0), placed(0.0), placed(2.0)])
+    assert geometry.tracer.moving and len(geometry.instanced) == 1
+    rng = np.random.default_rng(5)
+    n = 4000
+    x, time = rng.uniform(-3.0, 3.0, n), rng.uniform(0.0, 1.0, n)
+    inside = np.abs(x - (4.0 * time - 2.0))
+    clear = np.abs(inside - 0.5) > 1e-5                       # (rays on an edge: rounding decides)
+    O = np.stack([x, np.zeros(n), np.full(n, 5.0)], axis=1)
+    D = np.tile([0.0, 0.0, -1.0], (n, 1))
+    hits = geometry.tracer.intersect(O, D, np.full(n, np.inf), time)
+    np.testing.assert_array_equal(hits.hit[clear], (inside < 0.5)[clear])
+    np.testing.assert_allclose(hits.t[hits.hit], 5.0, rtol=1e-6)
+    blocked = geometry.tracer.occluded(O, D, np.full(n, 10.0), time)
+    np.testing.assert_array_equal(blocked[clear], (inside < 0.5)[clear])
+    corners = geometry.triangle_data(hits.prim[hits.hit], times=time[hits.hit]).corners
+    np.testing.assert_allclose(corners[..., 0].mean(axis=1) - (4.0 * time[hits.hit] - 2.0), 0.0, atol=0.34)
+    assert not moving_square_geometry([placed(1.0)] * 3).tracer.moving    # (steps all alike: still, no instance)
+
+
+def test_a_turning_square_is_met_where_cycles_interpolation_places_it():
+    """A square turning by -0.6, 0, 0.6 rad over five steps (Embree's quaternion motion of Cycles' decomposition):
+    every hit at time t lies on the square placed by motion.interpolate at t (the rotation's angle linear in t), and
+    the hit's barycentrics give that very point."""
+    angles = np.linspace(-0.6, 0.6, 5)
+    geometry = moving_square_geometry([placed(0.3, a) for a in angles])
+    rng = np.random.default_rng(8)
+    n = 3000
+    xy, time = rng.uniform(-0.8, 0.8, (n, 2)), rng.uniform(0.0, 1.0, n)
+    O = np.concatenate([xy + [0.3, 0.0], np.full((n, 1), 5.0)], axis=1)
+    D = np.tile([0.0, 0.0, -1.0], (n, 1))
+    hits = geometry.tracer.intersect(O, D, np.full(n, np.inf), time)
+    angle = -0.6 + 1.2 * time
+    c, s = np.cos(-angle), np.sin(-angle)
+    local = np.stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]], axis=1)   # (in the square's frame)
+    inside = np.abs(local).max(axis=1)
+    clear = np.abs(inside - 0.5) > 1e-4
+    np.testing.assert_array_equal(hits.hit[clear], (inside < 0.5)[clear])
+    on = np.flatnonzero(hits.hit)
+    corners = geometry.triangle_data(hits.prim[on], times=time[on]).corners
+    u, v = hits.u[on, None], hits.v[on, None]
+    point = (1.0 - u - v) * corners[:, 0] + u * corners[:, 1] + v * corners[:, 2]
+    np.testing.assert_allclose(point[:, :2], O[on, :2], atol=2e-6)
+
+
+def sliding_emitter_scene(camera: Camera) -> Scene:
+    """A 1 x 1 emitter of radiance 1 sliding by SLIDE along x over the shutter (three steps) under `camera`."""
+    scene = emitter_scene(camera, 1.0, 1.0)
+    scene.instances[0].motion = tuple(placed(x) for x in np.linspace(-0.5 * SLIDE, 0.5 * SLIDE, 3))
+    return scene
+
+
+def test_a_sliding_emitter_smears_into_a_uniform_streak():
+    """The still camera over a 1-unit emitter sliding SLIDE = 4 over a box shutter: the streak of the sliding camera
+    (test above) mirrored, exactly as long as the slide over the box table's span plus the emitter, uniform at
+    1 / travel inside, each row adding up to the emitter's width in pixels; with the path tracer too."""
+    first, last = box_span()
+    travel = SLIDE * (last - first)
+    camera = dataclasses.replace(sliding_camera(), motion=())
+    for integrator in ("direct", "path"):
+        result = render.render(sliding_emitter_scene(camera), RenderSettings(width=W, height=H, samples=1024,
+                                                                              adaptive=False, integrator=integrator))
+        assert not [w for w in result.stats.warnings if "motion blur" in w]
+        image = result.image[..., 0]
+        rows = image[2:6]
+        left = -0.5 * SCALE + PIXEL * np.arange(W)
+        outside = (left + PIXEL <= -0.5 * travel - 0.5) | (left >= 0.5 * travel + 0.5)
+        assert np.all(rows[:, outside] == 0.0) and np.all(rows[:, ~outside] > 0.0)
+        assert np.all(image[[0, 1, 6, 7]] == 0.0)
+        interior = (left >= -0.5 * travel + 0.5) & (left + PIXEL <= 0.5 * travel - 0.5)
+        assert rows[:, interior].mean() == pytest.approx(1.0 / travel, rel=0.02)
+        np.testing.assert_allclose(rows.sum(axis=1), 1.0 / PIXEL, rtol=0.02)
+
+
+def test_a_sliding_blocker_casts_its_time_averaged_shadow():
+    """A white ground lit by a sun straight above, under a 1 x 8 blocker the camera does not see, sliding SLIDE = 4
+    over the shutter: each ground point is lit the share of the shutter the blocker is not over it, so the shadow is
+    a trapezoid in x whose deficit adds up, row by row, to the blocker's width (shadow rays carry their camera
+    ray's time); no pixel far from the slide is shadowed."""
+    first, last = box_span()
+    travel = SLIDE * (last - first)
+    camera = dataclasses.replace(sliding_camera(), motion=())
+    scene = Scene(camera=camera)
+    scene.materials.append(Material(np.ones(3), "White"))
+    scene.add_mesh(primitives.plane(SCALE * 2, SCALE * 2), materials=np.array([0]))
+    scene.add_mesh(primitives.plane(1.0, 8.0, center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+    blocker = scene.instances[1]
+    blocker.visible_camera = False
+    blocker.motion = tuple(placed(x) for x in np.linspace(-0.5 * SLIDE, 0.5 * SLIDE, 3))
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=math.pi))
+    image = render.render(scene, RenderSettings(width=W, height=H, samples=256, adaptive=False)).image[..., 0]
+    lit = 1.0                                          # albedo 1 / pi x irradiance pi
+    left = -0.5 * SCALE + PIXEL * np.arange(W)
+    far = (left + PIXEL <= -0.5 * travel - 0.5) | (left >= 0.5 * travel + 0.5)
+    np.testing.assert_allclose(image[:, far], lit, rtol=1e-6)
+    np.testing.assert_allclose(((lit - image) * PIXEL).sum(axis=1), 1.0, rtol=0.03)
+    interior = (left >= -0.5 * travel + 0.5) & (left + PIXEL <= 0.5 * travel - 0.5)
+    assert image[:, interior].mean() == pytest.approx(lit * (1.0 - 1.0 / travel), rel=0.01)
+
+
+def test_a_scene_where_nothing_moves_builds_no_motion_instance():
+    """Without Instance.motion (or with motion blur off) the geometry is the still scene's: copied triangles, no
+    instance, no time in the queries."""
+    scene = emitter_scene(sliding_camera(), 1.0, 1.0)
+    geometry = build_geometry(scene, np.zeros(3), motion_blur=True)
+    assert not geometry.tracer.moving and not geometry.instanced and len(geometry.triangles) == 2
+    moving = sliding_emitter_scene(dataclasses.replace(sliding_camera(), motion=()))
+    assert not build_geometry(moving, np.zeros(3), motion_blur=False).instanced
+
+
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_both_kernels_render_moving_objects_alike(integrator):
+    """A diffuse box sliding and turning over five steps under a sun (its image and its shadow blurred) and an
+    emitting strip sliding the other way, seen by a perspective camera: the compiled render is the reference's."""
+    camera = Camera(matrix_world=down_at(0.0), lens=20.0, clip_start=0.1, clip_end=100.0, shutter=motion.Shutter.box())
+    scene = Scene(camera=camera)
+    scene.materials.append(Material(np.full(3, 0.8), "White"))
+    scene.materials.append(Material(np.zeros(3), "Glow", emission=np.array([2.0, 1.0, 0.5])))
+    scene.add_mesh(primitives.plane(16.0, 16.0), materials=np.array([0]))
+    scene.add_mesh(primitives.box((1.0, 1.0, 1.0), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+    scene.add_mesh(primitives.plane(0.5, 3.0, center=(0.0, 0.0, 2.0)), materials=np.array([1]))
+    turns = zip(np.linspace(-2.0, 2.0, 5), np.linspace(-0.5, 0.5, 5))
+    scene.instances[1].motion = tuple(placed(x, a) for x, a in turns)
+    scene.instances[2].motion = tuple(placed(x) for x in np.linspace(1.0, -1.0, 3))
+    travel = np.array([0.3, 0.2, -1.0])
+    scene.lights.append(SunLight(travel / np.linalg.norm(travel), strength=2.0))
+    settings = RenderSettings(width=W, height=H, samples=16, adaptive=False, integrator=integrator)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled" and reference.stats.kernels.startswith("numpy")
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+    still = render.render(dataclasses.replace(scene, camera=dataclasses.replace(camera, shutter=None)), settings)
+    assert np.abs(still.image - compiled.image).max() > 0.1          # (the motion is seen)
+
+
+def test_both_kernels_trace_shader_rays_and_transparent_shadows_at_the_paths_time():
+    """A floor whose emission is its Ambient Occlusion, a box with a Bevel normal sliding and turning over it and a
+    half-transparent sheet sliding through a point light's rays: the AO and Bevel rays, the transparent shadows and
+    the bounces meet the moving objects where they are at each path's time, the same in both kernels."""
+    occlusion = Link(GraphNode("AO", {"samples": 4}, {"Distance": 1.5}), "AO")
+    bevelled = Link(GraphNode("BEVEL", {"samples": 4}, {"Radius": 0.2}), "Normal")
+    camera = Camera(matrix_world=down_at(0.0), lens=20.0, clip_start=0.1, clip_end=100.0, shutter=motion.Shutter.box())
+    scene = Scene(camera=camera)
+    scene.materials.append(Material(name="Floor", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {"color": (0.8, 0.8, 0.8)}),
+                                                         ("EMISSION", (1.0, 1.0, 1.0), {"emission": occlusion})]))
+    scene.materials.append(Material(name="Box", nodes=[("DIFFUSE", (1.0, 1.0, 1.0),
+                                                        {"color": (0.9, 0.9, 0.9), "normal": bevelled})]))
+    scene.materials.append(Material(name="Sheet", nodes=[("TRANSPARENT", (0.5, 0.5, 0.5), {})]))
+    scene.add_mesh(primitives.plane(16.0, 16.0), materials=np.array([0]))
+    scene.add_mesh(primitives.box((1.0, 1.0, 1.0), center=(0.0, 0.0, 0.5)), materials=np.array([1]))
+    scene.add_mesh(primitives.plane(1.0, 4.0, center=(0.0, 0.0, 2.5)), materials=np.array([2]))
+    scene.instances[1].motion = tuple(placed(x, a) for x, a in zip(np.linspace(-2.0, 2.0, 3), (-0.4, 0.0, 0.4)))
+    scene.instances[2].motion = tuple(placed(x) for x in np.linspace(1.5, -1.5, 3))
+    scene.lights = [PointLight(np.array([0.5, 0.3, 4.0]), power=300.0)]
+    settings = RenderSettings(width=W, height=H, samples=8, adaptive=False, integrator="path", max_bounces=2)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled" and not compiled.stats.warnings
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-5, atol=1e-6)
+    still = render.render(dataclasses.replace(scene, camera=dataclasses.replace(camera, shutter=None)), settings)
+    assert np.abs(still.image - compiled.image).max() > 0.1
+
+
+def test_a_square_whose_vertices_slide_smears_as_a_sliding_square():
+    """Deformation motion: a 1-unit emitter whose four vertices (not its transform) slide by SLIDE over the shutter
+    (Instance.deformation, interpolated linearly as Cycles' motion vertices) smears into the sliding emitter's streak:
+    uniform at 1 / travel inside, rows adding up to its width; both kernels alike, and a ray at time t meets it where
+    the interpolated vertices put it."""
+    first, last = box_span()
+    travel = SLIDE * (last - first)
+    scene = emitter_scene(dataclasses.replace(sliding_camera(), motion=()), 1.0, 1.0)
+    square = np.asarray(scene.meshes[0].vertices, np.float64)
+    scene.instances[0].deformation = tuple(square + [x, 0.0, 0.0] for x in np.linspace(-0.5 * SLIDE, 0.5 * SLIDE, 3))
+    settings = RenderSettings(width=W, height=H, samples=1024, adaptive=False)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled" and not compiled.stats.warnings
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+    rows = compiled.image[2:6, :, 0]
+    left = -0.5 * SCALE + PIXEL * np.arange(W)
+    interior = (left >= -0.5 * travel + 0.5) & (left + PIXEL <= 0.5 * travel - 0.5)
+    assert rows[:, interior].mean() == pytest.approx(1.0 / travel, rel=0.02)
+    np.testing.assert_allclose(rows.sum(axis=1), 1.0 / PIXEL, rtol=0.02)
+    geometry = build_geometry(scene, np.zeros(3), motion_blur=True)
+    rng = np.random.default_rng(2)
+    x, time = rng.uniform(-3.0, 3.0, 2000), rng.uniform(0.0, 1.0, 2000)
+    O = np.stack([x, np.zeros(2000), np.full(2000, 5.0)], axis=1)
+    hits = geometry.tracer.intersect(O, np.tile([0.0, 0.0, -1.0], (2000, 1)), np.full(2000, np.inf), time)
+    inside = np.abs(x - (4.0 * time - 2.0))
+    clear = np.abs(inside - 0.5) > 1e-5
+    np.testing.assert_array_equal(hits.hit[clear], (inside < 0.5)[clear])
+
+
+@pytest.mark.parametrize("integrator", ["direct", "path"])
+def test_both_kernels_render_a_moving_and_deforming_object_alike(integrator):
+    """A box sliding over five steps while its top face is sheared by its vertices (transform and deformation motion
+    together, the shear over three steps), under a sun over a white floor: the compiled render is the reference's."""
+    camera = Camera(matrix_world=down_at(0.0), lens=20.0, clip_start=0.1, clip_end=100.0, shutter=motion.Shutter.box())
+    scene = Scene(camera=camera)
+    scene.materials.append(Material(np.full(3, 0.8), "White"))
+    scene.add_mesh(primitives.plane(16.0, 16.0), materials=np.array([0]))
+    box = primitives.box((1.0, 1.0, 1.0), center=(0.0, 0.0, 0.5))
+    scene.add_mesh(box, materials=np.array([0]))
+    points = np.asarray(box.vertices, np.float64)
+    top = points[:, 2] > 0.75
+    scene.instances[1].motion = tuple(placed(x) for x in np.linspace(-1.5, 1.5, 5))
+    scene.instances[1].deformation = tuple(points + np.where(top[:, None], [s, 0.5 * s, 0.0], 0.0)
+                                           for s in (-0.8, 0.0, 0.8))
+    travel = np.array([0.3, 0.2, -1.0])
+    scene.lights.append(SunLight(travel / np.linalg.norm(travel), strength=2.0))
+    settings = RenderSettings(width=W, height=H, samples=16, adaptive=False, integrator=integrator)
+    compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled"
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+    rigid = dataclasses.replace(scene.instances[1], deformation=())
+    unsheared = render.render(dataclasses.replace(scene, instances=[scene.instances[0], rigid]), settings)
+    assert np.abs(unsheared.image - compiled.image).max() > 0.05        # (the deformation is seen)

@@ -39,15 +39,16 @@ INLINE void aperture_point(const CameraRecord *camera, double u0, double u1, dou
     out[1] = y * camera->aperture_size;
 }
 
-/* motion.interpolate for one lane: the camera's linear part L (3 x 3, row-major) and position eye (3) at `time`,
- * from its decomposed transforms (MOTION_STRIDE numbers a step: quaternion, translation and the scale with shear). */
-INLINE void camera_at(const CameraRecord *camera, double time, double *L, double *eye)
+/* motion.interpolate for one time: the linear part L (3 x 3, row-major) and translation eye (3) at `time` of the
+ * `steps` decomposed transforms `motion` (MOTION_STRIDE numbers a step: quaternion, translation and the scale with
+ * shear), a camera's or a moving object's. */
+INLINE void decomposed_at(const double *motion, int64_t steps, double time, double *L, double *eye)
 {
-    int64_t last = (int64_t)camera->motion_steps - 1;
+    int64_t last = steps - 1;
     int64_t step = (int64_t)(time * (double)last);
     if (step > last - 1) step = last - 1;
     double t = time * (double)last - (double)step;
-    const double *a = camera->motion + step * MOTION_STRIDE, *b = a + MOTION_STRIDE;
+    const double *a = motion + step * MOTION_STRIDE, *b = a + MOTION_STRIDE;
     /* 1. The rotation: spherical interpolation, or linear and renormalised where the two nearly agree. */
     double cos_ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3], q[4];
     if (cos_ab > 0.9995) {
@@ -76,6 +77,12 @@ INLINE void camera_at(const CameraRecord *camera, double time, double *L, double
         for (int c = 0; c < 3; c++)
             L[3 * r + c] = R[3 * r] * S[c] + R[3 * r + 1] * S[3 + c] + R[3 * r + 2] * S[6 + c];
     eye[0] = rest[0]; eye[1] = rest[1]; eye[2] = rest[2];
+}
+
+/* motion.interpolate for one lane: the camera's linear part L and position eye at `time` (decomposed_at). */
+INLINE void camera_at(const CameraRecord *camera, double time, double *L, double *eye)
+{
+    decomposed_at(camera->motion, (int64_t)camera->motion_steps, time, L, eye);
 }
 
 /* camera.panorama_directions for one (u, v) of the panoramas other than the two fisheyes: the direction (3) in Cycles'

@@ -236,6 +236,19 @@ def interpolate(steps: np.ndarray, time: np.ndarray) -> tuple[np.ndarray, np.nda
     return linear, rest[:, :3].copy()
 
 
+def embree_steps(steps: np.ndarray) -> np.ndarray:
+    """The motion steps of `decompose` as Embree's RTCQuaternionDecomposition (its instances' quaternion motion: the
+    transform T R S, the same factors as Cycles', S upper-triangular with no shift): (s, MOTION_STRIDE) float64 ->
+    (s, 16) float32 = scale x, y, z, skew xy, xz, yz, shift x, y, z, quaternion r (w), i, j, k, translation."""
+    out = np.zeros((len(steps), 16), np.float32)
+    out[:, 0], out[:, 1], out[:, 2] = steps[:, 7], steps[:, 11], steps[:, 15]
+    out[:, 3], out[:, 4], out[:, 5] = steps[:, 8], steps[:, 9], steps[:, 12]
+    out[:, 9] = steps[:, 3]
+    out[:, 10:13] = steps[:, 0:3]
+    out[:, 13:16] = steps[:, 4:7]
+    return out
+
+
 def plane_scales(fov_motion: tuple, time: np.ndarray) -> np.ndarray:
     """How much each ray's point on a perspective camera's image plane is scaled at its time (n,) float64: fov_motion
     (pre, post) the ratios tan(fov / 2) at the shutter's open and close over at its middle; linear on each half."""

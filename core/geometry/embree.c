@@ -45,6 +45,15 @@ INLINE void set_lane(RayPacket *ray, int k, const double *o, const double *d, do
     ray->flags[k] = 0;
 }
 
+/* The time of rays in a scene where nothing moves (and of media's rays: a render with media blurs no object). */
+static const double STILL_TIME = 0.0;
+
+/* Lane k's time in the shutter, 0 to 1 (object motion blur: where a moving instance is; a still scene ignores it). */
+INLINE void set_time(RayPacket *ray, int k, double time)
+{
+    ray->time[k] = (float)time;
+}
+
 /* Switch lanes `lanes` .. PACKET - 1 off, as copies of lane 0 (Embree reads every lane's fields). */
 INLINE void close_packet(RayPacket *ray, int *valid, int lanes)
 {
@@ -89,6 +98,7 @@ static void occluded_rays(const OccludedArgs *a)
             double o[3] = {origin[0], origin[1], origin[2]};
             double d[3] = {direction[0], direction[1], direction[2]};
             set_lane(&ray, k, o, d, (double)a->t_max[first + k]);
+            if (a->time != NULL) set_time(&ray, k, a->time[first + k]);
         }
         close_packet(&ray, valid, lanes);
         occluded8(valid, a->scene, &ray, NULL);
@@ -110,6 +120,8 @@ static void intersect_rays(const IntersectArgs *a)
         for (int k = 0; k < lanes; k++)
             set_lane(&packet.ray, k, a->origins + 3 * (first + k), a->directions + 3 * (first + k),
                      a->t_max[first + k]);
+        if (a->time != NULL)
+            for (int k = 0; k < lanes; k++) set_time(&packet.ray, k, a->time[first + k]);
         close_packet(&packet.ray, valid, lanes);
         clear_hits(&packet);
         intersect8(valid, a->scene, &packet, NULL);

@@ -34,6 +34,7 @@ log = logging.getLogger(__name__)
 
 # Embree 4's C constants (rtcore_common.h, rtcore_buffer.h, rtcore_geometry.h).
 RTC_GEOMETRY_TYPE_TRIANGLE = 0
+RTC_GEOMETRY_TYPE_INSTANCE = 121
 RTC_GEOMETRY_TYPE_INSTANCE_ARRAY = 122
 RTC_BUFFER_TYPE_INDEX = 0
 RTC_BUFFER_TYPE_VERTEX = 1
@@ -121,6 +122,8 @@ def _declare(library: ctypes.CDLL) -> ctypes.CDLL:
         "rtcCommitScene": (None, [handle]),
         "rtcReleaseScene": (None, [handle]),
         "rtcSetGeometryInstancedScene": (None, [handle, handle]),
+        "rtcSetGeometryTimeStepCount": (None, [handle, uint]),
+        "rtcSetGeometryTransformQuaternion": (None, [handle, uint, handle]),
     }
     for name, (result, arguments) in signatures.items():
         function = getattr(library, name)
@@ -179,10 +182,12 @@ def _check_buffer(array: np.ndarray, dtype, columns: int) -> None:
         raise ValueError(f"shared buffers must be C-contiguous (n, {columns}) {np.dtype(dtype).name} arrays")
 
 
-def _triangle_geometry(library, device: int, vertices: np.ndarray, triangles: np.ndarray) -> int:
+def _triangle_geometry(library, device: int, vertices: np.ndarray, triangles: np.ndarray, steps=()) -> int:
     """Return a committed triangle geometry reading `vertices` and `triangles` in place (0 if Embree refused them).
 
-    vertices: (v + 1, 3) float32 and triangles: (t + 1, 3) uint32, both from `padded`.
+    vertices: (v + 1, 3) float32 and triangles: (t + 1, 3) uint32, both from `padded`; steps: for a mesh that
+    deforms over the shutter, its vertices at each of its s >= 2 time steps (each like `vertices`), which Embree
+    interpolates linearly at each ray's time, in place of `vertices`.
     """
     _check_buffer(vertices, np.float32, 3)
     _check_buffer(triangles, np.uint32, 3)
@@ -191,8 +196,12 @@ def _triangle_geometry(library, device: int, vertices: np.ndarray, triangles: np
     if not geometry:
         return 0
     # 12-byte rows; the padding row is not an item.
-    library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                       vertices.ctypes.data, 0, 12, len(vertices) - 1)
+    if len(steps):
+        library.rtcSetGeometryTimeStepCount(geometry, len(steps))
+    for slot, points in enumerate(steps if len(steps) else [vertices]):
+        _check_buffer(points, np.float32, 3)
+        library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, slot, RTC_FORMAT_FLOAT3,
+                                           points.ctypes.data, 0, 12, len(points) - 1)
     library.rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                        triangles.ctypes.data, 0, 12, len(triangles) - 1)
     library.rtcCommitGeometry(geometry)
@@ -261,6 +270,47 @@ def attach_instances(scene, device, vertices: np.ndarray, triangles: np.ndarray,
         return False
     library.rtcAttachGeometry(handles.scene, placements)
     library.rtcReleaseGeometry(placements)
+    scene.is_committed = 0
+    return True
+
+
+def attach_motion_instance(scene, device, vertices: np.ndarray, triangles: np.ndarray, steps: np.ndarray,
+                           geometry_id: int, vertex_steps=()) -> bool:
+    """Place one triangle mesh once in an embreex scene, moving over the shutter; return success.
+
+    As attach_instances, but one instance whose transform Embree interpolates at each ray's time (the packets' time
+    field, 0 at the shutter's open, 1 at its close) between len(steps) evenly spaced motion steps: steps (s, 16)
+    float32 C-contiguous, each Embree's RTCQuaternionDecomposition (motion.embree_steps). All arrays must outlive
+    the scene (Embree copies the steps, but the prototype reads the mesh in place). vertex_steps: a deforming mesh's
+    vertices at its own time steps (_triangle_geometry's `steps`), or (). False: nothing was attached.
+    """
+    handles = scene_handles(scene, device)
+    if handles is None:
+        return False
+    library = embree_library()
+    _check_buffer(steps, np.float32, 16)
+    geometry = _triangle_geometry(library, handles.device, vertices, triangles, vertex_steps)
+    if not geometry:
+        return False
+    prototype = library.rtcNewScene(handles.device)
+    library.rtcSetSceneFlags(prototype, RTC_SCENE_FLAG_ROBUST)
+    library.rtcAttachGeometryByID(prototype, geometry, geometry_id)
+    library.rtcReleaseGeometry(geometry)
+    library.rtcCommitScene(prototype)
+    instance = library.rtcNewGeometry(handles.device, RTC_GEOMETRY_TYPE_INSTANCE)
+    if instance:
+        library.rtcSetGeometryInstancedScene(instance, prototype)
+        library.rtcSetGeometryTimeStepCount(instance, len(steps))
+        for k in range(len(steps)):
+            library.rtcSetGeometryTransformQuaternion(instance, k, steps[k].ctypes.data)
+        library.rtcCommitGeometry(instance)
+    library.rtcReleaseScene(prototype)
+    if not instance or library.rtcGetDeviceError(handles.device) != RTC_ERROR_NONE:
+        if instance:
+            library.rtcReleaseGeometry(instance)
+        return False
+    library.rtcAttachGeometry(handles.scene, instance)
+    library.rtcReleaseGeometry(instance)
     scene.is_committed = 0
     return True
 

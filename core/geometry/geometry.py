@@ -25,6 +25,7 @@ import numpy as np
 
 from . import embree_buffers
 from . import instancing
+from ..camera import motion as motion_
 from ..native import library
 from ..native import schema
 from . import normals as normals_
@@ -119,10 +120,12 @@ class WorldGeometry:
             return np.zeros(3), np.zeros(3)
         return np.min(lows, axis=0), np.max(highs, axis=0)
 
-    def triangle_data(self, prim: np.ndarray, smooth: bool = True) -> "TriangleData":
+    def triangle_data(self, prim: np.ndarray, smooth: bool = True,
+                      times: Optional[np.ndarray] = None) -> "TriangleData":
         """Return what shading needs of the triangles `prim` (flat indices, copied or instanced): (n,) int64.
 
-        smooth: False skips the interpolated normals (all triangles then count as flat).
+        smooth: False skips the interpolated normals (all triangles then count as flat); times: (n,) float64 each
+        hit's time in the shutter, where a moving instance is (None: its middle).
         """
         if not self.instanced:
             return self._copied_data(prim, smooth)
@@ -137,7 +140,8 @@ class WorldGeometry:
             if index == 0:
                 data = self._copied_data(prim[rows], smooth)
             else:
-                data = self._instanced_data(self.instanced[index - 1], prim[rows], smooth)
+                data = self._instanced_data(self.instanced[index - 1], prim[rows], smooth,
+                                            None if times is None else np.asarray(times)[rows])
             corners[rows], Ng[rows], material[rows] = data.corners, data.Ng, data.material
             if smooth and data.smooth.any():
                 is_smooth[rows] = data.smooth
@@ -157,14 +161,14 @@ class WorldGeometry:
         return TriangleData(corners, Ng, self.material[prim], is_smooth, normals)
 
     @staticmethod
-    def _instanced_data(mesh, prim: np.ndarray, smooth: bool) -> "TriangleData":
-        """triangle_data for the triangles of one instanced mesh."""
+    def _instanced_data(mesh, prim: np.ndarray, smooth: bool, times: Optional[np.ndarray] = None) -> "TriangleData":
+        """triangle_data for the triangles of one instanced mesh (a moving one at the hits' `times`)."""
         j, local = mesh.split(prim)
-        corners = mesh.corner_points(j, local)
+        corners = mesh.corner_points(j, local, times)
         Ng = mesh.face_normals(j, corners)
         is_smooth, normals = np.zeros(len(prim), bool), np.zeros((0, 3, 3))
         if smooth and len(mesh.corner_normals):
-            is_smooth, normals = mesh.smooth_normals(j, local)
+            is_smooth, normals = mesh.smooth_normals(j, local, times)
         return TriangleData(corners, Ng, mesh.materials(j, local), is_smooth, normals)
 
     def shading_point(self, surface):
@@ -375,8 +379,22 @@ def _finish_batch(batch: _Batch, vertex_offset: int, counts: dict, parts: dict) 
     return vertex_offset + len(points32)
 
 
+def moves(instance) -> bool:
+    """Whether a Scene instance moves over the shutter: two or more motion steps (Instance.motion), not all equal."""
+    steps = instance.motion
+    return len(steps) >= 2 and any(not np.array_equal(np.asarray(m), np.asarray(steps[0])) for m in steps[1:])
+
+
+def deforms(instance, mesh) -> bool:
+    """Whether a Scene instance's mesh deforms over the shutter: two or more vertex steps (Instance.deformation) of
+    its mesh's vertex count, not all equal."""
+    steps = instance.deformation
+    return (len(steps) >= 2 and all(np.shape(p) == np.shape(mesh.vertices) for p in steps)
+            and any(not np.array_equal(np.asarray(p), np.asarray(steps[0])) for p in steps[1:]))
+
+
 def build_geometry(scene: Scene, origin: np.ndarray,
-                   instance_triangles: Optional[int] = None) -> WorldGeometry:
+                   instance_triangles: Optional[int] = None, motion_blur: bool = False) -> WorldGeometry:
     """Place every instance in the world relative to `origin` and build the BVH.
 
     origin: (3,) float64 world point (the camera position for camera-relative rendering).
@@ -385,6 +403,10 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     to instance every mesh placed twice or more). Without Embree instancing every mesh is copied,
     and so, unless instance_triangles is 0, is a mesh whose instances crowd one place
     (instancing.CROWDED): identifying a hit there would mean trying each of them.
+    motion_blur: each instance that moves over the shutter (Instance.motion) becomes an Embree instance of its own,
+    which the queries place at each ray's time (Tracer.intersect's `times`) and shading with it
+    (WorldGeometry.triangle_data's `times`); False, or without Embree instancing, it is placed still at its matrix
+    (with a warning when Embree's instancing is missing).
     """
     origin = np.asarray(origin, dtype=np.float64)
     if instance_triangles is None:
@@ -414,10 +436,38 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     # The meshes' per-corner attributes, each mesh's triangles once (rows first_row[id(mesh)] ..).
     attributes, layout, first_row = attribute_table(scene.meshes)
     copies: list = []           # (mesh, its placements' indices into scene.instances): placed as copies
+    moving_owners = [index for index, instance in enumerate(scene.instances)
+                     if (instance.motion and moves(instance))
+                     or (instance.deformation and deforms(instance, scene.meshes[instance.mesh]))]
+    # (the queries carry times in the compiled library's packets: embreex's own carry none)
+    blurred = motion_blur and embree_buffers.instancing_supported() and library.available()
+    if moving_owners and motion_blur and not blurred:
+        warnings.append(f"motion blur: {len(moving_owners)} moving object(s) rendered still where they are at the "
+                        "frame (Embree's instances or packet queries are unavailable here)")
     for owners in by_mesh:
         mesh = scene.meshes[int(mesh_of[owners[0]])]
         if len(mesh.triangles) == 0 or len(mesh.vertices) == 0:
             continue
+        if blurred and moving_owners:
+            moving = np.isin(owners, moving_owners)
+            for index in owners[moving & ~singular_all[owners]]:
+                record, found = _instanced_placements(scene, mesh, np.array([index]), all_matrices, origin,
+                                                      n_materials, first_row.get(id(mesh), 0))
+                for key, value in found.items():
+                    counts[key] += value
+                if record is not None:
+                    placement = scene.instances[index]
+                    rigid = placement.motion if moves(placement) else (placement.matrix, placement.matrix)
+                    record.motion = _motion_steps(rigid, origin)
+                    if deforms(placement, mesh):
+                        with np.errstate(invalid="ignore", over="ignore"):
+                            steps = np.stack([np.asarray(p, np.float64) for p in placement.deformation])
+                            steps = steps.astype(np.float32)
+                        record.vertex_steps = np.where(np.isfinite(steps), steps, np.float32(0.0))
+                    instanced.append(record)
+            owners = owners[~moving]
+            if len(owners) == 0:
+                continue
         placed = owners[~singular_all[owners]]
         if len(placed) < len(owners):
             warnings.append(f"{len(owners) - len(placed)} object(s) of mesh '{mesh.name}' have zero or invalid scale "
@@ -592,6 +642,15 @@ def attribute_table(meshes: list) -> tuple:
 def _in_range(mesh) -> np.ndarray:
     """Return which of the mesh's triangles index only its own vertices: (t,) bool."""
     return vectors.all_columns((mesh.triangles >= 0) & (mesh.triangles < len(mesh.vertices)))
+
+
+def _motion_steps(matrices, origin: np.ndarray) -> np.ndarray:
+    """A moving instance's motion steps (Instance.motion, (4, 4) each) camera-relative and decomposed as Cycles does
+    (motion.decompose) -> (s, MOTION_STRIDE) float64."""
+    relative = [np.array(m, np.float64) for m in matrices]
+    for matrix in relative:
+        matrix[:3, 3] -= origin
+    return motion_.decompose(relative)
 
 
 def _instanced_placements(scene: Scene, mesh, placed: np.ndarray, all_matrices: np.ndarray, origin: np.ndarray,

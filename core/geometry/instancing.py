@@ -29,6 +29,7 @@ import numpy as np
 
 from . import normals as normals_
 from .. import vectors
+from ..camera import motion
 
 # A mesh is instanced, not copied, when its copies would hold more than this many triangles.
 INSTANCE_TRIANGLES = 1 << 18
@@ -173,6 +174,14 @@ class InstancedMesh:
     first_prim:     flat index of instance 0's triangle 0
     locator:        InstanceLocator over the instances' world boxes
     attribute_row:  (t,) int32 row of WorldGeometry.attributes per triangle (None without attributes)
+    motion:         for one placement that moves over the shutter (object motion blur): (s, MOTION_STRIDE) float64
+                    its camera-relative transforms at s evenly spaced times, decomposed (core/camera/motion.py
+                    `decompose`), where Embree and shading place it at each ray's time; `transforms` then holds
+                    it at the frame. None: still.
+    vertex_steps:   for one placement whose mesh deforms over the shutter (deformation motion blur): (s, v, 3)
+                    float32 its object-space points at s evenly spaced times, which Embree and shading interpolate
+                    linearly at each ray's time (Cycles' motion vertices); `vertices` then holds them at the frame.
+                    None: rigid.
     """
 
     name: str
@@ -188,6 +197,8 @@ class InstancedMesh:
     first_prim: int
     locator: InstanceLocator
     attribute_row: Optional[np.ndarray] = None
+    motion: Optional[np.ndarray] = None
+    vertex_steps: Optional[np.ndarray] = None
 
     @property
     def triangle_count(self) -> int:
@@ -204,10 +215,32 @@ class InstancedMesh:
         w = 1.0 - u - v
         return w[:, None] * corners[:, 0] + u[:, None] * corners[:, 1] + v[:, None] * corners[:, 2]
 
-    def corner_points(self, j: np.ndarray, local: np.ndarray) -> np.ndarray:
-        """Return the world corners of triangle `local` of instance `j`: (n,), (n,) -> (n, 3, 3) float64."""
-        corners = self.vertices[self.triangles[local]].astype(np.float64)            # (n, 3, 3)
-        A = self.transforms[j].astype(np.float64)                                    # (n, 3, 4)
+    def placements(self, j: np.ndarray, times: Optional[np.ndarray] = None) -> np.ndarray:
+        """Return the transforms [L | T] of instances `j` (n,) int64, a moving one's at each hit's time (times (n,)
+        float64 in the shutter; None: its middle) -> (n, 3, 4) float64."""
+        if self.motion is None or times is None:
+            return self.transforms[j].astype(np.float64)
+        linear, translation = motion.interpolate(self.motion, times)
+        return np.concatenate([linear, translation[:, :, None]], axis=2)
+
+    def object_corners(self, local: np.ndarray, times: Optional[np.ndarray] = None) -> np.ndarray:
+        """Return the object-space corners of prototype triangles `local` (n,) -> (n, 3, 3) float64; a deforming
+        mesh's at each hit's `times` (n,): linear between the two vertex steps around it, as Embree and Cycles."""
+        if self.vertex_steps is None or times is None:
+            return self.vertices[self.triangles[local]].astype(np.float64)
+        last = len(self.vertex_steps) - 1
+        times = np.asarray(times, np.float64)
+        step = np.minimum((times * last).astype(np.int64), last - 1)
+        t = (times * last - step)[:, None, None]
+        a = self.vertex_steps[step[:, None], self.triangles[local]].astype(np.float64)
+        b = self.vertex_steps[step[:, None] + 1, self.triangles[local]].astype(np.float64)
+        return (1.0 - t) * a + t * b
+
+    def corner_points(self, j: np.ndarray, local: np.ndarray, times: Optional[np.ndarray] = None) -> np.ndarray:
+        """Return the world corners of triangle `local` of instance `j`: (n,), (n,) -> (n, 3, 3) float64; a moving
+        instance placed at each hit's `times` (n,), a deforming one's corners where they are then."""
+        corners = self.object_corners(local, times)                                  # (n, 3, 3)
+        A = self.placements(j, times)                                                # (n, 3, 4)
         return np.einsum("nij,nkj->nki", A[:, :, :3], corners) + A[:, None, :, 3]
 
     def face_normals(self, j: np.ndarray, corners: np.ndarray) -> np.ndarray:
@@ -215,8 +248,10 @@ class InstancedMesh:
         cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         return normals_.safe_normalize(cross) * self.flip[j][:, None]
 
-    def smooth_normals(self, j: np.ndarray, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return which triangles are smooth, (n,) bool, and their world corner normals, (s, 3, 3) float64.
+    def smooth_normals(self, j: np.ndarray, local: np.ndarray,
+                       times: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray]:
+        """Return which triangles are smooth, (n,) bool, and their world corner normals, (s, 3, 3) float64 (a moving
+        instance turned as it is at each hit's `times` (n,)).
 
         A normal N transforms with L^-T, which is the cofactor matrix of L over det L. The
         cofactor matrix has the columns b x c, c x a, a x b (a, b, c the columns of L), so
@@ -224,7 +259,7 @@ class InstancedMesh:
         """
         row = self.smooth_index[local]
         smooth = row >= 0
-        L = self.transforms[j[smooth], :, :3].astype(np.float64)                    # (s, 3, 3)
+        L = self.placements(j[smooth], None if times is None else times[smooth])[:, :, :3]    # (s, 3, 3)
         cofactor = np.ascontiguousarray(np.swapaxes(vectors.adjugate(L), 1, 2))      # (s, 3, 3) columns
         world = np.einsum("sij,skj->ski", cofactor, self.corner_normals[row[smooth]])
         world *= self.flip[j[smooth]][:, None, None]

@@ -21,6 +21,7 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from . import embree_buffers
+from ..camera import motion
 from ..native import library, schema
 from ..native.schema import F32, F64, I32, I64, U8, out, ptr
 
@@ -35,6 +36,8 @@ class Hits(NamedTuple):
     t:    (n,) float64 distance along the (unit) direction, inf where missed
     prim: (n,) int64 triangle index, -1 where missed
     u, v: (n,) float64 barycentric coordinates of the hit: I = (1-u-v) V0 + u V1 + v V2
+    time: (n,) float64 the rays' times in the shutter, where moving objects were met (the integrators' nearest_seen
+          keeps them with the hits), or None: no object moves
     """
 
     hit: np.ndarray
@@ -42,6 +45,7 @@ class Hits(NamedTuple):
     prim: np.ndarray
     u: np.ndarray
     v: np.ndarray
+    time: Optional[np.ndarray] = None
 
 
 def _f32_rays(origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray):
@@ -80,6 +84,7 @@ class Tracer:
     def __init__(self, vertices: np.ndarray, triangles: np.ndarray, share: bool = True, instanced=(),
                  packets: bool = True):
         self.instanced = list(instanced)
+        self.moving = any(mesh.motion is not None for mesh in self.instanced)
         self.triangle_count = int(len(triangles)) + sum(m.triangle_count for m in self.instanced)
         self._scene = None
         self.shared = False
@@ -111,8 +116,11 @@ class Tracer:
         self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
         self.upload_seconds = uploaded - start
         self.build_seconds = time.perf_counter() - uploaded
-        if packets:
+        if packets or self.moving:
             self._packets = embree_packets(self._scene, self._device)
+        if self.moving and self._packets is None:
+            raise RuntimeError("moving meshes need Embree's packet queries (the compiled library): embreex's own "
+                               "queries carry no time")
 
     @property
     def packed(self) -> bool:
@@ -148,18 +156,30 @@ class Tracer:
         return True
 
     def _instance(self, mesh, geometry_id: int) -> None:
-        """Attach an instanced mesh (core/geometry/instancing.py): its prototype once, reported as geomID `geometry_id`."""
+        """Attach an instanced mesh (core/geometry/instancing.py): its prototype once, reported as geomID `geometry_id`;
+        a moving one (mesh.motion) as one instance that Embree places at each ray's time."""
         points = embree_buffers.padded(mesh.vertices, np.float32)
         indices = embree_buffers.padded(mesh.triangles, np.uint32)
+        if mesh.motion is not None:
+            steps = motion.embree_steps(mesh.motion)
+            shapes = ([] if mesh.vertex_steps is None
+                      else [embree_buffers.padded(points_k, np.float32) for points_k in mesh.vertex_steps])
+            if not embree_buffers.attach_motion_instance(self._scene, self._device, points, indices, steps, geometry_id,
+                                                         shapes):
+                raise RuntimeError(f"Embree refused the motion of mesh '{mesh.name}'")
+            self._buffers += [points, indices, steps] + shapes
+            return
         transforms = mesh.embree_transforms()
         if not embree_buffers.attach_instances(self._scene, self._device, points, indices, transforms, geometry_id):
             raise RuntimeError(f"Embree refused the instances of mesh '{mesh.name}'")
         self._buffers += [points, indices, transforms]
 
-    def intersect(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> Hits:
+    def intersect(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray,
+                  times: Optional[np.ndarray] = None) -> Hits:
         """Return the nearest hit in (0, t_max) of each ray.
 
-        origins: (n, 3) float64 points; directions: (n, 3) float64 unit vectors; t_max: (n,) float64.
+        origins: (n, 3) float64 points; directions: (n, 3) float64 unit vectors; t_max: (n,) float64;
+        times: (n,) float64 each ray's time in the shutter, where moving meshes are (None: a still scene's 0).
         """
         n = len(origins)
         if self._scene is None or n == 0:
@@ -169,7 +189,7 @@ class Tracer:
             # The packets take the float64 rays and round them to float32 as they are filled.
             o, d, t = (np.ascontiguousarray(a, np.float64) for a in (origins, directions, t_max))
             start = time.perf_counter()
-            t_hit, prim, geometry_id, u, v, instance = packet_intersect(self._packets, o, d, t)
+            t_hit, prim, geometry_id, u, v, instance = packet_intersect(self._packets, o, d, t, times)
             self._count("intersect_seconds", time.perf_counter() - start)
             hit = geometry_id >= 0
         else:
@@ -211,10 +231,12 @@ class Tracer:
                 j[unknown] = mesh.identify(local[unknown], u[rows], v[rows], X)
             prim[on] = mesh.first_prim + j * len(mesh.triangles) + local
 
-    def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+    def occluded(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray,
+                 times: Optional[np.ndarray] = None) -> np.ndarray:
         """Return whether anything lies on each ray within (0, t_max): (n,) bool.
 
-        origins: (n, 3) float64 points; directions: (n, 3) float64 unit vectors; t_max: (n,) float64.
+        origins: (n, 3) float64 points; directions: (n, 3) float64 unit vectors; t_max: (n,) float64;
+        times: (n,) float64 each ray's time in the shutter, where moving meshes are (None: a still scene's 0).
         """
         n = len(origins)
         if self._scene is None or n == 0:
@@ -222,7 +244,7 @@ class Tracer:
         o, d, t = _f32_rays(origins, directions, t_max)
         start = time.perf_counter()
         if self._packets is not None:
-            blocked = packet_occluded(self._packets, o, d, t)
+            blocked = packet_occluded(self._packets, o, d, t, times)
         else:
             blocked = self._scene.run(o, d, dists=t, query="OCCLUDED") >= 0
         self._count("occluded_seconds", time.perf_counter() - start)
@@ -275,6 +297,7 @@ OccludedArgs = schema.function("primer_occluded", "occluded_rays", schema.record
         ("origins", ptr(F32), "(n, 3)"),
         ("directions", ptr(F32), "(n, 3)"),
         ("t_max", ptr(F32), "(n,)"),
+        ("time", ptr(F64), "(n,) each ray's time in the shutter (object motion blur), or NULL: 0"),
         ("blocked", out(U8), "(n,)"),
     ]))
 IntersectArgs = schema.function("primer_intersect", "intersect_rays", schema.record(
@@ -285,6 +308,7 @@ IntersectArgs = schema.function("primer_intersect", "intersect_rays", schema.rec
         ("origins", ptr(F64), "(n, 3)"),
         ("directions", ptr(F64), "(n, 3)"),
         ("t_max", ptr(F64), "(n,)"),
+        ("time", ptr(F64), "(n,) each ray's time in the shutter (object motion blur), or NULL: 0"),
         ("t", out(F64), "(n,) inf where missed"),
         ("prim", out(I64), "(n,) -1 where missed"),
         ("geometry", out(I32), "(n,) Embree's geomID, -1 where missed"),
@@ -301,27 +325,42 @@ def _check_rays(origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) 
         raise ValueError(f"rays: origins {origins.shape}, directions {directions.shape}, t_max {t_max.shape}")
 
 
-def packet_occluded(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> np.ndarray:
+def packet_occluded(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray,
+                    time: Optional[np.ndarray] = None) -> np.ndarray:
     """Whether anything lies on each ray within (0, t_max), asked 8 rays at a time: (n,) bool.
 
-    origins, directions: (n, 3) float32; t_max: (n,) float32.
+    origins, directions: (n, 3) float32; t_max: (n,) float32; time: (n,) float64 each ray's time in the shutter
+    (where moving instances are), or None.
     """
     n = len(origins)
     _check_rays(origins, directions, t_max)
     blocked = np.empty(n, np.bool_)
     library.call("primer_occluded", OccludedArgs(function=packets.occluded8, scene=packets.scene, n=n, origins=origins,
-                                                 directions=directions, t_max=t_max, blocked=blocked.view(np.uint8)))
+                                                 directions=directions, t_max=t_max, time=_times(time, n),
+                                                 blocked=blocked.view(np.uint8)))
     return blocked
 
 
-def packet_intersect(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray):
+def _times(time: Optional[np.ndarray], n: int) -> Optional[np.ndarray]:
+    """The rays' times as the packets read them: (n,) float64 C-contiguous, or None."""
+    if time is None:
+        return None
+    time = np.ascontiguousarray(time, np.float64)
+    if time.shape != (n,):
+        raise ValueError(f"rays: {n} rays, times {time.shape}")
+    return time
+
+
+def packet_intersect(packets: EmbreePackets, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray,
+                     time: Optional[np.ndarray] = None):
     """The nearest hit in (0, t_max) of each ray, asked 8 rays at a time.
 
     origins, directions: (n, 3) float64; t_max: (n,) float64, rounded to Embree's float32 as the
     packets are filled (as _f32_rays would) -> t (n,) float64 (inf where missed),
     prim (n,) int64 (-1 where missed), geometry (n,) int32 Embree's geomID (-1 where missed),
     u, v (n,) float64 (0 where missed), instance (n,) int64 the placement of an instanced mesh hit
-    (Embree's instPrimID; -1 on copied triangles and misses)
+    (Embree's instPrimID; -1 on copied triangles and misses); time: (n,) float64 each ray's time in the shutter
+    (where moving instances are), or None
     """
     n = len(origins)
     _check_rays(origins, directions, t_max)
@@ -330,5 +369,5 @@ def packet_intersect(packets: EmbreePackets, origins: np.ndarray, directions: np
     instance = np.empty(n, np.int64)
     library.call("primer_intersect", IntersectArgs(
         function=packets.intersect8, scene=packets.scene, n=n, origins=origins, directions=directions, t_max=t_max,
-        t=t, prim=prim, geometry=geometry, u=u, v=v, instance=instance))
+        time=_times(time, n), t=t, prim=prim, geometry=geometry, u=u, v=v, instance=instance))
     return t, prim, geometry, u, v, instance

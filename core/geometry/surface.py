@@ -6,7 +6,7 @@ turned to face the viewer when a triangle is hit from behind.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -28,6 +28,8 @@ class Surface(NamedTuple):
     t:        (n,) float64 Embree's distance along the ray
     backfacing: (n,) bool where the ray hit the triangle from behind (it leaves a closed object: glass
               bends it with 1 / IOR)
+    time:     (n,) float64 each hit's time in the shutter, where a moving object was met (object motion blur), or
+              None: no object moves
     Read-only: N may be the very array Ng is (no hit smooth), and corners a broadcast view of zeros.
     """
 
@@ -43,6 +45,7 @@ class Surface(NamedTuple):
     prim: np.ndarray
     t: np.ndarray
     backfacing: np.ndarray = None
+    time: np.ndarray = None
 
 
 def hit_points(vertices: np.ndarray, Ng: np.ndarray, u: np.ndarray, v: np.ndarray,
@@ -71,15 +74,17 @@ def hit_points(vertices: np.ndarray, Ng: np.ndarray, u: np.ndarray, v: np.ndarra
 
 
 def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
-                    O: np.ndarray, D: np.ndarray, t: np.ndarray, flat_only: bool = False) -> Surface:
+                    O: np.ndarray, D: np.ndarray, t: np.ndarray, flat_only: bool = False,
+                    times: Optional[np.ndarray] = None) -> Surface:
     """Return the surface records of hits on `geometry` (core/geometry/geometry.py WorldGeometry).
 
     prim: (n,) int64 triangle index; u, v, t: (n,) float64 barycentrics and distance;
     O, D: (n, 3) float64 camera-relative ray origins and directions.
     flat_only: ignore smooth shading (the lecture's "flat normals" switch).
+    times: (n,) float64 the rays' times in the shutter: a moving object is where it is then (None: still).
     """
-    # 1. I on the float32 triangle Embree hit.
-    triangle = geometry.triangle_data(prim, smooth=geometry.has_smooth and not flat_only)
+    # 1. I on the float32 triangle Embree hit (a moving one where it is at the ray's time).
+    triangle = geometry.triangle_data(prim, smooth=geometry.has_smooth and not flat_only, times=times)
     vertices, Ng = triangle.corners, triangle.Ng                                # (n, 3, 3), (n, 3)
     I = hit_points(vertices, Ng, u, v, O, D, t)
     # 2. The face normal, flipped when the triangle was hit from behind (N.D > 0).
@@ -94,7 +99,7 @@ def surface_at_hits(geometry, prim: np.ndarray, u: np.ndarray, v: np.ndarray,
         corners[smooth] = triangle.corner_normals * side[smooth, None, None]
         N[smooth] = normals_.interpolate(corners[smooth], u[smooth], v[smooth], Ng[smooth])
     return Surface(I, N, Ng, triangle.material, vertices, corners, smooth, u, v, np.asarray(prim, np.int64),
-                   np.asarray(t, np.float64), side < 0.0)
+                   np.asarray(t, np.float64), side < 0.0, None if times is None else np.asarray(times, np.float64))
 
 
 def shading_point(geometry, surface: Surface):
@@ -105,12 +110,12 @@ def shading_point(geometry, surface: Surface):
     from ..materials import graph as graph_
     prim = surface.prim
     n = len(prim)
-    rows, owner, linear = hit_owners(geometry, prim)
+    rows, owner, linear = hit_owners(geometry, prim, surface.time)
     random = geometry.instance_random[owner] if len(geometry.instance_random) else np.zeros(n)
     info = (geometry.instance_info[owner] if len(geometry.instance_info)
             else np.zeros((n, geometry.instance_info.shape[1])))
     attributes, d_du, d_dv = hit_attributes(geometry, rows, surface.u, surface.v)
-    front = geometry.triangle_data(prim, smooth=False).Ng
+    front = geometry.triangle_data(prim, smooth=False, times=surface.time).Ng
     side = np.where(np.einsum("ij,ij->i", front, surface.Ng) < 0.0, -1.0, 1.0)
     V = surface.vertices
     return graph_.ShadingPoint(attributes, d_du, d_dv, random, surface.N, side, linear, V[:, 1] - V[:, 0],
@@ -119,9 +124,10 @@ def shading_point(geometry, surface: Surface):
                                info=info)
 
 
-def hit_owners(geometry, prim: np.ndarray) -> tuple:
+def hit_owners(geometry, prim: np.ndarray, times: Optional[np.ndarray] = None) -> tuple:
     """Return, for the hit triangles `prim` (n,) int64: (row of geometry.attributes (n,) int64, index into
-    Scene.instances of the object hit (n,) int64, that object's linear transform (n, 3, 3) float64)."""
+    Scene.instances of the object hit (n,) int64, that object's linear transform (n, 3, 3) float64, a moving one's
+    at the hits' `times` (n,))."""
     n = len(prim)
     rows, owner = np.zeros(n, np.int64), np.zeros(n, np.int64)
     linear = np.zeros((n, 3, 3))
@@ -139,7 +145,7 @@ def hit_owners(geometry, prim: np.ndarray) -> tuple:
         if mesh.attribute_row is not None:
             rows[at] = mesh.attribute_row[local]
         owner[at] = mesh.owner[j]
-        linear[at] = mesh.transforms[j, :, :3].astype(np.float64)
+        linear[at] = mesh.placements(j, None if times is None else np.asarray(times)[at])[:, :, :3]
     return rows, owner, linear
 
 

@@ -25,6 +25,13 @@ InstancedRecord = schema.record("InstancedTables", "One instanced mesh (core/geo
     ("first_prim", I64, "WorldGeometry's flat index of placement 0's triangle 0"),
     ("owner", ptr(I32), "(k,) Scene.instances index per placement"),
     ("attribute_row", ptr(I32), "(t,) row of GeometryTables.attributes per triangle, or NULL"),
+    ("motion", ptr(F64), "(s, MOTION_STRIDE) a moving placement's decomposed transforms over the shutter\n"
+                         "(InstancedMesh.motion), or NULL: still"),
+    ("motion_steps", I64, "s (0: still)"),
+    ("vertex_steps", ptr(F32), "(r, v, 3) a deforming mesh's object-space points over the shutter\n"
+                               "(InstancedMesh.vertex_steps), or NULL: rigid"),
+    ("vertex_step_count", I64, "r (0: rigid)"),
+    ("vertex_count", I64, "v"),
 ])
 
 GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (core/geometry/tables.py).", [
@@ -73,7 +80,13 @@ class GeometryTables:
                                  else c(mesh.attribute_row, np.int32))):
                 setattr(record, name, array)
             record.triangle_count, record.placements = len(mesh.triangles), len(mesh.transforms)
+            record.vertex_count = len(mesh.vertices)
             record.first_prim = int(mesh.first_prim)
+            if mesh.motion is not None:                # (a moving placement: where it is at each ray's time)
+                record.motion, record.motion_steps = c(mesh.motion, np.float64), len(mesh.motion)
+            if mesh.vertex_steps is not None:          # (a deforming mesh: its points at each ray's time)
+                record.vertex_steps = c(mesh.vertex_steps, np.float32)
+                record.vertex_step_count = len(mesh.vertex_steps)
         self.record = GeometryRecord(
             vertices=c(geometry.vertices, np.float32), triangles=c(geometry.triangles, np.int32),
             face_normals=c(geometry.face_normals, np.float64), material=c(geometry.material, np.int32),

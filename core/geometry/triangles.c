@@ -14,6 +14,7 @@ typedef struct {
     double normals[9];  /* corner normals (smooth triangles only) */
     int smooth;
     int32_t material;
+    double time;        /* the time in the shutter it is placed at (a moving object's; 0.5 when nothing moves) */
 } Triangle;
 
 /* v / |v|, or 0 where |v| is 0, infinite or NaN: normals.safe_normalize (|v|^2 summed as numpy's
@@ -47,17 +48,51 @@ INLINE void copied_triangle(const GeometryTables *g, int64_t f, int want_smooth,
         for (int c = 0; c < 9; c++) out->normals[c] = (double)g->corner_normals[9 * (int64_t)row + c];
 }
 
-/* Triangle `local` of placement j of an instanced mesh (WorldGeometry._instanced_data): the corners
- * placed by [L | T], the normal of the placed corners (turned back for a mirroring placement), the
- * corner normals turned by L's cofactor matrix (N' = cof(L) N, the sign of det L kept). */
-INLINE void instanced_triangle(const InstancedTables *mesh, int64_t j, int64_t local, int want_smooth, Triangle *out)
+/* InstancedMesh.placements: placement j's [L | T] (3 x 4, row-major), a moving one's at `time`. */
+INLINE void placement_at(const InstancedTables *mesh, int64_t j, double time, double *M)
 {
-    const float *A = mesh->transforms + 12 * j;
+    if (mesh->motion == NULL) {
+        const float *A = mesh->transforms + 12 * j;
+        for (int c = 0; c < 12; c++) M[c] = (double)A[c];
+        return;
+    }
+    double L[9], T[3];
+    decomposed_at(mesh->motion, (int64_t)mesh->motion_steps, time, L, T);
+    for (int i = 0; i < 3; i++) {
+        for (int c = 0; c < 3; c++) M[4 * i + c] = L[3 * i + c];
+        M[4 * i + 3] = T[i];
+    }
+}
+
+/* InstancedMesh.object_corners for one vertex: its object-space point, a deforming mesh's at `time` (linear between
+ * the two vertex steps around it). */
+INLINE void object_point(const InstancedTables *mesh, int64_t vertex, double time, double *p)
+{
+    if (mesh->vertex_steps == NULL) {
+        const float *P = mesh->vertices + 3 * vertex;
+        for (int c = 0; c < 3; c++) p[c] = (double)P[c];
+        return;
+    }
+    int64_t last = (int64_t)mesh->vertex_step_count - 1;
+    int64_t step = (int64_t)(time * (double)last);
+    if (step > last - 1) step = last - 1;
+    double t = time * (double)last - (double)step;
+    int64_t stride = 3 * (int64_t)mesh->vertex_count;
+    const float *a = mesh->vertex_steps + step * stride + 3 * vertex, *b = a + stride;
+    for (int c = 0; c < 3; c++) p[c] = (1.0 - t) * (double)a[c] + t * (double)b[c];
+}
+
+/* Triangle `local` of placement j of an instanced mesh (WorldGeometry._instanced_data), a moving one's at `time`:
+ * the corners placed by [L | T], the normal of the placed corners (turned back for a mirroring placement), the
+ * corner normals turned by L's cofactor matrix (N' = cof(L) N, the sign of det L kept). */
+INLINE void instanced_triangle(const InstancedTables *mesh, int64_t j, int64_t local, int want_smooth, double time,
+                               Triangle *out)
+{
     double M[12];
-    for (int c = 0; c < 12; c++) M[c] = (double)A[c];
+    placement_at(mesh, j, time, M);
     for (int k = 0; k < 3; k++) {
-        const float *P = mesh->vertices + 3 * (int64_t)mesh->triangles[3 * local + k];
-        double p[3] = {(double)P[0], (double)P[1], (double)P[2]};
+        double p[3];
+        object_point(mesh, (int64_t)mesh->triangles[3 * local + k], time, p);
         for (int i = 0; i < 3; i++) out->V[3 * k + i] = (M[4 * i] * p[0] + M[4 * i + 1] * p[1] + M[4 * i + 2] * p[2]) + M[4 * i + 3];
     }
     double e1[3], e2[3], n[3];
@@ -82,12 +117,14 @@ INLINE void instanced_triangle(const InstancedTables *mesh, int64_t j, int64_t l
     }
 }
 
-/* The hit triangle of Embree's answer (geometry id, primitive, placement), copied or instanced. */
+/* The hit triangle of Embree's answer (geometry id, primitive, placement), copied or instanced; a moving one where
+ * it is at the ray's `time`. */
 INLINE void hit_triangle(const GeometryTables *g, int64_t geometry, int64_t prim, int64_t instance, int want_smooth,
-                         Triangle *out)
+                         double time, Triangle *out)
 {
     if (geometry <= 0) copied_triangle(g, prim, want_smooth, out);
-    else instanced_triangle(g->meshes + (geometry - 1), instance, prim, want_smooth, out);
+    else instanced_triangle(g->meshes + (geometry - 1), instance, prim, want_smooth, time, out);
+    out->time = time;
 }
 
 /* WorldGeometry.owners for one Embree hit: the Scene.instances entry of the object hit (-1: none). */
@@ -150,6 +187,7 @@ typedef struct {
     int32_t material;
     int backfacing;     /* 1: the ray hit the triangle from behind (leaves a closed object) */
     double t;           /* Embree's distance along the ray (the Light Path node's Ray Length) */
+    double time;        /* its ray's time in the shutter: the rays it sends carry it (object motion blur) */
 } Surface;
 
 /* The surface of one hit: surface.hit_points, surface_at_hits, shadows.error_bound and, for the
@@ -160,6 +198,7 @@ INLINE void surface_at(const double *O, const double *D, double t, double u, dou
     const double *V = tri->V;
     double w = 1.0 - u - v;
     s->t = t;
+    s->time = tri->time;
     s->smooth = tri->smooth;
     s->material = tri->material;
     /* 1. I: the float64 ray meets the triangle's plane, unless that disagrees with Embree's t. */
@@ -258,9 +297,10 @@ INLINE void shading_point_at(const GeometryTables *g, int64_t geometry, int64_t 
         const InstancedTables *mesh = g->meshes + (geometry - 1);
         row = mesh->attribute_row != NULL ? (int64_t)mesh->attribute_row[prim] : 0;
         object = (int64_t)mesh->owner[instance];
-        const float *A = mesh->transforms + 12 * instance;
+        double A[12];
+        placement_at(mesh, instance, s->time, A);
         for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) sp->L[3 * i + j] = (double)A[4 * i + j];
+            for (int j = 0; j < 3; j++) sp->L[3 * i + j] = A[4 * i + j];
     }
     sp->random = g->instance_random != NULL ? g->instance_random[object] : 0.0;
     sp->info = g->instance_info != NULL ? g->instance_info + g->info_width * object : NO_INFO;

@@ -45,6 +45,7 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
             double o[3] = {b->O[0][next], b->O[1][next], b->O[2][next]};
             double d[3] = {b->D[0][next], b->D[1][next], b->D[2][next]};
             set_lane(&packet.ray, lanes, o, d, b->t[next]);
+            set_time(&packet.ray, lanes, b->time[next]);     /* (where moving objects are for this camera ray) */
             lane_of[lanes++] = next;
         }
         if (lanes == 0) continue;
@@ -61,16 +62,16 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
                 double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]};
                 double D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
                 see_past_hidden(params->geometry, intersect, params->scene, &packet, k, O, D, b->t[lane],
-                                HIDDEN_FROM_CAMERA);
+                                HIDDEN_FROM_CAMERA, b->time[lane]);
             }
             if (packet.hit.geomID[k] == INVALID_ID) continue;
             int64_t lane = lane_of[k], h = H->m++;
             H->t[lane] = (double)packet.ray.tfar[k];
             double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]};
             double D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
-            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
             hit_triangle(params->geometry, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
-                         instance_of(&packet.hit, k), 1, &tri);
+                         instance_of(&packet.hit, k), 1, b->time[lane], &tri);
             surface_at(O, D, (double)packet.ray.tfar[k], (double)packet.hit.u[k], (double)packet.hit.v[k], &tri,
                        lift, H->s + h);
             for (int c = 0; c < 3; c++) H->wo[3 * h + c] = -D[c];

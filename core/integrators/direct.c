@@ -107,6 +107,7 @@ typedef struct {
     int hit;                                     /* 1: it hit a surface (a ray that escapes is kept where media scatter) */
     double O[3], D[3], t, u, v;
     int64_t geometry, prim, instance;
+    double time;                                 /* its path's time in the shutter (where moving objects are) */
     double weight[3];                            /* f cos / pdf of the sampled closures */
     int kind;                                    /* the sampled closure's BSDF kind */
     int transmit;                                /* 1: it went through the surface */
@@ -124,15 +125,15 @@ typedef struct {
  * hit is on an object hidden from that kind, the ray goes on past it (one ray at a time: only rays meeting such
  * an object come here), until it meets a seen object or nothing; the lane's hit and tfar (from O) are replaced. */
 INLINE void see_past_hidden(const GeometryTables *g, Intersect8 intersect, void *scene, RayHitPacket *packet, int k,
-                            const double *O, const double *D, double t_max, int bit)
+                            const double *O, const double *D, double t_max, int bit, double time)
 {
     while (packet->hit.geomID[k] != INVALID_ID
            && hidden_from(g, (int64_t)packet->hit.geomID[k], (int64_t)packet->hit.primID[k], instance_of(&packet->hit, k),
                           bit)) {
         /* On from just past the hidden triangle, for what is left of the ray. */
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
         hit_triangle(g, (int64_t)packet->hit.geomID[k], (int64_t)packet->hit.primID[k], instance_of(&packet->hit, k), 0,
-                     &tri);
+                     time, &tri);
         Surface s;
         surface_at(O, D, (double)packet->ray.tfar[k], (double)packet->hit.u[k], (double)packet->hit.v[k], &tri, 0, &s);
         double P[3], gone[3];
@@ -142,6 +143,7 @@ INLINE void see_past_hidden(const GeometryTables *g, Intersect8 intersect, void 
         RayHitPacket one;
         int valid[PACKET] ALIGNED(32);
         set_lane(&one.ray, 0, P, D, t_max - travelled);
+        set_time(&one.ray, 0, time);
         close_packet(&one.ray, valid, 1);
         clear_hits(&one);
         intersect(valid, scene, &one, NULL);
@@ -413,8 +415,8 @@ struct Transmitter {
     const MediaTables *media;   /* the media shadow rays cross (media.c), or NULL: none */
 };
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D[][3], const double *t,
-                            const LightPath *paths, const uint64_t *blockers, const VolumeStack *stacks,
-                            double T[][3]);
+                            const double *times, const LightPath *paths, const uint64_t *blockers,
+                            const VolumeStack *stacks, double T[][3]);
 
 /* clamp.scale: the factor that caps a contribution value x throughput x count (channel sum) at limit (inf: none). */
 INLINE double clamp_scale(const double *value, const double *throughput, double limit, double count)
@@ -439,7 +441,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
     int valid[PACKET] ALIGNED(32);
     int64_t owner[PACKET], sample_of[PACKET], rays = 0;
     uint64_t blockers[PACKET];
-    double value[PACKET][3], O[PACKET][3], D[PACKET][3], t[PACKET], T[PACKET][3];
+    double value[PACKET][3], O[PACKET][3], D[PACKET][3], t[PACKET], T[PACKET][3], times[PACKET];
     LightPath paths[PACKET];
     VolumeStack stacks[PACKET];
     const MediaTables *media = transmitter != NULL ? transmitter->media : NULL;
@@ -450,6 +452,8 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             for (int c = 0; c < 3; c++) { O[lanes][c] = b->origin[c][k]; D[lanes][c] = b->D[c][k]; }
             t[lanes] = b->t[k];
             set_lane(&ray, lanes, O[lanes], D[lanes], b->t[k]);
+            times[lanes] = H->s[b->hit[k]].time;          /* (its path's time: where moving objects block it) */
+            set_time(&ray, lanes, times[lanes]);
             owner[lanes] = b->hit[k];
             paths[lanes] = path_at(H, b->hit[k], PATH_SHADOW);      /* (a shadow ray: SHADOW alone) */
             sample_of[lanes] = k;
@@ -480,7 +484,7 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             }
         } else if (transmitter != NULL) {
             /* Transparent shadows: each ray carries the product of the transparencies it passes. */
-            transmit_packet(transmitter, lanes, O, D, t, paths, blockers, media != NULL ? stacks : NULL, T);
+            transmit_packet(transmitter, lanes, O, D, t, times, paths, blockers, media != NULL ? stacks : NULL, T);
             for (int lane = 0; lane < lanes; lane++) {
                 double *e = L_out + 3 * owner[lane], got[3];
                 for (int c = 0; c < 3; c++) { got[c] = value[lane][c] * T[lane][c]; e[c] += got[c]; }
@@ -574,8 +578,8 @@ INLINE void passes_straight_on(LanePasses *lp, const DirectSettings *ds, const B
  * volume-only boundaries count as no surface passed (VOLUME_BOUNDS_MAX at most), and each surface the ray goes
  * through changes its media. */
 INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], double D0[][3], const double *t,
-                            const LightPath *paths, const uint64_t *blockers, const VolumeStack *stacks,
-                            double T[][3])
+                            const double *times, const LightPath *paths, const uint64_t *blockers,
+                            const VolumeStack *stacks, double T[][3])
 {
     double origin[PACKET][3], left[PACKET], D[PACKET][3], end[PACKET][3];
     int alive[PACKET], passed[PACKET], crossed[PACKET];
@@ -594,7 +598,11 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
         RayHitPacket packet;
         int valid[PACKET] ALIGNED(32), lane_of[PACKET], n = 0;
         for (int l = 0; l < lanes; l++)
-            if (alive[l]) { set_lane(&packet.ray, n, origin[l], D[l], left[l]); lane_of[n++] = l; }
+            if (alive[l]) {
+                set_lane(&packet.ray, n, origin[l], D[l], left[l]);
+                set_time(&packet.ray, n, times[l]);
+                lane_of[n++] = l;
+            }
         if (n == 0) return;
         close_packet(&packet.ray, valid, n);
         clear_hits(&packet);
@@ -617,8 +625,8 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
             int hidden = hidden_from(tr->geometry, geometry, prim, instance, HIDDEN_FROM_SHADOW);
             if (blockers != NULL && blockers[l] != ALL_SETS)      /* Shadow Linking: only its blocker sets stop it */
                 hidden |= !in_sets(blockers[l], links_of(tr->geometry, geometry, prim, instance, 1));
-            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
-            hit_triangle(tr->geometry, geometry, prim, instance, 1, &tri);
+            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+            hit_triangle(tr->geometry, geometry, prim, instance, 1, times[l], &tri);
             int boundary = is_boundary(media, tri.material);
             /* (Cycles: a shadow ray passes what is left of the path's transparent bounces, the limit less its count) */
             if (!hidden && !boundary && passed[l] >= tr->limit - paths[l].transparent) {
@@ -692,11 +700,11 @@ INLINE void shade_along(const DirectSettings *ds, const Triangle *tri, int64_t g
  * graph emits back along -D (a texture's emission) to a ray carrying the path `path`; the barycentrics come from
  * the point. */
 NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, int64_t prim, int64_t instance,
-                           const double *O, const double *D, double t, const LightPath *path, const ShaderKeys *keys,
-                           double *out)
+                           const double *O, const double *D, double t, double time, const LightPath *path,
+                           const ShaderKeys *keys, double *out)
 {
-    Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
-    hit_triangle(ds->geometry, geometry, prim, instance, 1, &tri);
+    Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+    hit_triangle(ds->geometry, geometry, prim, instance, 1, time, &tri);
     double P[3] = {O[0] + t * D[0], O[1] + t * D[1], O[2] + t * D[2]}, u, v;
     point_barycentrics(tri.V, P, &u, &v);
     Surface s;
@@ -733,7 +741,7 @@ static void textured_block(SampleBlock *b, const BlockHits *H, const DirectSetti
         unflat_prim(ds->geometry, e->prim[b->emitter[k]], &geometry, &prim, &instance);
         double O[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, D[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, out[3];
         LightPath path = path_at(H, b->hit[k], PATH_EMISSION);
-        graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], &path, NULL, out);
+        graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], STILL_TIME, &path, NULL, out);
         for (int c = 0; c < 3; c++) b->color[c][k] = out[c];
     }
 }
@@ -886,6 +894,7 @@ typedef struct {
      * NULL: they trace nothing. */
     const ShaderKeys *keys;
     const VolumeStack *inside;        /* the media it crosses (with sigma), for a march through heterogeneous ones */
+    double time;            /* its time in the shutter (its path's): where a moving emitter it hit is */
 } FindingRay;
 
 /* direct.gather_light for one FindingRay: lamps with extent in front of its hit (they never block), the emission of
@@ -962,12 +971,12 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     /* (a camera path's ray, through Transparent closures, finds a holdout emitting nothing: a hole, path.hold_out) */
     if (hit && ds->emissive && !(camera && hidden_from(ds->geometry, geometry, prim, instance, HOLDOUT))
         && (ray->seen_as == HIDDEN_FROM_CAMERA || ds->geometry->links == NULL || finds_emitter(ds->geometry, ray))) {
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
-        hit_triangle(ds->geometry, geometry, prim, instance, 0, &tri);
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        hit_triangle(ds->geometry, geometry, prim, instance, 0, ray->time, &tri);
         const double *emitted = ds->materials[tri.material].emission;
         double textured[3];
         if (ds->materials[tri.material].graph_emits != 0.0) {     /* a texture's emission, where the ray landed */
-            graph_emission(ds, geometry, prim, instance, O, D, t_limit, ray->path, ray->keys, textured);
+            graph_emission(ds, geometry, prim, instance, O, D, t_limit, ray->time, ray->path, ray->keys, textured);
             emitted = textured;
         }
         int64_t index = emitters_index >= 0
@@ -1034,6 +1043,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             const Surface *sf = H->s + h;
             spawn_ray(sf->I, sf->Ng, s->wi, ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon, origin[lanes]);
             set_lane(&packet.ray, lanes, origin[lanes], s->wi, INFINITY);
+            set_time(&packet.ray, lanes, sf->time);
             owner[lanes] = h;
             if (++lanes < PACKET) continue;
         }
@@ -1051,7 +1061,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             after[k] = path_after(path_at(H, owner[k], H->flags[owner[k]]), s->kind, transmit, s->delta);
             if (packet.hit.geomID[k] != INVALID_ID && ds->geometry->hidden != NULL)
                 see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, k, origin[k], s->wi, INFINITY,
-                                kinds[k]);
+                                kinds[k], H->s[owner[k]].time);
         }
         embree += ticks() - start;
         for (int k = 0; k < lanes; k++) {
@@ -1102,6 +1112,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->geometry = (int64_t)packet.hit.geomID[k];
                 r->prim = (int64_t)packet.hit.primID[k];
                 r->instance = instance_of(&packet.hit, k);
+                r->time = H->s[owner[k]].time;
                 r->kind = s->kind;
                 r->transmit = dot3(H->s[owner[k]].Ng, D) < 0.0;
                 r->pdf = pdf_b;
@@ -1129,7 +1140,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                                   instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
                                   kinds[k], after + k, receiver, ds->media != NULL ? sigma : NULL, emission, &next,
-                                  ds->media != NULL ? &inside : NULL};
+                                  ds->media != NULL ? &inside : NULL, H->s[owner[k]].time};
             gather_light(ds, &finding, light_L, H->groups != NULL ? groups_L : NULL);
             double *L = H->L + 3 * owner[k], found[3];
             for (int c = 0; c < 3; c++) found[c] = s->weight[c] * light_L[c];

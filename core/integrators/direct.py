@@ -38,11 +38,13 @@ class DirectLighting(Integrator):
     name: ClassVar[str] = "direct"
 
     def radiance(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, pixel: np.ndarray,
-                 sample: np.ndarray, recorder: Recorder) -> Radiance:
+                 sample: np.ndarray, recorder: Recorder, times=None) -> Radiance:
+        """Integrator.radiance; times: (n,) the camera rays' times in the shutter when objects move (the hits'
+        shadow and BSDF rays meet them where they are then), or None."""
         # 1-3. The camera rays' hits and surfaces, the world where they escape, the lamps they pass.
         direct_cap = clamp_.limits(ctx.settings)[0]
         groups = lightgroups.tally(ctx, len(O))
-        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups)
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, times=times)
         # The denoising features (features.py): what the camera sees itself, then at its hits.
         feats = features_.Features(len(O)) if ctx.settings.denoising_features else None
         if feats is not None:

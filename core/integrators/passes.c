@@ -113,7 +113,7 @@ INLINE void ambient_occlusion(const LanePasses *lp, const Surface *s, int64_t pi
     double O[1][3], D[1][3] = {{b.wi[0], b.wi[1], b.wi[2]}}, T[1][3], t = lp->tables->ao_distance;
     spawn_ray(s->I, s->Ng, b.wi, s->offset, O[0]);
     LightPath shadow = {PATH_SHADOW, 0, 0, 0, 0, 0};     /* (a shadow ray from a camera chain's hit) */
-    transmit_packet(&lp->ao, 1, O, D, &t, &shadow, NULL, NULL, T);
+    transmit_packet(&lp->ao, 1, O, D, &t, &s->time, &shadow, NULL, NULL, T);
     for (int c = 0; c < 3; c++) out[c] = T[0][c];
 }
 

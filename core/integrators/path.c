@@ -47,8 +47,8 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
     int use_mis = ds->mis && isfinite(r->pdf);
     for (;;) {
         /* 1. The surface met: what it lets through, seen along the ray. */
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
-        hit_triangle(ds->geometry, geometry, prim, instance, 1, &tri);
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        hit_triangle(ds->geometry, geometry, prim, instance, 1, r->time, &tri);
         const MaterialRecord *material = ds->materials + tri.material;
         if (material->may_pass == 0.0) return;
         Surface s;
@@ -64,11 +64,12 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         RayHitPacket packet;
         int valid[PACKET] ALIGNED(32);
         set_lane(&packet.ray, 0, O, D, INFINITY);
+        set_time(&packet.ray, 0, r->time);
         close_packet(&packet.ray, valid, 1);
         clear_hits(&packet);
         ds->intersect(valid, ds->scene, &packet, NULL);
         if (packet.hit.geomID[0] != INVALID_ID && ds->geometry->hidden != NULL)
-            see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, O, D, INFINITY, r->seen_as);
+            see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, O, D, INFINITY, r->seen_as, r->time);
         int hit = packet.hit.geomID[0] != INVALID_ID;
         double light_L[3] = {0.0, 0.0, 0.0}, groups_L[3 * MAX_LIGHT_GROUPS];
         for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
@@ -80,7 +81,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         if (ds->media != NULL) medium_along(ds->media, &inside, sigma, emission);
         FindingRay finding = {O, D, hit, t, geometry, prim, instance, r->pdf, use_mis, 0, r->mis_O, r->mis_N,
                               (int)r->seen_as, &path, r->receiver, ds->media != NULL ? sigma : NULL, emission, NULL,
-                              ds->media != NULL ? &inside : NULL};
+                              ds->media != NULL ? &inside : NULL, r->time};
         gather_light(ds, &finding, light_L, groups != NULL ? groups_L : NULL);
         for (int c = 0; c < 3; c++) light_L[c] *= T[c];
         if (ds->media != NULL) {                    /* (and what reaches the next surface) */
@@ -159,8 +160,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         if (!(isfinite(tp[0]) && isfinite(tp[1]) && isfinite(tp[2]))) continue;
         /* c. The next vertex: the surface the ray hit, its material seen from the ray. */
         int64_t m = next->m++;
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
-        hit_triangle(ds->geometry, r->geometry, r->prim, r->instance, 1, &tri);
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        hit_triangle(ds->geometry, r->geometry, r->prim, r->instance, 1, r->time, &tri);
         surface_at(r->O, r->D, r->t, r->u, r->v, &tri, lift, next->s + m);
         next->geometry[m] = r->geometry;
         next->prim[m] = r->prim;

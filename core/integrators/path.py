@@ -165,6 +165,7 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
     O, D, pdf = ray.O[rows], ray.D[rows], ray.pdf[rows]
     mis_O, mis_N = ray.mis_O[rows], ray.mis_N[rows]
     prim, u, v, t = ray.hits.prim[rows], ray.hits.u[rows], ray.hits.v[rows], ray.hits.t[rows]
+    times = None if ray.hits.time is None else ray.hits.time[rows]     # (object motion blur: the paths' times)
     T, passed = weight.copy(), passed.copy()
     mis = (s.light_sampling == "mis") and bool(ctx.extra.get("bsdf_rays", False))
     media = ctx.extra.get("media") if ray.inside is not None else None
@@ -173,7 +174,7 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
     alive = np.arange(len(rows))
     while len(alive):
         # 1. The surface met: what it lets through, seen along the ray.
-        surface = surface_at_hits(ctx.geometry, prim, u, v, O, D, t)
+        surface = surface_at_hits(ctx.geometry, prim, u, v, O, D, t, times=times)
         path = graph_.paths_at(paths, alive)._replace(transparent=passed[alive])
         shader = ctx.materials.shade(surface.material, surface.N, -D, surface, ctx.geometry, path)
         T[alive] *= shader.transparency
@@ -185,11 +186,12 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         go = ((T[alive] > 0.0).any(axis=1) & (passed[alive] <= s.transparent_max_bounces)
               & ctx.materials.may_pass[surface.material])
         alive, I, Ng, D = alive[go], surface.I[go], surface.Ng[go], D[go]
+        times = None if times is None else times[go]
         if len(alive) == 0:
             break
         # 2. On from just past it, straight ahead, gathering what the ray finds.
         O = spawn_ray(I, Ng, D, shadows.error_bound(I, surface.vertices[go]))
-        hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive])
+        hits = nearest_seen(ctx, O, D, np.full(len(alive), np.inf), ray.seen_as[rows][alive], times)
         found_groups = lightgroups.GroupLight(groups.groups, len(alive)) if groups is not None else None
         stretch = None if media is None else media.along(inside[alive], O, D)
         light = T[alive] * gather_light(ctx, O, D, hits, pdf[alive], mis & np.isfinite(pdf[alive]),
@@ -207,6 +209,7 @@ def through_transparent(ctx: Context, ray, rows: np.ndarray, weight: np.ndarray,
         more = hits.hit
         alive, O, D = alive[more], O[more], D[more]
         prim, u, v, t = hits.prim[more], hits.u[more], hits.v[more], hits.t[more]
+        times = None if times is None else times[more]
     return found
 
 
@@ -249,7 +252,10 @@ class PathTracing(Integrator):
         self.direct_only = direct_only
 
     def radiance(self, ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, pixel: np.ndarray,
-                 sample: np.ndarray, recorder: Recorder) -> Radiance:
+                 sample: np.ndarray, recorder: Recorder, times=None) -> Radiance:
+        """Integrator.radiance; times: (n,) the camera rays' times in the shutter when objects move (object motion
+        blur: every ray of a path, bounces and shadow rays, meets them where they are at its camera ray's time, as
+        in Cycles; the surfaces carry it on), or None."""
         s = ctx.settings
         # 1. The camera rays: what they hit, the world where they escape, the lamps they pass.
         direct_cap, indirect_cap = clamp_.limits(s)
@@ -258,7 +264,7 @@ class PathTracing(Integrator):
         media = ctx.extra.get("media")
         inside = None if media is None else camera_media(ctx, O, D)
         stretch = None if media is None else media.along(inside, O, D)
-        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, stretch)
+        L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, stretch, times)
         shadow_rays = 0
         scatters = media is not None and media.scatters
         # With Volume Bounces, paths go on from where they scatter (volume.multiple_scattering).
@@ -493,7 +499,8 @@ class PathTracing(Integrator):
             rows = ray.rows[keep]
             D_next = ray.D[keep]
             surface = surface_at_hits(ctx.geometry, hits.prim[keep], hits.u[keep], hits.v[keep], ray.O[keep],
-                                      D_next, hits.t[keep], flat_only=not s.smooth_normals)
+                                      D_next, hits.t[keep], flat_only=not s.smooth_normals,
+                                      times=None if hits.time is None else hits.time[keep])
             owner = owner[rows]
             throughput = next_throughput[keep]
             diffuse, glossy, transmission, transparent, bounds = d[keep], g[keep], tr[keep], tp[keep], vb[keep]

@@ -23,17 +23,18 @@ from .base import Context, Recorder
 
 
 def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, recorder: Recorder,
-                limit=np.inf, groups=None, stretch=None) -> tuple:
+                limit=np.inf, groups=None, stretch=None, times=None) -> tuple:
     """What camera rays O, D (n, 3) up to t_max (n,) meet: (L (n, 3) the world where they escape, where the
     camera sees it, plus the lamps with extent they pass, each ray's capped at `limit` (sample clamping); the
     tracer's hits; the hit rows (m,) int64; the hits' Surface, or None when nothing was hit). groups: a
     lightgroups.GroupLight of the n rays that receives L split by source, or None. stretch: the media the rays start
     in (core/volumes Stretch), or None: the world and lamps they see keep exp(-sigma_t t) of their light over their
-    distance t (inf for the world), and L includes the media's emission up to the hit."""
+    distance t (inf for the world), and L includes the media's emission up to the hit. times: (n,) the rays' times
+    in the shutter (object motion blur: where moving objects are; the Surface carries them on), or None."""
     sigma = stretch
     s = ctx.settings
     # 1. The nearest hit of each camera ray (t), past objects hidden from the camera.
-    found = nearest_seen(ctx, O, D, t_max)
+    found = nearest_seen(ctx, O, D, t_max, times=times)
     hit = np.flatnonzero(found.hit)
     # 2. What rays that hit nothing see: the world, where it is visible to the camera.
     L_out = np.zeros((len(O), 3))
@@ -60,33 +61,36 @@ def camera_hits(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, r
         return L_out, found, hit, None
     # The surface at each hit: I, Ng, N.
     surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit),
-                              vectors.gather(D, hit), found.t[hit], flat_only=not s.smooth_normals)
+                              vectors.gather(D, hit), found.t[hit], flat_only=not s.smooth_normals,
+                              times=None if times is None else times[hit])
     recorder.hits(O, D, surface, found.hit)
     return L_out, found, hit, surface
 
 
-def nearest_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, kind=HIDDEN_FROM_CAMERA):
+def nearest_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, kind=HIDDEN_FROM_CAMERA, times=None):
     """The nearest hits (the tracer's Hits) of rays O, D (n, 3) up to t_max (n,) on the objects these rays see: a
     ray goes on past the triangles of objects hidden from its kind (Object > Visibility > Ray Visibility), as if
     they were not there; t stays the distance from O. kind: the rays' HIDDEN_FROM_* bit, one int or (n,) int
-    (camera rays by default; ray_kind gives a bounce's)."""
+    (camera rays by default; ray_kind gives a bounce's). times: (n,) the rays' times in the shutter (where moving
+    objects are), or None."""
     geometry = ctx.geometry
-    found = geometry.tracer.intersect(O, D, t_max)
+    found = geometry.tracer.intersect(O, D, t_max, times)
     kind = np.broadcast_to(np.asarray(kind, np.int64), (len(O),))
     if not geometry.hides(int(np.bitwise_or.reduce(kind)) if len(kind) else 0):
-        return found
-    hit, t, prim, u, v = (np.array(array) for array in found)
+        return found if times is None else found._replace(time=np.asarray(times, np.float64))
+    hit, t, prim, u, v = (np.array(array) for array in found[:5])
     rows = np.flatnonzero(hit & geometry.hidden(prim, kind))
     while len(rows):
         # On from just past the hidden triangle, for what is left of the ray.
-        surface = surface_at_hits(geometry, prim[rows], u[rows], v[rows], O[rows], D[rows], t[rows])
+        at = None if times is None else times[rows]
+        surface = surface_at_hits(geometry, prim[rows], u[rows], v[rows], O[rows], D[rows], t[rows], times=at)
         P = shadows.spawn_ray(surface.I, surface.Ng, D[rows], shadows.error_bound(surface.I, surface.vertices))
         gone = np.einsum("ij,ij->i", P - O[rows], D[rows])
-        again = geometry.tracer.intersect(P, D[rows], t_max[rows] - gone)
+        again = geometry.tracer.intersect(P, D[rows], t_max[rows] - gone, at)
         hit[rows], t[rows], prim[rows] = again.hit, np.where(again.hit, gone + again.t, np.inf), again.prim
         u[rows], v[rows] = again.u, again.v
         rows = rows[again.hit & geometry.hidden(again.prim, kind[rows])]
-    return type(found)(hit, t, prim, u, v)
+    return type(found)(hit, t, prim, u, v, None if times is None else np.asarray(times, np.float64))
 
 
 def goes_through(kind: np.ndarray, transmit: np.ndarray) -> np.ndarray:

@@ -9,12 +9,12 @@ struct ShaderRays {
     double seed;
 };
 
-/* shader_rays.local_hits for one ray: the hits of O + t D, t in (0, t_max), on the object `owner`, stepping past
- * other objects' triangles (LOCAL_STEPS surfaces in all); the nearest `most` into prim..t. Returns how many it met
- * (at most `most` + 1: it stops looking there). */
-static int64_t local_hits(const ShaderRays *rays, const double *O, const double *D, double t_max, int64_t owner,
-                          int most, int64_t *geometry, int64_t *prim, int64_t *instance, double *u, double *v,
-                          double *t)
+/* shader_rays.local_hits for one ray at `time` in the shutter: the hits of O + t D, t in (0, t_max), on the object
+ * `owner`, stepping past other objects' triangles (LOCAL_STEPS surfaces in all); the nearest `most` into prim..t.
+ * Returns how many it met (at most `most` + 1: it stops looking there). */
+static int64_t local_hits(const ShaderRays *rays, const double *O, const double *D, double t_max, double time,
+                          int64_t owner, int most, int64_t *geometry, int64_t *prim, int64_t *instance, double *u,
+                          double *v, double *t)
 {
     int64_t count = 0;
     double start = 0.0;
@@ -25,6 +25,7 @@ static int64_t local_hits(const ShaderRays *rays, const double *O, const double 
         RayHitPacket packet;
         int valid[PACKET] ALIGNED(32);
         set_lane(&packet.ray, 0, here, D, t_max - start);
+        set_time(&packet.ray, 0, time);
         close_packet(&packet.ray, valid, 1);
         clear_hits(&packet);
         rays->intersect(valid, rays->scene, &packet, NULL);
@@ -67,11 +68,12 @@ static double shader_ao(const ShadingPoint *sp, const double *N, double distance
         if (flags & AO_ONLY_LOCAL) {
             int64_t g, p, i;
             double hu, hv, ht;
-            open += local_hits(rays, O, b.wi, distance, owner, 1, &g, &p, &i, &hu, &hv, &ht) == 0;
+            open += local_hits(rays, O, b.wi, distance, s->time, owner, 1, &g, &p, &i, &hu, &hv, &ht) == 0;
         } else {
             RayPacket ray;
             int valid[PACKET] ALIGNED(32);
             set_lane(&ray, 0, O, b.wi, (double)(float)distance);
+            set_time(&ray, 0, s->time);
             close_packet(&ray, valid, 1);
             rays->occluded(valid, rays->scene, &ray, NULL);
             open += !(ray.tfar[0] < 0.0f);
@@ -145,11 +147,11 @@ static void shader_bevel(const ShadingPoint *sp, double radius, int samples, dou
         }
         int64_t g[BEVEL_MAX_HITS], p[BEVEL_MAX_HITS], i[BEVEL_MAX_HITS];
         double hu[BEVEL_MAX_HITS], hv[BEVEL_MAX_HITS], ht[BEVEL_MAX_HITS];
-        int64_t count = local_hits(rays, O, D, 2.0 * h, owner, BEVEL_MAX_HITS, g, p, i, hu, hv, ht);
+        int64_t count = local_hits(rays, O, D, 2.0 * h, s->time, owner, BEVEL_MAX_HITS, g, p, i, hu, hv, ht);
         /* 3. Each hit's smooth normal, weighed by the planes' MIS and the falloff at its true distance. */
         for (int64_t k = 0; k < count && k < BEVEL_MAX_HITS; k++) {
-            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
-            hit_triangle(rays->geometry, g[k], p[k], i[k], 1, &tri);
+            Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+            hit_triangle(rays->geometry, g[k], p[k], i[k], 1, s->time, &tri);
             double N[3] = {tri.Ng[0], tri.Ng[1], tri.Ng[2]};
             if (tri.smooth) {
                 double w = 1.0 - hu[k] - hv[k], n[3];

@@ -75,6 +75,10 @@ class ShaderRays:
         s, r = self.surface, self.rows
         return s.I[r], s.Ng[r], s.vertices[r], np.asarray(s.prim)[r], self.pixel[r], self.sample[r]
 
+    def _times(self):
+        """The hits' times in the shutter (their rays carry them: where moving objects are), or None."""
+        return None if self.surface.time is None else self.surface.time[self.rows]
+
     def ambient_occlusion(self, N: np.ndarray, distance: np.ndarray, samples: int, flags: int) -> np.ndarray:
         """Cycles' svm_ao: the share (k,) float64 of `samples` cosine-distributed rays about the unit N (k, 3) (-N with
         AO_INSIDE) that nothing blocks within `distance` (k,) (only the hit's own object with AO_ONLY_LOCAL); 1 where
@@ -88,6 +92,7 @@ class ShaderRays:
         step = shadows.error_bound(I, vertices)
         geometry = self.ctx.geometry
         owner = geometry.owners(prim) if flags & AO_ONLY_LOCAL else None
+        times = self._times()
         open_ = np.zeros(k)
         for j in range(samples):
             u = sampling.sample_2d(self.ctx.settings.seed, pixel, sample * samples + j,
@@ -96,9 +101,9 @@ class ShaderRays:
             origin = shadows.spawn_ray(I, Ng, wi, step)
             t = np.maximum(distance, 0.0)
             if owner is None:
-                blocked = geometry.tracer.occluded(origin, wi, t)
+                blocked = geometry.tracer.occluded(origin, wi, t, times)
             else:
-                blocked = local_hits(geometry, origin, wi, t, owner, 1)[0] > 0
+                blocked = local_hits(geometry, origin, wi, t, owner, 1, times)[0] > 0
             open_ += ~blocked
         return np.where(distance > 0.0, open_ / samples, 1.0)
 
@@ -113,6 +118,7 @@ class ShaderRays:
             return N
         geometry = self.ctx.geometry
         owner = geometry.owners(prim)
+        times = self._times()
         T0, B0 = orthonormals(Ng)
         total = np.zeros((k, 3))
         R = np.maximum(radius, 0.0)
@@ -133,13 +139,13 @@ class ShaderRays:
             phi = 2.0 * np.pi * x
             disk_P = (r * np.cos(phi))[:, None] * disk_T + (r * np.sin(phi))[:, None] * disk_B
             origin = I + disk_N * h[:, None] + disk_P
-            count, hits = local_hits(geometry, origin, -disk_N, 2.0 * h, owner, BEVEL_MAX_HITS)
+            count, hits = local_hits(geometry, origin, -disk_N, 2.0 * h, owner, BEVEL_MAX_HITS, times)
             # 3. Each hit's smooth normal, weighed by the planes' MIS and the falloff at its true distance.
             for prim_hit, uu, vv, t, found in hits:
                 rows = np.flatnonzero(found & (R > 0.0))
                 if len(rows) == 0:
                     continue
-                data = geometry.triangle_data(prim_hit[rows], smooth=True)
+                data = geometry.triangle_data(prim_hit[rows], smooth=True, times=None if times is None else times[rows])
                 hit_Ng, hit_N = data.Ng, data.Ng.copy()
                 if data.smooth.any():
                     s = data.smooth
@@ -189,11 +195,13 @@ def cubic_root(xi: np.ndarray) -> np.ndarray:
     return x
 
 
-def local_hits(geometry, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, owner: np.ndarray, most: int) -> tuple:
+def local_hits(geometry, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, owner: np.ndarray, most: int,
+               times=None) -> tuple:
     """The hits of rays O + t D, t in (0, t_max) (k,), on triangles of the objects `owner` (k,) int64 (Cycles'
     scene_intersect_local): (how many it met (k,) int64, capped at `most` + 1 past which it stops looking; a list of
     `most` (prim, u, v, t, found) the nearest first, each (k,) arrays). Other objects' triangles are stepped past,
-    up to LOCAL_STEPS surfaces in all."""
+    up to LOCAL_STEPS surfaces in all. times: (k,) the rays' times in the shutter (where moving objects are), or
+    None."""
     k = len(O)
     count = np.zeros(k, np.int64)
     hits = [(np.zeros(k, np.int64), np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k, bool)) for _ in range(most)]
@@ -203,7 +211,8 @@ def local_hits(geometry, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, owner:
         if len(alive) == 0:
             break
         here = O[alive] + start[alive, None] * D[alive]
-        found = geometry.tracer.intersect(here, D[alive], t_max[alive] - start[alive])
+        found = geometry.tracer.intersect(here, D[alive], t_max[alive] - start[alive],
+                                          None if times is None else times[alive])
         met = found.hit
         t = start[alive] + found.t
         mine = met & (geometry.owners(np.where(met, found.prim, 0)) == owner[alive])

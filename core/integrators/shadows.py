@@ -35,7 +35,7 @@ so no shadow ray is cast for it.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -74,12 +74,14 @@ def spawn_ray(I: np.ndarray, Ng: np.ndarray, D: np.ndarray, step: np.ndarray) ->
 class ShadowRays(NamedTuple):
     """Rays from shading points to light points.
 
-    origins: (n, 3) float64; directions: (n, 3) float64 unit; t_max: (n,) float64.
+    origins: (n, 3) float64; directions: (n, 3) float64 unit; t_max: (n,) float64; time: (n,) float64 their times
+    in the shutter (the times of the paths they light: where moving objects are), or None.
     """
 
     origins: np.ndarray
     directions: np.ndarray
     t_max: np.ndarray
+    time: Optional[np.ndarray] = None
 
 
 def largest_coordinate(values: np.ndarray) -> np.ndarray:
@@ -174,7 +176,7 @@ def terminator_amount(NL: np.ndarray, NgL: np.ndarray, cutoff) -> np.ndarray:
 
 def visible(tracer, rays: ShadowRays) -> np.ndarray:
     """Return True where nothing blocks the shadow ray: (n,) bool."""
-    return ~tracer.occluded(rays.origins, rays.directions, rays.t_max)
+    return ~tracer.occluded(rays.origins, rays.directions, rays.t_max, rays.time)
 
 
 def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None, blockers=None) -> np.ndarray:
@@ -212,7 +214,8 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None, bl
     paths = graph_.light_paths(n, flags=graph_.PATH_SHADOW) if paths is None else paths
     alive = np.arange(n)
     while len(alive):
-        found = ctx.geometry.tracer.intersect(O[alive], D[alive], t[alive])
+        found = ctx.geometry.tracer.intersect(O[alive], D[alive], t[alive],
+                                              None if rays.time is None else rays.time[alive])
         if media is not None:
             # The stretch up to the surface met (or to the light): what its media let through.
             T[alive] *= media.along(inside[alive], O[alive], D[alive]).transmittance(np.where(found.hit, found.t,
@@ -233,7 +236,7 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None, bl
         T[rows[crossed[rows] > VOLUME_BOUNDS_MAX]] = 0.0
         # The surface the ray passes: what its material lets through, seen along the ray.
         surface = surface_at_hits(ctx.geometry, found.prim[hit], found.u[hit], found.v[hit], O[rows], D[rows],
-                                  found.t[hit])
+                                  found.t[hit], times=None if rays.time is None else rays.time[rows])
         path = graph_.paths_at(paths, rows)
         path = path._replace(transparent=path.transparent + passed[rows] - 1)
         # (Ray Length: the distance from the shadow ray's start, as Cycles measures every hit of its one ray)

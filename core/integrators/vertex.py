@@ -311,7 +311,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     O = spawn_ray(surface.I[go], surface.Ng[go], D, offsets[go] if offsets is not None else np.full(len(go), s.epsilon))
     transmit = np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0
     seen_as = ray_kind(bs.kind[go], transmit, np.broadcast_to(np.asarray(seen_by, np.int64), (m,))[go])
-    hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as)
+    hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as,
+                        None if surface.time is None else surface.time[go])
     pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
     # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
     # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
@@ -339,8 +340,8 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
             None if throughput is None else np.broadcast_to(throughput, (m, 3))[at])
         exits &= below
         O[walks], D[walks], exit_hits = subsurface_.exit_ray(exits, prim_uv, P, last_D, last_t)
-        hits = Hits(*(np.array(field) for field in hits))
-        for field, value in zip(hits, exit_hits):
+        hits = Hits(*(None if field is None else np.array(field) for field in hits))
+        for field, value in zip(hits[:5], exit_hits[:5]):        # (hit, t, prim, u, v: a walk carries no time)
             field[walks] = value
         weight[walks] = walked
         transmit[walks] = False
@@ -379,8 +380,9 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         pick = lambda x: None if x is None else x[traced_rays]          # noqa: E731
         keys = None if keys is None else (pick(keys[0]), pick(keys[1]), keys[2], pick(keys[3]))
         found[go[traced_rays]] = bs.weight[go[traced_rays]] * gather_light(
-            ctx, O[traced_rays], D[traced_rays], Hits(*(field[traced_rays] for field in hits)), pdf_b[traced_rays],
-            use_mis[traced_rays], pick(seen_as == HIDDEN_FROM_CAMERA) if holdouts else None, N=pick(mis_N),
+            ctx, O[traced_rays], D[traced_rays], Hits(*(None if field is None else field[traced_rays] for field in hits)),
+            pdf_b[traced_rays], use_mis[traced_rays], pick(seen_as == HIDDEN_FROM_CAMERA) if holdouts else None,
+            N=pick(mis_N),
             mis_O=pick(mis_O), groups=ray_groups, seen_as=pick(seen_as),
             stretch=None if stretch is None else stretch.rows(traced_rays),
             paths=graph_.paths_at(after, traced_rays), receiver=pick(receiver), keys=keys)
@@ -442,9 +444,12 @@ def aim_shadow_rays(s, surface, rows: np.ndarray, ls, NL: np.ndarray, NgL: np.nd
         I = np.where(behind[:, None], surface.I[rows], I)
         Ng = np.where(behind[:, None], -surface.Ng[rows], Ng)
     if s.shadow_method == "robust":
-        return shadows.robust_rays(I, Ng, offsets[rows], ls.position[rows], ls.L[rows], ls.distance[rows],
+        rays = shadows.robust_rays(I, Ng, offsets[rows], ls.position[rows], ls.L[rows], ls.distance[rows],
                                    s.reduce_t_max)
-    return shadows.epsilon_rays(I, ls.L[rows], ls.distance[rows], s.epsilon, s.reduce_t_max)
+    else:
+        rays = shadows.epsilon_rays(I, ls.L[rows], ls.distance[rows], s.epsilon, s.reduce_t_max)
+    # (a shadow ray carries its path's time: where moving objects block it)
+    return rays if surface.time is None else rays._replace(time=surface.time[rows])
 
 
 
@@ -529,7 +534,7 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     emitters = ctx.extra.get("emitters")
     if len(struck) and ctx.extra.get("emissive", False):
         where = surface_at_hits(ctx.geometry, hits.prim[struck], hits.u[struck], hits.v[struck], O[struck],
-                                D[struck], hits.t[struck])
+                                D[struck], hits.t[struck], times=None if hits.time is None else hits.time[struck])
         # (Each material's emission as its light samples see it: head-on, so that both strategies of
         #  MIS weigh the same radiance; a coat tint's change with angle is seen by the camera only.)
         emitted = ctx.materials.emission[where.material]
@@ -541,7 +546,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
                                            D[struck][rows], hits.t[struck][rows],
                                            None if paths is None else graph_.paths_at(paths, struck[rows]),
                                            ctx, None if keys is None else tuple(
-                                               key if np.ndim(key) == 0 else key[struck[rows]] for key in keys))
+                                               key if np.ndim(key) == 0 else key[struck[rows]] for key in keys),
+                                           None if hits.time is None else hits.time[struck][rows])
         if camera is not None and camera[struck].any():
             emitted = np.where((camera[struck] & ctx.geometry.hidden(hits.prim[struck], HOLDOUT))[:, None], 0.0,
                                emitted)
@@ -620,7 +626,7 @@ def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None)
 
 
 def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.ndarray, t: np.ndarray,
-                   paths=None, ctx=None, keys=None) -> np.ndarray:
+                   paths=None, ctx=None, keys=None, times=None) -> np.ndarray:
     """What the surfaces at O + t D on triangles prim (n,) int64 emit back along -D (n, 3) float64, by their
     materials' node graphs (a texture's emission), to rays carrying the paths `paths` (graph.LightPaths of n rows;
     None: a ray other than the camera's with no bounces counted, as the emitters' estimates take it).
@@ -628,12 +634,13 @@ def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.n
     The barycentrics come from the point itself (a light sample's point has no ray hit of its own), as in the
     C twin (direct.c graph_emission). ctx, keys: the context and the (pixel, sample, dimension, min_pdf) of a BSDF
     ray's next vertex, with which its Ambient Occlusion and Bevel nodes trace (Cycles shades the surface a bounce
-    hits in full), or None: they trace nothing (a light sample's emitter, as Cycles)."""
+    hits in full), or None: they trace nothing (a light sample's emitter, as Cycles). times: (n,) the rays' times
+    in the shutter, where a moving emitter is met, or None."""
     if len(prim) == 0:
         return np.zeros((0, 3))
-    V = geometry.triangle_data(prim, smooth=False).corners
+    V = geometry.triangle_data(prim, smooth=False, times=times).corners
     u, v = barycentrics(V, O + t[:, None] * D)
-    where = surface_at_hits(geometry, prim, u, v, O, D, t)
+    where = surface_at_hits(geometry, prim, u, v, O, D, t, times=times)
     paths = graph_.light_paths(len(prim), flags=0) if paths is None else paths
     rays = None if keys is None else shader_rays.for_hits(ctx, where, *keys)
     return materials.shade(where.material, where.N, -D, where, geometry, paths, rays=rays).emission

@@ -122,7 +122,8 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                 int64_t geometry, prim, instance;
                 unflat_prim(ds->geometry, e->prim[ls.emitter], &geometry, &prim, &instance);
                 LightPath emitted = {PATH_EMISSION, bounce, 0, 0, 0, 0};   /* (a light's own shading) */
-                graph_emission(ds, geometry, prim, instance, P, ls.L, ls.distance, &emitted, NULL, ls.color);
+                graph_emission(ds, geometry, prim, instance, P, ls.L, ls.distance, STILL_TIME, &emitted, NULL,
+                               ls.color);
             }
             if (!(ls.strength > 0.0 || ls.strength < 0.0)) continue;
             if (light->max_bounces < 1024 && bounce > light->max_bounces) continue;
@@ -140,7 +141,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                 double origin[1][3], D[1][3], t;
                 LightPath shadow = {PATH_SHADOW, bounce, 0, 0, 0, 0};   /* (Ray Depth: one deeper, as a shadow ray's) */
                 shadow_ray(P, zero, P, 0.0, 0.0, ls.L, ls.distance, ls.position, 1, 0.0, origin[0], D[0], &t);
-                transmit_packet(ds->transmitter, 1, origin, D, &t, &shadow, &blockers, inside, T);
+                transmit_packet(ds->transmitter, 1, origin, D, &t, &STILL_TIME, &shadow, &blockers, inside, T);
                 rays++;
             }
             double p = henyey_greenstein(-wo[0] * ls.L[0] + -wo[1] * ls.L[1] + -wo[2] * ls.L[2], g);
@@ -179,7 +180,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     LightPath scatter = {PATH_VOLUME_SCATTER, bounce + 1, 0, 0, 0, 0};   /* (volume.scatter_paths) */
     FindingRay finding = {P, wi, hit, t, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
                           instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, 0, &scatter, 0, sigma_t, emission, NULL,
-                          inside};
+                          inside, STILL_TIME};            /* (a render with media moves no object) */
     gather_light(ds, &finding, light_L, NULL);
     for (int c = 0; c < 3; c++) L[c] += light_L[c];
     if (!hit || ds->transmitter == NULL) return rays;

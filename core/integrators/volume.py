@@ -439,7 +439,8 @@ def joined(parts: list):
     out = {}
     for key in parts[0]:
         if key == "hits":
-            out[key] = type(parts[0][key])(*(np.concatenate(columns) for columns in zip(*(p[key] for p in parts))))
+            out[key] = type(parts[0][key])(*(None if any(c is None for c in columns) else np.concatenate(columns)
+                                             for columns in zip(*(p[key] for p in parts))))
         else:
             out[key] = np.concatenate([p[key] for p in parts])
     return out
@@ -502,7 +503,8 @@ def multiple_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarra
         arrive = np.flatnonzero(hits.hit & (carry != 0.0).any(axis=1))
         if len(arrive):
             arrivals.append(dict(origin=origin[arrive], throughput=carry[arrive], O=P[arrive], D=wi[arrive],
-                                 hits=type(hits)(*(np.asarray(x)[arrive] for x in hits)), pdf=onward["pdf"][arrive],
+                                 hits=type(hits)(*(None if x is None else np.asarray(x)[arrive] for x in hits)),
+                                 pdf=onward["pdf"][arrive],
                                  inside=stack[arrive], **{name: value[arrive] for name, value in state.items()}))
         if after is None:
             break

@@ -321,6 +321,10 @@ def from_geometry(geometry, materials, graph_emission) -> Optional[MeshEmitters]
             rows_of.append(geometry.material[prim])
             prims.append(prim)
     for mesh in geometry.instanced:
+        if mesh.motion is not None:
+            # A moving emitter is no light sample's: BSDF rays find it where it is at their time, with MIS weight 1
+            # (Cycles samples it too: the same light, with more noise here).
+            continue
         rows = mesh.material[mesh.material_row]                  # (k, t) each placement's materials
         j, local = np.nonzero(emissive[rows])
         if len(j):

@@ -546,6 +546,7 @@ struct OccludedArgs {
     const float *origins;                   /* (n, 3) */
     const float *directions;                /* (n, 3) */
     const float *t_max;                     /* (n,) */
+    const double *time;                     /* (n,) each ray's time in the shutter (object motion blur), or NULL: 0 */
     uint8_t *blocked;                       /* (n,) */
 };
 
@@ -557,6 +558,7 @@ struct IntersectArgs {
     const double *origins;                  /* (n, 3) */
     const double *directions;               /* (n, 3) */
     const double *t_max;                    /* (n,) */
+    const double *time;                     /* (n,) each ray's time in the shutter (object motion blur), or NULL: 0 */
     double *t;                              /* (n,) inf where missed */
     int64_t *prim;                          /* (n,) -1 where missed */
     int32_t *geometry;                      /* (n,) Embree's geomID, -1 where missed */
@@ -599,6 +601,13 @@ struct InstancedTables {
     int64_t first_prim;                     /* WorldGeometry's flat index of placement 0's triangle 0 */
     const int32_t *owner;                   /* (k,) Scene.instances index per placement */
     const int32_t *attribute_row;           /* (t,) row of GeometryTables.attributes per triangle, or NULL */
+    const double *motion;                   /* (s, MOTION_STRIDE) a moving placement's decomposed transforms over the shutter
+(InstancedMesh.motion), or NULL: still */
+    int64_t motion_steps;                   /* s (0: still) */
+    const float *vertex_steps;              /* (r, v, 3) a deforming mesh's object-space points over the shutter
+(InstancedMesh.vertex_steps), or NULL: rigid */
+    int64_t vertex_step_count;              /* r (0: rigid) */
+    int64_t vertex_count;                   /* v */
 };
 
 /* Every triangle of the scene (core/geometry/tables.py). */
@@ -1037,11 +1046,11 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "UnconvergedArgs") == 0) return UINT64_C(333743641446770115);
     if (strcmp(name, "AddPixelsArgs") == 0) return UINT64_C(5374307677316731809);
     if (strcmp(name, "ResolveArgs") == 0) return UINT64_C(8401302776227392664);
-    if (strcmp(name, "OccludedArgs") == 0) return UINT64_C(2447490079638648240);
-    if (strcmp(name, "IntersectArgs") == 0) return UINT64_C(5192238851033394190);
+    if (strcmp(name, "OccludedArgs") == 0) return UINT64_C(296484575987595059);
+    if (strcmp(name, "IntersectArgs") == 0) return UINT64_C(6440816817218738002);
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
-    if (strcmp(name, "InstancedTables") == 0) return UINT64_C(4852132483397945296);
+    if (strcmp(name, "InstancedTables") == 0) return UINT64_C(8791688880110937372);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(1522061265499507200);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4524182106731721234);

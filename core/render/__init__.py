@@ -40,6 +40,7 @@ from ..camera import motion
 from ..film import adaptive
 from ..film.film import FILM_MAX, ChunkSums, Film, finite_samples, pixel_sums
 from ..geometry import instancing
+from ..geometry import geometry as geometry_
 from ..geometry.geometry import WorldGeometry, build_geometry
 from ..integrators import Cancelled, Context, Recorder, StopFlag, for_render
 from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
@@ -148,8 +149,13 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # Camera-relative rendering: subtract the camera position in float64 before float32.
     origin = (np.asarray(scene.camera.matrix_world, np.float64)[:3, 3] if settings.camera_relative
               else np.zeros(3))
+    blur_because = object_blur_reason(scene, settings) if scene.camera.shutter is not None else "no motion blur"
+    if blur_because not in ("", "no object moves", "no motion blur"):
+        warnings.append("motion blur: the moving objects are rendered still where they are at the frame "
+                        f"({blur_because})")
     if geometry is None:
-        geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing))
+        geometry = build_geometry(scene, origin, instancing.instance_triangles(settings.instancing),
+                                  motion_blur=not blur_because)
     warnings.extend(w for w in geometry.warnings if w not in warnings)
     lamps = lights_.usable(scene.lights, warnings)
     lights = [lights_.linking.found_by_bounces(light.moved(geometry.origin)) for light in lamps]
@@ -311,9 +317,10 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
                                        ctx.extra["forward"], ctx.extra["self_hit_distance"])
     integrator = for_render(ctx)
     start = time.perf_counter()
+    moving = {} if not ctx.geometry.tracer.moving else dict(times=rays.time[traced])   # (object motion blur)
     found = integrator.radiance(dataclasses.replace(ctx, settings=s), vectors.gather(rays.origins, traced),
                                 vectors.gather(rays.directions, traced), rays.t_max[traced], pixel[traced],
-                                sample[traced], recorder or Recorder())
+                                sample[traced], recorder or Recorder(), **moving)
     shading_seconds = time.perf_counter() - start
     hit = traced[found.hit]
     rgba[traced, :3] = found.L                   # what each ray brought back (misses: the world, lamps)
@@ -521,6 +528,27 @@ def volume_reason(ctx: Context, warnings: list) -> str:
     if note not in warnings:
         warnings.append(note)
     return reason
+
+
+def object_blur_reason(scene: Scene, settings: RenderSettings) -> str:
+    """Why a render of `scene` with motion blur places its moving and deforming objects (Instance.motion,
+    Instance.deformation) still, or '' where the integrator places them at each ray's time (every ray of a path, as
+    Cycles: build_geometry's motion_blur)."""
+    if not any(geometry_.moves(instance) or geometry_.deforms(instance, scene.meshes[instance.mesh])
+               for instance in scene.instances):
+        return "no object moves"
+    if settings.integrator not in ("path", "direct"):
+        return f"the {settings.integrator} integrator does not carry the rays' times"
+    world = scene.the_world()
+    if any(getattr(m, "volume", None) for m in scene.materials) or getattr(world, "volume", None):
+        return "volumes do not carry the rays' times"
+    if walks_subsurface(scene):
+        return "subsurface walks do not carry the rays' times"
+    if any(instance.is_shadow_catcher for instance in scene.instances):
+        return "shadow catchers do not carry the rays' times"
+    if settings.aux:
+        return "debug buffers do not carry the rays' times"
+    return ""
 
 
 def walks_subsurface(scene: Scene) -> bool:

@@ -99,6 +99,12 @@ class Instance:
     dupli_generated, dupli_uv: an instance's Generated (3,) and UV (2,) From Instancer (the Texture Coordinate node):
                the point of its instancer it was placed at (Cycles' dupli_generated, 0.5 orco - 0.5, and dupli_uv);
                None: (0, 0, 0), (0, 0), as for an object that is no instance
+    motion:    its object-to-world matrices (4, 4) at s >= 2 evenly spaced times over the shutter (Cycles' object
+               motion steps, open to close), when it moves over it; () still. A moving instance is traced as an Embree
+               instance of its own placed at each ray's time (core/geometry/geometry.py build_geometry).
+    deformation: its mesh's object-space vertex positions (v, 3) at s >= 2 evenly spaced times over the shutter
+               (Cycles' deformation motion: the same vertices, moved by modifiers or shape keys), when they move;
+               () rigid. Traced as an instance of its own whose vertices Embree interpolates at each ray's time.
     """
 
     mesh: int
@@ -125,6 +131,8 @@ class Instance:
     attributes: Optional[dict] = None
     dupli_generated: Optional[tuple] = None
     dupli_uv: Optional[tuple] = None
+    motion: tuple = ()
+    deformation: tuple = ()
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).

@@ -105,9 +105,9 @@ static void camera_media(const MediaTables *media, const GeometryTables *geometr
         clear_hits(&packet);
         intersect(valid, scene, &packet, NULL);
         if (packet.hit.geomID[0] == INVALID_ID) return;
-        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0};
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
         hit_triangle(geometry, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
-                     instance_of(&packet.hit, 0), 0, &tri);
+                     instance_of(&packet.hit, 0), 0, STILL_TIME, &tri);   /* (a render with media moves no object) */
         Surface s;
         surface_at(P, D, (double)packet.ray.tfar[0], (double)packet.hit.u[0], (double)packet.hit.v[0], &tri, 0, &s);
         /* b. A front face entered; a back face left if entered on the way, else a medium the ray started in. */
