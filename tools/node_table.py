@@ -69,10 +69,13 @@ FAMILIES = {
                 "inputs keep their defaults; 1 sample per pixel, 1-pixel box filter",
     "Converters": "an emitting plane per cell, orthographic camera from above; every float input reads the snapped "
                   "Generated x or y (-2..2; a Fac or Factor reads (x + 2) / 4), a vector input (x, y, 0.375), a "
-                  "colour ((x + 2) / 4, (y + 2) / 4, 0.6); 1 sample per pixel, 1-pixel box filter",
+                  "colour ((x + 2) / 4, (y + 2) / 4, 0.6) (a node's second vector or colour input (y, x, -0.625) or "
+                  "((y + 2) / 4, (x + 2) / 4, 0.3)); a Wavelength reads 380..780 nm, a Temperature 800..12800 K "
+                  "across x; 1 sample per pixel, 1-pixel box filter",
     "Colour": "as Converters",
     "Vector": "as Converters",
-    "Geometry and camera inputs": "an emitting smooth UV sphere (radius 0.4, 32 x 16 segments, UV map) per cell under "
+    "Geometry and camera inputs": "an emitting smooth UV sphere (radius 0.4, 32 x 16 segments, UV map, a colour attribute Col "
+                                  "(the Attribute node reads it by name)) per cell under "
                                   "a perspective camera 24 units above the grid; inputs at their defaults; pixel "
                                   "filter Gaussian 0.01 px (each pixel sampled at its centre), 64 samples",
     "Shaders": "a smooth UV sphere per cell, the shader at its Surface output (volume shaders at its Volume output), "
@@ -205,6 +208,8 @@ def variants(idname: str, node) -> list:
     found = [(f"default, {o}" if len(outputs) > 1 else "default", {}, o) for o in outputs] or [("default", {}, None)]
     if not outputs:
         return found
+    if idname == "ShaderNodeAttribute":             # a name no mesh holds
+        found += [(f"no such attribute, {o}", {"attribute_name": "missing"}, o) for o in ("Color", "Alpha")]
     if combined is not None:
         return found[:1] + [(label, settings, None) for label, settings in combined]
     for prop, items in enum_settings(node):
@@ -239,6 +244,8 @@ def prepare(node, idname: str) -> None:
                                                                               float_buffer=True)
         image.generated_type = "COLOR_GRID"
         node.image = image
+    if idname == "ShaderNodeAttribute":
+        node.attribute_name = "Col"                 # the spheres' colour attribute (colour_attribute)
     if idname == "ShaderNodeTexPointDensity":
         node.point_source = "OBJECT"
     roughness = node.inputs.get("Roughness")
@@ -276,6 +283,9 @@ def feed_inputs(tree, node, family: str, sources: dict) -> None:
         if socket.type == "VALUE" and socket.name in ("Fac", "Factor"):
             tree.links.new(sources["u"], socket)
             continue
+        if socket.name in ("Wavelength", "Temperature"):  # 380..780 nm; 800..12800 K
+            tree.links.new(sources["nm" if socket.name == "Wavelength" else "kelvin"], socket)
+            continue
         first = counts[socket.type] % 2 == 0
         counts[socket.type] += 1
         name = {"VALUE": ("x", "y"), "VECTOR": ("vector", "vector2"), "RGBA": ("colour", "colour2")}[socket.type]
@@ -311,6 +321,12 @@ def plane_sources(tree) -> dict:
     tree.links.new(y, vector2.inputs["X"])
     tree.links.new(x, vector2.inputs["Y"])
     sources["vector2"] = vector2.outputs[0]
+    for name, scale, offset in (("nm", 400.0, 380.0), ("kelvin", 12000.0, 800.0)):
+        math_node = tree.nodes.new("ShaderNodeMath")
+        math_node.operation = "MULTIPLY_ADD"
+        math_node.inputs[1].default_value, math_node.inputs[2].default_value = scale, offset
+        tree.links.new(units[0], math_node.inputs[0])
+        sources[name] = math_node.outputs[0]
     return sources
 
 
@@ -342,10 +358,21 @@ def build_case(index: int, family: str, idname: str, settings: dict, output) -> 
     else:
         bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=0.4, location=location)
         bpy.ops.object.shade_smooth()
+        colour_attribute(bpy.context.view_layer.objects.active.data)
     obj = bpy.context.view_layer.objects.active
     obj.name = obj.data.name = name
     obj.data.materials.append(material)
     return name, socket is not None
+
+
+def colour_attribute(mesh) -> None:
+    """Give `mesh` an active per-corner colour attribute "Col" varying over it: (|x|, |y|, |z|) / 0.4 of the
+    corner's vertex, alpha 0.25 + |z| (for the Attribute and Color Attribute nodes)."""
+    attribute = mesh.color_attributes.new("Col", "FLOAT_COLOR", "CORNER")
+    mesh.color_attributes.active_color = attribute
+    points = np.array([mesh.vertices[loop.vertex_index].co[:] for loop in mesh.loops])
+    colours = np.concatenate([np.abs(points) / 0.4, 0.25 + np.abs(points[:, 2:])], axis=1)
+    attribute.data.foreach_set("color", colours.astype(np.float32).ravel())
 
 
 def setup_camera_and_light(scene, family: str, rows: int) -> int:
