@@ -79,7 +79,8 @@ FAMILIES = {
                                   "a perspective camera 24 units above the grid; inputs at their defaults; pixel "
                                   "filter Gaussian 0.01 px (each pixel sampled at its centre), 64 samples",
     "Shaders": "a smooth UV sphere per cell, the shader at its Surface output (volume shaders at its Volume output), "
-               "lit by a sun (strength 3, angle 0) in a black world, direct light only (max bounces 0); perspective "
+               "lit by a sun (strength 3, angle 0) in a black world, direct light only (max bounces 0); the spheres are "
+               "hidden from diffuse, glossy and transmission rays (no light from an emitting neighbour); perspective "
                "camera as for the geometry inputs; pixel filter Gaussian 0.01 px, 64 samples",
 }
 FAMILY_ORDER = list(FAMILIES)
@@ -359,6 +360,9 @@ def build_case(index: int, family: str, idname: str, settings: dict, output) -> 
         bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=0.4, location=location)
         bpy.ops.object.shade_smooth()
         colour_attribute(bpy.context.view_layer.objects.active.data)
+        if family == "Shaders":                     # no light from an emitting neighbour (Emission, Background)
+            sphere = bpy.context.view_layer.objects.active
+            sphere.visible_diffuse = sphere.visible_glossy = sphere.visible_transmission = False
     obj = bpy.context.view_layer.objects.active
     obj.name = obj.data.name = name
     obj.data.materials.append(material)
