@@ -240,8 +240,8 @@ def prepare(node, idname: str) -> None:
         middle = ramp.elements.new(0.4)
         middle.color = (0.2, 0.9, 0.3, 1.0)
     if idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
-        # 50 x 40 texels: no snapped coordinate falls on a texel's edge (where Closest may round either way)
-        image = bpy.data.images.get("node table grid") or bpy.data.images.new("node table grid", 50, 40,
+        # 50 x 45 texels: no snapped coordinate falls on a texel's edge (where Closest may round either way)
+        image = bpy.data.images.get("node table grid") or bpy.data.images.new("node table grid", 50, 45,
                                                                               float_buffer=True)
         image.generated_type = "COLOR_GRID"
         node.image = image
