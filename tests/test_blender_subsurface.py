@@ -2,9 +2,9 @@
 two of a Principled BSDF with Subsurface Weight 1 (Random Walk, Random Walk (Skin)) and one of a Subsurface Scattering
 node (Random Walk, Roughness 0.3), a radius large enough to glow through
 (Subsurface Scale 3 on unit spheres), lit by a sun from behind and a dim world (36 x 12 pixels, path traced with the
-same bounces; Primer 1024 samples on the compiled kernel, Cycles 1024). Today's reader sets up Cycles' BSSRDF closure
-and the path tracer walks it (core/integrators/subsurface.py, subsurface.c); the earlier diffuse approximation missed each
-sphere's mean by 6-16% and had a block relMSE of 9e-3 and 1.8e-2. On bpy 5.2, whose Cycles walks Random Walk with
+same bounces; Primer 1024 samples on the compiled kernel, Cycles 1024). Today's reader sets up Cycles' BSSRDF
+closure and the path tracer walks it (core/integrators/subsurface.py, subsurface.c); the earlier diffuse
+approximation missed each sphere's mean by 6-16% and had a block relMSE of 9e-3 and 1.8e-2. On bpy 5.2, whose Cycles walks Random Walk with
 the radius itself as the mean free path (no 1 / (4 pi)), the add-on asks for that (subsurface.method_of)."""
 from __future__ import annotations
 

@@ -82,7 +82,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("roulette_from", I32, "the first vertex Russian roulette may end"),
     ("transparent_bounces", I32, "a path's limit of transparent bounces"),
     ("see_through", I32, "1: some material lets light through (Transparent, alpha)"),
-    ("walks", I32, "1: some material walks subsurface scattering (the direct tracer is the path tracer with no bounces)"),
+    ("walks", I32, "1: some material walks subsurface scattering (direct: the path tracer with no bounces)"),
     ("caustics", I32, "FILTER_* bits after a diffuse bounce (path.caustics_bits)"),
     ("clamp_direct", F64, "sample clamping's caps (clamp.limits; inf: none)"),
     ("clamp_indirect", F64, ""),

@@ -665,7 +665,7 @@ struct ChunkParams {
     int32_t roulette_from;                  /* the first vertex Russian roulette may end */
     int32_t transparent_bounces;            /* a path's limit of transparent bounces */
     int32_t see_through;                    /* 1: some material lets light through (Transparent, alpha) */
-    int32_t walks;                          /* 1: some material walks subsurface scattering (the direct tracer is the path tracer with no bounces) */
+    int32_t walks;                          /* 1: some material walks subsurface scattering (direct: the path tracer with no bounces) */
     int32_t caustics;                       /* FILTER_* bits after a diffuse bounce (path.caustics_bits) */
     double clamp_direct;                    /* sample clamping's caps (clamp.limits; inf: none) */
     double clamp_indirect;
