@@ -180,7 +180,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         ds.everywhere = 1;
         return scattering_rays + trace_paths(H, &ds, &limits, work, embree);
     case INTEGRATOR_DIRECT:
-        if (params->see_through != 0.0) {
+        if (params->see_through != 0.0 || params->walks != 0.0) {   /* (integrators.for_render) */
             ds.everywhere = 1;
             return scattering_rays + trace_paths(H, &ds, &clear_only, work, embree);
         }
@@ -385,8 +385,8 @@ static void render_chunk(const ChunkArgs *a)
     const ChunkParams *alone = out->catcher != NULL ? (const ChunkParams *)params->catcher : NULL;
     int catching = alone != NULL;
     uint8_t caught[BLOCK];
-    if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || light_passes || features
-        || catching) {
+    if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || params->walks != 0.0 || light_passes
+        || features || catching) {
         work = (PathWork *)malloc(sizeof(PathWork));
         if (work == NULL) { free(group_storage); free_passes(passes); return; }   /* (the caller finds no samples counted) */
         work->a.groups = work_groups(&group_storage, G, 1);
@@ -511,7 +511,8 @@ static void render_chunk(const ChunkArgs *a)
                 /* (a path that met a catcher writes no light groups and no light passes, as in Cycles: catcher.py) */
                 if (!caught[lane])
                     for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
-                if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0)) {
+                if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0
+                                     || params->walks != 0.0)) {
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];
                     if (!caught[lane])
                         for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->groups[3 * G * lane + i];

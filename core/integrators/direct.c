@@ -34,6 +34,7 @@ typedef struct {
     double mis_n[3 * BLOCK];                     /* MIS measures the light pdfs (direct.BsdfRay.mis_O, mis_N) */
     uint64_t mis_receiver[BLOCK];                /* and the light set of its object (Cycles' mis_ray_object) */
     uint8_t after_diffuse[BLOCK];                /* 1: that bounce was diffuse (the caustics switches) */
+    uint8_t exiting[BLOCK];                      /* 1: it is a subsurface walk's exit (path.c; subsurface.c) */
     int32_t seen_by[BLOCK];                      /* the kind of ray that reached it (HIDDEN_FROM_*, direct.ray_kind) */
     double held[BLOCK];                          /* per camera lane: the alpha holdouts take away (path.hold_out) */
     /* The light passes (lightpasses.c), where asked for: what a first hit gathers split by pass kind (not its
@@ -111,6 +112,7 @@ typedef struct {
     double weight[3];                            /* f cos / pdf of the sampled closures */
     int kind;                                    /* the sampled closure's BSDF kind */
     int transmit;                                /* 1: it went through the surface */
+    int walked;                                  /* 1: a subsurface walk's ray to its exit (subsurface.c) */
     double pdf;                                  /* the pdf MIS weighs what it finds with (inf: none) */
     double mis_O[3], mis_N[3];                   /* where MIS measures the light pdfs from (the last real bounce) */
     int seen_as;                                 /* its kind: the HIDDEN_FROM_* bit of objects it passes */
@@ -183,6 +185,7 @@ INLINE int ray_kind(int kind, int transmit, int previous)
 INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular)
 {
     if (bsdf_is(kind, BSDF_FLAG_STRAIGHT)) { p.transparent++; return p; }
+    if (bsdf_is(kind, BSDF_FLAG_SUBSURFACE)) { p.flags &= ~PATH_CAMERA; return p; }
     int through = goes_through(kind, transmit), diffuse = bsdf_is(kind, BSDF_FLAG_DIFFUSE);
     singular = singular || bsdf_is(kind, BSDF_FLAG_SINGULAR);
     p.bounce++;
@@ -1013,6 +1016,23 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     }
 }
 
+/* direct.bsdf_ray's subsurface walk from hit h of H along the BSSRDF sample s (its closure, s->slot): the walk's
+ * exit (none where the direction was not below the face), and the ray O, D (3 each) that reaches it from outside,
+ * from beyond the exit back along the walk's last step (subsurface.exit_ray). */
+NOINLINE static void walk_from(const BlockHits *H, int64_t h, const DirectSettings *ds, const ShaderRays *traced,
+                               const ClosureSample *s, WalkExit *walk, double *O, double *D)
+{
+    const Surface *sf = H->s + h;
+    walk->exits = 0;
+    for (int c = 0; c < 3; c++) walk->weight[c] = O[c] = D[c] = 0.0;
+    walk->t = 0.0;
+    if (!(dot3(sf->Ng, s->wi) < 0.0)) return;           /* (an entry above Ng fails, as Cycles') */
+    subsurface_walk(traced, sf, H->geometry[h], H->prim[h], H->instance[h], H->sd[h].c + s->slot, s->wi, s->weight,
+                    H->throughput + 3 * h, H->pixel[h], H->sample[h], ds->dimension, walk);
+    double back = at_least(walk->t, 1e-6);
+    for (int c = 0; c < 3; c++) { O[c] = walk->P[c] + walk->D[c] * back; D[c] = -walk->D[c]; }
+}
+
 /* The light one direction sampled from each hit's closures finds (direct.bsdf_ray): a lamp with extent
  * in front of what the ray hits, an emissive surface it hits, or the world it escapes to, weighed by
  * MIS against that light's own samples (1 for a constant world); added to H->L. Returns Embree's ticks. */
@@ -1066,9 +1086,28 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
         embree += ticks() - start;
         for (int k = 0; k < lanes; k++) {
             const ClosureSample *s = sampled + k;
-            const double *O = origin[k], *D = s->wi;
+            const double *O = origin[k], *D = s->wi, *weight = s->weight;
             int hit = packet.hit.geomID[k] != INVALID_ID;
             double t_limit = hit ? (double)packet.ray.tfar[k] : INFINITY;
+            double hit_u = (double)packet.hit.u[k], hit_v = (double)packet.hit.v[k];
+            int64_t hit_geometry = (int64_t)packet.hit.geomID[k], hit_prim = (int64_t)packet.hit.primID[k];
+            int64_t hit_instance = instance_of(&packet.hit, k);
+            /* Into a BSSRDF: a walk inside the mesh, and a ray that reaches its exit from outside instead of the one
+             * traced (direct.bsdf_ray, subsurface.exit_ray). */
+            int walked = bsdf_is(s->kind, BSDF_FLAG_SUBSURFACE);
+            WalkExit walk;
+            double exit_O[3], exit_D[3];
+            if (walked) {
+                walk_from(H, owner[k], ds, &traced, s, &walk, exit_O, exit_D);
+                O = exit_O;
+                D = exit_D;
+                weight = walk.weight;
+                hit = walk.exits;
+                t_limit = hit ? at_least(walk.t, 1e-6) : INFINITY;
+                hit_u = walk.u; hit_v = walk.v;
+                hit_geometry = walk.geometry; hit_prim = walk.prim; hit_instance = walk.instance;
+                kinds[k] = H->seen_by[owner[k]];
+            }
             double pdf_b = s->delta ? INFINITY : s->pdf;
             int use_mis = ds->mis && !s->delta;
             /* The light-tree normal as its light samples had it (zero: unknown), and where MIS measures from. */
@@ -1090,15 +1129,16 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
              * hit (direct.bsdf_ray's media_beyond). */
             VolumeStack inside;
             double sigma[3] = {0.0, 0.0, 0.0}, emission[3] = {0.0, 0.0, 0.0}, attenuation[3] = {1.0, 1.0, 1.0};
+            int transmit = !walked && dot3(H->s[owner[k]].Ng, D) < 0.0;
             if (ds->media != NULL) {
                 const Surface *sf = H->s + owner[k];
                 inside = H->inside[owner[k]];
-                stack_cross(ds->media, &inside, sf->material, sf->backfacing,
-                            goes_through(s->kind, dot3(sf->Ng, D) < 0.0));
+                stack_cross(ds->media, &inside, sf->material, sf->backfacing, goes_through(s->kind, transmit));
                 medium_along(ds->media, &inside, sigma, emission);
                 March march;                    /* (through a heterogeneous medium: its march, field.c) */
-                stretch_transmittance(stretch_march(ds->media, &inside, O, D, t_limit, sigma, emission, &march), sigma,
-                                      t_limit, attenuation);
+                if (!walked)                    /* (the walk's ray is no ray through the medium outside) */
+                    stretch_transmittance(stretch_march(ds->media, &inside, O, D, t_limit, sigma, emission, &march),
+                                          sigma, t_limit, attenuation);
             }
             if (first)
                 sample_shares(H->sd + owner[k], H->wo + 3 * owner[k], s, dot3(H->s[owner[k]].Ng, D) < 0.0, shares);
@@ -1107,19 +1147,20 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
                 r->h = owner[k];
                 r->hit = hit;
                 r->t = t_limit;
-                r->u = (double)packet.hit.u[k];
-                r->v = (double)packet.hit.v[k];
-                r->geometry = (int64_t)packet.hit.geomID[k];
-                r->prim = (int64_t)packet.hit.primID[k];
-                r->instance = instance_of(&packet.hit, k);
+                r->u = hit_u;
+                r->v = hit_v;
+                r->geometry = hit_geometry;
+                r->prim = hit_prim;
+                r->instance = hit_instance;
                 r->time = H->s[owner[k]].time;
                 r->kind = s->kind;
-                r->transmit = dot3(H->s[owner[k]].Ng, D) < 0.0;
+                r->walked = walked;
+                r->transmit = transmit;
                 r->pdf = pdf_b;
                 r->seen_as = kinds[k];
                 r->path = after[k];
                 r->receiver = receiver;
-                for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = s->weight[c]; }
+                for (int c = 0; c < 3; c++) { r->O[c] = O[c]; r->D[c] = D[c]; r->weight[c] = weight[c]; }
                 for (int c = 0; c < 3; c++) { r->mis_O[c] = P[c]; r->mis_N[c] = N != NULL ? N[c] : 0.0; }
                 for (int c = 0; c < 3; c++) r->attenuation[c] = attenuation[c];
                 if (ds->media != NULL) r->inside = inside;
@@ -1129,7 +1170,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             }
             if (ds->passes != NULL && H->bounce[owner[k]] == 0 && bsdf_is(s->kind, BSDF_FLAG_STRAIGHT))
                 passes_straight_on(ds->passes, ds, H, owner[k], s->weight, O, D, hit, t_limit);
-            if (!ds->gather) continue;
+            if (!ds->gather || walked) continue;     /* (a walk's exit gathers at the next vertex) */
             double groups_L[3 * MAX_LIGHT_GROUPS];
             for (int64_t i = 0; i < 3 * ds->groups; i++) groups_L[i] = 0.0;
             /* (the surface it hits is the next vertex: its Ambient Occlusion and Bevel nodes trace with its keys) */

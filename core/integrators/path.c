@@ -150,7 +150,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
             carried[c] = H->throughput[3 * h + c] * r->weight[c];
             tp[c] = H->throughput[3 * h + c] * (r->weight[c] * r->attenuation[c]);
         }
-        if (bounces >= limits->roulette_from && !see_through) {
+        if (bounces >= limits->roulette_from && !see_through && !r->walked) {   /* (a walk plays none) */
             double largest = at_least(fabs(carried[0]), at_least(fabs(carried[1]), fabs(carried[2])));
             double q = at_most(sqrt(largest), 1.0), u[2];
             sample_2d(roulette, H->pixel[h], H->sample[h], u);
@@ -176,8 +176,9 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         if (next->groups != NULL)
             for (int64_t i = 0; i < 3 * next->group_count; i++) next->groups[3 * m * next->group_count + i] = 0.0;
         hit_closures(next, m);
-        /* A transparent bounce keeps the kind of the last real one; after a diffuse one, the caustics filter. */
-        int after_diffuse = see_through ? H->after_diffuse[h] : is_labelled_diffuse(r->kind);
+        /* A transparent bounce (and a walk) keeps the kind of the last real one; after a diffuse one, the caustics
+         * filter. */
+        int after_diffuse = see_through || r->walked ? H->after_diffuse[h] : is_labelled_diffuse(r->kind);
         next->after_diffuse[m] = (uint8_t)after_diffuse;
         next->sd[m].caustics = after_diffuse ? ds->caustics : 0;
         /* (Cycles' min_ray_pdf: the smallest pdf of the path's real bounces; the Bevel node reads it) */
@@ -186,6 +187,9 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
                            next->min_pdf[m] < BEVEL_MIN_PDF};
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
                   r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, &keys, next->sd + m);
+        /* A walk's exit is lit as a white Lambert surface (subsurface.c walk_exit_shader). */
+        next->exiting[m] = (uint8_t)r->walked;
+        if (r->walked) walk_exit_shader(next->sd + m);
         next->flags[m] = r->path.flags;             /* (through clear surfaces: still the camera's) */
         next->seen_by[m] = r->seen_as;
         if (bounces == 0) {
@@ -267,6 +271,7 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         H->mis_receiver[h] = 0;                   /* (the camera's: it sees every emitter) */
         for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;
+        H->exiting[h] = 0;
         H->looking[h] = 1;
         H->feature_tp[3 * h] = H->feature_tp[3 * h + 1] = H->feature_tp[3 * h + 2] = 1.0;
         if (ds->light_passes)
@@ -281,7 +286,8 @@ INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *l
         if (ds->light_passes) clear_parts(current);
         if (ds->passes != NULL)                     /* (the vertices of camera chains: no real bounce yet; passes.c) */
             for (int64_t h = 0; h < current->m; h++)
-                if (current->bounce[h] == 0) passes_at_vertex(ds->passes, ds, current, h, vertex);
+                if (current->bounce[h] == 0 && !current->exiting[h])   /* (a walk's exit is no camera chain's) */
+                    passes_at_vertex(ds->passes, ds, current, h, vertex);
         if (ds->features) {                         /* (the emission seen here, the feature vertex: features.c) */
             features_at_vertex(current, work->features);
             for (int64_t i = 0; i < 3 * current->m; i++) current->found[i] = 0.0;

@@ -18,6 +18,9 @@ homogeneous medium per colour channel:
 
 The path then goes on from the exit as if a ray from outside had hit it there (vertex.bsdf_ray): a white Lambert
 closure with the exit's shading normal (subsurface_shader), lit by light samples and bouncing diffusely.
+
+The compiled twin is core/integrators/subsurface.c (subsurface_walk, one path at a time, with the same sampling
+dimensions: the two kernels agree to float32 rounding).
 """
 from __future__ import annotations
 

@@ -6,30 +6,7 @@
  * drawn by equi-angular sampling gathers that lamp's light; the two points are weighed by the balance heuristic on
  * their densities of the distance. The same sampling dimensions as the Python, so the kernels agree to rounding. */
 
-/* phase.henyey_greenstein: (1 - g^2) / (4 pi (1 + g^2 - 2 g cos theta)^1.5). */
-INLINE double henyey_greenstein(double cos_theta, double g)
-{
-    double denom = 1.0 + g * g - 2.0 * g * cos_theta;
-    return (1.0 - g * g) / (4.0 * PI * denom * sqrt(denom));
-}
-
-/* HenyeyGreenstein.sample: a direction wi (3) for a viewer along wo (3) from numbers u (2), its pdf returned. */
-INLINE double sample_henyey_greenstein(const double *wo, double g, const double *u, double *wi)
-{
-    double cos_theta;
-    if (fabs(g) < 1e-3) cos_theta = 1.0 - 2.0 * u[0];
-    else {
-        double s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u[0]);
-        cos_theta = (1.0 + g * g - s * s) / (2.0 * g);
-    }
-    cos_theta = cos_theta < -1.0 ? -1.0 : (cos_theta > 1.0 ? 1.0 : cos_theta);
-    double sin_theta = sqrt(at_least(1.0 - cos_theta * cos_theta, 0.0)), phi = 2.0 * PI * u[1];
-    double axis[3] = {-wo[0], -wo[1], -wo[2]}, T[3], B[3];
-    orthonormal_frame(axis, T, B);
-    double a = sin_theta * cos(phi), b = sin_theta * sin(phi);
-    for (int c = 0; c < 3; c++) wi[c] = (a * T[c] + b * B[c]) + cos_theta * axis[c];
-    return henyey_greenstein(cos_theta, g);
-}
+/* (the Henyey-Greenstein phase function: core/volumes/phase.c) */
 
 /* volume.channel_odds: the chance (3) free flight picks each channel, by |throughput| x albedo. */
 INLINE void channel_odds(const double *sigma_t, const double *sigma_s, const double *throughput, double *odds)
@@ -346,7 +323,7 @@ static int64_t bounce_scattering(const BlockHits *H, const PathRays *rays, int v
         /* b. Russian roulette, from the throughput before the media. */
         double carried[3], q = 1.0;
         for (int c = 0; c < 3; c++) carried[c] = H->throughput[3 * h + c] * r->weight[c];
-        if (bounces >= limits->roulette_from && !see_through) {
+        if (bounces >= limits->roulette_from && !see_through && !r->walked) {     /* (a walk plays none) */
             double largest = at_least(fabs(carried[0]), at_least(fabs(carried[1]), fabs(carried[2]))), u[2];
             q = at_most(sqrt(largest), 1.0);
             sample_2d(roulette, H->pixel[h], H->sample[h], u);

@@ -108,6 +108,7 @@ typedef struct {
     double pdf;             /* inf for a delta closure, 0 where nothing was sampled */
     int delta;
     int kind;               /* the sampled closure's BSDF kind (-1 where none): a path counts bounces by it */
+    int slot;               /* which of the hit's closures was sampled (a BSSRDF's walk reads its parameters) */
 } ClosureSample;
 
 /* closures.sample_closures for one hit: pick a closure by sampling weight, sample it; unless a delta,
@@ -123,6 +124,7 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
     }
     out->delta = 0;
     out->kind = -1;
+    out->slot = chosen;
     out->pdf = 0.0;
     out->weight[0] = out->weight[1] = out->weight[2] = 0.0;
     out->wi[0] = out->wi[1] = out->wi[2] = 0.0;

@@ -62,6 +62,38 @@ INLINE void closure_add(ShaderResult *sd, int kind, const double *weight, const 
     sd->n++;
 }
 
+/* subsurface.add_subsurface: Cycles' BSSRDF closure of `weight` (bssrdf_setup) on the node's glossy normal, radius
+   (3) the node's radius x scale, the clamped colour `albedo` (3), anisotropy, ior (clamped to 0..0.9 and 1.01..3.8),
+   the entry's GGX alpha, the Subsurface Method number `method`; channels with too small a radius go to a Lambert
+   closure first. Its sampling weight: |mean weight| x the channels it walks. */
+NOINLINE static void subsurface_add(ShaderResult *sd, const double *weight, const double *radius, const double *albedo,
+                                    double anisotropy, double ior, double alpha, double method)
+{
+    double w[3], diffuse[3], kept[3], v[STORAGE_STRIDE] = {0.0}, saved[3] = {sd->N[0], sd->N[1], sd->N[2]};
+    int channels = 0, skin = method == RANDOM_WALK_SKIN, mfp = method == RANDOM_WALK_MFP;
+    int on = fabs((weight[0] + weight[1] + weight[2]) / 3.0) >= WEIGHT_CUTOFF;
+    ior = ior < 1.01 ? 1.01 : (ior > 3.8 ? 3.8 : ior);
+    for (int j = 0; j < 3; j++) {
+        double r = at_least(radius[j], 0.0);
+        int small = r < SUBSURFACE_MIN_RADIUS;
+        w[j] = on ? weight[j] : 0.0;
+        diffuse[j] = small ? w[j] : 0.0;
+        kept[j] = small ? 0.0 : w[j];
+        channels += !small;
+        v[SUBSURFACE_RADIUS + j] = small ? 0.0 : scaled_radius(r, albedo[j], ior, skin, mfp);
+        v[SUBSURFACE_ALBEDO + j] = albedo[j];
+    }
+    v[SUBSURFACE_ANISOTROPY] = anisotropy < 0.0 ? 0.0 : (anisotropy > 0.9 ? 0.9 : anisotropy);
+    v[SUBSURFACE_IOR] = ior;
+    v[SUBSURFACE_ALPHA] = skin ? 1.0 : alpha;
+    v[SUBSURFACE_SKIN] = skin;
+    v[SUBSURFACE_BUMP] = sd->glossy != NULL;     /* (the node's own Normal input: a linked one) */
+    if (sd->glossy != NULL) for (int j = 0; j < 3; j++) sd->N[j] = sd->glossy[j];
+    closure_add(sd, BSDF_LAMBERT, diffuse, diffuse, 1.0, NULL);
+    if (channels > 0) closure_add(sd, BSDF_SUBSURFACE, kept, kept, (double)channels, v);
+    for (int j = 0; j < 3; j++) sd->N[j] = saved[j];
+}
+
 /* nodes.layering_weight: what a layer with `albedo` leaves of `weight` for the layers below. */
 INLINE void layering_weight(const double *albedo, double *weight)
 {
@@ -431,9 +463,16 @@ INLINE void principled_node(ShaderResult *sd, double mu, const double *wo, int b
         for (int j = 0; j < 3; j++) albedo[j] = specular_weight[j] * reflect[j];
         layering_weight(albedo, W);
     }
-    /* 7. Diffuse, Oren-Nayar's with Diffuse Roughness. */
+    /* 7. Subsurface (a BSSRDF of the clamped colour, subsurface_add), then the diffuse, Oren-Nayar's with Diffuse
+     *    Roughness. */
+    if (subsurface > WEIGHT_CUTOFF) {
+        double walk_weight[3], radius[3];
+        for (int j = 0; j < 3; j++) { walk_weight[j] = W[j] * clamped[j] * subsurface; radius[j] = p[40 + j] * p[43]; }
+        subsurface_add(sd, walk_weight, radius, clamped, p[45], p[46] == RANDOM_WALK_SKIN ? p[44] : eta,
+                       roughness * roughness, p[46]);
+    }
     double diffuse[3];
-    for (int j = 0; j < 3; j++) diffuse[j] = W[j] * (base[j] * (1.0 - subsurface) + clamped[j] * subsurface);
+    for (int j = 0; j < 3; j++) diffuse[j] = W[j] * base[j] * (1.0 - subsurface);
     diffuse_add(sd, mu, diffuse, clamp01(p[23]), base, WEIGHT_CUTOFF);
 }
 
@@ -543,15 +582,15 @@ INLINE void toon_node(ShaderResult *sd, double mu, const double *wo, int backfac
     closure_add(sd, kind, weight, weight, 1.0, v);
 }
 
-/* subsurface.SubsurfaceNode: never run (a render with a BSSRDF runs the Python reference, which walks it); were it
-   run, its weight x Color would be a Lambert closure, the diffuse look of radius 0. */
+/* subsurface.SubsurfaceNode: one BSSRDF of weight x Color (subsurface_add), radius Radius x Scale, the entry's alpha
+   its Roughness. */
 INLINE void subsurface_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
                             const double *p)
 {
     (void)mu; (void)wo; (void)backfacing;
-    double w[3];
-    for (int k = 0; k < 3; k++) w[k] = weight[k] * p[k];
-    closure_add(sd, BSDF_LAMBERT, w, w, 1.0, NULL);
+    double w[3], radius[3];
+    for (int k = 0; k < 3; k++) { w[k] = weight[k] * p[k]; radius[k] = p[3 + k] * p[6]; }
+    subsurface_add(sd, w, radius, p, p[9], p[7], clamp01(p[8]), p[10]);
 }
 
 /* hair.sigma_from_reflectance for one channel. */

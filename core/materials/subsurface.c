@@ -1,11 +1,49 @@
 /* The BSSRDF closure: core/materials/subsurface.py. No value for a pair of directions; its sample is the direction
    the walk starts along, into the surface: refracted through a GGX normal the viewer sees (Random Walk (Skin): half
-   the time cosine-weighted around -N, else with alpha 1), weight 1 and pdf inf. The compiled kernel does not walk:
-   a render with a subsurface closure runs the Python reference (core/render/__init__.py subsurface_reason). */
+   the time cosine-weighted around -N, else with alpha 1), weight 1 and pdf inf. The walk itself is
+   core/integrators/subsurface.c; the closure's set-up, nodes.c subsurface_add. */
 
-#define SUBSURFACE_IOR 7        /* subsurface.IOR, ALPHA, SKIN: the closure's parameter slots */
+#define SUBSURFACE_RADIUS 0     /* subsurface.RADIUS, ALBEDO, ANISOTROPY, IOR, ALPHA, SKIN, BUMP: the closure's
+                                   parameter slots */
+#define SUBSURFACE_ALBEDO 3
+#define SUBSURFACE_ANISOTROPY 6
+#define SUBSURFACE_IOR 7
 #define SUBSURFACE_ALPHA 8
 #define SUBSURFACE_SKIN 9
+#define SUBSURFACE_BUMP 10
+#define SUBSURFACE_MIN_RADIUS 1e-8   /* subsurface.MIN_RADIUS: radii below it scatter as diffuse */
+
+/* subsurface.dipole_Rd: the diffuse reflectance of a dipole of single-scattering albedo alpha'. */
+INLINE double dipole_Rd(double alpha_prime, double fourthird_A)
+{
+    double s = sqrt(3.0 * (1.0 - alpha_prime));
+    return 0.5 * alpha_prime * (1.0 + exp(-fourthird_A * s)) * exp(-s);
+}
+
+/* subsurface.dipole_alpha_prime: the alpha' whose dipole reflects rd (12 bisection steps; 0 below 1e-4, 0.999999
+   from 0.995). */
+INLINE double dipole_alpha_prime(double rd, double fourthird_A)
+{
+    double lo = 0.0, hi = 1.0, mid = 0.5;
+    for (int i = 0; i < 12; i++) {
+        mid = 0.5 * (lo + hi);
+        if (dipole_Rd(mid, fourthird_A) < rd) lo = mid;
+        else hi = mid;
+    }
+    return rd < 1e-4 ? 0.0 : (rd >= 0.995 ? 0.999999 : mid);
+}
+
+/* subsurface.scaled_radius for one channel: the walk's mean free path from the node's radius: x 1 / (4 pi) (Random
+   Walk), the radius itself (mfp: Blender 5.2's Random Walk), or for Skin x sqrt(3 (1 - alpha')) with alpha' the
+   dipole's for the colour and index. */
+INLINE double scaled_radius(double radius, double albedo, double ior, int skin, int mfp)
+{
+    if (!skin) return mfp ? radius : radius * (0.25 / PI);
+    double inv_eta = 1.0 / ior;
+    double F_dr = inv_eta * (-1.440 * inv_eta + 0.710) + 0.668 + 0.0636 * ior;
+    double fourthird_A = (4.0 / 3.0) * (1.0 + F_dr) / (1.0 - F_dr);
+    return radius * sqrt(3.0 * (1.0 - dipole_alpha_prime(albedo, fourthird_A)));
+}
 
 INLINE void subsurface_eval(const Closure *c, const double *wo, const double *wi, double *f_cos, double *pdf)
 {

@@ -32,13 +32,16 @@ from .base import BSDFFlags as F
 from .lambert import Lambert
 from .microfacet import sample_visible_normal
 from .nodes import Node, per_hit_rows
+from ..native import schema
 
 # The closure's parameter slots.
 RADIUS, ALBEDO, ANISOTROPY, IOR, ALPHA, SKIN, BUMP = 0, 3, 6, 7, 8, 9, 10
 # Blender's Subsurface Method (the node's subsurface_method) as the node input's number.
 # RANDOM_WALK_MFP is Random Walk as Blender 5.2's Cycles renders it: the radius is the mean free path itself, not
 # scaled by 1 / (4 pi) (measured: tests/test_blender_subsurface.py on bpy 5.2 matches with it, not without).
-BURLEY, RANDOM_WALK, RANDOM_WALK_SKIN, RANDOM_WALK_MFP = 0.0, 1.0, 2.0, 3.0
+BURLEY, RANDOM_WALK = 0.0, 1.0
+RANDOM_WALK_SKIN = schema.constant("RANDOM_WALK_SKIN", 2.0, "subsurface.RANDOM_WALK_SKIN: the Skin method's number")
+RANDOM_WALK_MFP = schema.constant("RANDOM_WALK_MFP", 3.0, "subsurface.RANDOM_WALK_MFP: Blender 5.2's Random Walk")
 METHODS = {"BURLEY": BURLEY, "RANDOM_WALK": RANDOM_WALK, "RANDOM_WALK_SKIN": RANDOM_WALK_SKIN}
 
 
@@ -161,8 +164,7 @@ class SubsurfaceNode(Node):
     """Subsurface Scattering (Blender's ShaderNodeSubsurfaceScattering, Cycles' BSSRDF closure node): one BSSRDF of
     the node's weight x Color, the colour its albedo (per hit where linked), radius Radius x Scale, IOR, the entry's
     alpha its Roughness (0..1), Anisotropy, and the node's Falloff as `method` (Christensen-Burley walked as Random
-    Walk, warned by the add-on). Its C setup (nodes.c subsurface_node) is never run: such a render runs the
-    Python reference (core/render subsurface_reason)."""
+    Walk, warned by the add-on). Its C setup: nodes.c subsurface_node."""
 
     name = "SUBSURFACE"
     inputs = ("color", "radius", "scale", "ior", "roughness", "anisotropy", "method")

@@ -255,6 +255,10 @@
 #define SKY_AT_HORIZON 16
 #define SKY_AT_XYZ_TO_RGB 17
 #define SKY_AT_PAYLOAD 26
+/* subsurface.RANDOM_WALK_SKIN: the Skin method's number (core.materials.subsurface) */
+#define RANDOM_WALK_SKIN 2.0
+/* subsurface.RANDOM_WALK_MFP: Blender 5.2's Random Walk (core.materials.subsurface) */
+#define RANDOM_WALK_MFP 3.0
 /* an image node's interpolation (INTERPOLATIONS) (core.materials.textures) */
 #define TEX_LINEAR 0
 #define TEX_CLOSEST 1
@@ -690,6 +694,7 @@ struct ChunkParams {
     int32_t roulette_from;                  /* the first vertex Russian roulette may end */
     int32_t transparent_bounces;            /* a path's limit of transparent bounces */
     int32_t see_through;                    /* 1: some material lets light through (Transparent, alpha) */
+    int32_t walks;                          /* 1: some material walks subsurface scattering (direct: the path tracer with no bounces) */
     int32_t caustics;                       /* FILTER_* bits after a diffuse bounce (path.caustics_bits) */
     double clamp_direct;                    /* sample clamping's caps (clamp.limits; inf: none) */
     double clamp_indirect;
@@ -1053,7 +1058,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(8791688880110937372);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(1522061265499507200);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4524182106731721234);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(6505255890517640916);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);

@@ -13,6 +13,7 @@
 #include "../geometry/embree.c"
 #include "../geometry/triangles.c"
 #include "../volumes/media.c"           /* homogeneous media: the volume stack, Beer-Lambert, media emission */
+#include "../volumes/phase.c"           /* the Henyey-Greenstein phase function (volume.c, subsurface.c) */
 #include "../lights/lights.h"
 #include "../lights/lights.c"           /* every light's C file, through the generated table lights.gen.c */
 #include "../materials/bsdf.h"
@@ -30,6 +31,7 @@
 #include "../film/adaptive.c"
 #include "../integrators/shadows.c"
 #include "../integrators/shader_rays.c"  /* the rays Ambient Occlusion and Bevel nodes trace (graph.c calls them) */
+#include "../integrators/subsurface.c"   /* the subsurface random walk inside a mesh (direct.c calls it) */
 #include "../integrators/lightpasses.c"
 #include "../integrators/direct.c"
 #include "../integrators/features.c"

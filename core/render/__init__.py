@@ -564,12 +564,12 @@ def walks_subsurface(scene: Scene) -> bool:
     return False
 
 
-def subsurface_reason(scene: Scene, settings: RenderSettings, warnings: list) -> str:
-    """Why the compiled kernel cannot render `scene` for its subsurface scattering ("" when it can), with the
-    warnings added to `warnings`: it does not walk BSSRDFs, so the render runs the Python reference (whose direct
-    tracer walks them as Cycles does at Max Bounces 0); Whitted's tracer gives them no light."""
+def subsurface_warnings(scene: Scene, settings: RenderSettings, warnings: list) -> None:
+    """Add to `warnings` what the subsurface walk of `scene` leaves out (both kernels walk BSSRDFs the same way,
+    core/integrators/subsurface.py and subsurface.c; the direct tracer as Cycles does at Max Bounces 0): Whitted's
+    tracer gives it no light; a walk's exit keeps its entry's media."""
     if not walks_subsurface(scene):
-        return ""
+        return
     if settings.integrator == "whitted":
         note = ("subsurface: Whitted's tracer does not walk subsurface scattering; the Subsurface Weight's share of "
                 "the surface gets no light (the path and direct tracers walk it, as Cycles)")
@@ -580,13 +580,6 @@ def subsurface_reason(scene: Scene, settings: RenderSettings, warnings: list) ->
                 "for an object inside or holding a volume)")
         if note not in warnings:
             warnings.append(note)
-    if settings.kernels != "compiled":
-        return ""
-    note = ("subsurface: the compiled kernel does not walk subsurface scattering yet, so this render runs the Python "
-            "reference (the same image, slower)")
-    if note not in warnings:
-        warnings.append(note)
-    return "subsurface scattering, which the compiled kernel does not walk yet"
 
 
 def render(scene: Scene, settings: RenderSettings,
@@ -610,8 +603,8 @@ def render(scene: Scene, settings: RenderSettings,
     stats.triangles = geometry.triangle_count
     W, H = settings.width, settings.height
     volumes_because = volume_reason(ctx, stats.warnings)
-    subsurface_because = subsurface_reason(scene, settings, stats.warnings)
-    numpy_because = (why_not(settings) or volumes_because or subsurface_because
+    subsurface_warnings(scene, settings, stats.warnings)
+    numpy_because = (why_not(settings) or volumes_because
                      or ("" if Compiled.applies(ctx) else "Embree's packet queries are unavailable"))
     compiled = Compiled(ctx, ctx.extra["background"]) if not numpy_because else None
     stats.kernels = "compiled" if compiled else f"numpy ({numpy_because})"

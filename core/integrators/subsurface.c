@@ -1,0 +1,245 @@
+/* The subsurface random walk: core/integrators/subsurface.py for one path, inside the mesh a BSSRDF closure's ray
+ * entered (Cycles' Random Walk and Random Walk (Skin); Chiang, Kutz and Burley 2016). A homogeneous medium per colour
+ * channel whose single-scattering albedo makes a half-space reflect the surface colour; steps of free flight in a
+ * channel chosen by the path's weight, directions from Henyey-Greenstein or Dwivedi's guiding, weighed by the
+ * balance heuristic over channels and strategies; the exit is the first step whose ray meets the same object's
+ * surface (shader_rays.c local_hits). The same sampling dimensions as the Python, so the kernels agree to rounding.
+ * direct.c bsdf_rays calls it where a sampled closure is a BSSRDF; path.c lights the exit as a white Lambert. */
+
+/* MAX_STEPS, SIMILARITY_STEPS, MIN_ALPHA, OWN_HITS and THROUGHPUT_EPSILON are subsurface.py's (SUBSURFACE_DIMENSION:
+ * boundary.gen.h). */
+#define WALK_MAX_STEPS 256
+#define WALK_SIMILARITY_STEPS 9
+#define WALK_MIN_ALPHA 0.2
+#define WALK_OWN_HITS 4
+#define WALK_THROUGHPUT_EPSILON 1e-6
+
+/* Where a walk left the mesh (subsurface.walk's returns for one path). */
+typedef struct {
+    int exits;                  /* 1: it met the object's surface; 0: it ran out of steps or weight */
+    int64_t geometry, prim, instance;
+    double u, v;                /* the exit's triangle and barycentrics */
+    double P[3], D[3], t;       /* the exit, the last step's direction and length */
+    double weight[3];           /* the path's weight after the walk (0 where it found no exit) */
+} WalkExit;
+
+/* subsurface.remap's polynomial in g of degree 7 with coefficients c. */
+INLINE double walk_fit(const double *c, double g)
+{
+    double sum = 0.0, power = 1.0;
+    for (int i = 0; i < 8; i++) { sum += c[i] * power; power *= g; }
+    return sum;
+}
+
+/* subsurface.remap for one channel: the single-scattering albedo whose walk reflects `albedo` with anisotropy g. */
+static double walk_remap(double albedo, double g)
+{
+    static const double a[8] = {1.8260523782, -1.28451056436, -1.79904629312, 9.19393289202, -22.8215585862,
+                                32.0234874259, -23.6264803333, 7.21067002658};
+    static const double b[8] = {0.0, 31.1491581433, -201.847017512, 841.576016723, -2018.09288505, 2731.71560286,
+                                -1935.41424244, 559.009054474};
+    static const double c[8] = {1.09686102424, -0.394704063468, 1.05258115941, -8.83963712726, 28.8643230661,
+                                -46.8802913581, 38.5402837518, -12.7181042538};
+    static const double d[8] = {0.496310210422, 0.360146581622, -2.15139309747, 17.8896899217, -55.2984010333,
+                                82.065982243, -58.5106008578, 15.8478295021};
+    static const double e[8] = {0.0, 76.7316253952, -594.356773233, 2448.8834203, -5576.68528998, 7116.60171912,
+                                -4763.54467887, 1303.5318055};
+    static const double f[8] = {2.40602999408, -2.51814844609, 9.18494908356, -79.2191708682, 259.082868209,
+                                -403.613804597, 302.85712436, -87.4370473567};
+    double A = walk_fit(a, g), B = 4.98511194385 + 0.127355959438 * exp(walk_fit(b, g)), C = walk_fit(c, g);
+    double D = walk_fit(d, g), E = 4.23190299701 + 0.00310603949088 * exp(walk_fit(e, g)), F = walk_fit(f, g);
+    double blend = pow(albedo, 0.25);
+    double alpha = (1.0 - blend) * A * pow(atan(B * albedo), C) + blend * D * pow(atan(E * albedo), F);
+    return alpha < 0.0 ? 0.0 : (alpha > 0.999999 ? 0.999999 : alpha);
+}
+
+/* subsurface.flight_pdf for one channel: exp(-sigma t), times sigma unless the flight `exits`. */
+INLINE double walk_flight_pdf(double sigma, double t, int exits)
+{
+    double T = exp(-sigma * t);
+    return exits ? T : sigma * T;
+}
+
+/* subsurface.walk for one path: from the hit s (on geometry, prim, instance) into the mesh along D with the BSSRDF
+ * closure c (its parameters and normal), `weight` (3) the closure's weight into the walk and `carried` (3) what the
+ * path carried to the hit (both choose the colour channels); the keys pixel, sample and the vertex's `dimension`.
+ * Fills out; returns the rays traced. */
+NOINLINE static int64_t subsurface_walk(const ShaderRays *rays, const Surface *s, int64_t geometry, int64_t prim,
+                                        int64_t instance, const Closure *c, const double *D, const double *weight,
+                                        const double *carried, int64_t pixel, int64_t sample, int64_t dimension,
+                                        WalkExit *out)
+{
+    const double *N = c->N, *P0 = s->I;
+    int64_t owner = owner_of(rays->geometry, geometry, prim, instance), traced = 0;
+    double g0 = c->p[SUBSURFACE_ANISOTROPY];
+    /* 1. The medium's coefficients per channel, and Dwivedi's guiding terms from the largest alpha. */
+    double sigma_t0[3], sigma_s0[3], alpha[3], tp[3], sigma_t_star[3], sigma_s_star[3];
+    for (int j = 0; j < 3; j++) {
+        double albedo = c->p[SUBSURFACE_ALBEDO + j];
+        alpha[j] = walk_remap(albedo, g0);
+        sigma_t0[j] = 1.0 / at_least(c->p[SUBSURFACE_RADIUS + j], 1e-16) / (1.0 - g0);
+        tp[j] = albedo != 0.0 ? weight[j] / albedo : 0.0;
+        if (alpha[j] < WALK_MIN_ALPHA) { tp[j] = tp[j] * alpha[j] / WALK_MIN_ALPHA; alpha[j] = WALK_MIN_ALPHA; }
+        sigma_s0[j] = sigma_t0[j] * alpha[j];
+        sigma_s_star[j] = sigma_s0[j] * (1.0 - g0);
+        sigma_t_star[j] = sigma_t0[j] - sigma_s0[j] + sigma_s_star[j];
+    }
+    double top = at_least(alpha[0], at_least(alpha[1], alpha[2]));
+    double length = 1.0 / sqrt(1.0 - pow(top, 2.44294 - 0.0215813 * top + 0.578637 / top));
+    double phase_log = log((length + 1.0) / at_least(length - 1.0, 1e-300));
+    double guided0 = 1.0 - at_least(0.5, pow(fabs(g0), 0.125));
+    double P[3] = {P0[0], P0[1], P0[2]}, Dw[3] = {D[0], D[1], D[2]}, T0[3], B0[3];
+    orthonormal_frame(N, T0, B0);
+    int opposite = 0;
+    double opposite_distance = 0.0;
+    out->exits = 0;
+    out->geometry = out->prim = out->instance = 0;
+    out->u = out->v = out->t = 0.0;
+    int alive = isfinite(length) && length > 1.0;
+    for (int step = 0; step < WALK_MAX_STEPS && alive; step++) {
+        /* 2a. This step's coefficients (isotropic with the similarity relation after SIMILARITY_STEPS). */
+        int late = step > WALK_SIMILARITY_STEPS;
+        const double *sigma_t = late ? sigma_t_star : sigma_t0, *sigma_s = late ? sigma_s_star : sigma_s0;
+        double g = late ? 0.0 : g0, guided_fraction = late ? 0.75 : guided0;
+        int64_t dim = dimension + SUBSURFACE_DIMENSION + 3 * (int64_t)step;
+        double r0[2], r1[2], r2[2];
+        sample_2d(stream_of((int64_t)rays->seed, dim), pixel, sample, r0);
+        sample_2d(stream_of((int64_t)rays->seed, dim + 1), pixel, sample, r1);
+        sample_2d(stream_of((int64_t)rays->seed, dim + 2), pixel, sample, r2);
+        /* 2b. The channel, in proportion to weight x alpha (uniform where that is all 0). */
+        double w[3], channel_pdf[3];
+        for (int j = 0; j < 3; j++) w[j] = fabs(tp[j] * alpha[j] * carried[j]);
+        double total = w[0] + w[1] + w[2];
+        for (int j = 0; j < 3; j++) channel_pdf[j] = total > 0.0 ? w[j] / total : 1.0 / 3.0;
+        double running = 0.0;
+        int channel = 0;
+        for (int j = 0; j < 3; j++) { running += channel_pdf[j]; channel += running <= r0[0]; }
+        channel = channel < 2 ? channel : 2;
+        double sample_sigma = sigma_t[channel];
+        double forward_factor = 0.0, backward_factor = 0.0, forward_stretch = 1.0, backward_stretch = 1.0;
+        double backward_fraction = 0.0;
+        if (step > 0) {
+            /* 2c. The direction: guided (Dwivedi, forward or backward) or from the phase function. */
+            int guided = r1[0] < guided_fraction;
+            double d = length, across[3];
+            for (int j = 0; j < 3; j++) across[j] = P[j] - P0[j];
+            double x = -dot3(across, N);
+            x = at_most(at_least(x, 0.0), opposite_distance);
+            if (opposite) backward_fraction = 1.0 / (1.0 + exp((opposite_distance - 2.0 * x) / d));
+            int backward = opposite && r1[1] < backward_fraction;
+            double cos_guided = d - (d + 1.0) * exp(-r2[0] * phase_log);
+            if (backward) cos_guided = -cos_guided;
+            double sin_guided = sqrt(at_least(1.0 - cos_guided * cos_guided, 0.0)), cos_phi, sin_phi;
+            cos_sin(2.0 * PI * r2[1], &cos_phi, &sin_phi);
+            double guided_D[3], phase_D[3], wo[3] = {-Dw[0], -Dw[1], -Dw[2]};
+            for (int j = 0; j < 3; j++)
+                guided_D[j] = ((sin_guided * cos_phi) * T0[j] + (sin_guided * sin_phi) * B0[j]) + cos_guided * N[j];
+            double phase_pdf = sample_henyey_greenstein(wo, g, r2, phase_D);
+            double hg_pdf = guided ? henyey_greenstein(dot3(Dw, guided_D), g) : phase_pdf;
+            double cos_theta = guided ? cos_guided : dot3(phase_D, N);
+            for (int j = 0; j < 3; j++) Dw[j] = guided ? guided_D[j] : phase_D[j];
+            forward_factor = (1.0 / (2.0 * PI)) / ((d - cos_theta) * phase_log) / hg_pdf;
+            backward_factor = (1.0 / (2.0 * PI)) / ((d + cos_theta) * phase_log) / hg_pdf;
+            forward_stretch = 1.0 - cos_theta / d;
+            backward_stretch = 1.0 + cos_theta / d;
+            if (guided) sample_sigma *= backward ? backward_stretch : forward_stretch;
+        }
+        /* 2d. The distance, and a local ray cast as far (the first step: at least 10 mean free paths, to find an
+         *     opposite side for the backward guiding; from the entry itself, its own triangle left out). */
+        double t = -log(1.0 - r0[1]) / sample_sigma, reach = t;
+        if (step == 0) reach = at_least(t, 10.0 / at_most(sigma_t[0], at_most(sigma_t[1], sigma_t[2])));
+        int64_t hg[WALK_OWN_HITS], hp[WALK_OWN_HITS], hi[WALK_OWN_HITS];
+        double hu[WALK_OWN_HITS], hv[WALK_OWN_HITS], ht[WALK_OWN_HITS];
+        int most = step == 0 ? WALK_OWN_HITS : 1;
+        int64_t count = local_hits(rays, P, Dw, reach, owner, most, hg, hp, hi, hu, hv, ht);
+        traced++;
+        int slot = count > 0 ? 0 : -1;
+        if (step == 0) {                        /* (subsurface.first_other: the nearest on another triangle) */
+            slot = -1;
+            for (int k = 0; k < most && k < count && slot < 0; k++)
+                if (!(hg[k] == geometry && hp[k] == prim && hi[k] == instance)) slot = k;
+        }
+        int met = slot >= 0;
+        double t_hit = met ? ht[slot] : INFINITY;
+        if (step == 0) {
+            opposite = met;
+            if (met) {
+                double far[3];
+                for (int j = 0; j < 3; j++) far[j] = (P[j] + t_hit * Dw[j]) - P0[j];
+                opposite_distance = -dot3(far, N);
+            }
+        }
+        int leaves = met && t_hit < t;
+        if (leaves) t = t_hit;
+        for (int j = 0; j < 3; j++) P[j] = P[j] + t * Dw[j];
+        /* 2e. The weight: each channel's flight over the mixture of channels and strategies. */
+        double denominator = 0.0, gain[3];
+        for (int j = 0; j < 3; j++) {
+            double pdf = walk_flight_pdf(sigma_t[j], t, leaves);
+            if (step > 0) {
+                double ahead = walk_flight_pdf(forward_stretch * sigma_t[j], t, leaves) * forward_factor;
+                if (opposite) {
+                    double back = walk_flight_pdf(backward_stretch * sigma_t[j], t, leaves) * backward_factor;
+                    ahead = ahead * (1.0 - backward_fraction) + back * backward_fraction;
+                }
+                pdf = pdf * (1.0 - guided_fraction) + ahead * guided_fraction;
+            }
+            denominator += channel_pdf[j] * pdf;
+            double T = exp(-sigma_t[j] * t);
+            gain[j] = leaves ? T : sigma_s[j] * T;
+        }
+        for (int j = 0; j < 3; j++) tp[j] *= denominator > 0.0 ? gain[j] / denominator : 0.0;
+        /* 2f. A walk that left: its exit; one too faint: the end. */
+        out->t = t;
+        if (leaves) {
+            out->exits = 1;
+            out->geometry = hg[slot]; out->prim = hp[slot]; out->instance = hi[slot];
+            out->u = hu[slot]; out->v = hv[slot];
+            break;
+        }
+        double largest = at_least(fabs(tp[0]), at_least(fabs(tp[1]), fabs(tp[2])));
+        alive = !(largest < WALK_THROUGHPUT_EPSILON) && isfinite(tp[0]) && isfinite(tp[1]) && isfinite(tp[2]);
+    }
+    for (int j = 0; j < 3; j++) {
+        out->P[j] = P[j];
+        out->D[j] = Dw[j];
+        out->weight[j] = out->exits ? tp[j] : 0.0;
+    }
+    return traced;
+}
+
+/* subsurface.exit_normal for one exit's shader sd: its shading normal, or where a BSSRDF closure there has a linked
+ * Normal (BUMP), the BSSRDF closures' normals weighed by their mean weight, normalised; into N (3). */
+INLINE void walk_exit_normal(const ShaderResult *sd, double *N)
+{
+    double total[3] = {0.0, 0.0, 0.0};
+    int bumped = 0;
+    for (int j = 0; j < 3; j++) N[j] = sd->N[j];
+    for (int k = 0; k < sd->n; k++) {
+        const Closure *c = sd->c + k;
+        if (!bsdf_is(c->kind, BSDF_FLAG_SUBSURFACE)) continue;
+        bumped |= c->p != NULL && c->p[SUBSURFACE_BUMP] != 0.0;
+        double w = fabs((c->weight[0] + c->weight[1] + c->weight[2]) / 3.0);
+        for (int j = 0; j < 3; j++) total[j] += w * c->N[j];
+    }
+    double size = sqrt(dot3(total, total));
+    if (bumped && size > 0.0)
+        for (int j = 0; j < 3; j++) N[j] = total[j] / size;
+}
+
+/* subsurface.subsurface_shader for one exit: sd becomes one white Lambert closure on the exit normal, with no
+ * emission, transparency or holdout (Cycles' subsurface_shader_data_setup); sd->N (the hit's own normal) stays. */
+INLINE void walk_exit_shader(ShaderResult *sd)
+{
+    double N[3];
+    walk_exit_normal(sd, N);
+    for (int j = 0; j < 3; j++) sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0;
+    sd->n = 0;
+    if (sd->room < 1) return;
+    Closure *c = sd->c;
+    c->kind = BSDF_LAMBERT;
+    c->sample_weight = 1.0;
+    c->p = NULL;
+    for (int j = 0; j < 3; j++) { c->weight[j] = 1.0; c->N[j] = N[j]; }
+    sd->n = 1;
+}
