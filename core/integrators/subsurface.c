@@ -151,7 +151,7 @@ NOINLINE static int64_t subsurface_walk(const ShaderRays *rays, const Surface *s
         int64_t hg[WALK_OWN_HITS], hp[WALK_OWN_HITS], hi[WALK_OWN_HITS];
         double hu[WALK_OWN_HITS], hv[WALK_OWN_HITS], ht[WALK_OWN_HITS];
         int most = step == 0 ? WALK_OWN_HITS : 1;
-        int64_t count = local_hits(rays, P, Dw, reach, owner, most, hg, hp, hi, hu, hv, ht);
+        int64_t count = local_hits(rays, P, Dw, reach, s->time, owner, most, hg, hp, hi, hu, hv, ht);
         traced++;
         int slot = count > 0 ? 0 : -1;
         if (step == 0) {                        /* (subsurface.first_other: the nearest on another triangle) */
