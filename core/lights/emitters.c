@@ -49,15 +49,17 @@ INLINE double light_tree_importance(const double *node, const double *P, const d
     /* theta_u: the half-angle around the direction w to the centre that holds the box's corners (cos^2
      * of each corner's angle, all of them in front, else the cone passes a hemisphere: every direction). */
     double w[3] = {v[0] / d, v[1] / d, v[2] / d};
-    double cos2_u = 1.0;
+    /* (The smallest along^2 / length^2 kept as a fraction, compared by cross-multiplying: one division, not 8.) */
+    double least_along2 = 1.0, least_length2 = 1.0;
     for (int corner = 0; corner < 8; corner++) {
         double to_corner[3];
         for (int c = 0; c < 3; c++) to_corner[c] = (((corner >> c) & 1) ? hi[c] : lo[c]) - P[c];
         double along = dot3(w, to_corner);
         if (!(along > 0.0)) return scale;
-        double c2 = along * along / dot3(to_corner, to_corner);
-        if (c2 < cos2_u) cos2_u = c2;
+        double along2 = along * along, length2 = dot3(to_corner, to_corner);
+        if (along2 * least_length2 < least_along2 * length2) { least_along2 = along2; least_length2 = length2; }
     }
+    double cos2_u = least_along2 / least_length2;
     double cos_u = sqrt(cos2_u < 1.0 ? cos2_u : 1.0), sin_u = sqrt(at_least(1.0 - cos2_u, 0.0));
     /* The receiver: cos(max(theta_i - theta_u, 0)), at least 0; 1 where N is unknown. */
     double cos_incidence = 1.0;
