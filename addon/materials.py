@@ -246,6 +246,8 @@ class GraphReader:
             return Link(GraphNode("VALUE", {"value": float(f32[3]) if name == "Alpha"
                                             else float((f32[0] + f32[1] + f32[2]) / 3.0)}), "Value")
         name = RENAMED.get(out.name, out.name)
+        if kind == "ShaderNodeMixRGB" and name == "Color":          # the legacy Mix's output is the Mix's Result
+            name = "Result"
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
@@ -435,7 +437,7 @@ class GraphReader:
             if not node.inputs["Normal"].is_linked:
                 inputs.pop("Normal", None)
         elif kind == "MATH":
-            operation = "FRACT" if node.operation == "FRACT" else node.operation
+            operation = node.operation
             if operation not in graph_.MATH_OPS:
                 warn(f"operation {node.operation} is not supported; Primer uses Add")
                 operation = "ADD"
