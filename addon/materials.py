@@ -245,6 +245,10 @@ class GraphReader:
                 return Link(GraphNode("RGB", {"value": f32[:3], "type": name.lower()}), "Color")
             return Link(GraphNode("VALUE", {"value": float(f32[3]) if name == "Alpha"
                                             else float((f32[0] + f32[1] + f32[2]) / 3.0)}), "Value")
+        if kind == "ShaderNodeNormal":
+            return self.normal_node(node, path, out.name)
+        if kind == "ShaderNodeLightFalloff":
+            return self.light_falloff(node, path, out.name)
         name = RENAMED.get(out.name, out.name)
         if kind == "ShaderNodeMixRGB" and name == "Color":          # the legacy Mix's output is the Mix's Result
             name = "Result"
@@ -260,6 +264,39 @@ class GraphReader:
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
             return own_value(consumer)
         return Link(graph_node, name)
+
+    def normal_node(self, node, path: tuple, output: str):
+        """The Normal node as Cycles' svm_node_normal: Normal its direction (the output socket's value) normalised,
+        Dot that direction dotted with its Normal input normalised (the input's own value where unlinked)."""
+        direction = np.asarray(node.outputs["Normal"].default_value[:3], np.float32)
+        length = np.sqrt(np.float32(direction @ direction))
+        unit = (direction / length if length > 0.0 else np.zeros(3, np.float32)).astype(np.float64)
+        constant = Link(GraphNode("RGB", {"value": unit, "type": "vector"}, {}, node.name), "Color")
+        if output == "Normal":
+            return constant
+        normal = self.inputs(node, path, ["Normal"]).get("Normal", (0.0, 0.0, 1.0))
+        normalised = Link(GraphNode("VECTOR_MATH", {"operation": "NORMALIZE"}, {"Vector": normal}, node.name), "Vector")
+        return Link(GraphNode("VECTOR_MATH", {"operation": "DOT_PRODUCT"}, {"Vector": constant, "Vector_001": normalised},
+                              node.name), "Value")
+
+    def light_falloff(self, node, path: tuple, output: str):
+        """The Light Falloff node as Cycles' svm_node_light_falloff at a surface: Strength times the ray's length L
+        to the power 0 (Quadratic), 1 (Linear) or 2 (Constant), times L^2 / (Smooth + L^2) where Smooth > 0."""
+        inputs = self.inputs(node, path, ["Strength", "Smooth"])
+        strength, smooth = inputs.get("Strength", 100.0), inputs.get("Smooth", 0.0)
+        length = Link(GraphNode("LIGHT_PATH", {}, {}, node.name), "Ray Length")
+        squared = _math("MULTIPLY", length, length)
+        powers = {"Quadratic": 1.0, "Linear": length, "Constant": squared}
+        value = _math("MULTIPLY", strength, powers.get(output, 1.0))
+        if _linked(smooth) or float(smooth) > 0.0:
+            ratio = Link(GraphNode("MATH", {"operation": "DIVIDE"}, {"0": squared, "1": _math2("ADD", smooth, squared)}),
+                         "Value")
+            smoothing = _math("SUBTRACT", ratio, 1.0)
+            if _linked(smooth):                                 # the smoothing only where Smooth > 0
+                positive = Link(GraphNode("MATH", {"operation": "GREATER_THAN"}, {"0": smooth, "1": 0.0}), "Value")
+                smoothing = _math("MULTIPLY", smoothing, positive)
+            value = _math("MULTIPLY", value, _math2("ADD", smoothing, 1.0))
+        return value if _linked(value) else Link(GraphNode("VALUE", {"value": float(value)}, {}, node.name), "Value")
 
     def displacement(self, node, path: tuple):
         """A Displacement node's offset, as Cycles' svm_node_displacement computes it, from nodes Primer evaluates:
@@ -969,6 +1006,11 @@ def displacement_bump(reader: NodeReader, output):
                             output.name), "Value")
     return Link(GraphNode("BUMP", {"invert": False}, {"Strength": 1.0, "Distance": 1.0, "Height": height},
                           output.name), "Normal")
+
+
+def _math2(operation: str, a, b):
+    """A Math node's Link of a and b (constants or Links) for any operation."""
+    return Link(GraphNode("MATH", {"operation": operation, "clamp": False}, {"0": a, "1": b}), "Value")
 
 
 def _linked(value) -> bool:
