@@ -441,7 +441,7 @@ class GraphReader:
             else:
                 name = node.attribute_name
                 uv = any(name in mesh.uv_layers for mesh in bpy.data.meshes)
-                props = {"attribute": ("uv:" if uv else "color:") + name}
+                props = {"attribute": ("uv:" if uv else "attr:") + name}    # (attr: Alpha 1 where missing)
         elif kind == "PARTICLE_INFO":           # 16 columns of the instances' Object Info (particle_columns)
             if "PARTICLE:0" not in INSTANCE_ATTRIBUTES:
                 INSTANCE_ATTRIBUTES.extend(f"PARTICLE:{k}" for k in range(4))

@@ -370,8 +370,9 @@ def images_of(nodes: list) -> list:
 
 
 def attributes_of(nodes: list) -> set:
-    """The mesh attribute names a material's links read ("uv:NAME", "color:NAME", "tangent:NAME",
-    "generated", "object", "pointiness", "island" (Random Per Island); an empty NAME is the mesh's active one)."""
+    """The mesh attribute names a material's links read ("uv:NAME", "color:NAME", "attr:NAME" (an Attribute node's:
+    Alpha 1 where missing), "tangent:NAME", "generated", "object", "pointiness", "island" (Random Per Island); an
+    empty NAME is the mesh's active one)."""
     names = set()
     for link in links_under(nodes):
         node = link.node
@@ -403,7 +404,7 @@ def attributes_of(nodes: list) -> set:
 
 
 # The widths of the mesh attributes by name prefix.
-ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
+ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "attr": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
                     "curve": 1, "curve_tangent": 3}
 
 
@@ -616,7 +617,7 @@ class Compiler:
             if output in ("Color", "Vector"):
                 return self.attribute(name, 3), 3, vtype
             if output == "Alpha":
-                if not name.startswith("color:"):
+                if not name.startswith(("color:", "attr:")):
                     return self.constant([1.0]), 1, "float"
                 reg = self.attribute(name, 4)
                 return reg + 3 if reg >= 0 else reg - 3, 1, "float"
