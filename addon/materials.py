@@ -249,6 +249,8 @@ class GraphReader:
             return self.normal_node(node, path, out.name)
         if kind == "ShaderNodeLightFalloff":
             return self.light_falloff(node, path, out.name)
+        if kind == "ShaderNodeNormalMap" and node.space != "TANGENT":
+            return self.normal_map_space(node, path)
         name = RENAMED.get(out.name, out.name)
         if kind == "ShaderNodeMixRGB" and name == "Color":          # the legacy Mix's output is the Mix's Result
             name = "Result"
@@ -297,6 +299,32 @@ class GraphReader:
                 smoothing = _math("MULTIPLY", smoothing, positive)
             value = _math("MULTIPLY", value, _math2("ADD", smoothing, 1.0))
         return value if _linked(value) else Link(GraphNode("VALUE", {"value": float(value)}, {}, node.name), "Value")
+
+    def normal_map_space(self, node, path: tuple):
+        """A Normal Map in Object, World, Blender Object or Blender World space as Cycles' svm_node_normal_map: the
+        colour's 2 (c - 0.5) (y and z negated in the Blender spaces) taken from object to world space as a normal
+        (normalised; the World spaces only normalised), negated on back faces, then moved from the shading normal N
+        by Strength (clamped at 0 below): normalize(N + (M - N) Strength) where Strength is not 1."""
+        inputs = self.inputs(node, path, ["Strength", "Color"])
+        color, strength = inputs.get("Color", (0.5, 0.5, 1.0)), inputs.get("Strength", 1.0)
+        signs = (2.0, -2.0, -2.0) if node.space.startswith("BLENDER") else (2.0, 2.0, 2.0)
+        centred = vector_op("SUBTRACT", node.name, Vector=color, Vector_001=(0.5, 0.5, 0.5))
+        m = vector_op("MULTIPLY", node.name, Vector=centred, Vector_001=signs)
+        if node.space.endswith("OBJECT"):
+            m = _transformed(m, "NORMAL", "OBJECT", "WORLD", node.name)
+        else:
+            m = vector_op("NORMALIZE", node.name, Vector=m)
+        geometry = GraphNode("GEOMETRY", {}, {}, node.name)
+        facing = _math2("SUBTRACT", 1.0, _math2("MULTIPLY", Link(geometry, "Backfacing"), 2.0))
+        m = vector_op("SCALE", node.name, Vector=m, Scale=facing)
+        if _linked(strength) or float(strength) != 1.0:
+            n = Link(geometry, "Normal")
+            amount = strength if not _linked(strength) else _math2("MAXIMUM", strength, 0.0)
+            amount = max(float(amount), 0.0) if not _linked(amount) else amount
+            moved = vector_op("SCALE", node.name, Vector=vector_op("SUBTRACT", node.name, Vector=m, Vector_001=n),
+                              Scale=amount)
+            m = vector_op("NORMALIZE", node.name, Vector=vector_op("ADD", node.name, Vector=n, Vector_001=moved))
+        return m
 
     def displacement(self, node, path: tuple):
         """A Displacement node's offset, as Cycles' svm_node_displacement computes it, from nodes Primer evaluates:
@@ -452,8 +480,6 @@ class GraphReader:
             props = {"type": node.vector_type}
             inputs = self.inputs(node, path, ["Vector", "Location", "Rotation", "Scale"])
         elif kind == "NORMAL_MAP":
-            if node.space != "TANGENT":
-                warn(f"space {node.space} is not supported; Primer reads the colour as a tangent-space normal")
             props = {"map": node.uv_map}
             inputs = self.inputs(node, path, ["Strength", "Color"])
         elif kind in ("FRESNEL", "LAYER_WEIGHT"):
@@ -1011,6 +1037,11 @@ def displacement_bump(reader: NodeReader, output):
 def _math2(operation: str, a, b):
     """A Math node's Link of a and b (constants or Links) for any operation."""
     return Link(GraphNode("MATH", {"operation": operation, "clamp": False}, {"0": a, "1": b}), "Value")
+
+
+def vector_op(operation: str, name: str, **inputs) -> Link:
+    """A Vector Math node's Vector output of `inputs` (Vector, Vector_001, Scale: constants or Links)."""
+    return Link(GraphNode("VECTOR_MATH", {"operation": operation}, dict(inputs), name), "Vector")
 
 
 def _linked(value) -> bool:
