@@ -247,7 +247,7 @@ class GraphReader:
                                             else float((f32[0] + f32[1] + f32[2]) / 3.0)}), "Value")
         if kind == "ShaderNodeNormal":
             return self.normal_node(node, path, out.name)
-        if kind == "ShaderNodeLightFalloff":
+        if kind == "ShaderNodeLightFalloff" and self.reader.kind == "material":     # (lights, worlds: warned)
             return self.light_falloff(node, path, out.name)
         if kind == "ShaderNodeNormalMap" and node.space != "TANGENT":
             return self.normal_map_space(node, path)
