@@ -168,6 +168,14 @@ for blend in ("HUE", "SATURATION", "VALUE", "COLOR", "OVERLAY"):
          [("B_Color", (0.2, 0.5, 0.9, 1.0))], [("A_Color", ("v", 0.3, 0.5)), ("Factor_Float", ("x", 0.25, 0.5))])
     case("Mix (Legacy) " + blend, "ShaderNodeMixRGB", "Color", [("blend_type", blend), ("use_clamp", True)],
          [("Color2", (0.2, 0.5, 0.9, 1.0))], [("Color1", ("v", 0.3, 0.5)), ("Fac", ("x", 0.4, 0.5))])
+for space, strength in (("OBJECT", 0.6), ("BLENDER_WORLD", 1.0), ("WORLD", 1.7)):
+    case("Normal Map " + space, "ShaderNodeNormalMap", "Normal", [("space", space)], [("Strength", strength)],
+         [("Color", ("v", 0.2, 0.5))], absolute=True)
+for output in ("Quadratic", "Linear", "Constant"):
+    case("Light Falloff " + output, "ShaderNodeLightFalloff", output, values=[("Strength", 0.3)],
+         links=[("Smooth", ("x", 2.0, 1.0))])
+case("Normal Dot", "ShaderNodeNormal", "Dot", links=[("Normal", "v")], absolute=True,
+     setup=lambda node: setattr(node.outputs["Normal"], "default_value", (0.3, -0.5, 0.8)))
 
 warnings = render_plane_grid(scene, export, COLUMNS, -(-len(cases) // COLUMNS), PIXELS)
 primer.unregister()
