@@ -304,7 +304,8 @@ class GraphReader:
         """A Normal Map in Object, World, Blender Object or Blender World space as Cycles' svm_node_normal_map: the
         colour's 2 (c - 0.5) (y and z negated in the Blender spaces) taken from object to world space as a normal
         (normalised; the World spaces only normalised), negated on back faces, then moved from the shading normal N
-        by Strength (clamped at 0 below): normalize(N + (M - N) Strength) where Strength is not 1."""
+        by Strength (clamped at 0 below): normalize(N + (M - N) Strength) where Strength is not 1; N where that is
+        zero (a colour of 0.5 grey)."""
         inputs = self.inputs(node, path, ["Strength", "Color"])
         color, strength = inputs.get("Color", (0.5, 0.5, 1.0)), inputs.get("Strength", 1.0)
         signs = (2.0, -2.0, -2.0) if node.space.startswith("BLENDER") else (2.0, 2.0, 2.0)
@@ -324,7 +325,10 @@ class GraphReader:
             moved = vector_op("SCALE", node.name, Vector=vector_op("SUBTRACT", node.name, Vector=m, Vector_001=n),
                               Scale=amount)
             m = vector_op("NORMALIZE", node.name, Vector=vector_op("ADD", node.name, Vector=n, Vector_001=moved))
-        return m
+        length = Link(GraphNode("VECTOR_MATH", {"operation": "LENGTH"}, {"Vector": m}, node.name), "Value")
+        zero = Link(GraphNode("MATH", {"operation": "COMPARE"}, {"0": length, "1": 0.0, "2": 0.0}), "Value")
+        return Link(GraphNode("MIX", {"data_type": "VECTOR", "clamp_factor": True},      # a zero normal: N, as Cycles
+                              {"Factor": zero, "A": m, "B": Link(geometry, "Normal")}, node.name), "Result")
 
     def displacement(self, node, path: tuple):
         """A Displacement node's offset, as Cycles' svm_node_displacement computes it, from nodes Primer evaluates:

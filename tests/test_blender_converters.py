@@ -169,6 +169,8 @@ for blend in ("HUE", "SATURATION", "VALUE", "COLOR", "OVERLAY"):
     case("Mix (Legacy) " + blend, "ShaderNodeMixRGB", "Color", [("blend_type", blend), ("use_clamp", True)],
          [("Color2", (0.2, 0.5, 0.9, 1.0))], [("Color1", ("v", 0.3, 0.5)), ("Fac", ("x", 0.4, 0.5))])
 for space, strength in (("OBJECT", 0.6), ("BLENDER_WORLD", 1.0), ("WORLD", 1.7)):
+    case("Normal Map grey " + space, "ShaderNodeNormalMap", "Normal", [("space", space)],
+         [("Strength", strength), ("Color", (0.5, 0.5, 0.5, 1.0))], absolute=True)
     case("Normal Map " + space, "ShaderNodeNormalMap", "Normal", [("space", space)], [("Strength", strength)],
          [("Color", ("v", 0.2, 0.5))], absolute=True)
 for output in ("Quadratic", "Linear", "Constant"):
