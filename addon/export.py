@@ -369,12 +369,14 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
                 data = np.empty(len(mesh.loops) * 2, np.float32)
                 uv.uv.foreach_get("vector", data)
                 values[:, :, :2] = data.reshape(-1, 2)[loops]
-        elif kind == "color":
+        elif kind in ("color", "attr"):
             attribute = (mesh.color_attributes.get(layer) or mesh.attributes.get(layer)) if layer else None
-            if not layer:
+            if not layer and kind == "color":
                 index = getattr(mesh.color_attributes, "render_color_index", -1)
                 attribute = mesh.color_attributes[index] if 0 <= index < len(mesh.color_attributes) else None
-            if attribute is None:
+            if attribute is None and kind == "attr":           # Cycles' attribute_not_found: 0, Alpha 1
+                values[:, :, 3] = 1.0
+            elif attribute is None:
                 warnings.append(f"mesh '{mesh.name}' has no colour attribute '{layer or '(active)'}'; Primer reads 0")
             else:
                 width = {"FLOAT_COLOR": 4, "BYTE_COLOR": 4, "FLOAT_VECTOR": 3, "FLOAT2": 2, "FLOAT": 1}.get(

@@ -245,7 +245,15 @@ class GraphReader:
                 return Link(GraphNode("RGB", {"value": f32[:3], "type": name.lower()}), "Color")
             return Link(GraphNode("VALUE", {"value": float(f32[3]) if name == "Alpha"
                                             else float((f32[0] + f32[1] + f32[2]) / 3.0)}), "Value")
+        if kind == "ShaderNodeNormal":
+            return self.normal_node(node, path, out.name)
+        if kind == "ShaderNodeLightFalloff" and self.reader.kind == "material":     # (lights, worlds: warned)
+            return self.light_falloff(node, path, out.name)
+        if kind == "ShaderNodeNormalMap" and node.space != "TANGENT":
+            return self.normal_map_space(node, path)
         name = RENAMED.get(out.name, out.name)
+        if kind == "ShaderNodeMixRGB" and name == "Color":          # the legacy Mix's output is the Mix's Result
+            name = "Result"
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
@@ -258,6 +266,69 @@ class GraphReader:
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
             return own_value(consumer)
         return Link(graph_node, name)
+
+    def normal_node(self, node, path: tuple, output: str):
+        """The Normal node as Cycles' svm_node_normal: Normal its direction (the output socket's value) normalised,
+        Dot that direction dotted with its Normal input normalised (the input's own value where unlinked)."""
+        direction = np.asarray(node.outputs["Normal"].default_value[:3], np.float32)
+        length = np.sqrt(np.float32(direction @ direction))
+        unit = (direction / length if length > 0.0 else np.zeros(3, np.float32)).astype(np.float64)
+        constant = Link(GraphNode("RGB", {"value": unit, "type": "vector"}, {}, node.name), "Color")
+        if output == "Normal":
+            return constant
+        normal = self.inputs(node, path, ["Normal"]).get("Normal", (0.0, 0.0, 1.0))
+        normalised = Link(GraphNode("VECTOR_MATH", {"operation": "NORMALIZE"}, {"Vector": normal}, node.name), "Vector")
+        return Link(GraphNode("VECTOR_MATH", {"operation": "DOT_PRODUCT"}, {"Vector": constant, "Vector_001": normalised},
+                              node.name), "Value")
+
+    def light_falloff(self, node, path: tuple, output: str):
+        """The Light Falloff node as Cycles' svm_node_light_falloff at a surface: Strength times the ray's length L
+        to the power 0 (Quadratic), 1 (Linear) or 2 (Constant), times L^2 / (Smooth + L^2) where Smooth > 0."""
+        inputs = self.inputs(node, path, ["Strength", "Smooth"])
+        strength, smooth = inputs.get("Strength", 100.0), inputs.get("Smooth", 0.0)
+        length = Link(GraphNode("LIGHT_PATH", {}, {}, node.name), "Ray Length")
+        squared = _math("MULTIPLY", length, length)
+        powers = {"Quadratic": 1.0, "Linear": length, "Constant": squared}
+        value = _math("MULTIPLY", strength, powers.get(output, 1.0))
+        if _linked(smooth) or float(smooth) > 0.0:
+            ratio = Link(GraphNode("MATH", {"operation": "DIVIDE"}, {"0": squared, "1": _math2("ADD", smooth, squared)}),
+                         "Value")
+            smoothing = _math("SUBTRACT", ratio, 1.0)
+            if _linked(smooth):                                 # the smoothing only where Smooth > 0
+                positive = Link(GraphNode("MATH", {"operation": "GREATER_THAN"}, {"0": smooth, "1": 0.0}), "Value")
+                smoothing = _math("MULTIPLY", smoothing, positive)
+            value = _math("MULTIPLY", value, _math2("ADD", smoothing, 1.0))
+        return value if _linked(value) else Link(GraphNode("VALUE", {"value": float(value)}, {}, node.name), "Value")
+
+    def normal_map_space(self, node, path: tuple):
+        """A Normal Map in Object, World, Blender Object or Blender World space as Cycles' svm_node_normal_map: the
+        colour's 2 (c - 0.5) (y and z negated in the Blender spaces) taken from object to world space as a normal
+        (normalised; the World spaces only normalised), negated on back faces, then moved from the shading normal N
+        by Strength (clamped at 0 below): normalize(N + (M - N) Strength) where Strength is not 1; N where that is
+        zero (a colour of 0.5 grey)."""
+        inputs = self.inputs(node, path, ["Strength", "Color"])
+        color, strength = inputs.get("Color", (0.5, 0.5, 1.0)), inputs.get("Strength", 1.0)
+        signs = (2.0, -2.0, -2.0) if node.space.startswith("BLENDER") else (2.0, 2.0, 2.0)
+        centred = vector_op("SUBTRACT", node.name, Vector=color, Vector_001=(0.5, 0.5, 0.5))
+        m = vector_op("MULTIPLY", node.name, Vector=centred, Vector_001=signs)
+        if node.space.endswith("OBJECT"):
+            m = _transformed(m, "NORMAL", "OBJECT", "WORLD", node.name)
+        else:
+            m = vector_op("NORMALIZE", node.name, Vector=m)
+        geometry = GraphNode("GEOMETRY", {}, {}, node.name)
+        facing = _math2("SUBTRACT", 1.0, _math2("MULTIPLY", Link(geometry, "Backfacing"), 2.0))
+        m = vector_op("SCALE", node.name, Vector=m, Scale=facing)
+        if _linked(strength) or float(strength) != 1.0:
+            n = Link(geometry, "Normal")
+            amount = strength if not _linked(strength) else _math2("MAXIMUM", strength, 0.0)
+            amount = max(float(amount), 0.0) if not _linked(amount) else amount
+            moved = vector_op("SCALE", node.name, Vector=vector_op("SUBTRACT", node.name, Vector=m, Vector_001=n),
+                              Scale=amount)
+            m = vector_op("NORMALIZE", node.name, Vector=vector_op("ADD", node.name, Vector=n, Vector_001=moved))
+        length = Link(GraphNode("VECTOR_MATH", {"operation": "LENGTH"}, {"Vector": m}, node.name), "Value")
+        zero = Link(GraphNode("MATH", {"operation": "COMPARE"}, {"0": length, "1": 0.0, "2": 0.0}), "Value")
+        return Link(GraphNode("MIX", {"data_type": "VECTOR", "clamp_factor": True},      # a zero normal: N, as Cycles
+                              {"Factor": zero, "A": m, "B": Link(geometry, "Normal")}, node.name), "Result")
 
     def displacement(self, node, path: tuple):
         """A Displacement node's offset, as Cycles' svm_node_displacement computes it, from nodes Primer evaluates:
@@ -402,7 +473,7 @@ class GraphReader:
             else:
                 name = node.attribute_name
                 uv = any(name in mesh.uv_layers for mesh in bpy.data.meshes)
-                props = {"attribute": ("uv:" if uv else "color:") + name}
+                props = {"attribute": ("uv:" if uv else "attr:") + name}    # (attr: Alpha 1 where missing)
         elif kind == "PARTICLE_INFO":           # 16 columns of the instances' Object Info (particle_columns)
             if "PARTICLE:0" not in INSTANCE_ATTRIBUTES:
                 INSTANCE_ATTRIBUTES.extend(f"PARTICLE:{k}" for k in range(4))
@@ -413,8 +484,6 @@ class GraphReader:
             props = {"type": node.vector_type}
             inputs = self.inputs(node, path, ["Vector", "Location", "Rotation", "Scale"])
         elif kind == "NORMAL_MAP":
-            if node.space != "TANGENT":
-                warn(f"space {node.space} is not supported; Primer reads the colour as a tangent-space normal")
             props = {"map": node.uv_map}
             inputs = self.inputs(node, path, ["Strength", "Color"])
         elif kind in ("FRESNEL", "LAYER_WEIGHT"):
@@ -435,7 +504,7 @@ class GraphReader:
             if not node.inputs["Normal"].is_linked:
                 inputs.pop("Normal", None)
         elif kind == "MATH":
-            operation = "FRACT" if node.operation == "FRACT" else node.operation
+            operation = node.operation
             if operation not in graph_.MATH_OPS:
                 warn(f"operation {node.operation} is not supported; Primer uses Add")
                 operation = "ADD"
@@ -967,6 +1036,16 @@ def displacement_bump(reader: NodeReader, output):
                             output.name), "Value")
     return Link(GraphNode("BUMP", {"invert": False}, {"Strength": 1.0, "Distance": 1.0, "Height": height},
                           output.name), "Normal")
+
+
+def _math2(operation: str, a, b):
+    """A Math node's Link of a and b (constants or Links) for any operation."""
+    return Link(GraphNode("MATH", {"operation": operation, "clamp": False}, {"0": a, "1": b}), "Value")
+
+
+def vector_op(operation: str, name: str, **inputs) -> Link:
+    """A Vector Math node's Vector output of `inputs` (Vector, Vector_001, Scale: constants or Links)."""
+    return Link(GraphNode("VECTOR_MATH", {"operation": operation}, dict(inputs), name), "Vector")
 
 
 def _linked(value) -> bool:

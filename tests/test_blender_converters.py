@@ -158,6 +158,26 @@ case("Vector Curves", "ShaderNodeVectorCurve", "Vector", values=[("Fac", 0.9)], 
      setup=vector_curves, absolute=True)
 case("Float Curve", "ShaderNodeFloatCurve", "Value", links=[("Value", ("x", 0.4, 0.5))], setup=float_curve,
      absolute=True)
+for operation in ("SMOOTH_MIN", "SMOOTH_MAX"):
+    case("Math " + operation, "ShaderNodeMath", "Value", [("operation", operation)], [("Value_002", 0.7)],
+         [("Value", ("x", 1.5, 0.2)), ("Value_001", ("y", 1.2, -0.1))], absolute=True)
+case("Math TRUNC", "ShaderNodeMath", "Value", [("operation", "TRUNC")], links=[("Value", ("x", 3.5, 0.2))],
+     absolute=True)
+for blend in ("HUE", "SATURATION", "VALUE", "COLOR", "OVERLAY"):
+    case("Mix Color " + blend, "ShaderNodeMix", "Result_Color", [("data_type", "RGBA"), ("blend_type", blend)],
+         [("B_Color", (0.2, 0.5, 0.9, 1.0))], [("A_Color", ("v", 0.3, 0.5)), ("Factor_Float", ("x", 0.25, 0.5))])
+    case("Mix (Legacy) " + blend, "ShaderNodeMixRGB", "Color", [("blend_type", blend), ("use_clamp", True)],
+         [("Color2", (0.2, 0.5, 0.9, 1.0))], [("Color1", ("v", 0.3, 0.5)), ("Fac", ("x", 0.4, 0.5))])
+for space, strength in (("OBJECT", 0.6), ("BLENDER_WORLD", 1.0), ("WORLD", 1.7)):
+    case("Normal Map grey " + space, "ShaderNodeNormalMap", "Normal", [("space", space)],
+         [("Strength", strength), ("Color", (0.5, 0.5, 0.5, 1.0))], absolute=True)
+    case("Normal Map " + space, "ShaderNodeNormalMap", "Normal", [("space", space)], [("Strength", strength)],
+         [("Color", ("v", 0.2, 0.5))], absolute=True)
+for output in ("Quadratic", "Linear", "Constant"):
+    case("Light Falloff " + output, "ShaderNodeLightFalloff", output, values=[("Strength", 0.3)],
+         links=[("Smooth", ("x", 2.0, 1.0))])
+case("Normal Dot", "ShaderNodeNormal", "Dot", links=[("Normal", "v")], absolute=True,
+     setup=lambda node: setattr(node.outputs["Normal"], "default_value", (0.3, -0.5, 0.8)))
 
 warnings = render_plane_grid(scene, export, COLUMNS, -(-len(cases) // COLUMNS), PIXELS)
 primer.unregister()
@@ -192,6 +212,8 @@ def test_converter_nodes_render_cycles_values_pixel_for_pixel(tmp_path):
     # Blender 5.2's Cycles turns the Blackbody's Rec.709 colour into its scene-linear space by a matrix a little off
     # the identity (measured 1.6e-4 at most); Primer follows 5.0's, where it is the identity.
     newer = tuple(result["version"][:2]) >= (5, 2)
+    # The Hue, Saturation, Value and Color blends go through RGB -> HSV -> RGB in float32: 4e-7 (measured 3.9e-7).
+    hsv = ("HUE", "SATURATION", "VALUE", "COLOR")
     far = {label: d for label, d in worst.items()
-           if d > (2e-4 if newer and label.startswith("Blackbody") else 3e-7)}
+           if d > (2e-4 if newer and label.startswith("Blackbody") else 5e-7 if label.endswith(hsv) else 3e-7)}
     assert far == {}, far

@@ -213,3 +213,45 @@ def all_converters() -> list:
 def test_the_compiled_converters_compute_what_the_reference_computes_bit_for_bit():
     """Every converter, operation and mode on both kernels, the same rays and samples: the same values, to the bit."""
     assert_both_kernels_agree(all_converters())
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_smooth_minimum_and_maximum_bend_by_a_cubic_within_the_distance_and_truncate_rounds_towards_zero(kernels):
+    """Smooth Minimum of a, b at distance k is min(a, b) - k h^3 / 6, h = max(k - |a - b|, 0) / k (Cycles'
+    smoothminf), Smooth Maximum its mirror max(a, b) + k h^3 / 6; at distance 0 they are min and max; Truncate is
+    floor |a| with a's sign."""
+    p = snapped_points().astype(np.float64)
+    x, y = node("SEPARATE_XYZ", "X", Vector=snapped_vector()), node("SEPARATE_XYZ", "Y", Vector=snapped_vector())
+    a, b = p[..., 0], p[..., 1]
+    for k in (1.5, 0.0):
+        h = np.maximum(k - np.abs(a - b), 0.0) / k if k else 0.0
+        low = shoot(node("MATH", "Value", {"operation": "SMOOTH_MIN"}, **{"0": x, "1": y, "2": k}), kernels)
+        high = shoot(node("MATH", "Value", {"operation": "SMOOTH_MAX"}, **{"0": x, "1": y, "2": k}), kernels)
+        np.testing.assert_allclose(low[..., 0], np.minimum(a, b) - k * h ** 3 / 6.0, atol=1e-7)
+        np.testing.assert_allclose(high[..., 0], np.maximum(a, b) + k * h ** 3 / 6.0, atol=1e-7)
+    trunc = shoot(node("MATH", "Value", {"operation": "TRUNC"}, **{"0": node("MATH", "Value", {"operation": "MULTIPLY"},
+                                                                          **{"0": x, "1": 1.7})}), kernels)
+    np.testing.assert_array_equal(trunc[..., 0], np.sign(a) * np.floor(np.abs(a.astype(np.float32) * 1.7)))
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_the_hsv_blend_modes_move_hue_saturation_value_or_colour_of_a_towards_b(kernels):
+    """Hue gives A B's hue, Color B's hue and saturation (both blended by the factor; a grey B leaves A), Saturation
+    A's saturation moved towards B's (a grey A stays), Value A's value moved towards B's: red-ish A (0.8, 0.2, 0.2)
+    with a blue B (0.2, 0.2, 0.8) at factor 1 is B (same saturation and value), at 0.25 a quarter of the way."""
+    red, blue, grey = (0.8, 0.2, 0.2), (0.2, 0.2, 0.8), (0.5, 0.5, 0.5)
+
+    def mixed(blend, factor, a, b):
+        """The Mix (Color) node's result at every pixel, one colour."""
+        link = node("MIX", "Result", {"data_type": "RGBA", "blend_type": blend}, Factor=factor, A=a, B=b)
+        return shoot(link, kernels)[0, 0]
+
+    for blend in ("HUE", "COLOR"):
+        np.testing.assert_allclose(mixed(blend, 1.0, red, blue), blue, atol=1e-6)
+        np.testing.assert_allclose(mixed(blend, 0.25, red, blue), np.add(red, 0.25 * np.subtract(blue, red)), atol=1e-6)
+        np.testing.assert_allclose(mixed(blend, 1.0, red, grey), red, atol=1e-7)
+    np.testing.assert_allclose(mixed("SATURATION", 1.0, red, grey), (0.8, 0.8, 0.8), atol=1e-6)
+    np.testing.assert_allclose(mixed("SATURATION", 0.5, red, (0.1, 0.1, 0.4)), (0.8, 0.2, 0.2), atol=1e-6)
+    np.testing.assert_allclose(mixed("SATURATION", 1.0, grey, blue), grey, atol=1e-7)
+    np.testing.assert_allclose(mixed("VALUE", 1.0, red, (0.1, 0.1, 0.4)), (0.4, 0.1, 0.1), atol=1e-6)
+    np.testing.assert_allclose(mixed("VALUE", 0.5, red, (0.1, 0.1, 0.4)), (0.6, 0.15, 0.15), atol=1e-6)

@@ -9,6 +9,15 @@
 /* graph.safe_divide: a / b, 0 where b is 0. */
 INLINE double safe_div(double a, double b) { return b != 0.0 ? a / b : 0.0; }
 
+/* graph.smooth_min */
+INLINE double smooth_min(double a, double b, double k)
+{
+    double m = a < b ? a : (b < a ? b : (a != a ? a : b));
+    if (k == 0.0) return m;
+    double gap = k - fabs(a - b), h = (gap > 0.0 ? gap : 0.0) / k;
+    return m - h * h * h * k * (1.0 / 6.0);
+}
+
 /* graph.math_op */
 INLINE double math_op(int op, double a, double b, double c)
 {
@@ -52,6 +61,8 @@ INLINE double math_op(int op, double a, double b, double c)
     case 36: return tanh(a);
     case 37: return a * (PI / 180.0);
     case 38: return a * (180.0 / PI);
+    case 39: return smooth_min(a, b, c);
+    case 40: return -smooth_min(-a, -b, c);
     default: return 0.0;
     }
 }
@@ -84,6 +95,33 @@ INLINE double mix_channel(int blend, double t, double c1, double c2)
     case 14: return c1 + t * (2.0 * c2 - 1.0);
     default: return c1;
     }
+}
+
+/* graph.mix_hsv: the blends 15 to 18 (Hue, Saturation, Value, Color) in float32. */
+INLINE void mix_hsv(int blend, double td, const double *c1, const double *c2, double *out)
+{
+    float t = (float)td, a[3], b[3], hsv[3], hsv2[3], rgb[3];
+    for (int j = 0; j < 3; j++) { a[j] = (float)c1[j]; b[j] = (float)c2[j]; rgb[j] = a[j]; }
+    rgb_to_hsv_f(a, hsv);
+    rgb_to_hsv_f(b, hsv2);
+    if (blend == 15 || blend == 18) {
+        if (hsv2[1] != 0.0f) {
+            float mixed[3];
+            hsv[0] = hsv2[0];
+            if (blend == 18) hsv[1] = hsv2[1];
+            hsv_to_rgb_f(hsv, mixed);
+            for (int j = 0; j < 3; j++) rgb[j] = a[j] + t * (mixed[j] - a[j]);
+        }
+    } else if (blend == 16) {
+        if (hsv[1] != 0.0f) {
+            hsv[1] = (1.0f - t) * hsv[1] + t * hsv2[1];
+            hsv_to_rgb_f(hsv, rgb);
+        }
+    } else {
+        hsv[2] = (1.0f - t) * hsv[2] + t * hsv2[2];
+        hsv_to_rgb_f(hsv, rgb);
+    }
+    for (int j = 0; j < 3; j++) out[j] = rgb[j];
 }
 
 /* graph.safe_normalize: v / |v| in place, 0 where |v| is 0. */
@@ -519,8 +557,9 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_MIX_COLOR: {
             double t = reg[a[2]], r[3];
             if (a[6]) t = clamp01(t);
+            if (a[1] >= 15) mix_hsv(a[1], t, reg + a[3], reg + a[4], r);
             for (int j = 0; j < 3; j++) {
-                r[j] = mix_channel(a[1], t, reg[a[3] + j], reg[a[4] + j]);
+                if (a[1] < 15) r[j] = mix_channel(a[1], t, reg[a[3] + j], reg[a[4] + j]);
                 if (a[5]) r[j] = clamp01(r[j]);
             }
             for (int j = 0; j < 3; j++) out[j] = r[j];

@@ -144,11 +144,13 @@ LUMINANCE = tuple(float(np.float32(v)) for v in RGB_TO_Y)
 
 MATH_OPS = ("ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT", "INVERSE_SQRT",
             "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN", "GREATER_THAN", "SIGN", "COMPARE", "ROUND",
-            "FLOOR", "CEIL", "TRUNCATE", "FRACT", "MODULO", "FLOORED_MODULO", "WRAP", "SNAP", "PINGPONG", "SINE",
+            "FLOOR", "CEIL", "TRUNC", "FRACT", "MODULO", "FLOORED_MODULO", "WRAP", "SNAP", "PINGPONG", "SINE",
             "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE", "ARCTANGENT", "ARCTAN2", "SINH", "COSH", "TANH", "RADIANS",
-            "DEGREES")
+            "DEGREES", "SMOOTH_MIN", "SMOOTH_MAX")
 BLEND_TYPES = ("MIX", "DARKEN", "MULTIPLY", "BURN", "LIGHTEN", "SCREEN", "DODGE", "ADD", "OVERLAY", "SUBTRACT",
-               "DIVIDE", "DIFFERENCE", "EXCLUSION", "SOFT_LIGHT", "LINEAR_LIGHT")
+               "DIVIDE", "DIFFERENCE", "EXCLUSION", "SOFT_LIGHT", "LINEAR_LIGHT", "HUE", "SATURATION", "VALUE", "COLOR")
+# The blend modes that mix in HSV (Cycles' svm_mix_hue, _sat, _val, _color), in float32 as Cycles' colour model.
+HSV_BLENDS = ("HUE", "SATURATION", "VALUE", "COLOR")
 MAPPING_TYPES = ("POINT", "TEXTURE", "VECTOR", "NORMAL")
 MAP_RANGE_TYPES = ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
 # Program outputs: what a register does to a shader node (OUT_*).
@@ -368,8 +370,9 @@ def images_of(nodes: list) -> list:
 
 
 def attributes_of(nodes: list) -> set:
-    """The mesh attribute names a material's links read ("uv:NAME", "color:NAME", "tangent:NAME",
-    "generated", "object", "pointiness", "island" (Random Per Island); an empty NAME is the mesh's active one)."""
+    """The mesh attribute names a material's links read ("uv:NAME", "color:NAME", "attr:NAME" (an Attribute node's:
+    Alpha 1 where missing), "tangent:NAME", "generated", "object", "pointiness", "island" (Random Per Island); an
+    empty NAME is the mesh's active one)."""
     names = set()
     for link in links_under(nodes):
         node = link.node
@@ -401,7 +404,7 @@ def attributes_of(nodes: list) -> set:
 
 
 # The widths of the mesh attributes by name prefix.
-ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
+ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "attr": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
                     "curve": 1, "curve_tangent": 3}
 
 
@@ -614,7 +617,7 @@ class Compiler:
             if output in ("Color", "Vector"):
                 return self.attribute(name, 3), 3, vtype
             if output == "Alpha":
-                if not name.startswith("color:"):
+                if not name.startswith(("color:", "attr:")):
                     return self.constant([1.0]), 1, "float"
                 reg = self.attribute(name, 4)
                 return reg + 3 if reg >= 0 else reg - 3, 1, "float"
@@ -971,7 +974,7 @@ def math_op(op: int, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
         if name == "ROUND": return np.floor(a + 0.5)
         if name == "FLOOR": return np.floor(a)
         if name == "CEIL": return np.ceil(a)
-        if name == "TRUNCATE": return np.trunc(a)
+        if name == "TRUNC": return np.trunc(a)
         if name == "FRACT": return a - np.floor(a)
         if name == "MODULO": return np.where(b != 0.0, np.fmod(a, np.where(b != 0.0, b, 1.0)), 0.0)
         if name == "FLOORED_MODULO":
@@ -998,12 +1001,22 @@ def math_op(op: int, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
         if name == "TANH": return np.tanh(a)
         if name == "RADIANS": return a * (np.pi / 180.0)
         if name == "DEGREES": return a * (180.0 / np.pi)
+        if name == "SMOOTH_MIN": return smooth_min(a, b, c)
+        if name == "SMOOTH_MAX": return -smooth_min(-a, -b, c)
     raise ValueError(name)
+
+
+def smooth_min(a: np.ndarray, b: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Cycles' smoothminf: min(a, b) less a cubic blend k h^3 / 6 where |a - b| < k, h = (k - |a - b|) / k."""
+    h = safe_divide(np.maximum(k - np.abs(a - b), 0.0), k)
+    return np.where(k != 0.0, np.minimum(a, b) - h * h * h * k * (1.0 / 6.0), np.minimum(a, b))
 
 
 def mix_color(blend: int, t: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
     """Cycles' svm_mix for BLEND_TYPES[blend]: t (n, 1), colours (n, 3)."""
     name = BLEND_TYPES[blend]
+    if name in HSV_BLENDS:
+        return mix_hsv(name, t, c1, c2)
     tm = 1.0 - t
     if name == "MIX": return tm * c1 + t * c2
     if name == "DARKEN": return tm * c1 + t * np.minimum(c1, c2)
@@ -1029,6 +1042,27 @@ def mix_color(blend: int, t: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.n
         tmp = 1.0 - t * c2
         return np.where(c1 != 0.0, np.where(tmp <= 0.0, 1.0, np.minimum(safe_divide(c1, tmp), 1.0)), c1)
     raise ValueError(name)
+
+
+def mix_hsv(name: str, t: np.ndarray, c1: np.ndarray, c2: np.ndarray) -> np.ndarray:
+    """Cycles' svm_mix_hue, _sat, _val and _color in float32: A takes B's hue (Hue), hue and saturation (Color)
+    blended by t where B has a saturation, or its saturation (where A has one) or value interpolated by t: t (n, 1),
+    colours (n, 3); (n, 3) float64."""
+    t, a, b = t.astype(F32), c1.astype(F32), c2.astype(F32)
+    hsv, hsv2 = color_.rgb_to_hsv(a), color_.rgb_to_hsv(b)
+    if name in ("HUE", "COLOR"):
+        hsv[:, 0] = hsv2[:, 0]
+        if name == "COLOR":
+            hsv[:, 1] = hsv2[:, 1]
+        out = np.where((hsv2[:, 1] != F32(0.0))[:, None], a + t * (color_.hsv_to_rgb(hsv) - a), a)
+    elif name == "SATURATION":
+        saturated = hsv[:, 1] != F32(0.0)
+        hsv[:, 1] = (F32(1.0) - t[:, 0]) * hsv[:, 1] + t[:, 0] * hsv2[:, 1]
+        out = np.where(saturated[:, None], color_.hsv_to_rgb(hsv), a)
+    else:
+        hsv[:, 2] = (F32(1.0) - t[:, 0]) * hsv[:, 2] + t[:, 0] * hsv2[:, 2]
+        out = color_.hsv_to_rgb(hsv)
+    return out.astype(np.float64)
 
 
 def euler_matrix(r: np.ndarray) -> np.ndarray:
