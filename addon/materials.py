@@ -350,22 +350,19 @@ class GraphReader:
         inputs: dict = {}
         if kind == "IMAGE":
             props = {"image": load_image(node.image, self.reader, node),
-                     "interpolation": node.interpolation, "extension": node.extension}
-            if node.projection != "FLAT":
-                warn(f"projection {node.projection} is not supported; Primer uses Flat")
+                     "interpolation": node.interpolation, "extension": node.extension,
+                     "projection": node.projection, "blend": float(node.projection_blend)}
             inputs = self.inputs(node, path, ["Vector"])
             if not node.inputs["Vector"].is_linked:
                 inputs = {}
             if not identity_mapping(node.texture_mapping):
                 inputs["Vector"] = mapped_vector(node.texture_mapping, inputs.get("Vector"), "UV", warn)
         elif kind == "ENVIRONMENT":
-            if self.reader.kind != "world":
-                warn("an Environment Texture is evaluated in world shaders only; Primer uses the input's own value")
-                return None
-            if node.projection != "EQUIRECTANGULAR":
-                warn(f"projection {node.projection} is not supported; Primer reads the image as equirectangular")
-            props = {"image": load_image(node.image, self.reader, node), "interpolation": node.interpolation}
+            props = {"image": load_image(node.image, self.reader, node), "interpolation": node.interpolation,
+                     "projection": node.projection}
             inputs = self.inputs(node, path, ["Vector"]) if node.inputs["Vector"].is_linked else {}
+            if self.reader.kind != "world" and "Vector" not in inputs:   # Cycles' default: the shading point's P
+                inputs["Vector"] = Link(GraphNode("GEOMETRY", {}, {}), "Position")
             if not identity_mapping(node.texture_mapping):
                 inputs["Vector"] = mapped_vector(node.texture_mapping, inputs.get("Vector"), "Generated", warn)
         elif kind == "SKY":
