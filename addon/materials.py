@@ -1024,6 +1024,36 @@ def _tangent(reader: NodeReader, node, inputs: dict, amount: str) -> None:
         inputs["tangent"] = Link(GraphNode("TANGENT", {"direction": "RADIAL", "axis": "Z", "map": ""}), "Tangent")
 
 
+def _metallic(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
+    """Append a Metallic BSDF as the metal of a Principled BSDF of Metallic 1 (the same closure in Cycles: GGX or
+    Multiscatter GGX with the F82-tint Fresnel from Base Color to its Edge Tint, anisotropic by sqrt(1 - 0.9 a),
+    thin film); a Physical Conductor's IOR and Extinction become the F82 curve through the conductor's reflectance at
+    0 and 82 degrees (nodes.conductor_as_f82; Cycles evaluates the complex Fresnel at every angle)."""
+    distribution = getattr(node, "distribution", "MULTI_GGX")
+    if distribution == "BECKMANN":
+        reader.warn(node, "distribution BECKMANN is not modelled for a Metallic BSDF; Primer uses GGX")
+    inputs = {"metallic": 1.0, "roughness": reader.input(node, "Roughness", 0.5),
+              "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0}
+    if getattr(node, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR":
+        n, k = reader.input(node, "IOR", np.ones(3)), reader.input(node, "Extinction", np.zeros(3))
+        if _linked(n) or _linked(k):
+            reader.warn(node, "a linked IOR or Extinction is read at its own value (Primer fits the F82 curve once)")
+            n, k = own_value(node.inputs["IOR"]), own_value(node.inputs["Extinction"])
+        f0, tint = nodes_.conductor_as_f82(np.asarray(n, np.float64)[:3], np.asarray(k, np.float64)[:3])
+        inputs["base_color"], inputs["specular_tint"] = f0, tint
+    else:
+        for socket, key in (("Base Color", "base_color"), ("Edge Tint", "specular_tint")):
+            value = reader.input(node, socket, np.ones(3))
+            inputs[key] = value if _linked(value) else np.clip(np.asarray(value, np.float64), 0.0, 1.0)
+    for socket, key in (("Anisotropy", "anisotropic"), ("Rotation", "anisotropic_rotation"),
+                        ("Thin Film Thickness", "thin_film_thickness"), ("Thin Film IOR", "thin_film_ior")):
+        if node.inputs.get(socket) is not None:
+            inputs[key] = reader.input(node, socket, 0.0)
+    _normal(reader, node, inputs)
+    _tangent(reader, node, inputs, "anisotropic")
+    out.append(("PRINCIPLED", weight, inputs, list(factors)))
+
+
 def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
     """Append the shader nodes under `node`, their weights multiplied by `weight` and the per-hit `factors`."""
     node = _follow(node)
@@ -1102,6 +1132,8 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             elif _linked(coat_value):
                 inputs["coat_normal"] = coat_value
         out.append(("PRINCIPLED", weight, inputs, list(factors)))
+    elif kind == "ShaderNodeBsdfMetallic":
+        _metallic(reader, node, weight, out, factors)
     elif kind == "ShaderNodeBsdfDiffuse":
         # Roughness above 0: Oren-Nayar's rough diffuse, which also needs the colour itself.
         color = reader.input(node, "Color", np.full(3, 0.8))
