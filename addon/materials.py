@@ -1025,15 +1025,14 @@ def _tangent(reader: NodeReader, node, inputs: dict, amount: str) -> None:
 
 
 def _metallic(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
-    """Append a Metallic BSDF as the metal of a Principled BSDF of Metallic 1 (the same closure in Cycles: GGX or
-    Multiscatter GGX with the F82-tint Fresnel from Base Color to its Edge Tint, anisotropic by sqrt(1 - 0.9 a),
+    """Append a Metallic BSDF as the metal of a Principled BSDF of Metallic 1 (the same closure in Cycles: GGX,
+    Multiscatter GGX or Beckmann with the F82-tint Fresnel from Base Color to its Edge Tint, anisotropic by sqrt(1 - 0.9 a),
     thin film); a Physical Conductor's IOR and Extinction become the F82 curve through the conductor's reflectance at
     0 and 82 degrees (nodes.conductor_as_f82; Cycles evaluates the complex Fresnel at every angle)."""
     distribution = getattr(node, "distribution", "MULTI_GGX")
-    if distribution == "BECKMANN":
-        reader.warn(node, "distribution BECKMANN is not modelled for a Metallic BSDF; Primer uses GGX")
     inputs = {"metallic": 1.0, "roughness": reader.input(node, "Roughness", 0.5),
-              "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0}
+              "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0,
+              "metal_distribution": float(DISTRIBUTIONS.get(distribution, 0))}
     if getattr(node, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR":
         n, k = reader.input(node, "IOR", np.ones(3)), reader.input(node, "Extinction", np.zeros(3))
         if _linked(n) or _linked(k):

@@ -462,11 +462,12 @@ PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "sub
                      "transmission", "multiscatter", "diffuse_roughness", "sheen", "sheen_roughness", "sheen_tint",
                      "coat_follows_normal", "anisotropic", "anisotropic_rotation", "tangent", "coat_normal",
                      "thin_film_thickness", "thin_film_ior", "subsurface_radius", "subsurface_scale",
-                     "subsurface_ior", "subsurface_anisotropy", "subsurface_method")
+                     "subsurface_ior", "subsurface_anisotropy", "subsurface_method", "metal_distribution")
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
                        (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.0, 0.0,
                        (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 1.33, (1.0, 0.2, 0.1), 0.05, 1.4, 0.0,
-                       1.0)      # (subsurface.RANDOM_WALK)
+                       1.0,      # (subsurface.RANDOM_WALK)
+                       GGX)      # the metal's (GGX; BECKMANN: a Metallic BSDF's Beckmann, no multiscatter)
 
 
 class PrincipledNode(Node):
@@ -576,8 +577,9 @@ class PrincipledNode(Node):
                 thin_film_slots(lobe, film, thickness, film_ior, mf.FRESNEL_THIN_FILM_F82)
                 reflect = np.where(film[:, None], mf.fresnel(lobe, np.clip(b.mu, 0.0, 1.0)), reflect)
             Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
+            beckmann = p[:, 47] == BECKMANN
             GlossyLobe.add(b, W * metallic[:, None], lobe, reflect, Fss=Fss if multiscatter else None,
-                           keep=on & b.reflective)
+                           keep=on & b.reflective, kind=np.where(beckmann, Beckmann.kind, Microfacet.kind))
             W = np.where(on[:, None], W * (1.0 - metallic)[:, None], W)
         # 5. Transmission: glass, Fresnel's curve remapped from F0 x specular tint to 1, the transmitted
         #    light tinted by the square root of the base colour (it passes the surface twice); a caustics
