@@ -1244,6 +1244,9 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         # A volume closure at a Surface socket: Cycles renders nothing of it on the surface.
         reader.warn(node, f"'{node.bl_label}' is a volume shader at a Surface output; it adds nothing there (as in "
                           "Cycles)")
+    elif kind == "ShaderNodeEeveeSpecular":
+        # EEVEE's own node: Cycles' sync makes nothing of it, so the surface it feeds is black.
+        reader.warn(node, "the Specular BSDF is EEVEE's only; Cycles renders nothing of it (black), and so does Primer")
     else:
         color = node.inputs.get("Color") or node.inputs.get("Base Color")
         reader.warn(node, f"'{node.bl_label}' is not a shader node Primer knows; "
