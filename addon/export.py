@@ -951,8 +951,7 @@ def _environment(world, background, warnings: list):
             [link.from_socket for link in background.inputs["Color"].links]:
         return None
     if getattr(texture, "projection", "EQUIRECTANGULAR") != "EQUIRECTANGULAR":
-        warnings.append(f"the world's Environment Texture uses projection {texture.projection}; Primer reads it "
-                        "as equirectangular")
+        return None                                 # (a Mirror Ball: `_baked_world` evaluates it)
     mapping = getattr(texture, "texture_mapping", None)
     if mapping is not None and not materials_.identity_mapping(mapping):
         return None

@@ -421,22 +421,19 @@ class GraphReader:
         inputs: dict = {}
         if kind == "IMAGE":
             props = {"image": load_image(node.image, self.reader, node),
-                     "interpolation": node.interpolation, "extension": node.extension}
-            if node.projection != "FLAT":
-                warn(f"projection {node.projection} is not supported; Primer uses Flat")
+                     "interpolation": node.interpolation, "extension": node.extension,
+                     "projection": node.projection, "blend": float(node.projection_blend)}
             inputs = self.inputs(node, path, ["Vector"])
             if not node.inputs["Vector"].is_linked:
                 inputs = {}
             if not identity_mapping(node.texture_mapping):
                 inputs["Vector"] = mapped_vector(node.texture_mapping, inputs.get("Vector"), "UV", warn)
         elif kind == "ENVIRONMENT":
-            if self.reader.kind != "world":
-                warn("an Environment Texture is evaluated in world shaders only; Primer uses the input's own value")
-                return None
-            if node.projection != "EQUIRECTANGULAR":
-                warn(f"projection {node.projection} is not supported; Primer reads the image as equirectangular")
-            props = {"image": load_image(node.image, self.reader, node), "interpolation": node.interpolation}
+            props = {"image": load_image(node.image, self.reader, node), "interpolation": node.interpolation,
+                     "projection": node.projection}
             inputs = self.inputs(node, path, ["Vector"]) if node.inputs["Vector"].is_linked else {}
+            if self.reader.kind != "world" and "Vector" not in inputs:   # Cycles' default: the shading point's P
+                inputs["Vector"] = Link(GraphNode("GEOMETRY", {}, {}), "Position")
             if not identity_mapping(node.texture_mapping):
                 inputs["Vector"] = mapped_vector(node.texture_mapping, inputs.get("Vector"), "Generated", warn)
         elif kind == "SKY":
@@ -1106,6 +1103,35 @@ def _tangent(reader: NodeReader, node, inputs: dict, amount: str) -> None:
         inputs["tangent"] = Link(GraphNode("TANGENT", {"direction": "RADIAL", "axis": "Z", "map": ""}), "Tangent")
 
 
+def _metallic(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
+    """Append a Metallic BSDF as the metal of a Principled BSDF of Metallic 1 (the same closure in Cycles: GGX,
+    Multiscatter GGX or Beckmann with the F82-tint Fresnel from Base Color to its Edge Tint, anisotropic by sqrt(1 - 0.9 a),
+    thin film); a Physical Conductor's IOR and Extinction become the F82 curve through the conductor's reflectance at
+    0 and 82 degrees (nodes.conductor_as_f82; Cycles evaluates the complex Fresnel at every angle)."""
+    distribution = getattr(node, "distribution", "MULTI_GGX")
+    inputs = {"metallic": 1.0, "roughness": reader.input(node, "Roughness", 0.5),
+              "multiscatter": 1.0 if distribution == "MULTI_GGX" else 0.0,
+              "metal_distribution": float(DISTRIBUTIONS.get(distribution, 0))}
+    if getattr(node, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR":
+        n, k = reader.input(node, "IOR", np.ones(3)), reader.input(node, "Extinction", np.zeros(3))
+        if _linked(n) or _linked(k):
+            reader.warn(node, "a linked IOR or Extinction is read at its own value (Primer fits the F82 curve once)")
+            n, k = own_value(node.inputs["IOR"]), own_value(node.inputs["Extinction"])
+        f0, tint = nodes_.conductor_as_f82(np.asarray(n, np.float64)[:3], np.asarray(k, np.float64)[:3])
+        inputs["base_color"], inputs["specular_tint"] = f0, tint
+    else:
+        for socket, key in (("Base Color", "base_color"), ("Edge Tint", "specular_tint")):
+            value = reader.input(node, socket, np.ones(3))
+            inputs[key] = value if _linked(value) else np.clip(np.asarray(value, np.float64), 0.0, 1.0)
+    for socket, key in (("Anisotropy", "anisotropic"), ("Rotation", "anisotropic_rotation"),
+                        ("Thin Film Thickness", "thin_film_thickness"), ("Thin Film IOR", "thin_film_ior")):
+        if node.inputs.get(socket) is not None:
+            inputs[key] = reader.input(node, socket, 0.0)
+    _normal(reader, node, inputs)
+    _tangent(reader, node, inputs, "anisotropic")
+    out.append(("PRINCIPLED", weight, inputs, list(factors)))
+
+
 def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
     """Append the shader nodes under `node`, their weights multiplied by `weight` and the per-hit `factors`."""
     node = _follow(node)
@@ -1184,6 +1210,8 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             elif _linked(coat_value):
                 inputs["coat_normal"] = coat_value
         out.append(("PRINCIPLED", weight, inputs, list(factors)))
+    elif kind == "ShaderNodeBsdfMetallic":
+        _metallic(reader, node, weight, out, factors)
     elif kind == "ShaderNodeBsdfDiffuse":
         # Roughness above 0: Oren-Nayar's rough diffuse, which also needs the colour itself.
         color = reader.input(node, "Color", np.full(3, 0.8))
@@ -1295,6 +1323,9 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         # A volume closure at a Surface socket: Cycles renders nothing of it on the surface.
         reader.warn(node, f"'{node.bl_label}' is a volume shader at a Surface output; it adds nothing there (as in "
                           "Cycles)")
+    elif kind == "ShaderNodeEeveeSpecular":
+        # EEVEE's own node: Cycles' sync makes nothing of it, so the surface it feeds is black.
+        reader.warn(node, "the Specular BSDF is EEVEE's only; Cycles renders nothing of it (black), and so does Primer")
     else:
         color = node.inputs.get("Color") or node.inputs.get("Base Color")
         reader.warn(node, f"'{node.bl_label}' is not a shader node Primer knows; "

@@ -175,3 +175,47 @@ def test_shader_nodes_in_c_set_up_what_python_does():
     compiled, reference = compare_paths(scene, RenderSettings(width=48, height=32, samples=4))
     assert_same_render(compiled, reference)
     assert compiled.image[..., :3].max() > 0.05
+
+
+@pytest.mark.parametrize("n, k", [((2.757, 2.513, 2.231), (3.867, 3.404, 3.009)), ((0.2, 0.9, 1.1), (3.9, 2.4, 2.2)),
+                                  ((1.5, 1.5, 1.5), (0.0, 0.0, 0.0))])
+def test_conductor_fresnel_is_the_normal_incidence_closed_form_and_the_dielectric_one_without_extinction(n, k):
+    n, k = np.array(n), np.array(k)
+    np.testing.assert_allclose(nodes.fresnel_conductor(1.0, n, k), ((n - 1) ** 2 + k ** 2) / ((n + 1) ** 2 + k ** 2),
+                               rtol=1e-12)
+    if not k.any():                         # k = 0: Fresnel's dielectric equations at 60 degrees
+        cos_i = 0.5
+        cos_t = math.sqrt(1.0 - (1.0 - cos_i ** 2) / 1.5 ** 2)
+        rs = ((cos_i - 1.5 * cos_t) / (cos_i + 1.5 * cos_t)) ** 2
+        rp = ((1.5 * cos_i - cos_t) / (1.5 * cos_i + cos_t)) ** 2
+        np.testing.assert_allclose(nodes.fresnel_conductor(cos_i, n, k), 0.5 * (rs + rp), rtol=1e-12)
+    assert (nodes.fresnel_conductor(0.0, n, k) == pytest.approx(1.0))    # grazing: all reflected
+
+
+def test_a_physical_conductor_as_f82_matches_its_fresnel_at_0_and_82_degrees():
+    """The Metallic BSDF's Physical Conductor read as an F82-tint curve: that curve passes through the complex
+    Fresnel at normal incidence and at cos = 1/7 (gold-like n, k)."""
+    n, k = np.array([0.18, 0.42, 1.37]), np.array([3.42, 2.35, 1.77])
+    f0, tint = nodes.conductor_as_f82(n, k)
+    B = nodes.f82_tint_B(f0[None, :], tint[None, :])
+    for cos_i in (1.0, 1.0 / 7.0):
+        curve = mf.fresnel_f82(np.array([cos_i]), f0[None, :], B)
+        np.testing.assert_allclose(curve[0], nodes.fresnel_conductor(cos_i, n, k), rtol=1e-9)
+
+
+def test_a_metallic_bsdf_with_beckmann_sets_up_a_beckmann_metal_that_renders_alike_on_both_kernels():
+    from test_compiled import LIGHTS, assert_same_render, compare_paths, lit_scene
+    from core.scene import RenderSettings
+    row = nodes.PrincipledNode.row({"metallic": 1.0, "base_color": (0.9, 0.6, 0.3), "roughness": 0.4,
+                                    "multiscatter": 0.0, "metal_distribution": nodes.BECKMANN})
+    b = nodes.ClosureBuilder(N_UP[None, :], view(0.7)[None, :], 4)
+    nodes.PrincipledNode.setup(b, np.ones((1, 3)), row)
+    assert b.closures.kind[0, 0] == nodes.Beckmann.kind
+    scene = lit_scene(LIGHTS["several"])
+    scene.materials[0] = materials.Material(name="metal", nodes=[
+        ("PRINCIPLED", (1, 1, 1), {"metallic": 1.0, "base_color": (0.9, 0.6, 0.3), "roughness": 0.3,
+                                   "specular_tint": (0.7, 0.9, 1.0), "multiscatter": 0.0,
+                                   "metal_distribution": nodes.BECKMANN})])
+    compiled, reference = compare_paths(scene, RenderSettings(width=24, height=16, samples=4))
+    assert_same_render(compiled, reference)
+    assert compiled.image[..., :3].max() > 0.05

@@ -617,3 +617,52 @@ def test_a_udim_texture_renders_each_tile_where_the_uvs_reach_it(kernels):
     u, _ = pixel_uv()
     albedo = np.where((2.0 * u)[..., None] < 1.0, red[:3], green[:3])
     check_varying(scene_of(material), kernels, albedo / math.pi * E, atol=1e-6)
+
+
+def uv_ramp(n: int = 16) -> textures.Image:
+    """An n x n image whose red is u and green is v at each texel centre (Linear interpolation then reads (u, v) back
+    exactly inside the outer half texels)."""
+    centres = ((np.arange(n) + 0.5) / n).astype(np.float32)
+    u, v = np.meshgrid(centres, centres)
+    return textures.Image(np.dstack([u, v, np.zeros_like(u), np.ones_like(u)]), srgb=False)
+
+
+def constant_vector(x: float, y: float, z: float) -> Link:
+    """A Combine XYZ's Vector of constants."""
+    return Link(GraphNode("COMBINE_XYZ", {}, {"X": x, "Y": y, "Z": z}), "Vector")
+
+
+# (projection, the 0..1 box point looked up, the (u, v) Cycles' map_to_sphere / map_to_tube / box give it)
+PROJECTED = [("SPHERE", (1.0, 0.5, 0.5), (0.25, 0.5)),                  # +x on the equator: a quarter turn
+             ("SPHERE", (0.5, 1.0, 1.0), (0.5, 0.75)),                  # +y tilted 45 degrees up
+             ("SPHERE", (0.5, 0.5, 0.5), (0.0, 0.0)),                   # the centre
+             ("TUBE", (0.0, 0.5, 0.75), (0.75, 0.75)),                  # -x, half way up
+             ("TUBE", (0.5, 0.5, 0.9), (0.0, 0.0)),                     # on the axis
+             ("BOX", (0.3, 0.6, 0.1), (0.4, 0.3))]                      # a +z face: (1 - y, x)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("projection, point, uv", PROJECTED)
+def test_image_projections_map_a_known_point_to_cycles_uv(kernels, projection, point, uv):
+    node = GraphNode("IMAGE", {"image": uv_ramp(), "interpolation": "Linear", "extension": "EXTEND",
+                               "projection": projection, "blend": 0.2}, {"Vector": constant_vector(*point)})
+    image = shoot(scene_of(emitting(Link(node, "Color")), sun=False), kernels)
+    expected = np.clip(uv, 0.5 / 16, 1.0 - 0.5 / 16)                   # (EXTEND holds the outer texels)
+    np.testing.assert_allclose(image[..., :2], np.broadcast_to(expected, (SIZE, SIZE, 2)), atol=1e-6)
+
+
+# (projection, direction, the (u, v) of Cycles' direction_to_equirectangular / direction_to_mirrorball)
+ENVIRONMENT = [("EQUIRECTANGULAR", (0.0, 2.0, 0.0), (0.25, 0.5)),
+               ("EQUIRECTANGULAR", (1.0, 0.0, 1.0), (0.5, 0.75)),
+               ("MIRROR_BALL", (0.0, -3.0, 0.0), (0.5, 0.5)),            # straight back at the viewer: the centre
+               ("MIRROR_BALL", (1.0, 0.0, 0.0), (0.5 + 0.5 / math.sqrt(2.0), 0.5)),
+               ("MIRROR_BALL", (0.0, 0.0, -2.0), (0.5, 0.5 - 0.5 / math.sqrt(2.0)))]
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("projection, direction, uv", ENVIRONMENT)
+def test_an_environment_texture_in_a_surface_maps_a_direction_to_cycles_uv(kernels, projection, direction, uv):
+    node = GraphNode("ENVIRONMENT", {"image": uv_ramp(), "interpolation": "Linear", "projection": projection},
+                     {"Vector": constant_vector(*direction)})
+    image = shoot(scene_of(emitting(Link(node, "Color")), sun=False), kernels)
+    np.testing.assert_allclose(image[..., :2], np.broadcast_to(uv, (SIZE, SIZE, 2)), atol=1e-6)

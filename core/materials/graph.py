@@ -683,6 +683,11 @@ class Compiler:
         if kind == "IMAGE":
             vector = (self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link)
                       else self.attribute("uv:"))
+            projection = props.get("projection", "FLAT")
+            if projection == "BOX":
+                return self.image_box(vector, props, output)
+            if projection in ("SPHERE", "TUBE"):
+                vector = self.sphere_or_tube(vector, projection)
             out = self.temporary(4)
             index = self.image_index(props.get("image"))
             self.emit("IMAGE", out, vector, index, textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0),
@@ -819,21 +824,136 @@ class Compiler:
         self.emit("MATH", out, MATH_OPS.index(operation), a, b, b if c is None else c, 0)
         return out
 
+    def vector_of(self, *registers: int) -> int:
+        """A new 3-float register holding the three 1-float `registers` in turn."""
+        out = self.temporary(3)
+        for k, register in enumerate(registers):
+            self.emit("COPY", shift(out, k), register, 1)
+        return out
+
+    def sphere_or_tube(self, vector: int, projection: str) -> int:
+        """The (u, v, 0) register an Image Texture's SPHERE or TUBE projection makes of the 3-float `vector`, as Cycles'
+        map_to_sphere / map_to_tube do after moving the 0..1 box to -1..1 (c = 2 v - 1): Sphere u = 1/2 -
+        atan2(x, y) / 2 pi, v = 1 - acos(z / |c|) / pi (u = 0 on the z axis, both 0 at the centre); Tube u = 1/2 -
+        atan2(x, y) / 2 pi, v = (z + 1) / 2 (both 0 on the z axis)."""
+        x, y, z = (self.math("MULTIPLY_ADD", shift(vector, k), self.constant([2.0]), self.constant([-1.0]))
+                   for k in range(3))
+        zero, one = self.constant([0.0]), self.constant([1.0])
+        across = self.math("MULTIPLY_ADD", y, y, self.math("MULTIPLY", x, x))
+        off_axis = self.math("GREATER_THAN", across, zero)
+        u = self.math("MULTIPLY", self.math("MULTIPLY_ADD", self.math("ARCTAN2", x, y), self.constant([-0.5 / np.pi]),
+                                            self.constant([0.5])), off_axis)
+        if projection == "TUBE":
+            v = self.math("MULTIPLY", self.math("MULTIPLY_ADD", z, self.constant([0.5]), self.constant([0.5])), off_axis)
+            return self.vector_of(u, v, zero)
+        length2 = self.math("MULTIPLY_ADD", z, z, across)
+        polar = self.math("ARCCOSINE", self.math("DIVIDE", z, self.math("SQRT", length2)))
+        v = self.math("MULTIPLY", self.math("MULTIPLY_ADD", polar, self.constant([-1.0 / np.pi]), one),
+                      self.math("GREATER_THAN", length2, zero))
+        return self.vector_of(u, v, zero)
+
+    def image_box(self, vector: int, props: dict, output: str) -> tuple:
+        """Emit an Image Texture's BOX projection as Cycles' svm_node_tex_image_box: the object-space normal's |N|
+        (summed to 1) weighs the three axis-aligned looks at the image, one face alone near each axis, two or three
+        blended over the band props["blend"] wide; return (register, width, type) of `output`."""
+        blend = float(props.get("blend", 0.0))
+        limit = 0.5 * (1.0 + blend)
+        normal = self.geometry("Object Normal")
+        zero, one = self.constant([0.0]), self.constant([1.0])
+        signed = [shift(normal, k) for k in range(3)]
+        size = [self.math("ABSOLUTE", c) for c in signed]
+        total = self.math("ADD", self.math("ADD", size[0], size[1]), size[2])
+        nx, ny, nz = (self.math("DIVIDE", c, total) for c in size)
+        def both(a, b):
+            """a times b (of 0/1 masks: and)."""
+            return self.math("MULTIPLY", a, b)
+
+        def alone(a):
+            """1 - a (of a 0/1 mask: not)."""
+            return self.math("SUBTRACT", one, a)
+
+        def also(a, b):
+            """a plus b."""
+            return self.math("ADD", a, b)
+
+        def above(a, b, c, factor):
+            """1 where a > factor (b + c), else 0."""
+            return self.math("GREATER_THAN", a, self.math("MULTIPLY", self.constant([factor]), self.math("ADD", b, c)))
+
+        corner_x = both(above(nx, nx, ny, limit), above(nx, nx, nz, limit))
+        corner_y = both(alone(corner_x), both(above(ny, nx, ny, limit), above(ny, ny, nz, limit)))
+        corner_z = both(both(alone(corner_x), alone(corner_y)), both(above(nz, nx, nz, limit), above(nz, ny, nz, limit)))
+        rest = both(both(alone(corner_x), alone(corner_y)), alone(corner_z))
+        if blend > 0.0:
+            def ramp(a, b):
+                """Cycles' saturate((a / (a + b) - (1 - blend) / 2) / blend)."""
+                t = self.math("MULTIPLY_ADD", self.math("DIVIDE", a, self.math("ADD", a, b)), self.constant([1.0 / blend]),
+                              self.constant([-0.5 * (1.0 - blend) / blend]))
+                return self.math("MINIMUM", self.math("MAXIMUM", t, zero), one)
+
+            def below(a, b, c):
+                """1 where a < (1 - limit) (b + c), else 0."""
+                return self.math("LESS_THAN", a, self.math("MULTIPLY", self.constant([1.0 - limit]), self.math("ADD", b, c)))
+
+            edge_xy = both(rest, below(nz, ny, nx))
+            edge_yz = both(both(rest, alone(edge_xy)), below(nx, ny, nz))
+            edge_xz = both(both(both(rest, alone(edge_xy)), alone(edge_yz)), below(ny, nx, nz))
+            middle = both(both(both(rest, alone(edge_xy)), alone(edge_yz)), alone(edge_xz))
+            x_xy, y_yz, x_xz = ramp(nx, ny), ramp(ny, nz), ramp(nx, nz)
+            mid = [self.math("MULTIPLY", self.math("MULTIPLY_ADD", c, self.constant([2.0 - limit]),
+                                                   self.constant([limit - 1.0])), self.constant([1.0 / (2.0 * limit - 1.0)]))
+                   for c in (nx, ny, nz)]
+            weight_x = also(also(corner_x, both(edge_xy, x_xy)), also(both(edge_xz, x_xz), both(middle, mid[0])))
+            weight_y = also(also(corner_y, both(edge_xy, alone(x_xy))), also(both(edge_yz, y_yz), both(middle, mid[1])))
+            weight_z = also(also(corner_z, both(edge_yz, alone(y_yz))), also(both(edge_xz, alone(x_xz)),
+                                                                                 both(middle, mid[2])))
+        else:
+            weight_x, weight_y, weight_z = also(corner_x, rest), corner_y, corner_z
+
+        def pick(flipped, a):
+            """Register a, or 1 - a where `flipped` is 1."""
+            return also(both(a, alone(flipped)), both(alone(a), flipped))
+
+        co = [shift(vector, k) for k in range(3)]
+        looks = ((weight_x, pick(self.math("LESS_THAN", signed[0], zero), co[1]), co[2]),
+                 (weight_y, pick(self.math("GREATER_THAN", signed[1], zero), co[0]), co[2]),
+                 (weight_z, pick(self.math("GREATER_THAN", signed[2], zero), co[1]), co[0]))
+        index = self.image_index(props.get("image"))
+        total = None
+        for weight, u, v in looks:
+            sample = self.temporary(4)
+            self.emit("IMAGE", sample, self.vector_of(u, v, zero), index,
+                      textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0),
+                      textures_.EXTENSIONS.get(props.get("extension", "REPEAT"), 0))
+            total = [self.math("MULTIPLY", weight, shift(sample, k)) if total is None
+                     else self.math("MULTIPLY_ADD", weight, shift(sample, k), total[k]) for k in range(4)]
+        if output == "Color":
+            return self.vector_of(*total[:3]), 3, "color"
+        return total[3], 1, "float"
+
     def environment(self, inp: dict, props: dict, output: str) -> tuple:
-        """Emit an equirectangular Environment Texture as Cycles looks it up: the direction (its Vector, else the
-        Generated coordinates: in a world, the ray's direction) to u = 1/2 - atan2(y, x) / 2 pi,
-        v = 1/2 + atan2(z, |(x, y)|) / pi, then the IMAGE op there; return (register, width, type) of `output`."""
+        """Emit an Environment Texture as Cycles' svm_node_tex_environment looks it up: the direction (its Vector, else
+        the Generated coordinates: in a world, the ray's direction), normalised, to (u, v), then the IMAGE op there;
+        EQUIRECTANGULAR u = 1/2 - atan2(y, x) / 2 pi, v = 1/2 + atan2(z, |(x, y)|) / pi; MIRROR_BALL the point of a
+        mirror ball seen along -y that reflects the direction: (x, y - 1, z) / 2 sqrt((1 - y) / 2), u = (x + 1) / 2,
+        v = (z + 1) / 2; return (register, width, type) of `output`."""
         d = self.value(inp["Vector"], 3) if isinstance(inp.get("Vector"), Link) else self.attribute("generated")
         x, y, z = (shift(d, k) for k in range(3))
-        uv = self.temporary(3)
-        u = self.math("MULTIPLY_ADD", self.math("ARCTAN2", y, x), self.constant([-0.5 / np.pi]), self.constant([0.5]))
-        across = self.math("SQRT", self.math("MULTIPLY_ADD", y, y, self.math("MULTIPLY", x, x)))
-        v = self.math("MULTIPLY_ADD", self.math("ARCTAN2", z, across), self.constant([1.0 / np.pi]),
-                      self.constant([0.5]))
-        for k, register in enumerate((u, v, self.constant([0.0]))):
-            self.emit("COPY", shift(uv, k), register, 1)
+        zero, half = self.constant([0.0]), self.constant([0.5])
+        across2 = self.math("MULTIPLY_ADD", y, y, self.math("MULTIPLY", x, x))
+        if props.get("projection", "EQUIRECTANGULAR") == "MIRROR_BALL":
+            inverse = self.math("INVERSE_SQRT", self.math("MULTIPLY_ADD", z, z, across2))
+            x, y, z = (self.math("MULTIPLY", c, inverse) for c in (x, y, z))
+            y = self.math("SUBTRACT", y, self.constant([1.0]))
+            div = self.math("MULTIPLY", self.constant([2.0]),
+                            self.math("SQRT", self.math("MAXIMUM", self.math("MULTIPLY", y, self.constant([-0.5])), zero)))
+            u, v = (self.math("MULTIPLY_ADD", self.math("DIVIDE", c, div), half, half) for c in (x, z))
+        else:
+            u = self.math("MULTIPLY_ADD", self.math("ARCTAN2", y, x), self.constant([-0.5 / np.pi]), half)
+            v = self.math("MULTIPLY_ADD", self.math("ARCTAN2", z, self.math("SQRT", across2)), self.constant([1.0 / np.pi]),
+                          half)
         out = self.temporary(4)
-        self.emit("IMAGE", out, uv, self.image_index(props.get("image")),
+        self.emit("IMAGE", out, self.vector_of(u, v, zero), self.image_index(props.get("image")),
                   textures_.INTERPOLATIONS.get(props.get("interpolation", "Linear"), 0), textures_.EXTENSIONS["REPEAT"])
         return (out, 3, "color") if output == "Color" else (shift(out, 3), 1, "float")
 

@@ -419,7 +419,9 @@ INLINE void principled_node(ShaderResult *sd, double mu, const double *wo, int b
             thin_film_slots(lobe, thickness, film_ior, FRESNEL_THIN_FILM_F82);
             microfacet_fresnel(lobe, clamp01(mu), reflect);
         }
-        if (reflective) lobe_add(sd, mu, metal_weight, lobe, reflect, multiscatter ? Fss : NULL);
+        if (reflective)     /* p[47]: the metal's distribution (a Metallic BSDF's Beckmann) */
+            lobe_add_as(sd, mu, metal_weight, lobe, reflect, multiscatter ? Fss : NULL,
+                        p[47] == DISTRIBUTION_BECKMANN ? BSDF_BECKMANN : BSDF_MICROFACET);
         for (int j = 0; j < 3; j++) W[j] *= 1.0 - metallic;
     }
     /* 5. Transmission: glass, smooth or rough; a caustics filter takes away its reflection or refraction. */

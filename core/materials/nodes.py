@@ -143,6 +143,32 @@ def f82_tint_B(f0: np.ndarray, tint: np.ndarray) -> np.ndarray:
     return (f0 + (1.0 - f0) * f5) * (7.0 / (f5 * f)) * (1.0 - tint)
 
 
+def fresnel_conductor(cos_i: float, n: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """The unpolarised reflectance (3,) of a conductor of complex index n + i k (each (3,)) at incidence cosine cos_i,
+    from air (Cycles' fresnel_conductor); at normal incidence ((n - 1)^2 + k^2) / ((n + 1)^2 + k^2)."""
+    cos2 = cos_i * cos_i
+    sin2 = 1.0 - cos2
+    n2, k2 = n * n, k * k
+    t0 = n2 - k2 - sin2
+    a2b2 = np.sqrt(t0 * t0 + 4.0 * n2 * k2)
+    t1 = a2b2 + cos2
+    t2 = 2.0 * cos_i * np.sqrt(np.maximum(0.5 * (a2b2 + t0), 0.0))
+    rs = (t1 - t2) / (t1 + t2)
+    t3, t4 = cos2 * a2b2 + sin2 * sin2, t2 * sin2
+    rp = rs * (t3 - t4) / (t3 + t4)
+    return 0.5 * (rp + rs)
+
+
+def conductor_as_f82(n: np.ndarray, k: np.ndarray) -> tuple:
+    """The F82-tint curve (f0, tint), each (3,), through a conductor's reflectance at normal incidence and at
+    cos = 1/7 (about 82 degrees), where that curve is fitted: tint = F(1/7) / Schlick(f0, 1/7), at most 1."""
+    n, k = np.maximum(np.asarray(n, np.float64), 0.0), np.maximum(np.asarray(k, np.float64), 0.0)
+    f0 = fresnel_conductor(1.0, n, k)
+    schlick = f0 + (1.0 - f0) * (1.0 - 1.0 / 7.0) ** 5
+    tint = np.clip(fresnel_conductor(1.0 / 7.0, n, k) / np.maximum(schlick, 1e-12), 0.0, 1.0)
+    return f0, tint
+
+
 def rotate_around_axis(v: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """v (n, 3) turned by angle (n,) radians about the unit axis (n, 3) (Rodrigues; Cycles' rotate_around_axis)."""
     c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
@@ -436,11 +462,12 @@ PRINCIPLED_INPUTS = ("base_color", "metallic", "roughness", "ior", "alpha", "sub
                      "transmission", "multiscatter", "diffuse_roughness", "sheen", "sheen_roughness", "sheen_tint",
                      "coat_follows_normal", "anisotropic", "anisotropic_rotation", "tangent", "coat_normal",
                      "thin_film_thickness", "thin_film_ior", "subsurface_radius", "subsurface_scale",
-                     "subsurface_ior", "subsurface_anisotropy", "subsurface_method")
+                     "subsurface_ior", "subsurface_anisotropy", "subsurface_method", "metal_distribution")
 PRINCIPLED_DEFAULTS = ((0.8, 0.8, 0.8), 0.0, 0.5, 1.5, 1.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.03, 1.5,
                        (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), 0.0, 1.0, 0.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.0, 0.0, 0.0,
                        (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 1.33, (1.0, 0.2, 0.1), 0.05, 1.4, 0.0,
-                       1.0)      # (subsurface.RANDOM_WALK)
+                       1.0,      # (subsurface.RANDOM_WALK)
+                       GGX)      # the metal's (GGX; BECKMANN: a Metallic BSDF's Beckmann, no multiscatter)
 
 
 class PrincipledNode(Node):
@@ -550,8 +577,9 @@ class PrincipledNode(Node):
                 thin_film_slots(lobe, film, thickness, film_ior, mf.FRESNEL_THIN_FILM_F82)
                 reflect = np.where(film[:, None], mf.fresnel(lobe, np.clip(b.mu, 0.0, 1.0)), reflect)
             Fss = clamped + (1.0 - clamped) / 21.0 - B / 126.0
+            beckmann = p[:, 47] == BECKMANN
             GlossyLobe.add(b, W * metallic[:, None], lobe, reflect, Fss=Fss if multiscatter else None,
-                           keep=on & b.reflective)
+                           keep=on & b.reflective, kind=np.where(beckmann, Beckmann.kind, Microfacet.kind))
             W = np.where(on[:, None], W * (1.0 - metallic)[:, None], W)
         # 5. Transmission: glass, Fresnel's curve remapped from F0 x specular tint to 1, the transmitted
         #    light tinted by the square root of the base colour (it passes the surface twice); a caustics
