@@ -76,14 +76,13 @@ def subsurface_spheres():
 def renders(tmp_path_factory):
     """(Primer's passes, Cycles' passes), each name -> (channels, (H, W, c) float32)."""
     folder = tmp_path_factory.mktemp("subsurface_passes")
-    primer = load_primer()
+    load_primer()
     scene = subsurface_spheres()
     scene.primer.samples = SAMPLES
     scene.render.engine = "PRIMER"
     mine = render_image(scene, str(folder / "primer.exr"), multilayer=True)
     configure_cycles_reference(scene, SAMPLES)
     cycles = render_image(scene, str(folder / "cycles.exr"), multilayer=True)
-    primer.unregister()
     return mine, cycles
 
 
