@@ -231,6 +231,20 @@ def attach_triangles(scene, device, vertices: np.ndarray, triangles: np.ndarray)
     return int(geometry_id)
 
 
+def _prototype(library, device, vertices: np.ndarray, triangles: np.ndarray, geometry_id: int, vertex_steps=()):
+    """A committed Embree scene holding the mesh once as geometry `geometry_id` (an instance's prototype; with
+    vertex_steps, a deforming mesh's vertices at its time steps), or None where Embree refused the mesh."""
+    geometry = _triangle_geometry(library, device, vertices, triangles, vertex_steps)
+    if not geometry:
+        return None
+    prototype = library.rtcNewScene(device)
+    library.rtcSetSceneFlags(prototype, RTC_SCENE_FLAG_ROBUST)
+    library.rtcAttachGeometryByID(prototype, geometry, geometry_id)
+    library.rtcReleaseGeometry(geometry)
+    library.rtcCommitScene(prototype)
+    return prototype
+
+
 def attach_instances(scene, device, vertices: np.ndarray, triangles: np.ndarray, transforms: np.ndarray,
                      geometry_id: int) -> bool:
     """Place one triangle mesh len(transforms) times in an embreex scene, storing the mesh once; return success.
@@ -247,14 +261,9 @@ def attach_instances(scene, device, vertices: np.ndarray, triangles: np.ndarray,
     library = embree_library()
     _check_buffer(transforms, np.float32, 12)
     # 1. The prototype: a scene holding the mesh once, built now (Embree wants it committed first).
-    geometry = _triangle_geometry(library, handles.device, vertices, triangles)
-    if not geometry:
+    prototype = _prototype(library, handles.device, vertices, triangles, geometry_id)
+    if not prototype:
         return False
-    prototype = library.rtcNewScene(handles.device)
-    library.rtcSetSceneFlags(prototype, RTC_SCENE_FLAG_ROBUST)
-    library.rtcAttachGeometryByID(prototype, geometry, geometry_id)
-    library.rtcReleaseGeometry(geometry)
-    library.rtcCommitScene(prototype)
     # 2. One instance array over the shared transforms, attached to the top-level scene.
     placements = library.rtcNewGeometry(handles.device, RTC_GEOMETRY_TYPE_INSTANCE_ARRAY)
     if placements:
@@ -289,14 +298,9 @@ def attach_motion_instance(scene, device, vertices: np.ndarray, triangles: np.nd
         return False
     library = embree_library()
     _check_buffer(steps, np.float32, 16)
-    geometry = _triangle_geometry(library, handles.device, vertices, triangles, vertex_steps)
-    if not geometry:
+    prototype = _prototype(library, handles.device, vertices, triangles, geometry_id, vertex_steps)
+    if not prototype:
         return False
-    prototype = library.rtcNewScene(handles.device)
-    library.rtcSetSceneFlags(prototype, RTC_SCENE_FLAG_ROBUST)
-    library.rtcAttachGeometryByID(prototype, geometry, geometry_id)
-    library.rtcReleaseGeometry(geometry)
-    library.rtcCommitScene(prototype)
     instance = library.rtcNewGeometry(handles.device, RTC_GEOMETRY_TYPE_INSTANCE)
     if instance:
         library.rtcSetGeometryInstancedScene(instance, prototype)
