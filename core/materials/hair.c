@@ -248,6 +248,14 @@ INLINE void hair_theta_lobe(const double *p, double theta_r, double *a, double *
     *b = atan(((-PI / 2.0 + theta_r) * 0.5 - offset) / r1);
 }
 
+/* hair.sample_theta: theta_i drawn from the Cauchy lobe by u0, with the lobe's ends *a, *b for its pdf. */
+INLINE double hair_sample_theta(const double *p, double theta_r, double u0, double *a, double *b)
+{
+    hair_theta_lobe(p, theta_r, a, b);
+    double t = p[HAIR_RU] * tan(u0 * (*a - *b) + *b);
+    return 2.0 * (t + p[HAIR_OFFSET]) - theta_r;
+}
+
 INLINE double hair_theta_pdf(const double *p, double a, double b, double theta_i, double theta_r)
 {
     double r1 = p[HAIR_RU];
@@ -297,10 +305,8 @@ INLINE void hair_reflection_sample(const Closure *c, const double *wo, const dou
     const double *p = c->p;
     double locy[3], a, b;
     double theta_r = hair_frame(p, wo, locy);
-    double r1 = p[HAIR_RU], r2 = p[HAIR_RV];
-    hair_theta_lobe(p, theta_r, &a, &b);
-    double t = r1 * tan(u[0] * (a - b) + b);
-    double theta_i = 2.0 * (t + p[HAIR_OFFSET]) - theta_r;
+    double r2 = p[HAIR_RV];
+    double theta_i = hair_sample_theta(p, theta_r, u[0], &a, &b);
     double phi = 2.0 * hair_asin(1.0 - 2.0 * u[1]) * r2;
     double pdf = fabs(cos(phi * 0.5) * 0.25 / r2 * hair_theta_pdf(p, a, b, theta_i, theta_r));
     if (PI / 2.0 - fabs(theta_i) < 0.001 || !isfinite(pdf)) pdf = 0.0;
@@ -338,10 +344,8 @@ INLINE void hair_transmission_sample(const Closure *c, const double *wo, const d
     const double *p = c->p;
     double locy[3], a, b;
     double theta_r = hair_frame(p, wo, locy);
-    double r1 = p[HAIR_RU], r2 = p[HAIR_RV];
-    hair_theta_lobe(p, theta_r, &a, &b);
-    double t = r1 * tan(u[0] * (a - b) + b);
-    double theta_i = 2.0 * (t + p[HAIR_OFFSET]) - theta_r;
+    double r2 = p[HAIR_RV];
+    double theta_i = hair_sample_theta(p, theta_r, u[0], &a, &b);
     double cc = 2.0 * atan(PI / 2.0 / r2);
     double q = r2 * tan(cc * (u[1] - 0.5));
     double pdf = fabs(r2 / (cc * (q * q + r2 * r2)) * hair_theta_pdf(p, a, b, theta_i, theta_r));

@@ -331,6 +331,13 @@ def theta_lobe(params: np.ndarray, theta_r: np.ndarray) -> tuple:
     return a, b
 
 
+def sample_theta(params: np.ndarray, theta_r: np.ndarray, u0: np.ndarray) -> tuple:
+    """theta_i (n,) drawn from the Cauchy lobe by u0 (n,), with the lobe's ends a, b (theta_lobe) for its pdf."""
+    a, b = theta_lobe(params, theta_r)
+    t = params[:, ROUGHNESS_U] * np.tan(u0 * (a - b) + b)
+    return 2.0 * (t + params[:, OFFSET]) - theta_r, a, b
+
+
 def theta_pdf(params, a, b, theta_i, theta_r) -> np.ndarray:
     """The longitudinal pdf (n,) of theta_i (per solid angle, its cosine divided out)."""
     r1 = params[:, ROUGHNESS_U]
@@ -382,10 +389,8 @@ class HairReflection(BSDF):
     @staticmethod
     def sample(params, N, wo, u):
         T, locy, theta_r = hair_frame(params, wo)
-        r1, r2 = params[:, ROUGHNESS_U], params[:, ROUGHNESS_V]
-        a, b = theta_lobe(params, theta_r)
-        t = r1 * np.tan(u[:, 0] * (a - b) + b)
-        theta_i = 2.0 * (t + params[:, OFFSET]) - theta_r
+        r2 = params[:, ROUGHNESS_V]
+        theta_i, a, b = sample_theta(params, theta_r, u[:, 0])
         phi = 2.0 * safe_asin(1.0 - 2.0 * u[:, 1]) * r2
         with np.errstate(divide="ignore", invalid="ignore"):
             pdf = np.abs(np.cos(phi * 0.5) * 0.25 / r2 * theta_pdf(params, a, b, theta_i, theta_r))
@@ -428,10 +433,8 @@ class HairTransmission(BSDF):
     @staticmethod
     def sample(params, N, wo, u):
         T, locy, theta_r = hair_frame(params, wo)
-        r1, r2 = params[:, ROUGHNESS_U], params[:, ROUGHNESS_V]
-        a, b = theta_lobe(params, theta_r)
-        t = r1 * np.tan(u[:, 0] * (a - b) + b)
-        theta_i = 2.0 * (t + params[:, OFFSET]) - theta_r
+        r2 = params[:, ROUGHNESS_V]
+        theta_i, a, b = sample_theta(params, theta_r, u[:, 0])
         c = 2.0 * np.arctan(math.pi / 2.0 / r2)
         q = r2 * np.tan(c * (u[:, 1] - 0.5))
         with np.errstate(divide="ignore", invalid="ignore"):
