@@ -23,7 +23,6 @@ inside it; the integrator evaluates the graph where each sample lands (integrato
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import ClassVar, Optional
 
