@@ -428,3 +428,38 @@ def test_a_gradient_of_generated_coordinates_absorbs_as_in_cycles(primer, tmp_pa
     print("gradient", np.abs(mine / expected - 1).max(), np.abs(cycles / expected - 1).max())
     np.testing.assert_allclose(mine, expected, rtol=1e-5)
     np.testing.assert_allclose(cycles, expected, rtol=2e-2)
+
+
+@pytest.mark.parametrize("kernels", ["COMPILED", "NUMPY"])
+def test_a_medium_hidden_from_shadow_rays_lets_its_own_light_in_unattenuated_as_in_cycles(primer, tmp_path, kernels):
+    """A Volume Scatter cube d = 0.8 deep (sigma_s = sigma_t = density x colour, isotropic) under a sun straight
+    above, seen straight down: the light scattered back to the camera from depth s has crossed s of the medium on
+    its way in and s on its way out, so a pixel is E sigma_s / (4 pi) integral exp(-2 sigma_t s) ds
+    = E / (8 pi) (1 - exp(-2 sigma_t d)). With the cube's Ray Visibility > Shadow off, shadow rays do not see the
+    medium (Cycles evaluates only media of objects its shadow rays meet): E / (4 pi) (1 - exp(-sigma_t d)), 2.3
+    times brighter here. Both in Primer (either kernel; 64 samples within 2 %) and in Cycles."""
+    scene = ortho_scene(16, 8, 4.0)
+    color, density, depth, E = np.array([0.8, 0.6, 0.4]), 2.0, 0.8, 3.0
+    fog, _ = volume_material("Fog", "ShaderNodeVolumeScatter", Color=tuple(color), Density=density)
+    cube = box("Fog", (0.0, 0.0, 1.5), (1.0, 1.0, depth), fog)
+    lamp(scene, "Sun", "SUN", (0.0, 0.0, 5.0), E)
+    scene.cycles.max_bounces = 0
+    scene.primer.kernels = kernels
+    sigma_t = density * color
+    for seen in (True, False):
+        cube.visible_shadow = seen
+        mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 64)[..., :3]
+        assert addon(primer, "engine").last_render.stats.kernels.startswith(kernels.lower())
+        lit = (E / (8.0 * np.pi) * (1.0 - np.exp(-2.0 * sigma_t * depth)) if seen
+               else E / (4.0 * np.pi) * (1.0 - np.exp(-sigma_t * depth)))
+        print("shadow rays see the cube" if seen else "hidden", mine[2:6, 6:10].mean(axis=(0, 1)) / lit)
+        np.testing.assert_allclose(mine[2:6, 6:10].mean(axis=(0, 1)), lit, rtol=2e-2)
+        assert np.abs(mine[:, :5]).max() == 0.0 and np.abs(mine[:, 11:]).max() == 0.0   # (black world around it)
+        if kernels == "COMPILED":
+            cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 64)[..., :3]
+            np.testing.assert_allclose(cycles[2:6, 6:10].mean(axis=(0, 1)), lit, rtol=2e-2)
+    if kernels == "COMPILED":              # one medium on a hidden object and on a seen one: passed, and said so
+        box("Seen", (1.5, 0.0, 1.5), (0.5, 0.5, depth), fog)
+        render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)
+        assert any("hidden from shadow rays and on objects seen by them" in w
+                   for w in addon(primer, "engine").last_render.stats.warnings)

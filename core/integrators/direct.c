@@ -590,7 +590,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
     const MediaTables *media = stacks != NULL ? tr->media : NULL;
     for (int l = 0; l < lanes; l++) {
         crossed[l] = 0;
-        if (media != NULL) inside[l] = stacks[l];
+        if (media != NULL) inside[l] = shadow_stack(media, stacks + l);
         for (int c = 0; c < 3; c++) { T[l][c] = 1.0; origin[l][c] = O[l][c]; D[l][c] = D0[l][c]; }
         for (int c = 0; c < 3; c++) end[l][c] = O[l][c] + (isfinite(t[l]) ? t[l] : 0.0) * D0[l][c];
         left[l] = t[l];

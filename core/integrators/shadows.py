@@ -211,6 +211,8 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None, bl
     crossed = np.zeros(n, np.int64)                 # volume-only boundaries passed
     media = ctx.extra.get("media") if inside is not None else None
     inside = None if media is None else inside.copy()
+    if inside is not None and media.shadowless.any():   # (media of objects hidden from shadow rays: not there)
+        inside[:, media.shadowless] = 0
     paths = graph_.light_paths(n, flags=graph_.PATH_SHADOW) if paths is None else paths
     alive = np.arange(n)
     while len(alive):

@@ -219,9 +219,9 @@
 /* the polynomial fisheye Window's Newton steps stop below (core.materials.graph) */
 #define POLYNOMIAL_STOP 1e-06
 /* the luminance of a hair path's colour (hair.GRAY) (core.materials.hair) */
-#define HAIR_GRAY_R 0.21263909464917768
-#define HAIR_GRAY_G 0.7151691212828695
-#define HAIR_GRAY_B 0.07219275243927319
+#define HAIR_GRAY_R 0.2126390946491776
+#define HAIR_GRAY_G 0.7151691212828692
+#define HAIR_GRAY_B 0.07219275243927316
 /* a Principled Hair BSDF's colour parametrisation (hair.PARAMETRIZATIONS) (core.materials.hair) */
 #define HAIR_PARAMETRIZATION_DIRECT_COLORING 0
 #define HAIR_PARAMETRIZATION_MELANIN 1
@@ -1027,6 +1027,7 @@ struct MediaTables {
     const double *g;                        /* (V,) each column's Henyey-Greenstein anisotropy */
     const int32_t *column;                  /* (m + 1,) each material row's column, -1 where it has no volume */
     const int32_t *boundary;                /* (m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface) */
+    const int32_t *shadowless;              /* (V,) 1: shadow rays pass the column's medium (its objects hide from them) */
     double world_sigma_t[3];                /* the world's medium's extinction (0: none) */
     double world_emission[3];               /* and its emission */
     double world_sigma_s[3];                /* and its scattering */
@@ -1079,7 +1080,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
     if (strcmp(name, "VolumeField") == 0) return UINT64_C(3062569251802433246);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(8317093212682373212);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(7894242751340797274);
     return 0;
 }
 

@@ -203,6 +203,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # through the boundaries, and every stretch of a ray in a medium loses what Beer-Lambert says.
     media = volumes.Media.of(list(scene.materials) + [scene.default_material or Material()], world.volume, geometry)
     ctx.extra["media"] = media
+    warnings.extend(note for note in (media.notes if media is not None else ()) if note not in warnings)
     if media is not None:                  # (where camera rays may start inside a mesh's medium)
         ctx.extra["media_bounds"] = rays_.media_bounds(geometry, media)
     ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)

@@ -76,6 +76,15 @@ INLINE void stack_cross(const MediaTables *media, VolumeStack *stack, int64_t ma
     stack->count[v] = (int16_t)(next < 0 ? 0 : next);
 }
 
+/* A shadow ray's stack from the stack it starts in: without the media shadow rays pass (Media.shadowless). */
+INLINE VolumeStack shadow_stack(const MediaTables *media, const VolumeStack *stack)
+{
+    VolumeStack shadow = *stack;
+    for (int v = 0; v < media->count; v++)
+        if (media->shadowless[v]) shadow.count[v] = 0;
+    return shadow;
+}
+
 /* Whether material row `material` is a volume-only boundary (rays pass it without counting a transparent bounce). */
 INLINE int is_boundary(const MediaTables *media, int64_t material)
 {

@@ -218,12 +218,16 @@ class Media:
     sigma_a, sigma_s, emission: (V, 3) float64 each column's coefficients; g (V,) float64 its anisotropy
     world:    the world's Coefficients (zero where the world has no volume)
     boundary: (m + 1,) bool the material rows that are volume-only boundaries (a Volume and no Surface)
+    shadowless: (V,) bool the columns whose objects all hide from shadow rays (Ray Visibility > Shadow off): shadow
+              rays pass through such a medium as if it were not there, as in Cycles (shadows.transmittance)
+    notes:    what the render should be told (a medium on objects both hidden from and seen by shadow rays)
     """
 
-    def __init__(self, media: list, boundary, world: Optional[Coefficients] = None, fields: Optional[dict] = None):
+    def __init__(self, media: list, boundary, world: Optional[Coefficients] = None, fields: Optional[dict] = None,
+                 shadowless=None):
         """media: one Coefficients or None per material row; boundary: (m + 1,) bool; world: Coefficients or None;
         fields: material row -> its heterogeneous medium (core/volumes/field.py Field; that row's Coefficients are
-        then zero), or None."""
+        then zero), or None; shadowless: (m + 1,) bool the material rows whose media shadow rays pass, or None."""
         rows = [i for i, medium in enumerate(media) if medium is not None]
         fields = fields or {}
         # The heterogeneous media: each Field and its column.
@@ -238,6 +242,9 @@ class Media:
         self.g = np.array([c.g for c in pick], np.float64)
         self.world = NOTHING if world is None else world
         self.boundary = np.asarray(boundary, bool)
+        self.shadowless = (np.zeros(len(rows), bool) if shadowless is None
+                           else np.asarray(shadowless, bool)[np.asarray(rows, np.int64)])
+        self.notes = []
 
     @classmethod
     def of(cls, materials: list, world_volume: Optional[list] = None, geometry=None) -> Optional["Media"]:
@@ -259,7 +266,14 @@ class Media:
         boundary = [bool(getattr(m, "volume_only", False)) for m in materials]
         if all(medium is None for medium in media) and world is None:
             return None
-        return cls(media, boundary, world, fields)
+        hidden, seen = shadow_visibility(geometry, [medium is not None for medium in media])
+        made = cls(media, boundary, world, fields, hidden & ~seen)
+        if (hidden & seen).any():
+            names = ", ".join(repr(getattr(materials[row], "name", row)) for row in np.flatnonzero(hidden & seen))
+            made.notes.append(f"volumes: the medium of {names} is on objects hidden from shadow rays and on objects "
+                              "seen by them; Primer's shadow rays cross it everywhere (Cycles passes it only "
+                              "inside the hidden objects)")
+        return made
 
     @property
     def heterogeneous(self) -> bool:
@@ -300,7 +314,8 @@ class Media:
             count=len(self.g), sigma_t=contiguous(self.sigma_t, np.float64),
             emission=contiguous(self.emission, np.float64), sigma_s=contiguous(self.sigma_s, np.float64),
             g=contiguous(self.g, np.float64), column=contiguous(self.column, np.int32),
-            boundary=contiguous(self.boundary, np.int32), world_sigma_t=np.asarray(self.world.sigma_t, np.float64),
+            boundary=contiguous(self.boundary, np.int32), shadowless=contiguous(self.shadowless, np.int32),
+            world_sigma_t=np.asarray(self.world.sigma_t, np.float64),
             world_emission=np.asarray(self.world.emission, np.float64),
             world_sigma_s=np.asarray(self.world.sigma_s, np.float64), world_g=float(self.world.g), emits=self.emits,
             scatters=self.scattering,
@@ -371,6 +386,7 @@ MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media
     ("g", ptr(F64), "(V,) each column's Henyey-Greenstein anisotropy"),
     ("column", ptr(I32), "(m + 1,) each material row's column, -1 where it has no volume"),
     ("boundary", ptr(I32), "(m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface)"),
+    ("shadowless", ptr(I32), "(V,) 1: shadow rays pass the column's medium (its objects hide from them)"),
     ("world_sigma_t", F64, 3, "the world's medium's extinction (0: none)"),
     ("world_emission", F64, 3, "and its emission"),
     ("world_sigma_s", F64, 3, "and its scattering"),
@@ -454,6 +470,23 @@ def emitted(stretch: Stretch, t: np.ndarray) -> np.ndarray:
     if len(rows) and (any(f.emits for f in stretch.fields) or (stretch.emission[rows] != 0.0).any()):
         value[rows] = stretch.march(t[rows, 0], rows).emitted()   # (heterogeneous media: summed over the pieces)
     return value
+
+
+def shadow_visibility(geometry, volume_rows: list) -> tuple:
+    """Which material rows with a medium (volume_rows: (m + 1,) bool) are on some object hidden from shadow rays,
+    and which on some object that shadow rays see: two (m + 1,) bool (both False with no geometry)."""
+    from ..visibility import HIDDEN_FROM_SHADOW
+    hidden, seen = np.zeros(len(volume_rows), bool), np.zeros(len(volume_rows), bool)
+    if geometry is None or not geometry.hides(HIDDEN_FROM_SHADOW):
+        return hidden, seen
+    for start in range(0, geometry.triangle_count, 1 << 20):
+        prims = np.arange(start, min(start + (1 << 20), geometry.triangle_count))
+        material = geometry.triangle_data(prims, smooth=False).material
+        shadowless = geometry.hidden(prims, HIDDEN_FROM_SHADOW)
+        hidden[material[shadowless]] = True
+        seen[material[~shadowless]] = True
+    wanted = np.asarray(volume_rows, bool)
+    return hidden & wanted, seen & wanted
 
 
 def material_bounds(geometry, row: int) -> tuple:
