@@ -245,6 +245,12 @@ def prepare(node, idname: str) -> None:
                                                                               float_buffer=True)
         image.generated_type = "COLOR_GRID"
         node.image = image
+    if idname == "ShaderNodeTexSky":
+        # With its sun disc on, Blender 5 makes the scattering models' Vector input unavailable: both renderers then
+        # read the unsnapped Generated coordinate (Cycles at the pixel's centre with 1 sample, Primer anywhere in
+        # it), which measured 2.3e-4 / 2.1e-3 of noise, not of the sky; the disc has its own tests
+        # (tests/test_blender_sky_disc.py).
+        node.sun_disc = False
     if idname == "ShaderNodeAttribute":
         node.attribute_name = "Col"                 # the spheres' colour attribute (colour_attribute)
     if idname == "ShaderNodeTexPointDensity":
