@@ -190,15 +190,22 @@ def test_compiled_sheen_equals_the_reference():
     np.testing.assert_allclose(c_sample.weight, s.weight, rtol=1e-9)
 
 
-def test_the_compiled_fits_equal_the_reference():
-    """The closure rows and albedo a hit gets in C (nodes.c through a render) come from the same fits: checked
-    here on the Python side against a few hand-computed values of the published formulas."""
-    p, R = sh.params_of(np.array([0.5, 1.0]), np.array([1.0, 0.0]))
-    np.testing.assert_allclose(p[0, sh.A], (2.58126 + 0.813703 * 0.5) * 0.5 / (1.0 + 0.310327 + 2.60994 * 0.5))
-    assert p[0, sh.B] == 0.0                                  # head-on the lobe does not lean
-    np.testing.assert_allclose(p[1, sh.A], 0.813703)
-    assert p[1, sh.B] == 0.0                                  # roughness 1: (r - 1) = 0
-    assert 0.0 <= R.min() and R.max() <= 1.0
+def test_the_lobe_is_cycles_table_at_its_grid_points_and_bilinear_between_them():
+    """a, b and R are Cycles' table entries at mu = j / 31, roughness = i / 31 (row i, column j of each plane), the
+    mean of the four around the middle of a cell, and no lobe (R = 0) where the table has none (smooth fibres seen
+    at grazing angles: |a| or R under 1e-5, which Cycles skips); the compiled kernel reads the same numbers
+    (test_the_compiled_lobe_equals_the_reference renders through it)."""
+    i, j = np.array([5, 17, 31, 31]), np.array([9, 30, 0, 31])
+    p, R = sh.params_of(i / 31.0, j / 31.0)
+    np.testing.assert_allclose(p[:, sh.A], sh.LTC_A[i, j], rtol=1e-12)
+    np.testing.assert_allclose(p[:, sh.B], sh.LTC_B[i, j], rtol=1e-12)
+    np.testing.assert_allclose(R, sh.ALBEDO[i, j], rtol=1e-12)
+    p, R = sh.params_of(np.array([17.5 / 31.0]), np.array([9.5 / 31.0]))
+    np.testing.assert_allclose(R, sh.ALBEDO[17:19, 9:11].mean(), rtol=1e-12)
+    np.testing.assert_allclose(p[:, sh.A], sh.LTC_A[17:19, 9:11].mean(), rtol=1e-12)
+    p, R = sh.params_of(np.array([0.0]), np.array([0.5]))     # roughness 1e-3 (clamped), mu 0.5: no valid lobe
+    assert sh.ALBEDO[0, 15] < sh.INVALID and R[0] == 0.0 and np.isfinite(p).all()
+    assert 0.0 <= sh.ALBEDO.min() and sh.ALBEDO.max() <= 1.0
 
 
 def test_a_principled_bsdf_without_sheen_is_unchanged():

@@ -28,14 +28,14 @@ import numpy as np
 HEADER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "ggx_tables.h")
 
 
-def _read(name: str) -> np.ndarray:
-    """The C array `name` of ggx_tables.h as a flat float64 array."""
-    with open(HEADER) as handle:
+def _read(name: str, header: str = HEADER) -> np.ndarray:
+    """The C array `name` of a table header (ggx_tables.h, or another of this folder) as a flat float64 array."""
+    with open(header) as handle:
         text = handle.read()
     body = re.search(r"\b%s\[\d+\] = \{(.*?)\};" % name, text, re.S)
     if body is None:
-        raise RuntimeError(f"{HEADER} has no table {name}: run tools/make_tables.py")
-    return np.array([float(x) for x in body.group(1).split(",")])
+        raise RuntimeError(f"{header} has no table {name}: run tools/make_tables.py")
+    return np.array([float(x) for x in body.group(1).split(",") if x.strip()])
 
 
 E = _read("GGX_E").reshape(32, 32)

@@ -3,43 +3,8 @@
  * Each node's setup is <name>_node here; setup_node, generated from core/materials/registry.py's NODE_TYPES
  * (nodes.gen.c), picks it by the node's kind (NODE_*, core/native/boundary.gen.h). */
 
-#include "ggx_tables.h"
-
 #define WEIGHT_CUTOFF 1e-5          /* closures.WEIGHT_CUTOFF */
 #define STORAGE_STRIDE 18           /* doubles of a hit's storage per closure (a glass closure's, with a thin film) */
-
-/* ggx_tables.lookup_*: linear interpolation between grid points i / (size - 1), clamped to 0..1. */
-INLINE void table_position(double x, int size, int *i, int *j, double *t)
-{
-    x = (x != x) ? 0.0 : clamp01(x) * (size - 1);
-    *i = (int)x < size - 1 ? (int)x : size - 1;
-    *j = *i + 1 < size - 1 ? *i + 1 : size - 1;
-    *t = x - *i;
-}
-
-INLINE double lookup_1d(const double *table, int size, double x)
-{
-    int i, j; double t;
-    table_position(x, size, &i, &j, &t);
-    return (1.0 - t) * table[i] + t * table[j];
-}
-
-INLINE double lookup_2d(const double *table, int nx, int ny, double x, double y)
-{
-    int yi, yj, xi, xj; double ty, tx;
-    table_position(y, ny, &yi, &yj, &ty);
-    table_position(x, nx, &xi, &xj, &tx);
-    double a = (1.0 - tx) * table[yi * nx + xi] + tx * table[yi * nx + xj];
-    double b = (1.0 - tx) * table[yj * nx + xi] + tx * table[yj * nx + xj];
-    return (1.0 - ty) * a + ty * b;
-}
-
-INLINE double lookup_3d(const double *table, int n, double x, double y, double z)
-{
-    int zi, zj; double tz;
-    table_position(z, n, &zi, &zj, &tz);
-    return (1.0 - tz) * lookup_2d(table + zi * n * n, n, n, x, y) + tz * lookup_2d(table + zj * n * n, n, n, x, y);
-}
 
 /* ClosureBuilder.add: a closure of `kind` with `weight`; its sampling weight is |mean(allocated)| x factor;
  * none below the cutoff. params (MF_PARAMS doubles, or NULL) go into the hit's storage. The caller made room for

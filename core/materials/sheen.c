@@ -1,40 +1,26 @@
 /* The microfiber sheen BSDF: core/materials/sheen.py. f cos = pdf = D(wi), an LTC lobe stretched by
  * M^-1 = [[a, 0, b], [0, a, 0], [0, 0, 1]] in the frame of wo; exact sampling through M. p: a, b, set up per hit
- * (sheen_params); the albedo R goes into the closure's weight. Fits: Zeltner, Burley, Chiang 2022 (published). */
+ * (sheen_params); the albedo R goes into the closure's weight. a, b, R: Zeltner, Burley, Chiang 2022's table, as
+ * Cycles reads it (sheen_table.h). */
+
+#include "sheen_table.h"
 
 enum { SHEEN_A = 0, SHEEN_B = 1 };
 #define SHEEN_ROUGHNESS_MIN 1e-3        /* sheen.ROUGHNESS_MIN */
+#define SHEEN_INVALID 1e-5              /* sheen.INVALID */
 
-/* sheen.albedo: R(mu, r), a Gaussian in mu whose width, centre and offset are rational in r. */
-INLINE double sheen_albedo(double mu, double r)
-{
-    double width = r * (0.0206607 + 1.58491 * r) / (0.0379424 + r * (1.32227 + r));
-    double centre = r * (-0.193854 + r * (-1.14885 + r * (1.7932 - 0.95943 * r * r))) / (0.046391 + r);
-    double offset = r * (0.000654023 + (-0.0207818 + 0.119681 * r) * r) / (1.26264 + r * (-1.92021 + r));
-    double t = (mu - centre) / width;
-    return clamp01(exp(-0.5 * t * t) / (width * sqrt(2.0 * PI)) + offset);
-}
-
-/* sheen.ltc_a and sheen.ltc_b: M^-1's diagonal and corner. */
-INLINE double sheen_ltc_a(double mu, double r)
-{
-    return (2.58126 * mu + 0.813703 * r) * r / (1.0 + 0.310327 * mu * mu + 2.60994 * mu * r);
-}
-
-INLINE double sheen_ltc_b(double mu, double r)
-{
-    return sqrt(at_least(1.0 - mu, 0.0)) * (r - 1.0) * r * r * r
-           / (0.0000254053 + 1.71228 * mu - 1.71506 * mu * r + 1.34174 * r * r);
-}
-
-/* sheen.params_of for one hit: p[A], p[B] from roughness and mu_o = N.wo (clamped as Cycles does); returns R. */
+/* sheen.params_of for one hit: p[A], p[B] from roughness and mu_o = N.wo (clamped as Cycles does) read from the
+ * table; returns R (0 where the table has no valid lobe: no sheen). */
 INLINE double sheen_params(double roughness, double mu_o, double *p)
 {
     double r = roughness < SHEEN_ROUGHNESS_MIN ? SHEEN_ROUGHNESS_MIN : (roughness > 1.0 ? 1.0 : roughness);
     double mu = clamp01(mu_o);
-    p[SHEEN_A] = sheen_ltc_a(mu, r);
-    p[SHEEN_B] = sheen_ltc_b(mu, r);
-    return sheen_albedo(mu, r);
+    p[SHEEN_A] = lookup_2d(SHEEN_LTC, 32, 32, mu, r);
+    p[SHEEN_B] = lookup_2d(SHEEN_LTC + 32 * 32, 32, 32, mu, r);
+    double R = lookup_2d(SHEEN_LTC + 2 * 32 * 32, 32, 32, mu, r);
+    if (fabs(p[SHEEN_A]) >= SHEEN_INVALID && R >= SHEEN_INVALID) return R;
+    p[SHEEN_A] = 1.0;                   /* (any finite lobe: its weight R is 0) */
+    return 0.0;
 }
 
 /* sheen.frame: T along wo's part tangent to N, Bt = N x T (a fixed tangent where wo is N itself). */

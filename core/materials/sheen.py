@@ -25,11 +25,10 @@ direction, mapped by M = M^-1's inverse, is distributed by D (its weight f cos /
 The fibres that reflect take that light away from what lies below: the Principled BSDF puts the sheen on
 top of its other layers, which keep 1 - (largest channel of) the sheen's weight x R (nodes.py).
 
-Cycles reads a, b and R from the authors' 32 x 32 tables (the volume fit). Primer uses the authors' published
-closed-form fits of those tables instead (ltc_a, ltc_b, albedo below; the formulas of github.com/tizian/
-ltc-sheen, also in MaterialX's mx_zeltner_sheen_* functions): R is within 0.01 of the table for mu >= 0.1 and
-differs more at grazing views (0.02 at mu = 2/31, 0.04 at 1/31, up to 0.17 at 0); docs/blender.md states what
-that does to renders.
+a, b and R come from the authors' 32 x 32 tables of the volume fit, as Cycles ships and reads them
+(core/materials/sheen_table.h, written by tools/sheen_table.py from Cycles' source): bilinear in mu and the
+roughness between grid points i / 31, as Cycles' lookup_table_read_2D. Where the table has no valid lobe (a or R
+under 1e-5: smooth fibres seen at grazing angles) there is no sheen at all, as in Cycles.
 
 The lobe is not exactly reciprocal (the cosine is part of the fitted lobe), as in Cycles. Cycles counts sheen
 as a diffuse closure (CLOSURE_IS_BSDF_DIFFUSE, LABEL_DIFFUSE): a diffuse bounce for the Light Paths limits and
@@ -41,11 +40,13 @@ closure's weight.
 from __future__ import annotations
 
 import math
+import os
 from typing import ClassVar
 
 import numpy as np
 
 from .. import vectors
+from . import ggx_tables
 from .base import BSDF, BsdfSample
 from .base import BSDFFlags as F
 from .base import PARAMS
@@ -56,28 +57,9 @@ A, B = 0, 1
 ROUGHNESS_MIN = 1e-3
 
 
-def albedo(mu: np.ndarray, roughness: np.ndarray) -> np.ndarray:
-    """R(mu, roughness), the fibre layer's directional albedo: a Gaussian in mu whose width, centre and offset
-    are rational in the roughness (Zeltner et al.'s published fit). mu, roughness: same shape, float64."""
-    r = roughness
-    width = r * (0.0206607 + 1.58491 * r) / (0.0379424 + r * (1.32227 + r))
-    centre = r * (-0.193854 + r * (-1.14885 + r * (1.7932 - 0.95943 * r * r))) / (0.046391 + r)
-    offset = r * (0.000654023 + (-0.0207818 + 0.119681 * r) * r) / (1.26264 + r * (-1.92021 + r))
-    gauss = np.exp(-0.5 * ((mu - centre) / width) ** 2) / (width * math.sqrt(2.0 * math.pi))
-    return np.clip(gauss + offset, 0.0, 1.0)
-
-
-def ltc_a(mu: np.ndarray, roughness: np.ndarray) -> np.ndarray:
-    """a(mu, roughness), M^-1's diagonal (published rational fit): small a stretches the lobe wide."""
-    r = roughness
-    return (2.58126 * mu + 0.813703 * r) * r / (1.0 + 0.310327 * mu * mu + 2.60994 * mu * r)
-
-
-def ltc_b(mu: np.ndarray, roughness: np.ndarray) -> np.ndarray:
-    """b(mu, roughness) <= 0, M^-1's corner (published rational fit): it tilts the lobe towards grazing."""
-    r = roughness
-    return (np.sqrt(np.maximum(1.0 - mu, 0.0)) * (r - 1.0) * r * r * r
-            / (0.0000254053 + 1.71228 * mu - 1.71506 * mu * r + 1.34174 * r * r))
+SHEEN_LTC = ggx_tables._read("SHEEN_LTC", os.path.join(os.path.dirname(os.path.abspath(__file__)), "sheen_table.h"))
+LTC_A, LTC_B, ALBEDO = SHEEN_LTC.reshape(3, 32, 32)          # [roughness row][mu column] each
+INVALID = 1e-5              # a table entry of |a| or R below this is no lobe (Cycles skips the closure)
 
 
 def params_of(roughness: np.ndarray, mu_o: np.ndarray) -> tuple:
@@ -86,8 +68,11 @@ def params_of(roughness: np.ndarray, mu_o: np.ndarray) -> tuple:
     r = np.clip(np.asarray(roughness, np.float64), ROUGHNESS_MIN, 1.0)
     mu = np.clip(np.asarray(mu_o, np.float64), 0.0, 1.0)
     p = np.zeros((len(r), PARAMS))
-    p[:, A], p[:, B] = ltc_a(mu, r), ltc_b(mu, r)
-    return p, albedo(mu, r)
+    p[:, A], p[:, B] = ggx_tables.lookup_2d(LTC_A, mu, r), ggx_tables.lookup_2d(LTC_B, mu, r)
+    R = ggx_tables.lookup_2d(ALBEDO, mu, r)
+    valid = (np.abs(p[:, A]) >= INVALID) & (R >= INVALID)
+    p[~valid, A] = 1.0                  # (any finite lobe: its weight R is 0)
+    return p, np.where(valid, R, 0.0)
 
 
 def frame(N: np.ndarray, wo: np.ndarray) -> tuple:

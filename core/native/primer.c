@@ -17,6 +17,7 @@
 #include "../lights/lights.h"
 #include "../lights/lights.c"           /* every light's C file, through the generated table lights.gen.c */
 #include "../materials/bsdf.h"
+#include "../materials/tables.c"        /* the GGX albedo tables and the lookups of every table */
 #include "../materials/thin_film.c"
 #include "../materials/bsdf.c"          /* every BSDF's C file, through the generated table bsdfs.gen.c */
 #include "../materials/textures.c"
