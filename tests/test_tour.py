@@ -1107,6 +1107,83 @@ def test_a_medium_lets_through_exp_of_minus_its_absorption_along_the_chord(prime
     np.testing.assert_allclose(foggy[outside], clear[outside], atol=1e-6)
 
 
+def noise_floor(scene, detail: float):
+    """Give the stage's floor (its Diffuse BSDF) a 2D Noise Texture (Scale 20: a lattice cell a metre wide on the
+    20 m floor's Generated coordinates; Detail `detail`, Roughness 0.5, Lacunarity 2) as its Color, as the tour's
+    stop on procedural noise tells the student to."""
+    tree = scene.objects["Floor"].active_material.node_tree
+    noise = tree.nodes.get("Noise Texture") or tree.nodes.new("ShaderNodeTexNoise")
+    noise.noise_dimensions = "2D"
+    noise.inputs["Scale"].default_value, noise.inputs["Detail"].default_value = 20.0, detail
+    tree.links.new(noise.outputs["Fac"], tree.nodes["Diffuse BSDF"].inputs["Color"])
+
+
+def noise_panels(primer, tmp_path, panels: list) -> list:
+    """Render flat emitting panels side by side, each showing a 2D Noise Texture's Fac of (scale, detail) at the
+    points c = floor(32 g) / 8 of its Generated coordinate g (every sample of a pixel reads the same point, a
+    multiple of 1/8); return each panel's 32 x 32 values (rows top-down)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "PRIMER"
+    scene.primer.samples, scene.primer.seed = 1, SEED
+    for k, (scale, detail) in enumerate(panels):
+        material = bpy.data.materials.new(f"Noise {k}")
+        material.use_nodes = True
+        tree = material.node_tree
+        tree.nodes.remove(tree.nodes["Principled BSDF"])
+        generated = tree.nodes.new("ShaderNodeTexCoord").outputs["Generated"]
+        snap = tree.nodes.new("ShaderNodeVectorMath")
+        snap.operation = "SNAP"
+        snap.inputs[1].default_value = (1.0 / 32.0, 1.0 / 32.0, 1.0)
+        grow = tree.nodes.new("ShaderNodeVectorMath")
+        grow.operation = "SCALE"
+        grow.inputs["Scale"].default_value = 4.0
+        noise = tree.nodes.new("ShaderNodeTexNoise")
+        noise.noise_dimensions = "2D"
+        noise.inputs["Scale"].default_value, noise.inputs["Detail"].default_value = scale, detail
+        emission = tree.nodes.new("ShaderNodeEmission")
+        tree.links.new(generated, snap.inputs[0])
+        tree.links.new(snap.outputs[0], grow.inputs[0])
+        tree.links.new(grow.outputs[0], noise.inputs["Vector"])
+        tree.links.new(noise.outputs["Fac"], emission.inputs["Color"])
+        tree.links.new(emission.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+        bpy.ops.mesh.primitive_plane_add(size=1.0, location=(k + 0.5, 0.0, 0.0))
+        bpy.context.view_layer.objects.active.data.materials.append(material)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale = "ORTHO", float(len(panels))
+    camera.location = (len(panels) / 2.0, 0.0, 5.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32 * len(panels), 32, 100
+    image = render(primer, scene, str(tmp_path / "panels.exr"))["Combined"][..., 0].astype(np.float64)
+    return [image[:, 32 * k:32 * (k + 1)] for k in range(len(panels))]
+
+
+def test_noise_is_a_hashed_lattice_whose_octaves_add_up(primer, tmp_path):
+    """Perlin noise: each lattice corner gets a gradient from a hash of its coordinates, and the noise at a point
+    blends the corners' ramps, so it is 0 at every corner: Fac = 0.5 + 0.5 noise is exactly 0.5 at integer points
+    (every 8th pixel of the panels at Scale 1). fBM adds octaves: with Detail 2, Roughness r = 0.5 and Lacunarity 2,
+    Fac = 0.5 + 0.5 (n(p) + r n(2p) + r^2 n(4p)) / (1 + r + r^2), n read off the Detail 0 panels at Scale 1, 2 and
+    4 (float32 rounding); and the hash makes the same point give the same value in every render. The tour's
+    pictures: the stage's floor at Detail 0 and 4."""
+    for detail, name in ((0.0, "noise_detail0"), (4.0, "noise_detail4")):
+        scene = open_scene("light_point", samples=16)
+        noise_floor(scene, detail)
+        save(name, render(primer, scene, str(tmp_path / f"{name}.exr"))["Combined"])
+    one, two, four, fbm = noise_panels(primer, tmp_path, [(1.0, 0.0), (2.0, 0.0), (4.0, 0.0), (1.0, 2.0)])
+    rows, cols = np.mgrid[0:32, 0:32]
+    corners = ((31 - rows) % 8 == 0) & (cols % 8 == 0)   # (pixel (r, c), rows top-down, reads (c / 8, (31 - r) / 8))
+    print("Fac at the lattice corners", np.unique(one[corners]), "elsewhere", one[~corners].min(), one[~corners].max())
+    np.testing.assert_array_equal(one[corners], 0.5)
+    assert np.abs(one[~corners] - 0.5).max() > 0.1
+    n = [2.0 * panel - 1.0 for panel in (one, two, four)]
+    r = 0.5
+    expected = 0.5 + 0.5 * (n[0] + r * n[1] + r * r * n[2]) / (1.0 + r + r * r)
+    print("fBM against its octaves: largest difference", np.abs(fbm - expected).max())
+    np.testing.assert_allclose(fbm, expected, atol=2e-6)
+    np.testing.assert_array_equal(noise_panels(primer, tmp_path, [(1.0, 0.0)])[0], one)
+
+
 def test_every_picture_the_tour_shows_exists():
     """Each docs/images/tour/*.png that docs/tour.md links to is there (this module's tests write them)."""
     with open(TOUR, encoding="utf-8") as fh:
