@@ -207,6 +207,10 @@ def panel_sections(record, height: Optional[int] = None) -> list:
         for texture in material.textures:
             rows.append((f"Texel '{texture.image}'", f"at {number(texture.x)}, {number(texture.y)}: "
                                                      f"{colour(texture.rgba[:3])} α {number(texture.rgba[3])}"))
+        for node in getattr(material, "nodes", ()):
+            value = number(node.value[0]) if len(node.value) == 1 else (colour(node.value) if node.kind == "color"
+                                                                        else vector(node.value))
+            rows.append((f"Node '{node.node}' {node.output}", value))
         for closure in material.closures:
             alpha = "" if closure.alpha is None else f", α {number(closure.alpha)}"
             rows.append((f"Closure {closure.bsdf.lower()}", f"{colour(closure.weight)}, sampling weight "

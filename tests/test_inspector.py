@@ -390,3 +390,34 @@ def test_with_depth_of_field_the_inspected_ray_leaves_its_lens_point_for_the_foc
     np.testing.assert_allclose(on_lens, R[:, :2] @ record.lens, atol=1e-9)
     np.testing.assert_allclose(record.I, sharp.I, atol=1e-5)
     assert not np.allclose(record.direction, sharp.direction)
+
+
+def test_the_inspector_shows_what_each_node_computed_at_the_hit():
+    """A plane whose Diffuse colour is 2 u + 0.1 of its UV, through named nodes (Texture Coordinate 'Coords' ->
+    Separate XYZ 'Split' -> Math 'Twice' (multiply by 2) -> Math 'Lift' (add 0.1)): at each inspected pixel each
+    node's output is its closed form at the pixel centre's UV (u, v), the diffuse closure's weight is Lift's value,
+    and the panel lists every node; an unnamed node is not listed."""
+    from addon.inspector_view import panel_sections
+    from test_textures import SIZE, pixel_uv, scene_of
+    from core.materials.graph import GraphNode, Link
+    from core.scene import Material
+    coords = GraphNode("TEXCOORD", {}, {}, "Coords")
+    split = GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(coords, "UV")}, "Split")
+    twice = GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": Link(split, "X"), "1": 2.0}, "Twice")
+    lift = GraphNode("MATH", {"operation": "ADD"}, {"0": Link(twice, "Value"), "1": 0.1}, "Lift")
+    grey = GraphNode("COMBINE_XYZ", {}, {"X": Link(lift, "Value"), "Y": Link(lift, "Value"), "Z": Link(lift, "Value")})
+    material = Material(name="Ramp", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {}, [(Link(grey, "Vector"), "color")])])
+    scene = scene_of(material)
+    u, v = pixel_uv()
+    for x, y in ((1, 6), (5, 2)):
+        record = inspector.inspect_pixel(scene, RenderSettings(width=SIZE, height=SIZE, samples=1, jitter=False), x, y)
+        values = {(n.node, n.output): n.value for n in record.material.nodes}
+        assert set(values) == {("Coords", "UV"), ("Split", "X"), ("Twice", "Value"), ("Lift", "Value")}
+        np.testing.assert_allclose(values[("Coords", "UV")], (u[y, x], v[y, x], 0.0), atol=1e-6)
+        np.testing.assert_allclose(values[("Split", "X")], [u[y, x]], atol=1e-6)
+        np.testing.assert_allclose(values[("Twice", "Value")], [2.0 * u[y, x]], atol=2e-6)
+        np.testing.assert_allclose(values[("Lift", "Value")], [2.0 * u[y, x] + 0.1], atol=2e-6)
+        (closure,) = record.material.closures
+        np.testing.assert_allclose(closure.weight, values[("Lift", "Value")][0], atol=1e-6)
+        labels = [label for label, _ in dict(panel_sections(record))["Material"]]
+        assert {"Node 'Coords' UV", "Node 'Split' X", "Node 'Twice' Value", "Node 'Lift' Value"} <= set(labels)

@@ -260,7 +260,8 @@ class Program(NamedTuple):
     ops: (k, 1 + OP_ARGS) float64 op records; constants: (c,) float64, registers 0 .. c - 1;
     registers: R, how many a hit needs; outputs: (m, 5) float64 rows (kind OUT_*, shader node, slot or
     weight mode, width, register; OUT_NORMAL to slot 0 is the node's normal, to another slot a normal input);
-    ramps: (r,) float64 colour-ramp tables, 256 RGBA rows each.
+    ramps: (r,) float64 colour-ramp tables, 256 RGBA rows each; taps: (node name, output, register, width, type)
+    of each named node's output the graph computes at the hit (what the ray inspector shows; not read in C).
     """
 
     ops: np.ndarray
@@ -268,6 +269,7 @@ class Program(NamedTuple):
     registers: int
     outputs: np.ndarray
     ramps: np.ndarray
+    taps: tuple = ()
 
 
 class ShadingPoint(NamedTuple):
@@ -438,6 +440,7 @@ class Compiler:
         self.sky_starts: dict = {}
         self.next = 0                           # registers after the constants are numbered at the end
         self.memo: dict = {}
+        self.taps: dict = {}                    # (node name, output) -> (register, width, type) at the hit
         self.offset = 0                         # the bump's evaluation point: 0 the hit, 1 along u, 2 along v
         self.temporaries = 0
         self.warnings = warnings if warnings is not None else []
@@ -488,6 +491,8 @@ class Compiler:
         key = (id(link.node), link.output, self.offset)
         if key not in self.memo:
             self.memo[key] = self.compile_node(link.node, link.output)
+            if self.offset == 0 and link.node.name:         # (after a Set Normal: the value the rest reads)
+                self.taps[(link.node.name, link.output)] = self.memo[key]
         return self.memo[key]
 
     def attribute(self, name: str, width: int = 3) -> int:
@@ -1033,7 +1038,9 @@ class Compiler:
             ops[i, :1 + len(args)] = [code] + args
         outputs = np.array([[o[0], o[1], o[2], o[3], renumber(o[4])] for o in self.outputs], np.float64).reshape(-1, 5)
         ramps = np.concatenate(self.ramps) if self.ramps else np.zeros(0)
-        return Program(ops, np.array(self.constants, np.float64), registers, outputs, ramps)
+        taps = tuple((name, output, renumber(reg), width, kind) for (name, output), (reg, width, kind)
+                     in self.taps.items())
+        return Program(ops, np.array(self.constants, np.float64), registers, outputs, ramps, taps)
 
 
 def shift(register: int, by: int) -> int:

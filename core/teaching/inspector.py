@@ -122,13 +122,26 @@ class ClosureRecord(NamedTuple):
 class MaterialRecord(NamedTuple):
     """What the hit's material reads and makes (core/materials): its name, the active UV map's (u, v) at the
     hit (None without one), the tangent frame (T, B, N) a Normal Map reads (None where no material asks for
-    tangents), the image texels its node graph looked up, and its closures."""
+    tangents), the image texels its node graph looked up, its closures, and what each of its nodes computed at the
+    hit (NodeValue, in the order the graph needs them)."""
 
     name: str
     uv: Optional[np.ndarray]
     tangent_frame: Optional[tuple]
     textures: tuple
     closures: tuple
+    nodes: tuple = ()
+
+
+class NodeValue(NamedTuple):
+    """One output of a node of the hit's material, as the renderer's graph (core/materials/graph.py run) computed
+    it at the hit: the node's name, the output socket's name, its value (w,) float64 (1: a float, 3: a colour or
+    vector) and its type ("float", "color", "vector")."""
+
+    node: str
+    output: str
+    value: np.ndarray
+    kind: str
 
 
 class PixelRecord(NamedTuple):
@@ -361,7 +374,7 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
                 smooth=bool(surface.smooth[0]), u=float(surface.u[0]), v=float(surface.v[0]), triangle=triangle,
                 object_name=object_name, albedo=recorder.albedo(), lights=records, bsdf_sample=recorder.bsdf,
                 emission=recorder.result.emission[0].copy(), path=tuple(recorder.path),
-                material=material_record(ctx, surface, recorder.result))
+                material=material_record(ctx, surface, recorder.result, -rays.directions[:1]))
     return PixelRecord(radiance=found.L[0].copy(), **miss)
 
 
@@ -379,9 +392,10 @@ class _RecordingTextures:
         return rgba
 
 
-def material_record(ctx, surface, result) -> MaterialRecord:
-    """The MaterialRecord of the inspected hit (row 0 of `surface`, shaded as `result`): the material's graph
-    run once more with its image lookups kept, the UV and tangent it reads, and its closures."""
+def material_record(ctx, surface, result, wo: Optional[np.ndarray] = None) -> MaterialRecord:
+    """The MaterialRecord of the inspected hit (row 0 of `surface`, shaded as `result`, seen from wo (1, 3), the
+    way back along the camera ray): the material's graph run once more with its image lookups and its nodes'
+    outputs kept, the UV and tangent it reads, and its closures."""
     from ..geometry.surface import shading_point
     from ..materials import BSDF_TYPES, graph as graph_  # noqa: F401
     from ..materials import microfacet as mf
@@ -401,20 +415,23 @@ def material_record(ctx, surface, result) -> MaterialRecord:
         n = surface.N[0] * point.side[0]
         T = point.linear[0] @ t[:3]
         frame = (T, t[3] * np.cross(n, T), n)
-    # 2. The node graph once more at this hit, its image lookups kept.
-    textures = ()
+    # 2. The node graph once more at this hit, its image lookups and every named node's outputs kept.
+    textures, nodes = (), ()
     program = table.program(row, layout)
     if program is not None:
         recording = _RecordingTextures(table.textures, table.images)
-        graph_.run(program, point, recording)
+        seen = point if wo is None else point._replace(I=np.asarray(wo, np.float64))   # (Fresnel, Layer Weight)
+        registers = graph_.run(program, seen, recording)[0]
         textures = tuple(recording.found)
+        nodes = tuple(NodeValue(name, output, registers[reg:reg + width].copy(), kind)
+                      for name, output, reg, width, kind in program.taps)
     # 3. The closures it made.
     c = result.closures
     closures = tuple(ClosureRecord(BSDF_TYPES[int(kind)].name, c.weight[0, k].copy(), float(c.sample_weight[0, k]),
                                    c.N[0, k].copy(), float(c.params[0, k, mf.ALPHA])
                                    if "alpha" in BSDF_TYPES[int(kind)].params else None)
                      for k, kind in enumerate(c.kind[0]) if kind >= 0)
-    return MaterialRecord(name, uv, frame, textures, closures)
+    return MaterialRecord(name, uv, frame, textures, closures, nodes)
 
 
 def light_numbers_of(lights: list) -> np.ndarray:
