@@ -198,6 +198,9 @@ def panel_sections(record, height: Optional[int] = None) -> list:
         wi, pdf, found = record.bsdf_sample
         sections.append(("BSDF sample", [("ωi", vector(wi)), ("pdf", number(pdf) if pdf != float("inf") else "delta"),
                                          ("Light found (MIS-weighted)", colour(found))]))
+    scattering = getattr(record, "scattering", ())
+    if scattering:
+        sections.append(("Medium", [(f"Scattered ({point.kind})", vector(point.P)) for point in scattering]))
     material = getattr(record, "material", None)
     if material is not None:
         rows = [("Name", material.name), ("UV", vector(material.uv) if material.uv is not None else "no UV map")]

@@ -421,3 +421,30 @@ def test_the_inspector_shows_what_each_node_computed_at_the_hit():
         np.testing.assert_allclose(closure.weight, values[("Lift", "Value")][0], atol=1e-6)
         labels = [label for label, _ in dict(panel_sections(record))["Material"]]
         assert {"Node 'Coords' UV", "Node 'Split' X", "Node 'Twice' Value", "Node 'Lift' Value"} <= set(labels)
+
+
+def test_the_inspector_and_the_diagram_show_where_a_medium_scatters_along_the_ray():
+    """A scattering slab (0.6 deep, its top at z = 1.3) under a sun and a point lamp, seen from straight above: the
+    inspected ray scatters at a free-flight point on the ray inside the slab, and at an equi-angular point for the
+    lamp, both on the camera ray between the slab's faces; the panel lists them; the ray diagram of the row draws
+    them (its magenta crosses)."""
+    from addon.inspector_view import panel_sections
+    from test_volumes import camera_above, fog
+    from core.teaching import diagram
+    scene = Scene(camera=camera_above())
+    scene.materials.append(fog(closure="SCATTER", color=np.array([0.5, 1.0, 2.0]), density=1.0))
+    scene.add_mesh(primitives.box((40.0, 40.0, 0.6), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+    scene.lights.append(SunLight(direction=np.array([0.0, -0.6, -0.8]), strength=3.0))
+    scene.lights.append(PointLight(np.array([0.3, 0.0, 2.0]), power=100.0, name="Lamp"))
+    s = RenderSettings(width=8, height=8, samples=1, jitter=False, integrator="path")
+    record = inspector.inspect_pixel(scene, s, 3, 4)
+    kinds = [point.kind for point in record.scattering]
+    assert kinds.count("free flight") == 1 and kinds.count("equi-angular") == 1, kinds
+    for point in record.scattering:
+        t = (point.P - record.origin) @ record.direction
+        np.testing.assert_allclose(point.P, record.origin + t * record.direction, atol=1e-9)   # on the camera ray
+        assert 0.7 - 1e-9 <= point.P[2] <= 1.3 + 1e-9
+    assert len(dict(panel_sections(record))["Medium"]) == 2
+    picture = diagram.ray_diagram(scene, s, row=4, every=2, size=128)
+    assert any(segment.kind == "scatter" and len(segment.start) for segment in picture.segments)
+    assert np.any(np.all(np.abs(picture.image[..., :3] - diagram.COLORS["scatter"]) < 1e-6, axis=-1))

@@ -137,6 +137,11 @@ class Recorder:
         it was shaded: its Surface, the path's throughput (m, 3) there and the light L (m, 3) it gathered
         (before the throughput). The shader, light-sample and BSDF-sample calls before it were this vertex's."""
 
+    def scatter(self, kind: str, P: np.ndarray) -> None:
+        """Points P (m, 3) float64 where rays through a medium scatter light towards their start (core/integrators/
+        volume.py): kind "free flight" (the distance sampled from the transmittance) or "equi-angular" (a point
+        chosen for a lamp)."""
+
     def rays(self, kind: str, O: np.ndarray, D: np.ndarray, t: np.ndarray) -> None:
         """Rays the integrator traced beyond the shadow rays: kind "camera", "reflect" or "refract"; origins
         O and unit directions D (k, 3), and how far each went, t (k,) (inf where it escaped)."""

@@ -281,7 +281,7 @@ class PathTracing(Integrator):
             # The light the media scatter towards the camera along its rays (core/integrators/volume.py).
             scattered, shadow_rays = volume_.in_scattering(ctx, O, D, np.where(found.hit, found.t, t_max), inside,
                                                            np.ones((len(O), 3)), pixel, sample, 0, 0,
-                                                           through_transparent)
+                                                           through_transparent, recorder)
             L_out += scattered
         # The denoising features (features.py): what the camera sees itself, then along each path.
         feats = features_.Features(len(O)) if s.denoising_features else None
@@ -479,7 +479,7 @@ class PathTracing(Integrator):
                     scattered, count = volume_.in_scattering(
                         ctx, ray.O[live], ray.D[live], np.where(ray.hits.hit[live], ray.hits.t[live], np.inf),
                         ray.inside[live], carried, pixel[path_rows], sample[path_rows],
-                        (vertex + 1) * VERTEX_DIMENSIONS, bounces[live], through_transparent)
+                        (vertex + 1) * VERTEX_DIMENSIONS, bounces[live], through_transparent, recorder)
                     L_out[path_rows] += carried * scattered
                     shadow_rays += count
             keep = np.flatnonzero(going & np.isfinite(next_throughput).all(axis=1))

@@ -118,13 +118,14 @@ def equiangular(O: np.ndarray, D: np.ndarray, t: np.ndarray, X: np.ndarray, u=No
 
 def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
                   throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce,
-                  behind) -> tuple:
+                  behind, recorder=None) -> tuple:
     """The light (k, 3) float64 that the media scatter towards the starts of rays O, D (k, 3) over distances t (k,)
     (inf: to the world), seen through each path's `throughput` (k, 3) (not included), and the shadow rays traced.
 
     inside: (k, V) the rays' media (core/volumes Media.crossed); pixel, sample: (k,) the keys of their random
     numbers; dimension: the vertex's shift of the sampling dimensions; bounce: (k,) or int the real bounces the paths
-    made before the stretch (a light's Max Bounces); behind: path.through_transparent, for the phase rays."""
+    made before the stretch (a light's Max Bounces); behind: path.through_transparent, for the phase rays;
+    recorder: a Recorder told each scattering point (Recorder.scatter), or None."""
     media = ctx.extra["media"]
     stretch = media.along(inside, O, D)
     L = np.zeros((len(O), 3))
@@ -138,7 +139,7 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
         L[marched], shadow_rays = marched_scattering(ctx, stretch.rows(marched), O[marched], D[marched],
                                                      np.asarray(t, np.float64)[marched], inside[marched],
                                                      throughput[marched], pixel[marched], sample[marched], dimension,
-                                                     bounces[marched], behind)
+                                                     bounces[marched], behind, recorder)
     if len(rows) == 0:
         return L, shadow_rays
     part = stretch.rows(rows)
@@ -154,6 +155,8 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     #    lamp's equi-angular points (3.), by the balance heuristic on the two densities of s.
     o, d, length = O[rows], D[rows], np.asarray(t, np.float64)[rows]
     P = o + s[:, None] * d
+    if recorder is not None:
+        recorder.scatter("free flight", P)
     bounces = bounces[rows]
     lamps = equiangular_lamps(ctx)
     share = {index: pdf / (pdf + equiangular(o, d, length, X, s=s)[1]) for index, X in lamps.items()}
@@ -173,6 +176,8 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
         w = pdf_e[chosen] / (pdf_e[chosen] + distance_pdf(part.rows(chosen), odds[chosen], length[chosen],
                                                               s_e[chosen]))
         T = volumes.transmittance(part.sigma_t[chosen], s_e[chosen]) * part.sigma_s[chosen]
+        if recorder is not None:
+            recorder.scatter("equi-angular", o[chosen] + s_e[chosen, None] * d[chosen])
         lit, count = scattered_light(ctx, o[chosen] + s_e[chosen, None] * d[chosen], -d[chosen], part.g[chosen],
                                      inside[at], pixel[at], sample[at], dimension, bounces[chosen], behind,
                                      only=index)
@@ -183,11 +188,12 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
 
 def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: np.ndarray, inside: np.ndarray,
                        throughput: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int,
-                       bounce: np.ndarray, behind) -> tuple:
+                       bounce: np.ndarray, behind, recorder=None) -> tuple:
     """in_scattering for k rays in a heterogeneous medium (stretch: their volumes.Stretch): the same estimate on the
     pieces of their march (core/volumes/field.py): free flight inverting the optical depth of a channel picked by
     throughput x the rays' albedo (their optical depths' ratio), weight T(s) sigma_s(s) / pdf(s), and each lamp's
-    equi-angular point weighed against it by the balance heuristic. Returns (L (k, 3), shadow rays)."""
+    equi-angular point weighed against it by the balance heuristic (recorder: told the free-flight points, or None).
+    Returns (L (k, 3), shadow rays)."""
     k = len(O)
     L = np.zeros((k, 3))
     march = stretch.march(t, np.arange(k))
@@ -202,6 +208,8 @@ def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: n
     lamps = equiangular_lamps(ctx)
     if len(ok):
         weight = march.transmittance(s)[ok] * sigma_s[ok] / pdf[ok, None]
+        if recorder is not None:
+            recorder.scatter("free flight", O[ok] + s[ok, None] * D[ok])
         share = {index: pdf[ok] / (pdf[ok] + equiangular(O[ok], D[ok], t[ok], X, s=s[ok])[1])
                  for index, X in lamps.items()}
         scattered, shadow_rays = scattered_light(ctx, O[ok] + s[ok, None] * D[ok], -D[ok], g[ok], inside[ok],

@@ -6,6 +6,7 @@ pixels every ray the integrator traces, each kind in its own colour:
 
     camera rays    yellow          shadow rays    green where they reach the light, red where blocked
     reflected      blue            refracted      cyan
+    where a medium scatters light towards a ray: a magenta cross
 
 The rays are recorded from the integrator itself (a Recorder, core/integrators/base.py) while it renders
 the row's pixel centres, so the diagram shows exactly what the renderer does: the direct tracer's
@@ -26,7 +27,7 @@ from ..integrators import Recorder, for_render
 # The colours of the diagram (linear RGB).
 COLORS = {"scene": (0.55, 0.55, 0.55), "camera": (1.0, 0.85, 0.1), "shadow_free": (0.1, 0.8, 0.2),
           "shadow_blocked": (0.9, 0.1, 0.1), "reflect": (0.15, 0.35, 1.0), "refract": (0.1, 0.85, 0.9),
-          "light": (1.0, 1.0, 1.0), "background": (0.02, 0.02, 0.025)}
+          "light": (1.0, 1.0, 1.0), "background": (0.02, 0.02, 0.025), "scatter": (1.0, 0.2, 0.9)}
 
 
 class Segment(NamedTuple):
@@ -42,6 +43,9 @@ class DiagramRecorder(Recorder):
 
     def __init__(self):
         self.segments: list = []
+
+    def scatter(self, kind, P) -> None:
+        self.segments.append(Segment("scatter", P.copy(), P.copy()))
 
     def rays(self, kind, O, D, t) -> None:
         far = np.where(np.isfinite(t), t, 1e4)
@@ -151,6 +155,11 @@ def _draw(lines, segments, eye, lights, bounds, size) -> np.ndarray:
         for s in segments:
             if s.kind == kind and len(s.start):
                 line(s.start[:, :2], s.end[:, :2], COLORS[kind])
+    for s in segments:                          # (scattering points: a cross 5 pixels wide)
+        if s.kind == "scatter" and len(s.start):
+            for offset in ((2.0, 0.0), (0.0, 2.0)):
+                step = np.asarray(offset) / scale
+                line(s.start[:, :2] - step, s.start[:, :2] + step, COLORS["scatter"])
     for p in [eye] + lights:
         c = (p[:2] - (x0, y0)) * scale
         col, r = int(round(c[0])), size - 1 - int(round(c[1]))

@@ -144,6 +144,15 @@ class NodeValue(NamedTuple):
     kind: str
 
 
+class ScatterRecord(NamedTuple):
+    """A point where a ray through a medium scatters light towards its start (core/integrators/volume.py): kind
+    "free flight" (its distance drawn from the transmittance) or "equi-angular" (drawn for a lamp, lit by it alone),
+    P (3,) float64 world space."""
+
+    kind: str
+    P: np.ndarray
+
+
 class PixelRecord(NamedTuple):
     """Everything the renderer computes for the ray through one pixel's centre (world space).
 
@@ -172,6 +181,8 @@ class PixelRecord(NamedTuple):
     emission:       (3,) float64 the light the hit surface emits itself; None when missed
     material:       MaterialRecord: the hit's material inputs (UV, tangent frame, texels) and closures; None
                     when missed
+    scattering:     ScatterRecord per point where a medium scattered light towards the ray (camera ray and path
+                    alike, in the order they were chosen), world space
     lens:           (2,) float64 with depth of field, the ray's point on the aperture (camera-local x right, y
                     up, scene units: sample 0's lens numbers, as the render draws them); the ray leaves from there
                     towards the focal plane. None for a pinhole
@@ -204,6 +215,7 @@ class PixelRecord(NamedTuple):
     path: tuple = ()
     material: Optional[MaterialRecord] = None
     lens: Optional[np.ndarray] = None
+    scattering: tuple = ()
 
 
 class PathVertex(NamedTuple):
@@ -238,9 +250,13 @@ class InspectorRecorder(Recorder):
         self.path: list = []
         self.pending_bsdf = None
         self.pending_roulette = None
+        self.scattering: list = []
 
     def hits(self, O, D, surface, hit) -> None:
         self.surface = surface
+
+    def scatter(self, kind, P) -> None:
+        self.scattering.extend(ScatterRecord(kind, p + self.origin) for p in P)
 
     def shader(self, result) -> None:
         if self.vertex == 0:
@@ -362,6 +378,7 @@ def inspect_pixel(scene: Scene, settings: RenderSettings, x: int, y: int,
     recorder = InspectorRecorder(settings, origin)
     found = for_render(ctx).radiance(ctx, rays.origins, rays.directions, rays.t_max,
                                                         np.array([y * W + x]), np.zeros(1, np.int64), recorder)
+    miss.update(scattering=tuple(recorder.scattering))
     if not found.hit[0]:
         return PixelRecord(radiance=np.zeros(3) if settings.transparent_background else ctx.extra["world"].copy(),
                            **miss)
