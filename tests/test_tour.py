@@ -1184,6 +1184,70 @@ def test_noise_is_a_hashed_lattice_whose_octaves_add_up(primer, tmp_path):
     np.testing.assert_array_equal(noise_panels(primer, tmp_path, [(1.0, 0.0)])[0], one)
 
 
+def scatter_material(name: str, density: float, anisotropy: float):
+    """A material with only a Volume Scatter (white, `density`, `anisotropy`) at its Volume output."""
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    scatter = tree.nodes.new("ShaderNodeVolumeScatter")
+    scatter.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    scatter.inputs["Density"].default_value, scatter.inputs["Anisotropy"].default_value = density, anisotropy
+    tree.links.new(scatter.outputs["Volume"], tree.nodes["Material Output"].inputs["Volume"])
+    return material
+
+
+def slab_glow(primer, tmp_path, anisotropy: float, density: float, depth: float, E: float) -> float:
+    """The mean of the pixels over a slab of Volume Scatter (`depth` deep, wider than the view) seen straight down
+    by an orthographic camera under a sun shining straight down (strength E), 256 samples, max bounces 0."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "PRIMER"
+    scene.primer.samples, scene.primer.seed, scene.primer.use_adaptive_sampling = 256, SEED, False
+    scene.world = bpy.data.worlds.new("Black")
+    scene.world.color = (0.0, 0.0, 0.0)
+    for node in scene.world.node_tree.nodes if scene.world.node_tree is not None else ():
+        if node.bl_idname == "ShaderNodeBackground":
+            node.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 1.0))
+    slab = bpy.context.view_layer.objects.active
+    slab.scale = (10.0, 10.0, depth)
+    slab.data.materials.append(scatter_material("Slab", density, anisotropy))
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = E, 0.0
+    scene.collection.objects.link(sun)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale = "ORTHO", 2.0
+    camera.location = (0.0, 0.0, 5.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.resolution_x = scene.render.resolution_y = 16
+    scene.render.resolution_percentage = 100
+    return float(render(primer, scene, str(tmp_path / "slab.exr"))["Combined"][..., :3].mean())
+
+
+def test_a_medium_scatters_by_free_flight_and_its_phase_function(primer, tmp_path):
+    """Single scattering: a slab d deep of a white Volume Scatter (sigma_s = sigma_t = density) under a sun straight
+    above, seen straight down: the light turned back up at depth s crossed s going down and s coming up, so the view
+    gathers E p(-1) sigma integral exp(-2 sigma s) ds = E p(-1) (1 - exp(-2 sigma d)) / 2, with p Henyey and
+    Greenstein's phase function at cos theta = -1 (the light turns right round): 1 / 4 pi for g = 0, (1 - g^2) /
+    (4 pi (1 + g)^3) for g = 0.5, 4.5 times less (forward-scattering fog sends little back). Within 0.2 %: free
+    flight draws the depth in proportion to the transmittance, so every sample's weight T sigma_s / pdf is the
+    same, and the sun's light there is exact. The tour's picture: the stage with a cube of fog around the lamp."""
+    density, depth, E = 1.5, 0.8, 3.0
+    for g in (0.0, 0.5):
+        p = (1.0 - g * g) / (4.0 * math.pi * (1.0 + g) ** 3)
+        expected = E * p * (1.0 - math.exp(-2.0 * density * depth)) / 2.0
+        measured = slab_glow(primer, tmp_path, g, density, depth, E)
+        print(f"g {g}: measured {measured:.5f}, closed form {expected:.5f}")
+        assert measured == pytest.approx(expected, rel=2e-3)
+    scene = open_scene("light_point", samples=16)
+    lamp = light_object(scene)
+    bpy.ops.mesh.primitive_cube_add(size=3.0, location=tuple(lamp.location))
+    bpy.context.view_layer.objects.active.data.materials.append(scatter_material("Fog", 0.3, 0.0))
+    save("medium_scatter", render(primer, scene, str(tmp_path / "fog.exr"))["Combined"])
+
+
 def test_every_picture_the_tour_shows_exists():
     """Each docs/images/tour/*.png that docs/tour.md links to is there (this module's tests write them)."""
     with open(TOUR, encoding="utf-8") as fh:
