@@ -1248,6 +1248,44 @@ def test_a_medium_scatters_by_free_flight_and_its_phase_function(primer, tmp_pat
     save("medium_scatter", render(primer, scene, str(tmp_path / "fog.exr"))["Combined"])
 
 
+def test_a_node_graph_becomes_weighted_closures_that_the_inspector_lists(primer, tmp_path):
+    """The red sphere's material made a Mix Shader (Fac 0.3) of a Diffuse BSDF (its red) and a Glossy BSDF (GGX,
+    roughness 0.3, white): at a sphere pixel the graph has become two closures, a diffuse one weighted 0.7 x red and
+    a GGX one weighted 0.3 x white (alpha = roughness^2 = 0.09), each picked by one-sample MIS in proportion to its
+    sampling weight (the mean of its weight); the inspector lists both, and no node values: a graph of constants is
+    folded into the closures when the scene is exported, nothing of it runs per hit. The tour's picture: the stage
+    with that sphere."""
+    scene = open_scene("light_point", samples=16)
+    tree = bpy.data.materials["Red"].node_tree
+    principled = tree.nodes["Principled BSDF"]
+    red = np.array(principled.inputs["Base Color"].default_value[:3])
+    tree.nodes.remove(principled)
+    diffuse, glossy, mix = (tree.nodes.new(kind) for kind in ("ShaderNodeBsdfDiffuse", "ShaderNodeBsdfAnisotropic",
+                                                               "ShaderNodeMixShader"))
+    diffuse.inputs["Color"].default_value = (*red, 1.0)
+    glossy.distribution, glossy.inputs["Roughness"].default_value = "GGX", 0.3
+    glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    mix.name, mix.inputs["Fac"].default_value = "Mix", 0.3
+    tree.links.new(diffuse.outputs[0], mix.inputs[1])
+    tree.links.new(glossy.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    picture = save("graph_closures", render(primer, scene, str(tmp_path / "mixed.exr"))["Combined"])
+    reddish = picture[..., 0] - picture[..., 1:3].max(axis=-1)
+    y, x = np.unravel_index(np.argmax(reddish), reddish.shape)
+    assert bpy.ops.primer.inspect_pixel(x=int(x), y=int(y)) == {"FINISHED"}
+    record = addon_module(primer, "inspector").state.record
+    assert record.object_name == "Sphere"
+    closures = {c.bsdf: c for c in record.material.closures}
+    print({name: (c.weight, c.sample_weight, c.alpha) for name, c in closures.items()})
+    np.testing.assert_allclose(closures["DIFFUSE"].weight, 0.7 * red, rtol=1e-6)
+    (gloss,) = [c for name, c in closures.items() if name != "DIFFUSE"]
+    np.testing.assert_allclose(gloss.weight, 0.3, rtol=1e-6)
+    assert gloss.alpha == pytest.approx(0.09, rel=1e-6)
+    assert closures["DIFFUSE"].sample_weight == pytest.approx(0.7 * red.mean(), rel=1e-6)
+    assert gloss.sample_weight == pytest.approx(0.3, rel=1e-6)
+    assert record.material.nodes == ()              # (a constant graph is folded when exported: nothing runs per hit)
+
+
 def test_every_picture_the_tour_shows_exists():
     """Each docs/images/tour/*.png that docs/tour.md links to is there (this module's tests write them)."""
     with open(TOUR, encoding="utf-8") as fh:
