@@ -1286,6 +1286,83 @@ def test_a_node_graph_becomes_weighted_closures_that_the_inspector_lists(primer,
     assert record.material.nodes == ()              # (a constant graph is folded when exported: nothing runs per hit)
 
 
+def subsurface_material(name: str, color, radius: float):
+    """A material whose Surface is a Subsurface Scattering node (Random Walk) of `color` and Scale `radius`."""
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    node = tree.nodes.new("ShaderNodeSubsurfaceScattering")
+    node.falloff = "RANDOM_WALK"
+    node.inputs["Color"].default_value = (*color, 1.0)
+    node.inputs["Scale"].default_value = radius
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    return material
+
+
+def wax_slab(colour, radius: float):
+    """An empty scene: a slab 40 x 40 x 5 of Subsurface Scattering (Random Walk) whose top is z = 0, a sun (3 W/m^2)
+    straight above, an orthographic camera looking straight down at 16 x 16 pixels; returns the scene."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "PRIMER"
+    scene.primer.seed, scene.primer.use_adaptive_sampling = SEED, False
+    scene.world = None
+    scene.cycles.max_bounces = 0
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, -2.5))
+    slab = bpy.context.view_layer.objects.active
+    slab.scale = (40.0, 40.0, 5.0)
+    slab.data.materials.append(subsurface_material("Wax", colour, radius))
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 3.0, 0.0
+    scene.collection.objects.link(sun)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale = "ORTHO", 2.0
+    camera.location = (0.0, 0.0, 5.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.resolution_x = scene.render.resolution_y = 16
+    scene.render.resolution_percentage = 100
+    return scene
+
+
+def test_a_white_random_walk_loses_only_the_walks_its_step_cap_cuts_short(primer, tmp_path):
+    """Subsurface scattering as a random walk: light enters, flies free inside (distances drawn from the medium's
+    transmittance), scatters, and leaves where the walk crosses the surface again. A white medium absorbs nothing,
+    so a slab wider and deeper than the walks would send back all that enters: E / pi, a white Lambert's. But a walk
+    in a half-space can wander very long, and Cycles stops each at 256 steps (BSSRDF_MAX_BOUNCES), losing what has
+    not come out by then: Primer and Cycles both show 0.90 E / pi (within 1 % of each other), the same at every radius
+    (a half-space has no length of its own); with the cap raised to 4096 (the Python reference) the slab comes within
+    4 % of E / pi, and a grey medium (0.5) is darker. The tour's picture: the stage's sphere as red wax."""
+    from blender_env import render_pixels
+    lambert = 3.0 / math.pi
+    means = {}
+    for radius in (0.05, 0.2):
+        scene = wax_slab((1.0, 1.0, 1.0), radius)
+        means[radius] = render_pixels(scene, "PRIMER", str(tmp_path / "p.exr"), 128)[..., :3].mean()
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "c.exr"), 128)[..., :3].mean()
+    scene = wax_slab((1.0, 1.0, 1.0), 0.05)
+    scene.primer.kernels = "NUMPY"
+    scene.render.resolution_x = scene.render.resolution_y = 6
+    walk = sys.modules[f"{primer.__name__}.core.integrators.subsurface"]
+    cap = walk.MAX_STEPS
+    try:
+        walk.MAX_STEPS = 4096
+        longer = render_pixels(scene, "PRIMER", str(tmp_path / "long.exr"), 16)[..., :3].mean()
+    finally:
+        walk.MAX_STEPS = cap
+    grey = render_pixels(wax_slab((0.5, 0.5, 0.5), 0.05), "PRIMER", str(tmp_path / "g.exr"), 16)[..., :3].mean()
+    print(f"white walk / E/pi: radius 0.05 {means[0.05] / lambert:.4f}, 0.2 {means[0.2] / lambert:.4f}, Cycles "
+          f"{cycles / lambert:.4f}, cap 4096 {longer / lambert:.4f}; grey {grey / lambert:.4f}")
+    assert means[0.05] == pytest.approx(cycles, rel=0.01) and means[0.2] == pytest.approx(cycles, rel=0.01)
+    assert 0.85 < cycles / lambert < 0.95
+    assert means[0.05] < longer and longer / lambert > 0.96
+    assert grey < 0.7 * means[0.05]
+    scene = open_scene("light_point", samples=16)
+    scene.objects["Sphere"].data.materials[0] = subsurface_material("Wax", (0.9, 0.25, 0.15), 0.3)
+    save("subsurface_walk", render(primer, scene, str(tmp_path / "wax.exr"))["Combined"])
+
+
 def test_every_picture_the_tour_shows_exists():
     """Each docs/images/tour/*.png that docs/tour.md links to is there (this module's tests write them)."""
     with open(TOUR, encoding="utf-8") as fh:
