@@ -179,6 +179,7 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeAmbientOcclusion": "AO", "ShaderNodeBevel": "BEVEL",
                "ShaderNodeHairInfo": "CURVES_INFO",
                "ShaderNodeParticleInfo": "PARTICLE_INFO",
+               "ShaderNodePointInfo": "POINT_INFO", "ShaderNodeVolumeInfo": "VOLUME_INFO",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
 CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
