@@ -76,7 +76,8 @@ static void rt_irregular_circular(float l, float x, float y, float xac, float sa
             float lab = l * cosf(sab - sdc);
             float u = rt_straight(lab, sab, sdc);
             if (normalize) {
-                if (xac >= RT_2PI - lsd - sab || xac < sab) u /= rt_norm_edge(lab, olbs_ab, spline_outer, effective, xolbs);
+                if (xac >= RT_2PI - lsd - sab || xac < sab)
+                    u /= rt_norm_edge(lab, olbs_ab, spline_outer, effective, xolbs);
                 else u /= rt_norm_edge(lab, bsab, spline, r, sdbs);
             }
             out[0] = lab; out[1] = u; out[2] = width_regular;

@@ -89,7 +89,8 @@ def _regular_straight(l, sab, sdc, r, sdbs, bsab, normalize):
 
 
 def _irregular_circular(l, x, y, xac, sab, snd, seg, sdc, sides, r, normalize):
-    """(lab, u, width, rotation) for a fractional Sides and Roundness > 0 (calculate_out_variables_irregular_circular)."""
+    """(lab, u, width, rotation) for a fractional Sides and Roundness > 0 (Cycles'
+    calculate_out_variables_irregular_circular)."""
     sdbs = sab - atan((ONE - r) * tan(sab))
     las = PI - np.floor(sides) * sab                        # the last (narrower) segment's half angle
     lsd = F32(2.0) * las
@@ -162,7 +163,8 @@ def _irregular_circular(l, x, y, xac, sab, snd, seg, sdc, sides, r, normalize):
 def out_variables(normalize: bool, sides: np.ndarray, roundness: np.ndarray, x: np.ndarray,
                   y: np.ndarray) -> tuple:
     """Cycles' calculate_out_variables at n points (float32 (n,) each; Sides >= 2, Roundness in [0, 1]):
-    (v (the bisector's length, - 1 without Normalize), u (in [0, 1] with Normalize), Segment Width, Segment Rotation)."""
+    (v (the bisector's length, - 1 without Normalize), u (in [0, 1] with Normalize), Segment Width,
+    Segment Rotation)."""
     l = np.sqrt(x * x + y * y)
     xac = atan2(y, x) + (y < F32(0.0)).astype(F32) * TWO_PI
     sab = PI / sides
