@@ -164,6 +164,7 @@ def points_mesh(cloud, warnings: list) -> core_scene.Mesh:
                         "triangles, coarser than Primer's usual 320")
     mesh, point = points_.spheres(positions.reshape(-1, 3), radius, subdivisions, name=cloud.name)
     mesh.material_indices = material[point].astype(np.int64)
+    mesh.curve_info = points_.point_info(positions.reshape(-1, 3), radius, len(mesh.vertices))
     return mesh
 
 
@@ -247,14 +248,14 @@ def particle_hair_mesh(obj, system, render: bool, matrix: np.ndarray, warnings: 
 
 
 def curve_attributes(mesh: core_scene.Mesh, wanted: set) -> set:
-    """Give the tubes `mesh` of curves the Curves Info attributes of `wanted` (its Mesh.curve_info, per vertex, as
-    per-corner attributes); return the names of `wanted` it cannot carry (on other meshes the Curves Info reads 0, as
-    in Cycles off strands)."""
+    """Give the tubes `mesh` of curves the Curves Info attributes of `wanted`, or a point cloud's spheres the Point Info
+    ones (its Mesh.curve_info, per vertex, as per-corner attributes); return the names of `wanted` it cannot carry (on
+    other meshes the Curves Info and Point Info read 0, as in Cycles off strands and points)."""
     for name in wanted & set(mesh.curve_info):
         if name not in mesh.attributes:
             values = mesh.curve_info[name][mesh.triangles]                      # (t, 3) or (t, 3, 3)
             mesh.attributes[name] = values[:, :, None] if values.ndim == 2 else values
-    return {name for name in wanted - set(mesh.curve_info) if not name.startswith("curve")}   # (0 off strands)
+    return {name for name in wanted - set(mesh.curve_info) if not name.startswith(("curve", "point_"))}   # (0 off them)
 
 
 def attribute_values(attribute, dtype) -> np.ndarray:

@@ -179,6 +179,7 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeAmbientOcclusion": "AO", "ShaderNodeBevel": "BEVEL",
                "ShaderNodeHairInfo": "CURVES_INFO",
                "ShaderNodeParticleInfo": "PARTICLE_INFO",
+               "ShaderNodePointInfo": "POINT_INFO", "ShaderNodeVolumeInfo": "VOLUME_INFO",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
 # How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
 CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
@@ -1451,7 +1452,8 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
     # A heterogeneous medium's graph runs at points inside it: no image, no mesh attribute there.
     nodes = [(name, weight, {k: v for k, v in inputs.items() if k != "factors"}, inputs.get("factors", ()))
              for name, weight, inputs in entries]
-    unread = sorted((graph_.attributes_of(nodes) - {"generated", "object"})
+    # (Point Info reads 0 inside a medium in Cycles too: no point is hit there.)
+    unread = sorted(({n for n in graph_.attributes_of(nodes) if not n.startswith("point_")} - {"generated", "object"})
                     | {f"Object Info's {link.output}" for link in graph_.links_under(nodes)
                        if link.node.kind == "OBJECT_INFO" and link.output != "Location"})
     if unread:

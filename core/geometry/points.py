@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..materials.procedural import hash as hash_
 from ..scene import Mesh
 
 
@@ -54,3 +55,17 @@ def spheres(positions: np.ndarray, radius: np.ndarray, subdivisions: int = 2, na
     normals = np.broadcast_to(unit[faces][None], (p,) + faces.shape + (3,)).reshape(-1, 3, 3)
     mesh = Mesh(vertices, triangles, smooth=np.ones(len(triangles), bool), corner_normals=normals, name=name)
     return mesh, np.repeat(np.arange(p, dtype=np.int64), len(faces))
+
+
+def point_info(positions: np.ndarray, radius: np.ndarray, vertex_count: int) -> dict:
+    """The Point Info node's values per vertex of `spheres`' mesh (vertex_count vertices, the same number per point),
+    as graph.POINT_INFO_ATTRIBUTES names them: "point_centre" (v, 4) the point's centre and 1, "point_radius" (v, 3)
+    its radius / sqrt(3) thrice (its world radius is the length of that vector moved to world space, as Cycles'
+    point_radius), "point_random" (v,) Cycles' hash_uint2_to_float(point index, 0)."""
+    p = len(positions)
+    of_vertex = np.arange(vertex_count) // max(vertex_count // max(p, 1), 1)
+    centre = np.concatenate([np.asarray(positions, np.float64), np.ones((p, 1))], axis=1)
+    third = np.float32(np.asarray(radius, np.float32) * np.float32(1.0 / np.sqrt(3.0))).astype(np.float64)
+    random = hash_.uint_to_float(hash_.hash_uint2(np.arange(p), 0)).astype(np.float64)
+    return {"point_centre": centre[of_vertex], "point_radius": np.repeat(third[:, None], 3, axis=1)[of_vertex],
+            "point_random": random[of_vertex]}

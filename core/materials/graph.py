@@ -200,6 +200,8 @@ NODE_OUTPUTS = {
     "INSTANCE_ATTRIBUTE": {"Color": (3, "color"), "Vector": (3, "vector"), "Fac": (1, "float"), "Alpha": (1, "float")},
     "PARTICLE_INFO": {name: (width, "vector" if width == 3 else "float")
                       for name, (_, width) in PARTICLE_INFO_COLUMNS.items()},
+    "POINT_INFO": {"Position": (3, "vector"), "Radius": (1, "float"), "Random": (1, "float")},
+    "VOLUME_INFO": {"Color": (3, "color"), "Density": (1, "float"), "Flame": (1, "float"), "Temperature": (1, "float")},
     "CURVES_INFO": {"Is Strand": (1, "float"), "Intercept": (1, "float"), "Length": (1, "float"),
                     "Thickness": (1, "float"), "Random": (1, "float"), "Tangent Normal": (3, "vector")},
     "OBJECT_INFO": {"Location": (3, "vector"), "Color": (3, "color"), "Alpha": (1, "float"),
@@ -229,6 +231,10 @@ OBJECT_INFO_COLUMNS = {"Location": (0, 3), "Color": (3, 3), "Alpha": (6, 1), "Ob
 # The Curves Info outputs, each a mesh attribute of the tubes curves become (0 on other meshes, as Cycles' off strands).
 CURVES_INFO_ATTRIBUTES = {"Is Strand": "curve:strand", "Intercept": "curve:intercept", "Length": "curve:length",
                           "Thickness": "curve:thickness", "Random": "curve:random", "Tangent Normal": "curve_tangent"}
+# The Point Info outputs, each a mesh attribute of the spheres a point cloud becomes (core/geometry/points.py
+# point_info; zeros on other meshes, as Cycles' point_position, point_radius and point_random off points):
+# the point's centre in object space and 1 (4 floats), its radius / sqrt(3) thrice (3), its random number (1).
+POINT_INFO_ATTRIBUTES = {"Position": "point_centre", "Radius": "point_radius", "Random": "point_random"}
 # The Geometry node's outputs the GEOMETRY op reads from the ShadingPoint, in its numbering (Tangent is a TANGENT op).
 GEOMETRY_OUTPUTS = ("Position", "Normal", "True Normal", "Incoming", "Parametric", "Backfacing", "Object Normal",
                     "Reflection")
@@ -389,6 +395,8 @@ def attributes_of(nodes: list) -> set:
             names.add("tangent:" + node.props.get("map", ""))
         elif node.kind == "CURVES_INFO":
             names.add(CURVES_INFO_ATTRIBUTES[link.output])
+        elif node.kind == "POINT_INFO":
+            names.add(POINT_INFO_ATTRIBUTES[link.output])
         elif node.kind == "TANGENT":
             names.add("generated" if node.props.get("direction", "RADIAL") == "RADIAL"
                       else "tangent:" + node.props.get("map", ""))
@@ -407,7 +415,7 @@ def attributes_of(nodes: list) -> set:
 
 # The widths of the mesh attributes by name prefix.
 ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "attr": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
-                    "curve": 1, "curve_tangent": 3}
+                    "curve": 1, "curve_tangent": 3, "point_centre": 4, "point_radius": 3, "point_random": 1}
 
 
 def attribute_width(name: str) -> int:
@@ -547,6 +555,27 @@ class Compiler:
             return self.transform(v, np.hstack([forward[:, :3], np.zeros((3, 1))]))
         return self.normalized(self.transform(v, np.hstack([back[:, :3].T, np.zeros((3, 1))])))
 
+    def point_info(self, output: str) -> int:
+        """A register holding the Point Info `output` in world space, as Cycles' point_position, point_radius and
+        point_random: the centre c (w = 1 on points, 0 elsewhere) as L c + t w (L, t the object's linear part and
+        translation), the radius as |L (r, r, r) / sqrt(3)|, Random as it is."""
+        if output == "Random":
+            return self.attribute(POINT_INFO_ATTRIBUTES[output], 1)
+        if output == "Radius":
+            x, y, z = (shift(self.space_step(self.attribute("point_radius", 3), "VECTOR", "OBJECT", True), k)
+                       for k in range(3))
+            return self.math("SQRT", self.math("MULTIPLY_ADD", z, z, self.math("MULTIPLY_ADD", y, y,
+                                                                                self.math("MULTIPLY", x, x))))
+        centre = self.attribute("point_centre", 4)
+        linear = self.space_step(centre, "VECTOR", "OBJECT", True)
+        matrix = self.temporary(12)
+        self.emit("OBJECT_MATRIX", matrix, 0)           # (row by row: the translation at 3, 7, 11)
+        out = self.temporary(3)
+        for k in range(3):
+            self.emit("COPY", shift(out, k), self.math("MULTIPLY_ADD", shift(matrix, 4 * k + 3), shift(centre, 3),
+                                                        shift(linear, k)), 1)
+        return out
+
     def normalized(self, n: int) -> int:
         """A register holding the vector in register `n` divided by its length (as Cycles' normalize)."""
         x, y, z = (shift(n, k) for k in range(3))
@@ -641,6 +670,10 @@ class Compiler:
                 self.emit("CURVE_NORMAL", out, self.attribute(CURVES_INFO_ATTRIBUTES[output], 3))
                 return out, 3, "vector"
             return self.attribute(CURVES_INFO_ATTRIBUTES[output], 1), 1, "float"
+        if kind == "POINT_INFO":                        # per vertex of a point cloud's spheres (points.point_info)
+            return self.point_info(output), width, vtype
+        if kind == "VOLUME_INFO":                       # Cycles' volume attributes, which no mesh has: zeros
+            return self.constant([0.0] * width), width, vtype
         if kind == "INSTANCE_ATTRIBUTE":               # an Object or Instancer attribute: the instance's RGBA columns
             start = int(props["column"])                # (geometry.instance_info, Scene.instance_attributes)
             out = self.temporary(3 if output != "Alpha" else 1)

@@ -138,35 +138,36 @@
 #define OP_TEX_MAGIC 26
 #define OP_TEX_BRICK 27
 #define OP_TEX_GABOR 28
-#define OP_VECTOR_MATH 29
-#define OP_VECTOR_ROTATE 30
-#define OP_GAMMA 31
-#define OP_BRIGHT_CONTRAST 32
-#define OP_RGB_TO_BW 33
-#define OP_BLACKBODY 34
-#define OP_WAVELENGTH 35
-#define OP_SEPARATE_COLOR_MODE 36
-#define OP_COMBINE_COLOR_MODE 37
-#define OP_RGB_CURVES 38
-#define OP_VECTOR_CURVES 39
-#define OP_FLOAT_CURVE 40
-#define OP_MAP_RANGE_VECTOR 41
-#define OP_FRESNEL 42
-#define OP_LAYER_WEIGHT 43
-#define OP_GEOMETRY 44
-#define OP_TRANSFORM 45
-#define OP_CAMERA_DATA 46
-#define OP_WIREFRAME 47
-#define OP_WINDOW 48
-#define OP_SKY 49
-#define OP_OBJECT_INFO 50
-#define OP_OBJECT_MATRIX 51
-#define OP_AO 52
-#define OP_BEVEL 53
-#define OP_PIXEL_SIZE 54
-#define OP_CURVE_NORMAL 55
-#define OP_SET_NORMAL 56
-#define OP_TANGENT_SPACE 57
+#define OP_RADIAL_TILING 29
+#define OP_VECTOR_MATH 30
+#define OP_VECTOR_ROTATE 31
+#define OP_GAMMA 32
+#define OP_BRIGHT_CONTRAST 33
+#define OP_RGB_TO_BW 34
+#define OP_BLACKBODY 35
+#define OP_WAVELENGTH 36
+#define OP_SEPARATE_COLOR_MODE 37
+#define OP_COMBINE_COLOR_MODE 38
+#define OP_RGB_CURVES 39
+#define OP_VECTOR_CURVES 40
+#define OP_FLOAT_CURVE 41
+#define OP_MAP_RANGE_VECTOR 42
+#define OP_FRESNEL 43
+#define OP_LAYER_WEIGHT 44
+#define OP_GEOMETRY 45
+#define OP_TRANSFORM 46
+#define OP_CAMERA_DATA 47
+#define OP_WIREFRAME 48
+#define OP_WINDOW 49
+#define OP_SKY 50
+#define OP_OBJECT_INFO 51
+#define OP_OBJECT_MATRIX 52
+#define OP_AO 53
+#define OP_BEVEL 54
+#define OP_PIXEL_SIZE 55
+#define OP_CURVE_NORMAL 56
+#define OP_SET_NORMAL 57
+#define OP_TANGENT_SPACE 58
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -1075,7 +1076,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(5130133816351125659);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(5201075736430934965);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(2732799499925847699);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);

@@ -35,7 +35,9 @@ class Mesh:
     material_indices: (t,) int64 index into the instance's material list
     attributes:       per-corner data the materials read (core/materials/graph.py): name -> (t, 3, w)
     curve_info:       the Curves Info node's values per vertex of curves made tubes (core/geometry/curves.py
-                      curves_info): name ("curve:intercept", ...) -> (v,) float64; made attributes where read
+                      curves_info), or the Point Info's per vertex of a point cloud's spheres (core/geometry/points.py
+                      point_info): name ("curve:intercept", "point_centre", ...) -> (v,) or (v, w) float64; made
+                      attributes where read
                       float64, e.g. "uv:UVMap" (w 3, z 0), "color:Col" (RGBA; "attr:Col" an Attribute node's), "tangent:UVMap" (object-space
                       tangent and bitangent sign), "generated", "object"; an empty name after the colon is the
                       mesh's active map

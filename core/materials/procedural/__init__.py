@@ -1,5 +1,5 @@
 """Procedural texture nodes (Cycles' Noise, Voronoi, White Noise, Gradient, Checker, Wave, Magic, Brick and Gabor
-textures), one class and one C file each.
+textures, and the Radial Tiling node, a texture coordinate built the same way), one class and one C file each.
 
 Adding a texture node is one class (a `base.TextureNode`: its Blender node, inputs, outputs, settings and numpy
 `evaluate`), one C file beside it (`<c_name>.c` with `<c_name>_texture`, the op at one hit), and one entry in
@@ -18,12 +18,13 @@ from .gabor import GaborTexture
 from .gradient import GradientTexture
 from .magic import MagicTexture
 from .noise import NoiseTexture
+from .radial_tiling import RadialTiling
 from .voronoi import VoronoiTexture
 from .wave import WaveTexture
 from .white_noise import WhiteNoiseTexture
 
 TEXTURE_TYPES = (CheckerTexture, GradientTexture, WhiteNoiseTexture, NoiseTexture, VoronoiTexture, WaveTexture,
-                 MagicTexture, BrickTexture, GaborTexture)
+                 MagicTexture, BrickTexture, GaborTexture, RadialTiling)
 # The C headers every texture's C file may use, included first.
 SHARED_C = ("hash.h", "perlin.h")
 
@@ -33,5 +34,5 @@ if len(TEXTURE_BY_KIND) != len(TEXTURE_TYPES) or len(TEXTURE_BY_BLENDER) != len(
     raise ValueError("two texture classes share a kind or a Blender node")
 
 __all__ = ["TextureNode", "TEXTURE_TYPES", "TEXTURE_BY_KIND", "TEXTURE_BY_BLENDER", "SHARED_C", "BrickTexture",
-           "CheckerTexture", "GaborTexture", "GradientTexture", "MagicTexture", "NoiseTexture", "VoronoiTexture", "WaveTexture",
+           "CheckerTexture", "GaborTexture", "GradientTexture", "MagicTexture", "NoiseTexture", "RadialTiling", "VoronoiTexture", "WaveTexture",
            "WhiteNoiseTexture"]

@@ -12,6 +12,7 @@
 #include "magic.c"
 #include "brick.c"
 #include "gabor.c"
+#include "radial_tiling.c"
 
 /* A texture's op at one hit (graph.run_program's ops past its own): a[0] the output block, then the
  * input registers and the numbers, as the class describes them. 0 for an op code that is no texture's. */
@@ -27,6 +28,7 @@ INLINE int procedural_op(int code, const int *a, double *reg)
     case OP_TEX_MAGIC: magic_texture(a, reg); return 1;
     case OP_TEX_BRICK: brick_texture(a, reg); return 1;
     case OP_TEX_GABOR: gabor_texture(a, reg); return 1;
+    case OP_RADIAL_TILING: radial_tiling_texture(a, reg); return 1;
     default: return 0;
     }
 }
