@@ -299,12 +299,13 @@ def spherical_triangle_sample(P: np.ndarray, V: np.ndarray, u: np.ndarray):
     return L, np.where(np.isfinite(distance) & (distance > 0), distance, 0.0), np.where(np.isfinite(pdf), pdf, 0.0)
 
 
-def from_geometry(geometry, materials, graph_emission) -> Optional[MeshEmitters]:
+def from_geometry(geometry, materials, graph_emission, notes: Optional[list] = None) -> Optional[MeshEmitters]:
     """The emitters of a WorldGeometry: the triangles whose material (a row of the MaterialTable) emits.
 
     Each material's `emission_sides` (FRONT | BACK, 0 for Emission Sampling None) and its emission
     estimate (a constant shader's emission) decide; copied and instanced triangles alike. graph_emission
     (core/integrators/direct.py graph_emission, from the caller) estimates what textured emitters emit.
+    notes: a list told once that moving emitters are left to BSDF rays (motion blur), or None.
     """
     emission = np.array([np.asarray(shader.emission, np.float64) for shader in materials.shaders])
     sides = np.array([getattr(shader, "emission_sides", FRONT | BACK) for shader in materials.shaders], np.int32)
@@ -323,6 +324,10 @@ def from_geometry(geometry, materials, graph_emission) -> Optional[MeshEmitters]
         if mesh.motion is not None:
             # A moving emitter is no light sample's: BSDF rays find it where it is at their time, with MIS weight 1
             # (Cycles samples it too: the same light, with more noise here).
+            moving_note = ("motion blur: emitters that move are found by BSDF rays only, not light-sampled (the same "
+                           "light as Cycles, with more noise)")
+            if notes is not None and moving_note not in notes and emissive[mesh.material[mesh.material_row]].any():
+                notes.append(moving_note)
             continue
         rows = mesh.material[mesh.material_row]                  # (k, t) each placement's materials
         j, local = np.nonzero(emissive[rows])

@@ -170,7 +170,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # The lights a render makes of its scene: the emissive meshes, and the world's image (NaN or infinite parts
     # read as 0, as Cycles renders them).
     world = lights_.world.finite_world(scene.the_world(), warnings)
-    emitters = lights_.emitters.from_geometry(geometry, materials, vertex.graph_emission)
+    emitters = lights_.emitters.from_geometry(geometry, materials, vertex.graph_emission, warnings)
     sampler = lights_.WorldLight.of(world)
     lights += [light for light in (emitters, sampler) if light is not None]
     ctx = Context(scene, settings, geometry, lights, materials, light_numbers)
