@@ -129,7 +129,8 @@ static double ff_eval(const double *p, double cos_theta)
     return ff_pf(p, cos_theta, delta, pow(delta, p[1]), h);
 }
 
-/* FournierForand.sample_cos: Newton's method on the cdf from 50 degrees, 20 steps at most, never past 1. */
+/* FournierForand.sample_cos: Newton's method on the cdf from 50 degrees, 20 steps at most, never past 1 (nor at it:
+ * its pole, where Cycles' pdf is 0 and the sample lost, is the float just below it here). */
 static double ff_sample_cos(const double *p, double u0)
 {
     double v = p[1], cos_theta = 0.64278760968;
@@ -141,7 +142,7 @@ static double ff_sample_cos(const double *p, double u0)
         cdf = cdf + p[2] / 8.0 * cos_theta * (1.0 - cos_theta * cos_theta);
         double step = cos_theta + (cdf - u0) / (2.0 * PI * ff_pf(p, cos_theta, delta, pow_delta_v, h));
         if (step >= 1.0) step = at_least(0.5 * (cos_theta + 1.0), 0.99);
-        if (fabs(cos_theta - step) < 1e-6 || step == 1.0) return step;
+        if (fabs(cos_theta - step) < 1e-6 || step == 1.0) return at_most(step, nextafter(1.0, 0.0));
         cos_theta = step;
     }
     return cos_theta;

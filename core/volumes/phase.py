@@ -206,7 +206,8 @@ class FournierForand(Phase):
 
     def sample_cos(self, u0):
         """Newton's method on the cdf (the share scattered by less than theta) from 50 degrees, 20 steps at most,
-        never stepping past cos theta = 1 (Cycles' phase_fournier_forand_newton), all rows at once."""
+        never stepping past cos theta = 1 (Cycles' phase_fournier_forand_newton), all rows at once; never at 1 (the
+        float just below it instead)."""
         n = len(u0)
         v, c = _rows(self.v, n), _rows(self.c, n)
         cos_theta = np.full(n, 0.64278760968)
@@ -229,7 +230,7 @@ class FournierForand(Phase):
             rows = np.flatnonzero(going)
             cos_theta[rows] = step
             going[rows[done]] = False
-        return cos_theta
+        return np.minimum(cos_theta, np.nextafter(1.0, 0.0))     # (its pole: Cycles' pdf 0 there, a lost sample)
 
     def parameters(self, n):
         """[n, v, c, 0] per row."""
@@ -385,7 +386,7 @@ def of_node(phase: str, inputs: dict) -> Phase:
     constant inputs (keys anisotropy, ior, backscatter, alpha, diameter), as Cycles' svm_alloc_closure_volume_scatter."""
     get = lambda key, default: float(np.mean(inputs.get(key, default)))            # noqa: E731
     if phase == "FOURNIER_FORAND":
-        return FournierForand.of(get("backscatter", 0.1), get("ior", 1.1))
+        return FournierForand.of(get("backscatter", 0.1), get("ior", 1.33))
     if phase == "DRAINE":
         return Draine(float(clamp_g(get("anisotropy", 0.0))), get("alpha", 0.5))
     if phase == "RAYLEIGH":
@@ -520,7 +521,7 @@ def mie_parameters(diameter) -> tuple:
     return tuple(np.select(ranges, [tiny[i], small[i], mid[i]], large[i]) for i in range(4))
 
 
-def cos_quadrature(n: int = 4096) -> tuple:
+def cos_quadrature(n: int = 512) -> tuple:
     """Nodes x and weights (n,) float64 of a quadrature over cos theta in [-1, 1] that resolves a forward pole:
     Gauss-Legendre in s = log((1 - cos theta) / 2) over [-60, 0] (FF's pole at cos theta = 1 is integrable; what
     lies within 1e-26 of it is left out), cached."""
