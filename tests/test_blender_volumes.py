@@ -455,7 +455,8 @@ def test_a_volume_scatter_sphere_of_each_phase_function_under_a_sun_renders_as_i
     times the transmittance on both ways. 24 x 24 (the floor removed: the sphere's light alone), block relative MSE
     on Blender 5.0 of Primer 64 samples against Cycles 1024 (Cycles' own 64 against its 1024 in brackets): FF 1.0e-6
     (2.4e-6), Draine 1.0e-6 (3.2e-6), Rayleigh 1.6e-6 (4.2e-6), Mie 2.5e-6 (1.1e-6); Primer 1024 against Cycles
-    4096: 5e-8 to 1e-7, every channel's mean within 0.015%. Each differs from isotropic HG by 2.4e-3 (Rayleigh) to
+    4096: 5e-8 to 1e-7, every channel's mean within 0.015%; on Blender 5.2, Primer 64 / Cycles 1024: 1.4e-6, 1.7e-6,
+    1.8e-6, 2.8e-6. Each differs from isotropic HG by 2.4e-3 (Rayleigh) to
     4.4e-2 (Mie). The bound 2e-5 is five times Cycles' own noise, the channels' means within 1%; and Primer says
     nothing of the phase function (it is modelled)."""
     scene = phase_scene(phase)
@@ -476,6 +477,8 @@ def phase_scene(phase: str):
     scene = perspective_scene(24, 24)
     bpy.data.objects.remove(bpy.data.objects["Plane"])
     fog, node = volume_material("Fog", "ShaderNodeVolumeScatter", Color=(0.8, 0.7, 0.6), Density=1.5)
+    if not hasattr(node, "phase"):
+        pytest.skip("Blender before 4.3 has no Phase menu")
     node.phase = phase                                 # (first: a phase's own sockets are found by name once shown)
     for socket, value in PHASE_SCENES[phase].items():
         node.inputs[socket].default_value = value

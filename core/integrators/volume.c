@@ -58,8 +58,8 @@ typedef struct {
     double t, s, pdf;
 } FreeFlight;
 
-/* volume.scattered_light at one point P (3) of phase function `phase` in the media `inside`, seen along wo (3): the light per
- * unit sigma_s into L (3, zeroed here). flight: the free-flight point P is (each equi-angular lamp's light samples
+/* volume.scattered_light at one point P (3) of phase function `phase` in the media `inside`, seen along wo (3): the
+ * light per unit sigma_s into L (3, zeroed here). flight: the free-flight point P is (each equi-angular lamp's light samples
  * there weighed against that lamp's equi-angular points by the balance heuristic), or NULL; only: a light's index (an equi-angular point: its samples alone, no phase ray), or
  * -1. Returns the shadow rays traced. */
 static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limits, const double *P, const double *wo,
@@ -302,8 +302,8 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
                                    scattered);
     for (int c = 0; c < 3; c++) L[c] = weight[c] * scattered[c];
     /* 3. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
-    rays += equiangular_lamps(ds, limits, NULL, sigma_t, sigma_s, &phase, odds, O, D, t, inside, pixel, sample, dimension,
-                              bounce, L);
+    rays += equiangular_lamps(ds, limits, NULL, sigma_t, sigma_s, &phase, odds, O, D, t, inside, pixel, sample,
+                              dimension, bounce, L);
     return rays;
 }
 

@@ -383,7 +383,8 @@ PHASE_BY_BLENDER = {cls.blender: cls for cls in PHASES}
 
 def of_node(phase: str, inputs: dict) -> Phase:
     """The phase function a Volume Scatter or Volume Coefficients node sets up from its Phase menu identifier and
-    constant inputs (keys anisotropy, ior, backscatter, alpha, diameter), as Cycles' svm_alloc_closure_volume_scatter."""
+    constant inputs (keys anisotropy, ior, backscatter, alpha, diameter), as Cycles'
+    svm_alloc_closure_volume_scatter."""
     get = lambda key, default: float(np.mean(inputs.get(key, default)))            # noqa: E731
     if phase == "FOURNIER_FORAND":
         return FournierForand.of(get("backscatter", 0.1), get("ior", 1.33))
@@ -556,7 +557,8 @@ def compiled_rows(phases: Phases, wo: np.ndarray, wi: np.ndarray, u: np.ndarray)
     n = len(phases.kind)
     out_eval, sampled, pdf = np.empty(n), np.empty((n, 3)), np.empty(n)
     library.call("primer_phase_rows", PhaseRowsArgs(
-        n=n, kind=library.contiguous(phases.kind, np.int64), parameters=library.contiguous(phases.parameters, np.float64),
+        n=n, kind=library.contiguous(phases.kind, np.int64),
+        parameters=library.contiguous(phases.parameters, np.float64),
         wo=library.contiguous(wo, np.float64), wi=library.contiguous(wi, np.float64),
         u=library.contiguous(u, np.float64), eval=out_eval, sampled=sampled, pdf=pdf))
     return out_eval, PhaseSample(sampled, pdf)
