@@ -155,17 +155,20 @@ def test_a_node_sets_up_its_phase_menu_and_mixed_media_scatter_by_the_larger_sha
 
 @pytest.mark.parametrize("phase", ["FOURNIER_FORAND", "DRAINE", "RAYLEIGH", "MIE"])
 def test_both_kernels_scatter_with_a_media_phase_function_to_the_same_pixels(phase):
-    """A Volume Scatter box of each phase function overlapping an HG world fog, under an area and a point lamp: light
-    samples weigh by its p, phase rays sample it, in the Python reference and the compiled kernel alike (a few
-    float32 ulps per pixel, as tests/test_volumes_compiled.py holds the twins), the same shadow rays traced."""
+    """A Volume Scatter box of each phase function in a world fog (HG, or Mie around the FF and Rayleigh boxes: the
+    world's own phase function), under an area and a point lamp: light samples weigh by its p, phase rays sample
+    it, in the Python reference and the compiled kernel alike (a few float32 ulps per pixel, as
+    tests/test_volumes_compiled.py holds the twins), the same shadow rays traced."""
     from core.lights import World
     from core.render import render
     from core.scene import RenderSettings
     from test_volumes_compiled import assert_same_pixels, looking, room, smoke
     scene = room(looking())
     smoke(scene, phase=phase, backscatter=0.2, ior=1.2, alpha=0.6, anisotropy=0.5, diameter=3.0, density=1.5)
+    world_phase = "MIE" if phase in ("FOURNIER_FORAND", "RAYLEIGH") else "HENYEY_GREENSTEIN"
     scene.world = World(color=np.zeros(3), volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8), "density": 0.02,
-                                                                      "anisotropy": 0.3})])
+                                                                      "anisotropy": 0.3, "phase": world_phase,
+                                                                      "diameter": 8.0})])
     settings = {"width": 12, "height": 9, "samples": 3, "integrator": "path", "max_bounces": 4}
     reference = render(scene, RenderSettings(kernels="numpy", **settings))
     compiled = render(scene, RenderSettings(**settings))
