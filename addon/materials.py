@@ -33,6 +33,7 @@ from ..core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
 from ..core.materials.procedural import TEXTURE_BY_BLENDER
 from ..core.materials.procedural import hash as hash_
 from ..core.volumes import VOLUME_BY_BLENDER
+from ..core.volumes import field as field_
 from . import movie as movie_
 from . import unmodelled
 
@@ -1373,6 +1374,8 @@ VOLUME_SOCKETS = {"Color": "color", "Density": "density", "Anisotropy": "anisotr
                   "Scatter Coefficients": "scatter", "Emission Coefficients": "emission", "Strength": "strength",
                   "Blackbody Intensity": "blackbody_intensity", "Blackbody Tint": "blackbody_tint",
                   "Temperature": "temperature"}
+# The Phase menu's inputs (Volume Scatter, Volume Coefficients; core/volumes/phase.py of_node), constants only.
+PHASE_SOCKETS = {"IOR": "ior", "Backscatter": "backscatter", "Alpha": "alpha", "Diameter": "diameter"}
 
 
 def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list = None, factors: tuple = ()) -> list:
@@ -1420,10 +1423,17 @@ def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list =
     elif kind in VOLUME_BY_BLENDER:
         name = VOLUME_BY_BLENDER[kind].name
         phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
-        if phase != "HENYEY_GREENSTEIN":
-            reader.warn(node, f"phase function {phase} is not modelled; Primer scatters with Henyey-Greenstein of "
-                              "the node's Anisotropy")
         inputs, linked = {}, []
+        if phase != "HENYEY_GREENSTEIN":                 # (core/volumes/phase.py; a heterogeneous medium: volume_of)
+            inputs["phase"] = phase
+            for socket, key in PHASE_SOCKETS.items():
+                if socket in node.inputs:
+                    value = reader.input(node, socket, None)
+                    if _linked(value):
+                        reader.warn(node, f"its {socket} is fed by a link, which the phase function {phase} does "
+                                          "not read in Primer; it reads the socket's own value")
+                        value = node.inputs[socket].default_value
+                    inputs[key] = float(np.mean(value))
         for socket, key in VOLUME_SOCKETS.items():
             if socket in node.inputs:
                 value = reader.input(node, socket, None)
@@ -1449,6 +1459,13 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
     if node is None:
         return []
     entries = volume_closures(NodeReader(datablock, warnings, kind), node)
+    if entries and field_.linked(entries):               # (a heterogeneous medium scatters with HG: field.py)
+        for _, _, inputs in entries:
+            if inputs.get("phase", "HENYEY_GREENSTEIN") != "HENYEY_GREENSTEIN":
+                warnings.append(f"{kind} '{datablock.name}': phase function {inputs['phase']} in a heterogeneous "
+                                "medium is not modelled; Primer scatters with Henyey-Greenstein of the node's "
+                                "Anisotropy")
+                inputs["phase"] = "HENYEY_GREENSTEIN"
     # A heterogeneous medium's graph runs at points inside it: no image, no mesh attribute there.
     nodes = [(name, weight, {k: v for k, v in inputs.items() if k != "factors"}, inputs.get("factors", ()))
              for name, weight, inputs in entries]

@@ -58,13 +58,13 @@ typedef struct {
     double t, s, pdf;
 } FreeFlight;
 
-/* volume.scattered_light at one point P (3) of anisotropy g in the media `inside`, seen along wo (3): the light per
- * unit sigma_s into L (3, zeroed here). flight: the free-flight point P is (each equi-angular lamp's light samples
+/* volume.scattered_light at one point P (3) of phase function `phase` in the media `inside`, seen along wo (3): the
+ * light per unit sigma_s into L (3, zeroed here). flight: the free-flight point P is (each equi-angular lamp's light samples
  * there weighed against that lamp's equi-angular points by the balance heuristic), or NULL; only: a light's index (an equi-angular point: its samples alone, no phase ray), or
  * -1. Returns the shadow rays traced. */
 static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limits, const double *P, const double *wo,
-                               double g, const VolumeStack *inside, int64_t pixel, int64_t sample, int64_t dimension,
-                               int bounce, const FreeFlight *flight, int64_t only, double *L)
+                               const Phase *phase, const VolumeStack *inside, int64_t pixel, int64_t sample,
+                               int64_t dimension, int bounce, const FreeFlight *flight, int64_t only, double *L)
 {
     int64_t rays = 0;
     double zero[3] = {0.0, 0.0, 0.0};
@@ -121,7 +121,9 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                 transmit_packet(ds->transmitter, 1, origin, D, &t, &STILL_TIME, &shadow, &blockers, inside, T);
                 rays++;
             }
-            double p = henyey_greenstein(-wo[0] * ls.L[0] + -wo[1] * ls.L[1] + -wo[2] * ls.L[2], g);
+            double cos_theta = -wo[0] * ls.L[0] + -wo[1] * ls.L[1] + -wo[2] * ls.L[2];
+            double p = phase->kind == PHASE_HENYEY_GREENSTEIN ? henyey_greenstein(cos_theta, phase->p[0])
+                                                              : phase_eval(phase, cos_theta);
             double w = ls.strength * (1.0 / (double)count);
             if (flight != NULL && equiangular_lamp(light)) {
                 double s = flight->s;
@@ -137,7 +139,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     if (only >= 0 || !(ds->bsdf_rays || ds->media->emits != 0)) return rays;
     double u[2], wi[3];
     sample_2d(stream_of((int64_t)ds->seed, PHASE_DIMENSION + dimension), pixel, sample, u);
-    double pdf = sample_henyey_greenstein(wo, g, u, wi);
+    double pdf = phase_sample(phase, wo, u, wi);
     RayHitPacket packet;
     int valid[PACKET] ALIGNED(32);
     set_lane(&packet.ray, 0, P, wi, INFINITY);
@@ -196,9 +198,9 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
 /* volume.equiangular_light: each lamp with a position adds the light scattered at its equi-angular point on O, D
  * over [0, t), lit by that lamp alone and weighed by the balance heuristic against free flight (odds), into L (3):
  * in a heterogeneous medium m (its march gives the coefficients and transmittance there) or, m NULL, in the
- * homogeneous one of sigma_t, sigma_s (3) and g. Returns the shadow rays traced. */
+ * homogeneous one of sigma_t, sigma_s (3) and phase function `phase`. Returns the shadow rays traced. */
 static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *limits, const March *m,
-                                 const double *sigma_t, const double *sigma_s, double g, const double *odds,
+                                 const double *sigma_t, const double *sigma_s, const Phase *phase, const double *odds,
                                  const double *O, const double *D, double t, const VolumeStack *inside,
                                  int64_t pixel, int64_t sample, int64_t dimension, int bounce, double *L)
 {
@@ -211,18 +213,20 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
         sample_2d(stream_of((int64_t)ds->seed, EQUIANGULAR_DIMENSION + l + dimension), pixel, sample, v);
         double pdf_e = equiangular(O, D, t, light->position, v[0], &s_e);
         if (!(pdf_e > 0.0)) continue;
-        double w, g_e = g, at_t[3], at_s[3], kept[3], X[3], lit[3];
+        double w, at_t[3], at_s[3], kept[3], X[3], lit[3];
+        Phase here = {PHASE_HENYEY_GREENSTEIN, {0.0}};
         if (m != NULL) {
             w = pdf_e / (pdf_e + march_pdf(m, odds, s_e));
-            g_e = march_at(m, s_e, at_t, at_s);
+            here.p[0] = march_at(m, s_e, at_t, at_s);     /* (a heterogeneous medium: HG of its g there) */
             march_transmittance(m, s_e, kept);
         } else {
             w = pdf_e / (pdf_e + distance_pdf(sigma_t, odds, t, s_e));
+            here = *phase;
             for (int c = 0; c < 3; c++) at_s[c] = sigma_s[c];
             beer_lambert(sigma_t, s_e, kept);
         }
         for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
-        rays += scattered_light(ds, limits, X, wo, g_e, inside, pixel, sample, dimension, bounce, NULL, l, lit);
+        rays += scattered_light(ds, limits, X, wo, &here, inside, pixel, sample, dimension, bounce, NULL, l, lit);
         for (int c = 0; c < 3; c++) L[c] += (kept[c] * at_s[c]) * (w / pdf_e) * lit[c];
     }
     return rays;
@@ -245,16 +249,17 @@ static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *li
     double pdf = march_free_flight(m, odds, u, &s);
     if (pdf > 0.0) {
         double sigma_t[3], sigma_s[3], kept[3], P[3], scattered[3];
-        double g = march_at(m, s, sigma_t, sigma_s);
+        Phase phase = {PHASE_HENYEY_GREENSTEIN, {0.0}};  /* (a heterogeneous medium: HG of its g there) */
+        phase.p[0] = march_at(m, s, sigma_t, sigma_s);
         march_transmittance(m, s, kept);
         for (int c = 0; c < 3; c++) P[c] = O[c] + s * D[c];
         FreeFlight flight = {O, D, t, s, pdf};
-        rays += scattered_light(ds, limits, P, wo, g, inside, pixel, sample, dimension, bounce, &flight, -1,
+        rays += scattered_light(ds, limits, P, wo, &phase, inside, pixel, sample, dimension, bounce, &flight, -1,
                                 scattered);
         for (int c = 0; c < 3; c++) L[c] = (kept[c] * sigma_s[c] / pdf) * scattered[c];
     }
     /* 2. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
-    rays += equiangular_lamps(ds, limits, m, NULL, NULL, 0.0, odds, O, D, t, inside, pixel, sample, dimension, bounce,
+    rays += equiangular_lamps(ds, limits, m, NULL, NULL, NULL, odds, O, D, t, inside, pixel, sample, dimension, bounce,
                               L);
     return rays;
 }
@@ -265,9 +270,10 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
 {
     const MediaTables *media = ds->media;
     double sigma_t[3], emission[3], sigma_s[3], g;
+    Phase phase;
     L[0] = L[1] = L[2] = 0.0;
     medium_along(media, inside, sigma_t, emission);
-    medium_scattering(media, inside, sigma_s, &g);
+    medium_scattering(media, inside, sigma_s, &g, &phase);
     if (media->fields != NULL && in_field(media, inside)) {     /* (a heterogeneous medium: on its march) */
         if (!stretch_scatters(media, inside, sigma_s)) return 0;
         March march;
@@ -292,12 +298,12 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
     /* 2. The light scattered there, each lamp's samples weighed against its equi-angular points (3.). */
     FreeFlight flight = {O, D, t, s, pdf};
     double scattered[3];
-    int64_t rays = scattered_light(ds, limits, P, wo, g, inside, pixel, sample, dimension, bounce, &flight, -1,
+    int64_t rays = scattered_light(ds, limits, P, wo, &phase, inside, pixel, sample, dimension, bounce, &flight, -1,
                                    scattered);
     for (int c = 0; c < 3; c++) L[c] = weight[c] * scattered[c];
     /* 3. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
-    rays += equiangular_lamps(ds, limits, NULL, sigma_t, sigma_s, g, odds, O, D, t, inside, pixel, sample, dimension,
-                              bounce, L);
+    rays += equiangular_lamps(ds, limits, NULL, sigma_t, sigma_s, &phase, odds, O, D, t, inside, pixel, sample,
+                              dimension, bounce, L);
     return rays;
 }
 

@@ -41,7 +41,7 @@ from ..lights import linking
 from ..materials import graph as graph_
 from ..native import schema
 from ..sampling import sobol as sampling
-from ..volumes.phase import HenyeyGreenstein
+from ..volumes.phase import Phases
 from . import shadows
 from .base import Context, check_stop
 from .rays import nearest_seen
@@ -160,7 +160,7 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
     bounces = bounces[rows]
     lamps = equiangular_lamps(ctx)
     share = {index: pdf / (pdf + equiangular(o, d, length, X, s=s)[1]) for index, X in lamps.items()}
-    scattered, count = scattered_light(ctx, P, -d, part.g, inside[rows], pixel[rows], sample[rows],
+    scattered, count = scattered_light(ctx, P, -d, part.phases(), inside[rows], pixel[rows], sample[rows],
                                        dimension, bounces, behind, share)
     L[rows] = weight * scattered
     shadow_rays += count
@@ -178,7 +178,8 @@ def in_scattering(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, ins
         T = volumes.transmittance(part.sigma_t[chosen], s_e[chosen]) * part.sigma_s[chosen]
         if recorder is not None:
             recorder.scatter("equi-angular", o[chosen] + s_e[chosen, None] * d[chosen])
-        lit, count = scattered_light(ctx, o[chosen] + s_e[chosen, None] * d[chosen], -d[chosen], part.g[chosen],
+        lit, count = scattered_light(ctx, o[chosen] + s_e[chosen, None] * d[chosen], -d[chosen],
+                                     part.phases().rows(chosen),
                                      inside[at], pixel[at], sample[at], dimension, bounces[chosen], behind,
                                      only=index)
         L[at] += T * (w / pdf_e[chosen])[:, None] * lit
@@ -223,11 +224,12 @@ def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: n
 
 def equiangular_light(ctx: Context, march, distance_pdf, O: np.ndarray, D: np.ndarray, t: np.ndarray,
                       inside: np.ndarray, pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray,
-                      behind, L: np.ndarray, rows: np.ndarray) -> int:
+                      behind, L: np.ndarray, rows: np.ndarray, phases: Phases = None) -> int:
     """Add to L[rows] (rows (r,)) the light r rays O, D (r, 3) over [0, t) (r,) through a marched medium (march:
     their core/volumes/field.py March) scatter back from each lamp with a position: a point by equi-angular sampling,
     lit by that lamp alone, weight T(s) sigma_s(s) / pdf, weighed against the distance sampling of density
-    distance_pdf(s) (r,) by the balance heuristic. Returns the shadow rays cast."""
+    distance_pdf(s) (r,) by the balance heuristic; phases: the rays' phase functions (phase.Phases, r rows) where
+    their media are homogeneous, None: HG of the march's g there. Returns the shadow rays cast."""
     shadow_rays = 0
     for index, X in equiangular_lamps(ctx).items():
         u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=EQUIANGULAR_DIMENSION + index + dimension)
@@ -239,7 +241,8 @@ def equiangular_light(ctx: Context, march, distance_pdf, O: np.ndarray, D: np.nd
         w = pdf_e / (pdf_e + distance_pdf(at))
         _, sigma_e, g_e = march.at(at)
         T = march.transmittance(at) * sigma_e
-        lit, count = scattered_light(ctx, O[chosen] + s_e[chosen, None] * D[chosen], -D[chosen], g_e[chosen],
+        phase = Phases.henyey_greenstein(g_e[chosen]) if phases is None else phases.rows(chosen)
+        lit, count = scattered_light(ctx, O[chosen] + s_e[chosen, None] * D[chosen], -D[chosen], phase,
                                      inside[chosen], pixel[chosen], sample[chosen], dimension, bounce[chosen], behind,
                                      only=index)
         L[rows[chosen]] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
@@ -266,10 +269,11 @@ def scatter_paths(m: int, bounce) -> "graph_.LightPaths":
     return graph_.light_paths(m, flags=graph_.PATH["volume_scatter"], bounce=np.asarray(bounce) + 1)
 
 
-def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, inside: np.ndarray,
+def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: np.ndarray,
                     pixel: np.ndarray, sample: np.ndarray, dimension: int, bounce: np.ndarray, behind,
                     share: dict = None, only: int = None, phase_out: dict = None) -> tuple:
-    """The light (m, 3) float64 that scattering points P (m, 3) with Henyey-Greenstein anisotropies g (m,) send
+    """The light (m, 3) float64 that scattering points P (m, 3) with phase functions `phase` (phase.Phases, m rows;
+    or Henyey-Greenstein anisotropies (m,)) send
     towards wo (m, 3) per unit sigma_s (the integral of p L over the sphere), and the shadow rays traced: light
     samples with shadow rays through the media `inside` (m, V), and one phase-sampled ray, weighed by MIS.
     share: light index -> (m,) the weight of its light samples here (their point's share against equi-angular
@@ -278,7 +282,7 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
     (Volume Bounces left: the light behind the transparent surfaces it meets is then the path's to find), or None."""
     s = ctx.settings
     m = len(P)
-    phase = HenyeyGreenstein(g)
+    phase = phase if isinstance(phase, Phases) else Phases.henyey_greenstein(phase)
     L = np.zeros((m, 3))
     shadow_rays = 0
     unknown = np.zeros((m, 3))                           # no normal: light from every side
@@ -322,7 +326,7 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, g: np.ndarray, 
                 shadow_rays += len(rows)
             else:
                 through = np.ones((len(rows), 3))
-            p = HenyeyGreenstein(g[rows]).eval(wo[rows], ls.L[rows])
+            p = phase.rows(rows).eval(wo[rows], ls.L[rows])
             w = ls.strength[rows] * (1.0 / count)
             if share is not None and index in share:
                 w = w * share[index][rows]
@@ -418,7 +422,8 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
         # collisions by the balance heuristic (as in_scattering weighs it against its free flight).
         shadow_rays += equiangular_light(ctx, march, lambda at: march.collision_pdf(odds, at), O[group], D[group],
                                          t[group], inside[group], pixel[group], sample[group], dimension,
-                                         np.asarray(bounce)[group], None, L, group)
+                                         np.asarray(bounce)[group], None, L, group,
+                                         None if is_varying else part.phases())
         hit = np.flatnonzero(~passed)
         if len(hit) == 0:
             continue
@@ -430,7 +435,8 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
         share = {index: pdf[hit] / (pdf[hit] + equiangular(O[here], D[here], t[here], X, s=s[hit])[1])
                  for index, X in equiangular_lamps(ctx).items()}
         phase = {}
-        light, count = scattered_light(ctx, P, -D[here], g[hit], inside[here], pixel[here], sample[here], dimension,
+        phases = (Phases.henyey_greenstein(g) if is_varying else part.phases()).rows(hit)
+        light, count = scattered_light(ctx, P, -D[here], phases, inside[here], pixel[here], sample[here], dimension,
                                        np.asarray(bounce)[here], None, share, phase_out=phase)
         L[here] += weight * light
         shadow_rays += count

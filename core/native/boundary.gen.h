@@ -311,6 +311,14 @@
 #define STEFAN_BOLTZMANN 1.8049357842496396e-14
 /* the most volume materials the compiled kernel's volume stack holds (core.volumes.media) */
 #define MAX_MEDIA 16
+/* a medium's phase function (core/volumes/phase.py) (core.volumes.phase) */
+#define PHASE_HENYEY_GREENSTEIN 0
+#define PHASE_FOURNIER_FORAND 1
+#define PHASE_DRAINE 2
+#define PHASE_RAYLEIGH 3
+#define PHASE_MIE 4
+/* the numbers a medium's phase function carries (core.volumes.phase) */
+#define PHASE_PARAMETERS 4
 
 /* core/materials/registry.py BSDF_TYPES: a closure's kind */
 enum {
@@ -430,6 +438,7 @@ typedef struct TextureLookupArgs TextureLookupArgs;
 typedef struct Sample2dArgs Sample2dArgs;
 typedef struct VolumeField VolumeField;
 typedef struct MediaTables MediaTables;
+typedef struct PhaseRowsArgs PhaseRowsArgs;
 
 /* The camera, prepared by core/camera/camera.py (`camera_record`). */
 struct CameraRecord {
@@ -1025,7 +1034,9 @@ struct MediaTables {
     const double *sigma_t;                  /* (V, 3) each column's extinction sigma_a + sigma_s */
     const double *emission;                 /* (V, 3) each column's emission per unit length */
     const double *sigma_s;                  /* (V, 3) each column's scattering coefficient */
-    const double *g;                        /* (V,) each column's Henyey-Greenstein anisotropy */
+    const double *g;                        /* (V,) each column's Henyey-Greenstein anisotropy (another phase function's mean cosine) */
+    const int32_t *phase;                   /* (V,) each column's phase function (PHASE_...) */
+    const double *parameters;               /* (V, PHASE_PARAMETERS) and its numbers (phase.Phase.parameters) */
     const int32_t *column;                  /* (m + 1,) each material row's column, -1 where it has no volume */
     const int32_t *boundary;                /* (m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface) */
     const int32_t *shadowless;              /* (V,) 1: shadow rays pass the column's medium (its objects hide from them) */
@@ -1033,6 +1044,8 @@ struct MediaTables {
     double world_emission[3];               /* and its emission */
     double world_sigma_s[3];                /* and its scattering */
     double world_g;                         /* and its anisotropy */
+    int32_t world_phase;                    /* and its phase function */
+    double world_parameters[4];             /* and that phase function's numbers */
     int32_t emits;                          /* 1: some medium emits (Media.emits: phase rays gather what they find) */
     int32_t scatters;                       /* 1: some medium scatters (Media.scattering: paths gather single scattering, volume.c) */
     double low[3];                          /* the box of the triangles with a medium (camera rays starting inside it walk, camera_media) */
@@ -1041,6 +1054,19 @@ struct MediaTables {
     double field_low[3];                    /* the box of all of them (where a march cuts pieces) */
     double field_high[3];
     double field_step;                      /* the march's longest piece (the smallest of their boxes' diagonals / STEPS_ACROSS) */
+};
+
+/* primer_phase_rows' arguments: Phases.eval and Phases.sample for n rows (phase.c). */
+struct PhaseRowsArgs {
+    int64_t n;
+    const int64_t *kind;                    /* (n,) each row's PHASE_... */
+    const double *parameters;               /* (n, PHASE_PARAMETERS) */
+    const double *wo;                       /* (n, 3) unit, towards the viewer */
+    const double *wi;                       /* (n, 3) unit, towards the light: where eval is taken */
+    const double *u;                        /* (n, 2) unit-square numbers for sample */
+    double *eval;                           /* (n,) p(wo, wi) */
+    double *sampled;                        /* (n, 3) the sampled directions */
+    double *pdf;                            /* (n,) their pdf */
 };
 
 /* Each record's layout hash (core/native/schema.py Record.layout_hash), 0 for a name it does not know: what
@@ -1081,7 +1107,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
     if (strcmp(name, "VolumeField") == 0) return UINT64_C(3062569251802433246);
-    if (strcmp(name, "MediaTables") == 0) return UINT64_C(7894242751340797274);
+    if (strcmp(name, "MediaTables") == 0) return UINT64_C(6367773730817885968);
+    if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     return 0;
 }
 
@@ -1123,6 +1150,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "Sample2dArgs") == 0) return (int64_t)sizeof(Sample2dArgs);
     if (strcmp(name, "VolumeField") == 0) return (int64_t)sizeof(VolumeField);
     if (strcmp(name, "MediaTables") == 0) return (int64_t)sizeof(MediaTables);
+    if (strcmp(name, "PhaseRowsArgs") == 0) return (int64_t)sizeof(PhaseRowsArgs);
     return -1;
 }
 

@@ -12,8 +12,8 @@
 #include "../camera/camera.c"
 #include "../geometry/embree.c"
 #include "../geometry/triangles.c"
+#include "../volumes/phase.c"           /* the phase functions (media.c, volume.c; HG: subsurface.c) */
 #include "../volumes/media.c"           /* homogeneous media: the volume stack, Beer-Lambert, media emission */
-#include "../volumes/phase.c"           /* the Henyey-Greenstein phase function (volume.c, subsurface.c) */
 #include "../lights/lights.h"
 #include "../lights/lights.c"           /* every light's C file, through the generated table lights.gen.c */
 #include "../materials/bsdf.h"

@@ -13,7 +13,8 @@ face, left through a back face: Cycles' volume stack, `Media.crossed`), or all s
   Volume, Volume Coefficients, an Emission node at a Volume output), read into one `Media` table per render: each volume material's coefficients, and the world's.
   `Media.crossed` keeps which media a ray is in (a count per volume material), `transmittance` what it lets through.
   `Media.tables` packs them for the compiled kernel's twin, `media.c` (the volume stack, Beer-Lambert, emission).
-- `phase.py`: phase functions (Henyey-Greenstein), the volume's BSDF: eval, sample, pdf.
+- `phase.py`: phase functions, the volume's BSDF: the Phase menu's Henyey-Greenstein, Fournier-Forand, Draine,
+  Rayleigh and Mie, each with eval, sample, pdf and its mean cosine; a medium carries one as a kind and four numbers.
 - `field.py`: heterogeneous media: a Volume output whose inputs are fed by nodes (`Field`, its node graph run at
   points inside the medium), and the march of a ray through them (`March`: pieces of constant coefficients, on
   which Beer-Lambert, emission and free flight hold piece by piece); its compiled twin `field.c` runs each Field's
@@ -21,9 +22,9 @@ face, left through a back face: Cycles' volume stack, `Media.crossed`), or all s
 """
 from .media import (ABSORPTION, Coefficients, Media, PrincipledVolume, VolumeAbsorption, VolumeClosure, VolumeFlags,
                     VolumeCoefficients, VolumeEmission, VolumeScatter, VOLUME_BY_BLENDER, VOLUME_BY_NAME, VOLUME_TYPES)
-from .phase import HenyeyGreenstein
+from .phase import Draine, FournierForand, HenyeyGreenstein, Mie, Phases, Rayleigh
 from .field import VolumeFieldRecord
 from .media import MAX_MEDIA, MediaTablesRecord, Stretch, emitted, transmittance
 
-__all__ = ["ABSORPTION", "Coefficients", "HenyeyGreenstein", "Media", "PrincipledVolume", "VolumeAbsorption", "VolumeClosure",
+__all__ = ["ABSORPTION", "Coefficients", "Draine", "FournierForand", "HenyeyGreenstein", "Mie", "Phases", "Rayleigh", "Media", "PrincipledVolume", "VolumeAbsorption", "VolumeClosure",
            "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "MAX_MEDIA", "MediaTablesRecord", "VolumeFieldRecord", "Stretch", "emitted", "transmittance"]

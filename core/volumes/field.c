@@ -267,7 +267,7 @@ static const March *stretch_march(const MediaTables *media, const VolumeStack *s
 {
     if (media == NULL || media->fields == NULL || !in_field(media, stack)) return NULL;
     double sigma_s[3], g;
-    medium_scattering(media, stack, sigma_s, &g);
+    medium_scattering(media, stack, sigma_s, &g, NULL);
     march_of(media, stack, O, D, t, sigma_t, sigma_s, emission, g, m);
     return m;
 }

@@ -31,21 +31,39 @@ INLINE void medium_along(const MediaTables *media, const VolumeStack *stack, dou
     }
 }
 
-/* The scattering of a stretch's media (Media.along): sigma_s (3) and the sigma_s-weighted mean anisotropy *g. */
-INLINE void medium_scattering(const MediaTables *media, const VolumeStack *stack, double *sigma_s, double *g)
+/* The scattering of a stretch's media (Media.along): sigma_s (3), the sigma_s-weighted mean anisotropy *g, and,
+ * phase not NULL, the phase function: HG of *g where every medium that scatters there is HG, else that of the medium
+ * that scatters most (the world first, then the columns in order, on a tie). */
+INLINE void medium_scattering(const MediaTables *media, const VolumeStack *stack, double *sigma_s, double *g,
+                              Phase *phase)
 {
     double sum[3] = {0.0, 0.0, 0.0}, weighted = 0.0;
+    const double *w = media->world_sigma_s;
+    double world_share = (w[0] + w[1]) + w[2], best = world_share;
+    int64_t first = -1;                                  /* (-1: the world) */
+    int other = world_share > 0.0 && media->world_phase != PHASE_HENYEY_GREENSTEIN;
     for (int64_t v = 0; v < (int64_t)media->count; v++) {
         double n = (double)stack->count[v];
         const double *s = media->sigma_s + 3 * v;
         for (int c = 0; c < 3; c++) sum[c] += n * s[c];
+        double share = n * ((s[0] + s[1]) + s[2]);
         weighted += n * (((s[0] + s[1]) + s[2]) * media->g[v]);
+        if (share > 0.0 && media->phase[v] != PHASE_HENYEY_GREENSTEIN) other = 1;
+        if (share > best) { best = share; first = v; }
     }
-    const double *w = media->world_sigma_s;
-    double scattering = ((w[0] + w[1]) + w[2]) * media->world_g + weighted;
+    double scattering = world_share * media->world_g + weighted;
     for (int c = 0; c < 3; c++) sigma_s[c] = w[c] + sum[c];
     double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
     *g = total > 0.0 ? scattering / total : 0.0;
+    if (phase == NULL) return;
+    for (int k = 0; k < PHASE_PARAMETERS; k++) phase->p[k] = 0.0;
+    phase->kind = PHASE_HENYEY_GREENSTEIN;
+    phase->p[0] = *g;
+    if (!other) return;
+    phase->kind = first < 0 ? media->world_phase : media->phase[first];
+    const double *numbers = first < 0 ? media->world_parameters : media->parameters + PHASE_PARAMETERS * first;
+    for (int k = 0; k < PHASE_PARAMETERS; k++) phase->p[k] = numbers[k];
+    if (phase->kind == PHASE_HENYEY_GREENSTEIN) phase->p[0] = first < 0 ? media->world_g : media->g[first];
 }
 
 /* volumes.transmittance (Beer-Lambert) over distance t (inf: a ray that escapes) through extinction sigma_t (3):

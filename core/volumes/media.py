@@ -5,7 +5,8 @@ constant inputs into a medium's coefficients, as Cycles' `svm_node_closure_volum
 do (src/kernel/svm/closure.h):
 
 - Volume Absorption: sigma_a = density x (1 - colour): the colour is what a unit of density lets through;
-- Volume Scatter:    sigma_s = density x colour, with a phase function (Henyey-Greenstein of anisotropy g);
+- Volume Scatter:    sigma_s = density x colour, with the phase function of its Phase menu (phase.py: Henyey-
+  Greenstein of anisotropy g, Fournier-Forand, Draine, Rayleigh, Mie);
 - Principled Volume: sigma_s = density x colour (HG of its Anisotropy), sigma_a = density x max(1 - colour, 0) x
   max(1 - sqrt(Absorption Color), 0), emission = Emission Color x Emission Strength + a black body's (Blackbody
   Intensity mixes Stefan-Boltzmann's sigma T^4 / pi in, tinted, in the colour of core/materials' Blackbody node);
@@ -13,8 +14,11 @@ do (src/kernel/svm/closure.h):
   strength.
 
 A Mix or Add Shader above them weighs each closure (the add-on multiplies the weights out), and closures add:
-sigma_a, sigma_s and emission sum; the phase functions mix by their scattering (one g per medium here: the
-sigma_s-weighted mean when closures of different g meet, noted by the add-on).
+sigma_a, sigma_s and emission sum; the phase functions mix by their scattering, one phase function per medium here
+(Cycles keeps each closure's): Henyey-Greenstein closures of different g become HG of the sigma_s-weighted mean g
+(noted by the add-on); where another kind meets a different phase function, the closure that scatters most gives its
+phase function (`Coefficients.__add__`), and g keeps the sigma_s-weighted mean cosine. A ray in overlapping media
+scatters the same way (`Media.along`, media.c medium_scattering).
 
 `Media` is one table per render: a column per material with a volume, the world's medium, and which materials are
 volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME). A material
@@ -30,6 +34,7 @@ import numpy as np
 
 from ..native import schema
 from ..native.schema import F64, I32, I64, ptr
+from . import phase as phase_
 
 
 class VolumeFlags(enum.IntFlag):
@@ -42,12 +47,16 @@ class VolumeFlags(enum.IntFlag):
 
 
 class Coefficients(NamedTuple):
-    """A homogeneous medium: sigma_a, sigma_s, emission (3,) float64 per unit length; g the HG anisotropy."""
+    """A homogeneous medium: sigma_a, sigma_s, emission (3,) float64 per unit length; g the HG anisotropy (another
+    phase function's mean cosine); phase its phase function's kind (phase.PHASE) and parameters its
+    PHASE_PARAMETERS numbers (phase.Phase.parameters; HG's are g's own)."""
 
     sigma_a: np.ndarray
     sigma_s: np.ndarray
     emission: np.ndarray
     g: float = 0.0
+    phase: int = 0
+    parameters: tuple = (0.0, 0.0, 0.0, 0.0)
 
     @property
     def sigma_t(self) -> np.ndarray:
@@ -55,11 +64,17 @@ class Coefficients(NamedTuple):
         return self.sigma_a + self.sigma_s
 
     def __add__(self, other: "Coefficients") -> "Coefficients":
-        """Two closures together: their coefficients add, their anisotropies mix by their scattering."""
+        """Two closures together: their coefficients add, their anisotropies (mean cosines) mix by their
+        scattering; the phase function is HG of that mean where both are HG, else the one that scatters more's."""
         s1, s2 = float(np.sum(self.sigma_s)), float(np.sum(other.sigma_s))
         g = (self.g * s1 + other.g * s2) / (s1 + s2) if s1 + s2 > 0.0 else self.g
+        first = self if s1 >= s2 else other                 # (the one that scatters more)
+        if s1 > 0.0 and s2 > 0.0 and self.phase == other.phase == phase_.PHASE["HENYEY_GREENSTEIN"]:
+            kind, parameters = self.phase, (g, 0.0, 0.0, 0.0)
+        else:
+            kind, parameters = first.phase, first.parameters
         return Coefficients(self.sigma_a + other.sigma_a, self.sigma_s + other.sigma_s,
-                            self.emission + other.emission, g)
+                            self.emission + other.emission, g, kind, tuple(parameters))
 
 
 NOTHING = Coefficients(np.zeros(3), np.zeros(3), np.zeros(3), 0.0)
@@ -77,6 +92,14 @@ class VolumeClosure:
     def coefficients(weight: float, inputs: dict) -> Coefficients:
         """The homogeneous medium (Coefficients) this closure sets up."""
         raise NotImplementedError
+
+
+def _scattering(sigma_a, sigma_s, emission, inputs: dict) -> Coefficients:
+    """A closure's coefficients with the phase function of its Phase menu (inputs["phase"], a Blender identifier;
+    Henyey-Greenstein where absent) from its constant inputs (phase.of_node): g its mean cosine."""
+    phase = phase_.of_node(inputs.get("phase", "HENYEY_GREENSTEIN"), inputs)
+    return Coefficients(sigma_a, sigma_s, emission, float(phase.mean_cosine(1)[0]), int(phase.kind),
+                        tuple(float(x) for x in phase.parameters(1)[0]))
 
 
 def _density(weight: float, inputs: dict) -> float:
@@ -99,7 +122,7 @@ class VolumeAbsorption(VolumeClosure):
 
 
 class VolumeScatter(VolumeClosure):
-    """Cycles' Volume Scatter (Henyey-Greenstein phase): sigma_s = density x Color, anisotropy g."""
+    """Cycles' Volume Scatter: sigma_s = density x Color, the phase function of its Phase menu (phase.py)."""
 
     name: ClassVar[str] = "SCATTER"
     blender: ClassVar[str] = "ShaderNodeVolumeScatter"
@@ -107,11 +130,10 @@ class VolumeScatter(VolumeClosure):
 
     @staticmethod
     def coefficients(weight: float, inputs: dict) -> Coefficients:
-        """sigma_s = weight x max(density, 0) x colour; g clamped to |g| <= 1 - 1e-3 (Cycles' HG setup)."""
+        """sigma_s = weight x max(density, 0) x colour; its phase function's numbers clamped as Cycles' setups
+        clamp them (HG's g: |g| <= 1 - 1e-3)."""
         color = np.asarray(inputs.get("color", np.full(3, 0.8)), np.float64)[:3]
-        g = float(inputs.get("anisotropy", 0.0))
-        g = float(np.sign(g) * min(abs(g), 1.0 - 1e-3))
-        return Coefficients(np.zeros(3), _density(weight, inputs) * color, np.zeros(3), g)
+        return _scattering(np.zeros(3), _density(weight, inputs) * color, np.zeros(3), inputs)
 
 
 class PrincipledVolume(VolumeClosure):
@@ -172,11 +194,9 @@ class VolumeCoefficients(VolumeClosure):
 
     @staticmethod
     def coefficients(weight: float, inputs: dict) -> Coefficients:
-        """weight x each of Absorption, Scatter and Emission Coefficients; g clamped as Volume Scatter's."""
-        g = float(inputs.get("anisotropy", 0.0))
-        g = float(np.sign(g) * min(abs(g), 1.0 - 1e-3))
+        """weight x each of Absorption, Scatter and Emission Coefficients; the phase function as Volume Scatter's."""
         read = lambda key: float(weight) * np.asarray(inputs.get(key, np.zeros(3)), np.float64)[:3]
-        return Coefficients(read("absorption"), read("scatter"), read("emission"), g)
+        return _scattering(read("absorption"), read("scatter"), read("emission"), inputs)
 
 
 class VolumeEmission(VolumeClosure):
@@ -215,7 +235,8 @@ class Media:
     """The render's media: a column per material with a volume, and the world's medium.
 
     column:   (m + 1,) int64 each material row's column, -1 where it has no volume
-    sigma_a, sigma_s, emission: (V, 3) float64 each column's coefficients; g (V,) float64 its anisotropy
+    sigma_a, sigma_s, emission: (V, 3) float64 each column's coefficients; g (V,) float64 its anisotropy (mean
+              cosine); phase (V,) int64 its phase function's kind, parameters (V, PHASE_PARAMETERS) its numbers
     world:    the world's Coefficients (zero where the world has no volume)
     boundary: (m + 1,) bool the material rows that are volume-only boundaries (a Volume and no Surface)
     shadowless: (V,) bool the columns whose objects all hide from shadow rays (Ray Visibility > Shadow off): shadow
@@ -240,6 +261,8 @@ class Media:
         self.sigma_s = np.array([c.sigma_s for c in pick], np.float64).reshape(-1, 3)
         self.emission = np.array([c.emission for c in pick], np.float64).reshape(-1, 3)
         self.g = np.array([c.g for c in pick], np.float64)
+        self.phase = np.array([c.phase for c in pick], np.int64)
+        self.parameters = np.array([c.parameters for c in pick], np.float64).reshape(-1, phase_.PHASE_PARAMETERS)
         self.world = NOTHING if world is None else world
         self.boundary = np.asarray(boundary, bool)
         self.shadowless = (np.zeros(len(rows), bool) if shadowless is None
@@ -313,11 +336,14 @@ class Media:
         return MediaTablesRecord(
             count=len(self.g), sigma_t=contiguous(self.sigma_t, np.float64),
             emission=contiguous(self.emission, np.float64), sigma_s=contiguous(self.sigma_s, np.float64),
-            g=contiguous(self.g, np.float64), column=contiguous(self.column, np.int32),
+            g=contiguous(self.g, np.float64), phase=contiguous(self.phase, np.int32),
+            parameters=contiguous(self.parameters, np.float64), column=contiguous(self.column, np.int32),
             boundary=contiguous(self.boundary, np.int32), shadowless=contiguous(self.shadowless, np.int32),
             world_sigma_t=np.asarray(self.world.sigma_t, np.float64),
             world_emission=np.asarray(self.world.emission, np.float64),
-            world_sigma_s=np.asarray(self.world.sigma_s, np.float64), world_g=float(self.world.g), emits=self.emits,
+            world_sigma_s=np.asarray(self.world.sigma_s, np.float64), world_g=float(self.world.g),
+            world_phase=int(self.world.phase), world_parameters=np.asarray(self.world.parameters, np.float64),
+            emits=self.emits,
             scatters=self.scattering,
             low=np.asarray(bounds[0], np.float64), high=np.asarray(bounds[1], np.float64), **self.field_tables())
 
@@ -346,18 +372,33 @@ class Media:
     def along(self, inside: np.ndarray, O: Optional[np.ndarray] = None, D: Optional[np.ndarray] = None) -> "Stretch":
         """What rays with stacks inside (n, V) cross: the sums of their media's coefficients (the world's included)
         and the anisotropy of their scattering (the sigma_s-weighted mean where media of different g overlap); with
-        the rays O, D (n, 3), the heterogeneous media they are in, marched where asked (Stretch.march)."""
+        the rays O, D (n, 3), the heterogeneous media they are in, marched where asked (Stretch.march). Their phase
+        function: HG of that mean where every medium that scatters there is HG, else the phase function of the
+        medium that scatters most (the world first, then the columns in order, on a tie)."""
         weights = inside.astype(np.float64)
         sigma_s = self.world.sigma_s + weights @ self.sigma_s
         scattering = self.world.sigma_s.sum() * self.world.g + weights @ (self.sigma_s.sum(axis=1) * self.g)
         total = sigma_s.sum(axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
             g = np.where(total > 0.0, scattering / total, 0.0)
+        # Each medium's share of the scattering (the world's first), and the phase function it brings.
+        shares = np.concatenate([np.full((len(weights), 1), self.world.sigma_s.sum()),
+                                 weights * self.sigma_s.sum(axis=1)], axis=1)
+        kinds = np.concatenate([[self.world.phase], self.phase]).astype(np.int64)
+        numbers = np.concatenate([np.asarray(self.world.parameters, np.float64)[None], self.parameters])
+        hg = kinds == phase_.PHASE["HENYEY_GREENSTEIN"]
+        numbers[hg, 0] = np.concatenate([[self.world.g], self.g])[hg]     # (HG's number: its own g)
+        other = ((shares > 0.0) & (kinds != phase_.PHASE["HENYEY_GREENSTEIN"])).any(axis=1)
+        first = np.argmax(shares, axis=1)
+        kind = np.where(other, kinds[first], phase_.PHASE["HENYEY_GREENSTEIN"])
+        parameters = np.where(other[:, None], numbers[first], 0.0)
+        parameters[~other, 0] = g[~other]
         counts = None
         if self.fields and O is not None:
             counts = inside[:, self.field_columns].astype(np.float64)
         return Stretch(self.world.sigma_t + weights @ self.sigma_t, sigma_s,
-                       self.world.emission + weights @ self.emission, g, O, D, counts, self.fields or None)
+                       self.world.emission + weights @ self.emission, g, O, D, counts, self.fields or None, kind,
+                       parameters)
 
     def crossed(self, inside: np.ndarray, material: np.ndarray, backfacing: np.ndarray,
                 crossing: np.ndarray) -> np.ndarray:
@@ -383,7 +424,9 @@ MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media
     ("sigma_t", ptr(F64), "(V, 3) each column's extinction sigma_a + sigma_s"),
     ("emission", ptr(F64), "(V, 3) each column's emission per unit length"),
     ("sigma_s", ptr(F64), "(V, 3) each column's scattering coefficient"),
-    ("g", ptr(F64), "(V,) each column's Henyey-Greenstein anisotropy"),
+    ("g", ptr(F64), "(V,) each column's Henyey-Greenstein anisotropy (another phase function's mean cosine)"),
+    ("phase", ptr(I32), "(V,) each column's phase function (PHASE_...)"),
+    ("parameters", ptr(F64), "(V, PHASE_PARAMETERS) and its numbers (phase.Phase.parameters)"),
     ("column", ptr(I32), "(m + 1,) each material row's column, -1 where it has no volume"),
     ("boundary", ptr(I32), "(m + 1,) 1: the row is a volume-only boundary (a Volume and no Surface)"),
     ("shadowless", ptr(I32), "(V,) 1: shadow rays pass the column's medium (its objects hide from them)"),
@@ -391,6 +434,8 @@ MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media
     ("world_emission", F64, 3, "and its emission"),
     ("world_sigma_s", F64, 3, "and its scattering"),
     ("world_g", F64, "and its anisotropy"),
+    ("world_phase", I32, "and its phase function"),
+    ("world_parameters", F64, int(phase_.PHASE_PARAMETERS), "and that phase function's numbers"),
     ("emits", I32, "1: some medium emits (Media.emits: phase rays gather what they find)"),
     ("scatters", I32, "1: some medium scatters (Media.scattering: paths gather single scattering, volume.c)"),
     ("low", F64, 3, "the box of the triangles with a medium (camera rays starting inside it walk, camera_media)"),
@@ -405,7 +450,8 @@ MediaTablesRecord = schema.record("MediaTables", "The render's homogeneous media
 class Stretch(NamedTuple):
     """The media n rays cross (Media.along): sigma_t, sigma_s, emission (n, 3) float64, g (n,) float64 of the
     homogeneous ones; for heterogeneous ones (core/volumes/field.py), the rays O, D (n, 3), counts (n, F) how many
-    times each ray is in each Field of `fields` (None: no ray is in one)."""
+    times each ray is in each Field of `fields` (None: no ray is in one); phase (n,) int64 and parameters (n,
+    PHASE_PARAMETERS) their phase function (None: HG of g)."""
 
     sigma_t: np.ndarray
     sigma_s: np.ndarray
@@ -415,12 +461,21 @@ class Stretch(NamedTuple):
     D: Optional[np.ndarray] = None
     counts: Optional[np.ndarray] = None
     fields: Optional[list] = None
+    phase: Optional[np.ndarray] = None
+    parameters: Optional[np.ndarray] = None
 
     def rows(self, index) -> "Stretch":
         """The stretch of the rays `index`."""
         pick = lambda x: None if x is None else x[index]                   # noqa: E731
         return Stretch(self.sigma_t[index], self.sigma_s[index], self.emission[index], self.g[index],
-                       pick(self.O), pick(self.D), pick(self.counts), self.fields)
+                       pick(self.O), pick(self.D), pick(self.counts), self.fields, pick(self.phase),
+                       pick(self.parameters))
+
+    def phases(self) -> "phase_.Phases":
+        """The homogeneous media's phase functions (phase.Phases, n rows): HG of g where none is given."""
+        if self.phase is None:
+            return phase_.Phases.henyey_greenstein(self.g)
+        return phase_.Phases(self.phase, self.parameters)
 
     @property
     def varying(self) -> np.ndarray:
