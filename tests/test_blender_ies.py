@@ -2,8 +2,10 @@
 
 One bpy process builds a grey floor seen from above by an orthographic camera (32 x 32 pixels, direct light only)
 and lamps whose Emission Strength is fed by an IES Texture reading tests/data/primer_test.ies (a Text datablock, or
-the file itself); each case is rendered by Primer (64 samples) and twice by Cycles (256 samples, two seeds: Cycles'
+the file itself); each case is rendered by Primer and twice by Cycles (256 samples each, Cycles with two seeds: its
 own noise), and reports the relative MSE of 4 x 4-pixel block means, mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)).
+Measured (Blender 5.0): point 1.3e-8 (Cycles' noise 1.5e-8), turned round point 7.9e-8 (1.2e-7), spot 1.8e-7
+(1.8e-7), area 7.5e-8 (7.8e-8); before Primer took Cycles' float32 wrap flags (ies.wraps), 4e-6 along the seam.
 """
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ from blender_env import ROOT, run_bpy
 
 pytestmark = pytest.mark.blender
 
-PRIMER_SAMPLES, CYCLES_SAMPLES = 64, 256
+PRIMER_SAMPLES, CYCLES_SAMPLES = 256, 256
 IES_FILE = os.path.join(os.path.dirname(__file__), "data", "primer_test.ies")
 
 SCRIPT = """
@@ -64,6 +66,9 @@ def lamp(kind, location, energy, rotation, mode, strength, **settings):
         data.use_nodes = True
     tree = data.node_tree
     emission = next(node for node in tree.nodes if node.bl_idname == "ShaderNodeEmission")
+    obj = bpy.data.objects.new("Lamp", data)
+    obj.location, obj.rotation_euler = location, rotation
+    scene.collection.objects.link(obj)
     node = tree.nodes.new("ShaderNodeTexIES")
     node.mode = mode
     if mode == "INTERNAL":
@@ -72,9 +77,6 @@ def lamp(kind, location, energy, rotation, mode, strength, **settings):
         node.filepath = {ies_file!r}
     node.inputs["Strength"].default_value = strength
     tree.links.new(node.outputs["Fac"], emission.inputs["Strength"])
-    obj = bpy.data.objects.new("Lamp", data)
-    obj.location, obj.rotation_euler = location, rotation
-    scene.collection.objects.link(obj)
     return obj
 
 
@@ -105,23 +107,53 @@ for name in {cases!r}:
              spot_size=1.6, spot_blend=0.3)
     elif name == "area":
         case(name, "AREA", (0.0, 0.0, 1.0), 100.0, (0.4, 0.0, 0.3), "INTERNAL", 1.0, size=0.5)
+# What Primer cannot evaluate per direction is warned about: a linked Vector, an IES Texture behind a Math node, a
+# file that cannot be read (Strength x 100, as Cycles).
+obj = lamp("POINT", (0.0, 0.0, 1.0), 100.0, (0.0, 0.0, 0.0), "INTERNAL", 1.0)
+tree = obj.data.node_tree
+ies_node = next(node for node in tree.nodes if node.bl_idname == "ShaderNodeTexIES")
+coordinates = tree.nodes.new("ShaderNodeTexCoord")
+tree.links.new(coordinates.outputs["Normal"], ies_node.inputs["Vector"])
+notes = {{}}
+def exported_notes(key):
+    warnings = []
+    core = export.export_light(bpy.context.evaluated_depsgraph_get().objects[obj.name],
+                               np.array(obj.matrix_world, np.float64), warnings)
+    notes[key] = dict(warnings=warnings, ies=getattr(core, "ies", None) is not None,
+                      power=float(core.power), color=[float(x) for x in core.color])
+exported_notes("vector linked")
+ies_node.ies = None
+exported_notes("no file")
+emission = next(node for node in tree.nodes if node.bl_idname == "ShaderNodeEmission")
+multiply = tree.nodes.new("ShaderNodeMath")
+multiply.operation = "MULTIPLY"
+tree.links.new(ies_node.outputs["Fac"], multiply.inputs[0])
+tree.links.new(multiply.outputs[0], emission.inputs["Strength"])
+exported_notes("behind a math node")
 primer.unregister()             # bpy 4.2 crashes at exit while a Python RenderEngine is registered
-report(cases=cases)
+report(cases=cases, notes=notes)
 """
 
 
 def run_cases(tmp_path, names):
-    """Render each named case with Primer and twice with Cycles; return {name: its report}."""
-    return run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), primer_samples=PRIMER_SAMPLES,
-                                 cycles_samples=CYCLES_SAMPLES, ies_file=IES_FILE, cases=list(names)),
-                   str(tmp_path))["cases"]
+    """Render each named case with Primer and twice with Cycles; return ({name: its report}, the export notes)."""
+    result = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), primer_samples=PRIMER_SAMPLES,
+                                   cycles_samples=CYCLES_SAMPLES, ies_file=IES_FILE, cases=list(names)), str(tmp_path))
+    return result["cases"], result["notes"]
 
 
 def test_ies_lamps_render_as_cycles_within_its_own_noise(tmp_path):
     """Point (radius 0, and turned with a radius, read from the file), spot and area lamps with an IES Texture on
-    their Emission Strength match Cycles: block relMSE within a few times Cycles' own seed-to-seed noise."""
-    cases = run_cases(tmp_path, ["point", "turned round point", "spot", "area"])
+    their Emission Strength match Cycles: block relMSE within Cycles' own seed-to-seed noise (x 3, as Primer's
+    samples are another draw)."""
+    cases, notes = run_cases(tmp_path, ["point", "turned round point", "spot", "area"])
     for name, result in cases.items():
         assert result["ies"], name
         assert result["warnings"] == [], (name, result["warnings"])
-        assert result["rel_mse"] < max(4.0 * result["cycles_noise"], 2e-4), (name, result)
+        assert result["rel_mse"] < 3.0 * result["cycles_noise"] + 1e-8, (name, result)
+    # What Primer cannot evaluate per direction is said once, with what it does instead.
+    assert notes["vector linked"]["ies"]
+    assert any("'Vector'" in w and "direction from the lamp" in w for w in notes["vector linked"]["warnings"])
+    assert notes["no file"]["ies"] and any("Strength x 100" in w for w in notes["no file"]["warnings"])
+    assert not notes["behind a math node"]["ies"]
+    assert any("IES Texture is evaluated per direction only" in w for w in notes["behind a math node"]["warnings"])

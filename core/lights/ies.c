@@ -25,8 +25,10 @@ NOINLINE static double ies_evaluate(const double *table, int h_num, int v_num, d
     if (h_num < 2 || v_num < 2) return 0.0;
     const double *H = table, *V = table + h_num, *I = table + h_num + v_num;
     if (!((v >= V[0]) & (v < V[v_num - 1]) & (h >= H[0]) & (h < H[h_num - 1]))) return 0.0;
-    int wrap_h = (H[0] < 1e-7) & (H[h_num - 1] > 2.0 * PI - 1e-7);
-    int wrap_vlow = V[0] < 1e-7, wrap_vhigh = V[v_num - 1] > PI - 1e-7;
+    /* Cycles' wrap flags in its 32-bit floats (ies.wraps): 2 pi - 1e-7 and pi - 1e-7 round back to 2 pi and pi. */
+    const float tiny = 1e-7f, two_pi = (float)(2.0 * PI), pi = (float)PI;
+    int wrap_h = ((float)H[0] < tiny) & ((float)H[h_num - 1] > two_pi - tiny);
+    int wrap_vlow = (float)V[0] < tiny, wrap_vhigh = (float)V[v_num - 1] > pi - tiny;
     int h_i = 0, v_i = 0;
     while (H[h_i + 1] < h) h_i++;
     while (V[v_i + 1] < v) v_i++;

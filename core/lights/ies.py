@@ -205,12 +205,22 @@ def cubic(a, b, c, d, x):
     return 0.5 * (((d + 3.0 * (b - c) - a) * x + (2.0 * a - 5.0 * b + 4.0 * c - d)) * x + (c - a)) * x + b
 
 
+def wraps(profile: IESProfile) -> tuple:
+    """Cycles' wrap flags (wrap_h, wrap_vlow, wrap_vhigh), in its 32-bit floats: whether the table closes the circle
+    (h from below 1e-7 to above 2 pi - 1e-7) and reaches each pole (v below 1e-7, v above pi - 1e-7). In float32,
+    2 pi - 1e-7 and pi - 1e-7 round back to 2 pi and pi, which a table's 360 and 180 degrees equal: Cycles' lookups
+    of a full circle do not wrap, nor at v = 180 degrees; only v = 0 mirrors."""
+    tiny = _F32(1e-7)
+    return (bool(_F32(profile.h_angles[0]) < tiny and _F32(profile.h_angles[-1]) > _F32(2.0 * math.pi) - tiny),
+            bool(_F32(profile.v_angles[0]) < tiny), bool(_F32(profile.v_angles[-1]) > _F32(math.pi) - tiny))
+
+
 def evaluate(profile: IESProfile, h_angle: np.ndarray, v_angle: np.ndarray) -> np.ndarray:
     """Cycles' kernel_ies_interp: the profile at angles (n,) float64 radians -> (n,) float64, 0 outside its table.
 
-    Catmull-Rom along v in four columns around h, then along h; a missing neighbour repeats the nearest value inside
-    (at v = 0 and v = pi the one across the pole, at the circle's ends the one across 0 = 360 degrees; where the
-    horizontal table does not close the circle the next-to-last falls back as Cycles does, to the near inner point).
+    Catmull-Rom along v in four columns around h, then along h; a missing neighbour is the one across the pole or
+    across 0 = 360 degrees where Cycles wraps (`wraps`), else it repeats a value inside as Cycles does: along v the
+    nearest, along h the near inner column at both ends.
     """
     H, V, I = profile.h_angles, profile.v_angles, profile.intensity
     h_num, v_num = len(H), len(V)
@@ -220,8 +230,7 @@ def evaluate(profile: IESProfile, h_angle: np.ndarray, v_angle: np.ndarray) -> n
     inside = (v_angle >= V[0]) & (v_angle < V[-1]) & (h_angle >= H[0]) & (h_angle < H[-1])
     h_c = np.where(inside, h_angle, H[0])
     v_c = np.where(inside, v_angle, V[0])
-    wrap_h = H[0] < 1e-7 and H[-1] > 2.0 * math.pi - 1e-7
-    wrap_vlow, wrap_vhigh = V[0] < 1e-7, V[-1] > math.pi - 1e-7
+    wrap_h, wrap_vlow, wrap_vhigh = wraps(profile)
     h_i = np.minimum(np.searchsorted(H[1:], h_c, side="left"), h_num - 2)
     v_i = np.minimum(np.searchsorted(V[1:], v_c, side="left"), v_num - 2)
     h_frac = (h_c - H[h_i]) / (H[h_i + 1] - H[h_i])
