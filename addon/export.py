@@ -680,9 +680,6 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
     if not emission.any():
         return None                     # Cycles leaves out a light whose shader emits nothing
     ies = light_ies(obj, matrix, warnings)
-    if ies is not None and light.type == "SUN":     # (one direction: a constant factor)
-        emission = emission * ies.factor(-np.asarray(matrix, np.float64)[:3, 2][None])[0]
-        ies = None
     core = _lamp(obj, matrix, warnings, _light_color(light) * emission)
     if core is not None and ies is not None:
         core.ies = ies

@@ -5,7 +5,9 @@ and lamps whose Emission Strength is fed by an IES Texture reading tests/data/pr
 the file itself); each case is rendered by Primer and twice by Cycles (256 samples each, Cycles with two seeds: its
 own noise), and reports the relative MSE of 4 x 4-pixel block means, mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)).
 Measured (Blender 5.0): point 1.3e-8 (Cycles' noise 1.5e-8), turned round point 7.9e-8 (1.2e-7), spot 1.8e-7
-(1.8e-7), area 7.5e-8 (7.8e-8); before Primer took Cycles' float32 wrap flags (ies.wraps), 4e-6 along the seam.
+(1.8e-7), area 7.5e-8 (7.8e-8), sun (a disc of 0.1 rad, a profile round its axis) 4.8e-10 (1.2e-11); before
+Primer took Cycles' float32 wrap flags (ies.wraps), 4e-6 along the seam; the sun's factor taken once on its axis,
+1.2e-6 (Cycles evaluates it for each direction in the disc).
 """
 from __future__ import annotations
 
@@ -45,6 +47,11 @@ scene.collection.objects.link(camera)
 scene.camera = camera
 text = bpy.data.texts.new("primer_test.ies")
 text.from_string(open({ies_file!r}).read())
+# A profile round its axis (one horizontal angle): the sun's, whose light leaves straight down its axis, at the pole,
+# where the test file's columns differ (and the horizontal angle of a vector along the axis is rounding's).
+round_text = bpy.data.texts.new("round.ies")
+round_text.from_string("IESNA:LM-63-2002\\nTILT=NONE\\n1 1000 1 4 1 1 2 0.1 0.1 0\\n1 1 40\\n0 30 60 90\\n0\\n"
+                       "300 250 150 50\\n")
 
 
 def blocks(image):
@@ -72,7 +79,7 @@ def lamp(kind, location, energy, rotation, mode, strength, **settings):
     node = tree.nodes.new("ShaderNodeTexIES")
     node.mode = mode
     if mode == "INTERNAL":
-        node.ies = text
+        node.ies = round_text if kind == "SUN" else text
     else:
         node.filepath = {ies_file!r}
     node.inputs["Strength"].default_value = strength
@@ -105,6 +112,8 @@ for name in {cases!r}:
     elif name == "spot":
         case(name, "SPOT", (0.0, 0.0, 1.0), 100.0, (0.3, 0.0, 0.4), "INTERNAL", 1.0, shadow_soft_size=0.0,
              spot_size=1.6, spot_blend=0.3)
+    elif name == "sun":
+        case(name, "SUN", (0.0, 0.0, 3.0), 0.5, (0.3, 0.2, 0.0), "INTERNAL", 1.0, angle=0.1)
     elif name == "area":
         case(name, "AREA", (0.0, 0.0, 1.0), 100.0, (0.4, 0.0, 0.3), "INTERNAL", 1.0, size=0.5)
 # What Primer cannot evaluate per direction is warned about: a linked Vector, an IES Texture behind a Math node, a
@@ -143,10 +152,10 @@ def run_cases(tmp_path, names):
 
 
 def test_ies_lamps_render_as_cycles_within_its_own_noise(tmp_path):
-    """Point (radius 0, and turned with a radius, read from the file), spot and area lamps with an IES Texture on
+    """Point (radius 0, and turned with a radius, read from the file), spot, area and sun lamps with an IES Texture on
     their Emission Strength match Cycles: block relMSE within Cycles' own seed-to-seed noise (x 3, as Primer's
     samples are another draw)."""
-    cases, notes = run_cases(tmp_path, ["point", "turned round point", "spot", "area"])
+    cases, notes = run_cases(tmp_path, ["point", "turned round point", "spot", "area", "sun"])
     for name, result in cases.items():
         assert result["ies"], name
         assert result["warnings"] == [], (name, result["warnings"])

@@ -8,7 +8,7 @@ import os
 import numpy as np
 import pytest
 
-from core.lights import AreaLight, PointLight, SpotLight, ies
+from core.lights import AreaLight, PointLight, SpotLight, SunLight, ies
 from core.lights.base import compiled_hit, compiled_sample
 
 TEST_FILE = os.path.join(os.path.dirname(__file__), "data", "primer_test.ies")
@@ -124,17 +124,19 @@ def test_python_and_c_give_the_same_fac(name):
 
 
 def lamps():
-    """A point, a round spot and an area lamp, turned, each scaled by the test file's profile (Strength 1.3)."""
+    """A point, a round spot, an area lamp and a sun with a disc, turned, each scaled by the test file's profile
+    (Strength 1.3)."""
     frame = np.array([[0.8, -0.6, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
         [[1.0, 0.0, 0.0], [0.0, math.cos(0.4), -math.sin(0.4)], [0.0, math.sin(0.4), math.cos(0.4)]])
     lamp = ies.IESLamp(ies.parse_ies(open(TEST_FILE).read()), 1.3, frame.T.copy())
     at = np.array([0.2, -0.1, 2.0])
     return [PointLight(at, 200.0, ies=lamp),
             SpotLight(at, -frame[:, 2], 200.0, radius=0.3, spot_size=2.0, frame=frame, ies=lamp),
-            AreaLight(at, frame[:, 0] * 0.5, frame[:, 1] * 0.8, -frame[:, 2], 200.0, ies=lamp)]
+            AreaLight(at, frame[:, 0] * 0.5, frame[:, 1] * 0.8, -frame[:, 2], 200.0, ies=lamp),
+            SunLight(-frame[:, 2], 3.0, angle=0.6, ies=lamp)]
 
 
-@pytest.mark.parametrize("index", [0, 1, 2])
+@pytest.mark.parametrize("index", [0, 1, 2, 3])
 def test_lamps_scaled_by_a_profile_agree_between_kernels(index):
     """Light samples (and rays meeting a lamp with extent) of an IES lamp: Python and C give the same strength and
     radiance; the sample of a point lamp is the plain lamp's x the node's Fac in the direction leaving it."""
