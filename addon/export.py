@@ -492,7 +492,8 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
     use one only with Use Nodes on). Primer reads an Emission node at the Light Output as Cycles does, its
     Color x Strength, so a default tree changes nothing; inputs fed by nodes that depend on nothing but constants
     (a Blackbody, a Math, a Mix of colours...: CONSTANT_KINDS) are evaluated once, by the node-graph program the
-    materials use. Nothing at the output: Cycles' light sends no light (zeros, noted). Another shader there, or an
+    materials use. An IES Texture whose Fac feeds the Strength counts 1 here: the lamp's IESLamp (light_ies) scales its
+    light per direction. Nothing at the output: Cycles' light sends no light (zeros, noted). Another shader there, or an
     input fed by a node that varies over the lamp (a texture, texture coordinates, a Light Path) is warned about,
     naming the light and the node, and Primer uses the light's colour and power (or the input's own value).
     """
