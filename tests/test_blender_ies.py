@@ -4,10 +4,10 @@ One bpy process builds a grey floor seen from above by an orthographic camera (3
 and lamps whose Emission Strength is fed by an IES Texture reading tests/data/primer_test.ies (a Text datablock, or
 the file itself); each case is rendered by Primer and twice by Cycles (256 samples each, Cycles with two seeds: its
 own noise), and reports the relative MSE of 4 x 4-pixel block means, mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)).
-Measured (Blender 5.0): point 1.3e-8 (Cycles' noise 1.5e-8), turned round point 7.9e-8 (1.2e-7), spot 1.8e-7
-(1.8e-7), area 7.5e-8 (7.8e-8), sun (a disc of 0.1 rad, a profile round its axis) 4.8e-10 (1.2e-11); before
-Primer took Cycles' float32 wrap flags (ies.wraps), 4e-6 along the seam; the sun's factor taken once on its axis,
-1.2e-6 (Cycles evaluates it for each direction in the disc).
+Measured (Blender 5.0): point 1.3e-8 (Cycles' noise 1.5e-8), turned round point 7.9e-8 (1.2e-7), turned point
+scaled (1, 2.5, 0.6) 1.3e-8 (1.3e-8), spot 1.8e-7 (1.8e-7), area 7.5e-8 (7.8e-8), sun (a disc of 0.1 rad, a profile
+round its axis) 4.8e-10 (1.2e-11); before Primer took Cycles' float32 wrap flags (ies.wraps), 4e-6 along the seam;
+the sun's factor taken once on its axis, 1.2e-6 (Cycles evaluates it for each direction in the disc).
 """
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ def rel_mse(a, b):
     return float(np.mean((ba - bb) ** 2 / (bb ** 2 + 0.01)))
 
 
-def lamp(kind, location, energy, rotation, mode, strength, **settings):
+def lamp(kind, location, energy, rotation, mode, strength, scale=(1.0, 1.0, 1.0), **settings):
     data = bpy.data.lights.new("Lamp", kind)
     data.energy = energy
     for name, value in settings.items():
@@ -74,7 +74,7 @@ def lamp(kind, location, energy, rotation, mode, strength, **settings):
     tree = data.node_tree
     emission = next(node for node in tree.nodes if node.bl_idname == "ShaderNodeEmission")
     obj = bpy.data.objects.new("Lamp", data)
-    obj.location, obj.rotation_euler = location, rotation
+    obj.location, obj.rotation_euler, obj.scale = location, rotation, scale
     scene.collection.objects.link(obj)
     node = tree.nodes.new("ShaderNodeTexIES")
     node.mode = mode
@@ -112,6 +112,9 @@ for name in {cases!r}:
     elif name == "spot":
         case(name, "SPOT", (0.0, 0.0, 1.0), 100.0, (0.3, 0.0, 0.4), "INTERNAL", 1.0, shadow_soft_size=0.0,
              spot_size=1.6, spot_blend=0.3)
+    elif name == "scaled point":         # (the Vector: the transposed object matrix, Cycles' normal transform)
+        case(name, "POINT", (0.3, -0.2, 1.2), 100.0, (0.5, 0.2, 0.7), "INTERNAL", 1.0, scale=(1.0, 2.5, 0.6),
+             shadow_soft_size=0.0)
     elif name == "sun":
         case(name, "SUN", (0.0, 0.0, 3.0), 0.5, (0.3, 0.2, 0.0), "INTERNAL", 1.0, angle=0.1)
     elif name == "area":
@@ -152,10 +155,10 @@ def run_cases(tmp_path, names):
 
 
 def test_ies_lamps_render_as_cycles_within_its_own_noise(tmp_path):
-    """Point (radius 0, and turned with a radius, read from the file), spot, area and sun lamps with an IES Texture on
-    their Emission Strength match Cycles: block relMSE within Cycles' own seed-to-seed noise (x 3, as Primer's
-    samples are another draw)."""
-    cases, notes = run_cases(tmp_path, ["point", "turned round point", "spot", "area", "sun"])
+    """Point (radius 0, turned with a radius and read from the file, turned and scaled non-uniformly), spot, area and
+    sun lamps with an IES Texture on their Emission Strength match Cycles: block relMSE within Cycles' own
+    seed-to-seed noise (x 3, as Primer's samples are another draw)."""
+    cases, notes = run_cases(tmp_path, ["point", "turned round point", "scaled point", "spot", "area", "sun"])
     for name, result in cases.items():
         assert result["ies"], name
         assert result["warnings"] == [], (name, result["warnings"])
