@@ -21,6 +21,7 @@ from ..core.geometry import islands as islands_
 from ..core.geometry import pointiness as pointiness_
 from ..core.geometry import points as points_
 from ..core.lights import World, world_graph
+from ..core.lights import ies as ies_
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
@@ -492,7 +493,8 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
     use one only with Use Nodes on). Primer reads an Emission node at the Light Output as Cycles does, its
     Color x Strength, so a default tree changes nothing; inputs fed by nodes that depend on nothing but constants
     (a Blackbody, a Math, a Mix of colours...: CONSTANT_KINDS) are evaluated once, by the node-graph program the
-    materials use. Nothing at the output: Cycles' light sends no light (zeros, noted). Another shader there, or an
+    materials use. An IES Texture whose Fac feeds the Strength counts 1 here: the lamp's IESLamp (light_ies) scales its
+    light per direction. Nothing at the output: Cycles' light sends no light (zeros, noted). Another shader there, or an
     input fed by a node that varies over the lamp (a texture, texture coordinates, a Light Path) is warned about,
     naming the light and the node, and Primer uses the light's colour and power (or the input's own value).
     """
@@ -509,10 +511,12 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
         reader.warn(node, f"'{node.bl_label}' at the Light Output is not an Emission node; Primer uses the "
                           "light's colour and power")
         return np.ones(3)
+    ies = ies_node(obj) is not None         # (its Fac, the Strength, is the lamp's IESLamp: light_ies)
     linked = [name for name in ("Color", "Strength") if node.inputs.get(name) is not None
-              and node.inputs[name].is_linked]
+              and node.inputs[name].is_linked and not (ies and name == "Strength")]
     if linked:
-        color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
+        color = reader.input(node, "Color", np.ones(3))
+        strength = 1.0 if ies else reader.input(node, "Strength", 1.0)
         feeding = graph_.links_under([(None, 1.0, {"color": color, "strength": strength})])
         varying = [link.node for link in feeding if link.node.kind not in CONSTANT_KINDS]
         if not varying:
@@ -523,7 +527,75 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
             reader.warn(node, f"input '{name}' is linked to '{socket.links[0].from_node.name}', which Primer does "
                               "not evaluate for lights (it varies over the lamp: "
                               f"'{varying[0].name or varying[0].kind}'); it uses the input's own value")
-    return reader.value(node, "Color", np.ones(3)) * reader.value(node, "Strength", 1.0)
+    return reader.value(node, "Color", np.ones(3)) * (1.0 if ies else reader.value(node, "Strength", 1.0))
+
+
+def ies_node(obj):
+    """The IES Texture whose Fac feeds the Emission Strength at the light's Light Output (through reroutes), or None:
+    the one arrangement of an IES Texture in a lamp's tree Primer evaluates per direction (light_ies)."""
+    tree = materials_.node_tree(obj.data)
+    if tree is None:
+        return None
+    emission = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight"))
+    if emission is None or emission.bl_idname != "ShaderNodeEmission" or emission.inputs.get("Strength") is None:
+        return None
+    socket = emission.inputs["Strength"]
+    source = materials_.linked_node_of(socket)
+    link = socket.links[0] if socket.is_linked and socket.links else None
+    if (source is None or source.bl_idname != "ShaderNodeTexIES" or getattr(source, "mute", False)
+            or link is None or getattr(link, "is_muted", False)):
+        return None
+    return source
+
+
+def ies_text(node) -> str:
+    """The IES file's text an IES Texture names, as Cycles reads it: its Text datablock (Internal) or its file
+    (External, relative to the .blend); "\n" (a file Cycles cannot read) where there is none."""
+    if node.mode == "EXTERNAL":
+        import bpy
+        library = getattr(node.id_data, "library", None)
+        path = bpy.path.abspath(node.filepath, library=library) if node.filepath else ""
+        try:
+            with open(path, encoding="latin-1") as handle:
+                return handle.read() or "\n"
+        except OSError:
+            return "\n"
+    text = node.ies
+    content = text.as_string() if text is not None else ""
+    return content or "\n"
+
+
+def light_ies(obj, matrix: np.ndarray, warnings: list):
+    """Return the lamp's IES Texture as a core IESLamp (core/lights/ies.py), or None without one.
+
+    Cycles evaluates the lamp's shader for each light sample; the IES Texture there gives Strength x the profile in
+    the direction of its Vector, by default Geometry > Incoming taken into the lamp object's frame by the normal
+    transform (the transposed object matrix): the direction from the lamp to the lit point in its own axes. Primer
+    evaluates it so where its Fac feeds the Emission Strength straight (ies_node); a linked Vector or Strength is
+    warned about (Primer uses the default direction, the input's own value), as is an IES Texture anywhere else in
+    the tree (its node is then read as the materials read it: not evaluated, the input's own value).
+    """
+    node = ies_node(obj)
+    tree = materials_.node_tree(obj.data)
+    reader = materials_.NodeReader(obj, warnings, kind="light")
+    for other in (tree.nodes if tree is not None else ()):
+        if other.bl_idname == "ShaderNodeTexIES" and other != node and any(s.is_linked for s in other.outputs):
+            reader.warn(other, "an IES Texture is evaluated per direction only with its Fac linked straight to the "
+                               "Emission Strength at the Light Output; here Primer does not evaluate it")
+    if node is None:
+        return None
+    for name, instead in (("Vector", "the direction from the lamp in its own frame (Cycles' default)"),
+                          ("Strength", "the input's own value")):
+        socket = node.inputs.get(name)
+        if socket is not None and socket.is_linked:
+            reader.warn(node, f"input '{name}' of the IES Texture is linked, which Primer does not evaluate; it uses "
+                              f"{instead}")
+    profile = ies_.parse_ies(ies_text(node))
+    if profile is None:
+        reader.warn(node, "its IES file could not be read (none given, missing or not LM-63); as in Cycles, the "
+                          "IES Texture gives Strength x 100 in every direction")
+    strength = float(materials_.own_value(node.inputs["Strength"]))
+    return ies_.IESLamp(profile, strength, np.ascontiguousarray(np.asarray(matrix, np.float64)[:3, :3].T))
 
 
 # The rays of Object > Visibility > Ray Visibility that Primer does not hide an object from (it reads Camera,
@@ -609,7 +681,16 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
     emission = light_node_factor(obj, warnings)
     if not emission.any():
         return None                     # Cycles leaves out a light whose shader emits nothing
-    color = _light_color(light) * emission
+    ies = light_ies(obj, matrix, warnings)
+    core = _lamp(obj, matrix, warnings, _light_color(light) * emission)
+    if core is not None and ies is not None:
+        core.ies = ies
+    return core
+
+
+def _lamp(obj, matrix: np.ndarray, warnings: list, color: np.ndarray):
+    """The core lamp of a Blender light object of colour `color` (its light's colour x what its nodes give)."""
+    light = obj.data
     normalize = getattr(light, "normalize", True)
     position = matrix[:3, 3].copy()
     axes = matrix[:3, :3]

@@ -199,8 +199,9 @@ class Compiled:
         self.tables = GeometryTables(geometry)
         if not s.terminator_fix:                   # (the lecture's raw rays: no object's terminator offsets)
             self.tables.record.terminator = None
-        self.lights = (LightRecord * max(1, len(ctx.lights)))(
-            *[light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)])
+        # (the records keep their IES tables alive; the C array holds copies of their pointers)
+        self.light_records = [light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)]
+        self.lights = (LightRecord * max(1, len(ctx.lights)))(*self.light_records)
         # (the records keep their rows' arrays alive; the C array holds copies of the records' pointers)
         self.material_records = [material_record(shader, opaque)
                                  for shader, opaque in zip(ctx.materials.shaders, ctx.materials.shadow_opaque)]

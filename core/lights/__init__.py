@@ -9,6 +9,7 @@ from __future__ import annotations
 from . import linking  # noqa: F401 (Light and Shadow Linking's sets)
 from .area import AreaLight
 from .base import LAMP, Light, LightFlags, LightHit, LightRecord, LightSample
+from . import ies  # noqa: F401 (IES profiles: their record for C)
 from .emitters import MeshEmitters
 from .point import PointLight
 from .spot import SpotLight

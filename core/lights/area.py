@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import vectors
 from .base import Cone, Light, LightFlags, LightHit, LightSample, direction_to
+from .ies import IESLamp
 from .linking import ALL_SETS
 
 
@@ -75,6 +76,7 @@ class AreaLight(Light):
     max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
     light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
+    ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
 
     flags: ClassVar[LightFlags] = LightFlags.AREA
     blender_type: ClassVar[str] = "AREA"
@@ -116,7 +118,7 @@ class AreaLight(Light):
             facing = (cos_light > 0) & (distance > 0)
             geometry = np.where(facing, cos_light * area / (distance * distance), 0.0)
             pdf = np.where(facing, distance * distance / (cos_light * area), 0.0)
-        geometry *= spread_attenuation(self.spread, cos_light)
+        geometry *= spread_attenuation(self.spread, cos_light) * self.ies_factor(-L)
         color = np.asarray(self.color, np.float64)[:3]
         return LightSample(L, distance, self.radiance() * geometry, pdf, color, targets)
 
@@ -140,7 +142,8 @@ class AreaLight(Light):
             hit = (cos_light > 0) & (t > 0) & (t < t_max) & inside
             area = self.area()
             pdf = np.where(hit, t * t / (cos_light * area), 0.0)
-            radiance = np.where(hit, self.radiance() * spread_attenuation(self.spread, cos_light), 0.0)
+            radiance = np.where(hit, self.radiance() * spread_attenuation(self.spread, cos_light)
+                                * self.ies_factor(-directions), 0.0)
         color = np.asarray(self.color, np.float64)[:3]
         return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, pdf)
 

@@ -148,6 +148,13 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("group", I32, "its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group)"),
     ("light_membership", U64, "the receiver sets it lights (core/lights/linking.py; emitters: by object)"),
     ("shadow_membership", U64, "the blocker shadow sets that cast its shadows; emitters: by object"),
+    ("has_ies", I32, "point, spot and area lamps: 1 when an IES Texture scales the light leaving it (core/lights/ies.py)"),
+    ("ies", ptr(F64), "its profile's table (ies.table: h angles, v angles, intensity by h then v), or NULL: a file\n"
+                      "Cycles could not read, a factor of ies_strength everywhere"),
+    ("ies_h", I32, "the table's horizontal and vertical angle counts"),
+    ("ies_v", I32, ""),
+    ("ies_strength", F64, "the node's Strength (x 100 without a table)"),
+    ("ies_frame", F64, 9, "world directions leaving the lamp -> the node's Vector: the transposed object matrix, row-major"),
 ], tables=("LIGHT",))
 
 
@@ -236,7 +243,7 @@ class Light:
         """Whether every parameter is a finite number."""
         values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
                   if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden_from", "use_mis", "max_bounces",
-                                 "light_membership", "shadow_membership") and getattr(self, f.name) is not None]
+                                 "light_membership", "shadow_membership", "ies") and getattr(self, f.name) is not None]
         return all(np.isfinite(x).all() for x in values)
 
     def moved(self, origin: np.ndarray) -> "Light":
@@ -278,6 +285,12 @@ class Light:
         """The HIDDEN_FROM_* bits of the rays that do not see the light: `hidden_from`, and the camera's where it is off."""
         return int(self.hidden_from) | (0 if getattr(self, "camera", True) else HIDDEN_FROM_CAMERA)
 
+    def ies_factor(self, leaving: np.ndarray) -> np.ndarray:
+        """What the lamp's IES Texture (its `ies`, core/lights/ies.py IESLamp) multiplies the light leaving it along
+        world directions (n, 3) float64 by: (n,) float64, ones without one."""
+        ies = getattr(self, "ies", None)
+        return np.ones(len(leaving)) if ies is None else ies.factor(leaving)
+
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """Return the sample with its 1/r^2 falloff undone (the lecture switch "distance attenuation" off).
 
@@ -298,6 +311,8 @@ class Light:
                              hidden=self.unseen_by, use_mis=bool(self.use_mis),
                              max_bounces=int(min(self.max_bounces, 1 << 30)), group=-1,
                              light_membership=int(self.light_membership), shadow_membership=int(self.shadow_membership))
+        if getattr(self, "ies", None) is not None:
+            self.ies.pack(record)
         self.pack_fields(record)
         return record
 

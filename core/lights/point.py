@@ -10,6 +10,7 @@ import numpy as np
 from ..vectors import orthonormal_frame
 from .base import (INV_4PI, Cone, Light, LightFlags, LightHit, LightSample, cone_pdf, delta_pdf, direction_to,
                    sample_cone)
+from .ies import IESLamp
 from .linking import ALL_SETS
 
 
@@ -60,8 +61,8 @@ class RoundLight(Light):
             L, distance = direction_to(points, np.broadcast_to(center, points.shape))
             with np.errstate(divide="ignore"):
                 falloff = np.where(distance > 0, 1.0 / (distance * distance), 0.0)
-            return LightSample(L, distance, self.power * INV_4PI * falloff, delta_pdf(len(points)), color,
-                               np.broadcast_to(center, points.shape))
+            return LightSample(L, distance, self.power * INV_4PI * falloff * self.ies_factor(-L), delta_pdf(len(points)),
+                               color, np.broadcast_to(center, points.shape))
         # Radiance L_e = P / (4 pi^2 R^2) over the cone, pdf = 1 / (2 pi (1 - cos a)): each sample
         # carries E_normal = L_e 2 pi (1 - cos a).
         cone = self.cone(points) if cone is None else cone
@@ -73,7 +74,7 @@ class RoundLight(Light):
         else:
             b = d * cos_to_center                              # to the near side of the sphere
             distance = b - np.sqrt(np.maximum(0.0, b * b - (d * d - self.radius * self.radius)))
-        strength = sphere_radiance(self.power, self.radius) * 2.0 * math.pi * (1.0 - cone.cos_max)
+        strength = sphere_radiance(self.power, self.radius) * 2.0 * math.pi * (1.0 - cone.cos_max) * self.ies_factor(-L)
         return LightSample(L, distance, strength, cone_pdf(cone.cos_max), color, points + L * distance[:, None])
 
     @property
@@ -103,8 +104,9 @@ class RoundLight(Light):
         return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, np.where(hit, cone_pdf(cone.cos_max), 0.0))
 
     def attenuate(self, radiance: np.ndarray, leaving: np.ndarray) -> np.ndarray:
-        """The radiance leaving along `leaving` (n, 3): unchanged for a point light (a spot masks it)."""
-        return radiance
+        """The radiance leaving along `leaving` (n, 3): times its IES Texture's factor, if any (a spot's cone masks it
+        too)."""
+        return radiance * self.ies_factor(leaving)
 
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """Undo 1/r^2 with r measured to the light's centre: E_normal = P / (4 pi) at any distance."""
@@ -139,6 +141,7 @@ class PointLight(RoundLight):
     max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
     light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
+    ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "POINT"

@@ -9,6 +9,7 @@ import numpy as np
 
 from .. import vectors
 from .base import Cone, LightFlags, LightSample
+from .ies import IESLamp
 from .linking import ALL_SETS
 from .point import RoundLight
 
@@ -41,6 +42,7 @@ class SpotLight(RoundLight):
     max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
     light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
+    ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "SPOT"
@@ -76,8 +78,8 @@ class SpotLight(RoundLight):
         return x * x * (3.0 - 2.0 * x)
 
     def attenuate(self, radiance: np.ndarray, leaving: np.ndarray) -> np.ndarray:
-        """The spot's cone masks what leaves along `leaving` (n, 3) unit."""
-        return radiance * self.attenuation(leaving)
+        """The spot's cone masks what leaves along `leaving` (n, 3) unit (and its IES Texture scales it)."""
+        return super().attenuate(radiance, leaving) * self.attenuation(leaving)
 
     def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
         """The point light's sample, times the cone factor for the direction from the (sampled) light point."""

@@ -40,7 +40,7 @@ INLINE int sun_light_hit(const LightRecord *light, const double *D, double t_max
     if (!inside) return 0;
     out->t = INFINITY;
     if (light->limb) sun_limb(light, D, out->radiance);
-    else for (int c = 0; c < 3; c++) out->radiance[c] = light->radiance * light->color[c];
+    else for (int c = 0; c < 3; c++) out->radiance[c] = light->radiance * ies_lamp_factor(light, D) * light->color[c];
     out->pdf = cone_pdf(light->sun_cos_max);
     return 1;
 }
@@ -51,6 +51,7 @@ INLINE void sun_sample(const LightRecord *light, const LightContext *ctx, const 
 {
     (void)ctx; (void)P; (void)N;
     sample_sun_light(light, u, out);
+    out->strength *= ies_lamp_factor(light, out->L);
     lamp_color(light, out);
 }
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..vectors import orthonormal_frame
 from .base import Cone, Light, LightFlags, LightHit, LightSample, cone_pdf, delta_pdf, sample_cone
+from .ies import IESLamp
 from .linking import ALL_SETS
 
 
@@ -32,6 +33,7 @@ class SunLight(Light):
     max_bounces: int = 1024               # its light samples stop after this many bounces (Blender: Max Bounces)
     light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
+    ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
     # A Sky Texture's disc (core/lights/world_graph.py sky_suns): (9,) float64 the sky's sun elevation, rotation and
     # earth's edge, then the RGB radiance at the disc's bottom and at its top, as core/materials/sky.py disc_xyz takes
     # them (the disc's size is `angle`). Rays that meet the lamp see that limb-darkened, bottom-to-top radiance,
@@ -73,12 +75,12 @@ class SunLight(Light):
         color = np.asarray(self.color, np.float64)[:3]
         if self.delta:
             L = np.broadcast_to(self.towards(), (n, 3)).copy()
-            return LightSample(L, np.full(n, np.inf), np.full(n, float(self.strength)), delta_pdf(n), color,
+            return LightSample(L, np.full(n, np.inf), float(self.strength) * self.ies_factor(-L), delta_pdf(n), color,
                                np.zeros((n, 3)))
         cone = self.cone(points) if cone is None else cone
         L = sample_cone(cone, u)
-        return LightSample(L, np.full(n, np.inf), np.full(n, self.disk_strength()), cone_pdf(cone.cos_max), color,
-                           np.zeros((n, 3)))
+        return LightSample(L, np.full(n, np.inf), self.disk_strength() * self.ies_factor(-L), cone_pdf(cone.cos_max),
+                           color, np.zeros((n, 3)))
 
     @property
     def hittable(self) -> bool:
@@ -91,7 +93,7 @@ class SunLight(Light):
             return super().hit(origins, directions, t_max)
         half = 0.5 * self.angle
         inside = (np.einsum("ij,j->i", directions, self.towards()) >= math.cos(half)) & np.isinf(t_max)
-        radiance = np.where(inside, self.strength / (math.pi * math.sin(half) ** 2), 0.0)
+        radiance = np.where(inside, self.strength / (math.pi * math.sin(half) ** 2) * self.ies_factor(-directions), 0.0)
         pdf = np.where(inside, cone_pdf(np.full(n, math.cos(half))), 0.0)
         color = np.asarray(self.color, np.float64)[:3]
         seen = radiance[:, None] * color

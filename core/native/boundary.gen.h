@@ -427,6 +427,7 @@ typedef struct SampleLightArgs SampleLightArgs;
 typedef struct LightHitArgs LightHitArgs;
 typedef struct EmitterTables EmitterTables;
 typedef struct EmitterPickArgs EmitterPickArgs;
+typedef struct IESFacArgs IESFacArgs;
 typedef struct WorldTables WorldTables;
 typedef struct WorldGraph WorldGraph;
 typedef struct WorldBakeArgs WorldBakeArgs;
@@ -822,6 +823,13 @@ radiance, bottom to top, where the others see `radiance` x color */
     int32_t group;                          /* its light group (core/integrators/lightgroups.py), -1: none or by emitter (EmitterTables.group) */
     uint64_t light_membership;              /* the receiver sets it lights (core/lights/linking.py; emitters: by object) */
     uint64_t shadow_membership;             /* the blocker shadow sets that cast its shadows; emitters: by object */
+    int32_t has_ies;                        /* point, spot and area lamps: 1 when an IES Texture scales the light leaving it (core/lights/ies.py) */
+    const double *ies;                      /* its profile's table (ies.table: h angles, v angles, intensity by h then v), or NULL: a file
+Cycles could not read, a factor of ies_strength everywhere */
+    int32_t ies_h;                          /* the table's horizontal and vertical angle counts */
+    int32_t ies_v;
+    double ies_strength;                    /* the node's Strength (x 100 without a table) */
+    double ies_frame[9];                    /* world directions leaving the lamp -> the node's Vector: the transposed object matrix, row-major */
 };
 
 /* What the lights a render makes of its scene need besides their records. */
@@ -886,6 +894,17 @@ struct EmitterPickArgs {
     const double *u;                        /* (n,) the pick's numbers (primer_emitter_pick) or NULL */
     int64_t *index;                         /* (n,) the emitters picked (primer_emitter_pick), or those whose probability is asked */
     double *probability;                    /* (n,) */
+};
+
+/* primer_ies_fac's arguments: ies_fac for n vectors. */
+struct IESFacArgs {
+    const double *table;                    /* the profile's table (ies.table) */
+    int32_t h_num;
+    int32_t v_num;
+    double strength;                        /* the node's Strength */
+    int64_t n;
+    const double *vectors;                  /* (n, 3) the node's Vector */
+    double *fac;                            /* (n,) */
 };
 
 /* The world (core/lights/world.py World and WorldLight): a constant colour or an equirectangular image. */
@@ -1091,12 +1110,13 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(2719243675526165675);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(1710101175411747240);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(2679673540171007921);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
+    if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
@@ -1139,6 +1159,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "LightHitArgs") == 0) return (int64_t)sizeof(LightHitArgs);
     if (strcmp(name, "EmitterTables") == 0) return (int64_t)sizeof(EmitterTables);
     if (strcmp(name, "EmitterPickArgs") == 0) return (int64_t)sizeof(EmitterPickArgs);
+    if (strcmp(name, "IESFacArgs") == 0) return (int64_t)sizeof(IESFacArgs);
     if (strcmp(name, "WorldTables") == 0) return (int64_t)sizeof(WorldTables);
     if (strcmp(name, "WorldGraph") == 0) return (int64_t)sizeof(WorldGraph);
     if (strcmp(name, "WorldBakeArgs") == 0) return (int64_t)sizeof(WorldBakeArgs);

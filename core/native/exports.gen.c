@@ -73,6 +73,11 @@ EXPORT void primer_emitter_pick_probability(EmitterPickArgs *a)
     emitter_pick_probability_rows(a);
 }
 
+EXPORT void primer_ies_fac(IESFacArgs *a)
+{
+    ies_fac_rows(a);
+}
+
 EXPORT void primer_world_bake(WorldBakeArgs *a)
 {
     world_bake_rows(a);
