@@ -49,8 +49,16 @@ endef
 CHECK_PYTHON311 = @$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), \
 	"Primer needs Python 3.11 (Blender 4.2 to 5.0), found " + sys.version.split()[0]'
 
+# .venv's numpy first (its pin in requirements.txt): all that tools/build_kernels.py needs, so that `make kernels`
+# compiles while pip installs the rest of .venv (bpy is most of it) and the other environments.
+$(VENV)/.numpy-installed: requirements.txt
+	$(CHECK_PYTHON311)
+	test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/python -m pip install --quiet "$$(grep '^numpy==' requirements.txt)"
+	touch $@
+
 # .venv: the tracer, bpy 5.0 (Blender as a module) and the tools; used by `make demo` and `make test`.
-$(VENV)/.installed: requirements.txt
+$(VENV)/.installed: requirements.txt $(VENV)/.numpy-installed
 	$(CHECK_PYTHON311)
 	$(call make_venv,$(VENV),$(PYTHON),requirements.txt)
 	touch $@
@@ -86,8 +94,9 @@ $(VENV)/.platforms-installed: $(VENV)/.installed requirements-platforms.txt
 ZIG := $(CURDIR)/$(PY) -m ziglang
 
 # Compile core/native/primer.c for this machine (core/native/library.py loads it; without it Primer renders on its Python path).
-# A plain C library loaded through ctypes, the same file for every Python: .venv42 and .venv52 use it too.
-kernels: venv
+# A plain C library loaded through ctypes, the same file for every Python: .venv42 and .venv52 use it too. It needs
+# numpy alone of .venv, so it starts before the rest of .venv is installed.
+kernels: $(VENV)/.numpy-installed
 	$(PY) tools/build_kernels.py
 
 # Render the sample scenes into out/, printing the time per image.
@@ -116,12 +125,13 @@ extension: venv $(VENV)/.platforms-installed
 # then the Blender 4.2 LTS smoke test. Blender inside the test process gets an empty user folder, so a
 # personal Blender setup (preferences, installed extensions) cannot change the results; tests that install
 # Primer use their own (tests/blender_env.py).
-# First the set-up, up to three jobs at once: the environments, this machine's kernels (GCC, one core) and every
-# platform's (Zig, two at a time, unoptimised: `make platforms-check`), so that no test waits for a compiler; then
+# First the set-up, up to four jobs at once: the three environments, this machine's kernels (GCC, one core, started
+# as soon as .venv has numpy, while pip installs the rest) and every platform's (Zig, two at a time, unoptimised:
+# `make platforms-check`), so that no test waits for a compiler; then
 # the three runs, the two large ones on both cores (pytest-xdist); last, the whole suite's time.
 test:
 	@start=$$(date +%s); \
-	$(MAKE) --no-print-directory -j3 test-setup && $(MAKE) --no-print-directory test-run; status=$$?; \
+	$(MAKE) --no-print-directory -j4 test-setup && $(MAKE) --no-print-directory test-run; status=$$?; \
 	took=$$(( $$(date +%s) - start )); echo "make test: $$((took / 60))m$$((took % 60))s"; exit $$status
 
 test-setup: venv venv42 venv52 kernels platforms-check
