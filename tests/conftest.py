@@ -66,9 +66,15 @@ def rng():
 # dist/check/primer-<version>.zip (once per worker that runs it), test_platforms.py dist/kernels-check/ (when older
 # than a C file), and test_tour.py writes docs/images/tour/ (two of its tests the same picture).
 ONE_WORKER = {"test_extension.py", "test_platforms.py", "test_tour.py"}
-# Test files whose tests share one expensive module fixture (Primer's and Cycles' renders of every case): each file's
-# tests on one worker, so that the fixture renders once, not once per worker.
-SHARED_RENDERS = {"test_blender_world_nodes.py", "test_blender_sky.py", "test_blender_lightgroups.py"}
+# Test files whose tests share one expensive module fixture (Primer's and Cycles' renders of every case, often in Blender
+# processes of their own): each file's tests on one worker, so that the fixture renders once, not once per worker. A
+# new file of that kind belongs here: split over both workers, its fixture's renders are paid twice (test_blender_animation's
+# seven Blender processes, test_blender_hair's renders, ...: about a minute of CPU per make test run, measured).
+SHARED_RENDERS = {"test_blender_world_nodes.py", "test_blender_sky.py", "test_blender_lightgroups.py",
+                  "test_blender_animation.py", "test_blender_cryptomatte.py", "test_blender_finite.py",
+                  "test_blender_glass_inputs.py", "test_blender_hair.py", "test_blender_image_sources.py",
+                  "test_blender_light_passes.py", "test_blender_light_path.py", "test_blender_missing_images.py",
+                  "test_blender_passes.py", "test_blender_shadow_catcher.py", "test_blender_subsurface.py"}
 
 
 @pytest.hookimpl(optionalhook=True)         # a hook of pytest-xdist, which .venv42 does not install
