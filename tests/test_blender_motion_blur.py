@@ -158,7 +158,8 @@ def test_a_moving_camera_blurs_as_in_cycles(primer, tmp_path, case):
     error, noise, unblurred = (relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(again, cycles),
                                relative_mse_of_blocks(still, cycles))
     print(f"{case}: Primer {error:.2e}, Cycles' own noise {noise:.2e}, the still camera {unblurred:.2e}")
-    assert not [w for w in warnings if "motion blur" in w], warnings
+    # (no note but, where the moving object emits, that its light is not light-sampled: same mean, more noise)
+    assert not [w for w in warnings if "motion blur" in w and "not light-sampled" not in w], warnings
     assert unblurred > 10 * BLOCK_TOLERANCE
     assert error < BLOCK_TOLERANCE
 
@@ -292,7 +293,8 @@ OBJECTS = {"a cube flying and turning in the sun": moving_cube_in_the_sun,
 @pytest.mark.parametrize("case", list(OBJECTS))
 def test_a_moving_object_blurs_as_in_cycles(primer, tmp_path, case):
     """Objects that move over the shutter blur as in Cycles (block relative MSE within Cycles' own noise), their
-    shadows too (the shadow rays carry their camera ray's time), far from the still image; no note is made."""
+    shadows too (the shadow rays carry their camera ray's time), far from the still image; no note is made but that a
+    moving emitter is left to BSDF rays."""
     scene = still_camera_scene()
     OBJECTS[case](scene)
     scene.frame_set(1)
@@ -305,7 +307,8 @@ def test_a_moving_object_blurs_as_in_cycles(primer, tmp_path, case):
     error, noise, unblurred = (relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(again, cycles),
                                relative_mse_of_blocks(still, cycles))
     print(f"{case}: Primer {error:.2e}, Cycles' own noise {noise:.2e}, still objects {unblurred:.2e}")
-    assert not [w for w in warnings if "motion blur" in w], warnings
+    # (no note but, where the moving object emits, that its light is not light-sampled: same mean, more noise)
+    assert not [w for w in warnings if "motion blur" in w and "not light-sampled" not in w], warnings
     assert unblurred > 10 * BLOCK_TOLERANCE
     assert error < BLOCK_TOLERANCE
 
