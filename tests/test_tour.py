@@ -1197,22 +1197,21 @@ def scatter_material(name: str, density: float, anisotropy: float):
     return material
 
 
-def slab_glow(primer, tmp_path, anisotropy: float, density: float, depth: float, E: float) -> float:
-    """The mean of the pixels over a slab of Volume Scatter (`depth` deep, wider than the view) seen straight down
-    by an orthographic camera under a sun shining straight down (strength E), 256 samples, max bounces 0."""
+def slab_under_sun(material, width: float, depth: float, top: float, E: float = 3.0):
+    """An empty scene (no world: black) holding a slab `width` x `width` x `depth` of the material `material()` makes
+    (called once the scene is empty) whose top is at z =
+    `top`, a sun of strength E shining straight down, and an orthographic camera 2 wide looking straight down at
+    16 x 16 pixels; returns the scene."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.engine = "PRIMER"
-    scene.primer.samples, scene.primer.seed, scene.primer.use_adaptive_sampling = 256, SEED, False
-    scene.world = bpy.data.worlds.new("Black")
-    scene.world.color = (0.0, 0.0, 0.0)
-    for node in scene.world.node_tree.nodes if scene.world.node_tree is not None else ():
-        if node.bl_idname == "ShaderNodeBackground":
-            node.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 1.0))
+    scene.primer.seed, scene.primer.use_adaptive_sampling = SEED, False
+    scene.world = None
+    scene.cycles.max_bounces = 0
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, top - 0.5 * depth))
     slab = bpy.context.view_layer.objects.active
-    slab.scale = (10.0, 10.0, depth)
-    slab.data.materials.append(scatter_material("Slab", density, anisotropy))
+    slab.scale = (width, width, depth)
+    slab.data.materials.append(material())
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     sun.data.energy, sun.data.angle = E, 0.0
     scene.collection.objects.link(sun)
@@ -1223,6 +1222,14 @@ def slab_glow(primer, tmp_path, anisotropy: float, density: float, depth: float,
     scene.camera = camera
     scene.render.resolution_x = scene.render.resolution_y = 16
     scene.render.resolution_percentage = 100
+    return scene
+
+
+def slab_glow(primer, tmp_path, anisotropy: float, density: float, depth: float, E: float) -> float:
+    """The mean of the pixels over a slab of Volume Scatter (`depth` deep, wider than the view) seen straight down
+    under a sun shining straight down (strength E), 256 samples, max bounces 0."""
+    scene = slab_under_sun(lambda: scatter_material("Slab", density, anisotropy), 10.0, depth, 1.0 + 0.5 * depth, E)
+    scene.primer.samples = 256
     return float(render(primer, scene, str(tmp_path / "slab.exr"))["Combined"][..., :3].mean())
 
 
@@ -1301,29 +1308,9 @@ def subsurface_material(name: str, color, radius: float):
 
 
 def wax_slab(colour, radius: float):
-    """An empty scene: a slab 40 x 40 x 5 of Subsurface Scattering (Random Walk) whose top is z = 0, a sun (3 W/m^2)
-    straight above, an orthographic camera looking straight down at 16 x 16 pixels; returns the scene."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.engine = "PRIMER"
-    scene.primer.seed, scene.primer.use_adaptive_sampling = SEED, False
-    scene.world = None
-    scene.cycles.max_bounces = 0
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, -2.5))
-    slab = bpy.context.view_layer.objects.active
-    slab.scale = (40.0, 40.0, 5.0)
-    slab.data.materials.append(subsurface_material("Wax", colour, radius))
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy, sun.data.angle = 3.0, 0.0
-    scene.collection.objects.link(sun)
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.data.type, camera.data.ortho_scale = "ORTHO", 2.0
-    camera.location = (0.0, 0.0, 5.0)
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    scene.render.resolution_x = scene.render.resolution_y = 16
-    scene.render.resolution_percentage = 100
-    return scene
+    """A slab 40 x 40 x 5 of Subsurface Scattering (Random Walk) whose top is z = 0 under a sun (3 W/m^2) straight
+    above, seen straight down (slab_under_sun)."""
+    return slab_under_sun(lambda: subsurface_material("Wax", colour, radius), 40.0, 5.0, 0.0)
 
 
 def test_a_white_random_walk_loses_only_the_walks_its_step_cap_cuts_short(primer, tmp_path):
