@@ -321,15 +321,15 @@ def from_geometry(geometry, materials, graph_emission, notes: Optional[list] = N
             rows_of.append(geometry.material[prim])
             prims.append(prim)
     for mesh in geometry.instanced:
+        rows = mesh.material[mesh.material_row]                  # (k, t) each placement's materials
         if mesh.motion is not None:
             # A moving emitter is no light sample's: BSDF rays find it where it is at their time, with MIS weight 1
             # (Cycles samples it too: the same light, with more noise here).
             moving_note = ("motion blur: emitters that move are found by BSDF rays only, not light-sampled (the same "
                            "light as Cycles, with more noise)")
-            if notes is not None and moving_note not in notes and emissive[mesh.material[mesh.material_row]].any():
+            if notes is not None and moving_note not in notes and emissive[rows].any():
                 notes.append(moving_note)
             continue
-        rows = mesh.material[mesh.material_row]                  # (k, t) each placement's materials
         j, local = np.nonzero(emissive[rows])
         if len(j):
             corners.append(mesh.corner_points(j, local))

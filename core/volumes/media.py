@@ -527,6 +527,13 @@ def emitted(stretch: Stretch, t: np.ndarray) -> np.ndarray:
     return value
 
 
+def triangle_chunks(geometry, size: int = 1 << 20):
+    """The geometry's triangles a million at a time: (prims (k,) int64, their unsmoothed triangle_data) pairs."""
+    for start in range(0, geometry.triangle_count, size):
+        prims = np.arange(start, min(start + size, geometry.triangle_count))
+        yield prims, geometry.triangle_data(prims, smooth=False)
+
+
 def shadow_visibility(geometry, volume_rows: list) -> tuple:
     """Which material rows with a medium (volume_rows: (m + 1,) bool) are on some object hidden from shadow rays,
     and which on some object that shadow rays see: two (m + 1,) bool (both False with no geometry)."""
@@ -534,12 +541,10 @@ def shadow_visibility(geometry, volume_rows: list) -> tuple:
     hidden, seen = np.zeros(len(volume_rows), bool), np.zeros(len(volume_rows), bool)
     if geometry is None or not geometry.hides(HIDDEN_FROM_SHADOW):
         return hidden, seen
-    for start in range(0, geometry.triangle_count, 1 << 20):
-        prims = np.arange(start, min(start + (1 << 20), geometry.triangle_count))
-        material = geometry.triangle_data(prims, smooth=False).material
+    for prims, triangles in triangle_chunks(geometry):
         shadowless = geometry.hidden(prims, HIDDEN_FROM_SHADOW)
-        hidden[material[shadowless]] = True
-        seen[material[~shadowless]] = True
+        hidden[triangles.material[shadowless]] = True
+        seen[triangles.material[~shadowless]] = True
     wanted = np.asarray(volume_rows, bool)
     return hidden & wanted, seen & wanted
 
@@ -548,9 +553,7 @@ def material_bounds(geometry, row: int) -> tuple:
     """The camera-relative box (low (3,), high (3,) float64) of the triangles of material `row`; the whole scene's
     box where none has it."""
     low, high = np.full(3, np.inf), np.full(3, -np.inf)
-    for start in range(0, geometry.triangle_count, 1 << 20):
-        triangles = geometry.triangle_data(np.arange(start, min(start + (1 << 20), geometry.triangle_count)),
-                                           smooth=False)
+    for _, triangles in triangle_chunks(geometry):
         mine = triangles.material == row
         if mine.any():
             corners = triangles.corners[mine].reshape(-1, 3)
