@@ -75,6 +75,11 @@ SCENES = {
     "camera_fisheye_equidistant": (256, 256),
     "camera_fisheye_equisolid": (256, 512),
 }
+# Scenes whose comparison renders at half the scene's resolution (a quarter of the pixels, the same samples a pixel,
+# so the same noise a pixel and the same tolerance): the four that render the most samples, which took 40-50 s each
+# at full size on 2 cores. Their references are of the half-size file.
+HALF_SIZE = {"render.resolution_percentage": 50}
+SCENE_CHANGES = {name: HALF_SIZE for name in ("cornell_box", "materials_principled", "materials_glass", "world_hdri")}
 
 
 # Where Cycles and the lecture choose differently, the Primer settings that choose as Cycles does. Cycles
@@ -126,7 +131,8 @@ VARIANTS = [
     Variant("no_object_casts_shadows", "light_point", {"objects.visible_shadow": False}, 64, 256),
     # The Cornell box's tall box hidden from diffuse rays: still seen and casting its shadow, but no longer in
     # the way of (nor reflecting) the light between the other surfaces, path traced.
-    Variant("tall_box_hidden_from_diffuse", "cornell_box", {"object:Tall Box.visible_diffuse": False}, 1024, 2048),
+    Variant("tall_box_hidden_from_diffuse", "cornell_box", {"object:Tall Box.visible_diffuse": False, **HALF_SIZE},
+            1024, 2048),
     # The ceiling lamp of light_emissive hidden from diffuse rays: it lights the room's diffuse surfaces by neither
     # light samples nor bounces (the world still does), only the Principled cylinder's specular layer.
     Variant("lamp_hidden_from_diffuse", "light_emissive", {"object:Ceiling Lamp.visible_diffuse": False}, 256, 1024),
@@ -136,8 +142,8 @@ VARIANTS = [
     # where a ray passing a hidden face may step past the floor too; see docs/blender.md.)
     Variant("floor_hidden_from_glossy", "materials_principled",
             {"object:Floor.visible_glossy": False, "render.resolution_percentage": 50}, 1024, 2048, 1.5e-4),
-    Variant("floor_hidden_from_transmission", "materials_glass", {"object:Floor.visible_transmission": False},
-            1024, 2048, 1.5e-4),
+    Variant("floor_hidden_from_transmission", "materials_glass",
+            {"object:Floor.visible_transmission": False, **HALF_SIZE}, 1024, 2048, 1.5e-4),
     # Object > Visibility > Holdout: the sphere a hole in the film (colour and alpha 0), on an opaque film and a
     # transparent one; its shadow stays.
     Variant("holdout_sphere", "light_point", {"object:Sphere.is_holdout": True}, 64, 256),
@@ -154,7 +160,8 @@ VARIANTS = [
     # scene (9% less light); no reflective caustics and Clamp Indirect 1 in the Principled scene path traced
     # (4% and 2% less light).
     Variant("caustics_off_glass", "materials_glass",
-            {"primer.caustics_reflective": False, "primer.caustics_refractive": False}, 1024, 2048, 1.5e-4),
+            {"primer.caustics_reflective": False, "primer.caustics_refractive": False, **HALF_SIZE}, 1024, 2048,
+            1.5e-4),
     Variant("reflective_caustics_off_clamped_principled_path", "materials_principled",
             {"primer.integrator": "PATH", "primer.caustics_reflective": False, "primer.sample_clamp_indirect": 1.0,
              "render.resolution_percentage": 50}, 1024, 2048, 1.5e-4),
@@ -250,13 +257,31 @@ def variant_blends(tmp_path_factory) -> dict:
     return {v.id: (paths[v.id], settings) for v, settings in zip(VARIANTS, applied)}
 
 
+def scene_blends(folder: str) -> dict:
+    """Each sample scene's .blend as its comparison renders it (SCENE_CHANGES written into `folder`, one bpy process)
+    and the inputs of its reference's key: name -> (path, inputs)."""
+    changed = sorted(SCENE_CHANGES)
+    jobs = [(os.path.join(SCENES_DIR, f"{name}.blend"), os.path.join(folder, f"{name}.blend"), SCENE_CHANGES[name])
+            for name in changed]
+    run_bpy(MAKE_VARIANTS.format(tools=os.path.join(ROOT, "tools"), jobs=json.dumps(jobs)), folder)
+    found = {}
+    for name in SCENES:
+        blend = os.path.join(SCENES_DIR, f"{name}.blend")
+        found[name] = (os.path.join(folder, f"{name}.blend"), (blend, SCENE_CHANGES[name])) if name in SCENE_CHANGES \
+            else (blend, (blend,))
+    return found
+
+
 @pytest.fixture(scope="module")
 def scene_settings(tmp_path_factory) -> dict:
-    """The Cycles settings tools/render.py applies to each sample scene (one bpy process): name -> settings."""
+    """Each sample scene as compared, with the Cycles settings tools/render.py applies to it (one bpy process):
+    name -> (.blend path, inputs of the reference's key, settings)."""
     folder = str(tmp_path_factory.mktemp("scene-settings"))
+    blends = scene_blends(folder)
     names = sorted(SCENES)
-    jobs = [(os.path.join(SCENES_DIR, f"{name}.blend"), SCENES[name][1]) for name in names]
-    return dict(zip(names, cycles_references.applied_settings(jobs, folder)))
+    jobs = [(blends[name][0], SCENES[name][1]) for name in names]
+    applied = cycles_references.applied_settings(jobs, folder)
+    return {name: (*blends[name], settings) for name, settings in zip(names, applied)}
 
 
 def cycles_reference(ref_id: str, blend: str, inputs: tuple, applied: dict, samples: int, cache: str,
@@ -303,11 +328,11 @@ def compare(ref_id: str, blend: str, inputs: tuple, applied: dict, primer_sample
 def test_sample_scene_matches_cycles(name, scene_settings, reference_cache, tmp_path):
     """Each committed sample scene: Primer against Cycles with direct light only (choosing as Cycles does,
     CYCLES_CHOICES)."""
-    blend = os.path.join(SCENES_DIR, f"{name}.blend")
+    blend, inputs, applied = scene_settings[name]
     primer_samples, cycles_samples = SCENES[name]
     primer_blend = make_variant(name, CYCLES_CHOICES[name], str(tmp_path)) if name in CYCLES_CHOICES else ""
-    compare(name, blend, (blend,), scene_settings[name], primer_samples, cycles_samples, reference_cache,
-            str(tmp_path), primer_blend)
+    compare(name, blend, inputs, applied, primer_samples, cycles_samples, reference_cache, str(tmp_path),
+            primer_blend)
 
 
 @pytest.mark.slow
@@ -316,10 +341,9 @@ def test_lecture_differs_from_cycles_only_by_the_leak(scene_settings, reference_
     rule lets light leak through the open sheet, Primer is black and Cycles is lit; everywhere else the
     two agree within the usual 1%. (The same seed gives both Primer renders the same samples.)"""
     name = "shading_visibility"
-    blend = os.path.join(SCENES_DIR, f"{name}.blend")
+    blend, inputs, applied = scene_settings[name]
     primer_samples, cycles_samples = SCENES[name]
-    reference = cycles_reference(name, blend, (blend,), scene_settings[name], cycles_samples, reference_cache,
-                                 str(tmp_path))[..., :3]
+    reference = cycles_reference(name, blend, inputs, applied, cycles_samples, reference_cache, str(tmp_path))[..., :3]
     images = {}
     for rule, source in (("face", blend), ("shading", make_variant(name, CYCLES_CHOICES[name], str(tmp_path)))):
         render(source, str(tmp_path / f"{rule}.exr"), "PRIMER", primer_samples, str(tmp_path))

@@ -32,9 +32,10 @@ def references(folder: str, variants: bool) -> list:
     """Return every reference as (id, .blend path, inputs of its key, Cycles samples), writing the .blend files
     the tests make (variants, holdout) into `folder`."""
     found = []
+    blends = scenes.scene_blends(folder)
     for name in sorted(scenes.SCENES):
-        blend = os.path.join(scenes.SCENES_DIR, f"{name}.blend")
-        found.append((name, blend, (blend,), scenes.SCENES[name][1]))
+        blend, inputs = blends[name]
+        found.append((name, blend, inputs, scenes.SCENES[name][1]))
     if variants:
         paths = scenes.write_variants(folder)
         for v in scenes.VARIANTS:
