@@ -21,7 +21,8 @@ from ..core.geometry import islands as islands_
 from ..core.geometry import pointiness as pointiness_
 from ..core.geometry import points as points_
 from ..core.lights import World, world_graph
-from ..core.lights import ies as ies_
+from ..core.materials import ies as ies_
+from ..core.lights.ies import IESLamp
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
@@ -595,7 +596,7 @@ def light_ies(obj, matrix: np.ndarray, warnings: list):
         reader.warn(node, "its IES file could not be read (none given, missing or not LM-63); as in Cycles, the "
                           "IES Texture gives Strength x 100 in every direction")
     strength = float(materials_.own_value(node.inputs["Strength"]))
-    return ies_.IESLamp(profile, strength, np.ascontiguousarray(np.asarray(matrix, np.float64)[:3, :3].T))
+    return IESLamp(profile, strength, np.ascontiguousarray(np.asarray(matrix, np.float64)[:3, :3].T))
 
 
 # The rays of Object > Visibility > Ray Visibility that Primer does not hide an object from (it reads Camera,

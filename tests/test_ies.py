@@ -1,4 +1,4 @@
-"""IES light profiles (core/lights/ies.py, ies.c): Cycles' reading of an LM-63 file, its interpolation, and lamps
+"""IES light profiles (core/materials/ies.py, ies.c; lamps: core/lights/ies.py): Cycles' reading of an LM-63 file, its interpolation, and lamps
 scaled by a profile, against closed forms and between the two kernels."""
 from __future__ import annotations
 
@@ -8,7 +8,9 @@ import os
 import numpy as np
 import pytest
 
-from core.lights import AreaLight, PointLight, SpotLight, SunLight, ies
+from core.lights import AreaLight, PointLight, SpotLight, SunLight
+from core.lights.ies import IESLamp
+from core.materials import ies
 from core.lights.base import compiled_hit, compiled_sample
 
 TEST_FILE = os.path.join(os.path.dirname(__file__), "data", "primer_test.ies")
@@ -128,7 +130,7 @@ def lamps():
     (Strength 1.3)."""
     frame = np.array([[0.8, -0.6, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
         [[1.0, 0.0, 0.0], [0.0, math.cos(0.4), -math.sin(0.4)], [0.0, math.sin(0.4), math.cos(0.4)]])
-    lamp = ies.IESLamp(ies.parse_ies(open(TEST_FILE).read()), 1.3, frame.T.copy())
+    lamp = IESLamp(ies.parse_ies(open(TEST_FILE).read()), 1.3, frame.T.copy())
     at = np.array([0.2, -0.1, 2.0])
     return [PointLight(at, 200.0, ies=lamp),
             SpotLight(at, -frame[:, 2], 200.0, radius=0.3, spot_size=2.0, frame=frame, ies=lamp),
