@@ -483,7 +483,7 @@ def _light_color(light) -> np.ndarray:
 # fed only by them is a constant, which Primer evaluates once (light_node_factor).
 CONSTANT_KINDS = frozenset({"RGB", "VALUE", "MATH", "MIX", "RAMP", "INVERT", "HSV", "SEPARATE_COLOR", "SEPARATE_XYZ",
                             "COMBINE_COLOR", "COMBINE_XYZ", "CLAMP", "MAP_RANGE", "SCALE"}
-                           | {cls.kind for cls in graph_.CONVERTER_TYPES})
+                           | {cls.kind for cls in graph_.CONVERTER_TYPES if cls.kind != "IES_TEXTURE"})
 
 
 def light_node_factor(obj, warnings: list) -> np.ndarray:
@@ -549,23 +549,6 @@ def ies_node(obj):
     return source
 
 
-def ies_text(node) -> str:
-    """The IES file's text an IES Texture names, as Cycles reads it: its Text datablock (Internal) or its file
-    (External, relative to the .blend); "\n" (a file Cycles cannot read) where there is none."""
-    if node.mode == "EXTERNAL":
-        import bpy
-        library = getattr(node.id_data, "library", None)
-        path = bpy.path.abspath(node.filepath, library=library) if node.filepath else ""
-        try:
-            with open(path, encoding="latin-1") as handle:
-                return handle.read() or "\n"
-        except OSError:
-            return "\n"
-    text = node.ies
-    content = text.as_string() if text is not None else ""
-    return content or "\n"
-
-
 def light_ies(obj, matrix: np.ndarray, warnings: list):
     """Return the lamp's IES Texture as a core IESLamp (core/lights/ies.py), or None without one.
 
@@ -591,7 +574,7 @@ def light_ies(obj, matrix: np.ndarray, warnings: list):
         if socket is not None and socket.is_linked:
             reader.warn(node, f"input '{name}' of the IES Texture is linked, which Primer does not evaluate; it uses "
                               f"{instead}")
-    profile = ies_.parse_ies(ies_text(node))
+    profile = ies_.parse_ies(materials_.ies_text(node))
     if profile is None:
         reader.warn(node, "its IES file could not be read (none given, missing or not LM-63); as in Cycles, the "
                           "IES Texture gives Strength x 100 in every direction")

@@ -22,6 +22,7 @@ import numpy as np
 from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
 from ..core.materials import hair as hair_
+from ..core.materials import ies as ies_
 from ..core.materials import nodes as nodes_
 from ..core.materials import sky as sky_
 from ..core.materials import subsurface as subsurface_
@@ -30,6 +31,7 @@ from ..core.geometry.geometry import OBJECT_INFO_WIDTH
 from ..core.materials.graph import GraphNode, Link
 from ..core.materials.converters import CONVERTER_BY_BLENDER
 from ..core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
+from ..core.materials.converters.ies_texture import ies_props
 from ..core.materials.procedural import TEXTURE_BY_BLENDER
 from ..core.materials.procedural import hash as hash_
 from ..core.volumes import VOLUME_BY_BLENDER
@@ -563,6 +565,12 @@ class GraphReader:
             props, inputs = self.texture(node, path, graph_.DESCRIBED_BY_KIND[kind], warn)
             if node.bl_idname in CURVES_BAKED:
                 props["table"] = baked_curves(node.mapping, CURVES_BAKED[node.bl_idname])
+            if node.bl_idname == "ShaderNodeTexIES":          # its profile, read as Cycles reads it
+                profile = ies_.parse_ies(ies_text(node))
+                if profile is None:
+                    warn("its IES file could not be read (none given, missing or not LM-63); as in Cycles, the IES "
+                         "Texture gives Strength x 100 in every direction")
+                props.update(ies_props(profile))
         elif kind == "MAP_RANGE" and node.data_type == "FLOAT_VECTOR":
             kind = "MAP_RANGE_VECTOR"                               # core/materials/converters/map_range_vector.py
             props, inputs = self.texture(node, path, graph_.DESCRIBED_BY_KIND[kind], warn)
@@ -593,8 +601,35 @@ class GraphReader:
         mapping = getattr(node, "texture_mapping", None)
         if mapping is not None and not identity_mapping(mapping):
             vector = inputs.get("Vector")
+            if not isinstance(vector, Link) and graph_.INCOMING_OBJECT in [d for n, _, d in texture.inputs if n == "Vector"]:
+                vector = incoming_object()                          # (the IES Texture's default)
             inputs["Vector"] = mapped_vector(mapping, vector if isinstance(vector, Link) else None, "Generated", warn)
         return props, inputs
+
+
+def incoming_object() -> Link:
+    """Cycles' default Vector of an IES Texture (LINK_TEXTURE_INCOMING) as graph nodes: Geometry > Incoming taken
+    from world to object space as a normal (graph.INCOMING_OBJECT)."""
+    incoming = Link(GraphNode("GEOMETRY", {}, {}), "Incoming")
+    return Link(GraphNode("VECTOR_TRANSFORM", {"type": "NORMAL", "from": "WORLD", "to": "OBJECT"},
+                          {"Vector": incoming}), "Vector")
+
+
+def ies_text(node) -> str:
+    """The IES file's text an IES Texture names, as Cycles reads it: its Text datablock (Internal) or its file
+    (External, relative to the .blend); "\n" (a file Cycles cannot read) where there is none."""
+    if node.mode == "EXTERNAL":
+        library = getattr(node.id_data, "library", None)
+        path = bpy.path.abspath(node.filepath, library=library) if node.filepath else ""
+        try:
+            with open(path, encoding="latin-1") as handle:
+                return handle.read() or "\n"
+        except OSError:
+            return "\n"
+    text = node.ies
+    content = text.as_string() if text is not None else ""
+    return content or "\n"
+
 
 
 def panorama_type(camera_data) -> str:

@@ -103,9 +103,66 @@ def case(name, *args, **settings):
     bpy.data.objects.remove(obj)
 
 
+# A plane whose Emission Strength is 0.5 x an IES Texture of the test file (a Math node between them), its Vector
+# `vector`: "position" Geometry > Position - (0, 0, 1.5), or None (Cycles' default).
+def emitting_plane(name, size, location, rotation, vector):
+    material = bpy.data.materials.new(name)
+    if not getattr(bpy.types.Material.bl_rna.properties["use_nodes"], "is_deprecated", False):
+        material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.clear()
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    emission = tree.nodes.new("ShaderNodeEmission")
+    node = tree.nodes.new("ShaderNodeTexIES")
+    node.ies = text
+    node.inputs["Strength"].default_value = 0.8
+    half = tree.nodes.new("ShaderNodeMath")
+    half.operation = "MULTIPLY"
+    half.inputs[1].default_value = 0.5
+    tree.links.new(node.outputs["Fac"], half.inputs[0])
+    tree.links.new(half.outputs[0], emission.inputs["Strength"])
+    tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    if vector == "position":
+        geometry = tree.nodes.new("ShaderNodeNewGeometry")
+        down = tree.nodes.new("ShaderNodeVectorMath")
+        down.operation = "SUBTRACT"
+        down.inputs[1].default_value = (0.0, 0.0, 1.5)
+        tree.links.new(geometry.outputs["Position"], down.inputs[0])
+        tree.links.new(down.outputs[0], node.inputs["Vector"])
+    h = size / 2
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], [], [(0, 1, 2, 3)])
+    mesh.materials.append(material)
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location, obj.rotation_euler = location, rotation
+    scene.collection.objects.link(obj)
+    return obj
+
+
+# An IES Texture in materials: a plane over the view whose Vector is its position less (0, 0, 1.5) (the profile over
+# 0 to 70 degrees and every horizontal angle), and a turned plane with the default Vector.
+def material_case(name):
+    planes = [emitting_plane("IES position", 6.0, (0.0, 0.0, 0.5), (0.0, 0.0, 0.0), "position"),
+              emitting_plane("IES default", 2.0, (0.8, 0.5, 1.0), (0.9, 0.3, 0.5), None)]
+    exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    p = render_pixels(scene, "PRIMER", os.path.abspath(name + "_primer.exr"), 16)[..., :3]
+    scene.cycles.seed = 0
+    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), 16)[..., :3]
+    scene.cycles.seed = 7
+    c2 = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles2.exr"), 16)[..., :3]
+    notes = list(exported.warnings)
+    cases[name] = dict(ies=True, warnings=[w for w in notes if "IES" in w], rel_mse=rel_mse(p, c),
+                       cycles_noise=rel_mse(c2, c), primer_mean=float(p.mean()), cycles_mean=float(c.mean()),
+                       spread=float(p.std()))
+    for obj in planes:
+        bpy.data.objects.remove(obj)
+
+
 cases = {{}}
 for name in {cases!r}:
-    if name == "point":
+    if name == "materials":
+        material_case(name)
+    elif name == "point":
         case(name, "POINT", (0.0, 0.0, 1.0), 100.0, (0.0, 0.0, 0.0), "INTERNAL", 1.0, shadow_soft_size=0.0)
     elif name == "turned round point":
         case(name, "POINT", (0.3, -0.2, 1.2), 100.0, (0.5, 0.2, 0.7), "EXTERNAL", 1.5, shadow_soft_size=0.2)
@@ -169,3 +226,14 @@ def test_ies_lamps_render_as_cycles_within_its_own_noise(tmp_path):
     assert notes["no file"]["ies"] and any("Strength x 100" in w for w in notes["no file"]["warnings"])
     assert not notes["behind a math node"]["ies"]
     assert any("IES Texture is evaluated per direction only" in w for w in notes["behind a math node"]["warnings"])
+
+
+def test_ies_textures_in_materials_render_as_cycles(tmp_path):
+    """An Emission whose Strength is 0.5 x an IES Texture (a Math node between), its Vector the point less (0, 0, 1.5)
+    on a plane filling the view, and the default Vector (Incoming in the object's frame) on a turned plane: block
+    relMSE to Cycles within 1e-4 (16 samples: only the pixel filter's draws differ), no warning."""
+    cases, _ = run_cases(tmp_path, ["materials"])
+    result = cases["materials"]
+    assert result["warnings"] == [], result
+    assert result["spread"] > 0.01 and result["cycles_mean"] > 0.01, result
+    assert result["rel_mse"] < 1e-4, result

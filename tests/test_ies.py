@@ -159,3 +159,58 @@ def test_lamps_scaled_by_a_profile_agree_between_kernels(index):
         assert np.array_equal(hp.hit, hc.hit)
         assert np.allclose(hp.radiance, hc.radiance, rtol=1e-6, atol=1e-12)
         assert hp.radiance[hp.hit].max() > 0.0
+
+
+# ------------------------------------------------------------------------------------------------
+# The IES Texture as a node of a material's graph (core/materials/converters/ies_texture.py)
+# ------------------------------------------------------------------------------------------------
+
+def ies_node(profile, strength=0.05, **inputs):
+    """A Link to the Fac of an IES Texture node of `profile` (None: a file Cycles could not read)."""
+    from core.materials.converters.ies_texture import ies_props
+    from core.materials.graph import GraphNode, Link
+    return Link(GraphNode("IES_TEXTURE", ies_props(profile), dict(inputs, Strength=strength)), "Fac")
+
+
+def emitting_plane(link, matrix=None):
+    """test_procedural's plane emitting `link` (SIZE x SIZE pixels seen from above), placed by `matrix`."""
+    from test_procedural import plane_scene
+    scene = plane_scene(link)
+    if matrix is not None:
+        scene.instances[0].matrix = matrix
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_the_node_gives_strength_times_the_profile_along_its_vector(kernels):
+    """An Emission of the IES Texture's Fac with its Vector the pixel's snapped point (x, y in -2..2, z 0.375): each
+    pixel is Strength x ies_fac there (Python and C to rounding); a file Cycles cannot read gives Strength x 100."""
+    from test_procedural import shoot, snapped_points, snapped_vector
+    profile = ies.parse_ies(open(TEST_FILE).read())
+    fac = shoot(ies_node(profile, Vector=snapped_vector()), kernels)
+    expected = ies.ies_fac(profile, 0.05, snapped_points().reshape(-1, 3).astype(np.float64)).reshape(fac.shape[:2])
+    np.testing.assert_allclose(fac, np.repeat(expected[..., None], 3, axis=2), rtol=1e-6, atol=1e-9)
+    assert expected.std() > 0.01
+    np.testing.assert_allclose(shoot(ies_node(None, Vector=snapped_vector()), kernels), 5.0, rtol=1e-12)
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_the_default_vector_is_the_incoming_direction_in_the_objects_frame(kernels):
+    """Unlinked, the Vector is Cycles' Geometry > Incoming taken to object space as a normal (the transposed object
+    matrix): on a plane turned 50 degrees about x and 30 about z, seen straight down, every pixel is Strength x the
+    profile along R^T (0, 0, 1)."""
+    from test_procedural import plane_scene  # noqa: F401 (the plane)
+    from core import render
+    from core.scene import RenderSettings
+    profile = ies.parse_ies(open(TEST_FILE).read())
+    a, b = math.radians(50.0), math.radians(30.0)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]])
+    rz = np.array([[math.cos(b), -math.sin(b), 0.0], [math.sin(b), math.cos(b), 0.0], [0.0, 0.0, 1.0]])
+    matrix = np.eye(4)
+    matrix[:3, :3] = rz @ rx
+    scene = emitting_plane(ies_node(profile), matrix)
+    image = render.render(scene, RenderSettings(width=8, height=8, samples=1, kernels=kernels)).image[..., :3]
+    expected = ies.ies_fac(profile, 0.05, (matrix[:3, :3].T @ [0.0, 0.0, 1.0])[None])[0]
+    seen = image[image[..., 0] > 0.0]
+    assert len(seen) > 8 and expected > 0.05
+    np.testing.assert_allclose(seen, expected, rtol=1e-9)
