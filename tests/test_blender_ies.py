@@ -64,7 +64,7 @@ def rel_mse(a, b):
     return float(np.mean((ba - bb) ** 2 / (bb ** 2 + 0.01)))
 
 
-def lamp(kind, location, energy, rotation, mode, strength, scale=(1.0, 1.0, 1.0), **settings):
+def lamp(kind, location, energy, rotation, mode, strength, scale=(1.0, 1.0, 1.0), through_math=False, **settings):
     data = bpy.data.lights.new("Lamp", kind)
     data.energy = energy
     for name, value in settings.items():
@@ -83,7 +83,20 @@ def lamp(kind, location, energy, rotation, mode, strength, scale=(1.0, 1.0, 1.0)
     else:
         node.filepath = {ies_file!r}
     node.inputs["Strength"].default_value = strength
-    tree.links.new(node.outputs["Fac"], emission.inputs["Strength"])
+    if through_math:                     # Strength = Fac x 0.6 + 0 (a Multiply Add), Color a Mix of constants
+        math_node = tree.nodes.new("ShaderNodeMath")
+        math_node.operation = "MULTIPLY_ADD"
+        math_node.inputs[1].default_value, math_node.inputs[2].default_value = 0.6, 0.0
+        tree.links.new(node.outputs["Fac"], math_node.inputs[0])
+        tree.links.new(math_node.outputs[0], emission.inputs["Strength"])
+        mix = tree.nodes.new("ShaderNodeMix")
+        mix.data_type = "RGBA"
+        mix.inputs["A"].default_value = (0.0, 0.0, 0.0, 1.0)
+        mix.inputs["B"].default_value = (0.9, 0.5, 0.3, 1.0)
+        mix.inputs["Factor"].default_value = 0.7
+        tree.links.new(mix.outputs["Result"], emission.inputs["Color"])
+    else:
+        tree.links.new(node.outputs["Fac"], emission.inputs["Strength"])
     return obj
 
 
@@ -162,6 +175,9 @@ cases = {{}}
 for name in {cases!r}:
     if name == "materials":
         material_case(name)
+    elif name == "point through nodes":
+        case(name, "POINT", (0.2, 0.1, 1.1), 100.0, (0.4, 0.1, 0.3), "INTERNAL", 1.0, through_math=True,
+             shadow_soft_size=0.0)
     elif name == "point":
         case(name, "POINT", (0.0, 0.0, 1.0), 100.0, (0.0, 0.0, 0.0), "INTERNAL", 1.0, shadow_soft_size=0.0)
     elif name == "turned round point":
@@ -199,6 +215,8 @@ multiply.operation = "MULTIPLY"
 tree.links.new(ies_node.outputs["Fac"], multiply.inputs[0])
 tree.links.new(multiply.outputs[0], emission.inputs["Strength"])
 exported_notes("behind a math node")
+multiply.operation = "POWER"
+exported_notes("behind a power node")
 primer.unregister()             # bpy 4.2 crashes at exit while a Python RenderEngine is registered
 report(cases=cases, notes=notes)
 """
@@ -215,7 +233,8 @@ def test_ies_lamps_render_as_cycles_within_its_own_noise(tmp_path):
     """Point (radius 0, turned with a radius and read from the file, turned and scaled non-uniformly), spot, area and
     sun lamps with an IES Texture on their Emission Strength match Cycles: block relMSE within Cycles' own
     seed-to-seed noise (x 3, as Primer's samples are another draw)."""
-    cases, notes = run_cases(tmp_path, ["point", "turned round point", "scaled point", "spot", "area", "sun"])
+    cases, notes = run_cases(tmp_path, ["point", "turned round point", "scaled point", "spot", "area", "sun",
+                                        "point through nodes"])
     for name, result in cases.items():
         assert result["ies"], name
         assert result["warnings"] == [], (name, result["warnings"])
@@ -224,8 +243,10 @@ def test_ies_lamps_render_as_cycles_within_its_own_noise(tmp_path):
     assert notes["vector linked"]["ies"]
     assert any("'Vector'" in w and "direction from the lamp" in w for w in notes["vector linked"]["warnings"])
     assert notes["no file"]["ies"] and any("Strength x 100" in w for w in notes["no file"]["warnings"])
-    assert not notes["behind a math node"]["ies"]
-    assert any("IES Texture is evaluated per direction only" in w for w in notes["behind a math node"]["warnings"])
+    assert notes["behind a math node"]["ies"]           # (a Multiply: linear in the Fac, evaluated per direction)
+    assert not any("per direction only" in w for w in notes["behind a math node"]["warnings"])
+    assert not notes["behind a power node"]["ies"]
+    assert any("IES Texture is evaluated per direction only" in w for w in notes["behind a power node"]["warnings"])
 
 
 def test_ies_textures_in_materials_render_as_cycles(tmp_path):
