@@ -184,6 +184,9 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeParticleInfo": "PARTICLE_INFO",
                "ShaderNodePointInfo": "POINT_INFO", "ShaderNodeVolumeInfo": "VOLUME_INFO",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
+# Nodes bpy creates that Cycles has no node for (EEVEE's only): Cycles' sync drops them and what they feed keeps its
+# own value, as in Primer. The legacy Squeeze Value has only a GPU function (node_shader_squeeze.cc).
+EEVEE_ONLY = frozenset({"ShaderNodeSqueeze"})
 # How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
 CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
 # Legacy socket names -> the core's.
@@ -258,6 +261,11 @@ class GraphReader:
         name = RENAMED.get(out.name, out.name)
         if kind == "ShaderNodeMixRGB" and name == "Color":          # the legacy Mix's output is the Mix's Result
             name = "Result"
+        if kind in EEVEE_ONLY:
+            self.reader.warn(node, f"'{node.bl_label}' is EEVEE's only: Cycles drops it, and as Cycles, for "
+                                   f"'{consumer.name}' of '{consumer.node.name}' Primer uses that input's own value "
+                                   f"{_shown(consumer)}")
+            return own_value(consumer)
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
