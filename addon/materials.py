@@ -609,18 +609,8 @@ class GraphReader:
         mapping = getattr(node, "texture_mapping", None)
         if mapping is not None and not identity_mapping(mapping):
             vector = inputs.get("Vector")
-            if not isinstance(vector, Link) and graph_.INCOMING_OBJECT in [d for n, _, d in texture.inputs if n == "Vector"]:
-                vector = incoming_object()                          # (the IES Texture's default)
             inputs["Vector"] = mapped_vector(mapping, vector if isinstance(vector, Link) else None, "Generated", warn)
         return props, inputs
-
-
-def incoming_object() -> Link:
-    """Cycles' default Vector of an IES Texture (LINK_TEXTURE_INCOMING) as graph nodes: Geometry > Incoming taken
-    from world to object space as a normal (graph.INCOMING_OBJECT)."""
-    incoming = Link(GraphNode("GEOMETRY", {}, {}), "Incoming")
-    return Link(GraphNode("VECTOR_TRANSFORM", {"type": "NORMAL", "from": "WORLD", "to": "OBJECT"},
-                          {"Vector": incoming}), "Vector")
 
 
 def ies_text(node) -> str:

@@ -1,5 +1,6 @@
-"""IES light profiles (core/materials/ies.py, ies.c; lamps: core/lights/ies.py): Cycles' reading of an LM-63 file, its interpolation, and lamps
-scaled by a profile, against closed forms and between the two kernels."""
+"""IES light profiles (core/materials/ies.py, ies.c; lamps: core/lights/ies.py; the node:
+core/materials/converters/ies_texture.py): Cycles' reading of an LM-63 file, its interpolation, lamps scaled by a
+profile and the IES Texture node in a material, against closed forms and between the two kernels."""
 from __future__ import annotations
 
 import math
@@ -199,7 +200,6 @@ def test_the_default_vector_is_the_incoming_direction_in_the_objects_frame(kerne
     """Unlinked, the Vector is Cycles' Geometry > Incoming taken to object space as a normal (the transposed object
     matrix): on a plane turned 50 degrees about x and 30 about z, seen straight down, every pixel is Strength x the
     profile along R^T (0, 0, 1)."""
-    from test_procedural import plane_scene  # noqa: F401 (the plane)
     from core import render
     from core.scene import RenderSettings
     profile = ies.parse_ies(open(TEST_FILE).read())

@@ -1,5 +1,5 @@
-/* IES light profiles: core/materials/ies.py's evaluation (Cycles' kernel_ies_interp and svm_node_ies). A profile's table
- * holds its h angles, its v angles (radians, ascending), then its intensity by h then v (ies.table). Lamps
+/* IES light profiles: core/materials/ies.py's evaluation (Cycles' kernel_ies_interp and svm_node_ies). A profile's
+ * table holds its h angles, its v angles (radians, ascending), then its intensity by h then v (ies.table). Lamps
  * (core/lights/ies.c) and the IES Texture op of the node graphs (converters/ies_texture.c) evaluate profiles here. */
 
 /* Cycles' cubic_interp: the Catmull-Rom cubic through b (x = 0) and c (x = 1), with neighbours a and d. */
