@@ -21,7 +21,8 @@ from ..core.geometry import islands as islands_
 from ..core.geometry import pointiness as pointiness_
 from ..core.geometry import points as points_
 from ..core.lights import World, world_graph
-from ..core.lights import ies as ies_
+from ..core.materials import ies as ies_
+from ..core.lights.ies import IESLamp
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
@@ -482,7 +483,7 @@ def _light_color(light) -> np.ndarray:
 # fed only by them is a constant, which Primer evaluates once (light_node_factor).
 CONSTANT_KINDS = frozenset({"RGB", "VALUE", "MATH", "MIX", "RAMP", "INVERT", "HSV", "SEPARATE_COLOR", "SEPARATE_XYZ",
                             "COMBINE_COLOR", "COMBINE_XYZ", "CLAMP", "MAP_RANGE", "SCALE"}
-                           | {cls.kind for cls in graph_.CONVERTER_TYPES})
+                           | {cls.kind for cls in graph_.CONVERTER_TYPES if cls.kind != "IES_TEXTURE"})
 
 
 def light_node_factor(obj, warnings: list) -> np.ndarray:
@@ -493,10 +494,12 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
     use one only with Use Nodes on). Primer reads an Emission node at the Light Output as Cycles does, its
     Color x Strength, so a default tree changes nothing; inputs fed by nodes that depend on nothing but constants
     (a Blackbody, a Math, a Mix of colours...: CONSTANT_KINDS) are evaluated once, by the node-graph program the
-    materials use. An IES Texture whose Fac feeds the Strength counts 1 here: the lamp's IESLamp (light_ies) scales its
-    light per direction. Nothing at the output: Cycles' light sends no light (zeros, noted). Another shader there, or an
-    input fed by a node that varies over the lamp (a texture, texture coordinates, a Light Path) is warned about,
-    naming the light and the node, and Primer uses the light's colour and power (or the input's own value).
+    materials use. Where the Emission's Color x Strength is the Fac of one IES Texture times a constant colour (the
+    Fac straight into the Strength, or through Math, Mix ... nodes linear in it: lamp_ies_wiring), this returns that
+    colour: the lamp's IESLamp (light_ies) scales its light by the Fac per direction. Nothing at the output: Cycles'
+    light sends no light (zeros, noted). Another shader there, or an input fed by a node that varies over the lamp
+    (a texture, texture coordinates, a Light Path, an IES Texture not so wired) is warned about, naming the light and
+    the node, and Primer uses the light's colour and power (or the input's own value).
     """
     tree = materials_.node_tree(obj.data)
     if tree is None:
@@ -511,12 +514,14 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
         reader.warn(node, f"'{node.bl_label}' at the Light Output is not an Emission node; Primer uses the "
                           "light's colour and power")
         return np.ones(3)
-    ies = ies_node(obj) is not None         # (its Fac, the Strength, is the lamp's IESLamp: light_ies)
+    wiring = lamp_ies_wiring(obj)
+    if wiring is not None:
+        return wiring[1]
     linked = [name for name in ("Color", "Strength") if node.inputs.get(name) is not None
-              and node.inputs[name].is_linked and not (ies and name == "Strength")]
+              and node.inputs[name].is_linked]
     if linked:
         color = reader.input(node, "Color", np.ones(3))
-        strength = 1.0 if ies else reader.input(node, "Strength", 1.0)
+        strength = reader.input(node, "Strength", 1.0)
         feeding = graph_.links_under([(None, 1.0, {"color": color, "strength": strength})])
         varying = [link.node for link in feeding if link.node.kind not in CONSTANT_KINDS]
         if not varying:
@@ -527,42 +532,55 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
             reader.warn(node, f"input '{name}' is linked to '{socket.links[0].from_node.name}', which Primer does "
                               "not evaluate for lights (it varies over the lamp: "
                               f"'{varying[0].name or varying[0].kind}'); it uses the input's own value")
-    return reader.value(node, "Color", np.ones(3)) * (1.0 if ies else reader.value(node, "Strength", 1.0))
+    return reader.value(node, "Color", np.ones(3)) * reader.value(node, "Strength", 1.0)
+
+
+def lamp_ies_wiring(obj):
+    """The one arrangement of IES Textures in a lamp's tree Primer evaluates per direction: the Emission at the Light
+    Output whose Color x Strength is c x the Fac of one IES Texture, c a constant colour (the Fac straight into the
+    Strength, or through nodes of constants alone that are linear in it: a Multiply, a Mix with black ...). Returns
+    (the bpy IES Texture node, c (3,) float64), or None. The Fac's place in the graph is tried with the values 0, 1
+    and 2.5 (the node-graph program the materials use, once each): linear where they give 0, c and 2.5 c."""
+    tree = materials_.node_tree(obj.data)
+    emission = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight")) if tree else None
+    if emission is None or emission.bl_idname != "ShaderNodeEmission":
+        return None
+    reader = materials_.NodeReader(obj, [], kind="light")
+    color, strength = reader.input(emission, "Color", np.ones(3)), reader.input(emission, "Strength", 1.0)
+    graph = [(None, 1.0, {"color": color, "strength": strength})]
+    ies = {id(link.node): link.node for link in graph_.links_under(graph) if link.node.kind == "IES_TEXTURE"}
+    if len(ies) != 1:
+        return None
+    found = next(iter(ies.values()))
+    kind, props, inputs = found.kind, found.props, found.inputs
+    try:
+        found.inputs = {}                       # (what feeds its Vector or Strength is warned about, not evaluated)
+        if any(link.node.kind not in CONSTANT_KINDS and link.node is not found for link in graph_.links_under(graph)):
+            return None
+    finally:
+        found.inputs = inputs
+    bpy_node = tree.nodes.get(found.name)
+    if bpy_node is None or bpy_node.bl_idname != "ShaderNodeTexIES" or getattr(bpy_node, "mute", False):
+        return None
+    values = []
+    try:
+        for fac in (0.0, 1.0, 2.5):
+            found.kind, found.props, found.inputs = "VALUE", {"value": fac}, {}
+            value = world_graph.radiance_along(world_graph.compile_world(color, strength), np.array([[0.0, 0.0, 1.0]]))
+            values.append(np.asarray(value[0], np.float64))
+    finally:
+        found.kind, found.props, found.inputs = kind, props, inputs
+    zero, one, more = values
+    if not (np.all(np.isfinite(values)) and np.allclose(zero, 0.0, atol=1e-12)
+            and np.allclose(more, 2.5 * one, rtol=1e-6, atol=1e-12)):   # (float32 nodes)
+        return None
+    return bpy_node, one
 
 
 def ies_node(obj):
-    """The IES Texture whose Fac feeds the Emission Strength at the light's Light Output (through reroutes), or None:
-    the one arrangement of an IES Texture in a lamp's tree Primer evaluates per direction (light_ies)."""
-    tree = materials_.node_tree(obj.data)
-    if tree is None:
-        return None
-    emission = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight"))
-    if emission is None or emission.bl_idname != "ShaderNodeEmission" or emission.inputs.get("Strength") is None:
-        return None
-    socket = emission.inputs["Strength"]
-    source = materials_.linked_node_of(socket)
-    link = socket.links[0] if socket.is_linked and socket.links else None
-    if (source is None or source.bl_idname != "ShaderNodeTexIES" or getattr(source, "mute", False)
-            or link is None or getattr(link, "is_muted", False)):
-        return None
-    return source
-
-
-def ies_text(node) -> str:
-    """The IES file's text an IES Texture names, as Cycles reads it: its Text datablock (Internal) or its file
-    (External, relative to the .blend); "\n" (a file Cycles cannot read) where there is none."""
-    if node.mode == "EXTERNAL":
-        import bpy
-        library = getattr(node.id_data, "library", None)
-        path = bpy.path.abspath(node.filepath, library=library) if node.filepath else ""
-        try:
-            with open(path, encoding="latin-1") as handle:
-                return handle.read() or "\n"
-        except OSError:
-            return "\n"
-    text = node.ies
-    content = text.as_string() if text is not None else ""
-    return content or "\n"
+    """The IES Texture Primer evaluates per direction in a lamp's tree (lamp_ies_wiring), or None."""
+    wiring = lamp_ies_wiring(obj)
+    return None if wiring is None else wiring[0]
 
 
 def light_ies(obj, matrix: np.ndarray, warnings: list):
@@ -571,17 +589,19 @@ def light_ies(obj, matrix: np.ndarray, warnings: list):
     Cycles evaluates the lamp's shader for each light sample; the IES Texture there gives Strength x the profile in
     the direction of its Vector, by default Geometry > Incoming taken into the lamp object's frame by the normal
     transform (the transposed object matrix): the direction from the lamp to the lit point in its own axes. Primer
-    evaluates it so where its Fac feeds the Emission Strength straight (ies_node); a linked Vector or Strength is
-    warned about (Primer uses the default direction, the input's own value), as is an IES Texture anywhere else in
-    the tree (its node is then read as the materials read it: not evaluated, the input's own value).
+    evaluates it so where the Emission is a constant colour times its Fac (lamp_ies_wiring: straight into the
+    Strength, or through nodes linear in it); a linked Vector or Strength is warned about (Primer uses the default
+    direction, the input's own value), as is an IES Texture wired otherwise (not evaluated: a lamp's tree is not run
+    per direction; its node is read as the materials read it for the rest).
     """
     node = ies_node(obj)
     tree = materials_.node_tree(obj.data)
     reader = materials_.NodeReader(obj, warnings, kind="light")
     for other in (tree.nodes if tree is not None else ()):
         if other.bl_idname == "ShaderNodeTexIES" and other != node and any(s.is_linked for s in other.outputs):
-            reader.warn(other, "an IES Texture is evaluated per direction only with its Fac linked straight to the "
-                               "Emission Strength at the Light Output; here Primer does not evaluate it")
+            reader.warn(other, "an IES Texture is evaluated per direction only where the lamp's Emission is a "
+                               "constant colour times its Fac (straight into the Strength, or through nodes linear "
+                               "in it); here Primer does not evaluate it")
     if node is None:
         return None
     for name, instead in (("Vector", "the direction from the lamp in its own frame (Cycles' default)"),
@@ -590,12 +610,12 @@ def light_ies(obj, matrix: np.ndarray, warnings: list):
         if socket is not None and socket.is_linked:
             reader.warn(node, f"input '{name}' of the IES Texture is linked, which Primer does not evaluate; it uses "
                               f"{instead}")
-    profile = ies_.parse_ies(ies_text(node))
+    profile = ies_.parse_ies(materials_.ies_text(node))
     if profile is None:
         reader.warn(node, "its IES file could not be read (none given, missing or not LM-63); as in Cycles, the "
                           "IES Texture gives Strength x 100 in every direction")
     strength = float(materials_.own_value(node.inputs["Strength"]))
-    return ies_.IESLamp(profile, strength, np.ascontiguousarray(np.asarray(matrix, np.float64)[:3, :3].T))
+    return IESLamp(profile, strength, np.ascontiguousarray(np.asarray(matrix, np.float64)[:3, :3].T))
 
 
 # The rays of Object > Visibility > Ray Visibility that Primer does not hide an object from (it reads Camera,

@@ -22,6 +22,7 @@ import numpy as np
 from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
 from ..core.materials import hair as hair_
+from ..core.materials import ies as ies_
 from ..core.materials import nodes as nodes_
 from ..core.materials import sky as sky_
 from ..core.materials import subsurface as subsurface_
@@ -30,6 +31,7 @@ from ..core.geometry.geometry import OBJECT_INFO_WIDTH
 from ..core.materials.graph import GraphNode, Link
 from ..core.materials.converters import CONVERTER_BY_BLENDER
 from ..core.materials.converters.curves import CURVE_TABLE_SIZE, curve_table
+from ..core.materials.converters.ies_texture import ies_props
 from ..core.materials.procedural import TEXTURE_BY_BLENDER
 from ..core.materials.procedural import hash as hash_
 from ..core.volumes import VOLUME_BY_BLENDER
@@ -182,6 +184,9 @@ GRAPH_KINDS = {**{idname: cls.kind for idname, cls in CONVERTER_BY_BLENDER.items
                "ShaderNodeParticleInfo": "PARTICLE_INFO",
                "ShaderNodePointInfo": "POINT_INFO", "ShaderNodeVolumeInfo": "VOLUME_INFO",
                **{idname: cls.kind for idname, cls in TEXTURE_BY_BLENDER.items()}}
+# Nodes bpy creates that Cycles has no node for (EEVEE's only): Cycles' sync drops them and what they feed keeps its
+# own value, as in Primer. The legacy Squeeze Value has only a GPU function (node_shader_squeeze.cc).
+EEVEE_ONLY = frozenset({"ShaderNodeSqueeze"})
 # How many of a curve node's curves Cycles bakes (RGB Curves: R, G, B and the combined C applied first).
 CURVES_BAKED = {"ShaderNodeRGBCurve": 4, "ShaderNodeVectorCurve": 3, "ShaderNodeFloatCurve": 1}
 # Legacy socket names -> the core's.
@@ -256,6 +261,11 @@ class GraphReader:
         name = RENAMED.get(out.name, out.name)
         if kind == "ShaderNodeMixRGB" and name == "Color":          # the legacy Mix's output is the Mix's Result
             name = "Result"
+        if kind in EEVEE_ONLY:
+            self.reader.warn(node, f"'{node.bl_label}' is EEVEE's only: Cycles drops it, and as Cycles, for "
+                                   f"'{consumer.name}' of '{consumer.node.name}' Primer uses that input's own value "
+                                   f"{_shown(consumer)}")
+            return own_value(consumer)
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
@@ -563,6 +573,12 @@ class GraphReader:
             props, inputs = self.texture(node, path, graph_.DESCRIBED_BY_KIND[kind], warn)
             if node.bl_idname in CURVES_BAKED:
                 props["table"] = baked_curves(node.mapping, CURVES_BAKED[node.bl_idname])
+            if node.bl_idname == "ShaderNodeTexIES":          # its profile, read as Cycles reads it
+                profile = ies_.parse_ies(ies_text(node))
+                if profile is None:
+                    warn("its IES file could not be read (none given, missing or not LM-63); as in Cycles, the IES "
+                         "Texture gives Strength x 100 in every direction")
+                props.update(ies_props(profile))
         elif kind == "MAP_RANGE" and node.data_type == "FLOAT_VECTOR":
             kind = "MAP_RANGE_VECTOR"                               # core/materials/converters/map_range_vector.py
             props, inputs = self.texture(node, path, graph_.DESCRIBED_BY_KIND[kind], warn)
@@ -595,6 +611,23 @@ class GraphReader:
             vector = inputs.get("Vector")
             inputs["Vector"] = mapped_vector(mapping, vector if isinstance(vector, Link) else None, "Generated", warn)
         return props, inputs
+
+
+def ies_text(node) -> str:
+    """The IES file's text an IES Texture names, as Cycles reads it: its Text datablock (Internal) or its file
+    (External, relative to the .blend); "\n" (a file Cycles cannot read) where there is none."""
+    if node.mode == "EXTERNAL":
+        library = getattr(node.id_data, "library", None)
+        path = bpy.path.abspath(node.filepath, library=library) if node.filepath else ""
+        try:
+            with open(path, encoding="latin-1") as handle:
+                return handle.read() or "\n"
+        except OSError:
+            return "\n"
+    text = node.ies
+    content = text.as_string() if text is not None else ""
+    return content or "\n"
+
 
 
 def panorama_type(camera_data) -> str:

@@ -112,11 +112,11 @@ emission = tree2.nodes.new("ShaderNodeEmission")
 tree2.links.new(node.outputs["Color"], emission.inputs["Color"])
 tree2.links.new(emission.outputs[0], output2.inputs["Surface"])
 noisy, tree3, output3 = material("Noisy")
-noise = tree3.nodes.new("ShaderNodeTexIES")              # a texture Primer does not evaluate
+noise = tree3.nodes.new("ShaderNodeSqueeze")             # a node Primer does not evaluate (nor Cycles)
 noise.name = "Some Noise"
 principled = tree3.nodes.new("ShaderNodeBsdfPrincipled")
 principled.inputs["Roughness"].default_value = 0.25
-tree3.links.new(noise.outputs["Fac"], principled.inputs["Roughness"])
+tree3.links.new(noise.outputs["Value"], principled.inputs["Roughness"])
 tree3.links.new(principled.outputs[0], output3.inputs["Surface"])
 plane("A", mat)
 plane("B", missing, (2, 0, 0))

@@ -1,5 +1,6 @@
-"""IES light profiles (core/lights/ies.py, ies.c): Cycles' reading of an LM-63 file, its interpolation, and lamps
-scaled by a profile, against closed forms and between the two kernels."""
+"""IES light profiles (core/materials/ies.py, ies.c; lamps: core/lights/ies.py; the node:
+core/materials/converters/ies_texture.py): Cycles' reading of an LM-63 file, its interpolation, lamps scaled by a
+profile and the IES Texture node in a material, against closed forms and between the two kernels."""
 from __future__ import annotations
 
 import math
@@ -8,7 +9,9 @@ import os
 import numpy as np
 import pytest
 
-from core.lights import AreaLight, PointLight, SpotLight, SunLight, ies
+from core.lights import AreaLight, PointLight, SpotLight, SunLight
+from core.lights.ies import IESLamp
+from core.materials import ies
 from core.lights.base import compiled_hit, compiled_sample
 
 TEST_FILE = os.path.join(os.path.dirname(__file__), "data", "primer_test.ies")
@@ -128,7 +131,7 @@ def lamps():
     (Strength 1.3)."""
     frame = np.array([[0.8, -0.6, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
         [[1.0, 0.0, 0.0], [0.0, math.cos(0.4), -math.sin(0.4)], [0.0, math.sin(0.4), math.cos(0.4)]])
-    lamp = ies.IESLamp(ies.parse_ies(open(TEST_FILE).read()), 1.3, frame.T.copy())
+    lamp = IESLamp(ies.parse_ies(open(TEST_FILE).read()), 1.3, frame.T.copy())
     at = np.array([0.2, -0.1, 2.0])
     return [PointLight(at, 200.0, ies=lamp),
             SpotLight(at, -frame[:, 2], 200.0, radius=0.3, spot_size=2.0, frame=frame, ies=lamp),
@@ -157,3 +160,70 @@ def test_lamps_scaled_by_a_profile_agree_between_kernels(index):
         assert np.array_equal(hp.hit, hc.hit)
         assert np.allclose(hp.radiance, hc.radiance, rtol=1e-6, atol=1e-12)
         assert hp.radiance[hp.hit].max() > 0.0
+
+
+# ------------------------------------------------------------------------------------------------
+# The IES Texture as a node of a material's graph (core/materials/converters/ies_texture.py)
+# ------------------------------------------------------------------------------------------------
+
+def ies_node(profile, strength=0.05, **inputs):
+    """A Link to the Fac of an IES Texture node of `profile` (None: a file Cycles could not read)."""
+    from core.materials.converters.ies_texture import ies_props
+    from core.materials.graph import GraphNode, Link
+    return Link(GraphNode("IES_TEXTURE", ies_props(profile), dict(inputs, Strength=strength)), "Fac")
+
+
+def emitting_plane(link, matrix=None):
+    """test_procedural's plane emitting `link` (SIZE x SIZE pixels seen from above), placed by `matrix`."""
+    from test_procedural import plane_scene
+    scene = plane_scene(link)
+    if matrix is not None:
+        scene.instances[0].matrix = matrix
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_the_node_gives_strength_times_the_profile_along_its_vector(kernels):
+    """An Emission of the IES Texture's Fac with its Vector the pixel's snapped point (x, y in -2..2, z 0.375): each
+    pixel is Strength x ies_fac there (Python and C to rounding); a file Cycles cannot read gives Strength x 100."""
+    from test_procedural import shoot, snapped_points, snapped_vector
+    profile = ies.parse_ies(open(TEST_FILE).read())
+    fac = shoot(ies_node(profile, Vector=snapped_vector()), kernels)
+    expected = ies.ies_fac(profile, 0.05, snapped_points().reshape(-1, 3).astype(np.float64)).reshape(fac.shape[:2])
+    np.testing.assert_allclose(fac, np.repeat(expected[..., None], 3, axis=2), rtol=1e-6, atol=1e-9)
+    assert expected.std() > 0.01
+    np.testing.assert_allclose(shoot(ies_node(None, Vector=snapped_vector()), kernels), 5.0, rtol=1e-12)
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+def test_the_default_vector_is_the_incoming_direction_in_the_objects_frame(kernels):
+    """Unlinked, the Vector is Cycles' Geometry > Incoming taken to object space as a normal (the transposed object
+    matrix): on a plane turned 50 degrees about x and 30 about z, seen straight down, every pixel is Strength x the
+    profile along R^T (0, 0, 1)."""
+    from core import render
+    from core.scene import RenderSettings
+    profile = ies.parse_ies(open(TEST_FILE).read())
+    a, b = math.radians(50.0), math.radians(30.0)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(a), -math.sin(a)], [0.0, math.sin(a), math.cos(a)]])
+    rz = np.array([[math.cos(b), -math.sin(b), 0.0], [math.sin(b), math.cos(b), 0.0], [0.0, 0.0, 1.0]])
+    matrix = np.eye(4)
+    matrix[:3, :3] = rz @ rx
+    scene = emitting_plane(ies_node(profile), matrix)
+    image = render.render(scene, RenderSettings(width=8, height=8, samples=1, kernels=kernels)).image[..., :3]
+    expected = ies.ies_fac(profile, 0.05, (matrix[:3, :3].T @ [0.0, 0.0, 1.0])[None])[0]
+    seen = image[image[..., 0] > 0.0]
+    assert len(seen) > 8 and expected > 0.05
+    np.testing.assert_allclose(seen, expected, rtol=1e-9)
+
+
+def test_the_node_gives_the_same_fac_on_both_kernels():
+    """The IES Texture op in C (converters/ies_texture.c) and numpy agree to rounding (1e-12) at every pixel, for the
+    file and for a type B profile."""
+    from test_procedural import shoot, snapped_vector
+    rng = np.random.default_rng(5)
+    for profile in (ies.parse_ies(open(TEST_FILE).read()),
+                    ies.parse_ies(lm63([0, 30, 60, 90], [0, 45, 90], rng.uniform(1, 100, (3, 4)), kind=2))):
+        link = ies_node(profile, Vector=snapped_vector(-0.6))
+        compiled, reference = shoot(link, "compiled"), shoot(link, "numpy")
+        np.testing.assert_allclose(compiled, reference, rtol=1e-12, atol=1e-15)
+        assert reference.std() > 1e-3

@@ -409,8 +409,16 @@ def attributes_of(nodes: list) -> set:
         elif node.kind in DESCRIBED_BY_KIND:
             texture = DESCRIBED_BY_KIND[node.kind]
             names.update(default for name, _, default in texture.inputs
-                         if isinstance(default, str) and not isinstance(node.inputs.get(name), Link))
+                         if isinstance(default, str) and default not in COMPUTED_COORDINATES
+                         and not isinstance(node.inputs.get(name), Link))
     return names
+
+
+# The default coordinates of a described node's unlinked input that are computed at the hit, not read from the mesh
+# (Compiler.coordinate): "incoming_object", Cycles' LINK_TEXTURE_INCOMING (the IES Texture's Vector), Geometry >
+# Incoming taken from world to object space as a normal.
+INCOMING_OBJECT = "incoming_object"
+COMPUTED_COORDINATES = (INCOMING_OBJECT,)
 
 
 # The widths of the mesh attributes by name prefix.
@@ -509,6 +517,13 @@ class Compiler:
         offset, stored = self.layout.get(name, (-1, width))
         self.emit("ATTR", out, offset, min(width, stored), width)
         return out
+
+    def coordinate(self, name: str, width: int = 3) -> int:
+        """A register holding a described node's default coordinate `name`: INCOMING_OBJECT computed at the hit, any
+        other a mesh attribute (`attribute`)."""
+        if name == INCOMING_OBJECT:
+            return self.vector_transform(self.geometry("Incoming"), "NORMAL", "WORLD", "OBJECT")
+        return self.attribute(name, width)
 
     def geometry(self, output: str) -> int:
         """A register (3 floats) holding the Geometry op's `output` (GEOMETRY_OUTPUTS)."""
@@ -1017,7 +1032,7 @@ class Compiler:
         for name, width, default in texture.inputs:
             if isinstance(default, str):
                 source = inp.get(name)
-                registers.append(self.value(source, width) if isinstance(source, Link) else self.attribute(default, width))
+                registers.append(self.value(source, width) if isinstance(source, Link) else self.coordinate(default, width))
             else:
                 registers.append(self.value(inp.get(name), width, default))
         numbers = texture.numbers(props, output)

@@ -152,22 +152,23 @@
 #define OP_VECTOR_CURVES 40
 #define OP_FLOAT_CURVE 41
 #define OP_MAP_RANGE_VECTOR 42
-#define OP_FRESNEL 43
-#define OP_LAYER_WEIGHT 44
-#define OP_GEOMETRY 45
-#define OP_TRANSFORM 46
-#define OP_CAMERA_DATA 47
-#define OP_WIREFRAME 48
-#define OP_WINDOW 49
-#define OP_SKY 50
-#define OP_OBJECT_INFO 51
-#define OP_OBJECT_MATRIX 52
-#define OP_AO 53
-#define OP_BEVEL 54
-#define OP_PIXEL_SIZE 55
-#define OP_CURVE_NORMAL 56
-#define OP_SET_NORMAL 57
-#define OP_TANGENT_SPACE 58
+#define OP_IES_TEXTURE 43
+#define OP_FRESNEL 44
+#define OP_LAYER_WEIGHT 45
+#define OP_GEOMETRY 46
+#define OP_TRANSFORM 47
+#define OP_CAMERA_DATA 48
+#define OP_WIREFRAME 49
+#define OP_WINDOW 50
+#define OP_SKY 51
+#define OP_OBJECT_INFO 52
+#define OP_OBJECT_MATRIX 53
+#define OP_AO 54
+#define OP_BEVEL 55
+#define OP_PIXEL_SIZE 56
+#define OP_CURVE_NORMAL 57
+#define OP_SET_NORMAL 58
+#define OP_TANGENT_SPACE 59
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -229,6 +230,8 @@
 #define HAIR_PARAMETRIZATION_ABSORPTION 2
 /* sqrt(pi / 8), the azimuthal scale's factor (core.materials.hair) */
 #define HAIR_SQRT_PI_8 0.6266570686577501
+/* what an IES Texture without a readable file gives per unit Strength (Cycles' kernel_ies_interp without a table) (core.materials.ies) */
+#define IES_UNREAD_VALUE 100.0
 /* a Glossy, Glass or Refraction node's microfacet distribution (nodes.DISTRIBUTIONS) (core.materials.nodes) */
 #define DISTRIBUTION_GGX 0
 #define DISTRIBUTION_BECKMANN 1
@@ -427,13 +430,13 @@ typedef struct SampleLightArgs SampleLightArgs;
 typedef struct LightHitArgs LightHitArgs;
 typedef struct EmitterTables EmitterTables;
 typedef struct EmitterPickArgs EmitterPickArgs;
-typedef struct IESFacArgs IESFacArgs;
 typedef struct WorldTables WorldTables;
 typedef struct WorldGraph WorldGraph;
 typedef struct WorldBakeArgs WorldBakeArgs;
 typedef struct BsdfArgs BsdfArgs;
 typedef struct LightPath LightPath;
 typedef struct GraphTables GraphTables;
+typedef struct IESFacArgs IESFacArgs;
 typedef struct TextureTables TextureTables;
 typedef struct TextureLookupArgs TextureLookupArgs;
 typedef struct Sample2dArgs Sample2dArgs;
@@ -896,17 +899,6 @@ struct EmitterPickArgs {
     double *probability;                    /* (n,) */
 };
 
-/* primer_ies_fac's arguments: ies_fac for n vectors. */
-struct IESFacArgs {
-    const double *table;                    /* the profile's table (ies.table) */
-    int32_t h_num;
-    int32_t v_num;
-    double strength;                        /* the node's Strength */
-    int64_t n;
-    const double *vectors;                  /* (n, 3) the node's Vector */
-    double *fac;                            /* (n,) */
-};
-
 /* The world (core/lights/world.py World and WorldLight): a constant colour or an equirectangular image. */
 struct WorldTables {
     const float *image;                     /* (H, W, 3) linear radiance, or NULL for a constant world */
@@ -985,6 +977,17 @@ struct GraphTables {
     const double *programs;                 /* (p, 8) */
     const TextureTables *textures;          /* the images the programs read */
     int64_t count;                          /* p */
+};
+
+/* primer_ies_fac's arguments: ies_fac for n vectors. */
+struct IESFacArgs {
+    const double *table;                    /* the profile's table (ies.table) */
+    int32_t h_num;
+    int32_t v_num;
+    double strength;                        /* the node's Strength */
+    int64_t n;
+    const double *vectors;                  /* (n, 3) the node's Vector */
+    double *fac;                            /* (n,) */
 };
 
 /* A render's images (core/materials/textures.py TextureSet): the texels of each format in one buffer. */
@@ -1116,13 +1119,13 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(2679673540171007921);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
-    if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(5130133816351125659);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(2732799499925847699);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(7493939475877270732);
+    if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
@@ -1159,13 +1162,13 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "LightHitArgs") == 0) return (int64_t)sizeof(LightHitArgs);
     if (strcmp(name, "EmitterTables") == 0) return (int64_t)sizeof(EmitterTables);
     if (strcmp(name, "EmitterPickArgs") == 0) return (int64_t)sizeof(EmitterPickArgs);
-    if (strcmp(name, "IESFacArgs") == 0) return (int64_t)sizeof(IESFacArgs);
     if (strcmp(name, "WorldTables") == 0) return (int64_t)sizeof(WorldTables);
     if (strcmp(name, "WorldGraph") == 0) return (int64_t)sizeof(WorldGraph);
     if (strcmp(name, "WorldBakeArgs") == 0) return (int64_t)sizeof(WorldBakeArgs);
     if (strcmp(name, "BsdfArgs") == 0) return (int64_t)sizeof(BsdfArgs);
     if (strcmp(name, "LightPath") == 0) return (int64_t)sizeof(LightPath);
     if (strcmp(name, "GraphTables") == 0) return (int64_t)sizeof(GraphTables);
+    if (strcmp(name, "IESFacArgs") == 0) return (int64_t)sizeof(IESFacArgs);
     if (strcmp(name, "TextureTables") == 0) return (int64_t)sizeof(TextureTables);
     if (strcmp(name, "TextureLookupArgs") == 0) return (int64_t)sizeof(TextureLookupArgs);
     if (strcmp(name, "Sample2dArgs") == 0) return (int64_t)sizeof(Sample2dArgs);

@@ -73,11 +73,6 @@ EXPORT void primer_emitter_pick_probability(EmitterPickArgs *a)
     emitter_pick_probability_rows(a);
 }
 
-EXPORT void primer_ies_fac(IESFacArgs *a)
-{
-    ies_fac_rows(a);
-}
-
 EXPORT void primer_world_bake(WorldBakeArgs *a)
 {
     world_bake_rows(a);
@@ -86,6 +81,11 @@ EXPORT void primer_world_bake(WorldBakeArgs *a)
 EXPORT void primer_bsdf(BsdfArgs *a)
 {
     bsdf_rows(a);
+}
+
+EXPORT void primer_ies_fac(IESFacArgs *a)
+{
+    ies_fac_rows(a);
 }
 
 EXPORT void primer_texture_lookup(TextureLookupArgs *a)

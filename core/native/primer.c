@@ -15,7 +15,8 @@
 #include "../volumes/phase.c"           /* the phase functions (media.c, volume.c; HG: subsurface.c) */
 #include "../volumes/media.c"           /* homogeneous media: the volume stack, Beer-Lambert, media emission */
 #include "../lights/lights.h"
-#include "../lights/ies.c"             /* IES light profiles: Cycles' interpolation of a lamp's IES Texture */
+#include "../materials/ies.c"          /* IES light profiles: Cycles' reading and interpolation (lamps and node graphs) */
+#include "../lights/ies.c"             /* a lamp's IES Texture in the lamp's frame */
 #include "../lights/lights.c"           /* every light's C file, through the generated table lights.gen.c */
 #include "../materials/bsdf.h"
 #include "../materials/tables.c"        /* the GGX albedo tables and the lookups of every table */

@@ -1,6 +1,6 @@
 """Converter and colour nodes (Cycles' Vector Math, Vector Rotate, Gamma, Brightness/Contrast, RGB to BW, Blackbody,
 Wavelength, Separate and Combine Color in RGB, HSV and HSL, RGB Curves, Vector Curves, Float Curve, the vector Map
-Range), one class and one
+Range, the IES Texture), one class and one
 C file each, described as the procedural textures are (core/materials/procedural).
 
 Adding one is one class (a `base.ConverterNode`: its Blender node, inputs, outputs, settings, numpy `evaluate` in
@@ -18,6 +18,7 @@ from .bright_contrast import BrightContrast
 from .combine_color import CombineColor
 from .float_curve import FloatCurve
 from .gamma import Gamma
+from .ies_texture import IESTexture
 from .map_range_vector import MapRangeVector
 from .rgb_curves import RGBCurves
 from .rgb_to_bw import RGBToBW
@@ -28,7 +29,7 @@ from .vector_rotate import VectorRotate
 from .wavelength import Wavelength
 
 CONVERTER_TYPES = (VectorMath, VectorRotate, Gamma, BrightContrast, RGBToBW, Blackbody, Wavelength, SeparateColor,
-                   CombineColor, RGBCurves, VectorCurves, FloatCurve, MapRangeVector)
+                   CombineColor, RGBCurves, VectorCurves, FloatCurve, MapRangeVector, IESTexture)
 # The C headers the converters' C files share, included first.
 SHARED_C = ("color.h", "curves.h")
 

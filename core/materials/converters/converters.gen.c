@@ -124,6 +124,7 @@ static const float XYZ_TO_RGB[9] = {   /* Wavelength */
 #include "vector_curves.c"
 #include "float_curve.c"
 #include "map_range_vector.c"
+#include "ies_texture.c"
 
 /* A converter's op at one hit (graph.run_program's ops past its own and the textures'): a[0] the output
  * block, then the input registers and the numbers, as the class describes them; tables: the program's
@@ -145,6 +146,7 @@ INLINE int converter_op(int code, const int *a, double *reg, const double *table
     case OP_VECTOR_CURVES: vector_curves_texture(a, reg, tables); return 1;
     case OP_FLOAT_CURVE: float_curve_texture(a, reg, tables); return 1;
     case OP_MAP_RANGE_VECTOR: map_range_vector_texture(a, reg); return 1;
+    case OP_IES_TEXTURE: ies_texture_texture(a, reg, tables); return 1;
     default: return 0;
     }
 }
