@@ -268,9 +268,9 @@ def light_table() -> str:
                    for cls in LIGHT_TYPES)
     return (NOTICE.format(source="core/lights/__init__.py LIGHT_TYPES")
             + "\n/* Each light's C file (its <name>_sample and <name>_hit). */\n" + includes
-            + "\n/* Light.sample through the table: light from `light` arriving at P for the unit-square numbers u (and\n"
-              " * u[2], a pick); ctx: the emitters' and the world's tables; N: the normal a light tree weighs by (NULL or\n"
-              " * zero: unknown). A kind outside the table sends nothing. */\n"
+            + "\n/* Light.sample through the table: light from `light` arriving at P for the unit-square point u (2);\n"
+              " * ctx: the emitters' and the world's tables; N: the normal a light tree weighs by (NULL or zero: unknown).\n"
+              " * A kind outside the table sends nothing. */\n"
               "INLINE void sample_light(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,\n"
               "                         const double *u, LightSample *out)\n"
               "{\n    out->hidden = 0;\n    switch (light->kind) {\n" + samples + "    default: break;\n    }\n"

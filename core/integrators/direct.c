@@ -235,7 +235,6 @@ typedef struct {
     double P[3][BLOCK], N[3][BLOCK], Ng[3][BLOCK], lifted[3][BLOCK];
     double offset[BLOCK], smooth[BLOCK], through[BLOCK], cutoff[BLOCK];
     double albedo[3][BLOCK], lambert[BLOCK];     /* the hit's one Lambert closure, where it has just that */
-    double u2[BLOCK];                            /* a third number (an emitter's pick) */
     double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK], color[3][BLOCK], pdf[BLOCK];
     double origin[3][BLOCK], D[3][BLOCK], t[BLOCK], weight[BLOCK];
     double keep[BLOCK];                          /* 1: the ray can carry light */
@@ -313,7 +312,7 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
         }
     } else {
         for (int64_t k = 0; k < b->n; k++) {
-            double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[3] = {b->u[0][k], b->u[1][k], b->u2[k]};
+            double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, u[2] = {b->u[0][k], b->u[1][k]};
             /* (the light tree's normal, direct.tree_normals: unknown where a closure lets light through) */
             double N[3] = {b->N[0][k], b->N[1][k], b->N[2][k]};
             if (b->through[k] != 0.0) N[0] = N[1] = N[2] = 0.0;
@@ -842,13 +841,8 @@ INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *em
             if (light->delta == 0.0) {
                 sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + ds->dimension), b.pixel, b.index,
                              b.u[0], b.u[1]);
-                if (light->numbers == 3) {                /* a third number: the pick of one of its parts */
-                    double unused[BLOCK];
-                    sample_lanes(b.n, stream_of((int64_t)ds->seed, (int64_t)light->dimension + 2 + ds->dimension), b.pixel, b.index,
-                                 b.u2, unused);
-                }
             } else {
-                for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = b.u2[k] = 0.0;
+                for (int64_t k = 0; k < b.n; k++) b.u[0][k] = b.u[1][k] = 0.0;
             }
             light_block(&b, light, ds->context);
             if (light->hidden != 0)                      /* a lamp's Ray Visibility: closures it leaves out */

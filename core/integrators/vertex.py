@@ -26,7 +26,7 @@ from .. import materials as materials_
 from ..geometry.intersect import Hits
 from ..geometry.surface import surface_at_hits
 from ..lights import linking
-from ..lights.base import LAMP, LightFlags
+from ..lights.base import LAMP, LightFlags, light_dimension
 from ..native import schema
 from ..materials import graph as graph_
 from ..sampling import sobol as sampling
@@ -751,20 +751,11 @@ def light_count(ctx: Context, light) -> int:
 
 def light_numbers(ctx: Context, light, index: int, pixel: np.ndarray, number: np.ndarray, m: int,
                   offset: int = 0) -> np.ndarray:
-    """The light's unit-square numbers for m samples (and a third for lights that pick, e.g. a triangle):
-    zeros for a light without extent, the inspector's fixed point, or the light's progressive pattern
-    (its dimensions shifted by `offset` at a path's later vertices)."""
-    width = getattr(light, "random_numbers", 2)
+    """The light's unit-square numbers (m, 2) float64 for m samples: zeros for a light without extent, the
+    inspector's fixed point, or the light's progressive pattern (its dimensions shifted by `offset` at a path's
+    later vertices)."""
     if light.delta:
-        return np.zeros((m, width))
+        return np.zeros((m, 2))
     if ctx.light_numbers is not None:
-        fixed = np.zeros(width)
-        fixed[:2] = np.asarray(ctx.light_numbers[index], np.float64)
-        fixed[2:] = 0.5
-        return np.broadcast_to(fixed, (m, width))
-    dimension = 16 + 4 * index + offset
-    u = sampling.sample_2d(ctx.settings.seed, pixel, number, dimension=dimension)
-    if width == 2:
-        return u
-    pick = sampling.sample_2d(ctx.settings.seed, pixel, number, dimension=dimension + 2)[:, :1]
-    return np.concatenate([u, pick], axis=1)
+        return np.broadcast_to(np.asarray(ctx.light_numbers[index], np.float64), (m, 2))
+    return sampling.sample_2d(ctx.settings.seed, pixel, number, dimension=light_dimension(index) + offset)

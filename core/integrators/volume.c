@@ -77,18 +77,10 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
         if (ds->sampling == SAMPLE_BSDF && extent && light->use_mis != 0 && hittable) continue;
         int64_t count = (int64_t)light->samples;
         for (int64_t j = 0; j < count; j++) {
-            double u[3] = {0.0, 0.0, 0.0};
-            if (extent) {
-                int64_t number = sample * count + j;
+            double u[2] = {0.0, 0.0};
+            if (extent)
                 sample_2d(stream_of((int64_t)ds->seed, (int64_t)light->dimension + dimension + LIGHT_SHIFT), pixel,
-                          number, u);
-                if (light->numbers == 3) {
-                    double pick[2];
-                    sample_2d(stream_of((int64_t)ds->seed, (int64_t)light->dimension + 2 + dimension + LIGHT_SHIFT),
-                              pixel, number, pick);
-                    u[2] = pick[0];
-                }
-            }
+                          sample * count + j, u);
             LightSample ls;
             ls.emitter = -1;
             sample_light(light, ds->context, P, zero, u, &ls);

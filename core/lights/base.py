@@ -106,7 +106,6 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("kind", I32, "its place in core/lights/__init__.py's LIGHT_TYPES: LIGHT_*"),
     ("samples", I32, "light samples per camera sample (1 for lights without extent)"),
     ("dimension", I64, "the sampling dimension of its pattern: 16 + 4 index"),
-    ("numbers", I32, "random numbers per sample: 2, or 3 for a light that picks one of its parts"),
     ("delta", I32, "1: no extent (exact, one direction)"),
     ("hittable", I32, "1: rays can meet it (it has extent): BSDF rays find it, weighed by MIS"),
     ("camera", I32, "1: camera rays see it (Ray Visibility > Camera)"),
@@ -195,6 +194,9 @@ class Light:
                    and the `kind` field of its C record
     flags:         what it is (LightFlags)
     blender_type:  Blender's name of the light type ("POINT", "SPOT", "SUN", "AREA")
+
+    A light samples with 2 random numbers, a point of the unit square (`sample`'s u (n, 2)); a light made of parts
+    picks one with them too (the emitters' triangle by the first number, rescaled), never with a third.
     """
 
     kind: ClassVar[int] = -1
@@ -226,8 +228,6 @@ class Light:
     # Fields holding points (moved with the camera-relative origin) and the light's output.
     point_fields: ClassVar[tuple] = ()
     output_field: ClassVar[str] = "power"
-    # Random numbers per sample: a direction's two, and a third for a light that picks one of its parts.
-    random_numbers: ClassVar[int] = 2
 
     @property
     def delta(self) -> bool:
@@ -305,7 +305,7 @@ class Light:
     def pack(self, index: int, light_samples: int) -> LightRecord:
         """Return the light's C record: the fields every light has, then its own (`pack_fields`)."""
         record = LightRecord(kind=self.kind, delta=self.delta, samples=1 if self.delta else max(1, int(light_samples)),
-                             dimension=light_dimension(index), numbers=self.random_numbers,
+                             dimension=light_dimension(index),
                              color=np.asarray(self.color, np.float64)[:3], hittable=self.hittable,
                              camera=bool(getattr(self, "camera", True)), cast_shadow=bool(self.cast_shadow),
                              hidden=self.unseen_by, use_mis=bool(self.use_mis),

@@ -70,7 +70,6 @@ class MeshEmitters(Light):
 
     flags: ClassVar[LightFlags] = LightFlags.EMITTER
     blender_type: ClassVar[str] = "MESH"
-    random_numbers: ClassVar[int] = 2          # the direction's two; the first also picks the triangle
 
     @property
     def color(self) -> np.ndarray:

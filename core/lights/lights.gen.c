@@ -8,9 +8,9 @@
 #include "emitters.c"
 #include "world.c"
 
-/* Light.sample through the table: light from `light` arriving at P for the unit-square numbers u (and
- * u[2], a pick); ctx: the emitters' and the world's tables; N: the normal a light tree weighs by (NULL or
- * zero: unknown). A kind outside the table sends nothing. */
+/* Light.sample through the table: light from `light` arriving at P for the unit-square point u (2);
+ * ctx: the emitters' and the world's tables; N: the normal a light tree weighs by (NULL or zero: unknown).
+ * A kind outside the table sends nothing. */
 INLINE void sample_light(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
                          const double *u, LightSample *out)
 {

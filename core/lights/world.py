@@ -161,7 +161,6 @@ class WorldLight(Light):
 
     flags: ClassVar[LightFlags] = LightFlags.INFINITE
     blender_type: ClassVar[str] = "WORLD"
-    random_numbers: ClassVar[int] = 2
 
     @property
     def color(self) -> np.ndarray:

@@ -784,7 +784,6 @@ struct LightRecord {
     int32_t kind;                           /* its place in core/lights/__init__.py's LIGHT_TYPES: LIGHT_* */
     int32_t samples;                        /* light samples per camera sample (1 for lights without extent) */
     int64_t dimension;                      /* the sampling dimension of its pattern: 16 + 4 index */
-    int32_t numbers;                        /* random numbers per sample: 2, or 3 for a light that picks one of its parts */
     int32_t delta;                          /* 1: no extent (exact, one direction) */
     int32_t hittable;                       /* 1: rays can meet it (it has extent): BSDF rays find it, weighed by MIS */
     int32_t camera;                         /* 1: camera rays see it (Ray Visibility > Camera) */
@@ -1113,7 +1112,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(1710101175411747240);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(5404273518200151070);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
