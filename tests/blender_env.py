@@ -53,6 +53,17 @@ def keep_box_filter() -> None:
                     and bpy.app.handlers.load_post.remove(_box_filter))
 
 
+def require_bpy(test_file: str) -> None:
+    """Skip the calling test module when bpy is missing and PRIMER_ALLOW_NO_BPY is set, else fail its import."""
+    import importlib.util
+    import pytest
+    if importlib.util.find_spec("bpy") is None:
+        if os.environ.get("PRIMER_ALLOW_NO_BPY"):
+            pytest.skip("bpy (Blender as a Python module) is not installed", allow_module_level=True)
+        raise ImportError(f"tests/{os.path.basename(test_file)} needs bpy (Blender as a Python module): "
+                          "pip install bpy")
+
+
 def isolated_env(folder: str) -> dict:
     """Return an environment whose HOME and Blender user folders are empty folders inside `folder`."""
     env = {k: v for k, v in os.environ.items() if not k.startswith("BLENDER_") and k != "PYTHONPATH"}
@@ -447,6 +458,59 @@ def primer_in_blender():
     return primer, sys.modules[primer.__name__ + ".addon.export"]
 
 
+def fresh_scene(width: int = 0, height: int = 0):
+    """Inside Blender: Primer loaded, the empty factory scene, width x height px if given: (primer, export, scene)."""
+    import bpy
+    primer, export = primer_in_blender()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    if width and height:
+        scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = width, height, 100
+    return primer, export, scene
+
+
+def ortho_camera(scene, ortho_scale: float, location=(0.0, 0.0, 5.0)):
+    """Inside Blender: the scene's camera, orthographic, `ortho_scale` wide, at `location` looking down -Z."""
+    import bpy
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale = "ORTHO", float(ortho_scale)
+    camera.location = location
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    return camera
+
+
+def points_by_index(obj, material, radius: float, step: float) -> None:
+    """Inside Blender: a geometry-nodes modifier making `obj`'s vertices points of `material`, radius + step x index."""
+    import bpy
+    tree = bpy.data.node_groups.new("To Points", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    given, result = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
+    to_points, paint = tree.nodes.new("GeometryNodeMeshToPoints"), tree.nodes.new("GeometryNodeSetMaterial")
+    index, size = tree.nodes.new("GeometryNodeInputIndex"), tree.nodes.new("ShaderNodeMath")
+    size.operation, size.inputs[1].default_value, size.inputs[2].default_value = "MULTIPLY_ADD", step, radius
+    tree.links.new(index.outputs[0], size.inputs[0])
+    tree.links.new(size.outputs[0], to_points.inputs["Radius"])
+    paint.inputs["Material"].default_value = material
+    tree.links.new(given.outputs[0], to_points.inputs[0])
+    tree.links.new(to_points.outputs[0], paint.inputs[0])
+    tree.links.new(paint.outputs[0], result.inputs[0])
+    obj.modifiers.new("Points", "NODES").node_group = tree
+
+
+def grid_plane(cases: list, label: str, material, columns: int):
+    """Inside Blender: a unit plane `label` of `material` in render_plane_grid's cell len(cases); appends label."""
+    import bpy
+    index = len(cases)
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(index % columns + 0.5, -(index // columns) - 0.5, 0.0))
+    plane = bpy.context.view_layer.objects.active
+    plane.name = label
+    plane.data.materials.append(material)
+    cases.append(label)
+    return plane
+
+
 def snapped_generated(tree, pixels: int):
     """Inside Blender: Math nodes in `tree` giving the Generated coordinate snapped to its pixel's centre and mapped
     to -2..2, (floor(pixels g) + 0.5) / pixels x 4 - 2 (every step exact in float32 and float64), so that every sample
@@ -479,12 +543,7 @@ def render_plane_grid(scene, export, columns: int, rows: int, pixels: int, sampl
     export's warnings."""
     import bpy
     import numpy as np
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.data.type = "ORTHO"
-    camera.data.ortho_scale = float(columns)
-    camera.location = (columns / 2, -rows / 2, 5.0)
-    scene.collection.objects.link(camera)
-    scene.camera = camera
+    ortho_camera(scene, columns, (columns / 2, -rows / 2, 5.0))
     scene.render.resolution_x, scene.render.resolution_y = columns * pixels, rows * pixels
     scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings

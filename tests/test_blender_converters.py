@@ -9,20 +9,15 @@ differ only by float32 rounding. Outputs that may be negative are emitted as the
 """
 from __future__ import annotations
 
-import importlib.util
-import os
 
 import numpy as np
 import pytest
 
-from blender_env import run_bpy
+from blender_env import require_bpy, run_bpy
 
 pytestmark = pytest.mark.blender
 
-if importlib.util.find_spec("bpy") is None:
-    if os.environ.get("PRIMER_ALLOW_NO_BPY"):
-        pytest.skip("bpy (Blender as a Python module) is not installed", allow_module_level=True)
-    raise ImportError("tests/test_blender_converters.py needs bpy (Blender as a Python module): pip install bpy")
+require_bpy(__file__)
 
 PIXELS = 16               # pixels across each plane
 COLUMNS = 12              # planes per row of the grid (more than rows: the camera's ortho_scale spans the width)
@@ -31,10 +26,8 @@ SCRIPT = """
 import sys, os
 import bpy
 import numpy as np
-from blender_env import report, render_pixels, empty_material, primer_in_blender, snapped_generated, render_plane_grid
-primer, export = primer_in_blender()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
+from blender_env import report, empty_material, fresh_scene, grid_plane, snapped_generated, render_plane_grid
+primer, export, scene = fresh_scene()
 PIXELS, COLUMNS = {pixels}, {columns}
 
 
@@ -77,12 +70,7 @@ def case(label, idname, output, settings=(), values=(), links=(), setup=None, ab
     emission = tree.nodes.new("ShaderNodeEmission")
     tree.links.new(socket, emission.inputs["Color"])
     tree.links.new(emission.outputs[0], out.inputs["Surface"])
-    index = len(cases)
-    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(index % COLUMNS + 0.5, -(index // COLUMNS) - 0.5, 0.0))
-    plane = bpy.context.view_layer.objects.active
-    plane.name = label
-    plane.data.materials.append(material)
-    cases.append(label)
+    grid_plane(cases, label, material, COLUMNS)
 
 
 probe = bpy.data.node_groups.new("probe", "ShaderNodeTree").nodes.new("ShaderNodeVectorMath")

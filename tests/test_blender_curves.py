@@ -23,11 +23,8 @@ SCRIPT = """
 import math, os
 import bpy
 import numpy as np
-from blender_env import diffuse_material, primer_in_blender, render_pixels, report
-primer, export = primer_in_blender()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 64, 48, 100
+from blender_env import diffuse_material, fresh_scene, ortho_camera, points_by_index, render_pixels, report
+primer, export, scene = fresh_scene(64, 48)
 floor = bpy.data.meshes.new("Floor")
 floor.from_pydata([(-4, -3, 0), (4, -3, 0), (4, 3, 0), (-4, 3, 0)], [], [(0, 1, 2, 3)])
 floor.materials.append(diffuse_material("Grey", (0.5, 0.5, 0.5)))
@@ -57,20 +54,7 @@ elif {case!r} == "point_cloud":
     cloud = bpy.data.meshes.new("Cloud")
     cloud.from_pydata([(-2.4 + 0.45 * k, 1.4 * math.sin(1.3 * k), 0.4) for k in range(12)], [], [])
     obj = bpy.data.objects.new("Cloud", cloud)
-    tree = bpy.data.node_groups.new("To Points", "GeometryNodeTree")
-    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    given, result = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
-    to_points, paint = tree.nodes.new("GeometryNodeMeshToPoints"), tree.nodes.new("GeometryNodeSetMaterial")
-    index, size = tree.nodes.new("GeometryNodeInputIndex"), tree.nodes.new("ShaderNodeMath")
-    size.operation, size.inputs[1].default_value, size.inputs[2].default_value = "MULTIPLY_ADD", 0.02, 0.1
-    tree.links.new(index.outputs[0], size.inputs[0])
-    tree.links.new(size.outputs[0], to_points.inputs["Radius"])
-    paint.inputs["Material"].default_value = red
-    tree.links.new(given.outputs[0], to_points.inputs[0])
-    tree.links.new(to_points.outputs[0], paint.inputs[0])
-    tree.links.new(paint.outputs[0], result.inputs[0])
-    obj.modifiers.new("Points", "NODES").node_group = tree
+    points_by_index(obj, red, 0.1, 0.02)
     scene.collection.objects.link(obj)
 else:
     hair.materials.append(red)
@@ -78,11 +62,7 @@ else:
 sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
 sun.data.energy, sun.rotation_euler = 3.0, (0.5, 0.3, 0.0)
 scene.collection.objects.link(sun)
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.data.type, camera.data.ortho_scale = "ORTHO", 6.0
-camera.location = (0.0, 0.0, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+ortho_camera(scene, 6.0)
 warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
 p = render_pixels(scene, "PRIMER", os.path.abspath("primer.exr"), {primer})[..., :3]
 c = render_pixels(scene, "CYCLES", os.path.abspath("cycles.exr"), {cycles})[..., :3]

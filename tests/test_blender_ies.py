@@ -18,7 +18,7 @@ import os
 
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 
 pytestmark = pytest.mark.blender
 
@@ -26,28 +26,17 @@ PRIMER_SAMPLES, CYCLES_SAMPLES = 256, 256
 IES_FILE = os.path.join(os.path.dirname(__file__), "data", "primer_test.ies")
 
 SCRIPT = """
-import math, os, sys
+import math, os
 import bpy
 import numpy as np
-from blender_env import diffuse_material, render_pixels, report
-sys.path.insert(0, {tools!r})
-from render import load_primer
-
-primer = load_primer()
-export = sys.modules[primer.__name__ + ".addon.export"]
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32, 32, 100
+from blender_env import diffuse_material, fresh_scene, ortho_camera, render_pixels, report
+primer, export, scene = fresh_scene(32, 32)
 material = diffuse_material("Floor", (0.8, 0.8, 0.8))
 mesh = bpy.data.meshes.new("Floor")
 mesh.from_pydata([(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], [], [(0, 1, 2, 3)])
 mesh.materials.append(material)
 scene.collection.objects.link(bpy.data.objects.new("Floor", mesh))
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.data.type, camera.data.ortho_scale = "ORTHO", 6.0
-camera.location = (0.0, 0.0, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+ortho_camera(scene, 6.0)
 text = bpy.data.texts.new("primer_test.ies")
 text.from_string(open({ies_file!r}).read())
 # A profile round its axis (one horizontal angle): the sun's, whose light leaves straight down its axis, at the pole,
@@ -227,8 +216,7 @@ report(cases=cases, notes=notes)
 
 def run_cases(tmp_path, names):
     """Render each named case with Primer and twice with Cycles; return ({name: its report}, the export notes)."""
-    result = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), primer_samples=PRIMER_SAMPLES,
-                                   cycles_samples=CYCLES_SAMPLES, ies_file=IES_FILE, cases=list(names)), str(tmp_path))
+    result = run_bpy(SCRIPT.format(primer_samples=PRIMER_SAMPLES, cycles_samples=CYCLES_SAMPLES, ies_file=IES_FILE, cases=list(names)), str(tmp_path))
     return result["cases"], result["notes"]
 
 

@@ -12,21 +12,16 @@ grid): each output + 0.25 is 0.25 all over the cell in both.
 """
 from __future__ import annotations
 
-import importlib.util
-import os
 
 import numpy as np
 import pytest
 
-from blender_env import run_bpy
+from blender_env import require_bpy, run_bpy
 from core.film.compare import relative_mse_of_blocks
 
 pytestmark = pytest.mark.blender
 
-if importlib.util.find_spec("bpy") is None:
-    if os.environ.get("PRIMER_ALLOW_NO_BPY"):
-        pytest.skip("bpy (Blender as a Python module) is not installed", allow_module_level=True)
-    raise ImportError("tests/test_blender_info_nodes.py needs bpy (Blender as a Python module): pip install bpy")
+require_bpy(__file__)
 
 PIXELS = 32
 COLUMNS = 10
@@ -35,10 +30,9 @@ POLYGONS = ((5.0, 0.0), (5.0, 0.4), (6.0, 1.0), (4.3, 0.0), (4.3, 0.5), (3.7, 1.
 
 SCRIPT = """
 import bpy
-from blender_env import report, empty_material, primer_in_blender, snapped_generated, render_plane_grid
-primer, export = primer_in_blender()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
+from blender_env import (report, empty_material, fresh_scene, grid_plane, points_by_index, snapped_generated,
+                         render_plane_grid)
+primer, export, scene = fresh_scene()
 PIXELS, COLUMNS = {pixels}, {columns}
 cases = []
 
@@ -73,12 +67,7 @@ def cell(label, idname, output, settings=(), inputs=(), snap=True, add=None, abs
     if snap:
         tree.links.new(snapped_generated(tree, PIXELS)[0], node.inputs["Vector"])
     emit(tree, out, node.outputs[output], add=add, absolute=absolute)
-    index = len(cases)
-    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(index % COLUMNS + 0.5, -(index // COLUMNS) - 0.5, 0.0))
-    plane = bpy.context.view_layer.objects.active
-    plane.name = label
-    plane.data.materials.append(material)
-    cases.append(label)
+    grid_plane(cases, label, material, COLUMNS)
 
 
 for sides, roundness in {polygons}:
@@ -102,20 +91,7 @@ for output, scale in (("Position", None), ("Radius", 4.0), ("Random", None)):
     mesh = bpy.data.meshes.new(f"Points {{output}}")
     mesh.from_pydata([(-0.2 + 0.2 * (k % 3), -0.2 + 0.2 * (k // 3), 0.0) for k in range(9)], [], [])
     obj = bpy.data.objects.new(f"Points {{output}}", mesh)
-    tree = bpy.data.node_groups.new("To Points", "GeometryNodeTree")
-    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    given, result = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
-    to_points, paint = tree.nodes.new("GeometryNodeMeshToPoints"), tree.nodes.new("GeometryNodeSetMaterial")
-    index, size = tree.nodes.new("GeometryNodeInputIndex"), tree.nodes.new("ShaderNodeMath")
-    size.operation, size.inputs[1].default_value, size.inputs[2].default_value = "MULTIPLY_ADD", 0.006, 0.03
-    tree.links.new(index.outputs[0], size.inputs[0])
-    tree.links.new(size.outputs[0], to_points.inputs["Radius"])
-    paint.inputs["Material"].default_value = material
-    tree.links.new(given.outputs[0], to_points.inputs[0])
-    tree.links.new(to_points.outputs[0], paint.inputs[0])
-    tree.links.new(paint.outputs[0], result.inputs[0])
-    obj.modifiers.new("Points", "NODES").node_group = tree
+    points_by_index(obj, material, 0.03, 0.006)
     index = len(cases)
     obj.location = (index % COLUMNS + 0.5, -(index // COLUMNS) - 0.5, 0.0)
     obj.scale = (1.5, 1.5, 1.5)

@@ -14,21 +14,16 @@ their pixels' mean difference, which is sampling noise.
 """
 from __future__ import annotations
 
-import importlib.util
 import itertools
-import os
 
 import numpy as np
 import pytest
 
-from blender_env import run_bpy
+from blender_env import require_bpy, run_bpy
 
 pytestmark = pytest.mark.blender
 
-if importlib.util.find_spec("bpy") is None:
-    if os.environ.get("PRIMER_ALLOW_NO_BPY"):
-        pytest.skip("bpy (Blender as a Python module) is not installed", allow_module_level=True)
-    raise ImportError("tests/test_blender_inputs.py needs bpy (Blender as a Python module): pip install bpy")
+require_bpy(__file__)
 
 PIXELS = 32               # pixels across each cell
 ROWS = 3                  # the icosphere, the back at 30 degrees, the back at 60 degrees
@@ -38,10 +33,8 @@ SCRIPT = """
 import sys, os, math
 import bpy
 import numpy as np
-from blender_env import report, render_pixels, empty_material, primer_in_blender, render_plane_grid
-primer, export = primer_in_blender()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
+from blender_env import report, render_pixels, empty_material, fresh_scene, render_plane_grid
+primer, export, scene = fresh_scene()
 PIXELS, ROWS, SAMPLES = {pixels}, {rows}, {samples}
 cases = []
 
@@ -261,11 +254,8 @@ PERSPECTIVE_WIRES = """
 import math, os
 import bpy
 import numpy as np
-from blender_env import empty_material, primer_in_blender, render_pixels, report
-primer, export = primer_in_blender()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 96, 64, 100
+from blender_env import empty_material, fresh_scene, render_pixels, report
+primer, export, scene = fresh_scene(96, 64)
 material, tree, out = empty_material("Wire")
 wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
 wire.use_pixel_size = True
@@ -300,11 +290,8 @@ PANORAMA_WINDOWS = """
 import math, os
 import bpy
 import numpy as np
-from blender_env import empty_material, primer_in_blender, render_pixels, report
-primer, export = primer_in_blender()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 40, 24, 100
+from blender_env import empty_material, fresh_scene, render_pixels, report
+primer, export, scene = fresh_scene(40, 24)
 material, tree, out = empty_material("Window")
 coordinates, emission = tree.nodes.new("ShaderNodeTexCoord"), tree.nodes.new("ShaderNodeEmission")
 tree.links.new(coordinates.outputs["Window"], emission.inputs["Color"])

@@ -7,11 +7,9 @@ mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)), the project's measure (tests/test_blend
 """
 from __future__ import annotations
 
-import os
-
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 
 pytestmark = pytest.mark.blender
 
@@ -19,18 +17,11 @@ PRIMER_SAMPLES, CYCLES_SAMPLES = 32, 128
 BLOCK_TOLERANCE = 2e-3
 
 SCRIPT = """
-import math, os, sys
+import math, os
 import bpy
 import numpy as np
-from blender_env import diffuse_material, render_pixels, report
-sys.path.insert(0, {tools!r})
-from render import load_primer
-
-primer = load_primer()
-export = sys.modules[primer.__name__ + ".addon.export"]
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 24, 16, 100
+from blender_env import diffuse_material, fresh_scene, ortho_camera, render_pixels, report
+primer, export, scene = fresh_scene(24, 16)
 material = diffuse_material("Floor", (0.8, 0.8, 0.8))
 principled = bpy.data.materials.new("Principled")      # Blender's default surface: diffuse and a glossy layer
 principled.use_nodes = True
@@ -52,11 +43,7 @@ def plane(name, corners):
 
 plane("Floor", [(-6, -6, 0), (6, -6, 0), (6, 6, 0), (-6, 6, 0)])
 plane("Occluder", [(0.5, -4, 0.6), (1.5, -4, 0.6), (1.5, 4, 0.6), (0.5, 4, 0.6)])
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.data.type, camera.data.ortho_scale = "ORTHO", 6.0
-camera.location = (0.0, 0.0, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+camera = ortho_camera(scene, 6.0)
 
 
 def lamp(kind, location, energy, **settings):
@@ -195,8 +182,7 @@ report(cases=cases)
 
 def run_cases(tmp_path, names):
     """Render each named case with Primer and Cycles; return {name: its report}."""
-    return run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), primer_samples=PRIMER_SAMPLES,
-                                 cycles_samples=CYCLES_SAMPLES, cases=list(names)), str(tmp_path))["cases"]
+    return run_bpy(SCRIPT.format(primer_samples=PRIMER_SAMPLES, cycles_samples=CYCLES_SAMPLES, cases=list(names)), str(tmp_path))["cases"]
 
 
 def test_cast_shadow_off_is_read_without_a_warning_and_renders_as_cycles(tmp_path):

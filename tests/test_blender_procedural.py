@@ -14,21 +14,16 @@ multiply-adds and order some sums differently; sinf and cosf round as they may).
 """
 from __future__ import annotations
 
-import importlib.util
-import os
 
 import numpy as np
 import pytest
 
-from blender_env import run_bpy
+from blender_env import require_bpy, run_bpy
 from core.materials.procedural import MagicTexture
 
 pytestmark = pytest.mark.blender
 
-if importlib.util.find_spec("bpy") is None:
-    if os.environ.get("PRIMER_ALLOW_NO_BPY"):
-        pytest.skip("bpy (Blender as a Python module) is not installed", allow_module_level=True)
-    raise ImportError("tests/test_blender_procedural.py needs bpy (Blender as a Python module): pip install bpy")
+require_bpy(__file__)
 
 PIXELS = 32               # pixels across each plane
 COLUMNS = 10              # planes per row of the grid (no more rows than columns: ortho_scale spans the wider side)
@@ -37,10 +32,8 @@ SCRIPT = """
 import sys, os
 import bpy
 import numpy as np
-from blender_env import report, render_pixels, empty_material, primer_in_blender, snapped_generated, render_plane_grid
-primer, export = primer_in_blender()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
+from blender_env import report, empty_material, fresh_scene, grid_plane, snapped_generated, render_plane_grid
+primer, export, scene = fresh_scene()
 PIXELS, COLUMNS = {pixels}, {columns}
 
 
@@ -76,12 +69,7 @@ def case(label, idname, output, settings=(), inputs=(), snap=True, absolute=Fals
         socket = math.outputs[0]
     tree.links.new(socket, emission.inputs["Color"])
     tree.links.new(emission.outputs[0], out.inputs["Surface"])
-    index = len(cases)
-    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(index % COLUMNS + 0.5, -(index // COLUMNS) - 0.5, 0.0))
-    plane = bpy.context.view_layer.objects.active
-    plane.name = label
-    plane.data.materials.append(material)
-    cases.append(label)
+    grid_plane(cases, label, material, COLUMNS)
 
 
 for dimensions in ("1D", "2D", "3D", "4D"):
