@@ -145,16 +145,21 @@ INLINE double unit_triangle_solid_angle(const double *A, const double *B, const 
     return 2.0 * atan2(triple, 1.0 + dot3(A, B) + dot3(B, C) + dot3(C, A));
 }
 
+/* The unit directions A, B, C from P to the corners of triangle V (9,). */
+INLINE void unit_corners(const double *P, const double *V, double *A, double *B, double *C)
+{
+    double *unit[3] = {A, B, C}, w[3];
+    for (int k = 0; k < 3; k++) {
+        for (int c = 0; c < 3; c++) w[c] = V[3 * k + c] - P[c];
+        unit3(w, unit[k]);
+    }
+}
+
 /* emitters.solid_angle: the solid angle of triangle V seen from P. */
 INLINE double triangle_solid_angle(const double *P, const double *V)
 {
-    double A[3], B[3], C[3], w[3];
-    for (int c = 0; c < 3; c++) w[c] = V[c] - P[c];
-    unit3(w, A);
-    for (int c = 0; c < 3; c++) w[c] = V[3 + c] - P[c];
-    unit3(w, B);
-    for (int c = 0; c < 3; c++) w[c] = V[6 + c] - P[c];
-    unit3(w, C);
+    double A[3], B[3], C[3];
+    unit_corners(P, V, A, B, C);
     return unit_triangle_solid_angle(A, B, C);
 }
 
@@ -163,13 +168,8 @@ INLINE double triangle_solid_angle(const double *P, const double *V)
 INLINE void spherical_triangle_sample(const double *P, const double *V, const double *u, double *L, double *t,
                                       double *pdf)
 {
-    double A[3], B[3], C[3], w[3];
-    for (int c = 0; c < 3; c++) w[c] = V[c] - P[c];
-    unit3(w, A);
-    for (int c = 0; c < 3; c++) w[c] = V[3 + c] - P[c];
-    unit3(w, B);
-    for (int c = 0; c < 3; c++) w[c] = V[6 + c] - P[c];
-    unit3(w, C);
+    double A[3], B[3], C[3];
+    unit_corners(P, V, A, B, C);
     /* The solid angle Omega, and the angle alpha at A as its cosine and sine from the unit normals of the great
      * circles A-B and A-C (their cross product is parallel to A): no inverse trigonometry. */
     double omega = unit_triangle_solid_angle(A, B, C);

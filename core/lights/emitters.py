@@ -128,16 +128,7 @@ class MeshEmitters(Light):
         u = np.stack([reused, u[:, 1]], axis=1)
         V = self.corners[index]
         normal, area = self.normal[index], self.area[index]
-        # 1. Which side the point sees, and whether that side is sampled.
-        height = np.einsum("ij,ij->i", normal, V[:, 0] - points)           # > 0: the point is behind
-        side = np.where(height > 0.0, BACK, FRONT)
-        allowed = (self.sides[index] & side) != 0
-        # 2. Spherical-triangle sampling near the triangle, area sampling far from it (Cycles' choice:
-        #    the longest edge squared against delta^2, delta = h / (2 A)).
-        longest = np.max(np.stack([np.einsum("ij,ij->i", a, a) for a in
-                                   (V[:, 1] - V[:, 0], V[:, 2] - V[:, 1], V[:, 0] - V[:, 2])]), axis=0)
-        delta = height / (2.0 * area)
-        spherical = longest > delta * delta
+        allowed, spherical = side_and_way(V, normal, area, self.sides[index], points)
         L, distance, pdf_direction = np.zeros((n, 3)), np.zeros(n), np.zeros(n)
         if spherical.any():
             rows = np.flatnonzero(spherical)
@@ -162,13 +153,7 @@ class MeshEmitters(Light):
         not sampled."""
         V = self.corners[index]
         normal, area = self.normal[index], self.area[index]
-        height = np.einsum("ij,ij->i", normal, V[:, 0] - origins)
-        side = np.where(height > 0.0, BACK, FRONT)
-        allowed = (self.sides[index] & side) != 0
-        longest = np.max(np.stack([np.einsum("ij,ij->i", a, a) for a in
-                                   (V[:, 1] - V[:, 0], V[:, 2] - V[:, 1], V[:, 0] - V[:, 2])]), axis=0)
-        delta = height / (2.0 * area)
-        spherical = longest > delta * delta
+        allowed, spherical = side_and_way(V, normal, area, self.sides[index], origins)
         with np.errstate(divide="ignore", invalid="ignore"):
             omega = solid_angle(origins, V)
             by_angle = 1.0 / omega
@@ -221,6 +206,22 @@ def mean_graph_emission(geometry, materials, prim: np.ndarray, graph_emission) -
 def unknown_normals(points: np.ndarray, N: Optional[np.ndarray]) -> np.ndarray:
     """N (n, 3) float64, zero rows where the normal is unknown (all of them for None)."""
     return np.zeros_like(points, dtype=np.float64) if N is None else np.asarray(N, np.float64)
+
+
+def side_and_way(V: np.ndarray, normal: np.ndarray, area: np.ndarray, sides: np.ndarray,
+                 points: np.ndarray) -> tuple:
+    """Triangles V (n, 3, 3) (unit normals (n, 3), areas (n,), FRONT/BACK bits `sides` (n,)) seen from `points`
+    (n, 3): (whether the side each point sees is sampled, whether spherical-triangle sampling serves it rather than
+    area sampling), each (n,) bool."""
+    # 1. Which side the point sees (height > 0: the point is behind), and whether that side is sampled.
+    height = np.einsum("ij,ij->i", normal, V[:, 0] - points)
+    allowed = (sides & np.where(height > 0.0, BACK, FRONT)) != 0
+    # 2. Spherical-triangle sampling near the triangle, area sampling far from it (Cycles' choice, C's
+    #    emitter_spherical: the longest edge squared against delta^2, delta = h / (2 A)).
+    longest = np.max(np.stack([np.einsum("ij,ij->i", a, a) for a in
+                               (V[:, 1] - V[:, 0], V[:, 2] - V[:, 1], V[:, 0] - V[:, 2])]), axis=0)
+    delta = height / (2.0 * area)
+    return allowed, longest > delta * delta
 
 
 def solid_angle(P: np.ndarray, V: np.ndarray) -> np.ndarray:

@@ -11,6 +11,20 @@ INLINE void sample_point(const LightRecord *light, const double *P, LightSample 
     for (int c = 0; c < 3; c++) out->position[c] = light->position[c];
 }
 
+/* RoundLight.cone's half-angle: the cosine of the cone a round light of radius R covers from distance *d (a disk
+ * facing the point with soft falloff, else a sphere, *d then kept just outside it). */
+INLINE double round_light_cos_max(const LightRecord *light, double *d)
+{
+    double R = light->radius, sin2_max;
+    if (light->soft_falloff != 0.0) {
+        sin2_max = R * R / (R * R + *d * *d);
+    } else {
+        *d = at_least(*d, R * (1.0 + 1e-9));
+        sin2_max = at_most((R / *d) * (R / *d), 1.0);
+    }
+    return sqrt(1.0 - sin2_max);
+}
+
 /* PointLight.hit: a ray meets a round light (the disk facing its origin with soft falloff, else the
  * sphere) within the cone the light covers from the origin; radiance P / (4 pi^2 R^2); the cone's pdf.
  * Returns whether it met it before t_max; `spot`: apply a spot's cone to what leaves. */
@@ -19,14 +33,7 @@ INLINE int point_light_hit(const LightRecord *light, const double *O, const doub
 {
     double axis[3];
     double d = direction_to(O, light->position, axis);
-    double R = light->radius, sin2_max;
-    if (light->soft_falloff != 0.0) {
-        sin2_max = R * R / (R * R + d * d);
-    } else {
-        d = at_least(d, R * (1.0 + 1e-9));
-        sin2_max = at_most((R / d) * (R / d), 1.0);
-    }
-    double cos_max = sqrt(1.0 - sin2_max);
+    double R = light->radius, cos_max = round_light_cos_max(light, &d);
     double cos_to_center = dot3(D, axis), t;
     if (!(cos_to_center >= cos_max)) return 0;                  /* outside the cone the light covers */
     if (light->soft_falloff != 0.0) {
@@ -51,14 +58,7 @@ INLINE void sample_sphere(const LightRecord *light, const double *P, const doubl
 {
     double axis[3], t[3], b[3];
     double d = direction_to(P, light->position, axis);
-    double R = light->radius, sin2_max;
-    if (light->soft_falloff != 0.0) {
-        sin2_max = R * R / (R * R + d * d);
-    } else {
-        d = at_least(d, R * (1.0 + 1e-9));
-        sin2_max = at_most((R / d) * (R / d), 1.0);
-    }
-    double cos_max = sqrt(1.0 - sin2_max);
+    double R = light->radius, cos_max = round_light_cos_max(light, &d);
     orthonormal_frame(axis, t, b);
     sample_cone(axis, t, b, cos_max, u, out->L);
     double cos_to_center = dot3(out->L, axis);
