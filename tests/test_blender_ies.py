@@ -216,7 +216,8 @@ report(cases=cases, notes=notes)
 
 def run_cases(tmp_path, names):
     """Render each named case with Primer and twice with Cycles; return ({name: its report}, the export notes)."""
-    result = run_bpy(SCRIPT.format(primer_samples=PRIMER_SAMPLES, cycles_samples=CYCLES_SAMPLES, ies_file=IES_FILE, cases=list(names)), str(tmp_path))
+    result = run_bpy(SCRIPT.format(primer_samples=PRIMER_SAMPLES, cycles_samples=CYCLES_SAMPLES, ies_file=IES_FILE,
+                                   cases=list(names)), str(tmp_path))
     return result["cases"], result["notes"]
 
 

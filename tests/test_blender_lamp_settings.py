@@ -182,7 +182,8 @@ report(cases=cases)
 
 def run_cases(tmp_path, names):
     """Render each named case with Primer and Cycles; return {name: its report}."""
-    return run_bpy(SCRIPT.format(primer_samples=PRIMER_SAMPLES, cycles_samples=CYCLES_SAMPLES, cases=list(names)), str(tmp_path))["cases"]
+    return run_bpy(SCRIPT.format(primer_samples=PRIMER_SAMPLES, cycles_samples=CYCLES_SAMPLES, cases=list(names)),
+                   str(tmp_path))["cases"]
 
 
 def test_cast_shadow_off_is_read_without_a_warning_and_renders_as_cycles(tmp_path):
