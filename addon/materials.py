@@ -1308,6 +1308,18 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             out.append(("TRANSPARENT", weight, {}, list(factors) + [(color, "color")]))
         else:
             out.append(("TRANSPARENT", weight * np.maximum(color, 0.0), {}, list(factors)))
+    elif kind == "ShaderNodeBsdfRayPortal":
+        # core/materials/portal.py: the ray goes on from Position (unlinked: the hit point) along Direction (zero:
+        # its own), per hit where linked.
+        color = reader.input(node, "Color", np.ones(3))
+        inputs = {"direction": reader.input(node, "Direction", np.zeros(3))}
+        socket = node.inputs.get("Position")
+        if socket is not None and socket.is_linked:
+            inputs["position"], inputs["position_set"] = reader.input(node, "Position", np.zeros(3)), 1.0
+        if _linked(color):
+            out.append(("RAY_PORTAL", weight, inputs, list(factors) + [(color, "color")]))
+        else:
+            out.append(("RAY_PORTAL", weight * np.maximum(color, 0.0), inputs, list(factors)))
     elif kind == "ShaderNodeHoldout":
         # A hole in the film for camera paths, as much as its weight (the Mix and Add Shaders above it).
         out.append(("HOLDOUT", weight, {}, list(factors)))

@@ -654,7 +654,8 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 s.t = sqrt(dot3(gone, gone));
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
                           v, wo, &path, NULL, &sd);
-                double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
+                /* (a surface with a Ray Portal stops shadow rays, whatever else it lets through: Cycles) */
+                double passes = tr->materials[s.material].shadow_opaque != 0.0 || sd.portal ? 0.0 : 1.0;
                 for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
             }
             if (media != NULL) stack_cross(media, inside + l, s.material, s.backfacing, !hidden);
@@ -1034,6 +1035,16 @@ NOINLINE static void walk_from(const BlockHits *H, int64_t h, const DirectSettin
     for (int c = 0; c < 3; c++) { O[c] = walk->P[c] + walk->D[c] * back; D[c] = -walk->D[c]; }
 }
 
+/* portal.origins for one hit at I: a portal closure's ray (params p) leaves from its Position where that is linked and
+ * more than 1e-9 (squared) away from the hit; O (3) is left alone (the step off the surface) elsewhere. */
+INLINE void portal_origin(const double *p, const double *I, double *O)
+{
+    const double *P = p + PORTAL_POSITION;
+    double gap[3] = {P[0] - I[0], P[1] - I[1], P[2] - I[2]};
+    if (p[PORTAL_POSITION_SET] != 0.0 && dot3(gap, gap) > 1e-9)
+        for (int c = 0; c < 3; c++) O[c] = P[c];
+}
+
 /* The light one direction sampled from each hit's closures finds (direct.bsdf_ray): a lamp with extent
  * in front of what the ray hits, an emissive surface it hits, or the world it escapes to, weighed by
  * MIS against that light's own samples (1 for a constant world); added to H->L. Returns Embree's ticks. */
@@ -1063,6 +1074,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             if (!(s->pdf > 0.0)) continue;
             const Surface *sf = H->s + h;
             spawn_ray(sf->I, sf->Ng, s->wi, ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon, origin[lanes]);
+            if (bsdf_is(s->kind, BSDF_FLAG_PORTAL)) portal_origin(H->sd[h].c[s->slot].p, sf->I, origin[lanes]);
             set_lane(&packet.ray, lanes, origin[lanes], s->wi, INFINITY);
             set_time(&packet.ray, lanes, sf->time);
             owner[lanes] = h;
@@ -1117,11 +1129,14 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             int64_t h = owner[k];
             uint64_t receiver = links_of(ds->geometry, H->geometry[h], H->prim[h], H->instance[h], 0);
             if (bsdf_is(s->kind, BSDF_FLAG_STRAIGHT) && ds->continuing != NULL) {
-                /* Straight through a transparent surface: still the last real bounce's ray (direct.bsdf_ray). */
-                pdf_b = H->mis_pdf[owner[k]];
-                use_mis = ds->mis && isfinite(pdf_b);
-                P = H->mis_origin + 3 * owner[k];
-                N = H->mis_n + 3 * owner[k];
+                /* Straight through a transparent surface: still the last real bounce's ray (direct.bsdf_ray); through a
+                 * portal no longer (MIS skipped: pdf inf). */
+                if (!bsdf_is(s->kind, BSDF_FLAG_PORTAL)) {
+                    pdf_b = H->mis_pdf[owner[k]];
+                    use_mis = ds->mis && isfinite(pdf_b);
+                    P = H->mis_origin + 3 * owner[k];
+                    N = H->mis_n + 3 * owner[k];
+                }
                 receiver = H->mis_receiver[owner[k]];    /* (Light Linking: the last real bounce's object) */
             }
             double light_L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];

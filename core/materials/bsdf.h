@@ -31,6 +31,7 @@ typedef struct {
     double emission[3];
     double transparency[3];
     double holdout[3];      /* the Holdout nodes' weight (closures.ShaderResult.holdout; 0: none) */
+    int portal;             /* 1: a Ray Portal closure was set up here (shadow rays stop: portal.has_portal) */
     double N[3];
     double *storage;
     const double *glossy;   /* the normal glossy lobes get while a node sets up (nodes.c), NULL: N */
@@ -45,6 +46,7 @@ typedef struct {
 INLINE void no_closures(ShaderResult *sd)
 {
     sd->n = sd->room = 0;
+    sd->portal = 0;
     sd->c = NULL;
     sd->storage = NULL;
     sd->caustics = 0;
