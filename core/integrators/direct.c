@@ -654,9 +654,10 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 s.t = sqrt(dot3(gone, gone));
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
                           v, wo, &path, NULL, &sd);
-                /* (a surface with a Ray Portal stops shadow rays, whatever else it lets through: Cycles) */
-                double passes = tr->materials[s.material].shadow_opaque != 0.0 || sd.portal ? 0.0 : 1.0;
-                for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
+                double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
+                /* (a Ray Portal's weight: as Cycles' shadow rays count it, portal.shadow_transparency) */
+                int clear = sd.transparency[0] != 0.0 || sd.transparency[1] != 0.0 || sd.transparency[2] != 0.0;
+                for (int c = 0; c < 3; c++) T[l][c] *= clear ? (sd.transparency[c] + sd.portal[c]) * passes : 0.0;
             }
             if (media != NULL) stack_cross(media, inside + l, s.material, s.backfacing, !hidden);
             /* On from just past that surface, for what is left of the way to the light: towards the ray's own

@@ -87,7 +87,13 @@ class PortalNode(Node):
         b.add(Portal.kind, weight, params)
 
 
-def has_portal(closures) -> np.ndarray:
-    """Where a hit's closures (closures.Closures of n hits) hold a portal (n,) bool: shadow rays stop there."""
+def shadow_transparency(shader) -> np.ndarray:
+    """What a shadow ray passes (n, 3) at n hits of a ShaderResult, as Cycles' shadow rays see a portal: they set up no
+    closures, so no portal either (SD_RAY_PORTAL stays unset), but the portal's weight joins the transparent
+    extinction; which counts only where a Transparent closure (or alpha) made the surface transparent at all. A
+    surface that is a portal and no Transparent BSDF stops shadow rays; Mix(Transparent, Portal) lets them through as
+    if both were transparent."""
     from .base import has
-    return has(closures.kind, F.PORTAL).any(axis=1)
+    portal = np.where(has(shader.closures.kind, F.PORTAL)[..., None], shader.closures.weight, 0.0).sum(axis=1)
+    clear = (shader.transparency != 0.0).any(axis=1)
+    return np.where(clear[:, None], shader.transparency + portal, 0.0)
