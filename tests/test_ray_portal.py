@@ -39,11 +39,12 @@ def test_a_portal_in_place_lets_the_ray_go_on_straight_tinted_by_its_colour(kern
 
 def far_away(kernels: str, inputs: dict) -> tuple:
     """behind_a_pane with a pane that is a white Ray Portal of `inputs`, a floor glowing 7 under x = 100 and a
-    ceiling glowing 3 over it (z = 10; an emitter glows both ways)."""
+    ceiling glowing 3 over it (z = 5; an emitter glows both ways). (The Position is a world point, the geometry
+    camera-relative: a ray leaving from 6 too high, the camera's height, would meet the ceiling going down.)"""
     scene, settings = behind_a_pane([("RAY_PORTAL", (1.0,) * 3, inputs)], "", kernels)
     scene.materials += [glow("far floor", 7.0), glow("far ceiling", 3.0)]
     scene.add_mesh(primitives.plane(40.0, center=(100.0, 0.0, 0.0)), materials=np.array([3]))
-    scene.add_mesh(primitives.plane(40.0, center=(100.0, 0.0, 10.0)), materials=np.array([4]))
+    scene.add_mesh(primitives.plane(40.0, center=(100.0, 0.0, 5.0)), materials=np.array([4]))
     return scene, settings
 
 
@@ -122,11 +123,13 @@ def shifted(offset) -> Link:
 def test_a_portal_with_a_linked_position_moves_each_ray_by_the_graphs_offset(kernels, integrator):
     """The portal's Position is the hit's own moved 30 along x (a node graph, per hit): each camera ray goes on 30 to
     the side, downwards as it was, and meets a floor glowing 7 laid there instead of the quad (5) and floor (2)
-    behind the pane: every pixel exactly 7."""
+    behind the pane (nor a plane glowing 11 at 5 up, which rays from 6 too high would meet): every pixel exactly 7."""
     scene, settings = behind_a_pane([("RAY_PORTAL", (1.0,) * 3, {"position_set": 1.0,
                                                                  "position": shifted((30.0, 0.0, 0.0))})], "", kernels)
     scene.materials.append(glow("far floor", 7.0))
+    scene.materials.append(glow("attic", 11.0))
     scene.add_mesh(primitives.plane(40.0, center=(30.0, 0.0, -1.0)), materials=np.array([3]))
+    scene.add_mesh(primitives.plane(40.0, center=(30.0, 0.0, 5.0)), materials=np.array([4]))
     np.testing.assert_array_equal(pixels(scene, settings, integrator), [[7.0, 7.0, 7.0, 1.0]])
 
 

@@ -1036,12 +1036,13 @@ NOINLINE static void walk_from(const BlockHits *H, int64_t h, const DirectSettin
     for (int c = 0; c < 3; c++) { O[c] = walk->P[c] + walk->D[c] * back; D[c] = -walk->D[c]; }
 }
 
-/* portal.origins for one hit at I: a portal closure's ray (params p) leaves from its Position where that is linked and
- * more than 1e-9 (squared) away from the hit; O (3) is left alone (the step off the surface) elsewhere. */
-INLINE void portal_origin(const double *p, const double *I, double *O)
+/* portal.origins for one camera-relative hit at I: a portal closure's ray (params p) leaves from its Position (a world
+ * point, minus the geometry's `origin`) where that is linked and more than 1e-9 (squared) away from the hit; O (3) is
+ * left alone (the step off the surface) elsewhere. */
+INLINE void portal_origin(const double *p, const double *I, const double *origin, double *O)
 {
-    const double *P = p + PORTAL_POSITION;
-    double gap[3] = {P[0] - I[0], P[1] - I[1], P[2] - I[2]};
+    double P[3], gap[3];
+    for (int c = 0; c < 3; c++) { P[c] = p[PORTAL_POSITION + c] - origin[c]; gap[c] = P[c] - I[c]; }
     if (p[PORTAL_POSITION_SET] != 0.0 && dot3(gap, gap) > 1e-9)
         for (int c = 0; c < 3; c++) O[c] = P[c];
 }
@@ -1075,7 +1076,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             if (!(s->pdf > 0.0)) continue;
             const Surface *sf = H->s + h;
             spawn_ray(sf->I, sf->Ng, s->wi, ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon, origin[lanes]);
-            if (bsdf_is(s->kind, BSDF_FLAG_PORTAL)) portal_origin(H->sd[h].c[s->slot].p, sf->I, origin[lanes]);
+            if (bsdf_is(s->kind, BSDF_FLAG_PORTAL)) portal_origin(H->sd[h].c[s->slot].p, sf->I, ds->geometry->origin, origin[lanes]);
             set_lane(&packet.ray, lanes, origin[lanes], s->wi, INFINITY);
             set_time(&packet.ray, lanes, sf->time);
             owner[lanes] = h;

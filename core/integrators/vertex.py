@@ -315,7 +315,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     moved = np.zeros(len(go), bool)
     if portal.any():
         at = go[portal]
-        P, moved[portal] = portal_.origins(shader.closures.params[at, bs.slot[at]], surface.I[at])
+        P, moved[portal] = portal_.origins(shader.closures.params[at, bs.slot[at]], surface.I[at], ctx.geometry.origin)
         O[moved] = P[moved[portal]]
     transmit = np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0
     seen_as = ray_kind(bs.kind[go], transmit, np.broadcast_to(np.asarray(seen_by, np.int64), (m,))[go])

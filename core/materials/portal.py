@@ -58,11 +58,11 @@ def direction(params: np.ndarray, wo: np.ndarray) -> np.ndarray:
     return np.where((length > 0.0)[:, None], D / np.where(length > 0.0, length, 1.0)[:, None], -wo)
 
 
-def origins(params: np.ndarray, I: np.ndarray) -> tuple:
-    """Where portal rays leave from: (O (m, 3), moved (m,) bool) for hits at I (m, 3): the Position where it is
-    linked and more than 1e-9 (squared) away from the hit (Cycles' test), else the hit (moved False: the caller
-    steps it off the surface)."""
-    P = params[:, POSITION:POSITION + 3]
+def origins(params: np.ndarray, I: np.ndarray, origin) -> tuple:
+    """Where portal rays leave from: (O (m, 3), moved (m,) bool) for camera-relative hits at I (m, 3): the Position
+    (a world point) made camera-relative (minus the geometry's `origin` (3,)) where it is linked and more than 1e-9
+    (squared) away from the hit (Cycles' test), else the hit (moved False: the caller steps it off the surface)."""
+    P = params[:, POSITION:POSITION + 3] - np.asarray(origin, np.float64).reshape(1, 3)
     gap = P - I
     moved = (params[:, POSITION_SET] != 0.0) & (np.einsum("ij,ij->i", gap, gap) > 1e-9)
     return np.where(moved[:, None], P, I), moved
