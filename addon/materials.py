@@ -256,6 +256,9 @@ class GraphReader:
         name = RENAMED.get(out.name, out.name)
         if kind == "ShaderNodeMixRGB" and name == "Color":          # the legacy Mix's output is the Mix's Result
             name = "Result"
+        if kind == "ShaderNodeLightPath" and name == "Portal Depth":
+            self.reader.warn(node, "Portal Depth is read as 0: Primer does not count the Ray Portal bounces a path "
+                                   "makes (they count as transparent bounces, in Transparent Depth)")
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
