@@ -177,3 +177,30 @@ def test_shadow_rays_stop_at_a_ray_portal_but_not_at_one_mixed_with_a_transparen
     for engine in ("PRIMER", "CYCLES"):
         assert abs(means[f"{engine} 1.0"]) < 1e-6, means
         assert means[f"{engine} 0.5"] == pytest.approx(lit, rel=1e-4), means
+
+
+# A material emitting the Light Path node's Portal Depth: the addon's reading and warnings. bpy's Python.
+PORTAL_DEPTH = """
+import sys
+import bpy
+from blender_env import empty_material, report
+sys.path.insert(0, {tools!r})
+from render import load_primer
+primer = load_primer()
+materials_ = sys.modules[primer.__name__ + ".addon.materials"]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+m, tree, output = empty_material("Depth")
+path, emission = tree.nodes.new("ShaderNodeLightPath"), tree.nodes.new("ShaderNodeEmission")
+tree.links.new(path.outputs["Portal Depth"], emission.inputs["Strength"])
+tree.links.new(emission.outputs[0], output.inputs["Surface"])
+warnings = []
+materials_.export_material(m, warnings)
+primer.unregister()             # bpy 4.2 crashes at exit while a Python RenderEngine is registered
+report(warnings=[str(w) for w in warnings])
+"""
+
+
+def test_the_light_path_nodes_portal_depth_is_warned_as_read_zero(tmp_path):
+    """Portal bounces are not counted apart: reading Portal Depth gives one warning saying it is read as 0."""
+    report = run_bpy(PORTAL_DEPTH.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    assert len(report["warnings"]) == 1 and "Portal Depth is read as 0" in report["warnings"][0], report
