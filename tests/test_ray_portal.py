@@ -157,3 +157,19 @@ def test_both_kernels_render_a_lit_scene_through_portals_alike(integrator):
     compiled, reference = compare_paths(scene, settings)
     assert_same_render(compiled, reference)
     assert np.isfinite(compiled.image).all() and compiled.image[..., :3].max() > 0.0
+
+
+def test_the_ray_diagram_draws_each_portals_jump_and_the_ray_it_sends():
+    """The 2D ray diagram of the far_away scene (Position (100, 0, 3)): each jump ("portal_jump") goes from a hit on
+    the pane (z = 2) to the portal's Position, and the portal's rays ("portal") leave from there."""
+    from core.teaching import diagram
+    scene, settings = far_away("numpy", {"position_set": 1.0, "position": (100.0, 0.0, 3.0)})
+    settings.integrator = "path"
+    d = diagram.ray_diagram(scene, settings, size=64)
+    jumps = [s for s in d.segments if s.kind == "portal_jump"]
+    rays = [s for s in d.segments if s.kind == "portal"]
+    assert jumps and rays
+    np.testing.assert_allclose(np.concatenate([s.start for s in jumps])[:, 2], 2.0, atol=1e-5)
+    P = np.array([100.0, 0.0, 3.0])
+    assert np.abs(np.concatenate([s.end for s in jumps]) - P).max() < 1e-5
+    assert np.abs(np.concatenate([s.start for s in rays]) - P).max() < 1e-5
