@@ -266,6 +266,9 @@ class GraphReader:
                                    f"'{consumer.name}' of '{consumer.node.name}' Primer uses that input's own value "
                                    f"{_shown(consumer)}")
             return own_value(consumer)
+        if kind == "ShaderNodeLightPath" and name == "Portal Depth":
+            self.reader.warn(node, "Portal Depth is read as 0: Primer does not count the Ray Portal bounces a path "
+                                   "makes (they count as transparent bounces, in Transparent Depth)")
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
@@ -1341,6 +1344,18 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             out.append(("TRANSPARENT", weight, {}, list(factors) + [(color, "color")]))
         else:
             out.append(("TRANSPARENT", weight * np.maximum(color, 0.0), {}, list(factors)))
+    elif kind == "ShaderNodeBsdfRayPortal":
+        # core/materials/portal.py: the ray goes on from Position (unlinked: the hit point) along Direction (zero:
+        # its own), per hit where linked.
+        color = reader.input(node, "Color", np.ones(3))
+        inputs = {"direction": reader.input(node, "Direction", np.zeros(3))}
+        socket = node.inputs.get("Position")
+        if socket is not None and socket.is_linked:
+            inputs["position"], inputs["position_set"] = reader.input(node, "Position", np.zeros(3)), 1.0
+        if _linked(color):
+            out.append(("RAY_PORTAL", weight, inputs, list(factors) + [(color, "color")]))
+        else:
+            out.append(("RAY_PORTAL", weight * np.maximum(color, 0.0), inputs, list(factors)))
     elif kind == "ShaderNodeHoldout":
         # A hole in the film for camera paths, as much as its weight (the Mix and Add Shaders above it).
         out.append(("HOLDOUT", weight, {}, list(factors)))

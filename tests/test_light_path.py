@@ -184,7 +184,8 @@ def test_a_shadow_ray_passes_only_what_its_path_left_of_the_transparent_bounce_l
 
 
 def test_every_output_of_cycles_light_path_node_is_evaluated():
-    """The node's outputs in Blender 5.0 and 5.2, all compiled (addon/materials.py warns of none)."""
+    """The node's outputs in Blender 5.0 and 5.2, all compiled (addon/materials.py warns of none but Portal Depth,
+    read as 0: Ray Portal bounces are not counted apart)."""
     assert set(LIGHT_PATH_OUTPUTS) == {
         "Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray", "Is Singular Ray", "Is Reflection Ray",
         "Is Transmission Ray", "Is Volume Scatter Ray", "Ray Length", "Ray Depth", "Diffuse Depth", "Glossy Depth",

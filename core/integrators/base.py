@@ -143,7 +143,8 @@ class Recorder:
         chosen for a lamp)."""
 
     def rays(self, kind: str, O: np.ndarray, D: np.ndarray, t: np.ndarray) -> None:
-        """Rays the integrator traced beyond the shadow rays: kind "camera", "reflect" or "refract"; origins
+        """Rays the integrator traced beyond the shadow rays: kind "camera", "reflect", "refract" or "portal" (a
+        Ray Portal's ray; "portal_jump": from the hit to where a portal's ray leaves, not traced); origins
         O and unit directions D (k, 3), and how far each went, t (k,) (inf where it escaped)."""
 
     def roulette(self, vertex: int, owner: np.ndarray, q: np.ndarray, survived: np.ndarray) -> None:

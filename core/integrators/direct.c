@@ -654,7 +654,9 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
                           v, wo, &path, NULL, &sd);
                 double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
-                for (int c = 0; c < 3; c++) T[l][c] *= sd.transparency[c] * passes;
+                /* (a Ray Portal's weight: as Cycles' shadow rays count it, portal.shadow_transparency) */
+                int clear = sd.transparency[0] != 0.0 || sd.transparency[1] != 0.0 || sd.transparency[2] != 0.0;
+                for (int c = 0; c < 3; c++) T[l][c] *= clear ? (sd.transparency[c] + sd.portal[c]) * passes : 0.0;
             }
             if (media != NULL) stack_cross(media, inside + l, s.material, s.backfacing, !hidden);
             /* On from just past that surface, for what is left of the way to the light: towards the ray's own
@@ -1028,6 +1030,17 @@ NOINLINE static void walk_from(const BlockHits *H, int64_t h, const DirectSettin
     for (int c = 0; c < 3; c++) { O[c] = walk->P[c] + walk->D[c] * back; D[c] = -walk->D[c]; }
 }
 
+/* portal.origins for one camera-relative hit at I: a portal closure's ray (params p) leaves from its Position (a world
+ * point, minus the geometry's `origin`) where that is linked and more than 1e-9 (squared) away from the hit; O (3) is
+ * left alone (the step off the surface) elsewhere. */
+INLINE void portal_origin(const double *p, const double *I, const double *origin, double *O)
+{
+    double P[3], gap[3];
+    for (int c = 0; c < 3; c++) { P[c] = p[PORTAL_POSITION + c] - origin[c]; gap[c] = P[c] - I[c]; }
+    if (p[PORTAL_POSITION_SET] != 0.0 && dot3(gap, gap) > 1e-9)
+        for (int c = 0; c < 3; c++) O[c] = P[c];
+}
+
 /* The light one direction sampled from each hit's closures finds (direct.bsdf_ray): a lamp with extent
  * in front of what the ray hits, an emissive surface it hits, or the world it escapes to, weighed by
  * MIS against that light's own samples (1 for a constant world); added to H->L. Returns Embree's ticks. */
@@ -1057,6 +1070,7 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             if (!(s->pdf > 0.0)) continue;
             const Surface *sf = H->s + h;
             spawn_ray(sf->I, sf->Ng, s->wi, ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon, origin[lanes]);
+            if (bsdf_is(s->kind, BSDF_FLAG_PORTAL)) portal_origin(H->sd[h].c[s->slot].p, sf->I, ds->geometry->origin, origin[lanes]);
             set_lane(&packet.ray, lanes, origin[lanes], s->wi, INFINITY);
             set_time(&packet.ray, lanes, sf->time);
             owner[lanes] = h;
@@ -1111,11 +1125,14 @@ INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             int64_t h = owner[k];
             uint64_t receiver = links_of(ds->geometry, H->geometry[h], H->prim[h], H->instance[h], 0);
             if (bsdf_is(s->kind, BSDF_FLAG_STRAIGHT) && ds->continuing != NULL) {
-                /* Straight through a transparent surface: still the last real bounce's ray (direct.bsdf_ray). */
-                pdf_b = H->mis_pdf[owner[k]];
-                use_mis = ds->mis && isfinite(pdf_b);
-                P = H->mis_origin + 3 * owner[k];
-                N = H->mis_n + 3 * owner[k];
+                /* Straight through a transparent surface: still the last real bounce's ray (direct.bsdf_ray); through a
+                 * portal no longer (MIS skipped: pdf inf). */
+                if (!bsdf_is(s->kind, BSDF_FLAG_PORTAL)) {
+                    pdf_b = H->mis_pdf[owner[k]];
+                    use_mis = ds->mis && isfinite(pdf_b);
+                    P = H->mis_origin + 3 * owner[k];
+                    N = H->mis_n + 3 * owner[k];
+                }
                 receiver = H->mis_receiver[owner[k]];    /* (Light Linking: the last real bounce's object) */
             }
             double light_L[3] = {0.0, 0.0, 0.0}, shares[PASS_KINDS][3];

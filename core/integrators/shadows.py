@@ -39,6 +39,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
+from ..materials import portal as portal_
 from .. import volumes
 from ..lights.linking import in_sets
 from ..native import schema
@@ -246,7 +247,9 @@ def transmittance(ctx, rays: ShadowRays, limit: int, inside=None, paths=None, bl
         length = np.sqrt((gone[:, 0] * gone[:, 0] + gone[:, 1] * gone[:, 1]) + gone[:, 2] * gone[:, 2])
         surface = surface._replace(t=length)
         shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, path)
-        through = np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0, shader.transparency)
+        # (a Ray Portal's weight: as Cycles' shadow rays count it, portal.shadow_transparency)
+        through = np.where(ctx.materials.shadow_opaque[surface.material][:, None], 0.0,
+                           portal_.shadow_transparency(shader))
         T[rows] *= np.where(hidden[:, None], 1.0, through)
         if media is not None:
             inside[rows] = media.crossed(inside[rows], surface.material, surface.backfacing, ~hidden)

@@ -235,6 +235,7 @@ INLINE void walk_exit_shader(ShaderResult *sd)
     walk_exit_normal(sd, N);
     for (int j = 0; j < 3; j++) sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0;
     sd->n = 0;
+    sd->portal[0] = sd->portal[1] = sd->portal[2] = 0.0;
     if (sd->room < 1) return;
     Closure *c = sd->c;
     c->kind = BSDF_LAMBERT;

@@ -23,6 +23,7 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from .. import materials as materials_
+from ..materials import portal as portal_
 from ..geometry.intersect import Hits
 from ..geometry.surface import surface_at_hits
 from ..lights import linking
@@ -309,6 +310,13 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     # The ray leaves from a point safely off the surface, on the side it goes to.
     D = bs.wi[go]
     O = spawn_ray(surface.I[go], surface.Ng[go], D, offsets[go] if offsets is not None else np.full(len(go), s.epsilon))
+    # Through a Ray Portal: the ray leaves from the portal's Position where it is elsewhere (portal.origins).
+    portal = materials_.has(bs.kind[go], materials_.BSDFFlags.PORTAL)
+    moved = np.zeros(len(go), bool)
+    if portal.any():
+        at = go[portal]
+        P, moved[portal] = portal_.origins(shader.closures.params[at, bs.slot[at]], surface.I[at], ctx.geometry.origin)
+        O[moved] = P[moved[portal]]
     transmit = np.einsum("ij,ij->i", surface.Ng[go], D) < 0.0
     seen_as = ray_kind(bs.kind[go], transmit, np.broadcast_to(np.asarray(seen_by, np.int64), (m,))[go])
     hits = nearest_seen(ctx, O, D, np.full(len(go), np.inf), seen_as,
@@ -316,11 +324,13 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     pdf_b = np.where(bs.delta[go], np.inf, bs.pdf[go])
     # A ray that went straight through a transparent surface is still the last real bounce's ray: its MIS
     # weighs with that bounce's pdf (inf for the camera's), as Cycles keeps it across transparent bounces.
-    clear = materials_.has(bs.kind[go], materials_.BSDFFlags.STRAIGHT)
+    # (a portal's ray is no longer that ray: what it finds is not weighed, pdf inf, as Cycles' PATH_RAY_MIS_SKIP)
+    straight = materials_.has(bs.kind[go], materials_.BSDFFlags.STRAIGHT)
+    clear = straight & ~portal
     mis_O, mis_N = O, tree_N[go]
     receiver = surface.prim[go]                   # (Light Linking: the object the ray left, or the last real bounce's)
-    if carried_receiver is not None and clear.any():
-        receiver = np.where(clear, carried_receiver[go], receiver)
+    if carried_receiver is not None and straight.any():
+        receiver = np.where(straight, carried_receiver[go], receiver)
     if carried_pdf is not None and clear.any():
         pdf_b = np.where(clear, carried_pdf[go], pdf_b)
         if carried_origin is not None:
@@ -357,9 +367,13 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
             attenuation[walks] = 1.0                     # (the walk's ray is no ray through the medium outside)
     ray = BsdfRay(go, O, D, hits, weight, bs.kind[go], bs.delta[go], transmit, pdf_b, seen_as, mis_O, mis_N,
                   after, ray_inside, attenuation, receiver)
-    for kind, mask in (("reflect", ~ray.transmit), ("refract", ray.transmit)):
+    for kind, mask in (("reflect", ~ray.transmit & ~portal), ("refract", ray.transmit & ~portal), ("portal", portal)):
         if mask.any():
             recorder.rays(kind, O[mask], D[mask], t_hit[mask])
+    if moved.any():                                 # (a portal's jump, from the hit to where its ray leaves)
+        jump = O[moved] - surface.I[go[moved]]
+        length = np.sqrt(np.einsum("ij,ij->i", jump, jump))
+        recorder.rays("portal_jump", surface.I[go[moved]], jump / length[:, None], length)
     if not gather:
         recorder.bsdf_sample(bs.wi, bs.pdf, found)
         return found, ray
@@ -370,7 +384,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     keys = None
     if getattr(ctx.materials, "traces", False):
         below = np.full(len(go), np.inf) if min_pdf is None else min_pdf[go]
-        keys = (pixel[go], sample[go], dimension + VERTEX_DIMENSIONS, np.where(clear, below, np.minimum(below, pdf_b)))
+        keys = (pixel[go], sample[go], dimension + VERTEX_DIMENSIONS, np.where(straight, below, np.minimum(below, pdf_b)))
     if len(walks):
         # A walk's exit gathers nothing on the way (its light samples and bounce come at the next vertex).
         traced_rays = np.setdiff1d(np.arange(len(go)), walks)

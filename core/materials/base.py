@@ -67,6 +67,9 @@ class BSDFFlags(enum.IntFlag):
                   weight still counts in the mixture's pdf), and where it is the sampled closure the ray it gives
                   goes into the surface and walks inside the mesh (core/integrators/subsurface.py); the path goes
                   on from where the walk leaves, with no bounce counted for the walk itself
+    PORTAL        a Ray Portal (with STRAIGHT: a transparent bounce that keeps the ray's kind): the ray it gives leaves
+                  from the closure's Position along its Direction (core/materials/portal.py), what it finds is not
+                  weighed by MIS, and shadow rays stop at a surface with one
     """
 
     REFLECTION = 1 << 0
@@ -81,6 +84,7 @@ class BSDFFlags(enum.IntFlag):
     GLASS_TYPE = 1 << 9
     OWN_WEIGHT = 1 << 10
     SUBSURFACE = 1 << 11
+    PORTAL = 1 << 12
 
 
 class BsdfSample(NamedTuple):

@@ -178,6 +178,10 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
 INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResult *sd)
 {
     sd->n = 0;
+    for (int j = 0; j < 3; j++) sd->portal[j] = 0.0;
+    for (int k = 0; k < (int)m->n; k++)
+        if (bsdf_is((int)m->kind[k], BSDF_FLAG_PORTAL))
+            for (int j = 0; j < 3; j++) sd->portal[j] += m->weight[3 * k + j];
     for (int k = 0; k < (int)m->n && sd->n < sd->room; k++) {
         int kind = (int)m->kind[k];
         if (caustics_take(kind, sd->caustics)) continue;      /* ConstantShader.shade's caustics filter */

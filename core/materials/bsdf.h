@@ -31,6 +31,7 @@ typedef struct {
     double emission[3];
     double transparency[3];
     double holdout[3];      /* the Holdout nodes' weight (closures.ShaderResult.holdout; 0: none) */
+    double portal[3];       /* the Ray Portal closures' weight set up here, even without room (portal.portal_weight) */
     double N[3];
     double *storage;
     const double *glossy;   /* the normal glossy lobes get while a node sets up (nodes.c), NULL: N */
@@ -45,6 +46,7 @@ typedef struct {
 INLINE void no_closures(ShaderResult *sd)
 {
     sd->n = sd->room = 0;
+    sd->portal[0] = sd->portal[1] = sd->portal[2] = 0.0;
     sd->c = NULL;
     sd->storage = NULL;
     sd->caustics = 0;

@@ -17,6 +17,7 @@
 #include "toon.c"
 #include "subsurface.c"
 #include "hair.c"
+#include "portal.c"
 
 /* BSDF.eval through the table: f cos of closure c for light from wi towards wo, and its pdf. A kind
  * outside the table (which core/materials refuses before C sees it) reflects nothing. */
@@ -42,6 +43,7 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
     case BSDF_CHIANG_HAIR: chiang_hair_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_HAIR_REFLECTION: hair_reflection_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_HAIR_TRANSMISSION: hair_transmission_eval(c, wo, wi, f_cos, pdf); return;
+    case BSDF_PORTAL: portal_eval(c, wo, wi, f_cos, pdf); return;
     default: break;
     }
     f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
@@ -71,6 +73,7 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     case BSDF_CHIANG_HAIR: chiang_hair_sample(c, wo, u, out); return;
     case BSDF_HAIR_REFLECTION: hair_reflection_sample(c, wo, u, out); return;
     case BSDF_HAIR_TRANSMISSION: hair_transmission_sample(c, wo, u, out); return;
+    case BSDF_PORTAL: portal_sample(c, wo, u, out); return;
     default: break;
     }
     out->wi[0] = out->wi[1] = out->wi[2] = 0.0;

@@ -124,7 +124,7 @@ def light_path_output(output: int, path: "LightPaths", t: np.ndarray) -> np.ndar
         return np.asarray(t, np.float64)
     if name == "Ray Depth":                       # a shadow ray and a light's own shading: one bounce further
         return (path.bounce + ((path.flags & (PATH_SHADOW | PATH_EMISSION)) != 0)).astype(np.float64)
-    if name == "Portal Depth":                    # (Primer has no Ray Portal BSDF: no portal is ever passed)
+    if name == "Portal Depth":                    # (portal bounces are not counted apart: 0, warned by the addon)
         return np.zeros(len(path.flags))
     field = {"Diffuse Depth": "diffuse", "Glossy Depth": "glossy", "Transparent Depth": "transparent",
              "Transmission Depth": "transmission"}[name]

@@ -526,6 +526,19 @@ INLINE void transparent_node(ShaderResult *sd, double mu, const double *wo, int 
     for (int j = 0; j < 3; j++) sd->transparency[j] += weight[j];
 }
 
+/* portal.PortalNode.setup for one hit: one Portal closure of the node's weight (p: position_set, position, direction);
+ * sd->portal adds its weight even where sd has no room for closures (a shadow ray's: portal.shadow_transparency). */
+INLINE void ray_portal_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
+                            const double *p)
+{
+    (void)mu; (void)wo; (void)backfacing;
+    double v[STORAGE_STRIDE] = {0.0};
+    for (int j = 0; j < 7; j++) v[j] = p[j];
+    if (fabs((weight[0] + weight[1] + weight[2]) / 3.0) >= WEIGHT_CUTOFF)
+        for (int j = 0; j < 3; j++) sd->portal[j] += weight[j];
+    closure_add(sd, BSDF_PORTAL, weight, weight, 1.0, v);
+}
+
 INLINE void holdout_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
                          const double *p)
 {
@@ -674,6 +687,7 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
     sd->glossy = NULL;
     sd->hit_N = NULL;
     for (int j = 0; j < 3; j++) { sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0; sd->N[j] = N[j]; }
+    sd->portal[0] = sd->portal[1] = sd->portal[2] = 0.0;
     for (int k = 0; k < (int)m->n; k++)
         setup_node(sd, (int)m->kind[k], mu, wo, backfacing, m->weight + 3 * k, m->p + (int64_t)NODE_PARAMS * k);
     add_transparent(sd);
@@ -701,6 +715,7 @@ NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, 
         if (hit[0] != 0.0 || hit[1] != 0.0 || hit[2] != 0.0) N = hit;
     }
     sd->n = 0;
+    sd->portal[0] = sd->portal[1] = sd->portal[2] = 0.0;
     for (int j = 0; j < 3; j++) sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0;
     for (int k = 0; k < n; k++) {
         int own = 0;

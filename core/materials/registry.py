@@ -23,6 +23,7 @@ from .mirror import Mirror
 from .nodes import (DiffuseNode, EmissionNode, GlassNode, GlossyNode, HoldoutNode, MirrorNode, Node, PrincipledNode,
                     SheenNode, TransparentNode)
 from .oren_nayar import OrenNayar
+from .portal import Portal, PortalNode
 from .rough_glass import RoughGlass
 from .sheen import Sheen
 from .subsurface import RandomWalk, SubsurfaceNode
@@ -33,10 +34,10 @@ from .velvet import Velvet
 
 BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet, Translucent,
               Beckmann, BeckmannGlass, AshikhminShirley, DiffuseToon, GlossyToon, RandomWalk, ChiangHair,
-              HairReflection, HairTransmission)
+              HairReflection, HairTransmission, Portal)
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
               SheenNode, HoldoutNode, TranslucentNode, ToonNode, SubsurfaceNode,
-              PrincipledHairNode, HairNode)
+              PrincipledHairNode, HairNode, PortalNode)
 
 
 def _number(table: tuple, base: type) -> None:

@@ -329,7 +329,7 @@ enum {
     BSDF_ROUGH_GLASS = 5, BSDF_OREN_NAYAR = 6, BSDF_SHEEN = 7, BSDF_VELVET = 8, BSDF_TRANSLUCENT = 9,
     BSDF_BECKMANN = 10, BSDF_BECKMANN_GLASS = 11, BSDF_ASHIKHMIN_SHIRLEY = 12, BSDF_DIFFUSE_TOON = 13,
     BSDF_GLOSSY_TOON = 14, BSDF_SUBSURFACE = 15, BSDF_CHIANG_HAIR = 16, BSDF_HAIR_REFLECTION = 17,
-    BSDF_HAIR_TRANSMISSION = 18, BSDF_COUNT = 19
+    BSDF_HAIR_TRANSMISSION = 18, BSDF_PORTAL = 19, BSDF_COUNT = 20
 };
 
 /* core/materials/base.py BSDFFlags: what a BSDF is */
@@ -337,7 +337,7 @@ enum {
     BSDF_FLAG_REFLECTION = 1, BSDF_FLAG_TRANSMISSION = 2, BSDF_FLAG_DIFFUSE = 4, BSDF_FLAG_GLOSSY = 8,
     BSDF_FLAG_SINGULAR = 16, BSDF_FLAG_STRAIGHT = 32, BSDF_FLAG_DIFFUSE_TYPE = 64,
     BSDF_FLAG_GLOSSY_TYPE = 128, BSDF_FLAG_TRANSMISSION_TYPE = 256, BSDF_FLAG_GLASS_TYPE = 512,
-    BSDF_FLAG_OWN_WEIGHT = 1024, BSDF_FLAG_SUBSURFACE = 2048
+    BSDF_FLAG_OWN_WEIGHT = 1024, BSDF_FLAG_SUBSURFACE = 2048, BSDF_FLAG_PORTAL = 4096
 };
 
 static const int BSDF_FLAGS[BSDF_COUNT] = {
@@ -360,6 +360,7 @@ static const int BSDF_FLAGS[BSDF_COUNT] = {
     BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* ChiangHair */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HairReflection */
     BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_TRANSMISSION_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HairTransmission */
+    BSDF_FLAG_TRANSMISSION | BSDF_FLAG_SINGULAR | BSDF_FLAG_STRAIGHT | BSDF_FLAG_PORTAL,   /* Portal */
 };
 /* Whether a bsdf of kind `kind` has any of `flags` (0 for kind -1: none). */
 INLINE int bsdf_is(int kind, int flags)
@@ -368,7 +369,7 @@ INLINE int bsdf_is(int kind, int flags)
 }
 
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
-static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1, 4, 6, -1, -1};
+static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1, 4, 6, -1, -1, -1};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
@@ -377,7 +378,8 @@ static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
 enum {
     NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
     NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7, NODE_HOLDOUT = 8, NODE_TRANSLUCENT = 9,
-    NODE_TOON = 10, NODE_SUBSURFACE = 11, NODE_PRINCIPLED_HAIR = 12, NODE_HAIR = 13, NODE_COUNT = 14
+    NODE_TOON = 10, NODE_SUBSURFACE = 11, NODE_PRINCIPLED_HAIR = 12, NODE_HAIR = 13, NODE_RAY_PORTAL = 14,
+    NODE_COUNT = 15
 };
 
 /* core/lights/__init__.py LIGHT_TYPES: a light's kind */
@@ -1106,7 +1108,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(8791688880110937372);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(1522061265499507200);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(6211286546654913338);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(6505255890517640916);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
@@ -1121,7 +1123,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
-    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(5130133816351125659);
+    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(3846823989890781971);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(7493939475877270732);
     if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);

@@ -27,6 +27,7 @@ from ..integrators import Recorder, for_render
 # The colours of the diagram (linear RGB).
 COLORS = {"scene": (0.55, 0.55, 0.55), "camera": (1.0, 0.85, 0.1), "shadow_free": (0.1, 0.8, 0.2),
           "shadow_blocked": (0.9, 0.1, 0.1), "reflect": (0.15, 0.35, 1.0), "refract": (0.1, 0.85, 0.9),
+          "portal": (1.0, 0.5, 0.0), "portal_jump": (0.6, 0.3, 0.0),
           "light": (1.0, 1.0, 1.0), "background": (0.02, 0.02, 0.025), "scatter": (1.0, 0.2, 0.9)}
 
 
@@ -151,7 +152,7 @@ def _draw(lines, segments, eye, lights, bounds, size) -> np.ndarray:
 
     if len(lines):
         line(lines[:, 0], lines[:, 1], COLORS["scene"])
-    for kind in ("camera", "shadow_free", "shadow_blocked", "reflect", "refract"):
+    for kind in ("camera", "shadow_free", "shadow_blocked", "reflect", "refract", "portal", "portal_jump"):
         for s in segments:
             if s.kind == kind and len(s.start):
                 line(s.start[:, :2], s.end[:, :2], COLORS[kind])
