@@ -44,11 +44,12 @@ XDIST := $(if $(filter-out 0 1,$(PYTEST_JOBS)),-n $(PYTEST_JOBS))
 .PHONY: demo test test-setup test-run venv venv42 venv52 kernels platforms platforms-check extension scenes references clean
 
 # Create a virtual environment $(1) with Python $(2) and install the pinned dependencies $(3) (once, or
-# when they change).
+# when they change). --no-compile: pip would byte-compile every module of every wheel (bpy's thousands of scripts,
+# about 10 s of CPU for each bpy); Python compiles what is imported, once, when it is first imported.
 define make_venv
 	test -x $(1)/bin/python || $(2) -m venv $(1)
 	$(1)/bin/python -m pip install --quiet --upgrade pip
-	$(1)/bin/python -m pip install --quiet -r $(3)
+	$(1)/bin/python -m pip install --quiet --no-compile -r $(3)
 endef
 CHECK_PYTHON311 = @$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), \
 	"Primer needs Python 3.11 (Blender 4.2 to 5.0), found " + sys.version.split()[0]'
@@ -58,7 +59,7 @@ CHECK_PYTHON311 = @$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 
 $(VENV)/.numpy-installed: requirements.txt
 	$(CHECK_PYTHON311)
 	test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
-	$(VENV)/bin/python -m pip install --quiet "$$(grep '^numpy==' requirements.txt)"
+	$(VENV)/bin/python -m pip install --quiet --no-compile "$$(grep '^numpy==' requirements.txt)"
 	touch $@
 
 # .venv: the tracer, bpy 5.0 (Blender as a module) and the tools; used by `make demo` and `make test`.
@@ -91,7 +92,7 @@ venv52: $(VENV52)/.installed
 # Zig's C toolchain (the ziglang package), installed into .venv beside the pinned dependencies: the
 # cross-compiler of `make platforms` and `make extension`, and of tests/test_platforms.py.
 $(VENV)/.platforms-installed: $(VENV)/.installed requirements-platforms.txt
-	$(PY) -m pip install --quiet -r requirements-platforms.txt -c requirements.txt
+	$(PY) -m pip install --quiet --no-compile -r requirements-platforms.txt -c requirements.txt
 	touch $@
 
 # The other environments build the extension with .venv's Zig (tools/build_kernels.py reads $ZIG).
