@@ -955,7 +955,7 @@ def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
     Primer does not read; the sun lamps of its Sky Textures' discs (sky_suns, left out of the bake and of the rays
     that escape); the program every ray that escapes evaluates with its path (World.seen), or None where they find
     the bake: a graph that varies or reads the Light Path node)."""
-    reader = materials_.NodeReader(world, warnings, kind="world")
+    reader = materials_.NodeReader(world, warnings, kind="world", kernels=kernels)
     radiance = _world_radiance(reader, node)
     if radiance is None:
         return None, [], None

@@ -110,8 +110,9 @@ def _follow(node):
 class NodeReader:
     """Reads one material's (or light's) inputs, noting each input that a link feeds (Primer takes its own value)."""
 
-    def __init__(self, material, warnings: list, kind: str = "material"):
+    def __init__(self, material, warnings: list, kind: str = "material", kernels: str = "compiled"):
         self.material, self.warnings, self.kind = material, warnings, kind
+        self.kernels = kernels         # where its Sky Textures' tables are computed ("compiled": C, "numpy")
         self.path: tuple = ()          # the group nodes the shader nodes being read sit inside
 
     def warn(self, node, text: str) -> None:
@@ -407,7 +408,7 @@ class GraphReader:
             kind, float(node.sun_elevation), float(node.sun_rotation), float(node.sun_size),
             float(node.sun_intensity), bool(node.sun_disc), float(node.altitude), float(node.air_density),
             float(aerosol), float(node.ozone_density), tuple(node.sun_direction), float(node.turbidity),
-            float(node.ground_albedo), disc_drawn=not world or moved)}
+            float(node.ground_albedo), disc_drawn=not world or moved, kernels=self.reader.kernels)}
 
     def node(self, node, path: tuple):
         """The GraphNode of a Blender node (made once per group path), or None when Primer cannot read it."""

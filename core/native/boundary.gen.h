@@ -243,6 +243,50 @@
 #define SKY_HOSEK_WILKIE 3
 /* the sun disc's limb darkening (core.materials.sky) */
 #define SKY_LIMB 0.6
+/* the multiple-scattering sky's earth radius, km (core.materials.sky) */
+#define SKY_MS_EARTH 6371.0
+/* its atmosphere's thickness, km (core.materials.sky) */
+#define SKY_MS_THICKNESS 100.0
+/* its top's radius, km (core.materials.sky) */
+#define SKY_MS_TOP 6471.0
+/* its steps along a ray (core.materials.sky) */
+#define SKY_MS_STEPS 64
+/* its transmittance table's rows (core.materials.sky) */
+#define SKY_MS_TRANSMITTANCE_ROWS 64
+/* its transmittance table's columns (core.materials.sky) */
+#define SKY_MS_TRANSMITTANCE_COLUMNS 256
+/* its ground's albedo (core.materials.sky) */
+#define SKY_MS_GROUND_ALBEDO 0.3
+/* its wavelengths (core.materials.sky) */
+#define SKY_MS_WAVELENGTHS 4
+/* its aerosol density at sea level (core.materials.sky) */
+#define SKY_MS_AEROSOL_BASE 1.3681e+20
+/* its aerosols' background density (core.materials.sky) */
+#define SKY_MS_AEROSOL_BACKGROUND 2000000.0
+/* its aerosols' scale height, km (core.materials.sky) */
+#define SKY_MS_AEROSOL_HEIGHT 0.73
+/* its aerosols' phase function's g (core.materials.sky) */
+#define SKY_MS_G 0.8
+/* the single-scattering sky's earth radius, m (core.materials.sky) */
+#define SKY_SS_EARTH 6360000.0
+/* its atmosphere's top's radius, m (core.materials.sky) */
+#define SKY_SS_TOP 6420000.0
+/* its air's scale height, m (core.materials.sky) */
+#define SKY_SS_RAYLEIGH_HEIGHT 8000.0
+/* its aerosols' scale height, m (core.materials.sky) */
+#define SKY_SS_MIE_HEIGHT 1200.0
+/* its aerosols' scattering coefficient, 1 / m (core.materials.sky) */
+#define SKY_SS_MIE 2e-05
+/* its aerosols' phase function's g (core.materials.sky) */
+#define SKY_SS_G 0.76
+/* its segments along a ray (core.materials.sky) */
+#define SKY_SS_STEPS 32
+/* its wavelengths, 380 .. 780 nm (core.materials.sky) */
+#define SKY_SS_WAVELENGTHS 21
+/* its wavelengths' spacing, nm (core.materials.sky) */
+#define SKY_SS_STEP_LAMBDA 20.0
+/* its quadrature's nodes (core.materials.sky) */
+#define SKY_SS_NODES 8
 /* Hosek / Wilkie's RGB scale (core.materials.sky) */
 #define SKY_HOSEK_SCALE 0.009199392836280507
 /* where the Sky op's floats keep each number (core/materials/sky.py) (core.materials.sky) */
@@ -439,6 +483,8 @@ typedef struct BsdfArgs BsdfArgs;
 typedef struct LightPath LightPath;
 typedef struct GraphTables GraphTables;
 typedef struct IESFacArgs IESFacArgs;
+typedef struct SkyMultipleArgs SkyMultipleArgs;
+typedef struct SkySingleArgs SkySingleArgs;
 typedef struct TextureTables TextureTables;
 typedef struct TextureLookupArgs TextureLookupArgs;
 typedef struct Sample2dArgs Sample2dArgs;
@@ -991,6 +1037,44 @@ struct IESFacArgs {
     double *fac;                            /* (n,) */
 };
 
+/* primer_sky_multiple_scattering's arguments: the multiple-scattering sky's table (sky.multiple_scattering_xyz) and its atmosphere's transmittance (Atmosphere.precompute). */
+struct SkyMultipleArgs {
+    double elevation;                       /* the sun's elevation, radians */
+    double altitude;                        /* the observer's altitude, m */
+    double air;                             /* the air's density */
+    double aerosol;                         /* the aerosols' */
+    double ozone;                           /* the ozone's */
+    int64_t width;                          /* the table's W (even) */
+    int64_t height;                         /* its H */
+    const double *sun;                      /* MS_SUN (SKY_MS_WAVELENGTHS,) */
+    const double *molecular;                /* MS_MOLECULAR (SKY_MS_WAVELENGTHS,) */
+    const double *ozone_cross_section;      /* MS_OZONE (SKY_MS_WAVELENGTHS,) */
+    const double *aerosol_absorption;       /* MS_AEROSOL_ABSORPTION (SKY_MS_WAVELENGTHS,) */
+    const double *aerosol_scattering;       /* MS_AEROSOL_SCATTERING (SKY_MS_WAVELENGTHS,) */
+    const double *multiple;                 /* MS_MULTIPLE (SKY_MS_WAVELENGTHS,) */
+    const double *to_xyz;                   /* MS_TO_XYZ (SKY_MS_WAVELENGTHS, 3) */
+    double *transmittance;                  /* (ROWS, COLUMNS, SKY_MS_WAVELENGTHS) written: Atmosphere.table */
+    double *xyz;                            /* (H, W, 3) written: the table */
+};
+
+/* primer_sky_single_scattering's arguments: the single-scattering sky's table (sky.single_scattering_xyz). */
+struct SkySingleArgs {
+    double elevation;                       /* the sun's elevation, radians */
+    double altitude;                        /* the observer's altitude, m */
+    double air;                             /* the air's density */
+    double aerosol;                         /* the aerosols' */
+    double ozone;                           /* the ozone's */
+    int64_t width;                          /* the table's W (even) */
+    int64_t height;                         /* its H */
+    const double *irradiance;               /* SS_IRRADIANCE (SKY_SS_WAVELENGTHS,) */
+    const double *rayleigh;                 /* SS_RAYLEIGH (SKY_SS_WAVELENGTHS,) */
+    const double *ozone_cross_section;      /* SS_OZONE (SKY_SS_WAVELENGTHS,) */
+    const double *cmf;                      /* SS_CMF (SKY_SS_WAVELENGTHS, 3) */
+    const double *nodes;                    /* SS_NODES (SKY_SS_NODES,) */
+    const double *weights;                  /* SS_WEIGHTS (SKY_SS_NODES,) */
+    double *xyz;                            /* (H, W, 3) written: the table */
+};
+
 /* A render's images (core/materials/textures.py TextureSet): the texels of each format in one buffer. */
 struct TextureTables {
     const float *floats;                    /* the float images' texels, rows bottom first */
@@ -1127,6 +1211,8 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(7493939475877270732);
     if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
+    if (strcmp(name, "SkyMultipleArgs") == 0) return UINT64_C(8745123704423823932);
+    if (strcmp(name, "SkySingleArgs") == 0) return UINT64_C(7958716256533574401);
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
@@ -1170,6 +1256,8 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "LightPath") == 0) return (int64_t)sizeof(LightPath);
     if (strcmp(name, "GraphTables") == 0) return (int64_t)sizeof(GraphTables);
     if (strcmp(name, "IESFacArgs") == 0) return (int64_t)sizeof(IESFacArgs);
+    if (strcmp(name, "SkyMultipleArgs") == 0) return (int64_t)sizeof(SkyMultipleArgs);
+    if (strcmp(name, "SkySingleArgs") == 0) return (int64_t)sizeof(SkySingleArgs);
     if (strcmp(name, "TextureTables") == 0) return (int64_t)sizeof(TextureTables);
     if (strcmp(name, "TextureLookupArgs") == 0) return (int64_t)sizeof(TextureLookupArgs);
     if (strcmp(name, "Sample2dArgs") == 0) return (int64_t)sizeof(Sample2dArgs);

@@ -88,6 +88,16 @@ EXPORT void primer_ies_fac(IESFacArgs *a)
     ies_fac_rows(a);
 }
 
+EXPORT void primer_sky_multiple_scattering(SkyMultipleArgs *a)
+{
+    sky_multiple_scattering_table(a);
+}
+
+EXPORT void primer_sky_single_scattering(SkySingleArgs *a)
+{
+    sky_single_scattering_table(a);
+}
+
 EXPORT void primer_texture_lookup(TextureLookupArgs *a)
 {
     texture_lookup_rows(a);

@@ -26,6 +26,7 @@
 #include "../materials/procedural/procedural.gen.c"   /* the procedural textures' C files (tools/make_boundary.py) */
 #include "../materials/converters/converters.gen.c"   /* the converter and colour nodes' C files (tools/make_boundary.py) */
 #include "../materials/sky.c"           /* the Sky Texture's op (graph.c calls it) */
+#include "../materials/sky_tables.c"    /* the scattering skies' tables (core/materials/sky.py calls them) */
 #include "../materials/graph.c"
 #include "../materials/nodes.c"
 #include "../lights/world_graph.c"       /* the world's program, per texel of its bake and per camera ray */
