@@ -754,7 +754,7 @@ static void textured_block(SampleBlock *b, const BlockHits *H, const DirectSetti
 /* Direct light at the block's hits, added to H->L: every light's samples, BLOCK at a time. Returns the
  * shadow rays traced; embree_ticks[0] += the time inside Embree's occlusion queries. */
 /* direct.wants_bsdf_ray: whether each hit traces a BSDF ray, into H->traced. */
-INLINE void choose_bsdf_rays(BlockHits *H, const DirectSettings *ds)
+NOINLINE static void choose_bsdf_rays(BlockHits *H, const DirectSettings *ds)
 {
     for (int64_t h = 0; h < H->m; h++) {
         const ShaderResult *sd = H->sd + h;
@@ -821,7 +821,7 @@ INLINE void link_block(SampleBlock *b, const BlockHits *H, const DirectSettings 
     }
 }
 
-INLINE int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *embree_ticks)
+NOINLINE static int64_t direct_light(BlockHits *H, const DirectSettings *ds, uint64_t *embree_ticks)
 {
     const ShadowSettings *settings = ds->shadows;
     SampleBlock b;
@@ -1044,7 +1044,7 @@ INLINE void portal_origin(const double *p, const double *I, const double *origin
 /* The light one direction sampled from each hit's closures finds (direct.bsdf_ray): a lamp with extent
  * in front of what the ray hits, an emissive surface it hits, or the world it escapes to, weighed by
  * MIS against that light's own samples (1 for a constant world); added to H->L. Returns Embree's ticks. */
-INLINE uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
+NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
 {
     uint32_t stream = stream_of((int64_t)ds->seed, 2 + ds->dimension);
     uint32_t pick_stream = stream_of((int64_t)ds->seed, 3 + ds->dimension);

@@ -118,7 +118,7 @@ INLINE void ambient_occlusion(const LanePasses *lp, const Surface *s, int64_t pi
 }
 
 /* passes.at_vertex for hit h of H, on a camera chain (no real bounce yet), the chain's `vertex`-th. */
-INLINE void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h, int vertex)
+NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h, int vertex)
 {
     const PassTables *pt = lp->tables;
     const GeometryTables *g = ds->geometry;

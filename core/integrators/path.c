@@ -250,7 +250,7 @@ static int64_t bounce_scattering(const BlockHits *H, const PathRays *rays, int v
 
 /* The paths of a block's camera hits H: vertex 0 is lit into H->L (the film adds it), later vertices add
  * throughput x their light into work->extra per camera lane. Returns the shadow rays traced. */
-INLINE int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *limits, PathWork *work,
+NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *limits, PathWork *work,
                            uint64_t *embree)
 {
     int64_t shadow_rays = 0;
