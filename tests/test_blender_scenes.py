@@ -76,10 +76,11 @@ SCENES = {
     "camera_fisheye_equisolid": (256, 512),
 }
 # Scenes whose comparison renders at half the scene's resolution (a quarter of the pixels, the same samples a pixel,
-# so the same noise a pixel and the same tolerance): the four that render the most samples, which took 40-50 s each
-# at full size on 2 cores. Their references are of the half-size file.
+# so the same noise a pixel and the same tolerance): three that render the most samples, which took 40-50 s each
+# at full size on 2 cores. Their references are of the half-size file. (Not materials_principled: its highlights
+# cover few pixels at half size, where a pixel's own variance takes its relative RMSE to 1.3 %.)
 HALF_SIZE = {"render.resolution_percentage": 50}
-SCENE_CHANGES = {name: HALF_SIZE for name in ("cornell_box", "materials_principled", "materials_glass", "world_hdri")}
+SCENE_CHANGES = {name: HALF_SIZE for name in ("cornell_box", "materials_glass", "world_hdri")}
 
 
 # Where Cycles and the lecture choose differently, the Primer settings that choose as Cycles does. Cycles
