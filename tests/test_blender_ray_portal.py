@@ -22,15 +22,10 @@ SCRIPT = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, render_pixels, report
-sys.path.insert(0, {tools!r})
-from render import load_primer
+from blender_env import empty_material, fresh_scene, render_pixels, report
 
-primer = load_primer()
+primer, export, scene = fresh_scene(16, 12)
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 16, 12, 100
 scene.primer.integrator, scene.primer.max_bounces = "PATH", 2
 world = bpy.data.worlds.new("World")
 world.color = (0.3, 0.3, 0.3)
@@ -103,7 +98,7 @@ def test_a_ray_portal_renders_as_in_cycles(tmp_path):
     block relative MSE below 2e-3 (measured: see docs/blender.md) and mean within 3%."""
     sys.path.insert(0, os.path.join(ROOT, "tools"))
     import node_table
-    report = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), primer_samples=PRIMER_SAMPLES,
+    report = run_bpy(SCRIPT.format(primer_samples=PRIMER_SAMPLES,
                                    cycles_samples=CYCLES_SAMPLES), str(tmp_path))
     assert report["warnings"] == []
     assert report["nodes"] == ["DIFFUSE", "RAY_PORTAL", "RAY_PORTAL"]
@@ -119,14 +114,9 @@ SHADOWS = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, render_pixels, report
-sys.path.insert(0, {tools!r})
-from render import load_primer
+from blender_env import empty_material, fresh_scene, render_pixels, report
 
-primer = load_primer()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 8, 8, 100
+primer, export, scene = fresh_scene(8, 8)
 
 
 def quad(name, z, material):
@@ -171,7 +161,7 @@ def test_shadow_rays_stop_at_a_ray_portal_but_not_at_one_mixed_with_a_transparen
     """A floor (0.6) under a sun of 3 at 30 degrees, seen through a pane: a Ray Portal pane lets the camera through and
     stops the sun (0, in Primer and Cycles); Mix(Fac 0.5, Transparent, Ray Portal) lets the sun through whole, in
     both (Cycles' shadow rays set up no portal closure and count its weight as transparent): 0.6 x 3 cos 30 / pi."""
-    report = run_bpy(SHADOWS.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    report = run_bpy(SHADOWS.format(), str(tmp_path))
     means, bpy_version = report["means"], tuple(report["version"])
     lit = 0.6 * 3.0 * np.cos(np.radians(30.0)) / np.pi
     for engine in ("PRIMER", "CYCLES"):
@@ -186,12 +176,9 @@ def test_shadow_rays_stop_at_a_ray_portal_but_not_at_one_mixed_with_a_transparen
 PORTAL_DEPTH = """
 import sys
 import bpy
-from blender_env import empty_material, report
-sys.path.insert(0, {tools!r})
-from render import load_primer
-primer = load_primer()
+from blender_env import empty_material, fresh_scene, report
+primer, export, scene = fresh_scene()
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
-bpy.ops.wm.read_factory_settings(use_empty=True)
 m, tree, output = empty_material("Depth")
 path, emission = tree.nodes.new("ShaderNodeLightPath"), tree.nodes.new("ShaderNodeEmission")
 tree.links.new(path.outputs["Portal Depth"], emission.inputs["Strength"])
@@ -205,5 +192,5 @@ report(warnings=[str(w) for w in warnings])
 
 def test_the_light_path_nodes_portal_depth_is_warned_as_read_zero(tmp_path):
     """Portal bounces are not counted apart: reading Portal Depth gives one warning saying it is read as 0."""
-    report = run_bpy(PORTAL_DEPTH.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    report = run_bpy(PORTAL_DEPTH.format(), str(tmp_path))
     assert len(report["warnings"]) == 1 and "Portal Depth is read as 0" in report["warnings"][0], report
