@@ -4,12 +4,10 @@ stripes, path traced. The probe of issue 31 found both links ignored (IOR 1.0, 0
 linked red as grey); Cycles reads them per shading point and clamps the IOR at 1e-5."""
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 
@@ -21,14 +19,9 @@ SCRIPT = """
 import json, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, render_pixels, report
-sys.path.insert(0, {tools!r})
-from render import load_primer
+from blender_env import empty_material, fresh_scene, render_pixels, report
 
-primer = load_primer()
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 24, 18, 100
+primer, export, scene = fresh_scene(24, 18)
 scene.primer.integrator = "PATH"
 scene.primer.max_bounces = scene.cycles.max_bounces = 8
 scene.cycles.transmission_bounces = scene.cycles.glossy_bounces = 8
@@ -96,7 +89,7 @@ report(images=out)
 @pytest.fixture(scope="module")
 def images(tmp_path_factory):
     folder = tmp_path_factory.mktemp("glass_inputs")
-    return run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), cases=CASES), str(folder), timeout=900)["images"]
+    return run_bpy(SCRIPT.format(cases=CASES), str(folder), timeout=900)["images"]
 
 
 @pytest.mark.parametrize("kind,ior", CASES)

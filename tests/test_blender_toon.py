@@ -5,12 +5,10 @@ toon cone's edge is sharp; the area lamp's light is found by light samples and b
 against each other (MIS), as in Cycles."""
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 
 pytestmark = pytest.mark.blender
 
@@ -18,15 +16,10 @@ SCRIPT = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, render_pixels, report
-sys.path.insert(0, {tools!r})
-from render import load_primer
+from blender_env import empty_material, fresh_scene, render_pixels, report
 
-primer = load_primer()
+primer, export, scene = fresh_scene(40, 20)
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 40, 20, 100
 warnings, nodes = [], []
 for k, (component, size, smooth, color) in enumerate([("DIFFUSE", 0.5, 0.2, (0.9, 0.6, 0.3)),
                                                       ("GLOSSY", 0.3, 0.1, (0.4, 0.7, 0.9))]):
@@ -69,7 +62,7 @@ report(nodes=[[name, {{key: float(value) for key, value in inputs.items()}}] for
 def test_toon_spheres_under_a_sun_and_an_area_lamp_render_as_in_cycles(tmp_path):
     """The node reads as one TOON closure of its colour with Size, Smooth and its component, with no warning; each
     sphere's light (left: Diffuse, right: Glossy) is Cycles' within its noise, pixel by pixel."""
-    report = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
+    report = run_bpy(SCRIPT.format(), str(tmp_path))
     assert report["warnings"] == []
     assert report["nodes"] == [["TOON", {"size": 0.5, "smooth": pytest.approx(0.2), "glossy": 0.0}],
                                ["TOON", {"size": pytest.approx(0.3), "smooth": pytest.approx(0.1), "glossy": 1.0}]]

@@ -5,12 +5,11 @@ no code of its own (core/materials Node.blender) and renders with no integrator 
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 import pytest
 
-from blender_env import ROOT, run_bpy
+from blender_env import run_bpy
 
 pytestmark = pytest.mark.blender
 
@@ -20,15 +19,10 @@ SCRIPT = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, render_pixels, report
-sys.path.insert(0, {tools!r})
-from render import load_primer
+from blender_env import empty_material, fresh_scene, render_pixels, report
 
-primer = load_primer()
+primer, export, scene = fresh_scene(16, 12)
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
-bpy.ops.wm.read_factory_settings(use_empty=True)
-scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 16, 12, 100
 material, tree, output = empty_material("Sheet")
 sheet_bsdf = tree.nodes.new("ShaderNodeBsdfTranslucent")
 sheet_bsdf.inputs["Color"].default_value = (*{albedo!r}, 1.0)
@@ -68,7 +62,7 @@ def test_a_translucent_sheet_lit_from_behind_renders_as_in_cycles(tmp_path):
     """The node reads as one Translucent closure of its colour, with no warning; seen from above, the sheet glows
     with albedo / pi x S x sin(e) for a sun e below its plane, in Primer as in Cycles (both noiseless here: a delta
     sun, a flat sheet)."""
-    report = run_bpy(SCRIPT.format(tools=os.path.join(ROOT, "tools"), albedo=ALBEDO, strength=STRENGTH,
+    report = run_bpy(SCRIPT.format(albedo=ALBEDO, strength=STRENGTH,
                                    below=BELOW_DEG), str(tmp_path))
     assert report["warnings"] == []
     assert [name for name, _ in report["nodes"]] == ["TRANSLUCENT"]
