@@ -486,7 +486,7 @@ CONSTANT_KINDS = frozenset({"RGB", "VALUE", "MATH", "MIX", "RAMP", "INVERT", "HS
                            | {cls.kind for cls in graph_.CONVERTER_TYPES if cls.kind != "IES_TEXTURE"})
 
 
-def light_node_factor(obj, warnings: list) -> np.ndarray:
+def light_node_factor(obj, warnings: list, wiring) -> np.ndarray:
     """Return what the light's node tree multiplies its colour by: (3,) linear RGB.
 
     Cycles renders a light as its colour x power x the emission of its shader. Without a node tree that
@@ -514,8 +514,7 @@ def light_node_factor(obj, warnings: list) -> np.ndarray:
         reader.warn(node, f"'{node.bl_label}' at the Light Output is not an Emission node; Primer uses the "
                           "light's colour and power")
         return np.ones(3)
-    wiring = lamp_ies_wiring(obj)
-    if wiring is not None:
+    if wiring is not None:                  # (lamp_ies_wiring(obj), found once by _export_light)
         return wiring[1]
     linked = [name for name in ("Color", "Strength") if node.inputs.get(name) is not None
               and node.inputs[name].is_linked]
@@ -577,13 +576,7 @@ def lamp_ies_wiring(obj):
     return bpy_node, one
 
 
-def ies_node(obj):
-    """The IES Texture Primer evaluates per direction in a lamp's tree (lamp_ies_wiring), or None."""
-    wiring = lamp_ies_wiring(obj)
-    return None if wiring is None else wiring[0]
-
-
-def light_ies(obj, matrix: np.ndarray, warnings: list):
+def light_ies(obj, matrix: np.ndarray, warnings: list, wiring):
     """Return the lamp's IES Texture as a core IESLamp (core/lights/ies.py), or None without one.
 
     Cycles evaluates the lamp's shader for each light sample; the IES Texture there gives Strength x the profile in
@@ -594,7 +587,7 @@ def light_ies(obj, matrix: np.ndarray, warnings: list):
     direction, the input's own value), as is an IES Texture wired otherwise (not evaluated: a lamp's tree is not run
     per direction; its node is read as the materials read it for the rest).
     """
-    node = ies_node(obj)
+    node = None if wiring is None else wiring[0]        # (lamp_ies_wiring(obj))
     tree = materials_.node_tree(obj.data)
     reader = materials_.NodeReader(obj, warnings, kind="light")
     for other in (tree.nodes if tree is not None else ()):
@@ -698,10 +691,11 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
     light = obj.data
     if light.type == "AREA" and getattr(getattr(light, "cycles", None), "is_portal", False):
         return None
-    emission = light_node_factor(obj, warnings)
+    wiring = lamp_ies_wiring(obj)
+    emission = light_node_factor(obj, warnings, wiring)
     if not emission.any():
         return None                     # Cycles leaves out a light whose shader emits nothing
-    ies = light_ies(obj, matrix, warnings)
+    ies = light_ies(obj, matrix, warnings, wiring)
     core = _lamp(obj, matrix, warnings, _light_color(light) * emission)
     if core is not None and ies is not None:
         core.ies = ies
