@@ -22,7 +22,7 @@ SCRIPT = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, fresh_scene, render_pixels, report
+from blender_env import empty_material, fresh_scene, ortho_camera, render_pixels, report
 
 primer, export, scene = fresh_scene(16, 12)
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
@@ -76,11 +76,7 @@ sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
 sun.data.energy, sun.data.angle = 3.0, 0.0
 sun.rotation_euler = (0.3, 0.2, 0.0)
 scene.collection.objects.link(sun)
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.data.type, camera.data.ortho_scale = "ORTHO", 4.0
-camera.location = (0.0, 0.0, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+ortho_camera(scene, 4.0)
 warnings = []
 nodes = [entry[0] for m in (sheet, clear) for entry in materials_.export_material(m, warnings).nodes]
 primer_rgb = render_pixels(scene, "PRIMER", os.path.abspath("primer.exr"), {primer_samples})[..., :3]
@@ -114,7 +110,7 @@ SHADOWS = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, fresh_scene, render_pixels, report
+from blender_env import empty_material, fresh_scene, ortho_camera, render_pixels, report
 
 primer, export, scene = fresh_scene(8, 8)
 
@@ -141,11 +137,7 @@ sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
 sun.data.energy, sun.data.angle = 3.0, 0.0
 sun.rotation_euler = (math.radians(30.0), 0.0, 0.0)
 scene.collection.objects.link(sun)
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.data.type, camera.data.ortho_scale = "ORTHO", 4.0
-camera.location = (0.0, 0.0, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+ortho_camera(scene, 4.0)
 means = {{}}
 for fac in (1.0, 0.5):
     mix.inputs["Fac"].default_value = fac

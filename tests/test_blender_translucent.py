@@ -19,7 +19,7 @@ SCRIPT = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, fresh_scene, render_pixels, report
+from blender_env import empty_material, fresh_scene, ortho_camera, render_pixels, report
 
 primer, export, scene = fresh_scene(16, 12)
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
@@ -35,11 +35,7 @@ sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
 sun.data.energy, sun.data.angle = {strength!r}, 0.0
 sun.rotation_euler = (0.0, math.radians(90.0 + {below!r}), 0.0)     # light travels up, {below!r} deg from level
 scene.collection.objects.link(sun)
-camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-camera.data.type, camera.data.ortho_scale = "ORTHO", 4.0
-camera.location = (0.0, 0.0, 5.0)
-scene.collection.objects.link(camera)
-scene.camera = camera
+ortho_camera(scene, 4.0)
 warnings = []
 nodes = materials_.export_material(material, warnings).nodes
 
