@@ -745,8 +745,8 @@ def precompute(kind: str, sun_elevation: float = math.radians(15.0), sun_rotatio
 def cached_table(kind: str, elevation: float, altitude: float, air: float, aerosol: float, ozone: float,
                  compiled: bool = False) -> np.ndarray:
     """The scattering model's XYZ table (LUT_HEIGHT, LUT_WIDTH, 3) float32 (read-only), in C (compiled: the same
-    numbers to 2.6e-15, about 5x as fast: 1.9 s against 9.8 s) or by the numpy reference, kept for the next export of the same settings (a render
-    exports its scene again: its viewport, each frame)."""
+    numbers to 2.6e-15, about 5x as fast: 1.9 s against 9.8 s) or by the numpy reference, kept for the next export
+    of the same settings (a render exports its scene again: its viewport, each frame)."""
     if compiled and kind == "MULTIPLE_SCATTERING":
         table = compiled_multiple_scattering_xyz(elevation, altitude, air, aerosol, ozone)[0].astype(np.float32)
     elif compiled:
