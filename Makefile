@@ -126,14 +126,14 @@ platforms-check: $(VENV)/.platforms-installed
 extension: venv $(VENV)/.platforms-installed
 	$(PY) tools/build_extension.py
 
-# Run the whole test suite: the tracer and Blender 5.0 tests, the Blender 5.2 tests (Python 3.13, numpy 2),
-# then the Blender 4.2 LTS smoke test. Blender inside the test process gets an empty user folder, so a
+# Run the whole test suite: the tracer and Blender 5.0 tests, then the Blender 5.2 tests (Python 3.13, numpy 2) with
+# the Blender 4.2 LTS smoke test beside them. Blender inside the test process gets an empty user folder, so a
 # personal Blender setup (preferences, installed extensions) cannot change the results; tests that install
 # Primer use their own (tests/blender_env.py).
 # First the set-up, up to four jobs at once: the three environments, this machine's kernels (GCC, one core, started
 # as soon as .venv has numpy, while pip installs the rest) and every platform's (Zig, two at a time, unoptimised:
-# `make platforms-check`), so that no test waits for a compiler; then
-# the three runs, the two large ones on both cores (pytest-xdist); last, the whole suite's time.
+# `make platforms-check`), so that no test waits for a compiler; then the runs: Blender 5.0 on both cores
+# (pytest-xdist), then Blender 5.2 on both cores with the 4.2 smoke test beside it; last, the whole suite's time.
 test:
 	@start=$$(date +%s); \
 	$(MAKE) --no-print-directory -j4 test-setup && $(MAKE) --no-print-directory test-run; status=$$?; \
@@ -141,12 +141,20 @@ test:
 
 test-setup: venv venv42 venv52 kernels platforms-check
 
+# The Blender 4.2 smoke test (one process, a few Blender processes of its own) runs beside the 5.2 run, its output
+# kept in $(SMOKE42_LOG) and shown after it; the suite fails if either fails.
+SMOKE42_LOG := .pytest_cache/smoke-bpy42.log
+
 test-run:
 	rm -rf $(BLENDER_USER) && mkdir -p $(BLENDER_USER)
 	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) -m pytest -q $(XDIST) --durations=15 $(PYTEST_ARGS) $(EMPTY_OK)
+	@echo "Blender 4.2 smoke test: in the background, its output after the Blender 5.2 run"; \
+	( ZIG="$(ZIG)" $(PY42) -m pytest -q -p no:cacheprovider tests/smoke_bpy42.py $(PYTEST_ARGS) \
+		> $(SMOKE42_LOG) 2>&1 $(EMPTY_OK) ) & smoke=$$!; \
 	BLENDER_USER_RESOURCES=$(BLENDER_USER) ZIG="$(ZIG)" $(PY52) -m pytest -q $(XDIST) --durations=5 $(TESTS52) \
-		$(TESTS52_SKIP) $(PYTEST_ARGS) $(EMPTY_OK)
-	ZIG="$(ZIG)" $(PY42) -m pytest -q tests/smoke_bpy42.py $(PYTEST_ARGS) $(EMPTY_OK)
+		$(TESTS52_SKIP) $(PYTEST_ARGS) $(EMPTY_OK); status=$$?; \
+	wait $$smoke; smoke_status=$$?; echo "== Blender 4.2 smoke test =="; cat $(SMOKE42_LOG); \
+	[ $$status -eq 0 ] && [ $$smoke_status -eq 0 ]
 
 # Render the Cycles references of tests/test_blender_scenes.py and tests/test_blender_holdout.py that are missing or
 # stale (their key changed) into tests/references/<bpy version>/, with bpy 5.0 and 5.2; commit them after.

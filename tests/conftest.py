@@ -63,7 +63,7 @@ def rng():
 
 # Test files whose tests pytest-xdist (`make test` runs `pytest -n 2`) gives to one worker, one after the other: they
 # write into the checkout, which tools/build_extension.py copies while it builds the zip. test_extension.py builds
-# dist/check/primer-<version>.zip (once per worker that runs it), test_platforms.py dist/kernels-check/ (when older
+# dist/check/<environment>/primer-<version>.zip (once per worker that runs it), test_platforms.py dist/kernels-check/ (when older
 # than a C file), and test_tour.py writes docs/images/tour/ (two of its tests the same picture).
 ONE_WORKER = {"test_extension.py", "test_platforms.py", "test_tour.py"}
 # Test files whose tests share one expensive module fixture (Primer's and Cycles' renders of every case, often in Blender

@@ -2,7 +2,7 @@
 
 The zip is built once per session by tools/build_extension.py (its embreex wheels are cached in
 dist/wheels/, so only the first build downloads), with the unoptimised kernels the tests build quickly
-(`--check-kernels`, into dist/check/): the same sources and files as `make extension`'s zip, compiled at -O0. Each Blender test runs in its own process with
+(`--check-kernels`, into dist/check/<environment>/): the same sources and files as `make extension`'s zip, compiled at -O0. Each Blender test runs in its own process with
 empty user folders (tests/blender_env.py): it installs the zip the way Blender's "Install from Disk"
 does, with bpy.ops.extensions.package_install_files, and never imports Primer from this checkout.
 """
@@ -25,7 +25,7 @@ MODULE = "bl_ext.user_default.primer"      # where Blender imports an extension 
 
 @pytest.fixture(scope="session")
 def extension_zip() -> str:
-    """Build the tests' zip, dist/check/primer-<version>.zip, with tools/build_extension.py (wheels from the cache,
+    """Build the tests' zip, dist/check/<environment>/primer-<version>.zip, with tools/build_extension.py (wheels from the cache,
     the unoptimised check kernels) and return its path."""
     completed = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "build_extension.py"), "--check-kernels"],
                                capture_output=True, text=True, timeout=1800)

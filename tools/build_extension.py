@@ -17,8 +17,8 @@ Steps:
    `blender_ext.py validate` and with a listing check of its own.
 
 With --check-kernels the zip is the test suite's (tests/test_extension.py): its kernels are the unoptimised check
-builds of dist/kernels-check/ (quick to compile, slow to render), and it is written to dist/check/, never where a
-release zip goes.
+builds of dist/kernels-check/ (quick to compile, slow to render), and it is written to dist/check/<environment>/
+(.venv, .venv42 or .venv52: each Blender's tests build their own), never where a release zip goes.
 
 Only embreex is bundled: numpy comes with Blender, and OpenImageIO (used by core/film/image_io.py, never by
 the add-on) is Blender's own copy when anything inside Blender needs it.
@@ -228,9 +228,12 @@ def check_contents(zip_path: str, wheel_paths: list, kernels: list = ()) -> list
 
 
 def output_zip(dist: str = os.path.join(ROOT, "dist"), check_kernels: bool = False) -> str:
-    """Return where `build` writes the zip: dist/<id>-<version>.zip, or dist/check/... for the tests' zip."""
+    """Return where `build` writes the zip: dist/<id>-<version>.zip, or, for the tests' zip, dist/check/<environment>/...
+    (the folder of this Python's environment, .venv, .venv42 or .venv52: `make test` runs the Blender 4.2 and 5.2
+    tests at the same time, each building and validating the zip with its own Blender)."""
     manifest = read_manifest()
-    return os.path.join(dist, "check" if check_kernels else "", f"{manifest['id']}-{manifest['version']}.zip")
+    folder = os.path.join("check", os.path.basename(sys.prefix.rstrip(os.sep)) or "python") if check_kernels else ""
+    return os.path.join(dist, folder, f"{manifest['id']}-{manifest['version']}.zip")
 
 
 def build(dist: str = os.path.join(ROOT, "dist"), offline: bool = False, blender_ext: str | None = None,
@@ -253,7 +256,7 @@ def build(dist: str = os.path.join(ROOT, "dist"), offline: bool = False, blender
         raise BuildError(str(error)) from error
     for platform, library in kernels.items():
         print(f"  kernels {platform:12s} {os.path.basename(library)} ({os.path.getsize(library) / 1e3:.0f} kB)")
-    stage_dir = os.path.join(dist, "build", manifest["id"])
+    stage_dir = os.path.join(os.path.dirname(zip_path) if check_kernels else dist, "build", manifest["id"])
     stage(stage_dir, wheels_by_platform, list(kernels.values()))
     print(run_blender_ext(tool, "build", "--source-dir", stage_dir, "--output-filepath", zip_path))
     print(run_blender_ext(tool, "validate", zip_path))
