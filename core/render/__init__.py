@@ -519,12 +519,9 @@ def volume_reason(ctx: Context, warnings: list) -> str:
                 "groups or denoising features (Cycles writes it to its Volume passes)")
         if note not in warnings:
             warnings.append(note)
-    bounces = media.scattering and s.volume_bounces > 0 and s.integrator == "path"
-    if len(media.g) <= volumes.MAX_MEDIA and not bounces:
+    if len(media.g) <= volumes.MAX_MEDIA:
         return ""
-    reason = (f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
-              if len(media.g) > volumes.MAX_MEDIA else
-              f"Volume Bounces {s.volume_bounces}: the compiled kernel scatters once (Volume Bounces 0)")
+    reason = f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
     note = f"volumes: {reason}, so this render runs the Python reference (the same image, slower)"
     if note not in warnings:
         warnings.append(note)
