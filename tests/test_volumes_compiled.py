@@ -319,3 +319,16 @@ def test_both_kernels_follow_volume_bounces_chains_to_the_same_pixels(medium):
     assert compiled.stats.kernels == "compiled" and not compiled.stats.warnings
     assert compiled.stats.shadow_rays == reference.stats.shadow_rays
     assert_same_pixels(reference.image, compiled.image)
+
+
+def test_light_groups_with_volume_bounces_render_through_the_reference_and_say_so_once():
+    """Light groups and Volume Bounces above 0 in a scattering scene take the Python reference (the compiled camera
+    rays' chains write no light groups), with one warning; without light groups the compiled kernel renders it."""
+    scene = room(looking())
+    smoke(scene)
+    scene.lightgroups = {"lights": ["Area", "Point"], "instances": [""] * len(scene.instances), "world": ""}
+    settings = {"width": 4, "height": 4, "samples": 1, "integrator": "path", "volume_bounces": 1}
+    assert render(scene, RenderSettings(**settings)).stats.kernels == "compiled"
+    result = render(scene, RenderSettings(light_groups=("Area", "Point"), **settings))
+    assert "light groups" in result.stats.kernels
+    assert len([w for w in result.stats.warnings if "Volume Bounces" in w]) == 1
