@@ -81,7 +81,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("transmission_bounces", I32, ""),
     ("roulette_from", I32, "the first vertex Russian roulette may end"),
     ("transparent_bounces", I32, "a path's limit of transparent bounces"),
-    ("volume_bounces", I32, "a path's Volume Bounces: how often it goes on from where it scatters in media"),
+    ("volume_bounces", I32, "how often a path goes on from where it scatters in media"),
     ("see_through", I32, "1: some material lets light through (Transparent, alpha)"),
     ("walks", I32, "1: some material walks subsurface scattering (direct: the path tracer with no bounces)"),
     ("caustics", I32, "FILTER_* bits after a diffuse bounce (path.caustics_bits)"),

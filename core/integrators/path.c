@@ -302,7 +302,8 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     next->bounce[m] = a->bounce;
     next->looking[m] = 0;
     if (ds->light_passes)
-        for (int p = 0; p < PASS_KINDS; p++) next->shares[m][p][0] = next->shares[m][p][1] = next->shares[m][p][2] = 0.0;
+        for (int p = 0; p < PASS_KINDS; p++)
+            for (int c = 0; c < 3; c++) next->shares[m][p][c] = 0.0;
 }
 
 /* Zero what the hits of H gather for the light passes. */
