@@ -1,10 +1,13 @@
-/* Single scattering along a path's rays: core/integrators/volume.py, one ray at a time.
+/* Scattering along a path's rays: core/integrators/volume.py, one ray at a time.
  *
  * On each stretch of a ray through a scattering medium, one point drawn by free flight (a channel picked by
  * throughput x albedo, an exponential distance truncated at the stretch's end) gathers light samples with shadow rays
  * through the media, weighed by MIS against one phase-sampled ray; towards each lamp with a position a second point
  * drawn by equi-angular sampling gathers that lamp's light; the two points are weighed by the balance heuristic on
- * their densities of the distance. The same sampling dimensions as the Python, so the kernels agree to rounding. */
+ * their densities of the distance. With Volume Bounces a path goes on from where it scatters (volume_chain: free
+ * flight untruncated decides whether it collides or passes, scatter_or_pass; the paths that reach a surface are
+ * Arrivals that path.c appends to its next vertex block). The same sampling dimensions as the Python, so the kernels
+ * agree to rounding. */
 
 /* (the Henyey-Greenstein phase function: core/volumes/phase.c) */
 
