@@ -321,14 +321,24 @@ def test_both_kernels_follow_volume_bounces_chains_to_the_same_pixels(medium):
     assert_same_pixels(reference.image, compiled.image)
 
 
-def test_light_groups_with_volume_bounces_render_through_the_reference_and_say_so_once():
-    """Light groups and Volume Bounces above 0 in a scattering scene take the Python reference (the compiled camera
-    rays' chains write no light groups), with one warning; without light groups the compiled kernel renders it."""
+@pytest.mark.parametrize("bounces", [0, 2])
+def test_both_kernels_write_the_light_groups_of_a_world_fog_around_the_camera_alike(bounces):
+    """A world fog around the camera, Volume Bounces 0 and 2: the light groups of both kernels alike (what the camera's
+    hits gather dimmed by the fog along the camera rays, as the image; with bounces, the paths that scatter along
+    the camera rays and reach a surface writing theirs too)."""
     scene = room(looking())
     smoke(scene)
+    scene.world = World(color=np.array([0.3, 0.4, 0.5]),
+                        volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8), "density": 0.05, "anisotropy": 0.5})])
     scene.lightgroups = {"lights": ["Area", "Point"], "instances": [""] * len(scene.instances), "world": ""}
-    settings = {"width": 4, "height": 4, "samples": 1, "integrator": "path", "volume_bounces": 1}
-    assert render(scene, RenderSettings(**settings)).stats.kernels == "compiled"
-    result = render(scene, RenderSettings(light_groups=("Area", "Point"), **settings))
-    assert "light groups" in result.stats.kernels
-    assert len([w for w in result.stats.warnings if "Volume Bounces" in w]) == 1
+    settings = {"width": 8, "height": 6, "samples": 3, "integrator": "path", "max_bounces": 4,
+                "volume_bounces": bounces, "light_groups": ("Area", "Point")}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert_same_pixels(reference.image, compiled.image)
+    groups = [name for name in reference.aux if name.startswith("lightgroup")]
+    assert len(groups) == 2
+    for name in groups:
+        assert reference.aux[name].max() > 0.01
+        np.testing.assert_allclose(compiled.aux[name], reference.aux[name], rtol=1e-6, atol=4e-7, err_msg=name)

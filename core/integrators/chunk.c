@@ -169,6 +169,9 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         /* (with Volume Bounces a camera ray's path goes on from where it scatters: volume.c volume_chain) */
         int chains = (int)params->integrator == INTEGRATOR_PATH && limits.volume_bounces > 0 && limits.max_bounces >= 1;
         work->n_arrivals = 0;
+        double *lane_groups = ds.groups > 0 ? work->lane_groups : NULL;
+        if (lane_groups != NULL)
+            for (int64_t i = 0; i < BLOCK * 3 * ds.groups; i++) lane_groups[i] = 0.0;
         for (int64_t lane = 0; lane < b->n; lane++) {
             H->lane_scattered[lane][0] = H->lane_scattered[lane][1] = H->lane_scattered[lane][2] = 0.0;
             if (!b->valid[lane]) continue;
@@ -198,6 +201,12 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
              * what a path passing to them carries (0 where it scattered). */
             for (int64_t h = 0; h < H->m; h++) {
                 int64_t lane = H->lane[h];
+                if (lane_groups != NULL)            /* (and so their emission's light groups) */
+                    for (int64_t i = 0; i < 3 * ds.groups; i++) {
+                        lane_groups[3 * lane * ds.groups + i] += H->throughput[3 * h + i % 3]
+                                                                 * H->groups[3 * h * ds.groups + i];
+                        H->groups[3 * h * ds.groups + i] = 0.0;
+                    }
                 for (int c = 0; c < 3; c++) {
                     H->lane_scattered[lane][c] += H->throughput[3 * h + c] * H->L[3 * h + c];
                     H->L[3 * h + c] = 0.0;
@@ -211,8 +220,12 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                 C->m = 0;
                 for (int64_t i = 0; i < work->n_arrivals; i++) arrive(&ds, work->arrivals + i, -1, C);
                 scattering_rays += trace_paths(C, &ds, &limits, work, embree, 1);
-                for (int64_t lane = 0; lane < b->n; lane++)
+                for (int64_t lane = 0; lane < b->n; lane++) {
                     for (int c = 0; c < 3; c++) H->lane_scattered[lane][c] += work->extra[lane][c];
+                    if (lane_groups != NULL)
+                        for (int64_t i = 0; i < 3 * ds.groups; i++)
+                            lane_groups[3 * lane * ds.groups + i] += work->groups[3 * lane * ds.groups + i];
+                }
             }
         }
     }
@@ -289,12 +302,12 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
     }
 }
 
-/* The light groups' buffer `part` (0 .. 4) of five (BLOCK, G, 3) buffers in one allocation, made at the first
+/* The light groups' buffer `part` (0 .. 5) of six (BLOCK, G, 3) buffers in one allocation, made at the first
  * call; NULL without groups (G = 0) or memory. */
 INLINE double *work_groups(double **storage, int64_t G, int part)
 {
     if (G <= 0) return NULL;
-    if (*storage == NULL) *storage = (double *)calloc((size_t)(5 * BLOCK * 3 * G), sizeof(double));
+    if (*storage == NULL) *storage = (double *)calloc((size_t)(6 * BLOCK * 3 * G), sizeof(double));
     return *storage != NULL ? *storage + part * BLOCK * 3 * G : NULL;
 }
 
@@ -434,6 +447,7 @@ static void render_chunk(const ChunkArgs *a)
         work->b.groups = work_groups(&group_storage, G, 2);
         work->groups = work_groups(&group_storage, G, 3);
         work->c.groups = work_groups(&group_storage, G, 4);
+        work->lane_groups = work_groups(&group_storage, G, 5);
         work->a.group_count = work->b.group_count = work->c.group_count = G;
     }
     if (G > 0 && group_storage == NULL) { free(work); free_passes(passes); return; }
@@ -535,8 +549,11 @@ static void render_chunk(const ChunkArgs *a)
                 for (int i = 0; i < FEATURE_CHANNELS; i++)
                     fk[i] += finite_or_zero((i < 3 ? s[i] : 0.0) + (is_hit ? work->features[lane][i] : 0.0));
             }
-            if (scattering)                             /* what its media scatter towards it (not clamped) */
+            if (scattering) {                           /* what its media scatter towards it (not clamped) */
                 for (int c = 0; c < 3; c++) s[c] += H.lane_scattered[lane][c];
+                if (G > 0 && work->lane_groups != NULL && !caught[lane])   /* (and its chains' light groups) */
+                    for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->lane_groups[3 * G * lane + i];
+            }
             if (passes != NULL && b.valid[lane]) {      /* (what the camera ray passes and escapes to, then its chain's) */
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
                 double one[3] = {1.0, 1.0, 1.0};
@@ -553,7 +570,9 @@ static void render_chunk(const ChunkArgs *a)
                                                                           : H.L[3 * h + c];
                 /* (a path that met a catcher writes no light groups and no light passes, as in Cycles: catcher.py) */
                 if (!caught[lane])
-                    for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
+                    for (int64_t i = 0; i < 3 * G; i++)
+                        seen[i] += params->media != NULL ? H.throughput[3 * h + i % 3] * H.groups[3 * G * h + i]
+                                                         : H.groups[3 * G * h + i];
                 if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0
                                      || params->walks != 0.0)) {
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];

@@ -44,6 +44,8 @@ typedef struct {
     Arrival arrivals[BLOCK];                   /* the paths that scattered along a block's rays and reached a surface */
     int64_t n_arrivals;
     BlockHits c;                               /* the camera rays' arrivals, a block of vertex 0 (chunk.c) */
+    double *lane_groups;                       /* (BLOCK, G, 3) by light group, what the camera rays' chains bring
+                                                * each lane beside the media's own light (chunk.c), or NULL */
 } PathWork;
 
 /* path.bounce_kind: whether a sampled closure makes a transparent bounce (no bounce), and whether it was labelled
