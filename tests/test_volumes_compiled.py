@@ -288,3 +288,57 @@ def test_both_kernels_walk_subsurface_spheres_in_a_smoke_box_and_a_world_fog_to_
     assert any(w.startswith("subsurface: a walk's exit keeps the medium") for w in stats.warnings)
     assert reference[..., :3].max() > 0.01
     np.testing.assert_allclose(compiled, reference, rtol=5e-6, atol=4e-7)
+
+
+@pytest.mark.parametrize("medium", ["smoke", "world fog", "noise"])
+def test_both_kernels_follow_volume_bounces_chains_to_the_same_pixels(medium):
+    """Volume Bounces 2 (paths go on from where they scatter: volume.py multiple_scattering, volume.c volume_chain):
+    a smoke box under the room's lamps; a world fog the camera starts in around a back-scattering Principled Volume
+    box and a Glass ball (the camera rays' own chains, their paths reaching the floor); a Noise-fed smoke (collisions
+    inverting the march's optical depth). The same collisions, equi-angular points, phase rays, arrivals at surfaces
+    and shadow rays in both kernels."""
+    scene = room(looking())
+    settings = {"volume_bounces": 2}
+    if medium == "smoke":
+        smoke(scene)
+    elif medium == "world fog":
+        smoke(scene, "PRINCIPLED_VOLUME", anisotropy=-0.2, absorption_color=np.array([0.2, 0.3, 0.1]))
+        glass_ball(scene)
+        scene.world = World(color=np.array([0.3, 0.4, 0.5]),
+                            volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8), "density": 0.05, "anisotropy": 0.5})])
+        settings = {"volume_bounces": 1, "light_samples": 2}
+    else:
+        noise, density = noise_density()
+        noise_box(scene, [("PRINCIPLED_VOLUME", 1.0, {"color": np.array([0.6, 0.7, 0.8]), "density": density,
+                                                      "anisotropy": 0.3, "emission_strength": noise,
+                                                      "emission_color": np.array([1.0, 0.4, 0.1])})])
+        settings = {"volume_bounces": 2, "width": 6, "height": 4}
+    settings = {"width": 12, "height": 9, "samples": 3, "integrator": "path", "max_bounces": 4, **settings}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled" and not compiled.stats.warnings
+    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    assert_same_pixels(reference.image, compiled.image)
+
+
+@pytest.mark.parametrize("bounces", [0, 2])
+def test_both_kernels_write_the_light_groups_of_a_world_fog_around_the_camera_alike(bounces):
+    """A world fog around the camera, Volume Bounces 0 and 2: the light groups of both kernels alike (what the camera's
+    hits gather dimmed by the fog along the camera rays, as the image; with bounces, the paths that scatter along
+    the camera rays and reach a surface writing theirs too)."""
+    scene = room(looking())
+    smoke(scene)
+    scene.world = World(color=np.array([0.3, 0.4, 0.5]),
+                        volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8), "density": 0.05, "anisotropy": 0.5})])
+    scene.lightgroups = {"lights": ["Area", "Point"], "instances": [""] * len(scene.instances), "world": ""}
+    settings = {"width": 8, "height": 6, "samples": 3, "integrator": "path", "max_bounces": 4,
+                "volume_bounces": bounces, "light_groups": ("Area", "Point")}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert_same_pixels(reference.image, compiled.image)
+    groups = [name for name in reference.aux if name.startswith("lightgroup")]
+    assert len(groups) == 2
+    for name in groups:
+        assert reference.aux[name].max() > 0.01
+        np.testing.assert_allclose(compiled.aux[name], reference.aux[name], rtol=1e-6, atol=4e-7, err_msg=name)

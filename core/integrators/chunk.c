@@ -159,30 +159,84 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
     /* The path tracer's bounce limits; the direct tracer's through transparent surfaces: no bounces but those. */
     PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
                          (int)params->transmission_bounces, (int)params->transparent_bounces,
-                         (int)params->roulette_from};
-    PathLimits clear_only = {0, 0, 0, 0, (int)params->transparent_bounces, (int)params->roulette_from};
+                         (int)params->roulette_from, (int)params->volume_bounces};
+    PathLimits clear_only = {0, 0, 0, 0, (int)params->transparent_bounces, (int)params->roulette_from, 0};
     int64_t scattering_rays = 0;
     if (params->media != NULL && params->media->scatters != 0 && work != NULL) {
         /* The light the media scatter towards the camera along its rays (volume.c), lane by lane. */
-        double one[3] = {1.0, 1.0, 1.0};
+        double one[3] = {1.0, 1.0, 1.0}, through[BLOCK][3];
         ds.everywhere = 1;
+        /* (with Volume Bounces a camera ray's path goes on from where it scatters: volume.c volume_chain) */
+        int chains = (int)params->integrator == INTEGRATOR_PATH && limits.volume_bounces > 0 && limits.max_bounces >= 1;
+        work->n_arrivals = 0;
+        double *lane_groups = ds.groups > 0 ? work->lane_groups : NULL;
+        if (lane_groups != NULL)
+            for (int64_t i = 0; i < BLOCK * 3 * ds.groups; i++) lane_groups[i] = 0.0;
         for (int64_t lane = 0; lane < b->n; lane++) {
             H->lane_scattered[lane][0] = H->lane_scattered[lane][1] = H->lane_scattered[lane][2] = 0.0;
             if (!b->valid[lane]) continue;
             double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]}, D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
+            if (chains) {
+                Arrival *a = work->arrivals + work->n_arrivals;
+                int arrived = 0;
+                scattering_rays += volume_chain(&ds, &limits, O, D, H->t[lane], H->lane_inside + lane, one,
+                                                (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0, 0,
+                                                H->lane_scattered[lane], through[lane], a, &arrived);
+                if (arrived) {
+                    a->min_pdf = a->ray.pdf;
+                    a->lane = lane;
+                    a->pixel = (int64_t)b->pixel[lane];
+                    a->sample = (int64_t)b->index[lane];
+                    a->diffuse = a->glossy = a->transmission = a->transparent = a->bounds = 0;
+                    work->n_arrivals++;
+                }
+                continue;
+            }
             scattering_rays += in_scattering(&ds, (int)params->integrator == INTEGRATOR_PATH ? &limits : &clear_only,
                                              O, D, H->t[lane], H->lane_inside + lane, one, (int64_t)b->pixel[lane],
                                              (int64_t)b->index[lane], 0, 0, H->lane_scattered[lane]);
+        }
+        if (chains) {
+            /* The camera's hits: what they emit seen through the media's transmittance, their paths going on with
+             * what a path passing to them carries (0 where it scattered). */
+            for (int64_t h = 0; h < H->m; h++) {
+                int64_t lane = H->lane[h];
+                if (lane_groups != NULL)            /* (and so their emission's light groups) */
+                    for (int64_t i = 0; i < 3 * ds.groups; i++) {
+                        lane_groups[3 * lane * ds.groups + i] += H->throughput[3 * h + i % 3]
+                                                                 * H->groups[3 * h * ds.groups + i];
+                        H->groups[3 * h * ds.groups + i] = 0.0;
+                    }
+                for (int c = 0; c < 3; c++) {
+                    H->lane_scattered[lane][c] += H->throughput[3 * h + c] * H->L[3 * h + c];
+                    H->L[3 * h + c] = 0.0;
+                    H->throughput[3 * h + c] = through[lane][c];
+                }
+            }
+            /* The paths that scattered along the camera rays and reached a surface: a block of vertex 0 of their
+             * own, whose light joins what the media scatter towards their lanes. */
+            if (work->n_arrivals > 0) {
+                BlockHits *C = &work->c;
+                C->m = 0;
+                for (int64_t i = 0; i < work->n_arrivals; i++) arrive(&ds, work->arrivals + i, -1, C);
+                scattering_rays += trace_paths(C, &ds, &limits, work, embree, 1);
+                for (int64_t lane = 0; lane < b->n; lane++) {
+                    for (int c = 0; c < 3; c++) H->lane_scattered[lane][c] += work->extra[lane][c];
+                    if (lane_groups != NULL)
+                        for (int64_t i = 0; i < 3 * ds.groups; i++)
+                            lane_groups[3 * lane * ds.groups + i] += work->groups[3 * lane * ds.groups + i];
+                }
+            }
         }
     }
     switch ((int)params->integrator) {
     case INTEGRATOR_PATH:
         ds.everywhere = 1;
-        return scattering_rays + trace_paths(H, &ds, &limits, work, embree);
+        return scattering_rays + trace_paths(H, &ds, &limits, work, embree, 0);
     case INTEGRATOR_DIRECT:
         if (params->see_through != 0.0 || params->walks != 0.0) {   /* (integrators.for_render) */
             ds.everywhere = 1;
-            return scattering_rays + trace_paths(H, &ds, &clear_only, work, embree);
+            return scattering_rays + trace_paths(H, &ds, &clear_only, work, embree, 0);
         }
         /* fall through */
     default: {
@@ -248,12 +302,12 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
     }
 }
 
-/* The light groups' buffer `part` (0 .. 3) of four (BLOCK, G, 3) buffers in one allocation, made at the first
+/* The light groups' buffer `part` (0 .. 5) of six (BLOCK, G, 3) buffers in one allocation, made at the first
  * call; NULL without groups (G = 0) or memory. */
 INLINE double *work_groups(double **storage, int64_t G, int part)
 {
     if (G <= 0) return NULL;
-    if (*storage == NULL) *storage = (double *)calloc((size_t)(4 * BLOCK * 3 * G), sizeof(double));
+    if (*storage == NULL) *storage = (double *)calloc((size_t)(6 * BLOCK * 3 * G), sizeof(double));
     return *storage != NULL ? *storage + part * BLOCK * 3 * G : NULL;
 }
 
@@ -392,13 +446,16 @@ static void render_chunk(const ChunkArgs *a)
         work->a.groups = work_groups(&group_storage, G, 1);
         work->b.groups = work_groups(&group_storage, G, 2);
         work->groups = work_groups(&group_storage, G, 3);
-        work->a.group_count = work->b.group_count = G;
+        work->c.groups = work_groups(&group_storage, G, 4);
+        work->lane_groups = work_groups(&group_storage, G, 5);
+        work->a.group_count = work->b.group_count = work->c.group_count = G;
     }
     if (G > 0 && group_storage == NULL) { free(work); free_passes(passes); return; }
     /* Room for every closure a hit of the scene's materials sets up (no limit of their own). */
-    BlockHits *blocks[3] = {&H, work != NULL ? &work->a : NULL, work != NULL ? &work->b : NULL};
+    BlockHits *blocks[4] = {&H, work != NULL ? &work->a : NULL, work != NULL ? &work->b : NULL,
+                            work != NULL ? &work->c : NULL};
     Closure *closures = NULL;
-    if (!block_closures(blocks, work != NULL ? 3 : 1, params->closure_room < 1 ? 1 : (int64_t)params->closure_room,
+    if (!block_closures(blocks, work != NULL ? 4 : 1, params->closure_room < 1 ? 1 : (int64_t)params->closure_room,
                         &closures)) {
         free(work);
         free(group_storage);
@@ -492,8 +549,11 @@ static void render_chunk(const ChunkArgs *a)
                 for (int i = 0; i < FEATURE_CHANNELS; i++)
                     fk[i] += finite_or_zero((i < 3 ? s[i] : 0.0) + (is_hit ? work->features[lane][i] : 0.0));
             }
-            if (scattering)                             /* what its media scatter towards it (not clamped) */
+            if (scattering) {                           /* what its media scatter towards it (not clamped) */
                 for (int c = 0; c < 3; c++) s[c] += H.lane_scattered[lane][c];
+                if (G > 0 && work->lane_groups != NULL && !caught[lane])   /* (and its chains' light groups) */
+                    for (int64_t i = 0; i < 3 * G; i++) seen[i] += work->lane_groups[3 * G * lane + i];
+            }
             if (passes != NULL && b.valid[lane]) {      /* (what the camera ray passes and escapes to, then its chain's) */
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
                 double one[3] = {1.0, 1.0, 1.0};
@@ -510,7 +570,9 @@ static void render_chunk(const ChunkArgs *a)
                                                                           : H.L[3 * h + c];
                 /* (a path that met a catcher writes no light groups and no light passes, as in Cycles: catcher.py) */
                 if (!caught[lane])
-                    for (int64_t i = 0; i < 3 * G; i++) seen[i] += H.groups[3 * G * h + i];
+                    for (int64_t i = 0; i < 3 * G; i++)
+                        seen[i] += params->media != NULL ? H.throughput[3 * h + i % 3] * H.groups[3 * G * h + i]
+                                                         : H.groups[3 * G * h + i];
                 if (work != NULL && ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0
                                      || params->walks != 0.0)) {
                     for (int c = 0; c < 3; c++) s[c] += work->extra[lane][c];

@@ -81,6 +81,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("transmission_bounces", I32, ""),
     ("roulette_from", I32, "the first vertex Russian roulette may end"),
     ("transparent_bounces", I32, "a path's limit of transparent bounces"),
+    ("volume_bounces", I32, "how often a path goes on from where it scatters in media"),
     ("see_through", I32, "1: some material lets light through (Transparent, alpha)"),
     ("walks", I32, "1: some material walks subsurface scattering (direct: the path tracer with no bounces)"),
     ("caustics", I32, "FILTER_* bits after a diffuse bounce (path.caustics_bits)"),
@@ -232,7 +233,8 @@ class Compiled:
             background=np.asarray(background, np.float64), luminance=adaptive.LUMINANCE, want_squares=s.adaptive,
             max_bounces=s.max_bounces, diffuse_bounces=s.diffuse_bounces, glossy_bounces=s.glossy_bounces,
             transmission_bounces=s.transmission_bounces, roulette_from=roulette_from(s),
-            transparent_bounces=s.transparent_max_bounces, see_through=bool(ctx.extra.get("transparent")),
+            transparent_bounces=s.transparent_max_bounces, volume_bounces=s.volume_bounces,
+            see_through=bool(ctx.extra.get("transparent")),
             walks=bool(ctx.extra.get("subsurface")),
             caustics=caustics_bits(s), clamp_direct=direct_cap, clamp_indirect=indirect_cap,
             light_passes=self.light_passes)

@@ -59,6 +59,7 @@ typedef struct {
      * ray starts in with the extinction and emission along it. */
     VolumeStack inside[BLOCK];
     int32_t bounds[BLOCK];
+    int32_t volume[BLOCK];                       /* a path's scattering events in media so far (Volume Bounces) */
     VolumeStack lane_inside[BLOCK];
     double lane_sigma[BLOCK][3], lane_emission[BLOCK][3];
     double lane_scattered[BLOCK][3];             /* what the media scatter towards each camera lane (volume.c) */

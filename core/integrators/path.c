@@ -7,7 +7,29 @@
 /* A path's bounce limits (RenderSettings, Cycles' meaning) and where Russian roulette starts. */
 typedef struct {
     int max_bounces, diffuse_bounces, glossy_bounces, transmission_bounces, transparent_bounces, roulette_from;
+    int volume_bounces;                        /* how often a path goes on from where it scatters in media */
 } PathLimits;
+
+/* A scattering point's phase-sampled ray where the path goes on along it (volume.scattered_light's phase_out): its
+ * direction and pdf, and what it hit (hit 0: it escaped, t inf). */
+typedef struct {
+    double wi[3], pdf, t, u, v;
+    int hit;
+    int64_t geometry, prim, instance;
+} PhaseRay;
+
+/* A path that scattered in media and reached a surface (volume.multiple_scattering's arrivals): its throughput
+ * there, its last ray from O along ray.wi, its bounces and scattering events so far, the media it is in; the other
+ * counters and its camera lane are those of the vertex it came from. */
+typedef struct {
+    double throughput[3], O[3];
+    PhaseRay ray;
+    int bounce, volume;
+    VolumeStack inside;
+    int64_t lane, pixel, sample;
+    double min_pdf;                            /* the smallest pdf of its real bounces and phase rays */
+    int diffuse, glossy, transmission, transparent, bounds;
+} Arrival;
 
 /* What a chunk's paths need beyond the camera's block: two blocks of vertices to alternate between, the
  * BSDF rays that go on, and each camera lane's light from vertices after the first. */
@@ -19,6 +41,11 @@ typedef struct {
     double *groups;                            /* (BLOCK, G, 3) each camera lane's light groups from vertices after
                                                 * the first (lightgroups.py), or NULL */
     double features[BLOCK][FEATURE_CHANNELS];  /* each camera lane's denoising features (features.c), where asked for */
+    Arrival arrivals[BLOCK];                   /* the paths that scattered along a block's rays and reached a surface */
+    int64_t n_arrivals;
+    BlockHits c;                               /* the camera rays' arrivals, a block of vertex 0 (chunk.c) */
+    double *lane_groups;                       /* (BLOCK, G, 3) by light group, what the camera rays' chains bring
+                                                * each lane beside the media's own light (chunk.c), or NULL */
 } PathWork;
 
 /* path.bounce_kind: whether a sampled closure makes a transparent bounce (no bounce), and whether it was labelled
@@ -206,6 +233,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->transmission[m] = tr;
         next->transparent[m] = clear;
         next->bounds[m] = crossed;
+        next->volume[m] = H->volume[h];
         if (ds->media != NULL) next->inside[m] = r->inside;
         next->mis_pdf[m] = r->pdf;
         next->mis_receiver[m] = r->receiver;
@@ -220,6 +248,64 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
                 for (int c = 0; c < 3; c++) next->shares[m][p][c] = from[3 * p + c];
         }
     }
+}
+
+/* path.with_arrivals for one path: the vertex after `vertex` where arrival a (a path that scattered in media, volume.c
+ * volume_chain) reached a surface, appended to next: its surface and material, seen from its phase ray as a volume
+ * scatter ray, its counters, no light passes' shares nor feature vertex of its own. */
+NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vertex, BlockHits *next)
+{
+    int lift = ds->shadows->terminator_fix != 0.0;
+    ShaderRays traced = {ds->intersect, ds->occluded, ds->scene, ds->geometry, ds->seed};
+    int64_t m = next->m++;
+    const PhaseRay *r = &a->ray;
+    Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+    hit_triangle(ds->geometry, r->geometry, r->prim, r->instance, 1, STILL_TIME, &tri);
+    surface_at(a->O, r->wi, r->t, r->u, r->v, &tri, lift, next->s + m);
+    next->geometry[m] = r->geometry;
+    next->prim[m] = r->prim;
+    next->instance[m] = r->instance;
+    next->bary[2 * m] = r->u;
+    next->bary[2 * m + 1] = r->v;
+    for (int c = 0; c < 3; c++) {
+        next->wo[3 * m + c] = -r->wi[c];
+        next->L[3 * m + c] = 0.0;
+        next->throughput[3 * m + c] = a->throughput[c];
+        next->mis_origin[3 * m + c] = a->O[c];
+        next->mis_n[3 * m + c] = 0.0;
+        next->feature_tp[3 * m + c] = 1.0;
+    }
+    if (next->groups != NULL)
+        for (int64_t i = 0; i < 3 * next->group_count; i++) next->groups[3 * m * next->group_count + i] = 0.0;
+    hit_closures(next, m);
+    next->after_diffuse[m] = 0;
+    next->sd[m].caustics = 0;
+    next->min_pdf[m] = a->min_pdf;
+    LightPath path = {PATH_VOLUME_SCATTER, a->bounce, a->diffuse, a->glossy, a->transmission, a->transparent};
+    ShaderKeys keys = {&traced, a->pixel, a->sample, (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,
+                       a->min_pdf < BEVEL_MIN_PDF};
+    shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry, r->prim,
+              r->instance, r->u, r->v, next->wo + 3 * m, &path, &keys, next->sd + m);
+    next->exiting[m] = 0;
+    next->flags[m] = PATH_VOLUME_SCATTER;
+    next->seen_by[m] = 0;
+    next->lane[m] = a->lane;
+    next->pixel[m] = a->pixel;
+    next->sample[m] = a->sample;
+    next->diffuse[m] = a->diffuse;
+    next->glossy[m] = a->glossy;
+    next->transmission[m] = a->transmission;
+    next->transparent[m] = a->transparent;
+    next->bounds[m] = a->bounds;
+    next->volume[m] = a->volume;
+    next->inside[m] = a->inside;
+    next->mis_pdf[m] = r->pdf;
+    next->mis_receiver[m] = 0;                  /* (a medium receives as the default set: Light Linking) */
+    next->bounce[m] = a->bounce;
+    next->looking[m] = 0;
+    if (ds->light_passes)
+        for (int p = 0; p < PASS_KINDS; p++)
+            for (int c = 0; c < 3; c++) next->shares[m][p][c] = 0.0;
 }
 
 /* Zero what the hits of H gather for the light passes. */
@@ -245,13 +331,15 @@ INLINE void add_light_passes(const BlockHits *H, PathWork *work)
     }
 }
 
-static int64_t bounce_scattering(const BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
+static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex, const PathLimits *limits,
                                  const DirectSettings *ds, PathWork *work);
 
 /* The paths of a block's camera hits H: vertex 0 is lit into H->L (the film adds it), later vertices add
- * throughput x their light into work->extra per camera lane. Returns the shadow rays traced. */
+ * throughput x their light into work->extra per camera lane. arrivals: 1 where H is a block of camera rays'
+ * arrivals (volume.c volume_chain; its rows set up by arrive), whose vertex 0 adds to work->extra too. Returns the
+ * shadow rays traced. */
 NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const PathLimits *limits, PathWork *work,
-                           uint64_t *embree)
+                           uint64_t *embree, int arrivals)
 {
     int64_t shadow_rays = 0;
     for (int64_t k = 0; k < BLOCK; k++) work->extra[k][0] = work->extra[k][1] = work->extra[k][2] = 0.0;
@@ -263,7 +351,7 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
     if (ds->light_passes)
         for (int64_t k = 0; k < BLOCK; k++)
             for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
-    for (int64_t h = 0; h < H->m; h++) {
+    for (int64_t h = 0; h < (arrivals ? 0 : H->m); h++) {
         /* (the throughput: what the media let through to the camera's hit, 1 without media: chunk.c block_hits) */
         H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = H->bounds[h] = 0;
         H->flags[h] = PATH_CAMERA;
@@ -271,6 +359,7 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
         H->mis_receiver[h] = 0;                   /* (the camera's: it sees every emitter) */
         for (int c = 0; c < 3; c++) H->mis_n[3 * h + c] = 0.0;   /* (mis_origin: the camera ray's, chunk.c) */
         H->after_diffuse[h] = 0;
+        H->volume[h] = 0;
         H->exiting[h] = 0;
         H->looking[h] = 1;
         H->feature_tp[3 * h] = H->feature_tp[3 * h + 1] = H->feature_tp[3 * h + 2] = 1.0;
@@ -296,12 +385,16 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
         work->rays.n = 0;
         ds->continuing = &work->rays;
         embree[1] += bsdf_rays(current, ds);
-        /* b. Where the paths go on (ended ones add the light behind transparent surfaces to their vertex's). */
-        next_vertices(current, &work->rays, vertex, limits, ds, next, H->held);
-        if (ds->media != NULL && ds->media->scatters != 0)      /* (the light media scatter along those rays: volume.c) */
+        /* b. The light media scatter along those rays (volume.c; with Volume Bounces a path may scatter there and go
+         *    on from where it did, its ray then ending there), then where the paths go on (ended ones add the light
+         *    behind transparent surfaces to their vertex's), the scattered ones' arrivals at surfaces with them. */
+        work->n_arrivals = 0;
+        if (ds->media != NULL && ds->media->scatters != 0)
             shadow_rays += bounce_scattering(current, &work->rays, vertex, limits, ds, work);
+        next_vertices(current, &work->rays, vertex, limits, ds, next, H->held);
+        for (int64_t i = 0; i < work->n_arrivals; i++) arrive(ds, work->arrivals + i, vertex, next);
         if (ds->features) features_found(current, work->features);
-        if (vertex > 0)
+        if (vertex > 0 || arrivals)
             for (int64_t h = 0; h < current->m; h++) {
                 for (int c = 0; c < 3; c++)
                     work->extra[current->lane[h]][c] += current->throughput[3 * h + c] * current->L[3 * h + c];

@@ -1,10 +1,13 @@
-/* Single scattering along a path's rays: core/integrators/volume.py, one ray at a time.
+/* Scattering along a path's rays: core/integrators/volume.py, one ray at a time.
  *
  * On each stretch of a ray through a scattering medium, one point drawn by free flight (a channel picked by
  * throughput x albedo, an exponential distance truncated at the stretch's end) gathers light samples with shadow rays
  * through the media, weighed by MIS against one phase-sampled ray; towards each lamp with a position a second point
  * drawn by equi-angular sampling gathers that lamp's light; the two points are weighed by the balance heuristic on
- * their densities of the distance. The same sampling dimensions as the Python, so the kernels agree to rounding. */
+ * their densities of the distance. With Volume Bounces a path goes on from where it scatters (volume_chain: free
+ * flight untruncated decides whether it collides or passes, scatter_or_pass; the paths that reach a surface are
+ * Arrivals that path.c appends to its next vertex block). The same sampling dimensions as the Python, so the kernels
+ * agree to rounding. */
 
 /* (the Henyey-Greenstein phase function: core/volumes/phase.c) */
 
@@ -61,10 +64,12 @@ typedef struct {
 /* volume.scattered_light at one point P (3) of phase function `phase` in the media `inside`, seen along wo (3): the
  * light per unit sigma_s into L (3, zeroed here). flight: the free-flight point P is (each equi-angular lamp's light samples
  * there weighed against that lamp's equi-angular points by the balance heuristic), or NULL; only: a light's index (an equi-angular point: its samples alone, no phase ray), or
- * -1. Returns the shadow rays traced. */
+ * -1; onward: where the path goes on along the phase ray (Volume Bounces), that ray (the light behind the
+ * transparent surfaces it meets is then the path's to find), or NULL. Returns the shadow rays traced. */
 static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limits, const double *P, const double *wo,
                                const Phase *phase, const VolumeStack *inside, int64_t pixel, int64_t sample,
-                               int64_t dimension, int bounce, const FreeFlight *flight, int64_t only, double *L)
+                               int64_t dimension, int bounce, const FreeFlight *flight, int64_t only, double *L,
+                               PhaseRay *onward)
 {
     int64_t rays = 0;
     double zero[3] = {0.0, 0.0, 0.0};
@@ -128,7 +133,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
         }
     }
     /* 2. One phase-sampled direction: the light its ray finds (its weight p / pdf is 1). */
-    if (only >= 0 || !(ds->bsdf_rays || ds->media->emits != 0)) return rays;
+    if (only >= 0 || !(ds->bsdf_rays || ds->media->emits != 0 || onward != NULL)) return rays;
     double u[2], wi[3];
     sample_2d(stream_of((int64_t)ds->seed, PHASE_DIMENSION + dimension), pixel, sample, u);
     double pdf = phase_sample(phase, wo, u, wi);
@@ -140,6 +145,17 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     ds->intersect(valid, ds->scene, &packet, NULL);
     int hit = packet.hit.geomID[0] != INVALID_ID;
     double t = hit ? (double)packet.ray.tfar[0] : INFINITY, sigma_t[3], emission[3];
+    if (onward != NULL) {
+        for (int c = 0; c < 3; c++) onward->wi[c] = wi[c];
+        onward->pdf = pdf;
+        onward->hit = hit;
+        onward->t = t;
+        onward->u = (double)packet.hit.u[0];
+        onward->v = (double)packet.hit.v[0];
+        onward->geometry = (int64_t)packet.hit.geomID[0];
+        onward->prim = (int64_t)packet.hit.primID[0];
+        onward->instance = instance_of(&packet.hit, 0);
+    }
     medium_along(ds->media, inside, sigma_t, emission);
     March march;                                         /* (through a heterogeneous medium: its march, field.c) */
     const March *marched = stretch_march(ds->media, inside, P, wi, t, sigma_t, emission, &march);
@@ -154,7 +170,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                           inside, STILL_TIME};            /* (a render with media moves no object) */
     gather_light(ds, &finding, light_L, NULL);
     for (int c = 0; c < 3; c++) L[c] += light_L[c];
-    if (!hit || ds->transmitter == NULL) return rays;
+    if (!hit || ds->transmitter == NULL || onward != NULL) return rays;
     /* Straight on through the transparent surfaces it meets, to the light behind them. */
     PathRay r;
     r.h = 0;
@@ -189,11 +205,13 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
 
 /* volume.equiangular_light: each lamp with a position adds the light scattered at its equi-angular point on O, D
  * over [0, t), lit by that lamp alone and weighed by the balance heuristic against free flight (odds), into L (3):
- * in a heterogeneous medium m (its march gives the coefficients and transmittance there) or, m NULL, in the
- * homogeneous one of sigma_t, sigma_s (3) and phase function `phase`. Returns the shadow rays traced. */
+ * in a marched medium m (its march gives the coefficients and transmittance there; phase: the phase function of
+ * a homogeneous one, NULL: HG of the march's g) or, m NULL, in the homogeneous one of sigma_t, sigma_s (3) and phase
+ * function `phase`. collision: 1 where free flight is untruncated (march_collision: a path that scatters or goes
+ * on), 0 truncated at t. Returns the shadow rays traced. */
 static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *limits, const March *m,
                                  const double *sigma_t, const double *sigma_s, const Phase *phase, const double *odds,
-                                 const double *O, const double *D, double t, const VolumeStack *inside,
+                                 int collision, const double *O, const double *D, double t, const VolumeStack *inside,
                                  int64_t pixel, int64_t sample, int64_t dimension, int bounce, double *L)
 {
     double wo[3] = {-D[0], -D[1], -D[2]};
@@ -208,8 +226,9 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
         double w, at_t[3], at_s[3], kept[3], X[3], lit[3];
         Phase here = {PHASE_HENYEY_GREENSTEIN, {0.0}};
         if (m != NULL) {
-            w = pdf_e / (pdf_e + march_pdf(m, odds, s_e));
+            w = pdf_e / (pdf_e + (collision ? march_collision_pdf(m, odds, s_e) : march_pdf(m, odds, s_e)));
             here.p[0] = march_at(m, s_e, at_t, at_s);     /* (a heterogeneous medium: HG of its g there) */
+            if (phase != NULL) here = *phase;
             march_transmittance(m, s_e, kept);
         } else {
             w = pdf_e / (pdf_e + distance_pdf(sigma_t, odds, t, s_e));
@@ -218,7 +237,8 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
             beer_lambert(sigma_t, s_e, kept);
         }
         for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
-        rays += scattered_light(ds, limits, X, wo, &here, inside, pixel, sample, dimension, bounce, NULL, l, lit);
+        rays += scattered_light(ds, limits, X, wo, &here, inside, pixel, sample, dimension, bounce, NULL, l, lit,
+                                NULL);
         for (int c = 0; c < 3; c++) L[c] += (kept[c] * at_s[c]) * (w / pdf_e) * lit[c];
     }
     return rays;
@@ -247,12 +267,12 @@ static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *li
         for (int c = 0; c < 3; c++) P[c] = O[c] + s * D[c];
         FreeFlight flight = {O, D, t, s, pdf};
         rays += scattered_light(ds, limits, P, wo, &phase, inside, pixel, sample, dimension, bounce, &flight, -1,
-                                scattered);
+                                scattered, NULL);
         for (int c = 0; c < 3; c++) L[c] = (kept[c] * sigma_s[c] / pdf) * scattered[c];
     }
     /* 2. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
-    rays += equiangular_lamps(ds, limits, m, NULL, NULL, NULL, odds, O, D, t, inside, pixel, sample, dimension, bounce,
-                              L);
+    rays += equiangular_lamps(ds, limits, m, NULL, NULL, NULL, odds, 0, O, D, t, inside, pixel, sample, dimension,
+                              bounce, L);
     return rays;
 }
 
@@ -291,24 +311,156 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
     FreeFlight flight = {O, D, t, s, pdf};
     double scattered[3];
     int64_t rays = scattered_light(ds, limits, P, wo, &phase, inside, pixel, sample, dimension, bounce, &flight, -1,
-                                   scattered);
+                                   scattered, NULL);
     for (int c = 0; c < 3; c++) L[c] = weight[c] * scattered[c];
     /* 3. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone. */
-    rays += equiangular_lamps(ds, limits, NULL, sigma_t, sigma_s, &phase, odds, O, D, t, inside, pixel, sample,
+    rays += equiangular_lamps(ds, limits, NULL, sigma_t, sigma_s, &phase, odds, 0, O, D, t, inside, pixel, sample,
                               dimension, bounce, L);
     return rays;
 }
 
+/* Where a path that scatters goes on (volume.scatter_or_pass's onward rays): scattered 1 where it collided at P, its
+ * weight T(s) sigma_s(s) / pdf(s) and its phase ray. */
+typedef struct {
+    int scattered;
+    double P[3], weight[3];
+    PhaseRay ray;
+} Onward;
+
+/* volume.scatter_or_pass for one ray O, D (3) over [0, t) in the media `inside` whose path goes on from where it
+ * scatters, carrying `throughput` (3): untruncated free flight (a channel by throughput x albedo) decides whether it
+ * collides in its media or goes on to its end. Into L (3) the light gathered at the collision (light samples and
+ * the phase ray's finds, weighed by MIS) and at each lamp's equi-angular point, per unit throughput; into through
+ * (3) what a path that goes on to the end carries on, T(t) / P(no collision), 0 where it collided; into next where
+ * it collided and its phase ray. Returns the shadow rays traced. */
+static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limits, const double *O, const double *D,
+                               double t, const VolumeStack *inside, const double *throughput, int64_t pixel,
+                               int64_t sample, int64_t dimension, int bounce, double *L, double *through, Onward *next)
+{
+    const MediaTables *media = ds->media;
+    double sigma_t[3], emission[3], sigma_s[3], g;
+    Phase phase;
+    L[0] = L[1] = L[2] = 0.0;
+    next->scattered = 0;
+    medium_along(media, inside, sigma_t, emission);
+    medium_scattering(media, inside, sigma_s, &g, &phase);
+    March march;
+    double odds[3];
+    int varying = media->fields != NULL && in_field(media, inside);
+    if (varying) {                                  /* (a heterogeneous medium: its march, field.c) */
+        march_of(media, inside, O, D, t, sigma_t, sigma_s, emission, g, &march);
+        march_transmittance(&march, t, through);
+        if (!stretch_scatters(media, inside, sigma_s)) return 0;
+        double tau_t[3], tau_s[3];
+        march_totals(&march, tau_t, tau_s);
+        channel_odds(tau_t, tau_s, throughput, odds);
+    } else {
+        beer_lambert(sigma_t, t, through);
+        if (!(sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0)) return 0;
+        march_uniform(sigma_t, sigma_s, emission, g, t, &march);
+        channel_odds(sigma_t, sigma_s, throughput, odds);
+    }
+    /* 1. Collide or pass: what a passing path carries on. */
+    double u[2], s = 0.0, p_pass = 1.0;
+    int passed = 0;
+    sample_2d(stream_of((int64_t)ds->seed, DISTANCE_DIMENSION + dimension), pixel, sample, u);
+    double pdf = march_collision(&march, odds, u, &s, &passed, &p_pass);
+    int none = ((odds[0] + odds[1]) + odds[2]) <= 0.0;
+    passed = passed || none || !(pdf > 0.0);
+    p_pass = none ? 1.0 : p_pass;
+    for (int c = 0; c < 3; c++) through[c] = passed ? through[c] / (p_pass > 0.0 ? p_pass : 1.0) : 0.0;
+    /* 2. Each lamp with a position: a point by equi-angular sampling, lit by that lamp alone, weighed against the
+     *    collisions by the balance heuristic. */
+    int64_t rays = equiangular_lamps(ds, limits, &march, NULL, NULL, varying ? NULL : &phase, odds, 1, O, D, t, inside,
+                                     pixel, sample, dimension, bounce, L);
+    if (passed) return rays;
+    /* 3. The collision: the light scattered there, and the phase ray the path goes on along. */
+    double at_t[3], at_s[3], kept[3], light[3], wo[3] = {-D[0], -D[1], -D[2]};
+    double g_here = march_at(&march, s, at_t, at_s);
+    Phase here = phase;
+    if (varying) { here.kind = PHASE_HENYEY_GREENSTEIN; here.p[0] = g_here; }   /* (HG of its g there) */
+    march_transmittance(&march, s, kept);
+    for (int c = 0; c < 3; c++) { next->weight[c] = kept[c] * at_s[c] / pdf; next->P[c] = O[c] + s * D[c]; }
+    FreeFlight flight = {O, D, t, s, pdf};
+    rays += scattered_light(ds, limits, next->P, wo, &here, inside, pixel, sample, dimension, bounce, &flight, -1,
+                            light, &next->ray);
+    for (int c = 0; c < 3; c++) L[c] += next->weight[c] * light[c];
+    next->scattered = 1;
+    return rays;
+}
+
+/* volume.multiple_scattering for one ray O, D (3) over [0, t) (inf: to the world) in the media `inside` whose path,
+ * carrying `throughput` (3), has Volume Bounces left (limits->volume_bounces) after `bounce` bounces and `volume`
+ * scattering events: it scatters or goes on (scatter_or_pass); where it scattered it goes on along its phase ray,
+ * whose own stretch scatters or goes on again while it has bounces left, and otherwise gathers its single
+ * scattering (in_scattering) and goes on to its hit. Adds to L (3) the light found, throughput included; into
+ * through (3) what the path going on to the ray's own end carries on (0 where it scattered); where a scattered path
+ * reached a surface, *arrived 1 and its arrival (its throughput, ray, bounces and media; the caller fills the rest).
+ * dimension: the stretch's shift of sampling dimensions, each later event CHAIN_SHIFT more. Returns the shadow rays
+ * traced. */
+NOINLINE static int64_t volume_chain(const DirectSettings *ds, const PathLimits *limits, const double *O,
+                                     const double *D, double t, const VolumeStack *inside, const double *throughput,
+                                     int64_t pixel, int64_t sample, int64_t dimension, int bounce, int volume,
+                                     double *L, double *through, Arrival *arrival, int *arrived)
+{
+    double light[3], carried[3] = {throughput[0], throughput[1], throughput[2]};
+    Onward onward, after;
+    *arrived = 0;
+    int64_t rays = scatter_or_pass(ds, limits, O, D, t, inside, throughput, pixel, sample, dimension, bounce, light,
+                                   through, &onward);
+    for (int c = 0; c < 3; c++) L[c] += throughput[c] * light[c];
+    for (int64_t step = 1; onward.scattered; step++) {
+        for (int c = 0; c < 3; c++) carried[c] *= onward.weight[c];
+        bounce++;
+        volume++;
+        const double *P = onward.P, *wi = onward.ray.wi;
+        double reach = onward.ray.hit ? onward.ray.t : INFINITY, carry[3];
+        int64_t dim = dimension + step * CHAIN_SHIFT;
+        after.scattered = 0;
+        if (!(volume < limits->volume_bounces && bounce + 1 <= limits->max_bounces)) {
+            /* a. The path ends at its next scattering event: its single scattering, and on to the hit with T. */
+            double found[3], sigma_t[3], emission[3], kept[3];
+            rays += in_scattering(ds, limits, P, wi, reach, inside, carried, pixel, sample, dim, bounce, found);
+            for (int c = 0; c < 3; c++) L[c] += carried[c] * found[c];
+            medium_along(ds->media, inside, sigma_t, emission);
+            March march;
+            stretch_transmittance(stretch_march(ds->media, inside, P, wi, reach, sigma_t, emission, &march), sigma_t,
+                                  reach, kept);
+            for (int c = 0; c < 3; c++) carry[c] = carried[c] * kept[c];
+        } else {
+            /* b. It scatters again or goes on. */
+            double passing[3];
+            rays += scatter_or_pass(ds, limits, P, wi, reach, inside, carried, pixel, sample, dim, bounce, light,
+                                    passing, &after);
+            for (int c = 0; c < 3; c++) { L[c] += carried[c] * light[c]; carry[c] = carried[c] * passing[c]; }
+        }
+        /* c. A path that reaches a surface arrives there, the next vertex of its path. */
+        if (onward.ray.hit && (carry[0] != 0.0 || carry[1] != 0.0 || carry[2] != 0.0)) {
+            *arrived = 1;
+            for (int c = 0; c < 3; c++) { arrival->throughput[c] = carry[c]; arrival->O[c] = P[c]; }
+            arrival->ray = onward.ray;
+            arrival->bounce = bounce;
+            arrival->volume = volume;
+            arrival->inside = *inside;
+        }
+        onward = after;
+    }
+    return rays;
+}
+
 /* path.py's scattering on a vertex block's BSDF rays (rays of H): each ray the path may still bounce on (within its
- * bounce limits, past Russian roulette, hit or not) adds its media's single scattering, seen through the path's
- * throughput x the ray's weight / q, to its camera lane's light in work->extra. Returns the shadow rays traced. */
-static int64_t bounce_scattering(const BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
+ * bounce limits, past Russian roulette, hit or not) adds its media's light, seen through the path's throughput x
+ * the ray's weight / q, to its camera lane's light in work->extra: with Volume Bounces left its chain
+ * (volume_chain: the ray's attenuation becomes what a path passing to its hit carries on, and a ray whose path
+ * scattered hits nothing more; paths that scattered and reached a surface go to work->arrivals), else its single
+ * scattering. Returns the shadow rays traced. */
+static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex, const PathLimits *limits,
                                  const DirectSettings *ds, PathWork *work)
 {
     uint32_t roulette = stream_of((int64_t)ds->seed, ROULETTE_DIMENSION + (int64_t)(vertex + 1) * VERTEX_DIMENSIONS);
     int64_t shadow_rays = 0;
     for (int64_t i = 0; i < rays->n; i++) {
-        const PathRay *r = rays->r + i;
+        PathRay *r = rays->r + i;
         int64_t h = r->h;
         /* a. The bounce limits, as next_vertices counts them. */
         int see_through = is_transparent_bounce(r->kind);
@@ -329,9 +481,36 @@ static int64_t bounce_scattering(const BlockHits *H, const PathRays *rays, int v
         }
         for (int c = 0; c < 3; c++) carried[c] = carried[c] / q;
         /* c. The light its media scatter towards it. */
-        double L[3];
+        double L[3] = {0.0, 0.0, 0.0};
+        int64_t dimension = (int64_t)(vertex + 1) * VERTEX_DIMENSIONS;
+        if (H->volume[h] < limits->volume_bounces && bounces + 1 <= limits->max_bounces) {
+            double through[3];
+            int arrived = 0;
+            Arrival *a = work->arrivals + work->n_arrivals;
+            shadow_rays += volume_chain(ds, limits, r->O, r->D, r->hit ? r->t : INFINITY, &r->inside, carried,
+                                        H->pixel[h], H->sample[h], dimension, bounces, H->volume[h], L, through, a,
+                                        &arrived);
+            for (int c = 0; c < 3; c++) work->extra[H->lane[h]][c] += L[c];
+            for (int c = 0; c < 3; c++) r->attenuation[c] = through[c];
+            if (!(through[0] != 0.0 || through[1] != 0.0 || through[2] != 0.0)) r->hit = 0;
+            if (arrived) {
+                /* (its smallest pdf: its bounce's and its phase ray's, Cycles' min_ray_pdf) */
+                double before = see_through || !(r->pdf < H->min_pdf[h]) ? H->min_pdf[h] : r->pdf;
+                a->min_pdf = a->ray.pdf < before ? a->ray.pdf : before;
+                a->lane = H->lane[h];
+                a->pixel = H->pixel[h];
+                a->sample = H->sample[h];
+                a->diffuse = r->path.diffuse;
+                a->glossy = r->path.glossy;
+                a->transmission = r->path.transmission;
+                a->transparent = clear;
+                a->bounds = H->bounds[h] + boundary;
+                work->n_arrivals++;
+            }
+            continue;
+        }
         shadow_rays += in_scattering(ds, limits, r->O, r->D, r->hit ? r->t : INFINITY, &r->inside, carried,
-                                     H->pixel[h], H->sample[h], (int64_t)(vertex + 1) * VERTEX_DIMENSIONS, bounces, L);
+                                     H->pixel[h], H->sample[h], dimension, bounces, L);
         for (int c = 0; c < 3; c++) work->extra[H->lane[h]][c] += carried[c] * L[c];
     }
     return shadow_rays;

@@ -367,7 +367,8 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
 
 # The shift of the sampling dimensions of each further scattering event along one stretch's chain (Volume Bounces):
 # the k-th event after the stretch's own draws its numbers k x CHAIN_SHIFT past them.
-CHAIN_SHIFT = 1 << 17
+CHAIN_SHIFT = schema.constant("CHAIN_SHIFT", 1 << 17,
+                              "a chain's k-th scattering event: k x this past its stretch's dimensions")
 
 
 def volume_bounces_left(ctx: Context, volume: np.ndarray, bounce: np.ndarray) -> np.ndarray:

@@ -96,6 +96,8 @@
 #define EQUIANGULAR_DIMENSION 16384
 /* a scattering point's light samples' shift of dimensions (core.integrators.volume) */
 #define LIGHT_SHIFT 32768
+/* a chain's k-th scattering event: k x this past its stretch's dimensions (core.integrators.volume) */
+#define CHAIN_SHIFT 131072
 /* a closure's parameters (core/materials/base.py PARAMS) (core.materials.base) */
 #define CLOSURE_PARAMS 32
 /* a shader node's inputs, a MaterialRecord's rows (core.materials.base) */
@@ -755,6 +757,7 @@ struct ChunkParams {
     int32_t transmission_bounces;
     int32_t roulette_from;                  /* the first vertex Russian roulette may end */
     int32_t transparent_bounces;            /* a path's limit of transparent bounces */
+    int32_t volume_bounces;                 /* how often a path goes on from where it scatters in media */
     int32_t see_through;                    /* 1: some material lets light through (Transparent, alpha) */
     int32_t walks;                          /* 1: some material walks subsurface scattering (direct: the path tracer with no bounces) */
     int32_t caustics;                       /* FILTER_* bits after a diffuse bounce (path.caustics_bits) */
@@ -1193,7 +1196,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(8791688880110937372);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(6211286546654913338);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(6505255890517640916);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4844621714001878421);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);

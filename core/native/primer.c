@@ -41,6 +41,6 @@
 #include "../integrators/features.c"
 #include "../integrators/passes.c"
 #include "../integrators/path.c"
-#include "../integrators/volume.c"      /* single scattering along the paths' rays */
+#include "../integrators/volume.c"      /* scattering along the paths' rays, Volume Bounces' chains */
 #include "../integrators/chunk.c"
 #include "exports.gen.c"               /* what Python calls: one record of arguments each (tools/make_boundary.py) */

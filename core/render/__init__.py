@@ -501,9 +501,9 @@ def _usable_cores() -> int:
 
 def volume_reason(ctx: Context, warnings: list) -> str:
     """Why a scene with media takes the Python reference ('' where the compiled kernel renders it, and without media).
-    The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c) scattering once,
-    and marches heterogeneous ones (core/volumes/field.c); Volume Bounces > 0 and more volume materials than its stack
-    holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
+    The compiled kernel renders homogeneous media (core/volumes/media.c, core/integrators/volume.c), with any Volume
+    Bounces (volume.c volume_chain), and marches heterogeneous ones (core/volumes/field.c); more volume materials than
+    its stack holds take the reference, said once in `warnings`; so is that Whitted's tracer renders
     no media, and that the media's light goes to Combined only."""
     media = ctx.extra.get("media")
     if media is None:
@@ -519,12 +519,9 @@ def volume_reason(ctx: Context, warnings: list) -> str:
                 "groups or denoising features (Cycles writes it to its Volume passes)")
         if note not in warnings:
             warnings.append(note)
-    bounces = media.scattering and s.volume_bounces > 0 and s.integrator == "path"
-    if len(media.g) <= volumes.MAX_MEDIA and not bounces:
+    if len(media.g) <= volumes.MAX_MEDIA:
         return ""
-    reason = (f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
-              if len(media.g) > volumes.MAX_MEDIA else
-              f"Volume Bounces {s.volume_bounces}: the compiled kernel scatters once (Volume Bounces 0)")
+    reason = f"more than {int(volumes.MAX_MEDIA)} volume materials, the compiled kernel's volume stack"
     note = f"volumes: {reason}, so this render runs the Python reference (the same image, slower)"
     if note not in warnings:
         warnings.append(note)

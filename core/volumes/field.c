@@ -334,6 +334,59 @@ INLINE double march_free_flight(const March *m, const double *odds, const double
     return ok ? pdf : 0.0;
 }
 
+/* March.uniform: the one-piece march of a ray over [0, t) through homogeneous media of sigma_t, sigma_s, emission (3)
+ * and anisotropy g, into m. */
+INLINE void march_uniform(const double *sigma_t, const double *sigma_s, const double *emission, double g, double t,
+                          March *m)
+{
+    m->n = 1;
+    m->edges[0] = 0.0;
+    m->edges[1] = t;
+    for (int c = 0; c < 3; c++) {
+        m->sigma_t[0][c] = sigma_t[c];
+        m->sigma_s[0][c] = sigma_s[c];
+        m->emission[0][c] = emission[c];
+        m->tau[0][c] = 0.0;
+        m->tau[1][c] = sigma_t[c] > 0.0 ? sigma_t[c] * t : 0.0;
+    }
+    m->gs[0] = g * ((sigma_s[0] + sigma_s[1]) + sigma_s[2]);
+}
+
+/* March.collision_pdf: the density of untruncated free flight (channels by odds (3)) drawing distance s: the
+ * channels' mixture of sigma(s) exp(-tau(s)). */
+INLINE double march_collision_pdf(const March *m, const double *odds, double s)
+{
+    double sigma[3], scattering[3], tau[3], each[3];
+    march_at(m, s, sigma, scattering);
+    march_depth(m, s, tau);
+    for (int c = 0; c < 3; c++) each[c] = odds[c] * sigma[c] * exp(-tau[c]);
+    return (each[0] + each[1]) + each[2];
+}
+
+/* March.collision: untruncated free flight by numbers u (2) (u[1] the channel by odds (3), u[0] an optical depth
+ * -log(1 - u[0]) of it): the distance into *s (the end where it passes), whether the depth lies past the end into
+ * *passed and the chance of that (the channels' mixture of exp(-tau(end))) into *p_pass; its pdf returned (0 where
+ * it passed). */
+INLINE double march_collision(const March *m, const double *odds, const double *u, double *s, int *passed,
+                              double *p_pass)
+{
+    int channel = (u[1] >= odds[0]) + (u[1] >= odds[0] + odds[1]) + (u[1] >= (odds[0] + odds[1]) + odds[2]);
+    channel = channel > 2 ? 2 : channel;
+    double target = -log1p(-(u[0] < 1.0 - 1e-16 ? u[0] : 1.0 - 1e-16));
+    *passed = target >= m->tau[m->n][channel];
+    int k = 0;
+    for (int j = 1; j <= m->n; j++) k += m->tau[j][channel] <= target;
+    k = k < m->n - 1 ? k : m->n - 1;
+    double sigma = m->sigma_t[k][channel];
+    double x = m->edges[k] + (sigma > 0.0 ? (target - m->tau[k][channel]) / sigma : 0.0);
+    *s = *passed ? m->edges[m->n] : x;
+    double pdf = march_collision_pdf(m, odds, *passed ? 0.0 : x);
+    double each[3];
+    for (int c = 0; c < 3; c++) each[c] = odds[c] * exp(-m->tau[m->n][c]);
+    *p_pass = (each[0] + each[1]) + each[2];
+    return *passed ? 0.0 : pdf;
+}
+
 /* Stretch.scatters for one ray: whether its media scatter (or may: a heterogeneous one that scatters). */
 INLINE int stretch_scatters(const MediaTables *media, const VolumeStack *stack, const double *sigma_s)
 {
