@@ -267,9 +267,6 @@ class GraphReader:
                                    f"'{consumer.name}' of '{consumer.node.name}' Primer uses that input's own value "
                                    f"{_shown(consumer)}")
             return own_value(consumer)
-        if kind == "ShaderNodeLightPath" and name == "Portal Depth":
-            self.reader.warn(node, "Portal Depth is read as 0: Primer does not count the Ray Portal bounces a path "
-                                   "makes (they count as transparent bounces, in Transparent Depth)")
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")

@@ -86,7 +86,7 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
             /* (what clamping and the Light Path node read: a path's throughput and bounces, 1 and 0 at the camera's
              * hit, and its camera ray's flags) */
             for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
-            H->bounce[h] = H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = 0;
+            H->bounce[h] = H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->portal[h] = 0;
             H->flags[h] = PATH_CAMERA;
             H->min_pdf[h] = INFINITY;           /* (no bounce yet: Cycles' min_ray_pdf, which the Bevel node reads) */
             LightPath camera = path_at(H, h, PATH_CAMERA);
@@ -224,7 +224,7 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
     out[0] = out[1] = out[2] = 0.0;
     const WorldTables *world = params->light_context->world;
     if (!hit && world->camera != 0.0 && params->transparent == 0.0) {
-        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0};
+        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0, 0};
         world_seen(world, D, &camera, out);                 /* (a world's graph, per ray) */
         if (sigma != NULL) {
             double kept[3];
@@ -301,7 +301,7 @@ INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught
     }
     const WorldTables *world = params->light_context->world;
     if (behind && world->camera != 0.0 && params->transparent == 0.0) {
-        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0};
+        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0, 0};
         double seen[3];
         world_seen(world, D, &camera, seen);
         for (int c = 0; c < 3; c++) row[7 + c] += finite_or_zero(seen[c]);

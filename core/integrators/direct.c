@@ -27,6 +27,7 @@ typedef struct {
     double throughput[3 * BLOCK];                /* a path's throughput at the hit (path.c; 1 at the camera's) */
     int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse, glossy and transmission bounces so far */
     int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
+    int32_t portal[BLOCK];                       /* of the transparent ones, Ray Portals (Portal Depth) */
     int32_t flags[BLOCK];                        /* the PATH_* bits of the ray that found it (graph.LightPath) */
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
     double min_pdf[BLOCK];                       /* the smallest pdf of its real bounces (Cycles' min_ray_pdf; the Bevel) */
@@ -67,7 +68,8 @@ typedef struct {
 /* The LightPath (graph.py) of the path at hit h of H, with the flags `flags` (its own: H->flags[h]). */
 INLINE LightPath path_at(const BlockHits *H, int64_t h, int flags)
 {
-    LightPath p = {flags, H->bounce[h], H->diffuse[h], H->glossy[h], H->transmission[h], H->transparent[h]};
+    LightPath p = {flags, H->bounce[h], H->diffuse[h], H->glossy[h], H->transmission[h], H->transparent[h],
+                   H->portal[h]};
     return p;
 }
 
@@ -180,11 +182,15 @@ INLINE int ray_kind(int kind, int transmit, int previous)
 
 /* rays.path_after: the path a bounce's ray carries on from `p` (Cycles' path_state_next), the sampled closure of
  * kind `kind` through the face (transmit) or not, a delta (singular) or not. Straight through a Transparent closure:
- * one more transparent surface, the flags kept; any other closure: one more bounce of its kind, and the flags its
+ * one more transparent surface, the flags kept (a Ray Portal: one more portal too); any other closure: one more bounce of its kind, and the flags its
  * labels give (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR). */
 INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular)
 {
-    if (bsdf_is(kind, BSDF_FLAG_STRAIGHT)) { p.transparent++; return p; }
+    if (bsdf_is(kind, BSDF_FLAG_STRAIGHT)) {
+        p.transparent++;
+        p.portal += bsdf_is(kind, BSDF_FLAG_PORTAL);     /* (Cycles' portal_bounce: Portal Depth) */
+        return p;
+    }
     if (bsdf_is(kind, BSDF_FLAG_SUBSURFACE)) { p.flags &= ~PATH_CAMERA; return p; }
     int through = goes_through(kind, transmit), diffuse = bsdf_is(kind, BSDF_FLAG_DIFFUSE);
     singular = singular || bsdf_is(kind, BSDF_FLAG_SINGULAR);

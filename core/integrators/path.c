@@ -205,6 +205,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->glossy[m] = g;
         next->transmission[m] = tr;
         next->transparent[m] = clear;
+        next->portal[m] = r->path.portal;
         next->bounds[m] = crossed;
         if (ds->media != NULL) next->inside[m] = r->inside;
         next->mis_pdf[m] = r->pdf;
@@ -265,7 +266,8 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
             for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
     for (int64_t h = 0; h < H->m; h++) {
         /* (the throughput: what the media let through to the camera's hit, 1 without media: chunk.c block_hits) */
-        H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = H->bounds[h] = 0;
+        H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->portal[h] = 0;
+        H->bounce[h] = H->bounds[h] = 0;
         H->flags[h] = PATH_CAMERA;
         H->mis_pdf[h] = H->min_pdf[h] = INFINITY;
         H->mis_receiver[h] = 0;                   /* (the camera's: it sees every emitter) */

@@ -83,7 +83,7 @@ def roulette_from(settings) -> int:
 
 
 # A path's counters that volume.multiple_scattering carries along the chains of scattering events it follows.
-COUNTERS = ("bounce", "volume", "diffuse", "glossy", "transmission", "transparent", "bounds")
+COUNTERS = ("bounce", "volume", "diffuse", "glossy", "transmission", "transparent", "portal", "bounds")
 
 
 def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner_of: np.ndarray) -> tuple:
@@ -309,6 +309,7 @@ class PathTracing(Integrator):
         glossy = np.zeros(len(hit), np.int64)
         transmission = np.zeros(len(hit), np.int64)
         transparent = np.zeros(len(hit), np.int64)
+        portal = np.zeros(len(hit), np.int64)        # of those, Ray Portals (the Light Path node's Portal Depth)
         bounds = np.zeros(len(hit), np.int64)         # volume-only boundaries crossed (Cycles' volume_bounds_bounce)
         bounce = np.zeros(len(hit), np.int64)
         flags = np.full(len(hit), graph_.PATH_CAMERA, np.int64)   # the Light Path flags of the ray that got there
@@ -333,15 +334,16 @@ class PathTracing(Integrator):
         if arrivals is not None:
             # Paths that scattered along the camera rays and went on: their next vertices join the camera's hits.
             state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
-                         transmission=transmission, transparent=transparent, bounds=bounds, bounce=bounce, flags=flags,
-                         mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal, mis_receiver=mis_receiver,
-                         after_diffuse=after_diffuse, seen_by=seen_by, inside=inside, looking=looking,
-                         feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo, min_pdf=min_pdf)
+                         transmission=transmission, transparent=transparent, portal=portal, bounds=bounds,
+                         bounce=bounce, flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
+                         mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
+                         looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo,
+                         min_pdf=min_pdf)
             where = (found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit), D_hit, found.t[hit])
             state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)))
-            (owner, throughput, diffuse, glossy, transmission, transparent, bounds, bounce, flags, mis_pdf, mis_origin,
-             mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput, shares, volume,
-             wo, min_pdf) = state.values()
+            (owner, throughput, diffuse, glossy, transmission, transparent, portal, bounds, bounce, flags, mis_pdf,
+             mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput, shares,
+             volume, wo, min_pdf) = state.values()
         exiting = np.zeros(len(owner), bool)         # which vertices are subsurface walks' exits (subsurface.py)
         while len(owner):
             check_stop(ctx)
@@ -350,7 +352,7 @@ class PathTracing(Integrator):
             #    Light the camera's hit gathers is direct, later light indirect (sample clamping).
             dimension = vertex * VERTEX_DIMENSIONS
             cap = np.where(bounce == 0, direct_cap, indirect_cap)
-            light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent)
+            light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent, portal)
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
                                          caustics_filter(s, after_diffuse),
                                          shader_rays.for_hits(ctx, surface, pixel[owner], sample[owner], dimension,
@@ -462,7 +464,7 @@ class PathTracing(Integrator):
                         carried = throughput[ray.rows[multi]] * ray.weight[multi] / q[multi, None]
                         counters = dict(bounce=bounces[multi], volume=volume[ray.rows[multi]], diffuse=d[multi],
                                         glossy=g[multi], transmission=tr[multi], transparent=tp[multi],
-                                        bounds=vb[multi])
+                                        portal=ray.path.portal[multi], bounds=vb[multi])
                         path_rows = owner[ray.rows[multi]]
                         scattered, count, passing, vertex_arrivals = volume_.multiple_scattering(
                             ctx, ray.O[multi], ray.D[multi], np.where(ray.hits.hit[multi], ray.hits.t[multi], np.inf),
@@ -504,6 +506,7 @@ class PathTracing(Integrator):
             owner = owner[rows]
             throughput = next_throughput[keep]
             diffuse, glossy, transmission, transparent, bounds = d[keep], g[keep], tr[keep], tp[keep], vb[keep]
+            portal = ray.path.portal[keep]
             flags = ray.path.flags[keep]
             # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
             after_diffuse = np.where(is_transparent | walked, after_diffuse[ray.rows], labelled_diffuse)[keep]
@@ -521,8 +524,8 @@ class PathTracing(Integrator):
                 # Paths that scattered along this bounce's rays and went on: their next vertices join the others.
                 exiting = np.concatenate([exiting, np.zeros(len(vertex_arrivals["origin"]), bool)])
                 state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
-                             transmission=transmission, transparent=transparent, bounds=bounds, bounce=bounce,
-                             flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
+                             transmission=transmission, transparent=transparent, portal=portal, bounds=bounds,
+                             bounce=bounce, flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
                              mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
                              looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume,
                              wo=wo, min_pdf=min_pdf)
@@ -531,7 +534,7 @@ class PathTracing(Integrator):
                                                         vertex_arrivals["pdf"])
                 where = (hits.prim[keep], hits.u[keep], hits.v[keep], ray.O[keep], D_next, hits.t[keep])
                 state, surface = with_arrivals(ctx, state, where, vertex_arrivals, arrival_owners)
-                (owner, throughput, diffuse, glossy, transmission, transparent, bounds, bounce, flags, mis_pdf,
+                (owner, throughput, diffuse, glossy, transmission, transparent, portal, bounds, bounce, flags, mis_pdf,
                  mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
                  shares, volume, wo, min_pdf) = state.values()
             vertex += 1

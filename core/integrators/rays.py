@@ -120,7 +120,8 @@ def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
 def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarray):
     """The paths (graph.LightPaths of k rows) the rays of k bounces carry on from `paths` (Cycles' path_state_next).
 
-    Straight through a Transparent closure: one more transparent surface, the flags kept (a camera ray stays one).
+    Straight through a Transparent closure: one more transparent surface, the flags kept (a camera ray stays one);
+    through a Ray Portal the same, and one more portal (Cycles' portal_bounce, the Light Path node's Portal Depth).
     Any other closure: one more bounce, of its kind (diffuse or glossy reflection, or through the surface:
     goes_through), and the flags of its labels: REFLECT or TRANSMIT, and DIFFUSE (a diffuse closure), GLOSSY and
     SINGULAR (a delta: singular (k,) bool, or a SINGULAR closure) or GLOSSY. kind: (k,) int the sampled closures'
@@ -143,7 +144,8 @@ def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarr
                              diffuse=paths.diffuse + (reflected & diffuse),
                              glossy=paths.glossy + (reflected & ~diffuse),
                              transmission=paths.transmission + through,
-                             transparent=paths.transparent + (straight & ~walk))
+                             transparent=paths.transparent + (straight & ~walk),
+                             portal=paths.portal + materials_.has(kind, F.PORTAL))
 
 
 def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, groups=None,

@@ -295,7 +295,8 @@ INLINE double light_path_output(int output, const ShadingPoint *sp)
     case LP_GLOSSY_DEPTH: return (double)p->glossy;
     case LP_TRANSPARENT_DEPTH: return (double)p->transparent;
     case LP_TRANSMISSION_DEPTH: return (double)p->transmission;
-    default: return 0.0;                /* Portal Depth: not counted apart (warned by the addon) */
+    case LP_PORTAL_DEPTH: return (double)p->portal;
+    default: return 0.0;
     }
 }
 

@@ -69,7 +69,8 @@ schema.table("OP", lambda: list(OPS))
 # reads it): which kind of ray found the hit, as bits, and the path's bounces so far. A camera ray, and one that
 # went on from it straight through transparent surfaces, carries CAMERA; after a real bounce the ray carries that
 # bounce's labels (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR), and a transparent bounce keeps
-# them (path_state_next). A shadow ray through a transparent surface carries SHADOW alone, a light sample landing
+# them (path_state_next; a Ray Portal's is a transparent bounce, counted in `portal` as well). A shadow ray through
+# a transparent surface carries SHADOW alone (and the path's counts), a light sample landing
 # on an emitter EMISSION alone (both are one bounce further: Ray Depth adds one). VOLUME_SCATTER is for volumes.
 PATH_FLAGS = ("camera", "shadow", "diffuse", "glossy", "singular", "reflect", "transmit", "volume_scatter", "emission")
 PATH = schema.constants("PATH", {name: 1 << index for index, name in enumerate(PATH_FLAGS)},
@@ -82,6 +83,7 @@ LightPath = schema.record("LightPath", "What a shader knows of the path that rea
     ("glossy", I32, "glossy and mirror reflections"),
     ("transmission", I32, "bounces through the surface"),
     ("transparent", I32, "transparent surfaces passed straight through, the whole path's"),
+    ("portal", I32, "of those, Ray Portals passed (Cycles' portal_bounce: they count as transparent ones too)"),
 ])
 # The same fields, one (n,) int64 array each, for n hits at once (ShadingPoint.path).
 LightPaths = namedtuple("LightPaths", [f.name for f in LightPath._description])
@@ -98,9 +100,9 @@ LIGHT_PATH_FLAG_OF = {"Is Camera Ray": "camera", "Is Shadow Ray": "shadow", "Is 
 
 
 def light_paths(n: int, flags=PATH_CAMERA, bounce=0, diffuse=0, glossy=0, transmission=0,
-                transparent=0) -> "LightPaths":
+                transparent=0, portal=0) -> "LightPaths":
     """n hits' LightPaths, each field (n,) int64 from a scalar or an (n,) array (the default: camera rays)."""
-    values = (flags, bounce, diffuse, glossy, transmission, transparent)
+    values = (flags, bounce, diffuse, glossy, transmission, transparent, portal)
     return LightPaths(*(np.broadcast_to(np.asarray(v, np.int64), (n,)).copy() for v in values))
 
 
@@ -124,10 +126,8 @@ def light_path_output(output: int, path: "LightPaths", t: np.ndarray) -> np.ndar
         return np.asarray(t, np.float64)
     if name == "Ray Depth":                       # a shadow ray and a light's own shading: one bounce further
         return (path.bounce + ((path.flags & (PATH_SHADOW | PATH_EMISSION)) != 0)).astype(np.float64)
-    if name == "Portal Depth":                    # (portal bounces are not counted apart: 0, warned by the addon)
-        return np.zeros(len(path.flags))
     field = {"Diffuse Depth": "diffuse", "Glossy Depth": "glossy", "Transparent Depth": "transparent",
-             "Transmission Depth": "transmission"}[name]
+             "Transmission Depth": "transmission", "Portal Depth": "portal"}[name]
     return getattr(path, field).astype(np.float64)
 
 
