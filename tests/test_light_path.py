@@ -7,7 +7,9 @@ Each scene shows an output as light, so that a pixel is the output's value (or a
 - an emitter seen straight down through a stack of clear Transparent planes: still a camera ray (Is Camera Ray 1,
   Ray Depth 0) with Transparent Depth the planes passed; through glass of index 1, a singular transmission;
 - a floor lit by a sun through a plane whose transparency is a Light Path output: the plane is shaded for the shadow
-  ray (Is Shadow Ray 1, Ray Depth one more than the floor's, Transparent Depth the path's so far).
+  ray (Is Shadow Ray 1, Ray Depth one more than the floor's, Transparent Depth the path's so far);
+- an emitter seen through Ray Portals, one of them teleporting the rays: each counts in Portal Depth and, as a
+  transparent bounce, in Transparent Depth; the path's shadow rays carry the count.
 """
 from __future__ import annotations
 
