@@ -286,6 +286,54 @@ def test_wireframe_pixel_size_under_a_perspective_camera_is_as_wide_as_cycles(tm
     assert result["primer"] == pytest.approx(result["cycles"], rel=0.02)
 
 
+MIRRORED_WIRES = """
+import math, os
+import bpy
+import numpy as np
+from blender_env import empty_material, fresh_scene, ortho_camera, render_pixels, report
+primer, export, scene = fresh_scene(48, 32)
+scene.primer.integrator, scene.primer.max_bounces = "PATH", 1
+material, tree, out = empty_material("Wire")
+wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
+wire.use_pixel_size = True
+wire.inputs["Size"].default_value = 2.0
+tree.links.new(wire.outputs["Fac"], emission.inputs["Color"])
+tree.links.new(emission.outputs[0], out.inputs["Surface"])
+material.cycles.emission_sampling = "NONE"
+bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=6.0, location=(0.0, 3.0, 0.0),
+                                rotation=(math.radians(90.0), 0.0, 0.0))
+bpy.context.view_layer.objects.active.data.materials.append(material)
+mirror, tree, out = empty_material("Mirror")
+glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
+glossy.inputs["Roughness"].default_value = 0.0
+glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+tree.links.new(glossy.outputs[0], out.inputs["Surface"])
+bpy.ops.mesh.primitive_plane_add(size=8.0, rotation=(math.radians(-45.0), 0.0, 0.0))
+bpy.context.view_layer.objects.active.data.materials.append(mirror)
+camera = ortho_camera(scene, 3.0)
+area = {{engine: float(render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), {samples})[..., 0].sum())
+        for engine in ("PRIMER", "CYCLES")}}
+warnings = {{}}
+for kind in ("ORTHO", "PERSP"):
+    camera.data.type = kind
+    warnings[kind] = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+primer.unregister()
+report(primer=area["PRIMER"], cycles=area["CYCLES"], warnings=warnings)
+"""
+
+
+def test_wireframe_pixel_size_seen_in_a_mirror_under_an_orthographic_camera_is_as_wide_as_cycles(tmp_path):
+    """A wall of wires 2 pixels wide seen in a 45-degree mirror (path traced, one bounce): an orthographic camera's
+    ray cone does not widen (Cycles: dP one pixel, dD 0, through every bounce), so the wires' area (the sum of Fac)
+    is Cycles' within 2% (measured -0.45% at 16 samples). Under a perspective camera Cycles widens the cone over the
+    whole path, which Primer does not model at hits after a bounce: the export warns (measured there: -34%)."""
+    result = run_bpy(MIRRORED_WIRES.format(samples=16), str(tmp_path))
+    print("wires' area in the mirror, Primer / Cycles - 1:", result["primer"] / result["cycles"] - 1.0)
+    assert result["primer"] == pytest.approx(result["cycles"], rel=0.02)
+    assert result["warnings"]["ORTHO"] == []
+    assert len(result["warnings"]["PERSP"]) == 1 and "Pixel Size" in result["warnings"]["PERSP"][0]
+
+
 PANORAMA_WINDOWS = """
 import math, os
 import bpy
