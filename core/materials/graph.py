@@ -1497,6 +1497,8 @@ def pixel_width(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarra
     the mean of |normalize(d + dx) - normalize(d)| over a pixel step dx, dy on the plane at depth 1, d = P / P.z; an
     orthographic one: a pixel's width in scene units), spread along two directions a, b across the face
     (orthonormals of Ng) and each projected onto the plane across the view: dP (|a - (a.I) I| + |b - (b.I) I|) / 2.
+    At hits after a bounce the same (exact for an orthographic camera; a perspective camera's cone, which Cycles
+    widens over the whole path, is not carried: addon/materials.py warns).
     frame: the window (left, right, bottom, top, perspective, width, height)."""
     left, right, bottom, top, perspective, width, height = frame[:7]
     sx, sy = (right - left) / width, (top - bottom) / height
