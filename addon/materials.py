@@ -107,17 +107,6 @@ def _follow(node):
     return node
 
 
-# The Wireframe node's Pixel Size under a perspective camera, at hits after a bounce (graph.pixel_width): Cycles widens
-# the camera ray's cone (its compact ray differentials: the camera ray's spread dD, kept through bounces, times the
-# length of the whole path from the camera; kernel/util/differential.h, shade_surface.h), Primer measures the pixel at
-# the hit's own distance from the camera, along the direction from the camera to it. Exact on camera rays (also
-# straight through Transparent surfaces) and under an orthographic camera, whose cone does not widen.
-PIXEL_SIZE_AFTER_BOUNCES = ("Pixel Size is exact where camera rays (also straight through Transparent surfaces) meet "
-                            "the wires; at hits after a bounce (a reflection, a refraction, a BSDF ray that finds an "
-                            "emitter, a ray a Ray Portal sends on) Primer measures the pixel at the hit's own distance "
-                            "from the camera, where Cycles widens the camera ray's cone over the whole path's length: "
-                            "wires seen in a mirror come out thinner in Primer (an orthographic camera is exact)")
-
 class NodeReader:
     """Reads one material's (or light's) inputs, noting each input that a link feeds (Primer takes its own value)."""
 
@@ -516,8 +505,6 @@ class GraphReader:
             props = {"pixel_size": bool(node.use_pixel_size)}
             if node.use_pixel_size and camera is not None and getattr(camera.data, "type", "") == "PANO":
                 warn("Pixel Size under a panoramic camera is not modelled; Primer reads Size in world units")
-            elif node.use_pixel_size and camera is not None and getattr(camera.data, "type", "") == "PERSP":
-                warn(PIXEL_SIZE_AFTER_BOUNCES)
             inputs = self.inputs(node, path, ["Size"])
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}

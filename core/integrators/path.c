@@ -206,6 +206,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->transmission[m] = tr;
         next->transparent[m] = clear;
         next->portal[m] = r->path.portal;
+        next->cone[m] = r->path.cone;
+        next->spread[m] = r->path.spread;
         next->bounds[m] = crossed;
         if (ds->media != NULL) next->inside[m] = r->inside;
         next->mis_pdf[m] = r->pdf;

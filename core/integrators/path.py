@@ -65,7 +65,7 @@ from . import passes as passes_
 from . import shadows
 from . import subsurface as subsurface_
 from . import volume as volume_
-from .rays import camera_hits, camera_media, goes_through, nearest_seen
+from .rays import camera_cones, camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
 from .vertex import VERTEX_DIMENSIONS, PathState, gather_light, shade_vertex
 from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
@@ -97,6 +97,7 @@ def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner
                  mis_origin=arrivals["O"], mis_normal=np.zeros((a, 3)), mis_receiver=np.full(a, -1, np.int64),
                  after_diffuse=np.zeros(a, bool), seen_by=np.zeros(a, np.int64), inside=arrivals["inside"],
                  looking=np.zeros(a, bool), feature_throughput=np.ones((a, 3)), wo=-arrivals["D"],
+                 cone=np.zeros(a), spread=np.zeros(a),          # (a medium's paths: their ray cone unknown)
                  min_pdf=arrivals.get("min_pdf", arrivals["pdf"]), **{name: arrivals[name] for name in COUNTERS})
     out = {}
     for name, value in state.items():
@@ -310,6 +311,7 @@ class PathTracing(Integrator):
         transmission = np.zeros(len(hit), np.int64)
         transparent = np.zeros(len(hit), np.int64)
         portal = np.zeros(len(hit), np.int64)        # of those, Ray Portals (the Light Path node's Portal Depth)
+        cone, spread = camera_cones(ctx, vectors.gather(O, hit))   # each ray's cone (graph.LightPath cone, spread)
         bounds = np.zeros(len(hit), np.int64)         # volume-only boundaries crossed (Cycles' volume_bounds_bounce)
         bounce = np.zeros(len(hit), np.int64)
         flags = np.full(len(hit), graph_.PATH_CAMERA, np.int64)   # the Light Path flags of the ray that got there
@@ -334,15 +336,15 @@ class PathTracing(Integrator):
         if arrivals is not None:
             # Paths that scattered along the camera rays and went on: their next vertices join the camera's hits.
             state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
-                         transmission=transmission, transparent=transparent, portal=portal, bounds=bounds,
-                         bounce=bounce, flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
+                         transmission=transmission, transparent=transparent, portal=portal, cone=cone, spread=spread,
+                         bounds=bounds, bounce=bounce, flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
                          mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
                          looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo,
                          min_pdf=min_pdf)
             where = (found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit), D_hit, found.t[hit])
             state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)))
-            (owner, throughput, diffuse, glossy, transmission, transparent, portal, bounds, bounce, flags, mis_pdf,
-             mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput, shares,
+            (owner, throughput, diffuse, glossy, transmission, transparent, portal, cone, spread, bounds, bounce, flags,
+             mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput, shares,
              volume, wo, min_pdf) = state.values()
         exiting = np.zeros(len(owner), bool)         # which vertices are subsurface walks' exits (subsurface.py)
         while len(owner):
@@ -352,7 +354,8 @@ class PathTracing(Integrator):
             #    Light the camera's hit gathers is direct, later light indirect (sample clamping).
             dimension = vertex * VERTEX_DIMENSIONS
             cap = np.where(bounce == 0, direct_cap, indirect_cap)
-            light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent, portal)
+            light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent, portal, cone,
+                                           spread)
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
                                          caustics_filter(s, after_diffuse),
                                          shader_rays.for_hits(ctx, surface, pixel[owner], sample[owner], dimension,
@@ -506,7 +509,7 @@ class PathTracing(Integrator):
             owner = owner[rows]
             throughput = next_throughput[keep]
             diffuse, glossy, transmission, transparent, bounds = d[keep], g[keep], tr[keep], tp[keep], vb[keep]
-            portal = ray.path.portal[keep]
+            portal, cone, spread = ray.path.portal[keep], ray.path.cone[keep], ray.path.spread[keep]
             flags = ray.path.flags[keep]
             # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
             after_diffuse = np.where(is_transparent | walked, after_diffuse[ray.rows], labelled_diffuse)[keep]
@@ -524,8 +527,8 @@ class PathTracing(Integrator):
                 # Paths that scattered along this bounce's rays and went on: their next vertices join the others.
                 exiting = np.concatenate([exiting, np.zeros(len(vertex_arrivals["origin"]), bool)])
                 state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
-                             transmission=transmission, transparent=transparent, portal=portal, bounds=bounds,
-                             bounce=bounce, flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
+                             transmission=transmission, transparent=transparent, portal=portal, cone=cone,
+                             spread=spread, bounds=bounds, bounce=bounce, flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
                              mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
                              looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume,
                              wo=wo, min_pdf=min_pdf)
@@ -534,8 +537,8 @@ class PathTracing(Integrator):
                                                         vertex_arrivals["pdf"])
                 where = (hits.prim[keep], hits.u[keep], hits.v[keep], ray.O[keep], D_next, hits.t[keep])
                 state, surface = with_arrivals(ctx, state, where, vertex_arrivals, arrival_owners)
-                (owner, throughput, diffuse, glossy, transmission, transparent, portal, bounds, bounce, flags, mis_pdf,
-                 mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
+                (owner, throughput, diffuse, glossy, transmission, transparent, portal, cone, spread, bounds, bounce,
+                 flags, mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
                  shares, volume, wo, min_pdf) = state.values()
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
