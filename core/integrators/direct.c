@@ -183,9 +183,10 @@ INLINE int ray_kind(int kind, int transmit, int previous)
 
 /* rays.path_after: the path a bounce's ray carries on from `p` (Cycles' path_state_next), the sampled closure of
  * kind `kind` through the face (transmit) or not, a delta (singular) or not. Straight through a Transparent closure:
- * one more transparent surface, the flags kept (a Ray Portal: one more portal too); any other closure: one more bounce of its kind, and the flags its
- * labels give (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR). The ray leaves with the path's ray
- * cone as it was at the hit, t along the ray that reached it (Cycles' dP; dD kept, 0 into a subsurface walk). */
+ * one more transparent surface, the flags kept (a Ray Portal: one more portal too); any other closure: one more
+ * bounce of its kind, and the flags its labels give (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR).
+ * The ray leaves with the path's ray cone as it was at the hit, t along the ray that reached it (Cycles' dP; dD
+ * kept, 0 into a subsurface walk). */
 INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular, double t)
 {
     p.cone = p.cone + t * p.spread;

@@ -335,17 +335,17 @@ class PathTracing(Integrator):
         volume = np.zeros(len(hit), np.int64)      # each path's scattering events in media so far (Volume Bounces)
         if arrivals is not None:
             # Paths that scattered along the camera rays and went on: their next vertices join the camera's hits.
-            state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
-                         transmission=transmission, transparent=transparent, portal=portal, cone=cone, spread=spread,
-                         bounds=bounds, bounce=bounce, flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
+            state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy, transmission=transmission,
+                         transparent=transparent, portal=portal, cone=cone, spread=spread, bounds=bounds, bounce=bounce,
+                         flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
                          mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
                          looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo,
                          min_pdf=min_pdf)
             where = (found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit), D_hit, found.t[hit])
             state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)))
             (owner, throughput, diffuse, glossy, transmission, transparent, portal, cone, spread, bounds, bounce, flags,
-             mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput, shares,
-             volume, wo, min_pdf) = state.values()
+             mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
+             shares, volume, wo, min_pdf) = state.values()
         exiting = np.zeros(len(owner), bool)         # which vertices are subsurface walks' exits (subsurface.py)
         while len(owner):
             check_stop(ctx)
@@ -528,18 +528,19 @@ class PathTracing(Integrator):
                 exiting = np.concatenate([exiting, np.zeros(len(vertex_arrivals["origin"]), bool)])
                 state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
                              transmission=transmission, transparent=transparent, portal=portal, cone=cone,
-                             spread=spread, bounds=bounds, bounce=bounce, flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
-                             mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
-                             looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume,
-                             wo=wo, min_pdf=min_pdf)
+                             spread=spread, bounds=bounds, bounce=bounce, flags=flags, mis_pdf=mis_pdf,
+                             mis_origin=mis_origin, mis_normal=mis_normal, mis_receiver=mis_receiver,
+                             after_diffuse=after_diffuse, seen_by=seen_by, inside=inside, looking=looking,
+                             feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo,
+                             min_pdf=min_pdf)
                 # (a scattering path's smallest pdf so far: its bounce's and its phase function's, Cycles' min_ray_pdf)
                 vertex_arrivals["min_pdf"] = np.minimum(ray_min_pdf[multi][vertex_arrivals["origin"]],
                                                         vertex_arrivals["pdf"])
                 where = (hits.prim[keep], hits.u[keep], hits.v[keep], ray.O[keep], D_next, hits.t[keep])
                 state, surface = with_arrivals(ctx, state, where, vertex_arrivals, arrival_owners)
                 (owner, throughput, diffuse, glossy, transmission, transparent, portal, cone, spread, bounds, bounce,
-                 flags, mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
-                 shares, volume, wo, min_pdf) = state.values()
+                 flags, mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking,
+                 feature_throughput, shares, volume, wo, min_pdf) = state.values()
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
                         None if groups is None else groups.L, None if feats is None else feats.stacked(), data)

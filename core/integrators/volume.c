@@ -108,7 +108,8 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
             double T[1][3] = {{1.0, 1.0, 1.0}};
             if (light->cast_shadow != 0 && ds->transmitter != NULL) {   /* (media make every render's shadows transparent) */
                 double origin[1][3], D[1][3], t;
-                LightPath shadow = {PATH_SHADOW, bounce, 0, 0, 0, 0, 0, 0.0, 0.0};   /* (Ray Depth: one deeper, as a shadow ray's) */
+                /* (Ray Depth: one deeper, as a shadow ray's) */
+                LightPath shadow = {PATH_SHADOW, bounce, 0, 0, 0, 0, 0, 0.0, 0.0};
                 shadow_ray(P, zero, P, 0.0, 0.0, ls.L, ls.distance, ls.position, 1, 0.0, origin[0], D[0], &t);
                 transmit_packet(ds->transmitter, 1, origin, D, &t, &STILL_TIME, &shadow, &blockers, inside, T);
                 rays++;
