@@ -107,6 +107,32 @@ def _follow(node):
     return node
 
 
+# The Wireframe node's Pixel Size where light samples land on an emitter: Cycles sets up no ray differentials there
+# (shader_setup_from_sample: a zero footprint, so no wire shows), Primer measures the pixel as for the ray that
+# reached the sampling point.
+PIXEL_SIZE_AT_LIGHT_SAMPLES = ("Pixel Size where light samples land on this emitter is not modelled: Cycles has no "
+                               "ray footprint there and sees no wire, Primer measures the pixel as for the path "
+                               "that sampled it (set Emission Sampling to None for the same light)")
+
+
+def _light_sampled_emitter(material) -> bool:
+    """Whether `material` (a Blender material or light) may be an emitter that light samples land on: Cycles'
+    Emission Sampling is not None and its node tree holds an Emission node or a Principled BSDF that emits (its
+    Emission Strength linked or above 0)."""
+    material = getattr(material, "original", material)      # (as the user set it, not a depsgraph's copy)
+    sampling = getattr(getattr(material, "cycles", None), "emission_sampling", "NONE")
+    tree = getattr(material, "node_tree", None)
+    if sampling == "NONE" or tree is None:
+        return False
+    for n in tree.nodes:
+        if n.bl_idname == "ShaderNodeEmission":
+            return True
+        strength = n.inputs.get("Emission Strength") if n.bl_idname == "ShaderNodeBsdfPrincipled" else None
+        if strength is not None and (strength.is_linked or strength.default_value > 0.0):
+            return True
+    return False
+
+
 class NodeReader:
     """Reads one material's (or light's) inputs, noting each input that a link feeds (Primer takes its own value)."""
 
@@ -267,9 +293,6 @@ class GraphReader:
                                    f"'{consumer.name}' of '{consumer.node.name}' Primer uses that input's own value "
                                    f"{_shown(consumer)}")
             return own_value(consumer)
-        if kind == "ShaderNodeLightPath" and name == "Portal Depth":
-            self.reader.warn(node, "Portal Depth is read as 0: Primer does not count the Ray Portal bounces a path "
-                                   "makes (they count as transparent bounces, in Transparent Depth)")
         if kind not in GRAPH_KINDS:
             self.reader.warn(node, f"'{node.bl_label}' is not a node Primer evaluates; for '{consumer.name}' of "
                                    f"'{consumer.node.name}' it uses that input's own value {_shown(consumer)}")
@@ -508,6 +531,8 @@ class GraphReader:
             props = {"pixel_size": bool(node.use_pixel_size)}
             if node.use_pixel_size and camera is not None and getattr(camera.data, "type", "") == "PANO":
                 warn("Pixel Size under a panoramic camera is not modelled; Primer reads Size in world units")
+            if node.use_pixel_size and _light_sampled_emitter(self.reader.material):
+                warn(PIXEL_SIZE_AT_LIGHT_SAMPLES)
             inputs = self.inputs(node, path, ["Size"])
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}

@@ -164,25 +164,90 @@ def test_shadow_rays_stop_at_a_ray_portal_but_not_at_one_mixed_with_a_transparen
     assert means["CYCLES 0.5"] == pytest.approx(lit, rel=1e-4 if bpy_version < (5, 1) else 2e-3), means
 
 
-# A material emitting the Light Path node's Portal Depth: the addon's reading and warnings. bpy's Python.
+# Portal Depth, as Cycles counts it: a Ray Portal pane over the origin sends the camera rays on from 30 along x and
+# 1.5 lower, downwards, onto a floor emitting 2 x Portal Depth + Transparent Depth (Math nodes) and lit straight down
+# by a sun of 3 through a screen high above it that lets 0.5 x Portal Depth through (a Transparent BSDF: what the
+# floor's shadow rays read). The pixels' mean and spread in Primer and in Cycles. bpy's Python.
 PORTAL_DEPTH = """
-import sys
+import math, os, sys
 import bpy
-from blender_env import empty_material, fresh_scene, report
-primer, export, scene = fresh_scene()
+import numpy as np
+from blender_env import empty_material, fresh_scene, ortho_camera, render_pixels, report
+
+primer, export, scene = fresh_scene(8, 8)
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
-m, tree, output = empty_material("Depth")
-path, emission = tree.nodes.new("ShaderNodeLightPath"), tree.nodes.new("ShaderNodeEmission")
-tree.links.new(path.outputs["Portal Depth"], emission.inputs["Strength"])
-tree.links.new(emission.outputs[0], output.inputs["Surface"])
+
+
+def quad(name, x, z, size, material):
+    mesh = bpy.data.meshes.new(name)
+    h = size / 2
+    mesh.from_pydata([(x - h, -h, z), (x + h, -h, z), (x + h, h, z), (x - h, h, z)], [], [(0, 1, 2, 3)])
+    mesh.materials.append(material)
+    scene.collection.objects.link(bpy.data.objects.new(name, mesh))
+
+
+def math_node(tree, operation, a, b, c=0.0):
+    node = tree.nodes.new("ShaderNodeMath")
+    node.operation = operation
+    for k, value in enumerate((a, b, c)):
+        if isinstance(value, float):
+            node.inputs[k].default_value = value
+        else:
+            tree.links.new(value, node.inputs[k])
+    return node.outputs[0]
+
+
+pane, tree, output = empty_material("Pane")
+portal = tree.nodes.new("ShaderNodeBsdfRayPortal")
+geometry, add = tree.nodes.new("ShaderNodeNewGeometry"), tree.nodes.new("ShaderNodeVectorMath")
+add.operation = "ADD"
+add.inputs[1].default_value = (30.0, 0.0, -1.5)
+tree.links.new(geometry.outputs["Position"], add.inputs[0])
+tree.links.new(add.outputs["Vector"], portal.inputs["Position"])
+tree.links.new(portal.outputs[0], output.inputs["Surface"])
+quad("Pane", 0.0, 2.0, 20.0, pane)
+floor, tree, output = empty_material("Floor")
+path = tree.nodes.new("ShaderNodeLightPath")
+emission, diffuse, both = (tree.nodes.new(kind) for kind in ("ShaderNodeEmission", "ShaderNodeBsdfDiffuse",
+                                                              "ShaderNodeAddShader"))
+diffuse.inputs["Color"].default_value = (0.5, 0.5, 0.5, 1.0)
+tree.links.new(math_node(tree, "MULTIPLY_ADD", path.outputs["Portal Depth"], 2.0, path.outputs["Transparent Depth"]),
+               emission.inputs["Strength"])
+tree.links.new(emission.outputs[0], both.inputs[0])
+tree.links.new(diffuse.outputs[0], both.inputs[1])
+tree.links.new(both.outputs[0], output.inputs["Surface"])
+floor.cycles.emission_sampling = "NONE"       # (not a light: the sun, alone, is sampled without noise)
+quad("Floor", 30.0, 0.0, 20.0, floor)
+screen, tree, output = empty_material("Screen")
+path, clear = tree.nodes.new("ShaderNodeLightPath"), tree.nodes.new("ShaderNodeBsdfTransparent")
+tree.links.new(math_node(tree, "MULTIPLY", path.outputs["Portal Depth"], 0.5), clear.inputs["Color"])
+tree.links.new(clear.outputs[0], output.inputs["Surface"])
+# (its diagonal off the pixel centres: Cycles' shadow ray straight up through a centre on the two triangles' shared
+#  edge meets both, and passes the screen twice)
+quad("Screen", 30.3, 3.0, 20.0, screen)
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+sun.data.energy, sun.data.angle = 3.0, 0.0
+scene.collection.objects.link(sun)
+ortho_camera(scene, 4.0)
 warnings = []
-materials_.export_material(m, warnings)
+for m in (pane, floor, screen):
+    materials_.export_material(m, warnings)
+pixels = {{}}
+for engine in ("PRIMER", "CYCLES"):
+    rgb = render_pixels(scene, engine, os.path.abspath(f"{{engine}}.exr"), 4)[..., :3]
+    pixels[engine] = [float(rgb.mean()), float(rgb.min()), float(rgb.max())]
 primer.unregister()             # bpy 4.2 crashes at exit while a Python RenderEngine is registered
-report(warnings=[str(w) for w in warnings])
+report(warnings=[str(w) for w in warnings], pixels=pixels)
 """
 
 
-def test_the_light_path_nodes_portal_depth_is_warned_as_read_zero(tmp_path):
-    """Portal bounces are not counted apart: reading Portal Depth gives one warning saying it is read as 0."""
+def test_the_light_path_nodes_portal_depth_counts_ray_portal_bounces_as_in_cycles(tmp_path):
+    """Read with no warning; every pixel in Primer and in Cycles is the closed form: the floor's emission 2 x 1 + 1
+    (one portal, which is one transparent bounce too) plus its diffuse 0.5 / pi under the sun of 3 that the screen
+    lets 0.5 through for shadow rays of Portal Depth 1: 3 + 0.75 / pi."""
     report = run_bpy(PORTAL_DEPTH.format(), str(tmp_path))
-    assert len(report["warnings"]) == 1 and "Portal Depth is read as 0" in report["warnings"][0], report
+    assert report["warnings"] == [], report["warnings"]
+    expected = 3.0 + 0.75 / np.pi
+    for engine, (mean, low, high) in report["pixels"].items():
+        print(engine, mean, low, high)
+        assert low == pytest.approx(expected, rel=1e-5) and high == pytest.approx(expected, rel=1e-5), report["pixels"]

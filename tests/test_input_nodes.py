@@ -316,6 +316,50 @@ def test_wireframe_lights_the_points_within_half_its_size_of_a_triangle_edge():
     assert 0 < image.sum() < SIZE * SIZE
 
 
+def wall_of_wires(looking: str, kind: str) -> Scene:
+    """A wall y = 3 facing -y whose Emission shows a Wireframe node 2 pixels wide (Pixel Size), its two triangles
+    meeting on the diagonal through (0, 3, 0), seen by a camera of type `kind` ("ORTHO" 1 wide, or "PERSP") from above
+    (5 up) in a mirror z = -y that turns every ray towards +y ("mirror"), or straight on from where the mirror shows
+    that camera, 5 before the mirror's centre along -y ("direct"; upside down, which changes no area)."""
+    if looking == "mirror":
+        matrix = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 5.0], [0.0, 0.0, 0.0, 1.0]])
+    else:
+        matrix = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, -5.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+    camera = Camera(matrix_world=matrix, type=kind, ortho_scale=1.0, clip_start=0.01, clip_end=100.0)
+    wires = Link(GraphNode("WIREFRAME", {"pixel_size": True}, {"Size": 2.0}), "Fac")
+    scene = Scene(camera=camera)
+    scene.materials += [Material(name="Wires", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"emission": wires})]),
+                        Material(name="Mirror", nodes=[("MIRROR", (1.0, 1.0, 1.0), {})])]
+    wall = primitives.plane(20.0)
+    wall.vertices = wall.vertices[:, [0, 2, 1]] + [0.0, 3.0, 0.0]
+    wall.triangles = wall.triangles[:, ::-1].copy()
+    scene.add_mesh(wall, materials=np.array([0]))
+    if looking == "mirror":
+        mirror = primitives.plane(8.0)
+        a = math.radians(-45.0)
+        mirror.vertices = mirror.vertices @ np.array([[1.0, 0.0, 0.0], [0.0, math.cos(a), math.sin(a)],
+                                                      [0.0, -math.sin(a), math.cos(a)]])
+        scene.add_mesh(mirror, materials=np.array([1]))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("kind", ["ORTHO", "PERSP"])
+def test_wireframe_pixel_size_seen_in_a_mirror_is_as_wide_as_seen_straight_on_from_the_mirrored_camera(kernels, kind):
+    """Cycles' ray cone (compact ray differentials): the camera ray's footprint where it bounces, widening on by the
+    camera ray's spread (0 for an orthographic camera) over the path's length, so a mirror shows the wires as the
+    camera it mirrors would see them straight on: the diagonal wire lights as much of the 16 x 16 image in the mirror
+    as straight on, within the pixels' samples (an orthographic camera's: 2 pixels' width along the diagonal,
+    2 x 16 x sqrt 2 pixels, within 10%)."""
+    areas = [render.render(wall_of_wires(looking, kind), RenderSettings(width=16, height=16, samples=16,
+                                                                        kernels=kernels, integrator="path",
+                                                                        max_bounces=1)).image[..., 0].sum()
+             for looking in ("direct", "mirror")]
+    assert areas[1] == pytest.approx(areas[0], rel=0.03), areas
+    if kind == "ORTHO":
+        assert areas[0] == pytest.approx(2.0 * 16.0 * math.sqrt(2.0), rel=0.1), areas
+
+
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_light_path_ray_length_of_camera_rays_is_the_distance_from_the_near_clipping_plane(kernels):
     # A perspective camera 10 above the plane, clipping at 2: each camera ray starts on the near plane (as Cycles'),

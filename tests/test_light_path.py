@@ -7,7 +7,9 @@ Each scene shows an output as light, so that a pixel is the output's value (or a
 - an emitter seen straight down through a stack of clear Transparent planes: still a camera ray (Is Camera Ray 1,
   Ray Depth 0) with Transparent Depth the planes passed; through glass of index 1, a singular transmission;
 - a floor lit by a sun through a plane whose transparency is a Light Path output: the plane is shaded for the shadow
-  ray (Is Shadow Ray 1, Ray Depth one more than the floor's, Transparent Depth the path's so far).
+  ray (Is Shadow Ray 1, Ray Depth one more than the floor's, Transparent Depth the path's so far);
+- an emitter seen through Ray Portals, one of them teleporting the rays: each counts in Portal Depth and, as a
+  transparent bounce, in Transparent Depth; the path's shadow rays carry the count.
 """
 from __future__ import annotations
 
@@ -131,6 +133,37 @@ def test_an_emitter_seen_through_glass_of_index_one_is_shaded_for_a_singular_tra
     np.testing.assert_array_equal(shoot(scene, kernels), np.float32(expected))
 
 
+PORTAL_AWAY = {"position_set": 1.0, "position": (100.0, 0.0, 3.0)}   # (a world point: rays leave from there)
+
+
+def portal_scene(output: str) -> Scene:
+    """A Ray Portal pane at z = 1 under an orthographic camera looking down sends every camera ray on from
+    (100, 0, 3), downwards as it was; there the ray passes a Ray Portal in place (z = 2: straight on) and a clear
+    Transparent plane (z = 1) to a floor at z = 0 that emits the Light Path output `output`."""
+    scene = Scene(camera=ortho_down(height=3.0, scale=1.0))
+    scene.materials += [Material(name="Away", nodes=[("RAY_PORTAL", (1.0, 1.0, 1.0), PORTAL_AWAY)]),
+                        Material(name="In place", nodes=[("RAY_PORTAL", (1.0, 1.0, 1.0), {})]),
+                        Material(name="Clear", nodes=[("TRANSPARENT", (1.0, 1.0, 1.0), {})]),
+                        emitter(light_path(output))]
+    scene.add_mesh(primitives.plane(4.0, center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+    for k in (1, 2):
+        scene.add_mesh(primitives.plane(4.0, center=(100.0, 0.0, 3.0 - k)), materials=np.array([k]))
+    scene.add_mesh(primitives.plane(4.0, center=(100.0, 0.0, 0.0)), materials=np.array([3]))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+@pytest.mark.parametrize("output, expected", [("Portal Depth", 2.0), ("Transparent Depth", 3.0),
+                                              ("Is Camera Ray", 1.0), ("Ray Depth", 0.0)])
+def test_a_camera_ray_through_ray_portals_counts_them_as_portal_depth_and_as_transparent_depth(
+        kernels, integrator, output, expected):
+    """Cycles' path_state_next: a Ray Portal's ray is a transparent bounce (the flags kept, Transparent Depth one
+    more) that adds one to Portal Depth too, wherever the portal sends it; a Transparent BSDF adds to Transparent
+    Depth alone. Two portals and one clear plane: Portal Depth 2, Transparent Depth 3, still a camera ray, exactly."""
+    np.testing.assert_array_equal(shoot(portal_scene(output), kernels, integrator), np.float32(expected))
+
+
 def shadow_scene(transparency) -> Scene:
     """A white diffuse floor at z = 0 under a plane at z = 1 that lets `transparency` through (a Transparent BSDF's
     colour, a Link; None: all), lit straight down by a sun of strength pi; the camera looks down through the plane."""
@@ -159,6 +192,24 @@ def test_a_pane_in_a_shadow_ray_is_shaded_for_that_shadow_ray(kernels, output, s
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
+def test_a_shadow_ray_carries_the_portal_depth_of_its_path(kernels):
+    """shadow_scene moved to x = 100 and seen through a Ray Portal pane (z = 2 over the origin) that sends the camera
+    rays on from (100, 0, 0.5) below its pane: the pane lets max(Is Camera Ray, 0.5 x Portal Depth) through, and the
+    floor's shadow rays carry its path's Portal Depth 1 (Cycles copies portal_bounce into the shadow path): 0.5."""
+    pane = math_node("MAXIMUM", light_path("Is Camera Ray"), math_node("MULTIPLY", light_path("Portal Depth"), 0.5))
+    scene = shadow_scene(pane)
+    scene.meshes.clear()
+    scene.instances.clear()
+    scene.materials.append(Material(name="Away", nodes=[("RAY_PORTAL", (1.0, 1.0, 1.0),
+                                                          {"position_set": 1.0, "position": (100.0, 0.0, 0.5)})]))
+    scene.add_mesh(primitives.plane(40.0, center=(100.0, 0.0, 0.0)), materials=np.array([0]))
+    scene.add_mesh(primitives.plane(40.0, center=(100.0, 0.0, 1.0)), materials=np.array([1]))
+    scene.add_mesh(primitives.plane(4.0, center=(0.0, 0.0, 2.0)), materials=np.array([2]))
+    image = shoot(scene, kernels, max_bounces=0)
+    np.testing.assert_allclose(image, 0.5, rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
 def test_a_shadow_rays_length_at_each_pane_is_measured_from_where_it_left_the_floor(kernels):
     """Two panes at heights 1 and 2, each letting Ray Length / 4 of the shadow ray through (and all of the camera's):
     Cycles measures every hit of its one shadow ray from its start, so the floor gets 1/4 x 2/4 of the sun's light."""
@@ -184,8 +235,7 @@ def test_a_shadow_ray_passes_only_what_its_path_left_of_the_transparent_bounce_l
 
 
 def test_every_output_of_cycles_light_path_node_is_evaluated():
-    """The node's outputs in Blender 5.0 and 5.2, all compiled (addon/materials.py warns of none but Portal Depth,
-    read as 0: Ray Portal bounces are not counted apart)."""
+    """The node's outputs in Blender 5.0 and 5.2, all compiled (addon/materials.py warns of none)."""
     assert set(LIGHT_PATH_OUTPUTS) == {
         "Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray", "Is Singular Ray", "Is Reflection Ray",
         "Is Transmission Ray", "Is Volume Scatter Ray", "Ray Length", "Ray Depth", "Diffuse Depth", "Glossy Depth",

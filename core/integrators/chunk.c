@@ -4,6 +4,22 @@
  * of spp samples each, BLOCK camera samples at a time: each block's rays, hits, surfaces and shadow
  * rays live in the cache and on the stack, and its samples go straight into their pixels' sums. */
 
+/* rays.camera_cones: the ray cone a camera ray leaves with from its camera-relative origin O (graph.c camera_cone in
+ * the camera's frame, made of the camera record): its footprint there into *cone, its widening into *spread; 0 and 0
+ * (unknown) under a panoramic camera. */
+static void camera_ray_cone(const ChunkParams *params, const double *O, double *cone, double *spread)
+{
+    const CameraRecord *c = params->camera;
+    *cone = *spread = 0.0;
+    if (c == NULL || (c->kind != CAMERA_PERSP && c->kind != CAMERA_ORTHO)) return;
+    double P[3], f[7] = {c->left, c->right, c->bottom, c->top, c->kind == CAMERA_PERSP, (double)params->width,
+                         (double)params->height};
+    for (int i = 0; i < 3; i++)                 /* (the rotation's transpose: world to camera) */
+        P[i] = (c->rotation[i] * (O[0] - c->eye[0]) + c->rotation[3 + i] * (O[1] - c->eye[1]))
+               + c->rotation[6 + i] * (O[2] - c->eye[2]);
+    *cone = camera_cone(P, f, spread);
+}
+
 /* The media each camera lane of block b starts in (rays.camera_media), into H->lane_inside, with the extinction and
  * emission along it (H->lane_sigma, lane_emission). Rays from the point the last walk started at take its stack (a
  * perspective camera walks once per block). */
@@ -86,7 +102,8 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
             /* (what clamping and the Light Path node read: a path's throughput and bounces, 1 and 0 at the camera's
              * hit, and its camera ray's flags) */
             for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
-            H->bounce[h] = H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = 0;
+            H->bounce[h] = H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->portal[h] = 0;
+            camera_ray_cone(params, O, H->cone + h, H->spread + h);
             H->flags[h] = PATH_CAMERA;
             H->min_pdf[h] = INFINITY;           /* (no bounce yet: Cycles' min_ray_pdf, which the Bevel node reads) */
             LightPath camera = path_at(H, h, PATH_CAMERA);
@@ -278,7 +295,7 @@ INLINE void camera_sees(const ChunkParams *params, const double *O, const double
     out[0] = out[1] = out[2] = 0.0;
     const WorldTables *world = params->light_context->world;
     if (!hit && world->camera != 0.0 && params->transparent == 0.0) {
-        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0};
+        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
         world_seen(world, D, &camera, out);                 /* (a world's graph, per ray) */
         if (sigma != NULL) {
             double kept[3];
@@ -355,7 +372,7 @@ INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught
     }
     const WorldTables *world = params->light_context->world;
     if (behind && world->camera != 0.0 && params->transparent == 0.0) {
-        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0};
+        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
         double seen[3];
         world_seen(world, D, &camera, seen);
         for (int c = 0; c < 3; c++) row[7 + c] += finite_or_zero(seen[c]);

@@ -27,6 +27,8 @@ typedef struct {
     double throughput[3 * BLOCK];                /* a path's throughput at the hit (path.c; 1 at the camera's) */
     int32_t diffuse[BLOCK], glossy[BLOCK];       /* a path's diffuse, glossy and transmission bounces so far */
     int32_t transmission[BLOCK], transparent[BLOCK], bounce[BLOCK];   /* (transparent ones are no bounce) */
+    int32_t portal[BLOCK];                       /* of the transparent ones, Ray Portals (Portal Depth) */
+    double cone[BLOCK], spread[BLOCK];           /* the ray cone of the ray that found it (graph.LightPath) */
     int32_t flags[BLOCK];                        /* the PATH_* bits of the ray that found it (graph.LightPath) */
     double mis_pdf[BLOCK];                       /* the pdf of a path's last real bounce (inf: the camera's) */
     double min_pdf[BLOCK];                       /* the smallest pdf of its real bounces (Cycles' min_ray_pdf; the Bevel) */
@@ -68,7 +70,8 @@ typedef struct {
 /* The LightPath (graph.py) of the path at hit h of H, with the flags `flags` (its own: H->flags[h]). */
 INLINE LightPath path_at(const BlockHits *H, int64_t h, int flags)
 {
-    LightPath p = {flags, H->bounce[h], H->diffuse[h], H->glossy[h], H->transmission[h], H->transparent[h]};
+    LightPath p = {flags, H->bounce[h], H->diffuse[h], H->glossy[h], H->transmission[h], H->transparent[h],
+                   H->portal[h], H->cone[h], H->spread[h]};
     return p;
 }
 
@@ -181,12 +184,19 @@ INLINE int ray_kind(int kind, int transmit, int previous)
 
 /* rays.path_after: the path a bounce's ray carries on from `p` (Cycles' path_state_next), the sampled closure of
  * kind `kind` through the face (transmit) or not, a delta (singular) or not. Straight through a Transparent closure:
- * one more transparent surface, the flags kept; any other closure: one more bounce of its kind, and the flags its
- * labels give (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR). */
-INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular)
+ * one more transparent surface, the flags kept (a Ray Portal: one more portal too); any other closure: one more
+ * bounce of its kind, and the flags its labels give (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR).
+ * The ray leaves with the path's ray cone as it was at the hit, t along the ray that reached it (Cycles' dP; dD
+ * kept, 0 into a subsurface walk). */
+INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular, double t)
 {
-    if (bsdf_is(kind, BSDF_FLAG_STRAIGHT)) { p.transparent++; return p; }
-    if (bsdf_is(kind, BSDF_FLAG_SUBSURFACE)) { p.flags &= ~PATH_CAMERA; return p; }
+    p.cone = p.cone + t * p.spread;
+    if (bsdf_is(kind, BSDF_FLAG_STRAIGHT)) {
+        p.transparent++;
+        p.portal += bsdf_is(kind, BSDF_FLAG_PORTAL);     /* (Cycles' portal_bounce: Portal Depth) */
+        return p;
+    }
+    if (bsdf_is(kind, BSDF_FLAG_SUBSURFACE)) { p.flags &= ~PATH_CAMERA; p.spread = 0.0; return p; }
     int through = goes_through(kind, transmit), diffuse = bsdf_is(kind, BSDF_FLAG_DIFFUSE);
     singular = singular || bsdf_is(kind, BSDF_FLAG_SINGULAR);
     p.bounce++;
@@ -460,6 +470,9 @@ INLINE int64_t occlude_block(const SampleBlock *b, Occluded8 occluded8, void *sc
             set_time(&ray, lanes, times[lanes]);
             owner[lanes] = b->hit[k];
             paths[lanes] = path_at(H, b->hit[k], PATH_SHADOW);      /* (a shadow ray: SHADOW alone) */
+            /* (Cycles' shadow ray: the hit's footprint, not widening: dP = sd->dP, dD = 0) */
+            paths[lanes].cone = paths[lanes].cone + H->s[b->hit[k]].t * paths[lanes].spread;
+            paths[lanes].spread = 0.0;
             sample_of[lanes] = k;
             blockers[lanes] = b->blockers[k];
             if (media != NULL) {
@@ -1088,7 +1101,8 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             const ClosureSample *s = sampled + k;
             int transmit = dot3(H->s[owner[k]].Ng, s->wi) < 0.0;
             kinds[k] = ray_kind(s->kind, transmit, H->seen_by[owner[k]]);
-            after[k] = path_after(path_at(H, owner[k], H->flags[owner[k]]), s->kind, transmit, s->delta);
+            after[k] = path_after(path_at(H, owner[k], H->flags[owner[k]]), s->kind, transmit, s->delta,
+                                  H->s[owner[k]].t);
             if (packet.hit.geomID[k] != INVALID_ID && ds->geometry->hidden != NULL)
                 see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, k, origin[k], s->wi, INFINITY,
                                 kinds[k], H->s[owner[k]].time);

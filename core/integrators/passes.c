@@ -112,7 +112,7 @@ INLINE void ambient_occlusion(const LanePasses *lp, const Surface *s, int64_t pi
     if (!(dot3(s->Ng, b.wi) > 0.0)) return;
     double O[1][3], D[1][3] = {{b.wi[0], b.wi[1], b.wi[2]}}, T[1][3], t = lp->tables->ao_distance;
     spawn_ray(s->I, s->Ng, b.wi, s->offset, O[0]);
-    LightPath shadow = {PATH_SHADOW, 0, 0, 0, 0, 0};     /* (a shadow ray from a camera chain's hit) */
+    LightPath shadow = {PATH_SHADOW, 0, 0, 0, 0, 0, 0, 0.0, 0.0};     /* (a shadow ray from a camera chain's hit) */
     transmit_packet(&lp->ao, 1, O, D, &t, &s->time, &shadow, NULL, NULL, T);
     for (int c = 0; c < 3; c++) out[c] = T[0][c];
 }
@@ -195,7 +195,7 @@ INLINE void passes_along_ray(LanePasses *lp, const DirectSettings *ds, int64_t l
     if (hit) return;
     if (pt->offset[PASS_ENVIRONMENT] >= 0 && pt->world_camera != 0.0) {
         double L[3];
-        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0};
+        LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
         world_seen(ds->context->world, D, &camera, L);     /* (a camera chain's ray: a world's graph per ray) */
         pass_add(lp, lane, PASS_ENVIRONMENT, L, throughput);
     }

@@ -232,6 +232,9 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         next->glossy[m] = g;
         next->transmission[m] = tr;
         next->transparent[m] = clear;
+        next->portal[m] = r->path.portal;
+        next->cone[m] = r->path.cone;
+        next->spread[m] = r->path.spread;
         next->bounds[m] = crossed;
         next->volume[m] = H->volume[h];
         if (ds->media != NULL) next->inside[m] = r->inside;
@@ -353,7 +356,8 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
             for (int i = 0; i < LIGHT_CHANNELS; i++) work->light[k][i] = 0.0;
     for (int64_t h = 0; h < (arrivals ? 0 : H->m); h++) {
         /* (the throughput: what the media let through to the camera's hit, 1 without media: chunk.c block_hits) */
-        H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->bounce[h] = H->bounds[h] = 0;
+        H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->portal[h] = 0;
+        H->bounce[h] = H->bounds[h] = 0;
         H->flags[h] = PATH_CAMERA;
         H->mis_pdf[h] = H->min_pdf[h] = INFINITY;
         H->mis_receiver[h] = 0;                   /* (the camera's: it sees every emitter) */

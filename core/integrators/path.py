@@ -65,7 +65,7 @@ from . import passes as passes_
 from . import shadows
 from . import subsurface as subsurface_
 from . import volume as volume_
-from .rays import camera_hits, camera_media, goes_through, nearest_seen
+from .rays import camera_cones, camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
 from .vertex import VERTEX_DIMENSIONS, PathState, gather_light, shade_vertex
 from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
@@ -83,7 +83,7 @@ def roulette_from(settings) -> int:
 
 
 # A path's counters that volume.multiple_scattering carries along the chains of scattering events it follows.
-COUNTERS = ("bounce", "volume", "diffuse", "glossy", "transmission", "transparent", "bounds")
+COUNTERS = ("bounce", "volume", "diffuse", "glossy", "transmission", "transparent", "portal", "bounds")
 
 
 def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner_of: np.ndarray) -> tuple:
@@ -97,6 +97,7 @@ def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner
                  mis_origin=arrivals["O"], mis_normal=np.zeros((a, 3)), mis_receiver=np.full(a, -1, np.int64),
                  after_diffuse=np.zeros(a, bool), seen_by=np.zeros(a, np.int64), inside=arrivals["inside"],
                  looking=np.zeros(a, bool), feature_throughput=np.ones((a, 3)), wo=-arrivals["D"],
+                 cone=np.zeros(a), spread=np.zeros(a),          # (a medium's paths: their ray cone unknown)
                  min_pdf=arrivals.get("min_pdf", arrivals["pdf"]), **{name: arrivals[name] for name in COUNTERS})
     out = {}
     for name, value in state.items():
@@ -309,6 +310,8 @@ class PathTracing(Integrator):
         glossy = np.zeros(len(hit), np.int64)
         transmission = np.zeros(len(hit), np.int64)
         transparent = np.zeros(len(hit), np.int64)
+        portal = np.zeros(len(hit), np.int64)        # of those, Ray Portals (the Light Path node's Portal Depth)
+        cone, spread = camera_cones(ctx, vectors.gather(O, hit))   # each ray's cone (graph.LightPath cone, spread)
         bounds = np.zeros(len(hit), np.int64)         # volume-only boundaries crossed (Cycles' volume_bounds_bounce)
         bounce = np.zeros(len(hit), np.int64)
         flags = np.full(len(hit), graph_.PATH_CAMERA, np.int64)   # the Light Path flags of the ray that got there
@@ -332,16 +335,17 @@ class PathTracing(Integrator):
         volume = np.zeros(len(hit), np.int64)      # each path's scattering events in media so far (Volume Bounces)
         if arrivals is not None:
             # Paths that scattered along the camera rays and went on: their next vertices join the camera's hits.
-            state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
-                         transmission=transmission, transparent=transparent, bounds=bounds, bounce=bounce, flags=flags,
-                         mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal, mis_receiver=mis_receiver,
-                         after_diffuse=after_diffuse, seen_by=seen_by, inside=inside, looking=looking,
-                         feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo, min_pdf=min_pdf)
+            state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy, transmission=transmission,
+                         transparent=transparent, portal=portal, cone=cone, spread=spread, bounds=bounds, bounce=bounce,
+                         flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
+                         mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
+                         looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo,
+                         min_pdf=min_pdf)
             where = (found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit), D_hit, found.t[hit])
             state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)))
-            (owner, throughput, diffuse, glossy, transmission, transparent, bounds, bounce, flags, mis_pdf, mis_origin,
-             mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput, shares, volume,
-             wo, min_pdf) = state.values()
+            (owner, throughput, diffuse, glossy, transmission, transparent, portal, cone, spread, bounds, bounce, flags,
+             mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
+             shares, volume, wo, min_pdf) = state.values()
         exiting = np.zeros(len(owner), bool)         # which vertices are subsurface walks' exits (subsurface.py)
         while len(owner):
             check_stop(ctx)
@@ -350,7 +354,8 @@ class PathTracing(Integrator):
             #    Light the camera's hit gathers is direct, later light indirect (sample clamping).
             dimension = vertex * VERTEX_DIMENSIONS
             cap = np.where(bounce == 0, direct_cap, indirect_cap)
-            light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent)
+            light_path = graph_.LightPaths(flags, bounce, diffuse, glossy, transmission, transparent, portal, cone,
+                                           spread)
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
                                          caustics_filter(s, after_diffuse),
                                          shader_rays.for_hits(ctx, surface, pixel[owner], sample[owner], dimension,
@@ -462,7 +467,7 @@ class PathTracing(Integrator):
                         carried = throughput[ray.rows[multi]] * ray.weight[multi] / q[multi, None]
                         counters = dict(bounce=bounces[multi], volume=volume[ray.rows[multi]], diffuse=d[multi],
                                         glossy=g[multi], transmission=tr[multi], transparent=tp[multi],
-                                        bounds=vb[multi])
+                                        portal=ray.path.portal[multi], bounds=vb[multi])
                         path_rows = owner[ray.rows[multi]]
                         scattered, count, passing, vertex_arrivals = volume_.multiple_scattering(
                             ctx, ray.O[multi], ray.D[multi], np.where(ray.hits.hit[multi], ray.hits.t[multi], np.inf),
@@ -504,6 +509,7 @@ class PathTracing(Integrator):
             owner = owner[rows]
             throughput = next_throughput[keep]
             diffuse, glossy, transmission, transparent, bounds = d[keep], g[keep], tr[keep], tp[keep], vb[keep]
+            portal, cone, spread = ray.path.portal[keep], ray.path.cone[keep], ray.path.spread[keep]
             flags = ray.path.flags[keep]
             # A transparent bounce keeps the kind of the last real one (Cycles' path flags).
             after_diffuse = np.where(is_transparent | walked, after_diffuse[ray.rows], labelled_diffuse)[keep]
@@ -521,19 +527,20 @@ class PathTracing(Integrator):
                 # Paths that scattered along this bounce's rays and went on: their next vertices join the others.
                 exiting = np.concatenate([exiting, np.zeros(len(vertex_arrivals["origin"]), bool)])
                 state = dict(owner=owner, throughput=throughput, diffuse=diffuse, glossy=glossy,
-                             transmission=transmission, transparent=transparent, bounds=bounds, bounce=bounce,
-                             flags=flags, mis_pdf=mis_pdf, mis_origin=mis_origin, mis_normal=mis_normal,
-                             mis_receiver=mis_receiver, after_diffuse=after_diffuse, seen_by=seen_by, inside=inside,
-                             looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume,
-                             wo=wo, min_pdf=min_pdf)
+                             transmission=transmission, transparent=transparent, portal=portal, cone=cone,
+                             spread=spread, bounds=bounds, bounce=bounce, flags=flags, mis_pdf=mis_pdf,
+                             mis_origin=mis_origin, mis_normal=mis_normal, mis_receiver=mis_receiver,
+                             after_diffuse=after_diffuse, seen_by=seen_by, inside=inside, looking=looking,
+                             feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo,
+                             min_pdf=min_pdf)
                 # (a scattering path's smallest pdf so far: its bounce's and its phase function's, Cycles' min_ray_pdf)
                 vertex_arrivals["min_pdf"] = np.minimum(ray_min_pdf[multi][vertex_arrivals["origin"]],
                                                         vertex_arrivals["pdf"])
                 where = (hits.prim[keep], hits.u[keep], hits.v[keep], ray.O[keep], D_next, hits.t[keep])
                 state, surface = with_arrivals(ctx, state, where, vertex_arrivals, arrival_owners)
-                (owner, throughput, diffuse, glossy, transmission, transparent, bounds, bounce, flags, mis_pdf,
-                 mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
-                 shares, volume, wo, min_pdf) = state.values()
+                (owner, throughput, diffuse, glossy, transmission, transparent, portal, cone, spread, bounds, bounce,
+                 flags, mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking,
+                 feature_throughput, shares, volume, wo, min_pdf) = state.values()
             vertex += 1
         return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
                         None if groups is None else groups.L, None if feats is None else feats.stacked(), data)

@@ -117,14 +117,29 @@ def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
     return np.where(materials_.has(kind, F.STRAIGHT), previous, bounced).astype(np.int64)
 
 
-def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarray):
+def camera_cones(ctx: Context, O: np.ndarray) -> tuple:
+    """The ray cones camera rays leave with from their camera-relative origins O (k, 3) (graph.camera_cones, the
+    camera's frame MaterialTable.view and .window): (cone (k,), spread (k,)); zeros (unknown) under a panoramic
+    camera or none."""
+    view, frame = getattr(ctx.materials, "view", None), getattr(ctx.materials, "window", None)
+    if view is None or frame is None or frame[4] >= 2.0:
+        return np.zeros(len(O)), np.zeros(len(O))
+    view = np.asarray(view, np.float64).reshape(3, 4)
+    P = (O + ctx.geometry.origin) @ view[:, :3].T + view[:, 3]
+    return graph_.camera_cones(P, np.asarray(frame, np.float64))
+
+
+def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarray, t=None):
     """The paths (graph.LightPaths of k rows) the rays of k bounces carry on from `paths` (Cycles' path_state_next).
 
-    Straight through a Transparent closure: one more transparent surface, the flags kept (a camera ray stays one).
+    Straight through a Transparent closure: one more transparent surface, the flags kept (a camera ray stays one);
+    through a Ray Portal the same, and one more portal (Cycles' portal_bounce, the Light Path node's Portal Depth).
     Any other closure: one more bounce, of its kind (diffuse or glossy reflection, or through the surface:
     goes_through), and the flags of its labels: REFLECT or TRANSMIT, and DIFFUSE (a diffuse closure), GLOSSY and
     SINGULAR (a delta: singular (k,) bool, or a SINGULAR closure) or GLOSSY. kind: (k,) int the sampled closures'
-    BSDF kinds; transmit: (k,) bool whether each ray left through the face."""
+    BSDF kinds; transmit: (k,) bool whether each ray left through the face. Every new ray leaves with the path's ray
+    cone as it was at the hit, t (k,) along the ray that reached it (None: kept as it was): Cycles' compact ray
+    differentials, dP the hit's footprint and dD kept (0 into a subsurface walk)."""
     F = materials_.BSDFFlags
     P = graph_.PATH
     straight = materials_.has(kind, F.STRAIGHT)
@@ -143,7 +158,10 @@ def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarr
                              diffuse=paths.diffuse + (reflected & diffuse),
                              glossy=paths.glossy + (reflected & ~diffuse),
                              transmission=paths.transmission + through,
-                             transparent=paths.transparent + (straight & ~walk))
+                             transparent=paths.transparent + (straight & ~walk),
+                             portal=paths.portal + materials_.has(kind, F.PORTAL),
+                             cone=paths.cone if t is None else graph_.footprints(paths, t),
+                             spread=np.where(walk, 0.0, paths.spread))
 
 
 def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, groups=None,

@@ -211,7 +211,9 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
                 # (a light behind the surface, N.L < 0, is reached through it: into or out of its medium)
                 start = None if path.inside is None else media_beyond(ctx, surface, rows, path.inside[rows],
                                                                       NL[rows] < 0.0)
-                shadow_paths = graph_.paths_at(graph_.with_flags(light_path, graph_.PATH_SHADOW), rows)
+                # (Cycles' shadow ray: the hit's footprint, not widening: dP = sd->dP, dD = 0)
+                shadow_paths = graph_.paths_at(graph_.with_flags(light_path, graph_.PATH_SHADOW)._replace(
+                    cone=graph_.footprints(light_path, surface.t), spread=np.zeros(m)), rows)
                 through = shadows.transmittance(ctx, rays, s.transparent_max_bounces, start, shadow_paths, blockers)
                 seen = through.any(axis=1)
             else:
@@ -336,7 +338,7 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         if carried_origin is not None:
             mis_O = np.where(clear[:, None], carried_origin[go], O)
             mis_N = np.where(clear[:, None], carried_N[go], mis_N)
-    after = path_after(graph_.paths_at(light_path, go), bs.kind[go], transmit, bs.delta[go])
+    after = path_after(graph_.paths_at(light_path, go), bs.kind[go], transmit, bs.delta[go], surface.t[go])
     # Into a BSSRDF: a walk inside the mesh, and a ray that reaches its exit from outside instead of the one traced.
     walks = np.flatnonzero(materials_.has(bs.kind[go], materials_.BSDFFlags.SUBSURFACE))
     weight = bs.weight[go]

@@ -95,7 +95,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                 /* (a textured emitter: what its node graph emits where the sample landed) */
                 int64_t geometry, prim, instance;
                 unflat_prim(ds->geometry, e->prim[ls.emitter], &geometry, &prim, &instance);
-                LightPath emitted = {PATH_EMISSION, bounce, 0, 0, 0, 0};   /* (a light's own shading) */
+                LightPath emitted = {PATH_EMISSION, bounce, 0, 0, 0, 0, 0, 0.0, 0.0};   /* (a light's own shading) */
                 graph_emission(ds, geometry, prim, instance, P, ls.L, ls.distance, STILL_TIME, &emitted, NULL,
                                ls.color);
             }
@@ -113,7 +113,8 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
             double T[1][3] = {{1.0, 1.0, 1.0}};
             if (light->cast_shadow != 0 && ds->transmitter != NULL) {   /* (media make every render's shadows transparent) */
                 double origin[1][3], D[1][3], t;
-                LightPath shadow = {PATH_SHADOW, bounce, 0, 0, 0, 0};   /* (Ray Depth: one deeper, as a shadow ray's) */
+                /* (Ray Depth: one deeper, as a shadow ray's) */
+                LightPath shadow = {PATH_SHADOW, bounce, 0, 0, 0, 0, 0, 0.0, 0.0};
                 shadow_ray(P, zero, P, 0.0, 0.0, ls.L, ls.distance, ls.position, 1, 0.0, origin[0], D[0], &t);
                 transmit_packet(ds->transmitter, 1, origin, D, &t, &STILL_TIME, &shadow, &blockers, inside, T);
                 rays++;
@@ -164,7 +165,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
         return rays;
     }
     double light_L[3] = {0.0, 0.0, 0.0};
-    LightPath scatter = {PATH_VOLUME_SCATTER, bounce + 1, 0, 0, 0, 0};   /* (volume.scatter_paths) */
+    LightPath scatter = {PATH_VOLUME_SCATTER, bounce + 1, 0, 0, 0, 0, 0, 0.0, 0.0};   /* (volume.scatter_paths) */
     FindingRay finding = {P, wi, hit, t, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
                           instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, 0, &scatter, 0, sigma_t, emission, NULL,
                           inside, STILL_TIME};            /* (a render with media moves no object) */

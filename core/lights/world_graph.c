@@ -58,7 +58,7 @@ INLINE void world_seen(const WorldTables *w, const double *D, const LightPath *p
 static void world_bake_rows(const WorldBakeArgs *a)
 {
     double reg[MAX_REGISTERS], D[3], L[3];
-    LightPath path = {a->flags, 0, 0, 0, 0, 0};
+    LightPath path = {a->flags, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
     for (int64_t i = a->row_start; i < a->row_end; i++)
         for (int64_t j = 0; j < a->width; j++) {
             world_direction(((double)j + 0.5) / (double)a->width, ((double)i + 0.5) / (double)a->height, D);

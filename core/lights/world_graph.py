@@ -48,13 +48,11 @@ BAKE_WIDTH = 2048
 BAKE_BATCH = 1 << 16
 # The Light Path outputs Primer gives as Cycles does wherever the world is evaluated: every ray that escapes evaluates
 # it with its own path (World.seen), and a light sample of it in Cycles sees EMISSION alone, as the bake does (every
-# "Is ... Ray" 0), and a Ray Length of FLT_MAX; Portal Depth is 0 (Primer does not count Ray Portal bounces apart:
-# the addon warns where it is read). The depths are exact on the rays that escape
-# and at the first bounce's light samples (the bake's: Ray Depth 1, the others 0), not at deeper bounces' light
-# samples, where Cycles gives each sample its vertex's depths.
+# "Is ... Ray" 0), and a Ray Length of FLT_MAX. The depths are exact on the rays that escape
+# and at the first bounce's light samples (the bake's: Ray Depth 1, the others 0, Portal Depth too where no Ray
+# Portal came before), not at deeper bounces' light samples, where Cycles gives each sample its vertex's depths.
 EXACT_FOR_LIGHTING = frozenset({"Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray", "Is Singular Ray",
-                                "Is Reflection Ray", "Is Transmission Ray", "Is Volume Scatter Ray", "Ray Length",
-                                "Portal Depth"})
+                                "Is Reflection Ray", "Is Transmission Ray", "Is Volume Scatter Ray", "Ray Length"})
 
 
 class WorldProgram(NamedTuple):

@@ -458,8 +458,7 @@ class MaterialTable:
                 if point is None:
                     point = self.shading_point(surface, geometry, N)
                     if path is not None:                      # the paths that reached the hits (the Light Path node)
-                        point = point._replace(path=graph_.LightPaths(*(np.broadcast_to(np.asarray(f, np.int64), (n,))
-                                                                          for f in path)))
+                        point = point._replace(path=graph_.as_light_paths(path, n))
                     if wo is not None:                        # the view direction (Fresnel, Layer Weight)
                         point = point._replace(I=np.asarray(wo, np.float64))
                     if rays is not None:                      # the scene, for Ambient Occlusion and Bevel

@@ -295,7 +295,8 @@ INLINE double light_path_output(int output, const ShadingPoint *sp)
     case LP_GLOSSY_DEPTH: return (double)p->glossy;
     case LP_TRANSPARENT_DEPTH: return (double)p->transparent;
     case LP_TRANSMISSION_DEPTH: return (double)p->transmission;
-    default: return 0.0;                /* Portal Depth: not counted apart (warned by the addon) */
+    case LP_PORTAL_DEPTH: return (double)p->portal;
+    default: return 0.0;
     }
 }
 
@@ -400,25 +401,37 @@ INLINE void make_orthonormals(const double *N, double *a, double *b)
     cross3(N, a, b);
 }
 
+/* graph.camera_cones: the ray cone of the camera ray through P (camera frame): its footprint at P, and how fast it
+ * widens along the ray into *widening; f: the window (left, right, bottom, top, perspective, width, height). */
+static double camera_cone(const double *P, const double *f, double *widening)
+{
+    double sx = (f[1] - f[0]) / f[5], sy = (f[3] - f[2]) / f[6];
+    if (f[4] == 0.0) {
+        *widening = 0.0;
+        return fabs(sx);
+    }
+    double d[3] = {safe_div(P[0], P[2]), safe_div(P[1], P[2]), 1.0}, unit[3], spread = 0.0;
+    double length = sqrt(dot3(d, d));
+    for (int j = 0; j < 3; j++) unit[j] = d[j] / length;
+    for (int k = 0; k < 2; k++) {
+        double moved[3] = {d[0] + (k == 0 ? sx : 0.0), d[1] + (k == 1 ? sy : 0.0), d[2] + 0.0};
+        double m = sqrt(dot3(moved, moved));
+        for (int j = 0; j < 3; j++) moved[j] = moved[j] / m - unit[j];
+        spread = spread + sqrt(dot3(moved, moved));
+    }
+    *widening = 0.5 * spread;
+    return sqrt(dot3(P, P)) * (0.5 * spread);
+}
+
 /* graph.pixel_width: a pixel's width at P (camera frame) as Cycles' Wireframe node measures it for Pixel Size;
- * f: the window (left, right, bottom, top, perspective, width, height). */
+ * f: the window (left, right, bottom, top, perspective, width, height). After a bounce (or a portal) and on shadow
+ * rays, the path's ray cone where it carries one. */
 INLINE double pixel_width(const double *P, const double *f, const ShadingPoint *sp)
 {
-    double sx = (f[1] - f[0]) / f[5], sy = (f[3] - f[2]) / f[6], footprint;
-    if (f[4] != 0.0) {
-        double d[3] = {safe_div(P[0], P[2]), safe_div(P[1], P[2]), 1.0}, unit[3], spread = 0.0;
-        double length = sqrt(dot3(d, d));
-        for (int j = 0; j < 3; j++) unit[j] = d[j] / length;
-        for (int k = 0; k < 2; k++) {
-            double moved[3] = {d[0] + (k == 0 ? sx : 0.0), d[1] + (k == 1 ? sy : 0.0), d[2] + 0.0};
-            double m = sqrt(dot3(moved, moved));
-            for (int j = 0; j < 3; j++) moved[j] = moved[j] / m - unit[j];
-            spread = spread + sqrt(dot3(moved, moved));
-        }
-        footprint = sqrt(dot3(P, P)) * (0.5 * spread);
-    } else {
-        footprint = fabs(sx);
-    }
+    double widening, footprint = camera_cone(P, f, &widening);
+    const LightPath *p = &sp->path;
+    if ((p->bounce > 0 || p->portal > 0 || (p->flags & PATH_SHADOW) != 0) && (p->cone > 0.0 || p->spread > 0.0))
+        footprint = p->cone + sp->t * p->spread;
     double axes[2][3], across = 0.0;
     make_orthonormals(sp->Ng, axes[0], axes[1]);
     for (int k = 0; k < 2; k++) {

@@ -69,7 +69,8 @@ schema.table("OP", lambda: list(OPS))
 # reads it): which kind of ray found the hit, as bits, and the path's bounces so far. A camera ray, and one that
 # went on from it straight through transparent surfaces, carries CAMERA; after a real bounce the ray carries that
 # bounce's labels (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR), and a transparent bounce keeps
-# them (path_state_next). A shadow ray through a transparent surface carries SHADOW alone, a light sample landing
+# them (path_state_next; a Ray Portal's is a transparent bounce, counted in `portal` as well). A shadow ray through
+# a transparent surface carries SHADOW alone (and the path's counts), a light sample landing
 # on an emitter EMISSION alone (both are one bounce further: Ray Depth adds one). VOLUME_SCATTER is for volumes.
 PATH_FLAGS = ("camera", "shadow", "diffuse", "glossy", "singular", "reflect", "transmit", "volume_scatter", "emission")
 PATH = schema.constants("PATH", {name: 1 << index for index, name in enumerate(PATH_FLAGS)},
@@ -82,10 +83,15 @@ LightPath = schema.record("LightPath", "What a shader knows of the path that rea
     ("glossy", I32, "glossy and mirror reflections"),
     ("transmission", I32, "bounces through the surface"),
     ("transparent", I32, "transparent surfaces passed straight through, the whole path's"),
+    ("portal", I32, "of those, Ray Portals passed (Cycles' portal_bounce: they count as transparent ones too)"),
+    ("cone", F64, "the ray's footprint where it left (Cycles' compact ray differential dP; 0 with spread: unknown)"),
+    ("spread", F64, "how fast the footprint widens along it: the camera ray's (dD, kept through bounces)"),
 ])
-# The same fields, one (n,) int64 array each, for n hits at once (ShadingPoint.path).
+# Which of them are floats (the others are counts and bits).
+LIGHT_PATH_FLOATS = ("cone", "spread")
+# The same fields, one (n,) array each (int64, float64 for LIGHT_PATH_FLOATS), for n hits at once (ShadingPoint.path).
 LightPaths = namedtuple("LightPaths", [f.name for f in LightPath._description])
-LightPaths.__doc__ = "A LightPath per hit: each field (n,) int64 (or a scalar for all)."
+LightPaths.__doc__ = "A LightPath per hit: each field (n,) int64, cone and spread float64 (or a scalar for all)."
 # The Light Path node's outputs, in the LIGHT_PATH op's numbering (LP_*): Cycles' svm_node_light_path.
 LIGHT_PATH_OUTPUTS = ("Is Camera Ray", "Is Shadow Ray", "Is Diffuse Ray", "Is Glossy Ray", "Is Singular Ray",
                       "Is Reflection Ray", "Is Transmission Ray", "Is Volume Scatter Ray", "Ray Length", "Ray Depth",
@@ -98,10 +104,23 @@ LIGHT_PATH_FLAG_OF = {"Is Camera Ray": "camera", "Is Shadow Ray": "shadow", "Is 
 
 
 def light_paths(n: int, flags=PATH_CAMERA, bounce=0, diffuse=0, glossy=0, transmission=0,
-                transparent=0) -> "LightPaths":
-    """n hits' LightPaths, each field (n,) int64 from a scalar or an (n,) array (the default: camera rays)."""
-    values = (flags, bounce, diffuse, glossy, transmission, transparent)
-    return LightPaths(*(np.broadcast_to(np.asarray(v, np.int64), (n,)).copy() for v in values))
+                transparent=0, portal=0, cone=0.0, spread=0.0) -> "LightPaths":
+    """n hits' LightPaths, each field (n,) int64 (cone, spread float64) from a scalar or an (n,) array (the
+    default: camera rays, their ray cone unknown)."""
+    values = (flags, bounce, diffuse, glossy, transmission, transparent, portal, cone, spread)
+    return as_light_paths(values, n)
+
+
+def as_light_paths(values, n: int) -> "LightPaths":
+    """LightPaths of n hits from its fields' values in order, each a scalar or (n,): int64 arrays, float64 for
+    LIGHT_PATH_FLOATS."""
+    return LightPaths(*(np.broadcast_to(np.asarray(v, np.float64 if name in LIGHT_PATH_FLOATS else np.int64),
+                                        (n,)).copy() for name, v in zip(LightPaths._fields, values)))
+
+
+def footprints(paths: "LightPaths", t) -> np.ndarray:
+    """The rays' footprints (n,) at hits t (n,) along them (Cycles' differential_transfer_compact: dP + t dD)."""
+    return paths.cone + np.asarray(t, np.float64) * paths.spread
 
 
 def paths_at(paths: "LightPaths", rows) -> "LightPaths":
@@ -124,10 +143,8 @@ def light_path_output(output: int, path: "LightPaths", t: np.ndarray) -> np.ndar
         return np.asarray(t, np.float64)
     if name == "Ray Depth":                       # a shadow ray and a light's own shading: one bounce further
         return (path.bounce + ((path.flags & (PATH_SHADOW | PATH_EMISSION)) != 0)).astype(np.float64)
-    if name == "Portal Depth":                    # (portal bounces are not counted apart: 0, warned by the addon)
-        return np.zeros(len(path.flags))
     field = {"Diffuse Depth": "diffuse", "Glossy Depth": "glossy", "Transparent Depth": "transparent",
-             "Transmission Depth": "transmission"}[name]
+             "Transmission Depth": "transmission", "Portal Depth": "portal"}[name]
     return getattr(path, field).astype(np.float64)
 
 
@@ -1491,26 +1508,44 @@ def orthonormals(N: np.ndarray) -> tuple:
     return a, np.cross(N, a)
 
 
+def camera_cones(P: np.ndarray, frame) -> tuple:
+    """The ray cones of the camera rays through points P (n, 3) in the camera's frame, as Cycles' compact camera ray
+    differentials give them: (their footprint at P (n,), how fast it widens along the ray (n,)). A perspective camera:
+    the angular pixel, the mean of |normalize(d + dx) - normalize(d)| over a pixel step dx, dy on the plane at depth
+    1, d = P / P.z, and |P| times it; an orthographic one: a pixel's width in scene units, and 0. frame: the window
+    (left, right, bottom, top, perspective, width, height)."""
+    left, right, bottom, top, perspective, width, height = frame[:7]
+    sx, sy = (right - left) / width, (top - bottom) / height
+    if not perspective:
+        return np.full(len(P), abs(sx)), np.zeros(len(P))
+    d = np.stack([safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2]), np.ones(len(P))], axis=1)
+    unit = d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
+    spread = 0.0
+    for step in ((sx, 0.0, 0.0), (0.0, sy, 0.0)):
+        moved = d + np.array(step)
+        moved = moved / np.sqrt(np.einsum("ij,ij->i", moved, moved))[:, None] - unit
+        spread = spread + np.sqrt(np.einsum("ij,ij->i", moved, moved))
+    return np.sqrt(np.einsum("ij,ij->i", P, P)) * (0.5 * spread), 0.5 * spread
+
+
 def pixel_width(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarray:
     """The width of a pixel at hits P (n, 3) in the camera's frame, as Cycles' Wireframe node measures it for Pixel Size
     (n,), from a camera ray's differentials: the ray's footprint there, dP (a perspective camera: the distance |P| times
     the mean of |normalize(d + dx) - normalize(d)| over a pixel step dx, dy on the plane at depth 1, d = P / P.z; an
     orthographic one: a pixel's width in scene units), spread along two directions a, b across the face
     (orthonormals of Ng) and each projected onto the plane across the view: dP (|a - (a.I) I| + |b - (b.I) I|) / 2.
+    At hits after a bounce (or a Ray Portal) and on shadow rays the path's ray cone instead, where it carries one
+    (LightPath cone, spread: Cycles' compact ray differentials, the camera ray's cone widened over the whole path).
     frame: the window (left, right, bottom, top, perspective, width, height)."""
-    left, right, bottom, top, perspective, width, height = frame[:7]
-    sx, sy = (right - left) / width, (top - bottom) / height
-    if perspective:
-        d = np.stack([safe_divide(P[:, 0], P[:, 2]), safe_divide(P[:, 1], P[:, 2]), np.ones(len(P))], axis=1)
-        unit = d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
-        spread = 0.0
-        for step in ((sx, 0.0, 0.0), (0.0, sy, 0.0)):
-            moved = d + np.array(step)
-            moved = moved / np.sqrt(np.einsum("ij,ij->i", moved, moved))[:, None] - unit
-            spread = spread + np.sqrt(np.einsum("ij,ij->i", moved, moved))
-        footprint = np.sqrt(np.einsum("ij,ij->i", P, P)) * (0.5 * spread)
-    else:
-        footprint = np.full(len(P), abs(sx))
+    footprint = camera_cones(P, frame)[0]
+    path = sp.path
+    if path is not None and sp.t is not None:
+        # After a bounce (or a portal), and on shadow rays, the ray cone the path carries (Cycles widens the camera
+        # ray's over the whole path; a shadow ray keeps its vertex's footprint); on camera rays, also straight
+        # through Transparent surfaces, the camera's own measure above.
+        left = (path.bounce > 0) | (path.portal > 0) | ((path.flags & PATH_SHADOW) != 0)
+        carried = left & ((path.cone > 0.0) | (path.spread > 0.0))
+        footprint = np.where(carried, footprints(path, sp.t), footprint)
     I = sp.N if sp.I is None else sp.I
     across = 0.0
     for axis in orthonormals(sp.Ng):

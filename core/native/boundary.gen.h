@@ -1014,6 +1014,9 @@ struct LightPath {
     int32_t glossy;                         /* glossy and mirror reflections */
     int32_t transmission;                   /* bounces through the surface */
     int32_t transparent;                    /* transparent surfaces passed straight through, the whole path's */
+    int32_t portal;                         /* of those, Ray Portals passed (Cycles' portal_bounce: they count as transparent ones too) */
+    double cone;                            /* the ray's footprint where it left (Cycles' compact ray differential dP; 0 with spread: unknown) */
+    double spread;                          /* how fast the footprint widens along it: the camera ray's (dD, kept through bounces) */
 };
 
 /* Every program of a render's materials (core/materials/graph.py). ops: (k, OP_WIDTH) the op code and its
@@ -1211,7 +1214,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(3846823989890781971);
-    if (strcmp(name, "LightPath") == 0) return UINT64_C(1690725311557584307);
+    if (strcmp(name, "LightPath") == 0) return UINT64_C(1461087652967974442);
     if (strcmp(name, "GraphTables") == 0) return UINT64_C(7493939475877270732);
     if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
     if (strcmp(name, "SkyMultipleArgs") == 0) return UINT64_C(8745123704423823932);

@@ -43,7 +43,7 @@ INLINE void field_point(const VolumeField *f, const double *P, double *info, Sha
     sp->rays = NULL;                                    /* (a medium's graph traces nothing) */
     sp->random = 0.0;
     sp->side = 1.0;
-    LightPath path = {PATH_VOLUME_SCATTER, 0, 0, 0, 0, 0};
+    LightPath path = {PATH_VOLUME_SCATTER, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
     sp->path = path;
     sp->u = sp->v = 0.0;
     sp->t = 0.0;
