@@ -7,6 +7,7 @@ Primer and with Cycles under the same settings and writes a report:
     .venv/bin/python tools/real_scenes.py fetch --mirror PATH/TO/glTF-Blender-IO --mirror ...   # once
     .venv/bin/python tools/real_scenes.py compare [--integrator direct|path] [--only NAME ...]
 
+A material library (BOARDS: a file of materials and no scene) is shown as one sphere per material on a grid.
 A scene without a camera gets one that frames its meshes from a three-quarter view above; a scene
 without lights (lamps, an HDRI world or a mesh whose surface is an Emission shader) gets a sun and a dim world that lights it. Both renderers then run through
 tools/render.py (Cycles as Primer's reference: the same bounces, a 1-pixel box filter, no denoising, no
