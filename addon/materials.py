@@ -92,6 +92,23 @@ def linked_node_of(socket):
     return _follow(socket.links[0].from_node) if socket.is_linked and socket.links else None
 
 
+def linked_output_of(socket):
+    """Return the output socket linked into an input `socket` through reroutes, or None where nothing is."""
+    while socket is not None and socket.is_linked and socket.links:
+        link = socket.links[0]
+        if link.from_node.bl_idname != "NodeReroute":
+            return link.from_socket
+        socket = link.from_node.inputs[0] if link.from_node.inputs else None
+    return None
+
+
+def auto_emission(socket) -> bool:
+    """Whether a closure input `socket` is fed by a value, colour or vector output, which Cycles turns into an Emission
+    shader (ShaderGraph::connect's automatic conversion) rather than a shader."""
+    out = linked_output_of(socket)
+    return out is not None and out.type not in ("SHADER", "CUSTOM")
+
+
 def surface_node(material):
     """Return the node linked to the active Cycles material output's Surface socket, or None."""
     tree = node_tree(material)
@@ -1066,8 +1083,36 @@ def shader_nodes(material, warnings: list) -> list:
     inputs are values or graph.Links; factors [(graph.Link, mode)] multiply the weight per hit."""
     reader = NodeReader(material, warnings)
     out: list = []
-    _collect(reader, surface_node(material), np.ones(3), out, ())
+    tree = node_tree(material)
+    output = output_node(tree, "ShaderNodeOutputMaterial") if tree is not None else None
+    if output is not None:
+        _collect_socket(reader, output.inputs["Surface"], np.ones(3), out, ())
     return out
+
+
+def _collect_socket(reader: NodeReader, socket, weight: np.ndarray, out: list, factors: tuple) -> None:
+    """Append the shaders linked into the closure input `socket` (see _collect); a value, colour or vector linked
+    there is an Emission shader, as Cycles converts it: a colour or vector its Color (Strength 1), a value its
+    Strength (Color white)."""
+    if auto_emission(socket):
+        value = reader.graph.socket(socket, reader.path)
+        number = linked_output_of(socket).type in ("VALUE", "INT", "BOOLEAN")
+        emission = _scaled(np.ones(3), value) if number else _scaled(value, 1.0)
+        out.append(("EMISSION", weight, {"emission": emission}, list(factors)))
+        return
+    source = linked_output_of(socket)
+    if source is not None and source.node.bl_idname == "NodeGroupInput" and reader.path:
+        # A shader handed into the group: the one linked into the group node's input of that socket.
+        group = reader.path[-1]
+        outer = next((s for s in group.inputs if s.identifier == source.identifier), None)
+        if outer is not None:
+            reader.path = reader.path[:-1]
+            try:
+                _collect_socket(reader, outer, weight, out, factors)
+            finally:
+                reader.path += (group,)
+        return
+    _collect(reader, linked_node_of(socket), weight, out, factors)
 
 
 def _transformed(vector, kind: str, source: str, target: str, name: str) -> Link:
@@ -1207,12 +1252,12 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         if _linked(fac):
             for socket, mode in ((node.inputs[1], "one_minus"), (node.inputs[2], "fac")):
                 if socket.is_linked:
-                    _collect(reader, socket.links[0].from_node, weight, out, factors + ((fac, mode),))
+                    _collect_socket(reader, socket, weight, out, factors + ((fac, mode),))
             return
         fac = float(np.clip(np.mean(fac), 0.0, 1.0))
         for socket, share in ((node.inputs[1], 1.0 - fac), (node.inputs[2], fac)):
             if socket.is_linked:
-                _collect(reader, socket.links[0].from_node, weight * share, out, factors)
+                _collect_socket(reader, socket, weight * share, out, factors)
     elif kind == "ShaderNodeGroup" and node.node_tree is not None:
         # A node group whose output is a shader: the shader nodes inside it, their inputs read in the group.
         outputs = [n for n in node.node_tree.nodes if n.bl_idname == "NodeGroupOutput"]
@@ -1223,7 +1268,7 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
             return
         reader.path += (node,)
         try:
-            _collect(reader, socket.links[0].from_node, weight, out, factors)
+            _collect_socket(reader, socket, weight, out, factors)
         finally:
             reader.path = reader.path[:-1]
     elif kind == "ShaderNodeBsdfSheen":
@@ -1239,7 +1284,7 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
     elif kind == "ShaderNodeAddShader":
         for socket in (node.inputs[0], node.inputs[1]):
             if socket.is_linked:
-                _collect(reader, socket.links[0].from_node, weight, out, factors)
+                _collect_socket(reader, socket, weight, out, factors)
     elif kind == "ShaderNodeBsdfPrincipled":
         inputs = {key: reader.input(node, socket, None) for socket, key in PRINCIPLED_SOCKETS.items()}
         inputs = {key: value for key, value in inputs.items() if value is not None}
@@ -1563,6 +1608,8 @@ def export_material(material, warnings: list) -> Material:
         return Material(np.array(material.diffuse_color[:3], np.float64), material.name, emission_sampling=sampling,
                         transparent_shadows=shadows)
     output = output_node(node_tree(material), "ShaderNodeOutputMaterial")
+    if sampling == "AUTO" and output is not None and auto_emission(output.inputs["Surface"]):
+        sampling = "AUTO_CONVERTED"     # Cycles weighs an automatic conversion's emission a tenth in its estimate
     volume = linked_node(output, "Volume") if output is not None and "Volume" in output.inputs else None
     medium = volume_of(material, output, warnings) if volume is not None else []
     warnings.extend(unmodelled.material_notes(material))

@@ -7,6 +7,7 @@ Primer and with Cycles under the same settings and writes a report:
     .venv/bin/python tools/real_scenes.py fetch --mirror PATH/TO/glTF-Blender-IO --mirror ...   # once
     .venv/bin/python tools/real_scenes.py compare [--integrator direct|path] [--only NAME ...]
 
+A material library (BOARDS: a file of materials and no scene) is shown as one sphere per material on a grid.
 A scene without a camera gets one that frames its meshes from a three-quarter view above; a scene
 without lights (lamps, an HDRI world or a mesh whose surface is an Emission shader) gets a sun and a dim world that lights it. Both renderers then run through
 tools/render.py (Cycles as Primer's reference: the same bounces, a 1-pixel box filter, no denoising, no
@@ -44,6 +45,32 @@ SOURCES = {
                     "cornell_box/blend/cornell_box.blend",
                     "a Cycles Cornell box saved by Blender 2.79: diffuse walls, a mesh-emitter ceiling light, "
                     "its own camera"),
+    "bricabrac_color_ramp": ("Franck-Demongin/Bricabrac", "b6309181ab8da0bf30bf66afb0b2422a7226d118",
+                             "GPL-3.0 (the repository's licence), Franck Demongin", "Nodes/nx_color-ramp.blend",
+                             "procedural: Brick, Gradient and Noise textures through a 'dynamic Color Ramp' made of "
+                             "node groups of Map Range, Math and Mix nodes, and a Color Ramp (Blender 3.4)"),
+}
+
+# Material libraries: files that hold procedural materials but no scene to show them in. name -> (repository,
+# commit, licence, path, the materials to show, what they exercise). `build` opens the file, removes its objects and
+# lays a row-major grid of smooth UV spheres (and the rig adds a camera and a sun), one sphere per material, in the
+# order given; the materials are the file's own, unchanged.
+ADDONS_CONTRIB = ("blender/blender-addons-contrib", "GPL-2.0-or-later (the add-ons' licence)")
+BOARDS = {
+    "crackit_materials": (ADDONS_CONTRIB[0], "0ed1a7e9724a932259552dd319f73171226f444b", ADDONS_CONTRIB[1],
+                          "object_fracture_crack/process/materials/materials1.blend",
+                          ("crackit_lava", "crackit_mud", "crackit_organic_mud", "crackit_rock", "crackit_tree_dry",
+                           "crackit_tree_moss", "crackit_tree_red", "crackit_wet-paint", "crackit_soap"),
+                          "procedural (Cell Fracture Crack It add-on's materials, Blender 2.79): many-octave Noise, "
+                          "Voronoi, Wave, Color Ramps, RGB Curves, Bump, Bright/Contrast, Hue/Saturation, node groups"),
+    "vx_cycles_materials": (ADDONS_CONTRIB[0], "db54088edea45ba9ffdbea4169665b5bb4d4a847", ADDONS_CONTRIB[1],
+                            "materials_library_vx/cycles_materials.blend",
+                            ("Floor Wood", "Ceramic_1970_tiles", "Marble", "rusty_g", "Carbon Fiber (Glossy)", "Denim",
+                             "Mosaic", "Galvanized Steel", "Gob Stopper", "Polished Walnut", "Stone Red",
+                             "Chocolate Swirl"),
+                            "procedural (Material Library VX add-on's Cycles materials, Blender 2.78): Brick, Wave, "
+                            "Noise, Voronoi, Magic, Checker, Color Ramps, Mix, Math, Bump, Fresnel, Layer Weight, "
+                            "node groups"),
 }
 
 HELMET = ("GDLynx/3d-models", "b56af89fbbe17fa6e8c0a49d886daae01efc1e9f",
@@ -101,6 +128,28 @@ BUILT = {
                         + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
                         "glTF: a textured vehicle (rough dielectrics), a node hierarchy; an HDRI world"),
 }
+
+BOARD = r'''
+import math
+import bpy
+bpy.ops.wm.open_mainfile(filepath={source!r})
+scene = bpy.context.scene
+for o in list(scene.objects):
+    bpy.data.objects.remove(o, do_unlink=True)
+names = {materials!r}
+columns = math.ceil(math.sqrt(len(names) * 4 / 3))
+rows = math.ceil(len(names) / columns)
+for i, name in enumerate(names):
+    row, column = divmod(i, columns)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=0.45,
+                                         location=(column - (columns - 1) / 2, (rows - 1) / 2 - row, 0))
+    sphere = bpy.context.object
+    sphere.name = "Board " + name
+    bpy.ops.object.shade_smooth()
+    sphere.data.materials.append(bpy.data.materials[name])
+bpy.ops.wm.save_as_mainfile(filepath={out!r})
+print("BUILT")
+'''
 
 BUILD = r'''
 import sys
@@ -211,6 +260,14 @@ def fetch(mirrors: list) -> None:
         with open(os.path.join(CACHE, name + os.path.splitext(path)[1]), "wb") as handle:
             handle.write(data)
         print(f"{name}: {len(data) / 1e6:.1f} MB from {repo} ({path})")
+    for name, (repo, commit, _, path, _, _) in BOARDS.items():
+        data = git_file(mirrors, commit, path)
+        if data is None:
+            print(f"{name}: {path} is in none of {mirrors}")
+            continue
+        with open(os.path.join(CACHE, name + "_library.blend"), "wb") as handle:
+            handle.write(data)
+        print(f"{name}: {len(data) / 1e6:.1f} MB from {repo} ({path})")
     for name, (files, _, _) in BUILT.items():
         folder = os.path.join(CACHE, name)
         os.makedirs(folder, exist_ok=True)
@@ -223,6 +280,22 @@ def fetch(mirrors: list) -> None:
             with open(os.path.join(folder, os.path.basename(path)), "wb") as handle:
                 handle.write(data)
         print(f"{name}: {len(files) - len(missing)} of {len(files)} files" + (f"; missing {missing}" if missing else ""))
+
+
+def build_board(name: str) -> str:
+    """Make the .blend of a BOARDS scene in the cache from its fetched library (once); return its path, or ""."""
+    library = os.path.join(CACHE, name + "_library.blend")
+    out = os.path.join(CACHE, name + ".blend")
+    if os.path.exists(out):
+        return out
+    if not os.path.exists(library):
+        print(f"{name}: {library} is not in the cache; run `fetch` first")
+        return ""
+    done = run(["-c", BOARD.format(source=library, materials=BOARDS[name][4], out=out)])
+    if done.returncode != 0 or not os.path.exists(out):
+        print(f"{name}: building failed\n{done.stderr[-2000:]}")
+        return ""
+    return out
 
 
 def build(name: str) -> str:
@@ -247,7 +320,8 @@ def rig(name: str, integrator: str, width: int, height: int, out: str = "") -> t
     """Rig a cached scene for `integrator` ("direct" or "path") at width x height into `out` (default: the cache's
     work folder): a camera and a sun where it has none, Cycles' look, the renderers' shared settings. Return (the
     rigged .blend's path, the rig's notes), or ("", [why]) when the scene is not in the cache or rigging failed."""
-    source = build(name) if name in BUILT else os.path.join(CACHE, name + ".blend")
+    source = (build(name) if name in BUILT else build_board(name) if name in BOARDS
+              else os.path.join(CACHE, name + ".blend"))
     if not source or not os.path.exists(source):
         print(f"{name}: not in the cache ({source}); run `fetch` first")
         return "", [f"{name} is not in the cache {CACHE}"]
@@ -297,7 +371,7 @@ def compare(names: list, integrator: str, samples: int, reference: int, width: i
         row = dict(name=name, integrator=integrator, error=relative_mse_of_blocks(P, C),
                    ratio=float(P[..., :3].mean() / max(C[..., :3].mean(), 1e-12)), primer_s=seconds["PRIMER"],
                    cycles_s=seconds["CYCLES"], notes=notes, warnings=warnings,
-                   what=SOURCES[name][4] if name in SOURCES else BUILT[name][2],
+                   what=SOURCES[name][4] if name in SOURCES else BOARDS[name][5] if name in BOARDS else BUILT[name][2],
                    source=describe(name))
         rows.append(row)
         print(f"{name:22s} relMSE {row['error']:.2e}  mean P/C {row['ratio']:.4f}  "
@@ -310,6 +384,8 @@ def describe(name: str) -> str:
     """Where a scene's files come from, with their licences."""
     if name in SOURCES:
         return f"{SOURCES[name][0]} {SOURCES[name][3]} ({SOURCES[name][2]})"
+    if name in BOARDS:
+        return f"{BOARDS[name][0]} {BOARDS[name][3]} ({BOARDS[name][2]})"
     return "; ".join(sorted({f"{repo} ({licence})" for repo, _, licence, _ in BUILT[name][0]}))
 
 
@@ -344,7 +420,7 @@ def main(argv=None) -> int:
     if args.command == "fetch":
         fetch(args.mirror)
         return 0
-    compare(args.only or list(SOURCES) + list(BUILT), args.integrator, args.samples, args.reference, *args.size, args.report)
+    compare(args.only or list(SOURCES) + list(BOARDS) + list(BUILT), args.integrator, args.samples, args.reference, *args.size, args.report)
     return 0
 
 

@@ -38,7 +38,8 @@ class Material:
     emission:   (3,) float64 emitted radiance L_e = colour x strength (W / (m^2 sr)), from both sides
     emission_sampling: from which sides light samples find its triangles (Blender's Material > Settings >
                 Emission Sampling): "NONE", "FRONT", "BACK", "FRONT_BACK", or "AUTO" (both sides when the
-                emission exceeds 0.5 in some channel, as Cycles decides; else none: BSDF rays still find it)
+                emission exceeds 0.5 in some channel, as Cycles decides; else none: BSDF rays still find it), or
+                "AUTO_CONVERTED" (Auto for a surface Cycles made an Emission shader of: above 5)
     transparent_shadows: whether shadow rays pass it where it lets light through (Blender's Material >
                 Settings > Transparent Shadows, which Cycles reads): False makes it opaque to shadow rays only
     nodes:      the shader nodes of its node tree, when it has more than one colour to say (a Principled,
@@ -81,9 +82,12 @@ EMISSION_SIDES = {"NONE": 0, "FRONT": 1, "BACK": 2, "FRONT_BACK": 3}
 
 def emission_sides(method: str, estimate: np.ndarray) -> int:
     """The sides of Emission Sampling `method` for an emission estimate (3,): AUTO is both sides when some
-    channel exceeds 0.5 (Cycles' Shader::estimate_emission), else none."""
-    if method == "AUTO":
-        return 3 if float(np.max(np.abs(estimate))) > 0.5 else 0
+    channel exceeds 0.5 (Cycles' Shader::estimate_emission), else none; AUTO_CONVERTED (Auto, the surface an
+    Emission shader that Cycles made of a colour or value linked into it) when some channel exceeds 5 (Cycles
+    scales such an estimate by 0.1)."""
+    if method in ("AUTO", "AUTO_CONVERTED"):
+        limit = 5.0 if method == "AUTO_CONVERTED" else 0.5
+        return 3 if float(np.max(np.abs(estimate))) > limit else 0
     return EMISSION_SIDES.get(method, 3)
 
 

@@ -151,7 +151,7 @@ def light_path_output(output: int, path: "LightPaths", t: np.ndarray) -> np.ndar
 OP_ARGS = 15
 schema.constant("OP_WIDTH", 1 + OP_ARGS, "one op's record: the code and its arguments")
 # At most this many registers per program, attribute floats per hit.
-MAX_REGISTERS = schema.constant("MAX_REGISTERS", 512, "a program's registers at most")
+MAX_REGISTERS = schema.constant("MAX_REGISTERS", 1024, "a program's registers at most")
 MAX_ATTRIBUTES = schema.constant("MAX_ATTRIBUTES", 64, "attribute floats per hit at most")
 # The bump's finite-difference step, as a fraction of the triangle's edges.
 BUMP_STEP = schema.constant("BUMP_STEP", 1e-3, "the bump's finite-difference step, a fraction of the edges")

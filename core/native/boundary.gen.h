@@ -200,7 +200,7 @@
 /* one op's record: the code and its arguments (core.materials.graph) */
 #define OP_WIDTH 16
 /* a program's registers at most (core.materials.graph) */
-#define MAX_REGISTERS 512
+#define MAX_REGISTERS 1024
 /* attribute floats per hit at most (core.materials.graph) */
 #define MAX_ATTRIBUTES 64
 /* the bump's finite-difference step, a fraction of the edges (core.materials.graph) */
