@@ -204,7 +204,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                     a->lane = lane;
                     a->pixel = (int64_t)b->pixel[lane];
                     a->sample = (int64_t)b->index[lane];
-                    a->diffuse = a->glossy = a->transmission = a->transparent = a->bounds = 0;
+                    a->diffuse = a->glossy = a->transmission = a->transparent = a->portal = a->bounds = 0;
                     work->n_arrivals++;
                 }
                 continue;

@@ -28,7 +28,7 @@ typedef struct {
     VolumeStack inside;
     int64_t lane, pixel, sample;
     double min_pdf;                            /* the smallest pdf of its real bounces and phase rays */
-    int diffuse, glossy, transmission, transparent, bounds;
+    int diffuse, glossy, transmission, transparent, portal, bounds;
 } Arrival;
 
 /* What a chunk's paths need beyond the camera's block: two blocks of vertices to alternate between, the
@@ -284,7 +284,8 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     next->after_diffuse[m] = 0;
     next->sd[m].caustics = 0;
     next->min_pdf[m] = a->min_pdf;
-    LightPath path = {PATH_VOLUME_SCATTER, a->bounce, a->diffuse, a->glossy, a->transmission, a->transparent};
+    LightPath path = {PATH_VOLUME_SCATTER, a->bounce, a->diffuse, a->glossy, a->transmission, a->transparent,
+                      a->portal, 0.0, 0.0};     /* (a medium's path: its ray cone unknown, as path.with_arrivals) */
     ShaderKeys keys = {&traced, a->pixel, a->sample, (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,
                        a->min_pdf < BEVEL_MIN_PDF};
     shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry, r->prim,
@@ -299,6 +300,8 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     next->glossy[m] = a->glossy;
     next->transmission[m] = a->transmission;
     next->transparent[m] = a->transparent;
+    next->portal[m] = a->portal;
+    next->cone[m] = next->spread[m] = 0.0;
     next->bounds[m] = a->bounds;
     next->volume[m] = a->volume;
     next->inside[m] = a->inside;

@@ -505,6 +505,7 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
                 a->glossy = r->path.glossy;
                 a->transmission = r->path.transmission;
                 a->transparent = clear;
+                a->portal = r->path.portal;
                 a->bounds = H->bounds[h] + boundary;
                 work->n_arrivals++;
             }
