@@ -56,20 +56,20 @@ if importlib.util.find_spec("bpy") is None:
 SCENES = {
     "light_point": (64, 256),
     "light_point_soft": (256, 512),
-    "light_spot": (512, 1024),
+    "light_spot": (256, 1024),
     "light_sun": (256, 512),
     "light_area": (128, 512),
-    "light_area_spread": (512, 2048),
+    "light_area_spread": (256, 2048),
     "shading_flat_smooth": (256, 256),
-    "shading_visibility": (256, 256),
+    "shading_visibility": (128, 256),
     "modifiers_instances": (256, 256),
-    "light_emissive": (256, 1024),
+    "light_emissive": (128, 1024),
     "world_light": (256, 1024),
     "world_hdri": (512, 1024),                  # an HDRI's sun: soft shadows, noisy per pixel at any count
     "materials_principled": (2048, 4096),       # glossy highlights: Cycles needs many samples here
     "cornell_box": (1024, 2048),                # path tracing, Cycles' default bounce limits
     "materials_glass": (1024, 2048),            # glass, smooth and rough: caustics make it noisy per pixel
-    "materials_textures": (512, 1024),          # image textures, a normal map, vertex colours, node groups
+    "materials_textures": (256, 1024),          # image textures, a normal map, vertex colours, node groups
     "camera_ortho": (256, 1024),
     "camera_persp_shift": (128, 1024),
     "camera_fisheye_equidistant": (256, 256),

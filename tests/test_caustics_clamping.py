@@ -39,13 +39,14 @@ def furnace_radiance(a: float, m: float, e: float, bounces: int, caustics: bool)
     return L
 
 
-@pytest.mark.parametrize("kernels, bounces, samples", [("numpy", 12, 32), ("compiled", 48, 128)])
+@pytest.mark.parametrize("kernels, bounces, samples", [("numpy", 12, 32), ("compiled", 48, 32)])
 def test_without_reflective_caustics_a_diffuse_bounce_sees_no_mirror(kernels, bounces, samples):
     """A furnace of diffuse albedo a and mirror m glowing with e: with caustics, L = e / (1 - a - m) (for endless
     bounces). Without reflective caustics the mirror is gone at hits a diffuse bounce's ray reaches, so those see
     L_d = e / (1 - a), and the camera (and mirror bounces) see L = (e + a L_d) / (1 - m) = e / ((1 - a)(1 - m)).
-    With a bounce limit both are the sums furnace_radiance adds up (the reference kernel stops at 12 bounces and 32
-    samples to stay quick: its means are +0.4 % and -0.1 % off at 32 samples as at 128, two seeds each)."""
+    With a bounce limit both are the sums furnace_radiance adds up (the reference kernel stops at 12 bounces to stay
+    quick; at 32 samples the means are as far off as at 128, two seeds each: the reference's +0.4 % and -0.1 %, the
+    compiled kernel's within -0.2 %)."""
     a, m, e = 0.5, 0.3, 1.0
     scene, settings = glowing_furnace(a, m, e, samples=samples)
     settings = dataclasses.replace(settings, kernels=kernels, max_bounces=bounces, diffuse_bounces=bounces,
