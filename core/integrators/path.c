@@ -129,6 +129,26 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
     }
 }
 
+/* Vertex m of the block `next`: the surface (geometry, prim, instance, barycentrics u, v) that a ray along D reached
+ * carrying throughput tp; its light, light groups and closures cleared. */
+INLINE void begin_vertex(BlockHits *next, int64_t m, int64_t geometry, int64_t prim, int64_t instance, double u,
+                         double v, const double *D, const double *tp)
+{
+    next->geometry[m] = geometry;
+    next->prim[m] = prim;
+    next->instance[m] = instance;
+    next->bary[2 * m] = u;
+    next->bary[2 * m + 1] = v;
+    for (int c = 0; c < 3; c++) {
+        next->wo[3 * m + c] = -D[c];
+        next->L[3 * m + c] = 0.0;
+        next->throughput[3 * m + c] = tp[c];
+    }
+    if (next->groups != NULL)
+        for (int64_t i = 0; i < 3 * next->group_count; i++) next->groups[3 * m * next->group_count + i] = 0.0;
+    hit_closures(next, m);
+}
+
 /* path.py steps b-d: the vertices after `vertex`, where the BSDF rays of H that hit a surface and may
  * still bounce there go on (Russian roulette from limits->roulette_from); their surfaces and materials. */
 INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const PathLimits *limits,
@@ -190,19 +210,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
         hit_triangle(ds->geometry, r->geometry, r->prim, r->instance, 1, r->time, &tri);
         surface_at(r->O, r->D, r->t, r->u, r->v, &tri, lift, next->s + m);
-        next->geometry[m] = r->geometry;
-        next->prim[m] = r->prim;
-        next->instance[m] = r->instance;
-        next->bary[2 * m] = r->u;
-        next->bary[2 * m + 1] = r->v;
-        for (int c = 0; c < 3; c++) {
-            next->wo[3 * m + c] = -r->D[c];
-            next->L[3 * m + c] = 0.0;
-            next->throughput[3 * m + c] = tp[c];
-        }
-        if (next->groups != NULL)
-            for (int64_t i = 0; i < 3 * next->group_count; i++) next->groups[3 * m * next->group_count + i] = 0.0;
-        hit_closures(next, m);
+        begin_vertex(next, m, r->geometry, r->prim, r->instance, r->u, r->v, r->D, tp);
         /* A transparent bounce (and a walk) keeps the kind of the last real one; after a diffuse one, the caustics
          * filter. */
         int after_diffuse = see_through || r->walked ? H->after_diffuse[h] : is_labelled_diffuse(r->kind);
@@ -265,22 +273,12 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
     hit_triangle(ds->geometry, r->geometry, r->prim, r->instance, 1, STILL_TIME, &tri);
     surface_at(a->O, r->wi, r->t, r->u, r->v, &tri, lift, next->s + m);
-    next->geometry[m] = r->geometry;
-    next->prim[m] = r->prim;
-    next->instance[m] = r->instance;
-    next->bary[2 * m] = r->u;
-    next->bary[2 * m + 1] = r->v;
+    begin_vertex(next, m, r->geometry, r->prim, r->instance, r->u, r->v, r->wi, a->throughput);
     for (int c = 0; c < 3; c++) {
-        next->wo[3 * m + c] = -r->wi[c];
-        next->L[3 * m + c] = 0.0;
-        next->throughput[3 * m + c] = a->throughput[c];
         next->mis_origin[3 * m + c] = a->O[c];
         next->mis_n[3 * m + c] = 0.0;
         next->feature_tp[3 * m + c] = 1.0;
     }
-    if (next->groups != NULL)
-        for (int64_t i = 0; i < 3 * next->group_count; i++) next->groups[3 * m * next->group_count + i] = 0.0;
-    hit_closures(next, m);
     next->after_diffuse[m] = 0;
     next->sd[m].caustics = 0;
     next->min_pdf[m] = a->min_pdf;
