@@ -499,6 +499,17 @@ def points_by_index(obj, material, radius: float, step: float) -> None:
     obj.modifiers.new("Points", "NODES").node_group = tree
 
 
+def level_square(scene, name: str, x: float, z: float, size: float, material):
+    """Link a horizontal square mesh object `name` of side `size`, centred at (x, 0, z), facing +Z, with `material`."""
+    import bpy
+
+    mesh = bpy.data.meshes.new(name)
+    h = size / 2
+    mesh.from_pydata([(x - h, -h, z), (x + h, -h, z), (x + h, h, z), (x - h, h, z)], [], [(0, 1, 2, 3)])
+    mesh.materials.append(material)
+    scene.collection.objects.link(bpy.data.objects.new(name, mesh))
+
+
 def grid_plane(cases: list, label: str, material, columns: int):
     """Inside Blender: a unit plane `label` of `material` in render_plane_grid's cell len(cases); appends label."""
     import bpy

@@ -22,7 +22,7 @@ SCRIPT = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, fresh_scene, ortho_camera, render_pixels, report
+from blender_env import empty_material, fresh_scene, level_square, ortho_camera, render_pixels, report
 
 primer, export, scene = fresh_scene(16, 12)
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
@@ -36,11 +36,7 @@ scene.world = world
 
 
 def quad(name, x, z, size, material):
-    mesh = bpy.data.meshes.new(name)
-    h = size / 2
-    mesh.from_pydata([(x - h, -h, z), (x + h, -h, z), (x + h, h, z), (x - h, h, z)], [], [(0, 1, 2, 3)])
-    mesh.materials.append(material)
-    scene.collection.objects.link(bpy.data.objects.new(name, mesh))
+    level_square(scene, name, x, z, size, material)
 
 
 def diffuse(tree, color):
@@ -172,18 +168,14 @@ PORTAL_DEPTH = """
 import math, os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, fresh_scene, ortho_camera, render_pixels, report
+from blender_env import empty_material, fresh_scene, level_square, ortho_camera, render_pixels, report
 
 primer, export, scene = fresh_scene(8, 8)
 materials_ = sys.modules[primer.__name__ + ".addon.materials"]
 
 
 def quad(name, x, z, size, material):
-    mesh = bpy.data.meshes.new(name)
-    h = size / 2
-    mesh.from_pydata([(x - h, -h, z), (x + h, -h, z), (x + h, h, z), (x - h, h, z)], [], [(0, 1, 2, 3)])
-    mesh.materials.append(material)
-    scene.collection.objects.link(bpy.data.objects.new(name, mesh))
+    level_square(scene, name, x, z, size, material)
 
 
 def math_node(tree, operation, a, b, c=0.0):
