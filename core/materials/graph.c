@@ -673,7 +673,8 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], hit, attributes, sp->N, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_BUMP: {
             double r[3];
-            bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7], reg[a[8]], sp, r);
+            bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7], reg[a[8]],
+                 sp, r);
             for (int j = 0; j < 3; j++) out[j] = r[j];
             break;
         }
@@ -686,7 +687,12 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
-        case OP_GEOMETRY: { double r[3]; geometry_node(a[1], step_u, step_v, sp, r); for (int j = 0; j < (a[1] == GEOM_BACKFACING ? 1 : 3); j++) out[j] = r[j]; break; }
+        case OP_GEOMETRY: {
+            double r[3];
+            geometry_node(a[1], step_u, step_v, sp, r);
+            for (int j = 0; j < (a[1] == GEOM_BACKFACING ? 1 : 3); j++) out[j] = r[j];
+            break;
+        }
         case OP_TRANSFORM: {
             const double *M = reg + a[2], *p = reg + a[1];
             double r[3];

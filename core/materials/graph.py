@@ -15,11 +15,13 @@ object's random number, the normals and the triangle's edges. `run` evaluates a 
 once with numpy; core/materials/graph.c is the compiled twin, one hit at a time. Materials whose inputs
 are all constants have no program and cost nothing more.
 
-The Bump node needs the height's derivative. Cycles evaluates the height at the hit and at two points
-one ray-differential step away; Primer evaluates it at two points a small step (BUMP_STEP of the
-triangle's edges V1 - V0 and V2 - V0) away, re-interpolating the attributes there: a finite difference
-along the surface, which agrees with Cycles' to first order (it differs where the height changes faster
-than a pixel's footprint, where Cycles' differences average more).
+The Bump node needs the height's derivative. As Cycles, Primer evaluates the height at the hit and at
+two points a step away, re-interpolating the attributes there (OFFSET ops): the ray's footprint at the
+hit (the path's ray cone, LightPaths cone + t spread: Cycles' compact differential) along two
+directions across the face (make_orthonormals of Ng), times the Bump's Filter Width (bump_step,
+bump_differentials). Where the path carries no ray cone (the direct and Whitted integrators, light
+samples, paths that scattered in media) the step is BUMP_STEP of the triangle's edges V1 - V0 and
+V2 - V0: a derivative where Cycles' difference averages over the footprint.
 """
 from __future__ import annotations
 
@@ -1445,8 +1447,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
 
 def geometry(output: int, where: tuple, sp: ShadingPoint) -> np.ndarray:
     """Cycles' Geometry node (svm_node_geometry) output GEOMETRY_OUTPUTS[output], (n, 3) or Backfacing (n, 1), at the
-    hit or at the bump's point `where` (its step du, dv in the barycentrics, (n,) or 0: bump_step), as Cycles moves Position and
-    Parametric for a bump's height: Position the world point, Normal the shading normal and True Normal the face's
+    hit or at the bump's point `where` (its step du, dv in the barycentrics, (n,) or 0: bump_step), as Cycles moves
+    Position and Parametric for a bump's height: Position the world point, Normal the shading normal and True Normal the face's
     (both towards the viewer), Incoming the direction back along the ray, Parametric (1 - u - v, u, 0), Backfacing
     1 where the back of the face was hit."""
     name = GEOMETRY_OUTPUTS[output]
@@ -1475,8 +1477,8 @@ def geometry(output: int, where: tuple, sp: ShadingPoint) -> np.ndarray:
 
 def wireframe(size: np.ndarray, where: tuple, sp: ShadingPoint) -> np.ndarray:
     """Cycles' Wireframe node (svm_node_wireframe) with Size in world units (n,): 1 where the hit (or the bump's point
-    `where`, its step du, dv: bump_step) lies within Size / 2 of a line through an edge of its triangle, else 0. Measured from corner 0: the point
-    u (V1 - V0) + v (V2 - V0), the corners 0, V1 - V0, V2 - V0; |edge x (P - corner)|^2 < |edge|^2 (Size / 2)^2."""
+    `where`, its step du, dv: bump_step) lies within Size / 2 of a line through an edge of its triangle, else 0.
+    Measured from corner 0: the point u (V1 - V0) + v (V2 - V0), the corners 0, V1 - V0, V2 - V0; |edge x (P - corner)|^2 < |edge|^2 (Size / 2)^2."""
     uv = np.zeros((len(size), 2)) if sp.uv is None else sp.uv
     u = uv[:, 0:1] + np.reshape(where[0], (-1, 1))
     v = uv[:, 1:2] + np.reshape(where[1], (-1, 1))
