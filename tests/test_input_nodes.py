@@ -159,6 +159,18 @@ def test_the_compiled_input_nodes_compute_what_the_reference_computes():
             assert np.isfinite(reference.image).all()
             spread.append(reference.image[..., :3].std())
     assert min(spread[:5]) > 1e-3 and min(spread[-2:]) > 1e-3      # (some Geometry outputs are one value here)
+    for link in links[-2:]:         # the bumps lighting a Diffuse, their steps the paths' ray cones after bounces too
+        scene = tilted_scene(link, 35.0)
+        scene.materials[0] = Material(name="Bumped", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {"normal": link}),
+                                                            ("EMISSION", (0.5, 0.5, 0.5), {})])
+        scene.add_mesh(primitives.plane(12.0), materials=np.array([0]))
+        scene.meshes[-1].vertices = scene.meshes[-1].vertices[:, [0, 2, 1]] + [0.0, 2.0, 0.0]
+        scene.lights.append(SunLight(np.array([0.3, 0.2, -1.0]), strength=2.0))
+        settings = RenderSettings(width=16, height=16, samples=2, integrator="path", max_bounces=2)
+        compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+        reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+        assert compiled.stats.kernels == "compiled" and reference.image[..., :3].std() > 1e-3
+        np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-5, atol=1e-6)
 
 
 def geometry(output: str) -> Link:
