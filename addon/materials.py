@@ -554,7 +554,10 @@ class GraphReader:
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}
         elif kind == "BUMP":
-            props = {"invert": bool(node.invert)}
+            # Filter Width (Blender 4.5 and later; Cycles reads its value when compiling, never a link)
+            width = node.inputs.get("Filter Width")
+            props = {"invert": bool(node.invert),
+                     "filter_width": bump_filter_width() if width is None else float(width.default_value)}
             inputs = self.inputs(node, path, ["Strength", "Distance", "Height", "Normal"])
             if not node.inputs["Normal"].is_linked:
                 inputs.pop("Normal", None)
@@ -1129,6 +1132,12 @@ def _math(operation: str, a, b):
     return Link(GraphNode("MATH", {"operation": operation, "clamp": False}, {"0": a, "1": b}), "Value")
 
 
+def bump_filter_width() -> float:
+    """The Filter Width of a Bump node without the input, and of a Displacement's bump: Cycles' BumpNode default
+    (graph.BUMP_FILTER_WIDTH) from Blender 4.5; before it, Cycles stepped a whole ray differential (1)."""
+    return graph_.BUMP_FILTER_WIDTH if bpy.app.version >= (4, 5, 0) else 1.0
+
+
 def displacement_bump(reader: NodeReader, output):
     """A material's Displacement output as Cycles renders it with Displacement Method Bump Only (its default; also
     the bump part of Displacement and Bump): the offset's height along the shading normal fed to a Bump node of
@@ -1140,7 +1149,8 @@ def displacement_bump(reader: NodeReader, output):
     normal = Link(GraphNode("GEOMETRY", {}, {}, output.name), "Normal")
     height = Link(GraphNode("VECTOR_MATH", {"operation": "DOT_PRODUCT"}, {"Vector": offset, "Vector_001": normal},
                             output.name), "Value")
-    return Link(GraphNode("BUMP", {"invert": False}, {"Strength": 1.0, "Distance": 1.0, "Height": height},
+    return Link(GraphNode("BUMP", {"invert": False, "filter_width": bump_filter_width()},
+                          {"Strength": 1.0, "Distance": 1.0, "Height": height},
                           output.name), "Normal")
 
 

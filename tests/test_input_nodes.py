@@ -21,7 +21,7 @@ from core.geometry import pointiness, primitives
 from core.materials import Material, graph
 from core.materials.graph import GraphNode, Link
 from core.camera import Camera
-from core.scene import RenderSettings, Scene
+from core.scene import RenderSettings, Scene, SunLight
 
 KERNELS = ["compiled", "numpy"]
 SIZE = 4
@@ -159,6 +159,18 @@ def test_the_compiled_input_nodes_compute_what_the_reference_computes():
             assert np.isfinite(reference.image).all()
             spread.append(reference.image[..., :3].std())
     assert min(spread[:5]) > 1e-3 and min(spread[-2:]) > 1e-3      # (some Geometry outputs are one value here)
+    for link in links[-2:]:         # the bumps lighting a Diffuse, their steps the paths' ray cones after bounces too
+        scene = tilted_scene(link, 35.0)
+        scene.materials[0] = Material(name="Bumped", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {"normal": link}),
+                                                            ("EMISSION", (0.5, 0.5, 0.5), {})])
+        scene.add_mesh(primitives.plane(12.0), materials=np.array([0]))
+        scene.meshes[-1].vertices = scene.meshes[-1].vertices[:, [0, 2, 1]] + [0.0, 2.0, 0.0]
+        scene.lights.append(SunLight(np.array([0.3, 0.2, -1.0]), strength=2.0))
+        settings = RenderSettings(width=16, height=16, samples=2, integrator="path", max_bounces=2)
+        compiled = render.render(scene, dataclasses.replace(settings, kernels="compiled"))
+        reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+        assert compiled.stats.kernels == "compiled" and reference.image[..., :3].std() > 1e-3
+        np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-5, atol=1e-6)
 
 
 def geometry(output: str) -> Link:
@@ -496,3 +508,32 @@ def test_the_polynomial_fisheyes_window_radius_is_the_root_of_its_angle_polynomi
     k = POLYNOMIAL_DEFAULT
     r = graph.polynomial_radius(theta, k)
     assert np.all(np.diff(r) > 0.0) and np.abs(np.polynomial.polynomial.polyval(r, k) - theta).max() < 1e-6
+
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("width", [1.0, 0.3])
+def test_a_bump_differences_its_height_over_the_pixel_footprint_times_its_filter_width(kernels, width):
+    # The flat plane facing up under the orthographic camera (pixels 0.5 wide: every camera ray's footprint, Cycles'
+    # compact differential), a white Diffuse BSDF whose normal is a Bump (Distance 0.5, Filter Width w) of the height
+    # sin(4 x), lit by a sun of strength pi straight down: each pixel is the bumped normal's z. Cycles steps dPdx,
+    # dPdy = 0.5 a, 0.5 b (make_orthonormals of N = z: a = (1, -1, 0) / sqrt 2, b = (1, 1, 0) / sqrt 2) times w: both
+    # move x by s = 0.5 w / sqrt 2, and the normal is normalize(w 0.5 z - 0.5 (sin 4 (x + s) - sin 4 x) (sqrt 2, 0, 0))
+    # (a fixed step along the triangle's edges would give the height's derivative instead).
+    x = component(geometry("Position"), "X")
+    angle = Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": x, "1": 4.0}), "Value")
+    height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": angle}), "Value")
+    normal = Link(GraphNode("BUMP", {"invert": False, "filter_width": width},
+                            {"Strength": 1.0, "Distance": 0.5, "Height": height}), "Normal")
+    scene = tilted_scene(normal)
+    scene.materials[0] = Material(name="Bumped", nodes=[("DIFFUSE", (1.0, 1.0, 1.0), {"color": np.ones(3),
+                                                                                      "normal": normal})])
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=math.pi))
+    settings = RenderSettings(width=SIZE, height=SIZE, samples=1, kernels=kernels, integrator="path", max_bounces=0,
+                              jitter=False)
+    image = render.render(scene, settings).image[..., 0]
+    xs = -1.0 + (np.arange(SIZE) + 0.5) * 2.0 / SIZE
+    s = 0.5 * width / math.sqrt(2.0)
+    across = -0.5 * (np.sin(4.0 * (xs + s)) - np.sin(4.0 * xs)) * math.sqrt(2.0)
+    expected = (0.5 * width) / np.sqrt(across * across + (0.5 * width) ** 2)
+    np.testing.assert_allclose(image, np.tile(expected, (SIZE, 1)), rtol=1e-5, atol=1e-6)

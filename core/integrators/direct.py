@@ -22,12 +22,13 @@ from typing import ClassVar
 import numpy as np
 
 from .. import vectors
+from ..materials import graph as graph_
 from . import clamp as clamp_
 from . import features as features_
 from . import lightgroups, lightpasses, shader_rays
 from . import passes as passes_
 from .base import Context, Integrator, Radiance, Recorder
-from .rays import camera_hits
+from .rays import camera_cones, camera_hits
 from .vertex import PathState, shade_vertex
 
 
@@ -62,7 +63,9 @@ class DirectLighting(Integrator):
         parts = lightpasses.FirstHitParts(len(hit)) if lightpasses.wanted(ctx.settings.passes) else None
         hit_groups = lightgroups.tally(ctx, len(hit))
         emitted, finds = (np.zeros((len(hit), 3)), np.zeros((len(hit), 3))) if feats is not None else (None, None)
-        shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry,   # (camera rays)
+        cone, spread = camera_cones(ctx, vectors.gather(O, hit))     # (camera rays, their ray cones: a Bump's step)
+        shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry,
+                                     path=graph_.light_paths(len(hit), cone=cone, spread=spread),
                                      rays=shader_rays.for_hits(ctx, surface, pixel[hit], sample[hit]))
         L_hit, shadow_rays, _ = shade_vertex(ctx, surface, -D_hit, pixel[hit], sample[hit], recorder,
                                              PathState(limit=direct_cap), parts=parts, groups=hit_groups,

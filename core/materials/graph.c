@@ -252,11 +252,10 @@ INLINE void layer_weight(double blend, const double *normal, const ShadingPoint 
     out[1] = 1.0 - f;
 }
 
-/* graph.geometry: Cycles' Geometry node output `output` (graph.GEOMETRY_OUTPUTS) at the hit (where 0) or the bump's
- * point along V1 - V0 (1) or V2 - V0 (2). */
-INLINE void geometry_node(int output, int where, const ShadingPoint *sp, double *out)
+/* graph.geometry: Cycles' Geometry node output `output` (graph.GEOMETRY_OUTPUTS) at the hit or the bump's point a
+ * step du, dv in the barycentrics from it (graph.bump_step). */
+INLINE void geometry_node(int output, double du, double dv, const ShadingPoint *sp, double *out)
 {
-    double du = where == 1 ? BUMP_STEP : 0.0, dv = where == 2 ? BUMP_STEP : 0.0;
     switch (output) {
     case GEOM_POSITION: for (int j = 0; j < 3; j++) out[j] = (sp->P[j] + du * sp->dPdu[j]) + dv * sp->dPdv[j]; break;
     case GEOM_NORMAL: for (int j = 0; j < 3; j++) out[j] = sp->N[j]; break;
@@ -301,9 +300,9 @@ INLINE double light_path_output(int output, const ShadingPoint *sp)
 }
 
 /* graph.wireframe: Cycles' Wireframe node in world units, from corner 0 of the triangle. */
-INLINE double wireframe(double size, int where, const ShadingPoint *sp)
+INLINE double wireframe(double size, double du, double dv, const ShadingPoint *sp)
 {
-    double u = sp->u + (where == 1 ? BUMP_STEP : 0.0), v = sp->v + (where == 2 ? BUMP_STEP : 0.0);
+    double u = sp->u + du, v = sp->v + dv;
     double P[3], corners[3][3], width = (0.5 * size) * (0.5 * size);
     for (int j = 0; j < 3; j++) {
         P[j] = u * sp->dPdu[j] + v * sp->dPdv[j];
@@ -442,12 +441,51 @@ INLINE double pixel_width(const double *P, const double *f, const ShadingPoint *
     return footprint * (0.5 * across);
 }
 
-/* graph.bump */
+/* graph.bump_differentials: the ray's differentials dPdx, dPdy across the surface at the hit as Cycles' Bump reads
+ * them (the path's footprint along make_orthonormals of Ng); 0 where the path carries no ray cone: then BUMP_STEP of
+ * the edges V1 - V0, V2 - V0. Returns 1 where the footprint is known. */
+static int bump_differentials(const ShadingPoint *sp, double *dPdx, double *dPdy)
+{
+    const LightPath *p = &sp->path;
+    double footprint = (p->cone > 0.0 || p->spread > 0.0) ? p->cone + sp->t * p->spread : 0.0;
+    if (!(footprint > 0.0)) {
+        for (int j = 0; j < 3; j++) { dPdx[j] = BUMP_STEP * sp->dPdu[j]; dPdy[j] = BUMP_STEP * sp->dPdv[j]; }
+        return 0;
+    }
+    double a[3], b[3];
+    make_orthonormals(sp->Ng, a, b);
+    for (int j = 0; j < 3; j++) { dPdx[j] = footprint * a[j]; dPdy[j] = footprint * b[j]; }
+    return 1;
+}
+
+/* graph.bump_step: the step *du, *dv in the barycentrics from the hit to a bump's point `where` (0 the hit, 1 and 2
+ * its steps) for a Bump of Filter Width `width`: dPdx or dPdy times the width solved on the triangle's edges; where
+ * the footprint is unknown, BUMP_STEP along V1 - V0 or V2 - V0. */
+static void bump_step(int where, double width, const ShadingPoint *sp, double *du, double *dv)
+{
+    double dPdx[3], dPdy[3];
+    *du = 0.0;
+    *dv = 0.0;
+    if (where == 0) return;
+    if (!bump_differentials(sp, dPdx, dPdy)) {
+        *du = where == 1 ? BUMP_STEP : 0.0;
+        *dv = where == 2 ? BUMP_STEP : 0.0;
+        return;
+    }
+    const double *d = where == 1 ? dPdx : dPdy;
+    double uu = dot3(sp->dPdu, sp->dPdu), uv = dot3(sp->dPdu, sp->dPdv), vv = dot3(sp->dPdv, sp->dPdv);
+    double du_d = dot3(sp->dPdu, d), dv_d = dot3(sp->dPdv, d), det = uu * vv - uv * uv;
+    *du = width * safe_div(vv * du_d - uv * dv_d, det);
+    *dv = width * safe_div(uu * dv_d - uv * du_d, det);
+}
+
+/* graph.bump: normalize(width |det| N - distance sign(det) surfgrad) from bump_differentials (width 1 where the
+ * footprint is unknown). */
 INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
-                 int invert, const ShadingPoint *sp, double *out)
+                 int invert, double width, const ShadingPoint *sp, double *out)
 {
     double dPdx[3], dPdy[3], Rx[3], Ry[3];
-    for (int j = 0; j < 3; j++) { dPdx[j] = BUMP_STEP * sp->dPdu[j]; dPdy[j] = BUMP_STEP * sp->dPdv[j]; }
+    if (!bump_differentials(sp, dPdx, dPdy)) width = 1.0;
     cross3(dPdy, normal, Rx);
     cross3(normal, dPdx, Ry);
     double det = dot3(dPdx, Rx), scale = invert ? -distance : distance;
@@ -455,7 +493,7 @@ INLINE void bump(const double *normal, double strength, double distance, double 
     strength = strength > 0.0 ? strength : 0.0;
     double v[3];
     for (int j = 0; j < 3; j++)
-        v[j] = fabs(det) * normal[j] - (scale * sgn) * ((h_x - h_c) * Rx[j] + (h_y - h_c) * Ry[j]);
+        v[j] = (width * fabs(det)) * normal[j] - (scale * sgn) * ((h_x - h_c) * Rx[j] + (h_y - h_c) * Ry[j]);
     safe_normalize3(v);
     if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) {
         for (int j = 0; j < 3; j++) out[j] = normal[j];
@@ -510,7 +548,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
     for (int64_t k = 0; k < n_constants; k++) reg[k] = constants[k];
     double offset_attr[MAX_ATTRIBUTES];
     const double *attributes = sp->attributes;
-    int where = 0;                      /* the bump's evaluation point (OFFSET) */
+    double step_u = 0.0, step_v = 0.0;  /* the bump's evaluation point (OFFSET): its step from the hit */
     for (int64_t o = 0; o < n_ops; o++) {
         const double *op = ops + OP_WIDTH * o;
         int a[OP_WIDTH - 1];
@@ -527,10 +565,10 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_OBJECT_MATRIX: object_matrix(sp, a[1], out); break;
         case OP_LIGHT_PATH: out[0] = light_path_output(a[1], sp); break;
         case OP_OFFSET:
-            where = a[0];
+            bump_step(a[0], a[0] ? reg[a[1]] : 0.0, sp, &step_u, &step_v);
             if (a[0] == 0) { attributes = sp->attributes; break; }
             for (int j = 0; j < sp->width; j++)
-                offset_attr[j] = sp->attributes[j] + BUMP_STEP * (a[0] == 1 ? sp->d_du[j] : sp->d_dv[j]);
+                offset_attr[j] = (sp->attributes[j] + step_u * sp->d_du[j]) + step_v * sp->d_dv[j];
             attributes = offset_attr;
             break;
         case OP_IMAGE:
@@ -635,7 +673,8 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], hit, attributes, sp->N, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_BUMP: {
             double r[3];
-            bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7], sp, r);
+            bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7], reg[a[8]],
+                 sp, r);
             for (int j = 0; j < 3; j++) out[j] = r[j];
             break;
         }
@@ -648,7 +687,12 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         }
         case OP_TANGENT: { double r[3]; tangent_node(reg + a[1], a[2], a[3], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_SCALE: { double f = reg[a[2]], r[3]; for (int j = 0; j < 3; j++) r[j] = reg[a[1] + j] * f; for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
-        case OP_GEOMETRY: { double r[3]; geometry_node(a[1], where, sp, r); for (int j = 0; j < (a[1] == GEOM_BACKFACING ? 1 : 3); j++) out[j] = r[j]; break; }
+        case OP_GEOMETRY: {
+            double r[3];
+            geometry_node(a[1], step_u, step_v, sp, r);
+            for (int j = 0; j < (a[1] == GEOM_BACKFACING ? 1 : 3); j++) out[j] = r[j];
+            break;
+        }
         case OP_TRANSFORM: {
             const double *M = reg + a[2], *p = reg + a[1];
             double r[3];
@@ -665,7 +709,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             out[2] = 0.0;
             break;
         }
-        case OP_WIREFRAME: out[0] = wireframe(reg[a[1]], where, sp); break;
+        case OP_WIREFRAME: out[0] = wireframe(reg[a[1]], step_u, step_v, sp); break;
         case OP_AO: {           /* Color x AO, then AO; 1 where the shader traces nothing (sp->rays NULL) */
             double normal[3];
             for (int j = 0; j < 3; j++) normal[j] = a[3] < 0 ? sp->N[j] : reg[a[3] + j];

@@ -15,11 +15,13 @@ object's random number, the normals and the triangle's edges. `run` evaluates a 
 once with numpy; core/materials/graph.c is the compiled twin, one hit at a time. Materials whose inputs
 are all constants have no program and cost nothing more.
 
-The Bump node needs the height's derivative. Cycles evaluates the height at the hit and at two points
-one ray-differential step away; Primer evaluates it at two points a small step (BUMP_STEP of the
-triangle's edges V1 - V0 and V2 - V0) away, re-interpolating the attributes there: a finite difference
-along the surface, which agrees with Cycles' to first order (it differs where the height changes faster
-than a pixel's footprint, where Cycles' differences average more).
+The Bump node needs the height's derivative. As Cycles, Primer evaluates the height at the hit and at
+two points a step away, re-interpolating the attributes there (OFFSET ops): the ray's footprint at the
+hit (the path's ray cone, LightPaths cone + t spread: Cycles' compact differential) along two
+directions across the face (make_orthonormals of Ng), times the Bump's Filter Width (bump_step,
+bump_differentials). Where the path carries no ray cone (the direct and Whitted integrators, light
+samples, paths that scattered in media) the step is BUMP_STEP of the triangle's edges V1 - V0 and
+V2 - V0: a derivative where Cycles' difference averages over the footprint.
 """
 from __future__ import annotations
 
@@ -155,6 +157,8 @@ MAX_REGISTERS = schema.constant("MAX_REGISTERS", 1024, "a program's registers at
 MAX_ATTRIBUTES = schema.constant("MAX_ATTRIBUTES", 64, "attribute floats per hit at most")
 # The bump's finite-difference step, as a fraction of the triangle's edges.
 BUMP_STEP = schema.constant("BUMP_STEP", 1e-3, "the bump's finite-difference step, a fraction of the edges")
+# A Bump node's Filter Width where Blender has none (Cycles' BumpNode default; also its Displacement's bump).
+BUMP_FILTER_WIDTH = 0.1
 # Luminance of scene linear (Cycles' rgb_to_y with Blender's colour configuration, as float32: colour to float
 # conversions; graph.c reads the same table, RGB_TO_Y).
 LUMINANCE = tuple(float(np.float32(v)) for v in RGB_TO_Y)
@@ -474,7 +478,8 @@ class Compiler:
         self.next = 0                           # registers after the constants are numbered at the end
         self.memo: dict = {}
         self.taps: dict = {}                    # (node name, output) -> (register, width, type) at the hit
-        self.offset = 0                         # the bump's evaluation point: 0 the hit, 1 along u, 2 along v
+        self.offset = 0                         # the bump's evaluation point: 0 the hit, 1 along x, 2 along y
+        self.offset_width = None                # the register of that bump's Filter Width (None at the hit)
         self.temporaries = 0
         self.warnings = warnings if warnings is not None else []
         self.material = material
@@ -521,7 +526,7 @@ class Compiler:
 
     def link(self, link: Link) -> tuple:
         """(register, width, type) of a link's output, compiled once per bump evaluation point."""
-        key = (id(link.node), link.output, self.offset)
+        key = (id(link.node), link.output, self.offset, self.offset_width if self.offset else None)
         if key not in self.memo:
             self.memo[key] = self.compile_node(link.node, link.output)
             if self.offset == 0 and link.node.name:         # (after a Set Normal: the value the rest reads)
@@ -797,19 +802,21 @@ class Compiler:
             distance = self.value(inp.get("Distance"), 1, 1.0)
             normal = self.value(inp["Normal"], 3) if isinstance(inp.get("Normal"), Link) else None
             height = inp.get("Height", 1.0)
-            saved = self.offset
+            width = self.constant(float(props.get("filter_width", BUMP_FILTER_WIDTH)))
+            saved, saved_width = self.offset, self.offset_width
             h = []
-            for where in (saved, 1, 2):
-                if where != self.offset:
-                    self.emit("OFFSET", where)
-                    self.offset = where
+            for k, where in enumerate((saved, 1, 2)):       # (the heights at the point and its two steps)
+                state = (saved, saved_width) if k == 0 else (where, width)
+                if state != (self.offset, self.offset_width):
+                    self.offset, self.offset_width = state
+                    self.emit("OFFSET", *state)
                 h.append(self.value(height, 1, 1.0))
-            if self.offset != saved:
-                self.emit("OFFSET", saved)
-                self.offset = saved
+            if (self.offset, self.offset_width) != (saved, saved_width):
+                self.offset, self.offset_width = saved, saved_width
+                self.emit("OFFSET", saved, saved_width)
             out = self.temporary(3)
             self.emit("BUMP", out, strength, distance, h[0], h[1], h[2], normal,
-                      1 if props.get("invert") else 0)
+                      1 if props.get("invert") else 0, width)
             return out, 3, "vector"
         if kind == "MATH":
             a, b, c = (self.value(inp.get(str(i)), 1, 0.5) for i in range(3))
@@ -1119,7 +1126,7 @@ REGISTER_ARGS = {
     "MATH": {0, 2, 3, 4},
     "MIX_COLOR": {0, 2, 3, 4}, "MIX_FLOAT": {0, 1, 2, 3}, "RAMP": {0, 1}, "INVERT": {0, 1, 2},
     "HSV": {0, 1, 2, 3, 4, 5}, "COPY": {0, 1}, "CLAMP": {0, 1, 2, 3}, "MAP_RANGE": {0, 1, 2, 3, 4, 5, 6},
-    "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6}, "OFFSET": set(), "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
+    "NORMAL_MAP": {0, 1, 2}, "BUMP": {0, 1, 2, 3, 4, 5, 6, 8}, "OFFSET": {1}, "CONVERT": {0, 1}, "SCALE": {0, 1, 2},
     "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     "AO": {0, 1, 2, 3}, "BEVEL": {0, 1, 2},
@@ -1278,7 +1285,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
     reg = np.zeros((n, max(1, program.registers)))
     c = len(program.constants)
     reg[:, :c] = program.constants
-    attributes, where = sp.attributes, 0
+    attributes, where = sp.attributes, (0.0, 0.0)       # (the bump's point: its step du, dv (n,) from the hit)
     hit = sp                                    # (the Normal Map's frame: the mesh's normal, never Set Normal's)
     for row in program.ops:
         code, a = int(row[0]), row[1:]
@@ -1305,9 +1312,9 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             path = light_paths(n) if sp.path is None else sp.path
             reg[:, i[0]] = light_path_output(i[1], path, np.zeros(n) if sp.t is None else sp.t)
         elif name == "OFFSET":
-            where = i[0]
-            attributes = sp.attributes + (BUMP_STEP * sp.d_du if i[0] == 1 else BUMP_STEP * sp.d_dv if i[0] == 2
-                                          else 0.0)
+            where = bump_step(i[0], reg[:, i[1]] if i[0] else 0.0, sp)
+            attributes = ((sp.attributes + where[0][:, None] * sp.d_du) + where[1][:, None] * sp.d_dv if i[0]
+                          else sp.attributes)
         elif name == "IMAGE":
             reg[:, i[0]:i[0] + 4] = textures.lookup(i[2], reg[:, i[1]], reg[:, i[1] + 1], i[3], i[4])
         elif name == "MAPPING":
@@ -1375,7 +1382,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "BUMP":
             normal = sp.N if i[6] < 0 else R(6, 3)
             reg[:, i[0]:i[0] + 3] = bump(normal, reg[:, i[1]], reg[:, i[2]], reg[:, i[3]], reg[:, i[4]],
-                                         reg[:, i[5]], i[7], sp)
+                                         reg[:, i[5]], i[7], reg[:, i[8]], sp)
         elif name == "CONVERT":
             if i[2] == 0:
                 src = R(1, 3)
@@ -1438,18 +1445,18 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
     return reg
 
 
-def geometry(output: int, where: int, sp: ShadingPoint) -> np.ndarray:
+def geometry(output: int, where: tuple, sp: ShadingPoint) -> np.ndarray:
     """Cycles' Geometry node (svm_node_geometry) output GEOMETRY_OUTPUTS[output], (n, 3) or Backfacing (n, 1), at the
-    hit (where 0) or at the bump's point a step along the edge V1 - V0 (1) or V2 - V0 (2), as Cycles moves Position and
-    Parametric for a bump's height: Position the world point, Normal the shading normal and True Normal the face's
+    hit or at the bump's point `where` (its step du, dv in the barycentrics, (n,) or 0: bump_step), as Cycles moves
+    Position and Parametric for a bump's height: Position the world point, Normal the shading normal and True Normal the face's
     (both towards the viewer), Incoming the direction back along the ray, Parametric (1 - u - v, u, 0), Backfacing
     1 where the back of the face was hit."""
     name = GEOMETRY_OUTPUTS[output]
     n = len(sp.N)
-    du, dv = (BUMP_STEP if where == 1 else 0.0), (BUMP_STEP if where == 2 else 0.0)
+    du, dv = (np.broadcast_to(np.asarray(d, np.float64), (n,)) for d in where)
     if name == "Position":
         P = np.zeros((n, 3)) if sp.P is None else sp.P
-        return P + du * sp.dPdu + dv * sp.dPdv
+        return (P + du[:, None] * sp.dPdu) + dv[:, None] * sp.dPdv
     if name == "Normal":
         return sp.N
     if name == "True Normal":
@@ -1468,13 +1475,13 @@ def geometry(output: int, where: int, sp: ShadingPoint) -> np.ndarray:
     return (sp.side < 0.0).astype(np.float64)[:, None]
 
 
-def wireframe(size: np.ndarray, where: int, sp: ShadingPoint) -> np.ndarray:
+def wireframe(size: np.ndarray, where: tuple, sp: ShadingPoint) -> np.ndarray:
     """Cycles' Wireframe node (svm_node_wireframe) with Size in world units (n,): 1 where the hit (or the bump's point
-    `where`) lies within Size / 2 of a line through an edge of its triangle, else 0. Measured from corner 0: the point
-    u (V1 - V0) + v (V2 - V0), the corners 0, V1 - V0, V2 - V0; |edge x (P - corner)|^2 < |edge|^2 (Size / 2)^2."""
+    `where`, its step du, dv: bump_step) lies within Size / 2 of a line through an edge of its triangle, else 0.
+    Measured from corner 0: the point u (V1 - V0) + v (V2 - V0), the corners 0, V1 - V0, V2 - V0; |edge x (P - corner)|^2 < |edge|^2 (Size / 2)^2."""
     uv = np.zeros((len(size), 2)) if sp.uv is None else sp.uv
-    u = uv[:, 0:1] + (BUMP_STEP if where == 1 else 0.0)
-    v = uv[:, 1:2] + (BUMP_STEP if where == 2 else 0.0)
+    u = uv[:, 0:1] + np.reshape(where[0], (-1, 1))
+    v = uv[:, 1:2] + np.reshape(where[1], (-1, 1))
     P = u * sp.dPdu + v * sp.dPdv
     corners = (np.zeros_like(P), sp.dPdu, sp.dPdv)
     width = (0.5 * size) ** 2
@@ -1763,16 +1770,55 @@ def tangent_space(v: np.ndarray, tangent_offset: int, sp: ShadingPoint) -> np.nd
     return (T * v[:, 0:1] + normal * v[:, 1:2]) + B * v[:, 2:3]
 
 
-def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, sp: ShadingPoint) -> np.ndarray:
-    """Cycles' Bump (svm_node_set_bump) with the surface steps BUMP_STEP (V1 - V0) and BUMP_STEP (V2 - V0)
-    for the pixel footprint's dPdx, dPdy."""
-    dPdx, dPdy = BUMP_STEP * sp.dPdu, BUMP_STEP * sp.dPdv
+def bump_differentials(sp: ShadingPoint) -> tuple:
+    """The ray's differentials across the surface at n hits as Cycles' Bump reads them, ((n, 3), (n, 3), known (n,)
+    bool): the footprint (footprints of sp.path at sp.t) along make_orthonormals of Ng (differential_from_compact);
+    where the path carries no ray cone (none, or cone and spread 0: light samples, after media), BUMP_STEP (V1 - V0)
+    and BUMP_STEP (V2 - V0)."""
+    n = len(sp.N)
+    footprint = np.zeros(n)
+    if sp.path is not None and sp.t is not None:
+        carried = (sp.path.cone > 0.0) | (sp.path.spread > 0.0)
+        footprint = np.where(carried, footprints(sp.path, sp.t), 0.0)
+    known = footprint > 0.0
+    a, b = orthonormals(sp.Ng)
+    return (np.where(known[:, None], footprint[:, None] * a, BUMP_STEP * sp.dPdu),
+            np.where(known[:, None], footprint[:, None] * b, BUMP_STEP * sp.dPdv), known)
+
+
+def bump_step(where: int, width, sp: ShadingPoint) -> tuple:
+    """The step (du, dv), (n,) each, in the barycentrics from the hit to a bump's point `where` (0 the hit, 1 and 2
+    its two steps) for a Bump of Filter Width `width` ((n,) or scalar): bump_differentials' dPdx (1) or dPdy (2) times
+    the width, solved for du dPdu + dv dPdv on the triangle's edges (Cycles' differential_dudv); where the footprint
+    is unknown, BUMP_STEP along V1 - V0 (1) or V2 - V0 (2), whatever the width."""
+    n = len(sp.N)
+    if where == 0:
+        return np.zeros(n), np.zeros(n)
+    dPdx, dPdy, known = bump_differentials(sp)
+    d = dPdx if where == 1 else dPdy
+    dot = lambda x, y: np.einsum("ij,ij->i", x, y)      # noqa: E731
+    uu, uv, vv, du_d, dv_d = dot(sp.dPdu, sp.dPdu), dot(sp.dPdu, sp.dPdv), dot(sp.dPdv, sp.dPdv), \
+        dot(sp.dPdu, d), dot(sp.dPdv, d)
+    det = uu * vv - uv * uv
+    width = np.asarray(width, np.float64)
+    du = width * safe_divide(vv * du_d - uv * dv_d, det)
+    dv = width * safe_divide(uu * dv_d - uv * du_d, det)
+    return (np.where(known, du, BUMP_STEP if where == 1 else 0.0),
+            np.where(known, dv, BUMP_STEP if where == 2 else 0.0))
+
+
+def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, width, sp: ShadingPoint) -> np.ndarray:
+    """Cycles' Bump (svm_node_set_bump) (n, 3) from the heights at the hit and at its two steps (bump_step), with
+    bump_differentials' dPdx, dPdy and the Filter Width `width` ((n,)): normalize(width |det| N - distance sign(det)
+    surfgrad), width 1 where the footprint is unknown (the steps are BUMP_STEP of the edges then)."""
+    dPdx, dPdy, known = bump_differentials(sp)
     Rx, Ry = np.cross(dPdy, normal), np.cross(normal, dPdx)
     det = np.einsum("ij,ij->i", dPdx, Rx)
     surfgrad = (h_x - h_c)[:, None] * Rx + (h_y - h_c)[:, None] * Ry
     scale = -distance if invert else distance
     strength = np.maximum(strength, 0.0)
-    out = safe_normalize(np.abs(det)[:, None] * normal - (scale * np.sign(det))[:, None] * surfgrad)
+    width = np.where(known, width, 1.0)
+    out = safe_normalize((width * np.abs(det))[:, None] * normal - (scale * np.sign(det))[:, None] * surfgrad)
     zero = np.abs(out).sum(axis=1) == 0.0
     mixed = safe_normalize(strength[:, None] * out + (1.0 - strength)[:, None] * normal)
     return np.where(zero[:, None], normal, mixed)
