@@ -499,6 +499,18 @@ def points_by_index(obj, material, radius: float, step: float) -> None:
     obj.modifiers.new("Points", "NODES").node_group = tree
 
 
+def pixel_size_wires(size: float, strength: float = 1.0):
+    """A material "Wire" emitting a Wireframe node's Fac (Pixel Size on, `size` pixels wide) at `strength`."""
+    material, tree, out = empty_material("Wire")
+    wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
+    wire.use_pixel_size = True
+    wire.inputs["Size"].default_value = size
+    emission.inputs["Strength"].default_value = strength
+    tree.links.new(wire.outputs["Fac"], emission.inputs["Color"])
+    tree.links.new(emission.outputs[0], out.inputs["Surface"])
+    return material
+
+
 def level_square(scene, name: str, x: float, z: float, size: float, material):
     """Link a horizontal square mesh object `name` of side `size`, centred at (x, 0, z), facing +Z, with `material`."""
     import bpy

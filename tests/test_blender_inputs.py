@@ -255,14 +255,9 @@ PERSPECTIVE_WIRES = """
 import math, os
 import bpy
 import numpy as np
-from blender_env import empty_material, fresh_scene, render_pixels, report
+from blender_env import empty_material, fresh_scene, pixel_size_wires, render_pixels, report
 primer, export, scene = fresh_scene(96, 64)
-material, tree, out = empty_material("Wire")
-wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
-wire.use_pixel_size = True
-wire.inputs["Size"].default_value = 2.0
-tree.links.new(wire.outputs["Fac"], emission.inputs["Color"])
-tree.links.new(emission.outputs[0], out.inputs["Surface"])
+material = pixel_size_wires(2.0)
 bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=6.0,
                                 rotation=(math.radians(-55.0), 0.0, math.radians(20.0)))
 bpy.context.view_layer.objects.active.data.materials.append(material)
@@ -291,15 +286,10 @@ MIRRORED_WIRES = """
 import math, os
 import bpy
 import numpy as np
-from blender_env import empty_material, fresh_scene, ortho_camera, render_pixels, report
+from blender_env import empty_material, fresh_scene, pixel_size_wires, ortho_camera, render_pixels, report
 primer, export, scene = fresh_scene(48, 32)
 scene.primer.integrator, scene.primer.max_bounces = "PATH", 1
-material, tree, out = empty_material("Wire")
-wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
-wire.use_pixel_size = True
-wire.inputs["Size"].default_value = 2.0
-tree.links.new(wire.outputs["Fac"], emission.inputs["Color"])
-tree.links.new(emission.outputs[0], out.inputs["Surface"])
+material = pixel_size_wires(2.0)
 material.cycles.emission_sampling = "NONE"
 bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=6.0, location=(0.0, 3.0, 0.0),
                                 rotation=(math.radians(90.0), 0.0, 0.0))
@@ -340,16 +330,10 @@ WIRES_LIGHTING = """
 import math, os
 import bpy
 import numpy as np
-from blender_env import empty_material, fresh_scene, ortho_camera, render_pixels, report
+from blender_env import empty_material, fresh_scene, pixel_size_wires, ortho_camera, render_pixels, report
 primer, export, scene = fresh_scene(16, 16)
 scene.primer.integrator, scene.primer.max_bounces = "PATH", 1
-material, tree, out = empty_material("Wire")
-wire, emission = tree.nodes.new("ShaderNodeWireframe"), tree.nodes.new("ShaderNodeEmission")
-wire.use_pixel_size = True
-wire.inputs["Size"].default_value = 30.0
-emission.inputs["Strength"].default_value = 5.0
-tree.links.new(wire.outputs["Fac"], emission.inputs["Color"])
-tree.links.new(emission.outputs[0], out.inputs["Surface"])
+material = pixel_size_wires(30.0, 5.0)
 bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=4, size=4.0, location=(0.0, 0.0, 1.0),
                                 rotation=(math.radians(180.0), 0.0, 0.0))
 lamp = bpy.context.view_layer.objects.active
