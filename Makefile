@@ -45,7 +45,7 @@ PYTEST_JOBS ?= 2
 # tests/conftest.py's pytest_xdist_make_scheduler keeps the tests that write into the checkout on one worker.
 XDIST := $(if $(filter-out 0 1,$(PYTEST_JOBS)),-n $(PYTEST_JOBS))
 
-.PHONY: demo test test-setup test-run venv venv42 venv52 kernels platforms platforms-check extension scenes references clean
+.PHONY: demo test test-setup test-kernels test-platforms-check test-run venv venv42 venv52 kernels platforms platforms-check extension scenes references clean
 
 # Create a virtual environment $(1) with Python $(2) and install the pinned dependencies $(3) (once, or
 # when they change). --no-compile: pip would byte-compile every module of every wheel (bpy's thousands of scripts,
@@ -67,7 +67,7 @@ $(VENV)/.numpy-installed: requirements.txt
 	touch $@
 
 # .venv: the tracer, bpy 5.0 (Blender as a module) and the tools; used by `make demo` and `make test`.
-$(VENV)/.installed: requirements.txt $(VENV)/.numpy-installed
+$(VENV)/.installed: requirements.txt $(VENV)/.numpy-installed $(if $(filter test-setup,$(MAKECMDGOALS)),$(VENV)/.zig-installed)
 	$(CHECK_PYTHON311)
 	$(call make_venv,$(VENV),$(PYTHON),requirements.txt)
 	touch $@
@@ -134,16 +134,29 @@ extension: venv $(VENV)/.platforms-installed
 # the Blender 4.2 LTS smoke test beside them. Blender inside the test process gets an empty user folder, so a
 # personal Blender setup (preferences, installed extensions) cannot change the results; tests that install
 # Primer use their own (tests/blender_env.py).
-# First the set-up, up to four jobs at once: the three environments, this machine's kernels (GCC, one core, started
-# as soon as .venv has numpy, while pip installs the rest) and every platform's (Zig, two at a time, unoptimised:
-# `make platforms-check`), so that no test waits for a compiler; then the runs: Blender 5.0 on both cores
+# First the set-up, up to four jobs at once: the three environments, this machine's kernels (Zig, -O3, one core,
+# started as soon as .venv has numpy and Zig, while pip installs the rest) and the other platforms' (Zig, two at a
+# time, unoptimised: test-platforms-check), so that no test waits for a compiler; then the runs: Blender 5.0 on both cores
 # (pytest-xdist), then Blender 5.2 on both cores with the 4.2 smoke test beside it; last, the whole suite's time.
 test:
 	@start=$$(date +%s); \
 	$(MAKE) --no-print-directory -j4 test-setup && $(MAKE) --no-print-directory test-run; status=$$?; \
 	took=$$(( $$(date +%s) - start )); echo "make test: $$((took / 60))m$$((took % 60))s"; exit $$status
 
-test-setup: venv venv42 venv52 kernels platforms-check
+# The test suite's kernels: this machine's compiled by Zig as the shipped ones are (tools/build_kernels.py --zig;
+# it also stands for this platform's check build), the other platforms' unoptimised. Zig is installed into .venv
+# right after numpy, so that both compile while pip installs the rest.
+$(VENV)/.zig-installed: $(VENV)/.numpy-installed requirements-platforms.txt
+	$(PY) -m pip install --quiet --no-compile -r requirements-platforms.txt
+	touch $@
+
+test-kernels: $(VENV)/.zig-installed
+	$(PY) tools/build_kernels.py --zig
+
+test-platforms-check: $(VENV)/.zig-installed
+	$(PY) tools/build_kernels.py --all-platforms --check --except-host
+
+test-setup: venv venv42 venv52 test-kernels test-platforms-check
 
 # The Blender 4.2 smoke test (one process, a few Blender processes of its own) runs beside the 5.2 run, its output
 # kept in $(SMOKE42_LOG) and shown after it; the suite fails if either fails.
@@ -160,11 +173,14 @@ test-run:
 	wait $$smoke; smoke_status=$$?; echo "== Blender 4.2 smoke test =="; cat $(SMOKE42_LOG); \
 	[ $$status -eq 0 ] && [ $$smoke_status -eq 0 ]
 
-# Render the Cycles references of tests/test_blender_scenes.py and tests/test_blender_holdout.py that are missing or
-# stale (their key changed) into tests/references/<bpy version>/, with bpy 5.0 and 5.2; commit them after.
-references: venv venv52
-	$(PY) tools/cycles_references.py
-	$(PY52) tools/cycles_references.py --no-variants
+# Render the Cycles references of tests/test_blender_scenes.py and tests/test_blender_holdout.py, and of the scenes
+# other Blender tests build (their `reference` labels), that are missing or stale (their key changed) into
+# tests/references/<bpy version>/, with bpy 5.0 and 5.2; commit them after. The Blender user folder is empty, as in
+# `make test`.
+references: venv venv52 kernels
+	mkdir -p $(BLENDER_USER)
+	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY) tools/make_references.py
+	BLENDER_USER_RESOURCES=$(BLENDER_USER) $(PY52) tools/make_references.py --no-variants
 
 # The benchmark's extra tools (FLIP, matplotlib), installed into .venv beside the pinned dependencies.
 $(VENV)/.bench-installed: $(VENV)/.installed requirements-bench.txt

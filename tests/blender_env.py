@@ -17,10 +17,12 @@ import os
 import subprocess
 import sys
 import textwrap
+import warnings
 
 TESTS = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(TESTS)
 RESULT_TAG = "PRIMER_RESULT "
+STALE_TAG = "PRIMER_STALE_REFERENCE "         # tests/cycles_references.py prints it
 
 
 def keep_box_filter() -> None:
@@ -101,6 +103,9 @@ def run_bpy(script: str, folder: str, *args: str, python: str = sys.executable, 
         pytest.fail(f"Blender script exited with {completed.returncode}:\n{shown}", pytrace=False)
     if "Traceback (most recent call last)" in output:
         pytest.fail(f"Blender script printed a traceback:\n{shown}", pytrace=False)
+    for line in completed.stdout.splitlines():
+        if line.startswith(STALE_TAG):                  # a Cycles reference the script had to render itself
+            warnings.warn(line[len(STALE_TAG):])
     lines = [line for line in completed.stdout.splitlines() if line.startswith(RESULT_TAG)]
     if not lines:
         pytest.fail(f"Blender script reported nothing:\n{shown}", pytrace=False)
@@ -395,9 +400,11 @@ def check_light_nodes(result) -> None:
     assert any("light 'Sun': nothing is linked to its Light Output" in w for w in nothing["warnings"])
 
 
-def render_pixels(scene, engine: str, path: str, samples: int):
+def render_pixels(scene, engine: str, path: str, samples: int, reference: str | None = None):
     """Render `scene` with `engine` ("PRIMER", or "CYCLES" set up as Primer's reference by tools/render.py) at
-    `samples` samples into the EXR `path`, and return its pixels (H, W, channels) float64, rows bottom first."""
+    `samples` samples into the EXR `path`, and return its pixels (H, W, channels) float64, rows bottom first.
+    With a `reference` label (unique within the test file), Cycles' image is the committed reference of it while
+    its key matches (tests/cycles_references.py scripted_reference), rendered only when missing or stale."""
     import bpy
     import numpy as np
     from render import configure_cycles_reference, configure_output
@@ -407,7 +414,11 @@ def render_pixels(scene, engine: str, path: str, samples: int):
     else:
         scene.primer.samples = samples
     configure_output(scene, path)
-    bpy.ops.render.render(write_still=True)
+    if engine == "CYCLES" and reference:
+        import cycles_references
+        cycles_references.scripted_reference(scene, reference, samples, path)
+    else:
+        bpy.ops.render.render(write_still=True)
     image = bpy.data.images.load(path)
     pixels = np.array(image.pixels[:], np.float64).reshape(image.size[1], image.size[0], image.channels)
     bpy.data.images.remove(image)
@@ -559,11 +570,12 @@ def snapped_generated(tree, pixels: int):
     return combine.outputs["Vector"], ends[0], ends[1]
 
 
-def render_plane_grid(scene, export, columns: int, rows: int, pixels: int, samples: int = 1) -> list:
+def render_plane_grid(scene, export, columns: int, rows: int, pixels: int, samples: int = 1,
+                      reference: str | None = None) -> list:
     """Inside Blender: a grid of `columns` x `rows` unit cells (cell k centred at (k % columns + 1/2,
     -(k // columns) - 1/2, 0)) seen from above by an orthographic camera, `pixels` pixels across each, rendered at
-    `samples` samples by Primer and by Cycles into primer.npy and cycles.npy (rows top first, RGB); returns the
-    export's warnings."""
+    `samples` samples by Primer and by Cycles (the committed `reference`, if named: render_pixels) into primer.npy
+    and cycles.npy (rows top first, RGB); returns the export's warnings."""
     import bpy
     import numpy as np
     ortho_camera(scene, columns, (columns / 2, -rows / 2, 5.0))
@@ -571,6 +583,6 @@ def render_plane_grid(scene, export, columns: int, rows: int, pixels: int, sampl
     scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     for engine in ("PRIMER", "CYCLES"):
-        image = render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), samples)[::-1, :, :3]
+        image = render_pixels(scene, engine, os.path.abspath(engine.lower() + ".exr"), samples, reference)[::-1, :, :3]
         np.save(engine.lower() + ".npy", image)
     return warnings

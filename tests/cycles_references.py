@@ -14,7 +14,7 @@ key in that folder's manifest.json. The key covers everything that changes Cycle
 
 A test whose committed reference is missing or stale (its key differs) renders the reference itself, says so (a
 warning naming what changed), and keeps it in pytest's cache folder under its key; it never compares against a
-stale image. `make references` (tools/cycles_references.py) renders the stale and missing ones into
+stale image. `make references` (tools/make_references.py) renders the stale and missing ones into
 tests/references/ and updates the manifests.
 """
 from __future__ import annotations
@@ -22,13 +22,14 @@ from __future__ import annotations
 import importlib.metadata
 import json
 import os
+import re
 import shutil
 import sys
 import warnings
 
 import numpy as np
 
-from blender_env import ROOT, TESTS, run_bpy
+from blender_env import ROOT, STALE_TAG, TESTS, run_bpy
 
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
@@ -37,7 +38,7 @@ from core.film import image_io  # noqa: E402
 
 REFERENCES = os.path.join(TESTS, "references")
 RENDER_TOOL = os.path.join(ROOT, "tools", "render.py")
-# Set by tools/cycles_references.py: write a missing or stale reference into tests/references/ (and its manifest).
+# Set by tools/make_references.py: write a missing or stale reference into tests/references/ (and its manifest).
 WRITE = "PRIMER_WRITE_REFERENCES"
 
 # The Cycles settings of each (blend, samples) as tools/render.py leaves them before rendering. Run in bpy's Python.
@@ -129,7 +130,7 @@ def reference(ref_id: str, blend: str, inputs: tuple, samples: int, applied: dic
               render) -> np.ndarray:
     """Return Cycles' image `ref_id` of `blend`: the committed one when its key matches, else rendered now with
     `render(blend, out, "CYCLES", samples, folder)` (and cached under its key, or written to tests/references/
-    when tools/cycles_references.py asks)."""
+    when tools/make_references.py asks)."""
     version = bpy_version()
     parts = key_parts(inputs, samples, applied)
     key = digest(parts)
@@ -166,3 +167,124 @@ def reference(ref_id: str, blend: str, inputs: tuple, samples: int, applied: dic
         warnings.warn(f"Cycles reference {version}/{ref_id} {why}: using the one rendered into the cache "
                       f"({os.path.basename(cached)}); `make references` commits it")
     return image_io.read_image(cached)
+
+
+# ----------------------------------------------------------------------------
+# References of scenes the tests build in Blender (scripts and in-process tests)
+# ----------------------------------------------------------------------------
+# A test that builds its scene with bpy and holds Primer to Cycles' image of it names that image:
+# blender_env.render_pixels(..., reference="label") keeps it as tests/references/<bpy>/scripted/<module>-<label>.exr,
+# keyed by what makes the scene and Cycles' image of it: the test's file (its scene-building code), the helpers
+# (tests/blender_env.py, tools/render.py), the files the scene reads (a .blend, images, libraries), Cycles' and the
+# render's settings as they are when it renders, the samples and the bpy version.
+SCRIPTED = "scripted"
+SKIPPED_RENDER_SETTINGS = {"filepath"}           # where the image goes, a test's own folder
+USED: set = set()                                # the scripted references this process has asked for
+
+
+def rna_values(struct, skip=frozenset()) -> dict:
+    """Return the plain (non-pointer, non-collection) properties of an RNA struct as JSON-able values."""
+    values = {}
+    for prop in struct.bl_rna.properties:
+        if prop.identifier in skip or prop.identifier == "rna_type" or prop.type in ("POINTER", "COLLECTION"):
+            continue
+        value = getattr(struct, prop.identifier)
+        values[prop.identifier] = sorted(value) if isinstance(value, set) else (
+            list(value) if getattr(prop, "is_array", False) else value)
+    return values
+
+
+def current_test_file() -> str | None:
+    """Return the path of the test file pytest is running (PYTEST_CURRENT_TEST, inherited by run_bpy's scripts)."""
+    current = os.environ.get("PYTEST_CURRENT_TEST", "")
+    path = os.path.join(ROOT, current.split("::")[0]) if "::" in current else ""
+    return path if os.path.isfile(path) else None
+
+
+def test_sources(test: str | None) -> list:
+    """Return the test file `test` and the test modules it imports its scene builders from (`from test_x import`)."""
+    if test is None:
+        return [""]
+    with open(test, encoding="utf-8") as fh:
+        imported = re.findall(r"^from (test_\w+) import", fh.read(), flags=re.MULTILINE)
+    return [test] + [os.path.join(TESTS, f"{name}.py") for name in sorted(set(imported))]
+
+
+def scripted_parts(scene, samples: int) -> dict:
+    """The parts of the key of a scripted reference of `scene` (set up for Cycles and its output) at `samples`."""
+    import bpy
+    read = [bpy.data.filepath] + [bpy.path.abspath(image.filepath, library=image.library) for image in
+                                  bpy.data.images if image.source in {"FILE", "SEQUENCE", "TILED", "MOVIE"}]
+    read += [bpy.path.abspath(library.filepath) for library in bpy.data.libraries]
+    settings = {"cycles": rna_values(scene.cycles),
+                "render": rna_values(scene.render, SKIPPED_RENDER_SETTINGS),
+                "view_layers": {layer.name: rna_values(layer) for layer in scene.view_layers}}
+    return {"test": digest(*test_sources(current_test_file())),
+            "helpers": digest(os.path.join(TESTS, "blender_env.py"), RENDER_TOOL),
+            "inputs": digest(*sorted(path for path in read if path and os.path.isfile(path))),
+            "cycles": digest(settings), "samples": samples, "bpy": bpy_version()}
+
+
+def claim(label: str | bool, path: str) -> str:
+    """Return the id <test file>-<label> of a scripted reference (label True: the running test's name and the stem of
+    `path`), and fail if this process asked for it before: two scenes under one id would replace each other."""
+    test = current_test_file()
+    if label is True:
+        name = os.environ.get("PYTEST_CURRENT_TEST", "").split("::")[-1].rsplit(" ", 1)[0]
+        label = f"{name}-{os.path.splitext(os.path.basename(path))[0]}"
+    ref_id = f"{os.path.splitext(os.path.basename(test))[0] if test else 'untested'}-{label}"
+    if ref_id in USED:
+        raise RuntimeError(f"Cycles reference {ref_id} is asked for twice in one run: give each render its label")
+    USED.add(ref_id)
+    return ref_id
+
+
+def scripted_reference(scene, label: str | bool, samples: int, path: str) -> None:
+    """Leave Cycles' image of `scene` (set up by configure_cycles_reference and configure_output to write the EXR
+    `path`) at `path`: the committed reference <module>-<label> (label True: the running test's name, with its
+    parameters, and the stem of `path`; for a function-scoped test) when its key matches, else rendered now (and written
+    to tests/references/ when tools/make_references.py asks, or else kept in pytest's cache under its key, with a
+    warning: `make references` commits it)."""
+    import bpy
+    ref_id = claim(label, path)
+    version = bpy_version()
+    parts = scripted_parts(scene, samples)
+    key = digest(parts)
+    committed = os.path.join(REFERENCES, version, SCRIPTED, f"{ref_id}.exr")
+    why = staleness(read_manifest(f"{version}/{SCRIPTED}").get(ref_id), parts, committed)
+    if not why:
+        shutil.copyfile(committed, path)
+        return
+    cached = os.path.join(ROOT, ".pytest_cache", "d", "primer-cycles-references", f"{key}.exr")
+    if os.path.isfile(cached) and not os.environ.get(WRITE):
+        warnings.warn(f"Cycles reference {version}/{SCRIPTED}/{ref_id} {why}: using the one rendered into the "
+                      f"cache ({os.path.basename(cached)}); `make references` commits it")
+        shutil.copyfile(cached, path)
+        return
+    bpy.ops.render.render(write_still=True)
+    if os.environ.get(WRITE):
+        write_scripted(version, ref_id, key, parts, path, committed)
+        print(f"wrote {os.path.relpath(committed, ROOT)} ({why[3:] if why.startswith('is ') else why})", flush=True)
+        return
+    message = (f"Cycles reference {version}/{SCRIPTED}/{ref_id} {why}: rendered it now ({samples} samples); "
+               f"`make references` renders and commits it")
+    print(STALE_TAG + message, flush=True)
+    warnings.warn(message)
+    os.makedirs(os.path.dirname(cached), exist_ok=True)
+    part = f"{cached}.{os.getpid()}.part"           # pytest-xdist's workers may render the same one at once
+    shutil.copyfile(path, part)
+    os.replace(part, cached)
+
+
+def write_scripted(version: str, ref_id: str, key: str, parts: dict, rendered: str, committed: str) -> None:
+    """Commit the EXR `rendered` as the scripted reference `ref_id` of bpy `version` and enter its key in the
+    manifest (one process at a time: tools/make_references.py runs the tests in one process)."""
+    os.makedirs(os.path.dirname(committed), exist_ok=True)
+    shutil.copyfile(rendered, committed)          # Cycles' own float EXR: pixel-exact tests compare to 1e-6
+    manifest = read_manifest(f"{version}/{SCRIPTED}")
+    manifest[ref_id] = {"key": key, "parts": parts}
+    path = manifest_path(f"{version}/{SCRIPTED}")
+    with open(path + ".part", "w", encoding="utf-8") as fh:
+        json.dump(dict(sorted(manifest.items())), fh, indent=1, sort_keys=True)
+        fh.write("\n")
+    os.replace(path + ".part", path)

@@ -97,7 +97,7 @@ def render(scene, engine: str, samples: int, path: str) -> np.ndarray:
     else:
         scene.render.engine = "PRIMER"
         scene.primer.samples = samples
-    return render_image(scene, path)[..., :3]
+    return render_image(scene, path, reference=True)[..., :3]
 
 
 @pytest.mark.parametrize("tangents", [False, True], ids=["default_tangent", "tangent_nodes"])

@@ -65,7 +65,7 @@ scene.collection.objects.link(sun)
 ortho_camera(scene, 6.0)
 warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
 p = render_pixels(scene, "PRIMER", os.path.abspath("primer.exr"), {primer})[..., :3]
-c = render_pixels(scene, "CYCLES", os.path.abspath("cycles.exr"), {cycles})[..., :3]
+c = render_pixels(scene, "CYCLES", os.path.abspath("cycles.exr"), {cycles}, "{case}")[..., :3]
 np.save("primer.npy", p)
 np.save("cycles.npy", c)
 primer.unregister()

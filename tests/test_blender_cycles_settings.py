@@ -84,7 +84,7 @@ def corner_scene():
 def render(scene, engine: str, path: str) -> np.ndarray:
     """The scene rendered by `engine` with the settings it has: (H, W, 3)."""
     scene.render.engine = engine
-    return render_image(scene, path)[..., :3]
+    return render_image(scene, path, reference=True)[..., :3]
 
 
 def test_the_automatic_choice_follows_cycles_until_a_primer_setting_is_set(primer, monkeypatch):

@@ -87,14 +87,19 @@ def read_channels(path: str) -> dict:
     return {name: (channels, np.stack(planes, axis=-1)) for name, (channels, planes) in passes.items()}
 
 
-def render_image(scene, path: str, multilayer: bool = False) -> np.ndarray:
-    """Render with write_still into a float EXR (multilayer: every pass) and return what was written."""
+def render_image(scene, path: str, multilayer: bool = False, reference: str | None = None) -> np.ndarray:
+    """Render with write_still into a float EXR (multilayer: every pass) and return what was written; Cycles'
+    image with a `reference` label is the committed one while its key matches (blender_env.render_pixels)."""
     from core.film import image_io
     scene.render.image_settings.media_type = "IMAGE"
     configure_output(scene, path)
     if multilayer:
         scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
-    bpy.ops.render.render(write_still=True)
+    if reference and scene.render.engine == "CYCLES":
+        import cycles_references
+        cycles_references.scripted_reference(scene, reference, scene.cycles.samples, path)
+    else:
+        bpy.ops.render.render(write_still=True)
     return read_channels(path) if multilayer else image_io.read_image(path)
 
 

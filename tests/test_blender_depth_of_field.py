@@ -87,7 +87,7 @@ def profile(scene, engine: str, path: str) -> np.ndarray:
         scene.primer.samples = SAMPLES
         scene.cycles.pixel_filter_type = "BOX"
         scene.cycles.filter_width = 1.0
-    return render_image(scene, path)[..., 0].mean(axis=0)
+    return render_image(scene, path, reference=True)[..., 0].mean(axis=0)
 
 
 def closed_form() -> np.ndarray:

@@ -94,7 +94,7 @@ for name in {cases!r}:
     hair.materials.append(material)
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     p = render_pixels(scene, "PRIMER", os.path.abspath(name + "_primer.exr"), {primer})[..., :3]
-    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), {cycles})[..., :3]
+    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), {cycles}, name)[..., :3]
     np.save(name + "_primer.npy", p)
     np.save(name + "_cycles.npy", c)
     results[name] = warnings

@@ -78,7 +78,7 @@ def test_a_holdout_node_is_read_with_its_mix_weight_and_no_warning(tmp_path):
 
 def holdout_scene(transparent_film: bool, folder: str) -> tuple:
     """Write light_point with its sphere half held out into `folder`; return (Cycles reference id, .blend path, the
-    inputs that make it, for the reference's key). tools/cycles_references.py renders the same reference."""
+    inputs that make it, for the reference's key). tools/make_references.py renders the same reference."""
     source = os.path.join(SCENES_DIR, "light_point.blend")
     blend = os.path.join(folder, "holdout_node.blend")
     run_bpy(MAKE_SCENE.format(source=source, target=blend, fac=0.5, transparent=transparent_film), folder)

@@ -99,9 +99,9 @@ def case(name, *args, **settings):
                                np.array(obj.matrix_world, np.float64), warnings)
     p = render_pixels(scene, "PRIMER", os.path.abspath(name + "_primer.exr"), {primer_samples})[..., :3]
     scene.cycles.seed = 0
-    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), {cycles_samples})[..., :3]
+    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), {cycles_samples}, name)[..., :3]
     scene.cycles.seed = 7
-    c2 = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles2.exr"), {cycles_samples})[..., :3]
+    c2 = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles2.exr"), {cycles_samples}, name + "_seed7")[..., :3]
     cases[name] = dict(ies=core is not None and getattr(core, "ies", None) is not None, warnings=warnings,
                        rel_mse=rel_mse(p, c), cycles_noise=rel_mse(c2, c), primer_mean=float(p.mean()),
                        cycles_mean=float(c.mean()))
@@ -152,9 +152,9 @@ def material_case(name):
     exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
     p = render_pixels(scene, "PRIMER", os.path.abspath(name + "_primer.exr"), 16)[..., :3]
     scene.cycles.seed = 0
-    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), 16)[..., :3]
+    c = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles.exr"), 16, name)[..., :3]
     scene.cycles.seed = 7
-    c2 = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles2.exr"), 16)[..., :3]
+    c2 = render_pixels(scene, "CYCLES", os.path.abspath(name + "_cycles2.exr"), 16, name + "_seed7")[..., :3]
     notes = list(exported.warnings)
     cases[name] = dict(ies=True, warnings=[w for w in notes if "IES" in w], rel_mse=rel_mse(p, c),
                        cycles_noise=rel_mse(c2, c), primer_mean=float(p.mean()), cycles_mean=float(c.mean()),

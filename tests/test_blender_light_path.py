@@ -111,7 +111,8 @@ def both(scene, label, samples, seeds=(0,)):
     np.save(os.path.join(folder, label + "_primer.npy"), primer_pixels)
     for seed in seeds:
         scene.cycles.seed = seed
-        cycles_pixels = render_pixels(scene, "CYCLES", os.path.join(folder, label + "_cycles.exr"), samples)
+        cycles_pixels = render_pixels(scene, "CYCLES", os.path.join(folder, label + "_cycles.exr"), samples,
+                                      f"{{label}}_seed{{seed}}")
         np.save(os.path.join(folder, label + "_cycles%d.npy" % seed), cycles_pixels)
 
 

@@ -55,7 +55,7 @@ def render_both(name: str, folder) -> dict:
         scene.primer.samples = samples
         if engine == "CYCLES":
             configure_cycles_reference(scene, samples)
-        out[engine] = render_image(scene, str(folder / f"{name}_{engine}.exr"), multilayer=True)
+        out[engine] = render_image(scene, str(folder / f"{name}_{engine}.exr"), multilayer=True, reference=name)
     return out
 
 

@@ -104,8 +104,8 @@ def assert_renders_as_cycles(scene, tmp_path, compare, label: str) -> tuple:
     """Primer at 256 samples against Cycles at 1024: block relMSE within three times Cycles 256's own against its
     1024, and the mean within 1%; returns (Cycles' 1024-sample pixels, its own 256-vs-1024 error)."""
     p = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
-    c = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
-    c_low = render_pixels(scene, "CYCLES", str(tmp_path / "cycles_low.exr"), 256)[..., :3]
+    c = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024, True)[..., :3]
+    c_low = render_pixels(scene, "CYCLES", str(tmp_path / "cycles_low.exr"), 256, True)[..., :3]
     error = compare.relative_mse_of_blocks(p, c)
     own = compare.relative_mse_of_blocks(c_low, c)
     print(f"{label}: Primer 256 vs Cycles 1024 {error:.3g}; Cycles 256 vs 1024 {own:.3g}; means {p.mean():.5f} "

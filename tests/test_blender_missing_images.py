@@ -50,7 +50,8 @@ for case, path in (("missing", os.path.abspath("no_such_sky.hdr")), ("corrupt", 
     scene.camera = camera
     found = {{}}
     for engine, samples in (("PRIMER", 64), ("CYCLES", 256)):
-        found[engine] = render_pixels(scene, engine, os.path.abspath(f"{{case}}_{{engine}}.exr"), samples)[..., :3].tolist()
+        found[engine] = render_pixels(scene, engine, os.path.abspath(f"{{case}}_{{engine}}.exr"), samples,
+                                      case)[..., :3].tolist()
     found["warnings"] = list(engine_module.last_render.warnings) if engine_module.last_render else []
     out[case] = found
 primer.unregister()

@@ -120,7 +120,7 @@ def render_with(scene, engine: str, path: str, seed: int = 0) -> np.ndarray:
         scene.primer.samples = SAMPLES
         scene.cycles.pixel_filter_type = "BOX"
         scene.cycles.filter_width = 1.0
-    return render_image(scene, path)[..., :3]
+    return render_image(scene, path, reference=True)[..., :3]
 
 
 SHUTTERS = {

@@ -79,7 +79,7 @@ def profile(scene, engine: str, kind: str, path: str) -> np.ndarray:
         scene.primer.samples = SAMPLES
     scene.cycles.pixel_filter_type = kind
     scene.cycles.filter_width = 1.5
-    return render_image(scene, path)[..., 0].mean(axis=0)
+    return render_image(scene, path, reference=True)[..., 0].mean(axis=0)
 
 
 def closed_form(kind: str) -> np.ndarray:

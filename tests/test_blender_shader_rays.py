@@ -30,8 +30,8 @@ def compared(scene, tmp_path, compare, label: str, samples: int = 64) -> tuple:
     """Primer and Cycles at `samples` against Cycles at 4 x `samples`: (Primer's block relMSE, Cycles' own, Primer's
     mean over Cycles' 4 x mean, Cycles' 4 x image)."""
     p = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), samples)[..., :3]
-    c_high = render_pixels(scene, "CYCLES", str(tmp_path / "cycles_high.exr"), 4 * samples)[..., :3]
-    c = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), samples)[..., :3]
+    c_high = render_pixels(scene, "CYCLES", str(tmp_path / "cycles_high.exr"), 4 * samples, True)[..., :3]
+    c = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), samples, True)[..., :3]
     error, own = compare.relative_mse_of_blocks(p, c_high), compare.relative_mse_of_blocks(c, c_high)
     print(f"{label}: Primer {samples} vs Cycles {4 * samples} {error:.3g}; Cycles {samples} vs {4 * samples} "
           f"{own:.3g}; means {p.mean():.5f} {c_high.mean():.5f}")

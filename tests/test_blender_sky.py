@@ -78,7 +78,7 @@ def render(name, kind, elevation, disc, panorama):
     sky.sun_direction = (0.5, -0.4, math.sin(math.radians(elevation)))
     view(panorama)
     for engine in ("PRIMER", "CYCLES"):
-        np.save(f"{{name}}_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 64)[..., :3])
+        np.save(f"{{name}}_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 64, name)[..., :3])
     exported = exports[-1]
     return {{"warnings": exported.warnings, "lights": [light.name for light in exported.scene.lights]}}
 
@@ -114,7 +114,7 @@ for kind, disc, mapped in (("MULTIPLE_SCATTERING", True, False), ("MULTIPLE_SCAT
     plane.name = label
     plane.data.materials.append(material)
     surfaces.append(label)
-results["surface"] = render_plane_grid(scene, export, 3, 3, {pixels}, {surface_samples})
+results["surface"] = render_plane_grid(scene, export, 3, 3, {pixels}, {surface_samples}, "surfaces")
 results["surfaces"] = surfaces
 primer.unregister()
 report(results=results)

@@ -109,7 +109,7 @@ def renders(tmp_path_factory):
     scene.render.engine = "PRIMER"
     found["primer"] = render_image(scene, str(folder / "primer.exr"), multilayer=True)
     configure_cycles_reference(scene, SAMPLES)
-    found["cycles"] = render_image(scene, str(folder / "cycles.exr"), multilayer=True)
+    found["cycles"] = render_image(scene, str(folder / "cycles.exr"), multilayer=True, reference="spheres")
     return found
 
 

@@ -96,7 +96,7 @@ def test_absorbing_cubes_in_front_of_an_emitter_let_through_exp_of_minus_sigma_d
     box("Clear", (1.0, 0.0, 1.5), (1.0, 1.0, depth), glass)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
     assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
-    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16, True)[..., :3]
     through = glow * np.exp(-density * (1.0 - np.array(color)) * depth)
     # (rows bottom first; pixel (row, column) centres: x = -2 + (c + 0.5) / 4, y = -1 + (r + 0.5) / 4)
     expected = np.broadcast_to(glow, mine.shape).copy()
@@ -162,7 +162,7 @@ def test_scattering_cubes_under_a_point_lamp_render_as_in_cycles(primer, tmp_pat
     lamp(scene, "Lamp", "POINT", (1.5, -1.0, 2.5), 300.0)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
     assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
-    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024, True)[..., :3]
     error = relative_mse(mine, cycles)
     print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < 6e-5
@@ -197,7 +197,7 @@ def test_a_world_fog_scatters_a_point_lamp_and_blocks_the_sun_as_in_cycles(prime
     lamp(scene, "Sun", "SUN", (0.0, 0.0, 5.0), 3.0)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
     assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
-    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024, True)[..., :3]
     error = relative_mse(mine, cycles)
     print("block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < 1.5e-4
@@ -283,7 +283,7 @@ def test_emitting_media_glow_as_in_cycles(primer, tmp_path):
     box("Glow", (1.0, 0.0, 1.5), (1.0, 1.0, 0.8), m)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
     assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
-    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 16, True)[..., :3]
     sigma = 0.5 * 3.0 * 0.5
     glow_expected = 0.5 * np.array([2.0, 1.2, 0.4]) * (1.0 - np.exp(-sigma * 0.8)) / sigma
     np.testing.assert_allclose(mine[2:6, 10:14], np.broadcast_to(glow_expected, (4, 4, 3)), rtol=1e-5)
@@ -305,7 +305,7 @@ def test_a_glass_sphere_holding_an_absorbing_medium_renders_as_in_cycles(primer,
     scene.primer.integrator = "PATH"
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 256)[..., :3]
     assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (both kernels have media)
-    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 1024, True)[..., :3]
     assert relative_mse(mine, cycles) < 6e-5
 
 
@@ -349,7 +349,7 @@ def test_a_cube_of_noise_smoke_under_a_sun_renders_as_in_cycles(primer, tmp_path
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), SMOKE_SAMPLES)[..., :3]
     took = time.time() - start
     assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (the march in C: core/volumes/field.c)
-    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), SMOKE_CYCLES)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), SMOKE_CYCLES, True)[..., :3]
     error = relative_mse(mine, cycles)
     print("smoke block relMSE", error, took, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < 2e-5
@@ -389,7 +389,7 @@ def test_a_fog_room_with_volume_bounces_renders_as_in_cycles(primer, tmp_path):
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), ROOM_SAMPLES)[..., :3]
     took = time.time() - start
     assert addon(primer, "engine").last_render.stats.kernels == "compiled"
-    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), ROOM_CYCLES)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), ROOM_CYCLES, True)[..., :3]
     error = relative_mse(mine, cycles)
     print("fog room block relMSE", error, took, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < 5e-3
@@ -425,7 +425,7 @@ def test_a_gradient_of_generated_coordinates_absorbs_as_in_cycles(primer, tmp_pa
     cube.rotation_euler = (0.0, -np.pi / 2, 0.0)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
     assert addon(primer, "engine").last_render.stats.kernels == "compiled"   # (the march in C: core/volumes/field.c)
-    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 256)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 256, True)[..., :3]
     # (rows bottom first: pixel centres x = -2 + (c + 0.5) / 4, y = -1 + (r + 0.5) / 4; the cube spans |x|, |y| < 0.5)
     expected = np.broadcast_to(glow, mine.shape).copy()
     expected[2:6, 6:10] = glow * np.exp(-1.2 * (1.0 - color))
@@ -499,7 +499,7 @@ def test_a_volume_scatter_sphere_of_each_phase_function_under_a_sun_renders_as_i
     record = addon(primer, "engine").last_render
     assert record.stats.kernels == "compiled"
     assert not [w for w in record.warnings if "phase" in w], record.warnings
-    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), PHASE_CYCLES)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), PHASE_CYCLES, True)[..., :3]
     error = relative_mse(mine, cycles)
     print(phase, "block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < 2e-5

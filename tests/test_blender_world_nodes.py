@@ -82,7 +82,7 @@ def render(name, panorama):
     view(panorama)
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     for engine in ("PRIMER", "CYCLES"):
-        np.save(f"{{name}}_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 64)[..., :3])
+        np.save(f"{{name}}_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 64, name)[..., :3])
     return warnings
 
 
@@ -187,7 +187,7 @@ camera.location, camera.rotation_euler = (0.0, 0.0, 0.0), (np.radians(60.0), 0.0
 scene.render.resolution_x, scene.render.resolution_y = 64, 64
 results["fine checker seen"] = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
 for engine in ("PRIMER", "CYCLES"):
-    np.save(f"fine_checker_seen_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 16)[..., :3])
+    np.save(f"fine_checker_seen_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 16, "fine_checker_seen")[..., :3])
 floor.visible_camera = True
 
 clear()

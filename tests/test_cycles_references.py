@@ -97,3 +97,23 @@ def test_every_committed_reference_has_its_file_and_a_consistent_key():
             assert image.ndim == 3 and image.shape[2] == 4 and np.isfinite(image).all(), name
         total += sum(os.path.getsize(os.path.join(folder, f)) for f in os.listdir(folder))
     assert total < 4e6, f"tests/references/ holds {total / 1e6:.1f} MB"
+
+
+def test_a_scripted_reference_is_named_after_its_test_and_claimed_once(monkeypatch):
+    """A label names the reference within the running test's file; True takes the test's name (with its parameters)
+    and the output's stem; the same id asked for twice in one process is an error (two scenes would swap images)."""
+    monkeypatch.setattr(cycles_references, "USED", set())
+    monkeypatch.setenv("PYTEST_CURRENT_TEST", "tests/test_cycles_references.py::test_x[a-1] (call)")
+    assert cycles_references.claim("sky", "/tmp/out.exr") == "test_cycles_references-sky"
+    assert cycles_references.claim(True, "/tmp/cycles512.exr") == "test_cycles_references-test_x[a-1]-cycles512"
+    with pytest.raises(RuntimeError, match="asked for twice"):
+        cycles_references.claim("sky", "/tmp/other.exr")
+
+
+def test_a_scripted_references_key_covers_the_test_modules_it_builds_scenes_with():
+    """The test file's digest takes in the test modules it imports scene builders from (`from test_x import`)."""
+    sources = cycles_references.test_sources(os.path.join(cycles_references.TESTS, "test_blender_distributions.py"))
+    names = [os.path.basename(path) for path in sources]
+    assert names[0] == "test_blender_distributions.py"
+    assert {"test_blender_anisotropy.py", "test_blender_denoise.py"} <= set(names[1:])
+    assert all(os.path.isfile(path) for path in sources)

@@ -1,19 +1,24 @@
 """Render the Cycles references the Blender tests hold Primer to into tests/references/<bpy version>/ (`make references`).
 
 Usage:
-    .venv/bin/python tools/cycles_references.py [--no-variants] [--check]
+    .venv/bin/python tools/make_references.py [--no-variants] [--check]
 
 Renders, with this Python's bpy, every reference of tests/test_blender_scenes.py (the sample scenes, and their
 render-setting variants unless --no-variants) and tests/test_blender_holdout.py whose committed copy is missing
 or stale (its key differs: tests/cycles_references.py), as half-float EXRs, and updates that version's
 manifest.json; up-to-date ones are left alone. --check renders nothing and exits 1 if any is missing or stale.
-`make references` runs it with bpy 5.0 (.venv) and bpy 5.2 (.venv52, without the variants, which `make test`
-compares on 5.0 only).
+Then, unless --check or --no-scripted, the references of scenes the tests build themselves (blender_env.render_pixels'
+`reference` label: tests/references/<bpy version>/scripted/): it runs the test files that render Cycles (pytest, one
+process) with PRIMER_WRITE_REFERENCES set, which writes each missing or stale one. `make references` runs it with
+bpy 5.0 (.venv) and bpy 5.2 (.venv52, without the variants, which `make test` compares on 5.0 only).
 """
 from __future__ import annotations
 
 import argparse
+import glob
 import os
+import re
+import subprocess
 import sys
 import tempfile
 
@@ -49,10 +54,39 @@ def references(folder: str, variants: bool) -> list:
     return found
 
 
+def scripted_test_files() -> list:
+    """Return the test files that may hold scripted references: those named in either version's scripted manifest,
+    and every test file that renders Cycles through blender_env's or test_blender_denoise's render helpers."""
+    named = set()
+    for manifest in glob.glob(os.path.join(cycles_references.REFERENCES, "*", cycles_references.SCRIPTED,
+                                           "manifest.json")):
+        version = os.path.relpath(os.path.dirname(os.path.dirname(manifest)), cycles_references.REFERENCES)
+        named |= {ref_id.split("-", 1)[0] for ref_id in cycles_references.read_manifest(
+            f"{version}/{cycles_references.SCRIPTED}")}
+    found = []
+    for path in sorted(glob.glob(os.path.join(TESTS, "test_blender_*.py"))):
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+        name = os.path.splitext(os.path.basename(path))[0]
+        if name in named or ("CYCLES" in text and re.search(r"render_(pixels|image|plane_grid)\(", text)):
+            found.append(path)
+    return found
+
+
+def write_scripted() -> int:
+    """Run the test files of scripted references with PRIMER_WRITE_REFERENCES set; return pytest's exit code."""
+    files = scripted_test_files()
+    print(f"scripted references: running {len(files)} test files", flush=True)
+    env = dict(os.environ, **{cycles_references.WRITE: "1"})
+    return subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", *files], cwd=ROOT,
+                          env=env).returncode
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--no-variants", action="store_true", help="leave out test_blender_scenes.py's variants")
     parser.add_argument("--check", action="store_true", help="render nothing; exit 1 if a reference is stale")
+    parser.add_argument("--no-scripted", action="store_true", help="leave out the references of scripted scenes")
     args = parser.parse_args()
     version = cycles_references.bpy_version()
     with tempfile.TemporaryDirectory(prefix="primer-references-") as folder:
@@ -79,7 +113,9 @@ def main() -> int:
                 for f in fs)
     print(f"bpy {version}: {len(found)} references, {len(stale)} {'stale' if args.check else 'rendered'}; "
           f"tests/references/ holds {total / 1e6:.1f} MB")
-    return 1 if args.check and stale else 0
+    if args.check:
+        return 1 if stale else 0
+    return 0 if args.no_scripted else write_scripted()
 
 
 if __name__ == "__main__":
