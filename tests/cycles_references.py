@@ -201,7 +201,7 @@ def current_test_file() -> str | None:
     return path if os.path.isfile(path) else None
 
 
-def test_sources(test: str | None) -> list:
+def builder_sources(test: str | None) -> list:
     """Return the test file `test` and the test modules it imports its scene builders from (`from test_x import`)."""
     if test is None:
         return [""]
@@ -219,7 +219,7 @@ def scripted_parts(scene, samples: int) -> dict:
     settings = {"cycles": rna_values(scene.cycles),
                 "render": rna_values(scene.render, SKIPPED_RENDER_SETTINGS),
                 "view_layers": {layer.name: rna_values(layer) for layer in scene.view_layers}}
-    return {"test": digest(*test_sources(current_test_file())),
+    return {"test": digest(*builder_sources(current_test_file())),
             "helpers": digest(os.path.join(TESTS, "blender_env.py"), RENDER_TOOL),
             "inputs": digest(*sorted(path for path in read if path and os.path.isfile(path))),
             "cycles": digest(settings), "samples": samples, "bpy": bpy_version()}

@@ -112,7 +112,7 @@ def test_a_scripted_reference_is_named_after_its_test_and_claimed_once(monkeypat
 
 def test_a_scripted_references_key_covers_the_test_modules_it_builds_scenes_with():
     """The test file's digest takes in the test modules it imports scene builders from (`from test_x import`)."""
-    sources = cycles_references.test_sources(os.path.join(cycles_references.TESTS, "test_blender_distributions.py"))
+    sources = cycles_references.builder_sources(os.path.join(cycles_references.TESTS, "test_blender_distributions.py"))
     names = [os.path.basename(path) for path in sources]
     assert names[0] == "test_blender_distributions.py"
     assert {"test_blender_anisotropy.py", "test_blender_denoise.py"} <= set(names[1:])
