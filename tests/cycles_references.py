@@ -210,8 +210,10 @@ def builder_sources(test: str | None) -> list:
     return [test] + [os.path.join(TESTS, f"{name}.py") for name in sorted(set(imported))]
 
 
-def scripted_parts(scene, samples: int) -> dict:
-    """The parts of the key of a scripted reference of `scene` (set up for Cycles and its output) at `samples`."""
+def scripted_parts(ref_id: str, scene, samples: int) -> dict:
+    """The parts of the key of the scripted reference `ref_id` of `scene` (set up for Cycles and its output) at
+    `samples`. The id is a part: two renders of one test file under the same settings (a test's parameters change
+    its scene, not its settings) have keys, and cached images, of their own."""
     import bpy
     read = [bpy.data.filepath] + [bpy.path.abspath(image.filepath, library=image.library) for image in
                                   bpy.data.images if image.source in {"FILE", "SEQUENCE", "TILED", "MOVIE"}]
@@ -219,7 +221,7 @@ def scripted_parts(scene, samples: int) -> dict:
     settings = {"cycles": rna_values(scene.cycles),
                 "render": rna_values(scene.render, SKIPPED_RENDER_SETTINGS),
                 "view_layers": {layer.name: rna_values(layer) for layer in scene.view_layers}}
-    return {"test": digest(*builder_sources(current_test_file())),
+    return {"id": ref_id, "test": digest(*builder_sources(current_test_file())),
             "helpers": digest(os.path.join(TESTS, "blender_env.py"), RENDER_TOOL),
             "inputs": digest(*sorted(path for path in read if path and os.path.isfile(path))),
             "cycles": digest(settings), "samples": samples, "bpy": bpy_version()}
@@ -248,7 +250,7 @@ def scripted_reference(scene, label: str | bool, samples: int, path: str) -> Non
     import bpy
     ref_id = claim(label, path)
     version = bpy_version()
-    parts = scripted_parts(scene, samples)
+    parts = scripted_parts(ref_id, scene, samples)
     key = digest(parts)
     committed = os.path.join(REFERENCES, version, SCRIPTED, f"{ref_id}.exr")
     why = staleness(read_manifest(f"{version}/{SCRIPTED}").get(ref_id), parts, committed)
