@@ -414,15 +414,22 @@ def render_pixels(scene, engine: str, path: str, samples: int, reference: str | 
     else:
         scene.primer.samples = samples
     configure_output(scene, path)
-    if engine == "CYCLES" and reference:
-        import cycles_references
-        cycles_references.scripted_reference(scene, reference, samples, path)
-    else:
-        bpy.ops.render.render(write_still=True)
+    render_still(scene, path, reference)
     image = bpy.data.images.load(path)
     pixels = np.array(image.pixels[:], np.float64).reshape(image.size[1], image.size[0], image.channels)
     bpy.data.images.remove(image)
     return pixels
+
+
+def render_still(scene, path: str, reference: str | bool | None = None) -> None:
+    """Write `scene`'s image to `path`, its output set up (configure_output): rendered, or for Cycles with a
+    `reference` label the committed reference of it while its key matches (tests/cycles_references.py)."""
+    import bpy
+    if reference and scene.render.engine == "CYCLES":
+        import cycles_references
+        cycles_references.scripted_reference(scene, reference, path)
+    else:
+        bpy.ops.render.render(write_still=True)
 
 
 def empty_material(name: str):

@@ -126,6 +126,27 @@ def staleness(entry: dict | None, parts: dict, path: str) -> str:
     return ""
 
 
+def commit(folder: str, ref_id: str, entry: dict, committed: str, why: str) -> None:
+    """Enter the reference `ref_id`, just written to `committed`, in the manifest of `folder` (a bpy version, or
+    <version>/scripted) with its `entry` (key, parts, ...), and say so: one process at a time writes references
+    (tools/make_references.py), so the manifest is re-read and rewritten whole for each."""
+    manifest = read_manifest(folder)
+    manifest[ref_id] = entry
+    with open(manifest_path(folder) + ".part", "w", encoding="utf-8") as fh:
+        json.dump(dict(sorted(manifest.items())), fh, indent=1, sort_keys=True)
+        fh.write("\n")
+    os.replace(manifest_path(folder) + ".part", manifest_path(folder))
+    print(f"wrote {os.path.relpath(committed, ROOT)} ({why[3:] if why.startswith('is ') else why})", flush=True)
+
+
+def keep_in_cache(rendered: str, cached: str) -> None:
+    """Copy the image `rendered` to `cached` whole or not at all (pytest-xdist's workers may render one at once)."""
+    os.makedirs(os.path.dirname(cached), exist_ok=True)
+    part = f"{cached}.{os.getpid()}.part"
+    shutil.copyfile(rendered, part)
+    os.replace(part, cached)
+
+
 def reference(ref_id: str, blend: str, inputs: tuple, samples: int, applied: dict, cache: str, folder: str,
               render) -> np.ndarray:
     """Return Cycles' image `ref_id` of `blend`: the committed one when its key matches, else rendered now with
@@ -143,14 +164,8 @@ def reference(ref_id: str, blend: str, inputs: tuple, samples: int, applied: dic
         render(blend, fresh, "CYCLES", samples, folder)
         os.makedirs(os.path.dirname(committed), exist_ok=True)
         write_half_exr(committed, image_io.read_image(fresh))
-        manifest = read_manifest(version)           # re-read: written one reference at a time
-        manifest[ref_id] = {"key": key, "parts": parts, "source": os.path.relpath(blend, ROOT)
-                            if blend.startswith(ROOT) else os.path.basename(blend)}
-        with open(manifest_path(version) + ".part", "w", encoding="utf-8") as fh:
-            json.dump(dict(sorted(manifest.items())), fh, indent=1, sort_keys=True)
-            fh.write("\n")
-        os.replace(manifest_path(version) + ".part", manifest_path(version))
-        print(f"wrote {os.path.relpath(committed, ROOT)} ({why[3:] if why.startswith('is ') else why})", flush=True)
+        commit(version, ref_id, {"key": key, "parts": parts, "source": os.path.relpath(blend, ROOT)
+                                 if blend.startswith(ROOT) else os.path.basename(blend)}, committed, why)
         return image_io.read_image(committed)
     cached = os.path.join(cache, f"{key}.exr")
     if not os.path.isfile(cached):
@@ -160,9 +175,7 @@ def reference(ref_id: str, blend: str, inputs: tuple, samples: int, applied: dic
         warnings.warn(message)
         fresh = os.path.join(folder, "cycles.exr")
         render(blend, fresh, "CYCLES", samples, folder)
-        part = f"{cached}.{os.getpid()}.part"      # pytest-xdist's workers may render the same one at once
-        shutil.copyfile(fresh, part)
-        os.replace(part, cached)                  # never leave a half-written reference behind
+        keep_in_cache(fresh, cached)
     else:
         warnings.warn(f"Cycles reference {version}/{ref_id} {why}: using the one rendered into the cache "
                       f"({os.path.basename(cached)}); `make references` commits it")
@@ -241,15 +254,15 @@ def claim(label: str | bool, path: str) -> str:
     return ref_id
 
 
-def scripted_reference(scene, label: str | bool, samples: int, path: str) -> None:
+def scripted_reference(scene, label: str | bool, path: str) -> None:
     """Leave Cycles' image of `scene` (set up by configure_cycles_reference and configure_output to write the EXR
-    `path`) at `path`: the committed reference <module>-<label> (label True: the running test's name, with its
+    `path`, at scene.cycles.samples) at `path`: the committed reference <module>-<label> (label True: the running test's name, with its
     parameters, and the stem of `path`; for a function-scoped test) when its key matches, else rendered now (and written
     to tests/references/ when tools/make_references.py asks, or else kept in pytest's cache under its key, with a
     warning: `make references` commits it)."""
     import bpy
     ref_id = claim(label, path)
-    version = bpy_version()
+    version, samples = bpy_version(), scene.cycles.samples
     parts = scripted_parts(ref_id, scene, samples)
     key = digest(parts)
     committed = os.path.join(REFERENCES, version, SCRIPTED, f"{ref_id}.exr")
@@ -265,28 +278,13 @@ def scripted_reference(scene, label: str | bool, samples: int, path: str) -> Non
         return
     bpy.ops.render.render(write_still=True)
     if os.environ.get(WRITE):
-        write_scripted(version, ref_id, key, parts, path, committed)
-        print(f"wrote {os.path.relpath(committed, ROOT)} ({why[3:] if why.startswith('is ') else why})", flush=True)
+        os.makedirs(os.path.dirname(committed), exist_ok=True)
+        shutil.copyfile(path, committed)          # Cycles' own float EXR: pixel-exact tests compare to 1e-6
+        commit(f"{version}/{SCRIPTED}", ref_id, {"key": key, "parts": parts}, committed, why)
         return
     message = (f"Cycles reference {version}/{SCRIPTED}/{ref_id} {why}: rendered it now ({samples} samples); "
                f"`make references` renders and commits it")
     print(STALE_TAG + message, flush=True)
     warnings.warn(message)
-    os.makedirs(os.path.dirname(cached), exist_ok=True)
-    part = f"{cached}.{os.getpid()}.part"           # pytest-xdist's workers may render the same one at once
-    shutil.copyfile(path, part)
-    os.replace(part, cached)
+    keep_in_cache(path, cached)
 
-
-def write_scripted(version: str, ref_id: str, key: str, parts: dict, rendered: str, committed: str) -> None:
-    """Commit the EXR `rendered` as the scripted reference `ref_id` of bpy `version` and enter its key in the
-    manifest (one process at a time: tools/make_references.py runs the tests in one process)."""
-    os.makedirs(os.path.dirname(committed), exist_ok=True)
-    shutil.copyfile(rendered, committed)          # Cycles' own float EXR: pixel-exact tests compare to 1e-6
-    manifest = read_manifest(f"{version}/{SCRIPTED}")
-    manifest[ref_id] = {"key": key, "parts": parts}
-    path = manifest_path(f"{version}/{SCRIPTED}")
-    with open(path + ".part", "w", encoding="utf-8") as fh:
-        json.dump(dict(sorted(manifest.items())), fh, indent=1, sort_keys=True)
-        fh.write("\n")
-    os.replace(path + ".part", path)

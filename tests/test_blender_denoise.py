@@ -12,7 +12,7 @@ bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else _
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools"))
 from render import configure_output, load_primer  # noqa: E402
 
-from blender_env import diffuse_material  # noqa: E402
+from blender_env import diffuse_material, render_still  # noqa: E402
 
 from core.film.compare import relative_mse_of_blocks  # noqa: E402
 
@@ -95,11 +95,7 @@ def render_image(scene, path: str, multilayer: bool = False, reference: str | No
     configure_output(scene, path)
     if multilayer:
         scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
-    if reference and scene.render.engine == "CYCLES":
-        import cycles_references
-        cycles_references.scripted_reference(scene, reference, scene.cycles.samples, path)
-    else:
-        bpy.ops.render.render(write_still=True)
+    render_still(scene, path, reference)
     return read_channels(path) if multilayer else image_io.read_image(path)
 
 

@@ -110,7 +110,7 @@ def build(cc: str, force: bool = False, zig: bool = False) -> str:
     from core.native import library
     source = os.path.join(ROOT, "core", "native", "primer.c")
     target = library.library_path()
-    compiler = zig_command() + ["-target", TARGETS[host_platform()][0]] if zig and host_platform() else shlex.split(cc)
+    compiler = zig_compiler(host_platform()) if zig and host_platform() else shlex.split(cc)
     if not force and up_to_date(target) and stamped(target) == " ".join(compiler):
         return target
     command = compiler + RELEASE + FLAGS + [source, "-o", target + ".tmp", "-lm"]
@@ -169,6 +169,11 @@ def zig_command() -> list:
     return [sys.executable, "-m", "ziglang", "cc"]
 
 
+def zig_compiler(platform_name: str) -> list:
+    """Return the command of Zig's C compiler for one platform of TARGETS (its target; no flags)."""
+    return zig_command() + ["-target", TARGETS[platform_name][0]]
+
+
 def cross_name(platform_name: str) -> str:
     """Return the file name of one platform's library, as core/native/library.py names it on that platform."""
     from core.native import library
@@ -192,7 +197,7 @@ def cross_build_one(platform_name: str, folder: str, force: bool = False, optimi
         with tempfile.TemporaryDirectory(prefix=f"kernels-{platform_name}-") as scratch:
             # Built in a scratch folder: the Windows link also writes an import library and a .pdb beside the DLL.
             output = os.path.join(scratch, os.path.basename(target))
-            command = zig_command() + ["-target", zig_target, *optimise] + FLAGS + ["-s", source, "-o", output]
+            command = zig_compiler(platform_name) + [*optimise] + FLAGS + ["-s", source, "-o", output]
             command += ["-lm"] if system == "linux" else []
             print(" ".join(command), flush=True)
             completed = subprocess.run(command, capture_output=True, text=True)
@@ -218,8 +223,7 @@ def reusable_host_library(platform_name: str, optimise: tuple) -> str | None:
     target = library.library_path()
     if tuple(optimise) != tuple(CHECK) or platform_name != host_platform() or not up_to_date(target):
         return None
-    wanted = " ".join(zig_command() + ["-target", TARGETS[platform_name][0]])
-    return target if stamped(target) == wanted else None
+    return target if stamped(target) == " ".join(zig_compiler(platform_name)) else None
 
 
 def cross_build(folder: str = CROSS_FOLDER, force: bool = False, platforms=tuple(TARGETS), check: bool = False) -> dict:
