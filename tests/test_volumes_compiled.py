@@ -342,3 +342,34 @@ def test_both_kernels_write_the_light_groups_of_a_world_fog_around_the_camera_al
     for name in groups:
         assert reference.aux[name].max() > 0.01
         np.testing.assert_allclose(compiled.aux[name], reference.aux[name], rtol=1e-6, atol=4e-7, err_msg=name)
+
+
+def bumped_floor_material() -> Material:
+    """A grey Diffuse whose normal is a Bump (Distance 0.5, Filter Width 1) of the height sin(4 x) (x: world X)."""
+    from core.materials.graph import GraphNode, Link
+    x = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(GraphNode("GEOMETRY", {}, {}), "Position")}), "X")
+    height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": Link(GraphNode(
+        "MATH", {"operation": "MULTIPLY"}, {"0": x, "1": 4.0}), "Value")}), "Value")
+    normal = Link(GraphNode("BUMP", {"invert": False, "filter_width": 1.0},
+                            {"Strength": 1.0, "Distance": 0.5, "Height": height}), "Normal")
+    return Material(name="Bumped floor", nodes=[("DIFFUSE", (0.7, 0.7, 0.7), {"color": np.full(3, 0.7),
+                                                                               "normal": normal})])
+
+
+def test_a_bumped_floor_met_after_scattering_in_fog_is_shaded_alike_by_both_kernels():
+    """Paths that scattered in a world fog and went on (Volume Bounces 1) reach a floor whose normal is a Bump: a
+    scattering point has no footprint and its ray keeps the spread it had (Cycles: dP 0, dD kept); under an
+    orthographic camera (spread 0) the bump is flat there. The Python reference and the compiled kernel alike, the
+    same shadow rays traced."""
+    camera = looking()
+    camera = Camera(matrix_world=camera.matrix_world, type="ORTHO", ortho_scale=8.0, clip_start=0.1, clip_end=100.0)
+    scene = room(camera)
+    scene.materials[0] = bumped_floor_material()
+    scene.world = World(color=np.zeros(3), volume=[("SCATTER", 1.0, {"color": np.full(3, 0.9), "density": 0.15,
+                                                                      "anisotropy": 0.0})])
+    settings = {"width": 12, "height": 9, "samples": 3, "integrator": "path", "max_bounces": 3, "volume_bounces": 1}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    assert_same_pixels(reference.image, compiled.image)

@@ -5,12 +5,13 @@
  * rays live in the cache and on the stack, and its samples go straight into their pixels' sums. */
 
 /* rays.camera_cones: the ray cone a camera ray leaves with from its camera-relative origin O (graph.c camera_cone in
- * the camera's frame, made of the camera record): its footprint there into *cone, its widening into *spread; 0 and 0
- * (unknown) under a panoramic camera. */
+ * the camera's frame, made of the camera record): its footprint there into *cone, its widening into *spread;
+ * UNKNOWN_CONE and 0 under a panoramic camera. */
 static void camera_ray_cone(const ChunkParams *params, const double *O, double *cone, double *spread)
 {
     const CameraRecord *c = params->camera;
-    *cone = *spread = 0.0;
+    *cone = UNKNOWN_CONE;
+    *spread = 0.0;
     if (c == NULL || (c->kind != CAMERA_PERSP && c->kind != CAMERA_ORTHO)) return;
     double P[3], f[7] = {c->left, c->right, c->bottom, c->top, c->kind == CAMERA_PERSP, (double)params->width,
                          (double)params->height};
@@ -200,6 +201,9 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                                                 (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0, 0,
                                                 H->lane_scattered[lane], through[lane], a, &arrived);
                 if (arrived) {
+                    double cone, spread;            /* (its camera ray's cone: path.with_arrivals) */
+                    camera_ray_cone(params, O, &cone, &spread);
+                    arrival_cone(a, cone, spread);
                     a->min_pdf = a->ray.pdf;
                     a->lane = lane;
                     a->pixel = (int64_t)b->pixel[lane];

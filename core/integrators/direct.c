@@ -760,6 +760,7 @@ static void textured_block(SampleBlock *b, const BlockHits *H, const DirectSetti
         unflat_prim(ds->geometry, e->prim[b->emitter[k]], &geometry, &prim, &instance);
         double O[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, D[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, out[3];
         LightPath path = path_at(H, b->hit[k], PATH_EMISSION);
+        path.cone = path.spread = 0.0;      /* (no footprint: a Bump there is flat, as Cycles' light samples) */
         graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], STILL_TIME, &path, NULL, out);
         for (int c = 0; c < 3; c++) b->color[c][k] = out[c];
     }

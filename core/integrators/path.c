@@ -29,7 +29,16 @@ typedef struct {
     int64_t lane, pixel, sample;
     double min_pdf;                            /* the smallest pdf of its real bounces and phase rays */
     int diffuse, glossy, transmission, transparent, portal, bounds;
+    double cone, spread;                       /* its ray cone from the scattering point (arrival_cone) */
 } Arrival;
+
+/* path.with_arrivals' ray cone for arrival a, whose path's ray had `cone` and `spread`: a scattering point has no
+ * footprint and its ray keeps the spread (Cycles: dP 0, dD kept); an unknown cone stays unknown. */
+static void arrival_cone(Arrival *a, double cone, double spread)
+{
+    a->cone = cone < 0.0 ? UNKNOWN_CONE : 0.0;
+    a->spread = cone < 0.0 ? 0.0 : spread;
+}
 
 /* What a chunk's paths need beyond the camera's block: two blocks of vertices to alternate between, the
  * BSDF rays that go on, and each camera lane's light from vertices after the first. */
@@ -283,7 +292,7 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     next->sd[m].caustics = 0;
     next->min_pdf[m] = a->min_pdf;
     LightPath path = {PATH_VOLUME_SCATTER, a->bounce, a->diffuse, a->glossy, a->transmission, a->transparent,
-                      a->portal, 0.0, 0.0};     /* (a medium's path: its ray cone unknown, as path.with_arrivals) */
+                      a->portal, a->cone, a->spread};
     ShaderKeys keys = {&traced, a->pixel, a->sample, (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,
                        a->min_pdf < BEVEL_MIN_PDF};
     shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry, r->prim,
@@ -299,7 +308,8 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     next->transmission[m] = a->transmission;
     next->transparent[m] = a->transparent;
     next->portal[m] = a->portal;
-    next->cone[m] = next->spread[m] = 0.0;
+    next->cone[m] = a->cone;
+    next->spread[m] = a->spread;
     next->bounds[m] = a->bounds;
     next->volume[m] = a->volume;
     next->inside[m] = a->inside;

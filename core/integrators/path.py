@@ -86,18 +86,23 @@ def roulette_from(settings) -> int:
 COUNTERS = ("bounce", "volume", "diffuse", "glossy", "transmission", "transparent", "portal", "bounds")
 
 
-def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner_of: np.ndarray) -> tuple:
+def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner_of: np.ndarray,
+                  cone_of: np.ndarray, spread_of: np.ndarray) -> tuple:
     """The next vertices' path state `state` (name -> (k, ...) array: owner, throughput, the counters, flags, the
     MIS origin...) with the paths that scattered in media and reached a surface (volume.multiple_scattering's
     `arrivals`, whose origin rows owner_of (r,) maps to camera rays) appended, and the Surface of them all.
-    where: (prim, u, v, O, D, t) of the k hits the state has."""
+    where: (prim, u, v, O, D, t) of the k hits the state has. cone_of, spread_of (r,): the ray cones of the origin
+    rows' rays; a scattering point has no footprint and its ray keeps the spread (Cycles: dP 0, dD kept), an unknown
+    cone stays unknown."""
     a = len(arrivals["origin"])
+    unknown = cone_of[arrivals["origin"]] < 0.0
     extra = dict(owner=owner_of[arrivals["origin"]], throughput=arrivals["throughput"],
                  flags=np.full(a, graph_.PATH["volume_scatter"], np.int64), mis_pdf=arrivals["pdf"],
                  mis_origin=arrivals["O"], mis_normal=np.zeros((a, 3)), mis_receiver=np.full(a, -1, np.int64),
                  after_diffuse=np.zeros(a, bool), seen_by=np.zeros(a, np.int64), inside=arrivals["inside"],
                  looking=np.zeros(a, bool), feature_throughput=np.ones((a, 3)), wo=-arrivals["D"],
-                 cone=np.zeros(a), spread=np.zeros(a),          # (a medium's paths: their ray cone unknown)
+                 cone=np.where(unknown, graph_.UNKNOWN_CONE, 0.0),
+                 spread=np.where(unknown, 0.0, spread_of[arrivals["origin"]]),
                  min_pdf=arrivals.get("min_pdf", arrivals["pdf"]), **{name: arrivals[name] for name in COUNTERS})
     out = {}
     for name, value in state.items():
@@ -342,7 +347,7 @@ class PathTracing(Integrator):
                          looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo,
                          min_pdf=min_pdf)
             where = (found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit), D_hit, found.t[hit])
-            state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)))
+            state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)), *camera_cones(ctx, O))
             (owner, throughput, diffuse, glossy, transmission, transparent, portal, cone, spread, bounds, bounce, flags,
              mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
              shares, volume, wo, min_pdf) = state.values()
@@ -537,7 +542,8 @@ class PathTracing(Integrator):
                 vertex_arrivals["min_pdf"] = np.minimum(ray_min_pdf[multi][vertex_arrivals["origin"]],
                                                         vertex_arrivals["pdf"])
                 where = (hits.prim[keep], hits.u[keep], hits.v[keep], ray.O[keep], D_next, hits.t[keep])
-                state, surface = with_arrivals(ctx, state, where, vertex_arrivals, arrival_owners)
+                state, surface = with_arrivals(ctx, state, where, vertex_arrivals, arrival_owners,
+                                               ray.path.cone[multi], ray.path.spread[multi])
                 (owner, throughput, diffuse, glossy, transmission, transparent, portal, cone, spread, bounds, bounce,
                  flags, mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking,
                  feature_throughput, shares, volume, wo, min_pdf) = state.values()

@@ -119,11 +119,11 @@ def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
 
 def camera_cones(ctx: Context, O: np.ndarray) -> tuple:
     """The ray cones camera rays leave with from their camera-relative origins O (k, 3) (graph.camera_cones, the
-    camera's frame MaterialTable.view and .window): (cone (k,), spread (k,)); zeros (unknown) under a panoramic
-    camera or none."""
+    camera's frame MaterialTable.view and .window): (cone (k,), spread (k,)); graph.UNKNOWN_CONE and 0 under a
+    panoramic camera or none."""
     view, frame = getattr(ctx.materials, "view", None), getattr(ctx.materials, "window", None)
     if view is None or frame is None or frame[4] >= 2.0:
-        return np.zeros(len(O)), np.zeros(len(O))
+        return np.full(len(O), graph_.UNKNOWN_CONE), np.zeros(len(O))
     view = np.asarray(view, np.float64).reshape(3, 4)
     P = (O + ctx.geometry.origin) @ view[:, :3].T + view[:, 3]
     return graph_.camera_cones(P, np.asarray(frame, np.float64))

@@ -630,14 +630,15 @@ def unlinked_finds(ctx: Context, prim: np.ndarray, receiver: np.ndarray, seen_as
 def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None):
     """The emitters' samples `ls` of points (n, 3), with what each textured triangle emits where its sample
     landed (its node graph evaluated there) in place of the triangle's estimate: a LightSample with (n, 3) colour.
-    paths: the graph.LightPaths the light is shaded for (Cycles' light_sample_shader_eval: EMISSION alone, and the
-    counts of the path at each point), or None."""
+    paths: the graph.LightPaths the light is shaded for (Cycles' light_sample_shader_eval: EMISSION alone, the
+    counts of the path at each point, and no ray footprint: a Bump there is flat, as in Cycles), or None."""
     color = np.array(np.broadcast_to(ls.color, (len(points), 3)))
     rows = np.flatnonzero(emitters.textured[ls.emitter] & (ls.strength > 0.0))
     if len(rows):
+        shaded = None if paths is None else graph_.paths_at(paths, rows)._replace(cone=np.zeros(len(rows)),
+                                                                                  spread=np.zeros(len(rows)))
         color[rows] = graph_emission(ctx.geometry, ctx.materials, emitters.prim[ls.emitter[rows]], points[rows],
-                                     ls.L[rows], ls.distance[rows],
-                                     None if paths is None else graph_.paths_at(paths, rows))
+                                     ls.L[rows], ls.distance[rows], shaded)
     return ls._replace(color=color)
 
 

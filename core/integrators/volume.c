@@ -507,6 +507,7 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
                 a->transparent = clear;
                 a->portal = r->path.portal;
                 a->bounds = H->bounds[h] + boundary;
+                arrival_cone(a, r->path.cone, r->path.spread);
                 work->n_arrivals++;
             }
             continue;

@@ -34,7 +34,7 @@ from . import features as features_
 from . import lightgroups, shader_rays, shadows
 from . import passes as passes_
 from .base import Context, Integrator, Radiance, Recorder, check_stop
-from .rays import lamps_seen, nearest_seen
+from .rays import camera_cones, lamps_seen, nearest_seen
 from .shadows import spawn_ray
 from .vertex import PathState, shade_vertex
 
@@ -73,6 +73,7 @@ class WhittedTracing(Integrator):
         feats = features_.Features(n) if s.denoising_features else None     # (of the camera's hits alone)
         data = passes_.DataPasses.of(ctx, sample)       # the first-hit passes (passes.py): of the camera's rays alone
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
+        cone, spread = camera_cones(ctx, O)     # each ray's cone (graph.LightPath), widened along the specular chain
         while len(owner):
             check_stop(ctx)
             # 1. The rays of this depth: what they hit; the world and lamps where they escape or pass.
@@ -120,7 +121,8 @@ class WhittedTracing(Integrator):
             P = graph_.PATH
             flags = (P["camera"] if depth == 0 else
                      np.where(crossing[hit], P["transmit"], P["reflect"]) | P["glossy"] | P["singular"])
-            light_path = graph_.light_paths(len(hit), flags, depth, 0, glossy[hit], transmission[hit])
+            light_path = graph_.light_paths(len(hit), flags, depth, 0, glossy[hit], transmission[hit],
+                                            cone=cone[hit], spread=spread[hit])
             state = PathState(dimension=depth * (1 << 16), light_path=light_path, bounce=depth)
             hit_groups = lightgroups.tally(ctx, len(hit))
             L_hit, rays, _ = shade_vertex(ctx, surface, wo, pixel[rows], sample[rows], recorder, state,
@@ -143,6 +145,8 @@ class WhittedTracing(Integrator):
             if children is None or depth + 1 > s.max_bounces:
                 break
             index, O, D, throughput, glossy, transmission = children
+            # (each child leaves with the footprint at its hit and the spread kept: rays.path_after)
+            cone, spread = graph_.footprints(light_path, found.t[hit])[index], spread[hit][index]
             crossing = np.einsum("ij,ij->i", surface.Ng[index], D) < 0.0
             owner = rows[index]
             t_max = np.full(len(owner), np.inf)

@@ -442,13 +442,14 @@ INLINE double pixel_width(const double *P, const double *f, const ShadingPoint *
 }
 
 /* graph.bump_differentials: the ray's differentials dPdx, dPdy across the surface at the hit as Cycles' Bump reads
- * them (the path's footprint along make_orthonormals of Ng); 0 where the path carries no ray cone: then BUMP_STEP of
- * the edges V1 - V0, V2 - V0. Returns 1 where the footprint is known. */
+ * them (the path's footprint along make_orthonormals of Ng; 0: none, the bump flat); where the cone is unknown
+ * (UNKNOWN_CONE), BUMP_STEP of the edges V1 - V0, V2 - V0. Returns 1 where the footprint is known. */
 static int bump_differentials(const ShadingPoint *sp, double *dPdx, double *dPdy)
 {
     const LightPath *p = &sp->path;
-    double footprint = (p->cone > 0.0 || p->spread > 0.0) ? p->cone + sp->t * p->spread : 0.0;
-    if (!(footprint > 0.0)) {
+    double footprint = p->cone + sp->t * p->spread;
+    if (footprint < 0.0) footprint = 0.0;
+    if (!(p->cone >= 0.0)) {
         for (int j = 0; j < 3; j++) { dPdx[j] = BUMP_STEP * sp->dPdu[j]; dPdy[j] = BUMP_STEP * sp->dPdv[j]; }
         return 0;
     }
@@ -672,9 +673,10 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             break;
         case OP_NORMAL_MAP: { double r[3]; normal_map(reg + a[1], reg[a[2]], a[3], hit, attributes, sp->N, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
         case OP_BUMP: {
-            double r[3];
-            bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7], reg[a[8]],
-                 sp, r);
+            double r[3] = {0.0, 0.0, 0.0};          /* (a light's own shading: no bump, as Cycles' light mask) */
+            if (!(sp->path.flags & PATH_EMISSION))
+                bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7],
+                     reg[a[8]], sp, r);
             for (int j = 0; j < 3; j++) out[j] = r[j];
             break;
         }

@@ -19,9 +19,12 @@ The Bump node needs the height's derivative. As Cycles, Primer evaluates the hei
 two points a step away, re-interpolating the attributes there (OFFSET ops): the ray's footprint at the
 hit (the path's ray cone, LightPaths cone + t spread: Cycles' compact differential) along two
 directions across the face (make_orthonormals of Ng), times the Bump's Filter Width (bump_step,
-bump_differentials). Where the path carries no ray cone (the direct and Whitted integrators, light
-samples, paths that scattered in media) the step is BUMP_STEP of the triangle's edges V1 - V0 and
-V2 - V0: a derivative where Cycles' difference averages over the footprint.
+bump_differentials). A footprint of 0 leaves the normal as it is, as in Cycles: a light's sample
+(Cycles shades it with no differentials), a path that scattered in media under an orthographic camera
+(a scattering point has no footprint; its ray keeps the spread it had). Where Primer does not know the
+cone (UNKNOWN_CONE: a panoramic camera's rays, a shading point without a path) the step is BUMP_STEP of the
+triangle's edges V1 - V0 and V2 - V0, a derivative where Cycles' difference averages over the
+footprint; the render says so (core/render bump_note).
 """
 from __future__ import annotations
 
@@ -86,7 +89,7 @@ LightPath = schema.record("LightPath", "What a shader knows of the path that rea
     ("transmission", I32, "bounces through the surface"),
     ("transparent", I32, "transparent surfaces passed straight through, the whole path's"),
     ("portal", I32, "of those, Ray Portals passed (Cycles' portal_bounce: they count as transparent ones too)"),
-    ("cone", F64, "the ray's footprint where it left (Cycles' compact ray differential dP; 0 with spread: unknown)"),
+    ("cone", F64, "the ray's footprint where it left (Cycles' compact ray differential dP; UNKNOWN_CONE: unknown)"),
     ("spread", F64, "how fast the footprint widens along it: the camera ray's (dD, kept through bounces)"),
 ])
 # Which of them are floats (the others are counts and bits).
@@ -108,7 +111,7 @@ LIGHT_PATH_FLAG_OF = {"Is Camera Ray": "camera", "Is Shadow Ray": "shadow", "Is 
 def light_paths(n: int, flags=PATH_CAMERA, bounce=0, diffuse=0, glossy=0, transmission=0,
                 transparent=0, portal=0, cone=0.0, spread=0.0) -> "LightPaths":
     """n hits' LightPaths, each field (n,) int64 (cone, spread float64) from a scalar or an (n,) array (the
-    default: camera rays, their ray cone unknown)."""
+    default: camera rays with no footprint, as a light's sample is shaded)."""
     values = (flags, bounce, diffuse, glossy, transmission, transparent, portal, cone, spread)
     return as_light_paths(values, n)
 
@@ -121,7 +124,8 @@ def as_light_paths(values, n: int) -> "LightPaths":
 
 
 def footprints(paths: "LightPaths", t) -> np.ndarray:
-    """The rays' footprints (n,) at hits t (n,) along them (Cycles' differential_transfer_compact: dP + t dD)."""
+    """The rays' footprints (n,) at hits t (n,) along them (Cycles' differential_transfer_compact: dP + t dD);
+    UNKNOWN_CONE where the cone is unknown (its spread is 0)."""
     return paths.cone + np.asarray(t, np.float64) * paths.spread
 
 
@@ -157,6 +161,9 @@ MAX_REGISTERS = schema.constant("MAX_REGISTERS", 1024, "a program's registers at
 MAX_ATTRIBUTES = schema.constant("MAX_ATTRIBUTES", 64, "attribute floats per hit at most")
 # The bump's finite-difference step, as a fraction of the triangle's edges.
 BUMP_STEP = schema.constant("BUMP_STEP", 1e-3, "the bump's finite-difference step, a fraction of the edges")
+# A ray cone Primer does not know (a panoramic camera's rays and the paths they start), with spread 0: Bump steps by
+# BUMP_STEP there. A cone of 0 and spread 0 is a footprint of 0 (Cycles' zero differential: no bump).
+UNKNOWN_CONE = schema.constant("UNKNOWN_CONE", -1.0, "a ray cone Primer does not know (graph.py)")
 # A Bump node's Filter Width where Blender has none (Cycles' BumpNode default; also its Displacement's bump).
 BUMP_FILTER_WIDTH = 0.1
 # Luminance of scene linear (Cycles' rgb_to_y with Blender's colour configuration, as float32: colour to float
@@ -1379,10 +1386,10 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]] = map_range(i[7], i[8], *(reg[:, i[k]] for k in range(1, 7)))
         elif name == "NORMAL_MAP":
             reg[:, i[0]:i[0] + 3] = normal_map(R(1, 3), reg[:, i[2]], i[3], hit, attributes, sp.N)
-        elif name == "BUMP":
+        elif name == "BUMP":                            # (0 in a light's own shading: lit_by_bump)
             normal = sp.N if i[6] < 0 else R(6, 3)
             reg[:, i[0]:i[0] + 3] = bump(normal, reg[:, i[1]], reg[:, i[2]], reg[:, i[3]], reg[:, i[4]],
-                                         reg[:, i[5]], i[7], reg[:, i[8]], sp)
+                                         reg[:, i[5]], i[7], reg[:, i[8]], sp) * lit_by_bump(sp)[:, None]
         elif name == "CONVERT":
             if i[2] == 0:
                 src = R(1, 3)
@@ -1772,15 +1779,14 @@ def tangent_space(v: np.ndarray, tangent_offset: int, sp: ShadingPoint) -> np.nd
 
 def bump_differentials(sp: ShadingPoint) -> tuple:
     """The ray's differentials across the surface at n hits as Cycles' Bump reads them, ((n, 3), (n, 3), known (n,)
-    bool): the footprint (footprints of sp.path at sp.t) along make_orthonormals of Ng (differential_from_compact);
-    where the path carries no ray cone (none, or cone and spread 0: light samples, after media), BUMP_STEP (V1 - V0)
-    and BUMP_STEP (V2 - V0)."""
+    bool): the footprint (footprints of sp.path at sp.t; 0: none, as a light's sample, so the bump is flat) along
+    make_orthonormals of Ng (differential_from_compact); where the cone is unknown (UNKNOWN_CONE, or no path),
+    BUMP_STEP (V1 - V0) and BUMP_STEP (V2 - V0)."""
     n = len(sp.N)
-    footprint = np.zeros(n)
+    footprint = np.full(n, UNKNOWN_CONE)
     if sp.path is not None and sp.t is not None:
-        carried = (sp.path.cone > 0.0) | (sp.path.spread > 0.0)
-        footprint = np.where(carried, footprints(sp.path, sp.t), 0.0)
-    known = footprint > 0.0
+        footprint = np.where(sp.path.cone >= 0.0, np.maximum(footprints(sp.path, sp.t), 0.0), UNKNOWN_CONE)
+    known = footprint >= 0.0
     a, b = orthonormals(sp.Ng)
     return (np.where(known[:, None], footprint[:, None] * a, BUMP_STEP * sp.dPdu),
             np.where(known[:, None], footprint[:, None] * b, BUMP_STEP * sp.dPdv), known)
@@ -1805,6 +1811,15 @@ def bump_step(where: int, width, sp: ShadingPoint) -> tuple:
     dv = width * safe_divide(uu * dv_d - uv * du_d, det)
     return (np.where(known, du, BUMP_STEP if where == 1 else 0.0),
             np.where(known, dv, BUMP_STEP if where == 2 else 0.0))
+
+
+def lit_by_bump(sp: ShadingPoint) -> np.ndarray:
+    """Which of n hits a Bump shades (n,) float64 1 or 0: not a light's own shading (PATH_EMISSION: a light's sample
+    on an emitter, the world, a lamp), where Cycles evaluates no bump nodes (KERNEL_FEATURE_NODE_MASK_SURFACE_LIGHT):
+    the Bump's Normal is the zero vector there, and a Displacement's Set Normal keeps the hit's normal."""
+    if sp.path is None:
+        return np.ones(len(sp.N))
+    return np.where((np.asarray(sp.path.flags) & PATH_EMISSION) != 0, 0.0, 1.0) * np.ones(len(sp.N))
 
 
 def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, width, sp: ShadingPoint) -> np.ndarray:

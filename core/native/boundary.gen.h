@@ -205,6 +205,8 @@
 #define MAX_ATTRIBUTES 64
 /* the bump's finite-difference step, a fraction of the edges (core.materials.graph) */
 #define BUMP_STEP 0.001
+/* a ray cone Primer does not know (graph.py) (core.materials.graph) */
+#define UNKNOWN_CONE -1.0
 /* what a program's output does to a shader node (core.materials.graph) */
 #define OUT_INPUT 0
 #define OUT_WEIGHT 1
@@ -1015,7 +1017,7 @@ struct LightPath {
     int32_t transmission;                   /* bounces through the surface */
     int32_t transparent;                    /* transparent surfaces passed straight through, the whole path's */
     int32_t portal;                         /* of those, Ray Portals passed (Cycles' portal_bounce: they count as transparent ones too) */
-    double cone;                            /* the ray's footprint where it left (Cycles' compact ray differential dP; 0 with spread: unknown) */
+    double cone;                            /* the ray's footprint where it left (Cycles' compact ray differential dP; UNKNOWN_CONE: unknown) */
     double spread;                          /* how fast the footprint widens along it: the camera ray's (dD, kept through bounces) */
 };
 
