@@ -124,32 +124,21 @@ def _follow(node):
     return node
 
 
-# A Bump's step under a panoramic camera: Cycles steps by the pixel's footprint (its panoramic ray differentials),
-# Primer does not know the cone of a panoramic camera's rays (graph.UNKNOWN_CONE) and steps by a fixed fraction.
-BUMP_UNDER_PANORAMA = ("Bump under a panoramic camera is approximated: Primer steps by 1/1000 of the triangle's "
-                       "edges where Cycles steps by the pixel's footprint (fine bumps look sharper)")
-
-
-def _panoramic_camera() -> bool:
-    """Whether the scene's camera is panoramic (a Bump's step is then approximated: BUMP_UNDER_PANORAMA)."""
-    camera = bpy.context.scene.camera
-    return camera is not None and getattr(camera.data, "type", "") == "PANO"
-
-
 # A Bump in a light-sampled emitter's tree: Cycles evaluates no bump nodes in a light's own shading (its Normal is the
-# zero vector at light samples), Primer too; the two renderers' MIS weights then differ where light samples and BSDF
-# rays see different emission (tests/test_blender_displacement.py: the floor under such an emitter 13x darker).
-BUMP_AT_LIGHT_SAMPLES = ("a Bump in a light-sampled emitter: light samples see its Normal as zero (as Cycles) and BSDF "
-                         "rays see it bumped; Primer weighs the two differently from Cycles there (set Emission "
-                         "Sampling to None for the same light)")
+# zero vector at light samples), Primer too. Where light samples and BSDF rays see different emission the image is
+# their MIS weights' mix, and Primer's Light Samples n weigh BSDF rays less than Cycles' one light sample does
+# (tests/test_blender_displacement.py: the floor under such an emitter 13x darker at 4, 9 % brighter at 1).
+BUMP_AT_LIGHT_SAMPLES = ("a Bump in a light-sampled emitter: light samples see its Normal as zero and BSDF rays see "
+                         "it bumped, as in Cycles; the image then depends on how MIS weighs the two, which matches "
+                         "Cycles only at Light Samples 1 (within 9 %)")
 
 
 # The Wireframe node's Pixel Size where light samples land on an emitter: Cycles sets up no ray differentials there
-# (shader_setup_from_sample: a zero footprint, so no wire shows), Primer measures the pixel as for the ray that
-# reached the sampling point.
-PIXEL_SIZE_AT_LIGHT_SAMPLES = ("Pixel Size where light samples land on this emitter is not modelled: Cycles has no "
-                               "ray footprint there and sees no wire, Primer measures the pixel as for the path "
-                               "that sampled it (set Emission Sampling to None for the same light)")
+# (shader_setup_from_sample: a zero footprint, so no wire shows), Primer too (graph.pixel_width); BSDF rays see the
+# wires, and the image is their MIS weights' mix, Cycles' at Light Samples 1 (as BUMP_AT_LIGHT_SAMPLES).
+PIXEL_SIZE_AT_LIGHT_SAMPLES = ("Pixel Size on a light-sampled emitter: light samples see no wire (no ray footprint) "
+                               "and BSDF rays see it, as in Cycles; the image then depends on how MIS weighs the "
+                               "two, which matches Cycles only at Light Samples 1")
 
 
 def _light_sampled_emitter(material) -> bool:
@@ -564,18 +553,13 @@ class GraphReader:
             if not node.inputs["Normal"].is_linked:
                 inputs.pop("Normal", None)                # unlinked: the shading normal, as in Cycles
         elif kind == "WIREFRAME":
-            camera = bpy.context.scene.camera
             props = {"pixel_size": bool(node.use_pixel_size)}
-            if node.use_pixel_size and camera is not None and getattr(camera.data, "type", "") == "PANO":
-                warn("Pixel Size under a panoramic camera is not modelled; Primer reads Size in world units")
             if node.use_pixel_size and _light_sampled_emitter(self.reader.material):
                 warn(PIXEL_SIZE_AT_LIGHT_SAMPLES)
             inputs = self.inputs(node, path, ["Size"])
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}
         elif kind == "BUMP":
-            if _panoramic_camera():
-                warn(BUMP_UNDER_PANORAMA)
             if _light_sampled_emitter(self.reader.material):
                 warn(BUMP_AT_LIGHT_SAMPLES)
             # Filter Width (Blender 4.5 and later; Cycles reads its value when compiling, never a link)
@@ -1660,8 +1644,6 @@ def export_material(material, warnings: list) -> Material:
                 warnings.append(f"material '{material.name}': Displacement and Bump: Primer renders the bump part "
                                 "only, not the moved surface")
             normal = displacement_bump(NodeReader(material, warnings), output)
-            if _panoramic_camera():
-                warnings.append(f"material '{material.name}': its Displacement (Bump Only): {BUMP_UNDER_PANORAMA}")
     if volume is not None and surface_node(material) is None:
         # Cycles: a volume's boundary with no surface shader is not there for rays (they enter the volume, and a
         # crossing counts as no transparent bounce).

@@ -199,7 +199,7 @@ def test_input_nodes_render_cycles_values_inside_every_face_front_and_back(tmp_p
     script = SCRIPT.format(pixels=PIXELS, rows=ROWS, samples=SAMPLES)
     result = run_bpy(script, str(tmp_path))
     # (the Pixel Size Wireframe's emitting tile is warned of where light samples would land on it: none do here)
-    assert [w for w in result["warnings"] if "light samples land" not in w] == []
+    assert [w for w in result["warnings"] if "light-sampled emitter" not in w] == []
     primer, cycles = np.load(tmp_path / "primer.npy"), np.load(tmp_path / "cycles.npy")
     assert primer.shape == cycles.shape
     inside, covered = interior(cycles), interior((cycles.max(axis=2, keepdims=True) > 0.0).astype(np.float64))

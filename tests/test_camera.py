@@ -571,3 +571,34 @@ def test_panoramas_map_the_image_to_their_directions_in_closed_form():
     rays = look(poly, [0.75], [0.5])                   # 9 mm right of the centre on a 36 mm wide sensor
     np.testing.assert_allclose(math.acos(-rays.directions[0, 2]), 0.27, atol=1e-12)
     assert rays.directions[0, 0] > 0.0 and abs(rays.directions[0, 1]) < 1e-12
+
+
+def test_an_equirectangular_rays_spread_is_the_chord_of_one_pixels_longitude_and_latitude():
+    """Cycles differences a panorama's pinhole directions one pixel apart in x and y: on the equator of an
+    equirectangular image, |D(x + 1) - D| = 2 sin(dphi / 2) and |D(y + 1) - D| = 2 sin(dtheta / 2), with dphi and
+    dtheta the longitudes and latitudes of one pixel; the spread is their mean, the cone clip_start times it. Along a
+    parallel at latitude l the longitude's chord shrinks by cos l."""
+    pano = Camera(matrix_world=np.eye(4), type="PANO", panorama_type="EQUIRECTANGULAR", longitude_min=-2.0,
+                  longitude_max=1.0, latitude_min=-0.6, latitude_max=0.9, clip_start=0.25)
+    width, height = 96, 40
+    dphi, dtheta = 3.0 / width, 1.5 / height
+    latitude = np.array([0.0, 0.3, -0.5])
+    v = (latitude + 0.6) / 1.5                          # (v from the bottom: the latitude's place in the range)
+    cone, spread, known = camera_module.panorama_cones(pano, np.full(3, 0.4), v, width, height)
+    assert known.all()
+    # (the y neighbour lies one pixel down, at latitude l - dtheta; its chord is 2 sin(dtheta / 2) all the same)
+    expected = 0.5 * (2.0 * np.sin(0.5 * dphi) * np.cos(latitude) + 2.0 * math.sin(0.5 * dtheta))
+    np.testing.assert_allclose(spread, expected, rtol=1e-12)
+    np.testing.assert_allclose(cone, 0.25 * expected, rtol=1e-12)
+
+
+def test_a_mirror_balls_rim_takes_the_neighbour_that_exists():
+    """Past a mirror ball's rim there is no direction: a ray whose x neighbour falls off the ball takes its y
+    neighbour's step for both (Cycles' would be undefined there); a ray with neither has an unknown cone."""
+    ball = Camera(matrix_world=np.eye(4), type="PANO", panorama_type="MIRRORBALL")
+    cone, spread, known = camera_module.panorama_cones(ball, np.array([0.5, 0.99, 0.9999]), np.array([0.5, 0.5, 0.0001]),
+                                                32, 32)
+    d, _ = camera_module.panorama_local(ball, np.array([0.99, 0.99]), np.array([0.5, 0.5 - 1.0 / 32]), 32, 32)
+    assert spread[0] > 0.0
+    np.testing.assert_allclose(spread[1], np.linalg.norm(d[1] - d[0]), rtol=1e-12)
+    assert list(known) == [True, True, False] and spread[2] == 0.0

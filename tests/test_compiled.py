@@ -542,3 +542,28 @@ def test_each_objects_own_terminator_offsets_render_alike_in_both_kernels(instan
                               terminator_fix=True)
     compiled, reference = compare_paths(scene, settings)
     assert_same_render(compiled, reference)
+
+
+@pytest.mark.parametrize("camera_type", ["EQUIRECTANGULAR", "FISHEYE_EQUISOLID", "MIRRORBALL"])
+def test_bumps_and_pixel_size_wires_under_panoramic_cameras_render_alike_in_both_kernels(camera_type):
+    """Under a panoramic camera each camera ray leaves with Cycles' panorama differentials (camera.panorama_cones:
+    its pinhole's directions one pixel apart): the floor's Bump steps by that footprint and a Pixel Size Wireframe
+    measures it, the Python reference (from the ray's direction) and the compiled kernel (from its raster point)
+    alike."""
+    from core.materials import Material
+    from core.materials.graph import GraphNode, Link
+    scene = lit_scene(LIGHTS["sun"])
+    scene.camera = dataclasses.replace(scene.camera, type="PANO", panorama_type=camera_type,
+                                       fisheye_fov=math.radians(170), fisheye_lens=8.0)
+    x = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(GraphNode("GEOMETRY", {}, {}), "Position")}), "X")
+    height = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": Link(GraphNode(
+        "MATH", {"operation": "MULTIPLY"}, {"0": x, "1": 6.0}), "Value")}), "Value")
+    normal = Link(GraphNode("BUMP", {"invert": False, "filter_width": 1.0},
+                            {"Strength": 1.0, "Distance": 0.3, "Height": height}), "Normal")
+    wire = Link(GraphNode("WIREFRAME", {"pixel_size": True}, {"Size": 1.5}), "Fac")
+    scene.materials[0] = Material(name="Bumped", nodes=[("DIFFUSE", (0.8, 0.7, 0.6), {"color": np.array([0.8, 0.7, 0.6]),
+                                                                                      "normal": normal})])
+    scene.materials[1] = Material(name="Wire", nodes=[("EMISSION", (1.0, 1.0, 1.0), {"strength": wire})])
+    settings = RenderSettings(width=48, height=32, samples=2, light_samples=1, terminator_fix=True)
+    compiled, reference = compare_paths(scene, settings)
+    assert_same_render(compiled, reference)

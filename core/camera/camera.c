@@ -126,6 +126,71 @@ INLINE int panorama_direction(const CameraRecord *camera, int kind, double u, do
     return 1;
 }
 
+/* camera.panorama_local: the pinhole's local unit direction d (Blender's camera frame, looking down -z) of a panoramic
+ * camera of `kind` at its (u, v); returns 0 where none exists (d is then the forward direction). */
+static int panorama_local(const CameraRecord *camera, int kind, double u, double v, double *d)
+{
+    if (kind == CAMERA_FISHEYE_EQUIDISTANT || kind == CAMERA_FISHEYE_EQUISOLID) {
+        /* The fisheyes: (u, v) onto the image plane, inside the image circle; the angle from the axis linear in the
+         * radius (equidistant) or r = 2 lens sin(theta / 2) (equisolid). */
+        double plane_x = (u - 0.5) * camera->scale_x, plane_y = (v - 0.5) * camera->scale_y;
+        double radius = sqrt(plane_x * plane_x + plane_y * plane_y);
+        int valid = radius <= camera->limit;
+        double sin_theta, cos_theta;
+        if (kind == CAMERA_FISHEYE_EQUIDISTANT) {
+            double theta = valid ? radius * (0.5 * camera->fisheye_fov) : 0.0;
+            sin_theta = sin(theta);
+            cos_theta = cos(theta);
+        } else {
+            double s = valid ? radius / (2.0 * camera->fisheye_lens) : 0.0;
+            s = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
+            sin_theta = 2.0 * s * sqrt(1.0 - s * s);
+            cos_theta = 1.0 - 2.0 * s * s;
+        }
+        double scale = radius > 0.0 ? sin_theta / radius : 0.0;
+        d[0] = scale * plane_x; d[1] = scale * plane_y; d[2] = -cos_theta;
+        return valid;
+    }
+    /* The others: the direction in Cycles' panorama frame, turned into the camera's (a mirror ball looks down its y
+     * axis, the others down x). */
+    double c[3];
+    int valid = panorama_direction(camera, kind, u, v, c);
+    if (kind == CAMERA_MIRRORBALL) { d[0] = c[0]; d[1] = c[2]; d[2] = c[1]; }
+    else { d[0] = -c[1]; d[1] = c[2]; d[2] = -c[0]; }
+    double length = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (valid) { d[0] /= length; d[1] /= length; d[2] /= length; }
+    else { d[0] = 0.0; d[1] = 0.0; d[2] = -1.0; }
+    return valid;
+}
+
+/* camera.panorama_cones: a panoramic camera's ray cone at its (u, v) (Cycles' camera_sample_panorama differentials):
+ * *spread the mean of |D(x + 1) - D| and |D(y + 1) - D| over one pixel step (u + 1 / width, v - 1 / height), *cone
+ * clip_start times it; a neighbour with no direction counts as the other one; with neither, UNKNOWN_CONE and 0. */
+static void panorama_cone(const CameraRecord *camera, int kind, double u, double v, int64_t width, int64_t height,
+                          double *cone, double *spread)
+{
+    double d[3], dx[3], dy[3];
+    panorama_local(camera, kind, u, v, d);
+    int along_x = panorama_local(camera, kind, u + 1.0 / (double)width, v, dx);
+    int along_y = panorama_local(camera, kind, u, v - 1.0 / (double)height, dy);
+    double step_x = 0.0, step_y = 0.0;
+    for (int c = 0; c < 3; c++) {
+        step_x += (dx[c] - d[c]) * (dx[c] - d[c]);
+        step_y += (dy[c] - d[c]) * (dy[c] - d[c]);
+    }
+    step_x = sqrt(step_x);
+    step_y = sqrt(step_y);
+    if (!along_x && !along_y) {
+        *cone = UNKNOWN_CONE;
+        *spread = 0.0;
+        return;
+    }
+    if (!along_x) step_x = step_y;
+    if (!along_y) step_y = step_x;
+    *spread = 0.5 * (step_x + step_y);
+    *cone = camera->clip_start * *spread;
+}
+
 /* One camera ray per lane (inlined once per camera kind, so that the loop has no branch). */
 /* camera._panorama_lens for one ray: the local unit direction d through the thin lens of the uniform numbers u0, u1,
  * worked in Cycles' panorama frame (x forward; a mirror ball's own); o becomes the aperture's point past clip_start
@@ -216,42 +281,11 @@ INLINE void camera_lanes(CameraBlock *restrict b, const CameraRecord *restrict r
                 d[0] = 0.0; d[1] = 0.0; d[2] = -1.0;
                 t = camera.clip_end - camera.clip_start;
             }
-        } else if (kind != CAMERA_FISHEYE_EQUIDISTANT && kind != CAMERA_FISHEYE_EQUISOLID) {
-            /* 1. Another panorama (camera._panorama_rays): its (u, v), its direction in Cycles' panorama frame, turned
-             * into the camera's (a mirror ball looks down its y axis, the others down x); spherical clipping. */
-            double u = raster_x / (double)width + camera.shift_x;
-            double v = ((double)height - raster_y) / (double)height + camera.shift_y;
-            double c[3];
-            valid = panorama_direction(&camera, kind, u, v, c);
-            if (kind == CAMERA_MIRRORBALL) { d[0] = c[0]; d[1] = c[2]; d[2] = c[1]; }
-            else { d[0] = -c[1]; d[1] = c[2]; d[2] = -c[0]; }
-            double length = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            if (valid) { d[0] /= length; d[1] /= length; d[2] /= length; }
-            else { d[0] = 0.0; d[1] = 0.0; d[2] = -1.0; }
-            o[0] = d[0] * camera.clip_start; o[1] = d[1] * camera.clip_start; o[2] = d[2] * camera.clip_start;
-            t = camera.clip_end - camera.clip_start;
         } else {
-            /* 1. A fisheye: the panorama's (u, v), v from the bottom, onto its image plane. */
+            /* 1. A panorama (camera.panorama_local): the pinhole's direction at its (u, v); spherical clipping. */
             double u = raster_x / (double)width + camera.shift_x;
             double v = ((double)height - raster_y) / (double)height + camera.shift_y;
-            double plane_x = (u - 0.5) * camera.scale_x, plane_y = (v - 0.5) * camera.scale_y;
-            double radius = sqrt(plane_x * plane_x + plane_y * plane_y);
-            valid = radius <= camera.limit;
-            /* 2. The angle from the axis: linear in the radius (equidistant) or r = 2 lens sin(theta / 2). */
-            double sin_theta, cos_theta;
-            if (kind == CAMERA_FISHEYE_EQUIDISTANT) {
-                double theta = valid ? radius * (0.5 * camera.fisheye_fov) : 0.0;
-                sin_theta = sin(theta);
-                cos_theta = cos(theta);
-            } else {
-                double s = valid ? radius / (2.0 * camera.fisheye_lens) : 0.0;
-                s = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
-                sin_theta = 2.0 * s * sqrt(1.0 - s * s);
-                cos_theta = 1.0 - 2.0 * s * s;
-            }
-            double scale = radius > 0.0 ? sin_theta / radius : 0.0;
-            d[0] = scale * plane_x; d[1] = scale * plane_y; d[2] = -cos_theta;
-            /* Spherical clipping, as in Cycles: the clip distances are measured along the ray. */
+            valid = panorama_local(&camera, kind, u, v, d);
             o[0] = d[0] * camera.clip_start; o[1] = d[1] * camera.clip_start; o[2] = d[2] * camera.clip_start;
             t = camera.clip_end - camera.clip_start;
         }

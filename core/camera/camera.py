@@ -504,7 +504,7 @@ def _fisheye_directions(sin_theta: np.ndarray, cos_theta: np.ndarray, plane_x: n
 
 def _fisheye_plane(camera: Camera, width, height, pixel_aspect) -> tuple[float, float, float]:
     """Return (scale_x, scale_y, limit): the image plane is ((u - 0.5) scale_x, (v - 0.5) scale_y), and
-    the image circle is where its distance from the centre is at most `limit` (see _fisheye_rays)."""
+    the image circle is where its distance from the centre is at most `limit` (see panorama_local)."""
     if camera.panorama_type == "FISHEYE_EQUIDISTANT":
         return 2.0, 2.0, 1.0
     sensor_width, sensor_height = _panorama_sensor(camera, width, height, pixel_aspect)
@@ -585,47 +585,60 @@ def panorama_to_local(camera: Camera, c: np.ndarray) -> np.ndarray:
     return vectors.rows(-c[:, 1], c[:, 2], -c[:, 0])
 
 
-def _panorama_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
-    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for an equirectangular, cube-map face,
-    mirror-ball, polynomial-fisheye or central-cylindrical panorama (panorama_directions); spherical clipping.
-    Where no direction exists the ray looks forward and is not valid (opaque black, as Cycles)."""
-    u, v = _panorama_uv(camera, width, height, raster_x, raster_y)
+def panorama_local(camera: Camera, u: np.ndarray, v: np.ndarray, width: int, height: int,
+                   pixel_aspect=(1.0, 1.0)) -> tuple:
+    """The pinhole directions of a panoramic camera at its (u, v) (n,) (_panorama_uv): local unit directions (n, 3)
+    (Blender's camera frame, looking down -z), and which exist (n,) bool; where none does, the forward direction.
+
+    The fisheyes: (u, v) onto the image plane ((u - 0.5) scale_x, (v - 0.5) scale_y), inside the image circle;
+    equidistant, the angle from the axis linear in the radius, theta = r fisheye_fov / 2 up to r = 1; equisolid,
+    r = 2 lens sin(theta / 2) up to theta = fisheye_fov / 2. The others: panorama_directions turned into the local
+    frame (panorama_to_local)."""
+    if camera.panorama_type in ("FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"):
+        scale_x, scale_y, limit = _fisheye_plane(camera, width, height, pixel_aspect)
+        plane_x, plane_y = (u - 0.5) * scale_x, (v - 0.5) * scale_y
+        radius = np.sqrt(plane_x * plane_x + plane_y * plane_y)
+        valid = radius <= limit
+        if camera.panorama_type == "FISHEYE_EQUIDISTANT":
+            theta = np.where(valid, radius * (0.5 * camera.fisheye_fov), 0.0)
+            sin_theta, cos_theta = np.sin(theta), np.cos(theta)
+        else:
+            # r = 2 lens sin(theta / 2); with s = sin(theta / 2): sin theta = 2 s sqrt(1 - s^2), cos theta = 1 - 2 s^2.
+            s = np.where(valid, np.clip(radius / (2.0 * camera.fisheye_lens), 0.0, 1.0), 0.0)
+            sin_theta, cos_theta = 2.0 * s * np.sqrt(1.0 - s * s), 1.0 - 2.0 * s * s
+        # (outside the image circle, theta = 0: the forward direction)
+        return _fisheye_directions(sin_theta, cos_theta, plane_x, plane_y, radius), valid
     c, valid = panorama_directions(camera, u, v, _panorama_sensor(camera, width, height, pixel_aspect))
     local = panorama_to_local(camera, c)
     local[~valid] = (0.0, 0.0, -1.0)
-    directions = _normalize_rows(local)
+    return _normalize_rows(local), valid
+
+
+def panorama_cones(camera: Camera, u: np.ndarray, v: np.ndarray, width: int, height: int,
+                   pixel_aspect=(1.0, 1.0)) -> tuple:
+    """The ray cones of a panoramic camera's rays at its (u, v) (n,), as Cycles' camera_sample_panorama makes their
+    differentials: the spread (n,) is the mean of |D(x + 1) - D| and |D(y + 1) - D| over one pixel step in raster x
+    and y (u + 1 / width, v - 1 / height), the cone (n,) clip_start times it (the ray starts there). A neighbour
+    with no direction (past a fisheye's circle or a mirror ball's rim) counts as the other one; with neither, the
+    cone is unknown (0 and 0 there). Returns (cone, spread, known (n,) bool)."""
+    d, _ = panorama_local(camera, u, v, width, height, pixel_aspect)
+    dx, along_x = panorama_local(camera, u + 1.0 / width, v, width, height, pixel_aspect)
+    dy, along_y = panorama_local(camera, u, v - 1.0 / height, width, height, pixel_aspect)
+    step_x, step_y = np.linalg.norm(dx - d, axis=1), np.linalg.norm(dy - d, axis=1)
+    step_x, step_y = np.where(along_x, step_x, step_y), np.where(along_y, step_y, step_x)
+    known = along_x | along_y
+    spread = np.where(known, 0.5 * (step_x + step_y), 0.0)
+    return camera.clip_start * spread, spread, known
+
+
+def _panorama_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
+    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for any panoramic camera
+    (panorama_local); spherical clipping, as in Cycles: clip distances are measured along the ray. Where no
+    direction exists the ray looks forward and is not valid (opaque black, as Cycles)."""
+    u, v = _panorama_uv(camera, width, height, raster_x, raster_y)
+    directions, valid = panorama_local(camera, u, v, width, height, pixel_aspect)
     origins = directions * camera.clip_start
     return origins, directions, np.full(len(u), camera.clip_end - camera.clip_start), valid
-
-
-def _fisheye_rays(camera: Camera, width, height, raster_x, raster_y, pixel_aspect):
-    """Return local (origins (n,3), directions (n,3), t_max (n,), valid (n,)) for a fisheye camera.
-
-    Equidistant: u, v are stretched to [-1, 1] each (so the image circle becomes an
-    ellipse touching the frame edges on non-square images) and the angle from the
-    axis grows linearly, theta = r * fisheye_fov / 2, up to r = 1.
-    Equisolid: u, v are scaled to millimetres on the sensor, r = 2 * lens * sin(theta / 2),
-    and the image circle ends at theta = fisheye_fov / 2.
-    Clipping is spherical here, as in Cycles: clip distances are measured along the ray.
-    """
-    u, v = _panorama_uv(camera, width, height, raster_x, raster_y)
-    scale_x, scale_y, limit = _fisheye_plane(camera, width, height, pixel_aspect)
-    plane_x = (u - 0.5) * scale_x
-    plane_y = (v - 0.5) * scale_y
-    radius = np.sqrt(plane_x * plane_x + plane_y * plane_y)
-    valid = radius <= limit
-    if camera.panorama_type == "FISHEYE_EQUIDISTANT":
-        theta = np.where(valid, radius * (0.5 * camera.fisheye_fov), 0.0)
-        sin_theta, cos_theta = np.sin(theta), np.cos(theta)
-    else:  # FISHEYE_EQUISOLID
-        # r = 2 lens sin(theta / 2); with s = sin(theta / 2): sin theta = 2 s sqrt(1 - s^2), cos theta = 1 - 2 s^2.
-        s = np.where(valid, np.clip(radius / (2.0 * camera.fisheye_lens), 0.0, 1.0), 0.0)
-        sin_theta, cos_theta = 2.0 * s * np.sqrt(1.0 - s * s), 1.0 - 2.0 * s * s
-    # Outside the image circle Cycles renders black; those rays get the forward direction (theta = 0).
-    directions = _fisheye_directions(sin_theta, cos_theta, plane_x, plane_y, radius)
-    origins = directions * camera.clip_start
-    t_max = np.full(len(u), camera.clip_end - camera.clip_start)
-    return origins, directions, t_max, valid
 
 
 def outside_image_circle(camera: Camera, width: int, height: int, pixels: np.ndarray,
@@ -634,7 +647,7 @@ def outside_image_circle(camera: Camera, width: int, height: int, pixels: np.nda
 
     Such pixels are opaque black whatever is sampled in them, so a render need not sample them.
     A pixel's samples land in an axis-aligned rectangle on the fisheye's image plane (u and v are
-    affine in the raster position, see _fisheye_rays): the pixel grown by `reach` pixels on every
+    affine in the raster position, see panorama_local): the pixel grown by `reach` pixels on every
     side (how far its pixel filter sends them, core/camera/filter.py); the pixel lies outside when the
     rectangle's point nearest the circle's centre does. pixels: (p,) int64 flat indices, row 0 at the top.
     """
@@ -677,8 +690,6 @@ def generate_rays(camera: Camera, width: int, height: int, raster_x: np.ndarray,
         local = _perspective_rays(camera, width, height, raster_x, raster_y, pixel_aspect, lens, scale)
     elif camera.type == "ORTHO":
         local = _orthographic_rays(camera, width, height, raster_x, raster_y, pixel_aspect, lens)
-    elif camera.panorama_type in ("FISHEYE_EQUIDISTANT", "FISHEYE_EQUISOLID"):
-        local = _fisheye_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
     else:
         local = _panorama_rays(camera, width, height, raster_x, raster_y, pixel_aspect)
     local_origins, local_directions, t_max, valid = local

@@ -4,15 +4,23 @@
  * of spp samples each, BLOCK camera samples at a time: each block's rays, hits, surfaces and shadow
  * rays live in the cache and on the stack, and its samples go straight into their pixels' sums. */
 
-/* rays.camera_cones: the ray cone a camera ray leaves with from its camera-relative origin O (graph.c camera_cone in
- * the camera's frame, made of the camera record): its footprint there into *cone, its widening into *spread;
- * UNKNOWN_CONE and 0 under a panoramic camera. */
-static void camera_ray_cone(const ChunkParams *params, const double *O, double *cone, double *spread)
+/* rays.camera_cones: the ray cone camera ray `lane` of block b leaves with from its camera-relative origin O (graph.c
+ * camera_cone in the camera's frame, made of the camera record): its footprint there into *cone, its widening into
+ * *spread; under a panoramic camera camera.c panorama_cone at the sample's (u, v) (the pinhole's, as Cycles). */
+static void camera_ray_cone(const ChunkParams *params, const CameraBlock *b, int64_t lane, const double *O,
+                            double *cone, double *spread)
 {
     const CameraRecord *c = params->camera;
     *cone = UNKNOWN_CONE;
     *spread = 0.0;
-    if (c == NULL || (c->kind != CAMERA_PERSP && c->kind != CAMERA_ORTHO)) return;
+    if (c == NULL) return;
+    if (c->kind != CAMERA_PERSP && c->kind != CAMERA_ORTHO) {
+        double raster_x = b->column[lane] + b->u[0][lane], raster_y = b->row[lane] + b->u[1][lane];
+        double u = raster_x / (double)params->width + c->shift_x;
+        double v = ((double)params->height - raster_y) / (double)params->height + c->shift_y;
+        panorama_cone(c, (int)c->kind, u, v, params->width, params->height, cone, spread);
+        return;
+    }
     double P[3], f[7] = {c->left, c->right, c->bottom, c->top, c->kind == CAMERA_PERSP, (double)params->width,
                          (double)params->height};
     for (int i = 0; i < 3; i++)                 /* (the rotation's transpose: world to camera) */
@@ -104,7 +112,7 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
              * hit, and its camera ray's flags) */
             for (int c = 0; c < 3; c++) H->throughput[3 * h + c] = 1.0;
             H->bounce[h] = H->diffuse[h] = H->glossy[h] = H->transmission[h] = H->transparent[h] = H->portal[h] = 0;
-            camera_ray_cone(params, O, H->cone + h, H->spread + h);
+            camera_ray_cone(params, b, lane, O, H->cone + h, H->spread + h);
             H->flags[h] = PATH_CAMERA;
             H->min_pdf[h] = INFINITY;           /* (no bounce yet: Cycles' min_ray_pdf, which the Bevel node reads) */
             LightPath camera = path_at(H, h, PATH_CAMERA);
@@ -202,7 +210,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                                                 H->lane_scattered[lane], through[lane], a, &arrived);
                 if (arrived) {
                     double cone, spread;            /* (its camera ray's cone: path.with_arrivals) */
-                    camera_ray_cone(params, O, &cone, &spread);
+                    camera_ray_cone(params, b, lane, O, &cone, &spread);
                     arrival_cone(a, cone, spread);
                     a->min_pdf = a->ray.pdf;
                     a->lane = lane;

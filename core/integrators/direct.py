@@ -63,7 +63,7 @@ class DirectLighting(Integrator):
         parts = lightpasses.FirstHitParts(len(hit)) if lightpasses.wanted(ctx.settings.passes) else None
         hit_groups = lightgroups.tally(ctx, len(hit))
         emitted, finds = (np.zeros((len(hit), 3)), np.zeros((len(hit), 3))) if feats is not None else (None, None)
-        cone, spread = camera_cones(ctx, vectors.gather(O, hit))     # (camera rays, their ray cones: a Bump's step)
+        cone, spread = camera_cones(ctx, vectors.gather(O, hit), D_hit)     # (camera rays: a Bump's step)
         shader = ctx.materials.shade(surface.material, surface.N, -D_hit, surface, ctx.geometry,
                                      path=graph_.light_paths(len(hit), cone=cone, spread=spread),
                                      rays=shader_rays.for_hits(ctx, surface, pixel[hit], sample[hit]))

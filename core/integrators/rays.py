@@ -12,6 +12,7 @@ import numpy as np
 
 from .. import materials as materials_
 from .. import vectors, volumes
+from ..camera import camera as camera_
 from ..materials import graph as graph_
 from ..native import schema
 from ..geometry.surface import surface_at_hits
@@ -117,14 +118,22 @@ def ray_kind(kind: np.ndarray, transmit: np.ndarray, previous) -> np.ndarray:
     return np.where(materials_.has(kind, F.STRAIGHT), previous, bounced).astype(np.int64)
 
 
-def camera_cones(ctx: Context, O: np.ndarray) -> tuple:
-    """The ray cones camera rays leave with from their camera-relative origins O (k, 3) (graph.camera_cones, the
-    camera's frame MaterialTable.view and .window): (cone (k,), spread (k,)); graph.UNKNOWN_CONE and 0 under a
-    panoramic camera or none."""
+def camera_cones(ctx: Context, O: np.ndarray, D: np.ndarray) -> tuple:
+    """The ray cones camera rays O, D (k, 3) (camera-relative origins, unit directions) leave with: (cone (k,),
+    spread (k,)). Perspective and orthographic cameras: graph.camera_cones of the origin in the camera's frame
+    (MaterialTable.view and .window); panoramic ones: camera.panorama_cones at the panorama's (u, v) of the direction
+    (graph.panorama_window; Cycles differences the pinhole's directions, so under depth of field this is the
+    refracted ray's); graph.UNKNOWN_CONE and 0 with no camera frame."""
     view, frame = getattr(ctx.materials, "view", None), getattr(ctx.materials, "window", None)
-    if view is None or frame is None or frame[4] >= 2.0:
+    if view is None or frame is None:
         return np.full(len(O), graph_.UNKNOWN_CONE), np.zeros(len(O))
     view = np.asarray(view, np.float64).reshape(3, 4)
+    if frame[4] >= 2.0:
+        uv = graph_.panorama_window(np.asarray(D, np.float64) @ view[:, :3].T, np.asarray(frame, np.float64))
+        s = ctx.settings
+        cone, spread, known = camera_.panorama_cones(ctx.scene.camera, uv[:, 0], uv[:, 1], s.width, s.height,
+                                                     tuple(s.pixel_aspect))
+        return np.where(known, cone, graph_.UNKNOWN_CONE), spread
     P = (O + ctx.geometry.origin) @ view[:, :3].T + view[:, 3]
     return graph_.camera_cones(P, np.asarray(frame, np.float64))
 

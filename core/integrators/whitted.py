@@ -73,7 +73,7 @@ class WhittedTracing(Integrator):
         feats = features_.Features(n) if s.denoising_features else None     # (of the camera's hits alone)
         data = passes_.DataPasses.of(ctx, sample)       # the first-hit passes (passes.py): of the camera's rays alone
         crossing = np.zeros(0, bool)            # which of this depth's rays went through a surface (none at 0)
-        cone, spread = camera_cones(ctx, O)     # each ray's cone (graph.LightPath), widened along the specular chain
+        cone, spread = camera_cones(ctx, O, D)     # each ray's cone (graph.LightPath), widened along the specular chain
         while len(owner):
             check_stop(ctx)
             # 1. The rays of this depth: what they hit; the world and lamps where they escape or pass.

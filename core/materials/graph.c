@@ -423,13 +423,15 @@ static double camera_cone(const double *P, const double *f, double *widening)
 }
 
 /* graph.pixel_width: a pixel's width at P (camera frame) as Cycles' Wireframe node measures it for Pixel Size;
- * f: the window (left, right, bottom, top, perspective, width, height). After a bounce (or a portal) and on shadow
- * rays, the path's ray cone where it carries one. */
+ * f: the window (left, right, bottom, top, perspective, width, height; perspective >= 2: a panorama's). After a
+ * bounce (or a portal), on shadow rays, in a light's own shading (no footprint: no wire) and under a panoramic
+ * camera, the path's ray cone where it carries one. */
 INLINE double pixel_width(const double *P, const double *f, const ShadingPoint *sp)
 {
-    double widening, footprint = camera_cone(P, f, &widening);
+    double widening, footprint = f[4] >= 2.0 ? 0.0 : camera_cone(P, f, &widening);
     const LightPath *p = &sp->path;
-    if ((p->bounce > 0 || p->portal > 0 || (p->flags & PATH_SHADOW) != 0) && (p->cone > 0.0 || p->spread > 0.0))
+    int left = p->bounce > 0 || p->portal > 0 || (p->flags & (PATH_SHADOW | PATH_EMISSION)) != 0 || f[4] >= 2.0;
+    if (left && p->cone >= 0.0)
         footprint = p->cone + sp->t * p->spread;
     double axes[2][3], across = 0.0;
     make_orthonormals(sp->Ng, axes[0], axes[1]);

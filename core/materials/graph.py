@@ -664,12 +664,12 @@ class Compiler:
                                          props.get("to", "OBJECT")), 3, "vector"
         if kind == "WIREFRAME":
             size = self.value(inp.get("Size"), 1, 0.01)
-            if props.get("pixel_size") and self.window is not None and self.window[4] < 2.0:   # (not panoramic)
+            if props.get("pixel_size") and self.window is not None:
                 pixels = self.temporary(1)
                 self.emit("PIXEL_SIZE", pixels, size, self.transform(self.geometry("Position"), self.view),
                           self.constant(self.window))
                 size = pixels
-            out = self.temporary(1)                     # (a panoramic camera's Pixel Size: addon/materials.py warns)
+            out = self.temporary(1)
             self.emit("WIREFRAME", out, size)
             return out, 1, "float"
         if kind == "AO":                                # Color x AO, then AO (Cycles' svm_node_ao)
@@ -1548,17 +1548,20 @@ def pixel_width(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarra
     the mean of |normalize(d + dx) - normalize(d)| over a pixel step dx, dy on the plane at depth 1, d = P / P.z; an
     orthographic one: a pixel's width in scene units), spread along two directions a, b across the face
     (orthonormals of Ng) and each projected onto the plane across the view: dP (|a - (a.I) I| + |b - (b.I) I|) / 2.
-    At hits after a bounce (or a Ray Portal) and on shadow rays the path's ray cone instead, where it carries one
-    (LightPath cone, spread: Cycles' compact ray differentials, the camera ray's cone widened over the whole path).
-    frame: the window (left, right, bottom, top, perspective, width, height)."""
-    footprint = camera_cones(P, frame)[0]
+    At hits after a bounce (or a Ray Portal), on shadow rays and in a light's own shading the path's ray cone instead,
+    where it carries one (LightPath cone, spread: Cycles' compact ray differentials, the camera ray's cone widened over
+    the whole path; a light's sample has none, so no wire shows there, as in Cycles); under a panoramic camera the
+    path's cone on camera rays too (camera.panorama_cones), 0 where it is unknown.
+    frame: the window (left, right, bottom, top, perspective, width, height; perspective >= 2: a panorama's)."""
+    panoramic = frame[4] >= 2.0
+    footprint = np.zeros(len(P)) if panoramic else camera_cones(P, frame)[0]
     path = sp.path
     if path is not None and sp.t is not None:
         # After a bounce (or a portal), and on shadow rays, the ray cone the path carries (Cycles widens the camera
         # ray's over the whole path; a shadow ray keeps its vertex's footprint); on camera rays, also straight
         # through Transparent surfaces, the camera's own measure above.
-        left = (path.bounce > 0) | (path.portal > 0) | ((path.flags & PATH_SHADOW) != 0)
-        carried = left & ((path.cone > 0.0) | (path.spread > 0.0))
+        left = (path.bounce > 0) | (path.portal > 0) | ((path.flags & (PATH_SHADOW | PATH_EMISSION)) != 0) | panoramic
+        carried = left & (path.cone >= 0.0)
         footprint = np.where(carried, footprints(path, sp.t), footprint)
     I = sp.N if sp.I is None else sp.I
     across = 0.0
