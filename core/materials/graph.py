@@ -19,12 +19,12 @@ The Bump node needs the height's derivative. As Cycles, Primer evaluates the hei
 two points a step away, re-interpolating the attributes there (OFFSET ops): the ray's footprint at the
 hit (the path's ray cone, LightPaths cone + t spread: Cycles' compact differential) along two
 directions across the face (make_orthonormals of Ng), times the Bump's Filter Width (bump_step,
-bump_differentials). A footprint of 0 leaves the normal as it is, as in Cycles: a light's sample
-(Cycles shades it with no differentials), a path that scattered in media under an orthographic camera
-(a scattering point has no footprint; its ray keeps the spread it had). Where Primer does not know the
-cone (UNKNOWN_CONE: a panoramic camera's rays, a shading point without a path) the step is BUMP_STEP of the
-triangle's edges V1 - V0 and V2 - V0, a derivative where Cycles' difference averages over the
-footprint; the render says so (core/render bump_note).
+bump_differentials). A footprint of 0 leaves the normal as it is, as in Cycles: a path that scattered
+in media under an orthographic camera (a scattering point has no footprint; its ray keeps the spread it
+had). In a light's own shading (PATH_EMISSION) the Bump's Normal is the zero vector (lit_by_bump: Cycles
+evaluates no bump nodes there). Where Primer does not know the cone (UNKNOWN_CONE: a shading point without a
+path, a panoramic ray with no neighbouring direction) the step is BUMP_STEP of the triangle's edges V1 - V0
+and V2 - V0, a derivative where Cycles' difference averages over the footprint.
 """
 from __future__ import annotations
 
@@ -161,8 +161,8 @@ MAX_REGISTERS = schema.constant("MAX_REGISTERS", 1024, "a program's registers at
 MAX_ATTRIBUTES = schema.constant("MAX_ATTRIBUTES", 64, "attribute floats per hit at most")
 # The bump's finite-difference step, as a fraction of the triangle's edges.
 BUMP_STEP = schema.constant("BUMP_STEP", 1e-3, "the bump's finite-difference step, a fraction of the edges")
-# A ray cone Primer does not know (a panoramic camera's rays and the paths they start), with spread 0: Bump steps by
-# BUMP_STEP there. A cone of 0 and spread 0 is a footprint of 0 (Cycles' zero differential: no bump).
+# A ray cone Primer does not know (a panoramic ray with no direction a pixel away, and the path it starts), with
+# spread 0: Bump steps by BUMP_STEP there. A cone of 0 and spread 0 is a footprint of 0 (Cycles' zero differential).
 UNKNOWN_CONE = schema.constant("UNKNOWN_CONE", -1.0, "a ray cone Primer does not know (graph.py)")
 # A Bump node's Filter Width where Blender has none (Cycles' BumpNode default; also its Displacement's bump).
 BUMP_FILTER_WIDTH = 0.1
