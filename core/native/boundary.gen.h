@@ -936,6 +936,9 @@ struct EmitterTables {
     const uint8_t *textured;                /* (t,) 1: its material's node graph gives its emission (direct.c), or NULL */
     const int64_t *prim;                    /* (t,) WorldGeometry's flat triangle index of each */
     const int32_t *group;                   /* (t,) each triangle's object's light group (core/integrators/lightgroups.py), or NULL */
+    const int32_t *mesh;                    /* (t,) the instanced mesh (GeometryTables.meshes) of each emitter that moves over the shutter,
+-1 still (MeshEmitters.mesh), or NULL: none moves */
+    const GeometryTables *geometry;         /* the scene's triangles, where a moving emitter is placed at a time (with mesh) */
 };
 
 /* primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points. */
@@ -1208,7 +1211,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
-    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(2679673540171007921);
+    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(1657897043170567906);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
