@@ -34,6 +34,7 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from .. import vectors
+from ..geometry import tables as _geometry_tables  # noqa: F401  (GeometryTables, which EmitterTables points at)
 from ..native import library, schema
 from ..native.schema import F64, I32, I64, U8, out, ptr
 from .base import Light, LightFlags, LightSample
