@@ -545,3 +545,59 @@ def test_both_kernels_sample_a_moving_and_deforming_emitter_alike():
         n = np.cross(V[:, 1] - V[:, 0], V[:, 2] - V[:, 0])
         n /= np.linalg.norm(n, axis=1)[:, None]
         assert np.all(np.einsum("ij,ij->i", n, axis) >= np.cos(theta) - 1e-12)
+
+
+TILT = 0.6                                          # the smooth sheet's normals turn from -TILT to TILT about y
+
+
+def tilting_sheet(normals: bool = True) -> Scene:
+    """A smooth, white (albedo 0.8) 6 x 1.5 sheet at z = 0 under the still orthographic camera and a sun straight above
+    (irradiance pi): it deforms a little (its vertices slide 0.02 along x over three steps) and its vertex normals turn
+    from -TILT to 0 to TILT about y over the same steps (Instance.deformation_normals; without `normals`, none)."""
+    scene = Scene(camera=dataclasses.replace(sliding_camera(), motion=()))
+    scene.materials.append(Material(np.full(3, 0.8), "White"))
+    sheet = primitives.plane(6.0, 1.5)
+    sheet.smooth[:] = True
+    sheet.corner_normals = np.tile([0.0, 0.0, 1.0], (2, 3, 1))
+    scene.add_mesh(sheet, materials=np.array([0]))
+    square = np.asarray(sheet.vertices, np.float64)
+    scene.instances[0].deformation = tuple(square + [0.01 * k, 0.0, 0.0] for k in range(3))
+    if normals:
+        scene.instances[0].deformation_normals = tuple(np.tile([math.sin(a), 0.0, math.cos(a)], (4, 1))
+                                                       for a in (-TILT, 0.0, TILT))
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=math.pi))
+    return scene
+
+
+def tilted_normal(time: np.ndarray) -> np.ndarray:
+    """The sheet's normal at `time` (n,): its step normals mixed linearly in the step around it, normalised."""
+    steps = np.array([[math.sin(a), 0.0, math.cos(a)] for a in (-TILT, 0.0, TILT)])
+    step = np.minimum((time * 2).astype(int), 1)
+    s = (time * 2 - step)[:, None]
+    mixed = (1.0 - s) * steps[step] + s * steps[step + 1]
+    return mixed / np.linalg.norm(mixed, axis=1)[:, None]
+
+
+def test_a_deforming_meshs_smooth_normals_are_interpolated_at_the_rays_time():
+    """Cycles' motion vertex normals: a ray at time t meets the deforming sheet with the normal of its vertex normals
+    mixed linearly between the two steps around t, normalised (both kernels); lit by a sun straight above it shades
+    to 0.8 x the mean over the box table's times of that normal's cosine (0.8 at the frame's normals); both kernels'
+    images agree."""
+    scene = tilting_sheet()
+    geometry = build_geometry(scene, np.zeros(3), motion_blur=True)
+    time = np.random.default_rng(4).uniform(0.0, 1.0, 500)
+    prim = np.full(500, geometry.instanced[0].first_prim)
+    np.testing.assert_allclose(geometry.triangle_data(prim, times=time).corner_normals[:, 0], tilted_normal(time),
+                               atol=1e-6)
+    first, last = box_span()
+    expected = 0.8 * tilted_normal(first + (last - first) * (np.arange(4096) + 0.5) / 4096)[:, 2].mean()
+    settings = RenderSettings(width=W, height=H, samples=64, adaptive=False, integrator="direct")
+    compiled = render.render(scene, settings)
+    reference = render.render(scene, dataclasses.replace(settings, kernels="numpy"))
+    assert compiled.stats.kernels == "compiled" and not compiled.stats.warnings
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=1e-6, atol=4e-7)
+    sheet = compiled.image[2:6, 6:26, 0]                         # pixels inside the sheet at every time
+    assert sheet.mean() == pytest.approx(expected, rel=2e-3)
+    assert np.abs(sheet - expected).max() < 0.01
+    frames = render.render(tilting_sheet(normals=False), settings).image[2:6, 6:26, 0]
+    np.testing.assert_allclose(frames, 0.8, rtol=1e-5)

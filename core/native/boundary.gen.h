@@ -676,6 +676,8 @@ struct InstancedTables {
 (InstancedMesh.vertex_steps), or NULL: rigid */
     int64_t vertex_step_count;              /* r (0: rigid) */
     int64_t vertex_count;                   /* v */
+    const float *normal_steps;              /* (r, v, 3) a deforming mesh's object-space unit vertex normals at its vertex steps
+(InstancedMesh.normal_steps), or NULL: the smooth normals are corner_normals at every time */
 };
 
 /* Every triangle of the scene (core/geometry/tables.py). */
@@ -1199,7 +1201,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "IntersectArgs") == 0) return UINT64_C(6440816817218738002);
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
-    if (strcmp(name, "InstancedTables") == 0) return UINT64_C(8791688880110937372);
+    if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(6211286546654913338);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4844621714001878421);
