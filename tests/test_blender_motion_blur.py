@@ -167,7 +167,8 @@ def test_a_moving_camera_blurs_as_in_cycles(primer, tmp_path, case):
 
 def test_moving_and_deforming_meshes_are_blurred_and_not_named(primer, tmp_path):
     """A cube keyframed across the shutter, a collection instanced by a moving Empty and a flat mesh deformed by an
-    animated shape key are all blurred, so no note names them; a smooth one's note says its normals stay the frame's;
+    animated shape key are all blurred, so no note names them, nor once it is smooth (its vertex normals interpolated
+    over the shutter); with custom normals (per face corner) its note says they stay the frame's;
     the plane that stands still, an Empty and an object whose Motion Blur is off are never named; without motion blur
     nothing is said."""
     scene = moving_camera_scene()
@@ -203,6 +204,9 @@ def test_moving_and_deforming_meshes_are_blurred_and_not_named(primer, tmp_path)
     assert not notes, notes
     sheet.data.shade_smooth()
     render_with(scene, "PRIMER", str(tmp_path / "smooth.exr"))
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "motion blur" in w]   # (interpolated)
+    sheet.data.normals_split_custom_set_from_vertices([(0.0, 0.0, 1.0)] * 4)
+    render_with(scene, "PRIMER", str(tmp_path / "custom.exr"))
     notes = [w for w in addon(primer, "engine").last_render.warnings if "motion blur" in w]
     assert len(notes) == 1 and "'Waving sheet' deforms" in notes[0] and "smooth normals" in notes[0], notes
     scene.render.use_motion_blur = False
@@ -299,10 +303,32 @@ def floor_lit_by_a_sliding_lamp(scene):
     keyframe_linearly(lamp, "rotation_euler", {0: (math.pi, 0.0, -0.25), 2: (math.pi, 0.0, 0.25)})
 
 
+def smooth_sheet_tilting_into_a_low_sun(scene):
+    """A smooth white 2 x 2 sheet whose shape key lifts its +x edge 1.5 between frames 0 and 2 (it tilts from 10 to 29
+    degrees over the shutter), lit by a strong sun 20 degrees below the ground's horizon from the -x side: the sheet
+    turns into the sun's light during the shutter, and its smooth normals, interpolated at each ray's time, shade it
+    (with the frame's normals it would be about a quarter as bright)."""
+    bpy.ops.mesh.primitive_plane_add(size=2.0, location=(0.0, 0.0, 0.0))
+    sheet = bpy.context.active_object
+    sheet.data.shade_smooth()
+    sheet.shape_key_add(name="Basis")
+    tilt = sheet.shape_key_add(name="Tilt")
+    for point in tilt.data:
+        if point.co.x > 0.0:
+            point.co.z = 1.5
+    keyframe_linearly(tilt, "value", {0: 0.0, 2: 1.0})
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = 20.0
+    sun.data.angle = 0.0
+    sun.rotation_euler = (0.0, math.radians(-110.0), 0.0)
+    scene.collection.objects.link(sun)
+
+
 OBJECTS = {"a cube flying and turning in the sun": moving_cube_in_the_sun,
            "a bar spinning a quarter turn, Motion Steps 2": spinning_bar,
            "a sheet folding by a shape key": folding_sheet,
-           "a floor lit by a sliding, turning emitter": floor_lit_by_a_sliding_lamp}
+           "a floor lit by a sliding, turning emitter": floor_lit_by_a_sliding_lamp,
+           "a smooth sheet tilting into a low sun": smooth_sheet_tilting_into_a_low_sun}
 
 
 @pytest.mark.parametrize("case", list(OBJECTS))
