@@ -261,7 +261,7 @@ NOINLINE static const double *emitter_at(const EmitterTables *e, int64_t i, doub
         *area = e->area[i];
         return e->corners + 9 * i;
     }
-    const InstancedTables *mesh = e->geometry->meshes + m;
+    const InstancedTables *mesh = ((const GeometryTables *)e->geometry)->meshes + m;
     int64_t local = (e->prim[i] - (int64_t)mesh->first_prim) % (int64_t)mesh->triangle_count;
     int64_t j = (e->prim[i] - (int64_t)mesh->first_prim) / (int64_t)mesh->triangle_count;
     double M[12];

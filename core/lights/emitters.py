@@ -34,7 +34,6 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from .. import vectors
-from ..geometry import tables as _geometry_tables  # noqa: F401  (GeometryTables, which EmitterTables points at)
 from ..native import library, schema
 from ..native.schema import F64, I32, I64, U8, out, ptr
 from .base import Light, LightFlags, LightSample
@@ -475,7 +474,8 @@ EmitterTablesRecord = schema.record("EmitterTables", "The emissive triangles as 
     ("group", ptr(I32), "(t,) each triangle's object's light group (core/integrators/lightgroups.py), or NULL"),
     ("mesh", ptr(I32), "(t,) the instanced mesh (GeometryTables.meshes) of each emitter that moves over the shutter,\n"
                        "-1 still (MeshEmitters.mesh), or NULL: none moves"),
-    ("geometry", ptr("GeometryTables"), "the scene's triangles, where a moving emitter is placed at a time (with mesh)"),
+    ("geometry", ptr(), "the scene's GeometryTables (core/geometry/tables.py), where a moving emitter is placed at a\n"
+                        "time (with mesh; untyped: the lights sit below the geometry), or NULL"),
 ])
 
 

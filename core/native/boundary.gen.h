@@ -940,7 +940,8 @@ struct EmitterTables {
     const int32_t *group;                   /* (t,) each triangle's object's light group (core/integrators/lightgroups.py), or NULL */
     const int32_t *mesh;                    /* (t,) the instanced mesh (GeometryTables.meshes) of each emitter that moves over the shutter,
 -1 still (MeshEmitters.mesh), or NULL: none moves */
-    const GeometryTables *geometry;         /* the scene's triangles, where a moving emitter is placed at a time (with mesh) */
+    const void *geometry;                   /* the scene's GeometryTables (core/geometry/tables.py), where a moving emitter is placed at a
+time (with mesh; untyped: the lights sit below the geometry), or NULL */
 };
 
 /* primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points. */
@@ -1213,7 +1214,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
-    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(1657897043170567906);
+    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(3747915662707662173);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
