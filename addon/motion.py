@@ -17,8 +17,11 @@ whose transform differs over the shutter gets its matrices at its own motion ste
 evenly spaced from open to close: Cycles' object motion), Instance.motion, and the render places it where it is at
 each ray's time (core/geometry/geometry.py). A mesh object that deforms (Deformation on: modifiers or shape keys, up
 to DEFORM_CHECK_VERTICES vertices) gets its vertex positions there too, Instance.deformation (Cycles' motion
-vertices), as long as its vertex count stays the exported mesh's; its smooth normals stay the frame's (a note says
-so; Cycles interpolates them). An object that moves or deforms and cannot be read so is named in a note and rendered
+vertices), as long as its vertex count stays the exported mesh's, and, where its normals are per vertex (smooth
+faces, no sharp edges or custom normals: Mesh.normals_domain POINT, where Cycles reads its motion vertex normals), its
+vertex normals there, Instance.deformation_normals, which the render interpolates at each ray's time as Cycles does;
+a deforming mesh with smooth faces whose normals are per corner keeps them as they are at the frame (a note says so).
+An object that moves or deforms and cannot be read so is named in a note and rendered
 where it is at the frame.
 """
 from __future__ import annotations
@@ -112,8 +115,9 @@ def placement_key(instance) -> tuple:
 
 def _object_state(depsgraph) -> dict:
     """Where each rendered object and instance is: its world matrix, its motion steps, and for a mesh object that may
-    deform (modifiers or shape keys, Deformation on, not too large) its vertex positions. -> placement_key ->
-    (matrix (4, 4) float64, positions (3 v,) float32 or None, steps). An instance counts when its object's and its
+    deform (modifiers or shape keys, Deformation on, not too large) its vertex positions and, where its normals are
+    per vertex (normals_domain POINT), its vertex normals. -> placement_key -> (matrix (4, 4) float64, positions
+    (3 v,) float32 or None, steps, normals (3 v,) float32 or None). An instance counts when its object's and its
     instancer's Motion Blur are on (Cycles' object_motion_steps)."""
     state = {}
     for instance in depsgraph.object_instances:
@@ -128,7 +132,12 @@ def _object_state(depsgraph) -> dict:
                 and len(mesh.vertices) <= DEFORM_CHECK_VERTICES):
             positions = np.empty(3 * len(mesh.vertices), np.float32)
             mesh.vertices.foreach_get("co", positions)
-        state[placement_key(instance)] = (np.array(instance.matrix_world, np.float64), positions, motion_steps(obj))
+        normals = None
+        if positions is not None and getattr(mesh, "normals_domain", "") == "POINT":
+            normals = np.empty(3 * len(mesh.vertices), np.float32)          # (Cycles' motion vertex normals)
+            mesh.vertex_normals.foreach_get("vector", normals)
+        state[placement_key(instance)] = (np.array(instance.matrix_world, np.float64), positions, motion_steps(obj),
+                                          normals)
     return state
 
 
@@ -143,12 +152,12 @@ def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, fr
     each) but are not blurred, and the deforming ones blurred whose smooth normals stay the frame's, or None; start,
     end: the shutter's (frame, subframe); frame: the frame rendered; blurred, reshaped: the keys of the objects the
     render blurs by their transform (Instance.motion) and by their deformation (Instance.deformation); smooth: those
-    of reshaped whose faces are smooth."""
+    of reshaped whose faces are smooth and whose normals are not interpolated (per corner)."""
     moved, deformed = set(), set()
-    for key, (matrix, positions, _) in opened.items():
+    for key, (matrix, positions, *_) in opened.items():
         if key not in closed:
             continue
-        other_matrix, other_positions, _ = closed[key]
+        other_matrix, other_positions = closed[key][:2]
         if not np.array_equal(matrix, other_matrix) and key not in blurred:
             moved.add(key[0])
         elif key not in reshaped and positions is not None and (
@@ -162,8 +171,8 @@ def moving_objects_note(opened: dict, closed: dict, start: tuple, end: tuple, fr
         shown = ", ".join(normals[:NAMED]) + (f" and {len(normals) - NAMED} more" if len(normals) > NAMED else "")
         its = "its" if len(normals) == 1 else "their"
         return (f"motion blur: {shown} deform{'s' if len(normals) == 1 else ''} during the shutter; Primer blurs "
-                f"{its} vertices but keeps {its} smooth normals as they are at frame {frame:g} (Cycles interpolates "
-                "them too)")
+                f"{its} vertices but keeps {its} smooth normals, which are per face corner (sharp edges or custom "
+                f"normals), as they are at frame {frame:g} (per-vertex normals are interpolated over the shutter)")
 
     def named(names):
         shown = ", ".join(sorted(names)[:NAMED])
@@ -184,8 +193,9 @@ def give_motion(instances, instance_keys: dict, states: dict, meshes=()) -> tupl
     """Give each exported instance that moves over the shutter its matrices at its motion steps (Instance.motion), and
     each whose mesh deforms its vertex positions there (Instance.deformation, where the vertices stay the exported
     mesh's: meshes, the core Scene.meshes), from the object states read at each relative time (time ->
-    _object_state); return the keys of those that move, of those that deform, and of the deforming ones with smooth
-    faces (whose normals stay the frame's): three sets."""
+    _object_state); with their vertex normals there where the mesh's normals are per vertex
+    (Instance.deformation_normals); return the keys of those that move, of those that deform, and of the deforming
+    ones with smooth faces whose normals stay the frame's (per corner): three sets."""
     moved, deformed, smooth = set(), set(), set()
     for index, key in instance_keys.items():
         if key not in states[-1.0] or index >= len(instances):
@@ -207,7 +217,10 @@ def give_motion(instances, instance_keys: dict, states: dict, meshes=()) -> tupl
             continue
         instances[index].deformation = tuple(p.reshape(-1, 3).astype(np.float64) for p in shapes)
         deformed.add(key)
-        if np.asarray(mesh.smooth).any():
+        normals = [states[time][key][3] if len(states[time][key]) > 3 else None for time in times]
+        if all(n is not None and n.size == np.size(mesh.vertices) and np.isfinite(n).all() for n in normals):
+            instances[index].deformation_normals = tuple(n.reshape(-1, 3).astype(np.float64) for n in normals)
+        elif np.asarray(mesh.smooth).any():
             smooth.add(key)
     return moved, deformed, smooth
 

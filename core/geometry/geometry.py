@@ -393,6 +393,18 @@ def deforms(instance, mesh) -> bool:
             and any(not np.array_equal(np.asarray(p), np.asarray(steps[0])) for p in steps[1:]))
 
 
+def _normal_steps(instance, mesh, steps: int) -> Optional[np.ndarray]:
+    """A deforming instance's vertex normals at its deformation's steps (Instance.deformation_normals) as
+    InstancedMesh.normal_steps: (steps, v, 3) float32 unit (zero where not finite), or None where it has none of
+    that shape (its smooth normals stay the frame's)."""
+    normals = instance.deformation_normals
+    if len(normals) != steps or not all(np.shape(n) == np.shape(mesh.vertices) for n in normals):
+        return None
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        stacked = normals_.safe_normalize(np.stack([np.asarray(n, np.float64) for n in normals]).reshape(-1, 3))
+    return stacked.reshape(steps, -1, 3).astype(np.float32)
+
+
 def build_geometry(scene: Scene, origin: np.ndarray,
                    instance_triangles: Optional[int] = None, motion_blur: bool = False) -> WorldGeometry:
     """Place every instance in the world relative to `origin` and build the BVH.
@@ -464,6 +476,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
                             steps = np.stack([np.asarray(p, np.float64) for p in placement.deformation])
                             steps = steps.astype(np.float32)
                         record.vertex_steps = np.where(np.isfinite(steps), steps, np.float32(0.0))
+                        record.normal_steps = _normal_steps(placement, mesh, len(steps))
                     instanced.append(record)
             owners = owners[~moving]
             if len(owners) == 0:

@@ -182,6 +182,10 @@ class InstancedMesh:
                     float32 its object-space points at s evenly spaced times, which Embree and shading interpolate
                     linearly at each ray's time (Cycles' motion vertices); `vertices` then holds them at the frame.
                     None: rigid.
+    normal_steps:   with vertex_steps, (s, v, 3) float32 the object-space unit vertex normals at the same times
+                    (Instance.deformation_normals), whose linear interpolation, normalised, gives the smooth triangles'
+                    corner normals at each ray's time (Cycles' motion_triangle_normals); None: `corner_normals` (the
+                    frame's) at every time.
     """
 
     name: str
@@ -199,6 +203,7 @@ class InstancedMesh:
     attribute_row: Optional[np.ndarray] = None
     motion: Optional[np.ndarray] = None
     vertex_steps: Optional[np.ndarray] = None
+    normal_steps: Optional[np.ndarray] = None
 
     @property
     def triangle_count(self) -> int:
@@ -236,6 +241,18 @@ class InstancedMesh:
         b = self.vertex_steps[step[:, None] + 1, self.triangles[local]].astype(np.float64)
         return (1.0 - t) * a + t * b
 
+    def object_normals(self, local: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """Return the object-space corner normals of prototype triangles `local` (n,) at `times` (n,) of a mesh with
+        normal_steps: each vertex's normal linear between the two steps around the time, normalised (Cycles'
+        motion_triangle_normals) -> (n, 3, 3) float64."""
+        last = len(self.normal_steps) - 1
+        times = np.asarray(times, np.float64)
+        step = np.minimum((times * last).astype(np.int64), last - 1)
+        t = (times * last - step)[:, None, None]
+        a = self.normal_steps[step[:, None], self.triangles[local]].astype(np.float64)
+        b = self.normal_steps[step[:, None] + 1, self.triangles[local]].astype(np.float64)
+        return normals_.safe_normalize((1.0 - t) * a + t * b)
+
     def corner_points(self, j: np.ndarray, local: np.ndarray, times: Optional[np.ndarray] = None) -> np.ndarray:
         """Return the world corners of triangle `local` of instance `j`: (n,), (n,) -> (n, 3, 3) float64; a moving
         instance placed at each hit's `times` (n,), a deforming one's corners where they are then."""
@@ -251,7 +268,8 @@ class InstancedMesh:
     def smooth_normals(self, j: np.ndarray, local: np.ndarray,
                        times: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray]:
         """Return which triangles are smooth, (n,) bool, and their world corner normals, (s, 3, 3) float64 (a moving
-        instance turned as it is at each hit's `times` (n,)).
+        instance turned as it is at each hit's `times` (n,); a deforming one's normals, where it has normal_steps,
+        as they are then: object_normals).
 
         A normal N transforms with L^-T, which is the cofactor matrix of L over det L. The
         cofactor matrix has the columns b x c, c x a, a x b (a, b, c the columns of L), so
@@ -261,7 +279,11 @@ class InstancedMesh:
         smooth = row >= 0
         L = self.placements(j[smooth], None if times is None else times[smooth])[:, :, :3]    # (s, 3, 3)
         cofactor = np.ascontiguousarray(np.swapaxes(vectors.adjugate(L), 1, 2))      # (s, 3, 3) columns
-        world = np.einsum("sij,skj->ski", cofactor, self.corner_normals[row[smooth]])
+        if self.normal_steps is None or times is None:
+            corner = self.corner_normals[row[smooth]]
+        else:
+            corner = self.object_normals(local[smooth], np.asarray(times)[smooth])
+        world = np.einsum("sij,skj->ski", cofactor, corner)
         world *= self.flip[j[smooth]][:, None, None]
         return smooth, normals_.safe_normalize(world)
 

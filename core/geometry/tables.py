@@ -32,6 +32,8 @@ InstancedRecord = schema.record("InstancedTables", "One instanced mesh (core/geo
                                "(InstancedMesh.vertex_steps), or NULL: rigid"),
     ("vertex_step_count", I64, "r (0: rigid)"),
     ("vertex_count", I64, "v"),
+    ("normal_steps", ptr(F32), "(r, v, 3) a deforming mesh's object-space unit vertex normals at its vertex steps\n"
+                               "(InstancedMesh.normal_steps), or NULL: the smooth normals are corner_normals at every time"),
 ])
 
 GeometryRecord = schema.record("GeometryTables", "Every triangle of the scene (core/geometry/tables.py).", [
@@ -87,6 +89,8 @@ class GeometryTables:
             if mesh.vertex_steps is not None:          # (a deforming mesh: its points at each ray's time)
                 record.vertex_steps = c(mesh.vertex_steps, np.float32)
                 record.vertex_step_count = len(mesh.vertex_steps)
+                if mesh.normal_steps is not None:      # (and its smooth normals then)
+                    record.normal_steps = c(mesh.normal_steps, np.float32)
         self.record = GeometryRecord(
             vertices=c(geometry.vertices, np.float32), triangles=c(geometry.triangles, np.int32),
             face_normals=c(geometry.face_normals, np.float64), material=c(geometry.material, np.int32),

@@ -82,6 +82,20 @@ INLINE void object_point(const InstancedTables *mesh, int64_t vertex, double tim
     for (int c = 0; c < 3; c++) p[c] = (1.0 - t) * (double)a[c] + t * (double)b[c];
 }
 
+/* InstancedMesh.object_normals for one vertex: its object-space unit normal at `time`, linear between the two normal
+ * steps around it, normalised (Cycles' motion_triangle_normals). */
+INLINE void object_normal(const InstancedTables *mesh, int64_t vertex, double time, double *n)
+{
+    int64_t last = (int64_t)mesh->vertex_step_count - 1;
+    int64_t step = (int64_t)(time * (double)last);
+    if (step > last - 1) step = last - 1;
+    double t = time * (double)last - (double)step, mixed[3];
+    int64_t stride = 3 * (int64_t)mesh->vertex_count;
+    const float *a = mesh->normal_steps + step * stride + 3 * vertex, *b = a + stride;
+    for (int c = 0; c < 3; c++) mixed[c] = (1.0 - t) * (double)a[c] + t * (double)b[c];
+    unit_or_zero(mixed, n);
+}
+
 /* Triangle `local` of placement j of an instanced mesh (WorldGeometry._instanced_data), a moving one's at `time`:
  * the corners placed by [L | T], the normal of the placed corners (turned back for a mirroring placement), the
  * corner normals turned by L's cofactor matrix (N' = cof(L) N, the sign of det L kept). */
@@ -111,6 +125,11 @@ INLINE void instanced_triangle(const InstancedTables *mesh, int64_t j, int64_t l
     cross3(b, cc, bc); cross3(cc, a, ca); cross3(a, b, ab);
     for (int k = 0; k < 3; k++) {
         const double *N = mesh->corner_normals + 9 * (int64_t)row + 3 * k;
+        double moved[3];
+        if (mesh->normal_steps != NULL) {        /* a deforming mesh's normal where it is at `time` */
+            object_normal(mesh, (int64_t)mesh->triangles[3 * local + k], time, moved);
+            N = moved;
+        }
         double w[3];
         for (int i = 0; i < 3; i++) w[i] = ((bc[i] * N[0] + ca[i] * N[1]) + ab[i] * N[2]) * flip;
         unit_or_zero(w, out->normals + 3 * k);

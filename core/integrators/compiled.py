@@ -216,6 +216,8 @@ class Compiled:
         # The emissive meshes' and the world's tables (their records in self.lights say only how often).
         emitters = ctx.extra.get("emitters")
         self.emitter_tables = emitters.tables() if emitters is not None else None
+        if emitters is not None and emitters.mesh is not None:      # (moving emitters: placed at each path's time)
+            self.emitter_tables.record.geometry = self.tables.record
         self.world_tables = WorldTables(ctx.extra["world_light"], ctx.extra.get("world_sampler"))
         self.context = LightContext(emitters=self.emitter_tables.record if emitters is not None else None,
                                     world=self.world_tables.record)

@@ -245,6 +245,7 @@ typedef struct {
     double u[2][BLOCK];                          /* its point in the unit square */
     double P[3][BLOCK], N[3][BLOCK], Ng[3][BLOCK], lifted[3][BLOCK];
     double offset[BLOCK], smooth[BLOCK], through[BLOCK], cutoff[BLOCK];
+    double time[BLOCK];                          /* its path's time in the shutter (where a moving emitter is) */
     double albedo[3][BLOCK], lambert[BLOCK];     /* the hit's one Lambert closure, where it has just that */
     double L[3][BLOCK], distance[BLOCK], strength[BLOCK], position[3][BLOCK], color[3][BLOCK], pdf[BLOCK];
     double origin[3][BLOCK], D[3][BLOCK], t[BLOCK], weight[BLOCK];
@@ -276,6 +277,7 @@ SIMD_CLONES NOINLINE static void gather_block(SampleBlock *b, const BlockHits *H
             b->lifted[c][k] = lift && s->smooth ? s->lifted[c] : s->I[c];
         }
         b->offset[k] = s->offset;
+        b->time[k] = s->time;
         b->cutoff[k] = lift ? H->cutoff[i] : 0.0;
         b->smooth[k] = s->smooth ? 1.0 : 0.0;
         b->through[k] = H->through[i] ? 1.0 : 0.0;
@@ -329,7 +331,9 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             if (b->through[k] != 0.0) N[0] = N[1] = N[2] = 0.0;
             LightSample ls;
             ls.emitter = -1;
-            sample_light(light, ctx, P, N, u, &ls);
+            ls.hidden = 0;
+            if (kind == LIGHT_EMITTERS) sample_emitters(ctx->emitters, P, N, u, b->time[k], &ls);   /* (at its time) */
+            else sample_light(light, ctx, P, N, u, &ls);
             store_sample(b, k, &ls);
             for (int c = 0; c < 3; c++) b->color[c][k] = ls.color[c];
             b->hidden[k] = ls.hidden;
@@ -760,8 +764,8 @@ static void textured_block(SampleBlock *b, const BlockHits *H, const DirectSetti
         unflat_prim(ds->geometry, e->prim[b->emitter[k]], &geometry, &prim, &instance);
         double O[3] = {b->P[0][k], b->P[1][k], b->P[2][k]}, D[3] = {b->L[0][k], b->L[1][k], b->L[2][k]}, out[3];
         LightPath path = path_at(H, b->hit[k], PATH_EMISSION);
-        path.cone = path.spread = 0.0;      /* (no footprint: a Bump there is flat, as Cycles' light samples) */
-        graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], STILL_TIME, &path, NULL, out);
+        path.cone = path.spread = 0.0;      /* (no footprint, as Cycles' light samples) */
+        graph_emission(ds, geometry, prim, instance, O, D, b->distance[k], b->time[k], &path, NULL, out);
         for (int c = 0; c < 3; c++) b->color[c][k] = out[c];
     }
 }
@@ -996,7 +1000,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
         }
         int64_t index = emitters_index >= 0
             ? emitter_of_prim(ctx->emitters, flat_prim(ds->geometry, geometry, prim, instance)) : -1;
-        double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, away ? P : O, N, D, t_mis) : 0.0;
+        double pdf_l = index >= 0 ? emitter_pdf(ctx->emitters, index, away ? P : O, N, D, t_mis, ray->time) : 0.0;
         double n_l = emitters_index >= 0 ? ds->lights[emitters_index].samples : 1.0;
         double w = use_mis ? power_heuristic(pdf_b, n_l * pdf_l) : 1.0;
         double through[3];

@@ -168,9 +168,12 @@ def shade_vertex(ctx: Context, surface, wo: np.ndarray, pixel: np.ndarray, sampl
             #    camera sample s takes its points s*count .. s*count+count-1 (core/sampling), so
             #    the points of any number of camera samples together cover the light evenly.
             u = light_numbers(ctx, light, index, pixel, sample * count + j, m, dimension)
-            ls = light.sample(surface.I, u, cone, N=tree_N)
+            # (a moving emitter where it is at the path's time)
+            moving = {} if getattr(light, "mesh", None) is None else {"times": surface.time}
+            ls = light.sample(surface.I, u, cone, N=tree_N, **moving)
             if getattr(light, "textured", None) is not None:
-                ls = textured_samples(ctx, light, surface.I, ls, graph_.with_flags(light_path, graph_.PATH_EMISSION))
+                ls = textured_samples(ctx, light, surface.I, ls, graph_.with_flags(light_path, graph_.PATH_EMISSION),
+                                      surface.time)
             if not s.distance_attenuation:
                 ls = light.without_attenuation(ls, surface.I)
             if light.hidden_from and ls.hidden is None:
@@ -579,7 +582,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
                 origin = O if mis_O is None else mis_O
                 pdf_l[known] = emitters.pdf_of_hits(origin[struck][known], index[known], D[struck][known],
                                                     t_mis[struck][known],
-                                                    N=None if N is None else N[struck][known])
+                                                    N=None if N is None else N[struck][known],
+                                                    times=None if hits.time is None else hits.time[struck][known])
             n_l = light_count(ctx, emitters)
         w = np.where(use_mis[struck], power_heuristic(pdf_b[struck], n_l * pdf_l), 1.0)
         if sigma is not None:
@@ -627,18 +631,20 @@ def unlinked_finds(ctx: Context, prim: np.ndarray, receiver: np.ndarray, seen_as
     return unlinked
 
 
-def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None):
+def textured_samples(ctx: Context, emitters, points: np.ndarray, ls, paths=None, times=None):
     """The emitters' samples `ls` of points (n, 3), with what each textured triangle emits where its sample
     landed (its node graph evaluated there) in place of the triangle's estimate: a LightSample with (n, 3) colour.
     paths: the graph.LightPaths the light is shaded for (Cycles' light_sample_shader_eval: EMISSION alone, the
-    counts of the path at each point, and no ray footprint: a Bump there is flat, as in Cycles), or None."""
+    counts of the path at each point, and no ray footprint: a Bump there is flat, as in Cycles), or None. times: (n,)
+    the points' times in the shutter (a moving emitter where it was sampled then), or None."""
     color = np.array(np.broadcast_to(ls.color, (len(points), 3)))
     rows = np.flatnonzero(emitters.textured[ls.emitter] & (ls.strength > 0.0))
     if len(rows):
         shaded = None if paths is None else graph_.paths_at(paths, rows)._replace(cone=np.zeros(len(rows)),
                                                                                   spread=np.zeros(len(rows)))
         color[rows] = graph_emission(ctx.geometry, ctx.materials, emitters.prim[ls.emitter[rows]], points[rows],
-                                     ls.L[rows], ls.distance[rows], shaded)
+                                     ls.L[rows], ls.distance[rows], shaded,
+                                     times=None if times is None else np.asarray(times)[rows])
     return ls._replace(color=color)
 
 

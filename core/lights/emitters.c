@@ -1,6 +1,7 @@
 /* Emissive meshes as one light: core/lights/emitters.py. A triangle chosen by the light tree
  * (core/lights/light_tree.py), then a direction
- * towards it: uniform over the spherical triangle near it (Arvo), uniform in its area far from it. */
+ * towards it: uniform over the spherical triangle near it (Arvo), uniform in its area far from it; a moving
+ * emitter's where it is at the path's time (emitter_at). */
 
 #define EMIT_FRONT 1
 #define EMIT_BACK 2
@@ -248,15 +249,47 @@ INLINE int emitter_spherical(const double *V, double height, double area)
     return longest > delta * delta;
 }
 
-/* MeshEmitters.sample for one point with normal N (NULL or zero: unknown): u (2,) the unit-square point,
- * whose first number also picks the triangle. */
-INLINE void sample_emitters(const EmitterTables *e, const double *P, const double *N, const double *u_in,
-                            LightSample *out)
+/* MeshEmitters.corners_at for emitter i at `time` in the shutter (time < 0: the frame): its corners (9,), unit
+ * normal and area, the table's row for a still one, a moving one's placed as triangles.c places it for rays then
+ * (instanced_triangle's corners) into placed, normal and *area. Returns the corners. */
+NOINLINE static const double *emitter_at(const EmitterTables *e, int64_t i, double time, double *placed,
+                                         double *normal, double *area)
+{
+    int32_t m = e->mesh != NULL && e->geometry != NULL && time >= 0.0 ? e->mesh[i] : -1;
+    if (m < 0) {
+        for (int c = 0; c < 3; c++) normal[c] = e->normal[3 * i + c];
+        *area = e->area[i];
+        return e->corners + 9 * i;
+    }
+    const InstancedTables *mesh = ((const GeometryTables *)e->geometry)->meshes + m;
+    int64_t local = (e->prim[i] - (int64_t)mesh->first_prim) % (int64_t)mesh->triangle_count;
+    int64_t j = (e->prim[i] - (int64_t)mesh->first_prim) / (int64_t)mesh->triangle_count;
+    double M[12];
+    placement_at(mesh, j, time, M);
+    for (int k = 0; k < 3; k++) {
+        double p[3];
+        object_point(mesh, (int64_t)mesh->triangles[3 * local + k], time, p);
+        for (int r = 0; r < 3; r++)
+            placed[3 * k + r] = (M[4 * r] * p[0] + M[4 * r + 1] * p[1] + M[4 * r + 2] * p[2]) + M[4 * r + 3];
+    }
+    double e1[3], e2[3], cross[3];
+    for (int c = 0; c < 3; c++) { e1[c] = placed[3 + c] - placed[c]; e2[c] = placed[6 + c] - placed[c]; }
+    cross_product(e1, e2, cross);
+    double length = sqrt(dot3(cross, cross));
+    for (int c = 0; c < 3; c++) normal[c] = length > 0.0 ? cross[c] / length : 0.0;
+    *area = 0.5 * length;
+    return placed;
+}
+
+/* MeshEmitters.sample for one point with normal N (NULL or zero: unknown) at `time` in the shutter (where a moving
+ * emitter is; < 0: the frame): u (2,) the unit-square point, whose first number also picks the triangle. */
+NOINLINE static void sample_emitters(const EmitterTables *e, const double *P, const double *N, const double *u_in,
+                                     double time, LightSample *out)
 {
     double pick, u[2] = {u_in[0], u_in[1]};
     int64_t i = emitter_pick(e, P, N != NULL ? N : UNKNOWN_NORMAL, &u[0], &pick);
-    const double *V = e->corners + 9 * i, *normal = e->normal + 3 * i;
-    double area = e->area[i];
+    double placed[9], normal[3], area;
+    const double *V = emitter_at(e, i, time, placed, normal, &area);
     double to_V[3] = {V[0] - P[0], V[1] - P[1], V[2] - P[2]};
     double height = dot3(normal, to_V);
     int side = height > 0.0 ? EMIT_BACK : EMIT_FRONT;
@@ -276,12 +309,13 @@ INLINE void sample_emitters(const EmitterTables *e, const double *P, const doubl
     }
 }
 
-/* The table's entries (lights.gen.c): MeshEmitters.sample; rays meet emitters as the surfaces they hit, not here. */
+/* The table's entries (lights.gen.c): MeshEmitters.sample (moving emitters where they are at the frame: direct.c's
+ * light samples call sample_emitters with their path's time); rays meet emitters as the surfaces they hit, not here. */
 INLINE void emitters_sample(const LightRecord *light, const LightContext *ctx, const double *P, const double *N,
                             const double *u, LightSample *out)
 {
     (void)light;
-    sample_emitters(ctx->emitters, P, N, u, out);
+    sample_emitters(ctx->emitters, P, N, u, -1.0, out);
 }
 
 INLINE int emitters_hit(const LightRecord *light, const double *O, const double *D, double t_max, LightHit *out)
@@ -291,12 +325,13 @@ INLINE int emitters_hit(const LightRecord *light, const double *O, const double 
 }
 
 /* MeshEmitters.pdf_of_hits: the pdf `sample` gives direction D from O (normal N, NULL or zero: unknown,
- * as sample_emitters had it) to emitter i at distance t. */
+ * as sample_emitters had it) to emitter i at distance t, the ray's `time` in the shutter (a moving emitter where it
+ * is then, as sample_emitters places it; < 0: the frame). */
 INLINE double emitter_pdf(const EmitterTables *e, int64_t i, const double *O, const double *N, const double *D,
-                          double t)
+                          double t, double time)
 {
-    const double *V = e->corners + 9 * i, *normal = e->normal + 3 * i;
-    double area = e->area[i];
+    double placed[9], normal[3], area;
+    const double *V = emitter_at(e, i, time, placed, normal, &area);
     double to_V[3] = {V[0] - O[0], V[1] - O[1], V[2] - O[2]};
     double height = dot3(normal, to_V);
     int side = height > 0.0 ? EMIT_BACK : EMIT_FRONT;

@@ -16,6 +16,11 @@ Cycles. Then a direction towards it, by one of two strategies, as Cycles chooses
 The pdf of a direction is the pick probability times that. A BSDF-sampled ray that hits an emissive
 triangle asks `pdf_of_hits` for the pdf the light would have given its direction, for MIS: the tree
 gives the same pick probability for that triangle from the ray's origin, walking its path.
+An emitter that moves over the shutter (object or deformation motion blur) is sampled where it is at the
+shading point's time (its corners placed as the geometry places them for the rays, Cycles' triangle_light_sample
+with motion_triangle_vertices at the path's time), and a BSDF ray that hits it gets the pdf of its corners at the
+ray's time, the same; its leaf in the light tree bounds it over the whole shutter (`shutter_bounds`), so the walk's
+probabilities do not depend on the time and stay > 0 wherever it can light a point at some time.
 A material's Emission Sampling (None, Front, Back, Front and Back; Auto: both when it emits much)
 says from which sides the triangle is sampled; its emission is seen from both sides regardless.
 A textured emitter (its node graph gives the emission) is picked by its mean emission at a few points
@@ -54,6 +59,10 @@ class MeshEmitters(Light):
     textured: (t,) bool the triangles whose material's node graph gives their emission (a texture): `emission`
               is then only its estimate (for picking), and the integrators evaluate the graph where a sample
               lands (integrators/vertex.py graph_emission); None where there are none
+    mesh:     (t,) int32 the instanced mesh (WorldGeometry.instanced) of each emitter that moves or deforms over the
+              shutter, -1 for still ones; None where none moves. `corners`, `normal`, `area` are then the frame's,
+              and `corners_at` places a moving one at a time in the shutter.
+    meshes:   WorldGeometry.instanced, which `mesh` indexes (None where none moves)
     """
 
     corners: np.ndarray
@@ -67,6 +76,8 @@ class MeshEmitters(Light):
     name: str = "Emissive meshes"
     hidden: Optional[np.ndarray] = None
     textured: Optional[np.ndarray] = None
+    mesh: Optional[np.ndarray] = None
+    meshes: Optional[list] = None
 
     flags: ClassVar[LightFlags] = LightFlags.EMITTER
     blender_type: ClassVar[str] = "MESH"
@@ -94,9 +105,11 @@ class MeshEmitters(Light):
 
     @classmethod
     def of(cls, corners: np.ndarray, emission: np.ndarray, sides: np.ndarray, prim: np.ndarray,
-           textured: Optional[np.ndarray] = None) -> Optional["MeshEmitters"]:
+           textured: Optional[np.ndarray] = None, mesh: Optional[np.ndarray] = None,
+           meshes: Optional[list] = None) -> Optional["MeshEmitters"]:
         """The emitters of triangles with corners (t, 3, 3), radiance (t, 3), sides (t,), textured (t,) bool or
-        None; None if none emits."""
+        None; mesh (t,) int32 the instanced mesh of the moving ones (-1: still) of `meshes` (or both None: none
+        moves); None if none emits."""
         e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
         cross = vectors.cross(e1, e2)
         length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
@@ -108,26 +121,51 @@ class MeshEmitters(Light):
         corners, emission, sides, prim = corners[keep], emission[keep], sides[keep], prim[keep]
         normal = cross[keep] / length[keep, None]
         sides = sides.astype(np.int32)
-        tree = LightTree.build(corners, normal, power[keep], sides)
+        mesh = mesh[keep].astype(np.int32) if mesh is not None and (mesh[keep] >= 0).any() else None
+        leaves = None if mesh is None else shutter_bounds(corners, normal, sides, prim, mesh, meshes)
+        tree = LightTree.build(corners, normal, power[keep], sides, leaves)
         textured = textured[keep] if textured is not None and textured[keep].any() else None
-        return cls(corners, normal, area[keep], emission, sides, prim, power[keep], tree, textured=textured)
+        return cls(corners, normal, area[keep], emission, sides, prim, power[keep], tree, textured=textured,
+                   mesh=mesh, meshes=None if mesh is None else meshes)
+
+    def corners_at(self, index: np.ndarray, times: Optional[np.ndarray] = None) -> tuple:
+        """Emitters `index` (n,) int64 where they are at `times` (n,) float64 in the shutter (None: the frame):
+        (corners (n, 3, 3), unit normals (n, 3), areas (n,)) float64; a still one's are the frame's, a moving one's
+        placed as the geometry places it for rays at that time (InstancedMesh.corner_points)."""
+        V, normal, area = self.corners[index], self.normal[index], self.area[index]
+        if self.mesh is None or times is None:
+            return V, normal, area
+        moving = self.mesh[index]
+        for m in np.unique(moving[moving >= 0]):
+            rows = np.flatnonzero(moving == m)
+            mesh = self.meshes[m]
+            j, local = mesh.split(self.prim[index[rows]])
+            placed = mesh.corner_points(j, local, np.asarray(times, np.float64)[rows])
+            cross = vectors.cross(placed[:, 1] - placed[:, 0], placed[:, 2] - placed[:, 0])
+            length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+            V, normal, area = V.copy(), normal.copy(), area.copy()
+            V[rows], area[rows] = placed, 0.5 * length
+            with np.errstate(divide="ignore", invalid="ignore"):
+                normal[rows] = np.nan_to_num(cross / length[:, None])
+        return V, normal, area
 
     def pick_probability(self, points: np.ndarray, index: np.ndarray, N: Optional[np.ndarray] = None) -> np.ndarray:
         """P(the tree chooses triangle `index` (n,) int64 from points (n, 3) with normals N (n, 3), zero rows
         or None: unknown): (n,) float64."""
         return self.tree.pick_probability(points, unknown_normals(points, N), index)
 
-    def sample(self, points: np.ndarray, u: np.ndarray, cone=None, N: Optional[np.ndarray] = None) -> LightSample:
+    def sample(self, points: np.ndarray, u: np.ndarray, cone=None, N: Optional[np.ndarray] = None,
+               times: Optional[np.ndarray] = None) -> LightSample:
         """One emissive triangle per point, chosen by the light tree from the point and its normal N (n, 3)
         (zero rows or None: unknown) with u[:, 0], then a direction towards it from u[:, 0] rescaled within the
         triangle's share and u[:, 1]: the unit-square points that pick one triangle stay stratified (Cycles draws a
         third, jointly stratified Sobol dimension for the pick; a separate number would leave each triangle a
-        random subset of the points, and the noise falling only as 1/N)."""
+        random subset of the points, and the noise falling only as 1/N). times: (n,) float64 the points' times in
+        the shutter, where a moving emitter is sampled (None: the frame)."""
         n = len(points)
         index, pick, reused = self.tree.pick(points, unknown_normals(points, N), u[:, 0])
         u = np.stack([reused, u[:, 1]], axis=1)
-        V = self.corners[index]
-        normal, area = self.normal[index], self.area[index]
+        V, normal, area = self.corners_at(index, times)
         allowed, spherical = side_and_way(V, normal, area, self.sides[index], points)
         L, distance, pdf_direction = np.zeros((n, 3)), np.zeros(n), np.zeros(n)
         if spherical.any():
@@ -147,12 +185,11 @@ class MeshEmitters(Light):
                            index)
 
     def pdf_of_hits(self, origins: np.ndarray, index: np.ndarray, D: np.ndarray, t: np.ndarray,
-                    N: Optional[np.ndarray] = None) -> np.ndarray:
+                    N: Optional[np.ndarray] = None, times: Optional[np.ndarray] = None) -> np.ndarray:
         """The pdf with which `sample` would choose the direction D from `origins` (normals N, as `sample`'s)
-        to emitter `index` at distance t (a BSDF-sampled ray that hit it): (n,) float64, 0 where the side is
-        not sampled."""
-        V = self.corners[index]
-        normal, area = self.normal[index], self.area[index]
+        to emitter `index` at distance t (a BSDF-sampled ray that hit it) at the rays' `times` (n,) (a moving
+        emitter where it is then; None: the frame): (n,) float64, 0 where the side is not sampled."""
+        V, normal, area = self.corners_at(index, times)
         allowed, spherical = side_and_way(V, normal, area, self.sides[index], origins)
         with np.errstate(divide="ignore", invalid="ignore"):
             omega = solid_angle(origins, V)
@@ -305,7 +342,8 @@ def from_geometry(geometry, materials, graph_emission, notes: Optional[list] = N
     Each material's `emission_sides` (FRONT | BACK, 0 for Emission Sampling None) and its emission
     estimate (a constant shader's emission) decide; copied and instanced triangles alike. graph_emission
     (core/integrators/direct.py graph_emission, from the caller) estimates what textured emitters emit.
-    notes: a list told once that moving emitters are left to BSDF rays (motion blur), or None.
+    notes: a list for what the emitters leave out (nothing today), or None. Emitters that move or deform over the shutter (an
+    instanced mesh with motion) are sampled where they are at each point's time (MeshEmitters.corners_at).
     """
     emission = np.array([np.asarray(shader.emission, np.float64) for shader in materials.shaders])
     sides = np.array([getattr(shader, "emission_sides", FRONT | BACK) for shader in materials.shaders], np.int32)
@@ -313,41 +351,96 @@ def from_geometry(geometry, materials, graph_emission, notes: Optional[list] = N
     emissive = ((emission.max(axis=1) > 0.0) | by_graph) & (sides > 0)
     if not emissive.any():
         return None
-    corners, rows_of, prims = [], [], []
+    corners, rows_of, prims, meshes_of = [], [], [], []
     if len(geometry.triangles):
         prim = np.flatnonzero(emissive[geometry.material])
         if len(prim):
             corners.append(geometry.corner_points(prim))
             rows_of.append(geometry.material[prim])
             prims.append(prim)
-    for mesh in geometry.instanced:
+            meshes_of.append(np.full(len(prim), -1, np.int32))
+    for m, mesh in enumerate(geometry.instanced):
         rows = mesh.material[mesh.material_row]                  # (k, t) each placement's materials
-        if mesh.motion is not None:
-            # A moving emitter is no light sample's: BSDF rays find it where it is at their time, with MIS weight 1
-            # (Cycles samples it too: the same light, with more noise here).
-            moving_note = ("motion blur: emitters that move are found by BSDF rays only, not light-sampled (the same "
-                           "light as Cycles, with more noise)")
-            if notes is not None and moving_note not in notes and emissive[rows].any():
-                notes.append(moving_note)
-            continue
         j, local = np.nonzero(emissive[rows])
         if len(j):
             corners.append(mesh.corner_points(j, local))
             rows_of.append(rows[j, local])
             prims.append(mesh.first_prim + j * len(mesh.triangles) + local)
+            # (a moving or deforming placement: sampled where it is at each point's time)
+            meshes_of.append(np.full(len(j), m if mesh.motion is not None or mesh.vertex_steps is not None else -1,
+                                     np.int32))
     if not corners:
         return None
     material, prim = np.concatenate(rows_of), np.concatenate(prims).astype(np.int64)
+    mesh_of = np.concatenate(meshes_of)
     radiance, textured = emission[material], by_graph[material]
     if textured.any():
         # A textured emitter is picked by its mean emission at a few points inside it (an estimate: where it is 0,
         # only BSDF rays find the triangle, with MIS weight 1); what a sample brings is evaluated where it lands.
         radiance[textured] = mean_graph_emission(geometry, materials, prim[textured], graph_emission)
+    moving = (mesh_of >= 0).any()
     emitters = MeshEmitters.of(np.concatenate(corners), radiance, sides[material], prim,
-                               textured if textured.any() else None)
+                               textured if textured.any() else None, mesh_of if moving else None,
+                               list(geometry.instanced) if moving else None)
     if emitters is not None:
         emitters.hidden = hidden_bits_of(geometry, emitters.prim)
     return emitters
+
+
+# Times in the shutter at which a moving emitter's leaf bounds are taken: this many per interval between its steps.
+BOUND_TIMES_PER_STEP = 16
+
+
+def shutter_bounds(corners: np.ndarray, normal: np.ndarray, sides: np.ndarray, prim: np.ndarray, mesh: np.ndarray,
+                   meshes: list) -> tuple:
+    """The light tree's leaves of emitters that may move: each one's box and orientation cone over the whole shutter
+    (a still one's its own), so that its importance bounds what it sends at any time.
+
+    corners (t, 3, 3), normal (t, 3), sides (t,), prim (t,), mesh (t,) int32 (-1: still) of `meshes`
+    (InstancedMesh) -> (lo (t, 3), hi (t, 3), axis (t, 3), theta_o (t,), centroid (t, 3)) float64. A moving one
+    is placed at BOUND_TIMES_PER_STEP times per interval between its steps; its box is padded by twice the most
+    a corner travels between two of them, its cone (the union of its normals, the sampled side's) by twice the most
+    its normal turns (the paths between the times are smooth: shorter than that)."""
+    from .light_tree import cone_union
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    axis = np.where((sides == BACK)[:, None], -normal, normal)
+    theta = np.where(sides == (FRONT | BACK), np.pi, 0.0)
+    centroid = corners.mean(axis=1)
+    for m in np.unique(mesh[mesh >= 0]):
+        rows = np.flatnonzero(mesh == m)
+        instanced = meshes[m]
+        j, local = instanced.split(prim[rows])
+        steps = max(2, 0 if instanced.motion is None else len(instanced.motion),
+                    0 if instanced.vertex_steps is None else len(instanced.vertex_steps))
+        times = np.linspace(0.0, 1.0, BOUND_TIMES_PER_STEP * (steps - 1) + 1)
+        n = len(rows)
+        low, high = np.full((n, 3), np.inf), np.full((n, 3), -np.inf)
+        cone_axis, cone_theta = None, np.zeros(n)
+        travel, turn = np.zeros(n), np.zeros(n)
+        degenerate = np.zeros(n, bool)
+        before = before_normal = None
+        for time in times:
+            V = instanced.corner_points(j, local, np.full(n, time))
+            low, high = np.minimum(low, V.min(axis=1)), np.maximum(high, V.max(axis=1))
+            cross = vectors.cross(V[:, 1] - V[:, 0], V[:, 2] - V[:, 0])
+            length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+            degenerate |= ~(length > 0.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                n_t = np.nan_to_num(cross / length[:, None])
+            a_t = np.where((sides[rows] == BACK)[:, None], -n_t, n_t)
+            if before is not None:
+                travel = np.maximum(travel, np.sqrt(np.einsum("ikj,ikj->ik", V - before, V - before)).max(axis=1))
+                turn = np.maximum(turn, np.arccos(np.clip(np.einsum("ij,ij->i", n_t, before_normal), -1.0, 1.0)))
+                cone_axis, cone_theta = cone_union(cone_axis, cone_theta, a_t, np.zeros(n))
+            else:
+                cone_axis = a_t
+            before, before_normal = V, n_t
+        lo[rows], hi[rows] = low - 2.0 * travel[:, None], high + 2.0 * travel[:, None]
+        centroid[rows] = 0.5 * (low + high)
+        everywhere = (sides[rows] == (FRONT | BACK)) | degenerate
+        axis[rows] = cone_axis
+        theta[rows] = np.where(everywhere, np.pi, np.minimum(cone_theta + 2.0 * turn, np.pi))
+    return lo, hi, axis, theta, centroid
 
 
 def hidden_bits_of(geometry, prim: np.ndarray) -> Optional[np.ndarray]:
@@ -379,11 +472,16 @@ EmitterTablesRecord = schema.record("EmitterTables", "The emissive triangles as 
     ("textured", ptr(U8), "(t,) 1: its material's node graph gives its emission (direct.c), or NULL"),
     ("prim", ptr(I64), "(t,) WorldGeometry's flat triangle index of each"),
     ("group", ptr(I32), "(t,) each triangle's object's light group (core/integrators/lightgroups.py), or NULL"),
+    ("mesh", ptr(I32), "(t,) the instanced mesh (GeometryTables.meshes) of each emitter that moves over the shutter,\n"
+                       "-1 still (MeshEmitters.mesh), or NULL: none moves"),
+    ("geometry", ptr(), "the scene's GeometryTables (core/geometry/tables.py), where a moving emitter is placed at a\n"
+                        "time (with mesh; untyped: the lights sit below the geometry), or NULL"),
 ])
 
 
 class EmitterTables:
-    """MeshEmitters' arrays in C's dtypes and the record (EmitterTables) that points at them."""
+    """MeshEmitters' arrays in C's dtypes and the record (EmitterTables) that points at them (its `geometry`, which
+    moving emitters need, is the renderer's GeometryTables: set by core/integrators/compiled.py)."""
 
     def __init__(self, emitters: MeshEmitters):
         c = library.contiguous
@@ -396,7 +494,7 @@ class EmitterTables:
             depth=c(tree.depth, np.int64), sorted_prim=c(emitters.prim[order], np.int64), order=order,
             count=len(emitters.prim), hidden=None if emitters.hidden is None else c(emitters.hidden, np.uint8),
             textured=None if emitters.textured is None else c(emitters.textured, np.uint8),
-            prim=c(emitters.prim, np.int64))
+            prim=c(emitters.prim, np.int64), mesh=None if emitters.mesh is None else c(emitters.mesh, np.int32))
 
 
 EmitterPickArgs = schema.record("EmitterPickArgs", "primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points.", [

@@ -66,14 +66,20 @@ class LightTree:
         return int(self.depth.max()) if len(self.depth) else 0
 
     @classmethod
-    def build(cls, corners: np.ndarray, normal: np.ndarray, power: np.ndarray, sides: np.ndarray) -> "LightTree":
+    def build(cls, corners: np.ndarray, normal: np.ndarray, power: np.ndarray, sides: np.ndarray,
+              bounds=None) -> "LightTree":
         """The tree over triangles: corners (t, 3, 3), unit front normals (t, 3), power (t,), sides (t,) int
         (FRONT 1 | BACK 2): each node split at the middle of the longest axis of its centroids' bounds (at
         the median where that leaves a side empty, or past MEDIAN_DEPTH). Built a level at a time, every
-        node of the level at once; the rows are in level order, so parents come before their children."""
+        node of the level at once; the rows are in level order, so parents come before their children.
+        bounds: the triangles' own (lo, hi, axis, theta_o, centroid) ((t, 3) x 3, (t,), (t, 3)) where some move
+        over the shutter (emitters.shutter_bounds: their bounds over the whole shutter), or None: from corners."""
         t = len(power)
         centroid = corners.mean(axis=1)
         axis_t = np.where((sides == 2)[:, None], -normal, normal)
+        box_lo, box_hi, theta_t = corners.min(axis=1), corners.max(axis=1), np.where(sides == 3, math.pi, 0.0)
+        if bounds is not None:
+            box_lo, box_hi, axis_t, theta_t, centroid = bounds
         nodes = np.zeros((2 * t - 1, NODE_FIELDS))
         path, depth = np.zeros(t, np.int64), np.zeros(t, np.int64)
         order = np.arange(t)                     # the triangles, each node's a contiguous run start .. end
@@ -84,9 +90,9 @@ class LightTree:
             leaf = end - start == 1
             i = order[start[leaf]]
             leaves = nodes[row[leaf]]
-            leaves[:, LO:LO + 3], leaves[:, HI:HI + 3] = corners[i].min(axis=1), corners[i].max(axis=1)
+            leaves[:, LO:LO + 3], leaves[:, HI:HI + 3] = box_lo[i], box_hi[i]
             leaves[:, AXIS:AXIS + 3] = axis_t[i]
-            leaves[:, THETA_O], leaves[:, THETA_E] = np.where(sides[i] == 3, math.pi, 0.0), 0.5 * math.pi
+            leaves[:, THETA_O], leaves[:, THETA_E] = theta_t[i], 0.5 * math.pi
             leaves[:, ENERGY], leaves[:, LEFT], leaves[:, RIGHT] = power[i], -1 - i, -1
             nodes[row[leaf]] = leaves
             depth[i] = level

@@ -678,6 +678,8 @@ struct InstancedTables {
 (InstancedMesh.vertex_steps), or NULL: rigid */
     int64_t vertex_step_count;              /* r (0: rigid) */
     int64_t vertex_count;                   /* v */
+    const float *normal_steps;              /* (r, v, 3) a deforming mesh's object-space unit vertex normals at its vertex steps
+(InstancedMesh.normal_steps), or NULL: the smooth normals are corner_normals at every time */
 };
 
 /* Every triangle of the scene (core/geometry/tables.py). */
@@ -938,6 +940,10 @@ struct EmitterTables {
     const uint8_t *textured;                /* (t,) 1: its material's node graph gives its emission (direct.c), or NULL */
     const int64_t *prim;                    /* (t,) WorldGeometry's flat triangle index of each */
     const int32_t *group;                   /* (t,) each triangle's object's light group (core/integrators/lightgroups.py), or NULL */
+    const int32_t *mesh;                    /* (t,) the instanced mesh (GeometryTables.meshes) of each emitter that moves over the shutter,
+-1 still (MeshEmitters.mesh), or NULL: none moves */
+    const void *geometry;                   /* the scene's GeometryTables (core/geometry/tables.py), where a moving emitter is placed at a
+time (with mesh; untyped: the lights sit below the geometry), or NULL */
 };
 
 /* primer_emitter_pick's (and _probability's) arguments: LightTree.pick for n points. */
@@ -1198,7 +1204,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "IntersectArgs") == 0) return UINT64_C(6440816817218738002);
     if (strcmp(name, "FaceNormalsArgs") == 0) return UINT64_C(3476867686744621423);
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
-    if (strcmp(name, "InstancedTables") == 0) return UINT64_C(8791688880110937372);
+    if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(6211286546654913338);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4844621714001878421);
@@ -1210,7 +1216,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
-    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(2679673540171007921);
+    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(3747915662707662173);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);

@@ -107,6 +107,10 @@ class Instance:
     deformation: its mesh's object-space vertex positions (v, 3) at s >= 2 evenly spaced times over the shutter
                (Cycles' deformation motion: the same vertices, moved by modifiers or shape keys), when they move;
                () rigid. Traced as an instance of its own whose vertices Embree interpolates at each ray's time.
+    deformation_normals: with a deformation, its mesh's object-space unit vertex normals (v, 3) at the same times
+               (Cycles' motion vertex normals, read where the mesh's normals are per vertex), whose linear
+               interpolation at each ray's time gives its smooth triangles' corner normals then; () the smooth
+               normals stay the frame's (Mesh.corner_normals).
     """
 
     mesh: int
@@ -135,6 +139,7 @@ class Instance:
     dupli_uv: Optional[tuple] = None
     motion: tuple = ()
     deformation: tuple = ()
+    deformation_normals: tuple = ()
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
