@@ -115,3 +115,52 @@ def test_glossy_closures_count_as_diffuse_only_when_rough():
     params[0, 1, 0], params[0, 2, 0] = 0.3, 0.01
     closures = Closures(kind, np.ones((1, 4, 3)), np.ones((1, 4)), np.tile(unit([0, 0, 1]), (1, 4, 1)), params)
     assert features.diffuse_like(closures).tolist() == [[True, True, False, False]]
+
+
+def foggy(scene: Scene, scatter: float, absorb: float) -> Scene:
+    """The scene in a grey world fog: Volume Scatter of density `scatter` (white) and Volume Absorption of density
+    `absorb` (black: it absorbs every channel), so sigma_s = scatter and sigma_t = scatter + absorb."""
+    from core.lights import World
+    volume = [("ABSORPTION", 1.0, {"color": np.zeros(3), "density": absorb})]
+    if scatter > 0.0:
+        volume.append(("SCATTER", 1.0, {"color": np.ones(3), "density": scatter, "anisotropy": 0.0}))
+    scene.world = World(color=np.zeros(3), volume=volume)
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_plane_seen_through_fog_gives_the_fogs_albedo_then_the_planes_by_the_odds_of_passing(kernels):
+    """Cycles 5.0 writes a medium's albedo sigma_s / sigma_t (1 - T) (the integral of T sigma_s) while the camera
+    path looks, and a path that scatters stops looking; in expectation (its unguided odds of passing, T for a grey
+    medium) the plane behind adds T times its albedo: with sigma_s 0.8, sigma_t 1.2 over the 0.999 from the camera's
+    near plane to the plane, albedo = 2/3 (1 - T) + T (0.2, 0.5, 0.7); the normal (1 - T) back towards the camera
+    plus T the plane's, both +Z here."""
+    aux = features_of(foggy(plane_scene(), 0.8, 0.4), kernels, integrator="path")
+    T = math.exp(-1.2 * 0.999)
+    expected = 2.0 / 3.0 * (1.0 - T) + T * np.array([0.2, 0.5, 0.7])
+    np.testing.assert_allclose(aux["denoising_albedo"], np.broadcast_to(expected, (12, 16, 3)), rtol=1e-5)
+    np.testing.assert_allclose(aux["denoising_normal"], np.broadcast_to([0.0, 0.0, 1.0], (12, 16, 3)), atol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_camera_looking_into_endless_fog_gives_its_albedo_and_the_normal_back_towards_it(kernels):
+    """A camera looking up into the fog (nothing in view, clip end 10 away): every path scatters before it ends but
+    for T(9.999) = exp(-12.0), so the albedo is 2/3 (1 - T) and the normal is the view direction back towards the
+    camera, -Z here (Cycles' (0, 0, -1) in camera space)."""
+    scene = foggy(plane_scene(), 0.8, 0.4)
+    scene.camera = dataclasses.replace(scene.camera, matrix_world=np.diag([1.0, -1.0, -1.0, 1.0]) @ np.eye(4)
+                                       + np.array([[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1.0], [0, 0, 0, 0]]))
+    aux = features_of(scene, kernels, integrator="path")
+    T = math.exp(-1.2 * 9.999)
+    np.testing.assert_allclose(aux["denoising_albedo"], np.full((12, 16, 3), 2.0 / 3.0 * (1.0 - T)), rtol=1e-5)
+    np.testing.assert_allclose(aux["denoising_normal"], np.broadcast_to([0.0, 0.0, -(1.0 - T)], (12, 16, 3)),
+                               atol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_fog_that_only_absorbs_leaves_the_features_as_they_are(kernels):
+    """A medium that scatters nothing only attenuates (Cycles writes no albedo for it and its paths never stop
+    looking there): the plane's albedo and normal exactly."""
+    aux = features_of(foggy(plane_scene(), 0.0, 0.7), kernels, integrator="path")
+    np.testing.assert_allclose(aux["denoising_albedo"], np.broadcast_to([0.2, 0.5, 0.7], (12, 16, 3)), atol=1e-6)
+    np.testing.assert_allclose(aux["denoising_normal"], np.broadcast_to([0.0, 0.0, 1.0], (12, 16, 3)), atol=1e-6)

@@ -157,6 +157,30 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
     }
 }
 
+/* features.in_media for the camera rays of block b (path.py's camera, rays.camera_back): each lane's reach and what
+ * the homogeneous media in front of it write (work->camera_features, added to the lane's features with what the camera
+ * sees); back (3) becomes the direction back towards the camera, the normal a path that scatters in a medium gets. */
+static void camera_lane_features(const ChunkParams *params, const CameraBlock *b, const BlockHits *H, PathWork *work,
+                                 double *back)
+{
+    const CameraRecord *camera = params->camera;
+    double length = 0.0;
+    for (int c = 0; c < 3; c++) back[c] = camera != NULL ? camera->rotation[3 * c + 2] : 0.0;
+    for (int c = 0; c < 3; c++) length += back[c] * back[c];
+    for (int c = 0; c < 3; c++) back[c] = length > 0.0 ? back[c] / sqrt(length) : 0.0;
+    double one[3] = {1.0, 1.0, 1.0};
+    for (int64_t lane = 0; lane < BLOCK; lane++) {
+        work->reach[lane] = 1.0;
+        for (int i = 0; i < FEATURE_CHANNELS; i++) work->camera_features[lane][i] = 0.0;
+        if (lane >= b->n || !b->valid[lane] || params->media == NULL || in_field(params->media, &H->lane_inside[lane]))
+            continue;
+        double sigma_s[3], g;
+        medium_scattering(params->media, &H->lane_inside[lane], sigma_s, &g, NULL);
+        features_in_media(work->camera_features[lane], work->reach + lane, one, one, H->lane_sigma[lane], sigma_s,
+                          H->t[lane], back);
+    }
+}
+
 /* The integrator at the block's hits: the radiance each sends towards the camera, into H->L, and what media
  * scatter along each camera ray of block b into H->lane_scattered. Returns the shadow rays; embree[0] += ticks in
  * occlusion queries, embree[1] in the BSDF rays' nearest hits. */
@@ -182,6 +206,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .passes = passes, .media = params->media,
     };
     if (passes != NULL) passes_clear(passes);
+    if (ds.features) camera_lane_features(params, b, H, work, ds.back);
     /* The path tracer's bounce limits; the direct tracer's through transparent surfaces: no bounces but those. */
     PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
                          (int)params->transmission_bounces, (int)params->transparent_bounces,
@@ -281,7 +306,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
                 H->looking[h] = 1;
                 for (int c = 0; c < 3; c++) { H->feature_tp[3 * h + c] = 1.0; H->found[3 * h + c] = 0.0; }
             }
-            features_at_vertex(H, work->features);
+            features_at_vertex(H, work->features, work->reach);
         }
         if (passes != NULL)                         /* (the camera's hits: passes.c) */
             for (int64_t h = 0; h < H->m; h++) passes_at_vertex(passes, &ds, H, h, 0);
@@ -576,7 +601,8 @@ static void render_chunk(const ChunkArgs *a)
             if (features && b.valid[lane]) {            /* (what the camera sees itself, then its path's) */
                 double *fk = out->features + FEATURE_CHANNELS * k;
                 for (int i = 0; i < FEATURE_CHANNELS; i++)
-                    fk[i] += finite_or_zero((i < 3 ? s[i] : 0.0) + (is_hit ? work->features[lane][i] : 0.0));
+                    fk[i] += finite_or_zero((i < 3 ? s[i] : 0.0) + (is_hit ? work->features[lane][i] : 0.0)
+                                            + work->camera_features[lane][i]);
             }
             if (scattering) {                           /* what its media scatter towards it (not clamped) */
                 for (int c = 0; c < 3; c++) s[c] += H.lane_scattered[lane][c];

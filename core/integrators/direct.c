@@ -581,6 +581,7 @@ typedef struct {
     const int32_t *instance_groups;   /* each object's group, or NULL */
     int64_t world_group;        /* the world's group (-1: none) */
     int features;               /* 1: BSDF rays add what they find to BlockHits.found (the denoising features) */
+    double back[3];             /* the features' normal where a path scatters in a medium (rays.camera_back) */
     LanePasses *passes;         /* the first-hit passes (passes.c) the camera chains write, or NULL */
 } DirectSettings;
 

@@ -35,22 +35,48 @@ INLINE int feature_vertex(const ShaderResult *sd, double *diffuse, double *specu
 }
 
 /* features.at_vertex for the hits of H whose paths still look: the emission they see (H->L, which holds just that
- * before the lights are gathered), then the feature vertex (into lanes: (BLOCK, FEATURE_CHANNELS) albedo, normal). */
-INLINE void features_at_vertex(BlockHits *H, double (*lanes)[FEATURE_CHANNELS])
+ * before the lights are gathered), then the feature vertex (into lanes: (BLOCK, FEATURE_CHANNELS) albedo, normal),
+ * times each lane's reach (features.in_media). */
+INLINE void features_at_vertex(BlockHits *H, double (*lanes)[FEATURE_CHANNELS], const double *reach)
 {
     for (int64_t h = 0; h < H->m; h++) {
         if (!H->looking[h]) continue;
-        double *out = lanes[H->lane[h]], *ftp = H->feature_tp + 3 * h;
+        double *out = lanes[H->lane[h]], *ftp = H->feature_tp + 3 * h, odds = reach[H->lane[h]];
         const double *tp = H->throughput + 3 * h;
         for (int c = 0; c < 3; c++) out[c] += ftp[c] * tp[c] * H->L[3 * h + c];
         double diffuse[3], specular[3], normal[3];
         if (feature_vertex(H->sd + h, diffuse, specular, normal)) {
-            for (int c = 0; c < 3; c++) { out[c] += ftp[c] * diffuse[c]; out[3 + c] = normal[c]; }
+            for (int c = 0; c < 3; c++) { out[c] += odds * (ftp[c] * diffuse[c]); out[3 + c] += odds * normal[c]; }
             H->looking[h] = 0;
         } else {
             for (int c = 0; c < 3; c++) ftp[c] *= specular[c];
         }
     }
+}
+
+/* features.in_media for one path's ray through homogeneous media (sigma_t, sigma_s (3) over t, inf: it escapes)
+ * while it looks: albedo (into lane[0..2]) += ftp x tp x sigma_s / sigma_t (1 - T), normal (lane[3..5]) += *reach
+ * (1 - P) back, *reach *= P, the odds of passing (T weighed by Cycles' channel pdf |tp (albedo tp + T)|); nothing
+ * where the media only absorb. */
+INLINE void features_in_media(double *lane, double *reach, const double *ftp, const double *tp, const double *sigma_t,
+                              const double *sigma_s, double t, const double *back)
+{
+    if (!(sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0)) return;
+    double T[3], albedo[3], total = 0.0, passing = 0.0;
+    for (int c = 0; c < 3; c++) {
+        int positive = sigma_t[c] > 0.0;
+        T[c] = positive ? exp(-sigma_t[c] * t) : 1.0;
+        albedo[c] = positive ? sigma_s[c] / sigma_t[c] * (1.0 - T[c]) : 0.0;
+        double share = fabs(tp[c] * (albedo[c] * tp[c] + T[c]));
+        total += share;
+        passing += share * T[c];
+    }
+    double P = total > 0.0 ? passing / total : (T[0] + T[1] + T[2]) / 3.0;
+    for (int c = 0; c < 3; c++) {
+        lane[c] += ftp[c] * tp[c] * albedo[c];
+        lane[3 + c] += (*reach * (1.0 - P)) * back[c];
+    }
+    *reach *= P;
 }
 
 /* features.found: what the hits' rays found (H->found, before the path's throughput) where their paths still look. */

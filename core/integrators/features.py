@@ -20,6 +20,10 @@ film_write_emission_or_background_pass in light_passes.h), both kernels:
 - While a path looks, what it sees emit adds feature throughput x its contribution to Combined (path throughput,
   MIS weight and cap included): the surface the camera sees emit, what its rays find (lamps, emitters, the world)
   and, for the camera, the world where it escapes (0 with a transparent film) and the lamps it passes.
+- Scattering media the path crosses while it looks (in_media; Cycles' film_write_denoising_features_volume): in
+  expectation over Cycles' choice to scatter there (its unguided odds), their albedo sigma_s / sigma_t (1 - T)
+  times the path's throughputs; a path that scatters stops looking with the view direction back towards the camera
+  as its normal, so later vertices count times the odds of getting past (the reach).
 - A path that ends before a feature vertex (a bounce limit, Russian roulette) leaves the features as they are:
   with Max Bounces 0, a mirror's pixel keeps albedo 0 unless its ray finds a light or the world, as in Cycles
   (measured: a tinted mirror reflecting a red wall, albedo 0 in Cycles 5.0 at Max Bounces 0, tint x red at 1).
@@ -85,12 +89,14 @@ FILM_CHANNELS = schema.constant("FEATURE_CHANNELS", 6, "the denoising features' 
 
 
 class Features:
-    """Each camera ray's denoising features as its path writes them: albedo and normal, (n, 3) float64 each."""
+    """Each camera ray's denoising features as its path writes them: albedo and normal, (n, 3) float64 each; and
+    reach (n,) float64, the odds that the path is still looking past the media in front of the camera (in_media)."""
 
     def __init__(self, n: int):
         """Nothing written yet for n camera rays."""
         self.albedo = np.zeros((n, 3))
         self.normal = np.zeros((n, 3))
+        self.reach = np.ones(n)
 
     def stacked(self) -> np.ndarray:
         """(n, FILM_CHANNELS) albedo then normal, as the film sums them."""
@@ -108,12 +114,47 @@ def at_vertex(features: Features, owner: np.ndarray, looking: np.ndarray, throug
     features.albedo[owner[rows]] += feature_throughput[rows] * throughput[rows] * emission[rows]
     diffuse_albedo, specular_albedo, normal, stops = vertex_features(shader.closures.rows(rows))
     done = rows[stops]
-    features.albedo[owner[done]] += feature_throughput[done] * diffuse_albedo[stops]
-    features.normal[owner[done]] = normal[stops]
+    reach = features.reach[owner[done]]
+    features.albedo[owner[done]] += reach[:, None] * feature_throughput[done] * diffuse_albedo[stops]
+    features.normal[owner[done]] += reach[:, None] * normal[stops]
     looking, feature_throughput = looking.copy(), feature_throughput.copy()
     looking[done] = False
     feature_throughput[rows[~stops]] *= specular_albedo[~stops]
     return looking, feature_throughput
+
+
+def in_media(features: Features, stretch, t: np.ndarray, back: np.ndarray, owner=None, throughput=None,
+             feature_throughput=None) -> None:
+    """The media a path crosses while it looks (stretch: the rays' core/volumes Stretch, out to t (k,), inf where a
+    ray escapes), as Cycles 5.0 writes them (film_write_denoising_features_volume): a path that scatters there stops
+    looking with the view direction as its normal; before it does, the media add their albedo. In expectation, with
+    Cycles' odds of passing (no volume guiding): albedo += feature throughput x throughput x sigma_s / sigma_t (1 - T)
+    per channel (the integral of T sigma_s), the path's reach *= P, the odds it passes (T per channel weighed by
+    Cycles' channel pdf, |throughput (albedo + T)|), normal += reach (1 - P) back (back (3,): towards the camera,
+    Cycles' (0, 0, -1) in camera space); the surfaces after write their albedo and normal times the reach
+    (at_vertex). Media that only absorb leave the features as they are (Cycles: attenuation only); rays in
+    heterogeneous media too (warned). owner (k,): the camera rays of the paths (None: the camera rays themselves);
+    throughput, feature_throughput (k, 3): the paths' (None: 1)."""
+    k = len(stretch.sigma_t)
+    owner = np.arange(k) if owner is None else np.asarray(owner)
+    throughput = np.ones((k, 3)) if throughput is None else throughput
+    feature_throughput = np.ones((k, 3)) if feature_throughput is None else feature_throughput
+    rows = np.flatnonzero((stretch.sigma_s > 0.0).any(axis=1) & ~stretch.varying)
+    if len(rows) == 0:
+        return
+    sigma_t, sigma_s, t, tp = stretch.sigma_t[rows], stretch.sigma_s[rows], np.asarray(t, np.float64)[rows], \
+        throughput[rows]
+    positive = sigma_t > 0.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        T = np.where(positive, np.exp(-np.where(positive, sigma_t, 1.0) * t[:, None]), 1.0)
+    albedo = np.where(positive, sigma_s / np.where(positive, sigma_t, 1.0), 0.0) * (1.0 - T)
+    share = np.abs(tp * (albedo * tp + T))
+    total = share.sum(axis=1)
+    P = np.where(total > 0.0, (share * T).sum(axis=1) / np.where(total > 0.0, total, 1.0), T.mean(axis=1))
+    who = owner[rows]
+    features.albedo[who] += feature_throughput[rows] * tp * albedo
+    features.normal[who] += (features.reach[who] * (1.0 - P))[:, None] * np.asarray(back, np.float64)
+    features.reach[who] *= P
 
 
 def found(features: Features, owner: np.ndarray, looking: np.ndarray, feature_throughput: np.ndarray,

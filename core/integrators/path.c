@@ -50,6 +50,8 @@ typedef struct {
     double *groups;                            /* (BLOCK, G, 3) each camera lane's light groups from vertices after
                                                 * the first (lightgroups.py), or NULL */
     double features[BLOCK][FEATURE_CHANNELS];  /* each camera lane's denoising features (features.c), where asked for */
+    double reach[BLOCK];                       /* each camera lane's odds of looking on past its media (features.c) */
+    double camera_features[BLOCK][FEATURE_CHANNELS];   /* what the media in front of each camera lane write */
     Arrival arrivals[BLOCK];                   /* the paths that scattered along a block's rays and reached a surface */
     int64_t n_arrivals;
     BlockHits c;                               /* the camera rays' arrivals, a block of vertex 0 (chunk.c) */
@@ -393,7 +395,7 @@ NOINLINE static int64_t trace_paths(BlockHits *H, DirectSettings *ds, const Path
                 if (current->bounce[h] == 0 && !current->exiting[h])   /* (a walk's exit is no camera chain's) */
                     passes_at_vertex(ds->passes, ds, current, h, vertex);
         if (ds->features) {                         /* (the emission seen here, the feature vertex: features.c) */
-            features_at_vertex(current, work->features);
+            features_at_vertex(current, work->features, work->reach);
             for (int64_t i = 0; i < 3 * current->m; i++) current->found[i] = 0.0;
         }
         shadow_rays += direct_light(current, ds, embree);

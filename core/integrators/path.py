@@ -65,7 +65,7 @@ from . import passes as passes_
 from . import shadows
 from . import subsurface as subsurface_
 from . import volume as volume_
-from .rays import camera_cones, camera_hits, camera_media, goes_through, nearest_seen
+from .rays import camera_back, camera_cones, camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
 from .vertex import VERTEX_DIMENSIONS, PathState, gather_light, shade_vertex
 from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
@@ -271,6 +271,13 @@ class PathTracing(Integrator):
         inside = None if media is None else camera_media(ctx, O, D)
         stretch = None if media is None else media.along(inside, O, D)
         L_out, found, hit, surface = camera_hits(ctx, O, D, t_max, recorder, direct_cap, groups, stretch, times)
+        # The denoising features (features.py): what the camera sees itself (not what the media scatter towards it),
+        # the media in front of it, then along each path.
+        feats = features_.Features(len(O)) if s.denoising_features else None
+        if feats is not None:
+            feats.albedo += L_out
+            if stretch is not None:
+                features_.in_media(feats, stretch, np.where(found.hit, found.t, t_max), camera_back(ctx))
         shadow_rays = 0
         scatters = media is not None and media.scatters
         # With Volume Bounces, paths go on from where they scatter (volume.multiple_scattering).
@@ -289,10 +296,6 @@ class PathTracing(Integrator):
                                                            np.ones((len(O), 3)), pixel, sample, 0, 0,
                                                            through_transparent, recorder)
             L_out += scattered
-        # The denoising features (features.py): what the camera sees itself, then along each path.
-        feats = features_.Features(len(O)) if s.denoising_features else None
-        if feats is not None:
-            feats.albedo += L_out
         # The first-hit passes (passes.py): what the camera rays pass and escape to, then along their camera chains.
         data = passes_.DataPasses.of(ctx, sample)
         if data is not None:
@@ -461,6 +464,14 @@ class PathTracing(Integrator):
                 going &= survived
                 next_throughput = next_throughput / np.where(going, q, 1.0)[:, None]
             vertex_arrivals = None
+            if feats is not None and media is not None:
+                # (the media along this bounce's rays, where their paths still look: features.in_media)
+                rows = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived & looking[ray.rows])
+                if len(rows):
+                    features_.in_media(feats, media.along(ray.inside[rows], ray.O[rows], ray.D[rows]),
+                                       np.where(ray.hits.hit[rows], ray.hits.t[rows], np.inf), camera_back(ctx),
+                                       owner[ray.rows[rows]], throughput[ray.rows[rows]] * ray.weight[rows]
+                                       / q[rows, None], feature_throughput[ray.rows[rows]])
             if scatters:
                 # The light the media scatter towards this bounce's rays, where the path may still bounce on them.
                 live = np.flatnonzero(within & (tp <= s.transparent_max_bounces) & survived)

@@ -199,6 +199,13 @@ def lamps_seen(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, gr
 CAMERA_MEDIA_HITS = schema.constant("CAMERA_MEDIA_HITS", 256, "the most surfaces a camera ray's walk for its media passes")
 
 
+def camera_back(ctx: Context) -> np.ndarray:
+    """The unit direction (3,) back towards the camera along its view axis (its local +z in the world): Cycles'
+    (0, 0, -1) in camera space, the normal its denoising features give a camera path that scatters in a medium."""
+    axis = np.asarray(ctx.scene.camera.matrix_world, np.float64)[:3, 2]
+    return axis / max(float(np.linalg.norm(axis)), 1e-300)
+
+
 def camera_media(ctx: Context, O: np.ndarray, D: np.ndarray) -> np.ndarray:
     """The media (n, V) int16 camera rays O, D (n, 3) start in (core/volumes Media.crossed): walking along each ray
     to its end, a back face of a volume material whose front face the walk has not met first is a medium the ray

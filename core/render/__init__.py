@@ -514,9 +514,16 @@ def volume_reason(ctx: Context, warnings: list) -> str:
         if note not in warnings:
             warnings.append(note)
         return ""
-    if (media.scatters or media.emits) and (lightpasses.wanted(s.passes) or s.light_groups or s.denoising_features):
-        note = ("volumes: the light media scatter and emit goes to Combined only, not to the light passes, light "
-                "groups or denoising features (Cycles writes it to its Volume passes)")
+    if (media.scatters or media.emits) and (lightpasses.wanted(s.passes) or s.light_groups):
+        note = ("volumes: the light media scatter and emit goes to Combined only, not to the light passes or light "
+                "groups (Cycles writes it to its Volume passes)")
+        if note not in warnings:
+            warnings.append(note)
+    if media.scatters and s.denoising_features:
+        # (features.in_media: Cycles' rule in expectation, with its unguided odds of passing a medium)
+        note = ("volumes: the Denoising Albedo and Normal take scattering media as Cycles does with its unguided odds "
+                "of passing them (Cycles 5.0 guides that choice along camera rays: a few per cent apart)"
+                + ("; heterogeneous media are left out of them" if media.heterogeneous else ""))
         if note not in warnings:
             warnings.append(note)
     if len(media.g) <= volumes.MAX_MEDIA:
