@@ -1,12 +1,16 @@
 """Christensen-Burley subsurface (Cycles' disk projection) inside real Blender (the bpy module, no mocks), against
 Cycles' own render: a smooth Suzanne (thin ears: chords through them meet several surfaces) and a smooth sphere of a
-Principled BSDF with Subsurface Method Christensen-Burley, Subsurface Weight 1, Scale 1, lit by a point lamp from
-behind and above and a dim world (32 x 24 pixels, orthographic), direct light only and path traced with 4 bounces.
-Primer and Cycles render 256 samples each (Cycles twice, with two seeds: its own noise); the measure is the relative
-MSE of 4 x 4-pixel block means, mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)).
+Principled BSDF with Subsurface Method Christensen-Burley, colour (0.8, 0.45, 0.3), Subsurface Weight 1, radius
+(1, 0.2, 0.1) x Scale 1, Specular IOR Level 0, lit by a point lamp from behind and above and a dim world (32 x 24
+pixels, orthographic), direct light only and path traced with 4 bounces. Primer (compiled kernel) and Cycles render
+256 samples each (Cycles twice, with two seeds: its own noise); the measure is the relative MSE of 4 x 4-pixel block
+means, mean((B(P) - B(C))^2 / (B(C)^2 + 0.01)).
 
-Measured (Blender 5.0, compiled kernel): see MEASURED below; before (Christensen-Burley walked as Random Walk) the
-same scene missed by far more (WALKED).
+Measured (Blender 5.0; 5.2 alike): direct 1.3e-4 (Cycles' noise 1.6e-4), path 2.1e-4 (1.8e-4), means within 0.7 %.
+At 2,048 samples each: direct 1.8e-5 (Cycles' noise 1.5e-5), path 3.2e-5 (1.3e-5), means within 1 % (red, path).
+Before, Christensen-Burley walked as Random Walk: 3.7e-3 at 2,048 samples, red 10 % dark. The specular layer is off
+because on this scene it differs from Cycles' by 2.0e-4 by itself (Subsurface Weight 0, Cycles' noise 2e-6),
+which would hide the disk.
 """
 from __future__ import annotations
 
@@ -30,6 +34,7 @@ bsdf.subsurface_method = "BURLEY"
 bsdf.inputs["Base Color"].default_value = (0.8, 0.45, 0.3, 1.0)
 bsdf.inputs["Subsurface Weight"].default_value = 1.0
 bsdf.inputs["Subsurface Scale"].default_value = 1.0
+bsdf.inputs["Specular IOR Level"].default_value = 0.0       # (the specular layer alone differs by 2e-4 here)
 tree.links.new(bsdf.outputs[0], output.inputs["Surface"])
 bpy.ops.mesh.primitive_monkey_add(size=2.0, location=(-1.1, 0.0, 0.0))
 bpy.ops.object.shade_smooth()
@@ -93,9 +98,10 @@ def test_christensen_burley_is_read_with_no_warning(renders):
 @pytest.mark.parametrize("integrator", ["DIRECT", "PATH"])
 def test_christensen_burley_renders_as_cycles_disk_projection(renders, integrator):
     """Suzanne and a sphere of Christensen-Burley subsurface lit from behind: Primer's image is Cycles' within a
-    block relMSE of 3 x Cycles' own noise (two seeds) plus 2e-4, and its mean within 3% per channel."""
+    block relMSE of 2 x Cycles' own noise (two seeds; Primer's is as large) plus 1e-4, and its mean within 3 % per
+    channel (walked as Random Walk it was 3.7e-3 off, red 10 % dark)."""
     case = renders["cases"][integrator]
     print(integrator, case)
-    assert case["rel_mse"] < 3.0 * case["cycles_noise"] + 2e-4, case
+    assert case["rel_mse"] < 2.0 * case["cycles_noise"] + 1e-4, case
     for p, c in zip(case["primer_mean"], case["cycles_mean"]):
         assert p == pytest.approx(c, rel=0.03), case
