@@ -1311,11 +1311,6 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         inputs["multiscatter"] = 1.0 if getattr(node, "distribution", "MULTI_GGX") == "MULTI_GGX" else 0.0
         method = getattr(node, "subsurface_method", "RANDOM_WALK")
         inputs["subsurface_method"] = subsurface_.method_of(method, tuple(bpy.app.version))
-        weight_socket = node.inputs.get("Subsurface Weight")
-        if method == "BURLEY" and weight_socket is not None and (
-                weight_socket.is_linked or float(np.max(reader.value(node, "Subsurface Weight", 0.0))) > 0.0):
-            reader.warn(node, "Subsurface Method Christensen-Burley (a disk projection in Cycles) is walked as "
-                              "Random Walk")
         _normal(reader, node, inputs)
         _tangent(reader, node, inputs, "anisotropic")
         for socket, instead in PRINCIPLED_LEFT_OUT.items():
@@ -1420,8 +1415,6 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                   "roughness": reader.input(node, "Roughness", 1.0),
                   "anisotropy": reader.input(node, "Anisotropy", 0.0),
                   "method": subsurface_.method_of(method, tuple(bpy.app.version))}
-        if method == "BURLEY":
-            reader.warn(node, "Falloff Christensen-Burley (a disk projection in Cycles) is walked as Random Walk")
         _normal(reader, node, inputs)
         out.append(("SUBSURFACE", weight, inputs, list(factors)))
     elif kind == "ShaderNodeEmission":

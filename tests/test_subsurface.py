@@ -231,10 +231,11 @@ def test_the_exit_is_lit_with_the_bssrdfs_own_normal_only_where_its_normal_is_li
 
 def test_blender_5_2_walks_random_walk_with_the_radius_itself_as_the_mean_free_path():
     """Blender 5.0's and 5.1's Cycles scale Random Walk's radius by 1 / (4 pi); 5.2's does not (measured against
-    its render, tests/test_blender_subsurface.py): method_of asks for RANDOM_WALK_MFP there, Skin stays."""
+    its render, tests/test_blender_subsurface.py): method_of asks for RANDOM_WALK_MFP there, Skin and Christensen-Burley
+    stay."""
     assert bssrdf.method_of("RANDOM_WALK", (5, 0, 1)) == bssrdf.RANDOM_WALK
     assert bssrdf.method_of("RANDOM_WALK", (5, 2, 0)) == bssrdf.RANDOM_WALK_MFP
-    assert bssrdf.method_of("BURLEY", (5, 2, 0)) == bssrdf.RANDOM_WALK_MFP
+    assert bssrdf.method_of("BURLEY", (5, 2, 0)) == bssrdf.BURLEY          # (the disk keeps its scale there)
     assert bssrdf.method_of("RANDOM_WALK_SKIN", (5, 2, 0)) == bssrdf.RANDOM_WALK_SKIN
     c = principled_closures({"subsurface": 1.0, "subsurface_radius": (1.0, 0.2, 0.1), "subsurface_scale": 0.5,
                              "subsurface_method": bssrdf.RANDOM_WALK_MFP})

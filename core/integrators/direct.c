@@ -1033,8 +1033,8 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
     }
 }
 
-/* direct.bsdf_ray's subsurface walk from hit h of H along the BSSRDF sample s (its closure, s->slot): the walk's
- * exit (none where the direction was not below the face), and the ray O, D (3 each) that reaches it from outside,
+/* direct.bsdf_ray's subsurface walk from hit h of H along the BSSRDF sample s (its closure, s->slot; or
+ * Christensen-Burley's disk, subsurface_disk): the walk's exit (none where the direction was not below the face), and the ray O, D (3 each) that reaches it from outside,
  * from beyond the exit back along the walk's last step (subsurface.exit_ray). */
 NOINLINE static void walk_from(const BlockHits *H, int64_t h, const DirectSettings *ds, const ShaderRays *traced,
                                const ClosureSample *s, WalkExit *walk, double *O, double *D)
@@ -1043,9 +1043,14 @@ NOINLINE static void walk_from(const BlockHits *H, int64_t h, const DirectSettin
     walk->exits = 0;
     for (int c = 0; c < 3; c++) walk->weight[c] = O[c] = D[c] = 0.0;
     walk->t = 0.0;
-    if (!(dot3(sf->Ng, s->wi) < 0.0)) return;           /* (an entry above Ng fails, as Cycles') */
-    subsurface_walk(traced, sf, H->geometry[h], H->prim[h], H->instance[h], H->sd[h].c + s->slot, s->wi, s->weight,
-                    H->throughput + 3 * h, H->pixel[h], H->sample[h], ds->dimension, walk);
+    const Closure *bssrdf = H->sd[h].c + s->slot;
+    if (bssrdf->p[SUBSURFACE_DISK] != 0.0)              /* (Christensen-Burley: the disk, no walk) */
+        subsurface_disk(traced, sf, H->geometry[h], H->prim[h], H->instance[h], bssrdf, s->weight, H->pixel[h],
+                        H->sample[h], ds->dimension, walk);
+    else if (!(dot3(sf->Ng, s->wi) < 0.0)) return;      /* (an entry above Ng fails, as Cycles') */
+    else
+        subsurface_walk(traced, sf, H->geometry[h], H->prim[h], H->instance[h], bssrdf, s->wi, s->weight,
+                        H->throughput + 3 * h, H->pixel[h], H->sample[h], ds->dimension, walk);
     double back = at_least(walk->t, 1e-6);
     for (int c = 0; c < 3; c++) { O[c] = walk->P[c] + walk->D[c] * back; D[c] = -walk->D[c]; }
 }

@@ -236,6 +236,8 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         /* A walk's exit is lit as a white Lambert surface (subsurface.c walk_exit_shader). */
         next->exiting[m] = (uint8_t)r->walked;
         if (r->walked) walk_exit_shader(next->sd + m);
+        /* After a diffuse bounce Christensen-Burley is a Lambert closure (Cycles' PATH_RAY_DIFFUSE_ANCESTOR). */
+        if (d > 0 || after_diffuse) burley_as_diffuse(next->sd + m);
         next->flags[m] = r->path.flags;             /* (through clear surfaces: still the camera's) */
         next->seen_by[m] = r->seen_as;
         if (bounces == 0) {
@@ -299,6 +301,7 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
                        a->min_pdf < BEVEL_MIN_PDF};
     shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry, r->prim,
               r->instance, r->u, r->v, next->wo + 3 * m, &path, &keys, next->sd + m);
+    if (a->diffuse > 0) burley_as_diffuse(next->sd + m);     /* (subsurface.burley_as_diffuse, as path.py) */
     next->exiting[m] = 0;
     next->flags[m] = PATH_VOLUME_SCATTER;
     next->seen_by[m] = 0;

@@ -370,6 +370,8 @@ class PathTracing(Integrator):
                                                               min_pdf))
             # A walk's exit is lit as a white Lambert surface (Cycles' subsurface_shader_data_setup).
             shader = subsurface_.subsurface_shader(shader, exiting)
+            # After a diffuse bounce Christensen-Burley is a Lambert closure (Cycles' PATH_RAY_DIFFUSE_ANCESTOR).
+            shader = subsurface_.burley_as_diffuse(shader, (diffuse > 0) | after_diffuse)
             if holdouts:
                 # A camera path (no real bounce yet) that meets a holdout object or node: a hole in the film.
                 shader, weight = hold_out(ctx, surface, shader, bounce == 0)

@@ -4,7 +4,10 @@
  * channel chosen by the path's weight, directions from Henyey-Greenstein or Dwivedi's guiding, weighed by the
  * balance heuristic over channels and strategies; the exit is the first step whose ray meets the same object's
  * surface (shader_rays.c local_hits). The same sampling dimensions as the Python, so the kernels agree to rounding.
- * direct.c bsdf_rays calls it where a sampled closure is a BSSRDF; path.c lights the exit as a white Lambert. */
+ * direct.c bsdf_rays calls it where a sampled closure is a BSSRDF; path.c lights the exit as a white Lambert.
+ * Christensen-Burley's closures (SUBSURFACE_DISK) take subsurface_disk instead: Cycles' disk projection, a chord
+ * probed through a disk about the entry (subsurface.disk), and after a diffuse bounce are Lambert closures
+ * (burley_as_diffuse). */
 
 /* MAX_STEPS, SIMILARITY_STEPS, MIN_ALPHA, OWN_HITS and THROUGHPUT_EPSILON are subsurface.py's (SUBSURFACE_DIMENSION:
  * boundary.gen.h). */
@@ -13,6 +16,9 @@
 #define WALK_MIN_ALPHA 0.2
 #define WALK_OWN_HITS 4
 #define WALK_THROUGHPUT_EPSILON 1e-6
+#define DISK_MAX_HITS 4         /* subsurface.DISK_MAX_HITS (Cycles' BSSRDF_MAX_HITS) */
+#define BURLEY_TRUNCATE 16.0    /* materials/subsurface.py BURLEY_TRUNCATE, BURLEY_TRUNCATE_CDF */
+#define BURLEY_TRUNCATE_CDF 0.9963790093708328
 
 /* Where a walk left the mesh (subsurface.walk's returns for one path). */
 typedef struct {
@@ -206,6 +212,137 @@ NOINLINE static int64_t subsurface_walk(const ShaderRays *rays, const Surface *s
         out->weight[j] = out->exits ? tp[j] : 0.0;
     }
     return traced;
+}
+
+/* materials/subsurface.burley_pdf for one channel: the truncated profile of d as a density in the distance r (0 at
+ * r = 0, from 16 d on, and where d is 0). */
+INLINE double burley_pdf(double d, double r)
+{
+    if (!(d > 0.0) || r == 0.0 || !(r < BURLEY_TRUNCATE * d)) return 0.0;
+    double e3 = exp(-r / (3.0 * d));
+    return (e3 * e3 * e3 + e3) / (4.0 * d) / BURLEY_TRUNCATE_CDF;
+}
+
+/* materials/subsurface.burley_root: the distance (in units of d) where the profile's cumulative reaches xi. */
+INLINE double burley_root(double xi)
+{
+    double x = xi <= 0.9 ? exp(xi * xi * 2.4) - 1.0 : 15.0;
+    for (int i = 0; i < 10; i++) {
+        double e3 = exp(-x / 3.0), e = e3 * e3 * e3;
+        double f = 1.0 - 0.25 * e - 0.75 * e3 - xi, slope = 0.25 * e + 0.25 * e3;
+        if (!(fabs(f) >= 1e-6) || slope == 0.0) break;
+        x = at_least(x - f / slope, 0.0);
+    }
+    return x;
+}
+
+/* subsurface.disk for one path (Cycles' subsurface_disk): from the hit s (on geometry, prim, instance) with the
+ * Christensen-Burley closure c (radius: d per channel), `weight` (3) the closure's weight, the keys pixel, sample and
+ * the vertex's `dimension`: the exit (out->P the exit point, out->D its outward face normal on the side the entry
+ * was seen from, out->t the probe's distance to it) and the weight after it. Returns the rays traced (1). */
+NOINLINE static int64_t subsurface_disk(const ShaderRays *rays, const Surface *s, int64_t geometry, int64_t prim,
+                                        int64_t instance, const Closure *c, const double *weight, int64_t pixel,
+                                        int64_t sample, int64_t dimension, WalkExit *out)
+{
+    const double *P0 = s->I, *Ng = s->Ng, *radius = c->p + SUBSURFACE_RADIUS;
+    int64_t owner = owner_of(rays->geometry, geometry, prim, instance);
+    double u[2], u2[2], T0[3], B0[3];
+    sample_2d(stream_of((int64_t)rays->seed, dimension + SUBSURFACE_DIMENSION), pixel, sample, u);
+    sample_2d(stream_of((int64_t)rays->seed, dimension + SUBSURFACE_DIMENSION + 1), pixel, sample, u2);
+    out->exits = 0;
+    out->geometry = out->prim = out->instance = 0;
+    out->u = out->v = out->t = 0.0;
+    for (int j = 0; j < 3; j++) out->P[j] = out->D[j] = out->weight[j] = 0.0;
+    /* 1. The plane: across Ng (1/2), across T or across B (1/4 each). */
+    orthonormals(Ng, T0, B0);
+    int axis = u[1] < 0.5 ? 0 : (u[1] < 0.75 ? 1 : 2);
+    double y = axis == 0 ? 2.0 * u[1] : (axis == 1 ? (u[1] - 0.5) * 4.0 : (u[1] - 0.75) * 4.0);
+    const double *disk_N = axis == 0 ? Ng : (axis == 1 ? T0 : B0);
+    const double *disk_T = axis == 1 ? Ng : T0, *disk_B = axis == 2 ? Ng : B0;
+    double pick[3] = {axis == 0 ? 0.5 : 0.25, axis == 1 ? 0.5 : 0.25, axis == 2 ? 0.5 : 0.25};
+    /* 2. The distance on the disk (materials/subsurface.burley_sample) and the chord through it. */
+    int channels = 0;
+    for (int j = 0; j < 3; j++) channels += radius[j] > 0.0;
+    double x = u[0] * (double)channels, d = 0.0;
+    double rank = floor(x) < (double)(channels - 1) ? floor(x) : (double)(channels - 1);
+    rank = rank > 0.0 ? rank : 0.0;
+    for (int j = 0, seen = 0; j < 3; j++)
+        if (radius[j] > 0.0) { if ((double)seen == rank) d = radius[j]; seen++; }
+    double r = burley_root((x - rank) * BURLEY_TRUNCATE_CDF) * d, Rm = BURLEY_TRUNCATE * d;
+    double h = sqrt(at_least(Rm * Rm - r * r, 0.0)), phi = 2.0 * PI * y, cx = r * cos(phi), cy = r * sin(phi);
+    double O[3], D[3];
+    for (int j = 0; j < 3; j++) {
+        O[j] = ((P0[j] + disk_N[j] * h) + cx * disk_T[j]) + cy * disk_B[j];
+        D[j] = -disk_N[j];
+    }
+    int64_t hg[LOCAL_STEPS], hp[LOCAL_STEPS], hi[LOCAL_STEPS];
+    double hu[LOCAL_STEPS], hv[LOCAL_STEPS], ht[LOCAL_STEPS];
+    int64_t count = local_hits(rays, O, D, 2.0 * h, s->time, owner, LOCAL_STEPS, hg, hp, hi, hu, hv, ht);
+    /* 3. The surfaces weighed: DISK_MAX_HITS consecutive ones from a random start where there are more. */
+    int64_t n = count < LOCAL_STEPS ? count : LOCAL_STEPS, used = n < DISK_MAX_HITS ? n : DISK_MAX_HITS, start = 0;
+    double scale = 1.0;
+    if (n > DISK_MAX_HITS) {
+        double first = floor(u2[1] * (double)n);
+        start = (int64_t)(first < (double)(n - 1) ? first : (double)(n - 1));
+        scale = (double)n / DISK_MAX_HITS;
+    }
+    double pdf = 0.0, back = s->backfacing ? -1.0 : 1.0;
+    for (int j = 0; j < 3; j++) pdf += burley_pdf(radius[j], r);
+    pdf /= (double)(channels > 1 ? channels : 1);
+    double weights[DISK_MAX_HITS][3], normal[DISK_MAX_HITS][3], mean[DISK_MAX_HITS];
+    int64_t slot_of[DISK_MAX_HITS];
+    for (int i = 0; i < DISK_MAX_HITS; i++) {
+        slot_of[i] = 0;
+        mean[i] = 0.0;
+        for (int j = 0; j < 3; j++) weights[i][j] = normal[i][j] = 0.0;
+        if (i >= used) continue;
+        int64_t k = (start + i) % n;
+        slot_of[i] = k;
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        hit_triangle(rays->geometry, hg[k], hp[k], hi[k], 0, s->time, &tri);
+        for (int j = 0; j < 3; j++) normal[i][j] = tri.Ng[j] * back;
+        double pN = pick[0] * fabs(dot3(disk_N, normal[i])), pT = pick[1] * fabs(dot3(disk_T, normal[i]));
+        double pB = pick[2] * fabs(dot3(disk_B, normal[i]));
+        double w = pN > 0.0 ? pN / at_least((pN * pN + pT * pT) + pB * pB, 1e-300) : 0.0;
+        w = w * scale;
+        double gap[3];
+        for (int j = 0; j < 3; j++) gap[j] = (O[j] - disk_N[j] * ht[k]) - P0[j];
+        double distance = sqrt(dot3(gap, gap));
+        for (int j = 0; j < 3; j++) weights[i][j] = (pdf > 0.0 ? burley_pdf(radius[j], distance) / pdf : 0.0) * w;
+        mean[i] = (fabs(weights[i][0]) + fabs(weights[i][1]) + fabs(weights[i][2])) / 3.0;
+    }
+    /* 4. One surface in proportion to its mean weight; the path keeps the sum. */
+    double total = 0.0;
+    for (int i = 0; i < DISK_MAX_HITS; i++) total += mean[i];
+    double target = u2[0] * total, partial = 0.0;
+    int chosen = 0;
+    for (int i = 0; i < DISK_MAX_HITS; i++) { partial += mean[i]; chosen += partial <= target; }
+    chosen = chosen < DISK_MAX_HITS - 1 ? chosen : DISK_MAX_HITS - 1;
+    if (!(total > 0.0) || !(mean[chosen] > 0.0)) return 1;
+    int64_t k = slot_of[chosen];
+    double share = total / mean[chosen];
+    out->exits = 1;
+    out->geometry = hg[k]; out->prim = hp[k]; out->instance = hi[k];
+    out->u = hu[k]; out->v = hv[k];
+    out->t = at_least(ht[k], 1e-6);
+    for (int j = 0; j < 3; j++) {
+        out->P[j] = O[j] - disk_N[j] * ht[k];
+        out->D[j] = normal[chosen][j];
+        out->weight[j] = (weight[j] * weights[chosen][j]) * share;
+    }
+    return 1;
+}
+
+/* subsurface.burley_as_diffuse for one hit a path reached after some diffuse bounce: its Christensen-Burley closures
+ * become Lambert ones of their weight, sampling weight their mean weight (Cycles' PATH_RAY_DIFFUSE_ANCESTOR). */
+INLINE void burley_as_diffuse(ShaderResult *sd)
+{
+    for (int k = 0; k < sd->n; k++) {
+        Closure *c = sd->c + k;
+        if (!bsdf_is(c->kind, BSDF_FLAG_SUBSURFACE) || c->p == NULL || c->p[SUBSURFACE_DISK] == 0.0) continue;
+        c->kind = BSDF_LAMBERT;
+        c->sample_weight = fabs((c->weight[0] + c->weight[1] + c->weight[2]) / 3.0);
+    }
 }
 
 /* subsurface.exit_normal for one exit's shader sd: its shading normal, or where a BSSRDF closure there has a linked

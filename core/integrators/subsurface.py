@@ -19,8 +19,26 @@ homogeneous medium per colour channel:
 The path then goes on from the exit as if a ray from outside had hit it there (vertex.bsdf_ray): a white Lambert
 closure with the exit's shading normal (subsurface_shader), lit by light samples and bouncing diffusely.
 
-The compiled twin is core/integrators/subsurface.c (subsurface_walk, one path at a time, with the same sampling
-dimensions: the two kernels agree to float32 rounding).
+Christensen-Burley (Cycles' disk projection, kernel/integrator/subsurface_disk.h; King, Kulla, Conty and Fajardo,
+"BSSRDF Importance Sampling", 2013) walks nothing: `disk` probes the object along one chord through a disk about the
+entry, as the Bevel node does (shader_rays.local_hits):
+
+1. a plane through the entry: across its face normal Ng (probability 1/2) or across either tangent (1/4 each);
+2. a distance r on it from Burley's profile of a colour channel picked uniformly (materials/subsurface.py
+   burley_sample), at an angle phi, and the chord through that point across the plane, of half length
+   h = sqrt((16 d)^2 - r^2) on either side;
+3. the object's surfaces along the chord (up to DISK_MAX_HITS of them, Cycles' BSSRDF_MAX_HITS: where more, a
+   window of that many consecutive ones from a random start, each then counting their number / DISK_MAX_HITS: every
+   surface is in it with the same chance as in Cycles' random subset), each weighed by the three planes' multiple
+   importance (power heuristic) and the profile at its true distance from the entry over the mean profile density at
+   r (per channel: the colour shift of the scattering);
+4. one of them chosen in proportion to its mean weight (resampling), the path keeping the sum.
+
+The exit is then lit as a walk's (the white Lambert of subsurface_shader), seen from outside along its face normal.
+After any diffuse bounce the closure is a Lambert one of its weight instead (burley_as_diffuse).
+
+The compiled twin is core/integrators/subsurface.c (subsurface_walk and subsurface_disk, one path at a time, with the
+same sampling dimensions: the two kernels agree to float32 rounding).
 """
 from __future__ import annotations
 
@@ -37,13 +55,14 @@ from ..materials.lambert import Lambert
 from ..native import schema
 from ..sampling import sobol as sampling
 from ..volumes.phase import HenyeyGreenstein, henyey_greenstein
-from .shader_rays import local_hits
+from .shader_rays import LOCAL_STEPS, local_hits, orthonormals
 
 MAX_STEPS = 256                     # Cycles' BSSRDF_MAX_BOUNCES
 SIMILARITY_STEPS = 9                # steps with the real anisotropy, before the isotropic similarity relation
 MIN_ALPHA = 0.2                     # the smallest single-scattering albedo walked (the weight makes up the rest)
 OWN_HITS = 4                        # the first step's hits looked at, to pass its own triangle's
 THROUGHPUT_EPSILON = 1e-6           # a walk whose weight falls below this stops (Cycles' VOLUME_THROUGHPUT_EPSILON)
+DISK_MAX_HITS = 4                   # the surfaces a disk probe weighs (Cycles' BSSRDF_MAX_HITS)
 # Each step's sampling dimensions (three 2-d points: channel and distance, guiding choices, direction).
 SUBSURFACE_DIMENSION = schema.constant("SUBSURFACE_DIMENSION", 1 << 12,
                                        "a subsurface walk's first sampling dimension at a vertex (3 a step)")
@@ -235,6 +254,99 @@ def walk(ctx, surface, rows: np.ndarray, params: np.ndarray, N: np.ndarray, D: n
         faint = np.abs(throughput[a]).max(axis=1) < THROUGHPUT_EPSILON
         alive = a[~leaves & ~faint & np.isfinite(throughput[a]).all(axis=1)]
     return exits, (prim, u, v), P, Dw, last_t, np.where(exits[:, None], throughput, 0.0)
+
+
+def disk(ctx, surface, rows: np.ndarray, params: np.ndarray, weight: np.ndarray, pixel: np.ndarray,
+         sample: np.ndarray, dimension: int) -> tuple:
+    """Christensen-Burley's disk projection from the hits `rows` (k,) of `surface` with the BSSRDF closures' params
+    (k, PARAMS) (DISK set; radius the per-channel d), weight (k, 3) the closure's weight: the same returns as `walk`
+    (exits (k,) bool, the exit's (prim, u, v), the exit point (k, 3), its outward face normal (k, 3) (the side the
+    entry was seen from), the probe's distance to it (k,), the weight (k, 3) after it)."""
+    k = len(rows)
+    geometry, seed = ctx.geometry, ctx.settings.seed
+    P0, Ng = surface.I[rows], surface.Ng[rows]
+    owner = geometry.owners(surface.prim[rows])
+    times = None if surface.time is None else surface.time[rows]
+    radius = params[:, bssrdf.RADIUS:bssrdf.RADIUS + 3]
+    dim = dimension + SUBSURFACE_DIMENSION
+    u = sampling.sample_2d(seed, pixel, sample, dimension=dim)
+    u2 = sampling.sample_2d(seed, pixel, sample, dimension=dim + 1)
+    # 1. The plane: across Ng (1/2), across T or across B (1/4 each); u.y reused within its share for phi.
+    T0, B0 = orthonormals(Ng)
+    axis = np.where(u[:, 1] < 0.5, 0, np.where(u[:, 1] < 0.75, 1, 2))
+    y = np.where(axis == 0, 2.0 * u[:, 1], np.where(axis == 1, (u[:, 1] - 0.5) * 4.0, (u[:, 1] - 0.75) * 4.0))
+    disk_N = np.where((axis == 0)[:, None], Ng, np.where((axis == 1)[:, None], T0, B0))
+    disk_T = np.where((axis == 1)[:, None], Ng, T0)
+    disk_B = np.where((axis == 2)[:, None], Ng, B0)
+    pick = np.stack([np.where(axis == 0, 0.5, 0.25), np.where(axis == 1, 0.5, 0.25),
+                     np.where(axis == 2, 0.5, 0.25)], axis=1)
+    # 2. The point on the disk and the chord through it.
+    r, h = bssrdf.burley_sample(radius, u[:, 0])
+    phi = 2.0 * math.pi * y
+    origin = P0 + disk_N * h[:, None] + (r * np.cos(phi))[:, None] * disk_T + (r * np.sin(phi))[:, None] * disk_B
+    count, found = local_hits(geometry, origin, -disk_N, 2.0 * h, owner, LOCAL_STEPS, times)
+    # 3. The surfaces weighed: DISK_MAX_HITS consecutive ones from a random start where there are more.
+    n = np.minimum(count, LOCAL_STEPS)
+    used = np.minimum(n, DISK_MAX_HITS)
+    start = np.where(n > DISK_MAX_HITS, np.minimum(np.floor(u2[:, 1] * n), n - 1), 0).astype(np.int64)
+    scale = np.where(n > DISK_MAX_HITS, n / DISK_MAX_HITS, 1.0)
+    table = [np.stack([f[i] for f in found], axis=1) for i in range(4)]        # prim, u, v, t: (k, LOCAL_STEPS)
+    live = radius > 0.0
+    channels = np.maximum(live.sum(axis=1), 1)
+    pdf = bssrdf.burley_pdf(radius, r[:, None]).sum(axis=1) / channels
+    back = np.where(surface.backfacing[rows], -1.0, 1.0) if surface.backfacing is not None else np.ones(k)
+    hit_prim, hit_u, hit_v, hit_t = (np.zeros((k, DISK_MAX_HITS), a.dtype) for a in table)
+    hit_N = np.zeros((k, DISK_MAX_HITS, 3))
+    weights = np.zeros((k, DISK_MAX_HITS, 3))
+    at = np.arange(k)
+    for i in range(DISK_MAX_HITS):
+        ok = i < used
+        slot = np.where(ok, (start + i) % np.maximum(n, 1), 0)
+        for target, source in zip((hit_prim, hit_u, hit_v, hit_t), table):
+            target[:, i] = source[at, slot]
+        rows_i = np.flatnonzero(ok)
+        if len(rows_i) == 0:
+            continue
+        data = geometry.triangle_data(hit_prim[rows_i, i], smooth=False, times=None if times is None else times[rows_i])
+        N_i = data.Ng * back[rows_i, None]
+        hit_N[rows_i, i] = N_i
+        p = pick[rows_i] * np.abs(np.stack([np.einsum("ij,ij->i", d[rows_i], N_i) for d in (disk_N, disk_T, disk_B)],
+                                           axis=1))
+        w = np.where(p[:, 0] > 0.0, p[:, 0] / np.maximum((p * p).sum(axis=1), 1e-300), 0.0) * scale[rows_i]
+        hit_P = origin[rows_i] - disk_N[rows_i] * hit_t[rows_i, i, None]
+        distance = np.linalg.norm(hit_P - P0[rows_i], axis=1)
+        ratio = np.divide(bssrdf.burley_pdf(radius[rows_i], distance[:, None]), pdf[rows_i, None],
+                          out=np.zeros((len(rows_i), 3)), where=pdf[rows_i, None] > 0.0)
+        weights[rows_i, i] = ratio * w[:, None]
+    # 4. One surface in proportion to its mean weight; the path keeps the sum.
+    mean = np.abs(weights).mean(axis=2)
+    total = mean.sum(axis=1)
+    partial = np.cumsum(mean, axis=1)
+    chosen = np.minimum((partial <= (u2[:, 0] * total)[:, None]).sum(axis=1), DISK_MAX_HITS - 1)
+    exits = (total > 0.0) & (mean[at, chosen] > 0.0)
+    share = np.divide(total, mean[at, chosen], out=np.zeros(k), where=exits)
+    kept = weight * weights[at, chosen] * share[:, None]
+    t = hit_t[at, chosen]
+    P = origin - disk_N * t[:, None]
+    prim_uv = (np.where(exits, hit_prim[at, chosen], 0), np.where(exits, hit_u[at, chosen], 0.0),
+               np.where(exits, hit_v[at, chosen], 0.0))
+    return exits, prim_uv, P, hit_N[at, chosen], np.maximum(t, 1e-6), np.where(exits[:, None], kept, 0.0)
+
+
+def burley_as_diffuse(shader: ShaderResult, ancestor: np.ndarray) -> ShaderResult:
+    """The shader with its Christensen-Burley closures turned Lambert ones of their weight (sampling weight their mean
+    weight) at the hits `ancestor` (n,) bool a path reached after some diffuse bounce (Cycles' bssrdf_setup with
+    PATH_RAY_DIFFUSE_ANCESTOR); the others as they are."""
+    c = shader.closures
+    if not ancestor.any() or c.params.shape[2] <= bssrdf.DISK:
+        return shader
+    turn = ancestor[:, None] & has(c.kind, BSDFFlags.SUBSURFACE) & (c.params[:, :, bssrdf.DISK] != 0.0)
+    if not turn.any():
+        return shader
+    kind = np.where(turn, Lambert.kind, c.kind).astype(np.int32)
+    sample_weight = np.where(turn, np.abs(c.weight.mean(axis=2)), c.sample_weight)
+    closures = Closures(kind, c.weight, sample_weight, c.N, c.params, c.Ns, c.terminator)
+    return ShaderResult(closures, shader.emission, shader.transparency, shader.N, shader.holdout)
 
 
 def exit_ray(exits: np.ndarray, prim_uv: tuple, P: np.ndarray, D: np.ndarray, t: np.ndarray) -> tuple:

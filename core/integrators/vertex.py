@@ -24,6 +24,7 @@ import numpy as np
 
 from .. import materials as materials_
 from ..materials import portal as portal_
+from ..materials import subsurface as bssrdf_
 from ..geometry.intersect import Hits
 from ..geometry.surface import surface_at_hits
 from ..lights import linking
@@ -348,12 +349,32 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
     if len(walks):
         at = go[walks]
         weight = weight.copy()
+        closure_params = shader.closures.params[at, bs.slot[at]]
+        disk = closure_params[:, bssrdf_.DISK] != 0.0               # (Christensen-Burley: the disk, no walk)
         below = np.einsum("ij,ij->i", surface.Ng[at], bs.wi[at]) < 0.0       # (an entry above Ng fails, as Cycles')
-        exits, prim_uv, P, last_D, last_t, walked = subsurface_.walk(
-            ctx, surface, at, shader.closures.params[at, bs.slot[at]], shader.closures.N[at, bs.slot[at]], bs.wi[at],
-            np.where(below[:, None], bs.weight[at], 0.0), pixel[at], sample[at], dimension,
-            None if throughput is None else np.broadcast_to(throughput, (m, 3))[at])
-        exits &= below
+        j = len(at)
+        exits, P, last_D, last_t, walked = np.zeros(j, bool), np.zeros((j, 3)), np.zeros((j, 3)), np.zeros(j), \
+            np.zeros((j, 3))
+        prim_uv = (np.zeros(j, np.int64), np.zeros(j), np.zeros(j))
+        carried = None if throughput is None else np.broadcast_to(throughput, (m, 3))[at]
+        for part, method in ((np.flatnonzero(~disk), "walk"), (np.flatnonzero(disk), "disk")):
+            if len(part) == 0:
+                continue
+            a = at[part]
+            if method == "walk":
+                found_exit = subsurface_.walk(
+                    ctx, surface, a, closure_params[part], shader.closures.N[a, bs.slot[a]], bs.wi[a],
+                    np.where(below[part, None], bs.weight[a], 0.0), pixel[a], sample[a], dimension,
+                    None if carried is None else carried[part])
+                found_exit = (found_exit[0] & below[part],) + found_exit[1:]
+            else:
+                found_exit = subsurface_.disk(ctx, surface, a, closure_params[part], bs.weight[a], pixel[a],
+                                              sample[a], dimension)
+            exits[part] = found_exit[0]
+            for target, value in zip(prim_uv, found_exit[1]):
+                target[part] = value
+            for target, value in zip((P, last_D, last_t, walked), found_exit[2:]):
+                target[part] = value
         O[walks], D[walks], exit_hits = subsurface_.exit_ray(exits, prim_uv, P, last_D, last_t)
         hits = Hits(*(None if field is None else np.array(field) for field in hits))
         for field, value in zip(hits[:5], exit_hits[:5]):        # (hit, t, prim, u, v: a walk carries no time)

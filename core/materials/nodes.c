@@ -29,8 +29,8 @@ INLINE void closure_add(ShaderResult *sd, int kind, const double *weight, const 
 
 /* subsurface.add_subsurface: Cycles' BSSRDF closure of `weight` (bssrdf_setup) on the node's glossy normal, radius
    (3) the node's radius x scale, the clamped colour `albedo` (3), anisotropy, ior (clamped to 0..0.9 and 1.01..3.8),
-   the entry's GGX alpha, the Subsurface Method number `method`; channels with too small a radius go to a Lambert
-   closure first. Its sampling weight: |mean weight| x the channels it walks. */
+   the entry's GGX alpha, the Subsurface Method number `method` (SUBSURFACE_BURLEY: the disk); channels with too small
+   a radius go to a Lambert closure first. Its sampling weight: |mean weight| x the channels it walks. */
 NOINLINE static void subsurface_add(ShaderResult *sd, const double *weight, const double *radius, const double *albedo,
                                     double anisotropy, double ior, double alpha, double method)
 {
@@ -53,6 +53,7 @@ NOINLINE static void subsurface_add(ShaderResult *sd, const double *weight, cons
     v[SUBSURFACE_ALPHA] = skin ? 1.0 : alpha;
     v[SUBSURFACE_SKIN] = skin;
     v[SUBSURFACE_BUMP] = sd->glossy != NULL;     /* (the node's own Normal input: a linked one) */
+    v[SUBSURFACE_DISK] = method == SUBSURFACE_BURLEY;
     if (sd->glossy != NULL) for (int j = 0; j < 3; j++) sd->N[j] = sd->glossy[j];
     closure_add(sd, BSDF_LAMBERT, diffuse, diffuse, 1.0, NULL);
     if (channels > 0) closure_add(sd, BSDF_SUBSURFACE, kept, kept, (double)channels, v);

@@ -1,6 +1,7 @@
 /* The BSSRDF closure: core/materials/subsurface.py. No value for a pair of directions; its sample is the direction
    the walk starts along, into the surface: refracted through a GGX normal the viewer sees (Random Walk (Skin): half
-   the time cosine-weighted around -N, else with alpha 1), weight 1 and pdf inf. The walk itself is
+   the time cosine-weighted around -N, else with alpha 1), weight 1 and pdf inf (Christensen-Burley's disk: -N,
+   never failing). The walk itself is
    core/integrators/subsurface.c; the closure's set-up, nodes.c subsurface_add. */
 
 #define SUBSURFACE_RADIUS 0     /* subsurface.RADIUS, ALBEDO, ANISOTROPY, IOR, ALPHA, SKIN, BUMP: the closure's
@@ -11,6 +12,7 @@
 #define SUBSURFACE_ALPHA 8
 #define SUBSURFACE_SKIN 9
 #define SUBSURFACE_BUMP 10
+#define SUBSURFACE_DISK 11      /* 1: Christensen-Burley, Cycles' disk projection (integrators/subsurface.c) */
 #define SUBSURFACE_MIN_RADIUS 1e-8   /* subsurface.MIN_RADIUS: radii below it scatter as diffuse */
 
 /* subsurface.dipole_Rd: the diffuse reflectance of a dipole of single-scattering albedo alpha'. */
@@ -86,7 +88,9 @@ INLINE void subsurface_sample(const Closure *c, const double *wo, const double *
         double length = sqrt(dot3(d, d));
         for (int k = 0; k < 3; k++) out->wi[k] = d[k] / length;
     }
-    int ok = diffuse || cos_NI > 0.0;
+    int disk = c->p[SUBSURFACE_DISK] != 0.0;
+    if (disk) for (int k = 0; k < 3; k++) out->wi[k] = -N[k];
+    int ok = diffuse || cos_NI > 0.0 || disk;
     for (int k = 0; k < 3; k++) out->weight[k] = ok ? 1.0 : 0.0;
     out->pdf = ok ? INFINITY : 0.0;
 }

@@ -16,8 +16,14 @@ Set-up (bssrdf_setup): channels whose radius is below MIN_RADIUS scatter as a pl
 weight (radius -> 0 is the diffuse look); the others keep the BSSRDF, whose sampling weight is its mean weight
 times how many channels it has. Random Walk scales the radius by 1 / (4 pi), to look like the older
 Christensen-Burley profile; Random Walk (Skin) by sqrt(3 (1 - alpha')) with alpha' the single-scattering albedo
-a dipole of index `ior` needs for the surface colour. Christensen-Burley (a disk projection in Cycles) walks as
-Random Walk here, with a warning (addon/materials.py).
+a dipole of index `ior` needs for the surface colour.
+
+Christensen-Burley (Cycles' disk projection, kernel/integrator/subsurface_disk.h) is the same closure with its DISK
+slot set and the radius scaled by 1 / (4 pi) as Random Walk's: instead of a walk, the exit is found by probing the
+object along a chord through a disk about the entry (core/integrators/subsurface.py disk), the radius on the disk
+drawn from Burley's normalized diffusion profile (burley_*, below), and the throughput weighed by the profile at the
+exit's true distance. Its sample is no direction: the entry never fails. After any diffuse bounce it is a plain
+Lambert closure of its weight (Cycles' PATH_RAY_DIFFUSE_ANCESTOR rule: subsurface.burley_as_diffuse).
 """
 from __future__ import annotations
 
@@ -35,11 +41,12 @@ from .nodes import Node, per_hit_rows
 from ..native import schema
 
 # The closure's parameter slots.
-RADIUS, ALBEDO, ANISOTROPY, IOR, ALPHA, SKIN, BUMP = 0, 3, 6, 7, 8, 9, 10
+RADIUS, ALBEDO, ANISOTROPY, IOR, ALPHA, SKIN, BUMP, DISK = 0, 3, 6, 7, 8, 9, 10, 11
 # Blender's Subsurface Method (the node's subsurface_method) as the node input's number.
 # RANDOM_WALK_MFP is Random Walk as Blender 5.2's Cycles renders it: the radius is the mean free path itself, not
 # scaled by 1 / (4 pi) (measured: tests/test_blender_subsurface.py on bpy 5.2 matches with it, not without).
-BURLEY, RANDOM_WALK = 0.0, 1.0
+BURLEY = schema.constant("SUBSURFACE_BURLEY", 0.0, "subsurface.BURLEY: the Christensen-Burley (disk) method's number")
+RANDOM_WALK = 1.0
 RANDOM_WALK_SKIN = schema.constant("RANDOM_WALK_SKIN", 2.0, "subsurface.RANDOM_WALK_SKIN: the Skin method's number")
 RANDOM_WALK_MFP = schema.constant("RANDOM_WALK_MFP", 3.0, "subsurface.RANDOM_WALK_MFP: Blender 5.2's Random Walk")
 METHODS = {"BURLEY": BURLEY, "RANDOM_WALK": RANDOM_WALK, "RANDOM_WALK_SKIN": RANDOM_WALK_SKIN}
@@ -47,14 +54,65 @@ METHODS = {"BURLEY": BURLEY, "RANDOM_WALK": RANDOM_WALK, "RANDOM_WALK_SKIN": RAN
 
 def method_of(name: str, blender_version: tuple) -> float:
     """The `method` number of Blender's Subsurface Method (or Falloff) `name` as the Cycles of `blender_version`
-    (major, minor, ...) renders it: Random Walk (and Christensen-Burley, walked alike) without the 1 / (4 pi) radius
-    scale from Blender 5.2."""
+    (major, minor, ...) renders it: Random Walk without the 1 / (4 pi) radius scale from Blender 5.2 (Christensen-Burley
+    keeps it there too, as Cycles' bssrdf_setup_radius)."""
     method = METHODS.get(name, RANDOM_WALK)
-    if method in (RANDOM_WALK, BURLEY) and tuple(blender_version[:2]) >= (5, 2):
+    if method == RANDOM_WALK and tuple(blender_version[:2]) >= (5, 2):
         return RANDOM_WALK_MFP
     return method
 # Radii below this scatter as diffuse (Cycles' BSSRDF_MIN_RADIUS).
 MIN_RADIUS = 1e-8
+# Burley's profile is cut at BURLEY_TRUNCATE d (Cycles' choice), where its cumulative is BURLEY_TRUNCATE_CDF.
+BURLEY_TRUNCATE = 16.0
+BURLEY_TRUNCATE_CDF = 0.9963790093708328
+
+
+def burley_radial(d: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Burley's normalized diffusion profile as a density in the distance r: 2 pi r R(r) = (e^(-r/d) + e^(-r/3d))
+    / (4 d) for unit albedo (Christensen and Burley 2015, eq. 3), 0 from BURLEY_TRUNCATE d on; d, r broadcast."""
+    d = np.asarray(d, np.float64)
+    r = np.asarray(r, np.float64)
+    safe = np.where(d > 0.0, d, 1.0)
+    e3 = np.exp(-r / (3.0 * safe))
+    return np.where((d > 0.0) & (r < BURLEY_TRUNCATE * d), (e3 * e3 * e3 + e3) / (4.0 * safe), 0.0)
+
+
+def burley_pdf(d: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """The density of the distance r sampled from the truncated profile of d (Cycles' bssrdf_burley_pdf): 0 at r = 0."""
+    r = np.asarray(r, np.float64)
+    return np.where(r == 0.0, 0.0, burley_radial(d, r) / BURLEY_TRUNCATE_CDF)
+
+
+def burley_root(xi: np.ndarray) -> np.ndarray:
+    """The distance x (in units of d) where the profile's cumulative 1 - e^(-x)/4 - 3 e^(-x/3)/4 reaches xi (n,):
+    Newton's method from Cycles' fitted guess, at most 10 steps, stopped within 1e-6 (bssrdf_burley_root_find)."""
+    xi = np.asarray(xi, np.float64)
+    x = np.where(xi <= 0.9, np.exp(xi * xi * 2.4) - 1.0, 15.0)
+    going = np.ones(len(xi), bool)
+    for _ in range(10):
+        e3 = np.exp(-x / 3.0)
+        e = e3 * e3 * e3
+        f = 1.0 - 0.25 * e - 0.75 * e3 - xi
+        slope = 0.25 * e + 0.25 * e3
+        going &= (np.abs(f) >= 1e-6) & (slope != 0.0)
+        x = np.where(going, np.maximum(x - f / np.where(slope != 0.0, slope, 1.0), 0.0), x)
+    return x
+
+
+def burley_sample(radius: np.ndarray, xi: np.ndarray) -> tuple:
+    """(r, h) (n,) each: a distance on the disk for the per-channel d `radius` (n, 3) and the number xi (n,) in [0, 1):
+    a channel with d > 0 picked uniformly (xi reused within its share), r from its truncated profile, and the probe's
+    half length h = sqrt((BURLEY_TRUNCATE d)^2 - r^2) (Cycles' bssrdf_sample)."""
+    live = radius > 0.0
+    channels = live.sum(axis=1)
+    x = xi * channels
+    rank = np.minimum(np.floor(x), np.maximum(channels - 1, 0)).astype(np.int64)
+    order = np.cumsum(live, axis=1) - 1                          # each live channel's rank among the live ones
+    pick = np.argmax(live & (order == rank[:, None]), axis=1)
+    d = np.where(channels > 0, radius[np.arange(len(xi)), pick], 0.0)
+    r = burley_root((x - rank) * BURLEY_TRUNCATE_CDF) * d
+    Rm = BURLEY_TRUNCATE * d
+    return r, np.sqrt(np.maximum(Rm * Rm - r * r, 0.0))
 
 
 class RandomWalk(BSDF):
@@ -63,11 +121,12 @@ class RandomWalk(BSDF):
     picking it is the path's, as Cycles' surface_shader_bssrdf_sample_weight). Parameters: radius (3) the mean
     free path per channel, already scaled; albedo (3) the surface colour; anisotropy g; ior; alpha the entry's
     GGX roughness; skin 1 for Random Walk (Skin); bump 1 where its node's Normal is linked (the walk's exit is then
-    lit with the BSSRDFs' own normals, Cycles' SD_HAS_BSSRDF_BUMP)."""
+    lit with the BSSRDFs' own normals, Cycles' SD_HAS_BSSRDF_BUMP); disk 1 for Christensen-Burley (no entry
+    direction: wi is -N and never fails)."""
 
     name: ClassVar[str] = "SUBSURFACE"
     flags: ClassVar[F] = F.SUBSURFACE | F.DIFFUSE_TYPE
-    params: ClassVar[tuple] = ("radius", "albedo", "anisotropy", "ior", "alpha", "skin", "bump")
+    params: ClassVar[tuple] = ("radius", "albedo", "anisotropy", "ior", "alpha", "skin", "bump", "disk")
 
     @staticmethod
     def eval(params, N, wo, wi):
@@ -97,7 +156,9 @@ class RandomWalk(BSDF):
         refracted = -neta[:, None] * wo + (neta * cos_HI - root)[:, None] * H
         refracted /= np.linalg.norm(refracted, axis=1)[:, None]
         wi = np.where(diffuse[:, None], wi, refracted)
-        ok = diffuse | (cos_NI > 0.0)
+        disk = params[:, DISK] != 0.0
+        wi = np.where(disk[:, None], -N, wi)
+        ok = diffuse | (cos_NI > 0.0) | disk
         return BsdfSample(wi, np.where(ok[:, None], 1.0, 0.0) * np.ones((m, 3)), np.where(ok, np.inf, 0.0))
 
 
@@ -135,7 +196,8 @@ def add_subsurface(b, weight: np.ndarray, radius: np.ndarray, albedo: np.ndarray
                    ior: np.ndarray, alpha: np.ndarray, method: np.ndarray, cutoff: float) -> None:
     """Append Cycles' BSSRDF closure of `weight` (n, 3) to the ClosureBuilder b (bssrdf_setup): radius (n, 3) the
     node's radius x scale; albedo (n, 3) the clamped surface colour; anisotropy, ior, alpha (n,) (clamped to
-    0..0.9 and 1.01..3.8 here); method (n,) METHODS. Channels with too small a radius go to a Lambert closure."""
+    0..0.9 and 1.01..3.8 here); method (n,) METHODS (BURLEY: the disk). Channels with too small a radius go to a
+    Lambert closure."""
     radius = np.maximum(radius, 0.0)
     weight = np.where((np.abs(weight.mean(axis=1)) >= cutoff)[:, None], weight, 0.0)
     small = radius < MIN_RADIUS
@@ -155,6 +217,7 @@ def add_subsurface(b, weight: np.ndarray, radius: np.ndarray, albedo: np.ndarray
     p[:, ALPHA] = np.where(skin, 1.0, alpha)
     p[:, SKIN] = skin
     p[:, BUMP] = b.N is not b.smooth_N              # (the node's own Normal input: a linked one)
+    p[:, DISK] = method == BURLEY
     # Sampling weight: |mean weight| x the channels it scatters (as Cycles).
     b.add(RandomWalk.kind, kept, p, factor=channels.astype(np.float64), keep=channels > 0,
           N=b.glossy_N)
@@ -163,8 +226,8 @@ def add_subsurface(b, weight: np.ndarray, radius: np.ndarray, albedo: np.ndarray
 class SubsurfaceNode(Node):
     """Subsurface Scattering (Blender's ShaderNodeSubsurfaceScattering, Cycles' BSSRDF closure node): one BSSRDF of
     the node's weight x Color, the colour its albedo (per hit where linked), radius Radius x Scale, IOR, the entry's
-    alpha its Roughness (0..1), Anisotropy, and the node's Falloff as `method` (Christensen-Burley walked as Random
-    Walk, warned by the add-on). Its C setup: nodes.c subsurface_node."""
+    alpha its Roughness (0..1), Anisotropy, and the node's Falloff as `method` (Christensen-Burley: the disk). Its C
+    setup: nodes.c subsurface_node."""
 
     name = "SUBSURFACE"
     inputs = ("color", "radius", "scale", "ior", "roughness", "anisotropy", "method")

@@ -307,6 +307,8 @@
 #define SKY_AT_HORIZON 16
 #define SKY_AT_XYZ_TO_RGB 17
 #define SKY_AT_PAYLOAD 26
+/* subsurface.BURLEY: the Christensen-Burley (disk) method's number (core.materials.subsurface) */
+#define SUBSURFACE_BURLEY 0.0
 /* subsurface.RANDOM_WALK_SKIN: the Skin method's number (core.materials.subsurface) */
 #define RANDOM_WALK_SKIN 2.0
 /* subsurface.RANDOM_WALK_MFP: Blender 5.2's Random Walk (core.materials.subsurface) */
