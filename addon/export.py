@@ -931,7 +931,7 @@ def world_surface(world, warnings: list, kernels: str = "compiled") -> World:
         elif not (camera or diffuse):
             return World(color=np.zeros(3), camera=False, lights=False)     # seen by no ray: nothing to evaluate
         else:
-            baked, suns, seen = _baked_world(world, node, warnings, kernels)
+            baked, suns, seen = _baked_world(world, output.inputs["Surface"], warnings, kernels)
             if isinstance(baked, np.ndarray) and baked.ndim == 3:
                 return World(color=np.zeros(3), image=baked, strength=1.0, camera=camera, lights=diffuse, suns=suns,
                              seen=seen)
@@ -942,7 +942,7 @@ def world_surface(world, warnings: list, kernels: str = "compiled") -> World:
     return World(color=color, camera=camera, lights=diffuse, seen=seen)
 
 
-def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
+def _baked_world(world, surface, warnings: list, kernels: str = "compiled"):
     """The world's shader with linked inputs, evaluated as Cycles does: (for its light samples, its colour (3,) where
     it does not vary with the direction, else its radiance baked into an equirectangular image (H, W, 3) float32
     (core/lights/world_graph.py bake, in C where `kernels` is "compiled"), or None, with a warning, for a world shader
@@ -950,7 +950,7 @@ def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
     that escape); the program every ray that escapes evaluates with its path (World.seen), or None where they find
     the bake: a graph that varies or reads the Light Path node)."""
     reader = materials_.NodeReader(world, warnings, kind="world", kernels=kernels)
-    radiance = _world_radiance(reader, node)
+    radiance = _socket_radiance(reader, surface)
     if radiance is None:
         return None, [], None
     if not isinstance(radiance, graph_.Link):
@@ -977,6 +977,23 @@ def _baked_world(world, node, warnings: list, kernels: str = "compiled"):
     return baked, suns, seen
 
 
+def _socket_radiance(reader, socket):
+    """The radiance a world's closure input `socket` (its output's Surface, a Mix or Add Shader's input) receives: a
+    value, colour or vector linked there is an Emission, as Cycles converts it (a colour or vector its Color at
+    Strength 1, a value its Strength of white), else its shader node's (_world_radiance); black where nothing is
+    linked; None (warned) for a shader Primer does not read."""
+    if materials_.auto_emission(socket):
+        value = reader.graph.socket(socket, reader.path)
+        number = materials_.linked_output_of(socket).type in ("VALUE", "INT", "BOOLEAN")
+        if isinstance(value, graph_.Link):
+            inputs = {"Color": np.ones(3), "Factor": value} if number else {"Color": value, "Factor": 1.0}
+            return graph_.Link(graph_.GraphNode("SCALE", {}, inputs), "Color")
+        value = np.asarray(value, np.float64).ravel()
+        return np.full(3, float(value[0])) if number else value[:3].copy()
+    inner = materials_.linked_node_of(socket)
+    return np.zeros(3) if inner is None else _world_radiance(reader, inner)
+
+
 def _world_radiance(reader, node):
     """The radiance a world shader node gives, as Cycles adds its closures up: a Background's (or Emission's)
     Color x Strength, a Mix Shader's (1 - Fac) A + Fac B (Fac clamped to [0, 1]), an Add Shader's A + B; a constant
@@ -992,8 +1009,7 @@ def _world_radiance(reader, node):
         shaders = [socket for socket in node.inputs if socket.type == "SHADER"]
         parts = []
         for socket in shaders[:2]:
-            inner = materials_.linked_node_of(socket)
-            part = np.zeros(3) if inner is None else _world_radiance(reader, inner)
+            part = _socket_radiance(reader, socket)
             if part is None:
                 return None
             parts.append(part)

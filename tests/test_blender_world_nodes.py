@@ -190,6 +190,22 @@ for engine in ("PRIMER", "CYCLES"):
     np.save(f"fine_checker_seen_{{engine.lower()}}.npy", render_pixels(scene, engine, os.path.abspath("out.exr"), 16, "fine_checker_seen")[..., :3])
 floor.visible_camera = True
 
+# Colours and values linked straight into closure inputs: Cycles turns each into an Emission (a colour at Strength
+# 1, a value as the Strength of white): the sky's colour into the Surface; a Noise Fac into a Mix Shader's input.
+clear()
+tree.links.new(sky(), tree.nodes["World Output"].inputs["Surface"])
+results["automatic emission seen"] = render("automatic_emission_seen", True)
+clear()
+mix = tree.nodes.new("ShaderNodeMixShader")
+mix.inputs["Fac"].default_value = 0.4
+noise = tree.nodes.new("ShaderNodeTexNoise")
+tree.links.new(noise.outputs["Fac"], mix.inputs[1])
+tree.links.new(sky(), background.inputs["Color"])
+tree.links.new(background.outputs[0], mix.inputs[2])
+tree.links.new(mix.outputs[0], tree.nodes["World Output"].inputs["Surface"])
+results["automatic emission mixed lighting"] = render("automatic_emission_mixed_lighting", False)
+tree.links.new(background.outputs[0], tree.nodes["World Output"].inputs["Surface"])
+
 clear()
 rgb = tree.nodes.new("ShaderNodeRGB")
 rgb.outputs[0].default_value = (0.2, 0.6, 0.9, 1.0)
@@ -223,13 +239,15 @@ def noted(warnings):
 
 @pytest.mark.parametrize("name", ["noise_sky_seen", "noise_sky_lighting", "graded_environment_seen",
                                   "mixed_backgrounds_seen", "grey_seen_grid_lighting", "sky_seen_colour_lighting",
-                                  "sky_on_diffuse_rays_lighting"])
+                                  "sky_on_diffuse_rays_lighting", "automatic_emission_seen",
+                                  "automatic_emission_mixed_lighting"])
 def test_a_world_node_graph_renders_as_cycles_seen_and_lighting_a_floor(rendered, name):
     """The sky's colour and strength, the graded environment, and a Mix Shader of Backgrounds with a scaled Mapping,
     as the camera sees them and as they light a Lambert floor; a Mix Shader by Is Camera Ray that shows the camera a
     grey Background and lights the floor with the grid image, and one that shows the camera the sky and lights the
     floor with a colour; the sky shining on diffuse rays alone (Is Diffuse Ray as its Strength: the camera sees black,
-    the floor is lit by its BSDF rays). Cycles evaluates the world for each ray that escapes with its path, and for
+    the floor is lit by its BSDF rays); a colour linked straight into the world's Surface, and a value into a Mix
+    Shader's input, each an Emission as Cycles converts it. Cycles evaluates the world for each ray that escapes with its path, and for
     its light samples with EMISSION alone; so does Primer (the bake is a light sample's): Cycles' image within noise
     (64 samples each), with nothing noted about the world; the viewport colour Primer used before is far off."""
     import numpy as np
