@@ -145,17 +145,20 @@ def test_without_a_catcher_the_pass_is_one_and_combined_unchanged():
     np.testing.assert_array_equal(asked.image, plain.image)
 
 
-@pytest.mark.parametrize("transparent", [False, True])
-@pytest.mark.parametrize("with_pass", [False, True])
-def test_the_kernels_agree_on_the_catchers_images(transparent, with_pass):
-    """A path-traced catcher under a ball, a sun, a grey world and a glowing quad that is no catcher: the compiled
-    kernel's Combined, Shadow Catcher pass, light passes and light groups are the reference's, within a few float32
-    ulps."""
+@pytest.mark.parametrize("transparent, with_pass, pane", [(False, False, False), (False, True, False),
+                                                          (True, False, False), (True, True, False),
+                                                          (False, False, True), (True, True, True)])
+def test_the_kernels_agree_on_the_catchers_images(transparent, with_pass, pane):
+    """A path-traced catcher under a ball, a sun, a grey world and a glowing quad that is no catcher (and seen through
+    a clear pane): the compiled kernel's Combined, Shadow Catcher pass, light passes and light groups are the
+    reference's, within a few float32 ulps."""
     scene = ball_over_catcher(world=0.2)
     lamp = np.array([[1, 0, 0, 3.0], [0, -1, 0, 1.0], [0, 0, -1, 1.0], [0, 0, 0, 1.0]])
     scene.materials.append(materials.Material(name="lamp", nodes=[("EMISSION", (1, 1, 1), {"emission": (4.0,) * 3})]))
     scene.add_mesh(primitives.plane(0.5), lamp, materials=np.array([1]))
-    scene.lightgroups = {"lights": ["S", ""], "instances": ["", "", "S"], "world": "W"}
+    if pane:
+        behind_a_pane(scene)
+    scene.lightgroups = {"lights": ["S", ""], "instances": ["", "", "S"] + [""] * pane, "world": "W"}
     images = {}
     for kernels in KERNELS:
         settings = RenderSettings(width=24, height=24, samples=4, kernels=kernels, integrator="path", max_bounces=3,
