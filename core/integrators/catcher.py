@@ -54,6 +54,9 @@ from .. import materials as materials_
 from ..geometry.surface import surface_at_hits
 from ..materials import graph as graph_
 from ..visibility import HOLDOUT
+from .whitted import WhittedTracing
+
+WHITTED = WhittedTracing.name
 
 # The film's sums of the shadow catcher (render.Film aux): M rgba, K rgb, B rgb, S per pixel.
 FILM_BUFFER = "shadow_catcher"
@@ -150,7 +153,8 @@ def caught(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> tup
     escaped, t0 = ~found.hit, np.where(found.hit, found.t, t_max)
     stretches = [(np.arange(n), O, t0, T.copy())]
     rows, O_now, passed = np.arange(n), O, np.zeros(n, np.int64)
-    limit = ctx.settings.transparent_max_bounces
+    # (Whitted's tracer sees no Transparent surface through: its camera rays end at the first hit)
+    limit = ctx.settings.transparent_max_bounces if ctx.settings.integrator != WHITTED else 0
     while len(rows):
         hit = found.hit
         at_catcher = hit & ctx.geometry.hidden(np.where(hit, found.prim, 0), SHADOW_CATCHER)
