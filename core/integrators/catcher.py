@@ -29,9 +29,13 @@ background times 1 - that alpha.
 As in Cycles, a sample that met a catcher writes no light passes and no light groups (but for the lamps the camera
 sees in front of it): the catcher's light is in the pass. Both kernels follow K's paths the same way: the render's integrator, run again on the caught samples' camera rays
 with the catcher-only scene's Context (`catcher_context`; compiled: its ChunkParams, chunk.c), with the same
-random numbers (keyed by pixel and sample, as Cycles' split copies the path's state). Left out: a catcher seen
-through Transparent surfaces (only a camera ray's first hit splits; Cycles splits where the camera's path through
-clear surfaces meets one) and media in the catcher-only scene and in front of a catcher.
+random numbers (keyed by pixel and sample, as Cycles' split copies the path's state). A camera ray that goes
+straight through purely clear surfaces (every closure a Transparent BSDF: clear_at) to a catcher is caught there, as
+Cycles splits a camera path at its first catcher past transparent bounces: what those surfaces let through, T,
+makes the matte's alpha 1 - mean(T) (Cycles adds the split path's mean throughput to the matte's transparency) and
+multiplies K and B (the split path carries the throughput). Left out: a catcher behind a partly transparent surface
+(a Transparent BSDF mixed with other closures, an alpha: rendered as an ordinary object there, said once) and media
+in the catcher-only scene and in front of a catcher.
 """
 from __future__ import annotations
 
