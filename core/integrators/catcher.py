@@ -108,13 +108,13 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
 
 
 def only_clear(shader) -> bool:
-    """Whether a material's shader (MaterialTable.shaders) is nothing but Transparent BSDFs: no other closure, no
-    emission, no alpha or links (a camera path passes it straight through everywhere: clear_at)."""
+    """Whether a material's shader (MaterialTable.shaders) is nothing but Transparent BSDFs (their colours may be
+    linked): no other closure, no emission (a camera path passes it straight through everywhere: clear_at)."""
     if np.asarray(shader.emission).any():
         return False
     nodes = getattr(shader, "nodes", None)
     if nodes is not None:
-        return getattr(shader, "graph", None) is None and all(node.name == "TRANSPARENT" for node, *_ in nodes)
+        return all(node.name == "TRANSPARENT" for node, *_ in nodes)
     kinds = np.asarray(shader.kinds)
     return bool(materials_.has(kinds, materials_.BSDFFlags.STRAIGHT).all())
 
