@@ -23,13 +23,13 @@ import math, os, sys
 import bpy
 import numpy as np
 import OpenImageIO as oiio
-from blender_env import ROOT, diffuse_material, report
+from blender_env import ROOT, diffuse_material, empty_material, report
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 from render import configure_cycles_reference, load_primer
 primer = load_primer()
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
-scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 24, 16, 100
+scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = {size[0]!r}, {size[1]!r}, 100
 world = bpy.data.worlds.new("World")
 scene.world = world
 mesh = bpy.data.meshes.new("Floor")
@@ -45,6 +45,18 @@ for name, energy, tilt in (("Slant", {e_slant!r}, {slant!r}), ("Down", {e_down!r
     sun.data.energy, sun.data.angle = energy, 0.0
     sun.rotation_euler = (0.0, -tilt, 0.0)          # (light travelling towards +x, down)
     scene.collection.objects.link(sun)
+pane_color = {pane!r}
+if pane_color is not None:                          # a clear pane under the camera, hidden from shadow rays
+    material, tree, output = empty_material("Pane")
+    clear = tree.nodes.new("ShaderNodeBsdfTransparent")
+    clear.inputs["Color"].default_value = (*pane_color, 1.0)
+    tree.links.new(clear.outputs["BSDF"], output.inputs["Surface"])
+    mesh = bpy.data.meshes.new("Pane")
+    mesh.from_pydata([(0, -2, 2.75), (4, -2, 2.75), (4, 2, 2.75), (0, 2, 2.75)], [], [(0, 1, 2, 3)])
+    mesh.materials.append(material)
+    pane = bpy.data.objects.new("Pane", mesh)
+    pane.visible_shadow = False
+    scene.collection.objects.link(pane)
 camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
 camera.location = (2.0, 0.0, 3.0)
 scene.collection.objects.link(camera)
@@ -112,12 +124,26 @@ def inner(mask: np.ndarray) -> np.ndarray:
     return np.all([padded[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
 
 
+def render_setups(folder: str, pane=None, size=(24, 16)) -> dict:
+    """Primer's and Cycles' EXR passes of the three setups, the catcher seen through a clear pane of colour `pane`
+    (3,) or without one (None), at `size` (width, height) pixels."""
+    return run_bpy(SCRIPT.format(e_slant=E_SLANT, e_down=E_DOWN, slant=SLANT, cycles_samples=CYCLES_SAMPLES,
+                                 primer_samples=PRIMER_SAMPLES, pane=pane, size=size), folder)["out"]
+
+
 @pytest.fixture(scope="module")
 def renders(tmp_path_factory):
     """Primer's and Cycles' EXR passes of the three setups."""
-    folder = tmp_path_factory.mktemp("shadow_catcher")
-    return run_bpy(SCRIPT.format(e_slant=E_SLANT, e_down=E_DOWN, slant=SLANT, cycles_samples=CYCLES_SAMPLES,
-                                 primer_samples=PRIMER_SAMPLES), str(folder))["out"]
+    return render_setups(str(tmp_path_factory.mktemp("shadow_catcher")))
+
+
+PANE = (0.3, 0.6, 0.9)
+
+
+@pytest.fixture(scope="module")
+def pane_renders(tmp_path_factory):
+    """The three setups seen through a clear Transparent pane of colour PANE (32 x 24 pixels)."""
+    return render_setups(str(tmp_path_factory.mktemp("shadow_catcher_pane")), pane=PANE, size=(32, 24))
 
 
 def test_the_shadow_catcher_pass_matches_cycles(renders):
@@ -165,3 +191,30 @@ def test_on_an_opaque_film_the_catcher_shows_the_world_darkened_by_the_shadow_as
     assert dark.sum() >= 20
     assert abs(cycles[dark][..., :3].mean() / primer[dark][..., :3].mean() - 1.0) < 0.05
     assert primer[..., :3].max() <= 0.25 + 1e-6 and (np.abs(primer[..., :3] - 0.25) < 0.01).any()
+
+
+def test_behind_a_clear_pane_the_pass_and_the_matte_match_cycles(pane_renders):
+    """The catcher floor seen through a clear Transparent pane of colour c (Cycles splits the camera path at the
+    catcher past it): the pass as without the pane (exactly 1 outside the shadow in both, the other sun's share in
+    it), Combined with the pass the matte, black with alpha 1 - mean(c) in both; on a transparent film without the
+    pass the shadow's alpha over it; on an opaque film the world behind through the pane."""
+    share = E_DOWN / (E_SLANT * math.cos(SLANT) + E_DOWN)
+    a = 1.0 - np.mean(PANE)
+    primer = channels(pane_renders["pass"]["PRIMER"], "Shadow Catcher", "RGB")
+    cycles = channels(pane_renders["pass"]["CYCLES"], "Shadow Catcher", "RGB")
+    lit = inner((primer == 1.0).all(axis=-1))
+    inside = inner(np.isclose(primer, share, rtol=1e-5).all(axis=-1))
+    assert lit.sum() >= 100 and inside.sum() >= 20
+    np.testing.assert_allclose(cycles[lit], 1.0, atol=1e-4)
+    assert abs(cycles[inside].mean() / share - 1.0) < 0.06, (cycles[inside].mean(), share)
+    for engine in ("PRIMER", "CYCLES"):
+        matte = channels(pane_renders["pass"][engine], "Combined", "RGBA")
+        np.testing.assert_allclose(matte[..., :3], 0.0, atol=1e-6)
+        np.testing.assert_allclose(matte[..., 3], a, atol=1e-5, err_msg=engine)
+    primer = channels(pane_renders["transparent"]["PRIMER"], "Combined", "RGBA")
+    cycles = channels(pane_renders["transparent"]["CYCLES"], "Combined", "RGBA")
+    np.testing.assert_allclose(cycles[inner(np.isclose(primer[..., 3], a, rtol=1e-5))][..., 3], a, atol=1e-4)
+    assert abs(cycles[..., 3].mean() / primer[..., 3].mean() - 1.0) < 0.02
+    primer = channels(pane_renders["opaque"]["PRIMER"], "Combined", "RGBA")
+    cycles = channels(pane_renders["opaque"]["CYCLES"], "Combined", "RGBA")
+    assert abs(cycles[..., :3].mean() / primer[..., :3].mean() - 1.0) < 0.03

@@ -5,6 +5,7 @@ catcher: nothing where nothing shadows it (transparent on a transparent film, th
 shadow in the alpha."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -144,17 +145,20 @@ def test_without_a_catcher_the_pass_is_one_and_combined_unchanged():
     np.testing.assert_array_equal(asked.image, plain.image)
 
 
-@pytest.mark.parametrize("transparent", [False, True])
-@pytest.mark.parametrize("with_pass", [False, True])
-def test_the_kernels_agree_on_the_catchers_images(transparent, with_pass):
-    """A path-traced catcher under a ball, a sun, a grey world and a glowing quad that is no catcher: the compiled
-    kernel's Combined, Shadow Catcher pass, light passes and light groups are the reference's, within a few float32
-    ulps."""
+@pytest.mark.parametrize("transparent, with_pass, pane", [(False, False, False), (False, True, False),
+                                                          (True, False, False), (True, True, False),
+                                                          (False, False, True), (True, True, True)])
+def test_the_kernels_agree_on_the_catchers_images(transparent, with_pass, pane):
+    """A path-traced catcher under a ball, a sun, a grey world and a glowing quad that is no catcher (and seen through
+    a clear pane): the compiled kernel's Combined, Shadow Catcher pass, light passes and light groups are the
+    reference's, within a few float32 ulps."""
     scene = ball_over_catcher(world=0.2)
     lamp = np.array([[1, 0, 0, 3.0], [0, -1, 0, 1.0], [0, 0, -1, 1.0], [0, 0, 0, 1.0]])
     scene.materials.append(materials.Material(name="lamp", nodes=[("EMISSION", (1, 1, 1), {"emission": (4.0,) * 3})]))
     scene.add_mesh(primitives.plane(0.5), lamp, materials=np.array([1]))
-    scene.lightgroups = {"lights": ["S", ""], "instances": ["", "", "S"], "world": "W"}
+    if pane:
+        behind_a_pane(scene)
+    scene.lightgroups = {"lights": ["S", ""], "instances": ["", "", "S"] + [""] * pane, "world": "W"}
     images = {}
     for kernels in KERNELS:
         settings = RenderSettings(width=24, height=24, samples=4, kernels=kernels, integrator="path", max_bounces=3,
@@ -219,14 +223,73 @@ def test_a_path_that_meets_a_catcher_writes_no_light_pass_and_no_light_group(ker
     np.testing.assert_array_equal(caught.aux["lightgroup:S"][ball], plain.aux["lightgroup:S"][ball])
 
 
-def test_a_catcher_seen_through_a_transparent_pane_is_said_to_render_as_an_ordinary_object():
-    """A Transparent pane between the camera and the catcher floor: the floor renders as an ordinary object behind it
-    (Combined the render without any catcher there), and the render says so once."""
+PANE = np.array([0.3, 0.6, 0.9])         # a clear pane's colour (its Transparent BSDF)
+
+
+def behind_a_pane(scene: Scene, x: float = 2.0, pane: tuple = ("TRANSPARENT", tuple(PANE), {})) -> Scene:
+    """`scene` (ball_over_catcher) with a pane of the node `pane` filling the view of a camera 3 m above (x, 0, 0),
+    0.25 m below it (above the ball), hidden from shadow rays (it changes no light on the floor)."""
+    scene.materials.append(materials.Material(name="pane", nodes=[pane]))
+    scene.add_mesh(primitives.plane(4.0, center=(x, 0.0, 2.75)), materials=np.array([len(scene.materials) - 1]))
+    scene.instances[-1].visible_shadow = False
+    return scene
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_catcher_behind_a_clear_pane_keeps_its_pass_and_the_pane_dims_the_matte(kernels):
+    """A clear Transparent pane of colour c between the camera and the catcher floor: the camera path passes it and
+    splits at the catcher as at a first hit (Cycles' transparent bounces keep it a camera path). The pass is what it
+    is without the pane, exactly (the share of the unblocked sun in the shadow, 1 elsewhere: both the whole scene's
+    and the catcher-only light come through the pane times c); the matte is black with alpha 1 - mean(c) (the
+    pane lets mean(c) of the footage through); on a transparent film without the pass, alpha (1 - a)(1 - pass) + a
+    with a = 1 - mean(c); no warning."""
+    share = E_DOWN / (E_SLANT * math.cos(SLANT) + E_DOWN)
+    settings = RenderSettings(width=24, height=24, samples=2, kernels=kernels, max_bounces=0, shadow_catcher_pass=True,
+                              transparent_background=True)
+    bare = render.render(ball_over_catcher(), settings)
+    paned = render.render(behind_a_pane(ball_over_catcher()), settings)
+    assert not any("shadow catchers" in w for w in paned.stats.warnings)
+    shadow = paned.aux["shadow_catcher"]
+    np.testing.assert_allclose(shadow, bare.aux["shadow_catcher"], rtol=1e-6, atol=1e-7)
+    assert np.isclose(shadow, share, rtol=1e-6).all(axis=-1).sum() >= 20
+    np.testing.assert_allclose(paned.image[..., :3], 0.0, atol=1e-7)
+    np.testing.assert_allclose(paned.image[..., 3], 1.0 - PANE.mean(), rtol=1e-6)
+    approximate = render.render(behind_a_pane(ball_over_catcher()),
+                                dataclasses.replace(settings, shadow_catcher_pass=False)).image
+    a = 1.0 - PANE.mean()
+    np.testing.assert_allclose(approximate[..., 3], (1.0 - a) * (1.0 - shadow.mean(axis=-1)) + a, rtol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_objects_seen_through_a_clear_pane_keep_it_in_the_matte(kernels):
+    """The ball, seen through the clear pane of colour c, is in the matte as the pane shows it: c times the ball of
+    the render without the pane, opaque; the catcher around it a hole as opaque as the pane is not."""
+    settings = RenderSettings(width=24, height=24, samples=2, kernels=kernels, max_bounces=0, shadow_catcher_pass=True)
     scene = ball_over_catcher()
-    scene.materials.append(materials.Material(name="pane", nodes=[("TRANSPARENT", (0.5,) * 3, {})]))
+    scene.camera = looking_down(3.0)
+    bare = render.render(scene, settings).image
+    scene = behind_a_pane(ball_over_catcher(), x=0.0)
+    scene.camera = looking_down(3.0)
+    paned = render.render(scene, settings).image
+    ball = bare[..., 3] == 1.0
+    assert ball.sum() >= 20
+    np.testing.assert_allclose(paned[ball][:, :3], bare[ball][:, :3] * PANE, rtol=1e-4)
+    np.testing.assert_allclose(paned[ball][:, 3], 1.0, rtol=1e-6)
+    hole = bare[..., 3] == 0.0
+    assert hole.sum() >= 40
+    np.testing.assert_allclose(paned[hole][:, 3], 1.0 - PANE.mean(), rtol=1e-6)
+
+
+def test_a_catcher_behind_a_partly_transparent_pane_is_said_to_render_as_an_ordinary_object():
+    """A pane that is a Transparent BSDF mixed with a diffuse one (no clear surface: Primer does not split paths
+    there): the floor renders as an ordinary object behind it (Combined the render without any catcher there),
+    and the render says so once."""
+    scene = ball_over_catcher()
+    scene.materials.append(materials.Material(name="pane", nodes=[("TRANSPARENT", (0.5,) * 3, {}),
+                                                                  ("DIFFUSE", (0.25,) * 3, {})]))
     scene.add_mesh(primitives.plane(8.0, center=(2.0, 0.0, 2.5)), materials=np.array([len(scene.materials) - 1]))
     settings = RenderSettings(width=16, height=16, samples=2, kernels="numpy")
     caught = render.render(scene, settings)
-    assert sum("seen through a Transparent surface" in w for w in caught.stats.warnings) == 1
+    assert sum("partly transparent" in w for w in caught.stats.warnings) == 1
     scene.instances[0].is_shadow_catcher = False
     np.testing.assert_allclose(caught.image, render.render(scene, settings).image, rtol=1e-6)

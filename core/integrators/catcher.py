@@ -29,9 +29,13 @@ background times 1 - that alpha.
 As in Cycles, a sample that met a catcher writes no light passes and no light groups (but for the lamps the camera
 sees in front of it): the catcher's light is in the pass. Both kernels follow K's paths the same way: the render's integrator, run again on the caught samples' camera rays
 with the catcher-only scene's Context (`catcher_context`; compiled: its ChunkParams, chunk.c), with the same
-random numbers (keyed by pixel and sample, as Cycles' split copies the path's state). Left out: a catcher seen
-through Transparent surfaces (only a camera ray's first hit splits; Cycles splits where the camera's path through
-clear surfaces meets one) and media in the catcher-only scene and in front of a catcher.
+random numbers (keyed by pixel and sample, as Cycles' split copies the path's state). A camera ray that goes
+straight through purely clear surfaces (every closure a Transparent BSDF: clear_at) to a catcher is caught there, as
+Cycles splits a camera path at its first catcher past transparent bounces: what those surfaces let through, T,
+makes the matte's alpha 1 - mean(T) (Cycles adds the split path's mean throughput to the matte's transparency) and
+multiplies K and B (the split path carries the throughput). Left out: a catcher behind a partly transparent surface
+(a Transparent BSDF mixed with other closures, an alpha: rendered as an ordinary object there, said once) and media
+in the catcher-only scene and in front of a catcher.
 """
 from __future__ import annotations
 
@@ -48,6 +52,15 @@ from . import lightgroups
 from . import passes as passes_
 from .base import Context, Recorder
 from .rays import lamps_seen, nearest_seen
+from .shadows import spawn_ray
+from . import shadows
+from .. import materials as materials_
+from ..geometry.surface import surface_at_hits
+from ..materials import graph as graph_
+from ..visibility import HOLDOUT
+from .whitted import WhittedTracing
+
+WHITTED = WhittedTracing.name
 
 # The film's sums of the shadow catcher (render.Film aux): M rgba, K rgb, B rgb, S per pixel.
 FILM_BUFFER = "shadow_catcher"
@@ -65,9 +78,11 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
     if geometry is None or not geometry.hides(SHADOW_CATCHER):
         return None
     notes = []
-    if ctx.materials.may_pass.any():
-        notes.append("shadow catchers: a catcher seen through a Transparent surface (or an alpha) renders as an "
-                     "ordinary object there (Cycles shows only its shadows behind clear surfaces too)")
+    if any(may and not only_clear(shader) for may, shader in zip(ctx.materials.may_pass, ctx.materials.shaders)):
+        notes.append("shadow catchers: a catcher seen through a surface that is partly transparent (a Transparent "
+                     "BSDF mixed with other closures, an alpha) renders as an ordinary object there (Cycles shows "
+                     "only its shadows where the camera path goes through); behind purely Transparent surfaces "
+                     "it is caught")
     if ctx.extra.get("media") is not None:
         notes.append("shadow catchers: the catcher-only light the Shadow Catcher pass divides by leaves the volumes "
                      "out (Cycles keeps the catchers' media), and volumes in front of a catcher go to it, not the matte")
@@ -92,6 +107,18 @@ def catcher_context(ctx: Context, warnings: Optional[list] = None) -> Optional[C
     return dataclasses.replace(ctx, settings=settings, geometry=view, lights=lights, extra=extra)
 
 
+def only_clear(shader) -> bool:
+    """Whether a material's shader (MaterialTable.shaders) is nothing but Transparent BSDFs (their colours may be
+    linked): no other closure, no emission (a camera path passes it straight through everywhere: clear_at)."""
+    if np.asarray(shader.emission).any():
+        return False
+    nodes = getattr(shader, "nodes", None)
+    if nodes is not None:
+        return all(node.name == "TRANSPARENT" for node, *_ in nodes)
+    kinds = np.asarray(shader.kinds)
+    return bool(materials_.has(kinds, materials_.BSDFFlags.STRAIGHT).all())
+
+
 def emitters_hidden(geometry, emitters) -> Optional[np.ndarray]:
     """(t,) uint8 the HIDDEN_FROM_* bits of each emissive triangle's object in `geometry` (emitters.hidden), or
     None where none is hidden."""
@@ -99,12 +126,61 @@ def emitters_hidden(geometry, emitters) -> Optional[np.ndarray]:
     return hidden_bits_of(geometry, emitters.prim)
 
 
+def clear_at(ctx: Context, O: np.ndarray, D: np.ndarray, found, rows: np.ndarray, passed: np.ndarray) -> tuple:
+    """Which hits `rows` (k,) of the camera rays O, D (n, 3) in `found` (their nearest hits) a camera path passes
+    straight through, as Cycles' transparent bounces, and what each lets through: surfaces whose every closure is a
+    Transparent BSDF (no emission, no holdout, no other closure), after `passed` (k,) such surfaces. Returns
+    ((k,) bool, (k, 3) float64 the transparency)."""
+    surface = surface_at_hits(ctx.geometry, found.prim[rows], found.u[rows], found.v[rows], O[rows], D[rows],
+                              found.t[rows])
+    path = graph_.light_paths(len(rows), transparent=passed)
+    shader = ctx.materials.shade(surface.material, surface.N, -D[rows], surface, ctx.geometry, path)
+    c = shader.closures
+    other = (c.kind >= 0) & ~materials_.has(c.kind, materials_.BSDFFlags.STRAIGHT) & (c.weight != 0.0).any(axis=-1)
+    clear = ~other.any(axis=1) & (shader.emission == 0.0).all(axis=1)
+    if shader.holdout is not None:
+        clear &= (shader.holdout == 0.0).all(axis=1)
+    clear &= ctx.materials.may_pass[surface.material] & ~ctx.geometry.hidden(found.prim[rows], HOLDOUT)
+    return clear, shader.transparency
+
+
 def caught(ctx: Context, O: np.ndarray, D: np.ndarray, t_max: np.ndarray) -> tuple:
-    """Which camera rays O, D (n, 3) up to t_max (n,) meet a shadow catcher first, which escape (past objects
-    hidden from the camera), and how far each went: (n,) bool, (n,) bool, (n,) float64."""
+    """Which camera rays O, D (n, 3) up to t_max (n,) meet a shadow catcher first, straight through the clear
+    surfaces in front of it (clear_at: Cycles splits a camera path at its first catcher past transparent bounces, up
+    to the transparent-bounce limit), which escape at once (past objects hidden from the camera), how far each went
+    to its first hit, what the clear surfaces let through to the catcher, and the stretches along which it sees
+    lamps: ((n,) bool, (n,) bool, (n,) float64, (n, 3) float64, [(rows (k,), O (k, 3), t (k,), T (k, 3)), ...])."""
+    n = len(O)
+    first = np.zeros(n, bool)
+    T = np.ones((n, 3))
     found = nearest_seen(ctx, O, D, t_max)
-    first = found.hit & ctx.geometry.hidden(np.where(found.hit, found.prim, 0), SHADOW_CATCHER)
-    return first, ~found.hit, np.where(found.hit, found.t, t_max)
+    escaped, t0 = ~found.hit, np.where(found.hit, found.t, t_max)
+    stretches = [(np.arange(n), O, t0, T.copy())]
+    rows, O_now, passed = np.arange(n), O, np.zeros(n, np.int64)
+    # (Whitted's tracer sees no Transparent surface through: its camera rays end at the first hit)
+    limit = ctx.settings.transparent_max_bounces if ctx.settings.integrator != WHITTED else 0
+    while len(rows):
+        hit = found.hit
+        at_catcher = hit & ctx.geometry.hidden(np.where(hit, found.prim, 0), SHADOW_CATCHER)
+        first[rows[at_catcher]] = True
+        more = np.flatnonzero(hit & ~at_catcher & ctx.materials.may_pass[
+            ctx.geometry.triangle_data(np.where(hit, found.prim, 0), smooth=False).material] & (passed + 1 < limit))
+        if len(more) == 0:
+            break
+        clear, transparency = clear_at(ctx, O_now, D[rows], found, more, passed[more])
+        more, transparency = more[clear], transparency[clear]
+        T[rows[more]] *= transparency
+        more = more[(T[rows[more]] > 0.0).any(axis=1)]
+        if len(more) == 0:
+            break
+        surface = surface_at_hits(ctx.geometry, found.prim[more], found.u[more], found.v[more], O_now[more],
+                                  D[rows[more]], found.t[more])
+        O_now = spawn_ray(surface.I, surface.Ng, D[rows[more]], shadows.error_bound(surface.I, surface.vertices))
+        rows, passed = rows[more], passed[more] + 1
+        gone = np.einsum("ij,ij->i", O_now - O[rows], D[rows])        # (the camera's clipping end stays)
+        found = nearest_seen(ctx, O_now, D[rows], t_max[rows] - gone)
+        stretches.append((rows, O_now, np.where(found.hit, found.t, np.inf), T[rows].copy()))
+    return first, escaped, t0, T, stretches
 
 
 def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarray, D: np.ndarray, t_max: np.ndarray,
@@ -120,16 +196,30 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
                                                                     seed=ctx.settings.seed))
     rows = np.zeros((len(rgba), FILM_CHANNELS))
     rows[:, :4] = rgba
-    first, escaped, t = caught(ctx, O, D, t_max)
+    first, escaped, t, through, stretches = caught(ctx, O, D, t_max)
     held = traced[first]
-    rows[held, :4] = 0.0                             # the matte: a hole where the catcher is
+    rows[held, :4] = 0.0
+    # the matte: a hole where the catcher is, as opaque as the clear surfaces in front of it are not (Cycles adds
+    # the split path's mean throughput to the matte's transparency)
+    rows[held, 3] = 1.0 - through[first].mean(axis=1)
     rows[held, 10] = 1.0
     if len(held):
         kept = np.flatnonzero(first)
         # (the lamps the camera sees in front of the catcher stay in the matte, as Cycles writes them before its
-        #  split; capped by Clamp Direct as the render caps them)
+        #  split, each through the clear surfaces before it; capped by Clamp Direct as the render caps them)
         tally = lightgroups.tally(ctx, len(kept)) if groups is not None else None
-        front = lamps_seen(ctx, O[kept], D[kept], t[kept], tally)
+        front = np.zeros((len(kept), 3))
+        where = np.full(len(O), -1, np.int64)
+        where[kept] = np.arange(len(kept))
+        for stretch_rows, O_s, t_s, T_s in stretches:
+            mine = where[stretch_rows] >= 0
+            if not mine.any():
+                continue
+            index = where[stretch_rows[mine]]
+            part = lightgroups.tally(ctx, len(index)) if tally is not None else None
+            front[index] += T_s[mine] * lamps_seen(ctx, O_s[mine], D[stretch_rows[mine]], t_s[mine], part)
+            if part is not None:
+                tally.add_rows(index, part, T_s[mine])
         cap = clamp_.limits(ctx.settings)[0]
         if np.isfinite(cap):
             f = clamp_.scale(front, None, cap)
@@ -141,12 +231,15 @@ def sample_rows(ctx: Context, rgba: np.ndarray, traced: np.ndarray, O: np.ndarra
             light[kept] = 0.0
         if groups is not None:
             groups[kept] = tally.L
-        rows[held, 4:7] = for_render(alone).radiance(alone, O[kept], D[kept], t_max[kept], pixel[kept], sample[kept],
-                                                     Recorder()).L
+        # (the catcher-only light, through the clear surfaces in front of the catcher: Cycles' split path carries
+        #  the camera path's throughput)
+        rows[held, 4:7] = through[kept] * for_render(alone).radiance(alone, O[kept], D[kept], t_max[kept],
+                                                                       pixel[kept], sample[kept], Recorder()).L
     world = ctx.extra.get("world_light")
     if world is not None and world.camera and not ctx.settings.transparent_background:
         behind = first | escaped
-        rows[traced[behind], 7:10] = world.radiance_seen(D[behind])
+        seen = world.radiance_seen(D[behind])
+        rows[traced[behind], 7:10] = seen * np.where(first[behind, None], through[behind], 1.0)
     return rows
 
 

@@ -390,19 +390,92 @@ INLINE int block_closures(BlockHits **blocks, int count, int64_t room, Closure *
     return 1;
 }
 
+/* catcher.caught for one camera ray O, D (up to t_max, at `time`, of sample `index` of `pixel`) whose first hit is
+ * triangle (geometry, prim, instance) at t, barycentrics u, v: whether it meets a shadow catcher there or straight
+ * through purely clear surfaces in front of one (catcher.clear_at: every closure a Transparent BSDF, no emission, no
+ * holdout; a camera path's transparent bounces, within the transparent-bounce limit). Returns 1 where it does, with
+ * T (3) what those surfaces let through and front (3) the lamps the camera sees in front of the catcher, each times
+ * what the clear surfaces before it let through (not clamped). sd: room for closures (its room, c and storage set),
+ * used here. */
+NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, const double *D, double t_max,
+                                   double time, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
+                                   double t, int64_t pixel, int64_t index, ShaderResult *sd, double *T, double *front)
+{
+    Intersect8 intersect = (Intersect8)params->intersect8;
+    ShaderRays rays = {intersect, (Occluded8)params->occluded8, params->scene, params->geometry, params->seed};
+    double o[3] = {O[0], O[1], O[2]};
+    int passed = 0;
+    for (int c = 0; c < 3; c++) { T[c] = 1.0; front[c] = 0.0; }
+    for (;;) {
+        int catcher = hidden_from(params->geometry, geometry, prim, instance, SHADOW_CATCHER);
+        Triangle tri = {{0.0}, {0.0}, {0.0}, 0, 0, 0.0};
+        hit_triangle(params->geometry, geometry, prim, instance, 1, time, &tri);
+        const MaterialRecord *m = params->materials + tri.material;
+        if (!catcher && (m->may_pass == 0 || passed + 1 >= (int)params->transparent_bounces
+                         || hidden_from(params->geometry, geometry, prim, instance, HOLDOUT)))
+            return 0;
+        double seen[3];                         /* the lamps along this stretch, through the clear surfaces so far */
+        camera_sees(params, o, D, t, 1, seen, NULL, NULL, NULL);
+        for (int c = 0; c < 3; c++) front[c] += T[c] * seen[c];
+        if (catcher) return 1;
+        /* The surface: clear, and what it lets through. */
+        Surface s;
+        surface_at(o, D, t, u, v, &tri, 0, &s);
+        double wo[3] = {-D[0], -D[1], -D[2]};
+        sd->n = 0;
+        sd->caustics = 0;
+        sd->terminator = 1.0;
+        LightPath path = {PATH_CAMERA, 0, 0, 0, 0, passed, 0, 0.0, 0.0};
+        ShaderKeys keys = {&rays, pixel, index, 0, 0};
+        shade_hit(params->graphs, params->geometry, m, &tri, &s, geometry, prim, instance, u, v, wo, &path, &keys, sd);
+        for (int i = 0; i < sd->n; i++) {
+            const double *w = sd->c[i].weight;
+            if (!bsdf_is(sd->c[i].kind, BSDF_FLAG_STRAIGHT) && (w[0] != 0.0 || w[1] != 0.0 || w[2] != 0.0)) return 0;
+        }
+        for (int c = 0; c < 3; c++)
+            if (sd->emission[c] != 0.0 || sd->holdout[c] != 0.0) return 0;
+        for (int c = 0; c < 3; c++) T[c] *= sd->transparency[c];
+        if (!(T[0] > 0.0 || T[1] > 0.0 || T[2] > 0.0)) return 0;
+        /* On from just past it, straight ahead (the camera's clipping end stays). */
+        double next[3];
+        spawn_ray(s.I, s.Ng, D, s.offset, next);
+        double gone = (next[0] - O[0]) * D[0] + (next[1] - O[1]) * D[1] + (next[2] - O[2]) * D[2];
+        for (int c = 0; c < 3; c++) o[c] = next[c];
+        passed++;
+        RayHitPacket packet;
+        int valid[PACKET] ALIGNED(32);
+        set_lane(&packet.ray, 0, o, D, t_max - gone);
+        set_time(&packet.ray, 0, time);
+        close_packet(&packet.ray, valid, 1);
+        clear_hits(&packet);
+        intersect(valid, params->scene, &packet, NULL);
+        if (packet.hit.geomID[0] != INVALID_ID && params->geometry->hidden != NULL)
+            see_past_hidden(params->geometry, intersect, params->scene, &packet, 0, o, D, t_max - gone,
+                            HIDDEN_FROM_CAMERA, time);
+        if (packet.hit.geomID[0] == INVALID_ID) return 0;
+        t = (double)packet.ray.tfar[0];
+        geometry = (int64_t)packet.hit.geomID[0];
+        prim = (int64_t)packet.hit.primID[0];
+        instance = instance_of(&packet.hit, 0);
+        u = (double)packet.hit.u[0];
+        v = (double)packet.hit.v[0];
+    }
+}
+
 /* A sample's share of the shadow catchers' matte and background (catcher.py sample_rows) into its pixel's sums
- * row (CATCHER_CHANNELS): its RGBA s where its camera ray O, D did not meet a catcher first, where it did
- * (`caught`, at t) the lamps the camera sees in front of it alone (capped by Clamp Direct) and one caught sample;
- * behind: it was caught or escaped, so the world along D is behind it (where the film is not transparent and the
- * camera sees the world). */
-INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught, int behind, const double *O,
-                          const double *D, double t, double *row)
+ * row (CATCHER_CHANNELS): its RGBA s where its camera ray along D did not meet a catcher first, where it did
+ * (`caught`, through clear surfaces that let T (3) through: catcher_behind) the lamps the camera sees in front of
+ * it alone, `front` (3, capped here by Clamp Direct), alpha 1 - mean(T) and one caught sample; behind: it was
+ * caught or escaped, so the world along D is behind it (times T where caught; where the film is not transparent and
+ * the camera sees the world). */
+INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught, const double *T, const double *front,
+                          int behind, const double *D, double *row)
 {
     if (caught) {
-        double front[3], one[3] = {1.0, 1.0, 1.0};
-        camera_sees(params, O, D, t, 1, front, NULL, NULL, NULL);
+        double one[3] = {1.0, 1.0, 1.0};
         double f = clamp_scale(front, one, params->clamp_direct, 1.0);
         for (int c = 0; c < 3; c++) row[c] += finite_or_zero(front[c] * f);
+        row[3] += 1.0 - (T[0] + T[1] + T[2]) / 3.0;
         row[10] += 1.0;
     } else {
         for (int c = 0; c < 4; c++) row[c] += s[c];
@@ -412,18 +485,18 @@ INLINE void catcher_matte(const ChunkParams *params, const double *s, int caught
         LightPath camera = {PATH_CAMERA, 0, 0, 0, 0, 0, 0, 0.0, 0.0};
         double seen[3];
         world_seen(world, D, &camera, seen);
-        for (int c = 0; c < 3; c++) row[7 + c] += finite_or_zero(seen[c]);
+        for (int c = 0; c < 3; c++) row[7 + c] += finite_or_zero(seen[c] * (caught ? T[c] : 1.0));
     }
 }
 
 /* The light of block b's caught samples (`caught` per lane) in the catcher-only scene `alone` (its params, with the
  * chunk's seed): their camera rays traced again there (the objects that are not catchers hidden from every ray) and
- * followed by its integrator, each lane's light added to its pixel's row of `sums` (channels 4..6, catcher.py K).
- * H and work are reused (the block's own sums are in already); the light groups are put aside meanwhile. Returns
+ * followed by its integrator, each lane's light times what the clear surfaces in front of its catcher let through,
+ * through[lane] (3), added to its pixel's row of `sums` (channels 4..6, catcher.py K). H and work are reused (the block's own sums are in already); the light groups are put aside meanwhile. Returns
  * the shadow rays; traced and spent as render_chunk's. */
 static int64_t catcher_light(const ChunkParams *alone, const ChunkArgs *a, CameraBlock *b, BlockHits *H,
-                             PathWork *work, const uint8_t *caught, int64_t start, int64_t *traced, uint64_t *spent,
-                             double *sums)
+                             PathWork *work, const uint8_t *caught, const double (*through)[3], int64_t start,
+                             int64_t *traced, uint64_t *spent, double *sums)
 {
     int any = 0;
     for (int64_t lane = 0; lane < b->n; lane++) {
@@ -445,7 +518,7 @@ static int64_t catcher_light(const ChunkParams *alone, const ChunkArgs *a, Camer
         int64_t lane = H->lane[h];
         double *row = sums + CATCHER_CHANNELS * ((start + lane) / a->spp);
         for (int c = 0; c < 3; c++)
-            row[4 + c] += finite_or_zero(H->L[3 * h + c] + work->extra[lane][c]);
+            row[4 + c] += finite_or_zero(through[lane][c] * (H->L[3 * h + c] + work->extra[lane][c]));
     }
     H->groups = groups;
     H->group_count = group_count;
@@ -493,10 +566,21 @@ static void render_chunk(const ChunkArgs *a)
     const ChunkParams *alone = out->catcher != NULL ? (const ChunkParams *)params->catcher : NULL;
     int catching = alone != NULL;
     uint8_t caught[BLOCK];
+    double through[BLOCK][3], front[BLOCK][3];      /* (what clear surfaces in front of a catcher let through; lamps) */
+    ShaderResult clear_sd;                          /* (room for the closures of those surfaces: catcher_behind) */
+    int64_t clear_room = params->closure_room < 1 ? 1 : (int64_t)params->closure_room;
+    clear_sd.room = (int)clear_room;
+    clear_sd.c = NULL;
+    clear_sd.storage = NULL;
+    if (catching) {
+        clear_sd.c = (Closure *)malloc((size_t)clear_room * (sizeof(Closure) + STORAGE_STRIDE * sizeof(double)));
+        if (clear_sd.c == NULL) { free(group_storage); free_passes(passes); return; }
+        clear_sd.storage = (double *)(clear_sd.c + clear_room);
+    }
     if ((int)params->integrator == INTEGRATOR_PATH || params->see_through != 0.0 || params->walks != 0.0 || light_passes
         || features || catching) {
         work = (PathWork *)malloc(sizeof(PathWork));
-        if (work == NULL) { free(group_storage); free_passes(passes); return; }   /* (the caller finds no samples counted) */
+        if (work == NULL) { free(group_storage); free_passes(passes); free(clear_sd.c); return; }   /* (the caller finds no samples counted) */
         work->a.groups = work_groups(&group_storage, G, 1);
         work->b.groups = work_groups(&group_storage, G, 2);
         work->groups = work_groups(&group_storage, G, 3);
@@ -504,7 +588,7 @@ static void render_chunk(const ChunkArgs *a)
         work->lane_groups = work_groups(&group_storage, G, 5);
         work->a.group_count = work->b.group_count = work->c.group_count = G;
     }
-    if (G > 0 && group_storage == NULL) { free(work); free_passes(passes); return; }
+    if (G > 0 && group_storage == NULL) { free(work); free_passes(passes); free(clear_sd.c); return; }
     /* Room for every closure a hit of the scene's materials sets up (no limit of their own). */
     BlockHits *blocks[4] = {&H, work != NULL ? &work->a : NULL, work != NULL ? &work->b : NULL,
                             work != NULL ? &work->c : NULL};
@@ -514,6 +598,7 @@ static void render_chunk(const ChunkArgs *a)
         free(work);
         free(group_storage);
         free_passes(passes);
+        free(clear_sd.c);
         return;
     }
     for (int64_t k = 0; k < a->p; k++) {
@@ -566,9 +651,14 @@ static void render_chunk(const ChunkArgs *a)
             double *groups = G > 0 ? out->groups + 3 * G * k : NULL;      /* (the pixel's light groups) */
             for (int64_t i = 0; i < 3 * G; i++) seen[i] = 0.0;
             int is_hit = h < H.m && H.lane[h] == lane;
-            caught[lane] = (uint8_t)(catching && is_hit
-                                     && hidden_from(params->geometry, H.geometry[h], H.prim[h], H.instance[h],
-                                                    SHADOW_CATCHER));
+            caught[lane] = 0;
+            if (catching && is_hit) {               /* (its catcher, at once or through clear surfaces: catcher.caught) */
+                double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
+                caught[lane] = (uint8_t)catcher_behind(params, O, D, b.t[lane], b.time[lane], H.geometry[h], H.prim[h],
+                                                       H.instance[h], H.bary[2 * h], H.bary[2 * h + 1], H.t[lane],
+                                                       (int64_t)b.pixel[lane], (int64_t)b.index[lane], &clear_sd,
+                                                       through[lane], front[lane]);
+            }
             const double *sigma = params->media != NULL ? H.lane_sigma[lane] : NULL;
             const March *marched = NULL;                /* (the camera ray's march through heterogeneous media) */
             if (sigma != NULL && b.valid[lane] && params->media->fields != NULL) {
@@ -654,18 +744,20 @@ static void render_chunk(const ChunkArgs *a)
             if (bad && out->nonfinite != NULL) out->nonfinite[k]++;
             add_sample(s, params->luminance, out->rgba + 4 * k, out->squares != NULL ? out->squares + 2 * k : NULL);
             if (catching) {
-                double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
-                catcher_matte(params, s, caught[lane], b.valid[lane] && (caught[lane] || !is_hit), O, D,
-                              H.t[lane], out->catcher + CATCHER_CHANNELS * k);
+                double D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
+                catcher_matte(params, s, caught[lane], through[lane], front[lane],
+                              b.valid[lane] && (caught[lane] || !is_hit), D, out->catcher + CATCHER_CHANNELS * k);
             }
         }
         /* 5. The caught samples again, in the catcher-only scene: their light there (catcher.py K). */
-        if (catching) shadow_rays += catcher_light(alone, a, &b, &H, work, caught, start, &traced, spent, out->catcher);
+        if (catching) shadow_rays += catcher_light(alone, a, &b, &H, work, caught, (const double (*)[3])through, start, &traced,
+                                                    spent, out->catcher);
     }
     free(work);
     free(group_storage);
     free(closures);
     free_passes(passes);
+    free(clear_sd.c);
     out->counts[0] += traced;
     out->counts[1] += shadow_rays;
     double scale = seconds_per_tick(started);
