@@ -23,9 +23,10 @@ pytestmark = pytest.mark.blender
 SAMPLES = 256
 
 SCRIPT = """
-import math, os
+import math, os, sys
 import bpy
 import numpy as np
+import blender_env
 from blender_env import empty_material, fresh_scene, render_pixels, report
 primer, export, scene = fresh_scene(32, 24)
 material, tree, output = empty_material("Burley")
@@ -59,14 +60,8 @@ scene.primer.terminator_fix = True
 exported = export.export_scene(bpy.context.evaluated_depsgraph_get())
 
 
-def blocks(image):
-    h, w = image.shape[0] // 4 * 4, image.shape[1] // 4 * 4
-    return image[:h, :w].reshape(h // 4, 4, w // 4, 4, -1).mean(axis=(1, 3))
-
-
-def rel_mse(a, b):
-    ba, bb = blocks(a), blocks(b)
-    return float(np.mean((ba - bb) ** 2 / (bb ** 2 + 0.01)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(blender_env.__file__)))
+from core.film.compare import relative_mse_of_blocks as rel_mse
 
 
 cases = {{}}
