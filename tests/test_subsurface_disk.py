@@ -129,6 +129,23 @@ def test_a_white_burley_sphere_in_a_white_world_keeps_all_its_light():
     np.testing.assert_allclose(image[3:9, 3:9].mean(axis=(0, 1)), 1.0, atol=0.03)
 
 
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_white_burley_sphere_keeps_all_its_light_seen_from_far_away(kernels):
+    """The white furnace with the camera 24 away (framing the sphere as from near): Primer renders camera-relative,
+    so the sphere is ~24 from the origin in Embree's float32 and a probe's step past a surface (tiny radii: Scale
+    0.05) must not meet the same triangle again. Every pixel sees the world's 1 in both kernels, as from 2 away
+    (counted twice, it read up to 1.75)."""
+    for distance in (2.0, 24.0):
+        scene = Scene(camera=Camera.look_at((0.0, -distance, 0.0), (0.0, 0.0, 0.0),
+                                            fov=2.0 * math.atan(0.5 / distance)), world=World(color=np.ones(3)))
+        scene.materials = [Material(name="White", nodes=[("PRINCIPLED", (1.0, 1.0, 1.0), {
+            "base_color": (1.0, 1.0, 1.0), "subsurface": 1.0, "subsurface_scale": 0.05,
+            "subsurface_method": bssrdf.BURLEY, "specular_ior_level": 0.0})])]
+        scene.add_mesh(primitives.uv_sphere(0.4, 32, 16, smooth=True), materials=np.array([0]))
+        image = render.render(scene, dataclasses.replace(SETTINGS, samples=64, kernels=kernels)).image[..., :3]
+        np.testing.assert_allclose(image[3:9, 3:9].mean(axis=(0, 1)), 1.0, atol=0.03)
+
+
 def plates(count: int = 6) -> Mesh:
     """`count` thin parallel plates (1.6 x 0.02 x 1.6, 0.05 apart along y) as one mesh: a chord across them meets
     2 x count faces."""

@@ -10,7 +10,8 @@ struct ShaderRays {
 };
 
 /* shader_rays.local_hits for one ray at `time` in the shutter: the hits of O + t D, t in (0, t_max), on the object
- * `owner`, stepping past other objects' triangles (LOCAL_STEPS surfaces in all); the nearest `most` into prim..t.
+ * `owner`, stepping past other objects' triangles (LOCAL_STEPS surfaces in all), each surface counted once (a
+ * triangle met again right after itself is stepped past uncounted); the nearest `most` into prim..t.
  * Returns how many it met (at most `most` + 1: it stops looking there). */
 static int64_t local_hits(const ShaderRays *rays, const double *O, const double *D, double t_max, double time,
                           int64_t owner, int most, int64_t *geometry, int64_t *prim, int64_t *instance, double *u,
@@ -18,6 +19,7 @@ static int64_t local_hits(const ShaderRays *rays, const double *O, const double 
 {
     int64_t count = 0;
     double start = 0.0;
+    int64_t last_g = -1, last_p = -1, last_j = -1;      /* the triangle met last */
     if (!(t_max > 0.0)) return 0;
     for (int step = 0; step < LOCAL_STEPS; step++) {
         double here[3];
@@ -32,14 +34,19 @@ static int64_t local_hits(const ShaderRays *rays, const double *O, const double 
         if (packet.hit.geomID[0] == INVALID_ID) break;
         double at = start + (double)packet.ray.tfar[0];
         int64_t g = (int64_t)packet.hit.geomID[0], p = (int64_t)packet.hit.primID[0], j = instance_of(&packet.hit, 0);
-        if (owner_of(rays->geometry, g, p, j) == owner) {
+        int again = g == last_g && p == last_p && j == last_j;
+        last_g = g; last_p = p; last_j = j;
+        if (!again && owner_of(rays->geometry, g, p, j) == owner) {
             if (count < most) {
                 geometry[count] = g; prim[count] = p; instance[count] = j;
                 u[count] = (double)packet.hit.u[0]; v[count] = (double)packet.hit.v[0]; t[count] = at;
             }
             count++;
         }
-        start = at + at_least(1e-5 * at_least(at, 1e-3), 1e-7);
+        /* (at least the robust offset of the point met: Embree's float32 rays far from the origin) */
+        double met[3];
+        for (int c = 0; c < 3; c++) met[c] = O[c] + at * D[c];
+        start = at + at_least(at_least(1e-5 * at_least(at, 1e-3), 1e-7), ROBUST_ULPS * FLOAT32_EPSILON * largest3(met));
         if (count > most || !(start < t_max)) break;
     }
     return count;

@@ -200,12 +200,14 @@ def local_hits(geometry, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, owner:
     """The hits of rays O + t D, t in (0, t_max) (k,), on triangles of the objects `owner` (k,) int64 (Cycles'
     scene_intersect_local): (how many it met (k,) int64, capped at `most` + 1 past which it stops looking; a list of
     `most` (prim, u, v, t, found) the nearest first, each (k,) arrays). Other objects' triangles are stepped past,
-    up to LOCAL_STEPS surfaces in all. times: (k,) the rays' times in the shutter (where moving objects are), or
-    None."""
+    up to LOCAL_STEPS surfaces in all; each surface counts once (a triangle met again right after itself, as float32
+    rays far from the origin do, is stepped past uncounted). times: (k,) the rays' times in the shutter (where moving
+    objects are), or None."""
     k = len(O)
     count = np.zeros(k, np.int64)
     hits = [(np.zeros(k, np.int64), np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k, bool)) for _ in range(most)]
     start = np.zeros(k)                                 # how far along the ray the search has got
+    last = np.full(k, -1, np.int64)                     # the triangle met last
     alive = np.flatnonzero(t_max > 0.0)
     for _ in range(LOCAL_STEPS):
         if len(alive) == 0:
@@ -215,15 +217,19 @@ def local_hits(geometry, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, owner:
                                           None if times is None else times[alive])
         met = found.hit
         t = start[alive] + found.t
-        mine = met & (geometry.owners(np.where(met, found.prim, 0)) == owner[alive])
+        again = met & (found.prim == last[alive])
+        last[alive] = np.where(met, found.prim, -1)
+        mine = met & ~again & (geometry.owners(np.where(met, found.prim, 0)) == owner[alive])
         for slot in range(most):
             rows = alive[mine & (count[alive] == slot)]
             sel = mine & (count[alive] == slot)
             prim, u, v, tt, ok = hits[slot]
             prim[rows], u[rows], v[rows], tt[rows], ok[rows] = found.prim[sel], found.u[sel], found.v[sel], t[sel], True
         count[alive[mine]] += 1
-        # On from just past the surface met (a relative step: Embree's float32 rays).
-        start[alive] = t + np.maximum(1e-5 * np.maximum(t, 1e-3), 1e-7)
+        # On from just past the surface met: a step relative to the distance and at least the robust offset of the
+        # point met (ROBUST_ULPS float32 ulps of its largest coordinate: Embree's float32 rays, far from the origin).
+        robust = shadows.ROBUST_ULPS * shadows.FLOAT32_EPSILON * shadows.largest_coordinate(O[alive] + t[:, None] * D[alive])
+        start[alive] = t + np.maximum(np.maximum(1e-5 * np.maximum(t, 1e-3), 1e-7), robust)
         keep = met & (count[alive] <= most) & (start[alive] < t_max[alive])
         alive = alive[keep]
     return count, hits
