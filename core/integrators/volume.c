@@ -482,7 +482,7 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
         }
         for (int c = 0; c < 3; c++) carried[c] = carried[c] / q;
         if (ds->features && H->looking[h]) {
-            /* (the media along it, where its path still looks: features.in_media; marched through heterogeneous ones) */
+            /* (the media along it, where its path still looks: features.in_media; heterogeneous ones marched) */
             double sigma_t[3], emission[3], sigma_s[3], g;
             medium_along(ds->media, &r->inside, sigma_t, emission);
             if (ds->media->fields != NULL && in_field(ds->media, &r->inside)) {
