@@ -164,3 +164,85 @@ def test_a_fog_that_only_absorbs_leaves_the_features_as_they_are(kernels):
     aux = features_of(foggy(plane_scene(), 0.0, 0.7), kernels, integrator="path")
     np.testing.assert_allclose(aux["denoising_albedo"], np.broadcast_to([0.2, 0.5, 0.7], (12, 16, 3)), atol=1e-6)
     np.testing.assert_allclose(aux["denoising_normal"], np.broadcast_to([0.0, 0.0, 1.0], (12, 16, 3)), atol=1e-6)
+
+
+def linear_slab(scene: Scene, axis: str, scale: float, offset: float, low, high) -> Scene:
+    """Add to `scene` a volume-only box from `low` to `high` (3 each, world = object coordinates) holding a
+    heterogeneous medium of density scale x (the point's object `axis`) + offset: a Volume Scatter of colour
+    FOG_COLOUR and a Volume Absorption of the same colour and density, so sigma_s = density x colour and
+    sigma_t = density in every channel (T grey, sigma_s / sigma_t = the colour all along)."""
+    from core.materials import Material
+    from core.materials.graph import GraphNode, Link
+    coords = GraphNode("TEXCOORD")
+    value = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(coords, "Object")}), axis.upper())
+    density = Link(GraphNode("MATH", {"operation": "MULTIPLY_ADD"}, {"0": value, "1": scale, "2": offset}), "Value")
+    volume = [("SCATTER", 1.0, {"color": FOG_COLOUR, "density": density, "anisotropy": 0.0}),
+              ("ABSORPTION", 1.0, {"color": FOG_COLOUR, "density": density})]
+    scene.materials.append(Material(np.zeros(3), "Slab", nodes=[("TRANSPARENT", np.ones(3), {})], volume=volume,
+                                    volume_only=True))
+    low, high = np.asarray(low, np.float64), np.asarray(high, np.float64)
+    scene.add_mesh(primitives.box(tuple(high - low), center=tuple(0.5 * (low + high))),
+                   materials=np.array([len(scene.materials) - 1]))
+    return scene
+
+
+FOG_COLOUR = np.array([0.9, 0.6, 0.3])
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_plane_seen_through_a_slab_of_linear_density_gives_its_albedo_by_the_integral(kernels):
+    """A heterogeneous slab (z from 0.5 to 1.5, density z + 0.25: optical depth 1.25) between the camera and the
+    plane: the integral of T sigma_s over the march is colour (1 - T) with T = exp(-1.25) (sigma_s / sigma_t is the
+    colour all along; the march's midpoints integrate a linear density exactly), and the plane behind counts T times
+    its albedo: albedo = colour (1 - T) + T (0.2, 0.5, 0.7); the normal +Z both ways. The same from a camera inside
+    the slab (z = 1.25, its near plane 1.25e-3 below: the camera rays' own media), over the depth from there down."""
+    for height, top in ((3.0, 1.5), (1.25, 1.25 - 1.25e-3)):
+        scene = plane_scene()
+        scene.camera = ortho_down(height=height, scale=2.0)
+        linear_slab(scene, "z", 1.0, 0.25, (-3.0, -3.0, 0.5), (3.0, 3.0, 1.5))
+        aux = features_of(scene, kernels, integrator="path")
+        T = math.exp(-(0.5 * (top ** 2 - 0.5 ** 2) + 0.25 * (top - 0.5)))
+        expected = FOG_COLOUR * (1.0 - T) + T * np.array([0.2, 0.5, 0.7])
+        np.testing.assert_allclose(aux["denoising_albedo"], np.broadcast_to(expected, (12, 16, 3)), rtol=1e-6,
+                                   err_msg=str(height))
+        np.testing.assert_allclose(aux["denoising_normal"], np.broadcast_to([0.0, 0.0, 1.0], (12, 16, 3)), atol=1e-6,
+                                   err_msg=str(height))
+
+
+def mirror_into_slab() -> Scene:
+    """mirror_scene seen by an orthographic camera looking straight down (its rays leave the mirror along -Y exactly)
+    with a heterogeneous slab between the mirror and the wall: y from -4 to -2, density 1.5 - 0.5 (y + 4) (from 1.5
+    to 0.5 along the rays: optical depth 2)."""
+    scene = mirror_scene()
+    scene.camera = ortho_down(height=3.0, scale=1.0)
+    return linear_slab(scene, "y", -0.5, -0.5, (-2.0, -4.0, -1.5), (2.0, -2.0, 1.5))
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_mirror_bounce_through_a_slab_of_linear_density_gives_its_albedo_by_the_integral(kernels):
+    """The mirror's rays cross the slab while their paths look (feature throughput and path throughput: the tint):
+    albedo = tint^2 colour (1 - T) + T tint (0.6, 0.1, 0.1) with T = exp(-2), the wall's normal +Y times T plus the
+    view direction back towards the camera (+Z) times 1 - T."""
+    aux = features_of(mirror_into_slab(), kernels, integrator="path", max_bounces=2)
+    tint, T = np.array([0.9, 0.8, 0.5]), math.exp(-2.0)
+    expected = tint * tint * FOG_COLOUR * (1.0 - T) + T * tint * np.array([0.6, 0.1, 0.1])
+    np.testing.assert_allclose(aux["denoising_albedo"], np.broadcast_to(expected, (12, 16, 3)), rtol=1e-6)
+    np.testing.assert_allclose(aux["denoising_normal"], np.broadcast_to([0.0, T, 1.0 - T], (12, 16, 3)), atol=1e-6)
+
+
+def test_the_kernels_write_the_same_features_through_a_varying_medium():
+    """A Noise Texture's density in the slab the mirror's rays cross, and in a slab around the camera: both
+    kernels march the same pieces and sum them alike (and the slabs do change the features)."""
+    from core.materials import Material
+    from core.materials.graph import GraphNode, Link
+    scene = mirror_into_slab()
+    noise = Link(GraphNode("TEX_NOISE", {}, {"Scale": 3.0}), "Fac")
+    volume = [("PRINCIPLED_VOLUME", 1.0, {"color": FOG_COLOUR, "density": noise, "anisotropy": 0.2})]
+    scene.materials[2] = dataclasses.replace(scene.materials[2], volume=volume)
+    scene.materials.append(Material(np.zeros(3), "Haze", nodes=[("TRANSPARENT", np.ones(3), {})], volume=volume,
+                                    volume_only=True))
+    scene.add_mesh(primitives.box((4.0, 4.0, 2.0), center=(0.0, 0.0, 2.5)), materials=np.array([3]))
+    a, b = (features_of(scene, kernels, integrator="path", max_bounces=2) for kernels in ("numpy", "compiled"))
+    for name in ("denoising_albedo", "denoising_normal"):
+        np.testing.assert_allclose(a[name], b[name], atol=1e-9, rtol=1e-9, err_msg=name)
+    assert np.abs(a["denoising_albedo"] - np.array([0.54, 0.08, 0.05])).min() > 1e-3

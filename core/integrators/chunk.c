@@ -158,8 +158,9 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
 }
 
 /* features.in_media for the camera rays of block b (path.py's camera, rays.camera_back): each lane's reach and what
- * the homogeneous media in front of it write (work->camera_features, added to the lane's features with what the camera
- * sees); back (3) becomes the direction back towards the camera, the normal a path that scatters in a medium gets. */
+ * the media in front of it write (features_in_march through heterogeneous ones) (work->camera_features, added to
+ * the lane's features with what the camera sees); back (3) becomes the direction back towards the camera, the normal
+ * a path that scatters in a medium gets. */
 static void camera_lane_features(const ChunkParams *params, const CameraBlock *b, const BlockHits *H, PathWork *work,
                                  double *back)
 {
@@ -172,8 +173,15 @@ static void camera_lane_features(const ChunkParams *params, const CameraBlock *b
     for (int64_t lane = 0; lane < BLOCK; lane++) {
         work->reach[lane] = 1.0;
         for (int i = 0; i < FEATURE_CHANNELS; i++) work->camera_features[lane][i] = 0.0;
-        if (lane >= b->n || !b->valid[lane] || params->media == NULL || in_field(params->media, &H->lane_inside[lane]))
+        if (lane >= b->n || !b->valid[lane] || params->media == NULL) continue;
+        if (params->media->fields != NULL && in_field(params->media, &H->lane_inside[lane])) {
+            double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]};
+            double D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
+            features_in_march(work->camera_features[lane], work->reach + lane, one, one, params->media,
+                              &H->lane_inside[lane], O, D, H->t[lane], H->lane_sigma[lane], H->lane_emission[lane],
+                              back);
             continue;
+        }
         double sigma_s[3], g;
         medium_scattering(params->media, &H->lane_inside[lane], sigma_s, &g, NULL);
         features_in_media(work->camera_features[lane], work->reach + lane, one, one, H->lane_sigma[lane], sigma_s,

@@ -54,29 +54,70 @@ INLINE void features_at_vertex(BlockHits *H, double (*lanes)[FEATURE_CHANNELS], 
     }
 }
 
-/* features.in_media for one path's ray through homogeneous media (sigma_t, sigma_s (3) over t, inf: it escapes)
- * while it looks: albedo (into lane[0..2]) += ftp x tp x sigma_s / sigma_t (1 - T), normal (lane[3..5]) += *reach
- * (1 - P) back, *reach *= P, the odds of passing (T weighed by Cycles' channel pdf |tp (albedo tp + T)|); nothing
- * where the media only absorb. */
-INLINE void features_in_media(double *lane, double *reach, const double *ftp, const double *tp, const double *sigma_t,
-                              const double *sigma_s, double t, const double *back)
+/* The tail of features.in_media for one path's ray that scatters: what it lets through T (3) and the integral of
+ * T sigma_s over it (scattered, 3): albedo (into lane[0..2]) += ftp x tp x scattered, normal (lane[3..5]) += *reach
+ * (1 - P) back, *reach *= P, the odds of passing (T weighed by Cycles' channel pdf |tp (scattered tp + T)|). */
+INLINE void features_write(double *lane, double *reach, const double *ftp, const double *tp, const double *T,
+                           const double *scattered, const double *back)
 {
-    if (!(sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0)) return;
-    double T[3], albedo[3], total = 0.0, passing = 0.0;
+    double total = 0.0, passing = 0.0;
     for (int c = 0; c < 3; c++) {
-        int positive = sigma_t[c] > 0.0;
-        T[c] = positive ? exp(-sigma_t[c] * t) : 1.0;
-        albedo[c] = positive ? sigma_s[c] / sigma_t[c] * (1.0 - T[c]) : 0.0;
-        double share = fabs(tp[c] * (albedo[c] * tp[c] + T[c]));
+        double share = fabs(tp[c] * (scattered[c] * tp[c] + T[c]));
         total += share;
         passing += share * T[c];
     }
     double P = total > 0.0 ? passing / total : (T[0] + T[1] + T[2]) / 3.0;
     for (int c = 0; c < 3; c++) {
-        lane[c] += ftp[c] * tp[c] * albedo[c];
+        lane[c] += ftp[c] * tp[c] * scattered[c];
         lane[3 + c] += (*reach * (1.0 - P)) * back[c];
     }
     *reach *= P;
+}
+
+/* features.in_media for one path's ray through homogeneous media (sigma_t, sigma_s (3) over t, inf: it escapes)
+ * while it looks: features_write with T = exp(-sigma_t t) and the integral sigma_s / sigma_t (1 - T); nothing where
+ * the media only absorb. */
+INLINE void features_in_media(double *lane, double *reach, const double *ftp, const double *tp, const double *sigma_t,
+                              const double *sigma_s, double t, const double *back)
+{
+    if (!(sigma_s[0] > 0.0 || sigma_s[1] > 0.0 || sigma_s[2] > 0.0)) return;
+    double T[3], albedo[3];
+    for (int c = 0; c < 3; c++) {
+        int positive = sigma_t[c] > 0.0;
+        T[c] = positive ? exp(-sigma_t[c] * t) : 1.0;
+        albedo[c] = positive ? sigma_s[c] / sigma_t[c] * (1.0 - T[c]) : 0.0;
+    }
+    features_write(lane, reach, ftp, tp, T, albedo, back);
+}
+
+/* features.in_media for one path's ray O + s D (3 each) over [0, t) (inf: it escapes) in the media `stack`, which
+ * hold a heterogeneous one (in_field), of homogeneous part sigma_t, emission (3) (medium_along): its march (field.c)
+ * and features_write with T = exp(-tau(t)) and the integral of T sigma_s summed over the pieces in order
+ * (features.march_scattered); nothing where no piece scatters. Its own NOINLINE call: a march is tens of kilobytes. */
+NOINLINE static void features_in_march(double *lane, double *reach, const double *ftp, const double *tp,
+                                       const MediaTables *media, const VolumeStack *stack, const double *O,
+                                       const double *D, double t, const double *sigma_t, const double *emission,
+                                       const double *back)
+{
+    double sigma_s[3], g;
+    medium_scattering(media, stack, sigma_s, &g, NULL);
+    if (!stretch_scatters(media, stack, sigma_s)) return;
+    March m;
+    march_of(media, stack, O, D, t, sigma_t, sigma_s, emission, g, &m);
+    int some = 0;
+    double T[3], scattered[3] = {0.0, 0.0, 0.0};
+    for (int j = 0; j < m.n; j++) {
+        double width = m.edges[j + 1] - m.edges[j];
+        for (int c = 0; c < 3; c++) {
+            double st = m.sigma_t[j][c], ss = m.sigma_s[j][c];
+            some |= ss > 0.0;
+            double each = st > 0.0 ? exp(-m.tau[j][c]) * (ss / st * -expm1(-st * width)) : 0.0;
+            scattered[c] = scattered[c] + (each != each ? 0.0 : each);
+        }
+    }
+    if (!some) return;
+    for (int c = 0; c < 3; c++) T[c] = exp(-m.tau[m.n][c]);
+    features_write(lane, reach, ftp, tp, T, scattered, back);
 }
 
 /* features.found: what the hits' rays found (H->found, before the path's throughput) where their paths still look. */

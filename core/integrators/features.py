@@ -21,9 +21,11 @@ film_write_emission_or_background_pass in light_passes.h), both kernels:
   MIS weight and cap included): the surface the camera sees emit, what its rays find (lamps, emitters, the world)
   and, for the camera, the world where it escapes (0 with a transparent film) and the lamps it passes.
 - Scattering media the path crosses while it looks (in_media; Cycles' film_write_denoising_features_volume): in
-  expectation over Cycles' choice to scatter there (its unguided odds), their albedo sigma_s / sigma_t (1 - T)
-  times the path's throughputs; a path that scatters stops looking with the view direction back towards the camera
-  as its normal, so later vertices count times the odds of getting past (the reach).
+  expectation over Cycles' choice to scatter there (its unguided odds), the integral of T(s) sigma_s(s) ds over
+  the ray (sigma_s / sigma_t (1 - T) in a homogeneous medium; summed over the pieces of the march, core/volumes/
+  field.py, in a heterogeneous one) times the path's throughputs; a path that scatters stops looking with the view
+  direction back towards the camera as its normal, so later vertices count times the odds of getting past (the
+  reach).
 - A path that ends before a feature vertex (a bounce limit, Russian roulette) leaves the features as they are:
   with Max Bounces 0, a mirror's pixel keeps albedo 0 unless its ray finds a light or the world, as in Cycles
   (measured: a tinted mirror reflecting a red wall, albedo 0 in Cycles 5.0 at Max Bounces 0, tint x red at 1).
@@ -128,26 +130,35 @@ def in_media(features: Features, stretch, t: np.ndarray, back: np.ndarray, owner
     """The media a path crosses while it looks (stretch: the rays' core/volumes Stretch, out to t (k,), inf where a
     ray escapes), as Cycles 5.0 writes them (film_write_denoising_features_volume): a path that scatters there stops
     looking with the view direction as its normal; before it does, the media add their albedo. In expectation, with
-    Cycles' odds of passing (no volume guiding): albedo += feature throughput x throughput x sigma_s / sigma_t (1 - T)
-    per channel (the integral of T sigma_s), the path's reach *= P, the odds it passes (T per channel weighed by
-    Cycles' channel pdf, |throughput (albedo + T)|), normal += reach (1 - P) back (back (3,): towards the camera,
-    Cycles' (0, 0, -1) in camera space); the surfaces after write their albedo and normal times the reach
-    (at_vertex). Media that only absorb leave the features as they are (Cycles: attenuation only); rays in
-    heterogeneous media too (warned). owner (k,): the camera rays of the paths (None: the camera rays themselves);
-    throughput, feature_throughput (k, 3): the paths' (None: 1)."""
+    Cycles' odds of passing (no volume guiding): albedo += feature throughput x throughput x the integral of
+    T(s) sigma_s(s) ds per channel (scattered: sigma_s / sigma_t (1 - T) in homogeneous media, summed over the pieces
+    of the march in heterogeneous ones), the path's reach *= P, the odds it passes (T per channel weighed by Cycles'
+    channel pdf, |throughput (albedo + T)|), normal += reach (1 - P) back (back (3,): towards the camera, Cycles'
+    (0, 0, -1) in camera space); the surfaces after write their albedo and normal times the reach (at_vertex). Media
+    that only absorb leave the features as they are (Cycles: attenuation only). owner (k,): the camera rays of the
+    paths (None: the camera rays themselves); throughput, feature_throughput (k, 3): the paths' (None: 1)."""
     k = len(stretch.sigma_t)
     owner = np.arange(k) if owner is None else np.asarray(owner)
     throughput = np.ones((k, 3)) if throughput is None else throughput
     feature_throughput = np.ones((k, 3)) if feature_throughput is None else feature_throughput
-    rows = np.flatnonzero((stretch.sigma_s > 0.0).any(axis=1) & ~stretch.varying)
-    if len(rows) == 0:
-        return
-    sigma_t, sigma_s, t, tp = stretch.sigma_t[rows], stretch.sigma_s[rows], np.asarray(t, np.float64)[rows], \
-        throughput[rows]
+    t = np.broadcast_to(np.asarray(t, np.float64), (k,))
+    varying = stretch.varying
+    rows = np.flatnonzero((stretch.sigma_s > 0.0).any(axis=1) & ~varying)
+    sigma_t, sigma_s = stretch.sigma_t[rows], stretch.sigma_s[rows]
     positive = sigma_t > 0.0
     with np.errstate(over="ignore", invalid="ignore"):
-        T = np.where(positive, np.exp(-np.where(positive, sigma_t, 1.0) * t[:, None]), 1.0)
+        T = np.where(positive, np.exp(-np.where(positive, sigma_t, 1.0) * t[rows, None]), 1.0)
     albedo = np.where(positive, sigma_s / np.where(positive, sigma_t, 1.0), 0.0) * (1.0 - T)
+    marched = np.flatnonzero(varying & stretch.scatters)
+    if len(marched):
+        march = stretch.march(t[marched], marched)
+        keep = (march.sigma_s > 0.0).any(axis=(1, 2))                   # (fields that scatter nowhere on the ray)
+        T_m, albedo_m = march_scattered(march)
+        rows = np.concatenate([rows, marched[keep]])
+        T, albedo = np.concatenate([T, T_m[keep]]), np.concatenate([albedo, albedo_m[keep]])
+    if len(rows) == 0:
+        return
+    tp = throughput[rows]
     share = np.abs(tp * (albedo * tp + T))
     total = share.sum(axis=1)
     P = np.where(total > 0.0, (share * T).sum(axis=1) / np.where(total > 0.0, total, 1.0), T.mean(axis=1))
@@ -155,6 +166,25 @@ def in_media(features: Features, stretch, t: np.ndarray, back: np.ndarray, owner
     features.albedo[who] += feature_throughput[rows] * tp * albedo
     features.normal[who] += (features.reach[who] * (1.0 - P))[:, None] * np.asarray(back, np.float64)
     features.reach[who] *= P
+
+
+def march_scattered(march) -> tuple:
+    """(T, scattered) (n, 3) float64 of n marched rays (core/volumes/field.py March): what they let through to their
+    ends, and the integral of T(s) sigma_s(s) ds over them, piece by piece in order: T(edge_i) sigma_s_i / sigma_t_i
+    (1 - exp(-sigma_t_i len_i)) (0 where sigma_t_i is 0), as features.c features_in_march sums it."""
+    width = np.diff(march.edges, axis=1)[:, :, None]                    # (n, K + 2, 1), the last may be inf
+    sigma_t, sigma_s = march.sigma_t, march.sigma_s
+    positive = sigma_t > 0.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        caught = -np.expm1(-np.where(positive, sigma_t, 1.0) * width)
+        each = np.where(positive, np.exp(-march.tau[:, :-1]) * (sigma_s / np.where(positive, sigma_t, 1.0) * caught),
+                        0.0)
+        T = np.exp(-march.tau[:, -1])
+    each = np.nan_to_num(each, nan=0.0)
+    scattered = np.zeros_like(T)
+    for j in range(each.shape[1]):                                      # (in order, as C sums them)
+        scattered = scattered + each[:, j]
+    return T, scattered
 
 
 def found(features: Features, owner: np.ndarray, looking: np.ndarray, feature_throughput: np.ndarray,
