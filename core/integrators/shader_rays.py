@@ -228,7 +228,8 @@ def local_hits(geometry, O: np.ndarray, D: np.ndarray, t_max: np.ndarray, owner:
         count[alive[mine]] += 1
         # On from just past the surface met: a step relative to the distance and at least the robust offset of the
         # point met (ROBUST_ULPS float32 ulps of its largest coordinate: Embree's float32 rays, far from the origin).
-        robust = shadows.ROBUST_ULPS * shadows.FLOAT32_EPSILON * shadows.largest_coordinate(O[alive] + t[:, None] * D[alive])
+        at = np.where(met, t, 0.0)                      # (rays that met nothing stop here: no point to step from)
+        robust = shadows.ROBUST_ULPS * shadows.FLOAT32_EPSILON * shadows.largest_coordinate(O[alive] + at[:, None] * D[alive])
         start[alive] = t + np.maximum(np.maximum(1e-5 * np.maximum(t, 1e-3), 1e-7), robust)
         keep = met & (count[alive] <= most) & (start[alive] < t_max[alive])
         alive = alive[keep]
