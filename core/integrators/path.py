@@ -319,7 +319,8 @@ class PathTracing(Integrator):
         transmission = np.zeros(len(hit), np.int64)
         transparent = np.zeros(len(hit), np.int64)
         portal = np.zeros(len(hit), np.int64)        # of those, Ray Portals (the Light Path node's Portal Depth)
-        cone, spread = camera_cones(ctx, vectors.gather(O, hit), D_hit)   # each ray's cone (graph.LightPath cone, spread)
+        camera_cone, camera_spread = camera_cones(ctx, O, D)   # each camera ray's cone (graph.LightPath cone, spread)
+        cone, spread = camera_cone[hit], camera_spread[hit]
         bounds = np.zeros(len(hit), np.int64)         # volume-only boundaries crossed (Cycles' volume_bounds_bounce)
         bounce = np.zeros(len(hit), np.int64)
         flags = np.full(len(hit), graph_.PATH_CAMERA, np.int64)   # the Light Path flags of the ray that got there
@@ -350,7 +351,7 @@ class PathTracing(Integrator):
                          looking=looking, feature_throughput=feature_throughput, shares=shares, volume=volume, wo=wo,
                          min_pdf=min_pdf)
             where = (found.prim[hit], found.u[hit], found.v[hit], vectors.gather(O, hit), D_hit, found.t[hit])
-            state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)), *camera_cones(ctx, O, D))
+            state, surface = with_arrivals(ctx, state, where, arrivals, np.arange(len(O)), camera_cone, camera_spread)
             (owner, throughput, diffuse, glossy, transmission, transparent, portal, cone, spread, bounds, bounce, flags,
              mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking, feature_throughput,
              shares, volume, wo, min_pdf) = state.values()

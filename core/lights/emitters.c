@@ -251,7 +251,7 @@ INLINE int emitter_spherical(const double *V, double height, double area)
 
 /* MeshEmitters.corners_at for emitter i at `time` in the shutter (time < 0: the frame): its corners (9,), unit
  * normal and area, the table's row for a still one, a moving one's placed as triangles.c places it for rays then
- * (instanced_triangle's corners) into placed, normal and *area. Returns the corners. */
+ * (hit_triangle's corners) into placed, normal and *area. Returns the corners. */
 NOINLINE static const double *emitter_at(const EmitterTables *e, int64_t i, double time, double *placed,
                                          double *normal, double *area)
 {
@@ -261,18 +261,14 @@ NOINLINE static const double *emitter_at(const EmitterTables *e, int64_t i, doub
         *area = e->area[i];
         return e->corners + 9 * i;
     }
-    const InstancedTables *mesh = ((const GeometryTables *)e->geometry)->meshes + m;
+    const GeometryTables *g = (const GeometryTables *)e->geometry;
+    const InstancedTables *mesh = g->meshes + m;
     int64_t local = (e->prim[i] - (int64_t)mesh->first_prim) % (int64_t)mesh->triangle_count;
     int64_t j = (e->prim[i] - (int64_t)mesh->first_prim) / (int64_t)mesh->triangle_count;
-    double M[12];
-    placement_at(mesh, j, time, M);
-    for (int k = 0; k < 3; k++) {
-        double p[3];
-        object_point(mesh, (int64_t)mesh->triangles[3 * local + k], time, p);
-        for (int r = 0; r < 3; r++)
-            placed[3 * k + r] = (M[4 * r] * p[0] + M[4 * r + 1] * p[1] + M[4 * r + 2] * p[2]) + M[4 * r + 3];
-    }
-    double e1[3], e2[3], cross[3];
+    Triangle tri;
+    hit_triangle(g, (int64_t)m + 1, local, j, 0, time, &tri);     /* (the corners as rays meet them then) */
+    for (int k = 0; k < 9; k++) placed[k] = tri.V[k];
+    double e1[3], e2[3], cross[3];         /* (the unflipped normal and area, as the table's still rows have them) */
     for (int c = 0; c < 3; c++) { e1[c] = placed[3 + c] - placed[c]; e2[c] = placed[6 + c] - placed[c]; }
     cross_product(e1, e2, cross);
     double length = sqrt(dot3(cross, cross));

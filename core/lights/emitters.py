@@ -110,9 +110,7 @@ class MeshEmitters(Light):
         """The emitters of triangles with corners (t, 3, 3), radiance (t, 3), sides (t,), textured (t,) bool or
         None; mesh (t,) int32 the instanced mesh of the moving ones (-1: still) of `meshes` (or both None: none
         moves); None if none emits."""
-        e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-        cross = vectors.cross(e1, e2)
-        length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+        cross, length = face_cross(corners)
         area = 0.5 * length
         power = area * np.abs(emission).mean(axis=1) * (sides > 0)
         keep = np.isfinite(power) & (power > 0.0)
@@ -141,10 +139,8 @@ class MeshEmitters(Light):
             mesh = self.meshes[m]
             j, local = mesh.split(self.prim[index[rows]])
             placed = mesh.corner_points(j, local, np.asarray(times, np.float64)[rows])
-            cross = vectors.cross(placed[:, 1] - placed[:, 0], placed[:, 2] - placed[:, 0])
-            length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
-            V, normal, area = V.copy(), normal.copy(), area.copy()
-            V[rows], area[rows] = placed, 0.5 * length
+            cross, length = face_cross(placed)
+            V[rows], area[rows] = placed, 0.5 * length      # (V, normal, area: the rows' own copies, fancy-indexed)
             with np.errstate(divide="ignore", invalid="ignore"):
                 normal[rows] = np.nan_to_num(cross / length[:, None])
         return V, normal, area
@@ -223,6 +219,13 @@ class MeshEmitters(Light):
 # Where a textured emitter's mean emission is estimated: barycentrics (u, v) of its centroid and three points
 # around it.
 ESTIMATE_POINTS = np.array([[1.0 / 3.0, 1.0 / 3.0], [2.0 / 3.0, 1.0 / 6.0], [1.0 / 6.0, 2.0 / 3.0], [1.0 / 6.0, 1.0 / 6.0]])
+
+
+def face_cross(V: np.ndarray) -> tuple:
+    """Triangles V (n, 3, 3): their edges' cross product (V1 - V0) x (V2 - V0) (n, 3) and its length (n,), twice
+    the area."""
+    cross = vectors.cross(V[:, 1] - V[:, 0], V[:, 2] - V[:, 0])
+    return cross, np.sqrt(np.einsum("ij,ij->i", cross, cross))
 
 
 def mean_graph_emission(geometry, materials, prim: np.ndarray, graph_emission) -> np.ndarray:
@@ -422,8 +425,7 @@ def shutter_bounds(corners: np.ndarray, normal: np.ndarray, sides: np.ndarray, p
         for time in times:
             V = instanced.corner_points(j, local, np.full(n, time))
             low, high = np.minimum(low, V.min(axis=1)), np.maximum(high, V.max(axis=1))
-            cross = vectors.cross(V[:, 1] - V[:, 0], V[:, 2] - V[:, 0])
-            length = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+            cross, length = face_cross(V)
             degenerate |= ~(length > 0.0)
             with np.errstate(divide="ignore", invalid="ignore"):
                 n_t = np.nan_to_num(cross / length[:, None])
