@@ -174,18 +174,9 @@ static void camera_lane_features(const ChunkParams *params, const CameraBlock *b
         work->reach[lane] = 1.0;
         for (int i = 0; i < FEATURE_CHANNELS; i++) work->camera_features[lane][i] = 0.0;
         if (lane >= b->n || !b->valid[lane] || params->media == NULL) continue;
-        if (params->media->fields != NULL && in_field(params->media, &H->lane_inside[lane])) {
-            double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]};
-            double D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
-            features_in_march(work->camera_features[lane], work->reach + lane, one, one, params->media,
-                              &H->lane_inside[lane], O, D, H->t[lane], H->lane_sigma[lane], H->lane_emission[lane],
-                              back);
-            continue;
-        }
-        double sigma_s[3], g;
-        medium_scattering(params->media, &H->lane_inside[lane], sigma_s, &g, NULL);
-        features_in_media(work->camera_features[lane], work->reach + lane, one, one, H->lane_sigma[lane], sigma_s,
-                          H->t[lane], back);
+        double O[3] = {b->O[0][lane], b->O[1][lane], b->O[2][lane]}, D[3] = {b->D[0][lane], b->D[1][lane], b->D[2][lane]};
+        features_along(work->camera_features[lane], work->reach + lane, one, one, params->media, &H->lane_inside[lane],
+                       O, D, H->t[lane], back);
     }
 }
 

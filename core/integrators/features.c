@@ -120,6 +120,23 @@ NOINLINE static void features_in_march(double *lane, double *reach, const double
     features_write(lane, reach, ftp, tp, T, scattered, back);
 }
 
+/* features.in_media for one path's ray O + s D (3 each) over [0, t) (inf: it escapes) in the media `stack` while it
+ * looks: marched where one of them is heterogeneous (features_in_march), else features_in_media of the stack's
+ * coefficients (medium_along, medium_scattering). */
+NOINLINE static void features_along(double *lane, double *reach, const double *ftp, const double *tp,
+                                    const MediaTables *media, const VolumeStack *stack, const double *O,
+                                    const double *D, double t, const double *back)
+{
+    double sigma_t[3], emission[3], sigma_s[3], g;
+    medium_along(media, stack, sigma_t, emission);
+    if (media->fields != NULL && in_field(media, stack)) {
+        features_in_march(lane, reach, ftp, tp, media, stack, O, D, t, sigma_t, emission, back);
+        return;
+    }
+    medium_scattering(media, stack, sigma_s, &g, NULL);
+    features_in_media(lane, reach, ftp, tp, sigma_t, sigma_s, t, back);
+}
+
 /* features.found: what the hits' rays found (H->found, before the path's throughput) where their paths still look. */
 INLINE void features_found(const BlockHits *H, double (*lanes)[FEATURE_CHANNELS])
 {

@@ -481,20 +481,9 @@ static int64_t bounce_scattering(const BlockHits *H, PathRays *rays, int vertex,
             if (!(u[0] < q)) continue;
         }
         for (int c = 0; c < 3; c++) carried[c] = carried[c] / q;
-        if (ds->features && H->looking[h]) {
-            /* (the media along it, where its path still looks: features.in_media; heterogeneous ones marched) */
-            double sigma_t[3], emission[3], sigma_s[3], g;
-            medium_along(ds->media, &r->inside, sigma_t, emission);
-            if (ds->media->fields != NULL && in_field(ds->media, &r->inside)) {
-                features_in_march(work->features[H->lane[h]], work->reach + H->lane[h], H->feature_tp + 3 * h, carried,
-                                  ds->media, &r->inside, r->O, r->D, r->hit ? r->t : INFINITY, sigma_t, emission,
-                                  ds->back);
-            } else {
-                medium_scattering(ds->media, &r->inside, sigma_s, &g, NULL);
-                features_in_media(work->features[H->lane[h]], work->reach + H->lane[h], H->feature_tp + 3 * h, carried,
-                                  sigma_t, sigma_s, r->hit ? r->t : INFINITY, ds->back);
-            }
-        }
+        if (ds->features && H->looking[h])     /* (the media along it, where its path still looks: features.in_media) */
+            features_along(work->features[H->lane[h]], work->reach + H->lane[h], H->feature_tp + 3 * h, carried,
+                           ds->media, &r->inside, r->O, r->D, r->hit ? r->t : INFINITY, ds->back);
         /* c. The light its media scatter towards it. */
         double L[3] = {0.0, 0.0, 0.0};
         int64_t dimension = (int64_t)(vertex + 1) * VERTEX_DIMENSIONS;
