@@ -983,13 +983,8 @@ def _socket_radiance(reader, socket):
     Strength 1, a value its Strength of white), else its shader node's (_world_radiance); black where nothing is
     linked; None (warned) for a shader Primer does not read."""
     if materials_.auto_emission(socket):
-        value = reader.graph.socket(socket, reader.path)
-        number = materials_.linked_output_of(socket).type in ("VALUE", "INT", "BOOLEAN")
-        if isinstance(value, graph_.Link):
-            inputs = {"Color": np.ones(3), "Factor": value} if number else {"Color": value, "Factor": 1.0}
-            return graph_.Link(graph_.GraphNode("SCALE", {}, inputs), "Color")
-        value = np.asarray(value, np.float64).ravel()
-        return np.full(3, float(value[0])) if number else value[:3].copy()
+        emission = materials_.auto_emission_of(reader, socket)
+        return emission if isinstance(emission, graph_.Link) else np.asarray(emission, np.float64)[:3]
     inner = materials_.linked_node_of(socket)
     return np.zeros(3) if inner is None else _world_radiance(reader, inner)
 

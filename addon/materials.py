@@ -109,6 +109,15 @@ def auto_emission(socket) -> bool:
     return out is not None and out.type not in ("SHADER", "CUSTOM")
 
 
+def auto_emission_of(reader, socket):
+    """The emission (colour x strength: a constant or a graph.Link) of the Emission shader Cycles makes of the value,
+    colour or vector linked into the closure input `socket` (auto_emission): a colour or vector its Color at Strength
+    1, a value its Strength of white."""
+    value = reader.graph.socket(socket, reader.path)
+    number = linked_output_of(socket).type in ("VALUE", "INT", "BOOLEAN")
+    return _scaled(np.ones(3), value) if number else _scaled(value, 1.0)
+
+
 def surface_node(material):
     """Return the node linked to the active Cycles material output's Surface socket, or None."""
     tree = node_tree(material)
@@ -1106,10 +1115,7 @@ def _collect_socket(reader: NodeReader, socket, weight: np.ndarray, out: list, f
     there is an Emission shader, as Cycles converts it: a colour or vector its Color (Strength 1), a value its
     Strength (Color white)."""
     if auto_emission(socket):
-        value = reader.graph.socket(socket, reader.path)
-        number = linked_output_of(socket).type in ("VALUE", "INT", "BOOLEAN")
-        emission = _scaled(np.ones(3), value) if number else _scaled(value, 1.0)
-        out.append(("EMISSION", weight, {"emission": emission}, list(factors)))
+        out.append(("EMISSION", weight, {"emission": auto_emission_of(reader, socket)}, list(factors)))
         return
     source = linked_output_of(socket)
     if source is not None and source.node.bl_idname == "NodeGroupInput" and reader.path:
