@@ -62,8 +62,8 @@ def render_with(scene: Scene, settings: RenderSettings, by_power: bool, repeat: 
     machine is shared), the emitters picked by the tree or by power alone."""
     original = emitters_.from_geometry
 
-    def power_only(geometry, materials, graph_emission):
-        emitters = original(geometry, materials, graph_emission)
+    def power_only(*args, **kwargs):
+        emitters = original(*args, **kwargs)
         if emitters is not None:
             emitters.tree = emitters.tree.by_power()
         return emitters

@@ -20,7 +20,7 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 }
 
 /* light_tree.py: the tree's node rows (NODE_FIELDS doubles each). */
-#define TREE_FIELDS 17
+#define TREE_FIELDS 18
 #define TREE_AXIS 6
 #define TREE_ENERGY 11
 #define TREE_LEFT 12
@@ -28,66 +28,93 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 #define TREE_COS_O 14
 #define TREE_SIN_O 15
 #define TREE_COS_E 16
+#define TREE_COS_EO 17
+/* light_tree.CLAMP: the upper bound's distance is at least this share of the node's diagonal. */
+#define TREE_CLAMP 0.25
 
-/* light_tree.importance for one node row seen from P with normal N (zero: unknown): energy x the cosine
- * bounds at the receiver and the emitter / max(d, half diagonal)^2; 0 only where nothing of it lights P.
+/* light_tree.importance for one node row seen from P with normal N (zero: unknown): the upper and lower bounds
+ * of what it sends P, energy x the cosine bounds at the receiver and the emitter / distance^2 (Cycles'
+ * light_tree_importance); the upper 0 only where nothing of it lights P, the lower 0 wherever some may not.
  * In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi]. */
-INLINE double light_tree_importance(const double *node, const double *P, const double *N)
+INLINE void light_tree_importance(const double *node, const double *P, const double *N, double *upper,
+                                  double *lower)
 {
     const double *lo = node, *hi = node + 3, *axis = node + TREE_AXIS;
-    double v[3], diagonal[3];
+    double v[3], diagonal[3], N_abs[3];
     int inside_box = 1;
     for (int c = 0; c < 3; c++) {
         v[c] = 0.5 * (lo[c] + hi[c]) - P[c];
         diagonal[c] = hi[c] - lo[c];
+        N_abs[c] = fabs(N[c]);
         inside_box &= (P[c] >= lo[c]) & (P[c] <= hi[c]);
     }
+    *upper = 0.0;
+    *lower = 0.0;
+    /* Nothing where the whole box lies on or below P's tangent plane. */
+    int known_normal = dot3(N, N) > 0.0;
+    if (known_normal && !(dot3(N, v) + 0.5 * dot3(N_abs, diagonal) > 0.0)) return;
     double d = sqrt(dot3(v, v));
     double half = 0.5 * sqrt(dot3(diagonal, diagonal));
-    double distance = at_least(d, half);
+    double distance = at_least(d, TREE_CLAMP * 2.0 * half);
     double scale = node[TREE_ENERGY] / (distance * distance);
-    if (inside_box || d <= 0.0) return scale;
+    *upper = scale;
+    if (inside_box || d <= 0.0) return;
     /* theta_u: the half-angle around the direction w to the centre that holds the box's corners (cos^2
      * of each corner's angle, all of them in front, else the cone passes a hemisphere: every direction). */
     double w[3] = {v[0] / d, v[1] / d, v[2] / d};
     /* (The smallest along^2 / length^2 kept as a fraction, compared by cross-multiplying: one division, not 8.) */
-    double least_along2 = 1.0, least_length2 = 1.0;
+    double least_along2 = 1.0, least_length2 = 1.0, farthest2 = 0.0;
     for (int corner = 0; corner < 8; corner++) {
         double to_corner[3];
         for (int c = 0; c < 3; c++) to_corner[c] = (((corner >> c) & 1) ? hi[c] : lo[c]) - P[c];
         double along = dot3(w, to_corner);
-        if (!(along > 0.0)) return scale;
+        if (!(along > 0.0)) return;
         double along2 = along * along, length2 = dot3(to_corner, to_corner);
         if (along2 * least_length2 < least_along2 * length2) { least_along2 = along2; least_length2 = length2; }
+        farthest2 = at_least(farthest2, length2);
     }
     double cos2_u = least_along2 / least_length2;
     double cos_u = sqrt(cos2_u < 1.0 ? cos2_u : 1.0), sin_u = sqrt(at_least(1.0 - cos2_u, 0.0));
-    /* The receiver: cos(max(theta_i - theta_u, 0)), at least 0; 1 where N is unknown. */
-    double cos_incidence = 1.0;
-    if (dot3(N, N) > 0.0) {
+    /* The receiver: cos(max(theta_i - theta_u, 0)), at least 0; 1 where N is unknown. The lower bound:
+     * cos(theta_i + theta_u), at least 0. */
+    double cos_incidence = 1.0, cos_incidence_least = 1.0;
+    if (known_normal) {
         double cos_i = dot3(N, w), sin_i = sqrt(at_least(1.0 - cos_i * cos_i, 0.0));
         if (!(cos_i >= cos_u)) cos_incidence = at_least(cos_i * cos_u + sin_i * sin_u, 0.0);
+        cos_incidence_least = at_least(cos_i * cos_u - sin_i * sin_u, 0.0);
     }
-    /* The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0. */
+    /* The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0. The lower
+     * bound: cos(theta + theta_u + theta_o) where theta + theta_u <= theta_e - theta_o (theta, theta_u <= pi / 2). */
     double cos_t = -dot3(axis, w), sin_t = sqrt(at_least(1.0 - cos_t * cos_t, 0.0));
     double cos_1 = cos_t * cos_u + sin_t * sin_u, sin_1 = at_least(sin_t * cos_u - cos_t * sin_u, 0.0);
     double cos_2 = cos_1 * node[TREE_COS_O] + sin_1 * node[TREE_SIN_O];
     double cos_outgoing = 1.0;
     if (!(cos_t >= cos_u) && !(cos_1 >= node[TREE_COS_O]))
         cos_outgoing = cos_2 > node[TREE_COS_E] ? at_least(cos_2, 0.0) : 0.0;
-    return scale * (cos_incidence * cos_outgoing);
+    double cos_3 = cos_t * cos_u - sin_t * sin_u, sin_3 = sin_t * cos_u + cos_t * sin_u;
+    double cos_4 = cos_3 * node[TREE_COS_O] - sin_3 * node[TREE_SIN_O];
+    double cos_outgoing_least = (cos_t >= 0.0) && (cos_3 >= node[TREE_COS_EO]) ? at_least(cos_4, 0.0) : 0.0;
+    *upper = scale * (cos_incidence * cos_outgoing);
+    /* The lower bound's distance: the upper one's for an inner node, to the farthest corner for a leaf. */
+    double far = node[TREE_RIGHT] < 0.0 ? sqrt(farthest2) : distance;
+    *lower = node[TREE_ENERGY] / (far * far) * (cos_incidence_least * cos_outgoing_least);
 }
 
-/* LightTree.branch_left: the probability of the inner node's left child, by importance (by power where
- * both children's is 0). */
+/* LightTree.branch_left: the probability of the inner node's left child, Cycles' mean of the shares of the upper
+ * and of the lower importance bounds (by power where both children's upper bounds are 0). */
 INLINE double light_tree_branch_left(const EmitterTables *e, const double *node, const double *P, const double *N)
 {
     const double *left = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];
     const double *right = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];
-    double I_left = light_tree_importance(left, P, N), I_right = light_tree_importance(right, P, N);
-    double total = I_left + I_right;
-    if (total > 0.0) return I_left / total;
-    return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
+    double upper_left, lower_left, upper_right, lower_right;
+    light_tree_importance(left, P, N, &upper_left, &lower_left);
+    light_tree_importance(right, P, N, &upper_right, &lower_right);
+    double upper = upper_left + upper_right, lower = lower_left + lower_right;
+    if (!(upper > 0.0)) return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
+    double by_upper = upper_left / upper;
+    double by_lower = lower > 0.0 ? lower_left / lower
+                                  : 0.5 * ((upper_left > 0.0 ? 1.0 : 0.0) + (upper_right == 0.0 ? 1.0 : 0.0));
+    return 0.5 * (by_upper + by_lower);
 }
 
 /* LightTree.pick: the emitter the walk down the tree from P (normal N) with *u in [0, 1) reaches, and

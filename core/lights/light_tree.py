@@ -41,8 +41,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT, COS_O, SIN_O, COS_E = 0, 3, 6, 9, 10, 11, 12, 13, 14, 15, 16
-NODE_FIELDS = 17
+LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT, COS_O, SIN_O, COS_E, COS_EO = 0, 3, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17
+NODE_FIELDS = 18
+# The upper bound's distance is at least this share of the node's diagonal (Cycles: half the bounding sphere's radius).
+CLAMP = 0.25
 # Past this depth the build splits at the median (balanced), so that paths fit in 62 bits.
 MEDIAN_DEPTH = 40
 MAX_DEPTH = 62
@@ -155,14 +157,16 @@ class LightTree:
         with normals N (m, 3) (zero rows: unknown): by importance, by power where both are 0. (m,) float64"""
         left = self.nodes[node, LEFT].astype(np.int64)
         right = self.nodes[node, RIGHT].astype(np.int64)
-        I_left = importance(P, N, self.nodes[left])
-        I_right = importance(P, N, self.nodes[right])
-        total = I_left + I_right
+        upper_left, lower_left = importance(P, N, self.nodes[left])
+        upper_right, lower_right = importance(P, N, self.nodes[right])
+        upper, lower = upper_left + upper_right, lower_left + lower_right
         E_left, E_right = self.nodes[left, ENERGY], self.nodes[right, ENERGY]
         with np.errstate(divide="ignore", invalid="ignore"):
-            by_importance = I_left / total
+            by_upper = upper_left / upper
+            by_lower = np.where(lower > 0.0, lower_left / lower,
+                                0.5 * ((upper_left > 0.0).astype(np.float64) + (upper_right == 0.0)))
             by_power = E_left / (E_left + E_right)
-        return np.where(total > 0.0, by_importance, by_power)
+        return np.where(upper > 0.0, 0.5 * (by_upper + by_lower), by_power)
 
     def pick(self, P: np.ndarray, N: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One triangle per point, walking down with u (m,) in [0, 1): (index (m,) int64, probability (m,), u
@@ -205,15 +209,19 @@ class LightTree:
 
 
 def with_cosines(nodes: np.ndarray) -> np.ndarray:
-    """The nodes (k, NODE_FIELDS) with their cos theta_o, sin theta_o and cos theta_e filled in from the angles."""
+    """The nodes (k, NODE_FIELDS) with their cos theta_o, sin theta_o, cos theta_e and cos(theta_e - theta_o) (2 where
+    theta_o > theta_e: no lower bound) filled in from the angles."""
     nodes[:, COS_O], nodes[:, SIN_O] = np.cos(nodes[:, THETA_O]), np.sin(nodes[:, THETA_O])
     nodes[:, COS_E] = np.cos(nodes[:, THETA_E])
+    gap = nodes[:, THETA_E] - nodes[:, THETA_O]
+    nodes[:, COS_EO] = np.where(gap >= 0.0, np.cos(gap), 2.0)
     return nodes
 
 
-def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
-    """The importance of nodes (m, NODE_FIELDS) seen from P (m, 3) with normals N (m, 3) (zero: unknown):
-    (m,) float64, the bound of the module docstring; 0 only where nothing of the node can light P.
+def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The importance bounds of nodes (m, NODE_FIELDS) seen from P (m, 3) with normals N (m, 3) (zero: unknown):
+    (upper (m,), lower (m,)) float64, the module docstring's; the upper 0 only where nothing of the node can
+    light P, the lower 0 wherever some of it may not (Cycles' light_tree_importance).
 
     In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi] (sines >= 0)."""
     lo, hi = node[:, LO:LO + 3], node[:, HI:HI + 3]
@@ -228,20 +236,27 @@ def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
         w = v / d[:, None]
         cos2_u = np.ones(len(P))
         behind = np.zeros(len(P), bool)
+        farthest2 = np.zeros(len(P))
         for corner in range(8):
             to_corner = np.stack([np.where((corner >> c) & 1, hi[:, c], lo[:, c]) for c in range(3)], axis=1) - P
             along = np.einsum("ij,ij->i", w, to_corner)
+            length2 = np.einsum("ij,ij->i", to_corner, to_corner)
             behind |= ~(along > 0.0)
-            cos2_u = np.minimum(cos2_u, along * along / np.einsum("ij,ij->i", to_corner, to_corner))
+            cos2_u = np.minimum(cos2_u, along * along / length2)
+            farthest2 = np.maximum(farthest2, length2)
     everywhere = inside_box | behind
     cos_u = np.sqrt(np.minimum(cos2_u, 1.0))
     sin_u = np.sqrt(np.maximum(1.0 - cos2_u, 0.0))
-    # The receiver: cos(max(theta_i - theta_u, 0)), at least 0; 1 where N is unknown.
+    # The receiver: cos(max(theta_i - theta_u, 0)), at least 0; 1 where N is unknown; 0 where the whole box lies
+    # on or below P's tangent plane. The lower bound: cos(theta_i + theta_u), at least 0.
     cos_i = np.einsum("ij,ij->i", N, w)
     sin_i = np.sqrt(np.maximum(1.0 - cos_i * cos_i, 0.0))
     known_normal = np.einsum("ij,ij->i", N, N) > 0.0
+    above = ~known_normal | (np.einsum("ij,ij->i", N, v) + 0.5 * np.einsum("ij,ij->i", np.abs(N), diagonal) > 0.0)
     cos_incidence = np.where(~known_normal | (cos_i >= cos_u), 1.0, np.maximum(cos_i * cos_u + sin_i * sin_u, 0.0))
-    # The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0.
+    cos_incidence_least = np.where(~known_normal, 1.0, np.maximum(cos_i * cos_u - sin_i * sin_u, 0.0))
+    # The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0. The lower
+    # bound: cos(theta + theta_u + theta_o) where theta + theta_u <= theta_e - theta_o (theta, theta_u <= pi / 2).
     cos_t = -np.einsum("ij,ij->i", node[:, AXIS:AXIS + 3], w)
     sin_t = np.sqrt(np.maximum(1.0 - cos_t * cos_t, 0.0))
     cos_1 = cos_t * cos_u + sin_t * sin_u                       # cos(theta - theta_u), where theta > theta_u
@@ -249,9 +264,18 @@ def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
     cos_2 = cos_1 * node[:, COS_O] + sin_1 * node[:, SIN_O]     # cos(theta - theta_u - theta_o)
     cos_outgoing = np.where((cos_t >= cos_u) | (cos_1 >= node[:, COS_O]), 1.0,
                             np.where(cos_2 > node[:, COS_E], np.maximum(cos_2, 0.0), 0.0))
-    distance = np.maximum(d, half)
-    scale = node[:, ENERGY] / (distance * distance)
-    return scale * np.where(everywhere, 1.0, cos_incidence * cos_outgoing)
+    cos_3 = cos_t * cos_u - sin_t * sin_u                       # cos(theta + theta_u)
+    sin_3 = sin_t * cos_u + cos_t * sin_u
+    cos_4 = cos_3 * node[:, COS_O] - sin_3 * node[:, SIN_O]     # cos(theta + theta_u + theta_o)
+    cos_outgoing_least = np.where((cos_t >= 0.0) & (cos_3 >= node[:, COS_EO]), np.maximum(cos_4, 0.0), 0.0)
+    # The distances: the upper bound's to the centre, at least CLAMP x the diagonal (finite near and inside the
+    # box); the lower bound's the same for an inner node, to the farthest corner for a leaf (one triangle).
+    distance = np.maximum(d, CLAMP * 2.0 * half)
+    far = np.where(node[:, RIGHT] < 0.0, np.sqrt(farthest2), distance)
+    upper = node[:, ENERGY] / (distance * distance) * np.where(
+        ~above, 0.0, np.where(everywhere, 1.0, cos_incidence * cos_outgoing))
+    lower = np.where(everywhere | ~above, 0.0, node[:, ENERGY] / (far * far) * (cos_incidence_least * cos_outgoing_least))
+    return upper, lower
 
 
 def cone_union(a: np.ndarray, theta_a: np.ndarray, b: np.ndarray, theta_b: np.ndarray):
