@@ -1,6 +1,7 @@
 """The light tree against the global power CDF: noise at equal samples with many small emitters.
 
     .venv/bin/python bench/light_tree.py [--size 128] [--samples 8] [--reference 64] [--emitters 2000]
+                                         [--scene room|cornell] [--lamp 1] [--seeds 1]
 
 A 12 m x 12 m room lit by `emitters` small emissive triangles under its 3 m ceiling, their radiance spread
 over three orders of magnitude, and a few boxes on the floor; a camera looks down on the floor (direct
@@ -9,8 +10,11 @@ project's relMSE of 4x4 block means, mean((B(P) - B(R))^2 / (B(R)^2 + 0.01)), ag
 tree renders with `reference` (64) times the samples; then the CDF again with the samples the tree's time buys it (each
 time the least of five runs, in processor seconds of all threads, which a shared machine disturbs less than
 the clock). The old way is the same tree weighing power alone
-(LightTree.by_power), which picks exactly as the global power CDF did. The numbers go to docs/performance.md
-by hand.
+(LightTree.by_power), which picks exactly as the global power CDF did; "tree upper" is the tree walked by the share
+of the upper importance bounds alone (light_tree.UPPER, Primer's rule before Cycles' mean of upper and lower). The numbers go to docs/performance.md
+by hand. --scene cornell renders a Cornell box lit by its ceiling quad instead (cut into --lamp x --lamp squares:
+2 lamp^2 emissive triangles), with indirect light; --seeds averages each error over that many seeds of the
+samples (the same reference).
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ from core.camera import Camera  # noqa: E402
 from core.film.compare import relative_mse_of_blocks  # noqa: E402
 from core.geometry import primitives  # noqa: E402
 from core.lights import emitters as emitters_  # noqa: E402
+from core.lights.light_tree import CYCLES, POWER, UPPER  # noqa: E402
 from core.scene import Material, Mesh, RenderSettings, Scene  # noqa: E402
 
 
@@ -57,18 +62,47 @@ def many_emitters_room(count: int, seed: int = 1) -> Scene:
     return scene
 
 
-def render_with(scene: Scene, settings: RenderSettings, by_power: bool, repeat: int = 1):
+def cornell_box(lamp: int = 1) -> Scene:
+    """A 2 m Cornell box (white floor, ceiling and back, red left and green right walls, two white boxes) lit by a
+    0.5 m square of radiance 15 under its ceiling facing down, cut into lamp x lamp squares (2 lamp^2 triangles)."""
+    scene = Scene(camera=Camera.look_at((0.0, -3.8, 1.0), (0.0, 0.0, 1.0), fov=np.radians(40.0), clip_start=0.01))
+    white, red, green = (scene.add_material(c) for c in ((0.73, 0.73, 0.73), (0.65, 0.05, 0.05), (0.12, 0.45, 0.15)))
+
+    def quad(corners, material):
+        scene.add_mesh(Mesh(np.array(corners, np.float64), np.array([[0, 1, 2], [0, 2, 3]])), materials=np.array([material]))
+
+    quad([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], white)           # floor, facing up
+    quad([(-1, -1, 2), (-1, 1, 2), (1, 1, 2), (1, -1, 2)], white)           # ceiling, facing down
+    quad([(-1, 1, 0), (1, 1, 0), (1, 1, 2), (-1, 1, 2)], white)             # back, facing -y
+    quad([(-1, -1, 0), (-1, 1, 0), (-1, 1, 2), (-1, -1, 2)], red)           # left, facing +x
+    quad([(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], green)             # right, facing -x
+    scene.add_mesh(primitives.box((0.6, 0.6, 1.2), center=(-0.35, 0.3, 0.6)), materials=np.array([white]))
+    scene.add_mesh(primitives.box((0.6, 0.6, 0.6), center=(0.4, -0.3, 0.3)), materials=np.array([white]))
+    scene.materials.append(Material(np.zeros(3), "Lamp", emission=np.full(3, 15.0), emission_sampling="FRONT"))
+    edges = np.linspace(-0.25, 0.25, lamp + 1)
+    x0, y0 = np.meshgrid(edges[:-1], edges[:-1], indexing="ij")
+    x1, y1 = x0 + 0.5 / lamp, y0 + 0.5 / lamp
+    z = np.full_like(x0, 1.99)
+    cells = np.stack([np.stack(c, axis=-1) for c in ((x0, y0, z), (x0, y1, z), (x1, y1, z), (x1, y0, z))], axis=2)
+    vertices = cells.reshape(-1, 3)                                          # (facing down: clockwise from above)
+    first = 4 * np.arange(lamp * lamp)[:, None]
+    triangles = np.concatenate([first + [0, 1, 2], first + [0, 2, 3]])
+    scene.add_mesh(Mesh(vertices, triangles), materials=np.array([len(scene.materials) - 1]))
+    return scene
+
+
+def render_with(scene: Scene, settings: RenderSettings, rule: int, repeat: int = 1):
     """The image (H, W, 3) and processor seconds (all threads) of a render (the least of `repeat` runs: the
-    machine is shared), the emitters picked by the tree or by power alone."""
+    machine is shared), the emitters picked by the tree walked by `rule` (light_tree.CYCLES, UPPER or POWER)."""
     original = emitters_.from_geometry
 
-    def power_only(*args, **kwargs):
+    def with_rule(*args, **kwargs):
         emitters = original(*args, **kwargs)
         if emitters is not None:
-            emitters.tree = emitters.tree.by_power()
+            emitters.tree = emitters.tree.with_rule(rule)
         return emitters
 
-    emitters_.from_geometry = power_only if by_power else original
+    emitters_.from_geometry = with_rule
     try:
         seconds = []
         for _ in range(repeat):
@@ -87,26 +121,37 @@ def main() -> None:
     parser.add_argument("--emitters", type=int, default=2000)
     parser.add_argument("--reference", type=int, default=64, help="the reference's samples per test sample")
     parser.add_argument("--kernels", default="compiled")
+    parser.add_argument("--scene", choices=("room", "cornell"), default="room")
+    parser.add_argument("--lamp", type=int, default=1, help="the Cornell box's lamp cut into lamp x lamp squares")
+    parser.add_argument("--seeds", type=int, default=1, help="errors averaged over this many seeds")
     args = parser.parse_args()
-    scene = many_emitters_room(args.emitters)
+    scene = many_emitters_room(args.emitters) if args.scene == "room" else cornell_box(args.lamp)
+    bounces = {} if args.scene == "room" else {"max_bounces": 4}
 
     def settings(samples, seed):
         return RenderSettings(width=args.size, height=args.size, samples=samples, light_samples=1, seed=seed,
-                              kernels=args.kernels, adaptive=False)
+                              kernels=args.kernels, adaptive=False, **bounces)
 
-    reference, seconds = render_with(scene, settings(args.reference * args.samples, 99), by_power=False)
+    reference, seconds = render_with(scene, settings(args.reference * args.samples, 99), CYCLES)
     print(f"reference: {args.reference * args.samples} samples, {seconds:.1f} s, mean {reference.mean():.4f}")
     times = {}
-    for name, by_power in (("power CDF", True), ("light tree", False)):
-        image, seconds = render_with(scene, settings(args.samples, 1), by_power, repeat=5)
-        times[by_power] = seconds
-        print(f"{name:10s}: {args.samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, "
-              f"relMSE {relative_mse_of_blocks(image, reference):.5f}")
+
+    def error(samples, rule, repeat):
+        """The image of seed 1, its processor seconds, and the relMSE averaged over the seeds."""
+        image, seconds = render_with(scene, settings(samples, 1), rule, repeat=repeat)
+        errors = [relative_mse_of_blocks(image, reference)]
+        for seed in range(2, args.seeds + 1):
+            errors.append(relative_mse_of_blocks(render_with(scene, settings(samples, seed), rule)[0], reference))
+        return image, seconds, float(np.mean(errors))
+
+    for name, rule in (("power CDF", POWER), ("tree upper", UPPER), ("light tree", CYCLES)):
+        image, seconds, relmse = error(args.samples, rule, 5)
+        times[rule] = seconds
+        print(f"{name:10s}: {args.samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, relMSE {relmse:.5f}")
     # Equal time: the power CDF with as many more samples as the tree's time buys it.
-    samples = max(args.samples, round(args.samples * times[False] / times[True]))
-    image, seconds = render_with(scene, settings(samples, 1), True, repeat=5)
-    print(f"power CDF : {samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, "
-          f"relMSE {relative_mse_of_blocks(image, reference):.5f} (equal time)")
+    samples = max(args.samples, round(args.samples * times[CYCLES] / times[POWER]))
+    image, seconds, relmse = error(samples, POWER, 5)
+    print(f"power CDF : {samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, relMSE {relmse:.5f} (equal time)")
 
 
 if __name__ == "__main__":

@@ -100,18 +100,26 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
     *lower = node[TREE_ENERGY] / (far * far) * (cos_incidence_least * cos_outgoing_least);
 }
 
+/* light_tree.py's rules (EmitterTables.rule). */
+#define TREE_CYCLES 0
+#define TREE_UPPER 1
+#define TREE_POWER 2
+
 /* LightTree.branch_left: the probability of the inner node's left child, Cycles' mean of the shares of the upper
- * and of the lower importance bounds (by power where both children's upper bounds are 0). */
+ * and of the lower importance bounds (TREE_UPPER: the upper bounds' share alone; by power where both children's
+ * upper bounds are 0, or TREE_POWER). */
 INLINE double light_tree_branch_left(const EmitterTables *e, const double *node, const double *P, const double *N)
 {
     const double *left = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];
     const double *right = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];
+    if (e->rule == TREE_POWER) return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
     double upper_left, lower_left, upper_right, lower_right;
     light_tree_importance(left, P, N, &upper_left, &lower_left);
     light_tree_importance(right, P, N, &upper_right, &lower_right);
     double upper = upper_left + upper_right, lower = lower_left + lower_right;
     if (!(upper > 0.0)) return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
     double by_upper = upper_left / upper;
+    if (e->rule == TREE_UPPER) return by_upper;
     double by_lower = lower > 0.0 ? lower_left / lower
                                   : 0.5 * ((upper_left > 0.0 ? 1.0 : 0.0) + (upper_right == 0.0 ? 1.0 : 0.0));
     return 0.5 * (by_upper + by_lower);

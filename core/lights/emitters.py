@@ -467,6 +467,8 @@ EmitterTablesRecord = schema.record("EmitterTables", "The emissive triangles as 
     ("nodes", ptr(F64), "(k, TREE_FIELDS) the light tree's nodes (core/lights/light_tree.py), root first"),
     ("path", ptr(I64), "(t,) each emitter's branch bits from the root (bit l: 1 = right)"),
     ("depth", ptr(I64), "(t,) each emitter's steps from the root to its leaf"),
+    ("rule", I32, "how the tree's walk weighs a node's children (LightTree.rule): 0 Cycles' mean of the upper and\n"
+                  "lower importance bounds' shares, 1 the upper bounds' share alone, 2 power alone"),
     ("sorted_prim", ptr(I64), "(t,) WorldGeometry's flat triangle index of each, ascending"),
     ("order", ptr(I64), "(t,) the emitter of each sorted_prim"),
     ("count", I64, "t"),
@@ -493,7 +495,7 @@ class EmitterTables:
             corners=c(emitters.corners, np.float64), normal=c(emitters.normal, np.float64),
             area=c(emitters.area, np.float64), emission=c(emitters.emission, np.float64),
             sides=c(emitters.sides, np.int32), nodes=c(tree.nodes, np.float64), path=c(tree.path, np.int64),
-            depth=c(tree.depth, np.int64), sorted_prim=c(emitters.prim[order], np.int64), order=order,
+            depth=c(tree.depth, np.int64), rule=tree.rule, sorted_prim=c(emitters.prim[order], np.int64), order=order,
             count=len(emitters.prim), hidden=None if emitters.hidden is None else c(emitters.hidden, np.uint8),
             textured=None if emitters.textured is None else c(emitters.textured, np.uint8),
             prim=c(emitters.prim, np.int64), mesh=None if emitters.mesh is None else c(emitters.mesh, np.int32))

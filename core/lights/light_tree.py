@@ -48,6 +48,9 @@ CLAMP = 0.25
 # Past this depth the build splits at the median (balanced), so that paths fit in 62 bits.
 MEDIAN_DEPTH = 40
 MAX_DEPTH = 62
+# How the walk weighs a node's two children (LightTree.rule): Cycles' mean of the shares of the upper and of the lower
+# importance bounds; the share of the upper bounds alone (Conty Estevez and Kulla; Primer before issue 34); power alone.
+CYCLES, UPPER, POWER = 0, 1, 2
 
 
 @dataclass
@@ -57,11 +60,13 @@ class LightTree:
     nodes: (k, NODE_FIELDS) float64 the nodes, root first (module docstring)
     path:  (t,) int64 each triangle's branch bits from the root (bit l: 1 = right at step l)
     depth: (t,) int64 each triangle's number of steps from the root to its leaf
+    rule:  how the walk weighs the children: CYCLES (the renders'), UPPER or POWER (for comparisons)
     """
 
     nodes: np.ndarray
     path: np.ndarray
     depth: np.ndarray
+    rule: int = CYCLES
 
     @property
     def max_depth(self) -> int:
@@ -144,29 +149,35 @@ class LightTree:
         return cls(with_cosines(nodes), path, depth)
 
     def by_power(self) -> "LightTree":
-        """The same tree weighing nothing but power (every node the same huge box, facing everywhere): it picks
-        each triangle in proportion to its power wherever the point is, as the global power CDF did before the
-        tree (for the comparison in bench/light_tree.py)."""
-        nodes = self.nodes.copy()
-        nodes[:, LO:LO + 3], nodes[:, HI:HI + 3] = -1e30, 1e30
-        nodes[:, THETA_O] = math.pi
-        return LightTree(with_cosines(nodes), self.path, self.depth)
+        """The same tree weighing nothing but power: it picks each triangle in proportion to its power wherever
+        the point is, as the global power CDF did before the tree (for the comparison in bench/light_tree.py)."""
+        return self.with_rule(POWER)
+
+    def with_rule(self, rule: int) -> "LightTree":
+        """The same tree walked by `rule` (CYCLES, UPPER or POWER)."""
+        return LightTree(self.nodes, self.path, self.depth, rule)
 
     def branch_left(self, P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
         """The probability of going to the left child of inner nodes `node` (m,) int64 from points P (m, 3)
-        with normals N (m, 3) (zero rows: unknown): by importance, by power where both are 0. (m,) float64"""
+        with normals N (m, 3) (zero rows: unknown): the mean of the left child's share of the upper importance
+        bounds and of the lower ones (CYCLES; where the lower ones are both 0: 1/2, or 0 or 1 where one upper bound
+        is 0), or the share of the upper bounds alone (UPPER); by power where both upper bounds are 0 (or POWER).
+        (m,) float64"""
         left = self.nodes[node, LEFT].astype(np.int64)
         right = self.nodes[node, RIGHT].astype(np.int64)
+        E_left, E_right = self.nodes[left, ENERGY], self.nodes[right, ENERGY]
+        if self.rule == POWER:
+            return E_left / (E_left + E_right)
         upper_left, lower_left = importance(P, N, self.nodes[left])
         upper_right, lower_right = importance(P, N, self.nodes[right])
         upper, lower = upper_left + upper_right, lower_left + lower_right
-        E_left, E_right = self.nodes[left, ENERGY], self.nodes[right, ENERGY]
         with np.errstate(divide="ignore", invalid="ignore"):
             by_upper = upper_left / upper
             by_lower = np.where(lower > 0.0, lower_left / lower,
                                 0.5 * ((upper_left > 0.0).astype(np.float64) + (upper_right == 0.0)))
             by_power = E_left / (E_left + E_right)
-        return np.where(upper > 0.0, 0.5 * (by_upper + by_lower), by_power)
+        by_importance = by_upper if self.rule == UPPER else 0.5 * (by_upper + by_lower)
+        return np.where(upper > 0.0, by_importance, by_power)
 
     def pick(self, P: np.ndarray, N: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One triangle per point, walking down with u (m,) in [0, 1): (index (m,) int64, probability (m,), u

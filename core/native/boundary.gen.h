@@ -935,6 +935,8 @@ struct EmitterTables {
     const double *nodes;                    /* (k, TREE_FIELDS) the light tree's nodes (core/lights/light_tree.py), root first */
     const int64_t *path;                    /* (t,) each emitter's branch bits from the root (bit l: 1 = right) */
     const int64_t *depth;                   /* (t,) each emitter's steps from the root to its leaf */
+    int32_t rule;                           /* how the tree's walk weighs a node's children (LightTree.rule): 0 Cycles' mean of the upper and
+lower importance bounds' shares, 1 the upper bounds' share alone, 2 power alone */
     const int64_t *sorted_prim;             /* (t,) WorldGeometry's flat triangle index of each, ascending */
     const int64_t *order;                   /* (t,) the emitter of each sorted_prim */
     int64_t count;                          /* t */
@@ -1218,7 +1220,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
-    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(3747915662707662173);
+    if (strcmp(name, "EmitterTables") == 0) return UINT64_C(1646818140122983101);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
