@@ -10,8 +10,9 @@ project's relMSE of 4x4 block means, mean((B(P) - B(R))^2 / (B(R)^2 + 0.01)), ag
 tree renders with `reference` (64) times the samples; then the CDF again with the samples the tree's time buys it (each
 time the least of five runs, in processor seconds of all threads, which a shared machine disturbs less than
 the clock). The old way is the same tree weighing power alone
-(LightTree.by_power), which picks exactly as the global power CDF did; "tree upper" is the tree walked by the share
-of the upper importance bounds alone (light_tree.UPPER, Primer's rule before Cycles' mean of upper and lower). The numbers go to docs/performance.md
+(LightTree.by_power), which picks exactly as the global power CDF did; "tree Cycles" is the tree walked by Cycles'
+mean of the upper and lower importance bounds' shares (light_tree.CYCLES), "light tree" by the upper bounds' share
+alone (light_tree.UPPER, the renders'). The numbers go to docs/performance.md
 by hand. --scene cornell renders a Cornell box lit by its ceiling quad instead (cut into --lamp x --lamp squares:
 2 lamp^2 emissive triangles), with indirect light; --seeds averages each error over that many seeds of the
 samples (the same reference).
@@ -132,7 +133,7 @@ def main() -> None:
         return RenderSettings(width=args.size, height=args.size, samples=samples, light_samples=1, seed=seed,
                               kernels=args.kernels, adaptive=False, **bounces)
 
-    reference, seconds = render_with(scene, settings(args.reference * args.samples, 99), CYCLES)
+    reference, seconds = render_with(scene, settings(args.reference * args.samples, 99), UPPER)
     print(f"reference: {args.reference * args.samples} samples, {seconds:.1f} s, mean {reference.mean():.4f}")
     times = {}
 
@@ -144,14 +145,14 @@ def main() -> None:
             errors.append(relative_mse_of_blocks(render_with(scene, settings(samples, seed), rule)[0], reference))
         return image, seconds, float(np.mean(errors))
 
-    for name, rule in (("power CDF", POWER), ("tree upper", UPPER), ("light tree", CYCLES)):
+    for name, rule in (("power CDF", POWER), ("tree Cycles", CYCLES), ("light tree", UPPER)):
         image, seconds, relmse = error(args.samples, rule, 5)
         times[rule] = seconds
-        print(f"{name:10s}: {args.samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, relMSE {relmse:.5f}")
+        print(f"{name:11s}: {args.samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, relMSE {relmse:.5f}")
     # Equal time: the power CDF with as many more samples as the tree's time buys it.
-    samples = max(args.samples, round(args.samples * times[CYCLES] / times[POWER]))
+    samples = max(args.samples, round(args.samples * times[UPPER] / times[POWER]))
     image, seconds, relmse = error(samples, POWER, 5)
-    print(f"power CDF : {samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, relMSE {relmse:.5f} (equal time)")
+    print(f"power CDF  : {samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, relMSE {relmse:.5f} (equal time)")
 
 
 if __name__ == "__main__":

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from core.lights import MeshEmitters
-from core.lights.light_tree import LEFT, RIGHT
+from core.lights.light_tree import CYCLES, LEFT, POWER, RIGHT, UPPER, importance
 from core.native import library
 
 
@@ -76,10 +76,12 @@ def test_every_node_bounds_its_triangles_and_their_orientations():
     np.testing.assert_allclose(tree.nodes[:, 11], energy, rtol=1e-12)
 
 
-def test_pick_probabilities_of_all_triangles_sum_to_one():
+@pytest.mark.parametrize("rule", [CYCLES, UPPER, POWER])
+def test_pick_probabilities_of_all_triangles_sum_to_one(rule):
     """Whatever the point and normal (known or not, inside the emitters' boxes or far away), the
-    probabilities of the tree's leaves sum to one, and the path walk gives each leaf's."""
+    probabilities of the tree's leaves sum to one, and the path walk gives each leaf's, whichever the rule."""
     emitters = scattered_emitters(300, 1)
+    emitters.tree = emitters.tree.with_rule(rule)
     P, N = random_receivers(200, 2)
     probability = all_pick_probabilities(emitters, P, N)
     np.testing.assert_allclose(probability.sum(axis=1), 1.0, rtol=1e-12)
@@ -87,6 +89,36 @@ def test_pick_probabilities_of_all_triangles_sum_to_one():
     index = np.random.default_rng(3).integers(0, 300, len(rows))
     np.testing.assert_allclose(emitters.pick_probability(P[rows], index, N[rows]), probability[rows, index],
                                rtol=1e-12)
+
+
+def test_the_power_rule_picks_each_triangle_by_its_share_of_the_power():
+    """LightTree.by_power (the bench's global power CDF): from any point, a triangle's probability is its power over
+    the total."""
+    emitters = scattered_emitters(200, 22)
+    emitters.tree = emitters.tree.by_power()
+    P, N = random_receivers(20, 23)
+    probability = all_pick_probabilities(emitters, P, N)
+    np.testing.assert_allclose(probability, np.tile(emitters.power / emitters.power.sum(), (20, 1)), rtol=1e-9)
+
+
+def test_a_leafs_lower_importance_bound_never_exceeds_what_its_triangle_sends():
+    """The lower bound of a leaf (one triangle, sampled from one side) is at most its mean radiance x Lambert's
+    irradiance of it (the integral of cos_i cos_o / r^2 over its area), and never above the upper bound; it is > 0
+    for many pairs (a triangle in front of the point, facing it, away from its horizon)."""
+    emitters = scattered_emitters(150, 24, sides=1)
+    tree = emitters.tree
+    P, N = random_receivers(60, 25, unknown=0.0)
+    leaf = np.flatnonzero(tree.nodes[:, RIGHT] < 0)
+    triangle = (-1 - tree.nodes[leaf, LEFT]).astype(np.int64)
+    rows, cols = np.repeat(np.arange(len(P)), len(leaf)), np.tile(np.arange(len(leaf)), len(P))
+    upper, lower = importance(P[rows], N[rows], tree.nodes[leaf[cols]])
+    assert (lower <= upper).all()
+    found = lower > 0.0
+    assert found.mean() > 0.05
+    sent = np.array([emitters.emission[triangle[c]].mean() * lambert_irradiance(P[r], N[r], emitters.corners[
+        triangle[c]][None])[0] for r, c in zip(rows[found], cols[found])])
+    assert (lower[found] <= sent * (1.0 + 1e-9)).all()
+    assert (lower[found] > 0.05 * sent).mean() > 0.5                  # (and not a vanishing bound)
 
 
 def test_every_triangle_that_can_light_a_point_may_be_picked():
@@ -186,11 +218,13 @@ def test_many_emitters_light_a_point_by_lamberts_formula(known_normal):
 
 
 @pytest.mark.skipif(not library.available(), reason="compiled kernels unavailable")
-def test_compiled_light_tree_picks_what_the_python_picks():
+@pytest.mark.parametrize("rule", [CYCLES, UPPER, POWER])
+def test_compiled_light_tree_picks_what_the_python_picks(rule):
     """emitters.c walks the same tree: the same triangle for the same number, the same probabilities,
-    and the same pick probability along a triangle's path (pdf_of_hits)."""
+    and the same pick probability along a triangle's path (pdf_of_hits), whichever the rule."""
     from core.lights.emitters import compiled_pick, compiled_pick_probability
     emitters = scattered_emitters(500, 15)
+    emitters.tree = emitters.tree.with_rule(rule)
     P, N = random_receivers(5000, 16)
     u = np.random.default_rng(17).random(5000)
     index, probability, _ = emitters.tree.pick(P, N, u)

@@ -105,9 +105,9 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
 #define TREE_UPPER 1
 #define TREE_POWER 2
 
-/* LightTree.branch_left: the probability of the inner node's left child, Cycles' mean of the shares of the upper
- * and of the lower importance bounds (TREE_UPPER: the upper bounds' share alone; by power where both children's
- * upper bounds are 0, or TREE_POWER). */
+/* LightTree.branch_left: the probability of the inner node's left child, its share of the upper importance bounds
+ * (TREE_UPPER, the renders'), or the mean of that and its share of the lower bounds (TREE_CYCLES, Cycles'
+ * get_left_probability); by power where both children's upper bounds are 0, or TREE_POWER. */
 INLINE double light_tree_branch_left(const EmitterTables *e, const double *node, const double *P, const double *N)
 {
     const double *left = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];

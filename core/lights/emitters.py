@@ -468,7 +468,7 @@ EmitterTablesRecord = schema.record("EmitterTables", "The emissive triangles as 
     ("path", ptr(I64), "(t,) each emitter's branch bits from the root (bit l: 1 = right)"),
     ("depth", ptr(I64), "(t,) each emitter's steps from the root to its leaf"),
     ("rule", I32, "how the tree's walk weighs a node's children (LightTree.rule): 0 Cycles' mean of the upper and\n"
-                  "lower importance bounds' shares, 1 the upper bounds' share alone, 2 power alone"),
+                  "lower importance bounds' shares, 1 the upper bounds' share alone (the renders'), 2 power alone"),
     ("sorted_prim", ptr(I64), "(t,) WorldGeometry's flat triangle index of each, ascending"),
     ("order", ptr(I64), "(t,) the emitter of each sorted_prim"),
     ("count", I64, "t"),

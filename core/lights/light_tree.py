@@ -11,24 +11,46 @@ follows: intern/cycles/scene/light_tree.cpp, kernel/light/tree.h). Every node ke
   both sides has theta_o = pi (it faces every way).
 
 At a shading point P with normal N the tree is walked from the root: at every inner node both
-children's importance I is computed, and the walk goes left with probability I_left / (I_left + I_right),
-the random number rescaled to [0, 1) for the next step. A triangle's pick probability is the product
-of the branch probabilities on its path. The importance of a node is a bound of what it could send to P:
+children's importance is computed, the walk goes left with probability p_left (below), the random number
+rescaled to [0, 1) for the next step. A triangle's pick probability is the product of the branch
+probabilities on its path. A node has two importances, an upper and a lower bound of what it could send P
+(Cycles' max and min importance, kernel/light/tree.h light_tree_importance):
 
-    I = energy x cos(theta_i') x cos(theta') / max(d, half diagonal)^2
+    upper = energy x cos(theta_i') x cos(theta') / max(d, diagonal / 4)^2
+    lower = energy x cos(theta_i'') x cos(theta'') / d_far^2
 
 with d the distance from P to the box's centre, theta_u the half-angle of the cone from P around
-the centre that holds the box, theta_i' = max(theta_i - theta_u, 0) (theta_i: between N and the
-centre; cos 1 where N is unknown: transmission, volumes) and theta' = max(theta - theta_o - theta_u, 0)
-(theta: between the cone's axis and the direction from the centre to P), 0 beyond theta_e. It is 0
-only where no triangle of the node can light P (all of it below P's horizon, or all of it facing away),
-so every triangle that can contribute keeps a probability > 0: the estimate stays unbiased. Where both
-children have importance 0 the walk goes by power. The distance is clamped to half the box's diagonal,
-so that the importance stays finite near and inside the box.
+the centre that holds the box (from its 8 corners; Cycles takes the box's bounding sphere, wider),
+theta_i' = max(theta_i - theta_u, 0) (theta_i: between N and the centre; cos 1 where N is unknown:
+transmission, volumes) and theta' = max(theta - theta_o - theta_u, 0) (theta: between the cone's axis and
+the direction from the centre to P), 0 beyond theta_e; theta_i'' = theta_i + theta_u, theta'' = theta +
+theta_u + theta_o, the cosines at least 0, the lower bound 0 unless theta + theta_u <= theta_e - theta_o
+(so 0 for two-sided triangles, as in Cycles) and 0 where P is inside the box or the cone passes a hemisphere.
+d_far is the clamped d for an inner node (as Cycles) and the distance to the box's farthest corner for a leaf
+(Cycles: to the triangle's farthest corner). Both are 0 where the whole box lies on or below P's tangent plane
+(Cycles' bbox_is_visible). The upper bound is 0 only where no triangle of the node can light P (all of it below
+P's horizon, or all of it facing away), so every triangle that can contribute keeps a probability > 0: the
+estimate stays unbiased. Its distance is clamped to a quarter of the box's diagonal (Cycles' "half the radius";
+Primer clamped to half the diagonal before issue 34), so that it stays finite near and inside the box; Cycles
+leaves a single emitter's distance (to its centroid) unclamped, Primer clamps leaves too.
+
+How p_left follows from them is the tree's rule (LightTree.rule):
+
+- UPPER (the renders'): upper_left / (upper_left + upper_right), Conty Estevez and Kulla's;
+- CYCLES: Cycles' get_left_probability, the mean of that and lower_left / (lower_left + lower_right) (1/2 where
+  both lower bounds are 0; 0 or 1 where one upper bound is 0);
+- POWER: energy_left / (energy_left + energy_right), wherever P is (the global power CDF, for comparisons).
+
+Where both upper bounds are 0 the walk goes by power (Cycles gives up: no light sample). CYCLES is implemented and
+tested but not used: with Primer's binary tree of one-triangle leaves its lower bounds are 0 for every large node
+near P, and the mean then pulls the branch probabilities towards 1/2 level after level, whereas the upper bounds'
+share alone follows what the children send. It made the pick's variance 2-3.5 times larger on every scene
+measured, and a render of the bench room 11 times noisier (docs/performance.md, light tree).
 
 Leaves hold one triangle each. The tree is flat arrays, the same for Python and C (emitters.c):
 nodes (k, NODE_FIELDS) float64, rows [lo (3), hi (3), axis (3), theta_o, theta_e, energy, left, right,
-cos theta_o, sin theta_o, cos theta_e] (the importance works in cosines: no trigonometry per step);
+cos theta_o, sin theta_o, cos theta_e, cos(theta_e - theta_o) (2 where theta_o > theta_e)] (the importance works
+in cosines: no trigonometry per step);
 an inner node's children are rows left and right; a leaf has left = -1 - its triangle, right = -1.
 Each triangle's path from the root is `depth` steps, bit l of `path` the side (1: right) at step l, so
 that `pick_probability` (the MIS pdf of a BSDF ray that hits the triangle) multiplies the same branch
@@ -48,8 +70,9 @@ CLAMP = 0.25
 # Past this depth the build splits at the median (balanced), so that paths fit in 62 bits.
 MEDIAN_DEPTH = 40
 MAX_DEPTH = 62
-# How the walk weighs a node's two children (LightTree.rule): Cycles' mean of the shares of the upper and of the lower
-# importance bounds; the share of the upper bounds alone (Conty Estevez and Kulla; Primer before issue 34); power alone.
+# How the walk weighs a node's two children (LightTree.rule, module docstring): Cycles' mean of the shares of the upper
+# and of the lower importance bounds; the share of the upper bounds alone (Conty Estevez and Kulla; the renders');
+# power alone.
 CYCLES, UPPER, POWER = 0, 1, 2
 
 
@@ -60,13 +83,14 @@ class LightTree:
     nodes: (k, NODE_FIELDS) float64 the nodes, root first (module docstring)
     path:  (t,) int64 each triangle's branch bits from the root (bit l: 1 = right at step l)
     depth: (t,) int64 each triangle's number of steps from the root to its leaf
-    rule:  how the walk weighs the children: CYCLES (the renders'), UPPER or POWER (for comparisons)
+    rule:  how the walk weighs the children (module docstring): UPPER (the renders'), CYCLES or POWER (for
+           comparisons)
     """
 
     nodes: np.ndarray
     path: np.ndarray
     depth: np.ndarray
-    rule: int = CYCLES
+    rule: int = UPPER
 
     @property
     def max_depth(self) -> int:
@@ -159,10 +183,9 @@ class LightTree:
 
     def branch_left(self, P: np.ndarray, N: np.ndarray, node: np.ndarray) -> np.ndarray:
         """The probability of going to the left child of inner nodes `node` (m,) int64 from points P (m, 3)
-        with normals N (m, 3) (zero rows: unknown): the mean of the left child's share of the upper importance
-        bounds and of the lower ones (CYCLES; where the lower ones are both 0: 1/2, or 0 or 1 where one upper bound
-        is 0), or the share of the upper bounds alone (UPPER); by power where both upper bounds are 0 (or POWER).
-        (m,) float64"""
+        with normals N (m, 3) (zero rows: unknown): the left child's share of the upper importance bounds (UPPER),
+        or the mean of that and its share of the lower ones (CYCLES; where the lower ones are both 0: 1/2, or 0 or
+        1 where one upper bound is 0); by power where both upper bounds are 0 (or POWER). (m,) float64"""
         left = self.nodes[node, LEFT].astype(np.int64)
         right = self.nodes[node, RIGHT].astype(np.int64)
         E_left, E_right = self.nodes[left, ENERGY], self.nodes[right, ENERGY]

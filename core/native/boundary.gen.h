@@ -936,7 +936,7 @@ struct EmitterTables {
     const int64_t *path;                    /* (t,) each emitter's branch bits from the root (bit l: 1 = right) */
     const int64_t *depth;                   /* (t,) each emitter's steps from the root to its leaf */
     int32_t rule;                           /* how the tree's walk weighs a node's children (LightTree.rule): 0 Cycles' mean of the upper and
-lower importance bounds' shares, 1 the upper bounds' share alone, 2 power alone */
+lower importance bounds' shares, 1 the upper bounds' share alone (the renders'), 2 power alone */
     const int64_t *sorted_prim;             /* (t,) WorldGeometry's flat triangle index of each, ascending */
     const int64_t *order;                   /* (t,) the emitter of each sorted_prim */
     int64_t count;                          /* t */
