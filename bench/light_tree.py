@@ -14,7 +14,7 @@ the clock). The old way is the same tree weighing power alone
 mean of the upper and lower importance bounds' shares (light_tree.CYCLES), "light tree" by the upper bounds' share
 alone (light_tree.UPPER, the renders'). The numbers go to docs/performance.md
 by hand. --scene cornell renders a Cornell box lit by its ceiling quad instead (cut into --lamp x --lamp squares:
-2 lamp^2 emissive triangles), with indirect light; --seeds averages each error over that many seeds of the
+2 lamp^2 emissive triangles), path traced (4 bounces); --seeds averages each error over that many seeds of the
 samples (the same reference).
 """
 from __future__ import annotations
@@ -127,7 +127,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=1, help="errors averaged over this many seeds")
     args = parser.parse_args()
     scene = many_emitters_room(args.emitters) if args.scene == "room" else cornell_box(args.lamp)
-    bounces = {} if args.scene == "room" else {"max_bounces": 4}
+    bounces = {} if args.scene == "room" else {"integrator": "path", "max_bounces": 4}
 
     def settings(samples, seed):
         return RenderSettings(width=args.size, height=args.size, samples=samples, light_samples=1, seed=seed,
