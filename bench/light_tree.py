@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/light_tree.py [--size 128] [--samples 8] [--reference 64] [--emitters 2000]
                                          [--scene room|cornell] [--lamp 1] [--seeds 1]
+    .venv/bin/python bench/light_tree.py --variance [--emitters 300]
 
 A 12 m x 12 m room lit by `emitters` small emissive triangles under its 3 m ceiling, their radiance spread
 over three orders of magnitude, and a few boxes on the floor; a camera looks down on the floor (direct
@@ -16,6 +17,11 @@ alone (light_tree.UPPER, the renders'). The numbers go to docs/performance.md
 by hand. --scene cornell renders a Cornell box lit by its ceiling quad instead (cut into --lamp x --lamp squares:
 2 lamp^2 emissive triangles), path traced (4 bounces); --seeds averages each error over that many seeds of the
 samples (the same reference).
+
+--variance renders nothing: for 40 receivers under the room's emitters and under 400 triangles of random
+orientation (one-sided, two-sided, mixed), it prints each rule's relative variance of a one-sample estimate of the
+unshadowed direct light, sum_i c_i^2 / p_i / (sum_i c_i)^2 - 1, with c_i what triangle i sends (Lambert's polygon
+formula) and p_i its pick probability (enumerated over the tree): the pick's own noise, closed form, no rendering.
 """
 from __future__ import annotations
 
@@ -115,18 +121,85 @@ def render_with(scene: Scene, settings: RenderSettings, rule: int, repeat: int =
         emitters_.from_geometry = original
 
 
+def lambert_irradiance(P: np.ndarray, N: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """The irradiance per unit radiance of triangles V (t, 3, 3) wholly above the horizon of P (3,) with normal N (3,):
+    Lambert's polygon formula. (t,) float64"""
+    r = V - P
+    r = r / np.linalg.norm(r, axis=2, keepdims=True)
+    total = np.zeros(len(V))
+    for k in range(3):
+        a, b = r[:, k], r[:, (k + 1) % 3]
+        gamma = np.cross(a, b)
+        total += np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0)) * (
+            gamma / np.linalg.norm(gamma, axis=1, keepdims=True) @ N)
+    return 0.5 * np.abs(total)
+
+
+def pick_variance(emitters, P: np.ndarray, N: np.ndarray) -> float:
+    """The mean over receivers P, N (n, 3) of the relative variance of the one-sample unshadowed direct light
+    (module docstring) with the emitters' tree as it is."""
+    from core.lights.light_tree import LEFT, RIGHT
+    tree = emitters.tree
+    node_p = np.zeros((len(P), len(tree.nodes)))
+    node_p[:, 0] = 1.0
+    p = np.zeros((len(P), len(emitters.prim)))
+    for row in range(len(tree.nodes)):                   # parents come before their children
+        left, right = int(tree.nodes[row, LEFT]), int(tree.nodes[row, RIGHT])
+        if right < 0:
+            p[:, -1 - left] = node_p[:, row]
+            continue
+        p_left = tree.branch_left(P, N, np.full(len(P), row))
+        node_p[:, left], node_p[:, right] = node_p[:, row] * p_left, node_p[:, row] * (1.0 - p_left)
+    c = np.array([emitters.emission.mean(axis=1) * lambert_irradiance(x, n, emitters.corners) for x, n in zip(P, N)])
+    height = np.einsum("tk,ntk->nt", emitters.normal, emitters.corners[None, :, 0] - P[:, None])
+    c *= (emitters.sides[None] & np.where(height > 0.0, 2, 1)) != 0          # sampled from P's side
+    with np.errstate(divide="ignore", invalid="ignore"):
+        variance = np.where(c > 0.0, c * c / p, 0.0).sum(axis=1) / c.sum(axis=1) ** 2 - 1.0
+    return float(variance.mean())
+
+
+def variance_table(count: int) -> None:
+    """Print each rule's pick variance (module docstring) in the room and in scattered triangles."""
+    from core.lights import MeshEmitters
+    rng = np.random.default_rng(5)
+    room = many_emitters_room(count)
+    mesh, instance = room.meshes[-1], room.instances[-1]
+    radiance = np.array([room.materials[instance.materials[k]].emission for k in mesh.material_indices])
+    scenes = {f"room, {count} emitters": (mesh.vertices[mesh.triangles], radiance, np.ones(count, np.int32),
+                                          np.column_stack([rng.uniform(-6.0, 6.0, (40, 2)), np.zeros(40)]))}
+    for name, sides in (("one-sided", 1), ("two-sided", 3), ("mixed", None)):
+        r = np.random.default_rng(13)
+        corners = r.random((400, 1, 3)) * 4.0 + r.normal(size=(400, 3, 3)) * 0.1
+        emission = r.random((400, 3)) ** 3 * 10.0
+        sides = r.integers(1, 4, 400) if sides is None else np.full(400, sides)
+        scenes[f"400 scattered, {name}"] = (corners, emission, sides.astype(np.int32),
+                                            np.column_stack([rng.uniform(-1.0, 5.0, (40, 2)), np.full(40, -1.5)]))
+    for name, (corners, emission, sides, P) in scenes.items():
+        emitters = MeshEmitters.of(corners, emission, sides, np.arange(len(corners)))
+        N = np.tile([0.0, 0.0, 1.0], (len(P), 1))
+        row = []
+        for rule_name, rule in (("power", POWER), ("Cycles", CYCLES), ("upper", UPPER)):
+            emitters.tree = emitters.tree.with_rule(rule)
+            row.append(f"{rule_name} {pick_variance(emitters, P, N):.4f}")
+        print(f"{name:26s}", "  ".join(row), flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--samples", type=int, default=8)
-    parser.add_argument("--emitters", type=int, default=2000)
+    parser.add_argument("--emitters", type=int, default=None, help="the room's emitters (2000; 300 with --variance)")
     parser.add_argument("--reference", type=int, default=64, help="the reference's samples per test sample")
     parser.add_argument("--kernels", default="compiled")
     parser.add_argument("--scene", choices=("room", "cornell"), default="room")
     parser.add_argument("--lamp", type=int, default=1, help="the Cornell box's lamp cut into lamp x lamp squares")
     parser.add_argument("--seeds", type=int, default=1, help="errors averaged over this many seeds")
+    parser.add_argument("--variance", action="store_true", help="the pick's closed-form variance per rule instead")
     args = parser.parse_args()
-    scene = many_emitters_room(args.emitters) if args.scene == "room" else cornell_box(args.lamp)
+    if args.variance:
+        variance_table(args.emitters or 300)
+        return
+    scene = many_emitters_room(args.emitters or 2000) if args.scene == "room" else cornell_box(args.lamp)
     bounces = {} if args.scene == "room" else {"integrator": "path", "max_bounces": 4}
 
     def settings(samples, seed):

@@ -34,8 +34,8 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 
 /* light_tree.importance for one node row seen from P with normal N (zero: unknown): the upper and lower bounds
  * of what it sends P, energy x the cosine bounds at the receiver and the emitter / distance^2 (Cycles'
- * light_tree_importance); the upper 0 only where nothing of it lights P, the lower 0 wherever some may not.
- * In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi]. */
+ * light_tree_importance); the upper 0 only where nothing of it lights P, the lower 0 wherever some may not
+ * (lower NULL: the upper bound alone). In cosines: cos(a - b) = cos a cos b + sin a sin b, all angles in [0, pi]. */
 INLINE void light_tree_importance(const double *node, const double *P, const double *N, double *upper,
                                   double *lower)
 {
@@ -49,7 +49,7 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
         inside_box &= (P[c] >= lo[c]) & (P[c] <= hi[c]);
     }
     *upper = 0.0;
-    *lower = 0.0;
+    if (lower != NULL) *lower = 0.0;
     /* Nothing where the whole box lies on or below P's tangent plane. */
     int known_normal = dot3(N, N) > 0.0;
     if (known_normal && !(dot3(N, v) + 0.5 * dot3(N_abs, diagonal) > 0.0)) return;
@@ -91,10 +91,11 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
     double cos_outgoing = 1.0;
     if (!(cos_t >= cos_u) && !(cos_1 >= node[TREE_COS_O]))
         cos_outgoing = cos_2 > node[TREE_COS_E] ? at_least(cos_2, 0.0) : 0.0;
+    *upper = scale * (cos_incidence * cos_outgoing);
+    if (lower == NULL) return;
     double cos_3 = cos_t * cos_u - sin_t * sin_u, sin_3 = sin_t * cos_u + cos_t * sin_u;
     double cos_4 = cos_3 * node[TREE_COS_O] - sin_3 * node[TREE_SIN_O];
     double cos_outgoing_least = (cos_t >= 0.0) && (cos_3 >= node[TREE_COS_EO]) ? at_least(cos_4, 0.0) : 0.0;
-    *upper = scale * (cos_incidence * cos_outgoing);
     /* The lower bound's distance: the upper one's for an inner node, to the farthest corner for a leaf. */
     double far = node[TREE_RIGHT] < 0.0 ? sqrt(farthest2) : distance;
     *lower = node[TREE_ENERGY] / (far * far) * (cos_incidence_least * cos_outgoing_least);
@@ -113,13 +114,14 @@ INLINE double light_tree_branch_left(const EmitterTables *e, const double *node,
     const double *left = e->nodes + TREE_FIELDS * (int64_t)node[TREE_LEFT];
     const double *right = e->nodes + TREE_FIELDS * (int64_t)node[TREE_RIGHT];
     if (e->rule == TREE_POWER) return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
-    double upper_left, lower_left, upper_right, lower_right;
-    light_tree_importance(left, P, N, &upper_left, &lower_left);
-    light_tree_importance(right, P, N, &upper_right, &lower_right);
+    double upper_left, lower_left = 0.0, upper_right, lower_right = 0.0;
+    int cycles = e->rule == TREE_CYCLES;
+    light_tree_importance(left, P, N, &upper_left, cycles ? &lower_left : NULL);
+    light_tree_importance(right, P, N, &upper_right, cycles ? &lower_right : NULL);
     double upper = upper_left + upper_right, lower = lower_left + lower_right;
     if (!(upper > 0.0)) return left[TREE_ENERGY] / (left[TREE_ENERGY] + right[TREE_ENERGY]);
     double by_upper = upper_left / upper;
-    if (e->rule == TREE_UPPER) return by_upper;
+    if (!cycles) return by_upper;
     double by_lower = lower > 0.0 ? lower_left / lower
                                   : 0.5 * ((upper_left > 0.0 ? 1.0 : 0.0) + (upper_right == 0.0 ? 1.0 : 0.0));
     return 0.5 * (by_upper + by_lower);
