@@ -201,11 +201,12 @@ def lambert_irradiance(P: np.ndarray, N: np.ndarray, V: np.ndarray) -> np.ndarra
     return 0.5 * np.abs(total)
 
 
-@pytest.mark.parametrize("known_normal", [True, False])
-def test_many_emitters_light_a_point_by_lamberts_formula(known_normal):
+@pytest.mark.parametrize("known_normal,rule", [(True, UPPER), (False, UPPER), (True, CYCLES)])
+def test_many_emitters_light_a_point_by_lamberts_formula(known_normal, rule):
     """300 emitters over a point whose horizon they are all above: the mean of the light samples'
-    L_e cos / pdf converges to the sum of the triangles' L_e x Lambert's polygon irradiance."""
+    L_e cos / pdf converges to the sum of the triangles' L_e x Lambert's polygon irradiance (Cycles' rule too)."""
     emitters = scattered_emitters(300, 13, sides=3)
+    emitters.tree = emitters.tree.with_rule(rule)
     point, normal = np.array([2.0, 2.0, -1.5]), np.array([0.0, 0.0, 1.0])
     assert (emitters.corners[..., 2] > point[2]).all()
     n = 40_000
