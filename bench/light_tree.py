@@ -76,7 +76,8 @@ def cornell_box(lamp: int = 1) -> Scene:
     white, red, green = (scene.add_material(c) for c in ((0.73, 0.73, 0.73), (0.65, 0.05, 0.05), (0.12, 0.45, 0.15)))
 
     def quad(corners, material):
-        scene.add_mesh(Mesh(np.array(corners, np.float64), np.array([[0, 1, 2], [0, 2, 3]])), materials=np.array([material]))
+        scene.add_mesh(Mesh(np.array(corners, np.float64), np.array([[0, 1, 2], [0, 2, 3]])),
+                       materials=np.array([material]))
 
     quad([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], white)           # floor, facing up
     quad([(-1, -1, 2), (-1, 1, 2), (1, 1, 2), (1, -1, 2)], white)           # ceiling, facing down
@@ -225,7 +226,8 @@ def main() -> None:
     # Equal time: the power CDF with as many more samples as the tree's time buys it.
     samples = max(args.samples, round(args.samples * times[UPPER] / times[POWER]))
     image, seconds, relmse = error(samples, POWER, 5)
-    print(f"power CDF  : {samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, relMSE {relmse:.5f} (equal time)")
+    print(f"power CDF  : {samples} samples, {seconds:6.2f} s, mean {image.mean():.4f}, relMSE {relmse:.5f} "
+          "(equal time)")
 
 
 if __name__ == "__main__":

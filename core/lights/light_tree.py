@@ -23,14 +23,14 @@ with d the distance from P to the box's centre, theta_u the half-angle of the co
 the centre that holds the box (from its 8 corners; Cycles takes the box's bounding sphere, wider),
 theta_i' = max(theta_i - theta_u, 0) (theta_i: between N and the centre; cos 1 where N is unknown:
 transmission, volumes) and theta' = max(theta - theta_o - theta_u, 0) (theta: between the cone's axis and
-the direction from the centre to P), 0 beyond theta_e; theta_i'' = theta_i + theta_u, theta'' = theta +
-theta_u + theta_o, the cosines at least 0, the lower bound 0 unless theta + theta_u <= theta_e - theta_o
-(so 0 for two-sided triangles, as in Cycles) and 0 where P is inside the box or the cone passes a hemisphere.
-d_far is the clamped d for an inner node (as Cycles) and the distance to the box's farthest corner for a leaf
-(Cycles: to the triangle's farthest corner). Both are 0 where the whole box lies on or below P's tangent plane
-(Cycles' bbox_is_visible). The upper bound is 0 only where no triangle of the node can light P (all of it below
-P's horizon, or all of it facing away), so every triangle that can contribute keeps a probability > 0: the
-estimate stays unbiased. Its distance is clamped to a quarter of the box's diagonal (Cycles' "half the radius";
+the direction from the centre to P), 0 beyond theta_e; theta_i'' = theta_i + theta_u (cos 1 where N is unknown;
+Cycles' volumes take a lower bound of 0), theta'' = theta + theta_u + theta_o, the cosines at least 0, the lower
+bound 0 unless theta + theta_u <= theta_e - theta_o (so 0 for two-sided triangles, as in Cycles) and 0 where P is
+inside the box or the cone around it passes a hemisphere. d_far is the clamped d for an inner node (as Cycles)
+and the distance to the box's farthest corner for a leaf (Cycles: to the triangle's farthest corner). Both are 0
+where the whole box lies on or below P's tangent plane (Cycles' bbox_is_visible). The upper bound is 0 only where
+no triangle of the node can light P (all of it below P's horizon, or all of it facing away), so every triangle
+that can contribute keeps a probability > 0: the estimate stays unbiased. Its distance is clamped to a quarter of the box's diagonal (Cycles' "half the radius";
 Primer clamped to half the diagonal before issue 34), so that it stays finite near and inside the box; Cycles
 leaves a single emitter's distance (to its centroid) unclamped, Primer clamps leaves too.
 
@@ -44,8 +44,8 @@ How p_left follows from them is the tree's rule (LightTree.rule):
 Where both upper bounds are 0 the walk goes by power (Cycles gives up: no light sample). CYCLES is implemented and
 tested but not used: with Primer's binary tree of one-triangle leaves its lower bounds are 0 for every large node
 near P, and the mean then pulls the branch probabilities towards 1/2 level after level, whereas the upper bounds'
-share alone follows what the children send. It made the pick's variance 2-3.5 times larger on every scene
-measured, and a render of the bench room 11 times noisier (docs/performance.md, light tree).
+share alone follows what the children send. It made the pick's variance 1.7-3.6 times larger on every scene
+measured, and a render of the bench room 12 times noisier (docs/performance.md, light tree).
 
 Leaves hold one triangle each. The tree is flat arrays, the same for Python and C (emitters.c):
 nodes (k, NODE_FIELDS) float64, rows [lo (3), hi (3), axis (3), theta_o, theta_e, energy, left, right,
@@ -63,7 +63,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT, COS_O, SIN_O, COS_E, COS_EO = 0, 3, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17
+LO, HI, AXIS, THETA_O, THETA_E, ENERGY, LEFT, RIGHT = 0, 3, 6, 9, 10, 11, 12, 13
+COS_O, SIN_O, COS_E, COS_EO = 14, 15, 16, 17
 NODE_FIELDS = 18
 # The upper bound's distance is at least this share of the node's diagonal (Cycles: half the bounding sphere's radius).
 CLAMP = 0.25
@@ -308,7 +309,8 @@ def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> tuple[np.ndarr
     far = np.where(node[:, RIGHT] < 0.0, np.sqrt(farthest2), distance)
     upper = node[:, ENERGY] / (distance * distance) * np.where(
         ~above, 0.0, np.where(everywhere, 1.0, cos_incidence * cos_outgoing))
-    lower = np.where(everywhere | ~above, 0.0, node[:, ENERGY] / (far * far) * (cos_incidence_least * cos_outgoing_least))
+    lower = np.where(everywhere | ~above, 0.0,
+                     node[:, ENERGY] / (far * far) * (cos_incidence_least * cos_outgoing_least))
     return upper, lower
 
 
