@@ -30,9 +30,10 @@ inside the box or the cone around it passes a hemisphere. d_far is the clamped d
 and the distance to the box's farthest corner for a leaf (Cycles: to the triangle's farthest corner). Both are 0
 where the whole box lies on or below P's tangent plane (Cycles' bbox_is_visible). The upper bound is 0 only where
 no triangle of the node can light P (all of it below P's horizon, or all of it facing away), so every triangle
-that can contribute keeps a probability > 0: the estimate stays unbiased. Its distance is clamped to a quarter of the box's diagonal (Cycles' "half the radius";
-Primer clamped to half the diagonal before issue 34), so that it stays finite near and inside the box; Cycles
-leaves a single emitter's distance (to its centroid) unclamped, Primer clamps leaves too.
+that can contribute keeps a probability > 0: the estimate stays unbiased. Its distance is clamped to a quarter of
+the box's diagonal (Cycles' "half the radius"; Primer clamped to half the diagonal before issue 34), so that it
+stays finite near and inside the box; Cycles leaves a single emitter's distance (to its centroid) unclamped,
+Primer clamps leaves too (a smaller clamp changed nothing measured).
 
 How p_left follows from them is the tree's rule (LightTree.rule):
 
