@@ -224,3 +224,36 @@ def test_a_glowing_diffuse_sheet_alone_in_the_dark_reflects_none_of_its_own_ligh
     settings = RenderSettings(width=8, height=8, samples=16, integrator=integrator, max_bounces=3, kernels=kernels)
     image = render.render(scene, settings).image[..., :3]
     np.testing.assert_allclose(image, 1.0, rtol=1e-9)
+
+
+def test_a_textured_emitters_estimate_is_the_mean_of_its_texels_at_the_estimate_points_in_both_kernels():
+    """The light tree weighs a textured emitter by the mean of what it emits at emitters.ESTIMATE_POINTS: for the
+    half-textured square, a where a point lies at x < 0 and b where x > 0. The compiled estimate (the graphs run
+    in C, compiled.graph_emission) is the reference's (vertex.graph_emission) to rounding, for an image and for
+    a Noise texture's emission."""
+    from core.integrators import compiled, vertex
+    from core.lights import emitters as emitters_
+    from core.materials.graph import GraphNode, Link
+    side, a, b = 1.0, 4.0, 1.0
+    scene = half_textured_emitter_over_floor(a, b, side, 0.7, 0.6)
+    noise = Link(GraphNode("TEX_NOISE", {}, {"Vector": Link(GraphNode("TEXCOORD"), "Object"), "Scale": 3.0}), "Color")
+    scene.materials.append(Material(name="Noisy", nodes=[("EMISSION", (2.0, 2.0, 2.0), {"emission": noise})],
+                                    emission_sampling="FRONT_BACK"))
+    beside = np.diag([1.0, -1.0, -1.0, 1.0])                        # (a second square, 2 along x, facing -Z)
+    beside[:3, 3] = (2.0, 0.0, 0.7)
+    scene.add_mesh(primitives.plane(side), matrix=beside, materials=np.array([len(scene.materials) - 1]))
+    ctx = render.prepare(scene, RenderSettings(width=2, height=2))
+    found = ctx.extra["emitters"]
+    prim = found.prim[found.textured]
+    assert len(prim) == 4
+    in_c = emitters_.mean_graph_emission(ctx.geometry, ctx.materials, prim, compiled.graph_emission)
+    in_python = emitters_.mean_graph_emission(ctx.geometry, ctx.materials, prim, vertex.graph_emission)
+    np.testing.assert_allclose(in_c, in_python, rtol=1e-6, atol=1e-9)
+    # The image's square: each point's texel by the side of x = 0 it lies on (the geometry is camera-relative).
+    screen = ctx.geometry.material[prim] == 1
+    V = ctx.geometry.corner_points(prim[screen]) + ctx.geometry.origin
+    u, v = emitters_.ESTIMATE_POINTS[:, 0], emitters_.ESTIMATE_POINTS[:, 1]
+    x = (1.0 - u - v) * V[:, 0, None, 0] + u * V[:, 1, None, 0] + v * V[:, 2, None, 0]
+    expected = np.where(x < 0.0, a, b).mean(axis=1)
+    np.testing.assert_allclose(in_c[screen], expected[:, None] * np.ones(3), rtol=1e-12)
+    assert np.ptp(in_c[~screen]) > 0.0        # (the noise varies over the second square)

@@ -124,6 +124,42 @@ ChunkArgs = schema.function("primer_render_chunk", "render_chunk", schema.record
 ]))
 
 
+GraphEmissionArgs = schema.function("primer_graph_emission", "graph_emission_rows", schema.record("GraphEmissionArgs", "primer_graph_emission's arguments: what n points on triangles emit by their materials' node graphs.", [
+    ("geometry", ptr("GeometryTables"), ""),
+    ("materials", ptr("MaterialRecord"), "every material's record"),
+    ("graphs", ptr("GraphTables"), "their node-graph programs"),
+    ("n", I64, ""),
+    ("prim", ptr(I64), "(n,) the triangles (WorldGeometry's flat indices)"),
+    ("O", ptr(F64), "(n, 3) the rays' origins"),
+    ("D", ptr(F64), "(n, 3) their unit directions"),
+    ("t", ptr(F64), "(n,) the distances to the points"),
+    ("emission", out(F64), "(n, 3) what the points emit back along -D"),
+]))
+
+
+def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.ndarray, t: np.ndarray,
+                   paths=None) -> np.ndarray:
+    """vertex.graph_emission in C, for rays other than the camera's with no path (paths None) and the frame's
+    geometry, as the emitters' estimates ask it (emitters.mean_graph_emission): (n, 3) float64. Falls back to the
+    reference where the library is not loaded or paths are given."""
+    from .vertex import graph_emission as reference
+    graphs = graph_tables(materials, geometry.attribute_layout)
+    if paths is not None or graphs is None or not library.available() or len(prim) == 0:
+        return reference(geometry, materials, prim, O, D, t, paths)
+    tables = GeometryTables(geometry)
+    records = [material_record(shader, opaque) for shader, opaque in zip(materials.shaders, materials.shadow_opaque)]
+    array = (MaterialRecord * len(records))(*records)
+    for row, index in graphs.rows.items():
+        array[row].graph = index + 1
+    n = len(prim)
+    emission = np.empty((n, 3))
+    arrays = dict(prim=library.contiguous(prim, np.int64), O=library.contiguous(O, np.float64),
+                  D=library.contiguous(D, np.float64), t=library.contiguous(np.broadcast_to(t, (n,)), np.float64))
+    library.call("primer_graph_emission", GraphEmissionArgs(geometry=tables.record, materials=array,
+                                                            graphs=graphs.record, n=n, emission=emission, **arrays))
+    return emission
+
+
 def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
     """Return the C record of a material: a ConstantShader's closures, or a NodeShader's nodes (program 1), as many as
     it has; shadow_opaque: it blocks shadow rays even where it lets light through (Transparent Shadows off)."""

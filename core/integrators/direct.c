@@ -771,6 +771,21 @@ static void textured_block(SampleBlock *b, const BlockHits *H, const DirectSetti
     }
 }
 
+/* compiled.graph_emission (primer_graph_emission): what n points O + t D on triangles prim (WorldGeometry's flat
+ * indices) emit back along -D by their materials' node graphs, to rays other than the camera's with no path and no
+ * footprint (the emitters' estimates: emitters.mean_graph_emission); the frame's geometry; nothing traced. */
+static void graph_emission_rows(const GraphEmissionArgs *a)
+{
+    DirectSettings ds = {.geometry = a->geometry, .materials = a->materials, .graphs = a->graphs};
+    LightPath path = {0};
+    for (int64_t k = 0; k < a->n; k++) {
+        int64_t geometry, prim, instance;
+        unflat_prim(a->geometry, a->prim[k], &geometry, &prim, &instance);
+        graph_emission(&ds, geometry, prim, instance, a->O + 3 * k, a->D + 3 * k, a->t[k], STILL_TIME, &path, NULL,
+                       a->emission + 3 * k);
+    }
+}
+
 /* Direct light at the block's hits, added to H->L: every light's samples, BLOCK at a time. Returns the
  * shadow rays traced; embree_ticks[0] += the time inside Embree's occlusion queries. */
 /* direct.wants_bsdf_ray: whether each hit traces a BSDF ray, into H->traced. */

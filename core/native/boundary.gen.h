@@ -474,6 +474,7 @@ typedef struct MaterialRecord MaterialRecord;
 typedef struct ChunkParams ChunkParams;
 typedef struct ChunkOut ChunkOut;
 typedef struct ChunkArgs ChunkArgs;
+typedef struct GraphEmissionArgs GraphEmissionArgs;
 typedef struct PassTables PassTables;
 typedef struct ShadowSettings ShadowSettings;
 typedef struct LightRecord LightRecord;
@@ -804,6 +805,19 @@ struct ChunkArgs {
     int64_t p;
     int64_t spp;
     ChunkOut *out;                          /* the sums (zeroed first), the counts and seconds (added to) */
+};
+
+/* primer_graph_emission's arguments: what n points on triangles emit by their materials' node graphs. */
+struct GraphEmissionArgs {
+    const GeometryTables *geometry;
+    const MaterialRecord *materials;        /* every material's record */
+    const GraphTables *graphs;              /* their node-graph programs */
+    int64_t n;
+    const int64_t *prim;                    /* (n,) the triangles (WorldGeometry's flat indices) */
+    const double *O;                        /* (n, 3) the rays' origins */
+    const double *D;                        /* (n, 3) their unit directions */
+    const double *t;                        /* (n,) the distances to the points */
+    double *emission;                       /* (n, 3) what the points emit back along -D */
 };
 
 /* What the compiled kernel writes the first-hit passes with (passes.py,
@@ -1214,6 +1228,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4844621714001878421);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
+    if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(5404273518200151070);
@@ -1259,6 +1274,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "ChunkParams") == 0) return (int64_t)sizeof(ChunkParams);
     if (strcmp(name, "ChunkOut") == 0) return (int64_t)sizeof(ChunkOut);
     if (strcmp(name, "ChunkArgs") == 0) return (int64_t)sizeof(ChunkArgs);
+    if (strcmp(name, "GraphEmissionArgs") == 0) return (int64_t)sizeof(GraphEmissionArgs);
     if (strcmp(name, "PassTables") == 0) return (int64_t)sizeof(PassTables);
     if (strcmp(name, "ShadowSettings") == 0) return (int64_t)sizeof(ShadowSettings);
     if (strcmp(name, "LightRecord") == 0) return (int64_t)sizeof(LightRecord);

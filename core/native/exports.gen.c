@@ -53,6 +53,11 @@ EXPORT void primer_render_chunk(ChunkArgs *a)
     render_chunk(a);
 }
 
+EXPORT void primer_graph_emission(GraphEmissionArgs *a)
+{
+    graph_emission_rows(a);
+}
+
 EXPORT void primer_sample_light(SampleLightArgs *a)
 {
     sample_light_rows(a);

@@ -45,8 +45,8 @@ from ..geometry.geometry import WorldGeometry, build_geometry
 from ..integrators import Cancelled, Context, Recorder, StopFlag, for_render
 from ..visibility import HIDDEN_FROM_SHADOW, HOLDOUT
 from ..integrators import catcher as catcher_
-from ..integrators import cryptomatte, features, lightgroups, lightpasses, passes as passes_, vertex
-from ..integrators.compiled import Compiled, why_not
+from ..integrators import cryptomatte, features, lightgroups, lightpasses, passes as passes_
+from ..integrators.compiled import Compiled, graph_emission as compiled_graph_emission, why_not
 from ..materials import graph as graph_
 from ..materials import Material, MaterialTable
 from .. import volumes
@@ -170,7 +170,8 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # The lights a render makes of its scene: the emissive meshes, and the world's image (NaN or infinite parts
     # read as 0, as Cycles renders them).
     world = lights_.world.finite_world(scene.the_world(), warnings)
-    emitters = lights_.emitters.from_geometry(geometry, materials, vertex.graph_emission, warnings)
+    # (textured emitters' estimates: their graphs run in C where the library is loaded, in both kernels alike)
+    emitters = lights_.emitters.from_geometry(geometry, materials, compiled_graph_emission, warnings)
     sampler = lights_.WorldLight.of(world)
     lights += [light for light in (emitters, sampler) if light is not None]
     ctx = Context(scene, settings, geometry, lights, materials, light_numbers)

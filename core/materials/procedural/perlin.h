@@ -72,13 +72,30 @@ INLINE float perlin(const float *p, int d)
     return values[0];
 }
 
-/* perlin.py snoise (one copy, called per octave: inlined everywhere it made the library take 10% longer to build) */
-NOINLINE static float perlin_snoise(const float *p, int d)
+/* Cycles' wrap of a coordinate at 100000 (fmodf is exact; below the period it returns x itself, without the call). */
+INLINE float perlin_wrap(float x)
 {
-    static const float scales[5] = {0.0f, 0.25f, 0.6616f, 0.9820f, 0.8344f};
-    float q[4] = {0.0f, 0.0f, 0.0f, 0.0f};
-    for (int k = 0; k < d; k++) q[k] = fmodf(p[k], 100000.0f) + (fabsf(p[k]) >= 1000000.0f ? 0.5f : 0.0f);
-    return scales[d] * perlin(q, d);
+    float wrapped = fabsf(x) < 100000.0f ? x : fmodf(x, 100000.0f);
+    return wrapped + (fabsf(x) >= 1000000.0f ? 0.5f : 0.0f);
+}
+
+/* perlin.py snoise in D dimensions, D a constant: the lattice loops unrolled by the compiler. */
+#define PERLIN_SNOISE_OF(D, SCALE)                                                                                   \
+    NOINLINE static float perlin_snoise_##D(const float *p)                                                          \
+    {                                                                                                                \
+        float q[4] = {0.0f, 0.0f, 0.0f, 0.0f};                                                                       \
+        for (int k = 0; k < D; k++) q[k] = perlin_wrap(p[k]);                                                        \
+        return SCALE * perlin(q, D);                                                                                 \
+    }
+PERLIN_SNOISE_OF(1, 0.25f)
+PERLIN_SNOISE_OF(2, 0.6616f)
+PERLIN_SNOISE_OF(3, 0.9820f)
+PERLIN_SNOISE_OF(4, 0.8344f)
+
+/* perlin.py snoise: p's d (1..4) components wrapped as Cycles wraps them, Perlin noise there, scaled per d. */
+INLINE float perlin_snoise(const float *p, int d)
+{
+    return d == 3 ? perlin_snoise_3(p) : d == 2 ? perlin_snoise_2(p) : d == 1 ? perlin_snoise_1(p) : perlin_snoise_4(p);
 }
 
 /* snoise at p x s (each component). */

@@ -258,7 +258,7 @@ INLINE float voronoi_n_sphere_radius(const float *coord, int d, float randomness
 }
 
 /* voronoi.py fractal */
-INLINE void voronoi_fractal(const float *coord, int d, const VoronoiParams *P, VoronoiOctave *out)
+INLINE void voronoi_fractal_in(const float *coord, int d, const VoronoiParams *P, VoronoiOctave *out)
 {
     float amplitude = 1.0f, max_amplitude = 0.0f, scale = 1.0f, p[4] = {0.0f}, moved[4] = {0.0f}, inverse;
     int zero_input = P->detail == 0.0f || P->roughness == 0.0f;
@@ -305,6 +305,25 @@ INLINE void voronoi_fractal(const float *coord, int d, const VoronoiParams *P, V
     }
     inverse = 1.0f / P->scale;
     for (int k = 0; k < d; k++) out->position[k] = P->scale != 0.0f ? out->position[k] * inverse : 0.0f;
+}
+
+/* voronoi_fractal in three dimensions, the common case: d a constant, so that the cell loops unroll. */
+NOINLINE static void voronoi_fractal_3(const float *coord, const VoronoiParams *P, VoronoiOctave *out)
+{
+    voronoi_fractal_in(coord, 3, P, out);
+}
+
+/* voronoi_fractal in d = 1, 2 or 4 dimensions. */
+NOINLINE static void voronoi_fractal_any(const float *coord, int d, const VoronoiParams *P, VoronoiOctave *out)
+{
+    voronoi_fractal_in(coord, d, P, out);
+}
+
+/* voronoi.py fractal: the octaves' feature at coord (d components) summed. */
+INLINE void voronoi_fractal(const float *coord, int d, const VoronoiParams *P, VoronoiOctave *out)
+{
+    if (d == 3) voronoi_fractal_3(coord, P, out);
+    else voronoi_fractal_any(coord, d, P, out);
 }
 
 /* voronoi.py fractal_distance_to_edge */
