@@ -17,6 +17,39 @@ typedef struct {
     double tau[MAX_PIECES + 3][3];
 } March;
 
+/* grids.sample: grid g's RGBA (4) at object-space point local (3): trilinear over the voxels around its index point,
+ * 0 outside the grid's box, alpha 1. */
+static void grid_sample(const VolumeField *f, int g, const double *local, double *rgba)
+{
+    const double *row = f->grid_table + GRID_COLUMNS * g, *m = row + 8;
+    const float *values = f->voxels + (int64_t)row[0];
+    int64_t dims[3] = {(int64_t)row[1], (int64_t)row[2], (int64_t)row[3]}, C = (int64_t)row[4], base[3];
+    double t[3], sum[3] = {0.0, 0.0, 0.0};
+    for (int r = 0; r < 3; r++) {
+        double P = (((local[0] * m[4 * r] + local[1] * m[4 * r + 1]) + local[2] * m[4 * r + 2]) + m[4 * r + 3])
+                   - row[5 + r];
+        double b = floor(P);
+        t[r] = P - b;
+        base[r] = (int64_t)b;
+    }
+    for (int corner = 0; corner < 8; corner++) {
+        int64_t index[3];
+        double weight = 1.0;
+        int inside = 1;
+        for (int r = 0; r < 3; r++) {
+            int o = (corner >> (2 - r)) & 1;
+            index[r] = base[r] + o;
+            weight *= o ? t[r] : 1.0 - t[r];
+            inside &= index[r] >= 0 && index[r] < dims[r];
+        }
+        if (!inside) continue;
+        const float *v = values + ((index[0] * dims[1] + index[1]) * dims[2] + index[2]) * C;
+        for (int c = 0; c < 3; c++) sum[c] += weight * (double)v[C == 3 ? c : 0];
+    }
+    for (int c = 0; c < 3; c++) rgba[c] = sum[c];
+    rgba[3] = 1.0;
+}
+
 /* Field.coordinates and the volume shading point Field.at runs its program at: the camera-relative point P (3) in
  * world space, its Generated and Object coordinates, a volume-scatter path; info: room for OBJECT_INFO_WIDTH. */
 INLINE void field_point(const VolumeField *f, const double *P, double *info, ShadingPoint *sp)
@@ -26,8 +59,9 @@ INLINE void field_point(const VolumeField *f, const double *P, double *info, Sha
     for (int r = 0; r < 3; r++)
         local[r] = ((world[0] * f->matrix[4 * r] + world[1] * f->matrix[4 * r + 1]) + world[2] * f->matrix[4 * r + 2])
                    + f->matrix[4 * r + 3];
-    sp->width = 6;
-    for (int k = 0; k < 6; k++) sp->attributes[k] = sp->d_du[k] = sp->d_dv[k] = 0.0;
+    sp->width = 6 + GRID_WIDTH * f->grid_count;
+    for (int k = 0; k < sp->width; k++) sp->attributes[k] = sp->d_du[k] = sp->d_dv[k] = 0.0;
+    for (int g = 0; g < f->grid_count; g++) grid_sample(f, g, local, sp->attributes + 6 + GRID_WIDTH * g);
     for (int c = 0; c < 3; c++) {
         sp->attributes[c] = (f->size[c] != 0.0 ? (local[c] - f->location[c]) / (2.0 * f->size[c]) : 0.0) + 0.5;
         sp->attributes[3 + c] = local[c];
