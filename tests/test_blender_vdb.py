@@ -91,7 +91,7 @@ def test_a_box_of_voxels_absorbs_exp_of_minus_sigma_n_voxels(primer, openvdb, tm
     volume_object(scene, "Box", path, principled("Fog", (0.0, 0.0, 0.0), 1.6))
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 2)[..., :3]
     render = addon(primer, "engine").last_render
-    assert render.stats.kernels == kernels.lower()
+    assert render.stats.kernels.startswith(kernels.lower())
     assert not [w for w in render.warnings if "Box" in w], render.warnings
     # (pixel c's centre x = -2 + (c + 0.5) / 4: the voxel centres -1 .. 0.75 cover columns 4 .. 10)
     expected = glow * np.exp(-1.6 * 8 * 0.25)
