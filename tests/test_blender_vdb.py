@@ -71,33 +71,63 @@ def principled(name: str, color=(0.5, 0.5, 0.5), density: float = 1.0, anisotrop
     return m
 
 
-@pytest.mark.parametrize("kernels", ["COMPILED", "NUMPY"])
-def test_a_box_of_voxels_absorbs_exp_of_minus_sigma_n_voxels(primer, openvdb, tmp_path, kernels):
+def absorbing(name: str, reader: str, density: float):
+    """A material whose Volume is a black Volume Absorption (sigma_a = its Density) of Density `density` times the
+    grid "density" read by `reader`: "ATTRIBUTE" (an Attribute node's Fac) or "VOLUME_INFO" (Volume Info's
+    Density)."""
+    m, tree, output = empty_material(name)
+    node = tree.nodes.new("ShaderNodeVolumeAbsorption")
+    node.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    times = tree.nodes.new("ShaderNodeMath")
+    times.operation = "MULTIPLY"
+    times.inputs[1].default_value = density
+    if reader == "ATTRIBUTE":
+        grid = tree.nodes.new("ShaderNodeAttribute")
+        grid.attribute_name = "density"
+        tree.links.new(grid.outputs["Fac"], times.inputs[0])
+    else:
+        tree.links.new(tree.nodes.new("ShaderNodeVolumeInfo").outputs["Density"], times.inputs[0])
+    tree.links.new(times.outputs[0], node.inputs["Density"])
+    tree.links.new(node.outputs[0], output.inputs["Volume"])
+    return m
+
+
+@pytest.mark.parametrize("kernels, reader, scale, space", [
+    ("COMPILED", "PRINCIPLED", 1.0, "OBJECT"), ("NUMPY", "PRINCIPLED", 1.0, "OBJECT"),
+    ("COMPILED", "ATTRIBUTE", 2.0, "OBJECT"), ("NUMPY", "VOLUME_INFO", 2.0, "WORLD")])
+def test_a_box_of_voxels_absorbs_exp_of_minus_sigma_n_voxels(primer, openvdb, tmp_path, kernels, reader, scale,
+                                                             space):
     """An emitting plane seen from above through a Volume object: a grid of 8 x 8 x 8 voxels of density 1, voxel
-    0.25, read by a Principled Volume (Density 2, Color 0.2: sigma_a = 2 x 0.8 per channel; Absorption Color black).
+    0.25, read by a Principled Volume (Density 1.6 times its Density Attribute "density", Color black: sigma_a the
+    density, no scattering), or by an Attribute node or Volume Info feeding a black Volume Absorption's Density (x 1.6).
     Cycles interpolates the grid trilinearly and bounds it by the box of the active voxels padded by one voxel, so a
     vertical ray through the interior meets density 1 between the first and last voxel centres and a linear ramp
     from 0 over one voxel on each side: optical depth sigma_a N v = 1.6 x 8 x 0.25 = 3.2; each pixel over the interior
-    is the plane's emission x exp(-3.2), in both kernels (no noise: a black Color makes the Principled Volume's
-    scattering density x colour 0 and its absorption density x 1). Within 2e-3: Primer's march takes each piece's
-    midpoint (core/volumes/field.py), exact on the linear stretches but 9.5e-4 off in tau measured where pieces
-    straddle the ramps' kinks at the first and last voxel centres; the kernels agree to 1e-6."""
+    is the plane's emission x exp(-3.2), in both kernels. The object scaled by 2 with Render > Space Object keeps
+    it (Cycles divides the density by the scale: object_volume_density), with Space World it doubles.
+    Within 2e-3: Primer's march takes each piece's midpoint (core/volumes/field.py), exact on the linear stretches
+    but 9.5e-4 off in tau measured where pieces straddle the ramps' kinks at the first and last voxel centres; the
+    kernels agree to 1e-6."""
     scene = ortho_scene(16, 16, 4.0)
     scene.primer.kernels = kernels
     glow = np.array([1.0, 0.8, 0.5])
     bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, 0.0))
     bpy.context.object.data.materials.append(emitting_material("Glow", glow))
     path = vdb_file(openvdb, "box", np.ones((8, 8, 8)), 0.25, (-4, -4, 4))   # (z centres 1.0 .. 2.75)
-    volume_object(scene, "Box", path, principled("Fog", (0.0, 0.0, 0.0), 1.6))
+    material = principled("Fog", (0.0, 0.0, 0.0), 1.6) if reader == "PRINCIPLED" else absorbing("Fog", reader, 1.6)
+    obj = volume_object(scene, "Box", path, material, (0.0, 0.0, 1.0 - scale))
+    obj.scale = (scale, scale, scale)
+    obj.data.render.space = space
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 2)[..., :3]
     render = addon(primer, "engine").last_render
     assert render.stats.kernels.startswith(kernels.lower())
     assert not [w for w in render.warnings if "Box" in w], render.warnings
     # (pixel c's centre x = -2 + (c + 0.5) / 4: the voxel centres -1 .. 0.75 cover columns 4 .. 10)
-    expected = glow * np.exp(-1.6 * 8 * 0.25)
-    np.testing.assert_allclose(mine[5:10, 5:10], np.broadcast_to(expected, (5, 5, 3)), rtol=2e-3)
-    np.testing.assert_allclose(mine[5:10, 5:10], np.broadcast_to(BOX_COMPILED, (5, 5, 3)), rtol=1e-6)
-    np.testing.assert_allclose(mine[0, 0], glow, rtol=1e-6)       # (outside the box: the plane's own emission)
+    depth = 1.6 * 8 * 0.25 * (scale if space == "WORLD" else 1.0)
+    np.testing.assert_allclose(mine[5:10, 5:10], np.broadcast_to(glow * np.exp(-depth), (5, 5, 3)), rtol=2e-3)
+    if scale == 1.0:
+        np.testing.assert_allclose(mine[5:10, 5:10], np.broadcast_to(BOX_COMPILED, (5, 5, 3)), rtol=1e-6)
+        np.testing.assert_allclose(mine[0, 0], glow, rtol=1e-6)   # (outside the box: the plane's own emission)
 
 
 # The compiled kernel's pixel over the box's interior (measured): the reference agrees with it to 1e-6.
