@@ -173,3 +173,29 @@ def test_a_fog_sphere_grid_under_a_sun_renders_as_in_cycles(primer, openvdb, tmp
     print("vdb fog", bounces, "block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < bound
     np.testing.assert_allclose(mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), rtol=5e-3)
+
+
+def test_what_a_volume_object_asks_that_primer_does_not_model_is_said(primer, openvdb, monkeypatch):
+    """Said once, with what Primer does instead: Cubic interpolation (rendered trilinear), a grid the material reads
+    that the file lacks (0, as in Cycles), a missing file and a Blender without the OpenVDB module (not rendered)."""
+    export = addon(primer, "export")
+    vdb = addon(primer, "vdb")
+    scene = ortho_scene(8, 8, 4.0)
+    path = vdb_file(openvdb, "box", np.ones((8, 8, 8)), 0.25, (-4, -4, 4))
+    material = absorbing("Fog", "ATTRIBUTE", 1.0)
+    material.node_tree.nodes["Attribute"].attribute_name = "smoke"
+    material.cycles.volume_interpolation = "CUBIC"
+    volume_object(scene, "Box", path, material)
+
+    def said() -> list:
+        made = export.export_scene(bpy.context.evaluated_depsgraph_get())
+        return [w for w in made.warnings if "Box" in w or "Cubic" in w]
+
+    notes = said()
+    assert any("Cubic is rendered Linear" in w for w in notes), notes
+    assert any("smoke" in w and "read as 0" in w for w in notes), notes
+    bpy.data.objects["Box"].data.filepath = path + ".missing"
+    assert any("not rendered" in w for w in said())
+    bpy.data.objects["Box"].data.filepath = path
+    monkeypatch.setattr(vdb, "_MODULE", [None])
+    assert any("no OpenVDB Python module" in w for w in said())
