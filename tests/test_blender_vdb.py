@@ -163,7 +163,11 @@ def test_a_fog_sphere_grid_under_a_sun_renders_as_in_cycles(primer, openvdb, tmp
     """A smooth fog sphere written as an OpenVDB grid and loaded as a Volume object, its Principled Volume reading
     the grid "density", under a sun over a floor: Primer's compiled kernel (trilinear grid, Cycles' padded box of
     active voxels) against Cycles 5.0 (null scattering, stochastic trilinear lookups: the same mean) on 32 x 24,
-    block relative MSE of 4 x 4 block means."""
+    block relative MSE of 4 x 4 block means. Measured, Primer 64 against Cycles 1024: 3.6e-6 with Max Bounces 0
+    (single scattering), 3.9e-6 path traced (Blender 5.2: 6.1e-6, 6.9e-6); Primer 1024 against Cycles 1024: 1.7e-6,
+    1.6e-6, channel means within 5e-5, about Cycles' own noise at 1024 (its 64 against its 1024: 2.2e-5, 2.4e-5, so
+    1.4e-6 at 1024). The fog changes the image by 7e-2 (against the floor alone). The bound 2e-5 is five times the
+    measure and under Cycles' own 64-sample noise; means within 0.5%."""
     scene = fog_scene(openvdb, bounces)
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), samples)[..., :3]
     render = addon(primer, "engine").last_render
