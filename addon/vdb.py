@@ -6,7 +6,8 @@ which is put on sys.path), into core/volumes/grids.py `Grid`s: the values over t
 the Volume's Render > Clipping), rounded to half floats where Render > Precision is Half (Cycles' Fp16 grids). Only
 the grids the material reads are loaded, as Cycles does (the Attribute nodes' names, Volume Info's outputs, the
 Principled Volume's Density, Color and Temperature Attributes), and Cycles' bounding mesh is made of them
-(grids.bounding_box). The Principled Volume's attributes multiply its Density, Color and Temperature (Cycles'
+(grids.bounding_box), sampled as the material's Volume > Interpolation asks (Linear: trilinear; Cubic: Cycles'
+tricubic B-spline). The Principled Volume's attributes multiply its Density, Color and Temperature (Cycles'
 svm_node_principled_volume: density * grid, color * grid, temperature * max(grid, 0)); Render > Space Object scales
 every closure's weight by 1 / |M (1, 1, 1) / sqrt 3| (Cycles' object_volume_density).
 """
@@ -177,8 +178,6 @@ def volume_object(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, w
     source = bpy.data.materials.get(material.name)
     interpolation = getattr(getattr(source, "cycles", None), "volume_interpolation", "LINEAR")
     pad = 2 if interpolation == "CUBIC" else 1
-    if interpolation == "CUBIC":
-        warnings.append(f"material '{material.name}': Volume > Interpolation Cubic is rendered Linear (trilinear)")
     if getattr(volume, "velocity_grid", "") and bpy.context.scene.render.use_motion_blur:
         warnings.append(f"{where}: its velocity grid's motion blur is not modelled; Primer renders it still")
     try:
@@ -194,6 +193,7 @@ def volume_object(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, w
         if got is None:
             continue
         grid_, (low, high), factor = got
+        grid_ = grid_._replace(cubic=interpolation == "CUBIC")      # (the material's Volume > Interpolation)
         read.append(grid_)
         corners = grids_.bounding_box(low, high, max(1, math.ceil(pad / factor)) if pad else 0)
         # (the box's corners in object space: index (coarse) -> object)

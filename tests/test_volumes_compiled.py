@@ -377,7 +377,7 @@ def test_a_bumped_floor_met_after_scattering_in_fog_is_shaded_alike_by_both_kern
 
 def test_both_kernels_sample_a_volume_objects_grids_to_the_same_pixels():
     """A Volume object's grids (core/volumes/grids.py): a float grid "density" of uneven values and a vector grid
-    "color", under a turned and scaled index map, read by a Principled Volume (its density x the grid, as the add-on
+    "color" (tricubic), under turned and scaled index maps, read by a Principled Volume (its density x the grid, as the add-on
     writes it) and an Attribute node's Color: trilinear lookups in both kernels (field.c grid_sample), marched along
     camera, scatter and shadow rays, to the same pixels."""
     from core.materials.graph import GraphNode, Link
@@ -387,7 +387,7 @@ def test_both_kernels_sample_a_volume_objects_grids_to_the_same_pixels():
     color = (0.3 + 0.7 * rng.random((5, 6, 4, 3))).astype(np.float32)
     turn = np.array([[0.8, -0.6, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]])
     grids = [Grid("density", density, np.zeros(3), np.hstack([turn * 4.0, [[4.0], [3.0], [0.5]]])),
-             Grid("color", color, np.zeros(3), np.hstack([np.eye(3) * 2.5, [[2.0], [2.5], [-0.5]]]))]
+             Grid("color", color, np.zeros(3), np.hstack([np.eye(3) * 2.5, [[2.0], [2.5], [-0.5]]]), cubic=True)]
     fac = Link(GraphNode("ATTRIBUTE", {"attribute": "grid:density"}), "Fac")
     entries = [("PRINCIPLED_VOLUME", 1.0, {
         "color": Link(GraphNode("ATTRIBUTE", {"attribute": "attr:color"}), "Color"), "anisotropy": 0.2,

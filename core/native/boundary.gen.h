@@ -361,7 +361,7 @@
 #define VOLUME_CLOSURE_COEFFICIENTS 3
 #define VOLUME_CLOSURE_EMISSION 4
 /* the floats of a grid's row in VolumeField.grid_table (core.volumes.field) */
-#define GRID_COLUMNS 20
+#define GRID_COLUMNS 21
 /* the floats a Volume object's grid takes among a volume point's attributes (core.volumes.grids) */
 #define GRID_WIDTH 4
 /* Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission) (core.volumes.media) */
@@ -1154,7 +1154,7 @@ struct VolumeField {
     double linear[9];                       /* object to world's linear part, row by row (the program's object transform) */
     double placement[3];                    /* object to world's location (the program's Object Info Location) */
     int32_t grid_count;                     /* G: a Volume object's grids its program reads (core/volumes/grids.py), or 0 */
-    const double *grid_table;               /* (G, GRID_COLUMNS) each grid's start in voxels, X, Y, Z, C, lower (3), to_index (12) */
+    const double *grid_table;               /* (G, GRID_COLUMNS) each grid's start in voxels, X, Y, Z, C, lower (3), to_index (12), cubic */
     const float *voxels;                    /* the grids' values, each (X, Y, Z, C) row-major */
 };
 

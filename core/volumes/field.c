@@ -17,32 +17,40 @@ typedef struct {
     double tau[MAX_PIECES + 3][3];
 } March;
 
-/* grids.sample: grid g's RGBA (4) at object-space point local (3): trilinear over the voxels around its index point,
- * 0 outside the grid's box, alpha 1. */
+/* grids.sample: grid g's RGBA (4) at object-space point local (3): trilinear over the voxels around its index point
+ * (a tricubic B-spline over 4^3 where the grid is cubic), 0 outside the grid's box, alpha 1. */
 static void grid_sample(const VolumeField *f, int g, const double *local, double *rgba)
 {
     const double *row = f->grid_table + GRID_COLUMNS * g, *m = row + 8;
     const float *values = f->voxels + (int64_t)row[0];
     int64_t dims[3] = {(int64_t)row[1], (int64_t)row[2], (int64_t)row[3]}, C = (int64_t)row[4], base[3];
-    double t[3], sum[3] = {0.0, 0.0, 0.0};
+    int cubic = row[20] != 0.0, taps = cubic ? 4 : 2;
+    double w[3][4], sum[3] = {0.0, 0.0, 0.0};
     for (int r = 0; r < 3; r++) {
         double P = (((local[0] * m[4 * r] + local[1] * m[4 * r + 1]) + local[2] * m[4 * r + 2]) + m[4 * r + 3])
                    - row[5 + r];
-        double b = floor(P);
-        t[r] = P - b;
-        base[r] = (int64_t)b;
+        double b = floor(P), t = P - b;
+        base[r] = (int64_t)b - cubic;
+        if (cubic) {                                    /* (grids.cubic_weights) */
+            w[r][0] = (((-1.0 / 6.0) * t + 0.5) * t - 0.5) * t + (1.0 / 6.0);
+            w[r][1] = ((0.5 * t - 1.0) * t) * t + (2.0 / 3.0);
+            w[r][2] = ((-0.5 * t + 0.5) * t + 0.5) * t + (1.0 / 6.0);
+            w[r][3] = (1.0 / 6.0) * t * t * t;
+        } else {
+            w[r][0] = 1.0 - t;
+            w[r][1] = t;
+        }
     }
-    for (int corner = 0; corner < 8; corner++) {
+    for (int corner = 0; corner < taps * taps * taps; corner++) {
+        int o[3] = {corner / (taps * taps), (corner / taps) % taps, corner % taps};
         int64_t index[3];
-        double weight = 1.0;
         int inside = 1;
         for (int r = 0; r < 3; r++) {
-            int o = (corner >> (2 - r)) & 1;
-            index[r] = base[r] + o;
-            weight *= o ? t[r] : 1.0 - t[r];
+            index[r] = base[r] + o[r];
             inside &= index[r] >= 0 && index[r] < dims[r];
         }
         if (!inside) continue;
+        double weight = (w[0][o[0]] * w[1][o[1]]) * w[2][o[2]];
         const float *v = values + ((index[0] * dims[1] + index[1]) * dims[2] + index[2]) * C;
         for (int c = 0; c < 3; c++) sum[c] += weight * (double)v[C == 3 ? c : 0];
     }

@@ -454,8 +454,8 @@ def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRec
 
 
 # The columns of a grid's row in VolumeField.grid_table: where its values start in `voxels`, X, Y, Z, C, lower (3),
-# to_index (12).
-GRID_COLUMNS = schema.constant("GRID_COLUMNS", 20, "the floats of a grid's row in VolumeField.grid_table")
+# to_index (12), 1 where it is sampled tricubic (Grid.cubic).
+GRID_COLUMNS = schema.constant("GRID_COLUMNS", 21, "the floats of a grid's row in VolumeField.grid_table")
 
 
 def grid_tables(grids: list) -> dict:
@@ -466,7 +466,8 @@ def grid_tables(grids: list) -> dict:
     for g, grid in enumerate(grids):
         X, Y, Z, C = grid.values.shape
         table[g, :8] = [start, X, Y, Z, C, *grid.lower]
-        table[g, 8:] = np.asarray(grid.to_index, np.float64).reshape(12)
+        table[g, 8:20] = np.asarray(grid.to_index, np.float64).reshape(12)
+        table[g, 20] = 1.0 if grid.cubic else 0.0
         start += grid.values.size
     voxels = (np.concatenate([np.ascontiguousarray(grid.values, np.float32).reshape(-1) for grid in grids])
               if grids else np.zeros(1, np.float32))
@@ -492,6 +493,6 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("linear", F64, 9, "object to world's linear part, row by row (the program's object transform)"),
     ("placement", F64, 3, "object to world's location (the program's Object Info Location)"),
     ("grid_count", I32, "G: a Volume object's grids its program reads (core/volumes/grids.py), or 0"),
-    ("grid_table", ptr(F64), "(G, GRID_COLUMNS) each grid's start in voxels, X, Y, Z, C, lower (3), to_index (12)"),
+    ("grid_table", ptr(F64), "(G, GRID_COLUMNS) each grid's start in voxels, X, Y, Z, C, lower (3), to_index (12), cubic"),
     ("voxels", ptr(F32), "the grids' values, each (X, Y, Z, C) row-major"),
 ])

@@ -29,17 +29,27 @@ MAX_VOXELS = 1 << 23
 
 class Grid(NamedTuple):
     """One grid of a Volume object: its name, values (X, Y, Z, C) float32 (C 1 or 3) over voxels lower + (i, j, k),
-    lower (3,) int64, and to_index (3, 4) float64 the affine map from object space to index space."""
+    lower (3,) int64, to_index (3, 4) float64 the affine map from object space to index space, and cubic: the
+    material's Volume > Interpolation is Cubic (Cycles' uniform cubic B-spline over 4 x 4 x 4 voxels) rather than
+    Linear (trilinear over 2 x 2 x 2)."""
 
     name: str
     values: np.ndarray
     lower: np.ndarray
     to_index: np.ndarray
+    cubic: bool = False
+
+
+def cubic_weights(t: np.ndarray) -> list:
+    """The uniform cubic B-spline's four weights (each like t) of the voxels at floor - 1 .. floor + 2 for the
+    fractions t (Cycles' fill_cubic_weights)."""
+    return [(((-1.0 / 6.0) * t + 0.5) * t - 0.5) * t + (1.0 / 6.0), ((0.5 * t - 1.0) * t) * t + (2.0 / 3.0),
+            ((-0.5 * t + 0.5) * t + 0.5) * t + (1.0 / 6.0), (1.0 / 6.0) * t * t * t]
 
 
 def sample(grid: Grid, local: np.ndarray) -> np.ndarray:
     """The grid's RGBA (n, 4) float64 at object-space points local (n, 3): trilinear over the voxels around each
-    point's index point, 0 outside the grid's box, alpha 1."""
+    point's index point (tricubic B-spline over 4^3 where `grid.cubic`), 0 outside the grid's box, alpha 1."""
     P = local @ grid.to_index[:, :3].T + grid.to_index[:, 3] - grid.lower
     base = np.floor(P)
     t = P - base
@@ -48,10 +58,13 @@ def sample(grid: Grid, local: np.ndarray) -> np.ndarray:
     dims = np.array(values.shape[:3])
     C = values.shape[3]
     out = np.zeros((len(P), C))
-    for corner in range(8):
-        offset = np.array([(corner >> 2) & 1, (corner >> 1) & 1, corner & 1])
-        index = base + offset
-        weight = np.prod(np.where(offset == 1, t, 1.0 - t), axis=1)
+    taps = 4 if grid.cubic else 2
+    weights = cubic_weights(t) if grid.cubic else [1.0 - t, t]
+    for corner in range(taps ** 3):
+        offset = np.array([corner // (taps * taps), (corner // taps) % taps, corner % taps])
+        index = base + offset - (1 if grid.cubic else 0)
+        w = [weights[offset[axis]][:, axis] for axis in range(3)]
+        weight = (w[0] * w[1]) * w[2]
         inside = ((index >= 0) & (index < dims)).all(axis=1)
         clamped = np.clip(index, 0, dims - 1)
         value = values[clamped[:, 0], clamped[:, 1], clamped[:, 2]].astype(np.float64)
