@@ -230,3 +230,30 @@ def test_a_box_of_voxels_is_bounded_and_absorbs_as_in_cycles(primer, openvdb, tm
     for columns in (slice(3, 4), slice(11, 12), slice(4, 11)):
         np.testing.assert_allclose(mine[4:12, columns].mean(axis=(0, 1)), cycles[4:12, columns].mean(axis=(0, 1)),
                                    rtol=3e-2)
+
+
+def test_a_grid_too_large_is_averaged_over_blocks_and_keeps_a_linear_ramp(primer, openvdb, monkeypatch):
+    """A grid of more values than Primer keeps (grids.MAX_VOXELS, made small here) is read slab by slab and averaged
+    over blocks of voxels, with the index map moved to the blocks' centres and said: a density linear in x (a ramp
+    over 30 x 12 x 9 voxels, voxel 0.1, turned by its transform) still reads the same linear function inside."""
+    from importlib import import_module
+    vdb = addon(primer, "vdb")
+    grids = import_module(primer.__name__ + ".core.volumes.grids")
+    monkeypatch.setattr(grids, "MAX_VOXELS", 400)
+    i = np.arange(30, dtype=np.float64)
+    values = np.broadcast_to((0.5 + 0.1 * i)[:, None, None], (30, 12, 9))
+    grid = openvdb.FloatGrid()
+    grid.name = "density"
+    grid.copyFromArray(np.ascontiguousarray(values, np.float32), ijk=(-3, 2, 5))
+    transform = openvdb.createLinearTransform(voxelSize=0.1)
+    transform.postRotate(0.4, openvdb.Axis.Z)
+    grid.transform = transform
+    warnings = []
+    made, box, factor = vdb._read_grid(grid, 0.0, False, warnings, "test")
+    assert factor == 3 and made.values.shape[:3] == (10, 4, 3) and warnings
+    # Points well inside (index x 6 .. 20, y 5 .. 8, z 8 .. 11): object = transform of the index point.
+    rng = np.random.default_rng(3)
+    index = np.stack([rng.uniform(3, 18, 50), rng.uniform(5, 8, 50), rng.uniform(8, 10, 50)], axis=1)
+    local = np.array([transform.indexToWorld(tuple(p)) for p in index])
+    got = grids.sample(made, local)[:, 0]
+    np.testing.assert_allclose(got, 0.5 + 0.1 * (index[:, 0] + 3), rtol=1e-5)

@@ -23,7 +23,7 @@ from ..native import schema
 
 # The floats a grid takes among a volume point's attributes (an Attribute node's RGBA).
 GRID_WIDTH = schema.constant("GRID_WIDTH", 4, "the floats a Volume object's grid takes among a volume point's attributes")
-# The most voxels a render keeps of all its grids (float32: 4 bytes each); a grid with more is downsampled.
+# The most values (float32: 4 bytes each) Primer keeps of one grid; a grid with more is averaged over blocks of voxels.
 MAX_VOXELS = 1 << 23
 
 
