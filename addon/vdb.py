@@ -87,8 +87,9 @@ def with_grids(entries: list, names: set, scale: float) -> list:
             grid = inputs.get("color_attribute", "")
             if grid in names:
                 color = graph_.Link(graph_.GraphNode("ATTRIBUTE", {"attribute": "grid:" + grid}), "Color")
-                inputs["color"] = graph_.Link(graph_.GraphNode(
-                    "VECT_MATH", {"operation": "MULTIPLY"}, {"0": inputs.get("color", 0.5), "1": color}), "Vector")
+                inputs["color"] = graph_.Link(graph_.GraphNode(         # (a Mix Multiply of factor 1: A x B)
+                    "MIX", {"data_type": "RGBA", "blend_type": "MULTIPLY"},
+                    {"Factor": 1.0, "A": inputs.get("color", 0.5), "B": color}), "Result")
             grid = inputs.get("temperature_attribute", "")
             if grid in names:
                 heat = graph_.Link(graph_.GraphNode("ATTRIBUTE", {"attribute": "grid:" + grid}), "Fac")

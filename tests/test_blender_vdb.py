@@ -257,3 +257,32 @@ def test_a_grid_too_large_is_averaged_over_blocks_and_keeps_a_linear_ramp(primer
     local = np.array([transform.indexToWorld(tuple(p)) for p in index])
     got = grids.sample(made, local)[:, 0]
     np.testing.assert_allclose(got, 0.5 + 0.1 * (index[:, 0] + 3), rtol=1e-5)
+
+
+def test_the_principled_volumes_attributes_multiply_its_density_color_and_temperature(primer):
+    """Cycles' svm_node_principled_volume: Density x the Density Attribute's grid, Color x the Color Attribute's,
+    Temperature x max(the Temperature Attribute's, 0); the whole closure x the Render > Space Object scale. The
+    add-on's rewrite (vdb.with_grids) read at a point of constant grids (Field.at, both kernels' graph)."""
+    from importlib import import_module
+    vdb = addon(primer, "vdb")
+    grids = import_module(primer.__name__ + ".core.volumes.grids")
+    field = import_module(primer.__name__ + ".core.volumes.field")
+    to_index = np.hstack([np.eye(3), np.full((3, 1), 1.5)])
+    made = [grids.Grid("d", np.full((4, 4, 4, 1), 0.5, np.float32), np.zeros(3), to_index),
+            grids.Grid("c", np.broadcast_to(np.array([0.2, 0.4, 0.8], np.float32), (4, 4, 4, 3)).copy(), np.zeros(3),
+                       to_index),
+            grids.Grid("t", np.full((4, 4, 4, 1), 2.0, np.float32), np.zeros(3), to_index)]
+    inputs = {"color": np.array([0.5, 0.5, 1.0]), "density": 3.0, "anisotropy": 0.0, "absorption_color": np.zeros(3),
+              "emission_strength": 0.0, "emission_color": np.ones(3), "blackbody_intensity": 1.0,
+              "blackbody_tint": np.ones(3), "temperature": 750.0, "density_attribute": "d", "color_attribute": "c",
+              "temperature_attribute": "t"}
+    entries = vdb.with_grids([("PRINCIPLED_VOLUME", 1.0, inputs)], {"d", "c", "t"}, 0.5)
+    got = field.Field(entries, (np.eye(4)[:3], np.zeros(3), np.ones(3), made)).at(np.zeros((1, 3)))
+    plain = dict(inputs, density=3.0 * 0.5, color=np.array([0.5, 0.5, 1.0]) * [0.2, 0.4, 0.8], temperature=1500.0)
+    want = field.closure_at("PRINCIPLED_VOLUME", 0.5, {k: np.atleast_2d(np.asarray(plain[k], np.float64))
+                                                       for k in field.INPUT_WIDTHS if k in plain} | {
+        "anisotropy": np.zeros((1, 1))})
+    np.testing.assert_allclose(got.sigma_s, want.sigma_s, rtol=1e-6)
+    np.testing.assert_allclose(got.sigma_a, want.sigma_a, rtol=1e-6)
+    np.testing.assert_allclose(got.emission, want.emission, rtol=1e-5)
+    assert want.emission.max() > 0.0 and want.sigma_s.max() > 0.0
