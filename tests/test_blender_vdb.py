@@ -286,3 +286,18 @@ def test_the_principled_volumes_attributes_multiply_its_density_color_and_temper
     np.testing.assert_allclose(got.sigma_a, want.sigma_a, rtol=1e-6)
     np.testing.assert_allclose(got.emission, want.emission, rtol=1e-5)
     assert want.emission.max() > 0.0 and want.sigma_s.max() > 0.0
+
+
+def test_a_volume_sequence_reads_the_grids_of_the_current_frame(primer, openvdb):
+    """A Volume whose file is a sequence (seq_0001.vdb, seq_0002.vdb) reads the current frame's grids, as Cycles."""
+    scene = ortho_scene(8, 8, 4.0)
+    first = vdb_file(openvdb, "seq_0001", np.ones((4, 4, 4)), 0.25, (0, 0, 0))
+    vdb_file(openvdb, "seq_0002", np.full((4, 4, 4), 2.0), 0.25, (0, 0, 0))
+    obj = volume_object(scene, "Seq", first, principled("Fog"))
+    obj.data.is_sequence, obj.data.frame_duration, obj.data.frame_start = True, 2, 1
+    export = addon(primer, "export")
+    for frame in (1, 2):
+        scene.frame_set(frame)
+        made = export.export_scene(bpy.context.evaluated_depsgraph_get())
+        held = [m for m in made.scene.materials if m.volume_space is not None]
+        assert [float(g.values.max()) for g in held[0].volume_space[3]] == [float(frame)]
