@@ -179,13 +179,15 @@ def volume_object(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, w
     source = bpy.data.materials.get(material.name)
     interpolation = getattr(getattr(source, "cycles", None), "volume_interpolation", "LINEAR")
     pad = 2 if interpolation == "CUBIC" else 1
-    if getattr(volume, "velocity_grid", "") and bpy.context.scene.render.use_motion_blur:
-        warnings.append(f"{where}: its velocity grid's motion blur is not modelled; Primer renders it still")
     try:
         found, _ = vdb.readAll(path)
     except Exception as error:                  # (a file OpenVDB refuses)
         warnings.append(f"{where}: OpenVDB cannot read {path} ({error}); it is not rendered")
         return None
+    velocity = {getattr(volume, key, "") for key in ("velocity_grid", "velocity_x_grid", "velocity_y_grid",
+                                                      "velocity_z_grid")} - {""}
+    if bpy.context.scene.render.use_motion_blur and velocity & {grid.name for grid in found}:
+        warnings.append(f"{where}: its velocity grid's motion blur is not modelled; Primer renders it still")
     read, first, boxes = [], None, []
     for grid in found:
         if grid.name not in names or len(read) >= 8:
