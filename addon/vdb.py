@@ -26,6 +26,8 @@ from ..core.materials import graph as graph_
 from ..core.volumes import grids as grids_
 
 _MODULE: list = []          # [the openvdb module, or None], found once
+# The most grids of one Volume Primer reads (each takes 4 of the volume point's MAX_ATTRIBUTES floats).
+MAX_GRIDS = 8
 
 
 def openvdb_module():
@@ -179,20 +181,23 @@ def volume_object(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, w
     source = bpy.data.materials.get(material.name)
     interpolation = getattr(getattr(source, "cycles", None), "volume_interpolation", "LINEAR")
     pad = 2 if interpolation == "CUBIC" else 1
-    try:
-        found, _ = vdb.readAll(path)
+    try:                                        # (the grids' names first: only the wanted grids are read whole)
+        found = [grid.name for grid in vdb.readAllGridMetadata(path)]
     except Exception as error:                  # (a file OpenVDB refuses)
         warnings.append(f"{where}: OpenVDB cannot read {path} ({error}); it is not rendered")
         return None
     velocity = {getattr(volume, key, "") for key in ("velocity_grid", "velocity_x_grid", "velocity_y_grid",
                                                       "velocity_z_grid")} - {""}
-    if bpy.context.scene.render.use_motion_blur and velocity & {grid.name for grid in found}:
+    if bpy.context.scene.render.use_motion_blur and velocity & set(found):
         warnings.append(f"{where}: its velocity grid's motion blur is not modelled; Primer renders it still")
     read, first, boxes = [], None, []
-    for grid in found:
-        if grid.name not in names or len(read) >= 8:
+    if len(names & set(found)) > MAX_GRIDS:
+        warnings.append(f"{where}: its material reads {len(names & set(found))} grids; Primer reads the first "
+                        f"{MAX_GRIDS} of its file, the others read 0")
+    for name in found:
+        if name not in names or len(read) >= MAX_GRIDS:
             continue
-        got = _read_grid(grid, clipping, half, warnings, where)
+        got = _read_grid(vdb.read(path, name), clipping, half, warnings, where)
         if got is None:
             continue
         grid_, (low, high), factor = got
