@@ -146,9 +146,9 @@ def _read_grid(grid, clipping: float, half: bool, warnings: list, where: str):
 
 
 def volume_object(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, warnings: list):
-    """A Volume object as Cycles renders it: (the bounding core Mesh in object space, its materials' slots (k,)
-    int64 rows of `materials` (new rows appended: its material with the grids), or None (said in `warnings`) when
-    Primer cannot render it."""
+    """A Volume object as Cycles renders it: (the bounding core Mesh in object space, its slots (k,) int64: all the
+    new row of `materials` appended for it, its first volume material with the grids, a volume-only boundary), or
+    None (said in `warnings`) when Primer cannot render it."""
     import bpy
     where = f"Volume object '{obj.name}'"
     vdb = openvdb_module()
@@ -232,11 +232,10 @@ def volume_object(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, w
     if render.space == "OBJECT":                # (Cycles' object_volume_density)
         scale = 1.0 / float(np.linalg.norm(np.asarray(matrix, np.float64)[:3, :3] @ (np.ones(3) / math.sqrt(3.0))))
     space = (np.linalg.inv(np.asarray(matrix, np.float64))[:3], 0.5 * (lo + hi), 0.5 * (hi - lo), read)
-    out = slots.copy()
-    for k, s in enumerate(slots.tolist()):
-        if s >= 0 and materials[int(s)].volume:
-            m = materials[int(s)]
-            materials.append(dataclasses.replace(m, volume=with_grids(m.volume, {g.name for g in read}, scale),
-                                                 volume_space=space, name=m.name))
-            out[k] = len(materials) - 1
-    return mesh, out
+    # Cycles keeps the first material with a Volume on the mesh it builds; its box is the medium's boundary only
+    # (a volume-only boundary: rays pass it, as a material with no Surface).
+    materials.append(dataclasses.replace(material, volume=with_grids(material.volume, {g.name for g in read}, scale),
+                                         volume_space=space, volume_only=True, nodes=[("TRANSPARENT", np.ones(3), {},
+                                                                                       [])],
+                                         transparent_shadows=True, normal=None))
+    return mesh, np.full(max(len(slots), 1), len(materials) - 1, np.int64)
