@@ -35,17 +35,21 @@ def openvdb(primer):
     return module
 
 
-def vdb_file(openvdb, name: str, values: np.ndarray, voxel: float, lower) -> str:
-    """A .vdb file (at a fixed path, so that Cycles' references keep their key) of one float grid "density" holding
-    values (X, Y, Z) at voxels lower + (i, j, k), voxel centres at index x voxel size."""
-    grid = openvdb.FloatGrid()
-    grid.name = "density"
-    grid.copyFromArray(np.ascontiguousarray(values, np.float32), ijk=tuple(int(v) for v in lower))
-    grid.transform = openvdb.createLinearTransform(voxelSize=voxel)
+def vdb_file(openvdb, name: str, values, voxel: float, lower) -> str:
+    """A .vdb file (at a fixed path, so that Cycles' references keep their key) of float grids holding values
+    (X, Y, Z) at voxels lower + (i, j, k), voxel centres at index x voxel size: `values` an array (the grid
+    "density") or {grid name: array}."""
+    made = []
+    for grid_name, array in (values if isinstance(values, dict) else {"density": values}).items():
+        grid = openvdb.FloatGrid()
+        grid.name = grid_name
+        grid.copyFromArray(np.ascontiguousarray(array, np.float32), ijk=tuple(int(v) for v in lower))
+        grid.transform = openvdb.createLinearTransform(voxelSize=voxel)
+        made.append(grid)
     folder = os.path.join(tempfile.gettempdir(), "primer-vdb-tests")
     os.makedirs(folder, exist_ok=True)
     path = os.path.join(folder, name + ".vdb")
-    openvdb.write(path, grids=[grid])
+    openvdb.write(path, grids=made)
     return path
 
 
@@ -301,3 +305,30 @@ def test_a_volume_sequence_reads_the_grids_of_the_current_frame(primer, openvdb)
         made = export.export_scene(bpy.context.evaluated_depsgraph_get())
         held = [m for m in made.scene.materials if m.volume_space is not None]
         assert [float(g.values.max()) for g in held[0].volume_space[3]] == [float(frame)]
+
+
+def test_a_fire_grid_glows_as_in_cycles_but_for_its_stochastic_temperature_lookups(primer, openvdb, tmp_path):
+    """A fire sphere: a Principled Volume (black Color, Density 3, Blackbody Intensity 1, Temperature 1500 x the
+    grid "temperature", 1.2 (1 - r^2)^2) glowing in the dark, 32 x 24, against Cycles 5.0. Cycles looks the
+    Principled Volume's Temperature Attribute up stochastically (one of the eight voxels, trilinear odds): its mean
+    glow is the voxels' glows averaged, which is more than the glow of the interpolated temperature Primer takes
+    (T^4 is convex). Measured, Primer 16 against Cycles 256: block relMSE 1.2e-5 (Cycles' own 64 against 256:
+    8.3e-7), Primer's mean 4.4% under Cycles'; said in the render's report. Bounds: 3e-5, the means within 6%."""
+    scene = ortho_scene(32, 24, 3.0)
+    i = np.arange(20) - 9.5
+    x, y, z = np.meshgrid(i * 0.1, i * 0.1, i * 0.1, indexing="ij")
+    r2 = x * x + y * y + z * z
+    shape = np.where(r2 < 1.0, (1.0 - r2) ** 2, 0.0)
+    path = vdb_file(openvdb, "fire", {"density": shape, "temperature": 1.2 * shape}, 0.1, (-10, -10, -10))
+    material = principled("Fire", (0.0, 0.0, 0.0), 3.0)
+    node = material.node_tree.nodes["Principled Volume"]
+    node.inputs["Blackbody Intensity"].default_value = 1.0
+    node.inputs["Temperature"].default_value = 1500.0
+    volume_object(scene, "Fire", path, material, (0.0, 0.0, 1.0))
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 16)[..., :3]
+    assert any("stochastically" in w for w in addon(primer, "engine").last_render.warnings)
+    cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 256, True)[..., :3]
+    error = relative_mse(mine, cycles)
+    print("fire block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
+    assert error < 3e-5
+    np.testing.assert_allclose(mine[..., 0].mean(), cycles[..., 0].mean(), rtol=6e-2)
