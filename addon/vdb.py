@@ -93,11 +93,8 @@ def with_grids(entries: list, names: set, scale: float) -> list:
                     "MIX", {"data_type": "RGBA", "blend_type": "MULTIPLY"},
                     {"Factor": 1.0, "A": inputs.get("color", 0.5), "B": color}), "Result")
             grid = inputs.get("temperature_attribute", "")
-            if grid in names:
-                heat = graph_.Link(graph_.GraphNode("ATTRIBUTE", {"attribute": "grid:" + grid}), "Fac")
-                heat = graph_.Link(graph_.GraphNode("MATH", {"operation": "MAXIMUM"}, {"0": heat, "1": 0.0}), "Value")
-                inputs["temperature"] = graph_.Link(graph_.GraphNode(
-                    "MATH", {"operation": "MULTIPLY"}, {"0": inputs.get("temperature", 1000.0), "1": heat}), "Value")
+            if grid in names:                   # (looked up stochastically by Cycles: field.closure_at's voxels)
+                inputs["temperature_grid"] = grid
         out.append((name, float(weight) * scale, inputs))
     return out
 
@@ -232,15 +229,6 @@ def volume_object(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, w
     if render.space == "OBJECT":                # (Cycles' object_volume_density)
         scale = 1.0 / float(np.linalg.norm(np.asarray(matrix, np.float64)[:3, :3] @ (np.ones(3) / math.sqrt(3.0))))
     space = (np.linalg.inv(np.asarray(matrix, np.float64))[:3], 0.5 * (lo + hi), 0.5 * (hi - lo), read)
-    hot = [i for n, _, i in material.volume if n == "PRINCIPLED_VOLUME" and i.get("temperature_attribute") in
-           {g.name for g in read} and (isinstance(i.get("blackbody_intensity"), graph_.Link)
-                                       or float(np.max(i.get("blackbody_intensity", 0.0))) > 0.0)]
-    if hot:
-        warnings.append(f"{where}: its Principled Volume's black body reads the grid "
-                        f"'{hot[0]['temperature_attribute']}'; Cycles looks it up stochastically (one voxel of the "
-                        "eight, so its glow is the voxels' glows averaged), Primer takes the glow of the interpolated "
-                        "temperature (dimmer where the temperature varies between voxels: 4% on a smooth fire "
-                        "sphere of 20^3 voxels)")
     # Cycles keeps the first material with a Volume on the mesh it builds; its box is the medium's boundary only
     # (a volume-only boundary: rays pass it, as a material with no Surface).
     materials.append(dataclasses.replace(material, volume=with_grids(material.volume, {g.name for g in read}, scale),

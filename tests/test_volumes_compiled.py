@@ -378,7 +378,7 @@ def test_a_bumped_floor_met_after_scattering_in_fog_is_shaded_alike_by_both_kern
 def test_both_kernels_sample_a_volume_objects_grids_to_the_same_pixels():
     """A Volume object's grids (core/volumes/grids.py): a float grid "density" of uneven values and a vector grid
     "color" (tricubic), under turned and scaled index maps, read by a Principled Volume (its density x the grid, as the add-on
-    writes it) and an Attribute node's Color: trilinear lookups in both kernels (field.c grid_sample), marched along
+    writes it; its black body's temperature x each voxel's, their glows averaged) and an Attribute node's Color: trilinear lookups in both kernels (field.c grid_sample), marched along
     camera, scatter and shadow rays, to the same pixels."""
     from core.materials.graph import GraphNode, Link
     from core.volumes.grids import Grid
@@ -391,7 +391,8 @@ def test_both_kernels_sample_a_volume_objects_grids_to_the_same_pixels():
     fac = Link(GraphNode("ATTRIBUTE", {"attribute": "grid:density"}), "Fac")
     entries = [("PRINCIPLED_VOLUME", 1.0, {
         "color": Link(GraphNode("ATTRIBUTE", {"attribute": "attr:color"}), "Color"), "anisotropy": 0.2,
-        "density": Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": 1.5, "1": fac}), "Value")})]
+        "density": Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": 1.5, "1": fac}), "Value"),
+        "blackbody_intensity": 0.7, "temperature": 700.0, "temperature_grid": "density"})]
     scene = room(looking())
     scene.materials.append(Material(np.zeros(3), "Cloud", nodes=[("TRANSPARENT", np.ones(3), {})], volume=entries,
                                     volume_only=True,

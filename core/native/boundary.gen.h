@@ -1153,6 +1153,7 @@ struct VolumeField {
     double origin[3];                       /* the world point the render's camera-relative coordinates are relative to */
     double linear[9];                       /* object to world's linear part, row by row (the program's object transform) */
     double placement[3];                    /* object to world's location (the program's Object Info Location) */
+    const int32_t *hot;                     /* (C,) the grid each closure's black body reads its Temperature Attribute from (its voxels' glows averaged), or -1 */
     int32_t grid_count;                     /* G: a Volume object's grids its program reads (core/volumes/grids.py), or 0 */
     const double *grid_table;               /* (G, GRID_COLUMNS) each grid's start in voxels, X, Y, Z, C, lower (3), to_index (12), cubic */
     const float *voxels;                    /* the grids' values, each (X, Y, Z, C) row-major */
@@ -1239,7 +1240,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "VolumeField") == 0) return UINT64_C(7164599475561314154);
+    if (strcmp(name, "VolumeField") == 0) return UINT64_C(8444423266204665170);
     if (strcmp(name, "MediaTables") == 0) return UINT64_C(6367773730817885968);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     return 0;

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..native import schema
 from ..native.schema import F32, F64, I32, ptr
-from .grids import GRID_WIDTH, sample
+from .grids import GRID_WIDTH, corners, sample
 
 # How many pieces a ray crossing a heterogeneous medium's box along its diagonal is cut into, and the most pieces one
 # stretch of a ray is cut into (media.c's March reads the same two).
@@ -53,10 +53,11 @@ VOLUME_CLOSURE = schema.constants("VOLUME_CLOSURE", list(DEFAULTS), "a volume cl
 
 
 def linked(entries: list) -> bool:
-    """Whether a Volume output's closures [(name, weight, inputs)] have an input fed by a link (a graph.Link)."""
+    """Whether a Volume output's closures [(name, weight, inputs)] have an input fed by a link (a graph.Link), or a
+    Volume object's grid read by a Principled Volume's Temperature Attribute."""
     from ..materials.graph import Link
-    return any(isinstance(value, Link) or (key == "factors" and value) for _, _, inputs in entries
-               for key, value in inputs.items())
+    return any(isinstance(value, Link) or (key in ("factors", "temperature_grid") and value)
+               for _, _, inputs in entries for key, value in inputs.items())
 
 
 class Sample(NamedTuple):
@@ -69,8 +70,11 @@ class Sample(NamedTuple):
     gs: np.ndarray
 
 
-def closure_at(name: str, weight: float, inputs: dict) -> Sample:
-    """One closure's coefficients at n points, its inputs (n, width) float64 each (media.py's formulas, per point)."""
+def closure_at(name: str, weight: float, inputs: dict, voxels=None) -> Sample:
+    """One closure's coefficients at n points, its inputs (n, width) float64 each (media.py's formulas, per point).
+    voxels: for a Principled Volume whose Temperature Attribute reads a grid, (values (n, K), odds (n, K)) the grid's
+    voxels around each point and their interpolation weights: Cycles looks that grid up stochastically, so its black
+    body's glow is the voxels' glows (each of Temperature x max(value, 0)) averaged with those odds."""
     from .media import STEFAN_BOLTZMANN
     get = lambda key: inputs[key]                                        # noqa: E731
     n = len(next(iter(inputs.values())))
@@ -96,13 +100,19 @@ def closure_at(name: str, weight: float, inputs: dict) -> Sample:
     sigma_a = np.where(d > 0.0, np.maximum(1.0 - color, 0.0) * np.maximum(1.0 - absorption, 0.0) * d, 0.0)
     strength = get("emission_strength")
     emission = np.where(strength > 0.0, weight * strength * get("emission_color"), 0.0)
-    amount, t = get("blackbody_intensity")[:, 0], np.maximum(get("temperature")[:, 0], 0.0)
+    amount = get("blackbody_intensity")[:, 0]
     if (amount > 0.0).any():
         from ..materials.converters.blackbody import blackbody
-        intensity = STEFAN_BOLTZMANN * (1.0 + amount * (t ** 4 - 1.0))
-        glow = (get("blackbody_tint") * intensity[:, None]
-                * blackbody(t.astype(np.float32), clip=False).astype(np.float64).reshape(n, 3))
-        emission = emission + weight * np.where(((amount > 0.0) & (intensity > 0.0))[:, None], glow, 0.0)
+        each = [(get("temperature")[:, 0], None)] if voxels is None else [
+            (get("temperature")[:, 0] * np.maximum(voxels[0][:, c], 0.0), voxels[1][:, c])
+            for c in range(voxels[0].shape[1])]
+        for temperature, odds in each:
+            t = np.maximum(temperature, 0.0)
+            intensity = STEFAN_BOLTZMANN * (1.0 + amount * (t ** 4 - 1.0))
+            glow = (get("blackbody_tint") * intensity[:, None]
+                    * blackbody(t.astype(np.float32), clip=False).astype(np.float64).reshape(n, 3))
+            glow = glow if odds is None else odds[:, None] * glow
+            emission = emission + weight * np.where(((amount > 0.0) & (intensity > 0.0))[:, None], glow, 0.0)
     return Sample(sigma_a, sigma_s, emission, g * sigma_s.sum(axis=1))
 
 
@@ -143,6 +153,10 @@ class Field:
                                                                                 for key in keys)})
             nodes.append((shim, weight, {key: inputs[key] for key in keys}, list(inputs.get("factors", ()))))
             self.slots.append(keys)
+        # Each closure's grid its black body's Temperature Attribute reads (stochastically in Cycles), or -1.
+        names = [grid.name for grid in self.grids]
+        self.hot = np.array([names.index(inputs["temperature_grid"]) if inputs.get("temperature_grid") in names
+                             else -1 for _, _, inputs in entries], np.int32)
         # The images its graph reads, in a TextureSet of its own (a missing one: -1, magenta).
         from ..materials.textures import TextureSet
         images = [image for image in graph_.images_of(nodes) if image is not None]
@@ -213,7 +227,11 @@ class Field:
                     value = np.atleast_1d(np.asarray(value, np.float64)).reshape(-1)
                     value = np.repeat(value[:1], width) if len(value) < width else value[:width]
                     values[key] = np.broadcast_to(value, (n, width))
-            part = closure_at(name, float(weight), values)
+            voxels = None
+            if self.hot[k] >= 0:
+                world = P + self.origin
+                voxels = corners(self.grids[self.hot[k]], world @ self.matrix[:, :3].T + self.matrix[:, 3])
+            part = closure_at(name, float(weight), values, voxels)
             if k in factors:
                 f = factors[k]
                 part = Sample(part.sigma_a * f[:, None], part.sigma_s * f[:, None], part.emission * f[:, None],
@@ -450,7 +468,7 @@ def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRec
         closures=len(kinds), scatters=int(field.scatters), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
         factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
         matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
-        linear=field.linear.reshape(-1), placement=field.placement, **grid_tables(field.grids))
+        linear=field.linear.reshape(-1), placement=field.placement, hot=c(field.hot), **grid_tables(field.grids))
 
 
 # The columns of a grid's row in VolumeField.grid_table: where its values start in `voxels`, X, Y, Z, C, lower (3),
@@ -492,6 +510,7 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("origin", F64, 3, "the world point the render's camera-relative coordinates are relative to"),
     ("linear", F64, 9, "object to world's linear part, row by row (the program's object transform)"),
     ("placement", F64, 3, "object to world's location (the program's Object Info Location)"),
+    ("hot", ptr(I32), "(C,) the grid each closure's black body reads its Temperature Attribute from (its voxels' glows averaged), or -1"),
     ("grid_count", I32, "G: a Volume object's grids its program reads (core/volumes/grids.py), or 0"),
     ("grid_table", ptr(F64), "(G, GRID_COLUMNS) each grid's start in voxels, X, Y, Z, C, lower (3), to_index (12), cubic"),
     ("voxels", ptr(F32), "the grids' values, each (X, Y, Z, C) row-major"),

@@ -47,31 +47,44 @@ def cubic_weights(t: np.ndarray) -> list:
             ((-0.5 * t + 0.5) * t + 0.5) * t + (1.0 / 6.0), (1.0 / 6.0) * t * t * t]
 
 
-def sample(grid: Grid, local: np.ndarray) -> np.ndarray:
-    """The grid's RGBA (n, 4) float64 at object-space points local (n, 3): trilinear over the voxels around each
-    point's index point (tricubic B-spline over 4^3 where `grid.cubic`), 0 outside the grid's box, alpha 1."""
+def taps(grid: Grid, local: np.ndarray):
+    """The voxels each object-space point of local (n, 3) is interpolated from, one at a time (8 trilinear, 64
+    tricubic): yields (weight (n,) float64 (0 outside the grid's box), value (n, C) float64)."""
     P = local @ grid.to_index[:, :3].T + grid.to_index[:, 3] - grid.lower
     base = np.floor(P)
     t = P - base
     base = base.astype(np.int64)
     values = grid.values
     dims = np.array(values.shape[:3])
-    C = values.shape[3]
-    out = np.zeros((len(P), C))
-    taps = 4 if grid.cubic else 2
+    count = 4 if grid.cubic else 2
     weights = cubic_weights(t) if grid.cubic else [1.0 - t, t]
-    for corner in range(taps ** 3):
-        offset = np.array([corner // (taps * taps), (corner // taps) % taps, corner % taps])
+    for corner in range(count ** 3):
+        offset = np.array([corner // (count * count), (corner // count) % count, corner % count])
         index = base + offset - (1 if grid.cubic else 0)
         w = [weights[offset[axis]][:, axis] for axis in range(3)]
-        weight = (w[0] * w[1]) * w[2]
         inside = ((index >= 0) & (index < dims)).all(axis=1)
         clamped = np.clip(index, 0, dims - 1)
         value = values[clamped[:, 0], clamped[:, 1], clamped[:, 2]].astype(np.float64)
-        out += np.where(inside, weight, 0.0)[:, None] * value
-    rgba = np.ones((len(P), GRID_WIDTH))
+        yield np.where(inside, (w[0] * w[1]) * w[2], 0.0), np.where(inside[:, None], value, 0.0)
+
+
+def sample(grid: Grid, local: np.ndarray) -> np.ndarray:
+    """The grid's RGBA (n, 4) float64 at object-space points local (n, 3): trilinear over the voxels around each
+    point's index point (tricubic B-spline over 4^3 where `grid.cubic`), 0 outside the grid's box, alpha 1."""
+    C = grid.values.shape[3]
+    out = np.zeros((len(local), C))
+    for weight, value in taps(grid, local):
+        out += weight[:, None] * value
+    rgba = np.ones((len(local), GRID_WIDTH))
     rgba[:, :3] = out if C == 3 else out[:, :1]
     return rgba
+
+
+def corners(grid: Grid, local: np.ndarray) -> tuple:
+    """The voxels around object-space points local (n, 3) that Cycles' stochastic lookup picks from, and its odds:
+    (values (n, K) float64 the first channel, odds (n, K) float64 the interpolation weights, 0 outside the box)."""
+    found = list(taps(grid, local))
+    return np.stack([v[:, 0] for _, v in found], axis=1), np.stack([w for w, _ in found], axis=1)
 
 
 def active_box(values: np.ndarray, clipping: float) -> tuple:
