@@ -3,6 +3,7 @@ Blender ships, loaded as Volume objects; a box of constant density against the c
 kernels, and a fog sphere under a sun against Cycles."""
 from __future__ import annotations
 
+import hashlib
 import os
 import sys
 import tempfile
@@ -50,6 +51,14 @@ def vdb_file(openvdb, name: str, values, voxel: float, lower) -> str:
     os.makedirs(folder, exist_ok=True)
     path = os.path.join(folder, name + ".vdb")
     openvdb.write(path, grids=made)
+    # (OpenVDB writes a random UUID into the header, bytes 21..56; a fixed one keeps the file, and so the key of its
+    # Cycles reference, the same from run to run)
+    with open(path, "r+b") as file:
+        file.seek(21)
+        assert len(file.read(36).split(b"-")) == 5
+        digits = hashlib.md5(name.encode()).hexdigest().upper()
+        file.seek(21)
+        file.write("-".join((digits[:8], digits[8:12], digits[12:16], digits[16:20], digits[20:32])).encode())
     return path
 
 
