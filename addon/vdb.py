@@ -104,7 +104,8 @@ def _read_grid(grid, clipping: float, half: bool, warnings: list, where: str):
     active by `clipping` in the Grid's index, its downsampling factor), downsampled when its box holds more than
     grids.MAX_VOXELS values; None when empty or of a type Cycles does not read."""
     kind = grid.valueTypeName
-    channels = {"float": 1, "double": 1, "int32": 1, "int64": 1, "bool": 1, "vec3s": 3, "vec3d": 3, "vec3i": 3}.get(kind)
+    channels = {"float": 1, "double": 1, "int32": 1, "int64": 1, "bool": 1,
+                "vec3s": 3, "vec3d": 3, "vec3i": 3}.get(kind)
     if channels is None:
         warnings.append(f"{where}: grid '{grid.name}' of type {kind} is not read (Cycles reads float and vector grids)")
         return None

@@ -151,7 +151,8 @@ def test_a_box_of_voxels_absorbs_exp_of_minus_sigma_n_voxels(primer, openvdb, tm
 
 # The compiled kernel's pixel over the box's interior (measured; Cubic: the closed form, met to 1.7e-6): the reference
 # agrees with it to 1e-6.
-BOX_COMPILED = {"PRINCIPLED": np.array([0.04072344, 0.03257876, 0.02036172]), "CUBIC": np.array([1.0, 0.8, 0.5]) * np.exp(-3.2)}
+BOX_COMPILED = {"PRINCIPLED": np.array([0.04072344, 0.03257876, 0.02036172]),
+                "CUBIC": np.array([1.0, 0.8, 0.5]) * np.exp(-3.2)}
 
 
 def fog_sphere(openvdb) -> str:

@@ -1153,9 +1153,9 @@ struct VolumeField {
     double origin[3];                       /* the world point the render's camera-relative coordinates are relative to */
     double linear[9];                       /* object to world's linear part, row by row (the program's object transform) */
     double placement[3];                    /* object to world's location (the program's Object Info Location) */
-    const int32_t *hot;                     /* (C,) the grid each closure's black body reads its Temperature Attribute from (its voxels' glows averaged), or -1 */
+    const int32_t *hot;                     /* (C,) the grid of each closure's black body's Temperature Attribute (glows averaged), or -1 */
     int32_t grid_count;                     /* G: a Volume object's grids its program reads (core/volumes/grids.py), or 0 */
-    const double *grid_table;               /* (G, GRID_COLUMNS) each grid's start in voxels, X, Y, Z, C, lower (3), to_index (12), cubic */
+    const double *grid_table;               /* (G, GRID_COLUMNS) each grid's start, X, Y, Z, C, lower (3), to_index (12), cubic */
     const float *voxels;                    /* the grids' values, each (X, Y, Z, C) row-major */
 };
 

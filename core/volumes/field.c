@@ -18,7 +18,8 @@ typedef struct {
 } March;
 
 /* grids.taps: the voxels grid g interpolates object-space point local (3) from (8 trilinear, 64 tricubic): their
- * weights (0 outside the grid's box) and values' pointers (NULL outside) into weight[64], value[64]; returns how many. */
+ * weights (0 outside the grid's box) and values' pointers (NULL outside) into weight[64], value[64]; returns
+ * how many. */
 static int grid_taps(const VolumeField *f, int g, const double *local, double *weight, const float **value)
 {
     const double *row = f->grid_table + GRID_COLUMNS * g, *m = row + 8;

@@ -510,8 +510,8 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("origin", F64, 3, "the world point the render's camera-relative coordinates are relative to"),
     ("linear", F64, 9, "object to world's linear part, row by row (the program's object transform)"),
     ("placement", F64, 3, "object to world's location (the program's Object Info Location)"),
-    ("hot", ptr(I32), "(C,) the grid each closure's black body reads its Temperature Attribute from (its voxels' glows averaged), or -1"),
+    ("hot", ptr(I32), "(C,) the grid of each closure's black body's Temperature Attribute (glows averaged), or -1"),
     ("grid_count", I32, "G: a Volume object's grids its program reads (core/volumes/grids.py), or 0"),
-    ("grid_table", ptr(F64), "(G, GRID_COLUMNS) each grid's start in voxels, X, Y, Z, C, lower (3), to_index (12), cubic"),
+    ("grid_table", ptr(F64), "(G, GRID_COLUMNS) each grid's start, X, Y, Z, C, lower (3), to_index (12), cubic"),
     ("voxels", ptr(F32), "the grids' values, each (X, Y, Z, C) row-major"),
 ])

@@ -22,7 +22,8 @@ import numpy as np
 from ..native import schema
 
 # The floats a grid takes among a volume point's attributes (an Attribute node's RGBA).
-GRID_WIDTH = schema.constant("GRID_WIDTH", 4, "the floats a Volume object's grid takes among a volume point's attributes")
+GRID_WIDTH = schema.constant("GRID_WIDTH", 4,
+                             "the floats a Volume object's grid takes among a volume point's attributes")
 # The most values (float32: 4 bytes each) Primer keeps of one grid; a grid with more is averaged over blocks of voxels.
 MAX_VOXELS = 1 << 23
 
