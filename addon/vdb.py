@@ -145,7 +145,7 @@ def _read_grid(grid, clipping: float, half: bool, warnings: list, where: str):
 
 def volume_object(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, warnings: list):
     """A Volume object as Cycles renders it: (the bounding core Mesh in object space, its slots (k,) int64: all the
-    new row of `materials` appended for it, its first volume material with the grids, a volume-only boundary), or
+    new row of `materials` appended for it, its first volume material with the grids), or
     None (said in `warnings`) when Primer cannot render it."""
     import bpy
     where = f"Volume object '{obj.name}'"
@@ -230,10 +230,8 @@ def volume_object(obj, matrix: np.ndarray, slots: np.ndarray, materials: list, w
     if render.space == "OBJECT":                # (Cycles' object_volume_density)
         scale = 1.0 / float(np.linalg.norm(np.asarray(matrix, np.float64)[:3, :3] @ (np.ones(3) / math.sqrt(3.0))))
     space = (np.linalg.inv(np.asarray(matrix, np.float64))[:3], 0.5 * (lo + hi), 0.5 * (hi - lo), read)
-    # Cycles keeps the first material with a Volume on the mesh it builds; its box is the medium's boundary only
-    # (a volume-only boundary: rays pass it, as a material with no Surface).
+    # Cycles keeps the first material with a Volume on the mesh it builds, its Surface too (drawn on the box; none:
+    # a volume-only boundary rays pass).
     materials.append(dataclasses.replace(material, volume=with_grids(material.volume, {g.name for g in read}, scale),
-                                         volume_space=space, volume_only=True, nodes=[("TRANSPARENT", np.ones(3), {},
-                                                                                       [])],
-                                         transparent_shadows=True, normal=None))
+                                         volume_space=space))
     return mesh, np.full(max(len(slots), 1), len(materials) - 1, np.int64)

@@ -343,3 +343,23 @@ def test_a_fire_grid_glows_as_in_cycles_with_its_stochastic_temperature_lookups(
     print("fire block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))
     assert error < 2e-6
     np.testing.assert_allclose(mine[..., 0].mean(), cycles[..., 0].mean(), rtol=1e-2)
+
+
+def test_a_volume_objects_surface_is_drawn_on_its_box_as_in_cycles(primer, openvdb, tmp_path):
+    """Cycles keeps a Volume object's first material with a Volume, its Surface too: an Emission surface (green, 5)
+    covers the box of voxels over the emitting plane, as in Cycles (checked once: every pixel the same, (0, 5, 0)
+    over the box, the plane outside)."""
+    scene = ortho_scene(16, 16, 4.0)
+    bpy.ops.mesh.primitive_plane_add(size=12.0, location=(0.0, 0.0, 0.0))
+    bpy.context.object.data.materials.append(emitting_material("Glow", np.array([1.0, 0.8, 0.5])))
+    material = principled("Fog", (0.0, 0.0, 0.0), 0.01)
+    tree = material.node_tree
+    surface = tree.nodes.new("ShaderNodeEmission")
+    surface.inputs["Color"].default_value = (0.0, 1.0, 0.0, 1.0)
+    surface.inputs["Strength"].default_value = 5.0
+    tree.links.new(surface.outputs[0], next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+                   .inputs["Surface"])
+    volume_object(scene, "Box", vdb_file(openvdb, "box", np.ones((8, 8, 8)), 0.25, (-4, -4, 4)), material)
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 4)[..., :3]
+    np.testing.assert_allclose(mine[5:10, 5:10], np.broadcast_to([0.0, 5.0, 0.0], (5, 5, 3)), rtol=1e-6)
+    np.testing.assert_allclose(mine[0, 0], [1.0, 0.8, 0.5], rtol=1e-6)
