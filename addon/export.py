@@ -27,14 +27,15 @@ from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
 from ..core.visibility import hidden_bits
-from . import cycles_settings, lightgroups, linking, motion, unmodelled
+from . import cycles_settings, lightgroups, linking, motion, unmodelled, vdb
 from . import materials as materials_
 
 # Primer renders objects whose evaluated data is a mesh, as Cycles does (object_is_geometry in its
 # Blender sync). Curves, text, surfaces and metaballs are skipped themselves: the depsgraph hands
 # their evaluated meshes to render engines as separate instances of type MESH (Blender 4.2 and 5.0).
-# Types Cycles renders that Primer does not (it traces triangles only):
-UNSUPPORTED_GEOMETRY = {"VOLUME"}
+# Types Cycles renders that Primer does not (it traces triangles only): none left (Volume objects: addon/vdb.py,
+# skipped with a warning where Blender ships no OpenVDB module, as 4.2's bpy module).
+UNSUPPORTED_GEOMETRY: set = set()
 
 
 class ExportError(Exception):
@@ -1386,6 +1387,17 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
                     groups["instances"].append(lightgroups.source_group(obj))
         if not instance.show_self:
             continue                    # e.g. a particle emitter that is not rendered itself
+        if obj.type == "VOLUME":                    # OpenVDB grids: a medium in Cycles' box of them (addon/vdb.py)
+            slots = materials.slot_map(obj, warnings, override)
+            made = vdb.volume_object(obj, matrix, slots, materials.materials, warnings)
+            if made is not None:
+                core.meshes.append(made[0])
+                instance_keys[len(core.instances)] = motion.placement_key(instance)
+                core.instances.append(core_scene.Instance(len(core.meshes) - 1, matrix, made[1], obj.name, None,
+                                                          int(getattr(obj, "pass_index", 0)), **instance_keywords(obj),
+                                                          asset=topmost_parent(obj).name, **links.of_object(obj)))
+                groups["instances"].append(lightgroups.source_group(obj))
+            continue
         if obj.type in UNSUPPORTED_GEOMETRY:
             if obj.name not in unsupported_noted:
                 unsupported_noted.add(obj.name)

@@ -1581,6 +1581,10 @@ def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list =
                               "heterogeneous world medium, which Primer does not render; this volume closure is left "
                               "out")
             return out
+        if kind == "ShaderNodeVolumePrincipled":       # (the grids a Volume object's medium multiplies in: vdb.py)
+            for key in ("density_attribute", "color_attribute", "temperature_attribute"):
+                socket = node.inputs.get(key.replace("_", " ").title())     # (string sockets)
+                inputs[key] = str(getattr(socket, "default_value", "") or "") if socket is not None else ""
         if factors:
             inputs["factors"] = list(factors)
         out.append((name, float(weight), inputs))
@@ -1606,7 +1610,9 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
     nodes = [(name, weight, {k: v for k, v in inputs.items() if k != "factors"}, inputs.get("factors", ()))
              for name, weight, inputs in entries]
     # (Point Info reads 0 inside a medium in Cycles too: no point is hit there.)
-    unread = sorted(({n for n in graph_.attributes_of(nodes) if not n.startswith("point_")} - {"generated", "object"})
+    # (An Attribute node's name reads a Volume object's grid; in a mesh's medium it reads 0 as in Cycles, unsaid.)
+    unread = sorted(({n for n in graph_.attributes_of(nodes) if not n.startswith(("point_", "attr:"))}
+                     - {"generated", "object"})
                     | {f"Object Info's {link.output}" for link in graph_.links_under(nodes)
                        if link.node.kind == "OBJECT_INFO" and link.output != "Location"})
     if unread:

@@ -266,10 +266,12 @@ class SceneCache:
             self.links[obj.name] = links.of_object(obj)
             if not instance.show_self:
                 continue
-            if obj.type in export.UNSUPPORTED_GEOMETRY:
+            if obj.type in export.UNSUPPORTED_GEOMETRY or obj.type == "VOLUME":
                 if obj.name not in unsupported_noted and first:
                     unsupported_noted.add(obj.name)
-                    self.warnings.append(f"object '{obj.name}' is of type {obj.type}, which Primer does not render")
+                    self.warnings.append(f"object '{obj.name}' is of type {obj.type}, which Primer's viewport does "
+                                         "not render" + (" (its final render does: F12)" if obj.type == "VOLUME"
+                                                         else ""))
                 continue
             if obj.type != "MESH" or obj.data is None:
                 continue

@@ -231,6 +231,7 @@ def scripted_parts(ref_id: str, scene, samples: int) -> dict:
     read = [bpy.data.filepath] + [bpy.path.abspath(image.filepath, library=image.library) for image in
                                   bpy.data.images if image.source in {"FILE", "SEQUENCE", "TILED", "MOVIE"}]
     read += [bpy.path.abspath(library.filepath) for library in bpy.data.libraries]
+    read += [bpy.path.abspath(volume.filepath, library=volume.library) for volume in bpy.data.volumes]  # (.vdb grids)
     settings = {"cycles": rna_values(scene.cycles),
                 "render": rna_values(scene.render, SKIPPED_RENDER_SETTINGS),
                 "view_layers": {layer.name: rna_values(layer) for layer in scene.view_layers}}

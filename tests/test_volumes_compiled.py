@@ -373,3 +373,31 @@ def test_a_bumped_floor_met_after_scattering_in_fog_is_shaded_alike_by_both_kern
     assert compiled.stats.kernels == "compiled"
     assert compiled.stats.shadow_rays == reference.stats.shadow_rays
     assert_same_pixels(reference.image, compiled.image)
+
+
+def test_both_kernels_sample_a_volume_objects_grids_to_the_same_pixels():
+    """A Volume object's grids (core/volumes/grids.py): a float grid "density" of uneven values and a vector grid
+    "color" (tricubic), under turned and scaled index maps, read by a Principled Volume (its density x the grid, as the add-on
+    writes it; its black body's temperature x each voxel's, their glows averaged) and an Attribute node's Color: trilinear lookups in both kernels (field.c grid_sample), marched along
+    camera, scatter and shadow rays, to the same pixels."""
+    from core.materials.graph import GraphNode, Link
+    from core.volumes.grids import Grid
+    rng = np.random.default_rng(7)
+    density = rng.random((9, 7, 8, 1)).astype(np.float32) * 3.0
+    color = (0.3 + 0.7 * rng.random((5, 6, 4, 3))).astype(np.float32)
+    turn = np.array([[0.8, -0.6, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]])
+    grids = [Grid("density", density, np.zeros(3), np.hstack([turn * 4.0, [[4.0], [3.0], [0.5]]])),
+             Grid("color", color, np.zeros(3), np.hstack([np.eye(3) * 2.5, [[2.0], [2.5], [-0.5]]]), cubic=True)]
+    fac = Link(GraphNode("ATTRIBUTE", {"attribute": "grid:density"}), "Fac")
+    entries = [("PRINCIPLED_VOLUME", 1.0, {
+        "color": Link(GraphNode("ATTRIBUTE", {"attribute": "attr:color"}), "Color"), "anisotropy": 0.2,
+        "density": Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": 1.5, "1": fac}), "Value"),
+        "blackbody_intensity": 0.7, "temperature": 700.0, "temperature_grid": "density"})]
+    scene = room(looking())
+    scene.materials.append(Material(np.zeros(3), "Cloud", nodes=[("TRANSPARENT", np.ones(3), {})], volume=entries,
+                                    volume_only=True,
+                                    volume_space=(np.eye(4)[:3], np.zeros(3), np.ones(3), grids)))
+    scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)), materials=np.array([len(scene.materials) - 1]))
+    reference, compiled, stats = both(scene)
+    assert stats.kernels == "compiled" and not stats.warnings
+    assert_same_pixels(reference, compiled)

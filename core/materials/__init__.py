@@ -59,7 +59,8 @@ class Material:
                 (Cycles' SD_HAS_ONLY_VOLUME); `nodes` then holds one white Transparent node
     volume_space: for a heterogeneous medium (a volume input fed by a link), the space its graph reads at a point:
                 (world-to-object (3, 4) float64, texture space location (3,), size (3,)) of the object that holds it
-                (its Object and Generated coordinates); None: the world's (core/volumes/field.py)
+                (its Object and Generated coordinates), and for a Volume object a 4th item, its [grids.Grid] (the
+                voxel grids its graph reads: core/volumes/grids.py); None: the world's (core/volumes/field.py)
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))

@@ -716,8 +716,12 @@ class Compiler:
             return self.attribute(CURVES_INFO_ATTRIBUTES[output], 1), 1, "float"
         if kind == "POINT_INFO":                        # per vertex of a point cloud's spheres (points.point_info)
             return self.point_info(output), width, vtype
-        if kind == "VOLUME_INFO":                       # Cycles' volume attributes, which no mesh has: zeros
-            return self.constant([0.0] * width), width, vtype
+        if kind == "VOLUME_INFO":                       # Cycles' volume attributes: a Volume object's grids (zeros
+            grid = "grid:" + output.lower()             # where the layout has none: every mesh, as in Cycles)
+            if output == "Color":
+                return self.attribute(grid, 3), 3, vtype
+            reg = self.attribute(grid, 3)               # (a float grid's (v, v, v, 1): its first float)
+            return reg, 1, "float"
         if kind == "INSTANCE_ATTRIBUTE":               # an Object or Instancer attribute: the instance's RGBA columns
             start = int(props["column"])                # (geometry.instance_info, Scene.instance_attributes)
             out = self.temporary(3 if output != "Alpha" else 1)

@@ -360,6 +360,10 @@
 #define VOLUME_CLOSURE_PRINCIPLED_VOLUME 2
 #define VOLUME_CLOSURE_COEFFICIENTS 3
 #define VOLUME_CLOSURE_EMISSION 4
+/* the floats of a grid's row in VolumeField.grid_table (core.volumes.field) */
+#define GRID_COLUMNS 21
+/* the floats a Volume object's grid takes among a volume point's attributes (core.volumes.grids) */
+#define GRID_WIDTH 4
 /* Stefan-Boltzmann's constant / pi x 1e-6 (a black body's volume emission) (core.volumes.media) */
 #define STEFAN_BOLTZMANN 1.8049357842496396e-14
 /* the most volume materials the compiled kernel's volume stack holds (core.volumes.media) */
@@ -1165,6 +1169,10 @@ struct VolumeField {
     double origin[3];                       /* the world point the render's camera-relative coordinates are relative to */
     double linear[9];                       /* object to world's linear part, row by row (the program's object transform) */
     double placement[3];                    /* object to world's location (the program's Object Info Location) */
+    const int32_t *hot;                     /* (C,) the grid of each closure's black body's Temperature Attribute (glows averaged), or -1 */
+    int32_t grid_count;                     /* G: a Volume object's grids its program reads (core/volumes/grids.py), or 0 */
+    const double *grid_table;               /* (G, GRID_COLUMNS) each grid's start, X, Y, Z, C, lower (3), to_index (12), cubic */
+    const float *voxels;                    /* the grids' values, each (X, Y, Z, C) row-major */
 };
 
 /* The render's homogeneous media (core/volumes/media.py Media.tables), for media.c. */
@@ -1249,7 +1257,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "VolumeField") == 0) return UINT64_C(3062569251802433246);
+    if (strcmp(name, "VolumeField") == 0) return UINT64_C(8444423266204665170);
     if (strcmp(name, "MediaTables") == 0) return UINT64_C(6367773730817885968);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     return 0;

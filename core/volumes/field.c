@@ -17,6 +17,58 @@ typedef struct {
     double tau[MAX_PIECES + 3][3];
 } March;
 
+/* grids.taps: the voxels grid g interpolates object-space point local (3) from (8 trilinear, 64 tricubic): their
+ * weights (0 outside the grid's box) and values' pointers (NULL outside) into weight[64], value[64]; returns
+ * how many. */
+static int grid_taps(const VolumeField *f, int g, const double *local, double *weight, const float **value)
+{
+    const double *row = f->grid_table + GRID_COLUMNS * g, *m = row + 8;
+    const float *values = f->voxels + (int64_t)row[0];
+    int64_t dims[3] = {(int64_t)row[1], (int64_t)row[2], (int64_t)row[3]}, C = (int64_t)row[4], base[3];
+    int cubic = row[20] != 0.0, taps = cubic ? 4 : 2;
+    double w[3][4];
+    for (int r = 0; r < 3; r++) {
+        double P = (((local[0] * m[4 * r] + local[1] * m[4 * r + 1]) + local[2] * m[4 * r + 2]) + m[4 * r + 3])
+                   - row[5 + r];
+        double b = floor(P), t = P - b;
+        base[r] = (int64_t)b - cubic;
+        if (cubic) {                                    /* (grids.cubic_weights) */
+            w[r][0] = (((-1.0 / 6.0) * t + 0.5) * t - 0.5) * t + (1.0 / 6.0);
+            w[r][1] = ((0.5 * t - 1.0) * t) * t + (2.0 / 3.0);
+            w[r][2] = ((-0.5 * t + 0.5) * t + 0.5) * t + (1.0 / 6.0);
+            w[r][3] = (1.0 / 6.0) * t * t * t;
+        } else {
+            w[r][0] = 1.0 - t;
+            w[r][1] = t;
+        }
+    }
+    for (int corner = 0; corner < taps * taps * taps; corner++) {
+        int o[3] = {corner / (taps * taps), (corner / taps) % taps, corner % taps};
+        int64_t index[3];
+        int inside = 1;
+        for (int r = 0; r < 3; r++) {
+            index[r] = base[r] + o[r];
+            inside &= index[r] >= 0 && index[r] < dims[r];
+        }
+        weight[corner] = inside ? (w[0][o[0]] * w[1][o[1]]) * w[2][o[2]] : 0.0;
+        value[corner] = inside ? values + ((index[0] * dims[1] + index[1]) * dims[2] + index[2]) * C : NULL;
+    }
+    return taps * taps * taps;
+}
+
+/* grids.sample: grid g's RGBA (4) at object-space point local (3): trilinear over the voxels around its index point
+ * (a tricubic B-spline over 4^3 where the grid is cubic), 0 outside the grid's box, alpha 1. */
+static void grid_sample(const VolumeField *f, int g, const double *local, double *rgba)
+{
+    double weight[64], sum[3] = {0.0, 0.0, 0.0};
+    const float *value[64];
+    int C = (int)f->grid_table[GRID_COLUMNS * g + 4], n = grid_taps(f, g, local, weight, value);
+    for (int k = 0; k < n; k++)
+        for (int c = 0; c < 3; c++) sum[c] += weight[k] * (value[k] ? (double)value[k][C == 3 ? c : 0] : 0.0);
+    for (int c = 0; c < 3; c++) rgba[c] = sum[c];
+    rgba[3] = 1.0;
+}
+
 /* Field.coordinates and the volume shading point Field.at runs its program at: the camera-relative point P (3) in
  * world space, its Generated and Object coordinates, a volume-scatter path; info: room for OBJECT_INFO_WIDTH. */
 INLINE void field_point(const VolumeField *f, const double *P, double *info, ShadingPoint *sp)
@@ -26,8 +78,9 @@ INLINE void field_point(const VolumeField *f, const double *P, double *info, Sha
     for (int r = 0; r < 3; r++)
         local[r] = ((world[0] * f->matrix[4 * r] + world[1] * f->matrix[4 * r + 1]) + world[2] * f->matrix[4 * r + 2])
                    + f->matrix[4 * r + 3];
-    sp->width = 6;
-    for (int k = 0; k < 6; k++) sp->attributes[k] = sp->d_du[k] = sp->d_dv[k] = 0.0;
+    sp->width = 6 + GRID_WIDTH * f->grid_count;
+    for (int k = 0; k < sp->width; k++) sp->attributes[k] = sp->d_du[k] = sp->d_dv[k] = 0.0;
+    for (int g = 0; g < f->grid_count; g++) grid_sample(f, g, local, sp->attributes + 6 + GRID_WIDTH * g);
     for (int c = 0; c < 3; c++) {
         sp->attributes[c] = (f->size[c] != 0.0 ? (local[c] - f->location[c]) / (2.0 * f->size[c]) : 0.0) + 0.5;
         sp->attributes[3 + c] = local[c];
@@ -115,13 +168,24 @@ static void field_at(const VolumeField *f, const double *P, double *sigma_a, dou
             for (int c = 0; c < 3; c++) e[c] = x[0] > 0.0 ? (w * x[0]) * y[c] : 0.0;
             field_input(f, k, VOLUME_INPUT_BLACKBODY_INTENSITY, reg, x);
             field_input(f, k, VOLUME_INPUT_TEMPERATURE, reg, y);
-            double amount = x[0], t = y[0] > 0.0 ? y[0] : 0.0;
-            double intensity = STEFAN_BOLTZMANN * (1.0 + amount * (pow(t, 4.0) - 1.0));
-            if (amount > 0.0 && intensity > 0.0) {          /* (a black body's glow, tinted) */
-                double tint[3], bb[3];
-                field_input(f, k, VOLUME_INPUT_BLACKBODY_TINT, reg, tint);
-                blackbody_unclipped((float)t, bb);
-                for (int c = 0; c < 3; c++) e[c] = e[c] + w * ((tint[c] * intensity) * bb[c]);
+            double amount = x[0], odds[64];
+            const float *voxel[64];
+            /* (a Temperature Attribute's grid, which Cycles looks up stochastically: the voxels' glows averaged) */
+            int hot = f->hot[k], taps = hot >= 0 ? grid_taps(f, hot, sp.attributes + 3, odds, voxel) : 1;
+            for (int j = 0; j < taps && amount > 0.0; j++) {
+                double v = hot >= 0 ? (voxel[j] ? (double)voxel[j][0] : 0.0) : 1.0;
+                double t = hot >= 0 ? y[0] * (v > 0.0 ? v : 0.0) : y[0];
+                t = t > 0.0 ? t : 0.0;
+                double intensity = STEFAN_BOLTZMANN * (1.0 + amount * (pow(t, 4.0) - 1.0));
+                if (intensity > 0.0) {                      /* (a black body's glow, tinted) */
+                    double tint[3], bb[3];
+                    field_input(f, k, VOLUME_INPUT_BLACKBODY_TINT, reg, tint);
+                    blackbody_unclipped((float)t, bb);
+                    for (int c = 0; c < 3; c++) {
+                        double glow = (tint[c] * intensity) * bb[c];
+                        e[c] = e[c] + w * (hot >= 0 ? odds[j] * glow : glow);
+                    }
+                }
             }
         }
         double share = 1.0;                             /* (linked Mix Shader factors above it) */

@@ -26,7 +26,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ..native import schema
-from ..native.schema import F64, I32, ptr
+from ..native.schema import F32, F64, I32, ptr
+from .grids import GRID_WIDTH, corners, sample
 
 # How many pieces a ray crossing a heterogeneous medium's box along its diagonal is cut into, and the most pieces one
 # stretch of a ray is cut into (media.c's March reads the same two).
@@ -52,10 +53,11 @@ VOLUME_CLOSURE = schema.constants("VOLUME_CLOSURE", list(DEFAULTS), "a volume cl
 
 
 def linked(entries: list) -> bool:
-    """Whether a Volume output's closures [(name, weight, inputs)] have an input fed by a link (a graph.Link)."""
+    """Whether a Volume output's closures [(name, weight, inputs)] have an input fed by a link (a graph.Link), or a
+    Volume object's grid read by a Principled Volume's Temperature Attribute."""
     from ..materials.graph import Link
-    return any(isinstance(value, Link) or (key == "factors" and value) for _, _, inputs in entries
-               for key, value in inputs.items())
+    return any(isinstance(value, Link) or (key in ("factors", "temperature_grid") and value)
+               for _, _, inputs in entries for key, value in inputs.items())
 
 
 class Sample(NamedTuple):
@@ -68,8 +70,11 @@ class Sample(NamedTuple):
     gs: np.ndarray
 
 
-def closure_at(name: str, weight: float, inputs: dict) -> Sample:
-    """One closure's coefficients at n points, its inputs (n, width) float64 each (media.py's formulas, per point)."""
+def closure_at(name: str, weight: float, inputs: dict, voxels=None) -> Sample:
+    """One closure's coefficients at n points, its inputs (n, width) float64 each (media.py's formulas, per point).
+    voxels: for a Principled Volume whose Temperature Attribute reads a grid, (values (n, K), odds (n, K)) the grid's
+    voxels around each point and their interpolation weights: Cycles looks that grid up stochastically, so its black
+    body's glow is the voxels' glows (each of Temperature x max(value, 0)) averaged with those odds."""
     from .media import STEFAN_BOLTZMANN
     get = lambda key: inputs[key]                                        # noqa: E731
     n = len(next(iter(inputs.values())))
@@ -95,13 +100,19 @@ def closure_at(name: str, weight: float, inputs: dict) -> Sample:
     sigma_a = np.where(d > 0.0, np.maximum(1.0 - color, 0.0) * np.maximum(1.0 - absorption, 0.0) * d, 0.0)
     strength = get("emission_strength")
     emission = np.where(strength > 0.0, weight * strength * get("emission_color"), 0.0)
-    amount, t = get("blackbody_intensity")[:, 0], np.maximum(get("temperature")[:, 0], 0.0)
+    amount = get("blackbody_intensity")[:, 0]
     if (amount > 0.0).any():
         from ..materials.converters.blackbody import blackbody
-        intensity = STEFAN_BOLTZMANN * (1.0 + amount * (t ** 4 - 1.0))
-        glow = (get("blackbody_tint") * intensity[:, None]
-                * blackbody(t.astype(np.float32), clip=False).astype(np.float64).reshape(n, 3))
-        emission = emission + weight * np.where(((amount > 0.0) & (intensity > 0.0))[:, None], glow, 0.0)
+        each = [(get("temperature")[:, 0], None)] if voxels is None else [
+            (get("temperature")[:, 0] * np.maximum(voxels[0][:, c], 0.0), voxels[1][:, c])
+            for c in range(voxels[0].shape[1])]
+        for temperature, odds in each:
+            t = np.maximum(temperature, 0.0)
+            intensity = STEFAN_BOLTZMANN * (1.0 + amount * (t ** 4 - 1.0))
+            glow = (get("blackbody_tint") * intensity[:, None]
+                    * blackbody(t.astype(np.float32), clip=False).astype(np.float64).reshape(n, 3))
+            glow = glow if odds is None else odds[:, None] * glow
+            emission = emission + weight * np.where(((amount > 0.0) & (intensity > 0.0))[:, None], glow, 0.0)
     return Sample(sigma_a, sigma_s, emission, g * sigma_s.sum(axis=1))
 
 
@@ -109,8 +120,10 @@ class Field:
     """A heterogeneous medium: a material's Volume closures [(name, weight, inputs)] with linked inputs, evaluated
     point by point (`at`).
 
-    space: (world-to-object (3, 4) float64, texture space location (3,), size (3,)) of the object that holds it (its
-    object and generated coordinates; None: the identity and the unit box around the origin); origin: (3,) the
+    space: (world-to-object (3, 4) float64, texture space location (3,), size (3,)[, grids]) of the object that holds
+    it (its object and generated coordinates; None: the identity and the unit box around the origin); grids: a
+    Volume object's [grids.Grid], which its graph reads as the attributes "grid:NAME" and "attr:NAME" (an Attribute
+    node's, Volume Info's), four floats each after the coordinates; origin: (3,) the
     world point the render's coordinates are relative to (geometry.origin); bounds: (low (3,), high (3,)) the
     camera-relative box of its triangles (the march's extent and step)."""
 
@@ -118,7 +131,11 @@ class Field:
         from ..materials import graph as graph_
         self.entries = entries
         self.origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
-        matrix, location, size = space if space is not None else (np.eye(4)[:3], np.zeros(3), np.ones(3))
+        matrix, location, size, *rest = space if space is not None else (np.eye(4)[:3], np.zeros(3), np.ones(3))
+        self.grids = list(rest[0]) if rest and rest[0] else []
+        self.layout = dict(LAYOUT)
+        for g, grid in enumerate(self.grids):
+            self.layout["grid:" + grid.name] = self.layout["attr:" + grid.name] = (6 + GRID_WIDTH * g, GRID_WIDTH)
         self.matrix = np.asarray(matrix, np.float64).reshape(3, 4)
         self.location, self.size = np.asarray(location, np.float64), np.asarray(size, np.float64)
         # (and object to world: the Vector Transform's and Object Info's Location, graph.object_matrices)
@@ -136,12 +153,16 @@ class Field:
                                                                                 for key in keys)})
             nodes.append((shim, weight, {key: inputs[key] for key in keys}, list(inputs.get("factors", ()))))
             self.slots.append(keys)
+        # Each closure's grid its black body's Temperature Attribute reads (stochastically in Cycles), or -1.
+        names = [grid.name for grid in self.grids]
+        self.hot = np.array([names.index(inputs["temperature_grid"]) if inputs.get("temperature_grid") in names
+                             else -1 for _, _, inputs in entries], np.int32)
         # The images its graph reads, in a TextureSet of its own (a missing one: -1, magenta).
         from ..materials.textures import TextureSet
         images = [image for image in graph_.images_of(nodes) if image is not None]
         rows = {id(image): row for row, image in enumerate(images)}
         self.textures = TextureSet.of(images)
-        self.program = graph_.Compiler(LAYOUT, lambda image: rows.get(id(image), -1),
+        self.program = graph_.Compiler(self.layout, lambda image: rows.get(id(image), -1),
                                        material="volume").compile(nodes)
 
     @property
@@ -167,20 +188,22 @@ class Field:
         return False
 
     def coordinates(self, P: np.ndarray) -> np.ndarray:
-        """The generated and object coordinates (n, 6) float64 of camera-relative points P (n, 3)."""
+        """The generated and object coordinates of camera-relative points P (n, 3), then each grid's RGBA there:
+        (n, 6 + 4 G) float64."""
         world = P + self.origin
         local = world @ self.matrix[:, :3].T + self.matrix[:, 3]
         generated = np.divide(local - self.location, 2.0 * self.size, out=np.zeros_like(local),
                               where=self.size != 0.0) + 0.5
-        return np.concatenate([generated, local], axis=1)
+        return np.concatenate([generated, local] + [sample(grid, local) for grid in self.grids], axis=1)
 
     def at(self, P: np.ndarray) -> Sample:
         """The medium's coefficients at camera-relative points P (n, 3) float64."""
         from ..materials import graph as graph_
         n = len(P)
+        width = 6 + GRID_WIDTH * len(self.grids)
         info = np.zeros((n, 8))
         info[:, :3] = self.placement
-        point = graph_.empty_point(n, 6)._replace(attributes=self.coordinates(P), P=P + self.origin,
+        point = graph_.empty_point(n, width)._replace(attributes=self.coordinates(P), P=P + self.origin,
                                                   path=graph_.light_paths(n, flags=graph_.PATH["volume_scatter"]),
                                                   linear=np.broadcast_to(self.linear, (n, 3, 3)), info=info)
         registers = graph_.run(self.program, point, self.textures)
@@ -204,7 +227,11 @@ class Field:
                     value = np.atleast_1d(np.asarray(value, np.float64)).reshape(-1)
                     value = np.repeat(value[:1], width) if len(value) < width else value[:width]
                     values[key] = np.broadcast_to(value, (n, width))
-            part = closure_at(name, float(weight), values)
+            voxels = None
+            if self.hot[k] >= 0:
+                world = P + self.origin
+                voxels = corners(self.grids[self.hot[k]], world @ self.matrix[:, :3].T + self.matrix[:, 3])
+            part = closure_at(name, float(weight), values, voxels)
             if k in factors:
                 f = factors[k]
                 part = Sample(part.sigma_a * f[:, None], part.sigma_s * f[:, None], part.emission * f[:, None],
@@ -441,7 +468,29 @@ def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRec
         closures=len(kinds), scatters=int(field.scatters), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
         factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
         matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
-        linear=field.linear.reshape(-1), placement=field.placement)
+        linear=field.linear.reshape(-1), placement=field.placement, hot=c(field.hot), **grid_tables(field.grids))
+
+
+# The columns of a grid's row in VolumeField.grid_table: where its values start in `voxels`, X, Y, Z, C, lower (3),
+# to_index (12), 1 where it is sampled tricubic (Grid.cubic).
+GRID_COLUMNS = schema.constant("GRID_COLUMNS", 21, "the floats of a grid's row in VolumeField.grid_table")
+
+
+def grid_tables(grids: list) -> dict:
+    """What C reads of a Field's grids: grid_count, grid_table (G, GRID_COLUMNS) float64, voxels (all the grids'
+    values, each (X, Y, Z, C) row-major) float32."""
+    table = np.zeros((max(len(grids), 1), GRID_COLUMNS))
+    start = 0
+    for g, grid in enumerate(grids):
+        X, Y, Z, C = grid.values.shape
+        table[g, :8] = [start, X, Y, Z, C, *grid.lower]
+        table[g, 8:20] = np.asarray(grid.to_index, np.float64).reshape(12)
+        table[g, 20] = 1.0 if grid.cubic else 0.0
+        start += grid.values.size
+    voxels = (np.concatenate([np.ascontiguousarray(grid.values, np.float32).reshape(-1) for grid in grids])
+              if grids else np.zeros(1, np.float32))
+    return {"grid_count": len(grids), "grid_table": np.ascontiguousarray(table.reshape(-1)),
+            "voxels": np.ascontiguousarray(voxels)}
 
 
 VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/volumes/field.py Field): its program and closures, for media.c's march.", [
@@ -461,4 +510,8 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("origin", F64, 3, "the world point the render's camera-relative coordinates are relative to"),
     ("linear", F64, 9, "object to world's linear part, row by row (the program's object transform)"),
     ("placement", F64, 3, "object to world's location (the program's Object Info Location)"),
+    ("hot", ptr(I32), "(C,) the grid of each closure's black body's Temperature Attribute (glows averaged), or -1"),
+    ("grid_count", I32, "G: a Volume object's grids its program reads (core/volumes/grids.py), or 0"),
+    ("grid_table", ptr(F64), "(G, GRID_COLUMNS) each grid's start, X, Y, Z, C, lower (3), to_index (12), cubic"),
+    ("voxels", ptr(F32), "the grids' values, each (X, Y, Z, C) row-major"),
 ])
