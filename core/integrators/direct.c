@@ -1097,16 +1097,24 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
     double origin[PACKET][3];
     int kinds[PACKET];
     LightPath after[PACKET];
+    /* The hits' sample points (sobol.sample_2d, the same numbers) all at once in SIMD lanes: each hit's direction
+     * (u) and the number that picks its closure (pick; its second coordinate unused). */
+    uint32_t key_pixel[BLOCK], key_index[BLOCK];
+    double u0[BLOCK], u1[BLOCK], pick0[BLOCK], pick1[BLOCK];
+    for (int64_t h = 0; h < H->m; h++) {
+        key_pixel[h] = (uint32_t)H->pixel[h];
+        key_index[h] = (uint32_t)H->sample[h];
+    }
+    sample_lanes(H->m, stream, key_pixel, key_index, u0, u1);
+    sample_lanes(H->m, pick_stream, key_pixel, key_index, pick0, pick1);
     int lanes = 0;
     for (int64_t h = 0; h <= H->m; h++) {
         if (h < H->m) {
             /* a. A direction from the hit's closures, and the ray that leaves on its side. */
-            double u[2], pick[2];
-            sample_2d(stream, H->pixel[h], H->sample[h], u);
-            sample_2d(pick_stream, H->pixel[h], H->sample[h], pick);
             ClosureSample *s = sampled + lanes;
             if (!H->traced[h]) continue;
-            shader_sample(H->sd + h, H->wo + 3 * h, u, pick[0], s);
+            double u[2] = {u0[h], u1[h]};
+            shader_sample(H->sd + h, H->wo + 3 * h, u, pick0[h], s);
             if (!(s->pdf > 0.0)) continue;
             const Surface *sf = H->s + h;
             spawn_ray(sf->I, sf->Ng, s->wi, ds->shadows->robust != 0.0 ? sf->offset : ds->shadows->epsilon, origin[lanes]);

@@ -62,16 +62,34 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
     /* theta_u: the half-angle around the direction w to the centre that holds the box's corners (cos^2
      * of each corner's angle, all of them in front, else the cone passes a hemisphere: every direction). */
     double w[3] = {v[0] / d, v[1] / d, v[2] / d};
+    /* Each corner's offset from P takes lo[c] - P[c] or hi[c] - P[c] on each axis, so its terms of w . offset and
+     * |offset|^2 are two products per axis, made once: the same numbers as corner by corner, summed in dot3's
+     * order, with no branch until every corner is known to be in front. */
+    double along_of[2][3], square_of[2][3];
+    for (int c = 0; c < 3; c++) {
+        double near = lo[c] - P[c], far = hi[c] - P[c];
+        along_of[0][c] = w[c] * near;
+        along_of[1][c] = w[c] * far;
+        square_of[0][c] = near * near;
+        square_of[1][c] = far * far;
+    }
+    double along[8], length2[8];
+    int in_front = 1;
+    for (int corner = 0; corner < 8; corner++) {
+        int x = corner & 1, y = (corner >> 1) & 1, z = (corner >> 2) & 1;
+        along[corner] = along_of[x][0] + along_of[y][1] + along_of[z][2];
+        length2[corner] = square_of[x][0] + square_of[y][1] + square_of[z][2];
+        in_front &= along[corner] > 0.0;
+    }
+    if (!in_front) return;
     /* (The smallest along^2 / length^2 kept as a fraction, compared by cross-multiplying: one division, not 8.) */
     double least_along2 = 1.0, least_length2 = 1.0, farthest2 = 0.0;
     for (int corner = 0; corner < 8; corner++) {
-        double to_corner[3];
-        for (int c = 0; c < 3; c++) to_corner[c] = (((corner >> c) & 1) ? hi[c] : lo[c]) - P[c];
-        double along = dot3(w, to_corner);
-        if (!(along > 0.0)) return;
-        double along2 = along * along, length2 = dot3(to_corner, to_corner);
-        if (along2 * least_length2 < least_along2 * length2) { least_along2 = along2; least_length2 = length2; }
-        farthest2 = at_least(farthest2, length2);
+        double along2 = along[corner] * along[corner];
+        int less = along2 * least_length2 < least_along2 * length2[corner];
+        least_along2 = less ? along2 : least_along2;
+        least_length2 = less ? length2[corner] : least_length2;
+        farthest2 = at_least(farthest2, length2[corner]);
     }
     double cos2_u = least_along2 / least_length2;
     double cos_u = sqrt(cos2_u < 1.0 ? cos2_u : 1.0), sin_u = sqrt(at_least(1.0 - cos2_u, 0.0));
