@@ -30,17 +30,21 @@ _MODULE: list = []          # [the openvdb module, or None], found once
 MAX_GRIDS = 8
 
 
+def _imported(names: tuple):
+    """The first of the modules `names` that imports, or None."""
+    for name in names:
+        try:
+            return __import__(name)
+        except ImportError:
+            pass
+    return None
+
+
 def openvdb_module():
     """The OpenVDB Python module Blender ships (openvdb or pyopenvdb), or None when this Blender has none."""
     if _MODULE:
         return _MODULE[0]
-    found = None
-    for name in ("openvdb", "pyopenvdb"):
-        try:
-            found = __import__(name)
-            break
-        except ImportError:
-            pass
+    found = _imported(("openvdb", "pyopenvdb"))
     if found is None:
         import bpy
         here = os.path.dirname(os.path.abspath(bpy.__file__))
@@ -50,12 +54,7 @@ def openvdb_module():
                 if glob.glob(os.path.join(folder, "*openvdb*")) and folder not in sys.path:
                     sys.path.append(folder)
             here = os.path.dirname(here)
-        for name in ("openvdb", "pyopenvdb"):
-            try:
-                found = __import__(name)
-                break
-            except ImportError:
-                pass
+        found = _imported(("openvdb", "pyopenvdb"))
     _MODULE.append(found)
     return found
 

@@ -139,18 +139,7 @@ def lambert_irradiance(P: np.ndarray, N: np.ndarray, V: np.ndarray) -> np.ndarra
 def pick_variance(emitters, P: np.ndarray, N: np.ndarray) -> float:
     """The mean over receivers P, N (n, 3) of the relative variance of the one-sample unshadowed direct light
     (module docstring) with the emitters' tree as it is."""
-    from core.lights.light_tree import LEFT, RIGHT
-    tree = emitters.tree
-    node_p = np.zeros((len(P), len(tree.nodes)))
-    node_p[:, 0] = 1.0
-    p = np.zeros((len(P), len(emitters.prim)))
-    for row in range(len(tree.nodes)):                   # parents come before their children
-        left, right = int(tree.nodes[row, LEFT]), int(tree.nodes[row, RIGHT])
-        if right < 0:
-            p[:, -1 - left] = node_p[:, row]
-            continue
-        p_left = tree.branch_left(P, N, np.full(len(P), row))
-        node_p[:, left], node_p[:, right] = node_p[:, row] * p_left, node_p[:, row] * (1.0 - p_left)
+    p = emitters.tree.all_pick_probabilities(P, N)
     c = np.array([emitters.emission.mean(axis=1) * lambert_irradiance(x, n, emitters.corners) for x, n in zip(P, N)])
     height = np.einsum("tk,ntk->nt", emitters.normal, emitters.corners[None, :, 0] - P[:, None])
     c *= (emitters.sides[None] & np.where(height > 0.0, 2, 1)) != 0          # sampled from P's side

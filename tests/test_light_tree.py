@@ -38,19 +38,7 @@ def random_receivers(n: int, seed: int, unknown: float = 0.25):
 
 def all_pick_probabilities(emitters: MeshEmitters, P: np.ndarray, N: np.ndarray) -> np.ndarray:
     """Every triangle's pick probability from each point, by enumerating the tree's branches: (n, t)."""
-    tree = emitters.tree
-    node_probability = np.zeros((len(P), len(tree.nodes)))
-    node_probability[:, 0] = 1.0
-    leaf_probability = np.zeros((len(P), len(emitters.prim)))
-    for row in range(len(tree.nodes)):                   # parents come before their children
-        left, right = int(tree.nodes[row, LEFT]), int(tree.nodes[row, RIGHT])
-        if right < 0:
-            leaf_probability[:, -1 - left] = node_probability[:, row]
-            continue
-        p_left = tree.branch_left(P, N, np.full(len(P), row))
-        node_probability[:, left] = node_probability[:, row] * p_left
-        node_probability[:, right] = node_probability[:, row] * (1.0 - p_left)
-    return leaf_probability
+    return emitters.tree.all_pick_probabilities(P, N)
 
 
 def test_every_node_bounds_its_triangles_and_their_orientations():

@@ -244,6 +244,23 @@ class LightTree:
         return probability
 
 
+    def all_pick_probabilities(self, P: np.ndarray, N: np.ndarray) -> np.ndarray:
+        """Every triangle's pick probability from each of the points P (n, 3) with normals N (n, 3), by walking
+        every branch of the tree (parents come before their children): (n, t) float64, each row summing to 1 (a
+        test's and the bench's closed-form view of `pick`)."""
+        node_probability = np.zeros((len(P), len(self.nodes)))
+        node_probability[:, 0] = 1.0
+        leaf_probability = np.zeros((len(P), len(self.path)))
+        for row in range(len(self.nodes)):
+            left, right = int(self.nodes[row, LEFT]), int(self.nodes[row, RIGHT])
+            if right < 0:
+                leaf_probability[:, -1 - left] = node_probability[:, row]
+                continue
+            p_left = self.branch_left(P, N, np.full(len(P), row))
+            node_probability[:, left] = node_probability[:, row] * p_left
+            node_probability[:, right] = node_probability[:, row] * (1.0 - p_left)
+        return leaf_probability
+
 def with_cosines(nodes: np.ndarray) -> np.ndarray:
     """The nodes (k, NODE_FIELDS) with their cos theta_o, sin theta_o, cos theta_e and cos(theta_e - theta_o) (2 where
     theta_o > theta_e: no lower bound) filled in from the angles."""
