@@ -31,6 +31,8 @@ INLINE void cross_product(const double *a, const double *b, double *out)
 #define TREE_COS_EO 17
 /* light_tree.CLAMP: the upper bound's distance is at least this share of the node's diagonal. */
 #define TREE_CLAMP 0.25
+/* light_tree.HORIZON: how far above P's tangent plane a box must lie, a share of its distance and size. */
+#define TREE_HORIZON 1e-6
 
 /* light_tree.importance for one node row seen from P with normal N (zero: unknown): the upper and lower bounds
  * of what it sends P, energy x the cosine bounds at the receiver and the emitter / distance^2 (Cycles'
@@ -50,11 +52,12 @@ INLINE void light_tree_importance(const double *node, const double *P, const dou
     }
     *upper = 0.0;
     if (lower != NULL) *lower = 0.0;
-    /* Nothing where the whole box lies on or below P's tangent plane. */
-    int known_normal = dot3(N, N) > 0.0;
-    if (known_normal && !(dot3(N, v) + 0.5 * dot3(N_abs, diagonal) > 0.0)) return;
     double d = sqrt(dot3(v, v));
     double half = 0.5 * sqrt(dot3(diagonal, diagonal));
+    /* Nothing where the whole box lies on or below P's tangent plane (above it by no more than light_tree.HORIZON of
+     * its distance and size: coplanar to rounding). */
+    int known_normal = dot3(N, N) > 0.0;
+    if (known_normal && !(dot3(N, v) + 0.5 * dot3(N_abs, diagonal) > TREE_HORIZON * (d + half))) return;
     double distance = at_least(d, TREE_CLAMP * 2.0 * half);
     double scale = node[TREE_ENERGY] / (distance * distance);
     *upper = scale;

@@ -69,6 +69,10 @@ COS_O, SIN_O, COS_E, COS_EO = 14, 15, 16, 17
 NODE_FIELDS = 18
 # The upper bound's distance is at least this share of the node's diagonal (Cycles: half the bounding sphere's radius).
 CLAMP = 0.25
+# A box counts as above P's tangent plane only by more than this share of its distance and size (d + half its
+# diagonal): an emitter P lies on (a floor that glows) is coplanar to rounding, and the two kernels, whose points
+# differ in their last bits, must agree that it is not above. What so little above sends P is found by BSDF rays.
+HORIZON = 1e-6
 # Past this depth the build splits at the median (balanced), so that paths fit in 62 bits.
 MEDIAN_DEPTH = 40
 MAX_DEPTH = 62
@@ -305,7 +309,8 @@ def importance(P: np.ndarray, N: np.ndarray, node: np.ndarray) -> tuple[np.ndarr
     cos_i = np.einsum("ij,ij->i", N, w)
     sin_i = np.sqrt(np.maximum(1.0 - cos_i * cos_i, 0.0))
     known_normal = np.einsum("ij,ij->i", N, N) > 0.0
-    above = ~known_normal | (np.einsum("ij,ij->i", N, v) + 0.5 * np.einsum("ij,ij->i", np.abs(N), diagonal) > 0.0)
+    height = np.einsum("ij,ij->i", N, v) + 0.5 * np.einsum("ij,ij->i", np.abs(N), diagonal)
+    above = ~known_normal | (height > HORIZON * (d + half))
     cos_incidence = np.where(~known_normal | (cos_i >= cos_u), 1.0, np.maximum(cos_i * cos_u + sin_i * sin_u, 0.0))
     cos_incidence_least = np.where(~known_normal, 1.0, np.maximum(cos_i * cos_u - sin_i * sin_u, 0.0))
     # The emitter: theta' = max(theta - theta_u - theta_o, 0), cos theta' where theta' < theta_e, else 0. The lower
