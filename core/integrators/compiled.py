@@ -147,10 +147,7 @@ def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.n
     if paths is not None or graphs is None or not library.available() or len(prim) == 0:
         return reference(geometry, materials, prim, O, D, t, paths)
     tables = GeometryTables(geometry)
-    records = [material_record(shader, opaque) for shader, opaque in zip(materials.shaders, materials.shadow_opaque)]
-    array = (MaterialRecord * len(records))(*records)
-    for row, index in graphs.rows.items():
-        array[row].graph = index + 1
+    records, array = material_records(materials, graphs)
     n = len(prim)
     emission = np.empty((n, 3))
     arrays = dict(prim=library.contiguous(prim, np.int64), O=library.contiguous(O, np.float64),
@@ -158,6 +155,16 @@ def graph_emission(geometry, materials, prim: np.ndarray, O: np.ndarray, D: np.n
     library.call("primer_graph_emission", GraphEmissionArgs(geometry=tables.record, materials=array,
                                                             graphs=graphs.record, n=n, emission=emission, **arrays))
     return emission
+
+
+def material_records(materials, graphs) -> tuple:
+    """The C records of a MaterialTable's rows, each graph material's naming its program in `graphs` (GraphTables or
+    None) by number + 1: (the records, which keep their rows' arrays alive; the C array of copies of them)."""
+    records = [material_record(shader, opaque) for shader, opaque in zip(materials.shaders, materials.shadow_opaque)]
+    array = (MaterialRecord * len(records))(*records)
+    for row, index in (graphs.rows.items() if graphs is not None else ()):
+        array[row].graph = index + 1
+    return records, array
 
 
 def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
@@ -239,14 +246,9 @@ class Compiled:
         # (the records keep their IES tables alive; the C array holds copies of their pointers)
         self.light_records = [light.pack(index, s.light_samples) for index, light in enumerate(ctx.lights)]
         self.lights = (LightRecord * max(1, len(ctx.lights)))(*self.light_records)
-        # (the records keep their rows' arrays alive; the C array holds copies of the records' pointers)
-        self.material_records = [material_record(shader, opaque)
-                                 for shader, opaque in zip(ctx.materials.shaders, ctx.materials.shadow_opaque)]
-        self.materials = (MaterialRecord * len(self.material_records))(*self.material_records)
-        # Materials with node graphs: their programs, and each record's program number (+ 1).
+        # The materials' records, those with node graphs naming their programs.
         self.graphs = graph_tables(ctx.materials, geometry.attribute_layout)
-        for row, index in (self.graphs.rows.items() if self.graphs is not None else ()):
-            self.materials[row].graph = index + 1
+        self.material_records, self.materials = material_records(ctx.materials, self.graphs)
         self.shadows = ShadowSettings(robust=s.shadow_method == "robust", epsilon=s.epsilon,
                                       terminator_fix=s.terminator_fix, terminator_offset=s.terminator_offset)
         # The emissive meshes' and the world's tables (their records in self.lights say only how often).
