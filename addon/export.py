@@ -511,7 +511,7 @@ def light_node_factor(obj, warnings: list, wiring) -> np.ndarray:
                         "(as in Cycles)")
         return np.zeros(3)
     reader = materials_.NodeReader(obj, warnings, kind="light")
-    if node.bl_idname != "ShaderNodeEmission":
+    if node.bl_idname not in materials_.EMISSION_NODES:
         reader.warn(node, f"'{node.bl_label}' at the Light Output is not an Emission node; Primer uses the "
                           "light's colour and power")
         return np.ones(3)
@@ -543,7 +543,7 @@ def lamp_ies_wiring(obj):
     and 2.5 (the node-graph program the materials use, once each): linear where they give 0, c and 2.5 c."""
     tree = materials_.node_tree(obj.data)
     emission = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight")) if tree else None
-    if emission is None or emission.bl_idname != "ShaderNodeEmission":
+    if emission is None or emission.bl_idname not in materials_.EMISSION_NODES:
         return None
     reader = materials_.NodeReader(obj, [], kind="light")
     color, strength = reader.input(emission, "Color", np.ones(3)), reader.input(emission, "Strength", 1.0)

@@ -150,17 +150,21 @@ PIXEL_SIZE_AT_LIGHT_SAMPLES = ("Pixel Size on a light-sampled emitter: light sam
                                "two, which matches Cycles only at Light Samples 1")
 
 
+# The shader nodes whose closure is an emission on a surface (or lamp): Color x Strength, two-sided.
+EMISSION_NODES = ("ShaderNodeEmission", "ShaderNodeBackground")
+
+
 def _light_sampled_emitter(material) -> bool:
     """Whether `material` (a Blender material or light) may be an emitter that light samples land on: Cycles'
-    Emission Sampling is not None and its node tree holds an Emission node or a Principled BSDF that emits (its
-    Emission Strength linked or above 0)."""
+    Emission Sampling is not None and its node tree holds an Emission or Background node (Cycles' surface takes a
+    Background as an Emission) or a Principled BSDF that emits (its Emission Strength linked or above 0)."""
     material = getattr(material, "original", material)      # (as the user set it, not a depsgraph's copy)
     sampling = getattr(getattr(material, "cycles", None), "emission_sampling", "NONE")
     tree = getattr(material, "node_tree", None)
     if sampling == "NONE" or tree is None:
         return False
     for n in tree.nodes:
-        if n.bl_idname == "ShaderNodeEmission":
+        if n.bl_idname in EMISSION_NODES:
             return True
         strength = n.inputs.get("Emission Strength") if n.bl_idname == "ShaderNodeBsdfPrincipled" else None
         if strength is not None and (strength.is_linked or strength.default_value > 0.0):
@@ -1423,7 +1427,9 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
                   "method": subsurface_.method_of(method, tuple(bpy.app.version))}
         _normal(reader, node, inputs)
         out.append(("SUBSURFACE", weight, inputs, list(factors)))
-    elif kind == "ShaderNodeEmission":
+    elif kind in EMISSION_NODES:
+        # (A Background node at a Surface emits as an Emission does: Cycles' background_setup and emission_setup
+        # add to the same emission, and its emission estimate reads both alike.)
         emission = _scaled(reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0))
         out.append(("EMISSION", weight, {"emission": emission}, list(factors)))
     elif kind == "ShaderNodeBsdfTransparent":

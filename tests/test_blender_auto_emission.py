@@ -3,7 +3,7 @@ automatic conversion: a colour its Color at Strength 1, a value its Strength of 
 group through the group's input, against Cycles' own render pixel for pixel: emitting planes seen from above by an
 orthographic camera, exported by addon/materials.py with real Blender. Found by Bricabrac's 'dynamic Color Ramp' file
 (tools/real_scenes.py: its Surface is a group's Color output; Primer rendered it black, 26% dark) and the Crack It
-materials (shaders passed into groups; Primer left them black).
+materials (shaders passed into groups; Primer left them black). A Background node at a Surface emits as an Emission does.
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ pytestmark = pytest.mark.blender
 require_bpy(__file__)
 
 PIXELS = 8                # pixels across each plane
-COLUMNS = 5
+COLUMNS = 6
 
 SCRIPT = """
 import bpy
@@ -107,6 +107,14 @@ node.node_tree = group
 tree.links.new(node.outputs[0], out.inputs["Surface"])
 grid_plane(cases, "Colour into a group's shader output", material, COLUMNS)
 
+# A Background node at a Surface: Cycles' surface takes it as an Emission (background_setup adds to the same emission).
+material, tree, out = empty_material("Background at a Surface")
+background = tree.nodes.new("ShaderNodeBackground")
+background.inputs["Strength"].default_value = 1.7
+tree.links.new(checker(tree).outputs["Color"], background.inputs["Color"])
+tree.links.new(background.outputs[0], out.inputs["Surface"])
+grid_plane(cases, "Background at a Surface", material, COLUMNS)
+
 world = bpy.data.worlds.new("Black")
 scene.world = world
 if bpy.app.version < (5, 0, 0):
@@ -117,7 +125,7 @@ report(cases=cases, warnings=warnings)
 """
 
 
-def test_a_colour_or_value_linked_into_a_shader_socket_emits_it_and_group_inputs_carry_shaders(tmp_path):
+def test_a_colour_or_value_linked_into_a_shader_socket_or_a_background_at_a_surface_emits_it(tmp_path):
     """Every plane is Cycles' pixel for pixel (emission only, constant per pixel: float32 rounding apart), none is
     black, and the export warns of nothing."""
     result = run_bpy(SCRIPT.format(pixels=PIXELS, columns=COLUMNS), str(tmp_path))
