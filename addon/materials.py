@@ -573,7 +573,7 @@ class GraphReader:
         elif kind == "TANGENT":
             props = {"direction": node.direction_type, "axis": node.axis, "map": node.uv_map}
         elif kind == "BUMP":
-            if _light_sampled_emitter(self.reader.material):
+            if node.inputs["Height"].is_linked and _light_sampled_emitter(self.reader.material):
                 warn(BUMP_AT_LIGHT_SAMPLES)
             # Filter Width (Blender 4.5 and later; Cycles reads its value when compiling, never a link)
             width = node.inputs.get("Filter Width")

@@ -1,6 +1,6 @@
 """Converter and colour nodes against Cycles' own render, pixel for pixel: Vector Math (every operation), Vector Rotate
 (every type, inverted or not), Gamma, Brightness/Contrast, RGB to BW, Blackbody, Wavelength, Separate and Combine
-Color (RGB, HSV, HSL), the vector Map Range (every interpolation), RGB Curves, Vector Curves and Float Curve (extrapolated and horizontal), each the colour of an
+Color (RGB, HSV, HSL), the vector Map Range (every interpolation), RGB Curves, Vector Curves and Float Curve (extrapolated and horizontal), a Bump of no Height, each the colour of an
 emitting plane seen by an orthographic camera, exported by addon/materials.py with real Blender.
 
 As in tests/test_blender_procedural.py, each node reads the Generated coordinate snapped to its pixel's centre
@@ -166,6 +166,11 @@ for output in ("Quadratic", "Linear", "Constant"):
          links=[("Smooth", ("x", 2.0, 1.0))])
 case("Normal Dot", "ShaderNodeNormal", "Dot", links=[("Normal", "v")], absolute=True,
      setup=lambda node: setattr(node.outputs["Normal"], "default_value", (0.3, -0.5, 0.8)))
+# A Bump of no Height: Cycles folds it away and its Normal output is what feeds its Normal, not made unit (a value in
+# a vector socket is (v, v, v): the Material Library VX's Chocolate Swirl feeds a Noise's Fac through one).
+case("Bump of no Height, a value at Normal", "ShaderNodeBump", "Normal", links=[("Normal", ("x", 0.3, 0.5))])
+case("Bump of no Height, a vector at Normal", "ShaderNodeBump", "Normal", links=[("Normal", ("v", 0.4, 0.1))],
+     absolute=True)
 
 warnings = render_plane_grid(scene, export, COLUMNS, -(-len(cases) // COLUMNS), PIXELS)
 primer.unregister()

@@ -813,6 +813,10 @@ class Compiler:
             distance = self.value(inp.get("Distance"), 1, 1.0)
             normal = self.value(inp["Normal"], 3) if isinstance(inp.get("Normal"), Link) else None
             height = inp.get("Height", 1.0)
+            if not isinstance(height, Link) and normal is not None:
+                # Cycles folds a Bump of no Height away (BumpNode::constant_fold): its Normal output is what feeds
+                # its Normal, as it is (not made unit: a value turned into a vector stays (v, v, v)).
+                return normal, 3, "vector"
             width = self.constant(float(props.get("filter_width", BUMP_FILTER_WIDTH)))
             saved, saved_width = self.offset, self.offset_width
             h = []
