@@ -374,8 +374,8 @@ COVERAGE = {
         READ: {"diffuse_color node_tree use_nodes": "materials.export_material",
                "use_transparent_shadow": "materials.export_material", "pass_index": "export.MaterialTable.index_of",
                "animation_data": DEPSGRAPH,
-               "displacement_method": "materials.export_material (Bump Only as Cycles; the moved surface of "
-                                      "Displacement Only and Displacement and Bump named)"},
+               "displacement_method": "materials.export_material (Bump Only as Cycles; Displacement Only and "
+                                      "Displacement and Bump move the vertices: core/geometry/displacement.py)"},
         NO_EFFECT: {"alpha_threshold blend_method max_vertex_displacement metallic refraction_depth roughness "
                     "shadow_method* show_transparent_back specular_color specular_intensity surface_render_method "
                     "thickness_mode use_backface_culling use_backface_culling_lightprobe_volume "

@@ -1432,8 +1432,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         # The attributes its materials' node graphs read, and Cycles' random number of an instance.
         wanted = set()
         for slot in slots[slots >= 0].tolist():
-            wanted |= graph_.attributes_of(graph_.with_normal(materials.materials[slot].nodes,
-                                                                materials.materials[slot].normal))
+            material = materials.materials[slot]
+            wanted |= graph_.attributes_of(graph_.with_normal(material.nodes, material.normal, material.displacement))
         if "uv" in passes and len(obj.data.uv_layers):
             wanted.add("uv:")
         if wanted and obj.type != "MESH":

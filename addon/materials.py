@@ -1643,29 +1643,33 @@ def export_material(material, warnings: list) -> Material:
     medium = volume_of(material, output, warnings) if volume is not None else []
     warnings.extend(unmodelled.material_notes(material))
     nodes = shader_nodes(material, warnings)
-    normal = None
+    normal, moved = None, {}
     if output is not None and "Displacement" in output.inputs and linked_node(output, "Displacement") is not None:
         method = str(getattr(material, "displacement_method", getattr(getattr(material, "cycles", None),
                                                                       "displacement_method", "BUMP")))
-        if method == "DISPLACEMENT":
-            warnings.append(f"material '{material.name}': its Displacement output moves the surface (Displacement "
-                            "Only); Primer does not displace geometry and ignores it")
-        elif nodes and surface_node(material) is not None:
-            if method == "BOTH":
-                warnings.append(f"material '{material.name}': Displacement and Bump: Primer renders the bump part "
-                                "only, not the moved surface")
+        if method in ("DISPLACEMENT", "BOTH"):
+            # The surface moved at its vertices (core/geometry/displacement.py), as Cycles without subdivision.
+            offset = NodeReader(material, warnings).input(output, "Displacement", np.zeros(3))
+            if _linked(offset) or np.any(np.asarray(offset, np.float64) != 0.0):
+                moved = {"displacement": offset, "displacement_method": method}
+        if method != "DISPLACEMENT" and nodes and surface_node(material) is not None:
             normal = displacement_bump(NodeReader(material, warnings), output)
+        bumped = method == "BOTH" or any(link.node.kind == "BUMP" for link in graph_.links_under(nodes))
+        if moved and bumped:
+            warnings.append(f"material '{material.name}': its Displacement moves the surface and a bump bends its "
+                            "normal: Primer's bump steps over the moved surface, where Cycles steps over the surface "
+                            "before it moved (a wave grid under a low sun: 8 % brighter)")
     if volume is not None and surface_node(material) is None:
         # Cycles: a volume's boundary with no surface shader is not there for rays (they enter the volume, and a
         # crossing counts as no transparent bounce).
         return Material(np.zeros(3), material.name, nodes=[("TRANSPARENT", np.ones(3), {}, [])],
-                        emission_sampling=sampling, transparent_shadows=True, volume=medium, volume_only=True)
+                        emission_sampling=sampling, transparent_shadows=True, volume=medium, volume_only=True, **moved)
     if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes) and "roughness" not in nodes[0][2] \
             and normal is None:
         return Material(np.clip(nodes[0][1], 0.0, None), material.name, emission_sampling=sampling,
-                        transparent_shadows=shadows, volume=medium)
+                        transparent_shadows=shadows, volume=medium, **moved)
     if not nodes:
         return Material(np.zeros(3), material.name, emission_sampling=sampling, transparent_shadows=shadows,
-                        volume=medium)
+                        volume=medium, **moved)
     return Material(np.zeros(3), material.name, nodes=nodes, emission_sampling=sampling, transparent_shadows=shadows,
-                    volume=medium, normal=normal)
+                    volume=medium, normal=normal, **moved)

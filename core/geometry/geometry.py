@@ -28,6 +28,7 @@ from . import instancing
 from ..camera import motion as motion_
 from ..native import library
 from ..native import schema
+from . import displacement as displacement_
 from . import normals as normals_
 from . import surface as surface_
 from .. import vectors
@@ -424,6 +425,7 @@ def build_geometry(scene: Scene, origin: np.ndarray,
     if instance_triangles is None:
         instance_triangles = instancing.INSTANCE_TRIANGLES
     warnings: list[str] = []
+    scene = displacement_.displaced(scene, warnings)          # (true displacement moves vertices before all else)
     parts = {"v": [], "t": [], "n": [], "m": [], "cn": [], "smooth": [], "i": [], "src": []}
     instanced: list = []
     vertex_offset = 0

@@ -61,6 +61,10 @@ class Material:
                 (world-to-object (3, 4) float64, texture space location (3,), size (3,)) of the object that holds it
                 (its Object and Generated coordinates), and for a Volume object a 4th item, its [grids.Grid] (the
                 voxel grids its graph reads: core/volumes/grids.py); None: the world's (core/volumes/field.py)
+    displacement: a graph.Link (or a constant (3,)) of its Displacement output, the world-space offset by which it
+                moves its meshes' vertices (core/geometry/displacement.py), with Displacement Method `displacement_method`
+                "DISPLACEMENT" (Displacement Only: normals from the moved faces) or "BOTH" (Displacement and Bump: the
+                mesh's normals, the bump in `normal`); None: its surface stays where it is (Bump Only, or no output)
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
@@ -75,6 +79,8 @@ class Material:
     volume_only: bool = False
     normal: Optional[object] = None
     volume_space: Optional[tuple] = None
+    displacement: Optional[object] = None
+    displacement_method: str = "BUMP"
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).

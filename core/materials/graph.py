@@ -383,10 +383,13 @@ def links_under(nodes: list):
             stack.extend(value.node.inputs.values())
 
 
-def with_normal(nodes: list, normal) -> list:
-    """A material's nodes with its Set Normal Link (Material.normal) as one more entry, for what walks its links
-    (links_under, images_of, attributes_of, traces); the nodes alone where it has none."""
-    return list(nodes) + [(None, 1.0, {"normal": normal})] if isinstance(normal, Link) else list(nodes)
+def with_normal(nodes: list, normal, displacement=None) -> list:
+    """A material's nodes with its Set Normal Link (Material.normal), and its true displacement's Link
+    (Material.displacement) if given, as more entries, for what walks its links (links_under, images_of,
+    attributes_of, traces); the nodes alone where it has neither."""
+    extra = [(None, 1.0, {"normal": normal})] if isinstance(normal, Link) else []
+    extra += [(None, 1.0, {"displacement": displacement})] if isinstance(displacement, Link) else []
+    return list(nodes) + extra
 
 
 def traces(nodes: list) -> bool:
