@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from core.geometry import primitives
 from core import render
 from core.camera import Camera
+from core.materials import Material
 from core.scene import RenderSettings, Scene, SunLight
 
 
@@ -36,3 +38,31 @@ def test_transparent_film_clears_the_world_but_not_the_fisheye_corners():
     np.testing.assert_array_equal(image[0, 0], [0.0, 0.0, 0.0, 1.0])
     np.testing.assert_array_equal(image[10, 6], [0.0, 0.0, 0.0, 0.0])
     np.testing.assert_allclose(image[10, 20], [0.8 / np.pi] * 3 + [1.0], rtol=1e-6)
+
+
+def pane_before_the_world() -> Scene:
+    """A clear Transparent pane of colour (0.3, 0.6, 0.9) filling the view of an orthographic camera 3 above it, and
+    the world_color (0.1, 0.2, 0.3) behind it: a world the camera sees and that lights nothing; a sun."""
+    matrix = np.eye(4)
+    matrix[:3, 3] = (0.0, 0.0, 3.0)
+    scene = Scene(camera=Camera(matrix_world=matrix, type="ORTHO", ortho_scale=1.0),
+                  world_color=np.array([0.1, 0.2, 0.3]))
+    scene.materials.append(Material(np.zeros(3), "Pane", nodes=[("TRANSPARENT", np.array([0.3, 0.6, 0.9]), {})]))
+    scene.add_mesh(primitives.plane(4.0), materials=np.array([0]))
+    scene.lights.append(SunLight(np.array([0.0, 0.0, -1.0]), strength=1.0))     # (a clear pane reflects none of it)
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_camera_path_through_a_clear_pane_sees_the_world_the_camera_sees(kernels):
+    """Cycles keeps a camera ray's flags through transparent surfaces: a world visible to the camera only shows
+    through the pane, times its colour, (0.03, 0.12, 0.27) with alpha 1; with a transparent film it shows nothing
+    (Cycles' alpha there, 1 - mean(0.3, 0.6, 0.9) = 0.4, is not modelled: Primer's stays 1, and it says so)."""
+    scene = pane_before_the_world()
+    image = render.render(scene, RenderSettings(width=4, height=4, samples=2, kernels=kernels)).image
+    np.testing.assert_allclose(image[..., :3], np.broadcast_to([0.03, 0.12, 0.27], (4, 4, 3)), rtol=1e-6)
+    np.testing.assert_allclose(image[..., 3], 1.0, rtol=1e-6)
+    clear = render.render(scene, RenderSettings(width=4, height=4, samples=2, kernels=kernels,
+                                                transparent_background=True))
+    np.testing.assert_allclose(clear.image[..., :3], 0.0, atol=1e-7)
+    assert any("Film > Transparent" in warning for warning in clear.stats.warnings), clear.stats.warnings

@@ -583,6 +583,7 @@ typedef struct {
     int features;               /* 1: BSDF rays add what they find to BlockHits.found (the denoising features) */
     double back[3];             /* the features' normal where a path scatters in a medium (rays.camera_back) */
     LanePasses *passes;         /* the first-hit passes (passes.c) the camera chains write, or NULL */
+    int film_transparent;       /* 1: Film > Transparent (camera paths' rays that escape see no world) */
 } DirectSettings;
 
 /* path.py: a camera chain's ray from hit h straight on through a transparent surface (passes.c). */
@@ -1031,8 +1032,12 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
             add_to_group(groups_L, ds->groups, 0, group_of_hit(ds->instance_groups, ds->geometry, geometry, prim, instance),
                          emitted, w);
     }
-    /* c. The world, where the ray escapes: a constant world with weight 1, an image by MIS. */
-    if (!hit && ctx->world->lights != 0.0) {
+    /* c. The world, where the ray escapes and its kind sees it (a camera path's ray, straight on through clear
+     *    surfaces, where the camera does and the film is opaque; any other where the world lights: Cycles'
+     *    visibility by the ray's flags): a constant world with weight 1, an image by MIS. */
+    int camera_kind = ray->path != NULL && (ray->path->flags & PATH_CAMERA) != 0;
+    int sees_world = camera_kind ? ctx->world->camera != 0.0 && !ds->film_transparent : ctx->world->lights != 0.0;
+    if (!hit && sees_world) {
         double L_world[3];
         world_seen(ctx->world, D, ray->path, L_world);     /* (a camera path's: the world's graph per ray) */
         if (sigma != NULL) {                            /* (an escaping ray through a medium keeps exp(-sigma inf)) */

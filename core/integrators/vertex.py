@@ -612,10 +612,18 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
         light_L[struck] += emitted * w[:, None]
         if groups is not None:
             groups.add(struck, emitted * w[:, None], groups.groups.of_prims(ctx.geometry, hits.prim[struck]))
-    # c. The world, where the ray escapes: a constant world with weight 1, an image by MIS.
+    # c. The world, where the ray escapes and its kind sees it (a camera path's ray, straight on through clear
+    #    surfaces, where the camera does and the film is opaque; any other where the world lights: Cycles' visibility
+    #    by the ray's flags): a constant world with weight 1, an image by MIS.
     world = ctx.extra.get("world_light")
     missed = np.flatnonzero(~hits.hit)
-    if world is not None and world.lights and len(missed):
+    if world is not None and len(missed):
+        still_camera = (np.zeros(len(missed), bool) if paths is None
+                        else (np.asarray(paths.flags)[missed] & graph_.PATH_CAMERA) != 0)
+        sees = np.where(still_camera, bool(world.camera) and not ctx.settings.transparent_background,
+                        bool(world.lights))
+        missed = missed[sees]
+    if world is not None and len(missed):
         L_world = (world.radiance(D[missed]) if paths is None     # (a graph world: evaluated for each ray's path)
                    else world.radiance_seen(D[missed], graph_.paths_at(paths, missed)))
         if sigma is not None:

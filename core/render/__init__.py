@@ -211,11 +211,18 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
                                 or ctx.geometry.shadow_linked or any(map(lights_.linking.shadow_linked, lights))
                                 or media is not None)
+    if settings.transparent_background and any(shader.may_let_light_through for shader in materials.shaders):
+        warnings.append("Film > Transparent: where a camera ray goes on through clear surfaces (Transparent BSDFs, "
+                        "Ray Portals, volume boundaries) and escapes, Primer leaves the pixel opaque without the "
+                        "world; Cycles makes it clear by what the surfaces let through (alpha 1 - their transparency)")
     # A BSSRDF is walked even with no bounces (Cycles counts no bounce for it): the direct tracer is then the path
     # tracer with none (integrators.for_render).
     ctx.extra["subsurface"] = walks_subsurface(scene)
+    # (and where the camera sees a world that lights nothing through clear surfaces: a camera path's ray goes on)
     ctx.extra["bsdf_rays"] = (bool(ctx.extra["hittable"]) or world_lights or ctx.extra["emissive"]
-                              or (media is not None and media.emits))
+                              or (media is not None and media.emits)
+                              or (bool(world.camera) and not settings.transparent_background
+                                  and bool(ctx.extra["transparent"])))
     # Where BSDF rays are traced: at every hit where emitters or the world light the scene (only BSDF rays
     # find a constant world, and MIS is what samples emitters well); where only lamps with extent do, at
     # glossy hits alone: a diffuse surface's light samples of a lamp need no help, so a BSDF ray there
