@@ -40,8 +40,10 @@ TOLERANCE = 0.01            # relative RMSE of RGB
 # the project's measure instead, the relative MSE of 4x4-pixel block means (relative_mse_of_blocks), at issue
 # 21's bound for Primer at 1024 samples against Cycles at 2048. materials_principled too, at a bound 7.5 times
 # tighter (a 0.5 % bias in its bright blocks exceeds it): Primer measured 3.9e-6 at 512 samples and 1.6e-5 at 256
-# (Blender 5.0), where the per-pixel 1 % of its small highlights took 2048 samples, four times as long.
-BLOCK_TOLERANCE = {"materials_glass": 1.5e-4, "world_hdri": 1.5e-4, "materials_principled": 2e-5}
+# (Blender 5.0), where the per-pixel 1 % of its small highlights took 2048 samples, four times as long. volume_fog's
+# media too (its dim fog is noisy per pixel: 1.6 % relative RMSE at 256 samples; blocks 6e-6).
+BLOCK_TOLERANCE = {"materials_glass": 1.5e-4, "world_hdri": 1.5e-4, "materials_principled": 2e-5,
+                   "volume_fog": 1.5e-4}
 ALPHA_TOLERANCE = 0.005     # RMSE of alpha
 
 pytestmark = pytest.mark.blender
@@ -75,13 +77,14 @@ SCENES = {
     "camera_persp_shift": (128, 1024),
     "camera_fisheye_equidistant": (256, 256),
     "camera_fisheye_equisolid": (256, 512),
+    "volume_fog": (256, 1024),                  # homogeneous fog and heterogeneous smoke, single scattering
 }
 # Scenes whose comparison renders at half the scene's resolution (a quarter of the pixels, the same samples a pixel,
 # so the same noise a pixel and the same tolerance): three that render the most samples, which took 40-50 s each
 # at full size on 2 cores. Their references are of the half-size file. (Not materials_principled: its highlights
 # cover few pixels at half size, where a pixel's own variance takes its relative RMSE to 1.3 %.)
 HALF_SIZE = {"render.resolution_percentage": 50}
-SCENE_CHANGES = {name: HALF_SIZE for name in ("cornell_box", "materials_glass", "world_hdri")}
+SCENE_CHANGES = {name: HALF_SIZE for name in ("cornell_box", "materials_glass", "world_hdri", "volume_fog")}
 
 
 # Where Cycles and the lecture choose differently, the Primer settings that choose as Cycles does. Cycles
