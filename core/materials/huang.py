@@ -42,14 +42,15 @@ from .base import BSDF, BsdfSample, PARAMS
 from .base import BSDFFlags as F
 from .hair import (PRINCIPLED_HAIR_DEFAULTS, PRINCIPLED_HAIR_INPUTS, fresnel_cos, longitudinal, safe_normalize,
                    through_own_fibre, hair_sigma)
-from .microfacet import D_ggx, lambda_ggx, sample_visible_normal
+from .microfacet import D_ggx, lambda_ggx
 from .nodes import Node, per_hit_rows
 
 # The closure's row: absorption sigma (3), roughness r, the tilt (minus the node's Offset), the index eta, the
 # minor axis b (<= 1), the offset h, the lobe scales R, TT, TRT, the frame X (3, the major axis), Y (3, the
-# tangent), Z (3), the projected radius (<= 1) and the pixel's half width in units of the fibre's radius.
-SIGMA, ROUGH, TILT, ETA, B, H, LOBE_R, LOBE_TT, LOBE_TRT, AXIS_X, AXIS_Y, AXIS_Z, RADIUS, COVERAGE = (
-    0, 3, 4, 5, 6, 7, 8, 9, 10, 11, 14, 17, 20, 21)
+# tangent) and the pixel's half width in units of the fibre's radius (18 numbers, a closure's C storage); Z = X x Y
+# and the projected radius are worked out again where needed (frame_z, radius_of).
+SIGMA, ROUGH, TILT, ETA, B, H, LOBE_R, LOBE_TT, LOBE_TRT, AXIS_X, AXIS_Y, COVERAGE = (
+    0, 3, 4, 5, 6, 7, 8, 9, 10, 11, 14, 17)
 LCG_MUL, LCG_ADD = 1103515245, 12345
 HASH_MUL = 0x9E3779B97F4A7C15
 U32 = np.uint64(0xFFFFFFFF)
@@ -198,8 +199,30 @@ def sample_wh(rough, wi, wm, u):
     a = a / np.sqrt(vdot(a, a))[:, None]
     t = vectors.cross(wm, a)
     local = np.stack([vdot(wi, a), vdot(wi, t), vdot(wi, wm)], axis=1)
-    Hm = sample_visible_normal(local, rough, u)
+    Hm = visible_normal(local, rough, u)
     return Hm[:, 0:1] * a + Hm[:, 1:2] * t + Hm[:, 2:3] * wm
+
+
+def visible_normal(local_wo, alpha, u):
+    """A GGX normal (n, 3) seen from local_wo (n, 3) (z the mesonormal), Heitz's 2018 sampler as
+    microfacet.sample_visible_normal, its angle's cosine and sine in float64 (eval integrates with these normals, so
+    Python and C must draw the same ones)."""
+    v = np.stack([alpha * local_wo[:, 0], alpha * local_wo[:, 1], local_wo[:, 2]], axis=1)
+    v = v / np.sqrt(vdot(v, v))[:, None]
+    lensq = v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1]
+    flat = lensq <= 1e-7
+    inv = 1.0 / np.sqrt(np.where(flat, 1.0, lensq))
+    T1 = np.where(flat[:, None], [1.0, 0.0, 0.0], np.stack([-v[:, 1] * inv, v[:, 0] * inv, np.zeros(len(v))], axis=1))
+    T2 = vectors.cross(v, T1)
+    r = np.sqrt(u[:, 0])
+    angle = 2.0 * math.pi * u[:, 1]
+    t1, t2 = r * np.cos(angle), r * np.sin(angle)
+    blend = 0.5 * (1.0 + v[:, 2])
+    t2 = (1.0 - blend) * np.sqrt(np.maximum(1.0 - t1 * t1, 0.0)) + blend * t2
+    lift = np.sqrt(np.maximum((1.0 - t1 * t1) - t2 * t2, 0.0))
+    H = (T1 * t1[:, None] + T2 * t2[:, None]) + v * lift[:, None]
+    H = np.stack([alpha * H[:, 0], alpha * H[:, 1], np.maximum(H[:, 2], 0.0)], axis=1)
+    return H / np.sqrt(vdot(H, H))[:, None]
 
 
 def trrt(T, R, A):
@@ -220,8 +243,7 @@ class HuangHair(BSDF):
     name: ClassVar[str] = "HAIR_HUANG"
     flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLOSSY_TYPE | F.OWN_WEIGHT
     params: ClassVar[tuple] = ("sigma_r", "sigma_g", "sigma_b", "roughness", "tilt", "eta", "aspect_ratio", "h",
-                               "r", "tt", "trt", "x_x", "x_y", "x_z", "y_x", "y_y", "y_z", "z_x", "z_y", "z_z",
-                               "radius", "pixel_coverage")
+                               "r", "tt", "trt", "x_x", "x_y", "x_z", "y_x", "y_y", "y_z", "pixel_coverage")
 
     @classmethod
     def c_name(cls) -> str:
@@ -263,21 +285,33 @@ class HuangHair(BSDF):
         return sample_huang(params, wo, u)
 
 
+def frame_z(params):
+    """The frame's third axis Z = X x Y (n, 3), unit."""
+    return safe_normalize(vectors.cross(params[:, AXIS_X:AXIS_X + 3], params[:, AXIS_Y:AXIS_Y + 3]))
+
+
 def to_local(params, w):
     """Directions w (n, 3) in the fibre's frame (X, Y = the tangent, Z)."""
     return np.stack([vdot(w, params[:, AXIS_X:AXIS_X + 3]), vdot(w, params[:, AXIS_Y:AXIS_Y + 3]),
-                     vdot(w, params[:, AXIS_Z:AXIS_Z + 3])], axis=1)
+                     vdot(w, frame_z(params))], axis=1)
 
 
 def to_global(params, w):
     """Local directions w (n, 3) back in world space."""
     return (w[:, 0:1] * params[:, AXIS_X:AXIS_X + 3] + w[:, 1:2] * params[:, AXIS_Y:AXIS_Y + 3]
-            + w[:, 2:3] * params[:, AXIS_Z:AXIS_Z + 3])
+            + w[:, 2:3] * frame_z(params))
 
 
-def near_field(params):
+def radius_of(b, I):
+    """The fibre's projected radius (n,) (1: its major axis) seen from the local view I (n, 3)."""
+    e2 = 1.0 - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(e2 == 0.0, 1.0, np.sqrt(1.0 - e2 * (I[:, 0] * I[:, 0]) / (I[:, 0] * I[:, 0] + I[:, 2] * I[:, 2])))
+
+
+def near_field(params, radius):
     """Where the strand is wider than the pixel (the near-field model) (n,) bool."""
-    return params[:, RADIUS] > params[:, COVERAGE]
+    return radius > params[:, COVERAGE]
 
 
 def integration_range(params, I, O):
@@ -295,8 +329,8 @@ def integration_range(params, I, O):
     with np.errstate(divide="ignore", invalid="ignore"):
         lo = phi_to_h(phi_i + half_span, b, I, circ)
         hi = phi_to_h(phi_i - half_span, b, I, circ)
-    r = params[:, RADIUS]
-    near = near_field(params)
+    r = radius_of(b, I)
+    near = near_field(params, r)
     half_pixel = params[:, COVERAGE]
     near_lo = np.maximum(-r, params[:, H] - half_pixel)
     near_hi = np.minimum(r, params[:, H] + half_pixel)
@@ -478,7 +512,8 @@ def sample_huang(params, wo, u) -> BsdfSample:
     inv_eta = 1.0 / eta
     alpha2, sqrt_rough = rough * rough, np.sqrt(rough)
     with np.errstate(all="ignore"):
-        h = np.where(near_field(p), p[:, H] / p[:, RADIUS], u[:, 1] * 2.0 - 1.0)
+        radius = radius_of(b, wi)
+        h = np.where(near_field(p, radius), p[:, H] / radius, u[:, 1] * 2.0 - 1.0)
         gamma_mi = h_to_gamma(h, b, wi, circ)
         wmi_ = sphg_dir(0.0, gamma_mi, b, circ)
         st, ct = np.sin(p[:, TILT]), np.cos(p[:, TILT])
@@ -596,10 +631,7 @@ def huang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray) -> tuple:
     if bad.any():
         A = np.where(bad[:, None], vectors.orthonormal_frame(Y)[0], A)
     Z = safe_normalize(vectors.cross(A, Y))
-    I = np.stack([vdot(wo, A), vdot(wo, Y), vdot(wo, Z)], axis=1)
-    e2 = 1.0 - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        radius = np.where(e2 == 0.0, 1.0, np.sqrt(1.0 - e2 * (I[:, 0] * I[:, 0]) / (I[:, 0] * I[:, 0] + I[:, 2] * I[:, 2])))
+    radius = radius_of(b, np.stack([vdot(wo, A), vdot(wo, Y), vdot(wo, Z)], axis=1))
     out = np.zeros((n, PARAMS))
     out[:, SIGMA:SIGMA + 3] = sigma
     out[:, ROUGH] = np.clip(roughness, 0.001, 1.0)
@@ -608,8 +640,7 @@ def huang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray) -> tuple:
     out[:, B] = b
     out[:, H] = h
     out[:, LOBE_R:LOBE_TRT + 1] = np.maximum(p[:, 24:27], 0.0)
-    out[:, AXIS_X:AXIS_X + 3], out[:, AXIS_Y:AXIS_Y + 3], out[:, AXIS_Z:AXIS_Z + 3] = A, Y, Z
-    out[:, RADIUS] = radius
+    out[:, AXIS_X:AXIS_X + 3], out[:, AXIS_Y:AXIS_Y + 3] = A, Y
     coverage = p[:, 30]
     out[:, COVERAGE] = np.where(coverage > 0.0, coverage, 1.0)
     return out, np.abs(h) >= radius
