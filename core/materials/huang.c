@@ -1,7 +1,8 @@
 /* Hair, Huang's model: core/materials/huang.py (the Principled Hair BSDF's microfacet fibre, Cycles'
  * bsdf_principled_hair_huang.h). The same arithmetic in the same order as the Python, one hit at a time; the local
  * frame is (X the major axis, Y the tangent, Z), p huang.py's slots (huang_params: nodes.c huang_hair_node). Its
- * random numbers come from an LCG seeded by a hash of the directions' bits (huang.seed_of, huang.lcg). */
+ * random numbers come from a counter-based generator seeded by a hash of the directions' bits (huang.seed_of,
+ * huang.number). */
 
 enum { HUANG_SIGMA = 0, HUANG_ROUGH = 3, HUANG_TILT = 4, HUANG_ETA = 5, HUANG_B = 6, HUANG_H = 7, HUANG_R = 8,
        HUANG_TT = 9, HUANG_TRT = 10, HUANG_X = 11, HUANG_Y = 14, HUANG_COVERAGE = 17 };
@@ -17,14 +18,17 @@ INLINE uint64_t huang_seed(const double *x, int n)
         h = h * 0x9E3779B97F4A7C15ULL;
         h = h ^ (h >> 29);
     }
-    return (h >> 32) & 0xFFFFFFFFULL;
+    return h;
 }
 
-/* huang.lcg: the next number in [0, 1). */
-INLINE double huang_lcg(uint64_t *state)
+/* huang.number: the j-th number in [0, 1) of quadrature step `step` (splitmix64's finaliser of seed + counter). */
+INLINE double huang_number(uint64_t seed, uint64_t step, uint64_t j)
 {
-    *state = (*state * 1103515245ULL + 12345ULL) & 0xFFFFFFFFULL;
-    return (double)*state * (1.0 / 4294967296.0);
+    uint64_t z = seed + (step * 8ULL + j + 1ULL) * 0x9E3779B97F4A7C15ULL;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z = z ^ (z >> 31);
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
 }
 
 INLINE double huang_max(double a, double b) { return (isnan(a) || isnan(b)) ? NAN : (a > b ? a : b); }
@@ -243,7 +247,7 @@ static NOINLINE double huang_eval_r(const double *p, const double *wi, const dou
 
 /* huang.eval_residual: TT, TRT and the rest, Simpson's rule over h with random microfacet normals. */
 static NOINLINE void huang_eval_residual(const double *p, const double *wi, const double *o, double lo, double hi,
-                                         uint64_t *state, double *out)
+                                         uint64_t seed, double *out)
 {
     out[0] = out[1] = out[2] = 0.0;
     if (!(p[HUANG_TT] > 0.0 || p[HUANG_TRT] > 0.0)) return;
@@ -260,8 +264,8 @@ static NOINLINE void huang_eval_residual(const double *p, const double *wi, cons
         double gamma_mi = huang_h_to_gamma(h, b, wi, circ);
         huang_sphg_dir(p[HUANG_TILT], gamma_mi, b, circ, wmi);
         huang_sphg_dir(0.0, gamma_mi, b, circ, wmi_);
-        u1[0] = huang_lcg(state);
-        u1[1] = huang_lcg(state);
+        u1[0] = huang_number(seed, (uint64_t)i, 0);
+        u1[1] = huang_number(seed, (uint64_t)i, 1);
         huang_sample_wh(rough, wi, wmi, u1, wh1);
         double cos_hi1 = dot3(wi, wh1);
         if (!(cos_hi1 > 0.0)) continue;
@@ -308,8 +312,8 @@ static NOINLINE void huang_eval_residual(const double *p, const double *wi, cons
         /* TRT and beyond */
         if (!(p[HUANG_TRT] > 0.0)) continue;
         double u2[2], wh2[3], wtr[3], nwtr[3], rest[3];
-        u2[0] = huang_lcg(state);
-        u2[1] = huang_lcg(state);
+        u2[0] = huang_number(seed, (uint64_t)i, 2);
+        u2[1] = huang_number(seed, (uint64_t)i, 3);
         huang_sample_wh(rough, nwt, wmt, u2, wh2);
         double cos_hi2 = dot3(nwt, wh2);
         if (!(cos_hi2 > 0.0)) continue;
@@ -390,9 +394,9 @@ INLINE void huang_hair_eval(const Closure *c, const double *wo, const double *wi
     if (!(lo < hi)) return;
     double area = huang_cos_theta(I) * dh, rest[3];
     double x[6] = {wo[0], wo[1], wo[2], wi[0], wi[1], wi[2]};
-    uint64_t state = huang_seed(x, 6);
+    uint64_t seed = huang_seed(x, 6);
     double R = huang_eval_r(p, I, O, lo, hi);
-    huang_eval_residual(p, I, O, lo, hi, &state, rest);
+    huang_eval_residual(p, I, O, lo, hi, seed, rest);
     for (int k = 0; k < 3; k++) f_cos[k] = (R + rest[k]) / area;
 }
 
@@ -401,9 +405,9 @@ INLINE void huang_hair_sample(const Closure *c, const double *wo, const double *
 {
     const double *p = c->p;
     double x[6] = {wo[0], wo[1], wo[2], u[0], u[1], u[2]};
-    uint64_t state = huang_seed(x, 6);
-    double draws[5];
-    for (int i = 0; i < 5; i++) draws[i] = huang_lcg(&state);
+    uint64_t seed = huang_seed(x, 6);
+    double draws[8];
+    for (int j = 0; j < 8; j++) draws[j] = huang_number(seed, 0, (uint64_t)j);
     double wi[3];
     huang_local(p, wo, wi);
     double b = p[HUANG_B], rough = p[HUANG_ROUGH], eta = p[HUANG_ETA];
@@ -478,7 +482,7 @@ INLINE void huang_hair_sample(const Closure *c, const double *wo, const double *
                 double y3 = T3 * huang_Go(alpha2, cos_mi3, dot3(wmtr, nwtrt));
                 for (int k = 0; k < 3; k++) TRT[k] = p[HUANG_TRT] * TR[k] * y3;
             }
-            double z = at_least(huang_lcg(&state), 1e-5), m1 = huang_lcg(&state), m2 = huang_lcg(&state);
+            double z = at_least(draws[5], 1e-5), m1 = draws[6], m2 = draws[7];
             double fac = 1.0 + 4.0 * rough * log(z + (1.0 - z) * exp(-0.5 / rough));
             double sin_o = -fac * wi[1] + sqrt(at_least(1.0 - fac * fac, 0.0)) * cos(2.0 * PI * m1)
                            * huang_cos_theta(wi);

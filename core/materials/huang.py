@@ -16,9 +16,9 @@ an integral over h across the visible part of the width, of the paths
 
 Cycles integrates R by Simpson's rule in h (steps of 0.7 r) and TT, TRT by Simpson's rule in h whose integrand
 draws the first (and second) microfacet normal at random (steps of 0.8 r): eval is itself a Monte Carlo estimate,
-with random numbers of the shading point (Cycles' sd->lcg_state). Primer draws them from its own LCG (Cycles'
-multiplier) seeded by a hash of the bits of the two directions (eval) or of the view and the sample's numbers
-(sample): the same numbers in Python and C. Its sampler traces one path through the fibre (an h, three visible
+with random numbers of the shading point (Cycles' sd->lcg_state). Primer draws them from its own generator
+seeded by a hash of the bits of the two directions (eval) or of the view and the sample's numbers (sample),
+each quadrature step's numbers its own (a counter-based generator): the same numbers in Python and C. Its sampler traces one path through the fibre (an h, three visible
 GGX normals, the residual's direction) and weighs the lobes by their energy; Cycles gives both eval and sample a
 pdf of 1 (the sample's weight is its own, OWN_WEIGHT), so multiple importance sampling weighs light samples and
 BSDF samples half and half, as Cycles does.
@@ -51,26 +51,29 @@ from .nodes import Node, per_hit_rows
 # and the projected radius are worked out again where needed (frame_z, radius_of).
 SIGMA, ROUGH, TILT, ETA, B, H, LOBE_R, LOBE_TT, LOBE_TRT, AXIS_X, AXIS_Y, COVERAGE = (
     0, 3, 4, 5, 6, 7, 8, 9, 10, 11, 14, 17)
-LCG_MUL, LCG_ADD = 1103515245, 12345
 HASH_MUL = 0x9E3779B97F4A7C15
-U32 = np.uint64(0xFFFFFFFF)
 
 
 def seed_of(*columns) -> np.ndarray:
-    """A uint64 LCG state (n,) (its low 32 bits used) from the bits of float64 columns (n,): a splitmix-like hash."""
+    """A uint64 seed (n,) from the bits of float64 columns (n,): a splitmix-like hash."""
     h = np.zeros(len(columns[0]), np.uint64)
     for c in columns:
         h = h ^ np.ascontiguousarray(c, np.float64).view(np.uint64)
         h = h * np.uint64(HASH_MUL)
         h = h ^ (h >> np.uint64(29))
-    return (h >> np.uint64(32)) & U32
+    return h
 
 
-def lcg(state: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """The next number in [0, 1) (len(rows),) of the LCGs `state` at `rows` (advanced in place)."""
-    s = (state[rows] * np.uint64(LCG_MUL) + np.uint64(LCG_ADD)) & U32
-    state[rows] = s
-    return s.astype(np.float64) * (1.0 / 4294967296.0)
+def number(seed: np.ndarray, step, j: int) -> np.ndarray:
+    """The j-th random number in [0, 1) (n,) of quadrature step `step` (n,) int under `seed` (n,) uint64: a
+    counter-based generator (splitmix64's finaliser of seed + the counter), so each step's numbers are its own
+    whatever the other steps drew (Cycles draws them in turn from one LCG; the distribution is the same)."""
+    with np.errstate(over="ignore"):
+        z = seed + (np.asarray(step, np.uint64) * np.uint64(8) + np.uint64(j) + np.uint64(1)) * np.uint64(HASH_MUL)
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        z = z ^ (z >> np.uint64(31))
+    return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
 
 
 def vdot(a, b):
@@ -274,9 +277,9 @@ class HuangHair(BSDF):
         rows = np.flatnonzero(ok)
         if len(rows):
             p = params[rows]
-            state = seed_of(wo[rows, 0], wo[rows, 1], wo[rows, 2], wi[rows, 0], wi[rows, 1], wi[rows, 2])
+            seed = seed_of(wo[rows, 0], wo[rows, 1], wo[rows, 2], wi[rows, 0], wi[rows, 1], wi[rows, 2])
             value = eval_r(p, I[rows], O[rows], lo[rows], hi[rows]) + eval_residual(
-                p, I[rows], O[rows], lo[rows], hi[rows], state)
+                p, I[rows], O[rows], lo[rows], hi[rows], seed)
             f_cos[rows] = value / area[rows, None]
         return f_cos, np.ones(n)
 
@@ -347,6 +350,25 @@ def intervals_of(length, step):
     return (2 * np.ceil(length / step * 0.5)).astype(np.int64)
 
 
+def quadrature(lo, hi, step):
+    """Simpson's rule's points over [lo, hi] (n,) in an even number of intervals of at most `step` (n,): (row (k,),
+    the point's number i (k,), h (k,), its Simpson weight (k,), the interval's width (n,))."""
+    count = (2 * np.ceil((hi - lo) / step * 0.5)).astype(np.int64)
+    res = (hi - lo) / count
+    row = np.repeat(np.arange(len(lo)), count + 1)
+    first = np.cumsum(count + 1) - (count + 1)
+    i = np.arange(len(row)) - first[row]
+    simpson = np.where((i == 0) | (i == count[row]), 0.5, (i % 2 + 1).astype(np.float64))
+    return row, i, lo[row] + i * res[row], simpson, res
+
+
+def accumulate(n, row, values):
+    """The sums (n, 3) of values (k, 3) by row, each row's added in order (as C's loop)."""
+    out = np.zeros((n, 3))
+    np.add.at(out, row, values)
+    return out
+
+
 def eval_r(p, wi, wo, lo, hi):
     """The R path (n, 3) towards wo (local; wi the view), Simpson's rule over h in [lo, hi]."""
     n = len(p)
@@ -355,142 +377,120 @@ def eval_r(p, wi, wo, lo, hi):
     if not len(live):
         return np.zeros((n, 3))
     p, wi, wo, lo, hi = p[live], wi[live], wo[live], lo[live], hi[live]
-    b, circ, rough = p[:, B], p[:, B] == 1.0, p[:, ROUGH]
+    b, rough = p[:, B], p[:, ROUGH]
     e2 = 1.0 - b * b
     wh = wi + wo
     wh = wh / np.sqrt(vdot(wh, wh))[:, None]
     alpha2 = rough * rough
-    count = intervals_of(hi - lo, rough * 0.7)
-    res = (hi - lo) / count
-    integral = np.zeros(len(p))
-    for i in range(int(count.max()) + 1):
-        k = np.flatnonzero(i <= count)
-        h = lo[k] + i * res[k]
-        gamma = h_to_gamma(h, b[k], wi[k], circ[k])
-        wm = sphg_dir(p[k, TILT], gamma, b[k], circ[k])
-        flat = wm * np.array([1.0, 0.0, 1.0])
-        seen = visible(wi[k], flat, wh[k]) & visible(wo[k], flat, wh[k])
-        k, h, gamma, wm = k[seen], h[seen], gamma[seen], wm[seen]
-        weight = np.where((i == 0) | (i == count[k]), 0.5, float(i % 2 + 1)) * d_gamma_d_h(wi[k], gamma, b[k], circ[k])
-        cos_mi = vdot(wm, wi[k])
-        G = G_ggx(alpha2[k], cos_mi, vdot(wm, wo[k]))
-        integral[k] += (weight * D_ggx(alpha2[k], vdot(wm, wh[k])) * G * arc_length(e2[k], gamma)
-                        * energy_scale(cos_mi, np.sqrt(rough[k]), p[k, ETA]))
+    k, i, h, simpson, res = quadrature(lo, hi, rough * 0.7)
+    bk, circ = b[k], b[k] == 1.0
+    gamma = h_to_gamma(h, bk, wi[k], circ)
+    wm = sphg_dir(p[k, TILT], gamma, bk, circ)
+    flat = wm * np.array([1.0, 0.0, 1.0])
+    seen = visible(wi[k], flat, wh[k]) & visible(wo[k], flat, wh[k])
+    weight = simpson * d_gamma_d_h(wi[k], gamma, bk, circ)
+    cos_mi = vdot(wm, wi[k])
+    G = G_ggx(alpha2[k], cos_mi, vdot(wm, wo[k]))
+    term = (weight * D_ggx(alpha2[k], vdot(wm, wh[k])) * G * arc_length(e2[k], gamma)
+            * energy_scale(cos_mi, np.sqrt(rough[k]), p[k, ETA]))
+    integral = accumulate(len(p), k[seen], np.repeat(term[seen, None], 3, axis=1))[:, 0]
     integral *= 2.0 / 3.0 * res
     F = fresnel_cos(vdot(wi, wh), p[:, ETA])
     out[live] = p[:, LOBE_R] * 0.25 * F * integral
     return np.repeat(out[:, None], 3, axis=1)
 
 
-def eval_residual(p, wi, wo, lo, hi, state):
+def eval_residual(p, wi, wo, lo, hi, seed):
     """The TT, TRT and residual paths (n, 3) towards wo (local), Simpson's rule over h with random normals."""
     n = len(p)
-    S_tt, S_trt, S_trrt = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
     live = (p[:, LOBE_TT] > 0.0) | (p[:, LOBE_TRT] > 0.0)
-    b, circ, rough, eta = p[:, B], p[:, B] == 1.0, p[:, ROUGH], p[:, ETA]
-    e2 = 1.0 - b * b
+    rough, eta = p[:, ROUGH], p[:, ETA]
     inv_eta = 1.0 / eta
-    alpha2, sqrt_rough = rough * rough, np.sqrt(rough)
-    mu_a = p[:, SIGMA:SIGMA + 3]
-    count = intervals_of(hi - lo, rough * 0.8)
-    res = (hi - lo) / count
     with np.errstate(all="ignore"):
-        for i in range(int(np.where(live, count, 0).max(initial=-1)) + 1):
-            k = np.flatnonzero(live & (i <= count))
-            h = lo[k] + i * res[k]
-            gamma_mi = h_to_gamma(h, b[k], wi[k], circ[k])
-            wmi = sphg_dir(p[k, TILT], gamma_mi, b[k], circ[k])
-            wmi_ = sphg_dir(0.0, gamma_mi, b[k], circ[k])
-            u1 = np.stack([lcg(state, k), lcg(state, k)], axis=1)
-            wh1 = sample_wh(rough[k], wi[k], wmi, u1)
-            cos_hi1 = vdot(wi[k], wh1)
-            s = cos_hi1 > 0.0
-            k, gamma_mi, wmi, wmi_, wh1, cos_hi1 = k[s], gamma_mi[s], wmi[s], wmi_[s], wh1[s], cos_hi1[s]
-            cos_mi1 = vdot(wi[k], wmi)
-            F1, cos_t1 = fresnel_t(cos_hi1, eta[k])
-            T1 = 1.0 - F1
-            scale1 = energy_scale(cos_mi1, sqrt_rough[k], eta[k])
-            wt = refract(wi[k], wh1, cos_t1, inv_eta[k])
-            phi_t = dir_phi(wt)
-            gamma_mt = 2.0 * to_phi(phi_t, b[k], circ[k]) - gamma_mi
-            wmt = sphg_dir(-p[k, TILT], gamma_mt, b[k], circ[k])
-            wmt_ = sphg_dir(0.0, gamma_mt, b[k], circ[k])
-            cos_mo1 = vdot(-wt, wmi)
-            cos_mi2 = vdot(-wt, wmt)
-            G1o = G_o(alpha2[k], cos_mi1, cos_mo1)
-            s = (visible(wi[k], wmi, wh1) & visible(-wt, wmi, wh1) & visible(wi[k], wmi_, wh1)
-                 & visible(-wt, wmi_, wh1))
-            (k, gamma_mi, cos_mi1, T1, scale1, wt, phi_t, gamma_mt, wmt, wmt_, cos_mo1, cos_mi2, G1o) = (
-                x[s] for x in (k, gamma_mi, cos_mi1, T1, scale1, wt, phi_t, gamma_mt, wmt, wmt_, cos_mo1, cos_mi2,
-                               G1o))
-            weight = np.where((i == 0) | (i == count[k]), 0.5, float(i % 2 + 1)) * d_gamma_d_h(
-                wi[k], gamma_mi, b[k], circ[k])
-            length = np.where(circ[k], 2.0 * np.cos(gamma_mi - phi_t), -chord(gamma_mi, gamma_mt + math.pi, b[k]))
-            A_t = np.exp(mu_a[k] / cos_theta(wt)[:, None] * length[:, None])
-            scale2 = energy_scale(cos_mi2, sqrt_rough[k], inv_eta[k])
-            # TT
-            o = wo[k]
-            s = (p[k, LOBE_TT] > 0.0) & (vdot(o, wt) >= inv_eta[k] - 1e-5)
-            wh2 = -wt + inv_eta[k, None] * o
-            rcp2 = 1.0 / np.sqrt(vdot(wh2, wh2))
-            wh2 = wh2 * rcp2[:, None]
-            cos_mh2 = vdot(wmt, wh2)
-            s &= cos_mh2 >= 0.0
-            cos_hi2, cos_ho2, cos_mo2 = vdot(-wt, wh2), vdot(-o, wh2), vdot(-o, wmt)
-            T2 = (1.0 - fresnel_cos(cos_hi2, inv_eta[k])) * scale2
-            D2 = D_ggx(alpha2[k], cos_mh2)
-            G2 = G_ggx(alpha2[k], cos_mi2, cos_mo2)
-            scalar = (weight * T1 * scale1 * T2 * D2 * G1o * G2)
-            result = (scalar[:, None] * A_t / cos_mo1[:, None]
-                      * (cos_mi1 * cos_hi2 * cos_ho2 * (rcp2 * rcp2))[:, None])
-            s &= finite_rows(result)
-            S_tt[k[s]] += (p[k[s], LOBE_TT] * arc_length(e2[k[s]], gamma_mt[s]))[:, None] * result[s]
-            # TRT and beyond
-            s = p[k, LOBE_TRT] > 0.0
-            (k, gamma_mi, cos_mi1, T1, scale1, wt, phi_t, gamma_mt, wmt, wmt_, cos_mo1, cos_mi2, G1o, weight, A_t,
-             scale2) = (x[s] for x in (k, gamma_mi, cos_mi1, T1, scale1, wt, phi_t, gamma_mt, wmt, wmt_, cos_mo1,
-                                       cos_mi2, G1o, weight, A_t, scale2))
-            u2 = np.stack([lcg(state, k), lcg(state, k)], axis=1)
-            wh2 = sample_wh(rough[k], -wt, wmt, u2)
-            cos_hi2 = vdot(-wt, wh2)
-            s = cos_hi2 > 0.0
-            (k, gamma_mi, cos_mi1, T1, scale1, wt, phi_t, gamma_mt, wmt, wmt_, cos_mo1, cos_mi2, G1o, weight, A_t,
-             scale2, wh2, cos_hi2) = (x[s] for x in (k, gamma_mi, cos_mi1, T1, scale1, wt, phi_t, gamma_mt, wmt,
-                                                     wmt_, cos_mo1, cos_mi2, G1o, weight, A_t, scale2, wh2, cos_hi2))
-            R2 = fresnel_cos(cos_hi2, inv_eta[k])
-            rest = weight[:, None] * trrt(T1, R2, A_t)
-            wtr = -reflect(wt, wh2)
-            o = wo[k]
-            tir = vdot(-wtr, o) < inv_eta[k] - 1e-5
-            S_trrt[k[tir]] += rest[tir]
-            seen = ~tir & visible(-wt, wmt, wh2) & visible(-wtr, wmt, wh2) & visible(-wt, wmt_, wh2) \
-                & visible(-wtr, wmt_, wh2)
-            phi_tr = dir_phi(wtr)
-            gamma_mtr = gamma_mi - 2.0 * (to_phi(phi_t, b[k], circ[k]) - to_phi(phi_tr, b[k], circ[k])) + math.pi
-            wmtr = sphg_dir(-p[k, TILT], gamma_mtr, b[k], circ[k])
-            wmtr_ = sphg_dir(0.0, gamma_mtr, b[k], circ[k])
-            wh3 = wtr + inv_eta[k, None] * o
-            rcp3 = 1.0 / np.sqrt(vdot(wh3, wh3))
-            wh3 = wh3 * rcp3[:, None]
-            cos_mh3 = vdot(wmtr, wh3)
-            blocked = seen & ((cos_mh3 < 0.0) | ~(visible(wtr, wmtr, wh3) & visible(-o, wmtr, wh3))
-                              | ~(visible(wtr, wmtr_, wh3) & visible(-o, wmtr_, wh3)))
-            S_trrt[k[blocked]] += rest[blocked]
-            s = seen & ~blocked
-            cos_hi3, cos_ho3, cos_mi3 = vdot(wh3, wtr), vdot(wh3, -o), vdot(wmtr, wtr)
-            T3 = (1.0 - fresnel_cos(cos_hi3, inv_eta[k])) * energy_scale(cos_mi3, sqrt_rough[k], inv_eta[k])
-            D3 = D_ggx(alpha2[k], cos_mh3)
-            length = np.where(circ[k], 2.0 * np.abs(np.cos(phi_tr - gamma_mt)), chord(gamma_mtr, gamma_mt, b[k]))
-            A_tr = np.exp(mu_a[k] / cos_theta(wtr)[:, None] * -length[:, None])
-            cos_mo2 = vdot(wmt, -wtr)
-            G2o = G_o(alpha2[k], cos_mi2, cos_mo2)
-            G3 = G_ggx(alpha2[k], cos_mi3, vdot(wmtr, -o))
-            scalar = weight * T1 * scale1 * R2 * scale2 * T3 * D3 * G1o * G2o * G3
-            result = (scalar[:, None] * A_t * A_tr / (cos_mo1 * cos_mo2)[:, None]
-                      * (cos_mi1 * cos_mi2 * cos_hi3 * cos_ho3 * (rcp3 * rcp3))[:, None])
-            good = s & finite_rows(result)
-            S_trt[k[good]] += (p[k[good], LOBE_TRT] * arc_length(e2[k[good]], gamma_mtr[good]))[:, None] * result[good]
-            S_trrt[k[s]] += rest[s]
+        k, i, h, simpson, res = quadrature(lo, hi, rough * 0.8)
+        keep = live[k]
+        k, i, h, simpson = k[keep], i[keep], h[keep], simpson[keep]
+        b, circ = p[k, B], p[k, B] == 1.0
+        e2 = 1.0 - b * b
+        ie = inv_eta[k]
+        alpha2, sqrt_rough, r = rough[k] * rough[k], np.sqrt(rough[k]), rough[k]
+        mu_a = p[k, SIGMA:SIGMA + 3]
+        I, o = wi[k], wo[k]
+        tilt = p[k, TILT]
+        gamma_mi = h_to_gamma(h, b, I, circ)
+        wmi = sphg_dir(tilt, gamma_mi, b, circ)
+        wmi_ = sphg_dir(0.0, gamma_mi, b, circ)
+        wh1 = sample_wh(r, I, wmi, np.stack([number(seed[k], i, 0), number(seed[k], i, 1)], axis=1))
+        cos_hi1 = vdot(I, wh1)
+        cos_mi1 = vdot(I, wmi)
+        F1, cos_t1 = fresnel_t(cos_hi1, eta[k])
+        T1 = 1.0 - F1
+        scale1 = energy_scale(cos_mi1, sqrt_rough, eta[k])
+        wt = refract(I, wh1, cos_t1, ie)
+        phi_t = dir_phi(wt)
+        gamma_mt = 2.0 * to_phi(phi_t, b, circ) - gamma_mi
+        wmt = sphg_dir(-tilt, gamma_mt, b, circ)
+        wmt_ = sphg_dir(0.0, gamma_mt, b, circ)
+        cos_mo1 = vdot(-wt, wmi)
+        cos_mi2 = vdot(-wt, wmt)
+        G1o = G_o(alpha2, cos_mi1, cos_mo1)
+        go = (cos_hi1 > 0.0) & visible(I, wmi, wh1) & visible(-wt, wmi, wh1) & visible(I, wmi_, wh1) \
+            & visible(-wt, wmi_, wh1)
+        weight = simpson * d_gamma_d_h(I, gamma_mi, b, circ)
+        length = np.where(circ, 2.0 * np.cos(gamma_mi - phi_t), -chord(gamma_mi, gamma_mt + math.pi, b))
+        A_t = np.exp(mu_a / cos_theta(wt)[:, None] * length[:, None])
+        scale2 = energy_scale(cos_mi2, sqrt_rough, ie)
+        # TT
+        wh2 = -wt + ie[:, None] * o
+        rcp2 = 1.0 / np.sqrt(vdot(wh2, wh2))
+        wh2 = wh2 * rcp2[:, None]
+        cos_mh2 = vdot(wmt, wh2)
+        cos_hi2, cos_ho2, cos_mo2 = vdot(-wt, wh2), vdot(-o, wh2), vdot(-o, wmt)
+        T2 = (1.0 - fresnel_cos(cos_hi2, ie)) * scale2
+        D2 = D_ggx(alpha2, cos_mh2)
+        G2 = G_ggx(alpha2, cos_mi2, cos_mo2)
+        scalar = (weight * T1 * scale1 * T2 * D2 * G1o * G2)
+        result = (scalar[:, None] * A_t / cos_mo1[:, None] * (cos_mi1 * cos_hi2 * cos_ho2 * (rcp2 * rcp2))[:, None])
+        s = go & (p[k, LOBE_TT] > 0.0) & (vdot(o, wt) >= ie - 1e-5) & (cos_mh2 >= 0.0) & finite_rows(result)
+        tt = (p[k, LOBE_TT] * arc_length(e2, gamma_mt))[:, None] * result
+        S_tt = accumulate(n, k[s], tt[s])
+        # TRT and beyond
+        go &= p[k, LOBE_TRT] > 0.0
+        wh2 = sample_wh(r, -wt, wmt, np.stack([number(seed[k], i, 2), number(seed[k], i, 3)], axis=1))
+        cos_hi2 = vdot(-wt, wh2)
+        go &= cos_hi2 > 0.0
+        R2 = fresnel_cos(cos_hi2, ie)
+        rest = weight[:, None] * trrt(T1, R2, A_t)
+        wtr = -reflect(wt, wh2)
+        tir = go & (vdot(-wtr, o) < ie - 1e-5)
+        seen = go & ~tir & visible(-wt, wmt, wh2) & visible(-wtr, wmt, wh2) & visible(-wt, wmt_, wh2) \
+            & visible(-wtr, wmt_, wh2)
+        phi_tr = dir_phi(wtr)
+        gamma_mtr = gamma_mi - 2.0 * (to_phi(phi_t, b, circ) - to_phi(phi_tr, b, circ)) + math.pi
+        wmtr = sphg_dir(-tilt, gamma_mtr, b, circ)
+        wmtr_ = sphg_dir(0.0, gamma_mtr, b, circ)
+        wh3 = wtr + ie[:, None] * o
+        rcp3 = 1.0 / np.sqrt(vdot(wh3, wh3))
+        wh3 = wh3 * rcp3[:, None]
+        cos_mh3 = vdot(wmtr, wh3)
+        blocked = seen & ((cos_mh3 < 0.0) | ~(visible(wtr, wmtr, wh3) & visible(-o, wmtr, wh3))
+                          | ~(visible(wtr, wmtr_, wh3) & visible(-o, wmtr_, wh3)))
+        s = seen & ~blocked
+        cos_hi3, cos_ho3, cos_mi3 = vdot(wh3, wtr), vdot(wh3, -o), vdot(wmtr, wtr)
+        T3 = (1.0 - fresnel_cos(cos_hi3, ie)) * energy_scale(cos_mi3, sqrt_rough, ie)
+        D3 = D_ggx(alpha2, cos_mh3)
+        length = np.where(circ, 2.0 * np.abs(np.cos(phi_tr - gamma_mt)), chord(gamma_mtr, gamma_mt, b))
+        A_tr = np.exp(mu_a / cos_theta(wtr)[:, None] * -length[:, None])
+        cos_mo2 = vdot(wmt, -wtr)
+        G2o = G_o(alpha2, cos_mi2, cos_mo2)
+        G3 = G_ggx(alpha2, cos_mi3, vdot(wmtr, -o))
+        scalar = weight * T1 * scale1 * R2 * scale2 * T3 * D3 * G1o * G2o * G3
+        result = (scalar[:, None] * A_t * A_tr / (cos_mo1 * cos_mo2)[:, None]
+                  * (cos_mi1 * cos_mi2 * cos_hi3 * cos_ho3 * (rcp3 * rcp3))[:, None])
+        good = s & finite_rows(result)
+        S_trt = accumulate(n, k[good], (p[k[good], LOBE_TRT] * arc_length(e2[good], gamma_mtr[good]))[:, None]
+                           * result[good])
+        S_trrt = accumulate(n, k[tir | blocked | s], rest[tir | blocked | s])
         cos_i, cos_o = cos_theta(wi), cos_theta(wo)
         M = longitudinal(wi[:, 1], cos_i, wo[:, 1], cos_o, 4.0 * rough)
         out = ((S_tt + S_trt) * (inv_eta * inv_eta)[:, None]
@@ -503,9 +503,8 @@ def sample_huang(params, wo, u) -> BsdfSample:
     lobes' energy, the chosen lobe's colour) and pdf 1; pdf 0 where the path was blocked."""
     n = len(wo)
     u2 = np.array(u[:, 2] if u.shape[1] > 2 else np.full(n, 0.5), np.float64)
-    state = seed_of(wo[:, 0], wo[:, 1], wo[:, 2], u[:, 0], u[:, 1], u2)
-    every = np.arange(n)
-    draws = [lcg(state, every) for _ in range(5)]
+    seed = seed_of(wo[:, 0], wo[:, 1], wo[:, 2], u[:, 0], u[:, 1], u2)
+    draws = [number(seed, 0, j) for j in range(8)]
     p = params
     wi = to_local(p, wo)
     b, circ, rough, eta = p[:, B], p[:, B] == 1.0, p[:, ROUGH], p[:, ETA]
@@ -564,17 +563,12 @@ def sample_huang(params, wo, u) -> BsdfSample:
         s = deep & (T3 > 0.0) & visible(wtr, flat3, wh3) & visible(-wtrt, flat3, wh3)
         TRT = np.where(s[:, None], p[:, LOBE_TRT, None] * TR * (T3 * G_o(alpha2, cos_mi3, vdot(wmtr, -wtrt)))[:, None],
                        0.0)
-        rows = np.flatnonzero(deep)
-        more = np.zeros((n, 3))
-        more[rows, 0] = np.maximum(lcg(state, rows), 1e-5)
-        more[rows, 1] = lcg(state, rows)
-        more[rows, 2] = lcg(state, rows)
-        z = more[:, 0]
+        z = np.maximum(draws[5], 1e-5)
         fac = 1.0 + 4.0 * rough * np.log(z + (1.0 - z) * np.exp(-0.5 / rough))
-        sin_o = -fac * wi[:, 1] + np.sqrt(np.maximum(1.0 - fac * fac, 0.0)) * np.cos(2.0 * math.pi * more[:, 1]) \
+        sin_o = -fac * wi[:, 1] + np.sqrt(np.maximum(1.0 - fac * fac, 0.0)) * np.cos(2.0 * math.pi * draws[6]) \
             * cos_theta(wi)
         cos_o = np.sqrt(np.maximum(1.0 - sin_o * sin_o, 0.0))
-        phi_o = 2.0 * math.pi * more[:, 2]
+        phi_o = 2.0 * math.pi * draws[7]
         wtrrt = np.stack([np.sin(phi_o) * cos_o, sin_o, np.cos(phi_o) * cos_o], axis=1)
         A_avg = np.sqrt(A_t * A_tr)
         T_avg = np.maximum(0.5 * (T2 + T3), 1e-5)
