@@ -20,7 +20,7 @@ pytestmark = pytest.mark.blender
 
 PRIMER_SAMPLES, CYCLES_SAMPLES = 64, 256
 CASES = ("chiang_melanin", "chiang_color", "chiang_absorption", "hair_reflection", "hair_transmission", "huang",
-         "front_chiang_melanin", "front_chiang_color")
+         "huang_elliptic", "front_chiang_melanin", "front_chiang_color")
 
 SCRIPT = """
 import math, os
@@ -71,11 +71,17 @@ for name in {cases!r}:
         node.inputs["RoughnessV"].default_value = 0.4
     else:
         node = tree.nodes.new("ShaderNodeBsdfHairPrincipled")
-        node.model = "HUANG" if case == "huang" else "CHIANG"
+        node.model = "HUANG" if case.startswith("huang") else "CHIANG"
         node.inputs["Roughness"].default_value = 0.35
         if node.inputs.get("Radial Roughness") is not None:
             node.inputs["Radial Roughness"].default_value = 0.4
-        if case in ("chiang_melanin", "huang"):
+        if case.startswith("huang"):
+            # Huang's lobe scales, and its elliptical fibres (their major axis along the curve's normal).
+            node.inputs["Aspect Ratio"].default_value = 0.5 if case == "huang_elliptic" else 1.0
+            node.inputs["Reflection"].default_value = 0.8
+            node.inputs["Transmission"].default_value = 1.2
+            node.inputs["Secondary Reflection"].default_value = 0.7
+        if case == "chiang_melanin" or case.startswith("huang"):
             node.parametrization = "MELANIN"
             node.inputs["Melanin"].default_value = 0.35
             node.inputs["Melanin Redness"].default_value = 0.6

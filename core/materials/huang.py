@@ -591,10 +591,10 @@ def sample_huang(params, wo, u) -> BsdfSample:
 
 
 # The node's inputs: the Principled Hair BSDF's (hair.py), then Huang's own: Aspect Ratio, the lobe scales
-# Reflection, Transmission, Secondary Reflection, the curve's normal (the major axis), and the half pixel's width
-# over the strand's radius (0: unknown, the far field).
+# Reflection, Transmission, Secondary Reflection, the curve's normal (the major axis, not named "normal": that input
+# is a node's own Normal), and the half pixel's width over the strand's radius (0: unknown, the far field).
 HUANG_INPUTS = PRINCIPLED_HAIR_INPUTS + ("aspect_ratio", "reflection", "transmission", "secondary_reflection",
-                                         "normal", "pixel_coverage")
+                                         "major_axis", "pixel_coverage")
 HUANG_DEFAULTS = PRINCIPLED_HAIR_DEFAULTS + (0.85, 1.0, 1.0, 1.0, (0.0, 0.0, 0.0), 0.0)
 
 
@@ -660,3 +660,13 @@ class HuangHairNode(Node):
         b.transparency += np.where((outside & keep)[:, None], weight, 0.0)
         weight = np.where((outside | ~keep)[:, None], 0.0, weight)
         b.add(HuangHair.kind, weight, rows)
+
+
+def huang_links() -> dict:
+    """The graph links Huang's node reads on curves beyond hair.curve_links: `major_axis`, the tubes' rotation-minimising
+    normal ("curve_normal", per vertex) in world space, the elliptical fibre's major axis."""
+    from .graph import GraphNode, Link
+    normal = Link(GraphNode("ATTRIBUTE", {"attribute": "curve_normal"}, {}, "curve normal"), "Vector")
+    world = Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
+                           {"Vector": normal}, "curve normal in world space"), "Vector")
+    return {"major_axis": world}
