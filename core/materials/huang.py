@@ -664,9 +664,16 @@ class HuangHairNode(Node):
 
 def huang_links() -> dict:
     """The graph links Huang's node reads on curves beyond hair.curve_links: `major_axis`, the tubes' rotation-minimising
-    normal ("curve_normal", per vertex) in world space, the elliptical fibre's major axis."""
+    normal ("curve_normal", per vertex) in world space, the elliptical fibre's major axis; and `pixel_coverage`, half
+    the camera ray's footprint over the strand's radius (Cycles' 0.5 dP / radius: footprint / Curves Info's
+    Thickness) on camera rays, 0 on others (the far field)."""
     from .graph import GraphNode, Link
     normal = Link(GraphNode("ATTRIBUTE", {"attribute": "curve_normal"}, {}, "curve normal"), "Vector")
     world = Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
                            {"Vector": normal}, "curve normal in world space"), "Vector")
-    return {"major_axis": world}
+    footprint = Link(GraphNode("RAY_FOOTPRINT", {}, {}, "ray footprint"), "Value")
+    thickness = Link(GraphNode("CURVES_INFO", {}, {}, "curve thickness"), "Thickness")
+    camera = Link(GraphNode("LIGHT_PATH", {}, {}, "camera ray"), "Is Camera Ray")
+    half_pixel = Link(GraphNode("MATH", {"operation": "DIVIDE"}, {"0": footprint, "1": thickness}), "Value")
+    coverage = Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": camera, "1": half_pixel}), "Value")
+    return {"major_axis": world, "pixel_coverage": coverage}
