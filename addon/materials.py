@@ -1509,10 +1509,11 @@ def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, fa
             if value is not None:
                 inputs[key] = value
         inputs.update(huang_.huang_links())
-        reader.warn(node, "the Huang model's near-field camera-ray model (strands wider than a pixel integrate only "
-                          "the part of the width the pixel sees) is not modelled: Primer integrates the whole width "
-                          "(Cycles' far field) on every ray; the elliptical fibres' major axis follows Primer's "
-                          "rotation-minimising curve normal (Blender's Minimum Twist normal, started alike)")
+        aspect = node.inputs.get("Aspect Ratio")
+        if aspect is not None and (aspect.is_linked or aspect.default_value != 1.0):
+            reader.warn(node, "the Huang model's elliptical fibres take their major axis from Primer's rotation-"
+                              "minimising curve normal (started from tangent x Z, as Blender's Minimum Twist normal); "
+                              "Cycles reads the curve's own normal attribute (its Normal Mode)")
         out.append(("PRINCIPLED_HAIR_HUANG", weight, inputs, list(factors)))
         return
     out.append(("PRINCIPLED_HAIR", weight, inputs, list(factors)))
