@@ -1,7 +1,8 @@
 """Hair (core/materials/hair.py, Cycles' bsdf_principled_hair_chiang.h and bsdf_hair.h): Chiang's fibre loses no
 light when it absorbs none, its sampler draws the directions its pdf says and weighs them by f cos / pdf, its offset
-h is Cycles' from the round normal; the Hair BSDF's samples have its eval's pdf; both kernels render curves with
-them alike."""
+h is Cycles' from the round normal; the Hair BSDF's samples have its eval's pdf; Huang's model (core/materials/huang.py)
+returns all the light of a white fibre through its sampler, its samples carry its eval's integral, an elliptical
+fibre is as wide as Cycles'; both kernels render curves with them alike."""
 from __future__ import annotations
 
 import math
