@@ -22,6 +22,7 @@ import numpy as np
 from ..core.materials import NODE_TYPES, Material
 from ..core.materials import graph as graph_
 from ..core.materials import hair as hair_
+from ..core.materials import huang as huang_
 from ..core.materials import ies as ies_
 from ..core.materials import nodes as nodes_
 from ..core.materials import sky as sky_
@@ -1488,9 +1489,9 @@ HAIR_PARAMETRIZATIONS = {"COLOR": "direct_coloring", "MELANIN": "melanin", "ABSO
 
 
 def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
-    """Append the Principled Hair BSDF (Chiang's model, hair.PrincipledHairNode): its sockets per hit where linked, the
-    curve's tangent, Random from Curves Info's Random unless linked (as Cycles); the Huang model rendered as Chiang's,
-    with a warning."""
+    """Append the Principled Hair BSDF (Chiang's model, hair.PrincipledHairNode; Huang's, huang.HuangHairNode): its
+    sockets per hit where linked, the curve's tangent (and for Huang's its normal, the major axis), Random from Curves
+    Info's Random unless linked (as Cycles)."""
     inputs = {key: reader.input(node, socket, None) for socket, key in HAIR_SOCKETS.items()}
     inputs = {key: value for key, value in inputs.items() if value is not None}
     parametrization = HAIR_PARAMETRIZATIONS.get(getattr(node, "parametrization", "COLOR"), "direct_coloring")
@@ -1500,13 +1501,27 @@ def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, fa
     if random is not None and random.is_linked:
         inputs["random"] = reader.input(node, "Random", 0.0)
     if getattr(node, "model", "CHIANG") == "HUANG":
-        # Cycles' Huang model reads Roughness for both directions and has no Coat.
-        inputs["radial_roughness"] = inputs.get("roughness", 0.3)
-        inputs["coat"] = 0.0
-        reader.warn(node, "the Huang model is rendered with Chiang's (hair.py): Huang's elliptical fibres (Aspect "
-                          "Ratio), its Reflection / Transmission / Secondary Reflection lobe scales and its near-field "
-                          "camera-ray model are not modelled; Roughness serves as Radial Roughness too")
+        # Cycles' Huang model has no Coat and no Radial Roughness (its Roughness serves the colour's fit too).
+        inputs.pop("coat", None)
+        inputs.pop("radial_roughness", None)
+        for socket, key in HUANG_SOCKETS.items():
+            value = reader.input(node, socket, None)
+            if value is not None:
+                inputs[key] = value
+        inputs.update(huang_.huang_links())
+        aspect = node.inputs.get("Aspect Ratio")
+        if aspect is not None and (aspect.is_linked or aspect.default_value != 1.0):
+            reader.warn(node, "the Huang model's elliptical fibres take their major axis from Primer's rotation-"
+                              "minimising curve normal (started from tangent x Z, as Blender's Minimum Twist normal); "
+                              "Cycles reads the curve's own normal attribute (its Normal Mode)")
+        out.append(("PRINCIPLED_HAIR_HUANG", weight, inputs, list(factors)))
+        return
     out.append(("PRINCIPLED_HAIR", weight, inputs, list(factors)))
+
+
+# The Huang model's own sockets (huang.HuangHairNode's inputs).
+HUANG_SOCKETS = {"Aspect Ratio": "aspect_ratio", "Reflection": "reflection", "Transmission": "transmission",
+                 "Secondary Reflection": "secondary_reflection"}
 
 
 # A volume node's inputs, by socket name, as core/volumes' closures read them (`inputs` keys).

@@ -160,4 +160,9 @@ def tubes(positions: np.ndarray, radius: np.ndarray, first: np.ndarray, counts: 
     ends_tangent = np.stack([tangent[:, 0], tangent[np.arange(c), last]], axis=1).reshape(2 * c, 3)
     mesh.curve_info["curve_tangent"] = np.concatenate([np.repeat(tangent.reshape(c * s, 3), sides, axis=0),
                                                        ends_tangent])
+    # The rotation-minimising normal (Blender's Minimum Twist normals start as it does, from tangent x Z): the major axis
+    # of the Huang model's elliptical fibres (Cycles reads the curve's normal attribute).
+    ends_normal = np.stack([normal[:, 0], normal[np.arange(c), last]], axis=1).reshape(2 * c, 3)
+    mesh.curve_info["curve_normal"] = np.concatenate([np.repeat(normal.reshape(c * s, 3), sides, axis=0),
+                                                      ends_normal])
     return Tubes(mesh, curve.astype(np.int64))

@@ -18,6 +18,7 @@
 #include "subsurface.c"
 #include "hair.c"
 #include "portal.c"
+#include "huang.c"
 
 /* BSDF.eval through the table: f cos of closure c for light from wi towards wo, and its pdf. A kind
  * outside the table (which core/materials refuses before C sees it) reflects nothing. */
@@ -44,6 +45,7 @@ INLINE void bsdf_eval(const Closure *c, const double *wo, const double *wi, doub
     case BSDF_HAIR_REFLECTION: hair_reflection_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_HAIR_TRANSMISSION: hair_transmission_eval(c, wo, wi, f_cos, pdf); return;
     case BSDF_PORTAL: portal_eval(c, wo, wi, f_cos, pdf); return;
+    case BSDF_HUANG_HAIR: huang_hair_eval(c, wo, wi, f_cos, pdf); return;
     default: break;
     }
     f_cos[0] = f_cos[1] = f_cos[2] = 0.0;
@@ -74,6 +76,7 @@ INLINE void bsdf_sample(const Closure *c, const double *wo, const double *u, Bsd
     case BSDF_HAIR_REFLECTION: hair_reflection_sample(c, wo, u, out); return;
     case BSDF_HAIR_TRANSMISSION: hair_transmission_sample(c, wo, u, out); return;
     case BSDF_PORTAL: portal_sample(c, wo, u, out); return;
+    case BSDF_HUANG_HAIR: huang_hair_sample(c, wo, u, out); return;
     default: break;
     }
     out->wi[0] = out->wi[1] = out->wi[2] = 0.0;
@@ -93,6 +96,7 @@ INLINE void bsdf_albedo(const Closure *c, const double *wo, double *R, double *T
     case BSDF_BECKMANN_GLASS: beckmann_glass_albedo(c, wo, R, T); return;
     case BSDF_CHIANG_HAIR: chiang_hair_albedo(c, wo, R, T); return;
     case BSDF_HAIR_TRANSMISSION: hair_transmission_albedo(c, wo, R, T); return;
+    case BSDF_HUANG_HAIR: huang_hair_albedo(c, wo, R, T); return;
     default: break;
     }
     R[0] = R[1] = R[2] = 1.0;

@@ -426,13 +426,20 @@ static double camera_cone(const double *P, const double *f, double *widening)
  * f: the window (left, right, bottom, top, perspective, width, height; perspective >= 2: a panorama's). After a
  * bounce (or a portal), on shadow rays, in a light's own shading (no footprint: no wire) and under a panoramic
  * camera, the path's ray cone where it carries one. */
-INLINE double pixel_width(const double *P, const double *f, const ShadingPoint *sp)
+/* graph.ray_footprint: the ray's footprint at P (camera frame), Cycles' sd->dP (pixel_width's; the FOOTPRINT op). */
+NOINLINE static double ray_footprint(const double *P, const double *f, const ShadingPoint *sp)
 {
     double widening, footprint = f[4] >= 2.0 ? 0.0 : camera_cone(P, f, &widening);
     const LightPath *p = &sp->path;
     int left = p->bounce > 0 || p->portal > 0 || (p->flags & (PATH_SHADOW | PATH_EMISSION)) != 0 || f[4] >= 2.0;
     if (left && p->cone >= 0.0)
         footprint = p->cone + sp->t * p->spread;
+    return footprint;
+}
+
+INLINE double pixel_width(const double *P, const double *f, const ShadingPoint *sp)
+{
+    double footprint = ray_footprint(P, f, sp);
     double axes[2][3], across = 0.0;
     make_orthonormals(sp->Ng, axes[0], axes[1]);
     for (int k = 0; k < 2; k++) {
@@ -745,6 +752,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             break;
         }
         case OP_CURVE_NORMAL: { double r[3]; curve_normal(reg + a[1], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_FOOTPRINT: out[0] = ray_footprint(reg + a[1], reg + a[2], sp); break;
         case OP_PIXEL_SIZE: out[0] = reg[a[1]] * pixel_width(reg + a[2], reg + a[3], sp); break;
         case OP_CAMERA_DATA: {
             const double *p = reg + a[1];

@@ -59,7 +59,7 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
                                                                "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL",
                                                                "PIXEL_SIZE", "CURVE_NORMAL", "SET_NORMAL",
-                                                               "TANGENT_SPACE")
+                                                               "TANGENT_SPACE", "FOOTPRINT")
 # Ops that trace rays into the scene while the shader runs (Cycles' __SHADER_RAYTRACE__ nodes: Ambient Occlusion,
 # Bevel). A program holding one reads ShadingPoint.rays, the integrator's ShaderRays (core/integrators/shader_rays.py)
 # for the hits' pixel samples; where there is none (shadow rays, light samples landing on an emitter: Cycles
@@ -454,7 +454,7 @@ COMPUTED_COORDINATES = (INCOMING_OBJECT,)
 
 # The widths of the mesh attributes by name prefix.
 ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "attr": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
-                    "curve": 1, "curve_tangent": 3, "point_centre": 4, "point_radius": 3, "point_random": 1}
+                    "curve": 1, "curve_tangent": 3, "curve_normal": 3, "point_centre": 4, "point_radius": 3, "point_random": 1}
 
 
 def attribute_width(name: str) -> int:
@@ -665,6 +665,12 @@ class Compiler:
             v = self.value(inp.get("Vector"), 3, 0.5)
             return self.vector_transform(v, props.get("type", "VECTOR"), props.get("from", "WORLD"),
                                          props.get("to", "OBJECT")), 3, "vector"
+        if kind == "RAY_FOOTPRINT":                     # the ray's footprint at the hit (Cycles' sd->dP)
+            if self.window is None:
+                return self.constant([0.0]), 1, "float"
+            out = self.temporary(1)
+            self.emit("FOOTPRINT", out, self.transform(self.geometry("Position"), self.view), self.constant(self.window))
+            return out, 1, "float"
         if kind == "WIREFRAME":
             size = self.value(inp.get("Size"), 1, 0.01)
             if props.get("pixel_size") and self.window is not None:
@@ -1148,7 +1154,7 @@ REGISTER_ARGS = {
     "LIGHT_PATH": {0}, "TANGENT": {0, 1}, "FRESNEL": {0, 1, 2}, "LAYER_WEIGHT": {0, 1, 2},
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     "AO": {0, 1, 2, 3}, "BEVEL": {0, 1, 2},
-    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1}, "SET_NORMAL": {0}, "TANGENT_SPACE": {0, 1},
+    "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1}, "SET_NORMAL": {0}, "TANGENT_SPACE": {0, 1}, "FOOTPRINT": {0, 1, 2},
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1442,6 +1448,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "SET_NORMAL":                      # the ops after it see this normal as the hit's (unit; kept
             unit = safe_normalize(R(0, 3))              # where it is zero, as apply_outputs does)
             sp = sp._replace(N=np.where(np.any(unit != 0.0, axis=1)[:, None], unit, sp.N))
+        elif name == "FOOTPRINT":
+            reg[:, i[0]] = ray_footprint(R(1, 3), reg[0, i[2]:i[2] + 8], sp)
         elif name == "PIXEL_SIZE":
             reg[:, i[0]] = reg[:, i[1]] * pixel_width(R(2, 3), reg[0, i[3]:i[3] + 8], sp)
         elif name == "CAMERA_DATA":
@@ -1553,6 +1561,24 @@ def camera_cones(P: np.ndarray, frame) -> tuple:
     return np.sqrt(np.einsum("ij,ij->i", P, P)) * (0.5 * spread), 0.5 * spread
 
 
+def ray_footprint(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarray:
+    """The ray's footprint (n,) at hits P (n, 3) in the camera's frame, Cycles' sd->dP (pixel_width's dP; the FOOTPRINT
+    op, which the Huang hair model reads): a camera ray's from the camera's differentials (camera_cones), after a
+    bounce (or a portal), on shadow rays and in a light's own shading the path's ray cone where it carries one, under a
+    panoramic camera the path's cone on camera rays too; 0 where it is unknown."""
+    panoramic = frame[4] >= 2.0
+    footprint = np.zeros(len(P)) if panoramic else camera_cones(P, frame)[0]
+    path = sp.path
+    if path is not None and sp.t is not None:
+        # After a bounce (or a portal), and on shadow rays, the ray cone the path carries (Cycles widens the camera
+        # ray's over the whole path; a shadow ray keeps its vertex's footprint); on camera rays, also straight
+        # through Transparent surfaces, the camera's own measure above.
+        left = (path.bounce > 0) | (path.portal > 0) | ((path.flags & (PATH_SHADOW | PATH_EMISSION)) != 0) | panoramic
+        carried = left & (path.cone >= 0.0)
+        footprint = np.where(carried, footprints(path, sp.t), footprint)
+    return footprint
+
+
 def pixel_width(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarray:
     """The width of a pixel at hits P (n, 3) in the camera's frame, as Cycles' Wireframe node measures it for Pixel Size
     (n,), from a camera ray's differentials: the ray's footprint there, dP (a perspective camera: the distance |P| times
@@ -1564,16 +1590,7 @@ def pixel_width(P: np.ndarray, frame: np.ndarray, sp: ShadingPoint) -> np.ndarra
     the whole path; a light's sample has none, so no wire shows there, as in Cycles); under a panoramic camera the
     path's cone on camera rays too (camera.panorama_cones), 0 where it is unknown.
     frame: the window (left, right, bottom, top, perspective, width, height; perspective >= 2: a panorama's)."""
-    panoramic = frame[4] >= 2.0
-    footprint = np.zeros(len(P)) if panoramic else camera_cones(P, frame)[0]
-    path = sp.path
-    if path is not None and sp.t is not None:
-        # After a bounce (or a portal), and on shadow rays, the ray cone the path carries (Cycles widens the camera
-        # ray's over the whole path; a shadow ray keeps its vertex's footprint); on camera rays, also straight
-        # through Transparent surfaces, the camera's own measure above.
-        left = (path.bounce > 0) | (path.portal > 0) | ((path.flags & (PATH_SHADOW | PATH_EMISSION)) != 0) | panoramic
-        carried = left & (path.cone >= 0.0)
-        footprint = np.where(carried, footprints(path, sp.t), footprint)
+    footprint = ray_footprint(P, frame, sp)
     I = sp.N if sp.I is None else sp.I
     across = 0.0
     for axis in orthonormals(sp.Ng):

@@ -458,6 +458,22 @@ def sigma_from_reflectance(color: np.ndarray, radial: np.ndarray) -> np.ndarray:
     return sigma * sigma
 
 
+def hair_sigma(p: np.ndarray, radial: np.ndarray) -> np.ndarray:
+    """The absorption sigma (n, 3) of the Principled Hair BSDF's inputs p (n, NODE_PARAMS) by its parametrisation
+    (Direct Coloring, Melanin with Redness, Tint and Random Color, or Absorption Coefficient), the colours' fit read at
+    the azimuthal roughness `radial` (n,) (Chiang's Radial Roughness, Huang's Roughness), as Cycles' svm node."""
+    random = p[:, 16]
+    kind = p[:, 0]
+    melanin = p[:, 4] * (1.0 + 2.0 * (random - 0.5) * np.clip(p[:, 15], 0.0, 1.0))
+    melanin = -np.log(np.maximum(1.0 - melanin, 0.0001))
+    eu, pheo = melanin * (1.0 - p[:, 5]), melanin * p[:, 5]
+    pigment = (eu[:, None] * np.array(EUMELANIN) + pheo[:, None] * np.array(PHEOMELANIN)
+               + sigma_from_reflectance(p[:, 6:9], radial))
+    return np.where((kind == PARAMETRIZATIONS["absorption"])[:, None], p[:, 17:20],
+                    np.where((kind == PARAMETRIZATIONS["melanin"])[:, None], pigment,
+                             sigma_from_reflectance(p[:, 1:4], radial)))
+
+
 def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray) -> np.ndarray:
     """Chiang's closure rows (n, PARAMS) from the node's inputs p (n, NODE_PARAMS) at hits with normal N (the round
     normal, Cycles' Ng) and view wo (n, 3), as Cycles' svm closure node and bsdf_hair_chiang_setup compute them."""
@@ -465,15 +481,7 @@ def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray) -> np.ndarray:
     random = p[:, 16]
     factor = 1.0 + 2.0 * (random - 0.5) * p[:, 14]
     roughness, radial = p[:, 9] * factor, p[:, 10] * factor
-    kind = p[:, 0]
-    melanin = p[:, 4] * (1.0 + 2.0 * (random - 0.5) * np.clip(p[:, 15], 0.0, 1.0))
-    melanin = -np.log(np.maximum(1.0 - melanin, 0.0001))
-    eu, pheo = melanin * (1.0 - p[:, 5]), melanin * p[:, 5]
-    pigment = (eu[:, None] * np.array(EUMELANIN) + pheo[:, None] * np.array(PHEOMELANIN)
-               + sigma_from_reflectance(p[:, 6:9], radial))
-    sigma = np.where((kind == PARAMETRIZATIONS["absorption"])[:, None], p[:, 17:20],
-                     np.where((kind == PARAMETRIZATIONS["melanin"])[:, None], pigment,
-                              sigma_from_reflectance(p[:, 1:4], radial)))
+    sigma = hair_sigma(p, radial)
     v = np.clip(roughness, 0.001, 1.0)
     s = np.clip(radial, 0.001, 1.0)
     m0 = np.clip((1.0 - np.clip(p[:, 11], 0.0, 1.0)) * v, 0.001, 1.0)
@@ -495,7 +503,7 @@ def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray) -> np.ndarray:
     return out
 
 
-# The Principled Hair BSDF's inputs, in their slots (the Huang model's own inputs are not read: add-on warning).
+# The Principled Hair BSDF's inputs, in their slots (Huang's model adds its own: huang.HUANG_INPUTS).
 PRINCIPLED_HAIR_INPUTS = ("parametrization", "color", "melanin", "melanin_redness", "tint", "roughness",
                           "radial_roughness", "coat", "ior", "offset", "random_roughness", "random_color", "random",
                           "absorption", "tangent")

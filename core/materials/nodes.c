@@ -591,6 +591,23 @@ INLINE double hair_variance_of(double r)
 
 INLINE double hair_clip(double x) { return x < 0.001 ? 0.001 : (x > 1.0 ? 1.0 : x); }
 
+/* hair.hair_sigma: the absorption of the Principled Hair BSDF's inputs by its parametrisation, the colours' fit read
+ * at the azimuthal roughness `radial` (Chiang's Radial Roughness, Huang's Roughness). */
+static NOINLINE void hair_sigma(const double *p, double radial, double *sigma)
+{
+    static const double eumelanin[3] = {0.506, 0.841, 1.653}, pheomelanin[3] = {0.343, 0.733, 1.924};
+    double random = p[16];
+    int kind = (int)p[0];
+    double melanin = p[4] * (1.0 + 2.0 * (random - 0.5) * clamp01(p[15]));
+    melanin = -log(at_least(1.0 - melanin, 0.0001));
+    double eu = melanin * (1.0 - p[5]), pheo = melanin * p[5];
+    for (int k = 0; k < 3; k++) {
+        double pigment = (eu * eumelanin[k] + pheo * pheomelanin[k]) + hair_sigma_from_reflectance(p[6 + k], radial);
+        sigma[k] = kind == HAIR_PARAMETRIZATION_ABSORPTION ? p[17 + k]
+                   : (kind == HAIR_PARAMETRIZATION_MELANIN ? pigment : hair_sigma_from_reflectance(p[1 + k], radial));
+    }
+}
+
 /* hair.PrincipledHairNode.setup (hair.chiang_params) for one hit: a Chiang closure of the node's weight; h from the
  * hit's normal sd->N (Cycles' Ng of a thick curve), the curve's tangent and the view. */
 INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
@@ -601,21 +618,11 @@ INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, 
         for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
         return;
     }
-    static const double eumelanin[3] = {0.506, 0.841, 1.653}, pheomelanin[3] = {0.343, 0.733, 1.924};
     double v[STORAGE_STRIDE] = {0.0};
     double random = p[16];
     double factor = 1.0 + 2.0 * (random - 0.5) * p[14];
     double roughness = p[9] * factor, radial = p[10] * factor;
-    int kind = (int)p[0];
-    double melanin = p[4] * (1.0 + 2.0 * (random - 0.5) * clamp01(p[15]));
-    melanin = -log(at_least(1.0 - melanin, 0.0001));
-    double eu = melanin * (1.0 - p[5]), pheo = melanin * p[5];
-    for (int k = 0; k < 3; k++) {
-        double pigment = (eu * eumelanin[k] + pheo * pheomelanin[k]) + hair_sigma_from_reflectance(p[6 + k], radial);
-        v[HAIR_SIGMA + k] = kind == HAIR_PARAMETRIZATION_ABSORPTION ? p[17 + k]
-                            : (kind == HAIR_PARAMETRIZATION_MELANIN ? pigment
-                               : hair_sigma_from_reflectance(p[1 + k], radial));
-    }
+    hair_sigma(p, radial, v + HAIR_SIGMA);
     double rv = hair_clip(roughness), rs = hair_clip(radial);
     double m0 = hair_clip((1.0 - clamp01(p[11])) * rv);
     double X[3], Y[3], Z[3], c[3];
@@ -637,6 +644,69 @@ INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, 
     v[HAIR_H] = dot3(c, Z);
     for (int k = 0; k < 3; k++) v[HAIR_X + k] = X[k];
     closure_add(sd, BSDF_CHIANG_HAIR, weight, weight, 1.0, v);
+}
+
+/* huang.HuangHairNode.setup (huang.huang_params) for one hit: a Huang closure of the node's weight, none where its
+ * three lobes are 0, transparent outside the elliptical fibre's projected width. */
+INLINE void principled_hair_huang_node(ShaderResult *sd, double mu, const double *wo, int backfacing,
+                                       const double *weight, const double *p)
+{
+    (void)mu;
+    if (backfacing) {       /* hair.through_own_fibre */
+        for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
+        return;
+    }
+    if (!(p[24] > 0.0 || p[25] > 0.0 || p[26] > 0.0)) return;
+    double v[STORAGE_STRIDE] = {0.0};
+    double random = p[16];
+    double roughness = p[9] * (1.0 + 2.0 * (random - 0.5) * p[14]);
+    hair_sigma(p, roughness, v + HUANG_SIGMA);
+    double Y[3], X[3], A[3], Z[3], c[3], d[3], tmp[3];
+    hair_normalize(p + 20, Y);
+    int none = Y[0] == 0.0 && Y[1] == 0.0 && Y[2] == 0.0;
+    if (none) orthonormal_frame(sd->N, Y, tmp);
+    cross3(Y, wo, c);
+    hair_normalize(c, X);
+    double h = -dot3(X, sd->N);
+    double b = p[23];
+    int elliptic = b != 1.0 && !none;
+    if (elliptic) {
+        cross3(p + 27, Y, c);
+        hair_normalize(c, d);
+        cross3(Y, d, c);
+        hair_normalize(c, A);
+        if (b > 1.0) {
+            b = 1.0 / (b == 0.0 ? 1.0 : b);
+            double minor[3];
+            cross3(Y, A, c);
+            hair_normalize(c, minor);
+            cross3(minor, Y, c);
+            hair_normalize(c, A);
+        }
+    } else {
+        for (int k = 0; k < 3; k++) A[k] = X[k];
+    }
+    if ((A[0] == 0.0 && A[1] == 0.0 && A[2] == 0.0) || !isfinite(A[0]) || !isfinite(A[1]) || !isfinite(A[2]))
+        orthonormal_frame(Y, A, tmp);
+    cross3(A, Y, c);
+    hair_normalize(c, Z);
+    double I[3] = {dot3(wo, A), dot3(wo, Y), dot3(wo, Z)};
+    double radius = huang_radius(b, I);
+    if (fabs(h) >= radius) {         /* outside the fibre: Cycles' transparent closure */
+        for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
+        return;
+    }
+    v[HUANG_ROUGH] = roughness < 0.001 ? 0.001 : (roughness > 1.0 ? 1.0 : roughness);
+    v[HUANG_TILT] = -p[13];
+    v[HUANG_ETA] = p[12];
+    v[HUANG_B] = b;
+    v[HUANG_H] = h;
+    for (int k = 0; k < 3; k++) {
+        v[HUANG_R + k] = at_least(p[24 + k], 0.0);
+        v[HUANG_X + k] = A[k]; v[HUANG_Y + k] = Y[k];
+    }
+    v[HUANG_COVERAGE] = p[30] > 0.0 ? p[30] : 1.0;
+    closure_add(sd, BSDF_HUANG_HAIR, weight, weight, 1.0, v);
 }
 
 /* hair.HairNode.setup for one hit: a Reflection or Transmission closure (p: offset, roughness_u, roughness_v,

@@ -22,6 +22,7 @@ INLINE void setup_node(ShaderResult *sd, int kind, double mu, const double *wo, 
     case NODE_PRINCIPLED_HAIR: principled_hair_node(sd, mu, wo, backfacing, weight, p); return;
     case NODE_HAIR: hair_node(sd, mu, wo, backfacing, weight, p); return;
     case NODE_RAY_PORTAL: ray_portal_node(sd, mu, wo, backfacing, weight, p); return;
+    case NODE_PRINCIPLED_HAIR_HUANG: principled_hair_huang_node(sd, mu, wo, backfacing, weight, p); return;
     default: return;
     }
 }

@@ -17,6 +17,7 @@ from .beckmann import Beckmann
 from .beckmann_glass import BeckmannGlass
 from .glass import Glass
 from .hair import ChiangHair, HairNode, HairReflection, HairTransmission, PrincipledHairNode
+from .huang import HuangHair, HuangHairNode
 from .lambert import Lambert
 from .microfacet import Microfacet
 from .mirror import Mirror
@@ -34,10 +35,10 @@ from .velvet import Velvet
 
 BSDF_TYPES = (Lambert, Mirror, Microfacet, Glass, Transparent, RoughGlass, OrenNayar, Sheen, Velvet, Translucent,
               Beckmann, BeckmannGlass, AshikhminShirley, DiffuseToon, GlossyToon, RandomWalk, ChiangHair,
-              HairReflection, HairTransmission, Portal)
+              HairReflection, HairTransmission, Portal, HuangHair)
 NODE_TYPES = (DiffuseNode, MirrorNode, GlossyNode, PrincipledNode, EmissionNode, TransparentNode, GlassNode,
               SheenNode, HoldoutNode, TranslucentNode, ToonNode, SubsurfaceNode,
-              PrincipledHairNode, HairNode, PortalNode)
+              PrincipledHairNode, HairNode, PortalNode, HuangHairNode)
 
 
 def _number(table: tuple, base: type) -> None:

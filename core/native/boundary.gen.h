@@ -171,6 +171,7 @@
 #define OP_CURVE_NORMAL 57
 #define OP_SET_NORMAL 58
 #define OP_TANGENT_SPACE 59
+#define OP_FOOTPRINT 60
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -383,7 +384,7 @@ enum {
     BSDF_ROUGH_GLASS = 5, BSDF_OREN_NAYAR = 6, BSDF_SHEEN = 7, BSDF_VELVET = 8, BSDF_TRANSLUCENT = 9,
     BSDF_BECKMANN = 10, BSDF_BECKMANN_GLASS = 11, BSDF_ASHIKHMIN_SHIRLEY = 12, BSDF_DIFFUSE_TOON = 13,
     BSDF_GLOSSY_TOON = 14, BSDF_SUBSURFACE = 15, BSDF_CHIANG_HAIR = 16, BSDF_HAIR_REFLECTION = 17,
-    BSDF_HAIR_TRANSMISSION = 18, BSDF_PORTAL = 19, BSDF_COUNT = 20
+    BSDF_HAIR_TRANSMISSION = 18, BSDF_PORTAL = 19, BSDF_HUANG_HAIR = 20, BSDF_COUNT = 21
 };
 
 /* core/materials/base.py BSDFFlags: what a BSDF is */
@@ -415,6 +416,7 @@ static const int BSDF_FLAGS[BSDF_COUNT] = {
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HairReflection */
     BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_TRANSMISSION_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HairTransmission */
     BSDF_FLAG_TRANSMISSION | BSDF_FLAG_SINGULAR | BSDF_FLAG_STRAIGHT | BSDF_FLAG_PORTAL,   /* Portal */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HuangHair */
 };
 /* Whether a bsdf of kind `kind` has any of `flags` (0 for kind -1: none). */
 INLINE int bsdf_is(int kind, int flags)
@@ -423,7 +425,7 @@ INLINE int bsdf_is(int kind, int flags)
 }
 
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
-static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1, 4, 6, -1, -1, -1};
+static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1, 4, 6, -1, -1, -1, -1};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
@@ -433,7 +435,7 @@ enum {
     NODE_DIFFUSE = 0, NODE_MIRROR = 1, NODE_GLOSSY = 2, NODE_PRINCIPLED = 3, NODE_EMISSION = 4,
     NODE_TRANSPARENT = 5, NODE_GLASS = 6, NODE_SHEEN = 7, NODE_HOLDOUT = 8, NODE_TRANSLUCENT = 9,
     NODE_TOON = 10, NODE_SUBSURFACE = 11, NODE_PRINCIPLED_HAIR = 12, NODE_HAIR = 13, NODE_RAY_PORTAL = 14,
-    NODE_COUNT = 15
+    NODE_PRINCIPLED_HAIR_HUANG = 15, NODE_COUNT = 16
 };
 
 /* core/lights/__init__.py LIGHT_TYPES: a light's kind */
@@ -1232,7 +1234,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(6211286546654913338);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(3821900976231654687);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4844621714001878421);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
@@ -1248,9 +1250,9 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
-    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(3846823989890781971);
+    if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(1988518437441009220);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1461087652967974442);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(7493939475877270732);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(6065231736549106572);
     if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
     if (strcmp(name, "SkyMultipleArgs") == 0) return UINT64_C(8745123704423823932);
     if (strcmp(name, "SkySingleArgs") == 0) return UINT64_C(7958716256533574401);
