@@ -76,12 +76,21 @@ BOARDS = {
                             "procedural (Material Library VX add-on's Cycles materials, Blender 2.78): Brick, Wave, "
                             "Noise, Voronoi, Magic, Checker, Color Ramps, Mix, Math, Bump, Fresnel, Layer Weight, "
                             "node groups"),
+    "vx_sponge": (ADDONS_CONTRIB[0], "db54088edea45ba9ffdbea4169665b5bb4d4a847", ADDONS_CONTRIB[1],
+                  "materials_library_vx/cycles_materials.blend", ("Sponge",),
+                  "a heterogeneous volume (Material Library VX's *Sponge*, Blender 2.78): no surface, a node group "
+                  "whose Voronoi distance, Math Less Than and Multiply make a density of 100 or 0 in open cells, "
+                  "Volume Absorption plus Volume Scatter (anisotropy -0.3) at the Volume output"),
     "shaderlib_subsurface": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2], "cycles-principled-dielectric-fabric.blend",
                              ("Blue Oxford", "Charocal Wool", "Checkered Cotton", "Gray Cotton T-shirt",
                               "Mustard Wool", "Satin", "Sheer Black Nylon Weave", "Striped Cotton",
                               "Two Tone Satin Principled"),
                              "subsurface scattering: Principled BSDFs of Subsurface Weight 1 (random walk), with "
                              "sheen, procedural weaves (Wave, Checker, Mix), Blender 2.79"),
+    "shaderlib_marble": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2], "cycles-principled-dielectric-construction.blend",
+                         ("Marble",), "subsurface scattering close up: a Principled BSDF of Subsurface Weight 1 (Christensen-"
+                         "Burley, Scale 0.1 on a sphere of radius 0.45) under procedural veins (Noise, Wave, Color Ramps), "
+                         "Blender 2.79"),
     "shaderlib_volumes": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2], "cycles-principled-dielectric-transparent.blend",
                           ("71% lead glass", "71% lead glass with fake dispersion", "Acrylic Plastic", "Crown Glass",
                            "Diamond with fake dispersion", "Ice", "PET (#1) Plastic", "Polycarbonate Plastic",
