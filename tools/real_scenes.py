@@ -85,13 +85,16 @@ BOARDS = {
                              ("Blue Oxford", "Charocal Wool", "Checkered Cotton", "Gray Cotton T-shirt",
                               "Mustard Wool", "Satin", "Sheer Black Nylon Weave", "Striped Cotton",
                               "Two Tone Satin Principled"),
-                             "subsurface scattering: Principled BSDFs of Subsurface Weight 1 (random walk), with "
-                             "sheen, procedural weaves (Wave, Checker, Mix), Blender 2.79"),
-    "shaderlib_marble": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2], "cycles-principled-dielectric-construction.blend",
-                         ("Marble",), "subsurface scattering close up: a Principled BSDF of Subsurface Weight 1 (Christensen-"
-                         "Burley, Scale 0.1 on a sphere of radius 0.45) under procedural veins (Noise, Wave, Color Ramps), "
-                         "Blender 2.79"),
-    "shaderlib_volumes": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2], "cycles-principled-dielectric-transparent.blend",
+                             "subsurface scattering: Principled BSDFs of Subsurface Weight 1 (Christensen-Burley), "
+                             "with sheen, procedural weaves (Wave, Checker, Noise, Bump, RGB Curves, node groups), "
+                             "Transparent BSDF mixes, Blender 2.79"),
+    "shaderlib_marble": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2],
+                         "cycles-principled-dielectric-construction.blend", ("Marble",),
+                         "subsurface scattering close up: a Principled BSDF of Subsurface Weight 1 (Christensen-"
+                         "Burley, Scale 0.1 on a sphere of radius 0.45) under procedural veins (Wave, Math, Mix, "
+                         "Color Ramp), Blender 2.79"),
+    "shaderlib_volumes": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2],
+                          "cycles-principled-dielectric-transparent.blend",
                           ("71% lead glass", "71% lead glass with fake dispersion", "Acrylic Plastic", "Crown Glass",
                            "Diamond with fake dispersion", "Ice", "PET (#1) Plastic", "Polycarbonate Plastic",
                            "Polystyrine (#6) Plastic", "Ruby", "White Saphire with fake dispersion"),
