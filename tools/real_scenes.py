@@ -49,6 +49,9 @@ SOURCES = {
                              "GPL-3.0 (the repository's licence), Franck Demongin", "Nodes/nx_color-ramp.blend",
                              "procedural: Brick, Gradient and Noise textures through a 'dynamic Color Ramp' made of "
                              "node groups of Map Range, Math and Mix nodes, and a Color Ramp (Blender 3.4)"),
+    "gltf_volume": GLTF_IO + ("tests/scenes/16_volume.blend",
+                              "glTF KHR_materials_volume as Blender makes it: a Volume Absorption inside a glass "
+                              "(Principled transmission) mesh, beside one without and one of zero thickness"),
 }
 
 # Material libraries: files that hold procedural materials but no scene to show them in. name -> (repository,
@@ -56,6 +59,8 @@ SOURCES = {
 # lays a row-major grid of smooth UV spheres (and the rig adds a camera and a sun), one sphere per material, in the
 # order given; the materials are the file's own, unchanged.
 ADDONS_CONTRIB = ("blender/blender-addons-contrib", "GPL-2.0-or-later (the add-ons' licence)")
+SHADER_LIB = ("wirehead/blender-shader-lib", "72eb89e80e2349f97163abadd6cdf41e172ff579",
+              "CC0 (stated in the repository's README), wirehead")
 BOARDS = {
     "crackit_materials": (ADDONS_CONTRIB[0], "0ed1a7e9724a932259552dd319f73171226f444b", ADDONS_CONTRIB[1],
                           "object_fracture_crack/process/materials/materials1.blend",
@@ -71,6 +76,30 @@ BOARDS = {
                             "procedural (Material Library VX add-on's Cycles materials, Blender 2.78): Brick, Wave, "
                             "Noise, Voronoi, Magic, Checker, Color Ramps, Mix, Math, Bump, Fresnel, Layer Weight, "
                             "node groups"),
+    "vx_sponge": (ADDONS_CONTRIB[0], "db54088edea45ba9ffdbea4169665b5bb4d4a847", ADDONS_CONTRIB[1],
+                  "materials_library_vx/cycles_materials.blend", ("Sponge",),
+                  "a heterogeneous volume (Material Library VX's *Sponge*, Blender 2.78): no surface, a node group "
+                  "whose Voronoi distance, Math Less Than and Multiply make a density of 100 or 0 in open cells, "
+                  "Volume Absorption plus Volume Scatter (anisotropy -0.3) at the Volume output"),
+    "shaderlib_subsurface": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2], "cycles-principled-dielectric-fabric.blend",
+                             ("Blue Oxford", "Charocal Wool", "Checkered Cotton", "Gray Cotton T-shirt",
+                              "Mustard Wool", "Satin", "Sheer Black Nylon Weave", "Striped Cotton",
+                              "Two Tone Satin Principled"),
+                             "subsurface scattering: Principled BSDFs of Subsurface Weight 1 (Christensen-Burley), "
+                             "with sheen, procedural weaves (Wave, Checker, Noise, Bump, RGB Curves, node groups), "
+                             "Transparent BSDF mixes, Blender 2.79"),
+    "shaderlib_marble": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2],
+                         "cycles-principled-dielectric-construction.blend", ("Marble",),
+                         "subsurface scattering close up: a Principled BSDF of Subsurface Weight 1 (Christensen-"
+                         "Burley, Scale 0.1 on a sphere of radius 0.45) under procedural veins (Wave, Math, Mix, "
+                         "Color Ramp), Blender 2.79"),
+    "shaderlib_volumes": (SHADER_LIB[0], SHADER_LIB[1], SHADER_LIB[2],
+                          "cycles-principled-dielectric-transparent.blend",
+                          ("71% lead glass", "71% lead glass with fake dispersion", "Acrylic Plastic", "Crown Glass",
+                           "Diamond with fake dispersion", "Ice", "PET (#1) Plastic", "Polycarbonate Plastic",
+                           "Polystyrine (#6) Plastic", "Ruby", "White Saphire with fake dispersion"),
+                          "volumes inside glass: Principled and Glass BSDF transmission over Volume Absorption and "
+                          "Volume Scatter at the Volume output, 'fake dispersion' made of three glasses, Blender 2.79"),
 }
 
 HELMET = ("GDLynx/3d-models", "b56af89fbbe17fa6e8c0a49d886daae01efc1e9f",
@@ -87,6 +116,8 @@ MIRROR = (VCLIB, VCLIB_AT, "CC-BY 4.0, 'NormalTangentMirrorTest' by Ed Mackey, A
 CLEARCOAT = (ASSIMP, ASSIMP_AT, "CC-BY 4.0, 'KHR_materials_clearcoat Test' by Ed Mackey, Analytical Graphics (Khronos "
              "glTF sample model)")
 TRANSFORM = (ASSIMP, ASSIMP_AT, "CC0, 'Texture Transform Test' by Microsoft (Khronos glTF sample model)")
+ATTENUATION = (GLTF_IO[0], GLTF_IO[1], "CC-BY 4.0, 'Attenuation Test' by Ed Mackey, Analytical Graphics (Khronos "
+               "glTF sample model; glTF-Blender-IO's round-trip copy)")
 TRUCK = (VCLIB, VCLIB_AT, "CC-BY 4.0, 'Cesium Milk Truck' donated by Cesium (Khronos glTF sample model)")
 
 # Scenes built from files (a glTF model and an HDRI) by a bpy script: name -> (files [(repository, commit,
@@ -127,6 +158,13 @@ BUILT = {
                          for path in ("CesiumMilkTruck.gltf", "CesiumMilkTruck_data.bin", "CesiumMilkTruck.jpg")]
                         + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
                         "glTF: a textured vehicle (rough dielectrics), a node hierarchy; an HDRI world"),
+    "gltf_attenuation_test": ([ATTENUATION + ("tests/roundtrip/16_volume/" + path,)
+                               for path in ("16_volume.gltf", "AttenuationTest.bin", "AttenuationLabels.png",
+                                            "PlainGrid.png", "ThicknessTexture.png")]
+                              + [STUDIO + ("studio_small_08_1k.hdr",)], "studio_small_08_1k.hdr",
+                              "glTF KHR_materials_volume: attenuation colour and distance, thickness factors and a "
+                              "thickness texture (the importer's Volume Absorption inside transmission); an HDRI "
+                              "world"),
 }
 
 BOARD = r'''
