@@ -120,10 +120,18 @@ INLINE double clamp_anisotropy(double g)
 
 
 /* Field.at at one camera-relative point P (3): the medium's sigma_a, sigma_s, emission (3) and gs (the closures'
- * anisotropies times their scattering), each closure as field.closure_at. */
+ * anisotropies times their scattering), each closure as field.closure_at; phase not NULL: also Field.phase_at, the
+ * phase function of the closure that scatters most there into *phase, its scattering *top, and *other 1 where a
+ * closure that scatters there has another phase function than HG. */
 static void field_at(const VolumeField *f, const double *P, double *sigma_a, double *sigma_s, double *emission,
-                     double *gs)
+                     double *gs, Phase *phase, double *top, int *other)
 {
+    if (phase != NULL) {
+        phase->kind = PHASE_HENYEY_GREENSTEIN;
+        for (int c = 0; c < PHASE_PARAMETERS; c++) phase->p[c] = 0.0;
+        *top = 0.0;
+        *other = 0;
+    }
     ShadingPoint sp;
     double info[OBJECT_INFO_WIDTH], reg[MAX_REGISTERS];
     field_point(f, P, info, &sp);
@@ -197,6 +205,20 @@ static void field_at(const VolumeField *f, const double *P, double *sigma_a, dou
             share = share * (row[2] != 0.0 ? v : 1.0 - v);
         }
         double part = g * ((s[0] + s[1]) + s[2]);
+        if (phase != NULL) {                            /* (Field.phase_at: its numbers from its inputs here) */
+            double sum = (s[0] * share + s[1] * share) + s[2] * share;
+            if (sum > 0.0 && f->phases[k] != PHASE_HENYEY_GREENSTEIN) *other = 1;
+            if (sum > *top) {
+                double an[3], io[3], bs[3], al[3], di[3];
+                field_input(f, k, VOLUME_INPUT_ANISOTROPY, reg, an);
+                field_input(f, k, VOLUME_INPUT_IOR, reg, io);
+                field_input(f, k, VOLUME_INPUT_BACKSCATTER, reg, bs);
+                field_input(f, k, VOLUME_INPUT_ALPHA, reg, al);
+                field_input(f, k, VOLUME_INPUT_DIAMETER, reg, di);
+                phase_setup(f->phases[k], an[0], io[0], bs[0], al[0], di[0], phase);
+                *top = sum;
+            }
+        }
         for (int c = 0; c < 3; c++) {
             sigma_a[c] += a[c] * share;
             sigma_s[c] += s[c] * share;
@@ -254,7 +276,7 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
             for (const VolumeField *f = media->fields; f != NULL; f = f->next) {
                 double count = (double)stack->count[f->column], fa[3], fs[3], fe[3], fg;
                 if (!(count > 0.0)) continue;
-                field_at(f, P, fa, fs, fe, &fg);
+                field_at(f, P, fa, fs, fe, &fg, NULL, NULL, NULL);
                 for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; se[c] += count * fe[c]; }
                 sg += count * fg;
             }
@@ -353,6 +375,32 @@ INLINE double march_at(const March *m, double s, double *sigma_t, double *sigma_
     for (int c = 0; c < 3; c++) { sigma_t[c] = m->sigma_t[k][c]; sigma_s[c] = m->sigma_s[k][c]; }
     double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
     return total > 0.0 ? m->gs[k] / total : 0.0;
+}
+
+/* media.Stretch.phases_at at one point P (3) of a ray in the media `stack` (in a heterogeneous medium), g the
+ * march's sigma_s-weighted mean anisotropy there: HG of g where every closure and medium that scatters there is HG,
+ * else the phase function of the one that scatters most there (each field's closures set up at P), into *phase. */
+static NOINLINE void phase_at(const MediaTables *media, const VolumeStack *stack, const double *P, double g,
+                              Phase *phase)
+{
+    double sigma_s[3], g_h;
+    medium_scattering(media, stack, sigma_s, &g_h, phase);
+    double top = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
+    int other = top > 0.0 && phase->kind != PHASE_HENYEY_GREENSTEIN;
+    for (const VolumeField *f = media->fields; f != NULL; f = f->next) {
+        double count = (double)stack->count[f->column], fa[3], fs[3], fe[3], fg, share;
+        int odd;
+        Phase here;
+        if (!(count > 0.0) || !f->scatters) continue;
+        field_at(f, P, fa, fs, fe, &fg, &here, &share, &odd);
+        other = other || odd;
+        if (count * share > top) { *phase = here; top = count * share; }
+    }
+    if (!other) {
+        phase->kind = PHASE_HENYEY_GREENSTEIN;
+        for (int c = 0; c < PHASE_PARAMETERS; c++) phase->p[c] = 0.0;
+        phase->p[0] = g;
+    }
 }
 
 /* March.totals: the optical depths of extinction and of scattering (3 each) over the finite pieces. */

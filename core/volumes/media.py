@@ -477,6 +477,30 @@ class Stretch(NamedTuple):
             return phase_.Phases.henyey_greenstein(self.g)
         return phase_.Phases(self.phase, self.parameters)
 
+    def phases_at(self, rows: np.ndarray, P: np.ndarray, g: np.ndarray) -> "phase_.Phases":
+        """The phase functions (phase.Phases, m rows) at scattering points P (m, 3) of the rays `rows` (m,) int64
+        (in a heterogeneous medium), g (m,) the march's sigma_s-weighted mean anisotropy there: every medium's
+        closures evaluated at the point (field.Field.phase_at), HG of g where all that scatter there are HG, else the
+        phase function of the closure (or homogeneous medium) that scatters most there, as Media.along picks one for
+        homogeneous media."""
+        HG = phase_.PHASE["HENYEY_GREENSTEIN"]
+        own = self.phases().rows(rows)
+        kind, parameters = own.kind.copy(), own.parameters.copy()
+        top = self.sigma_s[rows].sum(axis=1)
+        other = (top > 0.0) & (kind != HG)
+        for f, field in enumerate(self.fields or ()):
+            count = self.counts[rows, f]
+            some = np.flatnonzero(count > 0.0)
+            if len(some) == 0 or not field.scatters:
+                continue
+            k, p, share, oth = field.phase_at(P[some])
+            other[some] |= oth
+            better = count[some] * share > top[some]
+            at = some[better]
+            kind[at], parameters[at], top[at] = k[better], p[better], (count[some] * share)[better]
+        hg = phase_.Phases.henyey_greenstein(g)
+        return phase_.Phases(np.where(other, kind, HG), np.where(other[:, None], parameters, hg.parameters))
+
     @property
     def varying(self) -> np.ndarray:
         """Which rays are in a heterogeneous medium: (n,) bool."""

@@ -397,6 +397,22 @@ def of_node(phase: str, inputs: dict) -> Phase:
     return HenyeyGreenstein(float(clamp_g(get("anisotropy", 0.0))))
 
 
+def parameters_at(kind: int, anisotropy, ior, backscatter, alpha, diameter) -> np.ndarray:
+    """The numbers (n, PHASE_PARAMETERS) float64 of phase function `kind` set up at n points from a closure's inputs
+    there ((n,) float64 each), as of_node sets them up from constants (Cycles' svm_alloc_closure_volume_scatter runs
+    at every shading point; C: phase.c phase_setup)."""
+    n = len(anisotropy)
+    if kind == PHASE["FOURNIER_FORAND"]:
+        return FournierForand.of(backscatter, ior).parameters(n)
+    if kind == PHASE["DRAINE"]:
+        return Draine(clamp_g(anisotropy), np.asarray(alpha, np.float64)).parameters(n)
+    if kind == PHASE["RAYLEIGH"]:
+        return Rayleigh().parameters(n)
+    if kind == PHASE["MIE"]:
+        return Mie.of(diameter).parameters(n)
+    return HenyeyGreenstein(clamp_g(anisotropy)).parameters(n)
+
+
 def phase_of(kind: int, parameters: np.ndarray) -> Phase:
     """The phase function of one kind and its numbers (n, PHASE_PARAMETERS) (Phase.parameters' inverse)."""
     p = np.asarray(parameters, np.float64).reshape(-1, PHASE_PARAMETERS)
