@@ -175,3 +175,107 @@ def test_both_kernels_scatter_with_a_media_phase_function_to_the_same_pixels(pha
     assert compiled.stats.kernels == "compiled"
     assert compiled.stats.shadow_rays == reference.stats.shadow_rays
     assert_same_pixels(reference.image, compiled.image)
+
+
+# Heterogeneous media (core/volumes/field.py): each phase function with its inputs fed by links, set up per point.
+VARYING_INPUTS = {"FOURNIER_FORAND": {"ior": 1.2, "backscatter": 0.2}, "DRAINE": {"anisotropy": 0.4, "alpha": 0.8},
+                  "RAYLEIGH": {}, "MIE": {"diameter": 3.0}}
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("phase", list(VARYING_INPUTS))
+def test_a_heterogeneous_slab_under_a_sun_scatters_by_its_phase_functions_value(phase, kernels):
+    """A scattering slab (sigma_s per channel, 0.6 deep) whose density and phase inputs are graphs of constant value
+    (so it is marched as a heterogeneous medium, its phase set up at each scattering point) under a sun at 50
+    degrees, seen from straight above: sigma_s p(-sin 50) E (1 - exp(-sigma d k)) / (sigma k), k = 1 + 1 / sin 50,
+    p the phase function's closed form (phase.of_node of the constants); within 1e-3 at 64 samples (2e-5 at 256)."""
+    from test_volumes_heterogeneous import camera_above, height, slab
+    from core.geometry import primitives
+    from core.lights import SunLight
+    from core.render import render
+    from core.scene import RenderSettings, Scene
+    scene = Scene(camera=camera_above())
+    sigma, d, E, e = np.array([0.5, 1.0, 2.0]), 0.6, 3.0, np.radians(50.0)
+    linked = {key: height(0.0, value) for key, value in VARYING_INPUTS[phase].items()}
+    scene.materials.append(slab("SCATTER", color=sigma, density=height(0.0, 1.0), phase=phase, **linked))
+    scene.add_mesh(primitives.box((40.0, 40.0, d), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+    scene.lights.append(SunLight(direction=-np.array([np.cos(e), 0.0, np.sin(e)]), strength=E))
+    k = 1.0 + 1.0 / np.sin(e)
+    p = phase_.of_node(phase, VARYING_INPUTS[phase]).eval_cos(np.array([-np.sin(e)]))[0]
+    expected = sigma * p * E * (1.0 - np.exp(-sigma * d * k)) / (sigma * k)
+    result = render(scene, RenderSettings(width=4, height=4, samples=64, integrator="path", kernels=kernels))
+    assert (result.stats.kernels == "compiled") == (kernels == "compiled")
+    np.testing.assert_allclose(result.image[..., :3].mean(axis=(0, 1)), expected, rtol=1e-3)
+
+
+def test_phase_inputs_fed_by_links_are_set_up_at_each_point_by_the_closure_that_scatters_most():
+    """Field.phase_at: a Draine closure whose anisotropy and alpha follow the point's height, an FF one whose IOR
+    does, a Mie one whose diameter does, each under a Mix Shader's factor of height: at each point the phase function
+    of the closure that scatters most there, its numbers phase.parameters_at of its inputs there (clamped as Cycles);
+    HG closures alone: HG of the sigma_s-weighted g (Stretch.phases_at)."""
+    from core.materials import Material
+    from test_volumes_heterogeneous import height
+    from core.volumes.field import Field
+    z = np.array([-0.3, 0.1, 0.45, 0.8, 1.6])
+    P = np.stack([np.zeros(5), np.zeros(5), z], axis=1)
+    fac = height(1.0, 0.0)
+    field = Field([("SCATTER", 1.0, {"phase": "DRAINE", "density": 1.0, "anisotropy": height(1.0, 0.0),
+                                     "alpha": height(2.0, 1.0), "factors": [(fac, "one_minus")]}),
+                   ("SCATTER", 1.0, {"phase": "FOURNIER_FORAND", "density": 1.0, "ior": height(0.5, 1.1),
+                                     "backscatter": 0.2, "factors": [(fac, "fac")]})])
+    kind, parameters, top, other = field.phase_at(P)
+    f = np.clip(z, 0.0, 1.0)
+    draine = f < 0.5
+    assert list(kind) == [phase_.PHASE["DRAINE"] if d else phase_.PHASE["FOURNIER_FORAND"] for d in draine]
+    np.testing.assert_allclose(top, np.maximum(f, 1.0 - f) * 2.4)        # (colour 0.8 in each channel)
+    assert other.all()
+    np.testing.assert_allclose(parameters[draine], Draine(phase_.clamp_g(z[draine]), 2.0 * z[draine] + 1.0)
+                               .parameters(int(draine.sum())))
+    np.testing.assert_allclose(parameters[~draine], FournierForand.of(0.2, 0.5 * z[~draine] + 1.1)
+                               .parameters(int((~draine).sum())))
+    mie = Field([("SCATTER", 1.0, {"phase": "MIE", "density": 1.0, "diameter": height(10.0, 0.5)})])
+    np.testing.assert_allclose(mie.phase_at(P)[1], Mie.of(10.0 * z + 0.5).parameters(5))
+    hg = Material(np.zeros(3), "HG", volume=[("SCATTER", 1.0, {"density": height(1.0, 1.0), "anisotropy": 0.6}),
+                                             ("SCATTER", 1.0, {"density": 1.0, "anisotropy": height(0.0, -0.2)})],
+                  volume_only=True)
+    media = Media.of([hg])
+    stretch = media.along(np.array([[1]], np.int16), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
+    march = stretch.march(np.array([2.0]), np.array([0]))
+    _, _, g = march.at(np.array([0.5]))
+    phases = stretch.phases_at(np.array([0]), np.array([[0.0, 0.0, 0.5]]), g)
+    assert phases.kind[0] == phase_.PHASE["HENYEY_GREENSTEIN"]
+    np.testing.assert_allclose(phases.parameters[0, 0], (0.6 * 1.5 - 0.2) / 2.5, rtol=0.02)
+
+
+def test_both_kernels_scatter_in_a_medium_whose_phase_inputs_vary_to_the_same_pixels():
+    """A smoke box whose Mix Shader's factor (a Gradient of height) mixes a Draine closure of varying anisotropy and
+    an FF one of varying IOR, overlapping a Rayleigh world fog, under an area and a point lamp, Volume Bounces 1: the
+    phase function set up at each free-flight, equi-angular and collision point alike in the Python reference and
+    the compiled kernel (phase_at), the same pixels and shadow rays."""
+    from core.lights import World
+    from core.materials import Material
+    from core.render import render
+    from core.scene import RenderSettings
+    from test_volumes_compiled import assert_same_pixels, looking, room
+    from test_volumes_heterogeneous import height
+    from core.geometry import primitives
+    scene = room(looking())
+    fac = height(0.6, 0.0)
+    entries = [("SCATTER", 1.0, {"phase": "DRAINE", "color": np.array([0.5, 0.6, 0.7]), "density": 1.2,
+                                 "anisotropy": height(0.5, -0.2), "alpha": height(1.0, 0.2),
+                                 "factors": [(fac, "one_minus")]}),
+               ("SCATTER", 1.0, {"phase": "FOURNIER_FORAND", "color": np.full(3, 0.7), "density": 1.5,
+                                 "ior": height(0.2, 1.05), "backscatter": 0.3, "factors": [(fac, "fac")]})]
+    scene.materials.append(Material(np.zeros(3), "Smoke", nodes=[("TRANSPARENT", np.ones(3), {})], volume=entries,
+                                    volume_only=True))
+    scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)),
+                   materials=np.array([len(scene.materials) - 1]))
+    scene.world = World(color=np.zeros(3), volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8), "density": 0.02,
+                                                                      "phase": "RAYLEIGH"})])
+    settings = {"width": 12, "height": 9, "samples": 2, "integrator": "path", "max_bounces": 4,
+                "volume_bounces": 1}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    assert_same_pixels(reference.image, compiled.image)
