@@ -518,14 +518,16 @@ VARYING_PHASES = {
 }
 
 
-@pytest.mark.parametrize("phase", list(VARYING_PHASES))
+@pytest.mark.parametrize("phase", ["FOURNIER_FORAND", "MIE"])
 def test_a_heterogeneous_sphere_of_each_phase_function_with_linked_inputs_renders_as_in_cycles(primer, tmp_path,
                                                                                              phase):
     """The phase functions' sphere (phase_scene) made heterogeneous: its density 2 (z + 1) / 2 and the phase's input
     (VARYING_PHASES) ramping with the object's height, so each scattering point has its own phase function, as
     Cycles evaluates the shader there. 24 x 24, block relative MSE on Blender 5.0 of Primer 64 against Cycles 1024
-    (Cycles' own 64 against its 1024 in brackets): see docs/blender.md (FF and Mie run here; Draine and Rayleigh
-    measured once). Bound 2e-5, means within 1%; Primer says nothing of the phase function."""
+    (Cycles' own 64 against its 1024 in brackets): FF 1.3e-6 (9.0e-6), Draine 1.3e-6 (1.5e-5), Rayleigh 1.7e-6
+    (1.7e-5), Mie 9.7e-7 (5.3e-6), channel means within 0.1% (FF and Mie run here, the two farthest from HG: as HG
+    of the Anisotropy, which Primer rendered before, 8.0e-2 and 0.12). Bound 2e-5, means within 1%; Primer says
+    nothing of the phase function nor of its linked input."""
     scene = phase_scene(phase)
     fog = bpy.data.materials["Fog"]
     tree = fog.node_tree

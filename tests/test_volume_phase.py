@@ -178,13 +178,15 @@ def test_both_kernels_scatter_with_a_media_phase_function_to_the_same_pixels(pha
 
 
 # Heterogeneous media (core/volumes/field.py): each phase function with its inputs fed by links, set up per point.
+# (Mie in each of its fit's four ranges of diameter: phase.c's mie_fit against the Python's closed form)
 VARYING_INPUTS = {"FOURNIER_FORAND": {"ior": 1.2, "backscatter": 0.2}, "DRAINE": {"anisotropy": 0.4, "alpha": 0.8},
-                  "RAYLEIGH": {}, "MIE": {"diameter": 3.0}}
+                  "RAYLEIGH": {}, "MIE": {"diameter": 3.0}, "MIE_TINY": {"diameter": 0.05},
+                  "MIE_SMALL": {"diameter": 0.8}, "MIE_LARGE": {"diameter": 20.0}}
 
 
 @pytest.mark.parametrize("kernels", ["numpy", "compiled"])
-@pytest.mark.parametrize("phase", list(VARYING_INPUTS))
-def test_a_heterogeneous_slab_under_a_sun_scatters_by_its_phase_functions_value(phase, kernels):
+@pytest.mark.parametrize("case", list(VARYING_INPUTS))
+def test_a_heterogeneous_slab_under_a_sun_scatters_by_its_phase_functions_value(case, kernels):
     """A scattering slab (sigma_s per channel, 0.6 deep) whose density and phase inputs are graphs of constant value
     (so it is marched as a heterogeneous medium, its phase set up at each scattering point) under a sun at 50
     degrees, seen from straight above: sigma_s p(-sin 50) E (1 - exp(-sigma d k)) / (sigma k), k = 1 + 1 / sin 50,
@@ -196,12 +198,13 @@ def test_a_heterogeneous_slab_under_a_sun_scatters_by_its_phase_functions_value(
     from core.scene import RenderSettings, Scene
     scene = Scene(camera=camera_above())
     sigma, d, E, e = np.array([0.5, 1.0, 2.0]), 0.6, 3.0, np.radians(50.0)
-    linked = {key: height(0.0, value) for key, value in VARYING_INPUTS[phase].items()}
+    phase = case.split("_")[0] if case.startswith("MIE") else case
+    linked = {key: height(0.0, value) for key, value in VARYING_INPUTS[case].items()}
     scene.materials.append(slab("SCATTER", color=sigma, density=height(0.0, 1.0), phase=phase, **linked))
     scene.add_mesh(primitives.box((40.0, 40.0, d), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
     scene.lights.append(SunLight(direction=-np.array([np.cos(e), 0.0, np.sin(e)]), strength=E))
     k = 1.0 + 1.0 / np.sin(e)
-    p = phase_.of_node(phase, VARYING_INPUTS[phase]).eval_cos(np.array([-np.sin(e)]))[0]
+    p = phase_.of_node(phase, VARYING_INPUTS[case]).eval_cos(np.array([-np.sin(e)]))[0]
     expected = sigma * p * E * (1.0 - np.exp(-sigma * d * k)) / (sigma * k)
     result = render(scene, RenderSettings(width=4, height=4, samples=64, integrator="path", kernels=kernels))
     assert (result.stats.kernels == "compiled") == (kernels == "compiled")
