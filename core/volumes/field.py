@@ -16,6 +16,10 @@ order in the step. (Cycles 5.0 samples these media without bias by null scatteri
 its mean is the exact integral, which the march approaches as the steps shrink: its Step Rate and Max Steps change
 Cycles' noise, not its mean.)
 
+Where a path scatters, the closures run again at the point itself to set up its phase function (`Field.phase_at`:
+the Phase menu's functions with their inputs there, links included, as Cycles runs the shader at the scattering point;
+the closure that scatters most there gives it, HG of the mean g where all are HG: media.Stretch.phases_at).
+
 The compiled twin is field.c: `field_record` packs a Field for it (its program, a table of each closure input's
 register or constant, its linked Mix Shader factors, its placement), and its march cuts the same pieces.
 """
