@@ -211,50 +211,53 @@ def test_a_heterogeneous_slab_under_a_sun_scatters_by_its_phase_functions_value(
     np.testing.assert_allclose(result.image[..., :3].mean(axis=(0, 1)), expected, rtol=1e-3)
 
 
-def test_phase_inputs_fed_by_links_are_set_up_at_each_point_by_the_closure_that_scatters_most():
-    """Field.phase_at: a Draine closure whose anisotropy and alpha follow the point's height, an FF one whose IOR
-    does, a Mie one whose diameter does, each under a Mix Shader's factor of height: at each point the phase function
-    of the closure that scatters most there, its numbers phase.parameters_at of its inputs there (clamped as Cycles);
-    HG closures alone: HG of the sigma_s-weighted g (Stretch.phases_at)."""
-    from core.materials import Material
+def test_phase_inputs_fed_by_links_are_set_up_at_each_point_and_closures_mix_by_their_scattering():
+    """Field.phase_at: a Draine closure whose anisotropy and alpha follow the point's height and an FF one whose IOR
+    does, under a Mix Shader's factor of height: each closure's phase function at each point, its numbers
+    phase.parameters_at of its inputs there (clamped as Cycles), its weight its sigma_s there. Stretch.phases_at
+    mixes them as Cycles keeps its closures (phase.PhaseMix): p the weight-averaged sum, its samples picking each
+    lobe in proportion to its weight (each lobe's pdf returned); Mie's diameter set up per point too."""
     from test_volumes_heterogeneous import height
+    from core.materials import Material
     from core.volumes.field import Field
     z = np.array([-0.3, 0.1, 0.45, 0.8, 1.6])
     P = np.stack([np.zeros(5), np.zeros(5), z], axis=1)
     fac = height(1.0, 0.0)
-    field = Field([("SCATTER", 1.0, {"phase": "DRAINE", "density": 1.0, "anisotropy": height(1.0, 0.0),
-                                     "alpha": height(2.0, 1.0), "factors": [(fac, "one_minus")]}),
-                   ("SCATTER", 1.0, {"phase": "FOURNIER_FORAND", "density": 1.0, "ior": height(0.5, 1.1),
-                                     "backscatter": 0.2, "factors": [(fac, "fac")]})])
-    kind, parameters, top, other = field.phase_at(P)
+    entries = [("SCATTER", 1.0, {"phase": "DRAINE", "density": 1.0, "anisotropy": height(1.0, 0.0),
+                                 "alpha": height(2.0, 1.0), "factors": [(fac, "one_minus")]}),
+               ("SCATTER", 1.0, {"phase": "FOURNIER_FORAND", "density": 1.0, "ior": height(0.5, 1.1),
+                                 "backscatter": 0.2, "factors": [(fac, "fac")]})]
+    kinds, parameters, weights = Field(entries).phase_at(P)
     f = np.clip(z, 0.0, 1.0)
-    draine = f < 0.5
-    assert list(kind) == [phase_.PHASE["DRAINE"] if d else phase_.PHASE["FOURNIER_FORAND"] for d in draine]
-    np.testing.assert_allclose(top, np.maximum(f, 1.0 - f) * 2.4)        # (colour 0.8 in each channel)
-    assert other.all()
-    np.testing.assert_allclose(parameters[draine], Draine(phase_.clamp_g(z[draine]), 2.0 * z[draine] + 1.0)
-                               .parameters(int(draine.sum())))
-    np.testing.assert_allclose(parameters[~draine], FournierForand.of(0.2, 0.5 * z[~draine] + 1.1)
-                               .parameters(int((~draine).sum())))
+    assert (kinds == [phase_.PHASE["DRAINE"], phase_.PHASE["FOURNIER_FORAND"]]).all()
+    np.testing.assert_allclose(weights, np.stack([1.0 - f, f], axis=1) * 2.4)     # (colour 0.8 in each channel)
+    np.testing.assert_allclose(parameters[:, 0], Draine(phase_.clamp_g(z), 2.0 * z + 1.0).parameters(5))
+    np.testing.assert_allclose(parameters[:, 1], FournierForand.of(0.2, 0.5 * z + 1.1).parameters(5))
     mie = Field([("SCATTER", 1.0, {"phase": "MIE", "density": 1.0, "diameter": height(10.0, 0.5)})])
-    np.testing.assert_allclose(mie.phase_at(P)[1], Mie.of(10.0 * z + 0.5).parameters(5))
-    hg = Material(np.zeros(3), "HG", volume=[("SCATTER", 1.0, {"density": height(1.0, 1.0), "anisotropy": 0.6}),
-                                             ("SCATTER", 1.0, {"density": 1.0, "anisotropy": height(0.0, -0.2)})],
-                  volume_only=True)
-    media = Media.of([hg])
-    stretch = media.along(np.array([[1]], np.int16), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
-    march = stretch.march(np.array([2.0]), np.array([0]))
-    _, _, g = march.at(np.array([0.5]))
-    phases = stretch.phases_at(np.array([0]), np.array([[0.0, 0.0, 0.5]]), g)
-    assert phases.kind[0] == phase_.PHASE["HENYEY_GREENSTEIN"]
-    np.testing.assert_allclose(phases.parameters[0, 0], (0.6 * 1.5 - 0.2) / 2.5, rtol=0.02)
+    np.testing.assert_allclose(mie.phase_at(P)[1][:, 0], Mie.of(10.0 * z + 0.5).parameters(5))
+    # The mixture at a point a quarter up: Draine 3/4 of the scattering, FF 1/4.
+    media = Media.of([Material(np.zeros(3), "Mixed", volume=entries, volume_only=True)])
+    n = 20000
+    inside = np.ones((n, 1), np.int16)
+    stretch = media.along(inside, np.zeros((n, 3)), np.tile([0.0, 0.0, 1.0], (n, 1)))
+    mix = stretch.phases_at(np.arange(n), np.tile([0.0, 0.0, 0.25], (n, 1)), np.zeros(n))
+    draine, ff = Draine(0.25, 1.5), FournierForand.of(0.2, 1.225)
+    rng = np.random.default_rng(3)
+    wo, wi = units(n, rng), units(n, rng)
+    cos = phase_.cosines(wo, wi)
+    np.testing.assert_allclose(mix.eval(wo, wi), 0.75 * draine.eval_cos(cos) + 0.25 * ff.eval_cos(cos), rtol=1e-12)
+    ps = mix.sample(wo, rng.random((n, 2)))
+    c = phase_.cosines(wo, ps.wi)
+    from_draine = np.isclose(ps.pdf, draine.eval_cos(c), rtol=1e-9)
+    assert (from_draine | np.isclose(ps.pdf, ff.eval_cos(c), rtol=1e-9)).all()
+    assert abs(from_draine.mean() - 0.75) < 0.015
 
 
 def test_both_kernels_scatter_in_a_medium_whose_phase_inputs_vary_to_the_same_pixels():
     """A smoke box whose Mix Shader's factor (a Gradient of height) mixes a Draine closure of varying anisotropy and
     an FF one of varying IOR, overlapping a Rayleigh world fog, under an area and a point lamp, Volume Bounces 1: the
-    phase function set up at each free-flight, equi-angular and collision point alike in the Python reference and
-    the compiled kernel (phase_at), the same pixels and shadow rays."""
+    mixture of the three set up at each free-flight, equi-angular and collision point alike in the Python reference
+    and the compiled kernel (phase_at: eval, the lobe picked, its pdf), the same pixels and shadow rays."""
     from core.lights import World
     from core.materials import Material
     from core.render import render

@@ -120,8 +120,8 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                 rays++;
             }
             double cos_theta = -wo[0] * ls.L[0] + -wo[1] * ls.L[1] + -wo[2] * ls.L[2];
-            double p = phase->kind == PHASE_HENYEY_GREENSTEIN ? henyey_greenstein(cos_theta, phase->p[0])
-                                                              : phase_eval(phase, cos_theta);
+            double p = phase->kind == PHASE_HENYEY_GREENSTEIN && phase->lobes == 0
+                           ? henyey_greenstein(cos_theta, phase->p[0]) : phase_eval(phase, cos_theta);
             double w = ls.strength * (1.0 / (double)count);
             if (flight != NULL && equiangular_lamp(light)) {
                 double s = flight->s;
@@ -225,7 +225,7 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
         double pdf_e = equiangular(O, D, t, light->position, v[0], &s_e);
         if (!(pdf_e > 0.0)) continue;
         double w, at_t[3], at_s[3], kept[3], X[3], lit[3];
-        Phase here = {PHASE_HENYEY_GREENSTEIN, {0.0}};
+        Phase here = {PHASE_HENYEY_GREENSTEIN, {0.0}, 0, {0}, {{0.0}}, {0.0}};
         for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
         if (m != NULL) {
             w = pdf_e / (pdf_e + (collision ? march_collision_pdf(m, odds, s_e) : march_pdf(m, odds, s_e)));

@@ -380,6 +380,8 @@
 #define PHASE_MIE 4
 /* the numbers a medium's phase function carries (core.volumes.phase) */
 #define PHASE_PARAMETERS 4
+/* the most phase functions a heterogeneous medium's point mixes (core.volumes.phase) */
+#define PHASE_LOBES 8
 
 /* core/materials/registry.py BSDF_TYPES: a closure's kind */
 enum {

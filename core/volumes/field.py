@@ -16,9 +16,9 @@ order in the step. (Cycles 5.0 samples these media without bias by null scatteri
 its mean is the exact integral, which the march approaches as the steps shrink: its Step Rate and Max Steps change
 Cycles' noise, not its mean.)
 
-Where a path scatters, the closures run again at the point itself to set up its phase function (`Field.phase_at`:
-the Phase menu's functions with their inputs there, links included, as Cycles runs the shader at the scattering point;
-the closure that scatters most there gives it, HG of the mean g where all are HG: media.Stretch.phases_at).
+Where a path scatters, the closures run again at the point itself to set up its phase functions (`Field.phase_at`:
+the Phase menu's functions with their inputs there, links included, as Cycles runs the shader at the scattering point),
+mixed by their scattering as Cycles keeps each closure (media.Stretch.phases_at, phase.PhaseMix).
 
 The compiled twin is field.c: `field_record` packs a Field for it (its program, a table of each closure input's
 register or constant, its linked Mix Shader factors, its placement), and its march cuts the same pieces.
@@ -216,28 +216,24 @@ class Field:
         return total
 
     def phase_at(self, P: np.ndarray) -> tuple:
-        """The phase function at camera-relative points P (n, 3) float64 of the closure that scatters most there (its
-        sigma_s summed over channels, after the linked Mix Shader factors; its numbers from its inputs there,
-        phase.parameters_at): (kind (n,) int64, parameters (n, PHASE_PARAMETERS) float64, top (n,) float64 its
-        scattering, other (n,) bool where a closure that scatters there has another phase function than HG)."""
+        """The phase functions of its closures at camera-relative points P (n, 3) float64 (C closures): kinds (n, C)
+        int64, their numbers (n, C, PHASE_PARAMETERS) float64 set up from each closure's inputs there
+        (phase.parameters_at: links included), and weights (n, C) float64 each closure's sigma_s there summed over
+        channels, after the linked Mix Shader factors (0: it does not scatter there)."""
         from .phase import PHASE, PHASE_PARAMETERS, parameters_at
-        n = len(P)
-        kind, parameters = np.zeros(n, np.int64), np.zeros((n, PHASE_PARAMETERS))
-        top, other = np.zeros(n), np.zeros(n, bool)
+        n, C = len(P), len(self.entries)
+        kinds = np.full((n, C), PHASE["HENYEY_GREENSTEIN"], np.int64)
+        parameters, weights = np.zeros((n, C, PHASE_PARAMETERS)), np.zeros((n, C))
         for k, part, values in self.closures(P):
             share = part.sigma_s.sum(axis=1)
             if not (share > 0.0).any():
                 continue
-            other |= (share > 0.0) & (self.phases[k] != PHASE["HENYEY_GREENSTEIN"])
-            better = share > top
-            if better.any():
-                rows = np.flatnonzero(better)
-                get = lambda key: np.asarray(values[key], np.float64)[rows, 0]          # noqa: E731
-                kind[rows] = self.phases[k]
-                parameters[rows] = parameters_at(int(self.phases[k]), get("anisotropy"), get("ior"),
-                                                 get("backscatter"), get("alpha"), get("diameter"))
-                top[rows] = share[rows]
-        return kind, parameters, top, other
+            get = lambda key: np.asarray(values[key], np.float64)[:, 0]                  # noqa: E731
+            kinds[:, k] = self.phases[k]
+            parameters[:, k] = parameters_at(int(self.phases[k]), get("anisotropy"), get("ior"), get("backscatter"),
+                                             get("alpha"), get("diameter"))
+            weights[:, k] = share
+        return kinds, parameters, weights
 
     def closures(self, P: np.ndarray):
         """Each closure k's coefficients at camera-relative points P (n, 3) float64: (k, Sample (after its linked

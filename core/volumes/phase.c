@@ -7,6 +7,12 @@
 typedef struct {
     int64_t kind;
     double p[PHASE_PARAMETERS];
+    /* lobes 0: that one phase function; else a heterogeneous medium's point mixes `lobes` of them (phase.PhaseMix:
+     * each closure's kind, numbers and weight, its sigma_s summed over channels), as Cycles keeps its closures */
+    int64_t lobes;
+    int64_t kinds[PHASE_LOBES];
+    double lobe[PHASE_LOBES][PHASE_PARAMETERS];
+    double weight[PHASE_LOBES];
 } Phase;
 
 /* phase.henyey_greenstein: (1 - g^2) / (4 pi (1 + g^2 - 2 g cos theta)^1.5). */
@@ -191,6 +197,7 @@ static NOINLINE void phase_setup(int64_t kind, double anisotropy, double ior, do
                                  double diameter, Phase *phase)
 {
     phase->kind = kind;
+    phase->lobes = 0;
     for (int k = 0; k < PHASE_PARAMETERS; k++) phase->p[k] = 0.0;
     if (kind == PHASE_FOURNIER_FORAND) {        /* (FournierForand.of: Cycles' volume_fournier_forand_setup) */
         double B = fabs(backscatter) < 0.5 - 1e-3 ? fabs(backscatter) : 0.5 - 1e-3;
@@ -213,8 +220,8 @@ static NOINLINE void phase_setup(int64_t kind, double anisotropy, double ior, do
     }
 }
 
-/* Phase.eval_cos of any kind: p at cos theta = dot(-wo, wi). */
-static NOINLINE double phase_eval(const Phase *phase, double cos_theta)
+/* Phase.eval_cos of any kind: p at cos theta = dot(-wo, wi) (of one phase function: lobes ignored). */
+static NOINLINE double phase_eval_one(const Phase *phase, double cos_theta)
 {
     const double *p = phase->p;
     switch (phase->kind) {
@@ -228,7 +235,7 @@ static NOINLINE double phase_eval(const Phase *phase, double cos_theta)
 
 /* Phase.sample of any kind: a direction wi (3) for a viewer along wo (3) from numbers u (2), its pdf returned (p
  * there: eval / pdf = 1). HG's is sample_henyey_greenstein's, bit for bit. */
-static NOINLINE double phase_sample(const Phase *phase, const double *wo, const double *u, double *wi)
+static NOINLINE double phase_sample_one(const Phase *phase, const double *wo, const double *u, double *wi)
 {
     const double *p = phase->p;
     double cos_theta;
@@ -243,7 +250,48 @@ static NOINLINE double phase_sample(const Phase *phase, const double *wo, const 
     default: return sample_henyey_greenstein(wo, p[0], u, wi);
     }
     phase_direction(wo, cos_theta, u[1], wi);
-    return phase_eval(phase, cos_theta);
+    return phase_eval_one(phase, cos_theta);
+}
+
+/* The lobe l of a mixture as a phase function of its own, into *one. */
+INLINE void phase_lobe(const Phase *phase, int64_t l, Phase *one)
+{
+    one->kind = phase->kinds[l];
+    for (int k = 0; k < PHASE_PARAMETERS; k++) one->p[k] = phase->lobe[l][k];
+    one->lobes = 0;
+}
+
+/* PhaseMix.eval / Phase.eval_cos: a mixture's weight-averaged p (Cycles' _volume_shader_phase_eval_mis), else the
+ * one phase function's. */
+static NOINLINE double phase_eval(const Phase *phase, double cos_theta)
+{
+    if (phase->lobes == 0) return phase_eval_one(phase, cos_theta);
+    double sum = 0.0, total = 0.0;
+    for (int64_t l = 0; l < phase->lobes; l++) {
+        Phase one;
+        phase_lobe(phase, l, &one);
+        sum += phase_eval_one(&one, cos_theta) * phase->weight[l];
+        total += phase->weight[l];
+    }
+    return total > 0.0 ? sum / total : 0.0;
+}
+
+/* PhaseMix.sample / Phase.sample: a mixture picks one lobe by weight with u[0] (Cycles' volume_shader_phase_pick,
+ * the number rescaled) and samples it, that lobe's pdf returned (Cycles' phase ray: eval / pdf 1, its MIS pdf). */
+static NOINLINE double phase_sample(const Phase *phase, const double *wo, const double *u, double *wi)
+{
+    if (phase->lobes == 0) return phase_sample_one(phase, wo, u, wi);
+    double v[2] = {u[0], u[1]}, sum = phase->weight[0];
+    int64_t picked = 0;
+    for (int64_t l = 1; l < phase->lobes; l++) {
+        sum += phase->weight[l];
+        double threshold = sum > 0.0 ? phase->weight[l] / sum : 0.0;
+        if (v[0] < threshold) { picked = l; v[0] = v[0] / threshold; }
+        else v[0] = (v[0] - threshold) / (1.0 - threshold);
+    }
+    Phase one;
+    phase_lobe(phase, picked, &one);
+    return phase_sample_one(&one, wo, v, wi);
 }
 
 /* primer_phase_rows (phase.compiled_rows): n rows of kind, parameters (n, PHASE_PARAMETERS), wo, wi (n, 3) and u
@@ -253,6 +301,7 @@ static void phase_rows(const PhaseRowsArgs *a)
     for (int64_t i = 0; i < a->n; i++) {
         Phase phase;
         phase.kind = a->kind[i];
+        phase.lobes = 0;
         for (int k = 0; k < PHASE_PARAMETERS; k++) phase.p[k] = a->parameters[PHASE_PARAMETERS * i + k];
         const double *wo = a->wo + 3 * i, *wi = a->wi + 3 * i;
         a->eval[i] = phase_eval(&phase, -wo[0] * wi[0] + -wo[1] * wi[1] + -wo[2] * wi[2]);
