@@ -207,9 +207,9 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
 /* volume.equiangular_light: each lamp with a position adds the light scattered at its equi-angular point on O, D
  * over [0, t), lit by that lamp alone and weighed by the balance heuristic against free flight (odds), into L (3):
  * in a marched medium m (its march gives the coefficients and transmittance there; phase: the phase function of
- * a homogeneous one, NULL: that of the heterogeneous one at the point, phase_at) or, m NULL, in the homogeneous one of sigma_t, sigma_s (3) and phase
- * function `phase`. collision: 1 where free flight is untruncated (march_collision: a path that scatters or goes
- * on), 0 truncated at t. Returns the shadow rays traced. */
+ * a homogeneous one, NULL: that of the heterogeneous one at the point, phase_at) or, m NULL, in the homogeneous one
+ * of sigma_t, sigma_s (3) and phase function `phase`. collision: 1 where free flight is untruncated
+ * (march_collision: a path that scatters or goes on), 0 truncated at t. Returns the shadow rays traced. */
 static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *limits, const March *m,
                                  const double *sigma_t, const double *sigma_s, const Phase *phase, const double *odds,
                                  int collision, const double *O, const double *D, double t, const VolumeStack *inside,

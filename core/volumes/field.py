@@ -506,7 +506,8 @@ def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRec
         closures=len(kinds), scatters=int(field.scatters), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
         factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
         matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
-        linear=field.linear.reshape(-1), placement=field.placement, phases=c(field.phases), hot=c(field.hot), **grid_tables(field.grids))
+        linear=field.linear.reshape(-1), placement=field.placement, phases=c(field.phases), hot=c(field.hot),
+        **grid_tables(field.grids))
 
 
 # The columns of a grid's row in VolumeField.grid_table: where its values start in `voxels`, X, Y, Z, C, lower (3),
