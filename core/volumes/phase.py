@@ -480,12 +480,7 @@ class PhaseMix(Phases):
     _volume_shader_phase_eval_mis: light samples weigh by it); sample picks one lobe by weight
     (volume_shader_phase_pick, its number u[:, 0] rescaled) and returns that lobe's pdf (Cycles' phase ray:
     eval / pdf 1, its MIS pdf that lobe's). C: phase.c's Phase with `lobes` set. kind and parameters: the first
-    lobe's."""n scattering points' mixtures of up to PHASE_LOBES phase functions, as Cycles keeps each volume closure at a
-    point: kinds (n, L) int64, lobes (n, L, PHASE_PARAMETERS) float64, weights (n, L) float64 (each closure's sigma_s
-    summed over channels; 0: no lobe, after the others). eval is the weight-averaged p (Cycles'
-    _volume_shader_phase_eval_mis: light samples weigh by it); sample picks one lobe by weight
-    (volume_shader_phase_pick, its number u[:, 0] rescaled) and returns that lobe's pdf (Cycles' phase ray: eval / pdf 1, its MIS pdf that
-    lobe's). C: phase.c's Phase with `lobes` set. kind and parameters: the first lobe's."""
+    lobe's."""
 
     def __init__(self, kinds: np.ndarray, lobes: np.ndarray, weights: np.ndarray):
         self.kinds = np.asarray(kinds, np.int64)
