@@ -36,7 +36,6 @@ from ..core.materials.converters.ies_texture import ies_props
 from ..core.materials.procedural import TEXTURE_BY_BLENDER
 from ..core.materials.procedural import hash as hash_
 from ..core.volumes import VOLUME_BY_BLENDER
-from ..core.volumes import field as field_
 from . import movie as movie_
 from . import unmodelled
 
@@ -1531,7 +1530,8 @@ VOLUME_SOCKETS = {"Color": "color", "Density": "density", "Anisotropy": "anisotr
                   "Scatter Coefficients": "scatter", "Emission Coefficients": "emission", "Strength": "strength",
                   "Blackbody Intensity": "blackbody_intensity", "Blackbody Tint": "blackbody_tint",
                   "Temperature": "temperature"}
-# The Phase menu's inputs (Volume Scatter, Volume Coefficients; core/volumes/phase.py of_node), constants only.
+# The Phase menu's inputs (Volume Scatter, Volume Coefficients; core/volumes/phase.py of_node; a material's may be
+# fed by links: set up point by point, core/volumes/field.py).
 PHASE_SOCKETS = {"IOR": "ior", "Backscatter": "backscatter", "Alpha": "alpha", "Diameter": "diameter"}
 
 
@@ -1586,9 +1586,12 @@ def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list =
             for socket, key in PHASE_SOCKETS.items():
                 if socket in node.inputs:
                     value = reader.input(node, socket, None)
+                    if _linked(value) and varying:          # (set up point by point: field.py Field.phase_at)
+                        inputs[key] = value
+                        continue
                     if _linked(value):
-                        reader.warn(node, f"its {socket} is fed by a link, which the phase function {phase} does "
-                                          "not read in Primer; it reads the socket's own value")
+                        reader.warn(node, f"its {socket} is fed by a link: a heterogeneous world medium, which Primer "
+                                          "does not render; it reads the socket's own value")
                         value = node.inputs[socket].default_value
                     inputs[key] = float(np.mean(value))
         for socket, key in VOLUME_SOCKETS.items():
@@ -1620,13 +1623,6 @@ def volume_of(datablock, output, warnings: list, kind: str = "material") -> list
     if node is None:
         return []
     entries = volume_closures(NodeReader(datablock, warnings, kind), node)
-    if entries and field_.linked(entries):               # (a heterogeneous medium scatters with HG: field.py)
-        for _, _, inputs in entries:
-            if inputs.get("phase", "HENYEY_GREENSTEIN") != "HENYEY_GREENSTEIN":
-                warnings.append(f"{kind} '{datablock.name}': phase function {inputs['phase']} in a heterogeneous "
-                                "medium is not modelled; Primer scatters with Henyey-Greenstein of the node's "
-                                "Anisotropy")
-                inputs["phase"] = "HENYEY_GREENSTEIN"
     # A heterogeneous medium's graph runs at points inside it: no image, no mesh attribute there.
     nodes = [(name, weight, {k: v for k, v in inputs.items() if k != "factors"}, inputs.get("factors", ()))
              for name, weight, inputs in entries]

@@ -175,3 +175,113 @@ def test_both_kernels_scatter_with_a_media_phase_function_to_the_same_pixels(pha
     assert compiled.stats.kernels == "compiled"
     assert compiled.stats.shadow_rays == reference.stats.shadow_rays
     assert_same_pixels(reference.image, compiled.image)
+
+
+# Heterogeneous media (core/volumes/field.py): each phase function with its inputs fed by links, set up per point.
+# (Mie in each of its fit's four ranges of diameter: phase.c's mie_fit against the Python's closed form)
+VARYING_INPUTS = {"FOURNIER_FORAND": {"ior": 1.2, "backscatter": 0.2}, "DRAINE": {"anisotropy": 0.4, "alpha": 0.8},
+                  "RAYLEIGH": {}, "MIE": {"diameter": 3.0}, "MIE_TINY": {"diameter": 0.05},
+                  "MIE_SMALL": {"diameter": 0.8}, "MIE_LARGE": {"diameter": 20.0}}
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("case", list(VARYING_INPUTS))
+def test_a_heterogeneous_slab_under_a_sun_scatters_by_its_phase_functions_value(case, kernels):
+    """A scattering slab (sigma_s per channel, 0.6 deep) whose density and phase inputs are graphs of constant value
+    (so it is marched as a heterogeneous medium, its phase set up at each scattering point) under a sun at 50
+    degrees, seen from straight above: sigma_s p(-sin 50) E (1 - exp(-sigma d k)) / (sigma k), k = 1 + 1 / sin 50,
+    p the phase function's closed form (phase.of_node of the constants); within 1e-3 at 64 samples (2e-5 at 256)."""
+    from test_volumes_heterogeneous import camera_above, height, slab
+    from core.geometry import primitives
+    from core.lights import SunLight
+    from core.render import render
+    from core.scene import RenderSettings, Scene
+    scene = Scene(camera=camera_above())
+    sigma, d, E, e = np.array([0.5, 1.0, 2.0]), 0.6, 3.0, np.radians(50.0)
+    phase = case.split("_")[0] if case.startswith("MIE") else case
+    linked = {key: height(0.0, value) for key, value in VARYING_INPUTS[case].items()}
+    scene.materials.append(slab("SCATTER", color=sigma, density=height(0.0, 1.0), phase=phase, **linked))
+    scene.add_mesh(primitives.box((40.0, 40.0, d), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+    scene.lights.append(SunLight(direction=-np.array([np.cos(e), 0.0, np.sin(e)]), strength=E))
+    k = 1.0 + 1.0 / np.sin(e)
+    p = phase_.of_node(phase, VARYING_INPUTS[case]).eval_cos(np.array([-np.sin(e)]))[0]
+    expected = sigma * p * E * (1.0 - np.exp(-sigma * d * k)) / (sigma * k)
+    result = render(scene, RenderSettings(width=4, height=4, samples=64, integrator="path", kernels=kernels))
+    assert (result.stats.kernels == "compiled") == (kernels == "compiled")
+    np.testing.assert_allclose(result.image[..., :3].mean(axis=(0, 1)), expected, rtol=1e-3)
+
+
+def test_phase_inputs_fed_by_links_are_set_up_at_each_point_and_closures_mix_by_their_scattering():
+    """Field.phase_at: a Draine closure whose anisotropy and alpha follow the point's height and an FF one whose IOR
+    does, under a Mix Shader's factor of height: each closure's phase function at each point, its numbers
+    phase.parameters_at of its inputs there (clamped as Cycles), its weight its sigma_s there. Stretch.phases_at
+    mixes them as Cycles keeps its closures (phase.PhaseMix): p the weight-averaged sum, its samples picking each
+    lobe in proportion to its weight (each lobe's pdf returned); Mie's diameter set up per point too."""
+    from test_volumes_heterogeneous import height
+    from core.materials import Material
+    from core.volumes.field import Field
+    z = np.array([-0.3, 0.1, 0.45, 0.8, 1.6])
+    P = np.stack([np.zeros(5), np.zeros(5), z], axis=1)
+    fac = height(1.0, 0.0)
+    entries = [("SCATTER", 1.0, {"phase": "DRAINE", "density": 1.0, "anisotropy": height(1.0, 0.0),
+                                 "alpha": height(2.0, 1.0), "factors": [(fac, "one_minus")]}),
+               ("SCATTER", 1.0, {"phase": "FOURNIER_FORAND", "density": 1.0, "ior": height(0.5, 1.1),
+                                 "backscatter": 0.2, "factors": [(fac, "fac")]})]
+    kinds, parameters, weights = Field(entries).phase_at(P)
+    f = np.clip(z, 0.0, 1.0)
+    assert (kinds == [phase_.PHASE["DRAINE"], phase_.PHASE["FOURNIER_FORAND"]]).all()
+    np.testing.assert_allclose(weights, np.stack([1.0 - f, f], axis=1) * 2.4)     # (colour 0.8 in each channel)
+    np.testing.assert_allclose(parameters[:, 0], Draine(phase_.clamp_g(z), 2.0 * z + 1.0).parameters(5))
+    np.testing.assert_allclose(parameters[:, 1], FournierForand.of(0.2, 0.5 * z + 1.1).parameters(5))
+    mie = Field([("SCATTER", 1.0, {"phase": "MIE", "density": 1.0, "diameter": height(10.0, 0.5)})])
+    np.testing.assert_allclose(mie.phase_at(P)[1][:, 0], Mie.of(10.0 * z + 0.5).parameters(5))
+    # The mixture at a point a quarter up: Draine 3/4 of the scattering, FF 1/4.
+    media = Media.of([Material(np.zeros(3), "Mixed", volume=entries, volume_only=True)])
+    n = 20000
+    inside = np.ones((n, 1), np.int16)
+    stretch = media.along(inside, np.zeros((n, 3)), np.tile([0.0, 0.0, 1.0], (n, 1)))
+    mix = stretch.phases_at(np.arange(n), np.tile([0.0, 0.0, 0.25], (n, 1)), np.zeros(n))
+    draine, ff = Draine(0.25, 1.5), FournierForand.of(0.2, 1.225)
+    rng = np.random.default_rng(3)
+    wo, wi = units(n, rng), units(n, rng)
+    cos = phase_.cosines(wo, wi)
+    np.testing.assert_allclose(mix.eval(wo, wi), 0.75 * draine.eval_cos(cos) + 0.25 * ff.eval_cos(cos), rtol=1e-12)
+    ps = mix.sample(wo, rng.random((n, 2)))
+    c = phase_.cosines(wo, ps.wi)
+    from_draine = np.isclose(ps.pdf, draine.eval_cos(c), rtol=1e-9)
+    assert (from_draine | np.isclose(ps.pdf, ff.eval_cos(c), rtol=1e-9)).all()
+    assert abs(from_draine.mean() - 0.75) < 0.015
+
+
+def test_both_kernels_scatter_in_a_medium_whose_phase_inputs_vary_to_the_same_pixels():
+    """A smoke box whose Mix Shader's factor (a Gradient of height) mixes a Draine closure of varying anisotropy and
+    an FF one of varying IOR, overlapping a Rayleigh world fog, under an area and a point lamp, Volume Bounces 1: the
+    mixture of the three set up at each free-flight, equi-angular and collision point alike in the Python reference
+    and the compiled kernel (phase_at: eval, the lobe picked, its pdf), the same pixels and shadow rays."""
+    from core.lights import World
+    from core.materials import Material
+    from core.render import render
+    from core.scene import RenderSettings
+    from test_volumes_compiled import assert_same_pixels, looking, room
+    from test_volumes_heterogeneous import height
+    from core.geometry import primitives
+    scene = room(looking())
+    fac = height(0.6, 0.0)
+    entries = [("SCATTER", 1.0, {"phase": "DRAINE", "color": np.array([0.5, 0.6, 0.7]), "density": 1.2,
+                                 "anisotropy": height(0.5, -0.2), "alpha": height(1.0, 0.2),
+                                 "factors": [(fac, "one_minus")]}),
+               ("SCATTER", 1.0, {"phase": "FOURNIER_FORAND", "color": np.full(3, 0.7), "density": 1.5,
+                                 "ior": height(0.2, 1.05), "backscatter": 0.3, "factors": [(fac, "fac")]})]
+    scene.materials.append(Material(np.zeros(3), "Smoke", nodes=[("TRANSPARENT", np.ones(3), {})], volume=entries,
+                                    volume_only=True))
+    scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)),
+                   materials=np.array([len(scene.materials) - 1]))
+    scene.world = World(color=np.zeros(3), volume=[("SCATTER", 1.0, {"color": np.full(3, 0.8), "density": 0.02,
+                                                                      "phase": "RAYLEIGH"})])
+    settings = {"width": 12, "height": 9, "samples": 2, "integrator": "path", "max_bounces": 4,
+                "volume_bounces": 1}
+    reference = render(scene, RenderSettings(kernels="numpy", **settings))
+    compiled = render(scene, RenderSettings(**settings))
+    assert compiled.stats.kernels == "compiled"
+    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    assert_same_pixels(reference.image, compiled.image)

@@ -120,8 +120,8 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                 rays++;
             }
             double cos_theta = -wo[0] * ls.L[0] + -wo[1] * ls.L[1] + -wo[2] * ls.L[2];
-            double p = phase->kind == PHASE_HENYEY_GREENSTEIN ? henyey_greenstein(cos_theta, phase->p[0])
-                                                              : phase_eval(phase, cos_theta);
+            double p = phase->kind == PHASE_HENYEY_GREENSTEIN && phase->lobes == 0
+                           ? henyey_greenstein(cos_theta, phase->p[0]) : phase_eval(phase, cos_theta);
             double w = ls.strength * (1.0 / (double)count);
             if (flight != NULL && equiangular_lamp(light)) {
                 double s = flight->s;
@@ -207,9 +207,9 @@ static int64_t in_scattering(const DirectSettings *ds, const PathLimits *limits,
 /* volume.equiangular_light: each lamp with a position adds the light scattered at its equi-angular point on O, D
  * over [0, t), lit by that lamp alone and weighed by the balance heuristic against free flight (odds), into L (3):
  * in a marched medium m (its march gives the coefficients and transmittance there; phase: the phase function of
- * a homogeneous one, NULL: HG of the march's g) or, m NULL, in the homogeneous one of sigma_t, sigma_s (3) and phase
- * function `phase`. collision: 1 where free flight is untruncated (march_collision: a path that scatters or goes
- * on), 0 truncated at t. Returns the shadow rays traced. */
+ * a homogeneous one, NULL: that of the heterogeneous one at the point, phase_at) or, m NULL, in the homogeneous one
+ * of sigma_t, sigma_s (3) and phase function `phase`. collision: 1 where free flight is untruncated
+ * (march_collision: a path that scatters or goes on), 0 truncated at t. Returns the shadow rays traced. */
 static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *limits, const March *m,
                                  const double *sigma_t, const double *sigma_s, const Phase *phase, const double *odds,
                                  int collision, const double *O, const double *D, double t, const VolumeStack *inside,
@@ -225,11 +225,13 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
         double pdf_e = equiangular(O, D, t, light->position, v[0], &s_e);
         if (!(pdf_e > 0.0)) continue;
         double w, at_t[3], at_s[3], kept[3], X[3], lit[3];
-        Phase here = {PHASE_HENYEY_GREENSTEIN, {0.0}};
+        Phase here = {PHASE_HENYEY_GREENSTEIN, {0.0}, 0, {0}, {{0.0}}, {0.0}};
+        for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
         if (m != NULL) {
             w = pdf_e / (pdf_e + (collision ? march_collision_pdf(m, odds, s_e) : march_pdf(m, odds, s_e)));
-            here.p[0] = march_at(m, s_e, at_t, at_s);     /* (a heterogeneous medium: HG of its g there) */
+            double g = march_at(m, s_e, at_t, at_s);
             if (phase != NULL) here = *phase;
+            else phase_at(ds->media, inside, X, g, &here);     /* (a heterogeneous medium: its phase there) */
             march_transmittance(m, s_e, kept);
         } else {
             w = pdf_e / (pdf_e + distance_pdf(sigma_t, odds, t, s_e));
@@ -237,7 +239,6 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
             for (int c = 0; c < 3; c++) at_s[c] = sigma_s[c];
             beer_lambert(sigma_t, s_e, kept);
         }
-        for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
         rays += scattered_light(ds, limits, X, wo, &here, inside, pixel, sample, dimension, bounce, NULL, l, lit,
                                 NULL);
         for (int c = 0; c < 3; c++) L[c] += (kept[c] * at_s[c]) * (w / pdf_e) * lit[c];
@@ -262,10 +263,11 @@ static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *li
     double pdf = march_free_flight(m, odds, u, &s);
     if (pdf > 0.0) {
         double sigma_t[3], sigma_s[3], kept[3], P[3], scattered[3];
-        Phase phase = {PHASE_HENYEY_GREENSTEIN, {0.0}};  /* (a heterogeneous medium: HG of its g there) */
-        phase.p[0] = march_at(m, s, sigma_t, sigma_s);
+        Phase phase;
+        double g = march_at(m, s, sigma_t, sigma_s);
         march_transmittance(m, s, kept);
         for (int c = 0; c < 3; c++) P[c] = O[c] + s * D[c];
+        phase_at(ds->media, inside, P, g, &phase);       /* (a heterogeneous medium: its phase function there) */
         FreeFlight flight = {O, D, t, s, pdf};
         rays += scattered_light(ds, limits, P, wo, &phase, inside, pixel, sample, dimension, bounce, &flight, -1,
                                 scattered, NULL);
@@ -379,9 +381,9 @@ static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limit
     double at_t[3], at_s[3], kept[3], light[3], wo[3] = {-D[0], -D[1], -D[2]};
     double g_here = march_at(&march, s, at_t, at_s);
     Phase here = phase;
-    if (varying) { here.kind = PHASE_HENYEY_GREENSTEIN; here.p[0] = g_here; }   /* (HG of its g there) */
     march_transmittance(&march, s, kept);
     for (int c = 0; c < 3; c++) { next->weight[c] = kept[c] * at_s[c] / pdf; next->P[c] = O[c] + s * D[c]; }
+    if (varying) phase_at(media, inside, next->P, g_here, &here);   /* (its phase function there) */
     FreeFlight flight = {O, D, t, s, pdf};
     rays += scattered_light(ds, limits, next->P, wo, &here, inside, pixel, sample, dimension, bounce, &flight, -1,
                             light, &next->ray);

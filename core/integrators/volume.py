@@ -213,12 +213,13 @@ def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: n
             recorder.scatter("free flight", O[ok] + s[ok, None] * D[ok])
         share = {index: pdf[ok] / (pdf[ok] + equiangular(O[ok], D[ok], t[ok], X, s=s[ok])[1])
                  for index, X in lamps.items()}
-        scattered, shadow_rays = scattered_light(ctx, O[ok] + s[ok, None] * D[ok], -D[ok], g[ok], inside[ok],
+        X = O[ok] + s[ok, None] * D[ok]
+        scattered, shadow_rays = scattered_light(ctx, X, -D[ok], stretch.phases_at(ok, X, g[ok]), inside[ok],
                                                  pixel[ok], sample[ok], dimension, bounce[ok], behind, share)
         L[ok] = weight * scattered
     # 2. Each lamp with a position: a point chosen by equi-angular sampling, lit by that lamp alone.
     shadow_rays += equiangular_light(ctx, march, lambda at: march.pdf(odds, at), O, D, t, inside, pixel, sample,
-                                     dimension, bounce, behind, L, np.arange(k))
+                                     dimension, bounce, behind, L, np.arange(k), stretch.phases_at)
     return L, shadow_rays
 
 
@@ -229,7 +230,9 @@ def equiangular_light(ctx: Context, march, distance_pdf, O: np.ndarray, D: np.nd
     their core/volumes/field.py March) scatter back from each lamp with a position: a point by equi-angular sampling,
     lit by that lamp alone, weight T(s) sigma_s(s) / pdf, weighed against the distance sampling of density
     distance_pdf(s) (r,) by the balance heuristic; phases: the rays' phase functions (phase.Phases, r rows) where
-    their media are homogeneous, None: HG of the march's g there. Returns the shadow rays cast."""
+    their media are homogeneous, or in a heterogeneous medium phases(chosen, X, g) -> phase.Phases of the points X
+    (c, 3) of the rays chosen (c,) (of the r) with the march's g (c,) there (media.Stretch.phases_at), or None: HG
+    of the march's g there. Returns the shadow rays cast."""
     shadow_rays = 0
     for index, X in equiangular_lamps(ctx).items():
         u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=EQUIANGULAR_DIMENSION + index + dimension)
@@ -241,8 +244,10 @@ def equiangular_light(ctx: Context, march, distance_pdf, O: np.ndarray, D: np.nd
         w = pdf_e / (pdf_e + distance_pdf(at))
         _, sigma_e, g_e = march.at(at)
         T = march.transmittance(at) * sigma_e
-        phase = Phases.henyey_greenstein(g_e[chosen]) if phases is None else phases.rows(chosen)
-        lit, count = scattered_light(ctx, O[chosen] + s_e[chosen, None] * D[chosen], -D[chosen], phase,
+        X = O[chosen] + s_e[chosen, None] * D[chosen]
+        phase = (Phases.henyey_greenstein(g_e[chosen]) if phases is None else
+                 phases.rows(chosen) if isinstance(phases, Phases) else phases(chosen, X, g_e[chosen]))
+        lit, count = scattered_light(ctx, X, -D[chosen], phase,
                                      inside[chosen], pixel[chosen], sample[chosen], dimension, bounce[chosen], behind,
                                      only=index)
         L[rows[chosen]] += T[chosen] * (w[chosen] / pdf_e[chosen])[:, None] * lit
@@ -424,7 +429,8 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
         shadow_rays += equiangular_light(ctx, march, lambda at: march.collision_pdf(odds, at), O[group], D[group],
                                          t[group], inside[group], pixel[group], sample[group], dimension,
                                          np.asarray(bounce)[group], None, L, group,
-                                         None if is_varying else part.phases())
+                                         (lambda chosen, X, g: stretch.phases_at(group[chosen], X, g))
+                                         if is_varying else part.phases())
         hit = np.flatnonzero(~passed)
         if len(hit) == 0:
             continue
@@ -436,7 +442,7 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
         share = {index: pdf[hit] / (pdf[hit] + equiangular(O[here], D[here], t[here], X, s=s[hit])[1])
                  for index, X in equiangular_lamps(ctx).items()}
         phase = {}
-        phases = (Phases.henyey_greenstein(g) if is_varying else part.phases()).rows(hit)
+        phases = stretch.phases_at(here, P, g[hit]) if is_varying else part.phases().rows(hit)
         light, count = scattered_light(ctx, P, -D[here], phases, inside[here], pixel[here], sample[here], dimension,
                                        np.asarray(bounce)[here], None, share, phase_out=phase)
         L[here] += weight * light

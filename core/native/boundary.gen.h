@@ -353,8 +353,12 @@
 #define VOLUME_INPUT_STRENGTH 10
 #define VOLUME_INPUT_BLACKBODY_INTENSITY 11
 #define VOLUME_INPUT_TEMPERATURE 12
+#define VOLUME_INPUT_IOR 13
+#define VOLUME_INPUT_BACKSCATTER 14
+#define VOLUME_INPUT_ALPHA 15
+#define VOLUME_INPUT_DIAMETER 16
 /* the volume inputs a closure reads (core.volumes.field) */
-#define VOLUME_INPUTS 13
+#define VOLUME_INPUTS 17
 /* a volume closure's kind in VolumeField.kinds (core.volumes.field) */
 #define VOLUME_CLOSURE_ABSORPTION 0
 #define VOLUME_CLOSURE_SCATTER 1
@@ -377,6 +381,8 @@
 #define PHASE_MIE 4
 /* the numbers a medium's phase function carries (core.volumes.phase) */
 #define PHASE_PARAMETERS 4
+/* the most phase functions a heterogeneous medium's point mixes (core.volumes.phase) */
+#define PHASE_LOBES 8
 
 /* core/materials/registry.py BSDF_TYPES: a closure's kind */
 enum {
@@ -1171,6 +1177,7 @@ struct VolumeField {
     double origin[3];                       /* the world point the render's camera-relative coordinates are relative to */
     double linear[9];                       /* object to world's linear part, row by row (the program's object transform) */
     double placement[3];                    /* object to world's location (the program's Object Info Location) */
+    const int32_t *phases;                  /* (C,) each closure's phase function (PHASE_...; its numbers set up from its inputs) */
     const int32_t *hot;                     /* (C,) the grid of each closure's black body's Temperature Attribute (glows averaged), or -1 */
     int32_t grid_count;                     /* G: a Volume object's grids its program reads (core/volumes/grids.py), or 0 */
     const double *grid_table;               /* (G, GRID_COLUMNS) each grid's start, X, Y, Z, C, lower (3), to_index (12), cubic */
@@ -1259,7 +1266,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "VolumeField") == 0) return UINT64_C(8444423266204665170);
+    if (strcmp(name, "VolumeField") == 0) return UINT64_C(5515668663295301966);
     if (strcmp(name, "MediaTables") == 0) return UINT64_C(6367773730817885968);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     return 0;

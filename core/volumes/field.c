@@ -120,9 +120,11 @@ INLINE double clamp_anisotropy(double g)
 
 
 /* Field.at at one camera-relative point P (3): the medium's sigma_a, sigma_s, emission (3) and gs (the closures'
- * anisotropies times their scattering), each closure as field.closure_at. */
+ * anisotropies times their scattering), each closure as field.closure_at; mix not NULL: also Field.phase_at, each
+ * closure that scatters there added to the mixture *mix as a lobe (its phase function set up from its inputs there,
+ * weight `count` x its sigma_s summed over channels) while it has room (PHASE_LOBES). */
 static void field_at(const VolumeField *f, const double *P, double *sigma_a, double *sigma_s, double *emission,
-                     double *gs)
+                     double *gs, Phase *mix, double count)
 {
     ShadingPoint sp;
     double info[OBJECT_INFO_WIDTH], reg[MAX_REGISTERS];
@@ -197,6 +199,20 @@ static void field_at(const VolumeField *f, const double *P, double *sigma_a, dou
             share = share * (row[2] != 0.0 ? v : 1.0 - v);
         }
         double part = g * ((s[0] + s[1]) + s[2]);
+        double weight = count * ((s[0] * share + s[1] * share) + s[2] * share);
+        if (mix != NULL && weight > 0.0 && mix->lobes < PHASE_LOBES) {   /* (Field.phase_at: set up here) */
+            double an[3], io[3], bs[3], al[3], di[3];
+            Phase one;
+            field_input(f, k, VOLUME_INPUT_ANISOTROPY, reg, an);
+            field_input(f, k, VOLUME_INPUT_IOR, reg, io);
+            field_input(f, k, VOLUME_INPUT_BACKSCATTER, reg, bs);
+            field_input(f, k, VOLUME_INPUT_ALPHA, reg, al);
+            field_input(f, k, VOLUME_INPUT_DIAMETER, reg, di);
+            phase_setup(f->phases[k], an[0], io[0], bs[0], al[0], di[0], &one);
+            mix->kinds[mix->lobes] = one.kind;
+            for (int c = 0; c < PHASE_PARAMETERS; c++) mix->lobe[mix->lobes][c] = one.p[c];
+            mix->weight[mix->lobes++] = weight;
+        }
         for (int c = 0; c < 3; c++) {
             sigma_a[c] += a[c] * share;
             sigma_s[c] += s[c] * share;
@@ -254,7 +270,7 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
             for (const VolumeField *f = media->fields; f != NULL; f = f->next) {
                 double count = (double)stack->count[f->column], fa[3], fs[3], fe[3], fg;
                 if (!(count > 0.0)) continue;
-                field_at(f, P, fa, fs, fe, &fg);
+                field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
                 for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; se[c] += count * fe[c]; }
                 sg += count * fg;
             }
@@ -353,6 +369,38 @@ INLINE double march_at(const March *m, double s, double *sigma_t, double *sigma_
     for (int c = 0; c < 3; c++) { sigma_t[c] = m->sigma_t[k][c]; sigma_s[c] = m->sigma_s[k][c]; }
     double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
     return total > 0.0 ? m->gs[k] / total : 0.0;
+}
+
+/* media.Stretch.phases_at at one point P (3) of a ray in the media `stack` (in a heterogeneous medium), g the
+ * march's sigma_s-weighted mean anisotropy there: the mixture (phase.PhaseMix) of the homogeneous media's phase
+ * function (weight their sigma_s summed over channels) and every closure that scatters there (Field.phase_at), at
+ * most PHASE_LOBES in that order, as Cycles keeps each closure; HG of g where none scatters there; into *phase. */
+static NOINLINE void phase_at(const MediaTables *media, const VolumeStack *stack, const double *P, double g,
+                              Phase *phase)
+{
+    double sigma_s[3], g_h;
+    Phase own;
+    medium_scattering(media, stack, sigma_s, &g_h, &own);
+    double weight = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
+    phase->lobes = 0;
+    if (weight > 0.0) {
+        phase->kinds[0] = own.kind;
+        for (int c = 0; c < PHASE_PARAMETERS; c++) phase->lobe[0][c] = own.p[c];
+        phase->weight[0] = weight;
+        phase->lobes = 1;
+    }
+    for (const VolumeField *f = media->fields; f != NULL; f = f->next) {
+        double count = (double)stack->count[f->column], fa[3], fs[3], fe[3], fg;
+        if (!(count > 0.0) || !f->scatters) continue;
+        field_at(f, P, fa, fs, fe, &fg, phase, count);
+    }
+    phase->kind = PHASE_HENYEY_GREENSTEIN;
+    for (int c = 0; c < PHASE_PARAMETERS; c++) phase->p[c] = 0.0;
+    phase->p[0] = g;
+    if (phase->lobes > 0) {                     /* (the first lobe's, for code that reads one phase function) */
+        phase->kind = phase->kinds[0];
+        for (int c = 0; c < PHASE_PARAMETERS; c++) phase->p[c] = phase->lobe[0][c];
+    }
 }
 
 /* March.totals: the optical depths of extinction and of scattering (3 each) over the finite pieces. */

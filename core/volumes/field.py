@@ -16,6 +16,10 @@ order in the step. (Cycles 5.0 samples these media without bias by null scatteri
 its mean is the exact integral, which the march approaches as the steps shrink: its Step Rate and Max Steps change
 Cycles' noise, not its mean.)
 
+Where a path scatters, the closures run again at the point itself to set up its phase functions (`Field.phase_at`:
+the Phase menu's functions with their inputs there, links included, as Cycles runs the shader at the scattering point),
+mixed by their scattering as Cycles keeps each closure (media.Stretch.phases_at, phase.PhaseMix).
+
 The compiled twin is field.c: `field_record` packs a Field for it (its program, a table of each closure input's
 register or constant, its linked Mix Shader factors, its placement), and its march cuts the same pieces.
 """
@@ -39,11 +43,14 @@ POINTS_AT_ONCE = 1 << 16
 # Each volume input's width (floats): colours and coefficients 3, the rest 1.
 INPUT_WIDTHS = {"color": 3, "absorption_color": 3, "emission_color": 3, "absorption": 3, "scatter": 3,
                 "emission": 3, "blackbody_tint": 3, "density": 1, "anisotropy": 1, "emission_strength": 1,
-                "strength": 1, "blackbody_intensity": 1, "temperature": 1}
+                "strength": 1, "blackbody_intensity": 1, "temperature": 1, "ior": 1, "backscatter": 1, "alpha": 1,
+                "diameter": 1}
 # The closures' defaults (media.py), where an input is missing.
-DEFAULTS = {"ABSORPTION": {"color": 0.8, "density": 1.0}, "SCATTER": {"color": 0.8, "density": 1.0},
+# (the Phase menu's inputs: phase.of_node's defaults)
+PHASE_DEFAULTS = {"ior": 1.33, "backscatter": 0.1, "alpha": 0.5, "diameter": 20.0}
+DEFAULTS = {"ABSORPTION": {"color": 0.8, "density": 1.0}, "SCATTER": {"color": 0.8, "density": 1.0, **PHASE_DEFAULTS},
             "PRINCIPLED_VOLUME": {"color": 0.5, "density": 1.0, "absorption_color": 0.0, "emission_color": 1.0},
-            "COEFFICIENTS": {}, "EMISSION": {"color": 1.0, "strength": 1.0}}
+            "COEFFICIENTS": dict(PHASE_DEFAULTS), "EMISSION": {"color": 1.0, "strength": 1.0}}
 # The coordinates a volume point offers its graph (the attribute layout its program is compiled for).
 LAYOUT = {"generated": (0, 3), "object": (3, 3)}
 # The inputs' order in a VolumeField's table (C: VOLUME_INPUT_COLOR...), and the closures' (C: VOLUME_CLOSURE_...).
@@ -157,6 +164,10 @@ class Field:
         names = [grid.name for grid in self.grids]
         self.hot = np.array([names.index(inputs["temperature_grid"]) if inputs.get("temperature_grid") in names
                              else -1 for _, _, inputs in entries], np.int32)
+        # Each closure's phase function (phase.PHASE; its numbers set up point by point from its inputs, phase_at).
+        from .phase import PHASE
+        self.phases = np.array([PHASE[inputs.get("phase", "HENYEY_GREENSTEIN")] if name in ("SCATTER", "COEFFICIENTS")
+                                else PHASE["HENYEY_GREENSTEIN"] for name, _, inputs in entries], np.int32)
         # The images its graph reads, in a TextureSet of its own (a missing one: -1, magenta).
         from ..materials.textures import TextureSet
         images = [image for image in graph_.images_of(nodes) if image is not None]
@@ -198,6 +209,35 @@ class Field:
 
     def at(self, P: np.ndarray) -> Sample:
         """The medium's coefficients at camera-relative points P (n, 3) float64."""
+        n = len(P)
+        total = Sample(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n))
+        for _, part, _ in self.closures(P):
+            total = Sample(*(a + b for a, b in zip(total, part)))
+        return total
+
+    def phase_at(self, P: np.ndarray) -> tuple:
+        """The phase functions of its closures at camera-relative points P (n, 3) float64 (C closures): kinds (n, C)
+        int64, their numbers (n, C, PHASE_PARAMETERS) float64 set up from each closure's inputs there
+        (phase.parameters_at: links included), and weights (n, C) float64 each closure's sigma_s there summed over
+        channels, after the linked Mix Shader factors (0: it does not scatter there)."""
+        from .phase import PHASE, PHASE_PARAMETERS, parameters_at
+        n, C = len(P), len(self.entries)
+        kinds = np.full((n, C), PHASE["HENYEY_GREENSTEIN"], np.int64)
+        parameters, weights = np.zeros((n, C, PHASE_PARAMETERS)), np.zeros((n, C))
+        for k, part, values in self.closures(P):
+            share = part.sigma_s.sum(axis=1)
+            if not (share > 0.0).any():
+                continue
+            get = lambda key: np.asarray(values[key], np.float64)[:, 0]                  # noqa: E731
+            kinds[:, k] = self.phases[k]
+            parameters[:, k] = parameters_at(int(self.phases[k]), get("anisotropy"), get("ior"), get("backscatter"),
+                                             get("alpha"), get("diameter"))
+            weights[:, k] = share
+        return kinds, parameters, weights
+
+    def closures(self, P: np.ndarray):
+        """Each closure k's coefficients at camera-relative points P (n, 3) float64: (k, Sample (after its linked
+        Mix Shader factors), its inputs there {key: (n, width) float64}) in turn."""
         from ..materials import graph as graph_
         n = len(P)
         width = 6 + GRID_WIDTH * len(self.grids)
@@ -214,7 +254,6 @@ class Field:
                 factors[node] = factors.get(node, 1.0) * (value if slot == 0 else 1.0 - value)
             else:
                 found[(int(node), int(slot))] = (int(width), int(register))
-        total = Sample(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n))
         for k, (name, weight, inputs) in enumerate(self.entries):
             values, slot = {}, 0
             for key in self.slots[k]:
@@ -236,8 +275,7 @@ class Field:
                 f = factors[k]
                 part = Sample(part.sigma_a * f[:, None], part.sigma_s * f[:, None], part.emission * f[:, None],
                               part.gs * f)
-            total = Sample(*(a + b for a, b in zip(total, part)))
-        return total
+            yield k, part, values
 
 
 class March:
@@ -468,7 +506,8 @@ def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRec
         closures=len(kinds), scatters=int(field.scatters), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
         factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
         matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
-        linear=field.linear.reshape(-1), placement=field.placement, hot=c(field.hot), **grid_tables(field.grids))
+        linear=field.linear.reshape(-1), placement=field.placement, phases=c(field.phases), hot=c(field.hot),
+        **grid_tables(field.grids))
 
 
 # The columns of a grid's row in VolumeField.grid_table: where its values start in `voxels`, X, Y, Z, C, lower (3),
@@ -510,6 +549,7 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("origin", F64, 3, "the world point the render's camera-relative coordinates are relative to"),
     ("linear", F64, 9, "object to world's linear part, row by row (the program's object transform)"),
     ("placement", F64, 3, "object to world's location (the program's Object Info Location)"),
+    ("phases", ptr(I32), "(C,) each closure's phase function (PHASE_...; its numbers set up from its inputs)"),
     ("hot", ptr(I32), "(C,) the grid of each closure's black body's Temperature Attribute (glows averaged), or -1"),
     ("grid_count", I32, "G: a Volume object's grids its program reads (core/volumes/grids.py), or 0"),
     ("grid_table", ptr(F64), "(G, GRID_COLUMNS) each grid's start, X, Y, Z, C, lower (3), to_index (12), cubic"),

@@ -56,6 +56,7 @@ INLINE void medium_scattering(const MediaTables *media, const VolumeStack *stack
     double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
     *g = total > 0.0 ? scattering / total : 0.0;
     if (phase == NULL) return;
+    phase->lobes = 0;
     for (int k = 0; k < PHASE_PARAMETERS; k++) phase->p[k] = 0.0;
     phase->kind = PHASE_HENYEY_GREENSTEIN;
     phase->p[0] = *g;

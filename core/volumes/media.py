@@ -477,6 +477,38 @@ class Stretch(NamedTuple):
             return phase_.Phases.henyey_greenstein(self.g)
         return phase_.Phases(self.phase, self.parameters)
 
+    def phases_at(self, rows: np.ndarray, P: np.ndarray, g: np.ndarray) -> "phase_.PhaseMix":
+        """The phase functions (phase.PhaseMix, m rows) at scattering points P (m, 3) of the rays `rows` (m,) int64
+        (in a heterogeneous medium), g (m,) the march's sigma_s-weighted mean anisotropy there: the mixture, as
+        Cycles keeps each closure at the point, of the homogeneous media's phase function (weight their sigma_s
+        summed over channels) and every closure of each heterogeneous medium that scatters there (field.Field.phase_at,
+        weight its sigma_s times the ray's count in it), in that order, at most PHASE_LOBES of them; HG of g where
+        none scatters there. C: field.c's phase_at."""
+        own = self.phases().rows(rows)
+        m = len(rows)
+        kinds, lobes, weights = [own.kind], [own.parameters], [self.sigma_s[rows].sum(axis=1)]
+        for f, field in enumerate(self.fields or ()):
+            count = self.counts[rows, f]
+            some = np.flatnonzero(count > 0.0)
+            if len(some) == 0 or not field.scatters:
+                continue
+            k, p, w = field.phase_at(P[some])
+            for c in range(k.shape[1]):
+                kind, numbers, weight = np.zeros(m, np.int64), np.zeros((m, phase_.PHASE_PARAMETERS)), np.zeros(m)
+                kind[some], numbers[some], weight[some] = k[:, c], p[:, c], count[some] * w[:, c]
+                kinds.append(kind)
+                lobes.append(numbers)
+                weights.append(weight)
+        kinds, lobes, weights = np.stack(kinds, axis=1), np.stack(lobes, axis=1), np.stack(weights, axis=1)
+        weights = np.where(weights > 0.0, weights, 0.0)
+        order = np.argsort(weights <= 0.0, axis=1, kind="stable")[:, :phase_.PHASE_LOBES]   # (lobes first, in order)
+        kinds, weights = np.take_along_axis(kinds, order, 1), np.take_along_axis(weights, order, 1)
+        lobes = np.take_along_axis(lobes, order[:, :, None], 1)
+        none = ~(weights[:, 0] > 0.0)
+        kinds[none, 0], weights[none, 0] = phase_.PHASE["HENYEY_GREENSTEIN"], 1.0
+        lobes[none, 0] = phase_.Phases.henyey_greenstein(g[none]).parameters
+        return phase_.PhaseMix(kinds, lobes, weights)
+
     @property
     def varying(self) -> np.ndarray:
         """Which rays are in a heterogeneous medium: (n,) bool."""

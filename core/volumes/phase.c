@@ -7,6 +7,12 @@
 typedef struct {
     int64_t kind;
     double p[PHASE_PARAMETERS];
+    /* lobes 0: that one phase function; else a heterogeneous medium's point mixes `lobes` of them (phase.PhaseMix:
+     * each closure's kind, numbers and weight, its sigma_s summed over channels), as Cycles keeps its closures */
+    int64_t lobes;
+    int64_t kinds[PHASE_LOBES];
+    double lobe[PHASE_LOBES][PHASE_PARAMETERS];
+    double weight[PHASE_LOBES];
 } Phase;
 
 /* phase.henyey_greenstein: (1 - g^2) / (4 pi (1 + g^2 - 2 g cos theta)^1.5). */
@@ -148,8 +154,74 @@ static double ff_sample_cos(const double *p, double u0)
     return cos_theta;
 }
 
-/* Phase.eval_cos of any kind: p at cos theta = dot(-wo, wi). */
-static NOINLINE double phase_eval(const Phase *phase, double cos_theta)
+/* phase.clamp_g: |g| <= 1 - 1e-3, its sign kept (Cycles' HG and Draine setups). */
+INLINE double phase_clamp_g(double g)
+{
+    double limit = 1.0 - 1e-3, a = fabs(g) < limit ? fabs(g) : limit;
+    return g > 0.0 ? a : (g < 0.0 ? -a : 0.0);
+}
+
+/* phase.mie_parameters: Jendersie and d'Eon's fit (g_HG, g_D, alpha, w) of droplets of diameter d (micrometres),
+ * into out (4), in its four ranges of d (exact sin, cos, log and exp). */
+static void mie_fit(double diameter, double *out)
+{
+    double d = diameter > 0.0 ? diameter : 0.0, log_d = log(d), log_log = log(log_d);
+    if (d <= 0.1) {
+        out[0] = 13.8 * d * d;
+        out[1] = 1.1456 * d * sin(9.29044 * d);
+        out[2] = 250.0;
+        out[3] = 0.252977 - 312.983 * pow(d, 4.3);
+    } else if (d < 1.5) {
+        double a = (log_d - 0.238604) * (log_d + 1.00667), b = 0.507522 - 0.15677 * log_d;
+        double c = 1.19692 * cos(a / b) + 1.37932 * log_d + 0.0625835;
+        out[0] = 0.862 - 0.143 * log_d * log_d;
+        out[1] = 0.379685 * cos(c) + 0.344213;
+        out[2] = 250.0;
+        out[3] = 0.146209 * cos(3.38707 * log_d + 2.11193) + 0.316072 + 0.0778917 * log_d;
+    } else if (d < 5.0) {
+        out[0] = 0.0604931 * log_log + 0.940256;
+        out[1] = 0.500411 - 0.081287 / (-2.0 * log_d + tan(log_d) + 1.27551);
+        out[2] = 7.30354 * log_d + 6.31675;
+        out[3] = 0.026914 * (log_d - cos(5.68947 * (log_log - 0.0292149))) + 0.3764;
+    } else {
+        out[0] = exp(-0.0990567 / (d - 1.67154));
+        out[1] = exp(-2.20679 / (d + 3.91029) - 0.428934);
+        out[2] = exp(3.62489 - 8.29288 / (d + 5.52825));
+        out[3] = exp(-0.599085 / (d - 0.641583) - 0.665888);
+    }
+}
+
+/* phase.parameters_at at one point: the phase function of `kind` set up from a closure's inputs there (anisotropy,
+ * IOR, backscatter, alpha, diameter), as Cycles' svm_alloc_closure_volume_scatter, into *phase. */
+static NOINLINE void phase_setup(int64_t kind, double anisotropy, double ior, double backscatter, double alpha,
+                                 double diameter, Phase *phase)
+{
+    phase->kind = kind;
+    phase->lobes = 0;
+    for (int k = 0; k < PHASE_PARAMETERS; k++) phase->p[k] = 0.0;
+    if (kind == PHASE_FOURNIER_FORAND) {        /* (FournierForand.of: Cycles' volume_fournier_forand_setup) */
+        double B = fabs(backscatter) < 0.5 - 1e-3 ? fabs(backscatter) : 0.5 - 1e-3;
+        double n = ior > 1.0 + 1e-3 ? ior : 1.0 + 1e-3;
+        double d90 = ff_delta(n, 0.5), d180 = ff_delta(n, 1.0);
+        double v = -log(2.0 * B * (d90 - 1.0) + 1.0) / log(d90);
+        phase->p[0] = n;
+        phase->p[1] = v;
+        phase->p[2] = (pow(d180, -v) - 1.0) / (d180 - 1.0);
+    } else if (kind == PHASE_DRAINE) {
+        phase->p[0] = phase_clamp_g(anisotropy);
+        phase->p[1] = alpha;
+    } else if (kind == PHASE_MIE) {
+        mie_fit(diameter, phase->p);
+        phase->p[0] = phase_clamp_g(phase->p[0]);
+        phase->p[1] = phase_clamp_g(phase->p[1]);
+    } else if (kind != PHASE_RAYLEIGH) {
+        phase->kind = PHASE_HENYEY_GREENSTEIN;
+        phase->p[0] = phase_clamp_g(anisotropy);
+    }
+}
+
+/* Phase.eval_cos of any kind: p at cos theta = dot(-wo, wi) (of one phase function: lobes ignored). */
+static NOINLINE double phase_eval_one(const Phase *phase, double cos_theta)
 {
     const double *p = phase->p;
     switch (phase->kind) {
@@ -163,7 +235,7 @@ static NOINLINE double phase_eval(const Phase *phase, double cos_theta)
 
 /* Phase.sample of any kind: a direction wi (3) for a viewer along wo (3) from numbers u (2), its pdf returned (p
  * there: eval / pdf = 1). HG's is sample_henyey_greenstein's, bit for bit. */
-static NOINLINE double phase_sample(const Phase *phase, const double *wo, const double *u, double *wi)
+static NOINLINE double phase_sample_one(const Phase *phase, const double *wo, const double *u, double *wi)
 {
     const double *p = phase->p;
     double cos_theta;
@@ -178,7 +250,48 @@ static NOINLINE double phase_sample(const Phase *phase, const double *wo, const 
     default: return sample_henyey_greenstein(wo, p[0], u, wi);
     }
     phase_direction(wo, cos_theta, u[1], wi);
-    return phase_eval(phase, cos_theta);
+    return phase_eval_one(phase, cos_theta);
+}
+
+/* The lobe l of a mixture as a phase function of its own, into *one. */
+INLINE void phase_lobe(const Phase *phase, int64_t l, Phase *one)
+{
+    one->kind = phase->kinds[l];
+    for (int k = 0; k < PHASE_PARAMETERS; k++) one->p[k] = phase->lobe[l][k];
+    one->lobes = 0;
+}
+
+/* PhaseMix.eval / Phase.eval_cos: a mixture's weight-averaged p (Cycles' _volume_shader_phase_eval_mis), else the
+ * one phase function's. */
+static NOINLINE double phase_eval(const Phase *phase, double cos_theta)
+{
+    if (phase->lobes == 0) return phase_eval_one(phase, cos_theta);
+    double sum = 0.0, total = 0.0;
+    for (int64_t l = 0; l < phase->lobes; l++) {
+        Phase one;
+        phase_lobe(phase, l, &one);
+        sum += phase_eval_one(&one, cos_theta) * phase->weight[l];
+        total += phase->weight[l];
+    }
+    return total > 0.0 ? sum / total : 0.0;
+}
+
+/* PhaseMix.sample / Phase.sample: a mixture picks one lobe by weight with u[0] (Cycles' volume_shader_phase_pick,
+ * the number rescaled) and samples it, that lobe's pdf returned (Cycles' phase ray: eval / pdf 1, its MIS pdf). */
+static NOINLINE double phase_sample(const Phase *phase, const double *wo, const double *u, double *wi)
+{
+    if (phase->lobes == 0) return phase_sample_one(phase, wo, u, wi);
+    double v[2] = {u[0], u[1]}, sum = phase->weight[0];
+    int64_t picked = 0;
+    for (int64_t l = 1; l < phase->lobes; l++) {
+        sum += phase->weight[l];
+        double threshold = sum > 0.0 ? phase->weight[l] / sum : 0.0;
+        if (v[0] < threshold) { picked = l; v[0] = v[0] / threshold; }
+        else v[0] = (v[0] - threshold) / (1.0 - threshold);
+    }
+    Phase one;
+    phase_lobe(phase, picked, &one);
+    return phase_sample_one(&one, wo, v, wi);
 }
 
 /* primer_phase_rows (phase.compiled_rows): n rows of kind, parameters (n, PHASE_PARAMETERS), wo, wi (n, 3) and u
@@ -188,6 +301,7 @@ static void phase_rows(const PhaseRowsArgs *a)
     for (int64_t i = 0; i < a->n; i++) {
         Phase phase;
         phase.kind = a->kind[i];
+        phase.lobes = 0;
         for (int k = 0; k < PHASE_PARAMETERS; k++) phase.p[k] = a->parameters[PHASE_PARAMETERS * i + k];
         const double *wo = a->wo + 3 * i, *wi = a->wi + 3 * i;
         a->eval[i] = phase_eval(&phase, -wo[0] * wi[0] + -wo[1] * wi[1] + -wo[2] * wi[2]);

@@ -40,6 +40,7 @@ from ..native import schema
 PHASE = schema.constants("PHASE", ["HENYEY_GREENSTEIN", "FOURNIER_FORAND", "DRAINE", "RAYLEIGH", "MIE"],
                          "a medium's phase function (core/volumes/phase.py)")
 PHASE_PARAMETERS = schema.constant("PHASE_PARAMETERS", 4, "the numbers a medium's phase function carries")
+PHASE_LOBES = schema.constant("PHASE_LOBES", 8, "the most phase functions a heterogeneous medium's point mixes")
 # A Draine or HG anisotropy's clamp (Cycles' setup: no delta function), and FF's Backscatter and IOR clamps.
 G_LIMIT = 1.0 - 1e-3
 
@@ -397,6 +398,22 @@ def of_node(phase: str, inputs: dict) -> Phase:
     return HenyeyGreenstein(float(clamp_g(get("anisotropy", 0.0))))
 
 
+def parameters_at(kind: int, anisotropy, ior, backscatter, alpha, diameter) -> np.ndarray:
+    """The numbers (n, PHASE_PARAMETERS) float64 of phase function `kind` set up at n points from a closure's inputs
+    there ((n,) float64 each), as of_node sets them up from constants (Cycles' svm_alloc_closure_volume_scatter runs
+    at every shading point; C: phase.c phase_setup)."""
+    n = len(anisotropy)
+    if kind == PHASE["FOURNIER_FORAND"]:
+        return FournierForand.of(backscatter, ior).parameters(n)
+    if kind == PHASE["DRAINE"]:
+        return Draine(clamp_g(anisotropy), np.asarray(alpha, np.float64)).parameters(n)
+    if kind == PHASE["RAYLEIGH"]:
+        return Rayleigh().parameters(n)
+    if kind == PHASE["MIE"]:
+        return Mie.of(diameter).parameters(n)
+    return HenyeyGreenstein(clamp_g(anisotropy)).parameters(n)
+
+
 def phase_of(kind: int, parameters: np.ndarray) -> Phase:
     """The phase function of one kind and its numbers (n, PHASE_PARAMETERS) (Phase.parameters' inverse)."""
     p = np.asarray(parameters, np.float64).reshape(-1, PHASE_PARAMETERS)
@@ -454,6 +471,63 @@ class Phases:
             ps = phase_of(int(kind), self.parameters[rows]).sample(wo[rows], u[rows])
             wi[rows], pdf[rows] = ps.wi, ps.pdf
         return PhaseSample(wi, pdf)
+
+
+class PhaseMix(Phases):
+    """n scattering points' mixtures of up to PHASE_LOBES phase functions, as Cycles keeps each volume closure at a
+    point: kinds (n, L) int64, lobes (n, L, PHASE_PARAMETERS) float64, weights (n, L) float64 (each closure's sigma_s
+    summed over channels; 0: no lobe, after the others). eval is the weight-averaged p (Cycles'
+    _volume_shader_phase_eval_mis: light samples weigh by it); sample picks one lobe by weight
+    (volume_shader_phase_pick, its number u[:, 0] rescaled) and returns that lobe's pdf (Cycles' phase ray:
+    eval / pdf 1, its MIS pdf that lobe's). C: phase.c's Phase with `lobes` set. kind and parameters: the first
+    lobe's."""
+
+    def __init__(self, kinds: np.ndarray, lobes: np.ndarray, weights: np.ndarray):
+        self.kinds = np.asarray(kinds, np.int64)
+        self.lobes = np.asarray(lobes, np.float64)
+        self.weights = np.asarray(weights, np.float64)
+        super().__init__(self.kinds[:, 0], self.lobes[:, 0])
+
+    def rows(self, index) -> "PhaseMix":
+        """The rows `index`."""
+        return PhaseMix(self.kinds[index], self.lobes[index], self.weights[index])
+
+    def eval(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        """sum of w p / sum of w (n,), lobe by lobe in order (as phase.c's phase_eval)."""
+        n = len(self.kinds)
+        total, weighted = np.zeros(n), np.zeros(n)
+        for lobe in range(self.kinds.shape[1]):
+            w = self.weights[:, lobe]
+            some = np.flatnonzero(w > 0.0)
+            if len(some):
+                p = Phases(self.kinds[some, lobe], self.lobes[some, lobe]).eval(wo[some], wi[some])
+                weighted[some] = weighted[some] + p * w[some]
+                total[some] = total[some] + w[some]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(total > 0.0, weighted / np.where(total > 0.0, total, 1.0), 0.0)
+
+    def pdf(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        """The light samples' pdf of the phase ray: the mixture's (Cycles' _volume_shader_phase_eval_mis)."""
+        return self.eval(wo, wi)
+
+    def sample(self, wo: np.ndarray, u: np.ndarray) -> PhaseSample:
+        """A lobe picked by weight (u[:, 0] rescaled as Cycles' volume_shader_phase_pick), sampled: wi (n, 3) and
+        that lobe's pdf (n,)."""
+        n, L = self.kinds.shape
+        x = np.array(u[:, 0], np.float64)
+        picked = np.zeros(n, np.int64)
+        total = self.weights[:, 0].copy()
+        for lobe in range(1, L):
+            w = self.weights[:, lobe]
+            total = total + w
+            with np.errstate(invalid="ignore", divide="ignore"):
+                threshold = np.where(total > 0.0, w / np.where(total > 0.0, total, 1.0), 0.0)
+                below = x < threshold
+                x = np.where(below, x / np.where(below, threshold, 1.0), (x - threshold) / (1.0 - threshold))
+            picked = np.where(below, lobe, picked)
+        rows = np.arange(n)
+        one = Phases(self.kinds[rows, picked], self.lobes[rows, picked])
+        return one.sample(wo, np.stack([x, u[:, 1]], axis=1))
 
 
 def henyey_greenstein(cos_theta: np.ndarray, g) -> np.ndarray:
