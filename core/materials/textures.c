@@ -22,9 +22,13 @@ INLINE double srgb_to_linear(double c)
 INLINE int64_t texel_wrap(int64_t i, int64_t size, int extension)
 {
     switch (extension) {
-    case EXT_REPEAT: { int64_t m = i % size; return m < 0 ? m + size : m; }
+    case EXT_REPEAT: {
+        if ((uint64_t)i < (uint64_t)size) return i;         /* (inside: no division, the same index) */
+        int64_t m = i % size; return m < 0 ? m + size : m;
+    }
     case EXT_EXTEND: return i < 0 ? 0 : (i > size - 1 ? size - 1 : i);
     case EXT_MIRROR: {
+        if ((uint64_t)i < (uint64_t)size) return i;
         int64_t a = i + (i < 0);
         int64_t m = (a < 0 ? -a : a) % (2 * size);
         return m >= size ? 2 * size - m - 1 : m;
@@ -37,12 +41,23 @@ INLINE int64_t texel_wrap(int64_t i, int64_t size, int extension)
 INLINE void texel_rgba(const TextureView *image, int64_t at, double *rgba)
 {
     double v[4] = {0.0, 0.0, 0.0, 1.0};
-    for (int c = 0; c < image->channels; c++) {
-        switch (image->format) {
-        case TEX_BYTE: v[c] = (double)((const uint8_t *)image->data)[at + c] * (1.0 / 255.0); break;
-        case TEX_SHORT: v[c] = (double)((const uint16_t *)image->data)[at + c] * (1.0 / 65535.0); break;
-        default: v[c] = (double)((const float *)image->data)[at + c]; break;
-        }
+    int channels = image->channels;
+    switch (image->format) {                /* (the format chosen once per texel, not per channel) */
+    case TEX_BYTE: {
+        const uint8_t *texel = (const uint8_t *)image->data + at;
+        for (int c = 0; c < channels; c++) v[c] = (double)texel[c] * (1.0 / 255.0);
+        break;
+    }
+    case TEX_SHORT: {
+        const uint16_t *texel = (const uint16_t *)image->data + at;
+        for (int c = 0; c < channels; c++) v[c] = (double)texel[c] * (1.0 / 65535.0);
+        break;
+    }
+    default: {
+        const float *texel = (const float *)image->data + at;
+        for (int c = 0; c < channels; c++) v[c] = (double)texel[c];
+        break;
+    }
     }
     if (image->channels <= 2) {
         double alpha = image->channels == 2 ? v[1] : 1.0;
