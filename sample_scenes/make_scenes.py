@@ -112,11 +112,13 @@ def set_world(scene, color, strength: float = 1.0, lights: bool = False):
     return world
 
 
-def emission(name: str, color, strength: float, sampling: str = "AUTO"):
-    """A material that emits colour x strength (radiance, W / (m^2 sr)) from both sides, and reflects nothing."""
+def bare_material(name: str, color=None):
+    """A new material (viewport colour `color`, if given) whose node tree holds its Material Output alone:
+    (material, tree, output)."""
     bpy = _bpy()
     material = bpy.data.materials.new(name)
-    material.diffuse_color = (*color, 1.0)
+    if color is not None:
+        material.diffuse_color = (*color, 1.0)
     if material.node_tree is None:
         material.use_nodes = True
     tree = material.node_tree
@@ -124,6 +126,12 @@ def emission(name: str, color, strength: float, sampling: str = "AUTO"):
     for node in list(tree.nodes):
         if node.name != output.name:
             tree.nodes.remove(node)
+    return material, tree, output
+
+
+def emission(name: str, color, strength: float, sampling: str = "AUTO"):
+    """A material that emits colour x strength (radiance, W / (m^2 sr)) from both sides, and reflects nothing."""
+    material, tree, output = bare_material(name, color)
     node = tree.nodes.new("ShaderNodeEmission")
     node.inputs["Color"].default_value = (*color, 1.0)
     node.inputs["Strength"].default_value = strength
@@ -938,15 +946,7 @@ def camera_fisheye_equisolid():
 
 def volume_material(name: str, build):
     """A material with no surface whose Volume output is what `build(tree)` returns (an output socket)."""
-    bpy = _bpy()
-    material = bpy.data.materials.new(name)
-    if material.node_tree is None:
-        material.use_nodes = True
-    tree = material.node_tree
-    output = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
-    for node in list(tree.nodes):
-        if node.name != output.name:
-            tree.nodes.remove(node)
+    material, tree, output = bare_material(name)
     tree.links.new(build(tree), output.inputs["Volume"])
     return material
 
