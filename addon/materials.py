@@ -1617,12 +1617,30 @@ def volume_closures(reader: "NodeReader", node, weight: float = 1.0, out: list =
     return out
 
 
+def note_unlike_phases(datablock, kind: str, entries: list, warnings: list) -> None:
+    """Warn where a homogeneous medium (no input fed by a link) mixes scattering closures of unlike phase functions:
+    Primer scatters such a medium by one (HG of the mean g, or the closure that scatters most: core/volumes/media.py),
+    Cycles by each closure's (a heterogeneous medium mixes them as Cycles does: core/volumes/phase.py PhaseMix)."""
+    if any(_linked(value) for _, _, inputs in entries for value in inputs.values()) or entries and \
+            any(inputs.get("factors") for _, _, inputs in entries):
+        return
+    phases = {(inputs.get("phase", "HENYEY_GREENSTEIN"),
+               tuple(round(float(np.mean(inputs[key])), 6) for key in ("anisotropy", *PHASE_SOCKETS.values())
+                     if key in inputs and inputs[key] is not None))
+              for name, weight, inputs in entries if name in ("SCATTER", "PRINCIPLED_VOLUME", "COEFFICIENTS")}
+    if len(phases) > 1:
+        warnings.append(f"{kind} '{datablock.name}': its homogeneous medium mixes unlike phase functions; Primer "
+                        "scatters it by one (Henyey-Greenstein of their mean anisotropy, or the closure that scatters "
+                        "most), Cycles by each closure's")
+
+
 def volume_of(datablock, output, warnings: list, kind: str = "material") -> list:
     """The closures of `output`'s Volume socket (a material's or world's): [] where nothing is linked."""
     node = linked_node(output, "Volume") if output is not None and "Volume" in output.inputs else None
     if node is None:
         return []
     entries = volume_closures(NodeReader(datablock, warnings, kind), node)
+    note_unlike_phases(datablock, kind, entries, warnings)
     # A heterogeneous medium's graph runs at points inside it: no image, no mesh attribute there.
     nodes = [(name, weight, {k: v for k, v in inputs.items() if k != "factors"}, inputs.get("factors", ()))
              for name, weight, inputs in entries]

@@ -206,7 +206,8 @@ def test_a_world_fog_scatters_a_point_lamp_and_blocks_the_sun_as_in_cycles(prime
 
 def test_volume_closures_are_read_through_mixes_and_what_is_not_modelled_is_said(primer):
     """A Mix Shader (factor 0.25) of a Volume Absorption and a Volume Scatter reads as both closures with weights 0.75
-    and 0.25; a Volume Scatter with the Rayleigh phase is read with it and said nothing of; a density fed by a Noise
+    and 0.25 (the absorption swapped for a Rayleigh scatter, a homogeneous mix of unlike phase functions, is said
+    once); a Volume Scatter with the Rayleigh phase is read with it and said nothing of; a density fed by a Noise
     Texture is read as a link (a heterogeneous medium, in its object's space) with its Mie phase and a Diameter fed
     by a link (set up at each point: said nothing of); a Principled Volume's Blackbody Intensity is
     read; Volume Bounces 1 is read; a world's density fed by a Noise Texture (a heterogeneous world medium, left out)
@@ -226,6 +227,13 @@ def test_volume_closures_are_read_through_mixes_and_what_is_not_modelled_is_said
     closures = materials_.export_material(m, warnings).volume
     assert [(name, weight) for name, weight, _ in closures] == [("ABSORPTION", 0.75), ("SCATTER", 0.25)]
     assert warnings == []
+    absorb_node = absorb                                          # (a homogeneous mix of unlike phases: said)
+    tree.nodes.remove(absorb_node)
+    rayleigh_scatter = tree.nodes.new("ShaderNodeVolumeScatter")
+    rayleigh_scatter.phase = "RAYLEIGH"
+    tree.links.new(rayleigh_scatter.outputs[0], mix.inputs[1])
+    materials_.export_material(m, warnings)
+    assert len([w for w in warnings if "unlike phase functions" in w]) == 1, warnings
     rayleigh, node = volume_material("Rayleigh", "ShaderNodeVolumeScatter")
     node.phase = "RAYLEIGH"
     flame, _ = volume_material("Flame", "ShaderNodeVolumePrincipled", Blackbody_Intensity=1.0)
