@@ -1156,12 +1156,12 @@ def bump_filter_width() -> float:
     return graph_.BUMP_FILTER_WIDTH if bpy.app.version >= (4, 5, 0) else 1.0
 
 
-def displacement_bump(reader: NodeReader, output):
-    """A material's Displacement output as Cycles renders it with Displacement Method Bump Only (its default; also
-    the bump part of Displacement and Bump): the offset's height along the shading normal fed to a Bump node of
-    Strength 1 and Distance 1, whose normal becomes the material's (ShaderGraph::bump_from_displacement). Returns
-    the Bump's Link, or None where the output does not vary per hit."""
-    offset = reader.input(output, "Displacement", np.zeros(3))
+def displacement_bump(offset, output):
+    """A material's Displacement output `offset` (as NodeReader.input reads it from `output`) as Cycles renders it
+    with Displacement Method Bump Only (its default; also the bump part of Displacement and Bump): the offset's
+    height along the shading normal fed to a Bump node of Strength 1 and Distance 1, whose normal becomes the
+    material's (ShaderGraph::bump_from_displacement). Returns the Bump's Link, or None where the output does not vary
+    per hit."""
     if not _linked(offset):
         return None
     normal = Link(GraphNode("GEOMETRY", {}, {}, output.name), "Normal")
@@ -1676,13 +1676,12 @@ def export_material(material, warnings: list) -> Material:
     if output is not None and "Displacement" in output.inputs and linked_node(output, "Displacement") is not None:
         method = str(getattr(material, "displacement_method", getattr(getattr(material, "cycles", None),
                                                                       "displacement_method", "BUMP")))
-        if method in ("DISPLACEMENT", "BOTH"):
+        offset = NodeReader(material, warnings).input(output, "Displacement", np.zeros(3))
+        if method in ("DISPLACEMENT", "BOTH") and (_linked(offset) or np.any(np.asarray(offset, np.float64) != 0.0)):
             # The surface moved at its vertices (core/geometry/displacement.py), as Cycles without subdivision.
-            offset = NodeReader(material, warnings).input(output, "Displacement", np.zeros(3))
-            if _linked(offset) or np.any(np.asarray(offset, np.float64) != 0.0):
-                moved = {"displacement": offset, "displacement_method": method}
+            moved = {"displacement": offset, "displacement_method": method}
         if method != "DISPLACEMENT" and nodes and surface_node(material) is not None:
-            normal = displacement_bump(NodeReader(material, warnings), output)
+            normal = displacement_bump(offset, output)
         bumped = method == "BOTH" or any(link.node.kind == "BUMP" for link in graph_.links_under(nodes))
         if moved and bumped:
             warnings.append(f"material '{material.name}': its Displacement moves the surface and a bump bends its "

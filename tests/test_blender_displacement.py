@@ -82,21 +82,28 @@ def wavy_plane(space: str, scale: float):
     return scene, material
 
 
+def against_cycles_and_without(primer, scene, material, tmp_path) -> tuple:
+    """The export's warnings naming the Displacement, and the block relMSE against Cycles of Primer's image of
+    `scene` and of its image with `material`'s Displacement output unlinked afterwards: (warnings, error, without)."""
+    export = sys.modules[primer.__name__ + ".addon.export"]
+    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
+    mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
+    cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
+    tree = material.node_tree
+    tree.links.remove(tree.nodes["Material Output"].inputs["Displacement"].links[0])
+    flat = render(scene, "PRIMER", str(tmp_path / "flat.exr"))
+    named = [w for w in warnings if "Displacement" in w]
+    return named, relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(flat, cycles)
+
+
 @pytest.mark.parametrize("space, scale", [("OBJECT", 2.0), ("WORLD", 1.0), ("VECTOR OBJECT", 2.0),
                                           ("VECTOR TANGENT", 2.0)])
 def test_a_displacement_output_bumps_the_shading_as_cycles_bump_only(primer, tmp_path, space, scale):
     """Bump Only: Primer's image of the displaced plane is Cycles' (block relMSE below 1e-3) and far from the flat
     plane's; no warning names the Displacement."""
     scene, material = wavy_plane(space, scale)
-    export = sys.modules[primer.__name__ + ".addon.export"]
-    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
-    assert not [w for w in warnings if "Displacement" in w], warnings
-    mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
-    cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
-    tree = material.node_tree
-    tree.links.remove(tree.nodes["Material Output"].inputs["Displacement"].links[0])
-    flat = render(scene, "PRIMER", str(tmp_path / "flat.exr"))
-    error, unbumped = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(flat, cycles)
+    named, error, unbumped = against_cycles_and_without(primer, scene, material, tmp_path)
+    assert not named, named
     print(f"{space} x{scale:g}: block relMSE {error:.2e}, the flat plane {unbumped:.2e}")
     assert error < 1e-3 and unbumped > 10.0 * error, (error, unbumped)
 
@@ -133,12 +140,7 @@ def test_nodes_that_read_the_normal_see_the_displacements_bump_as_in_cycles(prim
     scene, material = wavy_plane("OBJECT", 2.0)
     material.node_tree.nodes["Displacement"].inputs["Scale"].default_value = 0.3
     normal_readers(material)
-    mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
-    cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
-    tree = material.node_tree
-    tree.links.remove(tree.nodes["Material Output"].inputs["Displacement"].links[0])
-    flat = render(scene, "PRIMER", str(tmp_path / "flat.exr"))
-    error, unbumped = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(flat, cycles)
+    _, error, unbumped = against_cycles_and_without(primer, scene, material, tmp_path)
     print(f"normal readers: block relMSE {error:.2e}, the unbumped normal {unbumped:.2e}")
     assert error < 1e-3 and unbumped > 10.0 * error, (error, unbumped)
 
@@ -328,15 +330,7 @@ def test_true_displacement_moves_the_vertices_as_cycles(primer, tmp_path, method
     grid's (3.3), no warning naming the Displacement. Displacement and Bump's bump steps over the moved surface where
     Cycles' steps over the unmoved one (svm_node_enter_bump_eval's undisplaced position): said once, within 1e-2."""
     scene, material = displaced_grid(method)
-    export = sys.modules[primer.__name__ + ".addon.export"]
-    warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
-    named = [w for w in warnings if "Displacement" in w]
-    mine = render(scene, "PRIMER", str(tmp_path / "primer.exr"))
-    cycles = render(scene, "CYCLES", str(tmp_path / "cycles.exr"))
-    tree = material.node_tree
-    tree.links.remove(tree.nodes["Material Output"].inputs["Displacement"].links[0])
-    flat = render(scene, "PRIMER", str(tmp_path / "flat.exr"))
-    error, unmoved = relative_mse_of_blocks(mine, cycles), relative_mse_of_blocks(flat, cycles)
+    named, error, unmoved = against_cycles_and_without(primer, scene, material, tmp_path)
     print(f"{method}: block relMSE {error:.2e}, the undisplaced grid {unmoved:.2e}")
     if method == "DISPLACEMENT":
         assert not named, named

@@ -69,10 +69,13 @@ def displace_mesh(mesh: Mesh, instance, materials: list, warnings: list) -> Mesh
     # 3. Offsets per material.
     offsets = np.zeros((len(vertex), 3))
     matrix = np.asarray(instance.matrix, np.float64)
+    from .geometry import attribute_table                        # (geometry imports this module)
+    table, layout, _ = attribute_table([mesh])
     for k, material in graphs.items():
         mine = scene_index[triangle] == k
         if mine.any():
-            offsets[mine] = world_offsets(mesh, instance, material, triangle[mine], corner[mine], warnings)
+            offsets[mine] = world_offsets(mesh, instance, material, (table, layout), triangle[mine], corner[mine],
+                                          warnings)
     linear = matrix[:3, :3]
     try:
         to_object = np.linalg.inv(linear)
@@ -105,13 +108,14 @@ def object_corner_normals(mesh: Mesh) -> np.ndarray:
     return per_vertex[mesh.triangles]
 
 
-def world_offsets(mesh: Mesh, instance, material, triangle: np.ndarray, corner: np.ndarray,
+def world_offsets(mesh: Mesh, instance, material, attributes: tuple, triangle: np.ndarray, corner: np.ndarray,
                   warnings: list) -> np.ndarray:
     """The material's Displacement output (n, 3) float64 in world space at corners `corner` (n,) of triangles
-    `triangle` (n,) of `mesh` placed by `instance`: the graph run at each, as Cycles shades a vertex to displace it
-    (shader_setup_from_displace: no ray, the view along the normal, no footprint)."""
-    from .geometry import attribute_table, instance_info        # (geometry imports this module)
-    table, layout, _ = attribute_table([mesh])
+    `triangle` (n,) of `mesh` placed by `instance`, whose attributes are `attributes` (geometry.attribute_table's
+    table and layout): the graph run at each, as Cycles shades a vertex to displace it (shader_setup_from_displace:
+    no ray, the view along the normal, no footprint)."""
+    from .geometry import instance_info                          # (geometry imports this module)
+    table, layout = attributes
     nodes = [(None, 1.0, {"displacement": material.displacement})]
     images = graph_.images_of(nodes)
     index = {id(image): k for k, image in enumerate(images) if image is not None}

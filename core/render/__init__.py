@@ -207,11 +207,12 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     warnings.extend(note for note in (media.notes if media is not None else ()) if note not in warnings)
     if media is not None:                  # (where camera rays may start inside a mesh's medium)
         ctx.extra["media_bounds"] = rays_.media_bounds(geometry, media)
-    ctx.extra["transparent"] = (any(shader.may_let_light_through for shader in materials.shaders)
+    see_through = any(shader.may_let_light_through for shader in materials.shaders)
+    ctx.extra["transparent"] = (see_through
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
                                 or ctx.geometry.shadow_linked or any(map(lights_.linking.shadow_linked, lights))
                                 or media is not None)
-    if settings.transparent_background and any(shader.may_let_light_through for shader in materials.shaders):
+    if settings.transparent_background and see_through:
         warnings.append("Film > Transparent: where a camera ray goes on through clear surfaces (Transparent BSDFs, "
                         "Ray Portals, volume boundaries) and escapes, Primer leaves the pixel opaque without the "
                         "world; Cycles makes it clear by what the surfaces let through (alpha 1 - their transparency)")
