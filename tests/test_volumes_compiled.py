@@ -21,6 +21,11 @@ from core.scene import RenderSettings, Scene
 COLOR = np.array([0.2, 0.5, 0.8])
 
 
+def unexpected(warnings: list) -> list:
+    """The warnings but the one every heterogeneous medium gives (its midpoint march, not Cycles' null scattering)."""
+    return [w for w in warnings if "marches it in pieces" not in w]
+
+
 def fog(name: str = "Fog", closure: str = "ABSORPTION", surface=None, **inputs) -> Material:
     """A material with a Volume of one closure and either no Surface (a volume-only boundary) or `surface` nodes."""
     volume = [(closure, 1.0, inputs)]
@@ -228,7 +233,7 @@ def test_both_kernels_march_a_noise_fed_absorbing_and_glowing_box_to_the_same_pi
                       ("EMISSION", 1.0, {"strength": noise, "color": np.array([1.0, 0.4, 0.1])})])
     glass_ball(scene)
     reference, compiled, stats = both(scene, integrator=integrator)
-    assert stats.kernels == "compiled" and not stats.warnings
+    assert stats.kernels == "compiled" and not unexpected(stats.warnings)
     assert_same_pixels(reference, compiled)
 
 
@@ -265,7 +270,7 @@ def test_both_kernels_march_a_black_body_whose_temperature_a_noise_sets_to_the_s
                                                   "blackbody_intensity": 1.0, "temperature": kelvin,
                                                   "blackbody_tint": np.array([1.0, 0.9, 0.8])})])
     reference, compiled, stats = both(scene)
-    assert stats.kernels == "compiled" and not stats.warnings
+    assert stats.kernels == "compiled" and not unexpected(stats.warnings)
     assert_same_pixels(reference, compiled)
 
 
@@ -316,7 +321,7 @@ def test_both_kernels_follow_volume_bounces_chains_to_the_same_pixels(medium):
     settings = {"width": 12, "height": 9, "samples": 3, "integrator": "path", "max_bounces": 4, **settings}
     reference = render(scene, RenderSettings(kernels="numpy", **settings))
     compiled = render(scene, RenderSettings(**settings))
-    assert compiled.stats.kernels == "compiled" and not compiled.stats.warnings
+    assert compiled.stats.kernels == "compiled" and not unexpected(compiled.stats.warnings)
     assert compiled.stats.shadow_rays == reference.stats.shadow_rays
     assert_same_pixels(reference.image, compiled.image)
 
@@ -399,5 +404,5 @@ def test_both_kernels_sample_a_volume_objects_grids_to_the_same_pixels():
                                     volume_space=(np.eye(4)[:3], np.zeros(3), np.ones(3), grids)))
     scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)), materials=np.array([len(scene.materials) - 1]))
     reference, compiled, stats = both(scene)
-    assert stats.kernels == "compiled" and not stats.warnings
+    assert stats.kernels == "compiled" and not unexpected(stats.warnings)
     assert_same_pixels(reference, compiled)
