@@ -140,11 +140,12 @@ COVERAGE = {
                "rolling_shutter_type rolling_shutter_duration": "motion.shutter: each row's time, top to bottom",
                "samples seed use_animated_seed max_bounces diffuse_bounces glossy_bounces transmission_bounces "
                "transparent_max_bounces volume_bounces min_light_bounces caustics_reflective caustics_refractive "
+               "blur_glossy "
                "sample_clamp_direct "
                "sample_clamp_indirect use_adaptive_sampling adaptive_threshold adaptive_min_samples":
                    "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
                    "else Primer's own of the same meaning"},
-        REPORTED: {"film_exposure film_transparent_glass blur_glossy use_fast_gi "
+        REPORTED: {"film_exposure film_transparent_glass use_fast_gi "
                    "fast_gi_method ao_bounces_render use_camera_cull camera_cull_margin use_distance_cull "
                    "distance_cull_margin texture_limit_render texture_resolution_render*": "unmodelled.render_notes",
                    "film_transparent_roughness": "unmodelled.render_notes (through Transparent Glass)",

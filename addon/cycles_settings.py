@@ -33,6 +33,7 @@ FOLLOWED = {
     "volume_bounces": "volume_bounces",
     "min_light_bounces": "min_light_bounces",
     "caustics_reflective": "caustics_reflective", "caustics_refractive": "caustics_refractive",
+    "filter_glossy": "blur_glossy",
     "sample_clamp_direct": "sample_clamp_direct", "sample_clamp_indirect": "sample_clamp_indirect",
 }
 # Primer's settings whose being set makes Automatic choose Primer's own: the followed ones and the integrator.

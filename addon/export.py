@@ -1171,6 +1171,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         glossy_bounces=int(props.glossy_bounces), transmission_bounces=int(props.transmission_bounces),
         min_light_bounces=int(props.min_light_bounces), fresnel=props.fresnel.lower(),
         caustics_reflective=bool(props.caustics_reflective), caustics_refractive=bool(props.caustics_refractive),
+        filter_glossy=float(props.filter_glossy),
         sample_clamp_direct=float(props.sample_clamp_direct), sample_clamp_indirect=float(props.sample_clamp_indirect),
         transparent_max_bounces=int(props.transparent_bounces), volume_bounces=int(props.volume_bounces),
         adaptive=bool(props.use_adaptive_sampling),

@@ -87,6 +87,11 @@ class PrimerSettings(bpy.types.PropertyGroup):
         name="Refractive Caustics", default=True,
         description="Light refracted by glass reaches diffuse surfaces (off: glass lets no light through after a "
                     "diffuse bounce, less noise and less light, as Cycles' Caustics > Refractive)")
+    filter_glossy: FloatProperty(
+        name="Filter Glossy", default=0.0, min=0.0, max=10.0, soft_max=2.0,
+        description="After blurry bounces, glossy surfaces are made rougher, at least 0.5 sqrt(1 - pdf / this) "
+                    "(less noise from small bright things seen in them, a little blur; 0: off, exact), as Cycles' "
+                    "Light Paths > Filter Glossy")
     sample_clamp_direct: FloatProperty(
         name="Direct Light", default=0.0, min=0.0, max=1e8, soft_max=100.0,
         description="Cap on what one sample adds through the camera's hit (its channel sum at 3x this); 0: no cap. "

@@ -117,6 +117,7 @@ class RENDER_PT_primer_light_paths(PrimerPanel, bpy.types.Panel):
         followed.prop(sub, "sample_clamp_indirect", text="Indirect Light")
         sub = col.column(align=True, heading="Caustics")
         sub.active = integrator == "PATH"
+        followed.prop(sub, "filter_glossy", text="Filter Glossy")
         followed.prop(sub, "caustics_reflective", text="Reflective")
         followed.prop(sub, "caustics_refractive", text="Refractive")
 

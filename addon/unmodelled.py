@@ -39,10 +39,6 @@ def render_notes(scene) -> list:
     if getattr(render, "film_transparent", False) and getattr(cycles, "film_transparent_glass", False):
         notes.append("Cycles' Transparent Glass makes glass see-through on the transparent film; Primer's alpha "
                      "counts glass as any surface")
-    blur = float(getattr(cycles, "blur_glossy", 0.0))
-    if blur > 0.0 and _integrator(scene) == "PATH":
-        notes.append(f"Cycles' Filter Glossy ({blur:g}) blurs glossy light after a rough bounce; Primer follows sharp "
-                     "reflections as they are (a little more noise, no blur)")
     if (getattr(scene, "primer", None) is not None and cycles_settings.follows_cycles(scene)
             and getattr(cycles, "use_denoising", False) and not scene.primer.use_denoising):
         notes.append("Cycles denoises this scene (Render > Sampling > Denoise); Primer follows its Cycles settings "
@@ -66,15 +62,6 @@ def render_notes(scene) -> list:
         notes.append("Cycles shrinks image textures (Simplify > Texture Limit or Resolution); Primer reads them at "
                      "full resolution")
     return notes
-
-
-def _integrator(scene) -> str:
-    """The integrator `scene` renders with: path tracing where it follows Cycles, else Primer's own ("DIRECT" without
-    Primer's settings)."""
-    primer = getattr(scene, "primer", None)
-    if primer is None:
-        return "DIRECT"
-    return cycles_settings.effective(scene).integrator
 
 
 def view_layer_notes(view_layer) -> list:

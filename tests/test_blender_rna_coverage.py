@@ -125,8 +125,6 @@ CASES = [
     ("CyclesRenderSettings", "scene.cycles", "volume_biased", True, [], "render_notes", "scene", "Biased volume"),
     ("CyclesRenderSettings", "scene.cycles", "film_transparent_glass", True,
      [("scene.render", "film_transparent", True)], "render_notes", "scene", "Transparent Glass"),
-    ("CyclesRenderSettings", "scene.cycles", "blur_glossy", 0.5, [("scene.primer", "integrator", "PATH")],
-     "render_notes", "scene", "Filter Glossy (0.5)"),
     ("CyclesRenderSettings", "scene.cycles", "use_camera_cull", True, [("object.cycles", "use_camera_cull", True)],
      "render_notes", "scene", "culls objects"),
     ("CyclesRenderSettings", "scene.cycles", "texture_limit_render", "512", [("scene.render", "use_simplify", True)],

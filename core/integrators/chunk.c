@@ -197,7 +197,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .everywhere = params->everywhere != 0.0, .seed = params->seed, .dimension = 0,
         .gather = params->bsdf_rays != 0.0 && (int)params->sampling != SAMPLE_LIGHT, .continuing = NULL,
         .graphs = params->graphs, .transmitter = params->see_through != 0.0 ? &transmitter : NULL,
-        .caustics = (int)params->caustics, .caps = {params->clamp_direct, params->clamp_indirect},
+        .caustics = (int)params->caustics, .filter_glossy = params->filter_glossy, .caps = {params->clamp_direct, params->clamp_indirect},
         .clamping = params->clamp_direct < INFINITY || params->clamp_indirect < INFINITY,
         .light_passes = params->light_passes != 0.0 && work != NULL,
         .groups = H->groups != NULL ? H->group_count : 0, .instance_groups = params->instance_groups,
@@ -423,6 +423,7 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
         double wo[3] = {-D[0], -D[1], -D[2]};
         sd->n = 0;
         sd->caustics = 0;
+        sd->blur = 0.0;
         sd->terminator = 1.0;
         LightPath path = {PATH_CAMERA, 0, 0, 0, 0, passed, 0, 0.0, 0.0};
         ShaderKeys keys = {&rays, pixel, index, 0, 0};

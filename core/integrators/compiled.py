@@ -85,6 +85,7 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("see_through", I32, "1: some material lets light through (Transparent, alpha)"),
     ("walks", I32, "1: some material walks subsurface scattering (direct: the path tracer with no bounces)"),
     ("caustics", I32, "FILTER_* bits after a diffuse bounce (path.caustics_bits)"),
+    ("filter_glossy", F64, "Cycles' Filter Glossy, 0: off (path.filter_glossy_roughness)"),
     ("clamp_direct", F64, "sample clamping's caps (clamp.limits; inf: none)"),
     ("clamp_indirect", F64, ""),
     ("light_passes", I32, "1: sum the light passes (lightpasses.c) into ChunkOut.light"),
@@ -276,7 +277,7 @@ class Compiled:
             transparent_bounces=s.transparent_max_bounces, volume_bounces=s.volume_bounces,
             see_through=bool(ctx.extra.get("transparent")),
             walks=bool(ctx.extra.get("subsurface")),
-            caustics=caustics_bits(s), clamp_direct=direct_cap, clamp_indirect=indirect_cap,
+            caustics=caustics_bits(s), filter_glossy=max(float(s.filter_glossy), 0.0), clamp_direct=direct_cap, clamp_indirect=indirect_cap,
             light_passes=self.light_passes)
         self.want_squares = bool(s.adaptive)
         self.features = bool(s.denoising_features)

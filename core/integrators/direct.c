@@ -85,6 +85,7 @@ INLINE void hit_closures(BlockHits *H, int64_t h)
     sd->c = H->closures + h * H->room;
     sd->storage = H->storage + h * H->room * STORAGE_STRIDE;
     sd->caustics = 0;
+    sd->blur = 0.0;
     sd->terminator = 1.0;
 }
 
@@ -574,6 +575,7 @@ typedef struct {
     const GraphTables *graphs;  /* the materials' node-graph programs, or NULL (a path shades its vertices) */
     const Transmitter *transmitter;   /* transparent shadows, where some material lets light through; or NULL */
     int caustics;               /* the FILTER_* bits of hits a diffuse bounce's ray reached (path.caustics_bits) */
+    double filter_glossy;       /* Cycles' Filter Glossy (0: off): path.filter_glossy_roughness */
     double caps[2];             /* sample clamping's caps (direct, indirect; clamp.limits) */
     int clamping;               /* 1: some cap is finite */
     int light_passes;           /* 1: first hits split what they gather by pass kind into BlockHits.parts */

@@ -61,6 +61,15 @@ typedef struct {
 
 /* path.bounce_kind: whether a sampled closure makes a transparent bounce (no bounce), and whether it was labelled
  * diffuse; the counts of each kind of bounce are the ray's path (PathRay.path, direct.c path_after). */
+/* path.filter_glossy_roughness for one hit: the roughness its microfacet lobes are raised to after bounces of smallest
+ * pdf min_pdf, 0.5 sqrt(1 - min_pdf / filter_glossy) where that is below 1, else 0 (and 0 with the setting off). */
+INLINE double filter_glossy_roughness(double filter_glossy, double min_pdf)
+{
+    if (!(filter_glossy > 0.0)) return 0.0;
+    double ratio = min_pdf / filter_glossy;
+    return ratio < 1.0 ? 0.5 * sqrt(1.0 - (ratio > 0.0 ? ratio : 0.0)) : 0.0;
+}
+
 INLINE int is_labelled_diffuse(int kind) { return bsdf_is(kind, BSDF_FLAG_DIFFUSE); }
 INLINE int is_transparent_bounce(int kind) { return bsdf_is(kind, BSDF_FLAG_STRAIGHT); }
 
@@ -227,8 +236,9 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         int after_diffuse = see_through || r->walked ? H->after_diffuse[h] : is_labelled_diffuse(r->kind);
         next->after_diffuse[m] = (uint8_t)after_diffuse;
         next->sd[m].caustics = after_diffuse ? ds->caustics : 0;
-        /* (Cycles' min_ray_pdf: the smallest pdf of the path's real bounces; the Bevel node reads it) */
+        /* (Cycles' min_ray_pdf: the smallest pdf of the path's real bounces; the Bevel node and Filter Glossy read it) */
         next->min_pdf[m] = see_through || !(r->pdf < H->min_pdf[h]) ? H->min_pdf[h] : r->pdf;
+        next->sd[m].blur = filter_glossy_roughness(ds->filter_glossy, next->min_pdf[m]);
         ShaderKeys keys = {&traced, H->pixel[h], H->sample[h], (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,
                            next->min_pdf[m] < BEVEL_MIN_PDF};
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
@@ -295,6 +305,7 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     next->after_diffuse[m] = 0;
     next->sd[m].caustics = 0;
     next->min_pdf[m] = a->min_pdf;
+    next->sd[m].blur = filter_glossy_roughness(ds->filter_glossy, a->min_pdf);
     LightPath path = {PATH_VOLUME_SCATTER, a->bounce, a->diffuse, a->glossy, a->transmission, a->transparent,
                       a->portal, a->cone, a->spread};
     ShaderKeys keys = {&traced, a->pixel, a->sample, (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,

@@ -141,6 +141,20 @@ def caustics_bits(settings) -> int:
             | (0 if settings.caustics_refractive else FILTER_REFRACTIVE))
 
 
+def filter_glossy_roughness(filter_glossy: float, min_pdf: np.ndarray):
+    """Cycles' Filter Glossy at hits that paths reached after bounces of smallest pdf min_pdf (m,) float64 (inf: none
+    yet): the roughness alpha (m,) float64 their microfacet lobes are raised to, 0.5 sqrt(1 - min_pdf / filter_glossy)
+    where min_pdf < filter_glossy, else 0; None where the setting is off (0). A path that bounced off a diffuse
+    surface (pdf cos / pi, at most 1 / pi) sees every glossy lobe after it at least that rough: less noise from
+    the light of small bright things seen in them, and a blurred image of them (Cycles' surface_shader_prepare_closures,
+    shader_bsdf_blur)."""
+    if not filter_glossy > 0.0:
+        return None
+    with np.errstate(invalid="ignore"):
+        ratio = np.asarray(min_pdf, np.float64) / filter_glossy
+        return np.where(ratio < 1.0, 0.5 * np.sqrt(np.clip(1.0 - ratio, 0.0, 1.0)), 0.0)
+
+
 def caustics_filter(settings, after_diffuse: np.ndarray):
     """The caustics filter bits (k,) int of hits that rays reached, or None: caustics_bits where the path's
     last real bounce was diffuse (after_diffuse (k,) bool), 0 elsewhere."""
@@ -368,7 +382,8 @@ class PathTracing(Integrator):
             shader = ctx.materials.shade(surface.material, surface.N, wo, surface, ctx.geometry, light_path,
                                          caustics_filter(s, after_diffuse),
                                          shader_rays.for_hits(ctx, surface, pixel[owner], sample[owner], dimension,
-                                                              min_pdf))
+                                                              min_pdf),
+                                         blur=filter_glossy_roughness(s.filter_glossy, min_pdf))
             # A walk's exit is lit as a white Lambert surface (Cycles' subsurface_shader_data_setup).
             shader = subsurface_.subsurface_shader(shader, exiting)
             # After a diffuse bounce Christensen-Burley is a Lambert closure (Cycles' PATH_RAY_DIFFUSE_ANCESTOR).

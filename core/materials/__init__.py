@@ -144,11 +144,19 @@ class ConstantShader:
         """The most closures a hit of it has: its K."""
         return len(self.kinds)
 
-    def shade(self, N: np.ndarray, wo: Optional[np.ndarray] = None, backfacing=None, caustics=None) -> ShaderResult:
+    def shade(self, N: np.ndarray, wo: Optional[np.ndarray] = None, backfacing=None, caustics=None,
+              blur=None) -> ShaderResult:
         """The ShaderResult at hits with shading normals N (n, 3) (the same from every direction wo); caustics:
-        (n,) int filter bits (closures.FILTER_*) that take away its reflective or refractive closure, or None."""
+        (n,) int filter bits (closures.FILTER_*) that take away its reflective or refractive closure, or None;
+        blur: (n,) the roughness Filter Glossy gives its microfacet lobes (nodes.roughen), or None."""
         result = constant_result(len(N), N, self.kinds, self.weights, self.sample_weights, self.params,
                                  self.emission, self.transparency)
+        if blur is not None and np.any(blur > 0.0):
+            from .nodes import roughen
+            params = np.array(result.closures.params)             # (the rows are shared: blur a copy)
+            for k in range(params.shape[1]):
+                roughen(result.closures.kind[:, k], params[:, k], np.broadcast_to(blur, (len(N),)))
+            result = result._replace(closures=result.closures._replace(params=params))
         if caustics is not None and np.any(caustics):
             filtered = caustics_filtered(result.closures.kind, np.asarray(caustics))
             result.closures.kind[filtered] = -1
@@ -255,15 +263,15 @@ class NodeShader:
         return self.programs[key]
 
     def shade(self, N: np.ndarray, wo: np.ndarray, point=None, program=None, textures=None,
-              backfacing: Optional[np.ndarray] = None, caustics=None) -> ShaderResult:
+              backfacing: Optional[np.ndarray] = None, caustics=None, blur=None) -> ShaderResult:
         """The ShaderResult at hits with shading normals N (n, 3) seen from wo (n, 3), hit from behind where
         `backfacing` (n,) bool (glass bends light leaving an object the other way), with the caustics filter
         bits (n,) int (closures.FILTER_*) or None; with a program, its outputs at the ShadingPoint `point`
-        replace the linked inputs, weights and normals first."""
+        replace the linked inputs, weights and normals first; blur: (n,) Filter Glossy's roughness, or None."""
         from . import graph as graph_
         from . import nodes as nodes_
         if program is None:
-            return nodes_.shade_nodes(self.nodes, N, wo, backfacing=backfacing, caustics=caustics)
+            return nodes_.shade_nodes(self.nodes, N, wo, backfacing=backfacing, caustics=caustics, blur=blur)
         n = len(N)
         if point.I is None and wo is not None:
             point = point._replace(I=wo)                  # the view direction (the Fresnel and Layer Weight nodes)
@@ -276,7 +284,7 @@ class NodeShader:
             N = np.where(np.any(hit_normal != 0.0, axis=1)[:, None], hit_normal, N)
         glossy = [None if normal is None else graph_.valid_reflection(point.Ng, wo, normal) for normal in normals]
         return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing,
-                                  caustics=caustics)
+                                  caustics=caustics, blur=blur)
 
 
 def reflective(kind) -> np.ndarray:
@@ -435,7 +443,7 @@ class MaterialTable:
 
 
     def shade(self, material: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None,
-              geometry=None, path=None, caustics=None, rays=None) -> ShaderResult:
+              geometry=None, path=None, caustics=None, rays=None, blur=None) -> ShaderResult:
         """Return the ShaderResult of n hits: material (n,) int32 rows, N (n, 3) shading normals, wo (n, 3).
 
         surface, geometry: the hits' Surface and the WorldGeometry (core/geometry), which materials with node
@@ -443,7 +451,8 @@ class MaterialTable:
         the hits (a graph.LightPaths of n rows or of scalars, for the Light Path node; None: camera rays); caustics:
         (n,) int the closures a caustics filter takes away at each hit (closures.FILTER_*), or None. rays: the hits'
         ShaderRays (core/integrators/shader_rays.py) that Ambient Occlusion and Bevel nodes trace, or None (then they
-        trace nothing: AO 1, Bevel the shading normal, as Cycles' shadow and light-sample shaders).
+        trace nothing: AO 1, Bevel the shading normal, as Cycles' shadow and light-sample shaders). blur: (n,)
+        float64 the roughness Cycles' Filter Glossy raises microfacet lobes to at each hit (0: none), or None.
         """
         from . import graph as graph_
         n = len(material)
@@ -452,9 +461,13 @@ class MaterialTable:
             caustics = np.broadcast_to(np.asarray(caustics, np.int64), (n,))
             if not caustics.any():
                 caustics = None
+        if blur is not None:
+            blur = np.broadcast_to(np.asarray(blur, np.float64), (n,))
+            if not (blur > 0.0).any():
+                blur = None
         first = int(material[0]) if n else len(self.shaders) - 1
         if n == 0 or (not self.has_graphs and (material == first).all()):
-            return self.shaders[first].shade(N, wo, backfacing=backfacing, caustics=caustics)
+            return self.shaders[first].shade(N, wo, backfacing=backfacing, caustics=caustics, blur=blur)
         point = None
         results, order = [], []
         for row in np.unique(material):
@@ -463,7 +476,8 @@ class MaterialTable:
             if getattr(shader, "graph", None) is None:
                 results.append(shader.shade(N[rows], None if wo is None else wo[rows],
                                             backfacing=None if backfacing is None else backfacing[rows],
-                                            caustics=None if caustics is None else caustics[rows]))
+                                            caustics=None if caustics is None else caustics[rows],
+                                            blur=None if blur is None else blur[rows]))
             else:
                 layout = geometry.attribute_layout if geometry is not None else {}
                 if point is None:
@@ -478,7 +492,8 @@ class MaterialTable:
                                      if isinstance(array, graph_.LightPaths) else array[rows] for array in point))
                 results.append(shader.shade(N[rows], wo[rows], part, self.program(int(row), layout), self.textures,
                                             backfacing=None if backfacing is None else backfacing[rows],
-                                            caustics=None if caustics is None else caustics[rows]))
+                                            caustics=None if caustics is None else caustics[rows],
+                                            blur=None if blur is None else blur[rows]))
             order.append(rows)
         if len(results) == 1:
             return results[0]

@@ -56,7 +56,7 @@ class AshikhminShirley(BSDF):
     """Ashikhmin-Shirley reflection (module docstring); params: Microfacet's slots (alpha, alpha_y, tangent)."""
 
     name: ClassVar[str] = "ASHIKHMIN_SHIRLEY"
-    flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE | F.OWN_WEIGHT      # (turned half vectors)
+    flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE | F.OWN_WEIGHT | F.ROUGHENS      # (turned half vectors)
     params: ClassVar[tuple] = mf.Microfacet.params
 
     @staticmethod

@@ -70,6 +70,9 @@ class BSDFFlags(enum.IntFlag):
     PORTAL        a Ray Portal (with STRAIGHT: a transparent bounce that keeps the ray's kind): the ray it gives leaves
                   from the closure's Position along its Direction (core/materials/portal.py), what it finds is not
                   weighed by MIS, and shadow rays stop at a surface with one
+    ROUGHENS      a microfacet lobe whose roughness alpha (and alpha_y, where it has one) Cycles' Filter Glossy may
+                  raise at hits after rough bounces (Cycles' bsdf_blur: GGX, Beckmann, Ashikhmin-Shirley, rough
+                  glass; core/integrators/path.py filter_glossy_roughness)
     """
 
     REFLECTION = 1 << 0
@@ -85,6 +88,7 @@ class BSDFFlags(enum.IntFlag):
     OWN_WEIGHT = 1 << 10
     SUBSURFACE = 1 << 11
     PORTAL = 1 << 12
+    ROUGHENS = 1 << 13
 
 
 class BsdfSample(NamedTuple):

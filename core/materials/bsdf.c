@@ -190,6 +190,12 @@ INLINE void shade_constant(const MaterialRecord *m, const double *N, ShaderResul
         c->sample_weight = m->sample_weight[k];
         for (int j = 0; j < 3; j++) { c->weight[j] = m->weight[3 * k + j]; c->N[j] = N[j]; }
         c->p = m->p + (int64_t)NODE_PARAMS * k;
+        if (sd->blur > 0.0 && bsdf_is(kind, BSDF_FLAG_ROUGHENS) && sd->storage != NULL) {
+            double *row = sd->storage + STORAGE_STRIDE * (sd->n - 1);     /* (Filter Glossy blurs a copy) */
+            for (int j = 0; j < STORAGE_STRIDE; j++) row[j] = c->p[j];
+            roughen(kind, row, sd->blur);
+            c->p = row;
+        }
     }
     for (int j = 0; j < 3; j++) {
         sd->emission[j] = m->emission[j];

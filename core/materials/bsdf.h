@@ -37,9 +37,23 @@ typedef struct {
     const double *glossy;   /* the normal glossy lobes get while a node sets up (nodes.c), NULL: N */
     const double *hit_N;    /* the hit's own normal while a node with its own normal sets up (nodes.c), NULL: N */
     int caustics;           /* FILTER_* bits the caller sets before shading (0: every closure) */
+    double blur;            /* the roughness Filter Glossy raises microfacet lobes to, set before shading (0: none;
+                             * path.filter_glossy_roughness, nodes.roughen) */
     double terminator;      /* the object's Shadow Terminator Shading Offset multiplier (closures.terminator_term;
                              * shade_hit sets it, 1 or less: none) */
 } ShaderResult;
+
+#define STORAGE_STRIDE 18           /* doubles of a hit's storage per closure (a glass closure's, with a thin film) */
+
+/* nodes.roughen for one closure: a lobe that roughens (BSDF_FLAG_ROUGHENS) gets alpha and alpha_y (where it has
+ * one) of at least `blur` (Cycles' bsdf_blur). */
+INLINE void roughen(int kind, double *row, double blur)
+{
+    if (!bsdf_is(kind, BSDF_FLAG_ROUGHENS)) return;
+    int a = BSDF_ALPHA_PARAM[kind], ay = BSDF_ALPHA_Y_PARAM[kind];
+    if (a >= 0 && row[a] < blur) row[a] = blur;
+    if (ay >= 0 && row[ay] < blur) row[ay] = blur;
+}
 
 /* A ShaderResult made to hold only what a material emits and lets through (a shadow ray's, a transparent
  * surface passed, a texture's emission): no room for closures. */
@@ -50,6 +64,7 @@ INLINE void no_closures(ShaderResult *sd)
     sd->c = NULL;
     sd->storage = NULL;
     sd->caustics = 0;
+    sd->blur = 0.0;
     sd->terminator = 1.0;
 }
 

@@ -4,7 +4,6 @@
  * (nodes.gen.c), picks it by the node's kind (NODE_*, core/native/boundary.gen.h). */
 
 #define WEIGHT_CUTOFF 1e-5          /* closures.WEIGHT_CUTOFF */
-#define STORAGE_STRIDE 18           /* doubles of a hit's storage per closure (a glass closure's, with a thin film) */
 
 /* ClosureBuilder.add: a closure of `kind` with `weight`; its sampling weight is |mean(allocated)| x factor;
  * none below the cutoff. params (MF_PARAMS doubles, or NULL) go into the hit's storage. The caller made room for
@@ -23,6 +22,7 @@ INLINE void closure_add(ShaderResult *sd, int kind, const double *weight, const 
         double *row = sd->storage + STORAGE_STRIDE * sd->n;
         for (int j = 0; j < STORAGE_STRIDE; j++) row[j] = params[j];
         c->p = row;
+        if (sd->blur > 0.0) roughen(kind, row, sd->blur);
     }
     sd->n++;
 }
@@ -143,10 +143,19 @@ INLINE void lobe_add_as(ShaderResult *sd, double mu, double *weight, double *p, 
         }
     }
     double closure_weight[3] = {weight[0], weight[1], weight[2]};
+    /* (with Filter Glossy's blur: ClosureBuilder.blurred; a blurred mirror is a rough lobe) */
+    double q[STORAGE_STRIDE];
+    const double *r = p;
+    if (sd->blur > 0.0) {
+        for (int j = 0; j < STORAGE_STRIDE; j++) q[j] = p[j];
+        q[MF_ALPHA] = at_least(q[MF_ALPHA], sd->blur);
+        q[MF_ALPHA_Y] = at_least(q[MF_ALPHA_Y], sd->blur);
+        r = q;
+    }
     double ax, ay;
-    as_alphas(p, &ax, &ay);
+    as_alphas(r, &ax, &ay);
     int singular = kind == BSDF_ASHIKHMIN_SHIRLEY ? at_least(ax, ay) <= AS_ALPHA_MIN
-                 : (mf_is_anisotropic(p) ? p[MF_ALPHA] * p[MF_ALPHA_Y] : p[MF_ALPHA] * p[MF_ALPHA]) <= ROUGHNESS_SQ_THRESHOLD;
+                 : (mf_is_anisotropic(r) ? r[MF_ALPHA] * r[MF_ALPHA_Y] : r[MF_ALPHA] * r[MF_ALPHA]) <= ROUGHNESS_SQ_THRESHOLD;
     if (singular) {
         double F[3];
         microfacet_fresnel(p, clamp01(mu), F);
@@ -227,6 +236,9 @@ INLINE void glass_add_as(ShaderResult *sd, double mu, const double *weight, doub
     double rough = clamp01(roughness), eta = g[MF_IOR];
     g[MF_ALPHA] = rough * rough;
     int smooth = g[MF_ALPHA] * g[MF_ALPHA] <= ROUGHNESS_SQ_THRESHOLD || fabs(eta - 1.0) < 1e-4;
+    /* (Filter Glossy: smooth glass blurred is rough glass; its energy stays that of the glass set up) */
+    double alpha = at_least(g[MF_ALPHA], sd->blur);
+    int mirror_like = alpha * alpha <= ROUGHNESS_SQ_THRESHOLD || fabs(eta - 1.0) < 1e-4;
     double factor = glass_share_mean(g, mu), w[3] = {weight[0], weight[1], weight[2]};
     if (Fss != NULL) {
         double E_avg, E = glass_E(rough, mu, eta, &E_avg);
@@ -242,7 +254,7 @@ INLINE void glass_add_as(ShaderResult *sd, double mu, const double *weight, doub
             factor *= (darkening[0] + darkening[1] + darkening[2]) / 3.0;
         }
     }
-    closure_add(sd, smooth ? BSDF_GLASS : rough_kind, w, weight, factor, g);
+    closure_add(sd, mirror_like ? BSDF_GLASS : rough_kind, w, weight, factor, g);
 }
 
 INLINE void glass_add(ShaderResult *sd, double mu, const double *weight, double *g, double roughness, const double *Fss)

@@ -50,11 +50,15 @@ class ClosureBuilder:
     backfacing: (n,) bool where the ray hit from behind (leaving an object: glass bends by 1 / IOR);
     caustics: (n,) int the hits' filter bits (closures.FILTER_*), or None: `reflective` and `refractive`,
     (n,) bool, say where reflective and refractive closures may be set up (Cycles' caustics switches).
+    blur: (n,) float64 the roughness Filter Glossy raises microfacet lobes to (0: none), or None
+    (core/integrators/path.py filter_glossy_roughness; Cycles' bsdf_blur).
     """
 
-    def __init__(self, N: np.ndarray, wo: np.ndarray, slots: int, backfacing=None, caustics=None):
+    def __init__(self, N: np.ndarray, wo: np.ndarray, slots: int, backfacing=None, caustics=None, blur=None):
         n = len(N)
         self.N, self.wo = N, wo
+        self.blur = None if blur is None or not np.any(np.asarray(blur) > 0.0) else \
+            np.broadcast_to(np.asarray(blur, np.float64), (n,))
         self.backfacing = np.zeros(n, bool) if backfacing is None else np.asarray(backfacing, bool)
         bits = np.zeros(n, np.int64) if caustics is None else np.broadcast_to(np.asarray(caustics, np.int64), (n,))
         self.reflective = (bits & FILTER_REFLECTIVE) == 0
@@ -110,7 +114,19 @@ class ClosureBuilder:
         c.Ns[:, k] = self.smooth_N
         if params is not None:
             c.params[:, k] = params
+            if self.blur is not None:
+                roughen(c.kind[:, k], c.params[:, k], self.blur)
         return k
+
+    def blurred(self, p: np.ndarray) -> np.ndarray:
+        """A lobe's parameters (n, PARAMS) as Filter Glossy leaves them (alpha and alpha_y at least the blur): what
+        decides whether it is a mirror (the closure itself keeps its own roughness for what was set up from it)."""
+        if self.blur is None:
+            return p
+        p = p.copy()
+        p[:, mf.ALPHA] = np.maximum(p[:, mf.ALPHA], self.blur)
+        p[:, mf.ALPHA_Y] = np.maximum(p[:, mf.ALPHA_Y], self.blur)
+        return p
 
     def result(self) -> ShaderResult:
         """The ShaderResult of what the setups added; the light let through becomes a Transparent closure."""
@@ -119,6 +135,21 @@ class ClosureBuilder:
         k = max(1, self.count)
         closures = Closures(*(None if array is None else array[:, :k] for array in self.closures))
         return ShaderResult(closures, self.emission, self.transparency, self.shading_N, self.holdout)
+
+
+def roughen(kind: np.ndarray, params: np.ndarray, blur: np.ndarray) -> None:
+    """Cycles' bsdf_blur, in place: the closures (kind (n,) int, params (n, PARAMS)) that roughen (BSDFFlags.ROUGHENS)
+    get alpha and alpha_y (where they have one) of at least blur (n,) float64."""
+    from . import base, registry
+    for cls in registry.BSDF_TYPES:
+        if not cls.flags & base.BSDFFlags.ROUGHENS:
+            continue
+        rows = (kind == cls.kind) & (blur > 0.0)
+        if rows.any():
+            for name in ("alpha", "alpha_y"):
+                if name in cls.params:
+                    j = cls.params.index(name)
+                    params[rows, j] = np.maximum(params[rows, j], blur[rows])
 
 
 def layering_weight(albedo: np.ndarray, weight: np.ndarray) -> np.ndarray:
@@ -252,7 +283,8 @@ class GlossyLobe:
                 weight = weight * darkening
                 factor = darkening.mean(axis=1) if factor is None else factor * darkening.mean(axis=1)
         kind = np.full(len(p), Microfacet.kind) if kind is None else np.broadcast_to(kind, (len(p),))
-        singular = np.where(kind == AshikhminShirley.kind, AshikhminShirley.singular(p), Microfacet.singular(p))
+        q = b.blurred(p)                                    # (Filter Glossy: a blurred mirror is a rough lobe)
+        singular = np.where(kind == AshikhminShirley.kind, AshikhminShirley.singular(q), Microfacet.singular(q))
         kind = np.where(singular, Mirror.kind, kind)
         closure_weight = weight
         if singular.any():
@@ -671,6 +703,9 @@ def add_glass(b: ClosureBuilder, weight: np.ndarray, glass: np.ndarray, roughnes
     glass[:, mf.ALPHA] = rough * rough
     eta = glass[:, mf.IOR]
     smooth = (glass[:, mf.ALPHA] ** 2 <= mf.ROUGHNESS_SQ_THRESHOLD) | (np.abs(eta - 1.0) < 1e-4)
+    # (Filter Glossy: smooth glass blurred is rough glass; its energy stays that of the glass set up)
+    alpha = glass[:, mf.ALPHA] if b.blur is None else np.maximum(glass[:, mf.ALPHA], b.blur)
+    mirror_like = (alpha ** 2 <= mf.ROUGHNESS_SQ_THRESHOLD) | (np.abs(eta - 1.0) < 1e-4)
     factor = glass_share_mean(glass, b.mu)
     allocated = weight
     if Fss is not None:
@@ -685,7 +720,7 @@ def add_glass(b: ClosureBuilder, weight: np.ndarray, glass: np.ndarray, roughnes
             weight = weight * darkening
             factor = factor * darkening.mean(axis=1)
     rough_kind = RoughGlass.kind if rough_kind is None else rough_kind
-    b.add(np.where(smooth, Glass.kind, rough_kind), weight, glass, allocated, factor=factor, keep=keep)
+    b.add(np.where(mirror_like, Glass.kind, rough_kind), weight, glass, allocated, factor=factor, keep=keep)
 
 
 class GlassNode(Node):
@@ -742,7 +777,7 @@ def closures_at_most(nodes: list) -> int:
 
 
 def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy=None, backfacing=None,
-                caustics=None) -> ShaderResult:
+                caustics=None, blur=None) -> ShaderResult:
     """The ShaderResult at n hits of a material made of `nodes`: (node class, weight (3,), inputs (NODE_PARAMS,)).
 
     per_hit: what a node graph computed at each hit (graph.apply_outputs), or None: (weights, rows,
@@ -750,10 +785,11 @@ def shade_nodes(nodes: list, N: np.ndarray, wo: np.ndarray, per_hit=None, glossy
     closures only: the result's N stays the hit's normal (Cycles' sd->N), which bump shadowing compares with.
     glossy: by node, the normal its glossy lobes get instead ((n, 3) or None). backfacing: (n,) bool where
     the ray hit from behind (glass bends light leaving an object by 1 / IOR). caustics: (n,) int filter bits
-    (closures.FILTER_*) or None: the closures left out at hits that a diffuse bounce's ray reached.
+    (closures.FILTER_*) or None: the closures left out at hits that a diffuse bounce's ray reached. blur: (n,)
+    the roughness Filter Glossy gives microfacet lobes (ClosureBuilder), or None.
     """
     n = len(N)
-    b = ClosureBuilder(N, wo, closures_at_most(nodes), backfacing, caustics)
+    b = ClosureBuilder(N, wo, closures_at_most(nodes), backfacing, caustics, blur)
     for k, entry in enumerate(nodes):
         cls, weight, p = entry[0], entry[1], entry[2]
         normal = None

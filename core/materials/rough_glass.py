@@ -61,7 +61,7 @@ class RoughGlass(BSDF):
     """GGX reflection and refraction at a dielectric boundary (module docstring); params as Glass's."""
 
     name: ClassVar[str] = "ROUGH_GLASS"
-    flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLASS_TYPE
+    flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLASS_TYPE | F.ROUGHENS
     params: ClassVar[tuple] = ("alpha", "fresnel", "ior", "f0_r", "f0_g", "f0_b", "f90_r", "f90_g", "f90_b",
                                "energy_scale", "reflect_r", "reflect_g", "reflect_b",
                                "transmit_r", "transmit_g", "transmit_b")

@@ -398,23 +398,24 @@ enum {
     BSDF_FLAG_REFLECTION = 1, BSDF_FLAG_TRANSMISSION = 2, BSDF_FLAG_DIFFUSE = 4, BSDF_FLAG_GLOSSY = 8,
     BSDF_FLAG_SINGULAR = 16, BSDF_FLAG_STRAIGHT = 32, BSDF_FLAG_DIFFUSE_TYPE = 64,
     BSDF_FLAG_GLOSSY_TYPE = 128, BSDF_FLAG_TRANSMISSION_TYPE = 256, BSDF_FLAG_GLASS_TYPE = 512,
-    BSDF_FLAG_OWN_WEIGHT = 1024, BSDF_FLAG_SUBSURFACE = 2048, BSDF_FLAG_PORTAL = 4096
+    BSDF_FLAG_OWN_WEIGHT = 1024, BSDF_FLAG_SUBSURFACE = 2048, BSDF_FLAG_PORTAL = 4096,
+    BSDF_FLAG_ROUGHENS = 8192
 };
 
 static const int BSDF_FLAGS[BSDF_COUNT] = {
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* Lambert */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_SINGULAR | BSDF_FLAG_GLOSSY_TYPE,   /* Mirror */
-    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* Microfacet */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_ROUGHENS,   /* Microfacet */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_SINGULAR | BSDF_FLAG_GLASS_TYPE,   /* Glass */
     BSDF_FLAG_TRANSMISSION | BSDF_FLAG_SINGULAR | BSDF_FLAG_STRAIGHT,   /* Transparent */
-    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLASS_TYPE,   /* RoughGlass */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLASS_TYPE | BSDF_FLAG_ROUGHENS,   /* RoughGlass */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* OrenNayar */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* Sheen */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_GLOSSY_TYPE,   /* Velvet */
     BSDF_FLAG_TRANSMISSION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* Translucent */
-    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* Beckmann */
-    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLASS_TYPE,   /* BeckmannGlass */
-    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* AshikhminShirley */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_ROUGHENS,   /* Beckmann */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLASS_TYPE | BSDF_FLAG_ROUGHENS,   /* BeckmannGlass */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT | BSDF_FLAG_ROUGHENS,   /* AshikhminShirley */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* DiffuseToon */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* GlossyToon */
     BSDF_FLAG_DIFFUSE_TYPE | BSDF_FLAG_SUBSURFACE,   /* RandomWalk */
@@ -432,6 +433,9 @@ INLINE int bsdf_is(int kind, int flags)
 
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
 static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1, 4, 6, -1, -1, -1, -1};
+
+/* Where each bsdf kind keeps its parameter "alpha_y" (-1: it has none). */
+static const int BSDF_ALPHA_Y_PARAM[BSDF_COUNT] = {-1, -1, 10, -1, -1, -1, -1, -1, -1, -1, 10, -1, 10, -1, -1, -1, -1, -1, -1, -1, -1};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
@@ -780,6 +784,7 @@ struct ChunkParams {
     int32_t see_through;                    /* 1: some material lets light through (Transparent, alpha) */
     int32_t walks;                          /* 1: some material walks subsurface scattering (direct: the path tracer with no bounces) */
     int32_t caustics;                       /* FILTER_* bits after a diffuse bounce (path.caustics_bits) */
+    double filter_glossy;                   /* Cycles' Filter Glossy, 0: off (path.filter_glossy_roughness) */
     double clamp_direct;                    /* sample clamping's caps (clamp.limits; inf: none) */
     double clamp_indirect;
     int32_t light_passes;                   /* 1: sum the light passes (lightpasses.c) into ChunkOut.light */
@@ -1242,7 +1247,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(3821900976231654687);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(4844621714001878421);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(6369088271105832646);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);

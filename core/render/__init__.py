@@ -212,6 +212,11 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
                                 or ctx.geometry.shadow_linked or any(map(lights_.linking.shadow_linked, lights))
                                 or media is not None)
+    if settings.integrator == "path" and settings.filter_glossy > 0.0 and any(
+            getattr(entry[0], "name", "") in ("PRINCIPLED_HAIR", "HAIR", "PRINCIPLED_HAIR_HUANG")
+            for shader in materials.shaders for entry in getattr(shader, "nodes", ())):
+        warnings.append(f"Filter Glossy ({settings.filter_glossy:g}): Primer makes microfacet lobes rougher after "
+                        "rough bounces as Cycles, but not the hair BSDFs, which Cycles widens too")
     if settings.transparent_background and see_through:
         warnings.append("Film > Transparent: where a camera ray goes on through clear surfaces (Transparent BSDFs, "
                         "Ray Portals, volume boundaries) and escapes, Primer leaves the pixel opaque without the "

@@ -20,6 +20,9 @@ class RenderSettings:
     caustics_reflective, caustics_refractive: whether light reaches a diffuse surface by a glossy reflection
         or a refraction after it (Cycles' Light Paths > Caustics; off: those closures are left out at hits that
         a diffuse bounce's ray reaches; a path tracer's switches, core/integrators/path.py).
+    filter_glossy: Cycles' Light Paths > Filter Glossy (0: off): after bounces of small pdf a path's glossy lobes are
+        made rougher, 0.5 sqrt(1 - min pdf / filter_glossy) at least (core/integrators/path.py
+        filter_glossy_roughness): less noise, a little blur; a path tracer's setting.
     sample_clamp_direct, sample_clamp_indirect: cap each direct (camera hit) and indirect contribution's
         channel sum at 3 x the value, 0: no cap (Cycles' Light Paths > Clamping; core/integrators/clamp.py).
     fresnel: how Whitted's tracer splits light at glass: "exact" (the dielectric Fresnel equations) or
@@ -86,6 +89,7 @@ class RenderSettings:
     min_light_bounces: int = 0
     caustics_reflective: bool = True
     caustics_refractive: bool = True
+    filter_glossy: float = 0.0
     sample_clamp_direct: float = 0.0
     sample_clamp_indirect: float = 0.0
     fresnel: str = "exact"
