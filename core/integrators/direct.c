@@ -1210,7 +1210,9 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             }
             if (first)
                 sample_shares(H->sd + owner[k], H->wo + 3 * owner[k], s, dot3(H->s[owner[k]].Ng, D) < 0.0, shares);
-            if ((hit || (ds->media != NULL && ds->media->scatters != 0)) && ds->continuing != NULL) {
+            /* (and a camera path's escape with a transparent film: how clear it leaves the film, path.c) */
+            int clears = !hit && ds->film_transparent && (after[k].flags & PATH_CAMERA) != 0;
+            if ((hit || clears || (ds->media != NULL && ds->media->scatters != 0)) && ds->continuing != NULL) {
                 PathRay *r = ds->continuing->r + ds->continuing->n++;
                 r->h = owner[k];
                 r->hit = hit;

@@ -181,7 +181,16 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
     for (int64_t i = 0; i < rays->n; i++) {
         const PathRay *r = rays->r + i;
         int64_t h = r->h;
-        if (!r->hit) continue;                  /* (kept for the media's scattering along it alone: volume.c) */
+        if (!r->hit) {                          /* (kept for the media's scattering along it alone: volume.c) */
+            /* A camera path (through clear surfaces alone) that escapes with a transparent film: the film is as
+             * clear as what it brings through, and no world (path.py; Cycles' PATH_RAY_TRANSPARENT_BACKGROUND). */
+            if (ds->film_transparent && (r->path.flags & PATH_CAMERA) != 0) {
+                double sum = 0.0;
+                for (int c = 0; c < 3; c++) sum += H->throughput[3 * h + c] * (r->weight[c] * r->attenuation[c]);
+                held[H->lane[h]] += sum / 3.0;
+            }
+            continue;
+        }
         /* a. The bounce limits. */
         int d = r->path.diffuse, g = r->path.glossy, tr = r->path.transmission;
         int see_through = is_transparent_bounce(r->kind), bounces = r->path.bounce;

@@ -321,6 +321,7 @@ class PathTracing(Integrator):
         D_hit = vectors.gather(D, hit)
         held = np.zeros(len(O))                      # each camera ray's alpha that holdouts take away
         holdouts = ctx.geometry.hides(HOLDOUT) or bool(ctx.materials.holds_out.any())
+        film_clear = bool(s.transparent_background)  # (escaping camera paths clear the film: below)
         # 2. The path's vertices, one batch per bounce: the camera's hits first.
         owner = hit                                  # the camera ray each path belongs to
         throughput = np.ones((len(hit), 3))
@@ -467,6 +468,11 @@ class PathTracing(Integrator):
                     self.light_behind(light, owner[ray.rows[ended]], behind, bounce[ray.rows[ended]] == 0,
                                       parts.ray_shares[ended] if parts is not None else None, shares[ray.rows[ended]])
             next_throughput = throughput[ray.rows] * weight
+            if film_clear:
+                # A camera path (through clear surfaces alone) that escapes with a transparent film: the film is as
+                # clear as what it brings through, and no world (Cycles' PATH_RAY_TRANSPARENT_BACKGROUND).
+                escaped = np.flatnonzero(~ray.hits.hit & ((ray.path.flags & graph_.PATH_CAMERA) != 0))
+                np.add.at(held, owner[ray.rows[escaped]], next_throughput[escaped].mean(axis=1))
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
             played = (bounces >= roulette_from(s)) & ~is_transparent & ~walked
             survived, q = np.ones(len(bounces), bool), np.ones(len(bounces))
@@ -577,7 +583,7 @@ class PathTracing(Integrator):
                  flags, mis_pdf, mis_origin, mis_normal, mis_receiver, after_diffuse, seen_by, inside, looking,
                  feature_throughput, shares, volume, wo, min_pdf) = state.values()
             vertex += 1
-        return Radiance(L_out, found.hit, shadow_rays, held if holdouts else None, light,
+        return Radiance(L_out, found.hit, shadow_rays, held if holdouts or film_clear else None, light,
                         None if groups is None else groups.L, None if feats is None else feats.stacked(), data)
 
     @staticmethod

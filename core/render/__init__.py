@@ -217,10 +217,12 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
             for shader in materials.shaders for entry in getattr(shader, "nodes", ())):
         warnings.append(f"Filter Glossy ({settings.filter_glossy:g}): Primer makes microfacet lobes rougher after "
                         "rough bounces as Cycles, but not the hair BSDFs, which Cycles widens too")
-    if settings.transparent_background and see_through:
-        warnings.append("Film > Transparent: where a camera ray goes on through clear surfaces (Transparent BSDFs, "
-                        "Ray Portals, volume boundaries) and escapes, Primer leaves the pixel opaque without the "
-                        "world; Cycles makes it clear by what the surfaces let through (alpha 1 - their transparency)")
+    if settings.transparent_background and media is not None:
+        # (through clear surfaces alone, a camera path that escapes clears the film by what it brings through, as
+        #  Cycles: core/integrators/path.py; what media take away along the way is not checked against Cycles)
+        warnings.append("Film > Transparent with volumes: a camera ray that misses every surface leaves the film "
+                        "clear (alpha 0) even through the world's volume, and Primer's alpha through media is not "
+                        "checked against Cycles, which makes it 1 - the transmittance of the camera's path")
     # A BSSRDF is walked even with no bounces (Cycles counts no bounce for it): the direct tracer is then the path
     # tracer with none (integrators.for_render).
     ctx.extra["subsurface"] = walks_subsurface(scene)
