@@ -85,3 +85,26 @@ def test_a_pane_part_transparent_clears_the_film_by_its_transparent_share_in_bot
         np.testing.assert_allclose(image[..., :3].mean(axis=(0, 1)), 0.3 * np.array([0.8, 0.5, 0.2]) / np.pi,
                                    rtol=1e-6)
     np.testing.assert_allclose(images[0], images[1], atol=1e-9)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_a_ray_portal_or_an_absorbing_slab_clears_the_film_by_what_it_lets_through(kernels, integrator):
+    """A Ray Portal pane of colour (0.3, 0.6, 0.9) in place (a transparent bounce in Cycles): alpha 0.4, black, no
+    warning; a volume-only slab 0.7 deep absorbing density 1.5 (1 - (0.2, 0.5, 0.8)): alpha 1 - mean(exp(-1.5 (1 -
+    colour) 0.7)), black, with the media's warning."""
+    from test_volumes import COLOR, camera_above, fog
+    settings = RenderSettings(width=4, height=4, samples=2, kernels=kernels, integrator=integrator,
+                              transparent_background=True)
+    portal = pane_before_the_world()
+    portal.materials[0] = Material(np.zeros(3), "Portal", nodes=[("RAY_PORTAL", np.array([0.3, 0.6, 0.9]), {})])
+    result = render.render(portal, settings)
+    np.testing.assert_allclose(result.image, np.broadcast_to([0.0, 0.0, 0.0, 0.4], (4, 4, 4)), atol=1e-7)
+    assert not any("Film > Transparent" in warning for warning in result.stats.warnings)
+    slab = Scene(camera=camera_above(), world_color=np.array([0.1, 0.2, 0.3]))
+    slab.materials.append(fog(color=COLOR, density=1.5))
+    slab.add_mesh(primitives.box((4.0, 4.0, 0.7), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+    result = render.render(slab, settings)
+    np.testing.assert_allclose(result.image[..., :3], 0.0, atol=1e-7)
+    np.testing.assert_allclose(result.image[..., 3], 1.0 - np.exp(-1.5 * (1.0 - COLOR) * 0.7).mean(), atol=1e-6)
+    assert any("Film > Transparent with volumes" in warning for warning in result.stats.warnings)

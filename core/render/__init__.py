@@ -211,7 +211,10 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     ctx.extra["transparent"] = (see_through
                                 or ctx.geometry.hides(HIDDEN_FROM_SHADOW | HOLDOUT) or bool(materials.holds_out.any())
                                 or ctx.geometry.shadow_linked or any(map(lights_.linking.shadow_linked, lights))
-                                or media is not None)
+                                or media is not None
+                                # (on a transparent film, a camera path through a Ray Portal that escapes clears the
+                                #  film: the direct tracer follows it as the path tracer with no bounces)
+                                or settings.transparent_background and any(map(has_portal, materials.shaders)))
     if settings.integrator == "path" and settings.filter_glossy > 0.0 and any(
             getattr(entry[0], "name", "") in ("PRINCIPLED_HAIR", "HAIR", "PRINCIPLED_HAIR_HUANG")
             for shader in materials.shaders for entry in getattr(shader, "nodes", ())):
@@ -252,6 +255,12 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # Shadow catchers (core/integrators/catcher.py): the catcher-only scene their caught samples are followed in.
     ctx.extra["catcher"] = catcher_.catcher_context(ctx, warnings)
     return ctx
+
+
+def has_portal(shader) -> bool:
+    """Whether a material's shader (its node list or node graph) has a Ray Portal BSDF."""
+    entries = list(getattr(shader, "nodes", None) or ()) + list(getattr(shader, "graph", None) or ())
+    return any(getattr(entry[0], "name", entry[0]) == "RAY_PORTAL" for entry in entries)
 
 
 def sample_keys(pixels: np.ndarray, spp: int, first: Optional[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
