@@ -83,7 +83,8 @@ class Radiance(NamedTuple):
     hit:     (n,) bool which rays hit a surface
     shadow_rays: int shadow rays traced
     holdout: (n,) float64 the share of each ray's alpha that holdout objects take away (Object > Visibility >
-             Holdout), or None where no object is a holdout
+             Holdout), and on a transparent film what its paths through clear surfaces alone bring back from the world
+             (the mean of their throughput, as Cycles), or None where neither can be
     light:   (n, 6, 3) float64 each ray's contributions to the light passes (lightpasses.LIGHT_PASSES' order), or
              None where none is asked for
     groups:  (n, G, 3) float64 each ray's light by the group of its source (core/integrators/lightgroups.py), or
