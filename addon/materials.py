@@ -1161,7 +1161,8 @@ def displacement_bump(offset, output, undisplaced=False):
     with Displacement Method Bump Only (its default; also the bump part of Displacement and Bump): the offset's
     height along the shading normal fed to a Bump node of Strength 1 and Distance 1, whose normal becomes the
     material's (ShaderGraph::bump_from_displacement). `undisplaced`: the surface moved (Displacement and Bump), the
-    bump evaluated over it as it was before (Cycles' ENTER_BUMP_EVAL; graph.undisplaced_point). Returns the Bump's
+    bump evaluated over it as it was before and in object space (Cycles' ENTER_BUMP_EVAL, bump_in_object_space;
+    graph.undisplaced_point, graph.bump). Returns the Bump's
     Link, or None where the output does not vary per hit."""
     if not _linked(offset):
         return None

@@ -571,8 +571,8 @@ def test_bumps_and_pixel_size_wires_under_panoramic_cameras_render_alike_in_both
 
 def test_a_displacement_and_bump_bumps_over_the_unmoved_surface_alike_in_both_kernels():
     """Displacement and Bump: the floor and box move along z by a sine of the world x and their bump (the same offset
-    as a height) is evaluated over the surface before it moved (graph.undisplaced_point: the corners and normals kept
-    by core/geometry/displacement.py), the Python reference and the compiled kernel alike."""
+    as a height) is evaluated over the surface before it moved and in object space (graph.undisplaced_point: the
+    corners and normals kept by core/geometry/displacement.py), the Python reference and the compiled kernel alike."""
     from core.materials import Material
     from core.materials.graph import GraphNode, Link
     scene = lit_scene(LIGHTS["sun"])

@@ -489,6 +489,9 @@ static void bump_step(int where, double width, const ShadingPoint *sp, double *d
     *dv = width * safe_div(uu * dv_d - uv * du_d, det);
 }
 
+/* object_matrix for the bump over the unmoved surface (one call site of the INLINE one; defined after it). */
+static void object_matrix_of(const ShadingPoint *sp, int mode, double *out);
+
 /* graph.undisplaced_differentials: bump_differentials over the surface before it moved, the barycentric steps the
  * footprint takes on the moved triangle (`moved`, width 1) along the unmoved one's edges (sp's). Returns known. */
 static int undisplaced_differentials(const ShadingPoint *sp, const ShadingPoint *moved, double *dPdx, double *dPdy)
@@ -505,12 +508,26 @@ static int undisplaced_differentials(const ShadingPoint *sp, const ShadingPoint 
 
 /* graph.bump: normalize(width |det| N - distance sign(det) surfgrad) from bump_differentials (width 1 where the
  * footprint is unknown); with `moved` (not NULL: the hit on the displaced mesh, sp undisplaced_point's), from
- * undisplaced_differentials. */
+ * undisplaced_differentials and in object space (Cycles' bump_in_object_space for Displacement and Bump). */
 INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
                  int invert, double width, const ShadingPoint *sp, const ShadingPoint *moved, double *out)
 {
-    double dPdx[3], dPdy[3], Rx[3], Ry[3];
+    double dPdx[3], dPdy[3], Rx[3], Ry[3], inv[12], n_in[3];
     if (!(moved ? undisplaced_differentials(sp, moved, dPdx, dPdy) : bump_differentials(sp, dPdx, dPdy))) width = 1.0;
+    for (int j = 0; j < 3; j++) n_in[j] = normal[j];
+    if (moved) {                /* (Displacement and Bump's bump runs in object space: bump_in_object_space) */
+        const double *L = sp->L;
+        double x[3], y[3];
+        object_matrix_of(sp, 3, inv);
+        for (int i = 0; i < 3; i++) {
+            n_in[i] = (L[i] * normal[0] + L[3 + i] * normal[1]) + L[6 + i] * normal[2];
+            x[i] = (inv[4 * i] * dPdx[0] + inv[4 * i + 1] * dPdx[1]) + inv[4 * i + 2] * dPdx[2];
+            y[i] = (inv[4 * i] * dPdy[0] + inv[4 * i + 1] * dPdy[1]) + inv[4 * i + 2] * dPdy[2];
+        }
+        safe_normalize3(n_in);
+        for (int j = 0; j < 3; j++) { dPdx[j] = x[j]; dPdy[j] = y[j]; }
+    }
+    normal = n_in;
     cross3(dPdy, normal, Rx);
     cross3(normal, dPdx, Ry);
     double det = dot3(dPdx, Rx), scale = invert ? -distance : distance;
@@ -522,10 +539,16 @@ INLINE void bump(const double *normal, double strength, double distance, double 
     safe_normalize3(v);
     if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) {
         for (int j = 0; j < 3; j++) out[j] = normal[j];
-        return;
+    } else {
+        for (int j = 0; j < 3; j++) out[j] = strength * v[j] + (1.0 - strength) * normal[j];
+        safe_normalize3(out);
     }
-    for (int j = 0; j < 3; j++) out[j] = strength * v[j] + (1.0 - strength) * normal[j];
-    safe_normalize3(out);
+    if (moved) {                /* back to the world: the inverse's transpose */
+        double w[3];
+        for (int i = 0; i < 3; i++) w[i] = (inv[i] * out[0] + inv[4 + i] * out[1]) + inv[8 + i] * out[2];
+        safe_normalize3(w);
+        for (int j = 0; j < 3; j++) out[j] = w[j];
+    }
 }
 
 /* graph.run for one hit: reg holds the program's registers afterwards. */
@@ -562,6 +585,11 @@ INLINE void object_matrix(const ShadingPoint *sp, int mode, double *out)
 static double shader_ao(const ShadingPoint *sp, const double *N, double distance, int samples, int flags);
 static void shader_bevel(const ShadingPoint *sp, double radius, int samples, double *out);
 
+NOINLINE static void object_matrix_of(const ShadingPoint *sp, int mode, double *out)
+{
+    object_matrix(sp, mode, out);
+}
+
 /* graph.undisplaced_point: *out (a copy of the hit sp) with P, dPdu, dPdv from the object-space attribute at
  * `position` (the vertices before they moved) in world space and N the unit normal before they moved (the attribute
  * at `normal`, to world space, flipped where the back was hit), as Cycles' ENTER_BUMP_EVAL. */
@@ -570,8 +598,8 @@ static void undisplaced_point(int position, int normal, const ShadingPoint *sp, 
     double M[12], T[12], n[3];
     const double *p = sp->attributes + position, *pu = sp->d_du + position, *pv = sp->d_dv + position;
     const double *q = sp->attributes + normal;
-    object_matrix(sp, 0, M);
-    object_matrix(sp, 4, T);
+    object_matrix_of(sp, 0, M);
+    object_matrix_of(sp, 4, T);
     for (int j = 0; j < 3; j++) n[j] = q[j];
     safe_normalize3(n);
     for (int i = 0; i < 3; i++) {

@@ -1900,8 +1900,15 @@ def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, wid
     """Cycles' Bump (svm_node_set_bump) (n, 3) from the heights at the hit and at its two steps (bump_step), with
     bump_differentials' dPdx, dPdy and the Filter Width `width` ((n,)): normalize(width |det| N - distance sign(det)
     surfgrad), width 1 where the footprint is unknown (the steps are BUMP_STEP of the edges then). With `moved` (the
-    hits on the displaced mesh; sp then undisplaced_point's), the differentials over the surface before it moved."""
+    hits on the displaced mesh; sp then undisplaced_point's), the differentials over the surface before it moved, and
+    in object space as Cycles' Displacement and Bump (ShaderGraph::finalize's bump_in_object_space: the normal and
+    differentials taken into the object's space, the result back to the world's)."""
     dPdx, dPdy, known = bump_differentials(sp) if moved is None else undisplaced_differentials(sp, moved)
+    if moved is not None:       # (Displacement and Bump's bump runs in object space: bump_in_object_space)
+        n = len(normal)
+        inverse = object_matrices(sp, 3).reshape(n, 3, 4)[:, :, :3]
+        normal = safe_normalize(np.einsum("nji,nj->ni", sp.linear, normal))
+        dPdx, dPdy = (np.einsum("nij,nj->ni", inverse, d) for d in (dPdx, dPdy))
     Rx, Ry = np.cross(dPdy, normal), np.cross(normal, dPdx)
     det = np.einsum("ij,ij->i", dPdx, Rx)
     surfgrad = (h_x - h_c)[:, None] * Rx + (h_y - h_c)[:, None] * Ry
@@ -1911,7 +1918,8 @@ def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, wid
     out = safe_normalize((width * np.abs(det))[:, None] * normal - (scale * np.sign(det))[:, None] * surfgrad)
     zero = np.abs(out).sum(axis=1) == 0.0
     mixed = safe_normalize(strength[:, None] * out + (1.0 - strength)[:, None] * normal)
-    return np.where(zero[:, None], normal, mixed)
+    out = np.where(zero[:, None], normal, mixed)
+    return out if moved is None else safe_normalize(np.einsum("nji,nj->ni", inverse, out))
 
 
 def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, normals: list,
