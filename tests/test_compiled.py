@@ -586,8 +586,9 @@ def test_a_displacement_and_bump_bumps_over_the_unmoved_surface_alike_in_both_ke
                             {"Vector": offset, "Vector_001": Link(GraphNode("GEOMETRY", {}, {}), "Normal")}), "Value")
     normal = Link(GraphNode("BUMP", {"invert": False, "filter_width": 0.1, "undisplaced": True},
                             {"Strength": 1.0, "Distance": 1.0, "Height": height}), "Normal")
-    scene.materials[0] = Material(name="Waves", nodes=[("DIFFUSE", (0.8, 0.7, 0.6), {"color": np.array([0.8, 0.7, 0.6])})],
-                                  normal=normal, displacement=offset, displacement_method="BOTH")
+    scene.materials[0] = Material(name="Waves", nodes=[("DIFFUSE", (0.8, 0.7, 0.6),
+                                                        {"color": np.array([0.8, 0.7, 0.6])})], normal=normal,
+                                  displacement=offset, displacement_method="BOTH")
     settings = RenderSettings(width=48, height=32, samples=2, light_samples=1)
     compiled, reference = compare_paths(scene, settings)
     # (within 1e-4: the kernels' bumped waves differ by 4.4e-5 at most with the bump over the moved surface too)

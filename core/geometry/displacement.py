@@ -7,7 +7,8 @@ gives there is turned into object space and added to the vertex. There is no sub
 its own vertices. Displacement Only then recomputes the smooth normals of its triangles from the moved faces (the
 unweighted sum of their unit normals); Displacement and Bump keeps the mesh's normals, for its bump already bends
 them, and keeps the corners and normals from before the move (attributes undisplaced_position and
-undisplaced_normal, object space) for its bump, which Cycles evaluates over the surface before it moved. A mesh placed by several objects is displaced once, with the first object's transform, as in Cycles.
+undisplaced_normal, object space) for its bump, which Cycles evaluates over the surface before it moved. A mesh
+placed by several objects is displaced once, with the first object's transform, as in Cycles.
 
 The graph runs in the numpy reference (`graph.run`): once per mesh and material at scene set-up, not per sample.
 """
