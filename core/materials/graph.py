@@ -24,7 +24,9 @@ in media under an orthographic camera (a scattering point has no footprint; its 
 had). In a light's own shading (PATH_EMISSION) the Bump's Normal is the zero vector (lit_by_bump: Cycles
 evaluates no bump nodes there). Where Primer does not know the cone (UNKNOWN_CONE: a shading point without a
 path, a panoramic ray with no neighbouring direction) the step is BUMP_STEP of the triangle's edges V1 - V0
-and V2 - V0, a derivative where Cycles' difference averages over the footprint.
+and V2 - V0, a derivative where Cycles' difference averages over the footprint. A material of Displacement Method
+Displacement and Bump bumps over its surface as it was before the vertices moved (UNDISPLACED ops around the
+bump: undisplaced_point, undisplaced_differentials), in object space, as Cycles' ENTER_BUMP_EVAL.
 """
 from __future__ import annotations
 
