@@ -1156,18 +1156,20 @@ def bump_filter_width() -> float:
     return graph_.BUMP_FILTER_WIDTH if bpy.app.version >= (4, 5, 0) else 1.0
 
 
-def displacement_bump(offset, output):
+def displacement_bump(offset, output, undisplaced=False):
     """A material's Displacement output `offset` (as NodeReader.input reads it from `output`) as Cycles renders it
     with Displacement Method Bump Only (its default; also the bump part of Displacement and Bump): the offset's
     height along the shading normal fed to a Bump node of Strength 1 and Distance 1, whose normal becomes the
-    material's (ShaderGraph::bump_from_displacement). Returns the Bump's Link, or None where the output does not vary
-    per hit."""
+    material's (ShaderGraph::bump_from_displacement). `undisplaced`: the surface moved (Displacement and Bump), the
+    bump evaluated over it as it was before and in object space (Cycles' ENTER_BUMP_EVAL, bump_in_object_space;
+    graph.undisplaced_point, graph.bump). Returns the Bump's
+    Link, or None where the output does not vary per hit."""
     if not _linked(offset):
         return None
     normal = Link(GraphNode("GEOMETRY", {}, {}, output.name), "Normal")
     height = Link(GraphNode("VECTOR_MATH", {"operation": "DOT_PRODUCT"}, {"Vector": offset, "Vector_001": normal},
                             output.name), "Value")
-    return Link(GraphNode("BUMP", {"invert": False, "filter_width": bump_filter_width()},
+    return Link(GraphNode("BUMP", {"invert": False, "filter_width": bump_filter_width(), "undisplaced": undisplaced},
                           {"Strength": 1.0, "Distance": 1.0, "Height": height},
                           output.name), "Normal")
 
@@ -1681,12 +1683,9 @@ def export_material(material, warnings: list) -> Material:
             # The surface moved at its vertices (core/geometry/displacement.py), as Cycles without subdivision.
             moved = {"displacement": offset, "displacement_method": method}
         if method != "DISPLACEMENT" and nodes and surface_node(material) is not None:
-            normal = displacement_bump(offset, output)
-        bumped = method == "BOTH" or any(link.node.kind == "BUMP" for link in graph_.links_under(nodes))
-        if moved and bumped:
-            warnings.append(f"material '{material.name}': its Displacement moves the surface and a bump bends its "
-                            "normal: Primer's bump steps over the moved surface, where Cycles steps over the surface "
-                            "before it moved (a wave grid under a low sun: 8 % brighter)")
+            # (Bump nodes in the surface graph step over the moved surface, as Cycles': only its bump shader,
+            # this one, runs over the surface before it moved.)
+            normal = displacement_bump(offset, output, undisplaced=bool(moved))
     if volume is not None and surface_node(material) is None:
         # Cycles: a volume's boundary with no surface shader is not there for rays (they enter the volume, and a
         # crossing counts as no transparent bounce).

@@ -327,14 +327,16 @@ def test_true_displacement_moves_the_vertices_as_cycles(primer, tmp_path, method
     """Displacement Only and Displacement and Bump move the grid's vertices by the Displacement output (Cycles'
     GeometryManager::displace: per vertex, no subdivision; Displacement Only with normals from the moved faces):
     Primer's image is Cycles' (block relMSE below 1e-3; measured 6.5e-4 at 16 samples) and far from the undisplaced
-    grid's (3.3), no warning naming the Displacement. Displacement and Bump's bump steps over the moved surface where
-    Cycles' steps over the unmoved one (svm_node_enter_bump_eval's undisplaced position): said once, within 1e-2."""
+    grid's (3.3), no warning naming the Displacement. Displacement and Bump's bump steps over the surface before it
+    moved, in object space, as Cycles' (svm_node_enter_bump_eval's undisplaced position and normal;
+    bump_in_object_space): within 1e-3 too (measured 1.9e-4, at Cycles' own noise)."""
     scene, material = displaced_grid(method)
     named, error, unmoved = against_cycles_and_without(primer, scene, material, tmp_path)
     print(f"{method}: block relMSE {error:.2e}, the undisplaced grid {unmoved:.2e}")
     if method == "DISPLACEMENT":
         assert not named, named
         assert error < 1e-3 and unmoved > 10.0 * error, (error, unmoved)
-    else:       # (its bump steps over the moved surface, Cycles' over the unmoved one: said, measured 5.4e-3)
-        assert len(named) == 1 and "bump" in named[0], named
-        assert error < 1e-2 and unmoved > 100.0 * error, (error, unmoved)
+    else:       # (measured 1.9e-4, Cycles against itself at another seed 1.4e-4; 5.4e-3 with the bump over the moved
+        # surface in world space)
+        assert not named, named
+        assert error < 1e-3 and unmoved > 1000.0 * error, (error, unmoved)

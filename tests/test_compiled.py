@@ -567,3 +567,29 @@ def test_bumps_and_pixel_size_wires_under_panoramic_cameras_render_alike_in_both
     settings = RenderSettings(width=48, height=32, samples=2, light_samples=1, terminator_fix=True)
     compiled, reference = compare_paths(scene, settings)
     assert_same_render(compiled, reference)
+
+
+def test_a_displacement_and_bump_bumps_over_the_unmoved_surface_alike_in_both_kernels():
+    """Displacement and Bump: the floor and box move along z by a sine of the world x and their bump (the same offset
+    as a height) is evaluated over the surface before it moved and in object space (graph.undisplaced_point: the
+    corners and normals kept by core/geometry/displacement.py), the Python reference and the compiled kernel alike."""
+    from core.materials import Material
+    from core.materials.graph import GraphNode, Link
+    scene = lit_scene(LIGHTS["sun"])
+    position = Link(GraphNode("GEOMETRY", {}, {}), "Position")
+    x = Link(GraphNode("SEPARATE_XYZ", {}, {"Vector": position}), "X")
+    wave = Link(GraphNode("MATH", {"operation": "SINE"}, {"0": Link(GraphNode(
+        "MATH", {"operation": "MULTIPLY"}, {"0": x, "1": 5.0}), "Value")}), "Value")
+    offset = Link(GraphNode("COMBINE_XYZ", {}, {"X": 0.0, "Y": 0.0, "Z": wave}), "Vector")
+    offset = Link(GraphNode("VECTOR_MATH", {"operation": "SCALE"}, {"Vector": offset, "Scale": 0.2}), "Vector")
+    height = Link(GraphNode("VECTOR_MATH", {"operation": "DOT_PRODUCT"},
+                            {"Vector": offset, "Vector_001": Link(GraphNode("GEOMETRY", {}, {}), "Normal")}), "Value")
+    normal = Link(GraphNode("BUMP", {"invert": False, "filter_width": 0.1, "undisplaced": True},
+                            {"Strength": 1.0, "Distance": 1.0, "Height": height}), "Normal")
+    scene.materials[0] = Material(name="Waves", nodes=[("DIFFUSE", (0.8, 0.7, 0.6),
+                                                        {"color": np.array([0.8, 0.7, 0.6])})], normal=normal,
+                                  displacement=offset, displacement_method="BOTH")
+    settings = RenderSettings(width=48, height=32, samples=2, light_samples=1)
+    compiled, reference = compare_paths(scene, settings)
+    # (within 1e-4: the kernels' bumped waves differ by 4.4e-5 at most with the bump over the moved surface too)
+    np.testing.assert_allclose(compiled.image, reference.image, rtol=0.0, atol=1e-4)

@@ -6,7 +6,9 @@ corner of the first triangle that uses it (in triangle order), and the world-spa
 gives there is turned into object space and added to the vertex. There is no subdivision: the mesh moves only at
 its own vertices. Displacement Only then recomputes the smooth normals of its triangles from the moved faces (the
 unweighted sum of their unit normals); Displacement and Bump keeps the mesh's normals, for its bump already bends
-them. A mesh placed by several objects is displaced once, with the first object's transform, as in Cycles.
+them, and keeps the corners and normals from before the move (attributes undisplaced_position and
+undisplaced_normal, object space) for its bump, which Cycles evaluates over the surface before it moved. A mesh
+placed by several objects is displaced once, with the first object's transform, as in Cycles.
 
 The graph runs in the numpy reference (`graph.run`): once per mesh and material at scene set-up, not per sample.
 """
@@ -46,6 +48,7 @@ def displace_mesh(mesh: Mesh, instance, materials: list, warnings: list) -> Mesh
     2. Each vertex once, at the corner of the first displacing triangle that uses it.
     3. The offsets from the graphs, world space to object space, NaN and infinities as 0 (Cycles' ensure_finite).
     4. Displacement Only: the smooth normals of its triangles again, from the moved faces.
+    5. Displacement and Bump: the corners and normals before the move kept as attributes, for the bump.
     """
     # 1. The scene material of each triangle.
     slots = mesh.material_indices
@@ -97,7 +100,14 @@ def displace_mesh(mesh: Mesh, instance, materials: list, warnings: list) -> Mesh
         unit = normals_.safe_normalize(summed)
         smooth = renormal & mesh.smooth
         corner_normals[smooth] = unit[mesh.triangles[smooth]]
-    return dataclasses.replace(mesh, vertices=vertices, corner_normals=corner_normals)
+    # 5. Displacement and Bump: the corners before they moved, and their normals, for the bump (Cycles'
+    # ATTR_STD_POSITION_UNDISPLACED and ATTR_STD_NORMAL_UNDISPLACED; graph.undisplaced_point).
+    attributes = mesh.attributes
+    if any(m.displacement_method == "BOTH" for m in graphs.values()):
+        before = mesh.corner_normals if mesh.corner_normals is not None else object_corner_normals(mesh)
+        attributes = {**(mesh.attributes or {}), "undisplaced_position": mesh.vertices[mesh.triangles],
+                      "undisplaced_normal": before}
+    return dataclasses.replace(mesh, vertices=vertices, corner_normals=corner_normals, attributes=attributes)
 
 
 def object_corner_normals(mesh: Mesh) -> np.ndarray:

@@ -489,13 +489,45 @@ static void bump_step(int where, double width, const ShadingPoint *sp, double *d
     *dv = width * safe_div(uu * dv_d - uv * du_d, det);
 }
 
-/* graph.bump: normalize(width |det| N - distance sign(det) surfgrad) from bump_differentials (width 1 where the
- * footprint is unknown). */
-INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
-                 int invert, double width, const ShadingPoint *sp, double *out)
+/* object_matrix for the bump over the unmoved surface (one call site of the INLINE one; defined after it). */
+static void object_matrix_of(const ShadingPoint *sp, int mode, double *out);
+
+/* graph.undisplaced_differentials: bump_differentials over the surface before it moved, the barycentric steps the
+ * footprint takes on the moved triangle (`moved`, width 1) along the unmoved one's edges (sp's). Returns known. */
+static int undisplaced_differentials(const ShadingPoint *sp, const ShadingPoint *moved, double *dPdx, double *dPdy)
 {
-    double dPdx[3], dPdy[3], Rx[3], Ry[3];
-    if (!bump_differentials(sp, dPdx, dPdy)) width = 1.0;
+    double ignored[2][3], du, dv;
+    int known = bump_differentials(moved, ignored[0], ignored[1]);
+    for (int where = 1; where <= 2; where++) {
+        double *d = where == 1 ? dPdx : dPdy;
+        bump_step(where, 1.0, moved, &du, &dv);
+        for (int j = 0; j < 3; j++) d[j] = du * sp->dPdu[j] + dv * sp->dPdv[j];
+    }
+    return known;
+}
+
+/* graph.bump: normalize(width |det| N - distance sign(det) surfgrad) from bump_differentials (width 1 where the
+ * footprint is unknown); with `moved` (not NULL: the hit on the displaced mesh, sp undisplaced_point's), from
+ * undisplaced_differentials and in object space (Cycles' bump_in_object_space for Displacement and Bump). */
+INLINE void bump(const double *normal, double strength, double distance, double h_c, double h_x, double h_y,
+                 int invert, double width, const ShadingPoint *sp, const ShadingPoint *moved, double *out)
+{
+    double dPdx[3], dPdy[3], Rx[3], Ry[3], inv[12], n_in[3];
+    if (!(moved ? undisplaced_differentials(sp, moved, dPdx, dPdy) : bump_differentials(sp, dPdx, dPdy))) width = 1.0;
+    for (int j = 0; j < 3; j++) n_in[j] = normal[j];
+    if (moved) {                /* (Displacement and Bump's bump runs in object space: bump_in_object_space) */
+        const double *L = sp->L;
+        double x[3], y[3];
+        object_matrix_of(sp, 3, inv);
+        for (int i = 0; i < 3; i++) {
+            n_in[i] = (L[i] * normal[0] + L[3 + i] * normal[1]) + L[6 + i] * normal[2];
+            x[i] = (inv[4 * i] * dPdx[0] + inv[4 * i + 1] * dPdx[1]) + inv[4 * i + 2] * dPdx[2];
+            y[i] = (inv[4 * i] * dPdy[0] + inv[4 * i + 1] * dPdy[1]) + inv[4 * i + 2] * dPdy[2];
+        }
+        safe_normalize3(n_in);
+        for (int j = 0; j < 3; j++) { dPdx[j] = x[j]; dPdy[j] = y[j]; }
+    }
+    normal = n_in;
     cross3(dPdy, normal, Rx);
     cross3(normal, dPdx, Ry);
     double det = dot3(dPdx, Rx), scale = invert ? -distance : distance;
@@ -507,10 +539,16 @@ INLINE void bump(const double *normal, double strength, double distance, double 
     safe_normalize3(v);
     if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) {
         for (int j = 0; j < 3; j++) out[j] = normal[j];
-        return;
+    } else {
+        for (int j = 0; j < 3; j++) out[j] = strength * v[j] + (1.0 - strength) * normal[j];
+        safe_normalize3(out);
     }
-    for (int j = 0; j < 3; j++) out[j] = strength * v[j] + (1.0 - strength) * normal[j];
-    safe_normalize3(out);
+    if (moved) {                /* back to the world: the inverse's transpose */
+        double w[3];
+        for (int i = 0; i < 3; i++) w[i] = (inv[i] * out[0] + inv[4 + i] * out[1]) + inv[8 + i] * out[2];
+        safe_normalize3(w);
+        for (int j = 0; j < 3; j++) out[j] = w[j];
+    }
 }
 
 /* graph.run for one hit: reg holds the program's registers afterwards. */
@@ -547,10 +585,40 @@ INLINE void object_matrix(const ShadingPoint *sp, int mode, double *out)
 static double shader_ao(const ShadingPoint *sp, const double *N, double distance, int samples, int flags);
 static void shader_bevel(const ShadingPoint *sp, double radius, int samples, double *out);
 
+NOINLINE static void object_matrix_of(const ShadingPoint *sp, int mode, double *out)
+{
+    object_matrix(sp, mode, out);
+}
+
+/* graph.undisplaced_point: *out (a copy of the hit sp) with P, dPdu, dPdv from the object-space attribute at
+ * `position` (the vertices before they moved) in world space and N the unit normal before they moved (the attribute
+ * at `normal`, to world space, flipped where the back was hit), as Cycles' ENTER_BUMP_EVAL. */
+static void undisplaced_point(int position, int normal, const ShadingPoint *sp, ShadingPoint *out)
+{
+    double M[12], T[12], n[3];
+    const double *p = sp->attributes + position, *pu = sp->d_du + position, *pv = sp->d_dv + position;
+    const double *q = sp->attributes + normal;
+    object_matrix_of(sp, 0, M);
+    object_matrix_of(sp, 4, T);
+    for (int j = 0; j < 3; j++) n[j] = q[j];
+    safe_normalize3(n);
+    for (int i = 0; i < 3; i++) {
+        const double *row = M + 4 * i, *nrow = T + 4 * i;
+        out->P[i] = ((row[0] * p[0] + row[1] * p[1]) + row[2] * p[2]) + row[3];
+        out->dPdu[i] = (row[0] * pu[0] + row[1] * pu[1]) + row[2] * pu[2];
+        out->dPdv[i] = (row[0] * pv[0] + row[1] * pv[1]) + row[2] * pv[2];
+        out->N[i] = (nrow[0] * n[0] + nrow[1] * n[1]) + nrow[2] * n[2];
+    }
+    safe_normalize3(out->N);
+    for (int j = 0; j < 3; j++) out->N[j] *= sp->side;
+}
+
 NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *hit, double *reg)
 {
     const ShadingPoint *sp = hit;       /* after a SET_NORMAL: `bumped`, the hit with Set Normal's normal */
     ShadingPoint bumped;
+    ShadingPoint flat;                  /* inside UNDISPLACED: the hit before the surface moved, and */
+    const ShadingPoint *moved = NULL;   /* the hit on the moved surface */
     const double *info = G->programs + 8 * program;
     const double *ops = G->ops + OP_WIDTH * (int64_t)info[0], *ramps = G->ramps + (int64_t)info[7];
     int64_t n_ops = (int64_t)info[1], n_constants = (int64_t)info[3];
@@ -575,7 +643,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
         case OP_OBJECT_MATRIX: object_matrix(sp, a[1], out); break;
         case OP_LIGHT_PATH: out[0] = light_path_output(a[1], sp); break;
         case OP_OFFSET:
-            bump_step(a[0], a[0] ? reg[a[1]] : 0.0, sp, &step_u, &step_v);
+            bump_step(a[0], a[0] ? reg[a[1]] : 0.0, moved ? moved : sp, &step_u, &step_v);
             if (a[0] == 0) { attributes = sp->attributes; break; }
             for (int j = 0; j < sp->width; j++)
                 offset_attr[j] = (sp->attributes[j] + step_u * sp->d_du[j]) + step_v * sp->d_dv[j];
@@ -685,7 +753,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             double r[3] = {0.0, 0.0, 0.0};          /* (a light's own shading: no bump, as Cycles' light mask) */
             if (!(sp->path.flags & PATH_EMISSION))
                 bump(a[6] < 0 ? sp->N : reg + a[6], reg[a[1]], reg[a[2]], reg[a[3]], reg[a[4]], reg[a[5]], a[7],
-                     reg[a[8]], sp, r);
+                     reg[a[8]], sp, moved, r);
             for (int j = 0; j < 3; j++) out[j] = r[j];
             break;
         }
@@ -743,6 +811,20 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
             break;
         }
         case OP_TANGENT_SPACE: { double r[3]; tangent_space(reg + a[1], a[2], sp, r); for (int j = 0; j < 3; j++) out[j] = r[j]; break; }
+        case OP_UNDISPLACED:            /* graph.py run: the bump over the surface before it moved, and back */
+            if (a[0]) {
+                flat = *sp;
+                undisplaced_point(a[1], a[2], sp, &flat);
+                moved = sp;
+                sp = &flat;
+            } else if (moved) {
+                double n[3] = {sp->N[0], sp->N[1], sp->N[2]};
+                bumped = *moved;
+                for (int j = 0; j < 3; j++) bumped.N[j] = n[j];
+                sp = &bumped;
+                moved = NULL;
+            }
+            break;
         case OP_SET_NORMAL: {           /* graph.py run: unit, the hit's own where it is zero */
             double n[3] = {reg[a[0]], reg[a[0] + 1], reg[a[0] + 2]};
             safe_normalize3(n);

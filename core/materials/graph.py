@@ -24,7 +24,9 @@ in media under an orthographic camera (a scattering point has no footprint; its 
 had). In a light's own shading (PATH_EMISSION) the Bump's Normal is the zero vector (lit_by_bump: Cycles
 evaluates no bump nodes there). Where Primer does not know the cone (UNKNOWN_CONE: a shading point without a
 path, a panoramic ray with no neighbouring direction) the step is BUMP_STEP of the triangle's edges V1 - V0
-and V2 - V0, a derivative where Cycles' difference averages over the footprint.
+and V2 - V0, a derivative where Cycles' difference averages over the footprint. A material of Displacement Method
+Displacement and Bump bumps over its surface as it was before the vertices moved (UNDISPLACED ops around the
+bump: undisplaced_point, undisplaced_differentials), in object space, as Cycles' ENTER_BUMP_EVAL.
 """
 from __future__ import annotations
 
@@ -59,7 +61,7 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
                                                                "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL",
                                                                "PIXEL_SIZE", "CURVE_NORMAL", "SET_NORMAL",
-                                                               "TANGENT_SPACE", "FOOTPRINT")
+                                                               "TANGENT_SPACE", "FOOTPRINT", "UNDISPLACED")
 # Ops that trace rays into the scene while the shader runs (Cycles' __SHADER_RAYTRACE__ nodes: Ambient Occlusion,
 # Bevel). A program holding one reads ShadingPoint.rays, the integrator's ShaderRays (core/integrators/shader_rays.py)
 # for the hits' pixel samples; where there is none (shadow rays, light samples landing on an emitter: Cycles
@@ -454,7 +456,8 @@ COMPUTED_COORDINATES = (INCOMING_OBJECT,)
 
 # The widths of the mesh attributes by name prefix.
 ATTRIBUTE_WIDTHS = {"uv": 3, "color": 4, "attr": 4, "tangent": 4, "generated": 3, "object": 3, "pointiness": 1, "island": 1,
-                    "curve": 1, "curve_tangent": 3, "curve_normal": 3, "point_centre": 4, "point_radius": 3, "point_random": 1}
+                    "curve": 1, "curve_tangent": 3, "curve_normal": 3, "point_centre": 4, "point_radius": 3, "point_random": 1,
+                    "undisplaced_position": 3, "undisplaced_normal": 3}
 
 
 def attribute_width(name: str) -> int:
@@ -827,6 +830,14 @@ class Compiler:
                 # its Normal, as it is (not made unit: a value turned into a vector stays (v, v, v)).
                 return normal, 3, "vector"
             width = self.constant(float(props.get("filter_width", BUMP_FILTER_WIDTH)))
+            # Displacement and Bump: the bump over the surface before it moved (Cycles' ENTER_BUMP_EVAL), where the
+            # mesh keeps it (core/geometry/displacement.py); each node evaluated anew there, as Cycles copies them.
+            position, _ = self.layout.get("undisplaced_position", (-1, 3))
+            normal_at, _ = self.layout.get("undisplaced_normal", (-1, 3))
+            undisplaced = bool(props.get("undisplaced")) and position >= 0 and normal_at >= 0
+            if undisplaced:
+                self.emit("UNDISPLACED", 1, position, normal_at)
+                self.memo.clear()
             saved, saved_width = self.offset, self.offset_width
             h = []
             for k, where in enumerate((saved, 1, 2)):       # (the heights at the point and its two steps)
@@ -841,6 +852,9 @@ class Compiler:
             out = self.temporary(3)
             self.emit("BUMP", out, strength, distance, h[0], h[1], h[2], normal,
                       1 if props.get("invert") else 0, width)
+            if undisplaced:
+                self.emit("UNDISPLACED", 0, -1, -1)
+                self.memo.clear()
             return out, 3, "vector"
         if kind == "MATH":
             a, b, c = (self.value(inp.get(str(i)), 1, 0.5) for i in range(3))
@@ -1155,6 +1169,7 @@ REGISTER_ARGS = {
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     "AO": {0, 1, 2, 3}, "BEVEL": {0, 1, 2},
     "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1}, "SET_NORMAL": {0}, "TANGENT_SPACE": {0, 1}, "FOOTPRINT": {0, 1, 2},
+    "UNDISPLACED": set(),
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1310,6 +1325,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
     c = len(program.constants)
     reg[:, :c] = program.constants
     attributes, where = sp.attributes, (0.0, 0.0)       # (the bump's point: its step du, dv (n,) from the hit)
+    moved = None                                        # (inside UNDISPLACED: the hits on the moved surface)
     hit = sp                                    # (the Normal Map's frame: the mesh's normal, never Set Normal's)
     for row in program.ops:
         code, a = int(row[0]), row[1:]
@@ -1335,8 +1351,13 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "LIGHT_PATH":
             path = light_paths(n) if sp.path is None else sp.path
             reg[:, i[0]] = light_path_output(i[1], path, np.zeros(n) if sp.t is None else sp.t)
+        elif name == "UNDISPLACED":                     # (the bump over the surface before it moved, and back)
+            if i[0]:
+                moved, sp = sp, undisplaced_point(i[1], i[2], sp)
+            elif moved is not None:
+                moved, sp = None, moved._replace(N=sp.N)
         elif name == "OFFSET":
-            where = bump_step(i[0], reg[:, i[1]] if i[0] else 0.0, sp)
+            where = bump_step(i[0], reg[:, i[1]] if i[0] else 0.0, sp if moved is None else moved)
             attributes = ((sp.attributes + where[0][:, None] * sp.d_du) + where[1][:, None] * sp.d_dv if i[0]
                           else sp.attributes)
         elif name == "IMAGE":
@@ -1406,7 +1427,7 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
         elif name == "BUMP":                            # (0 in a light's own shading: lit_by_bump)
             normal = sp.N if i[6] < 0 else R(6, 3)
             reg[:, i[0]:i[0] + 3] = bump(normal, reg[:, i[1]], reg[:, i[2]], reg[:, i[3]], reg[:, i[4]],
-                                         reg[:, i[5]], i[7], reg[:, i[8]], sp) * lit_by_bump(sp)[:, None]
+                                         reg[:, i[5]], i[7], reg[:, i[8]], sp, moved) * lit_by_bump(sp)[:, None]
         elif name == "CONVERT":
             if i[2] == 0:
                 src = R(1, 3)
@@ -1853,11 +1874,43 @@ def lit_by_bump(sp: ShadingPoint) -> np.ndarray:
     return np.where((np.asarray(sp.path.flags) & PATH_EMISSION) != 0, 0.0, 1.0) * np.ones(len(sp.N))
 
 
-def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, width, sp: ShadingPoint) -> np.ndarray:
+def undisplaced_point(position: int, normal: int, sp: ShadingPoint) -> ShadingPoint:
+    """The ShadingPoint of n hits on a displaced mesh as Cycles' ENTER_BUMP_EVAL makes it: P and the edges dPdu, dPdv
+    from the object-space attribute at `position` (the vertices before they moved) taken to world space, N the unit
+    normal before they moved (the attribute at `normal`, to world space, flipped where the back was hit); Ng, the
+    barycentrics and the attributes as they are."""
+    p, q = slice(position, position + 3), slice(normal, normal + 3)
+    M = object_matrices(sp, 0).reshape(-1, 3, 4)
+    to_world = lambda v: np.einsum("nij,nj->ni", M[:, :, :3], v)          # noqa: E731
+    N = safe_normalize(np.einsum("nij,nj->ni", object_matrices(sp, 4).reshape(-1, 3, 4)[:, :, :3],
+                                 safe_normalize(sp.attributes[:, q])))
+    return sp._replace(P=to_world(sp.attributes[:, p]) + M[:, :, 3], dPdu=to_world(sp.d_du[:, p]),
+                       dPdv=to_world(sp.d_dv[:, p]), N=N * sp.side[:, None])
+
+
+def undisplaced_differentials(sp: ShadingPoint, moved: ShadingPoint) -> tuple:
+    """bump_differentials over the surface before it moved (Cycles' saved dP.dx, dP.dy of the undisplaced position):
+    the barycentric steps the footprint takes on the moved triangle (bump_step of `moved`, width 1) along the
+    edges of the unmoved one (sp.dPdu, sp.dPdv: undisplaced_point). ((n, 3), (n, 3), known (n,) bool)."""
+    known = bump_differentials(moved)[2]
+    steps = [bump_step(where, 1.0, moved) for where in (1, 2)]
+    return tuple(du[:, None] * sp.dPdu + dv[:, None] * sp.dPdv for du, dv in steps) + (known,)
+
+
+def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, width, sp: ShadingPoint,
+         moved: Optional[ShadingPoint] = None) -> np.ndarray:
     """Cycles' Bump (svm_node_set_bump) (n, 3) from the heights at the hit and at its two steps (bump_step), with
     bump_differentials' dPdx, dPdy and the Filter Width `width` ((n,)): normalize(width |det| N - distance sign(det)
-    surfgrad), width 1 where the footprint is unknown (the steps are BUMP_STEP of the edges then)."""
-    dPdx, dPdy, known = bump_differentials(sp)
+    surfgrad), width 1 where the footprint is unknown (the steps are BUMP_STEP of the edges then). With `moved` (the
+    hits on the displaced mesh; sp then undisplaced_point's), the differentials over the surface before it moved, and
+    in object space as Cycles' Displacement and Bump (ShaderGraph::finalize's bump_in_object_space: the normal and
+    differentials taken into the object's space, the result back to the world's)."""
+    dPdx, dPdy, known = bump_differentials(sp) if moved is None else undisplaced_differentials(sp, moved)
+    if moved is not None:       # (Displacement and Bump's bump runs in object space: bump_in_object_space)
+        n = len(normal)
+        inverse = object_matrices(sp, 3).reshape(n, 3, 4)[:, :, :3]
+        normal = safe_normalize(np.einsum("nji,nj->ni", sp.linear, normal))
+        dPdx, dPdy = (np.einsum("nij,nj->ni", inverse, d) for d in (dPdx, dPdy))
     Rx, Ry = np.cross(dPdy, normal), np.cross(normal, dPdx)
     det = np.einsum("ij,ij->i", dPdx, Rx)
     surfgrad = (h_x - h_c)[:, None] * Rx + (h_y - h_c)[:, None] * Ry
@@ -1867,7 +1920,8 @@ def bump(normal: np.ndarray, strength, distance, h_c, h_x, h_y, invert: int, wid
     out = safe_normalize((width * np.abs(det))[:, None] * normal - (scale * np.sign(det))[:, None] * surfgrad)
     zero = np.abs(out).sum(axis=1) == 0.0
     mixed = safe_normalize(strength[:, None] * out + (1.0 - strength)[:, None] * normal)
-    return np.where(zero[:, None], normal, mixed)
+    out = np.where(zero[:, None], normal, mixed)
+    return out if moved is None else safe_normalize(np.einsum("nji,nj->ni", inverse, out))
 
 
 def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, normals: list,

@@ -172,6 +172,7 @@
 #define OP_SET_NORMAL 58
 #define OP_TANGENT_SPACE 59
 #define OP_FOOTPRINT 60
+#define OP_UNDISPLACED 61
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -1264,7 +1265,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(1988518437441009220);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1461087652967974442);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(6065231736549106572);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(8213480602466113718);
     if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
     if (strcmp(name, "SkyMultipleArgs") == 0) return UINT64_C(8745123704423823932);
     if (strcmp(name, "SkySingleArgs") == 0) return UINT64_C(7958716256533574401);
