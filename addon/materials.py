@@ -1414,6 +1414,7 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         tangent = node.inputs.get("Tangent")
         inputs["tangent"] = reader.input(node, "Tangent", np.zeros(3)) if tangent is not None and tangent.is_linked \
             else hair_.curve_links()["tangent"]
+        inputs.update(hair_.mesh_links("triangle_dpdv"))          # (on meshes: Cycles' dPdv, no offset)
         inputs["color"] = color if _linked(color) else np.maximum(np.asarray(color, np.float64)[:3], 0.0)
         out.append(("HAIR", weight, inputs, list(factors)))
     elif kind == "ShaderNodeSubsurfaceScattering":
@@ -1497,6 +1498,7 @@ def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, fa
     inputs["parametrization"] = float(hair_.PARAMETRIZATIONS[parametrization])
     random = node.inputs.get("Random")
     inputs.update(hair_.curve_links())
+    inputs.update(hair_.mesh_links("triangle_dpdu"))              # (on meshes: Cycles' dPdu)
     if random is not None and random.is_linked:
         inputs["random"] = reader.input(node, "Random", 0.0)
     if getattr(node, "model", "CHIANG") == "HUANG":
