@@ -428,13 +428,6 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
             points = co[corner_vertex[loops]]                                   # (t, 3, 3)
             edge = points[:, 1] - points[:, 0] if kind == "triangle_dpdu" else points[:, 2] - points[:, 0]
             values[:] = edge[:, None, :]
-            smooth = np.zeros(len(mesh.polygons), bool)
-            if kind == "triangle_dpdu" and len(smooth):
-                mesh.polygons.foreach_get("use_smooth", smooth)
-            if smooth.any():
-                warnings.append(f"mesh '{mesh.name}' is smooth-shaded: a Principled Hair BSDF (Chiang's model) there "
-                                "takes its offset h from the shading normal, where Cycles takes the triangle's true "
-                                "normal Ng (Huang's model and the Hair BSDF read as Cycles)")
         elif kind in ("generated", "object"):
             points = co[corner_vertex[loops]]                                   # (t, 3, 3)
             if kind == "generated":

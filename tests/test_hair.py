@@ -335,6 +335,8 @@ def hair_mesh_scene(node: tuple) -> Scene:
         mesh.attributes[name] = np.repeat(edge[:, None, :], 3, axis=1)
     name, weight, inputs = node
     links = hair.mesh_links("triangle_dpdv" if name == "HAIR" else "triangle_dpdu")
+    if name != "PRINCIPLED_HAIR":
+        links.pop("surface_bitangent")
     scene.materials.append(Material(np.ones(3), nodes=[(name, weight, {**links, **inputs})]))
     scene.add_mesh(mesh, materials=np.array([0]))
     scene.add_mesh(primitives.plane(1.5, center=(0.6, -1.2, -0.4)), materials=np.array([0]))

@@ -477,7 +477,8 @@ def hair_sigma(p: np.ndarray, radial: np.ndarray) -> np.ndarray:
 def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None) -> np.ndarray:
     """Chiang's closure rows (n, PARAMS) from the node's inputs p (n, NODE_PARAMS) at hits with normal N (the round
     normal, Cycles' Ng) and view wo (n, 3), as Cycles' svm closure node and bsdf_hair_chiang_setup compute them;
-    surface: (n, 3) a triangle's dPdu turned towards the viewer's side (surface_tangent), zero on curves, or None."""
+    surface: (n, 3) a triangle's dPdu turned towards the viewer's side (surface_tangent), zero on curves, or None:
+    there X is dPdu and Ng the triangle's true normal, dPdu x dPdv (p[:, 26:29]) towards the viewer."""
     n = len(p)
     random = p[:, 16]
     factor = 1.0 + 2.0 * (random - 0.5) * p[:, 14]
@@ -487,8 +488,12 @@ def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None) ->
     s = np.clip(radial, 0.001, 1.0)
     m0 = np.clip((1.0 - np.clip(p[:, 11], 0.0, 1.0)) * v, 0.001, 1.0)
     X = safe_normalize(p[:, 20:23])
-    if surface is not None:                 # (a triangle: Cycles' X is its dPdu)
-        X = np.where(np.any(surface != 0.0, axis=1)[:, None], safe_normalize(surface), X)
+    if surface is not None:                 # (a triangle: Cycles' X is its dPdu, its h from the triangle's Ng)
+        mesh = np.any(surface != 0.0, axis=1)
+        X = np.where(mesh[:, None], safe_normalize(surface), X)
+        Ng = safe_normalize(vectors.cross(p[:, 23:26], p[:, 26:29]))
+        Ng = np.where((vectors.dot(Ng, wo) < 0.0)[:, None], -Ng, Ng)
+        N = np.where((mesh & np.any(Ng != 0.0, axis=1))[:, None], Ng, N)
     no_tangent = ~np.any(X != 0.0, axis=1)
     if no_tangent.any():                    # (a degenerate triangle: a tangent across the normal, Primer's own)
         X = np.where(no_tangent[:, None], vectors.orthonormal_frame(N)[0], X)
@@ -510,12 +515,12 @@ def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None) ->
 PRINCIPLED_HAIR_INPUTS = ("parametrization", "color", "melanin", "melanin_redness", "tint", "roughness",
                           "radial_roughness", "coat", "ior", "offset", "random_roughness", "random_color", "random",
                           "absorption", "tangent")
-# Chiang's node adds the triangle's dPdu (surface_tangent, zero on curves: mesh_links) after them.
-CHIANG_INPUTS = PRINCIPLED_HAIR_INPUTS + ("surface_tangent",)
+# Chiang's node adds the triangle's dPdu and dPdv (surface_tangent, surface_bitangent; zero on curves: mesh_links).
+CHIANG_INPUTS = PRINCIPLED_HAIR_INPUTS + ("surface_tangent", "surface_bitangent")
 PRINCIPLED_HAIR_DEFAULTS = (float(PARAMETRIZATIONS["direct_coloring"]), (0.017513, 0.005763, 0.002059), 0.8, 1.0,
                             (1.0, 1.0, 1.0), 0.3, 0.3, 0.0, 1.55, math.radians(2.0), 0.0, 0.0, 0.0,
                             (0.245531, 0.52, 1.365), (0.0, 0.0, 0.0))
-CHIANG_DEFAULTS = PRINCIPLED_HAIR_DEFAULTS + ((0.0, 0.0, 0.0),)
+CHIANG_DEFAULTS = PRINCIPLED_HAIR_DEFAULTS + ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 class PrincipledHairNode(Node):
@@ -600,9 +605,13 @@ def curve_links() -> dict:
 
 
 def mesh_links(edge: str = "triangle_dpdu") -> dict:
-    """The graph link a hair node reads on meshes: `surface_tangent`, the triangle's dPdu ("triangle_dpdu", Chiang's
-    and Huang's X) or dPdv ("triangle_dpdv", the Hair BSDF's tangent) in world space; zero on curves' tubes."""
+    """The graph links a hair node reads on meshes: `surface_tangent`, the triangle's dPdu ("triangle_dpdu", Chiang's
+    and Huang's X) or dPdv ("triangle_dpdv", the Hair BSDF's tangent) in world space, and `surface_bitangent`, its
+    dPdv (Chiang's true normal dPdu x dPdv); zero on curves' tubes."""
     from .graph import GraphNode, Link
-    tangent = Link(GraphNode("ATTRIBUTE", {"attribute": edge}, {}, "triangle " + edge[-4:]), "Vector")
-    return {"surface_tangent": Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
-                                              {"Vector": tangent}, "triangle edge in world space"), "Vector")}
+
+    def world(name):
+        tangent = Link(GraphNode("ATTRIBUTE", {"attribute": name}, {}, "triangle " + name[-4:]), "Vector")
+        return Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
+                              {"Vector": tangent}, "triangle edge in world space"), "Vector")
+    return {"surface_tangent": world(edge), "surface_bitangent": world("triangle_dpdv")}

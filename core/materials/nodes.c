@@ -629,7 +629,8 @@ static NOINLINE int hair_surface_tangent(const double *p, int at, int backfacing
 }
 
 /* hair.PrincipledHairNode.setup (hair.chiang_params) for one hit: a Chiang closure of the node's weight; h from the
- * hit's normal sd->N (Cycles' Ng of a thick curve), the curve's tangent and the view. */
+ * hit's normal sd->N (Cycles' Ng of a thick curve), the curve's tangent and the view; on a triangle from its dPdu
+ * and dPdv (p + 23, p + 26). */
 INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
                                  const double *p)
 {
@@ -662,7 +663,16 @@ INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, 
     v[HAIR_M0] = hair_variance_of(m0);
     v[HAIR_ALPHA] = -p[13];
     v[HAIR_ETA] = p[12];
-    cross3(sd->N, X, c);
+    double Ng[3] = {sd->N[0], sd->N[1], sd->N[2]};
+    if (mesh) {             /* (a triangle: h from its true normal dPdu x dPdv, towards the viewer) */
+        double n[3];
+        cross3(p + 23, p + 26, c);
+        hair_normalize(c, n);
+        double side = dot3(n, wo) < 0.0 ? -1.0 : 1.0;
+        if (n[0] != 0.0 || n[1] != 0.0 || n[2] != 0.0)
+            for (int k = 0; k < 3; k++) Ng[k] = side * n[k];
+    }
+    cross3(Ng, X, c);
     v[HAIR_H] = dot3(c, Z);
     for (int k = 0; k < 3; k++) v[HAIR_X + k] = X[k];
     closure_add(sd, BSDF_CHIANG_HAIR, weight, weight, 1.0, v);
