@@ -258,7 +258,7 @@ def curve_attributes(mesh: core_scene.Mesh, wanted: set) -> set:
         if name not in mesh.attributes:
             values = mesh.curve_info[name][mesh.triangles]                      # (t, 3) or (t, 3, 3)
             mesh.attributes[name] = values[:, :, None] if values.ndim == 2 else values
-    return {name for name in wanted - set(mesh.curve_info) if not name.startswith(("curve", "point_"))}   # (0 off them)
+    return {name for name in wanted - set(mesh.curve_info) if not name.startswith(("curve", "point_", "triangle_"))}   # (0 off them)
 
 
 def attribute_values(attribute, dtype) -> np.ndarray:
@@ -361,10 +361,6 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
     for name in missing:
         kind, _, layer = name.partition(":")
         values = np.zeros((t, 3, graph_.attribute_width(name)))
-        if name == "curve_tangent":         # (a hair BSDF's fibre direction: only curves' tubes carry it)
-            warnings.append(f"mesh '{mesh.name}' has a hair BSDF, which reads a curve's tangent: Primer takes a tangent "
-                            "across the normal of its own choosing where Cycles takes the surface's dPdu (dPdv), and "
-                            "lets light through where the mesh is met from behind (as from inside a strand)")
         if kind == "uv":
             uv = mesh.uv_layers.get(layer) if layer else _active_render(mesh.uv_layers)
             if uv is None:
@@ -428,6 +424,10 @@ def mesh_attributes(mesh, core_mesh: core_scene.Mesh, names, warnings: list) -> 
             mesh.edges.foreach_get("vertices", edges)
             values[:, :, 0] = islands_.random_per_island(len(mesh.vertices), edges,
                                                          corner_vertex[loops][:, 0])[:, None]
+        elif kind in ("triangle_dpdu", "triangle_dpdv"):      # Cycles' sd->dPdu, dPdv of a triangle (object space)
+            points = co[corner_vertex[loops]]                                   # (t, 3, 3)
+            edge = points[:, 1] - points[:, 0] if kind == "triangle_dpdu" else points[:, 2] - points[:, 0]
+            values[:] = edge[:, None, :]
         elif kind in ("generated", "object"):
             points = co[corner_vertex[loops]]                                   # (t, 3, 3)
             if kind == "generated":

@@ -1416,6 +1416,7 @@ def _collect(reader: NodeReader, node, weight: np.ndarray, out: list, factors: t
         tangent = node.inputs.get("Tangent")
         inputs["tangent"] = reader.input(node, "Tangent", np.zeros(3)) if tangent is not None and tangent.is_linked \
             else hair_.curve_links()["tangent"]
+        inputs["surface_tangent"] = hair_.mesh_links("triangle_dpdv")["surface_tangent"]   # (meshes: dPdv, no offset)
         inputs["color"] = color if _linked(color) else np.maximum(np.asarray(color, np.float64)[:3], 0.0)
         out.append(("HAIR", weight, inputs, list(factors)))
     elif kind == "ShaderNodeSubsurfaceScattering":
@@ -1499,11 +1500,13 @@ def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, fa
     inputs["parametrization"] = float(hair_.PARAMETRIZATIONS[parametrization])
     random = node.inputs.get("Random")
     inputs.update(hair_.curve_links())
+    inputs.update(hair_.mesh_links("triangle_dpdu"))              # (on meshes: Cycles' dPdu, Chiang's Ng)
     if random is not None and random.is_linked:
         inputs["random"] = reader.input(node, "Random", 0.0)
     if getattr(node, "model", "CHIANG") == "HUANG":
         # Cycles' Huang model has no Coat and no Radial Roughness (its Roughness serves the colour's fit too).
         inputs.pop("coat", None)
+        inputs.pop("surface_bitangent", None)                    # (Huang's h reads the shading normal)
         inputs.pop("radial_roughness", None)
         for socket, key in HUANG_SOCKETS.items():
             value = reader.input(node, socket, None)

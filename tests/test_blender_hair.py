@@ -104,12 +104,6 @@ for name in {cases!r}:
     np.save(name + "_primer.npy", p)
     np.save(name + "_cycles.npy", c)
     results[name] = warnings
-# A hair material on a mesh (no curve tangent there): exported only, for its warning.
-sheet = bpy.data.meshes.new("Sheet")
-sheet.from_pydata([(40, 0, 0), (41, 0, 0), (41, 1, 0)], [], [(0, 1, 2)])
-sheet.materials.append(material)
-scene.collection.objects.link(bpy.data.objects.new("Sheet", sheet))
-results["mesh"] = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
 primer.unregister()
 report(warnings=results)
 """
@@ -149,8 +143,3 @@ def test_hair_strands_render_as_cycles(case, renders):
         assert not warnings[case], warnings[case]
     assert error < BOUNDS[case]
 
-
-def test_a_hair_bsdf_on_a_mesh_says_its_tangent_is_primers_own(renders):
-    """A mesh has no curve tangent: the export says which tangent Primer takes instead of Cycles' dPdu."""
-    _, warnings = renders
-    assert any("mesh 'Sheet' has a hair BSDF" in w for w in warnings["mesh"]), warnings["mesh"]

@@ -474,9 +474,11 @@ def hair_sigma(p: np.ndarray, radial: np.ndarray) -> np.ndarray:
                              sigma_from_reflectance(p[:, 1:4], radial)))
 
 
-def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray) -> np.ndarray:
+def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None) -> np.ndarray:
     """Chiang's closure rows (n, PARAMS) from the node's inputs p (n, NODE_PARAMS) at hits with normal N (the round
-    normal, Cycles' Ng) and view wo (n, 3), as Cycles' svm closure node and bsdf_hair_chiang_setup compute them."""
+    normal, Cycles' Ng) and view wo (n, 3), as Cycles' svm closure node and bsdf_hair_chiang_setup compute them;
+    surface: (n, 3) a triangle's dPdu turned towards the viewer's side (surface_tangent), zero on curves, or None:
+    there X is dPdu and Ng the triangle's true normal, dPdu x dPdv (p[:, 26:29]) towards the viewer."""
     n = len(p)
     random = p[:, 16]
     factor = 1.0 + 2.0 * (random - 0.5) * p[:, 14]
@@ -486,8 +488,14 @@ def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray) -> np.ndarray:
     s = np.clip(radial, 0.001, 1.0)
     m0 = np.clip((1.0 - np.clip(p[:, 11], 0.0, 1.0)) * v, 0.001, 1.0)
     X = safe_normalize(p[:, 20:23])
+    if surface is not None:                 # (a triangle: Cycles' X is its dPdu, its h from the triangle's Ng)
+        mesh = np.any(surface != 0.0, axis=1)
+        X = np.where(mesh[:, None], safe_normalize(surface), X)
+        Ng = safe_normalize(vectors.cross(p[:, 23:26], p[:, 26:29]))
+        Ng = np.where((vectors.dot(Ng, wo) < 0.0)[:, None], -Ng, Ng)
+        N = np.where((mesh & np.any(Ng != 0.0, axis=1))[:, None], Ng, N)
     no_tangent = ~np.any(X != 0.0, axis=1)
-    if no_tangent.any():                    # (not a curve: a tangent across the normal, Primer's own choice)
+    if no_tangent.any():                    # (a degenerate triangle: a tangent across the normal, Primer's own)
         X = np.where(no_tangent[:, None], vectors.orthonormal_frame(N)[0], X)
     Y = safe_normalize(vectors.cross(X, wo))
     Z = safe_normalize(vectors.cross(X, Y))
@@ -507,9 +515,12 @@ def chiang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray) -> np.ndarray:
 PRINCIPLED_HAIR_INPUTS = ("parametrization", "color", "melanin", "melanin_redness", "tint", "roughness",
                           "radial_roughness", "coat", "ior", "offset", "random_roughness", "random_color", "random",
                           "absorption", "tangent")
+# Chiang's node adds the triangle's dPdu and dPdv (surface_tangent, surface_bitangent; zero on curves: mesh_links).
+CHIANG_INPUTS = PRINCIPLED_HAIR_INPUTS + ("surface_tangent", "surface_bitangent")
 PRINCIPLED_HAIR_DEFAULTS = (float(PARAMETRIZATIONS["direct_coloring"]), (0.017513, 0.005763, 0.002059), 0.8, 1.0,
                             (1.0, 1.0, 1.0), 0.3, 0.3, 0.0, 1.55, math.radians(2.0), 0.0, 0.0, 0.0,
                             (0.245531, 0.52, 1.365), (0.0, 0.0, 0.0))
+CHIANG_DEFAULTS = PRINCIPLED_HAIR_DEFAULTS + ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 class PrincipledHairNode(Node):
@@ -521,13 +532,14 @@ class PrincipledHairNode(Node):
 
     name = "PRINCIPLED_HAIR"
     lets_light_through = True           # (from inside its tube: through_own_fibre)
-    inputs, defaults = PRINCIPLED_HAIR_INPUTS, PRINCIPLED_HAIR_DEFAULTS
+    inputs, defaults = CHIANG_INPUTS, CHIANG_DEFAULTS
 
     @staticmethod
     def setup(b, weight, p):
-        """One ChiangHair closure per hit (chiang_params), its normal the hit's."""
+        """One ChiangHair closure per hit (chiang_params), its normal the hit's; on a triangle its frame from dPdu."""
         p = per_hit_rows(p, len(weight))
-        b.add(ChiangHair.kind, through_own_fibre(b, weight), chiang_params(p, b.N, b.wo))
+        surface = surface_tangent(b, p[:, 23:26])
+        b.add(ChiangHair.kind, through_own_fibre(b, weight, surface), chiang_params(p, b.N, b.wo, surface))
 
 
 class HairNode(Node):
@@ -539,8 +551,8 @@ class HairNode(Node):
 
     name = "HAIR"
     lets_light_through = True
-    inputs = ("offset", "roughness_u", "roughness_v", "tangent", "transmission", "color")
-    defaults = (0.0, 0.2, 0.2, (0.0, 0.0, 0.0), 0.0, (0.8, 0.8, 0.8))
+    inputs = ("offset", "roughness_u", "roughness_v", "tangent", "transmission", "color", "surface_tangent")
+    defaults = (0.0, 0.2, 0.2, (0.0, 0.0, 0.0), 0.0, (0.8, 0.8, 0.8), (0.0, 0.0, 0.0))
 
     @staticmethod
     def setup(b, weight, p):
@@ -550,21 +562,34 @@ class HairNode(Node):
         kind = HairTransmission.kind if p[0, 6] != 0.0 else HairReflection.kind
         T = safe_normalize(p[:, 3:6])
         none = ~np.any(T != 0.0, axis=1)
+        surface = surface_tangent(b, p[:, 10:13])
         out = np.zeros((n, PARAMS))
         out[:, ROUGHNESS_U] = np.clip(p[:, 1], 0.001, 1.0)
         out[:, ROUGHNESS_V] = np.clip(p[:, 2], 0.001, 1.0)
         out[:, OFFSET] = np.where(none, 0.0, -p[:, 0])
-        if none.any():
+        T = np.where(none[:, None], safe_normalize(surface), T)           # (a triangle's dPdv, no offset)
+        none = ~np.any(T != 0.0, axis=1)
+        if none.any():                      # (a degenerate triangle: a tangent across the normal, Primer's own)
             T = np.where(none[:, None], vectors.orthonormal_frame(b.N)[0], T)
         out[:, HAIR_TANGENT:HAIR_TANGENT + 3] = T
-        b.add(kind, through_own_fibre(b, weight) * np.maximum(p[:, 7:10], 0.0), out)
+        b.add(kind, through_own_fibre(b, weight, surface) * np.maximum(p[:, 7:10], 0.0), out)
 
 
-def through_own_fibre(b, weight: np.ndarray) -> np.ndarray:
+def surface_tangent(b, edge: np.ndarray) -> np.ndarray:
+    """A triangle's edge vector (n, 3) in world space (Cycles' sd->dPdu or dPdv: mesh_links), negated where the ray
+    met the triangle from behind (as Cycles turns dPdu, dPdv with the normal); zero on curves."""
+    return np.where(b.backfacing[:, None], -edge, edge)
+
+
+def through_own_fibre(b, weight: np.ndarray, surface=None) -> np.ndarray:
     """The hair closure's weight (n, 3): 0 where the ray met the tube from inside, whose light (the node's weight,
     its share of the surface) goes on straight through instead (b.transparency): a ray leaving a strand passes its
-    own tube, as Cycles' rays leaving a curve pass its segment (the fibre is the BSDF's, not the tube's)."""
-    inside = b.backfacing[:, None]
+    own tube, as Cycles' rays leaving a curve pass its segment (the fibre is the BSDF's, not the tube's). surface:
+    (n, 3) the triangle's edge (surface_tangent), nonzero on meshes, whose back faces scatter as their front."""
+    inside = b.backfacing
+    if surface is not None:
+        inside = inside & ~np.any(surface != 0.0, axis=1)
+    inside = inside[:, None]
     b.transparency += np.where(inside, weight, 0.0)
     return np.where(inside, 0.0, weight)
 
@@ -577,3 +602,16 @@ def curve_links() -> dict:
     world = Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
                            {"Vector": tangent}, "curve tangent in world space"), "Vector")
     return {"tangent": world, "random": Link(GraphNode("CURVES_INFO", {}, {}, "curve random"), "Random")}
+
+
+def mesh_links(edge: str = "triangle_dpdu") -> dict:
+    """The graph links a hair node reads on meshes: `surface_tangent`, the triangle's dPdu ("triangle_dpdu", Chiang's
+    and Huang's X) or dPdv ("triangle_dpdv", the Hair BSDF's tangent) in world space, and `surface_bitangent`, its
+    dPdv (Chiang's true normal dPdu x dPdv); zero on curves' tubes."""
+    from .graph import GraphNode, Link
+
+    def world(name):
+        tangent = Link(GraphNode("ATTRIBUTE", {"attribute": name}, {}, "triangle " + name[-4:]), "Vector")
+        return Link(GraphNode("VECTOR_TRANSFORM", {"type": "VECTOR", "from": "OBJECT", "to": "WORLD"},
+                              {"Vector": tangent}, "triangle edge in world space"), "Vector")
+    return {"surface_tangent": world(edge), "surface_bitangent": world("triangle_dpdv")}

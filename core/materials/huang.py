@@ -41,7 +41,7 @@ from . import ggx_tables
 from .base import BSDF, BsdfSample, PARAMS
 from .base import BSDFFlags as F
 from .hair import (PRINCIPLED_HAIR_DEFAULTS, PRINCIPLED_HAIR_INPUTS, fresnel_cos, longitudinal, safe_normalize,
-                   through_own_fibre, hair_sigma)
+                   surface_tangent, through_own_fibre, hair_sigma)
 from .microfacet import D_ggx, lambda_ggx
 from .nodes import Node, per_hit_rows
 
@@ -594,22 +594,26 @@ def sample_huang(params, wo, u) -> BsdfSample:
 # Reflection, Transmission, Secondary Reflection, the curve's normal (the major axis, not named "normal": that input
 # is a node's own Normal), and the half pixel's width over the strand's radius (0: unknown, the far field).
 HUANG_INPUTS = PRINCIPLED_HAIR_INPUTS + ("aspect_ratio", "reflection", "transmission", "secondary_reflection",
-                                         "major_axis", "pixel_coverage")
-HUANG_DEFAULTS = PRINCIPLED_HAIR_DEFAULTS + (0.85, 1.0, 1.0, 1.0, (0.0, 0.0, 0.0), 0.0)
+                                         "major_axis", "pixel_coverage", "surface_tangent")
+HUANG_DEFAULTS = PRINCIPLED_HAIR_DEFAULTS + (0.85, 1.0, 1.0, 1.0, (0.0, 0.0, 0.0), 0.0, (0.0, 0.0, 0.0))
 
 
-def huang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray) -> tuple:
+def huang_params(p: np.ndarray, N: np.ndarray, wo: np.ndarray, surface=None) -> tuple:
     """Huang's closure rows (n, PARAMS) from the node's inputs p (n, NODE_PARAMS) at hits with the round normal N and
     view wo (n, 3), as Cycles' svm node and bsdf_hair_huang_setup compute them; and where the hit lies outside the
-    elliptical fibre's projected width (n,) bool (Cycles makes it transparent there)."""
+    elliptical fibre's projected width (n,) bool (Cycles makes it transparent there). surface: (n, 3) a triangle's
+    dPdu towards the viewer's side (hair.surface_tangent; zero on curves), Cycles' Y there (a round fibre), or None."""
     n = len(p)
     random = p[:, 16]
     roughness = p[:, 9] * (1.0 + 2.0 * (random - 0.5) * p[:, 14])
     sigma = hair_sigma(p, roughness)
     Y = safe_normalize(p[:, 20:23])
-    none = ~np.any(Y != 0.0, axis=1)
-    if none.any():                   # (not a curve: a tangent across the normal, Primer's own choice)
-        Y = np.where(none[:, None], vectors.orthonormal_frame(N)[0], Y)
+    mesh = np.zeros(n, bool) if surface is None else np.any(surface != 0.0, axis=1)
+    if mesh.any():                   # (a triangle: Cycles' Y is its dPdu)
+        Y = np.where(mesh[:, None], safe_normalize(surface), Y)
+    none = ~np.any(Y != 0.0, axis=1) | mesh
+    if (none & ~mesh).any():         # (a degenerate triangle: a tangent across the normal, Primer's own choice)
+        Y = np.where((none & ~mesh)[:, None], vectors.orthonormal_frame(N)[0], Y)
     X = safe_normalize(vectors.cross(Y, wo))
     h = -vdot(X, N)
     b = p[:, 23]
@@ -654,8 +658,9 @@ class HuangHairNode(Node):
     def setup(b, weight, p):
         """One HuangHair closure per hit (huang_params), its normal the hit's."""
         p = per_hit_rows(p, len(weight))
-        weight = through_own_fibre(b, weight)
-        rows, outside = huang_params(p, b.N, b.wo)
+        surface = surface_tangent(b, p[:, 31:34])
+        weight = through_own_fibre(b, weight, surface)
+        rows, outside = huang_params(p, b.N, b.wo, surface)
         keep = np.any(p[:, 24:27] > 0.0, axis=1)
         b.transparency += np.where((outside & keep)[:, None], weight, 0.0)
         weight = np.where((outside | ~keep)[:, None], 0.0, weight)

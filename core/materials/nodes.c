@@ -620,13 +620,24 @@ static NOINLINE void hair_sigma(const double *p, double radial, double *sigma)
     }
 }
 
+/* hair.surface_tangent: a triangle's edge (p + at: the node's surface_tangent, zero on curves) turned to the viewer's
+ * side where met from behind, into S; whether the hit is on a triangle (its back faces scatter as its front). */
+static NOINLINE int hair_surface_tangent(const double *p, int at, int backfacing, double *S)
+{
+    for (int k = 0; k < 3; k++) S[k] = backfacing ? -p[at + k] : p[at + k];
+    return S[0] != 0.0 || S[1] != 0.0 || S[2] != 0.0;
+}
+
 /* hair.PrincipledHairNode.setup (hair.chiang_params) for one hit: a Chiang closure of the node's weight; h from the
- * hit's normal sd->N (Cycles' Ng of a thick curve), the curve's tangent and the view. */
+ * hit's normal sd->N (Cycles' Ng of a thick curve), the curve's tangent and the view; on a triangle from its dPdu
+ * and dPdv (p + 23, p + 26). */
 INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, int backfacing, const double *weight,
                                  const double *p)
 {
     (void)mu;
-    if (backfacing) {       /* hair.through_own_fibre: from inside its tube a ray goes on straight through */
+    double S[3];
+    int mesh = hair_surface_tangent(p, 23, backfacing, S);
+    if (backfacing && !mesh) {  /* hair.through_own_fibre: from inside its tube a ray goes on straight through */
         for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
         return;
     }
@@ -638,8 +649,8 @@ INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, 
     double rv = hair_clip(roughness), rs = hair_clip(radial);
     double m0 = hair_clip((1.0 - clamp01(p[11])) * rv);
     double X[3], Y[3], Z[3], c[3];
-    hair_normalize(p + 20, X);
-    if (X[0] == 0.0 && X[1] == 0.0 && X[2] == 0.0) {     /* (not a curve: a tangent across the normal) */
+    hair_normalize(mesh ? S : p + 20, X);                 /* (a triangle: Cycles' dPdu) */
+    if (X[0] == 0.0 && X[1] == 0.0 && X[2] == 0.0) {     /* (a degenerate triangle: a tangent across the normal) */
         double b[3];
         orthonormal_frame(sd->N, X, b);
     }
@@ -652,7 +663,16 @@ INLINE void principled_hair_node(ShaderResult *sd, double mu, const double *wo, 
     v[HAIR_M0] = hair_variance_of(m0);
     v[HAIR_ALPHA] = -p[13];
     v[HAIR_ETA] = p[12];
-    cross3(sd->N, X, c);
+    double Ng[3] = {sd->N[0], sd->N[1], sd->N[2]};
+    if (mesh) {             /* (a triangle: h from its true normal dPdu x dPdv, towards the viewer) */
+        double n[3];
+        cross3(p + 23, p + 26, c);
+        hair_normalize(c, n);
+        double side = dot3(n, wo) < 0.0 ? -1.0 : 1.0;
+        if (n[0] != 0.0 || n[1] != 0.0 || n[2] != 0.0)
+            for (int k = 0; k < 3; k++) Ng[k] = side * n[k];
+    }
+    cross3(Ng, X, c);
     v[HAIR_H] = dot3(c, Z);
     for (int k = 0; k < 3; k++) v[HAIR_X + k] = X[k];
     closure_add(sd, BSDF_CHIANG_HAIR, weight, weight, 1.0, v);
@@ -664,7 +684,9 @@ INLINE void principled_hair_huang_node(ShaderResult *sd, double mu, const double
                                        const double *weight, const double *p)
 {
     (void)mu;
-    if (backfacing) {       /* hair.through_own_fibre */
+    double S[3];
+    int mesh = hair_surface_tangent(p, 31, backfacing, S);
+    if (backfacing && !mesh) {  /* hair.through_own_fibre */
         for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
         return;
     }
@@ -674,9 +696,9 @@ INLINE void principled_hair_huang_node(ShaderResult *sd, double mu, const double
     double roughness = p[9] * (1.0 + 2.0 * (random - 0.5) * p[14]);
     hair_sigma(p, roughness, v + HUANG_SIGMA);
     double Y[3], X[3], A[3], Z[3], c[3], d[3], tmp[3];
-    hair_normalize(p + 20, Y);
-    int none = Y[0] == 0.0 && Y[1] == 0.0 && Y[2] == 0.0;
-    if (none) orthonormal_frame(sd->N, Y, tmp);
+    hair_normalize(mesh ? S : p + 20, Y);                 /* (a triangle: Cycles' dPdu, a round fibre) */
+    int none = (Y[0] == 0.0 && Y[1] == 0.0 && Y[2] == 0.0) || mesh;
+    if (Y[0] == 0.0 && Y[1] == 0.0 && Y[2] == 0.0) orthonormal_frame(sd->N, Y, tmp);
     cross3(Y, wo, c);
     hair_normalize(c, X);
     double h = -dot3(X, sd->N);
@@ -727,7 +749,9 @@ INLINE void hair_node(ShaderResult *sd, double mu, const double *wo, int backfac
                       const double *p)
 {
     (void)mu; (void)wo;
-    if (backfacing) {       /* hair.through_own_fibre */
+    double S[3];
+    int mesh = hair_surface_tangent(p, 10, backfacing, S);
+    if (backfacing && !mesh) {  /* hair.through_own_fibre */
         for (int k = 0; k < 3; k++) sd->transparency[k] += weight[k];
         return;
     }
@@ -737,7 +761,8 @@ INLINE void hair_node(ShaderResult *sd, double mu, const double *wo, int backfac
     v[HAIR_RU] = hair_clip(p[1]);
     v[HAIR_RV] = hair_clip(p[2]);
     v[HAIR_OFFSET] = none ? 0.0 : -p[0];
-    if (none) {
+    if (none) hair_normalize(S, T);                      /* (a triangle's dPdv, no offset) */
+    if (T[0] == 0.0 && T[1] == 0.0 && T[2] == 0.0) {
         double b[3];
         orthonormal_frame(sd->N, T, b);
     }
