@@ -14,9 +14,11 @@ pytestmark = [pytest.mark.blender, pytest.mark.slow]
 SCRIPT = """
 import os, sys
 import bpy
+import numpy as np
 from blender_env import empty_material, fresh_scene, render_pixels, report
 
 primer, export, scene = fresh_scene(32, 24)
+from render import configure_cycles_reference, configure_output   # (tools/, on the path once Primer is loaded)
 scene.primer.integrator = "PATH"
 scene.primer.max_bounces = 2
 scene.primer.use_adaptive_sampling = False
@@ -47,12 +49,19 @@ camera.rotation_euler = (0.75, 0.0, 0.0)
 scene.collection.objects.link(camera)
 scene.camera = camera
 out = {}
-for name, blur, engine, samples in (("sharp", 0.0, "PRIMER", 256), ("primer", 1.0, "PRIMER", 256),
-                                    ("cycles", 1.0, "CYCLES", 1024)):
+for name, blur in (("sharp", 0.0), ("primer", 1.0)):
     scene.primer.filter_glossy = blur
-    out[name] = render_pixels(scene, engine, os.path.abspath(f"{name}.exr"), samples)[..., :3].tolist()
-    if engine == "PRIMER":
-        out[name + " warnings"] = list(sys.modules[primer.__name__ + ".addon.engine"].last_render.warnings)
+    out[name] = render_pixels(scene, "PRIMER", os.path.abspath(f"{name}.exr"), 256)[..., :3].tolist()
+    out[name + " warnings"] = list(sys.modules[primer.__name__ + ".addon.engine"].last_render.warnings)
+# Cycles set up as Primer's reference (tools/render.py, which switches Filter Glossy off), then with it on.
+scene.render.engine = "CYCLES"
+configure_cycles_reference(scene, 1024)
+scene.cycles.blur_glossy = 1.0
+path = os.path.abspath("cycles.exr")
+configure_output(scene, path)
+bpy.ops.render.render(write_still=True)
+image = bpy.data.images.load(path)
+out["cycles"] = np.array(image.pixels[:]).reshape(image.size[1], image.size[0], -1)[..., :3].tolist()
 report(images=out)
 """
 

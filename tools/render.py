@@ -70,9 +70,9 @@ def configure_cycles_reference(scene, samples: int) -> None:
         cycles.caustics_refractive = bool(getattr(primer, "caustics_refractive", True))
     cycles.pixel_filter_type = "BOX"
     cycles.filter_width = 1.0
-    # No bias: Filter Glossy is switched off, and so is sample clamping (on by default in Cycles), unless the
-    # file asks Primer for them.
-    cycles.blur_glossy = float(getattr(primer, "filter_glossy", 0.0)) if path else 0.0
+    # No bias: Filter Glossy is switched off, and so is sample clamping (on by default in Cycles) unless the
+    # file asks Primer for it.
+    cycles.blur_glossy = 0.0
     cycles.sample_clamp_direct = float(getattr(primer, "sample_clamp_direct", 0.0))
     cycles.sample_clamp_indirect = float(getattr(primer, "sample_clamp_indirect", 0.0))
 
