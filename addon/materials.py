@@ -1515,9 +1515,10 @@ def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, fa
         inputs.update(huang_.huang_links())
         aspect = node.inputs.get("Aspect Ratio")
         if aspect is not None and (aspect.is_linked or aspect.default_value != 1.0):
-            reader.warn(node, "the Huang model's elliptical fibres take their major axis from Primer's rotation-"
-                              "minimising curve normal (started from tangent x Z, as Blender's Minimum Twist normal); "
-                              "Cycles reads the curve's own normal attribute (its Normal Mode)")
+            reader.warn(node, "where it shades curves, the Huang model's elliptical fibres take their major axis from "
+                              "Primer's rotation-minimising curve normal (started from tangent x Z, as Blender's Minimum "
+                              "Twist normal); Cycles reads the curve's own normal attribute (its Normal Mode); on "
+                              "meshes the fibres are round in both")
         out.append(("PRINCIPLED_HAIR_HUANG", weight, inputs, list(factors)))
         return
     out.append(("PRINCIPLED_HAIR", weight, inputs, list(factors)))
