@@ -59,8 +59,6 @@ typedef struct {
                                                 * each lane beside the media's own light (chunk.c), or NULL */
 } PathWork;
 
-/* path.bounce_kind: whether a sampled closure makes a transparent bounce (no bounce), and whether it was labelled
- * diffuse; the counts of each kind of bounce are the ray's path (PathRay.path, direct.c path_after). */
 /* path.filter_glossy_roughness for one hit: the roughness its microfacet lobes are raised to after bounces of smallest
  * pdf min_pdf, 0.5 sqrt(1 - min_pdf / filter_glossy) where that is below 1, else 0 (and 0 with the setting off). */
 INLINE double filter_glossy_roughness(double filter_glossy, double min_pdf)
@@ -70,6 +68,8 @@ INLINE double filter_glossy_roughness(double filter_glossy, double min_pdf)
     return ratio < 1.0 ? 0.5 * sqrt(1.0 - (ratio > 0.0 ? ratio : 0.0)) : 0.0;
 }
 
+/* path.bounce_kind: whether a sampled closure makes a transparent bounce (no bounce), and whether it was labelled
+ * diffuse; the counts of each kind of bounce are the ray's path (PathRay.path, direct.c path_after). */
 INLINE int is_labelled_diffuse(int kind) { return bsdf_is(kind, BSDF_FLAG_DIFFUSE); }
 INLINE int is_transparent_bounce(int kind) { return bsdf_is(kind, BSDF_FLAG_STRAIGHT); }
 
