@@ -214,10 +214,10 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                 or media is not None
                                 # (on a transparent film, a camera path through a Ray Portal that escapes clears the
                                 #  film: the direct tracer follows it as the path tracer with no bounces)
-                                or settings.transparent_background and any(map(has_portal, materials.shaders)))
+                                or settings.transparent_background
+                                and any(has_node(shader, ("RAY_PORTAL",)) for shader in materials.shaders))
     if settings.integrator == "path" and settings.filter_glossy > 0.0 and any(
-            getattr(entry[0], "name", "") in ("PRINCIPLED_HAIR", "HAIR", "PRINCIPLED_HAIR_HUANG")
-            for shader in materials.shaders for entry in getattr(shader, "nodes", ())):
+            has_node(shader, ("PRINCIPLED_HAIR", "HAIR", "PRINCIPLED_HAIR_HUANG")) for shader in materials.shaders):
         warnings.append(f"Filter Glossy ({settings.filter_glossy:g}): Primer makes microfacet lobes rougher after "
                         "rough bounces as Cycles, but not the hair BSDFs, which Cycles widens too")
     if settings.transparent_background and media is not None:
@@ -257,10 +257,11 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     return ctx
 
 
-def has_portal(shader) -> bool:
-    """Whether a material's shader (its node list or node graph) has a Ray Portal BSDF."""
+def has_node(shader, names: tuple) -> bool:
+    """Whether a material's shader (its node list or node graph) has a shader node of one of `names` (a node
+    class's name: "RAY_PORTAL", "HAIR", ...)."""
     entries = list(getattr(shader, "nodes", None) or ()) + list(getattr(shader, "graph", None) or ())
-    return any(getattr(entry[0], "name", entry[0]) == "RAY_PORTAL" for entry in entries)
+    return any(getattr(entry[0], "name", entry[0]) in names for entry in entries)
 
 
 def sample_keys(pixels: np.ndarray, spp: int, first: Optional[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
