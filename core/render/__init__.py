@@ -220,12 +220,6 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
             has_node(shader, ("PRINCIPLED_HAIR", "HAIR", "PRINCIPLED_HAIR_HUANG")) for shader in materials.shaders):
         warnings.append(f"Filter Glossy ({settings.filter_glossy:g}): Primer makes microfacet lobes rougher after "
                         "rough bounces as Cycles, but not the hair BSDFs, which Cycles widens too")
-    if settings.transparent_background and media is not None:
-        # (through clear surfaces alone, a camera path that escapes clears the film by what it brings through, as
-        #  Cycles: core/integrators/path.py; what media take away along the way is not checked against Cycles)
-        warnings.append("Film > Transparent with volumes: a camera ray that misses every surface leaves the film "
-                        "clear (alpha 0) even through the world's volume, and Primer's alpha through media is not "
-                        "checked against Cycles, which makes it 1 - the transmittance of the camera's path")
     # A BSSRDF is walked even with no bounces (Cycles counts no bounce for it): the direct tracer is then the path
     # tracer with none (integrators.for_render).
     ctx.extra["subsurface"] = walks_subsurface(scene)
@@ -243,7 +237,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     background = np.asarray(world.color, np.float64)[:3] if world.camera else np.zeros(3)
     ctx.extra["world"] = background
     ctx.extra["camera"] = scene.camera.moved(geometry.origin)      # its rays come out camera-relative
-    ctx.extra["background"] = np.array([0.0, 0.0, 0.0, 0.0] if settings.transparent_background
+    ctx.extra["background"] = np.array([0.0, 0.0, 0.0, escaping_alpha(media)] if settings.transparent_background
                                         else [*background, 1.0])
     forward = -np.asarray(scene.camera.matrix_world, np.float64)[:3, 2]
     ctx.extra["forward"] = forward / np.linalg.norm(forward)
@@ -581,6 +575,15 @@ def object_blur_reason(scene: Scene, settings: RenderSettings) -> str:
     if settings.aux:
         return "debug buffers do not carry the rays' times"
     return ""
+
+
+def escaping_alpha(media) -> float:
+    """The film's alpha where a camera ray misses every surface on a transparent film: 1 - the mean over channels of
+    the world's medium's transmittance to infinity (0 where its sigma_t > 0, 1 where it is 0), as Cycles makes a
+    transparent background's alpha 1 - mean(throughput) with the world's volume in the throughput."""
+    if media is None:
+        return 0.0
+    return float(1.0 - np.mean(np.asarray(media.world.sigma_t, np.float64) <= 0.0))
 
 
 def walks_subsurface(scene: Scene) -> bool:
