@@ -224,7 +224,7 @@ COVERAGE = {
                "light_linking": "linking.LinkSets.of (Light and Shadow Linking)",
                "pass_index": "export.export_scene (Object Index pass)", "lightgroup": "lightgroups.source_group",
                "is_holdout is_shadow_catcher visible_camera visible_diffuse visible_glossy visible_shadow "
-               "visible_transmission": "export.ray_visibility",
+               "visible_transmission visible_volume_scatter": "export.ray_visibility",
                "shadow_terminator_geometry_offset* shadow_terminator_shading_offset*": "export._terminator_offsets",
                "particle_systems": "export.export_scene (instances; hair in unmodelled.object_notes)",
                "add_rest_position_attribute animation_data collision constraints data delta_location "
@@ -236,8 +236,7 @@ COVERAGE = {
                "show_instancer_for_render show_only_shape_key soft_body track_axis up_axis "
                "use_instance_faces_scale use_instance_vertices_rotation use_parent_final_indices* "
                "use_simulation_cache vertex_groups": DEPSGRAPH},
-        REPORTED: {"visible_volume_scatter": "export.ray_visibility_notes",
-                   "color": "materials.GraphReader.output (an Object Info output Primer does not evaluate is noted)",
+        REPORTED: {"color": "materials.GraphReader.output (an Object Info output Primer does not evaluate is noted)",
                    "visible_raycast*": "materials.GraphReader.output (a Raycast node is noted as not evaluated)"},
         NO_EFFECT: {"active_material active_material_index active_selection_set active_shape_key "
                     "active_shape_key_index animation_visualization bound_box display display_bounds_type "
@@ -367,8 +366,8 @@ COVERAGE = {
                     "homogeneous_volume* volume_interpolation volume_step_size": HETEROGENEOUS},
     },
     "CyclesVisibilitySettings": {
-        READ: {"camera diffuse glossy": "export.export_world"},
-        REPORTED: {"transmission scatter": "unmodelled.world_notes"},
+        READ: {"camera diffuse glossy scatter": "export.export_world"},
+        REPORTED: {"transmission": "unmodelled.world_notes"},
         NO_EFFECT: {"shadow": "not read by Cycles for the world (its Ray Visibility panel has no Shadow)"},
     },
     "Material": {

@@ -26,7 +26,7 @@ from ..core.lights.ies import IESLamp
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
-from ..core.visibility import hidden_bits
+from ..core.visibility import HIDDEN_FROM_VOLUME_SCATTER, hidden_bits
 from . import cycles_settings, lightgroups, linking, motion, unmodelled, vdb
 from . import materials as materials_
 
@@ -612,15 +612,11 @@ def light_ies(obj, matrix: np.ndarray, warnings: list, wiring):
     return IESLamp(profile, strength, np.ascontiguousarray(np.asarray(matrix, np.float64)[:3, :3].T))
 
 
-# The rays of Object > Visibility > Ray Visibility that Primer does not hide an object from (it reads Camera,
-# Diffuse, Glossy, Transmission and Shadow; it has no volumes), and the names Blender shows for them.
-UNREAD_RAY_VISIBILITY = (("visible_volume_scatter", "Volume Scatter"),)
-
-
 def ray_visibility(obj) -> dict:
     """An object's Object > Visibility settings Primer reads, as core Instance keywords (visible_camera, ...,
     is_holdout, is_shadow_catcher: bool)."""
-    names = ("visible_camera", "visible_shadow", "visible_diffuse", "visible_glossy", "visible_transmission")
+    names = ("visible_camera", "visible_shadow", "visible_diffuse", "visible_glossy", "visible_transmission",
+             "visible_volume_scatter")
     seen = {name: bool(getattr(obj, name, True)) for name in names}
     return dict(seen, is_holdout=bool(getattr(obj, "is_holdout", False)),
                 is_shadow_catcher=bool(getattr(obj, "is_shadow_catcher", False)))
@@ -651,17 +647,8 @@ def indirect_only(instance, view_layer) -> bool:
         return False
 
 
-def ray_visibility_notes(obj) -> list:
-    """The warnings for what an object's Ray Visibility asks that Primer does not do."""
-    hidden = [label for name, label in UNREAD_RAY_VISIBILITY if not getattr(obj, name, True)]
-    if hidden:
-        return [f"object '{obj.name}' hides itself from {', '.join(hidden)} rays (Ray Visibility); Primer has no "
-                "volumes, so nothing changes"]
-    return []
-
-
 # The Ray Visibility switches of a lamp object that hide it from bounces (camera visibility is read on its own).
-LAMP_RAY_VISIBILITY = ("visible_diffuse", "visible_glossy", "visible_transmission")
+LAMP_RAY_VISIBILITY = ("visible_diffuse", "visible_glossy", "visible_transmission", "visible_volume_scatter")
 
 
 def lamp_hidden(obj) -> int:
@@ -877,6 +864,18 @@ def media_of_layer(use_volumes: bool, materials: list, world: World) -> tuple:
 
 
 def export_world(world, warnings: list, kernels: str = "compiled") -> World:
+    """The core World of a Blender world (_export_world), with its Ray Visibility > Volume Scatter read: off, media
+    take no light of it (Cycles' SHADER_EXCLUDE_SCATTER)."""
+    core = _export_world(world, warnings, kernels)
+    visibility = getattr(world, "cycles_visibility", None)
+    if visibility is not None and not bool(getattr(visibility, "scatter", True)):
+        core = dataclasses.replace(core, scatter=False)
+        for sun in core.suns:           # (a Sky Texture's sun disc is the world's light too)
+            sun.hidden_from |= HIDDEN_FROM_VOLUME_SCATTER
+    return core
+
+
+def _export_world(world, warnings: list, kernels: str = "compiled") -> World:
     """Return the world as Cycles shows and uses it: its surface (world_surface) and the homogeneous medium of its
     Volume output, everywhere no mesh's medium is (core/volumes)."""
     surface = world_surface(world, warnings, kernels)
@@ -1362,7 +1361,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         matrix = np.array(instance.matrix_world, np.float64)
         if obj.name not in ray_visibility_noted:
             ray_visibility_noted.add(obj.name)
-            warnings.extend(note for note in unmodelled.object_notes(obj) + ray_visibility_notes(obj)
+            warnings.extend(note for note in unmodelled.object_notes(obj)
                             + (unmodelled.light_notes(obj) if obj.type == "LIGHT" else []) if note not in warnings)
         if obj.type == "LIGHT":
             light = export_light(obj, matrix, warnings)

@@ -312,7 +312,6 @@ class SceneCache:
             mesh = export._mesh_arrays(data)
             self.meshes[mesh_key] = _MeshEntry(mesh if len(mesh.triangles) else None, {owner})
             report.meshes.append(data.name)
-        self.warnings.extend(export.ray_visibility_notes(obj))
         report.objects.append(obj.name)
         slots = self.material_table.slot_map(obj, self.warnings, self.override)
         self._read_attributes(obj, mesh_key, slots)

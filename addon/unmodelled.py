@@ -157,7 +157,7 @@ def light_notes(obj) -> list:
 
 def world_notes(world) -> list:
     """World settings that Primer does not model: Cycles' world light settings, Transmission visibility (its Volume
-    is read: addon/export.py export_world)."""
+    and its Volume Scatter visibility are read: addon/export.py export_world)."""
     notes = []
     cycles = getattr(world, "cycles", None)
     if cycles is not None:
@@ -166,8 +166,6 @@ def world_notes(world) -> list:
         if not getattr(cycles, "use_shadows", True):
             notes.append("the world casts no shadows in Cycles; Primer traces the shadow rays of its light")
     visibility = getattr(world, "cycles_visibility", None)
-    if visibility is not None and not getattr(visibility, "scatter", True) and visibility.diffuse:
-        notes.append("the world is hidden from Volume Scatter rays (Ray Visibility); Primer's media scatter its light")
     if visibility is not None and not visibility.transmission and visibility.diffuse:
         # (Primer's world lights every ray where Diffuse is on, and none where it is off: export.export_world)
         notes.append("the world is hidden from Transmission rays (Ray Visibility); Primer shows it through glass")

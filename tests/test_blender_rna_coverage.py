@@ -142,8 +142,6 @@ CASES = [
     ("CyclesWorldSettings", "world.cycles", "use_shadows", False, [], "world_notes", "world", "casts no shadows"),
     ("CyclesVisibilitySettings", "world.cycles_visibility", "transmission", False, [], "world_notes", "world",
      "Transmission rays"),
-    ("CyclesVisibilitySettings", "world.cycles_visibility", "scatter", False, [], "world_notes", "world",
-     "Volume Scatter rays"),
     ("CyclesMaterialSettings", "material.cycles", "use_bump_map_correction", False, [], "material_notes", "material",
      "Bump Map Correction off"),
 ]

@@ -324,7 +324,7 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     if (a->diffuse > 0) burley_as_diffuse(next->sd + m);     /* (subsurface.burley_as_diffuse, as path.py) */
     next->exiting[m] = 0;
     next->flags[m] = PATH_VOLUME_SCATTER;
-    next->seen_by[m] = 0;
+    next->seen_by[m] = HIDDEN_FROM_VOLUME_SCATTER;   /* (reached by a phase ray) */
     next->lane[m] = a->lane;
     next->pixel[m] = a->pixel;
     next->sample[m] = a->sample;

@@ -68,7 +68,7 @@ from . import volume as volume_
 from .rays import camera_back, camera_cones, camera_hits, camera_media, goes_through, nearest_seen
 from .shadows import spawn_ray
 from .vertex import VERTEX_DIMENSIONS, PathState, gather_light, shade_vertex
-from ..visibility import HIDDEN_FROM_CAMERA, HOLDOUT
+from ..visibility import HIDDEN_FROM_CAMERA, HIDDEN_FROM_VOLUME_SCATTER, HOLDOUT
 
 # The most volume-only boundaries a path or a shadow ray crosses (Cycles' VOLUME_BOUNDS_MAX: a guard against a ray
 # caught crossing the same boundary, as those crossings count as no transparent bounce).
@@ -99,7 +99,8 @@ def with_arrivals(ctx: Context, state: dict, where: tuple, arrivals: dict, owner
     extra = dict(owner=owner_of[arrivals["origin"]], throughput=arrivals["throughput"],
                  flags=np.full(a, graph_.PATH["volume_scatter"], np.int64), mis_pdf=arrivals["pdf"],
                  mis_origin=arrivals["O"], mis_normal=np.zeros((a, 3)), mis_receiver=np.full(a, -1, np.int64),
-                 after_diffuse=np.zeros(a, bool), seen_by=np.zeros(a, np.int64), inside=arrivals["inside"],
+                 after_diffuse=np.zeros(a, bool), seen_by=np.full(a, HIDDEN_FROM_VOLUME_SCATTER, np.int64),
+                 inside=arrivals["inside"],
                  looking=np.zeros(a, bool), feature_throughput=np.ones((a, 3)), wo=-arrivals["D"],
                  cone=np.where(unknown, graph_.UNKNOWN_CONE, 0.0),
                  spread=np.where(unknown, 0.0, spread_of[arrivals["origin"]]),

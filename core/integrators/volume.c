@@ -49,10 +49,12 @@ INLINE double equiangular(const double *O, const double *D, double t, const doub
     return b > a ? h / ((b - a) * (h * h + (*s - delta) * (*s - delta))) : 0.0;
 }
 
-/* Whether light l is aimed at by equi-angular sampling (volume.equiangular_lamps: a position or an area lamp). */
+/* Whether light l is aimed at by equi-angular sampling (volume.equiangular_lamps: a position or an area lamp, not
+ * hidden from Volume Scatter rays). */
 INLINE int equiangular_lamp(const LightRecord *light)
 {
-    return light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA);
+    return light_is((int)light->kind, LIGHT_FLAG_POSITION | LIGHT_FLAG_AREA)
+           && ((int)light->hidden & HIDDEN_FROM_VOLUME_SCATTER) == 0;   /* (not one hidden from Volume Scatter) */
 }
 
 /* A stretch's free-flight point (in_scattering): the ray O, D over [0, t), its distance s and that distance's pdf. */
@@ -80,6 +82,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
         if (only >= 0 && l != only) continue;
         int hittable = light->hittable != 0.0, extent = light->delta == 0.0;
         if (ds->sampling == SAMPLE_BSDF && extent && light->use_mis != 0 && hittable) continue;
+        if (((int)light->hidden & HIDDEN_FROM_VOLUME_SCATTER) != 0) continue;   /* (SHADER_EXCLUDE_SCATTER) */
         int64_t count = (int64_t)light->samples;
         for (int64_t j = 0; j < count; j++) {
             double u[2] = {0.0, 0.0};
@@ -88,6 +91,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                           sample * count + j, u);
             LightSample ls;
             ls.emitter = -1;
+            ls.hidden = 0;
             sample_light(light, ds->context, P, zero, u, &ls);
             const EmitterTables *e = ds->context->emitters;
             if (light_is((int)light->kind, LIGHT_FLAG_EMITTER) && e->textured != NULL && ls.strength > 0.0
@@ -100,6 +104,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
                                ls.color);
             }
             if (!(ls.strength > 0.0 || ls.strength < 0.0)) continue;
+            if ((ls.hidden & HIDDEN_FROM_VOLUME_SCATTER) != 0) continue;   /* (an emitter's object hidden so) */
             if (light->max_bounces < 1024 && bounce > light->max_bounces) continue;
             /* (Light and Shadow Linking: a medium receives as the default set 0; an emitter links by its object) */
             uint64_t lights = light->light_membership, blockers = light->shadow_membership;
@@ -144,6 +149,9 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     close_packet(&packet.ray, valid, 1);
     clear_hits(&packet);
     ds->intersect(valid, ds->scene, &packet, NULL);
+    if (packet.hit.geomID[0] != INVALID_ID && ds->geometry->hidden != NULL)     /* (objects hidden from it) */
+        see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, 0, P, wi, INFINITY,
+                        HIDDEN_FROM_VOLUME_SCATTER, STILL_TIME);
     int hit = packet.hit.geomID[0] != INVALID_ID;
     double t = hit ? (double)packet.ray.tfar[0] : INFINITY, sigma_t[3], emission[3];
     if (onward != NULL) {
@@ -167,7 +175,8 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     double light_L[3] = {0.0, 0.0, 0.0};
     LightPath scatter = {PATH_VOLUME_SCATTER, bounce + 1, 0, 0, 0, 0, 0, 0.0, 0.0};   /* (volume.scatter_paths) */
     FindingRay finding = {P, wi, hit, t, (int64_t)packet.hit.geomID[0], (int64_t)packet.hit.primID[0],
-                          instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, 0, &scatter, 0, sigma_t, emission, NULL,
+                          instance_of(&packet.hit, 0), pdf, ds->mis, 0, NULL, NULL, HIDDEN_FROM_VOLUME_SCATTER, &scatter, 0,
+                          sigma_t, emission, NULL,
                           inside, STILL_TIME};            /* (a render with media moves no object) */
     gather_light(ds, &finding, light_L, NULL);
     for (int c = 0; c < 3; c++) L[c] += light_L[c];
@@ -182,7 +191,7 @@ static int64_t scattered_light(const DirectSettings *ds, const PathLimits *limit
     r.prim = (int64_t)packet.hit.primID[0];
     r.instance = instance_of(&packet.hit, 0);
     r.pdf = pdf;
-    r.seen_as = 0;
+    r.seen_as = HIDDEN_FROM_VOLUME_SCATTER;
     r.kind = -1;
     r.transmit = 0;
     r.inside = *inside;

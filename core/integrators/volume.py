@@ -42,6 +42,7 @@ from ..materials import graph as graph_
 from ..native import schema
 from ..sampling import sobol as sampling
 from ..volumes.phase import Phases
+from ..visibility import HIDDEN_FROM_VOLUME_SCATTER
 from . import shadows
 from .base import Context, check_stop
 from .rays import nearest_seen
@@ -257,9 +258,12 @@ def equiangular_light(ctx: Context, march, distance_pdf, O: np.ndarray, D: np.nd
 
 def equiangular_lamps(ctx: Context) -> dict:
     """The lights that equi-angular sampling aims at, by their index: the lamps with a position (point, spot:
-    their position; area: their centre), as Cycles aims at a light's position."""
+    their position; area: their centre), as Cycles aims at a light's position; not those hidden from Volume
+    Scatter rays (Cycles drops their equi-angular sample)."""
     out = {}
     for index, light in enumerate(ctx.lights):
+        if light.unseen_by & HIDDEN_FROM_VOLUME_SCATTER:
+            continue                                     # (Ray Visibility: no light of it at scattering points)
         if light.is_(LightFlags.POSITION):
             out[index] = np.asarray(light.position, np.float64)
         elif light.is_(LightFlags.AREA):
@@ -302,6 +306,8 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
         hittable = index in ctx.extra.get("hittable", ())
         if s.light_sampling == "bsdf" and not light.delta and light.use_mis and hittable:
             continue                                     # found by phase rays alone
+        if light.unseen_by & HIDDEN_FROM_VOLUME_SCATTER:
+            continue                                     # (Ray Visibility: Cycles' SHADER_EXCLUDE_SCATTER)
         count = light_count(ctx, light)
         cone = light.cone(P)
         for j in range(count):
@@ -313,6 +319,8 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
             if not s.distance_attenuation:
                 ls = light.without_attenuation(ls, P)
             lit = (ls.strength > 0.0) | (ls.strength < 0.0)
+            if ls.hidden is not None:                    # (an emitter's object hidden from Volume Scatter)
+                lit &= (np.asarray(ls.hidden) & HIDDEN_FROM_VOLUME_SCATTER) == 0
             if light.max_bounces < 1024:
                 lit &= bounce <= light.max_bounces
             if ctx.geometry.linked or light.light_membership != linking.ALL_SETS:
@@ -344,7 +352,7 @@ def scattered_light(ctx: Context, P: np.ndarray, wo: np.ndarray, phase, inside: 
     if only is None and (bsdf_rays or ctx.extra["media"].emits or phase_out is not None):
         u = sampling.sample_2d(s.seed, pixel, sample, dimension=PHASE_DIMENSION + dimension)
         ps = phase.sample(wo, u)
-        kind = np.zeros(m, np.int64)                     # (a volume's ray: no Ray Visibility bit of its own)
+        kind = np.full(m, HIDDEN_FROM_VOLUME_SCATTER, np.int64)   # (it passes objects hidden from Volume Scatter)
         hits = nearest_seen(ctx, P, ps.wi, np.full(m, np.inf), kind)
         stretch = ctx.extra["media"].along(inside, P, ps.wi)
         gather = bsdf_rays and s.light_sampling != "light"

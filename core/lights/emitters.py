@@ -446,11 +446,11 @@ def shutter_bounds(corners: np.ndarray, normal: np.ndarray, sides: np.ndarray, p
 
 
 def hidden_bits_of(geometry, prim: np.ndarray) -> Optional[np.ndarray]:
-    """Ray Visibility > Diffuse, Glossy, Transmission of the objects of the emissive triangles `prim` (t,) int64: as in
-    Cycles, the light samples of an object hidden from a kind of ray light no closure of that kind
-    (integrators/vertex.py closures_left_out). (t,) uint8 their HIDDEN_FROM_* bits, or None where none is hidden."""
-    from ..visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION
-    bits = HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION
+    """Ray Visibility > Diffuse, Glossy, Transmission, Volume Scatter of the objects of the emissive triangles `prim`
+    (t,) int64: as in Cycles, the light samples of an object hidden from a kind of ray light no closure of that kind
+    (integrators/vertex.py closures_left_out) and, hidden from Volume Scatter, no scattering point (volume.py). (t,) uint8 their HIDDEN_FROM_* bits, or None where none is hidden."""
+    from ..visibility import HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION, HIDDEN_FROM_VOLUME_SCATTER
+    bits = HIDDEN_FROM_DIFFUSE | HIDDEN_FROM_GLOSSY | HIDDEN_FROM_TRANSMISSION | HIDDEN_FROM_VOLUME_SCATTER
     if not geometry.hides(bits):
         return None
     owner = geometry.owners(prim)

@@ -25,6 +25,7 @@ from ..materials import graph as graph_
 from ..native import library, schema
 from ..native.schema import F32, F64, I32, I64, ptr
 from .base import Light, LightFlags, LightHit, LightSample
+from ..visibility import HIDDEN_FROM_VOLUME_SCATTER
 
 # The importance map's width (its height is half), whatever the image's (Cycles' default map resolution).
 MAP_WIDTH = 1024
@@ -40,6 +41,8 @@ class World:
     rotation: (3, 3) float64 world-to-texture rotation (the Mapping node's), applied before (u, v)
     camera:   whether camera rays see it (Ray Visibility > Camera)
     lights:   whether it lights surfaces (Ray Visibility > Diffuse / Glossy)
+    scatter:  whether it lights media (Ray Visibility > Volume Scatter): off, scattering points take no light samples
+              of it and phase rays that escape find nothing, as Cycles' SHADER_EXCLUDE_SCATTER
     max_bounces, cast_shadow: an image world's light samples stop after that bounce (Cycles' world Max Bounces), and
               without shadows they trace no shadow ray (the add-on does not read Blender 5.2's world Shadows: noted).
               A constant world has no light samples, in Cycles as in Primer (it is found by the rays that escape),
@@ -58,6 +61,7 @@ class World:
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     camera: bool = True
     lights: bool = True
+    scatter: bool = True
     name: str = "World"
     max_bounces: int = 1024
     cast_shadow: bool = True
@@ -170,6 +174,11 @@ class WorldLight(Light):
     def max_bounces(self) -> int:
         """The world's Max Bounces: its light samples stop after that bounce."""
         return self.world.max_bounces
+
+    @property
+    def hidden_from(self) -> int:
+        """The HIDDEN_FROM_* bits of the rays that do not see the world as a light: Volume Scatter's where it is off."""
+        return 0 if self.world.scatter else HIDDEN_FROM_VOLUME_SCATTER
 
     @property
     def cast_shadow(self) -> bool:
@@ -285,6 +294,7 @@ WorldTablesRecord = schema.record("WorldTables", "The world (core/lights/world.p
     ("rotation", F64, 9, "world to texture, row-major"),
     ("camera", I32, "1: camera rays see it"),
     ("lights", I32, "1: it lights surfaces"),
+    ("scatter", I32, "1: it lights media (phase rays that escape find it)"),
     ("seen", ptr("WorldGraph"), "the program camera rays evaluate where they escape (World.seen), or NULL"),
 ])
 
@@ -297,7 +307,7 @@ class WorldTables:
         c = library.contiguous
         record = WorldTablesRecord(color=np.asarray(world.color, np.float64)[:3], strength=float(world.strength),
                                    rotation=np.asarray(world.rotation, np.float64).ravel(), camera=world.camera,
-                                   lights=world.lights)
+                                   lights=world.lights, scatter=world.scatter)
         if world.seen is not None:
             record.seen = world.seen.record()
         if world.image is not None:

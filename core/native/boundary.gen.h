@@ -336,6 +336,7 @@
 #define HIDDEN_FROM_TRANSMISSION 16
 #define HOLDOUT 32
 #define SHADOW_CATCHER 64
+#define HIDDEN_FROM_VOLUME_SCATTER 128
 /* pieces a march cuts the diagonal of the media's box into (core.volumes.field) */
 #define STEPS_ACROSS 100
 /* the most pieces a march cuts one stretch of a ray into (core.volumes.field) */
@@ -1009,6 +1010,7 @@ struct WorldTables {
     double rotation[9];                     /* world to texture, row-major */
     int32_t camera;                         /* 1: camera rays see it */
     int32_t lights;                         /* 1: it lights surfaces */
+    int32_t scatter;                        /* 1: it lights media (phase rays that escape find it) */
     const WorldGraph *seen;                 /* the program camera rays evaluate where they escape (World.seen), or NULL */
 };
 
@@ -1260,7 +1262,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(1646818140122983101);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
-    if (strcmp(name, "WorldTables") == 0) return UINT64_C(8824254969504536042);
+    if (strcmp(name, "WorldTables") == 0) return UINT64_C(4620343792525340260);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(1988518437441009220);

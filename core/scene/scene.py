@@ -80,6 +80,8 @@ class Instance:
     visible_diffuse, visible_glossy, visible_transmission: Ray Visibility > Diffuse, Glossy, Transmission: the
                rays of diffuse reflections (glossy reflections, refractions) pass the object, and its emission
                lights no diffuse (glossy, refracting) closure by light samples either, as in Cycles
+    visible_volume_scatter: Ray Visibility > Volume Scatter: the rays a medium's scattering sends (phase rays) pass
+               the object, and its emission lights no scattering point by light samples, as in Cycles
     is_holdout: Object > Visibility > Holdout: where camera rays (also through Transparent surfaces) meet the
                object the film is clear (colour 0, alpha 0); every other ray sees it as usual
     is_shadow_catcher: Object > Visibility > Shadow Catcher: the camera sees only the shadows (and light) other
@@ -124,6 +126,7 @@ class Instance:
     visible_diffuse: bool = True
     visible_glossy: bool = True
     visible_transmission: bool = True
+    visible_volume_scatter: bool = True
     is_holdout: bool = False
     is_shadow_catcher: bool = False
     asset: str = ""
