@@ -366,8 +366,7 @@ COVERAGE = {
                     "homogeneous_volume* volume_interpolation volume_step_size": HETEROGENEOUS},
     },
     "CyclesVisibilitySettings": {
-        READ: {"camera diffuse glossy scatter": "export.export_world"},
-        REPORTED: {"transmission": "unmodelled.world_notes"},
+        READ: {"camera diffuse glossy transmission scatter": "export.export_world"},
         NO_EFFECT: {"shadow": "not read by Cycles for the world (its Ray Visibility panel has no Shadow)"},
     },
     "Material": {

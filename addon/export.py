@@ -26,7 +26,8 @@ from ..core.lights.ies import IESLamp
 from ..core.materials import DEFAULT_SURFACE
 from ..core.materials import graph as graph_
 from ..core.materials import textures as textures_
-from ..core.visibility import HIDDEN_FROM_VOLUME_SCATTER, hidden_bits
+from ..core.visibility import (HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION,
+                               HIDDEN_FROM_VOLUME_SCATTER, hidden_bits)
 from . import cycles_settings, lightgroups, linking, motion, unmodelled, vdb
 from . import materials as materials_
 
@@ -864,15 +865,31 @@ def media_of_layer(use_volumes: bool, materials: list, world: World) -> tuple:
 
 
 def export_world(world, warnings: list, kernels: str = "compiled") -> World:
-    """The core World of a Blender world (_export_world), with its Ray Visibility > Volume Scatter read: off, media
-    take no light of it (Cycles' SHADER_EXCLUDE_SCATTER)."""
+    """The core World of a Blender world (_export_world), with its Ray Visibility for bounces read (world_hidden):
+    rays of a kind it hides from find nothing where they escape, and its light samples light no closure of that
+    kind (no scattering point for Volume Scatter), as Cycles' SHADER_EXCLUDE_* flags."""
     core = _export_world(world, warnings, kernels)
-    visibility = getattr(world, "cycles_visibility", None)
-    if visibility is not None and not bool(getattr(visibility, "scatter", True)):
-        core = dataclasses.replace(core, scatter=False)
+    hidden = world_hidden(world)
+    if hidden and core.lights:
+        core = dataclasses.replace(core, hidden=hidden)
         for sun in core.suns:           # (a Sky Texture's sun disc is the world's light too)
-            sun.hidden_from |= HIDDEN_FROM_VOLUME_SCATTER
+            sun.hidden_from |= hidden
     return core
+
+
+# The world's Ray Visibility switches (World > Settings > Ray Visibility, Cycles' world.cycles_visibility) other than
+# Camera, and the bits of the bounces each hides the world from when off.
+WORLD_RAY_VISIBILITY = (("diffuse", HIDDEN_FROM_DIFFUSE), ("glossy", HIDDEN_FROM_GLOSSY),
+                        ("transmission", HIDDEN_FROM_TRANSMISSION), ("scatter", HIDDEN_FROM_VOLUME_SCATTER))
+
+
+def world_hidden(world) -> int:
+    """The HIDDEN_FROM_* bits of the bounces a Blender world hides from (its Ray Visibility, as Cycles' background
+    shader's SHADER_EXCLUDE_* flags); 0 for none or no world."""
+    visibility = getattr(world, "cycles_visibility", None)
+    if visibility is None:
+        return 0
+    return sum(bit for name, bit in WORLD_RAY_VISIBILITY if not bool(getattr(visibility, name, True)))
 
 
 def _export_world(world, warnings: list, kernels: str = "compiled") -> World:
@@ -889,7 +906,8 @@ def _export_world(world, warnings: list, kernels: str = "compiled") -> World:
 
 def world_surface(world, warnings: list, kernels: str = "compiled") -> World:
     """Return the world's surface as Cycles shows and uses it: its Background colour x strength, seen by camera
-    rays (Ray Visibility > Camera) and lighting surfaces (Ray Visibility > Diffuse or Glossy).
+    rays (Ray Visibility > Camera) and lighting the scene where any bounce sees it (Diffuse, Glossy, Transmission or
+    Volume Scatter: which ones, export_world).
 
     A world without nodes is its viewport colour (Cycles makes a Background of it); other world shaders
     than a plain Background colour are noted, and their viewport colour used.
@@ -898,11 +916,8 @@ def world_surface(world, warnings: list, kernels: str = "compiled") -> World:
         return World(color=np.zeros(3), camera=True, lights=False)
     visibility = getattr(world, "cycles_visibility", None)
     camera = visibility is None or bool(visibility.camera)
-    diffuse = visibility is None or bool(visibility.diffuse)
-    glossy = visibility is None or bool(visibility.glossy)
-    if diffuse != glossy:
-        warnings.append("the world's Diffuse and Glossy ray visibility differ; Primer lets it light every surface "
-                        "when Diffuse is on and none when it is off")
+    # (it lights the scene where some kind of bounce sees it; export_world reads which: world_hidden)
+    lights = world_hidden(world) != sum(bit for _, bit in WORLD_RAY_VISIBILITY)
     color = materials_.blender_float(np.array(world.color[:3], np.float64))
     seen = None                 # (a graph world's program, which camera rays evaluate per ray)
     tree = materials_.node_tree(world)
@@ -919,27 +934,27 @@ def world_surface(world, warnings: list, kernels: str = "compiled") -> World:
                 warnings.append(NEGATIVE_WORLD.format(strength))
                 strength = 0.0
             if image is None:               # missing or unreadable (load_image said so): Cycles' magenta everywhere
-                return World(color=np.array(MISSING_RGB) * strength, camera=camera, lights=diffuse)
+                return World(color=np.array(MISSING_RGB) * strength, camera=camera, lights=lights)
             return World(color=np.zeros(3), image=image, strength=strength, rotation=rotation, camera=camera,
-                         lights=diffuse)
+                         lights=lights)
         if node is None:
             return World(color=np.zeros(3), camera=True, lights=False)
         if node.bl_idname == "ShaderNodeBackground" and not node.inputs["Color"].is_linked \
                 and not node.inputs["Strength"].is_linked:
             # (a NaN or infinite strength or colour: core/lights/world.py finite_world reads it as Cycles renders it)
             color = materials_.own_value(node.inputs["Color"]) * materials_.own_value(node.inputs["Strength"])
-        elif not (camera or diffuse):
+        elif not (camera or lights):
             return World(color=np.zeros(3), camera=False, lights=False)     # seen by no ray: nothing to evaluate
         else:
             baked, suns, seen = _baked_world(world, output.inputs["Surface"], warnings, kernels)
             if isinstance(baked, np.ndarray) and baked.ndim == 3:
-                return World(color=np.zeros(3), image=baked, strength=1.0, camera=camera, lights=diffuse, suns=suns,
+                return World(color=np.zeros(3), image=baked, strength=1.0, camera=camera, lights=lights, suns=suns,
                              seen=seen)
             color = color if baked is None else baked
     if (color < 0.0).any():
         warnings.append(NEGATIVE_WORLD.format(float(color.min())))
         color = np.maximum(color, 0.0)
-    return World(color=color, camera=camera, lights=diffuse, seen=seen)
+    return World(color=color, camera=camera, lights=lights, seen=seen)
 
 
 def _baked_world(world, surface, warnings: list, kernels: str = "compiled"):

@@ -156,8 +156,8 @@ def light_notes(obj) -> list:
 
 
 def world_notes(world) -> list:
-    """World settings that Primer does not model: Cycles' world light settings, Transmission visibility (its Volume
-    and its Volume Scatter visibility are read: addon/export.py export_world)."""
+    """World settings that Primer does not model: Cycles' world light settings (its Volume and Ray Visibility are
+    read: addon/export.py export_world)."""
     notes = []
     cycles = getattr(world, "cycles", None)
     if cycles is not None:
@@ -165,10 +165,6 @@ def world_notes(world) -> list:
             notes.append("the world is a shadow caustics light; Primer renders no manifold caustics")
         if not getattr(cycles, "use_shadows", True):
             notes.append("the world casts no shadows in Cycles; Primer traces the shadow rays of its light")
-    visibility = getattr(world, "cycles_visibility", None)
-    if visibility is not None and not visibility.transmission and visibility.diffuse:
-        # (Primer's world lights every ray where Diffuse is on, and none where it is off: export.export_world)
-        notes.append("the world is hidden from Transmission rays (Ray Visibility); Primer shows it through glass")
     return notes
 
 

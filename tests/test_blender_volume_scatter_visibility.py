@@ -2,7 +2,9 @@
 Volume Scatter cube over a floor, lit by a point lamp, an emissive panel, a sun and a grey world, with the lamp, the
 panel and the world hidden from Volume Scatter rays. In Cycles they then light the floor but not the fog (their light
 samples at scattering points are dropped, SHADER_EXCLUDE_SCATTER, and phase rays pass them); Primer read none of it
-until this stop (objects: a note that said nothing changes; the world: a note)."""
+until this stop (objects: a note that said nothing changes; the world: a note). Then the world hidden from glossy and
+transmission rays, seen in a mirror and through a glass pane (Primer noted Transmission and lit every kind of bounce
+where Diffuse was on)."""
 from __future__ import annotations
 
 import numpy as np
@@ -65,6 +67,22 @@ for hidden in (False, True):
     out[name] = render_pixels(scene, "PRIMER", os.path.abspath(f"{name}.exr"), 256)[..., :3].tolist()
     out[name + " warnings"] = list(sys.modules[primer.__name__ + ".addon.engine"].last_render.warnings)
 out["cycles"] = render_pixels(scene, "CYCLES", os.path.abspath("cycles.exr"), 1024, reference="hidden")[..., :3].tolist()
+# The world hidden from glossy and transmission rays: a tilted mirror and a glass pane over the floor, no fog.
+bpy.data.objects.remove(bpy.data.objects["Cube"])
+lamp.visible_volume_scatter = panel.visible_volume_scatter = world.cycles_visibility.scatter = True
+bpy.ops.mesh.primitive_plane_add(size=2.0, location=(-1.3, 0.5, 1.2), rotation=(1.2, 0.0, 0.4))
+bpy.context.object.data.materials.append(material("Mirror", "ShaderNodeBsdfGlossy", (0.9, 0.9, 0.9), Roughness=0.0))
+bpy.ops.mesh.primitive_plane_add(size=2.0, location=(1.2, 0.0, 1.2), rotation=(1.3, 0.0, -0.3))
+bpy.context.object.data.materials.append(material("Glass", "ShaderNodeBsdfGlass", (1.0, 1.0, 1.0), Roughness=0.0,
+                                                  IOR=1.5))
+world.cycles_visibility.glossy = world.cycles_visibility.transmission = False
+scene.primer.caustics_reflective = scene.primer.caustics_refractive = False   # (no fireflies on the floor)
+out["world hidden"] = render_pixels(scene, "PRIMER", os.path.abspath("world.exr"), 256)[..., :3].tolist()
+out["world warnings"] = list(sys.modules[primer.__name__ + ".addon.engine"].last_render.warnings)
+out["world cycles"] = render_pixels(scene, "CYCLES", os.path.abspath("world_cycles.exr"), 1024,
+                                    reference="world hidden")[..., :3].tolist()
+world.cycles_visibility.glossy = world.cycles_visibility.transmission = True
+out["world seen"] = render_pixels(scene, "PRIMER", os.path.abspath("world_seen.exr"), 256)[..., :3].tolist()
 report(images=out)
 """
 
@@ -82,4 +100,16 @@ def test_what_is_hidden_from_volume_scatter_lights_the_floor_but_not_the_fog_as_
     error, other = relative_mse_of_blocks(hidden, cycles), relative_mse_of_blocks(seen, cycles)
     print(f"hidden: {error:.2e}, seen: {other:.2e}, means {hidden.mean():.4f} {seen.mean():.4f} {cycles.mean():.4f}")
     assert not [w for w in images["hidden warnings"] + images["seen warnings"] if "Volume Scatter" in w]
+    assert error < 5e-4 and other > 20 * error, (error, other)
+
+
+def test_a_world_hidden_from_glossy_and_transmission_rays_is_dark_in_a_mirror_and_through_glass_as_in_cycles(images):
+    """The world hidden from glossy and transmission rays: Primer's image is Cycles' within the noise, the world seen
+    by them is not, and nothing is said about the world's visibility."""
+    from core.film.compare import relative_mse_of_blocks
+    hidden, seen, cycles = (np.asarray(images[name]) for name in ("world hidden", "world seen", "world cycles"))
+    error, other = relative_mse_of_blocks(hidden, cycles), relative_mse_of_blocks(seen, cycles)
+    print(f"world hidden: {error:.2e}, seen: {other:.2e}, means {hidden.mean():.4f} {seen.mean():.4f} "
+          f"{cycles.mean():.4f}")
+    assert not [w for w in images["world warnings"] if "world" in w and "rays" in w]
     assert error < 5e-4 and other > 20 * error, (error, other)

@@ -13,6 +13,7 @@ from core.geometry import primitives
 from core.materials import Material
 from core.render import render
 from core.scene import RenderSettings, Scene, SunLight, World
+from core.visibility import HIDDEN_FROM_VOLUME_SCATTER
 
 from test_volumes import camera_above, fog, glowing_floor
 
@@ -47,7 +48,7 @@ def test_a_sun_hidden_from_volume_scatter_lights_the_floor_through_the_fog_but_n
         made.add_mesh(primitives.plane(40.0), materials=np.array([0]))
         scattering_slab(made)
         sun = SunLight(direction=-np.array([math.cos(elevation), 0.0, math.sin(elevation)]), strength=E)
-        sun.hidden_from = 128 if hidden else 0            # (HIDDEN_FROM_VOLUME_SCATTER)
+        sun.hidden_from = HIDDEN_FROM_VOLUME_SCATTER if hidden else 0
         made.lights.append(sun)
         return made
 
@@ -83,7 +84,7 @@ def test_a_world_hidden_from_volume_scatter_is_seen_through_the_fog_but_lights_n
     the world it scatters."""
     def scene(scatter: bool) -> Scene:
         made = Scene(camera=camera_above())
-        made.world = World(color=np.array([0.2, 0.4, 0.6]), scatter=scatter)
+        made.world = World(color=np.array([0.2, 0.4, 0.6]), hidden=0 if scatter else HIDDEN_FROM_VOLUME_SCATTER)
         scattering_slab(made)
         return made
 

@@ -1039,8 +1039,7 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
      *    visibility by the ray's flags): a constant world with weight 1, an image by MIS. */
     int camera_kind = ray->path != NULL && (ray->path->flags & PATH_CAMERA) != 0;
     int sees_world = camera_kind ? ctx->world->camera != 0.0 && !ds->film_transparent
-                                 : ctx->world->lights != 0.0
-                                       && (ctx->world->scatter != 0 || (ray->seen_as & HIDDEN_FROM_VOLUME_SCATTER) == 0);
+                                 : ctx->world->lights != 0.0 && (ray->seen_as & ctx->world->hidden) == 0;
     if (!hit && sees_world) {
         double L_world[3];
         world_seen(ctx->world, D, ray->path, L_world);     /* (a camera path's: the world's graph per ray) */

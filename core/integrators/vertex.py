@@ -34,7 +34,7 @@ from ..materials import graph as graph_
 from ..sampling import sobol as sampling
 from .. import volumes
 from ..visibility import (HIDDEN_FROM_CAMERA, HIDDEN_FROM_DIFFUSE, HIDDEN_FROM_GLOSSY, HIDDEN_FROM_TRANSMISSION,
-                          HIDDEN_FROM_VOLUME_SCATTER, HOLDOUT)
+                          HOLDOUT)
 from . import clamp as clamp_
 from . import lightgroups, lightpasses
 from . import shader_rays, shadows
@@ -622,8 +622,8 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
                         else (np.asarray(paths.flags)[missed] & graph_.PATH_CAMERA) != 0)
         sees = np.where(still_camera, bool(world.camera) and not ctx.settings.transparent_background,
                         bool(world.lights))
-        if not getattr(world, "scatter", True) and seen_as is not None:    # (hidden from Volume Scatter rays)
-            sees &= still_camera | ((np.asarray(seen_as)[missed] & HIDDEN_FROM_VOLUME_SCATTER) == 0)
+        if getattr(world, "hidden", 0) and seen_as is not None:     # (its Ray Visibility: hidden from these kinds)
+            sees &= still_camera | ((np.asarray(seen_as)[missed] & world.hidden) == 0)
         missed = missed[sees]
     if world is not None and len(missed):
         L_world = (world.radiance(D[missed]) if paths is None     # (a graph world: evaluated for each ray's path)

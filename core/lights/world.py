@@ -25,7 +25,6 @@ from ..materials import graph as graph_
 from ..native import library, schema
 from ..native.schema import F32, F64, I32, I64, ptr
 from .base import Light, LightFlags, LightHit, LightSample
-from ..visibility import HIDDEN_FROM_VOLUME_SCATTER
 
 # The importance map's width (its height is half), whatever the image's (Cycles' default map resolution).
 MAP_WIDTH = 1024
@@ -41,8 +40,10 @@ class World:
     rotation: (3, 3) float64 world-to-texture rotation (the Mapping node's), applied before (u, v)
     camera:   whether camera rays see it (Ray Visibility > Camera)
     lights:   whether it lights surfaces (Ray Visibility > Diffuse / Glossy)
-    scatter:  whether it lights media (Ray Visibility > Volume Scatter): off, scattering points take no light samples
-              of it and phase rays that escape find nothing, as Cycles' SHADER_EXCLUDE_SCATTER
+    hidden:   the HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility > Diffuse, Glossy,
+              Transmission, Volume Scatter off, as Cycles' SHADER_EXCLUDE_*): rays of those kinds that escape find
+              nothing, its light samples light no closure of those kinds (integrators/vertex.py closures_left_out)
+              and no scattering point where Volume Scatter is off
     max_bounces, cast_shadow: an image world's light samples stop after that bounce (Cycles' world Max Bounces), and
               without shadows they trace no shadow ray (the add-on does not read Blender 5.2's world Shadows: noted).
               A constant world has no light samples, in Cycles as in Primer (it is found by the rays that escape),
@@ -61,7 +62,7 @@ class World:
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     camera: bool = True
     lights: bool = True
-    scatter: bool = True
+    hidden: int = 0
     name: str = "World"
     max_bounces: int = 1024
     cast_shadow: bool = True
@@ -177,8 +178,8 @@ class WorldLight(Light):
 
     @property
     def hidden_from(self) -> int:
-        """The HIDDEN_FROM_* bits of the rays that do not see the world as a light: Volume Scatter's where it is off."""
-        return 0 if self.world.scatter else HIDDEN_FROM_VOLUME_SCATTER
+        """The HIDDEN_FROM_* bits of the bounces that do not see the world (World.hidden)."""
+        return int(self.world.hidden)
 
     @property
     def cast_shadow(self) -> bool:
@@ -294,7 +295,7 @@ WorldTablesRecord = schema.record("WorldTables", "The world (core/lights/world.p
     ("rotation", F64, 9, "world to texture, row-major"),
     ("camera", I32, "1: camera rays see it"),
     ("lights", I32, "1: it lights surfaces"),
-    ("scatter", I32, "1: it lights media (phase rays that escape find it)"),
+    ("hidden", I32, "the HIDDEN_FROM_* bits of the bounces that do not see it (World.hidden)"),
     ("seen", ptr("WorldGraph"), "the program camera rays evaluate where they escape (World.seen), or NULL"),
 ])
 
@@ -307,7 +308,7 @@ class WorldTables:
         c = library.contiguous
         record = WorldTablesRecord(color=np.asarray(world.color, np.float64)[:3], strength=float(world.strength),
                                    rotation=np.asarray(world.rotation, np.float64).ravel(), camera=world.camera,
-                                   lights=world.lights, scatter=world.scatter)
+                                   lights=world.lights, hidden=int(world.hidden))
         if world.seen is not None:
             record.seen = world.seen.record()
         if world.image is not None:

@@ -1010,7 +1010,7 @@ struct WorldTables {
     double rotation[9];                     /* world to texture, row-major */
     int32_t camera;                         /* 1: camera rays see it */
     int32_t lights;                         /* 1: it lights surfaces */
-    int32_t scatter;                        /* 1: it lights media (phase rays that escape find it) */
+    int32_t hidden;                         /* the HIDDEN_FROM_* bits of the bounces that do not see it (World.hidden) */
     const WorldGraph *seen;                 /* the program camera rays evaluate where they escape (World.seen), or NULL */
 };
 
@@ -1262,7 +1262,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(1646818140122983101);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
-    if (strcmp(name, "WorldTables") == 0) return UINT64_C(4620343792525340260);
+    if (strcmp(name, "WorldTables") == 0) return UINT64_C(6964717275989497168);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(1988518437441009220);
