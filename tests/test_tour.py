@@ -806,7 +806,8 @@ def test_mis_beats_light_sampling_and_bsdf_sampling_at_equal_samples(primer, tmp
     a constant world has no light samples in Primer, so light samples alone would miss it.)"""
     scene = open_scene("materials_principled")
     scene.primer.use_adaptive_sampling = False
-    scene.world.cycles_visibility.diffuse = scene.world.cycles_visibility.glossy = False
+    visibility = scene.world.cycles_visibility
+    visibility.diffuse = visibility.glossy = visibility.transmission = visibility.scatter = False
     scene.primer.samples = 256
     reference = render(primer, scene, str(tmp_path / "reference.exr"))["Combined"]
     scene.primer.samples = SAMPLES
