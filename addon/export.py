@@ -488,7 +488,7 @@ CONSTANT_KINDS = frozenset({"RGB", "VALUE", "MATH", "MIX", "RAMP", "INVERT", "HS
                            | {cls.kind for cls in graph_.CONVERTER_TYPES if cls.kind != "IES_TEXTURE"})
 
 
-def light_node_factor(obj, warnings: list, wiring) -> np.ndarray:
+def light_node_factor(obj, warnings: list, wiring, falloff=None) -> np.ndarray:
     """Return what the light's node tree multiplies its colour by: (3,) linear RGB.
 
     Cycles renders a light as its colour x power x the emission of its shader. Without a node tree that
@@ -518,13 +518,15 @@ def light_node_factor(obj, warnings: list, wiring) -> np.ndarray:
         return np.ones(3)
     if wiring is not None:                  # (lamp_ies_wiring(obj), found once by _export_light)
         return wiring[1]
+    if falloff is not None:                 # (lamp_falloff_wiring(obj): the rest is the lamp's falloff)
+        return falloff[1]
     linked = [name for name in ("Color", "Strength") if node.inputs.get(name) is not None
               and node.inputs[name].is_linked]
     if linked:
         color = reader.input(node, "Color", np.ones(3))
         strength = reader.input(node, "Strength", 1.0)
         feeding = graph_.links_under([(None, 1.0, {"color": color, "strength": strength})])
-        varying = [link.node for link in feeding if link.node.kind not in CONSTANT_KINDS]
+        varying = [link.node for link in feeding if link.node.kind not in CONSTANT_KINDS or varies_with_distance(link.node)]
         if not varying:
             value = world_graph.radiance_along(world_graph.compile_world(color, strength), np.array([[0.0, 0.0, 1.0]]))
             return np.nan_to_num(value[0], nan=0.0, posinf=0.0, neginf=0.0)
@@ -534,6 +536,47 @@ def light_node_factor(obj, warnings: list, wiring) -> np.ndarray:
                               "not evaluate for lights (it varies over the lamp: "
                               f"'{varying[0].name or varying[0].kind}'); it uses the input's own value")
     return reader.value(node, "Color", np.ones(3)) * reader.value(node, "Strength", 1.0)
+
+
+def varies_with_distance(node) -> bool:
+    """Whether a graph node is a lamp's Light Falloff (addon/materials.py lamp_falloff) whose output depends on the
+    distance to the lit point (Linear, Constant, or a Smooth above 0)."""
+    power, smooth = node.props.get("light_falloff", (0, 0.0)) if node.kind == "VALUE" else (0, 0.0)
+    return power != 0 or smooth > 0.0
+
+
+def lamp_falloff_wiring(obj):
+    """The arrangement of a Light Falloff in a lamp's tree Primer evaluates per light sample: the Emission at the Light
+    Output whose Color x Strength is c x the output of one Light Falloff node (Strength S and Smooth unlinked), c a
+    constant colour (the output straight into the Strength, or through nodes of constants alone linear in it), as
+    lamp_ies_wiring finds an IES Texture's. Returns ((power, smooth), c S (3,) float64): the lamp sends c S
+    t^power (t^2 / (smooth + t^2)) x its light (Light.falloff_factor), t the light sample's distance; or None."""
+    tree = materials_.node_tree(obj.data)
+    emission = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight")) if tree else None
+    if emission is None or emission.bl_idname not in materials_.EMISSION_NODES:
+        return None
+    reader = materials_.NodeReader(obj, [], kind="light")
+    color, strength = reader.input(emission, "Color", np.ones(3)), reader.input(emission, "Strength", 1.0)
+    graph = [(None, 1.0, {"color": color, "strength": strength})]
+    nodes = graph_.links_under(graph)
+    found = {id(link.node): link.node for link in nodes if varies_with_distance(link.node)}
+    if len(found) != 1 or any(link.node.kind not in CONSTANT_KINDS for link in nodes):
+        return None
+    node = next(iter(found.values()))
+    props, values = node.props, []
+    try:
+        for value in (0.0, 1.0, 2.5):
+            node.props = {"value": value}
+            values.append(np.asarray(world_graph.radiance_along(world_graph.compile_world(color, strength),
+                                                                np.array([[0.0, 0.0, 1.0]]))[0], np.float64))
+    finally:
+        node.props = props
+    S = float(props["value"])
+    zero, one, more = values
+    if not (np.all(np.isfinite(values)) and np.allclose(zero, 0.0, atol=1e-12)
+            and np.allclose(more, 2.5 * one, rtol=1e-6, atol=1e-12)):   # (float32 nodes)
+        return None
+    return tuple(props["light_falloff"]), one * S
 
 
 def lamp_ies_wiring(obj):
@@ -556,7 +599,8 @@ def lamp_ies_wiring(obj):
     kind, props, inputs = found.kind, found.props, found.inputs
     try:
         found.inputs = {}                       # (what feeds its Vector or Strength is warned about, not evaluated)
-        if any(link.node.kind not in CONSTANT_KINDS and link.node is not found for link in graph_.links_under(graph)):
+        if any((link.node.kind not in CONSTANT_KINDS or varies_with_distance(link.node)) and link.node is not found
+               for link in graph_.links_under(graph)):
             return None
     finally:
         found.inputs = inputs
@@ -681,13 +725,16 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
     if light.type == "AREA" and getattr(getattr(light, "cycles", None), "is_portal", False):
         return None
     wiring = lamp_ies_wiring(obj)
-    emission = light_node_factor(obj, warnings, wiring)
+    falloff = lamp_falloff_wiring(obj) if wiring is None else None
+    emission = light_node_factor(obj, warnings, wiring, falloff)
     if not emission.any():
         return None                     # Cycles leaves out a light whose shader emits nothing
     ies = light_ies(obj, matrix, warnings, wiring)
     core = _lamp(obj, matrix, warnings, _light_color(light) * emission)
     if core is not None and ies is not None:
         core.ies = ies
+    if core is not None and falloff is not None and hasattr(core, "falloff"):   # (a sun: Cycles skips the node)
+        core.falloff = falloff[0]
     return core
 
 

@@ -320,8 +320,11 @@ class GraphReader:
                                             else float((f32[0] + f32[1] + f32[2]) / 3.0)}), "Value")
         if kind == "ShaderNodeNormal":
             return self.normal_node(node, path, out.name)
-        if kind == "ShaderNodeLightFalloff" and self.reader.kind == "material":     # (lights, worlds: warned)
+        if kind == "ShaderNodeLightFalloff" and self.reader.kind == "material":     # (worlds: warned)
             return self.light_falloff(node, path, out.name)
+        if kind == "ShaderNodeLightFalloff" and self.reader.kind == "light" and not any(
+                node.inputs[name].is_linked for name in ("Strength", "Smooth")):
+            return self.lamp_falloff(node, out.name)
         if kind == "ShaderNodeNormalMap" and node.space != "TANGENT":
             return self.normal_map_space(node, path)
         name = RENAMED.get(out.name, out.name)
@@ -377,6 +380,16 @@ class GraphReader:
                 smoothing = _math("MULTIPLY", smoothing, positive)
             value = _math("MULTIPLY", value, _math2("ADD", smoothing, 1.0))
         return value if _linked(value) else Link(GraphNode("VALUE", {"value": float(value)}, {}, node.name), "Value")
+
+    def lamp_falloff(self, node, output: str):
+        """The Light Falloff node in a lamp's tree: its Strength as a value tagged with the output's power of the
+        distance (Quadratic 0, Linear 1, Constant 2) and its Smooth, `light_falloff`, which export.lamp_falloff_wiring
+        turns into the lamp's falloff where the Emission is linear in it (Cycles evaluates it per light sample, with
+        the sample's ray length); a tree that uses it otherwise is warned about (export.light_node_factor)."""
+        power = {"Quadratic": 0, "Linear": 1, "Constant": 2}.get(output, 0)
+        strength, smooth = float(own_value(node.inputs["Strength"])), float(own_value(node.inputs["Smooth"]))
+        return Link(GraphNode("VALUE", {"value": strength, "light_falloff": (power, max(smooth, 0.0))}, {}, node.name),
+                    "Value")
 
     def normal_map_space(self, node, path: tuple):
         """A Normal Map in Object, World, Blender Object or Blender World space as Cycles' svm_node_normal_map: the

@@ -72,7 +72,7 @@ INLINE int area_light_hit(const LightRecord *light, const double *O, const doubl
         attenuation = at_least(light->spread_tan_half - tan_theta, 0.0) / light->spread_norm;
     }
     out->t = t;
-    attenuation *= ies_lamp_factor(light, D);
+    attenuation *= ies_lamp_factor(light, D) * lamp_falloff(light, t);
     for (int c = 0; c < 3; c++) out->radiance[c] = light->radiance * attenuation * light->color[c];
     out->pdf = t * t / (cos_light * light->area);
     return 1;
@@ -84,7 +84,7 @@ INLINE void area_sample(const LightRecord *light, const LightContext *ctx, const
 {
     (void)ctx; (void)N;
     sample_area_light(light, P, u, out);
-    out->strength *= ies_lamp_factor(light, out->L);
+    out->strength *= ies_lamp_factor(light, out->L) * lamp_falloff(light, out->distance);
     lamp_color(light, out);
 }
 

@@ -77,6 +77,7 @@ class AreaLight(Light):
     light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
     ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
+    falloff: tuple = (0, 0.0)               # a Light Falloff node: (power of the distance, Smooth) (Light.falloff_factor)
 
     flags: ClassVar[LightFlags] = LightFlags.AREA
     blender_type: ClassVar[str] = "AREA"
@@ -118,7 +119,7 @@ class AreaLight(Light):
             facing = (cos_light > 0) & (distance > 0)
             geometry = np.where(facing, cos_light * area / (distance * distance), 0.0)
             pdf = np.where(facing, distance * distance / (cos_light * area), 0.0)
-        geometry *= spread_attenuation(self.spread, cos_light) * self.ies_factor(-L)
+        geometry *= spread_attenuation(self.spread, cos_light) * self.ies_factor(-L) * self.falloff_factor(distance)
         color = np.asarray(self.color, np.float64)[:3]
         return LightSample(L, distance, self.radiance() * geometry, pdf, color, targets)
 
@@ -143,7 +144,7 @@ class AreaLight(Light):
             area = self.area()
             pdf = np.where(hit, t * t / (cos_light * area), 0.0)
             radiance = np.where(hit, self.radiance() * spread_attenuation(self.spread, cos_light)
-                                * self.ies_factor(-directions), 0.0)
+                                * self.ies_factor(-directions) * self.falloff_factor(np.where(hit, t, 1.0)), 0.0)
         color = np.asarray(self.color, np.float64)[:3]
         return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, pdf)
 

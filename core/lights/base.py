@@ -148,6 +148,10 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("light_membership", U64, "the receiver sets it lights (core/lights/linking.py; emitters: by object)"),
     ("shadow_membership", U64, "the blocker shadow sets that cast its shadows; emitters: by object"),
     ("has_ies", I32, "point, spot and area lamps: 1 when an IES Texture scales the light leaving it (core/lights/ies.py)"),
+    ("has_falloff", I32, "point, spot and area lamps: 1 when a Light Falloff node scales the light by the distance t to the\n"
+                         "lit point (Light.falloff): t^falloff_power, times t^2 / (falloff_smooth + t^2) where that is > 0"),
+    ("falloff_power", F64, "0 (Quadratic), 1 (Linear) or 2 (Constant)"),
+    ("falloff_smooth", F64, "the Light Falloff's Smooth"),
     ("ies", ptr(F64), "its profile's table (ies.table: h angles, v angles, intensity by h then v), or NULL: a file\n"
                       "Cycles could not read, a factor of ies_strength everywhere"),
     ("ies_h", I32, "the table's horizontal and vertical angle counts"),
@@ -243,7 +247,7 @@ class Light:
         """Whether every parameter is a finite number."""
         values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
                   if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden_from", "use_mis", "max_bounces",
-                                 "light_membership", "shadow_membership", "ies") and getattr(self, f.name) is not None]
+                                 "light_membership", "shadow_membership", "ies", "falloff") and getattr(self, f.name) is not None]
         return all(np.isfinite(x).all() for x in values)
 
     def moved(self, origin: np.ndarray) -> "Light":
@@ -285,6 +289,22 @@ class Light:
         """The HIDDEN_FROM_* bits of the rays that do not see the light: `hidden_from`, and the camera's where it is off."""
         return int(self.hidden_from) | (0 if getattr(self, "camera", True) else HIDDEN_FROM_CAMERA)
 
+    def falloff_factor(self, distance: np.ndarray) -> np.ndarray:
+        """What the lamp's Light Falloff node (its `falloff`: the power of the distance and Smooth, export.lamp_wiring)
+        multiplies the light it sends over distances t (n,) float64 by, as Cycles' svm_node_light_falloff with the light
+        sample's ray length: t^power (Quadratic 0, Linear 1, Constant 2), times t^2 / (Smooth + t^2) where Smooth > 0;
+        ones without one, and where t is infinite (Cycles skips the node for distant lights)."""
+        power, smooth = getattr(self, "falloff", (0, 0.0))
+        t = np.asarray(distance, np.float64)
+        if power == 0 and not smooth > 0.0:
+            return np.ones(np.shape(t))
+        finite = np.isfinite(t)
+        t = np.where(finite, t, 1.0)
+        factor = t ** power
+        if smooth > 0.0:
+            factor = factor * (t * t / (smooth + t * t))
+        return np.where(finite, factor, 1.0)
+
     def ies_factor(self, leaving: np.ndarray) -> np.ndarray:
         """What the lamp's IES Texture (its `ies`, core/lights/ies.py IESLamp) multiplies the light leaving it along
         world directions (n, 3) float64 by: (n,) float64, ones without one."""
@@ -313,6 +333,9 @@ class Light:
                              light_membership=int(self.light_membership), shadow_membership=int(self.shadow_membership))
         if getattr(self, "ies", None) is not None:
             self.ies.pack(record)
+        power, smooth = getattr(self, "falloff", (0, 0.0))
+        if power != 0 or smooth > 0.0:
+            record.has_falloff, record.falloff_power, record.falloff_smooth = 1, float(power), float(smooth)
         self.pack_fields(record)
         return record
 

@@ -47,7 +47,7 @@ INLINE int point_light_hit(const LightRecord *light, const double *O, const doub
     out->t = t;
     double radiance = light->radiance;
     if (spot) radiance *= spot_factor(light, D);               /* (D: towards the light) */
-    radiance *= ies_lamp_factor(light, D);
+    radiance *= ies_lamp_factor(light, D) * lamp_falloff(light, t);
     for (int c = 0; c < 3; c++) out->radiance[c] = radiance * light->color[c];
     out->pdf = cone_pdf(cos_max);
     return 1;
@@ -92,7 +92,7 @@ INLINE void point_sample(const LightRecord *light, const LightContext *ctx, cons
 {
     (void)ctx; (void)N;
     sample_point_light(light, P, u, out);
-    out->strength *= ies_lamp_factor(light, out->L);
+    out->strength *= ies_lamp_factor(light, out->L) * lamp_falloff(light, out->distance);
     lamp_color(light, out);
 }
 

@@ -61,7 +61,8 @@ class RoundLight(Light):
             L, distance = direction_to(points, np.broadcast_to(center, points.shape))
             with np.errstate(divide="ignore"):
                 falloff = np.where(distance > 0, 1.0 / (distance * distance), 0.0)
-            return LightSample(L, distance, self.power * INV_4PI * falloff * self.ies_factor(-L), delta_pdf(len(points)),
+            return LightSample(L, distance, self.power * INV_4PI * falloff * self.ies_factor(-L)
+                               * self.falloff_factor(distance), delta_pdf(len(points)),
                                color, np.broadcast_to(center, points.shape))
         # Radiance L_e = P / (4 pi^2 R^2) over the cone, pdf = 1 / (2 pi (1 - cos a)): each sample
         # carries E_normal = L_e 2 pi (1 - cos a).
@@ -74,7 +75,8 @@ class RoundLight(Light):
         else:
             b = d * cos_to_center                              # to the near side of the sphere
             distance = b - np.sqrt(np.maximum(0.0, b * b - (d * d - self.radius * self.radius)))
-        strength = sphere_radiance(self.power, self.radius) * 2.0 * math.pi * (1.0 - cone.cos_max) * self.ies_factor(-L)
+        strength = (sphere_radiance(self.power, self.radius) * 2.0 * math.pi * (1.0 - cone.cos_max) * self.ies_factor(-L)
+                    * self.falloff_factor(distance))
         return LightSample(L, distance, strength, cone_pdf(cone.cos_max), color, points + L * distance[:, None])
 
     @property
@@ -99,7 +101,7 @@ class RoundLight(Light):
                 t = b - np.sqrt(np.maximum(0.0, b * b - (d * d - self.radius * self.radius)))
         hit = inside & (cos_to_center > 0.0) & (t > 0.0) & (t < t_max)
         radiance = np.where(hit, sphere_radiance(self.power, self.radius), 0.0)
-        radiance = self.attenuate(radiance, -directions)
+        radiance = self.attenuate(radiance, -directions) * self.falloff_factor(np.where(hit, t, 1.0))
         color = np.asarray(self.color, np.float64)[:3]
         return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, np.where(hit, cone_pdf(cone.cos_max), 0.0))
 
@@ -142,6 +144,7 @@ class PointLight(RoundLight):
     light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
     ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
+    falloff: tuple = (0, 0.0)               # a Light Falloff node: (power of the distance, Smooth) (Light.falloff_factor)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "POINT"

@@ -32,7 +32,7 @@ INLINE void spot_sample(const LightRecord *light, const LightContext *ctx, const
 {
     (void)ctx; (void)N;
     sample_spot_light(light, P, u, out);
-    out->strength *= ies_lamp_factor(light, out->L);
+    out->strength *= ies_lamp_factor(light, out->L) * lamp_falloff(light, out->distance);
     lamp_color(light, out);
 }
 

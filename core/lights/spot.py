@@ -43,6 +43,7 @@ class SpotLight(RoundLight):
     light_membership: int = ALL_SETS        # the receiver light sets it lights (Light Linking, core/lights/linking.py)
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
     ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
+    falloff: tuple = (0, 0.0)               # a Light Falloff node: (power of the distance, Smooth) (Light.falloff_factor)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "SPOT"

@@ -916,6 +916,10 @@ radiance, bottom to top, where the others see `radiance` x color */
     uint64_t light_membership;              /* the receiver sets it lights (core/lights/linking.py; emitters: by object) */
     uint64_t shadow_membership;             /* the blocker shadow sets that cast its shadows; emitters: by object */
     int32_t has_ies;                        /* point, spot and area lamps: 1 when an IES Texture scales the light leaving it (core/lights/ies.py) */
+    int32_t has_falloff;                    /* point, spot and area lamps: 1 when a Light Falloff node scales the light by the distance t to the
+lit point (Light.falloff): t^falloff_power, times t^2 / (falloff_smooth + t^2) where that is > 0 */
+    double falloff_power;                   /* 0 (Quadratic), 1 (Linear) or 2 (Constant) */
+    double falloff_smooth;                  /* the Light Falloff's Smooth */
     const double *ies;                      /* its profile's table (ies.table: h angles, v angles, intensity by h then v), or NULL: a file
 Cycles could not read, a factor of ies_strength everywhere */
     int32_t ies_h;                          /* the table's horizontal and vertical angle counts */
@@ -1256,7 +1260,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(5404273518200151070);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(9112495589854067224);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
