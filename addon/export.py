@@ -545,58 +545,72 @@ def varies_with_distance(node) -> bool:
     return power != 0 or smooth > 0.0
 
 
-def lamp_falloff_wiring(obj):
-    """The arrangement of a Light Falloff in a lamp's tree Primer evaluates per light sample: the Emission at the Light
-    Output whose Color x Strength is c x the output of one Light Falloff node (Strength S and Smooth unlinked), c a
-    constant colour (the output straight into the Strength, or through nodes of constants alone linear in it), as
-    lamp_ies_wiring finds an IES Texture's. Returns ((power, smooth), c S (3,) float64): the lamp sends c S
-    t^power (t^2 / (smooth + t^2)) x its light (Light.falloff_factor), t the light sample's distance; or None."""
+def lamp_emission(obj):
+    """The Emission at a lamp's Light Output as node-graph inputs: (its tree, color, strength, the graph of the two),
+    read without warnings (the caller's reading warns), or None where no Emission is there."""
     tree = materials_.node_tree(obj.data)
     emission = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight")) if tree else None
     if emission is None or emission.bl_idname not in materials_.EMISSION_NODES:
         return None
     reader = materials_.NodeReader(obj, [], kind="light")
     color, strength = reader.input(emission, "Color", np.ones(3)), reader.input(emission, "Strength", 1.0)
-    graph = [(None, 1.0, {"color": color, "strength": strength})]
+    return tree, color, strength, [(None, 1.0, {"color": color, "strength": strength})]
+
+
+def linear_factor(node, color, strength):
+    """c (3,) float64 where the Emission of `color` x `strength` is c times the output of the graph node `node`, or None:
+    the node's place is tried with the values 0, 1 and 2.5 (the node-graph program the materials use, once each),
+    linear where they give 0, c and 2.5 c."""
+    kind, props, inputs, values = node.kind, node.props, node.inputs, []
+    try:
+        for value in (0.0, 1.0, 2.5):
+            node.kind, node.props, node.inputs = "VALUE", {"value": value}, {}
+            values.append(np.asarray(world_graph.radiance_along(world_graph.compile_world(color, strength),
+                                                                np.array([[0.0, 0.0, 1.0]]))[0], np.float64))
+    finally:
+        node.kind, node.props, node.inputs = kind, props, inputs
+    zero, one, more = values
+    if not (np.all(np.isfinite(values)) and np.allclose(zero, 0.0, atol=1e-12)
+            and np.allclose(more, 2.5 * one, rtol=1e-6, atol=1e-12)):   # (float32 nodes)
+        return None
+    return one
+
+
+def lamp_falloff_wiring(obj):
+    """The arrangement of a Light Falloff in a lamp's tree Primer evaluates per light sample: the Emission at the Light
+    Output whose Color x Strength is c x the output of one Light Falloff node (Strength S and Smooth unlinked), c a
+    constant colour (the output straight into the Strength, or through nodes of constants alone linear in it:
+    linear_factor), as lamp_ies_wiring finds an IES Texture's. Returns ((power, smooth), c S (3,) float64): the lamp
+    sends c S t^power (t^2 / (smooth + t^2)) x its light (Light.falloff_factor), t the light sample's distance; or
+    None."""
+    emission = lamp_emission(obj)
+    if emission is None:
+        return None
+    _, color, strength, graph = emission
     nodes = graph_.links_under(graph)
     found = {id(link.node): link.node for link in nodes if varies_with_distance(link.node)}
     if len(found) != 1 or any(link.node.kind not in CONSTANT_KINDS for link in nodes):
         return None
     node = next(iter(found.values()))
-    props, values = node.props, []
-    try:
-        for value in (0.0, 1.0, 2.5):
-            node.props = {"value": value}
-            values.append(np.asarray(world_graph.radiance_along(world_graph.compile_world(color, strength),
-                                                                np.array([[0.0, 0.0, 1.0]]))[0], np.float64))
-    finally:
-        node.props = props
-    S = float(props["value"])
-    zero, one, more = values
-    if not (np.all(np.isfinite(values)) and np.allclose(zero, 0.0, atol=1e-12)
-            and np.allclose(more, 2.5 * one, rtol=1e-6, atol=1e-12)):   # (float32 nodes)
-        return None
-    return tuple(props["light_falloff"]), one * S
+    falloff, S = tuple(node.props["light_falloff"]), float(node.props["value"])
+    c = linear_factor(node, color, strength)
+    return None if c is None else (falloff, c * S)
 
 
 def lamp_ies_wiring(obj):
     """The one arrangement of IES Textures in a lamp's tree Primer evaluates per direction: the Emission at the Light
     Output whose Color x Strength is c x the Fac of one IES Texture, c a constant colour (the Fac straight into the
-    Strength, or through nodes of constants alone that are linear in it: a Multiply, a Mix with black ...). Returns
-    (the bpy IES Texture node, c (3,) float64), or None. The Fac's place in the graph is tried with the values 0, 1
-    and 2.5 (the node-graph program the materials use, once each): linear where they give 0, c and 2.5 c."""
-    tree = materials_.node_tree(obj.data)
-    emission = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight")) if tree else None
-    if emission is None or emission.bl_idname not in materials_.EMISSION_NODES:
+    Strength, or through nodes of constants alone that are linear in it: a Multiply, a Mix with black ...:
+    linear_factor). Returns (the bpy IES Texture node, c (3,) float64), or None."""
+    emission = lamp_emission(obj)
+    if emission is None:
         return None
-    reader = materials_.NodeReader(obj, [], kind="light")
-    color, strength = reader.input(emission, "Color", np.ones(3)), reader.input(emission, "Strength", 1.0)
-    graph = [(None, 1.0, {"color": color, "strength": strength})]
+    tree, color, strength, graph = emission
     ies = {id(link.node): link.node for link in graph_.links_under(graph) if link.node.kind == "IES_TEXTURE"}
     if len(ies) != 1:
         return None
     found = next(iter(ies.values()))
-    kind, props, inputs = found.kind, found.props, found.inputs
+    inputs = found.inputs
     try:
         found.inputs = {}                       # (what feeds its Vector or Strength is warned about, not evaluated)
         if any((link.node.kind not in CONSTANT_KINDS or varies_with_distance(link.node)) and link.node is not found
@@ -607,19 +621,8 @@ def lamp_ies_wiring(obj):
     bpy_node = tree.nodes.get(found.name)
     if bpy_node is None or bpy_node.bl_idname != "ShaderNodeTexIES" or getattr(bpy_node, "mute", False):
         return None
-    values = []
-    try:
-        for fac in (0.0, 1.0, 2.5):
-            found.kind, found.props, found.inputs = "VALUE", {"value": fac}, {}
-            value = world_graph.radiance_along(world_graph.compile_world(color, strength), np.array([[0.0, 0.0, 1.0]]))
-            values.append(np.asarray(value[0], np.float64))
-    finally:
-        found.kind, found.props, found.inputs = kind, props, inputs
-    zero, one, more = values
-    if not (np.all(np.isfinite(values)) and np.allclose(zero, 0.0, atol=1e-12)
-            and np.allclose(more, 2.5 * one, rtol=1e-6, atol=1e-12)):   # (float32 nodes)
-        return None
-    return bpy_node, one
+    c = linear_factor(found, color, strength)
+    return None if c is None else (bpy_node, c)
 
 
 def light_ies(obj, matrix: np.ndarray, warnings: list, wiring):
