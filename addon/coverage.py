@@ -182,7 +182,7 @@ COVERAGE = {
                "use_pass_emit use_pass_environment use_pass_glossy_color use_pass_glossy_direct "
                "use_pass_glossy_indirect use_pass_material_index use_pass_normal use_pass_object_index "
                "use_pass_position use_pass_transmission_color use_pass_transmission_direct "
-               "use_pass_transmission_indirect use_pass_uv use_pass_z": "engine.py (the passes Primer writes)",
+               "use_pass_transmission_indirect use_pass_uv use_pass_z use_pass_mist": "engine.py (the passes Primer writes)",
                "use_pass_cryptomatte_asset use_pass_cryptomatte_material use_pass_cryptomatte_object "
                "pass_cryptomatte_depth": "engine.py, export.export_scene (Cryptomatte)",
                "lightgroups": "lightgroups.group_names", "material_override": "export.export_scene",
@@ -192,7 +192,7 @@ COVERAGE = {
                "name": "engine.py (the render layer written)",
                "use_motion_blur": "motion.blurs (with Render > Motion Blur)",
                "depsgraph objects use": DEPSGRAPH},
-        REPORTED: {"use_pass_mist use_pass_vector use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
+        REPORTED: {"use_pass_vector use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
                    "use_pass_subsurface_indirect aovs use_pass_combined use_sky use_solid pass_alpha_threshold "
                    "world_override*": "unmodelled.view_layer_notes",
                    "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},
@@ -345,8 +345,8 @@ COVERAGE = {
     },
     "World": {
         READ: {"color node_tree use_nodes": "export.export_world", "lightgroup": "lightgroups.source_group",
-               "light_settings": "export._ao_distance", "animation_data": DEPSGRAPH},
-        REPORTED: {"mist_settings": "unmodelled.view_layer_notes (the Mist pass)"},
+               "light_settings": "export._ao_distance", "mist_settings": "export._mist (the Mist pass)",
+               "animation_data": DEPSGRAPH},
         NO_EFFECT: {"probe_resolution sun_angle sun_shadow_filter_radius sun_shadow_jitter_overblur "
                     "sun_shadow_maximum_resolution sun_threshold use_eevee_finite_volume use_sun_shadow "
                     "use_sun_shadow_jitter": EEVEE,
@@ -357,7 +357,8 @@ COVERAGE = {
         REPORTED: {"ao_factor": "unmodelled.render_notes (Fast GI)"},
     },
     "WorldMistSettings": {
-        REPORTED: {"depth falloff height intensity start use_mist": "unmodelled.view_layer_notes (the Mist pass)"},
+        READ: {"depth falloff start": "export._mist (the Mist pass)"},
+        NO_EFFECT: {"height intensity use_mist": "EEVEE's mist: Cycles' Mist pass reads only Start, Depth and Falloff"},
     },
     "CyclesWorldSettings": {
         READ: {"max_bounces": "export.world_light_settings"},

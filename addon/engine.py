@@ -54,6 +54,7 @@ CYCLES_PASSES = {
     "emission": ("use_pass_emit", "Emission", "Emit", 3, "RGB", "COLOR"),
     "environment": ("use_pass_environment", "Environment", "Env", 3, "RGB", "COLOR"),
     "ambient_occlusion": ("use_pass_ambient_occlusion", "Ambient Occlusion", "AO", 3, "RGB", "COLOR"),
+    "mist": ("use_pass_mist", "Mist", "Mist", 1, "Z", "VALUE"),
     # The light passes come from the integrator instead (core/integrators/lightpasses.py), each divided by its
     # colour pass as Cycles stores them.
     "diffuse_direct": ("use_pass_diffuse_direct", "Diffuse Direct", "DiffDir", 3, "RGB", "COLOR"),

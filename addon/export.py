@@ -1244,6 +1244,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         denoising_features=bool(props.use_denoising),
         passes=tuple(passes),
         ao_distance=_ao_distance(scene),
+        **_mist(scene),
     )
 
 
@@ -1264,6 +1265,20 @@ def pixel_filter(scene) -> dict:
     kind = str(getattr(cycles, "pixel_filter_type", "BLACKMAN_HARRIS"))
     width = 1.0 if kind == "BOX" else float(getattr(cycles, "filter_width", 1.5))
     return {"pixel_filter": kind, "filter_width": width}
+
+
+# World > Mist Pass > Falloff as Cycles' exponent (its sync: Quadratic 2, Linear 1, Inverse Quadratic 0.5).
+MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}
+
+
+def _mist(scene) -> dict:
+    """The Mist pass's settings (core RenderSettings mist_start, mist_depth, mist_falloff): the world's Mist Pass
+    Start, Depth and Falloff, as Cycles syncs them; Cycles' own defaults (0, 100, linear) without a world."""
+    settings = getattr(scene.world, "mist_settings", None) if scene.world is not None else None
+    if settings is None:
+        return {}
+    return {"mist_start": float(settings.start), "mist_depth": float(settings.depth),
+            "mist_falloff": MIST_FALLOFF.get(settings.falloff, 1.0)}
 
 
 def _ao_distance(scene) -> float:

@@ -23,7 +23,7 @@ from test_blender_denoise import read_channels  # noqa: E402
 pytestmark = pytest.mark.blender
 
 TOGGLES = ("position", "uv", "object_index", "material_index", "diffuse_color", "glossy_color",
-           "transmission_color", "emit", "environment", "ambient_occlusion", "z", "normal")
+           "transmission_color", "emit", "environment", "ambient_occlusion", "z", "normal", "mist")
 SAMPLES = 16
 
 
@@ -50,6 +50,9 @@ def render_both(name: str, folder, percentage: int = 50) -> tuple:
     if name == "light_emissive":
         principled = bpy.data.materials["Green"].node_tree.nodes["Principled BSDF"]
         principled.inputs["Emission Strength"].default_value = 2.0
+    if scene.world is not None:                 # (the Mist pass over the scenes' depths, 4 to 12 from the camera)
+        scene.world.mist_settings.start, scene.world.mist_settings.depth = 3.0, 10.0
+        scene.world.mist_settings.falloff = "LINEAR"
     scene.render.resolution_percentage = percentage
     scene.primer.samples = SAMPLES
     scene.primer.use_adaptive_sampling = False
@@ -90,7 +93,8 @@ def inside(primer_passes: dict, cycles_passes: dict) -> np.ndarray:
 SCENES = ("materials_principled", "materials_glass", "light_emissive")
 CYCLES_NAMES = {"Position": ["X", "Y", "Z"], "UV": ["A", "U", "V"], "Object Index": ["X"], "Material Index": ["X"],
                 "Diffuse Color": ["R", "G", "B"], "Glossy Color": ["R", "G", "B"], "Transmission Color": ["R", "G", "B"],
-                "Emission": ["R", "G", "B"], "Environment": ["R", "G", "B"], "Ambient Occlusion": ["R", "G", "B"]}
+                "Emission": ["R", "G", "B"], "Environment": ["R", "G", "B"], "Ambient Occlusion": ["R", "G", "B"],
+                "Mist": ["Z"]}
 
 
 def test_primer_writes_each_pass_under_the_name_and_channels_cycles_writes(renders):
@@ -230,3 +234,20 @@ def test_depth_and_normal_equal_cycles_inside_objects_normal_maps_included(rende
     angle = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
     assert np.median(angle) < 1.0 and np.percentile(angle, 90) < 2.0, (np.median(angle), np.percentile(angle, 90))
     assert np.all(mine["Normal"][1][background] == 0.0) and np.all(cycles["Normal"][1][background] == 0.0)
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_mist_matches_cycles_inside_objects_and_is_one_in_the_background(renders, scene):
+    """The Mist pass with the worlds' Mist Pass set to Start 3, Depth 10, Linear:
+    inside objects, each pixel's mean over its 16 samples within 0.02 of Cycles' in 95 % of the pixels and the mean
+    within 1 %; 1 where a pixel and its neighbours see no object, in both."""
+    mine, cycles = renders[scene]
+    mask = inside(mine, cycles)
+    background = mask & (cycles["Object Index"][1][..., 0] == 0)
+    objects = mask & ~background
+    a, b = mine["Mist"][1][..., 0], cycles["Mist"][1][..., 0]
+    print(scene, float(np.abs(a - b)[objects].mean()), float(a[objects].mean()), float(b[objects].mean()))
+    assert b[objects].std() > 0.01                                   # the mist varies over the scene
+    assert (np.abs(a - b)[objects] < 0.02).mean() > 0.95
+    assert a[objects].mean() == pytest.approx(b[objects].mean(), rel=0.01)
+    assert background.any() and np.allclose(a[background], 1.0) and np.allclose(b[background], 1.0)

@@ -117,6 +117,18 @@ INLINE void ambient_occlusion(const LanePasses *lp, const Surface *s, int64_t pi
     for (int c = 0; c < 3; c++) out[c] = T[0][c];
 }
 
+/* passes.mist at the camera-relative hit I (3): clamp((d - start) / depth, 0, 1) ^ falloff, d the distance from the
+ * camera (along its forward axis for an orthographic camera). */
+INLINE double mist_at(const PassTables *pt, const double *I)
+{
+    double towards[3];
+    for (int c = 0; c < 3; c++) towards[c] = I[c] + pt->camera_offset[c];
+    double d = pt->ortho != 0 ? fabs(dot3(towards, pt->forward)) : sqrt(dot3(towards, towards));
+    double m = (d - pt->mist_start) * pt->mist_inv_depth;
+    m = m < 0.0 ? 0.0 : (m > 1.0 ? 1.0 : m);
+    return pt->mist_falloff == 1.0 ? m : pow(m, pt->mist_falloff);
+}
+
 /* passes.at_vertex for hit h of H, on a camera chain (no real bounce yet), the chain's `vertex`-th. */
 NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, const BlockHits *H, int64_t h, int vertex)
 {
@@ -173,6 +185,10 @@ NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, 
         ambient_occlusion(lp, s, H->pixel[h], H->sample[h], ds->seed, (int64_t)vertex * VERTEX_DIMENSIONS, open);
         for (int c = 0; c < 3; c++) open[c] *= tp[c] * alpha[c];
         pass_add(lp, lane, PASS_AMBIENT_OCCLUSION, open, NULL);
+    }
+    if (pt->offset[PASS_MIST] >= 0) {
+        double kept[1] = {(1.0 - mist_at(pt, s->I)) * (tp[0] * alpha[0] + tp[1] * alpha[1] + tp[2] * alpha[2]) / 3.0};
+        pass_add(lp, lane, PASS_MIST, kept, NULL);
     }
 }
 

@@ -30,6 +30,10 @@ throughput there (the product of the transparent bounces' weights).
     ambient_occlusion  throughput times its alpha times what a cosine-distributed ray about the shading normal
                     carries back through transparent surfaces within ao_distance (1 open, 0 occluded; Cycles'
                     AO pass)
+    mist            the mean of throughput times alpha, times 1 - m, m = clamp((d - mist_start) / mist_depth, 0,
+                    1) ^ mist_falloff of the hit's distance d from the camera (along its axis for an orthographic
+                    one); the pass is 1 - its mean over samples, clamped to [0, 1] (Cycles' Mist: a ray that
+                    escapes adds nothing, so the world is 1)
     crypto_object, crypto_material, crypto_asset  Cryptomatte (cryptomatte.py): mean(throughput) x alpha for the
                     surface's object, material or asset id, into the pixel's slots
 - Along the chain's rays:
@@ -59,7 +63,7 @@ from .rays import lamps_seen
 PASS_CHANNELS = {
     "position": 3, "uv": 3, "object_index": 1, "material_index": 1, "z_depth": 1, "average_normal": 3,
     "diffuse_color": 3, "glossy_color": 3, "transmission_color": 3,
-    "emission": 3, "environment": 3, "ambient_occlusion": 3,
+    "emission": 3, "environment": 3, "ambient_occlusion": 3, "mist": 1,
 }
 PASS = schema.constants("PASS", tuple(PASS_CHANNELS), "the first-hit passes, in the film's order (passes.py)")
 schema.constant("PASS_CHANNELS_MAX", sum(PASS_CHANNELS.values()), "the first-hit passes' channels in all")
@@ -169,6 +173,10 @@ passes.c): where each sits in a pixel's channels, and the scene's tables they re
     ("camera_offset", F64, 3, "a camera-relative point + camera_offset is relative to the camera"),
     ("forward", F64, 3, "the camera's unit forward axis"),
     ("ao_distance", F64, "the ambient occlusion ray's length"),
+    ("mist_start", F64, "the Mist pass's start distance"),
+    ("mist_inv_depth", F64, "1 / its depth (0 for a depth of 0)"),
+    ("mist_falloff", F64, "its falloff exponent"),
+    ("ortho", I32, "1: an orthographic camera (the Mist pass's distance along its axis)"),
     ("uv_offset", I32, "the UV map's first attribute float, -1: none"),
     ("world_camera", I32, "1: the camera sees the world (the environment pass)"),
 ])
@@ -193,7 +201,30 @@ def pass_tables(ctx, layout: PassLayout):
         slots=layout.slots, origin=np.asarray(geometry.origin, np.float64),
         camera_offset=np.asarray(ctx.extra["camera_offset"], np.float64),
         forward=np.asarray(ctx.extra["forward"], np.float64), ao_distance=float(ctx.settings.ao_distance),
+        mist_start=float(ctx.settings.mist_start), mist_inv_depth=mist_inv_depth(ctx.settings),
+        mist_falloff=float(ctx.settings.mist_falloff), ortho=is_ortho(ctx),
         uv_offset=-1 if uv is None else int(uv[0]), world_camera=world is not None and bool(world.camera))
+
+
+def mist_inv_depth(settings) -> float:
+    """1 / the Mist pass's depth, 0 for a depth of 0 or less (Cycles' mist_inv_depth: all mist from the start on)."""
+    return 1.0 / float(settings.mist_depth) if settings.mist_depth > 0.0 else 0.0
+
+
+def is_ortho(ctx) -> bool:
+    """Whether the render's camera is orthographic (the Mist pass measures along its axis, as Cycles'
+    camera_distance)."""
+    return getattr(ctx.extra.get("camera"), "type", "PERSP") == "ORTHO"
+
+
+def mist(ctx, I: np.ndarray) -> np.ndarray:
+    """The Mist pass's m (k,) float64 at camera-relative hits I (k, 3): clamp((d - start) / depth, 0, 1) ^ falloff,
+    d the distance from the camera (along its forward axis for an orthographic camera), as Cycles' data pass."""
+    s = ctx.settings
+    towards = I + ctx.extra["camera_offset"]
+    d = np.abs(towards @ ctx.extra["forward"]) if is_ortho(ctx) else np.linalg.norm(towards, axis=1)
+    m = np.clip((d - s.mist_start) * mist_inv_depth(s), 0.0, 1.0)
+    return m if s.mist_falloff == 1.0 else m ** float(s.mist_falloff)
 
 
 def object_indices(scene) -> np.ndarray:
@@ -294,6 +325,8 @@ def at_vertex(ctx, dp: DataPasses, rows: np.ndarray, owner: np.ndarray, vertex: 
     if dp.layout.has("ambient_occlusion"):
         dp.add("ambient_occlusion", at, T * alpha * ambient_occlusion(
             ctx, I, surface.Ng[rows], surface.vertices[rows], surface.N[rows], pixel[rows], sample[rows], dimension))
+    if dp.layout.has("mist"):
+        dp.add("mist", at, ((T * alpha).mean(axis=1) * (1.0 - mist(ctx, I)))[:, None])
 
 
 def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O: np.ndarray, D: np.ndarray,
@@ -353,6 +386,8 @@ def images(sums: dict, count: np.ndarray, layout: PassLayout, depth: int, height
         v = values[:, layout.channels_of(name)]
         if name not in FIRST_SAMPLE_ONLY:
             v = np.divide(v, n, out=np.zeros_like(v), where=n > 0)
+            if name == "mist":                   # (the film holds 1 - mist, as Cycles' buffer)
+                v = np.clip(1.0 - v, 0.0, 1.0)
         elif name == "z_depth":
             v = np.where(v == 0.0, MISS_DEPTH, v)
         out[name] = v.astype(np.float32).reshape(height, width, -1)

@@ -62,8 +62,9 @@
 #define PASS_EMISSION 9
 #define PASS_ENVIRONMENT 10
 #define PASS_AMBIENT_OCCLUSION 11
+#define PASS_MIST 12
 /* the first-hit passes' channels in all (core.integrators.passes) */
-#define PASS_CHANNELS_MAX 30
+#define PASS_CHANNELS_MAX 31
 /* the data passes' opaque-enough alpha (passes.py) (core.integrators.passes) */
 #define ALPHA_THRESHOLD 0.5
 /* the ambient occlusion ray's sampling dimension (core.integrators.passes) */
@@ -440,7 +441,7 @@ static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1
 static const int BSDF_ALPHA_Y_PARAM[BSDF_COUNT] = {-1, -1, 10, -1, -1, -1, -1, -1, -1, -1, 10, -1, 10, -1, -1, -1, -1, -1, -1, -1, -1};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
-static const int PASS_WIDTH[12] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3};
+static const int PASS_WIDTH[13] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3, 1};
 
 /* core/materials/registry.py NODE_TYPES: a shader node's kind */
 enum {
@@ -842,7 +843,7 @@ struct GraphEmissionArgs {
 /* What the compiled kernel writes the first-hit passes with (passes.py,
  * passes.c): where each sits in a pixel's channels, and the scene's tables they read. */
 struct PassTables {
-    int32_t offset[12];                     /* each PASS_*'s first channel, -1: not asked for */
+    int32_t offset[13];                     /* each PASS_*'s first channel, -1: not asked for */
     int64_t channels;                       /* the passes' channels in all */
     const double *object_index;             /* (n,) each Scene.instances entry's Pass Index */
     const double *material_index;           /* (m + 1,) each material's Pass Index, then the default material's */
@@ -856,6 +857,10 @@ struct PassTables {
     double camera_offset[3];                /* a camera-relative point + camera_offset is relative to the camera */
     double forward[3];                      /* the camera's unit forward axis */
     double ao_distance;                     /* the ambient occlusion ray's length */
+    double mist_start;                      /* the Mist pass's start distance */
+    double mist_inv_depth;                  /* 1 / its depth (0 for a depth of 0) */
+    double mist_falloff;                    /* its falloff exponent */
+    int32_t ortho;                          /* 1: an orthographic camera (the Mist pass's distance along its axis) */
     int32_t uv_offset;                      /* the UV map's first attribute float, -1: none */
     int32_t world_camera;                   /* 1: the camera sees the world (the environment pass) */
 };
@@ -1258,7 +1263,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
-    if (strcmp(name, "PassTables") == 0) return UINT64_C(2611190362349139523);
+    if (strcmp(name, "PassTables") == 0) return UINT64_C(2796690520821526481);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(9112495589854067224);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);

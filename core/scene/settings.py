@@ -70,6 +70,9 @@ class RenderSettings:
     cryptomatte_depth: the (id, coverage) ranks each Cryptomatte pass keeps per pixel (View Layer >
                       Passes > Cryptomatte > Levels; 6 by default, two per RGBA pass)
     ao_distance: how far the Ambient Occlusion pass's rays look (Blender's World > Ambient Occlusion > Distance)
+    mist_start, mist_depth, mist_falloff: the Mist pass's mapping of the distance d from the camera (World > Mist
+                      Pass: Start, Depth, Falloff as an exponent: Quadratic 2, Linear 1, Inverse Quadratic 0.5):
+                      clamp((d - start) / depth, 0, 1) ^ falloff (core/integrators/passes.py)
     light_groups: the light groups whose passes to write (View Layer > Light Groups' names, in order): each the
                       light of the sources in it, from the integrator (core/integrators/lightgroups.py;
                       membership: Scene.lightgroups)
@@ -126,6 +129,9 @@ class RenderSettings:
     shadow_rays_for_backfacing: bool = False
     passes: Sequence[str] = ()
     ao_distance: float = 10.0
+    mist_start: float = 0.0
+    mist_depth: float = 100.0
+    mist_falloff: float = 1.0
     cryptomatte_depth: int = 6
     light_groups: Sequence[str] = ()
     shadow_catcher_pass: bool = False
