@@ -39,7 +39,7 @@ class World:
     strength: multiplies the image (the Background node's Strength)
     rotation: (3, 3) float64 world-to-texture rotation (the Mapping node's), applied before (u, v)
     camera:   whether camera rays see it (Ray Visibility > Camera)
-    lights:   whether it lights surfaces (Ray Visibility > Diffuse / Glossy)
+    lights:   whether it lights the scene (some kind of bounce sees it: Ray Visibility > Diffuse, Glossy, ...)
     hidden:   the HIDDEN_FROM_* bits of the bounces that do not see it (Ray Visibility > Diffuse, Glossy,
               Transmission, Volume Scatter off, as Cycles' SHADER_EXCLUDE_*): rays of those kinds that escape find
               nothing, its light samples light no closure of those kinds (integrators/vertex.py closures_left_out)
