@@ -625,6 +625,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
     const ShadingPoint *moved = NULL;   /* the hit on the moved surface */
     const double *info = G->programs + PROGRAM_INFO * program;
     const double *ops = G->ops + OP_WIDTH * (int64_t)info[0], *ramps = G->ramps + (int64_t)info[7];
+    const int32_t *args = G->args + (OP_WIDTH - 1) * (int64_t)info[0];     /* (the arguments, read as they are) */
     if (live != NULL) live += (int64_t)info[0];
     int64_t n_ops = (int64_t)info[1], n_constants = (int64_t)info[3];
     const double *constants = G->constants + (int64_t)info[2];
@@ -635,8 +636,7 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
     for (int64_t o = 0; o < n_ops; o++) {
         if (live != NULL && live[o] == 0.0) continue;
         const double *op = ops + OP_WIDTH * o;
-        int a[OP_WIDTH - 1];
-        for (int j = 0; j < OP_WIDTH - 1; j++) a[j] = (int)op[1 + j];
+        const int *a = args + (OP_WIDTH - 1) * o;
         double *out = reg + (a[0] >= 0 ? a[0] : 0);
         switch ((int)op[0]) {
         case OP_ATTR:

@@ -2002,6 +2002,7 @@ arguments; programs: (p, PROGRAM_INFO) first op, op count, first constant, const
 output count, first ramp float, first entry of emission_nodes. (Numbers that index stay doubles here: one row type for
 codes, registers and constants.) emission_ops, emission_nodes: what a light sample runs (graph.emission_live).""", [
     ("ops", ptr(F64), "(k, OP_WIDTH)"),
+    ("args", ptr(I32), "(k, OP_WIDTH - 1) the ops' arguments as integers (the interpreter reads these)"),
     ("constants", ptr(F64), "(c,)"),
     ("outputs", ptr(F64), "(o, 5) rows of graph.Program.outputs"),
     ("ramps", ptr(F64), "(r,) the colour ramps' floats"),
@@ -2117,6 +2118,7 @@ def program_tables(programs: list, textures, emission: Optional[list] = None) ->
     c = library.contiguous
     return GraphTablesRecord(
         ops=c(joined([p.ops for p in programs], 1 + OP_ARGS), np.float64),
+        args=c(joined([p.ops.reshape(-1, 1 + OP_ARGS)[:, 1:].astype(np.int32) for p in programs], OP_ARGS), np.int32),
         constants=c(joined([p.constants for p in programs], 1), np.float64),
         outputs=c(joined([p.outputs for p in programs], 5), np.float64),
         ramps=c(joined([p.ramps for p in programs], 4), np.float64), programs=c(info, np.float64),

@@ -1071,6 +1071,7 @@ struct LightPath {
  * codes, registers and constants.) emission_ops, emission_nodes: what a light sample runs (graph.emission_live). */
 struct GraphTables {
     const double *ops;                      /* (k, OP_WIDTH) */
+    const int32_t *args;                    /* (k, OP_WIDTH - 1) the ops' arguments as integers (the interpreter reads these) */
     const double *constants;                /* (c,) */
     const double *outputs;                  /* (o, 5) rows of graph.Program.outputs */
     const double *ramps;                    /* (r,) the colour ramps' floats */
@@ -1270,7 +1271,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(1988518437441009220);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1461087652967974442);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(4885342588190242323);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(2654416283381586217);
     if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
     if (strcmp(name, "SkyMultipleArgs") == 0) return UINT64_C(8745123704423823932);
     if (strcmp(name, "SkySingleArgs") == 0) return UINT64_C(7958716256533574401);
