@@ -257,3 +257,72 @@ def test_a_textured_emitters_estimate_is_the_mean_of_its_texels_at_the_estimate_
     expected = np.where(x < 0.0, a, b).mean(axis=1)
     np.testing.assert_allclose(in_c[screen], expected[:, None] * np.ones(3), rtol=1e-12)
     assert np.ptp(in_c[~screen]) > 0.0        # (the noise varies over the second square)
+
+
+def test_a_light_sample_running_only_the_ops_its_emission_reads_sees_the_whole_graphs_emission():
+    """A light sample wants only a material's emission, so the compiled kernel runs only the ops and shader nodes
+    the emission depends on (graph.emission_live): a bumped, noise-textured Principled beside a textured Emission
+    drops the bump's three evaluations of its height and the BSDF's colour, while an emitting Principled whose coat
+    follows its bumped normal (the coat tints the emission at that normal's angle) keeps its normal's ops. The emission the C kernel
+    finds at 64 random points on each material's square is the Python reference's, which runs every op."""
+    from core.integrators import compiled, vertex
+    from core.lights import emitters as emitters_
+    from core.materials import graph as graph_
+    from core.materials.graph import GraphNode, Link
+    from test_textures import plane_attributes
+    where = Link(GraphNode("TEXCOORD"), "UV")
+
+    def noise(scale, detail, distortion=0.0):
+        return Link(GraphNode("TEX_NOISE", {}, {"Vector": where, "Scale": scale, "Detail": detail,
+                                                "Distortion": distortion}), "Fac")
+
+    height = Link(GraphNode("MATH", {"operation": "MULTIPLY"}, {"0": noise(40.0, 15.5, 0.5), "1": noise(7.0, 3.0)}),
+                  "Value")
+    bumped = Link(GraphNode("BUMP", {"invert": False}, {"Height": height, "Distance": 0.1}), "Normal")
+    glow = Link(GraphNode("TEX_VORONOI", {}, {"Vector": where, "Scale": 5.0}), "Distance")
+    table = np.linspace((0.1, 0.0, 0.0, 1.0), (4.0, 2.0, 0.5, 1.0), 256)           # (a ramp from red to yellow)
+    ramp = Link(GraphNode("RAMP", {"table": table, "interpolate": True}, {"Fac": glow}), "Color")
+    wave = Link(GraphNode("TEX_WAVE", {}, {"Vector": where, "Scale": 3.0}), "Fac")
+    lava = Material(name="Lava", emission_sampling="FRONT_BACK", nodes=[
+        ("PRINCIPLED", (1.0, 1.0, 1.0), {"base_color": Link(GraphNode("TEX_NOISE", {}, {"Vector": where}), "Color"),
+                                         "normal": bumped}, [(wave, "one_minus")]),
+        ("EMISSION", (3.0, 3.0, 3.0), {"emission": ramp}, [(wave, "fac")])])
+    coated = Material(name="Coated", emission_sampling="FRONT_BACK", nodes=[
+        ("PRINCIPLED", (1.0, 1.0, 1.0), {"coat": 0.8, "coat_tint": (0.9, 0.3, 0.2), "coat_follows_normal": 1.0,
+                                         "emission": ramp,
+                                         "normal": bumped})])
+    scene = Scene(camera=ortho_down(center=(0.0, 0.0, 0.0), height=1.0, scale=0.02))
+    for k, material in enumerate((lava, coated)):
+        scene.materials.append(material)
+        square = primitives.plane(1.0)
+        square.attributes = plane_attributes(square)
+        place = np.diag([1.0, -1.0, -1.0, 1.0])
+        place[:3, 3] = (2.0 * k, 0.0, 1.0)
+        scene.add_mesh(square, matrix=place, materials=np.array([len(scene.materials) - 1]))
+    ctx = render.prepare(scene, RenderSettings(width=2, height=2))
+    layout = ctx.geometry.attribute_layout
+    live = {}
+    for row, name in enumerate(ctx.materials.names):
+        program = ctx.materials.program(row, layout)
+        if program is not None:
+            ops, nodes = graph_.emission_live(program, ctx.materials.shaders[row].nodes)
+            names = [graph_.OPS[int(o[0])] for o in program.ops]
+            live[name] = (sum(n == "TEX_NOISE" for n, x in zip(names, ops) if x), names.count("TEX_NOISE"), nodes)
+    assert live["Lava"][0] == 0 and live["Lava"][1] == 7 and list(live["Lava"][2]) == [False, False, True]
+    assert live["Coated"][0] == live["Coated"][1] == 6 and list(live["Coated"][2]) == [True, True]
+    prim = np.repeat(np.arange(4), 16)                              # (the squares' triangles)
+    assert sorted(set(ctx.materials.names[m] for m in ctx.geometry.material[prim])) == ["Coated", "Lava"]
+    rng = np.random.default_rng(34)
+    uv = rng.random((len(prim), 2))
+    uv = np.where(uv.sum(axis=1, keepdims=True) > 1.0, 1.0 - uv, uv)
+    triangle = ctx.geometry.triangle_data(prim, smooth=False)
+    V = triangle.corners
+    P = (1.0 - uv[:, :1] - uv[:, 1:]) * V[:, 0] + uv[:, :1] * V[:, 1] + uv[:, 1:] * V[:, 2]
+    D = rng.normal(size=(len(prim), 3)) * 0.3 - triangle.Ng                   # (towards the front, at angles)
+    D /= np.linalg.norm(D, axis=1)[:, None]
+    t = rng.uniform(0.5, 3.0, len(prim))
+    O = P - t[:, None] * D
+    in_c = compiled.graph_emission(ctx.geometry, ctx.materials, prim, O, D, t)
+    in_python = vertex.graph_emission(ctx.geometry, ctx.materials, prim, O, D, t)
+    assert np.all(np.isfinite(in_c)) and np.ptp(in_c[:32]) > 0.0 and np.ptp(in_c[32:]) > 0.0
+    np.testing.assert_allclose(in_c, in_python, rtol=1e-6, atol=1e-9)

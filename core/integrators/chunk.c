@@ -120,7 +120,7 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
                       (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, &camera, &keys,
-                      H->sd + h);
+                      0, H->sd + h);
             H->seen_by[h] = HIDDEN_FROM_CAMERA;
             double weight[3];                   /* a holdout object or node: a hole in the film (path.hold_out) */
             if (hold_out(H->sd + h, hidden_from(params->geometry, (int64_t)packet.hit.geomID[k],
@@ -427,7 +427,7 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
         sd->terminator = 1.0;
         LightPath path = {PATH_CAMERA, 0, 0, 0, 0, passed, 0, 0.0, 0.0};
         ShaderKeys keys = {&rays, pixel, index, 0, 0};
-        shade_hit(params->graphs, params->geometry, m, &tri, &s, geometry, prim, instance, u, v, wo, &path, &keys, sd);
+        shade_hit(params->graphs, params->geometry, m, &tri, &s, geometry, prim, instance, u, v, wo, &path, &keys, 0, sd);
         for (int i = 0; i < sd->n; i++) {
             const double *w = sd->c[i].weight;
             if (!bsdf_is(sd->c[i].kind, BSDF_FLAG_STRAIGHT) && (w[0] != 0.0 || w[1] != 0.0 || w[2] != 0.0)) return 0;

@@ -674,7 +674,7 @@ INLINE void transmit_packet(const Transmitter *tr, int lanes, double O[][3], dou
                 double gone[3] = {s.I[0] - O[l][0], s.I[1] - O[l][1], s.I[2] - O[l][2]};
                 s.t = sqrt(dot3(gone, gone));
                 shade_hit(tr->graphs, tr->geometry, tr->materials + s.material, &tri, &s, geometry, prim, instance, u,
-                          v, wo, &path, NULL, &sd);
+                          v, wo, &path, NULL, 0, &sd);
                 double passes = tr->materials[s.material].shadow_opaque != 0.0 ? 0.0 : 1.0;
                 /* (a Ray Portal's weight: as Cycles' shadow rays count it, portal.shadow_transparency) */
                 int clear = sd.transparency[0] != 0.0 || sd.transparency[1] != 0.0 || sd.transparency[2] != 0.0;
@@ -711,16 +711,17 @@ INLINE void point_barycentrics(const double *V, const double *P, double *u, doub
 
 /* The surface s and material sd (its emission, transparency and holdout: no closures, no_closures) of triangle tri
  * (Embree's geometry, prim, instance) where the ray O + t D, carrying the path `path`, meets it at barycentrics
- * (u, v). */
+ * (u, v); emission_only: only sd->emission is read afterwards (shade_graph). */
 INLINE void shade_along(const DirectSettings *ds, const Triangle *tri, int64_t geometry, int64_t prim,
                         int64_t instance, const double *O, const double *D, double t, double u, double v,
-                        const LightPath *path, const ShaderKeys *keys, Surface *s, ShaderResult *sd)
+                        const LightPath *path, const ShaderKeys *keys, int emission_only, Surface *s,
+                        ShaderResult *sd)
 {
     surface_at(O, D, t, u, v, tri, 0, s);
     double wo[3] = {-D[0], -D[1], -D[2]};
     no_closures(sd);
     shade_hit(ds->graphs, ds->geometry, ds->materials + tri->material, tri, s, geometry, prim, instance, u, v, wo,
-              path, keys, sd);
+              path, keys, emission_only, sd);
 }
 
 /* direct.graph_emission for one point O + t D on triangle (geometry, prim, instance): what its material's node
@@ -736,7 +737,7 @@ NOINLINE static void graph_emission(const DirectSettings *ds, int64_t geometry, 
     point_barycentrics(tri.V, P, &u, &v);
     Surface s;
     ShaderResult sd;
-    shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, path, keys, &s, &sd);
+    shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, path, keys, 1, &s, &sd);
     for (int c = 0; c < 3; c++) out[c] = sd.emission[c];
 }
 

@@ -100,7 +100,7 @@ NOINLINE static void through_transparent(const PathRay *r, int clear, const Path
         if (material->may_pass == 0.0) return;
         Surface s;
         ShaderResult sd;
-        shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &path, NULL, &s, &sd);
+        shade_along(ds, &tri, geometry, prim, instance, O, D, t, u, v, &path, NULL, 0, &s, &sd);
         for (int c = 0; c < 3; c++) T[c] *= sd.transparency[c];
         clear += !is_boundary(ds->media, tri.material);
         path.transparent = clear;
@@ -251,7 +251,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         ShaderKeys keys = {&traced, H->pixel[h], H->sample[h], (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,
                            next->min_pdf[m] < BEVEL_MIN_PDF};
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
-                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, &keys, next->sd + m);
+                  r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, &keys, 0, next->sd + m);
         /* A walk's exit is lit as a white Lambert surface (subsurface.c walk_exit_shader). */
         next->exiting[m] = (uint8_t)r->walked;
         if (r->walked) walk_exit_shader(next->sd + m);
@@ -320,7 +320,7 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     ShaderKeys keys = {&traced, a->pixel, a->sample, (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,
                        a->min_pdf < BEVEL_MIN_PDF};
     shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry, r->prim,
-              r->instance, r->u, r->v, next->wo + 3 * m, &path, &keys, next->sd + m);
+              r->instance, r->u, r->v, next->wo + 3 * m, &path, &keys, 0, next->sd + m);
     if (a->diffuse > 0) burley_as_diffuse(next->sd + m);     /* (subsurface.burley_as_diffuse, as path.py) */
     next->exiting[m] = 0;
     next->flags[m] = PATH_VOLUME_SCATTER;

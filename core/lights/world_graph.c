@@ -33,7 +33,7 @@ INLINE void world_graph_radiance(const WorldGraph *g, const double *D, const Lig
 {
     ShadingPoint sp;
     world_point_at(g, D, path, &sp);
-    run_program(g->graph, 0, &sp, reg);
+    run_program(g->graph, 0, &sp, NULL, reg);
     for (int c = 0; c < 3; c++) out[c] = reg[g->color + c] * reg[g->strength];
 }
 

@@ -613,14 +613,20 @@ static void undisplaced_point(int position, int normal, const ShadingPoint *sp, 
     for (int j = 0; j < 3; j++) out->N[j] *= sp->side;
 }
 
-NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *hit, double *reg)
+/* graph.run for one hit: program `program` of G at the hit into the registers reg; live: NULL (every op runs), or
+ * one flag per op (GraphTables.emission_ops from the program's first op): an op whose flag is 0 is skipped, its
+ * registers left unwritten (graph.live_ops: nothing that is read depends on them). */
+NOINLINE static void run_program(const GraphTables *G, int program, const ShadingPoint *hit, const double *live,
+                                 double *reg)
 {
     const ShadingPoint *sp = hit;       /* after a SET_NORMAL: `bumped`, the hit with Set Normal's normal */
     ShadingPoint bumped;
     ShadingPoint flat;                  /* inside UNDISPLACED: the hit before the surface moved, and */
     const ShadingPoint *moved = NULL;   /* the hit on the moved surface */
-    const double *info = G->programs + 8 * program;
+    const double *info = G->programs + PROGRAM_INFO * program;
     const double *ops = G->ops + OP_WIDTH * (int64_t)info[0], *ramps = G->ramps + (int64_t)info[7];
+    const int32_t *args = G->args + (OP_WIDTH - 1) * (int64_t)info[0];     /* (the arguments, read as they are) */
+    if (live != NULL) live += (int64_t)info[0];
     int64_t n_ops = (int64_t)info[1], n_constants = (int64_t)info[3];
     const double *constants = G->constants + (int64_t)info[2];
     for (int64_t k = 0; k < n_constants; k++) reg[k] = constants[k];
@@ -628,9 +634,9 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
     const double *attributes = sp->attributes;
     double step_u = 0.0, step_v = 0.0;  /* the bump's evaluation point (OFFSET): its step from the hit */
     for (int64_t o = 0; o < n_ops; o++) {
+        if (live != NULL && live[o] == 0.0) continue;
         const double *op = ops + OP_WIDTH * o;
-        int a[OP_WIDTH - 1];
-        for (int j = 0; j < OP_WIDTH - 1; j++) a[j] = (int)op[1 + j];
+        const int *a = args + (OP_WIDTH - 1) * o;
         double *out = reg + (a[0] >= 0 ? a[0] : 0);
         switch ((int)op[0]) {
         case OP_ATTR:

@@ -160,6 +160,7 @@ OP_ARGS = 15
 schema.constant("OP_WIDTH", 1 + OP_ARGS, "one op's record: the code and its arguments")
 # At most this many registers per program, attribute floats per hit.
 MAX_REGISTERS = schema.constant("MAX_REGISTERS", 1024, "a program's registers at most")
+PROGRAM_INFO = schema.constant("PROGRAM_INFO", 9, "one program's row of GraphTables.programs")
 MAX_ATTRIBUTES = schema.constant("MAX_ATTRIBUTES", 64, "attribute floats per hit at most")
 # The bump's finite-difference step, as a fraction of the triangle's edges.
 BUMP_STEP = schema.constant("BUMP_STEP", 1e-3, "the bump's finite-difference step, a fraction of the edges")
@@ -297,7 +298,9 @@ class Program(NamedTuple):
     registers: R, how many a hit needs; outputs: (m, 5) float64 rows (kind OUT_*, shader node, slot or
     weight mode, width, register; OUT_NORMAL to slot 0 is the node's normal, to another slot a normal input);
     ramps: (r,) float64 colour-ramp tables, 256 RGBA rows each; taps: (node name, output, register, width, type)
-    of each named node's output the graph computes at the hit (what the ray inspector shows; not read in C).
+    of each named node's output the graph computes at the hit (what the ray inspector shows; not read in C);
+    blocks: (b, 2) int64 (first register, width) of each computed register block as the compiler made it (empty:
+    unknown, every op counts as live in `live_ops`).
     """
 
     ops: np.ndarray
@@ -306,6 +309,7 @@ class Program(NamedTuple):
     outputs: np.ndarray
     ramps: np.ndarray
     taps: tuple = ()
+    blocks: np.ndarray = np.zeros((0, 2), np.int64)
 
 
 class ShadingPoint(NamedTuple):
@@ -495,6 +499,7 @@ class Compiler:
         self.offset = 0                         # the bump's evaluation point: 0 the hit, 1 along x, 2 along y
         self.offset_width = None                # the register of that bump's Filter Width (None at the hit)
         self.temporaries = 0
+        self.blocks: list = []                  # (first temporary, width) of each block `temporary` made
         self.warnings = warnings if warnings is not None else []
         self.material = material
 
@@ -511,6 +516,7 @@ class Compiler:
         """A new computed register of `width` floats (a provisional negative number, see `compile`)."""
         start = self.temporaries
         self.temporaries += width
+        self.blocks.append((start, width))
         return -1 - start
 
     def emit(self, name: str, *args) -> None:
@@ -1151,7 +1157,8 @@ class Compiler:
         ramps = np.concatenate(self.ramps) if self.ramps else np.zeros(0)
         taps = tuple((name, output, renumber(reg), width, kind) for (name, output), (reg, width, kind)
                      in self.taps.items())
-        return Program(ops, np.array(self.constants, np.float64), registers, outputs, ramps, taps)
+        blocks = np.array([(c + start, width) for start, width in self.blocks], np.int64).reshape(-1, 2)
+        return Program(ops, np.array(self.constants, np.float64), registers, outputs, ramps, taps, blocks)
 
 
 def shift(register: int, by: int) -> int:
@@ -1991,16 +1998,92 @@ def valid_reflection(Ng: np.ndarray, wo: np.ndarray, N: np.ndarray) -> np.ndarra
 
 
 GraphTablesRecord = schema.record("GraphTables", """Every program of a render's materials (core/materials/graph.py). ops: (k, OP_WIDTH) the op code and its
-arguments; programs: (p, 8) first op, op count, first constant, constant count, registers, first output, output
-count, first ramp float. (Numbers that index stay doubles here: one row type for codes, registers and constants.)""", [
+arguments; programs: (p, PROGRAM_INFO) first op, op count, first constant, constant count, registers, first output,
+output count, first ramp float, first entry of emission_nodes. (Numbers that index stay doubles here: one row type for
+codes, registers and constants.) emission_ops, emission_nodes: what a light sample runs (graph.emission_live).""", [
     ("ops", ptr(F64), "(k, OP_WIDTH)"),
+    ("args", ptr(I32), "(k, OP_WIDTH - 1) the ops' arguments as integers (the interpreter reads these)"),
     ("constants", ptr(F64), "(c,)"),
     ("outputs", ptr(F64), "(o, 5) rows of graph.Program.outputs"),
     ("ramps", ptr(F64), "(r,) the colour ramps' floats"),
-    ("programs", ptr(F64), "(p, 8)"),
+    ("programs", ptr(F64), "(p, PROGRAM_INFO)"),
+    ("emission_ops", ptr(F64), "(k,) 1: the op runs when only the emission is wanted"),
+    ("emission_nodes", ptr(F64), "per program 1 + its material's node count: 1 where Set Normal's output, then each "
+                                 "node, is set up when only the emission is wanted"),
     ("textures", ptr("TextureTables"), "the images the programs read"),
     ("count", I64, "p"),
 ], tables=("OP",))
+
+
+# Ops that write no register but change what the ops after them read (the bump's point, the surface before it moved,
+# Set Normal's normal): `live_ops` keeps them always.
+STATE_OPS = ("OFFSET", "UNDISPLACED", "SET_NORMAL")
+
+
+def live_ops(program: Program, wanted) -> np.ndarray:
+    """Which ops of `program` the registers `wanted` (iterable of (first register, width)) depend on: (k,) bool.
+    The ops of STATE_OPS are always live; a program without `blocks` has every op live. Conservative: a read of one
+    register of a block depends on every op that writes into that block, wherever it stands in the program."""
+    ops, blocks, c = program.ops, np.asarray(program.blocks, np.int64).reshape(-1, 2), len(program.constants)
+    live = np.zeros(len(ops), bool)
+    if len(blocks) == 0:
+        live[:] = True
+        return live
+    block_of = np.full(max(1, program.registers), -1, np.int64)     # register -> its block (-1: a constant)
+    for b, (start, width) in enumerate(blocks):
+        block_of[start:start + width] = b
+    writers, reads = [[] for _ in blocks], []
+    for k, row in enumerate(ops):
+        name, args = OPS[int(row[0])], [int(x) for x in row[1:]]
+        registers = sorted(REGISTER_ARGS[name])
+        written = 0 in registers and name != "SET_NORMAL"
+        if written and args[0] >= c:
+            writers[block_of[args[0]]].append(k)
+        reads.append([args[j] for j in registers if (j > 0 or not written) and args[j] >= c])
+        live[k] = name in STATE_OPS
+    needed = np.zeros(len(blocks), bool)
+    stack = [k for k in range(len(ops)) if live[k]]
+    for start, width in wanted:
+        for r in range(int(start), int(start) + int(width)):
+            if r >= c and block_of[r] >= 0 and not needed[block_of[r]]:
+                needed[block_of[r]] = True
+                stack.extend(writers[block_of[r]])
+    while stack:
+        k = stack.pop()
+        live[k] = True
+        for r in reads[k]:
+            b = block_of[r]
+            if b >= 0 and not needed[b]:
+                needed[b] = True
+                stack.extend(w for w in writers[b] if not live[w])
+    return live
+
+
+def emission_live(program: Program, nodes: list) -> tuple:
+    """What a light sample (only the emission) must run of a material's `program`, its shader `nodes` [(node class,
+    weight, row), ...]: (the ops, (k,) bool (live_ops); the nodes whose setup may emit, (1 + n,) bool, entry 0 for
+    Set Normal's output (needed where an emitting node reads its normal), entry 1 + j for node j). The emission comes
+    out the same as the whole program's: the other nodes add only closures."""
+    outputs = np.asarray(program.outputs).reshape(-1, 5)
+    nodes_live = np.zeros(1 + len(nodes), bool)
+    for j, (cls, _, row) in enumerate(nodes):
+        slots = getattr(cls, "emission_slots", None)
+        if slots is None:
+            continue
+        linked = any(int(o[0]) == OUT_INPUT and int(o[1]) == j and int(o[2]) < slots[1]
+                     and int(o[2]) + int(o[3]) > slots[0] for o in outputs)
+        nodes_live[1 + j] = linked or bool(np.any(np.asarray(row, np.float64)[slots[0]:slots[1]] != 0.0))
+        nodes_live[0] |= nodes_live[1 + j] and getattr(cls, "emission_reads_normal", False)
+    wanted = []
+    for o in outputs:
+        node = int(o[1])
+        if node < 0:
+            keep = nodes_live[0]
+        else:
+            keep = nodes_live[1 + node] and (int(o[0]) != OUT_NORMAL or nodes[node][0].emission_reads_normal)
+        if keep:
+            wanted.append((int(o[4]), int(o[3])))
+    return live_ops(program, wanted), nodes_live
 
 
 class GraphTables:
@@ -2008,32 +2091,39 @@ class GraphTables:
     program index."""
 
     def __init__(self, table, layout: dict):
-        programs, self.rows = [], {}
+        programs, emission, self.rows = [], [], {}
         for row in range(len(table.shaders)):
             program = table.program(row, layout)
             if program is not None:
                 self.rows[row] = len(programs)
                 programs.append(program)
-        self.record = program_tables(programs, table.textures)
+                emission.append(emission_live(program, table.shaders[row].nodes))
+        self.record = program_tables(programs, table.textures, emission)
 
 
-def program_tables(programs: list, textures) -> "GraphTablesRecord":
+def program_tables(programs: list, textures, emission: Optional[list] = None) -> "GraphTablesRecord":
     """The GraphTables record of `programs` (their ops, constants, outputs and ramps joined, one row of offsets each)
-    reading the images of the TextureSet `textures`."""
-    info = np.zeros((max(1, len(programs)), 8))
-    starts = np.zeros(4, np.int64)                      # ops, constants, outputs, ramp floats so far
+    reading the images of the TextureSet `textures`; emission: each program's emission_live, or None (a program not
+    of a material's nodes: every op live, no node)."""
+    emission = emission if emission is not None else [(np.ones(len(p.ops), bool), np.zeros(1, bool))
+                                                      for p in programs]
+    info = np.zeros((max(1, len(programs)), PROGRAM_INFO))
+    starts = np.zeros(5, np.int64)                      # ops, constants, outputs, ramp floats, emission nodes so far
     for k, p in enumerate(programs):
         info[k] = [starts[0], len(p.ops), starts[1], len(p.constants), p.registers, starts[2], len(p.outputs),
-                   starts[3]]
-        starts += [len(p.ops), len(p.constants), len(p.outputs), len(p.ramps)]
+                   starts[3], starts[4]]
+        starts += [len(p.ops), len(p.constants), len(p.outputs), len(p.ramps), len(emission[k][1])]
     joined = lambda arrays, width: (np.concatenate([a.reshape(-1) for a in arrays]) if arrays   # noqa: E731
                                     else np.zeros(width))
     c = library.contiguous
     return GraphTablesRecord(
         ops=c(joined([p.ops for p in programs], 1 + OP_ARGS), np.float64),
+        args=c(joined([p.ops.reshape(-1, 1 + OP_ARGS)[:, 1:].astype(np.int32) for p in programs], OP_ARGS), np.int32),
         constants=c(joined([p.constants for p in programs], 1), np.float64),
         outputs=c(joined([p.outputs for p in programs], 5), np.float64),
         ramps=c(joined([p.ramps for p in programs], 4), np.float64), programs=c(info, np.float64),
+        emission_ops=c(joined([ops.astype(np.float64) for ops, _ in emission], 1), np.float64),
+        emission_nodes=c(joined([nodes.astype(np.float64) for _, nodes in emission], 1), np.float64),
         textures=textures_.texture_tables(textures), count=len(programs))
 
 

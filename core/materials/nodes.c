@@ -805,19 +805,22 @@ INLINE void shade_nodes(const MaterialRecord *m, const double *N, const double *
  * nodes' linked inputs, multiply their weights and give them their own normals (graph.apply_outputs);
  * then every node sets up its closures with its normal; sd->N stays the hit's (Cycles' sd->N: a Set Normal output
  * replaces it), which bump shadowing (bsdf.c) compares the closures' normals with. One node at a time (each output changes
- * only its own node), so that a material may have any number of nodes. */
+ * only its own node), so that a material may have any number of nodes. emission_only: only sd->emission is wanted
+ * (a light sample, a ray that lands on an emitter): only the ops and nodes it depends on run
+ * (GraphTables.emission_ops and emission_nodes, graph.emission_live); the other closures are left out. */
 NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, const ShadingPoint *sp, const double *N,
-                        const double *wo, int backfacing, ShaderResult *sd)
+                        const double *wo, int backfacing, int emission_only, ShaderResult *sd)
 {
     double reg[MAX_REGISTERS], weight[3], p[NODE_PARAMS], normal[3], glossy[3], hit[3];
     int n = (int)m->n, program = (int)m->graph - 1;
-    run_program(G, program, sp, reg);
-    const double *info = G->programs + 8 * program;
+    const double *info = G->programs + PROGRAM_INFO * program;
+    const double *emits = emission_only ? G->emission_nodes + (int64_t)info[8] : NULL;   /* [Set Normal, nodes] */
+    run_program(G, program, sp, emission_only ? G->emission_ops : NULL, reg);
     const double *outputs = G->outputs + 5 * (int64_t)info[5];
     /* Set Normal (a normal output to node -1): the hit's own normal from here on, where the graph gives one. */
     for (int64_t o = 0; o < (int64_t)info[6]; o++) {
         const double *out = outputs + 5 * o;
-        if ((int)out[1] >= 0) continue;
+        if ((int)out[1] >= 0 || (emits != NULL && emits[0] == 0.0)) continue;
         for (int j = 0; j < 3; j++) hit[j] = reg[(int64_t)out[4] + j];
         safe_normalize3(hit);
         if (hit[0] != 0.0 || hit[1] != 0.0 || hit[2] != 0.0) N = hit;
@@ -827,6 +830,7 @@ NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, 
     for (int j = 0; j < 3; j++) sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0;
     for (int k = 0; k < n; k++) {
         int own = 0;
+        if (emits != NULL && emits[1 + k] == 0.0) continue;
         for (int j = 0; j < 3; j++) weight[j] = m->weight[3 * k + j];
         for (int j = 0; j < NODE_PARAMS; j++) p[j] = m->p[(int64_t)NODE_PARAMS * k + j];
         for (int64_t o = 0; o < (int64_t)info[6]; o++) {
@@ -880,10 +884,12 @@ INLINE void shade_material(const MaterialRecord *m, const double *N, const doubl
 /* The material at a hit as the chunk shades it: a material with a node graph reads the hit's
  * ShadingPoint (triangles.c), with `path` the path that reached it, and runs its program; any other material as
  * shade_material (it reads no path). keys: what its Ambient Occlusion and Bevel nodes trace with (triangles.c
- * ShaderKeys), or NULL where shaders trace nothing (shadow rays, light samples: as Cycles). */
+ * ShaderKeys), or NULL where shaders trace nothing (shadow rays, light samples: as Cycles). emission_only: only
+ * sd->emission is read afterwards (shade_graph). */
 INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const MaterialRecord *m, const Triangle *tri,
                       const Surface *s, int64_t geometry, int64_t prim, int64_t instance, double u, double v,
-                      const double *wo, const LightPath *path, const ShaderKeys *keys, ShaderResult *sd)
+                      const double *wo, const LightPath *path, const ShaderKeys *keys, int emission_only,
+                      ShaderResult *sd)
 {
     /* (the object's Shading Offset bends the cosine of every closure's light: closures.terminator_term) */
     sd->terminator = terminator_multiplier_of(g, geometry, prim, instance);
@@ -902,5 +908,5 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
         sp.dimension = keys->dimension;
         sp.blurry = keys->blurry;
     }
-    shade_graph(G, m, &sp, s->N, wo, s->backfacing, sd);
+    shade_graph(G, m, &sp, s->N, wo, s->backfacing, emission_only, sd);
 }

@@ -328,6 +328,10 @@ class Node:
     slots: ClassVar[int] = 1            # at most this many closures (closures_at_most)
     normal_inputs: ClassVar[tuple] = ()  # inputs a linked normal feeds (unit, valid for reflection; 0: unlinked)
     lets_light_through: ClassVar[bool] = False  # it may let light straight through at some hits (hair.through_own_fibre)
+    # The slots [first, last) of its row its setup adds to the emission, or None (it emits nothing); and whether
+    # that emission reads the node's normal and the view (graph.emission_live: what a light sample must run).
+    emission_slots: ClassVar[Optional[tuple]] = None
+    emission_reads_normal: ClassVar[bool] = False
 
     @classmethod
     def row(cls, values: dict) -> np.ndarray:
@@ -459,6 +463,7 @@ class EmissionNode(Node):
 
     name, inputs, defaults = "EMISSION", ("emission",), ((0.0, 0.0, 0.0),)
     slots = 0
+    emission_slots = (0, 3)
 
     @staticmethod
     def setup(b, weight, p):
@@ -537,6 +542,7 @@ class PrincipledNode(Node):
     inputs, defaults = PRINCIPLED_INPUTS, PRINCIPLED_DEFAULTS
     normal_inputs = ("coat_normal",)
     slots = 8
+    emission_slots, emission_reads_normal = (18, 21), True    # (seen through the coat: its tint, at its angle)
 
     @staticmethod
     def setup(b, weight, p):

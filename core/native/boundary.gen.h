@@ -204,6 +204,8 @@
 #define OP_WIDTH 16
 /* a program's registers at most (core.materials.graph) */
 #define MAX_REGISTERS 1024
+/* one program's row of GraphTables.programs (core.materials.graph) */
+#define PROGRAM_INFO 9
 /* attribute floats per hit at most (core.materials.graph) */
 #define MAX_ATTRIBUTES 64
 /* the bump's finite-difference step, a fraction of the edges (core.materials.graph) */
@@ -1075,14 +1077,18 @@ struct LightPath {
 };
 
 /* Every program of a render's materials (core/materials/graph.py). ops: (k, OP_WIDTH) the op code and its
- * arguments; programs: (p, 8) first op, op count, first constant, constant count, registers, first output, output
- * count, first ramp float. (Numbers that index stay doubles here: one row type for codes, registers and constants.) */
+ * arguments; programs: (p, PROGRAM_INFO) first op, op count, first constant, constant count, registers, first output,
+ * output count, first ramp float, first entry of emission_nodes. (Numbers that index stay doubles here: one row type for
+ * codes, registers and constants.) emission_ops, emission_nodes: what a light sample runs (graph.emission_live). */
 struct GraphTables {
     const double *ops;                      /* (k, OP_WIDTH) */
+    const int32_t *args;                    /* (k, OP_WIDTH - 1) the ops' arguments as integers (the interpreter reads these) */
     const double *constants;                /* (c,) */
     const double *outputs;                  /* (o, 5) rows of graph.Program.outputs */
     const double *ramps;                    /* (r,) the colour ramps' floats */
-    const double *programs;                 /* (p, 8) */
+    const double *programs;                 /* (p, PROGRAM_INFO) */
+    const double *emission_ops;             /* (k,) 1: the op runs when only the emission is wanted */
+    const double *emission_nodes;           /* per program 1 + its material's node count: 1 where Set Normal's output, then each node, is set up when only the emission is wanted */
     const TextureTables *textures;          /* the images the programs read */
     int64_t count;                          /* p */
 };
@@ -1276,7 +1282,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(1988518437441009220);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1461087652967974442);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(8213480602466113718);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(2654416283381586217);
     if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
     if (strcmp(name, "SkyMultipleArgs") == 0) return UINT64_C(8745123704423823932);
     if (strcmp(name, "SkySingleArgs") == 0) return UINT64_C(7958716256533574401);

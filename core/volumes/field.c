@@ -129,7 +129,7 @@ static void field_at(const VolumeField *f, const double *P, double *sigma_a, dou
     ShadingPoint sp;
     double info[OBJECT_INFO_WIDTH], reg[MAX_REGISTERS];
     field_point(f, P, info, &sp);
-    run_program(f->graph, 0, &sp, reg);
+    run_program(f->graph, 0, &sp, NULL, reg);
     for (int c = 0; c < 3; c++) sigma_a[c] = sigma_s[c] = emission[c] = 0.0;
     *gs = 0.0;
     for (int64_t k = 0; k < (int64_t)f->closures; k++) {
