@@ -1503,6 +1503,23 @@ HAIR_SOCKETS = {"Color": "color", "Melanin": "melanin", "Melanin Redness": "mela
 HAIR_PARAMETRIZATIONS = {"COLOR": "direct_coloring", "MELANIN": "melanin", "ABSORPTION": "absorption"}
 
 
+def shades_curves(material) -> bool:
+    """Whether `material` (a bpy Material) is in a slot of a hair Curves object or is the one a rendered hair
+    particle system takes (export.rendered_hair; its Material slot, 1-based): where it may shade curves."""
+    import bpy
+    from . import export
+    target = getattr(material, "original", material)            # (the export reads the evaluated copies)
+    for obj in bpy.data.objects:
+        slots = [getattr(slot.material, "original", slot.material) for slot in obj.material_slots]
+        if obj.type == "CURVES" and target in slots:
+            return True
+        if obj.type == "MESH" and slots:
+            for system in export.rendered_hair(obj):
+                if slots[min(max(int(system.settings.material) - 1, 0), len(slots) - 1)] == target:
+                    return True
+    return False
+
+
 def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, factors: tuple) -> None:
     """Append the Principled Hair BSDF (Chiang's model, hair.PrincipledHairNode; Huang's, huang.HuangHairNode): its
     sockets per hit where linked, the curve's tangent (and for Huang's its normal, the major axis), Random from Curves
@@ -1527,7 +1544,7 @@ def _principled_hair(reader: NodeReader, node, weight: np.ndarray, out: list, fa
                 inputs[key] = value
         inputs.update(huang_.huang_links())
         aspect = node.inputs.get("Aspect Ratio")
-        if aspect is not None and (aspect.is_linked or aspect.default_value != 1.0):
+        if aspect is not None and (aspect.is_linked or aspect.default_value != 1.0) and shades_curves(reader.material):
             reader.warn(node, "where it shades curves, the Huang model's elliptical fibres take their major axis from "
                               "Primer's rotation-minimising curve normal (started from tangent x Z, as Blender's Minimum "
                               "Twist normal); Cycles reads the curve's own normal attribute (its Normal Mode); on "

@@ -125,6 +125,17 @@ def param_table(prefix: str, table: tuple, param: str) -> str:
             f"static const int {name}[{prefix}_COUNT] = {{{rows}}};\n")
 
 
+def blurred_table(table: tuple) -> str:
+    """Where each class keeps the params Filter Glossy raises (its `blurred`, up to 3; -1 pads), by kind."""
+    rows = []
+    for cls in table:
+        where = [cls.params.index(name) for name in cls.blurred if name in cls.params]
+        assert len(where) <= 3, cls.name
+        rows.append("{" + ", ".join(str(j) for j in where + [-1] * (3 - len(where))) + "}")
+    return ("/* Where each bsdf kind keeps the params Filter Glossy raises (base.BSDF.blurred; -1: none). */\n"
+            f"static const int BSDF_BLURRED_PARAMS[BSDF_COUNT][3] = {{{', '.join(rows)}}};\n")
+
+
 def pass_widths() -> str:
     """The channels of each first-hit pass (core/integrators/passes.py PASS_CHANNELS), by PASS_*."""
     from core.integrators.passes import PASS_CHANNELS
@@ -147,6 +158,7 @@ def boundary_header() -> str:
              flag_table("BSDF", BSDF_TYPES),
              param_table("BSDF", BSDF_TYPES, "alpha"),
              param_table("BSDF", BSDF_TYPES, "alpha_y"),
+             blurred_table(BSDF_TYPES),
              pass_widths(),
              enum_block("core/materials/registry.py NODE_TYPES: a shader node's kind", "NODE",
                         [cls.name for cls in NODE_TYPES]),

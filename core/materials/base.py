@@ -70,9 +70,10 @@ class BSDFFlags(enum.IntFlag):
     PORTAL        a Ray Portal (with STRAIGHT: a transparent bounce that keeps the ray's kind): the ray it gives leaves
                   from the closure's Position along its Direction (core/materials/portal.py), what it finds is not
                   weighed by MIS, and shadow rays stop at a surface with one
-    ROUGHENS      a microfacet lobe whose roughness alpha (and alpha_y, where it has one) Cycles' Filter Glossy may
-                  raise at hits after rough bounces (Cycles' bsdf_blur: GGX, Beckmann, Ashikhmin-Shirley, rough
-                  glass; core/integrators/path.py filter_glossy_roughness)
+    ROUGHENS      a lobe whose roughness params (the class's `blurred`: alpha and alpha_y for the microfacet lobes)
+                  Cycles' Filter Glossy may raise at hits after rough bounces (Cycles' bsdf_blur: GGX, Beckmann,
+                  Ashikhmin-Shirley, rough glass, Chiang's and Huang's hair; core/integrators/path.py
+                  filter_glossy_roughness)
     """
 
     REFLECTION = 1 << 0
@@ -119,6 +120,8 @@ class BSDF:
     name: ClassVar[str] = ""
     flags: ClassVar[BSDFFlags] = BSDFFlags(0)
     params: ClassVar[tuple] = ()
+    # The params Filter Glossy raises to its roughness where the class ROUGHENS (those it has; Cycles' bsdf_blur).
+    blurred: ClassVar[tuple] = ("alpha", "alpha_y")
     # The table (core/materials/registry.py fills it): every BSDF class by kind, and their flags by kind.
     types: ClassVar[tuple] = ()
     flag_table: ClassVar[np.ndarray] = np.zeros(1, np.int64)

@@ -45,14 +45,16 @@ typedef struct {
 
 #define STORAGE_STRIDE 18           /* doubles of a hit's storage per closure (a glass closure's, with a thin film) */
 
-/* nodes.roughen for one closure: a lobe that roughens (BSDF_FLAG_ROUGHENS) gets alpha and alpha_y (where it has
- * one) of at least `blur` (Cycles' bsdf_blur). */
+/* nodes.roughen for one closure: a lobe that roughens (BSDF_FLAG_ROUGHENS) gets its blurred params (alpha and
+ * alpha_y for microfacet lobes, v, s, m0 for Chiang's hair, the roughness for Huang's) of at least `blur` (Cycles'
+ * bsdf_blur). */
 INLINE void roughen(int kind, double *row, double blur)
 {
     if (!bsdf_is(kind, BSDF_FLAG_ROUGHENS)) return;
-    int a = BSDF_ALPHA_PARAM[kind], ay = BSDF_ALPHA_Y_PARAM[kind];
-    if (a >= 0 && row[a] < blur) row[a] = blur;
-    if (ay >= 0 && row[ay] < blur) row[ay] = blur;
+    for (int i = 0; i < 3; i++) {
+        int j = BSDF_BLURRED_PARAMS[kind][i];
+        if (j >= 0 && row[j] < blur) row[j] = blur;
+    }
 }
 
 /* A ShaderResult made to hold only what a material emits and lets through (a shadow ray's, a transparent

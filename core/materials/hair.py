@@ -246,7 +246,9 @@ class ChiangHair(BSDF):
     the fibre; Cycles counts it a glossy closure (CLOSURE_BSDF_HAIR_CHIANG_ID)."""
 
     name: ClassVar[str] = "HAIR_CHIANG"
-    flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLOSSY_TYPE
+    flags: ClassVar[F] = F.REFLECTION | F.TRANSMISSION | F.GLOSSY | F.GLOSSY_TYPE | F.ROUGHENS
+    # Filter Glossy caps the variances v, s and m0 (not the tilt alpha) at its roughness, as bsdf_hair_chiang_blur.
+    blurred: ClassVar[tuple] = ("v", "s", "m0")
     params: ClassVar[tuple] = ("sigma_r", "sigma_g", "sigma_b", "v", "s", "m0", "alpha", "eta", "h",
                                "tangent_x", "tangent_y", "tangent_z")
 

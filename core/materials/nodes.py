@@ -139,14 +139,14 @@ class ClosureBuilder:
 
 def roughen(kind: np.ndarray, params: np.ndarray, blur: np.ndarray) -> None:
     """Cycles' bsdf_blur, in place: the closures (kind (n,) int, params (n, PARAMS)) that roughen (BSDFFlags.ROUGHENS)
-    get alpha and alpha_y (where they have one) of at least blur (n,) float64."""
+    get their class's `blurred` params (alpha and alpha_y for microfacet lobes) of at least blur (n,) float64."""
     from . import base, registry
     for cls in registry.BSDF_TYPES:
         if not cls.flags & base.BSDFFlags.ROUGHENS:
             continue
         rows = (kind == cls.kind) & (blur > 0.0)
         if rows.any():
-            for name in ("alpha", "alpha_y"):
+            for name in cls.blurred:
                 if name in cls.params:
                     j = cls.params.index(name)
                     params[rows, j] = np.maximum(params[rows, j], blur[rows])

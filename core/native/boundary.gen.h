@@ -424,11 +424,11 @@ static const int BSDF_FLAGS[BSDF_COUNT] = {
     BSDF_FLAG_REFLECTION | BSDF_FLAG_DIFFUSE | BSDF_FLAG_DIFFUSE_TYPE,   /* DiffuseToon */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* GlossyToon */
     BSDF_FLAG_DIFFUSE_TYPE | BSDF_FLAG_SUBSURFACE,   /* RandomWalk */
-    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE,   /* ChiangHair */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_ROUGHENS,   /* ChiangHair */
     BSDF_FLAG_REFLECTION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HairReflection */
     BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_TRANSMISSION_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HairTransmission */
     BSDF_FLAG_TRANSMISSION | BSDF_FLAG_SINGULAR | BSDF_FLAG_STRAIGHT | BSDF_FLAG_PORTAL,   /* Portal */
-    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT,   /* HuangHair */
+    BSDF_FLAG_REFLECTION | BSDF_FLAG_TRANSMISSION | BSDF_FLAG_GLOSSY | BSDF_FLAG_GLOSSY_TYPE | BSDF_FLAG_OWN_WEIGHT | BSDF_FLAG_ROUGHENS,   /* HuangHair */
 };
 /* Whether a bsdf of kind `kind` has any of `flags` (0 for kind -1: none). */
 INLINE int bsdf_is(int kind, int flags)
@@ -441,6 +441,9 @@ static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1
 
 /* Where each bsdf kind keeps its parameter "alpha_y" (-1: it has none). */
 static const int BSDF_ALPHA_Y_PARAM[BSDF_COUNT] = {-1, -1, 10, -1, -1, -1, -1, -1, -1, -1, 10, -1, 10, -1, -1, -1, -1, -1, -1, -1, -1};
+
+/* Where each bsdf kind keeps the params Filter Glossy raises (base.BSDF.blurred; -1: none). */
+static const int BSDF_BLURRED_PARAMS[BSDF_COUNT][3] = {{-1, -1, -1}, {-1, -1, -1}, {0, 10, -1}, {0, -1, -1}, {-1, -1, -1}, {0, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {0, 10, -1}, {0, -1, -1}, {0, 10, -1}, {-1, -1, -1}, {-1, -1, -1}, {4, -1, -1}, {3, 4, 5}, {-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {3, -1, -1}};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[13] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3, 1};

@@ -216,10 +216,6 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                 #  film: the direct tracer follows it as the path tracer with no bounces)
                                 or settings.transparent_background
                                 and any(has_node(shader, ("RAY_PORTAL",)) for shader in materials.shaders))
-    if settings.integrator == "path" and settings.filter_glossy > 0.0 and any(
-            has_node(shader, ("PRINCIPLED_HAIR", "HAIR", "PRINCIPLED_HAIR_HUANG")) for shader in materials.shaders):
-        warnings.append(f"Filter Glossy ({settings.filter_glossy:g}): Primer makes microfacet lobes rougher after "
-                        "rough bounces as Cycles, but not the hair BSDFs, which Cycles widens too")
     # A BSSRDF is walked even with no bounces (Cycles counts no bounce for it): the direct tracer is then the path
     # tracer with none (integrators.for_render).
     ctx.extra["subsurface"] = walks_subsurface(scene)
