@@ -74,3 +74,32 @@ def test_weighted_delta_tracking_stays_unbiased_where_the_majorant_is_too_low():
         tau_x = (sigma_t(np.linspace(0, x, 200_001)[:-1] + x / 400_000).mean()) * x
         assert within(np.where(s <= x, w, 0.0), 1.0 - np.exp(-tau_x))
     assert within(np.where(np.isinf(s), w, 0.0), np.exp(-tau))
+
+
+
+def two_sample_ks(x: np.ndarray, y: np.ndarray) -> float:
+    """The largest gap between the empirical CDFs of x and y (inf sorts last)."""
+    grid = np.sort(np.concatenate([x, y]))
+    return np.max(np.abs(np.searchsorted(np.sort(x), grid, side="right") / x.size
+                         - np.searchsorted(np.sort(y), grid, side="right") / y.size))
+
+
+def test_both_kernels_track_the_same_transmittance_and_free_flight_distribution():
+    from core.volumes.tracking import compiled_rows, delta_tracking, ratio_tracking, table_density
+    n = 100_000
+    for values, length, linear in ((np.array([0.5, 2.5]), 1.0, True),
+                                   (np.random.default_rng(3).choice([0.0, 100.0], size=37), 0.1, False)):
+        sigma_t = table_density(values, length, linear)
+        edges = np.linspace(0.0, length, 8)
+        mu_bar = majorants(sigma_t, edges)
+        T_c, s_c, w_c = compiled_rows(values, length, linear, edges, mu_bar, n, seed=7)
+        T_py = ratio_tracking(sigma_t, edges, mu_bar, np.random.default_rng(8), n)
+        s_py, w_py = delta_tracking(sigma_t, edges, mu_bar, np.random.default_rng(9), n)
+        # linear: sigma_t = 0.5 + 2 s, T = exp(-(a d + b d^2 / 2)); cells: exp(-their sum x width)
+        exact = np.exp(-(0.5 * length + 2.0 * length ** 2 / 2) if linear else -values.sum() * length / values.size)
+        assert within(T_c, exact) and within(T_py, exact)
+        standard_error = np.hypot(T_c.std(), T_py.std()) / np.sqrt(n)
+        assert abs(T_c.mean() - T_py.mean()) <= 4 * standard_error
+        if np.all(w_c == 1.0) and np.all(w_py == 1.0):
+            assert two_sample_ks(s_c, s_py) < 1.95 * np.sqrt(2.0 / n)   # 0.1 % level
+        assert within(np.where(np.isinf(s_c), w_c, 0.0), exact)

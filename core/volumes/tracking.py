@@ -16,11 +16,14 @@ at each tentative collision s the real medium holds sigma_t(s) of mu_bar and the
 The majorant grid is the march's pieces: each piece's mu_bar is the largest sigma_t at a few points in it times a
 safety factor (Cycles' volume_estimate_extrema samples the same way and scales by 1.5).
 
-Single channel (grey sigma_t) here; the integrators' wiring and the C twin are not yet done (issue 35).
+Single channel (grey sigma_t) here; the compiled twin is tracking.c (its density a table: `table_density`). Neither is
+wired into the integrators yet (issue 35): the march still renders heterogeneous media.
 """
 from __future__ import annotations
 
 import numpy as np
+
+from ..native import schema
 
 # How many points of a piece its majorant is estimated from, and the factor it is scaled by (Cycles: 1.5).
 MAJORANT_POINTS = 4
@@ -94,3 +97,48 @@ def delta_tracking(sigma_t, edges: np.ndarray, mu_bar: np.ndarray, rng: np.rando
         hit[inside[real]] = s[inside[real]]
         walking[inside[real]] = False
     return hit, w
+
+
+def table_density(values: np.ndarray, length: float, linear: bool):
+    """sigma_t(s) over [0, length] from a table (C: TrackingRowsArgs): `linear` - values (m + 1,) at m + 1 evenly
+    spaced nodes, interpolated linearly; else values (m,) constant in m equal cells."""
+    values = np.asarray(values, np.float64)
+    def sigma_t(s):
+        if linear:
+            x = np.clip(np.asarray(s) / length, 0.0, 1.0) * (len(values) - 1)
+            k = np.minimum(x.astype(np.int64), len(values) - 2)
+            return values[k] + (values[k + 1] - values[k]) * (x - k)
+        return values[np.clip((np.asarray(s) / length * len(values)).astype(np.int64), 0, len(values) - 1)]
+    return sigma_t
+
+
+TrackingRowsArgs = schema.function("primer_tracking_rows", "tracking_rows", schema.record(
+    "TrackingRowsArgs", "primer_tracking_rows' arguments: n ratio-tracking transmittances and n weighted "
+    "delta-tracking free flights through a tabulated density (tracking.c).", [
+        ("n", schema.I64, ""),
+        ("seed", schema.I64, "the rows' random streams' seed"),
+        ("values", schema.ptr(schema.F64), "(count,) the density table (table_density)"),
+        ("count", schema.I64, ""),
+        ("linear", schema.I64, "1: nodes interpolated linearly, 0: constant cells"),
+        ("length", schema.F64, "the table's extent [0, length]"),
+        ("edges", schema.ptr(schema.F64), "(pieces + 1,) the majorant grid"),
+        ("mu_bar", schema.ptr(schema.F64), "(pieces,) each piece's majorant"),
+        ("pieces", schema.I64, ""),
+        ("transmittance", schema.out(schema.F64), "(n,) ratio tracking's estimates"),
+        ("distance", schema.out(schema.F64), "(n,) delta tracking's real collisions (inf: none)"),
+        ("weight", schema.out(schema.F64), "(n,) their weights"),
+    ]))
+
+
+def compiled_rows(values: np.ndarray, length: float, linear: bool, edges: np.ndarray, mu_bar: np.ndarray, n: int,
+                  seed: int = 0) -> tuple:
+    """tracking.c's ratio and delta tracking, n rows each, through table_density(values, length, linear):
+    (T_hat, s, w) (n,) float64 each, to hold against ratio_tracking and delta_tracking in distribution."""
+    from ..native import library
+    T_hat, s, w = np.empty(n), np.empty(n), np.empty(n)
+    values = library.contiguous(values, np.float64)
+    library.call("primer_tracking_rows", TrackingRowsArgs(
+        n=n, seed=seed, values=values, count=len(values), linear=int(linear), length=float(length),
+        edges=library.contiguous(edges, np.float64), mu_bar=library.contiguous(mu_bar, np.float64),
+        pieces=len(mu_bar), transmittance=T_hat, distance=s, weight=w))
+    return T_hat, s, w
