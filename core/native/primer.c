@@ -31,6 +31,7 @@
 #include "../materials/nodes.c"
 #include "../lights/world_graph.c"       /* the world's program, per texel of its bake and per camera ray */
 #include "../volumes/field.c"           /* heterogeneous media: a volume graph run at points, the march along a ray */
+#include "../volumes/tracking.c"        /* null scattering: ratio and weighted delta tracking over majorants */
 #include "../film/film.c"
 #include "../film/adaptive.c"
 #include "../integrators/shadows.c"
