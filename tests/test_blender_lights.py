@@ -19,8 +19,9 @@ bpy = pytest.importorskip("bpy") if os.environ.get("PRIMER_ALLOW_NO_BPY") else _
 
 def test_emission_node_scales_the_light_and_a_default_tree_warns_nothing(tmp_path):
     """Emission strength 2, colour (1, 0.5, 0.25): Primer's and Cycles' pixels are 2 x (1, 0.5, 0.25) those
-    of the plain light; the default tree (and the default scene's light) warns nothing; a linked input and
-    another shader at the output are warned about, naming the light and the node."""
+    of the plain light; the default tree (and the default scene's light) warns nothing; a Light Falloff into the
+    Strength gives a sun its Strength (as Cycles, no warning); another shader at the output is warned about, naming
+    the light and the node."""
     result = run_bpy(LIGHT_NODES.format(tools=os.path.join(ROOT, "tools")), str(tmp_path))
     assert result["version"][:2] == list(bpy.app.version[:2])
     check_light_nodes(result)
