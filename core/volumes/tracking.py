@@ -38,13 +38,13 @@ def majorants(sigma_t, edges: np.ndarray, points: int = MAJORANT_POINTS, safety:
     return safety * sigma_t(s.ravel()).reshape(s.shape).max(axis=1)
 
 
-def ratio_tracking(sigma_t, edges: np.ndarray, mu_bar: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
-    """n independent ratio-tracking estimates of T = exp(-integral over [edges[0], edges[-1]] of sigma_t): their mean
-    is T exactly. sigma_t: callable (m,) -> (m,); edges (p + 1,), mu_bar (p,) float64 -> (n,) float64."""
-    T_hat = np.ones(n)
-    s = np.full(n, float(edges[0]))
-    piece = np.zeros(n, dtype=np.int64)
-    walking = np.ones(n, dtype=bool)
+def tentative_collisions(edges: np.ndarray, mu_bar: np.ndarray, rng: np.random.Generator, walking: np.ndarray):
+    """The tentative collisions of walks over the pieces of [edges[0], edges[-1]] drawn at rates mu_bar (p,): yields
+    per round (walks (k,) int64, their distances s (k,), their pieces' majorants m (k,)) of those that collide; a walk
+    that steps past its piece's end restarts at the next piece's start (the exponential's memorylessness) until it
+    leaves the last. walking (n,) bool: the walks still going, which the caller may stop between rounds."""
+    s = np.full(len(walking), float(edges[0]))
+    piece = np.zeros(len(walking), dtype=np.int64)
     last = len(mu_bar)
     while walking.any():
         i = np.flatnonzero(walking)
@@ -53,14 +53,21 @@ def ratio_tracking(sigma_t, edges: np.ndarray, mu_bar: np.ndarray, rng: np.rando
             step = np.where(m > 0.0, -np.log1p(-rng.random(i.size)) / np.where(m > 0.0, m, 1.0), np.inf)
         end = edges[piece[i] + 1]
         leaves_piece = s[i] + step >= end
-        # Leaving a piece: its exponential memorylessness lets the walk restart at the next piece's start.
         out = i[leaves_piece]
         s[out] = end[leaves_piece]
         piece[out] += 1
         walking[out[piece[out] >= last]] = False
         inside = i[~leaves_piece]
         s[inside] += step[~leaves_piece]
-        T_hat[inside] *= 1.0 - sigma_t(s[inside]) / m[~leaves_piece]
+        yield inside, s[inside], m[~leaves_piece]
+
+
+def ratio_tracking(sigma_t, edges: np.ndarray, mu_bar: np.ndarray, rng: np.random.Generator, n: int) -> np.ndarray:
+    """n independent ratio-tracking estimates of T = exp(-integral over [edges[0], edges[-1]] of sigma_t): their mean
+    is T exactly. sigma_t: callable (m,) -> (m,); edges (p + 1,), mu_bar (p,) float64 -> (n,) float64."""
+    T_hat = np.ones(n)
+    for inside, s, m in tentative_collisions(edges, mu_bar, rng, np.ones(n, dtype=bool)):
+        T_hat[inside] *= 1.0 - sigma_t(s) / m
     return T_hat
 
 
@@ -68,33 +75,17 @@ def delta_tracking(sigma_t, edges: np.ndarray, mu_bar: np.ndarray, rng: np.rando
     """n (weighted) delta-tracking free flights over [edges[0], edges[-1]]: (s, w) (n,) float64 each, s the real
     collision's distance (inf where the flight leaves the stretch) and w its weight (1 where mu_bar bounds sigma_t),
     so that E[w; s <= x] = 1 - exp(-integral_0^x sigma_t)."""
-    s = np.full(n, float(edges[0]))
     w = np.ones(n)
     hit = np.full(n, np.inf)
-    piece = np.zeros(n, dtype=np.int64)
     walking = np.ones(n, dtype=bool)
-    last = len(mu_bar)
-    while walking.any():
-        i = np.flatnonzero(walking)
-        m = mu_bar[piece[i]]
-        with np.errstate(divide="ignore"):
-            step = np.where(m > 0.0, -np.log1p(-rng.random(i.size)) / np.where(m > 0.0, m, 1.0), np.inf)
-        end = edges[piece[i] + 1]
-        leaves_piece = s[i] + step >= end
-        out = i[leaves_piece]
-        s[out] = end[leaves_piece]
-        piece[out] += 1
-        walking[out[piece[out] >= last]] = False
-        inside = i[~leaves_piece]
-        m = m[~leaves_piece]
-        s[inside] += step[~leaves_piece]
-        sigma = sigma_t(s[inside])
+    for inside, s, m in tentative_collisions(edges, mu_bar, rng, walking):
+        sigma = sigma_t(s)
         bounded = sigma <= m
         q = np.where(bounded, sigma / m, sigma / (2.0 * sigma - m))  # sigma + |m - sigma| = 2 sigma - m where unbounded
         real = rng.random(inside.size) < q
         # Unbounded: real carries sigma / (m q) = (2 sigma - m) / m, null (m - sigma) / (m (1 - q)) = -(2 sigma - m) / m.
         w[inside] *= np.where(bounded, 1.0, np.where(real, 1.0, -1.0) * (2.0 * sigma - m) / m)
-        hit[inside[real]] = s[inside[real]]
+        hit[inside[real]] = s[real]
         walking[inside[real]] = False
     return hit, w
 
