@@ -110,7 +110,9 @@ BOUNDS = {"hair_reflection": 1e-4, "hair_transmission": 1e-4, "chiang_melanin": 
 @pytest.mark.parametrize("case", CASES)
 def test_a_hair_bsdf_on_a_mesh_takes_its_fibre_from_the_triangles_edges_as_cycles(case, renders):
     """Each hair material on a smooth-shaded sphere and a sheet seen from behind: block relMSE against Cycles within
-    BOUNDS, and no warning (Huang's note on curves' elliptical fibres is not drawn by a material on meshes alone)."""
+    BOUNDS; the Hair BSDF says nothing, the Principled Hair BSDF (Chiang's and Huang's) says once that Cycles' bump
+    shadowing against its fibre frame is not modelled on meshes (its few % brighter), and Huang's note on curves'
+    elliptical fibres is not drawn by a material on meshes alone."""
     folder, warnings = renders
     primer, cycles = np.load(folder / f"{case}_primer.npy"), np.load(folder / f"{case}_cycles.npy")
     error = relative_mse_of_blocks(primer, cycles)
@@ -119,5 +121,7 @@ def test_a_hair_bsdf_on_a_mesh_takes_its_fibre_from_the_triangles_edges_as_cycle
     print(case, "block relMSE", error, "surface pixels", lit.mean(), "mean ratio", ratio, warnings[case])
     assert lit.mean() > 0.2
     # (Huang's default Aspect Ratio, 0.85, would draw the note on curves' elliptical fibres; a triangle's are round)
-    assert not warnings[case], warnings[case]
+    said = [w for w in warnings[case] if "on a mesh" in w]
+    assert len(said) == (0 if case.startswith("hair_") else 1), warnings[case]
+    assert not [w for w in warnings[case] if w not in said], warnings[case]
     assert error < BOUNDS[case]
