@@ -1503,14 +1503,20 @@ HAIR_SOCKETS = {"Color": "color", "Melanin": "melanin", "Melanin Redness": "mela
 HAIR_PARAMETRIZATIONS = {"COLOR": "direct_coloring", "MELANIN": "melanin", "ABSORPTION": "absorption"}
 
 
+def slot_materials(obj) -> list:
+    """The original materials (bpy Material or None) of an object's slots, in order: the export reads evaluated
+    copies, whose `original` is the data the file holds."""
+    return [getattr(slot.material, "original", slot.material) for slot in obj.material_slots]
+
+
 def shades_curves(material) -> bool:
     """Whether `material` (a bpy Material) is in a slot of a hair Curves object or is the one a rendered hair
     particle system takes (export.rendered_hair; its Material slot, 1-based): where it may shade curves."""
     import bpy
     from . import export
-    target = getattr(material, "original", material)            # (the export reads the evaluated copies)
+    target = getattr(material, "original", material)
     for obj in bpy.data.objects:
-        slots = [getattr(slot.material, "original", slot.material) for slot in obj.material_slots]
+        slots = slot_materials(obj)
         if obj.type == "CURVES" and target in slots:
             return True
         if obj.type == "MESH" and slots:
@@ -1523,9 +1529,8 @@ def shades_curves(material) -> bool:
 def shades_meshes(material) -> bool:
     """Whether `material` (a bpy Material) is in a slot of a mesh object: where it may shade triangles."""
     import bpy
-    target = getattr(material, "original", material)            # (the export reads the evaluated copies)
-    return any(obj.type == "MESH" and target in [getattr(slot.material, "original", slot.material)
-                                                for slot in obj.material_slots] for obj in bpy.data.objects)
+    target = getattr(material, "original", material)
+    return any(obj.type == "MESH" and target in slot_materials(obj) for obj in bpy.data.objects)
 
 
 # What the Principled Hair BSDF on a mesh says (docs/blender.md: Cycles' closure normal there, not modelled).

@@ -157,7 +157,6 @@ def boundary_header() -> str:
              flags_block("core/materials/base.py BSDFFlags: what a BSDF is", "BSDF", BSDFFlags),
              flag_table("BSDF", BSDF_TYPES),
              param_table("BSDF", BSDF_TYPES, "alpha"),
-             param_table("BSDF", BSDF_TYPES, "alpha_y"),
              blurred_table(BSDF_TYPES),
              pass_widths(),
              enum_block("core/materials/registry.py NODE_TYPES: a shader node's kind", "NODE",

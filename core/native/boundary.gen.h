@@ -439,9 +439,6 @@ INLINE int bsdf_is(int kind, int flags)
 /* Where each bsdf kind keeps its parameter "alpha" (-1: it has none). */
 static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1, -1, 0, 0, 0, -1, -1, 4, 6, -1, -1, -1, -1};
 
-/* Where each bsdf kind keeps its parameter "alpha_y" (-1: it has none). */
-static const int BSDF_ALPHA_Y_PARAM[BSDF_COUNT] = {-1, -1, 10, -1, -1, -1, -1, -1, -1, -1, 10, -1, 10, -1, -1, -1, -1, -1, -1, -1, -1};
-
 /* Where each bsdf kind keeps the params Filter Glossy raises (base.BSDF.blurred; -1: none). */
 static const int BSDF_BLURRED_PARAMS[BSDF_COUNT][3] = {{-1, -1, -1}, {-1, -1, -1}, {0, 10, -1}, {0, -1, -1}, {-1, -1, -1}, {0, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {0, 10, -1}, {0, -1, -1}, {0, 10, -1}, {-1, -1, -1}, {-1, -1, -1}, {4, -1, -1}, {3, 4, 5}, {-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {3, -1, -1}};
 
