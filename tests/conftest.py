@@ -1,6 +1,8 @@
 """Shared builders for the tests: small scenes whose every pixel has a closed form."""
 from __future__ import annotations
 
+import ast
+import functools
 import math
 import os
 import sys
@@ -75,19 +77,45 @@ SHARED_RENDERS = {"test_blender_world_nodes.py", "test_blender_sky.py", "test_bl
                   "test_blender_glass_inputs.py", "test_blender_hair.py", "test_blender_image_sources.py",
                   "test_blender_light_passes.py", "test_blender_light_path.py", "test_blender_missing_images.py",
                   "test_blender_passes.py", "test_blender_shadow_catcher.py", "test_blender_subsurface.py"}
+# Test files whose module fixtures start Blender only to write files the tests then render one by one: split.
+SPLIT_ACROSS_WORKERS = {"test_blender_scenes.py"}
+
+
+@functools.lru_cache(maxsize=None)
+def shares_a_blender_fixture(path: str) -> bool:
+    """Whether the test file at `path` is a SHARED_RENDERS file: listed there, or one of its module-scoped fixtures
+    starts Blender (calls run_bpy) and it is not in SPLIT_ACROSS_WORKERS. (Seven files of the second kind had been
+    left off the list, each paying its Blender process twice.)"""
+    name = os.path.basename(path)
+    if name in SHARED_RENDERS:
+        return True
+    if name in SPLIT_ACROSS_WORKERS or not name.startswith("test_blender_") or not os.path.exists(path):
+        return False
+    with open(path, encoding="utf-8") as handle:
+        tree = ast.parse(handle.read())
+    for node in ast.walk(tree):
+        module_scoped = isinstance(node, ast.FunctionDef) and any(
+            isinstance(d, ast.Call) and any(k.arg == "scope" and getattr(k.value, "value", None) == "module"
+                                            for k in d.keywords) for d in node.decorator_list)
+        if module_scoped and any(isinstance(c, ast.Call) and getattr(c.func, "id", None) == "run_bpy"
+                                 for c in ast.walk(node)):
+            return True
+    return False
 
 
 @pytest.hookimpl(optionalhook=True)         # a hook of pytest-xdist, which .venv42 does not install
 def pytest_xdist_make_scheduler(config, log):
     """pytest-xdist's scheduling: every test on its own (as --dist load), but the tests of ONE_WORKER's files
-    together on one worker, and each SHARED_RENDERS file's on one worker. (xdist 3.8's --dist loadgroup groups nothing under pytest 9.2, which no longer reads
+    together on one worker, and each SHARED_RENDERS file's (shares_a_blender_fixture) on one worker. (xdist 3.8's --dist loadgroup groups nothing under pytest 9.2, which no longer reads
     the node id xdist changes to mark a group.)"""
     from xdist.scheduler import LoadScopeScheduling
 
     class OneWorkerForTheCheckoutsWriters(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
-            name = os.path.basename(nodeid.split("::", 1)[0])
-            return "one worker" if name in ONE_WORKER else name if name in SHARED_RENDERS else nodeid
+            path = nodeid.split("::", 1)[0]
+            name = os.path.basename(path)
+            return ("one worker" if name in ONE_WORKER else name
+                    if shares_a_blender_fixture(os.path.join(str(config.rootpath), path)) else nodeid)
 
     return OneWorkerForTheCheckoutsWriters(config, log)
 

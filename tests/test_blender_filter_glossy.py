@@ -15,7 +15,7 @@ SCRIPT = """
 import os, sys
 import bpy
 import numpy as np
-from blender_env import empty_material, fresh_scene, render_pixels, report
+from blender_env import empty_material, fresh_scene, render_pixels, render_still, report
 
 primer, export, scene = fresh_scene(32, 24)
 from render import configure_cycles_reference, configure_output   # (tools/, on the path once Primer is loaded)
@@ -59,7 +59,7 @@ configure_cycles_reference(scene, 1024)
 scene.cycles.blur_glossy = 1.0
 path = os.path.abspath("cycles.exr")
 configure_output(scene, path)
-bpy.ops.render.render(write_still=True)
+render_still(scene, path, "mirror cycles")
 image = bpy.data.images.load(path)
 out["cycles"] = np.array(image.pixels[:]).reshape(image.size[1], image.size[0], -1)[..., :3].tolist()
 report(images=out)
@@ -108,7 +108,7 @@ for model in ("CHIANG", "HUANG"):
     scene.cycles.blur_glossy = 1.0
     path = os.path.abspath(f"{model}cycles.exr")
     configure_output(scene, path)
-    bpy.ops.render.render(write_still=True)
+    render_still(scene, path, f"{model} cycles")
     image = bpy.data.images.load(path)
     out[f"{model} cycles"] = np.array(image.pixels[:]).reshape(image.size[1], image.size[0], -1)[..., :3].tolist()
 report(images=out)

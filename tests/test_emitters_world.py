@@ -104,8 +104,8 @@ def test_an_environment_lights_a_plane_by_its_cosine_weighted_mean(strategy, ker
     settings = RenderSettings(width=2, height=2, samples=1024, light_samples=4, light_sampling=strategy,
                               kernels=kernels, adaptive=False)
     result = render.render(scene, settings).image[..., :3].mean(axis=(0, 1))
-    # Quadrature: a fine grid of directions over the upper hemisphere.
-    k = 2000
+    # Quadrature: a grid of directions over the upper hemisphere (500 x 1000: the same E to 5 digits as 2000 x 4000).
+    k = 500
     theta = (np.arange(k) + 0.5) / k * (math.pi / 2)
     phi = (np.arange(2 * k) + 0.5) / (2 * k) * (2 * math.pi)
     T, P = np.meshgrid(theta, phi, indexing="ij")

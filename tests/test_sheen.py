@@ -70,7 +70,7 @@ def test_a_white_base_under_a_white_sheen_keeps_all_the_light():
     layering uses the same albedo the lobe integrates to)."""
     row = nodes.PrincipledNode.row({"base_color": (1.0, 1.0, 1.0), "specular_ior_level": 0.0, "sheen": 1.0,
                                     "sheen_roughness": 0.4})
-    wi, cell = hemisphere(800)
+    wi, cell = hemisphere(300)              # the sums are within 1e-5 of 1 on this grid (800: 1e-6, 5x the time)
     k = len(wi)
     for mu_o in (0.15, 0.5, 0.9):
         wo = direction(mu_o, 0.7)
@@ -80,7 +80,7 @@ def test_a_white_base_under_a_white_sheen_keeps_all_the_light():
         closures = materials.Closures(*(None if array is None else np.repeat(array, k, axis=0)
                                         for array in result.closures))
         f_cos, _ = materials.eval_closures(closures, np.tile(wo, (k, 1)), wi)
-        np.testing.assert_allclose(f_cos.sum(axis=0) * cell, 1.0, rtol=3e-3)
+        np.testing.assert_allclose(f_cos.sum(axis=0) * cell, 1.0, rtol=1e-4)
 
 
 def test_the_principled_sheen_is_tinted_scaled_and_darkens_the_layers_below_by_its_largest_channel():
