@@ -137,6 +137,7 @@ COVERAGE = {
               "use_denoising denoiser denoising_input_passes denoising_prefilter denoising_quality denoising_use_gpu":
                   "use_denoising: Primer's Denoise (the compositor's Denoise node, its own settings)"},
         READ: {"pixel_filter_type filter_width": "export.pixel_filter: each camera sample drawn from the filter",
+               "film_exposure": "export.film_exposure: Combined and the passes of light scaled (core render.expose)",
                "rolling_shutter_type rolling_shutter_duration": "motion.shutter: each row's time, top to bottom",
                "samples seed use_animated_seed max_bounces diffuse_bounces glossy_bounces transmission_bounces "
                "transparent_max_bounces volume_bounces min_light_bounces caustics_reflective caustics_refractive "
@@ -145,7 +146,7 @@ COVERAGE = {
                "sample_clamp_indirect use_adaptive_sampling adaptive_threshold adaptive_min_samples":
                    "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
                    "else Primer's own of the same meaning"},
-        REPORTED: {"film_exposure film_transparent_glass use_fast_gi "
+        REPORTED: {"film_transparent_glass use_fast_gi "
                    "fast_gi_method ao_bounces_render use_camera_cull camera_cull_margin use_distance_cull "
                    "distance_cull_margin texture_limit_render texture_resolution_render*": "unmodelled.render_notes",
                    "film_transparent_roughness": "unmodelled.render_notes (through Transparent Glass)",

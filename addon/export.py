@@ -1215,6 +1215,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         region=(x, height - (y + h), x + w, height - y),       # core counts rows from the top
         pixel_aspect=(float(render.pixel_aspect_x), float(render.pixel_aspect_y)),
         **pixel_filter(scene),
+        exposure=film_exposure(scene),
         light_samples=int(props.light_samples),
         shadow_method=props.shadow_method.lower(), epsilon=float(props.epsilon),
         terminator_fix=bool(props.terminator_fix),
@@ -1265,6 +1266,13 @@ def pixel_filter(scene) -> dict:
     kind = str(getattr(cycles, "pixel_filter_type", "BLACKMAN_HARRIS"))
     width = 1.0 if kind == "BOX" else float(getattr(cycles, "filter_width", 1.5))
     return {"pixel_filter": kind, "filter_width": width}
+
+
+def film_exposure(scene) -> float:
+    """Render > Film > Exposure (scene.cycles.film_exposure), as the pixel filter always Cycles' film setting: the
+    factor Cycles puts on Combined and the passes of light (core RenderSettings.exposure); 1 without Cycles."""
+    exposure = float(getattr(getattr(scene, "cycles", None), "film_exposure", 1.0))
+    return exposure if math.isfinite(exposure) and exposure >= 0.0 else 1.0
 
 
 # World > Mist Pass > Falloff as Cycles' exponent (its sync: Quadratic 2, Linear 1, Inverse Quadratic 0.5).

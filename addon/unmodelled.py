@@ -32,10 +32,6 @@ def render_notes(scene) -> list:
     cycles = getattr(scene, "cycles", None)
     if cycles is None:
         return notes
-    exposure = float(getattr(cycles, "film_exposure", 1.0))
-    if abs(exposure - 1.0) > 1e-6:
-        notes.append(f"Cycles scales the image by its Film Exposure {exposure:g}; Primer does not (Color Management's "
-                     "Exposure brightens both alike)")
     if getattr(render, "film_transparent", False) and getattr(cycles, "film_transparent_glass", False):
         notes.append("Cycles' Transparent Glass makes glass see-through on the transparent film; Primer's alpha "
                      "counts glass as any surface")

@@ -262,3 +262,24 @@ def test_the_surface_after_the_last_transparent_bounce_ends_the_camera_path_as_i
         # (Cycles plays Russian roulette on transparent bounces past Min Transparent Bounces, 0: noisy, unbiased)
         cycles = render(scene, "CYCLES", str(tmp_path / f"cycles{limit}.exr"))
         np.testing.assert_allclose(cycles.mean(axis=(0, 1)), expected, rtol=0.05, atol=1e-9)
+
+
+def test_film_exposure_scales_the_image_as_in_cycles(primer, tmp_path):
+    """Render > Film > Exposure 2 (always read from the file's Cycles settings, as its pixel filter): Primer's image
+    with the same samples is twice as bright, as Cycles' is (both measured here: Cycles multiplies Combined when it
+    reads its film), and no note says it is not modelled."""
+    scene = corner_scene()
+    scene.primer.settings_source = "CYCLES"
+    scene.cycles.samples = 4
+    ratios = {}
+    for engine in ("PRIMER", "CYCLES"):
+        scene.cycles.film_exposure = 1.0
+        plain = render(scene, engine, str(tmp_path / f"{engine}_1.exr"))
+        scene.cycles.film_exposure = 2.0
+        exposed = render(scene, engine, str(tmp_path / f"{engine}_2.exr"))
+        lit = plain > 1e-3
+        ratios[engine] = exposed[lit] / plain[lit]
+    warnings = addon(primer, "engine").last_render.warnings
+    assert not [w for w in warnings if "Exposure" in w], warnings
+    np.testing.assert_allclose(ratios["CYCLES"], 2.0, rtol=1e-4)
+    np.testing.assert_allclose(ratios["PRIMER"], 2.0, rtol=1e-6)

@@ -120,7 +120,6 @@ def new_world():
 #  the unmodelled.py function, what it is called with, a phrase of its note). The table must say REPORTED by it.
 CASES = [
     ("RenderSettings", "scene.render", "use_multiview", True, [], "render_notes", "scene", "Stereoscopy"),
-    ("CyclesRenderSettings", "scene.cycles", "film_exposure", 2.0, [], "render_notes", "scene", "Film Exposure 2"),
     ("CyclesRenderSettings", "scene.cycles", "use_fast_gi", True, [], "render_notes", "scene", "Fast GI"),
     ("CyclesRenderSettings", "scene.cycles", "volume_biased", True, [], "render_notes", "scene", "Biased volume"),
     ("CyclesRenderSettings", "scene.cycles", "film_transparent_glass", True,

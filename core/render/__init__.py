@@ -743,6 +743,8 @@ def render(scene: Scene, settings: RenderSettings,
                              [lightgroups.BUFFER_PREFIX + name for name in settings.light_groups]))
     if settings.denoising_features:
         aux.update(rgb_means(film, features.FILM_BUFFER, features.FEATURE_BUFFERS))
+    if settings.exposure != 1.0:
+        image, aux = expose(image, aux, settings.exposure)
     stats.samples_per_pixel = film.noise.count.reshape(H, W).astype(np.int32)
     stats.seconds = time.perf_counter() - start
     # Embree's share: the shadow rays' queries ran inside shading, so they move from there to trace.
@@ -750,6 +752,21 @@ def render(scene: Scene, settings: RenderSettings,
     stats.trace_seconds = tracer.intersect_seconds - queried[0] + shadow_query
     stats.shading_seconds -= shadow_query
     return RenderResult(image, aux, stats, cancelled, [light.name for light in ctx.lights])
+
+
+# The passes of light Film Exposure scales, beside Combined (Cycles' pass_info.use_exposure): the first-hit
+# passes of emitted and world light, the light passes and the light groups.
+EXPOSED_PASSES = ("emission", "environment", *lightpasses.LIGHT_PASSES)
+
+
+def expose(image: np.ndarray, aux: dict, exposure: float) -> tuple:
+    """Cycles' Film Exposure: Combined's colour (not its alpha) and the passes of light (EXPOSED_PASSES, the light
+    groups) times `exposure`, the rest as they are. image (H, W, 4) float32, aux name -> (H, W, c) -> (image, aux)."""
+    image = image.copy()
+    image[..., :3] *= np.float32(exposure)
+    exposed = {name: buffer * np.float32(exposure) for name, buffer in aux.items()
+               if name in EXPOSED_PASSES or name.startswith(lightgroups.BUFFER_PREFIX)}
+    return image, {**aux, **exposed}
 
 
 def unconverged(region: np.ndarray, film: Film, threshold: float, first: int, pool, threads: int) -> np.ndarray:

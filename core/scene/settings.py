@@ -31,6 +31,10 @@ class RenderSettings:
         weighed by multiple importance sampling, as Cycles), "light" (light samples alone) or "bsdf"
         (BSDF-sampled rays alone; lights without extent keep their light samples).
 
+    exposure: Cycles' Film Exposure: the factor on Combined and the passes of light (Emission, Environment, the
+        light passes, the light groups, the shadow catchers' matte); data, colour and AO passes and the Shadow
+        Catcher pass (a ratio) keep their values, as Cycles' pass_info.use_exposure says.
+
     pixel_filter, filter_width: where a camera sample lands around its pixel's centre, as Cycles draws it from
         the filter (core/camera/filter.py): "BOX" (Blender gives it the width 1: the pixel), "GAUSSIAN",
         "BLACKMAN_HARRIS" (Cycles' default, 1.5 px); the width in pixels (Render > Film > Pixel Filter).
@@ -104,6 +108,7 @@ class RenderSettings:
     pixel_aspect: tuple = (1.0, 1.0)
     pixel_filter: str = "BOX"
     filter_width: float = 1.0
+    exposure: float = 1.0
     jitter: bool = True
     light_samples: int = 4
     shadow_method: str = "robust"
