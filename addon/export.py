@@ -1289,6 +1289,13 @@ def _mist(scene) -> dict:
             "mist_falloff": MIST_FALLOFF.get(settings.falloff, 1.0)}
 
 
+def rendered_world(scene, view_layer):
+    """The world `view_layer` renders: the scene's, or None (no light, no volume, black behind everything) where its
+    Filter > Environment is off, as Cycles then gives the background its empty shader (measured: a world-lit scene
+    black, alpha 1 on an opaque film). Its Mist Pass and AO Distance are still read from the scene's world."""
+    return scene.world if getattr(view_layer, "use_sky", True) else None
+
+
 def _ao_distance(scene) -> float:
     """Return how far the Ambient Occlusion pass looks: the world's AO Distance (Cycles' ao_distance), else 10."""
     world = scene.world
@@ -1421,9 +1428,10 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     materials_.begin_export(scene.frame_current, depsgraph.view_layer)
     # What the scene asks of Cycles that Primer does not render, said once (addon/unmodelled.py).
     warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
-    warnings += unmodelled.view_layer_notes(depsgraph.view_layer) + unmodelled.world_notes(scene.world)
+    world_object = rendered_world(scene, depsgraph.view_layer)
+    warnings += unmodelled.view_layer_notes(depsgraph.view_layer) + unmodelled.world_notes(world_object)
     holdouts = unmodelled.holdout_objects(depsgraph.view_layer)
-    world = world_light_settings(scene.world, export_world(scene.world, warnings, _kernels(scene)))
+    world = world_light_settings(world_object, export_world(world_object, warnings, _kernels(scene)))
     core = core_scene.Scene(camera=camera, world_color=world.color if world.camera else np.zeros(3), world=world,
                             default_material=DEFAULT_SURFACE)
     materials = MaterialTable()
@@ -1431,7 +1439,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     mesh_index: dict = {}
     volume_spaces: dict = {}                   # material index -> its heterogeneous medium's space (note_volume_space)
     strands = bool(getattr(depsgraph.view_layer, "use_strand", True))   # (Filter > Strands: curves and hair)
-    groups = {"lights": [], "instances": [], "world": lightgroups.source_group(scene.world)}
+    groups = {"lights": [], "instances": [], "world": lightgroups.source_group(world_object)}
     ray_visibility_noted: set = set()
     unsupported_noted: set = set()
     terminator_offsets: dict = {}

@@ -77,8 +77,6 @@ def view_layer_notes(view_layer) -> list:
         notes.append(f"shader AOVs ({', '.join(aovs)}) are not written by Primer (they stay empty)")
     if not getattr(view_layer, "use_pass_combined", True):
         notes.append("the Combined pass is off in the view layer; Primer writes it anyway")
-    if not getattr(view_layer, "use_sky", True):
-        notes.append("the view layer's Filter leaves the Environment out (Cycles shows no world); Primer renders it")
     if not getattr(view_layer, "use_solid", True):
         notes.append("the view layer's Filter leaves Surfaces out (Cycles renders none); Primer renders them")
     threshold = float(getattr(view_layer, "pass_alpha_threshold", 0.5))

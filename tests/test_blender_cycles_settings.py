@@ -283,3 +283,30 @@ def test_film_exposure_scales_the_image_as_in_cycles(primer, tmp_path):
     assert not [w for w in warnings if "Exposure" in w], warnings
     np.testing.assert_allclose(ratios["CYCLES"], 2.0, rtol=1e-4)
     np.testing.assert_allclose(ratios["PRIMER"], 2.0, rtol=1e-6)
+
+
+def test_a_view_layer_without_its_environment_renders_as_a_scene_without_a_world_as_in_cycles(primer, tmp_path):
+    """View Layer > Filter > Environment off: Cycles gives the background its empty shader, so a bright world neither
+    shows nor lights; each engine's image is then the same numbers as with no world at all (Cycles' measured here),
+    and Primer says nothing about the filter."""
+    scene = corner_scene()
+    scene.primer.settings_source = "CYCLES"
+    scene.cycles.samples = 4
+    world = bpy.data.worlds.new("Bright")
+    world.color = (2.0, 1.5, 1.0)
+    background = world.node_tree.nodes.get("Background") if world.node_tree is not None else None
+    if background is not None:                  # (a new world has a Background node of its own since 5.0)
+        background.inputs["Color"].default_value = (2.0, 1.5, 1.0, 1.0)
+    for engine in ("PRIMER", "CYCLES"):
+        scene.world = None
+        without = render(scene, engine, str(tmp_path / f"{engine}_none.exr"))
+        scene.world = world
+        scene.view_layers[0].use_sky = False
+        filtered = render(scene, engine, str(tmp_path / f"{engine}_filtered.exr"))
+        scene.view_layers[0].use_sky = True
+        lit = render(scene, engine, str(tmp_path / f"{engine}_lit.exr"))
+        np.testing.assert_array_equal(filtered, without, err_msg=engine)
+        assert lit.mean() > 1.5 * without.mean(), engine
+    scene.view_layers[0].use_sky = False
+    render(scene, "PRIMER", str(tmp_path / "again.exr"))
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "Environment" in w]

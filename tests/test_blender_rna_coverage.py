@@ -128,7 +128,6 @@ CASES = [
      "render_notes", "scene", "culls objects"),
     ("CyclesRenderSettings", "scene.cycles", "texture_limit_render", "512", [("scene.render", "use_simplify", True)],
      "render_notes", "scene", "shrinks image textures"),
-    ("ViewLayer", "view_layer", "use_sky", False, [], "view_layer_notes", "view_layer", "Environment out"),
     ("ViewLayer", "view_layer", "use_solid", False, [], "view_layer_notes", "view_layer", "Surfaces out"),
     ("ViewLayer", "view_layer", "use_pass_combined", False, [], "view_layer_notes", "view_layer", "Combined pass"),
     ("ViewLayer", "view_layer", "pass_alpha_threshold", 0.25, [], "view_layer_notes", "view_layer",
