@@ -190,13 +190,14 @@ COVERAGE = {
                "use_strand": "export.export_scene (Filter > Strands off: no curves nor particle hair, as in Cycles)",
                "use_volumes": "export.media_of_layer (off: no media)",
                "use_sky": "export.rendered_world (Filter > Environment off: no world, as Cycles' empty background)",
+               "world_override*": "export.rendered_world (the view layer's world, as Cycles renders it)",
                "layer_collection": "unmodelled.holdout_objects (Holdout), unmodelled.view_layer_notes",
                "name": "engine.py (the render layer written)",
                "use_motion_blur": "motion.blurs (with Render > Motion Blur)",
                "depsgraph objects use": DEPSGRAPH},
         REPORTED: {"use_pass_vector use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
-                   "use_pass_subsurface_indirect aovs use_pass_combined use_solid pass_alpha_threshold "
-                   "world_override*": "unmodelled.view_layer_notes",
+                   "use_pass_subsurface_indirect aovs use_pass_combined use_solid pass_alpha_threshold":
+                   "unmodelled.view_layer_notes",
                    "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},
         NO_EFFECT: {"active_aov active_aov_index active_layer_collection active_lightgroup active_lightgroup_index "
                     "has_export_collections": VIEWPORT,

@@ -1289,11 +1289,17 @@ def _mist(scene) -> dict:
             "mist_falloff": MIST_FALLOFF.get(settings.falloff, 1.0)}
 
 
-def rendered_world(scene, view_layer):
-    """The world `view_layer` renders: the scene's, or None (no light, no volume, black behind everything) where its
-    Filter > Environment is off, as Cycles then gives the background its empty shader (measured: a world-lit scene
-    black, alpha 1 on an opaque film). Its Mist Pass and AO Distance are still read from the scene's world."""
-    return scene.world if getattr(view_layer, "use_sky", True) else None
+def rendered_world(scene, view_layer, depsgraph=None):
+    """The world `view_layer` renders, as Cycles picks it: its World Override (evaluated in `depsgraph`) where it has
+    one, else the scene's; None (no light, no volume, black behind everything) where its Filter > Environment is off,
+    as Cycles then gives the background its empty shader (measured: a world-lit scene black, alpha 1 on an opaque
+    film). The Mist Pass and AO Distance are read from the scene's world."""
+    if not getattr(view_layer, "use_sky", True):
+        return None
+    override = getattr(view_layer, "world_override", None)
+    if override is None:
+        return scene.world
+    return override.evaluated_get(depsgraph) if depsgraph is not None else override
 
 
 def _ao_distance(scene) -> float:
@@ -1428,7 +1434,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     materials_.begin_export(scene.frame_current, depsgraph.view_layer)
     # What the scene asks of Cycles that Primer does not render, said once (addon/unmodelled.py).
     warnings += unmodelled.camera_notes(camera_object) + unmodelled.render_notes(scene)
-    world_object = rendered_world(scene, depsgraph.view_layer)
+    world_object = rendered_world(scene, depsgraph.view_layer, depsgraph)
     warnings += unmodelled.view_layer_notes(depsgraph.view_layer) + unmodelled.world_notes(world_object)
     holdouts = unmodelled.holdout_objects(depsgraph.view_layer)
     world = world_light_settings(world_object, export_world(world_object, warnings, _kernels(scene)))

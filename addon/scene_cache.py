@@ -205,7 +205,7 @@ class SceneCache:
         walk = first or changes.scene or changes.lights or bool(changes.objects)
         # 2. World and materials: colours only, no BVH.
         if first or changes.world:
-            self.world = export.export_world(export.rendered_world(depsgraph.scene_eval, depsgraph.view_layer),
+            self.world = export.export_world(export.rendered_world(depsgraph.scene_eval, depsgraph.view_layer, depsgraph),
                                              self.warnings)
             report.world = True
         if changes.materials and not first:

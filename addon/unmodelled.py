@@ -83,9 +83,6 @@ def view_layer_notes(view_layer) -> list:
     if abs(threshold - 0.5) > 1e-6:
         notes.append(f"the view layer's pass Alpha Threshold is {threshold:g}; Primer's data passes take the first "
                      "surface at least 0.5 opaque")
-    override = getattr(view_layer, "world_override", None)
-    if override is not None and override != getattr(scene, "world", None):
-        notes.append(f"the view layer's World Override '{override.name}' is not read; Primer renders the scene's world")
     return notes
 
 

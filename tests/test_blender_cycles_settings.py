@@ -285,28 +285,46 @@ def test_film_exposure_scales_the_image_as_in_cycles(primer, tmp_path):
     np.testing.assert_allclose(ratios["PRIMER"], 2.0, rtol=1e-6)
 
 
-def test_a_view_layer_without_its_environment_renders_as_a_scene_without_a_world_as_in_cycles(primer, tmp_path):
+def plain_world(name: str, color):
+    """A new world of one background colour (its Background node's, where a new world has one: since Blender 5.0)."""
+    world = bpy.data.worlds.new(name)
+    world.color = color
+    background = world.node_tree.nodes.get("Background") if world.node_tree is not None else None
+    if background is not None:
+        background.inputs["Color"].default_value = (*color, 1.0)
+    return world
+
+
+def test_a_view_layer_renders_its_world_override_and_no_world_without_its_environment_as_in_cycles(primer,
+                                                                                                  tmp_path):
     """View Layer > Filter > Environment off: Cycles gives the background its empty shader, so a bright world neither
-    shows nor lights; each engine's image is then the same numbers as with no world at all (Cycles' measured here),
-    and Primer says nothing about the filter."""
+    shows nor lights; each engine's image is then the same numbers as with no world at all. A World Override: each
+    engine's image is the same numbers as with that world as the scene's (both measured here, Cycles' too), and
+    Primer says nothing about either."""
     scene = corner_scene()
     scene.primer.settings_source = "CYCLES"
     scene.cycles.samples = 4
-    world = bpy.data.worlds.new("Bright")
-    world.color = (2.0, 1.5, 1.0)
-    background = world.node_tree.nodes.get("Background") if world.node_tree is not None else None
-    if background is not None:                  # (a new world has a Background node of its own since 5.0)
-        background.inputs["Color"].default_value = (2.0, 1.5, 1.0, 1.0)
+    bright, green = plain_world("Bright", (2.0, 1.5, 1.0)), plain_world("Green", (0.1, 0.9, 0.2))
+    layer = scene.view_layers[0]
+    warnings = []
     for engine in ("PRIMER", "CYCLES"):
         scene.world = None
         without = render(scene, engine, str(tmp_path / f"{engine}_none.exr"))
-        scene.world = world
-        scene.view_layers[0].use_sky = False
+        scene.world = bright
+        layer.use_sky = False
         filtered = render(scene, engine, str(tmp_path / f"{engine}_filtered.exr"))
-        scene.view_layers[0].use_sky = True
+        layer.use_sky = True
         lit = render(scene, engine, str(tmp_path / f"{engine}_lit.exr"))
         np.testing.assert_array_equal(filtered, without, err_msg=engine)
         assert lit.mean() > 1.5 * without.mean(), engine
-    scene.view_layers[0].use_sky = False
+        layer.world_override = green
+        overridden = render(scene, engine, str(tmp_path / f"{engine}_overridden.exr"))
+        warnings += addon(primer, "engine").last_render.warnings if engine == "PRIMER" else []
+        layer.world_override, scene.world = None, green
+        green_scene = render(scene, engine, str(tmp_path / f"{engine}_green.exr"))
+        np.testing.assert_array_equal(overridden, green_scene, err_msg=engine)
+        assert np.abs(green_scene - lit).max() > 0.1, engine
+    layer.use_sky = False
     render(scene, "PRIMER", str(tmp_path / "again.exr"))
-    assert not [w for w in addon(primer, "engine").last_render.warnings if "Environment" in w]
+    warnings += addon(primer, "engine").last_render.warnings
+    assert not [w for w in warnings if "Environment" in w or "Override" in w], warnings

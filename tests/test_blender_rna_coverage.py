@@ -111,11 +111,6 @@ def test_read_settings_are_read_and_reported_ones_have_their_function(addon):
     assert not problems, "\n".join(problems)
 
 
-def new_world():
-    """A second world (a World Override)."""
-    return bpy.data.worlds.new("Other")
-
-
 # (struct, its path, property, value (or a function making it), settings it needs first [(path, property, value)],
 #  the unmodelled.py function, what it is called with, a phrase of its note). The table must say REPORTED by it.
 CASES = [
@@ -132,7 +127,6 @@ CASES = [
     ("ViewLayer", "view_layer", "use_pass_combined", False, [], "view_layer_notes", "view_layer", "Combined pass"),
     ("ViewLayer", "view_layer", "pass_alpha_threshold", 0.25, [], "view_layer_notes", "view_layer",
      "Alpha Threshold is 0.25"),
-    ("ViewLayer", "view_layer", "world_override", new_world, [], "view_layer_notes", "view_layer", "World Override"),
     ("CyclesRenderLayerSettings", "view_layer.cycles", "denoising_store_passes", True, [], "view_layer_notes",
      "view_layer", "Denoising Data passes"),
     ("Camera", "camera.data", "type", "CUSTOM", [], "camera_notes", "camera", "Custom camera"),
