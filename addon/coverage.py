@@ -137,6 +137,8 @@ COVERAGE = {
               "use_denoising denoiser denoising_input_passes denoising_prefilter denoising_quality denoising_use_gpu":
                   "use_denoising: Primer's Denoise (the compositor's Denoise node, its own settings)"},
         READ: {"pixel_filter_type filter_width": "export.pixel_filter: each camera sample drawn from the filter",
+               "use_camera_cull camera_cull_margin use_distance_cull distance_cull_margin":
+                   "export.object_culling (Simplify > Culling: objects left out as Cycles' sync leaves them)",
                "film_exposure": "export.film_exposure: Combined and the passes of light scaled (core render.expose)",
                "rolling_shutter_type rolling_shutter_duration": "motion.shutter: each row's time, top to bottom",
                "samples seed use_animated_seed max_bounces diffuse_bounces glossy_bounces transmission_bounces "
@@ -147,8 +149,8 @@ COVERAGE = {
                    "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
                    "else Primer's own of the same meaning"},
         REPORTED: {"film_transparent_glass use_fast_gi "
-                   "fast_gi_method ao_bounces_render use_camera_cull camera_cull_margin use_distance_cull "
-                   "distance_cull_margin texture_limit_render texture_resolution_render*": "unmodelled.render_notes",
+                   "fast_gi_method ao_bounces_render texture_limit_render texture_resolution_render*":
+                   "unmodelled.render_notes",
                    "film_transparent_roughness": "unmodelled.render_notes (through Transparent Glass)",
                    "dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
                        "unmodelled.object_notes (adaptive subdivision)",
@@ -261,9 +263,9 @@ COVERAGE = {
                "motion_steps use_motion_blur": "motion.motion_steps (the camera's and each object's transforms over "
                                                "the shutter, motion.give_motion)",
                "use_deform_motion": "motion._object_state (a deforming mesh's vertices over the shutter, "
-                                    "motion.give_motion)"},
+                                    "motion.give_motion)",
+               "use_camera_cull use_distance_cull": "export.object_culling (each object's Culling flags)"},
         REPORTED: {"use_adaptive_subdivision* dicing_rate*": "unmodelled.object_notes",
-                   "use_camera_cull use_distance_cull": "unmodelled.render_notes",
                    "is_caustics_caster is_caustics_receiver": "unmodelled.light_notes (shadow caustics lights)",
                    "ao_distance": "unmodelled.render_notes (Fast GI)"},
     },

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core import scene as core_scene
 from ..core.camera import Camera
+from ..core.camera import culling as culling_
 from ..core.camera.camera import PANORAMA_TYPES
 from ..core.geometry import curves as curves_
 from ..core.geometry import islands as islands_
@@ -58,6 +59,7 @@ class Export:
     # Each mesh instance's key among the depsgraph's object instances (index into scene.instances ->
     # motion.placement_key), by which addon/motion.py gives the ones that move their motion over the shutter.
     instance_keys: dict = field(default_factory=dict)
+    culled: list = field(default_factory=list)          # objects Simplify > Culling left out (object_culling)
 
 
 # ----------------------------------------------------------------------------
@@ -1289,6 +1291,39 @@ def _mist(scene) -> dict:
             "mist_falloff": MIST_FALLOFF.get(settings.falloff, 1.0)}
 
 
+def object_culling(scene, camera):
+    """Simplify > Culling as Cycles' sync reads it (blender/object_cull.cpp): a function (object, its (4, 4) world
+    matrix) -> whether Cycles leaves that geometry object out (core/camera/culling.py), or None where nothing is
+    culled: Simplify off, a panoramic camera, Stereoscopy on, or neither Camera nor Distance Culling on (a Distance
+    Culling distance of 0 turns it off). Each object culls by the tests its own Culling flags ask for."""
+    cycles = getattr(scene, "cycles", None)
+    render = scene.render
+    if (cycles is None or not render.use_simplify or camera.type not in ("PERSP", "ORTHO")
+            or getattr(render, "use_multiview", False)):
+        return None
+    camera_cull = bool(getattr(cycles, "use_camera_cull", False))
+    margin = float(getattr(cycles, "camera_cull_margin", 0.0))
+    distance = float(getattr(cycles, "distance_cull_margin", 0.0))
+    distance_cull = bool(getattr(cycles, "use_distance_cull", False)) and distance != 0.0
+    if not camera_cull and not distance_cull:
+        return None
+    width, height = frame_size(render)
+    aspect = (float(render.pixel_aspect_x), float(render.pixel_aspect_y))
+    position = np.asarray(camera.matrix_world, np.float64)[:3, 3]
+
+    def culled(obj, matrix) -> bool:
+        flags = getattr(obj, "cycles", None)
+        by_camera = camera_cull and bool(getattr(flags, "use_camera_cull", False))
+        by_distance = distance_cull and bool(getattr(flags, "use_distance_cull", False))
+        if not by_camera and not by_distance:
+            return False
+        corners = culling_.box_corners(np.array(obj.bound_box, np.float64), matrix)
+        return culling_.culled(by_camera, by_distance,
+                               by_camera and culling_.outside_view(camera, width, height, aspect, corners, margin),
+                               by_distance and culling_.beyond_distance(position, corners, distance))
+    return culled
+
+
 def rendered_world(scene, view_layer, depsgraph=None):
     """The world `view_layer` renders, as Cycles picks it: its World Override (evaluated in `depsgraph`) where it has
     one, else the scene's; None (no light, no volume, black behind everything) where its Filter > Environment is off,
@@ -1456,6 +1491,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
 
     links = linking.LinkSets.of(depsgraph)          # Light and Shadow Linking's sets (addon/linking.py)
     warnings.extend(links.notes)
+    culled = object_culling(scene, camera)
+    culled_names: list = []
     for instance in depsgraph.object_instances:
         if is_cancelled():
             break
@@ -1470,6 +1507,9 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
             if light is not None:
                 core.lights.append(links.lamp(light, obj))
                 groups["lights"].append(lightgroups.source_group(obj))
+            continue
+        if culled is not None and culled(obj, matrix):      # Simplify > Culling: left out, as Cycles does
+            culled_names.append(obj.name)
             continue
         if obj.type == "MESH" and not instance.is_instance and instance.show_particles and strands:
             for system in rendered_hair(obj):       # particle hair: tubes placed with their emitter
@@ -1593,4 +1633,4 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     warnings += _terminator_notes(terminator_offsets, settings.terminator_fix)
     for group in lightgroups.empty_groups(settings.light_groups, groups):
         warnings.append(f"light group '{group}' has no light, emissive object or world in it: its pass is black")
-    return Export(core, settings, (width, height), border, warnings, meshes_read, instance_keys)
+    return Export(core, settings, (width, height), border, warnings, meshes_read, instance_keys, culled_names)

@@ -46,12 +46,6 @@ def render_notes(scene) -> list:
     if getattr(cycles, "use_fast_gi", False):
         notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
                      "follows whole paths")
-    culled = [obj.name for obj in scene.objects
-              if (getattr(cycles, "use_camera_cull", False) and _flag(obj, "use_camera_cull"))
-              or (getattr(cycles, "use_distance_cull", False) and _flag(obj, "use_distance_cull"))]
-    if culled:
-        notes.append(f"Cycles culls objects out of view or far away (Simplify > Culling: '{culled[0]}'"
-                     + (" and others" if len(culled) > 1 else "") + "); Primer keeps every object")
     limit = str(getattr(cycles, "texture_limit_render", "OFF"))
     scale = float(getattr(cycles, "texture_resolution_render", 1.0))
     if getattr(render, "use_simplify", False) and (limit != "OFF" or abs(scale - 1.0) > 1e-6):
@@ -174,11 +168,6 @@ def material_notes(material) -> list:
         notes.append(f"material '{material.name}' has Homogeneous Volume on: Cycles evaluates its medium once per "
                      "ray; Primer evaluates a medium fed by nodes point by point")
     return notes
-
-
-def _flag(obj, prop: str) -> bool:
-    """An object's Cycles setting `prop` (object.cycles), False where there is none."""
-    return bool(getattr(getattr(obj, "cycles", None), prop, False))
 
 
 def _layer_collections(layer) -> list:

@@ -328,3 +328,39 @@ def test_a_view_layer_renders_its_world_override_and_no_world_without_its_enviro
     render(scene, "PRIMER", str(tmp_path / "again.exr"))
     warnings += addon(primer, "engine").last_render.warnings
     assert not [w for w in warnings if "Environment" in w or "Override" in w], warnings
+
+
+def test_simplify_culling_leaves_out_what_cycles_leaves_out(primer, tmp_path):
+    """Simplify > Camera Culling: a glowing panel behind the camera (it lights the corner) with its Camera Cull flag
+    is left out by both engines, each image the same numbers as with the panel hidden from the render (Cycles'
+    measured here); with Distance Culling on too, and the panel nearer than its distance, it stays (Cycles culls
+    only what both tests cull)."""
+    scene = corner_scene()
+    scene.primer.settings_source = "CYCLES"
+    scene.cycles.samples = 4
+    glow = bpy.data.materials.new("Glow")
+    glow.use_nodes = True
+    nodes = glow.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 20.0
+    glow.node_tree.links.new(emission.outputs[0], nodes["Material Output"].inputs["Surface"])
+    quad("Panel", [(5.5, -8.0, 0.5), (2.5, -10.0, 0.5), (2.5, -10.0, 4.5), (5.5, -8.0, 4.5)], glow)
+    panel = bpy.data.objects["Panel"]
+    panel.cycles.use_camera_cull = True
+    scene.render.use_simplify = True
+    scene.cycles.use_camera_cull = True
+    export = addon(primer, "export")
+    assert export.export_scene(bpy.context.evaluated_depsgraph_get()).culled == ["Panel"]
+    for engine in ("PRIMER", "CYCLES"):
+        culled = render(scene, engine, str(tmp_path / f"{engine}_culled.exr"))
+        scene.cycles.use_distance_cull, scene.cycles.distance_cull_margin = True, 50.0
+        panel.cycles.use_distance_cull = True
+        kept = render(scene, engine, str(tmp_path / f"{engine}_kept.exr"))
+        scene.cycles.use_distance_cull = panel.cycles.use_distance_cull = False
+        panel.hide_render = True
+        hidden = render(scene, engine, str(tmp_path / f"{engine}_hidden.exr"))
+        panel.hide_render = False
+        np.testing.assert_array_equal(culled, hidden, err_msg=engine)
+        assert kept.mean() > 1.1 * hidden.mean(), engine
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "cull" in w.lower()]

@@ -119,8 +119,6 @@ CASES = [
     ("CyclesRenderSettings", "scene.cycles", "volume_biased", True, [], "render_notes", "scene", "Biased volume"),
     ("CyclesRenderSettings", "scene.cycles", "film_transparent_glass", True,
      [("scene.render", "film_transparent", True)], "render_notes", "scene", "Transparent Glass"),
-    ("CyclesRenderSettings", "scene.cycles", "use_camera_cull", True, [("object.cycles", "use_camera_cull", True)],
-     "render_notes", "scene", "culls objects"),
     ("CyclesRenderSettings", "scene.cycles", "texture_limit_render", "512", [("scene.render", "use_simplify", True)],
      "render_notes", "scene", "shrinks image textures"),
     ("ViewLayer", "view_layer", "use_solid", False, [], "view_layer_notes", "view_layer", "Surfaces out"),
