@@ -137,6 +137,8 @@ COVERAGE = {
               "use_denoising denoiser denoising_input_passes denoising_prefilter denoising_quality denoising_use_gpu":
                   "use_denoising: Primer's Denoise (the compositor's Denoise node, its own settings)"},
         READ: {"pixel_filter_type filter_width": "export.pixel_filter: each camera sample drawn from the filter",
+               "texture_limit_render texture_limit": "materials.texture_limit_of (Simplify > Texture Limit: images "
+                                                     "halved as Cycles halves them, textures.limited)",
                "use_camera_cull camera_cull_margin use_distance_cull distance_cull_margin":
                    "export.object_culling (Simplify > Culling: objects left out as Cycles' sync leaves them)",
                "film_exposure": "export.film_exposure: Combined and the passes of light scaled (core render.expose)",
@@ -149,8 +151,7 @@ COVERAGE = {
                    "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
                    "else Primer's own of the same meaning"},
         REPORTED: {"film_transparent_glass use_fast_gi "
-                   "fast_gi_method ao_bounces_render texture_limit_render texture_resolution_render*":
-                   "unmodelled.render_notes",
+                   "fast_gi_method ao_bounces_render texture_resolution_render*": "unmodelled.render_notes",
                    "film_transparent_roughness": "unmodelled.render_notes (through Transparent Glass)",
                    "dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
                        "unmodelled.object_notes (adaptive subdivision)",
@@ -166,7 +167,7 @@ COVERAGE = {
                     "ao_bounces preview_adaptive_min_samples preview_adaptive_threshold preview_denoiser "
                     "preview_denoising_input_passes preview_denoising_prefilter preview_denoising_quality "
                     "preview_denoising_start_sample preview_denoising_use_gpu preview_dicing_rate preview_pause "
-                    "preview_samples preview_scrambling_distance texture_limit texture_resolution* "
+                    "preview_samples preview_scrambling_distance texture_resolution* "
                     "use_preview_adaptive_sampling use_preview_denoising volume_preview_step_rate": VIEWPORT_RENDER,
                     "debug_bvh_layout debug_bvh_time_steps debug_bvh_type debug_texture_cache_preserve_unused* "
                     "debug_use_compact_bvh debug_use_cpu_avx2 debug_use_cpu_sse42 debug_use_cuda_adaptive_compile "

@@ -849,7 +849,9 @@ def _image_or_warning(image, reader: NodeReader, node, srgb: bool, tile: int = N
             reader.warn(node, f"{what} has {int(bad.any(axis=-1).sum())} NaN or infinite pixel(s); Primer reads "
                               "them as 0")
             pixels = np.where(bad, np.float32(0.0), pixels)
-    return textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
+    image_ = textures_.Image(pixels, srgb=srgb, name=image.name if tile is None else f"{image.name} {tile}")
+    image_.pixels = textures_.limited(image_.pixels, _TEXTURE_LIMIT[0])    # (Simplify > Texture Limit, as Cycles)
+    return image_
 
 
 def sequence_frame(user, scene_frame: int) -> int:
@@ -901,15 +903,30 @@ _IMAGES: dict = {}
 _FRAME = [1]
 
 
-def begin_export(frame: int = 1, view_layer=None) -> None:
+def begin_export(frame: int = 1, view_layer=None, texture_limit: int = 0) -> None:
     """Forget the images read by an earlier export (a render reads each image once) and the Object and Instancer
     attributes its materials read; read sequences and movies at the scene's `frame`, View Layer attributes from
-    `view_layer` (None: the context's)."""
+    `view_layer` (None: the context's), and images under `texture_limit` (Simplify's, texture_limit_of; 0: none)."""
     _IMAGES.clear()
     INSTANCE_ATTRIBUTES.clear()
     ATTRIBUTE_NOTES.clear()
     _VIEW_LAYER[0] = view_layer
+    _TEXTURE_LIMIT[0] = int(texture_limit)
     set_frame(frame)
+
+
+# The texture size limit of this export's images (textures.limited), as Cycles' scene params.texture_limit.
+_TEXTURE_LIMIT: list = [0]
+
+
+def texture_limit_of(scene, final: bool) -> int:
+    """Simplify > Texture Limit as Cycles' sync reads it: with Simplify on, the Render limit for a final render
+    (`final`), the Viewport one else; 0 (none) for "OFF", without Simplify or without Cycles' settings."""
+    cycles = getattr(scene, "cycles", None)
+    if cycles is None or not scene.render.use_simplify:
+        return 0
+    value = str(getattr(cycles, "texture_limit_render" if final else "texture_limit", "OFF"))
+    return int(value) if value.isdigit() else 0
 
 
 # The Attribute node's Object and Instancer attributes this export's materials read, "OBJECT:name" or

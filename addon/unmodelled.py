@@ -46,11 +46,10 @@ def render_notes(scene) -> list:
     if getattr(cycles, "use_fast_gi", False):
         notes.append("Cycles' Fast GI Approximation replaces light after a few bounces by ambient occlusion; Primer "
                      "follows whole paths")
-    limit = str(getattr(cycles, "texture_limit_render", "OFF"))
     scale = float(getattr(cycles, "texture_resolution_render", 1.0))
-    if getattr(render, "use_simplify", False) and (limit != "OFF" or abs(scale - 1.0) > 1e-6):
-        notes.append("Cycles shrinks image textures (Simplify > Texture Limit or Resolution); Primer reads them at "
-                     "full resolution")
+    if getattr(render, "use_simplify", False) and abs(scale - 1.0) > 1e-6:
+        notes.append("Cycles 5.2 shrinks image textures by Simplify > Texture Resolution; Primer reads them at full "
+                     "resolution (or Texture Limit's)")
     return notes
 
 

@@ -364,3 +364,48 @@ def test_simplify_culling_leaves_out_what_cycles_leaves_out(primer, tmp_path):
         np.testing.assert_array_equal(culled, hidden, err_msg=engine)
         assert kept.mean() > 1.1 * hidden.mean(), engine
     assert not [w for w in addon(primer, "engine").last_render.warnings if "cull" in w.lower()]
+
+
+def test_a_texture_limit_averages_a_fine_checker_to_grey_as_in_cycles(primer, tmp_path):
+    """Simplify > Texture Limit 128 on a 256 x 256 PNG checker of single black and white texels, seen through an
+    Emission of its colour (Closest) on a plane filling an orthographic view: Cycles keeps 2 x 2 means, byte 128 (sRGB
+    0.2158 linear), everywhere, and so does Primer, pixel for pixel; without the limit each sample of both sees one
+    texel, black or white."""
+    scene = new_cycles_file(16, 16)
+    scene.cycles.samples = 1
+    scene.primer.settings_source = "CYCLES"
+    image = bpy.data.images.new("Checker", 256, 256)
+    texels = (np.indices((256, 256)).sum(axis=0) % 2).astype(np.float32)
+    image.pixels[:] = np.repeat(texels[:, :, None], 4, axis=2).clip(0, 1).ravel().tolist()
+    image.filepath_raw = str(tmp_path / "checker.png")
+    image.file_format = "PNG"
+    image.save()
+    image = bpy.data.images.load(str(tmp_path / "checker.png"))
+    material = bpy.data.materials.new("Checker")
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.remove(nodes["Principled BSDF"])
+    texture, emission = nodes.new("ShaderNodeTexImage"), nodes.new("ShaderNodeEmission")
+    texture.image, texture.interpolation = image, "Closest"
+    links.new(texture.outputs["Color"], emission.inputs["Color"])
+    links.new(emission.outputs[0], nodes["Material Output"].inputs["Surface"])
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    bpy.context.object.data.materials.append(material)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale, camera.location = "ORTHO", 1.0, (0.0, 0.0, 3.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.use_simplify = True
+    grey = 128.0 / 255.0
+    grey = ((grey + 0.055) / 1.055) ** 2.4
+    for limit, uniform in (("128", True), ("OFF", False)):
+        scene.cycles.texture_limit_render = limit
+        images = {engine: render(scene, engine, str(tmp_path / f"{engine}_{limit}.exr"))
+                  for engine in ("PRIMER", "CYCLES")}
+        if uniform:
+            np.testing.assert_allclose(images["CYCLES"], grey, rtol=1e-4)
+            np.testing.assert_allclose(images["PRIMER"], images["CYCLES"], rtol=1e-5)
+        else:                                       # (each sample sees one texel, black or white)
+            for pixels in images.values():
+                assert np.isin(np.round(pixels, 4), (0.0, 1.0)).all()
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "texture" in w.lower()]

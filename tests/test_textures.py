@@ -666,3 +666,18 @@ def test_an_environment_texture_in_a_surface_maps_a_direction_to_cycles_uv(kerne
                      {"Vector": constant_vector(*direction)})
     image = shoot(scene_of(emitting(Link(node, "Color")), sun=False), kernels)
     np.testing.assert_allclose(image[..., :2], np.broadcast_to(uv, (SIZE, SIZE, 2)), atol=1e-6)
+
+
+def test_a_texture_limit_halves_an_image_into_the_means_of_its_blocks_as_cycles():
+    """Simplify > Texture Limit (textures.limited, Cycles' file_load_image): a 256 x 256 byte checker of single texels
+    under a limit of 128 becomes 128 x 128 texels of the 2 x 2 means, 0.5 rounded to byte 128; a 5 x 3 float image
+    under a limit of 2 is halved twice (4 x 4 blocks): one texel, the mean of the 4 x 3 texels there are; no limit or
+    a larger one keeps the pixels."""
+    checker = ((np.indices((256, 256)).sum(axis=0) % 2) * 255).astype(np.uint8)[:, :, None]
+    halved = textures.limited(checker, 128)
+    assert halved.shape == (128, 128, 1) and halved.dtype == np.uint8 and (halved == 128).all()
+    small = np.arange(15, dtype=np.float32).reshape(3, 5, 1)
+    quarter = textures.limited(small, 2)
+    assert quarter.shape == (1, 1, 1)
+    assert quarter[0, 0, 0] == pytest.approx(small[:, :4].mean(), rel=1e-6)
+    assert textures.limited(checker, 0) is checker and textures.limited(checker, 256) is checker

@@ -73,6 +73,32 @@ class Image:
         return as_rgba(self.pixels).astype(np.float32)
 
 
+def limited(pixels: np.ndarray, limit: int) -> np.ndarray:
+    """An image's pixels (h, w, c) as Cycles keeps them under a texture size limit (Simplify > Texture Limit,
+    scene/image.cpp file_load_image): halved until the larger side fits in `limit` (0: no limit), each texel the mean
+    of its k x k block (k = 2^halvings, util_image_downscale_pixels) of the stored values, the remainder past whole
+    blocks dropped; integers read as 0..1, averaged in float32 and rounded back as Cycles rounds them."""
+    h, w = pixels.shape[:2]
+    scale = 1.0
+    while limit > 0 and max(h, w) * scale > limit:
+        scale *= 0.5
+    if scale == 1.0:
+        return pixels
+    k = int(1.0 / scale + 0.5)
+    oh, ow = max(int(np.float32(h) * np.float32(scale)), 1), max(int(np.float32(w) * np.float32(scale)), 1)
+    one = np.float32(1.0 / 255.0 if pixels.dtype == np.uint8 else 1.0 / 65535.0 if pixels.dtype == np.uint16 else 1.0)
+    values = pixels.astype(np.float32) * one
+    if oh * k > h or ow * k > w:                # (a side shorter than k: Cycles averages what there is)
+        values = np.pad(values, ((0, max(oh * k - h, 0)), (0, max(ow * k - w, 0)), (0, 0)), constant_values=np.nan)
+    blocks = values[:oh * k, :ow * k].reshape(oh, k, ow, k, -1)
+    mean = np.nanmean(blocks, axis=(1, 3)).astype(np.float32)
+    if pixels.dtype == np.float32:
+        return np.ascontiguousarray(mean)
+    top = 255.0 if pixels.dtype == np.uint8 else 65535.0
+    rounded = np.where(mean < 0.0, 0.0, np.where(mean > 1.0 - 0.5 / top, top, np.floor(top * mean + 0.5)))
+    return np.ascontiguousarray(rounded.astype(pixels.dtype))
+
+
 @dataclass(eq=False)
 class TiledImage:
     """A UDIM image: tiles {tile number (1001, 1002 ...): Image, or None for a tile that could not be read
