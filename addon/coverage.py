@@ -137,6 +137,8 @@ COVERAGE = {
               "use_denoising denoiser denoising_input_passes denoising_prefilter denoising_quality denoising_use_gpu":
                   "use_denoising: Primer's Denoise (the compositor's Denoise node, its own settings)"},
         READ: {"pixel_filter_type filter_width": "export.pixel_filter: each camera sample drawn from the filter",
+               "film_transparent_glass film_transparent_roughness": "export.transparent_glass (glass under the "
+                                                                    "threshold keeps a camera path clear)",
                "texture_limit_render texture_limit": "materials.texture_limit_of (Simplify > Texture Limit: images "
                                                      "halved as Cycles halves them, textures.limited)",
                "use_camera_cull camera_cull_margin use_distance_cull distance_cull_margin":
@@ -150,9 +152,8 @@ COVERAGE = {
                "sample_clamp_indirect use_adaptive_sampling adaptive_threshold adaptive_min_samples":
                    "cycles_settings.effective: where the scene follows its Cycles settings (Render > Settings), "
                    "else Primer's own of the same meaning"},
-        REPORTED: {"film_transparent_glass use_fast_gi "
+        REPORTED: {"use_fast_gi "
                    "fast_gi_method ao_bounces_render texture_resolution_render*": "unmodelled.render_notes",
-                   "film_transparent_roughness": "unmodelled.render_notes (through Transparent Glass)",
                    "dicing_rate dicing_camera max_subdivisions offscreen_dicing_scale feature_set*":
                        "unmodelled.object_notes (adaptive subdivision)",
                    "volume_biased*": "unmodelled.render_notes (Primer renders heterogeneous media's unbiased mean)"},

@@ -1218,6 +1218,7 @@ def render_settings(scene, width: int, height: int, border: tuple, aux: tuple = 
         pixel_aspect=(float(render.pixel_aspect_x), float(render.pixel_aspect_y)),
         **pixel_filter(scene),
         exposure=film_exposure(scene),
+        transparent_glass=transparent_glass(scene),
         light_samples=int(props.light_samples),
         shadow_method=props.shadow_method.lower(), epsilon=float(props.epsilon),
         terminator_fix=bool(props.terminator_fix),
@@ -1268,6 +1269,15 @@ def pixel_filter(scene) -> dict:
     kind = str(getattr(cycles, "pixel_filter_type", "BLACKMAN_HARRIS"))
     width = 1.0 if kind == "BOX" else float(getattr(cycles, "filter_width", 1.5))
     return {"pixel_filter": kind, "filter_width": width}
+
+
+def transparent_glass(scene) -> float:
+    """Film > Transparent > Transparent Glass's Roughness Threshold (Cycles' film_transparent_glass,
+    film_transparent_roughness) with a transparent film: core RenderSettings.transparent_glass; -1 where it is off."""
+    cycles = getattr(scene, "cycles", None)
+    if not scene.render.film_transparent or not getattr(cycles, "film_transparent_glass", False):
+        return -1.0
+    return min(max(float(getattr(cycles, "film_transparent_roughness", 0.1)), 0.0), 1.0)
 
 
 def film_exposure(scene) -> float:

@@ -32,9 +32,6 @@ def render_notes(scene) -> list:
     cycles = getattr(scene, "cycles", None)
     if cycles is None:
         return notes
-    if getattr(render, "film_transparent", False) and getattr(cycles, "film_transparent_glass", False):
-        notes.append("Cycles' Transparent Glass makes glass see-through on the transparent film; Primer's alpha "
-                     "counts glass as any surface")
     if (getattr(scene, "primer", None) is not None and cycles_settings.follows_cycles(scene)
             and getattr(cycles, "use_denoising", False) and not scene.primer.use_denoising):
         notes.append("Cycles denoises this scene (Render > Sampling > Denoise); Primer follows its Cycles settings "

@@ -409,3 +409,37 @@ def test_a_texture_limit_averages_a_fine_checker_to_grey_as_in_cycles(primer, tm
             for pixels in images.values():
                 assert np.isin(np.round(pixels, 4), (0.0, 1.0)).all()
     assert not [w for w in addon(primer, "engine").last_render.warnings if "texture" in w.lower()]
+
+
+def test_transparent_glass_clears_the_film_behind_smooth_glass_as_in_cycles(primer, tmp_path):
+    """Film > Transparent with Transparent Glass: a smooth glass sheet (IOR 1.5) filling an orthographic view of a
+    white world leaves the film clear by the light it lets through, alpha = R = 0.04 and colour R, in Cycles (measured
+    here) and in Primer; without Transparent Glass the glass is opaque (alpha 1) in both."""
+    scene = new_cycles_file(8, 8)
+    scene.primer.settings_source = "CYCLES"
+    scene.cycles.samples, scene.cycles.max_bounces = 256, 4
+    scene.render.film_transparent = True
+    scene.world = plain_world("White", (1.0, 1.0, 1.0))
+    material = bpy.data.materials.new("Glass")
+    material.use_nodes = True
+    nodes = material.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    glass = nodes.new("ShaderNodeBsdfGlass")
+    glass.inputs["Roughness"].default_value, glass.inputs["IOR"].default_value = 0.0, 1.5
+    material.node_tree.links.new(glass.outputs[0], nodes["Material Output"].inputs["Surface"])
+    bpy.ops.mesh.primitive_plane_add(size=4.0)
+    bpy.context.object.data.materials.append(material)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale, camera.location = "ORTHO", 1.0, (0.0, 0.0, 3.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    for engine in ("PRIMER", "CYCLES"):
+        scene.render.engine = engine
+        scene.cycles.film_transparent_glass = True
+        clear = render_image(scene, str(tmp_path / f"{engine}_clear.exr"), reference=True)
+        scene.cycles.film_transparent_glass = False
+        opaque = render_image(scene, str(tmp_path / f"{engine}_opaque.exr"), reference=True)
+        assert clear[..., 3].mean() == pytest.approx(0.04, abs=0.006), engine
+        assert clear[..., :3].mean() == pytest.approx(clear[..., 3].mean(), abs=2e-3), engine
+        assert opaque[..., 3].min() > 0.999 and opaque[..., :3].mean() == pytest.approx(1.0, abs=0.01), engine
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "Glass" in w]

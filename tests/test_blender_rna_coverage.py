@@ -117,8 +117,6 @@ CASES = [
     ("RenderSettings", "scene.render", "use_multiview", True, [], "render_notes", "scene", "Stereoscopy"),
     ("CyclesRenderSettings", "scene.cycles", "use_fast_gi", True, [], "render_notes", "scene", "Fast GI"),
     ("CyclesRenderSettings", "scene.cycles", "volume_biased", True, [], "render_notes", "scene", "Biased volume"),
-    ("CyclesRenderSettings", "scene.cycles", "film_transparent_glass", True,
-     [("scene.render", "film_transparent", True)], "render_notes", "scene", "Transparent Glass"),
     ("CyclesRenderSettings", "scene.cycles", "texture_resolution_render", 0.5,
      [("scene.render", "use_simplify", True)], "render_notes", "scene", "Texture Resolution"),
     ("ViewLayer", "view_layer", "use_solid", False, [], "view_layer_notes", "view_layer", "Surfaces out"),

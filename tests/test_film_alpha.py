@@ -134,3 +134,33 @@ def test_the_worlds_volume_hides_the_background_by_what_it_absorbs_on_the_way_to
     image = render.render(slab, settings).image
     through = np.array([1.0, 1.0, 0.0]) * np.exp(-1.5 * (1.0 - COLOR) * 0.7)
     np.testing.assert_allclose(image[..., 3], 1.0 - through.mean(), atol=1e-6)
+
+
+def glass_sheet(roughness: float) -> Scene:
+    """A glass sheet (IOR 1.5, one face) filling an orthographic camera's view from 3 above, under a white world."""
+    matrix = np.eye(4)
+    matrix[:3, 3] = (0.0, 0.0, 3.0)
+    scene = Scene(camera=Camera(matrix_world=matrix, type="ORTHO", ortho_scale=1.0),
+                  world=World(color=np.array([1.0, 1.0, 1.0])))
+    scene.materials.append(Material(np.zeros(3), "Glass", nodes=[("GLASS", (1.0, 1.0, 1.0),
+                                                                   {"ior": 1.5, "roughness": roughness})]))
+    scene.add_mesh(primitives.plane(4.0), materials=np.array([0]))
+    return scene
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_transparent_glass_clears_the_film_by_the_light_the_glass_lets_through(kernels):
+    """Film > Transparent Glass (Cycles' LABEL_TRANSMIT_TRANSPARENT): a camera path through a smooth sheet keeps the
+    film clear, so the white world behind it is alpha, not colour: alpha = colour = R = ((1.5 - 1) / 2.5)^2 = 0.04
+    (the reflected share sees the world above), where without it the film is opaque and white. A sheet of roughness
+    0.3 is clear under a threshold of 0.5 (alpha_x alpha_y = 0.3^4 <= 0.5^4) and opaque under 0.2."""
+    def film(roughness, threshold):
+        settings = RenderSettings(width=8, height=8, samples=256, kernels=kernels, integrator="path", max_bounces=4,
+                                  transparent_background=True, transparent_glass=threshold, adaptive=False)
+        image = render.render(glass_sheet(roughness), settings).image.astype(np.float64)
+        return image[..., :3].mean(), image[..., 3].mean()
+    colour, alpha = film(0.0, 0.0)
+    assert alpha == pytest.approx(0.04, abs=0.006) and colour == pytest.approx(alpha, abs=1e-6)
+    colour, alpha = film(0.0, -1.0)                 # (off: the film only clears where the world is seen directly)
+    assert alpha == 1.0 and colour == pytest.approx(1.0, abs=1e-6)
+    assert film(0.3, 0.5)[1] < 0.2 and film(0.3, 0.2)[1] == 1.0

@@ -136,6 +136,17 @@ def blurred_table(table: tuple) -> str:
             f"static const int BSDF_BLURRED_PARAMS[BSDF_COUNT][3] = {{{', '.join(rows)}}};\n")
 
 
+def specular_alpha_table(table: tuple) -> str:
+    """Where each class keeps the two params whose product is its specular roughness squared (its `specular_alpha`;
+    -1: none), by kind."""
+    rows = []
+    for cls in table:
+        where = [cls.params.index(name) for name in cls.specular_alpha] or [-1, -1]
+        rows.append("{" + ", ".join(str(j) for j in where) + "}")
+    return ("/* Where each bsdf kind keeps alpha_x and alpha_y (base.BSDF.specular_alpha; -1: not a microfacet lobe). */\n"
+            f"static const int BSDF_SPECULAR_ALPHA_PARAMS[BSDF_COUNT][2] = {{{', '.join(rows)}}};\n")
+
+
 def pass_widths() -> str:
     """The channels of each first-hit pass (core/integrators/passes.py PASS_CHANNELS), by PASS_*."""
     from core.integrators.passes import PASS_CHANNELS
@@ -157,7 +168,7 @@ def boundary_header() -> str:
              flags_block("core/materials/base.py BSDFFlags: what a BSDF is", "BSDF", BSDFFlags),
              flag_table("BSDF", BSDF_TYPES),
              param_table("BSDF", BSDF_TYPES, "alpha"),
-             blurred_table(BSDF_TYPES),
+             blurred_table(BSDF_TYPES), specular_alpha_table(BSDF_TYPES),
              pass_widths(),
              enum_block("core/materials/registry.py NODE_TYPES: a shader node's kind", "NODE",
                         [cls.name for cls in NODE_TYPES]),

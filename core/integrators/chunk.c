@@ -203,6 +203,7 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .groups = H->groups != NULL ? H->group_count : 0, .instance_groups = params->instance_groups,
         .world_group = (int64_t)params->world_group, .features = params->features != 0.0 && work != NULL,
         .passes = passes, .media = params->media, .film_transparent = params->transparent != 0.0,
+        .clear_glass = params->clear_glass,
     };
     if (passes != NULL) passes_clear(passes);
     if (ds.features) camera_lane_features(params, b, H, work, ds.back);

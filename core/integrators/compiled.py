@@ -69,6 +69,8 @@ ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once 
     ("emissive", I32, "1: some material emits"),
     ("everywhere", I32, "1: every hit traces a BSDF ray, else glossy hits only"),
     ("transparent", I32, "1: the film is transparent (the world is not drawn)"),
+    ("clear_glass", F64, "Film > Transparent Glass: the threshold^4 of alpha_x alpha_y under which a glass "
+                         "transmission keeps a camera path clear (PATH_CLEAR_GLASS); -1: off"),
     ("width", I64, ""),
     ("height", I64, ""),
     ("seed", I64, "the sampling pattern's seed"),
@@ -235,6 +237,7 @@ class Compiled:
         from ..lights.world import WorldTables
         from .clamp import limits
         from .path import caustics_bits, roulette_from
+        from .rays import clear_glass_threshold
         s = ctx.settings
         geometry = ctx.geometry
         self.tracer = geometry.tracer
@@ -270,7 +273,7 @@ class Compiled:
             light_context=self.context, light_count=len(ctx.lights), integrator=COMPILED_INTEGRATORS[s.integrator],
             sampling=SAMPLING[s.light_sampling], bsdf_rays=bool(ctx.extra.get("bsdf_rays")),
             emissive=bool(ctx.extra.get("emissive")), everywhere=bool(ctx.extra.get("bsdf_everywhere")),
-            transparent=s.transparent_background, width=s.width, height=s.height,
+            transparent=s.transparent_background, clear_glass=clear_glass_threshold(s), width=s.width, height=s.height,
             background=np.asarray(background, np.float64), luminance=adaptive.LUMINANCE, want_squares=s.adaptive,
             max_bounces=s.max_bounces, diffuse_bounces=s.diffuse_bounces, glossy_bounces=s.glossy_bounces,
             transmission_bounces=s.transmission_bounces, roulette_from=roulette_from(s),

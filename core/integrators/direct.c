@@ -209,6 +209,23 @@ INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular, d
     return p;
 }
 
+/* base.specular_roughness_squared for one closure: 0 for a SINGULAR BSDF, alpha_x alpha_y for a microfacet lobe
+ * (BSDF_SPECULAR_ALPHA_PARAMS), 1 for any other (Cycles' bsdf_get_specular_roughness_squared). */
+INLINE double specular_roughness_squared(const Closure *c)
+{
+    if (bsdf_is(c->kind, BSDF_FLAG_SINGULAR)) return 0.0;
+    const int *where = BSDF_SPECULAR_ALPHA_PARAMS[c->kind];
+    return where[0] >= 0 ? c->p[where[0]] * c->p[where[1]] : 1.0;
+}
+
+/* rays.clears_glass for one sampled closure c whose ray went through the face (transmit) or not: whether it keeps a
+ * camera path clear under Transparent Glass's `threshold` (-1: off), Cycles' LABEL_TRANSMIT_TRANSPARENT. */
+INLINE int clears_glass(const Closure *c, int transmit, double threshold)
+{
+    return threshold >= 0.0 && transmit && !bsdf_is(c->kind, BSDF_FLAG_DIFFUSE)
+           && specular_roughness_squared(c) <= threshold;
+}
+
 /* path.hold_out for one hit of a camera path; object: 1 on a holdout object. Returns whether the hit holds out
  * at all, with weight (3) the share of the pixel's alpha it takes away (before the path's throughput). A holdout
  * object: weight = 1 - transparency, and the shader keeps only its Transparent closures and emits nothing. Else
@@ -586,6 +603,8 @@ typedef struct {
     double back[3];             /* the features' normal where a path scatters in a medium (rays.camera_back) */
     LanePasses *passes;         /* the first-hit passes (passes.c) the camera chains write, or NULL */
     int film_transparent;       /* 1: Film > Transparent (camera paths' rays that escape see no world) */
+    double clear_glass;         /* Film > Transparent Glass: threshold^4 of alpha_x alpha_y (rays.clear_glass_threshold),
+                                 * -1: off */
 } DirectSettings;
 
 /* path.py: a camera chain's ray from hit h straight on through a transparent surface (passes.c). */
@@ -1039,8 +1058,10 @@ NOINLINE static void gather_light(const DirectSettings *ds, const FindingRay *ra
      *    surfaces, where the camera does and the film is opaque; any other where the world lights: Cycles'
      *    visibility by the ray's flags): a constant world with weight 1, an image by MIS. */
     int camera_kind = ray->path != NULL && (ray->path->flags & PATH_CAMERA) != 0;
+    int clear_glass = ray->path != NULL && (ray->path->flags & PATH_CLEAR_GLASS) != 0;
     int sees_world = camera_kind ? ctx->world->camera != 0.0 && !ds->film_transparent
-                                 : ctx->world->lights != 0.0 && (ray->seen_as & ctx->world->hidden) == 0;
+                                 : ctx->world->lights != 0.0 && (ray->seen_as & ctx->world->hidden) == 0
+                                   && !(clear_glass && ds->film_transparent);
     if (!hit && sees_world) {
         double L_world[3];
         world_seen(ctx->world, D, ray->path, L_world);     /* (a camera path's: the world's graph per ray) */
@@ -1146,6 +1167,10 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             kinds[k] = ray_kind(s->kind, transmit, H->seen_by[owner[k]]);
             after[k] = path_after(path_at(H, owner[k], H->flags[owner[k]]), s->kind, transmit, s->delta,
                                   H->s[owner[k]].t);
+            if ((H->flags[owner[k]] & PATH_CLEARS_FILM) != 0 && !bsdf_is(s->kind, BSDF_FLAG_STRAIGHT)
+                && !bsdf_is(s->kind, BSDF_FLAG_SUBSURFACE)
+                && clears_glass(H->sd[owner[k]].c + s->slot, transmit, ds->clear_glass))
+                after[k].flags |= PATH_CLEAR_GLASS;     /* (Transparent Glass: rays.path_after's `clear`) */
             if (packet.hit.geomID[k] != INVALID_ID && ds->geometry->hidden != NULL)
                 see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, k, origin[k], s->wi, INFINITY,
                                 kinds[k], H->s[owner[k]].time);
@@ -1213,7 +1238,7 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             if (first)
                 sample_shares(H->sd + owner[k], H->wo + 3 * owner[k], s, dot3(H->s[owner[k]].Ng, D) < 0.0, shares);
             /* (and a camera path's escape with a transparent film: how clear it leaves the film, path.c) */
-            int clears = !hit && ds->film_transparent && (after[k].flags & PATH_CAMERA) != 0;
+            int clears = !hit && ds->film_transparent && (after[k].flags & PATH_CLEARS_FILM) != 0;
             if ((hit || clears || (ds->media != NULL && ds->media->scatters != 0)) && ds->continuing != NULL) {
                 PathRay *r = ds->continuing->r + ds->continuing->n++;
                 r->h = owner[k];

@@ -184,7 +184,7 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         if (!r->hit) {                          /* (kept for the media's scattering along it alone: volume.c) */
             /* A camera path (through clear surfaces alone) that escapes with a transparent film: the film is as
              * clear as what it brings through, and no world (path.py; Cycles' PATH_RAY_TRANSPARENT_BACKGROUND). */
-            if (ds->film_transparent && (r->path.flags & PATH_CAMERA) != 0) {
+            if (ds->film_transparent && (r->path.flags & PATH_CLEARS_FILM) != 0) {
                 double sum = 0.0;
                 for (int c = 0; c < 3; c++) sum += H->throughput[3 * h + c] * (r->weight[c] * r->attenuation[c]);
                 held[H->lane[h]] += sum / 3.0;

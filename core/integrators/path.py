@@ -470,9 +470,9 @@ class PathTracing(Integrator):
                                       parts.ray_shares[ended] if parts is not None else None, shares[ray.rows[ended]])
             next_throughput = throughput[ray.rows] * weight
             if film_clear:
-                # A camera path (through clear surfaces alone) that escapes with a transparent film: the film is as
-                # clear as what it brings through, and no world (Cycles' PATH_RAY_TRANSPARENT_BACKGROUND).
-                escaped = np.flatnonzero(~ray.hits.hit & ((ray.path.flags & graph_.PATH_CAMERA) != 0))
+                # A camera path (through clear surfaces and clear glass alone) that escapes with a transparent film: the
+                # film is as clear as what it brings through, and no world (Cycles' PATH_RAY_TRANSPARENT_BACKGROUND).
+                escaped = np.flatnonzero(~ray.hits.hit & ((ray.path.flags & graph_.PATH_CLEARS_FILM) != 0))
                 np.add.at(held, owner[ray.rows[escaped]], next_throughput[escaped].mean(axis=1))
             # c. Russian roulette from the third vertex: go on with probability q, and count for 1 / q.
             played = (bounces >= roulette_from(s)) & ~is_transparent & ~walked

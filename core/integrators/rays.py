@@ -138,7 +138,26 @@ def camera_cones(ctx: Context, O: np.ndarray, D: np.ndarray) -> tuple:
     return graph_.camera_cones(P, np.asarray(frame, np.float64))
 
 
-def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarray, t=None):
+def clear_glass_threshold(settings) -> float:
+    """Film > Transparent Glass as Cycles' kernel compares it (transparent_roughness_squared_threshold): the roughness
+    threshold to the fourth power, against a lobe's alpha_x alpha_y; -1 (off) without a transparent film."""
+    threshold = float(settings.transparent_glass)
+    if not settings.transparent_background or not threshold >= 0.0:
+        return -1.0
+    return threshold ** 4
+
+
+def clears_glass(kind: np.ndarray, params: np.ndarray, transmit: np.ndarray, threshold: float) -> np.ndarray:
+    """Which sampled closures (kind (n,), params (n, PARAMS)) whose rays went through the face (transmit (n,) bool)
+    keep a camera path clear under Transparent Glass (threshold from clear_glass_threshold): not diffuse, and at most
+    that rough (Cycles' LABEL_TRANSMIT_TRANSPARENT): (n,) bool."""
+    if threshold < 0.0 or not len(kind):
+        return np.zeros(len(kind), bool)
+    glossy = ~materials_.has(kind, materials_.BSDFFlags.DIFFUSE) & (np.asarray(kind) >= 0)
+    return transmit & glossy & (materials_.specular_roughness_squared(kind, params) <= threshold)
+
+
+def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarray, t=None, clear=None):
     """The paths (graph.LightPaths of k rows) the rays of k bounces carry on from `paths` (Cycles' path_state_next).
 
     Straight through a Transparent closure: one more transparent surface, the flags kept (a camera ray stays one);
@@ -148,7 +167,9 @@ def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarr
     SINGULAR (a delta: singular (k,) bool, or a SINGULAR closure) or GLOSSY. kind: (k,) int the sampled closures'
     BSDF kinds; transmit: (k,) bool whether each ray left through the face. Every new ray leaves with the path's ray
     cone as it was at the hit, t (k,) along the ray that reached it (None: kept as it was): Cycles' compact ray
-    differentials, dP the hit's footprint and dD kept (0 into a subsurface walk)."""
+    differentials, dP the hit's footprint and dD kept (0 into a subsurface walk). clear (k,) bool: the bounces
+    through glass under Transparent Glass's threshold (path.clears_glass), after which a camera path (or one already
+    clear) carries CLEAR_GLASS; None: none."""
     F = materials_.BSDFFlags
     P = graph_.PATH
     straight = materials_.has(kind, F.STRAIGHT)
@@ -162,7 +183,9 @@ def path_after(paths, kind: np.ndarray, transmit: np.ndarray, singular: np.ndarr
     walk = materials_.has(kind, F.SUBSURFACE)
     straight = straight | walk
     through, reflected = through & ~walk, reflected & ~walk
-    flags = np.where(walk, paths.flags & ~P["camera"], np.where(straight, paths.flags, labels))
+    if clear is not None:
+        labels = labels | np.where(clear & ((paths.flags & graph_.PATH_CLEARS_FILM) != 0), P["clear_glass"], 0)
+    flags = np.where(walk, paths.flags & ~graph_.PATH_CLEARS_FILM, np.where(straight, paths.flags, labels))
     return graph_.LightPaths(flags=flags, bounce=paths.bounce + ~straight,
                              diffuse=paths.diffuse + (reflected & diffuse),
                              glossy=paths.glossy + (reflected & ~diffuse),

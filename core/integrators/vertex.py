@@ -40,7 +40,7 @@ from . import lightgroups, lightpasses
 from . import shader_rays, shadows
 from .base import Context, Recorder, check_stop
 from . import subsurface as subsurface_
-from .rays import goes_through, nearest_seen, path_after, ray_kind
+from .rays import clear_glass_threshold, clears_glass, goes_through, nearest_seen, path_after, ray_kind
 from .shadows import spawn_ray
 
 
@@ -342,7 +342,11 @@ def bsdf_ray(ctx: Context, surface, shader, wo, pixel, sample, offsets, mis: np.
         if carried_origin is not None:
             mis_O = np.where(clear[:, None], carried_origin[go], O)
             mis_N = np.where(clear[:, None], carried_N[go], mis_N)
-    after = path_after(graph_.paths_at(light_path, go), bs.kind[go], transmit, bs.delta[go], surface.t[go])
+    threshold = clear_glass_threshold(s)
+    through_clear_glass = (clears_glass(bs.kind[go], shader.closures.params[go, bs.slot[go]], transmit, threshold)
+                           if threshold >= 0.0 else None)
+    after = path_after(graph_.paths_at(light_path, go), bs.kind[go], transmit, bs.delta[go], surface.t[go],
+                       through_clear_glass)
     # Into a BSSRDF: a walk inside the mesh, and a ray that reaches its exit from outside instead of the one traced.
     walks = np.flatnonzero(materials_.has(bs.kind[go], materials_.BSDFFlags.SUBSURFACE))
     weight = bs.weight[go]
@@ -618,10 +622,12 @@ def gather_light(ctx: Context, O: np.ndarray, D: np.ndarray, hits, pdf_b: np.nda
     world = ctx.extra.get("world_light")
     missed = np.flatnonzero(~hits.hit)
     if world is not None and len(missed):
-        still_camera = (np.zeros(len(missed), bool) if paths is None
-                        else (np.asarray(paths.flags)[missed] & graph_.PATH_CAMERA) != 0)
+        flags = np.zeros(len(missed), np.int64) if paths is None else np.asarray(paths.flags)[missed]
+        still_camera = (flags & graph_.PATH_CAMERA) != 0
         sees = np.where(still_camera, bool(world.camera) and not ctx.settings.transparent_background,
                         bool(world.lights))
+        if ctx.settings.transparent_background:     # (through clear glass: the film's alpha, Transparent Glass)
+            sees &= (flags & graph_.PATH["clear_glass"]) == 0
         if getattr(world, "hidden", 0) and seen_as is not None:     # (its Ray Visibility: hidden from these kinds)
             sees &= still_camera | ((np.asarray(seen_as)[missed] & world.hidden) == 0)
         missed = missed[sees]

@@ -18,7 +18,7 @@ from typing import Optional
 import numpy as np
 
 from ..native import schema
-from .base import BSDF, BSDFFlags, BsdfSample, flags_of, has
+from .base import BSDF, BSDFFlags, BsdfSample, flags_of, has, specular_roughness_squared
 from .finite import finite_color, finite_value
 from .closures import (NODE_PARAMS, PARAMS, ClosureSample, Closures, ShaderResult, concatenate,
                        constant_result, eval_closures, sample_closures)
@@ -512,7 +512,7 @@ __all__ = ["BSDF", "BSDFFlags", "BSDF_BY_NAME", "BSDF_TYPES", "BsdfSample", "Clo
            "ConstantShader", "DEFAULT_BASE_COLOR", "DEFAULT_SURFACE", "Glass", "Lambert", "Material",
            "MaterialTable", "Microfacet", "Mirror", "NODE_BY_NAME", "NODE_PARAMS", "NODE_TYPES", "NodeShader",
            "OrenNayar", "PARAMS", "RoughGlass", "ShaderResult", "Sheen", "Transparent", "Velvet", "eval_closures",
-           "flags_of", "has", "reflective", "sample_closures"]
+           "flags_of", "has", "reflective", "sample_closures", "specular_roughness_squared"]
 
 
 BsdfArgs = schema.function("primer_bsdf", "bsdf_rows", schema.record(

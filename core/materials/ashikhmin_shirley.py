@@ -58,6 +58,7 @@ class AshikhminShirley(BSDF):
     name: ClassVar[str] = "ASHIKHMIN_SHIRLEY"
     flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE | F.OWN_WEIGHT | F.ROUGHENS      # (turned half vectors)
     params: ClassVar[tuple] = mf.Microfacet.params
+    specular_alpha: ClassVar[tuple] = ("alpha", "alpha_y")
 
     @staticmethod
     def singular(params: np.ndarray) -> np.ndarray:

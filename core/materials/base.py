@@ -122,6 +122,9 @@ class BSDF:
     params: ClassVar[tuple] = ()
     # The params Filter Glossy raises to its roughness where the class ROUGHENS (those it has; Cycles' bsdf_blur).
     blurred: ClassVar[tuple] = ("alpha", "alpha_y")
+    # A microfacet lobe's two params whose product is Cycles' specular roughness squared (alpha_x alpha_y,
+    # bsdf_get_specular_roughness_squared; specular_roughness_squared); () for any other BSDF.
+    specular_alpha: ClassVar[tuple] = ()
     # The table (core/materials/registry.py fills it): every BSDF class by kind, and their flags by kind.
     types: ClassVar[tuple] = ()
     flag_table: ClassVar[np.ndarray] = np.zeros(1, np.int64)
@@ -172,3 +175,17 @@ def flags_of(kind) -> np.ndarray:
 def has(kind, flags: BSDFFlags) -> np.ndarray:
     """Whether closures of kind `kind` (int, any shape) have any of `flags`: bool, kind's shape (False for -1)."""
     return (flags_of(kind) & int(flags)) != 0
+
+
+def specular_roughness_squared(kind: np.ndarray, params: np.ndarray) -> np.ndarray:
+    """Cycles' bsdf_get_specular_roughness_squared of closures of kind (n,) int with params (n, PARAMS) float64: 0
+    for a SINGULAR BSDF, alpha_x alpha_y for a microfacet lobe (its class's specular_alpha), 1 for any other:
+    (n,) float64."""
+    kind = np.asarray(kind)
+    out = np.where(has(kind, BSDFFlags.SINGULAR), 0.0, 1.0)
+    for cls in BSDF.types:
+        if cls.specular_alpha:
+            rows = kind == cls.kind
+            a, b = (cls.params.index(name) for name in cls.specular_alpha)
+            out[rows] = params[rows, a] * params[rows, b]
+    return out

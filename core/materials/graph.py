@@ -79,10 +79,17 @@ schema.table("OP", lambda: list(OPS))
 # them (path_state_next; a Ray Portal's is a transparent bounce, counted in `portal` as well). A shadow ray through
 # a transparent surface carries SHADOW alone (and the path's counts), a light sample landing
 # on an emitter EMISSION alone (both are one bounce further: Ray Depth adds one). VOLUME_SCATTER is for volumes.
-PATH_FLAGS = ("camera", "shadow", "diffuse", "glossy", "singular", "reflect", "transmit", "volume_scatter", "emission")
+# CLEAR_GLASS (no Light Path output reads it): a camera path that went on through glass under Film > Transparent
+# Glass's roughness threshold alone (rays.path_after), which a transparent film sees through as a camera path
+# (Cycles keeps PATH_RAY_TRANSPARENT_BACKGROUND there: the world it escapes to is the film's alpha, not its colour).
+PATH_FLAGS = ("camera", "shadow", "diffuse", "glossy", "singular", "reflect", "transmit", "volume_scatter", "emission",
+              "clear_glass")
 PATH = schema.constants("PATH", {name: 1 << index for index, name in enumerate(PATH_FLAGS)},
                         "the bits of a LightPath's flags (Cycles' PATH_RAY_*)")
 PATH_CAMERA, PATH_SHADOW, PATH_EMISSION = PATH["camera"], PATH["shadow"], PATH["emission"]
+# The paths a transparent film sees through to the world (Cycles' PATH_RAY_TRANSPARENT_BACKGROUND).
+PATH_CLEARS_FILM = PATH_CAMERA | PATH["clear_glass"]
+schema.constant("PATH_CLEARS_FILM", PATH_CLEARS_FILM, "the paths a transparent film sees the world through")
 LightPath = schema.record("LightPath", "What a shader knows of the path that reached a hit (the Light Path node).", [
     ("flags", I32, "PATH_* bits: the kind of ray that found the hit"),
     ("bounce", I32, "the path's real bounces so far (Cycles' bounce)"),

@@ -317,6 +317,7 @@ class Microfacet(BSDF):
     flags: ClassVar[F] = F.REFLECTION | F.GLOSSY | F.GLOSSY_TYPE | F.ROUGHENS
     params: ClassVar[tuple] = ("alpha", "fresnel", "ior", "f0_r", "f0_g", "f0_b", "f90_r", "f90_g", "f90_b",
                                "energy_scale", "alpha_y", "tangent_x", "tangent_y", "tangent_z")
+    specular_alpha: ClassVar[tuple] = ("alpha", "alpha_y")
     beckmann: ClassVar[bool] = False
 
     @classmethod

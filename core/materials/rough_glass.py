@@ -65,6 +65,7 @@ class RoughGlass(BSDF):
     params: ClassVar[tuple] = ("alpha", "fresnel", "ior", "f0_r", "f0_g", "f0_b", "f90_r", "f90_g", "f90_b",
                                "energy_scale", "reflect_r", "reflect_g", "reflect_b",
                                "transmit_r", "transmit_g", "transmit_b")
+    specular_alpha: ClassVar[tuple] = ("alpha", "alpha")
     beckmann: ClassVar[bool] = False          # Beckmann's D, Lambda and visible normals (beckmann_glass.py)
 
     @classmethod

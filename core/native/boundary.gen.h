@@ -184,6 +184,9 @@
 #define PATH_TRANSMIT 64
 #define PATH_VOLUME_SCATTER 128
 #define PATH_EMISSION 256
+#define PATH_CLEAR_GLASS 512
+/* the paths a transparent film sees the world through (core.materials.graph) */
+#define PATH_CLEARS_FILM 513
 /* the Light Path node's outputs (core.materials.graph) */
 #define LP_IS_CAMERA_RAY 0
 #define LP_IS_SHADOW_RAY 1
@@ -441,6 +444,9 @@ static const int BSDF_ALPHA_PARAM[BSDF_COUNT] = {-1, -1, 0, 0, -1, 0, -1, -1, -1
 
 /* Where each bsdf kind keeps the params Filter Glossy raises (base.BSDF.blurred; -1: none). */
 static const int BSDF_BLURRED_PARAMS[BSDF_COUNT][3] = {{-1, -1, -1}, {-1, -1, -1}, {0, 10, -1}, {0, -1, -1}, {-1, -1, -1}, {0, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {0, 10, -1}, {0, -1, -1}, {0, 10, -1}, {-1, -1, -1}, {-1, -1, -1}, {4, -1, -1}, {3, 4, 5}, {-1, -1, -1}, {-1, -1, -1}, {-1, -1, -1}, {3, -1, -1}};
+
+/* Where each bsdf kind keeps alpha_x and alpha_y (base.BSDF.specular_alpha; -1: not a microfacet lobe). */
+static const int BSDF_SPECULAR_ALPHA_PARAMS[BSDF_COUNT][2] = {{-1, -1}, {-1, -1}, {0, 10}, {-1, -1}, {-1, -1}, {0, 0}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {0, 10}, {0, 0}, {0, 10}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
 static const int PASS_WIDTH[13] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3, 1};
@@ -774,6 +780,7 @@ struct ChunkParams {
     int32_t emissive;                       /* 1: some material emits */
     int32_t everywhere;                     /* 1: every hit traces a BSDF ray, else glossy hits only */
     int32_t transparent;                    /* 1: the film is transparent (the world is not drawn) */
+    double clear_glass;                     /* Film > Transparent Glass: the threshold^4 of alpha_x alpha_y under which a glass transmission keeps a camera path clear (PATH_CLEAR_GLASS); -1: off */
     int64_t width;
     int64_t height;
     int64_t seed;                           /* the sampling pattern's seed */
@@ -1282,7 +1289,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
     if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(3821900976231654687);
-    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(6369088271105832646);
+    if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3538087801514139076);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);

@@ -35,6 +35,10 @@ class RenderSettings:
         light passes, the light groups, the shadow catchers' matte); data, colour and AO passes and the Shadow
         Catcher pass (a ratio) keep their values, as Cycles' pass_info.use_exposure says.
 
+    transparent_glass: Film > Transparent Glass's Roughness Threshold with a transparent film (-1: off): a camera
+        path keeps seeing the film clear through glass whose lobe is at most that rough, so the world behind glass is
+        alpha, not colour (Cycles' LABEL_TRANSMIT_TRANSPARENT: alpha_x alpha_y <= threshold^4).
+
     pixel_filter, filter_width: where a camera sample lands around its pixel's centre, as Cycles draws it from
         the filter (core/camera/filter.py): "BOX" (Blender gives it the width 1: the pixel), "GAUSSIAN",
         "BLACKMAN_HARRIS" (Cycles' default, 1.5 px); the width in pixels (Render > Film > Pixel Filter).
@@ -109,6 +113,7 @@ class RenderSettings:
     pixel_filter: str = "BOX"
     filter_width: float = 1.0
     exposure: float = 1.0
+    transparent_glass: float = -1.0
     jitter: bool = True
     light_samples: int = 4
     shadow_method: str = "robust"
