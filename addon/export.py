@@ -21,6 +21,7 @@ from ..core.geometry import islands as islands_
 from ..core.geometry import pointiness as pointiness_
 from ..core.geometry import points as points_
 from ..core.lights import World, world_graph
+from ..core.lights import lamp_graph as lamp_graph_
 from ..core.materials import ies as ies_
 from ..core.lights.ies import IESLamp
 from ..core.materials import DEFAULT_SURFACE
@@ -587,7 +588,7 @@ def lamp_falloff_wiring(obj):
     if emission is None:
         return None
     _, color, strength, graph = emission
-    nodes = graph_.links_under(graph)
+    nodes = list(graph_.links_under(graph))      # (walked twice)
     found = {id(link.node): link.node for link in nodes if varies_with_distance(link.node)}
     if len(found) != 1 or any(link.node.kind not in CONSTANT_KINDS for link in nodes):
         return None
@@ -729,6 +730,12 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
         return None
     wiring = lamp_ies_wiring(obj)
     falloff = lamp_falloff_wiring(obj) if wiring is None else None
+    program = lamp_program(obj, matrix, warnings) if wiring is None and falloff is None else None
+    if program is not None:             # (the tree's emission is the program's, per sample)
+        core = _lamp(obj, matrix, warnings, _light_color(light))
+        if core is not None:
+            core.lamp_nodes = program
+        return core
     emission = light_node_factor(obj, warnings, wiring, falloff)
     if not emission.any():
         return None                     # Cycles leaves out a light whose shader emits nothing
@@ -739,6 +746,37 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
     if core is not None and falloff is not None and hasattr(core, "falloff"):   # (a sun: Cycles skips the node)
         core.falloff = falloff[0]
     return core
+
+
+# The lamps whose trees Primer evaluates per light sample (core/lights/lamp_graph.py), with how their UV is made.
+PROGRAM_LAMPS = {"POINT": lamp_graph_.UV_SPHERE, "SPOT": lamp_graph_.UV_SPOT, "AREA": lamp_graph_.UV_AREA}
+
+
+def lamp_program(obj, matrix: np.ndarray, warnings: list):
+    """The program of a point, spot or area lamp's Emission that varies over the lamp (core/lights/lamp_graph.py
+    LampEmission), or None: a constant tree (light_node_factor evaluates it once), an IES Texture or a Light Falloff
+    wired linearly (lamp_ies_wiring, lamp_falloff_wiring: evaluated by the lamp's own factors), another shader at
+    the Light Output, or a sun (Cycles' distant light: not evaluated per sample here; light_node_factor warns).
+
+    As Cycles' light_sample_shader_eval, the Emission's Color x Strength is evaluated for each light sample and each
+    ray that meets the lamp, at the lamp's shading point (shader_setup_from_sample): textures, Texture Coordinate
+    (Normal, Object, Generated, UV as Cycles defines them for lamps), Math, Mix, Color Ramp, Light Falloff in any wiring
+    (with the sample's ray length, as the materials' Light Falloff) and the rest of the node-graph program."""
+    light = obj.data
+    emission = lamp_emission(obj)
+    if light.type not in PROGRAM_LAMPS or emission is None:
+        return None
+    tree, _, _, graph = emission
+    feeding = graph_.links_under(graph)
+    if not any(link.node.kind not in CONSTANT_KINDS or varies_with_distance(link.node) for link in feeding):
+        return None
+    node = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight"))
+    reader = materials_.NodeReader(obj, warnings, kind="light")
+    reader.per_sample = True            # (a Light Falloff reads the sample's ray length, as in a material)
+    color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
+    spot_size = float(light.spot_size) if light.type == "SPOT" else 0.0
+    return lamp_graph_.compile_lamp(color, strength, np.asarray(matrix, np.float64), PROGRAM_LAMPS[light.type],
+                                    spot_size)
 
 
 def _lamp(obj, matrix: np.ndarray, warnings: list, color: np.ndarray):
