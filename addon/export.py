@@ -756,7 +756,8 @@ def lamp_program(obj, matrix: np.ndarray, warnings: list):
     """The program of a point, spot or area lamp's Emission that varies over the lamp (core/lights/lamp_graph.py
     LampEmission), or None: a constant tree (light_node_factor evaluates it once), an IES Texture or a Light Falloff
     wired linearly (lamp_ies_wiring, lamp_falloff_wiring: evaluated by the lamp's own factors), another shader at
-    the Light Output, or a sun (Cycles' distant light: not evaluated per sample here; light_node_factor warns).
+    the Light Output, a tree with an IES Texture wired otherwise (light_ies warns, as before), or a sun (Cycles'
+    distant light: not evaluated per sample here; light_node_factor warns).
 
     As Cycles' light_sample_shader_eval, the Emission's Color x Strength is evaluated for each light sample and each
     ray that meets the lamp, at the lamp's shading point (shader_setup_from_sample): textures, Texture Coordinate
@@ -767,9 +768,11 @@ def lamp_program(obj, matrix: np.ndarray, warnings: list):
     if light.type not in PROGRAM_LAMPS or emission is None:
         return None
     tree, _, _, graph = emission
-    feeding = graph_.links_under(graph)
+    feeding = list(graph_.links_under(graph))
     if not any(link.node.kind not in CONSTANT_KINDS or varies_with_distance(link.node) for link in feeding):
         return None
+    if any(link.node.kind == "IES_TEXTURE" for link in feeding):
+        return None                     # (an IES Texture wired otherwise than linearly: light_ies warns, as before)
     node = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight"))
     reader = materials_.NodeReader(obj, warnings, kind="light")
     reader.per_sample = True            # (a Light Falloff reads the sample's ray length, as in a material)
