@@ -115,6 +115,30 @@ def test_a_spots_checker_gobo_projects_its_uv_onto_the_floor(kernels):
     assert odd[inside].any() and (~odd[inside]).any()
 
 
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_spots_image_gobo_with_its_vector_unlinked_reads_the_spots_uv(kernels):
+    """A spot of 90 degrees (hard edge) at height H pointing down whose Color is a 2 x 2 image (Closest), its Vector
+    unlinked (Cycles' default: UV, the spot's projection 0.5 + (x, y) / (2 H) on the floor): each quarter of the cone's
+    floor shows the texel of its quadrant (bottom row first), times rho / pi P / (4 pi) H / d^3."""
+    from core.materials import textures
+    texels = np.array([[[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0]], [[0.0, 0.0, 1.0, 1.0], [1.0, 1.0, 0.0, 1.0]]],
+                      np.float32)
+    image = Link(GraphNode("IMAGE", {"image": textures.Image(texels), "interpolation": "Closest",
+                                     "extension": "EXTEND"}, {}), "Color")
+    lamp = SpotLight(position=np.array([0.0, 0.0, H]), direction=np.array([0.0, 0.0, -1.0]), power=P,
+                     spot_size=math.radians(90.0), spot_blend=0.0,
+                     lamp_nodes=compile_lamp(image, 1.0, at([0.0, 0.0, H]), UV_SPOT, math.radians(90.0)))
+    settings = RenderSettings(width=8, height=8, samples=1, kernels=kernels, jitter=False)
+    result = render.render(floor_scene(lamp), settings)
+    image_out = result.image[..., :3]
+    x, y = pixel_centres()
+    d = np.sqrt(H * H + x * x + y * y)
+    texel = texels[(y > 0).astype(int), (x > 0).astype(int), :3]
+    inside = x * x + y * y < H * H
+    expected = (RHO / math.pi * P / (4.0 * math.pi) * H / d ** 3 * inside)[..., None] * texel
+    np.testing.assert_allclose(image_out, expected, rtol=1e-5, atol=1e-12)
+
+
 def lamps_with_programs():
     """A sphere, a disc-like round spot and a rotated, scaled area lamp, each with a program of Normal, UV, Object and
     the ray's length."""
