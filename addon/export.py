@@ -548,6 +548,14 @@ def varies_with_distance(node) -> bool:
     return power != 0 or smooth > 0.0
 
 
+def falloff_fed(tree) -> bool:
+    """Whether a lamp's tree has a Light Falloff whose output is used and whose Strength or Smooth is linked (the
+    warning-free reading of lamp_emission takes its own values; its program reads the links per sample)."""
+    return any(node.bl_idname == "ShaderNodeLightFalloff" and not getattr(node, "mute", False)
+               and any(out.is_linked for out in node.outputs)
+               and any(node.inputs[name].is_linked for name in ("Strength", "Smooth")) for node in tree.nodes)
+
+
 def lamp_emission(obj):
     """The Emission at a lamp's Light Output as node-graph inputs: (its tree, color, strength, the graph of the two),
     read without warnings (the caller's reading warns), or None where no Emission is there."""
@@ -771,7 +779,8 @@ def lamp_program(obj, matrix: np.ndarray, warnings: list):
         return None
     tree, _, _, graph = emission
     feeding = list(graph_.links_under(graph))
-    if not any(link.node.kind not in CONSTANT_KINDS or varies_with_distance(link.node) for link in feeding):
+    if not any(link.node.kind not in CONSTANT_KINDS or varies_with_distance(link.node) for link in feeding) and \
+            not falloff_fed(tree):
         return None
     if any(link.node.kind == "IES_TEXTURE" for link in feeding):
         return None                     # (an IES Texture wired otherwise than linearly: light_ies warns, as before)
