@@ -759,15 +759,16 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
 
 
 # The lamps whose trees Primer evaluates per light sample (core/lights/lamp_graph.py), with how their UV is made.
-PROGRAM_LAMPS = {"POINT": lamp_graph_.UV_SPHERE, "SPOT": lamp_graph_.UV_SPOT, "AREA": lamp_graph_.UV_AREA}
+PROGRAM_LAMPS = {"POINT": lamp_graph_.UV_SPHERE, "SPOT": lamp_graph_.UV_SPOT, "AREA": lamp_graph_.UV_AREA,
+                 "SUN": lamp_graph_.UV_SUN}
 
 
 def lamp_program(obj, matrix: np.ndarray, warnings: list):
-    """The program of a point, spot or area lamp's Emission that varies over the lamp (core/lights/lamp_graph.py
-    LampEmission), or None: a constant tree (light_node_factor evaluates it once), an IES Texture or a Light Falloff
-    wired linearly (lamp_ies_wiring, lamp_falloff_wiring: evaluated by the lamp's own factors), another shader at
-    the Light Output, a tree with an IES Texture wired otherwise (light_ies warns, as before), or a sun (Cycles'
-    distant light: not evaluated per sample here; light_node_factor warns).
+    """The program of a lamp's Emission that varies over the lamp (core/lights/lamp_graph.py LampEmission), or None: a
+    constant tree (light_node_factor evaluates it once), an IES Texture or a Light Falloff wired linearly
+    (lamp_ies_wiring, lamp_falloff_wiring: evaluated by the lamp's own factors), another shader at the Light Output, a
+    tree with an IES Texture wired otherwise (light_ies warns, as before), or a sun's tree with a Light Falloff (its
+    ray length FLT_MAX; light_node_factor warns).
 
     As Cycles' light_sample_shader_eval, the Emission's Color x Strength is evaluated for each light sample and each
     ray that meets the lamp, at the lamp's shading point (shader_setup_from_sample): textures, Texture Coordinate
@@ -784,11 +785,14 @@ def lamp_program(obj, matrix: np.ndarray, warnings: list):
         return None
     if any(link.node.kind == "IES_TEXTURE" for link in feeding):
         return None                     # (an IES Texture wired otherwise than linearly: light_ies warns, as before)
+    if light.type == "SUN" and any(n.bl_idname == "ShaderNodeLightFalloff" and any(o.is_linked for o in n.outputs)
+                                   for n in tree.nodes):
+        return None                     # (a sun's ray length is FLT_MAX, whose square Cycles skips: warned, as before)
     node = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight"))
     reader = materials_.NodeReader(obj, warnings, kind="light")
     reader.per_sample = True            # (a Light Falloff reads the sample's ray length, as in a material)
     color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
-    spot_size = float(light.spot_size) if light.type == "SPOT" else 0.0
+    spot_size = float(light.spot_size) if light.type == "SPOT" else float(light.angle) if light.type == "SUN" else 0.0
     return lamp_graph_.compile_lamp(color, strength, np.asarray(matrix, np.float64), PROGRAM_LAMPS[light.type],
                                     spot_size)
 

@@ -12,9 +12,9 @@ import pytest
 
 from core import render
 from core.geometry import primitives
-from core.lights import AreaLight, PointLight, SpotLight
+from core.lights import AreaLight, PointLight, SpotLight, SunLight
 from core.lights import base as lights_base
-from core.lights.lamp_graph import UV_AREA, UV_SPHERE, UV_SPOT, compile_lamp, map_to_sphere
+from core.lights.lamp_graph import UV_AREA, UV_SPHERE, UV_SPOT, UV_SUN, compile_lamp, map_to_sphere
 from core.materials import Material
 from core.materials.graph import GraphNode, Link
 from core.scene import RenderSettings, Scene, World
@@ -140,8 +140,8 @@ def test_a_spots_image_gobo_with_its_vector_unlinked_reads_the_spots_uv(kernels)
 
 
 def lamps_with_programs():
-    """A sphere, a disc-like round spot and a rotated, scaled area lamp, each with a program of Normal, UV, Object and
-    the ray's length."""
+    """A turned, scaled sun of 0.6 rad with a program of its UV and Object coordinates; a sphere, a disc-like round spot
+    and a rotated, scaled area lamp, each with a program of Normal, UV, Object and the ray's length."""
     def program(uv_kind, matrix, spot_size=0.0):
         parts = [Link(GraphNode("TEXCOORD"), name) for name in ("Normal", "UV", "Object")]
         mixed = Link(GraphNode("VECTOR_MATH", {"operation": "ADD"}, {"Vector": parts[0], "Vector_001": parts[1]}),
@@ -154,7 +154,14 @@ def lamps_with_programs():
     c, s = math.cos(0.4), math.sin(0.4)
     turn[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.diag([1.5, 0.8, 1.0])
     turn[:3, 3] = [0.3, -0.2, H]
+    sun = turn.copy()
+    sun[:3, :3] = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(0.5), -math.sin(0.5)], [0.0, math.sin(0.5), math.cos(0.5)]]) \
+        @ np.diag([1.0, 1.3, 1.0])
+    sun_program = compile_lamp(Link(GraphNode("VECTOR_MATH", {"operation": "ABSOLUTE"}, {"Vector": Link(GraphNode(
+        "VECTOR_MATH", {"operation": "ADD"}, {"Vector": Link(GraphNode("TEXCOORD"), "UV"), "Vector_001": Link(
+            GraphNode("TEXCOORD"), "Object")}), "Vector")}), "Vector"), 1.0, sun, UV_SUN, 0.6)
     return [
+        SunLight(direction=-sun[:3, 2] / np.linalg.norm(sun[:3, 2]), strength=3.0, angle=0.6, lamp_nodes=sun_program),
         PointLight(position=np.array([0.3, 0.0, H]), power=P, radius=0.5, soft_falloff=False,
                    lamp_nodes=program(UV_SPHERE, at([0.3, 0.0, H]))),
         SpotLight(position=np.array([0.3, 0.0, H]), direction=np.array([0.0, 0.0, -1.0]), power=P, radius=0.5,
@@ -164,7 +171,7 @@ def lamps_with_programs():
     ]
 
 
-@pytest.mark.parametrize("index", [0, 1, 2])
+@pytest.mark.parametrize("index", [0, 1, 2, 3])
 def test_both_kernels_give_a_textured_lamp_the_same_light(index):
     """The Python and C lamps with a program agree sample by sample (colour x strength) and hit by hit (radiance),
     within 1e-5 relative (the nodes compute in float32, as Cycles', on inputs the kernels round alike but for the last
@@ -177,8 +184,9 @@ def test_both_kernels_give_a_textured_lamp_the_same_light(index):
     np.testing.assert_allclose(theirs.strength[:, None] * theirs.color, ours.strength[:, None] * ours.color,
                                rtol=1e-5, atol=1e-7)
     assert np.ptp(ours.color[ours.strength > 0], axis=0).max() > 0.05
-    directions = (ours.position - points) / ours.distance[:, None]
-    t_max = np.full(200, 1e9)
+    sun = isinstance(lamp, SunLight)
+    directions = ours.L if sun else (ours.position - points) / ours.distance[:, None]
+    t_max = np.full(200, np.inf if sun else 1e9)
     hit, hit_c = lamp.hit(points, directions, t_max), lights_base.compiled_hit(lamp, points, directions, t_max)
     np.testing.assert_array_equal(hit.hit, hit_c.hit)
     np.testing.assert_allclose(hit_c.radiance, hit.radiance, rtol=1e-5, atol=1e-7)
@@ -186,13 +194,27 @@ def test_both_kernels_give_a_textured_lamp_the_same_light(index):
 
 
 @pytest.mark.parametrize("kernels", ["numpy", "compiled"])
-@pytest.mark.parametrize("index", [0, 1, 2])
+def test_a_suns_emission_follows_the_direction_its_light_travels(kernels):
+    """A sun (angle 0) of strength S travelling along w = (0.3, -0.4, -0.866) (normalised) whose Color is |Normal|:
+    the floor shows rho / pi S cos(theta) |w| everywhere, channel by channel (Cycles' Ng for a sun: the direction its
+    light travels, in its object frame; here unturned)."""
+    w = np.array([0.3, -0.4, -0.866])
+    w /= np.linalg.norm(w)
+    lamp = SunLight(direction=w, strength=3.0, angle=0.0, lamp_nodes=compile_lamp(normal_abs(), 1.0, np.eye(4), UV_SUN))
+    settings = RenderSettings(width=8, height=8, samples=1, kernels=kernels, jitter=False)
+    image = render.render(floor_scene(lamp), settings).image[..., :3]
+    np.testing.assert_allclose(image, np.broadcast_to(RHO / math.pi * 3.0 * -w[2] * np.abs(w), image.shape), rtol=1e-5)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+@pytest.mark.parametrize("index", [0, 1, 2, 3])
 def test_light_samples_and_bsdf_rays_see_the_same_textured_lamp(kernels, index):
     """The floor lit by light samples alone and by BSDF rays alone has the same mean (within 3 %: both unbiased, each
-    weighing the lamp's program where it meets the lamp)."""
+    weighing the lamp's program where it meets the lamp; the sun's disc, which BSDF rays seldom meet, 1024 samples)."""
     def mean(sampling):
         lamp = lamps_with_programs()[index]
-        settings = RenderSettings(width=8, height=8, samples=256, kernels=kernels, light_sampling=sampling)
+        settings = RenderSettings(width=8, height=8, samples=1024 if index == 0 else 256, kernels=kernels,
+                                  light_sampling=sampling)
         return render.render(floor_scene(lamp), settings).image[..., :3].mean()
 
     assert mean("bsdf") == pytest.approx(mean("light"), rel=0.03)

@@ -103,6 +103,7 @@
 #define UV_SPHERE 0
 #define UV_SPOT 1
 #define UV_AREA 2
+#define UV_SUN 3
 /* a closure's parameters (core/materials/base.py PARAMS) (core.materials.base) */
 #define CLOSURE_PARAMS 32
 /* a shader node's inputs, a MaterialRecord's rows (core.materials.base) */
@@ -1022,13 +1023,14 @@ struct LampGraph {
     int32_t object;                         /* where the Object coordinates start */
     int32_t uv;                             /* where the UV starts */
     int32_t width;                          /* attribute floats per point */
-    int32_t uv_kind;                        /* UV_SPHERE (point), UV_SPOT or UV_AREA: how the lamp's UV is made */
+    int32_t uv_kind;                        /* UV_SPHERE (point), UV_SPOT, UV_AREA or UV_SUN: how the lamp's UV is made */
     int32_t sphere;                         /* 1: a round lamp without Soft Falloff: N is the sphere's normal (else the leaving direction) */
     double linear[9];                       /* the lamp object's linear transform M, row-major */
     double inverse[9];                      /* M^-1, row-major */
-    double location[3];                     /* the object's location in the light's (camera-relative) frame */
-    double origin[3];                       /* that frame's origin in the world: the world point is P + origin */
-    double half_cot;                        /* spot: cot(spot_size / 2) / 2 */
+    double location[3];                     /* the object's location in the world */
+    double origin[3];                       /* the origin of the light's (camera-relative) frame in the world: the world point is P + origin
+(a sun's: the direction leaving it, Cycles' P = Ng) */
+    double half_cot;                        /* spot: cot(spot_size / 2) / 2; sun: 1 / (2 sin(angle / 4)) (Cycles' half_inv_sin_half_angle) */
 };
 
 /* The world (core/lights/world.py World and WorldLight): a constant colour or an equirectangular image. */
