@@ -65,9 +65,9 @@ out = {"primer": render_pixels(scene, "PRIMER", os.path.abspath("primer.exr"), 2
        "warnings": list(sys.modules[primer.__name__ + ".addon.engine"].last_render.warnings)}
 out["cycles"] = render_pixels(scene, "CYCLES", os.path.abspath("cycles.exr"), 1024, reference="falloff")[..., :3].tolist()
 # Issue 33: trees that vary over the lamp, evaluated per light sample and per ray that meets the lamp. The point
-# lamp's Linear output squared (a Power: not linear in it) into its Strength, its Smooth the Z of |Texture Coordinate >
-# Normal|, which is its Color; a Checker gobo on the spot's UV into its Color; a Gradient over the area lamp's UV into its Color;
-# a sun of 0.5 rad, turned and moved, whose Color is a Checker on its UV plus |Object|.
+# lamp's Linear output squared (a Power: not linear in it) into its Strength, its Smooth the Z of |Texture
+# Coordinate > Normal|, which is its Color; a Checker gobo on the spot's UV into its Color; a Gradient over the area
+# lamp's UV into its Color; a sun of 0.5 rad, turned and moved, whose Color is a Checker on its UV plus |Object|.
 def texcoord(tree, output):
     node = tree.nodes.new("ShaderNodeTexCoord")
     return node.outputs[output]
@@ -149,7 +149,8 @@ def test_lamps_with_a_light_falloff_node_light_the_floor_as_in_cycles(images):
 
 def test_lamps_whose_trees_vary_over_them_light_the_floor_as_in_cycles(images):
     """Issue 33: a point lamp's falloff squared (its Smooth linked) and coloured by the direction leaving it, a spot's
-    checker gobo, an area lamp's gradient over its UV and a sun's checker over its UV plus its Object coordinates: Primer's image is Cycles' within the noise and nothing is said about the trees."""
+    checker gobo, an area lamp's gradient over its UV and a sun's checker over its UV plus its Object coordinates:
+    Primer's image is Cycles' within the noise and nothing is said about the trees."""
     from core.film.compare import relative_mse_of_blocks
     primer, cycles = np.asarray(images["textured"]), np.asarray(images["textured cycles"])
     error = relative_mse_of_blocks(primer, cycles)
