@@ -499,12 +499,12 @@ def light_node_factor(obj, warnings: list, wiring, falloff=None) -> np.ndarray:
     (a Blackbody, a Math, a Mix of colours...: CONSTANT_KINDS) are evaluated once, by the node-graph program the
     materials use. Where the Emission's Color x Strength is the Fac of one IES Texture times a constant colour (the
     Fac straight into the Strength, or through Math, Mix ... nodes linear in it: lamp_ies_wiring), this returns that
-    colour: the lamp's IESLamp (light_ies) scales its light by the Fac per direction. A point, spot or area lamp's
-    tree that varies over the lamp otherwise is its program (lamp_program, evaluated per light sample), and never
-    reaches here. Nothing at the output: Cycles' light sends no light (zeros, noted). Another shader there, or (a
-    sun's, or beside an IES Texture not so wired) an input fed by a node that varies over the lamp (a texture,
-    texture coordinates, a Light Path, a Light Falloff) is warned about, naming the light and the node, and Primer uses
-    the light's colour and power (or the input's own value).
+    colour: the lamp's IESLamp (light_ies) scales its light by the Fac per direction. A tree that varies over the lamp
+    otherwise is the lamp's program (lamp_program, evaluated per light sample), and never reaches here. Nothing at the
+    output: Cycles' light sends no light (zeros, noted). Another shader there, or (beside an IES Texture not so wired,
+    or in a sun's tree with a Light Falloff) an input fed by a node that varies over the lamp (a texture, texture
+    coordinates, a Light Path, a Light Falloff) is warned about, naming the light and the node, and Primer uses the
+    light's colour and power (or the input's own value).
     """
     tree = materials_.node_tree(obj.data)
     if tree is None:
