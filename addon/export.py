@@ -22,6 +22,7 @@ from ..core.geometry import islands as islands_
 from ..core.geometry import pointiness as pointiness_
 from ..core.geometry import points as points_
 from ..core.lights import World, world_graph
+from ..core.lights import lamp_graph as lamp_graph_
 from ..core.materials import ies as ies_
 from ..core.lights.ies import IESLamp
 from ..core.materials import DEFAULT_SURFACE
@@ -500,10 +501,12 @@ def light_node_factor(obj, warnings: list, wiring, falloff=None) -> np.ndarray:
     (a Blackbody, a Math, a Mix of colours...: CONSTANT_KINDS) are evaluated once, by the node-graph program the
     materials use. Where the Emission's Color x Strength is the Fac of one IES Texture times a constant colour (the
     Fac straight into the Strength, or through Math, Mix ... nodes linear in it: lamp_ies_wiring), this returns that
-    colour: the lamp's IESLamp (light_ies) scales its light by the Fac per direction. Nothing at the output: Cycles'
-    light sends no light (zeros, noted). Another shader there, or an input fed by a node that varies over the lamp
-    (a texture, texture coordinates, a Light Path, an IES Texture not so wired) is warned about, naming the light and
-    the node, and Primer uses the light's colour and power (or the input's own value).
+    colour: the lamp's IESLamp (light_ies) scales its light by the Fac per direction. A tree that varies over the lamp
+    otherwise is the lamp's program (lamp_program, evaluated per light sample), and never reaches here. Nothing at the
+    output: Cycles' light sends no light (zeros, noted). Another shader there, or (beside an IES Texture not so wired,
+    or in a sun's tree with a Light Falloff) an input fed by a node that varies over the lamp (a texture, texture
+    coordinates, a Light Path, a Light Falloff) is warned about, naming the light and the node, and Primer uses the
+    light's colour and power (or the input's own value).
     """
     tree = materials_.node_tree(obj.data)
     if tree is None:
@@ -545,6 +548,14 @@ def varies_with_distance(node) -> bool:
     distance to the lit point (Linear, Constant, or a Smooth above 0)."""
     power, smooth = node.props.get("light_falloff", (0, 0.0)) if node.kind == "VALUE" else (0, 0.0)
     return power != 0 or smooth > 0.0
+
+
+def falloff_fed(tree) -> bool:
+    """Whether a lamp's tree has a Light Falloff whose output is used and whose Strength or Smooth is linked (the
+    warning-free reading of lamp_emission takes its own values; its program reads the links per sample)."""
+    return any(node.bl_idname == "ShaderNodeLightFalloff" and not getattr(node, "mute", False)
+               and any(out.is_linked for out in node.outputs)
+               and any(node.inputs[name].is_linked for name in ("Strength", "Smooth")) for node in tree.nodes)
 
 
 def lamp_emission(obj):
@@ -589,7 +600,7 @@ def lamp_falloff_wiring(obj):
     if emission is None:
         return None
     _, color, strength, graph = emission
-    nodes = graph_.links_under(graph)
+    nodes = list(graph_.links_under(graph))      # (walked twice)
     found = {id(link.node): link.node for link in nodes if varies_with_distance(link.node)}
     if len(found) != 1 or any(link.node.kind not in CONSTANT_KINDS for link in nodes):
         return None
@@ -731,6 +742,12 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
         return None
     wiring = lamp_ies_wiring(obj)
     falloff = lamp_falloff_wiring(obj) if wiring is None else None
+    program = lamp_program(obj, matrix, warnings) if wiring is None and falloff is None else None
+    if program is not None:             # (the tree's emission is the program's, per sample)
+        core = _lamp(obj, matrix, warnings, _light_color(light))
+        if core is not None:
+            core.lamp_nodes = program
+        return core
     emission = light_node_factor(obj, warnings, wiring, falloff)
     if not emission.any():
         return None                     # Cycles leaves out a light whose shader emits nothing
@@ -741,6 +758,45 @@ def _export_light(obj, matrix: np.ndarray, warnings: list):
     if core is not None and falloff is not None and hasattr(core, "falloff"):   # (a sun: Cycles skips the node)
         core.falloff = falloff[0]
     return core
+
+
+# The lamps whose trees Primer evaluates per light sample (core/lights/lamp_graph.py), with how their UV is made.
+PROGRAM_LAMPS = {"POINT": lamp_graph_.UV_SPHERE, "SPOT": lamp_graph_.UV_SPOT, "AREA": lamp_graph_.UV_AREA,
+                 "SUN": lamp_graph_.UV_SUN}
+
+
+def lamp_program(obj, matrix: np.ndarray, warnings: list):
+    """The program of a lamp's Emission that varies over the lamp (core/lights/lamp_graph.py LampEmission), or None: a
+    constant tree (light_node_factor evaluates it once), an IES Texture or a Light Falloff wired linearly
+    (lamp_ies_wiring, lamp_falloff_wiring: evaluated by the lamp's own factors), another shader at the Light Output, a
+    tree with an IES Texture wired otherwise (light_ies warns, as before), or a sun's tree with a Light Falloff (its
+    ray length FLT_MAX; light_node_factor warns).
+
+    As Cycles' light_sample_shader_eval, the Emission's Color x Strength is evaluated for each light sample and each
+    ray that meets the lamp, at the lamp's shading point (shader_setup_from_sample): textures, Texture Coordinate
+    (Normal, Object, Generated, UV as Cycles defines them for lamps), Math, Mix, Color Ramp, Light Falloff in any wiring
+    (with the sample's ray length, as the materials' Light Falloff) and the rest of the node-graph program."""
+    light = obj.data
+    emission = lamp_emission(obj)
+    if light.type not in PROGRAM_LAMPS or emission is None:
+        return None
+    tree, _, _, graph = emission
+    feeding = list(graph_.links_under(graph))
+    if not any(link.node.kind not in CONSTANT_KINDS or varies_with_distance(link.node) for link in feeding) and \
+            not falloff_fed(tree):
+        return None
+    if any(link.node.kind == "IES_TEXTURE" for link in feeding):
+        return None                     # (an IES Texture wired otherwise than linearly: light_ies warns, as before)
+    if light.type == "SUN" and any(n.bl_idname == "ShaderNodeLightFalloff" and any(o.is_linked for o in n.outputs)
+                                   for n in tree.nodes):
+        return None                     # (a sun's ray length is FLT_MAX, whose square Cycles skips: warned, as before)
+    node = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight"))
+    reader = materials_.NodeReader(obj, warnings, kind="light")
+    reader.per_sample = True            # (a Light Falloff reads the sample's ray length, as in a material)
+    color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
+    spot_size = float(light.spot_size) if light.type == "SPOT" else float(light.angle) if light.type == "SUN" else 0.0
+    return lamp_graph_.compile_lamp(color, strength, np.asarray(matrix, np.float64), PROGRAM_LAMPS[light.type],
+                                    spot_size)
 
 
 def _lamp(obj, matrix: np.ndarray, warnings: list, color: np.ndarray):

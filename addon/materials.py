@@ -320,7 +320,8 @@ class GraphReader:
                                             else float((f32[0] + f32[1] + f32[2]) / 3.0)}), "Value")
         if kind == "ShaderNodeNormal":
             return self.normal_node(node, path, out.name)
-        if kind == "ShaderNodeLightFalloff" and self.reader.kind == "material":     # (worlds: warned)
+        if kind == "ShaderNodeLightFalloff" and (self.reader.kind == "material"     # (worlds: warned)
+                                                 or getattr(self.reader, "per_sample", False)):  # (a lamp's program)
             return self.light_falloff(node, path, out.name)
         if kind == "ShaderNodeLightFalloff" and self.reader.kind == "light" and not any(
                 node.inputs[name].is_linked for name in ("Strength", "Smooth")):

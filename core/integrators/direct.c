@@ -324,8 +324,9 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
 {
     const LightRecord copy = *record, *light = &copy;   /* a local copy: every lane may read every field */
     int kind = (int)light->kind;
-    /* (a lamp with an IES Texture takes the table's way, which applies it: ies_lamp_factor) */
-    if (kind == LIGHT_AREA && light->ellipse == 0.0 && light->has_ies == 0 && light->has_falloff == 0) {
+    /* (a lamp with an IES Texture, a falloff or a node program takes the table's way, which applies them) */
+    if (kind == LIGHT_AREA && light->ellipse == 0.0 && light->has_ies == 0 && light->has_falloff == 0
+        && light->lamp_graph == NULL) {
         for (int64_t k = 0; k < b->n; k++) {
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
             LightSample ls;
@@ -333,7 +334,8 @@ SIMD_CLONES NOINLINE static void light_block(SampleBlock *restrict b, const Ligh
             store_sample(b, k, &ls);
             b->hidden[k] = 0;
         }
-    } else if (kind == LIGHT_POINT && light->delta != 0.0 && light->has_ies == 0 && light->has_falloff == 0) {
+    } else if (kind == LIGHT_POINT && light->delta != 0.0 && light->has_ies == 0 && light->has_falloff == 0
+               && light->lamp_graph == NULL) {
         for (int64_t k = 0; k < b->n; k++) {
             double P[3] = {b->P[0][k], b->P[1][k], b->P[2][k]};
             LightSample ls;

@@ -16,6 +16,7 @@ from .spot import SpotLight
 from .sun import SunLight
 from .world import World, WorldLight
 from . import world_graph  # noqa: F401,E402 (the world's program: its records for C)
+from . import lamp_graph  # noqa: F401,E402 (a lamp's node program: its record for C)
 
 # Blender's lamps, then the lights a render makes of its scene: the emissive meshes, the world's image.
 LIGHT_TYPES = (PointLight, SpotLight, SunLight, AreaLight, MeshEmitters, WorldLight)

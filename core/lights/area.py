@@ -10,6 +10,7 @@ import numpy as np
 from .. import vectors
 from .base import Cone, Light, LightFlags, LightHit, LightSample, direction_to
 from .ies import IESLamp
+from .lamp_graph import LampEmission
 from .linking import ALL_SETS
 
 
@@ -78,6 +79,7 @@ class AreaLight(Light):
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
     ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
     falloff: tuple = (0, 0.0)               # a Light Falloff node: (power of the distance, Smooth) (Light.falloff_factor)
+    lamp_nodes: Optional[LampEmission] = None  # a tree that varies over the lamp (core/lights/lamp_graph.py)
 
     flags: ClassVar[LightFlags] = LightFlags.AREA
     blender_type: ClassVar[str] = "AREA"
@@ -120,8 +122,7 @@ class AreaLight(Light):
             geometry = np.where(facing, cos_light * area / (distance * distance), 0.0)
             pdf = np.where(facing, distance * distance / (cos_light * area), 0.0)
         geometry *= spread_attenuation(self.spread, cos_light) * self.ies_factor(-L) * self.falloff_factor(distance)
-        color = np.asarray(self.color, np.float64)[:3]
-        return LightSample(L, distance, self.radiance() * geometry, pdf, color, targets)
+        return LightSample(L, distance, self.radiance() * geometry, pdf, self.emitted(targets, -L, distance), targets)
 
     def hit(self, origins: np.ndarray, directions: np.ndarray, t_max: np.ndarray) -> LightHit:
         """Rays meet the light's plane from its emitting side, inside its shape: radiance L_e (spread
@@ -145,7 +146,8 @@ class AreaLight(Light):
             pdf = np.where(hit, t * t / (cos_light * area), 0.0)
             radiance = np.where(hit, self.radiance() * spread_attenuation(self.spread, cos_light)
                                 * self.ies_factor(-directions) * self.falloff_factor(np.where(hit, t, 1.0)), 0.0)
-        color = np.asarray(self.color, np.float64)[:3]
+        reach = np.where(hit, t, 1.0)
+        color = self.emitted(origins + directions * reach[:, None], -directions, reach)
         return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, pdf)
 
     @property

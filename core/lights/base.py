@@ -158,6 +158,8 @@ LightRecord = schema.record("LightRecord", "One light, prepared by its class's `
     ("ies_v", I32, ""),
     ("ies_strength", F64, "the node's Strength (x 100 without a table)"),
     ("ies_frame", F64, 9, "world directions leaving the lamp -> the node's Vector: the transposed object matrix, row-major"),
+    ("lamp_graph", ptr("LampGraph"), "point, spot and area lamps: the program of a tree that varies over the lamp\n"
+                                     "(core/lights/lamp_graph.py), whose Color x Strength scales each sample's colour, or NULL"),
 ], tables=("LIGHT",))
 
 
@@ -247,13 +249,16 @@ class Light:
         """Whether every parameter is a finite number."""
         values = [np.asarray(getattr(self, f.name), np.float64) for f in dataclasses.fields(self)
                   if f.name not in ("name", "shape", "camera", "cast_shadow", "hidden_from", "use_mis", "max_bounces",
-                                 "light_membership", "shadow_membership", "ies", "falloff") and getattr(self, f.name) is not None]
+                                 "light_membership", "shadow_membership", "ies", "falloff", "lamp_nodes")
+                  and getattr(self, f.name) is not None]
         return all(np.isfinite(x).all() for x in values)
 
     def moved(self, origin: np.ndarray) -> "Light":
-        """Return the light in the camera-relative frame: its points minus `origin`."""
-        return dataclasses.replace(self, **{name: np.asarray(getattr(self, name), np.float64) - origin
-                                            for name in self.point_fields})
+        """Return the light in the camera-relative frame: its points minus `origin` (its node program told)."""
+        moved = {name: np.asarray(getattr(self, name), np.float64) - origin for name in self.point_fields}
+        if getattr(self, "lamp_nodes", None) is not None:
+            moved["lamp_nodes"] = self.lamp_nodes.moved(np.asarray(origin, np.float64))
+        return dataclasses.replace(self, **moved)
 
     def cone(self, points: np.ndarray) -> Optional[Cone]:
         """Return the cone of directions the light covers from each point, or None (no cone)."""
@@ -311,6 +316,14 @@ class Light:
         ies = getattr(self, "ies", None)
         return np.ones(len(leaving)) if ies is None else ies.factor(leaving)
 
+    def emitted(self, P: np.ndarray, leaving: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """The lamp's colour, (3,) float64, or without a constant tree its colour times what its node program (its
+        `lamp_nodes`, core/lights/lamp_graph.py) gives at its points P (n, 3) for light leaving along unit directions
+        (n, 3) towards points t (n,) away: (n, 3) float64."""
+        color = np.asarray(self.color, np.float64)[:3]
+        nodes = getattr(self, "lamp_nodes", None)
+        return color if nodes is None else color * nodes.at(self, P, leaving, t)
+
     def without_attenuation(self, sample: LightSample, points: np.ndarray) -> LightSample:
         """Return the sample with its 1/r^2 falloff undone (the lecture switch "distance attenuation" off).
 
@@ -333,6 +346,8 @@ class Light:
                              light_membership=int(self.light_membership), shadow_membership=int(self.shadow_membership))
         if getattr(self, "ies", None) is not None:
             self.ies.pack(record)
+        if getattr(self, "lamp_nodes", None) is not None:
+            record.lamp_graph = self.lamp_nodes.record(self)
         power, smooth = getattr(self, "falloff", (0, 0.0))
         if power != 0 or smooth > 0.0:
             record.has_falloff, record.falloff_power, record.falloff_smooth = 1, float(power), float(smooth)

@@ -11,6 +11,7 @@ from ..vectors import orthonormal_frame
 from .base import (INV_4PI, Cone, Light, LightFlags, LightHit, LightSample, cone_pdf, delta_pdf, direction_to,
                    sample_cone)
 from .ies import IESLamp
+from .lamp_graph import LampEmission
 from .linking import ALL_SETS
 
 
@@ -54,16 +55,16 @@ class RoundLight(Light):
 
     def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
         """The lecture's point light I / r^2; with a radius, a direction uniform in the cone it covers."""
-        color = np.asarray(self.color, np.float64)[:3]
         center = np.asarray(self.position, np.float64)
         if self.delta:
             # I = P / (4 pi), attenuated by 1 / r^2.
             L, distance = direction_to(points, np.broadcast_to(center, points.shape))
             with np.errstate(divide="ignore"):
                 falloff = np.where(distance > 0, 1.0 / (distance * distance), 0.0)
+            position = np.broadcast_to(center, points.shape)
             return LightSample(L, distance, self.power * INV_4PI * falloff * self.ies_factor(-L)
                                * self.falloff_factor(distance), delta_pdf(len(points)),
-                               color, np.broadcast_to(center, points.shape))
+                               self.emitted(position, -L, distance), position)
         # Radiance L_e = P / (4 pi^2 R^2) over the cone, pdf = 1 / (2 pi (1 - cos a)): each sample
         # carries E_normal = L_e 2 pi (1 - cos a).
         cone = self.cone(points) if cone is None else cone
@@ -77,7 +78,8 @@ class RoundLight(Light):
             distance = b - np.sqrt(np.maximum(0.0, b * b - (d * d - self.radius * self.radius)))
         strength = (sphere_radiance(self.power, self.radius) * 2.0 * math.pi * (1.0 - cone.cos_max) * self.ies_factor(-L)
                     * self.falloff_factor(distance))
-        return LightSample(L, distance, strength, cone_pdf(cone.cos_max), color, points + L * distance[:, None])
+        position = points + L * distance[:, None]
+        return LightSample(L, distance, strength, cone_pdf(cone.cos_max), self.emitted(position, -L, distance), position)
 
     @property
     def hittable(self) -> bool:
@@ -102,7 +104,8 @@ class RoundLight(Light):
         hit = inside & (cos_to_center > 0.0) & (t > 0.0) & (t < t_max)
         radiance = np.where(hit, sphere_radiance(self.power, self.radius), 0.0)
         radiance = self.attenuate(radiance, -directions) * self.falloff_factor(np.where(hit, t, 1.0))
-        color = np.asarray(self.color, np.float64)[:3]
+        reach = np.where(hit, t, 1.0)
+        color = self.emitted(origins + directions * reach[:, None], -directions, reach)
         return LightHit(hit, np.where(hit, t, np.inf), radiance[:, None] * color, np.where(hit, cone_pdf(cone.cos_max), 0.0))
 
     def attenuate(self, radiance: np.ndarray, leaving: np.ndarray) -> np.ndarray:
@@ -145,6 +148,7 @@ class PointLight(RoundLight):
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
     ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
     falloff: tuple = (0, 0.0)               # a Light Falloff node: (power of the distance, Smooth) (Light.falloff_factor)
+    lamp_nodes: Optional[LampEmission] = None  # a tree that varies over the lamp (core/lights/lamp_graph.py)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "POINT"

@@ -10,6 +10,7 @@ import numpy as np
 from .. import vectors
 from .base import Cone, LightFlags, LightSample
 from .ies import IESLamp
+from .lamp_graph import LampEmission
 from .linking import ALL_SETS
 from .point import RoundLight
 
@@ -44,6 +45,7 @@ class SpotLight(RoundLight):
     shadow_membership: int = ALL_SETS       # the blocker shadow sets that cast its shadows (Shadow Linking)
     ies: Optional[IESLamp] = None           # an IES Texture scaling the light by direction (core/lights/ies.py)
     falloff: tuple = (0, 0.0)               # a Light Falloff node: (power of the distance, Smooth) (Light.falloff_factor)
+    lamp_nodes: Optional[LampEmission] = None  # a tree that varies over the lamp (core/lights/lamp_graph.py)
 
     flags: ClassVar[LightFlags] = LightFlags.POSITION
     blender_type: ClassVar[str] = "SPOT"

@@ -10,6 +10,7 @@ import numpy as np
 from ..vectors import orthonormal_frame
 from .base import Cone, Light, LightFlags, LightHit, LightSample, cone_pdf, delta_pdf, sample_cone
 from .ies import IESLamp
+from .lamp_graph import LampEmission
 from .linking import ALL_SETS
 
 
@@ -39,6 +40,7 @@ class SunLight(Light):
     # them (the disc's size is `angle`). Rays that meet the lamp see that limb-darkened, bottom-to-top radiance,
     # Cycles' disc; its light samples carry its mean (strength, color).
     limb: Optional[np.ndarray] = None
+    lamp_nodes: Optional[LampEmission] = None  # a tree that varies over the lamp (core/lights/lamp_graph.py)
 
     flags: ClassVar[LightFlags] = LightFlags.DISTANT
     blender_type: ClassVar[str] = "SUN"
@@ -72,15 +74,14 @@ class SunLight(Light):
     def sample(self, points: np.ndarray, u: np.ndarray, cone: Optional[Cone] = None, N=None) -> LightSample:
         """One direction with irradiance = strength, no distance attenuation; or a direction in the disk."""
         n = len(points)
-        color = np.asarray(self.color, np.float64)[:3]
         if self.delta:
             L = np.broadcast_to(self.towards(), (n, 3)).copy()
-            return LightSample(L, np.full(n, np.inf), float(self.strength) * self.ies_factor(-L), delta_pdf(n), color,
-                               np.zeros((n, 3)))
+            return LightSample(L, np.full(n, np.inf), float(self.strength) * self.ies_factor(-L), delta_pdf(n),
+                               self.emitted(np.zeros((n, 3)), -L, np.full(n, np.inf)), np.zeros((n, 3)))
         cone = self.cone(points) if cone is None else cone
         L = sample_cone(cone, u)
         return LightSample(L, np.full(n, np.inf), self.disk_strength() * self.ies_factor(-L), cone_pdf(cone.cos_max),
-                           color, np.zeros((n, 3)))
+                           self.emitted(np.zeros((n, 3)), -L, np.full(n, np.inf)), np.zeros((n, 3)))
 
     @property
     def hittable(self) -> bool:
@@ -95,8 +96,7 @@ class SunLight(Light):
         inside = (np.einsum("ij,j->i", directions, self.towards()) >= math.cos(half)) & np.isinf(t_max)
         radiance = np.where(inside, self.strength / (math.pi * math.sin(half) ** 2) * self.ies_factor(-directions), 0.0)
         pdf = np.where(inside, cone_pdf(np.full(n, math.cos(half))), 0.0)
-        color = np.asarray(self.color, np.float64)[:3]
-        seen = radiance[:, None] * color
+        seen = radiance[:, None] * self.emitted(np.zeros((n, 3)), -directions, np.full(n, np.inf))
         if self.limb is not None:                   # (a Sky Texture's disc: Cycles' limb darkening, bottom to top)
             from ..materials.sky import disc_xyz
             limb = np.asarray(self.limb, np.float64)

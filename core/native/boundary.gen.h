@@ -99,6 +99,11 @@
 #define LIGHT_SHIFT 32768
 /* a chain's k-th scattering event: k x this past its stretch's dimensions (core.integrators.volume) */
 #define CHAIN_SHIFT 131072
+/* how a lamp's UV is made (LampGraph.uv_kind) (core.lights.lamp_graph) */
+#define UV_SPHERE 0
+#define UV_SPOT 1
+#define UV_AREA 2
+#define UV_SUN 3
 /* a closure's parameters (core/materials/base.py PARAMS) (core.materials.base) */
 #define CLOSURE_PARAMS 32
 /* a shader node's inputs, a MaterialRecord's rows (core.materials.base) */
@@ -510,6 +515,7 @@ typedef struct SampleLightArgs SampleLightArgs;
 typedef struct LightHitArgs LightHitArgs;
 typedef struct EmitterTables EmitterTables;
 typedef struct EmitterPickArgs EmitterPickArgs;
+typedef struct LampGraph LampGraph;
 typedef struct WorldTables WorldTables;
 typedef struct WorldGraph WorldGraph;
 typedef struct WorldBakeArgs WorldBakeArgs;
@@ -941,6 +947,8 @@ Cycles could not read, a factor of ies_strength everywhere */
     int32_t ies_v;
     double ies_strength;                    /* the node's Strength (x 100 without a table) */
     double ies_frame[9];                    /* world directions leaving the lamp -> the node's Vector: the transposed object matrix, row-major */
+    const LampGraph *lamp_graph;            /* point, spot and area lamps: the program of a tree that varies over the lamp
+(core/lights/lamp_graph.py), whose Color x Strength scales each sample's colour, or NULL */
 };
 
 /* What the lights a render makes of its scene need besides their records. */
@@ -1011,6 +1019,25 @@ struct EmitterPickArgs {
     const double *u;                        /* (n,) the pick's numbers (primer_emitter_pick) or NULL */
     int64_t *index;                         /* (n,) the emitters picked (primer_emitter_pick), or those whose probability is asked */
     double *probability;                    /* (n,) */
+};
+
+/* A lamp's Emission compiled into one program (core/lights/lamp_graph.py LampEmission). */
+struct LampGraph {
+    const GraphTables *graph;               /* its one program and the images it reads */
+    int32_t color;                          /* the register of the Emission's Color (3) */
+    int32_t strength;                       /* the register of its Strength */
+    int32_t generated;                      /* where the Generated coordinates start among a point's attributes */
+    int32_t object;                         /* where the Object coordinates start */
+    int32_t uv;                             /* where the UV starts */
+    int32_t width;                          /* attribute floats per point */
+    int32_t uv_kind;                        /* UV_SPHERE (point), UV_SPOT, UV_AREA or UV_SUN: how the lamp's UV is made */
+    int32_t sphere;                         /* 1: a round lamp without Soft Falloff: N is the sphere's normal (else the leaving direction) */
+    double linear[9];                       /* the lamp object's linear transform M, row-major */
+    double inverse[9];                      /* M^-1, row-major */
+    double location[3];                     /* the object's location in the world */
+    double origin[3];                       /* the origin of the light's (camera-relative) frame in the world: the world point is P + origin
+(a sun's: the direction leaving it, Cycles' P = Ng) */
+    double half_cot;                        /* spot: cot(spot_size / 2) / 2; sun: 1 / (2 sin(angle / 4)) (Cycles' half_inv_sin_half_angle) */
 };
 
 /* The world (core/lights/world.py World and WorldLight): a constant colour or an equirectangular image. */
@@ -1295,12 +1322,13 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
     if (strcmp(name, "PassTables") == 0) return UINT64_C(2796690520821526481);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
-    if (strcmp(name, "LightRecord") == 0) return UINT64_C(9112495589854067224);
+    if (strcmp(name, "LightRecord") == 0) return UINT64_C(1914571018289112676);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
     if (strcmp(name, "SampleLightArgs") == 0) return UINT64_C(2427713380812215315);
     if (strcmp(name, "LightHitArgs") == 0) return UINT64_C(8511897592012775328);
     if (strcmp(name, "EmitterTables") == 0) return UINT64_C(1646818140122983101);
     if (strcmp(name, "EmitterPickArgs") == 0) return UINT64_C(7812955334375770500);
+    if (strcmp(name, "LampGraph") == 0) return UINT64_C(3628791564941194139);
     if (strcmp(name, "WorldTables") == 0) return UINT64_C(6964717275989497168);
     if (strcmp(name, "WorldGraph") == 0) return UINT64_C(2390398427453414966);
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
@@ -1348,6 +1376,7 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "LightHitArgs") == 0) return (int64_t)sizeof(LightHitArgs);
     if (strcmp(name, "EmitterTables") == 0) return (int64_t)sizeof(EmitterTables);
     if (strcmp(name, "EmitterPickArgs") == 0) return (int64_t)sizeof(EmitterPickArgs);
+    if (strcmp(name, "LampGraph") == 0) return (int64_t)sizeof(LampGraph);
     if (strcmp(name, "WorldTables") == 0) return (int64_t)sizeof(WorldTables);
     if (strcmp(name, "WorldGraph") == 0) return (int64_t)sizeof(WorldGraph);
     if (strcmp(name, "WorldBakeArgs") == 0) return (int64_t)sizeof(WorldBakeArgs);
