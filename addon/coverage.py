@@ -193,6 +193,8 @@ COVERAGE = {
                "lightgroups": "lightgroups.group_names", "material_override": "export.export_scene",
                "use_strand": "export.export_scene (Filter > Strands off: no curves nor particle hair, as in Cycles)",
                "use_volumes": "export.media_of_layer (off: no media)",
+               "pass_alpha_threshold": "export.export_scene (RenderSettings.pass_alpha_threshold: the data "
+                                       "passes' surface)",
                "use_sky": "export.rendered_world (Filter > Environment off: no world, as Cycles' empty background)",
                "world_override*": "export.rendered_world (the view layer's world, as Cycles renders it)",
                "layer_collection": "unmodelled.holdout_objects (Holdout), unmodelled.view_layer_notes",
@@ -200,7 +202,7 @@ COVERAGE = {
                "use_motion_blur": "motion.blurs (with Render > Motion Blur)",
                "depsgraph objects use": DEPSGRAPH},
         REPORTED: {"use_pass_vector use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
-                   "use_pass_subsurface_indirect aovs use_pass_combined use_solid pass_alpha_threshold":
+                   "use_pass_subsurface_indirect aovs use_pass_combined use_solid":
                    "unmodelled.view_layer_notes",
                    "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},
         NO_EFFECT: {"active_aov active_aov_index active_layer_collection active_lightgroup active_lightgroup_index "

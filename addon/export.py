@@ -1690,6 +1690,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     border = border_rectangle(scene.render, width, height)
     settings = render_settings(scene, width, height, border, aux, passes)
     settings.cryptomatte_depth = int(getattr(depsgraph.view_layer, "pass_cryptomatte_depth", 6))
+    # (View Layer > Passes > Data > Alpha Threshold: the first surface that opaque holds the data passes)
+    settings.pass_alpha_threshold = float(getattr(depsgraph.view_layer, "pass_alpha_threshold", 0.5))
     settings.light_groups = tuple(lightgroups.group_names(depsgraph.view_layer))
     # (View Layer > Passes > Light > Shadow Catcher: the pass, and Combined as the catchers' matte itself)
     settings.shadow_catcher_pass = shadow_catcher_pass(depsgraph.view_layer)

@@ -69,10 +69,6 @@ def view_layer_notes(view_layer) -> list:
         notes.append("the Combined pass is off in the view layer; Primer writes it anyway")
     if not getattr(view_layer, "use_solid", True):
         notes.append("the view layer's Filter leaves Surfaces out (Cycles renders none); Primer renders them")
-    threshold = float(getattr(view_layer, "pass_alpha_threshold", 0.5))
-    if abs(threshold - 0.5) > 1e-6:
-        notes.append(f"the view layer's pass Alpha Threshold is {threshold:g}; Primer's data passes take the first "
-                     "surface at least 0.5 opaque")
     return notes
 
 

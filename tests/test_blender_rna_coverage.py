@@ -121,8 +121,6 @@ CASES = [
      [("scene.render", "use_simplify", True)], "render_notes", "scene", "Texture Resolution"),
     ("ViewLayer", "view_layer", "use_solid", False, [], "view_layer_notes", "view_layer", "Surfaces out"),
     ("ViewLayer", "view_layer", "use_pass_combined", False, [], "view_layer_notes", "view_layer", "Combined pass"),
-    ("ViewLayer", "view_layer", "pass_alpha_threshold", 0.25, [], "view_layer_notes", "view_layer",
-     "Alpha Threshold is 0.25"),
     ("CyclesRenderLayerSettings", "view_layer.cycles", "denoising_store_passes", True, [], "view_layer_notes",
      "view_layer", "Denoising Data passes"),
     ("Camera", "camera.data", "type", "CUSTOM", [], "camera_notes", "camera", "Custom camera"),

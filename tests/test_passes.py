@@ -110,3 +110,22 @@ def test_the_compiled_first_hit_passes_follow_the_reference(integrator):
             a, b = a[..., 1::2], b[..., 1::2]
         np.testing.assert_allclose(a, b, rtol=IMAGE_RTOL, atol=IMAGE_ATOL * max(1.0, float(np.abs(b).max())),
                                    err_msg=name)
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_the_alpha_threshold_picks_the_first_surface_that_opaque_for_the_data_passes(kernels):
+    """The view layer's Alpha Threshold: a veil letting 60 % through (alpha 0.4) 1 above the floor holds the data
+    passes under a threshold of 0.3 or 0 (Position z = 1 in every pixel); under Cycles' default 0.5 the camera paths
+    that pass it (its Transparent share sampled) reach the floor behind it (z = 0) and the others end on it."""
+    scene, settings = floor_scene()
+    scene.materials.append(materials.Material(name="veil", nodes=[("TRANSPARENT", (0.6, 0.6, 0.6), {}),
+                                                                  ("DIFFUSE", (0.4, 0.4, 0.4), {})]))
+    scene.add_mesh(primitives.plane(4.0, center=(0.0, 0.0, 1.0)), materials=np.array([1]), name="Veil")
+    settings = dataclasses.replace(settings, width=8, height=8, kernels=kernels, passes=("position",))
+    def heights(threshold):
+        return render.render(scene, dataclasses.replace(settings, pass_alpha_threshold=threshold)).aux["position"][..., 2]
+    for threshold in (0.3, 0.0):
+        np.testing.assert_allclose(heights(threshold), 1.0, atol=1e-5, err_msg=str(threshold))
+    z = heights(0.5)
+    floor = np.abs(z) < 1e-5
+    assert floor.any() and (floor | (np.abs(z - 1.0) < 1e-5)).all()

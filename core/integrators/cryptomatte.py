@@ -9,7 +9,7 @@ CryptoObject01, ...), ranked by coverage. A compositor finds the ids by name aga
 Coverage follows Cycles (kernel/film/data_passes.h, cryptomatte_passes.h): along each camera sample's chain
 (passes.py: the camera ray and its rays straight on through Transparent closures) every surface adds
 mean(throughput) x (1 - mean(transparency)) to its id, the one opaque enough for the data passes
-(passes.ALPHA_THRESHOLD) and those behind it alike; the pixel's value is the sum over its samples divided by their
+(RenderSettings.pass_alpha_threshold) and those behind it alike; the pixel's value is the sum over its samples divided by their
 count. So an object behind a plane letting 60 % through covers 0.6 of the pixel in the mean and the plane 0.4, and
 the background covers nothing. A pixel keeps slot_count(depth) slots per kind, filled as its samples meet the ids
 (fill_slots: Cycles' rule, no eviction; the late ids of a full pixel add to the last slot); a chunk's slots go

@@ -4,7 +4,7 @@
  * A camera chain is the camera ray and the rays it sends straight on through Transparent closures. At each of its
  * vertices the data passes (sample 0's position, ids and depth until the first opaque-enough vertex, whose normal and
  * UV are summed), the closures' colours, the emission, the ambient occlusion and Cryptomatte's entries; along its
- * rays the lamps the camera sees and the world where they escape. ALPHA_THRESHOLD, AO_DIMENSION, PASS_* and the
+ * rays the lamps the camera sees and the world where they escape. AO_DIMENSION, PASS_* and the
  * PassTables record come from passes.py (core/native/boundary.gen.h). */
 
 /* Each camera lane's first-hit passes in a block (passes.DataPasses), where asked for. */
@@ -154,7 +154,7 @@ NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, 
         pass_set(lp, lane, PASS_Z_DEPTH, one);
     }
     /* 2. The opaque-enough vertex: the normal and UV, summed over samples; the chain's data passes are done. */
-    if (!lp->done[lane] && (alpha[0] + alpha[1] + alpha[2]) / 3.0 >= ALPHA_THRESHOLD) {
+    if (!lp->done[lane] && (alpha[0] + alpha[1] + alpha[2]) / 3.0 >= pt->alpha_threshold) {
         double value[3];
         average_normal(sd, value);
         pass_add(lp, lane, PASS_AVERAGE_NORMAL, value, NULL);

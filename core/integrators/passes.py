@@ -7,7 +7,7 @@ Principled BSDF's Alpha): the vertices a path meets before its first real bounce
 throughput there (the product of the transparent bounces' weights).
 
 - The data passes come from the first vertex of the chain whose alpha (1 - the mean transparency) is at least
-  ALPHA_THRESHOLD (Cycles' Alpha Threshold, 0.5); until then each vertex overwrites the sample-0 ones:
+  RenderSettings.pass_alpha_threshold (Cycles' Alpha Threshold, 0.5 by default); until then each vertex overwrites the sample-0 ones:
     position        the world-space hit point, of sample 0 only (not anti-aliased, as in Cycles)
     object_index    the object's Pass Index, of sample 0 only
     material_index  the material's Pass Index, of sample 0 only
@@ -73,8 +73,6 @@ CRYPTO_PASSES = {"crypto_object": "object", "crypto_material": "material", "cryp
 FIRST_SAMPLE_ONLY = ("position", "object_index", "material_index", "z_depth")
 # A Depth pixel whose sample 0 met no surface (Cycles' value for no depth).
 MISS_DEPTH = 1e10
-# A surface at least this opaque (1 - mean transparency) holds the data passes (Cycles' pass_alpha_threshold).
-ALPHA_THRESHOLD = schema.constant("ALPHA_THRESHOLD", 0.5, "the data passes' opaque-enough alpha (passes.py)")
 # Sampling dimension of the ambient occlusion ray's direction (before the vertex's shift).
 AO_DIMENSION = schema.constant("AO_DIMENSION", 120, "the ambient occlusion ray's sampling dimension")
 # The UV map the UV pass reads: the mesh's active render map (core/scene Mesh.attributes).
@@ -179,6 +177,7 @@ passes.c): where each sits in a pixel's channels, and the scene's tables they re
     ("ortho", I32, "1: an orthographic camera (the Mist pass's distance along its axis)"),
     ("uv_offset", I32, "the UV map's first attribute float, -1: none"),
     ("world_camera", I32, "1: the camera sees the world (the environment pass)"),
+    ("alpha_threshold", F64, "the data passes' opaque-enough alpha (RenderSettings.pass_alpha_threshold)"),
 ])
 
 
@@ -203,7 +202,8 @@ def pass_tables(ctx, layout: PassLayout):
         forward=np.asarray(ctx.extra["forward"], np.float64), ao_distance=float(ctx.settings.ao_distance),
         mist_start=float(ctx.settings.mist_start), mist_inv_depth=mist_inv_depth(ctx.settings),
         mist_falloff=float(ctx.settings.mist_falloff), ortho=is_ortho(ctx),
-        uv_offset=-1 if uv is None else int(uv[0]), world_camera=world is not None and bool(world.camera))
+        uv_offset=-1 if uv is None else int(uv[0]), world_camera=world is not None and bool(world.camera),
+        alpha_threshold=float(ctx.settings.pass_alpha_threshold))
 
 
 def mist_inv_depth(settings) -> float:
@@ -300,7 +300,7 @@ def at_vertex(ctx, dp: DataPasses, rows: np.ndarray, owner: np.ndarray, vertex: 
         dp.set("material_index", at[first], indices[np.clip(material[first], 0, len(indices) - 1)][:, None])
         dp.set("z_depth", at[first], ((I[first] + ctx.extra["camera_offset"]) @ ctx.extra["forward"])[:, None])
     # 2. The opaque-enough vertex: the normal and UV, summed over samples; the chain's data passes are done.
-    opaque = np.flatnonzero(open_ & (alpha.mean(axis=1) >= ALPHA_THRESHOLD))
+    opaque = np.flatnonzero(open_ & (alpha.mean(axis=1) >= ctx.settings.pass_alpha_threshold))
     if len(opaque):
         if dp.layout.has("average_normal"):
             dp.add("average_normal", at[opaque], average_normal(shader.closures.rows(rows[opaque]),

@@ -65,8 +65,6 @@
 #define PASS_MIST 12
 /* the first-hit passes' channels in all (core.integrators.passes) */
 #define PASS_CHANNELS_MAX 31
-/* the data passes' opaque-enough alpha (passes.py) (core.integrators.passes) */
-#define ALPHA_THRESHOLD 0.5
 /* the ambient occlusion ray's sampling dimension (core.integrators.passes) */
 #define AO_DIMENSION 120
 /* Russian roulette's dimension at a vertex (core.integrators.path) */
@@ -879,6 +877,7 @@ struct PassTables {
     int32_t ortho;                          /* 1: an orthographic camera (the Mist pass's distance along its axis) */
     int32_t uv_offset;                      /* the UV map's first attribute float, -1: none */
     int32_t world_camera;                   /* 1: the camera sees the world (the environment pass) */
+    double alpha_threshold;                 /* the data passes' opaque-enough alpha (RenderSettings.pass_alpha_threshold) */
 };
 
 /* How shadow rays leave the surface (RenderSettings' shadow settings). */
@@ -1320,7 +1319,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
-    if (strcmp(name, "PassTables") == 0) return UINT64_C(2796690520821526481);
+    if (strcmp(name, "PassTables") == 0) return UINT64_C(7329025174380386249);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(1914571018289112676);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);

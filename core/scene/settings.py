@@ -35,6 +35,8 @@ class RenderSettings:
         light passes, the light groups, the shadow catchers' matte); data, colour and AO passes and the Shadow
         Catcher pass (a ratio) keep their values, as Cycles' pass_info.use_exposure says.
 
+    pass_alpha_threshold: the view layer's Alpha Threshold: the first surface of a camera path at least this opaque
+        (1 - mean transparency) holds the data passes (Normal, UV, ...; 0: the first surface), as Cycles.
     transparent_glass: Film > Transparent Glass's Roughness Threshold with a transparent film (-1: off): a camera
         path keeps seeing the film clear through glass whose lobe is at most that rough, so the world behind glass is
         alpha, not colour (Cycles' LABEL_TRANSMIT_TRANSPARENT: alpha_x alpha_y <= threshold^4).
@@ -114,6 +116,7 @@ class RenderSettings:
     filter_width: float = 1.0
     exposure: float = 1.0
     transparent_glass: float = -1.0
+    pass_alpha_threshold: float = 0.5
     jitter: bool = True
     light_samples: int = 4
     shadow_method: str = "robust"
