@@ -13,6 +13,7 @@ used instead.
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import tempfile
 
@@ -902,13 +903,18 @@ def tile_path(path: str, tile: int) -> str:
 # Images read in this export, by (image pointer, frame) (cleared by `begin_export`), and the scene's frame.
 _IMAGES: dict = {}
 _FRAME = [1]
+# Decoded image files (_decoded): those of this export, and those of the export before it.
+_DECODED_NOW: dict = {}
+_DECODED_BEFORE: dict = {}
 
 
 def begin_export(frame: int = 1, view_layer=None, texture_limit: int = 0) -> None:
     """Forget the images read by an earlier export (a render reads each image once) and the Object and Instancer
     attributes its materials read; read sequences and movies at the scene's `frame`, View Layer attributes from
     `view_layer` (None: the context's), and images under `texture_limit` (Simplify's, texture_limit_of; 0: none)."""
+    global _DECODED_BEFORE, _DECODED_NOW
     _IMAGES.clear()
+    _DECODED_BEFORE, _DECODED_NOW = _DECODED_NOW, {}
     INSTANCE_ATTRIBUTES.clear()
     ATTRIBUTE_NOTES.clear()
     _VIEW_LAYER[0] = view_layer
@@ -1078,9 +1084,17 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
     packed = image.packed_file
     if oiio is not None and image.source == "FILE":
         if packed is not None:
-            return _oiio_read_bytes(oiio, packed.data, os.path.splitext(image.filepath)[1]
-                                    or "." + image.file_format.lower())
-        return _oiio_read_file(oiio, bpy.path.abspath(image.filepath, library=image.library))
+            data = packed.data
+            suffix = os.path.splitext(image.filepath)[1] or "." + image.file_format.lower()
+            return _decoded(("packed", suffix, len(data), hashlib.blake2b(data, digest_size=16).digest()),
+                            lambda: _oiio_read_bytes(oiio, data, suffix))
+        path = bpy.path.abspath(image.filepath, library=image.library)
+        try:
+            stat = os.stat(path)
+        except OSError:
+            return _oiio_read_file(oiio, path)      # (no such file: its error)
+        return _decoded(("file", os.path.abspath(path), stat.st_mtime_ns, stat.st_size),
+                        lambda: _oiio_read_file(oiio, path))
     if image.source == "FILE" and packed is None:
         path = bpy.path.abspath(image.filepath, library=image.library)
         if not os.path.isfile(path):
@@ -1093,6 +1107,21 @@ def _read_pixels(image, tile: int = None, frame: int = None) -> np.ndarray:
     flat = np.empty(width * height * channels, np.float32)
     image.pixels.foreach_get(flat)
     return flat.reshape(height, width, channels)
+
+
+def _decoded(key: tuple, read) -> np.ndarray:
+    """The pixels of an image file as `read()` decodes them, decoded once for the renders that follow one another:
+    key names the file's contents (a packed file's bytes by their hash; a file on disk by its path, modification time
+    and size), and the pixels an export used are kept (read-only) for the next export, the others dropped
+    (begin_export), as Blender keeps a decoded image in memory for Cycles' renders after the first."""
+    pixels = _DECODED_NOW.get(key)
+    if pixels is None:
+        pixels = _DECODED_BEFORE.get(key)
+    if pixels is None:
+        pixels = read()
+        pixels.flags.writeable = False
+    _DECODED_NOW[key] = pixels
+    return pixels
 
 
 def _oiio_read_file(oiio, path: str) -> np.ndarray:

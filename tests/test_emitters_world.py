@@ -91,6 +91,20 @@ def test_world_map_pdf_integrates_to_one_and_sampling_follows_it():
     assert bright.mean() == pytest.approx(expected, rel=0.02)
 
 
+@pytest.mark.parametrize("size", [(64, 32), (1024, 512), (100, 37)])
+def test_world_map_made_row_by_row_is_the_radiance_at_each_cells_centre(size):
+    """The importance map's radiance, interpolated per row and column (bilinear_equirect_grid), is the same numbers
+    as bilinear_equirect gives point by point at the cell centres, with a map finer, as fine as and coarser than the
+    image, NaN and infinite texels included."""
+    from core.lights.world import bilinear_equirect, bilinear_equirect_grid
+    image = environment(96) * np.random.default_rng(5).random((48, 96, 1)).astype(np.float32)
+    image[3, 7] = (np.nan, np.inf, -np.inf)
+    w, h = size
+    uu, vv = np.meshgrid((np.arange(w) + 0.5) / w, (np.arange(h) + 0.5) / h)
+    expected = bilinear_equirect(image, uu.ravel(), vv.ravel()).reshape(h, w, 3)
+    np.testing.assert_array_equal(bilinear_equirect_grid(image, w, h), expected)
+
+
 @pytest.mark.parametrize("kernels", ["compiled", "numpy"])
 @pytest.mark.parametrize("strategy", ["mis", "light", "bsdf"])
 def test_an_environment_lights_a_plane_by_its_cosine_weighted_mean(strategy, kernels):

@@ -433,6 +433,29 @@ def test_an_8_bit_image_takes_a_quarter_of_the_memory_of_floats():
     np.testing.assert_array_equal(tex.texels(0), pixels)
 
 
+def test_images_decoded_once_share_one_buffer_from_render_to_render_and_others_are_copied():
+    """Read-only images (decoded once for the renders that follow one another) give the same texel buffer when the
+    next render has the same ones; a writeable image, or another set of images, is copied anew; the texels are the
+    images' either way."""
+    rng = np.random.default_rng(2)
+    a, b = (rng.integers(0, 256, (8, 16, 3), dtype=np.uint8) for _ in range(2))
+    for pixels in (a, b):
+        pixels.flags.writeable = False
+    first = textures.TextureSet.of([textures.Image(a), textures.Image(b)])
+    again = textures.TextureSet.of([textures.Image(a), textures.Image(b)])
+    assert again.bytes is first.bytes and not again.bytes.flags.writeable
+    swapped = textures.TextureSet.of([textures.Image(b), textures.Image(a)])
+    assert swapped.bytes is not first.bytes
+    np.testing.assert_array_equal(swapped.texels(0), b)
+    np.testing.assert_array_equal(swapped.texels(1), a)
+    c = a.copy()                                       # writeable: it may change between renders
+    mine = textures.TextureSet.of([textures.Image(c), textures.Image(b)])
+    c[0, 0] = 255 - c[0, 0]
+    mine_again = textures.TextureSet.of([textures.Image(c), textures.Image(b)])
+    assert mine_again.bytes is not mine.bytes
+    np.testing.assert_array_equal(mine_again.texels(0), c)
+
+
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_a_normal_map_at_the_principled_normal_turns_the_base_not_the_coat(kernels):
     """Cycles gives the Principled coat the hit's own normal (Coat Normal unlinked), whatever feeds the node's

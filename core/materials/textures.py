@@ -145,6 +145,45 @@ def as_rgba(texels: np.ndarray) -> np.ndarray:
     return values
 
 
+# The last buffer _joined made, by format: (its parts, the buffer).
+_LAST_JOINED: dict = {}
+
+
+def _read_only(array: np.ndarray) -> bool:
+    """Whether nothing can write the texels of `array`: it and every array it is a view of are read-only."""
+    while isinstance(array, np.ndarray):
+        if array.flags.writeable:
+            return False
+        array = array.base
+    return True
+
+
+def _where(array: np.ndarray) -> tuple:
+    """Which texels `array` is: its address, shape, strides and type."""
+    return array.__array_interface__["data"][0], array.shape, array.strides, array.dtype.str
+
+
+def _joined(parts: list, dtype) -> np.ndarray:
+    """One buffer (a,) `dtype` of the texels of `parts` (arrays of one format), one after another (zeros (4,) for no
+    parts). Read-only parts are images decoded once for the renders that follow one another (addon/materials.py
+    _decoded): when every part is read-only and they are the same texels as the last call's, that call's buffer is
+    given again (their texels cannot have changed), not copied anew."""
+    if not parts:
+        return np.zeros(4, dtype)
+    key = np.dtype(dtype).str
+    last = _LAST_JOINED.get(key)
+    fixed = all(_read_only(part) for part in parts)
+    if fixed and last is not None and [_where(part) for part in parts] == [_where(part) for part in last[0]]:
+        return last[1]                              # (last[0] keeps those texels alive: no other array is there)
+    buffer = np.concatenate([part.reshape(-1) for part in parts]).astype(dtype, copy=False)
+    if fixed:
+        buffer.flags.writeable = False
+        _LAST_JOINED[key] = (list(parts), buffer)
+    else:
+        _LAST_JOINED.pop(key, None)
+    return buffer
+
+
 @dataclass
 class TextureSet:
     """Every image of a render in one buffer per storage format (textures.c TextureTables).
@@ -193,14 +232,13 @@ class TextureSet:
             tiled = isinstance(image, TiledImage)           # a row without texels of its own
             form.append(FORMAT_FLOAT if tiled else image.format)
             parts = buffers[form[-1]]
-            offset.append(sum(len(part) for part in parts))
+            offset.append(sum(part.size for part in parts))
             shape.append((0, 0, 0) if tiled else image.pixels.shape)
             if not tiled:
-                parts.append(image.pixels.reshape(-1))
+                parts.append(image.pixels)
 
         def joined(form, dtype):
-            parts = buffers[form]
-            return np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(4, dtype)
+            return _joined(buffers[form], dtype)
 
         shape = np.array(shape, np.int64)
         pad = [0] * (len(rows) - len(images))
