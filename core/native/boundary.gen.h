@@ -344,6 +344,10 @@
 #define STEPS_ACROSS 100
 /* the most pieces a march cuts one stretch of a ray into (core.volumes.field) */
 #define MAX_PIECES 256
+/* the odds that free flight in a heterogeneous medium draws its distance uniformly in the media's box (field.py March.uniform_share) (core.volumes.field) */
+#define UNIFORM_SHARE 0.25
+/* the factor on a piece's second difference of sigma_t that makes its ratio-tracking majorant (core.volumes.field) */
+#define TRACKING_SAFETY 1.5
 /* a volume input's row in VolumeField.inputs (core.volumes.field) */
 #define VOLUME_INPUT_COLOR 0
 #define VOLUME_INPUT_ABSORPTION_COLOR 1
@@ -388,6 +392,10 @@
 #define PHASE_PARAMETERS 4
 /* the most phase functions a heterogeneous medium's point mixes (core.volumes.phase) */
 #define PHASE_LOBES 8
+/* cells per unit of the grid a ray's stream is keyed on (core.volumes.tracking) */
+#define KEY_GRID 1048576.0
+/* the most grid cells a ray's key counts either way (core.volumes.tracking) */
+#define KEY_LIMIT 1000000000000000.0
 
 /* core/materials/registry.py BSDF_TYPES: a closure's kind */
 enum {
