@@ -347,7 +347,7 @@
 /* the odds that free flight in a heterogeneous medium draws its distance uniformly in the media's box (field.py March.uniform_share) (core.volumes.field) */
 #define UNIFORM_SHARE 0.25
 /* the factor on a piece's second difference of sigma_t that makes its ratio-tracking majorant (core.volumes.field) */
-#define TRACKING_SAFETY 1.5
+#define TRACKING_SAFETY 8.0
 /* a volume input's row in VolumeField.inputs (core.volumes.field) */
 #define VOLUME_INPUT_COLOR 0
 #define VOLUME_INPUT_ABSORPTION_COLOR 1

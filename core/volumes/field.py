@@ -42,7 +42,7 @@ POINTS_AT_ONCE = 1 << 16
 # The factor on a piece's second difference of sigma_t (its neighbours' midpoints) that makes its majorant.
 UNIFORM_SHARE = schema.constant("UNIFORM_SHARE", 0.25, "the odds that free flight in a heterogeneous medium draws "
                                 "its distance uniformly in the media's box (field.py March.uniform_share)")
-TRACKING_SAFETY = schema.constant("TRACKING_SAFETY", 1.5, "the factor on a piece's second difference of sigma_t "
+TRACKING_SAFETY = schema.constant("TRACKING_SAFETY", 8.0, "the factor on a piece's second difference of sigma_t "
                                   "that makes its ratio-tracking majorant")
 
 # Each volume input's width (floats): colours and coefficients 3, the rest 1.
