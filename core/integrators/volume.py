@@ -26,9 +26,9 @@ the two, with less noise. Only stretches the path may still bounce on scatter (C
 limits only absorbs and emits). Cycles also samples the distance towards each lamp (equi-angular sampling) and mixes
 it with this one: the noise differs, not the mean.
 
-Heterogeneous media (core/volumes/field.py) take the same estimate on the pieces of their march
-(`marched_scattering`). With Volume Bounces N > 0 a path goes on from where it scatters, N times
-(`multiple_scattering`): on a stretch of a path with volume bounces left, untruncated free flight decides whether it
+Heterogeneous media (core/volumes/field.py) take the same estimate with their march as the proposal
+(`marched_scattering`): ratio tracking's T and the true coefficients at the point over the march's pdf.
+With Volume Bounces N > 0 a path goes on from where it scatters, N times (`multiple_scattering`): on a stretch of a path with volume bounces left, untruncated free flight decides whether it
 collides (and goes on along its phase ray from there) or passes to the surface behind (`scatter_or_pass`).
 """
 from __future__ import annotations

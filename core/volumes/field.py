@@ -11,10 +11,13 @@ of at most `step` (the box's diagonal / STEPS_ACROSS), at most MAX_PIECES, and e
 piece takes the coefficients at its midpoint; before and after the box only the homogeneous media remain. On those
 pieces every closed form of the homogeneous case holds piece by piece: the optical depth tau(s) is piecewise linear,
 T(s) = exp(-tau(s)), the emission sums e (1 - exp(-sigma d)) / sigma exp(-tau) over the pieces, and free flight
-inverts tau exactly. The midpoint rule integrates a density linear along the ray exactly, and a smooth one to second
-order in the step. (Cycles 5.0 samples these media without bias by null scattering with a majorant from an octree;
-its mean is the exact integral, which the march approaches as the steps shrink: its Step Rate and Max Steps change
-Cycles' noise, not its mean.)
+inverts tau exactly. The march is the **proposal**: its estimates are corrected without bias (issue 35), as Cycles 5.0
+samples these media by null scattering (its mean the exact integral; its Step Rate and Max Steps change its noise,
+not its mean): every transmittance is residual ratio tracking against a control linear on each piece
+(`March.transmittance`, `March.track`), a sampled point weighs the true coefficients there (`March.true_at`) against
+the march's pdf, and where the march has a hole (a piece of no extinction at its midpoint) free flight draws a share
+of its distances uniformly in the box (`March.uniform_share`). The emission is still summed on the pieces
+(`March.emitted`: each of its midpoint's emission and extinction), the one part that is marched.
 
 Where a path scatters, the closures run again at the point itself to set up its phase functions (`Field.phase_at`:
 the Phase menu's functions with their inputs there, links included, as Cycles runs the shader at the scattering point),
