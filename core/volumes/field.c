@@ -21,8 +21,9 @@ typedef struct {
     int tracked;
     const MediaTables *media;
     VolumeStack stack;
-    double O[3], D[3], hom_t[3], hom_s[3], hom_gs;
+    double O[3], D[3], hom_t[3], hom_s[3], hom_e[3], hom_gs;
     double mid[MAX_PIECES + 2], slope[MAX_PIECES + 2][3], mu[MAX_PIECES + 2], M[MAX_PIECES + 3];
+    double eslope[MAX_PIECES + 2][3];    /* the emission's control slope (March.emitted) */
     double share;                        /* March.uniform_share: UNIFORM_SHARE where the march has a hole, else 0 */
     uint64_t key;
 } March;
@@ -277,7 +278,7 @@ static void march_track(March *m, int K)
         m->mid[j] = 0.5 * (m->edges[j] + m->edges[j + 1]);
         m->mu[j] = 0.0;
         d2[j] = 0.0;
-        for (int c = 0; c < 3; c++) m->slope[j][c] = 0.0;
+        for (int c = 0; c < 3; c++) m->slope[j][c] = m->eslope[j][c] = 0.0;
     }
     for (int j = 1; j <= K; j++) {
         int left = j >= 2, right = j + 1 <= K;
@@ -286,6 +287,10 @@ static void march_track(March *m, int K)
             m->slope[j][c] = left && right ? (s[j + 1][c] - s[j - 1][c]) / (m->mid[j + 1] - m->mid[j - 1])
                              : right ? (s[j + 1][c] - s[j][c]) / (m->mid[j + 1] - m->mid[j])
                              : left ? (s[j][c] - s[j - 1][c]) / (m->mid[j] - m->mid[j - 1]) : 0.0;
+            double (*e)[3] = m->emission;
+            m->eslope[j][c] = left && right ? (e[j + 1][c] - e[j - 1][c]) / (m->mid[j + 1] - m->mid[j - 1])
+                              : right ? (e[j + 1][c] - e[j][c]) / (m->mid[j + 1] - m->mid[j])
+                              : left ? (e[j][c] - e[j - 1][c]) / (m->mid[j] - m->mid[j - 1]) : 0.0;
             if (left && right) {
                 double x = (s[j + 1][c] - s[j][c]) - (s[j][c] - s[j - 1][c]);
                 x = x < 0.0 ? -x : x;
@@ -330,6 +335,20 @@ static double march_fields_at(const March *m, double x, double *sigma_t, double 
     }
     for (int c = 0; c < 3; c++) { sigma_t[c] = m->hom_t[c] + (sa[c] + ss[c]); sigma_s[c] = m->hom_s[c] + ss[c]; }
     return m->hom_gs + sg;
+}
+
+/* March.fields_at's emission (3) at distance x along the march's ray (the homogeneous part plus each field's). */
+static void march_fields_emission(const March *m, double x, double *emission)
+{
+    double P[3], se[3] = {0.0, 0.0, 0.0};
+    for (int c = 0; c < 3; c++) P[c] = m->O[c] + x * m->D[c];
+    for (const VolumeField *f = m->media->fields; f != NULL; f = f->next) {
+        double count = (double)m->stack.count[f->column], fa[3], fs[3], fe[3], fg;
+        if (!(count > 0.0)) continue;
+        field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
+        for (int c = 0; c < 3; c++) se[c] += count * fe[c];
+    }
+    for (int c = 0; c < 3; c++) emission[c] = m->hom_e[c] + se[c];
 }
 
 /* field.py March for one ray O + s D (3 each) over [0, t) (inf: to the world) in the media `stack`, whose
@@ -395,7 +414,13 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
     /* 4. What ratio tracking corrects its estimates by. */
     m->media = media;
     m->stack = *stack;
-    for (int c = 0; c < 3; c++) { m->O[c] = O[c]; m->D[c] = D[c]; m->hom_t[c] = sigma_t[c]; m->hom_s[c] = sigma_s[c]; }
+    for (int c = 0; c < 3; c++) {
+        m->O[c] = O[c];
+        m->D[c] = D[c];
+        m->hom_t[c] = sigma_t[c];
+        m->hom_s[c] = sigma_s[c];
+        m->hom_e[c] = emission[c];
+    }
     m->hom_gs = gs_h;
     march_track(m, K);
 }
@@ -443,9 +468,18 @@ static void march_transmittance(const March *m, double s, double *T)
     }
 }
 
-/* March.emitted: the light (3) the pieces' emission sends to the ray's start, added to out. */
-INLINE void march_emitted(const March *m, double *out)
+/* field.py slope_integral: the integral over y in [0, 1] of (y - 1/2) exp(-u y); the series below 1e-3. */
+INLINE double slope_integral(double u)
 {
+    if (fabs(u) < 1e-3) return u * (-1.0 / 12.0 + u * (1.0 / 24.0 - u / 80.0));
+    return (-expm1(-u) - u * exp(-u)) / (u * u) + expm1(-u) / (2.0 * u);
+}
+
+/* March.emitted: the light (3) the pieces' emission sends to the ray's start, and where an emitting field is in
+ * the box the correction at one point that makes it unbiased there; added to out. */
+static void march_emitted(const March *m, double *out)
+{
+    double total[3];
     for (int c = 0; c < 3; c++) {
         double sum = 0.0;
         for (int j = 0; j < m->n; j++) {
@@ -454,8 +488,49 @@ INLINE void march_emitted(const March *m, double *out)
             double each = (sigma > 0.0 ? e * -expm1(-sigma * width) / sigma : e * width) * exp(-m->tau[j][c]);
             sum += each != each ? 0.0 : each;
         }
-        out[c] += sum;
+        total[c] = sum;
     }
+    if (m->tracked) {                     /* (the control's linear part: slope_integral per inner piece) */
+        for (int c = 0; c < 3; c++) {
+            double sum = 0.0;
+            for (int j = 1; j <= m->n - 2; j++) {
+                double w = m->edges[j + 1] - m->edges[j], k = m->eslope[j][c];
+                double bent = k != 0.0 ? ((k * (w * w)) * slope_integral(m->sigma_t[j][c] * w)) * exp(-m->tau[j][c])
+                                       : 0.0;
+                sum += bent != bent ? 0.0 : bent;
+            }
+            total[c] += sum;
+        }
+    }
+    int emits = 0;
+    for (const VolumeField *f = m->tracked ? m->media->fields : NULL; f != NULL; f = f->next)
+        emits |= f->emits != 0 && m->stack.count[f->column] > 0;
+    double a = m->edges[1], b = m->edges[m->n - 1];
+    if (emits && b > a) {
+        double s = a + tracking_u(m->key, (int64_t)EMISSION_DRAW) * (b - a), T[3], e_true[3];
+        march_transmittance(m, s, T);
+        int k = march_piece(m, s);
+        march_fields_emission(m, s, e_true);
+        for (int c = 0; c < 3; c++) {
+            double sigma = m->sigma_t[k][c];                /* (March.depth) */
+            double tau = m->tau[k][c] + (sigma > 0.0 ? sigma * (s - m->edges[k]) : 0.0);
+            double control = m->emission[k][c] + m->eslope[k][c] * (s - m->mid[k]);
+            total[c] += (e_true[c] * T[c] - control * exp(-tau)) * (b - a);
+        }
+    }
+    int last = m->n - 1;                  /* (a homogeneous medium's emission after the box: T at the box's end) */
+    const double *e_last = m->emission[last];
+    if (m->tracked && b > a && (e_last[0] != 0.0 || e_last[1] != 0.0 || e_last[2] != 0.0)) {
+        double T[3], w = m->edges[last + 1] - m->edges[last];
+        march_transmittance(m, b, T);
+        for (int c = 0; c < 3; c++) {
+            double e = e_last[c], sigma = m->sigma_t[last][c];
+            double after = e != 0.0 ? (sigma > 0.0 ? e * -expm1(-sigma * w) / sigma : e * w) : 0.0;
+            double more = after * (T[c] - exp(-m->tau[last][c]));
+            total[c] += more != more ? 0.0 : more;
+        }
+    }
+    for (int c = 0; c < 3; c++) out[c] += total[c];
 }
 
 /* What a stretch of a ray lets through: Beer-Lambert on its homogeneous extinction sigma_t (3), or its march where

@@ -43,6 +43,8 @@ MAX_PIECES = schema.constant("MAX_PIECES", 256, "the most pieces a march cuts on
 # The most points a heterogeneous medium's graph runs at in one go (its registers: points x the program's registers).
 POINTS_AT_ONCE = 1 << 16
 # The factor on a piece's second difference of sigma_t (its neighbours' midpoints) that makes its majorant.
+EMISSION_DRAW = schema.constant("EMISSION_DRAW", 1 << 40, "the number of a ray's stream that places its "
+                                "emission's correction point (past any ratio-tracking walk's)")
 UNIFORM_SHARE = schema.constant("UNIFORM_SHARE", 0.25, "the odds that free flight in a heterogeneous medium draws "
                                 "its distance uniformly in the media's box (field.py March.uniform_share)")
 TRACKING_SAFETY = schema.constant("TRACKING_SAFETY", 8.0, "the factor on a piece's second difference of sigma_t "
@@ -286,6 +288,17 @@ class Field:
             yield k, part, values
 
 
+def slope_integral(u: np.ndarray) -> np.ndarray:
+    """g(u) = integral over y in [0, 1] of (y - 1/2) exp(-u y) (any shape, float64): a piece's linear part's weight
+    under Beer-Lambert, u its optical depth; the series -u/12 + u^2/24 - u^3/80 below 1e-3 (C: field.c
+    slope_integral)."""
+    u = np.asarray(u, np.float64)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        big = (-np.expm1(-u) - u * np.exp(-u)) / (u * u) + np.expm1(-u) / (2.0 * u)
+    small = u * (-1.0 / 12.0 + u * (1.0 / 24.0 - u / 80.0))
+    return np.where(np.abs(u) < 1e-3, small, big)
+
+
 class March:
     """The pieces of n rays O + s D over [0, t) through heterogeneous media (`Media.fields`, counts (n, F) in each)
     and homogeneous ones (a Stretch's constant part): piece 0 before the media's box, pieces 1..K inside it (each of
@@ -379,6 +392,15 @@ class March:
         slope = np.where(both, central, np.where(r3, d_right, np.where(l3, d_left, 0.0)))
         self.slope = np.zeros_like(sig)
         self.slope[:, 1:-1] = slope
+        # (the emission's control slope the same way: March.emitted)
+        e = self.emission
+        with np.errstate(invalid="ignore", divide="ignore"):
+            e_left = (e[:, 1:-1] - e[:, :-2]) / np.where(left, self.mid[:, 1:-1] - self.mid[:, :-2], 1.0)[:, :, None]
+            e_right = (e[:, 2:] - e[:, 1:-1]) / np.where(right, self.mid[:, 2:] - self.mid[:, 1:-1], 1.0)[:, :, None]
+            e_central = (e[:, 2:] - e[:, :-2]) / np.where(left & right, self.mid[:, 2:] - self.mid[:, :-2],
+                                                          1.0)[:, :, None]
+        self.eslope = np.zeros_like(e)
+        self.eslope[:, 1:-1] = np.where(both, e_central, np.where(r3, e_right, np.where(l3, e_left, 0.0)))
         # The second differences where both neighbours are inner; a boundary piece takes its inner neighbour's.
         d2 = np.where(both, (sig[:, 2:] - sig[:, 1:-1]) - (sig[:, 1:-1] - sig[:, :-2]), 0.0).max(axis=2)
         d2 = np.maximum(d2, -np.where(both, (sig[:, 2:] - sig[:, 1:-1]) - (sig[:, 1:-1] - sig[:, :-2]),
@@ -594,14 +616,54 @@ class March:
         return self.sigma_t[rows, k], sigma_s, g
 
     def emitted(self) -> np.ndarray:
-        """The light (n, 3) float64 the pieces' emission sends to the rays' starts: the sum over pieces of
-        e (1 - exp(-sigma d)) / sigma (e d where sigma is 0) times exp(-tau) at the piece's start."""
+        """The light (n, 3) float64 the media's emission sends to the rays' starts: the sum over pieces of
+        e (1 - exp(-sigma d)) / sigma (e d where sigma is 0) times exp(-tau) at the piece's start, and where an
+        emitting field is in the box a correction that makes it unbiased there (one point), and a homogeneous
+        medium's emission after the box weighed by ratio tracking's T at the box's end (C: march_emitted)."""
         width = np.diff(self.edges, axis=1)[:, :, None]
         e, sigma = self.emission, self.sigma_t
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
             each = np.where(sigma > 0.0, e * -np.expm1(-sigma * width) / np.where(sigma > 0.0, sigma, 1.0), e * width)
             each = np.where(e != 0.0, each, 0.0) * np.exp(-self.tau[:, :-1])
-        return np.nan_to_num(each, nan=0.0).sum(axis=1)
+        total = np.nan_to_num(each, nan=0.0).sum(axis=1)
+        if self.mu is None:
+            return total
+        # The pieces' sum corrected without bias inside the box, a control variate: the control's emission linear on
+        # each piece (its midpoint's, the neighbours' slope k) times the march's T, whose integral adds
+        # k w^2 g(sigma w) exp(-tau) per piece (slope_integral); one point s uniform in [a, b) (the ray's stream,
+        # number EMISSION_DRAW) adds (e(s) T(s) - e_c(s) T_m(s)) (b - a), e and T the true emission there and ratio
+        # tracking's estimate (exact, noiseless, for an emission linear along the ray in a medium the control's
+        # T fits).
+        from .tracking import stream
+        width = np.diff(self.edges, axis=1)[:, 1:-1, None]
+        with np.errstate(invalid="ignore", over="ignore"):
+            bent = np.where(self.eslope[:, 1:-1] != 0.0, self.eslope[:, 1:-1] * (width * width)
+                            * slope_integral(self.sigma_t[:, 1:-1] * width) * np.exp(-self.tau[:, 1:-2]), 0.0)
+        total = total + np.nan_to_num(bent, nan=0.0).sum(axis=1)
+        emits = np.zeros(len(total), bool)
+        for f, field in enumerate(self.fields):
+            if field.emits:
+                emits |= self.counts[:, f] > 0.0
+        a, b = self.edges[:, 1], self.edges[:, -2]
+        rows = np.flatnonzero(emits & (b > a))
+        if len(rows):
+            s = a + stream(self.keys, EMISSION_DRAW) * (b - a)
+            T = self.transmittance(s)[rows]
+            k = self.piece(s)[rows]
+            e_true = self.fields_at(rows, s[rows])[2]
+            control = self.emission[rows, k] + self.eslope[rows, k] * (s[rows] - self.mid[rows, k])[:, None]
+            e_march = control * np.exp(-self.depth(s)[rows])
+            total[rows] += (e_true * T - e_march) * (b - a)[rows, None]
+        # A homogeneous medium's emission after the box: its closed form times ratio tracking's T at the box's end.
+        rows = np.flatnonzero((self.emission[:, -1] != 0.0).any(axis=1) & (b > a))
+        if len(rows):
+            e, sigma, w = self.emission[rows, -1], self.sigma_t[rows, -1], np.diff(self.edges, axis=1)[rows, -1, None]
+            with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+                after = np.where(sigma > 0.0, e * -np.expm1(-sigma * w) / np.where(sigma > 0.0, sigma, 1.0), e * w)
+                after = np.where(e != 0.0, after, 0.0)
+                T = self.transmittance(b)[rows]
+                total[rows] += np.nan_to_num(after * (T - np.exp(-self.tau[rows, -2])), nan=0.0)
+        return total
 
     def totals(self) -> tuple:
         """(tau_t, tau_s) (n, 3): the optical depths of extinction and of scattering over the whole rays (finite
@@ -685,7 +747,7 @@ def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRec
     kinds, weights, table, factors = inputs_table(field)
     return VolumeFieldRecord(
         graph=graph_.program_tables([field.program], field.textures), next=following, column=int(column),
-        closures=len(kinds), scatters=int(field.scatters), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
+        closures=len(kinds), scatters=int(field.scatters), emits=int(field.emits), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
         factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
         matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
         linear=field.linear.reshape(-1), placement=field.placement, phases=c(field.phases), hot=c(field.hot),
@@ -720,6 +782,7 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("column", I32, "its column of the MediaTables (how often a ray is in it: the volume stack's count there)"),
     ("closures", I32, "C: its Volume output's closures"),
     ("scatters", I32, "1: some closure of it may scatter (Field.scatters)"),
+    ("emits", I32, "1: some closure of it may emit (Field.emits)"),
     ("kinds", ptr(I32), "(C,) each closure's VOLUME_CLOSURE_*"),
     ("weights", ptr(F64), "(C,) the Mix and Add Shaders' weight above each"),
     ("inputs", ptr(F64), "(C, VOLUME_INPUTS, 5) each input's register (-1: its constant), width, constant (3)"),

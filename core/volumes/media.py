@@ -23,8 +23,8 @@ scatters the same way (`Media.along`, media.c medium_scattering).
 `Media` is one table per render: a column per material with a volume, the world's medium, and which materials are
 volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME). A material
 whose closures have inputs fed by links is a heterogeneous medium (field.py Field): its column's constant
-coefficients are zero and its rays are marched (`Stretch.march`), the march the proposal that ratio tracking corrects
-(`Stretch.transmittance`: unbiased) and its emission summed on the pieces (`emitted`: the one part still marched).
+coefficients are zero and its rays are marched (`Stretch.march`), the march the proposal whose estimates ratio
+tracking and control variates make unbiased (`Stretch.transmittance`, `emitted`: field.March).
 """
 from __future__ import annotations
 
@@ -292,14 +292,6 @@ class Media:
             return None
         hidden, seen = shadow_visibility(geometry, [medium is not None for medium in media])
         made = cls(media, boundary, world, fields, hidden & ~seen)
-        glowing = [row for row, field in fields.items() if field.emits]
-        if glowing:
-            names = ", ".join(repr(getattr(materials[row], "name", row)) for row in glowing)
-            made.notes.append(f"volumes: the medium of {names} varies from point to point and emits; Primer marches "
-                              f"its emission in pieces of 1/{field_.STEPS_ACROSS} of its box's diagonal, each of its "
-                              "midpoint's emission and extinction, where Cycles 5.0 samples it without bias (its "
-                              "transmittance and scattering are unbiased in Primer too: ratio tracking): a smooth "
-                              "emission differs by the square of the step")
         if (hidden & seen).any():
             names = ", ".join(repr(getattr(materials[row], "name", row)) for row in np.flatnonzero(hidden & seen))
             made.notes.append(f"volumes: the medium of {names} is on objects hidden from shadow rays and on objects "
