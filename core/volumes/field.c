@@ -3,9 +3,12 @@
  * A heterogeneous medium's node graph (graph.c run_program) runs at points inside it (`field_at`: Field.at), and a
  * ray's stretch through the media is cut into pieces (`march_of`: field.py March): piece 0 before the box of the
  * heterogeneous media, at most MAX_PIECES pieces of at most field_step inside it (each with its midpoint's
- * coefficients), the last after it. On those pieces the optical depth is piecewise linear: Beer-Lambert
- * (`march_transmittance`) and the media's emission (`march_emitted`) hold piece by piece. The same constants
- * (STEPS_ACROSS, MAX_PIECES) and the same sums as the Python, so the kernels agree to rounding. */
+ * coefficients), the last after it. The march is the proposal (free flight, its pdfs); its estimates are made
+ * unbiased as field.py's: residual ratio tracking for every transmittance (`march_track`, `march_transmittance`),
+ * the true coefficients at sampled points (`march_true_at`), a uniform share where it has a hole (`march_share`),
+ * and the emission's control variate corrected at one point (`march_emitted`). The same constants (STEPS_ACROSS,
+ * MAX_PIECES, TRACKING_SAFETY, UNIFORM_SHARE, KEY_GRID, EMISSION_DRAW) and the same sums as the Python, and each
+ * ray's walks drawn from the same stream (its key), so the kernels agree to rounding but where a ray's key differs. */
 
 /* The pieces of one ray O + s D over [0, t): `n` pieces (K + 2), their ends edges[0..n], each piece's extinction,
  * scattering and emission (3) and anisotropy-weighted scattering, and the optical depth tau (3) at each end. */

@@ -16,8 +16,8 @@ samples these media by null scattering (its mean the exact integral; its Step Ra
 not its mean): every transmittance is residual ratio tracking against a control linear on each piece
 (`March.transmittance`, `March.track`), a sampled point weighs the true coefficients there (`March.true_at`) against
 the march's pdf, and where the march has a hole (a piece of no extinction at its midpoint) free flight draws a share
-of its distances uniformly in the box (`March.uniform_share`). The emission is still summed on the pieces
-(`March.emitted`: each of its midpoint's emission and extinction), the one part that is marched.
+of its distances uniformly in the box (`March.uniform_share`), and the emission is the pieces' sum as a control
+variate corrected at one point per ray (`March.emitted`). Only the denoising features still read the pieces alone.
 
 Where a path scatters, the closures run again at the point itself to set up its phase functions (`Field.phase_at`:
 the Phase menu's functions with their inputs there, links included, as Cycles runs the shader at the scattering point),
