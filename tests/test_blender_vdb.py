@@ -120,10 +120,11 @@ def test_a_box_of_voxels_absorbs_exp_of_minus_sigma_n_voxels(primer, openvdb, tm
     is the plane's emission x exp(-3.2), in both kernels. The object scaled by 2 with Render > Space Object keeps
     it (Cycles divides the density by the scale: object_volume_density), with Space World it doubles. With Volume >
     Interpolation Cubic (Cycles' cubic B-spline, the box padded by two voxels) every voxel's spline lies inside the
-    box and integrates to one voxel: the same exp(-3.2), to 1.7e-6 (the smooth spline leaves the march no kinks).
-    Within 2e-3: Primer's march takes each piece's midpoint (core/volumes/field.py), exact on the linear stretches
-    but 9.5e-4 off in tau measured where pieces straddle the ramps' kinks at the first and last voxel centres; the
-    kernels agree to 1e-6."""
+    box and integrates to one voxel: the same exp(-3.2). Primer's transmittance is ratio tracking on its march
+    (core/volumes/field.py March.transmittance: unbiased; the march's midpoints alone were 9.5e-4 off in tau where
+    pieces straddle the ramps' kinks at the first and last voxel centres), noisy only there: at 64 samples the
+    interior's mean measured within 4e-4 of exp(-3.2) (standard error 1e-3), each pixel within 0.6 % (standard
+    deviation). Bounds: the mean within 4e-3, each pixel within 5 %."""
     scene = ortho_scene(16, 16, 4.0)
     scene.primer.kernels = kernels
     glow = np.array([1.0, 0.8, 0.5])
@@ -137,22 +138,16 @@ def test_a_box_of_voxels_absorbs_exp_of_minus_sigma_n_voxels(primer, openvdb, tm
     obj = volume_object(scene, "Box", path, material, (0.0, 0.0, 1.0 - scale))
     obj.scale = (scale, scale, scale)
     obj.data.render.space = space
-    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 2)[..., :3]
+    mine = render_pixels(scene, "PRIMER", str(tmp_path / "primer.exr"), 64)[..., :3]
     render = addon(primer, "engine").last_render
     assert render.stats.kernels.startswith(kernels.lower())
     assert not [w for w in render.warnings if "Box" in w], render.warnings
     # (pixel c's centre x = -2 + (c + 0.5) / 4: the voxel centres -1 .. 0.75 cover columns 4 .. 10)
     depth = 1.6 * 8 * 0.25 * (scale if space == "WORLD" else 1.0)
-    np.testing.assert_allclose(mine[5:10, 5:10], np.broadcast_to(glow * np.exp(-depth), (5, 5, 3)), rtol=2e-3)
+    np.testing.assert_allclose(mine[5:10, 5:10].mean(axis=(0, 1)), glow * np.exp(-depth), rtol=4e-3)
+    np.testing.assert_allclose(mine[5:10, 5:10], np.broadcast_to(glow * np.exp(-depth), (5, 5, 3)), rtol=5e-2)
     if scale == 1.0:
-        np.testing.assert_allclose(mine[5:10, 5:10], np.broadcast_to(BOX_COMPILED[reader], (5, 5, 3)), rtol=3e-6)
         np.testing.assert_allclose(mine[0, 0], glow, rtol=1e-6)   # (outside the box: the plane's own emission)
-
-
-# The compiled kernel's pixel over the box's interior (measured; Cubic: the closed form, met to 1.7e-6): the reference
-# agrees with it to 1e-6.
-BOX_COMPILED = {"PRINCIPLED": np.array([0.04072344, 0.03257876, 0.02036172]),
-                "CUBIC": np.array([1.0, 0.8, 0.5]) * np.exp(-3.2)}
 
 
 def fog_sphere(openvdb) -> str:

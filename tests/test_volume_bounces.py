@@ -85,7 +85,9 @@ def noise_density() -> Link:
 def test_a_medium_that_absorbs_nothing_stays_white_under_a_white_world_with_enough_bounces(density, kernels):
     """A white Volume Scatter cube (homogeneous, or of a Noise-driven density) under a white world: with Volume
     Bounces 64 every path leaves it carrying all its light (exactly 1), with none the light scattered more than
-    twice is missing (the paths that scatter reach the cube's faces and go on from there)."""
+    twice is missing (the paths that scatter reach the cube's faces and go on from there). The Noise-driven cube
+    within the noise of its estimates (white in the mean: ratio tracking's T and the true density at the points
+    against the march's pdf no longer cancel exactly, as the march's own weights did)."""
     scene = Scene(camera=camera())
     scene.world = World(color=np.ones(3))
     scene.world_color = np.ones(3)
@@ -93,7 +95,10 @@ def test_a_medium_that_absorbs_nothing_stays_white_under_a_white_world_with_enou
     scene.materials.append(Material(np.zeros(3), "Fog", nodes=[("TRANSPARENT", np.ones(3), {})],
                                     volume=[("SCATTER", 1.0, medium)], volume_only=True))
     scene.add_mesh(primitives.box((2.0, 2.0, 2.0)), materials=np.array([0]))
-    np.testing.assert_allclose(rendered(scene, 64, kernels=kernels), np.ones(3), rtol=1e-5)
+    if density == 1.0:
+        np.testing.assert_allclose(rendered(scene, 64, kernels=kernels), np.ones(3), rtol=1e-5)
+    else:                           # (32 samples: the mean's standard error about 1.5 %, and 4 of them allowed)
+        np.testing.assert_allclose(rendered(scene, 64, samples=32, kernels=kernels), np.ones(3), rtol=0.06)
     assert (rendered(scene, 0, kernels=kernels) < 0.9).all()
 
 

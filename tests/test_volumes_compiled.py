@@ -22,8 +22,8 @@ COLOR = np.array([0.2, 0.5, 0.8])
 
 
 def unexpected(warnings: list) -> list:
-    """The warnings but the one every heterogeneous medium gives (its midpoint march, not Cycles' null scattering)."""
-    return [w for w in warnings if "marches it in pieces" not in w]
+    """The warnings (a heterogeneous medium gives none: it renders without bias)."""
+    return list(warnings)
 
 
 def fog(name: str = "Fog", closure: str = "ABSORPTION", surface=None, **inputs) -> Material:
@@ -88,6 +88,19 @@ def assert_same_pixels(reference: np.ndarray, compiled: np.ndarray) -> None:
     """Every pixel within 4e-7 absolute and 1e-6 relative (a few float32 ulps), and something to see."""
     assert reference[..., :3].max() > 0.01
     np.testing.assert_allclose(compiled, reference, rtol=1e-6, atol=4e-7)
+
+
+def assert_same_tracked_pixels(reference: np.ndarray, compiled: np.ndarray, rtol: float = 1e-4) -> None:
+    """A heterogeneous medium's render (ratio tracking, its walks' numbers keyed by each ray on a 2^-20 grid,
+    core/volumes/tracking.py ray_keys): nine in ten values within a few float32 ulps as assert_same_pixels, and the
+    rest within the tracking's noise (rtol: 1e-4 here): a secondary ray whose hit point the kernels compute a
+    float32 ulp apart now and then straddles a grid line and walks other tentative collisions (in a Volume Bounces
+    chain its throughput may then pick another channel and the path goes elsewhere: rtol 0.05)."""
+    assert reference[..., :3].max() > 0.01
+    close = np.isclose(compiled, reference, rtol=1e-6, atol=4e-7)
+    assert close.mean() >= 0.9, close.mean()
+    np.testing.assert_allclose(compiled, reference, rtol=rtol, atol=4e-7)
+    np.testing.assert_allclose(compiled.mean(axis=(0, 1)), reference.mean(axis=(0, 1)), rtol=min(rtol, 0.01))
 
 
 @pytest.mark.parametrize("integrator", ["path", "direct"])
@@ -234,7 +247,7 @@ def test_both_kernels_march_a_noise_fed_absorbing_and_glowing_box_to_the_same_pi
     glass_ball(scene)
     reference, compiled, stats = both(scene, integrator=integrator)
     assert stats.kernels == "compiled" and not unexpected(stats.warnings)
-    assert_same_pixels(reference, compiled)
+    assert_same_tracked_pixels(reference, compiled)
 
 
 @pytest.mark.parametrize("light_sampling", ["mis", "light", "bsdf"])
@@ -255,7 +268,7 @@ def test_both_kernels_scatter_light_in_a_noise_fed_smoke_to_the_same_pixels(ligh
     compiled = render(scene, RenderSettings(**settings))
     assert compiled.stats.kernels == "compiled"
     assert compiled.stats.shadow_rays == reference.stats.shadow_rays
-    assert_same_pixels(reference.image, compiled.image)
+    assert_same_tracked_pixels(reference.image, compiled.image)
 
 
 def test_both_kernels_march_a_black_body_whose_temperature_a_noise_sets_to_the_same_pixels():
@@ -271,7 +284,7 @@ def test_both_kernels_march_a_black_body_whose_temperature_a_noise_sets_to_the_s
                                                   "blackbody_tint": np.array([1.0, 0.9, 0.8])})])
     reference, compiled, stats = both(scene)
     assert stats.kernels == "compiled" and not unexpected(stats.warnings)
-    assert_same_pixels(reference, compiled)
+    assert_same_tracked_pixels(reference, compiled)
 
 
 @pytest.mark.parametrize("integrator", ["path", "direct"])
@@ -322,8 +335,14 @@ def test_both_kernels_follow_volume_bounces_chains_to_the_same_pixels(medium):
     reference = render(scene, RenderSettings(kernels="numpy", **settings))
     compiled = render(scene, RenderSettings(**settings))
     assert compiled.stats.kernels == "compiled" and not unexpected(compiled.stats.warnings)
-    assert compiled.stats.shadow_rays == reference.stats.shadow_rays
-    assert_same_pixels(reference.image, compiled.image)
+    if medium == "noise":           # (a path whose walks the kernels key apart may pick another channel)
+        assert abs(compiled.stats.shadow_rays / reference.stats.shadow_rays - 1.0) < 0.03
+    else:
+        assert compiled.stats.shadow_rays == reference.stats.shadow_rays
+    if medium == "noise":
+        assert_same_tracked_pixels(reference.image, compiled.image, rtol=0.05)
+    else:
+        assert_same_pixels(reference.image, compiled.image)
 
 
 @pytest.mark.parametrize("bounces", [0, 2])
@@ -405,4 +424,4 @@ def test_both_kernels_sample_a_volume_objects_grids_to_the_same_pixels():
     scene.add_mesh(primitives.box((1.6, 1.6, 1.6), center=(0.0, 0.0, 0.8)), materials=np.array([len(scene.materials) - 1]))
     reference, compiled, stats = both(scene)
     assert stats.kernels == "compiled" and not unexpected(stats.warnings)
-    assert_same_pixels(reference, compiled)
+    assert_same_tracked_pixels(reference, compiled)

@@ -238,7 +238,7 @@ static int64_t equiangular_lamps(const DirectSettings *ds, const PathLimits *lim
         for (int c = 0; c < 3; c++) X[c] = O[c] + s_e * D[c];
         if (m != NULL) {
             w = pdf_e / (pdf_e + (collision ? march_collision_pdf(m, odds, s_e) : march_pdf(m, odds, s_e)));
-            double g = march_at(m, s_e, at_t, at_s);
+            double g = march_true_at(m, s_e, at_t, at_s);
             if (phase != NULL) here = *phase;
             else phase_at(ds->media, inside, X, g, &here);     /* (a heterogeneous medium: its phase there) */
             march_transmittance(m, s_e, kept);
@@ -273,7 +273,7 @@ static int64_t marched_scattering(const DirectSettings *ds, const PathLimits *li
     if (pdf > 0.0) {
         double sigma_t[3], sigma_s[3], kept[3], P[3], scattered[3];
         Phase phase;
-        double g = march_at(m, s, sigma_t, sigma_s);
+        double g = march_true_at(m, s, sigma_t, sigma_s);
         march_transmittance(m, s, kept);
         for (int c = 0; c < 3; c++) P[c] = O[c] + s * D[c];
         phase_at(ds->media, inside, P, g, &phase);       /* (a heterogeneous medium: its phase function there) */
@@ -388,7 +388,7 @@ static int64_t scatter_or_pass(const DirectSettings *ds, const PathLimits *limit
     if (passed) return rays;
     /* 3. The collision: the light scattered there, and the phase ray the path goes on along. */
     double at_t[3], at_s[3], kept[3], light[3], wo[3] = {-D[0], -D[1], -D[2]};
-    double g_here = march_at(&march, s, at_t, at_s);
+    double g_here = march_true_at(&march, s, at_t, at_s);
     Phase here = phase;
     march_transmittance(&march, s, kept);
     for (int c = 0; c < 3; c++) { next->weight[c] = kept[c] * at_s[c] / pdf; next->P[c] = O[c] + s * D[c]; }

@@ -26,9 +26,9 @@ the two, with less noise. Only stretches the path may still bounce on scatter (C
 limits only absorbs and emits). Cycles also samples the distance towards each lamp (equi-angular sampling) and mixes
 it with this one: the noise differs, not the mean.
 
-Heterogeneous media (core/volumes/field.py) take the same estimate on the pieces of their march
-(`marched_scattering`). With Volume Bounces N > 0 a path goes on from where it scatters, N times
-(`multiple_scattering`): on a stretch of a path with volume bounces left, untruncated free flight decides whether it
+Heterogeneous media (core/volumes/field.py) take the same estimate with their march as the proposal
+(`marched_scattering`): ratio tracking's T and the true coefficients at the point over the march's pdf.
+With Volume Bounces N > 0 a path goes on from where it scatters, N times (`multiple_scattering`): on a stretch of a path with volume bounces left, untruncated free flight decides whether it
 collides (and goes on along its phase ray from there) or passes to the surface behind (`scatter_or_pass`).
 """
 from __future__ import annotations
@@ -204,7 +204,7 @@ def marched_scattering(ctx: Context, stretch, O: np.ndarray, D: np.ndarray, t: n
     # 1. The free-flight point, its weight T(s) sigma_s(s) / pdf(s).
     u = sampling.sample_2d(ctx.settings.seed, pixel, sample, dimension=DISTANCE_DIMENSION + dimension)
     s, pdf = march.free_flight(odds, u)
-    _, sigma_s, g = march.at(s)
+    _, sigma_s, g = march.true_at(s)
     ok = np.flatnonzero(pdf > 0.0)
     shadow_rays = 0
     lamps = equiangular_lamps(ctx)
@@ -243,7 +243,7 @@ def equiangular_light(ctx: Context, march, distance_pdf, O: np.ndarray, D: np.nd
             continue
         at = np.where(pdf_e > 0.0, s_e, 0.0)
         w = pdf_e / (pdf_e + distance_pdf(at))
-        _, sigma_e, g_e = march.at(at)
+        _, sigma_e, g_e = march.true_at(at)
         T = march.transmittance(at) * sigma_e
         X = O[chosen] + s_e[chosen, None] * D[chosen]
         phase = (Phases.henyey_greenstein(g_e[chosen]) if phases is None else
@@ -443,7 +443,7 @@ def scatter_or_pass(ctx: Context, O: np.ndarray, D: np.ndarray, t: np.ndarray, i
         if len(hit) == 0:
             continue
         at = np.where(passed, 0.0, s)
-        _, sigma_s, g = march.at(at)
+        _, sigma_s, g = march.true_at(at)
         weight = (march.transmittance(at) * sigma_s)[hit] / pdf[hit, None]
         here = group[hit]
         P = O[here] + s[hit, None] * D[here]

@@ -350,6 +350,12 @@
 #define STEPS_ACROSS 100
 /* the most pieces a march cuts one stretch of a ray into (core.volumes.field) */
 #define MAX_PIECES 256
+/* the number of a ray's stream that places its emission's correction point (past any ratio-tracking walk's) (core.volumes.field) */
+#define EMISSION_DRAW 1099511627776
+/* the odds that free flight in a heterogeneous medium draws its distance uniformly in the media's box (field.py March.uniform_share) (core.volumes.field) */
+#define UNIFORM_SHARE 0.25
+/* the factor on a piece's second difference of sigma_t that makes its ratio-tracking majorant (core.volumes.field) */
+#define TRACKING_SAFETY 8.0
 /* a volume input's row in VolumeField.inputs (core.volumes.field) */
 #define VOLUME_INPUT_COLOR 0
 #define VOLUME_INPUT_ABSORPTION_COLOR 1
@@ -394,6 +400,10 @@
 #define PHASE_PARAMETERS 4
 /* the most phase functions a heterogeneous medium's point mixes (core.volumes.phase) */
 #define PHASE_LOBES 8
+/* cells per unit of the grid a ray's stream is keyed on (core.volumes.tracking) */
+#define KEY_GRID 1048576.0
+/* the most grid cells a ray's key counts either way (core.volumes.tracking) */
+#define KEY_LIMIT 1000000000000000.0
 
 /* core/materials/registry.py BSDF_TYPES: a closure's kind */
 enum {
@@ -1223,6 +1233,7 @@ struct VolumeField {
     int32_t column;                         /* its column of the MediaTables (how often a ray is in it: the volume stack's count there) */
     int32_t closures;                       /* C: its Volume output's closures */
     int32_t scatters;                       /* 1: some closure of it may scatter (Field.scatters) */
+    int32_t emits;                          /* 1: some closure of it may emit (Field.emits) */
     const int32_t *kinds;                   /* (C,) each closure's VOLUME_CLOSURE_* */
     const double *weights;                  /* (C,) the Mix and Add Shaders' weight above each */
     const double *inputs;                   /* (C, VOLUME_INPUTS, 5) each input's register (-1: its constant), width, constant (3) */
@@ -1340,7 +1351,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TextureTables") == 0) return UINT64_C(8257129220582998686);
     if (strcmp(name, "TextureLookupArgs") == 0) return UINT64_C(5943643459088146714);
     if (strcmp(name, "Sample2dArgs") == 0) return UINT64_C(5363304876790279351);
-    if (strcmp(name, "VolumeField") == 0) return UINT64_C(5515668663295301966);
+    if (strcmp(name, "VolumeField") == 0) return UINT64_C(4923474972672114994);
     if (strcmp(name, "MediaTables") == 0) return UINT64_C(6367773730817885968);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
     if (strcmp(name, "TrackingRowsArgs") == 0) return UINT64_C(5046997951771073899);

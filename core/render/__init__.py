@@ -539,8 +539,8 @@ def volume_reason(ctx: Context, warnings: list) -> str:
         # (features.in_media: Cycles' rule in expectation, with its unguided odds of passing a medium)
         note = ("volumes: the Denoising Albedo and Normal take scattering media as Cycles does with its unguided odds "
                 "of passing them (Cycles 5.0 guides that choice along camera rays: a few per cent apart)"
-                + ("; heterogeneous media through their march, each piece at its midpoint's coefficients, as in the "
-                   "image" if media.heterogeneous else ""))
+                + ("; heterogeneous media through their march, each piece at its midpoint's coefficients (the image "
+                   "corrects the march by ratio tracking)" if media.heterogeneous else ""))
         if note not in warnings:
             warnings.append(note)
     if len(media.g) <= volumes.MAX_MEDIA:

@@ -3,9 +3,12 @@
  * A heterogeneous medium's node graph (graph.c run_program) runs at points inside it (`field_at`: Field.at), and a
  * ray's stretch through the media is cut into pieces (`march_of`: field.py March): piece 0 before the box of the
  * heterogeneous media, at most MAX_PIECES pieces of at most field_step inside it (each with its midpoint's
- * coefficients), the last after it. On those pieces the optical depth is piecewise linear: Beer-Lambert
- * (`march_transmittance`) and the media's emission (`march_emitted`) hold piece by piece. The same constants
- * (STEPS_ACROSS, MAX_PIECES) and the same sums as the Python, so the kernels agree to rounding. */
+ * coefficients), the last after it. The march is the proposal (free flight, its pdfs); its estimates are made
+ * unbiased as field.py's: residual ratio tracking for every transmittance (`march_track`, `march_transmittance`),
+ * the true coefficients at sampled points (`march_true_at`), a uniform share where it has a hole (`march_share`),
+ * and the emission's control variate corrected at one point (`march_emitted`). The same constants (STEPS_ACROSS,
+ * MAX_PIECES, TRACKING_SAFETY, UNIFORM_SHARE, KEY_GRID, EMISSION_DRAW) and the same sums as the Python, and each
+ * ray's walks drawn from the same stream (its key), so the kernels agree to rounding but where a ray's key differs. */
 
 /* The pieces of one ray O + s D over [0, t): `n` pieces (K + 2), their ends edges[0..n], each piece's extinction,
  * scattering and emission (3) and anisotropy-weighted scattering, and the optical depth tau (3) at each end. */
@@ -15,7 +18,45 @@ typedef struct {
     double sigma_t[MAX_PIECES + 2][3], sigma_s[MAX_PIECES + 2][3], emission[MAX_PIECES + 2][3];
     double gs[MAX_PIECES + 2];
     double tau[MAX_PIECES + 3][3];
+    /* Residual ratio tracking (march_track; tracked 0: none, as March.uniform): the media and the ray, the
+     * homogeneous part, each piece's midpoint, control slope (3) and majorant, the majorant's integral M at each
+     * edge, and the ray's stream key. */
+    int tracked;
+    const MediaTables *media;
+    VolumeStack stack;
+    double O[3], D[3], hom_t[3], hom_s[3], hom_e[3], hom_gs;
+    double mid[MAX_PIECES + 2], slope[MAX_PIECES + 2][3], mu[MAX_PIECES + 2], M[MAX_PIECES + 3];
+    double eslope[MAX_PIECES + 2][3];    /* the emission's control slope (March.emitted) */
+    double share;                        /* March.uniform_share: UNIFORM_SHARE where the march has a hole, else 0 */
+    uint64_t key;
 } March;
+
+/* tracking.py mix: splitmix64's finaliser. */
+INLINE uint64_t tracking_mix(uint64_t z)
+{
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+/* tracking.py ray_keys for one ray: its origin's and direction's coordinates on a grid of KEY_GRID mixed in turn. */
+INLINE uint64_t tracking_key(const double *O, const double *D)
+{
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (int c = 0; c < 6; c++) {
+        double x = floor((c < 3 ? O[c] : D[c - 3]) * KEY_GRID);
+        x = x < -KEY_LIMIT ? -KEY_LIMIT : (x > KEY_LIMIT ? KEY_LIMIT : x);
+        h = tracking_mix(h ^ (uint64_t)(int64_t)x);
+    }
+    return h;
+}
+
+/* tracking.py stream: the i-th uniform number in [0, 1) of the stream `key`. */
+INLINE double tracking_u(uint64_t key, int64_t i)
+{
+    uint64_t z = tracking_mix(key + 0x9E3779B97F4A7C15ull * (uint64_t)(i + 1));
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
 
 /* grids.taps: the voxels grid g interpolates object-space point local (3) from (8 trilinear, 64 tricubic): their
  * weights (0 outside the grid's box) and values' pointers (NULL outside) into weight[64], value[64]; returns
@@ -230,6 +271,89 @@ INLINE int in_field(const MediaTables *media, const VolumeStack *stack)
     return 0;
 }
 
+/* March.track for one ray's K inner pieces: each inner piece's midpoint, control slope (central, one-sided at the
+ * box's ends, 0 for a lone piece) and majorant (TRACKING_SAFETY x the largest second difference over the channels,
+ * a boundary piece its neighbour's, at least 1 / the stretch in the box), M at the edges, the stream key. */
+static void march_track(March *m, int K)
+{
+    double d2[MAX_PIECES + 2];
+    for (int j = 0; j < m->n; j++) {
+        m->mid[j] = 0.5 * (m->edges[j] + m->edges[j + 1]);
+        m->mu[j] = 0.0;
+        d2[j] = 0.0;
+        for (int c = 0; c < 3; c++) m->slope[j][c] = m->eslope[j][c] = 0.0;
+    }
+    for (int j = 1; j <= K; j++) {
+        int left = j >= 2, right = j + 1 <= K;
+        for (int c = 0; c < 3; c++) {
+            double (*s)[3] = m->sigma_t;
+            m->slope[j][c] = left && right ? (s[j + 1][c] - s[j - 1][c]) / (m->mid[j + 1] - m->mid[j - 1])
+                             : right ? (s[j + 1][c] - s[j][c]) / (m->mid[j + 1] - m->mid[j])
+                             : left ? (s[j][c] - s[j - 1][c]) / (m->mid[j] - m->mid[j - 1]) : 0.0;
+            double (*e)[3] = m->emission;
+            m->eslope[j][c] = left && right ? (e[j + 1][c] - e[j - 1][c]) / (m->mid[j + 1] - m->mid[j - 1])
+                              : right ? (e[j + 1][c] - e[j][c]) / (m->mid[j + 1] - m->mid[j])
+                              : left ? (e[j][c] - e[j - 1][c]) / (m->mid[j] - m->mid[j - 1]) : 0.0;
+            if (left && right) {
+                double x = (s[j + 1][c] - s[j][c]) - (s[j][c] - s[j - 1][c]);
+                x = x < 0.0 ? -x : x;
+                d2[j] = x > d2[j] ? x : d2[j];
+            }
+        }
+    }
+    double spread[MAX_PIECES + 2];
+    for (int j = 1; j <= K; j++) spread[j] = d2[j];
+    if (K >= 3) { spread[1] = d2[2]; spread[K] = d2[K - 1]; }
+    double a = m->edges[1], b = m->edges[K + 1], floor_ = b > a ? 1.0 / (b - a) : 0.0;
+    for (int j = 1; j <= K; j++) {
+        double mu = TRACKING_SAFETY * spread[j];
+        m->mu[j] = b > a ? (mu > floor_ ? mu : floor_) : 0.0;
+    }
+    m->M[0] = 0.0;
+    for (int j = 0; j < m->n; j++) {
+        double width = m->edges[j + 1] - m->edges[j];
+        m->M[j + 1] = m->M[j] + (m->mu[j] > 0.0 ? m->mu[j] * width : 0.0);
+    }
+    m->key = tracking_key(m->O, m->D);
+    m->tracked = 1;
+    int hole = 0;                         /* (an inner piece of no extinction at its midpoint: March.track) */
+    for (int j = 1; j <= K; j++)
+        hole |= m->sigma_t[j][0] <= 0.0 && m->sigma_t[j][1] <= 0.0 && m->sigma_t[j][2] <= 0.0
+                && m->edges[j + 1] - m->edges[j] > 0.0;
+    m->share = hole && b > a ? UNIFORM_SHARE : 0.0;
+}
+
+/* March.fields_at: the media's true coefficients at distance x along the march's ray: extinction, scattering (3)
+ * and the anisotropy-weighted scattering returned (the homogeneous part plus each field's times the ray's count). */
+static double march_fields_at(const March *m, double x, double *sigma_t, double *sigma_s)
+{
+    double P[3], sa[3] = {0.0, 0.0, 0.0}, ss[3] = {0.0, 0.0, 0.0}, sg = 0.0;
+    for (int c = 0; c < 3; c++) P[c] = m->O[c] + x * m->D[c];
+    for (const VolumeField *f = m->media->fields; f != NULL; f = f->next) {
+        double count = (double)m->stack.count[f->column], fa[3], fs[3], fe[3], fg;
+        if (!(count > 0.0)) continue;
+        field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
+        for (int c = 0; c < 3; c++) { sa[c] += count * fa[c]; ss[c] += count * fs[c]; }
+        sg += count * fg;
+    }
+    for (int c = 0; c < 3; c++) { sigma_t[c] = m->hom_t[c] + (sa[c] + ss[c]); sigma_s[c] = m->hom_s[c] + ss[c]; }
+    return m->hom_gs + sg;
+}
+
+/* March.fields_at's emission (3) at distance x along the march's ray (the homogeneous part plus each field's). */
+static void march_fields_emission(const March *m, double x, double *emission)
+{
+    double P[3], se[3] = {0.0, 0.0, 0.0};
+    for (int c = 0; c < 3; c++) P[c] = m->O[c] + x * m->D[c];
+    for (const VolumeField *f = m->media->fields; f != NULL; f = f->next) {
+        double count = (double)m->stack.count[f->column], fa[3], fs[3], fe[3], fg;
+        if (!(count > 0.0)) continue;
+        field_at(f, P, fa, fs, fe, &fg, NULL, 0.0);
+        for (int c = 0; c < 3; c++) se[c] += count * fe[c];
+    }
+    for (int c = 0; c < 3; c++) emission[c] = m->hom_e[c] + se[c];
+}
+
 /* field.py March for one ray O + s D (3 each) over [0, t) (inf: to the world) in the media `stack`, whose
  * homogeneous part is sigma_t, sigma_s, emission (3) and g (Media.along), into m. */
 static void march_of(const MediaTables *media, const VolumeStack *stack, const double *O, const double *D, double t,
@@ -290,6 +414,18 @@ static void march_of(const MediaTables *media, const VolumeStack *stack, const d
         for (int c = 0; c < 3; c++)
             m->tau[j + 1][c] = m->tau[j][c] + (m->sigma_t[j][c] > 0.0 ? m->sigma_t[j][c] * width : 0.0);
     }
+    /* 4. What ratio tracking corrects its estimates by. */
+    m->media = media;
+    m->stack = *stack;
+    for (int c = 0; c < 3; c++) {
+        m->O[c] = O[c];
+        m->D[c] = D[c];
+        m->hom_t[c] = sigma_t[c];
+        m->hom_s[c] = sigma_s[c];
+        m->hom_e[c] = emission[c];
+    }
+    m->hom_gs = gs_h;
+    march_track(m, K);
 }
 
 /* March.piece: the piece distance s lies in (the last one at or past the end). */
@@ -300,19 +436,53 @@ INLINE int march_piece(const March *m, double s)
     return k < m->n - 1 ? k : m->n - 1;
 }
 
-/* March.transmittance: exp(-tau(s)) (3) at distance s along the ray (inf: to its end). */
-INLINE void march_transmittance(const March *m, double s, double *T)
+/* March.transmittance: an unbiased estimate (3) of the true transmittance to distance s along the ray (inf: to its
+ * end), residual ratio tracking against the control (march_track); exp(-tau(s)) of a march with no field. */
+static void march_transmittance(const March *m, double s, double *T)
 {
     int k = march_piece(m, s);
-    for (int c = 0; c < 3; c++) {
-        double sigma = m->sigma_t[k][c];
-        T[c] = exp(-(m->tau[k][c] + (sigma > 0.0 ? sigma * (s - m->edges[k]) : 0.0)));
+    if (!m->tracked) {
+        for (int c = 0; c < 3; c++) {
+            double sigma = m->sigma_t[k][c];
+            T[c] = exp(-(m->tau[k][c] + (sigma > 0.0 ? sigma * (s - m->edges[k]) : 0.0)));
+        }
+        return;
+    }
+    double start = m->edges[k], mid = m->mid[k], half = mid - start, mu = m->mu[k];
+    for (int c = 0; c < 3; c++) {         /* (March.control_depth) */
+        double sigma = m->sigma_t[k][c], slope = m->slope[k][c];
+        double flat = sigma > 0.0 ? sigma * (s - start) : 0.0;
+        double bent = slope != 0.0 ? (0.5 * slope) * ((s - mid) * (s - mid) - half * half) : 0.0;
+        T[c] = exp(-((m->tau[k][c] + flat) + bent));
+    }
+    double reach = m->M[k] + (mu > 0.0 ? mu * (s - start) : 0.0), target = 0.0;
+    for (int64_t i = 0; reach > 0.0; i++) {
+        target += -log1p(-tracking_u(m->key, i));
+        if (target >= reach) break;
+        int j = 0;
+        for (int q = 1; q <= m->n; q++) j += m->M[q] <= target;
+        j = j < m->n - 1 ? j : m->n - 1;
+        double mj = m->mu[j], x = m->edges[j] + (target - m->M[j]) / mj, sigma_t[3], sigma_s[3];
+        march_fields_at(m, x, sigma_t, sigma_s);
+        for (int c = 0; c < 3; c++) {
+            double control = m->sigma_t[j][c] + m->slope[j][c] * (x - m->mid[j]);
+            T[c] *= 1.0 - (sigma_t[c] - control) / mj;
+        }
     }
 }
 
-/* March.emitted: the light (3) the pieces' emission sends to the ray's start, added to out. */
-INLINE void march_emitted(const March *m, double *out)
+/* field.py slope_integral: the integral over y in [0, 1] of (y - 1/2) exp(-u y); the series below 1e-3. */
+INLINE double slope_integral(double u)
 {
+    if (fabs(u) < 1e-3) return u * (-1.0 / 12.0 + u * (1.0 / 24.0 - u / 80.0));
+    return (-expm1(-u) - u * exp(-u)) / (u * u) + expm1(-u) / (2.0 * u);
+}
+
+/* March.emitted: the light (3) the pieces' emission sends to the ray's start, and where an emitting field is in
+ * the box the correction at one point that makes it unbiased there; added to out. */
+static void march_emitted(const March *m, double *out)
+{
+    double total[3];
     for (int c = 0; c < 3; c++) {
         double sum = 0.0;
         for (int j = 0; j < m->n; j++) {
@@ -321,8 +491,49 @@ INLINE void march_emitted(const March *m, double *out)
             double each = (sigma > 0.0 ? e * -expm1(-sigma * width) / sigma : e * width) * exp(-m->tau[j][c]);
             sum += each != each ? 0.0 : each;
         }
-        out[c] += sum;
+        total[c] = sum;
     }
+    if (m->tracked) {                     /* (the control's linear part: slope_integral per inner piece) */
+        for (int c = 0; c < 3; c++) {
+            double sum = 0.0;
+            for (int j = 1; j <= m->n - 2; j++) {
+                double w = m->edges[j + 1] - m->edges[j], k = m->eslope[j][c];
+                double bent = k != 0.0 ? ((k * (w * w)) * slope_integral(m->sigma_t[j][c] * w)) * exp(-m->tau[j][c])
+                                       : 0.0;
+                sum += bent != bent ? 0.0 : bent;
+            }
+            total[c] += sum;
+        }
+    }
+    int emits = 0;
+    for (const VolumeField *f = m->tracked ? m->media->fields : NULL; f != NULL; f = f->next)
+        emits |= f->emits != 0 && m->stack.count[f->column] > 0;
+    double a = m->edges[1], b = m->edges[m->n - 1];
+    if (emits && b > a) {
+        double s = a + tracking_u(m->key, (int64_t)EMISSION_DRAW) * (b - a), T[3], e_true[3];
+        march_transmittance(m, s, T);
+        int k = march_piece(m, s);
+        march_fields_emission(m, s, e_true);
+        for (int c = 0; c < 3; c++) {
+            double sigma = m->sigma_t[k][c];                /* (March.depth) */
+            double tau = m->tau[k][c] + (sigma > 0.0 ? sigma * (s - m->edges[k]) : 0.0);
+            double control = m->emission[k][c] + m->eslope[k][c] * (s - m->mid[k]);
+            total[c] += (e_true[c] * T[c] - control * exp(-tau)) * (b - a);
+        }
+    }
+    int last = m->n - 1;                  /* (a homogeneous medium's emission after the box: T at the box's end) */
+    const double *e_last = m->emission[last];
+    if (m->tracked && b > a && (e_last[0] != 0.0 || e_last[1] != 0.0 || e_last[2] != 0.0)) {
+        double T[3], w = m->edges[last + 1] - m->edges[last];
+        march_transmittance(m, b, T);
+        for (int c = 0; c < 3; c++) {
+            double e = e_last[c], sigma = m->sigma_t[last][c];
+            double after = e != 0.0 ? (sigma > 0.0 ? e * -expm1(-sigma * w) / sigma : e * w) : 0.0;
+            double more = after * (T[c] - exp(-m->tau[last][c]));
+            total[c] += more != more ? 0.0 : more;
+        }
+    }
+    for (int c = 0; c < 3; c++) out[c] += total[c];
 }
 
 /* What a stretch of a ray lets through: Beer-Lambert on its homogeneous extinction sigma_t (3), or its march where
@@ -371,6 +582,17 @@ INLINE double march_at(const March *m, double s, double *sigma_t, double *sigma_
     return total > 0.0 ? m->gs[k] / total : 0.0;
 }
 
+/* March.true_at: the media's extinction and scattering (3) at distance s itself (not its piece's midpoint), its
+ * anisotropy returned: what an estimate divides the march's pdf into. */
+static double march_true_at(const March *m, double s, double *sigma_t, double *sigma_s)
+{
+    int k = march_piece(m, s);
+    if (!m->tracked || k < 1 || k > m->n - 2) return march_at(m, s, sigma_t, sigma_s);
+    double gs = march_fields_at(m, s, sigma_t, sigma_s);
+    double total = (sigma_s[0] + sigma_s[1]) + sigma_s[2];
+    return total > 0.0 ? gs / total : 0.0;
+}
+
 /* media.Stretch.phases_at at one point P (3) of a ray in the media `stack` (in a heterogeneous medium), g the
  * march's sigma_s-weighted mean anisotropy there: the mixture (phase.PhaseMix) of the homogeneous media's phase
  * function (weight their sigma_s summed over channels) and every closure that scatters there (Field.phase_at), at
@@ -414,17 +636,42 @@ INLINE void march_totals(const March *m, double *tau_t, double *tau_s)
     }
 }
 
-/* March.pdf: the density of free flight (channels by odds (3)) choosing distance s, truncated at the ray's end. */
+/* March.uniform_share: the odds that free flight draws its distance uniformly in the box's stretch [*a, *b). */
+INLINE double march_share(const March *m, double *a, double *b)
+{
+    *a = m->edges[1];
+    *b = m->edges[m->n - 1];
+    return m->tracked ? m->share : 0.0;
+}
+
+/* March.split: whether u picks the uniform share, u rescaled into *u0. */
+INLINE int march_split(double share, double u, double *u0)
+{
+    int pick = u < share;
+    *u0 = pick ? u / (share > 0.0 ? share : 1.0) : (u - share) / (1.0 - share);
+    return pick;
+}
+
+/* March.share_pdf: the mixture of the march's density at s and the uniform share over [a, b). */
+INLINE double march_share_pdf(double share, double a, double b, double s, double march)
+{
+    int inside = s >= a && s < b && share > 0.0;
+    return march * (1.0 - share) + (inside ? share / (b - a) : 0.0);
+}
+
+/* March.pdf: the density of free flight (channels by odds (3)) choosing distance s, truncated at the ray's end,
+ * with the uniform share. */
 INLINE double march_pdf(const March *m, const double *odds, double s)
 {
-    double sigma[3], scattering[3], tau[3], each[3];
+    double sigma[3], scattering[3], tau[3], each[3], a, b;
     march_at(m, s, sigma, scattering);
     march_depth(m, s, tau);
     for (int c = 0; c < 3; c++) {
         double reach = -expm1(-m->tau[m->n][c]);
         each[c] = odds[c] > 0.0 && reach > 0.0 ? odds[c] * sigma[c] * exp(-tau[c]) / reach : 0.0;
     }
-    return (each[0] + each[1]) + each[2];
+    double share = march_share(m, &a, &b);
+    return march_share_pdf(share, a, b, s, (each[0] + each[1]) + each[2]);
 }
 
 /* March.free_flight: a distance by numbers u (2) (u[1] the channel by odds (3), u[0] inverting that channel's
@@ -433,15 +680,18 @@ INLINE double march_free_flight(const March *m, const double *odds, const double
 {
     int channel = (u[1] >= odds[0]) + (u[1] >= odds[0] + odds[1]) + (u[1] >= (odds[0] + odds[1]) + odds[2]);
     channel = channel > 2 ? 2 : channel;
-    double end = m->tau[m->n][channel], target = -log1p(-u[0] * -expm1(-end));
+    double a, b, u0, share = march_share(m, &a, &b);
+    int pick = march_split(share, u[0], &u0);
+    double end = m->tau[m->n][channel], target = -log1p(-u0 * -expm1(-end));
     int k = 0;
     for (int j = 1; j <= m->n; j++) k += m->tau[j][channel] <= target;
     k = k < m->n - 1 ? k : m->n - 1;
     double sigma = m->sigma_t[k][channel];
     double x = m->edges[k] + (sigma > 0.0 ? (target - m->tau[k][channel]) / sigma : 0.0);
+    x = pick ? a + u0 * (b - a) : x;
     x = x < m->edges[m->n] ? x : m->edges[m->n];
     double pdf = march_pdf(m, odds, x);
-    int ok = ((odds[0] + odds[1]) + odds[2]) > 0.0 && end > 0.0 && isfinite(x) && pdf > 0.0;
+    int ok = ((odds[0] + odds[1]) + odds[2]) > 0.0 && (pick || end > 0.0) && isfinite(x) && pdf > 0.0;
     *s = ok ? x : 0.0;
     return ok ? pdf : 0.0;
 }
@@ -462,17 +712,19 @@ INLINE void march_uniform(const double *sigma_t, const double *sigma_s, const do
         m->tau[1][c] = sigma_t[c] > 0.0 ? sigma_t[c] * t : 0.0;
     }
     m->gs[0] = g * ((sigma_s[0] + sigma_s[1]) + sigma_s[2]);
+    m->tracked = 0;
 }
 
 /* March.collision_pdf: the density of untruncated free flight (channels by odds (3)) drawing distance s: the
  * channels' mixture of sigma(s) exp(-tau(s)). */
 INLINE double march_collision_pdf(const March *m, const double *odds, double s)
 {
-    double sigma[3], scattering[3], tau[3], each[3];
+    double sigma[3], scattering[3], tau[3], each[3], a, b;
     march_at(m, s, sigma, scattering);
     march_depth(m, s, tau);
     for (int c = 0; c < 3; c++) each[c] = odds[c] * sigma[c] * exp(-tau[c]);
-    return (each[0] + each[1]) + each[2];
+    double share = march_share(m, &a, &b);
+    return march_share_pdf(share, a, b, s, (each[0] + each[1]) + each[2]);
 }
 
 /* March.collision: untruncated free flight by numbers u (2) (u[1] the channel by odds (3), u[0] an optical depth
@@ -484,18 +736,21 @@ INLINE double march_collision(const March *m, const double *odds, const double *
 {
     int channel = (u[1] >= odds[0]) + (u[1] >= odds[0] + odds[1]) + (u[1] >= (odds[0] + odds[1]) + odds[2]);
     channel = channel > 2 ? 2 : channel;
-    double target = -log1p(-(u[0] < 1.0 - 1e-16 ? u[0] : 1.0 - 1e-16));
-    *passed = target >= m->tau[m->n][channel];
+    double a, b, u0, share = march_share(m, &a, &b);
+    int pick = march_split(share, u[0], &u0);
+    double target = -log1p(-(u0 < 1.0 - 1e-16 ? u0 : 1.0 - 1e-16));
+    *passed = !pick && target >= m->tau[m->n][channel];
     int k = 0;
     for (int j = 1; j <= m->n; j++) k += m->tau[j][channel] <= target;
     k = k < m->n - 1 ? k : m->n - 1;
     double sigma = m->sigma_t[k][channel];
     double x = m->edges[k] + (sigma > 0.0 ? (target - m->tau[k][channel]) / sigma : 0.0);
+    x = pick ? a + u0 * (b - a) : x;
     *s = *passed ? m->edges[m->n] : x;
     double pdf = march_collision_pdf(m, odds, *passed ? 0.0 : x);
     double each[3];
     for (int c = 0; c < 3; c++) each[c] = odds[c] * exp(-m->tau[m->n][c]);
-    *p_pass = (each[0] + each[1]) + each[2];
+    *p_pass = ((each[0] + each[1]) + each[2]) * (1.0 - share);
     return *passed ? 0.0 : pdf;
 }
 

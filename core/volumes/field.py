@@ -11,10 +11,13 @@ of at most `step` (the box's diagonal / STEPS_ACROSS), at most MAX_PIECES, and e
 piece takes the coefficients at its midpoint; before and after the box only the homogeneous media remain. On those
 pieces every closed form of the homogeneous case holds piece by piece: the optical depth tau(s) is piecewise linear,
 T(s) = exp(-tau(s)), the emission sums e (1 - exp(-sigma d)) / sigma exp(-tau) over the pieces, and free flight
-inverts tau exactly. The midpoint rule integrates a density linear along the ray exactly, and a smooth one to second
-order in the step. (Cycles 5.0 samples these media without bias by null scattering with a majorant from an octree;
-its mean is the exact integral, which the march approaches as the steps shrink: its Step Rate and Max Steps change
-Cycles' noise, not its mean.)
+inverts tau exactly. The march is the **proposal**: its estimates are corrected without bias (issue 35), as Cycles 5.0
+samples these media by null scattering (its mean the exact integral; its Step Rate and Max Steps change its noise,
+not its mean): every transmittance is residual ratio tracking against a control linear on each piece
+(`March.transmittance`, `March.track`), a sampled point weighs the true coefficients there (`March.true_at`) against
+the march's pdf, and where the march has a hole (a piece of no extinction at its midpoint) free flight draws a share
+of its distances uniformly in the box (`March.uniform_share`), and the emission is the pieces' sum as a control
+variate corrected at one point per ray (`March.emitted`). Only the denoising features still read the pieces alone.
 
 Where a path scatters, the closures run again at the point itself to set up its phase functions (`Field.phase_at`:
 the Phase menu's functions with their inputs there, links included, as Cycles runs the shader at the scattering point),
@@ -39,6 +42,13 @@ STEPS_ACROSS = schema.constant("STEPS_ACROSS", 100, "pieces a march cuts the dia
 MAX_PIECES = schema.constant("MAX_PIECES", 256, "the most pieces a march cuts one stretch of a ray into")
 # The most points a heterogeneous medium's graph runs at in one go (its registers: points x the program's registers).
 POINTS_AT_ONCE = 1 << 16
+# The factor on a piece's second difference of sigma_t (its neighbours' midpoints) that makes its majorant.
+EMISSION_DRAW = schema.constant("EMISSION_DRAW", 1 << 40, "the number of a ray's stream that places its "
+                                "emission's correction point (past any ratio-tracking walk's)")
+UNIFORM_SHARE = schema.constant("UNIFORM_SHARE", 0.25, "the odds that free flight in a heterogeneous medium draws "
+                                "its distance uniformly in the media's box (field.py March.uniform_share)")
+TRACKING_SAFETY = schema.constant("TRACKING_SAFETY", 8.0, "the factor on a piece's second difference of sigma_t "
+                                  "that makes its ratio-tracking majorant")
 
 # Each volume input's width (floats): colours and coefficients 3, the rest 1.
 INPUT_WIDTHS = {"color": 3, "absorption_color": 3, "emission_color": 3, "absorption": 3, "scatter": 3,
@@ -278,6 +288,17 @@ class Field:
             yield k, part, values
 
 
+def slope_integral(u: np.ndarray) -> np.ndarray:
+    """g(u) = integral over y in [0, 1] of (y - 1/2) exp(-u y) (any shape, float64): a piece's linear part's weight
+    under Beer-Lambert, u its optical depth; the series -u/12 + u^2/24 - u^3/80 below 1e-3 (C: field.c
+    slope_integral)."""
+    u = np.asarray(u, np.float64)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        big = (-np.expm1(-u) - u * np.exp(-u)) / (u * u) + np.expm1(-u) / (2.0 * u)
+    small = u * (-1.0 / 12.0 + u * (1.0 / 24.0 - u / 80.0))
+    return np.where(np.abs(u) < 1e-3, small, big)
+
+
 class March:
     """The pieces of n rays O + s D over [0, t) through heterogeneous media (`Media.fields`, counts (n, F) in each)
     and homogeneous ones (a Stretch's constant part): piece 0 before the media's box, pieces 1..K inside it (each of
@@ -340,6 +361,121 @@ class March:
         with np.errstate(invalid="ignore"):
             depth = np.where(self.sigma_t > 0.0, self.sigma_t * width[:, :, None], 0.0)
         self.tau = np.concatenate([np.zeros((n, 1, 3)), np.cumsum(depth, axis=1)], axis=1)
+        # 4. What ratio tracking corrects the march's estimates by (transmittance, true_at).
+        self.fields, self.counts, self.hom, self.pieces = fields, counts, homogeneous, pieces
+        self.O, self.D = np.asarray(O, np.float64), np.asarray(D, np.float64)
+        self.track()
+
+    def track(self) -> None:
+        """Set up residual ratio tracking on the pieces (C: field.c march_track). The control on each inner piece is
+        linear through its midpoint's sigma_t (per channel) with the slope of its neighbours' midpoints (central, or
+        one-sided at the box's ends; 0 for a lone piece): exact for a density linear along the ray, and its optical
+        depth at the pieces' edges is the march's tau (the line is symmetric about the midpoint). Each inner piece's
+        majorant mu is TRACKING_SAFETY x the largest second difference of the midpoints over the channels (a
+        boundary piece takes its neighbour's), at least 1 / the stretch inside the box (about one tentative
+        collision per ray where the midpoints lie on a line); 0 on the outer pieces. Keeps slope (n, K + 2, 3),
+        mid (n, K + 2), mu (n, K + 2), M (n, K + 3) the majorant's integral at the edges, and the rays' stream keys
+        (tracking.ray_keys)."""
+        from .tracking import ray_keys
+        n, P = self.sigma_t.shape[:2]
+        K = P - 2
+        sig = self.sigma_t
+        self.mid = 0.5 * (self.edges[:, :-1] + self.edges[:, 1:])
+        j = np.arange(1, K + 1)
+        left, right = (j >= 2)[None, :] & np.ones((n, 1), bool), j[None, :] + 1 <= self.pieces[:, None]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            d_left = (sig[:, 1:-1] - sig[:, :-2]) / np.where(left, self.mid[:, 1:-1] - self.mid[:, :-2], 1.0)[:, :, None]
+            d_right = (sig[:, 2:] - sig[:, 1:-1]) / np.where(right, self.mid[:, 2:] - self.mid[:, 1:-1], 1.0)[:, :, None]
+            central = (sig[:, 2:] - sig[:, :-2]) / np.where(left & right, self.mid[:, 2:] - self.mid[:, :-2],
+                                                            1.0)[:, :, None]
+        both, l3, r3 = (left & right)[:, :, None], left[:, :, None], right[:, :, None]
+        slope = np.where(both, central, np.where(r3, d_right, np.where(l3, d_left, 0.0)))
+        self.slope = np.zeros_like(sig)
+        self.slope[:, 1:-1] = slope
+        # (the emission's control slope the same way: March.emitted)
+        e = self.emission
+        with np.errstate(invalid="ignore", divide="ignore"):
+            e_left = (e[:, 1:-1] - e[:, :-2]) / np.where(left, self.mid[:, 1:-1] - self.mid[:, :-2], 1.0)[:, :, None]
+            e_right = (e[:, 2:] - e[:, 1:-1]) / np.where(right, self.mid[:, 2:] - self.mid[:, 1:-1], 1.0)[:, :, None]
+            e_central = (e[:, 2:] - e[:, :-2]) / np.where(left & right, self.mid[:, 2:] - self.mid[:, :-2],
+                                                          1.0)[:, :, None]
+        self.eslope = np.zeros_like(e)
+        self.eslope[:, 1:-1] = np.where(both, e_central, np.where(r3, e_right, np.where(l3, e_left, 0.0)))
+        # The second differences where both neighbours are inner; a boundary piece takes its inner neighbour's.
+        d2 = np.where(both, (sig[:, 2:] - sig[:, 1:-1]) - (sig[:, 1:-1] - sig[:, :-2]), 0.0).max(axis=2)
+        d2 = np.maximum(d2, -np.where(both, (sig[:, 2:] - sig[:, 1:-1]) - (sig[:, 1:-1] - sig[:, :-2]),
+                                      0.0).min(axis=2))
+        spread = d2.copy()
+        if K >= 2:
+            last = self.pieces - 1                                      # (the ray's last inner piece, 0-based)
+            rows = np.arange(n)
+            spread[:, 0] = np.where(self.pieces >= 3, d2[:, 1], 0.0)
+            spread[rows, last] = np.where(self.pieces >= 3, d2[rows, np.maximum(last - 1, 0)], spread[rows, last])
+        a, b = self.edges[:, 1], self.edges[:, -2]
+        with np.errstate(divide="ignore"):
+            floor = np.where(b > a, 1.0 / np.where(b > a, b - a, 1.0), 0.0)
+        self.mu = np.zeros((n, P))
+        self.mu[:, 1:-1] = np.where((b > a)[:, None], np.maximum(TRACKING_SAFETY * spread, floor[:, None]), 0.0)
+        width = np.diff(self.edges, axis=1)
+        with np.errstate(invalid="ignore"):
+            reach = np.where(self.mu > 0.0, self.mu * width, 0.0)
+        self.M = np.concatenate([np.zeros((n, 1)), np.cumsum(reach, axis=1)], axis=1)
+        self.keys = ray_keys(self.O, self.D)
+        # A hole: an inner piece whose midpoint has no extinction in any channel (free flight on the march never
+        # lands there, though the field may be dense elsewhere in it): those rays' free flight has a uniform share.
+        hole = ((sig[:, 1:-1] <= 0.0).all(axis=2) & (width[:, 1:-1] > 0.0)).any(axis=1)
+        self.share = np.where(hole & (b > a), UNIFORM_SHARE, 0.0)
+
+    def control_depth(self, s: np.ndarray) -> tuple:
+        """The control's optical depth (n, 3) from the rays' starts to distances s (n,): the march's tau at the
+        piece's start, its midpoint's sigma_t over the way into it, and the slope's part
+        slope / 2 ((s - mid)^2 - (width / 2)^2); with the piece k (n,)."""
+        k = self.piece(s)
+        rows = np.arange(len(s))
+        start, mid = self.edges[rows, k], self.mid[rows, k]
+        sigma, slope = self.sigma_t[rows, k], self.slope[rows, k]
+        half = mid - start
+        with np.errstate(invalid="ignore"):
+            flat = np.where(sigma > 0.0, sigma * (s - start)[:, None], 0.0)
+            bent = np.where(slope != 0.0, (0.5 * slope) * ((s - mid) * (s - mid) - half * half)[:, None], 0.0)
+        return self.tau[rows, k] + flat + bent, k
+
+    def fields_at(self, rows: np.ndarray, s: np.ndarray) -> tuple:
+        """The media's true coefficients at distances s (m,) along the rays `rows` (m,) int64 (inside the box): the
+        homogeneous part plus each field's at the point O + s D times the ray's count in it (summed as the march
+        sums its midpoints): (sigma_t (m, 3), sigma_s (m, 3), emission (m, 3), gs (m,))."""
+        m = len(rows)
+        P = self.O[rows] + s[:, None] * self.D[rows]
+        sig_a, sig_s, emit, gs = np.zeros((m, 3)), np.zeros((m, 3)), np.zeros((m, 3)), np.zeros(m)
+        for f, field in enumerate(self.fields):
+            count = self.counts[rows, f].astype(np.float64)
+            some = np.flatnonzero(count > 0.0)
+            for start in range(0, len(some), POINTS_AT_ONCE):
+                part = some[start:start + POINTS_AT_ONCE]
+                found = field.at(P[part])
+                w = count[part]
+                sig_a[part] += w[:, None] * found.sigma_a
+                sig_s[part] += w[:, None] * found.sigma_s
+                emit[part] += w[:, None] * found.emission
+                gs[part] += w * found.gs
+        hom_t, hom_s, hom_e, hom_g = (x[rows] for x in self.hom)
+        return (hom_t + (sig_a + sig_s), hom_s + sig_s, hom_e + emit, hom_g * hom_s.sum(axis=1) + gs)
+
+    def true_at(self, s: np.ndarray) -> tuple:
+        """(sigma_t, sigma_s (n, 3), g (n,)) of the media at distances s (n,) themselves (not their pieces'
+        midpoints): what an estimate divides the march's pdf into. C: field.c march_true_at."""
+        if self.mu is None:
+            return self.at(s)
+        k = self.piece(s)
+        inner = np.flatnonzero((k >= 1) & (k <= self.sigma_t.shape[1] - 2))
+        sigma_t, sigma_s, g = self.at(s)
+        if len(inner):
+            t_, s_, _, gs = self.fields_at(inner, s[inner])
+            total = s_.sum(axis=1)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                g[inner] = np.where(total > 0.0, gs / np.where(total > 0.0, total, 1.0), 0.0)
+            sigma_t[inner], sigma_s[inner] = t_, s_
+        return sigma_t, sigma_s, g
 
     @classmethod
     def uniform(cls, sigma_t: np.ndarray, sigma_s: np.ndarray, emission: np.ndarray, g: np.ndarray,
@@ -354,38 +490,69 @@ class March:
         with np.errstate(invalid="ignore"):
             depth = np.where(sigma_t > 0.0, sigma_t * march.edges[:, 1:2], 0.0)
         march.tau = np.stack([np.zeros((n, 3)), depth], axis=1)
+        march.mu = None
         return march
 
     def collision(self, odds: np.ndarray, u: np.ndarray) -> tuple:
-        """Free flight untruncated, as a path that scatters or goes on decides (Cycles' distance sampling): a channel
-        picked by `odds` (n, 3) with u[:, 1], an optical depth -log(1 - u[:, 0]) of it. Returns (s (n,) the
-        distances, pdf (n,) their density (the channels' mixture of sigma(s) exp(-tau(s))), passed (n,) bool the
-        rays whose depth lies past their end (no collision), p_pass (n,) the probability of that (the mixture of
-        exp(-tau(end))))."""
+        """Free flight untruncated, as a path that scatters or goes on decides (Cycles' distance sampling): with
+        odds `uniform_share` a distance uniform in the box's stretch [a, b) (u[:, 0] < share, rescaled), else a
+        channel picked by `odds` (n, 3) with u[:, 1], an optical depth -log(1 - u[:, 0]) of it (u[:, 0] rescaled).
+        Returns (s (n,) the distances, pdf (n,) their density (the mixture of sigma(s) exp(-tau(s)) over the
+        channels and the uniform share), passed (n,) bool the rays whose depth lies past their end (no collision),
+        p_pass (n,) the probability of that (the channels' mixture of exp(-tau(end)) times 1 - share))."""
         n = len(u)
         rows = np.arange(n)
+        share, a, b = self.uniform_share()
+        pick, u0 = self.split(share, u[:, 0])
         channel = np.minimum((u[:, 1:2] >= np.cumsum(odds, axis=1)).sum(axis=1), 2)
         tau = self.tau[rows, :, channel]
-        target = -np.log1p(-np.minimum(u[:, 0], 1.0 - 1e-16))
-        passed = target >= tau[:, -1]
+        target = -np.log1p(-np.minimum(u0, 1.0 - 1e-16))
+        passed = ~pick & (target >= tau[:, -1])
         k = np.minimum((tau[:, 1:] <= target[:, None]).sum(axis=1), self.sigma_t.shape[1] - 1)
         sigma = self.sigma_t[rows, k, channel]
         with np.errstate(invalid="ignore", divide="ignore"):
             s = self.edges[rows, k] + np.where(sigma > 0.0, (target - tau[rows, k]) / np.where(sigma > 0.0, sigma, 1.0),
                                                0.0)
+        with np.errstate(invalid="ignore"):         # (a one-piece march: a, b its end and start, never picked)
+            s = np.where(pick, a + u0 * (b - a), s)
         s = np.where(passed, self.edges[:, -1], s)
         at = np.where(passed, 0.0, s)
         pdf = self.collision_pdf(odds, at)
         with np.errstate(invalid="ignore", over="ignore"):
-            p_pass = (odds * np.exp(-self.tau[:, -1])).sum(axis=1)
+            p_pass = (odds * np.exp(-self.tau[:, -1])).sum(axis=1) * (1.0 - share)
         return s, np.where(passed, 0.0, pdf), passed, p_pass
+
+    def uniform_share(self) -> tuple:
+        """The odds (n,) that free flight draws its distance uniformly in the stretch [a, b) (n,) each of the rays
+        inside the media's box instead of on the march: UNIFORM_SHARE where the march has a hole there (an inner
+        piece of no extinction at its midpoint: March.track), so that a density the midpoints miss is still reached
+        (the estimates weigh the true coefficients there), else 0. C: field.c march_share."""
+        a, b = self.edges[:, 1], self.edges[:, -2]
+        if self.mu is None:
+            return np.zeros(len(a)), a, b
+        return self.share, a, b
+
+    @staticmethod
+    def split(share: np.ndarray, u: np.ndarray) -> tuple:
+        """Whether each number u (n,) picks the uniform share (u < share) and u rescaled to [0, 1) in its part."""
+        pick = u < share
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return pick, np.where(pick, u / np.where(share > 0.0, share, 1.0), (u - share) / (1.0 - share))
+
+    def share_pdf(self, share: np.ndarray, a: np.ndarray, b: np.ndarray, s: np.ndarray, march: np.ndarray) -> np.ndarray:
+        """The mixture (n,) of the march's density `march` (n,) at s (n,) and the uniform share over [a, b)."""
+        inside = (s >= a) & (s < b) & (share > 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return march * (1.0 - share) + np.where(inside, share / np.where(inside, b - a, 1.0), 0.0)
 
     def collision_pdf(self, odds: np.ndarray, s: np.ndarray) -> np.ndarray:
         """The density (n,) of `collision` drawing distances s (n,) (before the rays' ends): the channels' mixture
-        of sigma(s) exp(-tau(s))."""
+        of sigma(s) exp(-tau(s)), with the uniform share."""
         sigma_t, _, _ = self.at(s)
         with np.errstate(invalid="ignore", over="ignore"):
-            return (odds * sigma_t * np.exp(-self.depth(s))).sum(axis=1)
+            march = (odds * sigma_t * np.exp(-self.depth(s))).sum(axis=1)
+        share, a, b = self.uniform_share()
+        return self.share_pdf(share, a, b, s, march)
 
     def piece(self, s: np.ndarray) -> np.ndarray:
         """The piece (n,) int64 each ray's distance s (n,) lies in (the last piece at or past the end)."""
@@ -403,8 +570,40 @@ class March:
         return self.tau[rows, k] + more
 
     def transmittance(self, s: np.ndarray) -> np.ndarray:
-        """exp(-tau(s)) (n, 3) float64."""
-        return np.exp(-self.depth(s))
+        """An unbiased estimate (n, 3) float64 of the true transmittance exp(-integral_0^s sigma_t) to distances s
+        (n,) (inf: the rays' ends): residual ratio tracking (Novak et al. 2014) on the pieces, exp(-control depth)
+        times prod (1 - (sigma_t(x) - control(x)) / mu) over the tentative collisions x < s drawn at the
+        pieces' majorants mu from the rays' streams (tracking.stream: the i-th collision the i-th number, so every
+        distance along a ray sees the same walk). Its mean is exact for any mu > 0; exp(-tau(s)) of the march where
+        it has no field (March.uniform). C: field.c march_transmittance."""
+        if self.mu is None:
+            return np.exp(-self.depth(s))
+        from .tracking import stream
+        s = np.asarray(s, np.float64)
+        n = len(s)
+        rows = np.arange(n)
+        depth, k = self.control_depth(s)
+        start, mu = self.edges[rows, k], self.mu[rows, k]
+        with np.errstate(invalid="ignore"):
+            reach = self.M[rows, k] + np.where(mu > 0.0, mu * (s - start), 0.0)
+        T = np.exp(-depth)
+        target = np.zeros(n)
+        walking = reach > 0.0
+        i = 0
+        while walking.any():
+            go = np.flatnonzero(walking)
+            target[go] += -np.log1p(-stream(self.keys[go], i))
+            stop = target[go] >= reach[go]
+            walking[go[stop]] = False
+            go = go[~stop]
+            if len(go):
+                j = np.minimum((self.M[go, 1:] <= target[go, None]).sum(axis=1), self.mu.shape[1] - 1)
+                m = self.mu[go, j]
+                x = self.edges[go, j] + (target[go] - self.M[go, j]) / m
+                control = self.sigma_t[go, j] + self.slope[go, j] * (x - self.mid[go, j])[:, None]
+                T[go] *= 1.0 - (self.fields_at(go, x)[0] - control) / m[:, None]
+            i += 1
+        return T
 
     def at(self, s: np.ndarray) -> tuple:
         """(sigma_t, sigma_s (n, 3), g (n,)) of the pieces at distances s (n,)."""
@@ -417,14 +616,54 @@ class March:
         return self.sigma_t[rows, k], sigma_s, g
 
     def emitted(self) -> np.ndarray:
-        """The light (n, 3) float64 the pieces' emission sends to the rays' starts: the sum over pieces of
-        e (1 - exp(-sigma d)) / sigma (e d where sigma is 0) times exp(-tau) at the piece's start."""
+        """The light (n, 3) float64 the media's emission sends to the rays' starts: the sum over pieces of
+        e (1 - exp(-sigma d)) / sigma (e d where sigma is 0) times exp(-tau) at the piece's start, and where an
+        emitting field is in the box a correction that makes it unbiased there (one point), and a homogeneous
+        medium's emission after the box weighed by ratio tracking's T at the box's end (C: march_emitted)."""
         width = np.diff(self.edges, axis=1)[:, :, None]
         e, sigma = self.emission, self.sigma_t
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
             each = np.where(sigma > 0.0, e * -np.expm1(-sigma * width) / np.where(sigma > 0.0, sigma, 1.0), e * width)
             each = np.where(e != 0.0, each, 0.0) * np.exp(-self.tau[:, :-1])
-        return np.nan_to_num(each, nan=0.0).sum(axis=1)
+        total = np.nan_to_num(each, nan=0.0).sum(axis=1)
+        if self.mu is None:
+            return total
+        # The pieces' sum corrected without bias inside the box, a control variate: the control's emission linear on
+        # each piece (its midpoint's, the neighbours' slope k) times the march's T, whose integral adds
+        # k w^2 g(sigma w) exp(-tau) per piece (slope_integral); one point s uniform in [a, b) (the ray's stream,
+        # number EMISSION_DRAW) adds (e(s) T(s) - e_c(s) T_m(s)) (b - a), e and T the true emission there and ratio
+        # tracking's estimate (exact, noiseless, for an emission linear along the ray in a medium the control's
+        # T fits).
+        from .tracking import stream
+        width = np.diff(self.edges, axis=1)[:, 1:-1, None]
+        with np.errstate(invalid="ignore", over="ignore"):
+            bent = np.where(self.eslope[:, 1:-1] != 0.0, self.eslope[:, 1:-1] * (width * width)
+                            * slope_integral(self.sigma_t[:, 1:-1] * width) * np.exp(-self.tau[:, 1:-2]), 0.0)
+        total = total + np.nan_to_num(bent, nan=0.0).sum(axis=1)
+        emits = np.zeros(len(total), bool)
+        for f, field in enumerate(self.fields):
+            if field.emits:
+                emits |= self.counts[:, f] > 0.0
+        a, b = self.edges[:, 1], self.edges[:, -2]
+        rows = np.flatnonzero(emits & (b > a))
+        if len(rows):
+            s = a + stream(self.keys, EMISSION_DRAW) * (b - a)
+            T = self.transmittance(s)[rows]
+            k = self.piece(s)[rows]
+            e_true = self.fields_at(rows, s[rows])[2]
+            control = self.emission[rows, k] + self.eslope[rows, k] * (s[rows] - self.mid[rows, k])[:, None]
+            e_march = control * np.exp(-self.depth(s)[rows])
+            total[rows] += (e_true * T - e_march) * (b - a)[rows, None]
+        # A homogeneous medium's emission after the box: its closed form times ratio tracking's T at the box's end.
+        rows = np.flatnonzero((self.emission[:, -1] != 0.0).any(axis=1) & (b > a))
+        if len(rows):
+            e, sigma, w = self.emission[rows, -1], self.sigma_t[rows, -1], np.diff(self.edges, axis=1)[rows, -1, None]
+            with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+                after = np.where(sigma > 0.0, e * -np.expm1(-sigma * w) / np.where(sigma > 0.0, sigma, 1.0), e * w)
+                after = np.where(e != 0.0, after, 0.0)
+                T = self.transmittance(b)[rows]
+                total[rows] += np.nan_to_num(after * (T - np.exp(-self.tau[rows, -2])), nan=0.0)
+        return total
 
     def totals(self) -> tuple:
         """(tau_t, tau_s) (n, 3): the optical depths of extinction and of scattering over the whole rays (finite
@@ -434,35 +673,40 @@ class March:
         return (self.sigma_t * width).sum(axis=1), (self.sigma_s * width).sum(axis=1)
 
     def free_flight(self, odds: np.ndarray, u: np.ndarray) -> tuple:
-        """Free-flight sampling on the pieces: (s (n,), pdf (n,)) from numbers u (n, 2) (u[:, 1] the channel by
-        `odds` (n, 3), u[:, 0] the distance, inverting tau of that channel truncated at the end); pdf 0: none."""
+        """Free-flight sampling on the pieces: (s (n,), pdf (n,)) from numbers u (n, 2) (u[:, 0] < uniform_share:
+        uniform in the box's stretch, rescaled; else u[:, 1] the channel by `odds` (n, 3), u[:, 0] rescaled the
+        distance, inverting tau of that channel truncated at the end); pdf 0: none."""
         n = len(u)
         rows = np.arange(n)
+        share, a, b = self.uniform_share()
+        pick, u0 = self.split(share, u[:, 0])
         channel = np.minimum((u[:, 1:2] >= np.cumsum(odds, axis=1)).sum(axis=1), 2)
         tau = self.tau[rows, :, channel]                                # (n, K + 3)
         end = tau[:, -1]
         with np.errstate(over="ignore", invalid="ignore"):
-            target = -np.log1p(-u[:, 0] * -np.expm1(-end))
+            target = -np.log1p(-u0 * -np.expm1(-end))
         k = np.minimum(np.maximum((tau[:, 1:] <= target[:, None]).sum(axis=1), 0), self.sigma_t.shape[1] - 1)
         sigma = self.sigma_t[rows, k, channel]
         with np.errstate(invalid="ignore", divide="ignore"):
             s = self.edges[rows, k] + np.where(sigma > 0.0, (target - tau[rows, k]) / np.where(sigma > 0.0, sigma, 1.0),
                                                0.0)
-        s = np.minimum(s, self.edges[:, -1])
+        with np.errstate(invalid="ignore"):         # (a one-piece march: a, b its end and start, never picked)
+            s = np.minimum(np.where(pick, a + u0 * (b - a), s), self.edges[:, -1])
         pdf = self.pdf(odds, s)
-        ok = (odds.sum(axis=1) > 0.0) & (end > 0.0) & np.isfinite(s) & (pdf > 0.0)
+        ok = (odds.sum(axis=1) > 0.0) & (pick | (end > 0.0)) & np.isfinite(s) & (pdf > 0.0)
         return np.where(ok, s, 0.0), np.where(ok, pdf, 0.0)
 
     def pdf(self, odds: np.ndarray, s: np.ndarray) -> np.ndarray:
         """The density (n,) of free-flight sampling choosing distances s (n,): the channels' mixture of
-        sigma(s) exp(-tau(s)) / (1 - exp(-tau(end)))."""
+        sigma(s) exp(-tau(s)) / (1 - exp(-tau(end))), with the uniform share."""
         sigma, _, _ = self.at(s)
         tau = self.depth(s)
         reach = -np.expm1(-self.tau[:, -1])
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             each = np.where((odds > 0.0) & (reach > 0.0),
                             odds * sigma * np.exp(-tau) / np.where(reach > 0.0, reach, 1.0), 0.0)
-        return each.sum(axis=1)
+        share, a, b = self.uniform_share()
+        return self.share_pdf(share, a, b, s, each.sum(axis=1))
 
 
 def inputs_table(field: "Field") -> tuple:
@@ -503,7 +747,7 @@ def field_record(field: "Field", column: int, following=None) -> "VolumeFieldRec
     kinds, weights, table, factors = inputs_table(field)
     return VolumeFieldRecord(
         graph=graph_.program_tables([field.program], field.textures), next=following, column=int(column),
-        closures=len(kinds), scatters=int(field.scatters), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
+        closures=len(kinds), scatters=int(field.scatters), emits=int(field.emits), kinds=c(kinds), weights=c(weights), inputs=c(table.reshape(-1)),
         factors=c(factors.reshape(-1) if len(factors) else np.zeros(3)), factor_count=len(factors),
         matrix=field.matrix.reshape(-1), location=field.location, size=field.size, origin=field.origin,
         linear=field.linear.reshape(-1), placement=field.placement, phases=c(field.phases), hot=c(field.hot),
@@ -538,6 +782,7 @@ VolumeFieldRecord = schema.record("VolumeField", "A heterogeneous medium (core/v
     ("column", I32, "its column of the MediaTables (how often a ray is in it: the volume stack's count there)"),
     ("closures", I32, "C: its Volume output's closures"),
     ("scatters", I32, "1: some closure of it may scatter (Field.scatters)"),
+    ("emits", I32, "1: some closure of it may emit (Field.emits)"),
     ("kinds", ptr(I32), "(C,) each closure's VOLUME_CLOSURE_*"),
     ("weights", ptr(F64), "(C,) the Mix and Add Shaders' weight above each"),
     ("inputs", ptr(F64), "(C, VOLUME_INPUTS, 5) each input's register (-1: its constant), width, constant (3)"),

@@ -23,7 +23,8 @@ scatters the same way (`Media.along`, media.c medium_scattering).
 `Media` is one table per render: a column per material with a volume, the world's medium, and which materials are
 volume-only boundaries (a Volume and no Surface: rays pass through them, as Cycles' SD_HAS_ONLY_VOLUME). A material
 whose closures have inputs fed by links is a heterogeneous medium (field.py Field): its column's constant
-coefficients are zero and its rays are marched (`Stretch.march`, `Stretch.transmittance`).
+coefficients are zero and its rays are marched (`Stretch.march`), the march the proposal whose estimates ratio
+tracking and control variates make unbiased (`Stretch.transmittance`, `emitted`: field.March).
 """
 from __future__ import annotations
 
@@ -291,13 +292,6 @@ class Media:
             return None
         hidden, seen = shadow_visibility(geometry, [medium is not None for medium in media])
         made = cls(media, boundary, world, fields, hidden & ~seen)
-        if fields:
-            names = ", ".join(repr(getattr(materials[row], "name", row)) for row in fields)
-            made.notes.append(f"volumes: the medium of {names} varies from point to point; Primer marches it in "
-                              f"pieces of 1/{field_.STEPS_ACROSS} of its box's diagonal, each of its midpoint's "
-                              "density, where Cycles 5.0 samples it without bias (null scattering): a smooth density "
-                              "differs by the square of the step, one that jumps (cells of density 100 beside empty "
-                              "ones) lets about 1 % more light through")
         if (hidden & seen).any():
             names = ", ".join(repr(getattr(materials[row], "name", row)) for row in np.flatnonzero(hidden & seen))
             made.notes.append(f"volumes: the medium of {names} is on objects hidden from shadow rays and on objects "
@@ -542,7 +536,7 @@ class Stretch(NamedTuple):
 
     def transmittance(self, t: np.ndarray) -> np.ndarray:
         """What the media let through (n, 3) float64 over distances t (n,) (inf: a ray that escapes): Beer-Lambert,
-        marched through heterogeneous media."""
+        through heterogeneous media an unbiased estimate (ratio tracking on the march, field.March.transmittance)."""
         T = transmittance(self.sigma_t, t)
         rows = np.flatnonzero(self.varying)
         if len(rows):

@@ -1,6 +1,6 @@
 /* Null scattering: ratio tracking (transmittance) and weighted delta tracking (free flight) over per-piece
  * majorants, the twin of core/volumes/tracking.py (see its docstring for the estimators). Its density is a table
- * (tracking.py's table_density) until the integrators call it with a field's graph (issue 35). */
+ * (tracking.py's table_density); the integrators use field.c's residual ratio tracking on the march instead (issue 35). */
 
 /* A tabulated density along a ray: `count` values over [0, length], nodes interpolated linearly or constant cells. */
 typedef struct {
