@@ -11,26 +11,13 @@ import numpy as np
 import pytest
 
 from core import render
-from core.geometry import primitives
 from core.lights import AreaLight, PointLight, SpotLight, SunLight
 from core.lights import base as lights_base
 from core.lights.lamp_graph import UV_AREA, UV_SPHERE, UV_SPOT, UV_SUN, compile_lamp, map_to_sphere
-from core.materials import Material
 from core.materials.graph import GraphNode, Link
-from core.scene import RenderSettings, Scene, World
+from core.scene import RenderSettings, Scene
 
-from conftest import ortho_down
-
-RHO, P, H = 0.5, 100.0, 1.5                               # the floor's albedo, the lamp's power, its height
-
-
-def floor_scene(lamp) -> Scene:
-    """A Lambert floor of albedo RHO seen straight down by an orthographic camera 4 wide, lit by `lamp` alone."""
-    scene = Scene(camera=ortho_down(height=3.0, scale=4.0), world=World(color=np.zeros(3)))
-    scene.materials.append(Material(np.full(3, RHO), "Floor"))
-    scene.add_mesh(primitives.plane(40.0), materials=np.array([0]))
-    scene.lights.append(lamp)
-    return scene
+from test_lamp_falloff import H, P, RHO, floor_scene      # (a Lambert floor under one lamp, seen from above)
 
 
 def pixel_centres(n: int = 8, scale: float = 4.0):

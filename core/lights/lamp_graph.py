@@ -172,17 +172,8 @@ class LampEmission:
 def compile_lamp(color, strength, matrix: np.ndarray, uv_kind: int = UV_SPHERE, spot_size: float = 0.0) -> LampEmission:
     """Compile an Emission's color and strength (constants or graph.Links) over a lamp's shading point; matrix (4, 4)
     the lamp object's transform, uv_kind how its UV is made, spot_size a spot's full angle or a sun's (radians)."""
-    layout = graph_.layout_of(set(LAMP_ATTRIBUTES))
-    nodes = [(None, 1.0, {"color": color, "strength": strength})]
-    images = graph_.images_of(nodes)
-    index = {id(image): k for k, image in enumerate(images) if image is not None}
-    compiler = graph_.Compiler(layout, lambda image: index.get(id(image), -1), material="a lamp")
-    color_register = compiler.value(color, 3, 0.0)
-    strength_register = compiler.value(strength, 1, 1.0)
-    program = compiler.compile([])
-    from .world_graph import register_number
-    registers = tuple(register_number(compiler, r) for r in (color_register, strength_register))
-    textures = textures_.TextureSet.of([image for image in images if image is not None])
+    from .world_graph import compile_emission
+    program, registers, textures, layout, _ = compile_emission(color, strength, set(LAMP_ATTRIBUTES), "a lamp")
     half_cot = 0.5 / math.tan(0.5 * spot_size) if uv_kind == UV_SPOT and spot_size > 0.0 else 0.0
     if uv_kind == UV_SUN:
         # (Cycles' half_inv_sin_half_angle, computed from its half angle: 1 / (2 sin(angle / 4)), 0 at angle 0)

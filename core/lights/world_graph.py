@@ -105,18 +105,27 @@ WorldBakeArgs = schema.function("primer_world_bake", "world_bake_rows", schema.r
 ]))
 
 
-def compile_world(color, strength) -> WorldProgram:
-    """Compile the Background's color and strength (constants or graph.Links) over a world's shading point."""
-    layout = graph_.layout_of({"generated", "object"})
+def compile_emission(color, strength, attributes: set, owner: str) -> tuple:
+    """Compile an emission's color and strength (constants or graph.Links) over the shading point of `owner` (the
+    world's, a lamp's), reading `attributes`: (program, (color, strength) register numbers, TextureSet, layout,
+    compiler)."""
+    layout = graph_.layout_of(attributes)
     nodes = [(None, 1.0, {"color": color, "strength": strength})]
     images = graph_.images_of(nodes)
     index = {id(image): k for k, image in enumerate(images) if image is not None}
-    compiler = graph_.Compiler(layout, lambda image: index.get(id(image), -1), material="the world")
+    compiler = graph_.Compiler(layout, lambda image: index.get(id(image), -1), material=owner)
     color_register = compiler.value(color, 3, 0.0)
     strength_register = compiler.value(strength, 1, 1.0)
     program = compiler.compile([])
     registers = tuple(register_number(compiler, r) for r in (color_register, strength_register))
     textures = textures_.TextureSet.of([image for image in images if image is not None])
+    return program, registers, textures, layout, compiler
+
+
+def compile_world(color, strength) -> WorldProgram:
+    """Compile the Background's color and strength (constants or graph.Links) over a world's shading point."""
+    program, registers, textures, layout, compiler = compile_emission(color, strength, {"generated", "object"},
+                                                                      "the world")
     return WorldProgram(program, registers, textures, layout, dict(compiler.sky_starts))
 
 
