@@ -15,7 +15,7 @@ from core.lights import AreaLight, PointLight, SpotLight, SunLight
 from core.lights import base as lights_base
 from core.lights.lamp_graph import UV_AREA, UV_SPHERE, UV_SPOT, UV_SUN, compile_lamp, map_to_sphere
 from core.materials.graph import GraphNode, Link
-from core.scene import RenderSettings, Scene
+from core.scene import RenderSettings
 
 from test_lamp_falloff import H, P, RHO, floor_scene      # (a Lambert floor under one lamp, seen from above)
 
