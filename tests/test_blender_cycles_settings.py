@@ -295,6 +295,31 @@ def plain_world(name: str, color):
     return world
 
 
+def shader_material(name: str, kind: str, **inputs):
+    """A new material whose Surface is one shader node of type `kind` with `inputs` (socket name -> value):
+    (material, the node)."""
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    nodes = material.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    node = nodes.new(kind)
+    for socket, value in inputs.items():
+        node.inputs[socket].default_value = value
+    material.node_tree.links.new(node.outputs[0], nodes["Material Output"].inputs["Surface"])
+    return material, node
+
+
+def plane_under_an_orthographic_camera(scene, size: float, material) -> None:
+    """A plane of `size` with `material` at the origin, seen straight down by an orthographic camera 1 wide from 3
+    above (the scene's camera)."""
+    bpy.ops.mesh.primitive_plane_add(size=size)
+    bpy.context.object.data.materials.append(material)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type, camera.data.ortho_scale, camera.location = "ORTHO", 1.0, (0.0, 0.0, 3.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+
+
 def test_a_view_layer_renders_its_world_override_and_no_world_without_its_environment_as_in_cycles(primer,
                                                                                                   tmp_path):
     """View Layer > Filter > Environment off: Cycles gives the background its empty shader, so a bright world neither
@@ -338,13 +363,7 @@ def test_simplify_culling_leaves_out_what_cycles_leaves_out(primer, tmp_path):
     scene = corner_scene()
     scene.primer.settings_source = "CYCLES"
     scene.cycles.samples = 4
-    glow = bpy.data.materials.new("Glow")
-    glow.use_nodes = True
-    nodes = glow.node_tree.nodes
-    nodes.remove(nodes["Principled BSDF"])
-    emission = nodes.new("ShaderNodeEmission")
-    emission.inputs["Strength"].default_value = 20.0
-    glow.node_tree.links.new(emission.outputs[0], nodes["Material Output"].inputs["Surface"])
+    glow, _ = shader_material("Glow", "ShaderNodeEmission", Strength=20.0)
     quad("Panel", [(5.5, -8.0, 0.5), (2.5, -10.0, 0.5), (2.5, -10.0, 4.5), (5.5, -8.0, 4.5)], glow)
     panel = bpy.data.objects["Panel"]
     panel.cycles.use_camera_cull = True
@@ -381,20 +400,11 @@ def test_a_texture_limit_averages_a_fine_checker_to_grey_as_in_cycles(primer, tm
     image.file_format = "PNG"
     image.save()
     image = bpy.data.images.load(str(tmp_path / "checker.png"))
-    material = bpy.data.materials.new("Checker")
-    material.use_nodes = True
-    nodes, links = material.node_tree.nodes, material.node_tree.links
-    nodes.remove(nodes["Principled BSDF"])
-    texture, emission = nodes.new("ShaderNodeTexImage"), nodes.new("ShaderNodeEmission")
+    material, emission = shader_material("Checker", "ShaderNodeEmission")
+    texture = material.node_tree.nodes.new("ShaderNodeTexImage")
     texture.image, texture.interpolation = image, "Closest"
-    links.new(texture.outputs["Color"], emission.inputs["Color"])
-    links.new(emission.outputs[0], nodes["Material Output"].inputs["Surface"])
-    bpy.ops.mesh.primitive_plane_add(size=2.0)
-    bpy.context.object.data.materials.append(material)
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.data.type, camera.data.ortho_scale, camera.location = "ORTHO", 1.0, (0.0, 0.0, 3.0)
-    scene.collection.objects.link(camera)
-    scene.camera = camera
+    material.node_tree.links.new(texture.outputs["Color"], emission.inputs["Color"])
+    plane_under_an_orthographic_camera(scene, 2.0, material)
     scene.render.use_simplify = True
     grey = 128.0 / 255.0
     grey = ((grey + 0.055) / 1.055) ** 2.4
@@ -420,19 +430,8 @@ def test_transparent_glass_clears_the_film_behind_smooth_glass_as_in_cycles(prim
     scene.cycles.samples, scene.cycles.max_bounces = 256, 4
     scene.render.film_transparent = True
     scene.world = plain_world("White", (1.0, 1.0, 1.0))
-    material = bpy.data.materials.new("Glass")
-    material.use_nodes = True
-    nodes = material.node_tree.nodes
-    nodes.remove(nodes["Principled BSDF"])
-    glass = nodes.new("ShaderNodeBsdfGlass")
-    glass.inputs["Roughness"].default_value, glass.inputs["IOR"].default_value = 0.0, 1.5
-    material.node_tree.links.new(glass.outputs[0], nodes["Material Output"].inputs["Surface"])
-    bpy.ops.mesh.primitive_plane_add(size=4.0)
-    bpy.context.object.data.materials.append(material)
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.data.type, camera.data.ortho_scale, camera.location = "ORTHO", 1.0, (0.0, 0.0, 3.0)
-    scene.collection.objects.link(camera)
-    scene.camera = camera
+    glass, _ = shader_material("Glass", "ShaderNodeBsdfGlass", Roughness=0.0, IOR=1.5)
+    plane_under_an_orthographic_camera(scene, 4.0, glass)
     for engine in ("PRIMER", "CYCLES"):
         scene.render.engine = engine
         scene.cycles.film_transparent_glass = True
