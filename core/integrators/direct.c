@@ -188,8 +188,9 @@ INLINE int ray_kind(int kind, int transmit, int previous)
  * one more transparent surface, the flags kept (a Ray Portal: one more portal too); any other closure: one more
  * bounce of its kind, and the flags its labels give (REFLECT or TRANSMIT; DIFFUSE, GLOSSY, or GLOSSY and SINGULAR).
  * The ray leaves with the path's ray cone as it was at the hit, t along the ray that reached it (Cycles' dP; dD
- * kept, 0 into a subsurface walk). */
-INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular, double t)
+ * kept, 0 into a subsurface walk). clear: the bounce went through glass under Transparent Glass's threshold
+ * (clears_glass), after which a path that cleared the film still does (CLEAR_GLASS). */
+INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular, double t, int clear)
 {
     p.cone = p.cone + t * p.spread;
     if (bsdf_is(kind, BSDF_FLAG_STRAIGHT)) {
@@ -197,7 +198,7 @@ INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular, d
         p.portal += bsdf_is(kind, BSDF_FLAG_PORTAL);     /* (Cycles' portal_bounce: Portal Depth) */
         return p;
     }
-    if (bsdf_is(kind, BSDF_FLAG_SUBSURFACE)) { p.flags &= ~PATH_CAMERA; p.spread = 0.0; return p; }
+    if (bsdf_is(kind, BSDF_FLAG_SUBSURFACE)) { p.flags &= ~PATH_CLEARS_FILM; p.spread = 0.0; return p; }
     int through = goes_through(kind, transmit), diffuse = bsdf_is(kind, BSDF_FLAG_DIFFUSE);
     singular = singular || bsdf_is(kind, BSDF_FLAG_SINGULAR);
     p.bounce++;
@@ -205,7 +206,8 @@ INLINE LightPath path_after(LightPath p, int kind, int transmit, int singular, d
     p.diffuse += !through && diffuse;
     p.glossy += !through && !diffuse;
     p.flags = (through ? PATH_TRANSMIT : PATH_REFLECT)
-              | (diffuse ? PATH_DIFFUSE : (singular ? PATH_GLOSSY | PATH_SINGULAR : PATH_GLOSSY));
+              | (diffuse ? PATH_DIFFUSE : (singular ? PATH_GLOSSY | PATH_SINGULAR : PATH_GLOSSY))
+              | (clear && (p.flags & PATH_CLEARS_FILM) != 0 ? PATH_CLEAR_GLASS : 0);
     return p;
 }
 
@@ -1168,11 +1170,7 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             int transmit = dot3(H->s[owner[k]].Ng, s->wi) < 0.0;
             kinds[k] = ray_kind(s->kind, transmit, H->seen_by[owner[k]]);
             after[k] = path_after(path_at(H, owner[k], H->flags[owner[k]]), s->kind, transmit, s->delta,
-                                  H->s[owner[k]].t);
-            if ((H->flags[owner[k]] & PATH_CLEARS_FILM) != 0 && !bsdf_is(s->kind, BSDF_FLAG_STRAIGHT)
-                && !bsdf_is(s->kind, BSDF_FLAG_SUBSURFACE)
-                && clears_glass(H->sd[owner[k]].c + s->slot, transmit, ds->clear_glass))
-                after[k].flags |= PATH_CLEAR_GLASS;     /* (Transparent Glass: rays.path_after's `clear`) */
+                                  H->s[owner[k]].t, clears_glass(H->sd[owner[k]].c + s->slot, transmit, ds->clear_glass));
             if (packet.hit.geomID[k] != INVALID_ID && ds->geometry->hidden != NULL)
                 see_past_hidden(ds->geometry, ds->intersect, ds->scene, &packet, k, origin[k], s->wi, INFINITY,
                                 kinds[k], H->s[owner[k]].time);
