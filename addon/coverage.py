@@ -396,9 +396,8 @@ COVERAGE = {
                     "cycles": POINTER},
     },
     "CyclesMaterialSettings": {
-        READ: {"emission_sampling": "materials.export_material"},
-        REPORTED: {"use_bump_map_correction": "unmodelled.material_notes",
-                   "homogeneous_volume*": "unmodelled.material_notes (with a Volume)"},
+        READ: {"emission_sampling use_bump_map_correction": "materials.export_material"},
+        REPORTED: {"homogeneous_volume*": "unmodelled.material_notes (with a Volume)"},
         NO_EFFECT: {"volume_sampling": NOISE,
                     "volume_interpolation volume_step_rate": HETEROGENEOUS},
     },

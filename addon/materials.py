@@ -1800,5 +1800,7 @@ def export_material(material, warnings: list) -> Material:
     if not nodes:
         return Material(np.zeros(3), material.name, emission_sampling=sampling, transparent_shadows=shadows,
                         volume=medium, **moved)
+    # Settings > Bump Map Correction (Cycles' default on; off: the nodes' normals kept as they are, closures.py).
+    corrected = bool(getattr(getattr(material, "cycles", None), "use_bump_map_correction", True))
     return Material(np.zeros(3), material.name, nodes=nodes, emission_sampling=sampling, transparent_shadows=shadows,
-                    volume=medium, normal=normal, **moved)
+                    volume=medium, normal=normal, bump_map_correction=corrected, **moved)

@@ -146,13 +146,10 @@ def world_notes(world) -> list:
 
 
 def material_notes(material) -> list:
-    """Material settings that Primer does not model: Cycles' bump map correction switched off; Blender 4's
-    Homogeneous Volume on a material with a Volume (Cycles evaluates the medium once per ray then)."""
+    """Material settings that Primer does not model: Blender 4's Homogeneous Volume on a material with a Volume
+    (Cycles evaluates the medium once per ray then). (Bump Map Correction is read: materials.export_material.)"""
     cycles = getattr(material, "cycles", None)
     notes = []
-    if cycles is not None and not getattr(cycles, "use_bump_map_correction", True):
-        notes.append(f"material '{material.name}' has Bump Map Correction off; Primer always shadows bumped normals "
-                     "as Cycles does with it on")
     tree = getattr(material, "node_tree", None)
     output = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"), None) if tree else None
     volume = output is not None and "Volume" in output.inputs and output.inputs["Volume"].is_linked

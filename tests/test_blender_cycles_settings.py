@@ -442,3 +442,36 @@ def test_transparent_glass_clears_the_film_behind_smooth_glass_as_in_cycles(prim
         assert clear[..., :3].mean() == pytest.approx(clear[..., 3].mean(), abs=2e-3), engine
         assert opaque[..., 3].min() > 0.999 and opaque[..., :3].mean() == pytest.approx(1.0, abs=0.01), engine
     assert not [w for w in addon(primer, "engine").last_render.warnings if "Glass" in w]
+
+
+def test_bump_map_correction_off_renders_as_in_cycles(primer, tmp_path):
+    """Material > Settings > Bump Map Correction: a Principled plane (rough specular and diffuse) bumped steeply by
+    wave bands under a low sun, seen straight down. On (Cycles' default), Cycles softens the diffuse closure's light
+    where its bumped normal leans from the smooth one and turns the glossy normals whose mirror would dip below the
+    face; off, it does neither. Primer's image is Cycles' within noise both ways, and the two differ in both
+    engines; Primer says nothing about the setting."""
+    scene = new_cycles_file(32, 32)
+    scene.primer.settings_source = "CYCLES"
+    scene.cycles.samples, scene.cycles.max_bounces = 256, 0
+    material, principled = shader_material("Bumped", "ShaderNodeBsdfPrincipled", Roughness=0.35)
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    wave, bump = nodes.new("ShaderNodeTexWave"), nodes.new("ShaderNodeBump")
+    wave.inputs["Scale"].default_value = 2.0
+    bump.inputs["Distance"].default_value = 0.6
+    links.new(wave.outputs["Fac"], bump.inputs["Height"])
+    links.new(bump.outputs["Normal"], principled.inputs["Normal"])
+    plane_under_an_orthographic_camera(scene, 2.0, material)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 3.0, 0.0
+    sun.rotation_euler = (math.radians(68.0), 0.0, math.radians(30.0))
+    scene.collection.objects.link(sun)
+    images = {}
+    for corrected in (True, False):
+        material.cycles.use_bump_map_correction = corrected
+        for engine in ("PRIMER", "CYCLES"):
+            images[engine, corrected] = render(scene, engine, str(tmp_path / f"{engine}_{corrected}.exr"))
+    for corrected in (True, False):                 # (measured: 2.3e-7 on, 2.0e-7 off)
+        assert relative_mse_of_blocks(images["PRIMER", corrected], images["CYCLES", corrected], 4) < 3e-6, corrected
+    for engine in ("PRIMER", "CYCLES"):             # (measured: 0.091 in both)
+        assert relative_mse_of_blocks(images[engine, False], images[engine, True], 4) > 0.03, engine
+    assert not [w for w in addon(primer, "engine").last_render.warnings if "Bump" in w]

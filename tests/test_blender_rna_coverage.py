@@ -126,8 +126,6 @@ CASES = [
     ("Camera", "camera.data", "type", "CUSTOM", [], "camera_notes", "camera", "Custom camera"),
     ("CyclesWorldSettings", "world.cycles", "is_caustics_light", True, [], "world_notes", "world", "shadow caustics"),
     ("CyclesWorldSettings", "world.cycles", "use_shadows", False, [], "world_notes", "world", "casts no shadows"),
-    ("CyclesMaterialSettings", "material.cycles", "use_bump_map_correction", False, [], "material_notes", "material",
-     "Bump Map Correction off"),
 ]
 
 

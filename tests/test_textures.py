@@ -233,6 +233,29 @@ def test_a_set_normal_bump_is_the_hits_own_normal_with_no_bump_shadowing(kernels
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
+@pytest.mark.parametrize("corrected", [True, False])
+def test_bump_shadowing_softens_a_bumped_diffuse_normal_only_with_bump_map_correction(kernels, corrected):
+    """The sloped bump's N' = normalize(-d/2, 0, 1) on a node's Normal, a sun 70 degrees from the plane's normal on
+    the bump's side: a Lambert plane is rho / pi E N'.l x G1, Cycles' bump shadowing term G1 = 2 / (1 + sqrt(1 +
+    a2 tan^2 theta_i)) with a2 = tan^2(angle between N' and N) / 8 and theta_i the sun's angle to the plane's normal;
+    with Bump Map Correction off (Material.bump_map_correction) it is rho / pi E N'.l exactly."""
+    distance = 0.8
+    uv = GraphNode("TEXCOORD", {}, {})
+    height = GraphNode("SEPARATE_XYZ", {}, {"Vector": Link(uv, "UV")})
+    bump = Link(GraphNode("BUMP", {}, {"Height": Link(height, "X"), "Distance": distance, "Strength": 1.0}), "Normal")
+    t = math.radians(70.0)
+    towards = np.array([-math.sin(t), 0.0, math.cos(t)])
+    scene = scene_of(Material(name="Node", nodes=[("DIFFUSE", (0.5, 0.5, 0.5), {"normal": bump})],
+                              bump_map_correction=corrected))
+    scene.lights = [SunLight(-towards, strength=E)]
+    image = shoot(scene, kernels)
+    N = np.array([-distance / 2.0, 0.0, 1.0]) / math.sqrt(1.0 + distance ** 2 / 4.0)
+    a2 = (1.0 / N[2] ** 2 - 1.0) / 8.0
+    G1 = 2.0 / (1.0 + math.sqrt(1.0 + a2 * math.tan(t) ** 2)) if corrected else 1.0
+    np.testing.assert_allclose(image, 0.5 / math.pi * E * float(N @ towards) * G1, rtol=1e-6)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
 def test_the_nodes_after_a_set_normal_read_its_normal(kernels):
     """Cycles runs a material's surface after its Set Normal: the Geometry node's Normal there is the sloped bump's
     N' = normalize(-d/2, 0, 1) (an Emission coloured |N'|: (d/2, 0, 1) / sqrt(1 + d^2/4)), and a Bump node in the

@@ -426,6 +426,7 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
         sd->caustics = 0;
         sd->blur = 0.0;
         sd->terminator = 1.0;
+        sd->uncorrected = 0;
         LightPath path = {PATH_CAMERA, 0, 0, 0, 0, passed, 0, 0.0, 0.0};
         ShaderKeys keys = {&rays, pixel, index, 0, 0};
         shade_hit(params->graphs, params->geometry, m, &tri, &s, geometry, prim, instance, u, v, wo, &path, &keys, 0, sd);

@@ -48,6 +48,8 @@ which the record keeps alive.""", [
     ("shadow_opaque", I32, "1: opaque to shadow rays even where it lets light through (Transparent Shadows off)"),
     ("may_pass", I32, "1: it may let light through somewhere (a Transparent node, alpha)"),
     ("graph_emits", I32, "1: its node graph gives its emission (a texture): evaluated where light lands"),
+    ("uncorrected", I32, "1: Bump Map Correction off (no valid_reflection of its nodes' normals; diffuse bump "
+                         "shadowing only its side test)"),
 ], tables=("BSDF", "NODE"))
 
 ChunkParams = schema.record("ChunkParams", "Everything a chunk reads, made once per render (core/integrators/compiled.py).", [
@@ -174,7 +176,8 @@ def material_record(shader, shadow_opaque: bool = False) -> MaterialRecord:
     """Return the C record of a material: a ConstantShader's closures, or a NodeShader's nodes (program 1), as many as
     it has; shadow_opaque: it blocks shadow rays even where it lets light through (Transparent Shadows off)."""
     record = MaterialRecord(shadow_opaque=shadow_opaque, may_pass=shader.may_let_light_through,
-                            graph_emits=bool(getattr(shader, "graph_emits", False)))
+                            graph_emits=bool(getattr(shader, "graph_emits", False)),
+                            uncorrected=not getattr(shader, "bump_map_correction", True))
     if hasattr(shader, "nodes"):
         k = len(shader.nodes)
         record.program = 1

@@ -87,6 +87,7 @@ INLINE void hit_closures(BlockHits *H, int64_t h)
     sd->caustics = 0;
     sd->blur = 0.0;
     sd->terminator = 1.0;
+    sd->uncorrected = 0;
 }
 
 /* lightgroups.GroupLight.add for one contribution: value (3) x scale to row `row` of a (rows, count, 3) group

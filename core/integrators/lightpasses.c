@@ -30,7 +30,8 @@ INLINE void kind_shares(const ShaderResult *sd, const double *wo, const double *
         double value[3], pdf;
         bsdf_eval(c, wo, wi, value, &pdf);
         if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
-            double term = bump_shadowing(sd->N, c->N, wi, bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE));
+            double term = bump_shadowing(sd->N, c->N, wi,
+                                         bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE) && !sd->uncorrected);
             for (int j = 0; j < 3; j++) value[j] *= term;
         }
         for (int j = 0; j < 3; j++) shares[p][j] += c->weight[j] * value[j];

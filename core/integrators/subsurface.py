@@ -50,7 +50,7 @@ from .. import vectors
 from ..geometry.intersect import Hits
 from ..materials import subsurface as bssrdf
 from ..materials.base import BSDFFlags, has
-from ..materials.closures import Closures, ShaderResult
+from ..materials.closures import ShaderResult
 from ..materials.lambert import Lambert
 from ..native import schema
 from ..sampling import sobol as sampling
@@ -345,7 +345,7 @@ def burley_as_diffuse(shader: ShaderResult, ancestor: np.ndarray) -> ShaderResul
         return shader
     kind = np.where(turn, Lambert.kind, c.kind).astype(np.int32)
     sample_weight = np.where(turn, np.abs(c.weight.mean(axis=2)), c.sample_weight)
-    closures = Closures(kind, c.weight, sample_weight, c.N, c.params, c.Ns, c.terminator)
+    closures = c._replace(kind=kind, sample_weight=sample_weight)
     return ShaderResult(closures, shader.emission, shader.transparency, shader.N, shader.holdout)
 
 
@@ -393,7 +393,7 @@ def subsurface_shader(shader: ShaderResult, exiting: np.ndarray) -> ShaderResult
     N[exiting, 0] = exit_N[exiting]
     # (beside it the hit's own normal, sd->N: a bumped exit normal's light is shadowed as Cycles' bump term does)
     Ns = None if c.Ns is None else np.where(exiting[:, None, None], shader.N[:, None, :], c.Ns)
-    closures = Closures(kind.astype(np.int32), weight, sample_weight, N, c.params, Ns, c.terminator)
+    closures = c._replace(kind=kind.astype(np.int32), weight=weight, sample_weight=sample_weight, N=N, Ns=Ns)
     keep = ~exiting[:, None]
     holdout = None if shader.holdout is None else shader.holdout * keep
     return ShaderResult(closures, shader.emission * keep, shader.transparency * keep, shader.N, holdout)

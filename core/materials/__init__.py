@@ -81,6 +81,7 @@ class Material:
     volume_space: Optional[tuple] = None
     displacement: Optional[object] = None
     displacement_method: str = "BUMP"
+    bump_map_correction: bool = True
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).
@@ -174,7 +175,8 @@ class NodeShader:
     (the emitters' power and the `emissive` flag use it); emission_sides as ConstantShader's;
     graph: the nodes with their links [(node class, weight, inputs, factors)], None when nothing is linked
     (then the nodes are the same at every hit); programs: its compiled graph per attribute layout; normal: the
-    Material's `normal` (a Link: the hit's shading normal from the graph) or None.
+    Material's `normal` (a Link: the hit's shading normal from the graph) or None; bump_map_correction: the
+    Material's.
     """
 
     nodes: list
@@ -185,6 +187,7 @@ class NodeShader:
     programs: dict = field(default_factory=dict)
     graph_emits: bool = False
     normal: Optional[object] = None
+    bump_map_correction: bool = True
 
     @classmethod
     def of(cls, material: Material, notes: Optional[list] = None) -> "NodeShader":
@@ -224,11 +227,11 @@ class NodeShader:
         estimate = graph_emission_estimate(linked, rows) if graph_.has_links(material.nodes) else None
         if estimate is None:
             return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, emission),
-                       graph, normal=normal)
+                       graph, normal=normal, bump_map_correction=material.bump_map_correction)
         # Its emission comes from the graph (a texture, a linked factor): light samples and BSDF rays evaluate it
         # where they land, and Emission Sampling Auto decides on Cycles' estimate of it.
         return cls(rows, emission, head_on.transparency[0], emission_sides(material.emission_sampling, estimate),
-                   graph, graph_emits=True, normal=normal)
+                   graph, graph_emits=True, normal=normal, bump_map_correction=material.bump_map_correction)
 
     @property
     def closures_at_most(self) -> int:
@@ -279,12 +282,18 @@ class NodeShader:
         weights = [np.broadcast_to(weight, (n, 3)).astype(np.float64) for _, weight, _ in self.nodes]
         rows = [np.tile(p, (n, 1)) for _, _, p in self.nodes]
         normals = [None] * len(self.nodes)
-        hit_normal = graph_.apply_outputs(program, registers, weights, rows, normals, point.Ng, wo)
+        corrected = self.bump_map_correction          # (off: nodes' normals as the graph gives them)
+        hit_normal = graph_.apply_outputs(program, registers, weights, rows, normals, point.Ng if corrected else None,
+                                          wo)
         if hit_normal is not None:                    # (Set Normal: the hit's own normal, where the graph gives one)
             N = np.where(np.any(hit_normal != 0.0, axis=1)[:, None], hit_normal, N)
-        glossy = [None if normal is None else graph_.valid_reflection(point.Ng, wo, normal) for normal in normals]
-        return nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing,
-                                  caustics=caustics, blur=blur)
+        glossy = [None if normal is None or not corrected else graph_.valid_reflection(point.Ng, wo, normal)
+                  for normal in normals]
+        result = nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing,
+                                    caustics=caustics, blur=blur)
+        if corrected:
+            return result
+        return result._replace(closures=result.closures._replace(uncorrected=np.ones(n, bool)))
 
 
 def reflective(kind) -> np.ndarray:

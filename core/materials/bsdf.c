@@ -28,13 +28,13 @@ INLINE int caustics_take(int kind, int caustics)
  * --------------------------------------------------------------------------------------------- */
 
 /* closures.bump_shadowing for one closure whose normal differs from the hit's sd->N: 0 where wi and the
- * closure's N lie on different sides of the smooth surface; for diffuse closures, GGX's G1 at |Ns.wi| of a
- * roughness growing with the angle between N and Ns. */
-INLINE double bump_shadowing(const double *Ns, const double *N, const double *wi, int diffuse)
+ * closure's N lie on different sides of the smooth surface; for diffuse closures of a material with Bump Map
+ * Correction on (`soften`), GGX's G1 at |Ns.wi| of a roughness growing with the angle between N and Ns. */
+INLINE double bump_shadowing(const double *Ns, const double *N, const double *wi, int soften)
 {
     double cos_si = dot3(Ns, wi), cos_sn = dot3(Ns, N), cos_ni = dot3(N, wi);
     if (cos_si * cos_sn * cos_ni < 0.0) return 0.0;
-    if (!diffuse) return 1.0;
+    if (!soften) return 1.0;
     double cos_i = fabs(cos_si), cos_d = fabs(cos_sn);
     if (cos_d >= 1.0 || cos_i >= 1.0) return 1.0;
     if (cos_i < 1e-6) return 0.0;
@@ -81,7 +81,8 @@ INLINE double shader_eval_seen(const ShaderResult *sd, const double *wo, const d
         double value[3], pdf;
         bsdf_eval(c, wo, wi, value, &pdf);
         if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
-            double term = bump_shadowing(sd->N, c->N, wi, bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE));
+            double term = bump_shadowing(sd->N, c->N, wi,
+                                         bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE) && !sd->uncorrected);
             for (int j = 0; j < 3; j++) value[j] *= term;
             if (term == 0.0) pdf = 0.0;
         }
@@ -156,7 +157,8 @@ INLINE void shader_sample(const ShaderResult *sd, const double *wo, const double
         bsdf_eval(c, wo, out->wi, f_e, &pdf_e);
         for (int j = 0; j < 3; j++) f_s[j] = s.weight[j] * s.pdf;
         if (c->N[0] != sd->N[0] || c->N[1] != sd->N[1] || c->N[2] != sd->N[2]) {
-            double term = bump_shadowing(sd->N, c->N, out->wi, bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE));
+            double term = bump_shadowing(sd->N, c->N, out->wi,
+                                         bsdf_is(c->kind, BSDF_FLAG_DIFFUSE_TYPE) && !sd->uncorrected);
             for (int j = 0; j < 3; j++) { f_e[j] *= term; f_s[j] *= term; }
             if (term == 0.0) { pdf_e = 0.0; pdf_s = 0.0; }
         }

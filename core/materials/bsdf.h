@@ -41,6 +41,8 @@ typedef struct {
                              * path.filter_glossy_roughness, nodes.roughen) */
     double terminator;      /* the object's Shadow Terminator Shading Offset multiplier (closures.terminator_term;
                              * shade_hit sets it, 1 or less: none) */
+    int uncorrected;        /* 1: the material has Bump Map Correction off (Closures.uncorrected; shade_material sets
+                             * it) */
 } ShaderResult;
 
 #define STORAGE_STRIDE 18           /* doubles of a hit's storage per closure (a glass closure's, with a thin film) */
@@ -68,6 +70,7 @@ INLINE void no_closures(ShaderResult *sd)
     sd->caustics = 0;
     sd->blur = 0.0;
     sd->terminator = 1.0;
+    sd->uncorrected = 0;
 }
 
 /* A direction sampled from one BSDF (base.BsdfSample for one hit). */

@@ -38,7 +38,9 @@ class Closures(NamedTuple):
     unit normals on the viewer's side; params (n, K, PARAMS) float64; Ns (n, K, 3) float64 the hit's
     smooth shading normal (Cycles' sd->N) beside each closure, or None: where a closure's own normal differs
     (a Normal Map, a Bump), its light is shadowed by `bump_shadowing`; terminator (n,) float64 the Shading Offset
-    multiplier of each hit's object (`terminator_term`; 1: none), or None: no object bends its light
+    multiplier of each hit's object (`terminator_term`; 1: none), or None: no object bends its light;
+    uncorrected (n,) bool the hits whose material has Bump Map Correction off (their diffuse closures' bump shadowing
+    keeps only its side test, Cycles without SD_USE_BUMP_MAP_CORRECTION), or None: every hit's material has it on
     """
 
     kind: np.ndarray
@@ -48,6 +50,7 @@ class Closures(NamedTuple):
     params: np.ndarray
     Ns: Optional[np.ndarray] = None
     terminator: Optional[np.ndarray] = None
+    uncorrected: Optional[np.ndarray] = None
 
     @classmethod
     def empty(cls, n: int, slots: int = 1) -> "Closures":
@@ -106,7 +109,8 @@ def eval_closures(closures: Closures, wo: np.ndarray, wi: np.ndarray, signed_cos
             args = (closures.params[rows, k], closures.N[rows, k], wo[rows], wi[rows])
             value, pdf = bsdf.eval(*args, signed_cosine=True) if signed_cosine and bsdf is Lambert else bsdf.eval(*args)
             if closures.Ns is not None:
-                term = bump_shadowing(closures.Ns[rows, k], closures.N[rows, k], wi[rows], bsdf.is_(F.DIFFUSE_TYPE))
+                term = bump_shadowing(closures.Ns[rows, k], closures.N[rows, k], wi[rows], bsdf.is_(F.DIFFUSE_TYPE),
+                                      corrected(closures, rows))
                 if term is not None:
                     value = value * term[:, None]
                     pdf = np.where(term == 0.0, 0.0, pdf)
@@ -139,12 +143,18 @@ def terminator_bend(multiplier: np.ndarray, N: np.ndarray, wi: np.ndarray) -> np
     return np.where(bends, terminator_term(cos_in, multiplier), 1.0)
 
 
-def bump_shadowing(Ns: np.ndarray, N: np.ndarray, wi: np.ndarray, diffuse: bool):
+def corrected(closures: Closures, rows) -> Optional[np.ndarray]:
+    """Whether the materials of the hits `rows` have Bump Map Correction on: (m,) bool, or None (all of them)."""
+    return None if closures.uncorrected is None else ~closures.uncorrected[rows]
+
+
+def bump_shadowing(Ns: np.ndarray, N: np.ndarray, wi: np.ndarray, diffuse: bool, corrected=None):
     """Cycles' bump shadowing term (kernel/closure/bsdf.h) for closures whose normal N (m, 3) differs from the
     smooth normal Ns (m, 3), light from wi (m, 3): 0 where wi and N lie on different sides of the smooth
-    surface; for diffuse closures, the GGX masking G1 of a roughness that grows with the angle between N and
-    Ns at cos_i = |Ns.wi| ("A Microfacet-Based Shadowing Function to Solve the Bump Terminator Problem",
-    Conty Estevez et al.). Returns the term (m,), or None where every N is Ns (nothing to do)."""
+    surface; for diffuse closures whose material has Bump Map Correction on (`corrected` (m,) bool, None: all), the
+    GGX masking G1 of a roughness that grows with the angle between N and Ns at cos_i = |Ns.wi| ("A
+    Microfacet-Based Shadowing Function to Solve the Bump Terminator Problem", Conty Estevez et al.). Returns the
+    term (m,), or None where every N is Ns (nothing to do)."""
     differs = ~np.all(N == Ns, axis=1) & np.any(Ns != 0.0, axis=1)      # (zeros: no smooth normal given)
     if not differs.any():
         return None
@@ -160,7 +170,7 @@ def bump_shadowing(Ns: np.ndarray, N: np.ndarray, wi: np.ndarray, diffuse: bool)
         tan2_i = (1.0 - safe * safe) / (safe * safe)
         g1 = 2.0 / (1.0 + np.sqrt(1.0 + alpha2 * tan2_i))
         smooth = np.where((cos_d >= 1.0) | (cos_i >= 1.0), 1.0, np.where(cos_i < 1e-6, 0.0, g1))
-        term = term * smooth
+        term = term * (smooth if corrected is None else np.where(corrected, smooth, 1.0))
     return np.where(differs, term, 1.0)
 
 
@@ -198,7 +208,8 @@ def own_weight(closures: Closures, wo: np.ndarray, wi: np.ndarray, total: np.nda
         f_e, pdf_e = bsdf.eval(closures.params[at, c], closures.N[at, c], wo[at], wi[at])
         f_s = s_weight * s_pdf[:, None]
         if closures.Ns is not None:
-            term = bump_shadowing(closures.Ns[at, c], closures.N[at, c], wi[at], bsdf.is_(F.DIFFUSE_TYPE))
+            term = bump_shadowing(closures.Ns[at, c], closures.N[at, c], wi[at], bsdf.is_(F.DIFFUSE_TYPE),
+                                  corrected(closures, at))
             if term is not None:
                 f_e, f_s = f_e * term[:, None], f_s * term[:, None]
                 pdf_e, s_pdf = np.where(term == 0.0, 0.0, pdf_e), np.where(term == 0.0, 0.0, s_pdf)
@@ -283,13 +294,19 @@ def concatenate(results: list, order: np.ndarray, n: int) -> ShaderResult:
     """Put ShaderResults of groups of hits back in hit order: results[i] covers the hits order[i] (m_i,) int64."""
     slots = max(r.closures.kind.shape[1] for r in results)
     holds = any(r.holdout is not None for r in results)
-    out = ShaderResult(Closures.empty(n, slots), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
+    closures = Closures.empty(n, slots)
+    if any(r.closures.uncorrected is not None for r in results):
+        closures = closures._replace(uncorrected=np.zeros(n, bool))
+    out = ShaderResult(closures, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
                        np.zeros((n, 3)) if holds else None)
     for result, rows in zip(results, order):
         k = result.closures.kind.shape[1]
         for mine, theirs in zip(out.closures, result.closures):
             if mine is not None and theirs is not None:
-                mine[rows, :k] = theirs
+                if mine.ndim == 1:                      # (per hit: terminator, uncorrected)
+                    mine[rows] = theirs
+                else:
+                    mine[rows, :k] = theirs
         out.emission[rows], out.transparency[rows], out.N[rows] = result.emission, result.transparency, result.N
         if result.holdout is not None:
             out.holdout[rows] = result.holdout

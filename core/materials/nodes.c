@@ -854,12 +854,13 @@ NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, 
                 double *into = p + slot;
                 for (int j = 0; j < 3; j++) into[j] = value[j];
                 safe_normalize3(into);
-                if (into[0] != 0.0 || into[1] != 0.0 || into[2] != 0.0) valid_reflection(sp->Ng, wo, into);
+                if ((into[0] != 0.0 || into[1] != 0.0 || into[2] != 0.0) && !m->uncorrected)
+                    valid_reflection(sp->Ng, wo, into);
             }
         }
         if (own) {
             for (int j = 0; j < 3; j++) glossy[j] = normal[j];
-            valid_reflection(sp->Ng, wo, glossy);
+            if (!m->uncorrected) valid_reflection(sp->Ng, wo, glossy);
         }
         const double *Nk = own ? normal : N, *Gk = own ? glossy : N;
         for (int j = 0; j < 3; j++) sd->N[j] = Nk[j];
@@ -877,6 +878,7 @@ NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, 
 INLINE void shade_material(const MaterialRecord *m, const double *N, const double *wo, int backfacing,
                            ShaderResult *sd)
 {
+    sd->uncorrected = m->uncorrected;
     if (m->program != 0.0) shade_nodes(m, N, wo, backfacing, sd);
     else shade_constant(m, N, sd);
 }
@@ -893,6 +895,7 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
 {
     /* (the object's Shading Offset bends the cosine of every closure's light: closures.terminator_term) */
     sd->terminator = terminator_multiplier_of(g, geometry, prim, instance);
+    sd->uncorrected = m->uncorrected;
     if (m->graph == 0.0 || G == NULL) {
         shade_material(m, s->N, wo, s->backfacing, sd);
         return;

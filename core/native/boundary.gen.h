@@ -772,6 +772,7 @@ struct MaterialRecord {
     int32_t shadow_opaque;                  /* 1: opaque to shadow rays even where it lets light through (Transparent Shadows off) */
     int32_t may_pass;                       /* 1: it may let light through somewhere (a Transparent node, alpha) */
     int32_t graph_emits;                    /* 1: its node graph gives its emission (a texture): evaluated where light lands */
+    int32_t uncorrected;                    /* 1: Bump Map Correction off (no valid_reflection of its nodes' normals; diffuse bump shadowing only its side test) */
 };
 
 /* Everything a chunk reads, made once per render (core/integrators/compiled.py). */
@@ -1325,7 +1326,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "TurnNormalsArgs") == 0) return UINT64_C(7955633785732219999);
     if (strcmp(name, "InstancedTables") == 0) return UINT64_C(3720633522603050127);
     if (strcmp(name, "GeometryTables") == 0) return UINT64_C(472921914999335704);
-    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(3821900976231654687);
+    if (strcmp(name, "MaterialRecord") == 0) return UINT64_C(7607883560999792480);
     if (strcmp(name, "ChunkParams") == 0) return UINT64_C(3538087801514139076);
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
