@@ -539,7 +539,6 @@ typedef struct Sample2dArgs Sample2dArgs;
 typedef struct VolumeField VolumeField;
 typedef struct MediaTables MediaTables;
 typedef struct PhaseRowsArgs PhaseRowsArgs;
-typedef struct TrackingRowsArgs TrackingRowsArgs;
 
 /* The camera, prepared by core/camera/camera.py (`camera_record`). */
 struct CameraRecord {
@@ -1294,22 +1293,6 @@ struct PhaseRowsArgs {
     double *pdf;                            /* (n,) their pdf */
 };
 
-/* primer_tracking_rows' arguments: n ratio-tracking transmittances and n weighted delta-tracking free flights through a tabulated density (tracking.c). */
-struct TrackingRowsArgs {
-    int64_t n;
-    int64_t seed;                           /* the rows' random streams' seed */
-    const double *values;                   /* (count,) the density table (table_density) */
-    int64_t count;
-    int64_t linear;                         /* 1: nodes interpolated linearly, 0: constant cells */
-    double length;                          /* the table's extent [0, length] */
-    const double *edges;                    /* (pieces + 1,) the majorant grid */
-    const double *mu_bar;                   /* (pieces,) each piece's majorant */
-    int64_t pieces;
-    double *transmittance;                  /* (n,) ratio tracking's estimates */
-    double *distance;                       /* (n,) delta tracking's real collisions (inf: none) */
-    double *weight;                         /* (n,) their weights */
-};
-
 /* Each record's layout hash (core/native/schema.py Record.layout_hash), 0 for a name it does not know: what
  * Record.check compares with Python's before a record crosses. */
 EXPORT uint64_t primer_layout(const char *name)
@@ -1355,7 +1338,6 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "VolumeField") == 0) return UINT64_C(4923474972672114994);
     if (strcmp(name, "MediaTables") == 0) return UINT64_C(6367773730817885968);
     if (strcmp(name, "PhaseRowsArgs") == 0) return UINT64_C(3015247952766554646);
-    if (strcmp(name, "TrackingRowsArgs") == 0) return UINT64_C(5046997951771073899);
     return 0;
 }
 
@@ -1403,7 +1385,6 @@ EXPORT int64_t primer_record_size(const char *name)
     if (strcmp(name, "VolumeField") == 0) return (int64_t)sizeof(VolumeField);
     if (strcmp(name, "MediaTables") == 0) return (int64_t)sizeof(MediaTables);
     if (strcmp(name, "PhaseRowsArgs") == 0) return (int64_t)sizeof(PhaseRowsArgs);
-    if (strcmp(name, "TrackingRowsArgs") == 0) return (int64_t)sizeof(TrackingRowsArgs);
     return -1;
 }
 

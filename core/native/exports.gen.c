@@ -117,8 +117,3 @@ EXPORT void primer_phase_rows(PhaseRowsArgs *a)
 {
     phase_rows(a);
 }
-
-EXPORT void primer_tracking_rows(TrackingRowsArgs *a)
-{
-    tracking_rows(a);
-}

@@ -32,7 +32,6 @@
 #include "../lights/world_graph.c"       /* the world's program, per texel of its bake and per camera ray */
 #include "../lights/lamp_graph.c"        /* a lamp's node tree, per light sample and per ray that meets it */
 #include "../volumes/field.c"           /* heterogeneous media: a volume graph run at points, the march along a ray */
-#include "../volumes/tracking.c"        /* null scattering: ratio and weighted delta tracking over majorants */
 #include "../film/film.c"
 #include "../film/adaptive.c"
 #include "../integrators/shadows.c"

@@ -25,7 +25,6 @@ from .media import (ABSORPTION, Coefficients, Media, PrincipledVolume, VolumeAbs
 from .phase import Draine, FournierForand, HenyeyGreenstein, Mie, Phases, Rayleigh
 from .field import VolumeFieldRecord
 from .media import MAX_MEDIA, MediaTablesRecord, Stretch, emitted, transmittance
-from . import tracking  # noqa: F401  (null scattering: its C export, primer_tracking_rows)
 
 __all__ = ["ABSORPTION", "Coefficients", "Draine", "FournierForand", "HenyeyGreenstein", "Mie", "Phases", "Rayleigh", "Media", "PrincipledVolume", "VolumeAbsorption", "VolumeClosure",
            "VolumeCoefficients", "VolumeEmission", "VolumeFlags", "VolumeScatter", "VOLUME_BY_BLENDER", "VOLUME_BY_NAME", "VOLUME_TYPES", "MAX_MEDIA", "MediaTablesRecord", "VolumeFieldRecord", "Stretch", "emitted", "transmittance"]

@@ -35,6 +35,7 @@ import numpy as np
 from ..native import schema
 from ..native.schema import F32, F64, I32, ptr
 from .grids import GRID_WIDTH, corners, sample
+from .tracking import ray_keys, stream
 
 # How many pieces a ray crossing a heterogeneous medium's box along its diagonal is cut into, and the most pieces one
 # stretch of a ray is cut into (media.c's March reads the same two).
@@ -376,7 +377,6 @@ class March:
         collision per ray where the midpoints lie on a line); 0 on the outer pieces. Keeps slope (n, K + 2, 3),
         mid (n, K + 2), mu (n, K + 2), M (n, K + 3) the majorant's integral at the edges, and the rays' stream keys
         (tracking.ray_keys)."""
-        from .tracking import ray_keys
         n, P = self.sigma_t.shape[:2]
         K = P - 2
         sig = self.sigma_t
@@ -578,7 +578,6 @@ class March:
         it has no field (March.uniform). C: field.c march_transmittance."""
         if self.mu is None:
             return np.exp(-self.depth(s))
-        from .tracking import stream
         s = np.asarray(s, np.float64)
         n = len(s)
         rows = np.arange(n)
@@ -634,7 +633,6 @@ class March:
         # number EMISSION_DRAW) adds (e(s) T(s) - e_c(s) T_m(s)) (b - a), e and T the true emission there and ratio
         # tracking's estimate (exact, noiseless, for an emission linear along the ray in a medium the control's
         # T fits).
-        from .tracking import stream
         width = np.diff(self.edges, axis=1)[:, 1:-1, None]
         with np.errstate(invalid="ignore", over="ignore"):
             bent = np.where(self.eslope[:, 1:-1] != 0.0, self.eslope[:, 1:-1] * (width * width)
