@@ -793,6 +793,13 @@ def lamp_program(obj, matrix: np.ndarray, warnings: list):
     node = materials_.linked_node(materials_.output_node(tree, "ShaderNodeOutputLight"))
     reader = materials_.NodeReader(obj, warnings, kind="light")
     reader.per_sample = True            # (a Light Falloff reads the sample's ray length, as in a material)
+    unread = sorted({f"Light Path's {link.output}" for link in feeding if link.node.kind == "LIGHT_PATH"
+                     and link.output not in world_graph.EXACT_FOR_LIGHTING}
+                    | {f"Object Info's {link.output}" for link in feeding if link.node.kind == "OBJECT_INFO"})
+    if unread:
+        # (Cycles gives a lamp's shading point the depths of the path it lights and the lamp's object)
+        warnings.append(f"light '{obj.name}': its node tree reads {', '.join(unread)}, which Primer's lamps do not "
+                        "carry (they read 0); Cycles reads the lit path's depths and the lamp object's info")
     color, strength = reader.input(node, "Color", np.ones(3)), reader.input(node, "Strength", 1.0)
     spot_size = float(light.spot_size) if light.type == "SPOT" else float(light.angle) if light.type == "SUN" else 0.0
     return lamp_graph_.compile_lamp(color, strength, np.asarray(matrix, np.float64), PROGRAM_LAMPS[light.type],
