@@ -187,7 +187,8 @@ COVERAGE = {
                "use_pass_emit use_pass_environment use_pass_glossy_color use_pass_glossy_direct "
                "use_pass_glossy_indirect use_pass_material_index use_pass_normal use_pass_object_index "
                "use_pass_position use_pass_transmission_color use_pass_transmission_direct "
-               "use_pass_transmission_indirect use_pass_uv use_pass_z use_pass_mist": "engine.py (the passes Primer writes)",
+               "use_pass_transmission_indirect use_pass_uv use_pass_z use_pass_mist use_pass_vector":
+               "engine.py (the passes Primer writes)",
                "use_pass_cryptomatte_asset use_pass_cryptomatte_material use_pass_cryptomatte_object "
                "pass_cryptomatte_depth": "engine.py, export.export_scene (Cryptomatte)",
                "lightgroups": "lightgroups.group_names", "material_override": "export.export_scene",
@@ -201,7 +202,7 @@ COVERAGE = {
                "name": "engine.py (the render layer written)",
                "use_motion_blur": "motion.blurs (with Render > Motion Blur)",
                "depsgraph objects use": DEPSGRAPH},
-        REPORTED: {"use_pass_vector use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
+        REPORTED: {"use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
                    "use_pass_subsurface_indirect aovs use_pass_combined use_solid":
                    "unmodelled.view_layer_notes",
                    "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},

@@ -55,6 +55,7 @@ CYCLES_PASSES = {
     "environment": ("use_pass_environment", "Environment", "Env", 3, "RGB", "COLOR"),
     "ambient_occlusion": ("use_pass_ambient_occlusion", "Ambient Occlusion", "AO", 3, "RGB", "COLOR"),
     "mist": ("use_pass_mist", "Mist", "Mist", 1, "Z", "VALUE"),
+    "vector": ("use_pass_vector", "Vector", "Vector", 4, "XYZW", "VECTOR"),
     # The light passes come from the integrator instead (core/integrators/lightpasses.py), each divided by its
     # colour pass as Cycles stores them.
     "diffuse_direct": ("use_pass_diffuse_direct", "Diffuse Direct", "DiffDir", 3, "RGB", "COLOR"),
@@ -410,6 +411,11 @@ def _render_frame(engine, depsgraph, cancelled) -> RenderRecord:
                                                       export.export_camera, exported.warnings,
                                                       exported.scene.instances, exported.instance_keys,
                                                       exported.scene.meshes)
+        if "vector" in exported.settings.passes and not motion.blurs(scene, depsgraph.view_layer):
+            # The Vector pass: the camera and the objects at the frames before and after (Cycles' motion pass).
+            exported.scene.vector_cameras = motion.sample_vector_frames(
+                engine, depsgraph, camera_object, export.export_camera, exported.warnings, exported.scene.instances,
+                exported.instance_keys)
         record.export_seconds = time.perf_counter() - start
         record.meshes_read = exported.meshes_read
         record.warnings = animation_notes(scene, bool(getattr(engine, "is_animation", False)))

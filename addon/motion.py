@@ -225,6 +225,48 @@ def give_motion(instances, instance_keys: dict, states: dict, meshes=()) -> tupl
     return moved, deformed, smooth
 
 
+def sample_vector_frames(engine, depsgraph, camera_object, export_camera, warnings: list, instances=(),
+                         instance_keys=None) -> tuple:
+    """The Vector pass's frames (Cycles' motion pass, which it writes only without motion blur): the camera at the
+    frames before and after the one rendered (Scene.vector_cameras), read by moving the scene there with
+    engine.frame_set and back; each exported instance (core Scene.instances, placement_key by index in
+    `instance_keys`) whose transform differs there given Instance.vector_motion. Objects that deform between the
+    frames, and a panoramic camera, are noted in `warnings` (Primer's pass leaves their motion out)."""
+    scene = depsgraph.scene
+    frame, subframe = scene.frame_current, scene.frame_subframe
+    cameras, states = [], []
+    camera = export_camera(camera_object.evaluated_get(depsgraph), [])
+    try:
+        for step in (-1, 1):                        # (Cycles: the shutter two frames long around the frame)
+            engine.frame_set(frame + step, subframe)
+            # (a camera whose Motion Blur is off stands still for the pass, as Cycles syncs no motion for it)
+            cameras.append(export_camera(camera_object.evaluated_get(depsgraph), []) if motion_steps(camera_object)
+                           else camera)
+            states.append(_object_state(depsgraph))
+    finally:
+        engine.frame_set(frame, subframe)
+    deformed = set()
+    for index, key in (instance_keys or {}).items():
+        if index >= len(instances) or not all(key in state for state in states):
+            continue
+        matrices = tuple(state[key][0] for state in states)
+        if all(np.isfinite(m).all() for m in matrices) and not all(np.array_equal(m, instances[index].matrix)
+                                                                    for m in matrices):
+            instances[index].vector_motion = matrices
+        shapes = [state[key][1] for state in states]
+        if shapes[0] is not None and shapes[1] is not None and (shapes[0].shape != shapes[1].shape
+                                                                or not np.array_equal(shapes[0], shapes[1])):
+            deformed.add(key[0])
+    if deformed:
+        shown = ", ".join(sorted(deformed)[:NAMED]) + (f" and {len(deformed) - NAMED} more"
+                                                       if len(deformed) > NAMED else "")
+        warnings.append(f"the Vector pass: {shown} deform{'s' if len(deformed) == 1 else ''} between frames; "
+                        "Primer's pass carries only the objects' transforms and the camera's motion")
+    if any(camera.type == "PANO" for camera in cameras):
+        warnings.append("the Vector pass of a panoramic camera is not mapped by Primer (it stays 0)")
+    return tuple(cameras)
+
+
 def sample_shutter(engine, depsgraph, camera_object, camera, export_camera, warnings: list, instances=(),
                    instance_keys=None, meshes=()):
     """The exported core camera with its motion over the shutter (Camera.shutter, motion, fov_motion), read by moving

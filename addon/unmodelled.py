@@ -11,7 +11,7 @@ from __future__ import annotations
 from . import cycles_settings
 
 # View Layer > Passes that Primer does not write: property -> the pass's name in Blender.
-UNWRITTEN_PASSES = {"use_pass_vector": "Vector", "use_pass_shadow": "Shadow (EEVEE)",
+UNWRITTEN_PASSES = {"use_pass_shadow": "Shadow (EEVEE)",
                     "use_pass_subsurface_direct": "Subsurface Direct",
                     "use_pass_subsurface_indirect": "Subsurface Indirect",
                     "use_pass_subsurface_color": "Subsurface Color"}

@@ -99,8 +99,15 @@ def test_the_compiled_first_hit_passes_follow_the_reference(integrator):
     from test_compiled import IMAGE_ATOL, IMAGE_RTOL
     everything = tuple(PASS_CHANNELS) + ("crypto_object", "crypto_material", "crypto_asset")
     settings = RenderSettings(width=40, height=30, samples=4, integrator=integrator, max_bounces=2, passes=everything)
-    compiled = render.render(chain_scene(), dataclasses.replace(settings, kernels="compiled"))
-    reference = render.render(chain_scene(), dataclasses.replace(settings, kernels="numpy"))
+    def moving():                                   # (an instance that moves between frames: the Vector pass)
+        scene = chain_scene()
+        before, after = np.array(scene.instances[0].matrix, np.float64), np.array(scene.instances[0].matrix, np.float64)
+        before[:3, 3] -= (0.05, 0.02, 0.0)
+        after[:3, 3] += (0.04, 0.0, 0.03)
+        scene.instances[0].vector_motion = (before, after)
+        return scene
+    compiled = render.render(moving(), dataclasses.replace(settings, kernels="compiled"))
+    reference = render.render(moving(), dataclasses.replace(settings, kernels="numpy"))
     assert compiled.stats.kernels == "compiled"
     for name in everything:
         a, b = compiled.aux[name], reference.aux[name]

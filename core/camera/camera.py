@@ -116,6 +116,22 @@ def world_to_camera(camera: "Camera") -> np.ndarray:
     return np.linalg.inv(to_world)[:3]
 
 
+def world_to_raster(camera: "Camera", width: int, height: int,
+                    pixel_aspect: tuple[float, float] = (1.0, 1.0)) -> np.ndarray:
+    """Cycles' worldtoraster (4, 4) float64 of a perspective or orthographic camera: a world point p maps to raster
+    (x, y) = (R p)[:2] / (R p)[3], x in pixels from the image's left edge, y from its bottom (Cycles' raster)."""
+    left, right, bottom, top = viewplane(camera, width, height, pixel_aspect)
+    sx, sy = width / (right - left), height / (top - bottom)
+    to_local = np.linalg.inv(_clear_scale(np.asarray(camera.matrix_world, np.float64)))   # (x right, y up, -z ahead)
+    if camera.type == "PERSP":                      # x / depth and y / depth on the plane at depth 1 (depth = -z)
+        plane = np.array([[sx, 0.0, sx * left, 0.0], [0.0, sy, sy * bottom, 0.0], [0.0, 0.0, 0.0, 0.0],
+                          [0.0, 0.0, -1.0, 0.0]])
+    else:
+        plane = np.array([[sx, 0.0, 0.0, -sx * left], [0.0, sy, 0.0, -sy * bottom], [0.0, 0.0, 0.0, 0.0],
+                          [0.0, 0.0, 0.0, 1.0]])
+    return plane @ to_local
+
+
 def lens_from_fov(fov: float, sensor_size: float = 36.0) -> float:
     """Return the focal length (mm) whose sensor of `sensor_size` mm spans the angle `fov` (radians)."""
     return 0.5 * sensor_size / math.tan(0.5 * fov)

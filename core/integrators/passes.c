@@ -98,6 +98,32 @@ INLINE void uv_at(const GeometryTables *g, int64_t geometry, int64_t prim, doubl
                  + v * (double)corner[2 * width + offset + c];
 }
 
+/* passes.vector_at for one hit of instance `object` at the world point P: (before - now, now - after) on the raster
+ * and its weight 1, into out (5); 0 motion where still. */
+INLINE void vector_at(const PassTables *pt, int64_t object, const double *P, double *out)
+{
+    for (int c = 0; c < 4; c++) out[c] = 0.0;
+    out[4] = 1.0;
+    if (pt->vector_still != 0 || pt->vector_before == NULL) return;
+    int64_t row = object < 0 ? 0 : (object >= pt->vector_rows ? pt->vector_rows - 1 : object);
+    double raster[3][2];
+    for (int k = 0; k < 3; k++) {
+        const double *move = k == 0 ? pt->vector_before + 12 * row : (k == 2 ? pt->vector_after + 12 * row : NULL);
+        double Q[3], h[4];
+        for (int i = 0; i < 3; i++)
+            Q[i] = move == NULL ? P[i] : ((move[4 * i] * P[0] + move[4 * i + 1] * P[1]) + move[4 * i + 2] * P[2])
+                                         + move[4 * i + 3];
+        const double *R = pt->vector_raster + 16 * k;
+        for (int i = 0; i < 4; i++) h[i] = ((R[4 * i] * Q[0] + R[4 * i + 1] * Q[1]) + R[4 * i + 2] * Q[2]) + R[4 * i + 3];
+        raster[k][0] = h[0] / h[3];
+        raster[k][1] = h[1] / h[3];
+    }
+    for (int c = 0; c < 2; c++) {
+        out[c] = raster[0][c] - raster[1][c];
+        out[2 + c] = raster[1][c] - raster[2][c];
+    }
+}
+
 /* passes.ambient_occlusion for one hit: what a cosine-distributed ray about N carries back through transparent
  * surfaces within ao_distance (out, 3), 0 where it leaves below the face. */
 INLINE void ambient_occlusion(const LanePasses *lp, const Surface *s, int64_t pixel, int64_t sample, double seed,
@@ -160,6 +186,12 @@ NOINLINE static void passes_at_vertex(LanePasses *lp, const DirectSettings *ds, 
         pass_add(lp, lane, PASS_AVERAGE_NORMAL, value, NULL);
         uv_at(g, H->geometry[h], H->prim[h], H->bary[2 * h], H->bary[2 * h + 1], (int)pt->uv_offset, value);
         pass_add(lp, lane, PASS_UV, value, NULL);
+        if (pt->offset[PASS_VECTOR] >= 0) {
+            double P[3], motion[5];
+            for (int c = 0; c < 3; c++) P[c] = s->I[c] + pt->origin[c];
+            vector_at(pt, object, P, motion);
+            pass_add(lp, lane, PASS_VECTOR, motion, NULL);
+        }
         lp->done[lane] = 1;
     }
     /* 3. Cryptomatte: this surface's share of the pixel, for its object, material and asset. */

@@ -18,6 +18,11 @@ throughput there (the product of the transparent bounces' weights).
                     samples (Cycles' Normal pass, surface_shader_average_normal)
     uv              (u, v, 1) of the object's active render UV map, the mean over samples: the third channel
                     is the share of samples that found such a surface
+    vector          the hit's motion on screen (Cycles' Vector pass, primitive_motion_vector): where it was at the
+                    frame before minus where it is, and where it is minus where it will be at the frame after, each
+                    in raster pixels (x right, y up), the hit carried by its object's transform (Instance.
+                    vector_motion) and seen by the camera then (Scene.vector_cameras); the mean over the samples that
+                    found a surface (a fifth channel counts them); 0 with motion blur on, as Cycles writes it
   A chain that escapes before its opaque vertex leaves the sample-0 passes 0 (Cycles' background data passes).
 - At every vertex of the chain:
     diffuse_color, glossy_color, transmission_color   throughput times the sum over the closures of their weight
@@ -47,9 +52,12 @@ sample-0 ones (FIRST_SAMPLE_ONLY), with the render's pixel filter (Primer's 1-pi
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .. import materials as materials_
+from ..camera import camera as camera_
 from ..geometry.surface import hit_attributes, hit_owners
 from ..materials.closures import each_kind
 from ..materials.lambert import Lambert
@@ -63,7 +71,7 @@ from .rays import lamps_seen
 PASS_CHANNELS = {
     "position": 3, "uv": 3, "object_index": 1, "material_index": 1, "z_depth": 1, "average_normal": 3,
     "diffuse_color": 3, "glossy_color": 3, "transmission_color": 3,
-    "emission": 3, "environment": 3, "ambient_occlusion": 3, "mist": 1,
+    "emission": 3, "environment": 3, "ambient_occlusion": 3, "mist": 1, "vector": 5,
 }
 PASS = schema.constants("PASS", tuple(PASS_CHANNELS), "the first-hit passes, in the film's order (passes.py)")
 schema.constant("PASS_CHANNELS_MAX", sum(PASS_CHANNELS.values()), "the first-hit passes' channels in all")
@@ -178,6 +186,11 @@ passes.c): where each sits in a pixel's channels, and the scene's tables they re
     ("uv_offset", I32, "the UV map's first attribute float, -1: none"),
     ("world_camera", I32, "1: the camera sees the world (the environment pass)"),
     ("alpha_threshold", F64, "the data passes' opaque-enough alpha (RenderSettings.pass_alpha_threshold)"),
+    ("vector_before", ptr(F64), "(n, 3, 4) VectorTables.before (the Vector pass; NULL: not asked for)"),
+    ("vector_after", ptr(F64), "(n, 3, 4) VectorTables.after"),
+    ("vector_raster", F64, 48, "(3, 4, 4) VectorTables.raster: before, at and after the frame"),
+    ("vector_still", I32, "VectorTables.still: 1 writes 0 motion"),
+    ("vector_rows", I64, "the rows of vector_before and vector_after"),
 ])
 
 
@@ -203,7 +216,17 @@ def pass_tables(ctx, layout: PassLayout):
         mist_start=float(ctx.settings.mist_start), mist_inv_depth=mist_inv_depth(ctx.settings),
         mist_falloff=float(ctx.settings.mist_falloff), ortho=is_ortho(ctx),
         uv_offset=-1 if uv is None else int(uv[0]), world_camera=world is not None and bool(world.camera),
-        alpha_threshold=float(ctx.settings.pass_alpha_threshold))
+        alpha_threshold=float(ctx.settings.pass_alpha_threshold), **vector_fields(ctx.extra.get("vector_tables")))
+
+
+def vector_fields(tables) -> dict:
+    """PassTables' Vector pass fields from VectorTables (or None: not asked for)."""
+    if tables is None:
+        return dict(vector_still=1)
+    return dict(vector_before=np.ascontiguousarray(tables.before, np.float64),
+                vector_after=np.ascontiguousarray(tables.after, np.float64),
+                vector_raster=np.ascontiguousarray(tables.raster, np.float64).ravel(), vector_still=tables.still,
+                vector_rows=len(tables.before))
 
 
 def mist_inv_depth(settings) -> float:
@@ -307,6 +330,9 @@ def at_vertex(ctx, dp: DataPasses, rows: np.ndarray, owner: np.ndarray, vertex: 
                                                                 shader.N[rows[opaque]]))
         if dp.layout.has("uv"):
             dp.add("uv", at[opaque], uv_at(geometry, surface, rows[opaque]))
+        if dp.layout.has("vector"):
+            dp.add("vector", at[opaque], vector_at(ctx.extra["vector_tables"], I[opaque] + geometry.origin,
+                                                   instance[opaque]))
         dp.done[at[opaque]] = True
     # 3. Cryptomatte: this surface's share of the pixel, for its object, material and asset.
     if dp.layout.mattes:
@@ -348,6 +374,54 @@ def along_ray(ctx, dp: DataPasses, owner: np.ndarray, throughput: np.ndarray, O:
         dp.set(name, gone, 0.0)
 
 
+class VectorTables(NamedTuple):
+    """What the Vector pass projects with: before, after (n, 3, 4) float64 each instance's transform from where it
+    is to where it was at the frame before and will be at the frame after (M_before M^-1, the identity where it
+    stands still); raster (3, 4, 4) float64 the camera's world-to-raster transform (camera.world_to_raster) at the
+    frame before, at the frame and at the frame after; still: 1 with motion blur on (Cycles writes 0 then)."""
+
+    before: np.ndarray
+    after: np.ndarray
+    raster: np.ndarray
+    still: int
+
+
+def vector_tables(scene, width: int, height: int, pixel_aspect, blurred: bool) -> VectorTables:
+    """The VectorTables of a scene rendered width x height with `pixel_aspect`; blurred: motion blur is on. (A
+    panoramic camera's pass stays 0: Primer does not map its motion, addon/export.py says so.)"""
+    cameras = scene.vector_cameras or (scene.camera, scene.camera)
+    if any(camera.type == "PANO" for camera in (scene.camera, *cameras)):
+        return VectorTables(np.zeros((0, 3, 4)), np.zeros((0, 3, 4)), np.zeros((3, 4, 4)), 1)
+    raster = np.stack([camera_.world_to_raster(camera, width, height, tuple(pixel_aspect))
+                       for camera in (cameras[0], scene.camera, cameras[1])])
+    n = len(scene.instances)
+    moves = [np.tile(np.eye(4)[:3], (n, 1, 1)) for _ in range(2)]
+    for i, instance in enumerate(scene.instances):
+        if instance.vector_motion:
+            inverse = np.linalg.inv(np.asarray(instance.matrix, np.float64))
+            for k in range(2):
+                moves[k][i] = (np.asarray(instance.vector_motion[k], np.float64) @ inverse)[:3]
+    return VectorTables(moves[0], moves[1], raster, int(blurred))
+
+
+def vector_at(tables: VectorTables, P: np.ndarray, instance: np.ndarray) -> np.ndarray:
+    """The Vector pass's value at world points P (k, 3) float64 of the instances `instance` (k,) int64: (before -
+    now, now - after) on the raster, then 1 (its weight): (k, 5) float64 (0 but the weight where still)."""
+    out = np.zeros((len(P), 5))
+    out[:, 4] = 1.0
+    if tables.still or len(P) == 0:
+        return out
+    row = np.clip(instance, 0, max(len(tables.before) - 1, 0))
+    at = []
+    for k, move in ((0, tables.before), (1, None), (2, tables.after)):
+        Q = P if move is None else np.einsum("kij,kj->ki", move[row], np.c_[P, np.ones(len(P))])
+        h = np.c_[Q, np.ones(len(P))] @ tables.raster[k].T
+        at.append(h[:, :2] / h[:, 3:4])
+    out[:, 0:2] = at[0] - at[1]
+    out[:, 2:4] = at[1] - at[2]
+    return out
+
+
 def uv_at(geometry, surface, rows: np.ndarray) -> np.ndarray:
     """(u, v, 1) of the active render UV map at the hits `rows` of `surface`: (k, 3) float64 ((0, 0, 1) without one)."""
     uv = np.zeros((len(rows), 3))
@@ -384,7 +458,9 @@ def images(sums: dict, count: np.ndarray, layout: PassLayout, depth: int, height
     n = count.astype(np.float64)[:, None]
     for name in layout.names:
         v = values[:, layout.channels_of(name)]
-        if name not in FIRST_SAMPLE_ONLY:
+        if name == "vector":                        # (the mean over the samples that found a surface)
+            v = np.divide(v[:, :4], v[:, 4:], out=np.zeros_like(v[:, :4]), where=v[:, 4:] > 0)
+        elif name not in FIRST_SAMPLE_ONLY:
             v = np.divide(v, n, out=np.zeros_like(v), where=n > 0)
             if name == "mist":                   # (the film holds 1 - mist, as Cycles' buffer)
                 v = np.clip(1.0 - v, 0.0, 1.0)

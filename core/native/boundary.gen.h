@@ -63,8 +63,9 @@
 #define PASS_ENVIRONMENT 10
 #define PASS_AMBIENT_OCCLUSION 11
 #define PASS_MIST 12
+#define PASS_VECTOR 13
 /* the first-hit passes' channels in all (core.integrators.passes) */
-#define PASS_CHANNELS_MAX 31
+#define PASS_CHANNELS_MAX 36
 /* the ambient occlusion ray's sampling dimension (core.integrators.passes) */
 #define AO_DIMENSION 120
 /* Russian roulette's dimension at a vertex (core.integrators.path) */
@@ -462,7 +463,7 @@ static const int BSDF_BLURRED_PARAMS[BSDF_COUNT][3] = {{-1, -1, -1}, {-1, -1, -1
 static const int BSDF_SPECULAR_ALPHA_PARAMS[BSDF_COUNT][2] = {{-1, -1}, {-1, -1}, {0, 10}, {-1, -1}, {-1, -1}, {0, 0}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {0, 10}, {0, 0}, {0, 10}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}, {-1, -1}};
 
 /* core/integrators/passes.py PASS_CHANNELS: each first-hit pass's channels, by PASS_*. */
-static const int PASS_WIDTH[13] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3, 1};
+static const int PASS_WIDTH[14] = {3, 3, 1, 1, 1, 3, 3, 3, 3, 3, 3, 3, 1, 5};
 
 /* core/materials/registry.py NODE_TYPES: a shader node's kind */
 enum {
@@ -867,7 +868,7 @@ struct GraphEmissionArgs {
 /* What the compiled kernel writes the first-hit passes with (passes.py,
  * passes.c): where each sits in a pixel's channels, and the scene's tables they read. */
 struct PassTables {
-    int32_t offset[13];                     /* each PASS_*'s first channel, -1: not asked for */
+    int32_t offset[14];                     /* each PASS_*'s first channel, -1: not asked for */
     int64_t channels;                       /* the passes' channels in all */
     const double *object_index;             /* (n,) each Scene.instances entry's Pass Index */
     const double *material_index;           /* (m + 1,) each material's Pass Index, then the default material's */
@@ -888,6 +889,11 @@ struct PassTables {
     int32_t uv_offset;                      /* the UV map's first attribute float, -1: none */
     int32_t world_camera;                   /* 1: the camera sees the world (the environment pass) */
     double alpha_threshold;                 /* the data passes' opaque-enough alpha (RenderSettings.pass_alpha_threshold) */
+    const double *vector_before;            /* (n, 3, 4) VectorTables.before (the Vector pass; NULL: not asked for) */
+    const double *vector_after;             /* (n, 3, 4) VectorTables.after */
+    double vector_raster[48];               /* (3, 4, 4) VectorTables.raster: before, at and after the frame */
+    int32_t vector_still;                   /* VectorTables.still: 1 writes 0 motion */
+    int64_t vector_rows;                    /* the rows of vector_before and vector_after */
 };
 
 /* How shadow rays leave the surface (RenderSettings' shadow settings). */
@@ -1314,7 +1320,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
-    if (strcmp(name, "PassTables") == 0) return UINT64_C(7329025174380386249);
+    if (strcmp(name, "PassTables") == 0) return UINT64_C(9049175624409610211);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(1914571018289112676);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);

@@ -185,6 +185,9 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
                                                   settings.cryptomatte_depth)
     if ctx.extra["pass_layout"].mattes:
         ctx.extra["crypto_ids"] = cryptomatte.id_tables(scene)
+    if ctx.extra["pass_layout"].has("vector"):         # (the screen motion of each instance and the camera)
+        ctx.extra["vector_tables"] = passes_.vector_tables(scene, settings.width, settings.height,
+                                                           settings.pixel_aspect, scene.camera.shutter is not None)
     # The light groups asked for: which group each light, object and the world belongs to (lightgroups.py).
     ctx.extra["light_groups"] = lightgroups.LightGroups.of(scene, settings.light_groups, lamps, lights)
     # Which lights BSDF-sampled rays can find (weighed by MIS), which the camera sees, and whether a

@@ -113,6 +113,9 @@ class Instance:
                (Cycles' motion vertex normals, read where the mesh's normals are per vertex), whose linear
                interpolation at each ray's time gives its smooth triangles' corner normals then; () the smooth
                normals stay the frame's (Mesh.corner_normals).
+    vector_motion: its object-to-world matrices (4, 4) at the frames before and after the one rendered, (before,
+               after), when the Vector pass is written and it moves between them (core/integrators/passes.py); ()
+               still.
     """
 
     mesh: int
@@ -143,6 +146,7 @@ class Instance:
     motion: tuple = ()
     deformation: tuple = ()
     deformation_normals: tuple = ()
+    vector_motion: tuple = ()
 
     def __post_init__(self):
         # Reshape only when needed: a view is one more array object per instance (10^5 of them add up).
@@ -168,6 +172,8 @@ class Scene:
     groups a render writes are RenderSettings.light_groups (core/integrators/lightgroups.py)
     instance_attributes: the names of the Attribute node's Object and Instancer attributes the materials read, in the
     order of their columns of the instances' Object Info (geometry.instance_info; Instance.attributes)
+    vector_cameras: the camera at the frames before and after the one rendered, (before, after), for the Vector pass
+    (core/integrators/passes.py); () the camera's own
     """
 
     camera: Camera
@@ -180,6 +186,7 @@ class Scene:
     default_material: Material = field(default_factory=Material)
     lightgroups: dict = field(default_factory=lambda: {"lights": [], "instances": [], "world": ""})
     instance_attributes: list = field(default_factory=list)
+    vector_cameras: tuple = ()
 
     def the_world(self) -> World:
         """The world: `world` when given (it lights the scene unless told not to), else a background of
