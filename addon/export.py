@@ -1515,6 +1515,13 @@ def topmost_parent(obj):
     return obj
 
 
+def shader_aovs(view_layer) -> tuple:
+    """The view layer's shader AOVs Cycles writes: (name, "COLOR" or "VALUE") of each valid one, in order (Blender
+    marks an AOV whose name another AOV or pass holds invalid; Cycles' sync skips it)."""
+    return tuple((aov.name, aov.type) for aov in getattr(view_layer, "aovs", ())
+                 if getattr(aov, "is_valid", True) and aov.name)
+
+
 def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, aux: tuple = (),
                  passes: tuple = (), mesh_cache: MeshCache = None) -> Export:
     """Return the evaluated depsgraph as a core scene plus render settings (computing the buffers `aux` and
@@ -1642,7 +1649,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         wanted = set()
         for slot in slots[slots >= 0].tolist():
             material = materials.materials[slot]
-            wanted |= graph_.attributes_of(graph_.with_normal(material.nodes, material.normal, material.displacement))
+            wanted |= graph_.attributes_of(graph_.with_normal(material.nodes, material.normal, material.displacement,
+                                                              material.aovs))
         if "uv" in passes and len(obj.data.uv_layers):
             wanted.add("uv:")
         if wanted and obj.type != "MESH":
@@ -1693,6 +1701,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     # (View Layer > Passes > Data > Alpha Threshold: the first surface that opaque holds the data passes)
     settings.pass_alpha_threshold = float(getattr(depsgraph.view_layer, "pass_alpha_threshold", 0.5))
     settings.light_groups = tuple(lightgroups.group_names(depsgraph.view_layer))
+    # (View Layer > Passes > Shader AOV: what the materials' AOV Output nodes write, core/integrators/passes.py)
+    settings.aovs = shader_aovs(depsgraph.view_layer)
     # (View Layer > Passes > Light > Shadow Catcher: the pass, and Combined as the catchers' matte itself)
     settings.shadow_catcher_pass = shadow_catcher_pass(depsgraph.view_layer)
     core.lightgroups = groups
