@@ -1532,6 +1532,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     """
     scene = depsgraph.scene_eval
     warnings: list[str] = []
+    aov_names = {name for name, _ in shader_aovs(depsgraph.view_layer)}   # (what AOV Outputs read: only for these)
     camera_object = camera_override or scene.camera
     if camera_object is None:
         raise ExportError("the scene has no camera: add one, or set Scene > Camera")
@@ -1650,7 +1651,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         for slot in slots[slots >= 0].tolist():
             material = materials.materials[slot]
             wanted |= graph_.attributes_of(graph_.with_normal(material.nodes, material.normal, material.displacement,
-                                                              material.aovs))
+                                                              [a for a in material.aovs if a[0] in aov_names]))
         if "uv" in passes and len(obj.data.uv_layers):
             wanted.add("uv:")
         if wanted and obj.type != "MESH":

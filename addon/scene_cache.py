@@ -329,7 +329,7 @@ class SceneCache:
         for slot in slots[slots >= 0].tolist():
             material = self.material_table.materials[slot]
             wanted |= export.graph_.attributes_of(export.graph_.with_normal(material.nodes, material.normal,
-                                                                            material.displacement, material.aovs))
+                                                                            material.displacement))
         if wanted:
             export.mesh_attributes(obj.data, entry.mesh, wanted, self.warnings)
 
