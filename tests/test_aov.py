@@ -20,7 +20,6 @@ from test_textures import plane_attributes
 
 KERNELS = ["numpy", "compiled"]
 UV = Link(GraphNode("TEXCOORD", {}, {}), "UV")
-POSITION = Link(GraphNode("GEOMETRY", {}, {}), "Position")
 
 
 def floor_scene(aovs: list, size: float = 4.0) -> Scene:
@@ -64,18 +63,20 @@ def test_a_color_aov_of_the_uv_coordinate_is_the_uv_pass_in_every_pixel(kernels)
 @pytest.mark.parametrize("kernels", KERNELS)
 def test_a_value_aov_takes_the_value_input_and_an_aov_the_view_layer_lacks_writes_nothing(kernels):
     """Two AOVs in one render: a Value AOV takes the node's Value (0.25; its Color is not read) and a Color AOV its
-    Color; the floor is at z = 0, so a Value AOV of the Geometry Position (a colour read as a value: its luminance)
-    is 0. An AOV Output naming an AOV the view layer lacks ("absent") changes nothing, as in Cycles."""
-    scene = floor_scene([("v", (1.0, 1.0, 1.0), 0.25), ("c", (0.2, 0.4, 0.8), 0.9), ("z", POSITION, 0.0),
+    Color. A Value AOV fed by the UV (a vector read as a value: the mean of its components, Cycles' vector-to-float
+    conversion) is (u + v) / 3 of the UV pass. An AOV Output naming an AOV the view layer lacks ("absent") changes
+    nothing, as in Cycles."""
+    scene = floor_scene([("v", (1.0, 1.0, 1.0), 0.25), ("c", (0.2, 0.4, 0.8), 0.9), ("mean", (9.0, 9.0, 9.0), UV),
                          ("absent", (5.0, 5.0, 5.0), 5.0)])
     wanted = (("v", "VALUE"), ("c", "COLOR"))
     result = render.render(scene, settings_of(kernels, wanted, passes=("uv",)))
     coverage = result.aux["uv"][..., 2]
-    assert result.aux["aov:v"].shape == (24, 24, 1) and "aov:absent" not in result.aux and "aov:z" not in result.aux
+    assert result.aux["aov:v"].shape == (24, 24, 1) and "aov:absent" not in result.aux and "aov:mean" not in result.aux
     np.testing.assert_allclose(result.aux["aov:v"][..., 0], 0.25 * coverage, atol=1e-7)
     np.testing.assert_allclose(result.aux["aov:c"], coverage[..., None] * [0.2, 0.4, 0.8, 1.0], atol=1e-7)
-    height = render.render(scene, settings_of(kernels, (("z", "VALUE"),))).aux["aov:z"]
-    np.testing.assert_allclose(height, 0.0, atol=1e-6)
+    mean = render.render(scene, settings_of(kernels, (("mean", "VALUE"),), passes=("uv",))).aux
+    np.testing.assert_allclose(mean["aov:mean"][..., 0], (mean["uv"][..., 0] + mean["uv"][..., 1]) / 3.0, atol=1e-6)
+    assert mean["aov:mean"].max() > 0.3
 
 
 def veiled_scene() -> Scene:
