@@ -153,3 +153,19 @@ def test_an_aov_of_an_unknown_type_is_refused():
     scene = floor_scene([])
     with pytest.raises(ValueError, match="shader AOVs must be"):
         render.render(scene, settings_of("numpy", (("x", "VECTOR"),), width=4, height=4, samples=1))
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_a_surface_seen_only_in_a_mirror_writes_no_aov(kernels):
+    """AOVs are written along camera chains only (Cycles: PATH_RAY_TRANSPARENT_BACKGROUND, cleared at a real bounce): a
+    glowing ceiling writing 1, behind the camera and seen only in the mirror floor that fills the frame, leaves the
+    AOV 0 in every pixel, though the render shows it."""
+    scene = floor_scene([], size=40.0)
+    scene.materials[0] = materials.Material(name="mirror", bsdf="MIRROR", base_color=np.ones(3))
+    scene.materials.append(materials.Material(name="ceiling", nodes=[("EMISSION", (1.0, 1.0, 1.0),
+                                                                      {"emission": (2.0, 2.0, 2.0)})],
+                                              aovs=[("v", (0.0, 0.0, 0.0), 1.0)]))
+    scene.add_mesh(primitives.plane(40.0, center=(0.0, 0.0, 5.0)), materials=np.array([1]), name="Ceiling")
+    result = render.render(scene, settings_of(kernels, (("v", "VALUE"),), width=8, height=8, max_bounces=2))
+    assert np.all(result.aux["aov:v"] == 0.0)
+    assert result.image[..., :3].mean() > 1.0
