@@ -70,8 +70,8 @@ def scene_with_everything():
 
 def test_every_unmodelled_setting_is_said_once(primer):
     """Principled Dispersion, the Vector pass and the world's AOV Output: each named in one warning. (A material's true
-    Displacement moves its vertices as in Cycles, the Volumes of the material and the world are homogeneous media Primer renders, and the
-    Mist pass is written since stop 46: no warning.)"""
+    Displacement moves its vertices as in Cycles, the Volumes of the material and the world are homogeneous media
+    Primer renders, and the Mist pass is written since stop 46: no warning.)"""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings

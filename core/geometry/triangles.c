@@ -271,7 +271,8 @@ typedef struct {
     const ShaderRays *rays;
     int64_t pixel, sample, dimension;
     int blurry;
-    double *aov;        /* where the hit's shader AOVs are added (a camera chain's lane, passes.c passes_aov), NULL: none */
+    double *aov;        /* where the hit's shader AOVs are added (its camera chain's lane: passes.c passes_aov), NULL:
+                         * none */
 } ShaderKeys;
 
 /* What a material's node graph reads at one hit (core/materials/graph.py ShadingPoint). */

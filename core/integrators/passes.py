@@ -42,12 +42,13 @@ throughput there (the product of the transparent bounces' weights).
                     keeps it for compositing the background back in)
 
 Shader AOVs (View Layer > Passes > Shader AOV; RenderSettings.aovs), as Cycles writes them (svm/aov.h,
-film/aov_passes.h): at each vertex of the chain until and with its opaque-enough one (Cycles' PATH_RAY_SINGLE_PASS_DONE),
-every AOV Output node of the surface's material that names one of the view layer's AOVs adds to it, neither weighed by
-the throughput nor by the alpha: a COLOR AOV its Color and 1 into a fourth channel (its alpha: the share of samples
-that wrote it, 2 where two surfaces of a chain did), a VALUE AOV its Value. A sample that writes nothing adds 0 (the
-pixels no surface covers are 0). The graph's ops that feed only AOVs run only there (graph.py AOV_START). Cycles'
-world shader may write AOVs too (a camera ray that escapes); Primer does not (addon/unmodelled.py says so).
+film/aov_passes.h): at each vertex of the chain until and with its opaque-enough one (Cycles'
+PATH_RAY_SINGLE_PASS_DONE), every AOV Output node of the surface's material that names one of the view layer's AOVs
+adds to it, neither weighed by the throughput nor by the alpha: a COLOR AOV its Color and 1 into a fourth channel
+(its alpha: the share of samples that wrote it, 2 where two surfaces of a chain did), a VALUE AOV its Value. A
+sample that writes nothing adds 0 (the pixels no surface covers are 0). The graph's ops that feed only AOVs run only
+there (graph.py AOV_START). Cycles' world shader may write AOVs too (a camera ray that escapes); Primer does not
+(addon/unmodelled.py says so).
 
 Each pass is the mean over all of a pixel's samples (the film's sums divided by its count), but for the
 sample-0 ones (FIRST_SAMPLE_ONLY), with the render's pixel filter (Primer's 1-pixel box; Cycles' default is
@@ -223,7 +224,7 @@ passes.c): where each sits in a pixel's channels, and the scene's tables they re
     ("uv_offset", I32, "the UV map's first attribute float, -1: none"),
     ("world_camera", I32, "1: the camera sees the world (the environment pass)"),
     ("alpha_threshold", F64, "the data passes' opaque-enough alpha (RenderSettings.pass_alpha_threshold)"),
-    ("aov_base", I32, "the shader AOVs' first channel (PassLayout.aov_base), -1: no AOV asked for"),
+    ("aov_base", I32, "the AOVs' first channel (PassLayout.aov_base), -1: none"),
 ])
 
 

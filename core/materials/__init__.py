@@ -419,7 +419,8 @@ class MaterialTable:
         self._image_rows: dict = {}
         for shader in shaders:
             graph = getattr(shader, "graph", None)
-            for image in graph_.images_of(graph_.with_normal(graph, shader.normal, aovs=aov_sources(shader))) if graph else ():
+            linked = graph_.with_normal(graph, shader.normal, aovs=aov_sources(shader)) if graph else ()
+            for image in graph_.images_of(linked) if graph else ():
                 self.image_index(image)
         self.textures = TextureSet.of(self.images)
         # The camera's world-to-camera transform (3, 4) the graphs' Camera coordinates read (set by render.prepare;

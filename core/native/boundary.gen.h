@@ -892,7 +892,7 @@ struct PassTables {
     int32_t uv_offset;                      /* the UV map's first attribute float, -1: none */
     int32_t world_camera;                   /* 1: the camera sees the world (the environment pass) */
     double alpha_threshold;                 /* the data passes' opaque-enough alpha (RenderSettings.pass_alpha_threshold) */
-    int32_t aov_base;                       /* the shader AOVs' first channel (PassLayout.aov_base), -1: no AOV asked for */
+    int32_t aov_base;                       /* the AOVs' first channel (PassLayout.aov_base), -1: none */
 };
 
 /* How shadow rays leave the surface (RenderSettings' shadow settings). */
