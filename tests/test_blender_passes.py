@@ -255,9 +255,10 @@ def test_mist_matches_cycles_inside_objects_and_is_one_in_the_background(renders
 
 def test_shader_aovs_match_cycles_inside_objects(primer, tmp_path):
     """Shader AOVs (issue 33): every material of materials_principled gets an AOV Output of its UV into a Color AOV
-    and one of 0.5 into a Value AOV. Primer writes both passes under the AOVs' names with Cycles' channels; inside
-    objects with a material the Value AOV is 0.5 in both, the Color AOV's alpha 1 and its colour the UV's mean within
-    the UV pass's tolerance (the samples sit at other places in each pixel); where no object is, both are 0."""
+    and, inside a node group, one of 0.5 into a Value AOV. Primer writes both passes under the AOVs' names with Cycles'
+    channels; inside objects with a material the Value AOV is 0.5 in both, the Color AOV's alpha 1 and its colour the
+    UV's mean within the UV pass's tolerance (the samples sit at other places in each pixel); where no object is, both
+    are 0."""
     bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_scenes", "materials_principled.blend"))
     scene = bpy.context.scene
     layer = scene.view_layers[0]
@@ -268,6 +269,10 @@ def test_shader_aovs_match_cycles_inside_objects(primer, tmp_path):
     aov.name, aov.type = "AovUV", "COLOR"
     aov = layer.aovs.add()
     aov.name, aov.type = "AovHalf", "VALUE"
+    group = bpy.data.node_groups.new("Half", "ShaderNodeTree")     # (the Value AOV's node inside a node group)
+    half = group.nodes.new("ShaderNodeOutputAOV")
+    half.aov_name = "AovHalf"
+    half.inputs["Value"].default_value = 0.5
     for material in bpy.data.materials:
         tree = material.node_tree
         if tree is None:
@@ -275,9 +280,7 @@ def test_shader_aovs_match_cycles_inside_objects(primer, tmp_path):
         uv = tree.nodes.new("ShaderNodeOutputAOV")
         uv.aov_name = "AovUV"
         tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["UV"], uv.inputs["Color"])
-        half = tree.nodes.new("ShaderNodeOutputAOV")
-        half.aov_name = "AovHalf"
-        half.inputs["Value"].default_value = 0.5
+        tree.nodes.new("ShaderNodeGroup").node_tree = group
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 96, 72, 100
     scene.primer.samples = SAMPLES
     scene.primer.use_adaptive_sampling = False
