@@ -192,6 +192,7 @@ COVERAGE = {
                "use_pass_cryptomatte_asset use_pass_cryptomatte_material use_pass_cryptomatte_object "
                "pass_cryptomatte_depth": "engine.py, export.export_scene (Cryptomatte)",
                "lightgroups": "lightgroups.group_names", "material_override": "export.export_scene",
+               "aovs": "export.shader_aovs (the shader AOVs written), unmodelled.world_aovs (the world's, noted)",
                "use_strand": "export.export_scene (Filter > Strands off: no curves nor particle hair, as in Cycles)",
                "use_volumes": "export.media_of_layer (off: no media)",
                "pass_alpha_threshold": "export.export_scene (RenderSettings.pass_alpha_threshold: the data "
@@ -203,7 +204,7 @@ COVERAGE = {
                "use_motion_blur": "motion.blurs (with Render > Motion Blur)",
                "depsgraph objects use": DEPSGRAPH},
         REPORTED: {"use_pass_shadow use_pass_subsurface_color use_pass_subsurface_direct "
-                   "use_pass_subsurface_indirect aovs use_pass_combined use_solid":
+                   "use_pass_subsurface_indirect use_pass_combined use_solid":
                    "unmodelled.view_layer_notes",
                    "use_ao": "unmodelled.render_notes (Fast GI's ambient occlusion)"},
         NO_EFFECT: {"active_aov active_aov_index active_layer_collection active_lightgroup active_lightgroup_index "

@@ -21,6 +21,7 @@ import bpy
 import numpy as np
 
 from ..core.integrators import catcher, cryptomatte
+from ..core.integrators import passes as passes_
 from ..core.integrators import debug
 from . import compositor, export, lightgroups, motion, viewport
 
@@ -73,6 +74,10 @@ def cycles_pass_name(buffer: str, version: tuple = None) -> str:
     version = tuple(bpy.app.version) if version is None else tuple(version)
     return CYCLES_PASSES[buffer][1 if version >= (5, 0, 0) else 2]
 
+
+# Shader AOVs (View Layer > Passes > Shader AOV; core/integrators/passes.py): type -> (channels, chan ids, type) of the
+# pass named as the AOV, as Cycles registers it; its core buffer is passes.AOV_PREFIX + the name.
+AOV_PASS_KINDS = {"COLOR": (4, "RGBA", "COLOR"), "VALUE": (1, "X", "VALUE")}
 
 # Cryptomatte (core/integrators/cryptomatte.py): core buffer -> (view layer toggle, the passes' name prefix).
 CRYPTO_PASSES = {
@@ -265,6 +270,8 @@ def write_result(engine, exported: export.Export, image: np.ndarray, buffers: di
                 fill(render_pass, block(image))
             elif name in cycles_names and cycles_names[name] in buffers:
                 fill(render_pass, block(buffers[cycles_names[name]]))
+            elif passes_.AOV_PREFIX + name in buffers:
+                fill(render_pass, block(buffers[passes_.AOV_PREFIX + name]))
             elif name in crypto_names:
                 buffer, first = crypto_names[name]
                 fill(render_pass, block(buffers[buffer][..., first:first + 4]))
@@ -518,6 +525,8 @@ class PrimerRenderEngine(bpy.types.RenderEngine):
         for buffer, (toggle, _, _, channels, chan_id, kind) in CYCLES_PASSES.items():
             if getattr(renderlayer, toggle, False):
                 self.register_pass(scene, renderlayer, cycles_pass_name(buffer), channels, chan_id, kind)
+        for name, kind in export.shader_aovs(renderlayer):     # (Cycles' names and channels: the AOV's own name)
+            self.register_pass(scene, renderlayer, name, *AOV_PASS_KINDS[kind])
         for group in lightgroups.group_names(renderlayer):
             self.register_pass(scene, renderlayer, lightgroups.PASS_PREFIX + group, 3, "RGB", "COLOR")
         if export.shadow_catcher_pass(renderlayer):

@@ -1522,6 +1522,13 @@ def topmost_parent(obj):
     return obj
 
 
+def shader_aovs(view_layer) -> tuple:
+    """The view layer's shader AOVs Cycles writes: (name, "COLOR" or "VALUE") of each valid one, in order (Blender
+    marks an AOV whose name another AOV or pass holds invalid; Cycles' sync skips it)."""
+    return tuple((aov.name, aov.type) for aov in getattr(view_layer, "aovs", ())
+                 if getattr(aov, "is_valid", True) and aov.name)
+
+
 def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, aux: tuple = (),
                  passes: tuple = (), mesh_cache: MeshCache = None) -> Export:
     """Return the evaluated depsgraph as a core scene plus render settings (computing the buffers `aux` and
@@ -1532,6 +1539,7 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     """
     scene = depsgraph.scene_eval
     warnings: list[str] = []
+    aov_names = {name for name, _ in shader_aovs(depsgraph.view_layer)}   # (what AOV Outputs read: only for these)
     camera_object = camera_override or scene.camera
     if camera_object is None:
         raise ExportError("the scene has no camera: add one, or set Scene > Camera")
@@ -1649,7 +1657,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
         wanted = set()
         for slot in slots[slots >= 0].tolist():
             material = materials.materials[slot]
-            wanted |= graph_.attributes_of(graph_.with_normal(material.nodes, material.normal, material.displacement))
+            wanted |= graph_.attributes_of(graph_.with_normal(material.nodes, material.normal, material.displacement,
+                                                              [a for a in material.aovs if a[0] in aov_names]))
         if "uv" in passes and len(obj.data.uv_layers):
             wanted.add("uv:")
         if wanted and obj.type != "MESH":
@@ -1700,6 +1709,8 @@ def export_scene(depsgraph, camera_override=None, is_cancelled=lambda: False, au
     # (View Layer > Passes > Data > Alpha Threshold: the first surface that opaque holds the data passes)
     settings.pass_alpha_threshold = float(getattr(depsgraph.view_layer, "pass_alpha_threshold", 0.5))
     settings.light_groups = tuple(lightgroups.group_names(depsgraph.view_layer))
+    # (View Layer > Passes > Shader AOV: what the materials' AOV Output nodes write, core/integrators/passes.py)
+    settings.aovs = shader_aovs(depsgraph.view_layer)
     # (View Layer > Passes > Light > Shadow Catcher: the pass, and Combined as the catchers' matte itself)
     settings.shadow_catcher_pass = shadow_catcher_pass(depsgraph.view_layer)
     core.lightgroups = groups

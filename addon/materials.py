@@ -1174,6 +1174,28 @@ def shader_nodes(material, warnings: list) -> list:
     return out
 
 
+def aov_outputs(material, warnings: list) -> list:
+    """The material's AOV Output nodes as core Material.aovs [(AOV name, Color: (3,) or a graph.Link, Value: float or a
+    graph.Link)], those inside node groups too (Cycles' sync adds a group's nodes with the rest); a node with no name
+    writes nothing (Cycles finds no AOV of that name)."""
+    tree = node_tree(material)
+    if tree is None:
+        return []
+    reader = NodeReader(material, warnings)
+    out: list = []
+
+    def walk(nodes, path: tuple, depth: int = 0) -> None:
+        for node in nodes:
+            if node.bl_idname == "ShaderNodeOutputAOV" and getattr(node, "aov_name", ""):
+                out.append((node.aov_name, reader.input(node, "Color", np.zeros(3), path),
+                            reader.input(node, "Value", 0.0, path)))
+            elif node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None and depth < 32:
+                walk(node.node_tree.nodes, path + (node,), depth + 1)
+
+    walk(tree.nodes, ())
+    return out
+
+
 def _collect_socket(reader: NodeReader, socket, weight: np.ndarray, out: list, factors: tuple) -> None:
     """Append the shaders linked into the closure input `socket` (see _collect); a value, colour or vector linked
     there is an Emission shader, as Cycles converts it: a colour or vector its Color (Strength 1), a value its
@@ -1776,6 +1798,9 @@ def export_material(material, warnings: list) -> Material:
     medium = volume_of(material, output, warnings) if volume is not None else []
     warnings.extend(unmodelled.material_notes(material))
     nodes = shader_nodes(material, warnings)
+    aovs = aov_outputs(material, warnings)
+    if aovs and not nodes:                  # (no surface: black, as Cycles' empty surface, its AOVs still written)
+        nodes = [("DIFFUSE", np.zeros(3), {}, [])]
     normal, moved = None, {}
     if output is not None and "Displacement" in output.inputs and linked_node(output, "Displacement") is not None:
         method = str(getattr(material, "displacement_method", getattr(getattr(material, "cycles", None),
@@ -1792,9 +1817,10 @@ def export_material(material, warnings: list) -> Material:
         # Cycles: a volume's boundary with no surface shader is not there for rays (they enter the volume, and a
         # crossing counts as no transparent bounce).
         return Material(np.zeros(3), material.name, nodes=[("TRANSPARENT", np.ones(3), {}, [])],
-                        emission_sampling=sampling, transparent_shadows=True, volume=medium, volume_only=True, **moved)
+                        emission_sampling=sampling, transparent_shadows=True, volume=medium, volume_only=True,
+                        aovs=aovs, **moved)
     if len(nodes) == 1 and nodes[0][0] == "DIFFUSE" and not graph_.has_links(nodes) and "roughness" not in nodes[0][2] \
-            and normal is None:
+            and normal is None and not aovs:
         return Material(np.clip(nodes[0][1], 0.0, None), material.name, emission_sampling=sampling,
                         transparent_shadows=shadows, volume=medium, **moved)
     if not nodes:
@@ -1803,4 +1829,4 @@ def export_material(material, warnings: list) -> Material:
     # Settings > Bump Map Correction (Cycles' default on; off: the nodes' normals kept as they are, closures.py).
     corrected = bool(getattr(getattr(material, "cycles", None), "use_bump_map_correction", True))
     return Material(np.zeros(3), material.name, nodes=nodes, emission_sampling=sampling, transparent_shadows=shadows,
-                    volume=medium, normal=normal, bump_map_correction=corrected, **moved)
+                    volume=medium, normal=normal, bump_map_correction=corrected, aovs=aovs, **moved)

@@ -251,3 +251,66 @@ def test_mist_matches_cycles_inside_objects_and_is_one_in_the_background(renders
     assert (np.abs(a - b)[objects] < 0.02).mean() > 0.95
     assert a[objects].mean() == pytest.approx(b[objects].mean(), rel=0.01)
     assert background.any() and np.allclose(a[background], 1.0) and np.allclose(b[background], 1.0)
+
+
+def test_shader_aovs_match_cycles_inside_objects(primer, tmp_path):
+    """Shader AOVs (issue 33): every material of materials_principled gets an AOV Output of its UV into a Color AOV
+    and, inside a node group, one of 0.5 into a Value AOV. Primer writes both passes under the AOVs' names with Cycles'
+    channels; inside objects with a material the Value AOV is 0.5 in both, the Color AOV's alpha 1 and its colour the
+    UV's mean within the UV pass's tolerance (the samples sit at other places in each pixel); where no object is, both
+    are 0."""
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_scenes", "materials_principled.blend"))
+    scene = bpy.context.scene
+    layer = scene.view_layers[0]
+    layer.use_pass_object_index = True
+    for i, obj in enumerate(scene.objects):
+        obj.pass_index = i + 1
+    aov = layer.aovs.add()
+    aov.name, aov.type = "AovUV", "COLOR"
+    aov = layer.aovs.add()
+    aov.name, aov.type = "AovHalf", "VALUE"
+    group = bpy.data.node_groups.new("Half", "ShaderNodeTree")     # (the Value AOV's node inside a node group)
+    half = group.nodes.new("ShaderNodeOutputAOV")
+    half.aov_name = "AovHalf"
+    half.inputs["Value"].default_value = 0.5
+    for material in bpy.data.materials:
+        tree = material.node_tree
+        if tree is None:
+            continue
+        uv = tree.nodes.new("ShaderNodeOutputAOV")
+        uv.aov_name = "AovUV"
+        tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["UV"], uv.inputs["Color"])
+        tree.nodes.new("ShaderNodeGroup").node_tree = group
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 96, 72, 100
+    scene.primer.samples = SAMPLES
+    scene.primer.use_adaptive_sampling = False
+    out = []
+    for engine in ("PRIMER", "CYCLES"):
+        scene.render.engine = engine
+        if engine == "CYCLES":
+            configure_cycles_reference(scene, SAMPLES)
+        path = str(tmp_path / f"aov_{engine}.exr")
+        scene.render.image_settings.media_type = "IMAGE"
+        configure_output(scene, path)
+        scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
+        bpy.ops.render.render(write_still=True)
+        out.append(read_channels(path))
+    mine, cycles = out
+    for name in ("AovUV", "AovHalf"):
+        assert mine[name][0] == cycles[name][0] and mine[name][1].shape == cycles[name][1].shape, name
+    mask = inside(mine, cycles)
+    index = cycles["Object Index"][1][..., 0]
+    empty = mask & (index == 0)
+    shaded = [obj.pass_index for obj in scene.objects if any(slot.material for slot in obj.material_slots)]
+    objects = mask & np.isin(index, shaded)         # (an object without a material: the default surface, no AOV)
+    assert objects.mean() > 0.3, objects.mean()
+    channels = mine["AovUV"][0]
+    a, b = (dict(zip(channels, np.moveaxis(passes["AovUV"][1], -1, 0))) for passes in (mine, cycles))
+    np.testing.assert_array_equal(a["A"][objects], 1.0)
+    np.testing.assert_array_equal(b["A"][objects], 1.0)
+    error = np.maximum(np.abs(a["R"] - b["R"]), np.abs(a["G"] - b["G"]))[objects]
+    assert np.median(error) < 0.002 and np.percentile(error, 99) < 0.02, (np.median(error), np.percentile(error, 99))
+    np.testing.assert_allclose(mine["AovHalf"][1][objects], 0.5, atol=1e-6)
+    np.testing.assert_allclose(cycles["AovHalf"][1][objects], 0.5, atol=1e-6)
+    for passes in (mine, cycles):
+        assert np.all(passes["AovUV"][1][empty] == 0.0) and np.all(passes["AovHalf"][1][empty] == 0.0)

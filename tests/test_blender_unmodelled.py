@@ -64,19 +64,20 @@ def scene_with_everything():
     tree.links.new(tree.nodes.new("ShaderNodeVolumeScatter").outputs[0], out.inputs["Volume"])
     layer.use_pass_mist = layer.use_pass_vector = True
     layer.aovs.add().name = "Mask"
+    tree.nodes.new("ShaderNodeOutputAOV").aov_name = "Mask"      # (the world's AOVs: not rendered, noted)
     return scene
 
 
 def test_every_unmodelled_setting_is_said_once(primer):
-    """Principled Dispersion and AOV passes: each named in one warning. (A material's true Displacement moves
-    its vertices as in Cycles, the Volumes of the material and the world are homogeneous media Primer renders, the
-    Mist pass is written since stop 46 and the Vector pass since stop 48: no warning.)"""
+    """Principled Dispersion and the world's AOV Output: each named in one warning. (A material's true Displacement
+    moves its vertices as in Cycles, the Volumes of the material and the world are homogeneous media Primer renders,
+    the Mist pass is written since stop 46 and the Vector pass since stop 48: no warning.)"""
     scene = scene_with_everything()
     export = sys.modules[primer.__name__ + ".addon.export"]
     warnings = export.export_scene(bpy.context.evaluated_depsgraph_get()).warnings
     assert not [w for w in warnings if "Displacement" in w], warnings
     assert not [w for w in warnings if "Mist" in w or "Vector" in w], warnings
-    expected = ["AOVs (Mask)"]
+    expected = ["AOV Output nodes (Mask)"]
     if any(node.inputs.get("Dispersion") is not None for node in bpy.data.materials["Displaced"].node_tree.nodes):
         expected.append("'Dispersion' is above 0")
     for phrase in expected:

@@ -271,6 +271,8 @@ typedef struct {
     const ShaderRays *rays;
     int64_t pixel, sample, dimension;
     int blurry;
+    double *aov;        /* where the hit's shader AOVs are added (its camera chain's lane: passes.c passes_aov), NULL:
+                         * none */
 } ShaderKeys;
 
 /* What a material's node graph reads at one hit (core/materials/graph.py ShadingPoint). */
@@ -296,6 +298,8 @@ typedef struct {
     int64_t geometry, prim, instance;   /* Embree's answer for the hit (its object), with `rays` only */
     int64_t pixel, sample, dimension;   /* the keys of its random numbers, with `rays` only */
     int blurry;                         /* 1: its path bounced with a pdf below BEVEL_MIN_PDF (Bevel keeps N) */
+    double *aov;        /* where its AOV Output nodes add their values (graph.aov_values), NULL: the ops after
+                           AOV_START do not run (Cycles' NODE_AOV_START) */
 } ShadingPoint;
 
 /* The Object Info of a scene without instances (no hit reads past its OBJECT_INFO_WIDTH columns then). */

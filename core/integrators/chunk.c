@@ -49,8 +49,8 @@ static void camera_lane_media(const ChunkParams *params, const CameraBlock *b, B
 }
 
 /* Step 2: the block's nearest hits, 8 rays at a time; the rays that hit kept, with their surfaces. */
-NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHits *H, int64_t *traced,
-                       uint64_t *embree)
+NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b, BlockHits *H, LanePasses *passes,
+                       int64_t *traced, uint64_t *embree)
 {
     Intersect8 intersect = (Intersect8)params->intersect8;
     int lift = params->shadows->terminator_fix != 0.0;
@@ -116,7 +116,8 @@ NOINLINE static void block_hits(const ChunkParams *params, const CameraBlock *b,
             H->flags[h] = PATH_CAMERA;
             H->min_pdf[h] = INFINITY;           /* (no bounce yet: Cycles' min_ray_pdf, which the Bevel node reads) */
             LightPath camera = path_at(H, h, PATH_CAMERA);
-            ShaderKeys keys = {&rays, (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0};
+            /* (its shader AOVs into the lane's, passes.c: a camera chain's first vertex) */
+            ShaderKeys keys = {&rays, (int64_t)b->pixel[lane], (int64_t)b->index[lane], 0, 0, passes_aov(passes, lane)};
             shade_hit(params->graphs, params->geometry, params->materials + H->s[h].material, &tri, H->s + h,
                       (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k], instance_of(&packet.hit, k),
                       (double)packet.hit.u[k], (double)packet.hit.v[k], H->wo + 3 * h, &camera, &keys,
@@ -205,7 +206,6 @@ NOINLINE static int64_t integrate(const ChunkParams *params, const CameraBlock *
         .passes = passes, .media = params->media, .film_transparent = params->transparent != 0.0,
         .clear_glass = params->clear_glass,
     };
-    if (passes != NULL) passes_clear(passes);
     if (ds.features) camera_lane_features(params, b, H, work, ds.back);
     /* The path tracer's bounce limits; the direct tracer's through transparent surfaces: no bounces but those. */
     PathLimits limits = {(int)params->max_bounces, (int)params->diffuse_bounces, (int)params->glossy_bounces,
@@ -428,7 +428,7 @@ NOINLINE static int catcher_behind(const ChunkParams *params, const double *O, c
         sd->terminator = 1.0;
         sd->uncorrected = 0;
         LightPath path = {PATH_CAMERA, 0, 0, 0, 0, passed, 0, 0.0, 0.0};
-        ShaderKeys keys = {&rays, pixel, index, 0, 0};
+        ShaderKeys keys = {&rays, pixel, index, 0, 0, NULL};
         shade_hit(params->graphs, params->geometry, m, &tri, &s, geometry, prim, instance, u, v, wo, &path, &keys, 0, sd);
         for (int i = 0; i < sd->n; i++) {
             const double *w = sd->c[i].weight;
@@ -511,7 +511,7 @@ static int64_t catcher_light(const ChunkParams *alone, const ChunkArgs *a, Camer
     H->groups = NULL;
     H->group_count = 0;
     uint64_t begin = ticks(), before = spent[0], embree[2] = {0, 0};
-    block_hits(alone, b, H, traced, spent);
+    block_hits(alone, b, H, NULL, traced, spent);
     int64_t rays = integrate(alone, b, H, work, NULL, embree);
     spent[1] += embree[0];
     spent[0] += embree[1];
@@ -638,7 +638,8 @@ static void render_chunk(const ChunkArgs *a)
         /* 2. Their nearest hits and the surfaces there. */
         uint64_t begin = ticks();
         uint64_t before = spent[0];
-        block_hits(params, &b, &H, &traced, spent);
+        if (passes != NULL) passes_clear(passes);  /* (before the camera's hits: their shaders write the AOVs) */
+        block_hits(params, &b, &H, passes, &traced, spent);
         /* 3. The light each hit sends towards the camera. */
         uint64_t embree[2] = {0, 0};
         shadow_rays += integrate(params, &b, &H, work, passes, embree);

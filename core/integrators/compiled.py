@@ -343,7 +343,7 @@ class Compiled:
         if self.group_count:                # the light groups' sums (core/integrators/lightgroups.py)
             aux[lightgroups.FILM_BUFFER] = groups = np.empty((p, 3 * self.group_count))
             out.groups = groups
-        if self.layout.names:               # the first-hit passes' sums and Cryptomatte's slots (passes.py)
+        if self.layout.sums:                # first-hit passes' and AOVs' sums, Cryptomatte's slots (passes.py)
             aux[passes_.FILM_BUFFER] = values = np.empty((p, self.layout.channels))
             out.passes = values
         if self.layout.mattes:

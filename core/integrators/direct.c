@@ -1275,7 +1275,7 @@ NOINLINE static uint64_t bsdf_rays(BlockHits *H, const DirectSettings *ds)
             int clear = bsdf_is(s->kind, BSDF_FLAG_STRAIGHT);
             double below = H->min_pdf[h], next_min = clear || !(pdf_b < below) ? below : pdf_b;
             ShaderKeys next = {&traced, H->pixel[h], H->sample[h], ds->dimension + VERTEX_DIMENSIONS,
-                               next_min < BEVEL_MIN_PDF};
+                               next_min < BEVEL_MIN_PDF, NULL};
             FindingRay finding = {O, D, hit, t_limit, (int64_t)packet.hit.geomID[k], (int64_t)packet.hit.primID[k],
                                   instance_of(&packet.hit, k), pdf_b, use_mis, kinds[k] == HIDDEN_FROM_CAMERA, P, N,
                                   kinds[k], after + k, receiver, ds->media != NULL ? sigma : NULL, emission, &next,

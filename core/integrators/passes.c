@@ -10,7 +10,8 @@
 /* Each camera lane's first-hit passes in a block (passes.DataPasses), where asked for. */
 struct LanePasses {
     const PassTables *tables;
-    double values[BLOCK][PASS_CHANNELS_MAX];    /* the passes' sums, in tables->offset's channels */
+    double values[BLOCK][PASS_CHANNELS_MAX + AOV_CHANNELS_MAX];   /* the passes' sums, in tables->offset's channels,
+                                                                   * then the shader AOVs' from tables->aov_base */
     uint8_t done[BLOCK];                        /* 1: the chain met its opaque-enough vertex */
     int64_t entries[BLOCK];                     /* Cryptomatte entries met so far */
     double *mattes;                             /* (BLOCK, room, 4): weight, then the id of each kind asked for */
@@ -27,6 +28,15 @@ INLINE void passes_clear(LanePasses *lp)
         lp->done[k] = 0;
         lp->entries[k] = 0;
     }
+}
+
+/* Where the shader of a hit on lane `lane`'s camera chain adds its AOV Output nodes' values (ShaderKeys.aov): the
+ * lane's shader AOVs, while its chain has not met its opaque-enough vertex (Cycles' svm_node_aov_check: a camera
+ * path before PATH_RAY_SINGLE_PASS_DONE); NULL where no AOV is asked for (lp NULL or no AOV channels). */
+INLINE double *passes_aov(LanePasses *lp, int64_t lane)
+{
+    if (lp == NULL || lp->tables->aov_base < 0 || lp->done[lane]) return NULL;
+    return lp->values[lane] + lp->tables->aov_base;
 }
 
 /* DataPasses.add / set for one lane: value (the pass's channels) times `scale` into pass `pass`, if asked for. */

@@ -46,6 +46,15 @@ throughput there (the product of the transparent bounces' weights).
     environment     throughput times the world where the ray escapes, also with a transparent film (Cycles
                     keeps it for compositing the background back in)
 
+Shader AOVs (View Layer > Passes > Shader AOV; RenderSettings.aovs), as Cycles writes them (svm/aov.h,
+film/aov_passes.h): at each vertex of the chain until and with its opaque-enough one (Cycles'
+PATH_RAY_SINGLE_PASS_DONE), every AOV Output node of the surface's material that names one of the view layer's AOVs
+adds to it, neither weighed by the throughput nor by the alpha: a COLOR AOV its Color and 1 into a fourth channel
+(its alpha: the share of samples that wrote it, 2 where two surfaces of a chain did), a VALUE AOV its Value. A
+sample that writes nothing adds 0 (the pixels no surface covers are 0). The graph's ops that feed only AOVs run only
+there (graph.py AOV_START). Cycles' world shader may write AOVs too (a camera ray that escapes); Primer does not
+(addon/unmodelled.py says so).
+
 Each pass is the mean over all of a pixel's samples (the film's sums divided by its count), but for the
 sample-0 ones (FIRST_SAMPLE_ONLY), with the render's pixel filter (Primer's 1-pixel box; Cycles' default is
 1.5 pixels Blackman-Harris: anti-aliased edges differ).
@@ -85,6 +94,12 @@ MISS_DEPTH = 1e10
 AO_DIMENSION = schema.constant("AO_DIMENSION", 120, "the ambient occlusion ray's sampling dimension")
 # The UV map the UV pass reads: the mesh's active render map (core/scene Mesh.attributes).
 UV_ATTRIBUTE = "uv:"
+# The shader AOVs' channels a render keeps at most (passes.c's lanes hold as many; an AOV past them is left out with a
+# warning, aov_slots): COLOR takes 4 (RGB, the share of samples written), VALUE 1.
+AOV_CHANNELS_MAX = schema.constant("AOV_CHANNELS_MAX", 64, "the shader AOVs' channels a render keeps at most")
+AOV_CHANNELS = {"COLOR": 4, "VALUE": 1}
+# The core buffer (RenderResult.aux) of the shader AOV named NAME: AOV_PREFIX + NAME.
+AOV_PREFIX = "aov:"
 # The film's buffers of the passes' per-pixel sums, and of the Cryptomatte slots.
 FILM_BUFFER = "data_passes"
 MATTE_BUFFER = "cryptomatte"
@@ -95,13 +110,35 @@ def pass_channels(name: str, depth: int) -> int:
     return 4 * cryptomatte.pass_count(depth) if name in CRYPTO_PASSES else PASS_CHANNELS[name]
 
 
+def aov_slots(aovs) -> dict:
+    """Where the shader AOVs `aovs` ((name, "COLOR" or "VALUE") each, the view layer's order) sit among the AOV
+    channels: name -> (first channel, channels: 4 or 1); a name given twice keeps its first, and the AOVs past
+    AOV_CHANNELS_MAX channels are left out (aovs_left_out names them)."""
+    slots, used = {}, 0
+    for name, kind in aovs:
+        channels = AOV_CHANNELS[kind]
+        if name in slots or used + channels > AOV_CHANNELS_MAX:
+            continue
+        slots[name] = (used, channels)
+        used += channels
+    return slots
+
+
+def aovs_left_out(aovs) -> list:
+    """The names of the shader AOVs `aovs` that aov_slots leaves out for want of channels."""
+    kept = aov_slots(aovs)
+    return [name for name, _ in aovs if name not in kept]
+
+
 class PassLayout:
     """Where the passes a render asks for sit in the film: names (in PASS_CHANNELS' order), offset name -> first
     channel, channels in all; the Cryptomatte kinds asked for (mattes: pass names, kinds: cryptomatte.KINDS
-    indices) with `slots` (id, weight) slots each."""
+    indices) with `slots` (id, weight) slots each; the shader AOVs (aovs: aov_slots) from channel aov_base on,
+    aov_channels of them, after the passes."""
 
-    def __init__(self, wanted, depth: int):
-        """The layout of the passes `wanted` (names of PASS_CHANNELS and CRYPTO_PASSES), Cryptomatte `depth`."""
+    def __init__(self, wanted, depth: int, aovs=()):
+        """The layout of the passes `wanted` (names of PASS_CHANNELS and CRYPTO_PASSES), Cryptomatte `depth`, shader
+        AOVs `aovs` ((name, "COLOR" or "VALUE") each)."""
         self.names = [name for name in PASS_CHANNELS if name in wanted]
         self.offset, self.channels = {}, 0
         for name in self.names:
@@ -110,9 +147,18 @@ class PassLayout:
         self.mattes = [name for name in CRYPTO_PASSES if name in wanted]
         self.kinds = [cryptomatte.KINDS.index(CRYPTO_PASSES[name]) for name in self.mattes]
         self.slots = cryptomatte.slot_count(depth)
+        self.aovs = aov_slots(aovs)
+        self.aov_base = self.channels
+        self.aov_channels = sum(channels for _, channels in self.aovs.values())
+        self.channels += self.aov_channels
 
     def __bool__(self) -> bool:
-        return bool(self.names or self.mattes)
+        return bool(self.names or self.mattes or self.aovs)
+
+    @property
+    def sums(self) -> bool:
+        """Whether the film keeps per-pixel sums of its passes (FILM_BUFFER): passes or shader AOVs asked for."""
+        return bool(self.names or self.aovs)
 
     def has(self, name: str) -> bool:
         """Whether the pass `name` is asked for."""
@@ -191,6 +237,7 @@ passes.c): where each sits in a pixel's channels, and the scene's tables they re
     ("vector_raster", F64, 48, "(3, 4, 4) VectorTables.raster: before, at and after the frame"),
     ("vector_still", I32, "VectorTables.still: 1 writes 0 motion"),
     ("vector_rows", I64, "the rows of vector_before and vector_after"),
+    ("aov_base", I32, "the AOVs' first channel (PassLayout.aov_base), -1: none"),
 ])
 
 
@@ -216,7 +263,8 @@ def pass_tables(ctx, layout: PassLayout):
         mist_start=float(ctx.settings.mist_start), mist_inv_depth=mist_inv_depth(ctx.settings),
         mist_falloff=float(ctx.settings.mist_falloff), ortho=is_ortho(ctx),
         uv_offset=-1 if uv is None else int(uv[0]), world_camera=world is not None and bool(world.camera),
-        alpha_threshold=float(ctx.settings.pass_alpha_threshold), **vector_fields(ctx.extra.get("vector_tables")))
+        alpha_threshold=float(ctx.settings.pass_alpha_threshold), aov_base=layout.aov_base if layout.aovs else -1,
+        **vector_fields(ctx.extra.get("vector_tables")))
 
 
 def vector_fields(tables) -> dict:
@@ -312,6 +360,10 @@ def at_vertex(ctx, dp: DataPasses, rows: np.ndarray, owner: np.ndarray, vertex: 
     transparency = np.clip(shader.transparency[rows], 0.0, None)
     alpha = 1.0 - transparency
     open_ = ~dp.done[at]
+    # 0. The shader AOVs of the chain's vertices until its opaque-enough one (Cycles' svm_node_aov_check).
+    aov = getattr(shader, "aov", None)
+    if dp.layout.aovs and aov is not None:
+        dp.values[at[open_], dp.layout.aov_base:dp.layout.aov_base + dp.layout.aov_channels] += aov[rows[open_]]
     # 1. Until the chain's opaque-enough vertex: sample 0's position, ids and depth, overwritten at each vertex.
     _, instance, _ = hit_owners(geometry, prim)
     first = np.flatnonzero(open_ & dp.first[at])
@@ -467,6 +519,10 @@ def images(sums: dict, count: np.ndarray, layout: PassLayout, depth: int, height
         elif name == "z_depth":
             v = np.where(v == 0.0, MISS_DEPTH, v)
         out[name] = v.astype(np.float32).reshape(height, width, -1)
+    for name, (first, channels) in layout.aovs.items():
+        v = values[:, layout.aov_base + first:layout.aov_base + first + channels]
+        v = np.divide(v, n, out=np.zeros_like(v), where=n > 0)
+        out[AOV_PREFIX + name] = v.astype(np.float32).reshape(height, width, -1)
     if layout.mattes:
         slots = sums[MATTE_BUFFER].reshape(len(count), len(layout.mattes), layout.slots, 2)
         for k, name in enumerate(layout.mattes):

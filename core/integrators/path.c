@@ -248,8 +248,10 @@ INLINE void next_vertices(BlockHits *H, const PathRays *rays, int vertex, const 
         /* (Cycles' min_ray_pdf: the smallest pdf of the path's real bounces; the Bevel node and Filter Glossy read it) */
         next->min_pdf[m] = see_through || !(r->pdf < H->min_pdf[h]) ? H->min_pdf[h] : r->pdf;
         next->sd[m].blur = filter_glossy_roughness(ds->filter_glossy, next->min_pdf[m]);
+        /* (a camera chain's vertex, straight on through a transparent surface: its shader AOVs, passes.c) */
         ShaderKeys keys = {&traced, H->pixel[h], H->sample[h], (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,
-                           next->min_pdf[m] < BEVEL_MIN_PDF};
+                           next->min_pdf[m] < BEVEL_MIN_PDF,
+                           bounces == 0 && !r->walked ? passes_aov(ds->passes, H->lane[h]) : NULL};
         shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry,
                   r->prim, r->instance, r->u, r->v, next->wo + 3 * m, &r->path, &keys, 0, next->sd + m);
         /* A walk's exit is lit as a white Lambert surface (subsurface.c walk_exit_shader). */
@@ -318,7 +320,7 @@ NOINLINE static void arrive(const DirectSettings *ds, const Arrival *a, int vert
     LightPath path = {PATH_VOLUME_SCATTER, a->bounce, a->diffuse, a->glossy, a->transmission, a->transparent,
                       a->portal, a->cone, a->spread};
     ShaderKeys keys = {&traced, a->pixel, a->sample, (int64_t)(vertex + 1) * VERTEX_DIMENSIONS,
-                       a->min_pdf < BEVEL_MIN_PDF};
+                       a->min_pdf < BEVEL_MIN_PDF, NULL};
     shade_hit(ds->graphs, ds->geometry, ds->materials + next->s[m].material, &tri, next->s + m, r->geometry, r->prim,
               r->instance, r->u, r->v, next->wo + 3 * m, &path, &keys, 0, next->sd + m);
     if (a->diffuse > 0) burley_as_diffuse(next->sd + m);     /* (subsurface.burley_as_diffuse, as path.py) */

@@ -346,7 +346,7 @@ def burley_as_diffuse(shader: ShaderResult, ancestor: np.ndarray) -> ShaderResul
     kind = np.where(turn, Lambert.kind, c.kind).astype(np.int32)
     sample_weight = np.where(turn, np.abs(c.weight.mean(axis=2)), c.sample_weight)
     closures = c._replace(kind=kind, sample_weight=sample_weight)
-    return ShaderResult(closures, shader.emission, shader.transparency, shader.N, shader.holdout)
+    return ShaderResult(closures, shader.emission, shader.transparency, shader.N, shader.holdout, shader.aov)
 
 
 def exit_ray(exits: np.ndarray, prim_uv: tuple, P: np.ndarray, D: np.ndarray, t: np.ndarray) -> tuple:
@@ -396,4 +396,4 @@ def subsurface_shader(shader: ShaderResult, exiting: np.ndarray) -> ShaderResult
     closures = c._replace(kind=kind.astype(np.int32), weight=weight, sample_weight=sample_weight, N=N, Ns=Ns)
     keep = ~exiting[:, None]
     holdout = None if shader.holdout is None else shader.holdout * keep
-    return ShaderResult(closures, shader.emission * keep, shader.transparency * keep, shader.N, holdout)
+    return ShaderResult(closures, shader.emission * keep, shader.transparency * keep, shader.N, holdout, shader.aov)

@@ -12,7 +12,7 @@ hit, with only the normal changing.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
@@ -65,6 +65,9 @@ class Material:
                 moves its meshes' vertices (core/geometry/displacement.py), with Displacement Method `displacement_method`
                 "DISPLACEMENT" (Displacement Only: normals from the moved faces) or "BOTH" (Displacement and Bump: the
                 mesh's normals, the bump in `normal`); None: its surface stays where it is (Bump Only, or no output)
+    aovs:       its AOV Output nodes, [(AOV name, Color: (3,) or a graph.Link, Value: float or a graph.Link)]: what
+                camera paths write into the render's shader AOVs of that name (core/integrators/passes.py); `nodes`
+                then decide the surface (a material with AOV Outputs is never the constant one)
     """
 
     base_color: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_BASE_COLOR))
@@ -82,6 +85,7 @@ class Material:
     displacement: Optional[object] = None
     displacement_method: str = "BUMP"
     bump_map_correction: bool = True
+    aovs: list = field(default_factory=list)
 
 
 # The sides a material's emitting triangles are sampled from (core/lights/emitters.py FRONT | BACK).
@@ -188,11 +192,33 @@ class NodeShader:
     graph_emits: bool = False
     normal: Optional[object] = None
     bump_map_correction: bool = True
+    aovs: list = field(default_factory=list)
+    aov_channels: int = 0
 
     @classmethod
-    def of(cls, material: Material, notes: Optional[list] = None) -> "NodeShader":
+    def of(cls, material: Material, notes: Optional[list] = None, aovs: Optional[dict] = None) -> "NodeShader":
         """The material's nodes, their inputs read as Cycles reads a NaN or an infinity (core/materials/finite.py),
-        each one changed named in `notes` ("Principled base_color")."""
+        each one changed named in `notes` ("Principled base_color"); aovs: the render's shader AOVs (passes.aov_slots:
+        name -> (first channel, channels)) its AOV Output nodes write (with_aovs)."""
+        return cls._of(material, notes).with_aovs(material, aovs or {})
+
+    def with_aovs(self, material: Material, slots: dict) -> "NodeShader":
+        """Itself with the AOV Output nodes of `material` that name one of the render's shader AOVs `slots` (name ->
+        (first channel, channels: 4 COLOR, 1 VALUE)): `aovs` [(first channel, channels, its Color or Value)], in the
+        program after its AOV_START op (graph.Compiler.compile); its graph then runs even without links. A node that
+        names an AOV the view layer lacks writes nothing, as in Cycles (OutputAOVNode: offset -1, not compiled)."""
+        wanted = [(slots[name][0], slots[name][1], color if slots[name][1] == 4 else value)
+                  for name, color, value in material.aovs if name in slots]
+        if not wanted:
+            return self
+        # (constant inputs: their rows hold them already)
+        graph = self.graph if self.graph is not None else [(node, weight, {}, ()) for node, weight, _ in self.nodes]
+        return replace(self, graph=graph, aovs=wanted, aov_channels=sum(channels for _, channels in slots.values()),
+                       programs={})
+
+    @classmethod
+    def _of(cls, material: Material, notes: Optional[list] = None) -> "NodeShader":
+        """NodeShader.of without the AOVs."""
         from . import graph as graph_
         from . import nodes as nodes_
         rows, linked = [], []
@@ -262,7 +288,7 @@ class NodeShader:
         key = (tuple(sorted(layout.items())), None if view is None else tuple(np.asarray(view).ravel()), window)
         if key not in self.programs:
             self.programs[key] = graph_.Compiler(layout, image_index, material=name, view=view,
-                                                 window=window).compile(self.graph, self.normal)
+                                                 window=window).compile(self.graph, self.normal, self.aovs)
         return self.programs[key]
 
     def shade(self, N: np.ndarray, wo: np.ndarray, point=None, program=None, textures=None,
@@ -291,6 +317,8 @@ class NodeShader:
                   for normal in normals]
         result = nodes_.shade_nodes(self.nodes, N, wo, (weights, rows, normals), glossy, backfacing=backfacing,
                                     caustics=caustics, blur=blur)
+        if self.aovs:                                 # (its AOV Output nodes' values: passes.at_vertex keeps them)
+            result = result._replace(aov=graph_.aov_values(program, registers, self.aov_channels))
         if corrected:
             return result
         return result._replace(closures=result.closures._replace(uncorrected=np.ones(n, bool)))
@@ -357,17 +385,23 @@ def _bounce_factor(entry: tuple) -> float:
     return 1.0
 
 
-def shader_of(material: Material, warnings: Optional[list] = None):
+def shader_of(material: Material, warnings: Optional[list] = None, aovs: Optional[dict] = None):
     """A material's shader: its nodes where it has them, else one constant closure; a NaN or infinite input read as
-    Cycles reads it (core/materials/finite.py) is noted in `warnings`, naming the material."""
+    Cycles reads it (core/materials/finite.py) is noted in `warnings`, naming the material; aovs: the render's shader
+    AOVs (NodeShader.with_aovs)."""
     notes: list = []
-    shader = NodeShader.of(material, notes) if material.nodes else ConstantShader.of(material, notes)
+    shader = NodeShader.of(material, notes, aovs) if material.nodes else ConstantShader.of(material, notes)
     if notes and warnings is not None:
         note = (f"material '{material.name}': {', '.join(notes)} NaN or infinite; Primer reads it as Cycles renders "
                 "it: 0 (a clamped input such as roughness: its bound), so that the closure or emission drops out")
         if note not in warnings:
             warnings.append(note)
     return shader
+
+
+def aov_sources(shader) -> list:
+    """The AOV Output nodes a shader compiles (NodeShader.aovs) as Material.aovs entries, for with_normal."""
+    return [("", source, source) for _, _, source in getattr(shader, "aovs", ())]
 
 
 class MaterialTable:
@@ -393,7 +427,8 @@ class MaterialTable:
         self._image_rows: dict = {}
         for shader in shaders:
             graph = getattr(shader, "graph", None)
-            for image in graph_.images_of(graph_.with_normal(graph, shader.normal)) if graph else ():
+            linked = graph_.with_normal(graph, shader.normal, aovs=aov_sources(shader)) if graph else ()
+            for image in graph_.images_of(linked) if graph else ():
                 self.image_index(image)
         self.textures = TextureSet.of(self.images)
         # The camera's world-to-camera transform (3, 4) the graphs' Camera coordinates read (set by render.prepare;
@@ -405,7 +440,7 @@ class MaterialTable:
         self._has_graphs = any(getattr(shader, "graph", None) is not None for shader in shaders)
         # Whether some material's graph traces rays (an Ambient Occlusion or Bevel node, graph.RAYTRACE_OPS): then the
         # integrators hand shade the hits' ShaderRays (core/integrators/shader_rays.py); otherwise they make none.
-        self.traces = any(graph_.traces(graph_.with_normal(shader.graph, shader.normal))
+        self.traces = any(graph_.traces(graph_.with_normal(shader.graph, shader.normal, aovs=aov_sources(shader)))
                           for shader in shaders if getattr(shader, "graph", None))
         # Which rows' emission their node graph gives (a texture, a linked factor), evaluated where a light sample
         # or a BSDF ray lands rather than taken from `emission`: (m + 1,) bool.
@@ -432,11 +467,14 @@ class MaterialTable:
                 if hasattr(shader, "program") else None)
 
     @classmethod
-    def of(cls, materials: list, default: Optional[Material] = None, warnings: Optional[list] = None) -> "MaterialTable":
+    def of(cls, materials: list, default: Optional[Material] = None, warnings: Optional[list] = None,
+           aovs: Optional[dict] = None) -> "MaterialTable":
         """Build the table of `materials` and the `default` surface (the grey Lambert surface unless given);
-        an unknown BSDF or node name is refused with a clear message; NaN or infinite inputs go to `warnings`."""
+        an unknown BSDF or node name is refused with a clear message; NaN or infinite inputs go to `warnings`;
+        aovs: the render's shader AOVs (core/integrators/passes.py aov_slots; None: none) the materials' AOV Output
+        nodes write."""
         default = default if default is not None else Material()
-        shaders = [shader_of(m, warnings) for m in materials] + [shader_of(default, warnings)]
+        shaders = [shader_of(m, warnings, aovs) for m in materials] + [shader_of(default, warnings, aovs)]
         opaque = [not getattr(m, "transparent_shadows", True) for m in list(materials) + [default]]
         return cls(shaders, [m.name for m in materials] + ["(default)"], opaque)
 

@@ -72,6 +72,8 @@ class ShaderResult(NamedTuple):
     N:            (n, 3) float64 the shading normal after normal maps and bump (Cycles' sd->N)
     holdout:      (n, 3) float64 the weight of Holdout shader nodes (the Mix and Add Shaders above them), which
                   camera paths make a hole in the film of (path.hold_out); None: no Holdout node, all 0
+    aov:          (n, c) float64 what its AOV Output nodes write into the render's c shader AOV channels
+                  (graph.aov_values; core/integrators/passes.py keeps it on camera chains); None: nothing
     """
 
     closures: Closures
@@ -79,6 +81,7 @@ class ShaderResult(NamedTuple):
     transparency: np.ndarray
     N: np.ndarray
     holdout: Optional[np.ndarray] = None
+    aov: Optional[np.ndarray] = None
 
 
 def each_kind(closures: Closures, slot: int):
@@ -294,11 +297,12 @@ def concatenate(results: list, order: np.ndarray, n: int) -> ShaderResult:
     """Put ShaderResults of groups of hits back in hit order: results[i] covers the hits order[i] (m_i,) int64."""
     slots = max(r.closures.kind.shape[1] for r in results)
     holds = any(r.holdout is not None for r in results)
+    aov = max((r.aov.shape[1] for r in results if r.aov is not None), default=0)
     closures = Closures.empty(n, slots)
     if any(r.closures.uncorrected is not None for r in results):
         closures = closures._replace(uncorrected=np.zeros(n, bool))
     out = ShaderResult(closures, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)),
-                       np.zeros((n, 3)) if holds else None)
+                       np.zeros((n, 3)) if holds else None, np.zeros((n, aov)) if aov else None)
     for result, rows in zip(results, order):
         k = result.closures.kind.shape[1]
         for mine, theirs in zip(out.closures, result.closures):
@@ -310,4 +314,6 @@ def concatenate(results: list, order: np.ndarray, n: int) -> ShaderResult:
         out.emission[rows], out.transparency[rows], out.N[rows] = result.emission, result.transparency, result.N
         if result.holdout is not None:
             out.holdout[rows] = result.holdout
+        if result.aov is not None:
+            out.aov[rows] = result.aov
     return out

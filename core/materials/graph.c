@@ -831,6 +831,9 @@ NOINLINE static void run_program(const GraphTables *G, int program, const Shadin
                 moved = NULL;
             }
             break;
+        case OP_AOV_START:              /* the ops after it feed shader AOVs alone: only where the hit writes them */
+            if (sp->aov == NULL) return;
+            break;
         case OP_SET_NORMAL: {           /* graph.py run: unit, the hit's own where it is zero */
             double n[3] = {reg[a[0]], reg[a[0] + 1], reg[a[0] + 2]};
             safe_normalize3(n);

@@ -61,7 +61,8 @@ OPS = ("ATTR", "RANDOM", "IMAGE", "MAPPING", "MATH", "MIX_COLOR", "MIX_FLOAT", "
                                                                "CAMERA_DATA", "WIREFRAME", "WINDOW", "SKY",
                                                                "OBJECT_INFO", "OBJECT_MATRIX", "AO", "BEVEL",
                                                                "PIXEL_SIZE", "CURVE_NORMAL", "SET_NORMAL",
-                                                               "TANGENT_SPACE", "FOOTPRINT", "UNDISPLACED")
+                                                               "TANGENT_SPACE", "FOOTPRINT", "UNDISPLACED",
+                                                               "AOV_START")
 # Ops that trace rays into the scene while the shader runs (Cycles' __SHADER_RAYTRACE__ nodes: Ambient Occlusion,
 # Bevel). A program holding one reads ShadingPoint.rays, the integrator's ShaderRays (core/integrators/shader_rays.py)
 # for the hits' pixel samples; where there is none (shadow rays, light samples landing on an emitter: Cycles
@@ -192,8 +193,13 @@ HSV_BLENDS = ("HUE", "SATURATION", "VALUE", "COLOR")
 MAPPING_TYPES = ("POINT", "TEXTURE", "VECTOR", "NORMAL")
 MAP_RANGE_TYPES = ("LINEAR", "STEPPED", "SMOOTHSTEP", "SMOOTHERSTEP")
 # Program outputs: what a register does to a shader node (OUT_*).
-OUT_INPUT, OUT_WEIGHT, OUT_NORMAL = schema.constants("OUT", ("input", "weight", "normal"),
-                                                     "what a program's output does to a shader node").values()
+OUT_INPUT, OUT_WEIGHT, OUT_NORMAL, OUT_AOV = schema.constants(
+    "OUT", ("input", "weight", "normal", "aov"), "what a program's output does to a shader node (AOV: to a shader "
+    "AOV's channels instead)").values()
+# An AOV Output node (Material.aovs) compiles after an AOV_START op, as Cycles' NODE_AOV_START: the ops after it feed
+# only shader AOVs, and run only where the hit writes them (a camera chain's vertex before its opaque-enough one: the
+# compiled kernel's ShadingPoint.aov). Its output row is [OUT_AOV, first channel of its AOV (core/integrators/passes.py
+# aov_slots), 0, 3 (COLOR: its Color, and 1 into the alpha channel after it) or 1 (VALUE: its Value), register].
 # How a weight factor multiplies a node's weight: by the value, by 1 - the value, by a colour.
 WEIGHT_MODES = {"fac": 0, "one_minus": 1, "color": 2}
 
@@ -396,12 +402,14 @@ def links_under(nodes: list):
             stack.extend(value.node.inputs.values())
 
 
-def with_normal(nodes: list, normal, displacement=None) -> list:
+def with_normal(nodes: list, normal, displacement=None, aovs=()) -> list:
     """A material's nodes with its Set Normal Link (Material.normal), and its true displacement's Link
-    (Material.displacement) if given, as more entries, for what walks its links (links_under, images_of,
-    attributes_of, traces); the nodes alone where it has neither."""
+    (Material.displacement) if given, and the inputs of its AOV Output nodes (Material.aovs: (name, color, value)
+    each), as more entries, for what walks its links (links_under, images_of, attributes_of, traces); the nodes
+    alone where it has none."""
     extra = [(None, 1.0, {"normal": normal})] if isinstance(normal, Link) else []
     extra += [(None, 1.0, {"displacement": displacement})] if isinstance(displacement, Link) else []
+    extra += [(None, 1.0, {"color": color, "value": value}) for _, color, value in aovs]
     return list(nodes) + extra
 
 
@@ -1120,11 +1128,13 @@ class Compiler:
         offset, width, vtype = texture.output(output)
         return shift(out, offset), width, vtype
 
-    def compile(self, nodes: list, hit_normal=None) -> Program:
+    def compile(self, nodes: list, hit_normal=None, aovs=()) -> Program:
         """The program of a material's shader nodes [(node class, weight, inputs dict, factors), ...]:
         linked inputs overwrite their slots, factors multiply the weight, "normal" replaces the normal; a linked
         input in cls.normal_inputs (the Principled's "coat_normal") is a normal written into its slots; a
-        `hit_normal` Link (Cycles' Set Normal) is the hit's own normal, an OUT_NORMAL output to node -1."""
+        `hit_normal` Link (Cycles' Set Normal) is the hit's own normal, an OUT_NORMAL output to node -1. aovs: the
+        AOV Output nodes the render writes, [(first AOV channel, 4 (COLOR) or 1 (VALUE), its Color or Value: a
+        constant or a Link)], compiled last, after an AOV_START op (OUT_AOV rows)."""
         if isinstance(hit_normal, Link):
             normal = self.value(hit_normal, 3)
             self.outputs.append([OUT_NORMAL, -1, 0, 3, normal])
@@ -1148,6 +1158,12 @@ class Compiler:
             for link, mode in factors:
                 width = 3 if mode == "color" else 1
                 self.outputs.append([OUT_WEIGHT, k, WEIGHT_MODES[mode], width, self.value(link, width)])
+        if aovs:
+            # (what the shader nodes computed above is reused; the ops from here on feed the AOVs alone)
+            self.emit("AOV_START")
+            for first, channels, source in aovs:
+                width = 3 if channels == 4 else 1
+                self.outputs.append([OUT_AOV, first, 0, width, self.value(source, width)])
         c = len(self.constants)
         registers = c + self.temporaries
         if registers > MAX_REGISTERS:
@@ -1184,7 +1200,7 @@ REGISTER_ARGS = {
     "GEOMETRY": {0}, "TRANSFORM": {0, 1, 2}, "CAMERA_DATA": {0, 1}, "WIREFRAME": {0, 1}, "WINDOW": {0, 1, 2}, "SKY": {0, 1},
     "AO": {0, 1, 2, 3}, "BEVEL": {0, 1, 2},
     "PIXEL_SIZE": {0, 1, 2, 3}, "CURVE_NORMAL": {0, 1}, "SET_NORMAL": {0}, "TANGENT_SPACE": {0, 1}, "FOOTPRINT": {0, 1, 2},
-    "UNDISPLACED": set(),
+    "UNDISPLACED": set(), "AOV_START": set(),
     **{cls.kind: set(range(1 + len(cls.inputs))) for cls in DESCRIBED},
 }
 
@@ -1481,6 +1497,8 @@ def run(program: Program, sp: ShadingPoint, textures: textures_.TextureSet) -> n
             reg[:, i[0]:i[0] + 3] = curve_normal(R(1, 3), sp)
         elif name == "TANGENT_SPACE":
             reg[:, i[0]:i[0] + 3] = tangent_space(R(1, 3), i[2], sp)
+        elif name == "AOV_START":                       # (the reference runs the AOV ops at every hit: shade keeps
+            pass                                        #  their values where a camera chain writes them, passes.py)
         elif name == "SET_NORMAL":                      # the ops after it see this normal as the hit's (unit; kept
             unit = safe_normalize(R(0, 3))              # where it is zero, as apply_outputs does)
             sp = sp._replace(N=np.where(np.any(unit != 0.0, axis=1)[:, None], unit, sp.N))
@@ -1949,6 +1967,8 @@ def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, 
     hit_normal = None
     for kind, node, slot, width, register in program.outputs.astype(np.int64):
         value = reg[:, register:register + width]
+        if kind == OUT_AOV:                         # (a shader AOV's: aov_values)
+            continue
         if node < 0:
             hit_normal = safe_normalize(value)
         elif kind == OUT_INPUT:
@@ -1969,6 +1989,21 @@ def apply_outputs(program: Program, reg: np.ndarray, weights: list, rows: list, 
                 unit = np.where(np.any(unit != 0.0, axis=1)[:, None], valid_reflection(Ng, wo, unit), 0.0)
             rows[node][:, slot:slot + 3] = unit
     return hit_normal
+
+
+def aov_values(program: Program, reg: np.ndarray, channels: int) -> Optional[np.ndarray]:
+    """The shader AOVs' channels (n, channels) float64 the program's AOV Output nodes write at n hits with registers
+    reg (n, R) (OUT_AOV rows; Cycles' svm_node_aov_color and _value): a COLOR AOV its Color and 1 in the alpha
+    channel after it, a VALUE AOV its Value, summed where two nodes name the same AOV; None where it has none."""
+    rows = [o for o in np.asarray(program.outputs).reshape(-1, 5).astype(np.int64) if o[0] == OUT_AOV]
+    if not rows or channels <= 0:
+        return None
+    out = np.zeros((len(reg), channels))
+    for _, first, _, width, register in rows:
+        out[:, first:first + width] += reg[:, register:register + width]
+        if width == 3:
+            out[:, first + 3] += 1.0
+    return out
 
 
 def empty_point(n: int, width: int) -> ShadingPoint:
@@ -2084,6 +2119,8 @@ def emission_live(program: Program, nodes: list) -> tuple:
     wanted = []
     for o in outputs:
         node = int(o[1])
+        if int(o[0]) == OUT_AOV:                    # (a shader AOV's: no emission depends on it)
+            continue
         if node < 0:
             keep = nodes_live[0]
         else:

@@ -828,6 +828,14 @@ NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, 
     sd->n = 0;
     sd->portal[0] = sd->portal[1] = sd->portal[2] = 0.0;
     for (int j = 0; j < 3; j++) sd->emission[j] = sd->transparency[j] = sd->holdout[j] = 0.0;
+    /* The AOV Output nodes into the hit's shader AOVs, where it writes them (graph.aov_values). */
+    for (int64_t o = 0; o < (int64_t)info[6] && sp->aov != NULL && emits == NULL; o++) {
+        const double *out = outputs + 5 * o;
+        if ((int)out[0] != OUT_AOV) continue;
+        double *into = sp->aov + (int64_t)out[1];
+        for (int j = 0; j < (int)out[3]; j++) into[j] += reg[(int64_t)out[4] + j];
+        if ((int)out[3] == 3) into[3] += 1.0;
+    }
     for (int k = 0; k < n; k++) {
         int own = 0;
         if (emits != NULL && emits[1 + k] == 0.0) continue;
@@ -835,7 +843,7 @@ NOINLINE static void shade_graph(const GraphTables *G, const MaterialRecord *m, 
         for (int j = 0; j < NODE_PARAMS; j++) p[j] = m->p[(int64_t)NODE_PARAMS * k + j];
         for (int64_t o = 0; o < (int64_t)info[6]; o++) {
             const double *out = outputs + 5 * o;
-            if ((int)out[1] != k) continue;
+            if ((int)out[1] != k || (int)out[0] == OUT_AOV) continue;
             int kind = (int)out[0], slot = (int)out[2], width = (int)out[3];
             const double *value = reg + (int64_t)out[4];
             if (kind == OUT_INPUT) {
@@ -902,6 +910,7 @@ INLINE void shade_hit(const GraphTables *G, const GeometryTables *g, const Mater
     }
     ShadingPoint sp;
     shading_point_at(g, geometry, prim, instance, tri, s, u, v, &sp);
+    sp.aov = keys != NULL ? keys->aov : NULL;
     sp.path = *path;
     for (int c = 0; c < 3; c++) sp.I[c] = wo[c];
     if (keys != NULL) {

@@ -68,6 +68,8 @@
 #define PASS_CHANNELS_MAX 36
 /* the ambient occlusion ray's sampling dimension (core.integrators.passes) */
 #define AO_DIMENSION 120
+/* the shader AOVs' channels a render keeps at most (core.integrators.passes) */
+#define AOV_CHANNELS_MAX 64
 /* Russian roulette's dimension at a vertex (core.integrators.path) */
 #define ROULETTE_DIMENSION 6
 /* the most surfaces a camera ray's walk for its media passes (core.integrators.rays) */
@@ -178,6 +180,7 @@
 #define OP_TANGENT_SPACE 59
 #define OP_FOOTPRINT 60
 #define OP_UNDISPLACED 61
+#define OP_AOV_START 62
 /* the bits of a LightPath's flags (Cycles' PATH_RAY_*) (core.materials.graph) */
 #define PATH_CAMERA 1
 #define PATH_SHADOW 2
@@ -219,10 +222,11 @@
 #define BUMP_STEP 0.001
 /* a ray cone Primer does not know (graph.py) (core.materials.graph) */
 #define UNKNOWN_CONE -1.0
-/* what a program's output does to a shader node (core.materials.graph) */
+/* what a program's output does to a shader node (AOV: to a shader AOV's channels instead) (core.materials.graph) */
 #define OUT_INPUT 0
 #define OUT_WEIGHT 1
 #define OUT_NORMAL 2
+#define OUT_AOV 3
 /* the Geometry node's outputs (core.materials.graph) */
 #define GEOM_POSITION 0
 #define GEOM_NORMAL 1
@@ -894,6 +898,7 @@ struct PassTables {
     double vector_raster[48];               /* (3, 4, 4) VectorTables.raster: before, at and after the frame */
     int32_t vector_still;                   /* VectorTables.still: 1 writes 0 motion */
     int64_t vector_rows;                    /* the rows of vector_before and vector_after */
+    int32_t aov_base;                       /* the AOVs' first channel (PassLayout.aov_base), -1: none */
 };
 
 /* How shadow rays leave the surface (RenderSettings' shadow settings). */
@@ -1320,7 +1325,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "ChunkOut") == 0) return UINT64_C(146175689824475625);
     if (strcmp(name, "ChunkArgs") == 0) return UINT64_C(781332433205600457);
     if (strcmp(name, "GraphEmissionArgs") == 0) return UINT64_C(8426939904197816832);
-    if (strcmp(name, "PassTables") == 0) return UINT64_C(9049175624409610211);
+    if (strcmp(name, "PassTables") == 0) return UINT64_C(5371764783457169848);
     if (strcmp(name, "ShadowSettings") == 0) return UINT64_C(2399563257378308005);
     if (strcmp(name, "LightRecord") == 0) return UINT64_C(1914571018289112676);
     if (strcmp(name, "LightContext") == 0) return UINT64_C(2821372919722241870);
@@ -1334,7 +1339,7 @@ EXPORT uint64_t primer_layout(const char *name)
     if (strcmp(name, "WorldBakeArgs") == 0) return UINT64_C(1760843239929238380);
     if (strcmp(name, "BsdfArgs") == 0) return UINT64_C(1988518437441009220);
     if (strcmp(name, "LightPath") == 0) return UINT64_C(1461087652967974442);
-    if (strcmp(name, "GraphTables") == 0) return UINT64_C(2654416283381586217);
+    if (strcmp(name, "GraphTables") == 0) return UINT64_C(4007604432967340938);
     if (strcmp(name, "IESFacArgs") == 0) return UINT64_C(1534322623409385789);
     if (strcmp(name, "SkyMultipleArgs") == 0) return UINT64_C(8745123704423823932);
     if (strcmp(name, "SkySingleArgs") == 0) return UINT64_C(7958716256533574401);

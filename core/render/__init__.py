@@ -159,7 +159,10 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     warnings.extend(w for w in geometry.warnings if w not in warnings)
     lamps = lights_.usable(scene.lights, warnings)
     lights = [lights_.linking.found_by_bounces(light.moved(geometry.origin)) for light in lamps]
-    materials = MaterialTable.of(scene.materials, scene.default_material, warnings)
+    aovs = tuple(settings.aovs)                 # the view layer's shader AOVs (passes.py), those the film has room for
+    warnings.extend(f"shader AOV '{name}' is not written: Primer keeps {passes_.AOV_CHANNELS_MAX} AOV channels at "
+                    "most (a Color AOV takes 4, a Value AOV 1)" for name in passes_.aovs_left_out(aovs))
+    materials = MaterialTable.of(scene.materials, scene.default_material, warnings, passes_.aov_slots(aovs))
     materials.view = camera_.world_to_camera(scene.camera)     # (the Camera coordinates and Camera Data nodes)
     if scene.camera.type in ("PERSP", "ORTHO"):                  # (the Window coordinates: the frame on screen)
         materials.window = (*camera_.viewplane(scene.camera, settings.width, settings.height,
@@ -182,7 +185,7 @@ def prepare(scene: Scene, settings: RenderSettings, geometry: Optional[WorldGeom
     # The first-hit passes the integrator writes (passes.py): those asked for, and the colour passes the light passes
     # are divided by; the Cryptomatte ids hashed once.
     ctx.extra["pass_layout"] = passes_.PassLayout(lightpasses.first_hit_passes(settings.passes),
-                                                  settings.cryptomatte_depth)
+                                                  settings.cryptomatte_depth, aovs)
     if ctx.extra["pass_layout"].mattes:
         ctx.extra["crypto_ids"] = cryptomatte.id_tables(scene)
     if ctx.extra["pass_layout"].has("vector"):         # (the screen motion of each instance and the camera)
@@ -368,7 +371,7 @@ def reference_chunk(ctx: Context, pixels: np.ndarray, spp: int, seed: int,
     data = found.passes
     for name, values in ((lightpasses.FILM_BUFFER, found.light), (features.FILM_BUFFER, found.features),
                          (lightgroups.FILM_BUFFER, found.groups),
-                         (passes_.FILM_BUFFER, data.values if data is not None and data.layout.names else None)):
+                         (passes_.FILM_BUFFER, data.values if data is not None and data.layout.sums else None)):
         if values is None:
             continue
         values = values.reshape(len(traced), -1)
@@ -657,7 +660,7 @@ def render(scene: Scene, settings: RenderSettings,
     layout = ctx.extra["pass_layout"]
     stats.first_hit = tuple(layout.names + layout.mattes)
     merge = {}
-    if layout.names:
+    if layout.sums:
         film_sums[passes_.FILM_BUFFER] = layout.channels
     if layout.mattes:               # (Cryptomatte's slots are not summed: a chunk's go into the pixel's in order)
         film_sums[passes_.MATTE_BUFFER] = len(layout.mattes) * layout.slots * 2
@@ -740,7 +743,8 @@ def render(scene: Scene, settings: RenderSettings,
         first_hit = passes_.images(film.aux, film.noise.count, layout, settings.cryptomatte_depth, H, W)
         if light_passes:
             first_hit.update(light_pass_images(film, first_hit, settings.passes))
-        aux.update({name: image for name, image in first_hit.items() if name in settings.passes})
+        aux.update({name: image for name, image in first_hit.items()
+                    if name in settings.passes or name.startswith(passes_.AOV_PREFIX)})
     if settings.light_groups:
         aux.update(rgb_means(film, lightgroups.FILM_BUFFER,
                              [lightgroups.BUFFER_PREFIX + name for name in settings.light_groups]))

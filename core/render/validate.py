@@ -71,5 +71,8 @@ def validate(scene, settings) -> None:
     unknown = set(settings.passes) - set(known)
     if unknown:
         raise ValueError(f"unknown render passes {sorted(unknown)}; choose from {known}")
+    wrong = [aov for aov in settings.aovs if len(aov) != 2 or aov[1] not in ("COLOR", "VALUE")]
+    if wrong:
+        raise ValueError(f"shader AOVs must be (name, \"COLOR\" or \"VALUE\") pairs, got {wrong}")
     if not 1 <= int(settings.cryptomatte_depth) <= 16:
         raise ValueError(f"cryptomatte_depth must be 1 .. 16 ranks, got {settings.cryptomatte_depth}")

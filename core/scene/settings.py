@@ -89,6 +89,9 @@ class RenderSettings:
     shadow_catcher_pass: write the Shadow Catcher pass (RenderResult.aux "shadow_catcher"), and Combined as the
                       shadow catchers' matte itself rather than Cycles' approximation (core/integrators/catcher.py;
                       Cycles' View Layer > Passes > Light > Shadow Catcher)
+    aovs: the shader AOVs to write (View Layer > Passes > Shader AOV, in order): (name, "COLOR" or "VALUE") each,
+                      what the materials' AOV Output nodes naming them give camera paths (core/integrators/passes.py;
+                      RenderResult.aux "aov:NAME", COLOR as RGBA, VALUE one channel)
     """
 
     integrator: str = "direct"
@@ -148,6 +151,7 @@ class RenderSettings:
     cryptomatte_depth: int = 6
     light_groups: Sequence[str] = ()
     shadow_catcher_pass: bool = False
+    aovs: Sequence[tuple] = ()
 
     @property
     def filter(self):
