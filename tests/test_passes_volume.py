@@ -1,4 +1,5 @@
-"""Volume Direct and Volume Indirect (core/integrators/lightpasses.py stretch_shares, lightpasses.c), without Blender:
+"""Volume Direct and Volume Indirect (core/integrators/lightpasses.py stretch_shares, lightpasses.c), and a medium seen
+by the camera in Emission and Environment (passes.py along_ray), without Blender:
 Cycles' rule (kernel/film/light_passes.h, PATH_RAY_VOLUME_PASS) that a path whose first real interaction is a
 scattering event in a medium writes the light gathered there to Volume Direct and all it gathers after to Volume
 Indirect, on a slab whose single scattering has a closed form; the surface passes keep a surface's light seen through
@@ -114,8 +115,10 @@ def test_a_floor_behind_a_scattering_slab_keeps_its_light_in_the_surface_passes(
 
 
 def fog_scene(closure: str) -> Scene:
-    """sum_scene (test_passes_light.py) with a volume-only box over its left half: a medium that scatters, or one that
-    absorbs, scatters and emits (Volume Coefficients)."""
+    """sum_scene (test_passes_light.py) with a volume-only box over its left front: a medium that scatters, or one
+    that absorbs, scatters and emits (Volume Coefficients). (The emissive panel stays outside it: an emitter in a
+    medium seen through a transparent surface with Volume Bounces is in the Emission pass only in expectation,
+    docs/passes.md.)"""
     scene = sum_scene()
     if closure == "SCATTER":
         medium = fog(closure="SCATTER", color=np.array([0.6, 0.8, 1.0]), density=0.4, anisotropy=0.3)
@@ -123,7 +126,7 @@ def fog_scene(closure: str) -> Scene:
         medium = fog(closure="COEFFICIENTS", absorption=np.array([0.2, 0.3, 0.4]),
                      scatter=np.array([0.3, 0.5, 0.7]), emission=np.array([0.3, 0.2, 0.1]))
     scene.materials.append(medium)
-    scene.add_mesh(primitives.box((3.0, 6.0, 3.0), center=(-0.8, 0.0, 1.2)),
+    scene.add_mesh(primitives.box((3.0, 4.0, 3.0), center=(-0.8, -1.0, 1.2)),
                    materials=np.array([len(scene.materials) - 1]))
     return scene
 
@@ -161,3 +164,25 @@ def test_the_compiled_volume_passes_follow_the_reference():
         a, b = compiled.aux[name], reference.aux[name]
         np.testing.assert_allclose(a, b, rtol=IMAGE_RTOL, atol=IMAGE_ATOL * max(1.0, float(np.abs(b).max())),
                                    err_msg=name)
+
+
+@pytest.mark.parametrize("kernels", KERNELS)
+def test_an_emitting_slab_seen_by_the_camera_is_emission_and_the_world_behind_it_keeps_its_transmittance(kernels):
+    """A slab of Volume Coefficients (absorption sigma_a, emission e, no scattering, 0.8 deep) over the world: the
+    camera sees the medium's emission, Cycles' Emission pass, e (1 - exp(-sigma_a d)) / sigma_a, and the world
+    through it, Environment = world exp(-sigma_a d); no light pass; the two make Combined."""
+    scene = Scene(camera=camera_above())
+    sigma, e, d, world = np.array([0.5, 1.0, 2.0]), np.array([0.3, 0.2, 0.1]), 0.8, np.array([0.1, 0.12, 0.15])
+    scene.materials.append(fog(closure="COEFFICIENTS", absorption=sigma, scatter=np.zeros(3), emission=e))
+    scene.add_mesh(primitives.box((4.0, 4.0, d), center=(0.0, 0.0, 1.0)), materials=np.array([0]))
+    scene.world = World(color=world, camera=True, lights=True)
+    settings = RenderSettings(width=4, height=4, samples=2, integrator="path",
+                              passes=LIGHT_PASSES + ("emission", "environment"), kernels=kernels)
+    result = render(scene, settings)
+    emission = e * (1.0 - np.exp(-sigma * d)) / sigma
+    np.testing.assert_allclose(result.aux["emission"], np.broadcast_to(emission, (4, 4, 3)), rtol=1e-5)
+    np.testing.assert_allclose(result.aux["environment"], np.broadcast_to(world * np.exp(-sigma * d), (4, 4, 3)),
+                               rtol=1e-5)
+    np.testing.assert_allclose(result.aux["emission"] + result.aux["environment"], result.image[..., :3], rtol=1e-5)
+    for name in LIGHT_PASSES:
+        assert np.all(result.aux[name] == 0.0), name

@@ -726,8 +726,9 @@ static void render_chunk(const ChunkArgs *a)
                 double O[3] = {b.O[0][lane], b.O[1][lane], b.O[2][lane]}, D[3] = {b.D[0][lane], b.D[1][lane], b.D[2][lane]};
                 double one[3] = {1.0, 1.0, 1.0};
                 DirectSettings seen = {.lights = params->lights, .n_lights = (int64_t)params->light_count,
-                                       .context = params->light_context};
-                passes_along_ray(passes, &seen, lane, (int64_t)b.index[lane], one, O, D, is_hit, H.t[lane]);
+                                       .context = params->light_context, .media = params->media};
+                passes_along_ray(passes, &seen, lane, (int64_t)b.index[lane], one, O, D, is_hit, H.t[lane],
+                                 params->media != NULL ? &H.lane_inside[lane] : NULL);
                 int64_t width = 2 * params->passes->matte_count * params->passes->slots;
                 passes_to_pixel(passes, lane, out->passes != NULL ? out->passes + params->passes->channels * k : NULL,
                                 out->mattes != NULL ? out->mattes + width * k : NULL);

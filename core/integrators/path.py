@@ -328,7 +328,7 @@ class PathTracing(Integrator):
         data = passes_.DataPasses.of(ctx, sample)
         if data is not None:
             passes_.along_ray(ctx, data, np.arange(len(O)), np.ones((len(O), 3)), O, D, found.hit,
-                              np.where(found.hit, found.t, t_max))
+                              np.where(found.hit, found.t, t_max), stretch)
         if surface is None and arrivals is None:
             return Radiance(L_out, found.hit, 0, light=light, groups=None if groups is None else groups.L,
                             features=None if feats is None else feats.stacked(), passes=data)
@@ -430,10 +430,11 @@ class PathTracing(Integrator):
             if light is not None:
                 # Direct: what the first hits gather (not their emission); indirect: all later vertices gather.
                 if parts is not None:
-                    light[owner[first], :lightpasses.KINDS] += throughput[first, None, :] * parts.gathered[first]
+                    np.add.at(light, (owner[first], slice(None, lightpasses.KINDS)),
+                              throughput[first, None, :] * parts.gathered[first])
                 later = ~first
-                light[owner[later], lightpasses.KINDS:] += lightpasses.split(throughput[later] * L_vertex[later],
-                                                                             shares[later])
+                np.add.at(light, (owner[later], slice(lightpasses.KINDS, None)),
+                          lightpasses.split(throughput[later] * L_vertex[later], shares[later]))
             recorder.path_vertex(vertex, owner, surface, throughput, L_vertex)
             if ray is None:
                 break
@@ -461,7 +462,8 @@ class PathTracing(Integrator):
                 chain = np.flatnonzero((bounce[ray.rows] == 0) & is_transparent & (tp <= s.transparent_max_bounces))
                 passes_.along_ray(ctx, data, owner[ray.rows[chain]], throughput[ray.rows[chain]] * ray.weight[chain],
                                   ray.O[chain], ray.D[chain], ray.hits.hit[chain],
-                                  np.where(ray.hits.hit[chain], ray.hits.t[chain], np.inf))
+                                  np.where(ray.hits.hit[chain], ray.hits.t[chain], np.inf),
+                                  None if media is None else media.along(ray.inside[chain], ray.O[chain], ray.D[chain]))
             # A path past its bounce limits still looks through the transparent surfaces its last ray meets, to
             # the light behind them (Cycles' terminate-after-transparent): no more bounces, only clear ones.
             ended = np.flatnonzero(ray.hits.hit & ~within & (tp <= s.transparent_max_bounces))
@@ -619,5 +621,5 @@ class PathTracing(Integrator):
         the ray left a first hit (first (k,) bool), else indirect by the path's shares (k, KINDS, 3)."""
         kinds = lightpasses.KINDS
         if first.any():
-            light[owner[first], :kinds] += lightpasses.split(value[first], ray_shares[first])
-        light[owner[~first], kinds:] += lightpasses.split(value[~first], shares[~first])
+            np.add.at(light, (owner[first], slice(None, kinds)), lightpasses.split(value[first], ray_shares[first]))
+        np.add.at(light, (owner[~first], slice(kinds, None)), lightpasses.split(value[~first], shares[~first]))
