@@ -46,12 +46,13 @@ def slab_under_a_sun(surface=None) -> tuple:
 
 
 @pytest.mark.parametrize("kernels", KERNELS)
-def test_single_scattering_of_a_slab_under_a_sun_is_all_volume_direct(kernels):
-    """Max Bounces 0 over black: Volume Direct is Combined, the closed form within 1% (free-flight noise), and
-    every other light pass is 0."""
+@pytest.mark.parametrize("integrator", ["path", "direct"])
+def test_single_scattering_of_a_slab_under_a_sun_is_all_volume_direct(integrator, kernels):
+    """Max Bounces 0 (or the direct tracer) over black: Volume Direct is Combined, the closed form within 1%
+    (free-flight noise), and every other light pass is 0."""
     scene, expected = slab_under_a_sun()
-    settings = RenderSettings(width=4, height=4, samples=256, integrator="path", max_bounces=0, passes=LIGHT_PASSES,
-                              kernels=kernels)
+    settings = RenderSettings(width=4, height=4, samples=256, integrator=integrator, max_bounces=0,
+                              passes=LIGHT_PASSES, kernels=kernels)
     result = render(scene, settings)
     assert result.stats.kernels.startswith(kernels)
     combined = result.image[..., :3].astype(np.float64)
